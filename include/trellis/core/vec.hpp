@@ -1,0 +1,57 @@
+// Small value types for points and boxes. Millimetres throughout the library.
+#pragma once
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace trellis {
+
+struct Vec2 {
+  double x = 0, y = 0;
+  Vec2 operator+(Vec2 o) const { return {x + o.x, y + o.y}; }
+  Vec2 operator-(Vec2 o) const { return {x - o.x, y - o.y}; }
+  Vec2 operator*(double s) const { return {x * s, y * s}; }
+  bool operator==(const Vec2&) const = default;
+};
+
+struct Vec3 {
+  double x = 0, y = 0, z = 0;
+  Vec3 operator+(Vec3 o) const { return {x + o.x, y + o.y, z + o.z}; }
+  Vec3 operator-(Vec3 o) const { return {x - o.x, y - o.y, z - o.z}; }
+  Vec3 operator*(double s) const { return {x * s, y * s, z * s}; }
+  bool operator==(const Vec3&) const = default;
+  Vec2 xy() const { return {x, y}; }
+};
+
+inline double dot(Vec3 a, Vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+inline double norm(Vec3 a) { return std::sqrt(dot(a, a)); }
+inline double distance(Vec3 a, Vec3 b) { return norm(a - b); }
+inline double distance_xy(Vec3 a, Vec3 b) { return std::hypot(a.x - b.x, a.y - b.y); }
+inline bool is_finite(Vec3 a) {
+  return std::isfinite(a.x) && std::isfinite(a.y) && std::isfinite(a.z);
+}
+
+// Distance from p to segment ab and the parameter t in [0,1] of the closest point.
+inline double distance_to_segment(Vec3 p, Vec3 a, Vec3 b, double* t_out = nullptr) {
+  const Vec3 ab = b - a;
+  const double len2 = dot(ab, ab);
+  double t = len2 > 0 ? dot(p - a, ab) / len2 : 0.0;
+  t = std::clamp(t, 0.0, 1.0);
+  if (t_out) *t_out = t;
+  return distance(p, a + ab * t);
+}
+
+struct BBox3 {
+  Vec3 min{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
+           std::numeric_limits<double>::infinity()};
+  Vec3 max{-std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity(),
+           -std::numeric_limits<double>::infinity()};
+  void add(Vec3 p) {
+    min = {std::min(min.x, p.x), std::min(min.y, p.y), std::min(min.z, p.z)};
+    max = {std::max(max.x, p.x), std::max(max.y, p.y), std::max(max.z, p.z)};
+  }
+  bool empty() const { return min.x > max.x; }
+  Vec3 center() const { return (min + max) * 0.5; }
+};
+
+}  // namespace trellis

@@ -1,0 +1,41 @@
+// Closed polygons (with holes) and open segments in the plane, and the clipping of open
+// segments by a closed region, done by Clipper on integer coordinates.
+#pragma once
+#include <utility>
+#include <vector>
+
+#include "trellis/core/vec.hpp"
+
+namespace trellis {
+
+// A closed region: one outer ring (counter-clockwise) and holes. The closing edge is implicit.
+struct Polygon2 {
+  std::vector<Vec2> outer;
+  std::vector<std::vector<Vec2>> holes;
+};
+
+struct Segment2 {
+  Vec2 a, b;
+};
+
+Polygon2 make_rectangle(Vec2 center, double width, double height);
+// Regular polygon inscribed in the circle with chords no farther than `max_error` mm from it.
+Polygon2 make_circle(Vec2 center, double diameter, double max_error = 1e-3);
+
+// Clipper works on 64-bit integers: 1 unit = 1 nm (kClipperScale units per mm). Coordinates up to
+// ±9e6 m fit; results are exact to 1 nm. Segment ends that were not cut keep their exact input
+// coordinates (matched back after clipping).
+inline constexpr double kClipperScale = 1e6;
+
+// Pieces of `segments` inside `region` (boundary included).
+std::vector<Segment2> clip_segments(const std::vector<Segment2>& segments, const Polygon2& region);
+
+// Whether p lies inside the region or on its boundary (within `tol`).
+bool contains(const Polygon2& region, Vec2 p, double tol = 1e-9);
+
+// Points on the boundary of `region`, each inserted into the ring edge it lies on: returns the
+// rings (outer first) as closed point loops including those points, ordered along each edge.
+std::vector<std::vector<Vec2>> rings_with_points(const Polygon2& region,
+                                                 const std::vector<Vec2>& points, double tol);
+
+}  // namespace trellis

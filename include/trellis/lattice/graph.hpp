@@ -1,0 +1,65 @@
+// A strut lattice as an undirected graph embedded in 3D: nodes are points (mm), edges are struts.
+// Edges may carry a material index and a `directed` flag (print only from a to b).
+#pragma once
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "trellis/core/diagnostics.hpp"
+#include "trellis/core/vec.hpp"
+
+namespace trellis {
+
+using NodeId = std::uint32_t;
+using EdgeId = std::uint32_t;
+
+struct Edge {
+  NodeId a = 0, b = 0;
+  int material = 0;
+  bool directed = false;
+  NodeId other(NodeId n) const { return n == a ? b : a; }
+};
+
+struct Graph {
+  std::vector<Vec3> nodes;
+  std::vector<Edge> edges;
+
+  double edge_length(EdgeId e) const { return distance(nodes[edges[e].a], nodes[edges[e].b]); }
+  double total_length() const;
+  BBox3 bbox() const;  // of nodes that have at least one edge
+};
+
+// Compressed incidence lists: for node n, edge ids incident_[offsets_[n] .. offsets_[n+1]).
+class Adjacency {
+ public:
+  explicit Adjacency(const Graph& g);
+  std::size_t degree(NodeId n) const { return offsets_[n + 1] - offsets_[n]; }
+  const EdgeId* begin(NodeId n) const { return incident_.data() + offsets_[n]; }
+  const EdgeId* end(NodeId n) const { return incident_.data() + offsets_[n + 1]; }
+  std::size_t node_count() const { return offsets_.size() - 1; }
+
+ private:
+  std::vector<std::uint32_t> offsets_;
+  std::vector<EdgeId> incident_;
+};
+
+// Connected components over edges: component id per node (-1 for nodes without edges).
+std::vector<int> connected_components(const Graph& g, int* count = nullptr);
+
+// Lower bound on the number of trails that cover every edge once: per component with edges,
+// max(1, odd-degree nodes / 2); summed.
+std::size_t lower_bound_paths(const Graph& g);
+
+struct CleanOptions {
+  double merge_tolerance = 1e-6;  // nodes closer than this (mm) become one
+  bool split_t_junctions = true;  // a node lying on another edge splits that edge
+};
+
+// Merges coincident nodes, splits T-junctions, drops self-loops, zero-length and duplicate
+// edges; each drop or split is counted in `diag`. `edge_where` (optional, parallel to edges)
+// names where each input edge came from, for the warnings. Node order of first occurrence is
+// kept; nodes merged into an earlier one disappear.
+Graph clean_graph(const Graph& input, const CleanOptions& options, Diagnostics& diag,
+                  const std::vector<std::string>& edge_where = {});
+
+}  // namespace trellis

@@ -1,0 +1,38 @@
+// The G-code writer: one writer for every machine, driven by the profile (style: machines as
+// data). `marlin` computes E per segment from Eq. 4; `pneumatic` (.nc) opens a valve and sets a
+// pressure per path instead of E. Numbers: XYZ with 3 decimals (1 µm, finer than any motion
+// system here), E with 5 (10 nm of filament, so per-segment rounding cannot accumulate), both
+// without trailing zeros; F in whole mm/min.
+#pragma once
+#include <string>
+
+#include "trellis/machine/profile.hpp"
+#include "trellis/toolpath/toolpath.hpp"
+
+namespace trellis {
+
+struct GcodeStats {
+  std::size_t bytes = 0;
+  std::size_t paths = 0;
+  std::size_t travel_moves = 0;
+  std::size_t retractions = 0;
+  double travel_length = 0;   // mm
+  double print_length = 0;    // mm
+  double filament = 0;        // mm of filament (marlin)
+  double print_time_s = 0;    // feed-rate estimate, no acceleration
+};
+
+// E for a segment of `length` mm printed at layer thickness `layer` (Eq. 4).
+double extrusion_for(double length, double layer, const MachineProfile& profile);
+
+std::string write_gcode(const Toolpath& toolpath, const MachineProfile& profile,
+                        GcodeStats* stats = nullptr);
+// Writes atomically; returns the stats.
+GcodeStats write_gcode_file(const std::string& path, const Toolpath& toolpath,
+                            const MachineProfile& profile);
+
+// Expands {key} / {section.key} placeholders with setting values; throws SettingError.
+std::string expand_template(const std::string& text, const MachineProfile& profile,
+                            const std::string& which);
+
+}  // namespace trellis

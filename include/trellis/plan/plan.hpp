@@ -1,0 +1,47 @@
+// One call from a lattice graph to a toolpath: split the graph into planar layers (edges at one
+// height) and materials, plan each part with gippo or euler, order the trails, and emit the
+// toolpath IR with metrics for the report.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "trellis/core/diagnostics.hpp"
+#include "trellis/plan/gippo.hpp"
+#include "trellis/plan/order.hpp"
+#include "trellis/toolpath/toolpath.hpp"
+
+namespace trellis {
+
+enum class Planner { Gippo, Euler };
+Planner planner_from_string(const std::string& name);  // throws SettingError
+std::string to_string(Planner p);
+
+struct PlanParams {
+  Planner planner = Planner::Gippo;
+  GippoParams gippo;                        // used by the gippo planner
+  PathOrder order = PathOrder::LongestFirst;
+  double layer_height = 0.148;              // bead height (mm); nozzle z = design z + this
+  std::size_t long_path_nodes = 5;          // LTS/OE threshold (paper: 5 nodes)
+  double level_tolerance = 1e-6;            // edges within this z span are planar (mm)
+};
+
+struct LayerReport {
+  double z = 0;
+  int material = 0;
+  std::size_t edges = 0;
+  PathMetrics metrics;
+  PathMetrics worst;             // gippo: lowest-score iteration
+  std::vector<double> scores;    // gippo: every iteration
+  std::size_t best_iteration = 0;
+};
+
+struct PlanResult {
+  Toolpath toolpath;
+  std::vector<LayerReport> layers;
+  PathMetrics total;  // summed over layers (score and percentages length-weighted)
+  TravelStats travel;
+};
+
+PlanResult plan_lattice(const Graph& g, const PlanParams& params, Diagnostics& diag);
+
+}  // namespace trellis

@@ -1,0 +1,28 @@
+// Pictures with cairo: a PNG per layer (paths coloured by print order from blue to red, travel
+// dashed grey, start points as green dots, end points as small dark dots) and the GIPPO score
+// over iterations (paper Fig. 2 i).
+#pragma once
+#include <string>
+#include <vector>
+
+#include "trellis/toolpath/toolpath.hpp"
+
+namespace trellis {
+
+struct RenderOptions {
+  int size_px = 1000;        // longer side of the image
+  double margin_mm = 1.0;
+  bool travel = true;
+  bool starts = true;
+  double bead_width = 0;     // line width in mm; 0 = from paths or 0.2
+};
+
+// Writes one PNG of `layer` (index into toolpath.layers), atomically.
+void render_layer_png(const Toolpath& toolpath, std::size_t layer, const std::string& path,
+                      const RenderOptions& options = {});
+
+// Scatter of scores per iteration with the best one marked.
+void render_scores_png(const std::vector<double>& scores, std::size_t best_iteration,
+                       const std::string& title, const std::string& path);
+
+}  // namespace trellis

@@ -1,0 +1,53 @@
+// The toolpath IR: the one path model of Trellis. Planners and slicers produce it, writers,
+// metrics and previews read it, the G-code reader will produce it too.
+// A Toolpath is layers of paths; a Path is an open polyline of 3D nozzle positions (mm) with the
+// attributes a writer needs. Travel between paths is implicit: from one path's last point to the
+// next path's first point, in order.
+#pragma once
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "trellis/core/vec.hpp"
+
+namespace trellis {
+
+enum class PathRole { Strut, Contour, Handle, Perimeter, Infill, Other };
+
+const char* to_string(PathRole role);
+PathRole path_role_from_string(const std::string& name);  // throws ParseError
+
+struct Path {
+  std::vector<Vec3> points;        // at least 2
+  PathRole role = PathRole::Strut;
+  int tool = 0;                    // tool / material index
+  std::vector<double> mixture;     // optional mixing fractions, empty if none
+  double width = 0;                // bead width (mm), 0 = profile default
+  double height = 0;               // bead height (mm), 0 = profile default
+  double speed = 0;                // feed (mm/s), 0 = profile default
+  double power = 0;                // laser power (W), 0 if not a laser path
+  std::size_t segments() const { return points.size() < 2 ? 0 : points.size() - 1; }
+  double length() const;
+};
+
+struct Layer {
+  double z = 0;  // nominal layer height of the nozzle (mm); points carry their own z
+  std::vector<Path> paths;
+};
+
+struct Toolpath {
+  std::vector<Layer> layers;
+  std::string source;  // what produced it (planner, input file), written into outputs
+
+  std::size_t path_count() const;
+  double extrusion_length() const;
+};
+
+// Travel between consecutive paths, in print order, across layers (first path has no travel in).
+struct TravelStats {
+  std::size_t moves = 0;
+  double length = 0;
+};
+TravelStats travel_stats(const Toolpath& toolpath, double min_move = 1e-9);
+
+}  // namespace trellis

@@ -1,0 +1,23 @@
+#!/usr/bin/env bash
+# Installs the Debian packages Trellis needs to build and test, skipping those already present.
+# Safe to run repeatedly; uses sudo only when not root.
+set -euo pipefail
+pkgs=(cmake g++ make pkg-config ninja-build ccache
+      libtbb-dev libcli11-dev nlohmann-json3-dev libfmt-dev libtomlplusplus-dev
+      libpolyclipping-dev libcairo2-dev libcgal-dev libgmp-dev libmpfr-dev libeigen3-dev
+      libgtest-dev libbenchmark-dev)
+missing=()
+for p in "${pkgs[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install-deps: all ${#pkgs[@]} packages present"
+  exit 0
+fi
+SUDO=""
+[ "$(id -u)" -ne 0 ] && SUDO="sudo"
+echo "install-deps: installing ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -qq
+$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+echo "install-deps: done"

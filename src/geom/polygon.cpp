@@ -1,0 +1,134 @@
+#include "trellis/geom/polygon.hpp"
+
+#include <clipper.hpp>
+#include <cmath>
+#include <map>
+#include <numbers>
+
+namespace trellis {
+
+namespace cl = ClipperLib;
+
+Polygon2 make_rectangle(Vec2 c, double w, double h) {
+  return {{{c.x - w / 2, c.y - h / 2}, {c.x + w / 2, c.y - h / 2}, {c.x + w / 2, c.y + h / 2},
+           {c.x - w / 2, c.y + h / 2}},
+          {}};
+}
+
+Polygon2 make_circle(Vec2 c, double d, double max_error) {
+  const double r = d / 2;
+  // Sagitta r(1 - cos(pi/n)) <= max_error.
+  const double half = std::acos(std::max(-1.0, 1.0 - max_error / r));
+  const int n = std::max(16, static_cast<int>(std::ceil(std::numbers::pi / half)));
+  Polygon2 p;
+  for (int i = 0; i < n; ++i) {
+    const double t = 2 * std::numbers::pi * i / n;
+    p.outer.push_back({c.x + r * std::cos(t), c.y + r * std::sin(t)});
+  }
+  return p;
+}
+
+namespace {
+
+cl::IntPoint to_int(Vec2 p) {
+  return {static_cast<cl::cInt>(std::llround(p.x * kClipperScale)),
+          static_cast<cl::cInt>(std::llround(p.y * kClipperScale))};
+}
+
+cl::Path to_path(const std::vector<Vec2>& ring) {
+  cl::Path path;
+  for (auto p : ring) path.push_back(to_int(p));
+  return path;
+}
+
+}  // namespace
+
+std::vector<Segment2> clip_segments(const std::vector<Segment2>& segments, const Polygon2& region) {
+  std::map<std::pair<cl::cInt, cl::cInt>, Vec2> exact;
+  cl::Clipper clipper;
+  cl::Paths subjects;
+  subjects.reserve(segments.size());
+  for (const auto& s : segments) {
+    const auto a = to_int(s.a), b = to_int(s.b);
+    if (a == b) continue;
+    exact.emplace(std::make_pair(a.X, a.Y), s.a);
+    exact.emplace(std::make_pair(b.X, b.Y), s.b);
+    subjects.push_back({a, b});
+  }
+  clipper.AddPaths(subjects, cl::ptSubject, false);
+  cl::Paths clip{to_path(region.outer)};
+  for (const auto& h : region.holes) clip.push_back(to_path(h));
+  clipper.AddPaths(clip, cl::ptClip, true);
+  cl::PolyTree tree;
+  clipper.Execute(cl::ctIntersection, tree, cl::pftEvenOdd, cl::pftEvenOdd);
+  cl::Paths open;
+  cl::OpenPathsFromPolyTree(tree, open);
+  auto back = [&](const cl::IntPoint& p) {
+    auto it = exact.find({p.X, p.Y});
+    return it != exact.end() ? it->second
+                             : Vec2{p.X / kClipperScale, p.Y / kClipperScale};
+  };
+  std::vector<Segment2> out;
+  for (const auto& path : open)
+    for (std::size_t i = 1; i < path.size(); ++i)
+      if (!(path[i - 1] == path[i])) out.push_back({back(path[i - 1]), back(path[i])});
+  return out;
+}
+
+bool contains(const Polygon2& region, Vec2 p, double tol) {
+  auto inside_ring = [&](const std::vector<Vec2>& ring) {
+    bool in = false;
+    for (std::size_t i = 0, j = ring.size() - 1; i < ring.size(); j = i++) {
+      const Vec2 a = ring[j], b = ring[i];
+      if (distance_to_segment({p.x, p.y, 0}, {a.x, a.y, 0}, {b.x, b.y, 0}) <= tol) return true;
+      if ((a.y > p.y) != (b.y > p.y) && p.x < (b.x - a.x) * (p.y - a.y) / (b.y - a.y) + a.x)
+        in = !in;
+    }
+    return in;
+  };
+  if (!inside_ring(region.outer)) return false;
+  for (const auto& h : region.holes) {
+    bool on_edge = false;
+    for (std::size_t i = 0, j = h.size() - 1; i < h.size(); j = i++)
+      on_edge |= distance_to_segment({p.x, p.y, 0}, {h[j].x, h[j].y, 0}, {h[i].x, h[i].y, 0}) <= tol;
+    if (!on_edge && inside_ring(h)) return false;
+  }
+  return true;
+}
+
+std::vector<std::vector<Vec2>> rings_with_points(const Polygon2& region,
+                                                 const std::vector<Vec2>& points, double tol) {
+  std::vector<const std::vector<Vec2>*> rings{&region.outer};
+  for (const auto& h : region.holes) rings.push_back(&h);
+  std::vector<std::vector<Vec2>> out;
+  for (const auto* ring : rings) {
+    const std::size_t n = ring->size();
+    std::vector<std::vector<std::pair<double, Vec2>>> on_edge(n);
+    for (auto p : points) {
+      double best = tol, best_t = 0;
+      std::size_t best_i = n;
+      for (std::size_t i = 0; i < n; ++i) {
+        const Vec2 a = (*ring)[i], b = (*ring)[(i + 1) % n];
+        double t;
+        const double d = distance_to_segment({p.x, p.y, 0}, {a.x, a.y, 0}, {b.x, b.y, 0}, &t);
+        if (d <= best) {
+          best = d;
+          best_t = t;
+          best_i = i;
+        }
+      }
+      if (best_i < n) on_edge[best_i].emplace_back(best_t, p);
+    }
+    std::vector<Vec2> loop;
+    for (std::size_t i = 0; i < n; ++i) {
+      loop.push_back((*ring)[i]);
+      auto& hits = on_edge[i];
+      std::sort(hits.begin(), hits.end(), [](auto& x, auto& y) { return x.first < y.first; });
+      for (auto& [t, p] : hits) loop.push_back(p);
+    }
+    out.push_back(std::move(loop));
+  }
+  return out;
+}
+
+}  // namespace trellis

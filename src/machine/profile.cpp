@@ -1,0 +1,205 @@
+#include "trellis/machine/profile.hpp"
+
+#include <charconv>
+#include <cmath>
+#include <toml++/toml.h>
+
+#include "trellis/core/error.hpp"
+#include "trellis/core/file.hpp"
+
+namespace trellis {
+
+using P = MachineProfile;
+
+const std::vector<SettingDecl>& machine_settings() {
+  static const std::vector<SettingDecl> table = {
+      {"machine.name", "", "printer name, written into headers", 0, 0, &P::name},
+      {"machine.flavor", "", "G-code dialect: marlin (E values) or pneumatic (valve + pressure)", 0, 0, &P::flavor},
+      {"machine.bed_x", "mm", "bed size in X", 1, 10000, &P::bed_x},
+      {"machine.bed_y", "mm", "bed size in Y", 1, 10000, &P::bed_y},
+      {"placement.center", "", "move the part's XY centre to the bed centre", 0, 0, &P::center},
+      {"placement.offset_x", "mm", "X offset added after centring", -10000, 10000, &P::offset_x},
+      {"placement.offset_y", "mm", "Y offset added after centring", -10000, 10000, &P::offset_y},
+      {"extrusion.nozzle_diameter", "mm", "nozzle diameter d_n (Eq. 4)", 0.01, 10, &P::nozzle_diameter},
+      {"extrusion.filament_diameter", "mm", "filament diameter f_d (Eq. 4)", 0.1, 10, &P::filament_diameter},
+      {"extrusion.layer_height", "mm", "layer thickness LT when a path has none (Eq. 4)", 0.001, 10, &P::layer_height},
+      {"extrusion.multiplier", "", "extrusion multiplier EM (Eq. 4)", 0, 10, &P::extrusion_multiplier},
+      {"extrusion.k", "", "correction factor k for the bead shape (Eq. 4)", 0, 10, &P::k},
+      {"extrusion.relative_e", "", "relative E (M83) instead of absolute (M82)", 0, 0, &P::relative_e},
+      {"speed.print", "mm/s", "printing speed", 0.01, 1000, &P::print_speed},
+      {"speed.travel", "mm/s", "travel speed", 0.01, 2000, &P::travel_speed},
+      {"speed.z", "mm/s", "speed of Z moves", 0.01, 1000, &P::z_speed},
+      {"speed.short_path_factor", "", "speed factor for short paths (paper: 0.6)", 0.01, 10, &P::short_path_factor},
+      {"speed.short_path_segments", "", "paths with fewer segments than this are short", 0, 1000000, &P::short_path_segments},
+      {"temperature.nozzle", "°C", "nozzle temperature, 0 = leave unset", 0, 500, &P::nozzle_temperature},
+      {"temperature.bed", "°C", "bed temperature, 0 = leave unset", 0, 200, &P::bed_temperature},
+      {"temperature.fan", "%", "part-cooling fan", 0, 100, &P::fan_percent},
+      {"retraction.length", "mm", "filament retracted before travel", 0, 50, &P::retract_length},
+      {"retraction.speed", "mm/s", "retraction speed", 0.01, 500, &P::retract_speed},
+      {"retraction.z_hop", "mm", "lift during travel", 0, 50, &P::z_hop},
+      {"retraction.min_travel", "mm", "no retraction or lift for shorter travel", 0, 1000, &P::min_travel},
+      {"flow.pre", "mm", "extra filament primed at each path start (marlin)", 0, 50, &P::pre_flow},
+      {"flow.post", "mm", "extra filament pushed at each path end (marlin)", 0, 50, &P::post_flow},
+      {"flow.pre_dwell", "s", "dwell at each path start after priming / opening", 0, 60, &P::pre_flow_dwell},
+      {"flow.post_dwell", "s", "dwell at each path end before retracting / closing", 0, 60, &P::post_flow_dwell},
+      {"pneumatic.pressure", "kPa", "extrusion pressure per path", 0, 10000, &P::pressure},
+      {"pneumatic.pressure_command", "", "command setting the pressure, {pressure} is replaced; empty = none", 0, 0, &P::pressure_command},
+      {"pneumatic.valve_on", "", "command opening the valve", 0, 0, &P::valve_on},
+      {"pneumatic.valve_off", "", "command closing the valve", 0, 0, &P::valve_off},
+      {"gcode.start", "", "start template; {section.key} or {key} inserts a setting", 0, 0, &P::start_gcode},
+      {"gcode.end", "", "end template", 0, 0, &P::end_gcode},
+      {"gcode.extension", "", "default output extension (.gcode for marlin, .nc for pneumatic)", 0, 0, &P::file_extension},
+  };
+  return table;
+}
+
+Flavor MachineProfile::parsed_flavor() const {
+  if (flavor == "marlin") return Flavor::Marlin;
+  if (flavor == "pneumatic") return Flavor::Pneumatic;
+  throw SettingError("unknown flavor '" + flavor + "' (expected marlin or pneumatic)",
+                     {"", 0, "machine.flavor"});
+}
+
+namespace {
+
+const SettingDecl* find_setting(const std::string& key) {
+  for (const auto& d : machine_settings())
+    if (key == d.key) return &d;
+  return nullptr;
+}
+
+void check_range(const SettingDecl& d, double v, const Where& where) {
+  if (!std::isfinite(v) || v < d.min || v > d.max)
+    throw SettingError("value out of range [" + std::to_string(d.min) + ", " +
+                           std::to_string(d.max) + "]" + (d.unit[0] ? std::string(" ") + d.unit : ""),
+                       where);
+}
+
+void set_from_toml(MachineProfile& p, const SettingDecl& d, const toml::node& node,
+                   const Where& where) {
+  std::visit(
+      [&](auto member) {
+        using T = std::remove_cvref_t<decltype(p.*member)>;
+        if constexpr (std::is_same_v<T, double>) {
+          auto v = node.value<double>();
+          if (!v || !(node.is_floating_point() || node.is_integer()))
+            throw SettingError("expected a number", where);
+          check_range(d, *v, where);
+          p.*member = *v;
+        } else if constexpr (std::is_same_v<T, int>) {
+          if (!node.is_integer()) throw SettingError("expected an integer", where);
+          const auto v = *node.value<std::int64_t>();
+          check_range(d, static_cast<double>(v), where);
+          p.*member = static_cast<int>(v);
+        } else if constexpr (std::is_same_v<T, bool>) {
+          if (!node.is_boolean()) throw SettingError("expected true or false", where);
+          p.*member = *node.value<bool>();
+        } else {
+          if (!node.is_string()) throw SettingError("expected a string", where);
+          p.*member = *node.value<std::string>();
+        }
+      },
+      d.member);
+}
+
+void walk(MachineProfile& p, const toml::table& table, const std::string& prefix,
+          const std::string& origin) {
+  for (const auto& [k, node] : table) {
+    const std::string key = prefix.empty() ? std::string(k.str()) : prefix + "." + std::string(k.str());
+    const Where where{origin, static_cast<long>(node.source().begin.line), key};
+    if (const auto* sub = node.as_table()) {
+      walk(p, *sub, key, origin);
+      continue;
+    }
+    const SettingDecl* d = find_setting(key);
+    if (!d) throw SettingError("unknown setting (see `trellis gcode --help-settings`)", where);
+    set_from_toml(p, *d, node, where);
+  }
+}
+
+std::string number_text(double v) {
+  char buf[32];
+  auto [ptr, ec] = std::to_chars(buf, buf + sizeof buf, v);
+  return std::string(buf, ptr);
+}
+
+}  // namespace
+
+MachineProfile profile_from_toml(const std::string& text, const std::string& origin) {
+  toml::table table;
+  try {
+    table = toml::parse(text, origin);
+  } catch (const toml::parse_error& e) {
+    throw SettingError(std::string(e.description()),
+                       {origin, static_cast<long>(e.source().begin.line)});
+  }
+  MachineProfile p;
+  walk(p, table, "", origin);
+  try {
+    validate(p);
+  } catch (const SettingError& e) {
+    throw SettingError(e.message(), {origin, 0, e.where().element});
+  }
+  return p;
+}
+
+MachineProfile load_profile(const std::string& path) {
+  return profile_from_toml(read_file(path), path);
+}
+
+void apply_override(MachineProfile& p, const std::string& assignment) {
+  const auto eq = assignment.find('=');
+  if (eq == std::string::npos)
+    throw SettingError("expected key=value, got '" + assignment + "'", {"--set"});
+  const std::string key = assignment.substr(0, eq), value = assignment.substr(eq + 1);
+  const SettingDecl* d = find_setting(key);
+  if (!d) throw SettingError("unknown setting (see `trellis gcode --help-settings`)", {"--set", 0, key});
+  // Parse the value as a TOML value so the same type rules apply.
+  const bool is_string = std::holds_alternative<std::string MachineProfile::*>(d->member);
+  const std::string doc = "v = " + value;
+  toml::table t;
+  try {
+    if (is_string) {
+      t.insert("v", value);
+    } else {
+      t = toml::parse(doc);
+    }
+  } catch (const toml::parse_error& e) {
+    throw SettingError("cannot parse value '" + value + "'", {"--set", 0, key});
+  }
+  set_from_toml(p, *d, *t.get("v"), {"--set", 0, key});
+  validate(p);
+}
+
+void validate(const MachineProfile& p) {
+  p.parsed_flavor();
+}
+
+std::string setting_text(const MachineProfile& p, const SettingDecl& d) {
+  return std::visit(
+      [&](auto member) -> std::string {
+        using T = std::remove_cvref_t<decltype(p.*member)>;
+        if constexpr (std::is_same_v<T, double>) return number_text(p.*member);
+        else if constexpr (std::is_same_v<T, int>) return std::to_string(p.*member);
+        else if constexpr (std::is_same_v<T, bool>) return p.*member ? "true" : "false";
+        else return p.*member;
+      },
+      d.member);
+}
+
+std::string settings_help() {
+  const MachineProfile defaults;
+  std::string out = "Machine profile settings (TOML [section] key, or --set section.key=value):\n";
+  for (const auto& d : machine_settings()) {
+    std::string line = std::string("  ") + d.key;
+    if (line.size() < 32) line.resize(32, ' ');
+    std::string def = setting_text(defaults, d);
+    for (auto& c : def)
+      if (c == '\n') c = ' ';
+    out += line + " " + d.doc + (d.unit[0] ? std::string(" [") + d.unit + "]" : "") +
+           " (default: " + (def.empty() ? "\"\"" : def) + ")\n";
+  }
+  return out;
+}
+
+}  // namespace trellis

@@ -1,0 +1,273 @@
+#include "trellis/plan/gippo.hpp"
+
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cassert>
+
+#include "trellis/core/error.hpp"
+#include "trellis/core/rng.hpp"
+
+namespace trellis {
+
+namespace {
+
+// Incident edges of every node, sorted best-first for the mode: by length (descending for max,
+// ascending for min), then by edge id. The first unused entry is a node's best candidate, so a
+// per-node cursor that only moves forward finds it in amortised O(1).
+struct SortedAdjacency {
+  std::vector<std::uint32_t> offsets;
+  std::vector<EdgeId> edges;
+  std::vector<double> length;  // per edge
+
+  SortedAdjacency(const Graph& g, GippoMode mode) : offsets(g.nodes.size() + 1, 0) {
+    length.resize(g.edges.size());
+    for (EdgeId e = 0; e < g.edges.size(); ++e) length[e] = g.edge_length(e);
+    Adjacency adj(g);
+    edges.reserve(2 * g.edges.size());
+    for (NodeId n = 0; n < g.nodes.size(); ++n) {
+      offsets[n] = static_cast<std::uint32_t>(edges.size());
+      edges.insert(edges.end(), adj.begin(n), adj.end(n));
+      auto better = [&](EdgeId x, EdgeId y) {
+        if (length[x] != length[y])
+          return mode == GippoMode::Max ? length[x] > length[y] : length[x] < length[y];
+        return x < y;
+      };
+      std::sort(edges.begin() + offsets[n], edges.end(), better);
+    }
+    offsets[g.nodes.size()] = static_cast<std::uint32_t>(edges.size());
+  }
+};
+
+// Fenwick tree over nodes holding 1 for incomplete nodes: select the r-th one in O(log n).
+class IncompleteSet {
+ public:
+  void reset(const std::vector<std::uint32_t>& remaining) {
+    n_ = remaining.size();
+    tree_.assign(n_ + 1, 0);
+    count_ = 0;
+    for (std::size_t i = 1; i <= n_; ++i) {
+      const int v = remaining[i - 1] > 0;
+      count_ += v;
+      tree_[i] += v;
+      const std::size_t j = i + (i & (~i + 1));
+      if (j <= n_) tree_[j] += tree_[i];
+    }
+    top_ = 1;
+    while (top_ * 2 <= n_) top_ *= 2;
+  }
+  void remove(NodeId node) {
+    --count_;
+    for (std::size_t i = node + 1; i <= n_; i += i & (~i + 1)) --tree_[i];
+  }
+  std::size_t count() const { return count_; }
+  NodeId select(std::size_t r) const {  // 0-based rank
+    std::size_t pos = 0;
+    for (std::size_t step = top_; step > 0; step /= 2)
+      if (pos + step <= n_ && static_cast<std::size_t>(tree_[pos + step]) <= r) {
+        pos += step;
+        r -= tree_[pos];
+      }
+    return static_cast<NodeId>(pos);
+  }
+
+ private:
+  std::size_t n_ = 0, count_ = 0, top_ = 1;
+  std::vector<int> tree_;
+};
+
+// A solution as flat arrays: trail i has nodes [node_off[i], node_off[i+1]) and edges
+// [node_off[i] - i, node_off[i+1] - i - 1).
+struct FlatSolution {
+  std::vector<NodeId> nodes;
+  std::vector<EdgeId> edges;
+  std::vector<std::uint32_t> node_off{0};
+  std::vector<double> length;
+  double score = -1;
+  std::size_t iteration = 0;
+
+  void clear() {
+    nodes.clear();
+    edges.clear();
+    node_off.assign(1, 0);
+    length.clear();
+  }
+  PathSet to_paths() const {
+    PathSet set;
+    set.trails.resize(length.size());
+    for (std::size_t i = 0; i < length.size(); ++i) {
+      Trail& t = set.trails[i];
+      t.nodes.assign(nodes.begin() + node_off[i], nodes.begin() + node_off[i + 1]);
+      t.edges.assign(edges.begin() + (node_off[i] - i), edges.begin() + (node_off[i + 1] - i - 1));
+      t.length = length[i];
+    }
+    return set;
+  }
+};
+
+class Iteration {
+ public:
+  Iteration(const Graph& g, const SortedAdjacency& adj) : g_(g), adj_(adj) {
+    const std::size_t e = g.edges.size();
+    buf_nodes_.resize(2 * e + 3);
+    buf_edges_.resize(2 * e + 3);
+  }
+
+  // Fills `out` with the solution of iteration k; returns its score (Eq. 1).
+  double run(GippoMode mode, std::uint64_t seed, std::uint64_t k, double total_length,
+             FlatSolution& out) {
+    Rng rng = Rng::stream(seed, k);
+    const std::size_t n = g_.nodes.size();
+    used_.assign(g_.edges.size(), 0);
+    cursor_.assign(adj_.offsets.begin(), adj_.offsets.end() - 1);
+    remaining_.resize(n);
+    for (NodeId v = 0; v < n; ++v) remaining_[v] = adj_.offsets[v + 1] - adj_.offsets[v];
+    incomplete_.reset(remaining_);
+    out.clear();
+    double weighted = 0;
+    const std::size_t mid = g_.edges.size() + 1;
+    while (incomplete_.count() > 0) {
+      const NodeId start = incomplete_.select(rng.uniform_index(incomplete_.count()));
+      std::size_t f = mid, b = mid;  // nodes in [f, b], edges in [f, b)
+      buf_nodes_[mid] = start;
+      double len = 0;
+      while (true) {
+        const EdgeId ef = best(buf_nodes_[f]);
+        const EdgeId eb = best(buf_nodes_[b]);
+        if (ef == kNone && eb == kNone) break;
+        bool back = ef == kNone;
+        if (!back && eb != kNone)
+          back = mode == GippoMode::Max ? adj_.length[eb] > adj_.length[ef]
+                                        : adj_.length[eb] < adj_.length[ef];
+        const EdgeId e = back ? eb : ef;
+        take(e);
+        len += adj_.length[e];
+        if (back) {
+          buf_edges_[b] = e;
+          buf_nodes_[b + 1] = g_.edges[e].other(buf_nodes_[b]);
+          ++b;
+        } else {
+          buf_nodes_[f - 1] = g_.edges[e].other(buf_nodes_[f]);
+          buf_edges_[f - 1] = e;
+          --f;
+        }
+      }
+      out.nodes.insert(out.nodes.end(), buf_nodes_.begin() + f, buf_nodes_.begin() + b + 1);
+      out.edges.insert(out.edges.end(), buf_edges_.begin() + f, buf_edges_.begin() + b);
+      out.node_off.push_back(static_cast<std::uint32_t>(out.nodes.size()));
+      out.length.push_back(len);
+      weighted += len * static_cast<double>(b - f);
+    }
+    const double paths = static_cast<double>(out.length.size());
+    out.score = paths > 0 && total_length > 0 ? weighted / (total_length * paths) : 0;
+    out.iteration = k;
+    return out.score;
+  }
+
+ private:
+  static constexpr EdgeId kNone = UINT32_MAX;
+
+  EdgeId best(NodeId v) {
+    std::uint32_t& c = cursor_[v];
+    const std::uint32_t end = adj_.offsets[v + 1];
+    while (c < end && used_[adj_.edges[c]]) ++c;
+    return c < end ? adj_.edges[c] : kNone;
+  }
+
+  void take(EdgeId e) {
+    used_[e] = 1;
+    for (NodeId v : {g_.edges[e].a, g_.edges[e].b})
+      if (--remaining_[v] == 0) incomplete_.remove(v);
+  }
+
+  const Graph& g_;
+  const SortedAdjacency& adj_;
+  std::vector<char> used_;
+  std::vector<std::uint32_t> cursor_, remaining_;
+  IncompleteSet incomplete_;
+  std::vector<NodeId> buf_nodes_;
+  std::vector<EdgeId> buf_edges_;
+};
+
+void check_graph(const Graph& g) {
+  if (g.edges.empty()) throw GeometryError("the lattice has no edges to plan");
+  for (EdgeId e = 0; e < g.edges.size(); ++e)
+    if (g.edges[e].a == g.edges[e].b)
+      throw GeometryError("edge " + std::to_string(e) + " is a self-loop (clean the graph first)");
+}
+
+bool better(double score, std::size_t k, const FlatSolution& than) {
+  return score > than.score || (score == than.score && k < than.iteration);
+}
+bool worse(double score, std::size_t k, const FlatSolution& than) {
+  return than.score < 0 || score < than.score || (score == than.score && k < than.iteration);
+}
+
+}  // namespace
+
+PathSet gippo_iteration(const Graph& g, GippoMode mode, std::uint64_t seed, std::uint64_t k) {
+  check_graph(g);
+  SortedAdjacency adj(g, mode);
+  Iteration it(g, adj);
+  FlatSolution sol;
+  it.run(mode, seed, k, g.total_length(), sol);
+  return sol.to_paths();
+}
+
+GippoResult plan_gippo(const Graph& g, const GippoParams& params) {
+  check_graph(g);
+  if (params.iterations < 1) throw SettingError("iterations must be >= 1");
+  const SortedAdjacency adj(g, params.mode);
+  const double total = g.total_length();
+  const auto n = static_cast<std::size_t>(params.iterations);
+  GippoResult result;
+  result.scores.assign(n, 0);
+
+  struct Local {
+    std::unique_ptr<Iteration> it;
+    FlatSolution current, best, worst;
+  };
+  tbb::enumerable_thread_specific<Local> locals;
+  std::atomic<std::size_t> done{0};
+  std::atomic<bool> cancelled{false};
+  tbb::task_arena arena(params.threads > 0 ? params.threads : tbb::task_arena::automatic);
+  arena.execute([&] {
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1), [&](const auto& range) {
+      Local& L = locals.local();
+      if (!L.it) L.it = std::make_unique<Iteration>(g, adj);
+      for (std::size_t k = range.begin(); k != range.end(); ++k) {
+        if (params.progress.cancelled()) {
+          cancelled = true;
+          return;
+        }
+        const double s = L.it->run(params.mode, params.seed, k, total, L.current);
+        result.scores[k] = s;
+        const bool is_worst = worse(s, k, L.worst);
+        if (is_worst) L.worst = L.current;
+        if (better(s, k, L.best)) std::swap(L.best, L.current);
+        const std::size_t d = ++done;
+        if (d % std::max<std::size_t>(1, n / 50) == 0) params.progress("gippo", double(d) / n);
+      }
+    });
+  });
+  if (cancelled) throw Error("planning cancelled");
+  const FlatSolution* best = nullptr;
+  const FlatSolution* worst = nullptr;
+  for (const auto& L : locals) {
+    if (L.best.score >= 0 && (!best || better(L.best.score, L.best.iteration, *best)))
+      best = &L.best;
+    if (L.worst.score >= 0 && (!worst || worse(L.worst.score, L.worst.iteration, *worst)))
+      worst = &L.worst;
+  }
+  assert(best && worst);
+  result.best = best->to_paths();
+  result.best_iteration = best->iteration;
+  result.worst = worst->to_paths();
+  result.worst_iteration = worst->iteration;
+  return result;
+}
+
+}  // namespace trellis

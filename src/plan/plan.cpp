@@ -1,0 +1,165 @@
+#include "trellis/plan/plan.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+#include "trellis/core/error.hpp"
+#include "trellis/plan/euler.hpp"
+
+namespace trellis {
+
+Planner planner_from_string(const std::string& name) {
+  if (name == "gippo") return Planner::Gippo;
+  if (name == "euler") return Planner::Euler;
+  throw SettingError("unknown planner '" + name + "' (expected gippo or euler)");
+}
+
+std::string to_string(Planner p) { return p == Planner::Gippo ? "gippo" : "euler"; }
+
+namespace {
+
+struct Part {
+  double z = 0;
+  int material = 0;
+  std::vector<EdgeId> edges;
+};
+
+// Groups edges into planar levels (both ends at one z) and materials. A lattice with struts
+// spanning heights is planned as one part.
+std::vector<Part> split_parts(const Graph& g, double tol, Diagnostics& diag) {
+  bool planar = true;
+  for (const auto& e : g.edges) planar &= std::abs(g.nodes[e.a].z - g.nodes[e.b].z) <= tol;
+  std::vector<double> levels;
+  if (planar) {
+    for (const auto& e : g.edges) levels.push_back(g.nodes[e.a].z);
+    std::sort(levels.begin(), levels.end());
+    std::vector<double> uniq;
+    for (double z : levels)
+      if (uniq.empty() || z - uniq.back() > tol) uniq.push_back(z);
+    levels = std::move(uniq);
+  } else {
+    diag.warn("non_planar_lattice",
+              "struts span several heights: planned as one 3D part without nozzle-collision "
+              "checks (collision-aware 3D planning is the AERO planner)");
+    levels = {g.bbox().min.z};
+  }
+  std::map<std::pair<std::size_t, int>, Part> parts;
+  for (EdgeId i = 0; i < g.edges.size(); ++i) {
+    const auto& e = g.edges[i];
+    std::size_t level = 0;
+    if (planar)
+      level = std::lower_bound(levels.begin(), levels.end(), g.nodes[e.a].z - tol) - levels.begin();
+    Part& p = parts[{level, e.material}];
+    p.z = levels[level];
+    p.material = e.material;
+    p.edges.push_back(i);
+  }
+  std::vector<Part> out;
+  for (auto& [key, p] : parts) out.push_back(std::move(p));
+  return out;
+}
+
+Graph subgraph(const Graph& g, const std::vector<EdgeId>& edges, std::vector<NodeId>& node_map) {
+  Graph sub;
+  std::vector<NodeId> local(g.nodes.size(), UINT32_MAX);
+  node_map.clear();
+  for (EdgeId i : edges) {
+    Edge e = g.edges[i];
+    for (NodeId* n : {&e.a, &e.b}) {
+      if (local[*n] == UINT32_MAX) {
+        local[*n] = static_cast<NodeId>(sub.nodes.size());
+        sub.nodes.push_back(g.nodes[*n]);
+        node_map.push_back(*n);
+      }
+      *n = local[*n];
+    }
+    sub.edges.push_back(e);
+  }
+  return sub;
+}
+
+PathMetrics pooled(const std::vector<LayerReport>& layers, std::size_t long_nodes,
+                   const std::vector<PathSet>& sets) {
+  PathSet all;
+  PathMetrics m;
+  for (const auto& s : sets) all.trails.insert(all.trails.end(), s.trails.begin(), s.trails.end());
+  Graph empty;
+  m = path_metrics(empty, all, long_nodes);
+  m.lower_bound_paths = 0;
+  for (const auto& l : layers) m.lower_bound_paths += l.metrics.lower_bound_paths;
+  return m;
+}
+
+}  // namespace
+
+PlanResult plan_lattice(const Graph& g, const PlanParams& params, Diagnostics& diag) {
+  if (g.edges.empty()) throw GeometryError("the lattice has no edges to plan");
+  if (!(params.layer_height > 0)) throw SettingError("layer height must be > 0 mm");
+  std::size_t directed = 0;
+  for (const auto& e : g.edges) directed += e.directed;
+  if (directed)
+    diag.warn("directed_ignored", std::to_string(directed) +
+                                      " directed strut(s) planned as undirected (direction is "
+                                      "honoured by the AERO planner)");
+  PlanResult result;
+  result.toolpath.source = to_string(params.planner);
+  std::vector<PathSet> sets;
+  Vec3 at = g.bbox().min;
+  const auto parts = split_parts(g, params.level_tolerance, diag);
+  for (std::size_t pi = 0; pi < parts.size(); ++pi) {
+    const Part& part = parts[pi];
+    std::vector<NodeId> node_map;
+    const Graph sub = subgraph(g, part.edges, node_map);
+    LayerReport report;
+    report.z = part.z;
+    report.material = part.material;
+    report.edges = sub.edges.size();
+    PathSet set;
+    if (params.planner == Planner::Gippo) {
+      GippoParams gp = params.gippo;
+      const auto outer = params.gippo.progress.report;
+      if (outer)
+        gp.progress.report = [&](const std::string& stage, double f) {
+          outer(stage, (static_cast<double>(pi) + f) / static_cast<double>(parts.size()));
+        };
+      auto r = plan_gippo(sub, gp);
+      set = std::move(r.best);
+      report.scores = std::move(r.scores);
+      report.best_iteration = r.best_iteration;
+      report.worst = path_metrics(sub, r.worst, params.long_path_nodes);
+    } else {
+      set = plan_euler(sub);
+    }
+    report.metrics = path_metrics(sub, set, params.long_path_nodes);
+    // Order in the sub-graph, starting where the previous part ended.
+    order_paths(sub, set, params.order, at);
+    Layer* layer = nullptr;
+    const double z = part.z + params.layer_height;
+    if (!result.toolpath.layers.empty() &&
+        std::abs(result.toolpath.layers.back().z - z) <= params.level_tolerance)
+      layer = &result.toolpath.layers.back();
+    else
+      layer = &result.toolpath.layers.emplace_back(Layer{z, {}});
+    for (const auto& t : set.trails) {
+      Path p;
+      p.role = PathRole::Strut;
+      p.tool = part.material;
+      p.height = params.layer_height;
+      p.points.reserve(t.nodes.size());
+      for (NodeId n : t.nodes) {
+        const Vec3 q = sub.nodes[n];
+        p.points.push_back({q.x, q.y, q.z + params.layer_height});
+      }
+      layer->paths.push_back(std::move(p));
+    }
+    if (!set.trails.empty()) at = sub.nodes[set.trails.back().nodes.back()];
+    result.layers.push_back(std::move(report));
+    sets.push_back(std::move(set));
+  }
+  result.total = pooled(result.layers, params.long_path_nodes, sets);
+  result.travel = travel_stats(result.toolpath);
+  return result;
+}
+
+}  // namespace trellis

@@ -1,0 +1,168 @@
+#include "trellis/render/render.hpp"
+
+#include <cairo.h>
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+
+#include "trellis/core/error.hpp"
+#include "trellis/core/file.hpp"
+
+namespace trellis {
+
+namespace {
+
+using Surface = std::unique_ptr<cairo_surface_t, decltype(&cairo_surface_destroy)>;
+using Context = std::unique_ptr<cairo_t, decltype(&cairo_destroy)>;
+
+cairo_status_t append_png(void* closure, const unsigned char* data, unsigned int length) {
+  static_cast<std::string*>(closure)->append(reinterpret_cast<const char*>(data), length);
+  return CAIRO_STATUS_SUCCESS;
+}
+
+void save_png(cairo_surface_t* surface, const std::string& path) {
+  std::string png;
+  if (cairo_surface_write_to_png_stream(surface, append_png, &png) != CAIRO_STATUS_SUCCESS)
+    throw IoError("cannot encode PNG", {path});
+  write_file_atomic(path, png);
+}
+
+// Blue (first) to red (last) through green.
+void order_colour(cairo_t* cr, double t) {
+  const double h = (1 - t) * 240.0 / 60.0;  // hue in sextants, 4 (blue) .. 0 (red)
+  const double x = 1 - std::abs(std::fmod(h, 2.0) - 1);
+  double r = 0, g = 0, b = 0;
+  if (h < 1) r = 1, g = x;
+  else if (h < 2) r = x, g = 1;
+  else if (h < 3) g = 1, b = x;
+  else b = 1, g = x;
+  cairo_set_source_rgb(cr, r * 0.9, g * 0.75, b * 0.9);
+}
+
+}  // namespace
+
+void render_layer_png(const Toolpath& tp, std::size_t index, const std::string& path,
+                      const RenderOptions& opt) {
+  if (index >= tp.layers.size())
+    throw SettingError("layer " + std::to_string(index) + " does not exist (the toolpath has " +
+                       std::to_string(tp.layers.size()) + ")");
+  const Layer& layer = tp.layers[index];
+  BBox3 box;
+  for (const auto& p : layer.paths)
+    for (const auto& q : p.points) box.add(q);
+  if (box.empty()) box.add({0, 0, 0});
+  const double w = box.max.x - box.min.x + 2 * opt.margin_mm;
+  const double h = box.max.y - box.min.y + 2 * opt.margin_mm;
+  const double scale = opt.size_px / std::max({w, h, 1e-6});
+  const int W = std::max(16, static_cast<int>(std::ceil(w * scale)));
+  const int H = std::max(16, static_cast<int>(std::ceil(h * scale)));
+  Surface surface(cairo_image_surface_create(CAIRO_FORMAT_RGB24, W, H), cairo_surface_destroy);
+  Context cr(cairo_create(surface.get()), cairo_destroy);
+  cairo_set_source_rgb(cr.get(), 1, 1, 1);
+  cairo_paint(cr.get());
+  // Millimetres, y up.
+  cairo_translate(cr.get(), 0, H);
+  cairo_scale(cr.get(), scale, -scale);
+  cairo_translate(cr.get(), -box.min.x + opt.margin_mm, -box.min.y + opt.margin_mm);
+  cairo_set_line_cap(cr.get(), CAIRO_LINE_CAP_ROUND);
+  cairo_set_line_join(cr.get(), CAIRO_LINE_JOIN_ROUND);
+  const std::size_t n = layer.paths.size();
+  if (opt.travel && n > 1) {
+    cairo_set_source_rgba(cr.get(), 0.4, 0.4, 0.4, 0.8);
+    cairo_set_line_width(cr.get(), 1.0 / scale);
+    const double dash[] = {4.0 / scale, 3.0 / scale};
+    cairo_set_dash(cr.get(), dash, 2, 0);
+    for (std::size_t i = 1; i < n; ++i) {
+      const Vec3 a = layer.paths[i - 1].points.back(), b = layer.paths[i].points.front();
+      cairo_move_to(cr.get(), a.x, a.y);
+      cairo_line_to(cr.get(), b.x, b.y);
+    }
+    cairo_stroke(cr.get());
+    cairo_set_dash(cr.get(), nullptr, 0, 0);
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    const Path& p = layer.paths[i];
+    const double bead = opt.bead_width > 0 ? opt.bead_width : (p.width > 0 ? p.width : 0.2);
+    cairo_set_line_width(cr.get(), std::max(bead, 1.5 / scale));
+    order_colour(cr.get(), n > 1 ? static_cast<double>(i) / (n - 1) : 0.0);
+    cairo_move_to(cr.get(), p.points[0].x, p.points[0].y);
+    for (std::size_t k = 1; k < p.points.size(); ++k)
+      cairo_line_to(cr.get(), p.points[k].x, p.points[k].y);
+    cairo_stroke(cr.get());
+  }
+  if (opt.starts)
+    for (const auto& p : layer.paths) {
+      cairo_set_source_rgb(cr.get(), 0.0, 0.6, 0.0);
+      cairo_arc(cr.get(), p.points.front().x, p.points.front().y, 3.5 / scale, 0, 2 * M_PI);
+      cairo_fill(cr.get());
+      cairo_set_source_rgb(cr.get(), 0.1, 0.1, 0.1);
+      cairo_arc(cr.get(), p.points.back().x, p.points.back().y, 2.0 / scale, 0, 2 * M_PI);
+      cairo_fill(cr.get());
+    }
+  cairo_surface_flush(surface.get());
+  save_png(surface.get(), path);
+}
+
+void render_scores_png(const std::vector<double>& scores, std::size_t best, const std::string& title,
+                       const std::string& path) {
+  const int W = 900, H = 500, L = 70, R = 20, T = 40, B = 50;
+  Surface surface(cairo_image_surface_create(CAIRO_FORMAT_RGB24, W, H), cairo_surface_destroy);
+  Context cr(cairo_create(surface.get()), cairo_destroy);
+  cairo_t* c = cr.get();
+  cairo_set_source_rgb(c, 1, 1, 1);
+  cairo_paint(c);
+  double lo = scores.empty() ? 0 : *std::min_element(scores.begin(), scores.end());
+  double hi = scores.empty() ? 1 : *std::max_element(scores.begin(), scores.end());
+  if (hi - lo < 1e-12) {
+    lo -= 0.5;
+    hi += 0.5;
+  }
+  const double pad = (hi - lo) * 0.05;
+  lo -= pad;
+  hi += pad;
+  auto X = [&](double i) { return L + (W - L - R) * (scores.size() > 1 ? i / (scores.size() - 1) : 0.5); };
+  auto Y = [&](double s) { return H - B - (H - T - B) * (s - lo) / (hi - lo); };
+  cairo_set_source_rgb(c, 0, 0, 0);
+  cairo_set_line_width(c, 1);
+  cairo_move_to(c, L, T);
+  cairo_line_to(c, L, H - B);
+  cairo_line_to(c, W - R, H - B);
+  cairo_stroke(c);
+  cairo_select_font_face(c, "sans-serif", CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
+  cairo_set_font_size(c, 13);
+  char buf[128];
+  for (int k = 0; k <= 4; ++k) {
+    const double s = lo + (hi - lo) * k / 4;
+    std::snprintf(buf, sizeof buf, "%.4g", s);
+    cairo_move_to(c, 5, Y(s) + 4);
+    cairo_show_text(c, buf);
+    cairo_move_to(c, L - 4, Y(s));
+    cairo_line_to(c, L, Y(s));
+    cairo_stroke(c);
+  }
+  std::snprintf(buf, sizeof buf, "iteration (1..%zu)", scores.size());
+  cairo_move_to(c, W / 2.0 - 60, H - 15);
+  cairo_show_text(c, buf);
+  cairo_set_font_size(c, 15);
+  cairo_move_to(c, L, 25);
+  cairo_show_text(c, title.c_str());
+  cairo_set_source_rgba(c, 0.1, 0.3, 0.8, 0.7);
+  for (std::size_t i = 0; i < scores.size(); ++i) {
+    cairo_arc(c, X(i), Y(scores[i]), 2.5, 0, 2 * M_PI);
+    cairo_fill(c);
+  }
+  if (best < scores.size()) {
+    cairo_set_source_rgb(c, 0.85, 0.1, 0.1);
+    cairo_arc(c, X(best), Y(scores[best]), 6, 0, 2 * M_PI);
+    cairo_stroke(c);
+    std::snprintf(buf, sizeof buf, "best %.4g (iteration %zu)", scores[best], best + 1);
+    cairo_set_font_size(c, 13);
+    cairo_move_to(c, W - R - 230, 25);
+    cairo_show_text(c, buf);
+  }
+  cairo_surface_flush(surface.get());
+  save_png(surface.get(), path);
+}
+
+}  // namespace trellis

@@ -1,0 +1,126 @@
+#include "trellis/toolpath/json.hpp"
+
+#include <cmath>
+#include <nlohmann/json.hpp>
+
+#include "trellis/core/error.hpp"
+#include "trellis/core/file.hpp"
+
+namespace trellis {
+
+using nlohmann::json;
+
+std::string toolpath_to_json(const Toolpath& tp) {
+  json layers = json::array();
+  for (const auto& layer : tp.layers) {
+    json paths = json::array();
+    for (const auto& p : layer.paths) {
+      json pts = json::array();
+      for (const auto& q : p.points) pts.push_back({q.x, q.y, q.z});
+      json jp = {{"role", to_string(p.role)}, {"tool", p.tool},   {"width", p.width},
+                 {"height", p.height},        {"speed", p.speed}, {"points", std::move(pts)}};
+      if (!p.mixture.empty()) jp["mixture"] = p.mixture;
+      if (p.power != 0) jp["power"] = p.power;
+      paths.push_back(std::move(jp));
+    }
+    layers.push_back({{"z", layer.z}, {"paths", std::move(paths)}});
+  }
+  json doc = {{"format", "trellis.toolpath"}, {"version", 1},  {"units", "mm"},
+              {"source", tp.source},          {"layers", std::move(layers)}};
+  return doc.dump(1) + "\n";
+}
+
+namespace {
+
+double number(const json& j, const std::string& origin, const std::string& element) {
+  if (!j.is_number()) throw ParseError("expected a number", {origin, 0, element});
+  const double v = j.get<double>();
+  if (!std::isfinite(v)) throw ParseError("number is not finite", {origin, 0, element});
+  return v;
+}
+
+double optional_number(const json& obj, const char* key, const std::string& origin,
+                       const std::string& element) {
+  auto it = obj.find(key);
+  return it == obj.end() ? 0.0 : number(*it, origin, element + "." + key);
+}
+
+Path parse_path(const json& jp, const std::string& origin, const std::string& el) {
+  if (!jp.is_object()) throw ParseError("expected an object", {origin, 0, el});
+  Path p;
+  if (auto it = jp.find("role"); it != jp.end()) {
+    if (!it->is_string()) throw ParseError("role must be a string", {origin, 0, el + ".role"});
+    try {
+      p.role = path_role_from_string(it->get<std::string>());
+    } catch (const Error& e) {
+      throw ParseError(e.message(), {origin, 0, el + ".role"});
+    }
+  }
+  p.tool = static_cast<int>(optional_number(jp, "tool", origin, el));
+  p.width = optional_number(jp, "width", origin, el);
+  p.height = optional_number(jp, "height", origin, el);
+  p.speed = optional_number(jp, "speed", origin, el);
+  p.power = optional_number(jp, "power", origin, el);
+  if (auto it = jp.find("mixture"); it != jp.end()) {
+    if (!it->is_array()) throw ParseError("mixture must be an array", {origin, 0, el});
+    for (std::size_t i = 0; i < it->size(); ++i)
+      p.mixture.push_back(number((*it)[i], origin, el + ".mixture[" + std::to_string(i) + "]"));
+  }
+  auto pts = jp.find("points");
+  if (pts == jp.end() || !pts->is_array() || pts->size() < 2)
+    throw ParseError("a path needs 'points' with at least 2 points", {origin, 0, el});
+  for (std::size_t i = 0; i < pts->size(); ++i) {
+    const std::string pe = el + ".points[" + std::to_string(i) + "]";
+    const json& q = (*pts)[i];
+    if (!q.is_array() || q.size() != 3) throw ParseError("expected [x, y, z]", {origin, 0, pe});
+    p.points.push_back({number(q[0], origin, pe), number(q[1], origin, pe),
+                        number(q[2], origin, pe)});
+  }
+  return p;
+}
+
+}  // namespace
+
+Toolpath toolpath_from_json(const std::string& text, const std::string& origin) {
+  json doc;
+  try {
+    doc = json::parse(text);
+  } catch (const json::parse_error& e) {
+    throw ParseError(std::string("invalid JSON: ") + e.what(),
+                     {origin, line_of_offset(text, e.byte > 0 ? e.byte - 1 : 0)});
+  }
+  if (!doc.is_object() || doc.value("format", "") != "trellis.toolpath")
+    throw ParseError("not a Trellis toolpath (missing \"format\": \"trellis.toolpath\")", {origin});
+  if (doc.value("version", 0) != 1)
+    throw ParseError("unsupported toolpath version (this build reads version 1)", {origin});
+  Toolpath tp;
+  if (auto it = doc.find("source"); it != doc.end() && it->is_string()) tp.source = *it;
+  auto layers = doc.find("layers");
+  if (layers == doc.end() || !layers->is_array())
+    throw ParseError("missing 'layers' array", {origin});
+  for (std::size_t li = 0; li < layers->size(); ++li) {
+    const std::string el = "layers[" + std::to_string(li) + "]";
+    const json& jl = (*layers)[li];
+    if (!jl.is_object()) throw ParseError("expected an object", {origin, 0, el});
+    Layer layer;
+    layer.z = optional_number(jl, "z", origin, el);
+    auto paths = jl.find("paths");
+    if (paths == jl.end() || !paths->is_array())
+      throw ParseError("missing 'paths' array", {origin, 0, el});
+    for (std::size_t pi = 0; pi < paths->size(); ++pi)
+      layer.paths.push_back(
+          parse_path((*paths)[pi], origin, el + ".paths[" + std::to_string(pi) + "]"));
+    tp.layers.push_back(std::move(layer));
+  }
+  return tp;
+}
+
+Toolpath read_toolpath(const std::string& path) {
+  return toolpath_from_json(read_file(path), path);
+}
+
+void write_toolpath(const std::string& path, const Toolpath& toolpath) {
+  write_file_atomic(path, toolpath_to_json(toolpath));
+}
+
+}  // namespace trellis

@@ -1,0 +1,57 @@
+#include "trellis/toolpath/toolpath.hpp"
+
+#include "trellis/core/error.hpp"
+
+namespace trellis {
+
+namespace {
+constexpr const char* kRoleNames[] = {"strut", "contour", "handle", "perimeter", "infill", "other"};
+}
+
+const char* to_string(PathRole role) { return kRoleNames[static_cast<int>(role)]; }
+
+PathRole path_role_from_string(const std::string& name) {
+  for (int i = 0; i < 6; ++i)
+    if (name == kRoleNames[i]) return static_cast<PathRole>(i);
+  throw ParseError("unknown path role '" + name +
+                   "' (expected strut, contour, handle, perimeter, infill or other)");
+}
+
+double Path::length() const {
+  double len = 0;
+  for (std::size_t i = 1; i < points.size(); ++i) len += distance(points[i - 1], points[i]);
+  return len;
+}
+
+std::size_t Toolpath::path_count() const {
+  std::size_t n = 0;
+  for (const auto& l : layers) n += l.paths.size();
+  return n;
+}
+
+double Toolpath::extrusion_length() const {
+  double len = 0;
+  for (const auto& l : layers)
+    for (const auto& p : l.paths) len += p.length();
+  return len;
+}
+
+TravelStats travel_stats(const Toolpath& toolpath, double min_move) {
+  TravelStats s;
+  const Vec3* last = nullptr;
+  for (const auto& layer : toolpath.layers)
+    for (const auto& path : layer.paths) {
+      if (path.points.empty()) continue;
+      if (last) {
+        const double d = distance(*last, path.points.front());
+        if (d > min_move) {
+          ++s.moves;
+          s.length += d;
+        }
+      }
+      last = &path.points.back();
+    }
+  return s;
+}
+
+}  // namespace trellis
