@@ -1,1 +1,63 @@
-int main(){}
+// trellis: a thin command line over libtrellis.
+#include <unistd.h>
+
+#include <cstdio>
+#include <iostream>
+
+#include "commands.hpp"
+#include "trellis/core/diagnostics.hpp"
+#include "trellis/core/error.hpp"
+
+namespace trellis::cli {
+
+void progress_line(const std::string& stage, double fraction) {
+  static const bool tty = ::isatty(2);
+  if (!tty) return;
+  std::fprintf(stderr, "\r%s: %3d%%%s", stage.c_str(), static_cast<int>(fraction * 100 + 0.5),
+               fraction >= 1 ? "\n" : "");
+}
+
+void print_warnings(const Diagnostics& diag) {
+  for (const auto& [kind, n] : diag.counts())
+    std::cerr << "warning: " << kind << ": " << n << "\n";
+  for (const auto& m : diag.messages()) std::cerr << "  " << m << "\n";
+}
+
+}  // namespace trellis::cli
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "Trellis: toolpaths for architected materials.\n"
+      "Design a lattice, plan continuous print paths (GIPPO or Euler), write G-code.\n"
+      "Typical use:\n"
+      "  trellis lattice2d --pattern honeycomb --cell 1 -o lattice.json\n"
+      "  trellis plan gippo lattice.json -o toolpath.json --report report.json\n"
+      "  trellis gcode toolpath.json --machine profiles/ender3_s1_pro_tpu.toml -o part.gcode\n"
+      "  trellis run examples/honeycomb_tensile.toml"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", "trellis 0.1.0");
+  trellis::cli::add_lattice2d(app);
+  trellis::cli::add_plan(app);
+  trellis::cli::add_gcode(app);
+  trellis::cli::add_render(app);
+  trellis::cli::add_run(app);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    app.exit(e);
+    return 2;
+  } catch (const trellis::Error& e) {
+    std::cerr << "trellis: error: " << e.what() << "\n";
+    return 2;
+  } catch (const std::exception& e) {
+    std::cerr << "trellis: internal error: " << e.what() << "\n";
+    return 3;
+  }
+  return 0;
+}

@@ -1,0 +1,21 @@
+// Subcommands of the `trellis` CLI: each registers its options and a callback that does the work
+// through the library. Errors are trellis::Error, turned into exit code 2 by main.
+#pragma once
+#include <CLI/CLI.hpp>
+
+#include "trellis/core/diagnostics.hpp"
+
+namespace trellis::cli {
+
+void add_lattice2d(CLI::App& app);
+void add_plan(CLI::App& app);
+void add_gcode(CLI::App& app);
+void add_render(CLI::App& app);
+void add_run(CLI::App& app);
+
+// Progress on stderr when it is a terminal (carriage-return updates), silent otherwise.
+void progress_line(const std::string& stage, double fraction);
+// Prints the warnings of a run on stderr.
+void print_warnings(const Diagnostics& diag);
+
+}  // namespace trellis::cli

@@ -1,0 +1,272 @@
+#include "trellis/job/job.hpp"
+
+#include <chrono>
+#include <filesystem>
+#include <set>
+#include <toml++/toml.h>
+
+#include "trellis/core/error.hpp"
+#include "trellis/core/file.hpp"
+#include "trellis/lattice/io.hpp"
+#include "trellis/plan/report.hpp"
+#include "trellis/render/render.hpp"
+#include "trellis/toolpath/json.hpp"
+
+namespace trellis {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// Strict access to one TOML table: every key read is checked off; leftovers are errors.
+class Section {
+ public:
+  Section(const toml::table* t, std::string name, std::string origin)
+      : t_(t), name_(std::move(name)), origin_(std::move(origin)) {}
+
+  template <class T>
+  void get(const char* key, T& out) {
+    if (!t_) return;
+    seen_.insert(key);
+    const toml::node* n = t_->get(key);
+    if (!n) return;
+    const Where where{origin_, static_cast<long>(n->source().begin.line), name_ + "." + key};
+    if constexpr (std::is_same_v<T, bool>) {
+      if (!n->is_boolean()) throw SettingError("expected true or false", where);
+      out = *n->value<bool>();
+    } else if constexpr (std::is_same_v<T, std::string>) {
+      if (!n->is_string()) throw SettingError("expected a string", where);
+      out = *n->value<std::string>();
+    } else if constexpr (std::is_integral_v<T>) {
+      if (!n->is_integer()) throw SettingError("expected an integer", where);
+      const auto v = *n->value<std::int64_t>();
+      if (v < 0) throw SettingError("must be >= 0", where);
+      out = static_cast<T>(v);
+    } else {
+      if (!n->is_number()) throw SettingError("expected a number", where);
+      out = *n->value<double>();
+      if (!std::isfinite(out)) throw SettingError("must be finite", where);
+    }
+  }
+
+  void get_point(const char* key, Vec2& out) {
+    if (!t_) return;
+    seen_.insert(key);
+    const toml::node* n = t_->get(key);
+    if (!n) return;
+    const Where where{origin_, static_cast<long>(n->source().begin.line), name_ + "." + key};
+    const auto* arr = n->as_array();
+    if (!arr || arr->size() != 2 || !(*arr)[0].is_number() || !(*arr)[1].is_number())
+      throw SettingError("expected [x, y]", where);
+    out = {*(*arr)[0].value<double>(), *(*arr)[1].value<double>()};
+  }
+
+  Where where(const char* key) const {
+    const toml::node* n = t_ ? t_->get(key) : nullptr;
+    return {origin_, n ? static_cast<long>(n->source().begin.line) : 0, name_ + "." + key};
+  }
+
+  void finish() const {
+    if (!t_) return;
+    for (const auto& [k, n] : *t_)
+      if (!seen_.count(std::string(k.str())))
+        throw SettingError("unknown key", {origin_, static_cast<long>(n.source().begin.line),
+                                           name_ + "." + std::string(k.str())});
+  }
+
+ private:
+  const toml::table* t_;
+  std::string name_, origin_;
+  std::set<std::string> seen_;
+};
+
+template <class Fn>
+auto rethrow_at(const Where& where, Fn fn) {
+  try {
+    return fn();
+  } catch (const SettingError& e) {
+    throw SettingError(e.message(), where);
+  }
+}
+
+}  // namespace
+
+Job load_job(const std::string& path) {
+  const std::string text = read_file(path);
+  toml::table root;
+  try {
+    root = toml::parse(text, path);
+  } catch (const toml::parse_error& e) {
+    throw SettingError(std::string(e.description()), {path, static_cast<long>(e.source().begin.line)});
+  }
+  const fs::path base = fs::path(path).parent_path();
+  auto resolve = [&](const std::string& p) {
+    return p.empty() || fs::path(p).is_absolute() ? p : (base / p).lexically_normal().string();
+  };
+  for (const auto& [k, n] : root) {
+    static const std::set<std::string> known = {"job", "lattice", "layers", "plan", "output",
+                                                "machine_overrides"};
+    if (!known.count(std::string(k.str())) || !n.is_table())
+      throw SettingError("unknown section (expected [job], [lattice], [layers], [plan], [output], "
+                         "[machine_overrides])",
+                         {path, static_cast<long>(n.source().begin.line), std::string(k.str())});
+  }
+  Job job;
+  Section s_job(root["job"].as_table(), "job", path);
+  s_job.get("name", job.name);
+  s_job.get("output_dir", job.output_dir);
+  s_job.get("machine", job.machine);
+  job.machine = resolve(job.machine);
+  s_job.finish();
+
+  Section s_lat(root["lattice"].as_table(), "lattice", path);
+  AtlasParams& a = job.atlas;
+  s_lat.get("file", job.lattice_file);
+  job.lattice_file = resolve(job.lattice_file);
+  std::string pattern = to_string(a.pattern), region = "rectangle";
+  s_lat.get("pattern", pattern);
+  a.pattern = rethrow_at(s_lat.where("pattern"), [&] { return pattern_from_string(pattern); });
+  s_lat.get("cell_size", a.cell_size);
+  s_lat.get("strand_distance", a.strand_distance);
+  s_lat.get("rotation_deg", a.rotation_deg);
+  s_lat.get("voronoi_density", a.voronoi_density);
+  s_lat.get("seed", a.seed);
+  s_lat.get("region", region);
+  if (region != "rectangle" && region != "circle")
+    throw SettingError("expected \"rectangle\" or \"circle\"", s_lat.where("region"));
+  a.region.shape = region == "circle" ? RegionShape::Circle : RegionShape::Rectangle;
+  s_lat.get("width", a.region.width);
+  s_lat.get("height", a.region.height);
+  s_lat.get("diameter", a.region.diameter);
+  s_lat.get_point("center", a.region.center);
+  s_lat.get("contour", a.contour);
+  s_lat.get("handles", a.handles);
+  s_lat.get("handle_length", a.handle_length);
+  s_lat.get("handle_width", a.handle_width);
+  s_lat.get("handle_spacing", a.handle_spacing);
+  s_lat.get("reentrant_angle_deg", a.reentrant_angle_deg);
+  s_lat.get("arrowhead_outer_deg", a.arrowhead_outer_deg);
+  s_lat.get("arrowhead_inner_deg", a.arrowhead_inner_deg);
+  s_lat.finish();
+
+  Section s_layers(root["layers"].as_table(), "layers", path);
+  s_layers.get("count", job.layer_count);
+  s_layers.get("rotation_deg", job.layer_rotation_deg);
+  s_layers.get("layer_height", job.plan.layer_height);
+  s_layers.finish();
+  if (job.layer_count < 1 || job.layer_count > 100000)
+    throw SettingError("must be 1..100000", s_layers.where("count"));
+
+  Section s_plan(root["plan"].as_table(), "plan", path);
+  std::string planner = "gippo", mode = "max", order = to_string(job.plan.order);
+  s_plan.get("planner", planner);
+  job.plan.planner = rethrow_at(s_plan.where("planner"), [&] { return planner_from_string(planner); });
+  s_plan.get("mode", mode);
+  if (mode != "max" && mode != "min") throw SettingError("expected \"max\" or \"min\"", s_plan.where("mode"));
+  job.plan.gippo.mode = mode == "max" ? GippoMode::Max : GippoMode::Min;
+  s_plan.get("iterations", job.plan.gippo.iterations);
+  s_plan.get("seed", job.plan.gippo.seed);
+  s_plan.get("threads", job.plan.gippo.threads);
+  s_plan.get("long_path_nodes", job.plan.long_path_nodes);
+  s_plan.get("order", order);
+  job.plan.order = rethrow_at(s_plan.where("order"), [&] { return path_order_from_string(order); });
+  s_plan.finish();
+
+  Section s_out(root["output"].as_table(), "output", path);
+  s_out.get("gcode", job.gcode);
+  s_out.get("png", job.png);
+  s_out.get("png_size", job.png_size);
+  s_out.finish();
+
+  if (const auto* ov = root["machine_overrides"].as_table())
+    for (const auto& [k, n] : *ov) {
+      std::string value;
+      if (n.is_string()) value = *n.value<std::string>();
+      else if (n.is_boolean()) value = *n.value<bool>() ? "true" : "false";
+      else if (n.is_integer()) value = std::to_string(*n.value<std::int64_t>());
+      else if (n.is_floating_point()) value = std::to_string(*n.value<double>());
+      else throw SettingError("expected a value", {path, static_cast<long>(n.source().begin.line), std::string(k.str())});
+      job.overrides.push_back(std::string(k.str()) + "=" + value);
+    }
+  if (job.gcode && job.machine.empty())
+    throw SettingError("[job] machine = \"profile.toml\" is needed to write G-code", {path, 0, "job.machine"});
+  return job;
+}
+
+Graph job_lattice(const Job& job) {
+  Graph all;
+  for (int i = 0; i < job.layer_count; ++i) {
+    AtlasParams a = job.atlas;
+    a.rotation_deg += i * job.layer_rotation_deg;
+    a.z = a.z + i * job.plan.layer_height;
+    const Graph layer = make_lattice2d(a);
+    const auto offset = static_cast<NodeId>(all.nodes.size());
+    all.nodes.insert(all.nodes.end(), layer.nodes.begin(), layer.nodes.end());
+    for (Edge e : layer.edges) {
+      e.a += offset;
+      e.b += offset;
+      all.edges.push_back(e);
+    }
+  }
+  return all;
+}
+
+JobOutputs run_job(const Job& job, Diagnostics& diag, const Progress& progress) {
+  const auto t0 = std::chrono::steady_clock::now();
+  MachineProfile profile;
+  if (!job.machine.empty()) profile = load_profile(job.machine);
+  for (const auto& o : job.overrides) apply_override(profile, o);
+
+  Graph lattice;
+  std::string input;
+  if (!job.lattice_file.empty()) {
+    lattice = read_lattice(job.lattice_file, {}, diag);
+    input = job.lattice_file;
+  } else {
+    progress("lattice", 0);
+    lattice = job_lattice(job);
+    input = "atlas:" + to_string(job.atlas.pattern);
+  }
+  JobOutputs out;
+  const fs::path dir(job.output_dir);
+  out.lattice = (dir / (job.name + ".lattice.json")).string();
+  write_lattice(out.lattice, lattice);
+
+  PlanParams plan = job.plan;
+  plan.gippo.progress = progress;
+  out.result = plan_lattice(lattice, plan, diag);
+  out.result.toolpath.source = std::string("trellis run ") + job.name + " (" + to_string(plan.planner) + ")";
+  out.toolpath = (dir / (job.name + ".toolpath.json")).string();
+  write_toolpath(out.toolpath, out.result.toolpath);
+
+  if (job.gcode) {
+    const std::string ext = !profile.file_extension.empty() ? profile.file_extension
+                            : profile.parsed_flavor() == Flavor::Pneumatic ? ".nc" : ".gcode";
+    out.gcode = (dir / (job.name + ext)).string();
+    out.gcode_stats = write_gcode_file(out.gcode, out.result.toolpath, profile);
+  }
+  if (job.png) {
+    RenderOptions ro;
+    ro.size_px = job.png_size;
+    ro.bead_width = profile.nozzle_diameter;
+    for (std::size_t i = 0; i < out.result.toolpath.layers.size(); ++i) {
+      char name[64];
+      std::snprintf(name, sizeof name, ".layer%03zu.png", i);
+      out.pngs.push_back((dir / (job.name + name)).string());
+      render_layer_png(out.result.toolpath, i, out.pngs.back(), ro);
+    }
+    if (!out.result.layers.empty() && !out.result.layers.front().scores.empty()) {
+      out.pngs.push_back((dir / (job.name + ".scores.png")).string());
+      const auto& l = out.result.layers.front();
+      render_scores_png(l.scores, l.best_iteration, job.name + ": GIPPO score per iteration (layer 0)",
+                        out.pngs.back());
+    }
+  }
+  ReportContext ctx{input, lattice.nodes.size(), lattice.edges.size(),
+                    std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()};
+  out.report = (dir / (job.name + ".report.json")).string();
+  write_file_atomic(out.report, plan_report_json(out.result, plan, diag, ctx));
+  return out;
+}
+
+}  // namespace trellis
