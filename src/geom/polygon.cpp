@@ -63,10 +63,29 @@ std::vector<Segment2> clip_segments(const std::vector<Segment2>& segments, const
   clipper.Execute(cl::ctIntersection, tree, cl::pftEvenOdd, cl::pftEvenOdd);
   cl::Paths open;
   cl::OpenPathsFromPolyTree(tree, open);
+  // Cut points carry Clipper's integer rounding (about a unit); project them back onto the
+  // region's boundary so they lie on it to double precision.
+  auto snap = [&](Vec2 q) {
+    double best = 4 / kClipperScale;
+    Vec2 out = q;
+    auto ring = [&](const std::vector<Vec2>& r) {
+      for (std::size_t i = 0, j = r.size() - 1; i < r.size(); j = i++) {
+        double t;
+        const Vec3 a{r[j].x, r[j].y, 0}, b{r[i].x, r[i].y, 0};
+        const double d = distance_to_segment({q.x, q.y, 0}, a, b, &t);
+        if (d < best) {
+          best = d;
+          out = {a.x + (b.x - a.x) * t, a.y + (b.y - a.y) * t};
+        }
+      }
+    };
+    ring(region.outer);
+    for (const auto& h : region.holes) ring(h);
+    return out;
+  };
   auto back = [&](const cl::IntPoint& p) {
     auto it = exact.find({p.X, p.Y});
-    return it != exact.end() ? it->second
-                             : Vec2{p.X / kClipperScale, p.Y / kClipperScale};
+    return it != exact.end() ? it->second : snap({p.X / kClipperScale, p.Y / kClipperScale});
   };
   std::vector<Segment2> out;
   for (const auto& path : open)

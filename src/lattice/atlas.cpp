@@ -25,11 +25,13 @@ std::vector<Segment2> connect_at_distance(const std::vector<Vec2>& raw, double l
   for (auto p : raw) unique.emplace(std::make_pair(std::llround(p.x * 1e9), std::llround(p.y * 1e9)), p);
   std::vector<Vec2> pts;
   for (auto& [k, p] : unique) pts.push_back(p);
+  // Cells slightly larger than `len`, so two points `len` apart are always in adjacent cells.
+  const double cell_size = len * 1.01;
   std::unordered_map<long long, std::vector<std::size_t>> grid;
   auto key = [&](long long i, long long j) { return i * 1000003LL + j; };
   auto cell = [&](Vec2 p) {
-    return std::make_pair(static_cast<long long>(std::floor(p.x / len)),
-                          static_cast<long long>(std::floor(p.y / len)));
+    return std::make_pair(static_cast<long long>(std::floor(p.x / cell_size)),
+                          static_cast<long long>(std::floor(p.y / cell_size)));
   };
   for (std::size_t i = 0; i < pts.size(); ++i) {
     auto [cx, cy] = cell(pts[i]);
@@ -283,6 +285,7 @@ Graph make_lattice2d(const AtlasParams& p) {
   const double scale = p.pattern == Pattern::Voronoi ? 1 / std::sqrt(p.voronoi_density)
                                                      : std::min(p.cell_size, strand);
   require(p.voronoi_density > 0, "Voronoi density must be > 0 seeds per mm²");
+  require(p.min_feature > 0 && p.min_feature < scale / 4, "min feature must be > 0 and well below the cell size");
   require(radius / scale <= 2000,
           "region is more than 2000 cells across: increase the cell size or shrink the region");
   require(p.reentrant_angle_deg > 0 && p.reentrant_angle_deg < 45,
@@ -319,7 +322,7 @@ Graph make_lattice2d(const AtlasParams& p) {
     raw.edges.push_back({n, n + 1});
   }
   Diagnostics internal;  // duplicates from generation are expected, not the user's concern
-  Graph g = clean_graph(raw, {1e-6, true}, internal);
+  Graph g = clean_graph(raw, {p.min_feature, true}, internal);
   // Drop nodes without edges so node ids are compact.
   std::vector<NodeId> map(g.nodes.size(), UINT32_MAX);
   Graph out;

@@ -2,7 +2,9 @@
 #include <CGAL/Delaunay_triangulation_2.h>
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 
+#include <algorithm>
 #include <cmath>
+#include <tuple>
 
 #include "trellis/core/rng.hpp"
 #include "trellis/lattice/atlas.hpp"
@@ -27,8 +29,15 @@ std::vector<Segment2> voronoi_segments(double half, double density, std::uint64_
     const auto f1 = e->first, f2 = e->first->neighbor(e->second);
     if (dt.is_infinite(f1) || dt.is_infinite(f2)) continue;
     const auto a = dt.dual(f1), b = dt.dual(f2);
-    out.push_back({{a.x(), a.y()}, {b.x(), b.y()}});
+    Segment2 s{{a.x(), a.y()}, {b.x(), b.y()}};
+    if (std::tie(s.b.x, s.b.y) < std::tie(s.a.x, s.a.y)) std::swap(s.a, s.b);
+    out.push_back(s);
   }
+  // CGAL's bulk insertion shuffles with a global random state, so the edge order varies from
+  // call to call; sort for output that depends only on the seed.
+  std::sort(out.begin(), out.end(), [](const Segment2& p, const Segment2& q) {
+    return std::tie(p.a.x, p.a.y, p.b.x, p.b.y) < std::tie(q.a.x, q.a.y, q.b.x, q.b.y);
+  });
   return out;
 }
 

@@ -55,6 +55,9 @@ struct AtlasParams {
   double handle_length = 3;          // along x (mm)
   double handle_width = 10;          // along y (mm), centred
   double handle_spacing = 0.4;       // fill strands inside each handle (mm)
+  // Nodes closer than this merge (mm), so no strut is shorter: crops and Voronoi vertices can
+  // otherwise make struts of a few nanometres that no printer can resolve.
+  double min_feature = 0.005;
 };
 
 // Throws SettingError for parameters out of range.

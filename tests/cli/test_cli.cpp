@@ -1,0 +1,136 @@
+// Runs the trellis binary as a user would: exit codes, messages, outputs.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "support/gcode_replay.hpp"
+#include "trellis/core/file.hpp"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct CmdResult {
+  int code;
+  std::string out, err;
+};
+
+const fs::path& work() {
+  static const fs::path dir = [] {
+    const fs::path d = fs::temp_directory_path() / "trellis_cli_test";
+    fs::remove_all(d);
+    fs::create_directories(d);
+    return d;
+  }();
+  return dir;
+}
+
+CmdResult run(const std::string& args) {
+  const std::string out = (work() / "stdout.txt").string(), err = (work() / "stderr.txt").string();
+  const std::string cmd = std::string(TRELLIS_CLI) + " " + args + " >" + out + " 2>" + err;
+  const int status = std::system(cmd.c_str());
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, trellis::read_file(out), trellis::read_file(err)};
+}
+
+std::string write(const std::string& name, const std::string& text) {
+  const fs::path p = work() / name;
+  std::ofstream(p) << text;
+  return p.string();
+}
+
+std::string in_work(const std::string& name) { return (work() / name).string(); }
+
+}  // namespace
+
+TEST(Cli, HelpForEveryCommand) {
+  for (const char* c : {"", "lattice2d", "plan", "gcode", "render", "run"}) {
+    const CmdResult r = run(std::string(c) + " --help");
+    EXPECT_EQ(r.code, 0) << c;
+    EXPECT_NE(r.out.find("Usage"), std::string::npos) << c;
+  }
+  const CmdResult s = run("gcode --help-settings");
+  EXPECT_EQ(s.code, 0);
+  EXPECT_NE(s.out.find("extrusion.nozzle_diameter"), std::string::npos);
+}
+
+TEST(Cli, DocumentedPipelineWorksAsWritten) {
+  const std::string lat = in_work("hc.json"), tp = in_work("hc.toolpath.json"), rep = in_work("hc.report.json");
+  ASSERT_EQ(run("lattice2d --pattern honeycomb --cell 1 -o " + lat).code, 0);
+  CmdResult r = run("plan gippo " + lat + " -o " + tp + " --report " + rep + " --mode min --iterations 50 --seed 4");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const std::string report = trellis::read_file(rep);
+  for (const char* key : {"\"planner\"", "\"mode\"", "\"iterations\"", "\"seed\"", "\"paths\"",
+                          "\"lower_bound_paths\"", "\"score\"", "\"lts\"", "\"oe\"", "\"total_length_mm\"",
+                          "\"travel_moves\"", "\"travel_length_mm\"", "\"warnings\""})
+    EXPECT_NE(report.find(key), std::string::npos) << key;
+  r = run("plan euler " + lat + " -o " + in_work("hc.euler.json") + " --report " + in_work("e.json") + " --order travel");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const std::string gc = in_work("hc.gcode");
+  r = run("gcode " + tp + " --machine " + TRELLIS_SOURCE_DIR + "/profiles/ender3_s1_pro_tpu.toml -o " + gc);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_FALSE(trellis::test::replay_gcode(trellis::read_file(gc)).deposits.empty());
+  r = run("render " + tp + " -o " + in_work("hc.png"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_TRUE(fs::exists(in_work("hc.layer000.png")));
+}
+
+TEST(Cli, SameSeedByteIdenticalAcrossThreadCounts) {
+  const std::string lat = in_work("v.json");
+  ASSERT_EQ(run("lattice2d --pattern voronoi --density 2 --seed 3 -o " + lat).code, 0);
+  ASSERT_EQ(run("plan gippo " + lat + " -o " + in_work("v1.json") + " --threads 1 --iterations 80").code, 0);
+  ASSERT_EQ(run("plan gippo " + lat + " -o " + in_work("v2.json") + " --threads 2 --iterations 80").code, 0);
+  EXPECT_EQ(trellis::read_file(in_work("v1.json")), trellis::read_file(in_work("v2.json")));
+}
+
+TEST(Cli, BadInputExitsTwoWithOneClearMessageAndNoOutput) {
+  struct Case {
+    std::string file, text, expect;
+  };
+  const std::vector<Case> cases = {
+      {"bad_number.csv", "0,0,0,1,0,0\n0,0,0,1,x,0\n", "bad_number.csv:2"},
+      {"missing_col.csv", "0,0,0,1,0\n", "missing_col.csv:1"},
+      {"nan.csv", "0,0,0,NaN,0,0\n", "nan.csv:1"},
+      {"empty.json", "", "empty.json:1"},
+      {"range.json", "{\"nodes\":[[0,0,0]],\"edges\":[[0,3]]}", "edges[0]"},
+      {"pair_vertices.csv", "0,0,0\n1,1,1\n", "pair_edges.csv:2"},
+  };
+  write("pair_edges.csv", "0,1\n1,7\n");
+  for (const auto& c : cases) {
+    const std::string in = write(c.file, c.text), out = in_work("never.json");
+    const CmdResult r = run("plan euler " + in + " -o " + out);
+    EXPECT_EQ(r.code, 2) << c.file;
+    EXPECT_NE(r.err.find(c.expect), std::string::npos) << c.file << ": " << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_FALSE(fs::exists(out)) << c.file;
+  }
+  // The pair's edges file names the line with the bad index.
+  EXPECT_NE(run("plan euler " + in_work("pair_vertices.csv") + " -o x").err.find("pair_edges.csv:2"), std::string::npos);
+  // Unknown key in a profile: file and line.
+  const std::string prof = write("bad.toml", "[speed]\nprint = 10\nprnt = 3\n");
+  ASSERT_EQ(run("lattice2d -o " + in_work("l.json")).code, 0);
+  ASSERT_EQ(run("plan euler " + in_work("l.json") + " -o " + in_work("l.tp.json")).code, 0);
+  const CmdResult r = run("gcode " + in_work("l.tp.json") + " --machine " + prof + " -o " + in_work("never.gcode"));
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("bad.toml:3"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(in_work("never.gcode")));
+  EXPECT_EQ(run("plan gippo " + in_work("l.json") + " -o x --iterations 0").code, 2);
+  EXPECT_EQ(run("lattice2d --pattern hexagons -o " + in_work("never2.json")).code, 2);
+  EXPECT_FALSE(fs::exists(in_work("never2.json")));
+}
+
+TEST(Cli, JobRunsEndToEnd) {
+  const std::string job = write("job.toml", std::string("[job]\nname = \"t\"\nmachine = \"") + TRELLIS_SOURCE_DIR +
+                                                "/profiles/pneumatic_pcl_27g.toml\"\n[lattice]\npattern = \"snub-square\"\n"
+                                                "width = 6\nheight = 6\n[layers]\ncount = 3\nrotation_deg = 30\n"
+                                                "[plan]\niterations = 30\n");
+  const CmdResult r = run("run " + job + " -o " + in_work("jobout"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  for (const char* f : {"t.lattice.json", "t.toolpath.json", "t.report.json", "t.nc", "t.layer002.png", "t.scores.png"})
+    EXPECT_TRUE(fs::exists(work() / "jobout" / f)) << f;
+  const std::string bad = write("badjob.toml", "[job]\nname = \"t\"\n[lattice]\npatern = \"honeycomb\"\n");
+  const CmdResult b = run("run " + bad);
+  EXPECT_EQ(b.code, 2);
+  EXPECT_NE(b.err.find("badjob.toml:4"), std::string::npos) << b.err;
+}

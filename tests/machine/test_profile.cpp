@@ -1,0 +1,63 @@
+#include <gtest/gtest.h>
+
+#include "trellis/core/error.hpp"
+#include "trellis/machine/profile.hpp"
+
+using namespace trellis;
+
+namespace {
+void expect_setting_error(const std::string& toml, long line, const std::string& what) {
+  try {
+    profile_from_toml(toml, "p.toml");
+    ADD_FAILURE() << "no error for " << toml;
+  } catch (const SettingError& e) {
+    EXPECT_EQ(e.where().line, line) << e.what();
+    EXPECT_NE(std::string(e.what()).find(what), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("p.toml"), std::string::npos) << e.what();
+  }
+}
+}  // namespace
+
+TEST(Profile, ReadsSettingsOverDefaults) {
+  const auto p = profile_from_toml("[extrusion]\nnozzle_diameter = 0.2\nrelative_e = true\n[speed]\nprint = 15\n", "p.toml");
+  EXPECT_DOUBLE_EQ(p.nozzle_diameter, 0.2);
+  EXPECT_TRUE(p.relative_e);
+  EXPECT_DOUBLE_EQ(p.print_speed, 15);
+  EXPECT_DOUBLE_EQ(p.filament_diameter, 1.75);
+}
+
+TEST(Profile, UnknownKeysWrongTypesAndRangesNameFileAndLine) {
+  expect_setting_error("[extrusion]\nnozzle_diameter = 0.2\nnozle = 3\n", 3, "extrusion.nozle: unknown setting");
+  expect_setting_error("[speed]\n\nprint = \"fast\"\n", 3, "expected a number");
+  expect_setting_error("[speed]\nprint = -1\n", 2, "out of range");
+  expect_setting_error("[speed]\nshort_path_segments = 2.5\n", 2, "expected an integer");
+  expect_setting_error("[machine]\nflavor = \"klipper\"\n", 0, "unknown flavor");
+  expect_setting_error("[speed\nprint = 1\n", 1, "");
+  expect_setting_error("[temperature]\nnozzle = nan\n", 2, "out of range");
+}
+
+TEST(Profile, OverridesUseTheSameRules) {
+  MachineProfile p;
+  apply_override(p, "speed.print=33");
+  apply_override(p, "gcode.start=G28 X Y");
+  apply_override(p, "extrusion.relative_e=true");
+  EXPECT_DOUBLE_EQ(p.print_speed, 33);
+  EXPECT_EQ(p.start_gcode, "G28 X Y");
+  EXPECT_TRUE(p.relative_e);
+  EXPECT_THROW(apply_override(p, "speed.print"), SettingError);
+  EXPECT_THROW(apply_override(p, "speed.prnt=3"), SettingError);
+  EXPECT_THROW(apply_override(p, "speed.print=abc"), SettingError);
+  EXPECT_THROW(apply_override(p, "speed.print=0"), SettingError);
+}
+
+TEST(Profile, ShippedProfilesLoad) {
+  for (const char* name : {"ender3_s1_pro_tpu.toml", "pneumatic_pcl_27g.toml"}) {
+    const auto p = load_profile(std::string(TRELLIS_SOURCE_DIR) + "/profiles/" + name);
+    EXPECT_FALSE(p.name.empty());
+  }
+}
+
+TEST(Profile, HelpListsEverySetting) {
+  const std::string help = settings_help();
+  for (const auto& d : machine_settings()) EXPECT_NE(help.find(d.key), std::string::npos) << d.key;
+}

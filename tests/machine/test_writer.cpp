@@ -1,0 +1,227 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <map>
+#include <numbers>
+
+#include "support/gcode_replay.hpp"
+#include "support/random_graphs.hpp"
+#include "trellis/core/error.hpp"
+#include "trellis/lattice/atlas.hpp"
+#include "trellis/machine/gcode_writer.hpp"
+#include "trellis/plan/plan.hpp"
+
+using namespace trellis;
+
+namespace {
+
+MachineProfile marlin() {
+  MachineProfile p;
+  p.nozzle_diameter = 0.2;
+  p.layer_height = 0.148;
+  p.retract_length = 0.8;
+  p.z_hop = 0.3;
+  p.pre_flow = 0.05;
+  p.post_flow = 0.02;
+  return p;
+}
+
+MachineProfile pneumatic() {
+  MachineProfile p;
+  p.flavor = "pneumatic";
+  p.valve_on = "M3";
+  p.valve_off = "M5";
+  p.pressure = 500;
+  p.pressure_command = "M300 P{pressure}";
+  p.z_hop = 0.5;
+  return p;
+}
+
+// Checks the deposits of `gcode` against the design: every strut exactly once, every deposit on
+// a strut (ends within `tol` of its nodes), at the layer's nozzle height.
+void expect_exact_deposition(const Graph& g, const test::Replay& r, double layer_height,
+                             const std::string& label, double tol = 0.02) {
+  std::map<std::pair<NodeId, NodeId>, int> count;
+  for (const auto& e : g.edges) count[{std::min(e.a, e.b), std::max(e.a, e.b)}] = 0;
+  auto nearest = [&](double x, double y, double z) -> long {
+    long best = -1;
+    double best_d = tol;
+    for (NodeId n = 0; n < g.nodes.size(); ++n) {
+      const double d = std::hypot(g.nodes[n].x - x, g.nodes[n].y - y);
+      if (d <= best_d && std::abs(g.nodes[n].z + layer_height - z) <= 1e-3) {
+        best = n;
+        best_d = d;
+      }
+    }
+    return best;
+  };
+  std::size_t off = 0;
+  for (const auto& d : r.deposits) {
+    const long a = nearest(d.x0, d.y0, d.z0), b = nearest(d.x1, d.y1, d.z1);
+    auto it = a < 0 || b < 0 ? count.end()
+                             : count.find({std::min<NodeId>(a, b), std::max<NodeId>(a, b)});
+    if (it == count.end()) {
+      ++off;
+      continue;
+    }
+    ++it->second;
+  }
+  EXPECT_EQ(off, 0u) << label << ": deposits off the lattice";
+  std::size_t missing = 0, doubled = 0;
+  for (const auto& [k, n] : count) {
+    missing += n == 0;
+    doubled += n > 1;
+  }
+  EXPECT_EQ(missing, 0u) << label << ": struts never deposited";
+  EXPECT_EQ(doubled, 0u) << label << ": struts deposited twice";
+}
+
+}  // namespace
+
+TEST(Writer, ExtrusionFollowsEquation4) {
+  MachineProfile p = marlin();
+  p.k = 0.9;
+  p.extrusion_multiplier = 1.1;
+  const double e = extrusion_for(10, 0.148, p);
+  EXPECT_NEAR(e, 0.9 * 4 * 10 * 0.148 * 1.1 * 0.2 / (std::numbers::pi * 1.75 * 1.75), 1e-15);
+  Toolpath tp;
+  Path path;
+  path.points = {{0, 0, 0.148}, {10, 0, 0.148}, {10, 5, 0.148}, {0, 5, 0.148}, {0, 0, 0.148}};
+  path.height = 0.148;
+  tp.layers.push_back({0.148, {path}});
+  p.pre_flow = p.post_flow = 0;
+  const auto r = test::replay_gcode(write_gcode(tp, p));
+  ASSERT_EQ(r.deposits.size(), 4u);
+  double total = 0;
+  for (const auto& d : r.deposits) total += d.e;
+  EXPECT_NEAR(total, extrusion_for(30, 0.148, p), 4 * 1e-5);
+  EXPECT_NEAR(r.deposits[0].e, extrusion_for(10, 0.148, p), 1e-5);
+}
+
+TEST(Writer, RelativeAndAbsoluteEDepositTheSame) {
+  const Graph g = test::random_planar_graph(5);
+  Diagnostics d;
+  PlanParams pp;
+  pp.planner = Planner::Euler;
+  const PlanResult plan = plan_lattice(g, pp, d);
+  MachineProfile abs_p = marlin(), rel_p = marlin();
+  rel_p.relative_e = true;
+  const auto a = test::replay_gcode(write_gcode(plan.toolpath, abs_p));
+  const auto b = test::replay_gcode(write_gcode(plan.toolpath, rel_p));
+  ASSERT_EQ(a.deposits.size(), b.deposits.size());
+  for (std::size_t i = 0; i < a.deposits.size(); ++i) EXPECT_NEAR(a.deposits[i].e, b.deposits[i].e, 2e-5);
+}
+
+TEST(Writer, ShortPathsSlowDownAndRetractionHappens) {
+  MachineProfile p = marlin();
+  p.print_speed = 10;
+  Toolpath tp;
+  Path longp, shortp;
+  longp.points = {{0, 0, 0.2}, {1, 0, 0.2}, {2, 0, 0.2}, {3, 0, 0.2}, {4, 0, 0.2}};
+  shortp.points = {{0, 5, 0.2}, {1, 5, 0.2}};
+  tp.layers.push_back({0.2, {longp, shortp}});
+  GcodeStats s;
+  const std::string g = write_gcode(tp, p, &s);
+  EXPECT_NE(g.find("F600"), std::string::npos);  // 10 mm/s
+  EXPECT_NE(g.find("F360"), std::string::npos);  // 0.6 x 10 mm/s for the 1-segment path
+  EXPECT_EQ(s.retractions, 2u);  // before the travel and at the end
+  EXPECT_EQ(s.travel_moves, 1u);
+  EXPECT_NE(g.find("; setting extrusion.nozzle_diameter = 0.2"), std::string::npos);
+}
+
+TEST(Writer, CentringMovesThePartToTheBedCentre) {
+  MachineProfile p = marlin();
+  p.center = true;
+  p.bed_x = 200;
+  p.bed_y = 100;
+  Toolpath tp;
+  Path path;
+  path.points = {{-5, -5, 0.2}, {5, 5, 0.2}};
+  tp.layers.push_back({0.2, {path}});
+  const auto r = test::replay_gcode(write_gcode(tp, p));
+  ASSERT_EQ(r.deposits.size(), 1u);
+  EXPECT_NEAR(r.deposits[0].x0, 95, 1e-9);
+  EXPECT_NEAR(r.deposits[0].y1, 55, 1e-9);
+}
+
+TEST(Writer, TemplatesExpandAndUnknownPlaceholdersFail) {
+  MachineProfile p = marlin();
+  p.nozzle_temperature = 225;
+  EXPECT_EQ(expand_template("M109 S{nozzle} ; {temperature.nozzle}", p, "t"), "M109 S225 ; 225");
+  EXPECT_THROW(expand_template("M109 S{nozle}", p, "t"), SettingError);
+  EXPECT_THROW(write_gcode(Toolpath{}, p), GeometryError);
+}
+
+// The core property of issue 2: parse the G-code written for every atlas pattern and for random
+// planar graphs, and find every strut deposited exactly once and nothing off the lattice.
+TEST(WriterProperty, EveryStrutExactlyOnceNothingOffTheLattice) {
+  std::vector<std::pair<std::string, Graph>> designs;
+  for (const auto& name : pattern_names()) {
+    AtlasParams a;
+    a.pattern = pattern_from_string(name);
+    a.region.width = a.region.height = 6;
+    a.rotation_deg = 21;
+    a.contour = name == "lines";
+    designs.emplace_back(name, make_lattice2d(a));
+  }
+  for (std::uint64_t seed = 1; seed <= 12; ++seed)
+    designs.emplace_back("random planar " + std::to_string(seed), test::random_planar_graph(seed, 7, 6, 0.7));
+  // Two layers stacked: each planned on its own.
+  {
+    AtlasParams a;
+    a.region.width = a.region.height = 5;
+    Graph two = make_lattice2d(a);
+    a.rotation_deg = 45;
+    a.z = 0.148;
+    const Graph top = make_lattice2d(a);
+    const auto off = static_cast<NodeId>(two.nodes.size());
+    two.nodes.insert(two.nodes.end(), top.nodes.begin(), top.nodes.end());
+    for (Edge e : top.edges) two.edges.push_back({e.a + off, e.b + off});
+    designs.emplace_back("two layers", two);
+  }
+  for (const auto& [label, g] : designs)
+    for (Planner planner : {Planner::Gippo, Planner::Euler})
+      for (PathOrder order : {PathOrder::LongestFirst, PathOrder::Travel}) {
+        PlanParams pp;
+        pp.planner = planner;
+        pp.order = order;
+        pp.gippo.iterations = 20;
+        Diagnostics d;
+        const PlanResult plan = plan_lattice(g, pp, d);
+        const std::string name = label + " / " + to_string(planner) + " / " + to_string(order);
+        expect_exact_deposition(g, test::replay_gcode(write_gcode(plan.toolpath, marlin())),
+                                pp.layer_height, name + " / marlin");
+        const MachineProfile pn = pneumatic();
+        expect_exact_deposition(
+            g, test::replay_gcode(write_gcode(plan.toolpath, pn), pn.valve_on, pn.valve_off),
+            pp.layer_height, name + " / pneumatic");
+      }
+}
+
+TEST(WriterProperty, ExtrusionStartsEqualPathCount) {
+  const Graph g = test::random_planar_graph(3, 9, 9);
+  PlanParams pp;
+  pp.gippo.iterations = 10;
+  Diagnostics d;
+  const PlanResult plan = plan_lattice(g, pp, d);
+  MachineProfile p = marlin();
+  p.pre_flow = p.post_flow = 0;
+  const auto r = test::replay_gcode(write_gcode(plan.toolpath, p));
+  EXPECT_EQ(r.extrusion_starts, plan.total.paths);
+}
+
+TEST(WriterProperty, ByteIdenticalForOneOrTwoThreads) {
+  AtlasParams a;
+  a.pattern = Pattern::Voronoi;
+  a.region.width = a.region.height = 10;
+  const Graph g = make_lattice2d(a);
+  std::string out[2];
+  for (int t = 1; t <= 2; ++t) {
+    PlanParams pp;
+    pp.gippo.iterations = 100;
+    pp.gippo.threads = t;
+    Diagnostics d;
+    out[t - 1] = write_gcode(plan_lattice(g, pp, d).toolpath, marlin());
+  }
+  EXPECT_EQ(out[0], out[1]);
+}

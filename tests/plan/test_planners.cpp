@@ -1,0 +1,211 @@
+#include <gtest/gtest.h>
+
+#include <algorithm>
+
+#include "support/random_graphs.hpp"
+#include "trellis/core/error.hpp"
+#include "trellis/core/rng.hpp"
+#include "trellis/lattice/atlas.hpp"
+#include "trellis/plan/euler.hpp"
+#include "trellis/plan/gippo.hpp"
+#include "trellis/plan/order.hpp"
+
+using namespace trellis;
+using test::random_graph;
+using test::random_planar_graph;
+
+namespace {
+
+// The paper's Algorithm 1 written plainly from its text, sharing nothing with the planner but
+// the documented random stream: O(E) scans, no adjacency lists, no cursors, no Fenwick tree.
+struct Reference {
+  double best = -1;
+  std::size_t best_k = 0;
+  std::size_t best_paths = 0;
+};
+
+Reference reference_gippo(const Graph& g, bool max_mode, std::uint64_t seed, int iterations) {
+  const double total = g.total_length();
+  Reference ref;
+  for (int k = 0; k < iterations; ++k) {
+    Rng rng = Rng::stream(seed, static_cast<std::uint64_t>(k));
+    std::vector<bool> used(g.edges.size(), false);
+    auto unused_at = [&](NodeId v) {
+      EdgeId best = UINT32_MAX;
+      for (EdgeId e = 0; e < g.edges.size(); ++e) {
+        if (used[e] || (g.edges[e].a != v && g.edges[e].b != v)) continue;
+        if (best == UINT32_MAX) { best = e; continue; }
+        const double le = g.edge_length(e), lb = g.edge_length(best);
+        if (max_mode ? le > lb : le < lb) best = e;
+      }
+      return best;
+    };
+    double weighted = 0;
+    std::size_t paths = 0;
+    while (true) {
+      std::vector<NodeId> incomplete;
+      for (NodeId v = 0; v < g.nodes.size(); ++v)
+        if (unused_at(v) != UINT32_MAX) incomplete.push_back(v);
+      if (incomplete.empty()) break;
+      NodeId front = incomplete[rng.uniform_index(incomplete.size())], back = front;
+      double len = 0;
+      std::size_t edges = 0;
+      while (true) {
+        const EdgeId ef = unused_at(front), eb = unused_at(back);
+        if (ef == UINT32_MAX && eb == UINT32_MAX) break;
+        bool use_back = ef == UINT32_MAX;
+        if (!use_back && eb != UINT32_MAX)
+          use_back = max_mode ? g.edge_length(eb) > g.edge_length(ef) : g.edge_length(eb) < g.edge_length(ef);
+        const EdgeId e = use_back ? eb : ef;
+        used[e] = true;
+        len += g.edge_length(e);
+        ++edges;
+        if (use_back) back = g.edges[e].other(back);
+        else front = g.edges[e].other(front);
+      }
+      weighted += len * static_cast<double>(edges);
+      ++paths;
+    }
+    const double score = weighted / (total * static_cast<double>(paths));
+    if (score > ref.best) {
+      ref.best = score;
+      ref.best_k = static_cast<std::size_t>(k);
+      ref.best_paths = paths;
+    }
+  }
+  return ref;
+}
+
+Graph honeycomb(double width) {
+  AtlasParams a;
+  a.region.width = a.region.height = width;
+  a.rotation_deg = 13;  // break exact length ties a little
+  return make_lattice2d(a);
+}
+
+}  // namespace
+
+TEST(Euler, ExactlyTheLowerBoundOnManyGraphs) {
+  for (std::uint64_t seed = 1; seed <= 60; ++seed) {
+    const Graph g = seed % 2 ? random_planar_graph(seed, 3 + seed % 7, 4 + seed % 5)
+                             : random_graph(seed, 5 + seed % 30, 4 + seed % 60);
+    if (g.edges.empty()) continue;
+    const PathSet s = plan_euler(g);
+    ASSERT_EQ(validate_paths(g, s), "") << "seed " << seed;
+    ASSERT_EQ(s.trails.size(), lower_bound_paths(g)) << "seed " << seed;
+  }
+}
+
+TEST(Euler, ClosedCircuitForEvenGraphAndAllAtlasPatterns) {
+  Graph square;
+  square.nodes = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+  square.edges = {{0, 1}, {1, 2}, {2, 3}, {3, 0}};
+  const PathSet s = plan_euler(square);
+  ASSERT_EQ(s.trails.size(), 1u);
+  EXPECT_EQ(s.trails[0].nodes.front(), s.trails[0].nodes.back());
+  for (const auto& name : pattern_names()) {
+    AtlasParams a;
+    a.pattern = pattern_from_string(name);
+    a.contour = true;
+    const Graph g = make_lattice2d(a);
+    const PathSet p = plan_euler(g);
+    ASSERT_EQ(validate_paths(g, p), "") << name;
+    EXPECT_EQ(p.trails.size(), lower_bound_paths(g)) << name;
+  }
+}
+
+TEST(Gippo, EveryIterationCoversEveryEdgeOnce) {
+  for (std::uint64_t seed = 1; seed <= 40; ++seed) {
+    const Graph g = seed % 2 ? random_planar_graph(seed) : random_graph(seed, 20, 45);
+    for (auto mode : {GippoMode::Max, GippoMode::Min}) {
+      const PathSet s = gippo_iteration(g, mode, seed, 3);
+      ASSERT_EQ(validate_paths(g, s), "") << "seed " << seed;
+      ASSERT_GE(s.trails.size(), lower_bound_paths(g));
+      EXPECT_NEAR(gippo_score(s), gippo_score(s), 0);
+    }
+  }
+}
+
+TEST(Gippo, BestScoreMatchesAnIndependentImplementation) {
+  for (std::uint64_t seed = 1; seed <= 12; ++seed) {
+    const Graph g = seed % 3 == 0 ? honeycomb(5) : seed % 3 == 1 ? random_planar_graph(seed, 6, 5)
+                                                                 : random_graph(seed, 15, 30);
+    for (bool max_mode : {true, false}) {
+      GippoParams p;
+      p.mode = max_mode ? GippoMode::Max : GippoMode::Min;
+      p.iterations = 40;
+      p.seed = seed;
+      const GippoResult r = plan_gippo(g, p);
+      const Reference ref = reference_gippo(g, max_mode, seed, p.iterations);
+      ASSERT_DOUBLE_EQ(*std::max_element(r.scores.begin(), r.scores.end()), ref.best) << "seed " << seed;
+      EXPECT_EQ(r.best_iteration, ref.best_k) << "seed " << seed;
+      EXPECT_EQ(r.best.trails.size(), ref.best_paths);
+      EXPECT_DOUBLE_EQ(gippo_score(r.best), ref.best);
+      EXPECT_EQ(validate_paths(g, r.best), "");
+      EXPECT_LE(gippo_score(r.worst), gippo_score(r.best));
+    }
+  }
+}
+
+TEST(Gippo, SameResultForAnyThreadCount) {
+  const Graph g = honeycomb(12);
+  GippoParams p;
+  p.iterations = 64;
+  p.seed = 99;
+  p.threads = 1;
+  const GippoResult one = plan_gippo(g, p);
+  p.threads = 2;
+  const GippoResult two = plan_gippo(g, p);
+  p.threads = 4;
+  const GippoResult four = plan_gippo(g, p);
+  EXPECT_EQ(one.scores, two.scores);
+  EXPECT_EQ(one.scores, four.scores);
+  EXPECT_EQ(one.best_iteration, two.best_iteration);
+  ASSERT_EQ(one.best.trails.size(), four.best.trails.size());
+  for (std::size_t i = 0; i < one.best.trails.size(); ++i) {
+    EXPECT_EQ(one.best.trails[i].nodes, two.best.trails[i].nodes);
+    EXPECT_EQ(one.best.trails[i].nodes, four.best.trails[i].nodes);
+  }
+}
+
+TEST(Gippo, MetricsFollowThePaperEquations) {
+  Graph g;
+  g.nodes = {{0, 0, 0}, {1, 0, 0}, {2, 0, 0}, {3, 0, 0}, {4, 0, 0}, {0, 5, 0}, {0, 7, 0}};
+  g.edges = {{0, 1}, {1, 2}, {2, 3}, {3, 4}, {5, 6}};
+  PathSet s;
+  s.trails.push_back({{0, 1, 2, 3, 4}, {0, 1, 2, 3}, 4.0});
+  s.trails.push_back({{5, 6}, {4}, 2.0});
+  const PathMetrics m = path_metrics(g, s);
+  EXPECT_DOUBLE_EQ(m.score, (4.0 * 4 + 2.0 * 1) / (6.0 * 2));  // Eq. 1
+  EXPECT_DOUBLE_EQ(m.lts, 100 * 4.0 / 6.0);                  // Eq. 2: one long path (5 nodes)
+  EXPECT_DOUBLE_EQ(m.oe, 100 * (4.0 * 4) / (6.0 * 5));       // Eq. 3
+  EXPECT_EQ(m.lower_bound_paths, 2u);
+  EXPECT_EQ(m.medium_paths, 1u);
+  EXPECT_EQ(m.short_paths, 1u);
+}
+
+TEST(Gippo, RejectsEmptyGraphsAndBadSettings) {
+  Graph g;
+  EXPECT_THROW(plan_gippo(g, {}), GeometryError);
+  g = random_planar_graph(1);
+  GippoParams p;
+  p.iterations = 0;
+  EXPECT_THROW(plan_gippo(g, p), SettingError);
+}
+
+TEST(Order, TravelOrderKeepsPathsValidAndBeatsLongestFirst) {
+  int better = 0, total = 0;
+  for (std::uint64_t seed = 1; seed <= 20; ++seed) {
+    const Graph g = random_planar_graph(seed, 10, 10, 0.6);
+    PathSet a = plan_euler(g), b = a;
+    order_paths(g, a, PathOrder::LongestFirst, {0, 0, 0});
+    order_paths(g, b, PathOrder::Travel, {0, 0, 0});
+    ASSERT_EQ(validate_paths(g, a), "");
+    ASSERT_EQ(validate_paths(g, b), "");
+    for (std::size_t i = 1; i < a.trails.size(); ++i)
+      ASSERT_GE(a.trails[i - 1].edges.size(), a.trails[i].edges.size());
+    ++total;
+    better += travel_length(g, b) < travel_length(g, a);
+  }
+  EXPECT_EQ(better, total);
+}
