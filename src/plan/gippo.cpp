@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <bit>
 #include <cassert>
 
 #include "trellis/core/error.hpp"
@@ -42,40 +43,58 @@ struct SortedAdjacency {
   }
 };
 
-// Fenwick tree over nodes holding 1 for incomplete nodes: select the r-th one in O(log n).
+// The incomplete nodes as a bitset in 64-node words, with a Fenwick tree over the words' counts:
+// select the r-th incomplete node (ascending id) and remove one, each in O(log(n/64)).
 class IncompleteSet {
  public:
   void reset(const std::vector<std::uint32_t>& remaining) {
-    n_ = remaining.size();
-    tree_.assign(n_ + 1, 0);
+    const std::size_t words = (remaining.size() + 63) / 64;
+    bits_.assign(words, 0);
+    tree_.assign(words + 1, 0);
     count_ = 0;
-    for (std::size_t i = 1; i <= n_; ++i) {
-      const int v = remaining[i - 1] > 0;
-      count_ += v;
-      tree_[i] += v;
-      const std::size_t j = i + (i & (~i + 1));
-      if (j <= n_) tree_[j] += tree_[i];
+    for (std::size_t v = 0; v < remaining.size(); ++v)
+      if (remaining[v] > 0) bits_[v / 64] |= std::uint64_t{1} << (v % 64);
+    for (std::size_t w = 1; w <= words; ++w) {
+      const int c = std::popcount(bits_[w - 1]);
+      count_ += c;
+      tree_[w] += c;
+      const std::size_t j = w + (w & (~w + 1));
+      if (j <= words) tree_[j] += tree_[w];
     }
     top_ = 1;
-    while (top_ * 2 <= n_) top_ *= 2;
+    while (top_ * 2 <= words) top_ *= 2;
   }
   void remove(NodeId node) {
     --count_;
-    for (std::size_t i = node + 1; i <= n_; i += i & (~i + 1)) --tree_[i];
+    bits_[node / 64] &= ~(std::uint64_t{1} << (node % 64));
+    for (std::size_t i = node / 64 + 1; i < tree_.size(); i += i & (~i + 1)) --tree_[i];
   }
   std::size_t count() const { return count_; }
   NodeId select(std::size_t r) const {  // 0-based rank
     std::size_t pos = 0;
+    const std::size_t words = bits_.size();
     for (std::size_t step = top_; step > 0; step /= 2)
-      if (pos + step <= n_ && static_cast<std::size_t>(tree_[pos + step]) <= r) {
+      if (pos + step <= words && static_cast<std::size_t>(tree_[pos + step]) <= r) {
         pos += step;
         r -= tree_[pos];
       }
-    return static_cast<NodeId>(pos);
+    // The answer is bit number r (0-based) among the set bits of word `pos`.
+    std::uint64_t w = bits_[pos];
+    for (int shift = 0; shift < 64; shift += 8) {
+      const auto c = static_cast<std::size_t>(std::popcount((w >> shift) & 0xFF));
+      if (r < c) {
+        w >>= shift;
+        for (int k = 0;; ++k, w >>= 1)
+          if ((w & 1) && r-- == 0) return static_cast<NodeId>(pos * 64 + shift + k);
+      }
+      r -= c;
+    }
+    return static_cast<NodeId>(pos * 64);  // unreachable for r < count()
   }
 
  private:
-  std::size_t n_ = 0, count_ = 0, top_ = 1;
+  std::size_t count_ = 0, top_ = 1;
+  std::vector<std::uint64_t> bits_;
   std::vector<int> tree_;
 };
 
