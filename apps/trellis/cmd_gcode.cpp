@@ -33,10 +33,11 @@ void add_gcode(CLI::App& app) {
     for (const auto& s : o->sets) apply_override(profile, s);
     const Toolpath tp = read_toolpath(o->input);
     const GcodeStats s = write_gcode_file(o->output, tp, profile);
-    std::cout << profile.flavor << ": " << s.paths << " paths, " << s.print_length << " mm printed, "
-              << s.travel_moves << " travel moves (" << s.travel_length << " mm), " << s.retractions
-              << " retractions, " << s.filament << " mm filament, ~" << s.print_time_s / 60
-              << " min, " << s.bytes << " bytes -> " << o->output << "\n";
+    std::cout << profile.flavor << ": " << s.paths << " paths, " << num(s.print_length, 1)
+              << " mm printed, " << s.travel_moves << " travel moves (" << num(s.travel_length, 1)
+              << " mm), " << s.retractions << " retractions, " << num(s.filament, 2)
+              << " mm filament, ~" << num(s.print_time_s / 60, 1) << " min, " << s.bytes
+              << " bytes -> " << o->output << "\n";
   });
 }
 

@@ -54,7 +54,7 @@ void add_lattice2d(CLI::App& app) {
     const Graph g = make_lattice2d(a);
     write_lattice(o->output, g);
     std::cout << "lattice: " << to_string(a.pattern) << ", " << g.nodes.size() << " nodes, "
-              << g.edges.size() << " edges, " << g.total_length() << " mm of struts, lower bound "
+              << g.edges.size() << " edges, " << num(g.total_length(), 1) << " mm of struts, lower bound "
               << lower_bound_paths(g) << " paths -> " << o->output << "\n";
     if (!o->png.empty()) {
       // One path per strut, drawn without order colours: a picture of the design itself.

@@ -68,9 +68,9 @@ void add_plan(CLI::App& app) {
     print_warnings(diag);
     std::cout << o->planner << ": " << g.edges.size() << " edges, " << r.toolpath.layers.size()
               << " layer(s), " << r.total.paths << " paths (lower bound " << r.total.lower_bound_paths
-              << "), score " << r.total.score << ", LTS " << r.total.lts << "%, OE " << r.total.oe
-              << "%, travel " << r.travel.moves << " moves / " << r.travel.length << " mm, "
-              << secs << " s -> " << o->output << "\n";
+              << "), score " << num(r.total.score, 4) << ", LTS " << num(r.total.lts, 1) << "%, OE "
+              << num(r.total.oe, 2) << "%, travel " << r.travel.moves << " moves / "
+              << num(r.travel.length, 1) << " mm, " << num(secs, 3) << " s -> " << o->output << "\n";
   });
 }
 

@@ -25,13 +25,14 @@ void add_run(CLI::App& app) {
     print_warnings(diag);
     const auto& t = out.result.total;
     std::cout << job.name << ": " << out.result.toolpath.layers.size() << " layer(s), " << t.paths
-              << " paths (lower bound " << t.lower_bound_paths << "), score " << t.score << ", LTS "
-              << t.lts << "%, OE " << t.oe << "%, " << t.total_length << " mm of struts\n";
+              << " paths (lower bound " << t.lower_bound_paths << "), score " << num(t.score, 4)
+              << ", LTS " << num(t.lts, 1) << "%, OE " << num(t.oe, 2) << "%, "
+              << num(t.total_length, 1) << " mm of struts\n";
     std::cout << "  lattice:  " << out.lattice << "\n  toolpath: " << out.toolpath
               << "\n  report:   " << out.report << "\n";
     if (!out.gcode.empty())
       std::cout << "  gcode:    " << out.gcode << " (" << out.gcode_stats.bytes << " bytes, ~"
-                << out.gcode_stats.print_time_s / 60 << " min)\n";
+                << num(out.gcode_stats.print_time_s / 60, 1) << " min)\n";
     if (!out.pngs.empty())
       std::cout << "  previews: " << out.pngs.size() << " PNG(s), e.g. " << out.pngs.front() << "\n";
   });

@@ -17,5 +17,7 @@ void add_run(CLI::App& app);
 void progress_line(const std::string& stage, double fraction);
 // Prints the warnings of a run on stderr.
 void print_warnings(const Diagnostics& diag);
+// Fixed-point text of v for messages.
+std::string num(double v, int decimals);
 
 }  // namespace trellis::cli

@@ -18,9 +18,17 @@ void progress_line(const std::string& stage, double fraction) {
 }
 
 void print_warnings(const Diagnostics& diag) {
-  for (const auto& [kind, n] : diag.counts())
-    std::cerr << "warning: " << kind << ": " << n << "\n";
-  for (const auto& m : diag.messages()) std::cerr << "  " << m << "\n";
+  for (const auto& [kind, n] : diag.counts()) {
+    std::cerr << "warning: " << kind << " (" << n << ")\n";
+    for (const auto& m : diag.messages())
+      if (m.kind == kind) std::cerr << "  " << m.text << "\n";
+  }
+}
+
+std::string num(double v, int decimals) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
+  return buf;
 }
 
 }  // namespace trellis::cli

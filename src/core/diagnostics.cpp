@@ -3,7 +3,7 @@
 namespace trellis {
 
 void Diagnostics::warn(const std::string& kind, const std::string& message) {
-  if (++counts_[kind] <= kMaxMessagesPerKind) messages_.push_back(message);
+  if (++counts_[kind] <= kMaxMessagesPerKind) messages_.push_back({kind, message});
 }
 
 void Diagnostics::merge(const Diagnostics& other) {

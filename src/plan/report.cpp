@@ -66,7 +66,9 @@ std::string plan_report_json(const PlanResult& r, const PlanParams& p, const Dia
   ordered_json w;
   w["count"] = diag.total();
   w["by_kind"] = diag.counts();
-  w["messages"] = diag.messages();
+  ordered_json messages = ordered_json::array();
+  for (const auto& m : diag.messages()) messages.push_back(m.kind + ": " + m.text);
+  w["messages"] = std::move(messages);
   j["warnings"] = std::move(w);
   return j.dump(2) + "\n";
 }

@@ -28,7 +28,7 @@ TEST(Clean, DropsSelfLoopsZeroLengthAndDuplicatesWithWarnings) {
   EXPECT_EQ(d.count("self_loop"), 1u);
   EXPECT_EQ(d.count("zero_length_edge"), 1u);
   bool named = false;
-  for (const auto& m : d.messages()) named |= m.find("e1: duplicate of e0") != std::string::npos;
+  for (const auto& m : d.messages()) named |= m.text.find("e1: duplicate of e0") != std::string::npos;
   EXPECT_TRUE(named);
 }
 

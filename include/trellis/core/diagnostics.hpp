@@ -16,12 +16,15 @@ class Diagnostics {
   std::size_t count(const std::string& kind) const;
   std::size_t total() const;
   const std::map<std::string, std::size_t>& counts() const { return counts_; }
+  struct Message {
+    std::string kind, text;
+  };
   // Messages kept (at most kMaxMessagesPerKind per kind), in order of arrival.
-  const std::vector<std::string>& messages() const { return messages_; }
+  const std::vector<Message>& messages() const { return messages_; }
 
  private:
   std::map<std::string, std::size_t> counts_;
-  std::vector<std::string> messages_;
+  std::vector<Message> messages_;
 };
 
 }  // namespace trellis
