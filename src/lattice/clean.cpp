@@ -5,6 +5,7 @@
 #include <unordered_map>
 #include <unordered_set>
 
+#include "trellis/core/error.hpp"
 #include "trellis/lattice/graph.hpp"
 
 namespace trellis {
@@ -167,6 +168,18 @@ Graph split_t_junctions(const Graph& g, double tol, Diagnostics& diag,
 
 Graph clean_graph(const Graph& input, const CleanOptions& options, Diagnostics& diag,
                   const std::vector<std::string>& where) {
+  if (!std::isfinite(options.merge_tolerance) || options.merge_tolerance < 0 ||
+      options.merge_tolerance > 1)
+    throw GeometryError("merge tolerance must be between 0 and 1 mm");
+  for (std::size_t i = 0; i < input.nodes.size(); ++i) {
+    const Vec3 p = input.nodes[i];
+    if (!is_finite(p) || std::abs(p.x) > kMaxCoordinate || std::abs(p.y) > kMaxCoordinate ||
+        std::abs(p.z) > kMaxCoordinate)
+      throw GeometryError("coordinate beyond ±1e6 mm", {"", 0, "node " + std::to_string(i)});
+  }
+  for (std::size_t i = 0; i < input.edges.size(); ++i)
+    if (input.edges[i].a >= input.nodes.size() || input.edges[i].b >= input.nodes.size())
+      throw GeometryError("node index out of range", {"", 0, edge_name(where, i)});
   Graph g;
   const auto map = merge_nodes(input.nodes, options.merge_tolerance, g.nodes, diag);
   std::vector<std::size_t> origin;

@@ -101,6 +101,9 @@ double field_double(std::string_view f, const std::string& origin, long line, in
     throw ParseError("column " + std::to_string(column) + ": '" + std::string(f.substr(0, 40)) +
                          "' is not a finite number",
                      {origin, line});
+  if (std::abs(v) > kMaxCoordinate)
+    throw ParseError("column " + std::to_string(column) + ": coordinate beyond ±1e6 mm",
+                     {origin, line});
   return v;
 }
 
@@ -225,6 +228,8 @@ LatticeInput parse_lattice_json(const std::string& text, const std::string& orig
   } catch (const json::parse_error& e) {
     throw ParseError(std::string("invalid JSON: ") + e.what(),
                      {origin, line_of_offset(text, e.byte > 0 ? e.byte - 1 : 0)});
+  } catch (const json::exception& e) {  // e.g. a number too large for a double
+    throw ParseError(std::string("invalid JSON: ") + e.what(), {origin});
   }
   if (!doc.is_object()) throw ParseError("expected a JSON object with 'nodes' and 'edges'", {origin});
   for (auto it = doc.begin(); it != doc.end(); ++it)
@@ -244,7 +249,8 @@ LatticeInput parse_lattice_json(const std::string& text, const std::string& orig
   auto num = [&](const json& v, const std::string& el) {
     if (!v.is_number()) throw ParseError("expected a number", {origin, 0, el});
     const double d = v.get<double>();
-    if (!std::isfinite(d)) throw ParseError("number is not finite", {origin, 0, el});
+    if (!std::isfinite(d) || std::abs(d) > kMaxCoordinate)
+      throw ParseError("coordinate is not finite or beyond ±1e6 mm", {origin, 0, el});
     return d;
   };
   for (std::size_t i = 0; i < nodes->size(); ++i) {

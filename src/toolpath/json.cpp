@@ -35,7 +35,9 @@ namespace {
 double number(const json& j, const std::string& origin, const std::string& element) {
   if (!j.is_number()) throw ParseError("expected a number", {origin, 0, element});
   const double v = j.get<double>();
-  if (!std::isfinite(v)) throw ParseError("number is not finite", {origin, 0, element});
+  // Beyond ±1e6 (1 km, or 1000 km/s) nothing is printable, and writers could overflow.
+  if (!std::isfinite(v) || std::abs(v) > 1e6)
+    throw ParseError("number is not finite or beyond ±1e6", {origin, 0, element});
   return v;
 }
 
@@ -61,6 +63,8 @@ Path parse_path(const json& jp, const std::string& origin, const std::string& el
   p.height = optional_number(jp, "height", origin, el);
   p.speed = optional_number(jp, "speed", origin, el);
   p.power = optional_number(jp, "power", origin, el);
+  if (p.tool < 0 || p.width < 0 || p.height < 0 || p.speed < 0 || p.power < 0)
+    throw ParseError("tool, width, height, speed and power must be >= 0", {origin, 0, el});
   if (auto it = jp.find("mixture"); it != jp.end()) {
     if (!it->is_array()) throw ParseError("mixture must be an array", {origin, 0, el});
     for (std::size_t i = 0; i < it->size(); ++i)
@@ -88,6 +92,8 @@ Toolpath toolpath_from_json(const std::string& text, const std::string& origin) 
   } catch (const json::parse_error& e) {
     throw ParseError(std::string("invalid JSON: ") + e.what(),
                      {origin, line_of_offset(text, e.byte > 0 ? e.byte - 1 : 0)});
+  } catch (const json::exception& e) {  // e.g. a number too large for a double
+    throw ParseError(std::string("invalid JSON: ") + e.what(), {origin});
   }
   if (!doc.is_object() || doc.value("format", "") != "trellis.toolpath")
     throw ParseError("not a Trellis toolpath (missing \"format\": \"trellis.toolpath\")", {origin});

@@ -50,12 +50,16 @@ std::vector<int> connected_components(const Graph& g, int* count = nullptr);
 // max(1, odd-degree nodes / 2); summed.
 std::size_t lower_bound_paths(const Graph& g);
 
+// Coordinates beyond ±1 km are rejected as input errors (they also overflow spatial grids).
+inline constexpr double kMaxCoordinate = 1e6;
+
 struct CleanOptions {
   double merge_tolerance = 1e-6;  // nodes closer than this (mm) become one
   bool split_t_junctions = true;  // a node lying on another edge splits that edge
 };
 
-// Merges coincident nodes, splits T-junctions, drops self-loops, zero-length and duplicate
+// Merges coincident nodes (throws GeometryError for coordinates beyond kMaxCoordinate or a
+// tolerance that is negative or not finite), splits T-junctions, drops self-loops, zero-length and duplicate
 // edges; each drop or split is counted in `diag`. `edge_where` (optional, parallel to edges)
 // names where each input edge came from, for the warnings. Node order of first occurrence is
 // kept; nodes merged into an earlier one disappear.
