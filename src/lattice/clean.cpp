@@ -105,7 +105,11 @@ double median_edge_length(const Graph& g) {
 Graph split_t_junctions(const Graph& g, double tol, Diagnostics& diag,
                         const std::vector<std::string>& where,
                         std::vector<std::size_t>& origin_of_edge) {
-  const double cell = std::max(median_edge_length(g), tol * 8);
+  // Cells of the typical strut length, but no edge may span more than ~64 cells (bounded work
+  // for lattices that mix tiny and huge struts).
+  double longest = 0;
+  for (EdgeId e = 0; e < g.edges.size(); ++e) longest = std::max(longest, g.edge_length(e));
+  const double cell = std::max({median_edge_length(g), tol * 8, longest / 64});
   PointGrid grid(cell);
   std::vector<char> used(g.nodes.size(), 0);
   for (const auto& e : g.edges) used[e.a] = used[e.b] = 1;

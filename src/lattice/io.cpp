@@ -221,7 +221,7 @@ LatticeInput parse_obj_lines(const std::string& text, const std::string& origin)
   return in;
 }
 
-LatticeInput parse_lattice_json(const std::string& text, const std::string& origin) {
+static LatticeInput parse_lattice_json_unchecked(const std::string& text, const std::string& origin) {
   json doc;
   try {
     doc = json::parse(text);
@@ -310,6 +310,15 @@ LatticeInput parse_lattice_json(const std::string& text, const std::string& orig
   });
   require_edges(in, origin);
   return in;
+}
+
+LatticeInput parse_lattice_json(const std::string& text, const std::string& origin) {
+  // nlohmann's type and range errors are ours to report as bad input.
+  try {
+    return parse_lattice_json_unchecked(text, origin);
+  } catch (const nlohmann::json::exception& e) {
+    throw ParseError(std::string("invalid JSON content: ") + e.what(), {origin});
+  }
 }
 
 namespace {

@@ -85,7 +85,7 @@ Path parse_path(const json& jp, const std::string& origin, const std::string& el
 
 }  // namespace
 
-Toolpath toolpath_from_json(const std::string& text, const std::string& origin) {
+static Toolpath toolpath_from_json_unchecked(const std::string& text, const std::string& origin) {
   json doc;
   try {
     doc = json::parse(text);
@@ -95,9 +95,11 @@ Toolpath toolpath_from_json(const std::string& text, const std::string& origin) 
   } catch (const json::exception& e) {  // e.g. a number too large for a double
     throw ParseError(std::string("invalid JSON: ") + e.what(), {origin});
   }
-  if (!doc.is_object() || doc.value("format", "") != "trellis.toolpath")
+  const auto format = doc.is_object() ? doc.find("format") : doc.end();
+  if (!doc.is_object() || format == doc.end() || *format != "trellis.toolpath")
     throw ParseError("not a Trellis toolpath (missing \"format\": \"trellis.toolpath\")", {origin});
-  if (doc.value("version", 0) != 1)
+  const auto version = doc.find("version");
+  if (version == doc.end() || *version != 1)
     throw ParseError("unsupported toolpath version (this build reads version 1)", {origin});
   Toolpath tp;
   if (auto it = doc.find("source"); it != doc.end() && it->is_string()) tp.source = *it;
@@ -119,6 +121,15 @@ Toolpath toolpath_from_json(const std::string& text, const std::string& origin) 
     tp.layers.push_back(std::move(layer));
   }
   return tp;
+}
+
+Toolpath toolpath_from_json(const std::string& text, const std::string& origin) {
+  // nlohmann's type and range errors are ours to report as bad input.
+  try {
+    return toolpath_from_json_unchecked(text, origin);
+  } catch (const nlohmann::json::exception& e) {
+    throw ParseError(std::string("invalid JSON content: ") + e.what(), {origin});
+  }
 }
 
 Toolpath read_toolpath(const std::string& path) {
