@@ -28,7 +28,8 @@ static void BM_Gippo500(benchmark::State& state) {
   p.mode = GippoMode::Max;
   for (auto _ : state) benchmark::DoNotOptimize(plan_gippo(g, p).best.trails.size());
   state.counters["edges"] = static_cast<double>(g.edges.size());
-  state.counters["iterations/s"] = benchmark::Counter(500.0 * state.iterations(), benchmark::Counter::kIsRate);
+  state.counters["iterations/s"] =
+      benchmark::Counter(500.0 * state.iterations(), benchmark::Counter::kIsRate);
 }
 BENCHMARK(BM_Gippo500)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
 

@@ -14,9 +14,11 @@ void add_gcode(CLI::App& app) {
     bool help_settings = false;
   };
   auto o = std::make_shared<Opts>();
-  auto* cmd = app.add_subcommand("gcode", "Write G-code (or pneumatic .nc) from a toolpath and a machine profile");
-  cmd->footer("Profiles are TOML files (see profiles/); every setting is listed by --help-settings.\n"
-              "Settings merge: defaults < profile < --set.");
+  auto* cmd = app.add_subcommand(
+      "gcode", "Write G-code (or pneumatic .nc) from a toolpath and a machine profile");
+  cmd->footer(
+      "Profiles are TOML files (see profiles/); every setting is listed by --help-settings.\n"
+      "Settings merge: defaults < profile < --set.");
   cmd->add_option("toolpath", o->input, "toolpath JSON");
   cmd->add_option("--machine", o->machine, "machine profile (TOML)");
   cmd->add_option("-o,--output", o->output, "G-code file to write");

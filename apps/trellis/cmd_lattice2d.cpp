@@ -19,7 +19,8 @@ void add_lattice2d(CLI::App& app) {
   auto o = std::make_shared<Opts>();
   std::string names;
   for (const auto& n : pattern_names()) names += (names.empty() ? "" : ", ") + n;
-  auto* cmd = app.add_subcommand("lattice2d", "Generate a 2D lattice from the atlas (lattice JSON)");
+  auto* cmd =
+      app.add_subcommand("lattice2d", "Generate a 2D lattice from the atlas (lattice JSON)");
   cmd->footer(
       "Patterns: " + names +
       ".\nThe cell size means: honeycomb = hexagon side; penrose = rhombus side; snub-square = "
@@ -28,9 +29,12 @@ void add_lattice2d(CLI::App& app) {
       "about the region centre,\nand cropped with a node where the crop cuts a strut.");
   cmd->add_option("--pattern", o->pattern, "pattern name")->capture_default_str();
   cmd->add_option("--cell", o->a.cell_size, "cell size (mm)")->capture_default_str();
-  cmd->add_option("--strand", o->a.strand_distance, "strand distance for square/triangle/lines (mm; 0 = cell)");
-  cmd->add_option("--rotation", o->a.rotation_deg, "pattern rotation (degrees)")->capture_default_str();
-  cmd->add_option("--density", o->a.voronoi_density, "Voronoi seeds per mm²")->capture_default_str();
+  cmd->add_option("--strand", o->a.strand_distance,
+                  "strand distance for square/triangle/lines (mm; 0 = cell)");
+  cmd->add_option("--rotation", o->a.rotation_deg, "pattern rotation (degrees)")
+      ->capture_default_str();
+  cmd->add_option("--density", o->a.voronoi_density, "Voronoi seeds per mm²")
+      ->capture_default_str();
   cmd->add_option("--seed", o->a.seed, "Voronoi random seed")->capture_default_str();
   cmd->add_option("--width", o->a.region.width, "rectangle width (mm)")->capture_default_str();
   cmd->add_option("--height", o->a.region.height, "rectangle height (mm)")->capture_default_str();
@@ -39,8 +43,10 @@ void add_lattice2d(CLI::App& app) {
   cmd->add_option("--z", o->a.z, "height of the lattice plane (mm)")->capture_default_str();
   cmd->add_flag("--contour", o->a.contour, "add the region outline as struts");
   cmd->add_flag("--handles", o->a.handles, "add tensile-test handles at both x ends");
-  cmd->add_option("--handle-length", o->a.handle_length, "handle length along x (mm)")->capture_default_str();
-  cmd->add_option("--handle-width", o->a.handle_width, "handle width along y (mm)")->capture_default_str();
+  cmd->add_option("--handle-length", o->a.handle_length, "handle length along x (mm)")
+      ->capture_default_str();
+  cmd->add_option("--handle-width", o->a.handle_width, "handle width along y (mm)")
+      ->capture_default_str();
   cmd->add_option("-o,--output", o->output, "lattice JSON to write")->required();
   cmd->add_option("--png", o->png, "also write a PNG preview of the struts");
   cmd->callback([o] {
@@ -54,8 +60,9 @@ void add_lattice2d(CLI::App& app) {
     const Graph g = make_lattice2d(a);
     write_lattice(o->output, g);
     std::cout << "lattice: " << to_string(a.pattern) << ", " << g.nodes.size() << " nodes, "
-              << g.edges.size() << " edges, " << num(g.total_length(), 1) << " mm of struts, lower bound "
-              << lower_bound_paths(g) << " paths -> " << o->output << "\n";
+              << g.edges.size() << " edges, " << num(g.total_length(), 1)
+              << " mm of struts, lower bound " << lower_bound_paths(g) << " paths -> " << o->output
+              << "\n";
     if (!o->png.empty()) {
       // One path per strut, drawn without order colours: a picture of the design itself.
       Toolpath tp;

@@ -15,13 +15,16 @@ void add_render(CLI::App& app) {
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand("render", "Render toolpath layers to PNG");
-  cmd->footer("Paths are coloured by print order (blue first, red last), travel is dashed grey,\n"
-              "path starts are green dots and ends small dark dots.\n"
-              "Without --layer every layer is written as OUT.layerNNN.png (OUT without .png).");
+  cmd->footer(
+      "Paths are coloured by print order (blue first, red last), travel is dashed grey,\n"
+      "path starts are green dots and ends small dark dots.\n"
+      "Without --layer every layer is written as OUT.layerNNN.png (OUT without .png).");
   cmd->add_option("toolpath", o->input, "toolpath JSON")->required();
   cmd->add_option("-o,--output", o->output, "PNG file (with --layer) or prefix")->required();
   cmd->add_option("--layer", o->layer, "layer index (0-based)");
-  cmd->add_option("--size", o->r.size_px, "image size in pixels")->check(CLI::Range(16, 20000))->capture_default_str();
+  cmd->add_option("--size", o->r.size_px, "image size in pixels")
+      ->check(CLI::Range(16, 20000))
+      ->capture_default_str();
   cmd->add_option("--bead", o->r.bead_width, "line width (mm; 0 = from the toolpath)");
   cmd->add_flag("!--no-travel", o->r.travel, "do not draw travel moves");
   cmd->callback([o] {
@@ -32,7 +35,8 @@ void add_render(CLI::App& app) {
       return;
     }
     std::string prefix = o->output;
-    if (prefix.size() > 4 && prefix.substr(prefix.size() - 4) == ".png") prefix.resize(prefix.size() - 4);
+    if (prefix.size() > 4 && prefix.substr(prefix.size() - 4) == ".png")
+      prefix.resize(prefix.size() - 4);
     for (std::size_t i = 0; i < tp.layers.size(); ++i) {
       char name[32];
       std::snprintf(name, sizeof name, ".layer%03zu.png", i);

@@ -11,7 +11,8 @@ void add_run(CLI::App& app) {
     std::string job, out;
   };
   auto o = std::make_shared<Opts>();
-  auto* cmd = app.add_subcommand("run", "Run a job file: lattice -> plan -> G-code, report and PNGs");
+  auto* cmd =
+      app.add_subcommand("run", "Run a job file: lattice -> plan -> G-code, report and PNGs");
   cmd->footer("Job files are TOML; see examples/*.toml and docs/jobs.md.");
   cmd->add_option("job", o->job, "job TOML")->required();
   cmd->add_option("-o,--output-dir", o->out, "output folder (overrides [job] output_dir)");
@@ -34,7 +35,8 @@ void add_run(CLI::App& app) {
       std::cout << "  gcode:    " << out.gcode << " (" << out.gcode_stats.bytes << " bytes, ~"
                 << num(out.gcode_stats.print_time_s / 60, 1) << " min)\n";
     if (!out.pngs.empty())
-      std::cout << "  previews: " << out.pngs.size() << " PNG(s), e.g. " << out.pngs.front() << "\n";
+      std::cout << "  previews: " << out.pngs.size() << " PNG(s), e.g. " << out.pngs.front()
+                << "\n";
   });
 }
 

@@ -16,7 +16,8 @@ static std::string compose(const std::string& message, const Where& where) {
 }
 
 Error::Error(std::string message, Where where)
-    : std::runtime_error(compose(message, where)), where_(std::move(where)),
+    : std::runtime_error(compose(message, where)),
+      where_(std::move(where)),
       message_(std::move(message)) {}
 
 }  // namespace trellis

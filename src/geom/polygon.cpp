@@ -10,7 +10,9 @@ namespace trellis {
 namespace cl = ClipperLib;
 
 Polygon2 make_rectangle(Vec2 c, double w, double h) {
-  return {{{c.x - w / 2, c.y - h / 2}, {c.x + w / 2, c.y - h / 2}, {c.x + w / 2, c.y + h / 2},
+  return {{{c.x - w / 2, c.y - h / 2},
+           {c.x + w / 2, c.y - h / 2},
+           {c.x + w / 2, c.y + h / 2},
            {c.x - w / 2, c.y + h / 2}},
           {}};
 }
@@ -109,7 +111,8 @@ bool contains(const Polygon2& region, Vec2 p, double tol) {
   for (const auto& h : region.holes) {
     bool on_edge = false;
     for (std::size_t i = 0, j = h.size() - 1; i < h.size(); j = i++)
-      on_edge |= distance_to_segment({p.x, p.y, 0}, {h[j].x, h[j].y, 0}, {h[i].x, h[i].y, 0}) <= tol;
+      on_edge |=
+          distance_to_segment({p.x, p.y, 0}, {h[j].x, h[j].y, 0}, {h[i].x, h[i].y, 0}) <= tol;
     if (!on_edge && inside_ring(h)) return false;
   }
   return true;

@@ -1,9 +1,10 @@
 #include "trellis/job/job.hpp"
 
+#include <toml++/toml.h>
+
 #include <chrono>
 #include <filesystem>
 #include <set>
-#include <toml++/toml.h>
 
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
@@ -97,19 +98,21 @@ Job load_job(const std::string& path) {
   try {
     root = toml::parse(text, path);
   } catch (const toml::parse_error& e) {
-    throw SettingError(std::string(e.description()), {path, static_cast<long>(e.source().begin.line)});
+    throw SettingError(std::string(e.description()),
+                       {path, static_cast<long>(e.source().begin.line)});
   }
   const fs::path base = fs::path(path).parent_path();
   auto resolve = [&](const std::string& p) {
     return p.empty() || fs::path(p).is_absolute() ? p : (base / p).lexically_normal().string();
   };
   for (const auto& [k, n] : root) {
-    static const std::set<std::string> known = {"job", "lattice", "layers", "plan", "output",
-                                                "machine_overrides"};
+    static const std::set<std::string> known = {"job",  "lattice", "layers",
+                                                "plan", "output",  "machine_overrides"};
     if (!known.count(std::string(k.str())) || !n.is_table())
-      throw SettingError("unknown section (expected [job], [lattice], [layers], [plan], [output], "
-                         "[machine_overrides])",
-                         {path, static_cast<long>(n.source().begin.line), std::string(k.str())});
+      throw SettingError(
+          "unknown section (expected [job], [lattice], [layers], [plan], [output], "
+          "[machine_overrides])",
+          {path, static_cast<long>(n.source().begin.line), std::string(k.str())});
   }
   Job job;
   Section s_job(root["job"].as_table(), "job", path);
@@ -160,9 +163,11 @@ Job load_job(const std::string& path) {
   Section s_plan(root["plan"].as_table(), "plan", path);
   std::string planner = "gippo", mode = "max", order = to_string(job.plan.order);
   s_plan.get("planner", planner);
-  job.plan.planner = rethrow_at(s_plan.where("planner"), [&] { return planner_from_string(planner); });
+  job.plan.planner =
+      rethrow_at(s_plan.where("planner"), [&] { return planner_from_string(planner); });
   s_plan.get("mode", mode);
-  if (mode != "max" && mode != "min") throw SettingError("expected \"max\" or \"min\"", s_plan.where("mode"));
+  if (mode != "max" && mode != "min")
+    throw SettingError("expected \"max\" or \"min\"", s_plan.where("mode"));
   job.plan.gippo.mode = mode == "max" ? GippoMode::Max : GippoMode::Min;
   s_plan.get("iterations", job.plan.gippo.iterations);
   s_plan.get("seed", job.plan.gippo.seed);
@@ -181,15 +186,22 @@ Job load_job(const std::string& path) {
   if (const auto* ov = root["machine_overrides"].as_table())
     for (const auto& [k, n] : *ov) {
       std::string value;
-      if (n.is_string()) value = *n.value<std::string>();
-      else if (n.is_boolean()) value = *n.value<bool>() ? "true" : "false";
-      else if (n.is_integer()) value = std::to_string(*n.value<std::int64_t>());
-      else if (n.is_floating_point()) value = std::to_string(*n.value<double>());
-      else throw SettingError("expected a value", {path, static_cast<long>(n.source().begin.line), std::string(k.str())});
+      if (n.is_string())
+        value = *n.value<std::string>();
+      else if (n.is_boolean())
+        value = *n.value<bool>() ? "true" : "false";
+      else if (n.is_integer())
+        value = std::to_string(*n.value<std::int64_t>());
+      else if (n.is_floating_point())
+        value = std::to_string(*n.value<double>());
+      else
+        throw SettingError("expected a value",
+                           {path, static_cast<long>(n.source().begin.line), std::string(k.str())});
       job.overrides.push_back(std::string(k.str()) + "=" + value);
     }
   if (job.gcode && job.machine.empty())
-    throw SettingError("[job] machine = \"profile.toml\" is needed to write G-code", {path, 0, "job.machine"});
+    throw SettingError("[job] machine = \"profile.toml\" is needed to write G-code",
+                       {path, 0, "job.machine"});
   return job;
 }
 
@@ -235,13 +247,15 @@ JobOutputs run_job(const Job& job, Diagnostics& diag, const Progress& progress) 
   PlanParams plan = job.plan;
   plan.gippo.progress = progress;
   out.result = plan_lattice(lattice, plan, diag);
-  out.result.toolpath.source = std::string("trellis run ") + job.name + " (" + to_string(plan.planner) + ")";
+  out.result.toolpath.source =
+      std::string("trellis run ") + job.name + " (" + to_string(plan.planner) + ")";
   out.toolpath = (dir / (job.name + ".toolpath.json")).string();
   write_toolpath(out.toolpath, out.result.toolpath);
 
   if (job.gcode) {
-    const std::string ext = !profile.file_extension.empty() ? profile.file_extension
-                            : profile.parsed_flavor() == Flavor::Pneumatic ? ".nc" : ".gcode";
+    const std::string ext = !profile.file_extension.empty()                ? profile.file_extension
+                            : profile.parsed_flavor() == Flavor::Pneumatic ? ".nc"
+                                                                           : ".gcode";
     out.gcode = (dir / (job.name + ext)).string();
     out.gcode_stats = write_gcode_file(out.gcode, out.result.toolpath, profile);
   }
@@ -258,8 +272,8 @@ JobOutputs run_job(const Job& job, Diagnostics& diag, const Progress& progress) 
     if (!out.result.layers.empty() && !out.result.layers.front().scores.empty()) {
       out.pngs.push_back((dir / (job.name + ".scores.png")).string());
       const auto& l = out.result.layers.front();
-      render_scores_png(l.scores, l.best_iteration, job.name + ": GIPPO score per iteration (layer 0)",
-                        out.pngs.back());
+      render_scores_png(l.scores, l.best_iteration,
+                        job.name + ": GIPPO score per iteration (layer 0)", out.pngs.back());
     }
   }
   ReportContext ctx{input, lattice.nodes.size(), lattice.edges.size(),

@@ -14,15 +14,16 @@ namespace {
 constexpr double kPi = std::numbers::pi;
 const double kSqrt3 = std::sqrt(3.0);
 
-const std::vector<std::string> kPatternNames = {
-    "honeycomb", "voronoi", "penrose", "snub-square", "arrowhead", "reentrant-honeycomb",
-    "square",    "triangle", "lines"};
+const std::vector<std::string> kPatternNames = {"honeycomb",   "voronoi",   "penrose",
+                                                "snub-square", "arrowhead", "reentrant-honeycomb",
+                                                "square",      "triangle",  "lines"};
 
 // Connects every pair of points exactly `len` apart (within 1e-6 relative); points are first
 // deduplicated at 1e-9 mm. Used for tilings whose edges are exactly their nearest neighbours.
 std::vector<Segment2> connect_at_distance(const std::vector<Vec2>& raw, double len) {
   std::map<std::pair<long long, long long>, Vec2> unique;
-  for (auto p : raw) unique.emplace(std::make_pair(std::llround(p.x * 1e9), std::llround(p.y * 1e9)), p);
+  for (auto p : raw)
+    unique.emplace(std::make_pair(std::llround(p.x * 1e9), std::llround(p.y * 1e9)), p);
   std::vector<Vec2> pts;
   for (auto& [k, p] : unique) pts.push_back(p);
   // Cells slightly larger than `len`, so two points `len` apart are always in adjacent cells.
@@ -116,7 +117,8 @@ std::vector<Segment2> penrose(double side, double half) {
     Vec2 a, b, c;
   };
   const double phi = (1 + std::sqrt(5.0)) / 2;
-  const int n = std::max(0, static_cast<int>(std::ceil(std::log(half * 1.5 / side) / std::log(phi))));
+  const int n =
+      std::max(0, static_cast<int>(std::ceil(std::log(half * 1.5 / side) / std::log(phi))));
   const double R = side * std::pow(phi, n);
   std::vector<Tri> tris;
   for (int i = 0; i < 10; ++i) {
@@ -225,7 +227,8 @@ double boundary_distance(const Polygon2& poly, Vec2 p) {
 }
 
 void add_ring_segments(const std::vector<Vec2>& ring, std::vector<Segment2>& out) {
-  for (std::size_t i = 0; i < ring.size(); ++i) out.push_back({ring[i], ring[(i + 1) % ring.size()]});
+  for (std::size_t i = 0; i < ring.size(); ++i)
+    out.push_back({ring[i], ring[(i + 1) % ring.size()]});
 }
 
 // Adds the outline of `poly` as struts, with a node at every strut end lying on it.
@@ -239,9 +242,13 @@ void add_outline(const Polygon2& poly, std::vector<Segment2>& segs) {
 
 }  // namespace
 
-const std::vector<std::string>& pattern_names() { return kPatternNames; }
+const std::vector<std::string>& pattern_names() {
+  return kPatternNames;
+}
 
-std::string to_string(Pattern p) { return kPatternNames[static_cast<int>(p)]; }
+std::string to_string(Pattern p) {
+  return kPatternNames[static_cast<int>(p)];
+}
 
 Pattern pattern_from_string(const std::string& name) {
   for (std::size_t i = 0; i < kPatternNames.size(); ++i)
@@ -259,16 +266,24 @@ Polygon2 Region::polygon() const {
 std::vector<Segment2> pattern_segments(const AtlasParams& p, double half) {
   const double strand = p.strand_distance > 0 ? p.strand_distance : p.cell_size;
   switch (p.pattern) {
-    case Pattern::Honeycomb: return honeycomb(p.cell_size, half);
-    case Pattern::Voronoi: return voronoi_segments(half, p.voronoi_density, p.seed);
-    case Pattern::Penrose: return penrose(p.cell_size, half);
-    case Pattern::SnubSquare: return snub_square(p.cell_size, half);
+    case Pattern::Honeycomb:
+      return honeycomb(p.cell_size, half);
+    case Pattern::Voronoi:
+      return voronoi_segments(half, p.voronoi_density, p.seed);
+    case Pattern::Penrose:
+      return penrose(p.cell_size, half);
+    case Pattern::SnubSquare:
+      return snub_square(p.cell_size, half);
     case Pattern::Arrowhead:
       return arrowhead(p.cell_size, p.arrowhead_outer_deg, p.arrowhead_inner_deg, half);
-    case Pattern::ReentrantHoneycomb: return reentrant(p.cell_size, p.reentrant_angle_deg, half);
-    case Pattern::Square: return square(strand, half);
-    case Pattern::Triangle: return triangle(strand, half);
-    case Pattern::Lines: return lines(strand, half);
+    case Pattern::ReentrantHoneycomb:
+      return reentrant(p.cell_size, p.reentrant_angle_deg, half);
+    case Pattern::Square:
+      return square(strand, half);
+    case Pattern::Triangle:
+      return triangle(strand, half);
+    case Pattern::Lines:
+      return lines(strand, half);
   }
   return {};
 }
@@ -285,7 +300,8 @@ Graph make_lattice2d(const AtlasParams& p) {
   const double scale = p.pattern == Pattern::Voronoi ? 1 / std::sqrt(p.voronoi_density)
                                                      : std::min(p.cell_size, strand);
   require(p.voronoi_density > 0, "Voronoi density must be > 0 seeds per mm²");
-  require(p.min_feature > 0 && p.min_feature < scale / 4, "min feature must be > 0 and well below the cell size");
+  require(p.min_feature > 0 && p.min_feature < scale / 4,
+          "min feature must be > 0 and well below the cell size");
   require(radius / scale <= 2000,
           "region is more than 2000 cells across: increase the cell size or shrink the region");
   require(p.reentrant_angle_deg > 0 && p.reentrant_angle_deg < 45,

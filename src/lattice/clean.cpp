@@ -194,8 +194,9 @@ Graph clean_graph(const Graph& input, const CleanOptions& options, Diagnostics& 
     e.b = map[e.b];
     if (e.a == e.b) {
       const bool zero = input.edges[i].a != input.edges[i].b;
-      diag.warn(zero ? "zero_length_edge" : "self_loop",
-                edge_name(where, i) + (zero ? ": zero-length edge dropped" : ": self-loop dropped"));
+      diag.warn(
+          zero ? "zero_length_edge" : "self_loop",
+          edge_name(where, i) + (zero ? ": zero-length edge dropped" : ": self-loop dropped"));
       continue;
     }
     g.edges.push_back(e);
@@ -210,8 +211,8 @@ Graph clean_graph(const Graph& input, const CleanOptions& options, Diagnostics& 
   seen.reserve(g.edges.size() * 2);
   for (std::size_t i = 0; i < g.edges.size(); ++i) {
     const Edge& e = g.edges[i];
-    const std::uint64_t key = (static_cast<std::uint64_t>(std::min(e.a, e.b)) << 32) |
-                              std::max(e.a, e.b);
+    const std::uint64_t key =
+        (static_cast<std::uint64_t>(std::min(e.a, e.b)) << 32) | std::max(e.a, e.b);
     auto [it, fresh] = seen.emplace(key, origin[i]);
     if (!fresh) {
       diag.warn("duplicate_edge", edge_name(where, origin[i]) + ": duplicate of " +

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
+#include "../core/json_document.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 
@@ -15,8 +16,10 @@ using nlohmann::json;
 namespace {
 
 std::string_view trim(std::string_view s) {
-  while (!s.empty() && (s.front() == ' ' || s.front() == '\t' || s.front() == '\r')) s.remove_prefix(1);
-  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r')) s.remove_suffix(1);
+  while (!s.empty() && (s.front() == ' ' || s.front() == '\t' || s.front() == '\r'))
+    s.remove_prefix(1);
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r'))
+    s.remove_suffix(1);
   return s;
 }
 
@@ -28,7 +31,8 @@ std::vector<std::string_view> split_fields(std::string_view line) {
   if (commas) {
     while (true) {
       const auto pos = line.find(',', start);
-      out.push_back(trim(line.substr(start, pos == std::string_view::npos ? line.npos : pos - start)));
+      out.push_back(
+          trim(line.substr(start, pos == std::string_view::npos ? line.npos : pos - start)));
       if (pos == std::string_view::npos) break;
       start = pos + 1;
     }
@@ -111,7 +115,8 @@ NodeId node_index(long v, std::size_t count, const std::string& origin, long lin
                   const std::string& element) {
   if (v < 0 || static_cast<std::size_t>(v) >= count)
     throw ParseError("node index " + std::to_string(v) + " out of range (" +
-                         (count ? "0.." + std::to_string(count - 1) : std::string("no nodes")) + ")",
+                         (count ? "0.." + std::to_string(count - 1) : std::string("no nodes")) +
+                         ")",
                      {origin, line, element});
   return static_cast<NodeId>(v);
 }
@@ -166,8 +171,8 @@ LatticeInput parse_aero_pair(const std::string& vtext, const std::string& vorigi
                              std::string(f[i].substr(0, 40)) + "' is not an integer node index",
                          {eorigin, line});
     const auto n = in.graph.nodes.size();
-    in.graph.edges.push_back({node_index(v[0], n, eorigin, line, ""),
-                              node_index(v[1], n, eorigin, line, "")});
+    in.graph.edges.push_back(
+        {node_index(v[0], n, eorigin, line, ""), node_index(v[1], n, eorigin, line, "")});
     in.edge_where.push_back(eorigin + ":" + std::to_string(line));
   });
   require_edges(in, eorigin);
@@ -189,13 +194,13 @@ LatticeInput parse_obj_lines(const std::string& text, const std::string& origin)
     const auto f = split_fields(line);
     if (f.empty()) continue;
     if (f[0] == "v") {
-      if (f.size() < 4 || f.size() > 5)
-        throw ParseError("'v' needs x y z", {origin, line_no});
+      if (f.size() < 4 || f.size() > 5) throw ParseError("'v' needs x y z", {origin, line_no});
       in.graph.nodes.push_back({field_double(f[1], origin, line_no, 2),
                                 field_double(f[2], origin, line_no, 3),
                                 field_double(f[3], origin, line_no, 4)});
     } else if (f[0] == "l") {
-      if (f.size() < 3) throw ParseError("'l' needs at least two vertex indices", {origin, line_no});
+      if (f.size() < 3)
+        throw ParseError("'l' needs at least two vertex indices", {origin, line_no});
       std::vector<long> idx;
       for (std::size_t i = 1; i < f.size(); ++i) {
         long v;
@@ -213,29 +218,20 @@ LatticeInput parse_obj_lines(const std::string& text, const std::string& origin)
   for (const auto& [line, idx] : lines)
     for (std::size_t i = 1; i < idx.size(); ++i) {
       const auto n = in.graph.nodes.size();
-      in.graph.edges.push_back({node_index(idx[i - 1], n, origin, line, ""),
-                                node_index(idx[i], n, origin, line, "")});
+      in.graph.edges.push_back(
+          {node_index(idx[i - 1], n, origin, line, ""), node_index(idx[i], n, origin, line, "")});
       in.edge_where.push_back(origin + ":" + std::to_string(line));
     }
   require_edges(in, origin);
   return in;
 }
 
-static LatticeInput parse_lattice_json_unchecked(const std::string& text, const std::string& origin) {
-  json doc;
-  try {
-    doc = json::parse(text);
-  } catch (const json::parse_error& e) {
-    throw ParseError(std::string("invalid JSON: ") + e.what(),
-                     {origin, line_of_offset(text, e.byte > 0 ? e.byte - 1 : 0)});
-  } catch (const json::exception& e) {  // e.g. a number too large for a double
-    throw ParseError(std::string("invalid JSON: ") + e.what(), {origin});
-  }
-  if (!doc.is_object()) throw ParseError("expected a JSON object with 'nodes' and 'edges'", {origin});
+static LatticeInput lattice_from_document(const json& doc, const std::string& origin) {
+  if (!doc.is_object())
+    throw ParseError("expected a JSON object with 'nodes' and 'edges'", {origin});
   for (auto it = doc.begin(); it != doc.end(); ++it)
     if (it.key() != "nodes" && it.key() != "edges" && it.key() != "material" &&
-        it.key() != "directed" && it.key() != "name" && it.key() != "units" &&
-        it.key() != "meta")
+        it.key() != "directed" && it.key() != "name" && it.key() != "units" && it.key() != "meta")
       throw ParseError("unknown key '" + it.key() +
                            "' (expected nodes, edges, material, directed, name, units, meta)",
                        {origin});
@@ -313,18 +309,15 @@ static LatticeInput parse_lattice_json_unchecked(const std::string& text, const 
 }
 
 LatticeInput parse_lattice_json(const std::string& text, const std::string& origin) {
-  // nlohmann's type and range errors are ours to report as bad input.
-  try {
-    return parse_lattice_json_unchecked(text, origin);
-  } catch (const nlohmann::json::exception& e) {
-    throw ParseError(std::string("invalid JSON content: ") + e.what(), {origin});
-  }
+  return read_json_document(text, origin,
+                            [&](const json& doc) { return lattice_from_document(doc, origin); });
 }
 
 namespace {
 
 bool ends_with(const std::string& s, const std::string& suffix) {
-  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+  return s.size() >= suffix.size() &&
+         s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
 }
 
 std::string lower(std::string s) {
@@ -353,9 +346,10 @@ Graph read_lattice(const std::string& path, const CleanOptions& options, Diagnos
   } else if (ends_with(name, ".obj")) {
     in = parse_obj_lines(read_file(path), path);
   } else {
-    throw ParseError("unknown lattice format (expected .json, .csv, NAME_vertices.csv/"
-                     "NAME_edges.csv or .obj)",
-                     {path});
+    throw ParseError(
+        "unknown lattice format (expected .json, .csv, NAME_vertices.csv/"
+        "NAME_edges.csv or .obj)",
+        {path});
   }
   Graph g = clean_graph(in.graph, options, diag, in.edge_where);
   if (g.edges.empty()) throw GeometryError("no edges left after cleaning", {path});

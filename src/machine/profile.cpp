@@ -1,8 +1,9 @@
 #include "trellis/machine/profile.hpp"
 
+#include <toml++/toml.h>
+
 #include <charconv>
 #include <cmath>
-#include <toml++/toml.h>
 
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
@@ -14,41 +15,57 @@ using P = MachineProfile;
 const std::vector<SettingDecl>& machine_settings() {
   static const std::vector<SettingDecl> table = {
       {"machine.name", "", "printer name, written into headers", 0, 0, &P::name},
-      {"machine.flavor", "", "G-code dialect: marlin (E values) or pneumatic (valve + pressure)", 0, 0, &P::flavor},
+      {"machine.flavor", "", "G-code dialect: marlin (E values) or pneumatic (valve + pressure)", 0,
+       0, &P::flavor},
       {"machine.bed_x", "mm", "bed size in X", 1, 10000, &P::bed_x},
       {"machine.bed_y", "mm", "bed size in Y", 1, 10000, &P::bed_y},
       {"placement.center", "", "move the part's XY centre to the bed centre", 0, 0, &P::center},
       {"placement.offset_x", "mm", "X offset added after centring", -10000, 10000, &P::offset_x},
       {"placement.offset_y", "mm", "Y offset added after centring", -10000, 10000, &P::offset_y},
-      {"extrusion.nozzle_diameter", "mm", "nozzle diameter d_n (Eq. 4)", 0.01, 10, &P::nozzle_diameter},
-      {"extrusion.filament_diameter", "mm", "filament diameter f_d (Eq. 4)", 0.1, 10, &P::filament_diameter},
-      {"extrusion.layer_height", "mm", "layer thickness LT when a path has none (Eq. 4)", 0.001, 10, &P::layer_height},
-      {"extrusion.multiplier", "", "extrusion multiplier EM (Eq. 4)", 0, 10, &P::extrusion_multiplier},
+      {"extrusion.nozzle_diameter", "mm", "nozzle diameter d_n (Eq. 4)", 0.01, 10,
+       &P::nozzle_diameter},
+      {"extrusion.filament_diameter", "mm", "filament diameter f_d (Eq. 4)", 0.1, 10,
+       &P::filament_diameter},
+      {"extrusion.layer_height", "mm", "layer thickness LT when a path has none (Eq. 4)", 0.001, 10,
+       &P::layer_height},
+      {"extrusion.multiplier", "", "extrusion multiplier EM (Eq. 4)", 0, 10,
+       &P::extrusion_multiplier},
       {"extrusion.k", "", "correction factor k for the bead shape (Eq. 4)", 0, 10, &P::k},
-      {"extrusion.relative_e", "", "relative E (M83) instead of absolute (M82)", 0, 0, &P::relative_e},
+      {"extrusion.relative_e", "", "relative E (M83) instead of absolute (M82)", 0, 0,
+       &P::relative_e},
       {"speed.print", "mm/s", "printing speed", 0.01, 1000, &P::print_speed},
       {"speed.travel", "mm/s", "travel speed", 0.01, 2000, &P::travel_speed},
       {"speed.z", "mm/s", "speed of Z moves", 0.01, 1000, &P::z_speed},
-      {"speed.short_path_factor", "", "speed factor for short paths (paper: 0.6)", 0.01, 10, &P::short_path_factor},
-      {"speed.short_path_segments", "", "paths with fewer segments than this are short", 0, 1000000, &P::short_path_segments},
-      {"temperature.nozzle", "°C", "nozzle temperature, 0 = leave unset", 0, 500, &P::nozzle_temperature},
+      {"speed.short_path_factor", "", "speed factor for short paths (paper: 0.6)", 0.01, 10,
+       &P::short_path_factor},
+      {"speed.short_path_segments", "", "paths with fewer segments than this are short", 0, 1000000,
+       &P::short_path_segments},
+      {"temperature.nozzle", "°C", "nozzle temperature, 0 = leave unset", 0, 500,
+       &P::nozzle_temperature},
       {"temperature.bed", "°C", "bed temperature, 0 = leave unset", 0, 200, &P::bed_temperature},
       {"temperature.fan", "%", "part-cooling fan", 0, 100, &P::fan_percent},
       {"retraction.length", "mm", "filament retracted before travel", 0, 50, &P::retract_length},
       {"retraction.speed", "mm/s", "retraction speed", 0.01, 500, &P::retract_speed},
       {"retraction.z_hop", "mm", "lift during travel", 0, 50, &P::z_hop},
-      {"retraction.min_travel", "mm", "no retraction or lift for shorter travel", 0, 1000, &P::min_travel},
+      {"retraction.min_travel", "mm", "no retraction or lift for shorter travel", 0, 1000,
+       &P::min_travel},
       {"flow.pre", "mm", "extra filament primed at each path start (marlin)", 0, 50, &P::pre_flow},
       {"flow.post", "mm", "extra filament pushed at each path end (marlin)", 0, 50, &P::post_flow},
-      {"flow.pre_dwell", "s", "dwell at each path start after priming / opening", 0, 60, &P::pre_flow_dwell},
-      {"flow.post_dwell", "s", "dwell at each path end before retracting / closing", 0, 60, &P::post_flow_dwell},
+      {"flow.pre_dwell", "s", "dwell at each path start after priming / opening", 0, 60,
+       &P::pre_flow_dwell},
+      {"flow.post_dwell", "s", "dwell at each path end before retracting / closing", 0, 60,
+       &P::post_flow_dwell},
       {"pneumatic.pressure", "kPa", "extrusion pressure per path", 0, 10000, &P::pressure},
-      {"pneumatic.pressure_command", "", "command setting the pressure, {pressure} is replaced; empty = none", 0, 0, &P::pressure_command},
+      {"pneumatic.pressure_command", "",
+       "command setting the pressure, {pressure} is replaced; empty = none", 0, 0,
+       &P::pressure_command},
       {"pneumatic.valve_on", "", "command opening the valve", 0, 0, &P::valve_on},
       {"pneumatic.valve_off", "", "command closing the valve", 0, 0, &P::valve_off},
-      {"gcode.start", "", "start template; {section.key} or {key} inserts a setting", 0, 0, &P::start_gcode},
+      {"gcode.start", "", "start template; {section.key} or {key} inserts a setting", 0, 0,
+       &P::start_gcode},
       {"gcode.end", "", "end template", 0, 0, &P::end_gcode},
-      {"gcode.extension", "", "default output extension (.gcode for marlin, .nc for pneumatic)", 0, 0, &P::file_extension},
+      {"gcode.extension", "", "default output extension (.gcode for marlin, .nc for pneumatic)", 0,
+       0, &P::file_extension},
   };
   return table;
 }
@@ -71,7 +88,8 @@ const SettingDecl* find_setting(const std::string& key) {
 void check_range(const SettingDecl& d, double v, const Where& where) {
   if (!std::isfinite(v) || v < d.min || v > d.max)
     throw SettingError("value out of range [" + std::to_string(d.min) + ", " +
-                           std::to_string(d.max) + "]" + (d.unit[0] ? std::string(" ") + d.unit : ""),
+                           std::to_string(d.max) + "]" +
+                           (d.unit[0] ? std::string(" ") + d.unit : ""),
                        where);
 }
 
@@ -105,7 +123,8 @@ void set_from_toml(MachineProfile& p, const SettingDecl& d, const toml::node& no
 void walk(MachineProfile& p, const toml::table& table, const std::string& prefix,
           const std::string& origin) {
   for (const auto& [k, node] : table) {
-    const std::string key = prefix.empty() ? std::string(k.str()) : prefix + "." + std::string(k.str());
+    const std::string key =
+        prefix.empty() ? std::string(k.str()) : prefix + "." + std::string(k.str());
     const Where where{origin, static_cast<long>(node.source().begin.line), key};
     if (const auto* sub = node.as_table()) {
       walk(p, *sub, key, origin);
@@ -153,7 +172,8 @@ void apply_override(MachineProfile& p, const std::string& assignment) {
     throw SettingError("expected key=value, got '" + assignment + "'", {"--set"});
   const std::string key = assignment.substr(0, eq), value = assignment.substr(eq + 1);
   const SettingDecl* d = find_setting(key);
-  if (!d) throw SettingError("unknown setting (see `trellis gcode --help-settings`)", {"--set", 0, key});
+  if (!d)
+    throw SettingError("unknown setting (see `trellis gcode --help-settings`)", {"--set", 0, key});
   // Parse the value as a TOML value so the same type rules apply.
   const bool is_string = std::holds_alternative<std::string MachineProfile::*>(d->member);
   const std::string doc = "v = " + value;
@@ -179,10 +199,14 @@ std::string setting_text(const MachineProfile& p, const SettingDecl& d) {
   return std::visit(
       [&](auto member) -> std::string {
         using T = std::remove_cvref_t<decltype(p.*member)>;
-        if constexpr (std::is_same_v<T, double>) return number_text(p.*member);
-        else if constexpr (std::is_same_v<T, int>) return std::to_string(p.*member);
-        else if constexpr (std::is_same_v<T, bool>) return p.*member ? "true" : "false";
-        else return p.*member;
+        if constexpr (std::is_same_v<T, double>)
+          return number_text(p.*member);
+        else if constexpr (std::is_same_v<T, int>)
+          return std::to_string(p.*member);
+        else if constexpr (std::is_same_v<T, bool>)
+          return p.*member ? "true" : "false";
+        else
+          return p.*member;
       },
       d.member);
 }

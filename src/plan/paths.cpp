@@ -44,9 +44,12 @@ PathMetrics path_metrics(const Graph& g, const PathSet& set, std::size_t long_no
       long_len += t.length;
       long_weighted += t.length * static_cast<double>(t.edges.size());
     }
-    if (nodes > 15) ++m.long_paths;
-    else if (nodes >= 5) ++m.medium_paths;
-    else ++m.short_paths;
+    if (nodes > 15)
+      ++m.long_paths;
+    else if (nodes >= 5)
+      ++m.medium_paths;
+    else
+      ++m.short_paths;
   }
   if (m.total_length > 0) {
     m.lts = 100 * long_len / m.total_length;

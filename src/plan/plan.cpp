@@ -15,7 +15,9 @@ Planner planner_from_string(const std::string& name) {
   throw SettingError("unknown planner '" + name + "' (expected gippo or euler)");
 }
 
-std::string to_string(Planner p) { return p == Planner::Gippo ? "gippo" : "euler"; }
+std::string to_string(Planner p) {
+  return p == Planner::Gippo ? "gippo" : "euler";
+}
 
 namespace {
 

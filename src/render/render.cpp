@@ -33,10 +33,14 @@ void order_colour(cairo_t* cr, double t) {
   const double h = (1 - t) * 240.0 / 60.0;  // hue in sextants, 4 (blue) .. 0 (red)
   const double x = 1 - std::abs(std::fmod(h, 2.0) - 1);
   double r = 0, g = 0, b = 0;
-  if (h < 1) r = 1, g = x;
-  else if (h < 2) r = x, g = 1;
-  else if (h < 3) g = 1, b = x;
-  else b = 1, g = x;
+  if (h < 1)
+    r = 1, g = x;
+  else if (h < 2)
+    r = x, g = 1;
+  else if (h < 3)
+    g = 1, b = x;
+  else
+    b = 1, g = x;
   cairo_set_source_rgb(cr, r * 0.9, g * 0.75, b * 0.9);
 }
 
@@ -104,8 +108,8 @@ void render_layer_png(const Toolpath& tp, std::size_t index, const std::string& 
   save_png(surface.get(), path);
 }
 
-void render_scores_png(const std::vector<double>& scores, std::size_t best, const std::string& title,
-                       const std::string& path) {
+void render_scores_png(const std::vector<double>& scores, std::size_t best,
+                       const std::string& title, const std::string& path) {
   const int W = 900, H = 500, L = 70, R = 20, T = 40, B = 50;
   Surface surface(cairo_image_surface_create(CAIRO_FORMAT_RGB24, W, H), cairo_surface_destroy);
   Context cr(cairo_create(surface.get()), cairo_destroy);
@@ -121,7 +125,9 @@ void render_scores_png(const std::vector<double>& scores, std::size_t best, cons
   const double pad = (hi - lo) * 0.05;
   lo -= pad;
   hi += pad;
-  auto X = [&](double i) { return L + (W - L - R) * (scores.size() > 1 ? i / (scores.size() - 1) : 0.5); };
+  auto X = [&](double i) {
+    return L + (W - L - R) * (scores.size() > 1 ? i / (scores.size() - 1) : 0.5);
+  };
   auto Y = [&](double s) { return H - B - (H - T - B) * (s - lo) / (hi - lo); };
   cairo_set_source_rgb(c, 0, 0, 0);
   cairo_set_line_width(c, 1);

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
+#include "../core/json_document.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 
@@ -25,8 +26,11 @@ std::string toolpath_to_json(const Toolpath& tp) {
     }
     layers.push_back({{"z", layer.z}, {"paths", std::move(paths)}});
   }
-  json doc = {{"format", "trellis.toolpath"}, {"version", 1},  {"units", "mm"},
-              {"source", tp.source},          {"layers", std::move(layers)}};
+  json doc = {{"format", "trellis.toolpath"},
+              {"version", 1},
+              {"units", "mm"},
+              {"source", tp.source},
+              {"layers", std::move(layers)}};
   return doc.dump(1) + "\n";
 }
 
@@ -77,24 +81,15 @@ Path parse_path(const json& jp, const std::string& origin, const std::string& el
     const std::string pe = el + ".points[" + std::to_string(i) + "]";
     const json& q = (*pts)[i];
     if (!q.is_array() || q.size() != 3) throw ParseError("expected [x, y, z]", {origin, 0, pe});
-    p.points.push_back({number(q[0], origin, pe), number(q[1], origin, pe),
-                        number(q[2], origin, pe)});
+    p.points.push_back(
+        {number(q[0], origin, pe), number(q[1], origin, pe), number(q[2], origin, pe)});
   }
   return p;
 }
 
 }  // namespace
 
-static Toolpath toolpath_from_json_unchecked(const std::string& text, const std::string& origin) {
-  json doc;
-  try {
-    doc = json::parse(text);
-  } catch (const json::parse_error& e) {
-    throw ParseError(std::string("invalid JSON: ") + e.what(),
-                     {origin, line_of_offset(text, e.byte > 0 ? e.byte - 1 : 0)});
-  } catch (const json::exception& e) {  // e.g. a number too large for a double
-    throw ParseError(std::string("invalid JSON: ") + e.what(), {origin});
-  }
+static Toolpath toolpath_from_document(const json& doc, const std::string& origin) {
   const auto format = doc.is_object() ? doc.find("format") : doc.end();
   if (!doc.is_object() || format == doc.end() || *format != "trellis.toolpath")
     throw ParseError("not a Trellis toolpath (missing \"format\": \"trellis.toolpath\")", {origin});
@@ -124,12 +119,8 @@ static Toolpath toolpath_from_json_unchecked(const std::string& text, const std:
 }
 
 Toolpath toolpath_from_json(const std::string& text, const std::string& origin) {
-  // nlohmann's type and range errors are ours to report as bad input.
-  try {
-    return toolpath_from_json_unchecked(text, origin);
-  } catch (const nlohmann::json::exception& e) {
-    throw ParseError(std::string("invalid JSON content: ") + e.what(), {origin});
-  }
+  return read_json_document(text, origin,
+                            [&](const json& doc) { return toolpath_from_document(doc, origin); });
 }
 
 Toolpath read_toolpath(const std::string& path) {

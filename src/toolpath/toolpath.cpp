@@ -8,7 +8,9 @@ namespace {
 constexpr const char* kRoleNames[] = {"strut", "contour", "handle", "perimeter", "infill", "other"};
 }
 
-const char* to_string(PathRole role) { return kRoleNames[static_cast<int>(role)]; }
+const char* to_string(PathRole role) {
+  return kRoleNames[static_cast<int>(role)];
+}
 
 PathRole path_role_from_string(const std::string& name) {
   for (int i = 0; i < 6; ++i)

@@ -31,7 +31,8 @@ CmdResult run(const std::string& args) {
   const std::string out = (work() / "stdout.txt").string(), err = (work() / "stderr.txt").string();
   const std::string cmd = std::string(TRELLIS_CLI) + " " + args + " >" + out + " 2>" + err;
   const int status = std::system(cmd.c_str());
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, trellis::read_file(out), trellis::read_file(err)};
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, trellis::read_file(out),
+          trellis::read_file(err)};
 }
 
 std::string write(const std::string& name, const std::string& text) {
@@ -40,7 +41,9 @@ std::string write(const std::string& name, const std::string& text) {
   return p.string();
 }
 
-std::string in_work(const std::string& name) { return (work() / name).string(); }
+std::string in_work(const std::string& name) {
+  return (work() / name).string();
+}
 
 }  // namespace
 
@@ -56,19 +59,24 @@ TEST(Cli, HelpForEveryCommand) {
 }
 
 TEST(Cli, DocumentedPipelineWorksAsWritten) {
-  const std::string lat = in_work("hc.json"), tp = in_work("hc.toolpath.json"), rep = in_work("hc.report.json");
+  const std::string lat = in_work("hc.json"), tp = in_work("hc.toolpath.json"),
+                    rep = in_work("hc.report.json");
   ASSERT_EQ(run("lattice2d --pattern honeycomb --cell 1 -o " + lat).code, 0);
-  CmdResult r = run("plan gippo " + lat + " -o " + tp + " --report " + rep + " --mode min --iterations 50 --seed 4");
+  CmdResult r = run("plan gippo " + lat + " -o " + tp + " --report " + rep +
+                    " --mode min --iterations 50 --seed 4");
   ASSERT_EQ(r.code, 0) << r.err;
   const std::string report = trellis::read_file(rep);
-  for (const char* key : {"\"planner\"", "\"mode\"", "\"iterations\"", "\"seed\"", "\"paths\"",
-                          "\"lower_bound_paths\"", "\"score\"", "\"lts\"", "\"oe\"", "\"total_length_mm\"",
-                          "\"travel_moves\"", "\"travel_length_mm\"", "\"warnings\""})
+  for (const char* key :
+       {"\"planner\"", "\"mode\"", "\"iterations\"", "\"seed\"", "\"paths\"",
+        "\"lower_bound_paths\"", "\"score\"", "\"lts\"", "\"oe\"", "\"total_length_mm\"",
+        "\"travel_moves\"", "\"travel_length_mm\"", "\"warnings\""})
     EXPECT_NE(report.find(key), std::string::npos) << key;
-  r = run("plan euler " + lat + " -o " + in_work("hc.euler.json") + " --report " + in_work("e.json") + " --order travel");
+  r = run("plan euler " + lat + " -o " + in_work("hc.euler.json") + " --report " +
+          in_work("e.json") + " --order travel");
   ASSERT_EQ(r.code, 0) << r.err;
   const std::string gc = in_work("hc.gcode");
-  r = run("gcode " + tp + " --machine " + TRELLIS_SOURCE_DIR + "/profiles/ender3_s1_pro_tpu.toml -o " + gc);
+  r = run("gcode " + tp + " --machine " + TRELLIS_SOURCE_DIR +
+          "/profiles/ender3_s1_pro_tpu.toml -o " + gc);
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_FALSE(trellis::test::replay_gcode(trellis::read_file(gc)).deposits.empty());
   r = run("render " + tp + " -o " + in_work("hc.png"));
@@ -79,8 +87,12 @@ TEST(Cli, DocumentedPipelineWorksAsWritten) {
 TEST(Cli, SameSeedByteIdenticalAcrossThreadCounts) {
   const std::string lat = in_work("v.json");
   ASSERT_EQ(run("lattice2d --pattern voronoi --density 2 --seed 3 -o " + lat).code, 0);
-  ASSERT_EQ(run("plan gippo " + lat + " -o " + in_work("v1.json") + " --threads 1 --iterations 80").code, 0);
-  ASSERT_EQ(run("plan gippo " + lat + " -o " + in_work("v2.json") + " --threads 2 --iterations 80").code, 0);
+  ASSERT_EQ(
+      run("plan gippo " + lat + " -o " + in_work("v1.json") + " --threads 1 --iterations 80").code,
+      0);
+  ASSERT_EQ(
+      run("plan gippo " + lat + " -o " + in_work("v2.json") + " --threads 2 --iterations 80").code,
+      0);
   EXPECT_EQ(trellis::read_file(in_work("v1.json")), trellis::read_file(in_work("v2.json")));
 }
 
@@ -106,12 +118,15 @@ TEST(Cli, BadInputExitsTwoWithOneClearMessageAndNoOutput) {
     EXPECT_FALSE(fs::exists(out)) << c.file;
   }
   // The pair's edges file names the line with the bad index.
-  EXPECT_NE(run("plan euler " + in_work("pair_vertices.csv") + " -o x").err.find("pair_edges.csv:2"), std::string::npos);
+  EXPECT_NE(
+      run("plan euler " + in_work("pair_vertices.csv") + " -o x").err.find("pair_edges.csv:2"),
+      std::string::npos);
   // Unknown key in a profile: file and line.
   const std::string prof = write("bad.toml", "[speed]\nprint = 10\nprnt = 3\n");
   ASSERT_EQ(run("lattice2d -o " + in_work("l.json")).code, 0);
   ASSERT_EQ(run("plan euler " + in_work("l.json") + " -o " + in_work("l.tp.json")).code, 0);
-  const CmdResult r = run("gcode " + in_work("l.tp.json") + " --machine " + prof + " -o " + in_work("never.gcode"));
+  const CmdResult r =
+      run("gcode " + in_work("l.tp.json") + " --machine " + prof + " -o " + in_work("never.gcode"));
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("bad.toml:3"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(in_work("never.gcode")));
@@ -121,15 +136,18 @@ TEST(Cli, BadInputExitsTwoWithOneClearMessageAndNoOutput) {
 }
 
 TEST(Cli, JobRunsEndToEnd) {
-  const std::string job = write("job.toml", std::string("[job]\nname = \"t\"\nmachine = \"") + TRELLIS_SOURCE_DIR +
-                                                "/profiles/pneumatic_pcl_27g.toml\"\n[lattice]\npattern = \"snub-square\"\n"
-                                                "width = 6\nheight = 6\n[layers]\ncount = 3\nrotation_deg = 30\n"
-                                                "[plan]\niterations = 30\n");
+  const std::string job = write(
+      "job.toml", std::string("[job]\nname = \"t\"\nmachine = \"") + TRELLIS_SOURCE_DIR +
+                      "/profiles/pneumatic_pcl_27g.toml\"\n[lattice]\npattern = \"snub-square\"\n"
+                      "width = 6\nheight = 6\n[layers]\ncount = 3\nrotation_deg = 30\n"
+                      "[plan]\niterations = 30\n");
   const CmdResult r = run("run " + job + " -o " + in_work("jobout"));
   ASSERT_EQ(r.code, 0) << r.err;
-  for (const char* f : {"t.lattice.json", "t.toolpath.json", "t.report.json", "t.nc", "t.layer002.png", "t.scores.png"})
+  for (const char* f : {"t.lattice.json", "t.toolpath.json", "t.report.json", "t.nc",
+                        "t.layer002.png", "t.scores.png"})
     EXPECT_TRUE(fs::exists(work() / "jobout" / f)) << f;
-  const std::string bad = write("badjob.toml", "[job]\nname = \"t\"\n[lattice]\npatern = \"honeycomb\"\n");
+  const std::string bad =
+      write("badjob.toml", "[job]\nname = \"t\"\n[lattice]\npatern = \"honeycomb\"\n");
   const CmdResult b = run("run " + bad);
   EXPECT_EQ(b.code, 2);
   EXPECT_NE(b.err.find("badjob.toml:4"), std::string::npos) << b.err;

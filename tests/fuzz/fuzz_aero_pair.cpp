@@ -8,7 +8,8 @@ extern "C" int LLVMFuzzerTestOneInput(const unsigned char* data, std::size_t siz
   const std::string text(reinterpret_cast<const char*>(data), size);
   const auto bar = text.find('|');
   try {
-    trellis::parse_aero_pair(text.substr(0, bar), "v.csv", bar == std::string::npos ? "" : text.substr(bar + 1), "e.csv");
+    trellis::parse_aero_pair(text.substr(0, bar), "v.csv",
+                             bar == std::string::npos ? "" : text.substr(bar + 1), "e.csv");
   } catch (const trellis::Error&) {
   }
   return 0;

@@ -1,4 +1,5 @@
-// Fuzzes parse_lattice_json: any input either parses or throws trellis::Error; never crashes or hangs.
+// Fuzzes parse_lattice_json: any input either parses or throws trellis::Error; never crashes or
+// hangs.
 #include <string>
 
 #include "trellis/core/error.hpp"
@@ -7,7 +8,8 @@
 
 extern "C" int LLVMFuzzerTestOneInput(const unsigned char* data, std::size_t size) {
   try {
-    const auto in = trellis::parse_lattice_json(std::string(reinterpret_cast<const char*>(data), size), "fuzz");
+    const auto in =
+        trellis::parse_lattice_json(std::string(reinterpret_cast<const char*>(data), size), "fuzz");
     trellis::Diagnostics diag;
     trellis::clean_graph(in.graph, {}, diag, in.edge_where);
   } catch (const trellis::Error&) {

@@ -7,7 +7,8 @@
 
 extern "C" int LLVMFuzzerTestOneInput(const unsigned char* data, std::size_t size) {
   try {
-    const auto in = trellis::parse_obj_lines(std::string(reinterpret_cast<const char*>(data), size), "fuzz");
+    const auto in =
+        trellis::parse_obj_lines(std::string(reinterpret_cast<const char*>(data), size), "fuzz");
     trellis::Diagnostics diag;
     trellis::clean_graph(in.graph, {}, diag, in.edge_where);
   } catch (const trellis::Error&) {

@@ -10,7 +10,9 @@ using namespace trellis;
 
 namespace {
 
-double cross(Vec3 o, Vec3 a, Vec3 b) { return (a.x - o.x) * (b.y - o.y) - (a.y - o.y) * (b.x - o.x); }
+double cross(Vec3 o, Vec3 a, Vec3 b) {
+  return (a.x - o.x) * (b.y - o.y) - (a.y - o.y) * (b.x - o.x);
+}
 
 // Whether two struts cross or overlap anywhere except at a shared node.
 bool struts_intersect(const Graph& g, const Edge& e, const Edge& f) {
@@ -24,7 +26,8 @@ bool struts_intersect(const Graph& g, const Edge& e, const Edge& f) {
     return std::abs(c) < 1e-9 * distance(s, a) * distance(s, b) && d > 0;
   }
   const Vec3 p1 = g.nodes[e.a], p2 = g.nodes[e.b], q1 = g.nodes[f.a], q2 = g.nodes[f.b];
-  const double d1 = cross(q1, q2, p1), d2 = cross(q1, q2, p2), d3 = cross(p1, p2, q1), d4 = cross(p1, p2, q2);
+  const double d1 = cross(q1, q2, p1), d2 = cross(q1, q2, p2), d3 = cross(p1, p2, q1),
+               d4 = cross(p1, p2, q2);
   const double eps = 1e-12;
   return ((d1 > eps && d2 < -eps) || (d1 < -eps && d2 > eps)) &&
          ((d3 > eps && d4 < -eps) || (d3 < -eps && d4 > eps));
@@ -81,8 +84,11 @@ TEST_P(EveryPattern, PlanarInsideRegionNoDuplicates) {
   std::size_t on_border = 0;
   for (const auto& p : g.nodes)
     if (!contains(Polygon2{region.outer.size() == 4
-                               ? make_rectangle(a.region.center, a.region.width - 1e-4, a.region.height - 1e-4).outer
-                               : make_circle(a.region.center, a.region.diameter - 1e-3).outer, {}},
+                               ? make_rectangle(a.region.center, a.region.width - 1e-4,
+                                                a.region.height - 1e-4)
+                                     .outer
+                               : make_circle(a.region.center, a.region.diameter - 1e-3).outer,
+                           {}},
                   p.xy(), 0))
       ++on_border;
   EXPECT_GT(on_border, 3u);
@@ -91,14 +97,15 @@ TEST_P(EveryPattern, PlanarInsideRegionNoDuplicates) {
 INSTANTIATE_TEST_SUITE_P(
     Atlas, EveryPattern,
     ::testing::Combine(::testing::Values(Pattern::Honeycomb, Pattern::Voronoi, Pattern::Penrose,
-                                         Pattern::SnubSquare, Pattern::Arrowhead, Pattern::ReentrantHoneycomb,
-                                         Pattern::Square, Pattern::Triangle, Pattern::Lines),
+                                         Pattern::SnubSquare, Pattern::Arrowhead,
+                                         Pattern::ReentrantHoneycomb, Pattern::Square,
+                                         Pattern::Triangle, Pattern::Lines),
                        ::testing::Values(0.0, 37.0), ::testing::Bool()));
 
 TEST(Atlas, InteriorDegreesMatchTheTiling) {
-  const std::map<Pattern, int> expected = {{Pattern::Honeycomb, 3},  {Pattern::SnubSquare, 5},
-                                           {Pattern::Square, 4},     {Pattern::Triangle, 6},
-                                           {Pattern::Arrowhead, 4},  {Pattern::ReentrantHoneycomb, 3}};
+  const std::map<Pattern, int> expected = {
+      {Pattern::Honeycomb, 3}, {Pattern::SnubSquare, 5}, {Pattern::Square, 4},
+      {Pattern::Triangle, 6},  {Pattern::Arrowhead, 4},  {Pattern::ReentrantHoneycomb, 3}};
   for (auto [pattern, deg] : expected) {
     AtlasParams a = params(pattern);
     a.region.width = a.region.height = 12;
@@ -107,7 +114,8 @@ TEST(Atlas, InteriorDegreesMatchTheTiling) {
     std::map<int, int> hist;
     for (NodeId n = 0; n < g.nodes.size(); ++n) {
       const Vec3 p = g.nodes[n];
-      if (std::abs(p.x - a.region.center.x) < 3 && std::abs(p.y - a.region.center.y) < 3) ++hist[d[n]];
+      if (std::abs(p.x - a.region.center.x) < 3 && std::abs(p.y - a.region.center.y) < 3)
+        ++hist[d[n]];
     }
     ASSERT_EQ(hist.size(), 1u) << to_string(pattern) << " has mixed interior degrees";
     EXPECT_EQ(hist.begin()->first, deg) << to_string(pattern);

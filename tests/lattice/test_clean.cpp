@@ -28,7 +28,8 @@ TEST(Clean, DropsSelfLoopsZeroLengthAndDuplicatesWithWarnings) {
   EXPECT_EQ(d.count("self_loop"), 1u);
   EXPECT_EQ(d.count("zero_length_edge"), 1u);
   bool named = false;
-  for (const auto& m : d.messages()) named |= m.text.find("e1: duplicate of e0") != std::string::npos;
+  for (const auto& m : d.messages())
+    named |= m.text.find("e1: duplicate of e0") != std::string::npos;
   EXPECT_TRUE(named);
 }
 
@@ -49,7 +50,8 @@ TEST(Clean, SplitsTJunctionsAndOverlaps) {
 TEST(Graph, LowerBoundPerComponent) {
   Graph g;
   // Component 1: a triangle (no odd nodes) -> 1. Component 2: a star with 3 leaves (4 odd) -> 2.
-  g.nodes = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {5, 5, 0}, {6, 5, 0}, {5, 6, 0}, {4, 5, 0}, {9, 9, 0}};
+  g.nodes = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {5, 5, 0},
+             {6, 5, 0}, {5, 6, 0}, {4, 5, 0}, {9, 9, 0}};
   g.edges = {{0, 1}, {1, 2}, {2, 0}, {3, 4}, {3, 5}, {3, 6}};
   EXPECT_EQ(lower_bound_paths(g), 3u);
   int n = 0;

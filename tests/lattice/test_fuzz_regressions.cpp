@@ -12,7 +12,8 @@ using namespace trellis;
 
 TEST(FuzzRegressions, EveryParserSurvivesEveryCrashInput) {
   std::size_t n = 0;
-  for (const auto& f : std::filesystem::directory_iterator(std::string(TRELLIS_TEST_DATA) + "/fuzz_regressions")) {
+  for (const auto& f :
+       std::filesystem::directory_iterator(std::string(TRELLIS_TEST_DATA) + "/fuzz_regressions")) {
     const std::string text = read_file(f.path().string());
     ++n;
     auto survive = [&](auto parse) {

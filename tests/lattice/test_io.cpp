@@ -44,36 +44,54 @@ TEST(LatticeJson, ReadsNodesEdgesMaterialAndDirected) {
   EXPECT_EQ(in.graph.edges[1].material, 2);
   EXPECT_TRUE(in.graph.edges[1].directed);
   const auto arr = parse_lattice_json(
-      R"({"nodes": [[0,0,0],[1,0,0]], "edges": [[0,1]], "material": [3], "directed": [false]})", "t.json");
+      R"({"nodes": [[0,0,0],[1,0,0]], "edges": [[0,1]], "material": [3], "directed": [false]})",
+      "t.json");
   EXPECT_EQ(arr.graph.edges[0].material, 3);
 }
 
 TEST(LatticeJson, BadInputIsAClearError) {
   expect_parse_error([] { parse_lattice_json("", "e.json"); }, 1, "invalid JSON");
-  expect_parse_error([] { parse_lattice_json("{\"nodes\": [[0,0,0]],\n \"edges\": [[0,1]]}", "e.json"); }, 0,
-                     "edges[0]: node index 1 out of range");
-  expect_parse_error([] { parse_lattice_json(R"({"nodes": [[0,"x",0]], "edges": []})", "e.json"); }, 0,
-                     "nodes[0]: expected a number");
-  expect_parse_error([] { parse_lattice_json(R"({"nodes": [[0,0,0],[1,1,1]], "edges": [[0,1]], "colour": 1})", "e.json"); },
-                     0, "unknown key 'colour'");
-  expect_parse_error([] { parse_lattice_json(R"({"nodes": [[0,0,0]], "edges": []})", "e.json"); }, 0, "no edges");
-  expect_parse_error([] { parse_lattice_json(R"({"nodes": [[0,0]], "edges": [[0,-1]]})", "e.json"); }, 0, "out of range");
-  expect_parse_error([] { parse_lattice_json(R"({"nodes": [[0,0],[1,1]], "edges": [[0,1]], "material": [1,2]})", "e.json"); },
-                     0, "one value per edge");
+  expect_parse_error(
+      [] { parse_lattice_json("{\"nodes\": [[0,0,0]],\n \"edges\": [[0,1]]}", "e.json"); }, 0,
+      "edges[0]: node index 1 out of range");
+  expect_parse_error([] { parse_lattice_json(R"({"nodes": [[0,"x",0]], "edges": []})", "e.json"); },
+                     0, "nodes[0]: expected a number");
+  expect_parse_error(
+      [] {
+        parse_lattice_json(R"({"nodes": [[0,0,0],[1,1,1]], "edges": [[0,1]], "colour": 1})",
+                           "e.json");
+      },
+      0, "unknown key 'colour'");
+  expect_parse_error([] { parse_lattice_json(R"({"nodes": [[0,0,0]], "edges": []})", "e.json"); },
+                     0, "no edges");
+  expect_parse_error(
+      [] { parse_lattice_json(R"({"nodes": [[0,0]], "edges": [[0,-1]]})", "e.json"); }, 0,
+      "out of range");
+  expect_parse_error(
+      [] {
+        parse_lattice_json(R"({"nodes": [[0,0],[1,1]], "edges": [[0,1]], "material": [1,2]})",
+                           "e.json");
+      },
+      0, "one value per edge");
 }
 
 TEST(SegmentsCsv, ReadsWithHeaderCommentsAnd2D) {
-  const auto in = parse_segments_csv("x1,y1,z1,x2,y2,z2\n0,0,0,1,0,0\n# note\n\n1,0,0, 1,1,0\n", "s.csv");
+  const auto in =
+      parse_segments_csv("x1,y1,z1,x2,y2,z2\n0,0,0,1,0,0\n# note\n\n1,0,0, 1,1,0\n", "s.csv");
   EXPECT_EQ(in.graph.edges.size(), 2u);
   EXPECT_EQ(in.edge_where[1], "s.csv:5");
   EXPECT_EQ(parse_segments_csv("0,0,1,1\n", "s.csv").graph.nodes[1].x, 1.0);
 }
 
 TEST(SegmentsCsv, BadLinesNameTheLine) {
-  expect_parse_error([] { parse_segments_csv("0,0,0,1,0,0\n0,0,0,1,0\n", "s.csv"); }, 2, "got 5 field");
-  expect_parse_error([] { parse_segments_csv("0,0,0,1,0,0\n0,0,0,1,abc,0\n", "s.csv"); }, 2, "column 5");
-  expect_parse_error([] { parse_segments_csv("0,0,0,nan,0,0\n", "s.csv"); }, 1, "not a finite number");
-  expect_parse_error([] { parse_segments_csv("0,0,0,1e999,0,0\n", "s.csv"); }, 1, "not a finite number");
+  expect_parse_error([] { parse_segments_csv("0,0,0,1,0,0\n0,0,0,1,0\n", "s.csv"); }, 2,
+                     "got 5 field");
+  expect_parse_error([] { parse_segments_csv("0,0,0,1,0,0\n0,0,0,1,abc,0\n", "s.csv"); }, 2,
+                     "column 5");
+  expect_parse_error([] { parse_segments_csv("0,0,0,nan,0,0\n", "s.csv"); }, 1,
+                     "not a finite number");
+  expect_parse_error([] { parse_segments_csv("0,0,0,1e999,0,0\n", "s.csv"); }, 1,
+                     "not a finite number");
   expect_parse_error([] { parse_segments_csv("", "s.csv"); }, 0, "no edges");
   expect_parse_error([] { parse_segments_csv("\n\n# only comments\n", "s.csv"); }, 0, "no edges");
 }
@@ -91,19 +109,23 @@ TEST(AeroPair, ReadsTheSharedOctetAndFindsTheOtherFile) {
 TEST(AeroPair, BadIndicesAndMissingPartner) {
   expect_parse_error([] { parse_aero_pair("0,0,0\n1,0,0\n", "v.csv", "0,1\n1,2\n", "e.csv"); }, 2,
                      "node index 2 out of range");
-  expect_parse_error([] { parse_aero_pair("0,0,0\n1,0\n1,1,1,1\n", "v.csv", "0,1\n", "e.csv"); }, 3, "expected x,y,z");
-  expect_parse_error([] { parse_aero_pair("0,0,0\n1,0,0\n", "v.csv", "0,1.5\n", "e.csv"); }, 1, "not an integer");
+  expect_parse_error([] { parse_aero_pair("0,0,0\n1,0\n1,1,1,1\n", "v.csv", "0,1\n", "e.csv"); }, 3,
+                     "expected x,y,z");
+  expect_parse_error([] { parse_aero_pair("0,0,0\n1,0,0\n", "v.csv", "0,1.5\n", "e.csv"); }, 1,
+                     "not an integer");
   const auto lonely = temp_file("lonely_vertices.csv", "0,0,0\n");
   Diagnostics diag;
   EXPECT_THROW(read_lattice(lonely, {}, diag), IoError);
 }
 
 TEST(ObjLines, ReadsPolylinesAndNegativeIndices) {
-  const auto in = parse_obj_lines("# obj\nv 0 0 0\nv 1 0 0\nv 1 1 0\nl 1 2 3\nl -1 -3\nf 1 2 3\n", "l.obj");
+  const auto in =
+      parse_obj_lines("# obj\nv 0 0 0\nv 1 0 0\nv 1 1 0\nl 1 2 3\nl -1 -3\nf 1 2 3\n", "l.obj");
   EXPECT_EQ(in.graph.edges.size(), 3u);
   EXPECT_EQ(in.graph.edges[2].a, 2u);
   EXPECT_EQ(in.graph.edges[2].b, 0u);
-  expect_parse_error([] { parse_obj_lines("v 0 0 0\nv 1 0 0\nl 1 5\n", "l.obj"); }, 3, "out of range");
+  expect_parse_error([] { parse_obj_lines("v 0 0 0\nv 1 0 0\nl 1 5\n", "l.obj"); }, 3,
+                     "out of range");
   expect_parse_error([] { parse_obj_lines("v 0 0\n", "l.obj"); }, 1, "needs x y z");
   expect_parse_error([] { parse_obj_lines("v 0 0 0\nl 1 x\n", "l.obj"); }, 2, "not a vertex index");
 }

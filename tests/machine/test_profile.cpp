@@ -19,7 +19,8 @@ void expect_setting_error(const std::string& toml, long line, const std::string&
 }  // namespace
 
 TEST(Profile, ReadsSettingsOverDefaults) {
-  const auto p = profile_from_toml("[extrusion]\nnozzle_diameter = 0.2\nrelative_e = true\n[speed]\nprint = 15\n", "p.toml");
+  const auto p = profile_from_toml(
+      "[extrusion]\nnozzle_diameter = 0.2\nrelative_e = true\n[speed]\nprint = 15\n", "p.toml");
   EXPECT_DOUBLE_EQ(p.nozzle_diameter, 0.2);
   EXPECT_TRUE(p.relative_e);
   EXPECT_DOUBLE_EQ(p.print_speed, 15);
@@ -27,7 +28,8 @@ TEST(Profile, ReadsSettingsOverDefaults) {
 }
 
 TEST(Profile, UnknownKeysWrongTypesAndRangesNameFileAndLine) {
-  expect_setting_error("[extrusion]\nnozzle_diameter = 0.2\nnozle = 3\n", 3, "extrusion.nozle: unknown setting");
+  expect_setting_error("[extrusion]\nnozzle_diameter = 0.2\nnozle = 3\n", 3,
+                       "extrusion.nozle: unknown setting");
   expect_setting_error("[speed]\n\nprint = \"fast\"\n", 3, "expected a number");
   expect_setting_error("[speed]\nprint = -1\n", 2, "out of range");
   expect_setting_error("[speed]\nshort_path_segments = 2.5\n", 2, "expected an integer");

@@ -58,8 +58,8 @@ void expect_exact_deposition(const Graph& g, const test::Replay& r, double layer
   std::size_t off = 0;
   for (const auto& d : r.deposits) {
     const long a = nearest(d.x0, d.y0, d.z0), b = nearest(d.x1, d.y1, d.z1);
-    auto it = a < 0 || b < 0 ? count.end()
-                             : count.find({std::min<NodeId>(a, b), std::max<NodeId>(a, b)});
+    auto it =
+        a < 0 || b < 0 ? count.end() : count.find({std::min<NodeId>(a, b), std::max<NodeId>(a, b)});
     if (it == count.end()) {
       ++off;
       continue;
@@ -109,7 +109,8 @@ TEST(Writer, RelativeAndAbsoluteEDepositTheSame) {
   const auto a = test::replay_gcode(write_gcode(plan.toolpath, abs_p));
   const auto b = test::replay_gcode(write_gcode(plan.toolpath, rel_p));
   ASSERT_EQ(a.deposits.size(), b.deposits.size());
-  for (std::size_t i = 0; i < a.deposits.size(); ++i) EXPECT_NEAR(a.deposits[i].e, b.deposits[i].e, 2e-5);
+  for (std::size_t i = 0; i < a.deposits.size(); ++i)
+    EXPECT_NEAR(a.deposits[i].e, b.deposits[i].e, 2e-5);
 }
 
 TEST(Writer, ShortPathsSlowDownAndRetractionHappens) {
@@ -124,7 +125,7 @@ TEST(Writer, ShortPathsSlowDownAndRetractionHappens) {
   const std::string g = write_gcode(tp, p, &s);
   EXPECT_NE(g.find("F600"), std::string::npos);  // 10 mm/s
   EXPECT_NE(g.find("F360"), std::string::npos);  // 0.6 x 10 mm/s for the 1-segment path
-  EXPECT_EQ(s.retractions, 2u);  // before the travel and at the end
+  EXPECT_EQ(s.retractions, 2u);                  // before the travel and at the end
   EXPECT_EQ(s.travel_moves, 1u);
   EXPECT_NE(g.find("; setting extrusion.nozzle_diameter = 0.2"), std::string::npos);
 }
@@ -165,7 +166,8 @@ TEST(WriterProperty, EveryStrutExactlyOnceNothingOffTheLattice) {
     designs.emplace_back(name, make_lattice2d(a));
   }
   for (std::uint64_t seed = 1; seed <= 12; ++seed)
-    designs.emplace_back("random planar " + std::to_string(seed), test::random_planar_graph(seed, 7, 6, 0.7));
+    designs.emplace_back("random planar " + std::to_string(seed),
+                         test::random_planar_graph(seed, 7, 6, 0.7));
   // Two layers stacked: each planned on its own.
   {
     AtlasParams a;

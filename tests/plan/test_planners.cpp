@@ -34,7 +34,10 @@ Reference reference_gippo(const Graph& g, bool max_mode, std::uint64_t seed, int
       EdgeId best = UINT32_MAX;
       for (EdgeId e = 0; e < g.edges.size(); ++e) {
         if (used[e] || (g.edges[e].a != v && g.edges[e].b != v)) continue;
-        if (best == UINT32_MAX) { best = e; continue; }
+        if (best == UINT32_MAX) {
+          best = e;
+          continue;
+        }
         const double le = g.edge_length(e), lb = g.edge_length(best);
         if (max_mode ? le > lb : le < lb) best = e;
       }
@@ -55,13 +58,16 @@ Reference reference_gippo(const Graph& g, bool max_mode, std::uint64_t seed, int
         if (ef == UINT32_MAX && eb == UINT32_MAX) break;
         bool use_back = ef == UINT32_MAX;
         if (!use_back && eb != UINT32_MAX)
-          use_back = max_mode ? g.edge_length(eb) > g.edge_length(ef) : g.edge_length(eb) < g.edge_length(ef);
+          use_back = max_mode ? g.edge_length(eb) > g.edge_length(ef)
+                              : g.edge_length(eb) < g.edge_length(ef);
         const EdgeId e = use_back ? eb : ef;
         used[e] = true;
         len += g.edge_length(e);
         ++edges;
-        if (use_back) back = g.edges[e].other(back);
-        else front = g.edges[e].other(front);
+        if (use_back)
+          back = g.edges[e].other(back);
+        else
+          front = g.edges[e].other(front);
       }
       weighted += len * static_cast<double>(edges);
       ++paths;
@@ -128,8 +134,9 @@ TEST(Gippo, EveryIterationCoversEveryEdgeOnce) {
 
 TEST(Gippo, BestScoreMatchesAnIndependentImplementation) {
   for (std::uint64_t seed = 1; seed <= 12; ++seed) {
-    const Graph g = seed % 3 == 0 ? honeycomb(5) : seed % 3 == 1 ? random_planar_graph(seed, 6, 5)
-                                                                 : random_graph(seed, 15, 30);
+    const Graph g = seed % 3 == 0   ? honeycomb(5)
+                    : seed % 3 == 1 ? random_planar_graph(seed, 6, 5)
+                                    : random_graph(seed, 15, 30);
     for (bool max_mode : {true, false}) {
       GippoParams p;
       p.mode = max_mode ? GippoMode::Max : GippoMode::Min;
@@ -137,7 +144,8 @@ TEST(Gippo, BestScoreMatchesAnIndependentImplementation) {
       p.seed = seed;
       const GippoResult r = plan_gippo(g, p);
       const Reference ref = reference_gippo(g, max_mode, seed, p.iterations);
-      ASSERT_DOUBLE_EQ(*std::max_element(r.scores.begin(), r.scores.end()), ref.best) << "seed " << seed;
+      ASSERT_DOUBLE_EQ(*std::max_element(r.scores.begin(), r.scores.end()), ref.best)
+          << "seed " << seed;
       EXPECT_EQ(r.best_iteration, ref.best_k) << "seed " << seed;
       EXPECT_EQ(r.best.trails.size(), ref.best_paths);
       EXPECT_DOUBLE_EQ(gippo_score(r.best), ref.best);
@@ -177,8 +185,8 @@ TEST(Gippo, MetricsFollowThePaperEquations) {
   s.trails.push_back({{5, 6}, {4}, 2.0});
   const PathMetrics m = path_metrics(g, s);
   EXPECT_DOUBLE_EQ(m.score, (4.0 * 4 + 2.0 * 1) / (6.0 * 2));  // Eq. 1
-  EXPECT_DOUBLE_EQ(m.lts, 100 * 4.0 / 6.0);                  // Eq. 2: one long path (5 nodes)
-  EXPECT_DOUBLE_EQ(m.oe, 100 * (4.0 * 4) / (6.0 * 5));       // Eq. 3
+  EXPECT_DOUBLE_EQ(m.lts, 100 * 4.0 / 6.0);                    // Eq. 2: one long path (5 nodes)
+  EXPECT_DOUBLE_EQ(m.oe, 100 * (4.0 * 4) / (6.0 * 5));         // Eq. 3
   EXPECT_EQ(m.lower_bound_paths, 2u);
   EXPECT_EQ(m.medium_paths, 1u);
   EXPECT_EQ(m.short_paths, 1u);

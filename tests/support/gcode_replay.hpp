@@ -52,10 +52,14 @@ inline Replay replay_gcode(const std::string& text, const std::string& valve_on 
         has_e = true;
       }
     }
-    if (cmd == "G90") abs_pos = true;
-    else if (cmd == "G91") abs_pos = false;
-    else if (cmd == "M82") abs_e = true;
-    else if (cmd == "M83") abs_e = false;
+    if (cmd == "G90")
+      abs_pos = true;
+    else if (cmd == "G91")
+      abs_pos = false;
+    else if (cmd == "M82")
+      abs_e = true;
+    else if (cmd == "M83")
+      abs_e = false;
     else if (cmd == "G92") {
       if (has_e) e = ne;
       continue;

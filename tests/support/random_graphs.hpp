@@ -13,15 +13,18 @@ inline Graph random_planar_graph(std::uint64_t seed, int nx = 8, int ny = 8, dou
   Graph g;
   for (int j = 0; j < ny; ++j)
     for (int i = 0; i < nx; ++i)
-      g.nodes.push_back({i * 1.0 + 0.3 * (rng.uniform01() - 0.5), j * 1.0 + 0.3 * (rng.uniform01() - 0.5), 0});
+      g.nodes.push_back(
+          {i * 1.0 + 0.3 * (rng.uniform01() - 0.5), j * 1.0 + 0.3 * (rng.uniform01() - 0.5), 0});
   auto id = [&](int i, int j) { return static_cast<NodeId>(j * nx + i); };
   for (int j = 0; j < ny; ++j)
     for (int i = 0; i < nx; ++i) {
       if (i + 1 < nx && rng.uniform01() < keep) g.edges.push_back({id(i, j), id(i + 1, j)});
       if (j + 1 < ny && rng.uniform01() < keep) g.edges.push_back({id(i, j), id(i, j + 1)});
       if (i + 1 < nx && j + 1 < ny && rng.uniform01() < keep * 0.6) {
-        if (rng.uniform01() < 0.5) g.edges.push_back({id(i, j), id(i + 1, j + 1)});
-        else g.edges.push_back({id(i + 1, j), id(i, j + 1)});
+        if (rng.uniform01() < 0.5)
+          g.edges.push_back({id(i, j), id(i + 1, j + 1)});
+        else
+          g.edges.push_back({id(i + 1, j), id(i, j + 1)});
       }
     }
   if (g.edges.empty()) g.edges.push_back({0, 1});
@@ -35,7 +38,8 @@ inline Graph random_graph(std::uint64_t seed, int n, int m) {
   for (int i = 0; i < n; ++i) g.nodes.push_back({rng.uniform01() * 10, rng.uniform01() * 10, 0});
   std::set<std::pair<NodeId, NodeId>> seen;
   for (int k = 0; k < m * 4 && static_cast<int>(g.edges.size()) < m; ++k) {
-    auto a = static_cast<NodeId>(rng.uniform_index(n)), b = static_cast<NodeId>(rng.uniform_index(n));
+    auto a = static_cast<NodeId>(rng.uniform_index(n)),
+         b = static_cast<NodeId>(rng.uniform_index(n));
     if (a == b || !seen.insert({std::min(a, b), std::max(a, b)}).second) continue;
     g.edges.push_back({a, b});
   }

@@ -51,10 +51,12 @@ TEST(ToolpathJson, BadInputNamesTheElement) {
   EXPECT_THROW(toolpath_from_json("{\"format\":\"other\"}", "x.json"), ParseError);
   try {
     toolpath_from_json(R"({"format":"trellis.toolpath","version":1,"layers":[{"z":0,"paths":[
-        {"points":[[0,0,0],[1,"a",0]]}]}]})", "x.json");
+        {"points":[[0,0,0],[1,"a",0]]}]}]})",
+                       "x.json");
     FAIL();
   } catch (const ParseError& e) {
-    EXPECT_NE(std::string(e.what()).find("layers[0].paths[0].points[1]"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("layers[0].paths[0].points[1]"), std::string::npos)
+        << e.what();
   }
   try {
     toolpath_from_json("{\n\"format\": \n\"trellis.toolpath\",\n oops}", "x.json");

@@ -23,10 +23,18 @@ struct Vec3 {
   Vec2 xy() const { return {x, y}; }
 };
 
-inline double dot(Vec3 a, Vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
-inline double norm(Vec3 a) { return std::sqrt(dot(a, a)); }
-inline double distance(Vec3 a, Vec3 b) { return norm(a - b); }
-inline double distance_xy(Vec3 a, Vec3 b) { return std::hypot(a.x - b.x, a.y - b.y); }
+inline double dot(Vec3 a, Vec3 b) {
+  return a.x * b.x + a.y * b.y + a.z * b.z;
+}
+inline double norm(Vec3 a) {
+  return std::sqrt(dot(a, a));
+}
+inline double distance(Vec3 a, Vec3 b) {
+  return norm(a - b);
+}
+inline double distance_xy(Vec3 a, Vec3 b) {
+  return std::hypot(a.x - b.x, a.y - b.y);
+}
 inline bool is_finite(Vec3 a) {
   return std::isfinite(a.x) && std::isfinite(a.y) && std::isfinite(a.z);
 }

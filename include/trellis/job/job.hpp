@@ -25,9 +25,9 @@ namespace trellis {
 struct Job {
   std::string name = "job";
   std::string output_dir = "out";
-  std::string machine;                  // resolved path to a profile; empty = defaults
-  std::vector<std::string> overrides;   // "section.key=value"
-  std::string lattice_file;             // resolved path; empty = atlas
+  std::string machine;                 // resolved path to a profile; empty = defaults
+  std::vector<std::string> overrides;  // "section.key=value"
+  std::string lattice_file;            // resolved path; empty = atlas
   AtlasParams atlas;
   int layer_count = 1;
   double layer_rotation_deg = 0;

@@ -40,21 +40,21 @@ struct Region {
 
 struct AtlasParams {
   Pattern pattern = Pattern::Honeycomb;
-  double cell_size = 1.0;        // pattern length scale (mm), see Pattern
-  double strand_distance = 0;    // Square/Triangle/Lines spacing (mm); 0 = cell_size
-  double rotation_deg = 0;       // pattern rotation about the region centre
-  double voronoi_density = 1.0;  // Voronoi seeds per mm²
-  double reentrant_angle_deg = 30;   // ReentrantHoneycomb strut angle below horizontal
-  double arrowhead_outer_deg = 60;   // Arrowhead outer chevron angle
-  double arrowhead_inner_deg = 30;   // Arrowhead inner chevron angle
-  std::uint64_t seed = 1;            // Voronoi seeds
+  double cell_size = 1.0;           // pattern length scale (mm), see Pattern
+  double strand_distance = 0;       // Square/Triangle/Lines spacing (mm); 0 = cell_size
+  double rotation_deg = 0;          // pattern rotation about the region centre
+  double voronoi_density = 1.0;     // Voronoi seeds per mm²
+  double reentrant_angle_deg = 30;  // ReentrantHoneycomb strut angle below horizontal
+  double arrowhead_outer_deg = 60;  // Arrowhead outer chevron angle
+  double arrowhead_inner_deg = 30;  // Arrowhead inner chevron angle
+  std::uint64_t seed = 1;           // Voronoi seeds
   Region region;
-  double z = 0;                      // height of the lattice plane (mm)
-  bool contour = false;              // add the region outline as struts
-  bool handles = false;              // tensile handles at the -x and +x ends (rectangle only)
-  double handle_length = 3;          // along x (mm)
-  double handle_width = 10;          // along y (mm), centred
-  double handle_spacing = 0.4;       // fill strands inside each handle (mm)
+  double z = 0;                 // height of the lattice plane (mm)
+  bool contour = false;         // add the region outline as struts
+  bool handles = false;         // tensile handles at the -x and +x ends (rectangle only)
+  double handle_length = 3;     // along x (mm)
+  double handle_width = 10;     // along y (mm), centred
+  double handle_spacing = 0.4;  // fill strands inside each handle (mm)
   // Nodes closer than this merge (mm), so no strut is shorter: crops and Voronoi vertices can
   // otherwise make struts of a few nanometres that no printer can resolve.
   double min_feature = 0.005;

@@ -59,9 +59,9 @@ struct CleanOptions {
 };
 
 // Merges coincident nodes (throws GeometryError for coordinates beyond kMaxCoordinate or a
-// tolerance that is negative or not finite), splits T-junctions, drops self-loops, zero-length and duplicate
-// edges; each drop or split is counted in `diag`. `edge_where` (optional, parallel to edges)
-// names where each input edge came from, for the warnings. Node order of first occurrence is
+// tolerance that is negative or not finite), splits T-junctions, drops self-loops, zero-length and
+// duplicate edges; each drop or split is counted in `diag`. `edge_where` (optional, parallel to
+// edges) names where each input edge came from, for the warnings. Node order of first occurrence is
 // kept; nodes merged into an earlier one disappear.
 Graph clean_graph(const Graph& input, const CleanOptions& options, Diagnostics& diag,
                   const std::vector<std::string>& edge_where = {});

@@ -16,10 +16,10 @@ struct GcodeStats {
   std::size_t paths = 0;
   std::size_t travel_moves = 0;
   std::size_t retractions = 0;
-  double travel_length = 0;   // mm
-  double print_length = 0;    // mm
-  double filament = 0;        // mm of filament (marlin)
-  double print_time_s = 0;    // feed-rate estimate, no acceleration
+  double travel_length = 0;  // mm
+  double print_length = 0;   // mm
+  double filament = 0;       // mm of filament (marlin)
+  double print_time_s = 0;   // feed-rate estimate, no acceleration
 };
 
 // E for a segment of `length` mm printed at layer thickness `layer` (Eq. 4).

@@ -13,47 +13,47 @@ enum class Flavor { Marlin, Pneumatic };
 struct MachineProfile {
   // [machine]
   std::string name = "generic Marlin FDM";
-  std::string flavor = "marlin";       // marlin | pneumatic
-  double bed_x = 220, bed_y = 220;     // bed size (mm), for centring
+  std::string flavor = "marlin";    // marlin | pneumatic
+  double bed_x = 220, bed_y = 220;  // bed size (mm), for centring
   // [placement]
-  bool center = false;                 // move the part's XY centre to the bed centre
-  double offset_x = 0, offset_y = 0;   // added after centring (mm)
+  bool center = false;                // move the part's XY centre to the bed centre
+  double offset_x = 0, offset_y = 0;  // added after centring (mm)
   // [extrusion] (Eq. 4: E = k·4·L·LT·EM·d_n / (π·f_d²))
-  double nozzle_diameter = 0.4;        // d_n (mm)
-  double filament_diameter = 1.75;     // f_d (mm)
-  double layer_height = 0.2;           // LT when a path has no height (mm)
-  double extrusion_multiplier = 1.0;   // EM
-  double k = 1.0;                      // k, bead shape correction
-  bool relative_e = false;             // M83 instead of M82
+  double nozzle_diameter = 0.4;       // d_n (mm)
+  double filament_diameter = 1.75;    // f_d (mm)
+  double layer_height = 0.2;          // LT when a path has no height (mm)
+  double extrusion_multiplier = 1.0;  // EM
+  double k = 1.0;                     // k, bead shape correction
+  bool relative_e = false;            // M83 instead of M82
   // [speed] (mm/s)
   double print_speed = 20;
   double travel_speed = 100;
   double z_speed = 10;
-  double short_path_factor = 0.6;      // speed factor for paths under short_path_segments
+  double short_path_factor = 0.6;  // speed factor for paths under short_path_segments
   int short_path_segments = 4;
   // [temperature] (°C, 0 = leave unset) and fan (%)
   double nozzle_temperature = 0;
   double bed_temperature = 0;
   double fan_percent = 0;
   // [retraction]
-  double retract_length = 0;           // filament (mm)
-  double retract_speed = 30;           // mm/s
-  double z_hop = 0;                    // lift during travel (mm)
-  double min_travel = 0.5;             // travel shorter than this: no retract / hop (mm)
+  double retract_length = 0;  // filament (mm)
+  double retract_speed = 30;  // mm/s
+  double z_hop = 0;           // lift during travel (mm)
+  double min_travel = 0.5;    // travel shorter than this: no retract / hop (mm)
   // [flow]
-  double pre_flow = 0;                 // extra filament primed at each path start (mm)
-  double post_flow = 0;                // extra filament pushed at each path end (mm)
-  double pre_flow_dwell = 0;           // dwell after opening / priming (s)
-  double post_flow_dwell = 0;          // dwell before closing (s)
+  double pre_flow = 0;         // extra filament primed at each path start (mm)
+  double post_flow = 0;        // extra filament pushed at each path end (mm)
+  double pre_flow_dwell = 0;   // dwell after opening / priming (s)
+  double post_flow_dwell = 0;  // dwell before closing (s)
   // [pneumatic]
-  double pressure = 0;                 // kPa, sent with pressure_command per path
-  std::string pressure_command;        // e.g. "M42 P{pressure}"; empty = none
-  std::string valve_on = "M106";       // opens the valve
-  std::string valve_off = "M107";      // closes the valve
+  double pressure = 0;             // kPa, sent with pressure_command per path
+  std::string pressure_command;    // e.g. "M42 P{pressure}"; empty = none
+  std::string valve_on = "M106";   // opens the valve
+  std::string valve_off = "M107";  // closes the valve
   // [gcode] templates; {key} is replaced by that setting's value, e.g. {nozzle_temperature}
   std::string start_gcode = "G28";
   std::string end_gcode = "M84";
-  std::string file_extension = "";     // default output extension: "" = by flavor
+  std::string file_extension = "";  // default output extension: "" = by flavor
 
   Flavor parsed_flavor() const;
 };
@@ -64,7 +64,7 @@ struct SettingDecl {
   const char* key;   // TOML key "section.name"
   const char* unit;  // "mm", "mm/s", "" ...
   const char* doc;
-  double min, max;   // numeric range (inclusive)
+  double min, max;  // numeric range (inclusive)
   std::variant<double MachineProfile::*, int MachineProfile::*, bool MachineProfile::*,
                std::string MachineProfile::*>
       member;

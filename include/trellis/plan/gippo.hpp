@@ -29,11 +29,11 @@ struct GippoParams {
 };
 
 struct GippoResult {
-  PathSet best;                 // in generation order (not yet sorted)
-  std::vector<double> scores;   // score of every iteration, in iteration order
+  PathSet best;                // in generation order (not yet sorted)
+  std::vector<double> scores;  // score of every iteration, in iteration order
   std::size_t best_iteration = 0;
   std::size_t worst_iteration = 0;
-  PathSet worst;                // lowest-score solution (for OE comparison)
+  PathSet worst;  // lowest-score solution (for OE comparison)
 };
 
 GippoResult plan_gippo(const Graph& g, const GippoParams& params);

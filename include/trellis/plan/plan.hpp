@@ -18,11 +18,11 @@ std::string to_string(Planner p);
 
 struct PlanParams {
   Planner planner = Planner::Gippo;
-  GippoParams gippo;                        // used by the gippo planner
+  GippoParams gippo;  // used by the gippo planner
   PathOrder order = PathOrder::LongestFirst;
-  double layer_height = 0.148;              // bead height (mm); nozzle z = design z + this
-  std::size_t long_path_nodes = 5;          // LTS/OE threshold (paper: 5 nodes)
-  double level_tolerance = 1e-6;            // edges within this z span are planar (mm)
+  double layer_height = 0.148;      // bead height (mm); nozzle z = design z + this
+  std::size_t long_path_nodes = 5;  // LTS/OE threshold (paper: 5 nodes)
+  double level_tolerance = 1e-6;    // edges within this z span are planar (mm)
 };
 
 struct LayerReport {
@@ -30,8 +30,8 @@ struct LayerReport {
   int material = 0;
   std::size_t edges = 0;
   PathMetrics metrics;
-  PathMetrics worst;             // gippo: lowest-score iteration
-  std::vector<double> scores;    // gippo: every iteration
+  PathMetrics worst;           // gippo: lowest-score iteration
+  std::vector<double> scores;  // gippo: every iteration
   std::size_t best_iteration = 0;
 };
 

@@ -9,7 +9,7 @@
 namespace trellis {
 
 struct ReportContext {
-  std::string input;          // lattice file or generator
+  std::string input;  // lattice file or generator
   std::size_t nodes = 0, edges = 0;
   double runtime_s = 0;
 };

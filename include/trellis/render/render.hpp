@@ -10,11 +10,11 @@
 namespace trellis {
 
 struct RenderOptions {
-  int size_px = 1000;        // longer side of the image
+  int size_px = 1000;  // longer side of the image
   double margin_mm = 1.0;
   bool travel = true;
   bool starts = true;
-  double bead_width = 0;     // line width in mm; 0 = from paths or 0.2
+  double bead_width = 0;  // line width in mm; 0 = from paths or 0.2
 };
 
 // Writes one PNG of `layer` (index into toolpath.layers), atomically.

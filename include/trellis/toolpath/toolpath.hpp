@@ -18,14 +18,14 @@ const char* to_string(PathRole role);
 PathRole path_role_from_string(const std::string& name);  // throws ParseError
 
 struct Path {
-  std::vector<Vec3> points;        // at least 2
+  std::vector<Vec3> points;  // at least 2
   PathRole role = PathRole::Strut;
-  int tool = 0;                    // tool / material index
-  std::vector<double> mixture;     // optional mixing fractions, empty if none
-  double width = 0;                // bead width (mm), 0 = profile default
-  double height = 0;               // bead height (mm), 0 = profile default
-  double speed = 0;                // feed (mm/s), 0 = profile default
-  double power = 0;                // laser power (W), 0 if not a laser path
+  int tool = 0;                 // tool / material index
+  std::vector<double> mixture;  // optional mixing fractions, empty if none
+  double width = 0;             // bead width (mm), 0 = profile default
+  double height = 0;            // bead height (mm), 0 = profile default
+  double speed = 0;             // feed (mm/s), 0 = profile default
+  double power = 0;             // laser power (W), 0 if not a laser path
   std::size_t segments() const { return points.size() < 2 ? 0 : points.size() - 1; }
   double length() const;
 };
