@@ -12,6 +12,7 @@ void add_gcode(CLI::App& app) {
     std::string input, machine, output;
     std::vector<std::string> sets;
     bool help_settings = false;
+    bool center = false;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand(
@@ -22,6 +23,7 @@ void add_gcode(CLI::App& app) {
   cmd->add_option("toolpath", o->input, "toolpath JSON");
   cmd->add_option("--machine", o->machine, "machine profile (TOML)");
   cmd->add_option("-o,--output", o->output, "G-code file to write");
+  cmd->add_flag("--center", o->center, "print at the bed centre (same as --set placement.center=true)");
   cmd->add_option("--set", o->sets, "override a setting: section.key=value (repeatable)");
   cmd->add_flag("--help-settings", o->help_settings, "list every machine setting and exit");
   cmd->callback([o] {
@@ -32,6 +34,7 @@ void add_gcode(CLI::App& app) {
     if (o->input.empty() || o->machine.empty() || o->output.empty())
       throw SettingError("gcode needs TOOLPATH, --machine PROFILE and -o OUT (see --help)");
     MachineProfile profile = load_profile(o->machine);
+    if (o->center) profile.center = true;
     for (const auto& s : o->sets) apply_override(profile, s);
     const Toolpath tp = read_toolpath(o->input);
     const GcodeStats s = write_gcode_file(o->output, tp, profile);

@@ -141,16 +141,18 @@ Job load_job(const std::string& path) {
   s_lat.get("width", a.region.width);
   s_lat.get("height", a.region.height);
   s_lat.get("diameter", a.region.diameter);
-  s_lat.get_point("center", a.region.center);
   s_lat.get("contour", a.contour);
   s_lat.get("handles", a.handles);
   s_lat.get("handle_length", a.handle_length);
   s_lat.get("handle_width", a.handle_width);
+  a.region.center = {std::nan(""), 0};
+  s_lat.get_point("center", a.region.center);
   s_lat.get("handle_spacing", a.handle_spacing);
   s_lat.get("reentrant_angle_deg", a.reentrant_angle_deg);
   s_lat.get("arrowhead_outer_deg", a.arrowhead_outer_deg);
   s_lat.get("arrowhead_inner_deg", a.arrowhead_inner_deg);
   s_lat.finish();
+  if (std::isnan(a.region.center.x)) a.region.center = corner_at_origin(a);
 
   Section s_layers(root["layers"].as_table(), "layers", path);
   s_layers.get("count", job.layer_count);

@@ -258,6 +258,14 @@ Pattern pattern_from_string(const std::string& name) {
   throw SettingError("unknown pattern '" + name + "' (expected one of: " + all + ")");
 }
 
+Vec2 corner_at_origin(const AtlasParams& p) {
+  const Region& r = p.region;
+  if (r.shape == RegionShape::Circle) return {r.diameter / 2, r.diameter / 2};
+  const double hx = r.width / 2 + (p.handles ? p.handle_length : 0);
+  const double hy = std::max(r.height, p.handles ? p.handle_width : 0.0) / 2;
+  return {hx, hy};
+}
+
 Polygon2 Region::polygon() const {
   return shape == RegionShape::Circle ? make_circle(center, diameter)
                                       : make_rectangle(center, width, height);

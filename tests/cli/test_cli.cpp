@@ -84,6 +84,24 @@ TEST(Cli, DocumentedPipelineWorksAsWritten) {
   EXPECT_TRUE(fs::exists(in_work("hc.layer000.png")));
 }
 
+TEST(Cli, PrintedWhereTheCoordinatesSayUnlessCentred) {
+  const std::string lat = in_work("corner.json"), tp = in_work("corner.tp.json");
+  ASSERT_EQ(run("lattice2d --pattern square --cell 1 --width 6 --height 4 -o " + lat).code, 0);
+  ASSERT_EQ(run("plan euler " + lat + " -o " + tp).code, 0);
+  const std::string profile = std::string(TRELLIS_SOURCE_DIR) + "/profiles/ender3_s1_pro_tpu.toml";
+  for (bool centre : {false, true}) {
+    const std::string gc = in_work(centre ? "c.gcode" : "nc.gcode");
+    ASSERT_EQ(run("gcode " + tp + " --machine " + profile + " -o " + gc + (centre ? " --center" : "")).code, 0);
+    double lo = 1e9, hi = -1e9;
+    for (const auto& d : trellis::test::replay_gcode(trellis::read_file(gc)).deposits) {
+      lo = std::min({lo, d.x0, d.x1});
+      hi = std::max({hi, d.x0, d.x1});
+    }
+    EXPECT_NEAR(lo, centre ? 110 - 3 : 0, 1e-9);
+    EXPECT_NEAR(hi, centre ? 110 + 3 : 6, 1e-9);
+  }
+}
+
 TEST(Cli, SameSeedByteIdenticalAcrossThreadCounts) {
   const std::string lat = in_work("v.json");
   ASSERT_EQ(run("lattice2d --pattern voronoi --density 2 --seed 3 -o " + lat).code, 0);

@@ -3,7 +3,8 @@
 //   [job]     name, output_dir, machine (profile path, relative to the job file)
 //   [lattice] file (a lattice file, relative to the job file) or an atlas pattern:
 //             pattern, cell_size, strand_distance, rotation_deg, voronoi_density, seed,
-//             region ("rectangle" | "circle"), width, height, diameter, center = [x, y],
+//             region ("rectangle" | "circle"), width, height, diameter,
+//             center = [x, y] (default: the lattice's lower-left corner at 0,0),
 //             contour, handles, handle_length, handle_width, handle_spacing,
 //             reentrant_angle_deg, arrowhead_outer_deg, arrowhead_inner_deg
 //   [layers]  count, rotation_deg (added per layer), layer_height

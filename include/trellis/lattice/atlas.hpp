@@ -63,6 +63,10 @@ struct AtlasParams {
 // Throws SettingError for parameters out of range.
 Graph make_lattice2d(const AtlasParams& params);
 
+// The region centre that puts the lattice's lower-left corner (handles included) at (0, 0), so a
+// lattice printed where its coordinates say lands on the bed. The CLI's default.
+Vec2 corner_at_origin(const AtlasParams& params);
+
 // Exposed for tests: the pattern's segments in its local frame, covering [-half, half]².
 std::vector<Segment2> pattern_segments(const AtlasParams& params, double half);
 std::vector<Segment2> voronoi_segments(double half, double density, std::uint64_t seed);
