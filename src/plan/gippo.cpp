@@ -20,26 +20,31 @@ namespace {
 // ascending for min), then by edge id. The first unused entry is a node's best candidate, so a
 // per-node cursor that only moves forward finds it in amortised O(1).
 struct SortedAdjacency {
+  // One slot per (node, incident edge), sorted per node; the far node and the length sit beside
+  // the edge id so growing a trail never touches the graph's edge array (fewer cache misses).
+  struct Slot {
+    EdgeId edge;
+    NodeId other;
+    double length;
+  };
   std::vector<std::uint32_t> offsets;
-  std::vector<EdgeId> edges;
-  std::vector<double> length;  // per edge
+  std::vector<Slot> slots;
 
   SortedAdjacency(const Graph& g, GippoMode mode) : offsets(g.nodes.size() + 1, 0) {
-    length.resize(g.edges.size());
-    for (EdgeId e = 0; e < g.edges.size(); ++e) length[e] = g.edge_length(e);
     Adjacency adj(g);
-    edges.reserve(2 * g.edges.size());
+    slots.reserve(2 * g.edges.size());
     for (NodeId n = 0; n < g.nodes.size(); ++n) {
-      offsets[n] = static_cast<std::uint32_t>(edges.size());
-      edges.insert(edges.end(), adj.begin(n), adj.end(n));
-      auto better = [&](EdgeId x, EdgeId y) {
-        if (length[x] != length[y])
-          return mode == GippoMode::Max ? length[x] > length[y] : length[x] < length[y];
-        return x < y;
+      offsets[n] = static_cast<std::uint32_t>(slots.size());
+      for (const EdgeId* e = adj.begin(n); e != adj.end(n); ++e)
+        slots.push_back({*e, g.edges[*e].other(n), g.edge_length(*e)});
+      auto better = [&](const Slot& x, const Slot& y) {
+        if (x.length != y.length)
+          return mode == GippoMode::Max ? x.length > y.length : x.length < y.length;
+        return x.edge < y.edge;
       };
-      std::sort(edges.begin() + offsets[n], edges.end(), better);
+      std::sort(slots.begin() + offsets[n], slots.end(), better);
     }
-    offsets[g.nodes.size()] = static_cast<std::uint32_t>(edges.size());
+    offsets[g.nodes.size()] = static_cast<std::uint32_t>(slots.size());
   }
 };
 
@@ -154,24 +159,22 @@ class Iteration {
       buf_nodes_[mid] = start;
       double len = 0;
       while (true) {
-        const EdgeId ef = best(buf_nodes_[f]);
-        const EdgeId eb = best(buf_nodes_[b]);
-        if (ef == kNone && eb == kNone) break;
-        bool back = ef == kNone;
-        if (!back && eb != kNone)
-          back = mode == GippoMode::Max ? adj_.length[eb] > adj_.length[ef]
-                                        : adj_.length[eb] < adj_.length[ef];
-        const EdgeId e = back ? eb : ef;
-        take(e);
-        len += adj_.length[e];
+        const NodeId vf = buf_nodes_[f], vb = buf_nodes_[b];
+        const Slot* sf = best(vf);
+        const Slot* sb = best(vb);
+        if (!sf && !sb) break;
+        bool back = !sf;
+        if (sf && sb)
+          back = mode == GippoMode::Max ? sb->length > sf->length : sb->length < sf->length;
+        const Slot& s = back ? *sb : *sf;
+        take(s.edge, back ? vb : vf, s.other);
+        len += s.length;
         if (back) {
-          buf_edges_[b] = e;
-          buf_nodes_[b + 1] = g_.edges[e].other(buf_nodes_[b]);
-          ++b;
+          buf_edges_[b] = s.edge;
+          buf_nodes_[++b] = s.other;
         } else {
-          buf_nodes_[f - 1] = g_.edges[e].other(buf_nodes_[f]);
-          buf_edges_[f - 1] = e;
-          --f;
+          buf_nodes_[--f] = s.other;
+          buf_edges_[f] = s.edge;
         }
       }
       out.nodes.insert(out.nodes.end(), buf_nodes_.begin() + f, buf_nodes_.begin() + b + 1);
@@ -187,19 +190,20 @@ class Iteration {
   }
 
  private:
-  static constexpr EdgeId kNone = UINT32_MAX;
+  using Slot = SortedAdjacency::Slot;
 
-  EdgeId best(NodeId v) {
+  // The best unused edge at v, or nullptr.
+  const Slot* best(NodeId v) {
     std::uint32_t& c = cursor_[v];
     const std::uint32_t end = adj_.offsets[v + 1];
-    while (c < end && used_[adj_.edges[c]]) ++c;
-    return c < end ? adj_.edges[c] : kNone;
+    while (c < end && used_[adj_.slots[c].edge]) ++c;
+    return c < end ? &adj_.slots[c] : nullptr;
   }
 
-  void take(EdgeId e) {
+  void take(EdgeId e, NodeId a, NodeId b) {
     used_[e] = 1;
-    for (NodeId v : {g_.edges[e].a, g_.edges[e].b})
-      if (--remaining_[v] == 0) incomplete_.remove(v);
+    if (--remaining_[a] == 0) incomplete_.remove(a);
+    if (--remaining_[b] == 0) incomplete_.remove(b);
   }
 
   const Graph& g_;
