@@ -75,7 +75,7 @@ void add_plan(CLI::App& app) {
     if (!o->report.empty())
       write_file_atomic(
           o->report,
-          plan_report_json(r, p, diag, {o->input, g.nodes.size(), g.edges.size(), secs}));
+          plan_report_json(r, p, diag, {o->input, g.nodes.size(), g.edges.size()}));
     if (!o->png_prefix.empty()) {
       for (std::size_t i = 0; i < r.toolpath.layers.size(); ++i) {
         char name[32];

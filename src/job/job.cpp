@@ -2,7 +2,6 @@
 
 #include <toml++/toml.h>
 
-#include <chrono>
 #include <filesystem>
 #include <set>
 
@@ -226,7 +225,6 @@ Graph job_lattice(const Job& job) {
 }
 
 JobOutputs run_job(const Job& job, Diagnostics& diag, const Progress& progress) {
-  const auto t0 = std::chrono::steady_clock::now();
   MachineProfile profile;
   if (!job.machine.empty()) profile = load_profile(job.machine);
   for (const auto& o : job.overrides) apply_override(profile, o);
@@ -278,8 +276,7 @@ JobOutputs run_job(const Job& job, Diagnostics& diag, const Progress& progress) 
                         job.name + ": GIPPO score per iteration (layer 0)", out.pngs.back());
     }
   }
-  ReportContext ctx{input, lattice.nodes.size(), lattice.edges.size(),
-                    std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count()};
+  const ReportContext ctx{input, lattice.nodes.size(), lattice.edges.size()};
   out.report = (dir / (job.name + ".report.json")).string();
   write_file_atomic(out.report, plan_report_json(out.result, plan, diag, ctx));
   return out;

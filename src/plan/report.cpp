@@ -43,7 +43,6 @@ std::string plan_report_json(const PlanResult& r, const PlanParams& p, const Dia
   j["travel_moves"] = r.travel.moves;
   j["travel_length_mm"] = r.travel.length;
   j["layers_count"] = r.toolpath.layers.size();
-  j["runtime_s"] = ctx.runtime_s;
   ordered_json layers = ordered_json::array();
   for (const auto& l : r.layers) {
     ordered_json jl;

@@ -112,6 +112,11 @@ TEST(Cli, SameSeedByteIdenticalAcrossThreadCounts) {
       run("plan gippo " + lat + " -o " + in_work("v2.json") + " --threads 2 --iterations 80").code,
       0);
   EXPECT_EQ(trellis::read_file(in_work("v1.json")), trellis::read_file(in_work("v2.json")));
+  ASSERT_EQ(run("plan gippo " + lat + " -o " + in_work("v3.json") + " --threads 1 --iterations 80 --report " +
+                in_work("r1.json")).code, 0);
+  ASSERT_EQ(run("plan gippo " + lat + " -o " + in_work("v4.json") + " --threads 2 --iterations 80 --report " +
+                in_work("r2.json")).code, 0);
+  EXPECT_EQ(trellis::read_file(in_work("r1.json")), trellis::read_file(in_work("r2.json")));
 }
 
 TEST(Cli, BadInputExitsTwoWithOneClearMessageAndNoOutput) {

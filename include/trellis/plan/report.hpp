@@ -8,10 +8,10 @@
 
 namespace trellis {
 
+// Reports hold no timings, so the same inputs and seed give byte-identical reports.
 struct ReportContext {
   std::string input;  // lattice file or generator
   std::size_t nodes = 0, edges = 0;
-  double runtime_s = 0;
 };
 
 std::string plan_report_json(const PlanResult& result, const PlanParams& params,
