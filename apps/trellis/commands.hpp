@@ -12,6 +12,8 @@ void add_plan(CLI::App& app);
 void add_gcode(CLI::App& app);
 void add_render(CLI::App& app);
 void add_run(CLI::App& app);
+void add_analyze(CLI::App& app);
+void add_compare(CLI::App& app);
 
 // Progress on stderr when it is a terminal (carriage-return updates), silent otherwise.
 void progress_line(const std::string& stage, double fraction);

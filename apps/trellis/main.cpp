@@ -49,6 +49,8 @@ int main(int argc, char** argv) {
   trellis::cli::add_gcode(app);
   trellis::cli::add_render(app);
   trellis::cli::add_run(app);
+  trellis::cli::add_analyze(app);
+  trellis::cli::add_compare(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

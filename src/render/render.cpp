@@ -108,6 +108,54 @@ void render_layer_png(const Toolpath& tp, std::size_t index, const std::string& 
   save_png(surface.get(), path);
 }
 
+void render_overlay_png(const std::vector<Segment2>& design, const Layer& printed,
+                        const std::vector<Segment2>& red, const std::vector<Segment2>& blue,
+                        double bead, const std::string& path, int size_px) {
+  BBox3 box;
+  for (const auto& s : design) box.add({s.a.x, s.a.y, 0}), box.add({s.b.x, s.b.y, 0});
+  for (const auto& p : printed.paths)
+    for (const auto& q : p.points) box.add({q.x, q.y, 0});
+  if (box.empty()) box.add({0, 0, 0});
+  const double margin = 1.0;
+  const double w = box.max.x - box.min.x + 2 * margin, h = box.max.y - box.min.y + 2 * margin;
+  const double scale = size_px / std::max({w, h, 1e-6});
+  const int W = std::max(16, static_cast<int>(std::ceil(w * scale)));
+  const int H = std::max(16, static_cast<int>(std::ceil(h * scale)));
+  Surface surface(cairo_image_surface_create(CAIRO_FORMAT_RGB24, W, H), cairo_surface_destroy);
+  Context cr(cairo_create(surface.get()), cairo_destroy);
+  cairo_t* c = cr.get();
+  cairo_set_source_rgb(c, 1, 1, 1);
+  cairo_paint(c);
+  cairo_translate(c, 0, H);
+  cairo_scale(c, scale, -scale);
+  cairo_translate(c, -box.min.x + margin, -box.min.y + margin);
+  cairo_set_line_cap(c, CAIRO_LINE_CAP_ROUND);
+  auto stroke = [&](const std::vector<Segment2>& segs, double width) {
+    cairo_set_line_width(c, width);
+    for (const auto& s : segs) {
+      cairo_move_to(c, s.a.x, s.a.y);
+      cairo_line_to(c, s.b.x, s.b.y);
+    }
+    cairo_stroke(c);
+  };
+  cairo_set_source_rgb(c, 0.85, 0.85, 0.85);
+  stroke(design, bead);
+  cairo_set_source_rgb(c, 0.15, 0.15, 0.15);
+  cairo_set_line_width(c, std::max(bead / 4, 1.0 / scale));
+  for (const auto& p : printed.paths) {
+    cairo_move_to(c, p.points[0].x, p.points[0].y);
+    for (std::size_t k = 1; k < p.points.size(); ++k)
+      cairo_line_to(c, p.points[k].x, p.points[k].y);
+    cairo_stroke(c);
+  }
+  cairo_set_source_rgba(c, 0.9, 0.1, 0.1, 0.8);
+  stroke(red, bead);
+  cairo_set_source_rgba(c, 0.1, 0.3, 0.95, 0.8);
+  stroke(blue, bead);
+  cairo_surface_flush(surface.get());
+  save_png(surface.get(), path);
+}
+
 void render_scores_png(const std::vector<double>& scores, std::size_t best,
                        const std::string& title, const std::string& path) {
   const int W = 900, H = 500, L = 70, R = 20, T = 40, B = 50;

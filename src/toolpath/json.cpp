@@ -22,6 +22,7 @@ std::string toolpath_to_json(const Toolpath& tp) {
                  {"height", p.height},        {"speed", p.speed}, {"points", std::move(pts)}};
       if (!p.mixture.empty()) jp["mixture"] = p.mixture;
       if (p.power != 0) jp["power"] = p.power;
+      if (p.filament != 0) jp["filament"] = p.filament;
       paths.push_back(std::move(jp));
     }
     layers.push_back({{"z", layer.z}, {"paths", std::move(paths)}});
@@ -67,6 +68,7 @@ Path parse_path(const json& jp, const std::string& origin, const std::string& el
   p.height = optional_number(jp, "height", origin, el);
   p.speed = optional_number(jp, "speed", origin, el);
   p.power = optional_number(jp, "power", origin, el);
+  p.filament = optional_number(jp, "filament", origin, el);
   if (p.tool < 0 || p.width < 0 || p.height < 0 || p.speed < 0 || p.power < 0)
     throw ParseError("tool, width, height, speed and power must be >= 0", {origin, 0, el});
   if (auto it = jp.find("mixture"); it != jp.end()) {

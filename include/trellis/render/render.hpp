@@ -5,6 +5,7 @@
 #include <string>
 #include <vector>
 
+#include "trellis/geom/polygon.hpp"
 #include "trellis/toolpath/toolpath.hpp"
 
 namespace trellis {
@@ -20,6 +21,12 @@ struct RenderOptions {
 // Writes one PNG of `layer` (index into toolpath.layers), atomically.
 void render_layer_png(const Toolpath& toolpath, std::size_t layer, const std::string& path,
                       const RenderOptions& options = {});
+
+// Analysis picture (paper Fig. 4 ii-iii): design struts light grey, the printed layer as thin
+// dark lines, `red` pieces (deposited twice) and `blue` segments (missing struts) on top.
+void render_overlay_png(const std::vector<Segment2>& design, const Layer& printed,
+                        const std::vector<Segment2>& red, const std::vector<Segment2>& blue,
+                        double bead_width, const std::string& path, int size_px = 1000);
 
 // Scatter of scores per iteration with the best one marked.
 void render_scores_png(const std::vector<double>& scores, std::size_t best_iteration,

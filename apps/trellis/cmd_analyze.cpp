@@ -1,0 +1,122 @@
+#include <filesystem>
+#include <iostream>
+
+#include "commands.hpp"
+#include "trellis/analysis/metrics.hpp"
+#include "trellis/core/error.hpp"
+#include "trellis/core/file.hpp"
+#include "trellis/lattice/io.hpp"
+#include "trellis/render/render.hpp"
+
+namespace trellis::cli {
+
+namespace {
+
+struct AnalyzeOpts {
+  AnalysisParams params;
+  GcodeReadOptions read;
+  std::string design, report, png;
+  std::vector<std::string> files;
+};
+
+void add_common(CLI::App* cmd, AnalyzeOpts& o) {
+  cmd->add_option("--width", o.params.width,
+                  "bead width: deposits within width/2 cover a strut (mm)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  cmd->add_option("--layer-height", o.params.layer_height, "nozzle z = design z + this (mm)")
+      ->capture_default_str();
+  cmd->add_flag("--align", o.params.align_centers,
+                "move the print's XY centre onto the design's (for parts placed on the bed)");
+  cmd->add_option("--valve-on", o.read.valve_on,
+                  "pneumatic files: the command that opens the valve");
+  cmd->add_option("--valve-off", o.read.valve_off,
+                  "pneumatic files: the command that closes the valve");
+  cmd->add_flag("--strict", o.read.stop_on_error,
+                "stop at the first unreadable line (default: warn and skip)");
+  cmd->add_option("--report", o.report, "JSON report to write");
+  cmd->add_option("--png", o.png,
+                  "write PREFIX.<file>.layerNNN.png: doubles red, missing struts blue");
+}
+
+std::vector<Analysis> run(const AnalyzeOpts& o) {
+  Diagnostics diag;
+  Graph design;
+  if (!o.design.empty()) design = read_lattice(o.design, {}, diag);
+  std::vector<Analysis> out;
+  for (const auto& f : o.files) {
+    out.push_back(
+        analyze_gcode_file(f, o.design.empty() ? nullptr : &design, o.params, o.read, diag));
+    if (!o.png.empty() && !o.design.empty()) {
+      const Toolpath& tp = out.back().printed;
+      std::vector<Segment2> dsegs;
+      for (const auto& e : design.edges)
+        dsegs.push_back({design.nodes[e.a].xy(), design.nodes[e.b].xy()});
+      const auto& a = out.back();
+      for (std::size_t i = 0; i < a.layers.size() && i < tp.layers.size(); ++i) {
+        std::vector<Segment2> blue;
+        for (EdgeId e : a.layers[i].missing)
+          blue.push_back(
+              {design.nodes[design.edges[e].a].xy(), design.nodes[design.edges[e].b].xy()});
+        char name[64];
+        std::snprintf(name, sizeof name, ".layer%03zu.png", i);
+        render_overlay_png(dsegs, tp.layers[i], a.layers[i].doubles, blue, o.params.width,
+                           o.png + "." + std::filesystem::path(f).stem().string() + name);
+      }
+    }
+  }
+  print_warnings(diag);
+  return out;
+}
+
+}  // namespace
+
+void add_analyze(CLI::App& app) {
+  auto o = std::make_shared<AnalyzeOpts>();
+  auto* cmd = app.add_subcommand(
+      "analyze", "Measure a G-code file (any slicer), optionally against the design lattice");
+  cmd->footer(
+      "Reads Marlin/RepRap G-code (G0-G3, G90/91, M82/83, G92, G20/21, T, M165; Cura and\n"
+      "PrusaSlicer layer/type comments). With --design: extrusion ratio (printed / nominal\n"
+      "length), double-deposited length, off-design length, missing struts, and the GIPPO score\n"
+      "corrected by EdgesReal/EdgesNominal.");
+  cmd->add_option("gcode", o->files, "G-code file")->required()->expected(1);
+  cmd->add_option("--design", o->design, "design lattice (any lattice format)");
+  add_common(cmd, *o);
+  cmd->callback([o] {
+    const auto runs = run(*o);
+    const Analysis& a = runs.front();
+    if (!o->report.empty()) write_file_atomic(o->report, analysis_json(a));
+    std::cout << a.name << ": " << a.layers.size() << " layer(s), " << a.paths << " paths, "
+              << a.counts.extrusion_starts << " extrusion starts, " << num(a.extruded_length, 1)
+              << " mm extruded, " << a.counts.travel_moves << " travel moves ("
+              << num(a.counts.travel_length, 1) << " mm), " << a.counts.retractions
+              << " retractions, score " << num(a.score, 4) << "\n";
+    if (a.has_design)
+      std::cout << "  against the design: ratio " << num(a.extrusion_ratio, 3) << ", double "
+                << num(a.double_length, 2) << " mm, off-design " << num(a.off_design_length, 2)
+                << " mm, missing " << a.missing_edges << " of " << a.design_edges
+                << " struts, corrected score " << num(a.score_corrected, 4) << "\n";
+  });
+}
+
+void add_compare(CLI::App& app) {
+  auto o = std::make_shared<AnalyzeOpts>();
+  auto* cmd =
+      app.add_subcommand("compare", "Compare G-code files against one design, side by side");
+  cmd->add_option("design", o->design, "design lattice")->required();
+  cmd->add_option("gcode", o->files, "G-code files")->required()->expected(1, 1000);
+  add_common(cmd, *o);
+  cmd->callback([o] {
+    const auto runs = run(*o);
+    std::cout << comparison_table(runs);
+    if (!o->report.empty()) {
+      std::string all = "[\n";
+      for (std::size_t i = 0; i < runs.size(); ++i)
+        all += (i ? ",\n" : "") + analysis_json(runs[i]);
+      write_file_atomic(o->report, all + "]\n");
+    }
+  });
+}
+
+}  // namespace trellis::cli

@@ -1,0 +1,90 @@
+// Measuring a printed toolpath (ours or any slicer's, read from G-code) against the design
+// lattice: how much was extruded compared with the struts, what was deposited twice, which struts
+// were never printed, what landed off the design, and the GIPPO numbers of the printed paths.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "trellis/core/diagnostics.hpp"
+#include "trellis/geom/polygon.hpp"
+#include "trellis/lattice/graph.hpp"
+#include "trellis/machine/gcode_reader.hpp"
+#include "trellis/toolpath/toolpath.hpp"
+
+namespace trellis {
+
+// Streaming counts over G-code moves (constant memory).
+struct GcodeCounts {
+  std::size_t extrusion_moves = 0, extrusion_starts = 0, travel_moves = 0, retractions = 0;
+  std::size_t layers = 0;
+  double extruded_length = 0, travel_length = 0, filament = 0, print_time_s = 0;
+};
+
+class CountingSink : public GcodeSink {
+ public:
+  void layer_change(double) override { ++counts.layers; }
+  void extrude(Vec3 a, Vec3 b, double e, double feed) override;
+  void travel(Vec3 a, Vec3 b, double feed) override;
+  void retract() override;
+  GcodeCounts counts;
+
+ private:
+  enum class State { Idle, Extruding, Travelling };
+  State state_ = State::Idle;
+  bool extruded_ = false;
+  double pending_ = 0;  // travel length since the last extrusion
+  Vec3 last_;
+};
+
+struct AnalysisParams {
+  double width = 0.2;           // bead width: deposits closer than width/2 to a strut cover it (mm)
+  double layer_height = 0.148;  // nozzle z = design z + layer height
+  double parallel_cos = 0.9;    // a pass covers a strut when it runs within ~25° of it
+  double min_covered = 0.5;     // a strut is missing if less than this fraction is covered
+  std::size_t long_nodes = 5;
+  bool align_centers = false;  // move the print's XY centre onto the design's before measuring
+};
+
+struct StrutCoverage {
+  EdgeId edge;
+  double covered = 0;  // fraction of the strut (outside node zones) covered
+  int passes = 0;      // most passes over one point of it
+};
+
+struct LayerAnalysis {
+  double z = 0;               // printed layer height
+  double nominal_length = 0;  // design struts matched to this layer
+  double extruded_length = 0;
+  double double_length = 0;  // strut length covered by more than one pass (counted per extra pass)
+  double off_design_length = 0;  // deposits farther than width/2 from every strut
+  std::size_t design_edges = 0, missing_edges = 0;
+  std::vector<Segment2> doubles;  // pieces deposited twice (for pictures)
+  std::vector<EdgeId> missing;    // missing struts
+};
+
+struct Analysis {
+  std::string name;
+  GcodeCounts counts;
+  std::size_t paths = 0, edges_real = 0, edges_nominal = 0;
+  double extruded_length = 0, nominal_length = 0, extrusion_ratio = 0;
+  double double_length = 0, off_design_length = 0;
+  std::size_t design_edges = 0, missing_edges = 0;
+  double score = 0, score_corrected = 0, lts = 0, oe = 0;
+  bool has_design = false;
+  std::vector<LayerAnalysis> layers;
+  Toolpath printed;  // the print as measured (after alignment), for pictures
+};
+
+// `printed` is the IR read from G-code; `counts` its streaming counts; `design` may be null.
+Analysis analyze(const Toolpath& printed, const GcodeCounts& counts, const Graph* design,
+                 const AnalysisParams& params);
+
+// Reads a G-code file and analyses it (the IR is kept in memory for the design comparison).
+Analysis analyze_gcode_file(const std::string& path, const Graph* design,
+                            const AnalysisParams& params, const GcodeReadOptions& read,
+                            Diagnostics& diag);
+
+std::string analysis_json(const Analysis& a);
+std::string comparison_table(const std::vector<Analysis>& runs);
+
+}  // namespace trellis

@@ -1,0 +1,82 @@
+// G-code reader (Marlin / RepRap flavours): turns any slicer's G-code back into moves, and into
+// the toolpath IR. Understands G0/G1, G2/G3 (arcs split within a chord tolerance), G90/G91,
+// M82/M83, G92, G20/G21, T<n>, M165 (mixing), and the layer / type comments of Cura (;LAYER:,
+// ;TYPE:), PrusaSlicer (;LAYER_CHANGE, ;Z:, ;TYPE:) and Trellis. A move extrudes when E grows
+// (or, for pneumatic files, while the valve command is in force).
+//
+// The reader streams: `GcodeScanner` calls a sink per move, so metrics over a 1 GB file run in
+// constant memory; `read_gcode` builds the toolpath IR (paths split at travel and retraction).
+// Bad lines (garbage words, numbers that do not parse, NaN, |value| > 1e6) are counted as
+// warnings naming the line and skipped, or stop the read with a ParseError if asked.
+#pragma once
+#include <memory>
+#include <string>
+#include <string_view>
+
+#include "trellis/core/diagnostics.hpp"
+#include "trellis/toolpath/toolpath.hpp"
+
+namespace trellis {
+
+struct GcodeReadOptions {
+  double arc_tolerance = 0.005;  // max chord error when splitting G2/G3 (mm)
+  bool stop_on_error = false;    // throw ParseError at the first bad line instead of skipping it
+  std::string valve_on;          // pneumatic: a line starting with this opens the valve
+  std::string valve_off;         // ... and this closes it
+};
+
+// What the scanner reports. Positions are absolute, in mm.
+class GcodeSink {
+ public:
+  virtual ~GcodeSink() = default;
+  virtual void layer_change(double z) {}  // from a layer comment
+  virtual void extrude(Vec3 a, Vec3 b, double e, double feed_mm_s) {}
+  virtual void travel(Vec3 a, Vec3 b, double feed_mm_s) {}
+  virtual void retract() {}  // E went back
+  virtual void tool_change(int tool) {}
+  virtual void role(PathRole role) {}  // from a ;TYPE: comment
+  virtual void mixture(const std::vector<double>& fractions) {}
+};
+
+class GcodeScanner {
+ public:
+  GcodeScanner(GcodeSink& sink, GcodeReadOptions options, Diagnostics& diag,
+               std::string origin = "gcode");
+  // Feeds one line (without the newline).
+  void line(std::string_view text);
+  // Feeds a block of text; a trailing partial line is kept until the next call or finish().
+  void feed(std::string_view text);
+  void finish();
+  long lines() const { return line_no_; }
+
+ private:
+  void bad(const std::string& what);
+  void comment(std::string_view c);
+  void move(std::string_view args, int g);
+  void arc(Vec3 target, double e_target, double i, double j, double r, bool has_r, bool cw,
+           double feed);
+  void segment(Vec3 to, double e_to, double feed);
+
+  GcodeSink& sink_;
+  GcodeReadOptions opt_;
+  Diagnostics& diag_;
+  std::string origin_;
+  std::string partial_;
+  long line_no_ = 0;
+  Vec3 pos_;
+  double e_ = 0, feed_ = 0;
+  bool abs_pos_ = true, abs_e_ = true, inches_ = false, valve_ = false;
+};
+
+// A sink that builds the toolpath IR into `toolpath` (paths split at travel, retraction, tool,
+// role and mixture changes; layers by comment, else by the Z of the extrusion).
+std::unique_ptr<GcodeSink> make_toolpath_builder(Toolpath& toolpath);
+
+// Whole text to the toolpath IR (layers by comment, else by Z of the extrusion).
+Toolpath read_gcode(std::string_view text, const GcodeReadOptions& options, Diagnostics& diag,
+                    const std::string& origin = "gcode");
+// Streams a file through a sink in fixed-size chunks (constant memory).
+void scan_gcode_file(const std::string& path, GcodeSink& sink, const GcodeReadOptions& options,
+                     Diagnostics& diag);
+
+}  // namespace trellis

@@ -1,0 +1,339 @@
+#include "trellis/analysis/metrics.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <nlohmann/json.hpp>
+#include <numbers>
+#include <unordered_map>
+
+#include "trellis/core/error.hpp"
+#include "trellis/core/file.hpp"
+
+namespace trellis {
+
+void CountingSink::extrude(Vec3 a, Vec3 b, double e, double feed) {
+  const double len = distance(a, b);
+  ++counts.extrusion_moves;
+  if (state_ != State::Extruding || distance(last_, a) > 1e-9) ++counts.extrusion_starts;
+  if (state_ == State::Travelling && extruded_) {
+    // A run of non-extruding moves between two extrusions is one travel move.
+    ++counts.travel_moves;
+    counts.travel_length += pending_;
+  }
+  pending_ = 0;
+  state_ = State::Extruding;
+  extruded_ = true;
+  last_ = b;
+  counts.extruded_length += len;
+  counts.filament += e;
+  if (feed > 0) counts.print_time_s += len / feed;
+}
+
+void CountingSink::travel(Vec3 a, Vec3 b, double feed) {
+  state_ = State::Travelling;
+  pending_ += distance_xy(a, b);
+  if (feed > 0) counts.print_time_s += distance(a, b) / feed;
+}
+
+void CountingSink::retract() {
+  ++counts.retractions;
+  if (state_ == State::Extruding) state_ = State::Idle;
+}
+
+namespace {
+
+struct Seg {
+  Vec2 a, b;
+  std::size_t path;
+};
+
+// Uniform grid of segment ids over the plane.
+class SegmentGrid {
+ public:
+  SegmentGrid(const std::vector<Seg>& segs, double cell) : segs_(segs), cell_(cell) {
+    for (std::size_t i = 0; i < segs.size(); ++i) {
+      const auto [x0, x1] = std::minmax(segs[i].a.x, segs[i].b.x);
+      const auto [y0, y1] = std::minmax(segs[i].a.y, segs[i].b.y);
+      for (long cx = key(x0 - cell); cx <= key(x1 + cell); ++cx)
+        for (long cy = key(y0 - cell); cy <= key(y1 + cell); ++cy)
+          cells_[hash(cx, cy)].push_back(i);
+    }
+  }
+  template <class Fn>
+  void near(Vec2 p, Fn fn) const {
+    auto it = cells_.find(hash(key(p.x), key(p.y)));
+    if (it == cells_.end()) return;
+    for (std::size_t i : it->second) fn(i, segs_[i]);
+  }
+
+ private:
+  long key(double v) const { return static_cast<long>(std::floor(v / cell_)); }
+  static long long hash(long x, long y) { return static_cast<long long>(x) * 2654435761LL + y; }
+  const std::vector<Seg>& segs_;
+  double cell_;
+  std::unordered_map<long long, std::vector<std::size_t>> cells_;
+};
+
+double seg_distance(Vec2 p, const Seg& s) {
+  return distance_to_segment({p.x, p.y, 0}, {s.a.x, s.a.y, 0}, {s.b.x, s.b.y, 0});
+}
+
+double abs_cos(const Seg& s, Vec2 dir) {
+  const double dx = s.b.x - s.a.x, dy = s.b.y - s.a.y, l = std::hypot(dx, dy);
+  return l > 0 ? std::abs((dx * dir.x + dy * dir.y) / l) : 0;
+}
+
+// Radius around each design node where struts necessarily overlap: w / (2 sin(θ/2)) for the
+// smallest angle θ between its struts, within [w/2, 3w].
+std::vector<double> node_zones(const Graph& g, const std::vector<EdgeId>& edges, double w) {
+  std::unordered_map<NodeId, std::vector<Vec2>> dirs;
+  for (EdgeId e : edges) {
+    const Vec3 a = g.nodes[g.edges[e].a], b = g.nodes[g.edges[e].b];
+    const double l = distance_xy(a, b);
+    if (l <= 0) continue;
+    dirs[g.edges[e].a].push_back({(b.x - a.x) / l, (b.y - a.y) / l});
+    dirs[g.edges[e].b].push_back({(a.x - b.x) / l, (a.y - b.y) / l});
+  }
+  std::vector<double> zone(g.nodes.size(), w / 2);
+  for (const auto& [n, d] : dirs) {
+    double min_angle = std::numbers::pi;
+    for (std::size_t i = 0; i < d.size(); ++i)
+      for (std::size_t j = i + 1; j < d.size(); ++j)
+        min_angle = std::min(min_angle,
+                             std::acos(std::clamp(d[i].x * d[j].x + d[i].y * d[j].y, -1.0, 1.0)));
+    zone[n] = std::clamp(w / (2 * std::sin(std::max(min_angle, 1e-3) / 2)), w / 2, 3 * w);
+  }
+  return zone;
+}
+
+void analyse_layer(const Graph& g, const std::vector<EdgeId>& edges, const Layer& layer,
+                   const AnalysisParams& p, LayerAnalysis& out) {
+  const double w = p.width, step = w / 4;
+  std::vector<Seg> printed, design;
+  for (std::size_t pi = 0; pi < layer.paths.size(); ++pi)
+    for (std::size_t k = 1; k < layer.paths[pi].points.size(); ++k)
+      printed.push_back({layer.paths[pi].points[k - 1].xy(), layer.paths[pi].points[k].xy(), pi});
+  for (EdgeId e : edges)
+    design.push_back({g.nodes[g.edges[e].a].xy(), g.nodes[g.edges[e].b].xy(), e});
+  const double cell = std::max(w, 0.25);
+  const SegmentGrid pgrid(printed, cell), dgrid(design, cell);
+  const auto zone = node_zones(g, edges, w);
+  std::vector<std::size_t> seen;
+  for (std::size_t di = 0; di < design.size(); ++di) {
+    const Seg& d = design[di];
+    const Edge& e = g.edges[d.path];
+    const double len = std::hypot(d.b.x - d.a.x, d.b.y - d.a.y);
+    out.nominal_length += len;
+    if (len <= 0) continue;
+    const Vec2 dir{(d.b.x - d.a.x) / len, (d.b.y - d.a.y) / len};
+    double from = zone[e.a], to = len - zone[e.b];
+    if (to <= from) from = to = len / 2;  // short strut: test its midpoint only
+    const int n = std::max(1, static_cast<int>(std::ceil((to - from) / step)));
+    int covered = 0;
+    for (int k = 0; k <= n; ++k) {
+      const double t = from + (to - from) * k / n;
+      const Vec2 q{d.a.x + dir.x * t, d.a.y + dir.y * t};
+      seen.clear();
+      pgrid.near(q, [&](std::size_t, const Seg& s) {
+        if (seg_distance(q, s) <= w / 2 && abs_cos(s, dir) >= p.parallel_cos &&
+            std::find(seen.begin(), seen.end(), s.path) == seen.end())
+          seen.push_back(s.path);
+      });
+      if (!seen.empty()) ++covered;
+      if (seen.size() > 1) {
+        const double piece = (to - from) / n;
+        out.double_length += piece * static_cast<double>(seen.size() - 1);
+        out.doubles.push_back({{q.x - dir.x * piece / 2, q.y - dir.y * piece / 2},
+                               {q.x + dir.x * piece / 2, q.y + dir.y * piece / 2}});
+      }
+    }
+    if (static_cast<double>(covered) / (n + 1) < p.min_covered) out.missing.push_back(d.path);
+  }
+  for (const auto& s : printed) {
+    const double len = std::hypot(s.b.x - s.a.x, s.b.y - s.a.y);
+    out.extruded_length += len;
+    const int n = std::max(1, static_cast<int>(std::ceil(len / step)));
+    for (int k = 0; k < n; ++k) {
+      const double t = (k + 0.5) / n;
+      const Vec2 q{s.a.x + (s.b.x - s.a.x) * t, s.a.y + (s.b.y - s.a.y) * t};
+      bool near = false;
+      dgrid.near(q, [&](std::size_t, const Seg& d) { near |= seg_distance(q, d) <= w / 2 + 1e-6; });
+      if (!near) out.off_design_length += len / n;
+    }
+  }
+  out.design_edges = edges.size();
+  out.missing_edges = out.missing.size();
+}
+
+}  // namespace
+
+Analysis analyze(const Toolpath& printed_in, const GcodeCounts& counts, const Graph* design,
+                 const AnalysisParams& p) {
+  if (!(p.width > 0)) throw SettingError("bead width must be > 0 mm");
+  Toolpath printed = printed_in;
+  if (design && p.align_centers) {
+    // Slicers place parts on the bed: move the print's XY centre onto the design's.
+    BBox3 pb;
+    for (const auto& l : printed.layers)
+      for (const auto& path : l.paths)
+        for (const auto& q : path.points) pb.add(q);
+    const BBox3 db = design->bbox();
+    if (!pb.empty() && !db.empty()) {
+      const double dx = db.center().x - pb.center().x, dy = db.center().y - pb.center().y;
+      for (auto& l : printed.layers)
+        for (auto& path : l.paths)
+          for (auto& q : path.points) q = {q.x + dx, q.y + dy, q.z};
+    }
+  }
+  Analysis a;
+  a.counts = counts;
+  double weighted = 0, long_len = 0, long_weighted = 0;
+  for (const auto& l : printed.layers)
+    for (const auto& path : l.paths) {
+      const double len = path.length();
+      const std::size_t edges = path.segments();
+      ++a.paths;
+      a.edges_real += edges;
+      a.extruded_length += len;
+      weighted += len * static_cast<double>(edges);
+      if (edges + 1 >= p.long_nodes) {
+        long_len += len;
+        long_weighted += len * static_cast<double>(edges);
+      }
+    }
+  if (a.paths && a.extruded_length > 0) {
+    a.score = weighted / (a.extruded_length * static_cast<double>(a.paths));
+    a.lts = 100 * long_len / a.extruded_length;
+    a.oe = 100 * long_weighted / (a.extruded_length * static_cast<double>(a.edges_real));
+  }
+  a.score_corrected = a.score;
+  a.printed = printed;
+  if (!design) return a;
+  a.has_design = true;
+  // Design levels (planar struts grouped by z), matched to printed layers by nozzle height.
+  std::vector<std::pair<double, std::vector<EdgeId>>> levels;
+  for (EdgeId e = 0; e < design->edges.size(); ++e) {
+    const double z = design->nodes[design->edges[e].a].z;
+    auto it = std::find_if(levels.begin(), levels.end(),
+                           [&](auto& l) { return std::abs(l.first - z) < 1e-6; });
+    if (it == levels.end())
+      levels.push_back({z, {e}});
+    else
+      it->second.push_back(e);
+  }
+  std::vector<bool> used(levels.size(), false);
+  for (const auto& layer : printed.layers) {
+    std::size_t best = 0;
+    for (std::size_t i = 1; i < levels.size(); ++i)
+      if (std::abs(levels[i].first + p.layer_height - layer.z) <
+          std::abs(levels[best].first + p.layer_height - layer.z))
+        best = i;
+    LayerAnalysis la;
+    la.z = layer.z;
+    analyse_layer(*design, levels[best].second, layer, p, la);
+    if (used[best]) la.nominal_length = 0;  // count each design level's length once
+    used[best] = true;
+    a.layers.push_back(std::move(la));
+  }
+  for (std::size_t i = 0; i < levels.size(); ++i)
+    if (!used[i]) {  // a design level never printed: all of it is missing
+      LayerAnalysis la;
+      la.z = levels[i].first + p.layer_height;
+      for (EdgeId e : levels[i].second) la.nominal_length += design->edge_length(e);
+      la.missing = levels[i].second;
+      la.design_edges = la.missing_edges = la.missing.size();
+      a.layers.push_back(std::move(la));
+    }
+  for (const auto& l : a.layers) {
+    a.nominal_length += l.nominal_length;
+    a.double_length += l.double_length;
+    a.off_design_length += l.off_design_length;
+    a.design_edges += l.design_edges;
+    a.missing_edges += l.missing_edges;
+  }
+  a.edges_nominal = design->edges.size();
+  a.extrusion_ratio = a.nominal_length > 0 ? a.extruded_length / a.nominal_length : 0;
+  // Paper: Eq. 1 corrected by EdgesReal/EdgesNominal, so extra (split or doubled) segments do
+  // not inflate the score.
+  if (a.edges_real > 0)
+    a.score_corrected = a.score / (static_cast<double>(a.edges_real) / a.edges_nominal);
+  return a;
+}
+
+Analysis analyze_gcode_file(const std::string& path, const Graph* design,
+                            const AnalysisParams& params, const GcodeReadOptions& read,
+                            Diagnostics& diag) {
+  Toolpath tp;
+  CountingSink counter;
+  {
+    // One pass feeding both the counter and the IR builder.
+    struct Both : GcodeSink {
+      GcodeSink& a;
+      GcodeSink& b;
+      Both(GcodeSink& x, GcodeSink& y) : a(x), b(y) {}
+      void layer_change(double z) override { a.layer_change(z), b.layer_change(z); }
+      void extrude(Vec3 p, Vec3 q, double e, double f) override {
+        a.extrude(p, q, e, f), b.extrude(p, q, e, f);
+      }
+      void travel(Vec3 p, Vec3 q, double f) override { a.travel(p, q, f), b.travel(p, q, f); }
+      void retract() override { a.retract(), b.retract(); }
+      void tool_change(int t) override { a.tool_change(t), b.tool_change(t); }
+      void role(PathRole r) override { a.role(r), b.role(r); }
+      void mixture(const std::vector<double>& m) override { a.mixture(m), b.mixture(m); }
+    };
+    auto builder = make_toolpath_builder(tp);
+    Both both(counter, *builder);
+    scan_gcode_file(path, both, read, diag);
+  }
+  Analysis a = analyze(tp, counter.counts, design, params);
+  a.name = path;
+  return a;
+}
+
+std::string analysis_json(const Analysis& a) {
+  nlohmann::ordered_json j;
+  j["name"] = a.name;
+  j["layers"] = a.layers.size();
+  j["paths"] = a.paths;
+  j["extrusion_starts"] = a.counts.extrusion_starts;
+  j["extruded_length_mm"] = a.extruded_length;
+  j["travel_moves"] = a.counts.travel_moves;
+  j["travel_length_mm"] = a.counts.travel_length;
+  j["retractions"] = a.counts.retractions;
+  j["filament_mm"] = a.counts.filament;
+  j["print_time_s"] = a.counts.print_time_s;
+  j["segments"] = a.edges_real;
+  j["score"] = a.score;
+  j["lts"] = a.lts;
+  j["oe"] = a.oe;
+  if (a.has_design) {
+    j["nominal_length_mm"] = a.nominal_length;
+    j["extrusion_ratio"] = a.extrusion_ratio;
+    j["double_length_mm"] = a.double_length;
+    j["off_design_length_mm"] = a.off_design_length;
+    j["design_edges"] = a.design_edges;
+    j["missing_edges"] = a.missing_edges;
+    j["score_corrected"] = a.score_corrected;
+  }
+  return j.dump(2) + "\n";
+}
+
+std::string comparison_table(const std::vector<Analysis>& runs) {
+  std::string out;
+  char buf[512];
+  std::snprintf(buf, sizeof buf, "%-36s %8s %8s %8s %9s %8s %9s %7s %7s %7s\n", "file", "ratio",
+                "double", "off", "missing", "starts", "travel", "retr", "score", "score_c");
+  out += buf;
+  for (const auto& a : runs) {
+    std::string name = a.name.size() > 36 ? "…" + a.name.substr(a.name.size() - 35) : a.name;
+    std::snprintf(buf, sizeof buf,
+                  "%-36s %8.3f %8.2f %8.2f %4zu/%-4zu %8zu %9.1f %7zu %7.3f %7.3f\n", name.c_str(),
+                  a.extrusion_ratio, a.double_length, a.off_design_length, a.missing_edges,
+                  a.design_edges, a.counts.extrusion_starts, a.counts.travel_length,
+                  a.counts.retractions, a.score, a.score_corrected);
+    out += buf;
+  }
+  return out;
+}
+
+}  // namespace trellis

@@ -1,0 +1,409 @@
+#include "trellis/machine/gcode_reader.hpp"
+
+#include <charconv>
+#include <cmath>
+#include <fstream>
+#include <numbers>
+
+#include "trellis/core/error.hpp"
+
+namespace trellis {
+
+namespace {
+
+constexpr double kMaxValue = 1e6;
+
+std::string_view trim(std::string_view s) {
+  while (!s.empty() && (s.front() == ' ' || s.front() == '\t' || s.front() == '\r'))
+    s.remove_prefix(1);
+  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r'))
+    s.remove_suffix(1);
+  return s;
+}
+
+bool starts_with(std::string_view s, std::string_view p) {
+  return s.substr(0, p.size()) == p;
+}
+
+PathRole role_from_type(std::string_view t) {
+  // Cura: WALL-OUTER, WALL-INNER, SKIN, FILL, SUPPORT, SKIRT; PrusaSlicer: External perimeter,
+  // Perimeter, Solid infill, Internal infill, Top solid infill, Skirt/Brim, ...
+  if (t.find("WALL") != t.npos || t.find("erimeter") != t.npos) return PathRole::Perimeter;
+  if (t.find("FILL") != t.npos || t.find("SKIN") != t.npos || t.find("nfill") != t.npos)
+    return PathRole::Infill;
+  if (t.find("STRUT") != t.npos || t.find("strut") != t.npos) return PathRole::Strut;
+  return PathRole::Other;
+}
+
+// One parsed word: letter and value.
+struct Word {
+  char letter;
+  double value;
+};
+
+}  // namespace
+
+GcodeScanner::GcodeScanner(GcodeSink& sink, GcodeReadOptions options, Diagnostics& diag,
+                           std::string origin)
+    : sink_(sink), opt_(std::move(options)), diag_(diag), origin_(std::move(origin)) {}
+
+void GcodeScanner::bad(const std::string& what) {
+  if (opt_.stop_on_error) throw ParseError(what, {origin_, line_no_});
+  diag_.warn("gcode_bad_line",
+             origin_ + ":" + std::to_string(line_no_) + ": " + what + " (line skipped)");
+}
+
+void GcodeScanner::comment(std::string_view c) {
+  c = trim(c);
+  if (starts_with(c, "LAYER:") || starts_with(c, "LAYER_CHANGE")) {
+    sink_.layer_change(std::nan(""));
+  } else if (starts_with(c, "TYPE:")) {
+    sink_.role(role_from_type(c.substr(5)));
+  }
+}
+
+void GcodeScanner::feed(std::string_view text) {
+  std::size_t pos = 0;
+  while (pos < text.size()) {
+    const auto nl = text.find('\n', pos);
+    if (nl == std::string_view::npos) {
+      partial_.append(text.substr(pos));
+      return;
+    }
+    if (!partial_.empty()) {
+      partial_.append(text.substr(pos, nl - pos));
+      line(partial_);
+      partial_.clear();
+    } else {
+      line(text.substr(pos, nl - pos));
+    }
+    pos = nl + 1;
+  }
+}
+
+void GcodeScanner::finish() {
+  if (!partial_.empty()) {
+    line(partial_);
+    partial_.clear();
+  }
+}
+
+void GcodeScanner::line(std::string_view text) {
+  ++line_no_;
+  std::string_view s = trim(text);
+  if (!opt_.valve_on.empty() && starts_with(s, opt_.valve_on)) valve_ = true;
+  if (!opt_.valve_off.empty() && starts_with(s, opt_.valve_off)) valve_ = false;
+  if (const auto semi = s.find(';'); semi != std::string_view::npos) {
+    comment(s.substr(semi + 1));
+    s = trim(s.substr(0, semi));
+  }
+  if (const auto star = s.find('*'); star != std::string_view::npos) s = trim(s.substr(0, star));
+  if (const auto paren = s.find('('); paren != std::string_view::npos) s = trim(s.substr(0, paren));
+  if (s.empty()) return;
+  if (s[0] == 'N' || s[0] == 'n') {  // line number
+    std::size_t k = 1;
+    while (k < s.size() && std::isdigit(static_cast<unsigned char>(s[k]))) ++k;
+    s = trim(s.substr(k));
+    if (s.empty()) return;
+  }
+  const char c = static_cast<char>(std::toupper(static_cast<unsigned char>(s[0])));
+  std::size_t k = 1;
+  while (k < s.size() && (std::isdigit(static_cast<unsigned char>(s[k])) || s[k] == '.')) ++k;
+  if (k == 1) {
+    if (c == 'T' || c == 'G' || c == 'M')
+      return bad("command '" + std::string(s.substr(0, 20)) + "' has no number");
+    if (std::isalpha(static_cast<unsigned char>(c))) return;  // a bare parameter line: ignore
+    return bad("unreadable line '" + std::string(s.substr(0, 40)) + "'");
+  }
+  double code = 0;
+  if (std::from_chars(s.data() + 1, s.data() + k, code).ec != std::errc())
+    return bad("unreadable command '" + std::string(s.substr(0, k)) + "'");
+  const std::string_view args = s.substr(k);
+  if (c == 'G') {
+    if (code == 0 || code == 1 || code == 2 || code == 3) return move(args, static_cast<int>(code));
+    if (code == 90)
+      abs_pos_ = true;
+    else if (code == 91)
+      abs_pos_ = false;
+    else if (code == 20)
+      inches_ = true;
+    else if (code == 21)
+      inches_ = false;
+    else if (code == 92)
+      move(args, 92);
+  } else if (c == 'M') {
+    if (code == 82)
+      abs_e_ = true;
+    else if (code == 83)
+      abs_e_ = false;
+    else if (code == 165) {
+      std::vector<double> mix;
+      std::size_t p = 0;
+      while (p < args.size()) {
+        while (p < args.size() && args[p] == ' ') ++p;
+        if (p >= args.size()) break;
+        std::size_t q = p + 1;
+        while (q < args.size() && args[q] != ' ') ++q;
+        double v = 0;
+        if (std::from_chars(args.data() + p + 1, args.data() + q, v).ec == std::errc() &&
+            std::isfinite(v))
+          mix.push_back(v);
+        p = q;
+      }
+      sink_.mixture(mix);
+    }
+  } else if (c == 'T') {
+    if (code < 0 || code > 255) return bad("tool number out of range");
+    sink_.tool_change(static_cast<int>(code));
+  }
+}
+
+void GcodeScanner::move(std::string_view args, int g) {
+  Word words[16];
+  int n = 0;
+  std::size_t p = 0;
+  while (p < args.size()) {
+    while (p < args.size() && (args[p] == ' ' || args[p] == '\t')) ++p;
+    if (p >= args.size()) break;
+    const char letter = static_cast<char>(std::toupper(static_cast<unsigned char>(args[p])));
+    if (!std::isalpha(static_cast<unsigned char>(letter)))
+      return bad("unexpected '" + std::string(1, args[p]) + "'");
+    std::size_t q = p + 1;
+    while (q < args.size() && args[q] != ' ' && args[q] != '\t' &&
+           !std::isalpha(static_cast<unsigned char>(args[q])))
+      ++q;
+    const char* b = args.data() + p + 1;
+    const char* e = args.data() + q;
+    if (b < e && *b == '+') ++b;
+    double v = 0;
+    const auto r = std::from_chars(b, e, v);
+    if (b == e || r.ec != std::errc() || r.ptr != e || !std::isfinite(v) || std::abs(v) > kMaxValue)
+      return bad("bad number in '" + std::string(args.substr(p, std::min<std::size_t>(q - p, 30))) +
+                 "'");
+    if (n == 16) return bad("too many words");
+    words[n++] = {letter, v};
+    p = q;
+  }
+  const double unit = inches_ ? 25.4 : 1.0;
+  if (g == 92) {
+    for (int i = 0; i < n; ++i) {
+      const double v = words[i].value;
+      switch (words[i].letter) {
+        case 'X':
+          pos_.x = v * unit;
+          break;
+        case 'Y':
+          pos_.y = v * unit;
+          break;
+        case 'Z':
+          pos_.z = v * unit;
+          break;
+        case 'E':
+          e_ = v * unit;
+          break;
+        default:
+          break;
+      }
+    }
+    return;
+  }
+  Vec3 to = pos_;
+  double e_to = e_, ci = 0, cj = 0, rad = 0;
+  bool has_r = false;
+  for (int i = 0; i < n; ++i) {
+    const double v = words[i].value * unit;
+    switch (words[i].letter) {
+      case 'X':
+        to.x = abs_pos_ ? v : pos_.x + v;
+        break;
+      case 'Y':
+        to.y = abs_pos_ ? v : pos_.y + v;
+        break;
+      case 'Z':
+        to.z = abs_pos_ ? v : pos_.z + v;
+        break;
+      case 'E':
+        e_to = abs_e_ ? v : e_ + v;
+        break;
+      case 'F':
+        if (v <= 0) return bad("feed rate must be > 0");
+        feed_ = v / 60;
+        break;
+      case 'I':
+        ci = v;
+        break;
+      case 'J':
+        cj = v;
+        break;
+      case 'R':
+        rad = v;
+        has_r = true;
+        break;
+      default:
+        break;
+    }
+  }
+  if (g == 2 || g == 3) return arc(to, e_to, ci, cj, rad, has_r, g == 2, feed_);
+  const bool valve_extrudes = !opt_.valve_on.empty() && valve_ && g == 1;
+  const double de = e_to - e_;
+  if (distance(pos_, to) > 1e-12) {
+    if (de > 1e-12 || valve_extrudes)
+      sink_.extrude(pos_, to, std::max(de, 0.0), feed_);
+    else
+      sink_.travel(pos_, to, feed_);
+    if (de < -1e-12) sink_.retract();
+  } else if (de < -1e-12) {
+    sink_.retract();
+  }
+  pos_ = to;
+  e_ = e_to;
+}
+
+void GcodeScanner::arc(Vec3 to, double e_to, double ci, double cj, double r, bool has_r, bool cw,
+                       double feed) {
+  const Vec3 from = pos_;
+  Vec2 c;
+  if (has_r) {
+    // Centre from the radius (negative R = the long way round).
+    const double dx = to.x - from.x, dy = to.y - from.y, d = std::hypot(dx, dy);
+    if (d < 1e-12 || std::abs(r) < d / 2 - 1e-9)
+      return bad("arc radius too small for its end points");
+    const double h = std::sqrt(std::max(0.0, r * r - d * d / 4));
+    const double sgn = (cw ? 1 : -1) * (r < 0 ? -1 : 1);
+    c = {from.x + dx / 2 + sgn * h * dy / d, from.y + dy / 2 - sgn * h * dx / d};
+  } else {
+    c = {from.x + ci, from.y + cj};
+  }
+  const double radius = std::hypot(from.x - c.x, from.y - c.y);
+  if (radius < 1e-9) return bad("arc with zero radius");
+  const double a0 = std::atan2(from.y - c.y, from.x - c.x);
+  const double a1 = std::atan2(to.y - c.y, to.x - c.x);
+  double sweep = a1 - a0;
+  if (cw) {
+    while (sweep >= -1e-12) sweep -= 2 * std::numbers::pi;
+  } else {
+    while (sweep <= 1e-12) sweep += 2 * std::numbers::pi;
+  }
+  if (std::abs(sweep) > 2 * std::numbers::pi)
+    sweep += cw ? 2 * std::numbers::pi : -2 * std::numbers::pi;
+  const double step = 2 * std::acos(std::clamp(1 - opt_.arc_tolerance / radius, -1.0, 1.0));
+  const int pieces =
+      std::clamp(static_cast<int>(std::ceil(std::abs(sweep) / std::max(step, 1e-6))), 1, 100000);
+  const double e0 = e_;
+  for (int k = 1; k <= pieces; ++k) {
+    const double t = static_cast<double>(k) / pieces;
+    const double a = a0 + sweep * t;
+    const Vec3 q = k == pieces ? to
+                               : Vec3{c.x + radius * std::cos(a), c.y + radius * std::sin(a),
+                                      from.z + (to.z - from.z) * t};
+    const double e_k = e0 + (e_to - e0) * t;
+    const double de = e_k - e_;
+    if (de > 1e-12 || (!opt_.valve_on.empty() && valve_))
+      sink_.extrude(pos_, q, std::max(de, 0.0), feed);
+    else
+      sink_.travel(pos_, q, feed);
+    pos_ = q;
+    e_ = e_k;
+  }
+}
+
+namespace {
+
+// Builds the toolpath IR: a path per run of connected extrusions with one tool and role.
+class ToolpathBuilder : public GcodeSink {
+ public:
+  explicit ToolpathBuilder(Toolpath& tp) : tp_(tp) {}
+
+  void layer_change(double) override {
+    close();
+    commented_ = true;
+    if (tp_.layers.empty() || !tp_.layers.back().paths.empty()) new_layer_ = true;
+  }
+  void extrude(Vec3 a, Vec3 b, double e, double feed) override {
+    if (path_ && distance(path_->points.back(), b) >= 0 &&
+        distance(path_->points.back(), a) < 1e-9) {
+      path_->points.push_back(b);
+      path_->filament += e;
+      return;
+    }
+    close();
+    Layer& layer = layer_for(a.z);
+    Path p;
+    p.points = {a, b};
+    p.tool = tool_;
+    p.role = role_;
+    p.mixture = mixture_;
+    p.speed = feed;
+    p.filament = e;
+    layer.paths.push_back(std::move(p));
+    path_ = &layer.paths.back();
+  }
+  void travel(Vec3, Vec3, double) override { close(); }
+  void retract() override { close(); }
+  void tool_change(int tool) override {
+    close();
+    tool_ = tool;
+  }
+  void role(PathRole r) override {
+    close();
+    role_ = r;
+  }
+  void mixture(const std::vector<double>& m) override {
+    close();
+    mixture_ = m;
+  }
+
+ private:
+  void close() { path_ = nullptr; }
+
+  Layer& layer_for(double z) {
+    const bool by_z =
+        !commented_ && !tp_.layers.empty() && std::abs(tp_.layers.back().z - z) > 1e-4;
+    if (tp_.layers.empty() || new_layer_ || by_z) {
+      tp_.layers.push_back({z, {}});
+      new_layer_ = false;
+    }
+    return tp_.layers.back();
+  }
+
+  Toolpath& tp_;
+  Path* path_ = nullptr;
+  int tool_ = 0;
+  PathRole role_ = PathRole::Strut;
+  std::vector<double> mixture_;
+  bool commented_ = false, new_layer_ = false;
+};
+
+}  // namespace
+
+std::unique_ptr<GcodeSink> make_toolpath_builder(Toolpath& toolpath) {
+  return std::make_unique<ToolpathBuilder>(toolpath);
+}
+
+Toolpath read_gcode(std::string_view text, const GcodeReadOptions& options, Diagnostics& diag,
+                    const std::string& origin) {
+  Toolpath tp;
+  tp.source = origin;
+  ToolpathBuilder builder(tp);
+  GcodeScanner scanner(builder, options, diag, origin);
+  scanner.feed(text);
+  scanner.finish();
+  return tp;
+}
+
+void scan_gcode_file(const std::string& path, GcodeSink& sink, const GcodeReadOptions& options,
+                     Diagnostics& diag) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw IoError("cannot open", {path});
+  GcodeScanner scanner(sink, options, diag, path);
+  std::string buf(1 << 20, '\0');
+  while (in) {
+    in.read(buf.data(), static_cast<std::streamsize>(buf.size()));
+    const auto got = static_cast<std::size_t>(in.gcount());
+    if (got == 0) break;
+    scanner.feed(std::string_view(buf.data(), got));
+  }
+  scanner.finish();
+}
+
+}  // namespace trellis
