@@ -1,0 +1,88 @@
+#include <gtest/gtest.h>
+
+#include "support/random_graphs.hpp"
+#include "trellis/analysis/metrics.hpp"
+#include "trellis/lattice/atlas.hpp"
+#include "trellis/machine/gcode_writer.hpp"
+#include "trellis/plan/plan.hpp"
+
+using namespace trellis;
+
+namespace {
+
+Analysis measure(const Toolpath& tp, const Graph& design, const AnalysisParams& params = {}) {
+  MachineProfile p;
+  p.retract_length = 0.5;
+  Diagnostics d;
+  const std::string g = write_gcode(tp, p);
+  CountingSink counter;
+  GcodeScanner(counter, {}, d).feed(g);
+  return analyze(read_gcode(g, {}, d), counter.counts, &design, params);
+}
+
+Toolpath plan(const Graph& g, Planner planner) {
+  PlanParams pp;
+  pp.planner = planner;
+  pp.gippo.iterations = 20;
+  Diagnostics d;
+  return plan_lattice(g, pp, d).toolpath;
+}
+
+}  // namespace
+
+TEST(Analysis, TrellisOutputIsExactOnEveryPattern) {
+  for (const auto& name : pattern_names()) {
+    AtlasParams a;
+    a.pattern = pattern_from_string(name);
+    a.region.width = a.region.height = 8;
+    const Graph g = make_lattice2d(a);
+    for (Planner planner : {Planner::Gippo, Planner::Euler}) {
+      const Toolpath tp = plan(g, planner);
+      const Analysis m = measure(tp, g);
+      EXPECT_NEAR(m.extrusion_ratio, 1.0, 1e-3) << name;  // coordinates are written to 1 µm
+      EXPECT_NEAR(m.double_length, 0, 1e-9) << name;
+      EXPECT_NEAR(m.off_design_length, 0, 1e-9) << name;
+      EXPECT_EQ(m.missing_edges, 0u) << name;
+      EXPECT_EQ(m.counts.extrusion_starts, tp.path_count()) << name;
+      EXPECT_EQ(m.counts.travel_moves, tp.path_count() - 1) << name;
+      EXPECT_EQ(m.edges_real, g.edges.size()) << name;
+      EXPECT_NEAR(m.score_corrected, m.score, 1e-12) << name;
+    }
+  }
+}
+
+TEST(Analysis, FindsDoublesMissingStrutsAndOffDesignDeposits) {
+  const Graph g = test::random_planar_graph(4, 8, 8, 0.8);
+  Toolpath tp = plan(g, Planner::Euler);
+  auto& paths = tp.layers[0].paths;
+  const double dropped = paths.back().length();
+  std::size_t dropped_edges = paths.back().segments();
+  paths.pop_back();
+  const Path twice = paths.front();
+  paths.push_back(twice);
+  Path stray;
+  stray.points = {{-5, -5, paths[0].points[0].z}, {-2, -5, paths[0].points[0].z}};
+  paths.push_back(stray);
+  const Analysis m = measure(tp, g);
+  EXPECT_GE(m.missing_edges, dropped_edges);
+  EXPECT_GT(m.double_length, 0.5 * twice.length());
+  EXPECT_LE(m.double_length, twice.length() + 1e-9);
+  EXPECT_NEAR(m.off_design_length, 3.0, 0.01);
+  EXPECT_NEAR(m.extruded_length, g.total_length() - dropped + twice.length() + 3.0, 0.01);  // 1 µm output rounding
+  EXPECT_LT(m.score_corrected, m.score * 1.0001);
+}
+
+TEST(Analysis, AlignmentFindsAPartPlacedOnTheBed) {
+  const Graph g = test::random_planar_graph(9);
+  const Toolpath tp = plan(g, Planner::Euler);
+  MachineProfile p;
+  p.center = true;
+  Diagnostics d;
+  const std::string gcode = write_gcode(tp, p);
+  CountingSink counter;
+  GcodeScanner(counter, {}, d).feed(gcode);
+  AnalysisParams params;
+  EXPECT_EQ(analyze(read_gcode(gcode, {}, d), counter.counts, &g, params).missing_edges, g.edges.size());
+  params.align_centers = true;
+  EXPECT_EQ(analyze(read_gcode(gcode, {}, d), counter.counts, &g, params).missing_edges, 0u);
+}
