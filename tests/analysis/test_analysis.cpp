@@ -68,7 +68,8 @@ TEST(Analysis, FindsDoublesMissingStrutsAndOffDesignDeposits) {
   EXPECT_GT(m.double_length, 0.5 * twice.length());
   EXPECT_LE(m.double_length, twice.length() + 1e-9);
   EXPECT_NEAR(m.off_design_length, 3.0, 0.01);
-  EXPECT_NEAR(m.extruded_length, g.total_length() - dropped + twice.length() + 3.0, 0.01);  // 1 µm output rounding
+  EXPECT_NEAR(m.extruded_length, g.total_length() - dropped + twice.length() + 3.0,
+              0.01);  // 1 µm output rounding
   EXPECT_LT(m.score_corrected, m.score * 1.0001);
 }
 
@@ -82,7 +83,8 @@ TEST(Analysis, AlignmentFindsAPartPlacedOnTheBed) {
   CountingSink counter;
   GcodeScanner(counter, {}, d).feed(gcode);
   AnalysisParams params;
-  EXPECT_EQ(analyze(read_gcode(gcode, {}, d), counter.counts, &g, params).missing_edges, g.edges.size());
+  EXPECT_EQ(analyze(read_gcode(gcode, {}, d), counter.counts, &g, params).missing_edges,
+            g.edges.size());
   params.align_centers = true;
   EXPECT_EQ(analyze(read_gcode(gcode, {}, d), counter.counts, &g, params).missing_edges, 0u);
 }

@@ -23,7 +23,8 @@ Toolpath planned(const Graph& g, Planner planner) {
 }
 
 // Our IR read back from our own G-code: same layers, paths, points (within 1 µm) and E per path.
-void expect_round_trip(const Toolpath& tp, const MachineProfile& profile, const std::string& label) {
+void expect_round_trip(const Toolpath& tp, const MachineProfile& profile,
+                       const std::string& label) {
   const std::string gcode = write_gcode(tp, profile);
   Diagnostics diag;
   GcodeReadOptions opt;
@@ -43,10 +44,13 @@ void expect_round_trip(const Toolpath& tp, const MachineProfile& profile, const 
       for (std::size_t k = 0; k < a.points.size(); ++k)
         ASSERT_LE(distance(a.points[k], b.points[k]), 1e-3) << label;
       if (profile.flavor == "marlin") {
-        const double e = extrusion_for(a.length(), a.height > 0 ? a.height : profile.layer_height, profile) +
-                         profile.pre_flow + profile.post_flow;
+        const double e =
+            extrusion_for(a.length(), a.height > 0 ? a.height : profile.layer_height, profile) +
+            profile.pre_flow + profile.post_flow;
         // Pre-/post-flow happen without motion, so the reader does not count them as deposits.
-        EXPECT_NEAR(b.filament, e - profile.pre_flow - profile.post_flow, 1e-5 * (a.points.size() + 1)) << label;
+        EXPECT_NEAR(b.filament, e - profile.pre_flow - profile.post_flow,
+                    1e-5 * (a.points.size() + 1))
+            << label;
       }
     }
   }
@@ -109,7 +113,8 @@ TEST(Reader, ModesUnitsArcsAndComments) {
 TEST(Reader, PrusaLayerCommentsAndLayersByZ) {
   Diagnostics d;
   const Toolpath a = read_gcode(
-      ";LAYER_CHANGE\n;Z:0.2\nG1 Z0.2\nG1 X1 E1\n;LAYER_CHANGE\n;Z:0.4\nG1 Z0.4\nG1 X2 E2\n", {}, d);
+      ";LAYER_CHANGE\n;Z:0.2\nG1 Z0.2\nG1 X1 E1\n;LAYER_CHANGE\n;Z:0.4\nG1 Z0.4\nG1 X2 E2\n", {},
+      d);
   EXPECT_EQ(a.layers.size(), 2u);
   const Toolpath b = read_gcode("G1 Z0.2\nG1 X1 E1\nG1 Z0.4\nG1 X2 E2\nG1 X3 E3\n", {}, d);
   ASSERT_EQ(b.layers.size(), 2u);

@@ -1,0 +1,17 @@
+// Fuzzes the G-code reader and the analysis of what it read: never crashes, never hangs.
+#include <string_view>
+
+#include "trellis/analysis/metrics.hpp"
+#include "trellis/core/error.hpp"
+#include "trellis/machine/gcode_reader.hpp"
+
+extern "C" int LLVMFuzzerTestOneInput(const unsigned char* data, std::size_t size) {
+  const std::string_view text(reinterpret_cast<const char*>(data), size);
+  trellis::Diagnostics diag;
+  const trellis::Toolpath tp = trellis::read_gcode(text, {}, diag, "fuzz");
+  trellis::Graph design;
+  design.nodes = {{0, 0, 0}, {10, 0, 0}, {10, 10, 0}};
+  design.edges = {{0, 1}, {1, 2}};
+  trellis::analyze(tp, {}, &design, {});
+  return 0;
+}
