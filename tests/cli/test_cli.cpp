@@ -48,7 +48,7 @@ std::string in_work(const std::string& name) {
 }  // namespace
 
 TEST(Cli, HelpForEveryCommand) {
-  for (const char* c : {"", "lattice2d", "plan", "gcode", "render", "run"}) {
+  for (const char* c : {"", "lattice2d", "plan", "gcode", "render", "run", "analyze", "compare"}) {
     const CmdResult r = run(std::string(c) + " --help");
     EXPECT_EQ(r.code, 0) << c;
     EXPECT_NE(r.out.find("Usage"), std::string::npos) << c;
@@ -174,4 +174,28 @@ TEST(Cli, JobRunsEndToEnd) {
   const CmdResult b = run("run " + bad);
   EXPECT_EQ(b.code, 2);
   EXPECT_NE(b.err.find("badjob.toml:4"), std::string::npos) << b.err;
+}
+
+TEST(Cli, AnalyzeAndCompareOurOwnGcode) {
+  const std::string lat = in_work("an.json"), tp = in_work("an.tp.json"), gc = in_work("an.gcode");
+  ASSERT_EQ(run("lattice2d --pattern triangle --cell 1 --width 5 --height 5 -o " + lat).code, 0);
+  ASSERT_EQ(run("plan euler " + lat + " -o " + tp).code, 0);
+  ASSERT_EQ(run("gcode " + tp + " --machine " + std::string(TRELLIS_SOURCE_DIR) +
+                "/profiles/ender3_s1_pro_tpu.toml --center -o " + gc).code, 0);
+  CmdResult r = run("analyze " + gc + " --design " + lat + " --align --report " + in_work("an.report.json"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("ratio 1.000, double 0.00 mm, off-design 0.00 mm, missing 0 of"), std::string::npos) << r.out;
+  const std::string report = trellis::read_file(in_work("an.report.json"));
+  EXPECT_NE(report.find("\"missing_edges\": 0"), std::string::npos);
+  r = run("compare " + lat + " " + gc + " " + gc + " --align --png " + in_work("cmp"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("ratio"), std::string::npos);
+  EXPECT_TRUE(fs::exists(in_work("cmp.an.layer000.png")));
+  // Garbage lines are warnings naming the line, not crashes.
+  const std::string bad = write("bad.gcode", "G1 X1 Y1 E1\nG1 X@@ E2\nG1 X2 Y2 E3\n");
+  r = run("analyze " + bad);
+  EXPECT_EQ(r.code, 0);
+  EXPECT_NE(r.err.find("bad.gcode:2"), std::string::npos) << r.err;
+  EXPECT_EQ(run("analyze " + bad + " --strict").code, 2);
+  EXPECT_EQ(run("analyze " + in_work("missing.gcode")).code, 2);
 }
