@@ -3,7 +3,7 @@ PRESET ?= release
 BUILD  := build/$(PRESET)
 JOBS   ?= $(shell nproc)
 
-.PHONY: deps configure build demo test bench fuzz asan format clean
+.PHONY: deps configure build demo test bench compare fuzz asan format clean
 
 deps:
 	@bash scripts/install-deps.sh
@@ -22,6 +22,9 @@ test: build
 
 bench: build
 	@for b in $(BUILD)/bench/bench_*; do echo "== $$b"; $$b --benchmark_min_time=1; done
+
+compare: build
+	@bash scripts/control_slicer.sh $(BUILD)/apps/trellis/trellis out/control
 
 asan:
 	@$(MAKE) test PRESET=asan

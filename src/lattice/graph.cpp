@@ -1,6 +1,10 @@
 #include "trellis/lattice/graph.hpp"
 
+#include <cmath>
+#include <numbers>
 #include <numeric>
+
+#include "trellis/geom/mesh.hpp"
 
 namespace trellis {
 
@@ -66,6 +70,31 @@ std::vector<int> connected_components(const Graph& g, int* count) {
   }
   if (count) *count = n;
   return comp;
+}
+
+TriangleMesh lattice_walls(const Graph& g, double width, double height) {
+  TriangleMesh mesh;
+  const double r = width / 2;
+  std::vector<char> used(g.nodes.size(), 0);
+  for (const auto& e : g.edges) {
+    const Vec3 a = g.nodes[e.a], b = g.nodes[e.b];
+    const double len = distance_xy(a, b);
+    if (len <= 0) continue;
+    const Vec2 n{-(b.y - a.y) / len * r, (b.x - a.x) / len * r};
+    mesh.add_prism({{a.x - n.x, a.y - n.y}, {b.x - n.x, b.y - n.y}, {b.x + n.x, b.y + n.y}, {a.x + n.x, a.y + n.y}},
+                   std::min(a.z, b.z), std::min(a.z, b.z) + height);
+    used[e.a] = used[e.b] = 1;
+  }
+  for (NodeId v = 0; v < g.nodes.size(); ++v) {
+    if (!used[v]) continue;
+    std::vector<Vec2> ring;
+    for (int k = 0; k < 16; ++k) {
+      const double t = 2 * std::numbers::pi * k / 16;
+      ring.push_back({g.nodes[v].x + r * std::cos(t), g.nodes[v].y + r * std::sin(t)});
+    }
+    mesh.add_prism(ring, g.nodes[v].z, g.nodes[v].z + height);
+  }
+  return mesh;
 }
 
 std::size_t lower_bound_paths(const Graph& g) {

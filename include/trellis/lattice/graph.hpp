@@ -53,6 +53,12 @@ std::size_t lower_bound_paths(const Graph& g);
 // Coordinates beyond ±1 km are rejected as input errors (they also overflow spatial grids).
 inline constexpr double kMaxCoordinate = 1e6;
 
+// The lattice as solid walls for other slicers: every strut a box of `width` x `height` (from
+// its z upward), every node a 16-sided prism of diameter `width`, as overlapping closed shells
+// (slicers take their union).
+struct TriangleMesh;
+TriangleMesh lattice_walls(const Graph& g, double width, double height);
+
 struct CleanOptions {
   double merge_tolerance = 1e-6;  // nodes closer than this (mm) become one
   bool split_t_junctions = true;  // a node lying on another edge splits that edge

@@ -1,0 +1,35 @@
+#include <iostream>
+
+#include "commands.hpp"
+#include "trellis/core/error.hpp"
+#include "trellis/geom/mesh.hpp"
+#include "trellis/lattice/io.hpp"
+
+namespace trellis::cli {
+
+void add_walls(CLI::App& app) {
+  struct Opts {
+    std::string input, output;
+    double width = 0.2, height = 0.148;
+  };
+  auto o = std::make_shared<Opts>();
+  auto* cmd = app.add_subcommand("walls", "Export a lattice as solid walls (binary STL) for other slicers");
+  cmd->footer("Each strut becomes a box width x height from its z upward and each node a 16-sided\n"
+              "prism, as overlapping shells (slicers take their union). This is how the GIPPO paper\n"
+              "fed its lattices to a conventional slicer (\"wall structure\", 0% infill).");
+  cmd->add_option("lattice", o->input, "lattice file")->required();
+  cmd->add_option("-o,--output", o->output, "STL file to write")->required();
+  cmd->add_option("--width", o->width, "wall width (mm)")->check(CLI::PositiveNumber)->capture_default_str();
+  cmd->add_option("--height", o->height, "wall height (mm)")->check(CLI::PositiveNumber)->capture_default_str();
+  cmd->callback([o] {
+    Diagnostics diag;
+    const Graph g = read_lattice(o->input, {}, diag);
+    const TriangleMesh mesh = lattice_walls(g, o->width, o->height);
+    write_stl(o->output, mesh);
+    print_warnings(diag);
+    std::cout << "walls: " << g.edges.size() << " struts, " << mesh.triangles.size() << " triangles -> "
+              << o->output << "\n";
+  });
+}
+
+}  // namespace trellis::cli
