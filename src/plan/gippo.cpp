@@ -26,6 +26,7 @@ struct SortedAdjacency {
     EdgeId edge;
     NodeId other;
     double length;
+    std::int64_t key;  // length in nm, rounded: the value compared
   };
   std::vector<std::uint32_t> offsets;
   std::vector<Slot> slots;
@@ -36,10 +37,10 @@ struct SortedAdjacency {
     for (NodeId n = 0; n < g.nodes.size(); ++n) {
       offsets[n] = static_cast<std::uint32_t>(slots.size());
       for (const EdgeId* e = adj.begin(n); e != adj.end(n); ++e)
-        slots.push_back({*e, g.edges[*e].other(n), g.edge_length(*e)});
+        slots.push_back(
+            {*e, g.edges[*e].other(n), g.edge_length(*e), gippo_length_key(g.edge_length(*e))});
       auto better = [&](const Slot& x, const Slot& y) {
-        if (x.length != y.length)
-          return mode == GippoMode::Max ? x.length > y.length : x.length < y.length;
+        if (x.key != y.key) return mode == GippoMode::Max ? x.key > y.key : x.key < y.key;
         return x.edge < y.edge;
       };
       std::sort(slots.begin() + offsets[n], slots.end(), better);
@@ -163,10 +164,17 @@ class Iteration {
         const Slot* sf = best(vf);
         const Slot* sb = best(vb);
         if (!sf && !sb) break;
-        bool back = !sf;
+        // The best length over both ends, then every unused edge of that length at the front
+        // (in edge-id order) and at the back (same, skipping the front's): one of them at random.
+        std::int64_t key = sf ? sf->key : sb->key;
         if (sf && sb)
-          back = mode == GippoMode::Max ? sb->length > sf->length : sb->length < sf->length;
-        const Slot& s = back ? *sb : *sf;
+          key = mode == GippoMode::Max ? std::max(sf->key, sb->key) : std::min(sf->key, sb->key);
+        ties_.clear();
+        if (sf && sf->key == key) collect_ties(vf, key, false);
+        if (sb && sb->key == key && vb != vf) collect_ties(vb, key, true);
+        const auto& [slot, back] =
+            ties_.size() == 1 ? ties_[0] : ties_[rng.uniform_index(ties_.size())];
+        const Slot& s = *slot;
         take(s.edge, back ? vb : vf, s.other);
         len += s.length;
         if (back) {
@@ -200,6 +208,21 @@ class Iteration {
     return c < end ? &adj_.slots[c] : nullptr;
   }
 
+  // Appends the unused slots of v with this key (they follow the cursor, in edge-id order). At
+  // the back end, an edge already listed from the front (it joins the two ends) is skipped.
+  void collect_ties(NodeId v, std::int64_t key, bool back) {
+    const std::uint32_t end = adj_.offsets[v + 1];
+    const std::size_t front_count = ties_.size();
+    for (std::uint32_t c = cursor_[v]; c < end && adj_.slots[c].key == key; ++c) {
+      const Slot& s = adj_.slots[c];
+      if (used_[s.edge]) continue;
+      bool dup = false;
+      if (back)
+        for (std::size_t t = 0; t < front_count; ++t) dup |= ties_[t].first->edge == s.edge;
+      if (!dup) ties_.emplace_back(&s, back);
+    }
+  }
+
   void take(EdgeId e, NodeId a, NodeId b) {
     used_[e] = 1;
     if (--remaining_[a] == 0) incomplete_.remove(a);
@@ -210,6 +233,7 @@ class Iteration {
   const SortedAdjacency& adj_;
   std::vector<char> used_;
   std::vector<std::uint32_t> cursor_, remaining_;
+  std::vector<std::pair<const Slot*, bool>> ties_;  // candidate slot, taken at the back end
   IncompleteSet incomplete_;
   std::vector<NodeId> buf_nodes_;
   std::vector<EdgeId> buf_edges_;

@@ -6,10 +6,16 @@
 // Determinism, exactly (so an independent implementation reproduces it):
 //  - iteration k draws from Rng::stream(seed, k);
 //  - the start node is the r-th incomplete node in ascending id order, r = uniform_index(count);
-//  - ties in length go to the trail's front end, then to the lower edge id;
+//  - lengths are compared rounded to 1 nm (gippo_length_key), so a translated or rotated copy of
+//    a lattice, whose equal struts differ by floating-point noise, is planned alike;
+//  - the candidates are the unused edges of the best length at the front end (ascending edge
+//    id), then those at the back end not already listed; with more than one, the pick is
+//    candidates[uniform_index(count)] from the same stream (many lattices have struts of one
+//    length, where this keeps the 500 iterations exploring instead of repeating one choice);
 //  - the best solution is the highest score, the lowest iteration on ties.
 // Results are identical for any thread count.
 #pragma once
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -19,6 +25,11 @@
 namespace trellis {
 
 enum class GippoMode { Max, Min };
+
+// The value GIPPO compares for a strut of `length` mm: its length in nanometres, rounded.
+inline std::int64_t gippo_length_key(double length) {
+  return std::llround(length * 1e6);
+}
 
 struct GippoParams {
   GippoMode mode = GippoMode::Max;  // take the longest (max) or shortest (min) edge
