@@ -50,13 +50,22 @@ struct Seg {
 // Uniform grid of segment ids over the plane.
 class SegmentGrid {
  public:
+  // Each segment goes into the cells within one cell of it, found by walking along it (so a
+  // long segment costs its length in cells, not its bounding box).
   SegmentGrid(const std::vector<Seg>& segs, double cell) : segs_(segs), cell_(cell) {
     for (std::size_t i = 0; i < segs.size(); ++i) {
-      const auto [x0, x1] = std::minmax(segs[i].a.x, segs[i].b.x);
-      const auto [y0, y1] = std::minmax(segs[i].a.y, segs[i].b.y);
-      for (long cx = key(x0 - cell); cx <= key(x1 + cell); ++cx)
-        for (long cy = key(y0 - cell); cy <= key(y1 + cell); ++cy)
-          cells_[hash(cx, cy)].push_back(i);
+      const Seg& s = segs[i];
+      const double len = std::hypot(s.b.x - s.a.x, s.b.y - s.a.y);
+      const int steps = static_cast<int>(std::ceil(len / (cell / 2))) + 1;
+      for (int k = 0; k <= steps; ++k) {
+        const double t = static_cast<double>(k) / steps;
+        const long cx = key(s.a.x + (s.b.x - s.a.x) * t), cy = key(s.a.y + (s.b.y - s.a.y) * t);
+        for (long dx = -1; dx <= 1; ++dx)
+          for (long dy = -1; dy <= 1; ++dy) {
+            auto& v = cells_[hash(cx + dx, cy + dy)];
+            if (v.empty() || v.back() != i) v.push_back(i);
+          }
+      }
     }
   }
   template <class Fn>
@@ -115,7 +124,12 @@ void analyse_layer(const Graph& g, const std::vector<EdgeId>& edges, const Layer
       printed.push_back({layer.paths[pi].points[k - 1].xy(), layer.paths[pi].points[k].xy(), pi});
   for (EdgeId e : edges)
     design.push_back({g.nodes[g.edges[e].a].xy(), g.nodes[g.edges[e].b].xy(), e});
-  const double cell = std::max(w, 0.25);
+  // Cells of about a bead, but at most ~512 across the layer (bounded work on absurd inputs).
+  BBox3 box;
+  for (const auto& q : printed) box.add({q.a.x, q.a.y, 0}), box.add({q.b.x, q.b.y, 0});
+  for (const auto& q : design) box.add({q.a.x, q.a.y, 0}), box.add({q.b.x, q.b.y, 0});
+  const double extent = box.empty() ? 0 : std::max(box.max.x - box.min.x, box.max.y - box.min.y);
+  const double cell = std::max({w, 0.25, extent / 512});
   const SegmentGrid pgrid(printed, cell), dgrid(design, cell);
   const auto zone = node_zones(g, edges, w);
   std::vector<std::size_t> seen;

@@ -3,6 +3,7 @@
 
 #include <filesystem>
 
+#include "trellis/analysis/metrics.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/lattice/io.hpp"
@@ -35,6 +36,13 @@ TEST(FuzzRegressions, EveryParserSurvivesEveryCrashInput) {
       clean_graph(parse_obj_lines(text, "f").graph, {}, d);
     });
     survive([&] { toolpath_from_json(text, "f"); });
+    survive([&] {
+      Diagnostics d;
+      Graph design;
+      design.nodes = {{0, 0, 0}, {10, 0, 0}};
+      design.edges = {{0, 1}};
+      analyze(read_gcode(text, {}, d, "f"), {}, &design, {});
+    });
   }
   EXPECT_GE(n, 4u);
 }
