@@ -14,7 +14,12 @@ namespace trellis {
 void CountingSink::extrude(Vec3 a, Vec3 b, double e, double feed) {
   const double len = distance(a, b);
   ++counts.extrusion_moves;
-  if (state_ != State::Extruding || distance(last_, a) > 1e-9) ++counts.extrusion_starts;
+  if (state_ != State::Extruding || distance(last_, a) > 1e-9) {
+    close_path();
+    ++counts.extrusion_starts;
+  }
+  path_length_ += len;
+  ++path_edges_;
   if (state_ == State::Travelling && extruded_) {
     // A run of non-extruding moves between two extrusions is one travel move.
     ++counts.travel_moves;
@@ -34,6 +39,21 @@ void CountingSink::travel(Vec3 a, Vec3 b, double feed) {
   pending_ += distance_xy(a, b);
   if (feed > 0) counts.print_time_s += distance(a, b) / feed;
 }
+
+void CountingSink::close_path() {
+  if (path_edges_ == 0) return;
+  ++counts.paths;
+  const double w = path_length_ * static_cast<double>(path_edges_);
+  counts.weighted += w;
+  if (path_edges_ + 1 >= long_nodes_) {
+    counts.long_length += path_length_;
+    counts.long_weighted += w;
+  }
+  path_length_ = 0;
+  path_edges_ = 0;
+}
+
+void CountingSink::finish() { close_path(); }
 
 void CountingSink::retract() {
   ++counts.retractions;
@@ -201,24 +221,14 @@ Analysis analyze(const Toolpath& printed_in, const GcodeCounts& counts, const Gr
   }
   Analysis a;
   a.counts = counts;
-  double weighted = 0, long_len = 0, long_weighted = 0;
-  for (const auto& l : printed.layers)
-    for (const auto& path : l.paths) {
-      const double len = path.length();
-      const std::size_t edges = path.segments();
-      ++a.paths;
-      a.edges_real += edges;
-      a.extruded_length += len;
-      weighted += len * static_cast<double>(edges);
-      if (edges + 1 >= p.long_nodes) {
-        long_len += len;
-        long_weighted += len * static_cast<double>(edges);
-      }
-    }
+  // Eq. 1-3 over the printed paths, from the streaming sums.
+  a.paths = counts.paths;
+  a.edges_real = counts.extrusion_moves;
+  a.extruded_length = counts.extruded_length;
   if (a.paths && a.extruded_length > 0) {
-    a.score = weighted / (a.extruded_length * static_cast<double>(a.paths));
-    a.lts = 100 * long_len / a.extruded_length;
-    a.oe = 100 * long_weighted / (a.extruded_length * static_cast<double>(a.edges_real));
+    a.score = counts.weighted / (a.extruded_length * static_cast<double>(a.paths));
+    a.lts = 100 * counts.long_length / a.extruded_length;
+    a.oe = 100 * counts.long_weighted / (a.extruded_length * static_cast<double>(a.edges_real));
   }
   a.score_corrected = a.score;
   a.printed = printed;
@@ -274,21 +284,21 @@ Analysis analyze(const Toolpath& printed_in, const GcodeCounts& counts, const Gr
   return a;
 }
 
-Analysis analyze_gcode_file(const std::string& path, const Graph* design,
-                            const AnalysisParams& params, const GcodeReadOptions& read,
-                            Diagnostics& diag) {
+Analysis analyze_gcode_file(const std::string& path, const Graph* design, const AnalysisParams& params,
+                            const GcodeReadOptions& read, Diagnostics& diag) {
+  CountingSink counter(params.long_nodes);
   Toolpath tp;
-  CountingSink counter;
-  {
-    // One pass feeding both the counter and the IR builder.
+  if (!design) {
+    // Counts only: constant memory whatever the file size.
+    scan_gcode_file(path, counter, read, diag);
+  } else {
+    // One pass feeding both the counter and the IR builder (the design comparison needs the IR).
     struct Both : GcodeSink {
       GcodeSink& a;
       GcodeSink& b;
       Both(GcodeSink& x, GcodeSink& y) : a(x), b(y) {}
       void layer_change(double z) override { a.layer_change(z), b.layer_change(z); }
-      void extrude(Vec3 p, Vec3 q, double e, double f) override {
-        a.extrude(p, q, e, f), b.extrude(p, q, e, f);
-      }
+      void extrude(Vec3 p, Vec3 q, double e, double f) override { a.extrude(p, q, e, f), b.extrude(p, q, e, f); }
       void travel(Vec3 p, Vec3 q, double f) override { a.travel(p, q, f), b.travel(p, q, f); }
       void retract() override { a.retract(), b.retract(); }
       void tool_change(int t) override { a.tool_change(t), b.tool_change(t); }
@@ -299,6 +309,7 @@ Analysis analyze_gcode_file(const std::string& path, const Graph* design,
     Both both(counter, *builder);
     scan_gcode_file(path, both, read, diag);
   }
+  counter.finish();
   Analysis a = analyze(tp, counter.counts, design, params);
   a.name = path;
   return a;

@@ -31,26 +31,20 @@ bool parse_number(const char* b, const char* e, double& out) {
   static constexpr double kPow10[] = {1e0, 1e1, 1e2,  1e3,  1e4,  1e5,  1e6,  1e7,
                                       1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15};
   const char* p = b;
-  bool neg = false;
-  if (p < e && (*p == '-' || *p == '+')) neg = *p++ == '-';
+  const bool neg = p < e && *p == '-';
+  if (p < e && (*p == '-' || *p == '+')) ++p;
   std::uint64_t m = 0;
-  int digits = 0, frac = 0;
-  bool dot = false, any = false;
-  for (; p < e; ++p) {
-    const char c = *p;
-    if (c >= '0' && c <= '9') {
-      any = true;
-      if (digits || c != '0') ++digits;
-      m = m * 10 + static_cast<unsigned>(c - '0');
-      frac += dot;
-    } else if (c == '.' && !dot) {
-      dot = true;
-    } else {
-      break;
-    }
+  const char* start = p;
+  while (p < e && is_digit(*p)) m = m * 10 + static_cast<unsigned>(*p++ - '0');
+  const auto int_digits = p - start;
+  std::ptrdiff_t frac = 0;
+  if (p < e && *p == '.') {
+    const char* f = ++p;
+    while (p < e && is_digit(*p)) m = m * 10 + static_cast<unsigned>(*p++ - '0');
+    frac = p - f;
   }
-  if (p == e && any && digits <= 15 && frac <= 15) {
-    out = static_cast<double>(m) / kPow10[frac];
+  if (p == e && int_digits + frac > 0 && int_digits + frac <= 15) {
+    out = frac ? static_cast<double>(m) / kPow10[frac] : static_cast<double>(m);
     if (neg) out = -out;
     return true;
   }

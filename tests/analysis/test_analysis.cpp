@@ -17,6 +17,7 @@ Analysis measure(const Toolpath& tp, const Graph& design, const AnalysisParams& 
   const std::string g = write_gcode(tp, p);
   CountingSink counter;
   GcodeScanner(counter, {}, d).feed(g);
+  counter.finish();
   return analyze(read_gcode(g, {}, d), counter.counts, &design, params);
 }
 

@@ -18,14 +18,21 @@ struct GcodeCounts {
   std::size_t extrusion_moves = 0, extrusion_starts = 0, travel_moves = 0, retractions = 0;
   std::size_t layers = 0;
   double extruded_length = 0, travel_length = 0, filament = 0, print_time_s = 0;
+  // Per-path sums for Eq. 1-3 (a path = a run of connected extrusion moves; its edges = moves).
+  std::size_t paths = 0;
+  double weighted = 0;                       // Σ length_i · edges_i
+  double long_length = 0, long_weighted = 0;  // the same over long paths (≥ long_nodes nodes)
 };
 
 class CountingSink : public GcodeSink {
  public:
+  explicit CountingSink(std::size_t long_nodes = 5) : long_nodes_(long_nodes) {}
   void layer_change(double) override { ++counts.layers; }
   void extrude(Vec3 a, Vec3 b, double e, double feed) override;
   void travel(Vec3 a, Vec3 b, double feed) override;
   void retract() override;
+  // Closes the last path; call once after the last line.
+  void finish();
   GcodeCounts counts;
 
  private:
@@ -34,6 +41,10 @@ class CountingSink : public GcodeSink {
   bool extruded_ = false;
   double pending_ = 0;  // travel length since the last extrusion
   Vec3 last_;
+  std::size_t long_nodes_;
+  double path_length_ = 0;
+  std::size_t path_edges_ = 0;
+  void close_path();
 };
 
 struct AnalysisParams {
