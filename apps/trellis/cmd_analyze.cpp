@@ -26,6 +26,8 @@ void add_common(CLI::App* cmd, AnalyzeOpts& o) {
       ->capture_default_str();
   cmd->add_option("--layer-height", o.params.layer_height, "nozzle z = design z + this (mm)")
       ->capture_default_str();
+  cmd->add_option("--acceleration", o.params.acceleration, "mm/s² for the print-time estimate (0 = feed rates only)")
+      ->check(CLI::NonNegativeNumber);
   cmd->add_flag("--align", o.params.align_centers,
                 "move the print's XY centre onto the design's (for parts placed on the bed)");
   cmd->add_option("--valve-on", o.read.valve_on,

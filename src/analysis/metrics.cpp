@@ -8,6 +8,7 @@
 
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
+#include "trellis/machine/profile.hpp"
 
 namespace trellis {
 
@@ -31,13 +32,13 @@ void CountingSink::extrude(Vec3 a, Vec3 b, double e, double feed) {
   last_ = b;
   counts.extruded_length += len;
   counts.filament += e;
-  if (feed > 0) counts.print_time_s += len / feed;
+  counts.print_time_s += move_time(len, feed, acceleration_);
 }
 
 void CountingSink::travel(Vec3 a, Vec3 b, double feed) {
   state_ = State::Travelling;
   pending_ += distance_xy(a, b);
-  if (feed > 0) counts.print_time_s += distance(a, b) / feed;
+  counts.print_time_s += move_time(distance(a, b), feed, acceleration_);
 }
 
 void CountingSink::close_path() {
@@ -286,7 +287,7 @@ Analysis analyze(const Toolpath& printed_in, const GcodeCounts& counts, const Gr
 
 Analysis analyze_gcode_file(const std::string& path, const Graph* design, const AnalysisParams& params,
                             const GcodeReadOptions& read, Diagnostics& diag) {
-  CountingSink counter(params.long_nodes);
+  CountingSink counter(params.long_nodes, params.acceleration);
   Toolpath tp;
   if (!design) {
     // Counts only: constant memory whatever the file size.

@@ -205,7 +205,7 @@ class Writer {
     out_ += " F";
     feed(p_.z_speed);
     out_ += '\n';
-    stats_.print_time_s += std::abs(z - pos_.z) / p_.z_speed;
+    stats_.print_time_s += move_time(std::abs(z - pos_.z), p_.z_speed, p_.acceleration);
     pos_.z = z;
   }
 
@@ -227,7 +227,7 @@ class Writer {
     if (known_) {
       ++stats_.travel_moves;
       stats_.travel_length += d;
-      stats_.print_time_s += d / p_.travel_speed;
+      stats_.print_time_s += move_time(d, p_.travel_speed, p_.acceleration);
     }
     pos_.x = q.x;
     pos_.y = q.y;
@@ -298,7 +298,7 @@ class Writer {
       }
       out_ += '\n';
       stats_.print_length += len;
-      stats_.print_time_s += len / speed;
+      stats_.print_time_s += move_time(len, speed, p_.acceleration);
       pos_ = q;
     }
     if (marlin) extra_filament(p_.post_flow);

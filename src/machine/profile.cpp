@@ -36,6 +36,7 @@ const std::vector<SettingDecl>& machine_settings() {
       {"speed.print", "mm/s", "printing speed", 0.01, 1000, &P::print_speed},
       {"speed.travel", "mm/s", "travel speed", 0.01, 2000, &P::travel_speed},
       {"speed.z", "mm/s", "speed of Z moves", 0.01, 1000, &P::z_speed},
+      {"speed.acceleration", "mm/s²", "acceleration for print-time estimates, 0 = feed rates only", 0, 100000, &P::acceleration},
       {"speed.short_path_factor", "", "speed factor for short paths (paper: 0.6)", 0.01, 10,
        &P::short_path_factor},
       {"speed.short_path_segments", "", "paths with fewer segments than this are short", 0, 1000000,
@@ -209,6 +210,14 @@ std::string setting_text(const MachineProfile& p, const SettingDecl& d) {
           return p.*member;
       },
       d.member);
+}
+
+double move_time(double length, double feed, double acceleration) {
+  if (length <= 0 || feed <= 0) return 0;
+  if (acceleration <= 0) return length / feed;
+  // Reaching `feed` takes feed²/(2a) mm each way; shorter moves are triangles.
+  if (length >= feed * feed / acceleration) return length / feed + feed / acceleration;
+  return 2 * std::sqrt(length / acceleration);
 }
 
 std::string settings_help() {

@@ -26,7 +26,8 @@ struct GcodeCounts {
 
 class CountingSink : public GcodeSink {
  public:
-  explicit CountingSink(std::size_t long_nodes = 5) : long_nodes_(long_nodes) {}
+  explicit CountingSink(std::size_t long_nodes = 5, double acceleration = 0)
+      : long_nodes_(long_nodes), acceleration_(acceleration) {}
   void layer_change(double) override { ++counts.layers; }
   void extrude(Vec3 a, Vec3 b, double e, double feed) override;
   void travel(Vec3 a, Vec3 b, double feed) override;
@@ -42,6 +43,7 @@ class CountingSink : public GcodeSink {
   double pending_ = 0;  // travel length since the last extrusion
   Vec3 last_;
   std::size_t long_nodes_;
+  double acceleration_;
   double path_length_ = 0;
   std::size_t path_edges_ = 0;
   void close_path();
@@ -54,6 +56,7 @@ struct AnalysisParams {
   double min_covered = 0.5;     // a strut is missing if less than this fraction is covered
   std::size_t long_nodes = 5;
   bool align_centers = false;  // move the print's XY centre onto the design's before measuring
+  double acceleration = 0;     // mm/s² for the print-time estimate (0 = feed rates only)
 };
 
 struct StrutCoverage {

@@ -29,6 +29,7 @@ struct MachineProfile {
   double print_speed = 20;
   double travel_speed = 100;
   double z_speed = 10;
+  double acceleration = 0;  // mm/s², for time estimates; 0 = feed rates only
   double short_path_factor = 0.6;  // speed factor for paths under short_path_segments
   int short_path_segments = 4;
   // [temperature] (°C, 0 = leave unset) and fan (%)
@@ -82,6 +83,11 @@ void apply_override(MachineProfile& profile, const std::string& assignment);
 void validate(const MachineProfile& profile);
 // Value of a setting as text (for headers and templates).
 std::string setting_text(const MachineProfile& profile, const SettingDecl& decl);
+// Time (s) of one straight move of `length` mm at `feed` mm/s that starts and ends at rest,
+// with a trapezoidal speed profile of the given acceleration (0 = constant feed). A simple,
+// slightly pessimistic model: real firmware keeps speed through shallow corners.
+double move_time(double length, double feed, double acceleration);
+
 // Help text listing every setting with unit, default and doc.
 std::string settings_help();
 
