@@ -54,7 +54,9 @@ void CountingSink::close_path() {
   path_edges_ = 0;
 }
 
-void CountingSink::finish() { close_path(); }
+void CountingSink::finish() {
+  close_path();
+}
 
 void CountingSink::retract() {
   ++counts.retractions;
@@ -285,8 +287,9 @@ Analysis analyze(const Toolpath& printed_in, const GcodeCounts& counts, const Gr
   return a;
 }
 
-Analysis analyze_gcode_file(const std::string& path, const Graph* design, const AnalysisParams& params,
-                            const GcodeReadOptions& read, Diagnostics& diag) {
+Analysis analyze_gcode_file(const std::string& path, const Graph* design,
+                            const AnalysisParams& params, const GcodeReadOptions& read,
+                            Diagnostics& diag) {
   CountingSink counter(params.long_nodes, params.acceleration);
   Toolpath tp;
   if (!design) {
@@ -299,7 +302,9 @@ Analysis analyze_gcode_file(const std::string& path, const Graph* design, const 
       GcodeSink& b;
       Both(GcodeSink& x, GcodeSink& y) : a(x), b(y) {}
       void layer_change(double z) override { a.layer_change(z), b.layer_change(z); }
-      void extrude(Vec3 p, Vec3 q, double e, double f) override { a.extrude(p, q, e, f), b.extrude(p, q, e, f); }
+      void extrude(Vec3 p, Vec3 q, double e, double f) override {
+        a.extrude(p, q, e, f), b.extrude(p, q, e, f);
+      }
       void travel(Vec3 p, Vec3 q, double f) override { a.travel(p, q, f), b.travel(p, q, f); }
       void retract() override { a.retract(), b.retract(); }
       void tool_change(int t) override { a.tool_change(t), b.tool_change(t); }
