@@ -8,6 +8,7 @@
 #include "../core/json_document.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
+#include "trellis/core/text.hpp"
 
 namespace trellis {
 
@@ -15,13 +16,6 @@ using nlohmann::json;
 
 namespace {
 
-std::string_view trim(std::string_view s) {
-  while (!s.empty() && (s.front() == ' ' || s.front() == '\t' || s.front() == '\r'))
-    s.remove_prefix(1);
-  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r'))
-    s.remove_suffix(1);
-  return s;
-}
 
 // Splits on commas (or, if there is no comma, on whitespace).
 std::vector<std::string_view> split_fields(std::string_view line) {

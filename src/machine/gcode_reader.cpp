@@ -6,6 +6,7 @@
 #include <numbers>
 
 #include "trellis/core/error.hpp"
+#include "trellis/core/text.hpp"
 
 namespace trellis {
 
@@ -52,38 +53,12 @@ const char* scan_decimal(const char* b, const char* e, double& out) {
 }
 
 bool parse_number(const char* b, const char* e, double& out) {
-  static constexpr double kPow10[] = {1e0, 1e1, 1e2,  1e3,  1e4,  1e5,  1e6,  1e7,
-                                      1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15};
-  const char* p = b;
-  const bool neg = p < e && *p == '-';
-  if (p < e && (*p == '-' || *p == '+')) ++p;
-  std::uint64_t m = 0;
-  const char* start = p;
-  while (p < e && is_digit(*p)) m = m * 10 + static_cast<unsigned>(*p++ - '0');
-  const auto int_digits = p - start;
-  std::ptrdiff_t frac = 0;
-  if (p < e && *p == '.') {
-    const char* f = ++p;
-    while (p < e && is_digit(*p)) m = m * 10 + static_cast<unsigned>(*p++ - '0');
-    frac = p - f;
-  }
-  if (p == e && int_digits + frac > 0 && int_digits + frac <= 15) {
-    out = frac ? static_cast<double>(m) / kPow10[frac] : static_cast<double>(m);
-    if (neg) out = -out;
-    return true;
-  }
+  if (scan_decimal(b, e, out) == e) return true;
   if (b < e && *b == '+') ++b;
   const auto r = std::from_chars(b, e, out);
   return b < e && r.ec == std::errc() && r.ptr == e;
 }
 
-std::string_view trim(std::string_view s) {
-  while (!s.empty() && (s.front() == ' ' || s.front() == '\t' || s.front() == '\r'))
-    s.remove_prefix(1);
-  while (!s.empty() && (s.back() == ' ' || s.back() == '\t' || s.back() == '\r'))
-    s.remove_suffix(1);
-  return s;
-}
 
 bool starts_with(std::string_view s, std::string_view p) {
   return s.substr(0, p.size()) == p;
