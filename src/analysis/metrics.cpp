@@ -310,6 +310,7 @@ Analysis analyze_gcode_file(const std::string& path, const Graph* design,
       void tool_change(int t) override { a.tool_change(t), b.tool_change(t); }
       void role(PathRole r) override { a.role(r), b.role(r); }
       void mixture(const std::vector<double>& m) override { a.mixture(m), b.mixture(m); }
+      void temperature(double t) override { a.temperature(t), b.temperature(t); }
     };
     auto builder = make_toolpath_builder(tp);
     Both both(counter, *builder);

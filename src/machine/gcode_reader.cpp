@@ -178,7 +178,17 @@ void GcodeScanner::line(std::string_view text) {
       abs_e_ = true;
     else if (code == 83)
       abs_e_ = false;
-    else if (code == 165) {
+    else if (code == 104 || code == 109) {
+      const auto sp = args.find_first_of("Ss");
+      if (sp == std::string_view::npos) return;
+      const char* b = args.data() + sp + 1;
+      const char* e = b;
+      while (e < args.data() + args.size() && *e != ' ' && *e != '\t') ++e;
+      double t = 0;
+      if (!parse_number(b, e, t) || !std::isfinite(t) || t < 0 || t > 1000)
+        return bad("bad temperature in '" + std::string(args.substr(0, 30)) + "'");
+      sink_.temperature(t);
+    } else if (code == 165) {
       std::vector<double> mix;
       std::size_t p = 0;
       while (p < args.size()) {
@@ -378,6 +388,7 @@ class ToolpathBuilder : public GcodeSink {
     p.tool = tool_;
     p.role = role_;
     p.mixture = mixture_;
+    p.temperature = temperature_;
     p.speed = feed;
     p.filament = e;
     layer.paths.push_back(std::move(p));
@@ -396,6 +407,10 @@ class ToolpathBuilder : public GcodeSink {
   void mixture(const std::vector<double>& m) override {
     close();
     mixture_ = m;
+  }
+  void temperature(double t) override {
+    close();
+    temperature_ = t;
   }
 
  private:
@@ -416,6 +431,7 @@ class ToolpathBuilder : public GcodeSink {
   int tool_ = 0;
   PathRole role_ = PathRole::Strut;
   std::vector<double> mixture_;
+  double temperature_ = 0;
   bool commented_ = false, new_layer_ = false;
 };
 

@@ -23,6 +23,7 @@ std::string toolpath_to_json(const Toolpath& tp) {
       if (!p.mixture.empty()) jp["mixture"] = p.mixture;
       if (p.power != 0) jp["power"] = p.power;
       if (p.filament != 0) jp["filament"] = p.filament;
+      if (p.temperature != 0) jp["temperature"] = p.temperature;
       paths.push_back(std::move(jp));
     }
     layers.push_back({{"z", layer.z}, {"paths", std::move(paths)}});
@@ -69,8 +70,11 @@ Path parse_path(const json& jp, const std::string& origin, const std::string& el
   p.speed = optional_number(jp, "speed", origin, el);
   p.power = optional_number(jp, "power", origin, el);
   p.filament = optional_number(jp, "filament", origin, el);
-  if (p.tool < 0 || p.width < 0 || p.height < 0 || p.speed < 0 || p.power < 0)
-    throw ParseError("tool, width, height, speed and power must be >= 0", {origin, 0, el});
+  p.temperature = optional_number(jp, "temperature", origin, el);
+  if (p.tool < 0 || p.width < 0 || p.height < 0 || p.speed < 0 || p.power < 0 || p.filament < 0 ||
+      p.temperature < 0)
+    throw ParseError("tool, width, height, speed, power, filament and temperature must be >= 0",
+                     {origin, 0, el});
   if (auto it = jp.find("mixture"); it != jp.end()) {
     if (!it->is_array()) throw ParseError("mixture must be an array", {origin, 0, el});
     for (std::size_t i = 0; i < it->size(); ++i)

@@ -110,6 +110,20 @@ TEST(Reader, ModesUnitsArcsAndComments) {
   EXPECT_NEAR(tp.layers[1].paths[0].points.back().x, 25.4, 1e-9);
 }
 
+TEST(Reader, ToolsMixturesAndTemperaturesReachThePaths) {
+  Diagnostics d;
+  const Toolpath tp = read_gcode(
+      "M104 S210\nG1 X1 E1\nT1\nM165 A0.25 B0.75\nM109 S225.5\nG1 X2 E2\nM104 Sabc\n", {}, d);
+  ASSERT_EQ(tp.layers.size(), 1u);
+  ASSERT_EQ(tp.layers[0].paths.size(), 2u);
+  EXPECT_EQ(tp.layers[0].paths[0].temperature, 210);
+  EXPECT_EQ(tp.layers[0].paths[0].tool, 0);
+  EXPECT_EQ(tp.layers[0].paths[1].tool, 1);
+  EXPECT_EQ(tp.layers[0].paths[1].mixture, (std::vector<double>{0.25, 0.75}));
+  EXPECT_DOUBLE_EQ(tp.layers[0].paths[1].temperature, 225.5);
+  EXPECT_EQ(d.count("gcode_bad_line"), 1u);
+}
+
 TEST(Reader, PrusaLayerCommentsAndLayersByZ) {
   Diagnostics d;
   const Toolpath a = read_gcode(

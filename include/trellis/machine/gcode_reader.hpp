@@ -1,6 +1,6 @@
 // G-code reader (Marlin / RepRap flavours): turns any slicer's G-code back into moves, and into
 // the toolpath IR. Understands G0/G1, G2/G3 (arcs split within a chord tolerance), G90/G91,
-// M82/M83, G92, G20/G21, T<n>, M165 (mixing), and the layer / type comments of Cura (;LAYER:,
+// M82/M83, G92, G20/G21, T<n>, M165 (mixing), M104/M109 (nozzle temperature), and the layer / type comments of Cura (;LAYER:,
 // ;TYPE:), PrusaSlicer (;LAYER_CHANGE, ;Z:, ;TYPE:) and Trellis. A move extrudes when E grows
 // (or, for pneumatic files, while the valve command is in force).
 //
@@ -36,6 +36,7 @@ class GcodeSink {
   virtual void tool_change(int tool) {}
   virtual void role(PathRole role) {}  // from a ;TYPE: comment
   virtual void mixture(const std::vector<double>& fractions) {}
+  virtual void temperature(double celsius) {}      // M104 / M109 S<t>
 };
 
 class GcodeScanner {

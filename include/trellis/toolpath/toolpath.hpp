@@ -27,6 +27,7 @@ struct Path {
   double speed = 0;             // feed (mm/s), 0 = profile default
   double power = 0;             // laser power (W), 0 if not a laser path
   double filament = 0;          // filament (mm of E) as read from G-code, 0 if not known
+  double temperature = 0;       // nozzle temperature (°C) while printing it, 0 = not set
   std::size_t segments() const { return points.size() < 2 ? 0 : points.size() - 1; }
   double length() const;
 };
