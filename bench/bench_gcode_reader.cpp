@@ -2,7 +2,7 @@
 #include <benchmark/benchmark.h>
 
 #include "trellis/analysis/metrics.hpp"
-#include "trellis/core/rng.hpp"
+#include "random_toolpath.hpp"
 #include "trellis/machine/gcode_reader.hpp"
 #include "trellis/machine/gcode_writer.hpp"
 
@@ -10,21 +10,7 @@ using namespace trellis;
 
 static const std::string& sample_gcode() {
   static const std::string g = [] {
-    Toolpath tp;
-    Rng rng(3);
-    for (int l = 0; l < 10; ++l) {
-      Layer layer{0.2 * (l + 1), {}};
-      for (int p = 0; p < 2000; ++p) {
-        Path path;
-        Vec3 q{rng.uniform01() * 200, rng.uniform01() * 200, layer.z};
-        for (int k = 0; k < 25; ++k) {
-          path.points.push_back(q);
-          q = q + Vec3{rng.uniform01() - 0.5, rng.uniform01() - 0.5, 0};
-        }
-        layer.paths.push_back(std::move(path));
-      }
-      tp.layers.push_back(std::move(layer));
-    }
+    const Toolpath tp = bench::random_toolpath(10, 0.2, 3);
     MachineProfile p;
     p.retract_length = 0.8;
     return write_gcode(tp, p);
