@@ -341,9 +341,10 @@ void GcodeScanner::arc(Vec3 to, double e_to, double ci, double cj, double r, boo
   }
   if (std::abs(sweep) > 2 * std::numbers::pi)
     sweep += cw ? 2 * std::numbers::pi : -2 * std::numbers::pi;
+  // At most 10,000 chords per arc: below the tolerance for any radius up to ~1 m.
   const double step = 2 * std::acos(std::clamp(1 - opt_.arc_tolerance / radius, -1.0, 1.0));
   const int pieces =
-      std::clamp(static_cast<int>(std::ceil(std::abs(sweep) / std::max(step, 1e-6))), 1, 100000);
+      std::clamp(static_cast<int>(std::ceil(std::abs(sweep) / std::max(step, 1e-6))), 1, 10000);
   const double e0 = e_;
   for (int k = 1; k <= pieces; ++k) {
     const double t = static_cast<double>(k) / pieces;
