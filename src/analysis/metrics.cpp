@@ -15,7 +15,8 @@ namespace trellis {
 void CountingSink::extrude(Vec3 a, Vec3 b, double e, double feed) {
   const double len = distance(a, b);
   ++counts.extrusion_moves;
-  if (state_ != State::Extruding || distance(last_, a) > 1e-9) {
+  const Vec3 gap = a - last_;
+  if (state_ != State::Extruding || dot(gap, gap) > 1e-18) {
     close_path();
     ++counts.extrusion_starts;
   }

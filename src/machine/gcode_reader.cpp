@@ -59,7 +59,6 @@ bool parse_number(const char* b, const char* e, double& out) {
   return b < e && r.ec == std::errc() && r.ptr == e;
 }
 
-
 bool starts_with(std::string_view s, std::string_view p) {
   return s.substr(0, p.size()) == p;
 }
@@ -132,16 +131,17 @@ void GcodeScanner::line(std::string_view text) {
   std::string_view s = trim(text);
   if (!opt_.valve_on.empty() && starts_with(s, opt_.valve_on)) valve_ = true;
   if (!opt_.valve_off.empty() && starts_with(s, opt_.valve_off)) valve_ = false;
-  // One pass for the first comment (;), checksum (*) or parenthesised comment.
-  for (std::size_t i = 0; i < s.size(); ++i) {
-    const char ch = s[i];
-    if (ch == ';' || ch == '*' || ch == '(') {
-      if (ch == ';') comment(s.substr(i + 1));
-      s = trim(s.substr(0, i));
-      break;
-    }
+  // The comment (memchr-fast); a checksum (*) or a parenthesised comment ends the words too, which
+  // the word loops check as they go.
+  if (const auto semi = s.find(';'); semi != std::string_view::npos) {
+    comment(s.substr(semi + 1));
+    s = trim(s.substr(0, semi));
   }
   if (s.empty()) return;
+  // Fast path for the bulk of any file: "G0 " / "G1 ".
+  if (s.size() > 2 && (s[0] == 'G' || s[0] == 'g') && (s[1] == '0' || s[1] == '1') && s[2] == ' ')
+    return move(s.substr(2), s[1] - '0');
+  if (s[0] == '*' || s[0] == '(') return;
   if (s[0] == 'N' || s[0] == 'n') {  // line number
     std::size_t k = 1;
     while (k < s.size() && is_digit(s[k])) ++k;
@@ -183,7 +183,7 @@ void GcodeScanner::line(std::string_view text) {
       if (sp == std::string_view::npos) return;
       const char* b = args.data() + sp + 1;
       const char* e = b;
-      while (e < args.data() + args.size() && *e != ' ' && *e != '\t') ++e;
+      while (e < args.data() + args.size() && *e != ' ' && *e != '\t' && *e != '*') ++e;
       double t = 0;
       if (!parse_number(b, e, t) || !std::isfinite(t) || t < 0 || t > 1000)
         return bad("bad temperature in '" + std::string(args.substr(0, 30)) + "'");
@@ -216,7 +216,7 @@ void GcodeScanner::move(std::string_view args, int g) {
   std::size_t p = 0;
   while (p < args.size()) {
     while (p < args.size() && (args[p] == ' ' || args[p] == '\t')) ++p;
-    if (p >= args.size()) break;
+    if (p >= args.size() || args[p] == '*' || args[p] == '(') break;
     const char letter = upper(args[p]);
     if (!is_alpha(letter)) return bad("unexpected '" + std::string(1, args[p]) + "'");
     const char* b = args.data() + p + 1;
@@ -225,10 +225,11 @@ void GcodeScanner::move(std::string_view args, int g) {
     // decimal, parsed in the same pass that finds its end.
     double v = 0;
     const char* e = scan_decimal(b, end, v);
-    bool ok = e != nullptr && (e == end || *e == ' ' || *e == '\t' || is_alpha(*e));
+    bool ok = e != nullptr &&
+              (e == end || *e == ' ' || *e == '\t' || is_alpha(*e) || *e == '*' || *e == '(');
     if (!ok) {
       e = b;
-      while (e < end && *e != ' ' && *e != '\t' && !is_alpha(*e)) ++e;
+      while (e < end && *e != ' ' && *e != '\t' && *e != '*' && *e != '(' && !is_alpha(*e)) ++e;
       ok = parse_number(b, e, v);
     }
     const std::size_t q = static_cast<std::size_t>(e - args.data());

@@ -124,6 +124,23 @@ TEST(Reader, ToolsMixturesAndTemperaturesReachThePaths) {
   EXPECT_EQ(d.count("gcode_bad_line"), 1u);
 }
 
+TEST(Reader, LineNumbersChecksumsCommentsAndSpellings) {
+  Diagnostics d;
+  const Toolpath tp = read_gcode(
+      "N10 G1 X1 Y0 E1*45\ng1 x2 y0 e2\nG01 X3 Y0 E3 (inline comment) Y9\nG1 X4 Y0 E4 ; tail\n"
+      "(whole-line comment)\n*17\nM104 S200*33\n",
+      {}, d, "n.gcode");
+  EXPECT_EQ(d.total(), 0u) << (d.messages().empty() ? "" : d.messages()[0].text);
+  ASSERT_EQ(tp.layers.size(), 1u);
+  ASSERT_EQ(tp.layers[0].paths.size(), 1u);
+  const auto& pts = tp.layers[0].paths[0].points;
+  ASSERT_EQ(pts.size(), 5u);
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    EXPECT_DOUBLE_EQ(pts[i].x, static_cast<double>(i));
+    EXPECT_DOUBLE_EQ(pts[i].y, 0.0);
+  }
+}
+
 TEST(Reader, PrusaLayerCommentsAndLayersByZ) {
   Diagnostics d;
   const Toolpath a = read_gcode(
