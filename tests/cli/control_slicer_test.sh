@@ -4,6 +4,7 @@ set -euo pipefail
 bin="$1"; out="$2"
 mkdir -p "$out"
 command -v prusa-slicer >/dev/null || { echo "FAIL: prusa-slicer missing (scripts/install-deps.sh installs it)"; exit 1; }
+export HOME="${HOME:-$out}"  # PrusaSlicer keeps its settings there
 src="$(cd "$(dirname "$0")/../.." && pwd)"
 "$bin" lattice2d --pattern penrose --cell 1.2 --width 10 --height 10 -o "$out/p.json" >/dev/null
 "$bin" plan gippo "$out/p.json" -o "$out/p.tp.json" --iterations 100 >/dev/null
