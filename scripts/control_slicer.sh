@@ -15,8 +15,8 @@ mkdir -p "$out"
 profile="$(dirname "$0")/../profiles/ender3_s1_pro_tpu.toml"
 echo "| geometry | G-code | wall mm | ratio | double mm | missing struts | extrusion starts | GIPPO score (corrected) |"
 echo "|---|---|---|---|---|---|---|---|"
-for spec in "honeycomb --cell 1.0" "voronoi --density 1.0 --seed 1" "penrose --cell 1.2" \
-            "snub-square --cell 1.2" "arrowhead --cell 1.5" "reentrant-honeycomb --cell 1.5"; do
+while read -r spec; do
+  case "$spec" in ""|"#"*) continue ;; esac
   name=${spec%% *}
   "$bin" lattice2d --pattern $spec --width 10 --height 10 -o "$out/$name.json" >/dev/null
   "$bin" plan gippo "$out/$name.json" -o "$out/$name.toolpath.json" >/dev/null
@@ -40,4 +40,4 @@ for r in json.load(open(sys.argv[1])):
     print(f"| {sys.argv[2]} | {who} | {wall} | {r['extrusion_ratio']:.2f} | {r['double_length_mm']:.1f} | "
           f"{r['missing_edges']}/{r['design_edges']} | {r['extrusion_starts']} | {r['score']:.3f} ({r['score_corrected']:.3f}) |")
 PY
-done
+done < "$(dirname "$0")/six_geometries.list"

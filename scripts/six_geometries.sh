@@ -7,8 +7,8 @@ out="${2:-out/six}"
 mkdir -p "$out"
 echo "| geometry | edges | lower bound | planner | paths | score | LTS % | OE % | travel mm |"
 echo "|---|---|---|---|---|---|---|---|---|"
-for spec in "honeycomb --cell 1.0" "voronoi --density 1.0 --seed 1" "penrose --cell 1.2" \
-            "snub-square --cell 1.2" "arrowhead --cell 1.5" "reentrant-honeycomb --cell 1.5"; do
+while read -r spec; do
+  case "$spec" in ""|"#"*) continue ;; esac
   name=${spec%% *}
   "$bin" lattice2d --pattern $spec --width 10 --height 10 -o "$out/$name.json" >/dev/null
   for planner in "gippo --mode max" "gippo --mode min" "euler"; do
@@ -21,4 +21,4 @@ print(f"| {sys.argv[2]} | {r['lattice_edges']} | {r['lower_bound_paths']} | {sys
       f"{r['score']:.3f} | {r['lts']:.1f} | {r['oe']:.2f} | {r['travel_length_mm']:.0f} |")
 PY
   done
-done
+done < "$(dirname "$0")/six_geometries.list"

@@ -208,7 +208,9 @@ void analyse_layer(const Graph& g, const std::vector<EdgeId>& edges, const Layer
 Analysis analyze(const Toolpath& printed_in, const GcodeCounts& counts, const Graph* design,
                  const AnalysisParams& p) {
   if (!(p.width > 0)) throw SettingError("bead width must be > 0 mm");
-  Toolpath printed = printed_in;
+  Analysis a;
+  a.printed = printed_in;  // the one copy: aligned in place, kept for pictures
+  Toolpath& printed = a.printed;
   if (design && p.align_centers) {
     // Slicers place parts on the bed: move the print's XY centre onto the design's.
     BBox3 pb;
@@ -223,7 +225,6 @@ Analysis analyze(const Toolpath& printed_in, const GcodeCounts& counts, const Gr
           for (auto& q : path.points) q = {q.x + dx, q.y + dy, q.z};
     }
   }
-  Analysis a;
   a.counts = counts;
   // Eq. 1-3 over the printed paths, from the streaming sums.
   a.paths = counts.paths;
@@ -235,7 +236,6 @@ Analysis analyze(const Toolpath& printed_in, const GcodeCounts& counts, const Gr
     a.oe = 100 * counts.long_weighted / (a.extruded_length * static_cast<double>(a.edges_real));
   }
   a.score_corrected = a.score;
-  a.printed = printed;
   if (!design) return a;
   a.has_design = true;
   // Design levels (planar struts grouped by z), matched to printed layers by nozzle height.

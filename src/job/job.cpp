@@ -26,11 +26,9 @@ class Section {
 
   template <class T>
   void get(const char* key, T& out) {
-    if (!t_) return;
-    seen_.insert(key);
-    const toml::node* n = t_->get(key);
+    const toml::node* n = take(key);
     if (!n) return;
-    const Where where{origin_, static_cast<long>(n->source().begin.line), name_ + "." + key};
+    const Where where = where_of(key, n);
     if constexpr (std::is_same_v<T, bool>) {
       if (!n->is_boolean()) throw SettingError("expected true or false", where);
       out = *n->value<bool>();
@@ -50,31 +48,36 @@ class Section {
   }
 
   void get_point(const char* key, Vec2& out) {
-    if (!t_) return;
-    seen_.insert(key);
-    const toml::node* n = t_->get(key);
+    const toml::node* n = take(key);
     if (!n) return;
-    const Where where{origin_, static_cast<long>(n->source().begin.line), name_ + "." + key};
+    const Where where = where_of(key, n);
     const auto* arr = n->as_array();
     if (!arr || arr->size() != 2 || !(*arr)[0].is_number() || !(*arr)[1].is_number())
       throw SettingError("expected [x, y]", where);
     out = {*(*arr)[0].value<double>(), *(*arr)[1].value<double>()};
   }
 
-  Where where(const char* key) const {
-    const toml::node* n = t_ ? t_->get(key) : nullptr;
-    return {origin_, n ? static_cast<long>(n->source().begin.line) : 0, name_ + "." + key};
-  }
+  Where where(const char* key) const { return where_of(key, t_ ? t_->get(key) : nullptr); }
 
   void finish() const {
     if (!t_) return;
     for (const auto& [k, n] : *t_)
       if (!seen_.count(std::string(k.str())))
-        throw SettingError("unknown key", {origin_, static_cast<long>(n.source().begin.line),
-                                           name_ + "." + std::string(k.str())});
+        throw SettingError("unknown key", where_of(std::string(k.str()), &n));
   }
 
  private:
+  // Marks `key` as known and returns its node, or nullptr if absent.
+  const toml::node* take(const char* key) {
+    if (!t_) return nullptr;
+    seen_.insert(key);
+    return t_->get(key);
+  }
+
+  Where where_of(const std::string& key, const toml::node* n) const {
+    return {origin_, n ? static_cast<long>(n->source().begin.line) : 0, name_ + "." + key};
+  }
+
   const toml::table* t_;
   std::string name_, origin_;
   std::set<std::string> seen_;
