@@ -5,8 +5,18 @@ namespace trellis {
 std::string format_where(const Where& w) {
   std::string out;
   if (!w.file.empty()) out += w.file;
-  if (w.line > 0) out += (out.empty() ? "line " : ":") + std::to_string(w.line);
-  if (!w.element.empty()) out += (out.empty() ? "" : ": ") + w.element;
+  if (w.line > 0) {
+    out += out.empty() ? "line " : ":";
+    out += std::to_string(w.line);
+  }
+  if (w.line > 0 && w.column > 0) {
+    out += ':';
+    out += std::to_string(w.column);
+  }
+  if (!w.element.empty()) {
+    if (!out.empty()) out += ": ";
+    out += w.element;
+  }
   return out;
 }
 

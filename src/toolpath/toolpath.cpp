@@ -5,7 +5,7 @@
 namespace trellis {
 
 namespace {
-constexpr const char* kRoleNames[] = {"strut", "contour", "handle", "perimeter", "infill", "other"};
+constexpr const char* kRoleNames[] = {"strut", "contour", "handle", "perimeter", "infill", "other", "skin"};
 }
 
 const char* to_string(PathRole role) {
@@ -13,10 +13,10 @@ const char* to_string(PathRole role) {
 }
 
 PathRole path_role_from_string(const std::string& name) {
-  for (int i = 0; i < 6; ++i)
+  for (int i = 0; i < 7; ++i)
     if (name == kRoleNames[i]) return static_cast<PathRole>(i);
   throw ParseError("unknown path role '" + name +
-                   "' (expected strut, contour, handle, perimeter, infill or other)");
+                   "' (expected strut, contour, handle, perimeter, infill, skin or other)");
 }
 
 double Path::length() const {

@@ -10,6 +10,7 @@ struct Where {
   std::string file;     // input file, empty if none
   long line = 0;        // 1-based line, 0 if unknown
   std::string element;  // e.g. "edges[12]" or "extrusion.nozzle_diameter"
+  long column = 0;      // 1-based column, 0 if unknown
 };
 
 class Error : public std::runtime_error {

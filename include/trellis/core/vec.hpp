@@ -49,6 +49,11 @@ inline double distance_to_segment(Vec3 p, Vec3 a, Vec3 b, double* t_out = nullpt
   return distance(p, a + ab * t);
 }
 
+// A closed range of values; infinite ends mean "not known".
+struct Interval {
+  double lo = 0, hi = 0;
+};
+
 struct BBox3 {
   Vec3 min{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
            std::numeric_limits<double>::infinity()};

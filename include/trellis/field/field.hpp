@@ -1,0 +1,119 @@
+// The implicit geometry kernel: a design is an immutable expression tree whose value at a point is
+// negative inside the solid, zero on its surface and positive outside (a signed distance for the
+// primitives, a bound for the rest), plus material volume fractions.
+//
+// A Field is cheap to copy and may be shared between threads. It is evaluated through an
+// Evaluator, which owns the per-thread state (compiled user expressions, scratch buffers): make
+// one Evaluator per thread. Primitives are centred at the origin like OpenVCAD's.
+//
+// Bounds: every node gives a conservative interval of its values over a box (from exact interval
+// rules or a Lipschitz constant), so slicers skip boxes that are wholly inside or outside without
+// sampling them. A node that cannot bound itself (a user expression) reports (-inf, +inf).
+#pragma once
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "trellis/core/vec.hpp"
+
+namespace trellis {
+
+class FieldNode;
+class Evaluator;
+
+// User expression over x, y, z, rho, phic (alias phi), r, theta, phis and d (the signed distance
+// of the node's geometry), with pi and e. Compiled (and checked) by muparser.
+struct Expression {
+  std::string text;
+};
+// Checks an expression; throws ParseError with the muparser message and the 1-based column
+// within the expression text of the first problem.
+void check_expression(const std::string& text, long* error_column = nullptr);
+
+enum class TpmsKind { Gyroid, SchwarzP, SchwarzD, Neovius, Iwp };
+const char* to_string(TpmsKind kind);
+
+class Field {
+ public:
+  Field() = default;
+  explicit Field(std::shared_ptr<const FieldNode> node);
+  const FieldNode& node() const { return *node_; }
+  const std::shared_ptr<const FieldNode>& ptr() const { return node_; }
+  bool empty() const { return !node_; }
+
+  // Bounding box of the solid; infinite boxes (TPMS, half spaces) have infinite coordinates.
+  BBox3 extent() const;
+  // Material names in order of first appearance ("" when a primitive has none).
+  const std::vector<std::string>& materials() const;
+  // Whether some node is a user expression (no interval bounds there).
+  bool has_expressions() const;
+
+ private:
+  std::shared_ptr<const FieldNode> node_;
+  std::shared_ptr<const std::vector<std::string>> materials_;
+};
+
+// --- primitives (centred at the origin) ---
+Field sphere(double radius, std::string material = {});
+Field cube(double side, std::string material = {});
+Field rectprism(Vec3 size, std::string material = {});  // full side lengths
+Field cylinder(double radius, double height, std::string material = {});  // along Z
+Field cone(double radius, double height, std::string material = {});  // base radius at z=-h/2, tip at +h/2
+Field torus(double major_radius, double minor_radius, std::string material = {});  // in XY
+// f(x,y,z) <= 0 inside, cut to the box [min, max].
+Field function(Vec3 min, Vec3 max, Expression expr, std::string material = {});
+// TPMS level set φ scaled so a unit cell is `cell` mm. Network solid φ <= 0 when `c` is empty;
+// with `c` a sheet Φ = φ² − c² (c a number or an expression of the coordinates).
+Field tpms(TpmsKind kind, Vec3 cell, Expression c = {}, std::string material = {});
+
+// --- CSG ---
+Field unite(std::vector<Field> children);
+Field intersect(std::vector<Field> children);
+Field subtract(std::vector<Field> children);  // first minus the others
+// Polynomial smooth min/max with blend radius k (mm).
+Field smooth_unite(std::vector<Field> children, double k);
+Field smooth_intersect(std::vector<Field> children, double k);
+Field smooth_subtract(std::vector<Field> children, double k);
+
+// --- transforms ---
+Field translate(Field child, Vec3 offset);
+Field scale(Field child, Vec3 factors);         // positive factors
+Field rotate(Field child, Vec3 degrees);          // about X, then Y, then Z
+// Material volume fractions of the child as expressions, one per material name.
+Field fgrade(Field child, std::vector<Expression> fractions, std::vector<std::string> materials);
+// Hands the child the box of a .vcad root(): the solid is clipped to the box.
+Field clip_box(Field child, Vec3 min, Vec3 max);
+
+// --- meshes ---
+struct TriangleMesh;
+struct MeshSdfOptions {
+  double voxel = 0.1;          // mm
+  double band_voxels = 3.0;    // narrow band half-width
+};
+// Signed distance field of a closed mesh (OpenVDB). Throws GeometryError for open meshes.
+Field mesh_field(const TriangleMesh& mesh, const MeshSdfOptions& options, std::string name);
+
+// Per-thread evaluation. Not thread-safe itself; cheap enough to make one per task.
+class Evaluator {
+ public:
+  explicit Evaluator(const Field& field);
+  ~Evaluator();
+  Evaluator(Evaluator&&) noexcept;
+  Evaluator& operator=(Evaluator&&) noexcept;
+
+  double value(Vec3 p);
+  void values(const Vec3* points, double* out, std::size_t n);
+  // Central differences with step h (mm).
+  Vec3 gradient(Vec3 p, double h = 1e-5);
+  Interval bound(const BBox3& box);
+  // Volume fractions (sum 1 when any material is set) per Field::materials().
+  std::vector<double> fractions(Vec3 p);
+
+  struct State;
+
+ private:
+  Field field_;
+  std::unique_ptr<State> state_;
+};
+
+}  // namespace trellis

@@ -1,0 +1,58 @@
+// Iso-contours of a scalar function on a plane (marching squares with root refinement) and the
+// stitching of unordered segments into polylines. Used for layer outlines straight from an
+// implicit field, for material iso-lines, and (stitching) for mesh slices.
+#pragma once
+#include <cstddef>
+#include <limits>
+#include <vector>
+
+#include "trellis/core/vec.hpp"
+#include "trellis/geom/polygon.hpp"
+
+namespace trellis {
+
+// A scalar function of (x, y) on some plane.
+class PlaneFunction {
+ public:
+  virtual ~PlaneFunction() = default;
+  virtual void sample(const Vec2* points, double* out, std::size_t n) = 0;
+  // Conservative range of values over the rectangle; (-inf, inf) when unknown.
+  virtual Interval bound(Vec2 lo, Vec2 hi) {
+    return {-std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()};
+  }
+};
+
+struct StitchedLines {
+  std::vector<std::vector<Vec2>> loops;  // closed, first point not repeated
+  std::vector<std::vector<Vec2>> open;   // open polylines
+};
+
+// Joins directed segments end to start. Ends closer than `tolerance` are the same point
+// (the FGM paper's fuzzy comparison, 1e-6 mm for desktop printers). Zero-length segments drop.
+StitchedLines stitch_segments(const std::vector<Segment2>& segments, double tolerance = 1e-6);
+
+struct MarchOptions {
+  double resolution = 0.1;          // grid step (mm)
+  double stitch_tolerance = 1e-6;   // mm
+  // Crossings are refined on the function until the bracket is below this fraction of the
+  // resolution (1e-4: within 0.01% of a cell of the true crossing).
+  double refine_fraction = 1e-4;
+  int max_refine_iterations = 60;
+  std::size_t block = 16;  // cells per block side for bound-based skipping
+};
+
+struct ContourSet {
+  // Loops are oriented with the region where f < level on their left: outer rings
+  // counter-clockwise, holes clockwise. Open lines end on the domain's border.
+  StitchedLines lines;
+  std::size_t samples = 0;          // function evaluations (grid + refinement)
+  std::size_t skipped_blocks = 0;   // blocks skipped by bounds
+  std::size_t blocks = 0;
+};
+
+// Contours f = level over the rectangle [lo, hi]. The grid covers the rectangle with whole cells
+// of `resolution` starting at lo.
+ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
+                         const MarchOptions& options = {});
+
+}  // namespace trellis

@@ -1,0 +1,42 @@
+// Reading triangle meshes (STL binary/ASCII, OBJ, 3MF), checking they are closed, and slicing
+// them with horizontal planes into the same polygons the field route produces.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "trellis/geom/mesh.hpp"
+#include "trellis/geom/regions.hpp"
+
+namespace trellis {
+
+// By extension (.stl, .obj, .3mf; case-insensitive). Vertices are welded (exact match, as STL
+// repeats them). Throws ParseError naming file and line (or triangle) on malformed input.
+TriangleMesh read_mesh(const std::string& path);
+TriangleMesh read_stl(const std::string& path);
+TriangleMesh read_obj(const std::string& path);
+TriangleMesh read_3mf(const std::string& path);
+// STL from memory (for tests and fuzzing); `name` appears in errors.
+TriangleMesh parse_stl(const std::string& bytes, const std::string& name);
+TriangleMesh parse_obj(const std::string& text, const std::string& name);
+
+// Merges vertices with identical coordinates and drops degenerate triangles.
+TriangleMesh weld(const TriangleMesh& mesh);
+
+struct MeshCheck {
+  std::size_t triangles = 0;
+  std::size_t open_edges = 0;         // used by one triangle
+  std::size_t nonmanifold_edges = 0;  // used by more than two, or twice in the same direction
+  std::string first_problem;          // where, for the error message
+  bool closed() const { return open_edges == 0 && nonmanifold_edges == 0; }
+};
+MeshCheck check_mesh(const TriangleMesh& mesh);
+// Throws GeometryError naming the mesh and the first problem if it is not closed and manifold.
+void require_closed(const TriangleMesh& mesh, const std::string& name);
+
+BBox3 bounds(const TriangleMesh& mesh);
+double volume(const TriangleMesh& mesh);
+
+// Cross-section at height z: closed, oriented, nested polygons. The mesh must be closed.
+Regions slice_mesh(const TriangleMesh& mesh, double z, double stitch_tolerance = 1e-6);
+
+}  // namespace trellis

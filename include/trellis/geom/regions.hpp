@@ -1,0 +1,38 @@
+// Region operations on sets of polygons with holes: offsets and Booleans (Clipper), areas,
+// simplification, and parallel hatch lines clipped exactly to a region (a scan-line sweep).
+#pragma once
+#include <vector>
+
+#include "trellis/geom/polygon.hpp"
+
+namespace trellis {
+
+using Regions = std::vector<Polygon2>;
+
+double signed_area(const std::vector<Vec2>& ring);  // counter-clockwise positive
+double area(const Polygon2& polygon);               // outer minus holes
+double area(const Regions& regions);
+
+// Closed rings (any orientation) → polygons with holes, nested by even-odd (Clipper PolyTree).
+Regions nest_rings(const std::vector<std::vector<Vec2>>& rings);
+
+// Inward (delta < 0) or outward offset. Corners: mitred up to 2× delta, rounded beyond, with
+// arcs no farther than `arc_tolerance` from the true offset.
+Regions offset(const Regions& regions, double delta, double arc_tolerance = 0.002);
+Regions unite(const Regions& a, const Regions& b);
+Regions difference(const Regions& a, const Regions& b);
+Regions intersection(const Regions& a, const Regions& b);
+
+// Douglas–Peucker on each ring, keeping every point within `tolerance` of the original outline.
+Regions simplify(const Regions& regions, double tolerance);
+
+// Closed loops of a region set, as rings (outer counter-clockwise, holes clockwise).
+std::vector<std::vector<Vec2>> rings_of(const Regions& regions);
+
+// Lines at `angle_deg` spaced `spacing` apart, phase fixed by `origin` (a line passes through it),
+// cut by the region (even-odd over all rings). Returned in sweep order, each from low to high
+// along the line direction.
+std::vector<Segment2> hatch(const Regions& regions, double angle_deg, double spacing,
+                            Vec2 origin = {0, 0});
+
+}  // namespace trellis

@@ -1,0 +1,43 @@
+// From a design file (.vcad, .stl, .obj, .3mf) to a planar toolpath: the library side of
+// `trellis slice`.
+#pragma once
+#include <functional>
+#include <string>
+
+#include "trellis/machine/gcode_writer.hpp"
+#include "trellis/slice/slice.hpp"
+
+namespace trellis {
+
+enum class SliceRoute { Auto, Field, Mesh };
+SliceRoute slice_route_from_string(const std::string& name);  // auto|field|mesh
+const char* to_string(SliceRoute route);
+
+struct SliceJob {
+  std::string input;
+  SliceRoute route = SliceRoute::Auto;  // .vcad → field, meshes → mesh
+  FieldSliceOptions field;              // XY resolution of direct contours
+  double mesh_voxel = 0.25;             // mm, mesh → distance field (field route of a mesh)
+  PlanarOptions planar;
+};
+
+struct SliceResult {
+  Toolpath toolpath;
+  std::vector<LayerOutline> outlines;
+  SliceRoute route = SliceRoute::Field;
+  BBox3 extent;                 // of the design (mm)
+  SliceStats field_stats;       // field route only
+  PlanarStats planar;
+  std::size_t mesh_triangles = 0;
+  double outline_seconds = 0, plan_seconds = 0;
+};
+
+// progress(stage, fraction) is called from the calling thread only.
+SliceResult run_slice(const SliceJob& job,
+                      const std::function<void(const std::string&, double)>& progress = {});
+
+// The report: layers, paths, lengths, travel, print time (from the writer's stats if given).
+std::string slice_report_json(const SliceJob& job, const SliceResult& result,
+                              const GcodeStats* gcode);
+
+}  // namespace trellis

@@ -1,0 +1,85 @@
+// Layer outlines from a field (marching squares, no mesh) or from a mesh (plane cuts), and the
+// planar slicer: walls by inward offsets, top/bottom skins, rectilinear infill, ordered to keep
+// travel short, written into the toolpath IR.
+#pragma once
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "trellis/field/field.hpp"
+#include "trellis/geom/contour.hpp"
+#include "trellis/geom/mesh.hpp"
+#include "trellis/geom/regions.hpp"
+#include "trellis/toolpath/toolpath.hpp"
+
+namespace trellis {
+
+// One horizontal section: `z` where it was cut (design coordinates), its outline.
+struct LayerOutline {
+  double z = 0;
+  Regions regions;
+};
+
+// The field at a height, as a plane function (values, and interval bounds for skipping).
+class FieldSection : public PlaneFunction {
+ public:
+  FieldSection(Evaluator& evaluator, double z) : ev_(evaluator), z_(z) {}
+  void sample(const Vec2* points, double* out, std::size_t n) override;
+  Interval bound(Vec2 lo, Vec2 hi) override;
+
+ private:
+  Evaluator& ev_;
+  double z_;
+  std::vector<Vec3> buffer_;
+};
+
+// Slicing planes: the middle of each layer of height h from the bottom of [zmin, zmax].
+std::vector<double> layer_planes(double zmin, double zmax, double layer_height);
+
+struct FieldSliceOptions {
+  double resolution = 0.1;          // XY grid step (mm)
+  double stitch_tolerance = 1e-6;   // mm
+  MarchOptions march() const;
+};
+
+struct SliceStats {
+  std::size_t samples = 0;
+  std::size_t blocks = 0, skipped_blocks = 0;
+};
+
+// The outline of the field at z (closed polygons with holes). The field must have a finite XY
+// extent (a root box or a bounded solid), else GeometryError.
+Regions contour_at(const Field& field, Evaluator& evaluator, double z,
+                   const FieldSliceOptions& options, SliceStats* stats = nullptr);
+// All planes, in parallel (oneTBB), one evaluator per thread.
+std::vector<LayerOutline> slice_field(const Field& field, const std::vector<double>& zs,
+                                      const FieldSliceOptions& options,
+                                      SliceStats* stats = nullptr,
+                                      const std::function<void(double)>& progress = {});
+std::vector<LayerOutline> slice_mesh_layers(const TriangleMesh& mesh,
+                                            const std::vector<double>& zs,
+                                            double stitch_tolerance = 1e-6);
+
+struct PlanarOptions {
+  double layer_height = 0.2;     // mm
+  double bead_width = 0.4;       // mm, wall spacing and solid infill spacing
+  int walls = 2;
+  int top_layers = 4;
+  int bottom_layers = 4;
+  double infill_density = 0.2;   // 0..1 of solid
+  double infill_angle = 45;      // degrees; alternates with +90 every layer
+  double infill_overlap = 0.15;  // fraction of a bead the infill reaches into the inner wall
+  double simplify = 0.005;       // mm, outline simplification before offsetting
+  double min_path = 0.05;        // mm, shorter infill pieces are dropped
+};
+
+struct PlanarStats {
+  std::size_t layers = 0, paths = 0, walls = 0, skin_lines = 0, infill_lines = 0;
+  double extruded_length = 0;
+};
+
+// z of layer i's nozzle is (i + 1) · layer_height (the part's bottom on the bed).
+Toolpath plan_planar(const std::vector<LayerOutline>& layers, const PlanarOptions& options,
+                     PlanarStats* stats = nullptr);
+
+}  // namespace trellis

@@ -1,0 +1,109 @@
+// User expressions through muparser. One compiled parser per expression per evaluator, because a
+// muparser Parser binds its variables by address and is not thread-safe.
+#include <muParser.h>
+
+#include <cmath>
+#include <numbers>
+
+#include "node.hpp"
+#include "trellis/core/error.hpp"
+
+namespace trellis {
+
+void ExprVars::set(Vec3 p, double distance) {
+  x = p.x;
+  y = p.y;
+  z = p.z;
+  rho = std::hypot(p.x, p.y);
+  phic = std::atan2(p.y, p.x);
+  r = std::sqrt(p.x * p.x + p.y * p.y + p.z * p.z);
+  theta = r > 0 ? std::acos(std::clamp(p.z / r, -1.0, 1.0)) : 0.0;
+  phis = phic;
+  d = distance;
+}
+
+namespace {
+
+double fn_floor(double v) {
+  return std::floor(v);
+}
+double fn_ceil(double v) {
+  return std::ceil(v);
+}
+double fn_mod(double a, double b) {
+  return std::fmod(a, b);
+}
+double fn_pow(double a, double b) {
+  return std::pow(a, b);
+}
+double fn_clamp(double v, double lo, double hi) {
+  return std::clamp(v, lo, hi);
+}
+
+void setup(mu::Parser& parser, ExprVars& v) {
+  parser.DefineConst("pi", std::numbers::pi);
+  parser.DefineConst("e", std::numbers::e);
+  parser.DefineVar("x", &v.x);
+  parser.DefineVar("y", &v.y);
+  parser.DefineVar("z", &v.z);
+  parser.DefineVar("rho", &v.rho);
+  parser.DefineVar("phic", &v.phic);
+  parser.DefineVar("phi", &v.phic);  // the FGM paper's listings write phi for phic
+  parser.DefineVar("r", &v.r);
+  parser.DefineVar("theta", &v.theta);
+  parser.DefineVar("phis", &v.phis);
+  parser.DefineVar("d", &v.d);
+  parser.DefineFun("floor", fn_floor);
+  parser.DefineFun("ceil", fn_ceil);
+  parser.DefineFun("mod", fn_mod);
+  parser.DefineFun("fmod", fn_mod);
+  parser.DefineFun("pow", fn_pow);
+  parser.DefineFun("clamp", fn_clamp);
+}
+
+}  // namespace
+
+CompiledExpr::CompiledExpr() : parser(std::make_unique<mu::Parser>()) {
+  setup(*parser, vars);
+}
+CompiledExpr::~CompiledExpr() = default;
+
+double CompiledExpr::eval(Vec3 p, double distance) {
+  vars.set(p, distance);
+  try {
+    return parser->Eval();
+  } catch (const mu::Parser::exception_type& e) {
+    // Checked at construction; only evaluation-time failures reach here.
+    return std::numeric_limits<double>::quiet_NaN();
+  }
+}
+
+void check_expression(const std::string& text, long* error_column) {
+  CompiledExpr c;
+  try {
+    c.parser->SetExpr(text);
+    c.vars.set({1, 1, 1}, 0);
+    c.parser->Eval();
+  } catch (const mu::Parser::exception_type& e) {
+    const long pos = static_cast<long>(e.GetPos());
+    const long col = pos >= 0 ? pos + 1 : 1;
+    if (error_column) *error_column = col;
+    throw ParseError("bad expression \"" + text + "\": " + e.GetMsg());
+  }
+}
+
+CompiledExpr& EvalState::expr(const Expression& e) {
+  auto it = exprs.find(&e);
+  if (it != exprs.end()) return *it->second;
+  auto c = std::make_unique<CompiledExpr>();
+  try {
+    c->parser->SetExpr(e.text);
+  } catch (const mu::Parser::exception_type& err) {
+    throw ParseError("bad expression \"" + e.text + "\": " + err.GetMsg());
+  }
+  auto& ref = *c;
+  exprs.emplace(&e, std::move(c));
+  return ref;
+}
+
+}  // namespace trellis

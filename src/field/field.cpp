@@ -1,0 +1,745 @@
+// Nodes of the field tree: primitives, CSG, transforms, TPMS, user functions, material grades.
+// Hand-written because the kernel is small and the slicers need batch evaluation and interval
+// bounds, which general SDF libraries (OpenVDB works on grids, not trees) do not give.
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <numbers>
+
+#include "node.hpp"
+#include "trellis/core/error.hpp"
+
+namespace trellis {
+
+// ---------------------------------------------------------------- state and defaults
+
+std::vector<double>& EvalState::value_buffer(std::size_t depth, std::size_t n) {
+  if (values.size() <= depth) values.resize(depth + 1);
+  auto& b = values[depth];
+  if (b.size() < n) b.resize(n);
+  return b;
+}
+std::vector<Vec3>& EvalState::point_buffer(std::size_t depth, std::size_t n) {
+  if (points.size() <= depth) points.resize(depth + 1);
+  auto& b = points[depth];
+  if (b.size() < n) b.resize(n);
+  return b;
+}
+int EvalState::material_index(const std::string& name) const {
+  if (!materials) return -1;
+  for (std::size_t i = 0; i < materials->size(); ++i)
+    if ((*materials)[i] == name) return static_cast<int>(i);
+  return -1;
+}
+
+namespace {
+
+double half_diagonal(const BBox3& b) {
+  return 0.5 * norm(b.max - b.min);
+}
+BBox3 box_of(Vec3 lo, Vec3 hi) {
+  BBox3 b;
+  b.add(lo);
+  b.add(hi);
+  return b;
+}
+BBox3 infinite_box() {
+  return box_of({-kInf, -kInf, -kInf}, {kInf, kInf, kInf});
+}
+// Exact signed distance to an axis-aligned box of half sizes h centred at c.
+double box_sdf(Vec3 p, Vec3 c, Vec3 h) {
+  const double qx = std::abs(p.x - c.x) - h.x, qy = std::abs(p.y - c.y) - h.y,
+               qz = std::abs(p.z - c.z) - h.z;
+  const double ox = std::max(qx, 0.0), oy = std::max(qy, 0.0), oz = std::max(qz, 0.0);
+  return std::sqrt(ox * ox + oy * oy + oz * oz) + std::min(std::max({qx, qy, qz}), 0.0);
+}
+// Interval of the box SDF over a query box: exact lower bound from the box-to-box distance.
+Interval box_sdf_bound(const BBox3& q, Vec3 c, Vec3 h) {
+  const Vec3 m = q.center();
+  const double v = box_sdf(m, c, h);
+  const double hd = half_diagonal(q);
+  return {v - hd, v + hd};
+}
+
+}  // namespace
+
+Interval FieldNode::bound(const BBox3& box, EvalState& s, std::size_t depth) const {
+  const double L = lipschitz();
+  if (!std::isfinite(L)) return {-kInf, kInf};
+  const double v = value(box.center(), s, depth);
+  const double hd = half_diagonal(box);
+  return {v - L * hd, v + L * hd};
+}
+
+void FieldNode::fractions(Vec3 p, double* out, EvalState& s, std::size_t depth) const {
+  if (!material.empty()) {
+    const int i = s.material_index(material);
+    if (i >= 0) out[i] = 1.0;
+    return;
+  }
+  if (!children.empty()) children.front()->fractions(p, out, s, depth + 1);
+}
+
+bool FieldNode::has_expressions() const {
+  for (const auto& c : children)
+    if (c->has_expressions()) return true;
+  return false;
+}
+
+void FieldNode::collect_materials(std::vector<std::string>& table) const {
+  if (!material.empty() && std::find(table.begin(), table.end(), material) == table.end())
+    table.push_back(material);
+  for (const auto& c : children) c->collect_materials(table);
+}
+
+namespace {
+
+// ---------------------------------------------------------------- primitives
+
+template <class F>
+struct PointwiseNode : FieldNode {
+  void eval(const Vec3* p, double* out, std::size_t n, EvalState&, std::size_t) const override {
+    const auto& self = static_cast<const F&>(*this);
+    for (std::size_t i = 0; i < n; ++i) out[i] = self.at(p[i]);
+  }
+};
+
+struct SphereNode : PointwiseNode<SphereNode> {
+  double r;
+  explicit SphereNode(double r_) : r(r_) {}
+  double at(Vec3 p) const { return norm(p) - r; }
+  BBox3 extent() const override { return box_of({-r, -r, -r}, {r, r, r}); }
+  Interval bound(const BBox3& b, EvalState&, std::size_t) const override {
+    // Exact: nearest and farthest points of the box from the origin.
+    auto axis = [](double lo, double hi, double& near, double& far) {
+      near = (lo > 0) ? lo : (hi < 0 ? -hi : 0.0);
+      far = std::max(std::abs(lo), std::abs(hi));
+    };
+    double nx, fx, ny, fy, nz, fz;
+    axis(b.min.x, b.max.x, nx, fx);
+    axis(b.min.y, b.max.y, ny, fy);
+    axis(b.min.z, b.max.z, nz, fz);
+    return {std::sqrt(nx * nx + ny * ny + nz * nz) - r, std::sqrt(fx * fx + fy * fy + fz * fz) - r};
+  }
+};
+
+struct BoxNode : PointwiseNode<BoxNode> {
+  Vec3 h;
+  explicit BoxNode(Vec3 size) : h(size * 0.5) {}
+  double at(Vec3 p) const { return box_sdf(p, {}, h); }
+  BBox3 extent() const override { return box_of(h * -1.0, h); }
+};
+
+struct CylinderNode : PointwiseNode<CylinderNode> {
+  double r, hh;
+  CylinderNode(double r_, double h_) : r(r_), hh(h_ / 2) {}
+  double at(Vec3 p) const {
+    const double dx = std::hypot(p.x, p.y) - r, dy = std::abs(p.z) - hh;
+    const double ox = std::max(dx, 0.0), oy = std::max(dy, 0.0);
+    return std::min(std::max(dx, dy), 0.0) + std::sqrt(ox * ox + oy * oy);
+  }
+  BBox3 extent() const override { return box_of({-r, -r, -hh}, {r, r, hh}); }
+};
+
+// Capped cone, base radius r at z = -h/2, tip at z = +h/2; exact distance (after I. Quilez).
+struct ConeNode : PointwiseNode<ConeNode> {
+  double r, hh;
+  ConeNode(double r_, double h_) : r(r_), hh(h_ / 2) {}
+  double at(Vec3 p) const {
+    const double qx = std::hypot(p.x, p.y), qy = p.z;
+    const double k1x = 0, k1y = hh, k2x = -r, k2y = 2 * hh;
+    const double cax = qx - std::min(qx, qy < 0 ? r : 0.0), cay = std::abs(qy) - hh;
+    const double t =
+        std::clamp(((k1x - qx) * k2x + (k1y - qy) * k2y) / (k2x * k2x + k2y * k2y), 0.0, 1.0);
+    const double cbx = qx - k1x + k2x * t, cby = qy - k1y + k2y * t;
+    const double s = (cbx < 0 && cay < 0) ? -1.0 : 1.0;
+    return s * std::sqrt(std::min(cax * cax + cay * cay, cbx * cbx + cby * cby));
+  }
+  BBox3 extent() const override { return box_of({-r, -r, -hh}, {r, r, hh}); }
+};
+
+struct TorusNode : PointwiseNode<TorusNode> {
+  double R, r;
+  TorusNode(double R_, double r_) : R(R_), r(r_) {}
+  double at(Vec3 p) const { return std::hypot(std::hypot(p.x, p.y) - R, p.z) - r; }
+  BBox3 extent() const override { return box_of({-R - r, -R - r, -r}, {R + r, R + r, r}); }
+};
+
+// f(x,y,z) cut to a box: max(f, box distance).
+struct FunctionNode : FieldNode {
+  Vec3 lo, hi;
+  Expression expr;
+  void eval(const Vec3* p, double* out, std::size_t n, EvalState& s, std::size_t) const override {
+    auto& c = s.expr(expr);
+    const Vec3 center = (lo + hi) * 0.5, half = (hi - lo) * 0.5;
+    for (std::size_t i = 0; i < n; ++i)
+      out[i] = std::max(c.eval(p[i]), box_sdf(p[i], center, half));
+  }
+  Interval bound(const BBox3& b, EvalState&, std::size_t) const override {
+    // Outside the box the value is at least the box distance; inside nothing is known.
+    const Interval bi = box_sdf_bound(b, (lo + hi) * 0.5, (hi - lo) * 0.5);
+    return {bi.lo, kInf};
+  }
+  double lipschitz() const override { return kInf; }
+  BBox3 extent() const override { return box_of(lo, hi); }
+  bool has_expressions() const override { return true; }
+};
+
+// ---------------------------------------------------------------- TPMS
+
+struct TpmsNode : FieldNode {
+  TpmsKind kind;
+  Vec3 k;  // 2π / cell
+  bool sheet = false;
+  bool c_constant = true;
+  double c = 0;
+  Expression c_expr;
+
+  double phi(Vec3 p) const {
+    const double x = k.x * p.x, y = k.y * p.y, z = k.z * p.z;
+    switch (kind) {
+      case TpmsKind::Gyroid:
+        return std::sin(x) * std::cos(y) + std::sin(y) * std::cos(z) + std::sin(z) * std::cos(x);
+      case TpmsKind::SchwarzP:
+        return std::cos(x) + std::cos(y) + std::cos(z);
+      case TpmsKind::SchwarzD: {
+        const double sx = std::sin(x), sy = std::sin(y), sz = std::sin(z), cx = std::cos(x),
+                     cy = std::cos(y), cz = std::cos(z);
+        return sx * sy * sz + sx * cy * cz + cx * sy * cz + cx * cy * sz;
+      }
+      case TpmsKind::Neovius:
+        return 3 * (std::cos(x) + std::cos(y) + std::cos(z)) +
+               4 * std::cos(x) * std::cos(y) * std::cos(z);
+      case TpmsKind::Iwp: {
+        const double cx = std::cos(x), cy = std::cos(y), cz = std::cos(z);
+        return 2 * (cx * cy + cy * cz + cz * cx) -
+               (std::cos(2 * x) + std::cos(2 * y) + std::cos(2 * z));
+      }
+    }
+    return 0;
+  }
+  // Bound on |φ| and on the largest partial derivative (per unit of k·x).
+  double phi_max() const {
+    switch (kind) {
+      case TpmsKind::Gyroid: return 1.5;
+      case TpmsKind::SchwarzP: return 3;
+      case TpmsKind::SchwarzD: return 1.5;  // |D| <= sqrt(2) actually; keep a margin
+      case TpmsKind::Neovius: return 13;
+      case TpmsKind::Iwp: return 9;
+    }
+    return 13;
+  }
+  double partial_max() const {
+    switch (kind) {
+      case TpmsKind::Gyroid: return 2;
+      case TpmsKind::SchwarzP: return 1;
+      case TpmsKind::SchwarzD: return 4;
+      case TpmsKind::Neovius: return 7;
+      case TpmsKind::Iwp: return 6;
+    }
+    return 7;
+  }
+  double phi_lipschitz() const {
+    const double m = partial_max();
+    return m * std::sqrt(k.x * k.x + k.y * k.y + k.z * k.z);
+  }
+  void eval(const Vec3* p, double* out, std::size_t n, EvalState& s, std::size_t) const override {
+    if (!sheet) {
+      for (std::size_t i = 0; i < n; ++i) out[i] = phi(p[i]);
+      return;
+    }
+    if (c_constant) {
+      for (std::size_t i = 0; i < n; ++i) {
+        const double f = phi(p[i]);
+        out[i] = f * f - c * c;
+      }
+      return;
+    }
+    auto& ce = s.expr(c_expr);
+    for (std::size_t i = 0; i < n; ++i) {
+      const double f = phi(p[i]), cv = ce.eval(p[i]);
+      out[i] = f * f - cv * cv;
+    }
+  }
+  Interval bound(const BBox3& b, EvalState& s, std::size_t depth) const override {
+    const double f = phi(b.center());
+    const double spread = phi_lipschitz() * half_diagonal(b);
+    const double lo = std::max(f - spread, -phi_max()), hi = std::min(f + spread, phi_max());
+    if (!sheet) return {lo, hi};
+    if (!c_constant) return {-kInf, kInf};
+    const double sq_lo = (lo <= 0 && hi >= 0) ? 0.0 : std::min(lo * lo, hi * hi);
+    const double sq_hi = std::max(lo * lo, hi * hi);
+    return {sq_lo - c * c, sq_hi - c * c};
+  }
+  double lipschitz() const override {
+    return sheet ? (c_constant ? 2 * phi_max() * phi_lipschitz() : kInf) : phi_lipschitz();
+  }
+  BBox3 extent() const override { return infinite_box(); }
+  bool has_expressions() const override { return sheet && !c_constant; }
+};
+
+// ---------------------------------------------------------------- CSG
+
+enum class Op { Union, Intersection, Difference };
+
+// Polynomial smooth minimum: min(a,b) - h²k/4, h = max(k-|a-b|, 0)/k; lies in [min - k/4, min].
+double smin(double a, double b, double k) {
+  if (k <= 0) return std::min(a, b);
+  const double h = std::max(k - std::abs(a - b), 0.0) / k;
+  return std::min(a, b) - h * h * k * 0.25;
+}
+
+struct CsgNode : FieldNode {
+  Op op;
+  double k = 0;  // smooth blend radius, 0 = sharp
+
+  double combine(double acc, double v) const {
+    switch (op) {
+      case Op::Union: return smin(acc, v, k);
+      case Op::Intersection: return -smin(-acc, -v, k);
+      case Op::Difference: return -smin(-acc, v, k);
+    }
+    return acc;
+  }
+  void eval(const Vec3* p, double* out, std::size_t n, EvalState& s,
+            std::size_t depth) const override {
+    children[0]->eval(p, out, n, s, depth + 1);
+    for (std::size_t c = 1; c < children.size(); ++c) {
+      // Buffers are fetched after each child ran: a child may grow this depth's buffer.
+      children[c]->eval(p, s.value_buffer(depth, n).data(), n, s, depth + 1);
+      const double* v = s.values[depth].data();
+      for (std::size_t i = 0; i < n; ++i) out[i] = combine(out[i], v[i]);
+    }
+  }
+  Interval bound(const BBox3& b, EvalState& s, std::size_t depth) const override {
+    Interval acc = children[0]->bound(b, s, depth + 1);
+    for (std::size_t c = 1; c < children.size(); ++c) {
+      const Interval v = children[c]->bound(b, s, depth + 1);
+      switch (op) {
+        case Op::Union: acc = {std::min(acc.lo, v.lo) - k * 0.25, std::min(acc.hi, v.hi)}; break;
+        case Op::Intersection:
+          acc = {std::max(acc.lo, v.lo), std::max(acc.hi, v.hi) + k * 0.25};
+          break;
+        case Op::Difference:
+          acc = {std::max(acc.lo, -v.hi), std::max(acc.hi, -v.lo) + k * 0.25};
+          break;
+      }
+    }
+    return acc;
+  }
+  double lipschitz() const override {
+    double L = 0;
+    for (const auto& c : children) L = std::max(L, c->lipschitz());
+    return L;
+  }
+  BBox3 extent() const override {
+    BBox3 e = children[0]->extent();
+    for (std::size_t c = 1; c < children.size() && op != Op::Difference; ++c) {
+      const BBox3 o = children[c]->extent();
+      if (op == Op::Union) {
+        e.add(o.min);
+        e.add(o.max);
+      } else {
+        e.min = {std::max(e.min.x, o.min.x), std::max(e.min.y, o.min.y),
+                 std::max(e.min.z, o.min.z)};
+        e.max = {std::min(e.max.x, o.max.x), std::min(e.max.y, o.max.y),
+                 std::min(e.max.z, o.max.z)};
+      }
+    }
+    const double pad = k * 0.25;
+    if (pad > 0 && !e.empty()) {
+      e.min = e.min - Vec3{pad, pad, pad};
+      e.max = e.max + Vec3{pad, pad, pad};
+    }
+    return e;
+  }
+  void fractions(Vec3 p, double* out, EvalState& s, std::size_t depth) const override {
+    // A union takes the materials of the child that holds the point (the deepest inside).
+    std::size_t pick = 0;
+    if (op == Op::Union) {
+      double best = kInf;
+      for (std::size_t c = 0; c < children.size(); ++c) {
+        const double v = children[c]->value(p, s, depth + 1);
+        if (v < best) {
+          best = v;
+          pick = c;
+        }
+      }
+    }
+    children[pick]->fractions(p, out, s, depth + 1);
+  }
+};
+
+// ---------------------------------------------------------------- transforms
+
+struct Mat3 {
+  std::array<double, 9> m{1, 0, 0, 0, 1, 0, 0, 0, 1};
+  Vec3 operator*(Vec3 v) const {
+    return {m[0] * v.x + m[1] * v.y + m[2] * v.z, m[3] * v.x + m[4] * v.y + m[5] * v.z,
+            m[6] * v.x + m[7] * v.y + m[8] * v.z};
+  }
+  Mat3 operator*(const Mat3& o) const {
+    Mat3 r;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) {
+        double acc = 0;
+        for (int t = 0; t < 3; ++t) acc += m[i * 3 + t] * o.m[t * 3 + j];
+        r.m[i * 3 + j] = acc;
+      }
+    return r;
+  }
+  Mat3 transposed() const {
+    Mat3 r;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) r.m[i * 3 + j] = m[j * 3 + i];
+    return r;
+  }
+};
+
+// p_local = A (p - t); value = child(p_local) * s. Covers translate, scale and rotate.
+struct TransformNode : FieldNode {
+  Mat3 to_local;    // A
+  Mat3 to_world;    // A^-1
+  Vec3 offset;      // t
+  double value_scale = 1;  // min scale factor, keeps distances conservative
+  double lipschitz_factor = 1;
+
+  Vec3 local(Vec3 p) const { return to_local * (p - offset); }
+  void eval(const Vec3* p, double* out, std::size_t n, EvalState& s,
+            std::size_t depth) const override {
+    auto& q = s.point_buffer(depth, n);
+    for (std::size_t i = 0; i < n; ++i) q[i] = local(p[i]);
+    children[0]->eval(q.data(), out, n, s, depth + 1);
+    if (value_scale != 1)
+      for (std::size_t i = 0; i < n; ++i) out[i] *= value_scale;
+  }
+  BBox3 map_box(const BBox3& b, bool to_child) const {
+    if (!std::isfinite(b.min.x) || !std::isfinite(b.max.x) || !std::isfinite(b.min.y) ||
+        !std::isfinite(b.max.y) || !std::isfinite(b.min.z) || !std::isfinite(b.max.z))
+      return infinite_box();
+    BBox3 r;
+    for (int c = 0; c < 8; ++c) {
+      const Vec3 v{(c & 1) ? b.max.x : b.min.x, (c & 2) ? b.max.y : b.min.y,
+                   (c & 4) ? b.max.z : b.min.z};
+      r.add(to_child ? local(v) : to_world * v + offset);
+    }
+    return r;
+  }
+  Interval bound(const BBox3& b, EvalState& s, std::size_t depth) const override {
+    const Interval c = children[0]->bound(map_box(b, true), s, depth + 1);
+    return {c.lo * value_scale, c.hi * value_scale};
+  }
+  double lipschitz() const override { return children[0]->lipschitz() * lipschitz_factor; }
+  BBox3 extent() const override { return map_box(children[0]->extent(), false); }
+  void fractions(Vec3 p, double* out, EvalState& s, std::size_t depth) const override {
+    children[0]->fractions(local(p), out, s, depth + 1);
+  }
+};
+
+// ---------------------------------------------------------------- material grades, clip box
+
+struct GradeNode : FieldNode {
+  std::vector<Expression> exprs;
+  std::vector<std::string> names;
+  void eval(const Vec3* p, double* out, std::size_t n, EvalState& s,
+            std::size_t depth) const override {
+    children[0]->eval(p, out, n, s, depth + 1);
+  }
+  Interval bound(const BBox3& b, EvalState& s, std::size_t depth) const override {
+    return children[0]->bound(b, s, depth + 1);
+  }
+  double lipschitz() const override { return children[0]->lipschitz(); }
+  BBox3 extent() const override { return children[0]->extent(); }
+  void fractions(Vec3 p, double* out, EvalState& s, std::size_t depth) const override {
+    const double d = children[0]->value(p, s, depth + 1);
+    double sum = 0;
+    std::vector<double> v(exprs.size());
+    for (std::size_t i = 0; i < exprs.size(); ++i) {
+      const double f = s.expr(exprs[i]).eval(p, d);
+      v[i] = std::isfinite(f) ? std::clamp(f, 0.0, 1.0) : 0.0;
+      sum += v[i];
+    }
+    for (std::size_t i = 0; i < exprs.size(); ++i) {
+      const int idx = s.material_index(names[i]);
+      if (idx >= 0) out[idx] += sum > 0 ? v[i] / sum : 0.0;
+    }
+  }
+  bool has_expressions() const override { return true; }
+  void collect_materials(std::vector<std::string>& table) const override {
+    for (const auto& m : names)
+      if (std::find(table.begin(), table.end(), m) == table.end()) table.push_back(m);
+    FieldNode::collect_materials(table);
+  }
+};
+
+struct ClipBoxNode : FieldNode {
+  Vec3 lo, hi;
+  void eval(const Vec3* p, double* out, std::size_t n, EvalState& s,
+            std::size_t depth) const override {
+    children[0]->eval(p, out, n, s, depth + 1);
+    const Vec3 c = (lo + hi) * 0.5, h = (hi - lo) * 0.5;
+    for (std::size_t i = 0; i < n; ++i) out[i] = std::max(out[i], box_sdf(p[i], c, h));
+  }
+  Interval bound(const BBox3& b, EvalState& s, std::size_t depth) const override {
+    const Interval a = children[0]->bound(b, s, depth + 1);
+    const Interval bb = box_sdf_bound(b, (lo + hi) * 0.5, (hi - lo) * 0.5);
+    return {std::max(a.lo, bb.lo), std::max(a.hi, bb.hi)};
+  }
+  double lipschitz() const override { return std::max(1.0, children[0]->lipschitz()); }
+  BBox3 extent() const override {
+    BBox3 e = children[0]->extent();
+    e.min = {std::max(e.min.x, lo.x), std::max(e.min.y, lo.y), std::max(e.min.z, lo.z)};
+    e.max = {std::min(e.max.x, hi.x), std::min(e.max.y, hi.y), std::min(e.max.z, hi.z)};
+    return e;
+  }
+};
+
+void require_positive(double v, const char* what) {
+  if (!(v > 0) || !std::isfinite(v))
+    throw GeometryError(std::string(what) + " must be a positive number");
+}
+
+template <class N>
+Field make_leaf(std::shared_ptr<N> node, std::string material) {
+  node->material = std::move(material);
+  return Field(std::move(node));
+}
+
+Field make_csg(std::vector<Field> children, Op op, double k, const char* name) {
+  if (children.empty()) throw GeometryError(std::string(name) + " needs at least one child");
+  if (!(k >= 0) || !std::isfinite(k)) throw GeometryError("blend radius must be >= 0");
+  if (children.size() == 1) return children.front();
+  auto n = std::make_shared<CsgNode>();
+  n->op = op;
+  n->k = k;
+  for (auto& c : children) {
+    if (c.empty()) throw GeometryError(std::string(name) + ": empty child");
+    n->children.push_back(c.ptr());
+  }
+  return Field(n);
+}
+
+Mat3 rotation_x(double a) {
+  const double c = std::cos(a), s = std::sin(a);
+  return Mat3{{1, 0, 0, 0, c, -s, 0, s, c}};
+}
+Mat3 rotation_y(double a) {
+  const double c = std::cos(a), s = std::sin(a);
+  return Mat3{{c, 0, s, 0, 1, 0, -s, 0, c}};
+}
+Mat3 rotation_z(double a) {
+  const double c = std::cos(a), s = std::sin(a);
+  return Mat3{{c, -s, 0, s, c, 0, 0, 0, 1}};
+}
+
+void require_child(const Field& f, const char* what) {
+  if (f.empty()) throw GeometryError(std::string(what) + " needs a child");
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------- Field
+
+Field::Field(std::shared_ptr<const FieldNode> node) : node_(std::move(node)) {
+  auto table = std::make_shared<std::vector<std::string>>();
+  if (node_) node_->collect_materials(*table);
+  materials_ = std::move(table);
+}
+
+BBox3 Field::extent() const {
+  return node_ ? node_->extent() : BBox3{};
+}
+const std::vector<std::string>& Field::materials() const {
+  static const std::vector<std::string> none;
+  return materials_ ? *materials_ : none;
+}
+bool Field::has_expressions() const {
+  return node_ && node_->has_expressions();
+}
+
+const char* to_string(TpmsKind kind) {
+  switch (kind) {
+    case TpmsKind::Gyroid: return "gyroid";
+    case TpmsKind::SchwarzP: return "schwarz_p";
+    case TpmsKind::SchwarzD: return "schwarz_d";
+    case TpmsKind::Neovius: return "neovius";
+    case TpmsKind::Iwp: return "iwp";
+  }
+  return "?";
+}
+
+Field sphere(double radius, std::string material) {
+  require_positive(radius, "sphere radius");
+  return make_leaf(std::make_shared<SphereNode>(radius), std::move(material));
+}
+Field cube(double side, std::string material) {
+  return rectprism({side, side, side}, std::move(material));
+}
+Field rectprism(Vec3 size, std::string material) {
+  require_positive(size.x, "rectprism size x");
+  require_positive(size.y, "rectprism size y");
+  require_positive(size.z, "rectprism size z");
+  return make_leaf(std::make_shared<BoxNode>(size), std::move(material));
+}
+Field cylinder(double radius, double height, std::string material) {
+  require_positive(radius, "cylinder radius");
+  require_positive(height, "cylinder height");
+  return make_leaf(std::make_shared<CylinderNode>(radius, height), std::move(material));
+}
+Field cone(double radius, double height, std::string material) {
+  require_positive(radius, "cone radius");
+  require_positive(height, "cone height");
+  return make_leaf(std::make_shared<ConeNode>(radius, height), std::move(material));
+}
+Field torus(double major_radius, double minor_radius, std::string material) {
+  require_positive(major_radius, "torus major radius");
+  require_positive(minor_radius, "torus minor radius");
+  return make_leaf(std::make_shared<TorusNode>(major_radius, minor_radius), std::move(material));
+}
+Field function(Vec3 min, Vec3 max, Expression expr, std::string material) {
+  if (!(min.x < max.x && min.y < max.y && min.z < max.z) || !is_finite(min) || !is_finite(max))
+    throw GeometryError("function box: min must be below max on every axis");
+  check_expression(expr.text);
+  auto n = std::make_shared<FunctionNode>();
+  n->lo = min;
+  n->hi = max;
+  n->expr = std::move(expr);
+  return make_leaf(std::move(n), std::move(material));
+}
+Field tpms(TpmsKind kind, Vec3 cell, Expression c, std::string material) {
+  require_positive(cell.x, "TPMS cell size x");
+  require_positive(cell.y, "TPMS cell size y");
+  require_positive(cell.z, "TPMS cell size z");
+  auto n = std::make_shared<TpmsNode>();
+  n->kind = kind;
+  const double tau = 2 * std::numbers::pi;
+  n->k = {tau / cell.x, tau / cell.y, tau / cell.z};
+  if (!c.text.empty()) {
+    n->sheet = true;
+    char* end = nullptr;
+    const double v = std::strtod(c.text.c_str(), &end);
+    while (end && *end == ' ') ++end;
+    if (end && *end == '\0' && end != c.text.c_str()) {
+      if (!(v >= 0) || !std::isfinite(v)) throw GeometryError("TPMS sheet c must be >= 0");
+      n->c = v;
+    } else {
+      check_expression(c.text);
+      n->c_constant = false;
+      n->c_expr = std::move(c);
+    }
+  }
+  return make_leaf(std::move(n), std::move(material));
+}
+
+Field unite(std::vector<Field> children) {
+  return make_csg(std::move(children), Op::Union, 0, "union");
+}
+Field intersect(std::vector<Field> children) {
+  return make_csg(std::move(children), Op::Intersection, 0, "intersection");
+}
+Field subtract(std::vector<Field> children) {
+  return make_csg(std::move(children), Op::Difference, 0, "difference");
+}
+Field smooth_unite(std::vector<Field> children, double k) {
+  return make_csg(std::move(children), Op::Union, k, "smooth union");
+}
+Field smooth_intersect(std::vector<Field> children, double k) {
+  return make_csg(std::move(children), Op::Intersection, k, "smooth intersection");
+}
+Field smooth_subtract(std::vector<Field> children, double k) {
+  return make_csg(std::move(children), Op::Difference, k, "smooth difference");
+}
+
+Field translate(Field child, Vec3 offset) {
+  require_child(child, "translate");
+  if (!is_finite(offset)) throw GeometryError("translate: offset must be finite");
+  auto n = std::make_shared<TransformNode>();
+  n->offset = offset;
+  n->children.push_back(child.ptr());
+  return Field(n);
+}
+Field scale(Field child, Vec3 f) {
+  require_child(child, "scale");
+  require_positive(f.x, "scale factor x");
+  require_positive(f.y, "scale factor y");
+  require_positive(f.z, "scale factor z");
+  auto n = std::make_shared<TransformNode>();
+  n->to_local = Mat3{{1 / f.x, 0, 0, 0, 1 / f.y, 0, 0, 0, 1 / f.z}};
+  n->to_world = Mat3{{f.x, 0, 0, 0, f.y, 0, 0, 0, f.z}};
+  const double lo = std::min({f.x, f.y, f.z}), hi = std::max({f.x, f.y, f.z});
+  n->value_scale = lo;
+  n->lipschitz_factor = hi / lo;
+  n->children.push_back(child.ptr());
+  return Field(n);
+}
+Field rotate(Field child, Vec3 degrees) {
+  require_child(child, "rotate");
+  if (!is_finite(degrees)) throw GeometryError("rotate: angles must be finite");
+  const double d2r = std::numbers::pi / 180;
+  const Mat3 R = rotation_z(degrees.z * d2r) * rotation_y(degrees.y * d2r) *
+                 rotation_x(degrees.x * d2r);
+  auto n = std::make_shared<TransformNode>();
+  n->to_world = R;
+  n->to_local = R.transposed();
+  n->children.push_back(child.ptr());
+  return Field(n);
+}
+Field fgrade(Field child, std::vector<Expression> fractions, std::vector<std::string> materials) {
+  require_child(child, "fgrade");
+  if (fractions.size() != materials.size())
+    throw GeometryError("fgrade: " + std::to_string(fractions.size()) + " expressions but " +
+                        std::to_string(materials.size()) + " materials");
+  if (fractions.empty()) throw GeometryError("fgrade: needs at least one material");
+  for (const auto& e : fractions) check_expression(e.text);
+  auto n = std::make_shared<GradeNode>();
+  n->exprs = std::move(fractions);
+  n->names = std::move(materials);
+  n->children.push_back(child.ptr());
+  return Field(n);
+}
+Field clip_box(Field child, Vec3 min, Vec3 max) {
+  require_child(child, "root");
+  if (!(min.x < max.x && min.y < max.y && min.z < max.z) || !is_finite(min) || !is_finite(max))
+    throw GeometryError("root box: min must be below max on every axis");
+  auto n = std::make_shared<ClipBoxNode>();
+  n->lo = min;
+  n->hi = max;
+  n->children.push_back(child.ptr());
+  return Field(n);
+}
+
+// ---------------------------------------------------------------- Evaluator
+
+Evaluator::Evaluator(const Field& field)
+    : field_(field), state_(std::make_unique<State>()) {
+  if (field_.empty()) throw GeometryError("empty design");
+  state_->materials = &field_.materials();
+}
+Evaluator::~Evaluator() = default;
+Evaluator::Evaluator(Evaluator&&) noexcept = default;
+Evaluator& Evaluator::operator=(Evaluator&&) noexcept = default;
+
+double Evaluator::value(Vec3 p) {
+  return field_.node().value(p, *state_, 0);
+}
+void Evaluator::values(const Vec3* points, double* out, std::size_t n) {
+  field_.node().eval(points, out, n, *state_, 0);
+}
+Vec3 Evaluator::gradient(Vec3 p, double h) {
+  const Vec3 pts[6] = {{p.x + h, p.y, p.z}, {p.x - h, p.y, p.z}, {p.x, p.y + h, p.z},
+                       {p.x, p.y - h, p.z}, {p.x, p.y, p.z + h}, {p.x, p.y, p.z - h}};
+  double v[6];
+  values(pts, v, 6);
+  const double inv = 0.5 / h;
+  return {(v[0] - v[1]) * inv, (v[2] - v[3]) * inv, (v[4] - v[5]) * inv};
+}
+Interval Evaluator::bound(const BBox3& box) {
+  return field_.node().bound(box, *state_, 0);
+}
+std::vector<double> Evaluator::fractions(Vec3 p) {
+  std::vector<double> out(field_.materials().size(), 0.0);
+  if (!out.empty()) field_.node().fractions(p, out.data(), *state_, 0);
+  return out;
+}
+
+}  // namespace trellis

@@ -1,0 +1,76 @@
+// Internal: the nodes of the field expression tree and the per-thread evaluation state.
+#pragma once
+#include <limits>
+#include <memory>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "trellis/field/field.hpp"
+
+namespace mu {
+class Parser;
+}
+
+namespace trellis {
+
+inline constexpr double kInf = std::numeric_limits<double>::infinity();
+
+// Variables a user expression sees; one block per compiled parser.
+struct ExprVars {
+  double x = 0, y = 0, z = 0, rho = 0, phic = 0, r = 0, theta = 0, phis = 0, d = 0;
+  void set(Vec3 p, double distance);
+};
+
+struct CompiledExpr {
+  std::unique_ptr<mu::Parser> parser;
+  ExprVars vars;
+  double eval(Vec3 p, double distance = 0);
+  CompiledExpr();
+  ~CompiledExpr();
+};
+
+struct Evaluator::State {
+  // Scratch buffers by tree depth, so batch evaluation allocates once.
+  std::vector<std::vector<double>> values;
+  std::vector<std::vector<Vec3>> points;
+  std::unordered_map<const Expression*, std::unique_ptr<CompiledExpr>> exprs;
+  const std::vector<std::string>* materials = nullptr;
+  // Per-node, per-thread caches (e.g. a grid accessor), created on first use.
+  std::unordered_map<const void*, std::shared_ptr<void>> caches;
+  int material_index(const std::string& name) const;
+  std::vector<double>& value_buffer(std::size_t depth, std::size_t n);
+  std::vector<Vec3>& point_buffer(std::size_t depth, std::size_t n);
+  CompiledExpr& expr(const Expression& e);
+};
+using EvalState = Evaluator::State;
+
+class FieldNode {
+ public:
+  virtual ~FieldNode() = default;
+  // Values at n points; `depth` indexes the scratch buffers this node may use (depth and deeper).
+  virtual void eval(const Vec3* p, double* out, std::size_t n, EvalState& s,
+                    std::size_t depth) const = 0;
+  // Conservative value interval over a box. Default: centre value ± Lipschitz · half diagonal.
+  virtual Interval bound(const BBox3& box, EvalState& s, std::size_t depth) const;
+  virtual double lipschitz() const { return 1.0; }
+  virtual BBox3 extent() const = 0;
+  // Adds this node's contribution to fractions (indexed by the design's material table).
+  virtual void fractions(Vec3 p, double* out, EvalState& s, std::size_t depth) const;
+  virtual bool has_expressions() const;
+
+  double value(Vec3 p, EvalState& s, std::size_t depth) const {
+    double v;
+    eval(&p, &v, 1, s, depth);
+    return v;
+  }
+
+  std::vector<std::shared_ptr<const FieldNode>> children;
+  std::string material;  // a leaf's material name, empty if none
+  // Names this node assigns fractions to (a leaf's material, an fgrade's list), for the table.
+  virtual void collect_materials(std::vector<std::string>& table) const;
+};
+
+using NodePtr = std::shared_ptr<const FieldNode>;
+
+}  // namespace trellis

@@ -1,0 +1,294 @@
+// Marching squares with bracketed root refinement, fuzzy segment stitching, ring nesting.
+// Hand-written: the refinement needs the field itself (not a sampled image), and block skipping
+// needs the field's interval bounds; no packaged contouring library does either.
+#include "trellis/geom/contour.hpp"
+
+#include <cmath>
+#include <cstdint>
+#include <functional>
+#include <unordered_map>
+
+namespace trellis {
+
+
+// ---------------------------------------------------------------- stitching
+
+namespace {
+
+class PointIndex {
+ public:
+  explicit PointIndex(double tol) : tol_(tol > 0 ? tol : 1e-12), inv_(1.0 / tol_) {}
+  std::size_t find_or_add(Vec2 p) {
+    const std::int64_t cx = static_cast<std::int64_t>(std::floor(p.x * inv_));
+    const std::int64_t cy = static_cast<std::int64_t>(std::floor(p.y * inv_));
+    for (std::int64_t dx = -1; dx <= 1; ++dx)
+      for (std::int64_t dy = -1; dy <= 1; ++dy) {
+        auto it = cells_.find(key(cx + dx, cy + dy));
+        if (it == cells_.end()) continue;
+        for (std::size_t v = it->second; v != kNone; v = next_[v])
+          if (std::hypot(points[v].x - p.x, points[v].y - p.y) <= tol_) return v;
+      }
+    const std::size_t id = points.size();
+    points.push_back(p);
+    auto [it, inserted] = cells_.try_emplace(key(cx, cy), id);
+    next_.push_back(inserted ? kNone : it->second);
+    if (!inserted) it->second = id;
+    return id;
+  }
+  std::vector<Vec2> points;
+
+ private:
+  static constexpr std::size_t kNone = static_cast<std::size_t>(-1);
+  static std::uint64_t key(std::int64_t x, std::int64_t y) {
+    return static_cast<std::uint64_t>(x) * 0x9E3779B97F4A7C15ull ^
+           (static_cast<std::uint64_t>(y) + 0x632BE59BD9B4E019ull);
+  }
+  double tol_, inv_;
+  std::unordered_map<std::uint64_t, std::size_t> cells_;
+  std::vector<std::size_t> next_;
+};
+
+}  // namespace
+
+StitchedLines stitch_segments(const std::vector<Segment2>& segments, double tolerance) {
+  PointIndex index(tolerance);
+  std::vector<std::pair<std::size_t, std::size_t>> edges;
+  edges.reserve(segments.size());
+  for (const auto& s : segments) {
+    const std::size_t a = index.find_or_add(s.a), b = index.find_or_add(s.b);
+    if (a != b) edges.emplace_back(a, b);
+  }
+  const std::size_t nv = index.points.size();
+  // CSR of outgoing edges.
+  std::vector<std::size_t> start(nv + 1, 0), in_degree(nv, 0);
+  for (auto [a, b] : edges) {
+    ++start[a + 1];
+    ++in_degree[b];
+  }
+  for (std::size_t v = 0; v < nv; ++v) start[v + 1] += start[v];
+  std::vector<std::size_t> out(edges.size()), fill(start.begin(), start.end() - 1);
+  for (std::size_t e = 0; e < edges.size(); ++e) out[fill[edges[e].first]++] = e;
+  std::vector<std::size_t> cursor(start.begin(), start.end() - 1);
+  std::vector<char> used(edges.size(), 0);
+
+  auto next_edge = [&](std::size_t v) -> std::size_t {
+    while (cursor[v] < start[v + 1]) {
+      const std::size_t e = out[cursor[v]++];
+      if (!used[e]) return e;
+    }
+    return static_cast<std::size_t>(-1);
+  };
+  auto walk = [&](std::size_t from, std::vector<Vec2>& line) {
+    line.push_back(index.points[from]);
+    std::size_t v = from;
+    for (;;) {
+      const std::size_t e = next_edge(v);
+      if (e == static_cast<std::size_t>(-1)) return v;
+      used[e] = 1;
+      v = edges[e].second;
+      if (v == from) return v;
+      line.push_back(index.points[v]);
+    }
+  };
+
+  StitchedLines result;
+  // Open chains start where more edges leave than arrive.
+  std::vector<std::size_t> out_degree(nv);
+  for (std::size_t v = 0; v < nv; ++v) out_degree[v] = start[v + 1] - start[v];
+  for (std::size_t v = 0; v < nv; ++v)
+    while (out_degree[v] > in_degree[v] && cursor[v] < start[v + 1]) {
+      std::vector<Vec2> line;
+      const std::size_t end = walk(v, line);
+      --out_degree[v];
+      ++in_degree[v];
+      if (end == v && line.size() >= 3)
+        result.loops.push_back(std::move(line));
+      else if (line.size() >= 2)
+        result.open.push_back(std::move(line));
+    }
+  for (std::size_t v = 0; v < nv; ++v)
+    while (cursor[v] < start[v + 1]) {
+      std::vector<Vec2> line;
+      const std::size_t end = walk(v, line);
+      if (line.size() < 2) continue;
+      if (end == v && line.size() >= 3)
+        result.loops.push_back(std::move(line));
+      else
+        result.open.push_back(std::move(line));
+    }
+  return result;
+}
+
+// ---------------------------------------------------------------- marching squares
+
+namespace {
+
+struct Marcher {
+  PlaneFunction& f;
+  Vec2 lo;
+  double h, level;
+  const MarchOptions& opt;
+  std::size_t samples = 0;
+
+  Vec2 node(std::size_t i, std::size_t j) const {
+    return {lo.x + static_cast<double>(i) * h, lo.y + static_cast<double>(j) * h};
+  }
+  double eval(Vec2 p) {
+    double v;
+    f.sample(&p, &v, 1);
+    ++samples;
+    return v;
+  }
+  // Crossing on the edge a→b (a the lower node) with values fa, fb on opposite sides of level.
+  Vec2 crossing(Vec2 a, Vec2 b, double fa, double fb) {
+    double t_lo = 0, t_hi = 1, g_lo = fa - level, g_hi = fb - level;
+    const double tol = opt.refine_fraction;  // in units of the edge length (= resolution)
+    double t = g_lo / (g_lo - g_hi);
+    if (!std::isfinite(t)) t = 0.5;
+    int side = 0;
+    for (int it = 0; it < opt.max_refine_iterations && t_hi - t_lo > tol; ++it) {
+      const double g = eval(a + (b - a) * t) - level;
+      if (g == 0 || !std::isfinite(g)) break;
+      if ((g < 0) == (g_lo < 0)) {
+        t_lo = t;
+        g_lo = g;
+        if (side == -1) g_hi *= 0.5;  // Illinois: the retained end stalls, halve its value
+        side = -1;
+      } else {
+        t_hi = t;
+        g_hi = g;
+        if (side == 1) g_lo *= 0.5;
+        side = 1;
+      }
+      double next = (t_lo * g_hi - t_hi * g_lo) / (g_hi - g_lo);
+      if (!(next > t_lo && next < t_hi)) next = 0.5 * (t_lo + t_hi);
+      // Converged when the step is far below the tolerance: take it and stop.
+      if (std::abs(next - t) < 0.25 * tol) {
+        t = next;
+        break;
+      }
+      t = next;
+    }
+    return a + (b - a) * t;
+  }
+};
+
+}  // namespace
+
+ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
+                         const MarchOptions& options) {
+  ContourSet result;
+  const double h = options.resolution;
+  if (!(h > 0) || !(hi.x > lo.x) || !(hi.y > lo.y)) return result;
+  const auto nx = static_cast<std::size_t>(std::ceil((hi.x - lo.x) / h - 1e-9));
+  const auto ny = static_cast<std::size_t>(std::ceil((hi.y - lo.y) / h - 1e-9));
+  const std::size_t B = std::max<std::size_t>(options.block, 1);
+  Marcher m{f, lo, h, level, options};
+  std::vector<Segment2> segments;
+
+  std::vector<Vec2> pts;
+  std::vector<double> val;
+  // Per-block crossing caches: horizontal edges (i,j)->(i+1,j), vertical (i,j)->(i,j+1).
+  std::vector<Vec2> hx, vx;
+  std::vector<char> has_hx, has_vx;
+  // Marches the cells [bi, bi+ci) x [bj, bj+cj): samples its nodes, refines its crossings.
+  auto march_block = [&](std::size_t bi, std::size_t bj, std::size_t ci, std::size_t cj) {
+    const std::size_t w = ci + 1, hgt = cj + 1;
+    pts.resize(w * hgt);
+    val.resize(w * hgt);
+    for (std::size_t j = 0; j < hgt; ++j)
+      for (std::size_t i = 0; i < w; ++i) pts[j * w + i] = m.node(bi + i, bj + j);
+    f.sample(pts.data(), val.data(), pts.size());
+    m.samples += pts.size();
+    hx.assign(ci * hgt, {});
+    has_hx.assign(ci * hgt, 0);
+    vx.assign(w * cj, {});
+    has_vx.assign(w * cj, 0);
+    auto inside = [&](std::size_t i, std::size_t j) { return val[j * w + i] < level; };
+    auto hcross = [&](std::size_t i, std::size_t j) {
+      const std::size_t k = j * ci + i;
+      if (!has_hx[k]) {
+        hx[k] = m.crossing(pts[j * w + i], pts[j * w + i + 1], val[j * w + i], val[j * w + i + 1]);
+        has_hx[k] = 1;
+      }
+      return hx[k];
+    };
+    auto vcross = [&](std::size_t i, std::size_t j) {
+      const std::size_t k = j * w + i;
+      if (!has_vx[k]) {
+        vx[k] = m.crossing(pts[j * w + i], pts[(j + 1) * w + i], val[j * w + i],
+                           val[(j + 1) * w + i]);
+        has_vx[k] = 1;
+      }
+      return vx[k];
+    };
+    for (std::size_t j = 0; j < cj; ++j)
+      for (std::size_t i = 0; i < ci; ++i) {
+        // Corners counter-clockwise: v0 (i,j), v1 (i+1,j), v2 (i+1,j+1), v3 (i,j+1).
+        const bool in[4] = {inside(i, j), inside(i + 1, j), inside(i + 1, j + 1),
+                            inside(i, j + 1)};
+        if (in[0] == in[1] && in[1] == in[2] && in[2] == in[3]) continue;
+        // Walk the cell boundary counter-clockwise; record crossings and their direction.
+        Vec2 cross[4];
+        bool leaving[4];  // inside -> outside along the walk
+        int n = 0;
+        for (int e = 0; e < 4; ++e) {
+          const int a = e, b = (e + 1) % 4;
+          if (in[a] == in[b]) continue;
+          Vec2 p;
+          switch (e) {
+            case 0: p = hcross(i, j); break;
+            case 1: p = vcross(i + 1, j); break;
+            case 2: p = hcross(i, j + 1); break;
+            default: p = vcross(i, j); break;
+          }
+          cross[n] = p;
+          leaving[n] = in[a];
+          ++n;
+        }
+        if (n == 2) {
+          const int s = leaving[0] ? 0 : 1;
+          segments.push_back({cross[s], cross[1 - s]});
+        } else if (n == 4) {
+          const Vec2 c = pts[j * w + i] + Vec2{h * 0.5, h * 0.5};
+          const bool center_in = m.eval(c) < level;
+          for (int k = 0; k < 4; ++k) {
+            if (!leaving[k]) continue;
+            const int other = center_in ? (k + 1) % 4 : (k + 3) % 4;
+            segments.push_back({cross[k], cross[other]});
+          }
+        }
+      }
+  };
+  // Blocks whose bound excludes the level are skipped; others split down to small leaves, so a
+  // narrow-band or loosely bounded field still skips most of the plane.
+  const std::size_t leaf = std::min<std::size_t>(4, B);
+  std::function<void(std::size_t, std::size_t, std::size_t, std::size_t)> visit =
+      [&](std::size_t bi, std::size_t bj, std::size_t ci, std::size_t cj) {
+        const Interval range = f.bound(m.node(bi, bj), m.node(bi + ci, bj + cj));
+        if (range.lo >= level || range.hi < level) {
+          ++result.skipped_blocks;
+          return;
+        }
+        const bool bounded = std::isfinite(range.lo) || std::isfinite(range.hi);
+        if (!bounded || (ci <= leaf && cj <= leaf)) {
+          march_block(bi, bj, ci, cj);
+          return;
+        }
+        const std::size_t hi_ = (ci + 1) / 2, hj = (cj + 1) / 2;
+        visit(bi, bj, hi_, hj);
+        if (ci > hi_) visit(bi + hi_, bj, ci - hi_, hj);
+        if (cj > hj) visit(bi, bj + hj, hi_, cj - hj);
+        if (ci > hi_ && cj > hj) visit(bi + hi_, bj + hj, ci - hi_, cj - hj);
+      };
+  for (std::size_t bj = 0; bj < ny; bj += B)
+    for (std::size_t bi = 0; bi < nx; bi += B) {
+      ++result.blocks;
+      visit(bi, bj, std::min(B, nx - bi), std::min(B, ny - bj));
+    }
+  result.samples = m.samples;
+  result.lines = stitch_segments(segments, options.stitch_tolerance);
+  return result;
+}
+
+}  // namespace trellis

@@ -1,0 +1,399 @@
+#include "trellis/geom/mesh_io.hpp"
+
+#include <Model/COM/NMR_DLLInterfaces.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstring>
+#include <fmt/format.h>
+#include <map>
+#include <unordered_map>
+
+#include "trellis/core/error.hpp"
+#include "trellis/core/file.hpp"
+#include "trellis/core/text.hpp"
+#include "trellis/geom/contour.hpp"
+
+namespace trellis {
+
+namespace {
+
+std::string lower_extension(const std::string& path) {
+  const auto dot = path.find_last_of('.');
+  if (dot == std::string::npos) return {};
+  std::string ext = path.substr(dot + 1);
+  for (auto& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
+}
+
+struct VecHash {
+  std::size_t operator()(const Vec3& v) const {
+    std::uint64_t h = 1469598103934665603ull;
+    for (double d : {v.x, v.y, v.z}) {
+      std::uint64_t b;
+      const double z = d == 0 ? 0.0 : d;  // -0 and +0 weld
+      std::memcpy(&b, &z, 8);
+      h = (h ^ b) * 1099511628211ull;
+    }
+    return static_cast<std::size_t>(h);
+  }
+};
+
+// Appends a triangle given by coordinates, welding exact duplicates.
+struct Builder {
+  TriangleMesh mesh;
+  std::unordered_map<Vec3, std::uint32_t, VecHash> index;
+  std::uint32_t vertex(Vec3 p) {
+    if (p.x == 0) p.x = 0;
+    if (p.y == 0) p.y = 0;
+    if (p.z == 0) p.z = 0;
+    auto [it, inserted] = index.try_emplace(p, static_cast<std::uint32_t>(mesh.vertices.size()));
+    if (inserted) mesh.vertices.push_back(p);
+    return it->second;
+  }
+  void triangle(Vec3 a, Vec3 b, Vec3 c) {
+    const auto ia = vertex(a), ib = vertex(b), ic = vertex(c);
+    if (ia == ib || ib == ic || ia == ic) return;  // degenerate
+    mesh.triangles.push_back({ia, ib, ic});
+  }
+};
+
+void check_coordinate(const Vec3& p, const std::string& name, long line) {
+  if (!is_finite(p) || std::abs(p.x) > 1e6 || std::abs(p.y) > 1e6 || std::abs(p.z) > 1e6)
+    throw ParseError("vertex coordinate is not finite or beyond ±1e6 mm", {name, line, ""});
+}
+
+TriangleMesh parse_ascii_stl(const std::string& text, const std::string& name) {
+  Builder b;
+  std::size_t pos = 0;
+  long line = 0;
+  Vec3 v[3];
+  int nv = 0;
+  bool in_facet = false;
+  while (pos < text.size()) {
+    const std::size_t end = std::min(text.find('\n', pos), text.size());
+    const std::string_view raw(text.data() + pos, end - pos);
+    pos = end + 1;
+    ++line;
+    const std::string s(trim(std::string(raw)));
+    if (s.empty()) continue;
+    if (s.rfind("vertex", 0) == 0) {
+      if (!in_facet || nv >= 3)
+        throw ParseError("'vertex' outside a facet or a fourth vertex", {name, line, ""});
+      double x, y, z;
+      char extra;
+      if (std::sscanf(s.c_str() + 6, "%lf %lf %lf %c", &x, &y, &z, &extra) != 3)
+        throw ParseError("expected 'vertex x y z'", {name, line, ""});
+      v[nv] = {x, y, z};
+      check_coordinate(v[nv], name, line);
+      ++nv;
+    } else if (s.rfind("facet", 0) == 0) {
+      if (in_facet) throw ParseError("'facet' inside a facet", {name, line, ""});
+      in_facet = true;
+      nv = 0;
+    } else if (s.rfind("endfacet", 0) == 0) {
+      if (!in_facet || nv != 3)
+        throw ParseError("facet without exactly three vertices", {name, line, ""});
+      b.triangle(v[0], v[1], v[2]);
+      in_facet = false;
+    } else if (s.rfind("outer", 0) == 0 || s.rfind("endloop", 0) == 0 ||
+               s.rfind("solid", 0) == 0 || s.rfind("endsolid", 0) == 0) {
+      continue;
+    } else {
+      throw ParseError("unexpected '" + s.substr(0, 40) + "' in ASCII STL", {name, line, ""});
+    }
+  }
+  if (in_facet) throw ParseError("file ends inside a facet", {name, line, ""});
+  if (b.mesh.triangles.empty()) throw ParseError("STL has no triangles", {name, 0, ""});
+  return std::move(b.mesh);
+}
+
+}  // namespace
+
+TriangleMesh parse_stl(const std::string& bytes, const std::string& name) {
+  if (bytes.size() >= 84) {
+    std::uint32_t count;
+    std::memcpy(&count, bytes.data() + 80, 4);
+    if (84 + 50ull * count == bytes.size()) {
+      Builder b;
+      for (std::uint32_t t = 0; t < count; ++t) {
+        const char* rec = bytes.data() + 84 + 50ull * t + 12;
+        Vec3 v[3];
+        for (int k = 0; k < 3; ++k) {
+          float f[3];
+          std::memcpy(f, rec + 12 * k, 12);
+          v[k] = {f[0], f[1], f[2]};
+          if (!is_finite(v[k]) || std::abs(v[k].x) > 1e6 || std::abs(v[k].y) > 1e6 ||
+              std::abs(v[k].z) > 1e6)
+            throw ParseError("vertex not finite or beyond ±1e6 mm",
+                             {name, 0, "triangle " + std::to_string(t)});
+        }
+        b.triangle(v[0], v[1], v[2]);
+      }
+      if (b.mesh.triangles.empty()) throw ParseError("STL has no triangles", {name, 0, ""});
+      return std::move(b.mesh);
+    }
+  }
+  const std::string head(trim(bytes.substr(0, std::min<std::size_t>(bytes.size(), 256))));
+  if (head.rfind("solid", 0) == 0) return parse_ascii_stl(bytes, name);
+  throw ParseError(fmt::format("not an STL file: {} bytes is neither a binary STL (84 + 50 per "
+                               "triangle) nor ASCII starting with 'solid'",
+                               bytes.size()),
+                   {name, 0, ""});
+}
+
+TriangleMesh read_stl(const std::string& path) {
+  return parse_stl(read_file(path), path);
+}
+
+TriangleMesh parse_obj(const std::string& text, const std::string& name) {
+  std::vector<Vec3> verts;
+  Builder b;
+  std::size_t pos = 0;
+  long line = 0;
+  while (pos < text.size()) {
+    const std::size_t end = std::min(text.find('\n', pos), text.size());
+    const std::string s(trim(std::string(text.data() + pos, end - pos)));
+    pos = end + 1;
+    ++line;
+    if (s.size() < 2 || s[0] == '#') continue;
+    if (s[0] == 'v' && s[1] == ' ') {
+      double x, y, z;
+      if (std::sscanf(s.c_str() + 2, "%lf %lf %lf", &x, &y, &z) != 3)
+        throw ParseError("expected 'v x y z'", {name, line, ""});
+      verts.push_back({x, y, z});
+      check_coordinate(verts.back(), name, line);
+    } else if (s[0] == 'f' && s[1] == ' ') {
+      std::vector<long> idx;
+      std::size_t p = 2;
+      while (p < s.size()) {
+        while (p < s.size() && s[p] == ' ') ++p;
+        if (p >= s.size()) break;
+        char* stop = nullptr;
+        const long v = std::strtol(s.c_str() + p, &stop, 10);
+        if (stop == s.c_str() + p) throw ParseError("bad face index", {name, line, ""});
+        const long n = static_cast<long>(verts.size());
+        const long i = v < 0 ? n + v : v - 1;
+        if (i < 0 || i >= n)
+          throw ParseError(fmt::format("face refers to vertex {} of {}", v, n), {name, line, ""});
+        idx.push_back(i);
+        p = static_cast<std::size_t>(stop - s.c_str());
+        while (p < s.size() && s[p] != ' ') ++p;  // skip /vt/vn
+      }
+      if (idx.size() < 3) throw ParseError("face with fewer than 3 vertices", {name, line, ""});
+      for (std::size_t k = 1; k + 1 < idx.size(); ++k)
+        b.triangle(verts[idx[0]], verts[idx[k]], verts[idx[k + 1]]);
+    }
+  }
+  if (b.mesh.triangles.empty()) throw ParseError("OBJ has no faces", {name, 0, ""});
+  return std::move(b.mesh);
+}
+
+TriangleMesh read_obj(const std::string& path) {
+  return parse_obj(read_file(path), path);
+}
+
+TriangleMesh read_3mf(const std::string& path) {
+  using namespace NMR;
+  // lib3mf 1.8 C interface; every handle released on every path.
+  struct Handle {
+    PLib3MFBase* p = nullptr;
+    ~Handle() {
+      if (p) lib3mf_release(p);
+    }
+  };
+  auto fail = [&](const std::string& what, PLib3MFBase* obj) {
+    std::string msg = what;
+    if (obj) {
+      DWORD code = 0;
+      LPCSTR text = nullptr;
+      if (lib3mf_getlasterror(obj, &code, &text) == LIB3MF_OK && text) msg += ": " + std::string(text);
+    }
+    throw ParseError(msg, {path, 0, ""});
+  };
+  (void)read_file(path);  // clear IoError for a missing file
+  Handle model, reader;
+  if (lib3mf_createmodel(&model.p) != LIB3MF_OK) fail("cannot create a 3MF model", nullptr);
+  if (lib3mf_model_queryreader(model.p, "3mf", &reader.p) != LIB3MF_OK)
+    fail("cannot create a 3MF reader", model.p);
+  if (lib3mf_reader_readfromfileutf8(reader.p, path.c_str()) != LIB3MF_OK)
+    fail("not a readable 3MF file", reader.p);
+
+  Builder b;
+  auto add_mesh = [&](PLib3MFBase* object, const MODELTRANSFORM* tf) {
+    DWORD nv = 0, nt = 0;
+    lib3mf_meshobject_getvertexcount(object, &nv);
+    lib3mf_meshobject_gettrianglecount(object, &nt);
+    std::vector<MODELMESHVERTEX> verts(nv);
+    std::vector<MODELMESHTRIANGLE> tris(nt);
+    if (nv) lib3mf_meshobject_getvertices(object, verts.data(), nv, nullptr);
+    if (nt) lib3mf_meshobject_gettriangleindices(object, tris.data(), nt, nullptr);
+    auto at = [&](DWORD i) {
+      if (i >= nv) fail("triangle refers to a missing vertex", nullptr);
+      const float* f = verts[i].m_fPosition;
+      Vec3 p{f[0], f[1], f[2]};
+      if (tf) {
+        const auto& m = tf->m_fFields;
+        p = {m[0][0] * p.x + m[0][1] * p.y + m[0][2] * p.z + m[0][3],
+             m[1][0] * p.x + m[1][1] * p.y + m[1][2] * p.z + m[1][3],
+             m[2][0] * p.x + m[2][1] * p.y + m[2][2] * p.z + m[2][3]};
+      }
+      check_coordinate(p, path, 0);
+      return p;
+    };
+    for (const auto& t : tris) b.triangle(at(t.m_nIndices[0]), at(t.m_nIndices[1]), at(t.m_nIndices[2]));
+  };
+
+  Handle items;
+  std::size_t built = 0;
+  if (lib3mf_model_getbuilditems(model.p, &items.p) == LIB3MF_OK) {
+    BOOL more = false;
+    while (lib3mf_builditemiterator_movenext(items.p, &more) == LIB3MF_OK && more) {
+      Handle item;
+      if (lib3mf_builditemiterator_getcurrent(items.p, &item.p) != LIB3MF_OK) break;
+      PLib3MFBase* object = nullptr;  // owned by the model
+      if (lib3mf_builditem_getobjectresource(item.p, &object) != LIB3MF_OK || !object) continue;
+      BOOL is_mesh = false;
+      lib3mf_object_ismeshobject(object, &is_mesh);
+      if (!is_mesh) {
+        BOOL is_comp = false;
+        lib3mf_object_iscomponentsobject(object, &is_comp);
+        if (is_comp)
+          throw ParseError("3MF build item is a components object; only mesh objects are read",
+                           {path, 0, ""});
+        continue;
+      }
+      BOOL has_tf = false;
+      MODELTRANSFORM tf;
+      lib3mf_builditem_hasobjecttransform(item.p, &has_tf);
+      if (has_tf) lib3mf_builditem_getobjecttransform(item.p, &tf);
+      add_mesh(object, has_tf ? &tf : nullptr);
+      ++built;
+    }
+  }
+  if (built == 0) {
+    Handle objects;
+    if (lib3mf_model_getmeshobjects(model.p, &objects.p) == LIB3MF_OK) {
+      BOOL more = false;
+      while (lib3mf_resourceiterator_movenext(objects.p, &more) == LIB3MF_OK && more) {
+        Handle res;
+        if (lib3mf_resourceiterator_getcurrent(objects.p, &res.p) != LIB3MF_OK) break;
+        add_mesh(res.p, nullptr);
+      }
+    }
+  }
+  if (b.mesh.triangles.empty()) throw ParseError("3MF has no mesh triangles", {path, 0, ""});
+  return std::move(b.mesh);
+}
+
+TriangleMesh read_mesh(const std::string& path) {
+  const std::string ext = lower_extension(path);
+  if (ext == "stl") return read_stl(path);
+  if (ext == "obj") return read_obj(path);
+  if (ext == "3mf") return read_3mf(path);
+  throw ParseError("unknown mesh format '." + ext + "' (expected .stl, .obj or .3mf)",
+                   {path, 0, ""});
+}
+
+TriangleMesh weld(const TriangleMesh& mesh) {
+  Builder b;
+  for (const auto& t : mesh.triangles)
+    b.triangle(mesh.vertices[t[0]], mesh.vertices[t[1]], mesh.vertices[t[2]]);
+  return std::move(b.mesh);
+}
+
+MeshCheck check_mesh(const TriangleMesh& mesh) {
+  MeshCheck c;
+  c.triangles = mesh.triangles.size();
+  // Directed edge counts keyed by (min, max) with a per-direction tally.
+  struct Use {
+    std::uint32_t forward = 0, backward = 0;
+    std::size_t triangle = 0;
+  };
+  std::unordered_map<std::uint64_t, Use> edges;
+  edges.reserve(mesh.triangles.size() * 2);
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+    const auto& tri = mesh.triangles[t];
+    for (int k = 0; k < 3; ++k) {
+      const std::uint32_t a = tri[k], b = tri[(k + 1) % 3];
+      const std::uint64_t key = (static_cast<std::uint64_t>(std::min(a, b)) << 32) | std::max(a, b);
+      auto& u = edges[key];
+      (a < b ? u.forward : u.backward)++;
+      u.triangle = t;
+    }
+  }
+  for (const auto& [key, u] : edges) {
+    const bool open = u.forward + u.backward == 1;
+    const bool bad = !open && (u.forward != 1 || u.backward != 1);
+    if (!open && !bad) continue;
+    (open ? c.open_edges : c.nonmanifold_edges)++;
+    if (c.first_problem.empty()) {
+      const Vec3 a = mesh.vertices[key >> 32], b = mesh.vertices[key & 0xffffffffu];
+      c.first_problem = fmt::format("{} edge ({:.4g}, {:.4g}, {:.4g})–({:.4g}, {:.4g}, {:.4g}) of triangle {}",
+                                    open ? "open" : "non-manifold", a.x, a.y, a.z, b.x, b.y, b.z,
+                                    u.triangle);
+    }
+  }
+  return c;
+}
+
+void require_closed(const TriangleMesh& mesh, const std::string& name) {
+  const MeshCheck c = check_mesh(mesh);
+  if (c.closed()) return;
+  throw GeometryError(fmt::format("mesh is not closed and manifold: {} open edges, {} non-manifold "
+                                  "edges; first: {}",
+                                  c.open_edges, c.nonmanifold_edges, c.first_problem),
+                      {name, 0, ""});
+}
+
+BBox3 bounds(const TriangleMesh& mesh) {
+  BBox3 b;
+  for (const auto& v : mesh.vertices) b.add(v);
+  return b;
+}
+
+double volume(const TriangleMesh& mesh) {
+  double v = 0;
+  for (const auto& t : mesh.triangles) {
+    const Vec3 a = mesh.vertices[t[0]], b = mesh.vertices[t[1]], c = mesh.vertices[t[2]];
+    v += a.x * (b.y * c.z - b.z * c.y) - a.y * (b.x * c.z - b.z * c.x) + a.z * (b.x * c.y - b.y * c.x);
+  }
+  return v / 6.0;
+}
+
+Regions slice_mesh(const TriangleMesh& mesh, double z, double stitch_tolerance) {
+  std::vector<Segment2> segments;
+  auto cross = [&](std::uint32_t i, std::uint32_t j) {
+    if (i > j) std::swap(i, j);  // same point from both triangles sharing the edge
+    const Vec3 a = mesh.vertices[i], b = mesh.vertices[j];
+    const double t = (z - a.z) / (b.z - a.z);
+    return Vec2{a.x + (b.x - a.x) * t, a.y + (b.y - a.y) * t};
+  };
+  for (const auto& tri : mesh.triangles) {
+    const Vec3 p[3] = {mesh.vertices[tri[0]], mesh.vertices[tri[1]], mesh.vertices[tri[2]]};
+    // A vertex exactly on the plane counts as below: consistent across triangles.
+    const bool above[3] = {p[0].z > z, p[1].z > z, p[2].z > z};
+    if (above[0] == above[1] && above[1] == above[2]) continue;
+    Vec2 pts[2];
+    int n = 0;
+    for (int k = 0; k < 3 && n < 2; ++k) {
+      const int l = (k + 1) % 3;
+      if (above[k] != above[l]) pts[n++] = cross(tri[k], tri[l]);
+    }
+    if (n != 2) continue;
+    // Orient so the solid lies on the left: direction along ez × n.
+    const Vec3 e1 = p[1] - p[0], e2 = p[2] - p[0];
+    const double nx = e1.y * e2.z - e1.z * e2.y, ny = e1.z * e2.x - e1.x * e2.z;
+    const Vec2 dir{-ny, nx};
+    const Vec2 d = pts[1] - pts[0];
+    if (d.x * dir.x + d.y * dir.y >= 0)
+      segments.push_back({pts[0], pts[1]});
+    else
+      segments.push_back({pts[1], pts[0]});
+  }
+  const StitchedLines lines = stitch_segments(segments, stitch_tolerance);
+  return nest_rings(lines.loops);
+}
+
+}  // namespace trellis

@@ -1,0 +1,262 @@
+#include "trellis/geom/regions.hpp"
+
+#include <clipper.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+
+namespace trellis {
+
+namespace cl = ClipperLib;
+
+namespace {
+
+cl::IntPoint to_int(Vec2 p) {
+  return {static_cast<cl::cInt>(std::llround(p.x * kClipperScale)),
+          static_cast<cl::cInt>(std::llround(p.y * kClipperScale))};
+}
+cl::Path to_path(const std::vector<Vec2>& ring) {
+  cl::Path path;
+  path.reserve(ring.size());
+  for (auto p : ring) path.push_back(to_int(p));
+  return path;
+}
+cl::Paths to_paths(const Regions& regions) {
+  cl::Paths out;
+  for (const auto& p : regions) {
+    if (p.outer.size() >= 3) out.push_back(to_path(p.outer));
+    for (const auto& h : p.holes)
+      if (h.size() >= 3) out.push_back(to_path(h));
+  }
+  return out;
+}
+std::vector<Vec2> from_path(const cl::Path& path, bool want_ccw) {
+  std::vector<Vec2> ring;
+  ring.reserve(path.size());
+  for (const auto& p : path)
+    ring.push_back({static_cast<double>(p.X) / kClipperScale,
+                    static_cast<double>(p.Y) / kClipperScale});
+  if (cl::Orientation(path) != want_ccw) std::reverse(ring.begin(), ring.end());
+  return ring;
+}
+void collect(const cl::PolyNode& node, Regions& out) {
+  for (const cl::PolyNode* child : node.Childs) {
+    Polygon2 poly;
+    poly.outer = from_path(child->Contour, true);
+    for (const cl::PolyNode* hole : child->Childs) {
+      poly.holes.push_back(from_path(hole->Contour, false));
+      collect(*hole, out);
+    }
+    out.push_back(std::move(poly));
+  }
+}
+Regions boolean(const Regions& a, const Regions& b, cl::ClipType type) {
+  cl::Clipper clipper;
+  clipper.AddPaths(to_paths(a), cl::ptSubject, true);
+  clipper.AddPaths(to_paths(b), cl::ptClip, true);
+  cl::PolyTree tree;
+  clipper.Execute(type, tree, cl::pftEvenOdd, cl::pftEvenOdd);
+  Regions out;
+  collect(tree, out);
+  return out;
+}
+
+double perpendicular(Vec2 p, Vec2 a, Vec2 b) {
+  const Vec3 P{p.x, p.y, 0}, A{a.x, a.y, 0}, B{b.x, b.y, 0};
+  return distance_to_segment(P, A, B);
+}
+void dp(const std::vector<Vec2>& pts, std::size_t i, std::size_t j, double tol,
+        std::vector<char>& keep) {
+  if (j <= i + 1) return;
+  double best = -1;
+  std::size_t k = i;
+  for (std::size_t t = i + 1; t < j; ++t) {
+    const double d = perpendicular(pts[t], pts[i], pts[j]);
+    if (d > best) {
+      best = d;
+      k = t;
+    }
+  }
+  if (best > tol) {
+    keep[k] = 1;
+    dp(pts, i, k, tol, keep);
+    dp(pts, k, j, tol, keep);
+  }
+}
+std::vector<Vec2> simplify_ring(const std::vector<Vec2>& ring, double tol) {
+  const std::size_t n = ring.size();
+  if (n < 4 || tol <= 0) return ring;
+  // Split at the point farthest from point 0, simplify both halves.
+  std::size_t far = 0;
+  double best = -1;
+  for (std::size_t i = 1; i < n; ++i) {
+    const double d = std::hypot(ring[i].x - ring[0].x, ring[i].y - ring[0].y);
+    if (d > best) {
+      best = d;
+      far = i;
+    }
+  }
+  std::vector<Vec2> pts(ring);
+  pts.push_back(ring[0]);
+  std::vector<char> keep(pts.size(), 0);
+  keep[0] = keep[far] = keep[n] = 1;
+  dp(pts, 0, far, tol, keep);
+  dp(pts, far, n, tol, keep);
+  std::vector<Vec2> out;
+  for (std::size_t i = 0; i < n; ++i)
+    if (keep[i]) out.push_back(pts[i]);
+  return out.size() >= 3 ? out : ring;
+}
+
+}  // namespace
+
+double signed_area(const std::vector<Vec2>& ring) {
+  double a = 0;
+  for (std::size_t i = 0, j = ring.size() - 1; i < ring.size(); j = i++)
+    a += (ring[j].x * ring[i].y - ring[i].x * ring[j].y);
+  return ring.size() < 3 ? 0.0 : 0.5 * a;
+}
+double area(const Polygon2& p) {
+  double a = std::abs(signed_area(p.outer));
+  for (const auto& h : p.holes) a -= std::abs(signed_area(h));
+  return a;
+}
+double area(const Regions& regions) {
+  double a = 0;
+  for (const auto& p : regions) a += area(p);
+  return a;
+}
+
+Regions offset(const Regions& regions, double delta, double arc_tolerance) {
+  cl::ClipperOffset off(2.0, std::max(arc_tolerance, 1e-6) * kClipperScale);
+  // Orientation must be consistent for the offsetter: outer CCW, holes CW (our invariant).
+  for (const auto& p : regions) {
+    if (p.outer.size() >= 3) {
+      cl::Path path = to_path(p.outer);
+      if (!cl::Orientation(path)) cl::ReversePath(path);
+      off.AddPath(path, cl::jtMiter, cl::etClosedPolygon);
+    }
+    for (const auto& h : p.holes) {
+      if (h.size() < 3) continue;
+      cl::Path path = to_path(h);
+      if (cl::Orientation(path)) cl::ReversePath(path);
+      off.AddPath(path, cl::jtMiter, cl::etClosedPolygon);
+    }
+  }
+  cl::PolyTree tree;
+  off.Execute(tree, delta * kClipperScale);
+  Regions out;
+  collect(tree, out);
+  return out;
+}
+
+Regions nest_rings(const std::vector<std::vector<Vec2>>& rings) {
+  cl::Paths paths;
+  for (const auto& r : rings)
+    if (r.size() >= 3) paths.push_back(to_path(r));
+  cl::Clipper clipper;
+  clipper.AddPaths(paths, cl::ptSubject, true);
+  cl::PolyTree tree;
+  clipper.Execute(cl::ctUnion, tree, cl::pftEvenOdd, cl::pftEvenOdd);
+  Regions out;
+  collect(tree, out);
+  return out;
+}
+
+Regions unite(const Regions& a, const Regions& b) {
+  return boolean(a, b, cl::ctUnion);
+}
+Regions difference(const Regions& a, const Regions& b) {
+  return boolean(a, b, cl::ctDifference);
+}
+Regions intersection(const Regions& a, const Regions& b) {
+  return boolean(a, b, cl::ctIntersection);
+}
+
+Regions simplify(const Regions& regions, double tolerance) {
+  Regions out;
+  out.reserve(regions.size());
+  for (const auto& p : regions) {
+    Polygon2 q;
+    q.outer = simplify_ring(p.outer, tolerance);
+    for (const auto& h : p.holes) q.holes.push_back(simplify_ring(h, tolerance));
+    out.push_back(std::move(q));
+  }
+  return out;
+}
+
+std::vector<std::vector<Vec2>> rings_of(const Regions& regions) {
+  std::vector<std::vector<Vec2>> out;
+  for (const auto& p : regions) {
+    out.push_back(p.outer);
+    for (const auto& h : p.holes) out.push_back(h);
+  }
+  return out;
+}
+
+std::vector<Segment2> hatch(const Regions& regions, double angle_deg, double spacing,
+                            Vec2 origin) {
+  std::vector<Segment2> out;
+  if (!(spacing > 0)) return out;
+  const double a = angle_deg * std::numbers::pi / 180;
+  const Vec2 u{std::cos(a), std::sin(a)}, v{-std::sin(a), std::cos(a)};  // along, across
+  // Edges in (s, t) = (along, across) coordinates relative to origin.
+  struct Edge {
+    double t0, t1, s0, s1;  // t0 < t1
+  };
+  std::vector<Edge> edges;
+  double tmin = 1e300, tmax = -1e300;
+  auto add_ring = [&](const std::vector<Vec2>& ring) {
+    for (std::size_t i = 0, j = ring.size() - 1; i < ring.size(); j = i++) {
+      const Vec2 p = ring[j] - origin, q = ring[i] - origin;
+      double sp = p.x * u.x + p.y * u.y, tp = p.x * v.x + p.y * v.y;
+      double sq = q.x * u.x + q.y * u.y, tq = q.x * v.x + q.y * v.y;
+      if (tp == tq) continue;
+      if (tp > tq) {
+        std::swap(tp, tq);
+        std::swap(sp, sq);
+      }
+      edges.push_back({tp, tq, sp, sq});
+      tmin = std::min(tmin, tp);
+      tmax = std::max(tmax, tq);
+    }
+  };
+  for (const auto& p : regions) {
+    if (p.outer.size() >= 3) add_ring(p.outer);
+    for (const auto& h : p.holes)
+      if (h.size() >= 3) add_ring(h);
+  }
+  if (edges.empty()) return out;
+  std::sort(edges.begin(), edges.end(), [](const Edge& x, const Edge& y) { return x.t0 < y.t0; });
+  std::vector<std::size_t> active;
+  std::size_t next = 0;
+  std::vector<double> xs;
+  // Lines at t = k·spacing; a line exactly on a vertex counts edges half-open [t0, t1).
+  const auto k0 = static_cast<long long>(std::ceil(tmin / spacing));
+  const auto k1 = static_cast<long long>(std::floor(tmax / spacing));
+  for (long long k = k0; k <= k1; ++k) {
+    const double t = static_cast<double>(k) * spacing;
+    while (next < edges.size() && edges[next].t0 <= t) active.push_back(next++);
+    xs.clear();
+    std::size_t w = 0;
+    for (std::size_t idx : active) {
+      const Edge& e = edges[idx];
+      if (e.t1 <= t) continue;  // finished: drop
+      active[w++] = idx;
+      if (t < e.t0) continue;
+      xs.push_back(e.s0 + (e.s1 - e.s0) * (t - e.t0) / (e.t1 - e.t0));
+    }
+    active.resize(w);
+    std::sort(xs.begin(), xs.end());
+    for (std::size_t i = 0; i + 1 < xs.size(); i += 2) {
+      if (xs[i + 1] - xs[i] <= 1e-9) continue;
+      const Vec2 pa = origin + u * xs[i] + v * t, pb = origin + u * xs[i + 1] + v * t;
+      out.push_back({pa, pb});
+    }
+  }
+  return out;
+}
+
+}  // namespace trellis

@@ -1,0 +1,160 @@
+#include "trellis/slice/pipeline.hpp"
+
+#include <nlohmann/json.hpp>
+
+#include <chrono>
+#include <cmath>
+
+#include "trellis/core/error.hpp"
+#include "trellis/field/vcad.hpp"
+#include "trellis/geom/mesh_io.hpp"
+
+namespace trellis {
+
+SliceRoute slice_route_from_string(const std::string& name) {
+  if (name == "auto") return SliceRoute::Auto;
+  if (name == "field") return SliceRoute::Field;
+  if (name == "mesh") return SliceRoute::Mesh;
+  throw SettingError("unknown route '" + name + "' (expected auto, field or mesh)");
+}
+
+const char* to_string(SliceRoute route) {
+  switch (route) {
+    case SliceRoute::Auto: return "auto";
+    case SliceRoute::Field: return "field";
+    case SliceRoute::Mesh: return "mesh";
+  }
+  return "?";
+}
+
+namespace {
+
+bool ends_with_ci(const std::string& s, const std::string& suffix) {
+  if (s.size() < suffix.size()) return false;
+  for (std::size_t i = 0; i < suffix.size(); ++i)
+    if (std::tolower(static_cast<unsigned char>(s[s.size() - suffix.size() + i])) != suffix[i])
+      return false;
+  return true;
+}
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+}  // namespace
+
+SliceResult run_slice(const SliceJob& job,
+                      const std::function<void(const std::string&, double)>& progress) {
+  SliceResult r;
+  const bool is_vcad = ends_with_ci(job.input, ".vcad");
+  r.route = job.route == SliceRoute::Auto ? (is_vcad ? SliceRoute::Field : SliceRoute::Mesh)
+                                          : job.route;
+  if (is_vcad && r.route == SliceRoute::Mesh)
+    throw SettingError(
+        "--route mesh needs a mesh; a .vcad design is sliced through its field (the mesh route "
+        "takes .stl, .obj or .3mf files)");
+  const auto t0 = std::chrono::steady_clock::now();
+  const double h = job.planar.layer_height;
+  if (!(h > 0)) throw SettingError("layer height must be > 0");
+  std::vector<double> zs;
+  auto check_layers = [&](const BBox3& e) {
+    if (e.empty() || !std::isfinite(e.min.z) || !std::isfinite(e.max.z))
+      throw GeometryError("the design has no finite extent in Z; give it a root() box",
+                          {job.input, 0, ""});
+    zs = layer_planes(e.min.z, e.max.z, h);
+    if (zs.size() > 200000)
+      throw SettingError("more than 200,000 layers: check the layer height and the units");
+    if (zs.empty()) throw GeometryError("the design is thinner than one layer", {job.input, 0, ""});
+  };
+  auto report = [&](double f) {
+    if (progress) progress("outlines", f);
+  };
+  if (r.route == SliceRoute::Field) {
+    Field field;
+    if (is_vcad) {
+      VcadOptions vo;
+      vo.mesh_voxel = job.mesh_voxel;
+      field = read_vcad(job.input, vo).field;
+    } else {
+      const TriangleMesh mesh = read_mesh(job.input);
+      r.mesh_triangles = mesh.triangles.size();
+      MeshSdfOptions mo;
+      mo.voxel = job.mesh_voxel;
+      field = mesh_field(mesh, mo, job.input);
+    }
+    r.extent = field.extent();
+    check_layers(r.extent);
+    r.outlines = slice_field(field, zs, job.field, &r.field_stats, report);
+  } else {
+    const TriangleMesh mesh = weld(read_mesh(job.input));
+    r.mesh_triangles = mesh.triangles.size();
+    require_closed(mesh, job.input);
+    r.extent = bounds(mesh);
+    check_layers(r.extent);
+    r.outlines = slice_mesh_layers(mesh, zs);
+    report(1.0);
+  }
+  r.outline_seconds = seconds_since(t0);
+  const auto t1 = std::chrono::steady_clock::now();
+  if (progress) progress("walls and infill", 0.0);
+  r.toolpath = plan_planar(r.outlines, job.planar, &r.planar);
+  r.toolpath.source = "trellis slice " + job.input + " (" + to_string(r.route) + " route)";
+  if (progress) progress("walls and infill", 1.0);
+  r.plan_seconds = seconds_since(t1);
+  std::size_t non_empty = 0;
+  for (const auto& l : r.outlines) non_empty += l.regions.empty() ? 0 : 1;
+  if (non_empty == 0)
+    throw GeometryError("no layer has any outline: the design is empty at every slicing plane",
+                        {job.input, 0, ""});
+  return r;
+}
+
+std::string slice_report_json(const SliceJob& job, const SliceResult& r, const GcodeStats* g) {
+  nlohmann::ordered_json j;
+  j["format"] = "trellis.slice_report";
+  j["version"] = 1;
+  j["input"] = job.input;
+  j["route"] = to_string(r.route);
+  j["extent_mm"] = {{"min", {r.extent.min.x, r.extent.min.y, r.extent.min.z}},
+                    {"max", {r.extent.max.x, r.extent.max.y, r.extent.max.z}}};
+  j["settings"] = {{"layer_height_mm", job.planar.layer_height},
+                   {"bead_width_mm", job.planar.bead_width},
+                   {"walls", job.planar.walls},
+                   {"top_layers", job.planar.top_layers},
+                   {"bottom_layers", job.planar.bottom_layers},
+                   {"infill_density", job.planar.infill_density},
+                   {"infill_angle_deg", job.planar.infill_angle},
+                   {"resolution_mm", job.field.resolution},
+                   {"mesh_voxel_mm", job.mesh_voxel}};
+  double outline_area = 0;
+  std::size_t empty_layers = 0;
+  for (const auto& l : r.outlines) {
+    outline_area += area(l.regions);
+    empty_layers += l.regions.empty() ? 1 : 0;
+  }
+  const TravelStats travel = travel_stats(r.toolpath);
+  j["layers"] = r.outlines.size();
+  j["empty_layers"] = empty_layers;
+  j["paths"] = r.planar.paths;
+  j["wall_loops"] = r.planar.walls;
+  j["skin_lines"] = r.planar.skin_lines;
+  j["infill_lines"] = r.planar.infill_lines;
+  j["extruded_length_mm"] = r.planar.extruded_length;
+  j["travel_moves"] = travel.moves;
+  j["travel_length_mm"] = travel.length;
+  j["outline_area_mm2_total"] = outline_area;
+  if (r.route == SliceRoute::Field)
+    j["field"] = {{"samples", r.field_stats.samples},
+                  {"blocks", r.field_stats.blocks},
+                  {"blocks_skipped_by_bounds", r.field_stats.skipped_blocks}};
+  if (r.mesh_triangles) j["mesh_triangles"] = r.mesh_triangles;
+  if (g) {
+    j["gcode"] = {{"bytes", g->bytes},
+                  {"filament_mm", g->filament},
+                  {"retractions", g->retractions},
+                  {"print_time_s", g->print_time_s}};
+  }
+  return j.dump(2) + "\n";
+}
+
+}  // namespace trellis

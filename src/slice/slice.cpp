@@ -1,0 +1,311 @@
+#include "trellis/slice/slice.hpp"
+
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
+#include <atomic>
+#include <cmath>
+#include <mutex>
+
+#include "trellis/core/error.hpp"
+#include "trellis/geom/mesh_io.hpp"
+
+namespace trellis {
+
+void FieldSection::sample(const Vec2* points, double* out, std::size_t n) {
+  if (buffer_.size() < n) buffer_.resize(n);
+  for (std::size_t i = 0; i < n; ++i) buffer_[i] = {points[i].x, points[i].y, z_};
+  ev_.values(buffer_.data(), out, n);
+}
+
+Interval FieldSection::bound(Vec2 lo, Vec2 hi) {
+  BBox3 b;
+  b.add({lo.x, lo.y, z_});
+  b.add({hi.x, hi.y, z_});
+  return ev_.bound(b);
+}
+
+std::vector<double> layer_planes(double zmin, double zmax, double h) {
+  std::vector<double> zs;
+  if (!(h > 0) || !(zmax > zmin)) return zs;
+  const auto n = static_cast<std::size_t>(std::ceil((zmax - zmin) / h - 1e-6));
+  for (std::size_t i = 0; i < n; ++i) zs.push_back(zmin + (static_cast<double>(i) + 0.5) * h);
+  return zs;
+}
+
+MarchOptions FieldSliceOptions::march() const {
+  MarchOptions m;
+  m.resolution = resolution;
+  m.stitch_tolerance = stitch_tolerance;
+  return m;
+}
+
+namespace {
+
+void require_finite_xy(const BBox3& e) {
+  if (e.empty() || !std::isfinite(e.min.x) || !std::isfinite(e.max.x) ||
+      !std::isfinite(e.min.y) || !std::isfinite(e.max.y))
+    throw GeometryError(
+        "the design has no finite extent in X and Y; give it a root((min),(max),(voxel)) box or "
+        "intersect it with a solid");
+}
+
+}  // namespace
+
+Regions contour_at(const Field& field, Evaluator& ev, double z, const FieldSliceOptions& options,
+                   SliceStats* stats) {
+  if (!(options.resolution > 0)) throw SettingError("resolution must be > 0");
+  const BBox3 e = field.extent();
+  require_finite_xy(e);
+  const double pad = 2 * options.resolution;
+  // Grid anchored on multiples of the resolution so layers share grid lines.
+  const double h = options.resolution;
+  const Vec2 lo{std::floor((e.min.x - pad) / h) * h, std::floor((e.min.y - pad) / h) * h};
+  const Vec2 hi{std::ceil((e.max.x + pad) / h) * h, std::ceil((e.max.y + pad) / h) * h};
+  const double cells = (hi.x - lo.x) / h * (hi.y - lo.y) / h;
+  if (cells > 4e9)
+    throw SettingError("resolution " + std::to_string(h) + " mm is too fine for this design's size");
+  FieldSection section(ev, z);
+  const ContourSet set = march_squares(section, lo, hi, 0.0, options.march());
+  if (stats) {
+    stats->samples += set.samples;
+    stats->blocks += set.blocks;
+    stats->skipped_blocks += set.skipped_blocks;
+  }
+  return nest_rings(set.lines.loops);
+}
+
+std::vector<LayerOutline> slice_field(const Field& field, const std::vector<double>& zs,
+                                      const FieldSliceOptions& options, SliceStats* stats,
+                                      const std::function<void(double)>& progress) {
+  require_finite_xy(field.extent());
+  std::vector<LayerOutline> out(zs.size());
+  tbb::enumerable_thread_specific<Evaluator> evaluators([&] { return Evaluator(field); });
+  tbb::enumerable_thread_specific<SliceStats> local;
+  std::atomic<std::size_t> done{0};
+  std::mutex progress_mutex;
+  tbb::parallel_for(std::size_t{0}, zs.size(), [&](std::size_t i) {
+    out[i].z = zs[i];
+    out[i].regions = contour_at(field, evaluators.local(), zs[i], options, &local.local());
+    const std::size_t d = ++done;
+    if (progress && (d % 16 == 0 || d == zs.size())) {
+      std::lock_guard lock(progress_mutex);
+      progress(static_cast<double>(d) / static_cast<double>(zs.size()));
+    }
+  });
+  if (stats)
+    for (const auto& s : local) {
+      stats->samples += s.samples;
+      stats->blocks += s.blocks;
+      stats->skipped_blocks += s.skipped_blocks;
+    }
+  return out;
+}
+
+std::vector<LayerOutline> slice_mesh_layers(const TriangleMesh& mesh, const std::vector<double>& zs,
+                                            double stitch_tolerance) {
+  std::vector<LayerOutline> out(zs.size());
+  tbb::parallel_for(std::size_t{0}, zs.size(), [&](std::size_t i) {
+    out[i].z = zs[i];
+    out[i].regions = slice_mesh(mesh, zs[i], stitch_tolerance);
+  });
+  return out;
+}
+
+// ---------------------------------------------------------------- planar slicer
+
+namespace {
+
+Regions intersect_all(const std::vector<LayerOutline>& layers, long from, long to) {
+  // Intersection of outlines from..to inclusive; empty if any index is outside the part.
+  if (from < 0 || to >= static_cast<long>(layers.size()) || from > to) return {};
+  Regions acc = layers[static_cast<std::size_t>(from)].regions;
+  for (long k = from + 1; k <= to && !acc.empty(); ++k)
+    acc = intersection(acc, layers[static_cast<std::size_t>(k)].regions);
+  return acc;
+}
+
+Path make_path(const std::vector<Vec2>& pts, double z, PathRole role, const PlanarOptions& o,
+               bool closed) {
+  Path p;
+  p.role = role;
+  p.width = o.bead_width;
+  p.height = o.layer_height;
+  p.points.reserve(pts.size() + 1);
+  for (auto v : pts) p.points.push_back({v.x, v.y, z});
+  if (closed && !pts.empty()) p.points.push_back({pts[0].x, pts[0].y, z});
+  return p;
+}
+
+double dist2(Vec2 a, Vec2 b) {
+  return (a.x - b.x) * (a.x - b.x) + (a.y - b.y) * (a.y - b.y);
+}
+
+// A closed ring rotated to start at the vertex nearest `from`.
+std::vector<Vec2> rotate_to_nearest(const std::vector<Vec2>& ring, Vec2 from) {
+  std::size_t best = 0;
+  double bd = 1e300;
+  for (std::size_t i = 0; i < ring.size(); ++i) {
+    const double d = dist2(ring[i], from);
+    if (d < bd) {
+      bd = d;
+      best = i;
+    }
+  }
+  std::vector<Vec2> out(ring.begin() + static_cast<long>(best), ring.end());
+  out.insert(out.end(), ring.begin(), ring.begin() + static_cast<long>(best));
+  return out;
+}
+
+// Hatch lines in sweep order → greedy nearest end among the next few lines (zig-zag order).
+void order_lines(std::vector<Segment2> lines, Vec2& cursor, std::vector<std::vector<Vec2>>& out) {
+  constexpr std::size_t kWindow = 24;
+  std::vector<char> used(lines.size(), 0);
+  std::size_t first = 0;
+  for (std::size_t count = 0; count < lines.size(); ++count) {
+    while (first < lines.size() && used[first]) ++first;
+    std::size_t best = first;
+    bool reverse = false;
+    double bd = 1e300;
+    for (std::size_t k = first, seen = 0; k < lines.size() && seen < kWindow; ++k) {
+      if (used[k]) continue;
+      ++seen;
+      const double da = dist2(cursor, lines[k].a), db = dist2(cursor, lines[k].b);
+      if (da < bd) {
+        bd = da;
+        best = k;
+        reverse = false;
+      }
+      if (db < bd) {
+        bd = db;
+        best = k;
+        reverse = true;
+      }
+    }
+    used[best] = 1;
+    Segment2 s = lines[best];
+    if (reverse) std::swap(s.a, s.b);
+    out.push_back({s.a, s.b});
+    cursor = s.b;
+  }
+}
+
+struct IslandOrder {
+  Vec2 anchor;
+  std::size_t index;
+};
+
+}  // namespace
+
+Toolpath plan_planar(const std::vector<LayerOutline>& layers, const PlanarOptions& o,
+                     PlanarStats* stats) {
+  if (!(o.layer_height > 0)) throw SettingError("layer height must be > 0");
+  if (!(o.bead_width > 0)) throw SettingError("bead width must be > 0");
+  if (o.walls < 0 || o.walls > 100) throw SettingError("walls must be 0..100");
+  if (!(o.infill_density >= 0 && o.infill_density <= 1))
+    throw SettingError("infill density must be within 0..1");
+  if (o.top_layers < 0 || o.bottom_layers < 0) throw SettingError("skin layers must be >= 0");
+
+  const std::size_t n = layers.size();
+  std::vector<Regions> outline(n);
+  tbb::parallel_for(std::size_t{0}, n, [&](std::size_t i) {
+    outline[i] = o.simplify > 0 ? simplify(layers[i].regions, o.simplify) : layers[i].regions;
+  });
+  std::vector<LayerOutline> simplified(n);
+  for (std::size_t i = 0; i < n; ++i) simplified[i] = {layers[i].z, outline[i]};
+
+  const double w = o.bead_width;
+  Toolpath tp;
+  tp.layers.resize(n);
+  std::vector<PlanarStats> per(n);
+  tbb::parallel_for(std::size_t{0}, n, [&](std::size_t i) {
+    Layer& layer = tp.layers[i];
+    const double z = static_cast<double>(i + 1) * o.layer_height;
+    layer.z = z;
+    if (outline[i].empty()) return;
+    const long li = static_cast<long>(i);
+    // Solid where the part has no material within bottom_layers below or top_layers above.
+    Regions skin;
+    if (o.bottom_layers > 0)
+      skin = difference(outline[i], intersect_all(simplified, li - o.bottom_layers, li - 1));
+    if (o.top_layers > 0)
+      skin = unite(skin, difference(outline[i],
+                                    intersect_all(simplified, li + 1, li + o.top_layers)));
+    const bool odd = i % 2 == 1;
+    const double infill_angle = o.infill_angle + (odd ? 90.0 : 0.0);
+    const double skin_angle = 45.0 + (odd ? 90.0 : 0.0);
+    const double sparse_spacing = o.infill_density > 0 ? w / o.infill_density : 0;
+
+    // Islands in a stable order, nearest-first from the origin corner.
+    Vec2 cursor{-1e9, -1e9};
+    std::vector<char> done(outline[i].size(), 0);
+    for (std::size_t count = 0; count < outline[i].size(); ++count) {
+      std::size_t pick = 0;
+      double bd = 1e300;
+      for (std::size_t k = 0; k < outline[i].size(); ++k) {
+        if (done[k] || outline[i][k].outer.empty()) continue;
+        for (const auto& v : outline[i][k].outer) {
+          const double d = dist2(v, cursor);
+          if (d < bd) {
+            bd = d;
+            pick = k;
+          }
+        }
+      }
+      done[pick] = 1;
+      const Regions island{outline[i][pick]};
+      // Walls from the inside out (the outer wall last keeps the surface clean).
+      std::vector<Regions> wall_regions;
+      for (int k = 0; k < o.walls; ++k) {
+        Regions r = offset(island, -(k + 0.5) * w);
+        if (r.empty()) break;
+        wall_regions.push_back(std::move(r));
+      }
+      for (auto it = wall_regions.rbegin(); it != wall_regions.rend(); ++it)
+        for (const auto& ring : rings_of(*it)) {
+          if (ring.size() < 3) continue;
+          const auto start = rotate_to_nearest(ring, cursor);
+          layer.paths.push_back(make_path(start, z, PathRole::Perimeter, o, true));
+          cursor = start.front();
+          ++per[i].walls;
+        }
+      // Infill region: inside the innermost wall, reaching `infill_overlap` of a bead into it.
+      const double inset = static_cast<double>(wall_regions.size()) * w + 0.5 * w - o.infill_overlap * w;
+      const Regions inner = offset(island, -inset);
+      if (inner.empty()) continue;
+      const Regions solid = skin.empty() ? Regions{} : intersection(inner, skin);
+      const Regions sparse = solid.empty() ? inner : difference(inner, solid);
+      std::vector<std::vector<Vec2>> lines;
+      auto emit = [&](const Regions& r, double angle, double spacing, PathRole role,
+                      std::size_t& counter) {
+        if (r.empty() || !(spacing > 0)) return;
+        auto segs = hatch(r, angle, spacing);
+        std::vector<Segment2> kept;
+        for (const auto& s : segs)
+          if (std::sqrt(dist2(s.a, s.b)) >= o.min_path) kept.push_back(s);
+        lines.clear();
+        order_lines(std::move(kept), cursor, lines);
+        for (const auto& l : lines) {
+          layer.paths.push_back(make_path(l, z, role, o, false));
+          ++counter;
+        }
+      };
+      emit(solid, skin_angle, w, PathRole::Skin, per[i].skin_lines);
+      emit(sparse, infill_angle, sparse_spacing, PathRole::Infill, per[i].infill_lines);
+    }
+  });
+  PlanarStats total;
+  total.layers = n;
+  for (std::size_t i = 0; i < n; ++i) {
+    total.walls += per[i].walls;
+    total.skin_lines += per[i].skin_lines;
+    total.infill_lines += per[i].infill_lines;
+    total.paths += tp.layers[i].paths.size();
+    for (const auto& p : tp.layers[i].paths) total.extruded_length += p.length();
+  }
+  if (stats) *stats = total;
+  tp.source = "trellis planar slicer";
+  return tp;
+}
+
+}  // namespace trellis
