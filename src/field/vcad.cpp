@@ -338,7 +338,7 @@ class Parser {
       check_expression(text, &col);
     } catch (const ParseError& e) {
       // Column inside the string: +1 for the opening quote (exact when the string is one line).
-      fail(e.message(), {at.line, at.column + col});
+      fail(e.message(), {at.line, at.column + col - 1});
     }
   }
 
@@ -386,6 +386,12 @@ class Parser {
            tok_.pos);
     const std::string node = tok_.text;
     const Pos at = tok_.pos;
+    if (depth_ >= kMaxDepth) fail("nodes nested deeper than 256 levels", at);
+    struct Depth {
+      int& d;
+      explicit Depth(int& x) : d(x) { ++d; }
+      ~Depth() { --d; }
+    } guard(depth_);
     advance();
     if (tok_.kind != Tok::LParen) fail(node + ": expected '(' after the name", tok_.pos);
     list_pos_.clear();
@@ -530,6 +536,8 @@ class Parser {
   Token tok_;
   double mesh_voxel_ = 0;
   std::vector<Pos> list_pos_;
+  static constexpr int kMaxDepth = 256;
+  int depth_ = 0;
 };
 
 }  // namespace

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <fmt/format.h>
 #include <map>
@@ -285,6 +286,40 @@ TriangleMesh read_3mf(const std::string& path) {
   }
   if (b.mesh.triangles.empty()) throw ParseError("3MF has no mesh triangles", {path, 0, ""});
   return std::move(b.mesh);
+}
+
+void write_3mf(const std::string& path, const TriangleMesh& mesh) {
+  using namespace NMR;
+  struct Handle {
+    PLib3MFBase* p = nullptr;
+    ~Handle() {
+      if (p) lib3mf_release(p);
+    }
+  };
+  Handle model, object, item, writer;
+  std::vector<MODELMESHVERTEX> verts(mesh.vertices.size());
+  for (std::size_t i = 0; i < verts.size(); ++i) {
+    verts[i].m_fPosition[0] = static_cast<float>(mesh.vertices[i].x);
+    verts[i].m_fPosition[1] = static_cast<float>(mesh.vertices[i].y);
+    verts[i].m_fPosition[2] = static_cast<float>(mesh.vertices[i].z);
+  }
+  std::vector<MODELMESHTRIANGLE> tris(mesh.triangles.size());
+  for (std::size_t i = 0; i < tris.size(); ++i)
+    for (int k = 0; k < 3; ++k) tris[i].m_nIndices[k] = mesh.triangles[i][k];
+  const std::string tmp = path + ".tmp";
+  if (lib3mf_createmodel(&model.p) != LIB3MF_OK || lib3mf_model_addmeshobject(model.p, &object.p) != LIB3MF_OK ||
+      lib3mf_meshobject_setgeometry(object.p, verts.data(), static_cast<DWORD>(verts.size()),
+                                    tris.data(), static_cast<DWORD>(tris.size())) != LIB3MF_OK ||
+      lib3mf_model_addbuilditem(model.p, object.p, nullptr, &item.p) != LIB3MF_OK ||
+      lib3mf_model_querywriter(model.p, "3mf", &writer.p) != LIB3MF_OK ||
+      lib3mf_writer_writetofileutf8(writer.p, tmp.c_str()) != LIB3MF_OK) {
+    std::remove(tmp.c_str());
+    throw IoError("cannot write 3MF", {path, 0, ""});
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    std::remove(tmp.c_str());
+    throw IoError("cannot move the written 3MF into place", {path, 0, ""});
+  }
 }
 
 TriangleMesh read_mesh(const std::string& path) {

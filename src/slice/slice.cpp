@@ -29,7 +29,9 @@ std::vector<double> layer_planes(double zmin, double zmax, double h) {
   std::vector<double> zs;
   if (!(h > 0) || !(zmax > zmin)) return zs;
   const auto n = static_cast<std::size_t>(std::ceil((zmax - zmin) / h - 1e-6));
-  for (std::size_t i = 0; i < n; ++i) zs.push_back(zmin + (static_cast<double>(i) + 0.5) * h);
+  // A last, partial layer is cut just below the top so it is not empty.
+  for (std::size_t i = 0; i < n; ++i)
+    zs.push_back(std::min(zmin + (static_cast<double>(i) + 0.5) * h, zmax - 1e-3 * h));
   return zs;
 }
 
@@ -231,6 +233,8 @@ Toolpath plan_planar(const std::vector<LayerOutline>& layers, const PlanarOption
     if (o.top_layers > 0)
       skin = unite(skin, difference(outline[i],
                                     intersect_all(simplified, li + 1, li + o.top_layers)));
+    // Slivers narrower than a bead (a slowly changing wall) are not worth solid lines.
+    if (!skin.empty()) skin = offset(offset(skin, -0.5 * o.bead_width), 0.5 * o.bead_width);
     const bool odd = i % 2 == 1;
     const double infill_angle = o.infill_angle + (odd ? 90.0 : 0.0);
     const double skin_angle = 45.0 + (odd ? 90.0 : 0.0);

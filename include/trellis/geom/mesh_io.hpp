@@ -15,6 +15,8 @@ TriangleMesh read_mesh(const std::string& path);
 TriangleMesh read_stl(const std::string& path);
 TriangleMesh read_obj(const std::string& path);
 TriangleMesh read_3mf(const std::string& path);
+// 3MF with one mesh object and one build item (lib3mf), written atomically.
+void write_3mf(const std::string& path, const TriangleMesh& mesh);
 // STL from memory (for tests and fuzzing); `name` appears in errors.
 TriangleMesh parse_stl(const std::string& bytes, const std::string& name);
 TriangleMesh parse_obj(const std::string& text, const std::string& name);

@@ -1,0 +1,228 @@
+// The implicit kernel: primitive distances, CSG, transforms, TPMS, expressions, bounds that hold,
+// material fractions, and the .vcad reader (the FGM paper's listings and its errors).
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <numbers>
+#include <random>
+
+#include "trellis/core/error.hpp"
+#include "trellis/field/field.hpp"
+#include "trellis/field/vcad.hpp"
+
+using namespace trellis;
+
+namespace {
+
+const std::string kDesigns = std::string(TRELLIS_SOURCE_DIR) + "/examples/designs/";
+
+TEST(Field, PrimitiveDistancesAreExact) {
+  Evaluator s(sphere(10));
+  EXPECT_NEAR(s.value({0, 0, 0}), -10, 1e-12);
+  EXPECT_NEAR(s.value({13, 4, 0}), std::hypot(13, 4) - 10, 1e-12);
+  Evaluator b(rectprism({4, 6, 8}));  // full side lengths
+  EXPECT_NEAR(b.value({2, 0, 0}), 0, 1e-12);
+  EXPECT_NEAR(b.value({0, 0, 7}), 3, 1e-12);
+  EXPECT_NEAR(b.value({5, 6, 0}), std::hypot(3, 3), 1e-12);
+  Evaluator c(cylinder(15, 70));  // radius, height, centred
+  EXPECT_NEAR(c.value({15, 0, 0}), 0, 1e-12);
+  EXPECT_NEAR(c.value({0, 0, 35}), 0, 1e-12);
+  EXPECT_NEAR(c.value({0, 0, 0}), -15, 1e-12);
+  Evaluator t(torus(10, 2));
+  EXPECT_NEAR(t.value({10, 0, 0}), -2, 1e-12);
+  EXPECT_NEAR(t.value({0, 0, 0}), 8, 1e-12);
+  Evaluator k(cone(5, 10));  // base r=5 at z=-5, tip at z=+5
+  EXPECT_NEAR(k.value({0, 0, -5}), 0, 1e-12);
+  EXPECT_NEAR(k.value({0, 0, 5}), 0, 1e-12);
+  EXPECT_LT(k.value({0, 0, 0}), 0);
+  EXPECT_NEAR(k.value({2.5, 0, 0}), 0, 1e-12);  // halfway up the radius is 2.5
+}
+
+TEST(Field, CsgAndTransforms) {
+  Evaluator d(subtract({cylinder(50, 15), cylinder(15, 15)}));
+  EXPECT_GT(d.value({0, 0, 0}), 0);  // in the hole
+  EXPECT_LT(d.value({30, 0, 0}), 0);
+  Evaluator u(unite({translate(sphere(1), {5, 0, 0}), translate(sphere(1), {-5, 0, 0})}));
+  EXPECT_NEAR(u.value({5, 0, 0}), -1, 1e-12);
+  EXPECT_NEAR(u.value({0, 0, 0}), 4, 1e-12);
+  Evaluator r(rotate(rectprism({10, 2, 2}), {0, 0, 90}));  // long axis now along Y
+  EXPECT_LT(r.value({0, 4, 0}), 0);
+  EXPECT_GT(r.value({4, 0, 0}), 0);
+  Evaluator sc(scale(sphere(1), {2, 2, 2}));
+  EXPECT_NEAR(sc.value({3, 0, 0}), 1, 1e-12);
+  // Smooth union lies at or below the sharp one, by at most k/4.
+  Evaluator sharp(unite({sphere(2), translate(sphere(2), {3, 0, 0})}));
+  Evaluator smooth(smooth_unite({sphere(2), translate(sphere(2), {3, 0, 0})}, 1.0));
+  for (double x = -3; x <= 6; x += 0.25) {
+    const double a = sharp.value({x, 1.5, 0}), b = smooth.value({x, 1.5, 0});
+    EXPECT_LE(b, a + 1e-12);
+    EXPECT_GE(b, a - 0.25 - 1e-12);
+  }
+}
+
+TEST(Field, TpmsSheetAndExpressions) {
+  Evaluator g(tpms(TpmsKind::Gyroid, {5, 5, 5}, {}));
+  EXPECT_NEAR(g.value({0, 0, 0}), 0, 1e-12);  // gyroid passes through the origin
+  Evaluator sheet(tpms(TpmsKind::Gyroid, {5, 5, 5}, {"0.3"}));
+  EXPECT_NEAR(sheet.value({0, 0, 0}), -0.09, 1e-12);
+  const Vec3 p{1.1, 0.7, 2.3};
+  const double phi = g.value(p);
+  Evaluator graded(tpms(TpmsKind::Gyroid, {5, 5, 5}, {"0.1 + z/100"}));
+  EXPECT_NEAR(graded.value(p), phi * phi - std::pow(0.1 + 2.3 / 100, 2), 1e-12);
+  Evaluator f(function({-2, -2, -2}, {2, 2, 2}, {"x^2 + y^2 + z^2 - 1"}));
+  EXPECT_NEAR(f.value({0, 0, 0}), -1, 1e-12);
+  EXPECT_GT(f.value({3, 0, 0}), 0);  // cut to the box
+  EXPECT_THROW(check_expression("sin(x"), ParseError);
+  EXPECT_THROW(check_expression("foo(x)"), ParseError);
+  check_expression("abs(phi)/pi + rho + theta + phis + r + d");
+}
+
+// Bounds must contain every value in the box, on random CSG trees and random boxes.
+TEST(Field, BoundsAreConservative) {
+  std::mt19937_64 rng(7);
+  std::uniform_real_distribution<double> U(-1, 1);
+  auto leaf = [&]() -> Field {
+    switch (rng() % 5) {
+      case 0: return sphere(1 + 3 * std::abs(U(rng)));
+      case 1: return rectprism({1 + 4 * std::abs(U(rng)), 1 + 4 * std::abs(U(rng)), 1 + 4 * std::abs(U(rng))});
+      case 2: return cylinder(1 + 2 * std::abs(U(rng)), 2 + 5 * std::abs(U(rng)));
+      case 3: return torus(3, 0.5 + std::abs(U(rng)));
+      default: return tpms(TpmsKind::SchwarzP, {4, 4, 4}, {"0.4"});
+    }
+  };
+  for (int trial = 0; trial < 60; ++trial) {
+    Field f = leaf();
+    for (int d = 0; d < 3; ++d) {
+      Field g = translate(leaf(), {3 * U(rng), 3 * U(rng), 3 * U(rng)});
+      switch (rng() % 6) {
+        case 0: f = unite({f, g}); break;
+        case 1: f = intersect({f, g}); break;
+        case 2: f = subtract({f, g}); break;
+        case 3: f = smooth_unite({f, g}, 1.0); break;
+        case 4: f = rotate(f, {90 * U(rng), 90 * U(rng), 90 * U(rng)}); break;
+        default: f = scale(f, {1 + 0.5 * std::abs(U(rng)), 1, 1 + std::abs(U(rng))}); break;
+      }
+    }
+    Evaluator ev(f);
+    for (int b = 0; b < 20; ++b) {
+      BBox3 box;
+      const Vec3 c{4 * U(rng), 4 * U(rng), 4 * U(rng)};
+      const double h = 0.05 + 2 * std::abs(U(rng));
+      box.add(c - Vec3{h, h, h});
+      box.add(c + Vec3{h, h, h});
+      const Interval iv = ev.bound(box);
+      for (int s = 0; s < 30; ++s) {
+        const Vec3 p = c + Vec3{h * U(rng), h * U(rng), h * U(rng)};
+        const double v = ev.value(p);
+        ASSERT_GE(v, iv.lo - 1e-9) << "trial " << trial;
+        ASSERT_LE(v, iv.hi + 1e-9) << "trial " << trial;
+      }
+    }
+  }
+}
+
+TEST(Field, MaterialFractions) {
+  const auto d = read_vcad(kDesigns + "fgm_column2_plate.vcad");
+  ASSERT_EQ(d.field.materials(), (std::vector<std::string>{"blue", "yellow"}));
+  Evaluator ev(d.field);
+  auto f = ev.fractions({0, 0, 0});
+  EXPECT_NEAR(f[0], 0.5, 1e-12);
+  EXPECT_NEAR(f[1], 0.5, 1e-12);
+  f = ev.fractions({0, 37.5, 0});
+  EXPECT_NEAR(f[0], 1.0, 1e-12);
+  // Listing 3 uses phi (cylindrical angle) and pi.
+  Evaluator ring(read_vcad(kDesigns + "fgm_column3_ring_angular.vcad").field);
+  f = ring.fractions({-30, 1e-9, 0});
+  EXPECT_NEAR(f[0], 1.0, 1e-6);
+  f = ring.fractions({0, 30, 0});
+  EXPECT_NEAR(f[0], 0.5, 1e-9);
+  // Listing 4: radial.
+  Evaluator radial(read_vcad(kDesigns + "fgm_column5_ring_radial.vcad").field);
+  f = radial.fractions({32.5, 0, 0});
+  EXPECT_NEAR(f[0], 0.5, 1e-9);
+}
+
+TEST(Vcad, AppendixBListingsParse) {
+  for (const char* name : {"fgm_column1_cylinder.vcad", "fgm_column2_plate.vcad",
+                           "fgm_column3_ring_angular.vcad", "fgm_column5_ring_radial.vcad",
+                           "gyroid_sheet_cube.vcad", "csg_bracket.vcad"}) {
+    const auto d = read_vcad(kDesigns + name);
+    EXPECT_FALSE(d.field.empty()) << name;
+    const BBox3 e = d.field.extent();
+    EXPECT_TRUE(std::isfinite(e.min.x) && std::isfinite(e.max.z)) << name;
+  }
+  const auto vase = read_vcad(kDesigns + "fgm_column6_vase.vcad");
+  const BBox3 e = vase.field.extent();
+  EXPECT_NEAR(e.max.x - e.min.x, 135, 0.5);
+  EXPECT_NEAR(e.max.y - e.min.y, 175, 0.5);
+  EXPECT_NEAR(e.max.z - e.min.z, 100, 0.5);
+  const auto plate = read_vcad(kDesigns + "fgm_column2_plate.vcad");
+  const BBox3 p = plate.field.extent();
+  EXPECT_NEAR(p.max.x - p.min.x, 150, 1e-9);
+  EXPECT_NEAR(p.max.z - p.min.z, 2.5, 1e-9);
+}
+
+TEST(Vcad, RootTuplesMaterialsAndComments) {
+  const auto d = parse_vcad(
+      "/* a block */ root((-5,-5,-5),(5,5,5),(0.05,0.05,0.05)) {\n"
+      "  union(1) { sphere(3, \"red\"); translate((4,0,0)) { rectprism((2,2,2), \"blue\"); } }\n"
+      "  // more\n"
+      "}\n",
+      "t.vcad");
+  EXPECT_TRUE(d.has_root);
+  EXPECT_DOUBLE_EQ(d.resolution.x, 0.05);
+  EXPECT_EQ(d.field.materials(), (std::vector<std::string>{"red", "blue"}));
+  Evaluator ev(d.field);
+  EXPECT_LT(ev.value({0, 0, 0}), 0);
+  EXPECT_GT(ev.value({0, 0, 4.9}), 0);
+  EXPECT_NEAR(ev.fractions({0, 0, 0})[0], 1.0, 1e-12);
+  EXPECT_NEAR(ev.fractions({4, 0, 0})[1], 1.0, 1e-12);
+}
+
+struct BadCase {
+  const char* text;
+  long line, column;
+  const char* words;
+};
+
+TEST(Vcad, ErrorsNameLineAndColumn) {
+  const BadCase cases[] = {
+      {"sphere(1);\n  spere(2);", 2, 3, "unknown node 'spere'"},
+      {"cylinder(15);", 1, 1, "cylinder takes 2 arguments"},
+      {"union() {\n sphere(1);\n", 1, 1, "missing '}'"},
+      {"sphere(1) }", 1, 11, "expected a node name"},
+      {"fgrade([\"x/2\", \"1-x/\"], [\"a\", \"b\"]) { sphere(1); }", 1, 21, "bad expression"},
+      {"fgrade([\"x\"], [\"a\", \"b\"]) { sphere(1); }", 1, 1, "1 expressions but 2 materials"},
+      {"sphere(-1);", 1, 1, "positive"},
+      {"sphere(1", 1, 9, "expected"},
+      {"sphere(\"a);", 1, 8, "string not closed"},
+      {"mesh(\"no_such_file.stl\");", 1, 6, "no_such_file.stl"},
+      {"translate(1,2) { sphere(1); }", 1, 1, "translate takes (x, y, z)"},
+      {"root((0,0,0),(1,1,1),(0.1,0.1,0.1)) { sphere(1); } sphere(2);", 1, 52, "nothing may follow"},
+      {"", 1, 1, "empty design"},
+      {"rotate(0,0,0) { }", 1, 1, "empty block"},
+  };
+  for (const auto& c : cases) {
+    try {
+      parse_vcad(c.text, "bad.vcad");
+      ADD_FAILURE() << "accepted: " << c.text;
+    } catch (const ParseError& e) {
+      EXPECT_EQ(e.where().file, "bad.vcad");
+      EXPECT_EQ(e.where().line, c.line) << c.text << " -> " << e.what();
+      EXPECT_EQ(e.where().column, c.column) << c.text << " -> " << e.what();
+      EXPECT_NE(std::string(e.what()).find(c.words), std::string::npos) << e.what();
+    }
+  }
+}
+
+TEST(Vcad, DeepNestingIsAnErrorNotACrash) {
+  std::string text;
+  for (int i = 0; i < 5000; ++i) text += "union() {";
+  text += "sphere(1);";
+  for (int i = 0; i < 5000; ++i) text += "}";
+  EXPECT_THROW(parse_vcad(text, "deep.vcad"), ParseError);
+}
+
+}  // namespace

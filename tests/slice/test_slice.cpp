@@ -1,0 +1,416 @@
+// Direct contours against exact cross-sections, field route against mesh route, mesh IO, and the
+// planar slicer's properties checked by rasterising what it prints.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <numbers>
+#include <random>
+
+#include "trellis/core/error.hpp"
+#include "trellis/field/vcad.hpp"
+#include "trellis/geom/contour.hpp"
+#include "trellis/geom/mesh_io.hpp"
+#include "trellis/slice/pipeline.hpp"
+#include "trellis/slice/slice.hpp"
+
+using namespace trellis;
+
+namespace {
+
+const std::string kDesigns = std::string(TRELLIS_SOURCE_DIR) + "/examples/designs/";
+constexpr double kPi = std::numbers::pi;
+
+double seg_dist(Vec2 p, Vec2 a, Vec2 b) {
+  return distance_to_segment({p.x, p.y, 0}, {a.x, a.y, 0}, {b.x, b.y, 0});
+}
+double dist_to_rings(Vec2 p, const Regions& r) {
+  double best = 1e300;
+  for (const auto& ring : rings_of(r))
+    for (std::size_t i = 0, j = ring.size() - 1; i < ring.size(); j = i++)
+      best = std::min(best, seg_dist(p, ring[j], ring[i]));
+  return best;
+}
+
+struct Analytic {
+  std::string name;
+  Field field;
+  std::function<double(double z)> area;                    // exact cross-section area
+  std::function<std::vector<Vec2>(double z)> boundary;     // exact boundary samples
+};
+
+std::vector<Vec2> circle_pts(double cx, double cy, double r, int n = 720) {
+  std::vector<Vec2> p;
+  for (int i = 0; i < n; ++i)
+    p.push_back({cx + r * std::cos(2 * kPi * i / n), cy + r * std::sin(2 * kPi * i / n)});
+  return p;
+}
+
+std::vector<Analytic> analytic_shapes() {
+  std::vector<Analytic> v;
+  v.push_back({"sphere", sphere(10),
+               [](double z) { return kPi * (100 - z * z); },
+               [](double z) { return circle_pts(0, 0, std::sqrt(100 - z * z)); }});
+  v.push_back({"box", rectprism({20, 12, 8}), [](double) { return 240.0; },
+               [](double) {
+                 std::vector<Vec2> p;
+                 for (int i = 0; i <= 200; ++i) {
+                   const double t = i / 200.0;
+                   p.push_back({-10 + 20 * t, -6});
+                   p.push_back({-10 + 20 * t, 6});
+                   p.push_back({-10, -6 + 12 * t});
+                   p.push_back({10, -6 + 12 * t});
+                 }
+                 return p;
+               }});
+  v.push_back({"cylinder", cylinder(7, 10), [](double) { return kPi * 49; },
+               [](double) { return circle_pts(0, 0, 7); }});
+  v.push_back({"torus", torus(10, 3),
+               [](double z) {
+                 const double w = std::sqrt(9 - z * z);
+                 return kPi * ((10 + w) * (10 + w) - (10 - w) * (10 - w));
+               },
+               [](double z) {
+                 const double w = std::sqrt(9 - z * z);
+                 auto a = circle_pts(0, 0, 10 + w), b = circle_pts(0, 0, 10 - w);
+                 a.insert(a.end(), b.begin(), b.end());
+                 return a;
+               }});
+  v.push_back({"ring (difference)", subtract({cylinder(50, 15), cylinder(15, 15)}),
+               [](double) { return kPi * (2500 - 225); },
+               [](double) {
+                 auto a = circle_pts(0, 0, 50, 2000), b = circle_pts(0, 0, 15);
+                 a.insert(a.end(), b.begin(), b.end());
+                 return a;
+               }});
+  v.push_back({"two spheres (union)",
+               unite({translate(sphere(5), {-4, 0, 0}), translate(sphere(5), {4, 0, 0})}),
+               [](double z) {
+                 const double r2 = 25 - z * z, r = std::sqrt(r2), d = 8;
+                 // Two circles of radius r, centres 8 apart: 2πr² minus the lens.
+                 if (d >= 2 * r) return 2 * kPi * r2;
+                 const double lens = 2 * r2 * std::acos(d / (2 * r)) - 0.5 * d * std::sqrt(4 * r2 - d * d);
+                 return 2 * kPi * r2 - lens;
+               },
+               [](double z) {
+                 const double r = std::sqrt(25 - z * z);
+                 std::vector<Vec2> out;
+                 for (auto p : circle_pts(-4, 0, r)) if (p.x <= 0) out.push_back(p);
+                 for (auto p : circle_pts(4, 0, r)) if (p.x >= 0) out.push_back(p);
+                 return out;
+               }});
+  return v;
+}
+
+TEST(Contours, MatchExactCrossSections) {
+  FieldSliceOptions opt;
+  opt.resolution = 0.1;
+  for (const auto& s : analytic_shapes()) {
+    Evaluator ev(s.field);
+    const BBox3 e = s.field.extent();
+    for (int k = 1; k < 10; ++k) {
+      const double z = e.min.z + (e.max.z - e.min.z) * k / 10.0 + 1e-3;
+      const Regions r = contour_at(s.field, ev, z, opt);
+      const double exact = s.area(z);
+      ASSERT_GT(exact, 0);
+      EXPECT_NEAR(area(r), exact, 0.005 * exact) << s.name << " z=" << z;
+      // Every contour vertex lies on the surface within 0.1% of the resolution (the field
+      // is an exact distance for these shapes).
+      double worst = 0;
+      for (const auto& ring : rings_of(r))
+        for (auto p : ring) worst = std::max(worst, std::abs(ev.value({p.x, p.y, z})));
+      EXPECT_LT(worst, 1e-3 * opt.resolution) << s.name << " z=" << z;
+      // Hausdorff: exact boundary → contour within the resolution (contour → exact is `worst`).
+      double back = 0;
+      for (auto p : s.boundary(z)) back = std::max(back, dist_to_rings(p, r));
+      EXPECT_LT(back, opt.resolution) << s.name << " z=" << z;
+    }
+  }
+}
+
+TEST(Contours, HolesNestAndOrient) {
+  Evaluator ev(subtract({cylinder(50, 15), cylinder(15, 15)}));
+  FieldSliceOptions opt;
+  const Field f = subtract({cylinder(50, 15), cylinder(15, 15)});
+  const Regions r = contour_at(f, ev, 0.0, opt);
+  ASSERT_EQ(r.size(), 1u);
+  ASSERT_EQ(r[0].holes.size(), 1u);
+  EXPECT_GT(signed_area(r[0].outer), 0);
+  EXPECT_LT(signed_area(r[0].holes[0]), 0);
+}
+
+// Stitching: shuffled, reversed-free directed segments of random polygons come back as loops.
+TEST(Contours, StitchingRecoversShuffledLoops) {
+  std::mt19937_64 rng(3);
+  for (int trial = 0; trial < 50; ++trial) {
+    std::vector<Segment2> segs;
+    const int loops = 1 + static_cast<int>(rng() % 5);
+    std::size_t points = 0;
+    for (int l = 0; l < loops; ++l) {
+      const int n = 3 + static_cast<int>(rng() % 50);
+      const auto pts = circle_pts(30.0 * l, 0, 5 + l, n);
+      for (int i = 0; i < n; ++i) {
+        // Perturb the shared end by less than the tolerance on one side.
+        Vec2 b = pts[(i + 1) % n];
+        Vec2 b2 = b + Vec2{2e-7, -3e-7};
+        segs.push_back({pts[i], b});
+        (void)b2;
+      }
+      points += n;
+    }
+    std::shuffle(segs.begin(), segs.end(), rng);
+    const StitchedLines s = stitch_segments(segs, 1e-6);
+    EXPECT_EQ(s.loops.size(), static_cast<std::size_t>(loops));
+    EXPECT_TRUE(s.open.empty());
+    std::size_t total = 0;
+    for (const auto& l : s.loops) total += l.size();
+    EXPECT_EQ(total, points);
+  }
+  // An open iso-line stays open.
+  const StitchedLines open = stitch_segments({{{0, 0}, {1, 0}}, {{1, 0}, {2, 1}}}, 1e-6);
+  ASSERT_EQ(open.open.size(), 1u);
+  EXPECT_EQ(open.open[0].size(), 3u);
+}
+
+// A material iso-line that leaves the domain comes back as an open polyline.
+TEST(Contours, OpenIsoLinesOfAMaterialField) {
+  struct Ramp : PlaneFunction {
+    void sample(const Vec2* p, double* out, std::size_t n) override {
+      for (std::size_t i = 0; i < n; ++i) out[i] = 0.3 * p[i].x + 0.1 * p[i].y;
+    }
+  } ramp;
+  const ContourSet c = march_squares(ramp, {-10, -10}, {10, 10}, 0.5);
+  ASSERT_EQ(c.lines.open.size(), 1u);
+  EXPECT_TRUE(c.lines.loops.empty());
+  for (auto p : c.lines.open[0]) EXPECT_NEAR(0.3 * p.x + 0.1 * p.y, 0.5, 1e-9);
+}
+
+TEST(Contours, BoundsSkipMostOfALargePlate) {
+  const auto d = read_vcad(kDesigns + "fgm_column2_plate.vcad");
+  Evaluator ev(d.field);
+  SliceStats st;
+  const Regions r = contour_at(d.field, ev, 0.0, {}, &st);
+  // Marching squares cuts each sharp corner by half a cell: 4 × h²/2.
+  EXPECT_NEAR(area(r), 150.0 * 75.0, 4 * 0.5 * 0.01 + 1e-6);
+  // 1500 x 750 cells; marching only the rim samples far fewer nodes.
+  EXPECT_LT(st.samples, 1500u * 750u / 10u);
+}
+
+TEST(MeshIo, ReadsStlObj3mfAndChecksClosure) {
+  const auto tmp = std::filesystem::temp_directory_path() / "trellis_mesh_io";
+  std::filesystem::create_directories(tmp);
+  TriangleMesh cube;
+  cube.add_prism({{0, 0}, {10, 0}, {10, 10}, {0, 10}}, 0, 10);
+  write_stl((tmp / "c.stl").string(), cube);
+  const TriangleMesh a = read_mesh((tmp / "c.stl").string());
+  EXPECT_EQ(a.triangles.size(), 12u);
+  EXPECT_EQ(a.vertices.size(), 8u);
+  EXPECT_TRUE(check_mesh(a).closed());
+  EXPECT_NEAR(volume(a), 1000, 1e-6);
+  write_3mf((tmp / "c.3mf").string(), a);
+  const TriangleMesh b = read_mesh((tmp / "c.3mf").string());
+  EXPECT_EQ(b.triangles.size(), 12u);
+  EXPECT_NEAR(volume(b), 1000, 1e-6);
+  const TriangleMesh o = parse_obj(
+      "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 3 2\nf 1 2 4\nf 2 3 4\nf 3 1 4\n", "t.obj");
+  EXPECT_TRUE(check_mesh(o).closed());
+  EXPECT_NEAR(volume(o), 1.0 / 6, 1e-12);
+  const TriangleMesh ascii = parse_stl(
+      "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\n"
+      "endloop\nendfacet\nendsolid t\n",
+      "t.stl");
+  EXPECT_EQ(ascii.triangles.size(), 1u);
+  // An open mesh is reported, naming the mesh and an edge.
+  const MeshCheck c = check_mesh(ascii);
+  EXPECT_EQ(c.open_edges, 3u);
+  try {
+    require_closed(ascii, "t.stl");
+    ADD_FAILURE();
+  } catch (const GeometryError& e) {
+    EXPECT_NE(std::string(e.what()).find("t.stl"), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find("3 open edges"), std::string::npos);
+  }
+  EXPECT_THROW(parse_stl("solid x\nfacet\nvertex 1 2\n", "bad.stl"), ParseError);
+  EXPECT_THROW(parse_stl("garbage", "bad.stl"), ParseError);
+  EXPECT_THROW(parse_obj("v 0 0 0\nf 1 2 3\n", "bad.obj"), ParseError);
+  EXPECT_THROW(read_mesh((tmp / "c.xyz").string()), ParseError);
+  std::filesystem::remove_all(tmp);
+}
+
+TEST(MeshIo, MeshSliceMatchesBox) {
+  TriangleMesh m;
+  m.add_prism({{0, 0}, {20, 0}, {20, 10}, {0, 10}}, 0, 5);
+  m.add_prism({{30, 0}, {40, 0}, {40, 10}, {30, 10}}, 0, 5);
+  const Regions r = slice_mesh(weld(m), 2.5);
+  ASSERT_EQ(r.size(), 2u);
+  EXPECT_NEAR(area(r), 300, 1e-6);
+  for (const auto& p : r) EXPECT_GT(signed_area(p.outer), 0);
+}
+
+// The vase of the FGM paper's Listing 5 sliced through its distance field (the default for a
+// .vcad) and through the STL directly: the same outlines within the voxel size.
+TEST(Routes, FieldAndMeshRoutesAgreeOnTheVase) {
+  const auto d = read_vcad(kDesigns + "fgm_column6_vase.vcad");
+  const TriangleMesh mesh = weld(read_mesh(kDesigns + "Vase.stl"));
+  Evaluator ev(d.field);
+  FieldSliceOptions opt;
+  opt.resolution = 0.1;
+  const double voxel = 0.25;  // the default of mesh() leaves
+  for (double z : {-45.0, -20.0, 0.0, 25.0, 45.0}) {
+    const Regions a = contour_at(d.field, ev, z, opt);
+    const Regions b = slice_mesh(mesh, z);
+    ASSERT_EQ(a.size(), b.size());
+    EXPECT_NEAR(area(a), area(b), 0.01 * area(b)) << z;
+    double worst = 0;
+    for (const auto& ring : rings_of(a))
+      for (std::size_t i = 0; i < ring.size(); i += 7) worst = std::max(worst, dist_to_rings(ring[i], b));
+    for (const auto& ring : rings_of(b))
+      for (auto p : ring) worst = std::max(worst, dist_to_rings(p, a));
+    EXPECT_LT(worst, voxel) << "z=" << z;
+  }
+}
+
+// ---------------------------------------------------------------- planar slicer properties
+
+struct Raster {
+  double x0, y0, px;
+  int nx, ny;
+  std::vector<int> count;
+  Raster(const BBox3& b, double pixel) : x0(b.min.x - 1), y0(b.min.y - 1), px(pixel) {
+    nx = static_cast<int>((b.max.x - b.min.x + 2) / px) + 1;
+    ny = static_cast<int>((b.max.y - b.min.y + 2) / px) + 1;
+    count.assign(static_cast<std::size_t>(nx) * ny, 0);
+  }
+  Vec2 center(int i, int j) const { return {x0 + (i + 0.5) * px, y0 + (j + 0.5) * px}; }
+  // Marks pixels whose centre lies within w/2 of the polyline (one mark per path).
+  void stamp(const Path& p, double w) {
+    std::vector<char> hit(count.size(), 0);
+    for (std::size_t k = 1; k < p.points.size(); ++k) {
+      const Vec2 a = p.points[k - 1].xy(), b = p.points[k].xy();
+      const int i0 = std::max(0, static_cast<int>((std::min(a.x, b.x) - w - x0) / px));
+      const int i1 = std::min(nx - 1, static_cast<int>((std::max(a.x, b.x) + w - x0) / px));
+      const int j0 = std::max(0, static_cast<int>((std::min(a.y, b.y) - w - y0) / px));
+      const int j1 = std::min(ny - 1, static_cast<int>((std::max(a.y, b.y) + w - y0) / px));
+      for (int j = j0; j <= j1; ++j)
+        for (int i = i0; i <= i1; ++i)
+          if (seg_dist(center(i, j), a, b) <= w / 2) hit[static_cast<std::size_t>(j) * nx + i] = 1;
+    }
+    for (std::size_t q = 0; q < hit.size(); ++q) count[q] += hit[q];
+  }
+};
+
+bool inside(const Regions& r, Vec2 p) {
+  for (const auto& poly : r)
+    if (contains(poly, p, 0)) return true;
+  return false;
+}
+
+TEST(Planar, WallsInsideNotOverlappingInfillAtDensity) {
+  const Field design = subtract({rectprism({30, 20, 3}), cylinder(5, 10)});
+  const auto zs = layer_planes(-1.5, 1.5, 0.3);
+  const auto outlines = slice_field(design, zs, {});
+  PlanarOptions o;
+  o.layer_height = 0.3;
+  o.bead_width = 0.4;
+  o.walls = 3;
+  o.infill_density = 0.25;
+  o.top_layers = 2;
+  o.bottom_layers = 2;
+  PlanarStats st;
+  const Toolpath tp = plan_planar(outlines, o, &st);
+  ASSERT_EQ(tp.layers.size(), zs.size());
+  const std::size_t mid = zs.size() / 2;  // a sparse-infill layer
+  const Regions& outline = outlines[mid].regions;
+  const BBox3 box = [&] {
+    BBox3 b;
+    for (const auto& ring : rings_of(outline))
+      for (auto p : ring) b.add({p.x, p.y, 0});
+    return b;
+  }();
+  Raster walls(box, 0.05), fill(box, 0.05);
+  for (const auto& p : tp.layers[mid].paths) {
+    for (const auto& q : p.points) {
+      ASSERT_TRUE(inside(outline, q.xy()));
+      if (p.role == PathRole::Perimeter) {
+        // Walls stay at least half a bead inside the outline.
+        EXPECT_GE(dist_to_rings(q.xy(), outline), 0.5 * o.bead_width - 1e-3);
+      }
+    }
+    (p.role == PathRole::Perimeter ? walls : fill).stamp(p, o.bead_width);
+  }
+  // Walls do not overlap: no pixel is covered by two wall loops (allow the pixel rounding at
+  // the seams of a bead's edge).
+  std::size_t doubled = 0, wall_px = 0;
+  for (int c : walls.count) {
+    doubled += c > 1;
+    wall_px += c > 0;
+  }
+  EXPECT_LT(static_cast<double>(doubled), 0.01 * wall_px);
+  // Infill covers the inner region at the set density (±20%).
+  const Regions inner = offset(outline, -(3 * o.bead_width));
+  std::size_t in_px = 0, covered = 0;
+  for (int j = 0; j < fill.ny; ++j)
+    for (int i = 0; i < fill.nx; ++i) {
+      const Vec2 c = fill.center(i, j);
+      if (!inside(inner, c)) continue;
+      ++in_px;
+      covered += fill.count[static_cast<std::size_t>(j) * fill.nx + i] > 0;
+    }
+  const double coverage = static_cast<double>(covered) / in_px;
+  EXPECT_NEAR(coverage, o.infill_density, 0.2 * o.infill_density);
+  // Bottom layer is solid: covered ≥ 95% inside the walls.
+  Raster solid(box, 0.05);
+  for (const auto& p : tp.layers[0].paths) solid.stamp(p, o.bead_width);
+  const Regions inner0 = offset(outlines[0].regions, -(3 * o.bead_width));
+  std::size_t n0 = 0, c0 = 0;
+  for (int j = 0; j < solid.ny; ++j)
+    for (int i = 0; i < solid.nx; ++i) {
+      if (!inside(inner0, solid.center(i, j))) continue;
+      ++n0;
+      c0 += solid.count[static_cast<std::size_t>(j) * solid.nx + i] > 0;
+    }
+  EXPECT_GT(static_cast<double>(c0) / n0, 0.95);
+  // Infill angle alternates.
+  auto first_angle = [&](std::size_t layer, PathRole role) {
+    for (const auto& p : tp.layers[layer].paths)
+      if (p.role == role) {
+        const Vec3 d = p.points.back() - p.points.front();
+        return std::fmod(std::atan2(d.y, d.x) * 180 / kPi + 360, 180.0);
+      }
+    return -1.0;
+  };
+  const double a0 = first_angle(mid, PathRole::Infill), a1 = first_angle(mid + 1, PathRole::Infill);
+  ASSERT_GE(a0, 0);
+  ASSERT_GE(a1, 0);
+  EXPECT_NEAR(std::abs(a0 - a1), 90, 1e-6);
+}
+
+TEST(Pipeline, SlicesEveryAppendixBDesign) {
+  for (const char* name : {"fgm_column1_cylinder.vcad", "fgm_column2_plate.vcad",
+                           "fgm_column3_ring_angular.vcad", "fgm_column5_ring_radial.vcad"}) {
+    SliceJob job;
+    job.input = kDesigns + name;
+    job.planar.layer_height = 1.0;  // coarse: this checks the route, not the detail
+    job.field.resolution = 0.25;
+    const SliceResult r = run_slice(job);
+    EXPECT_EQ(r.route, SliceRoute::Field);
+    EXPECT_GT(r.planar.paths, 0u) << name;
+    for (const auto& l : r.outlines) EXPECT_FALSE(l.regions.empty()) << name << " z=" << l.z;
+  }
+  SliceJob bad;
+  bad.input = kDesigns + "fgm_column2_plate.vcad";
+  bad.route = SliceRoute::Mesh;
+  EXPECT_THROW(run_slice(bad), SettingError);
+  SliceJob unbounded;
+  const auto tmp = std::filesystem::temp_directory_path() / "trellis_unbounded.vcad";
+  {
+    std::ofstream(tmp) << "gyroid(5, 0.3);\n";
+  }
+  unbounded.input = tmp.string();
+  EXPECT_THROW(run_slice(unbounded), GeometryError);
+  std::filesystem::remove(tmp);
+}
+
+}  // namespace
