@@ -4,6 +4,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <set>
 
 #include "support/gcode_replay.hpp"
 #include "trellis/core/file.hpp"
@@ -48,7 +49,7 @@ std::string in_work(const std::string& name) {
 }  // namespace
 
 TEST(Cli, HelpForEveryCommand) {
-  for (const char* c : {"", "lattice2d", "plan", "gcode", "render", "run", "analyze", "compare"}) {
+  for (const char* c : {"", "lattice2d", "plan", "gcode", "render", "run", "analyze", "compare", "slice"}) {
     const CmdResult r = run(std::string(c) + " --help");
     EXPECT_EQ(r.code, 0) << c;
     EXPECT_NE(r.out.find("Usage"), std::string::npos) << c;
@@ -198,4 +199,62 @@ TEST(Cli, AnalyzeAndCompareOurOwnGcode) {
   EXPECT_NE(r.err.find("bad.gcode:2"), std::string::npos) << r.err;
   EXPECT_EQ(run("analyze " + bad + " --strict").code, 2);
   EXPECT_EQ(run("analyze " + in_work("missing.gcode")).code, 2);
+}
+
+TEST(Cli, SliceDesignWritesGcodeReportAndPreviews) {
+  const std::string design = std::string(TRELLIS_SOURCE_DIR) + "/examples/designs/fgm_column5_ring_radial.vcad";
+  const std::string prof = std::string(TRELLIS_SOURCE_DIR) + "/profiles/ender3_s1_pro_tpu.toml";
+  const CmdResult r = run("slice " + design + " --machine " + prof + " -o " + in_work("ring.gcode") +
+                          " --report " + in_work("ring.json") + " --preview " +
+                          in_work("ring_png") + " --layer-height 0.5 --walls 2 --infill 0.3");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("field route: 20 layers"), std::string::npos) << r.out;
+  EXPECT_TRUE(fs::exists(in_work("ring_png") + "/layer_0.png"));
+  const std::string report = trellis::read_file(in_work("ring.json"));
+  EXPECT_NE(report.find("\"layers\": 20"), std::string::npos);
+  EXPECT_NE(report.find("\"print_time_s\""), std::string::npos);
+  // Read the G-code back: every extruding move lies inside the ring (15 <= rho <= 50 around
+  // the bed centre where the design was placed), and extrusion happens on 20 heights.
+  const auto g = trellis::test::replay_gcode(trellis::read_file(in_work("ring.gcode")));
+  ASSERT_FALSE(g.deposits.empty());
+  double cx = 0, cy = 0, n = 0;
+  for (const auto& d : g.deposits) {
+    cx += d.x0 + d.x1;
+    cy += d.y0 + d.y1;
+    n += 2;
+  }
+  cx /= n;
+  cy /= n;
+  std::set<long> heights;
+  for (const auto& d : g.deposits) {
+    for (const double rho : {std::hypot(d.x0 - cx, d.y0 - cy), std::hypot(d.x1 - cx, d.y1 - cy)}) {
+      EXPECT_GE(rho, 15 - 0.05);
+      EXPECT_LE(rho, 50 + 0.05);
+    }
+    heights.insert(std::lround(d.z0 * 1000));
+  }
+  EXPECT_EQ(heights.size(), 20u);
+}
+
+TEST(Cli, SliceBadDesignsExitTwoNamingLineAndColumn) {
+  const std::string prof = std::string(TRELLIS_SOURCE_DIR) + "/profiles/ender3_s1_pro_tpu.toml";
+  struct Case {
+    std::string file, text, expect;
+  };
+  const std::vector<Case> cases = {
+      {"unknown.vcad", "union() {\n  spere(3);\n}\n", "unknown.vcad:2:3: unknown node 'spere'"},
+      {"arity.vcad", "cylinder(15);\n", "arity.vcad:1:1: cylinder takes 2 arguments"},
+      {"braces.vcad", "difference() {\n cylinder(5, 5);\n", "braces.vcad:1:1: block not closed"},
+      {"expr.vcad", "fgrade([\"sin(x\"], [\"a\"]) { sphere(2); }", "expr.vcad:1:"},
+      {"nomesh.vcad", "mesh(\"missing.stl\");", "nomesh.vcad:1:6"},
+      {"open.stl", "solid o\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid o\n", "open edges"},
+  };
+  for (const auto& c : cases) {
+    const std::string in = write(c.file, c.text), out = in_work("never_slice.gcode");
+    const CmdResult r = run("slice " + in + " --machine " + prof + " -o " + out);
+    EXPECT_EQ(r.code, 2) << c.file;
+    EXPECT_NE(r.err.find(c.expect), std::string::npos) << c.file << ": " << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+    EXPECT_FALSE(fs::exists(out)) << c.file;
+  }
 }
