@@ -54,6 +54,9 @@ class FieldNode {
   // Conservative value interval over a box. Default: centre value ± Lipschitz · half diagonal.
   virtual Interval bound(const BBox3& box, EvalState& s, std::size_t depth) const;
   virtual double lipschitz() const { return 1.0; }
+  // Whether the value outside the solid is at least the true distance to it (exact distances:
+  // primitives, rigid transforms of them, sharp unions of them). Used for cheap bounds.
+  virtual bool exact_outside() const { return false; }
   virtual BBox3 extent() const = 0;
   // Adds this node's contribution to fractions (indexed by the design's material table).
   virtual void fractions(Vec3 p, double* out, EvalState& s, std::size_t depth) const;

@@ -1,0 +1,86 @@
+// Issue targets: contours of a 135×175 mm layer at 0.1 mm in < 20 ms on one core; the FGM
+// paper's vase (135×175×100 mm, 500 layers of 0.2 mm) into walls and infill in < 10 s on 2 cores.
+#include <benchmark/benchmark.h>
+#include <tbb/global_control.h>
+
+#include "trellis/field/vcad.hpp"
+#include "trellis/geom/mesh_io.hpp"
+#include "trellis/slice/pipeline.hpp"
+#include "trellis/slice/slice.hpp"
+
+using namespace trellis;
+
+namespace {
+
+const std::string kDesigns = std::string(TRELLIS_SOURCE_DIR) + "/examples/designs/";
+
+void contour(benchmark::State& state, const Field& f, double z) {
+  Evaluator ev(f);
+  FieldSliceOptions o;
+  o.resolution = 0.1;
+  SliceStats st;
+  std::size_t loops = 0;
+  for (auto _ : state) {
+    const Regions r = contour_at(f, ev, z, o, &st);
+    loops += r.size();
+    benchmark::DoNotOptimize(r);
+  }
+  state.counters["samples/layer"] = static_cast<double>(st.samples) / state.iterations();
+}
+
+// A 135×175 mm plate layer (the palette plate of the FGM paper's Table 3).
+void BM_ContourPlate135x175(benchmark::State& state) {
+  contour(state, rectprism({135, 175, 2}), 0.0);
+}
+// The same footprint with 48 round holes: more boundary to trace.
+void BM_ContourPerforatedPlate135x175(benchmark::State& state) {
+  std::vector<Field> parts{rectprism({135, 175, 2})};
+  for (int i = 0; i < 6; ++i)
+    for (int j = 0; j < 8; ++j)
+      parts.push_back(translate(cylinder(6, 4), {-55.0 + 22 * i, -75.0 + 21.5 * j, 0}));
+  contour(state, subtract(parts), 0.0);
+}
+// The vase of Listing 5 through its OpenVDB distance field, at mid height.
+void BM_ContourVaseField(benchmark::State& state) {
+  static const Field f = read_vcad(kDesigns + "fgm_column6_vase.vcad").field;
+  contour(state, f, 0.0);
+}
+// Worst case: a gyroid sheet filling the whole 135×175 layer (surface everywhere, no skipping).
+void BM_ContourGyroid135x175(benchmark::State& state) {
+  contour(state, clip_box(tpms(TpmsKind::Gyroid, {5, 5, 5}, {"0.3"}), {-67.5, -87.5, -1}, {67.5, 87.5, 1}), 0.0);
+}
+
+// Whole vase, 500 layers: outlines + walls + infill (no G-code), 1 or 2 threads.
+void slice_vase(benchmark::State& state, SliceRoute route) {
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism,
+                              static_cast<std::size_t>(state.range(0)));
+  SliceJob job;
+  job.input = route == SliceRoute::Field ? kDesigns + "fgm_column6_vase.vcad" : kDesigns + "Vase.stl";
+  job.route = route;
+  job.planar.layer_height = 0.2;
+  job.planar.bead_width = 0.4;
+  for (auto _ : state) {
+    const SliceResult r = run_slice(job);
+    state.counters["layers"] = static_cast<double>(r.outlines.size());
+    state.counters["paths"] = static_cast<double>(r.planar.paths);
+    state.counters["outline_s"] = r.outline_seconds;
+    state.counters["plan_s"] = r.plan_seconds;
+  }
+}
+void BM_SliceVaseField(benchmark::State& state) {
+  slice_vase(state, SliceRoute::Field);
+}
+void BM_SliceVaseMesh(benchmark::State& state) {
+  slice_vase(state, SliceRoute::Mesh);
+}
+
+}  // namespace
+
+BENCHMARK(BM_ContourPlate135x175)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_ContourPerforatedPlate135x175)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_ContourVaseField)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_ContourGyroid135x175)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_SliceVaseField)->Arg(1)->Arg(2)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
+BENCHMARK(BM_SliceVaseMesh)->Arg(2)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
+
+BENCHMARK_MAIN();
