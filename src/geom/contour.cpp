@@ -15,18 +15,26 @@ namespace trellis {
 
 namespace {
 
+// Points within `tol` are one. Cells are 64 tolerances wide, so a point only looks into the
+// neighbouring cells when it lies within `tol` of its cell's border (rarely).
 class PointIndex {
  public:
-  explicit PointIndex(double tol) : tol_(tol > 0 ? tol : 1e-12), inv_(1.0 / tol_) {}
+  explicit PointIndex(double tol) : tol_(tol > 0 ? tol : 1e-12), inv_(1.0 / (64 * tol_)) {}
   std::size_t find_or_add(Vec2 p) {
-    const std::int64_t cx = static_cast<std::int64_t>(std::floor(p.x * inv_));
-    const std::int64_t cy = static_cast<std::int64_t>(std::floor(p.y * inv_));
-    for (std::int64_t dx = -1; dx <= 1; ++dx)
-      for (std::int64_t dy = -1; dy <= 1; ++dy) {
+    const double gx = p.x * inv_, gy = p.y * inv_;
+    const double fx = std::floor(gx), fy = std::floor(gy);
+    const auto cx = static_cast<std::int64_t>(fx), cy = static_cast<std::int64_t>(fy);
+    constexpr double edge = 1.0 / 64;
+    const int x0 = gx - fx < edge ? -1 : 0, x1 = gx - fx > 1 - edge ? 1 : 0;
+    const int y0 = gy - fy < edge ? -1 : 0, y1 = gy - fy > 1 - edge ? 1 : 0;
+    for (int dx = x0; dx <= x1; ++dx)
+      for (int dy = y0; dy <= y1; ++dy) {
         auto it = cells_.find(key(cx + dx, cy + dy));
         if (it == cells_.end()) continue;
         for (std::size_t v = it->second; v != kNone; v = next_[v])
-          if (std::hypot(points[v].x - p.x, points[v].y - p.y) <= tol_) return v;
+          if (std::abs(points[v].x - p.x) <= tol_ && std::abs(points[v].y - p.y) <= tol_ &&
+              std::hypot(points[v].x - p.x, points[v].y - p.y) <= tol_)
+            return v;
       }
     const std::size_t id = points.size();
     points.push_back(p);
@@ -34,6 +42,11 @@ class PointIndex {
     next_.push_back(inserted ? kNone : it->second);
     if (!inserted) it->second = id;
     return id;
+  }
+  void reserve(std::size_t n) {
+    points.reserve(n);
+    next_.reserve(n);
+    cells_.reserve(n);
   }
   std::vector<Vec2> points;
 
@@ -52,6 +65,7 @@ class PointIndex {
 
 StitchedLines stitch_segments(const std::vector<Segment2>& segments, double tolerance) {
   PointIndex index(tolerance);
+  index.reserve(segments.size() + 16);
   std::vector<std::pair<std::size_t, std::size_t>> edges;
   edges.reserve(segments.size());
   for (const auto& s : segments) {
@@ -276,10 +290,28 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
           return;
         }
         const std::size_t hi_ = (ci + 1) / 2, hj = (cj + 1) / 2;
-        visit(bi, bj, hi_, hj);
-        if (ci > hi_) visit(bi + hi_, bj, ci - hi_, hj);
-        if (cj > hj) visit(bi, bj + hj, hi_, cj - hj);
-        if (ci > hi_ && cj > hj) visit(bi + hi_, bj + hj, ci - hi_, cj - hj);
+        struct Part {
+          std::size_t i, j, ci, cj;
+        };
+        Part parts[4];
+        int np = 0;
+        parts[np++] = {bi, bj, hi_, hj};
+        if (ci > hi_) parts[np++] = {bi + hi_, bj, ci - hi_, hj};
+        if (cj > hj) parts[np++] = {bi, bj + hj, hi_, cj - hj};
+        if (ci > hi_ && cj > hj) parts[np++] = {bi + hi_, bj + hj, ci - hi_, cj - hj};
+        // If no quarter can be skipped, march the block whole: splitting would only sample
+        // the shared edges twice (a surface everywhere, like a TPMS sheet).
+        bool any_skippable = false;
+        for (int q = 0; q < np && !any_skippable; ++q) {
+          const Interval r = f.bound(m.node(parts[q].i, parts[q].j),
+                                     m.node(parts[q].i + parts[q].ci, parts[q].j + parts[q].cj));
+          any_skippable = r.lo >= level || r.hi < level;
+        }
+        if (!any_skippable) {
+          march_block(bi, bj, ci, cj);
+          return;
+        }
+        for (int q = 0; q < np; ++q) visit(parts[q].i, parts[q].j, parts[q].ci, parts[q].cj);
       };
   for (std::size_t bj = 0; bj < ny; bj += B)
     for (std::size_t bi = 0; bi < nx; bi += B) {

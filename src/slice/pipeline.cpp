@@ -94,18 +94,23 @@ SliceResult run_slice(const SliceJob& job,
     r.outlines = slice_mesh_layers(mesh, zs);
     report(1.0);
   }
+  // The extent of a design is a bound (blends, clip boxes): drop empty layers below and above
+  // the part so its first layer sits on the bed.
+  std::size_t first = 0, last = r.outlines.size();
+  while (first < last && r.outlines[first].regions.empty()) ++first;
+  while (last > first && r.outlines[last - 1].regions.empty()) --last;
+  r.outlines = std::vector<LayerOutline>(r.outlines.begin() + static_cast<long>(first),
+                                         r.outlines.begin() + static_cast<long>(last));
   r.outline_seconds = seconds_since(t0);
+  if (r.outlines.empty())
+    throw GeometryError("no layer has any outline: the design is empty at every slicing plane",
+                        {job.input, 0, ""});
   const auto t1 = std::chrono::steady_clock::now();
   if (progress) progress("walls and infill", 0.0);
   r.toolpath = plan_planar(r.outlines, job.planar, &r.planar);
   r.toolpath.source = "trellis slice " + job.input + " (" + to_string(r.route) + " route)";
   if (progress) progress("walls and infill", 1.0);
   r.plan_seconds = seconds_since(t1);
-  std::size_t non_empty = 0;
-  for (const auto& l : r.outlines) non_empty += l.regions.empty() ? 0 : 1;
-  if (non_empty == 0)
-    throw GeometryError("no layer has any outline: the design is empty at every slicing plane",
-                        {job.input, 0, ""});
   return r;
 }
 

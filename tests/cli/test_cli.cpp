@@ -234,6 +234,12 @@ TEST(Cli, SliceDesignWritesGcodeReportAndPreviews) {
     heights.insert(std::lround(d.z0 * 1000));
   }
   EXPECT_EQ(heights.size(), 20u);
+  // Reproducible: the same command writes the same bytes.
+  ASSERT_EQ(run("slice " + design + " --machine " + prof + " -o " + in_work("ring2.gcode") +
+                " --layer-height 0.5 --walls 2 --infill 0.3")
+                .code,
+            0);
+  EXPECT_EQ(trellis::read_file(in_work("ring.gcode")), trellis::read_file(in_work("ring2.gcode")));
 }
 
 TEST(Cli, SliceBadDesignsExitTwoNamingLineAndColumn) {

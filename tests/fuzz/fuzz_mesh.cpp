@@ -1,0 +1,22 @@
+// Fuzzes the STL (binary and ASCII) and OBJ readers, the closure check and plane slicing.
+#include <string>
+
+#include "trellis/core/error.hpp"
+#include "trellis/geom/mesh_io.hpp"
+
+extern "C" int LLVMFuzzerTestOneInput(const unsigned char* data, std::size_t size) {
+  const std::string text(reinterpret_cast<const char*>(data), size);
+  for (int kind = 0; kind < 2; ++kind) {
+    try {
+      const trellis::TriangleMesh m =
+          kind == 0 ? trellis::parse_stl(text, "fuzz.stl") : trellis::parse_obj(text, "fuzz.obj");
+      const auto c = trellis::check_mesh(m);
+      if (c.closed()) {
+        const trellis::BBox3 b = trellis::bounds(m);
+        (void)trellis::slice_mesh(m, 0.5 * (b.min.z + b.max.z));
+      }
+    } catch (const trellis::Error&) {
+    }
+  }
+  return 0;
+}
