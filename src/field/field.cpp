@@ -205,28 +205,46 @@ struct TpmsNode : FieldNode {
   double c = 0;
   Expression c_expr;
 
-  double phi(Vec3 p) const {
+  // φ and, if `grad`, its gradient (analytic), from one sincos per axis.
+  double phi(Vec3 p, Vec3* grad = nullptr) const {
     const double x = k.x * p.x, y = k.y * p.y, z = k.z * p.z;
+    double sx, cx, sy, cy, sz, cz;
+    ::sincos(x, &sx, &cx);
+    ::sincos(y, &sy, &cy);
+    ::sincos(z, &sz, &cz);
     switch (kind) {
       case TpmsKind::Gyroid:
-        return std::sin(x) * std::cos(y) + std::sin(y) * std::cos(z) + std::sin(z) * std::cos(x);
+        if (grad)
+          *grad = {k.x * (cx * cy - sz * sx), k.y * (-sx * sy + cy * cz), k.z * (-sy * sz + cz * cx)};
+        return sx * cy + sy * cz + sz * cx;
       case TpmsKind::SchwarzP:
-        return std::cos(x) + std::cos(y) + std::cos(z);
-      case TpmsKind::SchwarzD: {
-        const double sx = std::sin(x), sy = std::sin(y), sz = std::sin(z), cx = std::cos(x),
-                     cy = std::cos(y), cz = std::cos(z);
+        if (grad) *grad = {-k.x * sx, -k.y * sy, -k.z * sz};
+        return cx + cy + cz;
+      case TpmsKind::SchwarzD:
+        if (grad)
+          *grad = {k.x * (cx * sy * sz + cx * cy * cz - sx * sy * cz - sx * cy * sz),
+                   k.y * (sx * cy * sz - sx * sy * cz + cx * cy * cz - cx * sy * sz),
+                   k.z * (sx * sy * cz - sx * cy * sz - cx * sy * sz + cx * cy * cz)};
         return sx * sy * sz + sx * cy * cz + cx * sy * cz + cx * cy * sz;
-      }
       case TpmsKind::Neovius:
-        return 3 * (std::cos(x) + std::cos(y) + std::cos(z)) +
-               4 * std::cos(x) * std::cos(y) * std::cos(z);
-      case TpmsKind::Iwp: {
-        const double cx = std::cos(x), cy = std::cos(y), cz = std::cos(z);
+        if (grad)
+          *grad = {k.x * (-3 * sx - 4 * sx * cy * cz), k.y * (-3 * sy - 4 * cx * sy * cz),
+                   k.z * (-3 * sz - 4 * cx * cy * sz)};
+        return 3 * (cx + cy + cz) + 4 * cx * cy * cz;
+      case TpmsKind::Iwp:
+        // cos 2a = 2cos²a − 1, d/da cos 2a = −2 sin 2a = −4 sin a cos a.
+        if (grad)
+          *grad = {k.x * (-2 * sx * (cy + cz) + 4 * sx * cx), k.y * (-2 * sy * (cx + cz) + 4 * sy * cy),
+                   k.z * (-2 * sz * (cx + cy) + 4 * sz * cz)};
         return 2 * (cx * cy + cy * cz + cz * cx) -
-               (std::cos(2 * x) + std::cos(2 * y) + std::cos(2 * z));
-      }
+               ((2 * cx * cx - 1) + (2 * cy * cy - 1) + (2 * cz * cz - 1));
     }
     return 0;
+  }
+  bool gradient(Vec3 p, Vec3& g, EvalState&, std::size_t) const override {
+    if (sheet) return false;
+    phi(p, &g);
+    return true;
   }
   // Bound on |φ| and on the largest partial derivative (per unit of k·x).
   double phi_max() const {
@@ -286,6 +304,96 @@ struct TpmsNode : FieldNode {
   }
   BBox3 extent() const override { return infinite_box(); }
   bool has_expressions() const override { return sheet && !c_constant; }
+};
+
+// ---------------------------------------------------------------- sheets, blends, expressions
+
+struct SheetNode : FieldNode {
+  bool c_constant = true;
+  double c = 0;
+  Expression c_expr;
+  double thickness = 0;  // > 0: c = t·|∇φ|/2
+  static constexpr double kStep = 1e-5;
+
+  void eval(const Vec3* p, double* out, std::size_t n, EvalState& s,
+            std::size_t depth) const override {
+    children[0]->eval(p, out, n, s, depth + 1);
+    if (thickness > 0) {
+      for (std::size_t i = 0; i < n; ++i) {
+        const Vec3 q = p[i];
+        const Vec3 pts[6] = {{q.x + kStep, q.y, q.z}, {q.x - kStep, q.y, q.z},
+                             {q.x, q.y + kStep, q.z}, {q.x, q.y - kStep, q.z},
+                             {q.x, q.y, q.z + kStep}, {q.x, q.y, q.z - kStep}};
+        double v[6];
+        children[0]->eval(pts, v, 6, s, depth + 1);
+        const double gx = (v[0] - v[1]), gy = (v[2] - v[3]), gz = (v[4] - v[5]);
+        const double g = std::sqrt(gx * gx + gy * gy + gz * gz) / (2 * kStep);
+        const double cc = 0.5 * thickness * g;
+        out[i] = out[i] * out[i] - cc * cc;
+      }
+      return;
+    }
+    if (c_constant) {
+      for (std::size_t i = 0; i < n; ++i) out[i] = out[i] * out[i] - c * c;
+      return;
+    }
+    auto& ce = s.expr(c_expr);
+    for (std::size_t i = 0; i < n; ++i) {
+      const double cv = ce.eval(p[i]);
+      out[i] = out[i] * out[i] - cv * cv;
+    }
+  }
+  Interval bound(const BBox3& b, EvalState& s, std::size_t depth) const override {
+    if (!c_constant || thickness > 0) return {-kInf, kInf};
+    const Interval f = children[0]->bound(b, s, depth + 1);
+    const double sq_lo = (f.lo <= 0 && f.hi >= 0) ? 0.0 : std::min(f.lo * f.lo, f.hi * f.hi);
+    const double sq_hi = std::max(f.lo * f.lo, f.hi * f.hi);
+    return {sq_lo - c * c, sq_hi - c * c};
+  }
+  double lipschitz() const override { return kInf; }
+  BBox3 extent() const override { return children[0]->extent(); }
+  bool has_expressions() const override { return !c_constant || FieldNode::has_expressions(); }
+};
+
+struct BlendNode : FieldNode {
+  Expression w;
+  void eval(const Vec3* p, double* out, std::size_t n, EvalState& s,
+            std::size_t depth) const override {
+    children[0]->eval(p, out, n, s, depth + 1);
+    children[1]->eval(p, s.value_buffer(depth, n).data(), n, s, depth + 1);
+    const double* b = s.values[depth].data();
+    auto& we = s.expr(w);
+    for (std::size_t i = 0; i < n; ++i) {
+      double t = we.eval(p[i]);
+      t = std::isfinite(t) ? std::clamp(t, 0.0, 1.0) : 0.0;
+      out[i] = (1 - t) * out[i] + t * b[i];
+    }
+  }
+  Interval bound(const BBox3& bx, EvalState& s, std::size_t depth) const override {
+    // A convex combination lies between the two children's bounds.
+    const Interval a = children[0]->bound(bx, s, depth + 1), b = children[1]->bound(bx, s, depth + 1);
+    return {std::min(a.lo, b.lo), std::max(a.hi, b.hi)};
+  }
+  double lipschitz() const override { return kInf; }
+  BBox3 extent() const override {
+    BBox3 e = children[0]->extent();
+    const BBox3 o = children[1]->extent();
+    e.add(o.min);
+    e.add(o.max);
+    return e;
+  }
+  bool has_expressions() const override { return true; }
+};
+
+struct ExpressionNode : FieldNode {
+  Expression e;
+  void eval(const Vec3* p, double* out, std::size_t n, EvalState& s, std::size_t) const override {
+    auto& c = s.expr(e);
+    for (std::size_t i = 0; i < n; ++i) out[i] = c.eval(p[i]);
+  }
+  double lipschitz() const override { return kInf; }
+  BBox3 extent() const override { return infinite_box(); }
+  bool has_expressions() const override { return true; }
 };
 
 // ---------------------------------------------------------------- CSG
@@ -501,6 +609,13 @@ struct TransformNode : FieldNode {
   bool exact_outside() const override {
     return lipschitz_factor == 1 && children[0]->exact_outside();
   }
+  bool gradient(Vec3 p, Vec3& g, EvalState& s, std::size_t depth) const override {
+    Vec3 gl;
+    if (!children[0]->gradient(local(p), gl, s, depth + 1)) return false;
+    // ∇(f(A(p − t))·s) = s·Aᵀ ∇f
+    g = to_local.transposed() * gl * value_scale;
+    return true;
+  }
   BBox3 extent() const override { return map_box(children[0]->extent(), false); }
   void fractions(Vec3 p, double* out, EvalState& s, std::size_t depth) const override {
     children[0]->fractions(local(p), out, s, depth + 1);
@@ -703,6 +818,44 @@ Field tpms(TpmsKind kind, Vec3 cell, Expression c, std::string material) {
   return make_leaf(std::move(n), std::move(material));
 }
 
+Field sheet(Field phi, Expression c, double uniform_thickness) {
+  require_child(phi, "sheet");
+  auto n = std::make_shared<SheetNode>();
+  if (uniform_thickness > 0) {
+    if (!std::isfinite(uniform_thickness)) throw GeometryError("sheet thickness must be finite");
+    n->thickness = uniform_thickness;
+  } else {
+    char* end = nullptr;
+    const double v = std::strtod(c.text.c_str(), &end);
+    while (end && *end == ' ') ++end;
+    if (!c.text.empty() && end && *end == '\0') {
+      if (!(v >= 0) || !std::isfinite(v)) throw GeometryError("sheet c must be >= 0");
+      n->c = v;
+    } else {
+      check_expression(c.text);
+      n->c_constant = false;
+      n->c_expr = std::move(c);
+    }
+  }
+  n->children.push_back(phi.ptr());
+  return Field(n);
+}
+Field blend(Field a, Field b, Expression w) {
+  require_child(a, "blend");
+  require_child(b, "blend");
+  check_expression(w.text);
+  auto n = std::make_shared<BlendNode>();
+  n->w = std::move(w);
+  n->children = {a.ptr(), b.ptr()};
+  return Field(n);
+}
+Field expression_field(Expression e) {
+  check_expression(e.text);
+  auto n = std::make_shared<ExpressionNode>();
+  n->e = std::move(e);
+  return Field(n);
+}
+
 Field unite(std::vector<Field> children) {
   return make_csg(std::move(children), Op::Union, 0, "union");
 }
@@ -798,6 +951,8 @@ void Evaluator::values(const Vec3* points, double* out, std::size_t n) {
   field_.node().eval(points, out, n, *state_, 0);
 }
 Vec3 Evaluator::gradient(Vec3 p, double h) {
+  Vec3 g;
+  if (field_.node().gradient(p, g, *state_, 0)) return g;
   const Vec3 pts[6] = {{p.x + h, p.y, p.z}, {p.x - h, p.y, p.z}, {p.x, p.y + h, p.z},
                        {p.x, p.y - h, p.z}, {p.x, p.y, p.z + h}, {p.x, p.y, p.z - h}};
   double v[6];

@@ -3,6 +3,8 @@
 #include <openvdb/openvdb.h>
 #include <openvdb/tools/Interpolation.h>
 #include <openvdb/tools/MeshToVolume.h>
+#include <openvdb/tools/SignedFloodFill.h>
+#include <openvdb/tools/VolumeToMesh.h>
 
 #include <mutex>
 
@@ -82,6 +84,84 @@ Field mesh_field(const TriangleMesh& input, const MeshSdfOptions& options, std::
   node->background = grid->background();
   node->name = std::move(name);
   return Field(node);
+}
+
+TriangleMesh field_to_mesh(const Field& field, const BBox3& box, double voxel,
+                           MeshingStats* stats) {
+  static std::once_flag init;
+  std::call_once(init, [] { openvdb::initialize(); });
+  if (!(voxel > 0)) throw GeometryError("meshing voxel must be > 0");
+  const Vec3 span = box.max - box.min;
+  if (!is_finite(span) || span.x / voxel * span.y / voxel * span.z / voxel > 2e10)
+    throw GeometryError("meshing box is infinite or too fine for the voxel size");
+  // Voxel values are the field itself (its sign and linear crossings are what marching cubes
+  // uses); blocks of 8³ voxels whose bound keeps away from zero by more than a band stay
+  // inactive and are flood-filled by sign.
+  const float band = static_cast<float>(3 * voxel);
+  auto grid = openvdb::FloatGrid::create(band);
+  grid->setTransform(openvdb::math::Transform::createLinearTransform(voxel));
+  grid->setGridClass(openvdb::GRID_LEVEL_SET);
+  auto acc = grid->getAccessor();
+  Evaluator ev(field);
+  const int nx = static_cast<int>(std::ceil(span.x / voxel)) + 2,
+            ny = static_cast<int>(std::ceil(span.y / voxel)) + 2,
+            nz = static_cast<int>(std::ceil(span.z / voxel)) + 2;
+  const int i0 = static_cast<int>(std::floor(box.min.x / voxel)) - 1,
+            j0 = static_cast<int>(std::floor(box.min.y / voxel)) - 1,
+            k0 = static_cast<int>(std::floor(box.min.z / voxel)) - 1;
+  constexpr int B = 8;
+  std::vector<Vec3> pts;
+  std::vector<double> val;
+  std::size_t samples = 0;
+  for (int bk = 0; bk < nz; bk += B)
+    for (int bj = 0; bj < ny; bj += B)
+      for (int bi = 0; bi < nx; bi += B) {
+        BBox3 b;
+        b.add(Vec3{(i0 + bi) * voxel, (j0 + bj) * voxel, (k0 + bk) * voxel});
+        b.add(Vec3{(i0 + std::min(bi + B, nx)) * voxel, (j0 + std::min(bj + B, ny)) * voxel,
+                   (k0 + std::min(bk + B, nz)) * voxel});
+        const Interval r = ev.bound(b);
+        if (r.lo > band || r.hi < -band) continue;
+        pts.clear();
+        for (int k = bk; k < std::min(bk + B, nz); ++k)
+          for (int j = bj; j < std::min(bj + B, ny); ++j)
+            for (int i = bi; i < std::min(bi + B, nx); ++i)
+              pts.push_back({(i0 + i) * voxel, (j0 + j) * voxel, (k0 + k) * voxel});
+        val.resize(pts.size());
+        ev.values(pts.data(), val.data(), pts.size());
+        samples += pts.size();
+        std::size_t q = 0;
+        for (int k = bk; k < std::min(bk + B, nz); ++k)
+          for (int j = bj; j < std::min(bj + B, ny); ++j)
+            for (int i = bi; i < std::min(bi + B, nx); ++i, ++q) {
+              // Outside the box everything is outside, so the surface closes.
+              const bool outside_box = i == 0 || j == 0 || k == 0 || i == nx - 1 ||
+                                       j == ny - 1 || k == nz - 1;
+              const double v = outside_box ? band : std::clamp(val[q], -double(band), double(band));
+              acc.setValue(openvdb::Coord(i0 + i, j0 + j, k0 + k), static_cast<float>(v));
+            }
+      }
+  openvdb::tools::signedFloodFill(grid->tree());
+  std::vector<openvdb::Vec3s> points;
+  std::vector<openvdb::Vec3I> tris;
+  std::vector<openvdb::Vec4I> quads;
+  openvdb::tools::volumeToMesh(*grid, points, tris, quads, 0.0);
+  TriangleMesh mesh;
+  mesh.vertices.reserve(points.size());
+  for (const auto& p : points) mesh.vertices.push_back({p.x(), p.y(), p.z()});
+  mesh.triangles.reserve(tris.size() + 2 * quads.size());
+  // OpenVDB winds its faces clockwise seen from outside: reverse them.
+  for (const auto& t : tris) mesh.triangles.push_back({t[0], t[2], t[1]});
+  for (const auto& q : quads) {
+    mesh.triangles.push_back({q[0], q[2], q[1]});
+    mesh.triangles.push_back({q[0], q[3], q[2]});
+  }
+  if (stats) {
+    stats->samples = samples;
+    stats->grid_bytes = grid->memUsage();
+    stats->mesh_bytes = mesh.vertices.size() * sizeof(Vec3) + mesh.triangles.size() * 12;
+  }
+  return mesh;
 }
 
 }  // namespace trellis

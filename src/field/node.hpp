@@ -57,6 +57,8 @@ class FieldNode {
   // Whether the value outside the solid is at least the true distance to it (exact distances:
   // primitives, rigid transforms of them, sharp unions of them). Used for cheap bounds.
   virtual bool exact_outside() const { return false; }
+  // Analytic gradient if the node has one (TPMS, transforms of it); false → finite differences.
+  virtual bool gradient(Vec3 p, Vec3& g, EvalState& s, std::size_t depth) const { return false; }
   virtual BBox3 extent() const = 0;
   // Adds this node's contribution to fractions (indexed by the design's material table).
   virtual void fractions(Vec3 p, double* out, EvalState& s, std::size_t depth) const;

@@ -428,7 +428,7 @@ Regions slice_mesh(const TriangleMesh& mesh, double z, double stitch_tolerance) 
       segments.push_back({pts[1], pts[0]});
   }
   const StitchedLines lines = stitch_segments(segments, stitch_tolerance);
-  return nest_rings(lines.loops);
+  return nest_oriented_rings(lines.loops);
 }
 
 }  // namespace trellis

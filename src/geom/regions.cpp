@@ -165,6 +165,59 @@ Regions nest_rings(const std::vector<std::vector<Vec2>>& rings) {
   return out;
 }
 
+Regions nest_oriented_rings(std::vector<std::vector<Vec2>> rings) {
+  struct Ring {
+    std::vector<Vec2> pts;
+    double area;
+    double x0, y0, x1, y1;
+  };
+  std::vector<Ring> outers, holes;
+  double total = 0;
+  std::vector<double> areas(rings.size());
+  for (std::size_t i = 0; i < rings.size(); ++i) {
+    areas[i] = rings[i].size() >= 3 ? signed_area(rings[i]) : 0.0;
+    total += areas[i];
+  }
+  const bool flip = total < 0;
+  for (std::size_t i = 0; i < rings.size(); ++i) {
+    double a = flip ? -areas[i] : areas[i];
+    if (std::abs(a) < 1e-14) continue;
+    if (flip) std::reverse(rings[i].begin(), rings[i].end());
+    Ring r{std::move(rings[i]), a, 1e300, 1e300, -1e300, -1e300};
+    for (auto p : r.pts) {
+      r.x0 = std::min(r.x0, p.x);
+      r.y0 = std::min(r.y0, p.y);
+      r.x1 = std::max(r.x1, p.x);
+      r.y1 = std::max(r.y1, p.y);
+    }
+    (a > 0 ? outers : holes).push_back(std::move(r));
+  }
+  auto inside = [](const std::vector<Vec2>& ring, Vec2 p) {
+    bool in = false;
+    for (std::size_t i = 0, j = ring.size() - 1; i < ring.size(); j = i++) {
+      const Vec2 a = ring[j], b = ring[i];
+      if ((a.y > p.y) != (b.y > p.y) && p.x < (b.x - a.x) * (p.y - a.y) / (b.y - a.y) + a.x)
+        in = !in;
+    }
+    return in;
+  };
+  Regions out(outers.size());
+  for (std::size_t i = 0; i < outers.size(); ++i) out[i].outer = outers[i].pts;
+  for (auto& h : holes) {
+    // A vertex of the hole is inside its outer ring (rings do not cross).
+    const Vec2 probe = h.pts.front();
+    std::size_t best = outers.size();
+    for (std::size_t i = 0; i < outers.size(); ++i) {
+      const Ring& o = outers[i];
+      if (o.x0 > h.x0 || o.y0 > h.y0 || o.x1 < h.x1 || o.y1 < h.y1) continue;
+      if (best < outers.size() && o.area >= outers[best].area) continue;
+      if (inside(o.pts, probe)) best = i;
+    }
+    if (best < outers.size()) out[best].holes.push_back(std::move(h.pts));
+  }
+  return out;
+}
+
 Regions unite(const Regions& a, const Regions& b) {
   return boolean(a, b, cl::ctUnion);
 }
@@ -183,6 +236,30 @@ Regions simplify(const Regions& regions, double tolerance) {
     q.outer = simplify_ring(p.outer, tolerance);
     for (const auto& h : p.holes) q.holes.push_back(simplify_ring(h, tolerance));
     out.push_back(std::move(q));
+  }
+  return out;
+}
+
+std::vector<std::vector<Vec2>> clip_polylines(const std::vector<std::vector<Vec2>>& lines,
+                                              const Regions& region) {
+  std::vector<std::vector<Vec2>> out;
+  if (region.empty() || lines.empty()) return out;
+  cl::Clipper clipper;
+  cl::Paths subjects;
+  for (const auto& l : lines)
+    if (l.size() >= 2) subjects.push_back(to_path(l));
+  clipper.AddPaths(subjects, cl::ptSubject, false);
+  clipper.AddPaths(to_paths(region), cl::ptClip, true);
+  cl::PolyTree tree;
+  clipper.Execute(cl::ctIntersection, tree, cl::pftEvenOdd, cl::pftEvenOdd);
+  cl::Paths open;
+  cl::OpenPathsFromPolyTree(tree, open);
+  for (const auto& path : open) {
+    std::vector<Vec2> l;
+    l.reserve(path.size());
+    for (const auto& p : path)
+      l.push_back({static_cast<double>(p.X) / kClipperScale, static_cast<double>(p.Y) / kClipperScale});
+    if (l.size() >= 2) out.push_back(std::move(l));
   }
   return out;
 }

@@ -74,7 +74,7 @@ Regions contour_at(const Field& field, Evaluator& ev, double z, const FieldSlice
     stats->blocks += set.blocks;
     stats->skipped_blocks += set.skipped_blocks;
   }
-  return nest_rings(set.lines.loops);
+  return nest_oriented_rings(set.lines.loops);
 }
 
 std::vector<LayerOutline> slice_field(const Field& field, const std::vector<double>& zs,

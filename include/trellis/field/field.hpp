@@ -66,6 +66,16 @@ Field function(Vec3 min, Vec3 max, Expression expr, std::string material = {});
 // with `c` a sheet Φ = φ² − c² (c a number or an expression of the coordinates).
 Field tpms(TpmsKind kind, Vec3 cell, Expression c = {}, std::string material = {});
 
+// Sheet around the zero set of any mid-surface field φ: Φ = φ² − c², c a number or an expression
+// (PBF paper Eq. 5). With `uniform_thickness` > 0 instead, c = t·|∇φ|/2, so the sheet is t thick
+// everywhere to first order.
+Field sheet(Field phi, Expression c, double uniform_thickness = 0);
+// (1 − w)·a + w·b with w an expression clamped to [0, 1]: graded cell size (sigmoid w) or a
+// hierarchical lattice (constant w).
+Field blend(Field a, Field b, Expression w);
+// Any expression as a field, unbounded (e.g. "y" for a plane mid-surface).
+Field expression_field(Expression e);
+
 // --- CSG ---
 Field unite(std::vector<Field> children);
 Field intersect(std::vector<Field> children);
@@ -92,6 +102,14 @@ struct MeshSdfOptions {
 };
 // Signed distance field of a closed mesh (OpenVDB). Throws GeometryError for open meshes.
 Field mesh_field(const TriangleMesh& mesh, const MeshSdfOptions& options, std::string name);
+
+// Marching cubes of the field (OpenVDB volumeToMesh) over `box` at `voxel`: the STL route of
+// the PBF paper, kept for comparison.
+struct MeshingStats {
+  std::size_t samples = 0, grid_bytes = 0, mesh_bytes = 0;
+};
+TriangleMesh field_to_mesh(const Field& field, const BBox3& box, double voxel,
+                           MeshingStats* stats = nullptr);
 
 // Per-thread evaluation. Not thread-safe itself; cheap enough to make one per task.
 class Evaluator {

@@ -16,6 +16,12 @@ double area(const Regions& regions);
 // Closed rings (any orientation) → polygons with holes, nested by even-odd (Clipper PolyTree).
 Regions nest_rings(const std::vector<std::vector<Vec2>>& rings);
 
+// The same for rings that are already oriented (outer counter-clockwise, holes clockwise) and
+// do not cross, as marching squares and closed-mesh slices give: each hole goes to the smallest
+// outer ring containing it. Linear-ish instead of Clipper's quadratic nesting. If the total
+// area is negative (an inside-out mesh) all rings are flipped first.
+Regions nest_oriented_rings(std::vector<std::vector<Vec2>> rings);
+
 // Inward (delta < 0) or outward offset. Corners: mitred up to 2× delta, rounded beyond, with
 // arcs no farther than `arc_tolerance` from the true offset.
 Regions offset(const Regions& regions, double delta, double arc_tolerance = 0.002);
@@ -28,6 +34,11 @@ Regions simplify(const Regions& regions, double tolerance);
 
 // Closed loops of a region set, as rings (outer counter-clockwise, holes clockwise).
 std::vector<std::vector<Vec2>> rings_of(const Regions& regions);
+
+// Pieces of open polylines inside the region (boundary included), as polylines; cut points lie
+// on the input polylines (to Clipper's 1 nm grid).
+std::vector<std::vector<Vec2>> clip_polylines(const std::vector<std::vector<Vec2>>& lines,
+                                              const Regions& region);
 
 // Lines at `angle_deg` spaced `spacing` apart, phase fixed by `origin` (a line passes through it),
 // cut by the region (even-odd over all rings). Returned in sweep order, each from low to high

@@ -1,0 +1,82 @@
+// STL-free hybrid laser toolpaths for sheet lattices (PBF paper §3.1–3.3): per layer, the sheet
+// Φ = φ² − c² is cut straight from the field; where the mid-surface φ = 0 is steep and the wall
+// one track wide (thin walls) a single contour track follows φ = 0, cut into scan vectors of
+// length SL separated by gaps LHD; elsewhere (joints, shallow overhangs, solid parts) the region
+// is hatched with lines rotated 67° per layer, each vector's ends found by zero-finding on the
+// field and pulled in by the beam compensation. The filling ratio FR_a = D·ΣL/A (Eq. 8) is
+// reported for this path and for the plain rotating-67° hatch of the whole sheet (R67).
+#pragma once
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "trellis/field/field.hpp"
+#include "trellis/geom/regions.hpp"
+#include "trellis/toolpath/toolpath.hpp"
+
+namespace trellis {
+
+struct PbfDesign {
+  Field phi;          // mid-surface φ (e.g. a TPMS network field)
+  Expression c;       // sheet half-width parameter: a number or an expression
+  double thickness = 0;  // > 0: uniform thickness instead of c (c = t·|∇φ|/2)
+  Field envelope;     // where the lattice is (a box, a mesh field…)
+  Field solids;       // optional solid parts (bosses), hatched; may be empty
+  // Φ ∩ envelope ∪ solids: the part.
+  Field part() const;
+};
+
+struct PbfOptions {
+  double layer = 0.02;             // mm
+  double resolution = 0.02;        // mm, XY grid of the direct contours
+  double segment_length = 0.1;     // SL, mm (5–400 µm)
+  double segment_gap = 0.02;       // LHD, mm (0–120 µm)
+  double hatch_distance = 0.04;    // mm
+  double beam_compensation = 0.03; // mm, each hatch vector shortened by this at both ends
+  double melt_pool = 0.0638;       // D, mm
+  double thin_multiple = 1.5;      // thin wall: horizontal width <= this × D
+  double min_inclination = 20;     // degrees; shallower mid-surface → joint
+  double hatch_angle = 0;          // first layer's hatch angle, degrees
+  double hatch_rotation = 67;      // degrees per layer
+  double contour_shift = 0.381966; // scan-vector phase shift per layer, fraction of SL+LHD
+  double refine = 1e-4;            // mm, crossing accuracy of hatch ends
+  bool hybrid = true;              // false: plain R67 hatch of the whole sheet
+  bool stl_route = false;          // regions from a marching-cubes mesh instead of the field
+};
+
+struct PbfLayer {
+  double z = 0;                                  // design height of the cut
+  double hatch_angle = 0;                        // degrees
+  std::vector<std::vector<Vec2>> contours;       // contour scan vectors (polylines)
+  std::vector<Segment2> hatches;                 // hatch vectors
+  double area = 0;                               // sheet cross-section A (mm²)
+  double contour_length = 0, hatch_length = 0;   // mm
+  double fr = 0;                                 // FR_a of this path
+  double fr_r67 = 0;                             // FR_a of the R67 baseline on the same layer
+};
+
+struct PbfStats {
+  double mean = 0, min = 0, max = 0, cv = 0;  // over layers with area > 0
+};
+PbfStats fr_stats(const std::vector<PbfLayer>& layers, bool r67);
+
+struct PbfResult {
+  std::vector<PbfLayer> layers;
+  BBox3 extent;
+  double layer = 0;  // thickness (mm)
+  std::size_t contour_vectors = 0, hatch_vectors = 0;
+  double contour_length = 0, hatch_length = 0;
+  // STL route only: the mesh it made.
+  std::size_t mesh_triangles = 0, mesh_bytes = 0, grid_bytes = 0;
+  double seconds = 0;
+};
+
+PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& options,
+                   const std::function<void(double)>& progress = {});
+
+// The toolpath IR: contour vectors role Contour, hatch vectors role Infill, with laser power and
+// speed per role.
+Toolpath pbf_toolpath(const PbfResult& result, double contour_power, double contour_speed,
+                      double hatch_power, double hatch_speed);
+
+}  // namespace trellis

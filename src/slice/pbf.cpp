@@ -1,0 +1,489 @@
+#include "trellis/slice/pbf.hpp"
+
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <mutex>
+#include <numbers>
+#include <optional>
+
+#include "trellis/core/error.hpp"
+#include "trellis/geom/contour.hpp"
+#include "trellis/geom/mesh_io.hpp"
+#include "trellis/slice/slice.hpp"
+
+namespace trellis {
+
+Field PbfDesign::part() const {
+  if (phi.empty()) throw GeometryError("PBF design needs a mid-surface field");
+  Field f = sheet(phi, c, thickness);
+  if (!envelope.empty()) f = intersect({f, envelope});
+  if (!solids.empty()) f = unite({f, solids});
+  return f;
+}
+
+PbfStats fr_stats(const std::vector<PbfLayer>& layers, bool r67) {
+  PbfStats s;
+  double sum = 0, sum2 = 0;
+  std::size_t n = 0;
+  s.min = std::numeric_limits<double>::infinity();
+  s.max = -s.min;
+  for (const auto& l : layers) {
+    if (!(l.area > 0)) continue;
+    const double v = r67 ? l.fr_r67 : l.fr;
+    sum += v;
+    sum2 += v * v;
+    s.min = std::min(s.min, v);
+    s.max = std::max(s.max, v);
+    ++n;
+  }
+  if (n == 0) return {};
+  s.mean = sum / static_cast<double>(n);
+  const double var = std::max(0.0, sum2 / static_cast<double>(n) - s.mean * s.mean);
+  s.cv = s.mean > 0 ? std::sqrt(var) / s.mean : 0;
+  return s;
+}
+
+namespace {
+
+constexpr double kDeg = std::numbers::pi / 180;
+
+// Per-thread evaluators of the part, the mid-surface, the solids and c.
+struct Ctx {
+  Evaluator part, phi;
+  std::optional<Evaluator> solids, c;
+  Ctx(const Field& p, const PbfDesign& d, const Field& c_field)
+      : part(p), phi(d.phi) {
+    if (!d.solids.empty()) solids.emplace(d.solids);
+    if (!c_field.empty()) c.emplace(c_field);
+  }
+};
+
+// Grid-node values of the part and of the joint measure, shared by the S and J marches of a
+// layer (both sample the same nodes).
+class LayerGrid {
+ public:
+  LayerGrid(Vec2 lo, double h, std::size_t nx, std::size_t ny)
+      : lo_(lo), h_(h), nx_(nx + 1), d_((nx + 1) * (ny + 1), kUnset), j_((nx + 1) * (ny + 1), kUnset) {}
+  // Index of p if it is a grid node, else npos.
+  std::size_t node(Vec2 p) const {
+    const double fi = (p.x - lo_.x) / h_, fj = (p.y - lo_.y) / h_;
+    const double ri = std::round(fi), rj = std::round(fj);
+    if (std::abs(fi - ri) > 1e-7 || std::abs(fj - rj) > 1e-7 || ri < 0 || rj < 0) return npos;
+    const auto i = static_cast<std::size_t>(ri), j = static_cast<std::size_t>(rj);
+    if (i >= nx_ || j * nx_ + i >= d_.size()) return npos;
+    return j * nx_ + i;
+  }
+  static constexpr std::size_t npos = static_cast<std::size_t>(-1);
+  static constexpr double kUnset = std::numeric_limits<double>::quiet_NaN();
+  double& part(std::size_t k) { return d_[k]; }
+  double& joint(std::size_t k) { return j_[k]; }
+
+ private:
+  Vec2 lo_;
+  double h_;
+  std::size_t nx_;
+  std::vector<double> d_, j_;
+};
+
+// The joint region's field at height z: negative where the sheet is wider than a thin wall
+// (thin_multiple·D), or shallower than the minimum inclination, or inside a solid part; positive
+// outside the part. Only its sign matters (crossings are refined on it).
+class JointSection : public PlaneFunction {
+ public:
+  // invert: the thin-wall region instead (inside the part, not a joint).
+  JointSection(Ctx& ctx, const PbfDesign& d, const PbfOptions& o, double c_const, double z,
+               bool invert = false)
+      : ctx_(ctx), d_(d), o_(o), c_(c_const), z_(z), cos_min_(std::cos(o.min_inclination * kDeg)),
+        invert_(invert) {}
+  void use_grid(LayerGrid* g) { grid_ = g; }
+  double at(Vec2 q) {
+    const std::size_t k = grid_ ? grid_->node(q) : LayerGrid::npos;
+    if (k != LayerGrid::npos && !invert_ && !std::isnan(grid_->joint(k))) return grid_->joint(k);
+    const double v = compute(q, k);
+    if (k != LayerGrid::npos && !invert_) grid_->joint(k) = v;
+    return v;
+  }
+  double compute(Vec2 q, std::size_t k) {
+    const Vec3 p{q.x, q.y, z_};
+    double D;
+    if (k != LayerGrid::npos && !std::isnan(grid_->part(k))) {
+      D = grid_->part(k);
+    } else {
+      D = ctx_.part.value(p);
+      if (k != LayerGrid::npos) grid_->part(k) = D;
+    }
+    if (D >= 0) return D;
+    const Vec3 grad = ctx_.phi.gradient(p);  // analytic for TPMS
+    const double gx = grad.x, gy = grad.y, gz = grad.z;
+    const double gxy = std::sqrt(gx * gx + gy * gy), g = std::sqrt(gxy * gxy + gz * gz);
+    // Horizontal width of the sheet: 2c / |∇xy φ| (or t·|∇φ| / |∇xy φ| for uniform thickness).
+    const double full = d_.thickness > 0 ? d_.thickness * g
+                                         : 2 * std::abs(ctx_.c ? ctx_.c->value(p) : c_);
+    double m = o_.thin_multiple * o_.melt_pool * gxy - full;  // < 0: wider than a thin wall
+    if (g > 0) m = std::min(m, cos_min_ - std::abs(gz) / g);  // < 0: shallow
+    if (ctx_.solids) m = std::min(m, ctx_.solids->value(p));
+    return std::max(D, invert_ ? -m : m);
+  }
+  void sample(const Vec2* p, double* out, std::size_t n) override {
+    for (std::size_t i = 0; i < n; ++i) out[i] = at(p[i]);
+  }
+  Interval bound(Vec2 lo, Vec2 hi) override {
+    BBox3 b;
+    b.add({lo.x, lo.y, z_});
+    b.add({hi.x, hi.y, z_});
+    return {ctx_.part.bound(b).lo, std::numeric_limits<double>::infinity()};
+  }
+
+ private:
+  Ctx& ctx_;
+  const PbfDesign& d_;
+  const PbfOptions& o_;
+  double c_, z_, cos_min_;
+  bool invert_;
+  LayerGrid* grid_ = nullptr;
+};
+
+class PartSection : public PlaneFunction {
+ public:
+  PartSection(Ctx& ctx, LayerGrid& grid, double z) : ctx_(ctx), grid_(grid), z_(z) {}
+  std::vector<std::size_t> miss_, keys_;
+  std::vector<Vec3> pts_;
+  std::vector<double> vals_;
+  void sample(const Vec2* p, double* out, std::size_t n) override {
+    // Cached nodes are read; the rest evaluated in one batch.
+    miss_.clear();
+    pts_.clear();
+    keys_.clear();
+    for (std::size_t i = 0; i < n; ++i) {
+      const std::size_t k = grid_.node(p[i]);
+      if (k != LayerGrid::npos && !std::isnan(grid_.part(k))) {
+        out[i] = grid_.part(k);
+        continue;
+      }
+      miss_.push_back(i);
+      keys_.push_back(k);
+      pts_.push_back({p[i].x, p[i].y, z_});
+    }
+    if (miss_.empty()) return;
+    vals_.resize(miss_.size());
+    ctx_.part.values(pts_.data(), vals_.data(), pts_.size());
+    for (std::size_t m = 0; m < miss_.size(); ++m) {
+      out[miss_[m]] = vals_[m];
+      if (keys_[m] != LayerGrid::npos) grid_.part(keys_[m]) = vals_[m];
+    }
+  }
+  Interval bound(Vec2 lo, Vec2 hi) override {
+    BBox3 b;
+    b.add({lo.x, lo.y, z_});
+    b.add({hi.x, hi.y, z_});
+    return ctx_.part.bound(b);
+  }
+
+ private:
+  Ctx& ctx_;
+  LayerGrid& grid_;
+  double z_;
+};
+
+// φ at z, with blocks the part does not reach skipped (their mid-curve is clipped away anyway).
+class MidSection : public PlaneFunction {
+ public:
+  MidSection(Ctx& ctx, double z) : ctx_(ctx), z_(z) {}
+  void sample(const Vec2* p, double* out, std::size_t n) override {
+    buf_.resize(n);
+    for (std::size_t i = 0; i < n; ++i) buf_[i] = {p[i].x, p[i].y, z_};
+    ctx_.phi.values(buf_.data(), out, n);
+  }
+  Interval bound(Vec2 lo, Vec2 hi) override {
+    BBox3 b;
+    b.add({lo.x, lo.y, z_});
+    b.add({hi.x, hi.y, z_});
+    if (ctx_.part.bound(b).lo >= 0) return {1, std::numeric_limits<double>::infinity()};
+    return ctx_.phi.bound(b);
+  }
+
+ private:
+  Ctx& ctx_;
+  double z_;
+  std::vector<Vec3> buf_;
+};
+
+// Cuts polylines into scan vectors of length sl with gaps gap, starting `phase` mm before the
+// first point (so starts move from layer to layer).
+void dash(const std::vector<Vec2>& line, double sl, double gap, double phase,
+          std::vector<std::vector<Vec2>>& out) {
+  const double period = sl + gap;
+  double s = -phase;  // arc length at the current dash start
+  std::size_t i = 0;
+  double acc = 0;     // arc length at line[i]
+  std::vector<Vec2> cur;
+  auto point_at = [&](double target, std::size_t& k, double& at_k) {
+    while (k + 1 < line.size()) {
+      const double len = std::hypot(line[k + 1].x - line[k].x, line[k + 1].y - line[k].y);
+      if (at_k + len >= target) {
+        const double t = len > 0 ? (target - at_k) / len : 0;
+        return line[k] + (line[k + 1] - line[k]) * t;
+      }
+      at_k += len;
+      ++k;
+    }
+    return line.back();
+  };
+  double total = 0;
+  for (std::size_t k = 1; k < line.size(); ++k)
+    total += std::hypot(line[k].x - line[k - 1].x, line[k].y - line[k - 1].y);
+  for (; s < total; s += period) {
+    const double a = std::max(s, 0.0), b = std::min(s + sl, total);
+    if (b - a <= 1e-6) continue;
+    std::size_t k = i;
+    double at_k = acc;
+    cur.clear();
+    cur.push_back(point_at(a, k, at_k));
+    i = k;
+    acc = at_k;
+    // Interior vertices up to b.
+    double run = at_k;
+    std::size_t j = k;
+    while (j + 1 < line.size()) {
+      const double len = std::hypot(line[j + 1].x - line[j].x, line[j + 1].y - line[j].y);
+      if (run + len >= b) break;
+      run += len;
+      ++j;
+      cur.push_back(line[j]);
+    }
+    std::size_t kb = j;
+    double at_b = run;
+    cur.push_back(point_at(b, kb, at_b));
+    out.push_back(cur);
+  }
+}
+
+// Refines a hatch end on f along the line: the root near `p` (inside towards +dir).
+Vec2 refine_end(JointSection* joint, Ctx& ctx, double z, bool use_part, Vec2 p, Vec2 dir,
+                double delta, double tol) {
+  auto f = [&](double t) {
+    const Vec2 q = p + dir * t;
+    return use_part ? ctx.part.value({q.x, q.y, z}) : joint->at(q);
+  };
+  double lo = -delta, hi = delta;
+  double flo = f(lo), fhi = f(hi);
+  if (!(flo >= 0 && fhi < 0)) return p;  // no clean bracket: keep the polygon's end
+  while (hi - lo > tol) {
+    const double mid = 0.5 * (lo + hi);
+    const double fm = f(mid);
+    if (fm >= 0) {
+      lo = mid;
+      flo = fm;
+    } else {
+      hi = mid;
+      fhi = fm;
+    }
+  }
+  return p + dir * (0.5 * (lo + hi));
+}
+
+}  // namespace
+
+PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o,
+                   const std::function<void(double)>& progress) {
+  const auto t0 = std::chrono::steady_clock::now();
+  if (!(o.layer > 0)) throw SettingError("layer thickness must be > 0");
+  if (!(o.resolution > 0)) throw SettingError("resolution must be > 0");
+  if (!(o.segment_length >= 0.005 && o.segment_length <= 0.4))
+    throw SettingError("segment length SL must be within 5–400 µm (0.005–0.4 mm)");
+  if (!(o.segment_gap >= 0 && o.segment_gap <= 0.12))
+    throw SettingError("segment gap LHD must be within 0–120 µm (0–0.12 mm)");
+  if (!(o.hatch_distance > 0)) throw SettingError("hatch distance must be > 0");
+  if (!(o.beam_compensation >= 0)) throw SettingError("beam compensation must be >= 0");
+  if (!(o.melt_pool > 0)) throw SettingError("melt-pool width must be > 0");
+  const Field part = design.part();
+  PbfResult result;
+  result.layer = o.layer;
+  result.extent = part.extent();
+  const BBox3& e = result.extent;
+  if (e.empty() || !std::isfinite(e.min.x) || !std::isfinite(e.max.x) || !std::isfinite(e.min.y) ||
+      !std::isfinite(e.max.y) || !std::isfinite(e.min.z) || !std::isfinite(e.max.z))
+    throw GeometryError("the lattice has no finite extent: give it an envelope (a box or a solid)");
+  const std::vector<double> zs = layer_planes(e.min.z, e.max.z, o.layer);
+  if (zs.size() > 200000) throw SettingError("more than 200,000 layers: check the layer thickness");
+
+  // c as a constant or as its own field.
+  double c_const = 0;
+  Field c_field;
+  if (design.thickness <= 0) {
+    char* end = nullptr;
+    c_const = std::strtod(design.c.text.c_str(), &end);
+    while (end && *end == ' ') ++end;
+    if (design.c.text.empty() || !end || *end != '\0') c_field = expression_field(design.c);
+  }
+
+  // The STL route: one marching-cubes mesh of the part, cut by planes.
+  TriangleMesh mesh;
+  if (o.stl_route) {
+    MeshingStats ms;
+    BBox3 box = e;
+    mesh = field_to_mesh(part, box, o.resolution, &ms);
+    result.mesh_triangles = mesh.triangles.size();
+    result.mesh_bytes = ms.mesh_bytes;
+    result.grid_bytes = ms.grid_bytes;
+  }
+
+  const double pad = 2 * o.resolution;
+  const Vec2 lo{std::floor((e.min.x - pad) / o.resolution) * o.resolution,
+                std::floor((e.min.y - pad) / o.resolution) * o.resolution};
+  const Vec2 hi{std::ceil((e.max.x + pad) / o.resolution) * o.resolution,
+                std::ceil((e.max.y + pad) / o.resolution) * o.resolution};
+  MarchOptions mo;
+  mo.resolution = o.resolution;
+
+  result.layers.resize(zs.size());
+  tbb::enumerable_thread_specific<Ctx> contexts([&] { return Ctx(part, design, c_field); });
+  std::atomic<std::size_t> done{0};
+  std::mutex progress_mutex;
+  tbb::parallel_for(std::size_t{0}, zs.size(), [&](std::size_t i) {
+    Ctx& ctx = contexts.local();
+    PbfLayer& L = result.layers[i];
+    const double z = zs[i];
+    L.z = z;
+    L.hatch_angle = std::fmod(o.hatch_angle + o.hatch_rotation * static_cast<double>(i), 180.0);
+    // The sheet's cross-section S.
+    const std::size_t nx = static_cast<std::size_t>(std::llround((hi.x - lo.x) / o.resolution));
+    const std::size_t ny = static_cast<std::size_t>(std::llround((hi.y - lo.y) / o.resolution));
+    LayerGrid grid(lo, o.resolution, nx, ny);
+    Regions S;
+    if (o.stl_route) {
+      S = slice_mesh(mesh, z);
+    } else {
+      PartSection fs(ctx, grid, z);
+      S = nest_oriented_rings(march_squares(fs, lo, hi, 0.0, mo).lines.loops);
+    }
+    L.area = area(S);
+    if (S.empty()) return;
+    JointSection joint(ctx, design, o, c_const, z);
+    joint.use_grid(&grid);
+    Regions hatch_region = S;
+    if (o.hybrid) {
+      // Joints are contoured from their own field (a Boolean of S and J would spend its time on
+      // their shared edges); thin walls are the pieces of the mid-curve φ = 0 where the
+      // inverted joint measure is negative, split where it changes sign.
+      hatch_region = nest_oriented_rings(march_squares(joint, lo, hi, 0.0, mo).lines.loops);
+      JointSection thin(ctx, design, o, c_const, z, true);
+      MidSection mid(ctx, z);
+      const ContourSet m = march_squares(mid, lo, hi, 0.0, mo);
+      std::vector<std::vector<Vec2>> lines = m.lines.open;
+      for (auto l : m.lines.loops) {
+        l.push_back(l.front());
+        lines.push_back(std::move(l));
+      }
+      std::vector<std::vector<Vec2>> pieces;
+      for (const auto& l : lines) {
+        std::vector<Vec2> cur;
+        double prev = thin.at(l[0]);
+        if (prev < 0) cur.push_back(l[0]);
+        for (std::size_t k = 1; k < l.size(); ++k) {
+          const double v = thin.at(l[k]);
+          if ((v < 0) != (prev < 0)) {
+            // Bisect the switch point on the segment.
+            Vec2 a = l[k - 1], b = l[k];
+            for (int it = 0; it < 30 && std::hypot(b.x - a.x, b.y - a.y) > o.refine; ++it) {
+              const Vec2 c = (a + b) * 0.5;
+              if ((thin.at(c) < 0) == (prev < 0)) a = c; else b = c;
+            }
+            const Vec2 x = (a + b) * 0.5;
+            if (prev < 0) {
+              cur.push_back(x);
+              if (cur.size() >= 2) pieces.push_back(std::move(cur));
+              cur.clear();
+            } else {
+              cur = {x};
+            }
+          }
+          if (v < 0) cur.push_back(l[k]);
+          prev = v;
+        }
+        if (cur.size() >= 2) pieces.push_back(std::move(cur));
+      }
+      const double period = o.segment_length + o.segment_gap;
+      const double phase = std::fmod(o.contour_shift * static_cast<double>(i), 1.0) * period;
+      for (const auto& piece : pieces) dash(piece, o.segment_length, o.segment_gap, phase, L.contours);
+      for (const auto& v : L.contours)
+        for (std::size_t k = 1; k < v.size(); ++k)
+          L.contour_length += std::hypot(v[k].x - v[k - 1].x, v[k].y - v[k - 1].y);
+    }
+    // Hatch: polygon scan lines find the crossings, each refined on the field (zero-finding by
+    // bisection in a bracket of ±2 cells), then pulled in by the beam compensation.
+    const Vec2 u{std::cos(L.hatch_angle * kDeg), std::sin(L.hatch_angle * kDeg)};
+    const double delta = 2 * o.resolution;
+    for (const auto& s : hatch(hatch_region, L.hatch_angle, o.hatch_distance)) {
+      Vec2 a = s.a, b = s.b;
+      if (!o.stl_route) {
+        a = refine_end(&joint, ctx, z, !o.hybrid, a, u, delta, o.refine);
+        b = refine_end(&joint, ctx, z, !o.hybrid, b, u * -1.0, delta, o.refine);
+      }
+      const double len = std::hypot(b.x - a.x, b.y - a.y) - 2 * o.beam_compensation;
+      if (len <= 1e-6) continue;
+      a = a + u * o.beam_compensation;
+      b = b - u * o.beam_compensation;
+      L.hatches.push_back({a, b});
+      L.hatch_length += len;
+    }
+    // The R67 baseline on the same layer: the whole sheet hatched, same compensation.
+    double r67 = 0;
+    if (o.hybrid) {
+      for (const auto& s : hatch(S, L.hatch_angle, o.hatch_distance))
+        r67 += std::max(0.0, std::hypot(s.b.x - s.a.x, s.b.y - s.a.y) - 2 * o.beam_compensation);
+    } else {
+      r67 = L.hatch_length;
+    }
+    L.fr = o.melt_pool * (L.contour_length + L.hatch_length) / L.area;
+    L.fr_r67 = o.melt_pool * r67 / L.area;
+    const std::size_t d = ++done;
+    if (progress && (d % 32 == 0 || d == zs.size())) {
+      std::lock_guard lock(progress_mutex);
+      progress(static_cast<double>(d) / static_cast<double>(zs.size()));
+    }
+  });
+  for (const auto& L : result.layers) {
+    result.contour_vectors += L.contours.size();
+    result.hatch_vectors += L.hatches.size();
+    result.contour_length += L.contour_length;
+    result.hatch_length += L.hatch_length;
+  }
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return result;
+}
+
+Toolpath pbf_toolpath(const PbfResult& r, double contour_power, double contour_speed,
+                      double hatch_power, double hatch_speed) {
+  Toolpath tp;
+  tp.source = "trellis pbf";
+  for (std::size_t i = 0; i < r.layers.size(); ++i) {
+    const auto& L = r.layers[i];
+    Layer layer;
+    layer.z = static_cast<double>(i + 1) * r.layer;  // the powder surface of layer i
+    for (const auto& v : L.contours) {
+      Path p;
+      p.role = PathRole::Contour;
+      p.power = contour_power;
+      p.speed = contour_speed;
+      for (auto q : v) p.points.push_back({q.x, q.y, layer.z});
+      layer.paths.push_back(std::move(p));
+    }
+    for (const auto& h : L.hatches) {
+      Path p;
+      p.role = PathRole::Infill;
+      p.power = hatch_power;
+      p.speed = hatch_speed;
+      p.points = {{h.a.x, h.a.y, layer.z}, {h.b.x, h.b.y, layer.z}};
+      layer.paths.push_back(std::move(p));
+    }
+    tp.layers.push_back(std::move(layer));
+  }
+  return tp;
+}
+
+}  // namespace trellis
