@@ -262,26 +262,24 @@ void dash(const std::vector<Vec2>& line, double sl, double gap, double phase,
   }
 }
 
-// Refines a hatch end on f along the line: the root near `p` (inside towards +dir).
+// Refines a hatch end on f along the line: the root near `p`, inside towards +dir, within a
+// bracket that never reaches past the vector's middle (thin sheets) and that is shrunk until
+// its outer end is outside.
 Vec2 refine_end(JointSection* joint, Ctx& ctx, double z, bool use_part, Vec2 p, Vec2 dir,
-                double delta, double tol) {
+                double delta, double half_length, double tol) {
   auto f = [&](double t) {
     const Vec2 q = p + dir * t;
     return use_part ? ctx.part.value({q.x, q.y, z}) : joint->at(q);
   };
-  double lo = -delta, hi = delta;
-  double flo = f(lo), fhi = f(hi);
-  if (!(flo >= 0 && fhi < 0)) return p;  // no clean bracket: keep the polygon's end
+  double hi = std::min(delta, half_length), lo = -delta;
+  int tries = 0;
+  while (f(lo) < 0 && tries++ < 8) lo *= 0.5;
+  tries = 0;
+  while (f(hi) >= 0 && tries++ < 8) hi *= 0.5;
+  if (!(f(lo) >= 0 && f(hi) < 0)) return p;  // no clean bracket: keep the polygon's end
   while (hi - lo > tol) {
     const double mid = 0.5 * (lo + hi);
-    const double fm = f(mid);
-    if (fm >= 0) {
-      lo = mid;
-      flo = fm;
-    } else {
-      hi = mid;
-      fhi = fm;
-    }
+    (f(mid) >= 0 ? lo : hi) = mid;
   }
   return p + dir * (0.5 * (lo + hi));
 }
@@ -421,8 +419,9 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o,
     for (const auto& s : hatch(hatch_region, L.hatch_angle, o.hatch_distance)) {
       Vec2 a = s.a, b = s.b;
       if (!o.stl_route) {
-        a = refine_end(&joint, ctx, z, !o.hybrid, a, u, delta, o.refine);
-        b = refine_end(&joint, ctx, z, !o.hybrid, b, u * -1.0, delta, o.refine);
+        const double half = 0.5 * std::hypot(b.x - a.x, b.y - a.y);
+        a = refine_end(&joint, ctx, z, !o.hybrid, a, u, delta, half, o.refine);
+        b = refine_end(&joint, ctx, z, !o.hybrid, b, u * -1.0, delta, half, o.refine);
       }
       const double len = std::hypot(b.x - a.x, b.y - a.y) - 2 * o.beam_compensation;
       if (len <= 1e-6) continue;
