@@ -16,6 +16,7 @@ void add_analyze(CLI::App& app);
 void add_compare(CLI::App& app);
 void add_walls(CLI::App& app);
 void add_slice(CLI::App& app);
+void add_pbf(CLI::App& app);
 
 // Progress on stderr when it is a terminal (carriage-return updates), silent otherwise.
 void progress_line(const std::string& stage, double fraction);

@@ -53,6 +53,7 @@ int main(int argc, char** argv) {
   trellis::cli::add_compare(app);
   trellis::cli::add_walls(app);
   trellis::cli::add_slice(app);
+  trellis::cli::add_pbf(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

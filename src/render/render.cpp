@@ -89,7 +89,16 @@ void render_layer_png(const Toolpath& tp, std::size_t index, const std::string& 
     const Path& p = layer.paths[i];
     const double bead = opt.bead_width > 0 ? opt.bead_width : (p.width > 0 ? p.width : 0.2);
     cairo_set_line_width(cr.get(), std::max(bead, 1.5 / scale));
-    order_colour(cr.get(), n > 1 ? static_cast<double>(i) / (n - 1) : 0.0);
+    if (opt.colour_by_role) {
+      switch (p.role) {
+        case PathRole::Contour: cairo_set_source_rgb(cr.get(), 0.85, 0.1, 0.1); break;
+        case PathRole::Infill: cairo_set_source_rgb(cr.get(), 0.1, 0.3, 0.85); break;
+        case PathRole::Skin: cairo_set_source_rgb(cr.get(), 0.1, 0.6, 0.2); break;
+        default: cairo_set_source_rgb(cr.get(), 0.15, 0.15, 0.15); break;
+      }
+    } else {
+      order_colour(cr.get(), n > 1 ? static_cast<double>(i) / (n - 1) : 0.0);
+    }
     cairo_move_to(cr.get(), p.points[0].x, p.points[0].y);
     for (std::size_t k = 1; k < p.points.size(); ++k)
       cairo_line_to(cr.get(), p.points[k].x, p.points[k].y);

@@ -16,6 +16,7 @@ struct RenderOptions {
   bool travel = true;
   bool starts = true;
   double bead_width = 0;  // line width in mm; 0 = from paths or 0.2
+  bool colour_by_role = false;  // contours red, hatch/infill blue, walls black, skin green
 };
 
 // Writes one PNG of `layer` (index into toolpath.layers), atomically.

@@ -1,0 +1,36 @@
+// Laser powder-bed fusion: the machine profile (laser power and speed per region, scan
+// parameters) and the Common Layer Interface (.cli, ASCII) writer.
+#pragma once
+#include <string>
+
+#include "trellis/toolpath/toolpath.hpp"
+
+namespace trellis {
+
+struct LaserProfile {
+  std::string name = "PBF-LB";
+  double spot_diameter = 0.025;      // mm
+  double melt_pool_width = 0.0638;   // D (mm), PBF paper Eq. 8
+  double contour_power = 60, contour_speed = 800;  // W, mm/s
+  double hatch_power = 100, hatch_speed = 1000;    // W, mm/s
+  double layer = 0.02;               // mm
+  double hatch_distance = 0.04;      // mm
+  double beam_compensation = 0.03;   // mm
+  double segment_length = 0.1;       // SL (mm)
+  double segment_gap = 0.02;         // LHD (mm)
+};
+
+// TOML: [machine] name; [laser] spot_diameter melt_pool_width contour_power contour_speed
+// hatch_power hatch_speed; [scan] layer hatch_distance beam_compensation segment_length
+// segment_gap. Unknown keys, wrong types, values out of range → SettingError (file:line).
+LaserProfile laser_profile_from_toml(const std::string& text, const std::string& origin);
+LaserProfile load_laser_profile(const std::string& path);
+
+// ASCII CLI: $$HEADERSTART … $$HEADEREND, $$GEOMETRYSTART, per layer $$LAYER/z, contour paths as
+// $$POLYLINE/1,2,n,… (id 1, open), hatch paths (two points) as one $$HATCHES/2,n,… record,
+// $$GEOMETRYEND. Units 1 µm ($$UNITS/0.001). Laser power and speed per id are in the header as
+// comments and in the toolpath JSON.
+std::string write_cli(const Toolpath& toolpath, const LaserProfile& profile);
+void write_cli_file(const std::string& path, const Toolpath& toolpath, const LaserProfile& profile);
+
+}  // namespace trellis

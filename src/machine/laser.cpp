@@ -1,0 +1,144 @@
+#include "trellis/machine/laser.hpp"
+
+#include <fmt/format.h>
+
+#include <toml++/toml.h>
+
+#include <cmath>
+#include <map>
+
+#include "trellis/core/error.hpp"
+#include "trellis/core/file.hpp"
+
+namespace trellis {
+
+namespace {
+
+struct Key {
+  double LaserProfile::*member;
+  double lo, hi;
+};
+
+const std::map<std::string, Key>& keys() {
+  static const std::map<std::string, Key> k = {
+      {"laser.spot_diameter", {&LaserProfile::spot_diameter, 0.001, 5}},
+      {"laser.melt_pool_width", {&LaserProfile::melt_pool_width, 0.001, 5}},
+      {"laser.contour_power", {&LaserProfile::contour_power, 0, 10000}},
+      {"laser.contour_speed", {&LaserProfile::contour_speed, 0.1, 100000}},
+      {"laser.hatch_power", {&LaserProfile::hatch_power, 0, 10000}},
+      {"laser.hatch_speed", {&LaserProfile::hatch_speed, 0.1, 100000}},
+      {"scan.layer", {&LaserProfile::layer, 0.001, 1}},
+      {"scan.hatch_distance", {&LaserProfile::hatch_distance, 0.001, 5}},
+      {"scan.beam_compensation", {&LaserProfile::beam_compensation, 0, 1}},
+      {"scan.segment_length", {&LaserProfile::segment_length, 0.005, 0.4}},
+      {"scan.segment_gap", {&LaserProfile::segment_gap, 0, 0.12}},
+  };
+  return k;
+}
+
+void walk(LaserProfile& p, const toml::table& t, const std::string& prefix, const std::string& origin) {
+  for (const auto& [k, node] : t) {
+    const std::string key = prefix.empty() ? std::string(k.str()) : prefix + "." + std::string(k.str());
+    const Where where{origin, static_cast<long>(node.source().begin.line), key};
+    if (const auto* sub = node.as_table()) {
+      walk(p, *sub, key, origin);
+      continue;
+    }
+    if (key == "machine.name") {
+      if (!node.is_string()) throw SettingError("expected a string", where);
+      p.name = *node.value<std::string>();
+      continue;
+    }
+    const auto it = keys().find(key);
+    if (it == keys().end()) throw SettingError("unknown laser setting", where);
+    if (!(node.is_floating_point() || node.is_integer())) throw SettingError("expected a number", where);
+    const double v = *node.value<double>();
+    if (!(v >= it->second.lo && v <= it->second.hi))
+      throw SettingError(fmt::format("must be within {}..{}", it->second.lo, it->second.hi), where);
+    p.*(it->second.member) = v;
+  }
+}
+
+// Coordinates in µm with two decimals (10 nm), no trailing zeros.
+void put(std::string& out, double mm) {
+  double v = std::round(mm * 1e5) / 100.0;
+  if (v == 0) v = 0;
+  out += fmt::format("{}", v);
+}
+
+}  // namespace
+
+LaserProfile laser_profile_from_toml(const std::string& text, const std::string& origin) {
+  toml::table t;
+  try {
+    t = toml::parse(text, origin);
+  } catch (const toml::parse_error& e) {
+    throw SettingError(std::string(e.description()), {origin, static_cast<long>(e.source().begin.line)});
+  }
+  LaserProfile p;
+  walk(p, t, "", origin);
+  return p;
+}
+
+LaserProfile load_laser_profile(const std::string& path) {
+  return laser_profile_from_toml(read_file(path), path);
+}
+
+std::string write_cli(const Toolpath& tp, const LaserProfile& prof) {
+  BBox3 box;
+  for (const auto& l : tp.layers)
+    for (const auto& p : l.paths)
+      for (const auto& q : p.points) box.add(q);
+  if (box.empty()) box.add({0, 0, 0});
+  std::string out;
+  out += "$$HEADERSTART\n$$ASCII\n$$UNITS/0.001\n$$VERSION/200\n";
+  out += "$$LABEL/1,contour\n$$LABEL/2,hatch\n";
+  out += fmt::format("//machine: {}//\n", prof.name);
+  out += fmt::format("//id 1 contour: {} W, {} mm/s; id 2 hatch: {} W, {} mm/s; spot {} mm//\n",
+                     prof.contour_power, prof.contour_speed, prof.hatch_power, prof.hatch_speed,
+                     prof.spot_diameter);
+  out += fmt::format("//source: {}//\n", tp.source);
+  out += fmt::format("$$DIMENSION/{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f}\n", box.min.x, box.min.y,
+                     box.min.z, box.max.x, box.max.y, box.max.z);
+  out += fmt::format("$$LAYERS/{}\n$$HEADEREND\n$$GEOMETRYSTART\n", tp.layers.size());
+  for (const auto& layer : tp.layers) {
+    out += "$$LAYER/";
+    put(out, layer.z);
+    out += '\n';
+    std::size_t hatches = 0;
+    for (const auto& p : layer.paths) {
+      if (p.role == PathRole::Infill && p.points.size() == 2) {
+        ++hatches;
+        continue;
+      }
+      out += fmt::format("$$POLYLINE/1,2,{}", p.points.size());
+      for (const auto& q : p.points) {
+        out += ',';
+        put(out, q.x);
+        out += ',';
+        put(out, q.y);
+      }
+      out += '\n';
+    }
+    if (hatches) {
+      out += fmt::format("$$HATCHES/2,{}", hatches);
+      for (const auto& p : layer.paths)
+        if (p.role == PathRole::Infill && p.points.size() == 2)
+          for (const auto& q : p.points) {
+            out += ',';
+            put(out, q.x);
+            out += ',';
+            put(out, q.y);
+          }
+      out += '\n';
+    }
+  }
+  out += "$$GEOMETRYEND\n";
+  return out;
+}
+
+void write_cli_file(const std::string& path, const Toolpath& tp, const LaserProfile& prof) {
+  write_file_atomic(path, write_cli(tp, prof));
+}
+
+}  // namespace trellis
