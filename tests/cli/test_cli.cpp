@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 #include <set>
+#include <sstream>
 
 #include "support/gcode_replay.hpp"
 #include "trellis/core/file.hpp"
@@ -49,7 +50,7 @@ std::string in_work(const std::string& name) {
 }  // namespace
 
 TEST(Cli, HelpForEveryCommand) {
-  for (const char* c : {"", "lattice2d", "plan", "gcode", "render", "run", "analyze", "compare", "slice"}) {
+  for (const char* c : {"", "lattice2d", "plan", "gcode", "render", "run", "analyze", "compare", "slice", "pbf"}) {
     const CmdResult r = run(std::string(c) + " --help");
     EXPECT_EQ(r.code, 0) << c;
     EXPECT_NE(r.out.find("Usage"), std::string::npos) << c;
@@ -263,4 +264,62 @@ TEST(Cli, SliceBadDesignsExitTwoNamingLineAndColumn) {
     EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
     EXPECT_FALSE(fs::exists(out)) << c.file;
   }
+}
+
+TEST(Cli, PbfWritesACliFileWithTheRightStructure) {
+  const std::string prof = std::string(TRELLIS_SOURCE_DIR) + "/profiles/pbf_316l_25um.toml";
+  const CmdResult r = run("pbf --cell-type gyroid --cell 2.5 --size 2.5,2.5,1 --layer 0.05 --machine " +
+                          prof + " -o " + in_work("g.cli") + " --report " + in_work("g.json") +
+                          " --preview " + in_work("g_png") + " --preview-layers 2");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const std::string cli = trellis::read_file(in_work("g.cli"));
+  EXPECT_EQ(cli.rfind("$$HEADERSTART\n$$ASCII\n$$UNITS/0.001\n", 0), 0u);
+  EXPECT_NE(cli.find("$$LAYERS/20\n$$HEADEREND\n$$GEOMETRYSTART\n"), std::string::npos);
+  EXPECT_EQ(cli.substr(cli.size() - 14), "$$GEOMETRYEND\n");
+  EXPECT_NE(cli.find("$$GEOMETRYEND\n"), std::string::npos);
+  // Every $$POLYLINE and $$HATCHES record has as many coordinates as it says.
+  std::istringstream in(cli);
+  std::string line;
+  std::size_t layers = 0, polylines = 0, hatch_records = 0;
+  while (std::getline(in, line)) {
+    if (line.rfind("$$LAYER/", 0) == 0) ++layers;
+    const bool poly = line.rfind("$$POLYLINE/", 0) == 0, hat = line.rfind("$$HATCHES/", 0) == 0;
+    if (!poly && !hat) continue;
+    std::vector<double> v;
+    std::stringstream ss(line.substr(line.find('/') + 1));
+    std::string tok;
+    while (std::getline(ss, tok, ',')) v.push_back(std::stod(tok));
+    if (poly) {
+      ++polylines;
+      ASSERT_GE(v.size(), 3u);
+      EXPECT_EQ(v[1], 2);  // open line
+      EXPECT_EQ(v.size(), 3 + 2 * static_cast<std::size_t>(v[2]));
+    } else {
+      ++hatch_records;
+      ASSERT_GE(v.size(), 2u);
+      EXPECT_EQ(v.size(), 2 + 4 * static_cast<std::size_t>(v[1]));
+    }
+  }
+  EXPECT_EQ(layers, 20u);
+  EXPECT_GT(polylines, 20u);
+  EXPECT_GT(hatch_records, 0u);
+  const std::string report = trellis::read_file(in_work("g.json"));
+  EXPECT_NE(report.find("\"fr_a_r67_baseline\""), std::string::npos);
+  EXPECT_TRUE(fs::exists(in_work("g_png") + "/layer_0.png"));
+}
+
+TEST(Cli, PbfBadInputExitsTwo) {
+  const std::string bad_prof = write("bad_laser.toml", "[laser]\nhatch_power = 100\nhatch_pwr = 3\n");
+  CmdResult r = run("pbf --machine " + bad_prof + " -o " + in_work("never.cli"));
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("bad_laser.toml:3"), std::string::npos) << r.err;
+  r = run("pbf --cell-type gyriod -o " + in_work("never.cli"));
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("unknown cell type 'gyriod'"), std::string::npos) << r.err;
+  r = run("pbf --sl 2 -o " + in_work("never.cli"));
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("SL"), std::string::npos) << r.err;
+  r = run("pbf --c-expr \"0.1+\" -o " + in_work("never.cli"));
+  EXPECT_EQ(r.code, 2);
+  EXPECT_FALSE(fs::exists(in_work("never.cli")));
 }
