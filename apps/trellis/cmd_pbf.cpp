@@ -58,7 +58,7 @@ void add_pbf(CLI::App& app) {
     std::string envelope, solids, output, report, toolpath, preview, machine, route = "direct";
     std::string cell_type = "gyroid", c = "0.15", c_expr, grade_to, grade_axis = "z",
                 hierarchical;
-    double cell = 2.5, thickness = 0, grade_center = 0, grade_width = 1, resolution = 0.02;
+    double cell = 2.5, thickness = 0, grade_center = 0, grade_width = 1, resolution = 0.025;
     double layer = 0, sl = 0, lhd = -1, hatch = 0, beam = -1, thin_multiple = 1.5,
            min_inclination = 20;
     std::vector<double> size;

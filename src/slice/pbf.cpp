@@ -4,6 +4,7 @@
 #include <tbb/parallel_for.h>
 
 #include <atomic>
+#include <cstdint>
 #include <chrono>
 #include <cmath>
 #include <mutex>
@@ -51,10 +52,60 @@ namespace {
 
 constexpr double kDeg = std::numbers::pi / 180;
 
+class LayerGrid {
+ public:
+  // Reused across layers by one thread: entries are valid when their stamp is the current one.
+  void reset(Vec2 lo, double h, std::size_t nx, std::size_t ny) {
+    lo_ = lo;
+    h_ = h;
+    inv_ = 1.0 / h;
+    nx_ = nx + 1;
+    const std::size_t n = (nx + 1) * (ny + 1);
+    if (d_.size() != n) {
+      d_.assign(n, 0);
+      j_.assign(n, 0);
+      dstamp_.assign(n, 0);
+      jstamp_.assign(n, 0);
+    }
+    ++gen_;
+  }
+  // Index of p if it is a grid node, else npos.
+  std::size_t node(Vec2 p) const {
+    const double fi = (p.x - lo_.x) * inv_, fj = (p.y - lo_.y) * inv_;
+    const double ri = std::floor(fi + 0.5), rj = std::floor(fj + 0.5);
+    if (std::abs(fi - ri) > 1e-7 || std::abs(fj - rj) > 1e-7 || ri < 0 || rj < 0) return npos;
+    const auto i = static_cast<std::size_t>(ri), j = static_cast<std::size_t>(rj);
+    if (i >= nx_ || j * nx_ + i >= d_.size()) return npos;
+    return j * nx_ + i;
+  }
+  static constexpr std::size_t npos = static_cast<std::size_t>(-1);
+  bool has_part(std::size_t k) const { return dstamp_[k] == gen_; }
+  bool has_joint(std::size_t k) const { return jstamp_[k] == gen_; }
+  double part(std::size_t k) const { return d_[k]; }
+  double joint(std::size_t k) const { return j_[k]; }
+  void set_part(std::size_t k, double v) {
+    d_[k] = v;
+    dstamp_[k] = gen_;
+  }
+  void set_joint(std::size_t k, double v) {
+    j_[k] = v;
+    jstamp_[k] = gen_;
+  }
+
+ private:
+  Vec2 lo_;
+  double h_ = 1, inv_ = 1;
+  std::size_t nx_ = 0;
+  std::uint32_t gen_ = 0;
+  std::vector<double> d_, j_;
+  std::vector<std::uint32_t> dstamp_, jstamp_;
+};
+
 // Per-thread evaluators of the part, the mid-surface, the solids and c.
 struct Ctx {
   Evaluator part, phi;
   std::optional<Evaluator> solids, c;
+  LayerGrid grid;
   Ctx(const Field& p, const PbfDesign& d, const Field& c_field)
       : part(p), phi(d.phi) {
     if (!d.solids.empty()) solids.emplace(d.solids);
@@ -64,30 +115,6 @@ struct Ctx {
 
 // Grid-node values of the part and of the joint measure, shared by the S and J marches of a
 // layer (both sample the same nodes).
-class LayerGrid {
- public:
-  LayerGrid(Vec2 lo, double h, std::size_t nx, std::size_t ny)
-      : lo_(lo), h_(h), nx_(nx + 1), d_((nx + 1) * (ny + 1), kUnset), j_((nx + 1) * (ny + 1), kUnset) {}
-  // Index of p if it is a grid node, else npos.
-  std::size_t node(Vec2 p) const {
-    const double fi = (p.x - lo_.x) / h_, fj = (p.y - lo_.y) / h_;
-    const double ri = std::round(fi), rj = std::round(fj);
-    if (std::abs(fi - ri) > 1e-7 || std::abs(fj - rj) > 1e-7 || ri < 0 || rj < 0) return npos;
-    const auto i = static_cast<std::size_t>(ri), j = static_cast<std::size_t>(rj);
-    if (i >= nx_ || j * nx_ + i >= d_.size()) return npos;
-    return j * nx_ + i;
-  }
-  static constexpr std::size_t npos = static_cast<std::size_t>(-1);
-  static constexpr double kUnset = std::numeric_limits<double>::quiet_NaN();
-  double& part(std::size_t k) { return d_[k]; }
-  double& joint(std::size_t k) { return j_[k]; }
-
- private:
-  Vec2 lo_;
-  double h_;
-  std::size_t nx_;
-  std::vector<double> d_, j_;
-};
 
 // The joint region's field at height z: negative where the sheet is wider than a thin wall
 // (thin_multiple·D), or shallower than the minimum inclination, or inside a solid part; positive
@@ -102,19 +129,19 @@ class JointSection : public PlaneFunction {
   void use_grid(LayerGrid* g) { grid_ = g; }
   double at(Vec2 q) {
     const std::size_t k = grid_ ? grid_->node(q) : LayerGrid::npos;
-    if (k != LayerGrid::npos && !invert_ && !std::isnan(grid_->joint(k))) return grid_->joint(k);
+    if (k != LayerGrid::npos && !invert_ && grid_->has_joint(k)) return grid_->joint(k);
     const double v = compute(q, k);
-    if (k != LayerGrid::npos && !invert_) grid_->joint(k) = v;
+    if (k != LayerGrid::npos && !invert_) grid_->set_joint(k, v);
     return v;
   }
   double compute(Vec2 q, std::size_t k) {
     const Vec3 p{q.x, q.y, z_};
     double D;
-    if (k != LayerGrid::npos && !std::isnan(grid_->part(k))) {
+    if (k != LayerGrid::npos && grid_->has_part(k)) {
       D = grid_->part(k);
     } else {
       D = ctx_.part.value(p);
-      if (k != LayerGrid::npos) grid_->part(k) = D;
+      if (k != LayerGrid::npos) grid_->set_part(k, D);
     }
     if (D >= 0) return D;
     const Vec3 grad = ctx_.phi.gradient(p);  // analytic for TPMS
@@ -160,7 +187,7 @@ class PartSection : public PlaneFunction {
     keys_.clear();
     for (std::size_t i = 0; i < n; ++i) {
       const std::size_t k = grid_.node(p[i]);
-      if (k != LayerGrid::npos && !std::isnan(grid_.part(k))) {
+      if (k != LayerGrid::npos && grid_.has_part(k)) {
         out[i] = grid_.part(k);
         continue;
       }
@@ -173,7 +200,7 @@ class PartSection : public PlaneFunction {
     ctx_.part.values(pts_.data(), vals_.data(), pts_.size());
     for (std::size_t m = 0; m < miss_.size(); ++m) {
       out[miss_[m]] = vals_[m];
-      if (keys_[m] != LayerGrid::npos) grid_.part(keys_[m]) = vals_[m];
+      if (keys_[m] != LayerGrid::npos) grid_.set_part(keys_[m], vals_[m]);
     }
   }
   Interval bound(Vec2 lo, Vec2 hi) override {
@@ -337,6 +364,7 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o,
                 std::ceil((e.max.y + pad) / o.resolution) * o.resolution};
   MarchOptions mo;
   mo.resolution = o.resolution;
+  mo.refine_fraction = 1e-3;  // 25 nm at the default grid: far below the 1 µm the paths need
 
   result.layers.resize(zs.size());
   tbb::enumerable_thread_specific<Ctx> contexts([&] { return Ctx(part, design, c_field); });
@@ -351,7 +379,8 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o,
     // The sheet's cross-section S.
     const std::size_t nx = static_cast<std::size_t>(std::llround((hi.x - lo.x) / o.resolution));
     const std::size_t ny = static_cast<std::size_t>(std::llround((hi.y - lo.y) / o.resolution));
-    LayerGrid grid(lo, o.resolution, nx, ny);
+    LayerGrid& grid = ctx.grid;
+    grid.reset(lo, o.resolution, nx, ny);
     Regions S;
     if (o.stl_route) {
       S = slice_mesh(mesh, z);

@@ -28,7 +28,7 @@ struct PbfDesign {
 
 struct PbfOptions {
   double layer = 0.02;             // mm
-  double resolution = 0.02;        // mm, XY grid of the direct contours
+  double resolution = 0.025;       // mm, XY grid of the direct contours
   double segment_length = 0.1;     // SL, mm (5–400 µm)
   double segment_gap = 0.02;       // LHD, mm (0–120 µm)
   double hatch_distance = 0.04;    // mm
