@@ -181,3 +181,43 @@ TEST(Pbf, BadSettingsAreErrors) {
 }
 
 }  // namespace
+
+namespace {
+
+// A lattice with a solid boss: the boss is hatched, never contoured; a graded lattice (sigmoid
+// blend of two cell sizes along z) and a graded c plan without error and keep the properties.
+TEST(Pbf, SolidBossesAreHatchedGradedLatticesPlan) {
+  PbfDesign d = gyroid_cube(5.0);
+  d.solids = cylinder(1.0, 5.0);
+  PbfOptions o;
+  o.layer = 0.5;
+  const PbfResult r = plan_pbf(d, o);
+  std::size_t in_boss = 0;
+  for (const auto& L : r.layers) {
+    for (const auto& v : L.contours)
+      for (auto p : v) EXPECT_GT(std::hypot(p.x, p.y), 1.0 - 1e-3);
+    for (const auto& h : L.hatches) {
+      const Vec2 m = (h.a + h.b) * 0.5;
+      in_boss += std::hypot(m.x, m.y) < 0.9;
+    }
+  }
+  EXPECT_GT(in_boss, 50u);
+
+  PbfDesign g;
+  g.phi = blend(tpms(TpmsKind::Gyroid, {2.5, 2.5, 2.5}), tpms(TpmsKind::Gyroid, {1.25, 1.25, 1.25}),
+                {"1/(1+exp(-z/0.5))"});
+  g.c = {"0.1 + 0.05*(z+2.5)/5"};
+  g.envelope = rectprism({5, 5, 5});
+  const PbfResult rg = plan_pbf(g, o);
+  EXPECT_EQ(rg.layers.size(), 10u);
+  EXPECT_GT(rg.contour_vectors + rg.hatch_vectors, 100u);
+  Evaluator phi(g.phi);
+  for (const auto& L : rg.layers)
+    for (const auto& v : L.contours)
+      for (auto p : v) {
+        const Vec3 q{p.x, p.y, L.z};
+        EXPECT_LT(std::abs(phi.value(q)) / norm(phi.gradient(q)), 1e-3);
+      }
+}
+
+}  // namespace
