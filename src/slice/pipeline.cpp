@@ -49,10 +49,6 @@ SliceResult run_slice(const SliceJob& job,
   const bool is_vcad = ends_with_ci(job.input, ".vcad");
   r.route = job.route == SliceRoute::Auto ? (is_vcad ? SliceRoute::Field : SliceRoute::Mesh)
                                           : job.route;
-  if (is_vcad && r.route == SliceRoute::Mesh)
-    throw SettingError(
-        "--route mesh needs a mesh; a .vcad design is sliced through its field (the mesh route "
-        "takes .stl, .obj or .3mf files)");
   const auto t0 = std::chrono::steady_clock::now();
   const double h = job.planar.layer_height;
   if (!(h > 0)) throw SettingError("layer height must be > 0");
@@ -85,6 +81,18 @@ SliceResult run_slice(const SliceJob& job,
     r.extent = field.extent();
     check_layers(r.extent);
     r.outlines = slice_field(field, zs, job.field, &r.field_stats, report);
+  } else if (is_vcad) {
+    // The classic route for a design: marching cubes of its field (OpenVDB) at the mesh voxel,
+    // then plane cuts — for comparison with the direct route.
+    VcadOptions vo;
+    vo.mesh_voxel = job.mesh_voxel;
+    const Field field = read_vcad(job.input, vo).field;
+    r.extent = field.extent();
+    check_layers(r.extent);
+    const TriangleMesh mesh = field_to_mesh(field, r.extent, job.mesh_voxel);
+    r.mesh_triangles = mesh.triangles.size();
+    r.outlines = slice_mesh_layers(mesh, zs);
+    report(1.0);
   } else {
     const TriangleMesh mesh = weld(read_mesh(job.input));
     r.mesh_triangles = mesh.triangles.size();

@@ -399,10 +399,19 @@ TEST(Pipeline, SlicesEveryAppendixBDesign) {
     EXPECT_GT(r.planar.paths, 0u) << name;
     for (const auto& l : r.outlines) EXPECT_FALSE(l.regions.empty()) << name << " z=" << l.z;
   }
-  SliceJob bad;
-  bad.input = kDesigns + "fgm_column2_plate.vcad";
-  bad.route = SliceRoute::Mesh;
-  EXPECT_THROW(run_slice(bad), SettingError);
+  // The mesh route of a design: marching cubes, then plane cuts; the same outlines within
+  // the voxel.
+  SliceJob field_job, mesh_job;
+  field_job.input = mesh_job.input = kDesigns + "fgm_column5_ring_radial.vcad";
+  field_job.planar.layer_height = mesh_job.planar.layer_height = 2.0;
+  mesh_job.route = SliceRoute::Mesh;
+  mesh_job.mesh_voxel = 0.25;
+  const SliceResult a = run_slice(field_job), b = run_slice(mesh_job);
+  EXPECT_EQ(b.route, SliceRoute::Mesh);
+  ASSERT_EQ(a.outlines.size(), b.outlines.size());
+  for (std::size_t i = 0; i < a.outlines.size(); ++i)
+    EXPECT_NEAR(area(a.outlines[i].regions), area(b.outlines[i].regions),
+                0.005 * area(a.outlines[i].regions));
   SliceJob unbounded;
   const auto tmp = std::filesystem::temp_directory_path() / "trellis_unbounded.vcad";
   {
