@@ -1,6 +1,5 @@
 #include <sys/resource.h>
 
-#include <filesystem>
 #include <fmt/format.h>
 #include <iostream>
 #include <nlohmann/json.hpp>
@@ -192,23 +191,13 @@ void add_pbf(CLI::App& app) {
       j["peak_memory_mb"] = rss;
       write_file_atomic(o->report, j.dump(2) + "\n");
     }
-    std::vector<std::string> pngs;
-    if (!o->preview.empty() && o->preview_layers > 0 && !tp.layers.empty()) {
-      std::filesystem::create_directories(o->preview);
-      const std::size_t n = tp.layers.size(), k = std::min(o->preview_layers, n);
-      RenderOptions ro;
-      ro.colour_by_role = true;
-      ro.travel = false;
-      ro.starts = false;
-      ro.bead_width = prof.melt_pool_width;
-      ro.margin_mm = 0.2;
-      for (std::size_t t = 0; t < k; ++t) {
-        const std::size_t layer = k == 1 ? n / 2 : t * (n - 1) / (k - 1);
-        const std::string png = o->preview + "/layer_" + std::to_string(layer) + ".png";
-        render_layer_png(tp, layer, png, ro);
-        pngs.push_back(png);
-      }
-    }
+    RenderOptions ro;
+    ro.colour_by_role = true;
+    ro.travel = false;
+    ro.starts = false;
+    ro.bead_width = prof.melt_pool_width;
+    ro.margin_mm = 0.2;
+    const std::vector<std::string> pngs = render_previews(tp, o->preview, o->preview_layers, ro);
     std::cout << (o->r67 ? "r67" : "hybrid") << " (" << o->route << " route): " << r.layers.size()
               << " layers, " << r.contour_vectors << " contour vectors (" << num(r.contour_length, 1)
               << " mm), " << r.hatch_vectors << " hatch vectors (" << num(r.hatch_length, 1)

@@ -1,4 +1,3 @@
-#include <filesystem>
 #include <iostream>
 
 #include "commands.hpp"
@@ -78,18 +77,7 @@ void add_slice(CLI::App& app) {
     const GcodeStats g = write_gcode_file(o->output, r.toolpath, profile);
     if (!o->toolpath.empty()) write_toolpath(o->toolpath, r.toolpath);
     if (!o->report.empty()) write_file_atomic(o->report, slice_report_json(job, r, &g));
-    std::vector<std::string> pngs;
-    if (!o->preview.empty() && o->preview_layers > 0) {
-      std::filesystem::create_directories(o->preview);
-      const std::size_t n = r.toolpath.layers.size();
-      const std::size_t k = std::min(o->preview_layers, n);
-      for (std::size_t t = 0; t < k; ++t) {
-        const std::size_t layer = k == 1 ? 0 : t * (n - 1) / (k - 1);
-        const std::string png = o->preview + "/layer_" + std::to_string(layer) + ".png";
-        render_layer_png(r.toolpath, layer, png);
-        pngs.push_back(png);
-      }
-    }
+    const std::vector<std::string> pngs = render_previews(r.toolpath, o->preview, o->preview_layers);
     std::cout << to_string(r.route) << " route: " << r.outlines.size() << " layers, "
               << r.planar.paths << " paths (" << r.planar.walls << " wall loops, "
               << r.planar.skin_lines << " skin lines, " << r.planar.infill_lines

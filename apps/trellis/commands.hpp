@@ -4,6 +4,8 @@
 #include <CLI/CLI.hpp>
 
 #include "trellis/core/diagnostics.hpp"
+#include "trellis/render/render.hpp"
+#include "trellis/toolpath/toolpath.hpp"
 
 namespace trellis::cli {
 
@@ -22,6 +24,9 @@ void add_pbf(CLI::App& app);
 void progress_line(const std::string& stage, double fraction);
 // Prints the warnings of a run on stderr.
 void print_warnings(const Diagnostics& diag);
+// PNGs of `count` layers spread over the toolpath, named DIR/layer_N.png; returns the paths.
+std::vector<std::string> render_previews(const Toolpath& toolpath, const std::string& dir,
+                                         std::size_t count, const RenderOptions& options = {});
 // Fixed-point text of v for messages.
 std::string num(double v, int decimals);
 

@@ -2,6 +2,7 @@
 #include <unistd.h>
 
 #include <cstdio>
+#include <filesystem>
 #include <iostream>
 
 #include "commands.hpp"
@@ -23,6 +24,22 @@ void print_warnings(const Diagnostics& diag) {
     for (const auto& m : diag.messages())
       if (m.kind == kind) std::cerr << "  " << m.text << "\n";
   }
+}
+
+std::vector<std::string> render_previews(const Toolpath& toolpath, const std::string& dir,
+                                         std::size_t count, const RenderOptions& options) {
+  std::vector<std::string> pngs;
+  const std::size_t n = toolpath.layers.size();
+  if (dir.empty() || count == 0 || n == 0) return pngs;
+  std::filesystem::create_directories(dir);
+  const std::size_t k = std::min(count, n);
+  for (std::size_t t = 0; t < k; ++t) {
+    const std::size_t layer = k == 1 ? n / 2 : t * (n - 1) / (k - 1);
+    const std::string png = dir + "/layer_" + std::to_string(layer) + ".png";
+    render_layer_png(toolpath, layer, png, options);
+    pngs.push_back(png);
+  }
+  return pngs;
 }
 
 std::string num(double v, int decimals) {

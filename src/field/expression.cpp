@@ -92,6 +92,16 @@ void check_expression(const std::string& text, long* error_column) {
   }
 }
 
+bool constant_expression(const std::string& text, double* value) {
+  if (text.empty()) return false;
+  char* end = nullptr;
+  const double v = std::strtod(text.c_str(), &end);
+  while (end && (*end == ' ' || *end == '\t')) ++end;
+  if (!end || *end != '\0' || end == text.c_str()) return false;
+  if (value) *value = v;
+  return true;
+}
+
 CompiledExpr& EvalState::expr(const Expression& e) {
   auto it = exprs.find(&e);
   if (it != exprs.end()) return *it->second;

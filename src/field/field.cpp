@@ -825,10 +825,8 @@ Field tpms(TpmsKind kind, Vec3 cell, Expression c, std::string material) {
   n->k = {tau / cell.x, tau / cell.y, tau / cell.z};
   if (!c.text.empty()) {
     n->sheet = true;
-    char* end = nullptr;
-    const double v = std::strtod(c.text.c_str(), &end);
-    while (end && *end == ' ') ++end;
-    if (end && *end == '\0' && end != c.text.c_str()) {
+    double v = 0;
+    if (constant_expression(c.text, &v)) {
       if (!(v >= 0) || !std::isfinite(v)) throw GeometryError("TPMS sheet c must be >= 0");
       n->c = v;
     } else {
@@ -847,10 +845,8 @@ Field sheet(Field phi, Expression c, double uniform_thickness) {
     if (!std::isfinite(uniform_thickness)) throw GeometryError("sheet thickness must be finite");
     n->thickness = uniform_thickness;
   } else {
-    char* end = nullptr;
-    const double v = std::strtod(c.text.c_str(), &end);
-    while (end && *end == ' ') ++end;
-    if (!c.text.empty() && end && *end == '\0') {
+    double v = 0;
+    if (constant_expression(c.text, &v)) {
       if (!(v >= 0) || !std::isfinite(v)) throw GeometryError("sheet c must be >= 0");
       n->c = v;
     } else {

@@ -1,6 +1,8 @@
 #include "trellis/geom/polygon.hpp"
 
 #include <clipper.hpp>
+
+#include "clipper_util.hpp"
 #include <cmath>
 #include <map>
 #include <numbers>
@@ -30,20 +32,8 @@ Polygon2 make_circle(Vec2 c, double d, double max_error) {
   return p;
 }
 
-namespace {
-
-cl::IntPoint to_int(Vec2 p) {
-  return {static_cast<cl::cInt>(std::llround(p.x * kClipperScale)),
-          static_cast<cl::cInt>(std::llround(p.y * kClipperScale))};
-}
-
-cl::Path to_path(const std::vector<Vec2>& ring) {
-  cl::Path path;
-  for (auto p : ring) path.push_back(to_int(p));
-  return path;
-}
-
-}  // namespace
+using clipper_util::to_int;
+using clipper_util::to_path;
 
 std::vector<Segment2> clip_segments(const std::vector<Segment2>& segments, const Polygon2& region) {
   std::map<std::pair<cl::cInt, cl::cInt>, Vec2> exact;

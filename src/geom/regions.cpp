@@ -2,6 +2,8 @@
 
 #include <clipper.hpp>
 
+#include "clipper_util.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <numbers>
@@ -13,16 +15,9 @@ namespace cl = ClipperLib;
 
 namespace {
 
-cl::IntPoint to_int(Vec2 p) {
-  return {static_cast<cl::cInt>(std::llround(p.x * kClipperScale)),
-          static_cast<cl::cInt>(std::llround(p.y * kClipperScale))};
-}
-cl::Path to_path(const std::vector<Vec2>& ring) {
-  cl::Path path;
-  path.reserve(ring.size());
-  for (auto p : ring) path.push_back(to_int(p));
-  return path;
-}
+using clipper_util::from_int;
+using clipper_util::to_path;
+
 cl::Paths to_paths(const Regions& regions) {
   cl::Paths out;
   for (const auto& p : regions) {
@@ -35,9 +30,7 @@ cl::Paths to_paths(const Regions& regions) {
 std::vector<Vec2> from_path(const cl::Path& path, bool want_ccw) {
   std::vector<Vec2> ring;
   ring.reserve(path.size());
-  for (const auto& p : path)
-    ring.push_back({static_cast<double>(p.X) / kClipperScale,
-                    static_cast<double>(p.Y) / kClipperScale});
+  for (const auto& p : path) ring.push_back(from_int(p));
   if (cl::Orientation(path) != want_ccw) std::reverse(ring.begin(), ring.end());
   return ring;
 }
@@ -257,8 +250,7 @@ std::vector<std::vector<Vec2>> clip_polylines(const std::vector<std::vector<Vec2
   for (const auto& path : open) {
     std::vector<Vec2> l;
     l.reserve(path.size());
-    for (const auto& p : path)
-      l.push_back({static_cast<double>(p.X) / kClipperScale, static_cast<double>(p.Y) / kClipperScale});
+    for (const auto& p : path) l.push_back(from_int(p));
     if (l.size() >= 2) out.push_back(std::move(l));
   }
   return out;

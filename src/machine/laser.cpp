@@ -66,6 +66,13 @@ void put(std::string& out, double mm) {
   out += fmt::format("{}", v);
 }
 
+void put_xy(std::string& out, const Vec3& q) {
+  out += ',';
+  put(out, q.x);
+  out += ',';
+  put(out, q.y);
+}
+
 }  // namespace
 
 LaserProfile laser_profile_from_toml(const std::string& text, const std::string& origin) {
@@ -112,24 +119,14 @@ std::string write_cli(const Toolpath& tp, const LaserProfile& prof) {
         continue;
       }
       out += fmt::format("$$POLYLINE/1,2,{}", p.points.size());
-      for (const auto& q : p.points) {
-        out += ',';
-        put(out, q.x);
-        out += ',';
-        put(out, q.y);
-      }
+      for (const auto& q : p.points) put_xy(out, q);
       out += '\n';
     }
     if (hatches) {
       out += fmt::format("$$HATCHES/2,{}", hatches);
       for (const auto& p : layer.paths)
         if (p.role == PathRole::Infill && p.points.size() == 2)
-          for (const auto& q : p.points) {
-            out += ',';
-            put(out, q.x);
-            out += ',';
-            put(out, q.y);
-          }
+          for (const auto& q : p.points) put_xy(out, q);
       out += '\n';
     }
   }

@@ -340,10 +340,7 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o,
   double c_const = 0;
   Field c_field;
   if (design.thickness <= 0) {
-    char* end = nullptr;
-    c_const = std::strtod(design.c.text.c_str(), &end);
-    while (end && *end == ' ') ++end;
-    if (design.c.text.empty() || !end || *end != '\0') c_field = expression_field(design.c);
+    if (!constant_expression(design.c.text, &c_const)) c_field = expression_field(design.c);
   }
 
   // The STL route: one marching-cubes mesh of the part, cut by planes.

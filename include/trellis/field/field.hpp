@@ -30,6 +30,9 @@ struct Expression {
 // within the expression text of the first problem.
 void check_expression(const std::string& text, long* error_column = nullptr);
 
+// Whether the expression is just a number (then *value is it).
+bool constant_expression(const std::string& text, double* value);
+
 enum class TpmsKind { Gyroid, SchwarzP, SchwarzD, Neovius, Iwp };
 const char* to_string(TpmsKind kind);
 
