@@ -253,8 +253,9 @@ TriangleMesh read_3mf(const std::string& path) {
     while (lib3mf_builditemiterator_movenext(items.p, &more) == LIB3MF_OK && more) {
       Handle item;
       if (lib3mf_builditemiterator_getcurrent(items.p, &item.p) != LIB3MF_OK) break;
-      PLib3MFBase* object = nullptr;  // owned by the model
-      if (lib3mf_builditem_getobjectresource(item.p, &object) != LIB3MF_OK || !object) continue;
+      Handle obj;  // a new reference: released like every other handle
+      if (lib3mf_builditem_getobjectresource(item.p, &obj.p) != LIB3MF_OK || !obj.p) continue;
+      PLib3MFBase* object = obj.p;
       BOOL is_mesh = false;
       lib3mf_object_ismeshobject(object, &is_mesh);
       if (!is_mesh) {
