@@ -3,6 +3,7 @@
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cstdint>
 #include <chrono>
@@ -311,6 +312,82 @@ Vec2 refine_end(JointSection* joint, Ctx& ctx, double z, bool use_part, Vec2 p, 
   return p + dir * (0.5 * (lo + hi));
 }
 
+// Inside intervals of f (< 0) along the scan line q(s) = origin + s·u, s in [s0, s1], by
+// zero-finding: the part's interval bound discards stretches that cannot reach the sheet;
+// the rest is split down to `leaf`, whose ends are sampled; a sign change is bisected to `tol`;
+// a leaf with both ends outside is probed at its middle, so a crossing wider than half a leaf is
+// always found.
+class LineZeros {
+ public:
+  LineZeros(Ctx& ctx, JointSection* joint, bool use_joint, double z, double leaf, double tol)
+      : ctx_(ctx), joint_(joint), use_joint_(use_joint), z_(z), leaf_(leaf), tol_(tol) {}
+  std::vector<std::pair<double, double>> run(Vec2 origin, Vec2 u, double s0, double s1) {
+    o_ = origin;
+    u_ = u;
+    roots_.clear();
+    const double f0 = f(s0), f1 = f(s1);
+    visit(s0, s1, f0, f1, 0);
+    // Roots in order; inside between an entering and the next leaving root.
+    std::vector<std::pair<double, double>> out;
+    bool inside = f0 < 0;
+    double start = s0;
+    std::sort(roots_.begin(), roots_.end());
+    for (double r : roots_) {
+      if (inside) out.emplace_back(start, r);
+      else start = r;
+      inside = !inside;
+    }
+    if (inside) out.emplace_back(start, s1);
+    return out;
+  }
+
+ private:
+  double f(double s) {
+    const Vec2 q = o_ + u_ * s;
+    return use_joint_ ? joint_->at(q) : ctx_.part.value({q.x, q.y, z_});
+  }
+  Interval bound(double a, double b) {
+    BBox3 box;
+    const Vec2 p = o_ + u_ * a, q = o_ + u_ * b;
+    box.add({p.x, p.y, z_});
+    box.add({q.x, q.y, z_});
+    return ctx_.part.bound(box);
+  }
+  void root(double a, double b, double fa) {
+    while (b - a > tol_) {
+      const double m = 0.5 * (a + b);
+      if ((f(m) < 0) == (fa < 0)) a = m; else b = m;
+    }
+    roots_.push_back(0.5 * (a + b));
+  }
+  void visit(double a, double b, double fa, double fb, int depth) {
+    // Stretches that cannot reach the part are dropped (bounds are not worth it on the last
+    // levels, where sampling is as cheap).
+    if (b - a > 4 * leaf_ && bound(a, b).lo > 0) return;
+    if (b - a <= leaf_ || depth > 40) {
+      if ((fa < 0) != (fb < 0)) {
+        root(a, b, fa);
+      } else if (fa >= 0) {
+        const double m = 0.5 * (a + b), fm = f(m);
+        if (fm < 0) {
+          root(a, m, fa);
+          root(m, b, fm);
+        }
+      }
+      return;
+    }
+    const double m = 0.5 * (a + b), fm = f(m);
+    visit(a, m, fa, fm, depth + 1);
+    visit(m, b, fm, fb, depth + 1);
+  }
+  Ctx& ctx_;
+  JointSection* joint_;
+  bool use_joint_;
+  double z_, leaf_, tol_;
+  Vec2 o_, u_;
+  std::vector<double> roots_;
+};
+
 }  // namespace
 
 PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o,
@@ -361,7 +438,7 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o,
                 std::ceil((e.max.y + pad) / o.resolution) * o.resolution};
   MarchOptions mo;
   mo.resolution = o.resolution;
-  mo.refine_fraction = 1e-3;  // 25 nm at the default grid: far below the 1 µm the paths need
+  mo.refine_fraction = 1e-2;  // 0.25 µm at the default grid: below the 1 µm the paths need
 
   result.layers.resize(zs.size());
   tbb::enumerable_thread_specific<Ctx> contexts([&] { return Ctx(part, design, c_field); });
@@ -438,23 +515,48 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o,
         for (std::size_t k = 1; k < v.size(); ++k)
           L.contour_length += std::hypot(v[k].x - v[k - 1].x, v[k].y - v[k - 1].y);
     }
-    // Hatch: polygon scan lines find the crossings, each refined on the field (zero-finding by
-    // bisection in a bracket of ±2 cells), then pulled in by the beam compensation.
-    const Vec2 u{std::cos(L.hatch_angle * kDeg), std::sin(L.hatch_angle * kDeg)};
-    const double delta = 2 * o.resolution;
-    for (const auto& s : hatch(hatch_region, L.hatch_angle, o.hatch_distance)) {
-      Vec2 a = s.a, b = s.b;
-      if (!o.stl_route) {
-        const double half = 0.5 * std::hypot(b.x - a.x, b.y - a.y);
-        a = refine_end(&joint, ctx, z, !o.hybrid, a, u, delta, half, o.refine);
-        b = refine_end(&joint, ctx, z, !o.hybrid, b, u * -1.0, delta, half, o.refine);
-      }
+    // Hatch vectors, pulled in by the beam compensation at both ends.
+    const double ang = L.hatch_angle * kDeg;
+    const Vec2 u{std::cos(ang), std::sin(ang)}, v{-std::sin(ang), std::cos(ang)};
+    auto add_vector = [&](Vec2 a, Vec2 b) {
       const double len = std::hypot(b.x - a.x, b.y - a.y) - 2 * o.beam_compensation;
-      if (len <= 1e-6) continue;
-      a = a + u * o.beam_compensation;
-      b = b - u * o.beam_compensation;
-      L.hatches.push_back({a, b});
+      if (len <= 1e-6) return;
+      L.hatches.push_back({a + u * o.beam_compensation, b - u * o.beam_compensation});
       L.hatch_length += len;
+    };
+    if (o.hybrid || o.stl_route) {
+      // Joints are wider than a thin wall (thin_multiple · D) by definition, so their outline on
+      // the grid cannot miss one: its scan lines seed each crossing, refined on the field.
+      const double delta = 2 * o.resolution;
+      for (const auto& seg : hatch(hatch_region, L.hatch_angle, o.hatch_distance)) {
+        Vec2 a = seg.a, b = seg.b;
+        if (!o.stl_route) {
+          const double half = 0.5 * std::hypot(b.x - a.x, b.y - a.y);
+          a = refine_end(&joint, ctx, z, false, a, u, delta, half, o.refine);
+          b = refine_end(&joint, ctx, z, false, b, u * -1.0, delta, half, o.refine);
+        }
+        add_vector(a, b);
+      }
+    } else {
+      // R67 over the whole sheet, where walls can be thinner than the grid: zero-finding along
+      // every scan line, across the domain box.
+      double t0 = 1e300, t1 = -1e300, s0 = 1e300, s1 = -1e300;
+      for (const Vec2 c : {lo, hi, Vec2{lo.x, hi.y}, Vec2{hi.x, lo.y}}) {
+        t0 = std::min(t0, c.x * v.x + c.y * v.y);
+        t1 = std::max(t1, c.x * v.x + c.y * v.y);
+        s0 = std::min(s0, c.x * u.x + c.y * u.y);
+        s1 = std::max(s1, c.x * u.x + c.y * u.y);
+      }
+      // Leaves of two grid cells, probed at their middle: crossings wider than one cell are
+      // always found.
+      LineZeros zeros(ctx, &joint, false, z, 2 * o.resolution, o.refine);
+      const auto k0 = static_cast<long long>(std::ceil(t0 / o.hatch_distance));
+      const auto k1 = static_cast<long long>(std::floor(t1 / o.hatch_distance));
+      for (long long k = k0; k <= k1; ++k) {
+        const Vec2 origin = v * (static_cast<double>(k) * o.hatch_distance);
+        for (const auto& [a, b] : zeros.run(origin, u, s0, s1))
+          add_vector(origin + u * a, origin + u * b);
+      }
     }
     // The R67 baseline on the same layer: the whole sheet hatched, same compensation.
     double r67 = 0;
