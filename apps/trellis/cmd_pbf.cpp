@@ -184,6 +184,9 @@ void add_pbf(CLI::App& app) {
       j["scan_length_mm"] = r.contour_length + r.hatch_length;
       j["fr_a"] = {{"mean", h.mean}, {"min", h.min}, {"max", h.max}, {"cv", h.cv}};
       j["fr_a_r67_baseline"] = {{"mean", b.mean}, {"min", b.min}, {"max", b.max}, {"cv", b.cv}};
+      const PbfStats t = thickness_stats(r.layers);
+      j["wall_thickness_mm"] = {{"mean", t.mean}, {"min", t.min}, {"max", t.max},
+                                {"spread", t.cv}};
       if (po.stl_route)
         j["mesh"] = {{"triangles", r.mesh_triangles}, {"mesh_bytes", r.mesh_bytes},
                      {"grid_bytes", r.grid_bytes}};

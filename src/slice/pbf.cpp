@@ -49,6 +49,25 @@ PbfStats fr_stats(const std::vector<PbfLayer>& layers, bool r67) {
   return s;
 }
 
+PbfStats thickness_stats(const std::vector<PbfLayer>& layers) {
+  PbfStats s;
+  double sum = 0;
+  std::size_t n = 0;
+  s.min = std::numeric_limits<double>::infinity();
+  s.max = -s.min;
+  for (const auto& l : layers) {
+    if (l.t_count == 0) continue;
+    sum += l.t_sum;
+    n += l.t_count;
+    s.min = std::min(s.min, l.t_min);
+    s.max = std::max(s.max, l.t_max);
+  }
+  if (n == 0) return {};
+  s.mean = sum / static_cast<double>(n);
+  s.cv = s.mean > 0 ? (s.max - s.min) / s.mean : 0;
+  return s;
+}
+
 namespace {
 
 constexpr double kDeg = std::numbers::pi / 180;
@@ -481,6 +500,39 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o,
         lines.push_back(std::move(l));
       }
       std::vector<std::vector<Vec2>> pieces;
+      // Wall thickness measured across the sheet at mid-curve points inside the part (every
+      // 32nd point): from φ = 0 along ±∇φ to where Φ = 0 on each side, by bisection.
+      L.t_min = std::numeric_limits<double>::infinity();
+      L.t_max = 0;
+      auto side = [&](Vec3 p, Vec3 n, double reach) {
+        double a = 0, b = reach;
+        if (ctx.part.value(p + n * b) < 0) return -1.0;  // no boundary within reach
+        for (int it = 0; it < 40 && b - a > 1e-6; ++it) {
+          const double m = 0.5 * (a + b);
+          (ctx.part.value(p + n * m) < 0 ? a : b) = m;
+        }
+        return 0.5 * (a + b);
+      };
+      for (const auto& l : lines)
+        for (std::size_t k = 0; k < l.size(); k += 32) {
+          const Vec3 p{l[k].x, l[k].y, z};
+          if (ctx.part.value(p) >= 0) continue;
+          const Vec3 g = ctx.phi.gradient(p);
+          const double gn = norm(g);
+          if (!(gn > 0)) continue;
+          const Vec3 n = g * (1.0 / gn);
+          const double nominal = design.thickness > 0
+                                     ? design.thickness
+                                     : 2 * std::abs(ctx.c ? ctx.c->value(p) : c_const) / gn;
+          const double up = side(p, n, 2 * nominal), down = side(p, n * -1.0, 2 * nominal);
+          if (up < 0 || down < 0) continue;  // cut by the envelope or a joint
+          const double t = up + down;
+          L.t_min = std::min(L.t_min, t);
+          L.t_max = std::max(L.t_max, t);
+          L.t_sum += t;
+          ++L.t_count;
+        }
+      if (L.t_count == 0) L.t_min = 0;
       for (const auto& l : lines) {
         std::vector<Vec2> cur;
         double prev = thin.at(l[0]);

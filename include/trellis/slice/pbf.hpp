@@ -53,12 +53,18 @@ struct PbfLayer {
   double contour_length = 0, hatch_length = 0;   // mm
   double fr = 0;                                 // FR_a of this path
   double fr_r67 = 0;                             // FR_a of the R67 baseline on the same layer
+  // Sheet thickness measured along ∇φ from mid-curve points (Φ = 0 on both sides): min, max,
+  // sum, count.
+  double t_min = 0, t_max = 0, t_sum = 0;
+  std::size_t t_count = 0;
 };
 
 struct PbfStats {
   double mean = 0, min = 0, max = 0, cv = 0;  // over layers with area > 0
 };
 PbfStats fr_stats(const std::vector<PbfLayer>& layers, bool r67);
+// Wall thickness over all layers' samples (mean, min, max; cv = (max − min) / mean here).
+PbfStats thickness_stats(const std::vector<PbfLayer>& layers);
 
 struct PbfResult {
   std::vector<PbfLayer> layers;
