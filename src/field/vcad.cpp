@@ -103,7 +103,8 @@ class Lexer {
       const double v = std::strtod(begin, &end);
       if (end == begin) fail(fmt::format("unexpected '{}'", c), t.pos);
       const std::size_t len = static_cast<std::size_t>(end - begin);
-      if (!std::isfinite(v)) fail("number out of range", t.pos);
+      if (!std::isfinite(v) || std::abs(v) > 1e6)
+        fail("number beyond ±1e6 (mm): out of range", t.pos);
       for (std::size_t k = 0; k < len; ++k) advance();
       t.kind = Tok::Number;
       t.number = v;
