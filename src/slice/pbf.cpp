@@ -414,6 +414,7 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o,
   const auto t0 = std::chrono::steady_clock::now();
   if (!(o.layer > 0)) throw SettingError("layer thickness must be > 0");
   if (!(o.resolution > 0)) throw SettingError("resolution must be > 0");
+  if (o.coarse < 1 || o.coarse > 8) throw SettingError("coarse grid factor must be 1..8");
   if (!(o.segment_length >= 0.005 && o.segment_length <= 0.4))
     throw SettingError("segment length SL must be within 5–400 µm (0.005–0.4 mm)");
   if (!(o.segment_gap >= 0 && o.segment_gap <= 0.12))
@@ -457,7 +458,12 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o,
                 std::ceil((e.max.y + pad) / o.resolution) * o.resolution};
   MarchOptions mo;
   mo.resolution = o.resolution;
+  // Joints and the mid-curve are smooth at the scale of a cell: they are contoured on a grid
+  // twice as coarse (its nodes are nodes of the fine grid, so the cached part values serve).
+  MarchOptions mo_coarse = mo;
+  mo_coarse.resolution = std::max(1, o.coarse) * o.resolution;
   mo.refine_fraction = 1e-2;  // 0.25 µm at the default grid: below the 1 µm the paths need
+  mo_coarse.refine_fraction = 5e-3;
 
   result.layers.resize(zs.size());
   tbb::enumerable_thread_specific<Ctx> contexts([&] { return Ctx(part, design, c_field); });
@@ -490,14 +496,31 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o,
       // Joints are contoured from their own field (a Boolean of S and J would spend its time on
       // their shared edges); thin walls are the pieces of the mid-curve φ = 0 where the
       // inverted joint measure is negative, split where it changes sign.
-      hatch_region = nest_oriented_rings(march_squares(joint, lo, hi, 0.0, mo).lines.loops);
+      hatch_region = nest_oriented_rings(march_squares(joint, lo, hi, 0.0, mo_coarse).lines.loops);
       JointSection thin(ctx, design, o, c_const, z, true);
       MidSection mid(ctx, z);
-      const ContourSet m = march_squares(mid, lo, hi, 0.0, mo);
+      const ContourSet m = march_squares(mid, lo, hi, 0.0, mo_coarse);
       std::vector<std::vector<Vec2>> lines = m.lines.open;
       for (auto l : m.lines.loops) {
         l.push_back(l.front());
         lines.push_back(std::move(l));
+      }
+      // The mid-curve comes from the coarse grid: put a point, projected onto φ = 0 by a Newton
+      // step along ∇φ, in the middle of every chord (chord error / 4).
+      for (auto& l : lines) {
+        std::vector<Vec2> dense;
+        dense.reserve(2 * l.size());
+        for (std::size_t k = 0; k + 1 < l.size(); ++k) {
+          dense.push_back(l[k]);
+          const Vec2 c = (l[k] + l[k + 1]) * 0.5;
+          const Vec3 q{c.x, c.y, z};
+          const double f = ctx.phi.value(q);
+          const Vec3 g = ctx.phi.gradient(q);
+          const double gg = g.x * g.x + g.y * g.y;  // in the plane of the layer
+          dense.push_back(gg > 0 ? c - Vec2{g.x, g.y} * (f / gg) : c);
+        }
+        dense.push_back(l.back());
+        l = std::move(dense);
       }
       std::vector<std::vector<Vec2>> pieces;
       // Wall thickness measured across the sheet at mid-curve points inside the part (every

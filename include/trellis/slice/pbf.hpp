@@ -29,6 +29,7 @@ struct PbfDesign {
 struct PbfOptions {
   double layer = 0.02;             // mm
   double resolution = 0.025;       // mm, XY grid of the direct contours
+  int coarse = 2;                  // joints and mid-curve on a grid this many times coarser
   double segment_length = 0.1;     // SL, mm (5–400 µm)
   double segment_gap = 0.02;       // LHD, mm (0–120 µm)
   double hatch_distance = 0.04;    // mm
