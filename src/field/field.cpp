@@ -294,9 +294,13 @@ struct TpmsNode : FieldNode {
     }
     return 7;
   }
+  // Max |∇φ| in units of the largest k: √3 for gyroid, P and D, 7 for Neovius, 3√3 for IWP
+  // (maxima of the unit-cell gradient norm; 1% margin). |∇φ|² = Σ kᵢ² (∂ᵢφ̃)² ≤ kmax² C².
   double phi_lipschitz() const {
-    const double m = partial_max();
-    return m * std::sqrt(k.x * k.x + k.y * k.y + k.z * k.z);
+    double c = std::sqrt(3.0);
+    if (kind == TpmsKind::Neovius) c = 7.0;
+    if (kind == TpmsKind::Iwp) c = 3 * std::sqrt(3.0);
+    return 1.01 * c * std::max({k.x, k.y, k.z});
   }
   void eval(const Vec3* p, double* out, std::size_t n, EvalState& s, std::size_t) const override {
     if (!sheet) {

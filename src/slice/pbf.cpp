@@ -123,11 +123,11 @@ class LayerGrid {
 
 // Per-thread evaluators of the part, the mid-surface, the solids and c.
 struct Ctx {
-  Evaluator part, phi;
+  Evaluator part, phi, sheet;  // sheet: Φ alone (no envelope), for thickness measurements
   std::optional<Evaluator> solids, c;
   LayerGrid grid;
   Ctx(const Field& p, const PbfDesign& d, const Field& c_field)
-      : part(p), phi(d.phi) {
+      : part(p), phi(d.phi), sheet(trellis::sheet(d.phi, d.c, d.thickness)) {
     if (!d.solids.empty()) solids.emplace(d.solids);
     if (!c_field.empty()) c.emplace(c_field);
   }
@@ -529,10 +529,10 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o,
       L.t_max = 0;
       auto side = [&](Vec3 p, Vec3 n, double reach) {
         double a = 0, b = reach;
-        if (ctx.part.value(p + n * b) < 0) return -1.0;  // no boundary within reach
+        if (ctx.sheet.value(p + n * b) < 0) return -1.0;  // no boundary within reach
         for (int it = 0; it < 40 && b - a > 1e-6; ++it) {
           const double m = 0.5 * (a + b);
-          (ctx.part.value(p + n * m) < 0 ? a : b) = m;
+          (ctx.sheet.value(p + n * m) < 0 ? a : b) = m;
         }
         return 0.5 * (a + b);
       };
@@ -548,7 +548,7 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o,
                                      ? design.thickness
                                      : 2 * std::abs(ctx.c ? ctx.c->value(p) : c_const) / gn;
           const double up = side(p, n, 2 * nominal), down = side(p, n * -1.0, 2 * nominal);
-          if (up < 0 || down < 0) continue;  // cut by the envelope or a joint
+          if (up < 0 || down < 0) continue;  // no sheet boundary within twice the nominal
           const double t = up + down;
           L.t_min = std::min(L.t_min, t);
           L.t_max = std::max(L.t_max, t);
