@@ -53,12 +53,15 @@ std::string num(double v, int decimals) {
 int main(int argc, char** argv) {
   CLI::App app{
       "Trellis: toolpaths for architected materials.\n"
-      "Design a lattice, plan continuous print paths (GIPPO or Euler), write G-code.\n"
+      "Design a lattice, plan continuous print paths (GIPPO or Euler), write G-code; slice\n"
+      "implicit designs (.vcad) and meshes; make laser powder-bed paths for TPMS lattices.\n"
       "Typical use:\n"
       "  trellis lattice2d --pattern honeycomb --cell 1 -o lattice.json\n"
       "  trellis plan gippo lattice.json -o toolpath.json --report report.json\n"
       "  trellis gcode toolpath.json --machine profiles/ender3_s1_pro_tpu.toml -o part.gcode\n"
-      "  trellis run examples/honeycomb_tensile.toml"};
+      "  trellis run examples/honeycomb_tensile.toml\n"
+      "  trellis slice examples/designs/csg_bracket.vcad --machine profiles/ender3_s1_pro_tpu.toml -o bracket.gcode\n"
+      "  trellis pbf --cell-type gyroid --cell 2.5 --size 10,10,10 -o lattice.cli"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "trellis 0.1.0");
   trellis::cli::add_lattice2d(app);
