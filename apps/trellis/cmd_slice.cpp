@@ -80,7 +80,7 @@ void add_slice(CLI::App& app) {
     const std::vector<std::string> pngs = render_previews(r.toolpath, o->preview, o->preview_layers);
     std::cout << to_string(r.route) << " route: " << r.outlines.size() << " layers, "
               << r.planar.paths << " paths (" << r.planar.walls << " wall loops, "
-              << r.planar.skin_lines << " skin lines, " << r.planar.infill_lines
+              << r.planar.skin_lines << " skin paths, " << r.planar.infill_lines
               << " infill lines), " << num(r.planar.extruded_length, 1) << " mm extruded, ~"
               << num(g.print_time_s / 60, 1) << " min; outlines " << num(r.outline_seconds, 2)
               << " s, walls+infill " << num(r.plan_seconds, 2) << " s\n";

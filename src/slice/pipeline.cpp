@@ -150,7 +150,7 @@ std::string slice_report_json(const SliceJob& job, const SliceResult& r, const G
   j["empty_layers"] = empty_layers;
   j["paths"] = r.planar.paths;
   j["wall_loops"] = r.planar.walls;
-  j["skin_lines"] = r.planar.skin_lines;
+  j["skin_paths"] = r.planar.skin_lines;
   j["infill_lines"] = r.planar.infill_lines;
   j["extruded_length_mm"] = r.planar.extruded_length;
   j["travel_moves"] = travel.moves;

@@ -289,10 +289,37 @@ Toolpath plan_planar(const std::vector<LayerOutline>& layers, const PlanarOption
           if (std::sqrt(dist2(s.a, s.b)) >= o.min_path) kept.push_back(s);
         lines.clear();
         order_lines(std::move(kept), cursor, lines);
+        // Solid skin: consecutive lines whose ends are neighbours are joined by a short
+        // connector (a zig-zag) when the connector stays in the region (within half a bead),
+        // so a skin is a few long paths instead of many short ones with travel between.
+        const bool link = role == PathRole::Skin;
+        std::vector<Vec2> run;
+        auto flush = [&] {
+          if (run.size() >= 2) {
+            layer.paths.push_back(make_path(run, z, role, o, false));
+            ++counter;
+          }
+          run.clear();
+        };
         for (const auto& l : lines) {
-          layer.paths.push_back(make_path(l, z, role, o, false));
-          ++counter;
+          if (link && !run.empty()) {
+            const Vec2 a = run.back(), b = l.front();
+            const Vec2 mid = (a + b) * 0.5;
+            bool inside_region = false;
+            for (const auto& poly : r)
+              if (contains(poly, mid, 0.5 * o.bead_width)) {
+                inside_region = true;
+                break;
+              }
+            if (std::sqrt(dist2(a, b)) <= 2.0 * spacing && inside_region) {
+              run.insert(run.end(), l.begin(), l.end());
+              continue;
+            }
+          }
+          flush();
+          run = l;
         }
+        flush();
       };
       emit(solid, skin_angle, w, PathRole::Skin, per[i].skin_lines);
       emit(sparse, infill_angle, sparse_spacing, PathRole::Infill, per[i].infill_lines);

@@ -74,7 +74,7 @@ struct PlanarOptions {
 };
 
 struct PlanarStats {
-  std::size_t layers = 0, paths = 0, walls = 0, skin_lines = 0, infill_lines = 0;
+  std::size_t layers = 0, paths = 0, walls = 0, skin_lines = 0, infill_lines = 0;  // skin_lines: skin paths (zig-zags)
   double extruded_length = 0;
 };
 
