@@ -255,10 +255,26 @@ class Writer {
     stats_.filament += mm;
   }
 
+  // Mixing hotends (Marlin M165): the mixture of the coming path, when it changes. Letters A B C
+  // D H I are Marlin's mix factors for up to six inputs.
+  void mixture(const Path& path) {
+    if (path.mixture.empty() || path.mixture == mixture_) return;
+    static constexpr char kLetters[] = {'A', 'B', 'C', 'D', 'H', 'I'};
+    out_ += "M165";
+    for (std::size_t i = 0; i < path.mixture.size() && i < 6; ++i) {
+      out_ += ' ';
+      out_ += kLetters[i];
+      append_fixed(out_, path.mixture[i], 4);
+    }
+    out_ += '\n';
+    mixture_ = path.mixture;
+  }
+
   void print_path(const Path& path) {
     if (path.points.size() < 2) return;
     ++stats_.paths;
     travel_to(path.points.front());
+    mixture(path);
     const bool marlin = flavor_ == Flavor::Marlin;
     if (marlin) {
       extra_filament(p_.pre_flow);
@@ -311,6 +327,7 @@ class Writer {
   const Toolpath& tp_;
   Flavor flavor_;
   std::string out_;
+  std::vector<double> mixture_;  // last M165 written
   GcodeStats stats_;
   double dx_ = 0, dy_ = 0;
   double e_ = 0;

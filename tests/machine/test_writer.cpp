@@ -8,6 +8,7 @@
 #include "support/random_graphs.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/lattice/atlas.hpp"
+#include "trellis/machine/gcode_reader.hpp"
 #include "trellis/machine/gcode_writer.hpp"
 #include "trellis/plan/plan.hpp"
 
@@ -227,3 +228,39 @@ TEST(WriterProperty, ByteIdenticalForOneOrTwoThreads) {
   }
   EXPECT_EQ(out[0], out[1]);
 }
+
+namespace {
+
+// Paths that carry a mixture get an M165 before them when it changes; reading the G-code back
+// gives each path its mixture (the graded-material writers build on this).
+TEST(Writer, MixturesBecomeM165AndReadBack) {
+  trellis::Toolpath tp;
+  tp.layers.resize(1);
+  tp.layers[0].z = 0.2;
+  const std::vector<std::vector<double>> mixes = {{0.125, 0.875}, {0.125, 0.875}, {0.625, 0.375}};
+  for (std::size_t i = 0; i < mixes.size(); ++i) {
+    trellis::Path p;
+    p.points = {{0.0, 2.0 * i, 0.2}, {10.0, 2.0 * i, 0.2}};
+    p.mixture = mixes[i];
+    tp.layers[0].paths.push_back(p);
+  }
+  const trellis::MachineProfile prof;
+  const std::string g = trellis::write_gcode(tp, prof);
+  std::size_t count = 0;
+  for (std::size_t pos = g.find("M165"); pos != std::string::npos; pos = g.find("M165", pos + 1)) ++count;
+  EXPECT_EQ(count, 2u);  // the second path keeps the first one's mixture
+  EXPECT_NE(g.find("M165 A0.125 B0.875"), std::string::npos);
+  trellis::Diagnostics diag;
+  const trellis::Toolpath back = trellis::read_gcode(g, {}, diag);
+  std::vector<std::vector<double>> seen;
+  for (const auto& l : back.layers)
+    for (const auto& p : l.paths) seen.push_back(p.mixture);
+  ASSERT_EQ(seen.size(), 3u);
+  for (std::size_t i = 0; i < 3; ++i) {
+    ASSERT_EQ(seen[i].size(), 2u);
+    EXPECT_NEAR(seen[i][0], mixes[i][0], 1e-9);
+    EXPECT_NEAR(seen[i][1], mixes[i][1], 1e-9);
+  }
+}
+
+}  // namespace
