@@ -226,11 +226,7 @@ inline void fast_sincos(double x, double* sn, double* cs) {
 
 struct TpmsNode : FieldNode {
   TpmsKind kind;
-  Vec3 k;  // 2π / cell
-  bool sheet = false;
-  bool c_constant = true;
-  double c = 0;
-  Expression c_expr;
+  Vec3 k;  // 2π / cell  (the network field φ; sheets are SheetNode around it)
 
   // φ and, if `grad`, its gradient (analytic), from one sincos per axis.
   double phi(Vec3 p, Vec3* grad = nullptr) const {
@@ -269,11 +265,10 @@ struct TpmsNode : FieldNode {
     return 0;
   }
   bool gradient(Vec3 p, Vec3& g, EvalState&, std::size_t) const override {
-    if (sheet) return false;
     phi(p, &g);
     return true;
   }
-  // Bound on |φ| and on the largest partial derivative (per unit of k·x).
+  // Bound on |φ|.
   double phi_max() const {
     switch (kind) {
       case TpmsKind::Gyroid: return 1.5;
@@ -284,16 +279,6 @@ struct TpmsNode : FieldNode {
     }
     return 13;
   }
-  double partial_max() const {
-    switch (kind) {
-      case TpmsKind::Gyroid: return 2;
-      case TpmsKind::SchwarzP: return 1;
-      case TpmsKind::SchwarzD: return 4;
-      case TpmsKind::Neovius: return 7;
-      case TpmsKind::Iwp: return 6;
-    }
-    return 7;
-  }
   // Max |∇φ| in units of the largest k: √3 for gyroid, P and D, 7 for Neovius, 3√3 for IWP
   // (maxima of the unit-cell gradient norm; 1% margin). |∇φ|² = Σ kᵢ² (∂ᵢφ̃)² ≤ kmax² C².
   double phi_lipschitz() const {
@@ -302,39 +287,16 @@ struct TpmsNode : FieldNode {
     if (kind == TpmsKind::Iwp) c = 3 * std::sqrt(3.0);
     return 1.01 * c * std::max({k.x, k.y, k.z});
   }
-  void eval(const Vec3* p, double* out, std::size_t n, EvalState& s, std::size_t) const override {
-    if (!sheet) {
-      for (std::size_t i = 0; i < n; ++i) out[i] = phi(p[i]);
-      return;
-    }
-    if (c_constant) {
-      for (std::size_t i = 0; i < n; ++i) {
-        const double f = phi(p[i]);
-        out[i] = f * f - c * c;
-      }
-      return;
-    }
-    auto& ce = s.expr(c_expr);
-    for (std::size_t i = 0; i < n; ++i) {
-      const double f = phi(p[i]), cv = ce.eval(p[i]);
-      out[i] = f * f - cv * cv;
-    }
+  void eval(const Vec3* p, double* out, std::size_t n, EvalState&, std::size_t) const override {
+    for (std::size_t i = 0; i < n; ++i) out[i] = phi(p[i]);
   }
-  Interval bound(const BBox3& b, EvalState& s, std::size_t depth) const override {
+  Interval bound(const BBox3& b, EvalState&, std::size_t) const override {
     const double f = phi(b.center());
     const double spread = phi_lipschitz() * half_diagonal(b);
-    const double lo = std::max(f - spread, -phi_max()), hi = std::min(f + spread, phi_max());
-    if (!sheet) return {lo, hi};
-    if (!c_constant) return {-kInf, kInf};
-    const double sq_lo = (lo <= 0 && hi >= 0) ? 0.0 : std::min(lo * lo, hi * hi);
-    const double sq_hi = std::max(lo * lo, hi * hi);
-    return {sq_lo - c * c, sq_hi - c * c};
+    return {std::max(f - spread, -phi_max()), std::min(f + spread, phi_max())};
   }
-  double lipschitz() const override {
-    return sheet ? (c_constant ? 2 * phi_max() * phi_lipschitz() : kInf) : phi_lipschitz();
-  }
+  double lipschitz() const override { return phi_lipschitz(); }
   BBox3 extent() const override { return infinite_box(); }
-  bool has_expressions() const override { return sheet && !c_constant; }
 };
 
 // ---------------------------------------------------------------- sheets, blends, expressions
@@ -832,19 +794,8 @@ Field tpms(TpmsKind kind, Vec3 cell, Expression c, std::string material) {
   n->kind = kind;
   const double tau = 2 * std::numbers::pi;
   n->k = {tau / cell.x, tau / cell.y, tau / cell.z};
-  if (!c.text.empty()) {
-    n->sheet = true;
-    double v = 0;
-    if (constant_expression(c.text, &v)) {
-      if (!(v >= 0) || !std::isfinite(v)) throw GeometryError("TPMS sheet c must be >= 0");
-      n->c = v;
-    } else {
-      check_expression(c.text);
-      n->c_constant = false;
-      n->c_expr = std::move(c);
-    }
-  }
-  return make_leaf(std::move(n), std::move(material));
+  Field network = make_leaf(std::move(n), std::move(material));
+  return c.text.empty() ? network : sheet(network, std::move(c));
 }
 
 Field sheet(Field phi, Expression c, double uniform_thickness) {

@@ -250,6 +250,19 @@ class Parser {
     }
   }
 
+  // item (, item)* close — `take` stores the current item token.
+  template <class F>
+  void sequence(Tok item, Tok close, const char* what, F&& take) {
+    for (;;) {
+      if (tok_.kind != item) fail(what, tok_.pos);
+      take();
+      advance();
+      if (tok_.kind != Tok::Comma) break;
+      advance();
+    }
+    expect(close);
+  }
+
   Arg parse_arg() {
     Arg a;
     a.pos = tok_.pos;
@@ -267,17 +280,9 @@ class Parser {
       case Tok::LParen:
         a.kind = Arg::Tuple;
         advance();
-        for (;;) {
-          if (tok_.kind != Tok::Number) fail("tuples hold numbers only", tok_.pos);
-          a.tuple.push_back(tok_.number);
-          advance();
-          if (tok_.kind == Tok::Comma) {
-            advance();
-            continue;
-          }
-          expect(Tok::RParen);
-          return a;
-        }
+        sequence(Tok::Number, Tok::RParen, "tuples hold numbers only",
+                 [&] { a.tuple.push_back(tok_.number); });
+        return a;
       case Tok::LBracket:
         a.kind = Arg::List;
         advance();
@@ -285,18 +290,11 @@ class Parser {
           advance();
           return a;
         }
-        for (;;) {
-          if (tok_.kind != Tok::String) fail("lists hold strings only", tok_.pos);
+        sequence(Tok::String, Tok::RBracket, "lists hold strings only", [&] {
           a.list.push_back(tok_.text);
           list_pos_.push_back(tok_.pos);
-          advance();
-          if (tok_.kind == Tok::Comma) {
-            advance();
-            continue;
-          }
-          expect(Tok::RBracket);
-          return a;
-        }
+        });
+        return a;
       default:
         fail(fmt::format("expected an argument but found {}",
                          tok_.kind == Tok::End ? "end of file" : "'" + tok_.text + "'"),

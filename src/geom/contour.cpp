@@ -277,46 +277,48 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
   // Blocks whose bound excludes the level are skipped; others split down to small leaves, so a
   // narrow-band or loosely bounded field still skips most of the plane.
   const std::size_t leaf = std::min<std::size_t>(4, B);
-  std::function<void(std::size_t, std::size_t, std::size_t, std::size_t)> visit =
-      [&](std::size_t bi, std::size_t bj, std::size_t ci, std::size_t cj) {
-        const Interval range = f.bound(m.node(bi, bj), m.node(bi + ci, bj + cj));
-        if (range.lo >= level || range.hi < level) {
-          ++result.skipped_blocks;
-          return;
-        }
-        const bool bounded = std::isfinite(range.lo) || std::isfinite(range.hi);
-        if (!bounded || (ci <= leaf && cj <= leaf)) {
-          march_block(bi, bj, ci, cj);
-          return;
-        }
-        const std::size_t hi_ = (ci + 1) / 2, hj = (cj + 1) / 2;
-        struct Part {
-          std::size_t i, j, ci, cj;
-        };
-        Part parts[4];
-        int np = 0;
-        parts[np++] = {bi, bj, hi_, hj};
-        if (ci > hi_) parts[np++] = {bi + hi_, bj, ci - hi_, hj};
-        if (cj > hj) parts[np++] = {bi, bj + hj, hi_, cj - hj};
-        if (ci > hi_ && cj > hj) parts[np++] = {bi + hi_, bj + hj, ci - hi_, cj - hj};
-        // If no quarter can be skipped, march the block whole: splitting would only sample
-        // the shared edges twice (a surface everywhere, like a TPMS sheet).
-        bool any_skippable = false;
-        for (int q = 0; q < np && !any_skippable; ++q) {
-          const Interval r = f.bound(m.node(parts[q].i, parts[q].j),
-                                     m.node(parts[q].i + parts[q].ci, parts[q].j + parts[q].cj));
-          any_skippable = r.lo >= level || r.hi < level;
-        }
-        if (!any_skippable) {
-          march_block(bi, bj, ci, cj);
-          return;
-        }
-        for (int q = 0; q < np; ++q) visit(parts[q].i, parts[q].j, parts[q].ci, parts[q].cj);
-      };
+  struct Block {
+    std::size_t i, j, ci, cj;
+  };
+  auto bound = [&](const Block& k) { return f.bound(m.node(k.i, k.j), m.node(k.i + k.ci, k.j + k.cj)); };
+  auto excluded = [&](const Interval& r) { return r.lo >= level || r.hi < level; };
+  // `range` is the block's bound, computed once by the caller.
+  std::function<void(const Block&, const Interval&)> visit = [&](const Block& k, const Interval& range) {
+    if (excluded(range)) {
+      ++result.skipped_blocks;
+      return;
+    }
+    const bool bounded = std::isfinite(range.lo) || std::isfinite(range.hi);
+    if (!bounded || (k.ci <= leaf && k.cj <= leaf)) {
+      march_block(k.i, k.j, k.ci, k.cj);
+      return;
+    }
+    const std::size_t hi_ = (k.ci + 1) / 2, hj = (k.cj + 1) / 2;
+    Block parts[4];
+    int np = 0;
+    parts[np++] = {k.i, k.j, hi_, hj};
+    if (k.ci > hi_) parts[np++] = {k.i + hi_, k.j, k.ci - hi_, hj};
+    if (k.cj > hj) parts[np++] = {k.i, k.j + hj, hi_, k.cj - hj};
+    if (k.ci > hi_ && k.cj > hj) parts[np++] = {k.i + hi_, k.j + hj, k.ci - hi_, k.cj - hj};
+    Interval ranges[4];
+    bool any_skippable = false;
+    for (int q = 0; q < np; ++q) {
+      ranges[q] = bound(parts[q]);
+      any_skippable = any_skippable || excluded(ranges[q]);
+    }
+    // If no quarter can be skipped, march the block whole: splitting would only sample the
+    // shared edges twice (a surface everywhere, like a TPMS sheet).
+    if (!any_skippable) {
+      march_block(k.i, k.j, k.ci, k.cj);
+      return;
+    }
+    for (int q = 0; q < np; ++q) visit(parts[q], ranges[q]);
+  };
   for (std::size_t bj = 0; bj < ny; bj += B)
     for (std::size_t bi = 0; bi < nx; bi += B) {
       ++result.blocks;
-      visit(bi, bj, std::min(B, nx - bi), std::min(B, ny - bj));
+      const Block top{bi, bj, std::min(B, nx - bi), std::min(B, ny - bj)};
+      visit(top, bound(top));
     }
   result.samples = m.samples;
   result.lines = stitch_segments(segments, options.stitch_tolerance);

@@ -60,9 +60,14 @@ struct Builder {
   }
 };
 
-void check_coordinate(const Vec3& p, const std::string& name, long line) {
-  if (!is_finite(p) || std::abs(p.x) > 1e6 || std::abs(p.y) > 1e6 || std::abs(p.z) > 1e6)
-    throw ParseError("vertex coordinate is not finite or beyond ±1e6 mm", {name, line, ""});
+// Vertices must be finite and within ±1e6 mm (as lattice nodes are).
+bool valid_coordinate(const Vec3& p) {
+  return is_finite(p) && std::abs(p.x) <= 1e6 && std::abs(p.y) <= 1e6 && std::abs(p.z) <= 1e6;
+}
+void check_coordinate(const Vec3& p, const std::string& name, long line,
+                      const std::string& element = {}) {
+  if (!valid_coordinate(p))
+    throw ParseError("vertex coordinate is not finite or beyond ±1e6 mm", {name, line, element});
 }
 
 TriangleMesh parse_ascii_stl(const std::string& text, const std::string& name) {
@@ -125,10 +130,8 @@ TriangleMesh parse_stl(const std::string& bytes, const std::string& name) {
           float f[3];
           std::memcpy(f, rec + 12 * k, 12);
           v[k] = {f[0], f[1], f[2]};
-          if (!is_finite(v[k]) || std::abs(v[k].x) > 1e6 || std::abs(v[k].y) > 1e6 ||
-              std::abs(v[k].z) > 1e6)
-            throw ParseError("vertex not finite or beyond ±1e6 mm",
-                             {name, 0, "triangle " + std::to_string(t)});
+          if (!valid_coordinate(v[k]))
+            check_coordinate(v[k], name, 0, "triangle " + std::to_string(t));
         }
         b.triangle(v[0], v[1], v[2]);
       }

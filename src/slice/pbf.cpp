@@ -309,21 +309,17 @@ void dash(const std::vector<Vec2>& line, double sl, double gap, double phase,
   }
 }
 
-// Refines a hatch end on f along the line: the root near `p`, inside towards +dir, within a
-// bracket that never reaches past the vector's middle (thin sheets) and that is shrunk until
-// its outer end is outside.
-Vec2 refine_end(JointSection* joint, Ctx& ctx, double z, bool use_part, Vec2 p, Vec2 dir,
-                double delta, double half_length, double tol) {
-  auto f = [&](double t) {
-    const Vec2 q = p + dir * t;
-    return use_part ? ctx.part.value({q.x, q.y, z}) : joint->at(q);
-  };
+// Refines a hatch end on the joint field along the line: the root near `p`, inside towards
+// +dir, within a bracket that never reaches past the vector's middle (thin sheets) and that is
+// shrunk until its outer end is outside.
+Vec2 refine_end(JointSection& joint, Vec2 p, Vec2 dir, double delta, double half_length,
+                double tol) {
+  auto f = [&](double t) { return joint.at(p + dir * t); };
   double hi = std::min(delta, half_length), lo = -delta;
-  int tries = 0;
-  while (f(lo) < 0 && tries++ < 8) lo *= 0.5;
-  tries = 0;
-  while (f(hi) >= 0 && tries++ < 8) hi *= 0.5;
-  if (!(f(lo) >= 0 && f(hi) < 0)) return p;  // no clean bracket: keep the polygon's end
+  double flo = f(lo), fhi = f(hi);
+  for (int tries = 0; flo < 0 && tries < 8; ++tries) flo = f(lo *= 0.5);
+  for (int tries = 0; fhi >= 0 && tries < 8; ++tries) fhi = f(hi *= 0.5);
+  if (!(flo >= 0 && fhi < 0)) return p;  // no clean bracket: keep the polygon's end
   while (hi - lo > tol) {
     const double mid = 0.5 * (lo + hi);
     (f(mid) >= 0 ? lo : hi) = mid;
@@ -331,15 +327,15 @@ Vec2 refine_end(JointSection* joint, Ctx& ctx, double z, bool use_part, Vec2 p, 
   return p + dir * (0.5 * (lo + hi));
 }
 
-// Inside intervals of f (< 0) along the scan line q(s) = origin + s·u, s in [s0, s1], by
+// Inside intervals of the part (< 0) along the scan line q(s) = origin + s·u, s in [s0, s1], by
 // zero-finding: the part's interval bound discards stretches that cannot reach the sheet;
 // the rest is split down to `leaf`, whose ends are sampled; a sign change is bisected to `tol`;
 // a leaf with both ends outside is probed at its middle, so a crossing wider than half a leaf is
 // always found.
 class LineZeros {
  public:
-  LineZeros(Ctx& ctx, JointSection* joint, bool use_joint, double z, double leaf, double tol)
-      : ctx_(ctx), joint_(joint), use_joint_(use_joint), z_(z), leaf_(leaf), tol_(tol) {}
+  LineZeros(Ctx& ctx, double z, double leaf, double tol)
+      : ctx_(ctx), z_(z), leaf_(leaf), tol_(tol) {}
   std::vector<std::pair<double, double>> run(Vec2 origin, Vec2 u, double s0, double s1) {
     o_ = origin;
     u_ = u;
@@ -363,7 +359,7 @@ class LineZeros {
  private:
   double f(double s) {
     const Vec2 q = o_ + u_ * s;
-    return use_joint_ ? joint_->at(q) : ctx_.part.value({q.x, q.y, z_});
+    return ctx_.part.value({q.x, q.y, z_});
   }
   Interval bound(double a, double b) {
     BBox3 box;
@@ -400,8 +396,6 @@ class LineZeros {
     visit(m, b, fm, fb, depth + 1);
   }
   Ctx& ctx_;
-  JointSection* joint_;
-  bool use_joint_;
   double z_, leaf_, tol_;
   Vec2 o_, u_;
   std::vector<double> roots_;
@@ -607,8 +601,8 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o,
         Vec2 a = seg.a, b = seg.b;
         if (!o.stl_route) {
           const double half = 0.5 * std::hypot(b.x - a.x, b.y - a.y);
-          a = refine_end(&joint, ctx, z, false, a, u, delta, half, o.refine);
-          b = refine_end(&joint, ctx, z, false, b, u * -1.0, delta, half, o.refine);
+          a = refine_end(joint, a, u, delta, half, o.refine);
+          b = refine_end(joint, b, u * -1.0, delta, half, o.refine);
         }
         add_vector(a, b);
       }
@@ -624,7 +618,7 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o,
       }
       // Leaves of two grid cells, probed at their middle: crossings wider than one cell are
       // always found.
-      LineZeros zeros(ctx, &joint, false, z, 2 * o.resolution, o.refine);
+      LineZeros zeros(ctx, z, 2 * o.resolution, o.refine);
       const auto k0 = static_cast<long long>(std::ceil(t0 / o.hatch_distance));
       const auto k1 = static_cast<long long>(std::floor(t1 / o.hatch_distance));
       for (long long k = k0; k <= k1; ++k) {

@@ -65,15 +65,19 @@ SliceResult run_slice(const SliceJob& job,
   auto report = [&](double f) {
     if (progress) progress("outlines", f);
   };
+  // A design is a field, a mesh file a mesh; each route turns one into the other if it must.
+  Field field;
+  TriangleMesh mesh;
+  if (is_vcad) {
+    VcadOptions vo;
+    vo.mesh_voxel = job.mesh_voxel;
+    field = read_vcad(job.input, vo).field;
+  } else {
+    mesh = weld(read_mesh(job.input));
+    r.mesh_triangles = mesh.triangles.size();
+  }
   if (r.route == SliceRoute::Field) {
-    Field field;
-    if (is_vcad) {
-      VcadOptions vo;
-      vo.mesh_voxel = job.mesh_voxel;
-      field = read_vcad(job.input, vo).field;
-    } else {
-      const TriangleMesh mesh = read_mesh(job.input);
-      r.mesh_triangles = mesh.triangles.size();
+    if (!is_vcad) {
       MeshSdfOptions mo;
       mo.voxel = job.mesh_voxel;
       field = mesh_field(mesh, mo, job.input);
@@ -81,24 +85,19 @@ SliceResult run_slice(const SliceJob& job,
     r.extent = field.extent();
     check_layers(r.extent);
     r.outlines = slice_field(field, zs, job.field, &r.field_stats, report);
-  } else if (is_vcad) {
-    // The classic route for a design: marching cubes of its field (OpenVDB) at the mesh voxel,
-    // then plane cuts — for comparison with the direct route.
-    VcadOptions vo;
-    vo.mesh_voxel = job.mesh_voxel;
-    const Field field = read_vcad(job.input, vo).field;
-    r.extent = field.extent();
-    check_layers(r.extent);
-    const TriangleMesh mesh = field_to_mesh(field, r.extent, job.mesh_voxel);
-    r.mesh_triangles = mesh.triangles.size();
-    r.outlines = slice_mesh_layers(mesh, zs);
-    report(1.0);
   } else {
-    const TriangleMesh mesh = weld(read_mesh(job.input));
-    r.mesh_triangles = mesh.triangles.size();
-    require_closed(mesh, job.input);
-    r.extent = bounds(mesh);
-    check_layers(r.extent);
+    if (is_vcad) {
+      // The classic route for a design: marching cubes of its field (OpenVDB) at the mesh
+      // voxel, then plane cuts — for comparison with the direct route.
+      r.extent = field.extent();
+      check_layers(r.extent);
+      mesh = field_to_mesh(field, r.extent, job.mesh_voxel);
+      r.mesh_triangles = mesh.triangles.size();
+    } else {
+      require_closed(mesh, job.input);
+      r.extent = bounds(mesh);
+      check_layers(r.extent);
+    }
     r.outlines = slice_mesh_layers(mesh, zs);
     report(1.0);
   }

@@ -118,12 +118,12 @@ std::vector<LayerOutline> slice_mesh_layers(const TriangleMesh& mesh, const std:
 
 namespace {
 
-Regions intersect_all(const std::vector<LayerOutline>& layers, long from, long to) {
+Regions intersect_all(const std::vector<Regions>& layers, long from, long to) {
   // Intersection of outlines from..to inclusive; empty if any index is outside the part.
   if (from < 0 || to >= static_cast<long>(layers.size()) || from > to) return {};
-  Regions acc = layers[static_cast<std::size_t>(from)].regions;
+  Regions acc = layers[static_cast<std::size_t>(from)];
   for (long k = from + 1; k <= to && !acc.empty(); ++k)
-    acc = intersection(acc, layers[static_cast<std::size_t>(k)].regions);
+    acc = intersection(acc, layers[static_cast<std::size_t>(k)]);
   return acc;
 }
 
@@ -213,8 +213,6 @@ Toolpath plan_planar(const std::vector<LayerOutline>& layers, const PlanarOption
   tbb::parallel_for(std::size_t{0}, n, [&](std::size_t i) {
     outline[i] = o.simplify > 0 ? simplify(layers[i].regions, o.simplify) : layers[i].regions;
   });
-  std::vector<LayerOutline> simplified(n);
-  for (std::size_t i = 0; i < n; ++i) simplified[i] = {layers[i].z, outline[i]};
 
   const double w = o.bead_width;
   Toolpath tp;
@@ -229,10 +227,10 @@ Toolpath plan_planar(const std::vector<LayerOutline>& layers, const PlanarOption
     // Solid where the part has no material within bottom_layers below or top_layers above.
     Regions skin;
     if (o.bottom_layers > 0)
-      skin = difference(outline[i], intersect_all(simplified, li - o.bottom_layers, li - 1));
+      skin = difference(outline[i], intersect_all(outline, li - o.bottom_layers, li - 1));
     if (o.top_layers > 0)
       skin = unite(skin, difference(outline[i],
-                                    intersect_all(simplified, li + 1, li + o.top_layers)));
+                                    intersect_all(outline, li + 1, li + o.top_layers)));
     // Slivers narrower than a bead (a slowly changing wall) are not worth solid lines.
     if (!skin.empty()) skin = offset(offset(skin, -0.5 * o.bead_width), 0.5 * o.bead_width);
     const bool odd = i % 2 == 1;
