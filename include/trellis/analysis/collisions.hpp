@@ -1,0 +1,54 @@
+// The independent collision checker: replays any toolpath in print order (ours, or read back from
+// G-code) against the nozzle model of lattice/collision.hpp and reports every collision with the
+// strut ids and positions, steep struts printed top-down, and struts missing or printed twice.
+//
+// It knows nothing of how the path was planned: printed segments are matched to design struts by
+// snapping their ends to design nodes (within `snap`, which must exceed any node overlap the
+// writer added), each segment's tip sweep is tested against every segment printed before it.
+// Travel is assumed to be the embedded writer's (vertical lift to the bath surface, move above
+// everything, vertical descent), which is free of collisions exactly when the nozzle cylinder at
+// the two ends is — and the ends are checked as part of the printed segments.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "trellis/lattice/collision.hpp"
+#include "trellis/toolpath/toolpath.hpp"
+
+namespace trellis {
+
+struct CheckOptions {
+  NozzleModel nozzle;
+  double snap = 0.05;  // a segment end within this of a design node is at that node (mm)
+  std::size_t max_listed = 1000;  // collisions listed in full (all are counted)
+};
+
+struct CollisionHit {
+  std::size_t path = 0, segment = 0;  // the moving segment (path index in print order)
+  long long strut = -1;               // design strut being printed (-1: not on the design)
+  long long hit_strut = -1;           // design strut hit (-1: not on the design)
+  std::size_t hit_path = 0, hit_segment = 0;
+  Vec3 tip, point;  // nozzle tip and the hit material
+};
+
+struct CollisionCheck {
+  std::size_t paths = 0, segments = 0;
+  std::size_t struts = 0, printed_once = 0;
+  std::size_t collisions = 0;  // all of them; `hits` lists the first max_listed
+  std::vector<CollisionHit> hits;
+  std::vector<std::pair<std::size_t, EdgeId>> top_down;  // (path, strut) steep struts printed down
+  std::vector<EdgeId> missing, repeated;
+  std::size_t off_design_segments = 0;
+  std::size_t pairs_tested = 0;
+  bool ok() const {
+    return collisions == 0 && top_down.empty() && missing.empty() && repeated.empty() &&
+           off_design_segments == 0;
+  }
+};
+
+CollisionCheck check_collisions(const Graph& design, const Toolpath& toolpath,
+                                const CheckOptions& options);
+
+std::string collision_check_json(const CollisionCheck& c, const CheckOptions& options);
+
+}  // namespace trellis

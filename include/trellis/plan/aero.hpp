@@ -1,0 +1,76 @@
+// AERO: collision-free Eulerian print paths for 3D strut lattices (embedded printing; paper
+// "aero-embedded-lattices-eulerian"). The nozzle model (lattice/collision.hpp) gives a
+// precedence: a strut that would obstruct the nozzle while another is printed must wait for it.
+//
+// Method `groups` is the paper's: peel groups of valid struts (a strut is valid if printing it
+// now leaves every remaining strut printable), decompose each group into the fewest trails
+// (Hierholzer on the mixed graph: steep struts are one-way, bottom-up), concatenate. Method
+// `dynamic` (default) is the paper's proposed "dynamic refresh": the printable set is refreshed
+// after every trail, and the next decomposition is made as if the current trail were still
+// open at its end node, so a trail runs on through later groups whenever the struts allow.
+// Both order trails by nearest start (trails reversed where no strut is one-way) and keep
+// materials in separate trails. If no strut is printable, the lowest remaining one is printed
+// anyway and counted as a violation.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "trellis/core/diagnostics.hpp"
+#include "trellis/core/progress.hpp"
+#include "trellis/lattice/collision.hpp"
+#include "trellis/plan/paths.hpp"
+#include "trellis/toolpath/toolpath.hpp"
+
+namespace trellis {
+
+enum class AeroMethod { Dynamic, Groups };
+AeroMethod aero_method_from_string(const std::string& name);  // throws SettingError
+std::string to_string(AeroMethod m);
+
+struct AeroParams {
+  NozzleModel nozzle;
+  bool collisions = true;  // false: no precedence at all, trails = the Euler lower bound
+  AeroMethod method = AeroMethod::Dynamic;
+  int threads = 0;  // for the blocking relation; 0 = all cores
+  Progress progress;
+};
+
+struct AeroViolation {
+  EdgeId edge = 0;
+  std::size_t obstructs = 0;  // remaining struts it obstructs when printed
+};
+
+struct AeroResult {
+  PathSet trails;                   // in print order, each trail as printed
+  std::vector<int> trail_material;  // per trail
+  std::size_t groups = 0;           // the paper's peel groups
+  std::vector<std::size_t> group_sizes;
+  std::size_t lower_bound_trails = 0;  // without collisions (mixed-graph Euler bound)
+  std::size_t travel_moves = 0;
+  double travel_length = 0;  // straight end-to-start distances (mm)
+  std::size_t max_trail_edges = 0;
+  std::size_t steep_struts = 0;  // printed bottom-up by the cone rule
+  std::size_t blocking_relations = 0, pairs_tested = 0;
+  std::size_t decompositions = 0;
+  std::string strategy;  // the trail-selection strategy that won (see aero.cpp)
+  std::vector<AeroViolation> violations;
+  double seconds_blocking = 0, seconds_planning = 0;
+};
+
+// Throws GeometryError for a lattice without edges, SettingError for bad nozzle settings.
+AeroResult plan_aero(const Graph& g, const AeroParams& params, Diagnostics& diag);
+
+// One travel-free path per trail (nozzle tip on the strut axis), tool = material, in one layer.
+Toolpath aero_toolpath(const Graph& g, const AeroResult& result, const std::string& source);
+
+struct AeroReportInput {
+  std::string lattice;
+  std::size_t nodes = 0, edges = 0;
+  double seconds = 0;
+  long long checked_collisions = -1;  // from the independent checker, -1 = not checked
+  bool checked_once = false;          // the checker found every strut printed exactly once
+};
+std::string aero_report_json(const AeroResult& r, const AeroParams& p, const Diagnostics& diag,
+                             const AeroReportInput& in);
+
+}  // namespace trellis

@@ -1,0 +1,178 @@
+#include "trellis/analysis/collisions.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <nlohmann/json.hpp>
+#include <unordered_map>
+
+#include "trellis/core/error.hpp"
+
+namespace trellis {
+
+namespace {
+
+constexpr std::uint32_t kNone = UINT32_MAX;
+
+// Nearest design node within `snap` of a point (hash grid of cell 2·snap).
+class NodeSnap {
+ public:
+  NodeSnap(const Graph& g, double snap) : g_(g), snap_(snap), cell_(std::max(2 * snap, 1e-9)) {
+    for (NodeId n = 0; n < g.nodes.size(); ++n) cells_[key(g.nodes[n])].push_back(n);
+  }
+  std::uint32_t find(Vec3 p) const {
+    const auto cx = cell(p.x), cy = cell(p.y), cz = cell(p.z);
+    std::uint32_t best = kNone;
+    double best_d = snap_;
+    for (long long dx = -1; dx <= 1; ++dx)
+      for (long long dy = -1; dy <= 1; ++dy)
+        for (long long dz = -1; dz <= 1; ++dz) {
+          auto it = cells_.find(pack(cx + dx, cy + dy, cz + dz));
+          if (it == cells_.end()) continue;
+          for (NodeId n : it->second) {
+            const double d = distance(p, g_.nodes[n]);
+            if (d <= best_d) {
+              best_d = d;
+              best = n;
+            }
+          }
+        }
+    return best;
+  }
+
+ private:
+  long long cell(double v) const { return static_cast<long long>(std::floor(v / cell_)); }
+  static std::uint64_t pack(long long x, long long y, long long z) {
+    return (static_cast<std::uint64_t>(x & 0x1FFFFF) << 42) |
+           (static_cast<std::uint64_t>(y & 0x1FFFFF) << 21) | static_cast<std::uint64_t>(z & 0x1FFFFF);
+  }
+  std::uint64_t key(Vec3 p) const { return pack(cell(p.x), cell(p.y), cell(p.z)); }
+  const Graph& g_;
+  double snap_, cell_;
+  std::unordered_map<std::uint64_t, std::vector<NodeId>> cells_;
+};
+
+}  // namespace
+
+CollisionCheck check_collisions(const Graph& design, const Toolpath& toolpath,
+                                const CheckOptions& options) {
+  options.nozzle.validate();
+  if (!(options.snap > 0) || !std::isfinite(options.snap))
+    throw SettingError("the snap distance must be positive");
+  CollisionCheck c;
+  c.struts = design.edges.size();
+  // Every printed segment in print order, with its design nodes and strut.
+  struct Seg {
+    std::size_t path, index;
+    std::uint32_t na, nb;
+    long long strut;
+  };
+  std::vector<Vec3> ends;
+  std::vector<Seg> segs;
+  for (const auto& layer : toolpath.layers)
+    for (const auto& path : layer.paths) {
+      for (std::size_t i = 0; i + 1 < path.points.size(); ++i) {
+        if (distance(path.points[i], path.points[i + 1]) <= 0) continue;
+        ends.push_back(path.points[i]);
+        ends.push_back(path.points[i + 1]);
+        segs.push_back({c.paths, i, kNone, kNone, -1});
+      }
+      ++c.paths;
+    }
+  c.segments = segs.size();
+  const NodeSnap snap(design, options.snap);
+  std::unordered_map<std::uint64_t, EdgeId> strut_of;
+  strut_of.reserve(design.edges.size() * 2);
+  auto pair_key = [](std::uint32_t a, std::uint32_t b) {
+    return (static_cast<std::uint64_t>(std::min(a, b)) << 32) | std::max(a, b);
+  };
+  for (EdgeId e = 0; e < design.edges.size(); ++e)
+    strut_of[pair_key(design.edges[e].a, design.edges[e].b)] = e;
+  std::vector<int> times(design.edges.size(), 0);
+  for (std::size_t i = 0; i < segs.size(); ++i) {
+    Seg& s = segs[i];
+    s.na = snap.find(ends[2 * i]);
+    s.nb = snap.find(ends[2 * i + 1]);
+    if (s.na != kNone && s.nb != kNone) {
+      auto it = strut_of.find(pair_key(s.na, s.nb));
+      if (it != strut_of.end()) s.strut = it->second;
+    }
+    if (s.strut < 0) {
+      ++c.off_design_segments;
+      continue;
+    }
+    ++times[static_cast<std::size_t>(s.strut)];
+    const Vec3 a = ends[2 * i], b = ends[2 * i + 1];
+    if (is_steep(a, b, options.nozzle) && b.z < a.z)
+      c.top_down.push_back({s.path, static_cast<EdgeId>(s.strut)});
+  }
+  for (EdgeId e = 0; e < design.edges.size(); ++e) {
+    if (times[e] == 0) c.missing.push_back(e);
+    if (times[e] > 1) c.repeated.push_back(e);
+    if (times[e] == 1) ++c.printed_once;
+  }
+  // Replay: each segment's tip sweep against every segment printed before it.
+  const FootprintIndex index(ends, options.nozzle.radius);
+  std::vector<std::uint32_t> stamp(segs.size(), 0);
+  for (std::size_t i = 0; i < segs.size(); ++i) {
+    const Seg& s = segs[i];
+    const Vec3 qa = ends[2 * i], qb = ends[2 * i + 1];
+    const double qz = std::min(qa.z, qb.z) + options.nozzle.tip_clearance;
+    std::vector<std::uint32_t> hits;
+    index.for_candidates(qa, qb, stamp, static_cast<std::uint32_t>(i + 1), [&](std::uint32_t j) {
+      if (j >= i) return;
+      const Seg& t = segs[j];
+      if (s.strut >= 0 && t.strut == s.strut) return;  // the same strut again: a repeat
+      const Vec3 pa = ends[2 * j], pb = ends[2 * j + 1];
+      if (std::max(pa.z, pb.z) <= qz) return;
+      ++c.pairs_tested;
+      Vec3 shared[2];
+      int n = 0;
+      if (t.na != kNone && (t.na == s.na || t.na == s.nb)) shared[n++] = design.nodes[t.na];
+      if (t.nb != kNone && (t.nb == s.na || t.nb == s.nb)) shared[n++] = design.nodes[t.nb];
+      Contact contact;
+      if (!nozzle_hits(options.nozzle, qa, qb, pa, pb, shared, n, &contact)) return;
+      ++c.collisions;
+      if (c.hits.size() < options.max_listed)
+        c.hits.push_back({s.path, s.index, s.strut, t.strut, t.path, t.index, contact.tip,
+                          contact.point});
+    });
+  }
+  return c;
+}
+
+std::string collision_check_json(const CollisionCheck& c, const CheckOptions& options) {
+  using nlohmann::ordered_json;
+  ordered_json j;
+  j["ok"] = c.ok();
+  j["nozzle"] = {{"radius_mm", options.nozzle.radius},
+                 {"tip_clearance_mm", options.nozzle.tip_clearance},
+                 {"node_clearance_mm", options.nozzle.node_clearance},
+                 {"cone_half_angle_deg", options.nozzle.cone_half_angle_deg},
+                 {"snap_mm", options.snap}};
+  j["paths"] = c.paths;
+  j["segments"] = c.segments;
+  j["struts"] = c.struts;
+  j["struts_printed_once"] = c.printed_once;
+  j["missing_struts"] = c.missing;
+  j["repeated_struts"] = c.repeated;
+  j["off_design_segments"] = c.off_design_segments;
+  j["collisions"] = c.collisions;
+  ordered_json hits = ordered_json::array();
+  auto pt = [](Vec3 p) { return std::vector<double>{p.x, p.y, p.z}; };
+  for (const auto& h : c.hits)
+    hits.push_back({{"path", h.path},
+                    {"segment", h.segment},
+                    {"strut", h.strut},
+                    {"hit_strut", h.hit_strut},
+                    {"hit_path", h.hit_path},
+                    {"tip", pt(h.tip)},
+                    {"point", pt(h.point)}});
+  j["collision_list"] = std::move(hits);
+  ordered_json td = ordered_json::array();
+  for (const auto& [path, strut] : c.top_down) td.push_back({{"path", path}, {"strut", strut}});
+  j["steep_struts_printed_top_down"] = std::move(td);
+  j["pairs_tested"] = c.pairs_tested;
+  return j.dump(2) + "\n";
+}
+
+}  // namespace trellis
