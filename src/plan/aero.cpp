@@ -2,6 +2,10 @@
 
 #include <algorithm>
 #include <chrono>
+#include <random>
+#include <atomic>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 #include <cmath>
 #include <limits>
 #include <tuple>
@@ -58,7 +62,7 @@ bool reversible(const Trail& t, const std::vector<std::int8_t>& dir) {
 }
 
 // The planner's state: what is printed, what may be printed now.
-enum class Strategy { Lowest, Mean, Continue, Nearest };
+enum class Strategy { Lowest, Mean, Continue, Nearest, Unlock };
 
 const char* to_string(Strategy s) {
   switch (s) {
@@ -66,6 +70,7 @@ const char* to_string(Strategy s) {
     case Strategy::Mean: return "mean";
     case Strategy::Continue: return "continue";
     case Strategy::Nearest: return "nearest";
+    case Strategy::Unlock: return "unlock";
   }
   return "?";
 }
@@ -73,14 +78,16 @@ const char* to_string(Strategy s) {
 class Planner {
  public:
   Planner(const Graph& g, const BlockingGraph* blocking, const std::vector<std::int8_t>& dir,
-          Strategy strategy, AeroResult& out, const Progress& progress)
+          Strategy strategy, std::uint64_t shuffle_seed, AeroResult& out, const Progress& progress)
       : g_(g),
         blocking_(blocking),
         dir_(dir),
         strategy_(strategy),
         out_(out),
         progress_(progress),
-        euler_(g.nodes.size()) {
+        euler_(g.nodes.size()),
+        rng_(shuffle_seed),
+        shuffle_(shuffle_seed != 0) {
     const std::size_t m = g.edges.size();
     printed_.assign(m, 0);
     pending_.assign(m, 0);
@@ -114,18 +121,35 @@ class Planner {
       }
       // Continue the open trail if a printable strut leaves its end node: the decomposition is
       // made as if the trail were still open there.
+      std::vector<Trail> trails;
       if (cur_ != MixedEuler::kNoNode && cur_material_ == mat && touches(cur_, mat)) {
         bool continued = false;
-        auto trails = decompose(mat, cur_, &continued);
+        const std::size_t stamp = unlocked_;  // what the decomposition sees
+        trails = decompose(mat, cur_, &continued);
         if (continued) {
           print(std::move(trails.front()), mat, true);
+          trails.erase(trails.begin());
+          keep(std::move(trails), mat, stamp);
           continue;
         }
+        // Not continued: the other trails still cover everything printable.
+      } else if (cache_material_ == mat && cache_stamp_ == unlocked_) {
+        // Nothing became printable since the last decomposition: its other trails still form
+        // a minimum cover of what is printable.
+        trails = std::move(cache_);
+      } else {
+        trails = decompose(mat, MixedEuler::kNoNode, nullptr);
       }
-      // Otherwise a new trail: decompose everything printable now and pick one.
-      auto trails = decompose(mat, MixedEuler::kNoNode, nullptr);
-      const std::size_t k = nearest(trails);
+      // A new trail: place one into the past if it fits, else pick one by the strategy.
+      if (insert_earlier_ && insert_into_earlier(trails, mat)) {
+        cache_material_ = -1;
+        continue;
+      }
+      const std::size_t k = choose(trails);
+      const std::size_t stamp = unlocked_;
       print(std::move(trails[k]), mat, false);
+      trails.erase(trails.begin() + static_cast<std::ptrdiff_t>(k));
+      keep(std::move(trails), mat, stamp);
     }
   }
 
@@ -148,7 +172,7 @@ class Planner {
           group.push_back({static_cast<int>(mi), decompose(static_cast<int>(mi), MixedEuler::kNoNode, nullptr)});
       for (auto& [mat, trails] : group) {
         while (!trails.empty()) {
-          const std::size_t k = nearest(trails);
+          const std::size_t k = choose(trails);
           Trail t = std::move(trails[k]);
           trails.erase(trails.begin() + static_cast<std::ptrdiff_t>(k));
           // Join with the previous trail when it ends where this one starts.
@@ -196,7 +220,15 @@ class Planner {
   }
 
  private:
+  // Keeps the rest of a decomposition made when `stamp` struts had become printable.
+  void keep(std::vector<Trail> trails, int mat, std::size_t stamp) {
+    cache_ = std::move(trails);
+    cache_material_ = mat;
+    cache_stamp_ = stamp;
+  }
+
   void make_available(EdgeId e) {
+    ++unlocked_;
     available_[static_cast<std::size_t>(g_.edges[e].material)].push_back(e);
   }
 
@@ -229,8 +261,9 @@ class Planner {
   }
 
   bool touches(NodeId v, int mat) const {
-    for (EdgeId e : available_[static_cast<std::size_t>(mat)]) {
-      if (printed_[e]) continue;
+    for (const EdgeId* x = adj_.begin(v); x != adj_.end(v); ++x) {
+      const EdgeId e = *x;
+      if (printed_[e] || pending_[e] != 0 || g_.edges[e].material != mat) continue;
       const Edge& ed = g_.edges[e];
       if ((ed.a == v && dir_[e] >= 0) || (ed.b == v && dir_[e] <= 0)) return true;
     }
@@ -240,6 +273,7 @@ class Planner {
   std::vector<Trail> decompose(int mat, NodeId from, bool* continued) {
     compact(mat);
     ++out_.decompositions;
+    if (shuffle_) std::shuffle(available_[mat].begin(), available_[mat].end(), rng_);
     return euler_.decompose(g_, available_[static_cast<std::size_t>(mat)], dir_, from, continued);
   }
 
@@ -249,8 +283,10 @@ class Planner {
   //  mean       by the mean height of the trail's nodes;
   //  continue   lowest, but a trail after which a strut leaves its end node wins ties within
   //             1 mm of height (it can be continued without travel);
-  //  nearest    start (or end) nearest the nozzle — the travel-length order.
-  std::size_t nearest(std::vector<Trail>& trails) const {
+  //  unlock     lowest, less 1 mm per strut the trail makes printable (opens the way up);
+  //  nearest    start (or end) nearest the nozzle — the travel-length order (used by the
+  //             paper's group method).
+  std::size_t choose(std::vector<Trail>& trails) const {
     std::size_t best = 0;
     double best_key = std::numeric_limits<double>::infinity();
     bool best_flip = false;
@@ -271,6 +307,7 @@ class Planner {
           case Strategy::Mean: key = zsum / static_cast<double>(t.nodes.size()); break;
           case Strategy::Continue: key = zmin + (continuable(t, end) ? 0 : 1.0); break;
           case Strategy::Nearest: key = distance(pos_, g_.nodes[start]); break;
+          case Strategy::Unlock: key = zmin - static_cast<double>(unlocks(t)); break;
         }
         // Ties (same height): the nearer start.
         key += 1e-6 * distance(pos_, g_.nodes[start]);
@@ -283,6 +320,24 @@ class Planner {
     }
     if (best_flip) trails[best].reverse();
     return best;
+  }
+
+  // How many struts become printable once t is printed.
+  std::size_t unlocks(const Trail& t) const {
+    if (!blocking_) return 0;
+    ++tick_;
+    std::size_t n = 0;
+    for (EdgeId e : t.edges) in_trail_[e] = tick_;
+    for (EdgeId e : t.edges)
+      for (const EdgeId* s = blocking_->blocked_by.begin(e); s != blocking_->blocked_by.end(e); ++s) {
+        if (printed_[*s] || in_trail_[*s] == tick_ || seen_[*s] == tick_) continue;
+        seen_[*s] = tick_;
+        std::uint32_t left = pending_[*s];
+        for (const EdgeId* u = blocking_->blocks.begin(*s); u != blocking_->blocks.end(*s); ++u)
+          if (in_trail_[*u] == tick_) --left;
+        if (left == 0) ++n;
+      }
+    return n;
   }
 
   // After printing t, could a trail continue from `end`?
@@ -313,23 +368,314 @@ class Planner {
   }
 
   void print(Trail t, int mat, bool join) {
-    for (EdgeId e : t.edges) mark_printed(e);
+    for (EdgeId e : t.edges) {
+      mark_printed(e);
+      clock_ += 1;
+      time_[e] = clock_;
+    }
     if (join && !out_.trails.trails.empty()) {
+      const auto j = static_cast<std::uint32_t>(out_.trails.trails.size() - 1);
       Trail& last = out_.trails.trails.back();
+      erase_index(ends_at_[last.nodes.back()], j);
       last.edges.insert(last.edges.end(), t.edges.begin(), t.edges.end());
       last.nodes.insert(last.nodes.end(), t.nodes.begin() + 1, t.nodes.end());
       last.length += t.length;
+      ends_at_[last.nodes.back()].push_back(j);
     } else {
-      if (!out_.trails.trails.empty()) {
-        ++out_.travel_moves;
-        out_.travel_length += distance(pos_, g_.nodes[t.nodes.front()]);
-      }
+      const auto j = static_cast<std::uint32_t>(out_.trails.trails.size());
+      starts_at_[t.nodes.front()].push_back(j);
+      ends_at_[t.nodes.back()].push_back(j);
       out_.trails.trails.push_back(std::move(t));
       out_.trail_material.push_back(mat);
     }
     cur_ = out_.trails.trails.back().nodes.back();
     cur_material_ = mat;
     pos_ = g_.nodes[cur_];
+  }
+
+  static void erase_index(std::vector<std::uint32_t>& v, std::uint32_t j) {
+    v.erase(std::find(v.begin(), v.end(), j));
+  }
+
+  double first_time(std::size_t j) const { return time_[out_.trails.trails[j].edges.front()]; }
+  double last_time(std::size_t j) const { return time_[out_.trails.trails[j].edges.back()]; }
+
+  // Renumbers print times 1, 2, ... in print order (when inserted times get too close).
+  void renumber() {
+    clock_ = 0;
+    for (const auto& t : out_.trails.trails)
+      for (EdgeId e : t.edges) time_[e] = clock_ += 1;
+  }
+
+  // Going back in time: a printable trail that ends where an earlier trail starts (or starts
+  // where one ends) is printed right before (after) it, if everything it needs was printed by
+  // then — its struts obstruct only struts printed before that point, so nothing printed later
+  // is affected. No travel is added. Returns true if a trail was placed.
+  bool insert_into_earlier(std::vector<Trail>& trails, int mat) {
+    if (!blocking_) return false;
+    const std::size_t count = out_.trails.trails.size();
+    for (auto& c : trails) {
+      double needed = -std::numeric_limits<double>::infinity();  // latest print time it needs
+      for (EdgeId e : c.edges)
+        for (const EdgeId* u = blocking_->blocks.begin(e); u != blocking_->blocks.end(e); ++u)
+          needed = std::max(needed, time_[*u]);
+      const bool can_flip = reversible(c, dir_);
+      for (int f = 0; f < (can_flip ? 2 : 1); ++f) {
+        const NodeId first = f ? c.nodes.back() : c.nodes.front();
+        const NodeId last = f ? c.nodes.front() : c.nodes.back();
+        // Append after trail j (j not the open trail: that is the continuation case).
+        for (std::uint32_t j : ends_at_[first]) {
+          if (j + 1 >= count || out_.trail_material[j] != mat || last_time(j) < needed) continue;
+          if (f) c.reverse();
+          place(c, j, false);
+          return true;
+        }
+        // Prepend before trail j.
+        for (std::uint32_t j : starts_at_[last]) {
+          if (out_.trail_material[j] != mat) continue;
+          const double before = j > 0 ? last_time(j - 1) : 0.0;
+          if (before < needed) continue;
+          if (f) c.reverse();
+          place(c, j, true);
+          return true;
+        }
+      }
+    }
+    return false;
+  }
+
+  void place(Trail& c, std::uint32_t j, bool prepend) {
+    const std::size_t count = out_.trails.trails.size();
+    double lo, hi;
+    if (prepend) {
+      lo = j > 0 ? last_time(j - 1) : 0.0;
+      hi = first_time(j);
+    } else {
+      lo = last_time(j);
+      hi = j + 1 < count ? first_time(j + 1) : clock_ + 1;
+    }
+    const double step = (hi - lo) / static_cast<double>(c.edges.size() + 1);
+    for (std::size_t k = 0; k < c.edges.size(); ++k) {
+      mark_printed(c.edges[k]);
+      time_[c.edges[k]] = lo + step * static_cast<double>(k + 1);
+    }
+    Trail& t = out_.trails.trails[j];
+    if (prepend) {
+      erase_index(starts_at_[t.nodes.front()], j);
+      t.edges.insert(t.edges.begin(), c.edges.begin(), c.edges.end());
+      t.nodes.insert(t.nodes.begin(), c.nodes.begin(), c.nodes.end() - 1);
+      starts_at_[t.nodes.front()].push_back(j);
+    } else {
+      erase_index(ends_at_[t.nodes.back()], j);
+      t.edges.insert(t.edges.end(), c.edges.begin(), c.edges.end());
+      t.nodes.insert(t.nodes.end(), c.nodes.begin() + 1, c.nodes.end());
+      ends_at_[t.nodes.back()].push_back(j);
+    }
+    t.length += c.length;
+    ++out_.insertions;
+    if (step < 1e-6) renumber();
+  }
+
+  public:
+  // Local search after planning. A trail is dissolved when it can join other trails without
+  // travel: as a whole (appended to a trail that ends where it starts, or prepended to one
+  // that starts where it ends, earlier or later in the print), or split in two pieces that
+  // each join a different trail. A piece may move to a new place in the print when all struts
+  // its struts need are printed before that place and all struts that need them after it.
+  // Each dissolved trail removes one travel. Sweeps until nothing changes.
+  void merge_pass() {
+    if (!blocking_) return;
+    auto& ts = out_.trails.trails;
+    const std::size_t m = g_.edges.size();
+    owner_.assign(m, 0);
+    pos_in_.assign(m, 0);
+    for (bool changed = true; changed;) {
+      changed = false;
+      for (auto& v : starts_at_) v.clear();
+      for (auto& v : ends_at_) v.clear();
+      for (std::uint32_t j = 0; j < ts.size(); ++j) {
+        starts_at_[ts[j].nodes.front()].push_back(j);
+        ends_at_[ts[j].nodes.back()].push_back(j);
+        for (EdgeId e : ts[j].edges) owner_[e] = j;
+      }
+      for (std::uint32_t k = 0; k < ts.size(); ++k)
+        if (!ts[k].edges.empty() && dissolve(k)) changed = true;
+      // Drop the dissolved trails.
+      std::size_t w = 0;
+      for (std::size_t j = 0; j < ts.size(); ++j)
+        if (!ts[j].edges.empty()) {
+          if (w != j) {
+            ts[w] = std::move(ts[j]);
+            out_.trail_material[w] = out_.trail_material[j];
+          }
+          ++w;
+        }
+      ts.resize(w);
+      out_.trail_material.resize(w);
+      renumber();
+    }
+  }
+
+ private:
+  struct Target {
+    std::uint32_t j = 0;
+    bool flip = false, prepend = false;
+  };
+
+  // Where the piece [b, e) of trail k could go (not onto trail `exclude`).
+  bool find_target(std::uint32_t k, std::size_t b, std::size_t e, std::uint32_t exclude,
+                   double needed, double deadline, bool can_flip, Target& out) const {
+    const Trail& t = out_.trails.trails[k];
+    const int mat = out_.trail_material[k];
+    for (int f = 0; f < (can_flip ? 2 : 1); ++f) {
+      const NodeId first = f ? t.nodes[e] : t.nodes[b];
+      const NodeId last = f ? t.nodes[b] : t.nodes[e];
+      for (std::uint32_t j : ends_at_[first]) {  // append after trail j
+        if (j == k || j == exclude || out_.trail_material[j] != mat) continue;
+        if (out_.trails.trails[j].edges.empty()) continue;
+        const double lo = last_time(j);
+        if (needed <= lo && deadline > lo) {
+          out = {j, f == 1, false};
+          return true;
+        }
+      }
+      for (std::uint32_t j : starts_at_[last]) {  // prepend before trail j
+        if (j == k || j == exclude || out_.trail_material[j] != mat) continue;
+        if (out_.trails.trails[j].edges.empty()) continue;
+        const double hi = first_time(j);
+        if (needed < hi && deadline >= hi) {
+          out = {j, f == 1, true};
+          return true;
+        }
+      }
+    }
+    return false;
+  }
+
+  // Tries to dissolve trail k (whole, or split once); returns true if it did.
+  bool dissolve(std::uint32_t k) {
+    const Trail& t = out_.trails.trails[k];
+    const std::size_t n = t.edges.size();
+    for (std::size_t i = 0; i < n; ++i) pos_in_[t.edges[i]] = static_cast<std::uint32_t>(i);
+    const double inf = std::numeric_limits<double>::infinity();
+    // Per edge: latest strut it needs and earliest strut that needs it, outside the trail;
+    // precedences inside the trail as (i, j) position pairs.
+    std::vector<double> need(n, -inf), dead(n, inf);
+    std::vector<std::pair<std::size_t, std::size_t>> inner;
+    for (std::size_t i = 0; i < n; ++i) {
+      const EdgeId x = t.edges[i];
+      for (const EdgeId* u = blocking_->blocks.begin(x); u != blocking_->blocks.end(x); ++u) {
+        if (owner_[*u] == k)
+          inner.push_back({std::min<std::size_t>(i, pos_in_[*u]), std::max<std::size_t>(i, pos_in_[*u])});
+        else
+          need[i] = std::max(need[i], time_[*u]);
+      }
+      for (const EdgeId* y = blocking_->blocked_by.begin(x); y != blocking_->blocked_by.end(x); ++y)
+        if (owner_[*y] != k) dead[i] = std::min(dead[i], time_[*y]);
+    }
+    // Prefix / suffix bounds and whether a piece holds an inner precedence (then it keeps its
+    // direction) or a split cuts one (then the split is not allowed).
+    std::vector<double> pre_need(n + 1, -inf), pre_dead(n + 1, inf), suf_need(n + 1, -inf),
+        suf_dead(n + 1, inf);
+    for (std::size_t i = 0; i < n; ++i) {
+      pre_need[i + 1] = std::max(pre_need[i], need[i]);
+      pre_dead[i + 1] = std::min(pre_dead[i], dead[i]);
+    }
+    for (std::size_t i = n; i-- > 0;) {
+      suf_need[i] = std::max(suf_need[i + 1], need[i]);
+      suf_dead[i] = std::min(suf_dead[i + 1], dead[i]);
+    }
+    std::vector<int> cut(n + 2, 0);  // cut[s] > 0: a precedence crosses split s
+    std::size_t first_inner_end = n + 1, last_inner_start = 0;  // for piece-internal checks
+    bool any_inner = !inner.empty();
+    for (auto [i, j] : inner) {
+      ++cut[i + 1];
+      --cut[j + 1];
+      first_inner_end = std::min(first_inner_end, j);
+      last_inner_start = std::max(last_inner_start, i);
+    }
+    for (std::size_t s = 1; s <= n; ++s) cut[s] += cut[s - 1];
+    std::vector<std::int8_t> pre_dir(n + 1, 0), suf_dir(n + 1, 0);  // a one-way strut in it
+    for (std::size_t i = 0; i < n; ++i) pre_dir[i + 1] = pre_dir[i] | (dir_[t.edges[i]] != 0);
+    for (std::size_t i = n; i-- > 0;) suf_dir[i] = suf_dir[i + 1] | (dir_[t.edges[i]] != 0);
+    Target tp, tq;
+    // Whole trail.
+    if (find_target(k, 0, n, UINT32_MAX, pre_need[n], pre_dead[n], !any_inner && !pre_dir[n], tp)) {
+      place_piece(k, 0, n, tp);
+      out_.trails.trails[k].edges.clear();
+      ++out_.merges;
+      return true;
+    }
+    // Two pieces [0, s) and [s, n).
+    for (std::size_t s = 1; s < n; ++s) {
+      if (cut[s] > 0) continue;
+      const bool p_inner = any_inner && first_inner_end < s;   // an inner pair inside [0, s)
+      const bool q_inner = any_inner && last_inner_start >= s;  // an inner pair inside [s, n)
+      if (!find_target(k, 0, s, UINT32_MAX, pre_need[s], pre_dead[s], !p_inner && !pre_dir[s], tp))
+        continue;
+      if (!find_target(k, s, n, tp.j, suf_need[s], suf_dead[s], !q_inner && !suf_dir[s], tq))
+        continue;
+      place_piece(k, 0, s, tp);
+      place_piece(k, s, n, tq);
+      out_.trails.trails[k].edges.clear();
+      ++out_.merges;
+      return true;
+    }
+    return false;
+  }
+
+  // Moves edges [b, e) of trail k onto trail tg.j (trail k itself is cleared by the caller).
+  void place_piece(std::uint32_t k, std::size_t b, std::size_t e, const Target& tg) {
+    auto& ts = out_.trails.trails;
+    Trail c;
+    c.edges.assign(ts[k].edges.begin() + static_cast<std::ptrdiff_t>(b),
+                   ts[k].edges.begin() + static_cast<std::ptrdiff_t>(e));
+    c.nodes.assign(ts[k].nodes.begin() + static_cast<std::ptrdiff_t>(b),
+                   ts[k].nodes.begin() + static_cast<std::ptrdiff_t>(e + 1));
+    for (EdgeId x : c.edges) c.length += g_.edge_length(x);
+    if (tg.flip) c.reverse();
+    const std::uint32_t j = tg.j;
+    // The gap next to trail j among trails that keep their times (not k, not dissolved).
+    auto live = [&](std::size_t p) { return p != k && !ts[p].edges.empty(); };
+    double lo, hi;
+    if (tg.prepend) {
+      lo = 0;
+      for (std::size_t p = j; p-- > 0;)
+        if (live(p)) {
+          lo = last_time(p);
+          break;
+        }
+      hi = first_time(j);
+    } else {
+      lo = last_time(j);
+      hi = clock_ + 1;
+      for (std::size_t p = j + 1; p < ts.size(); ++p)
+        if (live(p)) {
+          hi = first_time(p);
+          break;
+        }
+    }
+    const double step = (hi - lo) / static_cast<double>(c.edges.size() + 1);
+    for (std::size_t q = 0; q < c.edges.size(); ++q) {
+      time_[c.edges[q]] = lo + step * static_cast<double>(q + 1);
+      owner_[c.edges[q]] = j;
+    }
+    Trail& t = ts[j];
+    if (tg.prepend) {
+      erase_index(starts_at_[t.nodes.front()], j);
+      c.edges.insert(c.edges.end(), t.edges.begin(), t.edges.end());
+      c.nodes.insert(c.nodes.end(), t.nodes.begin() + 1, t.nodes.end());
+      c.length += t.length;
+      t = std::move(c);
+      starts_at_[t.nodes.front()].push_back(j);
+    } else {
+      erase_index(ends_at_[t.nodes.back()], j);
+      t.edges.insert(t.edges.end(), c.edges.begin(), c.edges.end());
+      t.nodes.insert(t.nodes.end(), c.nodes.begin() + 1, c.nodes.end());
+      t.length += c.length;
+      ends_at_[t.nodes.back()].push_back(j);
+    }
+    if (step < 1e-9 * std::max(1.0, clock_)) renumber();
   }
 
   // Nothing is printable: print the lowest remaining strut (bottom-up) and record it.
@@ -357,8 +703,23 @@ class Planner {
   std::vector<EdgeId> by_height_;
   Adjacency adj_{g_};
   mutable std::vector<std::uint32_t> in_trail_ = std::vector<std::uint32_t>(g_.edges.size(), 0);
+  mutable std::vector<std::uint32_t> seen_ = std::vector<std::uint32_t>(g_.edges.size(), 0);
+
   mutable std::uint32_t tick_ = 0;
-  std::size_t lowest_ = 0, done_ = 0;
+  std::size_t lowest_ = 0, done_ = 0, unlocked_ = 0;
+  std::vector<std::uint32_t> owner_, pos_in_;  // merge pass: trail of each strut, place in it
+  std::vector<Trail> cache_;  // the rest of the last decomposition
+  int cache_material_ = -1;
+  std::size_t cache_stamp_ = 0;  // unlocked_ when it was made
+  std::vector<double> time_ = std::vector<double>(g_.edges.size(), 0.0);
+  double clock_ = 0;
+  std::vector<std::vector<std::uint32_t>> starts_at_ =
+      std::vector<std::vector<std::uint32_t>>(g_.nodes.size());
+  std::vector<std::vector<std::uint32_t>> ends_at_ =
+      std::vector<std::vector<std::uint32_t>>(g_.nodes.size());
+  bool insert_earlier_ = true;
+  std::mt19937_64 rng_;
+  bool shuffle_;
   NodeId cur_ = MixedEuler::kNoNode;
   int cur_material_ = -1;
   Vec3 pos_;
@@ -394,29 +755,54 @@ AeroResult plan_aero(const Graph& g, const AeroParams& params, Diagnostics& diag
   r.groups = r.group_sizes.size();
   r.seconds_blocking = since(t0);
   const auto t1 = Clock::now();
-  // Dynamic: a small portfolio of trail-selection strategies, the best plan kept (fewest
-  // violations, then trails, then travel). Each run is deterministic.
+  // Dynamic: a portfolio of runs — each trail-selection strategy as is, then with the
+  // printable struts shuffled before every decomposition (Hierholzer's trails depend on that
+  // order) — run in parallel, the best plan kept: fewest violations, then trails, then travel,
+  // then the lowest run index, so the result does not depend on thread timing.
   std::vector<Strategy> strategies = {Strategy::Nearest};
-  if (params.method == AeroMethod::Dynamic && params.collisions)
-    strategies = {Strategy::Lowest, Strategy::Mean, Strategy::Continue, Strategy::Nearest};
-  const AeroResult base = r;
-  bool have = false;
-  for (std::size_t k = 0; k < strategies.size(); ++k) {
-    params.progress("plan", static_cast<double>(k) / static_cast<double>(strategies.size()));
-    AeroResult trial = base;
-    Planner planner(g, params.collisions ? &blocking : nullptr, dir, strategies[k], trial,
-                    params.progress);
-    if (params.method == AeroMethod::Groups || !params.collisions)
-      planner.run_groups();
-    else
-      planner.run_dynamic();
-    trial.strategy = to_string(strategies[k]);
-    auto key = [](const AeroResult& x) {
-      return std::make_tuple(x.violations.size(), x.trails.trails.size(), x.travel_length);
-    };
-    if (!have || key(trial) < key(r)) r = std::move(trial);
-    have = true;
+  std::size_t runs = 1;
+  if (params.method == AeroMethod::Dynamic && params.collisions) {
+    strategies = {Strategy::Unlock, Strategy::Lowest, Strategy::Continue, Strategy::Mean};
+    runs = std::max<std::size_t>(1, static_cast<std::size_t>(params.tries));
   }
+  std::vector<AeroResult> trials(runs, r);
+  std::atomic<std::size_t> finished{0};
+  tbb::task_arena arena(params.threads > 0 ? params.threads : tbb::task_arena::automatic);
+  arena.execute([&] {
+    tbb::parallel_for(std::size_t{0}, runs, [&](std::size_t k) {
+      if (params.progress.cancelled()) return;
+      AeroResult& trial = trials[k];
+      const Strategy strategy = strategies[k % strategies.size()];
+      const std::uint64_t seed =
+          k < strategies.size() ? 0 : params.seed * 1000003ULL + k;  // 0 = no shuffle
+      Progress quiet;  // cancellation only: the portfolio reports progress per run
+      quiet.cancel = params.progress.cancel;
+      Planner planner(g, params.collisions ? &blocking : nullptr, dir, strategy, seed, trial,
+                      quiet);
+      if (params.method == AeroMethod::Groups || !params.collisions) {
+        planner.run_groups();
+      } else {
+        planner.run_dynamic();
+        planner.merge_pass();
+      }
+      trial.strategy = std::string(to_string(strategy)) + (seed ? "+shuffle" : "");
+      const auto& ts = trial.trails.trails;
+      trial.travel_moves = ts.empty() ? 0 : ts.size() - 1;
+      for (std::size_t j = 1; j < ts.size(); ++j)
+        trial.travel_length +=
+            distance(g.nodes[ts[j - 1].nodes.back()], g.nodes[ts[j].nodes.front()]);
+      params.progress("plan", static_cast<double>(++finished) / static_cast<double>(runs));
+    });
+  });
+  if (params.progress.cancelled()) throw Error("AERO planning cancelled");
+  std::size_t best = 0;
+  auto key = [](const AeroResult& x) {
+    return std::make_tuple(x.violations.size(), x.trails.trails.size(), x.travel_length);
+  };
+  for (std::size_t k = 1; k < runs; ++k)
+    if (key(trials[k]) < key(trials[best])) best = k;
+  r = std::move(trials[best]);
+  r.runs = runs;
   r.seconds_planning = since(t1);
   for (const auto& t : r.trails.trails) r.max_trail_edges = std::max(r.max_trail_edges, t.edges.size());
   if (!r.violations.empty()) {
@@ -454,6 +840,7 @@ std::string aero_report_json(const AeroResult& r, const AeroParams& p, const Dia
   j["planner"] = "aero";
   j["method"] = to_string(p.method);
   j["strategy"] = r.strategy;
+  j["runs"] = r.runs;
   j["collision_model"] = p.collisions;
   j["nozzle"] = {{"radius_mm", p.nozzle.radius},
                  {"tip_clearance_mm", p.nozzle.tip_clearance},

@@ -10,6 +10,7 @@ namespace {
 constexpr std::uint32_t kNone = UINT32_MAX;
 }
 
+// Scratch of one decomposition, kept between calls so repeated calls do not allocate.
 struct MixedEuler::Local {
   std::vector<NodeId> global;  // local node -> global node (kNone for the stub node)
   std::vector<std::uint32_t> tail, head;
@@ -17,9 +18,26 @@ struct MixedEuler::Local {
   std::vector<EdgeId> gedge;  // global edge id, kNone for the stub
   std::vector<int> bal;       // out - in
   std::uint32_t stub_node = kNone;
+  // work arrays
+  std::vector<std::uint32_t> off, inc, fill, parent, queue, seen, cursor, out_edges;
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> stack, circuit;
+  std::uint32_t round = 0;
+
+  void clear() {
+    global.clear();
+    tail.clear();
+    head.clear();
+    is_free.clear();
+    gedge.clear();
+    bal.clear();
+    stub_node = kNone;
+  }
 };
 
-MixedEuler::MixedEuler(std::size_t node_count) : local_(node_count, 0), stamp_(node_count, 0) {}
+MixedEuler::MixedEuler(std::size_t node_count)
+    : local_(node_count, 0), stamp_(node_count, 0), scratch_(std::make_unique<Local>()) {}
+MixedEuler::~MixedEuler() = default;
+MixedEuler::MixedEuler(MixedEuler&&) noexcept = default;
 
 void MixedEuler::build(const Graph& g, const std::vector<EdgeId>& edges,
                        const std::vector<std::int8_t>& dir, NodeId continue_from, Local& L) {
@@ -69,7 +87,9 @@ void MixedEuler::build(const Graph& g, const std::vector<EdgeId>& edges,
   // Augmenting paths over free struts: reverse a directed run from a surplus node to a deficit
   // node whenever that lowers Σ|bal|.
   const std::size_t n = L.global.size(), me = L.tail.size();
-  std::vector<std::uint32_t> off(n + 1, 0), inc;
+  auto& off = L.off;
+  auto& inc = L.inc;
+  off.assign(n + 1, 0);
   for (std::size_t e = 0; e < me; ++e)
     if (L.is_free[e]) {
       ++off[L.tail[e] + 1];
@@ -78,21 +98,27 @@ void MixedEuler::build(const Graph& g, const std::vector<EdgeId>& edges,
   for (std::size_t i = 1; i <= n; ++i) off[i] += off[i - 1];
   inc.resize(off[n]);
   {
-    std::vector<std::uint32_t> fill(off.begin(), off.end() - 1);
+    auto& fill = L.fill;
+    fill.assign(off.begin(), off.end() - 1);
     for (std::size_t e = 0; e < me; ++e)
       if (L.is_free[e]) {
         inc[fill[L.tail[e]]++] = static_cast<std::uint32_t>(e);
         inc[fill[L.head[e]]++] = static_cast<std::uint32_t>(e);
       }
   }
-  std::vector<std::uint32_t> parent(n), queue;
-  std::vector<std::uint32_t> seen(n, 0);
-  std::uint32_t round = 0;
-  auto augment = [&](int need_s, int need_t) {
+  auto& parent = L.parent;
+  auto& queue = L.queue;
+  auto& seen = L.seen;
+  parent.resize(n);
+  if (seen.size() < n) seen.resize(n, 0);
+  std::uint32_t& round = L.round;
+  // Reverses a run of free struts from a node with bal >= need_s to a node with bal <= -need_t
+  // (or to `only` if given).
+  auto augment = [&](int need_s, int need_t, std::uint32_t only = kNone) {
     ++round;
     queue.clear();
     for (std::uint32_t v = 0; v < n; ++v)
-      if (L.bal[v] >= need_s) {
+      if (L.bal[v] >= need_s && v != L.stub_node) {
         queue.push_back(v);
         seen[v] = round;
         parent[v] = kNone;
@@ -106,7 +132,7 @@ void MixedEuler::build(const Graph& g, const std::vector<EdgeId>& edges,
         if (seen[w] == round) continue;
         seen[w] = round;
         parent[w] = e;
-        if (L.bal[w] <= -need_t) {
+        if (only == kNone ? L.bal[w] <= -need_t : w == only) {
           std::uint32_t v = w;
           while (parent[v] != kNone) {
             const std::uint32_t pe = parent[v];
@@ -123,17 +149,32 @@ void MixedEuler::build(const Graph& g, const std::vector<EdgeId>& edges,
     }
     return false;
   };
+  auto worth = [&](int need_s, int need_t) {
+    bool src = false, dst = false;
+    for (std::uint32_t v = 0; v < n; ++v) {
+      src |= L.bal[v] >= need_s && v != L.stub_node;
+      dst |= L.bal[v] <= -need_t;
+    }
+    return src && dst;
+  };
   for (;;) {
-    if (augment(2, 1)) continue;
-    if (augment(1, 2)) continue;
+    if (worth(2, 1) && augment(2, 1)) continue;
+    if (worth(1, 2) && augment(1, 2)) continue;
     break;
+  }
+  // With a stub, a trail ending at the continuation node would leave the stub trail empty;
+  // among the optimal orientations prefer one where the open trail runs on (same Σ|bal|).
+  if (L.stub_node != kNone) {
+    const std::uint32_t c = local_[continue_from];
+    if (L.bal[c] < 0) augment(1, 0, c);
   }
 }
 
 std::size_t MixedEuler::lower_bound(const Graph& g, const std::vector<EdgeId>& edges,
                                     const std::vector<std::int8_t>& dir) {
   if (edges.empty()) return 0;
-  Local L;
+  Local& L = *scratch_;
+  L.clear();
   build(g, edges, dir, kNoNode, L);
   const std::size_t n = L.global.size();
   std::vector<std::uint32_t> root(n);
@@ -161,7 +202,8 @@ std::vector<Trail> MixedEuler::decompose(const Graph& g, const std::vector<EdgeI
   if (continued) *continued = false;
   std::vector<Trail> out;
   if (edges.empty()) return out;
-  Local L;
+  Local& L = *scratch_;
+  L.clear();
   build(g, edges, dir, continue_from, L);
   const auto n = static_cast<std::uint32_t>(L.global.size());
   const std::uint32_t hub = n;
@@ -178,15 +220,21 @@ std::vector<Trail> MixedEuler::decompose(const Graph& g, const std::vector<EdgeI
     }
   }
   const std::size_t me = L.tail.size();
-  std::vector<std::uint32_t> off(n + 2, 0), out_edges(me);
+  auto& off = L.off;
+  auto& out_edges = L.out_edges;
+  off.assign(n + 2, 0);
+  out_edges.resize(me);
   for (std::size_t e = 0; e < me; ++e) ++off[L.tail[e] + 1];
   for (std::size_t i = 1; i <= n + 1; ++i) off[i] += off[i - 1];
   {
-    std::vector<std::uint32_t> fill(off.begin(), off.end() - 1);
+    auto& fill = L.fill;
+    fill.assign(off.begin(), off.end() - 1);
     for (std::size_t e = 0; e < me; ++e) out_edges[fill[L.tail[e]]++] = static_cast<std::uint32_t>(e);
   }
-  std::vector<std::uint32_t> cursor(off.begin(), off.end() - 1);
-  std::vector<std::pair<std::uint32_t, std::uint32_t>> stack, circuit;
+  auto& cursor = L.cursor;
+  cursor.assign(off.begin(), off.end() - 1);
+  auto& stack = L.stack;
+  auto& circuit = L.circuit;
   Trail current;
   bool current_is_stub = false;
   auto flush = [&] {

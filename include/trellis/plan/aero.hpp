@@ -12,6 +12,7 @@
 // materials in separate trails. If no strut is printable, the lowest remaining one is printed
 // anyway and counted as a violation.
 #pragma once
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -31,7 +32,9 @@ struct AeroParams {
   NozzleModel nozzle;
   bool collisions = true;  // false: no precedence at all, trails = the Euler lower bound
   AeroMethod method = AeroMethod::Dynamic;
-  int threads = 0;  // for the blocking relation; 0 = all cores
+  int threads = 0;  // 0 = all cores
+  int tries = 32;   // dynamic: planner runs in the portfolio (strategies, then shuffled orders)
+  std::uint64_t seed = 1;  // for the shuffled runs: same seed, same plan
   Progress progress;
 };
 
@@ -52,6 +55,9 @@ struct AeroResult {
   std::size_t steep_struts = 0;  // printed bottom-up by the cone rule
   std::size_t blocking_relations = 0, pairs_tested = 0;
   std::size_t decompositions = 0;
+  std::size_t insertions = 0;
+  std::size_t merges = 0;      // trails moved onto another trail after planning  // trails placed into the past (joined to an earlier trail)
+  std::size_t runs = 1;  // planner runs tried
   std::string strategy;  // the trail-selection strategy that won (see aero.cpp)
   std::vector<AeroViolation> violations;
   double seconds_blocking = 0, seconds_planning = 0;

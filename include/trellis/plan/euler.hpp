@@ -4,6 +4,7 @@
 // components without odd nodes give one closed trail each.
 #pragma once
 #include <cstdint>
+#include <memory>
 
 #include "trellis/plan/paths.hpp"
 
@@ -26,6 +27,8 @@ class MixedEuler {
   static constexpr NodeId kNoNode = UINT32_MAX;
 
   explicit MixedEuler(std::size_t node_count);
+  ~MixedEuler();
+  MixedEuler(MixedEuler&&) noexcept;
 
   // Trails covering `edges` exactly once; `dir[e]` for a global edge id: 0 either way, +1 only
   // a→b, -1 only b→a. If `continue_from` is a node, the decomposition is made as if a trail
@@ -46,6 +49,7 @@ class MixedEuler {
 
   std::vector<std::uint32_t> local_, stamp_;
   std::uint32_t tick_ = 0;
+  std::unique_ptr<Local> scratch_;
 };
 
 }  // namespace trellis
