@@ -16,7 +16,7 @@ void add_gcode(CLI::App& app) {
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand(
-      "gcode", "Write G-code (or pneumatic .nc) from a toolpath and a machine profile");
+      "gcode", "Write G-code (or pneumatic / embedded .nc) from a toolpath and a machine profile");
   cmd->footer(
       "Profiles are TOML files (see profiles/); every setting is listed by --help-settings.\n"
       "Settings merge: defaults < profile < --set.");
@@ -40,7 +40,9 @@ void add_gcode(CLI::App& app) {
     const GcodeStats s = write_gcode_file(o->output, tp, profile);
     std::cout << profile.flavor << ": " << s.paths << " paths, " << num(s.print_length, 1)
               << " mm printed, " << s.travel_moves << " travel moves (" << num(s.travel_length, 1)
-              << " mm), " << s.retractions << " retractions, " << num(s.filament, 2)
+              << " mm), " << s.retractions << " retractions, "
+              << (s.tool_changes ? std::to_string(s.tool_changes) + " tool changes, " : "")
+              << num(s.filament, 2)
               << " mm filament, ~" << num(s.print_time_s / 60, 1) << " min, " << s.bytes
               << " bytes -> " << o->output << "\n";
   });

@@ -4,18 +4,78 @@
 #include "commands.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
+#include "trellis/analysis/collisions.hpp"
+#include "trellis/core/file.hpp"
 #include "trellis/lattice/io.hpp"
+#include "trellis/plan/aero.hpp"
 #include "trellis/plan/report.hpp"
 #include "trellis/render/render.hpp"
 #include "trellis/toolpath/json.hpp"
 
 namespace trellis::cli {
 
+namespace {
+
+// `trellis plan aero`: plan, check independently, write toolpath, report and previews.
+template <class Opts>
+void plan_aero_cli(const Opts& o) {
+  const auto t0 = std::chrono::steady_clock::now();
+  AeroParams p = o.aero;
+  p.method = aero_method_from_string(o.method);
+  p.collisions = !o.no_collisions;
+  p.seed = o.p.gippo.seed;
+  p.threads = o.p.gippo.threads;
+  p.progress.report = progress_line;
+  Diagnostics diag;
+  const Graph g = read_lattice(o.input, {o.merge_tolerance, true}, diag);
+  const AeroResult r = plan_aero(g, p, diag);
+  const Toolpath tp = aero_toolpath(g, r, "trellis plan aero " + o.input);
+  CheckOptions check;
+  check.nozzle = p.nozzle;
+  const CollisionCheck c = check_collisions(g, tp, check);
+  const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  write_toolpath(o.output, tp);
+  if (!o.report.empty()) {
+    AeroReportInput in{o.input, g.nodes.size(), g.edges.size(), secs};
+    in.checked_collisions = static_cast<long long>(c.collisions);
+    in.checked_once = c.printed_once == g.edges.size() && c.repeated.empty();
+    write_file_atomic(o.report, aero_report_json(r, p, diag, in));
+  }
+  if (!o.png_prefix.empty()) {
+    View3dOptions v;
+    for (const auto& h : c.hits) v.marks.push_back(h.point);
+    v.title = std::to_string(r.trails.trails.size()) + " trails, " + std::to_string(c.collisions) +
+              " collisions (" + o.input + ")";
+    render_3d_png(tp, o.png_prefix + ".png", v);
+    for (std::size_t k = 1; k <= std::min(o.frames, r.trails.trails.size()); ++k) {
+      View3dOptions f;
+      f.upto = k;
+      f.title = "step " + std::to_string(k) + " of " + std::to_string(r.trails.trails.size());
+      char name[32];
+      std::snprintf(name, sizeof name, ".step%02zu.png", k);
+      render_3d_png(tp, o.png_prefix + name, f);
+    }
+  }
+  print_warnings(diag);
+  std::cout << "aero " << to_string(p.method) << ": " << g.edges.size() << " struts, " << r.groups
+            << " groups, " << r.trails.trails.size() << " trails (lower bound "
+            << r.lower_bound_trails << "), longest " << r.max_trail_edges << " struts, travel "
+            << r.travel_moves << " moves / " << num(r.travel_length, 1) << " mm, collisions "
+            << c.collisions << " (checked), " << num(secs, 3) << " s -> " << o.output << "\n";
+}
+
+}  // namespace
+
 void add_plan(CLI::App& app) {
   struct Opts {
     std::string planner, input, output, report, mode = "max", order = "longest-first", png_prefix;
     PlanParams p;
     double merge_tolerance = 1e-6;
+    // aero
+    AeroParams aero;
+    std::string method = "dynamic";
+    bool no_collisions = false;
+    std::size_t frames = 0;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd =
@@ -24,12 +84,15 @@ void add_plan(CLI::App& app) {
       "Planners:\n  gippo  the paper's randomized greedy growth (max: longest edge first, min: "
       "shortest),\n         N iterations, best score (Eq. 1) kept; reproducible for a seed.\n"
       "  euler  Hierholzer: exactly the lower bound max(1, odd nodes/2) of paths per component.\n"
+      "  aero   3D strut lattices for embedded printing: collision-free Eulerian trails\n"
+      "         (nozzle = vertical cylinder; struts within the cone print bottom-up); the plan\n"
+      "         is replayed by the independent collision checker and the result reported.\n"
       "Lattice formats: .json, NAME_vertices.csv/NAME_edges.csv (AERO), segment .csv, .obj.\n"
       "Planar levels (edges at one z) and materials are planned separately; the nozzle z is the\n"
       "design z plus the layer height.");
-  cmd->add_option("planner", o->planner, "gippo or euler")
+  cmd->add_option("planner", o->planner, "gippo, euler or aero")
       ->required()
-      ->check(CLI::IsMember({"gippo", "euler"}));
+      ->check(CLI::IsMember({"gippo", "euler", "aero"}));
   cmd->add_option("lattice", o->input, "lattice file")->required();
   cmd->add_option("-o,--output", o->output, "toolpath JSON to write")->required();
   cmd->add_option("--report", o->report, "report JSON to write");
@@ -57,8 +120,42 @@ void add_plan(CLI::App& app) {
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   cmd->add_option("--png", o->png_prefix,
-                  "write PREFIX.layerNNN.png previews (and PREFIX.scores.png for gippo)");
+                  "write PREFIX.layerNNN.png previews (PREFIX.scores.png for gippo; for aero an "
+                  "isometric PREFIX.png)");
+  auto* ag = "AERO (3D, embedded printing)";
+  cmd->add_option("--method", o->method,
+                  "aero: dynamic (refresh after every trail, default) or groups (the paper's)")
+      ->check(CLI::IsMember({"dynamic", "groups"}))
+      ->capture_default_str()
+      ->group(ag);
+  cmd->add_flag("--no-collisions", o->no_collisions,
+                "aero: ignore the nozzle (trails = the Euler lower bound)")
+      ->group(ag);
+  cmd->add_option("--nozzle-radius", o->aero.nozzle.radius, "aero: nozzle radius R (mm)")
+      ->capture_default_str()
+      ->group(ag);
+  cmd->add_option("--tip-clearance", o->aero.nozzle.tip_clearance,
+                  "aero: material less than this above the tip is not hit (mm)")
+      ->capture_default_str()
+      ->group(ag);
+  cmd->add_option("--node-clearance", o->aero.nozzle.node_clearance,
+                  "aero: no collision within this of a shared node (mm)")
+      ->capture_default_str()
+      ->group(ag);
+  cmd->add_option("--cone", o->aero.nozzle.cone_half_angle_deg,
+                  "aero: struts within this angle of vertical print bottom-up (degrees)")
+      ->capture_default_str()
+      ->group(ag);
+  cmd->add_option("--tries", o->aero.tries,
+                  "aero dynamic: planner runs (strategies, then shuffled orders; best kept)")
+      ->check(CLI::Range(1, 100000))
+      ->capture_default_str()
+      ->group(ag);
+  cmd->add_option("--frames", o->frames,
+                  "aero: with --png, also PREFIX.stepNN.png for the first N trails")
+      ->group(ag);
   cmd->callback([o] {
+    if (o->planner == "aero") return plan_aero_cli(*o);
     const auto t0 = std::chrono::steady_clock::now();
     PlanParams p = o->p;
     p.planner = planner_from_string(o->planner);

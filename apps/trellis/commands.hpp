@@ -19,6 +19,12 @@ void add_compare(CLI::App& app);
 void add_walls(CLI::App& app);
 void add_slice(CLI::App& app);
 void add_pbf(CLI::App& app);
+void add_lattice3d(CLI::App& app);
+void add_check(CLI::App& app);
+
+// Exit status of the run when no error was thrown (e.g. 1 when a check found problems).
+void set_exit_code(int code);
+int exit_code();
 
 // Progress on stderr when it is a terminal (carriage-return updates), silent otherwise.
 void progress_line(const std::string& stage, double fraction);

@@ -42,6 +42,16 @@ std::vector<std::string> render_previews(const Toolpath& toolpath, const std::st
   return pngs;
 }
 
+namespace {
+int g_exit_code = 0;
+}
+void set_exit_code(int code) {
+  g_exit_code = code;
+}
+int exit_code() {
+  return g_exit_code;
+}
+
 std::string num(double v, int decimals) {
   char buf[64];
   std::snprintf(buf, sizeof buf, "%.*f", decimals, v);
@@ -53,7 +63,8 @@ std::string num(double v, int decimals) {
 int main(int argc, char** argv) {
   CLI::App app{
       "Trellis: toolpaths for architected materials.\n"
-      "Design a lattice, plan continuous print paths (GIPPO or Euler), write G-code; slice\n"
+      "Design a lattice, plan continuous print paths (GIPPO, Euler, AERO for 3D lattices in a\n"
+      "support bath), write G-code and check it for nozzle collisions; slice\n"
       "implicit designs (.vcad) and meshes; make laser powder-bed paths for TPMS lattices.\n"
       "Typical use:\n"
       "  trellis lattice2d --pattern honeycomb --cell 1 -o lattice.json\n"
@@ -61,15 +72,21 @@ int main(int argc, char** argv) {
       "  trellis gcode toolpath.json --machine profiles/ender3_s1_pro_tpu.toml -o part.gcode\n"
       "  trellis run examples/honeycomb_tensile.toml\n"
       "  trellis slice examples/designs/csg_bracket.vcad --machine profiles/ender3_s1_pro_tpu.toml -o bracket.gcode\n"
-      "  trellis pbf --cell-type gyroid --cell 2.5 --size 10,10,10 -o lattice.cli"};
+      "  trellis pbf --cell-type gyroid --cell 2.5 --size 10,10,10 -o lattice.cli\n"
+      "  trellis lattice3d --cell octet --size 7 --count 3 3 3 -o octet.json\n"
+      "  trellis plan aero octet.json -o octet_path.json --report octet_report.json\n"
+      "  trellis gcode octet_path.json --machine profiles/embedded_aero_410um.toml -o octet.nc\n"
+      "  trellis check octet.json octet.nc --machine profiles/embedded_aero_410um.toml"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "trellis 0.1.0");
   trellis::cli::add_lattice2d(app);
+  trellis::cli::add_lattice3d(app);
   trellis::cli::add_plan(app);
   trellis::cli::add_gcode(app);
   trellis::cli::add_render(app);
   trellis::cli::add_run(app);
   trellis::cli::add_analyze(app);
+  trellis::cli::add_check(app);
   trellis::cli::add_compare(app);
   trellis::cli::add_walls(app);
   trellis::cli::add_slice(app);
@@ -92,5 +109,5 @@ int main(int argc, char** argv) {
     std::cerr << "trellis: internal error: " << e.what() << "\n";
     return 3;
   }
-  return 0;
+  return trellis::cli::exit_code();
 }

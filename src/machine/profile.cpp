@@ -15,8 +15,10 @@ using P = MachineProfile;
 const std::vector<SettingDecl>& machine_settings() {
   static const std::vector<SettingDecl> table = {
       {"machine.name", "", "printer name, written into headers", 0, 0, &P::name},
-      {"machine.flavor", "", "G-code dialect: marlin (E values) or pneumatic (valve + pressure)", 0,
-       0, &P::flavor},
+      {"machine.flavor", "",
+       "G-code dialect: marlin (E values), pneumatic (valve + pressure) or embedded (pneumatic "
+       "in a support bath: vertical lifts out of the bath for travel, tools with offsets)",
+       0, 0, &P::flavor},
       {"machine.bed_x", "mm", "bed size in X", 1, 10000, &P::bed_x},
       {"machine.bed_y", "mm", "bed size in Y", 1, 10000, &P::bed_y},
       {"placement.center", "", "move the part's XY centre to the bed centre", 0, 0, &P::center},
@@ -62,6 +64,23 @@ const std::vector<SettingDecl>& machine_settings() {
        &P::pressure_command},
       {"pneumatic.valve_on", "", "command opening the valve", 0, 0, &P::valve_on},
       {"pneumatic.valve_off", "", "command closing the valve", 0, 0, &P::valve_off},
+      {"embedded.bath_surface", "mm",
+       "Z of the support bath surface; travel lifts out of it (the part top if lower)", -10000,
+       10000, &P::bath_surface},
+      {"embedded.travel_clearance", "mm", "travel this far above the bath surface", 0, 1000,
+       &P::travel_clearance},
+      {"embedded.node_dwell", "s", "dwell at every node inside a path", 0, 60, &P::node_dwell},
+      {"embedded.node_overlap", "mm", "extend each path end this far past its end node", 0, 10,
+       &P::node_overlap},
+      {"embedded.tool_offsets", "mm", "XY offset per tool as \"x,y;x,y;...\" (tool 0 first)", 0,
+       0, &P::tool_offsets},
+      {"embedded.tool_pressures", "kPa",
+       "pressure per tool as \"p0,p1,...\" (replaces pneumatic.pressure)", 0, 0,
+       &P::tool_pressures},
+      {"embedded.tool_change", "", "command selecting a tool; {tool} is its number", 0, 0,
+       &P::tool_change},
+      {"embedded.raise_idle", "", "command raising the nozzle {tool} that goes idle; empty = none",
+       0, 0, &P::raise_idle},
       {"gcode.start", "", "start template; {section.key} or {key} inserts a setting", 0, 0,
        &P::start_gcode},
       {"gcode.end", "", "end template", 0, 0, &P::end_gcode},
@@ -74,8 +93,67 @@ const std::vector<SettingDecl>& machine_settings() {
 Flavor MachineProfile::parsed_flavor() const {
   if (flavor == "marlin") return Flavor::Marlin;
   if (flavor == "pneumatic") return Flavor::Pneumatic;
-  throw SettingError("unknown flavor '" + flavor + "' (expected marlin or pneumatic)",
+  if (flavor == "embedded") return Flavor::Embedded;
+  throw SettingError("unknown flavor '" + flavor + "' (expected marlin, pneumatic or embedded)",
                      {"", 0, "machine.flavor"});
+}
+
+namespace {
+
+// Numbers of a list "a,b;c,d" split at `sep` and ','.
+std::vector<std::vector<double>> number_groups(const std::string& text, char sep,
+                                               const char* key) {
+  std::vector<std::vector<double>> out;
+  if (text.find_first_not_of(" \t") == std::string::npos) return out;
+  std::size_t start = 0;
+  while (start <= text.size()) {
+    const auto end = std::min(text.find(sep, start), text.size());
+    std::vector<double> group;
+    std::size_t p = start;
+    while (p <= end) {
+      const auto comma = std::min(text.find(',', p), end);
+      std::string item = text.substr(p, comma - p);
+      item.erase(0, item.find_first_not_of(" \t"));
+      item.erase(item.find_last_not_of(" \t") + 1);
+      double v = 0;
+      const auto r = std::from_chars(item.data(), item.data() + item.size(), v);
+      if (item.empty() || r.ec != std::errc() || r.ptr != item.data() + item.size() ||
+          !std::isfinite(v) || std::abs(v) > 1e5)
+        throw SettingError("'" + item + "' is not a number in \"" + text + "\"", {"", 0, key});
+      group.push_back(v);
+      p = comma + 1;
+    }
+    out.push_back(std::move(group));
+    if (end == text.size()) break;
+    start = end + 1;
+  }
+  return out;
+}
+
+}  // namespace
+
+Vec2 MachineProfile::tool_offset(int tool) const {
+  const auto groups = number_groups(tool_offsets, ';', "embedded.tool_offsets");
+  for (const auto& g : groups)
+    if (g.size() != 2)
+      throw SettingError("each tool offset is \"x,y\"", {"", 0, "embedded.tool_offsets"});
+  if (tool < 0 || static_cast<std::size_t>(tool) >= groups.size()) {
+    if (groups.empty() || tool == 0) return {0, 0};
+    throw SettingError("no offset for tool " + std::to_string(tool) + " (" +
+                           std::to_string(groups.size()) + " given)",
+                       {"", 0, "embedded.tool_offsets"});
+  }
+  return {groups[static_cast<std::size_t>(tool)][0], groups[static_cast<std::size_t>(tool)][1]};
+}
+
+double MachineProfile::tool_pressure(int tool) const {
+  const auto groups = number_groups(tool_pressures, ';', "embedded.tool_pressures");
+  if (groups.empty()) return pressure;
+  const auto& list = groups.front();
+  if (groups.size() != 1 || tool < 0 || static_cast<std::size_t>(tool) >= list.size())
+    throw SettingError("no pressure for tool " + std::to_string(tool),
+                       {"", 0, "embedded.tool_pressures"});
+  return list[static_cast<std::size_t>(tool)];
 }
 
 namespace {
@@ -194,6 +272,8 @@ void apply_override(MachineProfile& p, const std::string& assignment) {
 
 void validate(const MachineProfile& p) {
   p.parsed_flavor();
+  p.tool_offset(0);
+  p.tool_pressure(0);
 }
 
 std::string setting_text(const MachineProfile& p, const SettingDecl& d) {

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <memory>
+#include <tuple>
 
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
@@ -113,6 +114,101 @@ void render_layer_png(const Toolpath& tp, std::size_t index, const std::string& 
       cairo_arc(cr.get(), p.points.back().x, p.points.back().y, 2.0 / scale, 0, 2 * M_PI);
       cairo_fill(cr.get());
     }
+  cairo_surface_flush(surface.get());
+  save_png(surface.get(), path);
+}
+
+void render_3d_png(const Toolpath& tp, const std::string& path, const View3dOptions& opt) {
+  std::vector<const Path*> paths;
+  for (const auto& l : tp.layers)
+    for (const auto& p : l.paths)
+      if (p.points.size() >= 2) paths.push_back(&p);
+  const double az = opt.azimuth_deg * M_PI / 180, el = opt.elevation_deg * M_PI / 180;
+  // Screen axes: u to the right, v up; the eye looks along -(cos el cos az, cos el sin az, sin el).
+  auto project = [&](Vec3 p) {
+    const double u = -p.x * std::sin(az) + p.y * std::cos(az);
+    const double v = -(p.x * std::cos(az) + p.y * std::sin(az)) * std::sin(el) + p.z * std::cos(el);
+    return std::pair<double, double>{u, v};
+  };
+  double u0 = 1e300, u1 = -1e300, v0 = 1e300, v1 = -1e300;
+  auto extend = [&](Vec3 p) {
+    const auto [u, v] = project(p);
+    u0 = std::min(u0, u), u1 = std::max(u1, u), v0 = std::min(v0, v), v1 = std::max(v1, v);
+  };
+  for (const Path* p : paths)
+    for (const auto& q : p->points) extend(q);
+  for (const auto& m : opt.marks) extend(m);
+  if (u0 > u1) u0 = v0 = 0, u1 = v1 = 1;
+  const double margin = 0.04 * std::max(u1 - u0, v1 - v0) + 1e-6;
+  const double w = u1 - u0 + 2 * margin, h = v1 - v0 + 2 * margin;
+  const double title_px = opt.title.empty() ? 0 : 28;
+  const double scale = opt.size_px / std::max(w, h);
+  const int W = std::max(16, static_cast<int>(std::ceil(w * scale)));
+  const int H = std::max(16, static_cast<int>(std::ceil(h * scale + title_px)));
+  Surface surface(cairo_image_surface_create(CAIRO_FORMAT_RGB24, W, H), cairo_surface_destroy);
+  Context cr(cairo_create(surface.get()), cairo_destroy);
+  cairo_set_source_rgb(cr.get(), 1, 1, 1);
+  cairo_paint(cr.get());
+  if (!opt.title.empty()) {
+    cairo_set_source_rgb(cr.get(), 0.1, 0.1, 0.1);
+    cairo_select_font_face(cr.get(), "sans-serif", CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
+    cairo_set_font_size(cr.get(), 16);
+    cairo_move_to(cr.get(), 8, 20);
+    cairo_show_text(cr.get(), opt.title.c_str());
+  }
+  auto to_px = [&](Vec3 p) {
+    const auto [u, v] = project(p);
+    return std::pair<double, double>{(u - u0 + margin) * scale, H - (v - v0 + margin) * scale};
+  };
+  cairo_set_line_cap(cr.get(), CAIRO_LINE_CAP_ROUND);
+  cairo_set_line_join(cr.get(), CAIRO_LINE_JOIN_ROUND);
+  const std::size_t n = paths.size();
+  const std::size_t shown = opt.upto > 0 ? std::min(opt.upto, n) : n;
+  auto stroke_path = [&](const Path& p) {
+    auto [x, y] = to_px(p.points[0]);
+    cairo_move_to(cr.get(), x, y);
+    for (std::size_t k = 1; k < p.points.size(); ++k) {
+      std::tie(x, y) = to_px(p.points[k]);
+      cairo_line_to(cr.get(), x, y);
+    }
+    cairo_stroke(cr.get());
+  };
+  // Paths not yet printed (when showing a frame) in light grey.
+  cairo_set_line_width(cr.get(), 1.2);
+  cairo_set_source_rgb(cr.get(), 0.85, 0.85, 0.85);
+  for (std::size_t i = shown; i < n; ++i) stroke_path(*paths[i]);
+  if (opt.travel && shown > 1) {
+    cairo_set_source_rgba(cr.get(), 0.45, 0.45, 0.45, 0.7);
+    cairo_set_line_width(cr.get(), 0.8);
+    const double dash[] = {4.0, 3.0};
+    cairo_set_dash(cr.get(), dash, 2, 0);
+    for (std::size_t i = 1; i < shown; ++i) {
+      const auto [ax, ay] = to_px(paths[i - 1]->points.back());
+      const auto [bx, by] = to_px(paths[i]->points.front());
+      cairo_move_to(cr.get(), ax, ay);
+      cairo_line_to(cr.get(), bx, by);
+    }
+    cairo_stroke(cr.get());
+    cairo_set_dash(cr.get(), nullptr, 0, 0);
+  }
+  cairo_set_line_width(cr.get(), 2.0);
+  for (std::size_t i = 0; i < shown; ++i) {
+    order_colour(cr.get(), n > 1 ? static_cast<double>(i) / (n - 1) : 0.0);
+    stroke_path(*paths[i]);
+  }
+  for (std::size_t i = 0; i < shown; ++i) {
+    const auto [x, y] = to_px(paths[i]->points.front());
+    cairo_set_source_rgb(cr.get(), 0.0, 0.6, 0.0);
+    cairo_arc(cr.get(), x, y, 3.0, 0, 2 * M_PI);
+    cairo_fill(cr.get());
+  }
+  cairo_set_source_rgb(cr.get(), 0.9, 0.0, 0.0);
+  cairo_set_line_width(cr.get(), 2.0);
+  for (const auto& m : opt.marks) {
+    const auto [x, y] = to_px(m);
+    cairo_arc(cr.get(), x, y, 7.0, 0, 2 * M_PI);
+    cairo_stroke(cr.get());
+  }
   cairo_surface_flush(surface.get());
   save_png(surface.get(), path);
 }

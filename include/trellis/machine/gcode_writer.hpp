@@ -1,6 +1,9 @@
 // The G-code writer: one writer for every machine, driven by the profile (style: machines as
 // data). `marlin` computes E per segment from Eq. 4; `pneumatic` (.nc) opens a valve and sets a
-// pressure per path instead of E. Numbers: XYZ with 3 decimals (1 µm, finer than any motion
+// pressure per path instead of E; `embedded` is pneumatic inside a support bath: every travel
+// lifts straight up to the bath surface plus a clearance, moves, and re-enters straight down;
+// optional dwell at nodes and overlap past path ends; one nozzle per tool with XY offsets,
+// pressures, the idle nozzle raised and a tool-change command. Numbers: XYZ with 3 decimals (1 µm, finer than any motion
 // system here), E with 5 (10 nm of filament, so per-segment rounding cannot accumulate), both
 // without trailing zeros; F in whole mm/min.
 #pragma once
@@ -20,6 +23,7 @@ struct GcodeStats {
   double print_length = 0;   // mm
   double filament = 0;       // mm of filament (marlin)
   double print_time_s = 0;   // feed-rate estimate, no acceleration
+  std::size_t tool_changes = 0;  // embedded
 };
 
 // E for a segment of `length` mm printed at layer thickness `layer` (Eq. 4).

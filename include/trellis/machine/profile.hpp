@@ -6,14 +6,16 @@
 #include <variant>
 #include <vector>
 
+#include "trellis/core/vec.hpp"
+
 namespace trellis {
 
-enum class Flavor { Marlin, Pneumatic };
+enum class Flavor { Marlin, Pneumatic, Embedded };
 
 struct MachineProfile {
   // [machine]
   std::string name = "generic Marlin FDM";
-  std::string flavor = "marlin";    // marlin | pneumatic
+  std::string flavor = "marlin";    // marlin | pneumatic | embedded
   double bed_x = 220, bed_y = 220;  // bed size (mm), for centring
   // [placement]
   bool center = false;                // move the part's XY centre to the bed centre
@@ -51,12 +53,24 @@ struct MachineProfile {
   std::string pressure_command;    // e.g. "M42 P{pressure}"; empty = none
   std::string valve_on = "M106";   // opens the valve
   std::string valve_off = "M107";  // closes the valve
+  // [embedded] printing inside a support bath (valve and pressure as [pneumatic])
+  double bath_surface = 0;      // Z of the bath surface (mm); below the part top, the part top
+  double travel_clearance = 2;  // travel this far above the bath surface (mm)
+  double node_dwell = 0;        // dwell at every node inside a path (s)
+  double node_overlap = 0;      // extend each path end this far past its node (mm)
+  std::string tool_offsets;     // per tool "x,y;x,y;..." (mm), tool 0 first; empty = all 0,0
+  std::string tool_pressures;   // per tool "p0,p1,..." replacing pneumatic.pressure; empty = same
+  std::string tool_change = "T{tool}";  // command selecting tool {tool}
+  std::string raise_idle;       // command raising the nozzle {tool} that goes idle; empty = none
   // [gcode] templates; {key} is replaced by that setting's value, e.g. {nozzle_temperature}
   std::string start_gcode = "G28";
   std::string end_gcode = "M84";
   std::string file_extension = "";  // default output extension: "" = by flavor
 
   Flavor parsed_flavor() const;
+  // Per-tool XY offset and pressure from tool_offsets / tool_pressures (throws SettingError).
+  Vec2 tool_offset(int tool) const;
+  double tool_pressure(int tool) const;
 };
 
 using SettingValue = std::variant<double, int, bool, std::string>;

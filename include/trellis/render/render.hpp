@@ -23,6 +23,22 @@ struct RenderOptions {
 void render_layer_png(const Toolpath& toolpath, std::size_t layer, const std::string& path,
                       const RenderOptions& options = {});
 
+// An oblique 3D view (a dimetric projection) of a whole toolpath (all layers), paths coloured by print order from blue
+// to red, start points green, travel dashed grey; `upto` > 0 draws only the first `upto` paths
+// (a frame of the print order) over the rest in light grey. Optional `marks` (3D points) are
+// drawn as red rings, e.g. collisions.
+struct View3dOptions {
+  int size_px = 1000;
+  double azimuth_deg = -60;   // view direction around Z (from +X towards +Y)
+  double elevation_deg = 20;  // above the horizon
+  bool travel = true;
+  std::size_t upto = 0;
+  std::vector<Vec3> marks;
+  std::string title;
+};
+void render_3d_png(const Toolpath& toolpath, const std::string& path,
+                   const View3dOptions& options = {});
+
 // Analysis picture (paper Fig. 4 ii-iii): design struts light grey, the printed layer as thin
 // dark lines, `red` pieces (deposited twice) and `blue` segments (missing struts) on top.
 void render_overlay_png(const std::vector<Segment2>& design, const Layer& printed,
