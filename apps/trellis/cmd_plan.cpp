@@ -147,8 +147,9 @@ void add_plan(CLI::App& app) {
       ->capture_default_str()
       ->group(ag);
   cmd->add_option("--tries", o->aero.tries,
-                  "aero dynamic: planner runs (strategies, then shuffled orders; best kept)")
-      ->check(CLI::Range(1, 100000))
+                  "aero dynamic: planner runs (strategies, then shuffled orders; best kept); "
+                  "0 = 8, fewer above 25,000 struts")
+      ->check(CLI::Range(0, 100000))
       ->capture_default_str()
       ->group(ag);
   cmd->add_option("--frames", o->frames,

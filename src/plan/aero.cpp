@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <queue>
 #include <random>
 #include <atomic>
 #include <tbb/parallel_for.h>
@@ -94,6 +95,8 @@ class Planner {
     int max_mat = 0;
     for (const auto& e : g.edges) max_mat = std::max(max_mat, e.material);
     available_.resize(static_cast<std::size_t>(max_mat) + 1);
+    low_heap_.resize(available_.size());
+    avail_count_.assign(available_.size(), 0);
     for (EdgeId e = 0; e < m; ++e) {
       pending_[e] = blocking_ ? static_cast<std::uint32_t>(blocking_->blocks.count(e)) : 0;
       if (pending_[e] == 0) make_available(e);
@@ -133,10 +136,11 @@ class Planner {
           continue;
         }
         // Not continued: the other trails still cover everything printable.
-      } else if (cache_material_ == mat && cache_stamp_ == unlocked_) {
-        // Nothing became printable since the last decomposition: its other trails still form
-        // a minimum cover of what is printable.
+      } else if (cache_material_ == mat && cache_stamp_ == unlocked_ && !cache_.empty()) {
+        // Nothing became printable since the last decomposition: its other trails are still
+        // printable and minimal (for the whole printable set, or its window of it).
         trails = std::move(cache_);
+        cache_material_ = -1;
       } else {
         trails = decompose(mat, MixedEuler::kNoNode, nullptr);
       }
@@ -229,7 +233,10 @@ class Planner {
 
   void make_available(EdgeId e) {
     ++unlocked_;
-    available_[static_cast<std::size_t>(g_.edges[e].material)].push_back(e);
+    const auto mat = static_cast<std::size_t>(g_.edges[e].material);
+    available_[mat].push_back(e);
+    ++avail_count_[mat];
+    low_heap_[mat].push({std::min(g_.nodes[g_.edges[e].a].z, g_.nodes[g_.edges[e].b].z), e});
   }
 
   void compact(int mat) {
@@ -240,10 +247,8 @@ class Planner {
   // Current material if it still has printable struts, else the one whose nearest printable
   // strut is closest; -1 if nothing is printable.
   int pick_material() {
-    if (cur_material_ >= 0) {
-      compact(cur_material_);
-      if (!available_[static_cast<std::size_t>(cur_material_)].empty()) return cur_material_;
-    }
+    if (cur_material_ >= 0 && avail_count_[static_cast<std::size_t>(cur_material_)] > 0)
+      return cur_material_;
     int best = -1;
     double best_d = std::numeric_limits<double>::infinity();
     for (std::size_t mi = 0; mi < available_.size(); ++mi) {
@@ -270,11 +275,62 @@ class Planner {
     return false;
   }
 
+  // A minimum trail cover of what is printable now. To continue the open trail only the
+  // printable struts connected to its end matter; a new trail is taken from a cover of all
+  // printable struts, or, when there are more than 1024 of them, of those connected to the
+  // lowest one. Either set is gathered breadth-first and capped (512 struts around the open end,
+  // 1024 around the lowest), so the work per trail stays bounded on big lattices.
   std::vector<Trail> decompose(int mat, NodeId from, bool* continued) {
-    compact(mat);
     ++out_.decompositions;
-    if (shuffle_) std::shuffle(available_[mat].begin(), available_[mat].end(), rng_);
-    return euler_.decompose(g_, available_[static_cast<std::size_t>(mat)], dir_, from, continued);
+    auto& avail = available_[static_cast<std::size_t>(mat)];
+    const std::vector<EdgeId>* set = &avail;
+    if (avail_count_[static_cast<std::size_t>(mat)] > window_ || from != MixedEuler::kNoNode) {
+      cap_ = from != MixedEuler::kNoNode ? continue_window_ : window_;
+      NodeId seed = from;
+      if (seed == MixedEuler::kNoNode) {
+        const EdgeId low = lowest_available(mat);
+        const Edge& e = g_.edges[low];
+        seed = g_.nodes[e.a].z <= g_.nodes[e.b].z ? e.a : e.b;
+      }
+      gather(seed, mat);
+      set = &window_edges_;
+    } else {
+      compact(mat);
+    }
+    std::vector<EdgeId>& edges = const_cast<std::vector<EdgeId>&>(*set);
+    if (shuffle_) std::shuffle(edges.begin(), edges.end(), rng_);
+    return euler_.decompose(g_, edges, dir_, from, continued);
+  }
+
+  // The lowest printable strut of a material (lazy heap).
+  EdgeId lowest_available(int mat) {
+    auto& heap = low_heap_[static_cast<std::size_t>(mat)];
+    while (printed_[heap.top().second]) heap.pop();
+    return heap.top().second;
+  }
+
+  // Printable struts connected to v through printable struts, breadth-first, at most window_.
+  void gather(NodeId v, int mat) {
+    window_edges_.clear();
+    ++tick_;
+    std::size_t head = 0;
+    queue_.assign(1, v);
+    node_seen_[v] = tick_;
+    while (head < queue_.size() && window_edges_.size() < cap_) {
+      const NodeId n = queue_[head++];
+      for (const EdgeId* x = adj_.begin(n); x != adj_.end(n); ++x) {
+        const EdgeId e = *x;
+        if (printed_[e] || pending_[e] != 0 || g_.edges[e].material != mat || seen_[e] == tick_)
+          continue;
+        seen_[e] = tick_;
+        window_edges_.push_back(e);
+        const NodeId o = g_.edges[e].other(n);
+        if (node_seen_[o] != tick_) {
+          node_seen_[o] = tick_;
+          queue_.push_back(o);
+        }
+      }
+    }
   }
 
   // The next trail to print (reversed in place where allowed), by the planner's strategy:
@@ -290,13 +346,23 @@ class Planner {
     std::size_t best = 0;
     double best_key = std::numeric_limits<double>::infinity();
     bool best_flip = false;
+    // The costlier keys (continue, unlock) look at the 64 lowest trails only.
+    std::vector<std::pair<double, std::size_t>> order(trails.size());
     for (std::size_t i = 0; i < trails.size(); ++i) {
+      double zmin = std::numeric_limits<double>::infinity();
+      for (NodeId n : trails[i].nodes) zmin = std::min(zmin, g_.nodes[n].z);
+      order[i] = {zmin, i};
+    }
+    constexpr std::size_t kConsidered = 64;
+    if (order.size() > kConsidered &&
+        (strategy_ == Strategy::Continue || strategy_ == Strategy::Unlock)) {
+      std::nth_element(order.begin(), order.begin() + kConsidered, order.end());
+      order.resize(kConsidered);
+    }
+    for (const auto& [zmin, i] : order) {
       const Trail& t = trails[i];
-      double zmin = std::numeric_limits<double>::infinity(), zsum = 0;
-      for (NodeId n : t.nodes) {
-        zmin = std::min(zmin, g_.nodes[n].z);
-        zsum += g_.nodes[n].z;
-      }
+      double zsum = 0;
+      for (NodeId n : t.nodes) zsum += g_.nodes[n].z;
       const bool can_flip = reversible(t, dir_);
       for (int f = 0; f < (can_flip ? 2 : 1); ++f) {
         const NodeId start = f ? t.nodes.back() : t.nodes.front();
@@ -322,7 +388,8 @@ class Planner {
     return best;
   }
 
-  // How many struts become printable once t is printed.
+  // How many struts become printable once t is printed: those whose pending count equals the
+  // number of t's struts they wait for.
   std::size_t unlocks(const Trail& t) const {
     if (!blocking_) return 0;
     ++tick_;
@@ -330,12 +397,12 @@ class Planner {
     for (EdgeId e : t.edges) in_trail_[e] = tick_;
     for (EdgeId e : t.edges)
       for (const EdgeId* s = blocking_->blocked_by.begin(e); s != blocking_->blocked_by.end(e); ++s) {
-        if (printed_[*s] || in_trail_[*s] == tick_ || seen_[*s] == tick_) continue;
-        seen_[*s] = tick_;
-        std::uint32_t left = pending_[*s];
-        for (const EdgeId* u = blocking_->blocks.begin(*s); u != blocking_->blocks.end(*s); ++u)
-          if (in_trail_[*u] == tick_) --left;
-        if (left == 0) ++n;
+        if (printed_[*s] || in_trail_[*s] == tick_) continue;
+        if (seen_[*s] != tick_) {
+          seen_[*s] = tick_;
+          waits_[*s] = 0;
+        }
+        if (++waits_[*s] == pending_[*s]) ++n;
       }
     return n;
   }
@@ -362,6 +429,7 @@ class Planner {
   void mark_printed(EdgeId e) {
     printed_[e] = 1;
     ++done_;
+    --avail_count_[static_cast<std::size_t>(g_.edges[e].material)];
     if (!blocking_) return;
     for (const EdgeId* s = blocking_->blocked_by.begin(e); s != blocking_->blocked_by.end(e); ++s)
       if (!printed_[*s] && pending_[*s] > 0 && --pending_[*s] == 0) make_available(*s);
@@ -415,11 +483,20 @@ class Planner {
     if (!blocking_) return false;
     const std::size_t count = out_.trails.trails.size();
     for (auto& c : trails) {
+      const bool can_flip = reversible(c, dir_);
+      // Candidate places first (cheap); the trail's needs only if one exists.
+      bool any = false;
+      for (int f = 0; f < (can_flip ? 2 : 1) && !any; ++f) {
+        const NodeId first = f ? c.nodes.back() : c.nodes.front();
+        const NodeId last = f ? c.nodes.front() : c.nodes.back();
+        for (std::uint32_t j : ends_at_[first]) any |= j + 1 < count && out_.trail_material[j] == mat;
+        for (std::uint32_t j : starts_at_[last]) any |= out_.trail_material[j] == mat;
+      }
+      if (!any) continue;
       double needed = -std::numeric_limits<double>::infinity();  // latest print time it needs
       for (EdgeId e : c.edges)
         for (const EdgeId* u = blocking_->blocks.begin(e); u != blocking_->blocks.end(e); ++u)
           needed = std::max(needed, time_[*u]);
-      const bool can_flip = reversible(c, dir_);
       for (int f = 0; f < (can_flip ? 2 : 1); ++f) {
         const NodeId first = f ? c.nodes.back() : c.nodes.front();
         const NodeId last = f ? c.nodes.front() : c.nodes.back();
@@ -700,10 +777,19 @@ class Planner {
   std::vector<char> printed_;
   std::vector<std::uint32_t> pending_;
   std::vector<std::vector<EdgeId>> available_;  // per material, lazily compacted
+  using LowHeap = std::priority_queue<std::pair<double, EdgeId>, std::vector<std::pair<double, EdgeId>>,
+                                      std::greater<>>;
+  std::vector<LowHeap> low_heap_;  // per material: printable struts by lowest end
+  std::vector<std::size_t> avail_count_;  // per material: printable struts not yet printed
+  std::size_t window_ = 1024, continue_window_ = 512, cap_ = 1024;
+  std::vector<EdgeId> window_edges_;
+  std::vector<NodeId> queue_;
   std::vector<EdgeId> by_height_;
   Adjacency adj_{g_};
   mutable std::vector<std::uint32_t> in_trail_ = std::vector<std::uint32_t>(g_.edges.size(), 0);
   mutable std::vector<std::uint32_t> seen_ = std::vector<std::uint32_t>(g_.edges.size(), 0);
+  mutable std::vector<std::uint32_t> waits_ = std::vector<std::uint32_t>(g_.edges.size(), 0);
+  std::vector<std::uint32_t> node_seen_ = std::vector<std::uint32_t>(g_.nodes.size(), 0);
 
   mutable std::uint32_t tick_ = 0;
   std::size_t lowest_ = 0, done_ = 0, unlocked_ = 0;
@@ -762,8 +848,10 @@ AeroResult plan_aero(const Graph& g, const AeroParams& params, Diagnostics& diag
   std::vector<Strategy> strategies = {Strategy::Nearest};
   std::size_t runs = 1;
   if (params.method == AeroMethod::Dynamic && params.collisions) {
-    strategies = {Strategy::Unlock, Strategy::Lowest, Strategy::Continue, Strategy::Mean};
-    runs = std::max<std::size_t>(1, static_cast<std::size_t>(params.tries));
+    strategies = {Strategy::Lowest, Strategy::Unlock, Strategy::Continue, Strategy::Mean};
+    runs = params.tries > 0
+               ? static_cast<std::size_t>(params.tries)
+               : std::clamp<std::size_t>(200000 / std::max<std::size_t>(1, g.edges.size()), 1, 8);
   }
   std::vector<AeroResult> trials(runs, r);
   std::atomic<std::size_t> finished{0};

@@ -33,7 +33,9 @@ struct AeroParams {
   bool collisions = true;  // false: no precedence at all, trails = the Euler lower bound
   AeroMethod method = AeroMethod::Dynamic;
   int threads = 0;  // 0 = all cores
-  int tries = 32;   // dynamic: planner runs in the portfolio (strategies, then shuffled orders)
+  // Dynamic: planner runs in the portfolio (the strategies, then shuffled orders); 0 = auto:
+  // 8, fewer above 25,000 struts (200,000 / struts, at least 1) to bound the time.
+  int tries = 0;
   std::uint64_t seed = 1;  // for the shuffled runs: same seed, same plan
   Progress progress;
 };
