@@ -173,7 +173,8 @@ class Planner {
       std::vector<std::pair<int, std::vector<Trail>>> group;
       for (std::size_t mi = 0; mi < available_.size(); ++mi)
         if (!available_[mi].empty())
-          group.push_back({static_cast<int>(mi), decompose(static_cast<int>(mi), MixedEuler::kNoNode, nullptr)});
+          group.push_back(
+              {static_cast<int>(mi), decompose(static_cast<int>(mi), MixedEuler::kNoNode, nullptr, true)});
       for (auto& [mat, trails] : group) {
         while (!trails.empty()) {
           const std::size_t k = choose(trails);
@@ -280,11 +281,12 @@ class Planner {
   // printable struts, or, when there are more than 1024 of them, of those connected to the
   // lowest one. Either set is gathered breadth-first and capped (512 struts around the open end,
   // 1024 around the lowest), so the work per trail stays bounded on big lattices.
-  std::vector<Trail> decompose(int mat, NodeId from, bool* continued) {
+  std::vector<Trail> decompose(int mat, NodeId from, bool* continued, bool whole = false) {
     ++out_.decompositions;
     auto& avail = available_[static_cast<std::size_t>(mat)];
     const std::vector<EdgeId>* set = &avail;
-    if (avail_count_[static_cast<std::size_t>(mat)] > window_ || from != MixedEuler::kNoNode) {
+    if (!whole &&
+        (avail_count_[static_cast<std::size_t>(mat)] > window_ || from != MixedEuler::kNoNode)) {
       cap_ = from != MixedEuler::kNoNode ? continue_window_ : window_;
       NodeId seed = from;
       if (seed == MixedEuler::kNoNode) {
@@ -755,16 +757,20 @@ class Planner {
     if (step < 1e-9 * std::max(1.0, clock_)) renumber();
   }
 
-  // Nothing is printable: print the lowest remaining strut (bottom-up) and record it.
+  // Nothing is printable: every remaining strut obstructs another remaining one. Print the one
+  // that obstructs the fewest (so the fewest collisions follow), the lowest of those, and record
+  // it. (The rule is "the lowest"; the lowest may only be waiting behind a cycle and
+  // cost more collisions than breaking the cycle where it is cheapest.)
   void force_lowest() {
     while (printed_[by_height_[lowest_]]) ++lowest_;
-    const EdgeId e = by_height_[lowest_];
-    std::size_t obstructs = 0;
-    for (const EdgeId* u = blocking_->blocks.begin(e); u != blocking_->blocks.end(e); ++u)
-      obstructs += printed_[*u] ? 0 : 1;
-    out_.violations.push_back({e, obstructs});
-    pending_[e] = 0;
-    make_available(e);
+    EdgeId best = by_height_[lowest_];
+    for (std::size_t i = lowest_; i < by_height_.size(); ++i) {
+      const EdgeId e = by_height_[i];
+      if (!printed_[e] && pending_[e] < pending_[best]) best = e;
+    }
+    out_.violations.push_back({best, pending_[best]});
+    pending_[best] = 0;
+    make_available(best);
   }
 
   const Graph& g_;

@@ -50,7 +50,8 @@ std::string in_work(const std::string& name) {
 }  // namespace
 
 TEST(Cli, HelpForEveryCommand) {
-  for (const char* c : {"", "lattice2d", "plan", "gcode", "render", "run", "analyze", "compare", "slice", "pbf"}) {
+  for (const char* c : {"", "lattice2d", "lattice3d", "plan", "gcode", "render", "run", "analyze",
+                        "compare", "slice", "pbf", "check"}) {
     const CmdResult r = run(std::string(c) + " --help");
     EXPECT_EQ(r.code, 0) << c;
     EXPECT_NE(r.out.find("Usage"), std::string::npos) << c;
@@ -322,4 +323,52 @@ TEST(Cli, PbfBadInputExitsTwo) {
   r = run("pbf --c-expr \"0.1+\" -o " + in_work("never.cli"));
   EXPECT_EQ(r.code, 2);
   EXPECT_FALSE(fs::exists(in_work("never.cli")));
+}
+
+TEST(Cli, AeroPipelineLatticePlanGcodeCheck) {
+  const std::string lat = in_work("octet.json"), tp = in_work("octet_path.json"),
+                    rep = in_work("octet_report.json"), nc = in_work("octet.nc");
+  const std::string prof = std::string(TRELLIS_SOURCE_DIR) + "/profiles/embedded_aero_two_nozzle.toml";
+  CmdResult r = run("lattice3d --cell octet --size 7 --count 2 2 2 --materials xy-plane -o " + lat +
+                    " --png " + in_work("octet.png"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("2 material(s)"), std::string::npos) << r.out;
+  r = run("plan aero " + lat + " -o " + tp + " --report " + rep + " --png " + in_work("plan") +
+          " --frames 3");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const std::string report = trellis::read_file(rep);
+  for (const char* key : {"\"groups\"", "\"trails\"", "\"lower_bound_trails\"", "\"travel_moves\"",
+                          "\"travel_length_mm\"", "\"max_trail_edges\"", "\"collisions\": 0",
+                          "\"violations\": []", "\"struts_printed_once\": true"})
+    EXPECT_NE(report.find(key), std::string::npos) << key;
+  for (const char* png : {"octet.png", "plan.png", "plan.step01.png", "plan.step03.png"})
+    EXPECT_TRUE(fs::exists(work() / png)) << png;
+  r = run("gcode " + tp + " --machine " + prof + " -o " + nc);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("tool changes"), std::string::npos) << r.out;
+  r = run("check " + lat + " " + nc + " --machine " + prof + " --report " + in_work("check.json"));
+  EXPECT_EQ(r.code, 0) << r.out << r.err;
+  EXPECT_NE(r.out.find("0 collisions"), std::string::npos) << r.out;
+  // The same struts printed top layer first: the checker finds collisions, exit 1.
+  const std::string flat = write("flat.json",
+                                 "{\"nodes\":[[0,0,0],[5,0,0],[0,0,2],[5,0,2]],\"edges\":[[0,1],[2,3]]}");
+  const std::string wrong = write(
+      "wrong.json",
+      "{\"format\":\"trellis.toolpath\",\"version\":1,\"layers\":[{\"z\":0,\"paths\":["
+      "{\"points\":[[0,0,2],[5,0,2]]},{\"points\":[[0,0,0],[5,0,0]]}]}]}");
+  r = run("check " + flat + " " + wrong + " --report " + in_work("wrong_check.json"));
+  EXPECT_EQ(r.code, 1) << r.out << r.err;
+  EXPECT_NE(r.out.find("1 collisions"), std::string::npos) << r.out;
+  EXPECT_NE(trellis::read_file(in_work("wrong_check.json")).find("\"hit_strut\": 1"),
+            std::string::npos);
+  // Bad input: exit 2 with the file and line.
+  write("bad_vertices.csv", "0,0,0\n1,1,x\n");
+  write("bad_edges.csv", "0,1\n");
+  r = run("plan aero " + in_work("bad_vertices.csv") + " -o " + in_work("never.json"));
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("bad_vertices.csv:2"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(in_work("never.json")));
+  EXPECT_EQ(run("lattice3d --cell octahedral -o " + in_work("never.json")).code, 2);
+  EXPECT_EQ(run("plan aero " + lat + " -o x --nozzle-radius -1").code, 2);
+  EXPECT_EQ(run("check " + lat + " " + in_work("missing.nc")).code, 2);
 }

@@ -1,5 +1,7 @@
 #include <gtest/gtest.h>
 
+#include <sstream>
+
 #include <cmath>
 #include <map>
 #include <numbers>
@@ -261,6 +263,56 @@ TEST(Writer, MixturesBecomeM165AndReadBack) {
     EXPECT_NEAR(seen[i][0], mixes[i][0], 1e-9);
     EXPECT_NEAR(seen[i][1], mixes[i][1], 1e-9);
   }
+}
+
+TEST(Writer, EmbeddedTravelLeavesTheBathVerticallyAndSwapsNozzles) {
+  trellis::Toolpath tp;
+  tp.layers.resize(1);
+  auto add = [&](std::vector<trellis::Vec3> pts, int tool) {
+    trellis::Path p;
+    p.points = std::move(pts);
+    p.tool = tool;
+    tp.layers[0].paths.push_back(p);
+  };
+  add({{0, 0, 0}, {5, 0, 5}, {10, 0, 0}}, 0);
+  add({{0, 5, 0}, {10, 5, 0}}, 1);
+  add({{0, 9, 0}, {10, 9, 0}}, 1);
+  trellis::MachineProfile prof =
+      trellis::load_profile(std::string(TRELLIS_SOURCE_DIR) + "/profiles/embedded_aero_two_nozzle.toml");
+  prof.node_overlap = 0.5;
+  trellis::GcodeStats stats;
+  const std::string g = trellis::write_gcode(tp, prof, &stats);
+  EXPECT_EQ(stats.tool_changes, 2u);
+  EXPECT_NE(g.find("T0 ;"), std::string::npos);
+  EXPECT_NE(g.find("M400 ; raise nozzle 0 above the bath"), std::string::npos);
+  EXPECT_NE(g.find("T1 ;"), std::string::npos);
+  EXPECT_NE(g.find("M300 P600"), std::string::npos);  // tool 0 pressure
+  EXPECT_NE(g.find("M300 P650"), std::string::npos);  // tool 1 pressure
+  EXPECT_NE(g.find("G4 P200"), std::string::npos);    // node dwell at the inner node
+  // Every XY travel happens at the bath surface + clearance (27 mm); Z moves alone otherwise.
+  std::istringstream in(g);
+  std::string line;
+  double z = 30;
+  int xy_travels = 0;
+  while (std::getline(in, line)) {
+    if (line.rfind("G0", 0) != 0) continue;
+    const bool has_xy = line.find('X') != std::string::npos || line.find('Y') != std::string::npos;
+    const auto zp = line.find('Z');
+    if (zp != std::string::npos) {
+      EXPECT_FALSE(has_xy) << line;  // vertical only
+      z = std::stod(line.substr(zp + 1));
+    }
+    if (has_xy) {
+      EXPECT_NEAR(z, 27, 1e-9) << line;
+      ++xy_travels;
+    }
+  }
+  EXPECT_EQ(xy_travels, 3);
+  // Tool 1 prints 40 mm to the right; the overlap pushes the ends 0.5 mm past the nodes.
+  EXPECT_NE(g.find("G0 X39.5 Y5"), std::string::npos) << g;
+  EXPECT_NE(g.find("G1 X50.5 Y5"), std::string::npos);
+  prof.tool_offsets = "0,0;abc";
+  EXPECT_THROW(trellis::validate(prof), trellis::SettingError);
 }
 
 }  // namespace

@@ -46,4 +46,31 @@ inline Graph random_graph(std::uint64_t seed, int n, int m) {
   return g;
 }
 
+// Random 3D strut lattice: a jittered n×n×n grid (spacing 5 mm, jitter ±`jitter` mm) with a
+// random subset of its axis struts and face diagonals (vertical, inclined and horizontal struts).
+inline Graph random_lattice3d(std::uint64_t seed, int n = 4, double keep = 0.6, double jitter = 0.3) {
+  Rng rng(seed);
+  Graph g;
+  auto id = [&](int i, int j, int k) { return static_cast<NodeId>((k * n + j) * n + i); };
+  for (int k = 0; k < n; ++k)
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i)
+        g.nodes.push_back({i * 5.0 + jitter * (2 * rng.uniform01() - 1),
+                           j * 5.0 + jitter * (2 * rng.uniform01() - 1),
+                           k * 5.0 + jitter * (2 * rng.uniform01() - 1)});
+  for (int k = 0; k < n; ++k)
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i) {
+        if (i + 1 < n && rng.uniform01() < keep) g.edges.push_back({id(i, j, k), id(i + 1, j, k)});
+        if (j + 1 < n && rng.uniform01() < keep) g.edges.push_back({id(i, j, k), id(i, j + 1, k)});
+        if (k + 1 < n && rng.uniform01() < keep) g.edges.push_back({id(i, j, k), id(i, j, k + 1)});
+        if (i + 1 < n && k + 1 < n && rng.uniform01() < keep * 0.5)
+          g.edges.push_back({id(i, j, k), id(i + 1, j, k + 1)});
+        if (j + 1 < n && k + 1 < n && rng.uniform01() < keep * 0.5)
+          g.edges.push_back({id(i, j + 1, k), id(i, j, k + 1)});
+      }
+  if (g.edges.empty()) g.edges.push_back({0, 1});
+  return g;
+}
+
 }  // namespace trellis::test

@@ -1,0 +1,236 @@
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <map>
+#include <set>
+
+#include "support/random_graphs.hpp"
+#include "trellis/analysis/collisions.hpp"
+#include "trellis/core/error.hpp"
+#include "trellis/lattice/cells3d.hpp"
+#include "trellis/lattice/io.hpp"
+#include "trellis/plan/aero.hpp"
+#include "trellis/plan/euler.hpp"
+
+using namespace trellis;
+
+namespace {
+
+const std::string kAero = std::string(TRELLIS_SOURCE_DIR) + "/../shared/data/aero/";
+const std::string kData = std::string(TRELLIS_TEST_DATA) + "/aero/";
+
+// The AERO example lattices are kept in tests/data/aero (copied from ../shared/data/aero).
+Graph aero_lattice(const std::string& name) {
+  Diagnostics d;
+  return read_lattice(kData + name + "_edges.csv", {}, d);
+}
+
+// Every trail walks existing struts, every strut once, one-way struts the right way.
+void expect_valid_trails(const Graph& g, const std::vector<Trail>& trails,
+                         const std::vector<std::int8_t>& dir) {
+  std::vector<int> used(g.edges.size(), 0);
+  for (const auto& t : trails) {
+    ASSERT_EQ(t.nodes.size(), t.edges.size() + 1);
+    for (std::size_t i = 0; i < t.edges.size(); ++i) {
+      const Edge& e = g.edges[t.edges[i]];
+      const NodeId a = t.nodes[i], b = t.nodes[i + 1];
+      ASSERT_TRUE((e.a == a && e.b == b) || (e.a == b && e.b == a));
+      if (dir[t.edges[i]] > 0) EXPECT_EQ(a, e.a);
+      if (dir[t.edges[i]] < 0) EXPECT_EQ(a, e.b);
+      ++used[t.edges[i]];
+    }
+  }
+  for (EdgeId e = 0; e < g.edges.size(); ++e) EXPECT_EQ(used[e], 1) << "strut " << e;
+}
+
+CollisionCheck check(const Graph& g, const AeroResult& r, const NozzleModel& m = {}) {
+  CheckOptions o;
+  o.nozzle = m;
+  return check_collisions(g, aero_toolpath(g, r, "test"), o);
+}
+
+}  // namespace
+
+TEST(MixedEuler, CoversEveryStrutOnceInTheLowerBoundNumberOfTrails) {
+  for (std::uint64_t seed = 1; seed <= 40; ++seed) {
+    const Graph g = test::random_graph(seed, 12 + seed % 9, 10 + 3 * (seed % 11));
+    Rng rng(seed);
+    std::vector<std::int8_t> dir(g.edges.size(), 0);
+    if (seed % 2 == 0)
+      for (auto& d : dir) d = static_cast<std::int8_t>(rng.uniform_index(3)) - 1;
+    std::vector<EdgeId> all(g.edges.size());
+    for (EdgeId e = 0; e < all.size(); ++e) all[e] = e;
+    MixedEuler euler(g.nodes.size());
+    const auto trails = euler.decompose(g, all, dir);
+    expect_valid_trails(g, trails, dir);
+    EXPECT_EQ(trails.size(), euler.lower_bound(g, all, dir)) << seed;
+    if (seed % 2 == 1) EXPECT_EQ(trails.size(), lower_bound_paths(g)) << seed;  // odd/2
+  }
+}
+
+TEST(MixedEuler, MixedLowerBoundMatchesExhaustiveOrientations) {
+  // Small mixed graphs: try every orientation of the free struts; the best Σ max(1, surplus)
+  // per component is the true minimum number of trails.
+  for (std::uint64_t seed = 1; seed <= 30; ++seed) {
+    const Graph g = test::random_graph(seed * 7, 7, 9);
+    Rng rng(seed);
+    std::vector<std::int8_t> dir(g.edges.size());
+    std::vector<EdgeId> all, free;
+    for (EdgeId e = 0; e < g.edges.size(); ++e) {
+      dir[e] = static_cast<std::int8_t>(rng.uniform_index(3)) - 1;
+      all.push_back(e);
+      if (!dir[e]) free.push_back(e);
+    }
+    const auto comp = connected_components(g);
+    std::size_t best = SIZE_MAX;
+    for (std::uint32_t mask = 0; mask < (1u << free.size()); ++mask) {
+      std::vector<int> bal(g.nodes.size(), 0);
+      for (EdgeId e : all) {
+        bool forward = dir[e] > 0;
+        if (!dir[e]) forward = (mask >> (std::find(free.begin(), free.end(), e) - free.begin())) & 1;
+        const Edge& ed = g.edges[e];
+        bal[forward ? ed.a : ed.b]++;
+        bal[forward ? ed.b : ed.a]--;
+      }
+      std::map<int, std::size_t> surplus;
+      for (NodeId v = 0; v < g.nodes.size(); ++v)
+        if (comp[v] >= 0) surplus[comp[v]] += std::max(0, bal[v]);
+      std::size_t total = 0;
+      for (auto [c, s] : surplus) total += std::max<std::size_t>(1, s);
+      best = std::min(best, total);
+    }
+    MixedEuler euler(g.nodes.size());
+    EXPECT_EQ(euler.lower_bound(g, all, dir), best) << seed;
+  }
+}
+
+TEST(MixedEuler, ContinuesTheOpenTrailWhenItCan) {
+  // A path 0-1-2-3: continuing from node 1 must give a trail starting at 1.
+  Graph g;
+  for (int i = 0; i < 4; ++i) g.nodes.push_back({double(i), 0, 0});
+  g.edges = {{0, 1}, {1, 2}, {2, 3}};
+  std::vector<std::int8_t> dir(3, 0);
+  MixedEuler euler(g.nodes.size());
+  bool continued = false;
+  const auto trails = euler.decompose(g, {1, 2}, dir, 1, &continued);
+  ASSERT_TRUE(continued);
+  EXPECT_EQ(trails.front().nodes.front(), 1u);
+  EXPECT_EQ(trails.size(), 1u);
+}
+
+TEST(Aero, EveryUnitCellUpToFiveCubedIsCollisionFree) {
+  for (const auto& name : unit_cell_names())
+    for (int n = 1; n <= 5; ++n) {
+      const Graph g = cell_lattice({unit_cell_from_string(name), 7, n, n, n});
+      Diagnostics d;
+      AeroParams p;
+      p.tries = 2;
+      const AeroResult r = plan_aero(g, p, d);
+      const CollisionCheck c = check(g, r);
+      EXPECT_EQ(c.collisions, 0u) << name << " " << n;
+      EXPECT_EQ(r.violations.size(), 0u) << name << " " << n;
+      EXPECT_TRUE(c.ok()) << name << " " << n;
+      EXPECT_EQ(c.printed_once, g.edges.size());
+      EXPECT_GE(r.trails.trails.size(), r.lower_bound_trails);
+      if (name == "octet" && n == 1) EXPECT_LE(r.trails.trails.size(), 8u);  // paper: 8 steps
+    }
+}
+
+TEST(Aero, TheAeroExamplesBeatTheAeroProgramByHalf) {
+  // Trails of the AERO program itself on these lattices (run here): at most half, and the
+  // independent checker finds exactly the collisions the planner could not avoid.
+  const std::map<std::string, std::size_t> aero_trails = {{"octet_3x3x3", 71},
+                                                          {"stanford_bunny", 400},
+                                                          {"cylindrical", 272},
+                                                          {"interpenetrated_spheres", 135},
+                                                          {"hollow_sphere", 75}};
+  for (const char* name : {"octet_3x3x3", "stanford_bunny", "cylindrical", "interpenetrated_spheres",
+                           "hollow_sphere", "octet_3x3x2", "cubic", "cubic_sphere", "filled_sphere"}) {
+    const Graph g = aero_lattice(name);
+    Diagnostics d;
+    const AeroResult r = plan_aero(g, {}, d);
+    const CollisionCheck c = check(g, r);
+    EXPECT_EQ(c.printed_once, g.edges.size()) << name;
+    EXPECT_TRUE(c.top_down.empty()) << name;
+    if (aero_trails.count(name)) EXPECT_LE(r.trails.trails.size() * 2, aero_trails.at(name)) << name;
+    // A strut is forced only when every remaining one obstructs another; the collisions that
+    // follow are at most the struts it obstructs.
+    std::size_t obstructed = 0;
+    for (const auto& v : r.violations) {
+      EXPECT_GE(v.obstructs, 1u) << name;
+      obstructed += v.obstructs;
+    }
+    EXPECT_LE(c.collisions, obstructed) << name;
+    const std::set<std::string> clean = {"octet_3x3x3", "octet_3x3x2", "cubic",
+                                         "interpenetrated_spheres", "hollow_sphere"};
+    if (clean.count(name)) EXPECT_EQ(c.collisions, 0u) << name;
+  }
+}
+
+TEST(Aero, WithoutCollisionsTrailsEqualTheLowerBound) {
+  for (const char* name : {"octet_3x3x3", "stanford_bunny", "cubic"}) {
+    const Graph g = aero_lattice(name);
+    Diagnostics d;
+    AeroParams p;
+    p.collisions = false;
+    const AeroResult r = plan_aero(g, p, d);
+    EXPECT_EQ(r.trails.trails.size(), r.lower_bound_trails) << name;
+  }
+  for (std::uint64_t seed = 1; seed <= 10; ++seed) {
+    const Graph g = test::random_lattice3d(seed);
+    Diagnostics d;
+    AeroParams p;
+    p.collisions = false;
+    const AeroResult r = plan_aero(g, p, d);
+    EXPECT_EQ(r.trails.trails.size(), r.lower_bound_trails) << seed;
+    EXPECT_EQ(validate_paths(g, r.trails), "");
+  }
+}
+
+TEST(Aero, RandomLatticesBothMethodsCollisionFree) {
+  for (std::uint64_t seed = 1; seed <= 25; ++seed) {
+    const Graph g = test::random_lattice3d(seed, 3 + seed % 3, 0.55, 0.4);
+    for (AeroMethod m : {AeroMethod::Dynamic, AeroMethod::Groups}) {
+      Diagnostics d;
+      AeroParams p;
+      p.method = m;
+      p.tries = 3;
+      const AeroResult r = plan_aero(g, p, d);
+      EXPECT_EQ(validate_paths(g, r.trails), "") << seed;
+      const CollisionCheck c = check(g, r);
+      EXPECT_TRUE(c.top_down.empty()) << seed;
+      EXPECT_EQ(c.printed_once, g.edges.size()) << seed;
+      EXPECT_EQ(c.collisions, 0u) << "seed " << seed << " " << to_string(m) << " violations "
+                                  << r.violations.size();
+    }
+  }
+}
+
+TEST(Aero, MaterialsStaySeparateAndSeedsReproduce) {
+  Graph g = cell_lattice({UnitCell::Octet, 7, 2, 2, 2});
+  assign_materials(g, MaterialRule::XyPlane);
+  Diagnostics d;
+  AeroParams p;
+  const AeroResult a = plan_aero(g, p, d), b = plan_aero(g, p, d);
+  ASSERT_EQ(a.trails.trails.size(), b.trails.trails.size());
+  for (std::size_t i = 0; i < a.trails.trails.size(); ++i) {
+    EXPECT_EQ(a.trails.trails[i].edges, b.trails.trails[i].edges);
+    for (EdgeId e : a.trails.trails[i].edges) EXPECT_EQ(g.edges[e].material, a.trail_material[i]);
+  }
+  EXPECT_EQ(check(g, a).collisions, 0u);
+  EXPECT_THROW(aero_method_from_string("greedy"), SettingError);
+  EXPECT_THROW(plan_aero(Graph{}, p, d), GeometryError);
+}
+
+TEST(Aero, DeadlockIsPrintedLowestFirstAndReported) {
+  // Two struts from one node, 10° apart and 5 mm long: each obstructs the other beyond the node
+  // clearance, so one collision is unavoidable; the planner says so.
+  Graph g;
+  g.nodes = {{0, 0, 0}, {0.3, 0, 5}, {-0.6, 0, 5}};
+  g.edges = {{0, 1}, {0, 2}};
+  Diagnostics d;
+  const AeroResult r = plan_aero(g, {}, d);
+  EXPECT_EQ(r.violations.size(), 1u);
+  EXPECT_EQ(d.count("collision_unavoidable"), 1u);
+  EXPECT_EQ(check(g, r).collisions, 1u);
+}
