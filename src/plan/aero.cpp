@@ -486,19 +486,25 @@ class Planner {
     const std::size_t count = out_.trails.trails.size();
     for (auto& c : trails) {
       const bool can_flip = reversible(c, dir_);
-      // Candidate places first (cheap); the trail's needs only if one exists.
-      bool any = false;
-      for (int f = 0; f < (can_flip ? 2 : 1) && !any; ++f) {
+      // Candidate places first (cheap): the latest print time any of them allows; then the
+      // trail's needs, stopping at the first strut it needs that comes later than that.
+      double allowed = -std::numeric_limits<double>::infinity();
+      for (int f = 0; f < (can_flip ? 2 : 1); ++f) {
         const NodeId first = f ? c.nodes.back() : c.nodes.front();
         const NodeId last = f ? c.nodes.front() : c.nodes.back();
-        for (std::uint32_t j : ends_at_[first]) any |= j + 1 < count && out_.trail_material[j] == mat;
-        for (std::uint32_t j : starts_at_[last]) any |= out_.trail_material[j] == mat;
+        for (std::uint32_t j : ends_at_[first])
+          if (j + 1 < count && out_.trail_material[j] == mat) allowed = std::max(allowed, last_time(j));
+        for (std::uint32_t j : starts_at_[last])
+          if (out_.trail_material[j] == mat) allowed = std::max(allowed, j > 0 ? last_time(j - 1) : 0.0);
       }
-      if (!any) continue;
+      if (allowed == -std::numeric_limits<double>::infinity()) continue;
       double needed = -std::numeric_limits<double>::infinity();  // latest print time it needs
-      for (EdgeId e : c.edges)
+      for (EdgeId e : c.edges) {
         for (const EdgeId* u = blocking_->blocks.begin(e); u != blocking_->blocks.end(e); ++u)
           needed = std::max(needed, time_[*u]);
+        if (needed > allowed) break;
+      }
+      if (needed > allowed) continue;
       for (int f = 0; f < (can_flip ? 2 : 1); ++f) {
         const NodeId first = f ? c.nodes.back() : c.nodes.front();
         const NodeId last = f ? c.nodes.front() : c.nodes.back();
