@@ -61,7 +61,8 @@ void plan_aero_cli(const Opts& o) {
             << " groups, " << r.trails.trails.size() << " trails (lower bound "
             << r.lower_bound_trails << "), longest " << r.max_trail_edges << " struts, travel "
             << r.travel_moves << " moves / " << num(r.travel_length, 1) << " mm, collisions "
-            << c.collisions << " (checked), " << num(secs, 3) << " s -> " << o.output << "\n";
+            << c.collisions << " (checked; " << r.mutual_pairs << " unavoidable), " << num(secs, 3)
+            << " s -> " << o.output << "\n";
 }
 
 }  // namespace

@@ -845,6 +845,12 @@ AeroResult plan_aero(const Graph& g, const AeroParams& params, Diagnostics& diag
     params.progress("collision model", 0);
     blocking = blocking_graph(g, params.nozzle, params.threads);
     r.blocking_relations = blocking.relations();
+    // Struts that obstruct each other: whichever goes first is hit, so each pair costs at least
+    // one collision in any order (blocks lists are sorted).
+    for (EdgeId a = 0; a < g.edges.size(); ++a)
+      for (const EdgeId* u = blocking.blocks.begin(a); u != blocking.blocks.end(a); ++u)
+        if (*u > a && std::binary_search(blocking.blocks.begin(*u), blocking.blocks.end(*u), a))
+          ++r.mutual_pairs;
     r.pairs_tested = blocking.pairs_tested;
     r.group_sizes = Planner::peel_groups(g, blocking);
   } else {
@@ -965,6 +971,7 @@ std::string aero_report_json(const AeroResult& r, const AeroParams& p, const Dia
   nlohmann::ordered_json v = nlohmann::ordered_json::array();
   for (const auto& x : r.violations) v.push_back({{"strut", x.edge}, {"obstructs", x.obstructs}});
   j["violations"] = std::move(v);
+  j["unavoidable_collisions"] = r.mutual_pairs;
   j["seconds"] = {{"collision_model", r.seconds_blocking},
                   {"planning", r.seconds_planning},
                   {"total", in.seconds}};

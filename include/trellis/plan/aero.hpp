@@ -62,6 +62,8 @@ struct AeroResult {
   std::size_t runs = 1;  // planner runs tried
   std::string strategy;  // the trail-selection strategy that won (see aero.cpp)
   std::vector<AeroViolation> violations;
+  std::size_t mutual_pairs = 0;  // pairs of struts obstructing each other: a lower bound on
+                                 // the collisions of any order
   double seconds_blocking = 0, seconds_planning = 0;
 };
 
