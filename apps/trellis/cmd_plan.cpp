@@ -30,9 +30,15 @@ void plan_aero_cli(const Opts& o) {
   const Graph g = read_lattice(o.input, {o.merge_tolerance, true}, diag);
   const AeroResult r = plan_aero(g, p, diag);
   const Toolpath tp = aero_toolpath(g, r, "trellis plan aero " + o.input);
+  // The independent check sees the struts as they will be printed (ends pushed past their
+  // nodes by the overlap, as the embedded writer does).
   CheckOptions check;
   check.nozzle = p.nozzle;
-  const CollisionCheck c = check_collisions(g, tp, check);
+  check.snap = p.nozzle.end_overlap + 0.05;
+  Toolpath printed = tp;
+  for (auto& l : printed.layers)
+    for (auto& path : l.paths) extend_path_ends(path, p.nozzle.end_overlap);
+  const CollisionCheck c = check_collisions(g, printed, check);
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   write_toolpath(o.output, tp);
   if (!o.report.empty()) {
@@ -145,6 +151,11 @@ void add_plan(CLI::App& app) {
       ->group(ag);
   cmd->add_option("--cone", o->aero.nozzle.cone_half_angle_deg,
                   "aero: struts within this angle of vertical print bottom-up (degrees)")
+      ->capture_default_str()
+      ->group(ag);
+  cmd->add_option("--overlap", o->aero.nozzle.end_overlap,
+                  "aero: the writer's node overlap (mm; embedded.node_overlap of the profile): "
+                  "struts are planned as if that much longer at each end")
       ->capture_default_str()
       ->group(ag);
   cmd->add_option("--tries", o->aero.tries,

@@ -23,6 +23,8 @@ void NozzleModel::validate() const {
         "node clearance must be in [0, 1000) mm");
   check(std::isfinite(cone_half_angle_deg) && cone_half_angle_deg >= 0 && cone_half_angle_deg <= 90,
         "cone half-angle must be in [0, 90] degrees");
+  check(std::isfinite(end_overlap) && end_overlap >= 0 && end_overlap < 100,
+        "end overlap must be in [0, 100) mm");
 }
 
 bool is_steep(Vec3 a, Vec3 b, const NozzleModel& nozzle) {
@@ -242,11 +244,19 @@ StrutLists to_lists(const std::vector<std::vector<EdgeId>>& lists) {
 BlockingGraph blocking_graph(const Graph& g, const NozzleModel& nozzle, int threads) {
   nozzle.validate();
   const std::size_t m = g.edges.size();
+  // Struts as printed: extended by the end overlap at both ends.
   std::vector<Vec3> ends;
   ends.reserve(2 * m);
   for (const auto& e : g.edges) {
-    ends.push_back(g.nodes[e.a]);
-    ends.push_back(g.nodes[e.b]);
+    Vec3 a = g.nodes[e.a], b = g.nodes[e.b];
+    const double len = distance(a, b);
+    if (nozzle.end_overlap > 0 && len > 0) {
+      const Vec3 d = (b - a) * (nozzle.end_overlap / len);
+      a = a - d;
+      b = b + d;
+    }
+    ends.push_back(a);
+    ends.push_back(b);
   }
   const FootprintIndex index(ends, nozzle.radius);
   // blockers[u]: struts s that obstruct u's nozzle if printed before it.
@@ -268,7 +278,7 @@ BlockingGraph blocking_graph(const Graph& g, const NozzleModel& nozzle, int thre
       for (std::size_t ui = r.begin(); ui != r.end(); ++ui) {
         const auto u = static_cast<EdgeId>(ui);
         const Edge& eu = g.edges[u];
-        const Vec3 qa = g.nodes[eu.a], qb = g.nodes[eu.b];
+        const Vec3 qa = ends[2 * u], qb = ends[2 * u + 1];
         const double qz = std::min(qa.z, qb.z) + nozzle.tip_clearance;
         if (++sc.tick == 0) {
           std::fill(sc.stamp.begin(), sc.stamp.end(), 0);
@@ -277,13 +287,13 @@ BlockingGraph blocking_graph(const Graph& g, const NozzleModel& nozzle, int thre
         index.for_candidates(qa, qb, sc.stamp, sc.tick, [&](std::uint32_t s) {
           if (s == u) return;
           const Edge& es = g.edges[s];
-          const Vec3 pa = g.nodes[es.a], pb = g.nodes[es.b];
+          const Vec3 pa = ends[2 * s], pb = ends[2 * s + 1];
           if (std::max(pa.z, pb.z) <= qz) return;
           ++sc.tested;
           Vec3 shared[2];
           int n = 0;
-          if (es.a == eu.a || es.a == eu.b) shared[n++] = pa;
-          if (es.b == eu.a || es.b == eu.b) shared[n++] = pb;
+          if (es.a == eu.a || es.a == eu.b) shared[n++] = g.nodes[es.a];
+          if (es.b == eu.a || es.b == eu.b) shared[n++] = g.nodes[es.b];
           if (nozzle_hits(nozzle, qa, qb, pa, pb, shared, n)) blockers[u].push_back(s);
         });
         std::sort(blockers[u].begin(), blockers[u].end());

@@ -323,21 +323,6 @@ class Writer {
     mixture_ = path.mixture;
   }
 
-  // Embedded: each path end pushed node_overlap past its end node, along its end segment.
-  std::vector<Vec3> overlapped(const std::vector<Vec3>& pts) const {
-    std::vector<Vec3> q = pts;
-    const double ov = p_.node_overlap;
-    if (flavor_ != Flavor::Embedded || ov <= 0 || q.size() < 2) return q;
-    auto push = [&](Vec3& end, Vec3 from) {
-      const Vec3 d = end - from;
-      const double len = norm(d);
-      if (len > 0) end = end + d * (ov / len);
-    };
-    push(q.front(), pts[1]);
-    push(q.back(), pts[pts.size() - 2]);
-    return q;
-  }
-
   void print_path(const Path& input) {
     if (input.points.size() < 2) return;
     ++stats_.paths;
@@ -345,9 +330,9 @@ class Writer {
     if (embedded) change_tool(input.tool);
     Path path_copy;
     const Path* pp = &input;
-    if (embedded && p_.node_overlap > 0) {
+    if (embedded && p_.node_overlap > 0) {  // each path end pushed past its end node
       path_copy = input;
-      path_copy.points = overlapped(input.points);
+      extend_path_ends(path_copy, p_.node_overlap);
       pp = &path_copy;
     }
     const Path& path = *pp;

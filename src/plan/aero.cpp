@@ -915,8 +915,8 @@ AeroResult plan_aero(const Graph& g, const AeroParams& params, Diagnostics& diag
     for (const auto& v : r.violations)
       diag.warn("collision_unavoidable",
                 "no strut could be printed without obstructing a remaining one: printed strut " +
-                    std::to_string(v.edge) + " (the lowest) anyway; it obstructs " +
-                    std::to_string(v.obstructs) + " later strut(s)");
+                    std::to_string(v.edge) + " anyway (it obstructs the fewest, " +
+                    std::to_string(v.obstructs) + " later strut(s))");
   }
   params.progress("plan", 1);
   return r;
@@ -951,7 +951,8 @@ std::string aero_report_json(const AeroResult& r, const AeroParams& p, const Dia
   j["nozzle"] = {{"radius_mm", p.nozzle.radius},
                  {"tip_clearance_mm", p.nozzle.tip_clearance},
                  {"node_clearance_mm", p.nozzle.node_clearance},
-                 {"cone_half_angle_deg", p.nozzle.cone_half_angle_deg}};
+                 {"cone_half_angle_deg", p.nozzle.cone_half_angle_deg},
+                 {"end_overlap_mm", p.nozzle.end_overlap}};
   j["input"] = in.lattice;
   j["nodes"] = in.nodes;
   j["struts"] = in.edges;

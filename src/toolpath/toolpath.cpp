@@ -56,4 +56,17 @@ TravelStats travel_stats(const Toolpath& toolpath, double min_move) {
   return s;
 }
 
+void extend_path_ends(Path& path, double length) {
+  auto& q = path.points;
+  if (length <= 0 || q.size() < 2) return;
+  auto push = [&](Vec3& end, Vec3 from) {
+    const Vec3 d = end - from;
+    const double len = norm(d);
+    if (len > 0) end = end + d * (length / len);
+  };
+  const Vec3 second = q[1], before_last = q[q.size() - 2];
+  push(q.front(), second);
+  push(q.back(), before_last);
+}
+
 }  // namespace trellis

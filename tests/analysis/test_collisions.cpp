@@ -82,13 +82,18 @@ TEST(CollisionCheck, TopDownMissingRepeatedOffDesign) {
 TEST(CollisionCheck, EmbeddedGcodeReadBackIsCleanAndComplete) {
   // Plan a two-material octet, write it for the two-nozzle machine, read the G-code back, undo
   // the tool offsets and replay it: every strut once, no collision, steep struts bottom-up.
+  // Planned and written with a node overlap of 0.3 mm: the ends pushed past their nodes are
+  // part of the plan's collision model, so the printed G-code is clean too.
   Graph g = cell_lattice({UnitCell::Octet, 7, 2, 2, 2});
   assign_materials(g, MaterialRule::XyPlane);
   Diagnostics d;
-  const AeroResult r = plan_aero(g, {}, d);
+  AeroParams p;
+  p.nozzle.end_overlap = 0.3;
+  const AeroResult r = plan_aero(g, p, d);
   const Toolpath tp = aero_toolpath(g, r, "test");
-  const MachineProfile prof =
+  MachineProfile prof =
       load_profile(std::string(TRELLIS_SOURCE_DIR) + "/profiles/embedded_aero_two_nozzle.toml");
+  prof.node_overlap = 0.3;
   const std::string gcode = write_gcode(tp, prof);
   GcodeReadOptions read;
   read.valve_on = prof.valve_on;

@@ -24,6 +24,9 @@ struct NozzleModel {
   double tip_clearance = 0.05;      // material less than this above the tip is not hit (mm)
   double node_clearance = 1.0;      // exemption around shared nodes (mm)
   double cone_half_angle_deg = 30;  // struts this close to vertical print bottom-up only
+  double end_overlap = 0;  // planning only: struts as printed may run this far past their nodes
+                           // (the writer's node overlap); the blocking relation extends both
+                           // the tip path and the material by it
 
   void validate() const;  // throws SettingError
 };

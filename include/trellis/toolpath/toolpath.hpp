@@ -45,6 +45,10 @@ struct Toolpath {
   double extrusion_length() const;
 };
 
+// Moves a path's first and last point `length` further out along its end segments (a strut
+// printed past its end nodes, the embedded writer's node overlap).
+void extend_path_ends(Path& path, double length);
+
 // Travel between consecutive paths, in print order, across layers (first path has no travel in).
 struct TravelStats {
   std::size_t moves = 0;
