@@ -35,8 +35,7 @@ double since(Clock::time_point t0) {
 }
 
 // Print direction constraints: steep struts bottom-up (cone rule), user-directed struts as given.
-std::vector<std::int8_t> directions(const Graph& g, const NozzleModel& nozzle, std::size_t& steep,
-                                    Diagnostics& diag) {
+std::vector<std::int8_t> directions(const Graph& g, const NozzleModel& nozzle, std::size_t& steep) {
   std::vector<std::int8_t> dir(g.edges.size(), 0);
   steep = 0;
   for (EdgeId e = 0; e < g.edges.size(); ++e) {
@@ -45,10 +44,6 @@ std::vector<std::int8_t> directions(const Graph& g, const NozzleModel& nozzle, s
     if (is_steep(a, b, nozzle)) {
       ++steep;
       dir[e] = a.z <= b.z ? 1 : -1;
-      if (ed.directed && dir[e] < 0)
-        diag.warn("direction_overridden",
-                  "strut " + std::to_string(e) +
-                      " is directed top-down but lies within the nozzle cone: printed bottom-up");
     } else if (ed.directed) {
       dir[e] = 1;
     }
@@ -825,12 +820,89 @@ class Planner {
 
 }  // namespace
 
-AeroResult plan_aero(const Graph& g, const AeroParams& params, Diagnostics& diag) {
-  if (g.edges.empty()) throw GeometryError("the lattice has no struts to plan");
+namespace {
+
+// The lattice renumbered in a canonical order (nodes by x, then y, then z, at 1 nm; struts by their new
+// end ids), so the plan depends on the geometry, not on the order of the input file.
+struct Canonical {
+  Graph graph;
+  std::vector<NodeId> node_from;  // canonical node -> input node
+  std::vector<EdgeId> edge_from;  // canonical strut -> input strut
+};
+
+Canonical canonical(const Graph& g) {
+  Canonical c;
+  const std::size_t n = g.nodes.size(), m = g.edges.size();
+  c.node_from.resize(n);
+  for (NodeId i = 0; i < n; ++i) c.node_from[i] = i;
+  // Coordinates compared at 1 nm so float noise in the input does not change the order.
+  auto grid = [](double v) { return std::llround(v * 1e6); };
+  std::stable_sort(c.node_from.begin(), c.node_from.end(), [&](NodeId a, NodeId b) {
+    const Vec3 p = g.nodes[a], q = g.nodes[b];
+    return std::make_tuple(grid(p.x), grid(p.y), grid(p.z)) <
+           std::make_tuple(grid(q.x), grid(q.y), grid(q.z));
+  });
+  std::vector<NodeId> to(n);
+  for (NodeId i = 0; i < n; ++i) to[c.node_from[i]] = i;
+  c.graph.nodes.resize(n);
+  for (NodeId i = 0; i < n; ++i) c.graph.nodes[i] = g.nodes[c.node_from[i]];
+  c.edge_from.resize(m);
+  for (EdgeId e = 0; e < m; ++e) c.edge_from[e] = e;
+  auto key = [&](EdgeId e) {
+    const NodeId a = to[g.edges[e].a], b = to[g.edges[e].b];
+    return std::make_pair(std::min(a, b), std::max(a, b));
+  };
+  std::stable_sort(c.edge_from.begin(), c.edge_from.end(),
+                   [&](EdgeId a, EdgeId b) { return key(a) < key(b); });
+  c.graph.edges.resize(m);
+  for (EdgeId e = 0; e < m; ++e) {
+    Edge ed = g.edges[c.edge_from[e]];
+    ed.a = to[ed.a];
+    ed.b = to[ed.b];
+    if (!ed.directed && ed.b < ed.a) std::swap(ed.a, ed.b);  // a directed strut stays a -> b
+    c.graph.edges[e] = ed;
+  }
+  return c;
+}
+
+AeroResult plan_canonical(const Graph& g, const AeroParams& params);
+
+}  // namespace
+
+AeroResult plan_aero(const Graph& input, const AeroParams& params, Diagnostics& diag) {
+  if (input.edges.empty()) throw GeometryError("the lattice has no struts to plan");
   params.nozzle.validate();
+  const Canonical c = canonical(input);
+  AeroResult r = plan_canonical(c.graph, params);
+  // Back to the input's ids.
+  for (auto& t : r.trails.trails) {
+    for (auto& n : t.nodes) n = c.node_from[n];
+    for (auto& e : t.edges) e = c.edge_from[e];
+  }
+  for (auto& v : r.violations) {
+    v.edge = c.edge_from[v.edge];
+    diag.warn("collision_unavoidable",
+              "no strut could be printed without obstructing a remaining one: printed strut " +
+                  std::to_string(v.edge) + " anyway (it obstructs the fewest, " +
+                  std::to_string(v.obstructs) + " later strut(s))");
+  }
+  for (EdgeId e = 0; e < input.edges.size(); ++e) {
+    const Edge& ed = input.edges[e];
+    if (ed.directed && input.nodes[ed.a].z > input.nodes[ed.b].z &&
+        is_steep(input.nodes[ed.a], input.nodes[ed.b], params.nozzle))
+      diag.warn("direction_overridden",
+                "strut " + std::to_string(e) +
+                    " is directed top-down but lies within the nozzle cone: printed bottom-up");
+  }
+  return r;
+}
+
+namespace {
+
+AeroResult plan_canonical(const Graph& g, const AeroParams& params) {
   AeroResult r;
   const auto t0 = Clock::now();
-  const std::vector<std::int8_t> dir = directions(g, params.nozzle, r.steep_struts, diag);
+  const std::vector<std::int8_t> dir = directions(g, params.nozzle, r.steep_struts);
   {
     MixedEuler euler(g.nodes.size());
     int max_mat = 0;
@@ -911,16 +983,11 @@ AeroResult plan_aero(const Graph& g, const AeroParams& params, Diagnostics& diag
   r.runs = runs;
   r.seconds_planning = since(t1);
   for (const auto& t : r.trails.trails) r.max_trail_edges = std::max(r.max_trail_edges, t.edges.size());
-  if (!r.violations.empty()) {
-    for (const auto& v : r.violations)
-      diag.warn("collision_unavoidable",
-                "no strut could be printed without obstructing a remaining one: printed strut " +
-                    std::to_string(v.edge) + " anyway (it obstructs the fewest, " +
-                    std::to_string(v.obstructs) + " later strut(s))");
-  }
   params.progress("plan", 1);
   return r;
 }
+
+}  // namespace
 
 Toolpath aero_toolpath(const Graph& g, const AeroResult& r, const std::string& source) {
   Toolpath tp;
