@@ -130,11 +130,11 @@ class Writer {
     if (tool_ >= 0 && !p_.raise_idle.empty())
       line(tool_template(p_.raise_idle, tool_, "embedded.raise_idle"));
     if (!p_.tool_change.empty()) line(tool_template(p_.tool_change, tool, "embedded.tool_change"));
-    tool_ = tool;
     tool_offset_ = p_.tool_offset(tool);
     tool_profile_ = p_;
     tool_profile_.pressure = p_.tool_pressure(tool);
-    ++stats_.tool_changes;
+    if (tool_ >= 0) ++stats_.tool_changes;  // the first selection is not a change
+    tool_ = tool;
   }
 
   void header() {

@@ -282,7 +282,7 @@ TEST(Writer, EmbeddedTravelLeavesTheBathVerticallyAndSwapsNozzles) {
   prof.node_overlap = 0.5;
   trellis::GcodeStats stats;
   const std::string g = trellis::write_gcode(tp, prof, &stats);
-  EXPECT_EQ(stats.tool_changes, 2u);
+  EXPECT_EQ(stats.tool_changes, 1u);  // T0 selected, then one change to T1
   EXPECT_NE(g.find("T0 ;"), std::string::npos);
   EXPECT_NE(g.find("M400 ; raise nozzle 0 above the bath"), std::string::npos);
   EXPECT_NE(g.find("T1 ;"), std::string::npos);
