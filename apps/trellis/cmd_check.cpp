@@ -34,11 +34,7 @@ void add_check(CLI::App& app) {
   cmd->add_option("--machine", o->machine, "machine profile the G-code was written for");
   cmd->add_option("--report", o->report, "report JSON with every collision");
   cmd->add_option("--png", o->png, "isometric picture with the collisions ringed in red");
-  cmd->add_option("--nozzle-radius", o->check.nozzle.radius, "nozzle radius R (mm)")
-      ->capture_default_str();
-  cmd->add_option("--tip-clearance", o->check.nozzle.tip_clearance, "mm")->capture_default_str();
-  cmd->add_option("--node-clearance", o->check.nozzle.node_clearance, "mm")->capture_default_str();
-  cmd->add_option("--cone", o->check.nozzle.cone_half_angle_deg, "degrees")->capture_default_str();
+  add_nozzle_options(cmd, o->check.nozzle, "Nozzle model");
   cmd->add_option("--snap", o->check.snap,
                   "segment ends within this of a node are at it (mm; default 0.05, or the "
                   "profile's node overlap + 0.05)");

@@ -138,21 +138,7 @@ void add_plan(CLI::App& app) {
   cmd->add_flag("--no-collisions", o->no_collisions,
                 "aero: ignore the nozzle (trails = the Euler lower bound)")
       ->group(ag);
-  cmd->add_option("--nozzle-radius", o->aero.nozzle.radius, "aero: nozzle radius R (mm)")
-      ->capture_default_str()
-      ->group(ag);
-  cmd->add_option("--tip-clearance", o->aero.nozzle.tip_clearance,
-                  "aero: material less than this above the tip is not hit (mm)")
-      ->capture_default_str()
-      ->group(ag);
-  cmd->add_option("--node-clearance", o->aero.nozzle.node_clearance,
-                  "aero: no collision within this of a shared node (mm)")
-      ->capture_default_str()
-      ->group(ag);
-  cmd->add_option("--cone", o->aero.nozzle.cone_half_angle_deg,
-                  "aero: struts within this angle of vertical print bottom-up (degrees)")
-      ->capture_default_str()
-      ->group(ag);
+  add_nozzle_options(cmd, o->aero.nozzle, ag);
   cmd->add_option("--overlap", o->aero.nozzle.end_overlap,
                   "aero: the writer's node overlap (mm; embedded.node_overlap of the profile): "
                   "struts are planned as if that much longer at each end")

@@ -4,6 +4,7 @@
 #include <CLI/CLI.hpp>
 
 #include "trellis/core/diagnostics.hpp"
+#include "trellis/lattice/collision.hpp"
 #include "trellis/render/render.hpp"
 #include "trellis/toolpath/toolpath.hpp"
 
@@ -33,6 +34,10 @@ void print_warnings(const Diagnostics& diag);
 // PNGs of `count` layers spread over the toolpath, named DIR/layer_N.png; returns the paths.
 std::vector<std::string> render_previews(const Toolpath& toolpath, const std::string& dir,
                                          std::size_t count, const RenderOptions& options = {});
+// The nozzle-collision model's options (--nozzle-radius, --tip-clearance, --node-clearance,
+// --cone), shared by `plan aero` and `check`, in an option group.
+void add_nozzle_options(CLI::App* cmd, NozzleModel& nozzle, const std::string& group);
+
 // Fixed-point text of v for messages.
 std::string num(double v, int decimals);
 

@@ -239,10 +239,17 @@ class Writer {
 
   // Embedded: straight up out of the bath, across above everything, straight down.
   void travel_embedded(Vec3 q) {
-    const Vec2 o = offset();
     if (known_ && distance_xy(pos_, q) < 1e-9 && std::abs(pos_.z - q.z) < 1e-9) return;
     const double d = known_ ? distance_xy(pos_, q) : 0;
     if (!known_ || pos_.z < safe_z_ - 1e-9) move_z(safe_z_);
+    move_xy(q, d);
+    known_ = true;
+    move_z(q.z);
+  }
+
+  // The horizontal part of a travel (the tool's XY offset added), counted in the stats.
+  void move_xy(Vec3 q, double d) {
+    const Vec2 o = offset();
     out_ += "G0 X";
     append_fixed(out_, q.x + dx_ + o.x, 3);
     out_ += " Y";
@@ -257,8 +264,6 @@ class Writer {
     }
     pos_.x = q.x;
     pos_.y = q.y;
-    known_ = true;
-    move_z(q.z);
   }
 
   void travel_to(Vec3 q) {
@@ -270,20 +275,7 @@ class Writer {
     const double hop = far ? p_.z_hop : 0;
     const double safe_z = known_ ? std::max(pos_.z, q.z) + hop : q.z + std::max(hop, 1.0);
     if (!known_ || safe_z > pos_.z + 1e-9) move_z(safe_z);
-    out_ += "G0 X";
-    append_fixed(out_, q.x + dx_, 3);
-    out_ += " Y";
-    append_fixed(out_, q.y + dy_, 3);
-    out_ += " F";
-    feed(p_.travel_speed);
-    out_ += '\n';
-    if (known_) {
-      ++stats_.travel_moves;
-      stats_.travel_length += d;
-      stats_.print_time_s += move_time(d, p_.travel_speed, p_.acceleration);
-    }
-    pos_.x = q.x;
-    pos_.y = q.y;
+    move_xy(q, d);
     if (std::abs(pos_.z - q.z) > 1e-9) move_z(q.z);
     known_ = true;
     if (retracted_) unretract();
