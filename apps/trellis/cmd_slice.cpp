@@ -16,8 +16,8 @@ void add_slice(CLI::App& app) {
     std::vector<std::string> sets;
     double layer_height = 0.2, infill = 0.2, infill_angle = 45, resolution = 0.1,
            mesh_voxel = 0.25, bead_width = 0;
-    int walls = 2, top = 4, bottom = 4;
-    bool no_center = false;
+    int walls = 2, top = 4, bottom = 4, strategy = 0, colors = 8;
+    bool no_center = false, concentric = false;
     std::size_t preview_layers = 4;
   };
   auto o = std::make_shared<Opts>();
@@ -52,6 +52,15 @@ void add_slice(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--mesh-voxel", o->mesh_voxel, "voxel of mesh distance fields (mm)")
       ->capture_default_str();
+  cmd->add_option("--strategy", o->strategy,
+                  "graded designs (two materials): 2 = the FGM paper's Strategy 2 (colour faces "
+                  "filled densely, palette order, M165 mixture per path); 0 = one material")
+      ->check(CLI::IsMember({0, 2}))
+      ->capture_default_str();
+  cmd->add_option("--colors", o->colors, "Strategy 2: colours in the palette (band = 100%/N)")
+      ->check(CLI::Range(1, 1000))
+      ->capture_default_str();
+  cmd->add_flag("--concentric", o->concentric, "Strategy 2: concentric fill instead of rectilinear");
   cmd->add_flag("--no-center", o->no_center, "keep design XY coordinates (no bed centring)");
   cmd->add_option("--set", o->sets, "override a machine setting: section.key=value (repeatable)");
   cmd->callback([o] {
@@ -70,6 +79,10 @@ void add_slice(CLI::App& app) {
     job.planar.top_layers = o->top;
     job.planar.bottom_layers = o->bottom;
     job.planar.bead_width = o->bead_width > 0 ? o->bead_width : profile.nozzle_diameter;
+    job.strategy = o->strategy;
+    job.fgm.palette.colors = o->colors;
+    job.fgm.concentric = o->concentric;
+    job.fgm.angle_deg = o->infill_angle;
     profile.layer_height = o->layer_height;
     const SliceResult r = run_slice(job, [](const std::string& stage, double f) {
       progress_line(stage, f);
@@ -78,6 +91,12 @@ void add_slice(CLI::App& app) {
     if (!o->toolpath.empty()) write_toolpath(o->toolpath, r.toolpath);
     if (!o->report.empty()) write_file_atomic(o->report, slice_report_json(job, r, &g));
     const std::vector<std::string> pngs = render_previews(r.toolpath, o->preview, o->preview_layers);
+    if (job.strategy == 2)
+      std::cout << "strategy 2: " << o->colors << " colours, " << r.fgm.faces << " faces, "
+                << r.fgm.paths << " paths, " << r.fgm.colour_changes << " colour changes, shortest "
+                << num(r.fgm.shortest_path, 2) << " mm; " << to_string(r.route) << " route, "
+                << r.outlines.size() << " layers, ~" << num(g.print_time_s / 60, 1) << " min\n";
+    else
     std::cout << to_string(r.route) << " route: " << r.outlines.size() << " layers, "
               << r.planar.paths << " paths (" << r.planar.walls << " wall loops, "
               << r.planar.skin_lines << " skin paths, " << r.planar.infill_lines

@@ -1,5 +1,7 @@
 #include "trellis/slice/pipeline.hpp"
 
+#include "trellis/slice/fgm.hpp"
+
 #include <nlohmann/json.hpp>
 
 #include <chrono>
@@ -114,7 +116,18 @@ SliceResult run_slice(const SliceJob& job,
                         {job.input, 0, ""});
   const auto t1 = std::chrono::steady_clock::now();
   if (progress) progress("walls and infill", 0.0);
-  r.toolpath = plan_planar(r.outlines, job.planar, &r.planar);
+  if (job.strategy == 2) {
+    if (!is_vcad || field.materials().size() < 2)
+      throw GeometryError("--strategy 2 needs a .vcad design with two materials (fgrade)",
+                          {job.input, 0, ""});
+    FgmOptions fo = job.fgm;
+    fo.layer_height = h;
+    fo.bead_width = job.planar.bead_width;
+    fo.resolution = job.field.resolution;
+    r.toolpath = plan_fgm_strategy2(field, r.outlines, fo, &r.fgm);
+  } else {
+    r.toolpath = plan_planar(r.outlines, job.planar, &r.planar);
+  }
   r.toolpath.source = "trellis slice " + job.input + " (" + to_string(r.route) + " route)";
   if (progress) progress("walls and infill", 1.0);
   r.plan_seconds = seconds_since(t1);
@@ -160,6 +173,15 @@ std::string slice_report_json(const SliceJob& job, const SliceResult& r, const G
                   {"blocks", r.field_stats.blocks},
                   {"blocks_skipped_by_bounds", r.field_stats.skipped_blocks}};
   if (r.mesh_triangles) j["mesh_triangles"] = r.mesh_triangles;
+  if (job.strategy == 2)
+    j["fgm"] = {{"strategy", 2},
+                {"colors", job.fgm.palette.colors},
+                {"band_percent", 100.0 / job.fgm.palette.colors},
+                {"faces", r.fgm.faces},
+                {"paths", r.fgm.paths},
+                {"colour_changes", r.fgm.colour_changes},
+                {"shortest_segment_mm", r.fgm.shortest_path},
+                {"fill", job.fgm.concentric ? "concentric" : "rectilinear"}};
   if (g) {
     j["gcode"] = {{"bytes", g->bytes},
                   {"filament_mm", g->filament},

@@ -372,3 +372,25 @@ TEST(Cli, AeroPipelineLatticePlanGcodeCheck) {
   EXPECT_EQ(run("plan aero " + lat + " -o x --nozzle-radius -1").code, 2);
   EXPECT_EQ(run("check " + lat + " " + in_work("missing.nc")).code, 2);
 }
+
+TEST(Cli, GradedDesignStrategy2WritesMixtures) {
+  const std::string d = write("graded.vcad",
+                              "fgrade([\"0.5 + x/24\", \"0.5 - x/24\"], [\"a\", \"b\"]) {\n"
+                              "  rectprism(20, 10, 0.6);\n}\n");
+  const std::string prof = std::string(TRELLIS_SOURCE_DIR) + "/profiles/ender3_s1_pro_tpu.toml";
+  CmdResult r = run("slice " + d + " --machine " + prof + " -o " + in_work("graded.gcode") +
+                    " --strategy 2 --colors 4 --layer-height 0.3 --report " + in_work("graded.json"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("strategy 2: 4 colours"), std::string::npos) << r.out;
+  const std::string g = trellis::read_file(in_work("graded.gcode"));
+  for (const char* m : {"M165 A0.125 B0.875", "M165 A0.375 B0.625", "M165 A0.625 B0.375",
+                        "M165 A0.875 B0.125"})
+    EXPECT_NE(g.find(m), std::string::npos) << m;
+  EXPECT_NE(trellis::read_file(in_work("graded.json")).find("\"colour_changes\""), std::string::npos);
+  // One material: a clear error, exit 2.
+  const std::string plain = write("plain.vcad", "cube(5);\n");
+  r = run("slice " + plain + " --machine " + prof + " -o " + in_work("never.gcode") + " --strategy 2");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("two materials"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(in_work("never.gcode")));
+}

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "trellis/machine/gcode_writer.hpp"
+#include "trellis/slice/fgm.hpp"
 #include "trellis/slice/slice.hpp"
 
 namespace trellis {
@@ -19,6 +20,8 @@ struct SliceJob {
   FieldSliceOptions field;              // XY resolution of direct contours
   double mesh_voxel = 0.25;             // mm, mesh → distance field (field route of a mesh)
   PlanarOptions planar;
+  int strategy = 0;  // 0: one material (walls, skins, infill); 2: FGM Strategy 2 (slice/fgm.hpp)
+  FgmOptions fgm;    // palette and fill of Strategy 2 (bead width, layer, grid from above)
 };
 
 struct SliceResult {
@@ -28,6 +31,7 @@ struct SliceResult {
   BBox3 extent;                 // of the design (mm)
   SliceStats field_stats;       // field route only
   PlanarStats planar;
+  FgmStats fgm;
   std::size_t mesh_triangles = 0;
   double outline_seconds = 0, plan_seconds = 0;
 };

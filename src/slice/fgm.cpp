@@ -1,0 +1,182 @@
+#include "trellis/slice/fgm.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "trellis/core/error.hpp"
+#include "trellis/geom/contour.hpp"
+#include "trellis/geom/regions.hpp"
+
+namespace trellis {
+
+int Palette::color_of(double f) const {
+  return std::clamp(static_cast<int>(std::floor(f * colors)), 0, colors - 1);
+}
+
+namespace {
+
+// The first material's fraction on one layer's grid, cached per node (every band-edge contour
+// samples the same nodes); points off the grid (root refinement) are evaluated directly.
+class FractionGrid {
+ public:
+  FractionGrid(Evaluator& ev, double z, Vec2 lo, Vec2 hi, double res)
+      : ev_(ev), z_(z), lo_(lo), res_(res) {
+    nx_ = static_cast<std::size_t>(std::ceil((hi.x - lo.x) / res)) + 1;
+    ny_ = static_cast<std::size_t>(std::ceil((hi.y - lo.y) / res)) + 1;
+    cache_.assign(nx_ * ny_, std::numeric_limits<double>::quiet_NaN());
+  }
+  double at(Vec2 p) {
+    const double fx = (p.x - lo_.x) / res_, fy = (p.y - lo_.y) / res_;
+    const double ix = std::round(fx), iy = std::round(fy);
+    if (std::abs(fx - ix) < 1e-9 && std::abs(fy - iy) < 1e-9 && ix >= 0 && iy >= 0 &&
+        ix < static_cast<double>(nx_) && iy < static_cast<double>(ny_)) {
+      double& v = cache_[static_cast<std::size_t>(iy) * nx_ + static_cast<std::size_t>(ix)];
+      if (std::isnan(v)) v = eval(p);
+      return v;
+    }
+    return eval(p);
+  }
+
+ private:
+  double eval(Vec2 p) {
+    const auto f = ev_.fractions({p.x, p.y, z_});
+    return f.empty() ? 0.0 : f[0];
+  }
+  Evaluator& ev_;
+  double z_;
+  Vec2 lo_;
+  double res_;
+  std::size_t nx_ = 0, ny_ = 0;
+  std::vector<double> cache_;
+};
+
+// max(f - level, distance outside the box): its zero set closes along the box.
+class BelowLevel : public PlaneFunction {
+ public:
+  BelowLevel(FractionGrid& grid, double level, Vec2 lo, Vec2 hi)
+      : grid_(grid), level_(level), lo_(lo), hi_(hi) {}
+  void sample(const Vec2* p, double* out, std::size_t n) override {
+    for (std::size_t i = 0; i < n; ++i) {
+      const double box = std::max({lo_.x - p[i].x, p[i].x - hi_.x, lo_.y - p[i].y, p[i].y - hi_.y});
+      out[i] = std::max(grid_.at(p[i]) - level_, box);
+    }
+  }
+
+ private:
+  FractionGrid& grid_;
+  double level_;
+  Vec2 lo_, hi_;
+};
+
+BBox3 bbox_of(const Regions& r) {
+  BBox3 b;
+  for (const auto& p : r)
+    for (const Vec2 q : p.outer) b.add({q.x, q.y, 0});
+  return b;
+}
+
+}  // namespace
+
+std::vector<ColorFace> color_faces(const Field& field, Evaluator& ev, double z,
+                                   const Regions& outline, const Palette& palette,
+                                   double resolution) {
+  if (field.materials().size() < 2)
+    throw GeometryError("gradient slicing needs a design with two materials (an fgrade node)");
+  if (palette.colors < 1 || palette.colors > 1000)
+    throw SettingError("the palette needs 1 to 1000 colours");
+  std::vector<ColorFace> faces;
+  const BBox3 b = bbox_of(outline);
+  if (b.empty()) return faces;
+  const Vec2 lo{b.min.x - resolution, b.min.y - resolution};
+  const Vec2 hi{b.max.x + resolution, b.max.y + resolution};
+  const Vec2 glo{lo.x - 2 * resolution, lo.y - 2 * resolution};
+  const Vec2 ghi{hi.x + 2 * resolution, hi.y + 2 * resolution};
+  FractionGrid grid(ev, z, glo, ghi, resolution);
+  MarchOptions mo;
+  mo.resolution = resolution;
+  // below[k]: the outline where f <= k / N (k = 1 .. N-1).
+  Regions previous;  // below the lower edge of the current band
+  for (int k = 0; k < palette.colors; ++k) {
+    Regions below_upper;
+    if (k + 1 < palette.colors) {
+      BelowLevel f(grid, (k + 1) * palette.band(), lo, hi);
+      const ContourSet cs = march_squares(f, glo, ghi, 0.0, mo);
+      below_upper = intersection(outline, nest_oriented_rings(cs.lines.loops));
+    } else {
+      below_upper = outline;
+    }
+    Regions face = k == 0 ? below_upper : difference(below_upper, previous);
+    if (!face.empty()) faces.push_back({k, std::move(face)});
+    previous = std::move(below_upper);
+  }
+  return faces;
+}
+
+Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>& layers,
+                            const FgmOptions& o, FgmStats* stats) {
+  if (!(o.bead_width > 0) || !(o.resolution > 0))
+    throw SettingError("bead width and resolution must be positive");
+  Evaluator ev(field);
+  Toolpath tp;
+  FgmStats st;
+  st.shortest_path = std::numeric_limits<double>::infinity();
+  int last_color = -1;
+  for (std::size_t li = 0; li < layers.size(); ++li) {
+    const LayerOutline& lo = layers[li];
+    Layer layer;
+    // As the planar slicer: the nozzle at the top of layer i, counted from the bed.
+    layer.z = static_cast<double>(li + 1) * o.layer_height;
+    auto faces = color_faces(field, ev, lo.z, lo.regions, o.palette, o.resolution);
+    st.faces += faces.size();
+    // Palette order, reversed every other layer so a layer starts where the last one ended.
+    if (li % 2 == 1) std::reverse(faces.begin(), faces.end());
+    const double angle = o.angle_deg + (li % 2 ? 90.0 : 0.0);
+    for (const auto& face : faces) {
+      const double m = o.palette.mid(face.color);
+      // One ring half a bead inside the face (its bead reaches the face's edge, not beyond),
+      // then concentric rings, or 100 % rectilinear lines inside the ring.
+      Regions inner = offset(face.region, -o.bead_width / 2);
+      std::vector<std::vector<Vec2>> lines;
+      auto add_rings = [&](const Regions& r) {
+        for (auto ring : rings_of(r)) {
+          if (ring.size() < 2) continue;
+          ring.push_back(ring.front());
+          lines.push_back(std::move(ring));
+        }
+      };
+      if (o.concentric) {
+        for (Regions r = inner; !r.empty(); r = offset(r, -o.bead_width)) add_rings(r);
+      } else {
+        add_rings(inner);
+        const auto segs = hatch(offset(face.region, -o.bead_width), angle, o.bead_width);
+        for (std::size_t i = 0; i < segs.size(); ++i) {  // boustrophedon order
+          if (i % 2) lines.push_back({segs[i].b, segs[i].a});
+          else lines.push_back({segs[i].a, segs[i].b});
+        }
+      }
+      for (auto& line : lines) {
+        if (line.size() < 2) continue;
+        Path p;
+        p.role = PathRole::Infill;
+        p.mixture = {m, 1 - m};
+        p.width = o.bead_width;
+        p.height = o.layer_height;
+        for (const Vec2 q : line) p.points.push_back({q.x, q.y, layer.z});
+        const double len = p.length();
+        if (len <= 0) continue;
+        st.shortest_path = std::min(st.shortest_path, len);
+        if (face.color != last_color && last_color >= 0) ++st.colour_changes;
+        last_color = face.color;
+        layer.paths.push_back(std::move(p));
+        ++st.paths;
+      }
+    }
+    if (!layer.paths.empty()) tp.layers.push_back(std::move(layer));
+  }
+  if (st.paths == 0) st.shortest_path = 0;
+  if (stats) *stats = st;
+  return tp;
+}
+
+}  // namespace trellis
