@@ -16,29 +16,49 @@ int Palette::color_of(double f) const {
 
 namespace {
 
-// The first material's fraction on one layer's grid, cached per node (every band-edge contour
-// samples the same nodes); points off the grid (root refinement) are evaluated directly.
+// The first material's fraction on one layer's grid, evaluated once per node (every band-edge
+// contour samples the same nodes); points off the grid (root refinement) are evaluated directly.
 class FractionGrid {
  public:
   FractionGrid(Evaluator& ev, double z, Vec2 lo, Vec2 hi, double res)
       : ev_(ev), z_(z), lo_(lo), res_(res) {
     nx_ = static_cast<std::size_t>(std::ceil((hi.x - lo.x) / res)) + 1;
     ny_ = static_cast<std::size_t>(std::ceil((hi.y - lo.y) / res)) + 1;
-    cache_.assign(nx_ * ny_, std::numeric_limits<double>::quiet_NaN());
+    values_.resize(nx_ * ny_);
+    for (std::size_t j = 0; j < ny_; ++j)
+      for (std::size_t i = 0; i < nx_; ++i)
+        values_[j * nx_ + i] = eval({lo.x + static_cast<double>(i) * res, lo.y + static_cast<double>(j) * res});
   }
   double at(Vec2 p) {
-    const double fx = (p.x - lo_.x) / res_, fy = (p.y - lo_.y) / res_;
-    const double ix = std::round(fx), iy = std::round(fy);
-    if (std::abs(fx - ix) < 1e-9 && std::abs(fy - iy) < 1e-9 && ix >= 0 && iy >= 0 &&
-        ix < static_cast<double>(nx_) && iy < static_cast<double>(ny_)) {
-      double& v = cache_[static_cast<std::size_t>(iy) * nx_ + static_cast<std::size_t>(ix)];
-      if (std::isnan(v)) v = eval(p);
-      return v;
-    }
+    std::size_t i, j;
+    if (node(p, i, j)) return values_[j * nx_ + i];
     return eval(p);
+  }
+  // Range of the node values in [a, b] (grid nodes only: what marching squares sees).
+  Interval range(Vec2 a, Vec2 b) const {
+    const auto i0 = static_cast<std::size_t>(std::max(0.0, std::floor((a.x - lo_.x) / res_ - 1e-9)));
+    const auto j0 = static_cast<std::size_t>(std::max(0.0, std::floor((a.y - lo_.y) / res_ - 1e-9)));
+    const auto i1 = std::min(nx_ - 1, static_cast<std::size_t>(std::max(0.0, std::ceil((b.x - lo_.x) / res_ + 1e-9))));
+    const auto j1 = std::min(ny_ - 1, static_cast<std::size_t>(std::max(0.0, std::ceil((b.y - lo_.y) / res_ + 1e-9))));
+    Interval r{std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
+    for (std::size_t j = j0; j <= j1; ++j)
+      for (std::size_t i = i0; i <= i1; ++i) {
+        const double v = values_[j * nx_ + i];
+        r.lo = std::min(r.lo, v);
+        r.hi = std::max(r.hi, v);
+      }
+    return r;
   }
 
  private:
+  bool node(Vec2 p, std::size_t& i, std::size_t& j) const {
+    const double fx = (p.x - lo_.x) / res_, fy = (p.y - lo_.y) / res_;
+    const double ix = std::floor(fx + 0.5), iy = std::floor(fy + 0.5);
+    if (std::abs(fx - ix) > 1e-9 || std::abs(fy - iy) > 1e-9 || ix < 0 || iy < 0) return false;
+    i = static_cast<std::size_t>(ix);
+    j = static_cast<std::size_t>(iy);
+    return i < nx_ && j < ny_;
+  }
   double eval(Vec2 p) {
     const auto f = ev_.fractions({p.x, p.y, z_});
     return f.empty() ? 0.0 : f[0];
@@ -48,10 +68,11 @@ class FractionGrid {
   Vec2 lo_;
   double res_;
   std::size_t nx_ = 0, ny_ = 0;
-  std::vector<double> cache_;
+  std::vector<double> values_;
 };
 
-// max(f - level, distance outside the box): its zero set closes along the box.
+// max(f - level, distance outside the box): its zero set closes along the box. Blocks whose
+// nodes are all on one side of the level are skipped by the contouring.
 class BelowLevel : public PlaneFunction {
  public:
   BelowLevel(FractionGrid& grid, double level, Vec2 lo, Vec2 hi)
@@ -61,6 +82,13 @@ class BelowLevel : public PlaneFunction {
       const double box = std::max({lo_.x - p[i].x, p[i].x - hi_.x, lo_.y - p[i].y, p[i].y - hi_.y});
       out[i] = std::max(grid_.at(p[i]) - level_, box);
     }
+  }
+  Interval bound(Vec2 a, Vec2 b) override {
+    // The box term's range over the rectangle, and the nodes' fraction range.
+    const double box_lo = std::max({lo_.x - b.x, a.x - hi_.x, lo_.y - b.y, a.y - hi_.y});
+    const double box_hi = std::max({lo_.x - a.x, b.x - hi_.x, lo_.y - a.y, b.y - hi_.y});
+    const Interval f = grid_.range(a, b);
+    return {std::max(f.lo - level_, box_lo), std::max(f.hi - level_, box_hi)};
   }
 
  private:
@@ -122,12 +150,16 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
   FgmStats st;
   st.shortest_path = std::numeric_limits<double>::infinity();
   int last_color = -1;
+  Vec2 cursor{0, 0};
   for (std::size_t li = 0; li < layers.size(); ++li) {
     const LayerOutline& lo = layers[li];
     Layer layer;
     // As the planar slicer: the nozzle at the top of layer i, counted from the bed.
     layer.z = static_cast<double>(li + 1) * o.layer_height;
-    auto faces = color_faces(field, ev, lo.z, lo.regions, o.palette, o.resolution);
+    // Material iso-lines on a grid of half a bead at the finest: crossings are refined on the
+    // field anyway, and a face narrower than half a bead cannot be printed.
+    auto faces = color_faces(field, ev, lo.z, lo.regions, o.palette,
+                             std::max(o.resolution, o.bead_width / 2));
     st.faces += faces.size();
     // Palette order, reversed every other layer so a layer starts where the last one ended.
     if (li % 2 == 1) std::reverse(faces.begin(), faces.end());
@@ -149,11 +181,9 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
         for (Regions r = inner; !r.empty(); r = offset(r, -o.bead_width)) add_rings(r);
       } else {
         add_rings(inner);
-        const auto segs = hatch(offset(face.region, -o.bead_width), angle, o.bead_width);
-        for (std::size_t i = 0; i < segs.size(); ++i) {  // boustrophedon order
-          if (i % 2) lines.push_back({segs[i].b, segs[i].a});
-          else lines.push_back({segs[i].a, segs[i].b});
-        }
+        for (auto& run : fill_lines(offset(face.region, -o.bead_width), angle, o.bead_width,
+                                    o.bead_width, 0.05, true, cursor))
+          lines.push_back(std::move(run));
       }
       for (auto& line : lines) {
         if (line.size() < 2) continue;

@@ -54,6 +54,7 @@ void require_finite_xy(const BBox3& e) {
 
 }  // namespace
 
+
 Regions contour_at(const Field& field, Evaluator& ev, double z, const FieldSliceOptions& options,
                    SliceStats* stats) {
   if (!(options.resolution > 0)) throw SettingError("resolution must be > 0");
@@ -199,6 +200,46 @@ struct IslandOrder {
 
 }  // namespace
 
+std::vector<std::vector<Vec2>> fill_lines(const Regions& r, double angle, double spacing,
+                                          double bead_width, double min_path, bool link,
+                                          Vec2& cursor) {
+  std::vector<std::vector<Vec2>> runs;
+  if (r.empty() || !(spacing > 0)) return runs;
+  std::vector<Segment2> kept;
+  for (const auto& s : hatch(r, angle, spacing))
+    if (std::sqrt(dist2(s.a, s.b)) >= min_path) kept.push_back(s);
+  std::vector<std::vector<Vec2>> lines;
+  order_lines(std::move(kept), cursor, lines);
+  // Consecutive lines whose ends are neighbours are joined by a short connector (a zig-zag)
+  // when the connector stays in the region (within half a bead), so a solid fill is a few long
+  // paths instead of many short ones with travel between.
+  std::vector<Vec2> run;
+  auto flush = [&] {
+    if (run.size() >= 2) runs.push_back(run);
+    run.clear();
+  };
+  for (const auto& l : lines) {
+    if (link && !run.empty()) {
+      const Vec2 a = run.back(), b = l.front();
+      const Vec2 mid = (a + b) * 0.5;
+      bool inside_region = false;
+      for (const auto& poly : r)
+        if (contains(poly, mid, 0.5 * bead_width)) {
+          inside_region = true;
+          break;
+        }
+      if (std::sqrt(dist2(a, b)) <= 2.0 * spacing && inside_region) {
+        run.insert(run.end(), l.begin(), l.end());
+        continue;
+      }
+    }
+    flush();
+    run = l;
+  }
+  flush();
+  return runs;
+}
+
 Toolpath plan_planar(const std::vector<LayerOutline>& layers, const PlanarOptions& o,
                      PlanarStats* stats) {
   if (!(o.layer_height > 0)) throw SettingError("layer height must be > 0");
@@ -277,47 +318,14 @@ Toolpath plan_planar(const std::vector<LayerOutline>& layers, const PlanarOption
       if (inner.empty()) continue;
       const Regions solid = skin.empty() ? Regions{} : intersection(inner, skin);
       const Regions sparse = solid.empty() ? inner : difference(inner, solid);
-      std::vector<std::vector<Vec2>> lines;
       auto emit = [&](const Regions& r, double angle, double spacing, PathRole role,
                       std::size_t& counter) {
         if (r.empty() || !(spacing > 0)) return;
-        auto segs = hatch(r, angle, spacing);
-        std::vector<Segment2> kept;
-        for (const auto& s : segs)
-          if (std::sqrt(dist2(s.a, s.b)) >= o.min_path) kept.push_back(s);
-        lines.clear();
-        order_lines(std::move(kept), cursor, lines);
-        // Solid skin: consecutive lines whose ends are neighbours are joined by a short
-        // connector (a zig-zag) when the connector stays in the region (within half a bead),
-        // so a skin is a few long paths instead of many short ones with travel between.
         const bool link = role == PathRole::Skin;
-        std::vector<Vec2> run;
-        auto flush = [&] {
-          if (run.size() >= 2) {
-            layer.paths.push_back(make_path(run, z, role, o, false));
-            ++counter;
-          }
-          run.clear();
-        };
-        for (const auto& l : lines) {
-          if (link && !run.empty()) {
-            const Vec2 a = run.back(), b = l.front();
-            const Vec2 mid = (a + b) * 0.5;
-            bool inside_region = false;
-            for (const auto& poly : r)
-              if (contains(poly, mid, 0.5 * o.bead_width)) {
-                inside_region = true;
-                break;
-              }
-            if (std::sqrt(dist2(a, b)) <= 2.0 * spacing && inside_region) {
-              run.insert(run.end(), l.begin(), l.end());
-              continue;
-            }
-          }
-          flush();
-          run = l;
+        for (const auto& run : fill_lines(r, angle, spacing, o.bead_width, o.min_path, link, cursor)) {
+          layer.paths.push_back(make_path(run, z, role, o, false));
+          ++counter;
         }
-        flush();
       };
       emit(solid, skin_angle, w, PathRole::Skin, per[i].skin_lines);
       emit(sparse, infill_angle, sparse_spacing, PathRole::Infill, per[i].infill_lines);

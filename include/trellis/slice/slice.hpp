@@ -79,6 +79,13 @@ struct PlanarStats {
 };
 
 // z of layer i's nozzle is (i + 1) · layer_height (the part's bottom on the bed).
+// Parallel lines filling a region (spacing apart, at an angle), in zig-zag order from `cursor`
+// (updated to the last end); with `link`, neighbouring lines are joined by short connectors
+// that stay in the region. Pieces shorter than min_path are dropped.
+std::vector<std::vector<Vec2>> fill_lines(const Regions& region, double angle_deg, double spacing,
+                                          double bead_width, double min_path, bool link,
+                                          Vec2& cursor);
+
 Toolpath plan_planar(const std::vector<LayerOutline>& layers, const PlanarOptions& options,
                      PlanarStats* stats = nullptr);
 
