@@ -18,6 +18,7 @@ void add_slice(CLI::App& app) {
            mesh_voxel = 0.25, bead_width = 0;
     int walls = 2, top = 4, bottom = 4, strategy = 0, colors = 8;
     bool no_center = false, concentric = false;
+    double lookahead = -1;
     std::size_t preview_layers = 4;
   };
   auto o = std::make_shared<Opts>();
@@ -61,12 +62,16 @@ void add_slice(CLI::App& app) {
       ->check(CLI::Range(1, 1000))
       ->capture_default_str();
   cmd->add_flag("--concentric", o->concentric, "Strategy 2: concentric fill instead of rectilinear");
+  cmd->add_option("--lookahead", o->lookahead,
+                  "issue mixture changes this many mm of path early (dead volume; default: the "
+                  "profile's gradient.lookahead)");
   cmd->add_flag("--no-center", o->no_center, "keep design XY coordinates (no bed centring)");
   cmd->add_option("--set", o->sets, "override a machine setting: section.key=value (repeatable)");
   cmd->callback([o] {
     MachineProfile profile = load_profile(o->machine);
     profile.center = !o->no_center;
     for (const auto& s : o->sets) apply_override(profile, s);
+    if (o->lookahead >= 0) profile.lookahead = o->lookahead;
     SliceJob job;
     job.input = o->input;
     job.route = slice_route_from_string(o->route);
@@ -93,7 +98,8 @@ void add_slice(CLI::App& app) {
     const std::vector<std::string> pngs = render_previews(r.toolpath, o->preview, o->preview_layers);
     if (job.strategy == 2)
       std::cout << "strategy 2: " << o->colors << " colours, " << r.fgm.faces << " faces, "
-                << r.fgm.paths << " paths, " << r.fgm.colour_changes << " colour changes, shortest "
+                << r.fgm.paths << " paths, " << g.gradient_changes << " " << profile.gradient_mode
+                << " changes (look-ahead " << num(profile.lookahead, 0) << " mm), shortest "
                 << num(r.fgm.shortest_path, 2) << " mm; " << to_string(r.route) << " route, "
                 << r.outlines.size() << " layers, ~" << num(g.print_time_s / 60, 1) << " min\n";
     else

@@ -84,6 +84,7 @@ class Writer {
       for (const auto& path : l.paths) points += path.points.size();
     out_.reserve(points * 40 + 8192);
     header();
+    plan_changes();
     for (std::size_t li = 0; li < tp_.layers.size(); ++li) layer(li);
     footer();
     stats_.bytes = out_.size();
@@ -300,19 +301,93 @@ class Writer {
     stats_.filament += mm;
   }
 
-  // Mixing hotends (Marlin M165): the mixture of the coming path, when it changes. Letters A B C
-  // D H I are Marlin's mix factors for up to six inputs.
-  void mixture(const Path& path) {
-    if (path.mixture.empty() || path.mixture == mixture_) return;
-    static constexpr char kLetters[] = {'A', 'B', 'C', 'D', 'H', 'I'};
-    out_ += "M165";
-    for (std::size_t i = 0; i < path.mixture.size() && i < 6; ++i) {
-      out_ += ' ';
-      out_ += kLetters[i];
-      append_fixed(out_, path.mixture[i], 4);
+  // The command(s) that make a mixture, by gradient.mode: a mixing hotend (Marlin M165; letters
+  // A B C D H I are its mix factors for up to six inputs), the nearest of N tools (tool 0 holds
+  // material A), or a nozzle temperature linear in the mixture (foaming filament), with the
+  // flow compensation of the FGM paper's Eq. 3 (PLA) or Eq. 4 (TPU) as M221.
+  std::string gradient_command(const std::vector<double>& mix) const {
+    std::string c;
+    const double a = std::clamp(mix[0], 0.0, 1.0);
+    if (p_.gradient_mode == "tools") {
+      const int n = std::max(1, p_.gradient_tools);
+      c = "T" + std::to_string(static_cast<int>(std::lround((1 - a) * (n - 1))));
+    } else if (p_.gradient_mode == "temperature") {
+      const double t = a * p_.temperature_a + (1 - a) * p_.temperature_b;
+      c = "M104 S";
+      append_fixed(c, t, 1);
+      if (!p_.flow_model.empty()) {
+        const double f = p_.flow_model == "pla"
+                             ? 100 * (8.35479e-6 * t * t * t - 5.37075e-3 * t * t + 1.13374 * t - 77.814)
+                             : 100 * (3.09637e-4 * t * t - 1.38401e-1 * t + 15.9560);
+        c += "\nM221 T0 S";
+        append_fixed(c, f, 1);
+      }
+    } else {
+      static constexpr char kLetters[] = {'A', 'B', 'C', 'D', 'H', 'I'};
+      c = "M165";
+      for (std::size_t i = 0; i < mix.size() && i < 6; ++i) {
+        c += ' ';
+        c += kLetters[i];
+        append_fixed(c, mix[i], 4);
+      }
     }
-    out_ += '\n';
-    mixture_ = path.mixture;
+    return c;
+  }
+
+  // Where each mixture change is issued: before the path that needs it, or, with a look-ahead
+  // L, at the point L mm of printed path earlier (a segment split there), so the dead volume is
+  // purged by the time the region starts. Computed once over the whole print.
+  struct Change {
+    std::size_t path, segment;  // before point `segment` of `path` (1-based), at fraction t
+    double t;
+    std::string command;
+  };
+  void plan_changes() {
+    std::vector<const Path*> paths;
+    for (const auto& l : tp_.layers)
+      for (const auto& p : l.paths)
+        if (p.points.size() >= 2) paths.push_back(&p);
+    std::vector<double> start(paths.size() + 1, 0);  // printed length before each path
+    for (std::size_t k = 0; k < paths.size(); ++k) start[k + 1] = start[k] + paths[k]->length();
+    std::string last;
+    for (std::size_t k = 0; k < paths.size(); ++k) {
+      if (paths[k]->mixture.empty()) continue;
+      const std::string c = gradient_command(paths[k]->mixture);
+      if (c == last) continue;
+      last = c;
+      ++stats_.gradient_changes;
+      // Locate printed length start[k] - L.
+      const double target = std::max(0.0, start[k] - p_.lookahead);
+      std::size_t j = k;
+      if (p_.lookahead > 0)
+        j = static_cast<std::size_t>(std::upper_bound(start.begin(), start.begin() + k + 1, target) -
+                                     start.begin()) - 1;
+      Change ch{j, 1, 0, c};
+      if (j < k) {
+        double at = start[j];
+        const auto& pts = paths[j]->points;
+        for (std::size_t i = 1; i < pts.size(); ++i) {
+          const double len = distance(pts[i - 1], pts[i]);
+          if (at + len >= target) {
+            ch.segment = i;
+            ch.t = len > 0 ? (target - at) / len : 0;
+            break;
+          }
+          at += len;
+        }
+      }
+      changes_.push_back(std::move(ch));
+    }
+  }
+
+  // Emits the changes due before point `segment` of the current path at fraction <= t.
+  void emit_changes(std::size_t segment, double t) {
+    while (next_change_ < changes_.size() && changes_[next_change_].path == path_index_ &&
+           (changes_[next_change_].segment < segment ||
+            (changes_[next_change_].segment == segment && changes_[next_change_].t <= t))) {
+      line(changes_[next_change_].command);
+      ++next_change_;
+    }
   }
 
   void print_path(const Path& input) {
@@ -329,7 +404,7 @@ class Writer {
     }
     const Path& path = *pp;
     travel_to(path.points.front());
-    mixture(path);
+    emit_changes(1, 0.0);
     const bool marlin = flavor_ == Flavor::Marlin;
     const MachineProfile& pressure_profile = embedded ? tool_profile_ : p_;
     if (marlin) {
@@ -346,7 +421,31 @@ class Writer {
     const double layer = path.height > 0 ? path.height : p_.layer_height;
     bool first = true;
     for (std::size_t i = 1; i < path.points.size(); ++i) {
-      const Vec3 q = path.points[i];
+      // A change issued inside this segment (look-ahead): print up to it, issue it, go on.
+      while (next_change_ < changes_.size() && changes_[next_change_].path == path_index_ &&
+             changes_[next_change_].segment == i && changes_[next_change_].t < 1) {
+        const double t = changes_[next_change_].t;
+        if (t > 0) {
+          const Vec3 a = path.points[i - 1], b = path.points[i];
+          print_move(a + (b - a) * t, layer, speed, first, marlin);
+        }
+        line(changes_[next_change_].command);
+        ++next_change_;
+      }
+      print_move(path.points[i], layer, speed, first, marlin);
+      if (embedded && i + 1 < path.points.size()) dwell(p_.node_dwell);
+    }
+    if (marlin) extra_filament(p_.post_flow);
+    dwell(p_.post_flow_dwell);
+    if (!marlin) line(p_.valve_off);
+    emit_changes(SIZE_MAX, 0.0);  // any left for this path (rounding at its very end)
+    ++path_index_;
+    printed_ = true;
+  }
+
+  // One extruding move to q.
+  void print_move(Vec3 q, double layer, double speed, bool& first, bool marlin) {
+    {
       const double len = distance(pos_, q);
       const Vec2 o = offset();
       out_ += "G1 X";
@@ -373,19 +472,15 @@ class Writer {
       stats_.print_length += len;
       stats_.print_time_s += move_time(len, speed, p_.acceleration);
       pos_ = q;
-      if (embedded && i + 1 < path.points.size()) dwell(p_.node_dwell);
     }
-    if (marlin) extra_filament(p_.post_flow);
-    dwell(p_.post_flow_dwell);
-    if (!marlin) line(p_.valve_off);
-    printed_ = true;
   }
 
   const MachineProfile& p_;
   const Toolpath& tp_;
   Flavor flavor_;
   std::string out_;
-  std::vector<double> mixture_;  // last M165 written
+  std::vector<Change> changes_;  // mixture changes in print order
+  std::size_t next_change_ = 0, path_index_ = 0;
   GcodeStats stats_;
   double dx_ = 0, dy_ = 0;
   double e_ = 0;

@@ -81,6 +81,24 @@ const std::vector<SettingDecl>& machine_settings() {
        &P::tool_change},
       {"embedded.raise_idle", "", "command raising the nozzle {tool} that goes idle; empty = none",
        0, 0, &P::raise_idle},
+      {"gradient.mode", "",
+       "how a path's mixture is made: mixing (M165 A.. B..), tools (T<n>, the nearest of "
+       "gradient.tools) or temperature (M104 S<t>, foaming filament)",
+       0, 0, &P::gradient_mode},
+      {"gradient.tools", "", "tools: number of tools, tool 0 = material A ... last = material B",
+       1, 64, &P::gradient_tools},
+      {"gradient.temperature_a", "°C", "temperature: nozzle temperature for 100% material A", 0,
+       500, &P::temperature_a},
+      {"gradient.temperature_b", "°C", "temperature: nozzle temperature for 100% material B", 0,
+       500, &P::temperature_b},
+      {"gradient.flow", "",
+       "temperature: flow compensation M221 S<F> with each M104: pla (FGM paper Eq. 3) or tpu "
+       "(Eq. 4); empty = none",
+       0, 0, &P::flow_model},
+      {"gradient.lookahead", "mm",
+       "issue each mixture change this much printed path before the region (dead volume, FGM "
+       "paper A.1: L = V_melt / (h(w-h) + pi h^2/4))",
+       0, 100000, &P::lookahead},
       {"gcode.start", "", "start template; {section.key} or {key} inserts a setting", 0, 0,
        &P::start_gcode},
       {"gcode.end", "", "end template", 0, 0, &P::end_gcode},
@@ -272,6 +290,13 @@ void apply_override(MachineProfile& p, const std::string& assignment) {
 
 void validate(const MachineProfile& p) {
   p.parsed_flavor();
+  if (p.gradient_mode != "mixing" && p.gradient_mode != "tools" && p.gradient_mode != "temperature")
+    throw SettingError("unknown gradient mode '" + p.gradient_mode +
+                           "' (expected mixing, tools or temperature)",
+                       {"", 0, "gradient.mode"});
+  if (!p.flow_model.empty() && p.flow_model != "pla" && p.flow_model != "tpu")
+    throw SettingError("unknown flow model '" + p.flow_model + "' (expected pla, tpu or empty)",
+                       {"", 0, "gradient.flow"});
   p.tool_offset(0);
   p.tool_pressure(0);
 }

@@ -181,6 +181,7 @@ std::string slice_report_json(const SliceJob& job, const SliceResult& r, const G
                 {"paths", r.fgm.paths},
                 {"colour_changes", r.fgm.colour_changes},
                 {"shortest_segment_mm", r.fgm.shortest_path},
+                {"gradient_changes", g ? g->gradient_changes : 0},
                 {"fill", job.fgm.concentric ? "concentric" : "rectilinear"}};
   if (g) {
     j["gcode"] = {{"bytes", g->bytes},

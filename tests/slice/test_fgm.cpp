@@ -168,3 +168,90 @@ TEST(Fgm, Strategy2GradientFidelityAndCoverage) {
                     r.mean_error, r.coverage);
       }
 }
+
+TEST(Fgm, LookAheadIssuesChangesOneDeadVolumeEarly) {
+  // A plate graded along x, 8 colours, printed with a dead volume of L = 40 mm of path: with
+  // the look-ahead the material that comes out of the nozzle (the command in force L mm of path
+  // earlier) matches the design within half a band; without it, it does not.
+  const Field f = design(
+      "fgrade([\"0.5 + x/30\", \"0.5 - x/30\"], [\"a\", \"b\"]) {\n  rectprism(30, 10, 0.3);\n}\n");
+  FieldSliceOptions so;
+  const BBox3 e = f.extent();
+  const auto zs = layer_planes(e.min.z, e.max.z, 0.3);
+  const auto outlines = slice_field(f, zs, so);
+  FgmOptions o;
+  o.palette.colors = 8;
+  o.layer_height = 0.3;
+  const Toolpath tp = plan_fgm_strategy2(f, outlines, o);
+  Evaluator ev(f);
+  const double L = 40;
+  auto worst = [&](double lookahead) {
+    MachineProfile prof;
+    prof.lookahead = lookahead;
+    Diagnostics diag;
+    const Toolpath back = read_gcode(write_gcode(tp, prof), {}, diag);
+    // Commands in print order with the printed length at which each was issued.
+    std::vector<std::pair<double, double>> issued;  // (position, fraction of a)
+    std::vector<std::pair<double, Vec3>> mids;      // (position, segment middle)
+    double s = 0;
+    for (const auto& l : back.layers)
+      for (const auto& p : l.paths) {
+        if (issued.empty() || issued.back().second != p.mixture[0]) issued.push_back({s, p.mixture[0]});
+        for (std::size_t k = 0; k + 1 < p.points.size(); ++k) {
+          const double len = distance(p.points[k], p.points[k + 1]);
+          mids.push_back({s + len / 2, (p.points[k] + p.points[k + 1]) * 0.5});
+          s += len;
+        }
+      }
+    double w = 0;
+    for (const auto& [pos, q] : mids) {
+      if (pos < L) continue;  // the first dead volume holds whatever was loaded
+      double cmd = issued.front().second;
+      for (const auto& [at, m] : issued)
+        if (at <= pos - L) cmd = m;
+      const double frac = std::clamp(ev.fractions({q.x, q.y, zs[0]})[0], 0.0, 1.0);
+      w = std::max(w, std::abs(frac - cmd));
+    }
+    return w;
+  };
+  const double half_band = 0.5 / 8;
+  EXPECT_LE(worst(L), half_band + 2e-3);
+  EXPECT_GT(worst(0), 1.5 * half_band);
+}
+
+TEST(Fgm, ToolsAndTemperatureModes) {
+  Toolpath tp;
+  tp.layers.resize(1);
+  for (int i = 0; i < 5; ++i) {
+    Path p;
+    p.points = {{0.0, 2.0 * i, 0.2}, {10.0, 2.0 * i, 0.2}};
+    const double a = 1 - i * 0.25;
+    p.mixture = {a, 1 - a};
+    tp.layers[0].paths.push_back(p);
+  }
+  MachineProfile tools;
+  tools.gradient_mode = "tools";
+  tools.gradient_tools = 5;
+  const std::string g = write_gcode(tp, tools);
+  for (const char* t : {"\nT0\n", "\nT1\n", "\nT2\n", "\nT3\n", "\nT4\n"}) EXPECT_NE(g.find(t), std::string::npos) << t;
+  MachineProfile foam;
+  foam.gradient_mode = "temperature";
+  foam.flow_model = "pla";
+  GcodeStats st;
+  const std::string h = write_gcode(tp, foam, &st);
+  EXPECT_EQ(st.gradient_changes, 5u);
+  EXPECT_NE(h.find("M104 S190\n"), std::string::npos);
+  EXPECT_NE(h.find("M104 S225\n"), std::string::npos);
+  EXPECT_NE(h.find("M104 S207.5\n"), std::string::npos);
+  // Eq. 3 at 207.5 °C.
+  const double t = 207.5;
+  const double flow = 100 * (8.35479e-6 * t * t * t - 5.37075e-3 * t * t + 1.13374 * t - 77.814);
+  char expect[64];
+  std::snprintf(expect, sizeof expect, "M221 T0 S%.1f", flow);
+  std::string e = expect;
+  while (e.back() == '0') e.pop_back();
+  if (e.back() == '.') e.pop_back();
+  EXPECT_NE(h.find(e), std::string::npos) << e << "\n" << h.substr(0, 2000);
+  foam.gradient_mode = "heat";
+  EXPECT_THROW(write_gcode(tp, foam), SettingError);
+}

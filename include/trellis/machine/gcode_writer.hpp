@@ -24,6 +24,7 @@ struct GcodeStats {
   double filament = 0;       // mm of filament (marlin)
   double print_time_s = 0;   // feed-rate estimate, no acceleration
   std::size_t tool_changes = 0;  // embedded
+  std::size_t gradient_changes = 0;  // mixture / tool / temperature commands for graded paths
 };
 
 // E for a segment of `length` mm printed at layer thickness `layer` (Eq. 4).

@@ -62,6 +62,13 @@ struct MachineProfile {
   std::string tool_pressures;   // per tool "p0,p1,..." replacing pneumatic.pressure; empty = same
   std::string tool_change = "T{tool}";  // command selecting tool {tool}
   std::string raise_idle;       // command raising the nozzle {tool} that goes idle; empty = none
+  // [gradient] how a path's material mixture (graded designs) is made
+  std::string gradient_mode = "mixing";  // mixing (M165) | tools (T<n>) | temperature (M104)
+  int gradient_tools = 5;                // tools: tool 0 holds material A, the last material B
+  double temperature_a = 190;            // temperature: °C for 100% material A ...
+  double temperature_b = 225;            // ... and for 100% material B (linear between)
+  std::string flow_model;                // temperature: "" | "pla" | "tpu" → M221 (Eq. 3 / 4)
+  double lookahead = 0;                  // issue each change this many mm of path earlier
   // [gcode] templates; {key} is replaced by that setting's value, e.g. {nozzle_temperature}
   std::string start_gcode = "G28";
   std::string end_gcode = "M84";
