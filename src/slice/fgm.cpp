@@ -1,5 +1,8 @@
 #include "trellis/slice/fgm.hpp"
 
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -145,25 +148,31 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
                             const FgmOptions& o, FgmStats* stats) {
   if (!(o.bead_width > 0) || !(o.resolution > 0))
     throw SettingError("bead width and resolution must be positive");
-  Evaluator ev(field);
-  Toolpath tp;
-  FgmStats st;
-  st.shortest_path = std::numeric_limits<double>::infinity();
-  int last_color = -1;
-  Vec2 cursor{0, 0};
-  for (std::size_t li = 0; li < layers.size(); ++li) {
-    const LayerOutline& lo = layers[li];
+  // Layers are independent: planned in parallel (oneTBB), one evaluator per thread, each
+  // layer's paths paired with their colours.
+  struct Planned {
     Layer layer;
+    std::vector<int> colors;
+    std::size_t faces = 0;
+  };
+  std::vector<Planned> planned(layers.size());
+  tbb::enumerable_thread_specific<Evaluator> evaluators([&] { return Evaluator(field); });
+  tbb::parallel_for(std::size_t{0}, layers.size(), [&](std::size_t li) {
+    Evaluator& ev = evaluators.local();
+    const LayerOutline& lo = layers[li];
+    Planned& out = planned[li];
+    Layer& layer = out.layer;
     // As the planar slicer: the nozzle at the top of layer i, counted from the bed.
     layer.z = static_cast<double>(li + 1) * o.layer_height;
     // Material iso-lines on a grid of half a bead at the finest: crossings are refined on the
     // field anyway, and a face narrower than half a bead cannot be printed.
     auto faces = color_faces(field, ev, lo.z, lo.regions, o.palette,
                              std::max(o.resolution, o.bead_width / 2));
-    st.faces += faces.size();
+    out.faces = faces.size();
     // Palette order, reversed every other layer so a layer starts where the last one ended.
     if (li % 2 == 1) std::reverse(faces.begin(), faces.end());
     const double angle = o.angle_deg + (li % 2 ? 90.0 : 0.0);
+    Vec2 cursor{0, 0};
     for (const auto& face : faces) {
       const double m = o.palette.mid(face.color);
       // One ring half a bead inside the face (its bead reaches the face's edge, not beyond),
@@ -193,16 +202,25 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
         p.width = o.bead_width;
         p.height = o.layer_height;
         for (const Vec2 q : line) p.points.push_back({q.x, q.y, layer.z});
-        const double len = p.length();
-        if (len <= 0) continue;
-        st.shortest_path = std::min(st.shortest_path, len);
-        if (face.color != last_color && last_color >= 0) ++st.colour_changes;
-        last_color = face.color;
+        if (p.length() <= 0) continue;
         layer.paths.push_back(std::move(p));
-        ++st.paths;
+        out.colors.push_back(face.color);
       }
     }
-    if (!layer.paths.empty()) tp.layers.push_back(std::move(layer));
+  });
+  Toolpath tp;
+  FgmStats st;
+  st.shortest_path = std::numeric_limits<double>::infinity();
+  int last_color = -1;
+  for (auto& pl : planned) {
+    st.faces += pl.faces;
+    for (std::size_t i = 0; i < pl.layer.paths.size(); ++i) {
+      st.shortest_path = std::min(st.shortest_path, pl.layer.paths[i].length());
+      if (pl.colors[i] != last_color && last_color >= 0) ++st.colour_changes;
+      last_color = pl.colors[i];
+      ++st.paths;
+    }
+    if (!pl.layer.paths.empty()) tp.layers.push_back(std::move(pl.layer));
   }
   if (st.paths == 0) st.shortest_path = 0;
   if (stats) *stats = st;
