@@ -54,9 +54,10 @@ void add_slice(CLI::App& app) {
   cmd->add_option("--mesh-voxel", o->mesh_voxel, "voxel of mesh distance fields (mm)")
       ->capture_default_str();
   cmd->add_option("--strategy", o->strategy,
-                  "graded designs (two materials): 2 = the FGM paper's Strategy 2 (colour faces "
-                  "filled densely, palette order, M165 mixture per path); 0 = one material")
-      ->check(CLI::IsMember({0, 2}))
+                  "graded designs (two materials): 1 = walls/skins/infill cut by colour faces, purge "
+                  "towers from the profile's [purge]; 2 = colour faces filled densely; both in "
+                  "palette order with the profile's [gradient] commands; 0 = one material")
+      ->check(CLI::IsMember({0, 1, 2}))
       ->capture_default_str();
   cmd->add_option("--colors", o->colors, "Strategy 2: colours in the palette (band = 100%/N)")
       ->check(CLI::Range(1, 1000))
@@ -88,6 +89,11 @@ void add_slice(CLI::App& app) {
     job.fgm.palette.colors = o->colors;
     job.fgm.concentric = o->concentric;
     job.fgm.angle_deg = o->infill_angle;
+    job.purge.melt_volume = profile.melt_volume;
+    job.purge.threshold = profile.purge_threshold;
+    job.purge.x = profile.purge_x;
+    job.purge.y = profile.purge_y;
+    job.purge.side = profile.purge_side;
     profile.layer_height = o->layer_height;
     const SliceResult r = run_slice(job, [](const std::string& stage, double f) {
       progress_line(stage, f);
@@ -96,10 +102,11 @@ void add_slice(CLI::App& app) {
     if (!o->toolpath.empty()) write_toolpath(o->toolpath, r.toolpath);
     if (!o->report.empty()) write_file_atomic(o->report, slice_report_json(job, r, &g));
     const std::vector<std::string> pngs = render_previews(r.toolpath, o->preview, o->preview_layers);
-    if (job.strategy == 2)
-      std::cout << "strategy 2: " << o->colors << " colours, " << r.fgm.faces << " faces, "
+    if (job.strategy != 0)
+      std::cout << "strategy " << job.strategy << ": " << o->colors << " colours, " << r.fgm.faces << " faces, "
                 << r.fgm.paths << " paths, " << g.gradient_changes << " " << profile.gradient_mode
-                << " changes (look-ahead " << num(profile.lookahead, 0) << " mm), shortest "
+                << " changes (look-ahead " << num(profile.lookahead, 0) << " mm), " << r.fgm.purges
+                << " purges (" << num(r.fgm.purge_volume, 0) << " mm3), shortest "
                 << num(r.fgm.shortest_path, 2) << " mm; " << to_string(r.route) << " route, "
                 << r.outlines.size() << " layers, ~" << num(g.print_time_s / 60, 1) << " min\n";
     else

@@ -99,6 +99,15 @@ const std::vector<SettingDecl>& machine_settings() {
        "issue each mixture change this much printed path before the region (dead volume, FGM "
        "paper A.1: L = V_melt / (h(w-h) + pi h^2/4))",
        0, 100000, &P::lookahead},
+      {"purge.melt_volume", "mm³",
+       "Strategy 1: hotend dead volume V_melt; a purge block of L = V/(h(w-h)+pi h^2/4) before "
+       "a colour change (0 = none)",
+       0, 100000, &P::melt_volume},
+      {"purge.threshold", "", "Strategy 1: mixture change (0..1) above which a purge is printed", 0,
+       1, &P::purge_threshold},
+      {"purge.x", "mm", "purge tower centre X (design coordinates)", -10000, 10000, &P::purge_x},
+      {"purge.y", "mm", "purge tower centre Y", -10000, 10000, &P::purge_y},
+      {"purge.side", "mm", "purge tower side", 1, 1000, &P::purge_side},
       {"gcode.start", "", "start template; {section.key} or {key} inserts a setting", 0, 0,
        &P::start_gcode},
       {"gcode.end", "", "end template", 0, 0, &P::end_gcode},

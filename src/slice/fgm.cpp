@@ -227,4 +227,114 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
   return tp;
 }
 
+double purge_length(double volume, double h, double w) {
+  const double area = h * (w - h) + 3.14159265358979323846 * h * h / 4;
+  return area > 0 ? volume / area : 0;
+}
+
+namespace {
+
+// A square zig-zag of about `length` mm centred at c (lines `spacing` apart; the square grows
+// with the length needed).
+std::vector<Vec2> purge_block(Vec2 c, double side, double spacing, double length) {
+  std::vector<Vec2> pts;
+  const int lines = std::max(2, static_cast<int>(std::ceil(length / side)));
+  const double span = std::min(side, spacing * (lines - 1));
+  for (int i = 0; i < lines; ++i) {
+    const double y = c.y - span / 2 + (lines > 1 ? span * i / (lines - 1) : 0);
+    const double x0 = c.x - side / 2, x1 = c.x + side / 2;
+    if (i % 2 == 0) {
+      pts.push_back({x0, y});
+      pts.push_back({x1, y});
+    } else {
+      pts.push_back({x1, y});
+      pts.push_back({x0, y});
+    }
+  }
+  return pts;
+}
+
+}  // namespace
+
+Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>& layers,
+                            const Toolpath& planar, const FgmOptions& o, const PurgeOptions& purge,
+                            FgmStats* stats) {
+  if (!(o.bead_width > 0) || !(o.layer_height > 0))
+    throw SettingError("bead width and layer height must be positive");
+  struct Piece {
+    Path path;
+    int color;
+  };
+  std::vector<std::vector<Piece>> per(planar.layers.size());
+  std::vector<std::size_t> faces_per(planar.layers.size(), 0);
+  tbb::enumerable_thread_specific<Evaluator> evaluators([&] { return Evaluator(field); });
+  tbb::parallel_for(std::size_t{0}, planar.layers.size(), [&](std::size_t li) {
+    Evaluator& ev = evaluators.local();
+    const Layer& pl = planar.layers[li];
+    // The outline this layer was planned from: nozzle z = (i + 1) h.
+    const auto idx = static_cast<std::size_t>(std::llround(pl.z / o.layer_height)) - 1;
+    if (idx >= layers.size()) return;
+    const auto faces = color_faces(field, ev, layers[idx].z, layers[idx].regions, o.palette,
+                                   std::max(o.resolution, o.bead_width / 2));
+    faces_per[li] = faces.size();
+    for (const auto& path : pl.paths) {
+      std::vector<Vec2> line;
+      for (const auto& q : path.points) line.push_back(q.xy());
+      for (const auto& face : faces)
+        for (auto& piece : clip_polylines({line}, face.region)) {
+          if (piece.size() < 2) continue;
+          Path p = path;  // role, width, height, speed
+          p.points.clear();
+          for (const Vec2 q : piece) p.points.push_back({q.x, q.y, pl.z});
+          if (p.length() <= 1e-9) continue;
+          const double m = o.palette.mid(face.color);
+          p.mixture = {m, 1 - m};
+          per[li].push_back({std::move(p), face.color});
+        }
+    }
+    // Colour by colour in palette order (reversed every other layer), the planar order within.
+    std::stable_sort(per[li].begin(), per[li].end(), [&](const Piece& a, const Piece& b) {
+      return li % 2 ? a.color > b.color : a.color < b.color;
+    });
+  });
+  Toolpath tp;
+  FgmStats st;
+  st.shortest_path = std::numeric_limits<double>::infinity();
+  const double L = purge_length(purge.melt_volume, o.layer_height, o.bead_width);
+  int last = -1;
+  for (std::size_t li = 0; li < per.size(); ++li) {
+    st.faces += faces_per[li];
+    Layer layer;
+    layer.z = planar.layers[li].z;
+    for (auto& piece : per[li]) {
+      if (last >= 0 && piece.color != last) {
+        ++st.colour_changes;
+        const double change = std::abs(o.palette.mid(piece.color) - o.palette.mid(last));
+        if (purge.melt_volume > 0 && change > purge.threshold) {
+          Path tower;
+          tower.role = PathRole::Other;
+          tower.mixture = piece.path.mixture;
+          tower.width = o.bead_width;
+          tower.height = o.layer_height;
+          for (const Vec2 q : purge_block({purge.x, purge.y}, purge.side, o.bead_width, L))
+            tower.points.push_back({q.x, q.y, layer.z});
+          st.purge_length += tower.length();
+          ++st.purges;
+          layer.paths.push_back(std::move(tower));
+        }
+      }
+      last = piece.color;
+      st.shortest_path = std::min(st.shortest_path, piece.path.length());
+      ++st.paths;
+      layer.paths.push_back(std::move(piece.path));
+    }
+    if (!layer.paths.empty()) tp.layers.push_back(std::move(layer));
+  }
+  st.purge_volume = st.purge_length * (o.layer_height * (o.bead_width - o.layer_height) +
+                                       3.14159265358979323846 * o.layer_height * o.layer_height / 4);
+  if (st.paths == 0) st.shortest_path = 0;
+  if (stats) *stats = st;
+  return tp;
+}
+
 }  // namespace trellis

@@ -116,15 +116,21 @@ SliceResult run_slice(const SliceJob& job,
                         {job.input, 0, ""});
   const auto t1 = std::chrono::steady_clock::now();
   if (progress) progress("walls and infill", 0.0);
-  if (job.strategy == 2) {
+  if (job.strategy == 1 || job.strategy == 2) {
     if (!is_vcad || field.materials().size() < 2)
-      throw GeometryError("--strategy 2 needs a .vcad design with two materials (fgrade)",
+      throw GeometryError("--strategy " + std::to_string(job.strategy) +
+                              " needs a .vcad design with two materials (fgrade)",
                           {job.input, 0, ""});
     FgmOptions fo = job.fgm;
     fo.layer_height = h;
     fo.bead_width = job.planar.bead_width;
     fo.resolution = job.field.resolution;
-    r.toolpath = plan_fgm_strategy2(field, r.outlines, fo, &r.fgm);
+    if (job.strategy == 2) {
+      r.toolpath = plan_fgm_strategy2(field, r.outlines, fo, &r.fgm);
+    } else {
+      const Toolpath planar = plan_planar(r.outlines, job.planar, &r.planar);
+      r.toolpath = plan_fgm_strategy1(field, r.outlines, planar, fo, job.purge, &r.fgm);
+    }
   } else {
     r.toolpath = plan_planar(r.outlines, job.planar, &r.planar);
   }
@@ -173,8 +179,11 @@ std::string slice_report_json(const SliceJob& job, const SliceResult& r, const G
                   {"blocks", r.field_stats.blocks},
                   {"blocks_skipped_by_bounds", r.field_stats.skipped_blocks}};
   if (r.mesh_triangles) j["mesh_triangles"] = r.mesh_triangles;
-  if (job.strategy == 2)
-    j["fgm"] = {{"strategy", 2},
+  if (job.strategy == 1 || job.strategy == 2)
+    j["fgm"] = {{"strategy", job.strategy},
+                {"purges", r.fgm.purges},
+                {"purge_volume_mm3", r.fgm.purge_volume},
+                {"purge_mass_g", r.fgm.purge_volume * 1.24e-3},
                 {"colors", job.fgm.palette.colors},
                 {"band_percent", 100.0 / job.fgm.palette.colors},
                 {"faces", r.fgm.faces},

@@ -255,3 +255,76 @@ TEST(Fgm, ToolsAndTemperatureModes) {
   foam.gradient_mode = "heat";
   EXPECT_THROW(write_gcode(tp, foam), SettingError);
 }
+
+TEST(Fgm, Strategy1KeepsEveryPlanarPathAndPurgesBetweenColours) {
+  // The planar slicer's walls, skins and infill cut by colour faces: per layer the pieces add up
+  // to the uncut paths (nothing lost, nothing added but purge blocks), every piece's commanded
+  // mixture (read back from G-code) is within half a band of the design, and a purge block of
+  // at least L = V / A precedes every colour change above the threshold.
+  const Field f = design(
+      "fgrade([\"0.5 + x/24 + 0.1*sin(y)\", \"0.5 - x/24 - 0.1*sin(y)\"], [\"a\", \"b\"]) {\n"
+      "  rectprism(20, 12, 1.2);\n}\n");
+  FieldSliceOptions so;
+  const BBox3 e = f.extent();
+  const double h = 0.3;
+  const auto zs = layer_planes(e.min.z, e.max.z, h);
+  const auto outlines = slice_field(f, zs, so);
+  PlanarOptions po;
+  po.layer_height = h;
+  po.top_layers = po.bottom_layers = 1;
+  const Toolpath planar = plan_planar(outlines, po);
+  FgmOptions o;
+  o.palette.colors = 6;
+  o.layer_height = h;
+  o.bead_width = po.bead_width;
+  PurgeOptions purge;
+  purge.melt_volume = 20;
+  purge.threshold = 0;  // every change
+  purge.x = -20;
+  FgmStats st;
+  const Toolpath tp = plan_fgm_strategy1(f, outlines, planar, o, purge, &st);
+  ASSERT_EQ(tp.layers.size(), planar.layers.size());
+  const double L = purge_length(20, h, o.bead_width);
+  for (std::size_t li = 0; li < tp.layers.size(); ++li) {
+    double uncut = 0, pieces = 0;
+    for (const auto& p : planar.layers[li].paths) uncut += p.length();
+    const auto& paths = tp.layers[li].paths;
+    for (std::size_t k = 0; k < paths.size(); ++k) {
+      if (paths[k].role == PathRole::Other) {  // a purge block
+        EXPECT_GE(paths[k].length(), L - 1e-6);
+        for (const auto& q : paths[k].points) EXPECT_LT(q.x, -10);
+        continue;
+      }
+      pieces += paths[k].length();
+    }
+    EXPECT_NEAR(pieces, uncut, 1e-6 * uncut) << "layer " << li;
+  }
+  EXPECT_GT(st.purges, 0u);
+  EXPECT_EQ(st.purges, st.colour_changes);
+  // Palette order makes every change one band (1/6): a threshold above it needs no purge.
+  PurgeOptions lax = purge;
+  lax.threshold = 0.2;
+  FgmStats st2;
+  plan_fgm_strategy1(f, outlines, planar, o, lax, &st2);
+  EXPECT_EQ(st2.purges, 0u);
+  EXPECT_EQ(st2.colour_changes, st.colour_changes);
+  EXPECT_NEAR(st.purge_volume, st.purge_length * (h * (o.bead_width - h) + M_PI * h * h / 4), 1e-6);
+  // Fidelity, read back (purge blocks excluded: they lie off the part).
+  Diagnostics diag;
+  const Toolpath back = read_gcode(write_gcode(tp, MachineProfile{}), {}, diag);
+  Evaluator ev(f);
+  double worst = 0;
+  std::size_t n = 0;
+  for (const auto& l : back.layers)
+    for (const auto& p : l.paths) {
+      const auto i = static_cast<std::size_t>(std::llround(p.points[0].z / h)) - 1;
+      for (const auto& q : p.points) {
+        if (q.x < -10 || i >= zs.size()) continue;
+        const double frac = std::clamp(ev.fractions({q.x, q.y, zs[i]})[0], 0.0, 1.0);
+        worst = std::max(worst, std::abs(frac - p.mixture[0]));
+        ++n;
+      }
+    }
+  EXPECT_GT(n, 100u);
+  EXPECT_LE(worst, 0.5 / 6 + 2e-3);
+}

@@ -69,6 +69,10 @@ struct MachineProfile {
   double temperature_b = 225;            // ... and for 100% material B (linear between)
   std::string flow_model;                // temperature: "" | "pla" | "tpu" → M221 (Eq. 3 / 4)
   double lookahead = 0;                  // issue each change this many mm of path earlier
+  // [purge] Strategy 1 purge towers (FGM paper A.1)
+  double melt_volume = 0;      // hotend dead volume V_melt (mm³); 0 = no towers
+  double purge_threshold = 0;  // mixture change (0..1) that needs a purge
+  double purge_x = -20, purge_y = 0, purge_side = 10;  // tower centre and side (mm)
   // [gcode] templates; {key} is replaced by that setting's value, e.g. {nozzle_temperature}
   std::string start_gcode = "G28";
   std::string end_gcode = "M84";

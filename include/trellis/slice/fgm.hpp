@@ -5,7 +5,7 @@
 // completely (a ring, then 100 % rectilinear inside it, or concentric rings), colour by colour in palette order, reversed
 // every other layer, each path carrying its mixture (written as M165 by the G-code writer).
 //
-// This release: two-material designs (`fgrade` with two fractions) and Strategy 2 only.
+// This release: two-material designs (`fgrade` with two fractions); Strategy 1 without zippering.
 #pragma once
 #include <vector>
 
@@ -48,7 +48,31 @@ struct FgmOptions {
 struct FgmStats {
   std::size_t faces = 0, paths = 0, colour_changes = 0;
   double shortest_path = 0;  // mm
+  std::size_t purges = 0;    // Strategy 1: purge blocks printed
+  double purge_length = 0;   // mm of purge path
+  double purge_volume = 0;   // mm³ (capsule bead, Appendix A.1)
 };
+
+// Purge towers for Strategy 1: before a colour whose mixture differs from the previous by more
+// than `threshold`, a square zig-zag of path length L = V_melt / A (Appendix A.1, A = h(w-h) +
+// πh²/4) is printed at (x, y) in the new colour, so the dead volume is flushed.
+struct PurgeOptions {
+  double melt_volume = 0;  // V_melt (mm³); 0 = no purge towers
+  double threshold = 0;    // mixture change (0..1) that needs a purge; 0 = every change
+  double x = -20, y = 0;   // tower centre (design coordinates, mm)
+  double side = 10;        // tower side (mm)
+};
+
+// L of Appendix A.1: path length that extrudes `volume` at layer height h and bead width w.
+double purge_length(double volume, double layer_height, double bead_width);
+
+// Strategy 1: the planar slicer's walls, skins and infill (`planar`, one layer per outline) cut
+// by the colour faces; each piece keeps its role and gets its colour's mixture; pieces are
+// printed colour by colour in palette order (reversed every other layer), a purge block before
+// each colour change above the threshold.
+Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>& layers,
+                            const Toolpath& planar, const FgmOptions& options,
+                            const PurgeOptions& purge, FgmStats* stats = nullptr);
 
 // Strategy 2 over the layer outlines (from slice_field). Paths carry mixture {m, 1-m} with m the
 // band's mid value of the first material.

@@ -20,8 +20,9 @@ struct SliceJob {
   FieldSliceOptions field;              // XY resolution of direct contours
   double mesh_voxel = 0.25;             // mm, mesh → distance field (field route of a mesh)
   PlanarOptions planar;
-  int strategy = 0;  // 0: one material (walls, skins, infill); 2: FGM Strategy 2 (slice/fgm.hpp)
-  FgmOptions fgm;    // palette and fill of Strategy 2 (bead width, layer, grid from above)
+  int strategy = 0;  // 0: one material; 1 / 2: the FGM paper's strategies (slice/fgm.hpp)
+  FgmOptions fgm;    // palette and fill (bead width, layer, grid from above)
+  PurgeOptions purge;  // Strategy 1
 };
 
 struct SliceResult {
