@@ -18,7 +18,7 @@ void add_slice(CLI::App& app) {
            mesh_voxel = 0.25, bead_width = 0;
     int walls = 2, top = 4, bottom = 4, strategy = 0, colors = 8;
     bool no_center = false, concentric = false;
-    double lookahead = -1;
+    double lookahead = -1, zipper = 0;
     std::size_t preview_layers = 4;
   };
   auto o = std::make_shared<Opts>();
@@ -63,6 +63,10 @@ void add_slice(CLI::App& app) {
       ->check(CLI::Range(1, 1000))
       ->capture_default_str();
   cmd->add_flag("--concentric", o->concentric, "Strategy 2: concentric fill instead of rectilinear");
+  cmd->add_option("--zipper", o->zipper,
+                  "Strategy 1: overlap band β (% of the gradient) where pieces alternate between "
+                  "the two neighbouring colours")
+      ->check(CLI::Range(0.0, 100.0));
   cmd->add_option("--lookahead", o->lookahead,
                   "issue mixture changes this many mm of path early (dead volume; default: the "
                   "profile's gradient.lookahead)");
@@ -89,6 +93,7 @@ void add_slice(CLI::App& app) {
     job.fgm.palette.colors = o->colors;
     job.fgm.concentric = o->concentric;
     job.fgm.angle_deg = o->infill_angle;
+    job.fgm.zipper = o->zipper / 100;
     job.purge.melt_volume = profile.melt_volume;
     job.purge.threshold = profile.purge_threshold;
     job.purge.x = profile.purge_x;

@@ -109,16 +109,14 @@ BBox3 bbox_of(const Regions& r) {
 
 }  // namespace
 
-std::vector<ColorFace> color_faces(const Field& field, Evaluator& ev, double z,
-                                   const Regions& outline, const Palette& palette,
-                                   double resolution) {
+std::vector<Regions> level_slabs(const Field& field, Evaluator& ev, double z,
+                                 const Regions& outline, const std::vector<double>& levels,
+                                 double resolution) {
   if (field.materials().size() < 2)
     throw GeometryError("gradient slicing needs a design with two materials (an fgrade node)");
-  if (palette.colors < 1 || palette.colors > 1000)
-    throw SettingError("the palette needs 1 to 1000 colours");
-  std::vector<ColorFace> faces;
+  std::vector<Regions> slabs(levels.size() + 1);
   const BBox3 b = bbox_of(outline);
-  if (b.empty()) return faces;
+  if (b.empty()) return slabs;
   const Vec2 lo{b.min.x - resolution, b.min.y - resolution};
   const Vec2 hi{b.max.x + resolution, b.max.y + resolution};
   const Vec2 glo{lo.x - 2 * resolution, lo.y - 2 * resolution};
@@ -126,21 +124,33 @@ std::vector<ColorFace> color_faces(const Field& field, Evaluator& ev, double z,
   FractionGrid grid(ev, z, glo, ghi, resolution);
   MarchOptions mo;
   mo.resolution = resolution;
-  // below[k]: the outline where f <= k / N (k = 1 .. N-1).
-  Regions previous;  // below the lower edge of the current band
-  for (int k = 0; k < palette.colors; ++k) {
-    Regions below_upper;
-    if (k + 1 < palette.colors) {
-      BelowLevel f(grid, (k + 1) * palette.band(), lo, hi);
+  Regions previous;  // the outline where f <= the previous level
+  for (std::size_t k = 0; k <= levels.size(); ++k) {
+    Regions below;
+    if (k < levels.size()) {
+      BelowLevel f(grid, levels[k], lo, hi);
       const ContourSet cs = march_squares(f, glo, ghi, 0.0, mo);
-      below_upper = intersection(outline, nest_oriented_rings(cs.lines.loops));
+      below = intersection(outline, nest_oriented_rings(cs.lines.loops));
     } else {
-      below_upper = outline;
+      below = outline;
     }
-    Regions face = k == 0 ? below_upper : difference(below_upper, previous);
-    if (!face.empty()) faces.push_back({k, std::move(face)});
-    previous = std::move(below_upper);
+    slabs[k] = k == 0 ? below : difference(below, previous);
+    previous = std::move(below);
   }
+  return slabs;
+}
+
+std::vector<ColorFace> color_faces(const Field& field, Evaluator& ev, double z,
+                                   const Regions& outline, const Palette& palette,
+                                   double resolution) {
+  if (palette.colors < 1 || palette.colors > 1000)
+    throw SettingError("the palette needs 1 to 1000 colours");
+  std::vector<double> levels;
+  for (int k = 1; k < palette.colors; ++k) levels.push_back(k * palette.band());
+  auto slabs = level_slabs(field, ev, z, outline, levels, resolution);
+  std::vector<ColorFace> faces;
+  for (std::size_t k = 0; k < slabs.size(); ++k)
+    if (!slabs[k].empty()) faces.push_back({static_cast<int>(k), std::move(slabs[k])});
   return faces;
 }
 
@@ -261,6 +271,8 @@ Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>&
                             FgmStats* stats) {
   if (!(o.bead_width > 0) || !(o.layer_height > 0))
     throw SettingError("bead width and layer height must be positive");
+  if (!(o.zipper >= 0) || o.zipper >= o.palette.band())
+    throw SettingError("the zipper overlap must be in [0, one colour band) of the gradient");
   struct Piece {
     Path path;
     int color;
@@ -274,22 +286,47 @@ Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>&
     // The outline this layer was planned from: nozzle z = (i + 1) h.
     const auto idx = static_cast<std::size_t>(std::llround(pl.z / o.layer_height)) - 1;
     if (idx >= layers.size()) return;
-    const auto faces = color_faces(field, ev, layers[idx].z, layers[idx].regions, o.palette,
-                                   std::max(o.resolution, o.bead_width / 2));
-    faces_per[li] = faces.size();
+    // Zones: a colour's face, or with zippering the overlap band around each colour boundary
+    // (|f - k/N| < β/2), where pieces alternate between the two neighbouring colours.
+    struct Zone {
+      Regions region;
+      int a, b;           // colours (a == b: a plain face)
+      std::size_t count;  // pieces so far (for alternating)
+    };
+    std::vector<Zone> zones;
+    const double res = std::max(o.resolution, o.bead_width / 2);
+    const double beta = o.zipper;
+    if (beta > 0) {
+      std::vector<double> levels;
+      for (int k = 1; k < o.palette.colors; ++k) {
+        levels.push_back(k * o.palette.band() - beta / 2);
+        levels.push_back(k * o.palette.band() + beta / 2);
+      }
+      auto slabs = level_slabs(field, ev, layers[idx].z, layers[idx].regions, levels, res);
+      for (std::size_t k = 0; k < slabs.size(); ++k) {
+        const int c = static_cast<int>(k / 2);  // even slabs: colour c; odd: overlap c | c+1
+        if (!slabs[k].empty())
+          zones.push_back({std::move(slabs[k]), c, k % 2 ? c + 1 : c, 0});
+      }
+    } else {
+      for (auto& f : color_faces(field, ev, layers[idx].z, layers[idx].regions, o.palette, res))
+        zones.push_back({std::move(f.region), f.color, f.color, 0});
+    }
+    faces_per[li] = zones.size();
     for (const auto& path : pl.paths) {
       std::vector<Vec2> line;
       for (const auto& q : path.points) line.push_back(q.xy());
-      for (const auto& face : faces)
-        for (auto& piece : clip_polylines({line}, face.region)) {
+      for (auto& zone : zones)
+        for (auto& piece : clip_polylines({line}, zone.region)) {
           if (piece.size() < 2) continue;
           Path p = path;  // role, width, height, speed
           p.points.clear();
           for (const Vec2 q : piece) p.points.push_back({q.x, q.y, pl.z});
           if (p.length() <= 1e-9) continue;
-          const double m = o.palette.mid(face.color);
+          const int color = zone.count++ % 2 ? zone.b : zone.a;
+          const double m = o.palette.mid(color);
           p.mixture = {m, 1 - m};
-          per[li].push_back({std::move(p), face.color});
+          per[li].push_back({std::move(p), color});
         }
     }
     // Colour by colour in palette order (reversed every other layer), the planar order within.

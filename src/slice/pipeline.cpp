@@ -185,6 +185,7 @@ std::string slice_report_json(const SliceJob& job, const SliceResult& r, const G
                 {"purge_volume_mm3", r.fgm.purge_volume},
                 {"purge_mass_g", r.fgm.purge_volume * 1.24e-3},
                 {"colors", job.fgm.palette.colors},
+                {"zipper_percent", 100 * job.fgm.zipper},
                 {"band_percent", 100.0 / job.fgm.palette.colors},
                 {"faces", r.fgm.faces},
                 {"paths", r.fgm.paths},

@@ -1,7 +1,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <array>
 #include <cstdio>
+#include <map>
 
 #include "trellis/core/error.hpp"
 #include "trellis/field/vcad.hpp"
@@ -327,4 +329,52 @@ TEST(Fgm, Strategy1KeepsEveryPlanarPathAndPurgesBetweenColours) {
     }
   EXPECT_GT(n, 100u);
   EXPECT_LE(worst, 0.5 / 6 + 2e-3);
+}
+
+TEST(Fgm, ZipperAlternatesInsideTheOverlapBandsOnly) {
+  const Field f = design(
+      "fgrade([\"0.5 + x/24\", \"0.5 - x/24\"], [\"a\", \"b\"]) {\n  rectprism(20, 12, 0.9);\n}\n");
+  FieldSliceOptions so;
+  const BBox3 e = f.extent();
+  const double h = 0.3;
+  const auto zs = layer_planes(e.min.z, e.max.z, h);
+  const auto outlines = slice_field(f, zs, so);
+  PlanarOptions po;
+  po.layer_height = h;
+  const Toolpath planar = plan_planar(outlines, po);
+  FgmOptions o;
+  o.palette.colors = 4;
+  o.layer_height = h;
+  o.bead_width = po.bead_width;
+  o.zipper = 0.1;
+  const Toolpath tp = plan_fgm_strategy1(f, outlines, planar, o, {}, nullptr);
+  Evaluator ev(f);
+  std::size_t inside = 0, outside = 0;
+  for (std::size_t li = 0; li < tp.layers.size(); ++li) {
+    std::map<int, std::array<int, 2>> per_band;  // boundary k -> pieces of colour k-1, k
+    for (const auto& p : tp.layers[li].paths) {
+      const Vec3 mid = p.points[p.points.size() / 2 - (p.points.size() % 2 == 0 ? 1 : 0)] * 0.5 +
+                       p.points[p.points.size() / 2] * 0.5;
+      const double frac = ev.fractions({mid.x, mid.y, zs[li]})[0];
+      const int color = o.palette.color_of(p.mixture[0]);
+      const int k = static_cast<int>(std::lround(frac * 4));  // nearest boundary
+      if (k >= 1 && k <= 3 && std::abs(frac - k * 0.25) < 0.05 - 1e-3) {
+        ASSERT_TRUE(color == k - 1 || color == k) << frac << " colour " << color;
+        ++per_band[k][color - (k - 1)];
+        ++inside;
+      } else if (std::abs(frac - k * 0.25) > 0.05 + 1e-3) {
+        EXPECT_EQ(color, o.palette.color_of(frac)) << frac;
+        ++outside;
+      }
+    }
+    for (const auto& [k, c] : per_band) {
+      EXPECT_GT(c[0], 0) << "layer " << li << " boundary " << k;
+      EXPECT_GT(c[1], 0) << "layer " << li << " boundary " << k;
+      EXPECT_LE(std::abs(c[0] - c[1]), std::max(2, (c[0] + c[1]) / 4)) << "layer " << li;
+    }
+  }
+  EXPECT_GT(inside, 20u);
+  EXPECT_GT(outside, 20u);
+  o.zipper = 0.3;  // wider than a band
+  EXPECT_THROW(plan_fgm_strategy1(f, outlines, planar, o, {}, nullptr), SettingError);
 }

@@ -5,7 +5,7 @@
 // completely (a ring, then 100 % rectilinear inside it, or concentric rings), colour by colour in palette order, reversed
 // every other layer, each path carrying its mixture (written as M165 by the G-code writer).
 //
-// This release: two-material designs (`fgrade` with two fractions); Strategy 1 without zippering.
+// This release: two-material designs (`fgrade` with two fractions).
 #pragma once
 #include <vector>
 
@@ -36,6 +36,12 @@ std::vector<ColorFace> color_faces(const Field& field, Evaluator& evaluator, dou
                                    const Regions& outline, const Palette& palette,
                                    double resolution);
 
+// The outline cut at increasing fraction levels: slab k = {outline, levels[k-1] < f <= levels[k]}
+// (slab 0 below the first level, the last above the last level).
+std::vector<Regions> level_slabs(const Field& field, Evaluator& evaluator, double z,
+                                 const Regions& outline, const std::vector<double>& levels,
+                                 double resolution);
+
 struct FgmOptions {
   Palette palette;
   double bead_width = 0.4;
@@ -43,6 +49,7 @@ struct FgmOptions {
   double resolution = 0.1;    // XY grid of the iso-contours (mm)
   bool concentric = false;    // concentric fill instead of 100 % rectilinear
   double angle_deg = 45;      // rectilinear angle, +90° every layer
+  double zipper = 0;          // Strategy 1: overlap band width β (fraction 0..1 of the gradient)
 };
 
 struct FgmStats {
@@ -69,7 +76,9 @@ double purge_length(double volume, double layer_height, double bead_width);
 // Strategy 1: the planar slicer's walls, skins and infill (`planar`, one layer per outline) cut
 // by the colour faces; each piece keeps its role and gets its colour's mixture; pieces are
 // printed colour by colour in palette order (reversed every other layer), a purge block before
-// each colour change above the threshold.
+// each colour change above the threshold. With `zipper` β > 0, pieces in the band |f - k/N| <
+// β/2 around each colour boundary alternate (in planar order) between the two colours, so the
+// materials interlock across the boundary (the paper's zippering, Fig. 8-9).
 Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>& layers,
                             const Toolpath& planar, const FgmOptions& options,
                             const PurgeOptions& purge, FgmStats* stats = nullptr);
