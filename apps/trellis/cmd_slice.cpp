@@ -18,7 +18,7 @@ void add_slice(CLI::App& app) {
            mesh_voxel = 0.25, bead_width = 0;
     int walls = 2, top = 4, bottom = 4, strategy = 0, colors = 8;
     bool no_center = false, concentric = false;
-    double lookahead = -1, zipper = 0;
+    double lookahead = -1, zipper = 0, material_resolution = 1.0;
     std::size_t preview_layers = 4;
   };
   auto o = std::make_shared<Opts>();
@@ -63,6 +63,11 @@ void add_slice(CLI::App& app) {
       ->check(CLI::Range(1, 1000))
       ->capture_default_str();
   cmd->add_flag("--concentric", o->concentric, "Strategy 2: concentric fill instead of rectilinear");
+  cmd->add_option("--material-resolution", o->material_resolution,
+                  "graded designs: XY grid of the material iso-contours (mm; crossings are refined "
+                  "on the field; finer finds smaller features of the gradient)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   cmd->add_option("--zipper", o->zipper,
                   "Strategy 1: overlap band β (% of the gradient) where pieces alternate between "
                   "the two neighbouring colours")
@@ -94,6 +99,7 @@ void add_slice(CLI::App& app) {
     job.fgm.concentric = o->concentric;
     job.fgm.angle_deg = o->infill_angle;
     job.fgm.zipper = o->zipper / 100;
+    job.fgm.material_resolution = o->material_resolution;
     job.purge.melt_volume = profile.melt_volume;
     job.purge.threshold = profile.purge_threshold;
     job.purge.x = profile.purge_x;
@@ -111,7 +117,9 @@ void add_slice(CLI::App& app) {
       std::cout << "strategy " << job.strategy << ": " << o->colors << " colours, " << r.fgm.faces << " faces, "
                 << r.fgm.paths << " paths, " << g.gradient_changes << " " << profile.gradient_mode
                 << " changes (look-ahead " << num(profile.lookahead, 0) << " mm), " << r.fgm.purges
-                << " purges (" << num(r.fgm.purge_volume, 0) << " mm3), shortest "
+                << " purges (" << num(r.fgm.purge_volume, 0) << " mm3), gradient error mean "
+                << num(r.fgm.error_mean, 4) << " max " << num(r.fgm.error_max, 4) << " (half band "
+                << num(0.5 / o->colors, 4) << "), shortest "
                 << num(r.fgm.shortest_path, 2) << " mm; " << to_string(r.route) << " route, "
                 << r.outlines.size() << " layers, ~" << num(g.print_time_s / 60, 1) << " min\n";
     else

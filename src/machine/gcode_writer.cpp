@@ -343,6 +343,7 @@ class Writer {
     std::string command;
   };
   void plan_changes() {
+    stats_.lookahead = p_.lookahead;
     std::vector<const Path*> paths;
     for (const auto& l : tp_.layers)
       for (const auto& p : l.paths)

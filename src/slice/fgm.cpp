@@ -174,10 +174,10 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
     Layer& layer = out.layer;
     // As the planar slicer: the nozzle at the top of layer i, counted from the bed.
     layer.z = static_cast<double>(li + 1) * o.layer_height;
-    // Material iso-lines on a grid of half a bead at the finest: crossings are refined on the
-    // field anyway, and a face narrower than half a bead cannot be printed.
+    // Material iso-lines on their own grid (half a bead at the finest: a face narrower than
+    // that cannot be printed); crossings are refined on the field.
     auto faces = color_faces(field, ev, lo.z, lo.regions, o.palette,
-                             std::max(o.resolution, o.bead_width / 2));
+                             std::max(o.material_resolution, o.bead_width / 2));
     out.faces = faces.size();
     // Palette order, reversed every other layer so a layer starts where the last one ended.
     if (li % 2 == 1) std::reverse(faces.begin(), faces.end());
@@ -237,6 +237,43 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
   return tp;
 }
 
+void measure_gradient_error(const Field& field, const Toolpath& tp,
+                            const std::vector<LayerOutline>& layers, double h, FgmStats& st) {
+  struct Acc {
+    double sum = 0, max = 0;
+    std::size_t n = 0;
+  };
+  tbb::enumerable_thread_specific<Evaluator> evaluators([&] { return Evaluator(field); });
+  tbb::enumerable_thread_specific<Acc> acc;
+  tbb::parallel_for(std::size_t{0}, tp.layers.size(), [&](std::size_t li) {
+    const Layer& l = tp.layers[li];
+    const auto idx = static_cast<std::size_t>(std::llround(l.z / h)) - 1;
+    if (idx >= layers.size()) return;
+    Evaluator& ev = evaluators.local();
+    Acc& a = acc.local();
+    for (const auto& p : l.paths) {
+      if (p.mixture.empty() || p.role == PathRole::Other) continue;
+      for (const auto& q : p.points) {
+        const auto f = ev.fractions({q.x, q.y, layers[idx].z});
+        if (f.empty()) continue;
+        const double e = std::abs(std::clamp(f[0], 0.0, 1.0) - p.mixture[0]);
+        a.sum += e;
+        a.max = std::max(a.max, e);
+        ++a.n;
+      }
+    }
+  });
+  double sum = 0;
+  st.error_max = 0;
+  st.error_samples = 0;
+  for (const auto& a : acc) {
+    sum += a.sum;
+    st.error_max = std::max(st.error_max, a.max);
+    st.error_samples += a.n;
+  }
+  st.error_mean = st.error_samples ? sum / static_cast<double>(st.error_samples) : 0;
+}
+
 double purge_length(double volume, double h, double w) {
   const double area = h * (w - h) + 3.14159265358979323846 * h * h / 4;
   return area > 0 ? volume / area : 0;
@@ -294,7 +331,7 @@ Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>&
       std::size_t count;  // pieces so far (for alternating)
     };
     std::vector<Zone> zones;
-    const double res = std::max(o.resolution, o.bead_width / 2);
+    const double res = std::max(o.material_resolution, o.bead_width / 2);
     const double beta = o.zipper;
     if (beta > 0) {
       std::vector<double> levels;
@@ -313,14 +350,35 @@ Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>&
         zones.push_back({std::move(f.region), f.color, f.color, 0});
     }
     faces_per[li] = zones.size();
-    for (const auto& path : pl.paths) {
-      std::vector<Vec2> line;
-      for (const auto& q : path.points) line.push_back(q.xy());
+    // Paths of one role share their attributes: each role's paths are cut by a zone in one
+    // clipping call (piece order within a role follows Clipper's, not the planar order).
+    std::vector<std::pair<PathRole, std::vector<std::size_t>>> roles;
+    for (std::size_t k = 0; k < pl.paths.size(); ++k) {
+      auto it = std::find_if(roles.begin(), roles.end(),
+                             [&](const auto& r) { return r.first == pl.paths[k].role; });
+      if (it == roles.end()) {
+        roles.push_back({pl.paths[k].role, {}});
+        it = roles.end() - 1;
+      }
+      it->second.push_back(k);
+    }
+    for (const auto& [role, ids] : roles) {
+      std::vector<std::vector<Vec2>> lines;
+      for (std::size_t k : ids) {
+        std::vector<Vec2> line;
+        for (const auto& q : pl.paths[k].points) line.push_back(q.xy());
+        lines.push_back(std::move(line));
+      }
+      const Path& proto = pl.paths[ids.front()];  // role, width, height, speed
       for (auto& zone : zones)
-        for (auto& piece : clip_polylines({line}, zone.region)) {
+        for (auto& piece : clip_polylines(lines, zone.region)) {
           if (piece.size() < 2) continue;
-          Path p = path;  // role, width, height, speed
-          p.points.clear();
+          Path p;
+          p.role = proto.role;
+          p.width = proto.width;
+          p.height = proto.height;
+          p.speed = proto.speed;
+          p.tool = proto.tool;
           for (const Vec2 q : piece) p.points.push_back({q.x, q.y, pl.z});
           if (p.length() <= 1e-9) continue;
           const int color = zone.count++ % 2 ? zone.b : zone.a;

@@ -131,6 +131,7 @@ SliceResult run_slice(const SliceJob& job,
       const Toolpath planar = plan_planar(r.outlines, job.planar, &r.planar);
       r.toolpath = plan_fgm_strategy1(field, r.outlines, planar, fo, job.purge, &r.fgm);
     }
+    measure_gradient_error(field, r.toolpath, r.outlines, h, r.fgm);
   } else {
     r.toolpath = plan_planar(r.outlines, job.planar, &r.planar);
   }
@@ -186,12 +187,18 @@ std::string slice_report_json(const SliceJob& job, const SliceResult& r, const G
                 {"purge_mass_g", r.fgm.purge_volume * 1.24e-3},
                 {"colors", job.fgm.palette.colors},
                 {"zipper_percent", 100 * job.fgm.zipper},
+                {"material_resolution_mm", job.fgm.material_resolution},
+                {"gradient_error", {{"mean", r.fgm.error_mean},
+                                    {"max", r.fgm.error_max},
+                                    {"half_band", 0.5 / job.fgm.palette.colors},
+                                    {"samples", r.fgm.error_samples}}},
                 {"band_percent", 100.0 / job.fgm.palette.colors},
                 {"faces", r.fgm.faces},
                 {"paths", r.fgm.paths},
                 {"colour_changes", r.fgm.colour_changes},
                 {"shortest_segment_mm", r.fgm.shortest_path},
                 {"gradient_changes", g ? g->gradient_changes : 0},
+                {"lookahead_mm", g ? g->lookahead : 0.0},
                 {"fill", job.fgm.concentric ? "concentric" : "rectilinear"}};
   if (g) {
     j["gcode"] = {{"bytes", g->bytes},

@@ -39,6 +39,7 @@ Fidelity run(const Field& f, int colors, double h, bool concentric, double bead 
   o.layer_height = h;
   o.bead_width = bead;
   o.concentric = concentric;
+  o.material_resolution = 0.2;  // the wavy iso-lines curve on a millimetre scale
   const Toolpath tp = plan_fgm_strategy2(f, outlines, o);
   const MachineProfile prof;
   Diagnostics diag;
@@ -279,6 +280,7 @@ TEST(Fgm, Strategy1KeepsEveryPlanarPathAndPurgesBetweenColours) {
   o.palette.colors = 6;
   o.layer_height = h;
   o.bead_width = po.bead_width;
+  o.material_resolution = 0.2;
   PurgeOptions purge;
   purge.melt_volume = 20;
   purge.threshold = 0;  // every change

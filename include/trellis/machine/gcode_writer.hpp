@@ -25,6 +25,7 @@ struct GcodeStats {
   double print_time_s = 0;   // feed-rate estimate, no acceleration
   std::size_t tool_changes = 0;  // embedded
   std::size_t gradient_changes = 0;  // mixture / tool / temperature commands for graded paths
+  double lookahead = 0;              // mm of path the changes were issued early
 };
 
 // E for a segment of `length` mm printed at layer thickness `layer` (Eq. 4).
