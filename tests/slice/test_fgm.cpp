@@ -104,6 +104,24 @@ Fidelity run(const Field& f, int colors, double h, bool concentric, double bead 
   return r;
 }
 
+// Outlines at layer height h and the planar slicer's paths over them.
+struct Sliced {
+  std::vector<double> zs;
+  std::vector<LayerOutline> outlines;
+  Toolpath planar;
+};
+Sliced slice_planar(const Field& f, double h, int solid_layers) {
+  Sliced s;
+  const BBox3 e = f.extent();
+  s.zs = layer_planes(e.min.z, e.max.z, h);
+  s.outlines = slice_field(f, s.zs, FieldSliceOptions{});
+  PlanarOptions po;
+  po.layer_height = h;
+  po.top_layers = po.bottom_layers = solid_layers;
+  s.planar = plan_planar(s.outlines, po);
+  return s;
+}
+
 }  // namespace
 
 TEST(Fgm, PaletteBands) {
@@ -267,15 +285,12 @@ TEST(Fgm, Strategy1KeepsEveryPlanarPathAndPurgesBetweenColours) {
   const Field f = design(
       "fgrade([\"0.5 + x/24 + 0.1*sin(y)\", \"0.5 - x/24 - 0.1*sin(y)\"], [\"a\", \"b\"]) {\n"
       "  rectprism(20, 12, 1.2);\n}\n");
-  FieldSliceOptions so;
-  const BBox3 e = f.extent();
   const double h = 0.3;
-  const auto zs = layer_planes(e.min.z, e.max.z, h);
-  const auto outlines = slice_field(f, zs, so);
-  PlanarOptions po;
-  po.layer_height = h;
-  po.top_layers = po.bottom_layers = 1;
-  const Toolpath planar = plan_planar(outlines, po);
+  const Sliced sl = slice_planar(f, h, 1);
+  const auto& zs = sl.zs;
+  const auto& outlines = sl.outlines;
+  const Toolpath& planar = sl.planar;
+  const PlanarOptions po;
   FgmOptions o;
   o.palette.colors = 6;
   o.layer_height = h;
@@ -336,14 +351,12 @@ TEST(Fgm, Strategy1KeepsEveryPlanarPathAndPurgesBetweenColours) {
 TEST(Fgm, ZipperAlternatesInsideTheOverlapBandsOnly) {
   const Field f = design(
       "fgrade([\"0.5 + x/24\", \"0.5 - x/24\"], [\"a\", \"b\"]) {\n  rectprism(20, 12, 0.9);\n}\n");
-  FieldSliceOptions so;
-  const BBox3 e = f.extent();
   const double h = 0.3;
-  const auto zs = layer_planes(e.min.z, e.max.z, h);
-  const auto outlines = slice_field(f, zs, so);
-  PlanarOptions po;
-  po.layer_height = h;
-  const Toolpath planar = plan_planar(outlines, po);
+  const Sliced sl = slice_planar(f, h, 4);
+  const auto& zs = sl.zs;
+  const auto& outlines = sl.outlines;
+  const Toolpath& planar = sl.planar;
+  const PlanarOptions po;
   FgmOptions o;
   o.palette.colors = 4;
   o.layer_height = h;
