@@ -112,7 +112,11 @@ void add_slice(CLI::App& app) {
     const GcodeStats g = write_gcode_file(o->output, r.toolpath, profile);
     if (!o->toolpath.empty()) write_toolpath(o->toolpath, r.toolpath);
     if (!o->report.empty()) write_file_atomic(o->report, slice_report_json(job, r, &g));
-    const std::vector<std::string> pngs = render_previews(r.toolpath, o->preview, o->preview_layers);
+    RenderOptions ro;
+    ro.colour_by_mixture = job.strategy != 0;  // graded: coloured by the palette
+    ro.starts = job.strategy == 0;
+    const std::vector<std::string> pngs =
+        render_previews(r.toolpath, o->preview, o->preview_layers, ro);
     if (job.strategy != 0)
       std::cout << "strategy " << job.strategy << ": " << o->colors << " colours, " << r.fgm.faces << " faces, "
                 << r.fgm.paths << " paths, " << g.gradient_changes << " " << profile.gradient_mode
