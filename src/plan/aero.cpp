@@ -140,7 +140,7 @@ class Planner {
         trails = decompose(mat, MixedEuler::kNoNode, nullptr);
       }
       // A new trail: place one into the past if it fits, else pick one by the strategy.
-      if (insert_earlier_ && insert_into_earlier(trails, mat)) {
+      if (insert_into_earlier(trails, mat)) {
         cache_material_ = -1;
         continue;
       }
@@ -279,7 +279,7 @@ class Planner {
   std::vector<Trail> decompose(int mat, NodeId from, bool* continued, bool whole = false) {
     ++out_.decompositions;
     auto& avail = available_[static_cast<std::size_t>(mat)];
-    const std::vector<EdgeId>* set = &avail;
+    std::vector<EdgeId>* set = &avail;
     if (!whole &&
         (avail_count_[static_cast<std::size_t>(mat)] > window_ || from != MixedEuler::kNoNode)) {
       cap_ = from != MixedEuler::kNoNode ? continue_window_ : window_;
@@ -294,7 +294,7 @@ class Planner {
     } else {
       compact(mat);
     }
-    std::vector<EdgeId>& edges = const_cast<std::vector<EdgeId>&>(*set);
+    std::vector<EdgeId>& edges = *set;
     if (shuffle_) std::shuffle(edges.begin(), edges.end(), rng_);
     return euler_.decompose(g_, edges, dir_, from, continued);
   }
@@ -810,7 +810,6 @@ class Planner {
       std::vector<std::vector<std::uint32_t>>(g_.nodes.size());
   std::vector<std::vector<std::uint32_t>> ends_at_ =
       std::vector<std::vector<std::uint32_t>>(g_.nodes.size());
-  bool insert_earlier_ = true;
   std::mt19937_64 rng_;
   bool shuffle_;
   NodeId cur_ = MixedEuler::kNoNode;

@@ -12,12 +12,12 @@ constexpr std::uint32_t kNone = UINT32_MAX;
 
 // Scratch of one decomposition, kept between calls so repeated calls do not allocate.
 struct MixedEuler::Local {
-  std::vector<NodeId> global;  // local node -> global node (kNone for the stub node)
+  std::vector<NodeId> global;  // local node -> global node (kNone for the lead-in node)
   std::vector<std::uint32_t> tail, head;
   std::vector<char> is_free;
-  std::vector<EdgeId> gedge;  // global edge id, kNone for the stub
+  std::vector<EdgeId> gedge;  // global edge id, kNone for the lead-in edge
   std::vector<int> bal;       // out - in
-  std::uint32_t stub_node = kNone;
+  std::uint32_t lead_node = kNone;
   // work arrays
   std::vector<std::uint32_t> off, inc, fill, parent, queue, seen, cursor, out_edges;
   std::vector<std::pair<std::uint32_t, std::uint32_t>> stack, circuit;
@@ -30,7 +30,7 @@ struct MixedEuler::Local {
     is_free.clear();
     gedge.clear();
     bal.clear();
-    stub_node = kNone;
+    lead_node = kNone;
   }
 };
 
@@ -75,10 +75,10 @@ void MixedEuler::build(const Graph& g, const std::vector<EdgeId>& edges,
       --L.bal[h];
     }
   if (continue_from != kNoNode && continue_from < stamp_.size() && stamp_[continue_from] == tick_) {
-    L.stub_node = static_cast<std::uint32_t>(L.global.size());
+    L.lead_node = static_cast<std::uint32_t>(L.global.size());
     L.global.push_back(kNone);
     L.bal.push_back(1);
-    L.tail.push_back(L.stub_node);
+    L.tail.push_back(L.lead_node);
     L.head.push_back(local_[continue_from]);
     L.is_free.push_back(0);
     L.gedge.push_back(kNone);
@@ -118,7 +118,7 @@ void MixedEuler::build(const Graph& g, const std::vector<EdgeId>& edges,
     ++round;
     queue.clear();
     for (std::uint32_t v = 0; v < n; ++v)
-      if (L.bal[v] >= need_s && v != L.stub_node) {
+      if (L.bal[v] >= need_s && v != L.lead_node) {
         queue.push_back(v);
         seen[v] = round;
         parent[v] = kNone;
@@ -152,7 +152,7 @@ void MixedEuler::build(const Graph& g, const std::vector<EdgeId>& edges,
   auto worth = [&](int need_s, int need_t) {
     bool src = false, dst = false;
     for (std::uint32_t v = 0; v < n; ++v) {
-      src |= L.bal[v] >= need_s && v != L.stub_node;
+      src |= L.bal[v] >= need_s && v != L.lead_node;
       dst |= L.bal[v] <= -need_t;
     }
     return src && dst;
@@ -162,9 +162,9 @@ void MixedEuler::build(const Graph& g, const std::vector<EdgeId>& edges,
     if (worth(1, 2) && augment(1, 2)) continue;
     break;
   }
-  // With a stub, a trail ending at the continuation node would leave the stub trail empty;
+  // With a lead-in edge, a trail ending at the continuation node would leave the lead-in trail empty;
   // among the optimal orientations prefer one where the open trail runs on (same Σ|bal|).
-  if (L.stub_node != kNone) {
+  if (L.lead_node != kNone) {
     const std::uint32_t c = local_[continue_from];
     if (L.bal[c] < 0) augment(1, 0, c);
   }
@@ -236,10 +236,10 @@ std::vector<Trail> MixedEuler::decompose(const Graph& g, const std::vector<EdgeI
   auto& stack = L.stack;
   auto& circuit = L.circuit;
   Trail current;
-  bool current_is_stub = false;
+  bool current_is_lead = false;
   auto flush = [&] {
     if (!current.edges.empty()) {
-      if (current_is_stub) {
+      if (current_is_lead) {
         out.insert(out.begin(), std::move(current));
         if (continued) *continued = true;
       } else {
@@ -247,7 +247,7 @@ std::vector<Trail> MixedEuler::decompose(const Graph& g, const std::vector<EdgeI
       }
     }
     current = Trail{};
-    current_is_stub = false;
+    current_is_lead = false;
   };
   auto walk = [&](std::uint32_t start) {
     stack.clear();
@@ -270,8 +270,8 @@ std::vector<Trail> MixedEuler::decompose(const Graph& g, const std::vector<EdgeI
         flush();
         continue;
       }
-      if (v == L.stub_node) {
-        current_is_stub = true;
+      if (v == L.lead_node) {
+        current_is_lead = true;
         continue;
       }
       if (e_in != kNone && L.gedge[e_in] != kNone) {

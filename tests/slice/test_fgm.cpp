@@ -122,6 +122,15 @@ Sliced slice_planar(const Field& f, double h, int solid_layers) {
   return s;
 }
 
+// Palette options matching slice_planar's layers and beads.
+FgmOptions fgm_options(int colors, double h) {
+  FgmOptions o;
+  o.palette.colors = colors;
+  o.layer_height = h;
+  o.bead_width = PlanarOptions{}.bead_width;
+  return o;
+}
+
 }  // namespace
 
 TEST(Fgm, PaletteBands) {
@@ -290,11 +299,7 @@ TEST(Fgm, Strategy1KeepsEveryPlanarPathAndPurgesBetweenColours) {
   const auto& zs = sl.zs;
   const auto& outlines = sl.outlines;
   const Toolpath& planar = sl.planar;
-  const PlanarOptions po;
-  FgmOptions o;
-  o.palette.colors = 6;
-  o.layer_height = h;
-  o.bead_width = po.bead_width;
+  FgmOptions o = fgm_options(6, h);
   o.material_resolution = 0.2;
   PurgeOptions purge;
   purge.melt_volume = 20;
@@ -356,11 +361,7 @@ TEST(Fgm, ZipperAlternatesInsideTheOverlapBandsOnly) {
   const auto& zs = sl.zs;
   const auto& outlines = sl.outlines;
   const Toolpath& planar = sl.planar;
-  const PlanarOptions po;
-  FgmOptions o;
-  o.palette.colors = 4;
-  o.layer_height = h;
-  o.bead_width = po.bead_width;
+  FgmOptions o = fgm_options(4, h);
   o.zipper = 0.1;
   const Toolpath tp = plan_fgm_strategy1(f, outlines, planar, o, {}, nullptr);
   Evaluator ev(f);
