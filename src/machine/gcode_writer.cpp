@@ -75,6 +75,7 @@ class Writer {
  public:
   Writer(const MachineProfile& p, const Toolpath& tp) : p_(p), tp_(tp) {
     flavor_ = p.parsed_flavor();
+    down_flow_ = p.down_flow_table();
     placement();
   }
 
@@ -448,6 +449,7 @@ class Writer {
   void print_move(Vec3 q, double layer, double speed, bool& first, bool marlin) {
     {
       const double len = distance(pos_, q);
+      const double flow = down_factor(q);
       const Vec2 o = offset();
       out_ += "G1 X";
       append_fixed(out_, q.x + dx_ + o.x, 3);
@@ -458,20 +460,24 @@ class Writer {
         append_fixed(out_, q.z, 3);
       }
       if (marlin) {
-        const double e = extrusion_for(len, layer, p_);
+        const double e = extrusion_for(len, layer, p_) * flow;
         e_ += e;
         stats_.filament += e;
         out_ += " E";
         append_fixed(out_, p_.relative_e ? e : e_, 5);
       }
-      if (first) {
+      // Pneumatic flow is set by pressure, not by E: the same flow over more length thins the
+      // bead, so a steep descent is printed faster instead.
+      const double f = marlin ? speed : speed / flow;
+      if (first || f != last_feed_) {
         out_ += " F";
-        feed(speed);
+        feed(f);
         first = false;
+        last_feed_ = f;
       }
       out_ += '\n';
       stats_.print_length += len;
-      stats_.print_time_s += move_time(len, speed, p_.acceleration);
+      stats_.print_time_s += move_time(len, f, p_.acceleration);
       pos_ = q;
     }
   }
@@ -491,6 +497,19 @@ class Writer {
   int tool_ = -1;            // embedded: tool in use
   Vec2 tool_offset_;         // ... its XY offset
   MachineProfile tool_profile_;  // ... the profile with its pressure
+  std::vector<std::pair<double, double>> down_flow_;  // (descent deg, factor), by angle
+  double last_feed_ = -1;                              // F of the previous printing move
+
+  // Flow factor of a move from pos_ to q (1 unless it descends steeply).
+  double down_factor(Vec3 q) const {
+    if (down_flow_.empty() || q.z >= pos_.z) return 1.0;
+    const double run = std::hypot(q.x - pos_.x, q.y - pos_.y);
+    const double deg = std::atan2(pos_.z - q.z, run) * 180.0 / 3.14159265358979323846;
+    double f = 1.0;
+    for (const auto& [angle, factor] : down_flow_)
+      if (deg >= angle - 1e-9) f = factor;
+    return f;
+  }
 };
 
 }  // namespace

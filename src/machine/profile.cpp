@@ -2,6 +2,7 @@
 
 #include <toml++/toml.h>
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 
@@ -35,6 +36,10 @@ const std::vector<SettingDecl>& machine_settings() {
       {"extrusion.k", "", "correction factor k for the bead shape (Eq. 4)", 0, 10, &P::k},
       {"extrusion.relative_e", "", "relative E (M83) instead of absolute (M82)", 0, 0,
        &P::relative_e},
+      {"extrusion.down_flow", "",
+       "flow factor for steep downward moves, \"deg,factor;...\": a segment descending at least "
+       "deg below horizontal gets factor (E x factor; pneumatic/embedded: feed / factor)",
+       0, 0, &P::down_flow},
       {"speed.print", "mm/s", "printing speed", 0.01, 1000, &P::print_speed},
       {"speed.travel", "mm/s", "travel speed", 0.01, 2000, &P::travel_speed},
       {"speed.z", "mm/s", "speed of Z moves", 0.01, 1000, &P::z_speed},
@@ -183,6 +188,18 @@ double MachineProfile::tool_pressure(int tool) const {
   return list[static_cast<std::size_t>(tool)];
 }
 
+std::vector<std::pair<double, double>> MachineProfile::down_flow_table() const {
+  std::vector<std::pair<double, double>> out;
+  for (const auto& g : number_groups(down_flow, ';', "extrusion.down_flow")) {
+    if (g.size() != 2 || !(g[0] >= 0 && g[0] <= 90) || !(g[1] > 0 && g[1] <= 10))
+      throw SettingError("each entry is \"angle,factor\" with angle 0..90 degrees and factor in (0, 10]",
+                         {"", 0, "extrusion.down_flow"});
+    out.emplace_back(g[0], g[1]);
+  }
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
 namespace {
 
 const SettingDecl* find_setting(const std::string& key) {
@@ -308,6 +325,7 @@ void validate(const MachineProfile& p) {
                        {"", 0, "gradient.flow"});
   p.tool_offset(0);
   p.tool_pressure(0);
+  p.down_flow_table();
 }
 
 std::string setting_text(const MachineProfile& p, const SettingDecl& d) {

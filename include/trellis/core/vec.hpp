@@ -54,6 +54,16 @@ struct Interval {
   double lo = 0, hi = 0;
 };
 
+// An axis-aligned rectangle in XY.
+struct BBox2 {
+  Vec2 min{0, 0}, max{0, 0};
+  double width() const { return max.x - min.x; }
+  double height() const { return max.y - min.y; }
+  bool contains(Vec2 p) const {
+    return p.x >= min.x && p.x <= max.x && p.y >= min.y && p.y <= max.y;
+  }
+};
+
 struct BBox3 {
   Vec3 min{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity(),
            std::numeric_limits<double>::infinity()};

@@ -27,6 +27,11 @@ struct MachineProfile {
   double extrusion_multiplier = 1.0;  // EM
   double k = 1.0;                     // k, bead shape correction
   bool relative_e = false;            // M83 instead of M82
+  // Steep downward moves (non-planar paths) deposit wider beads (non-planar paper, Fig. 2: from
+  // 45° down). "deg,factor;deg,factor;..." : a segment descending at least `deg` below the
+  // horizontal gets the factor of the steepest such entry: E × factor (marlin), feed ÷ factor
+  // (pneumatic / embedded, same flow over more length). Empty = no compensation.
+  std::string down_flow;
   // [speed] (mm/s)
   double print_speed = 20;
   double travel_speed = 100;
@@ -82,6 +87,8 @@ struct MachineProfile {
   // Per-tool XY offset and pressure from tool_offsets / tool_pressures (throws SettingError).
   Vec2 tool_offset(int tool) const;
   double tool_pressure(int tool) const;
+  // down_flow as (descent angle in degrees, factor), sorted by angle (throws SettingError).
+  std::vector<std::pair<double, double>> down_flow_table() const;
 };
 
 using SettingValue = std::variant<double, int, bool, std::string>;

@@ -1,0 +1,1060 @@
+// Non-planar slicing: height fields, plane sections, serpentine layers, the paper's test surfaces
+// and lattices laid on surfaces. Hand-written: no library slices a height field into continuous
+// non-planar serpentines; the mesh parts are a grid index and exact plane/triangle cuts.
+#include "trellis/slice/nonplanar.hpp"
+
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <mutex>
+#include <numbers>
+
+#include <muParser.h>
+#include <nlohmann/json.hpp>
+
+#include "../field/node.hpp"
+#include "trellis/core/error.hpp"
+#include "trellis/geom/mesh.hpp"
+
+namespace trellis {
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+std::string fmt_mm(double v) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.3f", v);
+  return buf;
+}
+std::string fmt_xy(Vec2 p) { return "(" + fmt_mm(p.x) + ", " + fmt_mm(p.y) + ")"; }
+
+Vec3 cross(Vec3 a, Vec3 b) {
+  return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
+}
+Vec3 unit(Vec3 a) {
+  const double n = norm(a);
+  return n > 0 ? a * (1.0 / n) : Vec3{0, 0, 1};
+}
+
+}  // namespace
+
+// --- the height field ---
+
+struct HeightField::Impl {
+  std::string name;
+  BBox2 domain;
+  std::function<Eval()> make;  // functions
+  std::vector<double> profile_xs;  // surfaces constant in Y: x where z is (nearly) linear between
+
+  // Meshes: triangles, facet data, vertex normals and an XY grid of triangle ids.
+  std::vector<Vec3> vertices;
+  std::vector<std::array<std::uint32_t, 3>> triangles;
+  std::vector<Vec3> vertex_normals;
+  double cell = 1;
+  int nx = 0, ny = 0;
+  std::vector<std::uint32_t> cell_start, cell_tris;
+
+  bool mesh() const { return !triangles.empty(); }
+
+  template <class F>
+  void for_cells(const std::array<Vec3, 3>& t, F&& f) const {
+    const double x0 = std::min({t[0].x, t[1].x, t[2].x}), x1 = std::max({t[0].x, t[1].x, t[2].x});
+    const double y0 = std::min({t[0].y, t[1].y, t[2].y}), y1 = std::max({t[0].y, t[1].y, t[2].y});
+    const int i0 = std::clamp(static_cast<int>((x0 - domain.min.x) / cell), 0, nx - 1);
+    const int i1 = std::clamp(static_cast<int>((x1 - domain.min.x) / cell), 0, nx - 1);
+    const int j0 = std::clamp(static_cast<int>((y0 - domain.min.y) / cell), 0, ny - 1);
+    const int j1 = std::clamp(static_cast<int>((y1 - domain.min.y) / cell), 0, ny - 1);
+    for (int j = j0; j <= j1; ++j)
+      for (int i = i0; i <= i1; ++i) f(j * nx + i);
+  }
+  std::array<Vec3, 3> tri(std::size_t t) const {
+    const auto& v = triangles[t];
+    return {vertices[v[0]], vertices[v[1]], vertices[v[2]]};
+  }
+  // Barycentric coordinates of p in the XY projection of triangle t (tolerance `eps`); false if
+  // outside.
+  bool locate(std::size_t t, Vec2 p, double b[3], double eps = 1e-9) const {
+    const auto q = tri(t);
+    const double d = (q[1].x - q[0].x) * (q[2].y - q[0].y) - (q[2].x - q[0].x) * (q[1].y - q[0].y);
+    if (std::abs(d) < 1e-300) return false;
+    b[1] = ((p.x - q[0].x) * (q[2].y - q[0].y) - (q[2].x - q[0].x) * (p.y - q[0].y)) / d;
+    b[2] = ((q[1].x - q[0].x) * (p.y - q[0].y) - (p.x - q[0].x) * (q[1].y - q[0].y)) / d;
+    b[0] = 1 - b[1] - b[2];
+    return b[0] >= -eps && b[1] >= -eps && b[2] >= -eps;
+  }
+  long find(Vec2 p, double b[3]) const {
+    if (!domain.contains(p)) return -1;
+    const int i = std::clamp(static_cast<int>((p.x - domain.min.x) / cell), 0, nx - 1);
+    const int j = std::clamp(static_cast<int>((p.y - domain.min.y) / cell), 0, ny - 1);
+    const std::size_t c = static_cast<std::size_t>(j) * nx + i;
+    for (std::uint32_t k = cell_start[c]; k < cell_start[c + 1]; ++k)
+      if (locate(cell_tris[k], p, b)) return cell_tris[k];
+    return -1;
+  }
+  double mesh_height(Vec2 p) const {
+    double b[3];
+    const long t = find(p, b);
+    if (t < 0) return kNaN;
+    const auto q = tri(static_cast<std::size_t>(t));
+    return b[0] * q[0].z + b[1] * q[1].z + b[2] * q[2].z;
+  }
+  Vec3 mesh_normal(Vec2 p) const {
+    double b[3];
+    const long t = find(p, b);
+    if (t < 0) return {kNaN, kNaN, kNaN};
+    const auto& v = triangles[static_cast<std::size_t>(t)];
+    return unit(vertex_normals[v[0]] * b[0] + vertex_normals[v[1]] * b[1] +
+                vertex_normals[v[2]] * b[2]);
+  }
+};
+
+HeightField HeightField::from_function(std::function<Eval()> make, BBox2 domain,
+                                       std::string name) {
+  if (!(domain.width() > 0 && domain.height() > 0))
+    throw GeometryError("surface '" + name + "': empty domain");
+  auto impl = std::make_shared<Impl>();
+  impl->name = std::move(name);
+  impl->domain = domain;
+  impl->make = std::move(make);
+  HeightField h;
+  h.impl_ = impl;
+  return h;
+}
+
+HeightField HeightField::from_expression(const std::string& expr, BBox2 domain, std::string name) {
+  long col = 0;
+  try {
+    check_expression(expr, &col);
+  } catch (const ParseError& e) {
+    throw ParseError(e.message(), {"", 0, "height function", col});
+  }
+  auto make = [expr]() -> Eval {
+    auto c = std::make_shared<CompiledExpr>();
+    c->parser->SetExpr(expr);
+    return [c](double x, double y) { return c->eval({x, y, 0}); };
+  };
+  return from_function(make, domain, std::move(name));
+}
+
+HeightField HeightField::from_mesh(const TriangleMesh& mesh, std::string name) {
+  auto impl = std::make_shared<Impl>();
+  impl->name = name;
+  if (mesh.triangles.empty()) throw GeometryError("surface '" + name + "' has no triangles");
+  impl->vertices = mesh.vertices;
+  // Drop triangles of zero area; orient every facet upward (any winding is accepted: a height
+  // field has one side up everywhere, and folds are found by the overlap test below).
+  BBox2 box{{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()},
+            {-std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()}};
+  double span = 0;
+  for (const auto& v : mesh.vertices) {
+    box.min = {std::min(box.min.x, v.x), std::min(box.min.y, v.y)};
+    box.max = {std::max(box.max.x, v.x), std::max(box.max.y, v.y)};
+  }
+  span = std::max(box.width(), box.height());
+  const double area_eps = 1e-18 * span * span;
+  impl->vertex_normals.assign(mesh.vertices.size(), {0, 0, 0});
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+    auto v = mesh.triangles[t];
+    const Vec3 a = mesh.vertices[v[0]], b = mesh.vertices[v[1]], c = mesh.vertices[v[2]];
+    Vec3 n = cross(b - a, c - a);
+    const double len = norm(n);
+    if (len <= area_eps) continue;
+    if (std::abs(n.z) <= 1e-6 * len) {
+      const Vec3 m = (a + b + c) * (1.0 / 3);
+      throw GeometryError("surface '" + name + "' is not a height field: triangle " +
+                          std::to_string(t) + " is vertical at " + fmt_xy(m.xy()) + ", z " +
+                          fmt_mm(std::min({a.z, b.z, c.z})) + " to " +
+                          fmt_mm(std::max({a.z, b.z, c.z})) + " (a point above another)");
+    }
+    if (n.z < 0) {
+      std::swap(v[1], v[2]);
+      n = n * -1.0;
+    }
+    impl->triangles.push_back(v);
+    for (int k = 0; k < 3; ++k) impl->vertex_normals[v[k]] = impl->vertex_normals[v[k]] + n;
+  }
+  if (impl->triangles.empty()) throw GeometryError("surface '" + name + "' has no triangles");
+  for (auto& n : impl->vertex_normals) n = unit(n);
+  const double pad = 1e-9 * std::max(1.0, span);
+  box.min = box.min - Vec2{pad, pad};
+  box.max = box.max + Vec2{pad, pad};
+  impl->domain = box;
+  // Grid of about two triangles per cell.
+  const double area = std::max(box.width() * box.height(), 1e-12);
+  impl->cell = std::max(std::sqrt(area / static_cast<double>(impl->triangles.size()) * 2.0),
+                        span * 1e-6);
+  impl->nx = std::max(1, static_cast<int>(std::ceil(box.width() / impl->cell)));
+  impl->ny = std::max(1, static_cast<int>(std::ceil(box.height() / impl->cell)));
+  const std::size_t cells = static_cast<std::size_t>(impl->nx) * impl->ny;
+  std::vector<std::uint32_t> count(cells + 1, 0);
+  for (std::size_t t = 0; t < impl->triangles.size(); ++t)
+    impl->for_cells(impl->tri(t), [&](std::size_t c) { ++count[c + 1]; });
+  for (std::size_t c = 0; c < cells; ++c) count[c + 1] += count[c];
+  impl->cell_start = count;
+  impl->cell_tris.resize(count[cells]);
+  for (std::size_t t = 0; t < impl->triangles.size(); ++t)
+    impl->for_cells(impl->tri(t), [&](std::size_t c) {
+      impl->cell_tris[count[c]++] = static_cast<std::uint32_t>(t);
+    });
+
+  // Height-field test: no two facets overlap in XY (separating axis test on their projections,
+  // overlaps thinner than a nanometre-scale tolerance ignored: neighbours share edges).
+  const double tol = 1e-9 * std::max(1.0, span);
+  std::atomic<long> bad_a{-1};
+  std::atomic<long> bad_b{-1};
+  auto separated = [&](const std::array<Vec3, 3>& p, const std::array<Vec3, 3>& q) {
+    for (int pass = 0; pass < 2; ++pass) {
+      const auto& s = pass == 0 ? p : q;
+      for (int e = 0; e < 3; ++e) {
+        const Vec2 a = s[e].xy(), b = s[(e + 1) % 3].xy();
+        Vec2 n{-(b.y - a.y), b.x - a.x};
+        const double len = std::hypot(n.x, n.y);
+        if (len == 0) continue;
+        n = n * (1.0 / len);
+        double p0 = 1e300, p1 = -1e300, q0 = 1e300, q1 = -1e300;
+        for (int k = 0; k < 3; ++k) {
+          const double u = n.x * p[k].x + n.y * p[k].y, w = n.x * q[k].x + n.y * q[k].y;
+          p0 = std::min(p0, u), p1 = std::max(p1, u), q0 = std::min(q0, w), q1 = std::max(q1, w);
+        }
+        if (std::min(p1, q1) - std::max(p0, q0) <= tol) return true;
+      }
+    }
+    return false;
+  };
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, cells), [&](const auto& r) {
+    for (std::size_t c = r.begin(); c != r.end() && bad_a.load() < 0; ++c)
+      for (std::uint32_t i = impl->cell_start[c]; i < impl->cell_start[c + 1]; ++i)
+        for (std::uint32_t j = i + 1; j < impl->cell_start[c + 1]; ++j) {
+          const auto ta = impl->cell_tris[i], tb = impl->cell_tris[j];
+          if (!separated(impl->tri(ta), impl->tri(tb))) {
+            long expected = -1;
+            if (bad_a.compare_exchange_strong(expected, std::min(ta, tb)))
+              bad_b = std::max(ta, tb);
+            return;
+          }
+        }
+  });
+  if (bad_a >= 0) {
+    const auto p = impl->tri(static_cast<std::size_t>(bad_a)),
+               q = impl->tri(static_cast<std::size_t>(bad_b));
+    // A point inside both projections: the centroid of whichever lies in the other, else the
+    // midpoint of the centroids.
+    const Vec3 cp = (p[0] + p[1] + p[2]) * (1.0 / 3), cq = (q[0] + q[1] + q[2]) * (1.0 / 3);
+    double b[3];
+    Vec2 at = (cp.xy() + cq.xy()) * 0.5;
+    if (impl->locate(static_cast<std::size_t>(bad_a), cq.xy(), b)) at = cq.xy();
+    else if (impl->locate(static_cast<std::size_t>(bad_b), cp.xy(), b)) at = cp.xy();
+    auto z_on = [&](long t) {
+      double bb[3];
+      impl->locate(static_cast<std::size_t>(t), at, bb, 1e9);
+      const auto s = impl->tri(static_cast<std::size_t>(t));
+      return bb[0] * s[0].z + bb[1] * s[1].z + bb[2] * s[2].z;
+    };
+    throw GeometryError("surface '" + name + "' is not a height field: triangles " +
+                        std::to_string(bad_a.load()) + " and " + std::to_string(bad_b.load()) +
+                        " lie above one another near " + fmt_xy(at) + " (z " +
+                        fmt_mm(z_on(bad_a)) + " and " + fmt_mm(z_on(bad_b)) + ")");
+  }
+  HeightField h;
+  h.impl_ = impl;
+  return h;
+}
+
+HeightField HeightField::from_profile(const Profile& profile, double y0, double y1,
+                                      std::string name) {
+  auto z = profile_function(profile);
+  const double x0 = profile.corners.front().x, x1 = profile.corners.back().x;
+  auto make = [z]() -> Eval { return [z](double x, double) { return z(x); }; };
+  HeightField h = from_function(make, {{x0, y0}, {x1, y1}}, std::move(name));
+  auto impl = std::make_shared<Impl>(*h.impl_);
+  impl->profile_xs = profile_breaks(profile);
+  h.impl_ = impl;
+  return h;
+}
+
+TriangleMesh surface_mesh(const HeightField& surface, double resolution) {
+  const auto& impl = surface.impl();
+  TriangleMesh mesh;
+  if (impl.mesh()) {
+    mesh.vertices = impl.vertices;
+    mesh.triangles = impl.triangles;
+    return mesh;
+  }
+  if (!(resolution > 0)) throw SettingError("mesh resolution must be > 0");
+  const BBox2 box = surface.domain();
+  std::vector<double> xs = impl.profile_xs, ys;
+  if (xs.empty()) {
+    const long n = std::max(1L, static_cast<long>(std::ceil(box.width() / resolution)));
+    for (long i = 0; i <= n; ++i) xs.push_back(box.min.x + box.width() * i / n);
+  }
+  if (!impl.profile_xs.empty()) {
+    ys = {box.min.y, box.max.y};
+  } else {
+    const long n = std::max(1L, static_cast<long>(std::ceil(box.height() / resolution)));
+    for (long j = 0; j <= n; ++j) ys.push_back(box.min.y + box.height() * j / n);
+  }
+  const auto f = surface.evaluator();
+  std::vector<long> id(xs.size() * ys.size(), -1);
+  for (std::size_t j = 0; j < ys.size(); ++j)
+    for (std::size_t i = 0; i < xs.size(); ++i) {
+      const double z = f(xs[i], ys[j]);
+      if (!std::isfinite(z)) continue;
+      id[j * xs.size() + i] = static_cast<long>(mesh.vertices.size());
+      mesh.vertices.push_back({xs[i], ys[j], z});
+    }
+  auto add = [&](long a, long b, long c) {
+    if (a >= 0 && b >= 0 && c >= 0)
+      mesh.triangles.push_back({static_cast<std::uint32_t>(a), static_cast<std::uint32_t>(b),
+                                static_cast<std::uint32_t>(c)});
+  };
+  for (std::size_t j = 0; j + 1 < ys.size(); ++j)
+    for (std::size_t i = 0; i + 1 < xs.size(); ++i) {
+      const long a = id[j * xs.size() + i], b = id[j * xs.size() + i + 1],
+                 c = id[(j + 1) * xs.size() + i + 1], d = id[(j + 1) * xs.size() + i];
+      add(a, b, c);
+      add(a, c, d);
+    }
+  if (mesh.triangles.empty())
+    throw GeometryError("surface '" + surface.name() + "' has no footprint at this resolution");
+  return mesh;
+}
+
+const std::string& HeightField::name() const { return impl_->name; }
+BBox2 HeightField::domain() const { return impl_->domain; }
+bool HeightField::is_mesh() const { return impl_->mesh(); }
+
+HeightField::Eval HeightField::evaluator() const {
+  if (impl_->mesh()) {
+    auto impl = impl_;
+    return [impl](double x, double y) { return impl->mesh_height({x, y}); };
+  }
+  Eval f = impl_->make();
+  const BBox2 d = impl_->domain;
+  return [f, d](double x, double y) {
+    if (!d.contains({x, y})) return kNaN;
+    const double z = f(x, y);
+    return std::isfinite(z) ? z : kNaN;
+  };
+}
+
+double HeightField::height(Vec2 p) const {
+  if (impl_->mesh()) return impl_->mesh_height(p);
+  return evaluator()(p.x, p.y);
+}
+
+namespace {
+
+// Upward unit normal of z = f(x,y) by central differences (NaN where f is absent).
+Vec3 function_normal(const HeightField::Eval& f, Vec2 p) {
+  const double h = 1e-5;
+  double zx0 = f(p.x - h, p.y), zx1 = f(p.x + h, p.y), zy0 = f(p.x, p.y - h), zy1 = f(p.x, p.y + h);
+  const double z = f(p.x, p.y);
+  if (!std::isfinite(z)) return {kNaN, kNaN, kNaN};
+  // One-sided at the footprint's edge.
+  double dx, dy;
+  if (std::isfinite(zx0) && std::isfinite(zx1)) dx = (zx1 - zx0) / (2 * h);
+  else dx = std::isfinite(zx1) ? (zx1 - z) / h : std::isfinite(zx0) ? (z - zx0) / h : 0;
+  if (std::isfinite(zy0) && std::isfinite(zy1)) dy = (zy1 - zy0) / (2 * h);
+  else dy = std::isfinite(zy1) ? (zy1 - z) / h : std::isfinite(zy0) ? (z - zy0) / h : 0;
+  return unit({-dx, -dy, 1});
+}
+
+}  // namespace
+
+Vec3 HeightField::normal(Vec2 p) const {
+  if (impl_->mesh()) return impl_->mesh_normal(p);
+  return function_normal(evaluator(), p);
+}
+
+OffsetMode offset_mode_from_string(const std::string& name) {
+  if (name == "vertical") return OffsetMode::Vertical;
+  if (name == "normal") return OffsetMode::Normal;
+  throw SettingError("unknown offset mode '" + name + "' (expected vertical or normal)");
+}
+const char* to_string(OffsetMode m) { return m == OffsetMode::Vertical ? "vertical" : "normal"; }
+
+namespace {
+
+// --- curves on the surface ---
+
+// Height above XY point p of the surface offset by d along its normals: the upper envelope of
+// balls of radius d centred on the surface, max over |q − p| <= d of f(q) + sqrt(d² − |q − p|²).
+// Equal to the normal offset where the surface bends gently, and still exact in valleys sharper
+// than d (where plain normal offsets cross over each other). Polar samples of the disc, then a
+// shrinking pattern search from the best.
+double envelope_height(const HeightField::Eval& f, Vec2 p, double d) {
+  const double z0 = f(p.x, p.y);
+  if (!std::isfinite(z0) || d <= 0) return z0;
+  auto value = [&](Vec2 q) {
+    const double r2 = (q.x - p.x) * (q.x - p.x) + (q.y - p.y) * (q.y - p.y);
+    if (r2 > d * d) return -1e300;
+    const double z = f(q.x, q.y);
+    return std::isfinite(z) ? z + std::sqrt(d * d - r2) : -1e300;
+  };
+  Vec2 best = p;
+  double vb = z0 + d;
+  constexpr int kRadii = 6, kAngles = 16;
+  for (int i = 1; i <= kRadii; ++i)
+    for (int j = 0; j < kAngles; ++j) {
+      const double r = d * i / kRadii, a = 2 * std::numbers::pi * j / kAngles;
+      const Vec2 q{p.x + r * std::cos(a), p.y + r * std::sin(a)};
+      const double v = value(q);
+      if (v > vb) vb = v, best = q;
+    }
+  for (double step = d / kRadii; step > 1e-9; step *= 0.5) {
+    bool moved = true;
+    for (int guard = 0; moved && guard < 64; ++guard) {
+      moved = false;
+      for (Vec2 dl : {Vec2{step, 0}, Vec2{-step, 0}, Vec2{0, step}, Vec2{0, -step}}) {
+        const double v = value(best + dl);
+        if (v > vb) vb = v, best = best + dl, moved = true;
+      }
+    }
+  }
+  return vb;
+}
+
+// A point of the (offset) surface above XY point p: NaN outside the footprint. Paths stay in
+// their vertical planes in both modes, so the spacing is the path width.
+struct SurfacePoint {
+  const HeightField::Eval& f;
+  OffsetMode mode;
+  double offset;
+  Vec3 operator()(Vec2 p) const {
+    const double z = mode == OffsetMode::Vertical || offset == 0
+                         ? f(p.x, p.y) + offset
+                         : envelope_height(f, p, offset);
+    if (!std::isfinite(z)) return {kNaN, kNaN, kNaN};
+    return {p.x, p.y, z};
+  }
+};
+
+// Douglas–Peucker: keeps the ends and every point needed to stay within `tol` of the polyline.
+std::vector<Vec3> simplify(const std::vector<Vec3>& pts, double tol) {
+  if (pts.size() <= 2) return pts;
+  std::vector<char> keep(pts.size(), 0);
+  keep.front() = keep.back() = 1;
+  std::vector<std::pair<std::size_t, std::size_t>> stack{{0, pts.size() - 1}};
+  while (!stack.empty()) {
+    auto [a, b] = stack.back();
+    stack.pop_back();
+    double worst = -1;
+    std::size_t at = a;
+    for (std::size_t i = a + 1; i < b; ++i) {
+      const double d = distance_to_segment(pts[i], pts[a], pts[b]);
+      if (d > worst) worst = d, at = i;
+    }
+    if (worst > tol) {
+      keep[at] = 1;
+      stack.push_back({a, at});
+      stack.push_back({at, b});
+    }
+  }
+  std::vector<Vec3> out;
+  for (std::size_t i = 0; i < pts.size(); ++i)
+    if (keep[i]) out.push_back(pts[i]);
+  return out;
+}
+
+// Samples the curve c(s) = surface point above a + (b − a)·s for s in [s0, s1] where it exists:
+// pieces split where the footprint ends (ends found by bisection), each refined until the curve
+// at the quarter points of every chord is within `tol` of it.
+std::vector<std::vector<Vec3>> sample_curve(const SurfacePoint& sp, Vec2 a, Vec2 b, double tol,
+                                            double base_step) {
+  const double len = std::hypot(b.x - a.x, b.y - a.y);
+  std::vector<std::vector<Vec3>> pieces;
+  if (len <= 0) return pieces;
+  auto at = [&](double s) { return sp(a + (b - a) * (s / len)); };
+  const int n = std::max(1, static_cast<int>(std::ceil(len / base_step)));
+  std::vector<double> ss(static_cast<std::size_t>(n) + 1);
+  std::vector<Vec3> ps(ss.size());
+  for (int i = 0; i <= n; ++i) {
+    ss[static_cast<std::size_t>(i)] = len * i / n;
+    ps[static_cast<std::size_t>(i)] = at(ss[static_cast<std::size_t>(i)]);
+  }
+  const double min_step = 1e-5;
+  std::vector<Vec3> cur;
+  // Refines between (s0,p0) and (s1,p1), appending points after p0 up to p1.
+  auto refine = [&](auto&& self, double s0, Vec3 p0, double s1, Vec3 p1, int depth) -> void {
+    if (s1 - s0 > min_step && depth < 40) {
+      const double sm = 0.5 * (s0 + s1);
+      const Vec3 pm = at(sm);
+      bool split = !is_finite(pm);
+      if (!split) {
+        for (double f : {0.25, 0.5, 0.75}) {
+          const Vec3 q = f == 0.5 ? pm : at(s0 + (s1 - s0) * f);
+          if (!is_finite(q) || distance_to_segment(q, p0, p1) > tol) {
+            split = true;
+            break;
+          }
+        }
+      }
+      if (split && is_finite(pm)) {
+        self(self, s0, p0, sm, pm, depth + 1);
+        self(self, sm, pm, s1, p1, depth + 1);
+        return;
+      }
+    }
+    cur.push_back(p1);
+  };
+  // Bisection for the footprint edge between a finite and a missing sample.
+  auto edge = [&](double s_in, double s_out) {
+    for (int k = 0; k < 60 && std::abs(s_out - s_in) > 1e-7; ++k) {
+      const double m = 0.5 * (s_in + s_out);
+      if (is_finite(at(m))) s_in = m;
+      else s_out = m;
+    }
+    return s_in;
+  };
+  auto close = [&] {
+    if (cur.size() >= 2 && distance(cur.front(), cur.back()) > 1e-4) pieces.push_back(cur);
+    cur.clear();
+  };
+  double prev_s = 0;
+  Vec3 prev = ps[0];
+  if (is_finite(prev)) cur.push_back(prev);
+  for (std::size_t i = 1; i < ss.size(); ++i) {
+    const Vec3 p = ps[i];
+    const bool fin_prev = is_finite(prev), fin = is_finite(p);
+    if (fin_prev && fin) {
+      refine(refine, prev_s, prev, ss[i], p, 0);
+    } else if (fin_prev && !fin) {
+      const double e = edge(prev_s, ss[i]);
+      if (e > prev_s) refine(refine, prev_s, prev, e, at(e), 0);
+      close();
+    } else if (!fin_prev && fin) {
+      const double e = edge(ss[i], prev_s);
+      cur.push_back(at(e));
+      if (ss[i] > e) refine(refine, e, cur.back(), ss[i], p, 0);
+    }
+    prev_s = ss[i];
+    prev = p;
+  }
+  close();
+  return pieces;
+}
+
+// The u-interval of the line {p : dot(p, n) = v} (direction d) inside a box, empty if none.
+bool clip_line(const BBox2& box, Vec2 d, Vec2 n, double v, double* u0, double* u1) {
+  double lo = -1e300, hi = 1e300;
+  const Vec2 o = n * v;  // a point of the line; points are o + d·u
+  const double oc[2] = {o.x, o.y}, dc[2] = {d.x, d.y};
+  const double mn[2] = {box.min.x, box.min.y}, mx[2] = {box.max.x, box.max.y};
+  for (int k = 0; k < 2; ++k) {
+    if (std::abs(dc[k]) < 1e-15) {
+      if (oc[k] < mn[k] || oc[k] > mx[k]) return false;
+      continue;
+    }
+    double a = (mn[k] - oc[k]) / dc[k], b = (mx[k] - oc[k]) / dc[k];
+    if (a > b) std::swap(a, b);
+    lo = std::max(lo, a), hi = std::min(hi, b);
+  }
+  if (hi <= lo) return false;
+  *u0 = lo, *u1 = hi;
+  return true;
+}
+
+struct Line {
+  double v = 0;
+  std::vector<std::vector<Vec3>> pieces;  // in increasing u
+};
+
+// Exact sections of a mesh by the lines v = v_i (direction d): triangle cuts chained in u.
+// Throws when two cuts overlap in u at different heights (a fold the facet test cannot see).
+void mesh_sections(const HeightField::Impl& m, Vec2 d, Vec2 n, std::vector<Line>& lines, double v0,
+                   double w, const std::string& name) {
+  std::vector<std::vector<std::uint32_t>> bucket(lines.size());
+  for (std::size_t t = 0; t < m.triangles.size(); ++t) {
+    const auto q = m.tri(t);
+    double lo = 1e300, hi = -1e300;
+    for (const auto& p : q) {
+      const double v = n.x * p.x + n.y * p.y;
+      lo = std::min(lo, v), hi = std::max(hi, v);
+    }
+    const long i0 = std::max(0L, static_cast<long>(std::ceil((lo - v0) / w - 1e-12)));
+    const long i1 = std::min(static_cast<long>(lines.size()) - 1,
+                             static_cast<long>(std::floor((hi - v0) / w + 1e-12)));
+    for (long i = i0; i <= i1; ++i) bucket[static_cast<std::size_t>(i)].push_back(
+        static_cast<std::uint32_t>(t));
+  }
+  std::mutex error_mutex;
+  std::string error;
+  tbb::parallel_for(std::size_t{0}, lines.size(), [&](std::size_t li) {
+    const double vl = lines[li].v;
+    struct Cut {
+      double u0, u1;
+      Vec3 p0, p1;
+    };
+    std::vector<Cut> cuts;
+    for (auto t : bucket[li]) {
+      const auto q = m.tri(t);
+      // Vertices on the line count as above it, so each crossing is found once.
+      Vec3 hits[3];
+      int nh = 0;
+      for (int e = 0; e < 3; ++e) {
+        const Vec3 a = q[e], b = q[(e + 1) % 3];
+        const double va = n.x * a.x + n.y * a.y - vl, vb = n.x * b.x + n.y * b.y - vl;
+        if ((va >= 0) != (vb >= 0)) {
+          const double s = va / (va - vb);
+          hits[nh++] = a + (b - a) * s;
+        }
+      }
+      if (nh != 2) continue;
+      double u0 = d.x * hits[0].x + d.y * hits[0].y, u1 = d.x * hits[1].x + d.y * hits[1].y;
+      Vec3 p0 = hits[0], p1 = hits[1];
+      if (u1 < u0) std::swap(u0, u1), std::swap(p0, p1);
+      if (u1 - u0 < 1e-12) continue;
+      cuts.push_back({u0, u1, p0, p1});
+    }
+    std::sort(cuts.begin(), cuts.end(), [](const Cut& a, const Cut& b) { return a.u0 < b.u0; });
+    auto& pieces = lines[li].pieces;
+    double end_u = -1e300;
+    const double eps = 1e-7;
+    for (const auto& c : cuts) {
+      if (!pieces.empty() && c.u0 < end_u - eps) {
+        std::lock_guard lock(error_mutex);
+        if (error.empty())
+          error = "surface '" + name + "' is not a height field: above " +
+                  fmt_xy(c.p0.xy()) + " it is at z " + fmt_mm(c.p0.z) + " and at z " +
+                  fmt_mm(pieces.back().back().z);
+        return;
+      }
+      if (!pieces.empty() && c.u0 <= end_u + eps &&
+          std::abs(c.p0.z - pieces.back().back().z) < 1e-6)
+        pieces.back().push_back(c.p1);
+      else
+        pieces.push_back({c.p0, c.p1});
+      end_u = c.u1;
+    }
+  });
+  if (!error.empty()) throw GeometryError(error);
+}
+
+// The plane sections of one layer: lines across the footprint spaced by the width, each cut into
+// pieces where the surface exists, sampled within the chord tolerance.
+std::vector<Line> layer_lines(const HeightField& surface, double angle_deg, double offset,
+                              const NonplanarParams& prm) {
+  const double a = angle_deg * std::numbers::pi / 180;
+  const Vec2 d{std::cos(a), std::sin(a)}, n{-std::sin(a), std::cos(a)};
+  const BBox2 box = surface.domain();
+  double vlo = 1e300, vhi = -1e300;
+  const auto& impl = surface.impl();
+  if (impl.mesh()) {
+    for (const auto& t : impl.triangles)
+      for (auto vi : t) {
+        const double v = n.x * impl.vertices[vi].x + n.y * impl.vertices[vi].y;
+        vlo = std::min(vlo, v), vhi = std::max(vhi, v);
+      }
+  } else {
+    for (Vec2 c : {box.min, box.max, Vec2{box.min.x, box.max.y}, Vec2{box.max.x, box.min.y}}) {
+      const double v = n.x * c.x + n.y * c.y;
+      vlo = std::min(vlo, v), vhi = std::max(vhi, v);
+    }
+  }
+  const double w = prm.width;
+  const std::size_t count =
+      static_cast<std::size_t>(std::max(1.0, std::round((vhi - vlo) / w)));
+  const double v0 = vlo + 0.5 * ((vhi - vlo) - static_cast<double>(count - 1) * w);
+  std::vector<Line> lines(count);
+  for (std::size_t i = 0; i < count; ++i) lines[i].v = v0 + static_cast<double>(i) * w;
+  const double tol = prm.chord_tolerance;
+  if (impl.mesh() && (prm.offset == OffsetMode::Vertical || offset == 0)) {
+    mesh_sections(impl, d, n, lines, v0, w, surface.name());
+    tbb::parallel_for(std::size_t{0}, lines.size(), [&](std::size_t i) {
+      for (auto& p : lines[i].pieces) {
+        p = simplify(p, tol);
+        if (offset != 0)
+          for (auto& q : p) q.z += offset;
+      }
+    });
+    return lines;
+  }
+  // Functions (and meshes in normal mode): adaptive sampling along each line; the deviation is
+  // refined at half the tolerance and simplified with the other half.
+  tbb::enumerable_thread_specific<HeightField::Eval> evals([&] { return surface.evaluator(); });
+  const double step = std::clamp(w / 4, 0.01, 0.1);
+  tbb::parallel_for(std::size_t{0}, lines.size(), [&](std::size_t i) {
+    double u0, u1;
+    if (!clip_line(box, d, n, lines[i].v, &u0, &u1)) return;
+    auto& f = evals.local();
+    const SurfacePoint sp{f, prm.offset, offset};
+    const Vec2 o = n * lines[i].v;
+    lines[i].pieces = sample_curve(sp, o + d * u0, o + d * u1, tol * 0.5, step);
+    for (auto& p : lines[i].pieces) p = simplify(p, tol * 0.5);
+  });
+  return lines;
+}
+
+}  // namespace
+
+NonplanarResult slice_nonplanar(const HeightField& surface, const NonplanarParams& prm) {
+  if (!(prm.width > 0) || !(prm.layer_height >= 0) || prm.layers < 1 || prm.angles.empty() ||
+      prm.layer_tools.empty() || !(prm.chord_tolerance > 0))
+    throw SettingError(
+        "non-planar slicing needs width > 0, layer height >= 0, layers >= 1, at least one angle "
+        "and tool, and a chord tolerance > 0");
+  for (int t : prm.layer_tools)
+    if (t < 0) throw SettingError("tool numbers start at 0", {"", 0, "layer tools"});
+  const double max_join = prm.max_join > 0 ? prm.max_join : 4 * prm.width;
+  NonplanarResult res;
+  res.toolpath.source = "trellis nonplanar (" + surface.name() + ")";
+  res.toolpath.layers.resize(static_cast<std::size_t>(prm.layers));
+  res.layers.resize(res.toolpath.layers.size());
+  // Vertical mode: one set of sections per direction, lifted per layer.
+  std::map<double, std::vector<Line>> base;
+  if (prm.offset == OffsetMode::Vertical)
+    for (double a : prm.angles)
+      if (!base.count(a)) base[a] = layer_lines(surface, a, 0, prm);
+  std::vector<std::vector<Line>> per_layer(res.layers.size());
+  tbb::parallel_for(std::size_t{0}, res.layers.size(), [&](std::size_t k) {
+    const double angle = prm.angles[k % prm.angles.size()];
+    const double off = static_cast<double>(k) * prm.layer_height;
+    if (prm.offset == OffsetMode::Vertical) {
+      per_layer[k] = base.at(angle);
+      for (auto& l : per_layer[k])
+        for (auto& p : l.pieces)
+          for (auto& q : p) q.z += off;
+    } else {
+      per_layer[k] = layer_lines(surface, angle, off, prm);
+    }
+  });
+  // Join each layer's pieces by nearest neighbour, starting where the previous layer ended.
+  Vec3 cursor{kNaN, kNaN, kNaN};
+  HeightField::Eval f = surface.evaluator();
+  for (std::size_t k = 0; k < res.layers.size(); ++k) {
+    auto& rep = res.layers[k];
+    rep.angle = prm.angles[k % prm.angles.size()];
+    rep.tool = prm.layer_tools[k % prm.layer_tools.size()];
+    rep.offset = static_cast<double>(k) * prm.layer_height;
+    auto& layer = res.toolpath.layers[k];
+    layer.z = rep.offset;
+    std::vector<std::vector<Vec3>> pieces;
+    std::vector<char> extreme;  // pieces of the first and last line that has any
+    {
+      long first = -1, last = -1;
+      for (std::size_t i = 0; i < per_layer[k].size(); ++i)
+        if (!per_layer[k][i].pieces.empty()) {
+          if (first < 0) first = static_cast<long>(i);
+          last = static_cast<long>(i);
+        }
+      for (std::size_t i = 0; i < per_layer[k].size(); ++i)
+        for (auto& p : per_layer[k][i].pieces) {
+          pieces.push_back(std::move(p));
+          extreme.push_back(static_cast<long>(i) == first || static_cast<long>(i) == last);
+        }
+    }
+    rep.lines = pieces.size();
+    if (pieces.empty()) continue;
+    std::vector<char> used(pieces.size(), 0);
+    const SurfacePoint sp{f, prm.offset, rep.offset};
+    Path cur;
+    auto flush = [&] {
+      if (cur.points.size() >= 2) {
+        cur.role = PathRole::Other;
+        cur.tool = rep.tool;
+        cur.width = prm.width;
+        cur.height = prm.layer_height;
+        cur.speed = prm.speed;
+        layer.paths.push_back(std::move(cur));
+      }
+      cur = Path{};
+    };
+    std::size_t next = 0;
+    bool reverse = false;
+    // A serpentine starts at an outer line (otherwise nearest-neighbour strands the lines on
+    // one side), at the end nearest to where the previous layer ended.
+    if (is_finite(cursor)) {
+      double best = 1e300;
+      for (std::size_t i = 0; i < pieces.size(); ++i)
+        for (int e = 0; e < 2 && extreme[i]; ++e) {
+          const double dd = distance_xy(cursor, e ? pieces[i].back() : pieces[i].front());
+          if (dd < best) best = dd, next = i, reverse = e == 1;
+        }
+    }
+    for (std::size_t done = 0; done < pieces.size(); ++done) {
+      auto piece = std::move(pieces[next]);
+      used[next] = 1;
+      if (reverse) std::reverse(piece.begin(), piece.end());
+      bool joined = false;
+      if (!cur.points.empty()) {
+        const Vec3 a = cur.points.back(), b = piece.front();
+        if (distance_xy(a, b) <= max_join) {
+          auto conn = sample_curve(sp, a.xy(), b.xy(), prm.chord_tolerance * 0.5,
+                                   std::clamp(prm.width / 4, 0.01, 0.1));
+          if (conn.size() == 1 && distance_xy(conn[0].front(), a) < 1e-6 &&
+              distance_xy(conn[0].back(), b) < 1e-6) {
+            auto c = simplify(conn[0], prm.chord_tolerance * 0.5);
+            double clen = 0;
+            for (std::size_t i = 1; i < c.size(); ++i) clen += distance(c[i - 1], c[i]);
+            rep.connector_length += clen;
+            cur.points.insert(cur.points.end(), c.begin() + 1, c.end() - 1);
+            joined = true;
+          }
+        }
+        if (!joined) flush();
+      }
+      if (!joined) {
+        cur.points = std::move(piece);
+      } else {
+        const bool same = distance(cur.points.back(), piece.front()) < 1e-9;
+        cur.points.insert(cur.points.end(), piece.begin() + (same ? 1 : 0), piece.end());
+      }
+      // Nearest unused end.
+      double best = 1e300;
+      for (std::size_t i = 0; i < pieces.size(); ++i) {
+        if (used[i]) continue;
+        for (int e = 0; e < 2; ++e) {
+          const double dd = distance_xy(cur.points.back(), e ? pieces[i].back() : pieces[i].front());
+          if (dd < best) best = dd, next = i, reverse = e == 1;
+        }
+      }
+    }
+    cursor = cur.points.back();
+    flush();
+    rep.paths = layer.paths.size();
+    rep.travel_moves = rep.paths - 1;
+    for (const auto& p : layer.paths) rep.length += p.length();
+    for (const auto& p : layer.paths)
+      for (std::size_t i = 1; i < p.points.size(); ++i) {
+        const Vec3 s = p.points[i] - p.points[i - 1];
+        if (s.z < 0)
+          res.max_descent_deg = std::max(
+              res.max_descent_deg, std::atan2(-s.z, std::hypot(s.x, s.y)) * 180 / std::numbers::pi);
+      }
+  }
+  return res;
+}
+
+
+namespace {
+
+// Distance from q to the surface z = f(x, y), by a grid search around q then a shrinking pattern
+// search (no normals used: an independent measure for the normal-offset check).
+double distance_to_surface(const HeightField::Eval& f, Vec3 q, double radius) {
+  auto g = [&](Vec2 p) {
+    const double z = f(p.x, p.y);
+    if (!std::isfinite(z)) return 1e300;
+    return (p.x - q.x) * (p.x - q.x) + (p.y - q.y) * (p.y - q.y) + (z - q.z) * (z - q.z);
+  };
+  Vec2 best = q.xy();
+  double gb = g(best);
+  const int n = 8;
+  const double r = radius + 0.05;
+  for (int i = -n; i <= n; ++i)
+    for (int j = -n; j <= n; ++j) {
+      const Vec2 p{q.x + r * i / n, q.y + r * j / n};
+      const double v = g(p);
+      if (v < gb) gb = v, best = p;
+    }
+  for (double step = r / n; step > 1e-8; step *= 0.5) {
+    bool moved = true;
+    while (moved) {
+      moved = false;
+      for (Vec2 dlt : {Vec2{step, 0}, Vec2{-step, 0}, Vec2{0, step}, Vec2{0, -step},
+                       Vec2{step, step}, Vec2{-step, -step}, Vec2{step, -step}, Vec2{-step, step}}) {
+        const double v = g(best + dlt);
+        if (v < gb) gb = v, best = best + dlt, moved = true;
+      }
+    }
+  }
+  return std::sqrt(gb);
+}
+
+}  // namespace
+
+SurfaceDeviation surface_deviation(const Toolpath& tp, const HeightField& surface,
+                                   const NonplanarParams& prm) {
+  SurfaceDeviation out;
+  std::mutex m;
+  tbb::enumerable_thread_specific<HeightField::Eval> evals([&] { return surface.evaluator(); });
+  tbb::parallel_for(std::size_t{0}, tp.layers.size(), [&](std::size_t k) {
+    auto& f = evals.local();
+    const double off = static_cast<double>(k) * prm.layer_height;
+    // Vertices: vertical mode exactly |z − f − k·h|; otherwise (and for chord midpoints) the
+    // distance to the surface by minimisation, minus k·h.
+    auto dev = [&](Vec3 q, bool chord) {
+      if (prm.offset == OffsetMode::Vertical) {
+        const double z = f(q.x, q.y);
+        if (!std::isfinite(z)) return 1e300;
+        if (!chord) return std::abs(q.z - z - off);
+        q.z -= off;
+        return distance_to_surface(f, q, std::abs(q.z - z));
+      }
+      return std::abs(distance_to_surface(f, q, off) - off);
+    };
+    SurfaceDeviation local;
+    for (const auto& p : tp.layers[k].paths)
+      for (std::size_t i = 0; i < p.points.size(); ++i) {
+        const double d = dev(p.points[i], false);
+        if (d > local.max_point) local.max_point = d, local.worst = p.points[i];
+        if (i > 0) local.max_chord = std::max(local.max_chord,
+                                              dev((p.points[i - 1] + p.points[i]) * 0.5, true));
+      }
+    std::lock_guard lock(m);
+    if (local.max_point > out.max_point) out.max_point = local.max_point, out.worst = local.worst;
+    out.max_chord = std::max(out.max_chord, local.max_chord);
+  });
+  return out;
+}
+
+double footprint_coverage(const Toolpath& tp, std::size_t layer, const HeightField& surface,
+                          double width, double pixel) {
+  if (layer >= tp.layers.size()) return 0;
+  const BBox2 box = surface.domain();
+  const long nx = std::max(1L, static_cast<long>(std::ceil(box.width() / pixel)));
+  const long ny = std::max(1L, static_cast<long>(std::ceil(box.height() / pixel)));
+  std::vector<char> covered(static_cast<std::size_t>(nx * ny), 0);
+  const double r = width / 2;
+  for (const auto& p : tp.layers[layer].paths)
+    for (std::size_t i = 1; i < p.points.size(); ++i) {
+      Vec3 a = p.points[i - 1], b = p.points[i];
+      a.z = b.z = 0;
+      const long i0 = std::max(0L, static_cast<long>((std::min(a.x, b.x) - r - box.min.x) / pixel));
+      const long i1 = std::min(nx - 1, static_cast<long>((std::max(a.x, b.x) + r - box.min.x) / pixel));
+      const long j0 = std::max(0L, static_cast<long>((std::min(a.y, b.y) - r - box.min.y) / pixel));
+      const long j1 = std::min(ny - 1, static_cast<long>((std::max(a.y, b.y) + r - box.min.y) / pixel));
+      for (long j = j0; j <= j1; ++j)
+        for (long i = i0; i <= i1; ++i) {
+          const Vec3 c{box.min.x + (i + 0.5) * pixel, box.min.y + (j + 0.5) * pixel, 0};
+          if (distance_to_segment(c, a, b) <= r) covered[static_cast<std::size_t>(j * nx + i)] = 1;
+        }
+    }
+  std::atomic<long> inside{0}, hit{0};
+  tbb::enumerable_thread_specific<HeightField::Eval> evals([&] { return surface.evaluator(); });
+  tbb::parallel_for(0L, ny, [&](long j) {
+    auto& f = evals.local();
+    long in = 0, h = 0;
+    for (long i = 0; i < nx; ++i) {
+      if (!std::isfinite(f(box.min.x + (i + 0.5) * pixel, box.min.y + (j + 0.5) * pixel))) continue;
+      ++in;
+      h += covered[static_cast<std::size_t>(j * nx + i)];
+    }
+    inside += in, hit += h;
+  });
+  return inside > 0 ? static_cast<double>(hit) / static_cast<double>(inside) : 0;
+}
+
+std::string nonplanar_report_json(const NonplanarResult& r, const NonplanarParams& prm,
+                                  const HeightField& surface, const SurfaceDeviation& dev) {
+  nlohmann::ordered_json j;
+  j["surface"] = surface.name();
+  j["kind"] = surface.is_mesh() ? "mesh" : "function";
+  j["footprint_mm"] = {surface.domain().width(), surface.domain().height()};
+  j["path_width_mm"] = prm.width;
+  j["layer_height_mm"] = prm.layer_height;
+  j["offset"] = to_string(prm.offset);
+  j["chord_tolerance_mm"] = prm.chord_tolerance;
+  j["layers"] = r.layers.size();
+  double length = 0, conn = 0;
+  std::size_t travel = 0, changes = 0;
+  for (std::size_t k = 0; k < r.layers.size(); ++k) {
+    length += r.layers[k].length, conn += r.layers[k].connector_length;
+    travel += r.layers[k].travel_moves;
+    if (k > 0 && r.layers[k].tool != r.layers[k - 1].tool) ++changes;
+  }
+  j["path_length_mm"] = length;
+  j["connector_length_mm"] = conn;
+  j["travel_moves_within_layers"] = travel;
+  j["tool_changes"] = changes;
+  j["max_descent_deg"] = r.max_descent_deg;
+  j["max_deviation_mm"] = dev.max_point;
+  j["max_chord_deviation_mm"] = dev.max_chord;
+  auto layers = nlohmann::ordered_json::array();
+  for (const auto& l : r.layers)
+    layers.push_back({{"offset_mm", l.offset},
+                      {"angle_deg", l.angle},
+                      {"tool", l.tool},
+                      {"lines", l.lines},
+                      {"paths", l.paths},
+                      {"travel_moves", l.travel_moves},
+                      {"length_mm", l.length},
+                      {"connector_length_mm", l.connector_length}});
+  j["per_layer"] = layers;
+  return j.dump(2) + "\n";
+}
+
+Toolpath project_onto_surface(const Toolpath& planar, const HeightField& surface,
+                              const ProjectParams& prm) {
+  if (planar.layers.empty()) throw GeometryError("nothing to project: the toolpath has no layers");
+  if (!(prm.chord_tolerance > 0)) throw SettingError("the chord tolerance must be > 0");
+  const Vec3 dir = unit(prm.direction);
+  if (!(norm(prm.direction) > 0) || dir.z >= -1e-9)
+    throw SettingError("the projection direction must point down towards the surface (z < 0)");
+  const bool vertical = std::hypot(dir.x, dir.y) < 1e-12;
+  const BBox2 box = surface.domain();
+  const double reach = std::hypot(box.width(), box.height());
+  Toolpath out;
+  out.source = planar.source + " on " + surface.name();
+  out.layers.resize(planar.layers.size());
+  const double z0 = planar.layers.front().z;
+  std::mutex m;
+  std::string error;
+  tbb::enumerable_thread_specific<HeightField::Eval> evals([&] { return surface.evaluator(); });
+  tbb::parallel_for(std::size_t{0}, planar.layers.size(), [&](std::size_t k) {
+    auto& f = evals.local();
+    const auto& in = planar.layers[k];
+    const double off = prm.layer_height > 0 ? static_cast<double>(k) * prm.layer_height
+                                            : in.z - z0;
+    // Where the ray from the planar point along `dir` meets the surface; NaN if it does not.
+    auto base = [&](Vec3 p) -> Vec2 {
+      if (vertical) return p.xy();
+      // g(s) = height of the ray above the surface; first sign change from above, refined.
+      auto g = [&](double s) {
+        const Vec3 q = p + dir * s;
+        const double z = f(q.x, q.y);
+        return std::isfinite(z) ? q.z - z : kNaN;
+      };
+      const double step = 0.05;
+      double s0 = -reach, g0 = g(s0);
+      for (double s = -reach + step; s <= reach; s += step) {
+        const double gs = g(s);
+        if (std::isfinite(g0) && std::isfinite(gs) && g0 >= 0 && gs <= 0) {
+          double lo = s0, hi = s;
+          for (int it = 0; it < 60; ++it) {
+            const double mid = 0.5 * (lo + hi);
+            (g(mid) >= 0 ? lo : hi) = mid;
+          }
+          return (p + dir * lo).xy();
+        }
+        s0 = s, g0 = gs;
+      }
+      return {kNaN, kNaN};
+    };
+    const SurfacePoint sp{f, prm.offset, off};
+    auto& layer = out.layers[k];
+    layer.z = off;
+    for (std::size_t pi = 0; pi < in.paths.size(); ++pi) {
+      const Path& src = in.paths[pi];
+      Path dst = src;
+      dst.points.clear();
+      for (std::size_t i = 1; i < src.points.size(); ++i) {
+        const Vec2 a = base(src.points[i - 1]), b = base(src.points[i]);
+        std::vector<std::vector<Vec3>> pieces;
+        if (std::isfinite(a.x) && std::isfinite(b.x))
+          pieces = sample_curve(sp, a, b, prm.chord_tolerance * 0.5, 0.1);
+        if (pieces.size() != 1 || distance_xy(pieces[0].front(), sp(a)) > 1e-6 ||
+            distance_xy(pieces[0].back(), sp(b)) > 1e-6) {
+          std::lock_guard lock(m);
+          if (error.empty())
+            error = "layer " + std::to_string(k + 1) + " path " + std::to_string(pi + 1) +
+                    " leaves the footprint of surface '" + surface.name() + "' between " +
+                    fmt_xy(src.points[i - 1].xy()) + " and " + fmt_xy(src.points[i].xy());
+          return;
+        }
+        auto seg = simplify(pieces[0], prm.chord_tolerance * 0.5);
+        dst.points.insert(dst.points.end(), seg.begin() + (dst.points.empty() ? 0 : 1), seg.end());
+      }
+      if (dst.points.size() >= 2) layer.paths.push_back(std::move(dst));
+    }
+  });
+  if (!error.empty()) throw GeometryError(error);
+  return out;
+}
+
+}  // namespace trellis
