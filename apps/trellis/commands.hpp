@@ -22,6 +22,8 @@ void add_slice(CLI::App& app);
 void add_pbf(CLI::App& app);
 void add_lattice3d(CLI::App& app);
 void add_check(CLI::App& app);
+void add_nonplanar(CLI::App& app);
+void add_surface(CLI::App& app);
 
 // Exit status of the run when no error was thrown (e.g. 1 when a check found problems).
 void set_exit_code(int code);

@@ -109,6 +109,8 @@ int main(int argc, char** argv) {
   trellis::cli::add_walls(app);
   trellis::cli::add_slice(app);
   trellis::cli::add_pbf(app);
+  trellis::cli::add_nonplanar(app);
+  trellis::cli::add_surface(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

@@ -76,6 +76,7 @@ class Writer {
   Writer(const MachineProfile& p, const Toolpath& tp) : p_(p), tp_(tp) {
     flavor_ = p.parsed_flavor();
     down_flow_ = p.down_flow_table();
+    e_axis_ = flavor_ == Flavor::Marlin || (flavor_ == Flavor::Embedded && p.embedded_drive == "syringe");
     placement();
   }
 
@@ -151,7 +152,7 @@ class Writer {
     line("; placement offset = " + std::to_string(dx_) + ", " + std::to_string(dy_));
     line("G21 ; millimetres");
     line("G90 ; absolute positions");
-    if (flavor_ == Flavor::Marlin) line(p_.relative_e ? "M83 ; relative E" : "M82 ; absolute E");
+    if (e_axis_) line(p_.relative_e ? "M83 ; relative E" : "M82 ; absolute E");
     auto temp = [&](const char* cmd, double t) {
       out_ += cmd;
       append_fixed(out_, t, 1);
@@ -169,7 +170,7 @@ class Writer {
     if (!start.empty()) line(start);
     if (p_.fan_percent > 0)
       line("M106 S" + std::to_string(static_cast<int>(std::lround(p_.fan_percent * 2.55))));
-    if (flavor_ == Flavor::Marlin) line("G92 E0");
+    if (e_axis_) line("G92 E0");
   }
 
   void footer() {
@@ -201,7 +202,7 @@ class Writer {
     out_ += "\n;Z:";
     append_fixed(out_, l.z, 3);
     out_ += '\n';
-    if (flavor_ == Flavor::Marlin && !p_.relative_e && e_ != 0 && !retracted_) {
+    if (e_axis_ && !p_.relative_e && e_ != 0 && !retracted_) {
       line("G92 E0");
       e_ = 0;
     }
@@ -243,6 +244,24 @@ class Writer {
   void travel_embedded(Vec3 q) {
     if (known_ && distance_xy(pos_, q) < 1e-9 && std::abs(pos_.z - q.z) < 1e-9) return;
     const double d = known_ ? distance_xy(pos_, q) : 0;
+    // A short hop inside the bath (e.g. to the next non-planar layer) stays in it.
+    if (known_ && printed_ && pos_.z < safe_z_ - 1e-9 && distance(pos_, q) <= p_.bath_travel) {
+      out_ += "G0 X";
+      const Vec2 o = offset();
+      append_fixed(out_, q.x + dx_ + o.x, 3);
+      out_ += " Y";
+      append_fixed(out_, q.y + dy_ + o.y, 3);
+      out_ += " Z";
+      append_fixed(out_, q.z, 3);
+      out_ += " F";
+      feed(p_.travel_speed);
+      out_ += '\n';
+      ++stats_.travel_moves;
+      stats_.travel_length += d;
+      stats_.print_time_s += move_time(distance(pos_, q), p_.travel_speed, p_.acceleration);
+      pos_ = q;
+      return;
+    }
     if (!known_ || pos_.z < safe_z_ - 1e-9) move_z(safe_z_);
     move_xy(q, d);
     known_ = true;
@@ -407,7 +426,7 @@ class Writer {
     const Path& path = *pp;
     travel_to(path.points.front());
     emit_changes(1, 0.0);
-    const bool marlin = flavor_ == Flavor::Marlin;
+    const bool marlin = e_axis_;  // E per segment (Marlin, or an embedded syringe pump)
     const MachineProfile& pressure_profile = embedded ? tool_profile_ : p_;
     if (marlin) {
       extra_filament(p_.pre_flow);
@@ -498,7 +517,8 @@ class Writer {
   Vec2 tool_offset_;         // ... its XY offset
   MachineProfile tool_profile_;  // ... the profile with its pressure
   std::vector<std::pair<double, double>> down_flow_;  // (descent deg, factor), by angle
-  double last_feed_ = -1;                              // F of the previous printing move
+  double last_feed_ = -1;
+  bool e_axis_ = false;  // moves carry E                              // F of the previous printing move
 
   // Flow factor of a move from pos_ to q (1 unless it descends steeply).
   double down_factor(Vec3 q) const {

@@ -27,7 +27,7 @@ const std::vector<SettingDecl>& machine_settings() {
       {"placement.offset_y", "mm", "Y offset added after centring", -10000, 10000, &P::offset_y},
       {"extrusion.nozzle_diameter", "mm", "nozzle diameter d_n (Eq. 4)", 0.01, 10,
        &P::nozzle_diameter},
-      {"extrusion.filament_diameter", "mm", "filament diameter f_d (Eq. 4)", 0.1, 10,
+      {"extrusion.filament_diameter", "mm", "filament diameter f_d (Eq. 4; a syringe: the barrel bore)", 0.1, 100,
        &P::filament_diameter},
       {"extrusion.layer_height", "mm", "layer thickness LT when a path has none (Eq. 4)", 0.001, 10,
        &P::layer_height},
@@ -84,6 +84,13 @@ const std::vector<SettingDecl>& machine_settings() {
        &P::tool_pressures},
       {"embedded.tool_change", "", "command selecting a tool; {tool} is its number", 0, 0,
        &P::tool_change},
+      {"embedded.drive", "",
+       "how ink is pushed: pressure (valve on/off, pneumatic.pressure) or syringe (a stepper "
+       "syringe pump on E, Eq. 4 with extrusion.filament_diameter = the plunger diameter)",
+       0, 0, &P::embedded_drive},
+      {"embedded.bath_travel", "mm",
+       "travel moves up to this long stay inside the bath instead of lifting out (e.g. between "
+       "non-planar layers); tool changes always lift", 0, 10000, &P::bath_travel},
       {"embedded.raise_idle", "", "command raising the nozzle {tool} that goes idle; empty = none",
        0, 0, &P::raise_idle},
       {"gradient.mode", "",
@@ -326,6 +333,10 @@ void validate(const MachineProfile& p) {
   p.tool_offset(0);
   p.tool_pressure(0);
   p.down_flow_table();
+  if (p.embedded_drive != "pressure" && p.embedded_drive != "syringe")
+    throw SettingError("unknown embedded drive '" + p.embedded_drive +
+                           "' (expected pressure or syringe)",
+                       {"", 0, "embedded.drive"});
 }
 
 std::string setting_text(const MachineProfile& p, const SettingDecl& d) {

@@ -336,8 +336,11 @@ HeightField::Eval HeightField::evaluator() const {
   }
   Eval f = impl_->make();
   const BBox2 d = impl_->domain;
-  return [f, d](double x, double y) {
-    if (!d.contains({x, y})) return kNaN;
+  // Points a rounding error outside the domain (line ends, connectors along its edge) count.
+  const double eps = 1e-9 * std::max({1.0, d.width(), d.height()});
+  return [f, d, eps](double x, double y) {
+    if (x < d.min.x - eps || x > d.max.x + eps || y < d.min.y - eps || y > d.max.y + eps)
+      return kNaN;
     const double z = f(x, y);
     return std::isfinite(z) ? z : kNaN;
   };
@@ -636,6 +639,50 @@ void mesh_sections(const HeightField::Impl& m, Vec2 d, Vec2 n, std::vector<Line>
   if (!error.empty()) throw GeometryError(error);
 }
 
+// The extent of a function's footprint across direction d (along n): a grid of samples, then
+// each side refined by bisection on "does the line at v meet the surface" — so the lines can be
+// centred on the footprint, not on the domain around it.
+void footprint_vrange(const HeightField& surface, Vec2 d, Vec2 n, double w, double* vlo,
+                      double* vhi) {
+  const BBox2 box = surface.domain();
+  auto f = surface.evaluator();
+  const double step = std::max(w / 4, std::max(box.width(), box.height()) / 2000);
+  const long nx = static_cast<long>(std::ceil(box.width() / step));
+  const long ny = static_cast<long>(std::ceil(box.height() / step));
+  double lo = 1e300, hi = -1e300;
+  for (long j = 0; j <= ny; ++j)
+    for (long i = 0; i <= nx; ++i) {
+      const double x = box.min.x + box.width() * i / nx, y = box.min.y + box.height() * j / ny;
+      if (!std::isfinite(f(x, y))) continue;
+      const double v = n.x * x + n.y * y;
+      lo = std::min(lo, v), hi = std::max(hi, v);
+    }
+  if (lo > hi) throw GeometryError("surface '" + surface.name() + "' has no footprint in its domain");
+  double dlo = 1e300, dhi = -1e300;
+  for (Vec2 c : {box.min, box.max, Vec2{box.min.x, box.max.y}, Vec2{box.max.x, box.min.y}}) {
+    const double v = n.x * c.x + n.y * c.y;
+    dlo = std::min(dlo, v), dhi = std::max(dhi, v);
+  }
+  auto meets = [&](double v) {
+    double u0, u1;
+    if (!clip_line(box, d, n, v, &u0, &u1)) return false;
+    const double s = std::min(step / 2, 0.05);
+    for (double u = u0; u <= u1; u += s)
+      if (std::isfinite(f(n.x * v + d.x * u, n.y * v + d.y * u))) return true;
+    return std::isfinite(f(n.x * v + d.x * u1, n.y * v + d.y * u1));
+  };
+  auto refine = [&](double in, double out) {
+    if (meets(out)) return out;
+    for (int k = 0; k < 30 && std::abs(out - in) > 1e-6; ++k) {
+      const double m = 0.5 * (in + out);
+      (meets(m) ? in : out) = m;
+    }
+    return in;
+  };
+  *vlo = refine(lo, std::max(dlo, lo - 2 * step));
+  *vhi = refine(hi, std::min(dhi, hi + 2 * step));
+}
+
 // The plane sections of one layer: lines across the footprint spaced by the width, each cut into
 // pieces where the surface exists, sampled within the chord tolerance.
 std::vector<Line> layer_lines(const HeightField& surface, double angle_deg, double offset,
@@ -652,10 +699,7 @@ std::vector<Line> layer_lines(const HeightField& surface, double angle_deg, doub
         vlo = std::min(vlo, v), vhi = std::max(vhi, v);
       }
   } else {
-    for (Vec2 c : {box.min, box.max, Vec2{box.min.x, box.max.y}, Vec2{box.max.x, box.min.y}}) {
-      const double v = n.x * c.x + n.y * c.y;
-      vlo = std::min(vlo, v), vhi = std::max(vhi, v);
-    }
+    footprint_vrange(surface, d, n, prm.width, &vlo, &vhi);
   }
   const double w = prm.width;
   const std::size_t count =
@@ -736,6 +780,7 @@ NonplanarResult slice_nonplanar(const HeightField& surface, const NonplanarParam
     layer.z = rep.offset;
     std::vector<std::vector<Vec3>> pieces;
     std::vector<char> extreme;  // pieces of the first and last line that has any
+    std::vector<long> line_of;  // line index of each piece
     {
       long first = -1, last = -1;
       for (std::size_t i = 0; i < per_layer[k].size(); ++i)
@@ -746,6 +791,7 @@ NonplanarResult slice_nonplanar(const HeightField& surface, const NonplanarParam
       for (std::size_t i = 0; i < per_layer[k].size(); ++i)
         for (auto& p : per_layer[k][i].pieces) {
           pieces.push_back(std::move(p));
+          line_of.push_back(static_cast<long>(i));
           extreme.push_back(static_cast<long>(i) == first || static_cast<long>(i) == last);
         }
     }
@@ -766,6 +812,7 @@ NonplanarResult slice_nonplanar(const HeightField& surface, const NonplanarParam
       cur = Path{};
     };
     std::size_t next = 0;
+    long cur_line = -10;
     bool reverse = false;
     // A serpentine starts at an outer line (otherwise nearest-neighbour strands the lines on
     // one side), at the end nearest to where the previous layer ended.
@@ -784,7 +831,10 @@ NonplanarResult slice_nonplanar(const HeightField& surface, const NonplanarParam
       bool joined = false;
       if (!cur.points.empty()) {
         const Vec3 a = cur.points.back(), b = piece.front();
-        if (distance_xy(a, b) <= max_join) {
+        // A connector between neighbouring lines stays in the strip between them, where no
+        // other line runs, so any length is fine; others only up to max_join.
+        const bool neighbours = std::abs(line_of[next] - cur_line) == 1;
+        if (neighbours || distance_xy(a, b) <= max_join) {
           auto conn = sample_curve(sp, a.xy(), b.xy(), prm.chord_tolerance * 0.5,
                                    std::clamp(prm.width / 4, 0.01, 0.1));
           if (conn.size() == 1 && distance_xy(conn[0].front(), a) < 1e-6 &&
@@ -799,6 +849,7 @@ NonplanarResult slice_nonplanar(const HeightField& surface, const NonplanarParam
         }
         if (!joined) flush();
       }
+      cur_line = line_of[next];
       if (!joined) {
         cur.points = std::move(piece);
       } else {
@@ -941,7 +992,8 @@ double footprint_coverage(const Toolpath& tp, std::size_t layer, const HeightFie
 }
 
 std::string nonplanar_report_json(const NonplanarResult& r, const NonplanarParams& prm,
-                                  const HeightField& surface, const SurfaceDeviation& dev) {
+                                  const HeightField& surface, const SurfaceDeviation& dev,
+                                  const GcodeStats* g) {
   nlohmann::ordered_json j;
   j["surface"] = surface.name();
   j["kind"] = surface.is_mesh() ? "mesh" : "function";
@@ -976,6 +1028,12 @@ std::string nonplanar_report_json(const NonplanarResult& r, const NonplanarParam
                       {"length_mm", l.length},
                       {"connector_length_mm", l.connector_length}});
   j["per_layer"] = layers;
+  if (g)
+    j["gcode"] = {{"tool_changes", g->tool_changes},
+                  {"travel_moves", g->travel_moves},
+                  {"travel_length_mm", g->travel_length},
+                  {"print_time_s", g->print_time_s},
+                  {"bytes", g->bytes}};
   return j.dump(2) + "\n";
 }
 

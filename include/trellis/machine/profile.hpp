@@ -67,6 +67,8 @@ struct MachineProfile {
   std::string tool_pressures;   // per tool "p0,p1,..." replacing pneumatic.pressure; empty = same
   std::string tool_change = "T{tool}";  // command selecting tool {tool}
   std::string raise_idle;       // command raising the nozzle {tool} that goes idle; empty = none
+  std::string embedded_drive = "pressure";  // pressure (valve + kPa) | syringe (E, Eq. 4)
+  double bath_travel = 0;       // travel up to this long stays inside the bath (mm)
   // [gradient] how a path's material mixture (graded designs) is made
   std::string gradient_mode = "mixing";  // mixing (M165) | tools (T<n>) | temperature (M104)
   int gradient_tools = 5;                // tools: tool 0 holds material A, the last material B

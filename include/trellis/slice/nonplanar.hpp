@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "trellis/core/vec.hpp"
+#include "trellis/machine/gcode_writer.hpp"
 #include "trellis/toolpath/toolpath.hpp"
 
 namespace trellis {
@@ -112,8 +113,11 @@ SurfaceDeviation surface_deviation(const Toolpath& toolpath, const HeightField& 
 double footprint_coverage(const Toolpath& toolpath, std::size_t layer, const HeightField& surface,
                           double width, double pixel = 0.02);
 
+// The report: layers, path length, travel moves per layer, tool changes, deviation from the
+// surface; with the writer's stats if given (tool changes made, travel, print time).
 std::string nonplanar_report_json(const NonplanarResult& result, const NonplanarParams& params,
-                                  const HeightField& surface, const SurfaceDeviation& deviation);
+                                  const HeightField& surface, const SurfaceDeviation& deviation,
+                                  const GcodeStats* gcode = nullptr);
 
 // --- test surfaces (the paper's) ---
 // 2D profiles z(x) made of straight pieces with tangent circular fillets at the corners.

@@ -1,0 +1,358 @@
+// Non-planar slicing: the properties checked on the paths (and on the G-code read back by
+// the independent replayer), over the paper's surfaces and random height fields.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numbers>
+#include <random>
+
+#include "support/gcode_replay.hpp"
+#include "trellis/core/error.hpp"
+#include "trellis/geom/mesh.hpp"
+#include "trellis/lattice/atlas.hpp"
+#include "trellis/machine/gcode_writer.hpp"
+#include "trellis/plan/plan.hpp"
+#include "trellis/slice/nonplanar.hpp"
+
+using namespace trellis;
+
+namespace {
+
+constexpr double kDeg = std::numbers::pi / 180;
+
+// A smooth random height field: a sum of a few sine waves over a random rectangle.
+HeightField random_surface(std::mt19937& rng) {
+  std::uniform_real_distribution<double> u(0, 1);
+  struct Wave {
+    double ax, ay, k, phase, amp;
+  };
+  std::vector<Wave> waves;
+  for (int i = 0; i < 3; ++i)
+    waves.push_back({u(rng) * 2 - 1, u(rng) * 2 - 1, 0.2 + u(rng) * 0.6, u(rng) * 6, 0.3 + u(rng)});
+  const double w = 6 + u(rng) * 10, h = 4 + u(rng) * 8;
+  auto make = [waves]() -> HeightField::Eval {
+    return [waves](double x, double y) {
+      double z = 0;
+      for (const auto& wv : waves) z += wv.amp * std::sin(wv.k * (wv.ax * x + wv.ay * y) + wv.phase);
+      return z;
+    };
+  };
+  return HeightField::from_function(make, {{0, 0}, {w, h}}, "random");
+}
+
+// Distances between neighbouring lines of a layer: the offsets across the direction of every
+// long segment parallel to it, clustered.
+std::vector<double> line_spacings(const Layer& layer, double angle_deg) {
+  const Vec2 d{std::cos(angle_deg * kDeg), std::sin(angle_deg * kDeg)}, n{-d.y, d.x};
+  std::vector<double> v;
+  for (const auto& p : layer.paths)
+    for (std::size_t i = 1; i < p.points.size(); ++i) {
+      const Vec2 s = p.points[i].xy() - p.points[i - 1].xy();
+      const double len = std::hypot(s.x, s.y);
+      if (len > 1e-3 && std::abs(n.x * s.x + n.y * s.y) < 1e-9 * len + 1e-12)
+        v.push_back(n.x * p.points[i].x + n.y * p.points[i].y);
+    }
+  std::sort(v.begin(), v.end());
+  std::vector<double> lines;
+  for (double x : v)
+    if (lines.empty() || x - lines.back() > 1e-6) lines.push_back(x);
+  std::vector<double> gaps;
+  for (std::size_t i = 1; i < lines.size(); ++i) gaps.push_back(lines[i] - lines[i - 1]);
+  return gaps;
+}
+
+void expect_properties(const HeightField& s, const NonplanarParams& prm, bool convex,
+                       const std::string& what) {
+  SCOPED_TRACE(what);
+  const NonplanarResult r = slice_nonplanar(s, prm);
+  ASSERT_EQ(r.toolpath.layers.size(), static_cast<std::size_t>(prm.layers));
+  const SurfaceDeviation dev = surface_deviation(r.toolpath, s, prm);
+  EXPECT_LE(dev.max_point, 0.01);
+  EXPECT_LE(dev.max_chord, prm.chord_tolerance + 1e-4);
+  for (std::size_t k = 0; k < r.toolpath.layers.size(); ++k) {
+    const auto& layer = r.toolpath.layers[k];
+    if (convex) EXPECT_EQ(layer.paths.size(), 1u) << "layer " << k << ": travel inside a layer";
+    for (double g : line_spacings(layer, prm.angles[k % prm.angles.size()]))
+      EXPECT_NEAR(g, prm.width, 0.01 * prm.width) << "layer " << k;
+    EXPECT_GE(footprint_coverage(r.toolpath, k, s, prm.width, 0.04), 0.98) << "layer " << k;
+  }
+}
+
+TEST(Nonplanar, PaperSurfacesMeetTheProperties) {
+  NonplanarParams prm;  // 0.4 mm paths, 0.3 mm layers, 6 layers, cross-hatch
+  expect_properties(corrugation({}), prm, true, "corrugation");
+  CorrugationParams sharp;
+  sharp.fillet_diameter = 0;
+  sharp.periods = 10;
+  expect_properties(corrugation(sharp), prm, true, "sharp 10-period corrugation");
+  for (double depth : {0.0, 2.0, 6.0}) {
+    MiuraParams m;
+    m.depth = depth;
+    expect_properties(miura(m), prm, true, "miura " + std::to_string(depth));
+  }
+  expect_properties(m_curve({}), prm, true, "M curve");
+  expect_properties(sphere_cap(10, 16), prm, true, "sphere cap");
+  NonplanarParams normal = prm;
+  normal.offset = OffsetMode::Normal;
+  normal.layers = 3;
+  expect_properties(corrugation({}), normal, true, "corrugation, normal offsets");
+  expect_properties(sphere_cap(10, 16), normal, true, "sphere cap, normal offsets");
+}
+
+TEST(Nonplanar, MeshesOfTheSurfacesSliceTheSame) {
+  NonplanarParams prm;
+  prm.layers = 2;
+  const HeightField fn = corrugation({});
+  const HeightField mesh = HeightField::from_mesh(surface_mesh(fn, 0.1), "mesh");
+  expect_properties(mesh, prm, true, "corrugation mesh");
+  // The extruded-profile mesh is within the chord tolerance of the function.
+  const NonplanarResult r = slice_nonplanar(mesh, prm);
+  EXPECT_LE(surface_deviation(r.toolpath, fn, prm).max_point, 0.002);
+  const HeightField cap = HeightField::from_mesh(surface_mesh(sphere_cap(10, 16), 0.25), "cap");
+  expect_properties(cap, prm, false, "sphere cap mesh");
+}
+
+TEST(Nonplanar, RandomHeightFields) {
+  std::mt19937 rng(7);
+  for (int i = 0; i < 12; ++i) {
+    const HeightField s = random_surface(rng);
+    NonplanarParams prm;
+    prm.layers = 3;
+    prm.angles = {std::uniform_real_distribution<double>(0, 180)(rng)};
+    prm.width = std::uniform_real_distribution<double>(0.2, 0.6)(rng);
+    prm.offset = i % 3 == 0 ? OffsetMode::Normal : OffsetMode::Vertical;
+    expect_properties(s, prm, true, "random " + std::to_string(i));
+    const HeightField m = HeightField::from_mesh(surface_mesh(s, 0.2), "random mesh");
+    prm.offset = OffsetMode::Vertical;
+    expect_properties(m, prm, true, "random mesh " + std::to_string(i));
+  }
+}
+
+TEST(Nonplanar, NonConvexFootprintTravelsOnlyBetweenParts) {
+  // Two humps joined by nothing: z exists over two separate discs.
+  const HeightField s = HeightField::from_expression(
+      "(x-4)^2+y^2<9 ? 1 : ((x+4)^2+y^2<9 ? 2 : sqrt(-1))", {{-8, -4}, {8, 4}}, "two discs");
+  NonplanarParams prm;
+  prm.layers = 1;
+  prm.angles = {90};  // lines across the gap: each disc its own serpentine
+  const NonplanarResult r = slice_nonplanar(s, prm);
+  EXPECT_EQ(r.toolpath.layers[0].paths.size(), 2u);
+  EXPECT_GE(footprint_coverage(r.toolpath, 0, s, prm.width, 0.02), 0.98);
+  EXPECT_LE(surface_deviation(r.toolpath, s, prm).max_point, 1e-9);
+}
+
+TEST(Nonplanar, NotAHeightFieldNamesWhere) {
+  // A closed box: its top lies above its bottom.
+  TriangleMesh box;
+  box.add_prism({{0, 0}, {4, 0}, {4, 3}, {0, 3}}, 0, 2);
+  try {
+    HeightField::from_mesh(box, "box.stl");
+    FAIL() << "a closed box was accepted";
+  } catch (const GeometryError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("box.stl"), std::string::npos) << m;
+    EXPECT_NE(m.find("not a height field"), std::string::npos) << m;
+  }
+  // A sheet folded over itself: z = 0 over [0,4]x[0,2], then back over [2,4] at z = 1.
+  TriangleMesh fold;
+  fold.vertices = {{0, 0, 0}, {4, 0, 0}, {4, 2, 0}, {0, 2, 0}, {2, 0, 1}, {2, 2, 1}};
+  fold.triangles = {{0, 1, 2}, {0, 2, 3}, {1, 4, 5}, {1, 5, 2}};
+  try {
+    HeightField::from_mesh(fold, "fold.stl");
+    FAIL() << "a fold was accepted";
+  } catch (const GeometryError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("above one another near ("), std::string::npos) << m;
+  }
+  // A vertical wall.
+  TriangleMesh wall;
+  wall.vertices = {{0, 0, 0}, {4, 0, 0}, {4, 0, 2}};
+  wall.triangles = {{0, 1, 2}};
+  EXPECT_THROW(HeightField::from_mesh(wall, "wall.stl"), GeometryError);
+  EXPECT_THROW(HeightField::from_expression("x +* y", {{0, 0}, {1, 1}}, "bad"), ParseError);
+}
+
+TEST(Nonplanar, ProfilesAreContinuousAndTangentAtFillets) {
+  const Profile p = corrugation_profile({});
+  const auto z = profile_function(p);
+  double worst_jump = 0, worst_kink = 0;
+  const double h = 1e-4;
+  for (double x = h; x < 44 - h; x += 0.0037) {
+    worst_jump = std::max(worst_jump, std::abs(z(x + 1e-9) - z(x - 1e-9)));
+    const double s0 = (z(x) - z(x - h)) / h, s1 = (z(x + h) - z(x)) / h;
+    worst_kink = std::max(worst_kink, std::abs(s1 - s0));
+  }
+  EXPECT_LT(worst_jump, 1e-6);
+  EXPECT_LT(worst_kink, 0.01);  // slopes change smoothly: every corner is filleted
+  // Peaks at ±amplitude: 5 periods over 30 mm at 45° rise 1.5 mm, less the fillet's cut.
+  double top = -1, bottom = 1;
+  for (double x = 0; x <= 44; x += 0.001) top = std::max(top, z(x)), bottom = std::min(bottom, z(x));
+  const double cut = 0.25 / std::cos(45 * kDeg) - 0.25;  // fillet r = 0.25 at a 90° corner
+  EXPECT_NEAR(top, 1.5 - cut, 1e-3);
+  EXPECT_NEAR(bottom, -1.5 + cut, 1e-3);
+  CorrugationParams odd;
+  odd.periods = 2.3;
+  EXPECT_THROW(corrugation_profile(odd), SettingError);
+}
+
+TEST(Nonplanar, AngleTestLinesHaveTheProgrammedAngles) {
+  AngleTestParams p;
+  const Toolpath tp = angle_test(p);
+  ASSERT_EQ(tp.layers[0].paths.size(), p.angles.size());
+  for (std::size_t i = 0; i < p.angles.size(); ++i) {
+    const auto& pts = tp.layers[0].paths[i].points;
+    double first_slope = 0;
+    for (std::size_t k = 1; k < pts.size(); ++k) {
+      const Vec3 s = pts[k] - pts[k - 1];
+      if (std::abs(s.z) < 1e-12) continue;
+      first_slope = std::atan2(s.z, std::hypot(s.x, s.y)) / kDeg;
+      break;
+    }
+    EXPECT_NEAR(first_slope, p.angles[i], 1e-9) << "line " << i;
+  }
+}
+
+TEST(Nonplanar, ToolGroupsAndInBathHopsInTheGcode) {
+  NonplanarParams prm;
+  prm.layers = 9;
+  prm.angles = {0};
+  prm.layer_tools = {0, 0, 0, 1, 1, 1, 0, 0, 0};
+  const NonplanarResult r = slice_nonplanar(m_curve({}), prm);
+  MachineProfile p;
+  p.flavor = "embedded";
+  p.embedded_drive = "syringe";
+  p.filament_diameter = 14.5;
+  p.bath_surface = 20;
+  p.bath_travel = 2;
+  p.tool_offsets = "0,0; 35,0";
+  GcodeStats g;
+  const std::string text = write_gcode(r.toolpath, p, &g);
+  EXPECT_EQ(g.tool_changes, 2u);
+  // Read back: one continuous extrusion per layer, every deposit on its layer's surface offset.
+  const test::Replay rep = test::replay_gcode(text);
+  EXPECT_EQ(rep.extrusion_starts, 9u);
+  const HeightField s = m_curve({});
+  for (const auto& d : rep.deposits) {
+    // Tool 1 sits 35 mm along +X: undo the offset for the deposits printed with it.
+    for (auto [x, y, z] : {std::tuple{d.x0, d.y0, d.z0}, std::tuple{d.x1, d.y1, d.z1}}) {
+      double surf = s.height({x, y});
+      if (!std::isfinite(surf)) surf = s.height({x - 35, y});
+      ASSERT_TRUE(std::isfinite(surf)) << x << "," << y;
+      const double k = (z - surf) / prm.layer_height;
+      EXPECT_NEAR(k, std::round(k), 0.01 / prm.layer_height);
+    }
+  }
+}
+
+TEST(Nonplanar, DownFlowScalesSteepDescents) {
+  Toolpath tp;
+  tp.layers.emplace_back();
+  Path p;
+  p.points = {{0, 0, 5}, {10, 0, 5}, {11, 0, 5 - std::tan(60 * kDeg)}};  // flat, then 60° down
+  tp.layers[0].paths.push_back(p);
+  MachineProfile m;
+  m.relative_e = true;
+  m.short_path_segments = 0;
+  m.down_flow = "45,0.8; 80,0.6";
+  const test::Replay r = test::replay_gcode(write_gcode(tp, m));
+  ASSERT_EQ(r.deposits.size(), 2u);
+  const double len0 = 10, len1 = 2;  // the steep move is 2 mm long
+  EXPECT_NEAR((r.deposits[1].e / len1) / (r.deposits[0].e / len0), 0.8, 1e-3);
+  // Pressure-driven: same flow, the nozzle moves faster by 1 / 0.8.
+  m.flavor = "pneumatic";
+  const std::string nc = write_gcode(tp, m);
+  EXPECT_NE(nc.find("F1200"), std::string::npos);  // 20 mm/s
+  EXPECT_NE(nc.find("F1500"), std::string::npos);  // 20 / 0.8
+  m.down_flow = "95,1";
+  EXPECT_THROW(validate(m), SettingError);
+}
+
+// Every edge of a planar lattice, laid on a sphere cap and read back from the G-code, is
+// deposited exactly once: deposits mapped back to XY cover each strut once, nothing else.
+TEST(Nonplanar, ProjectedLatticeKeepsEveryEdgeOnce) {
+  constexpr double kT = 1e-3;  // fraction of a strut: G-code rounding (1 µm) on 1-2 mm struts
+  AtlasParams a;
+  a.pattern = Pattern::Honeycomb;
+  a.cell_size = 2;
+  a.region.shape = RegionShape::Circle;
+  a.region.diameter = 12;
+  const Graph g = make_lattice2d(a);
+  PlanParams pp;
+  pp.planner = Planner::Euler;
+  Diagnostics diag;
+  Toolpath planar = plan_lattice(g, pp, diag).toolpath;
+  // Three layers of the same lattice (as a multi-layer scaffold).
+  for (int k = 1; k < 3; ++k) {
+    Layer l = planar.layers[0];
+    l.z += 0.148 * k;
+    for (auto& path : l.paths)
+      for (auto& q : path.points) q.z += 0.148 * k;
+    planar.layers.push_back(l);
+  }
+  const HeightField cap = sphere_cap(12, 14);
+  for (OffsetMode mode : {OffsetMode::Vertical, OffsetMode::Normal}) {
+    SCOPED_TRACE(to_string(mode));
+    ProjectParams prm;
+    prm.offset = mode;
+    const Toolpath on = project_onto_surface(planar, cap, prm);
+    NonplanarParams check;
+    check.layer_height = 0.148;
+    check.offset = mode;
+    const SurfaceDeviation dev = surface_deviation(on, cap, check);
+    EXPECT_LE(dev.max_point, 0.01);
+    EXPECT_LE(dev.max_chord, prm.chord_tolerance + 1e-4);
+    MachineProfile m;
+    const test::Replay rep = test::replay_gcode(write_gcode(on, m));
+    // Which layer a deposit belongs to: its height above the cap (vertical) or distance order.
+    const std::size_t layers_checked = mode == OffsetMode::Vertical ? 3 : 1;
+    for (std::size_t k = 0; k < layers_checked; ++k) {
+      std::vector<std::vector<std::pair<double, double>>> cover(g.edges.size());
+      double off_design = 0;
+      for (const auto& d : rep.deposits) {
+        const double mid_surface = cap.height({(d.x0 + d.x1) / 2, (d.y0 + d.y1) / 2});
+        const double lift = (d.z0 + d.z1) / 2 - mid_surface;
+        if (std::abs(lift - 0.148 * static_cast<double>(k)) > 0.05) continue;
+        bool matched = false;
+        for (std::size_t e = 0; e < g.edges.size() && !matched; ++e) {
+          const Vec3 a3 = g.nodes[g.edges[e].a], b3 = g.nodes[g.edges[e].b];
+          const Vec2 ab = b3.xy() - a3.xy();
+          const double len2 = ab.x * ab.x + ab.y * ab.y;
+          auto param = [&](double x, double y, double* off) {
+            const Vec2 ap{x - a3.x, y - a3.y};
+            *off = std::abs(ab.x * ap.y - ab.y * ap.x) / std::sqrt(len2);
+            return (ap.x * ab.x + ap.y * ab.y) / len2;
+          };
+          double o0, o1;
+          const double t0 = param(d.x0, d.y0, &o0), t1 = param(d.x1, d.y1, &o1);
+          // G-code coordinates are rounded to 1 µm.
+          if (o0 < 2e-3 && o1 < 2e-3 && t0 > -kT && t0 < 1 + kT && t1 > -kT && t1 < 1 + kT) {
+            cover[e].push_back({std::min(t0, t1), std::max(t0, t1)});
+            matched = true;
+          }
+        }
+        if (!matched) off_design += std::hypot(d.x1 - d.x0, d.y1 - d.y0);
+      }
+      EXPECT_EQ(off_design, 0) << "layer " << k;
+      for (std::size_t e = 0; e < g.edges.size(); ++e) {
+        auto& c = cover[e];
+        std::sort(c.begin(), c.end());
+        double reach = 0, overlap = 0, gap = 0;
+        for (const auto& [t0, t1] : c) {
+          overlap += std::max(0.0, std::min(reach, t1) - t0);
+          gap += std::max(0.0, t0 - reach);
+          reach = std::max(reach, t1);
+        }
+        EXPECT_LT(gap, kT) << "edge " << e << " has a hole on layer " << k;
+        EXPECT_FALSE(c.empty()) << "edge " << e << " missing on layer " << k;
+        if (c.empty()) continue;
+        EXPECT_NEAR(c.front().first, 0, kT) << "edge " << e;
+        EXPECT_NEAR(reach, 1, kT) << "edge " << e;
+        EXPECT_LT(overlap, kT) << "edge " << e << " deposited twice on layer " << k;
+      }
+    }
+  }
+  // Leaving the footprint is an error naming the place.
+  EXPECT_THROW(project_onto_surface(planar, sphere_cap(12, 8), {}), GeometryError);
+}
+
+}  // namespace
