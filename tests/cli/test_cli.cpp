@@ -394,3 +394,56 @@ TEST(Cli, GradedDesignStrategy2WritesMixtures) {
   EXPECT_NE(r.err.find("two materials"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(in_work("never.gcode")));
 }
+
+TEST(Cli, NonplanarFromGeneratedSurfaceWithToolGroups) {
+  const std::string prof = std::string(TRELLIS_SOURCE_DIR) + "/profiles/fresh_nonplanar_2syringe.toml";
+  ASSERT_EQ(run("surface m-curve -o " + in_work("m.stl")).code, 0);
+  const CmdResult r = run("nonplanar " + in_work("m.stl") + " --machine " + prof + " -o " +
+                          in_work("m.gcode") + " --report " + in_work("m.json") +
+                          " --layer-tools 3:0,3:1,3:0 --pattern parallel --png " +
+                          in_work("m.png"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("9 layers, 9 paths, 0 travel moves within layers, 2 tool changes"),
+            std::string::npos)
+      << r.out;
+  const std::string report = trellis::read_file(in_work("m.json"));
+  EXPECT_NE(report.find("\"tool_changes\": 2"), std::string::npos) << report;
+  EXPECT_TRUE(fs::exists(in_work("m.png")));
+  // Read back independently: nine continuous extrusions (one per layer).
+  const auto rep = trellis::test::replay_gcode(trellis::read_file(in_work("m.gcode")));
+  EXPECT_EQ(rep.extrusion_starts, 9u);
+  // A height function directly.
+  const CmdResult f = run("nonplanar --height-fn \"sqrt(100-x^2-y^2)-6\" --domain -8,-8,8,8 "
+                          "--machine " + prof + " --layers 2 --offset normal -o " +
+                          in_work("cap.gcode"));
+  EXPECT_EQ(f.code, 0) << f.err;
+  EXPECT_NE(f.out.find("0 travel moves within layers"), std::string::npos) << f.out;
+}
+
+TEST(Cli, NonplanarBadSurfacesExitTwoNamingWhere) {
+  const std::string prof = std::string(TRELLIS_SOURCE_DIR) + "/profiles/fresh_nonplanar_2syringe.toml";
+  // A closed cube is not a height field.
+  const std::string cube = write("cube.obj",
+                                 "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\n"
+                                 "v 0 1 1\nf 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\nf 1 2 6\nf 1 6 5\n"
+                                 "f 2 3 7\nf 2 7 6\nf 3 4 8\nf 3 8 7\nf 4 1 5\nf 4 5 8\n");
+  CmdResult r = run("nonplanar " + cube + " --machine " + prof + " -o " + in_work("never.gcode"));
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("cube.obj"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("not a height field"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("("), std::string::npos) << r.err;  // where
+  EXPECT_FALSE(fs::exists(in_work("never.gcode")));
+  r = run("nonplanar --height-fn \"x+*y\" --domain 0,0,1,1 --machine " + prof + " -o " +
+          in_work("never.gcode"));
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("position 2"), std::string::npos) << r.err;
+  r = run("nonplanar --height-fn x --machine " + prof + " -o " + in_work("never.gcode"));
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("--domain"), std::string::npos) << r.err;
+  r = run("nonplanar " + cube + " --layer-tools 3:x --machine " + prof + " -o " +
+          in_work("never.gcode"));
+  EXPECT_EQ(r.code, 2);
+  EXPECT_FALSE(fs::exists(in_work("never.gcode")));
+  EXPECT_EQ(run("surface corrugation --periods 2.3 -o " + in_work("never.stl")).code, 2);
+  EXPECT_FALSE(fs::exists(in_work("never.stl")));
+}
