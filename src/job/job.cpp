@@ -1,5 +1,7 @@
 #include "trellis/job/job.hpp"
 
+#include "trellis/geom/mesh_io.hpp"
+
 #include <toml++/toml.h>
 
 #include <filesystem>
@@ -57,6 +59,20 @@ class Section {
     out = {*(*arr)[0].value<double>(), *(*arr)[1].value<double>()};
   }
 
+  void get_numbers(const char* key, std::vector<double>& out, std::size_t count) {
+    const toml::node* n = take(key);
+    if (!n) return;
+    const Where where = where_of(key, n);
+    const auto* arr = n->as_array();
+    const std::string want = "expected " + std::to_string(count) + " numbers";
+    if (!arr || arr->size() != count) throw SettingError(want, where);
+    out.clear();
+    for (const auto& v : *arr) {
+      if (!v.is_number()) throw SettingError(want, where);
+      out.push_back(*v.value<double>());
+    }
+  }
+
   Where where(const char* key) const { return where_of(key, t_ ? t_->get(key) : nullptr); }
 
   void finish() const {
@@ -108,12 +124,12 @@ Job load_job(const std::string& path) {
     return p.empty() || fs::path(p).is_absolute() ? p : (base / p).lexically_normal().string();
   };
   for (const auto& [k, n] : root) {
-    static const std::set<std::string> known = {"job",  "lattice", "layers",
-                                                "plan", "output",  "machine_overrides"};
+    static const std::set<std::string> known = {"job",    "lattice", "layers",  "plan",
+                                                "output", "solid",   "surface", "machine_overrides"};
     if (!known.count(std::string(k.str())) || !n.is_table())
       throw SettingError(
-          "unknown section (expected [job], [lattice], [layers], [plan], [output], "
-          "[machine_overrides])",
+          "unknown section (expected [job], [lattice], [layers], [plan], [solid], [surface], "
+          "[output], [machine_overrides])",
           {path, static_cast<long>(n.source().begin.line), std::string(k.str())});
   }
   Job job;
@@ -154,14 +170,54 @@ Job load_job(const std::string& path) {
   s_lat.get("arrowhead_outer_deg", a.arrowhead_outer_deg);
   s_lat.get("arrowhead_inner_deg", a.arrowhead_inner_deg);
   s_lat.finish();
-  if (std::isnan(a.region.center.x)) a.region.center = corner_at_origin(a);
+
+  Section s_solid(root["solid"].as_table(), "solid", path);
+  s_solid.get("file", job.solid_file);
+  job.solid_file = resolve(job.solid_file);
+  s_solid.finish();
+
+  Section s_surf(root["surface"].as_table(), "surface", path);
+  auto& sf = job.surface;
+  s_surf.get("kind", sf.kind);
+  if (root["surface"].as_table() && sf.kind != "sphere-cap" && sf.kind != "mesh" &&
+      sf.kind != "function")
+    throw SettingError("expected \"sphere-cap\", \"mesh\" or \"function\"", s_surf.where("kind"));
+  s_surf.get("radius", sf.radius);
+  s_surf.get("diameter", sf.diameter);
+  s_surf.get("file", sf.file);
+  sf.file = resolve(sf.file);
+  s_surf.get("height_fn", sf.height_fn);
+  s_surf.get_numbers("domain", sf.domain, 4);
+  std::string offset = "normal";
+  s_surf.get("offset", offset);
+  sf.project.offset = rethrow_at(s_surf.where("offset"), [&] { return offset_mode_from_string(offset); });
+  s_surf.get("chord_tolerance", sf.project.chord_tolerance);
+  s_surf.finish();
+  if (!sf.kind.empty()) {
+    if (sf.kind == "mesh" && sf.file.empty())
+      throw SettingError("a mesh surface needs file = \"surface.stl\"", s_surf.where("file"));
+    if (sf.kind == "function" && (sf.height_fn.empty() || sf.domain.size() != 4))
+      throw SettingError("a function surface needs height_fn and domain", s_surf.where("kind"));
+  }
+
+  if (std::isnan(a.region.center.x)) {
+    if (!sf.kind.empty()) {
+      // Centred on the surface.
+      const BBox2 b = rethrow_at(s_surf.where("kind"), [&] { return job_surface(job).domain(); });
+      a.region.center = {(b.min.x + b.max.x) / 2, (b.min.y + b.max.y) / 2};
+    } else {
+      a.region.center = corner_at_origin(a);
+    }
+  }
 
   Section s_layers(root["layers"].as_table(), "layers", path);
+  if (!job.solid_file.empty() && !(root["layers"].as_table() && root["layers"]["count"]))
+    job.layer_count = 0;  // from the solid's height
   s_layers.get("count", job.layer_count);
   s_layers.get("rotation_deg", job.layer_rotation_deg);
   s_layers.get("layer_height", job.plan.layer_height);
   s_layers.finish();
-  if (job.layer_count < 1 || job.layer_count > 100000)
+  if ((job.layer_count < 1 && job.solid_file.empty()) || job.layer_count > 100000)
     throw SettingError("must be 1..100000", s_layers.where("count"));
 
   Section s_plan(root["plan"].as_table(), "plan", path);
@@ -209,12 +265,44 @@ Job load_job(const std::string& path) {
   return job;
 }
 
+HeightField job_surface(const Job& job) {
+  const auto& sf = job.surface;
+  if (sf.kind == "sphere-cap") return sphere_cap(sf.radius, sf.diameter);
+  if (sf.kind == "mesh") return HeightField::from_mesh(read_mesh(sf.file), sf.file);
+  if (sf.kind == "function" && sf.domain.size() == 4)
+    return HeightField::from_expression(
+        sf.height_fn, {{sf.domain[0], sf.domain[1]}, {sf.domain[2], sf.domain[3]}},
+        "z = " + sf.height_fn);
+  throw SettingError("the job has no surface", {"", 0, "surface.kind"});
+}
+
 Graph job_lattice(const Job& job) {
   Graph all;
-  for (int i = 0; i < job.layer_count; ++i) {
+  // A solid: every layer cropped to its cross-section at mid-layer height.
+  TriangleMesh solid;
+  BBox3 box;
+  int count = job.layer_count;
+  const double h = job.plan.layer_height;
+  if (!job.solid_file.empty()) {
+    solid = read_mesh(job.solid_file);
+    require_closed(solid, job.solid_file);
+    box = bounds(solid);
+    if (count <= 0) count = static_cast<int>(std::floor((box.max.z - box.min.z) / h + 1e-9));
+    if (count < 1)
+      throw GeometryError("solid '" + job.solid_file + "' is thinner than one layer");
+  }
+  for (int i = 0; i < count; ++i) {
     AtlasParams a = job.atlas;
     a.rotation_deg += i * job.layer_rotation_deg;
-    a.z = a.z + i * job.plan.layer_height;
+    a.z = a.z + i * h;
+    if (!job.solid_file.empty()) {
+      a.crop = slice_mesh(solid, box.min.z + (i + 0.5) * h);
+      if (a.crop.empty()) continue;
+      // Generate over the solid's footprint.
+      a.region.shape = RegionShape::Circle;
+      a.region.center = {(box.min.x + box.max.x) / 2, (box.min.y + box.max.y) / 2};
+      a.region.diameter = std::hypot(box.max.x - box.min.x, box.max.y - box.min.y) + 2 * a.cell_size;
+    }
     const Graph layer = make_lattice2d(a);
     const auto offset = static_cast<NodeId>(all.nodes.size());
     all.nodes.insert(all.nodes.end(), layer.nodes.begin(), layer.nodes.end());
@@ -250,6 +338,12 @@ JobOutputs run_job(const Job& job, Diagnostics& diag, const Progress& progress) 
   PlanParams plan = job.plan;
   plan.gippo.progress = progress;
   out.result = plan_lattice(lattice, plan, diag);
+  if (!job.surface.kind.empty()) {
+    progress("surface", 0);
+    const HeightField surface = job_surface(job);
+    out.result.toolpath = project_onto_surface(out.result.toolpath, surface, job.surface.project);
+    out.result.travel = travel_stats(out.result.toolpath);
+  }
   out.result.toolpath.source =
       std::string("trellis run ") + job.name + " (" + to_string(plan.planner) + ")";
   out.toolpath = (dir / (job.name + ".toolpath.json")).string();
@@ -271,6 +365,13 @@ JobOutputs run_job(const Job& job, Diagnostics& diag, const Progress& progress) 
       std::snprintf(name, sizeof name, ".layer%03zu.png", i);
       out.pngs.push_back((dir / (job.name + name)).string());
       render_layer_png(out.result.toolpath, i, out.pngs.back(), ro);
+    }
+    if (!job.surface.kind.empty() || !job.solid_file.empty()) {
+      out.pngs.push_back((dir / (job.name + ".3d.png")).string());
+      View3dOptions v;
+      v.size_px = job.png_size;
+      v.title = job.name;
+      render_3d_png(out.result.toolpath, out.pngs.back(), v);
     }
     if (!out.result.layers.empty() && !out.result.layers.front().scores.empty()) {
       out.pngs.push_back((dir / (job.name + ".scores.png")).string());

@@ -328,9 +328,19 @@ Graph make_lattice2d(const AtlasParams& p) {
   for (auto& seg : segs)
     for (Vec2* q : {&seg.a, &seg.b})
       *q = {r.center.x + c * q->x - s * q->y, r.center.y + s * q->x + c * q->y};
-  const Polygon2 region = r.polygon();
-  segs = clip_segments(segs, region);
-  if (p.contour) add_outline(region, segs);
+  if (p.crop.empty()) {
+    const Polygon2 region = r.polygon();
+    segs = clip_segments(segs, region);
+    if (p.contour) add_outline(region, segs);
+  } else {
+    std::vector<Segment2> kept;
+    for (const auto& poly : p.crop) {
+      auto part = clip_segments(segs, poly);
+      kept.insert(kept.end(), part.begin(), part.end());
+      if (p.contour) add_outline(poly, kept);
+    }
+    segs = std::move(kept);
+  }
   if (p.handles)
     for (const auto& h : handle_rects(p)) {
       const double x0 = h.outer[0].x, x1 = h.outer[1].x, y0 = h.outer[0].y, y1 = h.outer[2].y;

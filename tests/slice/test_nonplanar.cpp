@@ -4,7 +4,9 @@
 
 #include <cmath>
 #include <numbers>
+#include <filesystem>
 #include <random>
+#include <set>
 
 #include "support/gcode_replay.hpp"
 #include "trellis/core/error.hpp"
@@ -353,6 +355,54 @@ TEST(Nonplanar, ProjectedLatticeKeepsEveryEdgeOnce) {
   }
   // Leaving the footprint is an error naming the place.
   EXPECT_THROW(project_onto_surface(planar, sphere_cap(12, 8), {}), GeometryError);
+}
+
+}  // namespace
+
+#include "trellis/geom/mesh_io.hpp"
+#include "trellis/geom/polygon.hpp"
+#include "trellis/job/job.hpp"
+
+namespace {
+
+// GIPPO's per-layer infill: every strut of layer i lies in the solid's cross-section at that layer.
+TEST(NonplanarJobs, SolidLayersAreCroppedToTheirCrossSections) {
+  Job job = load_job(std::string(TRELLIS_SOURCE_DIR) + "/examples/concave_cylinder_honeycomb.toml");
+  const Graph g = job_lattice(job);
+  const TriangleMesh solid = read_mesh(job.solid_file);
+  const double h = job.plan.layer_height;
+  std::set<long> layers;
+  std::size_t checked = 0;
+  for (const auto& e : g.edges) {
+    const Vec3 a = g.nodes[e.a], b = g.nodes[e.b];
+    const long i = std::lround(a.z / h);
+    layers.insert(i);
+    const auto regions = slice_mesh(solid, (static_cast<double>(i) + 0.5) * h);
+    const Vec2 mid = (a.xy() + b.xy()) * 0.5;
+    bool inside = false;
+    for (const auto& r : regions) inside = inside || contains(r, mid, 1e-6);
+    EXPECT_TRUE(inside) << "strut at layer " << i << " leaves the cross-section";
+    ++checked;
+  }
+  EXPECT_EQ(layers.size(), 27u);  // 4 mm / 0.148 mm
+  EXPECT_GT(checked, 1000u);
+}
+
+TEST(NonplanarJobs, LatticeOnSphereFollowsItLayerByLayer) {
+  Job job = load_job(std::string(TRELLIS_SOURCE_DIR) + "/examples/honeycomb_on_sphere.toml");
+  job.gcode = job.png = false;
+  job.layer_count = 4;
+  job.output_dir = (std::filesystem::temp_directory_path() / "trellis_sphere_job").string();
+  std::filesystem::create_directories(job.output_dir);
+  Diagnostics d;
+  const JobOutputs out = run_job(job, d);
+  ASSERT_EQ(out.result.toolpath.layers.size(), 4u);
+  NonplanarParams check;
+  check.layer_height = job.plan.layer_height;
+  check.offset = OffsetMode::Normal;
+  const SurfaceDeviation dev = surface_deviation(out.result.toolpath, job_surface(job), check);
+  EXPECT_LE(dev.max_point, 0.01);
+  EXPECT_LE(dev.max_chord, job.surface.project.chord_tolerance + 1e-4);
 }
 
 }  // namespace

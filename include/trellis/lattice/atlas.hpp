@@ -58,6 +58,9 @@ struct AtlasParams {
   // Nodes closer than this merge (mm), so no strut is shorter: crops and Voronoi vertices can
   // otherwise make struts of a few nanometres that no printer can resolve.
   double min_feature = 0.005;
+  // When not empty, the pattern is cropped to these polygons (e.g. a layer of a solid) instead of
+  // the region, which then only sets where the pattern is generated.
+  std::vector<Polygon2> crop;
 };
 
 // Throws SettingError for parameters out of range.
