@@ -24,6 +24,16 @@ void counters(benchmark::State& state, const NonplanarResult& r) {
   state.counters["points"] = static_cast<double>(points);
 }
 
+// Slices `s` once per iteration and reports the result's size.
+void slice_loop(benchmark::State& state, const HeightField& s, const NonplanarParams& prm) {
+  NonplanarResult r;
+  for (auto _ : state) {
+    r = slice_nonplanar(s, prm);
+    benchmark::DoNotOptimize(r.toolpath.layers.data());
+  }
+  counters(state, r);
+}
+
 // A wavy 100 x 100 mm surface as a grid mesh of 2 x 707 x 707 = 999,698 triangles, written once.
 const std::string& big_stl() {
   static const std::string path = [] {
@@ -44,39 +54,19 @@ const std::string& big_stl() {
 }  // namespace
 
 static void BM_Corrugation6Layers(benchmark::State& state) {
-  const HeightField s = corrugation({});
-  NonplanarParams prm;  // 0.4 mm, 0.3 mm layers, 6 layers, cross-hatch
-  NonplanarResult r;
-  for (auto _ : state) {
-    r = slice_nonplanar(s, prm);
-    benchmark::DoNotOptimize(r.toolpath.layers.data());
-  }
-  counters(state, r);
+  slice_loop(state, corrugation({}), {});  // 0.4 mm, 0.3 mm layers, 6 layers, cross-hatch
 }
 BENCHMARK(BM_Corrugation6Layers)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 static void BM_Corrugation6LayersNormalOffset(benchmark::State& state) {
-  const HeightField s = corrugation({});
   NonplanarParams prm;
   prm.offset = OffsetMode::Normal;
-  NonplanarResult r;
-  for (auto _ : state) {
-    r = slice_nonplanar(s, prm);
-    benchmark::DoNotOptimize(r.toolpath.layers.data());
-  }
-  counters(state, r);
+  slice_loop(state, corrugation({}), prm);
 }
 BENCHMARK(BM_Corrugation6LayersNormalOffset)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 static void BM_CorrugationMesh6Layers(benchmark::State& state) {
-  const HeightField s = HeightField::from_mesh(surface_mesh(corrugation({}), 0.1), "mesh");
-  NonplanarParams prm;
-  NonplanarResult r;
-  for (auto _ : state) {
-    r = slice_nonplanar(s, prm);
-    benchmark::DoNotOptimize(r.toolpath.layers.data());
-  }
-  counters(state, r);
+  slice_loop(state, HeightField::from_mesh(surface_mesh(corrugation({}), 0.1), "mesh"), {});
 }
 BENCHMARK(BM_CorrugationMesh6Layers)->Unit(benchmark::kMillisecond)->UseRealTime();
 
@@ -108,15 +98,9 @@ static void BM_Mesh1MHeightFieldCheck(benchmark::State& state) {
 BENCHMARK(BM_Mesh1MHeightFieldCheck)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);
 
 static void BM_Mesh1M10LayersSliceOnly(benchmark::State& state) {
-  const HeightField s = HeightField::from_mesh(read_mesh(big_stl()), "1M");
   NonplanarParams prm;
   prm.layers = 10;
-  NonplanarResult r;
-  for (auto _ : state) {
-    r = slice_nonplanar(s, prm);
-    benchmark::DoNotOptimize(r.toolpath.layers.data());
-  }
-  counters(state, r);
+  slice_loop(state, HeightField::from_mesh(read_mesh(big_stl()), "1M"), prm);
 }
 BENCHMARK(BM_Mesh1M10LayersSliceOnly)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);
 BENCHMARK_MAIN();
