@@ -59,6 +59,12 @@ class Section {
     out = {*(*arr)[0].value<double>(), *(*arr)[1].value<double>()};
   }
 
+  // A file path, relative to the job file's folder unless absolute.
+  void get_path(const char* key, std::string& out, const fs::path& base) {
+    get(key, out);
+    if (!out.empty() && !fs::path(out).is_absolute()) out = (base / out).lexically_normal().string();
+  }
+
   void get_numbers(const char* key, std::vector<double>& out, std::size_t count) {
     const toml::node* n = take(key);
     if (!n) return;
@@ -120,9 +126,6 @@ Job load_job(const std::string& path) {
                        {path, static_cast<long>(e.source().begin.line)});
   }
   const fs::path base = fs::path(path).parent_path();
-  auto resolve = [&](const std::string& p) {
-    return p.empty() || fs::path(p).is_absolute() ? p : (base / p).lexically_normal().string();
-  };
   for (const auto& [k, n] : root) {
     static const std::set<std::string> known = {"job",    "lattice", "layers",  "plan",
                                                 "output", "solid",   "surface", "machine_overrides"};
@@ -136,14 +139,12 @@ Job load_job(const std::string& path) {
   Section s_job(root["job"].as_table(), "job", path);
   s_job.get("name", job.name);
   s_job.get("output_dir", job.output_dir);
-  s_job.get("machine", job.machine);
-  job.machine = resolve(job.machine);
+  s_job.get_path("machine", job.machine, base);
   s_job.finish();
 
   Section s_lat(root["lattice"].as_table(), "lattice", path);
   AtlasParams& a = job.atlas;
-  s_lat.get("file", job.lattice_file);
-  job.lattice_file = resolve(job.lattice_file);
+  s_lat.get_path("file", job.lattice_file, base);
   std::string pattern = to_string(a.pattern), region = "rectangle";
   s_lat.get("pattern", pattern);
   a.pattern = rethrow_at(s_lat.where("pattern"), [&] { return pattern_from_string(pattern); });
@@ -172,8 +173,7 @@ Job load_job(const std::string& path) {
   s_lat.finish();
 
   Section s_solid(root["solid"].as_table(), "solid", path);
-  s_solid.get("file", job.solid_file);
-  job.solid_file = resolve(job.solid_file);
+  s_solid.get_path("file", job.solid_file, base);
   s_solid.finish();
 
   Section s_surf(root["surface"].as_table(), "surface", path);
@@ -184,8 +184,7 @@ Job load_job(const std::string& path) {
     throw SettingError("expected \"sphere-cap\", \"mesh\" or \"function\"", s_surf.where("kind"));
   s_surf.get("radius", sf.radius);
   s_surf.get("diameter", sf.diameter);
-  s_surf.get("file", sf.file);
-  sf.file = resolve(sf.file);
+  s_surf.get_path("file", sf.file, base);
   s_surf.get("height_fn", sf.height_fn);
   s_surf.get_numbers("domain", sf.domain, 4);
   std::string offset = "normal";
@@ -200,15 +199,9 @@ Job load_job(const std::string& path) {
       throw SettingError("a function surface needs height_fn and domain", s_surf.where("kind"));
   }
 
-  if (std::isnan(a.region.center.x)) {
-    if (!sf.kind.empty()) {
-      // Centred on the surface.
-      const BBox2 b = rethrow_at(s_surf.where("kind"), [&] { return job_surface(job).domain(); });
-      a.region.center = {(b.min.x + b.max.x) / 2, (b.min.y + b.max.y) / 2};
-    } else {
-      a.region.center = corner_at_origin(a);
-    }
-  }
+  // Without a center, a lattice on a surface is centred on it (when the surface is built, in
+  // run_job / job_lattice); otherwise its lower-left corner goes to the origin.
+  if (std::isnan(a.region.center.x) && sf.kind.empty()) a.region.center = corner_at_origin(a);
 
   Section s_layers(root["layers"].as_table(), "layers", path);
   if (!job.solid_file.empty() && !(root["layers"].as_table() && root["layers"]["count"]))
@@ -276,7 +269,21 @@ HeightField job_surface(const Job& job) {
   throw SettingError("the job has no surface", {"", 0, "surface.kind"});
 }
 
+namespace {
+
+Vec2 domain_centre(const HeightField& s) {
+  const BBox2 b = s.domain();
+  return {(b.min.x + b.max.x) / 2, (b.min.y + b.max.y) / 2};
+}
+
+}  // namespace
+
 Graph job_lattice(const Job& job) {
+  if (std::isnan(job.atlas.region.center.x)) {  // centred on the job's surface
+    Job centred = job;
+    centred.atlas.region.center = domain_centre(job_surface(job));
+    return job_lattice(centred);
+  }
   Graph all;
   // A solid: every layer cropped to its cross-section at mid-layer height.
   TriangleMesh solid;
@@ -320,6 +327,13 @@ JobOutputs run_job(const Job& job, Diagnostics& diag, const Progress& progress) 
   if (!job.machine.empty()) profile = load_profile(job.machine);
   for (const auto& o : job.overrides) apply_override(profile, o);
 
+  // The surface is built once: it centres the lattice and receives the planned layers.
+  HeightField surface;
+  Job centred = job;
+  if (!job.surface.kind.empty()) {
+    surface = job_surface(job);
+    if (std::isnan(job.atlas.region.center.x)) centred.atlas.region.center = domain_centre(surface);
+  }
   Graph lattice;
   std::string input;
   if (!job.lattice_file.empty()) {
@@ -327,7 +341,7 @@ JobOutputs run_job(const Job& job, Diagnostics& diag, const Progress& progress) 
     input = job.lattice_file;
   } else {
     progress("lattice", 0);
-    lattice = job_lattice(job);
+    lattice = job_lattice(centred);
     input = "atlas:" + to_string(job.atlas.pattern);
   }
   JobOutputs out;
@@ -340,7 +354,6 @@ JobOutputs run_job(const Job& job, Diagnostics& diag, const Progress& progress) 
   out.result = plan_lattice(lattice, plan, diag);
   if (!job.surface.kind.empty()) {
     progress("surface", 0);
-    const HeightField surface = job_surface(job);
     out.result.toolpath = project_onto_surface(out.result.toolpath, surface, job.surface.project);
     out.result.travel = travel_stats(out.result.toolpath);
   }

@@ -245,43 +245,35 @@ class Writer {
     if (known_ && distance_xy(pos_, q) < 1e-9 && std::abs(pos_.z - q.z) < 1e-9) return;
     const double d = known_ ? distance_xy(pos_, q) : 0;
     // A short hop inside the bath (e.g. to the next non-planar layer) stays in it.
-    if (known_ && printed_ && pos_.z < safe_z_ - 1e-9 && distance(pos_, q) <= p_.bath_travel) {
-      out_ += "G0 X";
-      const Vec2 o = offset();
-      append_fixed(out_, q.x + dx_ + o.x, 3);
-      out_ += " Y";
-      append_fixed(out_, q.y + dy_ + o.y, 3);
-      out_ += " Z";
-      append_fixed(out_, q.z, 3);
-      out_ += " F";
-      feed(p_.travel_speed);
-      out_ += '\n';
-      ++stats_.travel_moves;
-      stats_.travel_length += d;
-      stats_.print_time_s += move_time(distance(pos_, q), p_.travel_speed, p_.acceleration);
-      pos_ = q;
-      return;
-    }
+    if (known_ && printed_ && pos_.z < safe_z_ - 1e-9 && distance(pos_, q) <= p_.bath_travel)
+      return move_xy(q, d, true);
     if (!known_ || pos_.z < safe_z_ - 1e-9) move_z(safe_z_);
     move_xy(q, d);
     known_ = true;
     move_z(q.z);
   }
 
-  // The horizontal part of a travel (the tool's XY offset added), counted in the stats.
-  void move_xy(Vec3 q, double d) {
+  // The horizontal part of a travel (the tool's XY offset added), counted in the stats; with
+  // `with_z` the move goes straight to q's height as well.
+  void move_xy(Vec3 q, double d, bool with_z = false) {
     const Vec2 o = offset();
+    const double len = with_z && known_ ? distance(pos_, q) : d;
     out_ += "G0 X";
     append_fixed(out_, q.x + dx_ + o.x, 3);
     out_ += " Y";
     append_fixed(out_, q.y + dy_ + o.y, 3);
+    if (with_z) {
+      out_ += " Z";
+      append_fixed(out_, q.z, 3);
+      pos_.z = q.z;
+    }
     out_ += " F";
     feed(p_.travel_speed);
     out_ += '\n';
     if (known_) {
       ++stats_.travel_moves;
       stats_.travel_length += d;
-      stats_.print_time_s += move_time(d, p_.travel_speed, p_.acceleration);
+      stats_.print_time_s += move_time(len, p_.travel_speed, p_.acceleration);
     }
     pos_.x = q.x;
     pos_.y = q.y;

@@ -814,16 +814,20 @@ NonplanarResult slice_nonplanar(const HeightField& surface, const NonplanarParam
     std::size_t next = 0;
     long cur_line = -10;
     bool reverse = false;
-    // A serpentine starts at an outer line (otherwise nearest-neighbour strands the lines on
-    // one side), at the end nearest to where the previous layer ended.
-    if (is_finite(cursor)) {
+    // The unused piece end nearest to `from` (among outer lines' pieces if `outer_only`).
+    auto nearest = [&](Vec3 from, bool outer_only) {
       double best = 1e300;
-      for (std::size_t i = 0; i < pieces.size(); ++i)
-        for (int e = 0; e < 2 && extreme[i]; ++e) {
-          const double dd = distance_xy(cursor, e ? pieces[i].back() : pieces[i].front());
+      for (std::size_t i = 0; i < pieces.size(); ++i) {
+        if (used[i] || (outer_only && !extreme[i])) continue;
+        for (int e = 0; e < 2; ++e) {
+          const double dd = distance_xy(from, e ? pieces[i].back() : pieces[i].front());
           if (dd < best) best = dd, next = i, reverse = e == 1;
         }
-    }
+      }
+    };
+    // A serpentine starts at an outer line (otherwise nearest-neighbour strands the lines on
+    // one side), at the end nearest to where the previous layer ended.
+    if (is_finite(cursor)) nearest(cursor, true);
     for (std::size_t done = 0; done < pieces.size(); ++done) {
       auto piece = std::move(pieces[next]);
       used[next] = 1;
@@ -856,15 +860,7 @@ NonplanarResult slice_nonplanar(const HeightField& surface, const NonplanarParam
         const bool same = distance(cur.points.back(), piece.front()) < 1e-9;
         cur.points.insert(cur.points.end(), piece.begin() + (same ? 1 : 0), piece.end());
       }
-      // Nearest unused end.
-      double best = 1e300;
-      for (std::size_t i = 0; i < pieces.size(); ++i) {
-        if (used[i]) continue;
-        for (int e = 0; e < 2; ++e) {
-          const double dd = distance_xy(cur.points.back(), e ? pieces[i].back() : pieces[i].front());
-          if (dd < best) best = dd, next = i, reverse = e == 1;
-        }
-      }
+      nearest(cur.points.back(), false);
     }
     cursor = cur.points.back();
     flush();
