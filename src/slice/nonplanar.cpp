@@ -55,7 +55,6 @@ struct HeightField::Impl {
   // Meshes: triangles, facet data, vertex normals and an XY grid of triangle ids.
   std::vector<Vec3> vertices;
   std::vector<std::array<std::uint32_t, 3>> triangles;
-  std::vector<Vec3> vertex_normals;
   double cell = 1;
   int nx = 0, ny = 0;
   std::vector<std::uint32_t> cell_start, cell_tris;
@@ -104,14 +103,6 @@ struct HeightField::Impl {
     const auto q = tri(static_cast<std::size_t>(t));
     return b[0] * q[0].z + b[1] * q[1].z + b[2] * q[2].z;
   }
-  Vec3 mesh_normal(Vec2 p) const {
-    double b[3];
-    const long t = find(p, b);
-    if (t < 0) return {kNaN, kNaN, kNaN};
-    const auto& v = triangles[static_cast<std::size_t>(t)];
-    return unit(vertex_normals[v[0]] * b[0] + vertex_normals[v[1]] * b[1] +
-                vertex_normals[v[2]] * b[2]);
-  }
 };
 
 HeightField HeightField::from_function(std::function<Eval()> make, BBox2 domain,
@@ -158,7 +149,6 @@ HeightField HeightField::from_mesh(const TriangleMesh& mesh, std::string name) {
   }
   span = std::max(box.width(), box.height());
   const double area_eps = 1e-18 * span * span;
-  impl->vertex_normals.assign(mesh.vertices.size(), {0, 0, 0});
   for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
     auto v = mesh.triangles[t];
     const Vec3 a = mesh.vertices[v[0]], b = mesh.vertices[v[1]], c = mesh.vertices[v[2]];
@@ -177,10 +167,8 @@ HeightField HeightField::from_mesh(const TriangleMesh& mesh, std::string name) {
       n = n * -1.0;
     }
     impl->triangles.push_back(v);
-    for (int k = 0; k < 3; ++k) impl->vertex_normals[v[k]] = impl->vertex_normals[v[k]] + n;
   }
   if (impl->triangles.empty()) throw GeometryError("surface '" + name + "' has no triangles");
-  for (auto& n : impl->vertex_normals) n = unit(n);
   const double pad = 1e-9 * std::max(1.0, span);
   box.min = box.min - Vec2{pad, pad};
   box.max = box.max + Vec2{pad, pad};
@@ -351,29 +339,6 @@ double HeightField::height(Vec2 p) const {
   return evaluator()(p.x, p.y);
 }
 
-namespace {
-
-// Upward unit normal of z = f(x,y) by central differences (NaN where f is absent).
-Vec3 function_normal(const HeightField::Eval& f, Vec2 p) {
-  const double h = 1e-5;
-  double zx0 = f(p.x - h, p.y), zx1 = f(p.x + h, p.y), zy0 = f(p.x, p.y - h), zy1 = f(p.x, p.y + h);
-  const double z = f(p.x, p.y);
-  if (!std::isfinite(z)) return {kNaN, kNaN, kNaN};
-  // One-sided at the footprint's edge.
-  double dx, dy;
-  if (std::isfinite(zx0) && std::isfinite(zx1)) dx = (zx1 - zx0) / (2 * h);
-  else dx = std::isfinite(zx1) ? (zx1 - z) / h : std::isfinite(zx0) ? (z - zx0) / h : 0;
-  if (std::isfinite(zy0) && std::isfinite(zy1)) dy = (zy1 - zy0) / (2 * h);
-  else dy = std::isfinite(zy1) ? (zy1 - z) / h : std::isfinite(zy0) ? (z - zy0) / h : 0;
-  return unit({-dx, -dy, 1});
-}
-
-}  // namespace
-
-Vec3 HeightField::normal(Vec2 p) const {
-  if (impl_->mesh()) return impl_->mesh_normal(p);
-  return function_normal(evaluator(), p);
-}
 
 OffsetMode offset_mode_from_string(const std::string& name) {
   if (name == "vertical") return OffsetMode::Vertical;

@@ -44,8 +44,6 @@ class HeightField {
   bool is_mesh() const;
   // z at (x, y); NaN outside the footprint. For meshes, the facet under the point.
   double height(Vec2 p) const;
-  // Unit upward normal at (x, y) (meshes: vertex normals interpolated, smooth across edges).
-  Vec3 normal(Vec2 p) const;
   // Per-thread evaluator for many queries (functions only; meshes return height()).
   Eval evaluator() const;
 
