@@ -439,6 +439,9 @@ std::vector<std::vector<Vec3>> sample_curve(const SurfacePoint& sp, Vec2 a, Vec2
   std::vector<std::vector<Vec3>> pieces;
   if (len <= 0) return pieces;
   auto at = [&](double s) { return sp(a + (b - a) * (s / len)); };
+  // At most 20,000 base samples per curve (the refinement adds points where the surface bends),
+  // so a curve metres long cannot take millions of evaluations.
+  base_step = std::max(base_step, len / 20000);
   const int n = std::max(1, static_cast<int>(std::ceil(len / base_step)));
   std::vector<double> ss(static_cast<std::size_t>(n) + 1);
   std::vector<Vec3> ps(ss.size());
@@ -905,12 +908,14 @@ SurfaceDeviation surface_deviation(const Toolpath& tp, const HeightField& surfac
       for (std::size_t i = 0; i < p.points.size(); ++i) {
         const double d = dev(p.points[i], false);
         if (d > local.max_point) local.max_point = d, local.worst = p.points[i];
-        if (i > 0) local.max_chord = std::max(local.max_chord,
-                                              dev((p.points[i - 1] + p.points[i]) * 0.5, true));
+        if (i == 0) continue;
+        const Vec3 mid = (p.points[i - 1] + p.points[i]) * 0.5;
+        const double c = dev(mid, true);
+        if (c > local.max_chord) local.max_chord = c, local.worst_chord = mid;
       }
     std::lock_guard lock(m);
     if (local.max_point > out.max_point) out.max_point = local.max_point, out.worst = local.worst;
-    out.max_chord = std::max(out.max_chord, local.max_chord);
+    if (local.max_chord > out.max_chord) out.max_chord = local.max_chord, out.worst_chord = local.worst_chord;
   });
   return out;
 }

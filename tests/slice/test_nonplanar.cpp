@@ -174,6 +174,23 @@ TEST(Nonplanar, NotAHeightFieldNamesWhere) {
   EXPECT_THROW(HeightField::from_expression("x +* y", {{0, 0}, {1, 1}}, "bad"), ParseError);
 }
 
+// Found by fuzz_mesh: a sliver 444 km long once took millions of samples per connector.
+TEST(Nonplanar, HugeSliverStaysBoundedWork) {
+  TriangleMesh m;
+  m.vertices = {{0, 8, 2}, {1, 444444, 1}, {0, 0, 1}};
+  m.triangles = {{0, 1, 2}};
+  const HeightField h = HeightField::from_mesh(m, "sliver");
+  NonplanarParams p;
+  p.layers = 2;
+  p.width = p.layer_height = 444444.0 / 40;
+  const NonplanarResult r = slice_nonplanar(h, p);
+  std::size_t points = 0;
+  for (const auto& l : r.toolpath.layers)
+    for (const auto& path : l.paths) points += path.points.size();
+  EXPECT_GT(points, 0u);
+  EXPECT_LT(points, 200000u);
+}
+
 TEST(Nonplanar, ProfilesAreContinuousAndTangentAtFillets) {
   const Profile p = corrugation_profile({});
   const auto z = profile_function(p);

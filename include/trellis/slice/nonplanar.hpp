@@ -101,7 +101,8 @@ NonplanarResult slice_nonplanar(const HeightField& surface, const NonplanarParam
 // mode: the distance to the surface found by minimisation, minus k·h.
 struct SurfaceDeviation {
   double max_point = 0, max_chord = 0;
-  Vec3 worst;  // where max_point occurs
+  Vec3 worst;        // where max_point occurs
+  Vec3 worst_chord;  // the midpoint of the segment where max_chord occurs
 };
 SurfaceDeviation surface_deviation(const Toolpath& toolpath, const HeightField& surface,
                                    const NonplanarParams& params);
