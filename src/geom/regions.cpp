@@ -56,28 +56,6 @@ Regions boolean(const Regions& a, const Regions& b, cl::ClipType type) {
   return out;
 }
 
-double perpendicular(Vec2 p, Vec2 a, Vec2 b) {
-  const Vec3 P{p.x, p.y, 0}, A{a.x, a.y, 0}, B{b.x, b.y, 0};
-  return distance_to_segment(P, A, B);
-}
-void dp(const std::vector<Vec2>& pts, std::size_t i, std::size_t j, double tol,
-        std::vector<char>& keep) {
-  if (j <= i + 1) return;
-  double best = -1;
-  std::size_t k = i;
-  for (std::size_t t = i + 1; t < j; ++t) {
-    const double d = perpendicular(pts[t], pts[i], pts[j]);
-    if (d > best) {
-      best = d;
-      k = t;
-    }
-  }
-  if (best > tol) {
-    keep[k] = 1;
-    dp(pts, i, k, tol, keep);
-    dp(pts, k, j, tol, keep);
-  }
-}
 std::vector<Vec2> simplify_ring(const std::vector<Vec2>& ring, double tol) {
   const std::size_t n = ring.size();
   if (n < 4 || tol <= 0) return ring;
@@ -91,15 +69,15 @@ std::vector<Vec2> simplify_ring(const std::vector<Vec2>& ring, double tol) {
       far = i;
     }
   }
-  std::vector<Vec2> pts(ring);
-  pts.push_back(ring[0]);
-  std::vector<char> keep(pts.size(), 0);
-  keep[0] = keep[far] = keep[n] = 1;
-  dp(pts, 0, far, tol, keep);
-  dp(pts, far, n, tol, keep);
+  // The two open halves, 0..far and far..0, each simplified on its own.
+  std::vector<Vec3> a, b;
+  for (std::size_t i = 0; i <= far; ++i) a.push_back({ring[i].x, ring[i].y, 0});
+  for (std::size_t i = far; i <= n; ++i) b.push_back({ring[i % n].x, ring[i % n].y, 0});
+  a = simplify_polyline(a, tol);
+  b = simplify_polyline(b, tol);
   std::vector<Vec2> out;
-  for (std::size_t i = 0; i < n; ++i)
-    if (keep[i]) out.push_back(pts[i]);
+  for (const auto& q : a) out.push_back(q.xy());
+  for (std::size_t i = 1; i + 1 < b.size(); ++i) out.push_back(b[i].xy());
   return out.size() >= 3 ? out : ring;
 }
 
@@ -219,6 +197,32 @@ Regions difference(const Regions& a, const Regions& b) {
 }
 Regions intersection(const Regions& a, const Regions& b) {
   return boolean(a, b, cl::ctIntersection);
+}
+
+std::vector<Vec3> simplify_polyline(const std::vector<Vec3>& pts, double tol) {
+  if (pts.size() <= 2) return pts;
+  std::vector<char> keep(pts.size(), 0);
+  keep.front() = keep.back() = 1;
+  std::vector<std::pair<std::size_t, std::size_t>> stack{{0, pts.size() - 1}};
+  while (!stack.empty()) {
+    const auto [i, j] = stack.back();
+    stack.pop_back();
+    double best = -1;
+    std::size_t k = i;
+    for (std::size_t t = i + 1; t < j; ++t) {
+      const double d = distance_to_segment(pts[t], pts[i], pts[j]);
+      if (d > best) best = d, k = t;
+    }
+    if (best > tol) {
+      keep[k] = 1;
+      stack.push_back({i, k});
+      stack.push_back({k, j});
+    }
+  }
+  std::vector<Vec3> out;
+  for (std::size_t i = 0; i < pts.size(); ++i)
+    if (keep[i]) out.push_back(pts[i]);
+  return out;
 }
 
 Regions simplify(const Regions& regions, double tolerance) {

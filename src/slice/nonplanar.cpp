@@ -20,6 +20,7 @@
 #include "../field/node.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/geom/mesh.hpp"
+#include "trellis/geom/regions.hpp"
 
 namespace trellis {
 
@@ -403,33 +404,6 @@ struct SurfacePoint {
   }
 };
 
-// Douglas–Peucker: keeps the ends and every point needed to stay within `tol` of the polyline.
-std::vector<Vec3> simplify(const std::vector<Vec3>& pts, double tol) {
-  if (pts.size() <= 2) return pts;
-  std::vector<char> keep(pts.size(), 0);
-  keep.front() = keep.back() = 1;
-  std::vector<std::pair<std::size_t, std::size_t>> stack{{0, pts.size() - 1}};
-  while (!stack.empty()) {
-    auto [a, b] = stack.back();
-    stack.pop_back();
-    double worst = -1;
-    std::size_t at = a;
-    for (std::size_t i = a + 1; i < b; ++i) {
-      const double d = distance_to_segment(pts[i], pts[a], pts[b]);
-      if (d > worst) worst = d, at = i;
-    }
-    if (worst > tol) {
-      keep[at] = 1;
-      stack.push_back({a, at});
-      stack.push_back({at, b});
-    }
-  }
-  std::vector<Vec3> out;
-  for (std::size_t i = 0; i < pts.size(); ++i)
-    if (keep[i]) out.push_back(pts[i]);
-  return out;
-}
-
 // Samples the curve c(s) = surface point above a + (b − a)·s for s in [s0, s1] where it exists:
 // pieces split where the footprint ends (ends found by bisection), each refined until the curve
 // at the quarter points of every chord is within `tol` of it.
@@ -680,7 +654,7 @@ std::vector<Line> layer_lines(const HeightField& surface, double angle_deg, doub
     mesh_sections(impl, d, n, lines, v0, w, surface.name());
     tbb::parallel_for(std::size_t{0}, lines.size(), [&](std::size_t i) {
       for (auto& p : lines[i].pieces) {
-        p = simplify(p, tol);
+        p = simplify_polyline(p, tol);
         if (offset != 0)
           for (auto& q : p) q.z += offset;
       }
@@ -698,7 +672,7 @@ std::vector<Line> layer_lines(const HeightField& surface, double angle_deg, doub
     const SurfacePoint sp{f, prm.offset, offset};
     const Vec2 o = n * lines[i].v;
     lines[i].pieces = sample_curve(sp, o + d * u0, o + d * u1, tol * 0.5, step);
-    for (auto& p : lines[i].pieces) p = simplify(p, tol * 0.5);
+    for (auto& p : lines[i].pieces) p = simplify_polyline(p, tol * 0.5);
   });
   return lines;
 }
@@ -811,7 +785,7 @@ NonplanarResult slice_nonplanar(const HeightField& surface, const NonplanarParam
                                    std::clamp(prm.width / 4, 0.01, 0.1));
           if (conn.size() == 1 && distance_xy(conn[0].front(), a) < 1e-6 &&
               distance_xy(conn[0].back(), b) < 1e-6) {
-            auto c = simplify(conn[0], prm.chord_tolerance * 0.5);
+            auto c = simplify_polyline(conn[0], prm.chord_tolerance * 0.5);
             double clen = 0;
             for (std::size_t i = 1; i < c.size(); ++i) clen += distance(c[i - 1], c[i]);
             rep.connector_length += clen;
@@ -1071,7 +1045,7 @@ Toolpath project_onto_surface(const Toolpath& planar, const HeightField& surface
                     fmt_xy(src.points[i - 1].xy()) + " and " + fmt_xy(src.points[i].xy());
           return;
         }
-        auto seg = simplify(pieces[0], prm.chord_tolerance * 0.5);
+        auto seg = simplify_polyline(pieces[0], prm.chord_tolerance * 0.5);
         dst.points.insert(dst.points.end(), seg.begin() + (dst.points.empty() ? 0 : 1), seg.end());
       }
       if (dst.points.size() >= 2) layer.paths.push_back(std::move(dst));

@@ -31,6 +31,9 @@ Regions intersection(const Regions& a, const Regions& b);
 
 // Douglas–Peucker on each ring, keeping every point within `tolerance` of the original outline.
 Regions simplify(const Regions& regions, double tolerance);
+// Douglas–Peucker on an open polyline in 3D: keeps both ends and every point needed for the
+// result to stay within `tolerance` of the original.
+std::vector<Vec3> simplify_polyline(const std::vector<Vec3>& points, double tolerance);
 
 // Closed loops of a region set, as rings (outer counter-clockwise, holes clockwise).
 std::vector<std::vector<Vec2>> rings_of(const Regions& regions);
