@@ -7,6 +7,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <limits>
@@ -352,11 +353,56 @@ namespace {
 
 // --- curves on the surface ---
 
+// Starts of a multi-start search: the best samples (value, point), at most `count`, each at
+// least `separation` from the ones chosen before (the best few often sit on one hill).
+std::vector<std::pair<double, Vec2>> diverse_starts(std::vector<std::pair<double, Vec2>>& samples,
+                                                    std::size_t count, double separation) {
+  std::sort(samples.begin(), samples.end(),
+            [](const auto& a, const auto& b) { return a.first > b.first; });
+  std::vector<std::pair<double, Vec2>> out;
+  for (const auto& s : samples) {
+    if (out.size() == count || s.first <= -1e299) break;
+    bool far = true;
+    for (const auto& o : out)
+      far = far && std::hypot(s.second.x - o.second.x, s.second.y - o.second.y) >= separation;
+    if (far) out.push_back(s);
+  }
+  return out;
+}
+
+// Sixteen unit directions: creases of folded surfaces and meshes make ridges that a search
+// along the axes alone stalls on.
+const std::array<Vec2, 16> kCompass = [] {
+  std::array<Vec2, 16> d{};
+  for (int k = 0; k < 16; ++k)
+    d[k] = {std::cos(k * std::numbers::pi / 8), std::sin(k * std::numbers::pi / 8)};
+  return d;
+}();
+
+// Compass search (sixteen directions, step halved down to `min_step`) for a maximum of fn from
+// `at`, whose value is `v`; returns the value found.
+template <class F>
+double climb(F&& fn, Vec2 at, double v, double step, double min_step) {
+  for (; step > min_step; step *= 0.5) {
+    bool moved = true;
+    for (int guard = 0; moved && guard < 64; ++guard) {
+      moved = false;
+      for (Vec2 u : kCompass) {
+        const Vec2 q = at + u * step;
+        const double w = fn(q);
+        if (w > v) v = w, at = q, moved = true;
+      }
+    }
+  }
+  return v;
+}
+
 // Height above XY point p of the surface offset by d along its normals: the upper envelope of
 // balls of radius d centred on the surface, max over |q − p| <= d of f(q) + sqrt(d² − |q − p|²).
 // Equal to the normal offset where the surface bends gently, and still exact in valleys sharper
 // than d (where plain normal offsets cross over each other). Polar samples of the disc, then a
-// shrinking pattern search from the best.
+// compass search from the best, and from the next best that lie away from it: on folded
+// surfaces the maximum can sit on a crease or at the footprint's edge, off the first hill.
 double envelope_height(const HeightField::Eval& f, Vec2 p, double d) {
   const double z0 = f(p.x, p.y);
   if (!std::isfinite(z0) || d <= 0) return z0;
@@ -366,25 +412,33 @@ double envelope_height(const HeightField::Eval& f, Vec2 p, double d) {
     const double z = f(q.x, q.y);
     return std::isfinite(z) ? z + std::sqrt(d * d - r2) : -1e300;
   };
-  Vec2 best = p;
-  double vb = z0 + d;
   constexpr int kRadii = 6, kAngles = 16;
-  for (int i = 1; i <= kRadii; ++i)
-    for (int j = 0; j < kAngles; ++j) {
-      const double r = d * i / kRadii, a = 2 * std::numbers::pi * j / kAngles;
-      const Vec2 q{p.x + r * std::cos(a), p.y + r * std::sin(a)};
-      const double v = value(q);
-      if (v > vb) vb = v, best = q;
-    }
-  for (double step = d / kRadii; step > 1e-9; step *= 0.5) {
-    bool moved = true;
-    for (int guard = 0; moved && guard < 64; ++guard) {
-      moved = false;
-      for (Vec2 dl : {Vec2{step, 0}, Vec2{-step, 0}, Vec2{0, step}, Vec2{0, -step}}) {
-        const double v = value(best + dl);
-        if (v > vb) vb = v, best = best + dl, moved = true;
+  // Unit offsets of the polar samples, computed once.
+  static const auto ring = [] {
+    std::array<Vec2, kRadii * kAngles> u{};
+    for (int i = 1; i <= kRadii; ++i)
+      for (int j = 0; j < kAngles; ++j) {
+        const double r = static_cast<double>(i) / kRadii, a = 2 * std::numbers::pi * j / kAngles;
+        u[static_cast<std::size_t>((i - 1) * kAngles + j)] = {r * std::cos(a), r * std::sin(a)};
       }
-    }
+    return u;
+  }();
+  std::array<std::pair<double, Vec2>, kRadii * kAngles + 1> samples;
+  samples[0] = {z0 + d, p};
+  for (std::size_t i = 0; i < ring.size(); ++i) {
+    const Vec2 q = p + ring[i] * d;
+    samples[i + 1] = {value(q), q};
+  }
+  // The best sample's hill first; of the next three best samples, those away from it start
+  // searches of their own (on smooth surfaces they sit on the same hill and are skipped).
+  std::partial_sort(samples.begin(), samples.begin() + 4, samples.end(),
+                    [](const auto& a, const auto& b) { return a.first > b.first; });
+  const Vec2 first = samples[0].second;
+  double vb = climb(value, first, samples[0].first, d / kRadii, 1e-7);
+  for (int k = 1; k < 4; ++k) {
+    const auto& [v, q] = samples[static_cast<std::size_t>(k)];
+    if (v > -1e299 && std::hypot(q.x - first.x, q.y - first.y) > d / 3)
+      vb = std::max(vb, climb(value, q, v, d / kRadii, 1e-7));
   }
   return vb;
 }
@@ -826,33 +880,27 @@ namespace {
 // Distance from q to the surface z = f(x, y), by a grid search around q then a shrinking pattern
 // search (no normals used: an independent measure for the normal-offset check).
 double distance_to_surface(const HeightField::Eval& f, Vec3 q, double radius) {
-  auto g = [&](Vec2 p) {
+  auto g = [&](Vec2 p) {  // minus the squared distance, to climb
     const double z = f(p.x, p.y);
-    if (!std::isfinite(z)) return 1e300;
-    return (p.x - q.x) * (p.x - q.x) + (p.y - q.y) * (p.y - q.y) + (z - q.z) * (z - q.z);
+    if (!std::isfinite(z)) return -1e300;
+    return -((p.x - q.x) * (p.x - q.x) + (p.y - q.y) * (p.y - q.y) + (z - q.z) * (z - q.z));
   };
-  Vec2 best = q.xy();
-  double gb = g(best);
-  const int n = 8;
+  // Samples about 0.05 mm apart (the nearest point may sit on a crease or at a corner of the
+  // footprint), then climbs from the best eight that lie apart; close to the surface (chords)
+  // from two.
   const double r = radius + 0.05;
+  const int n = std::clamp(static_cast<int>(std::ceil(r / 0.05)), 4, 32);
+  std::vector<std::pair<double, Vec2>> samples;
+  samples.reserve(static_cast<std::size_t>((2 * n + 1) * (2 * n + 1)));
   for (int i = -n; i <= n; ++i)
     for (int j = -n; j <= n; ++j) {
       const Vec2 p{q.x + r * i / n, q.y + r * j / n};
-      const double v = g(p);
-      if (v < gb) gb = v, best = p;
+      samples.push_back({g(p), p});
     }
-  for (double step = r / n; step > 1e-8; step *= 0.5) {
-    bool moved = true;
-    while (moved) {
-      moved = false;
-      for (Vec2 dlt : {Vec2{step, 0}, Vec2{-step, 0}, Vec2{0, step}, Vec2{0, -step},
-                       Vec2{step, step}, Vec2{-step, -step}, Vec2{step, -step}, Vec2{-step, step}}) {
-        const double v = g(best + dlt);
-        if (v < gb) gb = v, best = best + dlt, moved = true;
-      }
-    }
-  }
-  return std::sqrt(gb);
+  double best = -1e300;
+  for (const auto& [v, p] : diverse_starts(samples, radius > 0.2 ? 8 : 2, r / 4))
+    best = std::max(best, climb(g, p, v, r / n, 1e-7));
+  return std::sqrt(-best);
 }
 
 }  // namespace
