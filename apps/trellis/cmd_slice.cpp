@@ -54,12 +54,13 @@ void add_slice(CLI::App& app) {
   cmd->add_option("--mesh-voxel", o->mesh_voxel, "voxel of mesh distance fields (mm)")
       ->capture_default_str();
   cmd->add_option("--strategy", o->strategy,
-                  "graded designs (two materials): 1 = walls/skins/infill cut by colour faces, purge "
+                  "graded designs (two or three materials): 1 = walls/skins/infill cut by colour faces, purge "
                   "towers from the profile's [purge]; 2 = colour faces filled densely; both in "
                   "palette order with the profile's [gradient] commands; 0 = one material")
       ->check(CLI::IsMember({0, 1, 2}))
       ->capture_default_str();
-  cmd->add_option("--colors", o->colors, "Strategy 2: colours in the palette (band = 100%/N)")
+  cmd->add_option("--colors", o->colors, "graded designs: colours in the palette (two materials: N bands of 100%/N; three: "
+                  "d² triangles of the mixture triangle, e.g. 9)")
       ->check(CLI::Range(1, 1000))
       ->capture_default_str();
   cmd->add_flag("--concentric", o->concentric, "Strategy 2: concentric fill instead of rectilinear");
@@ -122,8 +123,8 @@ void add_slice(CLI::App& app) {
                 << r.fgm.paths << " paths, " << g.gradient_changes << " " << profile.gradient_mode
                 << " changes (look-ahead " << num(profile.lookahead, 0) << " mm), " << r.fgm.purges
                 << " purges (" << num(r.fgm.purge_volume, 0) << " mm3), gradient error mean "
-                << num(r.fgm.error_mean, 4) << " max " << num(r.fgm.error_max, 4) << " (half band "
-                << num(0.5 / o->colors, 4) << "), shortest "
+                << num(r.fgm.error_mean, 4) << " max " << num(r.fgm.error_max, 4) << " (bound "
+                << num(r.fgm.error_bound, 4) << "), shortest "
                 << num(r.fgm.shortest_path, 2) << " mm; " << to_string(r.route) << " route, "
                 << r.outlines.size() << " layers, ~" << num(g.print_time_s / 60, 1) << " min\n";
     else

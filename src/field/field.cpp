@@ -287,13 +287,28 @@ struct TpmsNode : FieldNode {
     if (kind == TpmsKind::Iwp) c = 3 * std::sqrt(3.0);
     return 1.01 * c * std::max({k.x, k.y, k.z});
   }
-  void eval(const Vec3* p, double* out, std::size_t n, EvalState&, std::size_t) const override {
-    // Batches come in rows or columns of a layer: coordinates repeat, so their sines are reused.
-    double px = std::numeric_limits<double>::quiet_NaN(), py = px, pz = px;
+  void eval(const Vec3* p, double* out, std::size_t n, EvalState& s,
+            std::size_t depth) const override {
+    // Batches come as rows of a layer's grid: z is constant, y changes once a row and x takes the
+    // same values in every row. Sines are reused for a repeated y or z, and for the x of the
+    // point one row back (found by exact comparison, so any batch is evaluated correctly).
+    std::vector<double>& sc = s.value_buffer(depth + 1, 2 * n);
+    double py = std::numeric_limits<double>::quiet_NaN(), pz = py;
     double sx = 0, cx = 0, sy = 0, cy = 0, sz = 0, cz = 0;
+    std::size_t row = 0;  // length of the first row (0 until the row changes)
     for (std::size_t i = 0; i < n; ++i) {
-      if (!(p[i].x == px)) fast_sincos(k.x * p[i].x, &sx, &cx), px = p[i].x;
-      if (!(p[i].y == py)) fast_sincos(k.y * p[i].y, &sy, &cy), py = p[i].y;
+      if (row && p[i].x == p[i - row].x) {
+        sx = sc[2 * (i - row)];
+        cx = sc[2 * (i - row) + 1];
+      } else {
+        fast_sincos(k.x * p[i].x, &sx, &cx);
+      }
+      sc[2 * i] = sx;
+      sc[2 * i + 1] = cx;
+      if (!(p[i].y == py)) {
+        if (i > 0 && row == 0) row = i;
+        fast_sincos(k.y * p[i].y, &sy, &cy), py = p[i].y;
+      }
       if (!(p[i].z == pz)) fast_sincos(k.z * p[i].z, &sz, &cz), pz = p[i].z;
       out[i] = combine(sx, cx, sy, cy, sz, cz);
     }

@@ -63,16 +63,12 @@ class PointIndex {
 
 }  // namespace
 
-StitchedLines stitch_segments(const std::vector<Segment2>& segments, double tolerance) {
-  PointIndex index(tolerance);
-  index.reserve(segments.size() + 16);
-  std::vector<std::pair<std::size_t, std::size_t>> edges;
-  edges.reserve(segments.size());
-  for (const auto& s : segments) {
-    const std::size_t a = index.find_or_add(s.a), b = index.find_or_add(s.b);
-    if (a != b) edges.emplace_back(a, b);
-  }
-  const std::size_t nv = index.points.size();
+namespace {
+
+// Walks directed edges between numbered points into open chains and loops.
+StitchedLines walk_edges(const std::vector<Vec2>& points,
+                         const std::vector<std::pair<std::size_t, std::size_t>>& edges) {
+  const std::size_t nv = points.size();
   // CSR of outgoing edges.
   std::vector<std::size_t> start(nv + 1, 0), in_degree(nv, 0);
   for (auto [a, b] : edges) {
@@ -92,8 +88,13 @@ StitchedLines stitch_segments(const std::vector<Segment2>& segments, double tole
     }
     return static_cast<std::size_t>(-1);
   };
+  // Points equal to the previous one (a crossing exactly at a grid node, reached from two
+  // edges) are not repeated.
+  auto push = [&](std::vector<Vec2>& line, Vec2 p) {
+    if (line.empty() || line.back().x != p.x || line.back().y != p.y) line.push_back(p);
+  };
   auto walk = [&](std::size_t from, std::vector<Vec2>& line) {
-    line.push_back(index.points[from]);
+    push(line, points[from]);
     std::size_t v = from;
     for (;;) {
       const std::size_t e = next_edge(v);
@@ -101,8 +102,17 @@ StitchedLines stitch_segments(const std::vector<Segment2>& segments, double tole
       used[e] = 1;
       v = edges[e].second;
       if (v == from) return v;
-      line.push_back(index.points[v]);
+      push(line, points[v]);
     }
+  };
+  auto finish = [](std::vector<Vec2>& line, bool closed, StitchedLines& result) {
+    if (closed && line.size() >= 2 && line.back().x == line.front().x &&
+        line.back().y == line.front().y)
+      line.pop_back();
+    if (closed && line.size() >= 3)
+      result.loops.push_back(std::move(line));
+    else if (line.size() >= 2)
+      result.open.push_back(std::move(line));
   };
 
   StitchedLines result;
@@ -115,27 +125,77 @@ StitchedLines stitch_segments(const std::vector<Segment2>& segments, double tole
       const std::size_t end = walk(v, line);
       --out_degree[v];
       ++in_degree[v];
-      if (end == v && line.size() >= 3)
-        result.loops.push_back(std::move(line));
-      else if (line.size() >= 2)
-        result.open.push_back(std::move(line));
+      finish(line, end == v, result);
     }
   for (std::size_t v = 0; v < nv; ++v)
     while (cursor[v] < start[v + 1]) {
       std::vector<Vec2> line;
       const std::size_t end = walk(v, line);
-      if (line.size() < 2) continue;
-      if (end == v && line.size() >= 3)
-        result.loops.push_back(std::move(line));
-      else
-        result.open.push_back(std::move(line));
+      finish(line, end == v, result);
     }
   return result;
+}
+
+}  // namespace
+
+StitchedLines stitch_segments(const std::vector<Segment2>& segments, double tolerance) {
+  PointIndex index(tolerance);
+  index.reserve(segments.size() + 16);
+  std::vector<std::pair<std::size_t, std::size_t>> edges;
+  edges.reserve(segments.size());
+  for (const auto& s : segments) {
+    const std::size_t a = index.find_or_add(s.a), b = index.find_or_add(s.b);
+    if (a != b) edges.emplace_back(a, b);
+  }
+  return walk_edges(index.points, edges);
 }
 
 // ---------------------------------------------------------------- marching squares
 
 namespace {
+
+// Grid edge -> crossing index: open addressing with linear probing (hand-written: a node-based
+// std::unordered_map costs more than the lookups it serves here, one or two per crossing).
+class EdgeTable {
+ public:
+  EdgeTable() : keys_(1024, kEmpty), values_(1024) {}
+  // The value stored for key, inserting `value` if the key is new.
+  std::size_t& find_or_insert(std::uint64_t key, std::size_t value) {
+    if (2 * (size_ + 1) > keys_.size()) grow();
+    std::size_t i = slot(key);
+    while (keys_[i] != kEmpty && keys_[i] != key) i = (i + 1) & (keys_.size() - 1);
+    if (keys_[i] == kEmpty) {
+      keys_[i] = key;
+      values_[i] = value;
+      ++size_;
+    }
+    return values_[i];
+  }
+
+ private:
+  static constexpr std::uint64_t kEmpty = ~std::uint64_t{0};
+  std::size_t slot(std::uint64_t key) const {
+    return static_cast<std::size_t>((key * 0x9E3779B97F4A7C15ull) >> shift_);
+  }
+  void grow() {
+    std::vector<std::uint64_t> keys(keys_.size() * 2, kEmpty);
+    std::vector<std::size_t> values(keys.size());
+    keys.swap(keys_);
+    values.swap(values_);
+    --shift_;
+    for (std::size_t k = 0; k < keys.size(); ++k) {
+      if (keys[k] == kEmpty) continue;
+      std::size_t i = slot(keys[k]);
+      while (keys_[i] != kEmpty) i = (i + 1) & (keys_.size() - 1);
+      keys_[i] = keys[k];
+      values_[i] = values[k];
+    }
+  }
+  std::vector<std::uint64_t> keys_;
+  std::vector<std::size_t> values_;
+  std::size_t size_ = 0;
+  int shift_ = 64 - 10;  // 1024 slots
+};
 
 struct Marcher {
   PlaneFunction& f;
@@ -198,13 +258,15 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
   const auto ny = static_cast<std::size_t>(std::ceil((hi.y - lo.y) / h - 1e-9));
   const std::size_t B = std::max<std::size_t>(options.block, 1);
   Marcher m{f, lo, h, level, options};
-  std::vector<Segment2> segments;
+  // Every crossing lies on one grid edge and is refined once, whichever block asks for it;
+  // segments join crossings by edge, so stitching is exact (no distance tolerance).
+  EdgeTable table;
+  std::vector<Vec2> crossings;
+  std::vector<std::pair<std::size_t, std::size_t>> segments;
+  const std::uint64_t row = nx + 1;
 
   std::vector<Vec2> pts;
   std::vector<double> val;
-  // Per-block crossing caches: horizontal edges (i,j)->(i+1,j), vertical (i,j)->(i,j+1).
-  std::vector<Vec2> hx, vx;
-  std::vector<char> has_hx, has_vx;
   // Marches the cells [bi, bi+ci) x [bj, bj+cj): samples its nodes, refines its crossings.
   auto march_block = [&](std::size_t bi, std::size_t bj, std::size_t ci, std::size_t cj) {
     const std::size_t w = ci + 1, hgt = cj + 1;
@@ -212,29 +274,19 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
     val.resize(w * hgt);
     for (std::size_t j = 0; j < hgt; ++j)
       for (std::size_t i = 0; i < w; ++i) pts[j * w + i] = m.node(bi + i, bj + j);
-    f.sample(pts.data(), val.data(), pts.size());
+    f.sample_grid(pts[0], h, w, hgt, pts.data(), val.data());
     m.samples += pts.size();
-    hx.assign(ci * hgt, {});
-    has_hx.assign(ci * hgt, 0);
-    vx.assign(w * cj, {});
-    has_vx.assign(w * cj, 0);
     auto inside = [&](std::size_t i, std::size_t j) { return val[j * w + i] < level; };
-    auto hcross = [&](std::size_t i, std::size_t j) {
-      const std::size_t k = j * ci + i;
-      if (!has_hx[k]) {
-        hx[k] = m.crossing(pts[j * w + i], pts[j * w + i + 1], val[j * w + i], val[j * w + i + 1]);
-        has_hx[k] = 1;
+    // Crossing on the edge from local node (i, j) to (i + 1, j) (horizontal) or (i, j + 1).
+    auto cross = [&](std::size_t i, std::size_t j, bool vertical) {
+      const std::uint64_t key =
+          (((bj + j) * row + (bi + i)) << 1) | static_cast<std::uint64_t>(vertical);
+      std::size_t& slot = table.find_or_insert(key, crossings.size());
+      if (slot == crossings.size()) {
+        const std::size_t a = j * w + i, b = vertical ? a + w : a + 1;
+        crossings.push_back(m.crossing(pts[a], pts[b], val[a], val[b]));
       }
-      return hx[k];
-    };
-    auto vcross = [&](std::size_t i, std::size_t j) {
-      const std::size_t k = j * w + i;
-      if (!has_vx[k]) {
-        vx[k] = m.crossing(pts[j * w + i], pts[(j + 1) * w + i], val[j * w + i],
-                           val[(j + 1) * w + i]);
-        has_vx[k] = 1;
-      }
-      return vx[k];
+      return slot;
     };
     for (std::size_t j = 0; j < cj; ++j)
       for (std::size_t i = 0; i < ci; ++i) {
@@ -243,33 +295,33 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
                             inside(i, j + 1)};
         if (in[0] == in[1] && in[1] == in[2] && in[2] == in[3]) continue;
         // Walk the cell boundary counter-clockwise; record crossings and their direction.
-        Vec2 cross[4];
+        std::size_t ids[4];
         bool leaving[4];  // inside -> outside along the walk
         int n = 0;
         for (int e = 0; e < 4; ++e) {
           const int a = e, b = (e + 1) % 4;
           if (in[a] == in[b]) continue;
-          Vec2 p;
+          std::size_t id;
           switch (e) {
-            case 0: p = hcross(i, j); break;
-            case 1: p = vcross(i + 1, j); break;
-            case 2: p = hcross(i, j + 1); break;
-            default: p = vcross(i, j); break;
+            case 0: id = cross(i, j, false); break;
+            case 1: id = cross(i + 1, j, true); break;
+            case 2: id = cross(i, j + 1, false); break;
+            default: id = cross(i, j, true); break;
           }
-          cross[n] = p;
+          ids[n] = id;
           leaving[n] = in[a];
           ++n;
         }
         if (n == 2) {
           const int s = leaving[0] ? 0 : 1;
-          segments.push_back({cross[s], cross[1 - s]});
+          segments.emplace_back(ids[s], ids[1 - s]);
         } else if (n == 4) {
           const Vec2 c = pts[j * w + i] + Vec2{h * 0.5, h * 0.5};
           const bool center_in = m.eval(c) < level;
           for (int k = 0; k < 4; ++k) {
             if (!leaving[k]) continue;
             const int other = center_in ? (k + 1) % 4 : (k + 3) % 4;
-            segments.push_back({cross[k], cross[other]});
+            segments.emplace_back(ids[k], ids[other]);
           }
         }
       }
@@ -321,7 +373,7 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
       visit(top, bound(top));
     }
   result.samples = m.samples;
-  result.lines = stitch_segments(segments, options.stitch_tolerance);
+  result.lines = walk_edges(crossings, segments);
   return result;
 }
 

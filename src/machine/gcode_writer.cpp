@@ -318,6 +318,16 @@ class Writer {
   // material A), or a nozzle temperature linear in the mixture (foaming filament), with the
   // flow compensation of the FGM paper's Eq. 3 (PLA) or Eq. 4 (TPU) as M221.
   std::string gradient_command(const std::vector<double>& mix) const {
+    if (mix.size() > 2 && p_.gradient_mode != "mixing")
+      throw SettingError("a " + std::to_string(mix.size()) +
+                             "-material mixture needs a mixing hotend (gradient.mode = mixing); "
+                             "tools and temperature make mixtures of two materials",
+                         {"", 0, "gradient.mode"});
+    if (p_.gradient_mode == "mixing" && static_cast<int>(mix.size()) > p_.gradient_inputs)
+      throw SettingError("the design mixes " + std::to_string(mix.size()) +
+                             " materials but the hotend has gradient.inputs = " +
+                             std::to_string(p_.gradient_inputs),
+                         {"", 0, "gradient.inputs"});
     std::string c;
     const double a = std::clamp(mix[0], 0.0, 1.0);
     if (p_.gradient_mode == "tools") {

@@ -99,6 +99,8 @@ const std::vector<SettingDecl>& machine_settings() {
        0, 0, &P::gradient_mode},
       {"gradient.tools", "", "tools: number of tools, tool 0 = material A ... last = material B",
        1, 64, &P::gradient_tools},
+      {"gradient.inputs", "", "mixing: filament inputs of the hotend (2 or 3 for graded designs)",
+       1, 6, &P::gradient_inputs},
       {"gradient.temperature_a", "°C", "temperature: nozzle temperature for 100% material A", 0,
        500, &P::temperature_a},
       {"gradient.temperature_b", "°C", "temperature: nozzle temperature for 100% material B", 0,

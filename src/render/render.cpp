@@ -90,7 +90,11 @@ void render_layer_png(const Toolpath& tp, std::size_t index, const std::string& 
     const Path& p = layer.paths[i];
     const double bead = opt.bead_width > 0 ? opt.bead_width : (p.width > 0 ? p.width : 0.2);
     cairo_set_line_width(cr.get(), std::max(bead, 1.5 / scale));
-    if (opt.colour_by_mixture && !p.mixture.empty()) {
+    if (opt.colour_by_mixture && p.mixture.size() >= 3) {
+      // Three materials: A red, B green, C blue, mixed.
+      cairo_set_source_rgb(cr.get(), std::clamp(p.mixture[0], 0.0, 1.0),
+                           std::clamp(p.mixture[1], 0.0, 1.0), std::clamp(p.mixture[2], 0.0, 1.0));
+    } else if (opt.colour_by_mixture && !p.mixture.empty()) {
       order_colour(cr.get(), std::clamp(p.mixture[0], 0.0, 1.0));
     } else if (opt.colour_by_role) {
       switch (p.role) {

@@ -5,7 +5,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
+#include <string>
 
 #include "trellis/core/error.hpp"
 #include "trellis/geom/contour.hpp"
@@ -13,18 +15,83 @@
 
 namespace trellis {
 
+void Palette::check() const {
+  if (materials != 2 && materials != 3)
+    throw SettingError("gradient palettes mix two or three materials (the design has " +
+                       std::to_string(materials) + ")");
+  if (colors < 1 || colors > 1000) throw SettingError("the palette needs 1 to 1000 colours");
+  if (materials == 3) {
+    const int d = divisions();
+    if (d * d != colors || d < 1)
+      throw SettingError("a three-material palette has d² colours (1, 4, 9, 16, 25, …), not " +
+                         std::to_string(colors));
+  }
+}
+
+int Palette::divisions() const {
+  if (materials != 3) return colors;
+  return static_cast<int>(std::lround(std::sqrt(static_cast<double>(std::max(colors, 1)))));
+}
+
+double Palette::band() const { return 1.0 / divisions(); }
+
+double Palette::error_bound() const { return (materials == 3 ? 2.0 / 3.0 : 0.5) * band(); }
+
+Palette::Cell Palette::cell(int color) const {
+  // Row r holds the triangles with i = r: up (r, 0), down (r, 0), up (r, 1), …, up (r, d-1-r),
+  // 2(d - r) - 1 of them, walked left to right on even rows and back on odd ones.
+  const int d = divisions();
+  int r = 0, first = 0;
+  while (r < d - 1 && color >= first + 2 * (d - r) - 1) first += 2 * (d - r) - 1, ++r;
+  const int count = 2 * (d - r) - 1;
+  int t = std::clamp(color - first, 0, count - 1);
+  if (r % 2 == 1) t = count - 1 - t;
+  Cell c;
+  c.i = r;
+  c.j = t / 2;
+  c.up = t % 2 == 0;
+  c.k = (c.up ? d - 1 : d - 2) - c.i - c.j;
+  return c;
+}
+
+std::vector<double> Palette::mixture(int color) const {
+  if (materials != 3) {
+    const double m = (color + 0.5) / colors;
+    return {m, 1 - m};
+  }
+  const Cell c = cell(color);
+  const double off = c.up ? 1.0 / 3.0 : 2.0 / 3.0, d = divisions();
+  return {(c.i + off) / d, (c.j + off) / d, (c.k + off) / d};
+}
+
 int Palette::color_of(double f) const {
   return std::clamp(static_cast<int>(std::floor(f * colors)), 0, colors - 1);
 }
 
+int Palette::color_of(const std::vector<double>& f) const {
+  if (materials != 3 || f.size() < 3) return color_of(f.empty() ? 0.0 : f[0]);
+  const int d = divisions();
+  const double a = std::clamp(f[0], 0.0, 1.0) * d, b = std::clamp(f[1], 0.0, 1.0) * d;
+  const int i = std::clamp(static_cast<int>(std::floor(a)), 0, d - 1);
+  int j = std::clamp(static_cast<int>(std::floor(b)), 0, d - 1 - i);
+  const bool up = i + j == d - 1 || (a - i) + (b - j) < 1;
+  // Index of (i, j, up) along the snake.
+  int first = 0;
+  for (int r = 0; r < i; ++r) first += 2 * (d - r) - 1;
+  const int count = 2 * (d - i) - 1;
+  int t = 2 * j + (up ? 0 : 1);
+  if (i % 2 == 1) t = count - 1 - t;
+  return first + t;
+}
+
 namespace {
 
-// The first material's fraction on one layer's grid, evaluated once per node (every band-edge
-// contour samples the same nodes); points off the grid (root refinement) are evaluated directly.
+// One material's fraction on one layer's grid, evaluated once per node (every band-edge contour
+// samples the same nodes); points off the grid (root refinement) are evaluated directly.
 class FractionGrid {
  public:
-  FractionGrid(Evaluator& ev, double z, Vec2 lo, Vec2 hi, double res)
-      : ev_(ev), z_(z), lo_(lo), res_(res) {
+  FractionGrid(Evaluator& ev, double z, Vec2 lo, Vec2 hi, double res, std::size_t material = 0)
+      : ev_(ev), z_(z), lo_(lo), res_(res), material_(material) {
     nx_ = static_cast<std::size_t>(std::ceil((hi.x - lo.x) / res)) + 1;
     ny_ = static_cast<std::size_t>(std::ceil((hi.y - lo.y) / res)) + 1;
     values_.resize(nx_ * ny_);
@@ -64,12 +131,13 @@ class FractionGrid {
   }
   double eval(Vec2 p) {
     const auto f = ev_.fractions({p.x, p.y, z_});
-    return f.empty() ? 0.0 : f[0];
+    return material_ < f.size() ? f[material_] : 0.0;
   }
   Evaluator& ev_;
   double z_;
   Vec2 lo_;
   double res_;
+  std::size_t material_;
   std::size_t nx_ = 0, ny_ = 0;
   std::vector<double> values_;
 };
@@ -100,39 +168,75 @@ class BelowLevel : public PlaneFunction {
   Vec2 lo_, hi_;
 };
 
-BBox3 bbox_of(const Regions& r) {
-  BBox3 b;
-  for (const auto& p : r)
-    for (const Vec2 q : p.outer) b.add({q.x, q.y, 0});
-  return b;
+// Moves chord midpoints onto the zero set of f until they are within `tol` of it: a secant step
+// along the chord's normal (the crossings at the chord's ends are on the zero set already), at
+// most `depth` halvings. Contours from a coarse grid deviate from a curved iso-line by c²/8ρ in
+// the middle of a chord; refined, the faces' edges follow the iso-lines to `tol` in fraction.
+// Chords with an end on the border of [lo, hi] (where the contour follows the box) are kept.
+void refine_chords(std::vector<Vec2>& ring, PlaneFunction& f, double tol, double min_chord, Vec2 lo,
+                   Vec2 hi) {
+  const double eps = 1e-3 * min_chord;
+  auto on_border = [&](Vec2 p) {
+    return p.x <= lo.x + eps || p.x >= hi.x - eps || p.y <= lo.y + eps || p.y >= hi.y - eps;
+  };
+  auto value = [&](Vec2 p) {
+    double v;
+    f.sample(&p, &v, 1);
+    return v;
+  };
+  std::vector<Vec2> out;
+  out.reserve(ring.size() + ring.size() / 2);
+  std::function<void(Vec2, Vec2, int)> split = [&](Vec2 a, Vec2 b, int depth) {
+    const Vec2 d = b - a;
+    const double len = std::hypot(d.x, d.y);
+    if (depth <= 0 || len < min_chord) return;
+    const Vec2 m = (a + b) * 0.5;
+    const double fm = value(m);
+    if (!(std::abs(fm) > tol)) return;
+    const Vec2 n{-d.y / len, d.x / len};
+    const double step = 1e-3 * len;
+    const double slope = (value(m + n * step) - fm) / step;
+    if (!(std::abs(slope) > 0)) return;
+    const double t = std::clamp(-fm / slope, -0.5 * len, 0.5 * len);
+    const Vec2 q = m + n * t;
+    if (!(std::abs(value(q)) < std::abs(fm))) return;
+    split(a, q, depth - 1);
+    out.push_back(q);
+    split(q, b, depth - 1);
+  };
+  for (std::size_t k = 0; k < ring.size(); ++k) {
+    out.push_back(ring[k]);
+    const Vec2 a = ring[k], b = ring[(k + 1) % ring.size()];
+    if (!on_border(a) && !on_border(b)) split(a, b, 8);
+  }
+  ring = std::move(out);
 }
 
-}  // namespace
-
-std::vector<Regions> level_slabs(const Field& field, Evaluator& ev, double z,
-                                 const Regions& outline, const std::vector<double>& levels,
-                                 double resolution) {
-  if (field.materials().size() < 2)
-    throw GeometryError("gradient slicing needs a design with two materials (an fgrade node)");
+// The rectangle cut at increasing levels of one material's fraction (see level_slabs).
+std::vector<Regions> rect_slabs(Evaluator& ev, double z, Vec2 lo, Vec2 hi, std::size_t material,
+                                const std::vector<double>& levels, double resolution) {
   std::vector<Regions> slabs(levels.size() + 1);
-  const BBox3 b = bbox_of(outline);
-  if (b.empty()) return slabs;
-  const Vec2 lo{b.min.x - resolution, b.min.y - resolution};
-  const Vec2 hi{b.max.x + resolution, b.max.y + resolution};
   const Vec2 glo{lo.x - 2 * resolution, lo.y - 2 * resolution};
   const Vec2 ghi{hi.x + 2 * resolution, hi.y + 2 * resolution};
-  FractionGrid grid(ev, z, glo, ghi, resolution);
+  FractionGrid grid(ev, z, glo, ghi, resolution, material);
   MarchOptions mo;
   mo.resolution = resolution;
-  Regions previous;  // the outline where f <= the previous level
+  Regions previous;  // where f <= the previous level
+  const Regions box = {make_rectangle((lo + hi) * 0.5, hi.x - lo.x, hi.y - lo.y)};
+  // Chords follow the iso-lines to 1e-4 of the smallest gap between levels.
+  double gap = 1;
+  for (std::size_t k = 0; k < levels.size(); ++k)
+    gap = std::min(gap, k ? levels[k] - levels[k - 1] : levels[k]);
+  const double tol = 1e-4 * std::max(gap, 1e-3);
   for (std::size_t k = 0; k <= levels.size(); ++k) {
     Regions below;
     if (k < levels.size()) {
       BelowLevel f(grid, levels[k], lo, hi);
-      const ContourSet cs = march_squares(f, glo, ghi, 0.0, mo);
-      below = intersection(outline, nest_oriented_rings(cs.lines.loops));
+      ContourSet cs = march_squares(f, glo, ghi, 0.0, mo);
+      for (auto& ring : cs.lines.loops) refine_chords(ring, f, tol, 1e-4, lo, hi);
+      below = nest_oriented_rings(cs.lines.loops);
     } else {
-      below = outline;
+      below = box;
     }
     slabs[k] = k == 0 ? below : difference(below, previous);
     previous = std::move(below);
@@ -140,17 +244,71 @@ std::vector<Regions> level_slabs(const Field& field, Evaluator& ev, double z,
   return slabs;
 }
 
+void padded_box(const Regions& r, double pad, Vec2& lo, Vec2& hi) {
+  BBox3 b;
+  for (const auto& p : r)
+    for (const Vec2 q : p.outer) b.add({q.x, q.y, 0});
+  lo = {b.min.x - pad, b.min.y - pad};
+  hi = {b.max.x + pad, b.max.y + pad};
+}
+
+void require_materials(const Field& field, const Palette& palette) {
+  palette.check();
+  if (field.materials().size() < static_cast<std::size_t>(palette.materials))
+    throw GeometryError("gradient slicing with a " + std::to_string(palette.materials) +
+                        "-material palette needs a design with " +
+                        std::to_string(palette.materials) + " materials (an fgrade node)");
+}
+
+}  // namespace
+
+std::vector<Regions> level_slabs(const Field& field, Evaluator& ev, double z, Vec2 lo, Vec2 hi,
+                                 const std::vector<double>& levels, double resolution) {
+  if (field.materials().size() < 2)
+    throw GeometryError("gradient slicing needs a design with two materials (an fgrade node)");
+  return rect_slabs(ev, z, lo, hi, 0, levels, resolution);
+}
+
+std::vector<ColorFace> palette_zones(const Field& field, Evaluator& ev, double z, Vec2 lo,
+                                     Vec2 hi, const Palette& palette, double resolution) {
+  require_materials(field, palette);
+  const int d = palette.divisions();
+  std::vector<double> levels;
+  for (int k = 1; k < d; ++k) levels.push_back(static_cast<double>(k) / d);
+  std::vector<ColorFace> zones;
+  if (palette.materials == 2) {
+    auto slabs = rect_slabs(ev, z, lo, hi, 0, levels, resolution);
+    for (std::size_t k = 0; k < slabs.size(); ++k)
+      if (!slabs[k].empty()) zones.push_back({static_cast<int>(k), std::move(slabs[k])});
+    return zones;
+  }
+  // Three materials: triangle (i, j, k) = {i ≤ a·d < i+1} ∩ {j ≤ b·d < j+1} ∩ {k ≤ c·d < k+1}.
+  std::vector<Regions> slabs[3];
+  for (std::size_t m = 0; m < 3; ++m) slabs[m] = rect_slabs(ev, z, lo, hi, m, levels, resolution);
+  for (int color = 0; color < palette.colors; ++color) {
+    const Palette::Cell c = palette.cell(color);
+    const auto& sa = slabs[0][static_cast<std::size_t>(c.i)];
+    const auto& sb = slabs[1][static_cast<std::size_t>(c.j)];
+    const auto& sc = slabs[2][static_cast<std::size_t>(c.k)];
+    if (sa.empty() || sb.empty() || sc.empty()) continue;
+    Regions r = intersection(intersection(sa, sb), sc);
+    if (!r.empty()) zones.push_back({color, std::move(r)});
+  }
+  return zones;
+}
+
 std::vector<ColorFace> color_faces(const Field& field, Evaluator& ev, double z,
                                    const Regions& outline, const Palette& palette,
                                    double resolution) {
-  if (palette.colors < 1 || palette.colors > 1000)
-    throw SettingError("the palette needs 1 to 1000 colours");
-  std::vector<double> levels;
-  for (int k = 1; k < palette.colors; ++k) levels.push_back(k * palette.band());
-  auto slabs = level_slabs(field, ev, z, outline, levels, resolution);
+  require_materials(field, palette);
   std::vector<ColorFace> faces;
-  for (std::size_t k = 0; k < slabs.size(); ++k)
-    if (!slabs[k].empty()) faces.push_back({static_cast<int>(k), std::move(slabs[k])});
+  if (outline.empty()) return faces;
+  Vec2 lo, hi;
+  padded_box(outline, 2 * resolution, lo, hi);
+  for (auto& zone : palette_zones(field, ev, z, lo, hi, palette, resolution)) {
+    Regions r = intersection(outline, zone.region);
+    if (!r.empty()) faces.push_back({zone.color, std::move(r)});
+  }
   return faces;
 }
 
@@ -158,6 +316,7 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
                             const FgmOptions& o, FgmStats* stats) {
   if (!(o.bead_width > 0) || !(o.resolution > 0))
     throw SettingError("bead width and resolution must be positive");
+  require_materials(field, o.palette);
   // Layers are independent: planned in parallel (oneTBB), one evaluator per thread, each
   // layer's paths paired with their colours.
   struct Planned {
@@ -184,7 +343,7 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
     const double angle = o.angle_deg + (li % 2 ? 90.0 : 0.0);
     Vec2 cursor{0, 0};
     for (const auto& face : faces) {
-      const double m = o.palette.mid(face.color);
+      const std::vector<double> mix = o.palette.mixture(face.color);
       // One ring half a bead inside the face (its bead reaches the face's edge, not beyond),
       // then concentric rings, or 100 % rectilinear lines inside the ring.
       Regions inner = offset(face.region, -o.bead_width / 2);
@@ -208,7 +367,7 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
         if (line.size() < 2) continue;
         Path p;
         p.role = PathRole::Infill;
-        p.mixture = {m, 1 - m};
+        p.mixture = mix;
         p.width = o.bead_width;
         p.height = o.layer_height;
         for (const Vec2 q : line) p.points.push_back({q.x, q.y, layer.z});
@@ -256,7 +415,9 @@ void measure_gradient_error(const Field& field, const Toolpath& tp,
       for (const auto& q : p.points) {
         const auto f = ev.fractions({q.x, q.y, layers[idx].z});
         if (f.empty()) continue;
-        const double e = std::abs(std::clamp(f[0], 0.0, 1.0) - p.mixture[0]);
+        double e = 0;
+        for (std::size_t m = 0; m < f.size() && m < p.mixture.size(); ++m)
+          e = std::max(e, std::abs(std::clamp(f[m], 0.0, 1.0) - p.mixture[m]));
         a.sum += e;
         a.max = std::max(a.max, e);
         ++a.n;
@@ -310,6 +471,9 @@ Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>&
     throw SettingError("bead width and layer height must be positive");
   if (!(o.zipper >= 0) || o.zipper >= o.palette.band())
     throw SettingError("the zipper overlap must be in [0, one colour band) of the gradient");
+  require_materials(field, o.palette);
+  if (o.zipper > 0 && o.palette.materials != 2)
+    throw SettingError("zippering interlocks two neighbouring colours of a two-material palette");
   struct Piece {
     Path path;
     int color;
@@ -333,23 +497,32 @@ Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>&
     std::vector<Zone> zones;
     const double res = std::max(o.material_resolution, o.bead_width / 2);
     const double beta = o.zipper;
+    // The planar paths lie inside the outline: the zones need not be cut by it (the outline's
+    // many vertices would make every clip slower), only cover the paths' box.
+    BBox3 box;
+    for (const auto& p : pl.paths)
+      for (const auto& q : p.points) box.add({q.x, q.y, 0});
+    if (box.empty()) return;
+    // Two cells of margin: chords ending on the zones' border are not refined onto the iso-lines.
+    const Vec2 zlo{box.min.x - 2 * res, box.min.y - 2 * res};
+    const Vec2 zhi{box.max.x + 2 * res, box.max.y + 2 * res};
     if (beta > 0) {
       std::vector<double> levels;
       for (int k = 1; k < o.palette.colors; ++k) {
         levels.push_back(k * o.palette.band() - beta / 2);
         levels.push_back(k * o.palette.band() + beta / 2);
       }
-      auto slabs = level_slabs(field, ev, layers[idx].z, layers[idx].regions, levels, res);
+      auto slabs = level_slabs(field, ev, layers[idx].z, zlo, zhi, levels, res);
       for (std::size_t k = 0; k < slabs.size(); ++k) {
         const int c = static_cast<int>(k / 2);  // even slabs: colour c; odd: overlap c | c+1
         if (!slabs[k].empty())
           zones.push_back({std::move(slabs[k]), c, k % 2 ? c + 1 : c, 0});
       }
     } else {
-      for (auto& f : color_faces(field, ev, layers[idx].z, layers[idx].regions, o.palette, res))
+      for (auto& f : palette_zones(field, ev, layers[idx].z, zlo, zhi, o.palette, res))
         zones.push_back({std::move(f.region), f.color, f.color, 0});
     }
-    faces_per[li] = zones.size();
+
     // Paths of one role share their attributes: each role's paths are cut by a zone in one
     // clipping call (piece order within a role follows Clipper's, not the planar order).
     std::vector<std::pair<PathRole, std::vector<std::size_t>>> roles;
@@ -382,11 +555,12 @@ Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>&
           for (const Vec2 q : piece) p.points.push_back({q.x, q.y, pl.z});
           if (p.length() <= 1e-9) continue;
           const int color = zone.count++ % 2 ? zone.b : zone.a;
-          const double m = o.palette.mid(color);
-          p.mixture = {m, 1 - m};
+          p.mixture = o.palette.mixture(color);
           per[li].push_back({std::move(p), color});
         }
     }
+    // Faces: zones that some path crosses.
+    for (const auto& zone : zones) faces_per[li] += zone.count > 0;
     // Colour by colour in palette order (reversed every other layer), the planar order within.
     std::stable_sort(per[li].begin(), per[li].end(), [&](const Piece& a, const Piece& b) {
       return li % 2 ? a.color > b.color : a.color < b.color;
@@ -404,7 +578,11 @@ Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>&
     for (auto& piece : per[li]) {
       if (last >= 0 && piece.color != last) {
         ++st.colour_changes;
-        const double change = std::abs(o.palette.mid(piece.color) - o.palette.mid(last));
+        // The mixture change: the largest change of any material's share.
+        const auto before = o.palette.mixture(last), after = o.palette.mixture(piece.color);
+        double change = 0;
+        for (std::size_t m = 0; m < after.size(); ++m)
+          change = std::max(change, std::abs(after[m] - before[m]));
         if (purge.melt_volume > 0 && change > purge.threshold) {
           Path tower;
           tower.role = PathRole::Other;

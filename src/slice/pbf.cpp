@@ -99,6 +99,21 @@ class LayerGrid {
     return j * nx_ + i;
   }
   static constexpr std::size_t npos = static_cast<std::size_t>(-1);
+  // The block origin + (i, j)·step, i < w, j < rows, if all its points are nodes: the index k0
+  // of its origin and the index step, node (i, j) being k0 + (j·row + i)·stride.
+  bool block(Vec2 origin, double step, std::size_t w, std::size_t rows, std::size_t& k0,
+             std::size_t& stride) const {
+    const std::size_t k = node(origin);
+    if (k == npos || w == 0 || rows == 0) return false;
+    const double r = step * inv_, c = std::floor(r + 0.5);
+    if (c < 1 || std::abs(r - c) > 1e-9) return false;
+    stride = static_cast<std::size_t>(c);
+    const std::size_t i0 = k % nx_, j0 = k / nx_;
+    if (i0 + (w - 1) * stride >= nx_ || j0 + (rows - 1) * stride >= d_.size() / nx_) return false;
+    k0 = k;
+    return true;
+  }
+  std::size_t row() const { return nx_; }
   bool has_part(std::size_t k) const { return dstamp_[k] == gen_; }
   bool has_joint(std::size_t k) const { return jstamp_[k] == gen_; }
   double part(std::size_t k) const { return d_[k]; }
@@ -155,15 +170,19 @@ class JointSection : public PlaneFunction {
     return v;
   }
   double compute(Vec2 q, std::size_t k) {
-    const Vec3 p{q.x, q.y, z_};
     double D;
     if (k != LayerGrid::npos && grid_->has_part(k)) {
       D = grid_->part(k);
     } else {
-      D = ctx_.part.value(p);
+      D = ctx_.part.value({q.x, q.y, z_});
       if (k != LayerGrid::npos) grid_->set_part(k, D);
     }
+    return finish(q, D);
+  }
+  // The measure at q given the part's value D there.
+  double finish(Vec2 q, double D) {
     if (D >= 0) return D;
+    const Vec3 p{q.x, q.y, z_};
     const Vec3 grad = ctx_.phi.gradient(p);  // analytic for TPMS
     const double gx = grad.x, gy = grad.y, gz = grad.z;
     const double gxy = std::sqrt(gx * gx + gy * gy), g = std::sqrt(gxy * gxy + gz * gz);
@@ -176,7 +195,55 @@ class JointSection : public PlaneFunction {
     return std::max(D, invert_ ? -m : m);
   }
   void sample(const Vec2* p, double* out, std::size_t n) override {
-    for (std::size_t i = 0; i < n; ++i) out[i] = at(p[i]);
+    run(p, out, n, [&](std::size_t i) { return grid_ ? grid_->node(p[i]) : LayerGrid::npos; });
+  }
+  void sample_grid(Vec2 origin, double step, std::size_t w, std::size_t rows, const Vec2* p,
+                   double* out) override {
+    std::size_t k0, stride;
+    if (!grid_ || !grid_->block(origin, step, w, rows, k0, stride)) return sample(p, out, w * rows);
+    const std::size_t row = grid_->row();
+    run(p, out, w * rows,
+        [&](std::size_t i) { return k0 + ((i / w) * row + i % w) * stride; });
+  }
+  // Cached nodes are read; the part is evaluated in one batch at the rest (most of them lie
+  // outside the sheet, where the part's value is the answer). key(i): point i's node or npos.
+  template <class Key>
+  void run(const Vec2* p, double* out, std::size_t n, Key key) {
+    miss_.clear();
+    keys_.clear();
+    need_.clear();
+    pts_.clear();
+    for (std::size_t i = 0; i < n; ++i) {
+      const std::size_t k = key(i);
+      if (k != LayerGrid::npos && !invert_ && grid_->has_joint(k)) {
+        out[i] = grid_->joint(k);
+        continue;
+      }
+      miss_.push_back(i);
+      keys_.push_back(k);
+    }
+    part_.resize(miss_.size());
+    for (std::size_t m = 0; m < miss_.size(); ++m) {
+      const std::size_t k = keys_[m];
+      if (k != LayerGrid::npos && grid_->has_part(k)) {
+        part_[m] = grid_->part(k);
+      } else {
+        need_.push_back(m);
+        pts_.push_back({p[miss_[m]].x, p[miss_[m]].y, z_});
+      }
+    }
+    vals_.resize(pts_.size());
+    if (!pts_.empty()) ctx_.part.values(pts_.data(), vals_.data(), pts_.size());
+    for (std::size_t j = 0; j < need_.size(); ++j) {
+      const std::size_t m = need_[j];
+      part_[m] = vals_[j];
+      if (keys_[m] != LayerGrid::npos) grid_->set_part(keys_[m], vals_[j]);
+    }
+    for (std::size_t m = 0; m < miss_.size(); ++m) {
+      const double v = finish(p[miss_[m]], part_[m]);
+      out[miss_[m]] = v;
+      if (keys_[m] != LayerGrid::npos && !invert_) grid_->set_joint(keys_[m], v);
+    }
   }
   Interval bound(Vec2 lo, Vec2 hi) override {
     BBox3 b;
@@ -192,6 +259,9 @@ class JointSection : public PlaneFunction {
   double c_, z_, cos_min_;
   bool invert_;
   LayerGrid* grid_ = nullptr;
+  std::vector<std::size_t> miss_, keys_, need_;
+  std::vector<Vec3> pts_;
+  std::vector<double> part_, vals_;
 };
 
 class PartSection : public PlaneFunction {
@@ -201,12 +271,24 @@ class PartSection : public PlaneFunction {
   std::vector<Vec3> pts_;
   std::vector<double> vals_;
   void sample(const Vec2* p, double* out, std::size_t n) override {
-    // Cached nodes are read; the rest evaluated in one batch.
+    run(p, out, n, [&](std::size_t i) { return grid_.node(p[i]); });
+  }
+  void sample_grid(Vec2 origin, double step, std::size_t w, std::size_t rows, const Vec2* p,
+                   double* out) override {
+    std::size_t k0, stride;
+    if (!grid_.block(origin, step, w, rows, k0, stride)) return sample(p, out, w * rows);
+    const std::size_t row = grid_.row();
+    run(p, out, w * rows,
+        [&](std::size_t i) { return k0 + ((i / w) * row + i % w) * stride; });
+  }
+  // Cached nodes are read; the rest evaluated in one batch. key(i): point i's node or npos.
+  template <class Key>
+  void run(const Vec2* p, double* out, std::size_t n, Key key) {
     miss_.clear();
     pts_.clear();
     keys_.clear();
     for (std::size_t i = 0; i < n; ++i) {
-      const std::size_t k = grid_.node(p[i]);
+      const std::size_t k = key(i);
       if (k != LayerGrid::npos && grid_.has_part(k)) {
         out[i] = grid_.part(k);
         continue;
@@ -456,7 +538,9 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o,
   // twice as coarse (its nodes are nodes of the fine grid, so the cached part values serve).
   MarchOptions mo_coarse = mo;
   mo_coarse.resolution = std::max(1, o.coarse) * o.resolution;
-  mo.refine_fraction = 1e-2;  // 0.25 µm at the default grid: below the 1 µm the paths need
+  // The section S gives the layer's area and the R67 baseline (the paths come from the joint
+  // and mid-curve contours and from zero-finding): its crossings are refined to 0.5 µm.
+  mo.refine_fraction = std::min(0.1, 5e-4 / o.resolution);
   mo_coarse.refine_fraction = 5e-3;
 
   result.layers.resize(zs.size());

@@ -119,9 +119,15 @@ SliceResult run_slice(const SliceJob& job,
   if (job.strategy == 1 || job.strategy == 2) {
     if (!is_vcad || field.materials().size() < 2)
       throw GeometryError("--strategy " + std::to_string(job.strategy) +
-                              " needs a .vcad design with two materials (fgrade)",
+                              " needs a .vcad design with two or three materials (fgrade)",
                           {job.input, 0, ""});
     FgmOptions fo = job.fgm;
+    if (field.materials().size() > 3)
+      throw GeometryError("gradient slicing mixes two or three materials; the design has " +
+                              std::to_string(field.materials().size()),
+                          {job.input, 0, ""});
+    fo.palette.materials = static_cast<int>(field.materials().size());
+    fo.palette.check();
     fo.layer_height = h;
     fo.bead_width = job.planar.bead_width;
     fo.resolution = job.field.resolution;
@@ -132,6 +138,9 @@ SliceResult run_slice(const SliceJob& job,
       r.toolpath = plan_fgm_strategy1(field, r.outlines, planar, fo, job.purge, &r.fgm);
     }
     measure_gradient_error(field, r.toolpath, r.outlines, h, r.fgm);
+    r.fgm.materials = fo.palette.materials;
+    r.fgm.band = fo.palette.band();
+    r.fgm.error_bound = fo.palette.error_bound();
   } else {
     r.toolpath = plan_planar(r.outlines, job.planar, &r.planar);
   }
@@ -186,13 +195,14 @@ std::string slice_report_json(const SliceJob& job, const SliceResult& r, const G
                 {"purge_volume_mm3", r.fgm.purge_volume},
                 {"purge_mass_g", r.fgm.purge_volume * 1.24e-3},
                 {"colors", job.fgm.palette.colors},
+                {"materials", r.fgm.materials},
                 {"zipper_percent", 100 * job.fgm.zipper},
                 {"material_resolution_mm", job.fgm.material_resolution},
                 {"gradient_error", {{"mean", r.fgm.error_mean},
                                     {"max", r.fgm.error_max},
-                                    {"half_band", 0.5 / job.fgm.palette.colors},
+                                    {"bound", r.fgm.error_bound},
                                     {"samples", r.fgm.error_samples}}},
-                {"band_percent", 100.0 / job.fgm.palette.colors},
+                {"band_percent", 100.0 * r.fgm.band},
                 {"faces", r.fgm.faces},
                 {"paths", r.fgm.paths},
                 {"colour_changes", r.fgm.colour_changes},

@@ -38,7 +38,6 @@ std::vector<double> layer_planes(double zmin, double zmax, double h) {
 MarchOptions FieldSliceOptions::march() const {
   MarchOptions m;
   m.resolution = resolution;
-  m.stitch_tolerance = stitch_tolerance;
   return m;
 }
 

@@ -4,6 +4,9 @@
 #include <array>
 #include <cstdio>
 #include <map>
+#include <random>
+#include <set>
+#include <tuple>
 
 #include "trellis/core/error.hpp"
 #include "trellis/field/vcad.hpp"
@@ -40,8 +43,10 @@ Fidelity run(const Field& f, int colors, double h, bool concentric, double bead 
   o.bead_width = bead;
   o.concentric = concentric;
   o.material_resolution = 0.2;  // the wavy iso-lines curve on a millimetre scale
+  o.palette.materials = static_cast<int>(f.materials().size());
   const Toolpath tp = plan_fgm_strategy2(f, outlines, o);
-  const MachineProfile prof;
+  MachineProfile prof;
+  prof.gradient_inputs = 3;
   Diagnostics diag;
   const Toolpath back = read_gcode(write_gcode(tp, prof), {}, diag);
   Evaluator ev(f);
@@ -52,13 +57,15 @@ Fidelity run(const Field& f, int colors, double h, bool concentric, double bead 
       // Back to design heights: printed layer i (z = (i+1)h) is the outline at zs[i].
       const auto i = static_cast<std::size_t>(std::llround(p.points[0].z / h)) - 1;
       EXPECT_LT(i, zs.size());
-      EXPECT_EQ(p.mixture.size(), 2u);
-      if (p.mixture.size() != 2 || i >= zs.size()) continue;
+      EXPECT_EQ(p.mixture.size(), f.materials().size());
+      if (p.mixture.size() != f.materials().size() || i >= zs.size()) continue;
       for (std::size_t k = 0; k + 1 < p.points.size(); ++k)
         for (double t : {0.0, 0.5, 1.0}) {
           const Vec3 q = p.points[k] + (p.points[k + 1] - p.points[k]) * t;
-          const double frac = std::clamp(ev.fractions({q.x, q.y, zs[i]})[0], 0.0, 1.0);
-          const double err = std::abs(frac - p.mixture[0]);
+          const auto frac = ev.fractions({q.x, q.y, zs[i]});
+          double err = 0;
+          for (std::size_t m = 0; m < frac.size(); ++m)
+            err = std::max(err, std::abs(std::clamp(frac[m], 0.0, 1.0) - p.mixture[m]));
           r.max_error = std::max(r.max_error, err);
           sum += err;
           ++r.segments;
@@ -187,7 +194,8 @@ TEST(Fgm, Strategy2GradientFidelityAndCoverage) {
         const Fidelity r = run(design(c.vcad), colors, 0.3, concentric);
         const double half_band = 0.5 / colors;
         EXPECT_GT(r.segments, 0u);
-        EXPECT_LE(r.max_error, half_band + 2e-3) << c.vcad << colors << concentric;
+        // G-code rounds the mixture to 4 decimals and coordinates to 1 µm: 1e-4 of slack.
+        EXPECT_LE(r.max_error, half_band + 1e-4) << c.vcad << colors << concentric;
         EXPECT_LE(r.mean_error, half_band) << c.vcad;
         // The issue asks 98%; acute corners between iso-lines and the outline cannot be reached
         // by a round bead without crossing into the next face, so some designs reach 97%.
@@ -350,7 +358,8 @@ TEST(Fgm, Strategy1KeepsEveryPlanarPathAndPurgesBetweenColours) {
       }
     }
   EXPECT_GT(n, 100u);
-  EXPECT_LE(worst, 0.5 / 6 + 2e-3);
+  // G-code rounding: the mixture to 4 decimals (5e-5), points to 0.5 µm (|∇f| <= 0.11/mm here).
+  EXPECT_LE(worst, 0.5 / 6 + 1.2e-4);
 }
 
 TEST(Fgm, ZipperAlternatesInsideTheOverlapBandsOnly) {
@@ -393,4 +402,121 @@ TEST(Fgm, ZipperAlternatesInsideTheOverlapBandsOnly) {
   EXPECT_GT(outside, 20u);
   o.zipper = 0.3;  // wider than a band
   EXPECT_THROW(plan_fgm_strategy1(f, outlines, planar, o, {}, nullptr), SettingError);
+}
+
+TEST(Fgm, ThreeMaterialPaletteWalksTheTriangle) {
+  // d² triangles numbered along a snake: every colour once, each colour's mixture sums to 1 and
+  // maps back to itself, successive colours change any material's share by at most α, and every
+  // mixture is printed by a colour within 2α/3 (a triangle's corner against its centroid).
+  for (int d : {1, 2, 3, 4, 6}) {
+    Palette p;
+    p.materials = 3;
+    p.colors = d * d;
+    EXPECT_NO_THROW(p.check());
+    EXPECT_DOUBLE_EQ(p.band(), 1.0 / d);
+    std::set<std::tuple<int, int, int, bool>> seen;
+    for (int c = 0; c < p.colors; ++c) {
+      const auto cell = p.cell(c);
+      EXPECT_EQ(cell.i + cell.j + cell.k, cell.up ? d - 1 : d - 2) << d << " " << c;
+      seen.insert({cell.i, cell.j, cell.k, cell.up});
+      const auto m = p.mixture(c);
+      ASSERT_EQ(m.size(), 3u);
+      EXPECT_NEAR(m[0] + m[1] + m[2], 1.0, 1e-12);
+      EXPECT_EQ(p.color_of(m), c);
+      if (c > 0) {
+        const auto prev = p.mixture(c - 1);
+        for (int k = 0; k < 3; ++k) EXPECT_LE(std::abs(m[k] - prev[k]), p.band() + 1e-12) << d << " " << c;
+      }
+    }
+    EXPECT_EQ(seen.size(), static_cast<std::size_t>(p.colors));
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<double> u(0, 1);
+    double worst = 0;
+    for (int t = 0; t < 20000; ++t) {
+      double a = u(rng), b = u(rng);
+      if (a + b > 1) a = 1 - a, b = 1 - b;
+      const std::vector<double> f{a, b, 1 - a - b};
+      const auto m = p.mixture(p.color_of(f));
+      for (int k = 0; k < 3; ++k) worst = std::max(worst, std::abs(f[k] - m[k]));
+    }
+    EXPECT_LE(worst, p.error_bound() + 1e-12) << d;
+    EXPECT_GT(worst, 0.9 * p.error_bound()) << d;
+  }
+  Palette bad;
+  bad.materials = 3;
+  bad.colors = 8;
+  EXPECT_THROW(bad.check(), SettingError);
+  bad.materials = 4;
+  bad.colors = 9;
+  EXPECT_THROW(bad.check(), SettingError);
+}
+
+// A disc graded in three materials (fractions sum to 1 everywhere on it).
+const char* kThreeMaterials =
+    "fgrade([\"(1 + x/16 + 0.1*sin(y))/3\", \"(1 + y/16)/3\", \"(1 - x/16 - y/16 - 0.1*sin(y))/3\"],"
+    " [\"a\", \"b\", \"c\"]) {\n  cylinder(10, 0.6);\n}\n";
+
+TEST(Fgm, ThreeMaterialsStrategy2FidelityAndCoverage) {
+  const Field f = design(kThreeMaterials);
+  for (int colors : {9, 16}) {
+    const Fidelity r = run(f, colors, 0.3, false);
+    Palette p;
+    p.materials = 3;
+    p.colors = colors;
+    EXPECT_GT(r.segments, 0u);
+    EXPECT_LE(r.max_error, p.error_bound() + 1e-4) << colors;
+    EXPECT_GE(r.coverage, 0.98) << colors;
+    std::printf("three materials, %d colours: max error %.4f (bound %.4f), mean %.4f, coverage %.4f\n",
+                colors, r.max_error, p.error_bound(), r.mean_error, r.coverage);
+  }
+}
+
+TEST(Fgm, ThreeMaterialsStrategy1AndWriters) {
+  // Strategy 1 over three materials: the pieces add up to the planar paths; each piece's M165 A
+  // B C read back is its colour's centroid, within 2α/3 of the design; the tool and temperature
+  // writers refuse three-material mixtures, and a two-input mixing hotend does too.
+  const Field f = design(kThreeMaterials);
+  const double h = 0.3;
+  const Sliced sl = slice_planar(f, h, 1);
+  FgmOptions o = fgm_options(9, h);
+  o.palette.materials = 3;
+  o.material_resolution = 0.5;
+  FgmStats st;
+  const Toolpath tp = plan_fgm_strategy1(f, sl.outlines, sl.planar, o, {}, &st);
+  ASSERT_EQ(tp.layers.size(), sl.planar.layers.size());
+  for (std::size_t li = 0; li < tp.layers.size(); ++li) {
+    double uncut = 0, pieces = 0;
+    for (const auto& p : sl.planar.layers[li].paths) uncut += p.length();
+    for (const auto& p : tp.layers[li].paths) pieces += p.length();
+    EXPECT_NEAR(pieces, uncut, 1e-6 * uncut) << "layer " << li;
+  }
+  EXPECT_GT(st.colour_changes, 3u);
+  MachineProfile prof;
+  prof.gradient_inputs = 3;
+  Diagnostics diag;
+  const Toolpath back = read_gcode(write_gcode(tp, prof), {}, diag);
+  Evaluator ev(f);
+  double worst = 0;
+  std::size_t n = 0;
+  for (const auto& l : back.layers)
+    for (const auto& p : l.paths) {
+      ASSERT_EQ(p.mixture.size(), 3u);
+      const auto i = static_cast<std::size_t>(std::llround(p.points[0].z / h)) - 1;
+      ASSERT_LT(i, sl.zs.size());
+      for (const auto& q : p.points) {
+        const auto frac = ev.fractions({q.x, q.y, sl.zs[i]});
+        for (int k = 0; k < 3; ++k) worst = std::max(worst, std::abs(frac[k] - p.mixture[k]));
+        ++n;
+      }
+    }
+  EXPECT_GT(n, 100u);
+  EXPECT_LE(worst, o.palette.error_bound() + 1e-4);
+  MachineProfile two;
+  EXPECT_THROW(write_gcode(tp, two), SettingError);
+  prof.gradient_mode = "tools";
+  EXPECT_THROW(write_gcode(tp, prof), SettingError);
+  prof.gradient_mode = "temperature";
+  EXPECT_THROW(write_gcode(tp, prof), SettingError);
+  o.zipper = 0.05;
+  EXPECT_THROW(plan_fgm_strategy1(f, sl.outlines, sl.planar, o, {}, nullptr), SettingError);
 }

@@ -16,6 +16,14 @@ class PlaneFunction {
  public:
   virtual ~PlaneFunction() = default;
   virtual void sample(const Vec2* points, double* out, std::size_t n) = 0;
+  // The same for the nodes origin + (i, j)·step, i < w, j < rows, row by row (`points` holds
+  // them), as marching squares samples its blocks: functions that cache values on a grid
+  // override it to index their cache directly.
+  virtual void sample_grid(Vec2 origin, double step, std::size_t w, std::size_t rows,
+                           const Vec2* points, double* out) {
+    (void)origin, (void)step;
+    sample(points, out, w * rows);
+  }
   // Conservative range of values over the rectangle; (-inf, inf) when unknown.
   virtual Interval bound(Vec2 lo, Vec2 hi) {
     return {-std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()};
@@ -33,7 +41,6 @@ StitchedLines stitch_segments(const std::vector<Segment2>& segments, double tole
 
 struct MarchOptions {
   double resolution = 0.1;          // grid step (mm)
-  double stitch_tolerance = 1e-6;   // mm
   // Crossings are refined on the function until the bracket is below this fraction of the
   // resolution (1e-4: within 0.01% of a cell of the true crossing).
   double refine_fraction = 1e-4;

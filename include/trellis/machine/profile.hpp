@@ -72,6 +72,7 @@ struct MachineProfile {
   // [gradient] how a path's material mixture (graded designs) is made
   std::string gradient_mode = "mixing";  // mixing (M165) | tools (T<n>) | temperature (M104)
   int gradient_tools = 5;                // tools: tool 0 holds material A, the last material B
+  int gradient_inputs = 2;               // mixing: filament inputs of the hotend (M165 A B C …)
   double temperature_a = 190;            // temperature: °C for 100% material A ...
   double temperature_b = 225;            // ... and for 100% material B (linear between)
   std::string flow_model;                // temperature: "" | "pla" | "tpu" → M221 (Eq. 3 / 4)

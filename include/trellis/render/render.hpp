@@ -17,7 +17,7 @@ struct RenderOptions {
   bool starts = true;
   double bead_width = 0;  // line width in mm; 0 = from paths or 0.2
   bool colour_by_role = false;  // contours red, hatch/infill blue, walls black, skin green
-  bool colour_by_mixture = false;  // graded paths by their first material's fraction (blue 0 .. red 1)
+  bool colour_by_mixture = false;  // graded paths by their first material's fraction (blue 0 .. red 1); three materials as RGB
 };
 
 // Writes one PNG of `layer` (index into toolpath.layers), atomically.

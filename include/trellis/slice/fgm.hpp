@@ -5,7 +5,7 @@
 // completely (a ring, then 100 % rectilinear inside it, or concentric rings), colour by colour in palette order, reversed
 // every other layer, each path carrying its mixture (written as M165 by the G-code writer).
 //
-// This release: two-material designs (`fgrade` with two fractions).
+// Two- and three-material designs (`fgrade` with two or three fractions).
 #pragma once
 #include <vector>
 
@@ -16,11 +16,33 @@
 
 namespace trellis {
 
+// Two materials: N bands of the first material's fraction (width α = 1/N), each printed at its
+// mid value. Three materials (FGM paper Fig. 12): the mixture triangle cut into d² triangles
+// (colours = d²: 4, 9, 16, …; α = 1/d), each printed at its centroid. Colours are numbered in
+// print order: along the bands, or along a snake through the triangle's rows whose neighbours
+// share an edge, so successive colours change the mixture least.
 struct Palette {
   int colors = 8;
-  double band() const { return 1.0 / colors; }
-  double mid(int k) const { return (k + 0.5) / colors; }
-  int color_of(double f) const;  // band of a fraction (clamped to 0..colors-1)
+  int materials = 2;  // 2 or 3
+  // Throws SettingError naming the problem (colour count, material count).
+  void check() const;
+  int divisions() const;  // three materials: d (colors = d²)
+  double band() const;    // α
+  double mid(int k) const { return mixture(k)[0]; }
+  // Colour k's commanded mixture (one fraction per material, summing to 1).
+  std::vector<double> mixture(int k) const;
+  int color_of(double f) const;                          // two materials
+  int color_of(const std::vector<double>& fractions) const;  // two or three
+  // The largest |design fraction − commanded fraction| of any material inside one colour:
+  // α/2 for bands, 2α/3 for triangles (a corner against the centroid).
+  double error_bound() const;
+  // Three materials: colour k's triangle as band indices of the three fractions (i ≤ a·d < i+1,
+  // …), pointing up (i + j + k = d − 1) or down (= d − 2).
+  struct Cell {
+    int i = 0, j = 0, k = 0;
+    bool up = true;
+  };
+  Cell cell(int k) const;
 };
 
 // One colour's part of a layer: where the first material's fraction lies in band `color`.
@@ -29,18 +51,22 @@ struct ColorFace {
   Regions region;
 };
 
-// The faces of the outline at z: face k = {outline, k/N <= f < (k+1)/N}, from the contours of
-// max(sdf, f - level) at the band edges (closed by construction, whatever the iso-lines of f do).
-// Throws GeometryError if the design has fewer than two materials.
+// The faces of the outline at z: face k = {outline, colour k}, from the contours of
+// max(f - level, distance outside the box) at the band edges of each material's fraction f
+// (closed by construction, whatever the iso-lines of f do), their chords refined onto the
+// iso-lines. Throws GeometryError if the design has fewer materials than the palette.
 std::vector<ColorFace> color_faces(const Field& field, Evaluator& evaluator, double z,
                                    const Regions& outline, const Palette& palette,
                                    double resolution);
+// The same zones over the rectangle [lo, hi], not cut by any outline (Strategy 1 cuts paths
+// that already lie inside the outline).
+std::vector<ColorFace> palette_zones(const Field& field, Evaluator& evaluator, double z, Vec2 lo,
+                                     Vec2 hi, const Palette& palette, double resolution);
 
-// The outline cut at increasing fraction levels: slab k = {outline, levels[k-1] < f <= levels[k]}
-// (slab 0 below the first level, the last above the last level).
-std::vector<Regions> level_slabs(const Field& field, Evaluator& evaluator, double z,
-                                 const Regions& outline, const std::vector<double>& levels,
-                                 double resolution);
+// The rectangle [lo, hi] cut at increasing levels of the first material's fraction: slab k =
+// {levels[k-1] < f <= levels[k]} (slab 0 below the first level, the last above the last level).
+std::vector<Regions> level_slabs(const Field& field, Evaluator& evaluator, double z, Vec2 lo,
+                                 Vec2 hi, const std::vector<double>& levels, double resolution);
 
 struct FgmOptions {
   Palette palette;
@@ -62,10 +88,13 @@ struct FgmStats {
   std::size_t purges = 0;    // Strategy 1: purge blocks printed
   double purge_length = 0;   // mm of purge path
   double purge_volume = 0;   // mm³ (capsule bead, Appendix A.1)
-  // Gradient error: |design fraction - commanded mixture| at every point of every graded path
-  // (purge blocks excluded), the design sampled at the layer's slicing plane.
-  double error_mean = 0, error_max = 0;
+  // Gradient error: the largest |design fraction - commanded fraction| over the materials, at
+  // every point of every graded path (purge blocks excluded), the design sampled at the layer's
+  // slicing plane; error_bound is the palette's (α/2, or 2α/3 for three materials).
+  double error_mean = 0, error_max = 0, error_bound = 0;
   std::size_t error_samples = 0;
+  int materials = 2;
+  double band = 0;  // α
 };
 
 // Fills stats.error_* for a graded toolpath (layer i planned from outline zs[i]).

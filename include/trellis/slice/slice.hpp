@@ -38,7 +38,6 @@ std::vector<double> layer_planes(double zmin, double zmax, double layer_height);
 
 struct FieldSliceOptions {
   double resolution = 0.1;          // XY grid step (mm)
-  double stitch_tolerance = 1e-6;   // mm
   MarchOptions march() const;
 };
 
