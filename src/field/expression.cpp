@@ -10,16 +10,17 @@
 
 namespace trellis {
 
-void ExprVars::set(Vec3 p, double distance) {
+void ExprVars::set(Vec3 p, double distance, bool polar) {
   x = p.x;
   y = p.y;
   z = p.z;
+  d = distance;
+  if (!polar) return;
   rho = std::hypot(p.x, p.y);
   phic = std::atan2(p.y, p.x);
   r = std::sqrt(p.x * p.x + p.y * p.y + p.z * p.z);
   theta = r > 0 ? std::acos(std::clamp(p.z / r, -1.0, 1.0)) : 0.0;
   phis = phic;
-  d = distance;
 }
 
 namespace {
@@ -69,7 +70,7 @@ CompiledExpr::CompiledExpr() : parser(std::make_unique<mu::Parser>()) {
 CompiledExpr::~CompiledExpr() = default;
 
 double CompiledExpr::eval(Vec3 p, double distance) {
-  vars.set(p, distance);
+  vars.set(p, distance, uses_polar);
   try {
     return parser->Eval();
   } catch (const mu::Parser::exception_type& e) {
@@ -110,6 +111,14 @@ CompiledExpr& EvalState::expr(const Expression& e) {
     c->parser->SetExpr(e.text);
   } catch (const mu::Parser::exception_type& err) {
     throw ParseError("bad expression \"" + e.text + "\": " + err.GetMsg());
+  }
+  try {
+    const auto used = c->parser->GetUsedVar();
+    c->uses_d = used.count("d") > 0;
+    c->uses_polar = false;
+    for (const char* v : {"rho", "phic", "phi", "r", "theta", "phis"}) c->uses_polar |= used.count(v) > 0;
+  } catch (const mu::Parser::exception_type&) {
+    // Keep computing every variable.
   }
   auto& ref = *c;
   exprs.emplace(&e, std::move(c));

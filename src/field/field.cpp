@@ -666,9 +666,13 @@ struct GradeNode : FieldNode {
   double lipschitz() const override { return children[0]->lipschitz(); }
   BBox3 extent() const override { return children[0]->extent(); }
   void fractions(Vec3 p, double* out, EvalState& s, std::size_t depth) const override {
-    const double d = children[0]->value(p, s, depth + 1);
+    // The distance d only if some expression reads it (a mesh's distance costs more than the
+    // expressions).
+    bool need_d = false;
+    for (const auto& e : exprs) need_d |= s.expr(e).uses_d;
+    const double d = need_d ? children[0]->value(p, s, depth + 1) : 0.0;
     double sum = 0;
-    std::vector<double> v(exprs.size());
+    std::vector<double>& v = s.value_buffer(depth + 1, exprs.size());
     for (std::size_t i = 0; i < exprs.size(); ++i) {
       const double f = s.expr(exprs[i]).eval(p, d);
       v[i] = std::isfinite(f) ? std::clamp(f, 0.0, 1.0) : 0.0;

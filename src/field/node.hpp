@@ -19,12 +19,14 @@ inline constexpr double kInf = std::numeric_limits<double>::infinity();
 // Variables a user expression sees; one block per compiled parser.
 struct ExprVars {
   double x = 0, y = 0, z = 0, rho = 0, phic = 0, r = 0, theta = 0, phis = 0, d = 0;
-  void set(Vec3 p, double distance);
+  // polar: also rho, phic, r, theta, phis (an atan2, an acos, two roots: only when used).
+  void set(Vec3 p, double distance, bool polar = true);
 };
 
 struct CompiledExpr {
   std::unique_ptr<mu::Parser> parser;
   ExprVars vars;
+  bool uses_polar = true, uses_d = true;  // from muparser's list of the variables used
   double eval(Vec3 p, double distance = 0);
   CompiledExpr();
   ~CompiledExpr();

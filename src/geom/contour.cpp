@@ -222,7 +222,7 @@ struct Marcher {
     int side = 0;
     for (int it = 0; it < opt.max_refine_iterations && t_hi - t_lo > tol; ++it) {
       const double g = eval(a + (b - a) * t) - level;
-      if (g == 0 || !std::isfinite(g)) break;
+      if (std::abs(g) <= opt.value_tolerance || !std::isfinite(g)) break;
       if ((g < 0) == (g_lo < 0)) {
         t_lo = t;
         g_lo = g;

@@ -238,9 +238,15 @@ Regions simplify(const Regions& regions, double tolerance) {
 }
 
 std::vector<std::vector<Vec2>> clip_polylines(const std::vector<std::vector<Vec2>>& lines,
-                                              const Regions& region) {
+                                              const Regions& region, bool inside) {
   std::vector<std::vector<Vec2>> out;
-  if (region.empty() || lines.empty()) return out;
+  if (lines.empty()) return out;
+  if (region.empty()) {
+    if (!inside)
+      for (const auto& l : lines)
+        if (l.size() >= 2) out.push_back(l);
+    return out;
+  }
   cl::Clipper clipper;
   cl::Paths subjects;
   for (const auto& l : lines)
@@ -248,7 +254,8 @@ std::vector<std::vector<Vec2>> clip_polylines(const std::vector<std::vector<Vec2
   clipper.AddPaths(subjects, cl::ptSubject, false);
   clipper.AddPaths(to_paths(region), cl::ptClip, true);
   cl::PolyTree tree;
-  clipper.Execute(cl::ctIntersection, tree, cl::pftEvenOdd, cl::pftEvenOdd);
+  clipper.Execute(inside ? cl::ctIntersection : cl::ctDifference, tree, cl::pftEvenOdd,
+                  cl::pftEvenOdd);
   cl::Paths open;
   cl::OpenPathsFromPolyTree(tree, open);
   for (const auto& path : open) {

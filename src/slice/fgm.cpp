@@ -75,7 +75,12 @@ int Palette::color_of(const std::vector<double>& f) const {
   const int i = std::clamp(static_cast<int>(std::floor(a)), 0, d - 1);
   int j = std::clamp(static_cast<int>(std::floor(b)), 0, d - 1 - i);
   const bool up = i + j == d - 1 || (a - i) + (b - j) < 1;
+  return color_of_cell(i, j, up);
+}
+
+int Palette::color_of_cell(int i, int j, bool up) const {
   // Index of (i, j, up) along the snake.
+  const int d = divisions();
   int first = 0;
   for (int r = 0; r < i; ++r) first += 2 * (d - r) - 1;
   const int count = 2 * (d - i) - 1;
@@ -212,36 +217,56 @@ void refine_chords(std::vector<Vec2>& ring, PlaneFunction& f, double tol, double
   ring = std::move(out);
 }
 
-// The rectangle cut at increasing levels of one material's fraction (see level_slabs).
-std::vector<Regions> rect_slabs(Evaluator& ev, double z, Vec2 lo, Vec2 hi, std::size_t material,
+// {f <= levels[k]} over the rectangle, one region per level, for one material's fraction.
+std::vector<Regions> below_sets(Evaluator& ev, double z, Vec2 lo, Vec2 hi, std::size_t material,
                                 const std::vector<double>& levels, double resolution) {
-  std::vector<Regions> slabs(levels.size() + 1);
+  std::vector<Regions> below(levels.size());
+  if (levels.empty()) return below;
   const Vec2 glo{lo.x - 2 * resolution, lo.y - 2 * resolution};
   const Vec2 ghi{hi.x + 2 * resolution, hi.y + 2 * resolution};
   FractionGrid grid(ev, z, glo, ghi, resolution, material);
   MarchOptions mo;
   mo.resolution = resolution;
-  Regions previous;  // where f <= the previous level
-  const Regions box = {make_rectangle((lo + hi) * 0.5, hi.x - lo.x, hi.y - lo.y)};
   // Chords follow the iso-lines to 1e-4 of the smallest gap between levels.
   double gap = 1;
   for (std::size_t k = 0; k < levels.size(); ++k)
     gap = std::min(gap, k ? levels[k] - levels[k - 1] : levels[k]);
   const double tol = 1e-4 * std::max(gap, 1e-3);
-  for (std::size_t k = 0; k <= levels.size(); ++k) {
-    Regions below;
-    if (k < levels.size()) {
-      BelowLevel f(grid, levels[k], lo, hi);
-      ContourSet cs = march_squares(f, glo, ghi, 0.0, mo);
-      for (auto& ring : cs.lines.loops) refine_chords(ring, f, tol, 1e-4, lo, hi);
-      below = nest_oriented_rings(cs.lines.loops);
-    } else {
-      below = box;
-    }
-    slabs[k] = k == 0 ? below : difference(below, previous);
-    previous = std::move(below);
+  mo.value_tolerance = 0.25 * tol;
+  for (std::size_t k = 0; k < levels.size(); ++k) {
+    BelowLevel f(grid, levels[k], lo, hi);
+    ContourSet cs = march_squares(f, glo, ghi, 0.0, mo);
+    for (auto& ring : cs.lines.loops) refine_chords(ring, f, tol, 1e-4, lo, hi);
+    below[k] = nest_oriented_rings(cs.lines.loops);
   }
+  return below;
+}
+
+// The rectangle cut at increasing levels of one material's fraction (see level_slabs).
+std::vector<Regions> rect_slabs(Evaluator& ev, double z, Vec2 lo, Vec2 hi, std::size_t material,
+                                const std::vector<double>& levels, double resolution) {
+  std::vector<Regions> below = below_sets(ev, z, lo, hi, material, levels, resolution);
+  below.push_back({make_rectangle((lo + hi) * 0.5, hi.x - lo.x, hi.y - lo.y)});
+  std::vector<Regions> slabs(below.size());
+  for (std::size_t k = 0; k < below.size(); ++k)
+    slabs[k] = k == 0 ? below[k] : difference(below[k], below[k - 1]);
   return slabs;
+}
+
+// Splits polylines among the bands [a, b) of nested sets below[k] = {f <= level k}: band k lies
+// between below[k-1] and below[k]. Bisects on the bands (one inside and one outside clip per
+// level of the recursion), so every line is clipped about 2·log2(bands) times, not once per band.
+void split_bands(std::vector<std::vector<Vec2>> lines, const std::vector<Regions>& below, int a,
+                 int b, const std::function<void(int, std::vector<std::vector<Vec2>>&)>& emit) {
+  if (lines.empty()) return;
+  if (b - a <= 1) {
+    emit(a, lines);
+    return;
+  }
+  const int mid = (a + b) / 2;
+  const Regions& cut = below[static_cast<std::size_t>(mid - 1)];
+  split_bands(clip_polylines(lines, cut, true), below, a, mid, emit);
+  split_bands(clip_polylines(lines, cut, false), below, mid, b, emit);
 }
 
 void padded_box(const Regions& r, double pad, Vec2& lo, Vec2& hi) {
@@ -487,16 +512,15 @@ Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>&
     // The outline this layer was planned from: nozzle z = (i + 1) h.
     const auto idx = static_cast<std::size_t>(std::llround(pl.z / o.layer_height)) - 1;
     if (idx >= layers.size()) return;
-    // Zones: a colour's face, or with zippering the overlap band around each colour boundary
+    // Zones: a colour's band, or with zippering the overlap band around each colour boundary
     // (|f - k/N| < β/2), where pieces alternate between the two neighbouring colours.
     struct Zone {
-      Regions region;
-      int a, b;           // colours (a == b: a plain face)
-      std::size_t count;  // pieces so far (for alternating)
+      int a = 0, b = 0;       // colours (a == b: a plain face)
+      std::size_t count = 0;  // pieces so far (for alternating)
     };
-    std::vector<Zone> zones;
     const double res = std::max(o.material_resolution, o.bead_width / 2);
     const double beta = o.zipper;
+    const double z = layers[idx].z;
     // The planar paths lie inside the outline: the zones need not be cut by it (the outline's
     // many vertices would make every clip slower), only cover the paths' box.
     BBox3 box;
@@ -506,25 +530,35 @@ Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>&
     // Two cells of margin: chords ending on the zones' border are not refined onto the iso-lines.
     const Vec2 zlo{box.min.x - 2 * res, box.min.y - 2 * res};
     const Vec2 zhi{box.max.x + 2 * res, box.max.y + 2 * res};
-    if (beta > 0) {
-      std::vector<double> levels;
-      for (int k = 1; k < o.palette.colors; ++k) {
+    const int d = o.palette.divisions();
+    std::vector<double> levels;
+    for (int k = 1; k < d; ++k) {
+      if (beta > 0) {
         levels.push_back(k * o.palette.band() - beta / 2);
         levels.push_back(k * o.palette.band() + beta / 2);
+      } else {
+        levels.push_back(k * o.palette.band());
       }
-      auto slabs = level_slabs(field, ev, layers[idx].z, zlo, zhi, levels, res);
-      for (std::size_t k = 0; k < slabs.size(); ++k) {
-        const int c = static_cast<int>(k / 2);  // even slabs: colour c; odd: overlap c | c+1
-        if (!slabs[k].empty())
-          zones.push_back({std::move(slabs[k]), c, k % 2 ? c + 1 : c, 0});
-      }
-    } else {
-      for (auto& f : palette_zones(field, ev, layers[idx].z, zlo, zhi, o.palette, res))
-        zones.push_back({std::move(f.region), f.color, f.color, 0});
     }
+    // Zone k lies between level k-1 and level k (two materials: of the first fraction; three:
+    // the palette's triangles, found by splitting on the first, second and third fractions).
+    std::vector<Zone> zones;
+    std::vector<Regions> below[3];
+    if (o.palette.materials == 3) {
+      zones.resize(static_cast<std::size_t>(o.palette.colors));
+      for (int c = 0; c < o.palette.colors; ++c) zones[static_cast<std::size_t>(c)] = {c, c, 0};
+      for (std::size_t m = 0; m < 3; ++m) below[m] = below_sets(ev, z, zlo, zhi, m, levels, res);
+    } else {
+      for (std::size_t k = 0; k <= levels.size(); ++k) {
+        const int c = beta > 0 ? static_cast<int>(k / 2) : static_cast<int>(k);
+        zones.push_back({c, beta > 0 && k % 2 ? c + 1 : c, 0});  // odd with β: overlap c | c+1
+      }
+      below[0] = below_sets(ev, z, zlo, zhi, 0, levels, res);
+    }
+    const int bands = static_cast<int>(levels.size()) + 1;
 
-    // Paths of one role share their attributes: each role's paths are cut by a zone in one
-    // clipping call (piece order within a role follows Clipper's, not the planar order).
+    // Paths of one role share their attributes: each role's paths are cut together (piece
+    // order within a role follows Clipper's, not the planar order).
     std::vector<std::pair<PathRole, std::vector<std::size_t>>> roles;
     for (std::size_t k = 0; k < pl.paths.size(); ++k) {
       auto it = std::find_if(roles.begin(), roles.end(),
@@ -543,8 +577,9 @@ Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>&
         lines.push_back(std::move(line));
       }
       const Path& proto = pl.paths[ids.front()];  // role, width, height, speed
-      for (auto& zone : zones)
-        for (auto& piece : clip_polylines(lines, zone.region)) {
+      auto emit = [&](int zone_index, std::vector<std::vector<Vec2>>& pieces) {
+        Zone& zone = zones[static_cast<std::size_t>(zone_index)];
+        for (auto& piece : pieces) {
           if (piece.size() < 2) continue;
           Path p;
           p.role = proto.role;
@@ -558,6 +593,26 @@ Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>&
           p.mixture = o.palette.mixture(color);
           per[li].push_back({std::move(p), color});
         }
+      };
+      if (o.palette.materials != 3) {
+        split_bands(std::move(lines), below[0], 0, bands, emit);
+        continue;
+      }
+      // Triangle (i, j): up if i + j = d - 1, else down where the third fraction is below
+      // (d - 1 - i - j)/d.
+      split_bands(std::move(lines), below[0], 0, d, [&](int i, std::vector<std::vector<Vec2>>& li_) {
+        split_bands(std::move(li_), below[1], 0, d, [&](int j, std::vector<std::vector<Vec2>>& lj) {
+          j = std::min(j, d - 1 - i);
+          if (i + j >= d - 1) {
+            emit(o.palette.color_of_cell(i, j, true), lj);
+            return;
+          }
+          const Regions& cut = below[2][static_cast<std::size_t>(d - 2 - i - j)];
+          auto down = clip_polylines(lj, cut, true), up = clip_polylines(lj, cut, false);
+          emit(o.palette.color_of_cell(i, j, false), down);
+          emit(o.palette.color_of_cell(i, j, true), up);
+        });
+      });
     }
     // Faces: zones that some path crosses.
     for (const auto& zone : zones) faces_per[li] += zone.count > 0;

@@ -45,6 +45,8 @@ struct MarchOptions {
   // resolution (1e-4: within 0.01% of a cell of the true crossing).
   double refine_fraction = 1e-4;
   int max_refine_iterations = 60;
+  // Also stop refining a crossing once |f - level| <= this (0: position only).
+  double value_tolerance = 0;
   std::size_t block = 16;  // cells per block side for bound-based skipping
 };
 

@@ -38,10 +38,10 @@ std::vector<Vec3> simplify_polyline(const std::vector<Vec3>& points, double tole
 // Closed loops of a region set, as rings (outer counter-clockwise, holes clockwise).
 std::vector<std::vector<Vec2>> rings_of(const Regions& regions);
 
-// Pieces of open polylines inside the region (boundary included), as polylines; cut points lie
-// on the input polylines (to Clipper's 1 nm grid).
+// Pieces of open polylines inside the region (boundary included), or with inside = false the
+// pieces outside it, as polylines; cut points lie on the input polylines (to Clipper's 1 nm grid).
 std::vector<std::vector<Vec2>> clip_polylines(const std::vector<std::vector<Vec2>>& lines,
-                                              const Regions& region);
+                                              const Regions& region, bool inside = true);
 
 // Lines at `angle_deg` spaced `spacing` apart, phase fixed by `origin` (a line passes through it),
 // cut by the region (even-odd over all rings). Returned in sweep order, each from low to high

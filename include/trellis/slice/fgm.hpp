@@ -43,6 +43,7 @@ struct Palette {
     bool up = true;
   };
   Cell cell(int k) const;
+  int color_of_cell(int i, int j, bool up) const;  // the colour of triangle (i, j, up)
 };
 
 // One colour's part of a layer: where the first material's fraction lies in band `color`.
