@@ -123,6 +123,22 @@ Regions offset(const Regions& regions, double delta, double arc_tolerance) {
   return out;
 }
 
+Regions stroke(const std::vector<std::vector<Vec2>>& lines, double width, double arc_tolerance) {
+  cl::ClipperOffset off(2.0, std::max(arc_tolerance, 1e-6) * kClipperScale);
+  for (const auto& l : lines) {
+    if (l.size() < 2) continue;
+    const bool closed = l.size() >= 4 && l.front().x == l.back().x && l.front().y == l.back().y;
+    cl::Path path = to_path(l);
+    if (closed) path.pop_back();
+    off.AddPath(path, cl::jtRound, closed ? cl::etClosedLine : cl::etOpenRound);
+  }
+  cl::PolyTree tree;
+  off.Execute(tree, 0.5 * width * kClipperScale);
+  Regions out;
+  collect(tree, out);
+  return out;
+}
+
 Regions nest_rings(const std::vector<std::vector<Vec2>>& rings) {
   cl::Paths paths;
   for (const auto& r : rings)

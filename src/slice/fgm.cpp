@@ -384,9 +384,33 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
         for (Regions r = inner; !r.empty(); r = offset(r, -o.bead_width)) add_rings(r);
       } else {
         add_rings(inner);
-        for (auto& run : fill_lines(offset(face.region, -o.bead_width), angle, o.bead_width,
-                                    o.bead_width, 0.05, true, cursor))
+        // The lines reach into the ring's bead by the overlap, so their round ends leave no
+        // slivers where they meet it at a shallow angle.
+        const Regions fill = offset(face.region, -o.bead_width * (1 - o.fill_overlap));
+        for (auto& run : fill_lines(fill, angle, o.bead_width, o.bead_width, 0.05, true, cursor))
           lines.push_back(std::move(run));
+      }
+      if (o.gap_fill) {
+        // What the beads leave uncovered (between rings at acute corners, at the ends of lines)
+        // gets lines a third of a bead apart along the gap's long axis, where a bead stays
+        // inside the face; gaps a bead cannot reach (the tip of an acute corner) stay.
+        const Regions gaps = difference(face.region, stroke(lines, o.bead_width));
+        for (const auto& gap : gaps) {
+          if (area(gap) < 0.05 * o.bead_width * o.bead_width) continue;
+          Vec2 c{0, 0};
+          for (const Vec2 q : gap.outer) c = c + q;
+          c = c * (1.0 / static_cast<double>(gap.outer.size()));
+          double sxx = 0, syy = 0, sxy = 0;
+          for (const Vec2 q : gap.outer) {
+            sxx += (q.x - c.x) * (q.x - c.x);
+            syy += (q.y - c.y) * (q.y - c.y);
+            sxy += (q.x - c.x) * (q.y - c.y);
+          }
+          const double axis = 0.5 * std::atan2(2 * sxy, sxx - syy) * 180 / 3.14159265358979323846;
+          for (const auto& seg : hatch(intersection({gap}, inner), axis, o.bead_width / 3, c))
+            if (std::hypot(seg.b.x - seg.a.x, seg.b.y - seg.a.y) >= 0.25 * o.bead_width)
+              lines.push_back({seg.a, seg.b});
+        }
       }
       for (auto& line : lines) {
         if (line.size() < 2) continue;

@@ -140,7 +140,8 @@ SliceResult run_slice(const SliceJob& job,
     measure_gradient_error(field, r.toolpath, r.outlines, h, r.fgm);
     r.fgm.materials = fo.palette.materials;
     r.fgm.band = fo.palette.band();
-    r.fgm.error_bound = fo.palette.error_bound();
+    // Zippering prints the neighbouring colour up to β/2 beyond a boundary.
+    r.fgm.error_bound = fo.palette.error_bound() + (job.strategy == 1 ? fo.zipper / 2 : 0.0);
   } else {
     r.toolpath = plan_planar(r.outlines, job.planar, &r.planar);
   }

@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <array>
 #include <cstdio>
@@ -31,18 +32,26 @@ struct Fidelity {
   double coverage = 1;  // rasterised bead coverage of the outline, worst layer
 };
 
-Fidelity run(const Field& f, int colors, double h, bool concentric, double bead = 0.4) {
+// layers > 0: only that many slicing planes, spread over the height. px: coverage pixel (mm).
+Fidelity run(const Field& f, int colors, double h, bool concentric, double bead = 0.4,
+             double material_resolution = 0.2, std::size_t layers = 0, double px = 0.05) {
   FieldSliceOptions so;
   so.resolution = 0.1;
   const BBox3 e = f.extent();
-  const auto zs = layer_planes(e.min.z, e.max.z, h);
+  auto zs = layer_planes(e.min.z, e.max.z, h);
+  if (layers > 0 && zs.size() > layers) {
+    std::vector<double> some;
+    for (std::size_t k = 0; k < layers; ++k) some.push_back(zs[(2 * k + 1) * zs.size() / (2 * layers)]);
+    zs = some;
+  }
   const auto outlines = slice_field(f, zs, so);
   FgmOptions o;
   o.palette.colors = colors;
   o.layer_height = h;
   o.bead_width = bead;
   o.concentric = concentric;
-  o.material_resolution = 0.2;  // the wavy iso-lines curve on a millimetre scale
+  // The wavy iso-lines of the test designs curve on a millimetre scale.
+  o.material_resolution = material_resolution;
   o.palette.materials = static_cast<int>(f.materials().size());
   const Toolpath tp = plan_fgm_strategy2(f, outlines, o);
   MachineProfile prof;
@@ -79,7 +88,6 @@ Fidelity run(const Field& f, int colors, double h, bool concentric, double bead 
     BBox3 b;
     for (const auto& poly : out)
       for (const Vec2 q : poly.outer) b.add({q.x, q.y, 0});
-    const double px = 0.05;
     const auto nx = static_cast<int>((b.max.x - b.min.x) / px) + 1;
     const auto ny = static_cast<int>((b.max.y - b.min.y) / px) + 1;
     std::vector<char> paint(static_cast<std::size_t>(nx) * ny, 0);
@@ -96,16 +104,24 @@ Fidelity run(const Field& f, int colors, double h, bool concentric, double bead 
             if (distance_to_segment(q, a, c) <= bead / 2 + 1e-9) paint[static_cast<std::size_t>(iy) * nx + ix] = 1;
           }
       }
+    // Pixels inside the outline by scanlines: each row's crossings with every ring, even-odd.
     std::size_t inside = 0, covered = 0;
-    for (int iy = 0; iy < ny; ++iy)
-      for (int ix = 0; ix < nx; ++ix) {
-        const Vec2 q{b.min.x + (ix + 0.5) * px, b.min.y + (iy + 0.5) * px};
-        bool in = false;
-        for (const auto& poly : out) in |= contains(poly, q);
-        if (!in) continue;
-        ++inside;
-        covered += paint[static_cast<std::size_t>(iy) * nx + ix];
-      }
+    std::vector<double> xs;
+    for (int iy = 0; iy < ny; ++iy) {
+      const double y = b.min.y + (iy + 0.5) * px;
+      xs.clear();
+      for (const auto& ring : rings_of(out))
+        for (std::size_t i = 0, j = ring.size() - 1; i < ring.size(); j = i++)
+          if ((ring[i].y > y) != (ring[j].y > y))
+            xs.push_back(ring[j].x + (ring[i].x - ring[j].x) * (y - ring[j].y) / (ring[i].y - ring[j].y));
+      std::sort(xs.begin(), xs.end());
+      for (std::size_t k = 0; k + 1 < xs.size(); k += 2)
+        for (int ix = std::max(0, static_cast<int>(std::ceil((xs[k] - b.min.x) / px - 0.5)));
+             ix < nx && b.min.x + (ix + 0.5) * px < xs[k + 1]; ++ix) {
+          ++inside;
+          covered += paint[static_cast<std::size_t>(iy) * nx + ix];
+        }
+    }
     if (inside) r.coverage = std::min(r.coverage, double(covered) / double(inside));
   }
   return r;
@@ -197,9 +213,9 @@ TEST(Fgm, Strategy2GradientFidelityAndCoverage) {
         // G-code rounds the mixture to 4 decimals and coordinates to 1 µm: 1e-4 of slack.
         EXPECT_LE(r.max_error, half_band + 1e-4) << c.vcad << colors << concentric;
         EXPECT_LE(r.mean_error, half_band) << c.vcad;
-        // The issue asks 98%; acute corners between iso-lines and the outline cannot be reached
-        // by a round bead without crossing into the next face, so some designs reach 97%.
-        EXPECT_GE(r.coverage, 0.97) << c.vcad << colors << concentric;
+        // Only the tips of acute corners (an iso-line meeting the outline) stay uncovered: a
+        // round bead cannot reach them without crossing into the next face.
+        EXPECT_GE(r.coverage, 0.98) << c.vcad << colors << concentric;
         std::printf("case %zu colours %d %s: max error %.4f (half band %.4f), mean %.4f, coverage %.4f\n",
                     static_cast<std::size_t>(&c - cases.data()), colors,
                     concentric ? "concentric" : "rectilinear", r.max_error, half_band,
@@ -519,4 +535,45 @@ TEST(Fgm, ThreeMaterialsStrategy1AndWriters) {
   EXPECT_THROW(write_gcode(tp, prof), SettingError);
   o.zipper = 0.05;
   EXPECT_THROW(plan_fgm_strategy1(f, sl.outlines, sl.planar, o, {}, nullptr), SettingError);
+}
+
+TEST(Fgm, AppendixBDesignsAndRandomFieldsStayWithinTheBand) {
+  // The five designs of the FGM paper's Appendix B (three layers of each, the default 1 mm
+  // material grid) and random smooth two-material fields: Strategy 2 read back from G-code, the
+  // commanded mixture within half a band of the design everywhere, the outline covered >= 98%.
+  struct Case {
+    Field field;
+    std::string name;
+    int colors;
+    double material_resolution;
+  };
+  std::vector<Case> cases;
+  for (const char* name : {"fgm_column1_cylinder.vcad", "fgm_column2_plate.vcad",
+                           "fgm_column3_ring_angular.vcad", "fgm_column5_ring_radial.vcad",
+                           "fgm_column6_vase.vcad"})
+    cases.push_back({read_vcad(std::string(TRELLIS_SOURCE_DIR) + "/examples/designs/" + name).field,
+                     name, 10, 1.0});
+  std::mt19937 rng(2026);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (int k = 0; k < 6; ++k) {
+    // f = 0.5 + a·x/10 + b·sin(c·x + d·y) + e·y/10 on a 16 x 12 mm plate (clamped to [0, 1]).
+    char expr[256];
+    std::snprintf(expr, sizeof expr, "0.5 + %.3f*x/10 + %.3f*sin(%.3f*x + %.3f*y) + %.3f*y/10",
+                  0.4 * u(rng), 0.2 * u(rng), 1.2 * u(rng), 1.2 * u(rng), 0.4 * u(rng));
+    const std::string vcad = std::string("fgrade([\"") + expr + "\", \"1 - (" + expr +
+                             ")\"], [\"a\", \"b\"]) {\n  rectprism(16, 12, 0.6);\n}\n";
+    cases.push_back({design(vcad), expr, 3 + static_cast<int>(rng() % 8), 0.25});
+  }
+  for (const auto& c : cases) {
+    const double extent = std::max(c.field.extent().max.x - c.field.extent().min.x,
+                                   c.field.extent().max.y - c.field.extent().min.y);
+    const Fidelity r = run(c.field, c.colors, 0.3, false, 0.4, c.material_resolution, 3,
+                           extent > 40 ? 0.1 : 0.05);
+    const double half_band = 0.5 / c.colors;
+    EXPECT_GT(r.segments, 0u) << c.name;
+    EXPECT_LE(r.max_error, half_band + 1.2e-4) << c.name;
+    EXPECT_GE(r.coverage, 0.98) << c.name;
+    std::printf("%s, %d colours: max error %.5f (half band %.5f), coverage %.4f\n", c.name.c_str(),
+                c.colors, r.max_error, half_band, r.coverage);
+  }
 }

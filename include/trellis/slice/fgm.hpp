@@ -79,6 +79,8 @@ struct FgmOptions {
   // deviate by c²/8ρ: 6 µm for 1 mm cells on a 20 mm curvature radius); at least half a bead.
   double material_resolution = 1.0;
   bool concentric = false;    // concentric fill instead of 100 % rectilinear
+  double fill_overlap = 0.25; // Strategy 2: rectilinear lines reach this share of a bead into the ring
+  bool gap_fill = true;       // Strategy 2: lines through what the beads leave uncovered
   double angle_deg = 45;      // rectilinear angle, +90° every layer
   double zipper = 0;          // Strategy 1: overlap band width β (fraction 0..1 of the gradient)
 };
