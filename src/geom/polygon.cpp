@@ -2,8 +2,10 @@
 
 #include <clipper.hpp>
 
-#include "clipper_util.hpp"
+#include <algorithm>
 #include <cmath>
+
+#include "clipper_util.hpp"
 #include <map>
 #include <numbers>
 
@@ -87,6 +89,20 @@ std::vector<Segment2> clip_segments(const std::vector<Segment2>& segments, const
 }
 
 bool contains(const Polygon2& region, Vec2 p, double tol) {
+  // Strictly inside (crossing tests alone, no distances): the common case, decided cheaply.
+  auto crosses = [&](const std::vector<Vec2>& ring) {
+    bool in = false;
+    for (std::size_t i = 0, j = ring.size() - 1; i < ring.size(); j = i++) {
+      const Vec2 a = ring[j], b = ring[i];
+      if ((a.y > p.y) != (b.y > p.y) && p.x < (b.x - a.x) * (p.y - a.y) / (b.y - a.y) + a.x)
+        in = !in;
+    }
+    return in;
+  };
+  if (!region.outer.empty() && crosses(region.outer) &&
+      std::none_of(region.holes.begin(), region.holes.end(),
+                   [&](const auto& h) { return !h.empty() && crosses(h); }))
+    return true;
   auto inside_ring = [&](const std::vector<Vec2>& ring) {
     bool in = false;
     for (std::size_t i = 0, j = ring.size() - 1; i < ring.size(); j = i++) {

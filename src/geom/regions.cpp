@@ -130,7 +130,7 @@ Regions stroke(const std::vector<std::vector<Vec2>>& lines, double width, double
     const bool closed = l.size() >= 4 && l.front().x == l.back().x && l.front().y == l.back().y;
     cl::Path path = to_path(l);
     if (closed) path.pop_back();
-    off.AddPath(path, cl::jtRound, closed ? cl::etClosedLine : cl::etOpenRound);
+    off.AddPath(path, cl::jtMiter, closed ? cl::etClosedLine : cl::etOpenRound);
   }
   cl::PolyTree tree;
   off.Execute(tree, 0.5 * width * kClipperScale);

@@ -277,6 +277,147 @@ void padded_box(const Regions& r, double pad, Vec2& lo, Vec2& hi) {
   hi = {b.max.x + pad, b.max.y + pad};
 }
 
+// Gap fill for Strategy 2 (hand-written: a raster is far cheaper than the union of thousands of
+// overlapping beads as polygons). The layer's beads are painted into pixels a sixth of a bead
+// wide; each face's uncovered pixels are grouped 4-connected; each group gets lines a third of a bead apart along its long axis, clipped to where a bead stays inside the
+// face (`inners`), so no bead crosses into the next face; gaps no bead can reach (the tip of an
+// acute corner) stay.
+void fill_gaps(const std::vector<ColorFace>& faces, const std::vector<Regions>& inners,
+               std::vector<std::vector<std::vector<Vec2>>>& lines, double bead) {
+  BBox2 box{{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()},
+            {-std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()}};
+  for (const auto& f : faces)
+    for (const auto& poly : f.region)
+      for (const Vec2 q : poly.outer) {
+        box.min = {std::min(box.min.x, q.x), std::min(box.min.y, q.y)};
+        box.max = {std::max(box.max.x, q.x), std::max(box.max.y, q.y)};
+      }
+  if (!(box.max.x > box.min.x) || !(box.max.y > box.min.y)) return;
+  const double px = bead / 6, r = bead / 2;
+  const auto nx = static_cast<long>(std::ceil(box.width() / px)) + 1;
+  const auto ny = static_cast<long>(std::ceil(box.height() / px)) + 1;
+  if (nx * ny > 400'000'000L) return;  // a layer over 5 m²: skip rather than exhaust memory
+  std::vector<char> covered(static_cast<std::size_t>(nx * ny), 0);
+  auto centre = [&](long ix, long iy) {
+    return Vec2{box.min.x + (static_cast<double>(ix) + 0.5) * px,
+                box.min.y + (static_cast<double>(iy) + 0.5) * px};
+  };
+  // Beads: each segment in pieces at most two pixels long, each piece's capsule painted.
+  for (const auto& face_lines : lines)
+    for (const auto& l : face_lines)
+      for (std::size_t k = 0; k + 1 < l.size(); ++k) {
+        const Vec2 a = l[k], b = l[k + 1];
+        const double len = std::hypot(b.x - a.x, b.y - a.y);
+        const int pieces = std::max(1, static_cast<int>(std::ceil(len / (2 * px))));
+        for (int p = 0; p < pieces; ++p) {
+          const Vec2 s0 = a + (b - a) * (static_cast<double>(p) / pieces);
+          const Vec2 s1 = a + (b - a) * (static_cast<double>(p + 1) / pieces);
+          const Vec3 A{s0.x, s0.y, 0}, B{s1.x, s1.y, 0};
+          const long x0 = std::max(0L, static_cast<long>((std::min(s0.x, s1.x) - r - box.min.x) / px));
+          const long x1 = std::min(nx - 1, static_cast<long>((std::max(s0.x, s1.x) + r - box.min.x) / px));
+          const long y0 = std::max(0L, static_cast<long>((std::min(s0.y, s1.y) - r - box.min.y) / px));
+          const long y1 = std::min(ny - 1, static_cast<long>((std::max(s0.y, s1.y) + r - box.min.y) / px));
+          for (long iy = y0; iy <= y1; ++iy)
+            for (long ix = x0; ix <= x1; ++ix) {
+              char& c = covered[static_cast<std::size_t>(iy * nx + ix)];
+              if (c) continue;
+              const Vec2 q = centre(ix, iy);
+              if (distance_to_segment({q.x, q.y, 0}, A, B) <= r) c = 1;
+            }
+        }
+      }
+  // Per face: its uncovered pixels (scanlines over its rings, even-odd; each edge's crossings
+  // bucketed by row), then groups.
+  std::vector<int> owner(static_cast<std::size_t>(nx * ny), -1);
+  std::vector<std::vector<double>> rows;
+  std::vector<long> stack, group;
+  for (std::size_t fi = 0; fi < faces.size(); ++fi) {
+    const auto rings = rings_of(faces[fi].region);
+    double ylo = std::numeric_limits<double>::infinity(), yhi = -ylo;
+    for (const auto& ring : rings)
+      for (const Vec2 q : ring) ylo = std::min(ylo, q.y), yhi = std::max(yhi, q.y);
+    const long r0 = std::max(0L, static_cast<long>((ylo - box.min.y) / px) - 1);
+    const long r1 = std::min(ny - 1, static_cast<long>((yhi - box.min.y) / px) + 1);
+    rows.assign(static_cast<std::size_t>(r1 - r0 + 1), {});
+    for (const auto& ring : rings)
+      for (std::size_t i = 0, j = ring.size() - 1; i < ring.size(); j = i++) {
+        const Vec2 a = ring[j], b = ring[i];
+        if (a.y == b.y) continue;
+        // Rows whose centre y lies in [min, max) of the edge.
+        const double lo = std::min(a.y, b.y), hi = std::max(a.y, b.y);
+        long first = static_cast<long>(std::ceil((lo - box.min.y) / px - 0.5));
+        for (long iy = std::max(first, r0); iy <= r1; ++iy) {
+          const double y = centre(0, iy).y;
+          if (y >= hi) break;
+          if (y < lo) continue;
+          rows[static_cast<std::size_t>(iy - r0)].push_back(a.x + (b.x - a.x) * (y - a.y) / (b.y - a.y));
+        }
+      }
+    std::vector<long> mine;
+    for (long iy = r0; iy <= r1; ++iy) {
+      auto& xs = rows[static_cast<std::size_t>(iy - r0)];
+      std::sort(xs.begin(), xs.end());
+      for (std::size_t k = 0; k + 1 < xs.size(); k += 2)
+        for (long ix = std::max(0L, static_cast<long>(std::ceil((xs[k] - box.min.x) / px - 0.5)));
+             ix < nx && centre(ix, iy).x < xs[k + 1]; ++ix) {
+          const long id = iy * nx + ix;
+          if (covered[static_cast<std::size_t>(id)]) continue;
+          owner[static_cast<std::size_t>(id)] = static_cast<int>(fi);
+          mine.push_back(id);
+        }
+    }
+    std::vector<std::vector<Vec2>> gap_lines;
+    for (const long seed : mine) {
+      if (owner[static_cast<std::size_t>(seed)] != static_cast<int>(fi)) continue;
+      group.clear();
+      stack.assign(1, seed);
+      owner[static_cast<std::size_t>(seed)] = -2;
+      while (!stack.empty()) {
+        const long id = stack.back();
+        stack.pop_back();
+        group.push_back(id);
+        const long ix = id % nx, iy = id / nx;
+        for (const long nb : {ix > 0 ? id - 1 : -1L, ix + 1 < nx ? id + 1 : -1L,
+                              iy > 0 ? id - nx : -1L, iy + 1 < ny ? id + nx : -1L})
+          if (nb >= 0 && owner[static_cast<std::size_t>(nb)] == static_cast<int>(fi)) {
+            owner[static_cast<std::size_t>(nb)] = -2;
+            stack.push_back(nb);
+          }
+      }
+      if (group.empty()) continue;
+      Vec2 c{0, 0};
+      for (const long id : group) c = c + centre(id % nx, id / nx);
+      c = c * (1.0 / static_cast<double>(group.size()));
+      double sxx = 0, syy = 0, sxy = 0;
+      for (const long id : group) {
+        const Vec2 q = centre(id % nx, id / nx) - c;
+        sxx += q.x * q.x, syy += q.y * q.y, sxy += q.x * q.y;
+      }
+      const double ang = 0.5 * std::atan2(2 * sxy, sxx - syy);
+      const Vec2 u{std::cos(ang), std::sin(ang)}, v{-u.y, u.x};
+      double s0 = 0, s1 = 0, t0 = 0, t1 = 0;
+      for (const long id : group) {
+        const Vec2 q = centre(id % nx, id / nx) - c;
+        const double s = q.x * u.x + q.y * u.y, t = q.x * v.x + q.y * v.y;
+        s0 = std::min(s0, s), s1 = std::max(s1, s), t0 = std::min(t0, t), t1 = std::max(t1, t);
+      }
+      const double step = bead / 3;
+      const int n = std::max(1, static_cast<int>(std::ceil((t1 - t0) / step)));
+      for (int k = 0; k < n; ++k) {
+        const double t = n == 1 ? 0.5 * (t0 + t1) : t0 + (t1 - t0) * k / (n - 1);
+        gap_lines.push_back({c + u * (s0 - px) + v * t, c + u * (s1 + px) + v * t});
+      }
+    }
+    if (gap_lines.empty()) continue;
+    for (auto& piece : clip_polylines(gap_lines, inners[fi])) {
+      double len = 0;
+      for (std::size_t k = 1; k < piece.size(); ++k)
+        len += std::hypot(piece[k].x - piece[k - 1].x, piece[k].y - piece[k - 1].y);
+      if (len >= 0.25 * bead) lines[fi].push_back(std::move(piece));
+    }
+  }
+}
+
 void require_materials(const Field& field, const Palette& palette) {
   palette.check();
   if (field.materials().size() < static_cast<std::size_t>(palette.materials))
@@ -367,12 +508,15 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
     if (li % 2 == 1) std::reverse(faces.begin(), faces.end());
     const double angle = o.angle_deg + (li % 2 ? 90.0 : 0.0);
     Vec2 cursor{0, 0};
-    for (const auto& face : faces) {
-      const std::vector<double> mix = o.palette.mixture(face.color);
+    std::vector<std::vector<std::vector<Vec2>>> face_lines(faces.size());
+    std::vector<Regions> inners(faces.size());
+    for (std::size_t fi = 0; fi < faces.size(); ++fi) {
+      const ColorFace& face = faces[fi];
       // One ring half a bead inside the face (its bead reaches the face's edge, not beyond),
       // then concentric rings, or 100 % rectilinear lines inside the ring.
-      Regions inner = offset(face.region, -o.bead_width / 2);
-      std::vector<std::vector<Vec2>> lines;
+      Regions& inner = inners[fi];
+      inner = offset(face.region, -o.bead_width / 2);
+      std::vector<std::vector<Vec2>>& lines = face_lines[fi];
       auto add_rings = [&](const Regions& r) {
         for (auto ring : rings_of(r)) {
           if (ring.size() < 2) continue;
@@ -390,29 +534,11 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
         for (auto& run : fill_lines(fill, angle, o.bead_width, o.bead_width, 0.05, true, cursor))
           lines.push_back(std::move(run));
       }
-      if (o.gap_fill) {
-        // What the beads leave uncovered (between rings at acute corners, at the ends of lines)
-        // gets lines a third of a bead apart along the gap's long axis, where a bead stays
-        // inside the face; gaps a bead cannot reach (the tip of an acute corner) stay.
-        const Regions gaps = difference(face.region, stroke(lines, o.bead_width));
-        for (const auto& gap : gaps) {
-          if (area(gap) < 0.05 * o.bead_width * o.bead_width) continue;
-          Vec2 c{0, 0};
-          for (const Vec2 q : gap.outer) c = c + q;
-          c = c * (1.0 / static_cast<double>(gap.outer.size()));
-          double sxx = 0, syy = 0, sxy = 0;
-          for (const Vec2 q : gap.outer) {
-            sxx += (q.x - c.x) * (q.x - c.x);
-            syy += (q.y - c.y) * (q.y - c.y);
-            sxy += (q.x - c.x) * (q.y - c.y);
-          }
-          const double axis = 0.5 * std::atan2(2 * sxy, sxx - syy) * 180 / 3.14159265358979323846;
-          for (const auto& seg : hatch(intersection({gap}, inner), axis, o.bead_width / 3, c))
-            if (std::hypot(seg.b.x - seg.a.x, seg.b.y - seg.a.y) >= 0.25 * o.bead_width)
-              lines.push_back({seg.a, seg.b});
-        }
-      }
-      for (auto& line : lines) {
+    }
+    if (o.gap_fill) fill_gaps(faces, inners, face_lines, o.bead_width);
+    for (std::size_t fi = 0; fi < faces.size(); ++fi) {
+      const std::vector<double> mix = o.palette.mixture(faces[fi].color);
+      for (auto& line : face_lines[fi]) {
         if (line.size() < 2) continue;
         Path p;
         p.role = PathRole::Infill;
@@ -422,7 +548,7 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
         for (const Vec2 q : line) p.points.push_back({q.x, q.y, layer.z});
         if (p.length() <= 0) continue;
         layer.paths.push_back(std::move(p));
-        out.colors.push_back(face.color);
+        out.colors.push_back(faces[fi].color);
       }
     }
   });

@@ -222,12 +222,13 @@ std::vector<std::vector<Vec2>> fill_lines(const Regions& r, double angle, double
       const Vec2 a = run.back(), b = l.front();
       const Vec2 mid = (a + b) * 0.5;
       bool inside_region = false;
-      for (const auto& poly : r)
-        if (contains(poly, mid, 0.5 * bead_width)) {
-          inside_region = true;
-          break;
-        }
-      if (std::sqrt(dist2(a, b)) <= 2.0 * spacing && inside_region) {
+      if (std::sqrt(dist2(a, b)) <= 2.0 * spacing)
+        for (const auto& poly : r)
+          if (contains(poly, mid, 0.5 * bead_width)) {
+            inside_region = true;
+            break;
+          }
+      if (inside_region) {
         run.insert(run.end(), l.begin(), l.end());
         continue;
       }
