@@ -401,38 +401,74 @@ double volume(const TriangleMesh& mesh) {
   return v / 6.0;
 }
 
-Regions slice_mesh(const TriangleMesh& mesh, double z, double stitch_tolerance) {
-  std::vector<Segment2> segments;
+namespace {
+
+// The plane z's segments of one triangle, oriented with the solid on their left.
+void cut_triangle(const TriangleMesh& mesh, const std::array<std::uint32_t, 3>& tri, double z,
+                  std::vector<Segment2>& segments) {
   auto cross = [&](std::uint32_t i, std::uint32_t j) {
     if (i > j) std::swap(i, j);  // same point from both triangles sharing the edge
     const Vec3 a = mesh.vertices[i], b = mesh.vertices[j];
     const double t = (z - a.z) / (b.z - a.z);
     return Vec2{a.x + (b.x - a.x) * t, a.y + (b.y - a.y) * t};
   };
-  for (const auto& tri : mesh.triangles) {
-    const Vec3 p[3] = {mesh.vertices[tri[0]], mesh.vertices[tri[1]], mesh.vertices[tri[2]]};
-    // A vertex exactly on the plane counts as below: consistent across triangles.
-    const bool above[3] = {p[0].z > z, p[1].z > z, p[2].z > z};
-    if (above[0] == above[1] && above[1] == above[2]) continue;
-    Vec2 pts[2];
-    int n = 0;
-    for (int k = 0; k < 3 && n < 2; ++k) {
-      const int l = (k + 1) % 3;
-      if (above[k] != above[l]) pts[n++] = cross(tri[k], tri[l]);
-    }
-    if (n != 2) continue;
-    // Orient so the solid lies on the left: direction along ez × n.
-    const Vec3 e1 = p[1] - p[0], e2 = p[2] - p[0];
-    const double nx = e1.y * e2.z - e1.z * e2.y, ny = e1.z * e2.x - e1.x * e2.z;
-    const Vec2 dir{-ny, nx};
-    const Vec2 d = pts[1] - pts[0];
-    if (d.x * dir.x + d.y * dir.y >= 0)
-      segments.push_back({pts[0], pts[1]});
-    else
-      segments.push_back({pts[1], pts[0]});
+  const Vec3 p[3] = {mesh.vertices[tri[0]], mesh.vertices[tri[1]], mesh.vertices[tri[2]]};
+  // A vertex exactly on the plane counts as below: consistent across triangles.
+  const bool above[3] = {p[0].z > z, p[1].z > z, p[2].z > z};
+  if (above[0] == above[1] && above[1] == above[2]) return;
+  Vec2 pts[2];
+  int n = 0;
+  for (int k = 0; k < 3 && n < 2; ++k) {
+    const int l = (k + 1) % 3;
+    if (above[k] != above[l]) pts[n++] = cross(tri[k], tri[l]);
   }
+  if (n != 2) return;
+  // Orient so the solid lies on the left: direction along ez × n.
+  const Vec3 e1 = p[1] - p[0], e2 = p[2] - p[0];
+  const double nx = e1.y * e2.z - e1.z * e2.y, ny = e1.z * e2.x - e1.x * e2.z;
+  const Vec2 dir{-ny, nx};
+  const Vec2 d = pts[1] - pts[0];
+  if (d.x * dir.x + d.y * dir.y >= 0)
+    segments.push_back({pts[0], pts[1]});
+  else
+    segments.push_back({pts[1], pts[0]});
+}
+
+}  // namespace
+
+Regions slice_mesh(const TriangleMesh& mesh, double z, double stitch_tolerance) {
+  std::vector<Segment2> segments;
+  for (const auto& tri : mesh.triangles) cut_triangle(mesh, tri, z, segments);
   const StitchedLines lines = stitch_segments(segments, stitch_tolerance);
   return nest_oriented_rings(lines.loops);
+}
+
+Regions slice_mesh(const TriangleMesh& mesh, double z, const std::vector<std::uint32_t>& triangles,
+                   double stitch_tolerance) {
+  std::vector<Segment2> segments;
+  for (const std::uint32_t t : triangles) cut_triangle(mesh, mesh.triangles[t], z, segments);
+  const StitchedLines lines = stitch_segments(segments, stitch_tolerance);
+  return nest_oriented_rings(lines.loops);
+}
+
+std::vector<std::vector<std::uint32_t>> triangles_by_plane(const TriangleMesh& mesh,
+                                                           const std::vector<double>& zs) {
+  std::vector<std::vector<std::uint32_t>> out(zs.size());
+  // Planes in ascending order (a permutation if they are not).
+  std::vector<std::size_t> order(zs.size());
+  for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return zs[a] < zs[b]; });
+  std::vector<double> sorted(zs.size());
+  for (std::size_t i = 0; i < order.size(); ++i) sorted[i] = zs[order[i]];
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+    const auto& tri = mesh.triangles[t];
+    const double z0 = std::min({mesh.vertices[tri[0]].z, mesh.vertices[tri[1]].z, mesh.vertices[tri[2]].z});
+    const double z1 = std::max({mesh.vertices[tri[0]].z, mesh.vertices[tri[1]].z, mesh.vertices[tri[2]].z});
+    // Planes with z0 <= z < z1.
+    for (auto it = std::lower_bound(sorted.begin(), sorted.end(), z0); it != sorted.end() && *it < z1; ++it)
+      out[order[static_cast<std::size_t>(it - sorted.begin())]].push_back(static_cast<std::uint32_t>(t));
+  }
+  return out;
 }
 
 }  // namespace trellis

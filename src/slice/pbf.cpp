@@ -518,11 +518,13 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o,
 
   // The STL route: one marching-cubes mesh of the part, cut by planes.
   TriangleMesh mesh;
+  std::vector<std::vector<std::uint32_t>> buckets;
   if (o.stl_route) {
     MeshingStats ms;
     BBox3 box = e;
     mesh = field_to_mesh(part, box, o.resolution, &ms);
     result.mesh_triangles = mesh.triangles.size();
+    buckets = triangles_by_plane(mesh, zs);  // each layer visits only the triangles it cuts
     result.mesh_bytes = ms.mesh_bytes;
     result.grid_bytes = ms.grid_bytes;
   }
@@ -560,7 +562,7 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o,
     grid.reset(lo, o.resolution, nx, ny);
     Regions S;
     if (o.stl_route) {
-      S = slice_mesh(mesh, z);
+      S = slice_mesh(mesh, z, buckets[i]);
     } else {
       PartSection fs(ctx, grid, z);
       S = nest_oriented_rings(march_squares(fs, lo, hi, 0.0, mo).lines.loops);

@@ -1,6 +1,7 @@
 // Reading triangle meshes (STL binary/ASCII, OBJ, 3MF), checking they are closed, and slicing
 // them with horizontal planes into the same polygons the field route produces.
 #pragma once
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -40,5 +41,12 @@ double volume(const TriangleMesh& mesh);
 
 // Cross-section at height z: closed, oriented, nested polygons. The mesh must be closed.
 Regions slice_mesh(const TriangleMesh& mesh, double z, double stitch_tolerance = 1e-6);
+// The same over only the listed triangles (e.g. those triangles_by_plane gives for z).
+Regions slice_mesh(const TriangleMesh& mesh, double z, const std::vector<std::uint32_t>& triangles,
+                   double stitch_tolerance = 1e-6);
+// For each plane zs[i], the triangles slice_mesh cuts there (lowest vertex <= z < highest), so
+// slicing many layers visits each triangle only at the planes it spans.
+std::vector<std::vector<std::uint32_t>> triangles_by_plane(const TriangleMesh& mesh,
+                                                           const std::vector<double>& zs);
 
 }  // namespace trellis
