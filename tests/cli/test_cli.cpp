@@ -395,6 +395,32 @@ TEST(Cli, GradedDesignStrategy2WritesMixtures) {
   EXPECT_FALSE(fs::exists(in_work("never.gcode")));
 }
 
+TEST(Cli, ThreeMaterialDesignOnAThreeInputMixer) {
+  // The bundled three-material disc: M165 with three factors on the A20T profile; a two-input
+  // hotend or a palette that is not d² colours is refused naming why, nothing written.
+  const std::string root = std::string(TRELLIS_SOURCE_DIR);
+  const std::string d = root + "/examples/designs/fgm_three_materials.vcad";
+  CmdResult r = run("slice " + d + " --machine " + root + "/profiles/geeetech_a20t_mixing.toml -o " +
+                    in_work("tri.gcode") + " --strategy 2 --colors 9 --report " + in_work("tri.json"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  const std::string g = trellis::read_file(in_work("tri.gcode"));
+  // All nine centroids of the triangle cut in three: the corners' and the down triangles'.
+  for (const char* m : {"M165 A0.7778 B0.1111 C0.1111", "M165 A0.1111 B0.7778 C0.1111",
+                        "M165 A0.1111 B0.1111 C0.7778", "M165 A0.2222 B0.2222 C0.5556",
+                        "M165 A0.5556 B0.2222 C0.2222", "M165 A0.2222 B0.5556 C0.2222"})
+    EXPECT_NE(g.find(m), std::string::npos) << m;
+  EXPECT_NE(trellis::read_file(in_work("tri.json")).find("\"materials\": 3"), std::string::npos);
+  r = run("slice " + d + " --machine " + root + "/profiles/geeetech_mizar_m_mixing.toml -o " +
+          in_work("tri_never.gcode") + " --strategy 2 --colors 9");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("gradient.inputs"), std::string::npos) << r.err;
+  r = run("slice " + d + " --machine " + root + "/profiles/geeetech_a20t_mixing.toml -o " +
+          in_work("tri_never.gcode") + " --strategy 1 --colors 8");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("d² colours"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(in_work("tri_never.gcode")));
+}
+
 TEST(Cli, NonplanarFromGeneratedSurfaceWithToolGroups) {
   const std::string prof = std::string(TRELLIS_SOURCE_DIR) + "/profiles/fresh_nonplanar_2syringe.toml";
   ASSERT_EQ(run("surface m-curve -o " + in_work("m.stl")).code, 0);
