@@ -100,8 +100,8 @@ double area(const Regions& regions) {
   return a;
 }
 
-Regions offset(const Regions& regions, double delta, double arc_tolerance) {
-  cl::ClipperOffset off(2.0, std::max(arc_tolerance, 1e-6) * kClipperScale);
+Regions offset(const Regions& regions, double delta, double arc_tolerance, double miter_limit) {
+  cl::ClipperOffset off(miter_limit, std::max(arc_tolerance, 1e-6) * kClipperScale);
   // Orientation must be consistent for the offsetter: outer CCW, holes CW (our invariant).
   for (const auto& p : regions) {
     if (p.outer.size() >= 3) {

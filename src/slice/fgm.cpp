@@ -219,7 +219,8 @@ void refine_chords(std::vector<Vec2>& ring, PlaneFunction& f, double tol, double
 
 // {f <= levels[k]} over the rectangle, one region per level, for one material's fraction.
 std::vector<Regions> below_sets(Evaluator& ev, double z, Vec2 lo, Vec2 hi, std::size_t material,
-                                const std::vector<double>& levels, double resolution) {
+                                const std::vector<double>& levels, double resolution,
+                                double chord_tolerance) {
   std::vector<Regions> below(levels.size());
   if (levels.empty()) return below;
   const Vec2 glo{lo.x - 2 * resolution, lo.y - 2 * resolution};
@@ -227,11 +228,11 @@ std::vector<Regions> below_sets(Evaluator& ev, double z, Vec2 lo, Vec2 hi, std::
   FractionGrid grid(ev, z, glo, ghi, resolution, material);
   MarchOptions mo;
   mo.resolution = resolution;
-  // Chords follow the iso-lines to 1e-4 of the smallest gap between levels.
+  // Chords follow the iso-lines to chord_tolerance of the smallest gap between levels.
   double gap = 1;
   for (std::size_t k = 0; k < levels.size(); ++k)
     gap = std::min(gap, k ? levels[k] - levels[k - 1] : levels[k]);
-  const double tol = 1e-4 * std::max(gap, 1e-3);
+  const double tol = chord_tolerance * std::max(gap, 1e-3);
   mo.value_tolerance = 0.25 * tol;
   for (std::size_t k = 0; k < levels.size(); ++k) {
     BelowLevel f(grid, levels[k], lo, hi);
@@ -244,8 +245,10 @@ std::vector<Regions> below_sets(Evaluator& ev, double z, Vec2 lo, Vec2 hi, std::
 
 // The rectangle cut at increasing levels of one material's fraction (see level_slabs).
 std::vector<Regions> rect_slabs(Evaluator& ev, double z, Vec2 lo, Vec2 hi, std::size_t material,
-                                const std::vector<double>& levels, double resolution) {
-  std::vector<Regions> below = below_sets(ev, z, lo, hi, material, levels, resolution);
+                                const std::vector<double>& levels, double resolution,
+                                double chord_tolerance) {
+  std::vector<Regions> below =
+      below_sets(ev, z, lo, hi, material, levels, resolution, chord_tolerance);
   below.push_back({make_rectangle((lo + hi) * 0.5, hi.x - lo.x, hi.y - lo.y)});
   std::vector<Regions> slabs(below.size());
   for (std::size_t k = 0; k < below.size(); ++k)
@@ -432,28 +435,31 @@ void require_materials(const Field& field, const Palette& palette) {
 }  // namespace
 
 std::vector<Regions> level_slabs(const Field& field, Evaluator& ev, double z, Vec2 lo, Vec2 hi,
-                                 const std::vector<double>& levels, double resolution) {
+                                 const std::vector<double>& levels, double resolution,
+                                 double chord_tolerance) {
   if (field.materials().size() < 2)
     throw GeometryError("gradient slicing needs a design with two materials (an fgrade node)");
-  return rect_slabs(ev, z, lo, hi, 0, levels, resolution);
+  return rect_slabs(ev, z, lo, hi, 0, levels, resolution, chord_tolerance);
 }
 
 std::vector<ColorFace> palette_zones(const Field& field, Evaluator& ev, double z, Vec2 lo,
-                                     Vec2 hi, const Palette& palette, double resolution) {
+                                     Vec2 hi, const Palette& palette, double resolution,
+                                     double chord_tolerance) {
   require_materials(field, palette);
   const int d = palette.divisions();
   std::vector<double> levels;
   for (int k = 1; k < d; ++k) levels.push_back(static_cast<double>(k) / d);
   std::vector<ColorFace> zones;
   if (palette.materials == 2) {
-    auto slabs = rect_slabs(ev, z, lo, hi, 0, levels, resolution);
+    auto slabs = rect_slabs(ev, z, lo, hi, 0, levels, resolution, chord_tolerance);
     for (std::size_t k = 0; k < slabs.size(); ++k)
       if (!slabs[k].empty()) zones.push_back({static_cast<int>(k), std::move(slabs[k])});
     return zones;
   }
   // Three materials: triangle (i, j, k) = {i ≤ a·d < i+1} ∩ {j ≤ b·d < j+1} ∩ {k ≤ c·d < k+1}.
   std::vector<Regions> slabs[3];
-  for (std::size_t m = 0; m < 3; ++m) slabs[m] = rect_slabs(ev, z, lo, hi, m, levels, resolution);
+  for (std::size_t m = 0; m < 3; ++m)
+    slabs[m] = rect_slabs(ev, z, lo, hi, m, levels, resolution, chord_tolerance);
   for (int color = 0; color < palette.colors; ++color) {
     const Palette::Cell c = palette.cell(color);
     const auto& sa = slabs[0][static_cast<std::size_t>(c.i)];
@@ -468,13 +474,13 @@ std::vector<ColorFace> palette_zones(const Field& field, Evaluator& ev, double z
 
 std::vector<ColorFace> color_faces(const Field& field, Evaluator& ev, double z,
                                    const Regions& outline, const Palette& palette,
-                                   double resolution) {
+                                   double resolution, double chord_tolerance) {
   require_materials(field, palette);
   std::vector<ColorFace> faces;
   if (outline.empty()) return faces;
   Vec2 lo, hi;
   padded_box(outline, 2 * resolution, lo, hi);
-  for (auto& zone : palette_zones(field, ev, z, lo, hi, palette, resolution)) {
+  for (auto& zone : palette_zones(field, ev, z, lo, hi, palette, resolution, chord_tolerance)) {
     Regions r = intersection(outline, zone.region);
     if (!r.empty()) faces.push_back({zone.color, std::move(r)});
   }
@@ -504,8 +510,10 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
     layer.z = static_cast<double>(li + 1) * o.layer_height;
     // Material iso-lines on their own grid (half a bead at the finest: a face narrower than
     // that cannot be printed); crossings are refined on the field.
+    // Paths stay half a bead inside their face: its edges need not follow the iso-lines closer
+    // than a hundredth of a band (a tighter fit only adds vertices to the rings).
     auto faces = color_faces(field, ev, lo.z, lo.regions, o.palette,
-                             std::max(o.material_resolution, o.bead_width / 2));
+                             std::max(o.material_resolution, o.bead_width / 2), 1e-2);
     out.faces = faces.size();
     // Palette order, reversed every other layer so a layer starts where the last one ended.
     if (li % 2 == 1) std::reverse(faces.begin(), faces.end());
@@ -518,7 +526,9 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
       // One ring half a bead inside the face (its bead reaches the face's edge, not beyond),
       // then concentric rings, or 100 % rectilinear lines inside the ring.
       Regions& inner = inners[fi];
-      inner = offset(face.region, -o.bead_width / 2);
+      // Sharp corners (mitred up to 20 half-beads): the ring and the gap fill reach as far into
+      // an acute corner as a round bead can without leaving the face.
+      inner = offset(face.region, -o.bead_width / 2, 0.002, 20);
       std::vector<std::vector<Vec2>>& lines = face_lines[fi];
       auto add_rings = [&](const Regions& r) {
         for (auto ring : rings_of(r)) {
@@ -700,13 +710,13 @@ Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>&
     if (o.palette.materials == 3) {
       zones.resize(static_cast<std::size_t>(o.palette.colors));
       for (int c = 0; c < o.palette.colors; ++c) zones[static_cast<std::size_t>(c)] = {c, c, 0};
-      for (std::size_t m = 0; m < 3; ++m) below[m] = below_sets(ev, z, zlo, zhi, m, levels, res);
+      for (std::size_t m = 0; m < 3; ++m) below[m] = below_sets(ev, z, zlo, zhi, m, levels, res, 1e-4);
     } else {
       for (std::size_t k = 0; k <= levels.size(); ++k) {
         const int c = beta > 0 ? static_cast<int>(k / 2) : static_cast<int>(k);
         zones.push_back({c, beta > 0 && k % 2 ? c + 1 : c, 0});  // odd with β: overlap c | c+1
       }
-      below[0] = below_sets(ev, z, zlo, zhi, 0, levels, res);
+      below[0] = below_sets(ev, z, zlo, zhi, 0, levels, res, 1e-4);
     }
     const int bands = static_cast<int>(levels.size()) + 1;
 

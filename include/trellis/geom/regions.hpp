@@ -24,7 +24,9 @@ Regions nest_oriented_rings(std::vector<std::vector<Vec2>> rings);
 
 // Inward (delta < 0) or outward offset. Corners: mitred up to 2× delta, rounded beyond, with
 // arcs no farther than `arc_tolerance` from the true offset.
-Regions offset(const Regions& regions, double delta, double arc_tolerance = 0.002);
+// Corners are mitred up to `miter_limit` times |delta| from the offset edges (then squared off).
+Regions offset(const Regions& regions, double delta, double arc_tolerance = 0.002,
+               double miter_limit = 2.0);
 // The area round beads of `width` cover along polylines (closed when first == last).
 Regions stroke(const std::vector<std::vector<Vec2>>& lines, double width,
                double arc_tolerance = 0.002);

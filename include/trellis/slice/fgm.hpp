@@ -55,19 +55,22 @@ struct ColorFace {
 // The faces of the outline at z: face k = {outline, colour k}, from the contours of
 // max(f - level, distance outside the box) at the band edges of each material's fraction f
 // (closed by construction, whatever the iso-lines of f do), their chords refined onto the
-// iso-lines. Throws GeometryError if the design has fewer materials than the palette.
+// iso-lines until a chord's middle is within chord_tolerance × (the band) of its level. Throws
+// GeometryError if the design has fewer materials than the palette.
 std::vector<ColorFace> color_faces(const Field& field, Evaluator& evaluator, double z,
                                    const Regions& outline, const Palette& palette,
-                                   double resolution);
+                                   double resolution, double chord_tolerance = 1e-4);
 // The same zones over the rectangle [lo, hi], not cut by any outline (Strategy 1 cuts paths
 // that already lie inside the outline).
 std::vector<ColorFace> palette_zones(const Field& field, Evaluator& evaluator, double z, Vec2 lo,
-                                     Vec2 hi, const Palette& palette, double resolution);
+                                     Vec2 hi, const Palette& palette, double resolution,
+                                     double chord_tolerance = 1e-4);
 
 // The rectangle [lo, hi] cut at increasing levels of the first material's fraction: slab k =
 // {levels[k-1] < f <= levels[k]} (slab 0 below the first level, the last above the last level).
 std::vector<Regions> level_slabs(const Field& field, Evaluator& evaluator, double z, Vec2 lo,
-                                 Vec2 hi, const std::vector<double>& levels, double resolution);
+                                 Vec2 hi, const std::vector<double>& levels, double resolution,
+                                 double chord_tolerance = 1e-4);
 
 struct FgmOptions {
   Palette palette;
