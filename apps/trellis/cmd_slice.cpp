@@ -17,7 +17,7 @@ void add_slice(CLI::App& app) {
     double layer_height = 0.2, infill = 0.2, infill_angle = 45, resolution = 0.1,
            mesh_voxel = 0.25, bead_width = 0;
     int walls = 2, top = 4, bottom = 4, strategy = 0, colors = 8;
-    bool no_center = false, concentric = false;
+    bool no_center = false, concentric = false, fixed_angle = false;
     double lookahead = -1, zipper = 0, material_resolution = 1.0;
     std::size_t preview_layers = 4;
   };
@@ -64,6 +64,9 @@ void add_slice(CLI::App& app) {
       ->check(CLI::Range(1, 1000))
       ->capture_default_str();
   cmd->add_flag("--concentric", o->concentric, "Strategy 2: concentric fill instead of rectilinear");
+  cmd->add_flag("--fixed-angle", o->fixed_angle,
+                "Strategy 2: rectilinear lines at --infill-angle (+90° a layer) instead of along the "
+                "local iso-lines (perpendicular to the gradient, per 4 mm square)");
   cmd->add_option("--material-resolution", o->material_resolution,
                   "graded designs: XY grid of the material iso-contours (mm; crossings are refined "
                   "on the field; finer finds smaller features of the gradient)")
@@ -98,6 +101,7 @@ void add_slice(CLI::App& app) {
     job.strategy = o->strategy;
     job.fgm.palette.colors = o->colors;
     job.fgm.concentric = o->concentric;
+    job.fgm.fixed_angle = o->fixed_angle;
     job.fgm.angle_deg = o->infill_angle;
     job.fgm.zipper = o->zipper / 100;
     job.fgm.material_resolution = o->material_resolution;

@@ -424,6 +424,21 @@ void fill_gaps(const std::vector<ColorFace>& faces, const std::vector<Regions>& 
   }
 }
 
+// The direction (degrees) perpendicular to the gradient of the material fractions at p: the
+// minor axis of their structure tensor Σ ∇f ∇fᵀ (central differences of `h`), which for two
+// materials is the iso-line's direction; `fallback` where the fractions are flat.
+double across_gradient(Evaluator& ev, double z, Vec2 p, double h, double fallback) {
+  const auto fx0 = ev.fractions({p.x - h, p.y, z}), fx1 = ev.fractions({p.x + h, p.y, z});
+  const auto fy0 = ev.fractions({p.x, p.y - h, z}), fy1 = ev.fractions({p.x, p.y + h, z});
+  double sxx = 0, syy = 0, sxy = 0;
+  for (std::size_t m = 0; m < fx0.size() && m < 3; ++m) {
+    const double gx = (fx1[m] - fx0[m]) / (2 * h), gy = (fy1[m] - fy0[m]) / (2 * h);
+    sxx += gx * gx, syy += gy * gy, sxy += gx * gy;
+  }
+  if (!(sxx + syy > 1e-18)) return fallback;
+  return 0.5 * std::atan2(2 * sxy, sxx - syy) * 180 / 3.14159265358979323846 + 90;
+}
+
 void require_materials(const Field& field, const Palette& palette) {
   palette.check();
   if (field.materials().size() < static_cast<std::size_t>(palette.materials))
@@ -517,7 +532,7 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
     out.faces = faces.size();
     // Palette order, reversed every other layer so a layer starts where the last one ended.
     if (li % 2 == 1) std::reverse(faces.begin(), faces.end());
-    const double angle = o.angle_deg + (li % 2 ? 90.0 : 0.0);
+    const double fixed_angle = o.angle_deg + (li % 2 ? 90.0 : 0.0);
     Vec2 cursor{0, 0};
     std::vector<std::vector<std::vector<Vec2>>> face_lines(faces.size());
     std::vector<Regions> inners(faces.size());
@@ -544,8 +559,18 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
         // The lines reach into the ring's bead by the overlap, so their round ends leave no
         // slivers where they meet it at a shallow angle.
         const Regions fill = offset(face.region, -o.bead_width * (1 - o.fill_overlap));
-        for (auto& run : fill_lines(fill, angle, o.bead_width, o.bead_width, 0.05, true, cursor))
-          lines.push_back(std::move(run));
+        // The paper's Strategy 2 prints perpendicular to the gradient: in each square of
+        // orient_cell mm the lines run along the local iso-line (rounded to 5°), or at a fixed
+        // angle, +90° a layer, if asked.
+        auto runs = o.fixed_angle
+                        ? fill_lines(fill, fixed_angle, o.bead_width, o.bead_width, 0.05, true, cursor)
+                        : fill_lines_oriented(
+                              fill,
+                              [&](Vec2 c) {
+                                return across_gradient(ev, lo.z, c, o.orient_cell / 4, fixed_angle);
+                              },
+                              o.orient_cell, 5, o.bead_width, o.bead_width, 0.05, true, cursor);
+        for (auto& run : runs) lines.push_back(std::move(run));
       }
     }
     if (o.gap_fill) fill_gaps(faces, inners, face_lines, o.bead_width);

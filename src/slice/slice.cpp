@@ -200,19 +200,15 @@ struct IslandOrder {
 
 }  // namespace
 
-std::vector<std::vector<Vec2>> fill_lines(const Regions& r, double angle, double spacing,
-                                          double bead_width, double min_path, bool link,
-                                          Vec2& cursor) {
+namespace {
+
+// Ordered lines → runs: consecutive lines whose ends are neighbours are joined by a short
+// connector (a zig-zag) when the connector stays in the region (within half a bead), so a solid
+// fill is a few long paths instead of many short ones with travel between.
+std::vector<std::vector<Vec2>> link_runs(const std::vector<std::vector<Vec2>>& lines,
+                                         const Regions& r, double spacing, double bead_width,
+                                         bool link) {
   std::vector<std::vector<Vec2>> runs;
-  if (r.empty() || !(spacing > 0)) return runs;
-  std::vector<Segment2> kept;
-  for (const auto& s : hatch(r, angle, spacing))
-    if (std::sqrt(dist2(s.a, s.b)) >= min_path) kept.push_back(s);
-  std::vector<std::vector<Vec2>> lines;
-  order_lines(std::move(kept), cursor, lines);
-  // Consecutive lines whose ends are neighbours are joined by a short connector (a zig-zag)
-  // when the connector stays in the region (within half a bead), so a solid fill is a few long
-  // paths instead of many short ones with travel between.
   std::vector<Vec2> run;
   auto flush = [&] {
     if (run.size() >= 2) runs.push_back(run);
@@ -239,6 +235,84 @@ std::vector<std::vector<Vec2>> fill_lines(const Regions& r, double angle, double
   }
   flush();
   return runs;
+}
+
+}  // namespace
+
+std::vector<std::vector<Vec2>> fill_lines(const Regions& r, double angle, double spacing,
+                                          double bead_width, double min_path, bool link,
+                                          Vec2& cursor) {
+  if (r.empty() || !(spacing > 0)) return {};
+  std::vector<Segment2> kept;
+  for (const auto& s : hatch(r, angle, spacing))
+    if (std::sqrt(dist2(s.a, s.b)) >= min_path) kept.push_back(s);
+  std::vector<std::vector<Vec2>> lines;
+  order_lines(std::move(kept), cursor, lines);
+  return link_runs(lines, r, spacing, bead_width, link);
+}
+
+std::vector<std::vector<Vec2>> fill_lines_oriented(const Regions& r,
+                                                   const std::function<double(Vec2)>& angle_of,
+                                                   double cell, double quantum, double spacing,
+                                                   double bead_width, double min_path, bool link,
+                                                   Vec2& cursor) {
+  if (r.empty() || !(spacing > 0) || !(cell > 0) || !(quantum > 0)) return {};
+  double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
+  for (const auto& p : r)
+    for (const Vec2 q : p.outer) x0 = std::min(x0, q.x), y0 = std::min(y0, q.y), x1 = std::max(x1, q.x), y1 = std::max(y1, q.y);
+  const long i0 = static_cast<long>(std::floor(x0 / cell)), j0 = static_cast<long>(std::floor(y0 / cell));
+  const long ni = static_cast<long>(std::floor(x1 / cell)) - i0 + 1;
+  const long nj = static_cast<long>(std::floor(y1 / cell)) - j0 + 1;
+  // Each cell's angle (quantised, in [0, 180)), from its centre.
+  const int steps = std::max(1, static_cast<int>(std::lround(180 / quantum)));
+  std::vector<int> angle(static_cast<std::size_t>(ni * nj));
+  std::vector<char> used(static_cast<std::size_t>(steps), 0);
+  for (long j = 0; j < nj; ++j)
+    for (long i = 0; i < ni; ++i) {
+      const Vec2 c{(static_cast<double>(i0 + i) + 0.5) * cell, (static_cast<double>(j0 + j) + 0.5) * cell};
+      double a = std::fmod(angle_of(c), 180.0);
+      if (a < 0) a += 180;
+      const int q = static_cast<int>(std::lround(a / (180.0 / steps))) % steps;
+      angle[static_cast<std::size_t>(j * ni + i)] = q;
+      used[static_cast<std::size_t>(q)] = 1;
+    }
+  auto cell_of = [&](Vec2 p) {
+    const long i = std::clamp(static_cast<long>(std::floor(p.x / cell)) - i0, 0L, ni - 1);
+    const long j = std::clamp(static_cast<long>(std::floor(p.y / cell)) - j0, 0L, nj - 1);
+    return static_cast<std::size_t>(j * ni + i);
+  };
+  // Each angle hatches the whole region once; a line keeps its stretches in cells of that angle
+  // (cut where it crosses cell edges), so every part of the region gets its cell's lines.
+  std::vector<Segment2> kept;
+  std::vector<double> ts;
+  for (int q = 0; q < steps; ++q) {
+    if (!used[static_cast<std::size_t>(q)]) continue;
+    for (const auto& s : hatch(r, q * (180.0 / steps), spacing)) {
+      ts.assign({0.0, 1.0});
+      const Vec2 d = s.b - s.a;
+      for (int axis = 0; axis < 2; ++axis) {
+        const double pa = axis ? s.a.y : s.a.x, dp = axis ? d.y : d.x;
+        if (std::abs(dp) < 1e-15) continue;
+        const double lo = std::min(pa, pa + dp), hi = std::max(pa, pa + dp);
+        for (double e = std::ceil(lo / cell) * cell; e < hi; e += cell) ts.push_back((e - pa) / dp);
+      }
+      std::sort(ts.begin(), ts.end());
+      double start = -1;
+      for (std::size_t k = 0; k + 1 < ts.size(); ++k) {
+        const bool mine = angle[cell_of(s.a + d * (0.5 * (ts[k] + ts[k + 1])))] == q;
+        if (mine && start < 0) start = ts[k];
+        if ((!mine || k + 2 == ts.size()) && start >= 0) {
+          const double end = mine ? ts[k + 1] : ts[k];
+          const Segment2 piece{s.a + d * start, s.a + d * end};
+          if (std::sqrt(dist2(piece.a, piece.b)) >= min_path) kept.push_back(piece);
+          start = -1;
+        }
+      }
+    }
+  }
+  std::vector<std::vector<Vec2>> lines;
+  order_lines(std::move(kept), cursor, lines);
+  return link_runs(lines, r, spacing, bead_width, link);
 }
 
 Toolpath plan_planar(const std::vector<LayerOutline>& layers, const PlanarOptions& o,

@@ -84,7 +84,12 @@ struct FgmOptions {
   bool concentric = false;    // concentric fill instead of 100 % rectilinear
   double fill_overlap = 0.25; // Strategy 2: rectilinear lines reach this share of a bead into the ring
   bool gap_fill = true;       // Strategy 2: lines through what the beads leave uncovered
-  double angle_deg = 45;      // rectilinear angle, +90° every layer
+  // Strategy 2's rectilinear lines run along the local iso-line (perpendicular to the gradient,
+  // as the paper prints), one direction per square of orient_cell mm; fixed_angle: at
+  // angle_deg instead, +90° every layer.
+  bool fixed_angle = false;
+  double angle_deg = 45;
+  double orient_cell = 4;
   double zipper = 0;          // Strategy 1: overlap band width β (fraction 0..1 of the gradient)
 };
 

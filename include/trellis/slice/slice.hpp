@@ -85,6 +85,15 @@ std::vector<std::vector<Vec2>> fill_lines(const Regions& region, double angle_de
                                           double bead_width, double min_path, bool link,
                                           Vec2& cursor);
 
+// The same with a direction per square cell (`cell` mm, cells aligned with the origin):
+// angle_of(cell centre) in degrees, rounded to `quantum`; each part of the region is filled at
+// its cell's angle.
+std::vector<std::vector<Vec2>> fill_lines_oriented(const Regions& region,
+                                                   const std::function<double(Vec2)>& angle_of,
+                                                   double cell, double quantum, double spacing,
+                                                   double bead_width, double min_path, bool link,
+                                                   Vec2& cursor);
+
 Toolpath plan_planar(const std::vector<LayerOutline>& layers, const PlanarOptions& options,
                      PlanarStats* stats = nullptr);
 
