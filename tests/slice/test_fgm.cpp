@@ -630,3 +630,52 @@ TEST(Fgm, Strategy2LinesRunAlongTheIsoLines) {
   EXPECT_GE(oriented, 0.9);
   EXPECT_LT(fixed, 0.6);
 }
+
+TEST(Fgm, Strategy2BeadsStayInsideTheirFace) {
+  // No bead crosses into another face: every path point of a colour lies in that colour's face
+  // (recomputed) at least half a bead from its edge (1 µm slack), rings, lines and
+  // gap fill alike, for rectilinear and concentric fills, two and three materials.
+  const std::vector<std::string> designs = {
+      "fgrade([\"0.5 + x/24 + 0.1*sin(y)\", \"0.5 - x/24 - 0.1*sin(y)\"], [\"a\", \"b\"]) {\n"
+      "  rectprism(20, 12, 0.3);\n}\n",
+      kThreeMaterials};
+  for (const auto& src : designs)
+    for (bool concentric : {false, true}) {
+      const Field f = design(src);
+      FieldSliceOptions so;
+      const auto outlines = slice_field(f, {0.0}, so);
+      FgmOptions o;
+      o.palette.materials = static_cast<int>(f.materials().size());
+      o.palette.colors = o.palette.materials == 3 ? 9 : 6;
+      o.layer_height = 0.3;
+      o.concentric = concentric;
+      o.material_resolution = 0.2;
+      const Toolpath tp = plan_fgm_strategy2(f, outlines, o);
+      Evaluator ev(f);
+      // The faces as Strategy 2 cuts them (its edges follow the iso-lines to 1% of a band).
+      const auto faces = color_faces(f, ev, 0.0, outlines[0].regions, o.palette, 0.2, 1e-2);
+      ASSERT_EQ(tp.layers.size(), 1u);
+      std::size_t checked = 0;
+      for (const auto& p : tp.layers[0].paths) {
+        const int color = o.palette.color_of(p.mixture);
+        const auto it = std::find_if(faces.begin(), faces.end(),
+                                     [&](const ColorFace& c) { return c.color == color; });
+        ASSERT_NE(it, faces.end());
+        const auto rings = rings_of(it->region);
+        for (std::size_t k = 0; k < p.points.size(); k += 3) {
+          const Vec2 q = p.points[k].xy();
+          bool inside = false;
+          for (const auto& poly : it->region) inside |= contains(poly, q, 0.0);
+          double edge = 1e300;
+          for (const auto& ring : rings)
+            for (std::size_t i = 0, j = ring.size() - 1; i < ring.size(); j = i++)
+              edge = std::min(edge, distance_to_segment({q.x, q.y, 0}, {ring[j].x, ring[j].y, 0},
+                                                        {ring[i].x, ring[i].y, 0}));
+          EXPECT_TRUE(inside) << q.x << " " << q.y;
+          EXPECT_GE(edge, o.bead_width / 2 - 1e-3) << q.x << " " << q.y << " colour " << color;
+          ++checked;
+        }
+      }
+      EXPECT_GT(checked, 100u);
+    }
+}
