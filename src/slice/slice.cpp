@@ -284,6 +284,7 @@ std::vector<std::vector<Vec2>> fill_lines_oriented(const Regions& r,
   // Each angle hatches the whole region once; a line keeps its stretches in cells of that angle
   // (cut where it crosses cell edges), so every part of the region gets its cell's lines.
   std::vector<Segment2> kept;
+  std::vector<std::size_t> cells;  // each kept piece's cell
   std::vector<double> ts;
   for (int q = 0; q < steps; ++q) {
     if (!used[static_cast<std::size_t>(q)]) continue;
@@ -304,14 +305,30 @@ std::vector<std::vector<Vec2>> fill_lines_oriented(const Regions& r,
         if ((!mine || k + 2 == ts.size()) && start >= 0) {
           const double end = mine ? ts[k + 1] : ts[k];
           const Segment2 piece{s.a + d * start, s.a + d * end};
-          if (std::sqrt(dist2(piece.a, piece.b)) >= min_path) kept.push_back(piece);
+          if (std::sqrt(dist2(piece.a, piece.b)) >= min_path) {
+            kept.push_back(piece);
+            cells.push_back(cell_of(s.a + d * (0.5 * (start + end))));
+          }
           start = -1;
         }
       }
     }
   }
+  // Cell by cell (rows of cells, every other row backwards), each cell's lines in sweep order,
+  // so the zig-zag links stay within a cell.
+  auto rank = [&](std::size_t c) {
+    const std::size_t j = c / static_cast<std::size_t>(ni), i = c % static_cast<std::size_t>(ni);
+    return j * static_cast<std::size_t>(ni) + (j % 2 ? static_cast<std::size_t>(ni) - 1 - i : i);
+  };
+  std::vector<std::size_t> order(kept.size());
+  for (std::size_t k = 0; k < order.size(); ++k) order[k] = k;
+  std::stable_sort(order.begin(), order.end(),
+                   [&](std::size_t a, std::size_t b) { return rank(cells[a]) < rank(cells[b]); });
+  std::vector<Segment2> sorted;
+  sorted.reserve(kept.size());
+  for (const std::size_t k : order) sorted.push_back(kept[k]);
   std::vector<std::vector<Vec2>> lines;
-  order_lines(std::move(kept), cursor, lines);
+  order_lines(std::move(sorted), cursor, lines);
   return link_runs(lines, r, spacing, bead_width, link);
 }
 
