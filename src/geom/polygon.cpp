@@ -88,20 +88,49 @@ std::vector<Segment2> clip_segments(const std::vector<Segment2>& segments, const
   return out;
 }
 
+bool inside_ring(const std::vector<Vec2>& ring, Vec2 p) {
+  bool in = false;
+  for (std::size_t i = 0, j = ring.size() - 1; i < ring.size(); j = i++) {
+    const Vec2 a = ring[j], b = ring[i];
+    if ((a.y > p.y) != (b.y > p.y) && p.x < (b.x - a.x) * (p.y - a.y) / (b.y - a.y) + a.x)
+      in = !in;
+  }
+  return in;
+}
+
+BeadRaster::BeadRaster(BBox2 box, double pixel) : box_(box), pixel_(pixel) {
+  nx_ = std::max(1L, static_cast<long>(std::ceil(box.width() / pixel)));
+  ny_ = std::max(1L, static_cast<long>(std::ceil(box.height() / pixel)));
+  cells_.assign(static_cast<std::size_t>(nx_ * ny_), 0);
+}
+
+void BeadRaster::paint(Vec2 a, Vec2 b, double r) {
+  // In pieces at most two pixels long, so a long diagonal does not scan its whole box.
+  const double len = std::hypot(b.x - a.x, b.y - a.y);
+  const int pieces = std::max(1, static_cast<int>(std::ceil(len / (2 * pixel_))));
+  for (int k = 0; k < pieces; ++k) {
+    const Vec2 s0 = a + (b - a) * (static_cast<double>(k) / pieces);
+    const Vec2 s1 = a + (b - a) * (static_cast<double>(k + 1) / pieces);
+    const Vec3 A{s0.x, s0.y, 0}, B{s1.x, s1.y, 0};
+    const long x0 = std::max(0L, static_cast<long>((std::min(s0.x, s1.x) - r - box_.min.x) / pixel_));
+    const long x1 = std::min(nx_ - 1, static_cast<long>((std::max(s0.x, s1.x) + r - box_.min.x) / pixel_));
+    const long y0 = std::max(0L, static_cast<long>((std::min(s0.y, s1.y) - r - box_.min.y) / pixel_));
+    const long y1 = std::min(ny_ - 1, static_cast<long>((std::max(s0.y, s1.y) + r - box_.min.y) / pixel_));
+    for (long iy = y0; iy <= y1; ++iy)
+      for (long ix = x0; ix <= x1; ++ix) {
+        char& c = cells_[static_cast<std::size_t>(iy * nx_ + ix)];
+        if (c) continue;
+        const Vec2 q = centre(ix, iy);
+        if (distance_to_segment({q.x, q.y, 0}, A, B) <= r) c = 1;
+      }
+  }
+}
+
 bool contains(const Polygon2& region, Vec2 p, double tol) {
   // Strictly inside (crossing tests alone, no distances): the common case, decided cheaply.
-  auto crosses = [&](const std::vector<Vec2>& ring) {
-    bool in = false;
-    for (std::size_t i = 0, j = ring.size() - 1; i < ring.size(); j = i++) {
-      const Vec2 a = ring[j], b = ring[i];
-      if ((a.y > p.y) != (b.y > p.y) && p.x < (b.x - a.x) * (p.y - a.y) / (b.y - a.y) + a.x)
-        in = !in;
-    }
-    return in;
-  };
-  if (!region.outer.empty() && crosses(region.outer) &&
+  if (!region.outer.empty() && inside_ring(region.outer, p) &&
       std::none_of(region.holes.begin(), region.holes.end(),
-                   [&](const auto& h) { return !h.empty() && crosses(h); }))
+                   [&](const auto& h) { return !h.empty() && inside_ring(h, p); }))
     return true;
   auto inside_ring = [&](const std::vector<Vec2>& ring) {
     bool in = false;

@@ -179,15 +179,7 @@ Regions nest_oriented_rings(std::vector<std::vector<Vec2>> rings) {
     }
     (a > 0 ? outers : holes).push_back(std::move(r));
   }
-  auto inside = [](const std::vector<Vec2>& ring, Vec2 p) {
-    bool in = false;
-    for (std::size_t i = 0, j = ring.size() - 1; i < ring.size(); j = i++) {
-      const Vec2 a = ring[j], b = ring[i];
-      if ((a.y > p.y) != (b.y > p.y) && p.x < (b.x - a.x) * (p.y - a.y) / (b.y - a.y) + a.x)
-        in = !in;
-    }
-    return in;
-  };
+  auto inside = [](const std::vector<Vec2>& ring, Vec2 p) { return inside_ring(ring, p); };
   Regions out(outers.size());
   for (std::size_t i = 0; i < outers.size(); ++i) out[i].outer = outers[i].pts;
   for (auto& h : holes) {

@@ -301,35 +301,11 @@ void fill_gaps(const std::vector<ColorFace>& faces, const std::vector<Regions>& 
   const auto nx = static_cast<long>(std::ceil(box.width() / px)) + 1;
   const auto ny = static_cast<long>(std::ceil(box.height() / px)) + 1;
   if (nx * ny > 400'000'000L) return;  // a layer over 5 m²: skip rather than exhaust memory
-  std::vector<char> covered(static_cast<std::size_t>(nx * ny), 0);
-  auto centre = [&](long ix, long iy) {
-    return Vec2{box.min.x + (static_cast<double>(ix) + 0.5) * px,
-                box.min.y + (static_cast<double>(iy) + 0.5) * px};
-  };
-  // Beads: each segment in pieces at most two pixels long, each piece's capsule painted.
+  BeadRaster raster({box.min, {box.min.x + static_cast<double>(nx) * px, box.min.y + static_cast<double>(ny) * px}}, px);
+  auto centre = [&](long ix, long iy) { return raster.centre(ix, iy); };
   for (const auto& face_lines : lines)
     for (const auto& l : face_lines)
-      for (std::size_t k = 0; k + 1 < l.size(); ++k) {
-        const Vec2 a = l[k], b = l[k + 1];
-        const double len = std::hypot(b.x - a.x, b.y - a.y);
-        const int pieces = std::max(1, static_cast<int>(std::ceil(len / (2 * px))));
-        for (int p = 0; p < pieces; ++p) {
-          const Vec2 s0 = a + (b - a) * (static_cast<double>(p) / pieces);
-          const Vec2 s1 = a + (b - a) * (static_cast<double>(p + 1) / pieces);
-          const Vec3 A{s0.x, s0.y, 0}, B{s1.x, s1.y, 0};
-          const long x0 = std::max(0L, static_cast<long>((std::min(s0.x, s1.x) - r - box.min.x) / px));
-          const long x1 = std::min(nx - 1, static_cast<long>((std::max(s0.x, s1.x) + r - box.min.x) / px));
-          const long y0 = std::max(0L, static_cast<long>((std::min(s0.y, s1.y) - r - box.min.y) / px));
-          const long y1 = std::min(ny - 1, static_cast<long>((std::max(s0.y, s1.y) + r - box.min.y) / px));
-          for (long iy = y0; iy <= y1; ++iy)
-            for (long ix = x0; ix <= x1; ++ix) {
-              char& c = covered[static_cast<std::size_t>(iy * nx + ix)];
-              if (c) continue;
-              const Vec2 q = centre(ix, iy);
-              if (distance_to_segment({q.x, q.y, 0}, A, B) <= r) c = 1;
-            }
-        }
-      }
+      for (std::size_t k = 0; k + 1 < l.size(); ++k) raster.paint(l[k], l[k + 1], r);
   // Per face: its uncovered pixels (scanlines over its rings, even-odd; each edge's crossings
   // bucketed by row), then groups.
   std::vector<int> owner(static_cast<std::size_t>(nx * ny), -1);
@@ -365,7 +341,7 @@ void fill_gaps(const std::vector<ColorFace>& faces, const std::vector<Regions>& 
         for (long ix = std::max(0L, static_cast<long>(std::ceil((xs[k] - box.min.x) / px - 0.5)));
              ix < nx && centre(ix, iy).x < xs[k + 1]; ++ix) {
           const long id = iy * nx + ix;
-          if (covered[static_cast<std::size_t>(id)]) continue;
+          if (raster.covered(ix, iy)) continue;
           owner[static_cast<std::size_t>(id)] = static_cast<int>(fi);
           mine.push_back(id);
         }

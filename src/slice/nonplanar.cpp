@@ -946,24 +946,11 @@ double footprint_coverage(const Toolpath& tp, std::size_t layer, const HeightFie
                           double width, double pixel) {
   if (layer >= tp.layers.size()) return 0;
   const BBox2 box = surface.domain();
-  const long nx = std::max(1L, static_cast<long>(std::ceil(box.width() / pixel)));
-  const long ny = std::max(1L, static_cast<long>(std::ceil(box.height() / pixel)));
-  std::vector<char> covered(static_cast<std::size_t>(nx * ny), 0);
-  const double r = width / 2;
+  BeadRaster raster(box, pixel);
+  const long nx = raster.nx(), ny = raster.ny();
   for (const auto& p : tp.layers[layer].paths)
-    for (std::size_t i = 1; i < p.points.size(); ++i) {
-      Vec3 a = p.points[i - 1], b = p.points[i];
-      a.z = b.z = 0;
-      const long i0 = std::max(0L, static_cast<long>((std::min(a.x, b.x) - r - box.min.x) / pixel));
-      const long i1 = std::min(nx - 1, static_cast<long>((std::max(a.x, b.x) + r - box.min.x) / pixel));
-      const long j0 = std::max(0L, static_cast<long>((std::min(a.y, b.y) - r - box.min.y) / pixel));
-      const long j1 = std::min(ny - 1, static_cast<long>((std::max(a.y, b.y) + r - box.min.y) / pixel));
-      for (long j = j0; j <= j1; ++j)
-        for (long i = i0; i <= i1; ++i) {
-          const Vec3 c{box.min.x + (i + 0.5) * pixel, box.min.y + (j + 0.5) * pixel, 0};
-          if (distance_to_segment(c, a, b) <= r) covered[static_cast<std::size_t>(j * nx + i)] = 1;
-        }
-    }
+    for (std::size_t i = 1; i < p.points.size(); ++i)
+      raster.paint(p.points[i - 1].xy(), p.points[i].xy(), width / 2);
   std::atomic<long> inside{0}, hit{0};
   tbb::enumerable_thread_specific<HeightField::Eval> evals([&] { return surface.evaluator(); });
   tbb::parallel_for(0L, ny, [&](long j) {
@@ -972,7 +959,7 @@ double footprint_coverage(const Toolpath& tp, std::size_t layer, const HeightFie
     for (long i = 0; i < nx; ++i) {
       if (!std::isfinite(f(box.min.x + (i + 0.5) * pixel, box.min.y + (j + 0.5) * pixel))) continue;
       ++in;
-      h += covered[static_cast<std::size_t>(j * nx + i)];
+      h += raster.covered(i, j);
     }
     inside += in, hit += h;
   });

@@ -32,6 +32,32 @@ std::vector<Segment2> clip_segments(const std::vector<Segment2>& segments, const
 
 // Whether p lies inside the region or on its boundary (within `tol`).
 bool contains(const Polygon2& region, Vec2 p, double tol = 1e-9);
+// Even-odd crossing test of one ring (no tolerance: a point on the edge may go either way).
+bool inside_ring(const std::vector<Vec2>& ring, Vec2 p);
+
+// A pixel grid over a box in which round beads are painted along segments (what a set of paths
+// covers), for coverage checks and gap finding. Hand-written: a union of thousands of
+// overlapping bead polygons costs far more than painting pixels.
+class BeadRaster {
+ public:
+  BeadRaster(BBox2 box, double pixel);
+  // Pixels whose centre lies within `radius` of the segment a-b.
+  void paint(Vec2 a, Vec2 b, double radius);
+  bool covered(long ix, long iy) const { return cells_[static_cast<std::size_t>(iy * nx_ + ix)] != 0; }
+  Vec2 centre(long ix, long iy) const {
+    return {box_.min.x + (static_cast<double>(ix) + 0.5) * pixel_,
+            box_.min.y + (static_cast<double>(iy) + 0.5) * pixel_};
+  }
+  long nx() const { return nx_; }
+  long ny() const { return ny_; }
+  double pixel() const { return pixel_; }
+
+ private:
+  BBox2 box_;
+  double pixel_;
+  long nx_, ny_;
+  std::vector<char> cells_;
+};
 
 // Points on the boundary of `region`, each inserted into the ring edge it lies on: returns the
 // rings (outer first) as closed point loops including those points, ordered along each edge.
