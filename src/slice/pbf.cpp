@@ -99,21 +99,23 @@ class LayerGrid {
     return j * nx_ + i;
   }
   static constexpr std::size_t npos = static_cast<std::size_t>(-1);
-  // The block origin + (i, j)·step, i < w, j < rows, if all its points are nodes: the index k0
-  // of its origin and the index step, node (i, j) being k0 + (j·row + i)·stride.
-  bool block(Vec2 origin, double step, std::size_t w, std::size_t rows, std::size_t& k0,
-             std::size_t& stride) const {
+  // Node index of point i of a block (row by row, w a row): k0 + (j·row + i)·stride.
+  struct BlockIndex {
+    std::size_t k0, stride, row, w;
+    std::size_t operator()(std::size_t i) const { return k0 + ((i / w) * row + i % w) * stride; }
+  };
+  // The block origin + (i, j)·step, i < w, j < rows, if all its points are nodes.
+  std::optional<BlockIndex> block(Vec2 origin, double step, std::size_t w, std::size_t rows) const {
     const std::size_t k = node(origin);
-    if (k == npos || w == 0 || rows == 0) return false;
+    if (k == npos || w == 0 || rows == 0) return std::nullopt;
     const double r = step * inv_, c = std::floor(r + 0.5);
-    if (c < 1 || std::abs(r - c) > 1e-9) return false;
-    stride = static_cast<std::size_t>(c);
+    if (c < 1 || std::abs(r - c) > 1e-9) return std::nullopt;
+    const auto stride = static_cast<std::size_t>(c);
     const std::size_t i0 = k % nx_, j0 = k / nx_;
-    if (i0 + (w - 1) * stride >= nx_ || j0 + (rows - 1) * stride >= d_.size() / nx_) return false;
-    k0 = k;
-    return true;
+    if (i0 + (w - 1) * stride >= nx_ || j0 + (rows - 1) * stride >= d_.size() / nx_)
+      return std::nullopt;
+    return BlockIndex{k, stride, nx_, w};
   }
-  std::size_t row() const { return nx_; }
   bool has_part(std::size_t k) const { return dstamp_[k] == gen_; }
   bool has_joint(std::size_t k) const { return jstamp_[k] == gen_; }
   double part(std::size_t k) const { return d_[k]; }
@@ -199,11 +201,8 @@ class JointSection : public PlaneFunction {
   }
   void sample_grid(Vec2 origin, double step, std::size_t w, std::size_t rows, const Vec2* p,
                    double* out) override {
-    std::size_t k0, stride;
-    if (!grid_ || !grid_->block(origin, step, w, rows, k0, stride)) return sample(p, out, w * rows);
-    const std::size_t row = grid_->row();
-    run(p, out, w * rows,
-        [&](std::size_t i) { return k0 + ((i / w) * row + i % w) * stride; });
+    const auto b = grid_ ? grid_->block(origin, step, w, rows) : std::nullopt;
+    if (b) run(p, out, w * rows, *b); else sample(p, out, w * rows);
   }
   // Cached nodes are read; the part is evaluated in one batch at the rest (most of them lie
   // outside the sheet, where the part's value is the answer). key(i): point i's node or npos.
@@ -275,11 +274,8 @@ class PartSection : public PlaneFunction {
   }
   void sample_grid(Vec2 origin, double step, std::size_t w, std::size_t rows, const Vec2* p,
                    double* out) override {
-    std::size_t k0, stride;
-    if (!grid_.block(origin, step, w, rows, k0, stride)) return sample(p, out, w * rows);
-    const std::size_t row = grid_.row();
-    run(p, out, w * rows,
-        [&](std::size_t i) { return k0 + ((i / w) * row + i % w) * stride; });
+    if (const auto b = grid_.block(origin, step, w, rows)) run(p, out, w * rows, *b);
+    else sample(p, out, w * rows);
   }
   // Cached nodes are read; the rest evaluated in one batch. key(i): point i's node or npos.
   template <class Key>
