@@ -209,19 +209,23 @@ struct FunctionNode : FieldNode {
   constexpr double two_over_pi = 0.63661977236758134308;
   constexpr double p1 = 1.57079632673412561417;   // π/2 high part
   constexpr double p2 = 6.07710050650619224932e-11;  // π/2 − p1
-  const double k = std::nearbyint(x * two_over_pi);
+  // Round to nearest by the 1.5·2^52 trick (std::nearbyint is a libm call without SSE4.1);
+  // exact for |x·2/π| < 2^51.
+  constexpr double magic = 6755399441055744.0;
+  const double k = (x * two_over_pi + magic) - magic;  // (no -ffast-math: not folded)
   const double r = (x - k * p1) - k * p2;
   const double r2 = r * r;
   const double s = r * (1 + r2 * (-1.0 / 6 + r2 * (1.0 / 120 + r2 * (-1.0 / 5040 + r2 * (1.0 / 362880 +
                    r2 * (-1.0 / 39916800 + r2 * (1.0 / 6227020800.0)))))));
   const double c = 1 + r2 * (-0.5 + r2 * (1.0 / 24 + r2 * (-1.0 / 720 + r2 * (1.0 / 40320 +
                    r2 * (-1.0 / 3628800 + r2 * (1.0 / 479001600.0 + r2 * (-1.0 / 87178291200.0)))))));
-  switch (static_cast<long long>(k) & 3) {
-    case 0: *sn = s; *cs = c; break;
-    case 1: *sn = c; *cs = -s; break;
-    case 2: *sn = -s; *cs = -c; break;
-    default: *sn = -c; *cs = s; break;
-  }
+  // Quadrant by table, not by branches: scattered points (root refinement, hatch ends) would
+  // mispredict a switch half the time.
+  static constexpr double sign_s[4] = {1, 1, -1, -1}, sign_c[4] = {1, -1, -1, 1};
+  const auto q = static_cast<unsigned>(static_cast<long long>(k) & 3);
+  const double v[2] = {s, c};
+  *sn = sign_s[q] * v[q & 1];
+  *cs = sign_c[q] * v[(q & 1) ^ 1];
 }
 
 struct TpmsNode : FieldNode {

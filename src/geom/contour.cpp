@@ -213,37 +213,68 @@ struct Marcher {
     ++samples;
     return v;
   }
-  // Crossing on the edge a→b (a the lower node) with values fa, fb on opposite sides of level.
-  Vec2 crossing(Vec2 a, Vec2 b, double fa, double fb) {
-    double t_lo = 0, t_hi = 1, g_lo = fa - level, g_hi = fb - level;
+  // Crossings on grid edges a→b (a the lower node) with values fa, fb on opposite sides of the
+  // level, refined all together: each round samples the next guess of every unfinished crossing
+  // in one batch (one call per round instead of one per guess; the same guesses as refining them
+  // one by one). Illinois steps inside the bracket.
+  struct Crossing {
+    Vec2 a, b;
+    double t_lo, t_hi, g_lo, g_hi, t;
+    int side;
+    bool done;
+  };
+  std::vector<Crossing> pending;
+  void add(Vec2 a, Vec2 b, double fa, double fb) {
+    Crossing c{a, b, 0, 1, fa - level, fb - level, 0, 0, false};
+    c.t = c.g_lo / (c.g_lo - c.g_hi);
+    if (!std::isfinite(c.t)) c.t = 0.5;
+    pending.push_back(c);
+  }
+  void refine(std::vector<Vec2>& out) {
     const double tol = opt.refine_fraction;  // in units of the edge length (= resolution)
-    double t = g_lo / (g_lo - g_hi);
-    if (!std::isfinite(t)) t = 0.5;
-    int side = 0;
-    for (int it = 0; it < opt.max_refine_iterations && t_hi - t_lo > tol; ++it) {
-      const double g = eval(a + (b - a) * t) - level;
-      if (std::abs(g) <= opt.value_tolerance || !std::isfinite(g)) break;
-      if ((g < 0) == (g_lo < 0)) {
-        t_lo = t;
-        g_lo = g;
-        if (side == -1) g_hi *= 0.5;  // Illinois: the retained end stalls, halve its value
-        side = -1;
-      } else {
-        t_hi = t;
-        g_hi = g;
-        if (side == 1) g_lo *= 0.5;
-        side = 1;
+    std::vector<std::size_t> active;
+    for (std::size_t i = 0; i < pending.size(); ++i)
+      if (pending[i].t_hi - pending[i].t_lo > tol) active.push_back(i);
+    std::vector<Vec2> pts;
+    std::vector<double> vals;
+    for (int it = 0; it < opt.max_refine_iterations && !active.empty(); ++it) {
+      pts.resize(active.size());
+      vals.resize(active.size());
+      for (std::size_t k = 0; k < active.size(); ++k) {
+        const Crossing& c = pending[active[k]];
+        pts[k] = c.a + (c.b - c.a) * c.t;
       }
-      double next = (t_lo * g_hi - t_hi * g_lo) / (g_hi - g_lo);
-      if (!(next > t_lo && next < t_hi)) next = 0.5 * (t_lo + t_hi);
-      // Converged when the step is far below the tolerance: take it and stop.
-      if (std::abs(next - t) < 0.25 * tol) {
-        t = next;
-        break;
+      f.sample(pts.data(), vals.data(), pts.size());
+      samples += pts.size();
+      std::size_t keep = 0;
+      for (std::size_t k = 0; k < active.size(); ++k) {
+        Crossing& c = pending[active[k]];
+        const double g = vals[k] - level;
+        if (std::abs(g) <= opt.value_tolerance || !std::isfinite(g)) continue;
+        if ((g < 0) == (c.g_lo < 0)) {
+          c.t_lo = c.t;
+          c.g_lo = g;
+          if (c.side == -1) c.g_hi *= 0.5;  // Illinois: the retained end stalls, halve its value
+          c.side = -1;
+        } else {
+          c.t_hi = c.t;
+          c.g_hi = g;
+          if (c.side == 1) c.g_lo *= 0.5;
+          c.side = 1;
+        }
+        double next = (c.t_lo * c.g_hi - c.t_hi * c.g_lo) / (c.g_hi - c.g_lo);
+        if (!(next > c.t_lo && next < c.t_hi)) next = 0.5 * (c.t_lo + c.t_hi);
+        // Converged when the step is far below the tolerance: take it and stop.
+        const bool converged = std::abs(next - c.t) < 0.25 * tol;
+        c.t = next;
+        if (!converged && c.t_hi - c.t_lo > tol) active[keep++] = active[k];
       }
-      t = next;
+      active.resize(keep);
     }
-    return a + (b - a) * t;
+    out.resize(pending.size());
+    for (std::size_t i = 0; i < pending.size(); ++i)
+      out[i] = pending[i].a + (pending[i].b - pending[i].a) * pending[i].t;
+    pending.clear();
   }
 };
 
@@ -281,10 +312,10 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
     auto cross = [&](std::size_t i, std::size_t j, bool vertical) {
       const std::uint64_t key =
           (((bj + j) * row + (bi + i)) << 1) | static_cast<std::uint64_t>(vertical);
-      std::size_t& slot = table.find_or_insert(key, crossings.size());
-      if (slot == crossings.size()) {
+      std::size_t& slot = table.find_or_insert(key, m.pending.size());
+      if (slot == m.pending.size()) {
         const std::size_t a = j * w + i, b = vertical ? a + w : a + 1;
-        crossings.push_back(m.crossing(pts[a], pts[b], val[a], val[b]));
+        m.add(pts[a], pts[b], val[a], val[b]);
       }
       return slot;
     };
@@ -372,6 +403,7 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
       const Block top{bi, bj, std::min(B, nx - bi), std::min(B, ny - bj)};
       visit(top, bound(top));
     }
+  m.refine(crossings);
   result.samples = m.samples;
   result.lines = walk_edges(crossings, segments);
   return result;
