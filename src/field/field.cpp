@@ -234,11 +234,15 @@ struct TpmsNode : FieldNode {
 
   // φ and, if `grad`, its gradient (analytic), from one sincos per axis.
   double phi(Vec3 p, Vec3* grad = nullptr) const {
-    const double x = k.x * p.x, y = k.y * p.y, z = k.z * p.z;
     double sx, cx, sy, cy, sz, cz;
-    fast_sincos(x, &sx, &cx);
-    fast_sincos(y, &sy, &cy);
-    fast_sincos(z, &sz, &cz);
+    fast_sincos(k.x * p.x, &sx, &cx);
+    fast_sincos(k.y * p.y, &sy, &cy);
+    fast_sincos(k.z * p.z, &sz, &cz);
+    return combine(sx, cx, sy, cy, sz, cz, grad);
+  }
+  // φ (and its gradient if `grad`) from the sines and cosines of the three scaled coordinates.
+  double combine(double sx, double cx, double sy, double cy, double sz, double cz,
+                 Vec3* grad = nullptr) const {
     switch (kind) {
       case TpmsKind::Gyroid:
         if (grad)
@@ -272,6 +276,12 @@ struct TpmsNode : FieldNode {
     phi(p, &g);
     return true;
   }
+  bool gradients(const Vec3* p, Vec3* g, std::size_t n, EvalState& s,
+                 std::size_t depth) const override {
+    sweep(p, n, s, depth, [&](std::size_t i, double sx, double cx, double sy, double cy, double sz,
+                              double cz) { combine(sx, cx, sy, cy, sz, cz, &g[i]); });
+    return true;
+  }
   // Bound on |φ|.
   double phi_max() const {
     switch (kind) {
@@ -293,9 +303,15 @@ struct TpmsNode : FieldNode {
   }
   void eval(const Vec3* p, double* out, std::size_t n, EvalState& s,
             std::size_t depth) const override {
-    // Batches come as rows of a layer's grid: z is constant, y changes once a row and x takes the
-    // same values in every row. Sines are reused for a repeated y or z, and for the x of the
-    // point one row back (found by exact comparison, so any batch is evaluated correctly).
+    sweep(p, n, s, depth, [&](std::size_t i, double sx, double cx, double sy, double cy, double sz,
+                              double cz) { out[i] = combine(sx, cx, sy, cy, sz, cz); });
+  }
+  // Calls fn(i, sin/cos of the three scaled coordinates) for each point. Batches come as rows of
+  // a layer's grid: z is constant, y changes once a row and x takes the same values in every
+  // row. Sines are reused for a repeated y or z, and for the x of the point one row back (found
+  // by exact comparison, so any batch is evaluated correctly).
+  template <class Fn>
+  void sweep(const Vec3* p, std::size_t n, EvalState& s, std::size_t depth, Fn fn) const {
     std::vector<double>& sc = s.value_buffer(depth + 1, 2 * n);
     double py = std::numeric_limits<double>::quiet_NaN(), pz = py;
     double sx = 0, cx = 0, sy = 0, cy = 0, sz = 0, cz = 0;
@@ -314,21 +330,8 @@ struct TpmsNode : FieldNode {
         fast_sincos(k.y * p[i].y, &sy, &cy), py = p[i].y;
       }
       if (!(p[i].z == pz)) fast_sincos(k.z * p[i].z, &sz, &cz), pz = p[i].z;
-      out[i] = combine(sx, cx, sy, cy, sz, cz);
+      fn(i, sx, cx, sy, cy, sz, cz);
     }
-  }
-  // φ from the sines and cosines of the three scaled coordinates.
-  double combine(double sx, double cx, double sy, double cy, double sz, double cz) const {
-    switch (kind) {
-      case TpmsKind::Gyroid: return sx * cy + sy * cz + sz * cx;
-      case TpmsKind::SchwarzP: return cx + cy + cz;
-      case TpmsKind::SchwarzD: return sx * sy * sz + sx * cy * cz + cx * sy * cz + cx * cy * sz;
-      case TpmsKind::Neovius: return 3 * (cx + cy + cz) + 4 * cx * cy * cz;
-      case TpmsKind::Iwp:
-        return 2 * (cx * cy + cy * cz + cz * cx) -
-               ((2 * cx * cx - 1) + (2 * cy * cy - 1) + (2 * cz * cz - 1));
-    }
-    return 0;
   }
   Interval bound(const BBox3& b, EvalState&, std::size_t) const override {
     const double f = phi(b.center());
@@ -981,6 +984,10 @@ Vec3 Evaluator::gradient(Vec3 p, double h) {
   values(pts, v, 6);
   const double inv = 0.5 / h;
   return {(v[0] - v[1]) * inv, (v[2] - v[3]) * inv, (v[4] - v[5]) * inv};
+}
+void Evaluator::gradients(const Vec3* p, Vec3* out, std::size_t n, double h) {
+  if (field_.node().gradients(p, out, n, *state_, 0)) return;
+  for (std::size_t i = 0; i < n; ++i) out[i] = gradient(p[i], h);
 }
 Interval Evaluator::bound(const BBox3& box) {
   return field_.node().bound(box, *state_, 0);

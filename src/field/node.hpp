@@ -61,6 +61,13 @@ class FieldNode {
   virtual bool exact_outside() const { return false; }
   // Analytic gradient if the node has one (TPMS, transforms of it); false → finite differences.
   virtual bool gradient(Vec3 p, Vec3& g, EvalState& s, std::size_t depth) const { return false; }
+  // The same at n points (TPMS reuses sines along grid rows as in eval).
+  virtual bool gradients(const Vec3* p, Vec3* g, std::size_t n, EvalState& s,
+                         std::size_t depth) const {
+    for (std::size_t i = 0; i < n; ++i)
+      if (!gradient(p[i], g[i], s, depth)) return false;
+    return true;
+  }
   virtual BBox3 extent() const = 0;
   // Adds this node's contribution to fractions (indexed by the design's material table).
   virtual void fractions(Vec3 p, double* out, EvalState& s, std::size_t depth) const;

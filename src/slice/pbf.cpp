@@ -181,11 +181,14 @@ class JointSection : public PlaneFunction {
     }
     return finish(q, D);
   }
-  // The measure at q given the part's value D there.
+  // The measure at q given the part's value D there (and φ's gradient there when D < 0).
   double finish(Vec2 q, double D) {
     if (D >= 0) return D;
+    return finish(q, D, ctx_.phi.gradient({q.x, q.y, z_}));  // analytic for TPMS
+  }
+  double finish(Vec2 q, double D, Vec3 grad) {
+    if (D >= 0) return D;
     const Vec3 p{q.x, q.y, z_};
-    const Vec3 grad = ctx_.phi.gradient(p);  // analytic for TPMS
     const double gx = grad.x, gy = grad.y, gz = grad.z;
     const double gxy = std::sqrt(gx * gx + gy * gy), g = std::sqrt(gxy * gxy + gz * gz);
     // Horizontal width of the sheet: 2c / |∇xy φ| (or t·|∇φ| / |∇xy φ| for uniform thickness).
@@ -238,8 +241,14 @@ class JointSection : public PlaneFunction {
       part_[m] = vals_[j];
       if (keys_[m] != LayerGrid::npos) grid_->set_part(keys_[m], vals_[j]);
     }
-    for (std::size_t m = 0; m < miss_.size(); ++m) {
-      const double v = finish(p[miss_[m]], part_[m]);
+    // φ's gradient in one batch at the points inside the part.
+    pts_.clear();
+    for (std::size_t m = 0; m < miss_.size(); ++m)
+      if (part_[m] < 0) pts_.push_back({p[miss_[m]].x, p[miss_[m]].y, z_});
+    grads_.resize(pts_.size());
+    if (!pts_.empty()) ctx_.phi.gradients(pts_.data(), grads_.data(), pts_.size());
+    for (std::size_t m = 0, g = 0; m < miss_.size(); ++m) {
+      const double v = part_[m] < 0 ? finish(p[miss_[m]], part_[m], grads_[g++]) : part_[m];
       out[miss_[m]] = v;
       if (keys_[m] != LayerGrid::npos && !invert_) grid_->set_joint(keys_[m], v);
     }
@@ -259,7 +268,7 @@ class JointSection : public PlaneFunction {
   bool invert_;
   LayerGrid* grid_ = nullptr;
   std::vector<std::size_t> miss_, keys_, need_;
-  std::vector<Vec3> pts_;
+  std::vector<Vec3> pts_, grads_;
   std::vector<double> part_, vals_;
 };
 
@@ -520,25 +529,27 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o,
     BBox3 box = e;
     mesh = field_to_mesh(part, box, o.resolution, &ms);
     result.mesh_triangles = mesh.triangles.size();
-    buckets = triangles_by_plane(mesh, zs);  // each layer visits only the triangles it cuts
+    if (!o.stl_scan_all) buckets = triangles_by_plane(mesh, zs);  // each layer: the triangles it cuts
     result.mesh_bytes = ms.mesh_bytes;
     result.grid_bytes = ms.grid_bytes;
   }
 
-  const double pad = 2 * o.resolution;
-  const Vec2 lo{std::floor((e.min.x - pad) / o.resolution) * o.resolution,
-                std::floor((e.min.y - pad) / o.resolution) * o.resolution};
-  const Vec2 hi{std::ceil((e.max.x + pad) / o.resolution) * o.resolution,
-                std::ceil((e.max.y + pad) / o.resolution) * o.resolution};
-  MarchOptions mo;
-  mo.resolution = o.resolution;
-  // Joints and the mid-curve are smooth at the scale of a cell: they are contoured on a grid
-  // twice as coarse (its nodes are nodes of the fine grid, so the cached part values serve).
-  MarchOptions mo_coarse = mo;
-  mo_coarse.resolution = std::max(1, o.coarse) * o.resolution;
-  // The section S gives the layer's area and the R67 baseline (the paths come from the joint
-  // and mid-curve contours and from zero-finding): its crossings are refined to 0.5 µm.
-  mo.refine_fraction = std::min(0.1, 5e-4 / o.resolution);
+  // Every contour of the direct route (the sheet section S, the joints, the mid-curve) is
+  // sampled on one grid `coarse` times the resolution, crossings refined on the field. The
+  // joints and the mid-curve are smooth at the scale of a cell; S only gives the layer's area
+  // (FR_a) and the R67 baseline, refined to 0.5 µm its area is closer to the true section than
+  // the STL route's mesh at the finer resolution (tests/slice/test_pbf.cpp measures both).
+  const double H = std::max(1, o.coarse) * o.resolution;
+  const double pad = 2 * H;
+  const Vec2 lo{std::floor((e.min.x - pad) / H) * H, std::floor((e.min.y - pad) / H) * H};
+  const Vec2 hi{std::ceil((e.max.x + pad) / H) * H, std::ceil((e.max.y + pad) / H) * H};
+  const auto nx = static_cast<std::size_t>(std::llround((hi.x - lo.x) / H));
+  const auto ny = static_cast<std::size_t>(std::llround((hi.y - lo.y) / H));
+  MarchOptions mo_section;
+  mo_section.resolution = H;
+  mo_section.refine_fraction = std::min(0.1, 5e-4 / H);
+  MarchOptions mo_coarse;
+  mo_coarse.resolution = H;
   mo_coarse.refine_fraction = 5e-3;
 
   result.layers.resize(zs.size());
@@ -552,16 +563,14 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o,
     L.z = z;
     L.hatch_angle = std::fmod(o.hatch_angle + o.hatch_rotation * static_cast<double>(i), 180.0);
     // The sheet's cross-section S.
-    const std::size_t nx = static_cast<std::size_t>(std::llround((hi.x - lo.x) / o.resolution));
-    const std::size_t ny = static_cast<std::size_t>(std::llround((hi.y - lo.y) / o.resolution));
     LayerGrid& grid = ctx.grid;
-    grid.reset(lo, o.resolution, nx, ny);
+    grid.reset(lo, H, nx, ny);
     Regions S;
     if (o.stl_route) {
-      S = slice_mesh(mesh, z, buckets[i]);
+      S = o.stl_scan_all ? slice_mesh(mesh, z) : slice_mesh(mesh, z, buckets[i]);
     } else {
       PartSection fs(ctx, grid, z);
-      S = nest_oriented_rings(march_squares(fs, lo, hi, 0.0, mo).lines.loops);
+      S = nest_oriented_rings(march_squares(fs, lo, hi, 0.0, mo_section).lines.loops);
     }
     L.area = area(S);
     if (S.empty()) return;
@@ -583,15 +592,27 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o,
       }
       // The mid-curve comes from the coarse grid: put a point, projected onto φ = 0 by a Newton
       // step along ∇φ, in the middle of every chord (chord error / 4).
+      std::vector<Vec3> mids;
+      for (const auto& l : lines)
+        for (std::size_t k = 0; k + 1 < l.size(); ++k) {
+          const Vec2 c = (l[k] + l[k + 1]) * 0.5;
+          mids.push_back({c.x, c.y, z});
+        }
+      std::vector<double> fm(mids.size());
+      std::vector<Vec3> gm(mids.size());
+      if (!mids.empty()) {  // one batch each (TPMS: analytic gradients)
+        ctx.phi.values(mids.data(), fm.data(), mids.size());
+        ctx.phi.gradients(mids.data(), gm.data(), mids.size());
+      }
+      std::size_t next_mid = 0;
       for (auto& l : lines) {
         std::vector<Vec2> dense;
         dense.reserve(2 * l.size());
-        for (std::size_t k = 0; k + 1 < l.size(); ++k) {
+        for (std::size_t k = 0; k + 1 < l.size(); ++k, ++next_mid) {
           dense.push_back(l[k]);
-          const Vec2 c = (l[k] + l[k + 1]) * 0.5;
-          const Vec3 q{c.x, c.y, z};
-          const double f = ctx.phi.value(q);
-          const Vec3 g = ctx.phi.gradient(q);
+          const Vec2 c{mids[next_mid].x, mids[next_mid].y};
+          const double f = fm[next_mid];
+          const Vec3 g = gm[next_mid];
           const double gg = g.x * g.x + g.y * g.y;  // in the plane of the layer
           dense.push_back(gg > 0 ? c - Vec2{g.x, g.y} * (f / gg) : c);
         }
@@ -632,12 +653,16 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o,
           ++L.t_count;
         }
       if (L.t_count == 0) L.t_min = 0;
+      std::vector<double> tv;
       for (const auto& l : lines) {
+        if (l.empty()) continue;
+        tv.resize(l.size());
+        thin.sample(l.data(), tv.data(), l.size());  // one batch per line
         std::vector<Vec2> cur;
-        double prev = thin.at(l[0]);
+        double prev = tv[0];
         if (prev < 0) cur.push_back(l[0]);
         for (std::size_t k = 1; k < l.size(); ++k) {
-          const double v = thin.at(l[k]);
+          const double v = tv[k];
           if ((v < 0) != (prev < 0)) {
             // Bisect the switch point on the segment.
             Vec2 a = l[k - 1], b = l[k];

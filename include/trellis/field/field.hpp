@@ -126,6 +126,7 @@ class Evaluator {
   void values(const Vec3* points, double* out, std::size_t n);
   // Central differences with step h (mm).
   Vec3 gradient(Vec3 p, double h = 1e-5);
+  void gradients(const Vec3* points, Vec3* out, std::size_t n, double h = 1e-5);
   Interval bound(const BBox3& box);
   // Volume fractions (sum 1 when any material is set) per Field::materials().
   std::vector<double> fractions(Vec3 p);

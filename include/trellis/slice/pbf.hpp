@@ -28,8 +28,11 @@ struct PbfDesign {
 
 struct PbfOptions {
   double layer = 0.02;             // mm
-  double resolution = 0.025;       // mm, XY grid of the direct contours
-  int coarse = 2;                  // joints and mid-curve on a grid this many times coarser
+  // mm: the STL route's voxel, the seed bracket of hatch ends and the zero-finding step of the
+  // plain R67 hatch; the direct contours (section, joints, mid-curve) are sampled on a grid
+  // `coarse` times this, their crossings refined on the field.
+  double resolution = 0.025;
+  int coarse = 2;
   double segment_length = 0.1;     // SL, mm (5–400 µm)
   double segment_gap = 0.02;       // LHD, mm (0–120 µm)
   double hatch_distance = 0.04;    // mm
@@ -43,6 +46,10 @@ struct PbfOptions {
   double refine = 1e-4;            // mm, crossing accuracy of hatch ends
   bool hybrid = true;              // false: plain R67 hatch of the whole sheet
   bool stl_route = false;          // regions from a marching-cubes mesh instead of the field
+  // STL route only: every layer tests every triangle of the mesh instead of the triangles its
+  // plane cuts (a slicer without a plane index, O(layers × triangles): the STL baseline as the
+  // PBF paper counts it, "approximately O(n⁴)"). For the comparison benchmark.
+  bool stl_scan_all = false;
 };
 
 struct PbfLayer {
