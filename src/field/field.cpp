@@ -228,6 +228,35 @@ struct FunctionNode : FieldNode {
   *cs = sign_c[q] * v[(q & 1) ^ 1];
 }
 
+// Sines and cosines of n values (the reduction and polynomials of fast_sincos, branch-free so
+// the loop vectorises). Cloned for x86-64-v3 (AVX2 + FMA: about 1 ns a value instead of 3) with
+// a baseline fallback chosen at load time; hand-written because libm has no batch sincos.
+__attribute__((target_clones("arch=x86-64-v3", "default")))
+void sincos_batch(const double* x, double* sn, double* cs, std::size_t n) {
+  bool moderate = true;
+  for (std::size_t i = 0; i < n; ++i) moderate &= std::abs(x[i]) < 1e6;  // false for NaN too
+  if (!moderate) {
+    for (std::size_t i = 0; i < n; ++i) fast_sincos(x[i], &sn[i], &cs[i]);
+    return;
+  }
+  constexpr double two_over_pi = 0.63661977236758134308;
+  constexpr double p1 = 1.57079632673412561417, p2 = 6.07710050650619224932e-11;
+  constexpr double magic = 6755399441055744.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const double k = (x[i] * two_over_pi + magic) - magic;
+    const double r = (x[i] - k * p1) - k * p2;
+    const double r2 = r * r;
+    const double s = r * (1 + r2 * (-1.0 / 6 + r2 * (1.0 / 120 + r2 * (-1.0 / 5040 + r2 * (1.0 / 362880 +
+                     r2 * (-1.0 / 39916800 + r2 * (1.0 / 6227020800.0)))))));
+    const double c = 1 + r2 * (-0.5 + r2 * (1.0 / 24 + r2 * (-1.0 / 720 + r2 * (1.0 / 40320 +
+                     r2 * (-1.0 / 3628800 + r2 * (1.0 / 479001600.0 + r2 * (-1.0 / 87178291200.0)))))));
+    const int q = static_cast<int>(k);
+    const double a = (q & 1) ? c : s, b = (q & 1) ? s : c;
+    sn[i] = (q & 2) ? -a : a;
+    cs[i] = ((q + 1) & 2) ? -b : b;
+  }
+}
+
 struct TpmsNode : FieldNode {
   TpmsKind kind;
   Vec3 k;  // 2π / cell  (the network field φ; sheets are SheetNode around it)
@@ -306,12 +335,51 @@ struct TpmsNode : FieldNode {
     sweep(p, n, s, depth, [&](std::size_t i, double sx, double cx, double sy, double cy, double sz,
                               double cz) { out[i] = combine(sx, cx, sy, cy, sz, cz); });
   }
-  // Calls fn(i, sin/cos of the three scaled coordinates) for each point. Batches come as rows of
-  // a layer's grid: z is constant, y changes once a row and x takes the same values in every
-  // row. Sines are reused for a repeated y or z, and for the x of the point one row back (found
-  // by exact comparison, so any batch is evaluated correctly).
+  // Calls fn(i, sin/cos of the three scaled coordinates) for each point. Rows of a grid (z
+  // constant, y once a row, x repeating row after row) reuse the sines of the row above; other
+  // batches compute them in vectorised batches; a few points one by one.
   template <class Fn>
   void sweep(const Vec3* p, std::size_t n, EvalState& s, std::size_t depth, Fn fn) const {
+    if (n < 4) {
+      for (std::size_t i = 0; i < n; ++i) {
+        double sx, cx, sy, cy, sz, cz;
+        fast_sincos(k.x * p[i].x, &sx, &cx);
+        fast_sincos(k.y * p[i].y, &sy, &cy);
+        fast_sincos(k.z * p[i].z, &sz, &cz);
+        fn(i, sx, cx, sy, cy, sz, cz);
+      }
+      return;
+    }
+    std::size_t row = 1;
+    while (row < n && p[row].y == p[0].y) ++row;
+    if (row > 1 && 2 * row <= n && p[row].x == p[0].x) {
+      sweep_rows(p, n, s, depth, fn);
+      return;
+    }
+    std::vector<double>& b = s.value_buffer(depth + 1, 7 * n);
+    double* t = b.data();
+    double *sx = t + n, *cx = t + 2 * n, *sy = t + 3 * n, *cy = t + 4 * n, *sz = t + 5 * n,
+           *cz = t + 6 * n;
+    for (std::size_t i = 0; i < n; ++i) t[i] = k.x * p[i].x;
+    sincos_batch(t, sx, cx, n);
+    for (std::size_t i = 0; i < n; ++i) t[i] = k.y * p[i].y;
+    sincos_batch(t, sy, cy, n);
+    bool flat = true;
+    for (std::size_t i = 1; i < n; ++i) flat &= p[i].z == p[0].z;
+    if (flat) {
+      double s0, c0;
+      fast_sincos(k.z * p[0].z, &s0, &c0);
+      for (std::size_t i = 0; i < n; ++i) fn(i, sx[i], cx[i], sy[i], cy[i], s0, c0);
+      return;
+    }
+    for (std::size_t i = 0; i < n; ++i) t[i] = k.z * p[i].z;
+    sincos_batch(t, sz, cz, n);
+    for (std::size_t i = 0; i < n; ++i) fn(i, sx[i], cx[i], sy[i], cy[i], sz[i], cz[i]);
+  }
+  // Sines reused for a repeated y or z, and for the x of the point one row back (found by exact
+  // comparison, so any batch is evaluated correctly).
+  template <class Fn>
+  void sweep_rows(const Vec3* p, std::size_t n, EvalState& s, std::size_t depth, Fn fn) const {
     std::vector<double>& sc = s.value_buffer(depth + 1, 2 * n);
     double py = std::numeric_limits<double>::quiet_NaN(), pz = py;
     double sx = 0, cx = 0, sy = 0, cy = 0, sz = 0, cz = 0;

@@ -298,6 +298,7 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
 
   std::vector<Vec2> pts;
   std::vector<double> val;
+  std::vector<unsigned char> sgn;  // node inside (below the level)
   // Marches the cells [bi, bi+ci) x [bj, bj+cj): samples its nodes, refines its crossings.
   auto march_block = [&](std::size_t bi, std::size_t bj, std::size_t ci, std::size_t cj) {
     const std::size_t w = ci + 1, hgt = cj + 1;
@@ -307,7 +308,8 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
       for (std::size_t i = 0; i < w; ++i) pts[j * w + i] = m.node(bi + i, bj + j);
     f.sample_grid(pts[0], h, w, hgt, pts.data(), val.data());
     m.samples += pts.size();
-    auto inside = [&](std::size_t i, std::size_t j) { return val[j * w + i] < level; };
+    sgn.resize(w * hgt);
+    for (std::size_t k = 0; k < w * hgt; ++k) sgn[k] = val[k] < level;
     // Crossing on the edge from local node (i, j) to (i + 1, j) (horizontal) or (i, j + 1).
     auto cross = [&](std::size_t i, std::size_t j, bool vertical) {
       const std::uint64_t key =
@@ -322,9 +324,10 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
     for (std::size_t j = 0; j < cj; ++j)
       for (std::size_t i = 0; i < ci; ++i) {
         // Corners counter-clockwise: v0 (i,j), v1 (i+1,j), v2 (i+1,j+1), v3 (i,j+1).
-        const bool in[4] = {inside(i, j), inside(i + 1, j), inside(i + 1, j + 1),
-                            inside(i, j + 1)};
-        if (in[0] == in[1] && in[1] == in[2] && in[2] == in[3]) continue;
+        const std::size_t a0 = j * w + i;
+        const unsigned code = sgn[a0] | sgn[a0 + 1] << 1 | sgn[a0 + w + 1] << 2 | sgn[a0 + w] << 3;
+        if (code == 0 || code == 15) continue;  // no crossing (most cells)
+        const bool in[4] = {sgn[a0] != 0, sgn[a0 + 1] != 0, sgn[a0 + w + 1] != 0, sgn[a0 + w] != 0};
         // Walk the cell boundary counter-clockwise; record crossings and their direction.
         std::size_t ids[4];
         bool leaving[4];  // inside -> outside along the walk

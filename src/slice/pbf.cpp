@@ -545,12 +545,13 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o,
   const Vec2 hi{std::ceil((e.max.x + pad) / H) * H, std::ceil((e.max.y + pad) / H) * H};
   const auto nx = static_cast<std::size_t>(std::llround((hi.x - lo.x) / H));
   const auto ny = static_cast<std::size_t>(std::llround((hi.y - lo.y) / H));
-  MarchOptions mo_section;
-  mo_section.resolution = H;
-  mo_section.refine_fraction = std::min(0.1, 5e-4 / H);
-  MarchOptions mo_coarse;
-  mo_coarse.resolution = H;
-  mo_coarse.refine_fraction = 5e-3;
+  // Crossings: the section to 2 µm (an area), the mid-curve to 0.5 µm (contour vectors must lie
+  // within 1 µm of φ = 0), the joints to 1 µm (each hatch end is refined again on the field).
+  MarchOptions mo_section, mo_mid, mo_joint;
+  mo_section.resolution = mo_mid.resolution = mo_joint.resolution = H;
+  mo_section.refine_fraction = std::min(0.1, 2e-3 / H);
+  mo_mid.refine_fraction = std::min(0.1, 5e-4 / H);
+  mo_joint.refine_fraction = std::min(0.1, 1e-3 / H);
 
   result.layers.resize(zs.size());
   tbb::enumerable_thread_specific<Ctx> contexts([&] { return Ctx(part, design, c_field); });
@@ -581,10 +582,10 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o,
       // Joints are contoured from their own field (a Boolean of S and J would spend its time on
       // their shared edges); thin walls are the pieces of the mid-curve φ = 0 where the
       // inverted joint measure is negative, split where it changes sign.
-      hatch_region = nest_oriented_rings(march_squares(joint, lo, hi, 0.0, mo_coarse).lines.loops);
+      hatch_region = nest_oriented_rings(march_squares(joint, lo, hi, 0.0, mo_joint).lines.loops);
       JointSection thin(ctx, design, o, c_const, z, true);
       MidSection mid(ctx, z);
-      const ContourSet m = march_squares(mid, lo, hi, 0.0, mo_coarse);
+      const ContourSet m = march_squares(mid, lo, hi, 0.0, mo_mid);
       std::vector<std::vector<Vec2>> lines = m.lines.open;
       for (auto l : m.lines.loops) {
         l.push_back(l.front());
