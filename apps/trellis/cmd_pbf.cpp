@@ -105,7 +105,7 @@ void add_pbf(CLI::App& app) {
   cmd->add_option("--lhd", o->lhd, "contour segment gap LHD (mm)");
   cmd->add_option("--hatch", o->hatch, "hatch distance (mm)");
   cmd->add_option("--beam-comp", o->beam, "beam compensation (mm)");
-  cmd->add_option("--resolution", o->resolution, "XY grid of the direct contours (mm)")
+  cmd->add_option("--resolution", o->resolution, "sampling step (mm): the STL route's voxel; the direct contours use a grid twice as coarse, crossings refined on the field")
       ->capture_default_str();
   cmd->add_option("--thin-multiple", o->thin_multiple, "thin wall: width <= this × melt pool")
       ->capture_default_str();

@@ -99,10 +99,21 @@ class LayerGrid {
     return j * nx_ + i;
   }
   static constexpr std::size_t npos = static_cast<std::size_t>(-1);
-  // Node index of point i of a block (row by row, w a row): k0 + (j·row + i)·stride.
+  // Node index of point i of a block (row by row, w a row): k0 + (j·row + i)·stride. Called with
+  // i = 0, 1, 2, … it steps along without dividing.
   struct BlockIndex {
     std::size_t k0, stride, row, w;
-    std::size_t operator()(std::size_t i) const { return k0 + ((i / w) * row + i % w) * stride; }
+    std::size_t next_i = 0, col = 0, base = 0;  // the position of point next_i
+    std::size_t operator()(std::size_t i) {
+      if (i != next_i) {
+        col = i % w;
+        base = (i / w) * row;
+      }
+      const std::size_t k = k0 + (base + col) * stride;
+      next_i = i + 1;
+      if (++col == w) col = 0, base += row;
+      return k;
+    }
   };
   // The block origin + (i, j)·step, i < w, j < rows, if all its points are nodes.
   std::optional<BlockIndex> block(Vec2 origin, double step, std::size_t w, std::size_t rows) const {
@@ -114,7 +125,7 @@ class LayerGrid {
     const std::size_t i0 = k % nx_, j0 = k / nx_;
     if (i0 + (w - 1) * stride >= nx_ || j0 + (rows - 1) * stride >= d_.size() / nx_)
       return std::nullopt;
-    return BlockIndex{k, stride, nx_, w};
+    return BlockIndex{k, stride, nx_, w, 0, 0, 0};
   }
   bool has_part(std::size_t k) const { return dstamp_[k] == gen_; }
   bool has_joint(std::size_t k) const { return jstamp_[k] == gen_; }
