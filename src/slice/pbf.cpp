@@ -545,22 +545,25 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o,
     result.grid_bytes = ms.grid_bytes;
   }
 
-  // Every contour of the direct route (the sheet section S, the joints, the mid-curve) is
-  // sampled on one grid `coarse` times the resolution, crossings refined on the field. The
-  // joints and the mid-curve are smooth at the scale of a cell; S only gives the layer's area
-  // (FR_a) and the R67 baseline, refined to 0.5 µm its area is closer to the true section than
-  // the STL route's mesh at the finer resolution (tests/slice/test_pbf.cpp measures both).
+  // The joints and the mid-curve, smooth at the scale of a cell, are contoured on a grid
+  // `coarse` times the resolution; the sheet section S (it gives the layer's area for FR_a and
+  // the R67 baseline, not paths) on the same grid while that is at most 25 µm (two nodes across
+  // the paper's thinnest, 65 µm walls), else on the resolution grid. Crossings are refined on
+  // the field, so S at 20 µm is closer to the true section than the STL route's mesh at 10 µm
+  // (tests/slice/test_pbf.cpp measures both). The node cache is on the finer of the two grids.
   const double H = std::max(1, o.coarse) * o.resolution;
+  const double Hs = H <= 0.025 + 1e-9 ? H : o.resolution;
   const double pad = 2 * H;
   const Vec2 lo{std::floor((e.min.x - pad) / H) * H, std::floor((e.min.y - pad) / H) * H};
   const Vec2 hi{std::ceil((e.max.x + pad) / H) * H, std::ceil((e.max.y + pad) / H) * H};
-  const auto nx = static_cast<std::size_t>(std::llround((hi.x - lo.x) / H));
-  const auto ny = static_cast<std::size_t>(std::llround((hi.y - lo.y) / H));
+  const auto nx = static_cast<std::size_t>(std::llround((hi.x - lo.x) / Hs));
+  const auto ny = static_cast<std::size_t>(std::llround((hi.y - lo.y) / Hs));
   // Crossings: the section to 2 µm (an area), the mid-curve to 0.5 µm (contour vectors must lie
   // within 1 µm of φ = 0), the joints to 1 µm (each hatch end is refined again on the field).
   MarchOptions mo_section, mo_mid, mo_joint;
-  mo_section.resolution = mo_mid.resolution = mo_joint.resolution = H;
-  mo_section.refine_fraction = std::min(0.1, 2e-3 / H);
+  mo_section.resolution = Hs;
+  mo_mid.resolution = mo_joint.resolution = H;
+  mo_section.refine_fraction = std::min(0.1, 2e-3 / Hs);
   mo_mid.refine_fraction = std::min(0.1, 5e-4 / H);
   mo_joint.refine_fraction = std::min(0.1, 1e-3 / H);
 
@@ -576,7 +579,7 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o,
     L.hatch_angle = std::fmod(o.hatch_angle + o.hatch_rotation * static_cast<double>(i), 180.0);
     // The sheet's cross-section S.
     LayerGrid& grid = ctx.grid;
-    grid.reset(lo, H, nx, ny);
+    grid.reset(lo, Hs, nx, ny);
     Regions S;
     if (o.stl_route) {
       S = o.stl_scan_all ? slice_mesh(mesh, z) : slice_mesh(mesh, z, buckets[i]);
