@@ -6,9 +6,51 @@
 #include <cmath>
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <unordered_map>
 
 namespace trellis {
+
+namespace {
+
+// This thread's instance of T, kept between calls (a nested call gets a fresh one). Slicers
+// march thousands of layers; handing their buffers back to the allocator every time makes the
+// heap shrink and regrow, and the page faults cost more than the marching.
+template <class T>
+class Lease {
+ public:
+  Lease() {
+    Slot& s = slot();
+    if (!s.busy) {
+      s.busy = true;
+      p_ = &s.value;
+    } else {
+      local_.emplace();
+      p_ = &*local_;
+    }
+  }
+  ~Lease() {
+    if (!local_) slot().busy = false;
+  }
+  Lease(const Lease&) = delete;
+  Lease& operator=(const Lease&) = delete;
+  T& operator*() { return *p_; }
+  T* operator->() { return p_; }
+
+ private:
+  struct Slot {
+    T value;
+    bool busy = false;
+  };
+  static Slot& slot() {
+    thread_local Slot s;
+    return s;
+  }
+  T* p_ = nullptr;
+  std::optional<T> local_;
+};
+
+}  // namespace
 
 
 // ---------------------------------------------------------------- stitching
@@ -66,20 +108,29 @@ class PointIndex {
 namespace {
 
 // Walks directed edges between numbered points into open chains and loops.
+struct WalkBuffers {
+  std::vector<std::size_t> start, in_degree, out, fill, cursor, out_degree;
+  std::vector<char> used;
+};
+
 StitchedLines walk_edges(const std::vector<Vec2>& points,
                          const std::vector<std::pair<std::size_t, std::size_t>>& edges) {
   const std::size_t nv = points.size();
+  Lease<WalkBuffers> buffers;
+  auto& [start, in_degree, out, fill, cursor, out_degree, used] = *buffers;
   // CSR of outgoing edges.
-  std::vector<std::size_t> start(nv + 1, 0), in_degree(nv, 0);
+  start.assign(nv + 1, 0);
+  in_degree.assign(nv, 0);
   for (auto [a, b] : edges) {
     ++start[a + 1];
     ++in_degree[b];
   }
   for (std::size_t v = 0; v < nv; ++v) start[v + 1] += start[v];
-  std::vector<std::size_t> out(edges.size()), fill(start.begin(), start.end() - 1);
+  out.resize(edges.size());
+  fill.assign(start.begin(), start.end() - 1);
   for (std::size_t e = 0; e < edges.size(); ++e) out[fill[edges[e].first]++] = e;
-  std::vector<std::size_t> cursor(start.begin(), start.end() - 1);
-  std::vector<char> used(edges.size(), 0);
+  cursor.assign(start.begin(), start.end() - 1);
+  used.assign(edges.size(), 0);
 
   auto next_edge = [&](std::size_t v) -> std::size_t {
     while (cursor[v] < start[v + 1]) {
@@ -117,7 +168,7 @@ StitchedLines walk_edges(const std::vector<Vec2>& points,
 
   StitchedLines result;
   // Open chains start where more edges leave than arrive.
-  std::vector<std::size_t> out_degree(nv);
+  out_degree.resize(nv);
   for (std::size_t v = 0; v < nv; ++v) out_degree[v] = start[v + 1] - start[v];
   for (std::size_t v = 0; v < nv; ++v)
     while (out_degree[v] > in_degree[v] && cursor[v] < start[v + 1]) {
@@ -159,6 +210,10 @@ namespace {
 class EdgeTable {
  public:
   EdgeTable() : keys_(1024, kEmpty), values_(1024) {}
+  void clear() {
+    if (size_ > 0) std::fill(keys_.begin(), keys_.end(), kEmpty);
+    size_ = 0;
+  }
   // The value stored for key, inserting `value` if the key is new.
   std::size_t& find_or_insert(std::uint64_t key, std::size_t value) {
     if (2 * (size_ + 1) > keys_.size()) grow();
@@ -197,6 +252,31 @@ class EdgeTable {
   int shift_ = 64 - 10;  // 1024 slots
 };
 
+// A crossing being refined on the grid edge a→b (parameter t along it, bracket [t_lo, t_hi]).
+struct Crossing {
+  Vec2 a, b;
+  double t_lo, t_hi, g_lo, g_hi, t;
+  int side;
+  bool done;
+};
+
+// One thread's marching buffers, reused from call to call (see Lease).
+struct MarchBuffers {
+  EdgeTable table;
+  std::vector<Crossing> pending;
+  std::vector<Vec2> crossings, pts, guesses;
+  std::vector<double> val, guess_values;
+  std::vector<unsigned char> sgn;
+  std::vector<std::pair<std::size_t, std::size_t>> segments;
+  std::vector<std::size_t> active;
+  void clear() {
+    table.clear();
+    pending.clear();
+    crossings.clear();
+    segments.clear();
+  }
+};
+
 struct Marcher {
   PlaneFunction& f;
   Vec2 lo;
@@ -217,26 +297,19 @@ struct Marcher {
   // level, refined all together: each round samples the next guess of every unfinished crossing
   // in one batch (one call per round instead of one per guess; the same guesses as refining them
   // one by one). Illinois steps inside the bracket.
-  struct Crossing {
-    Vec2 a, b;
-    double t_lo, t_hi, g_lo, g_hi, t;
-    int side;
-    bool done;
-  };
-  std::vector<Crossing> pending;
+  std::vector<Crossing>& pending;
   void add(Vec2 a, Vec2 b, double fa, double fb) {
     Crossing c{a, b, 0, 1, fa - level, fb - level, 0, 0, false};
     c.t = c.g_lo / (c.g_lo - c.g_hi);
     if (!std::isfinite(c.t)) c.t = 0.5;
     pending.push_back(c);
   }
-  void refine(std::vector<Vec2>& out) {
+  void refine(std::vector<Vec2>& out, std::vector<std::size_t>& active, std::vector<Vec2>& pts,
+              std::vector<double>& vals) {
     const double tol = opt.refine_fraction;  // in units of the edge length (= resolution)
-    std::vector<std::size_t> active;
+    active.clear();
     for (std::size_t i = 0; i < pending.size(); ++i)
       if (pending[i].t_hi - pending[i].t_lo > tol) active.push_back(i);
-    std::vector<Vec2> pts;
-    std::vector<double> vals;
     for (int it = 0; it < opt.max_refine_iterations && !active.empty(); ++it) {
       pts.resize(active.size());
       vals.resize(active.size());
@@ -288,17 +361,19 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
   const auto nx = static_cast<std::size_t>(std::ceil((hi.x - lo.x) / h - 1e-9));
   const auto ny = static_cast<std::size_t>(std::ceil((hi.y - lo.y) / h - 1e-9));
   const std::size_t B = std::max<std::size_t>(options.block, 1);
-  Marcher m{f, lo, h, level, options};
+  Lease<MarchBuffers> buffers;
+  buffers->clear();
+  Marcher m{f, lo, h, level, options, 0, buffers->pending};
   // Every crossing lies on one grid edge and is refined once, whichever block asks for it;
   // segments join crossings by edge, so stitching is exact (no distance tolerance).
-  EdgeTable table;
-  std::vector<Vec2> crossings;
-  std::vector<std::pair<std::size_t, std::size_t>> segments;
+  EdgeTable& table = buffers->table;
+  std::vector<Vec2>& crossings = buffers->crossings;
+  std::vector<std::pair<std::size_t, std::size_t>>& segments = buffers->segments;
   const std::uint64_t row = nx + 1;
 
-  std::vector<Vec2> pts;
-  std::vector<double> val;
-  std::vector<unsigned char> sgn;  // node inside (below the level)
+  std::vector<Vec2>& pts = buffers->pts;
+  std::vector<double>& val = buffers->val;
+  std::vector<unsigned char>& sgn = buffers->sgn;  // node inside (below the level)
   // Marches the cells [bi, bi+ci) x [bj, bj+cj): samples its nodes, refines its crossings.
   auto march_block = [&](std::size_t bi, std::size_t bj, std::size_t ci, std::size_t cj) {
     const std::size_t w = ci + 1, hgt = cj + 1;
@@ -406,7 +481,7 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
       const Block top{bi, bj, std::min(B, nx - bi), std::min(B, ny - bj)};
       visit(top, bound(top));
     }
-  m.refine(crossings);
+  m.refine(crossings, buffers->active, buffers->guesses, buffers->guess_values);
   result.samples = m.samples;
   result.lines = walk_edges(crossings, segments);
   return result;
