@@ -81,13 +81,11 @@ class LayerGrid {
     inv_ = 1.0 / h;
     nx_ = nx + 1;
     const std::size_t n = (nx + 1) * (ny + 1);
-    if (d_.size() != n) {
-      d_.assign(n, 0);
-      j_.assign(n, 0);
-      dstamp_.assign(n, 0);
-      jstamp_.assign(n, 0);
+    if (nodes_.size() != n) nodes_.assign(n, Node{});
+    if (++gen_ == 0) {  // stamps wrapped: forget everything
+      std::fill(nodes_.begin(), nodes_.end(), Node{});
+      gen_ = 1;
     }
-    ++gen_;
   }
   // Index of p if it is a grid node, else npos.
   std::size_t node(Vec2 p) const {
@@ -95,7 +93,7 @@ class LayerGrid {
     const double ri = std::floor(fi + 0.5), rj = std::floor(fj + 0.5);
     if (std::abs(fi - ri) > 1e-7 || std::abs(fj - rj) > 1e-7 || ri < 0 || rj < 0) return npos;
     const auto i = static_cast<std::size_t>(ri), j = static_cast<std::size_t>(rj);
-    if (i >= nx_ || j * nx_ + i >= d_.size()) return npos;
+    if (i >= nx_ || j * nx_ + i >= nodes_.size()) return npos;
     return j * nx_ + i;
   }
   static constexpr std::size_t npos = static_cast<std::size_t>(-1);
@@ -123,21 +121,21 @@ class LayerGrid {
     if (c < 1 || std::abs(r - c) > 1e-9) return std::nullopt;
     const auto stride = static_cast<std::size_t>(c);
     const std::size_t i0 = k % nx_, j0 = k / nx_;
-    if (i0 + (w - 1) * stride >= nx_ || j0 + (rows - 1) * stride >= d_.size() / nx_)
+    if (i0 + (w - 1) * stride >= nx_ || j0 + (rows - 1) * stride >= nodes_.size() / nx_)
       return std::nullopt;
     return BlockIndex{k, stride, nx_, w, 0, 0, 0};
   }
-  bool has_part(std::size_t k) const { return dstamp_[k] == gen_; }
-  bool has_joint(std::size_t k) const { return jstamp_[k] == gen_; }
-  double part(std::size_t k) const { return d_[k]; }
-  double joint(std::size_t k) const { return j_[k]; }
+  bool has_part(std::size_t k) const { return nodes_[k].dstamp == gen_; }
+  bool has_joint(std::size_t k) const { return nodes_[k].jstamp == gen_; }
+  double part(std::size_t k) const { return nodes_[k].d; }
+  double joint(std::size_t k) const { return nodes_[k].j; }
   void set_part(std::size_t k, double v) {
-    d_[k] = v;
-    dstamp_[k] = gen_;
+    nodes_[k].d = v;
+    nodes_[k].dstamp = gen_;
   }
   void set_joint(std::size_t k, double v) {
-    j_[k] = v;
-    jstamp_[k] = gen_;
+    nodes_[k].j = v;
+    nodes_[k].jstamp = gen_;
   }
 
  private:
@@ -145,8 +143,13 @@ class LayerGrid {
   double h_ = 1, inv_ = 1;
   std::size_t nx_ = 0;
   std::uint32_t gen_ = 0;
-  std::vector<double> d_, j_;
-  std::vector<std::uint32_t> dstamp_, jstamp_;
+  // A node's part and joint values with the layer stamps that make them valid (one cache line
+  // for all four).
+  struct Node {
+    double d = 0, j = 0;
+    std::uint32_t dstamp = 0, jstamp = 0;
+  };
+  std::vector<Node> nodes_;
 };
 
 // Per-thread evaluators of the part, the mid-surface, the solids and c.
@@ -407,22 +410,106 @@ void dash(const std::vector<Vec2>& line, double sl, double gap, double phase,
   }
 }
 
-// Refines a hatch end on the joint field along the line: the root near `p`, inside towards
-// +dir, within a bracket that never reaches past the vector's middle (thin sheets) and that is
-// shrunk until its outer end is outside.
-Vec2 refine_end(JointSection& joint, Vec2 p, Vec2 dir, double delta, double half_length,
-                double tol) {
-  auto f = [&](double t) { return joint.at(p + dir * t); };
-  double hi = std::min(delta, half_length), lo = -delta;
-  double flo = f(lo), fhi = f(hi);
-  for (int tries = 0; flo < 0 && tries < 8; ++tries) flo = f(lo *= 0.5);
-  for (int tries = 0; fhi >= 0 && tries < 8; ++tries) fhi = f(hi *= 0.5);
-  if (!(flo >= 0 && fhi < 0)) return p;  // no clean bracket: keep the polygon's end
-  while (hi - lo > tol) {
-    const double mid = 0.5 * (lo + hi);
-    (f(mid) >= 0 ? lo : hi) = mid;
+// Bisection of many brackets [lo, hi] at once: each round samples the middle of every bracket
+// still wider than tol in one batch. sample(active, middles, values) fills values for the
+// listed brackets; low(value) tells whether the middle is on lo's side. At most max_rounds.
+struct Bracket {
+  double lo, hi;
+};
+template <class Sample, class Low>
+void bisect_together(std::vector<Bracket>& br, double tol, int max_rounds, Sample sample, Low low) {
+  std::vector<std::size_t> active;
+  for (std::size_t i = 0; i < br.size(); ++i)
+    if (br[i].hi - br[i].lo > tol) active.push_back(i);
+  std::vector<double> mid, val;
+  for (int round = 0; round < max_rounds && !active.empty(); ++round) {
+    mid.resize(active.size());
+    val.resize(active.size());
+    for (std::size_t k = 0; k < active.size(); ++k)
+      mid[k] = 0.5 * (br[active[k]].lo + br[active[k]].hi);
+    sample(active, mid, val);
+    std::size_t keep = 0;
+    for (std::size_t k = 0; k < active.size(); ++k) {
+      Bracket& b = br[active[k]];
+      (low(val[k]) ? b.lo : b.hi) = mid[k];
+      if (b.hi - b.lo > tol) active[keep++] = active[k];
+    }
+    active.resize(keep);
   }
-  return p + dir * (0.5 * (lo + hi));
+}
+
+// A hatch vector's end on the joints' outline, to be refined on the joint field along the line
+// (dir points into the vector).
+struct HatchEnd {
+  Vec2 p, dir;
+  double half_length;
+};
+
+// Refines hatch ends, all of a layer together: the root near p, inside towards +dir, within a
+// bracket that never reaches past the vector's middle (thin sheets) and that is shrunk until
+// its outer end is outside; an end without a clean bracket keeps the polygon's point.
+std::vector<Vec2> refine_ends(JointSection& joint, const std::vector<HatchEnd>& ends, double delta,
+                              double tol) {
+  const std::size_t n = ends.size();
+  std::vector<Bracket> br(n);
+  std::vector<double> flo(n), fhi(n);
+  std::vector<Vec2> pts;
+  std::vector<double> vals;
+  std::vector<std::pair<std::size_t, bool>> which;  // (end, is hi)
+  auto at = [&](std::size_t i, double t) { return ends[i].p + ends[i].dir * t; };
+  auto sample_listed = [&]() {
+    vals.resize(pts.size());
+    if (!pts.empty()) joint.sample(pts.data(), vals.data(), pts.size());
+    for (std::size_t k = 0; k < which.size(); ++k)
+      (which[k].second ? fhi : flo)[which[k].first] = vals[k];
+  };
+  for (std::size_t i = 0; i < n; ++i) {
+    br[i] = {-delta, std::min(delta, ends[i].half_length)};
+    pts.push_back(at(i, br[i].lo));
+    which.emplace_back(i, false);
+    pts.push_back(at(i, br[i].hi));
+    which.emplace_back(i, true);
+  }
+  sample_listed();
+  std::vector<int> tries_lo(n, 0), tries_hi(n, 0);
+  for (int round = 0; round < 8; ++round) {
+    pts.clear();
+    which.clear();
+    for (std::size_t i = 0; i < n; ++i) {
+      if (flo[i] < 0 && tries_lo[i] < 8) {
+        ++tries_lo[i];
+        pts.push_back(at(i, br[i].lo *= 0.5));
+        which.emplace_back(i, false);
+      }
+      if (fhi[i] >= 0 && tries_hi[i] < 8) {
+        ++tries_hi[i];
+        pts.push_back(at(i, br[i].hi *= 0.5));
+        which.emplace_back(i, true);
+      }
+    }
+    if (pts.empty()) break;
+    sample_listed();
+  }
+  std::vector<std::size_t> ok;  // ends with a clean bracket
+  std::vector<Bracket> okb;
+  for (std::size_t i = 0; i < n; ++i)
+    if (flo[i] >= 0 && fhi[i] < 0) {
+      ok.push_back(i);
+      okb.push_back(br[i]);
+    }
+  bisect_together(
+      okb, tol, 200,
+      [&](const std::vector<std::size_t>& act, const std::vector<double>& mid,
+          std::vector<double>& out) {
+        pts.resize(act.size());
+        for (std::size_t k = 0; k < act.size(); ++k) pts[k] = at(ok[act[k]], mid[k]);
+        joint.sample(pts.data(), out.data(), pts.size());
+      },
+      [](double v) { return v >= 0; });
+  std::vector<Vec2> out(n);
+  for (std::size_t i = 0; i < n; ++i) out[i] = ends[i].p;
+  for (std::size_t k = 0; k < ok.size(); ++k) out[ok[k]] = at(ok[k], 0.5 * (okb[k].lo + okb[k].hi));
+  return out;
 }
 
 // Inside intervals of the part (< 0) along the scan line q(s) = origin + s·u, s in [s0, s1], by
@@ -639,34 +726,61 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o,
       // 32nd point): from φ = 0 along ±∇φ to where Φ = 0 on each side, by bisection.
       L.t_min = std::numeric_limits<double>::infinity();
       L.t_max = 0;
-      auto side = [&](Vec3 p, Vec3 n, double reach) {
-        double a = 0, b = reach;
-        if (ctx.sheet.value(p + n * b) < 0) return -1.0;  // no boundary within reach
-        for (int it = 0; it < 40 && b - a > 1e-6; ++it) {
-          const double m = 0.5 * (a + b);
-          (ctx.sheet.value(p + n * m) < 0 ? a : b) = m;
-        }
-        return 0.5 * (a + b);
-      };
+      std::vector<Vec3> tp;  // mid-curve points sampled for thickness
       for (const auto& l : lines)
-        for (std::size_t k = 0; k < l.size(); k += 32) {
-          const Vec3 p{l[k].x, l[k].y, z};
-          if (ctx.part.value(p) >= 0) continue;
-          const Vec3 g = ctx.phi.gradient(p);
-          const double gn = norm(g);
-          if (!(gn > 0)) continue;
-          const Vec3 n = g * (1.0 / gn);
-          const double nominal = design.thickness > 0
-                                     ? design.thickness
-                                     : 2 * std::abs(ctx.c ? ctx.c->value(p) : c_const) / gn;
-          const double up = side(p, n, 2 * nominal), down = side(p, n * -1.0, 2 * nominal);
-          if (up < 0 || down < 0) continue;  // no sheet boundary within twice the nominal
-          const double t = up + down;
-          L.t_min = std::min(L.t_min, t);
-          L.t_max = std::max(L.t_max, t);
-          L.t_sum += t;
-          ++L.t_count;
-        }
+        for (std::size_t k = 0; k < l.size(); k += 32) tp.push_back({l[k].x, l[k].y, z});
+      std::vector<double> tpart(tp.size());
+      std::vector<Vec3> tgrad(tp.size());
+      if (!tp.empty()) {
+        ctx.part.values(tp.data(), tpart.data(), tp.size());
+        ctx.phi.gradients(tp.data(), tgrad.data(), tp.size());
+      }
+      // Two rays per point inside the part (up and down ∇φ), reaching twice the nominal.
+      struct Ray {
+        Vec3 p, n;
+      };
+      std::vector<Ray> rays;
+      std::vector<Bracket> br;
+      for (std::size_t k = 0; k < tp.size(); ++k) {
+        if (tpart[k] >= 0) continue;
+        const double gn = norm(tgrad[k]);
+        if (!(gn > 0)) continue;
+        const Vec3 n = tgrad[k] * (1.0 / gn);
+        const double nominal = design.thickness > 0
+                                   ? design.thickness
+                                   : 2 * std::abs(ctx.c ? ctx.c->value(tp[k]) : c_const) / gn;
+        rays.push_back({tp[k], n});
+        rays.push_back({tp[k], n * -1.0});
+        br.push_back({0, 2 * nominal});
+        br.push_back({0, 2 * nominal});
+      }
+      std::vector<Vec3> rp(rays.size());
+      std::vector<double> rv(rays.size());
+      for (std::size_t r = 0; r < rays.size(); ++r) rp[r] = rays[r].p + rays[r].n * br[r].hi;
+      if (!rp.empty()) ctx.sheet.values(rp.data(), rv.data(), rp.size());
+      std::vector<char> reached(rays.size());
+      for (std::size_t r = 0; r < rays.size(); ++r) {
+        reached[r] = rv[r] >= 0;  // else no sheet boundary within reach
+        if (!reached[r]) br[r] = {0, 0};
+      }
+      bisect_together(
+          br, 1e-6, 40,
+          [&](const std::vector<std::size_t>& act, const std::vector<double>& mid,
+              std::vector<double>& out) {
+            rp.resize(act.size());
+            for (std::size_t k = 0; k < act.size(); ++k)
+              rp[k] = rays[act[k]].p + rays[act[k]].n * mid[k];
+            ctx.sheet.values(rp.data(), out.data(), rp.size());
+          },
+          [](double v) { return v < 0; });
+      for (std::size_t r = 0; r + 1 < rays.size(); r += 2) {
+        if (!reached[r] || !reached[r + 1]) continue;  // no boundary within twice the nominal
+        const double t = 0.5 * (br[r].lo + br[r].hi) + 0.5 * (br[r + 1].lo + br[r + 1].hi);
+        L.t_min = std::min(L.t_min, t);
+        L.t_max = std::max(L.t_max, t);
+        L.t_sum += t;
+        ++L.t_count;
+      }
       if (L.t_count == 0) L.t_min = 0;
       std::vector<double> tv;
       for (const auto& l : lines) {
@@ -718,15 +832,19 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o,
     if (o.hybrid || o.stl_route) {
       // Joints are wider than a thin wall (thin_multiple · D) by definition, so their outline on
       // the grid cannot miss one: its scan lines seed each crossing, refined on the field.
-      const double delta = 2 * o.resolution;
-      for (const auto& seg : hatch(hatch_region, L.hatch_angle, o.hatch_distance)) {
-        Vec2 a = seg.a, b = seg.b;
-        if (!o.stl_route) {
-          const double half = 0.5 * std::hypot(b.x - a.x, b.y - a.y);
-          a = refine_end(joint, a, u, delta, half, o.refine);
-          b = refine_end(joint, b, u * -1.0, delta, half, o.refine);
+      const std::vector<Segment2> segs = hatch(hatch_region, L.hatch_angle, o.hatch_distance);
+      if (o.stl_route) {
+        for (const auto& seg : segs) add_vector(seg.a, seg.b);
+      } else {
+        std::vector<HatchEnd> ends;
+        ends.reserve(2 * segs.size());
+        for (const auto& seg : segs) {
+          const double half = 0.5 * std::hypot(seg.b.x - seg.a.x, seg.b.y - seg.a.y);
+          ends.push_back({seg.a, u, half});
+          ends.push_back({seg.b, u * -1.0, half});
         }
-        add_vector(a, b);
+        const std::vector<Vec2> r = refine_ends(joint, ends, 2 * o.resolution, o.refine);
+        for (std::size_t k = 0; k < segs.size(); ++k) add_vector(r[2 * k], r[2 * k + 1]);
       }
     } else {
       // R67 over the whole sheet, where walls can be thinner than the grid: zero-finding along
