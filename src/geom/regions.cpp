@@ -5,6 +5,7 @@
 #include "clipper_util.hpp"
 
 #include <algorithm>
+#include <utility>
 #include <cmath>
 #include <numbers>
 
@@ -317,16 +318,33 @@ std::vector<Segment2> hatch(const Regions& regions, double angle_deg, double spa
       if (h.size() >= 3) add_ring(h);
   }
   if (edges.empty()) return out;
-  std::sort(edges.begin(), edges.end(), [](const Edge& x, const Edge& y) { return x.t0 < y.t0; });
-  std::vector<std::size_t> active;
-  std::size_t next = 0;
-  std::vector<double> xs;
   // Lines at t = k·spacing; a line exactly on a vertex counts edges half-open [t0, t1).
   const auto k0 = static_cast<long long>(std::ceil(tmin / spacing));
   const auto k1 = static_cast<long long>(std::floor(tmax / spacing));
+  if (k1 < k0) return out;
+  // Edges bucketed by the first line that reaches them (t0 <= t, tested on the line's own t so
+  // rounding cannot move an edge to a neighbour's bucket): a counting sort instead of sorting.
+  const std::size_t lines = static_cast<std::size_t>(k1 - k0 + 1);
+  auto line_t = [&](long long k) { return static_cast<double>(k) * spacing; };
+  std::vector<std::size_t> first(edges.size()), bucket(lines + 1, 0);
+  for (std::size_t e = 0; e < edges.size(); ++e) {
+    long long k = std::max(k0, static_cast<long long>(std::ceil(edges[e].t0 / spacing)));
+    while (k > k0 && line_t(k - 1) >= edges[e].t0) --k;
+    while (k <= k1 && line_t(k) < edges[e].t0) ++k;
+    first[e] = static_cast<std::size_t>(k - k0);  // == lines: no line reaches it
+    ++bucket[first[e]];
+  }
+  std::size_t sum = 0;
+  for (auto& b : bucket) sum += std::exchange(b, sum);  // bucket[i]: start of line i's edges
+  std::vector<std::size_t> order(edges.size());
+  for (std::size_t e = 0; e < edges.size(); ++e) order[bucket[first[e]]++] = e;
+  std::vector<std::size_t> active;
+  std::size_t next = 0;
+  std::vector<double> xs;
   for (long long k = k0; k <= k1; ++k) {
-    const double t = static_cast<double>(k) * spacing;
-    while (next < edges.size() && edges[next].t0 <= t) active.push_back(next++);
+    const double t = line_t(k);
+    while (next < edges.size() && first[order[next]] == static_cast<std::size_t>(k - k0))
+      active.push_back(order[next++]);
     xs.clear();
     std::size_t w = 0;
     for (std::size_t idx : active) {
