@@ -225,29 +225,41 @@ class JointSection : public PlaneFunction {
   // outside the sheet, where the part's value is the answer). key(i): point i's node or npos.
   template <class Key>
   void run(const Vec2* p, double* out, std::size_t n, Key key) {
+    // Pass 1: cached joint values, and cached part values outside the part (the answer there)
+    // are settled at once; the rest is listed (miss_: point, keys_: its node or npos).
     miss_.clear();
     keys_.clear();
+    part_.clear();
     need_.clear();
     pts_.clear();
+    const bool cache_joint = grid_ && !invert_;
     for (std::size_t i = 0; i < n; ++i) {
       const std::size_t k = key(i);
-      if (k != LayerGrid::npos && !invert_ && grid_->has_joint(k)) {
-        out[i] = grid_->joint(k);
-        continue;
+      if (k != LayerGrid::npos) {
+        if (cache_joint && grid_->has_joint(k)) {
+          out[i] = grid_->joint(k);
+          continue;
+        }
+        if (grid_->has_part(k)) {
+          const double D = grid_->part(k);
+          if (D >= 0) {
+            out[i] = D;
+            if (cache_joint) grid_->set_joint(k, D);
+            continue;
+          }
+          miss_.push_back(i);
+          keys_.push_back(k);
+          part_.push_back(D);
+          continue;
+        }
       }
+      need_.push_back(miss_.size());
       miss_.push_back(i);
       keys_.push_back(k);
+      part_.push_back(0);
+      pts_.push_back({p[i].x, p[i].y, z_});
     }
-    part_.resize(miss_.size());
-    for (std::size_t m = 0; m < miss_.size(); ++m) {
-      const std::size_t k = keys_[m];
-      if (k != LayerGrid::npos && grid_->has_part(k)) {
-        part_[m] = grid_->part(k);
-      } else {
-        need_.push_back(m);
-        pts_.push_back({p[miss_[m]].x, p[miss_[m]].y, z_});
-      }
-    }
+    // Pass 2: the part where it was not cached, in one batch.
     vals_.resize(pts_.size());
     if (!pts_.empty()) ctx_.part.values(pts_.data(), vals_.data(), pts_.size());
     for (std::size_t j = 0; j < need_.size(); ++j) {
@@ -255,7 +267,7 @@ class JointSection : public PlaneFunction {
       part_[m] = vals_[j];
       if (keys_[m] != LayerGrid::npos) grid_->set_part(keys_[m], vals_[j]);
     }
-    // φ's gradient in one batch at the points inside the part.
+    // Pass 3: φ's gradient in one batch at the points inside the part; the measure.
     pts_.clear();
     for (std::size_t m = 0; m < miss_.size(); ++m)
       if (part_[m] < 0) pts_.push_back({p[miss_[m]].x, p[miss_[m]].y, z_});
@@ -264,7 +276,7 @@ class JointSection : public PlaneFunction {
     for (std::size_t m = 0, g = 0; m < miss_.size(); ++m) {
       const double v = part_[m] < 0 ? finish(p[miss_[m]], part_[m], grads_[g++]) : part_[m];
       out[miss_[m]] = v;
-      if (keys_[m] != LayerGrid::npos && !invert_) grid_->set_joint(keys_[m], v);
+      if (keys_[m] != LayerGrid::npos && cache_joint) grid_->set_joint(keys_[m], v);
     }
   }
   Interval bound(Vec2 lo, Vec2 hi) override {
