@@ -11,6 +11,7 @@
 #include <cmath>
 #include <mutex>
 #include <numbers>
+#include <utility>
 #include <optional>
 
 #include "trellis/core/error.hpp"
@@ -176,10 +177,13 @@ class BoundCache {
     b.add({lo.x, lo.y, z_});
     b.add({hi.x, hi.y, z_});
     const Interval v = part.bound(b);
-    if (4 * size_ < slots_.size()) {  // kept while a quarter full (short probes)
-      slots_[i] = {lo, hi, v, gen_};
-      ++size_;
+    if (4 * (size_ + 1) > slots_.size()) {  // kept a quarter full at most (short probes)
+      grow();
+      i = index(lo, hi);
+      while (slots_[i].gen == gen_) i = (i + 1) & (slots_.size() - 1);
     }
+    slots_[i] = {lo, hi, v, gen_};
+    ++size_;
     return v;
   }
 
@@ -198,10 +202,21 @@ class BoundCache {
     std::uint64_t h = bits(lo.x);
     for (const double v : {lo.y, hi.x, hi.y}) h = (h ^ (h >> 31)) * 0x9E3779B97F4A7C15ull + bits(v);
     h = (h ^ (h >> 29)) * 0xBF58476D1CE4E5B9ull;
-    return static_cast<std::size_t>(h >> (64 - kLog2Slots));
+    return static_cast<std::size_t>(h >> (64 - log2_slots_));
   }
-  static constexpr int kLog2Slots = 15;
-  std::vector<Slot> slots_ = std::vector<Slot>(std::size_t{1} << kLog2Slots);
+  // Twice the slots, this layer's entries moved over (the size follows the largest layer).
+  void grow() {
+    std::vector<Slot> old = std::exchange(slots_, std::vector<Slot>(std::size_t{2} << log2_slots_));
+    ++log2_slots_;
+    for (const Slot& t : old) {
+      if (t.gen != gen_) continue;
+      std::size_t i = index(t.lo, t.hi);
+      while (slots_[i].gen == gen_) i = (i + 1) & (slots_.size() - 1);
+      slots_[i] = t;
+    }
+  }
+  int log2_slots_ = 10;
+  std::vector<Slot> slots_ = std::vector<Slot>(std::size_t{1} << 10);
   std::uint32_t gen_ = 0;
   std::size_t size_ = 0;
   double z_ = 0;
