@@ -117,7 +117,12 @@ StitchedLines walk_edges(const std::vector<Vec2>& points,
                          const std::vector<std::pair<std::size_t, std::size_t>>& edges) {
   const std::size_t nv = points.size();
   Lease<WalkBuffers> buffers;
-  auto& [start, in_degree, out, fill, cursor, out_degree, used] = *buffers;
+  // (Plain references, not a structured binding: lambdas below capture them, which clang
+  // before 16 refuses for bindings.)
+  WalkBuffers& wb = *buffers;
+  auto &start = wb.start, &in_degree = wb.in_degree, &out = wb.out, &fill = wb.fill,
+       &cursor = wb.cursor, &out_degree = wb.out_degree;
+  auto& used = wb.used;
   // CSR of outgoing edges.
   start.assign(nv + 1, 0);
   in_degree.assign(nv, 0);
