@@ -2,6 +2,7 @@
 // planar slicer's properties checked by rasterising what it prints.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -13,6 +14,7 @@
 #include "trellis/field/vcad.hpp"
 #include "trellis/geom/contour.hpp"
 #include "trellis/geom/mesh_io.hpp"
+#include "trellis/geom/regions.hpp"
 #include "trellis/slice/pipeline.hpp"
 #include "trellis/slice/slice.hpp"
 
@@ -172,6 +174,83 @@ TEST(Contours, StitchingRecoversShuffledLoops) {
   const StitchedLines open = stitch_segments({{{0, 0}, {1, 0}}, {{1, 0}, {2, 1}}}, 1e-6);
   ASSERT_EQ(open.open.size(), 1u);
   EXPECT_EQ(open.open[0].size(), 3u);
+}
+
+// The hatch sweep against a brute-force scan: every line crosses every edge it spans (half-open
+// in the across coordinate), crossings sorted and paired. Random star polygons with holes, random
+// angles, spacings and origins, plus a square whose vertices lie on the lines.
+TEST(Regions, HatchMatchesABruteForceScanOfEveryEdge) {
+  std::mt19937_64 rng(11);
+  std::uniform_real_distribution<double> U(0, 1);
+  auto star = [&](Vec2 c, double r0, double r1, int n) {
+    std::vector<double> ang(n);
+    for (auto& a : ang) a = 2 * kPi * U(rng);
+    std::sort(ang.begin(), ang.end());
+    std::vector<Vec2> ring;
+    for (double a : ang) {
+      const double r = r0 + (r1 - r0) * U(rng);
+      ring.push_back(c + Vec2{r * std::cos(a), r * std::sin(a)});
+    }
+    return ring;
+  };
+  for (int trial = 0; trial < 200; ++trial) {
+    Regions regions;
+    const int n = 3 + static_cast<int>(rng() % 40);
+    Polygon2 a;
+    a.outer = star({0, 0}, 6, 15, n);
+    if (trial % 2) a.holes.push_back(star({0, 0}, 1, 4, 3 + static_cast<int>(rng() % 12)));
+    regions.push_back(a);
+    Polygon2 b;
+    b.outer = star({40, 10}, 2, 8, 3 + static_cast<int>(rng() % 20));
+    regions.push_back(b);
+    double angle = 180 * U(rng), spacing = 0.1 + 1.4 * U(rng);
+    Vec2 origin{10 * U(rng) - 5, 10 * U(rng) - 5};
+    if (trial == 0) {  // vertices exactly on scan lines
+      regions = {Polygon2{{{0, 0}, {4, 0}, {4, 4}, {0, 4}}, {}}};
+      angle = 0;
+      spacing = 0.5;
+      origin = {0, 0};
+    }
+    const std::vector<Segment2> got = hatch(regions, angle, spacing, origin);
+    // Brute force.
+    const double rad = angle * kPi / 180;
+    const Vec2 u{std::cos(rad), std::sin(rad)}, v{-std::sin(rad), std::cos(rad)};
+    double tmin = 1e300, tmax = -1e300;
+    for (const auto& ring : rings_of(regions))
+      for (const Vec2 p : ring) {
+        const double t = (p.x - origin.x) * v.x + (p.y - origin.y) * v.y;
+        tmin = std::min(tmin, t);
+        tmax = std::max(tmax, t);
+      }
+    std::vector<Segment2> want;
+    for (long long k = static_cast<long long>(std::ceil(tmin / spacing));
+         k <= static_cast<long long>(std::floor(tmax / spacing)); ++k) {
+      const double t = static_cast<double>(k) * spacing;
+      std::vector<double> xs;
+      for (const auto& ring : rings_of(regions))
+        for (std::size_t i = 0, j = ring.size() - 1; i < ring.size(); j = i++) {
+          const Vec2 p = ring[j] - origin, q = ring[i] - origin;
+          double sp = p.x * u.x + p.y * u.y, tp = p.x * v.x + p.y * v.y;
+          double sq = q.x * u.x + q.y * u.y, tq = q.x * v.x + q.y * v.y;
+          if (tp == tq) continue;
+          if (tp > tq) std::swap(tp, tq), std::swap(sp, sq);
+          if (tp <= t && t < tq) xs.push_back(sp + (sq - sp) * (t - tp) / (tq - tp));
+        }
+      std::sort(xs.begin(), xs.end());
+      ASSERT_EQ(xs.size() % 2, 0u) << "trial " << trial << " line " << k;
+      for (std::size_t i = 0; i + 1 < xs.size(); i += 2)
+        if (xs[i + 1] - xs[i] > 1e-9)
+          want.push_back({origin + u * xs[i] + v * t, origin + u * xs[i + 1] + v * t});
+    }
+    ASSERT_EQ(got.size(), want.size()) << "trial " << trial;
+    for (std::size_t i = 0; i < got.size(); ++i) {
+      EXPECT_NEAR(got[i].a.x, want[i].a.x, 1e-9) << "trial " << trial << " segment " << i;
+      EXPECT_NEAR(got[i].a.y, want[i].a.y, 1e-9) << "trial " << trial << " segment " << i;
+      EXPECT_NEAR(got[i].b.x, want[i].b.x, 1e-9) << "trial " << trial << " segment " << i;
+      EXPECT_NEAR(got[i].b.y, want[i].b.y, 1e-9) << "trial " << trial << " segment " << i;
+    }
+    if (trial == 0) EXPECT_EQ(got.size(), 8u);  // lines t = 0 … 3.5 (t = 4 is the open end)
+  }
 }
 
 // A material iso-line that leaves the domain comes back as an open polyline.
