@@ -253,6 +253,48 @@ TEST(Regions, HatchMatchesABruteForceScanOfEveryEdge) {
   }
 }
 
+// Marching keeps its buffers per thread between calls; a function that marches while being
+// marched (nested) must get buffers of its own and leave the outer march's intact.
+TEST(Contours, NestedMarchesKeepTheirOwnBuffers) {
+  struct Disc : PlaneFunction {
+    Vec2 c;
+    double r;
+    void sample(const Vec2* p, double* out, std::size_t n) override {
+      for (std::size_t i = 0; i < n; ++i) out[i] = std::hypot(p[i].x - c.x, p[i].y - c.y) - r;
+    }
+  };
+  struct Nesting : Disc {
+    std::size_t inner_loops = 0;
+    void sample(const Vec2* p, double* out, std::size_t n) override {
+      Disc inner;
+      inner.c = {0, 0};
+      inner.r = 1;
+      MarchOptions mo;
+      mo.resolution = 0.25;
+      inner_loops += march_squares(inner, {-2, -2}, {2, 2}, 0, mo).lines.loops.size();
+      Disc::sample(p, out, n);
+    }
+  };
+  MarchOptions mo;
+  mo.resolution = 0.1;
+  Disc plain;
+  plain.c = {0.3, -0.2};
+  plain.r = 3;
+  Nesting nesting;
+  nesting.c = plain.c;
+  nesting.r = plain.r;
+  const ContourSet a = march_squares(plain, {-5, -5}, {5, 5}, 0, mo);
+  const ContourSet b = march_squares(nesting, {-5, -5}, {5, 5}, 0, mo);
+  EXPECT_GT(nesting.inner_loops, 0u);
+  ASSERT_EQ(a.lines.loops.size(), 1u);
+  ASSERT_EQ(b.lines.loops.size(), 1u);
+  ASSERT_EQ(a.lines.loops[0].size(), b.lines.loops[0].size());
+  for (std::size_t i = 0; i < a.lines.loops[0].size(); ++i) {
+    EXPECT_EQ(a.lines.loops[0][i].x, b.lines.loops[0][i].x) << i;
+    EXPECT_EQ(a.lines.loops[0][i].y, b.lines.loops[0][i].y) << i;
+  }
+}
+
 // A material iso-line that leaves the domain comes back as an open polyline.
 TEST(Contours, OpenIsoLinesOfAMaterialField) {
   struct Ramp : PlaneFunction {
