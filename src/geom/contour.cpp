@@ -262,7 +262,6 @@ struct Crossing {
   Vec2 a, b;
   double t_lo, t_hi, g_lo, g_hi, t;
   int side;
-  bool done;
 };
 
 // One thread's marching buffers, reused from call to call (see Lease).
@@ -304,7 +303,7 @@ struct Marcher {
   // one by one). Illinois steps inside the bracket.
   std::vector<Crossing>& pending;
   void add(Vec2 a, Vec2 b, double fa, double fb) {
-    Crossing c{a, b, 0, 1, fa - level, fb - level, 0, 0, false};
+    Crossing c{a, b, 0, 1, fa - level, fb - level, 0, 0};
     c.t = c.g_lo / (c.g_lo - c.g_hi);
     if (!std::isfinite(c.t)) c.t = 0.5;
     pending.push_back(c);

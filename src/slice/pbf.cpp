@@ -661,6 +661,102 @@ class LineZeros {
   std::vector<double> roots_;
 };
 
+// The mid-curve comes from the coarse grid: puts a point, projected onto φ = 0 by a Newton step
+// along ∇φ, in the middle of every chord (chord error / 4).
+void densify_on_mid_surface(Ctx& ctx, double z, std::vector<std::vector<Vec2>>& lines) {
+  std::vector<Vec3> mids;
+  for (const auto& l : lines)
+    for (std::size_t k = 0; k + 1 < l.size(); ++k) {
+      const Vec2 c = (l[k] + l[k + 1]) * 0.5;
+      mids.push_back({c.x, c.y, z});
+    }
+  std::vector<double> fm(mids.size());
+  std::vector<Vec3> gm(mids.size());
+  if (!mids.empty()) {  // one batch each (TPMS: analytic gradients)
+    ctx.phi.values(mids.data(), fm.data(), mids.size());
+    ctx.phi.gradients(mids.data(), gm.data(), mids.size());
+  }
+  std::size_t next_mid = 0;
+  for (auto& l : lines) {
+    std::vector<Vec2> dense;
+    dense.reserve(2 * l.size());
+    for (std::size_t k = 0; k + 1 < l.size(); ++k, ++next_mid) {
+      dense.push_back(l[k]);
+      const Vec2 c{mids[next_mid].x, mids[next_mid].y};
+      const double f = fm[next_mid];
+      const Vec3 g = gm[next_mid];
+      const double gg = g.x * g.x + g.y * g.y;  // in the plane of the layer
+      dense.push_back(gg > 0 ? c - Vec2{g.x, g.y} * (f / gg) : c);
+    }
+    dense.push_back(l.back());
+    l = std::move(dense);
+  }
+}
+
+// Wall thickness measured across the sheet at mid-curve points inside the part (every 32nd
+// point): from φ = 0 along ±∇φ to where Φ = 0 on each side, all rays bisected together.
+void measure_wall_thickness(Ctx& ctx, const PbfDesign& design, double c_const, double z,
+                            const std::vector<std::vector<Vec2>>& lines, PbfLayer& L) {
+  L.t_min = std::numeric_limits<double>::infinity();
+  L.t_max = 0;
+  std::vector<Vec3> tp;  // mid-curve points sampled for thickness
+  for (const auto& l : lines)
+    for (std::size_t k = 0; k < l.size(); k += 32) tp.push_back({l[k].x, l[k].y, z});
+  std::vector<double> tpart(tp.size());
+  std::vector<Vec3> tgrad(tp.size());
+  if (!tp.empty()) {
+    ctx.part.values(tp.data(), tpart.data(), tp.size());
+    ctx.phi.gradients(tp.data(), tgrad.data(), tp.size());
+  }
+  // Two rays per point inside the part (up and down ∇φ), reaching twice the nominal.
+  struct Ray {
+    Vec3 p, n;
+  };
+  std::vector<Ray> rays;
+  std::vector<Bracket> br;
+  for (std::size_t k = 0; k < tp.size(); ++k) {
+    if (tpart[k] >= 0) continue;
+    const double gn = norm(tgrad[k]);
+    if (!(gn > 0)) continue;
+    const Vec3 n = tgrad[k] * (1.0 / gn);
+    const double nominal = design.thickness > 0
+                               ? design.thickness
+                               : 2 * std::abs(ctx.c ? ctx.c->value(tp[k]) : c_const) / gn;
+    rays.push_back({tp[k], n});
+    rays.push_back({tp[k], n * -1.0});
+    br.push_back({0, 2 * nominal});
+    br.push_back({0, 2 * nominal});
+  }
+  std::vector<Vec3> rp(rays.size());
+  std::vector<double> rv(rays.size());
+  for (std::size_t r = 0; r < rays.size(); ++r) rp[r] = rays[r].p + rays[r].n * br[r].hi;
+  if (!rp.empty()) ctx.sheet.values(rp.data(), rv.data(), rp.size());
+  std::vector<char> reached(rays.size());
+  for (std::size_t r = 0; r < rays.size(); ++r) {
+    reached[r] = rv[r] >= 0;  // else no sheet boundary within reach
+    if (!reached[r]) br[r] = {0, 0};
+  }
+  bisect_together(
+      br, 1e-6, 40,
+      [&](const std::vector<std::size_t>& act, const std::vector<double>& mid,
+          std::vector<double>& out) {
+        rp.resize(act.size());
+        for (std::size_t k = 0; k < act.size(); ++k)
+          rp[k] = rays[act[k]].p + rays[act[k]].n * mid[k];
+        ctx.sheet.values(rp.data(), out.data(), rp.size());
+      },
+      [](double v) { return v < 0; });
+  for (std::size_t r = 0; r + 1 < rays.size(); r += 2) {
+    if (!reached[r] || !reached[r + 1]) continue;  // no boundary within twice the nominal
+    const double t = 0.5 * (br[r].lo + br[r].hi) + 0.5 * (br[r + 1].lo + br[r + 1].hi);
+    L.t_min = std::min(L.t_min, t);
+    L.t_max = std::max(L.t_max, t);
+    L.t_sum += t;
+    ++L.t_count;
+  }
+  if (L.t_count == 0) L.t_min = 0;
+}
+
 }  // namespace
 
 PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o,
@@ -768,96 +864,9 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o,
         l.push_back(l.front());
         lines.push_back(std::move(l));
       }
-      // The mid-curve comes from the coarse grid: put a point, projected onto φ = 0 by a Newton
-      // step along ∇φ, in the middle of every chord (chord error / 4).
-      std::vector<Vec3> mids;
-      for (const auto& l : lines)
-        for (std::size_t k = 0; k + 1 < l.size(); ++k) {
-          const Vec2 c = (l[k] + l[k + 1]) * 0.5;
-          mids.push_back({c.x, c.y, z});
-        }
-      std::vector<double> fm(mids.size());
-      std::vector<Vec3> gm(mids.size());
-      if (!mids.empty()) {  // one batch each (TPMS: analytic gradients)
-        ctx.phi.values(mids.data(), fm.data(), mids.size());
-        ctx.phi.gradients(mids.data(), gm.data(), mids.size());
-      }
-      std::size_t next_mid = 0;
-      for (auto& l : lines) {
-        std::vector<Vec2> dense;
-        dense.reserve(2 * l.size());
-        for (std::size_t k = 0; k + 1 < l.size(); ++k, ++next_mid) {
-          dense.push_back(l[k]);
-          const Vec2 c{mids[next_mid].x, mids[next_mid].y};
-          const double f = fm[next_mid];
-          const Vec3 g = gm[next_mid];
-          const double gg = g.x * g.x + g.y * g.y;  // in the plane of the layer
-          dense.push_back(gg > 0 ? c - Vec2{g.x, g.y} * (f / gg) : c);
-        }
-        dense.push_back(l.back());
-        l = std::move(dense);
-      }
+      densify_on_mid_surface(ctx, z, lines);
       std::vector<std::vector<Vec2>> pieces;
-      // Wall thickness measured across the sheet at mid-curve points inside the part (every
-      // 32nd point): from φ = 0 along ±∇φ to where Φ = 0 on each side, by bisection.
-      L.t_min = std::numeric_limits<double>::infinity();
-      L.t_max = 0;
-      std::vector<Vec3> tp;  // mid-curve points sampled for thickness
-      for (const auto& l : lines)
-        for (std::size_t k = 0; k < l.size(); k += 32) tp.push_back({l[k].x, l[k].y, z});
-      std::vector<double> tpart(tp.size());
-      std::vector<Vec3> tgrad(tp.size());
-      if (!tp.empty()) {
-        ctx.part.values(tp.data(), tpart.data(), tp.size());
-        ctx.phi.gradients(tp.data(), tgrad.data(), tp.size());
-      }
-      // Two rays per point inside the part (up and down ∇φ), reaching twice the nominal.
-      struct Ray {
-        Vec3 p, n;
-      };
-      std::vector<Ray> rays;
-      std::vector<Bracket> br;
-      for (std::size_t k = 0; k < tp.size(); ++k) {
-        if (tpart[k] >= 0) continue;
-        const double gn = norm(tgrad[k]);
-        if (!(gn > 0)) continue;
-        const Vec3 n = tgrad[k] * (1.0 / gn);
-        const double nominal = design.thickness > 0
-                                   ? design.thickness
-                                   : 2 * std::abs(ctx.c ? ctx.c->value(tp[k]) : c_const) / gn;
-        rays.push_back({tp[k], n});
-        rays.push_back({tp[k], n * -1.0});
-        br.push_back({0, 2 * nominal});
-        br.push_back({0, 2 * nominal});
-      }
-      std::vector<Vec3> rp(rays.size());
-      std::vector<double> rv(rays.size());
-      for (std::size_t r = 0; r < rays.size(); ++r) rp[r] = rays[r].p + rays[r].n * br[r].hi;
-      if (!rp.empty()) ctx.sheet.values(rp.data(), rv.data(), rp.size());
-      std::vector<char> reached(rays.size());
-      for (std::size_t r = 0; r < rays.size(); ++r) {
-        reached[r] = rv[r] >= 0;  // else no sheet boundary within reach
-        if (!reached[r]) br[r] = {0, 0};
-      }
-      bisect_together(
-          br, 1e-6, 40,
-          [&](const std::vector<std::size_t>& act, const std::vector<double>& mid,
-              std::vector<double>& out) {
-            rp.resize(act.size());
-            for (std::size_t k = 0; k < act.size(); ++k)
-              rp[k] = rays[act[k]].p + rays[act[k]].n * mid[k];
-            ctx.sheet.values(rp.data(), out.data(), rp.size());
-          },
-          [](double v) { return v < 0; });
-      for (std::size_t r = 0; r + 1 < rays.size(); r += 2) {
-        if (!reached[r] || !reached[r + 1]) continue;  // no boundary within twice the nominal
-        const double t = 0.5 * (br[r].lo + br[r].hi) + 0.5 * (br[r + 1].lo + br[r + 1].hi);
-        L.t_min = std::min(L.t_min, t);
-        L.t_max = std::max(L.t_max, t);
-        L.t_sum += t;
-        ++L.t_count;
-      }
-      if (L.t_count == 0) L.t_min = 0;
+      measure_wall_thickness(ctx, design, c_const, z, lines, L);
       std::vector<double> tv;
       for (const auto& l : lines) {
         if (l.empty()) continue;
