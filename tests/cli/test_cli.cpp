@@ -8,7 +8,10 @@
 #include <sstream>
 
 #include "support/gcode_replay.hpp"
+#include "support/temp_dir.hpp"
 #include "trellis/core/file.hpp"
+#include "trellis/geom/mesh.hpp"
+#include "trellis/geom/mesh_io.hpp"
 
 namespace fs = std::filesystem;
 
@@ -19,14 +22,10 @@ struct CmdResult {
   std::string out, err;
 };
 
+// One private folder per test process (removed at exit): runs in parallel never collide.
 const fs::path& work() {
-  static const fs::path dir = [] {
-    const fs::path d = fs::temp_directory_path() / "trellis_cli_test";
-    fs::remove_all(d);
-    fs::create_directories(d);
-    return d;
-  }();
-  return dir;
+  static const trellis::test::TempDir dir("trellis_cli_test");
+  return dir.path();
 }
 
 CmdResult run(const std::string& args) {
@@ -393,6 +392,31 @@ TEST(Cli, GradedDesignStrategy2WritesMixtures) {
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("two or three materials"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(in_work("never.gcode")));
+}
+
+// The routes that run in libtrellis's run-time modules, through the CLI from the build tree: a
+// .vcad made of a mesh (mesh -> distance field, OpenVDB), the same design by the mesh route
+// (field -> mesh, OpenVDB), a 3MF mesh (lib3mf), a preview (cairo); Voronoi (CGAL) is above.
+TEST(Cli, RoutesInRuntimeModules) {
+  const std::string prof = std::string(TRELLIS_SOURCE_DIR) + "/profiles/ender3_s1_pro_tpu.toml";
+  trellis::TriangleMesh cube;
+  cube.add_prism({{0, 0}, {10, 0}, {10, 10}, {0, 10}}, 0, 10);
+  trellis::write_stl(in_work("cube.stl"), cube);
+  trellis::write_3mf(in_work("cube.3mf"), cube);
+  const std::string design = write("meshed.vcad", "mesh(\"cube.stl\");\n");
+  for (const std::string route : {"field", "mesh"}) {
+    const std::string out = in_work("meshed_" + route + ".gcode");
+    const CmdResult r = run("slice " + design + " --route " + route + " --machine " + prof +
+                            " -o " + out + " --layer-height 0.5 --preview " + in_work(route));
+    ASSERT_EQ(r.code, 0) << r.err;
+    EXPECT_NE(r.out.find(route + " route: 20 layers"), std::string::npos) << r.out;
+    EXPECT_NE(trellis::read_file(out).find("G1 "), std::string::npos);
+    EXPECT_FALSE(fs::is_empty(in_work(route)));
+  }
+  const CmdResult r = run("slice " + in_work("cube.3mf") + " --machine " + prof + " -o " +
+                          in_work("cube3mf.gcode") + " --layer-height 0.5");
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("mesh route: 20 layers"), std::string::npos) << r.out;
 }
 
 TEST(Cli, ThreeMaterialDesignOnAThreeInputMixer) {

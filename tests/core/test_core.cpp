@@ -3,6 +3,7 @@
 #include <filesystem>
 #include <set>
 
+#include "support/temp_dir.hpp"
 #include "trellis/core/diagnostics.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
@@ -53,8 +54,8 @@ TEST(Diagnostics, CountsEveryWarningKeepsFewMessages) {
 }
 
 TEST(File, AtomicWriteReplacesAndLeavesNoTempFiles) {
-  const fs::path dir = fs::temp_directory_path() / "trellis_test_atomic";
-  fs::remove_all(dir);
+  const trellis::test::TempDir tmp("trellis_test_atomic");
+  const fs::path dir = tmp.path();
   const std::string path = (dir / "sub" / "out.txt").string();
   write_file_atomic(path, "first");
   write_file_atomic(path, "second");
@@ -62,7 +63,6 @@ TEST(File, AtomicWriteReplacesAndLeavesNoTempFiles) {
   std::size_t files = 0;
   for (auto& e : fs::directory_iterator(dir / "sub")) files += e.is_regular_file();
   EXPECT_EQ(files, 1u);
-  fs::remove_all(dir);
 }
 
 TEST(File, MissingFileIsAnIoErrorNamingIt) {

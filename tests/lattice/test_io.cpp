@@ -3,6 +3,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "support/temp_dir.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/lattice/io.hpp"
 
@@ -26,8 +27,8 @@ void expect_parse_error(Fn fn, long line, const std::string& what) {
 }
 
 std::string temp_file(const std::string& name, const std::string& text) {
-  const fs::path p = fs::temp_directory_path() / "trellis_test_io" / name;
-  fs::create_directories(p.parent_path());
+  static const trellis::test::TempDir dir("trellis_test_io");
+  const fs::path p = dir / name;
   std::ofstream(p) << text;
   return p.string();
 }

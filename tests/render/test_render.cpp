@@ -2,6 +2,7 @@
 
 #include <filesystem>
 
+#include "support/temp_dir.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/render/render.hpp"
@@ -21,7 +22,8 @@ TEST(Render, LayerPngHasTheAspectOfTheLayer) {
   Path q;
   q.points = {{0, 10, 0.2}, {0, 2, 0.2}};
   tp.layers.push_back({0.2, {p, q}});
-  const std::string path = (fs::temp_directory_path() / "trellis_render_test.png").string();
+  const trellis::test::TempDir tmp("trellis_render");
+  const std::string path = tmp.file("layer.png");
   RenderOptions o;
   o.size_px = 440;
   o.margin_mm = 1;
@@ -34,5 +36,4 @@ TEST(Render, LayerPngHasTheAspectOfTheLayer) {
   EXPECT_THROW(render_layer_png(tp, 3, path, o), SettingError);
   render_scores_png({0.1, 0.3, 0.2}, 1, "scores", path);
   EXPECT_EQ(read_file(path).substr(1, 3), "PNG");
-  fs::remove(path);
 }

@@ -3,12 +3,13 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
-#include <numbers>
 #include <filesystem>
+#include <numbers>
 #include <random>
 #include <set>
 
 #include "support/gcode_replay.hpp"
+#include "support/temp_dir.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/geom/mesh.hpp"
 #include "trellis/lattice/atlas.hpp"
@@ -433,8 +434,8 @@ TEST(NonplanarJobs, LatticeOnSphereFollowsItLayerByLayer) {
   Job job = load_job(std::string(TRELLIS_SOURCE_DIR) + "/examples/honeycomb_on_sphere.toml");
   job.gcode = job.png = false;
   job.layer_count = 4;
-  job.output_dir = (std::filesystem::temp_directory_path() / "trellis_sphere_job").string();
-  std::filesystem::create_directories(job.output_dir);
+  const trellis::test::TempDir dir("trellis_sphere_job");
+  job.output_dir = dir.path().string();
   Diagnostics d;
   const JobOutputs out = run_job(job, d);
   ASSERT_EQ(out.result.toolpath.layers.size(), 4u);

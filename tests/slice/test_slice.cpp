@@ -10,6 +10,7 @@
 #include <numbers>
 #include <random>
 
+#include "support/temp_dir.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/field/vcad.hpp"
 #include "trellis/geom/contour.hpp"
@@ -143,32 +144,59 @@ TEST(Contours, HolesNestAndOrient) {
   EXPECT_LT(signed_area(r[0].holes[0]), 0);
 }
 
-// Stitching: shuffled, reversed-free directed segments of random polygons come back as loops.
+// Stitching: shuffled directed segments of random polygons come back as loops when each shared
+// end is moved, in a random direction, by less than the tolerance on one of its two segments;
+// moved by more than the tolerance, no junction joins.
 TEST(Contours, StitchingRecoversShuffledLoops) {
   std::mt19937_64 rng(3);
-  for (int trial = 0; trial < 50; ++trial) {
-    std::vector<Segment2> segs;
-    const int loops = 1 + static_cast<int>(rng() % 5);
-    std::size_t points = 0;
-    for (int l = 0; l < loops; ++l) {
-      const int n = 3 + static_cast<int>(rng() % 50);
-      const auto pts = circle_pts(30.0 * l, 0, 5 + l, n);
-      for (int i = 0; i < n; ++i) {
-        // Perturb the shared end by less than the tolerance on one side.
-        Vec2 b = pts[(i + 1) % n];
-        Vec2 b2 = b + Vec2{2e-7, -3e-7};
-        segs.push_back({pts[i], b});
-        (void)b2;
+  std::uniform_real_distribution<double> angle(0, 2 * kPi);
+  const double tol = 1e-6;
+  for (double scale : {0.4, 3.0}) {
+    const bool joins = scale < 1;
+    for (int trial = 0; trial < 50; ++trial) {
+      std::vector<Segment2> segs;
+      std::vector<Vec2> exact;
+      const int loops = 1 + static_cast<int>(rng() % 5);
+      std::size_t points = 0;
+      for (int l = 0; l < loops; ++l) {
+        const int n = 3 + static_cast<int>(rng() % 50);
+        const auto pts = circle_pts(30.0 * l, 0, 5 + l, n);
+        exact.insert(exact.end(), pts.begin(), pts.end());
+        // Junction j (pts[j]) ends segment j-1 and starts segment j: one of the two is moved.
+        std::vector<Vec2> offset(n);
+        std::vector<bool> move_end(n);
+        for (int j = 0; j < n; ++j) {
+          const double t = angle(rng);
+          offset[j] = Vec2{std::cos(t), std::sin(t)} * (scale * tol);
+          move_end[j] = rng() % 2;
+        }
+        for (int i = 0; i < n; ++i) {
+          const int j = (i + 1) % n;
+          segs.push_back({pts[i] + (move_end[i] ? Vec2{} : offset[i]),
+                          pts[j] + (move_end[j] ? offset[j] : Vec2{})});
+        }
+        points += n;
       }
-      points += n;
+      std::shuffle(segs.begin(), segs.end(), rng);
+      const StitchedLines s = stitch_segments(segs, tol);
+      if (!joins) {
+        EXPECT_TRUE(s.loops.empty()) << "trial " << trial;
+        EXPECT_EQ(s.open.size(), points) << "trial " << trial;
+        continue;
+      }
+      EXPECT_EQ(s.loops.size(), static_cast<std::size_t>(loops)) << "trial " << trial;
+      EXPECT_TRUE(s.open.empty()) << "trial " << trial;
+      std::size_t total = 0;
+      for (const auto& l : s.loops) {
+        total += l.size();
+        for (const Vec2 p : l) {
+          double nearest = 1e9;
+          for (const Vec2 q : exact) nearest = std::min(nearest, std::hypot(p.x - q.x, p.y - q.y));
+          EXPECT_LE(nearest, tol);
+        }
+      }
+      EXPECT_EQ(total, points) << "trial " << trial;
     }
-    std::shuffle(segs.begin(), segs.end(), rng);
-    const StitchedLines s = stitch_segments(segs, 1e-6);
-    EXPECT_EQ(s.loops.size(), static_cast<std::size_t>(loops));
-    EXPECT_TRUE(s.open.empty());
-    std::size_t total = 0;
-    for (const auto& l : s.loops) total += l.size();
-    EXPECT_EQ(total, points);
   }
   // An open iso-line stays open.
   const StitchedLines open = stitch_segments({{{0, 0}, {1, 0}}, {{1, 0}, {2, 1}}}, 1e-6);
@@ -320,8 +348,8 @@ TEST(Contours, BoundsSkipMostOfALargePlate) {
 }
 
 TEST(MeshIo, ReadsStlObj3mfAndChecksClosure) {
-  const auto tmp = std::filesystem::temp_directory_path() / "trellis_mesh_io";
-  std::filesystem::create_directories(tmp);
+  const trellis::test::TempDir dir("trellis_mesh_io");
+  const auto& tmp = dir.path();
   TriangleMesh cube;
   cube.add_prism({{0, 0}, {10, 0}, {10, 10}, {0, 10}}, 0, 10);
   write_stl((tmp / "c.stl").string(), cube);
@@ -534,13 +562,13 @@ TEST(Pipeline, SlicesEveryAppendixBDesign) {
     EXPECT_NEAR(area(a.outlines[i].regions), area(b.outlines[i].regions),
                 0.005 * area(a.outlines[i].regions));
   SliceJob unbounded;
-  const auto tmp = std::filesystem::temp_directory_path() / "trellis_unbounded.vcad";
+  const trellis::test::TempDir dir("trellis_unbounded");
+  const auto tmp = dir / "unbounded.vcad";
   {
     std::ofstream(tmp) << "gyroid(5, 0.3);\n";
   }
   unbounded.input = tmp.string();
   EXPECT_THROW(run_slice(unbounded), GeometryError);
-  std::filesystem::remove(tmp);
 }
 
 }  // namespace
