@@ -8,6 +8,7 @@
 #include "commands.hpp"
 #include "trellis/core/diagnostics.hpp"
 #include "trellis/core/error.hpp"
+#include "trellis/version.hpp"
 
 namespace trellis::cli {
 
@@ -96,7 +97,7 @@ int main(int argc, char** argv) {
       "  trellis gcode octet_path.json --machine profiles/embedded_aero_410um.toml -o octet.nc\n"
       "  trellis check octet.json octet.nc --machine profiles/embedded_aero_410um.toml"};
   app.require_subcommand(1);
-  app.set_version_flag("--version", "trellis 0.1.0");
+  app.set_version_flag("--version", std::string("trellis ") + trellis::version());
   trellis::cli::add_lattice2d(app);
   trellis::cli::add_lattice3d(app);
   trellis::cli::add_plan(app);

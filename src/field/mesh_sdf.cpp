@@ -1,5 +1,6 @@
 // mesh("file.stl") as a field: OpenVDB turns the closed mesh into a narrow-band signed distance
-// grid; values are sampled trilinearly. OpenVDB's heavy headers stay in this one file.
+// grid; values are sampled trilinearly. OpenVDB's heavy headers stay in this one file, built as
+// the run-time module trellis_vdb (see src/core/module.hpp).
 #include <openvdb/openvdb.h>
 #include <openvdb/tools/Interpolation.h>
 #include <openvdb/tools/MeshToVolume.h>
@@ -8,6 +9,7 @@
 
 #include <mutex>
 
+#include "mesh_sdf_module.hpp"
 #include "node.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/geom/mesh_io.hpp"
@@ -50,6 +52,8 @@ struct MeshNode : FieldNode {
 };
 
 }  // namespace
+
+namespace impl {
 
 Field mesh_field(const TriangleMesh& input, const MeshSdfOptions& options, std::string name) {
   static std::once_flag init;
@@ -164,4 +168,9 @@ TriangleMesh field_to_mesh(const Field& field, const BBox3& box, double voxel,
   return mesh;
 }
 
+}  // namespace impl
+
 }  // namespace trellis
+
+TRELLIS_MODULE_ENTRY(vdb, trellis::MeshSdfModule, &trellis::impl::mesh_field,
+                     &trellis::impl::field_to_mesh)

@@ -1,16 +1,16 @@
 #include "trellis/geom/mesh_io.hpp"
 
-#include <Model/COM/NMR_DLLInterfaces.h>
+#include <fmt/format.h>
 
 #include <algorithm>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <fmt/format.h>
 #include <map>
 #include <unordered_map>
 
+#include "mesh_3mf_module.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/core/text.hpp"
@@ -198,132 +198,23 @@ TriangleMesh read_obj(const std::string& path) {
   return parse_obj(read_file(path), path);
 }
 
+// lib3mf runs in the 3MF module (src/geom/mesh_3mf.cpp), loaded on first use; it returns the
+// triangles as they are stored, welded and checked here like every other format.
 TriangleMesh read_3mf(const std::string& path) {
-  using namespace NMR;
-  // lib3mf 1.8 C interface; every handle released on every path.
-  struct Handle {
-    PLib3MFBase* p = nullptr;
-    ~Handle() {
-      if (p) lib3mf_release(p);
-    }
-  };
-  auto fail = [&](const std::string& what, PLib3MFBase* obj) {
-    std::string msg = what;
-    if (obj) {
-      DWORD code = 0;
-      LPCSTR text = nullptr;
-      if (lib3mf_getlasterror(obj, &code, &text) == LIB3MF_OK && text) msg += ": " + std::string(text);
-    }
-    throw ParseError(msg, {path, 0, ""});
-  };
   (void)read_file(path);  // clear IoError for a missing file
-  Handle model, reader;
-  if (lib3mf_createmodel(&model.p) != LIB3MF_OK) fail("cannot create a 3MF model", nullptr);
-  if (lib3mf_model_queryreader(model.p, "3mf", &reader.p) != LIB3MF_OK)
-    fail("cannot create a 3MF reader", model.p);
-  if (lib3mf_reader_readfromfileutf8(reader.p, path.c_str()) != LIB3MF_OK)
-    fail("not a readable 3MF file", reader.p);
-
+  const TriangleMesh stored = detail::module_table<Mesh3mfModule>("3mf").read_3mf(path);
   Builder b;
-  auto add_mesh = [&](PLib3MFBase* object, const MODELTRANSFORM* tf) {
-    DWORD nv = 0, nt = 0;
-    lib3mf_meshobject_getvertexcount(object, &nv);
-    lib3mf_meshobject_gettrianglecount(object, &nt);
-    std::vector<MODELMESHVERTEX> verts(nv);
-    std::vector<MODELMESHTRIANGLE> tris(nt);
-    if (nv) lib3mf_meshobject_getvertices(object, verts.data(), nv, nullptr);
-    if (nt) lib3mf_meshobject_gettriangleindices(object, tris.data(), nt, nullptr);
-    auto at = [&](DWORD i) {
-      if (i >= nv) fail("triangle refers to a missing vertex", nullptr);
-      const float* f = verts[i].m_fPosition;
-      Vec3 p{f[0], f[1], f[2]};
-      if (tf) {
-        const auto& m = tf->m_fFields;
-        p = {m[0][0] * p.x + m[0][1] * p.y + m[0][2] * p.z + m[0][3],
-             m[1][0] * p.x + m[1][1] * p.y + m[1][2] * p.z + m[1][3],
-             m[2][0] * p.x + m[2][1] * p.y + m[2][2] * p.z + m[2][3]};
-      }
-      check_coordinate(p, path, 0);
-      return p;
-    };
-    for (const auto& t : tris) b.triangle(at(t.m_nIndices[0]), at(t.m_nIndices[1]), at(t.m_nIndices[2]));
+  auto at = [&](std::uint32_t i) {
+    check_coordinate(stored.vertices[i], path, 0);
+    return stored.vertices[i];
   };
-
-  Handle items;
-  std::size_t built = 0;
-  if (lib3mf_model_getbuilditems(model.p, &items.p) == LIB3MF_OK) {
-    BOOL more = false;
-    while (lib3mf_builditemiterator_movenext(items.p, &more) == LIB3MF_OK && more) {
-      Handle item;
-      if (lib3mf_builditemiterator_getcurrent(items.p, &item.p) != LIB3MF_OK) break;
-      Handle obj;  // a new reference: released like every other handle
-      if (lib3mf_builditem_getobjectresource(item.p, &obj.p) != LIB3MF_OK || !obj.p) continue;
-      PLib3MFBase* object = obj.p;
-      BOOL is_mesh = false;
-      lib3mf_object_ismeshobject(object, &is_mesh);
-      if (!is_mesh) {
-        BOOL is_comp = false;
-        lib3mf_object_iscomponentsobject(object, &is_comp);
-        if (is_comp)
-          throw ParseError("3MF build item is a components object; only mesh objects are read",
-                           {path, 0, ""});
-        continue;
-      }
-      BOOL has_tf = false;
-      MODELTRANSFORM tf;
-      lib3mf_builditem_hasobjecttransform(item.p, &has_tf);
-      if (has_tf) lib3mf_builditem_getobjecttransform(item.p, &tf);
-      add_mesh(object, has_tf ? &tf : nullptr);
-      ++built;
-    }
-  }
-  if (built == 0) {
-    Handle objects;
-    if (lib3mf_model_getmeshobjects(model.p, &objects.p) == LIB3MF_OK) {
-      BOOL more = false;
-      while (lib3mf_resourceiterator_movenext(objects.p, &more) == LIB3MF_OK && more) {
-        Handle res;
-        if (lib3mf_resourceiterator_getcurrent(objects.p, &res.p) != LIB3MF_OK) break;
-        add_mesh(res.p, nullptr);
-      }
-    }
-  }
+  for (const auto& t : stored.triangles) b.triangle(at(t[0]), at(t[1]), at(t[2]));
   if (b.mesh.triangles.empty()) throw ParseError("3MF has no mesh triangles", {path, 0, ""});
   return std::move(b.mesh);
 }
 
 void write_3mf(const std::string& path, const TriangleMesh& mesh) {
-  using namespace NMR;
-  struct Handle {
-    PLib3MFBase* p = nullptr;
-    ~Handle() {
-      if (p) lib3mf_release(p);
-    }
-  };
-  Handle model, object, item, writer;
-  std::vector<MODELMESHVERTEX> verts(mesh.vertices.size());
-  for (std::size_t i = 0; i < verts.size(); ++i) {
-    verts[i].m_fPosition[0] = static_cast<float>(mesh.vertices[i].x);
-    verts[i].m_fPosition[1] = static_cast<float>(mesh.vertices[i].y);
-    verts[i].m_fPosition[2] = static_cast<float>(mesh.vertices[i].z);
-  }
-  std::vector<MODELMESHTRIANGLE> tris(mesh.triangles.size());
-  for (std::size_t i = 0; i < tris.size(); ++i)
-    for (int k = 0; k < 3; ++k) tris[i].m_nIndices[k] = mesh.triangles[i][k];
-  const std::string tmp = path + ".tmp";
-  if (lib3mf_createmodel(&model.p) != LIB3MF_OK || lib3mf_model_addmeshobject(model.p, &object.p) != LIB3MF_OK ||
-      lib3mf_meshobject_setgeometry(object.p, verts.data(), static_cast<DWORD>(verts.size()),
-                                    tris.data(), static_cast<DWORD>(tris.size())) != LIB3MF_OK ||
-      lib3mf_model_addbuilditem(model.p, object.p, nullptr, &item.p) != LIB3MF_OK ||
-      lib3mf_model_querywriter(model.p, "3mf", &writer.p) != LIB3MF_OK ||
-      lib3mf_writer_writetofileutf8(writer.p, tmp.c_str()) != LIB3MF_OK) {
-    std::remove(tmp.c_str());
-    throw IoError("cannot write 3MF", {path, 0, ""});
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    std::remove(tmp.c_str());
-    throw IoError("cannot move the written 3MF into place", {path, 0, ""});
-  }
+  detail::module_table<Mesh3mfModule>("3mf").write_3mf(path, mesh);
 }
 
 TriangleMesh read_mesh(const std::string& path) {

@@ -1,4 +1,5 @@
-// Voronoi edges via CGAL's Delaunay triangulation (its dual). CGAL stays inside this file.
+// Voronoi edges via CGAL's Delaunay triangulation (its dual). CGAL stays inside this file, built
+// as the run-time module trellis_cgal (see src/core/module.hpp).
 #include <CGAL/Delaunay_triangulation_2.h>
 #include <CGAL/Delaunay_triangulation_3.h>
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
@@ -7,16 +8,19 @@
 #include <cmath>
 #include <tuple>
 
-#include "trellis/core/rng.hpp"
 #include "trellis/core/error.hpp"
+#include "trellis/core/rng.hpp"
 #include "trellis/geom/mesh_io.hpp"
 #include "trellis/lattice/atlas.hpp"
 #include "trellis/lattice/cells3d.hpp"
+#include "voronoi_module.hpp"
 
 namespace trellis {
 
 using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
 using Delaunay = CGAL::Delaunay_triangulation_2<Kernel>;
+
+namespace impl {
 
 std::vector<Segment2> voronoi_segments(double half, double density, std::uint64_t seed) {
   // Seeds over a margin beyond the square so cells near its border are closed.
@@ -155,4 +159,9 @@ Graph voronoi_foam(const FoamParams& p, Diagnostics& diag) {
   return g;
 }
 
+}  // namespace impl
+
 }  // namespace trellis
+
+TRELLIS_MODULE_ENTRY(cgal, trellis::VoronoiModule, &trellis::impl::voronoi_segments,
+                     &trellis::impl::voronoi_foam)

@@ -1,3 +1,5 @@
+// PNG pictures with cairo, built as the run-time module trellis_cairo (see src/core/module.hpp):
+// cairo and the ~20 libraries it loads are paid for only by programs that draw.
 #include "trellis/render/render.hpp"
 
 #include <cairo.h>
@@ -7,6 +9,7 @@
 #include <memory>
 #include <tuple>
 
+#include "render_module.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 
@@ -46,6 +49,8 @@ void order_colour(cairo_t* cr, double t) {
 }
 
 }  // namespace
+
+namespace impl {
 
 void render_layer_png(const Toolpath& tp, std::size_t index, const std::string& path,
                       const RenderOptions& opt) {
@@ -330,4 +335,10 @@ void render_scores_png(const std::vector<double>& scores, std::size_t best,
   save_png(surface.get(), path);
 }
 
+}  // namespace impl
+
 }  // namespace trellis
+
+TRELLIS_MODULE_ENTRY(cairo, trellis::RenderModule, &trellis::impl::render_layer_png,
+                     &trellis::impl::render_3d_png, &trellis::impl::render_overlay_png,
+                     &trellis::impl::render_scores_png)

@@ -1,0 +1,15 @@
+// The OpenVDB module's table (src/core/module.hpp): mesh -> distance field and back.
+#pragma once
+#include "../core/module.hpp"
+#include "trellis/field/field.hpp"
+#include "trellis/geom/mesh.hpp"
+
+namespace trellis {
+
+struct MeshSdfModule {
+  detail::ModuleHeader header;
+  Field (*mesh_field)(const TriangleMesh&, const MeshSdfOptions&, std::string);
+  TriangleMesh (*field_to_mesh)(const Field&, const BBox3&, double, MeshingStats*);
+};
+
+}  // namespace trellis

@@ -1,0 +1,32 @@
+// Drawing runs in the cairo module, loaded on first use.
+#include "render_module.hpp"
+
+namespace trellis {
+namespace {
+const RenderModule& cairo() {
+  return detail::module_table<RenderModule>("cairo");
+}
+}  // namespace
+
+void render_layer_png(const Toolpath& toolpath, std::size_t layer, const std::string& path,
+                      const RenderOptions& options) {
+  cairo().render_layer_png(toolpath, layer, path, options);
+}
+
+void render_3d_png(const Toolpath& toolpath, const std::string& path,
+                   const View3dOptions& options) {
+  cairo().render_3d_png(toolpath, path, options);
+}
+
+void render_overlay_png(const std::vector<Segment2>& design, const Layer& printed,
+                        const std::vector<Segment2>& red, const std::vector<Segment2>& blue,
+                        double bead_width, const std::string& path, int size_px) {
+  cairo().render_overlay_png(design, printed, red, blue, bead_width, path, size_px);
+}
+
+void render_scores_png(const std::vector<double>& scores, std::size_t best_iteration,
+                       const std::string& title, const std::string& path) {
+  cairo().render_scores_png(scores, best_iteration, title, path);
+}
+
+}  // namespace trellis
