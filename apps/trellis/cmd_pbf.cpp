@@ -155,7 +155,7 @@ void add_pbf(CLI::App& app) {
     po.min_inclination = o->min_inclination;
     po.hybrid = !o->r67;
     po.stl_route = o->route == "stl";
-    const PbfResult r = plan_pbf(d, po, [](double f) { progress_line("layers", f); });
+    const PbfResult r = plan_pbf(d, po, {progress_line});
     const Toolpath tp =
         pbf_toolpath(r, prof.contour_power, prof.contour_speed, prof.hatch_power, prof.hatch_speed);
     write_cli_file(o->output, tp, prof);

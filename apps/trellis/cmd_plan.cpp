@@ -160,10 +160,9 @@ void add_plan(CLI::App& app) {
     p.planner = planner_from_string(o->planner);
     p.gippo.mode = o->mode == "max" ? GippoMode::Max : GippoMode::Min;
     p.order = path_order_from_string(o->order);
-    p.gippo.progress.report = progress_line;
     Diagnostics diag;
     const Graph g = read_lattice(o->input, {o->merge_tolerance, true}, diag);
-    PlanResult r = plan_lattice(g, p, diag);
+    PlanResult r = plan_lattice(g, p, diag, {progress_line});
     r.toolpath.source = "trellis plan " + o->planner + " " + o->input;
     const double secs =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -111,9 +111,7 @@ void add_slice(CLI::App& app) {
     job.purge.y = profile.purge_y;
     job.purge.side = profile.purge_side;
     profile.layer_height = o->layer_height;
-    const SliceResult r = run_slice(job, [](const std::string& stage, double f) {
-      progress_line(stage, f);
-    });
+    const SliceResult r = run_slice(job, {progress_line});
     const GcodeStats g = write_gcode_file(o->output, r.toolpath, profile);
     if (!o->toolpath.empty()) write_toolpath(o->toolpath, r.toolpath);
     if (!o->report.empty()) write_file_atomic(o->report, slice_report_json(job, r, &g));

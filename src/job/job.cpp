@@ -350,8 +350,7 @@ JobOutputs run_job(const Job& job, Diagnostics& diag, const Progress& progress) 
   write_lattice(out.lattice, lattice);
 
   PlanParams plan = job.plan;
-  plan.gippo.progress = progress;
-  out.result = plan_lattice(lattice, plan, diag);
+  out.result = plan_lattice(lattice, plan, diag, progress);
   if (!job.surface.kind.empty()) {
     progress("surface", 0);
     out.result.toolpath = project_onto_surface(out.result.toolpath, surface, job.surface.project);

@@ -111,7 +111,7 @@ class Planner {
 
   void run_dynamic() {
     while (done_ < g_.edges.size()) {
-      if (progress_.cancelled()) throw Error("AERO planning cancelled");
+      if (progress_.cancelled()) throw Cancelled("AERO planning cancelled");
       const int mat = pick_material();
       if (mat < 0) {
         force_lowest();
@@ -154,7 +154,7 @@ class Planner {
 
   void run_groups() {
     while (done_ < g_.edges.size()) {
-      if (progress_.cancelled()) throw Error("AERO planning cancelled");
+      if (progress_.cancelled()) throw Cancelled("AERO planning cancelled");
       // The group: everything printable now, printed completely before refreshing.
       bool any = false;
       for (std::size_t mi = 0; mi < available_.size(); ++mi) {
@@ -971,7 +971,7 @@ AeroResult plan_canonical(const Graph& g, const AeroParams& params) {
       params.progress("plan", static_cast<double>(++finished) / static_cast<double>(runs));
     });
   });
-  if (params.progress.cancelled()) throw Error("AERO planning cancelled");
+  if (params.progress.cancelled()) throw Cancelled("AERO planning cancelled");
   std::size_t best = 0;
   auto key = [](const AeroResult& x) {
     return std::make_tuple(x.violations.size(), x.trails.trails.size(), x.travel_length);

@@ -300,7 +300,7 @@ GippoResult plan_gippo(const Graph& g, const GippoParams& params) {
       }
     });
   });
-  if (cancelled) throw Error("planning cancelled");
+  if (cancelled) throw Cancelled("GIPPO planning cancelled");
   const FlatSolution* best = nullptr;
   const FlatSolution* worst = nullptr;
   for (const auto& L : locals) {

@@ -95,7 +95,8 @@ PathMetrics pooled(const std::vector<LayerReport>& layers, std::size_t long_node
 
 }  // namespace
 
-PlanResult plan_lattice(const Graph& g, const PlanParams& params, Diagnostics& diag) {
+PlanResult plan_lattice(const Graph& g, const PlanParams& params, Diagnostics& diag,
+                        const Progress& progress) {
   if (g.edges.empty()) throw GeometryError("the lattice has no edges to plan");
   if (!(params.layer_height > 0)) throw SettingError("layer height must be > 0 mm");
   std::size_t directed = 0;
@@ -110,6 +111,7 @@ PlanResult plan_lattice(const Graph& g, const PlanParams& params, Diagnostics& d
   Vec3 at = g.bbox().min;
   const auto parts = split_parts(g, params.level_tolerance, diag);
   for (std::size_t pi = 0; pi < parts.size(); ++pi) {
+    progress.check("planning");
     const Part& part = parts[pi];
     std::vector<NodeId> node_map;
     const Graph sub = subgraph(g, part.edges, node_map);
@@ -120,10 +122,11 @@ PlanResult plan_lattice(const Graph& g, const PlanParams& params, Diagnostics& d
     PathSet set;
     if (params.planner == Planner::Gippo) {
       GippoParams gp = params.gippo;
-      const auto outer = params.gippo.progress.report;
-      if (outer)
+      gp.progress.cancel = progress.cancel;
+      gp.progress.report = nullptr;
+      if (progress.report)
         gp.progress.report = [&](const std::string& stage, double f) {
-          outer(stage, (static_cast<double>(pi) + f) / static_cast<double>(parts.size()));
+          progress(stage, (static_cast<double>(pi) + f) / static_cast<double>(parts.size()));
         };
       auto r = plan_gippo(sub, gp);
       set = std::move(r.best);
@@ -132,6 +135,7 @@ PlanResult plan_lattice(const Graph& g, const PlanParams& params, Diagnostics& d
       report.worst = path_metrics(sub, r.worst, params.long_path_nodes);
     } else {
       set = plan_euler(sub);
+      progress("euler", static_cast<double>(pi + 1) / static_cast<double>(parts.size()));
     }
     report.metrics = path_metrics(sub, set, params.long_path_nodes);
     // Order in the sub-graph, starting where the previous part ended.

@@ -733,7 +733,8 @@ std::vector<Line> layer_lines(const HeightField& surface, double angle_deg, doub
 
 }  // namespace
 
-NonplanarResult slice_nonplanar(const HeightField& surface, const NonplanarParams& prm) {
+NonplanarResult slice_nonplanar(const HeightField& surface, const NonplanarParams& prm,
+                                const Progress& progress) {
   if (!(prm.width > 0) || !(prm.layer_height >= 0) || prm.layers < 1 || prm.angles.empty() ||
       prm.layer_tools.empty() || !(prm.chord_tolerance > 0))
     throw SettingError(
@@ -753,6 +754,7 @@ NonplanarResult slice_nonplanar(const HeightField& surface, const NonplanarParam
       if (!base.count(a)) base[a] = layer_lines(surface, a, 0, prm);
   std::vector<std::vector<Line>> per_layer(res.layers.size());
   tbb::parallel_for(std::size_t{0}, res.layers.size(), [&](std::size_t k) {
+    progress.check("non-planar slicing");
     const double angle = prm.angles[k % prm.angles.size()];
     const double off = static_cast<double>(k) * prm.layer_height;
     if (prm.offset == OffsetMode::Vertical) {
@@ -768,6 +770,8 @@ NonplanarResult slice_nonplanar(const HeightField& surface, const NonplanarParam
   Vec3 cursor{kNaN, kNaN, kNaN};
   HeightField::Eval f = surface.evaluator();
   for (std::size_t k = 0; k < res.layers.size(); ++k) {
+    progress.check("non-planar slicing");
+    progress("layers", static_cast<double>(k) / static_cast<double>(res.layers.size()));
     auto& rep = res.layers[k];
     rep.angle = prm.angles[k % prm.angles.size()];
     rep.tool = prm.layer_tools[k % prm.layer_tools.size()];
@@ -873,7 +877,6 @@ NonplanarResult slice_nonplanar(const HeightField& surface, const NonplanarParam
   }
   return res;
 }
-
 
 namespace {
 

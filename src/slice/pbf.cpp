@@ -759,8 +759,7 @@ void measure_wall_thickness(Ctx& ctx, const PbfDesign& design, double c_const, d
 
 }  // namespace
 
-PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o,
-                   const std::function<void(double)>& progress) {
+PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress& progress) {
   const auto t0 = std::chrono::steady_clock::now();
   if (!(o.layer > 0)) throw SettingError("layer thickness must be > 0");
   if (!(o.resolution > 0)) throw SettingError("resolution must be > 0");
@@ -830,6 +829,7 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o,
   std::atomic<std::size_t> done{0};
   std::mutex progress_mutex;
   tbb::parallel_for(std::size_t{0}, zs.size(), [&](std::size_t i) {
+    progress.check("PBF planning");
     Ctx& ctx = contexts.local();
     PbfLayer& L = result.layers[i];
     const double z = zs[i];
@@ -963,9 +963,9 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o,
     L.fr = o.melt_pool * (L.contour_length + L.hatch_length) / L.area;
     L.fr_r67 = o.melt_pool * r67 / L.area;
     const std::size_t d = ++done;
-    if (progress && (d % 32 == 0 || d == zs.size())) {
+    if (progress.report && (d % 32 == 0 || d == zs.size())) {
       std::lock_guard lock(progress_mutex);
-      progress(static_cast<double>(d) / static_cast<double>(zs.size()));
+      progress("layers", static_cast<double>(d) / static_cast<double>(zs.size()));
     }
   });
   for (const auto& L : result.layers) {

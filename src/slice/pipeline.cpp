@@ -45,8 +45,7 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 
 }  // namespace
 
-SliceResult run_slice(const SliceJob& job,
-                      const std::function<void(const std::string&, double)>& progress) {
+SliceResult run_slice(const SliceJob& job, const Progress& progress) {
   SliceResult r;
   const bool is_vcad = ends_with_ci(job.input, ".vcad");
   r.route = job.route == SliceRoute::Auto ? (is_vcad ? SliceRoute::Field : SliceRoute::Mesh)
@@ -63,9 +62,6 @@ SliceResult run_slice(const SliceJob& job,
     if (zs.size() > 200000)
       throw SettingError("more than 200,000 layers: check the layer height and the units");
     if (zs.empty()) throw GeometryError("the design is thinner than one layer", {job.input, 0, ""});
-  };
-  auto report = [&](double f) {
-    if (progress) progress("outlines", f);
   };
   // A design is a field, a mesh file a mesh; each route turns one into the other if it must.
   Field field;
@@ -86,7 +82,7 @@ SliceResult run_slice(const SliceJob& job,
     }
     r.extent = field.extent();
     check_layers(r.extent);
-    r.outlines = slice_field(field, zs, job.field, &r.field_stats, report);
+    r.outlines = slice_field(field, zs, job.field, &r.field_stats, progress);
   } else {
     if (is_vcad) {
       // The classic route for a design: marching cubes of its field (OpenVDB) at the mesh
@@ -100,8 +96,9 @@ SliceResult run_slice(const SliceJob& job,
       r.extent = bounds(mesh);
       check_layers(r.extent);
     }
+    progress.check("slicing");
     r.outlines = slice_mesh_layers(mesh, zs);
-    report(1.0);
+    progress("outlines", 1.0);
   }
   // The extent of a design is a bound (blends, clip boxes): drop empty layers below and above
   // the part so its first layer sits on the bed.
@@ -115,7 +112,8 @@ SliceResult run_slice(const SliceJob& job,
     throw GeometryError("no layer has any outline: the design is empty at every slicing plane",
                         {job.input, 0, ""});
   const auto t1 = std::chrono::steady_clock::now();
-  if (progress) progress("walls and infill", 0.0);
+  progress.check("slicing");
+  progress("walls and infill", 0.0);
   if (job.strategy == 1 || job.strategy == 2) {
     if (!is_vcad || field.materials().size() < 2)
       throw GeometryError("--strategy " + std::to_string(job.strategy) +
@@ -146,7 +144,7 @@ SliceResult run_slice(const SliceJob& job,
     r.toolpath = plan_planar(r.outlines, job.planar, &r.planar);
   }
   r.toolpath.source = "trellis slice " + job.input + " (" + to_string(r.route) + " route)";
-  if (progress) progress("walls and infill", 1.0);
+  progress("walls and infill", 1.0);
   r.plan_seconds = seconds_since(t1);
   return r;
 }

@@ -41,6 +41,11 @@ class IoError : public Error {
   using Error::Error;
 };
 
+// The caller stopped the work through Progress::cancel (core/progress.hpp); nothing was produced.
+class Cancelled : public Error {
+  using Error::Error;
+};
+
 // "file:line: element: message", leaving out what is unknown.
 std::string format_where(const Where& where);
 

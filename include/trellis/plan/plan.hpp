@@ -42,6 +42,9 @@ struct PlanResult {
   TravelStats travel;
 };
 
-PlanResult plan_lattice(const Graph& g, const PlanParams& params, Diagnostics& diag);
+// `progress` (core/progress.hpp) is checked per part (layer and material) and, for GIPPO, per
+// iteration; params.gippo.progress is not used here.
+PlanResult plan_lattice(const Graph& g, const PlanParams& params, Diagnostics& diag,
+                        const Progress& progress = {});
 
 }  // namespace trellis

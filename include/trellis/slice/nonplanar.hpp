@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "trellis/core/progress.hpp"
 #include "trellis/core/vec.hpp"
 #include "trellis/machine/gcode_writer.hpp"
 #include "trellis/toolpath/toolpath.hpp"
@@ -94,7 +95,9 @@ struct NonplanarResult {
 
 // Plans every layer (layers in parallel). Throws GeometryError when a plane meets the surface
 // twice above one point (not a height field), naming the place.
-NonplanarResult slice_nonplanar(const HeightField& surface, const NonplanarParams& params);
+// `progress` (core/progress.hpp): stage "layers" from the calling thread; cancel checked per layer.
+NonplanarResult slice_nonplanar(const HeightField& surface, const NonplanarParams& params,
+                                const Progress& progress = {});
 
 // Independent check: every path point's distance from the surface offset of its layer, and the
 // distance of segment midpoints (chords) from it. Vertical mode: |z − f(x,y) − k·h|; normal

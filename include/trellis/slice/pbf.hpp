@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "trellis/core/progress.hpp"
 #include "trellis/field/field.hpp"
 #include "trellis/geom/regions.hpp"
 #include "trellis/toolpath/toolpath.hpp"
@@ -85,8 +86,9 @@ struct PbfResult {
   double seconds = 0;
 };
 
+// `progress` (core/progress.hpp): stage "layers", reported under a lock; cancel checked per layer.
 PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& options,
-                   const std::function<void(double)>& progress = {});
+                   const Progress& progress = {});
 
 // The toolpath IR: contour vectors role Contour, hatch vectors role Infill, with laser power and
 // speed per role.

@@ -37,9 +37,10 @@ struct SliceResult {
   double outline_seconds = 0, plan_seconds = 0;
 };
 
-// progress(stage, fraction) is called from the calling thread only.
-SliceResult run_slice(const SliceJob& job,
-                      const std::function<void(const std::string&, double)>& progress = {});
+// Planar and graded slicing in one call. `progress` (core/progress.hpp): stages "outlines"
+// (from worker threads, under a lock) and "walls and infill"; cancel checked per layer while
+// outlining and between stages.
+SliceResult run_slice(const SliceJob& job, const Progress& progress = {});
 
 // The report: layers, paths, lengths, travel, print time (from the writer's stats if given).
 std::string slice_report_json(const SliceJob& job, const SliceResult& result,

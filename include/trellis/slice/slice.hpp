@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "trellis/core/progress.hpp"
 #include "trellis/field/field.hpp"
 #include "trellis/geom/contour.hpp"
 #include "trellis/geom/mesh.hpp"
@@ -52,9 +53,8 @@ Regions contour_at(const Field& field, Evaluator& evaluator, double z,
                    const FieldSliceOptions& options, SliceStats* stats = nullptr);
 // All planes, in parallel (oneTBB), one evaluator per thread.
 std::vector<LayerOutline> slice_field(const Field& field, const std::vector<double>& zs,
-                                      const FieldSliceOptions& options,
-                                      SliceStats* stats = nullptr,
-                                      const std::function<void(double)>& progress = {});
+                                      const FieldSliceOptions& options, SliceStats* stats = nullptr,
+                                      const Progress& progress = {});
 std::vector<LayerOutline> slice_mesh_layers(const TriangleMesh& mesh,
                                             const std::vector<double>& zs,
                                             double stitch_tolerance = 1e-6);
