@@ -875,6 +875,7 @@ NonplanarResult slice_nonplanar(const HeightField& surface, const NonplanarParam
               res.max_descent_deg, std::atan2(-s.z, std::hypot(s.x, s.y)) * 180 / std::numbers::pi);
       }
   }
+  progress("layers", 1.0);
   return res;
 }
 
