@@ -105,6 +105,12 @@ std::string write_cli(const Toolpath& tp, const LaserProfile& prof) {
                      prof.contour_power, prof.contour_speed, prof.hatch_power, prof.hatch_speed,
                      prof.spot_diameter);
   out += fmt::format("//source: {}//\n", tp.source);
+  // The job that made the file, one comment line each, for `trellis rerun`.
+  for (std::size_t a = 0; a < tp.job.size();) {
+    const std::size_t b = std::min(tp.job.find('\n', a), tp.job.size());
+    out += "//job: " + tp.job.substr(a, b - a) + "//\n";
+    a = b + 1;
+  }
   out += fmt::format("$$DIMENSION/{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f}\n", box.min.x, box.min.y,
                      box.min.z, box.max.x, box.max.y, box.max.z);
   out += fmt::format("$$LAYERS/{}\n$$HEADEREND\n$$GEOMETRYSTART\n", tp.layers.size());

@@ -1,0 +1,76 @@
+#include <fmt/format.h>
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+
+#include "routes.hpp"
+#include "trellis/core/error.hpp"
+#include "trellis/core/file.hpp"
+#include "trellis/toolpath/json.hpp"
+
+namespace trellis {
+
+namespace fs = std::filesystem;
+
+namespace routes {
+
+std::string embedded_job(const Job& job, const std::string& path) {
+  const std::string dir = fs::path(path).parent_path().string();
+  return job_toml(job, dir.empty() ? "." : dir);
+}
+
+std::string with_job(const std::string& report_json, const Job& job, const std::string& path) {
+  nlohmann::ordered_json j = nlohmann::ordered_json::parse(report_json);
+  j["job"] = embedded_job(job, path);
+  return j.dump(2) + "\n";
+}
+
+void write_toolpath_with_job(const std::string& path, Toolpath toolpath, const Job& job) {
+  toolpath.job = embedded_job(job, path);
+  write_toolpath(path, toolpath);
+}
+
+std::string preview_name(const std::string& dir, const std::string& file) {
+  return (fs::path(dir) / file).string();
+}
+
+void previews(const Toolpath& tp, const std::string& dir, int count, const RenderOptions& ro,
+              JobResult& out) {
+  const std::size_t n = tp.layers.size();
+  if (dir.empty() || count <= 0 || n == 0) return;
+  fs::create_directories(dir);
+  const std::size_t k = std::min<std::size_t>(static_cast<std::size_t>(count), n);
+  for (std::size_t t = 0; t < k; ++t) {
+    const std::size_t layer = k == 1 ? n / 2 : t * (n - 1) / (k - 1);
+    out.files.push_back(preview_name(dir, fmt::format("layer_{:04}.png", layer)));
+    render_layer_png(tp, layer, out.files.back(), ro);
+  }
+}
+
+std::string fixed(double v, int decimals) {
+  return fmt::format("{:.{}f}", v, decimals);
+}
+
+}  // namespace routes
+
+JobResult run_job(const Job& job, Diagnostics& diag, const Progress& progress) {
+  const std::vector<std::string> sections = route_sections(job.route);
+  const Config c = job.settings.config();
+  check_rules(c, job.settings, sections);
+  for (const std::string* out : {&job.output, &job.report, &job.toolpath, &job.gcode, &job.lattice}) {
+    if (out->empty()) continue;
+    const fs::path dir = fs::path(*out).parent_path();
+    if (!dir.empty()) fs::create_directories(dir);
+  }
+  const std::string& r = job.route;
+  if (r == "lattice2d") return routes::lattice2d(job, c, diag, progress);
+  if (r == "lattice3d") return routes::lattice3d(job, c, diag, progress);
+  if (r == "plan") return routes::plan(job, c, diag, progress);
+  if (r == "gcode") return routes::gcode(job, c, diag, progress);
+  if (r == "slice") return routes::slice(job, c, diag, progress);
+  if (r == "pbf") return routes::pbf(job, c, diag, progress);
+  if (r == "nonplanar") return routes::nonplanar(job, c, diag, progress);
+  return routes::surface(job, c, diag, progress);
+}
+
+}  // namespace trellis
