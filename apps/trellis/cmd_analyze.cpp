@@ -20,7 +20,7 @@ struct AnalyzeOpts {
 };
 
 void add_common(CLI::App* cmd, AnalyzeOpts& o) {
-  cmd->add_option("--width", o.params.width,
+  cmd->add_option("--bead-width", o.params.width,
                   "bead width: deposits within width/2 cover a strut (mm)")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();

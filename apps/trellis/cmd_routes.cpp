@@ -185,6 +185,8 @@ void add_routes(CLI::App& app, int argc, char** argv) {
       cmd->add_option("planner", o->extra, "gippo, euler or aero")
           ->required()
           ->check(CLI::IsMember({"gippo", "euler", "aero"}));
+    if (route == "surface")
+      cmd->add_option("kind", o->extra, "corrugation, miura, m-curve or sphere-cap (or --kind)");
     if (std::string(spec.input) != "") {
       auto* in = cmd->add_option(spec.input, o->input, std::string("input ") + spec.input);
       if (spec.input_required) in->required();
@@ -215,6 +217,8 @@ void add_routes(CLI::App& app, int argc, char** argv) {
       job.command = command_line(argc, argv);
       job.settings = command_settings(o->machine, {});
       if (route == "plan") job.settings.set("plan.planner", o->extra, {"planner argument"});
+      if (route == "surface" && !o->extra.empty())
+        job.settings.set("surface.kind", o->extra, {"kind argument"});
       for (const auto& [key, opt] : o->options)
         if (opt->count() > 0) job.settings.set_text(key, o->values[key], {"--" + find_setting(key)->flag});
       for (const auto& [key, on] : o->bools)

@@ -197,7 +197,11 @@ std::string job_toml(const Job& job, const std::string& base) {
     if (s && s->unit == "path" && !std::get<std::string>(e.value).empty())
       st.set(key, relative_to(std::get<std::string>(e.value), base), e.origin);
   }
-  out += settings_toml(st, route_sections(job.route));
+  // Every setting that shapes the output; run.threads does not (outputs are the same for any
+  // thread count), so it is left out and outputs made with 1 or 8 threads embed the same job.
+  std::vector<std::string> sections = route_sections(job.route);
+  sections.erase(std::remove(sections.begin(), sections.end(), "run"), sections.end());
+  out += settings_toml(st, sections);
   return out;
 }
 
