@@ -113,7 +113,7 @@ void add_routes(CLI::App& app, int argc, char** argv) {
   for (const auto& n : unit_cell_names()) cells += (cells.empty() ? "" : ", ") + n;
   const std::vector<RouteSpec> specs = {
       {"lattice2d", "lattice2d", "Generate a 2D lattice from the atlas (lattice JSON)",
-       {"lattice2d", "output"}, "", false, "lattice JSON to write", false, false, false,
+       {"lattice2d", "output", "run"}, "", false, "lattice JSON to write", false, false, false,
        "Patterns: " + patterns +
            ".\nThe cell size means: honeycomb = hexagon side; penrose = rhombus side; snub-square = "
            "edge;\narrowhead, reentrant-honeycomb = horizontal period; square, triangle, lines = "
@@ -121,7 +121,7 @@ void add_routes(CLI::App& app, int argc, char** argv) {
            "the region centre,\nand cropped with a node where the crop cuts a strut.\nExample:\n"
            "  trellis lattice2d --pattern penrose --cell 1.2 --size 10,10 -o penrose.json --preview penrose"},
       {"lattice3d", "lattice3d", "Generate a 3D strut lattice: unit cells or a Voronoi foam (lattice JSON)",
-       {"lattice3d", "output"}, "", false, "lattice JSON to write", false, false, false,
+       {"lattice3d", "output", "run"}, "", false, "lattice JSON to write", false, false, false,
        "Unit cells: " + cells +
            ".\n--kind foam makes a stochastic Voronoi foam in a box (--box W,D,H) or inside a closed\n"
            "mesh (--mesh FILE), reproducible for --seed. Materials: none; xy-plane (struts in the XY\n"
@@ -139,7 +139,7 @@ void add_routes(CLI::App& app, int argc, char** argv) {
        "With --machine and --gcode FILE the plan is also written as G-code (one run, one header).\n"
        "Example:\n  trellis plan gippo penrose.json -o penrose.toolpath.json --report penrose.report.json"},
       {"gcode", "gcode", "Write G-code (or pneumatic / embedded .nc) from a toolpath and a machine profile",
-       m, "toolpath", true, "G-code file to write", true, false, false,
+       with({"run"}, m), "toolpath", true, "G-code file to write", true, false, false,
        "Profiles are TOML files (profiles/); `trellis settings machine` lists every setting.\n"
        "Settings merge: defaults < profile < flags and --set."},
       {"slice", "slice", "Slice a design (.vcad) or a mesh (.stl, .obj, .3mf) into walls, skins and infill",
@@ -162,7 +162,7 @@ void add_routes(CLI::App& app, int argc, char** argv) {
        "  trellis pbf --cell-type schwarz_d --cell 2.5 --size 10,10,10 --machine profiles/pbf_316l_25um.toml\n"
        "      -o lattice.cli --report lattice.json --preview previews"},
       {"nonplanar", "nonplanar", "Slice a surface into continuous non-planar layers (embedded printing)",
-       with({"nonplanar", "output"}, m), "surface", false, "G-code to write", true, true, true,
+       with({"nonplanar", "output", "run"}, m), "surface", false, "G-code to write", true, true, true,
        "The surface is an open mesh (STL, OBJ, 3MF), --height-fn z(x,y) over --domain, or a\n"
        "generated test surface (--set surface.kind=corrugation). It must be a height field.\n"
        "Each layer is the surface cut by vertical planes one bead width apart (the nozzle's unless\n"
@@ -172,7 +172,7 @@ void add_routes(CLI::App& app, int argc, char** argv) {
        "  trellis surface corrugation -o corrugation.stl\n"
        "  trellis nonplanar corrugation.stl --machine profiles/fresh_nonplanar_2syringe.toml -o corrugation.gcode"},
       {"surface", "surface", "Generate the non-planar paper's test surfaces (STL)",
-       {"surface", "output"}, "", false, "STL to write", false, false, false,
+       {"surface", "output", "run"}, "", false, "STL to write", false, false, false,
        "Kinds (--kind): corrugation (--periods, --angle, --amplitude-scale, --fillet, --flat),\n"
        "miura (--depth), m-curve (--height), sphere-cap (--radius, --diameter)."},
   };

@@ -24,13 +24,7 @@ void add_run(CLI::App& app) {
   cmd->add_option("-o,--output-dir", o->out, "output folder (replaces [job] output_dir)");
   cmd->add_option("--set", o->sets, "override a setting of the job: section.key=value (repeatable)");
   cmd->callback([o] {
-    Job job = load_job(o->job, o->out);
-    for (const auto& s : o->sets) {
-      const auto eq = s.find('=');
-      if (eq == std::string::npos)
-        throw SettingError("expected section.key=value, got '" + s + "'", {"", 0, "--set"});
-      job.settings.set_text(s.substr(0, eq), s.substr(eq + 1), {"--set"});
-    }
+    const Job job = load_job(o->job, o->out, o->sets);
     Diagnostics diag;
     Progress progress;
     progress.report = progress_line;

@@ -30,10 +30,9 @@ int exit_code();
 void progress_line(const std::string& stage, double fraction);
 // Prints the warnings of a run on stderr.
 void print_warnings(const Diagnostics& diag);
-// The nozzle-collision model's options (--nozzle-radius, --tip-clearance, --node-clearance,
-// --cone), shared by `plan aero` and `check`, in an option group.
-void add_nozzle_options(CLI::App* cmd, NozzleModel& nozzle, const std::string& group);
 
+// Settings of a command: the machine profile (if any), then --set assignments.
+Settings command_settings(const std::string& machine, const std::vector<std::string>& sets);
 // Prints a route's warnings, summary and written files; sets the exit code.
 void print_result(const JobResult& result, const Diagnostics& diag);
 

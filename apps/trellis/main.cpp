@@ -37,24 +37,6 @@ int exit_code() {
   return g_exit_code;
 }
 
-void add_nozzle_options(CLI::App* cmd, NozzleModel& nozzle, const std::string& group) {
-  cmd->add_option("--nozzle-radius", nozzle.radius, "nozzle radius R (mm)")
-      ->capture_default_str()
-      ->group(group);
-  cmd->add_option("--tip-clearance", nozzle.tip_clearance,
-                  "material less than this above the tip is not hit (mm)")
-      ->capture_default_str()
-      ->group(group);
-  cmd->add_option("--node-clearance", nozzle.node_clearance,
-                  "no collision within this of a node the two struts share (mm)")
-      ->capture_default_str()
-      ->group(group);
-  cmd->add_option("--cone", nozzle.cone_half_angle_deg,
-                  "struts within this angle of vertical print bottom-up (degrees)")
-      ->capture_default_str()
-      ->group(group);
-}
-
 std::string nearest(const std::string& word, const std::vector<std::string>& candidates) {
   std::string best;
   std::size_t best_d = std::max<std::size_t>(2, word.size() / 3) + 1;

@@ -34,21 +34,24 @@ std::vector<std::string> route_sections(const std::string& route) {
   auto add = [&](std::initializer_list<const char*> xs) {
     for (const char* x : xs) s.emplace_back(x);
   };
-  if (route == "lattice2d") add({"lattice2d", "output"});
-  else if (route == "lattice3d") add({"lattice3d", "output"});
+  if (route == "lattice2d") add({"lattice2d", "output", "run"});
+  else if (route == "lattice3d") add({"lattice3d", "output", "run"});
   else if (route == "plan") {
     s = machine_sections();
     add({"lattice2d", "lattice3d", "lattice", "layers", "onto", "plan", "gippo", "aero", "nozzle",
          "output", "run"});
-  } else if (route == "gcode") s = machine_sections();
+  } else if (route == "gcode") {
+    s = machine_sections();
+    add({"run"});
+  }
   else if (route == "slice") {
     s = machine_sections();
     add({"slice", "fgm", "output", "run"});
   } else if (route == "pbf") add({"machine", "laser", "scan", "pbf", "output", "run"});
   else if (route == "nonplanar") {
     s = machine_sections();
-    add({"nonplanar", "surface", "output"});
-  } else if (route == "surface") add({"surface", "output"});
+    add({"nonplanar", "surface", "output", "run"});
+  } else if (route == "surface") add({"surface", "output", "run"});
   else {
     std::string all;
     for (const auto& r : route_names()) all += (all.empty() ? "" : ", ") + r;
@@ -94,7 +97,8 @@ std::string quoted(const std::string& s) {
 }  // namespace
 
 Job job_from_toml(const std::string& text, const std::string& origin, const std::string& base,
-                  bool embedded, const std::string& output_dir_override) {
+                  bool embedded, const std::string& output_dir_override,
+                  const std::vector<std::string>& sets) {
   toml::table root;
   try {
     root = toml::parse(text, origin);
@@ -150,6 +154,16 @@ Job job_from_toml(const std::string& text, const std::string& origin, const std:
                          {origin, e.origin.line, key});
   }
   resolve_path_settings(job.settings, base);
+  for (const auto& s : sets) {
+    const auto eq = s.find('=');
+    if (eq == std::string::npos)
+      throw SettingError("expected section.key=value, got '" + s + "'", {"", 0, "--set"});
+    const std::string key = s.substr(0, eq);
+    job.settings.set_text(key, s.substr(eq + 1), {"--set"});
+    if (std::find(sections.begin(), sections.end(), key.substr(0, key.find('.'))) == sections.end())
+      throw SettingError("the " + job.route + " route does not read [" + key.substr(0, key.find('.')) + "]",
+                         {"", 0, "--set " + key});
+  }
   if (!embedded) {
     // Default outputs under output_dir, named after the job.
     const fs::path dir = resolve(base, output_dir.empty() ? "out/" + job.name : output_dir);
@@ -178,9 +192,10 @@ Job job_from_toml(const std::string& text, const std::string& origin, const std:
   return job;
 }
 
-Job load_job(const std::string& path, const std::string& output_dir) {
+Job load_job(const std::string& path, const std::string& output_dir,
+             const std::vector<std::string>& sets) {
   const std::string base = fs::path(path).parent_path().string();
-  Job job = job_from_toml(read_file(path), path, base.empty() ? "." : base, false, output_dir);
+  Job job = job_from_toml(read_file(path), path, base.empty() ? "." : base, false, output_dir, sets);
   if (job.command.empty()) job.command = "trellis run " + fs::path(path).filename().string();
   return job;
 }

@@ -174,7 +174,7 @@ JobResult lattice2d(const Job& job, const Config& c, Diagnostics&, const Progres
   JobResult out;
   const AtlasParams a = atlas_of(c, job.settings);
   const Graph g = make_lattice2d(a);
-  write_lattice(job.output, g);
+  write_file_atomic(job.output, with_job(lattice_to_json(g), job, job.output));
   out.files.push_back(job.output);
   if (!job.preview.empty()) {
     fs::create_directories(job.preview);
@@ -192,7 +192,7 @@ JobResult lattice2d(const Job& job, const Config& c, Diagnostics&, const Progres
 JobResult lattice3d(const Job& job, const Config& c, Diagnostics& diag, const Progress&) {
   JobResult out;
   const Graph g = cells_or_foam(c, diag);
-  write_lattice(job.output, g);
+  write_file_atomic(job.output, with_job(lattice_to_json(g), job, job.output));
   out.files.push_back(job.output);
   if (!job.preview.empty()) {
     fs::create_directories(job.preview);

@@ -6,7 +6,11 @@
 #include "routes.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
+#include "trellis/machine/gcode_reader.hpp"
 #include "trellis/toolpath/json.hpp"
+
+#include <cstdio>
+#include <tbb/global_control.h>
 
 namespace trellis {
 
@@ -53,10 +57,52 @@ std::string fixed(double v, int decimals) {
 
 }  // namespace routes
 
+Toolpath read_print(const std::string& path, const Settings* machine, double* snap,
+                    Diagnostics& diag) {
+  const auto ext = fs::path(path).extension().string();
+  if (ext != ".gcode" && ext != ".nc" && ext != ".g") return read_toolpath(path);
+  const std::string text = read_file(path);
+  Settings embedded;
+  bool have = machine != nullptr;
+  if (!have && text.find("\n; job: ") != std::string::npos) {
+    embedded = job_from_output(path).settings;
+    machine = &embedded;
+    have = true;
+  }
+  const MachineProfile profile = have ? machine->config().machine : MachineProfile{};
+  GcodeReadOptions read;
+  if (have && profile.parsed_flavor() != Flavor::Marlin) {
+    read.valve_on = profile.valve_on;
+    read.valve_off = profile.valve_off;
+  }
+  if (have && snap && *snap == 0.05) *snap = profile.node_overlap + 0.05;
+  Toolpath tp = read_gcode(text, read, diag, path);
+  // Back to design coordinates: undo the placement written into the header and the tool offsets.
+  double dx = 0, dy = 0;
+  const auto at = text.find("; placement offset = ");
+  if (at != std::string::npos &&
+      std::sscanf(text.c_str() + at, "; placement offset = %lf, %lf", &dx, &dy) != 2)
+    dx = dy = 0;
+  for (auto& l : tp.layers)
+    for (auto& p : l.paths) {
+      const Vec2 t = have ? profile.tool_offset(p.tool) : Vec2{};
+      for (auto& q : p.points) {
+        q.x -= t.x + dx;
+        q.y -= t.y + dy;
+      }
+    }
+  return tp;
+}
+
 JobResult run_job(const Job& job, Diagnostics& diag, const Progress& progress) {
   const std::vector<std::string> sections = route_sections(job.route);
   const Config c = job.settings.config();
   check_rules(c, job.settings, sections);
+  // run.threads bounds every parallel loop of the run (0 = all cores).
+  std::unique_ptr<tbb::global_control> threads;
+  if (c.threads > 0)
+    threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
+                                                    static_cast<std::size_t>(c.threads));
   for (const std::string* out : {&job.output, &job.report, &job.toolpath, &job.gcode, &job.lattice}) {
     if (out->empty()) continue;
     const fs::path dir = fs::path(*out).parent_path();

@@ -363,8 +363,9 @@ std::vector<Setting> make_table() {
                    [](C& c) -> auto& { return c.onto.file; }));
   t.push_back(text("onto.height_fn", "surface z = f(x, y) (onto.kind = function)", "",
                    [](C& c) -> auto& { return c.onto.height_fn; }));
-  t.push_back(numbers("onto.domain", "mm", -1e5, 1e5, 4, "x0, y0, x1, y1 of onto.height_fn", "",
-                      [](C& c) -> auto& { return c.onto.domain; }));
+  t.push_back(derived(numbers("onto.domain", "mm", -1e5, 1e5, 4, "x0, y0, x1, y1 of onto.height_fn",
+                              "", [](C& c) -> auto& { return c.onto.domain; }),
+                      "none (needed with onto.kind = function)"));
   t.push_back(choice_enum<OffsetMode>("onto.offset",
                                       {{"normal", OffsetMode::Normal}, {"vertical", OffsetMode::Vertical}},
                                       "layers stack along the surface normal or vertically", "",
@@ -523,8 +524,10 @@ std::vector<Setting> make_table() {
                    "layer-tools", [](C& c) -> auto& { return c.nonplanar.layer_tools; }));
   t.push_back(text("nonplanar.height_fn", "surface z = f(x, y) instead of a mesh (muparser)",
                    "height-fn", [](C& c) -> auto& { return c.nonplanar.height_fn; }));
-  t.push_back(numbers("nonplanar.domain", "mm", -1e5, 1e5, 4, "x0, y0, x1, y1 of the height function",
-                      "domain", [](C& c) -> auto& { return c.nonplanar.domain; }));
+  t.push_back(derived(numbers("nonplanar.domain", "mm", -1e5, 1e5, 4,
+                              "x0, y0, x1, y1 of the height function", "domain",
+                              [](C& c) -> auto& { return c.nonplanar.domain; }),
+                      "none (needed with nonplanar.height_fn)"));
   t.push_back(choice("surface.kind", {"corrugation", "miura", "m-curve", "sphere-cap"},
                      "generated test surface (non-planar paper)", "kind",
                      [](C& c) -> auto& { return c.surface.kind; }));

@@ -43,12 +43,15 @@ const std::vector<std::string>& machine_sections();
 
 // Reads a job file; relative paths are taken from the file's folder. The machine profile, if
 // any, is loaded below the job's own settings.
-// `output_dir` replaces the job's own [job] output_dir when not empty.
-Job load_job(const std::string& path, const std::string& output_dir = "");
+// `output_dir` replaces the job's own [job] output_dir when not empty; `sets` ("key=value", from
+// the command line) apply over the job's settings.
+Job load_job(const std::string& path, const std::string& output_dir = "",
+             const std::vector<std::string>& sets = {});
 // A job from TOML text. `base` is the folder relative paths start from. Embedded jobs (from an
 // output's header) carry every setting already, so their profile is not read again.
 Job job_from_toml(const std::string& text, const std::string& origin, const std::string& base,
-                  bool embedded, const std::string& output_dir = "");
+                  bool embedded, const std::string& output_dir = "",
+                  const std::vector<std::string>& sets = {});
 
 // The job as TOML, paths relative to `base` (the folder of the file it is written into).
 // Outputs are left out: a job embedded in an output regenerates that output wherever asked.
@@ -57,6 +60,13 @@ std::string job_toml(const Job& job, const std::string& base);
 // The job embedded in an output (G-code / .nc / .cli header comments, toolpath or report JSON).
 // Throws ParseError naming the file when it has none.
 Job job_from_output(const std::string& path);
+
+// Reads a print back into design coordinates for checking against its lattice: a toolpath JSON
+// as it is; G-code with the valve commands and tool offsets of `machine` — by default the
+// machine settings of the job the file embeds — and the placement offset Trellis wrote into the
+// header undone. `snap` gets the profile's node overlap + 0.05 when it is left at 0.05.
+Toolpath read_print(const std::string& path, const Settings* machine, double* snap,
+                    Diagnostics& diag);
 
 struct JobResult {
   std::vector<std::string> files;  // written, in order
