@@ -111,6 +111,13 @@ void add_routes(CLI::App& app, int argc, char** argv) {
   for (const auto& n : pattern_names()) patterns += (patterns.empty() ? "" : ", ") + n;
   std::string cells;
   for (const auto& n : unit_cell_names()) cells += (cells.empty() ? "" : ", ") + n;
+  const std::string plan_footer =
+      "Lattice formats: .json, NAME_vertices.csv/NAME_edges.csv (AERO), segment .csv, .obj.\n"
+      "Planar levels (edges at one z) and materials are planned separately. With --machine and\n"
+      "--gcode FILE the plan is also written as G-code. Example:\n"
+      "  trellis plan gippo penrose.json -o penrose.toolpath.json --report penrose.report.json";
+  auto* plan = app.add_subcommand("plan", "Plan print paths over a lattice: gippo, euler or aero");
+  plan->require_subcommand(1);
   const std::vector<RouteSpec> specs = {
       {"lattice2d", "lattice2d", "Generate a 2D lattice from the atlas (lattice JSON)",
        {"lattice2d", "output", "run"}, "", false, "lattice JSON to write", false, false, false,
@@ -127,17 +134,21 @@ void add_routes(CLI::App& app, int argc, char** argv) {
            "mesh (--mesh FILE), reproducible for --seed. Materials: none; xy-plane (struts in the XY\n"
            "plane 0, others 1); component (one per connected part); vertical (steep struts 1).\nExample:\n"
            "  trellis lattice3d --cell-type octet --cell 7 --count 3,3,3 -o octet.json"},
-      {"plan", "plan", "Plan print paths over a lattice (toolpath JSON, report, optional G-code)",
-       with({"lattice", "plan", "gippo", "aero", "nozzle", "output", "run"}, m), "lattice", true,
+      {"gippo", "plan", "GIPPO: the paper's randomized greedy path growth, best of N iterations",
+       with({"lattice", "plan", "gippo", "output", "run"}, m), "lattice", true,
        "toolpath JSON to write", true, false, true,
-       "Planners (first argument):\n  gippo  the paper's randomized greedy growth (max: longest edge "
-       "first, min: shortest),\n         N iterations, best score (Eq. 1) kept; reproducible for a seed.\n"
-       "  euler  Hierholzer: exactly the lower bound max(1, odd nodes/2) of paths per component.\n"
-       "  aero   3D strut lattices for embedded printing: collision-free Eulerian trails, replayed\n"
-       "         by the independent collision checker.\n"
-       "Lattice formats: .json, NAME_vertices.csv/NAME_edges.csv (AERO), segment .csv, .obj.\n"
-       "With --machine and --gcode FILE the plan is also written as G-code (one run, one header).\n"
-       "Example:\n  trellis plan gippo penrose.json -o penrose.toolpath.json --report penrose.report.json"},
+       "Each iteration grows paths from a random incomplete node, taking the longest (--mode max)\n"
+       "or shortest (--mode min) unused edge at either end; the best score (Eq. 1) is kept.\n"
+       "Reproducible for a --seed whatever the thread count.\n" + plan_footer},
+      {"euler", "plan", "Euler: exactly the lower bound max(1, odd nodes / 2) of paths (Hierholzer)",
+       with({"lattice", "plan", "output", "run"}, m), "lattice", true, "toolpath JSON to write",
+       true, false, true, plan_footer},
+      {"aero", "plan", "AERO: collision-free Eulerian trails for 3D lattices printed in a bath",
+       with({"lattice", "plan", "aero", "nozzle", "output", "run"}, m), "lattice", true,
+       "toolpath JSON to write", true, false, true,
+       "The nozzle is a vertical cylinder (--nozzle-radius); struts within --cone of vertical print\n"
+       "bottom-up; the plan is replayed by the independent collision checker and reported.\n" +
+           plan_footer},
       {"gcode", "gcode", "Write G-code (or pneumatic / embedded .nc) from a toolpath and a machine profile",
        with({"run"}, m), "toolpath", true, "G-code file to write", true, false, false,
        "Profiles are TOML files (profiles/); `trellis settings machine` lists every setting.\n"
@@ -172,19 +183,18 @@ void add_routes(CLI::App& app, int argc, char** argv) {
        "  trellis surface corrugation -o corrugation.stl\n"
        "  trellis nonplanar corrugation.stl --machine profiles/fresh_nonplanar_2syringe.toml -o corrugation.gcode"},
       {"surface", "surface", "Generate the non-planar paper's test surfaces (STL)",
-       {"surface", "output", "run"}, "", false, "STL to write", false, false, false,
+       {"surface", "output", "run"}, "", false, "STL to write", true, false, false,
        "Kinds (--kind): corrugation (--periods, --angle, --amplitude-scale, --fillet, --flat),\n"
-       "miura (--depth), m-curve (--height), sphere-cap (--radius, --diameter)."},
+       "miura (--depth), m-curve (--height), sphere-cap (--radius, --diameter), and angle-test,\n"
+       "the print-angle test path (0, ±22.5, ±45, ±67.5, 90, −80°) written as toolpath JSON, or as\n"
+       "G-code with --machine."},
   };
   for (const auto& spec : specs) {
     auto o = std::make_shared<RouteOpts>();
-    auto* cmd = app.add_subcommand(spec.name, spec.description);
-    cmd->footer(spec.footer);
     const std::string route = spec.route;
-    if (route == "plan")
-      cmd->add_option("planner", o->extra, "gippo, euler or aero")
-          ->required()
-          ->check(CLI::IsMember({"gippo", "euler", "aero"}));
+    auto* cmd = (route == "plan" ? plan : &app)->add_subcommand(spec.name, spec.description);
+    cmd->footer(spec.footer);
+    if (route == "plan") o->extra = spec.name;
     if (route == "surface")
       cmd->add_option("kind", o->extra, "corrugation, miura, m-curve or sphere-cap (or --kind)");
     if (std::string(spec.input) != "") {

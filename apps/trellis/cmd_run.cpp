@@ -31,7 +31,11 @@ void add_run(CLI::App& app) {
     const JobResult r = run_job(job, diag, progress);
     print_warnings(diag);
     std::cout << job.name << " (" << job.route << "): " << r.summary << "\n";
-    for (const auto& f : r.files) std::cout << "  " << f << "\n";
+    for (const auto& f : r.files) {
+      // Paths under the working folder are shown relative to it.
+      const auto rel = std::filesystem::path(f).lexically_relative(std::filesystem::current_path());
+      std::cout << "  " << (rel.empty() || *rel.begin() == ".." ? f : rel.string()) << "\n";
+    }
     if (r.exit_code) set_exit_code(r.exit_code);
   });
 }

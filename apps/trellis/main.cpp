@@ -94,14 +94,20 @@ int main(int argc, char** argv) {
   trellis::cli::add_compare(app);
   trellis::cli::add_walls(app);
   // A misspelt command: name the nearest one instead of CLI11's "a subcommand is required".
-  if (argc > 1 && argv[1][0] != '-') {
+  CLI::App* level = &app;
+  for (int i = 1; i < argc && argv[i][0] != '-' && !level->get_subcommands({}).empty(); ++i) {
     std::vector<std::string> names;
-    for (const auto* sub : app.get_subcommands({})) names.push_back(sub->get_name());
-    if (std::find(names.begin(), names.end(), argv[1]) == names.end()) {
-      std::cerr << "trellis: error: unknown command '" << argv[1] << "'";
-      const std::string near = trellis::cli::nearest(argv[1], names);
+    for (const auto* sub : level->get_subcommands({})) names.push_back(sub->get_name());
+    if (std::find(names.begin(), names.end(), argv[i]) != names.end()) {
+      level = level->get_subcommand(argv[i]);
+      continue;
+    }
+    {
+      std::cerr << "trellis: error: unknown command '" << argv[i] << "'";
+      const std::string near = trellis::cli::nearest(argv[i], names);
       if (!near.empty()) std::cerr << " (did you mean '" << near << "'?)";
-      std::cerr << "; `trellis --help` lists the commands\n";
+      std::cerr << "; `trellis " << (level == &app ? "" : level->get_name() + " ")
+                << "--help` lists the commands\n";
       return 2;
     }
   }
@@ -116,7 +122,13 @@ int main(int argc, char** argv) {
   } catch (const CLI::ExtrasError& e) {
     // A misspelt flag: suggest the nearest flag of the command.
     std::string msg = e.what();
+    std::vector<const CLI::App*> chosen;
     for (const auto* sub : app.get_subcommands()) {
+      chosen.push_back(sub);
+      for (const auto* inner : sub->get_subcommands()) chosen.push_back(inner);
+    }
+    for (const auto* sub : chosen) {
+      if (!sub->get_subcommands().empty()) continue;
       std::vector<std::string> flags;
       for (const auto* opt : sub->get_options())
         for (const auto& n : opt->get_lnames()) flags.push_back("--" + n);
@@ -127,7 +139,9 @@ int main(int argc, char** argv) {
         if (std::find(flags.begin(), flags.end(), name) != flags.end()) continue;
         const std::string near = trellis::cli::nearest(name, flags);
         msg = "unknown option " + name + (near.empty() ? "" : " (did you mean " + near + "?)") +
-              "; `trellis " + sub->get_name() + " --help` lists them";
+              "; `trellis " +
+              (sub->get_parent() && sub->get_parent()->get_parent() ? sub->get_parent()->get_name() + " " : "") +
+              sub->get_name() + " --help` lists them";
         break;
       }
     }

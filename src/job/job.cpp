@@ -51,7 +51,10 @@ std::vector<std::string> route_sections(const std::string& route) {
   else if (route == "nonplanar") {
     s = machine_sections();
     add({"nonplanar", "surface", "output", "run"});
-  } else if (route == "surface") add({"surface", "output", "run"});
+  } else if (route == "surface") {
+    s = machine_sections();  // the angle test can be written as G-code
+    add({"surface", "output", "run"});
+  }
   else {
     std::string all;
     for (const auto& r : route_names()) all += (all.empty() ? "" : ", ") + r;

@@ -2,6 +2,7 @@
 // independent collision check) and G-code from a toolpath.
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -296,10 +297,23 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
   return out;
 }
 
-JobResult gcode(const Job& job, const Config& c, Diagnostics&, const Progress&) {
+JobResult gcode(const Job& job, const Config& c, Diagnostics& diag, const Progress&) {
   JobResult out;
   if (job.input.empty()) throw SettingError("gcode needs a toolpath JSON to read", {"", 0, "job.input"});
   const Toolpath tp = read_toolpath(job.input);
+  // The toolpath's bead heights were set when it was planned; say so when they are not the
+  // machine's layer height (E follows the path's own height).
+  for (const auto& l : tp.layers) {
+    const auto odd = std::find_if(l.paths.begin(), l.paths.end(), [&](const Path& p) {
+      return p.height > 0 && std::abs(p.height - c.machine.layer_height) > 0.01 * c.machine.layer_height;
+    });
+    if (odd == l.paths.end()) continue;
+    diag.warn("layer_height_differs",
+              fmt::format("the toolpath's bead height is {} mm but extrusion.layer_height is {} mm; E "
+                          "follows the toolpath (plan with --machine to use the profile's)",
+                          fixed(odd->height, 3), fixed(c.machine.layer_height, 3)));
+    break;
+  }
   GcodeStats s;
   write_gcode_out(job.output, tp, job, c, out, &s);
   out.summary = fmt::format(

@@ -128,6 +128,12 @@ HeightField test_surface(const SurfaceConfig& s) {
   return sphere_cap(s.radius, s.diameter);
 }
 
+// Designs and surfaces are centred at the origin: on the bed centre unless a setting says not.
+MachineProfile centred(MachineProfile m, const Job& job) {
+  if (!job.settings.has("placement.center")) m.center = true;
+  return m;
+}
+
 void write_gcode_out(const std::string& path, Toolpath tp, const Job& job, const MachineProfile& m,
                      JobResult& out, GcodeStats& stats) {
   tp.job = embedded_job(job, path);
@@ -155,7 +161,7 @@ JobResult slice(const Job& job, const Config& c, Diagnostics&, const Progress& p
   r.toolpath.source = "trellis slice " + fs::path(job.input).filename().string() + " (" +
                       to_string(r.route) + " route)";
   GcodeStats g;
-  write_gcode_out(job.output, r.toolpath, job, c.machine, out, g);
+  write_gcode_out(job.output, r.toolpath, job, centred(c.machine, job), out, g);
   if (!job.toolpath.empty()) {
     write_toolpath_with_job(job.toolpath, r.toolpath, job);
     out.files.push_back(job.toolpath);
@@ -291,7 +297,7 @@ JobResult nonplanar(const Job& job, const Config& c, Diagnostics&, const Progres
   NonplanarResult r = slice_nonplanar(surface, prm);
   const SurfaceDeviation dev = surface_deviation(r.toolpath, surface, prm);
   GcodeStats g;
-  write_gcode_out(job.output, r.toolpath, job, c.machine, out, g);
+  write_gcode_out(job.output, r.toolpath, job, centred(c.machine, job), out, g);
   if (!job.toolpath.empty()) {
     write_toolpath_with_job(job.toolpath, r.toolpath, job);
     out.files.push_back(job.toolpath);
@@ -322,6 +328,28 @@ JobResult nonplanar(const Job& job, const Config& c, Diagnostics&, const Progres
 
 JobResult surface(const Job& job, const Config& c, Diagnostics&, const Progress&) {
   JobResult out;
+  if (c.surface.kind == "angle-test") {
+    // The print-angle test path: toolpath JSON, or G-code for the job's machine.
+    AngleTestParams p;
+    Toolpath tp = angle_test(p);
+    const std::string ext = fs::path(job.output).extension().string();
+    if (ext == ".json") {
+      write_toolpath_with_job(job.output, tp, job);
+      out.files.push_back(job.output);
+    } else {
+      if (job.machine.empty())
+        throw SettingError("the angle test as G-code needs --machine (or write .json)", {"", 0, "--machine"});
+      GcodeStats g;
+      write_gcode_out(job.output, tp, job, c.machine, out, g);
+    }
+    if (!job.preview.empty()) {
+      fs::create_directories(job.preview);
+      out.files.push_back(preview_name(job.preview, "3d.png"));
+      render_3d_png(tp, out.files.back(), {});
+    }
+    out.summary = fmt::format("angle test: {} lines", tp.layers[0].paths.size());
+    return out;
+  }
   const HeightField s = test_surface(c.surface);
   const TriangleMesh mesh = surface_mesh(s, c.surface.resolution);
   write_file_atomic(job.output, mesh_to_stl(mesh, s.name()));

@@ -179,7 +179,10 @@ void add_machine(std::vector<Setting>& out) {
     if (key == "embedded.drive") s.choices = {"pressure", "syringe"};
     if (!s.choices.empty()) s.kind = SettingKind::Choice;
     if (key == "extrusion.layer_height") s.flag = "layer-height";
-    if (key == "placement.center") s.flag = "center";
+    if (key == "placement.center") {
+      s.flag = "center";
+      s.derived = "true for slice and nonplanar (designs are centred at the origin), false otherwise";
+    }
     if (key == "speed.print") s.flag = "speed";
     if (key == "gradient.lookahead") s.flag = "lookahead";
     if (key == "machine.name") {
@@ -528,7 +531,7 @@ std::vector<Setting> make_table() {
                               "x0, y0, x1, y1 of the height function", "domain",
                               [](C& c) -> auto& { return c.nonplanar.domain; }),
                       "none (needed with nonplanar.height_fn)"));
-  t.push_back(choice("surface.kind", {"corrugation", "miura", "m-curve", "sphere-cap"},
+  t.push_back(choice("surface.kind", {"corrugation", "miura", "m-curve", "sphere-cap", "angle-test"},
                      "generated test surface (non-planar paper)", "kind",
                      [](C& c) -> auto& { return c.surface.kind; }));
   t.push_back(positive("surface.length", "mm", 1e4, "length along X", "length",
