@@ -57,6 +57,9 @@ def main():
     bindir = os.path.join(work, ".bin")
     os.mkdir(bindir)
     os.symlink(binary, os.path.join(bindir, "trellis"))
+    # Python examples use Debian's python3 and the package as built (PYTHONPATH from ctest).
+    if os.path.exists("/usr/bin/python3"):
+        os.symlink("/usr/bin/python3", os.path.join(bindir, "python3"))
     env = dict(os.environ, PATH=bindir + os.pathsep + os.environ["PATH"])
     failures = 0
     for line_no, cmd, shown in cmds:

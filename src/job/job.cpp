@@ -204,10 +204,11 @@ Job load_job(const std::string& path, const std::string& output_dir,
 }
 
 std::string job_toml(const Job& job, const std::string& base) {
-  std::string out = "[job]\nroute = " + quoted(job.route) + "\nname = " + quoted(job.name) + "\n";
+  // The name only names default outputs; an embedded job's outputs are given, so it is left out
+  // (the same plan written as a.json or b.json is the same file).
+  std::string out = "[job]\nroute = " + quoted(job.route) + "\n";
   if (!job.input.empty()) out += "input = " + quoted(relative_to(job.input, base)) + "\n";
   if (!job.machine.empty()) out += "machine = " + quoted(relative_to(job.machine, base)) + "\n";
-  if (!job.command.empty()) out += "command = " + quoted(job.command) + "\n";
   // Path settings relative to `base` too.
   Settings st = job.settings;
   for (const auto& [key, e] : job.settings.entries()) {

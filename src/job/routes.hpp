@@ -20,8 +20,10 @@ JobResult surface(const Job& job, const Config& c, Diagnostics& diag, const Prog
 
 // The job as it is embedded into a file at `path` (paths relative to its folder).
 std::string embedded_job(const Job& job, const std::string& path);
-// A JSON report with the job added as its "job" field.
-std::string with_job(const std::string& report_json, const Job& job, const std::string& path);
+// A JSON output with the job added as its "job" field; reports (`command` true) also record the
+// literal command line, which main outputs leave out so that CLI, Python and rerun agree.
+std::string with_job(const std::string& json, const Job& job, const std::string& path,
+                     bool command = true);
 // Writes the toolpath JSON with the job embedded.
 void write_toolpath_with_job(const std::string& path, Toolpath toolpath, const Job& job);
 // DIR/layer_0000.png … for `count` layers spread over the toolpath (all when count >= layers).

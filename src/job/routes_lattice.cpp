@@ -106,6 +106,7 @@ Graph cells_or_foam(const Config& c, Diagnostics& diag) {
 
 void write_gcode_out(const std::string& path, Toolpath tp, const Job& job, const Config& c,
                      JobResult& out, GcodeStats* stats = nullptr) {
+  if (path.empty()) return;
   tp.job = embedded_job(job, path);
   const GcodeStats s = write_gcode_file(path, tp, c.machine);
   if (stats) *stats = s;
@@ -128,6 +129,8 @@ JobResult plan_aero_route(const Job& job, const Config& c, const Graph& g, const
   for (auto& l : printed.layers)
     for (auto& path : l.paths) extend_path_ends(path, p.nozzle.end_overlap);
   const CollisionCheck chk = check_collisions(g, printed, check);
+  out.toolpath = std::make_shared<Toolpath>(tp);
+  out.lattice = std::make_shared<Graph>(g);
   const double secs = seconds_since(t0);
   if (!job.toolpath.empty()) {
     write_toolpath_with_job(job.toolpath, tp, job);
@@ -175,8 +178,11 @@ JobResult lattice2d(const Job& job, const Config& c, Diagnostics&, const Progres
   JobResult out;
   const AtlasParams a = atlas_of(c, job.settings);
   const Graph g = make_lattice2d(a);
-  write_file_atomic(job.output, with_job(lattice_to_json(g), job, job.output));
-  out.files.push_back(job.output);
+  if (!job.output.empty()) {
+    write_file_atomic(job.output, with_job(lattice_to_json(g), job, job.output, false));
+    out.files.push_back(job.output);
+  }
+  out.lattice = std::make_shared<Graph>(g);
   if (!job.preview.empty()) {
     fs::create_directories(job.preview);
     RenderOptions ro;
@@ -193,8 +199,11 @@ JobResult lattice2d(const Job& job, const Config& c, Diagnostics&, const Progres
 JobResult lattice3d(const Job& job, const Config& c, Diagnostics& diag, const Progress&) {
   JobResult out;
   const Graph g = cells_or_foam(c, diag);
-  write_file_atomic(job.output, with_job(lattice_to_json(g), job, job.output));
-  out.files.push_back(job.output);
+  if (!job.output.empty()) {
+    write_file_atomic(job.output, with_job(lattice_to_json(g), job, job.output, false));
+    out.files.push_back(job.output);
+  }
+  out.lattice = std::make_shared<Graph>(g);
   if (!job.preview.empty()) {
     fs::create_directories(job.preview);
     View3dOptions v;
@@ -254,6 +263,8 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
     r.travel = travel_stats(r.toolpath);
   }
   r.toolpath.source = "trellis " + c.planner + " " + fs::path(input).filename().string();
+  out.toolpath = std::make_shared<Toolpath>(r.toolpath);
+  out.lattice = std::make_shared<Graph>(g);
   const double secs = seconds_since(t0);
   if (!job.toolpath.empty()) {
     write_toolpath_with_job(job.toolpath, r.toolpath, job);
@@ -316,6 +327,7 @@ JobResult gcode(const Job& job, const Config& c, Diagnostics& diag, const Progre
   }
   GcodeStats s;
   write_gcode_out(job.output, tp, job, c, out, &s);
+  out.toolpath = std::make_shared<Toolpath>(tp);
   out.summary = fmt::format(
       "{}: {} paths, {} mm printed, {} travel moves ({} mm), {} retractions, {}{} mm filament, "
       "~{} min, {} bytes",

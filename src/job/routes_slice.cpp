@@ -136,6 +136,8 @@ MachineProfile centred(MachineProfile m, const Job& job) {
 
 void write_gcode_out(const std::string& path, Toolpath tp, const Job& job, const MachineProfile& m,
                      JobResult& out, GcodeStats& stats) {
+  out.toolpath = std::make_shared<Toolpath>(tp);
+  if (path.empty()) return;
   tp.job = embedded_job(job, path);
   stats = write_gcode_file(path, tp, m);
   out.files.push_back(path);
@@ -210,9 +212,12 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics&, const Progress& pro
   po.stl_route = c.pbf.route == "stl";
   const PbfResult r = plan_pbf(d, po, [&](double f) { progress("layers", f); });
   Toolpath tp = pbf_toolpath(r, prof.contour_power, prof.contour_speed, prof.hatch_power, prof.hatch_speed);
-  tp.job = embedded_job(job, job.output);
-  write_cli_file(job.output, tp, prof);
-  out.files.push_back(job.output);
+  out.toolpath = std::make_shared<Toolpath>(tp);
+  if (!job.output.empty()) {
+    tp.job = embedded_job(job, job.output);
+    write_cli_file(job.output, tp, prof);
+    out.files.push_back(job.output);
+  }
   if (!job.toolpath.empty()) {
     write_toolpath_with_job(job.toolpath, tp, job);
     out.files.push_back(job.toolpath);
@@ -332,8 +337,10 @@ JobResult surface(const Job& job, const Config& c, Diagnostics&, const Progress&
     // The print-angle test path: toolpath JSON, or G-code for the job's machine.
     AngleTestParams p;
     Toolpath tp = angle_test(p);
+    out.toolpath = std::make_shared<Toolpath>(tp);
     const std::string ext = fs::path(job.output).extension().string();
-    if (ext == ".json") {
+    if (job.output.empty()) {
+    } else if (ext == ".json") {
       write_toolpath_with_job(job.output, tp, job);
       out.files.push_back(job.output);
     } else {
@@ -352,8 +359,10 @@ JobResult surface(const Job& job, const Config& c, Diagnostics&, const Progress&
   }
   const HeightField s = test_surface(c.surface);
   const TriangleMesh mesh = surface_mesh(s, c.surface.resolution);
-  write_file_atomic(job.output, mesh_to_stl(mesh, s.name()));
-  out.files.push_back(job.output);
+  if (!job.output.empty()) {
+    write_file_atomic(job.output, mesh_to_stl(mesh, s.name()));
+    out.files.push_back(job.output);
+  }
   if (!job.preview.empty()) {
     fs::create_directories(job.preview);
     NonplanarParams prm;

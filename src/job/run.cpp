@@ -23,9 +23,12 @@ std::string embedded_job(const Job& job, const std::string& path) {
   return job_toml(job, dir.empty() ? "." : dir);
 }
 
-std::string with_job(const std::string& report_json, const Job& job, const std::string& path) {
-  nlohmann::ordered_json j = nlohmann::ordered_json::parse(report_json);
+std::string with_job(const std::string& json, const Job& job, const std::string& path, bool command) {
+  nlohmann::ordered_json j = nlohmann::ordered_json::parse(json);
   j["job"] = embedded_job(job, path);
+  // The literal command line goes into reports only (like their timings), so that a file made
+  // from the CLI, from Python or by rerun is the same file.
+  if (command && !job.command.empty()) j["command"] = job.command;
   return j.dump(2) + "\n";
 }
 

@@ -84,11 +84,17 @@ std::vector<double> parse_numbers(const Setting& s, const std::string& text, con
   return out;
 }
 
+// Every default, built once.
+const Config& defaults() {
+  static const Config c;
+  return c;
+}
+
 }  // namespace
 
 std::string Setting::default_text() const {
   if (!derived.empty()) return "";
-  return value_text(get(Config{}));
+  return value_text(get(defaults()));
 }
 
 std::string Setting::range_text() const {
@@ -330,7 +336,7 @@ SettingValue Settings::value(const std::string& key) const {
   if (const Entry* e = find(key)) return e->value;
   const Setting* s = find_setting(key);
   if (!s) throw SettingError("unknown setting", {"", 0, key});
-  return s->get(Config{});
+  return s->get(defaults());
 }
 
 std::string Settings::origin_text(const std::string& key) const {

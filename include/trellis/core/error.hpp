@@ -41,6 +41,11 @@ class IoError : public Error {
   using Error::Error;
 };
 
+// Work stopped because its Progress cancel flag was set (Ctrl-C in Python, a caller's request).
+class Cancelled : public Error {
+  using Error::Error;
+};
+
 // "file:line: element: message", leaving out what is unknown.
 std::string format_where(const Where& where);
 

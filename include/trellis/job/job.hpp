@@ -15,12 +15,15 @@
 //           overriding the machine profile.
 // Every path is relative to the job file's folder.
 #pragma once
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "trellis/core/diagnostics.hpp"
 #include "trellis/core/progress.hpp"
+#include "trellis/lattice/graph.hpp"
 #include "trellis/settings/settings.hpp"
+#include "trellis/toolpath/toolpath.hpp"
 
 namespace trellis {
 
@@ -29,7 +32,7 @@ struct Job {
   std::string name = "job";
   std::string input;     // path; empty where the route generates its input
   std::string machine;   // profile the settings were read from (provenance)
-  std::string command;   // the command line that made it (provenance)
+  std::string command;   // the command line that made it (recorded in reports)
   // Outputs; empty = not written.
   std::string output;    // the route's main output
   std::string report, toolpath, gcode, lattice, preview;
@@ -70,6 +73,9 @@ Toolpath read_print(const std::string& path, const Settings* machine, double* sn
 
 struct JobResult {
   std::vector<std::string> files;  // written, in order
+  // What the route made, in memory (for callers such as the Python package); may be null.
+  std::shared_ptr<const Toolpath> toolpath;
+  std::shared_ptr<const Graph> lattice;
   std::string summary;             // one or two lines for the terminal
   int exit_code = 0;               // 1 when a check found problems
 };
