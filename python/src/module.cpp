@@ -15,7 +15,10 @@
 #include <thread>
 
 #include "trellis/core/error.hpp"
+#include "trellis/analysis/collisions.hpp"
+#include "trellis/analysis/metrics.hpp"
 #include "trellis/core/file.hpp"
+#include "trellis/field/vcad.hpp"
 #include "trellis/job/job.hpp"
 #include "trellis/lattice/io.hpp"
 #include "trellis/machine/gcode_reader.hpp"
@@ -439,6 +442,50 @@ PYBIND11_MODULE(_trellis, m) {
   });
   m.def("toolpath_from_json", [](const std::string& text) {
     return std::make_shared<Toolpath>(toolpath_from_json(text, "<string>"));
+  });
+  // Analysis as the CLI reports it (the same JSON), for json.loads on the Python side.
+  m.def("analyze_json",
+        [](const std::string& path, const std::string& design, double bead_width, double layer_height,
+           bool align, bool strict) {
+          Diagnostics diag;
+          Graph g;
+          if (!design.empty()) g = read_lattice(design, {}, diag);
+          AnalysisParams params;
+          if (bead_width > 0) params.width = bead_width;
+          if (layer_height > 0) params.layer_height = layer_height;
+          params.align_centers = align;
+          GcodeReadOptions read;
+          read.stop_on_error = strict;
+          py::gil_scoped_release release;
+          return analysis_json(analyze_gcode_file(path, design.empty() ? nullptr : &g, params, read, diag));
+        },
+        py::arg("path"), py::arg("design") = "", py::arg("bead_width") = 0.0,
+        py::arg("layer_height") = 0.0, py::arg("align") = false, py::arg("strict") = false);
+  m.def("check_json",
+        [](const std::string& lattice, const std::string& print, const std::string& machine,
+           const py::dict& settings) {
+          Settings st;
+          if (!machine.empty()) st.load_toml_file(machine);
+          for (const auto& [k, v] : settings) {
+            const auto key = k.cast<std::string>();
+            st.set(key, to_value(key, v), {"keyword " + key});
+          }
+          const Config cfg = st.config();
+          cfg.aero.nozzle.validate();
+          py::gil_scoped_release release;
+          Diagnostics diag;
+          const Graph g = read_lattice(lattice, {cfg.merge_tolerance, true}, diag);
+          CheckOptions check;
+          check.nozzle = cfg.aero.nozzle;
+          const Toolpath tp = read_print(print, machine.empty() ? nullptr : &st, &check.snap, diag);
+          return collision_check_json(check_collisions(g, tp, check), check);
+        });
+  // Parses .vcad text (errors with line and column); returns the design's bounds if it has a root.
+  m.def("parse_vcad", [](const std::string& text, const std::string& name) {
+    const VcadDesign d = parse_vcad(text, name);
+    py::dict out;
+    out["has_root"] = d.has_root;
+    return out;
   });
   m.def("gcode_text", [](const Toolpath& t, const std::string& machine, const py::dict& settings) {
     Settings st;

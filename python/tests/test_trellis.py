@@ -201,3 +201,37 @@ def test_readers_and_pictures(tmp_path):
     assert g.layer_count == r.toolpath.layer_count
     png = r.toolpath._repr_png_()
     assert png[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_fields_built_in_python_slice_like_their_vcad_file(tmp_path):
+    part = trellis.difference(
+        trellis.union(trellis.rectprism(40, 30, 10), trellis.cylinder(10, 10).translate(0, 0, 8), blend=2),
+        trellis.cylinder(5, 40),
+        trellis.torus(10, 1.5).translate(0, 0, 12),
+        trellis.cylinder(2.5, 40).rotate(90, 0, 0))
+    assert "union(2)" in part.vcad() and "rotate(90, 0, 0)" in part.vcad()
+    a = trellis.slice(part, machine=ENDER).toolpath
+    b = trellis.slice(os.path.join(ROOT, "examples/designs/csg_bracket.vcad"), machine=ENDER).toolpath
+    assert a.path_count == b.path_count
+    assert np.allclose(a.points, b.points)
+    graded = trellis.fgrade(["0.5 + x/24", "0.5 - x/24"], ["a", "b"], trellis.rectprism(20, 10, 0.6))
+    r = trellis.slice(graded, machine=MIXING, strategy=2, colors=4)
+    assert len(np.unique(r.toolpath.mixture.round(4), axis=0)) == 4
+    with pytest.raises(trellis.InputError) as e:
+        trellis.parse_vcad("union() {\n  spere(2);\n}\n")
+    assert e.value.line == 2
+    with pytest.raises(trellis.SettingError):
+        trellis.tpms("gyriod", 2.5)
+
+
+def test_analysis_and_check_as_dicts(tmp_path):
+    lat = tmp_path / "l.json"
+    trellis.lattice2d(lat, pattern="snub-square", cell=1.2, size=(10, 10))
+    trellis.plan("euler", lat, tmp_path / "p.json", machine=ENDER, gcode=tmp_path / "p.gcode", center=True)
+    a = trellis.analyze(tmp_path / "p.gcode", lat, align=True)
+    assert a["missing_edges"] == 0 and abs(a["extrusion_ratio"] - 1) < 2e-3
+    cells = tmp_path / "octet.json"
+    trellis.lattice3d(cells, cell_type="octet", cell=7, count=(2, 2, 1))
+    trellis.plan("aero", cells, tmp_path / "o.json", machine=BATH, gcode=tmp_path / "o.nc")
+    c = trellis.check(cells, tmp_path / "o.nc")
+    assert c["collisions"] == 0 and c["struts_printed_once"] == c["struts"] > 0

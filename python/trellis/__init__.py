@@ -20,8 +20,12 @@ import tempfile
 
 from . import _trellis
 from .errors import GeometryError, InputError, SettingError, TrellisError
+from .fields import (Field, cone, cube, cylinder, difference, fgrade, function, gyroid, intersection,
+                     mesh, rectprism, sphere, torus, tpms, union)
 
-__all__ = ["lattice2d", "lattice3d", "plan", "gcode", "slice", "pbf", "nonplanar", "surface",
+__all__ = ["Field", "sphere", "cube", "rectprism", "cylinder", "cone", "torus", "function", "tpms",
+           "gyroid", "mesh", "union", "intersection", "difference", "fgrade", "parse_vcad",
+           "analyze", "check", "lattice2d", "lattice3d", "plan", "gcode", "slice", "pbf", "nonplanar", "surface",
            "run_job", "rerun", "settings", "read_lattice", "read_toolpath", "Lattice", "Toolpath",
            "Result", "TrellisError", "InputError", "SettingError", "GeometryError", "__version__"]
 
@@ -235,9 +239,44 @@ def gcode(toolpath, output=None, *, machine, progress=None, set=None, **settings
 
 def slice(design, output=None, *, machine, report=None, toolpath=None, preview=None,
           progress=None, set=None, **settings):
-    """Slices a .vcad design or a mesh: walls, skins, infill; graded with strategy=1 or 2."""
-    return _call("slice", design, {"output": output, "report": report, "toolpath": toolpath,
-                                   "preview": preview}, machine, set, progress, settings)
+    """Slices a .vcad design, a mesh, or a ``Field`` built in Python: walls, skins, infill;
+    graded designs with strategy=1 or 2."""
+    temp = None
+    if isinstance(design, Field):
+        parse_vcad(design.vcad())
+        fd, temp = tempfile.mkstemp(suffix=".vcad", prefix="trellis_design_")
+        with os.fdopen(fd, "w") as f:
+            f.write(design.vcad())
+        design = temp
+    try:
+        return _call("slice", design, {"output": output, "report": report, "toolpath": toolpath,
+                                       "preview": preview}, machine, set, progress, settings)
+    finally:
+        if temp:
+            os.remove(temp)
+
+
+def parse_vcad(text, name="<vcad>"):
+    """Checks .vcad text (errors name the line and column); returns {'has_root': bool}."""
+    return _trellis.parse_vcad(text, name)
+
+
+def analyze(gcode, design=None, *, bead_width=0.0, layer_height=0.0, align=False, strict=False):
+    """Measures any G-code (ours or another slicer's) against a design lattice: the same numbers
+    as `trellis analyze`, as a dict."""
+    import json
+    return json.loads(_trellis.analyze_json(os.fspath(gcode), _path(design), bead_width, layer_height,
+                                            align, strict))
+
+
+def check(lattice, print_file, *, machine=None, set=None, **nozzle):
+    """Replays a print against the nozzle model (collisions, struts missing or repeated), as a
+    dict; nozzle settings by keyword (radius, tip_clearance, node_clearance, cone)."""
+    import json
+    values = {f"nozzle.{k}": v for k, v in nozzle.items()}
+    values.update(set or {})
+    return json.loads(_trellis.check_json(os.fspath(lattice), os.fspath(print_file), _path(machine),
+                                          values))
 
 
 def pbf(output=None, *, envelope=None, machine=None, report=None, toolpath=None, preview=None,
