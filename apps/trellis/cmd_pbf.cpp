@@ -50,6 +50,41 @@ double peak_rss_mb() {
   return static_cast<double>(u.ru_maxrss) / 1024.0;
 }
 
+// Per-layer columns of the report (z, FR_a of the path and of R67, lengths, area, scan times).
+nlohmann::ordered_json pbf_layer_series(const PbfResult& r) {
+  nlohmann::ordered_json s;
+  for (const char* k : {"z_mm", "fr_a", "fr_a_r67", "contour_mm", "hatch_mm", "r67_hatch_mm",
+                        "area_mm2", "scan_time_s", "scan_time_r67_s"})
+    s[k] = nlohmann::json::array();
+  for (const auto& L : r.layers) {
+    s["z_mm"].push_back(L.z);
+    s["fr_a"].push_back(L.fr);
+    s["fr_a_r67"].push_back(L.fr_r67);
+    s["contour_mm"].push_back(L.contour_length);
+    s["hatch_mm"].push_back(L.hatch_length);
+    s["r67_hatch_mm"].push_back(L.r67_length);
+    s["area_mm2"].push_back(L.area);
+    s["scan_time_s"].push_back(L.scan_time);
+    s["scan_time_r67_s"].push_back(L.scan_time_r67);
+  }
+  return s;
+}
+
+// FR_a over layers (paper Fig. 3(b)): this path and the R67 baseline; returns the PNG's path.
+std::string render_fr_plot(const PbfResult& r, bool r67, const std::string& dir) {
+  std::vector<double> x;
+  PlotSeries fh{r67 ? "R67" : "hybrid", {}, 0.85, 0.1, 0.1}, fb{"R67 baseline", {}, 0.1, 0.3, 0.8};
+  for (std::size_t i = 0; i < r.layers.size(); ++i) {
+    x.push_back(static_cast<double>(i + 1));
+    const bool any = r.layers[i].area > 0;
+    fh.values.push_back(any ? r.layers[i].fr : NAN);
+    fb.values.push_back(any ? r.layers[i].fr_r67 : NAN);
+  }
+  const std::string path = dir + "/fr_a.png";
+  render_series_png(x, {fh, fb}, "filling ratio FR_a = D·ΣL/A per layer", "layer", path);
+  return path;
+}
+
 }  // namespace
 
 void add_pbf(CLI::App& app) {
@@ -60,6 +95,8 @@ void add_pbf(CLI::App& app) {
     double cell = 2.5, thickness = 0, grade_center = 0, grade_width = 1, resolution = 0.025;
     double layer = 0, sl = 0, lhd = -1, hatch = 0, beam = -1, thin_multiple = 1.5,
            min_inclination = 20;
+    double wall_thickness = 0, wall_inclination = 90, wall_azimuth = 0, memory_budget_mb = 0,
+           hatch_rotation = 67;
     std::vector<double> size;
     bool r67 = false;
     std::size_t preview_layers = 3;
@@ -113,36 +150,54 @@ void add_pbf(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--route", o->route, "direct or stl")->capture_default_str();
   cmd->add_flag("--r67", o->r67, "plain 67°-rotating hatch of the whole sheet (the baseline)");
+  cmd->add_option("--wall-thickness", o->wall_thickness,
+                  "a plane thin wall of this thickness (mm) instead of a TPMS (paper Fig. 3); box "
+                  "from --size, default 2,2,20");
+  cmd->add_option("--wall-inclination", o->wall_inclination, "wall angle from horizontal (deg)")
+      ->capture_default_str();
+  cmd->add_option("--wall-azimuth", o->wall_azimuth, "wall direction from the X axis (deg)")
+      ->capture_default_str();
+  cmd->add_option("--hatch-rotation", o->hatch_rotation, "hatch rotation per layer (deg)")
+      ->capture_default_str();
+  cmd->add_option("--memory-budget", o->memory_budget_mb,
+                  "refuse a job estimated above this (MB); default: the memory available");
   cmd->callback([o] {
     const LaserProfile prof = o->machine.empty() ? LaserProfile{} : load_laser_profile(o->machine);
     if (o->route != "direct" && o->route != "stl")
       throw SettingError("unknown route '" + o->route + "' (expected direct or stl)");
     PbfDesign d;
-    d.phi = tpms(tpms_kind(o->cell_type), {o->cell, o->cell, o->cell});
-    if (!o->grade_to.empty()) {
-      const Field other = tpms_spec(o->grade_to, nullptr);
-      const std::string s = o->grade_axis == "z" ? "z" : o->grade_axis == "r" ? "rho" : "";
-      if (s.empty()) throw SettingError("grade axis must be z or r");
-      if (!(o->grade_width > 0)) throw SettingError("grade width must be > 0");
-      d.phi = blend(d.phi, other,
-                    {fmt::format("1/(1+exp(-({}-({}))/({})))", s, o->grade_center, o->grade_width)});
-    }
-    if (!o->hierarchical.empty()) {
-      double w = 0.3;
-      const Field fine = tpms_spec(o->hierarchical, &w);
-      d.phi = blend(d.phi, fine, {fmt::format("{}", w)});
-    }
-    d.c = {o->c_expr.empty() ? o->c : o->c_expr};
-    d.thickness = o->thickness;
-    if (!o->envelope.empty()) {
-      d.envelope = read_vcad(o->envelope).field;
+    if (o->wall_thickness > 0) {
+      const Vec3 s =
+          o->size.size() == 3 ? Vec3{o->size[0], o->size[1], o->size[2]} : Vec3{2, 2, 20};
+      d = plane_wall(o->wall_thickness, o->wall_inclination, o->wall_azimuth, s);
     } else {
-      const double side = 4 * o->cell;
-      const Vec3 s = o->size.size() == 3 ? Vec3{o->size[0], o->size[1], o->size[2]}
-                                         : Vec3{side, side, side};
-      d.envelope = rectprism(s);
+      d.phi = tpms(tpms_kind(o->cell_type), {o->cell, o->cell, o->cell});
+      if (!o->grade_to.empty()) {
+        const Field other = tpms_spec(o->grade_to, nullptr);
+        const std::string s = o->grade_axis == "z" ? "z" : o->grade_axis == "r" ? "rho" : "";
+        if (s.empty()) throw SettingError("grade axis must be z or r");
+        if (!(o->grade_width > 0)) throw SettingError("grade width must be > 0");
+        d.phi =
+            blend(d.phi, other,
+                  {fmt::format("1/(1+exp(-({}-({}))/({})))", s, o->grade_center, o->grade_width)});
+      }
+      if (!o->hierarchical.empty()) {
+        double w = 0.3;
+        const Field fine = tpms_spec(o->hierarchical, &w);
+        d.phi = blend(d.phi, fine, {fmt::format("{}", w)});
+      }
+      d.c = {o->c_expr.empty() ? o->c : o->c_expr};
+      d.thickness = o->thickness;
+      if (!o->envelope.empty()) {
+        d.envelope = read_vcad(o->envelope).field;
+      } else {
+        const double side = 4 * o->cell;
+        const Vec3 s =
+            o->size.size() == 3 ? Vec3{o->size[0], o->size[1], o->size[2]} : Vec3{side, side, side};
+        d.envelope = rectprism(s);
+      }
+      if (!o->solids.empty()) d.solids = read_vcad(o->solids).field;
     }
-    if (!o->solids.empty()) d.solids = read_vcad(o->solids).field;
     PbfOptions po;
     po.layer = o->layer > 0 ? o->layer : prof.layer;
     po.segment_length = o->sl > 0 ? o->sl : prof.segment_length;
@@ -155,6 +210,9 @@ void add_pbf(CLI::App& app) {
     po.min_inclination = o->min_inclination;
     po.hybrid = !o->r67;
     po.stl_route = o->route == "stl";
+    po.hatch_rotation = o->hatch_rotation;
+    po.timing = scan_timing(prof);
+    po.memory_budget = o->memory_budget_mb * 1e6;
     const PbfResult r = plan_pbf(d, po, [](double f) { progress_line("layers", f); });
     const Toolpath tp =
         pbf_toolpath(r, prof.contour_power, prof.contour_speed, prof.hatch_power, prof.hatch_speed);
@@ -162,6 +220,7 @@ void add_pbf(CLI::App& app) {
     if (!o->toolpath.empty()) write_toolpath(o->toolpath, tp);
     const PbfStats h = fr_stats(r.layers, false), b = fr_stats(r.layers, true);
     const double rss = peak_rss_mb();
+    print_warnings(r.diagnostics);
     if (!o->report.empty()) {
       nlohmann::ordered_json j;
       j["format"] = "trellis.pbf_report";
@@ -190,6 +249,14 @@ void add_pbf(CLI::App& app) {
       if (po.stl_route)
         j["mesh"] = {{"triangles", r.mesh_triangles}, {"mesh_bytes", r.mesh_bytes},
                      {"grid_bytes", r.grid_bytes}};
+      j["scan_time_s"] = {{"hybrid", r.scan_time},
+                          {"r67_baseline", r.scan_time_r67},
+                          {"saving", r.scan_time_r67 > 0 ? 1 - r.scan_time / r.scan_time_r67 : 0}};
+      j["per_layer"] = pbf_layer_series(r);  // paper Fig. 3(b)
+      j["warnings"] = nlohmann::json::array();
+      for (const auto& m : r.diagnostics.messages())
+        j["warnings"].push_back({{"kind", m.kind}, {"message", m.text}});
+      j["memory_estimate_mb"] = r.memory_estimate / 1e6;
       j["time_s"] = r.seconds;
       j["peak_memory_mb"] = rss;
       write_file_atomic(o->report, j.dump(2) + "\n");
@@ -200,13 +267,15 @@ void add_pbf(CLI::App& app) {
     ro.starts = false;
     ro.bead_width = prof.melt_pool_width;
     ro.margin_mm = 0.2;
-    const std::vector<std::string> pngs = render_previews(tp, o->preview, o->preview_layers, ro);
+    std::vector<std::string> pngs = render_previews(tp, o->preview, o->preview_layers, ro);
+    if (!o->preview.empty()) pngs.push_back(render_fr_plot(r, o->r67, o->preview));
     std::cout << (o->r67 ? "r67" : "hybrid") << " (" << o->route << " route): " << r.layers.size()
-              << " layers, " << r.contour_vectors << " contour vectors (" << num(r.contour_length, 1)
-              << " mm), " << r.hatch_vectors << " hatch vectors (" << num(r.hatch_length, 1)
-              << " mm); FR_a mean " << num(h.mean, 3) << " cv " << num(h.cv, 3)
-              << " (R67 baseline " << num(b.mean, 3) << " cv " << num(b.cv, 3) << "); "
-              << num(r.seconds, 2) << " s, peak " << num(rss, 0) << " MB\n";
+              << " layers, " << r.contour_vectors << " contour vectors ("
+              << num(r.contour_length, 1) << " mm), " << r.hatch_vectors << " hatch vectors ("
+              << num(r.hatch_length, 1) << " mm); FR_a mean " << num(h.mean, 3) << " cv "
+              << num(h.cv, 3) << " (R67 baseline " << num(b.mean, 3) << " cv " << num(b.cv, 3)
+              << "); scan time " << num(r.scan_time, 1) << " s (R67 " << num(r.scan_time_r67, 1)
+              << " s); " << num(r.seconds, 2) << " s, peak " << num(rss, 0) << " MB\n";
     std::cout << "wrote " << o->output;
     if (!o->report.empty()) std::cout << ", " << o->report;
     if (!o->toolpath.empty()) std::cout << ", " << o->toolpath;

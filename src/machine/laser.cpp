@@ -30,8 +30,14 @@ const std::map<std::string, Key>& keys() {
       {"scan.layer", {&LaserProfile::layer, 0.001, 1}},
       {"scan.hatch_distance", {&LaserProfile::hatch_distance, 0.001, 5}},
       {"scan.beam_compensation", {&LaserProfile::beam_compensation, 0, 1}},
-      {"scan.segment_length", {&LaserProfile::segment_length, 0.005, 0.4}},
-      {"scan.segment_gap", {&LaserProfile::segment_gap, 0, 0.12}},
+      // Any SL/LHD a scanner can mark (the paper tested 5–400 / 0–120 µm; the planner warns).
+      {"scan.segment_length", {&LaserProfile::segment_length, 0.0001, 1000}},
+      {"scan.segment_gap", {&LaserProfile::segment_gap, 0, 1000}},
+      {"timing.jump_speed", {&LaserProfile::jump_speed, 1, 1e6}},
+      {"timing.jump_delay", {&LaserProfile::jump_delay, 0, 1e5}},
+      {"timing.mark_delay", {&LaserProfile::mark_delay, 0, 1e5}},
+      {"timing.polygon_delay", {&LaserProfile::polygon_delay, 0, 1e5}},
+      {"timing.skywriting_time", {&LaserProfile::skywriting_time, 0, 1e5}},
   };
   return k;
 }
@@ -42,6 +48,11 @@ void walk(LaserProfile& p, const toml::table& t, const std::string& prefix, cons
     const Where where{origin, static_cast<long>(node.source().begin.line), key};
     if (const auto* sub = node.as_table()) {
       walk(p, *sub, key, origin);
+      continue;
+    }
+    if (key == "timing.skywriting") {
+      if (!node.is_boolean()) throw SettingError("expected true or false", where);
+      p.skywriting = *node.value<bool>();
       continue;
     }
     if (key == "machine.name") {
@@ -85,6 +96,19 @@ LaserProfile laser_profile_from_toml(const std::string& text, const std::string&
   LaserProfile p;
   walk(p, t, "", origin);
   return p;
+}
+
+ScanTiming scan_timing(const LaserProfile& p) {
+  ScanTiming t;
+  t.contour_speed = p.contour_speed;
+  t.hatch_speed = p.hatch_speed;
+  t.jump_speed = p.jump_speed;
+  t.jump_delay = p.jump_delay;
+  t.mark_delay = p.mark_delay;
+  t.polygon_delay = p.polygon_delay;
+  t.skywriting = p.skywriting;
+  t.skywriting_time = p.skywriting_time;
+  return t;
 }
 
 LaserProfile load_laser_profile(const std::string& path) {
