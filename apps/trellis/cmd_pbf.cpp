@@ -1,6 +1,6 @@
+#include <fmt/format.h>
 #include <sys/resource.h>
 
-#include <fmt/format.h>
 #include <iostream>
 #include <nlohmann/json.hpp>
 
@@ -8,6 +8,7 @@
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/field/vcad.hpp"
+#include "trellis/machine/cli.hpp"
 #include "trellis/machine/laser.hpp"
 #include "trellis/render/render.hpp"
 #include "trellis/slice/pbf.hpp"
@@ -98,7 +99,7 @@ void add_pbf(CLI::App& app) {
     double wall_thickness = 0, wall_inclination = 90, wall_azimuth = 0, memory_budget_mb = 0,
            hatch_rotation = 67;
     std::vector<double> size;
-    bool r67 = false;
+    bool r67 = false, binary = false;
     std::size_t preview_layers = 3;
   };
   auto o = std::make_shared<Opts>();
@@ -159,6 +160,8 @@ void add_pbf(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--hatch-rotation", o->hatch_rotation, "hatch rotation per layer (deg)")
       ->capture_default_str();
+  cmd->add_flag("--binary", o->binary,
+                "binary CLI geometry (header stays ASCII, with CLI+ blocks)");
   cmd->add_option("--memory-budget", o->memory_budget_mb,
                   "refuse a job estimated above this (MB); default: the memory available");
   cmd->callback([o] {
@@ -216,7 +219,7 @@ void add_pbf(CLI::App& app) {
     const PbfResult r = plan_pbf(d, po, [](double f) { progress_line("layers", f); });
     const Toolpath tp =
         pbf_toolpath(r, prof.contour_power, prof.contour_speed, prof.hatch_power, prof.hatch_speed);
-    write_cli_file(o->output, tp, prof);
+    write_cli_file(o->output, tp, prof, CliWriteOptions{o->binary, true});
     if (!o->toolpath.empty()) write_toolpath(o->toolpath, tp);
     const PbfStats h = fr_stats(r.layers, false), b = fr_stats(r.layers, true);
     const double rss = peak_rss_mb();

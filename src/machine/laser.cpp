@@ -70,20 +70,6 @@ void walk(LaserProfile& p, const toml::table& t, const std::string& prefix, cons
   }
 }
 
-// Coordinates in µm with two decimals (10 nm), no trailing zeros.
-void put(std::string& out, double mm) {
-  double v = std::round(mm * 1e5) / 100.0;
-  if (v == 0) v = 0;
-  out += fmt::format("{}", v);
-}
-
-void put_xy(std::string& out, const Vec3& q) {
-  out += ',';
-  put(out, q.x);
-  out += ',';
-  put(out, q.y);
-}
-
 }  // namespace
 
 LaserProfile laser_profile_from_toml(const std::string& text, const std::string& origin) {
@@ -113,53 +99,6 @@ ScanTiming scan_timing(const LaserProfile& p) {
 
 LaserProfile load_laser_profile(const std::string& path) {
   return laser_profile_from_toml(read_file(path), path);
-}
-
-std::string write_cli(const Toolpath& tp, const LaserProfile& prof) {
-  BBox3 box;
-  for (const auto& l : tp.layers)
-    for (const auto& p : l.paths)
-      for (const auto& q : p.points) box.add(q);
-  if (box.empty()) box.add({0, 0, 0});
-  std::string out;
-  out += "$$HEADERSTART\n$$ASCII\n$$UNITS/0.001\n$$VERSION/200\n";
-  out += "$$LABEL/1,contour\n$$LABEL/2,hatch\n";
-  out += fmt::format("//machine: {}//\n", prof.name);
-  out += fmt::format("//id 1 contour: {} W, {} mm/s; id 2 hatch: {} W, {} mm/s; spot {} mm//\n",
-                     prof.contour_power, prof.contour_speed, prof.hatch_power, prof.hatch_speed,
-                     prof.spot_diameter);
-  out += fmt::format("//source: {}//\n", tp.source);
-  out += fmt::format("$$DIMENSION/{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f}\n", box.min.x, box.min.y,
-                     box.min.z, box.max.x, box.max.y, box.max.z);
-  out += fmt::format("$$LAYERS/{}\n$$HEADEREND\n$$GEOMETRYSTART\n", tp.layers.size());
-  for (const auto& layer : tp.layers) {
-    out += "$$LAYER/";
-    put(out, layer.z);
-    out += '\n';
-    std::size_t hatches = 0;
-    for (const auto& p : layer.paths) {
-      if (p.role == PathRole::Infill && p.points.size() == 2) {
-        ++hatches;
-        continue;
-      }
-      out += fmt::format("$$POLYLINE/1,2,{}", p.points.size());
-      for (const auto& q : p.points) put_xy(out, q);
-      out += '\n';
-    }
-    if (hatches) {
-      out += fmt::format("$$HATCHES/2,{}", hatches);
-      for (const auto& p : layer.paths)
-        if (p.role == PathRole::Infill && p.points.size() == 2)
-          for (const auto& q : p.points) put_xy(out, q);
-      out += '\n';
-    }
-  }
-  out += "$$GEOMETRYEND\n";
-  return out;
-}
-
-void write_cli_file(const std::string& path, const Toolpath& tp, const LaserProfile& prof) {
-  write_file_atomic(path, write_cli(tp, prof));
 }
 
 }  // namespace trellis
