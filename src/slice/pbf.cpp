@@ -251,12 +251,17 @@ class JointSection : public PlaneFunction {
                bool invert = false)
       : ctx_(ctx), d_(d), o_(o), c_(c_const), z_(z), cos_min_(std::cos(o.min_inclination * kDeg)),
         invert_(invert) {}
-  void use_grid(LayerGrid* g) { grid_ = g; }
+  // Part values are read from and written to the grid's nodes; the measure too when `cache` (the
+  // layer's one JointSection that owns the grid's joint slots).
+  void use_grid(LayerGrid* g, bool cache = true) {
+    grid_ = g;
+    cache_ = cache;
+  }
   double at(Vec2 q) {
     const std::size_t k = grid_ ? grid_->node(q) : LayerGrid::npos;
-    if (k != LayerGrid::npos && !invert_ && grid_->has_joint(k)) return grid_->joint(k);
+    if (k != LayerGrid::npos && cache_ && grid_->has_joint(k)) return grid_->joint(k);
     const double v = compute(q, k);
-    if (k != LayerGrid::npos && !invert_) grid_->set_joint(k, v);
+    if (k != LayerGrid::npos && cache_) grid_->set_joint(k, v);
     return v;
   }
   double compute(Vec2 q, std::size_t k) {
@@ -306,7 +311,7 @@ class JointSection : public PlaneFunction {
     part_.clear();
     need_.clear();
     pts_.clear();
-    const bool cache_joint = grid_ && !invert_;
+    const bool cache_joint = grid_ && cache_;
     for (std::size_t i = 0; i < n; ++i) {
       const std::size_t k = key(i);
       if (k != LayerGrid::npos) {
@@ -362,7 +367,7 @@ class JointSection : public PlaneFunction {
   const PbfDesign& d_;
   const PbfOptions& o_;
   double c_, z_, cos_min_;
-  bool invert_;
+  bool invert_, cache_ = false;
   LayerGrid* grid_ = nullptr;
   std::vector<std::size_t> miss_, keys_, need_;
   std::vector<Vec3> pts_, grads_;
@@ -943,29 +948,27 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o,
     }
     L.area = area(S);
     if (S.empty()) return;
-    // The region every hatch vector must keep the beam compensation away from: the section
-    // (its chords halved onto the field on the direct route), offset inward.
+    // With beam compensation every hatch vector keeps it from the section's outline (its chords
+    // halved onto the field on the direct route) and from the thin walls' outline.
     const double bc = o.beam_compensation;
-    Regions S_in;
-    if (bc > 0) {
-      if (!o.stl_route) densify_on_part(ctx, z, S);
-      S_in = offset(S, -bc, 1e-4);
-    }
+    if (bc > 0 && !o.stl_route) densify_on_part(ctx, z, S);
+    Regions T;  // thin walls, when compensating
     JointSection joint(ctx, design, o, c_const, z);
-    joint.use_grid(&grid);
-    Regions hatch_region = bc > 0 ? S_in : S;
+    JointSection thin(ctx, design, o, c_const, z, true);
+    // The joint slots of the grid's nodes hold the joint measure when the joints are marched
+    // (no compensation), else the thin-wall measure (the thin region is marched instead).
+    joint.use_grid(&grid, bc <= 0);
+    thin.use_grid(&grid, bc > 0);
+    Regions hatch_region = S;
     if (o.hybrid) {
       // Joints are contoured from their own field (a Boolean of S and J would spend its time on
       // their shared edges); thin walls are the pieces of the mid-curve φ = 0 where the
       // inverted joint measure is negative, split where it changes sign.
-      JointSection thin(ctx, design, o, c_const, z, true);
       if (bc > 0) {
-        // The section minus the thin walls, offset inward: the joints' outline along the sheet
-        // is the section's (refined) one, not the coarse grid's; slivers between the two
-        // outlines are narrower than a cell and vanish in the offset.
-        const Regions T =
-            nest_oriented_rings(march_squares(thin, lo, hi, 0.0, mo_joint).lines.loops);
-        hatch_region = offset(T.empty() ? S : difference(S, T), -bc, 1e-4);
+        // Joints = the section minus the thin walls, so the joints' outline along the sheet is
+        // the section's (refined) one, not the coarse grid's; slivers between the two outlines
+        // are narrower than a cell and within the compensation of both.
+        T = nest_oriented_rings(march_squares(thin, lo, hi, 0.0, mo_joint).lines.loops);
       } else {
         hatch_region = nest_oriented_rings(march_squares(joint, lo, hi, 0.0, mo_joint).lines.loops);
       }
@@ -1015,7 +1018,16 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o,
       L.hatches.push_back({a, b});
       L.hatch_length += len;
     };
-    if (bc > 0 || o.stl_route) {
+    // The whole section hatched with the compensation: the R67 baseline, and the hybrid path's
+    // joints once the thin walls are taken out.
+    const std::vector<Segment2> S_hatch =
+        bc > 0 ? hatch_inset(S, {}, L.hatch_angle, o.hatch_distance, bc)
+               : hatch(S, L.hatch_angle, o.hatch_distance);
+    if (bc > 0) {
+      const std::vector<Segment2> segs =
+          o.hybrid ? trim_hatch(S_hatch, T, L.hatch_angle, o.hatch_distance, bc, true) : S_hatch;
+      for (const auto& seg : segs) add_vector(seg.a, seg.b);
+    } else if (o.stl_route) {
       for (const auto& seg : hatch(hatch_region, L.hatch_angle, o.hatch_distance))
         add_vector(seg.a, seg.b);
     } else if (o.hybrid) {
@@ -1060,7 +1072,7 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o,
     L.scan_time = clock.seconds();
     if (o.hybrid) {
       ScanClock r67(o.timing);
-      for (const auto& s : hatch(bc > 0 ? S_in : S, L.hatch_angle, o.hatch_distance)) {
+      for (const auto& s : S_hatch) {
         L.r67_length += std::hypot(s.b.x - s.a.x, s.b.y - s.a.y);
         r67.mark(s.a, s.b, o.timing.hatch_speed);
       }
