@@ -1,10 +1,9 @@
 // PBF paper claims and issue targets:
 //  - a 4×4×4 gyroid of 2.5 mm cells, 20 µm layers (500 layers), to a CLI file in < 10 s on 2 cores;
 //  - direct (field) route vs STL route (marching cubes → mesh → slice), same gyroid, 0.01 mm
-//    resolution: time and peak memory side by side, for 1 to 5 cells a side (and 2 to 4 at the
-//    default 0.025 mm) (5: ~1 min and
+//    resolution: time and peak memory side by side, for 1 to 5 cells a side (5: ~1 min and
 //    ~12 GB for the STL route; the paper's O(n⁴) baseline, where each layer scans the whole
-//    mesh, to 4 cells: ~85 s). Each route runs
+//    mesh, to 4 cells: ~85 s); and at the default 0.025 mm for 2 to 4 cells. Each route runs
 //    in its own forked process so its peak RSS is its own (wait4's ru_maxrss).
 #include <benchmark/benchmark.h>
 #include <sys/resource.h>
