@@ -47,7 +47,7 @@ TEST(PbfLaser, HatchKeepsTheBeamCompensationFromPlaneWallsAtEveryAngle) {
   PbfOptions o;
   o.layer = 0.02;
   o.hatch_rotation = 0;
-  std::size_t vectors = 0, ends = 0;
+  std::size_t vectors = 0, ends = 0, contour_points = 0;
   for (const double t : {0.05, 0.07, 0.12, 0.2})
     for (const double angle : {0.0, 10.0, 30.0, 45.0, 60.0, 80.0, 90.0})
       for (const double inclination : {90.0, 60.0})
@@ -61,6 +61,14 @@ TEST(PbfLaser, HatchKeepsTheBeamCompensationFromPlaneWallsAtEveryAngle) {
           Evaluator part(d.part());
           const PbfLayer& L = r.layers[0];
           if (t < 2 * o.beam_compensation) EXPECT_TRUE(L.hatches.empty()) << t;
+          // Contour tracks stay inside the sheet: on the mid-plane, t/2 from the faces, and
+          // the compensation from the box where they end.
+          for (const auto& v : L.contours)
+            for (const Vec2 p : v)
+              EXPECT_GE(boundary_distance(part, p, L.z, 0.2),
+                        std::min(o.beam_compensation, 0.5 * t) - 1e-3)
+                  << "contour, t " << t << " angle " << angle << " at " << p.x << "," << p.y;
+          for (const auto& v : L.contours) contour_points += v.size();
           for (const auto& h : L.hatches) {
             const double len = std::hypot(h.b.x - h.a.x, h.b.y - h.a.y);
             const int n = std::max(1, static_cast<int>(std::ceil(len / 0.005)));
@@ -83,6 +91,7 @@ TEST(PbfLaser, HatchKeepsTheBeamCompensationFromPlaneWallsAtEveryAngle) {
         }
   EXPECT_GT(vectors, 300u);
   EXPECT_GT(ends, 600u);
+  EXPECT_GT(contour_points, 200u);
 }
 
 // The same on a gyroid sheet (curved walls, joints): the section's chords are moved onto the
