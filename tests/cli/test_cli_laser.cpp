@@ -2,6 +2,7 @@
 // binary CLI, and `analyze` on a build file — including a broken one (exit 2, file and offset).
 #include <gtest/gtest.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <filesystem>
 #include <fstream>
@@ -20,7 +21,9 @@ struct CmdRun {
 
 fs::path dir() {
   static const fs::path d = [] {
-    const fs::path p = fs::temp_directory_path() / "trellis_cli_laser_test";
+    // One directory per process: other checkouts on the machine run the same tests.
+    const fs::path p =
+        fs::temp_directory_path() / ("trellis_cli_laser_test_" + std::to_string(getpid()));
     fs::remove_all(p);
     fs::create_directories(p);
     return p;
