@@ -162,7 +162,7 @@ void add_routes(CLI::App& app, int argc, char** argv) {
        "  trellis slice examples/designs/csg_bracket.vcad --machine profiles/ender3_s1_pro_tpu.toml\n"
        "      -o bracket.gcode --report bracket.json --preview bracket_preview"},
       {"pbf", "pbf", "Laser powder-bed toolpaths for a TPMS sheet lattice, straight from its field (.cli)",
-       {"laser", "scan", "pbf", "output", "run"}, "envelope", false, "CLI build file to write", true, true,
+       {"laser", "scan", "timing", "pbf", "output", "run"}, "envelope", false, "CLI build file to write", true, true,
        true,
        "The sheet is Φ = φ² − c² around a TPMS mid-surface φ (--cell-type, --cell; c from --c or\n"
        "--thickness for uniform walls), inside a box (--size) or the solid of ENVELOPE.vcad. Per\n"

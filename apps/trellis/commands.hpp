@@ -22,6 +22,11 @@ void add_compare(CLI::App& app);
 void add_walls(CLI::App& app);
 void add_check(CLI::App& app);
 
+// Laser build files (.cli) for `analyze`: measured against a .vcad design (cmd_analyze_laser.cpp).
+bool is_laser_build_file(const std::string& path);
+void analyze_laser_file(const std::string& path, const std::string& design,
+                        const std::string& machine, const std::string& report);
+
 // Exit status of the run when no error was thrown (e.g. 1 when a check found problems).
 void set_exit_code(int code);
 int exit_code();

@@ -202,6 +202,7 @@ def pbf(
     progress: Progress | None = None,
     set: Mapping[str, Any] | None = None,
     beam_comp: float = ...,  # scan.beam_compensation: beam compensation: hatch ends pulled in by this
+    binary: bool = ...,  # pbf.binary: binary CLI geometry (the header stays ASCII, with CLI+ blocks)
     c: str = ...,  # pbf.c: sheet parameter c (Φ = φ² − c²): a number or an expression of x, y, z, rho, r
     cell: float = ...,  # pbf.cell: TPMS cell size
     cell_type: Literal['gyroid', 'schwarz_p', 'schwarz_d', 'neovius', 'iwp'] = ...,  # pbf.cell_type: TPMS of the sheet
@@ -212,21 +213,26 @@ def pbf(
     grade_to: str = ...,  # pbf.grade_to: TYPE:CELL blended in by a sigmoid (graded cell size)
     grade_width: float = ...,  # pbf.grade_width: sigmoid width
     hatch: float = ...,  # scan.hatch_distance: hatch distance
+    hatch_rotation: float = ...,  # pbf.hatch_rotation: hatch rotation per layer (paper: 67)
     hierarchical: str = ...,  # pbf.hierarchical: TYPE:CELL:WEIGHT superposed (hierarchical lattice)
     image_size: int = ...,  # output.image_size: preview image size
     layer_height: float = ...,  # scan.layer: powder layer thickness
-    lhd: float = ...,  # scan.segment_gap: gap LHD between contour scan vectors (paper: 0-120 µm)
+    lhd: float = ...,  # scan.segment_gap: gap LHD between contour scan vectors (the paper tested 0-120 µm; outside is a warning)
+    memory_budget: float = ...,  # pbf.memory_budget: refuse a run estimated above this; 0 = the memory available
     min_inclination: float = ...,  # pbf.min_inclination: shallower walls are hatched
     preview_layers: int = ...,  # output.preview_layers: PNG previews spread over the layers
     resolution: float = ...,  # pbf.resolution: sampling step: the STL route's voxel; direct contours on a grid twice as coarse
     route: Literal['direct', 'stl'] = ...,  # pbf.route: direct (slice the field) or stl (marching cubes mesh, for comparison)
     size: Sequence[float] = ...,  # pbf.size: box X, Y, Z centred at the origin
-    sl: float = ...,  # scan.segment_length: contour scan vector length SL (paper: 5-400 µm)
+    sl: float = ...,  # scan.segment_length: contour scan vector length SL: straight chords on φ = 0 (the paper tested 5-400 µm; outside is a warning)
     solids: str = ...,  # pbf.solids: .vcad solid parts (bosses), hatched
     strategy: Literal['hybrid', 'r67'] = ...,  # pbf.strategy: hybrid (contours on thin walls, hatch at joints) or r67 (hatch everything)
     thickness: float = ...,  # pbf.thickness: uniform wall thickness t: c = t·|∇φ|/2 (0: use pbf.c)
     thin_multiple: float = ...,  # pbf.thin_multiple: thin wall: width <= this × melt pool
     threads: int = ...,  # run.threads: worker threads (0 = all cores)
+    wall_azimuth: float = ...,  # pbf.wall_azimuth: the wall's direction from X
+    wall_inclination: float = ...,  # pbf.wall_inclination: the wall's angle from horizontal
+    wall_thickness: float = ...,  # pbf.wall_thickness: a plane thin wall of this thickness instead of a TPMS (PBF paper Fig. 3; box from pbf.size, default 2,2,20); 0 = off
 ) -> Result: ...
 
 def nonplanar(

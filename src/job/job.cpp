@@ -47,7 +47,7 @@ std::vector<std::string> route_sections(const std::string& route) {
   else if (route == "slice") {
     s = machine_sections();
     add({"slice", "fgm", "output", "run"});
-  } else if (route == "pbf") add({"machine", "laser", "scan", "pbf", "output", "run"});
+  } else if (route == "pbf") add({"machine", "laser", "scan", "timing", "pbf", "output", "run"});
   else if (route == "nonplanar") {
     s = machine_sections();
     add({"nonplanar", "surface", "output", "run"});

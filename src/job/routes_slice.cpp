@@ -12,6 +12,7 @@
 #include "trellis/field/vcad.hpp"
 #include "trellis/geom/mesh_io.hpp"
 #include "trellis/machine/gcode_writer.hpp"
+#include "trellis/machine/cli.hpp"
 #include "trellis/machine/laser.hpp"
 #include "trellis/slice/nonplanar.hpp"
 #include "trellis/slice/pbf.hpp"
@@ -50,6 +51,11 @@ Field tpms_spec(const std::string& spec, double* weight, const char* key) {
 }
 
 PbfDesign pbf_design(const PbfConfig& p) {
+  if (p.wall_thickness > 0) {
+    // The paper's thin-wall experiments (Fig. 3): a plane wall cut by the box.
+    const Vec3 s = p.size.size() == 3 ? Vec3{p.size[0], p.size[1], p.size[2]} : Vec3{2, 2, 20};
+    return plane_wall(p.wall_thickness, p.wall_inclination, p.wall_azimuth, s);
+  }
   PbfDesign d;
   d.phi = tpms(tpms_kind(p.cell_type), {p.cell, p.cell, p.cell});
   if (!p.grade_to.empty()) {
@@ -74,6 +80,39 @@ PbfDesign pbf_design(const PbfConfig& p) {
   }
   if (!p.solids.empty()) d.solids = read_vcad(p.solids).field;
   return d;
+}
+
+// Per-layer columns of the report (z, FR_a of the path and of R67, lengths, area, scan times).
+nlohmann::ordered_json pbf_layer_series(const PbfResult& r) {
+  nlohmann::ordered_json s;
+  for (const char* k : {"z_mm", "fr_a", "fr_a_r67", "contour_mm", "hatch_mm", "r67_hatch_mm",
+                        "area_mm2", "scan_time_s", "scan_time_r67_s"})
+    s[k] = nlohmann::json::array();
+  for (const auto& L : r.layers) {
+    s["z_mm"].push_back(L.z);
+    s["fr_a"].push_back(L.fr);
+    s["fr_a_r67"].push_back(L.fr_r67);
+    s["contour_mm"].push_back(L.contour_length);
+    s["hatch_mm"].push_back(L.hatch_length);
+    s["r67_hatch_mm"].push_back(L.r67_length);
+    s["area_mm2"].push_back(L.area);
+    s["scan_time_s"].push_back(L.scan_time);
+    s["scan_time_r67_s"].push_back(L.scan_time_r67);
+  }
+  return s;
+}
+
+// FR_a over layers (paper Fig. 3(b)): this path and the R67 baseline.
+void render_fr_plot(const PbfResult& r, bool r67, const std::string& path) {
+  std::vector<double> x;
+  PlotSeries fh{r67 ? "R67" : "hybrid", {}, 0.85, 0.1, 0.1}, fb{"R67 baseline", {}, 0.1, 0.3, 0.8};
+  for (std::size_t i = 0; i < r.layers.size(); ++i) {
+    x.push_back(static_cast<double>(i + 1));
+    const bool any = r.layers[i].area > 0;
+    fh.values.push_back(any ? r.layers[i].fr : NAN);
+    fb.values.push_back(any ? r.layers[i].fr_r67 : NAN);
+  }
+  render_series_png(x, {fh, fb}, "filling ratio FR_a = D·ΣL/A per layer", "layer", path);
 }
 
 double peak_rss_mb() {
@@ -196,7 +235,7 @@ JobResult slice(const Job& job, const Config& c, Diagnostics&, const Progress& p
   return out;
 }
 
-JobResult pbf(const Job& job, const Config& c, Diagnostics&, const Progress& progress) {
+JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
   JobResult out;
   const LaserProfile& prof = c.laser;
   PbfDesign d = pbf_design(c.pbf);
@@ -210,12 +249,15 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics&, const Progress& pro
   po.melt_pool = prof.melt_pool_width;
   po.hybrid = c.pbf.strategy == "hybrid";
   po.stl_route = c.pbf.route == "stl";
+  po.timing = scan_timing(prof);
+  po.memory_budget = c.pbf.memory_budget_mb * 1e6;
   const PbfResult r = plan_pbf(d, po, [&](double f) { progress("layers", f); });
+  diag.merge(r.diagnostics);
   Toolpath tp = pbf_toolpath(r, prof.contour_power, prof.contour_speed, prof.hatch_power, prof.hatch_speed);
   out.toolpath = std::make_shared<Toolpath>(tp);
   if (!job.output.empty()) {
     tp.job = embedded_job(job, job.output);
-    write_cli_file(job.output, tp, prof);
+    write_cli_file(job.output, tp, prof, CliWriteOptions{c.pbf.binary, true});
     out.files.push_back(job.output);
   }
   if (!job.toolpath.empty()) {
@@ -249,6 +291,14 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics&, const Progress& pro
     j["wall_thickness_mm"] = {{"mean", t.mean}, {"min", t.min}, {"max", t.max}, {"spread", t.cv}};
     if (po.stl_route)
       j["mesh"] = {{"triangles", r.mesh_triangles}, {"mesh_bytes", r.mesh_bytes}, {"grid_bytes", r.grid_bytes}};
+    j["scan_time_s"] = {{"hybrid", r.scan_time},
+                        {"r67_baseline", r.scan_time_r67},
+                        {"saving", r.scan_time_r67 > 0 ? 1 - r.scan_time / r.scan_time_r67 : 0}};
+    j["per_layer"] = pbf_layer_series(r);  // paper Fig. 3(b)
+    j["warnings"] = nlohmann::json::array();
+    for (const auto& m : r.diagnostics.messages())
+      j["warnings"].push_back({{"kind", m.kind}, {"message", m.text}});
+    j["memory_estimate_mb"] = r.memory_estimate / 1e6;
     j["time_s"] = r.seconds;
     j["peak_memory_mb"] = rss;
     write_file_atomic(job.report, with_job(j.dump(2) + "\n", job, job.report));
@@ -262,12 +312,16 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics&, const Progress& pro
   ro.margin_mm = 0.2;
   ro.size_px = c.output.image_size;
   previews(tp, job.preview, c.output.preview_layers, ro, out);
+  if (!job.preview.empty() && c.output.preview_layers > 0) {
+    out.files.push_back(preview_name(job.preview, "fr_a.png"));
+    render_fr_plot(r, c.pbf.strategy == "r67", out.files.back());
+  }
   out.summary = fmt::format(
       "{} ({} route): {} layers, {} contour vectors ({} mm), {} hatch vectors ({} mm); FR_a mean {} "
-      "cv {} (R67 baseline {} cv {}); {} s, peak {} MB",
+      "cv {} (R67 baseline {} cv {}); scan time {} s (R67 {} s); {} s, peak {} MB",
       c.pbf.strategy, c.pbf.route, r.layers.size(), r.contour_vectors, fixed(r.contour_length, 1),
       r.hatch_vectors, fixed(r.hatch_length, 1), fixed(h.mean, 3), fixed(h.cv, 3), fixed(b.mean, 3),
-      fixed(b.cv, 3), fixed(r.seconds, 2), fixed(rss, 0));
+      fixed(b.cv, 3), fixed(r.scan_time, 1), fixed(r.scan_time_r67, 1), fixed(r.seconds, 2), fixed(rss, 0));
   return out;
 }
 

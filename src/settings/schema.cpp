@@ -221,12 +221,26 @@ std::vector<Setting> make_table() {
   t.push_back(number("scan.beam_compensation", "mm", 0, 1,
                      "beam compensation: hatch ends pulled in by this", "beam-comp",
                      [](C& c) -> auto& { return c.laser.beam_compensation; }));
-  t.push_back(number("scan.segment_length", "mm", 0.005, 0.4,
-                     "contour scan vector length SL (paper: 5-400 µm)", "sl",
+  t.push_back(number("scan.segment_length", "mm", 0.0001, 1000,
+                     "contour scan vector length SL: straight chords on φ = 0 (the paper tested "
+                     "5-400 µm; outside is a warning)", "sl",
                      [](C& c) -> auto& { return c.laser.segment_length; }));
-  t.push_back(number("scan.segment_gap", "mm", 0, 0.12,
-                     "gap LHD between contour scan vectors (paper: 0-120 µm)", "lhd",
-                     [](C& c) -> auto& { return c.laser.segment_gap; }));
+  t.push_back(number("scan.segment_gap", "mm", 0, 1000,
+                     "gap LHD between contour scan vectors (the paper tested 0-120 µm; outside is "
+                     "a warning)", "lhd", [](C& c) -> auto& { return c.laser.segment_gap; }));
+  // timing.*: the scanner, for the scan-time model.
+  t.push_back(number("timing.jump_speed", "mm/s", 1, 1e6, "positioning speed between vectors", "",
+                     [](C& c) -> auto& { return c.laser.jump_speed; }));
+  t.push_back(number("timing.jump_delay", "µs", 0, 1e5, "wait after every jump", "",
+                     [](C& c) -> auto& { return c.laser.jump_delay; }));
+  t.push_back(number("timing.mark_delay", "µs", 0, 1e5, "wait after every marked vector", "",
+                     [](C& c) -> auto& { return c.laser.mark_delay; }));
+  t.push_back(number("timing.polygon_delay", "µs", 0, 1e5, "wait at every corner inside a polyline",
+                     "", [](C& c) -> auto& { return c.laser.polygon_delay; }));
+  t.push_back(boolean("timing.skywriting", "run in and out of each vector instead of the mark delay",
+                      "", [](C& c) -> auto& { return c.laser.skywriting; }));
+  t.push_back(number("timing.skywriting_time", "µs", 0, 1e5, "run-in + run-out per vector with skywriting",
+                     "", [](C& c) -> auto& { return c.laser.skywriting_time; }));
 
   // lattice2d.*: the 2D atlas.
   t.push_back(choice_enum<Pattern>(
@@ -494,6 +508,21 @@ std::vector<Setting> make_table() {
   t.push_back(choice("pbf.strategy", {"hybrid", "r67"},
                      "hybrid (contours on thin walls, hatch at joints) or r67 (hatch everything)",
                      "strategy", [](C& c) -> auto& { return c.pbf.strategy; }));
+  t.push_back(number("pbf.wall_thickness", "mm", 0, 100,
+                     "a plane thin wall of this thickness instead of a TPMS (PBF paper Fig. 3; box "
+                     "from pbf.size, default 2,2,20); 0 = off", "wall-thickness",
+                     [](C& c) -> auto& { return c.pbf.wall_thickness; }));
+  t.push_back(positive("pbf.wall_inclination", "deg", 90, "the wall's angle from horizontal",
+                       "wall-inclination", [](C& c) -> auto& { return c.pbf.wall_inclination; }));
+  t.push_back(number("pbf.wall_azimuth", "deg", -360, 360, "the wall's direction from X",
+                     "wall-azimuth", [](C& c) -> auto& { return c.pbf.wall_azimuth; }));
+  t.push_back(number("pbf.hatch_rotation", "deg", -360, 360, "hatch rotation per layer (paper: 67)",
+                     "hatch-rotation", [](C& c) -> auto& { return c.pbf.options.hatch_rotation; }));
+  t.push_back(boolean("pbf.binary", "binary CLI geometry (the header stays ASCII, with CLI+ blocks)",
+                      "binary", [](C& c) -> auto& { return c.pbf.binary; }));
+  t.push_back(number("pbf.memory_budget", "MB", 0, 1e9,
+                     "refuse a run estimated above this; 0 = the memory available", "memory-budget",
+                     [](C& c) -> auto& { return c.pbf.memory_budget_mb; }));
   t.push_back(positive("pbf.resolution", "mm", 10,
                        "sampling step: the STL route's voxel; direct contours on a grid twice as coarse",
                        "resolution", [](C& c) -> auto& { return c.pbf.options.resolution; }));
@@ -598,6 +627,7 @@ const std::vector<std::pair<std::string, std::string>>& setting_sections() {
       {"gcode", "start/end templates"},
       {"laser", "laser powder-bed machine: spot, powers, speeds"},
       {"scan", "laser scan parameters: layer, hatch, SL, LHD"},
+      {"timing", "laser scanner timing for the scan-time model"},
       {"lattice2d", "2D atlas patterns"},
       {"lattice3d", "3D unit cells and foams"},
       {"lattice", "reading lattice files"},

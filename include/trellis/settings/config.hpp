@@ -55,6 +55,11 @@ struct PbfConfig {
   std::string grade_axis = "z";
   double grade_center = 0, grade_width = 1;
   std::string hierarchical;     // TYPE:CELL:WEIGHT superposed
+  double wall_thickness = 0;    // mm; > 0: a plane thin wall (PBF paper Fig. 3) instead of a TPMS
+  double wall_inclination = 90; // deg from horizontal
+  double wall_azimuth = 0;      // deg from X
+  bool binary = false;          // binary CLI geometry
+  double memory_budget_mb = 0;  // refuse above this estimate; 0 = the memory available
   std::string route = "direct"; // direct | stl
   std::string strategy = "hybrid";  // hybrid | r67
   PbfOptions options;           // resolution, thin_multiple, min_inclination (scan from laser)
