@@ -21,6 +21,7 @@
 #include "trellis/field/vcad.hpp"
 #include "trellis/job/job.hpp"
 #include "trellis/lattice/io.hpp"
+#include "trellis/machine/cli.hpp"
 #include "trellis/machine/gcode_reader.hpp"
 #include "trellis/machine/gcode_writer.hpp"
 #include "trellis/render/render.hpp"
@@ -437,6 +438,7 @@ PYBIND11_MODULE(_trellis, m) {
   m.def("read_toolpath", [](const std::string& path) {
     const auto ext = std::filesystem::path(path).extension().string();
     if (ext == ".json") return std::make_shared<Toolpath>(read_toolpath(path));
+    if (ext == ".cli" || ext == ".CLI") return std::make_shared<Toolpath>(read_cli_file(path));
     Diagnostics diag;
     return std::make_shared<Toolpath>(read_print(path, nullptr, nullptr, diag));
   });

@@ -199,6 +199,10 @@ def test_readers_and_pictures(tmp_path):
     assert back.point_count == r.toolpath.point_count
     g = trellis.read_toolpath(tmp_path / "p.gcode")
     assert g.layer_count == r.toolpath.layer_count
+    laser = trellis.pbf(tmp_path / "g.cli", size=(2.5, 2.5, 0.3))
+    cli_back = trellis.read_toolpath(tmp_path / "g.cli")
+    assert cli_back.layer_count == laser.toolpath.layer_count
+    assert np.allclose(cli_back.points, laser.toolpath.points, atol=1e-5)
     png = r.toolpath._repr_png_()
     assert png[:8] == b"\x89PNG\r\n\x1a\n"
 

@@ -22,6 +22,7 @@
 #include "trellis/core/diagnostics.hpp"
 #include "trellis/core/progress.hpp"
 #include "trellis/lattice/graph.hpp"
+#include "trellis/machine/laser.hpp"
 #include "trellis/settings/settings.hpp"
 #include "trellis/toolpath/toolpath.hpp"
 
@@ -79,6 +80,12 @@ struct JobResult {
   std::string summary;             // one or two lines for the terminal
   int exit_code = 0;               // 1 when a check found problems
 };
+
+// A laser build file (CLI, ASCII or binary, any tool's) measured against its design (.vcad):
+// vectors outside the part, FR_a per layer, scan time with `laser`'s timing. The report JSON
+// goes to `report_json` when given; the summary and the toolpath read are in the result.
+JobResult analyze_build_file(const std::string& path, const std::string& design,
+                             const LaserProfile& laser, std::string* report_json, Diagnostics& diag);
 
 // Runs the job's route: reads, plans or slices, writes every requested output atomically.
 JobResult run_job(const Job& job, Diagnostics& diag, const Progress& progress = {});
