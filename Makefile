@@ -3,7 +3,7 @@ PRESET ?= release
 BUILD  := build/$(PRESET)
 JOBS   ?= $(shell nproc)
 
-.PHONY: deps configure build demo test bench compare fuzz asan format clean
+.PHONY: deps configure build demo test python bench compare fuzz asan format clean
 
 deps:
 	@bash scripts/install-deps.sh
@@ -19,6 +19,9 @@ demo: build
 
 test: build
 	@cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
+
+python: build
+	@bash scripts/install-python.sh $(BUILD)
 
 bench: build
 	@for b in $(BUILD)/bench/bench_*; do echo "== $$b"; $$b --benchmark_min_time=1; done

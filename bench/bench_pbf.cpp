@@ -3,7 +3,7 @@
 //  - direct (field) route vs STL route (marching cubes → mesh → slice), same gyroid, 0.01 mm
 //    resolution: time and peak memory side by side, for 1 to 5 cells a side (5: ~1 min and
 //    ~12 GB for the STL route; the paper's O(n⁴) baseline, where each layer scans the whole
-//    mesh, to 4 cells: ~85 s). Each route runs
+//    mesh, to 4 cells: ~85 s); and at the default 0.025 mm for 2 to 4 cells. Each route runs
 //    in its own forked process so its peak RSS is its own (wait4's ru_maxrss).
 #include <benchmark/benchmark.h>
 #include <sys/resource.h>
@@ -48,14 +48,14 @@ void BM_Pbf4x4x4GyroidToCli(benchmark::State& state) {
 
 // Runs one route in a child process; reports its wall time and peak RSS.
 enum class Route { Direct, Stl, StlScanAll };
-void route(benchmark::State& state, Route which) {
+void route(benchmark::State& state, Route which, double resolution = 0.01) {
   const double side = 2.5 * static_cast<double>(state.range(0));
   for (auto _ : state) {
     const auto t0 = std::chrono::steady_clock::now();
     const pid_t pid = fork();
     if (pid == 0) {
       PbfOptions o;
-      o.resolution = 0.01;
+      o.resolution = resolution;
       o.stl_route = which != Route::Direct;
       o.stl_scan_all = which == Route::StlScanAll;
       const PbfResult r = plan_pbf(gyroid_cube(side), o);
@@ -80,6 +80,13 @@ void BM_StlRoute(benchmark::State& state) {
 void BM_StlRouteScanAll(benchmark::State& state) {
   route(state, Route::StlScanAll);
 }
+// At the default resolution (0.025 mm), where the shared per-layer work weighs more.
+void BM_DirectRouteDefault(benchmark::State& state) {
+  route(state, Route::Direct, 0.025);
+}
+void BM_StlRouteDefault(benchmark::State& state) {
+  route(state, Route::Stl, 0.025);
+}
 
 }  // namespace
 
@@ -87,6 +94,16 @@ void BM_StlRouteScanAll(benchmark::State& state) {
 BENCHMARK(BM_DirectRoute)->DenseRange(1, 5)->Iterations(1)->UseManualTime()->Unit(benchmark::kSecond);
 BENCHMARK(BM_StlRoute)->DenseRange(1, 5)->Iterations(1)->UseManualTime()->Unit(benchmark::kSecond);
 BENCHMARK(BM_StlRouteScanAll)->DenseRange(1, 4)->Iterations(1)->UseManualTime()->Unit(benchmark::kSecond);
+BENCHMARK(BM_DirectRouteDefault)
+    ->DenseRange(2, 4)
+    ->Iterations(1)
+    ->UseManualTime()
+    ->Unit(benchmark::kSecond);
+BENCHMARK(BM_StlRouteDefault)
+    ->DenseRange(2, 4)
+    ->Iterations(1)
+    ->UseManualTime()
+    ->Unit(benchmark::kSecond);
 BENCHMARK(BM_Pbf4x4x4GyroidToCli)->Arg(2)->Iterations(1)->UseRealTime()->Unit(benchmark::kSecond);
 
 BENCHMARK_MAIN();

@@ -18,19 +18,19 @@ echo "|---|---|---|---|---|---|---|---|"
 while read -r spec; do
   case "$spec" in ""|"#"*) continue ;; esac
   name=${spec%% *}
-  "$bin" lattice2d --pattern $spec --width 10 --height 10 -o "$out/$name.json" >/dev/null
+  "$bin" lattice2d --pattern $spec --size 10,10 -o "$out/$name.json" >/dev/null
   "$bin" plan gippo "$out/$name.json" -o "$out/$name.toolpath.json" >/dev/null
   "$bin" gcode "$out/$name.toolpath.json" --machine "$profile" --center -o "$out/$name.trellis.gcode" >/dev/null
   files=("$out/$name.trellis.gcode")
   for w in "${widths[@]}"; do
-    "$bin" walls "$out/$name.json" --width "$w" --height 0.148 -o "$out/$name.walls$w.stl" >/dev/null
+    "$bin" walls "$out/$name.json" --bead-width "$w" --height 0.148 -o "$out/$name.walls$w.stl" >/dev/null
     prusa-slicer --export-gcode --layer-height 0.148 --first-layer-height 0.148 --nozzle-diameter 0.2 \
       --extrusion-width 0.2 --perimeter-extrusion-width 0.2 --external-perimeter-extrusion-width 0.2 \
       --first-layer-extrusion-width 0.2 --fill-density 0% --top-solid-layers 0 --bottom-solid-layers 0 \
       --perimeters 1 --skirts 0 --brim-width 0 -o "$out/$name.prusa$w.gcode" "$out/$name.walls$w.stl" >/dev/null 2>&1
     files+=("$out/$name.prusa$w.gcode")
   done
-  "$bin" compare "$out/$name.json" "${files[@]}" --align --width 0.2 --report "$out/$name.compare.json" \
+  "$bin" compare "$out/$name.json" "${files[@]}" --align --bead-width 0.2 --report "$out/$name.compare.json" \
     --png "$out/$name" >/dev/null
   /usr/bin/python3 - "$out/$name.compare.json" "$name" <<'PY'
 import json, re, sys

@@ -10,7 +10,7 @@ echo "|---|---|---|---|---|---|---|---|---|"
 while read -r spec; do
   case "$spec" in ""|"#"*) continue ;; esac
   name=${spec%% *}
-  "$bin" lattice2d --pattern $spec --width 10 --height 10 -o "$out/$name.json" >/dev/null
+  "$bin" lattice2d --pattern $spec --size 10,10 -o "$out/$name.json" >/dev/null
   for planner in "gippo --mode max" "gippo --mode min" "euler"; do
     tag=$(echo "$planner" | tr -d ' -' | sed 's/gippomode/gippo-/')
     "$bin" plan $planner "$out/$name.json" -o "$out/$name.$tag.toolpath.json" --report "$out/$name.$tag.report.json" >/dev/null

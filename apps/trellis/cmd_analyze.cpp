@@ -15,12 +15,12 @@ namespace {
 struct AnalyzeOpts {
   AnalysisParams params;
   GcodeReadOptions read;
-  std::string design, report, png;
+  std::string design, report, png, machine;
   std::vector<std::string> files;
 };
 
 void add_common(CLI::App* cmd, AnalyzeOpts& o) {
-  cmd->add_option("--width", o.params.width,
+  cmd->add_option("--bead-width", o.params.width,
                   "bead width: deposits within width/2 cover a strut (mm)")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
@@ -83,9 +83,12 @@ void add_analyze(CLI::App& app) {
       "length), double-deposited length, off-design length, missing struts, and the GIPPO score\n"
       "corrected by EdgesReal/EdgesNominal.");
   cmd->add_option("gcode", o->files, "G-code file")->required()->expected(1);
-  cmd->add_option("--design", o->design, "design lattice (any lattice format)");
+  cmd->add_option("--design", o->design, "design lattice (any lattice format); .vcad for a .cli");
+  cmd->add_option("--machine", o->machine, ".cli files: laser profile (melt pool, scan timing)");
   add_common(cmd, *o);
   cmd->callback([o] {
+    if (is_laser_build_file(o->files.front()))
+      return analyze_laser_file(o->files.front(), o->design, o->machine, o->report);
     const auto runs = run(*o);
     const Analysis& a = runs.front();
     if (!o->report.empty()) write_file_atomic(o->report, analysis_json(a));

@@ -1,4 +1,3 @@
-#include <cstdio>
 #include <iostream>
 
 #include "commands.hpp"
@@ -6,89 +5,65 @@
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/lattice/io.hpp"
-#include "trellis/machine/gcode_reader.hpp"
-#include "trellis/machine/profile.hpp"
-#include "trellis/toolpath/json.hpp"
 
 namespace trellis::cli {
 
 void add_check(CLI::App& app) {
   struct Opts {
-    std::string lattice, print, machine, report, png;
-    CheckOptions check;
-    double merge_tolerance = 1e-6;
+    std::string lattice, print, machine, report, preview;
+    std::vector<std::string> sets;
+    double snap = 0.05;
+    std::map<std::string, std::string> values;
+    std::vector<std::pair<std::string, CLI::Option*>> options;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand(
       "check", "Replay a print against the nozzle model: collisions, struts missing or repeated");
   cmd->footer(
-      "The print is a toolpath JSON or G-code (.gcode/.nc; with --machine its valve commands and\n"
-      "tool offsets are used to read it). Every extruded segment is matched to a design strut by\n"
-      "its end nodes and tested against everything printed before it: the nozzle is a vertical\n"
-      "cylinder of --nozzle-radius from the tip up; material above the tip by more than\n"
-      "--tip-clearance within the radius is hit, except within --node-clearance of a node the two\n"
-      "struts share. Steep struts (within --cone of vertical) must be printed bottom-up.\n"
+      "The print is a toolpath JSON or G-code (.gcode/.nc). G-code is read with the valve commands\n"
+      "and tool offsets of --machine, or of the machine recorded in the file by Trellis. Every\n"
+      "extruded segment is matched to a design strut by its end nodes and tested against\n"
+      "everything printed before it: the nozzle is a vertical cylinder of --nozzle-radius from the\n"
+      "tip up; material above the tip by more than --tip-clearance within the radius is hit,\n"
+      "except within --node-clearance of a node the two struts share. Steep struts (within --cone\n"
+      "of vertical) must be printed bottom-up.\n"
       "Exit status: 0 if clean, 1 if anything was found, 2 for bad input.");
   cmd->add_option("lattice", o->lattice, "design lattice")->required();
   cmd->add_option("print", o->print, "toolpath JSON or G-code")->required();
   cmd->add_option("--machine", o->machine, "machine profile the G-code was written for");
   cmd->add_option("--report", o->report, "report JSON with every collision");
-  cmd->add_option("--png", o->png, "isometric picture with the collisions ringed in red");
-  add_nozzle_options(cmd, o->check.nozzle, "Nozzle model");
-  cmd->add_option("--snap", o->check.snap,
+  cmd->add_option("--preview", o->preview, "folder for an isometric picture with the collisions ringed");
+  cmd->add_option("--set", o->sets, "any [nozzle] or [lattice] setting: section.key=value");
+  for (const auto& s : all_settings()) {
+    if (s.flag.empty() || (s.section() != "nozzle" && s.section() != "lattice")) continue;
+    o->options.emplace_back(
+        s.key, cmd->add_option("--" + s.flag, o->values[s.key],
+                               s.doc + " (" + s.unit + "; default " + s.default_text() + ")")
+                   ->group("Nozzle model"));
+  }
+  cmd->add_option("--snap", o->snap,
                   "segment ends within this of a node are at it (mm; default 0.05, or the "
                   "profile's node overlap + 0.05)");
   cmd->callback([o] {
+    Settings st = command_settings(o->machine, o->sets);
+    for (const auto& [key, opt] : o->options)
+      if (opt->count() > 0) st.set_text(key, o->values[key], {"--" + find_setting(key)->flag});
+    const Config cfg = st.config();
+    cfg.aero.nozzle.validate();
     Diagnostics diag;
-    const Graph g = read_lattice(o->lattice, {o->merge_tolerance, true}, diag);
-    CheckOptions check = o->check;
-    Toolpath tp;
-    auto ends_with = [](const std::string& s, const std::string& tail) {
-      return s.size() >= tail.size() && s.compare(s.size() - tail.size(), tail.size(), tail) == 0;
-    };
-    const bool gcode = ends_with(o->print, ".gcode") || ends_with(o->print, ".nc") ||
-                       ends_with(o->print, ".g");
-    if (gcode) {
-      GcodeReadOptions read;
-      MachineProfile profile;
-      bool have_profile = !o->machine.empty();
-      if (have_profile) {
-        profile = load_profile(o->machine);
-        if (profile.parsed_flavor() != Flavor::Marlin) {
-          read.valve_on = profile.valve_on;
-          read.valve_off = profile.valve_off;
-        }
-        if (check.snap == 0.05) check.snap = profile.node_overlap + 0.05;
-      }
-      const std::string text = read_file(o->print);
-      tp = read_gcode(text, read, diag, o->print);
-      // Back to design coordinates: undo the placement Trellis wrote into the header and the
-      // tool offsets of the profile.
-      double dx = 0, dy = 0;
-      const auto at = text.find("; placement offset = ");
-      if (at != std::string::npos &&
-          std::sscanf(text.c_str() + at, "; placement offset = %lf, %lf", &dx, &dy) != 2)
-        dx = dy = 0;
-      if (have_profile || dx != 0 || dy != 0) {
-        for (auto& l : tp.layers)
-          for (auto& p : l.paths) {
-            const Vec2 t = have_profile ? profile.tool_offset(p.tool) : Vec2{};
-            for (auto& q : p.points) {
-              q.x -= t.x + dx;
-              q.y -= t.y + dy;
-            }
-          }
-      }
-    } else {
-      tp = read_toolpath(o->print);
-    }
+    const Graph g = read_lattice(o->lattice, {cfg.merge_tolerance, true}, diag);
+    CheckOptions check;
+    check.nozzle = cfg.aero.nozzle;
+    check.snap = o->snap;
+    const Toolpath tp = read_print(o->print, o->machine.empty() ? nullptr : &st, &check.snap, diag);
     const CollisionCheck c = check_collisions(g, tp, check);
     if (!o->report.empty()) write_file_atomic(o->report, collision_check_json(c, check));
-    if (!o->png.empty()) {
+    if (!o->preview.empty()) {
+      std::filesystem::create_directories(o->preview);
       View3dOptions v;
       for (const auto& h : c.hits) v.marks.push_back(h.point);
       v.title = std::to_string(c.collisions) + " collisions";
-      render_3d_png(tp, o->png, v);
+      render_3d_png(tp, (std::filesystem::path(o->preview) / "3d.png").string(), v);
     }
     print_warnings(diag);
     std::cout << "check: " << c.paths << " paths, " << c.segments << " segments, "

@@ -22,10 +22,10 @@ void add_render(CLI::App& app) {
   cmd->add_option("toolpath", o->input, "toolpath JSON")->required();
   cmd->add_option("-o,--output", o->output, "PNG file (with --layer) or prefix")->required();
   cmd->add_option("--layer", o->layer, "layer index (0-based)");
-  cmd->add_option("--size", o->r.size_px, "image size in pixels")
+  cmd->add_option("--image-size", o->r.size_px, "image size in pixels")
       ->check(CLI::Range(16, 20000))
       ->capture_default_str();
-  cmd->add_option("--bead", o->r.bead_width, "line width (mm; 0 = from the toolpath)");
+  cmd->add_option("--bead-width", o->r.bead_width, "line width (mm; 0 = from the toolpath)");
   cmd->add_flag("!--no-travel", o->r.travel, "do not draw travel moves");
   cmd->callback([o] {
     const Toolpath tp = read_toolpath(o->input);

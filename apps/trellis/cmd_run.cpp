@@ -1,3 +1,5 @@
+// `trellis run JOB.toml`, `trellis rerun OUTPUT` and `trellis settings`.
+#include <filesystem>
 #include <iostream>
 
 #include "commands.hpp"
@@ -9,34 +11,99 @@ namespace trellis::cli {
 void add_run(CLI::App& app) {
   struct Opts {
     std::string job, out;
+    std::vector<std::string> sets;
   };
   auto o = std::make_shared<Opts>();
-  auto* cmd =
-      app.add_subcommand("run", "Run a job file: lattice -> plan -> G-code, report and PNGs");
-  cmd->footer("Job files are TOML; see examples/*.toml and docs/jobs.md.");
+  auto* cmd = app.add_subcommand("run", "Run a job file (any route): design, plan, write, report, previews");
+  cmd->footer(
+      "A job file is TOML: [job] route = \"plan\" | \"lattice2d\" | \"lattice3d\" | \"gcode\" | \"slice\" |\n"
+      "\"pbf\" | \"nonplanar\" | \"surface\", input, machine, output_dir, outputs; then any settings\n"
+      "as [section] tables. Paths are relative to the job file. See docs/jobs.md and examples/.\n"
+      "Precedence: defaults < the job's machine profile < the job's settings < --set.");
   cmd->add_option("job", o->job, "job TOML")->required();
-  cmd->add_option("-o,--output-dir", o->out, "output folder (overrides [job] output_dir)");
+  cmd->add_option("-o,--output-dir", o->out, "output folder (replaces [job] output_dir)");
+  cmd->add_option("--set", o->sets, "override a setting of the job: section.key=value (repeatable)");
   cmd->callback([o] {
-    Job job = load_job(o->job);
-    if (!o->out.empty()) job.output_dir = o->out;
+    const Job job = load_job(o->job, o->out, o->sets);
     Diagnostics diag;
     Progress progress;
     progress.report = progress_line;
-    const JobOutputs out = run_job(job, diag, progress);
+    const JobResult r = run_job(job, diag, progress);
     print_warnings(diag);
-    const auto& t = out.result.total;
-    std::cout << job.name << ": " << out.result.toolpath.layers.size() << " layer(s), " << t.paths
-              << " paths (lower bound " << t.lower_bound_paths << "), score " << num(t.score, 4)
-              << ", LTS " << num(t.lts, 1) << "%, OE " << num(t.oe, 2) << "%, "
-              << num(t.total_length, 1) << " mm of struts\n";
-    std::cout << "  lattice:  " << out.lattice << "\n  toolpath: " << out.toolpath
-              << "\n  report:   " << out.report << "\n";
-    if (!out.gcode.empty())
-      std::cout << "  gcode:    " << out.gcode << " (" << out.gcode_stats.bytes << " bytes, ~"
-                << num(out.gcode_stats.print_time_s / 60, 1) << " min)\n";
-    if (!out.pngs.empty())
-      std::cout << "  previews: " << out.pngs.size() << " PNG(s), e.g. " << out.pngs.front()
-                << "\n";
+    std::cout << job.name << " (" << job.route << "): " << r.summary << "\n";
+    for (const auto& f : r.files) {
+      // Paths under the working folder are shown relative to it.
+      const auto rel = std::filesystem::path(f).lexically_relative(std::filesystem::current_path());
+      std::cout << "  " << (rel.empty() || *rel.begin() == ".." ? f : rel.string()) << "\n";
+    }
+    if (r.exit_code) set_exit_code(r.exit_code);
+  });
+}
+
+void add_rerun(CLI::App& app) {
+  struct Opts {
+    std::string input, out;
+  };
+  auto o = std::make_shared<Opts>();
+  auto* cmd = app.add_subcommand(
+      "rerun", "Regenerate an output from the job recorded in its header (byte for byte)");
+  cmd->footer(
+      "Every G-code, .nc, .cli and toolpath JSON that Trellis writes carries the job that made it:\n"
+      "the route, its inputs and every setting in force. rerun reads that job and writes the\n"
+      "same kind of output again (to -o, default: over the file itself).\nExample:\n"
+      "  trellis rerun part.gcode -o part_again.gcode && cmp part.gcode part_again.gcode");
+  cmd->add_option("output", o->input, "a file written by Trellis")->required();
+  cmd->add_option("-o,--output", o->out, "where to write (default: the file itself)");
+  cmd->callback([o] {
+    Job job = job_from_output(o->input);
+    const std::string target = o->out.empty() ? o->input : o->out;
+    const std::string ext = std::filesystem::path(o->input).extension().string();
+    job.output = job.report = job.toolpath = job.gcode = job.lattice = job.preview = "";
+    if (ext == ".json") {
+      if (job.route == "lattice2d" || job.route == "lattice3d") job.output = target;
+      else job.toolpath = target;
+    } else if (job.route == "plan") {
+      job.gcode = target;
+    } else {
+      job.output = target;
+    }
+    Diagnostics diag;
+    print_result(run_job(job, diag, {}), diag);
+  });
+}
+
+void add_settings(CLI::App& app) {
+  struct Opts {
+    std::vector<std::string> what;
+    bool markdown = false;
+  };
+  auto o = std::make_shared<Opts>();
+  auto* cmd = app.add_subcommand("settings", "List every setting (unit, default, range, flag, doc)");
+  cmd->footer("Give sections (e.g. extrusion slice) or routes (e.g. pbf) to list only those.");
+  cmd->add_option("what", o->what, "sections or routes");
+  cmd->add_flag("--markdown", o->markdown, "write docs/settings.md's text");
+  cmd->callback([o] {
+    if (o->markdown) {
+      std::cout << settings_markdown();
+      return;
+    }
+    std::vector<std::string> sections;
+    for (const auto& w : o->what) {
+      if (std::find(route_names().begin(), route_names().end(), w) != route_names().end()) {
+        const auto s = route_sections(w);
+        sections.insert(sections.end(), s.begin(), s.end());
+        continue;
+      }
+      bool known = false;
+      for (const auto& [sec, _] : setting_sections()) known |= sec == w;
+      if (!known) {
+        std::string all;
+        for (const auto& [sec, _] : setting_sections()) all += " " + sec;
+        throw SettingError("unknown section or route '" + w + "' (sections:" + all + ")");
+      }
+      sections.push_back(w);
+    }
+    std::cout << settings_reference(sections);
   });
 }
 

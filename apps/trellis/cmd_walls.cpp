@@ -19,7 +19,7 @@ void add_walls(CLI::App& app) {
               "fed its lattices to a conventional slicer (\"wall structure\", 0% infill).");
   cmd->add_option("lattice", o->input, "lattice file")->required();
   cmd->add_option("-o,--output", o->output, "STL file to write")->required();
-  cmd->add_option("--width", o->width, "wall width (mm)")->check(CLI::PositiveNumber)->capture_default_str();
+  cmd->add_option("--bead-width", o->width, "wall width = bead width (mm)")->check(CLI::PositiveNumber)->capture_default_str();
   cmd->add_option("--height", o->height, "wall height (mm)")->check(CLI::PositiveNumber)->capture_default_str();
   cmd->callback([o] {
     Diagnostics diag;

@@ -1,6 +1,7 @@
 // trellis: a thin command line over libtrellis.
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <iostream>
@@ -27,22 +28,6 @@ void print_warnings(const Diagnostics& diag) {
   }
 }
 
-std::vector<std::string> render_previews(const Toolpath& toolpath, const std::string& dir,
-                                         std::size_t count, const RenderOptions& options) {
-  std::vector<std::string> pngs;
-  const std::size_t n = toolpath.layers.size();
-  if (dir.empty() || count == 0 || n == 0) return pngs;
-  std::filesystem::create_directories(dir);
-  const std::size_t k = std::min(count, n);
-  for (std::size_t t = 0; t < k; ++t) {
-    const std::size_t layer = k == 1 ? n / 2 : t * (n - 1) / (k - 1);
-    const std::string png = dir + "/layer_" + std::to_string(layer) + ".png";
-    render_layer_png(toolpath, layer, png, options);
-    pngs.push_back(png);
-  }
-  return pngs;
-}
-
 namespace {
 int g_exit_code = 0;
 }
@@ -53,22 +38,24 @@ int exit_code() {
   return g_exit_code;
 }
 
-void add_nozzle_options(CLI::App* cmd, NozzleModel& nozzle, const std::string& group) {
-  cmd->add_option("--nozzle-radius", nozzle.radius, "nozzle radius R (mm)")
-      ->capture_default_str()
-      ->group(group);
-  cmd->add_option("--tip-clearance", nozzle.tip_clearance,
-                  "material less than this above the tip is not hit (mm)")
-      ->capture_default_str()
-      ->group(group);
-  cmd->add_option("--node-clearance", nozzle.node_clearance,
-                  "no collision within this of a node the two struts share (mm)")
-      ->capture_default_str()
-      ->group(group);
-  cmd->add_option("--cone", nozzle.cone_half_angle_deg,
-                  "struts within this angle of vertical print bottom-up (degrees)")
-      ->capture_default_str()
-      ->group(group);
+std::string nearest(const std::string& word, const std::vector<std::string>& candidates) {
+  std::string best;
+  std::size_t best_d = std::max<std::size_t>(2, word.size() / 3) + 1;
+  for (const auto& c : candidates) {
+    std::vector<std::size_t> row(c.size() + 1);
+    for (std::size_t j = 0; j <= c.size(); ++j) row[j] = j;
+    for (std::size_t i = 1; i <= word.size(); ++i) {
+      std::size_t diag = row[0];
+      row[0] = i;
+      for (std::size_t j = 1; j <= c.size(); ++j) {
+        const std::size_t up = row[j];
+        row[j] = std::min({row[j] + 1, row[j - 1] + 1, diag + (word[i - 1] == c[j - 1] ? 0 : 1)});
+        diag = up;
+      }
+    }
+    if (row[c.size()] < best_d) best_d = row[c.size()], best = c;
+  }
+  return best;
 }
 
 std::string num(double v, int decimals) {
@@ -98,20 +85,33 @@ int main(int argc, char** argv) {
       "  trellis check octet.json octet.nc --machine profiles/embedded_aero_410um.toml"};
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string("trellis ") + trellis::version());
-  trellis::cli::add_lattice2d(app);
-  trellis::cli::add_lattice3d(app);
-  trellis::cli::add_plan(app);
-  trellis::cli::add_gcode(app);
+  trellis::cli::add_routes(app, argc, argv);
   trellis::cli::add_render(app);
   trellis::cli::add_run(app);
+  trellis::cli::add_rerun(app);
+  trellis::cli::add_settings(app);
   trellis::cli::add_analyze(app);
   trellis::cli::add_check(app);
   trellis::cli::add_compare(app);
   trellis::cli::add_walls(app);
-  trellis::cli::add_slice(app);
-  trellis::cli::add_pbf(app);
-  trellis::cli::add_nonplanar(app);
-  trellis::cli::add_surface(app);
+  // A misspelt command: name the nearest one instead of CLI11's "a subcommand is required".
+  CLI::App* level = &app;
+  for (int i = 1; i < argc && argv[i][0] != '-' && !level->get_subcommands({}).empty(); ++i) {
+    std::vector<std::string> names;
+    for (const auto* sub : level->get_subcommands({})) names.push_back(sub->get_name());
+    if (std::find(names.begin(), names.end(), argv[i]) != names.end()) {
+      level = level->get_subcommand(argv[i]);
+      continue;
+    }
+    {
+      std::cerr << "trellis: error: unknown command '" << argv[i] << "'";
+      const std::string near = trellis::cli::nearest(argv[i], names);
+      if (!near.empty()) std::cerr << " (did you mean '" << near << "'?)";
+      std::cerr << "; `trellis " << (level == &app ? "" : level->get_name() + " ")
+                << "--help` lists the commands\n";
+      return 2;
+    }
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -120,6 +120,34 @@ int main(int argc, char** argv) {
     return app.exit(e);
   } catch (const CLI::CallForVersion& e) {
     return app.exit(e);
+  } catch (const CLI::ExtrasError& e) {
+    // A misspelt flag: suggest the nearest flag of the command.
+    std::string msg = e.what();
+    std::vector<const CLI::App*> chosen;
+    for (const auto* sub : app.get_subcommands()) {
+      chosen.push_back(sub);
+      for (const auto* inner : sub->get_subcommands()) chosen.push_back(inner);
+    }
+    for (const auto* sub : chosen) {
+      if (!sub->get_subcommands().empty()) continue;
+      std::vector<std::string> flags;
+      for (const auto* opt : sub->get_options())
+        for (const auto& n : opt->get_lnames()) flags.push_back("--" + n);
+      for (int i = 2; i < argc; ++i) {
+        const std::string a = argv[i];
+        if (a.rfind("--", 0) != 0) continue;
+        const std::string name = a.substr(0, a.find('='));
+        if (std::find(flags.begin(), flags.end(), name) != flags.end()) continue;
+        const std::string near = trellis::cli::nearest(name, flags);
+        msg = "unknown option " + name + (near.empty() ? "" : " (did you mean " + near + "?)") +
+              "; `trellis " +
+              (sub->get_parent() && sub->get_parent()->get_parent() ? sub->get_parent()->get_name() + " " : "") +
+              sub->get_name() + " --help` lists them";
+        break;
+      }
+    }
+    std::cerr << "trellis: error: " << msg << "\n";
+    return 2;
   } catch (const CLI::ParseError& e) {
     app.exit(e);
     return 2;

@@ -225,9 +225,10 @@ static LatticeInput lattice_from_document(const json& doc, const std::string& or
     throw ParseError("expected a JSON object with 'nodes' and 'edges'", {origin});
   for (auto it = doc.begin(); it != doc.end(); ++it)
     if (it.key() != "nodes" && it.key() != "edges" && it.key() != "material" &&
-        it.key() != "directed" && it.key() != "name" && it.key() != "units" && it.key() != "meta")
+        it.key() != "directed" && it.key() != "name" && it.key() != "units" && it.key() != "meta" &&
+        it.key() != "job")
       throw ParseError("unknown key '" + it.key() +
-                           "' (expected nodes, edges, material, directed, name, units, meta)",
+                           "' (expected nodes, edges, material, directed, name, units, meta, job)",
                        {origin});
   if (auto u = doc.find("units"); u != doc.end() && *u != "mm")
     throw ParseError("only \"units\": \"mm\" is supported", {origin, 0, "units"});

@@ -30,8 +30,14 @@ const std::map<std::string, Key>& keys() {
       {"scan.layer", {&LaserProfile::layer, 0.001, 1}},
       {"scan.hatch_distance", {&LaserProfile::hatch_distance, 0.001, 5}},
       {"scan.beam_compensation", {&LaserProfile::beam_compensation, 0, 1}},
-      {"scan.segment_length", {&LaserProfile::segment_length, 0.005, 0.4}},
-      {"scan.segment_gap", {&LaserProfile::segment_gap, 0, 0.12}},
+      // Any SL/LHD a scanner can mark (the paper tested 5–400 / 0–120 µm; the planner warns).
+      {"scan.segment_length", {&LaserProfile::segment_length, 0.0001, 1000}},
+      {"scan.segment_gap", {&LaserProfile::segment_gap, 0, 1000}},
+      {"timing.jump_speed", {&LaserProfile::jump_speed, 1, 1e6}},
+      {"timing.jump_delay", {&LaserProfile::jump_delay, 0, 1e5}},
+      {"timing.mark_delay", {&LaserProfile::mark_delay, 0, 1e5}},
+      {"timing.polygon_delay", {&LaserProfile::polygon_delay, 0, 1e5}},
+      {"timing.skywriting_time", {&LaserProfile::skywriting_time, 0, 1e5}},
   };
   return k;
 }
@@ -42,6 +48,11 @@ void walk(LaserProfile& p, const toml::table& t, const std::string& prefix, cons
     const Where where{origin, static_cast<long>(node.source().begin.line), key};
     if (const auto* sub = node.as_table()) {
       walk(p, *sub, key, origin);
+      continue;
+    }
+    if (key == "timing.skywriting") {
+      if (!node.is_boolean()) throw SettingError("expected true or false", where);
+      p.skywriting = *node.value<bool>();
       continue;
     }
     if (key == "machine.name") {
@@ -59,20 +70,6 @@ void walk(LaserProfile& p, const toml::table& t, const std::string& prefix, cons
   }
 }
 
-// Coordinates in µm with two decimals (10 nm), no trailing zeros.
-void put(std::string& out, double mm) {
-  double v = std::round(mm * 1e5) / 100.0;
-  if (v == 0) v = 0;
-  out += fmt::format("{}", v);
-}
-
-void put_xy(std::string& out, const Vec3& q) {
-  out += ',';
-  put(out, q.x);
-  out += ',';
-  put(out, q.y);
-}
-
 }  // namespace
 
 LaserProfile laser_profile_from_toml(const std::string& text, const std::string& origin) {
@@ -87,55 +84,21 @@ LaserProfile laser_profile_from_toml(const std::string& text, const std::string&
   return p;
 }
 
+ScanTiming scan_timing(const LaserProfile& p) {
+  ScanTiming t;
+  t.contour_speed = p.contour_speed;
+  t.hatch_speed = p.hatch_speed;
+  t.jump_speed = p.jump_speed;
+  t.jump_delay = p.jump_delay;
+  t.mark_delay = p.mark_delay;
+  t.polygon_delay = p.polygon_delay;
+  t.skywriting = p.skywriting;
+  t.skywriting_time = p.skywriting_time;
+  return t;
+}
+
 LaserProfile load_laser_profile(const std::string& path) {
   return laser_profile_from_toml(read_file(path), path);
-}
-
-std::string write_cli(const Toolpath& tp, const LaserProfile& prof) {
-  BBox3 box;
-  for (const auto& l : tp.layers)
-    for (const auto& p : l.paths)
-      for (const auto& q : p.points) box.add(q);
-  if (box.empty()) box.add({0, 0, 0});
-  std::string out;
-  out += "$$HEADERSTART\n$$ASCII\n$$UNITS/0.001\n$$VERSION/200\n";
-  out += "$$LABEL/1,contour\n$$LABEL/2,hatch\n";
-  out += fmt::format("//machine: {}//\n", prof.name);
-  out += fmt::format("//id 1 contour: {} W, {} mm/s; id 2 hatch: {} W, {} mm/s; spot {} mm//\n",
-                     prof.contour_power, prof.contour_speed, prof.hatch_power, prof.hatch_speed,
-                     prof.spot_diameter);
-  out += fmt::format("//source: {}//\n", tp.source);
-  out += fmt::format("$$DIMENSION/{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f}\n", box.min.x, box.min.y,
-                     box.min.z, box.max.x, box.max.y, box.max.z);
-  out += fmt::format("$$LAYERS/{}\n$$HEADEREND\n$$GEOMETRYSTART\n", tp.layers.size());
-  for (const auto& layer : tp.layers) {
-    out += "$$LAYER/";
-    put(out, layer.z);
-    out += '\n';
-    std::size_t hatches = 0;
-    for (const auto& p : layer.paths) {
-      if (p.role == PathRole::Infill && p.points.size() == 2) {
-        ++hatches;
-        continue;
-      }
-      out += fmt::format("$$POLYLINE/1,2,{}", p.points.size());
-      for (const auto& q : p.points) put_xy(out, q);
-      out += '\n';
-    }
-    if (hatches) {
-      out += fmt::format("$$HATCHES/2,{}", hatches);
-      for (const auto& p : layer.paths)
-        if (p.role == PathRole::Infill && p.points.size() == 2)
-          for (const auto& q : p.points) put_xy(out, q);
-      out += '\n';
-    }
-  }
-  out += "$$GEOMETRYEND\n";
-  return out;
-}
-
-void write_cli_file(const std::string& path, const Toolpath& tp, const LaserProfile& prof) {
-  write_file_atomic(path, write_cli(tp, prof));
 }
 
 }  // namespace trellis

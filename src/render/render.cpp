@@ -339,6 +339,90 @@ void render_scores_png(const std::vector<double>& scores, std::size_t best,
 
 }  // namespace trellis
 
+namespace trellis {
+
+namespace impl {
+
+void render_series_png(const std::vector<double>& x, const std::vector<PlotSeries>& series,
+                       const std::string& title, const std::string& x_label,
+                       const std::string& path) {
+  const int W = 1000, H = 500, L = 70, R = 20, T = 50, B = 50;
+  Surface surface(cairo_image_surface_create(CAIRO_FORMAT_RGB24, W, H), cairo_surface_destroy);
+  Context cr(cairo_create(surface.get()), cairo_destroy);
+  cairo_t* c = cr.get();
+  cairo_set_source_rgb(c, 1, 1, 1);
+  cairo_paint(c);
+  double x0 = x.empty() ? 0 : *std::min_element(x.begin(), x.end());
+  double x1 = x.empty() ? 1 : *std::max_element(x.begin(), x.end());
+  double lo = 0, hi = 0;
+  for (const auto& s : series)
+    for (const double v : s.values)
+      if (std::isfinite(v)) hi = std::max(hi, v), lo = std::min(lo, v);
+  if (hi - lo < 1e-12) hi = lo + 1;
+  hi += 0.05 * (hi - lo);
+  if (x1 - x0 < 1e-12) x1 = x0 + 1;
+  auto X = [&](double v) { return L + (W - L - R) * (v - x0) / (x1 - x0); };
+  auto Y = [&](double v) { return H - B - (H - T - B) * (v - lo) / (hi - lo); };
+  cairo_set_source_rgb(c, 0, 0, 0);
+  cairo_set_line_width(c, 1);
+  cairo_move_to(c, L, T);
+  cairo_line_to(c, L, H - B);
+  cairo_line_to(c, W - R, H - B);
+  cairo_stroke(c);
+  cairo_select_font_face(c, "sans-serif", CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
+  cairo_set_font_size(c, 13);
+  char buf[128];
+  for (int k = 0; k <= 4; ++k) {
+    const double v = lo + (hi - lo) * k / 4, u = x0 + (x1 - x0) * k / 4;
+    std::snprintf(buf, sizeof buf, "%.3g", v);
+    cairo_move_to(c, 5, Y(v) + 4);
+    cairo_show_text(c, buf);
+    cairo_move_to(c, L - 4, Y(v));
+    cairo_line_to(c, L, Y(v));
+    std::snprintf(buf, sizeof buf, "%.6g", u);
+    cairo_move_to(c, X(u) - 10, H - B + 18);
+    cairo_show_text(c, buf);
+    cairo_move_to(c, X(u), H - B);
+    cairo_line_to(c, X(u), H - B + 4);
+    cairo_stroke(c);
+  }
+  cairo_move_to(c, W / 2.0 - 40, H - 12);
+  cairo_show_text(c, x_label.c_str());
+  cairo_set_font_size(c, 15);
+  cairo_move_to(c, L, 22);
+  cairo_show_text(c, title.c_str());
+  cairo_set_font_size(c, 13);
+  double legend_x = W - R - 260;
+  for (const auto& s : series) {
+    cairo_set_source_rgb(c, s.r, s.g, s.b);
+    cairo_set_line_width(c, 1.2);
+    bool first = true;
+    for (std::size_t i = 0; i < x.size() && i < s.values.size(); ++i) {
+      if (!std::isfinite(s.values[i])) {
+        first = true;
+        continue;
+      }
+      if (first)
+        cairo_move_to(c, X(x[i]), Y(s.values[i]));
+      else
+        cairo_line_to(c, X(x[i]), Y(s.values[i]));
+      first = false;
+    }
+    cairo_stroke(c);
+    cairo_rectangle(c, legend_x, 32, 18, 4);
+    cairo_fill(c);
+    cairo_move_to(c, legend_x + 24, 38);
+    cairo_show_text(c, s.label.c_str());
+    legend_x += 130;
+  }
+  cairo_surface_flush(surface.get());
+  save_png(surface.get(), path);
+}
+
+}  // namespace impl
+
+}  // namespace trellis
+
 TRELLIS_MODULE_ENTRY(cairo, trellis::RenderModule, &trellis::impl::render_layer_png,
                      &trellis::impl::render_3d_png, &trellis::impl::render_overlay_png,
-                     &trellis::impl::render_scores_png)
+                     &trellis::impl::render_scores_png, &trellis::impl::render_series_png)

@@ -29,4 +29,10 @@ void render_scores_png(const std::vector<double>& scores, std::size_t best_itera
   cairo().render_scores_png(scores, best_iteration, title, path);
 }
 
+void render_series_png(const std::vector<double>& x, const std::vector<PlotSeries>& series,
+                       const std::string& title, const std::string& x_label,
+                       const std::string& path) {
+  cairo().render_series_png(x, series, title, x_label, path);
+}
+
 }  // namespace trellis

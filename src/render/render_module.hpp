@@ -14,6 +14,8 @@ struct RenderModule {
                              const std::string&, int);
   void (*render_scores_png)(const std::vector<double>&, std::size_t, const std::string&,
                             const std::string&);
+  void (*render_series_png)(const std::vector<double>&, const std::vector<PlotSeries>&,
+                            const std::string&, const std::string&, const std::string&);
 };
 
 }  // namespace trellis

@@ -1,19 +1,22 @@
 #include "trellis/slice/pbf.hpp"
 
+#include <fmt/format.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <atomic>
-#include <cstdint>
-#include <cstring>
 #include <chrono>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <mutex>
 #include <numbers>
-#include <utility>
 #include <optional>
+#include <utility>
 
+#include "pbf_chords.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/geom/contour.hpp"
 #include "trellis/geom/mesh_io.hpp"
@@ -248,12 +251,17 @@ class JointSection : public PlaneFunction {
                bool invert = false)
       : ctx_(ctx), d_(d), o_(o), c_(c_const), z_(z), cos_min_(std::cos(o.min_inclination * kDeg)),
         invert_(invert) {}
-  void use_grid(LayerGrid* g) { grid_ = g; }
+  // Part values are read from and written to the grid's nodes; the measure too when `cache` (the
+  // layer's one JointSection that owns the grid's joint slots).
+  void use_grid(LayerGrid* g, bool cache = true) {
+    grid_ = g;
+    cache_ = cache;
+  }
   double at(Vec2 q) {
     const std::size_t k = grid_ ? grid_->node(q) : LayerGrid::npos;
-    if (k != LayerGrid::npos && !invert_ && grid_->has_joint(k)) return grid_->joint(k);
+    if (k != LayerGrid::npos && cache_ && grid_->has_joint(k)) return grid_->joint(k);
     const double v = compute(q, k);
-    if (k != LayerGrid::npos && !invert_) grid_->set_joint(k, v);
+    if (k != LayerGrid::npos && cache_) grid_->set_joint(k, v);
     return v;
   }
   double compute(Vec2 q, std::size_t k) {
@@ -303,7 +311,7 @@ class JointSection : public PlaneFunction {
     part_.clear();
     need_.clear();
     pts_.clear();
-    const bool cache_joint = grid_ && !invert_;
+    const bool cache_joint = grid_ && cache_;
     for (std::size_t i = 0; i < n; ++i) {
       const std::size_t k = key(i);
       if (k != LayerGrid::npos) {
@@ -359,7 +367,7 @@ class JointSection : public PlaneFunction {
   const PbfDesign& d_;
   const PbfOptions& o_;
   double c_, z_, cos_min_;
-  bool invert_;
+  bool invert_, cache_ = false;
   LayerGrid* grid_ = nullptr;
   std::vector<std::size_t> miss_, keys_, need_;
   std::vector<Vec3> pts_, grads_;
@@ -434,56 +442,6 @@ class MidSection : public PlaneFunction {
   double z_;
   std::vector<Vec3> buf_;
 };
-
-// Cuts polylines into scan vectors of length sl with gaps gap, starting `phase` mm before the
-// first point (so starts move from layer to layer).
-void dash(const std::vector<Vec2>& line, double sl, double gap, double phase,
-          std::vector<std::vector<Vec2>>& out) {
-  const double period = sl + gap;
-  double s = -phase;  // arc length at the current dash start
-  std::size_t i = 0;
-  double acc = 0;     // arc length at line[i]
-  std::vector<Vec2> cur;
-  auto point_at = [&](double target, std::size_t& k, double& at_k) {
-    while (k + 1 < line.size()) {
-      const double len = std::hypot(line[k + 1].x - line[k].x, line[k + 1].y - line[k].y);
-      if (at_k + len >= target) {
-        const double t = len > 0 ? (target - at_k) / len : 0;
-        return line[k] + (line[k + 1] - line[k]) * t;
-      }
-      at_k += len;
-      ++k;
-    }
-    return line.back();
-  };
-  double total = 0;
-  for (std::size_t k = 1; k < line.size(); ++k)
-    total += std::hypot(line[k].x - line[k - 1].x, line[k].y - line[k - 1].y);
-  for (; s < total; s += period) {
-    const double a = std::max(s, 0.0), b = std::min(s + sl, total);
-    if (b - a <= 1e-6) continue;
-    std::size_t k = i;
-    double at_k = acc;
-    cur.clear();
-    cur.push_back(point_at(a, k, at_k));
-    i = k;
-    acc = at_k;
-    // Interior vertices up to b.
-    double run = at_k;
-    std::size_t j = k;
-    while (j + 1 < line.size()) {
-      const double len = std::hypot(line[j + 1].x - line[j].x, line[j + 1].y - line[j].y);
-      if (run + len >= b) break;
-      run += len;
-      ++j;
-      cur.push_back(line[j]);
-    }
-    std::size_t kb = j;
-    double at_b = run;
-    cur.push_back(point_at(b, kb, at_b));
-    out.push_back(cur);
-  }
-}
 
 // Bisection of many brackets [lo, hi] at once: each round samples the middle of every bracket
 // still wider than tol in one batch. sample(active, middles, values) fills values for the
@@ -693,6 +651,133 @@ void densify_on_mid_surface(Ctx& ctx, double z, std::vector<std::vector<Vec2>>& 
   }
 }
 
+// A thin-wall stretch of the mid-curve: a loop (closed) or a piece between switches to a joint
+// or to the part's outer boundary (then the track stops short of it).
+struct ThinPiece {
+  std::vector<Vec2> points;
+  bool closed = false;
+  bool boundary_start = false, boundary_end = false;
+};
+
+// Splits mid-curve lines (open ones first, loops from first_loop on, each loop's last point its
+// first) where the inverted joint measure changes sign; each switch is bisected along its chord
+// and classed by the part's value just past it.
+std::vector<ThinPiece> thin_pieces(Ctx& ctx, JointSection& thin,
+                                   const std::vector<std::vector<Vec2>>& lines,
+                                   std::size_t first_loop, double z, double refine) {
+  std::vector<ThinPiece> pieces;
+  std::vector<double> tv;
+  for (std::size_t li = 0; li < lines.size(); ++li) {
+    const auto& l = lines[li];
+    if (l.size() < 2) continue;
+    const bool loop = li >= first_loop;
+    tv.resize(l.size());
+    thin.sample(l.data(), tv.data(), l.size());  // one batch per line
+    const std::size_t first_piece = pieces.size();
+    bool switched = false;
+    ThinPiece cur;
+    if (tv[0] < 0) {
+      cur.points.push_back(l[0]);
+      cur.boundary_start = !loop;  // an open mid-curve ends where the part does
+    }
+    double prev = tv[0];
+    for (std::size_t k = 1; k < l.size(); ++k) {
+      const double v = tv[k];
+      if ((v < 0) != (prev < 0)) {
+        switched = true;
+        Vec2 a = l[k - 1], b = l[k];
+        for (int it = 0; it < 30 && std::hypot(b.x - a.x, b.y - a.y) > refine; ++it) {
+          const Vec2 c = (a + b) * 0.5;
+          if ((thin.at(c) < 0) == (prev < 0))
+            a = c;
+          else
+            b = c;
+        }
+        const Vec2 x = (a + b) * 0.5, past = prev < 0 ? b : a;
+        const bool boundary = ctx.part.value({past.x, past.y, z}) >= 0;
+        if (prev < 0) {
+          cur.points.push_back(x);
+          cur.boundary_end = boundary;
+          if (cur.points.size() >= 2) pieces.push_back(std::move(cur));
+          cur = {};
+        } else {
+          cur = {};
+          cur.points = {x};
+          cur.boundary_start = boundary;
+        }
+      }
+      if (v < 0) cur.points.push_back(l[k]);
+      prev = v;
+    }
+    if (prev < 0 && cur.points.size() >= 2) {
+      cur.boundary_end = !loop;
+      pieces.push_back(std::move(cur));
+    }
+    if (!loop || tv[0] >= 0 || prev >= 0 || pieces.size() == first_piece) continue;
+    if (!switched) {
+      pieces.back().closed = true;  // the whole loop is thin
+    } else if (pieces.size() - first_piece >= 2) {
+      // The last piece runs on into the first across the loop's seam: one piece.
+      ThinPiece last = std::move(pieces.back());
+      pieces.pop_back();
+      ThinPiece& f = pieces[first_piece];
+      last.points.insert(last.points.end(), f.points.begin() + 1, f.points.end());
+      last.boundary_end = f.boundary_end;
+      f = std::move(last);
+    }
+  }
+  return pieces;
+}
+
+// The section's rings come from a grid: puts a point, moved onto the part's boundary by a
+// Newton step along the part's gradient (at most a quarter chord), in the middle of every chord.
+void densify_on_part(Ctx& ctx, double z, Regions& S) {
+  std::vector<std::vector<Vec2>*> rings;
+  for (auto& p : S) {
+    rings.push_back(&p.outer);
+    for (auto& h : p.holes) rings.push_back(&h);
+  }
+  std::vector<Vec3> mids;
+  for (const auto* r : rings)
+    for (std::size_t k = 0; k < r->size(); ++k) {
+      const Vec2 c = ((*r)[k] + (*r)[(k + 1) % r->size()]) * 0.5;
+      mids.push_back({c.x, c.y, z});
+    }
+  if (mids.empty()) return;
+  // The part's value and its in-plane gradient by forward differences: three batches of values
+  // (CSG gradients point by point cost twice as much).
+  const std::size_t n = mids.size();
+  constexpr double h = 1e-6;
+  std::vector<Vec3> pts(3 * n);
+  for (std::size_t i = 0; i < n; ++i) {
+    pts[i] = mids[i];
+    pts[n + i] = {mids[i].x + h, mids[i].y, z};
+    pts[2 * n + i] = {mids[i].x, mids[i].y + h, z};
+  }
+  std::vector<double> vals(3 * n), f(n);
+  std::vector<Vec3> g(n);
+  ctx.part.values(pts.data(), vals.data(), pts.size());
+  for (std::size_t i = 0; i < n; ++i) {
+    f[i] = vals[i];
+    g[i] = {(vals[n + i] - vals[i]) / h, (vals[2 * n + i] - vals[i]) / h, 0};
+  }
+  std::size_t m = 0;
+  for (auto* r : rings) {
+    std::vector<Vec2> dense;
+    dense.reserve(2 * r->size());
+    for (std::size_t k = 0; k < r->size(); ++k, ++m) {
+      const Vec2 a = (*r)[k], b = (*r)[(k + 1) % r->size()];
+      dense.push_back(a);
+      const double gg = g[m].x * g[m].x + g[m].y * g[m].y;
+      Vec2 step = gg > 0 ? Vec2{g[m].x, g[m].y} * (-f[m] / gg) : Vec2{};
+      const double cap = 0.25 * std::hypot(b.x - a.x, b.y - a.y), len = std::hypot(step.x, step.y);
+      if (len > cap) step = step * (cap / len);
+      dense.push_back(Vec2{mids[m].x, mids[m].y} + step);
+    }
+    *r = std::move(dense);
+  }
+}
+
 // Wall thickness measured across the sheet at mid-curve points inside the part (every 32nd
 // point): from φ = 0 along ±∇φ to where Φ = 0 on each side, all rays bisected together.
 void measure_wall_thickness(Ctx& ctx, const PbfDesign& design, double c_const, double z,
@@ -764,15 +849,30 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
   if (!(o.layer > 0)) throw SettingError("layer thickness must be > 0");
   if (!(o.resolution > 0)) throw SettingError("resolution must be > 0");
   if (o.coarse < 1 || o.coarse > 8) throw SettingError("coarse grid factor must be 1..8");
-  if (!(o.segment_length >= 0.005 && o.segment_length <= 0.4))
-    throw SettingError("segment length SL must be within 5–400 µm (0.005–0.4 mm)");
-  if (!(o.segment_gap >= 0 && o.segment_gap <= 0.12))
-    throw SettingError("segment gap LHD must be within 0–120 µm (0–0.12 mm)");
+  if (!(o.segment_length > 0) || !std::isfinite(o.segment_length))
+    throw SettingError("segment length SL must be > 0 mm");
+  if (!(o.segment_gap >= 0) || !std::isfinite(o.segment_gap))
+    throw SettingError("segment gap LHD must be >= 0 mm");
   if (!(o.hatch_distance > 0)) throw SettingError("hatch distance must be > 0");
   if (!(o.beam_compensation >= 0)) throw SettingError("beam compensation must be >= 0");
   if (!(o.melt_pool > 0)) throw SettingError("melt-pool width must be > 0");
   const Field part = design.part();
   PbfResult result;
+  if (o.segment_length < 0.005 || o.segment_length > 0.4)
+    result.diagnostics.warn("pbf.sl_untested",
+                            fmt::format("segment length SL = {} µm is outside the 5–400 µm the "
+                                        "PBF paper tested",
+                                        o.segment_length * 1e3));
+  if (o.segment_gap > 0.12)
+    result.diagnostics.warn("pbf.lhd_untested",
+                            fmt::format("segment gap LHD = {} µm is outside the 0–120 µm the PBF "
+                                        "paper tested",
+                                        o.segment_gap * 1e3));
+  if (o.beam_compensation > 0 && o.beam_compensation >= 0.5 * o.thin_multiple * o.melt_pool)
+    result.diagnostics.warn("pbf.beam_compensation_wide",
+                            fmt::format("beam compensation {} mm is at least half the widest thin "
+                                        "wall ({} mm): joints narrower than twice it get no hatch",
+                                        o.beam_compensation, o.thin_multiple * o.melt_pool));
   result.layer = o.layer;
   result.extent = part.extent();
   const BBox3& e = result.extent;
@@ -781,6 +881,17 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
     throw GeometryError("the lattice has no finite extent: give it an envelope (a box or a solid)");
   const std::vector<double> zs = layer_planes(e.min.z, e.max.z, o.layer);
   if (zs.size() > 200000) throw SettingError("more than 200,000 layers: check the layer thickness");
+  if (!o.stl_route) {
+    const int threads = tbb::this_task_arena::max_concurrency();
+    result.memory_estimate = pbf_memory_estimate(design, o, threads);
+    const double budget = o.memory_budget > 0 ? o.memory_budget : available_memory_bytes();
+    if (budget > 0 && result.memory_estimate > budget)
+      throw SettingError(fmt::format(
+          "this job needs about {:.0f} MB ({} threads at resolution {} mm, {} layers) but the "
+          "memory budget is {:.0f} MB: raise the resolution (--resolution), cut the part in "
+          "build-height ranges, run fewer threads or raise the budget (--memory-budget)",
+          result.memory_estimate / 1e6, threads, o.resolution, zs.size(), budget / 1e6));
+  }
 
   // c as a constant or as its own field.
   double c_const = 0;
@@ -820,7 +931,9 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
   MarchOptions mo_section, mo_mid, mo_joint;
   mo_section.resolution = Hs;
   mo_mid.resolution = mo_joint.resolution = H;
-  mo_section.refine_fraction = std::min(0.1, 2e-3 / Hs);
+  // With beam compensation the section is also the boundary hatch vectors keep their distance
+  // from: refined to 0.25 µm (and its chords halved onto the field, below).
+  mo_section.refine_fraction = std::min(0.1, (o.beam_compensation > 0 ? 2.5e-4 : 2e-3) / Hs);
   mo_mid.refine_fraction = std::min(0.1, 5e-4 / H);
   mo_joint.refine_fraction = std::min(0.1, 1e-3 / H);
 
@@ -848,92 +961,104 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
     }
     L.area = area(S);
     if (S.empty()) return;
+    // With beam compensation every hatch vector keeps it from the section's outline (its chords
+    // halved onto the field on the direct route) and from the thin walls' outline.
+    const double bc = o.beam_compensation;
+    if (bc > 0 && !o.stl_route) densify_on_part(ctx, z, S);
+    Regions T;  // thin walls, when compensating
     JointSection joint(ctx, design, o, c_const, z);
-    joint.use_grid(&grid);
+    JointSection thin(ctx, design, o, c_const, z, true);
+    // The joint slots of the grid's nodes hold the joint measure when the joints are marched
+    // (no compensation), else the thin-wall measure (the thin region is marched instead).
+    joint.use_grid(&grid, bc <= 0);
+    thin.use_grid(&grid, bc > 0);
     Regions hatch_region = S;
     if (o.hybrid) {
       // Joints are contoured from their own field (a Boolean of S and J would spend its time on
       // their shared edges); thin walls are the pieces of the mid-curve φ = 0 where the
       // inverted joint measure is negative, split where it changes sign.
-      hatch_region = nest_oriented_rings(march_squares(joint, lo, hi, 0.0, mo_joint).lines.loops);
-      JointSection thin(ctx, design, o, c_const, z, true);
+      if (bc > 0) {
+        // Joints = the section minus the thin walls, so the joints' outline along the sheet is
+        // the section's (refined) one, not the coarse grid's; slivers between the two outlines
+        // are narrower than a cell and within the compensation of both.
+        T = nest_oriented_rings(march_squares(thin, lo, hi, 0.0, mo_joint).lines.loops);
+      } else {
+        hatch_region = nest_oriented_rings(march_squares(joint, lo, hi, 0.0, mo_joint).lines.loops);
+      }
       MidSection mid(ctx, z);
       const ContourSet m = march_squares(mid, lo, hi, 0.0, mo_mid);
       std::vector<std::vector<Vec2>> lines = m.lines.open;
+      const std::size_t first_loop = lines.size();
       for (auto l : m.lines.loops) {
         l.push_back(l.front());
         lines.push_back(std::move(l));
       }
       densify_on_mid_surface(ctx, z, lines);
-      std::vector<std::vector<Vec2>> pieces;
       measure_wall_thickness(ctx, design, c_const, z, lines, L);
-      std::vector<double> tv;
-      for (const auto& l : lines) {
-        if (l.empty()) continue;
-        tv.resize(l.size());
-        thin.sample(l.data(), tv.data(), l.size());  // one batch per line
-        std::vector<Vec2> cur;
-        double prev = tv[0];
-        if (prev < 0) cur.push_back(l[0]);
-        for (std::size_t k = 1; k < l.size(); ++k) {
-          const double v = tv[k];
-          if ((v < 0) != (prev < 0)) {
-            // Bisect the switch point on the segment.
-            Vec2 a = l[k - 1], b = l[k];
-            for (int it = 0; it < 30 && std::hypot(b.x - a.x, b.y - a.y) > o.refine; ++it) {
-              const Vec2 c = (a + b) * 0.5;
-              if ((thin.at(c) < 0) == (prev < 0)) a = c; else b = c;
-            }
-            const Vec2 x = (a + b) * 0.5;
-            if (prev < 0) {
-              cur.push_back(x);
-              if (cur.size() >= 2) pieces.push_back(std::move(cur));
-              cur.clear();
-            } else {
-              cur = {x};
-            }
-          }
-          if (v < 0) cur.push_back(l[k]);
-          prev = v;
-        }
-        if (cur.size() >= 2) pieces.push_back(std::move(cur));
-      }
+      const std::vector<ThinPiece> pieces = thin_pieces(ctx, thin, lines, first_loop, z, o.refine);
       const double period = o.segment_length + o.segment_gap;
       const double phase = std::fmod(o.contour_shift * static_cast<double>(i), 1.0) * period;
-      for (const auto& piece : pieces) dash(piece, o.segment_length, o.segment_gap, phase, L.contours);
+      const pbf_detail::CurveProjector project = [&](Vec2 q) {
+        for (int it = 0; it < 2; ++it) {  // Newton steps along φ's gradient in the layer
+          const Vec3 p{q.x, q.y, z};
+          const double f = ctx.phi.value(p);
+          const Vec3 g = ctx.phi.gradient(p);
+          const double gg = g.x * g.x + g.y * g.y;
+          if (!(gg > 0)) break;
+          q = q - Vec2{g.x, g.y} * (f / gg);
+        }
+        return q;
+      };
+      for (const auto& piece : pieces) {
+        // A track ending at the part's outer boundary stops the beam compensation before it.
+        std::vector<Vec2> pts = piece.points;
+        if (piece.boundary_start) pts = pbf_detail::trim_arc(pts, bc, true);
+        if (piece.boundary_end) pts = pbf_detail::trim_arc(pts, bc, false);
+        pbf_detail::chord_vectors(pts, piece.closed, o.segment_length, o.segment_gap, phase,
+                                  project, L.contours);
+      }
       for (const auto& v : L.contours)
         for (std::size_t k = 1; k < v.size(); ++k)
           L.contour_length += std::hypot(v[k].x - v[k - 1].x, v[k].y - v[k - 1].y);
     }
-    // Hatch vectors, pulled in by the beam compensation at both ends.
+    // Hatch vectors: with beam compensation they end on the inward offset (each at the
+    // compensation from the boundary); without, on the field.
     const double ang = L.hatch_angle * kDeg;
     const Vec2 u{std::cos(ang), std::sin(ang)}, v{-std::sin(ang), std::cos(ang)};
     auto add_vector = [&](Vec2 a, Vec2 b) {
-      const double len = std::hypot(b.x - a.x, b.y - a.y) - 2 * o.beam_compensation;
+      const double len = std::hypot(b.x - a.x, b.y - a.y);
       if (len <= 1e-6) return;
-      L.hatches.push_back({a + u * o.beam_compensation, b - u * o.beam_compensation});
+      L.hatches.push_back({a, b});
       L.hatch_length += len;
     };
-    if (o.hybrid || o.stl_route) {
+    // The whole section hatched with the compensation: the R67 baseline, and the hybrid path's
+    // joints once the thin walls are taken out.
+    const std::vector<Segment2> S_hatch =
+        bc > 0 ? hatch_inset(S, {}, L.hatch_angle, o.hatch_distance, bc)
+               : hatch(S, L.hatch_angle, o.hatch_distance);
+    if (bc > 0) {
+      const std::vector<Segment2> segs =
+          o.hybrid ? trim_hatch(S_hatch, T, L.hatch_angle, o.hatch_distance, bc, true) : S_hatch;
+      for (const auto& seg : segs) add_vector(seg.a, seg.b);
+    } else if (o.stl_route) {
+      for (const auto& seg : hatch(hatch_region, L.hatch_angle, o.hatch_distance))
+        add_vector(seg.a, seg.b);
+    } else if (o.hybrid) {
       // Joints are wider than a thin wall (thin_multiple · D) by definition, so their outline on
       // the grid cannot miss one: its scan lines seed each crossing, refined on the field.
       const std::vector<Segment2> segs = hatch(hatch_region, L.hatch_angle, o.hatch_distance);
-      if (o.stl_route) {
-        for (const auto& seg : segs) add_vector(seg.a, seg.b);
-      } else {
-        std::vector<HatchEnd> ends;
-        ends.reserve(2 * segs.size());
-        for (const auto& seg : segs) {
-          const double half = 0.5 * std::hypot(seg.b.x - seg.a.x, seg.b.y - seg.a.y);
-          ends.push_back({seg.a, u, half});
-          ends.push_back({seg.b, u * -1.0, half});
-        }
-        const std::vector<Vec2> r = refine_ends(joint, ends, 2 * o.resolution, o.refine);
-        for (std::size_t k = 0; k < segs.size(); ++k) add_vector(r[2 * k], r[2 * k + 1]);
+      std::vector<HatchEnd> ends;
+      ends.reserve(2 * segs.size());
+      for (const auto& seg : segs) {
+        const double half = 0.5 * std::hypot(seg.b.x - seg.a.x, seg.b.y - seg.a.y);
+        ends.push_back({seg.a, u, half});
+        ends.push_back({seg.b, u * -1.0, half});
       }
+      const std::vector<Vec2> r = refine_ends(joint, ends, 2 * o.resolution, o.refine);
+      for (std::size_t k = 0; k < segs.size(); ++k) add_vector(r[2 * k], r[2 * k + 1]);
     } else {
-      // R67 over the whole sheet, where walls can be thinner than the grid: zero-finding along
-      // every scan line, across the domain box.
+      // R67 without compensation over the whole sheet, where walls can be thinner than the
+      // grid: zero-finding along every scan line, across the domain box.
       double t0 = 1e300, t1 = -1e300, s0 = 1e300, s1 = -1e300;
       for (const Vec2 c : {lo, hi, Vec2{lo.x, hi.y}, Vec2{hi.x, lo.y}}) {
         t0 = std::min(t0, c.x * v.x + c.y * v.y);
@@ -952,16 +1077,25 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
           add_vector(origin + u * a, origin + u * b);
       }
     }
-    // The R67 baseline on the same layer: the whole sheet hatched, same compensation.
-    double r67 = 0;
+    // Scan time of this path (contours, then hatches, in order) and of the R67 baseline on the
+    // same layer: the whole sheet hatched with the same compensation.
+    ScanClock clock(o.timing);
+    for (const auto& c : L.contours) clock.mark(c.data(), c.size(), o.timing.contour_speed);
+    for (const auto& h : L.hatches) clock.mark(h.a, h.b, o.timing.hatch_speed);
+    L.scan_time = clock.seconds();
     if (o.hybrid) {
-      for (const auto& s : hatch(S, L.hatch_angle, o.hatch_distance))
-        r67 += std::max(0.0, std::hypot(s.b.x - s.a.x, s.b.y - s.a.y) - 2 * o.beam_compensation);
+      ScanClock r67(o.timing);
+      for (const auto& s : S_hatch) {
+        L.r67_length += std::hypot(s.b.x - s.a.x, s.b.y - s.a.y);
+        r67.mark(s.a, s.b, o.timing.hatch_speed);
+      }
+      L.scan_time_r67 = r67.seconds();
     } else {
-      r67 = L.hatch_length;
+      L.r67_length = L.hatch_length;
+      L.scan_time_r67 = L.scan_time;
     }
     L.fr = o.melt_pool * (L.contour_length + L.hatch_length) / L.area;
-    L.fr_r67 = o.melt_pool * r67 / L.area;
+    L.fr_r67 = o.melt_pool * L.r67_length / L.area;
     const std::size_t d = ++done;
     if (progress.report && (d % 32 == 0 || d == zs.size())) {
       std::lock_guard lock(progress_mutex);
@@ -973,6 +1107,8 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
     result.hatch_vectors += L.hatches.size();
     result.contour_length += L.contour_length;
     result.hatch_length += L.hatch_length;
+    result.scan_time += L.scan_time;
+    result.scan_time_r67 += L.scan_time_r67;
   }
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return result;

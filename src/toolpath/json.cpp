@@ -31,8 +31,9 @@ std::string toolpath_to_json(const Toolpath& tp) {
   json doc = {{"format", "trellis.toolpath"},
               {"version", 1},
               {"units", "mm"},
-              {"source", tp.source},
-              {"layers", std::move(layers)}};
+              {"source", tp.source}};
+  if (!tp.job.empty()) doc["job"] = tp.job;
+  doc["layers"] = std::move(layers);
   return doc.dump(1) + "\n";
 }
 

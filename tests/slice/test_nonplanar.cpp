@@ -404,15 +404,37 @@ TEST(Nonplanar, ProjectedLatticeKeepsEveryEdgeOnce) {
 #include "trellis/geom/mesh_io.hpp"
 #include "trellis/geom/polygon.hpp"
 #include "trellis/job/job.hpp"
+#include "trellis/lattice/io.hpp"
+#include "trellis/toolpath/json.hpp"
+
+#include <unistd.h>
 
 namespace {
 
+// Runs an example job into a fresh temporary folder with `sets` applied over it.
+Job example_job(const std::string& file, const std::string& tag,
+                const std::vector<std::string>& sets = {}) {
+  const auto dir = std::filesystem::temp_directory_path() /
+                   ("trellis_" + tag + "_" + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  Job job = load_job(std::string(TRELLIS_SOURCE_DIR) + "/examples/" + file, dir.string());
+  for (const auto& s : sets)
+    job.settings.set_text(s.substr(0, s.find('=')), s.substr(s.find('=') + 1), {"test"});
+  job.gcode = job.preview = job.report = "";
+  return job;
+}
+
 // GIPPO's per-layer infill: every strut of layer i lies in the solid's cross-section at that layer.
 TEST(NonplanarJobs, SolidLayersAreCroppedToTheirCrossSections) {
-  Job job = load_job(std::string(TRELLIS_SOURCE_DIR) + "/examples/concave_cylinder_honeycomb.toml");
-  const Graph g = job_lattice(job);
-  const TriangleMesh solid = read_mesh(job.solid_file);
-  const double h = job.plan.layer_height;
+  const Job job = example_job("concave_cylinder_honeycomb.toml", "solid", {"gippo.iterations=2"});
+  Diagnostics d;
+  run_job(job, d);
+  Diagnostics d2;
+  const Graph g = read_lattice(job.lattice, {}, d2);
+  const Config c = job.settings.config();
+  const TriangleMesh solid = read_mesh(c.layers.solid);
+  const double h = c.machine.layer_height;
+  EXPECT_DOUBLE_EQ(h, 0.148);  // the job's [extrusion] layer_height over the profile's
   std::set<long> layers;
   std::size_t checked = 0;
   for (const auto& e : g.edges) {
@@ -431,20 +453,18 @@ TEST(NonplanarJobs, SolidLayersAreCroppedToTheirCrossSections) {
 }
 
 TEST(NonplanarJobs, LatticeOnSphereFollowsItLayerByLayer) {
-  Job job = load_job(std::string(TRELLIS_SOURCE_DIR) + "/examples/honeycomb_on_sphere.toml");
-  job.gcode = job.png = false;
-  job.layer_count = 4;
-  const trellis::test::TempDir dir("trellis_sphere_job");
-  job.output_dir = dir.path().string();
+  const Job job = example_job("honeycomb_on_sphere.toml", "sphere", {"layers.count=4"});
   Diagnostics d;
-  const JobOutputs out = run_job(job, d);
-  ASSERT_EQ(out.result.toolpath.layers.size(), 4u);
+  run_job(job, d);
+  const Toolpath tp = read_toolpath(job.toolpath);
+  ASSERT_EQ(tp.layers.size(), 4u);
+  const Config c = job.settings.config();
   NonplanarParams check;
-  check.layer_height = job.plan.layer_height;
+  check.layer_height = c.machine.layer_height;
   check.offset = OffsetMode::Normal;
-  const SurfaceDeviation dev = surface_deviation(out.result.toolpath, job_surface(job), check);
+  const SurfaceDeviation dev = surface_deviation(tp, sphere_cap(c.onto.radius, c.onto.diameter), check);
   EXPECT_LE(dev.max_point, 0.01);
-  EXPECT_LE(dev.max_chord, job.surface.project.chord_tolerance + 1e-4);
+  EXPECT_LE(dev.max_chord, c.onto.project.chord_tolerance + 1e-4);
 }
 
 }  // namespace

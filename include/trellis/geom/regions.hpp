@@ -54,4 +54,16 @@ std::vector<std::vector<Vec2>> clip_polylines(const std::vector<std::vector<Vec2
 std::vector<Segment2> hatch(const Regions& regions, double angle_deg, double spacing,
                             Vec2 origin = {0, 0});
 
+// The hatch of `keep` minus `cut`, each vector kept at least `inset` from both regions' outlines
+// (as hatching the inward offset of keep − cut by `inset`, without building that polygon): laser
+// beam compensation. Same lines, order and direction as hatch().
+std::vector<Segment2> hatch_inset(const Regions& keep, const Regions& cut, double angle_deg,
+                                  double spacing, double inset, Vec2 origin = {0, 0});
+// The step behind it: hatch segments (from hatch() with the same angle, spacing and origin) with
+// the stretches within `inset` of the region's outline taken out, and with remove_inside the
+// region's own stretches too.
+std::vector<Segment2> trim_hatch(const std::vector<Segment2>& segments, const Regions& region,
+                                 double angle_deg, double spacing, double inset, bool remove_inside,
+                                 Vec2 origin = {0, 0});
+
 }  // namespace trellis

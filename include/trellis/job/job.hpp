@@ -1,76 +1,93 @@
-// A job: everything from design to G-code in one TOML file (`trellis run job.toml`).
+// A job: one run of one route — what to read, what to write, and every setting — as a value.
+// The CLI builds one from its flags, `trellis run JOB.toml` reads one from a file, and every
+// output carries the job that made it (header comments / a "job" field), so `trellis rerun
+// OUTPUT` regenerates it byte for byte.
 //
-//   [job]     name, output_dir, machine (profile path, relative to the job file)
-//   [lattice] file (a lattice file, relative to the job file) or an atlas pattern:
-//             pattern, cell_size, strand_distance, rotation_deg, voronoi_density, seed,
-//             region ("rectangle" | "circle"), width, height, diameter,
-//             center = [x, y] (default: the lattice's lower-left corner at 0,0),
-//             contour, handles, handle_length, handle_width, handle_spacing,
-//             reentrant_angle_deg, arrowhead_outer_deg, arrowhead_inner_deg
-//   [layers]  count, rotation_deg (added per layer), layer_height
-//   [plan]    planner, mode, iterations, seed, order, threads, long_path_nodes
-//   [solid]   file: a closed mesh; each layer's pattern is cropped to its cross-section there
-//             (GIPPO's per-layer infill; [layers] count defaults to the mesh height / layer height)
-//   [surface] kind ("sphere-cap" | "mesh" | "function"), radius, diameter, file, height_fn,
-//             domain = [x0, y0, x1, y1], offset ("normal" | "vertical"), chord_tolerance: the
-//             planned layers are laid on the surface (GIPPO non-planar; the lattice is centred
-//             on the surface unless [lattice] center is given)
-//   [output]  gcode, png, png_size
-//   [machine_overrides] "section.key" = value, applied over the profile
-// Unknown keys are errors naming the file and line.
+// Job file:
+//   [job]   route = "plan" | "lattice2d" | "lattice3d" | "gcode" | "slice" | "pbf" |
+//                   "nonplanar" | "surface"
+//           name (default: the file's stem), output_dir (default "out/<name>"),
+//           input = "file" (lattice, toolpath, design, surface; optional where the route
+//           generates its input), machine = "profile.toml",
+//           output / report / toolpath / gcode / lattice / preview: output paths; each has a
+//           default under output_dir named after the job (see docs/jobs.md)
+//   [section] any setting of the schema (settings.hpp; `trellis settings` lists them),
+//           overriding the machine profile.
+// Every path is relative to the job file's folder.
 #pragma once
+#include <memory>
 #include <string>
 #include <vector>
 
+#include "trellis/core/diagnostics.hpp"
 #include "trellis/core/progress.hpp"
-#include "trellis/lattice/atlas.hpp"
-#include "trellis/machine/gcode_writer.hpp"
-#include "trellis/plan/plan.hpp"
-#include "trellis/slice/nonplanar.hpp"
+#include "trellis/lattice/graph.hpp"
+#include "trellis/machine/laser.hpp"
+#include "trellis/settings/settings.hpp"
+#include "trellis/toolpath/toolpath.hpp"
 
 namespace trellis {
 
 struct Job {
+  std::string route;
   std::string name = "job";
-  std::string output_dir = "out";
-  std::string machine;                 // resolved path to a profile; empty = defaults
-  std::vector<std::string> overrides;  // "section.key=value"
-  std::string lattice_file;            // resolved path; empty = atlas
-  AtlasParams atlas;
-  int layer_count = 1;
-  double layer_rotation_deg = 0;
-  PlanParams plan;
-  std::string solid_file;  // resolved path; empty = no solid
-  struct Surface {
-    std::string kind;  // empty = planar
-    std::string file, height_fn;
-    double radius = 10, diameter = 12;
-    std::vector<double> domain;
-    ProjectParams project;
-  } surface;
-  bool gcode = true;
-  bool png = true;
-  int png_size = 1000;
+  std::string input;     // path; empty where the route generates its input
+  std::string machine;   // profile the settings were read from (provenance)
+  std::string command;   // the command line that made it (recorded in reports)
+  // Outputs; empty = not written.
+  std::string output;    // the route's main output
+  std::string report, toolpath, gcode, lattice, preview;
+  Settings settings;
 };
 
-Job load_job(const std::string& path);
+// Routes and the settings sections each reads (for flags, headers and job checks).
+const std::vector<std::string>& route_names();
+std::vector<std::string> route_sections(const std::string& route);
+const std::vector<std::string>& machine_sections();
 
-struct JobOutputs {
-  std::string lattice, toolpath, report, gcode;
-  std::vector<std::string> pngs;
-  PlanResult result;
-  GcodeStats gcode_stats;
+// Reads a job file; relative paths are taken from the file's folder. The machine profile, if
+// any, is loaded below the job's own settings.
+// `output_dir` replaces the job's own [job] output_dir when not empty; `sets` ("key=value", from
+// the command line) apply over the job's settings.
+Job load_job(const std::string& path, const std::string& output_dir = "",
+             const std::vector<std::string>& sets = {});
+// A job from TOML text. `base` is the folder relative paths start from. Embedded jobs (from an
+// output's header) carry every setting already, so their profile is not read again.
+Job job_from_toml(const std::string& text, const std::string& origin, const std::string& base,
+                  bool embedded, const std::string& output_dir = "",
+                  const std::vector<std::string>& sets = {});
+
+// The job as TOML, paths relative to `base` (the folder of the file it is written into).
+// Outputs are left out: a job embedded in an output regenerates that output wherever asked.
+std::string job_toml(const Job& job, const std::string& base);
+
+// The job embedded in an output (G-code / .nc / .cli header comments, toolpath or report JSON).
+// Throws ParseError naming the file when it has none.
+Job job_from_output(const std::string& path);
+
+// Reads a print back into design coordinates for checking against its lattice: a toolpath JSON
+// as it is; G-code with the valve commands and tool offsets of `machine` — by default the
+// machine settings of the job the file embeds — and the placement offset Trellis wrote into the
+// header undone. `snap` gets the profile's node overlap + 0.05 when it is left at 0.05.
+Toolpath read_print(const std::string& path, const Settings* machine, double* snap,
+                    Diagnostics& diag);
+
+struct JobResult {
+  std::vector<std::string> files;  // written, in order
+  // What the route made, in memory (for callers such as the Python package); may be null.
+  std::shared_ptr<const Toolpath> toolpath;
+  std::shared_ptr<const Graph> lattice;
+  std::string summary;             // one or two lines for the terminal
+  int exit_code = 0;               // 1 when a check found problems
 };
 
-// Builds the lattice (file, or atlas layers rotated per layer), plans it, writes lattice JSON,
-// toolpath JSON, report JSON, G-code and PNGs into job.output_dir.
-JobOutputs run_job(const Job& job, Diagnostics& diag, const Progress& progress = {});
+// A laser build file (CLI, ASCII or binary, any tool's) measured against its design (.vcad):
+// vectors outside the part, FR_a per layer, scan time with `laser`'s timing. The report JSON
+// goes to `report_json` when given; the summary and the toolpath read are in the result.
+JobResult analyze_build_file(const std::string& path, const std::string& design,
+                             const LaserProfile& laser, std::string* report_json, Diagnostics& diag);
 
-// The multi-layer atlas lattice of a job: layer i at z = i·layer_height, rotated by i·rotation,
-// cropped to the solid's cross-section at the middle of the layer when there is a solid.
-Graph job_lattice(const Job& job);
-
-// The job's surface (throws if it has none).
-HeightField job_surface(const Job& job);
+// Runs the job's route: reads, plans or slices, writes every requested output atomically.
+JobResult run_job(const Job& job, Diagnostics& diag, const Progress& progress = {});
 
 }  // namespace trellis

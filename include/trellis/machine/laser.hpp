@@ -3,6 +3,7 @@
 #pragma once
 #include <string>
 
+#include "trellis/toolpath/scan_time.hpp"
 #include "trellis/toolpath/toolpath.hpp"
 
 namespace trellis {
@@ -18,11 +19,22 @@ struct LaserProfile {
   double beam_compensation = 0.03;   // mm
   double segment_length = 0.1;       // SL (mm)
   double segment_gap = 0.02;         // LHD (mm)
+  // Scanner timing ([timing]), for the scan-time model (ScanClock).
+  double jump_speed = 5000;      // mm/s, positioning moves between vectors
+  double jump_delay = 250;       // µs, after every jump
+  double mark_delay = 100;       // µs, after every marked vector
+  double polygon_delay = 50;     // µs, at every corner inside a polyline
+  bool skywriting = false;       // run in/out of each vector instead of the mark delay
+  double skywriting_time = 150;  // µs, run-in + run-out per vector with skywriting
 };
+
+// The profile's speeds and delays as the scan-time model's settings.
+ScanTiming scan_timing(const LaserProfile& profile);
 
 // TOML: [machine] name; [laser] spot_diameter melt_pool_width contour_power contour_speed
 // hatch_power hatch_speed; [scan] layer hatch_distance beam_compensation segment_length
-// segment_gap. Unknown keys, wrong types, values out of range → SettingError (file:line).
+// segment_gap; [timing] jump_speed jump_delay mark_delay polygon_delay skywriting (bool)
+// skywriting_time. Unknown keys, wrong types, values out of range → SettingError (file:line).
 LaserProfile laser_profile_from_toml(const std::string& text, const std::string& origin);
 LaserProfile load_laser_profile(const std::string& path);
 

@@ -94,7 +94,6 @@ struct MachineProfile {
   std::vector<std::pair<double, double>> down_flow_table() const;
 };
 
-using SettingValue = std::variant<double, int, bool, std::string>;
 
 struct SettingDecl {
   const char* key;   // TOML key "section.name"

@@ -50,4 +50,15 @@ void render_overlay_png(const std::vector<Segment2>& design, const Layer& printe
 void render_scores_png(const std::vector<double>& scores, std::size_t best_iteration,
                        const std::string& title, const std::string& path);
 
+// A line plot of one or more series over x (e.g. FR_a over layers, PBF paper Fig. 3(b)), with a
+// legend; non-finite values break the line.
+struct PlotSeries {
+  std::string label;
+  std::vector<double> values;
+  double r = 0.1, g = 0.3, b = 0.8;
+};
+void render_series_png(const std::vector<double>& x, const std::vector<PlotSeries>& series,
+                       const std::string& title, const std::string& x_label,
+                       const std::string& path);
+
 }  // namespace trellis

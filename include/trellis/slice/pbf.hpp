@@ -10,9 +10,11 @@
 #include <string>
 #include <vector>
 
+#include "trellis/core/diagnostics.hpp"
 #include "trellis/core/progress.hpp"
 #include "trellis/field/field.hpp"
 #include "trellis/geom/regions.hpp"
+#include "trellis/toolpath/scan_time.hpp"
 #include "trellis/toolpath/toolpath.hpp"
 
 namespace trellis {
@@ -34,10 +36,15 @@ struct PbfOptions {
   // `coarse` times this, their crossings refined on the field.
   double resolution = 0.025;
   int coarse = 2;
-  double segment_length = 0.1;     // SL, mm (5–400 µm)
-  double segment_gap = 0.02;       // LHD, mm (0–120 µm)
+  // Contour scan vectors are straight chords of length SL with both ends on φ = 0, LHD apart
+  // (> 0 and >= 0; the paper tested 5–400 µm and 0–120 µm, outside that is a warning).
+  double segment_length = 0.1;     // SL, mm
+  double segment_gap = 0.02;       // LHD, mm
   double hatch_distance = 0.04;    // mm
-  double beam_compensation = 0.03; // mm, each hatch vector shortened by this at both ends
+  // mm: the hatched region (joints; the whole sheet for R67) is offset inward by this before
+  // hatching, so every hatch vector keeps this distance from the region's boundary whatever its
+  // angle to the wall; contour tracks stop this far (along φ = 0) from the part's outer boundary.
+  double beam_compensation = 0.03;
   double melt_pool = 0.0638;       // D, mm
   double thin_multiple = 1.5;      // thin wall: horizontal width <= this × D
   double min_inclination = 20;     // degrees; shallower mid-surface → joint
@@ -51,6 +58,11 @@ struct PbfOptions {
   // plane cuts (a slicer without a plane index, O(layers × triangles): the STL baseline as the
   // PBF paper counts it, "approximately O(n⁴)"). For the comparison benchmark.
   bool stl_scan_all = false;
+  // Scan-time model (speeds, delays) for the per-layer times of this path and the R67 baseline.
+  ScanTiming timing;
+  // Bytes the run may use (grids, caches, layers; the STL route's mesh); 0 = the memory
+  // available now. A larger estimate before the run is a SettingError naming the setting to change.
+  double memory_budget = 0;
 };
 
 struct PbfLayer {
@@ -62,6 +74,8 @@ struct PbfLayer {
   double contour_length = 0, hatch_length = 0;   // mm
   double fr = 0;                                 // FR_a of this path
   double fr_r67 = 0;                             // FR_a of the R67 baseline on the same layer
+  double r67_length = 0;                         // mm, the R67 baseline's hatch length
+  double scan_time = 0, scan_time_r67 = 0;       // s, this path and the R67 baseline
   // Sheet thickness measured along ∇φ from mid-curve points (Φ = 0 on both sides): min, max,
   // sum, count.
   double t_min = 0, t_max = 0, t_sum = 0;
@@ -84,7 +98,22 @@ struct PbfResult {
   // STL route only: the mesh it made.
   std::size_t mesh_triangles = 0, mesh_bytes = 0, grid_bytes = 0;
   double seconds = 0;
+  double scan_time = 0, scan_time_r67 = 0;  // s, sums over layers
+  double memory_estimate = 0;               // bytes, estimated before the run
+  Diagnostics diagnostics;                  // warnings (settings outside the paper's ranges…)
 };
+
+// Bytes plan_pbf would use for this design and these options with `threads` workers (per-thread
+// grids and caches, the layers' vectors and the toolpath made of them; the STL route's mesh is
+// not counted). plan_pbf refuses to start above PbfOptions::memory_budget.
+double pbf_memory_estimate(const PbfDesign& design, const PbfOptions& options, int threads);
+// MemAvailable from /proc/meminfo (bytes), 0 if unknown.
+double available_memory_bytes();
+
+// The paper's thin-wall experiments (Fig. 3): a plane wall of thickness t (mm) through the
+// origin, inclined `inclination` degrees from the horizontal (90 = vertical) and running along
+// `azimuth` degrees from the X axis, cut by a box of `size` centred at the origin.
+PbfDesign plane_wall(double thickness, double inclination_deg, double azimuth_deg, Vec3 size);
 
 // `progress` (core/progress.hpp): stage "layers", reported under a lock; cancel checked per layer.
 PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& options,

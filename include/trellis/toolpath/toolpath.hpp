@@ -40,6 +40,9 @@ struct Layer {
 struct Toolpath {
   std::vector<Layer> layers;
   std::string source;  // what produced it (planner, input file), written into outputs
+  // The job that made it (TOML text, job/job.hpp), embedded in every output so that
+  // `trellis rerun` can regenerate it; empty when it was not made by a job.
+  std::string job;
 
   std::size_t path_count() const;
   double extrusion_length() const;

@@ -1,0 +1,113 @@
+// The typed settings of every route in one value: the params structs the library's one-call
+// functions take, plus the few route choices that are not a params field. `Settings::config()`
+// fills it from the schema (settings.hpp); a default-constructed Config holds every default.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "trellis/lattice/atlas.hpp"
+#include "trellis/lattice/cells3d.hpp"
+#include "trellis/machine/laser.hpp"
+#include "trellis/machine/profile.hpp"
+#include "trellis/plan/aero.hpp"
+#include "trellis/plan/plan.hpp"
+#include "trellis/slice/nonplanar.hpp"
+#include "trellis/slice/pbf.hpp"
+#include "trellis/slice/pipeline.hpp"
+
+namespace trellis {
+
+// lattice3d.*: unit cells tessellated, or a Voronoi foam.
+struct Lattice3dConfig {
+  std::string kind = "cells";  // cells | foam
+  CellLatticeParams cells;
+  FoamParams foam;
+  std::string materials = "none";  // none | xy-plane | component | vertical
+};
+
+// layers.*: GIPPO multi-layer parts (a 2D pattern repeated per layer, optionally cropped to a
+// solid and laid on a surface).
+struct LayersConfig {
+  int count = 1;             // 0 with a solid = from its height
+  double rotation_deg = 0;   // added per layer
+  std::string solid;         // closed mesh each layer is cropped to (path)
+};
+
+// onto.*: planned layers laid on a surface (GIPPO non-planar).
+struct OntoConfig {
+  std::string kind;  // "" (flat) | sphere-cap | mesh | function
+  double radius = 10, diameter = 12;
+  std::string file, height_fn;
+  std::vector<double> domain;  // x0, y0, x1, y1
+  ProjectParams project;
+};
+
+// pbf.*: the TPMS sheet design and the route; scan parameters live in the laser profile.
+struct PbfConfig {
+  std::string cell_type = "gyroid";
+  double cell = 2.5;            // mm
+  std::string c = "0.15";       // Φ = φ² − c²; a number or an expression of x, y, z, rho, r
+  double thickness = 0;         // mm; > 0: c = t·|∇φ|/2 (uniform walls)
+  std::vector<double> size;     // box X, Y, Z (mm); empty = 4 cells
+  std::string envelope;         // .vcad solid the lattice fills (path)
+  std::string solids;           // .vcad solid parts, hatched (path)
+  std::string grade_to;         // TYPE:CELL blended in by a sigmoid
+  std::string grade_axis = "z";
+  double grade_center = 0, grade_width = 1;
+  std::string hierarchical;     // TYPE:CELL:WEIGHT superposed
+  double wall_thickness = 0;    // mm; > 0: a plane thin wall (PBF paper Fig. 3) instead of a TPMS
+  double wall_inclination = 90; // deg from horizontal
+  double wall_azimuth = 0;      // deg from X
+  bool binary = false;          // binary CLI geometry
+  double memory_budget_mb = 0;  // refuse above this estimate; 0 = the memory available
+  std::string route = "direct"; // direct | stl
+  std::string strategy = "hybrid";  // hybrid | r67
+  PbfOptions options;           // resolution, thin_multiple, min_inclination (scan from laser)
+};
+
+// surface.*: the non-planar paper's generated test surfaces.
+struct SurfaceConfig {
+  std::string kind = "corrugation";  // corrugation | miura | m-curve | sphere-cap
+  CorrugationParams corrugation;
+  MiuraParams miura;
+  MCurveParams m_curve;
+  double radius = 10, diameter = 12;  // sphere-cap
+  double resolution = 0.1;            // grid of generated meshes (mm)
+};
+
+// nonplanar.* beyond its params: where the surface comes from.
+struct NonplanarConfig {
+  NonplanarParams params;
+  std::string height_fn;
+  std::vector<double> domain;
+  std::string layer_tools;  // "3:0,3:1,3:0" or "0,1"
+};
+
+struct OutputConfig {
+  int preview_layers = 4;   // PNGs spread over the layers
+  int image_size = 1000;    // px
+  bool gcode = true;        // plan/run: also write G-code when a machine is given
+  bool png = true;          // job: write previews
+  int frames = 0;           // aero: step pictures of the first N trails
+};
+
+struct Config {
+  MachineProfile machine;
+  LaserProfile laser;
+  AtlasParams lattice2d;
+  Lattice3dConfig lattice3d;
+  LayersConfig layers;
+  OntoConfig onto;
+  std::string planner = "gippo";  // plan.planner: gippo | euler | aero
+  PlanParams plan;      // plan.* and gippo.*
+  double merge_tolerance = 1e-6;  // lattice.merge_tolerance (mm)
+  AeroParams aero;
+  SliceJob slice;       // slice.* and fgm.* (input set by the route)
+  PbfConfig pbf;
+  NonplanarConfig nonplanar;
+  SurfaceConfig surface;
+  OutputConfig output;
+  int threads = 0;      // run.threads: 0 = all cores
+};
+
+}  // namespace trellis

@@ -1,0 +1,50 @@
+// How long a galvanometer scanner takes over a layer of laser scan vectors (PBF-LB): every
+// vector is marked at its type's speed, the mirrors jump between vectors at the jump speed, and
+// the controller waits its delays (SCANLAB-style: a jump delay after each jump, a mark delay
+// after each marked vector, a polygon delay at each corner inside a polyline). With skywriting the
+// mirrors run in and out of each vector at speed instead, costing `skywriting_time` per vector
+// in place of the mark delay. The model counts scanning only (no recoating).
+#pragma once
+#include <cstddef>
+
+#include "trellis/core/vec.hpp"
+
+namespace trellis {
+
+struct ScanTiming {
+  double contour_speed = 800;    // mm/s, mark speed of contour vectors
+  double hatch_speed = 1000;     // mm/s, mark speed of hatch vectors
+  double jump_speed = 5000;      // mm/s, positioning between vectors
+  double jump_delay = 250;       // µs, after every jump
+  double mark_delay = 100;       // µs, after every marked vector (without skywriting)
+  double polygon_delay = 50;     // µs, at every corner inside a polyline
+  bool skywriting = false;       // run in/out of each vector instead of the mark delay
+  double skywriting_time = 150;  // µs, run-in + run-out per vector when skywriting
+};
+
+// Adds up one layer's scan time, vector by vector in scan order.
+class ScanClock {
+ public:
+  explicit ScanClock(const ScanTiming& timing) : t_(timing) {}
+  // One vector (a polyline of n >= 2 points) marked at `speed` (mm/s), after a jump from the
+  // end of the previous vector (none before the first).
+  void mark(const Vec2* points, std::size_t n, double speed);
+  void mark(Vec2 a, Vec2 b, double speed) {
+    const Vec2 p[2] = {a, b};
+    mark(p, 2, speed);
+  }
+  double seconds() const { return jump_s_ + mark_s_ + delay_s_; }
+  double jump_seconds() const { return jump_s_; }
+  double mark_seconds() const { return mark_s_; }
+  double delay_seconds() const { return delay_s_; }
+  std::size_t vectors() const { return vectors_; }
+
+ private:
+  ScanTiming t_;
+  Vec2 at_{};
+  bool started_ = false;
+  double jump_s_ = 0, mark_s_ = 0, delay_s_ = 0;
+  std::size_t vectors_ = 0;
+};
+
+}  // namespace trellis

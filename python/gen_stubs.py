@@ -1,0 +1,94 @@
+#!/usr/bin/env python3
+"""Writes trellis/__init__.pyi (type stubs with every route's keywords) from the settings schema.
+
+usage: PYTHONPATH=build/release/python python3 python/gen_stubs.py > python/trellis/__init__.pyi
+A test fails when the checked-in stubs differ from what this prints.
+"""
+import os
+import sys
+
+# The built package (PYTHONPATH), not the sources beside this script.
+sys.path = [p for p in sys.path if os.path.abspath(p or ".") != os.path.dirname(os.path.abspath(__file__))]
+import trellis  # noqa: E402
+from trellis import _trellis  # noqa: E402
+
+PY = {"number": "float", "integer": "int", "bool": "bool", "text": "str", "numbers": "Sequence[float]"}
+
+ROUTES = [
+    ("lattice2d", "lattice2d", "output: PathLike | None = None, *, preview: PathLike | None = None", "Result"),
+    ("lattice3d", "lattice3d", "output: PathLike | None = None, *, preview: PathLike | None = None", "Result"),
+    ("plan", "gippo", "planner: Literal['gippo', 'euler', 'aero'], lattice: PathLike | Lattice, "
+     "output: PathLike | None = None, *, machine: PathLike | None = None, gcode: PathLike | None = None, "
+     "report: PathLike | None = None, preview: PathLike | None = None", "Result"),
+    ("gcode", "gcode", "toolpath: PathLike | Toolpath, output: PathLike | None = None, *, machine: PathLike",
+     "Result"),
+    ("slice", "slice", "design: PathLike, output: PathLike | None = None, *, machine: PathLike, "
+     "report: PathLike | None = None, toolpath: PathLike | None = None, preview: PathLike | None = None",
+     "Result"),
+    ("pbf", "pbf", "output: PathLike | None = None, *, envelope: PathLike | None = None, "
+     "machine: PathLike | None = None, report: PathLike | None = None, toolpath: PathLike | None = None, "
+     "preview: PathLike | None = None", "Result"),
+    ("nonplanar", "nonplanar", "surface: PathLike | None = None, output: PathLike | None = None, *, "
+     "machine: PathLike, report: PathLike | None = None, toolpath: PathLike | None = None, "
+     "preview: PathLike | None = None", "Result"),
+    ("surface", "surface", "kind: str, output: PathLike | None = None, *, machine: PathLike | None = None, "
+     "preview: PathLike | None = None", "Result"),
+]
+
+
+def main():
+    info = {s["key"]: s for s in _trellis.settings()}
+    out = ['"""Type stubs generated from the settings schema by python/gen_stubs.py; do not edit."""',
+           "from os import PathLike as _PathLike",
+           "from typing import Any, Callable, Literal, Mapping, Sequence", "",
+           "import numpy as np", "",
+           "from .errors import GeometryError, InputError, SettingError, TrellisError", "",
+           "PathLike = str | _PathLike[str]", "Progress = Callable[[str, float], None]", "",
+           "__version__: str", "ROLES: list[str]", "",
+           "class Lattice:",
+           "    nodes: np.ndarray", "    edges: np.ndarray", "    material: np.ndarray",
+           "    node_count: int", "    edge_count: int", "    total_length: float",
+           "    @staticmethod",
+           "    def from_arrays(nodes: Any, edges: Any, material: Any = None) -> Lattice: ...",
+           "    def write(self, path: PathLike) -> None: ...", "    def to_json(self) -> str: ...", "",
+           "class Toolpath:"]
+    for a in ["points", "path_offsets", "layer_offsets", "layer_z", "role", "tool", "width", "height",
+              "speed", "power", "temperature", "mixture"]:
+        out.append(f"    {a}: np.ndarray")
+    out += ["    layer_count: int", "    path_count: int", "    point_count: int", "    extrusion_length: float",
+            "    def arrays(self) -> dict[str, np.ndarray]: ...",
+            "    def path(self, i: int) -> np.ndarray: ...", "    def to_json(self) -> str: ...",
+            "    def gcode(self, machine: PathLike | None = None, set: Mapping[str, Any] | None = None) -> str: ...",
+            "    def png(self, layer: int = 0, size: int = 600) -> bytes: ...", "",
+            "class Result:", "    files: list[str]", "    summary: str", "    warnings: list[tuple[str, str]]",
+            "    exit_code: int", "    toolpath: Toolpath | None", "    lattice: Lattice | None", ""]
+    for route, command, head, ret in ROUTES:
+        kws = trellis._keywords(route, command if route == "plan" else route)
+        if route == "plan":
+            for extra in ("euler", "aero"):
+                for k, v in trellis._keywords("plan", extra).items():
+                    kws.setdefault(k, v)
+        params = []
+        for name, key in sorted(kws.items()):
+            s = info[key]
+            t = "Literal[" + ", ".join(repr(c) for c in s["choices"]) + "]" if s["kind"] == "choice" else PY[s["kind"]]
+            params.append(f"    {name}: {t} = ...,  # {key}: {s['doc']}"[:200])
+        fn = "slice" if route == "slice" else route
+        out.append(f"def {fn}(")
+        out.append(f"    {head},")
+        out.append("    progress: Progress | None = None,")
+        out.append("    set: Mapping[str, Any] | None = None,")
+        out += params
+        out.append(f") -> {ret}: ...")
+        out.append("")
+    out += ["def run_job(job: PathLike | Mapping[str, Mapping[str, Any]], output_dir: PathLike | None = None,",
+            "            set: Mapping[str, Any] | None = None, progress: Progress | None = None) -> Result: ...",
+            "def rerun(path: PathLike, output: PathLike | None = None) -> list[str]: ...",
+            "def settings(route: str | None = None) -> list[dict[str, Any]]: ...",
+            "def read_lattice(path: PathLike, merge_tolerance: float = 1e-6) -> Lattice: ...",
+            "def read_toolpath(path: PathLike) -> Toolpath: ..."]
+    print("\n".join(out))
+
+
+if __name__ == "__main__":
+    main()

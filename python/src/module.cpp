@@ -1,0 +1,501 @@
+// The `trellis._trellis` extension: the library's job runner, readers and writers for Python.
+// Routes run with the GIL released on a worker thread; the calling thread waits, delivers
+// progress to a Python callable and turns Ctrl-C into the library's cancel flag. Toolpaths and
+// lattices are handed to numpy as whole arrays, never as per-point Python objects.
+#include <pybind11/functional.h>
+#include <pybind11/numpy.h>
+#include <pybind11/pybind11.h>
+#include <pybind11/stl.h>
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <filesystem>
+#include <mutex>
+#include <thread>
+
+#include "trellis/core/error.hpp"
+#include "trellis/analysis/collisions.hpp"
+#include "trellis/analysis/metrics.hpp"
+#include "trellis/core/file.hpp"
+#include "trellis/field/vcad.hpp"
+#include "trellis/job/job.hpp"
+#include "trellis/lattice/io.hpp"
+#include "trellis/machine/cli.hpp"
+#include "trellis/machine/gcode_reader.hpp"
+#include "trellis/machine/gcode_writer.hpp"
+#include "trellis/render/render.hpp"
+#include "trellis/toolpath/json.hpp"
+
+namespace py = pybind11;
+using namespace trellis;
+
+namespace {
+
+// Python errors (trellis/errors.py) with the library's file, line and element.
+[[noreturn]] void raise_python(const char* cls, const Error& e) {
+  py::object errors = py::module_::import("trellis.errors");
+  py::object ex = errors.attr(cls)(e.what(), e.where().file, e.where().line, e.where().element);
+  PyErr_SetObject(ex.get_type().ptr(), ex.ptr());
+  throw py::error_already_set();
+}
+
+void translate(std::exception_ptr p) {
+  try {
+    if (p) std::rethrow_exception(p);
+  } catch (const SettingError& e) {
+    raise_python("SettingError", e);
+  } catch (const GeometryError& e) {
+    raise_python("GeometryError", e);
+  } catch (const Cancelled& e) {
+    PyErr_SetString(PyExc_KeyboardInterrupt, e.what());
+  } catch (const ParseError& e) {
+    raise_python("InputError", e);
+  } catch (const IoError& e) {
+    raise_python("InputError", e);
+  } catch (const Error& e) {
+    raise_python("TrellisError", e);
+  }
+}
+
+// A Python value as a setting value (numbers, bools, text, sequences of numbers).
+SettingValue to_value(const std::string& name, const py::handle& v) {
+  if (py::isinstance<py::bool_>(v)) return v.cast<bool>();
+  if (py::isinstance<py::int_>(v)) return static_cast<long long>(v.cast<long long>());
+  if (py::isinstance<py::float_>(v)) return v.cast<double>();
+  if (py::isinstance<py::str>(v)) return v.cast<std::string>();
+  if (py::isinstance<py::array>(v) || py::isinstance<py::sequence>(v)) {
+    std::vector<double> xs;
+    for (const auto& x : py::iter(v)) {
+      if (!py::isinstance<py::float_>(x) && !py::isinstance<py::int_>(x) &&
+          !py::isinstance<py::array>(x))
+        throw SettingError("expected numbers", {"", 0, name});
+      xs.push_back(x.cast<double>());
+    }
+    return xs;
+  }
+  throw SettingError("unsupported value type " + std::string(py::str(v.get_type())),
+                     {"", 0, name});
+}
+
+// Runs `fn` on a worker thread with the GIL released; progress goes to `callback` from this
+// thread; Ctrl-C sets the cancel flag and the call raises KeyboardInterrupt.
+JobResult run_interruptible(const std::function<JobResult(const Progress&)>& fn,
+                            const py::object& callback) {
+  std::atomic<bool> cancel{false};
+  std::mutex m;
+  std::condition_variable cv;
+  bool done = false;
+  std::string stage;
+  double fraction = -1;
+  Progress progress;
+  progress.cancel = &cancel;
+  progress.report = [&](const std::string& s, double f) {
+    std::lock_guard<std::mutex> lock(m);
+    stage = s, fraction = f;
+  };
+  JobResult result;
+  std::exception_ptr error, worker_error;
+  std::thread worker([&] {
+    try {
+      result = fn(progress);
+    } catch (...) {
+      worker_error = std::current_exception();
+    }
+    std::lock_guard<std::mutex> lock(m);
+    done = true;
+    cv.notify_all();
+  });
+  bool interrupted = false;
+  for (;;) {
+    std::string s;
+    double f = -1;
+    bool finished = false;
+    {
+      py::gil_scoped_release release;
+      std::unique_lock<std::mutex> lock(m);
+      cv.wait_for(lock, std::chrono::milliseconds(50), [&] { return done; });
+      finished = done;
+      s = stage, f = fraction;
+      fraction = -1;
+    }
+    if (f >= 0 && !callback.is_none()) {
+      try {
+        callback(s, f);
+      } catch (py::error_already_set&) {
+        cancel = true;  // the callback raised: stop, then re-raise below
+        interrupted = true;
+        error = std::current_exception();
+      }
+    }
+    if (finished) break;
+    if (PyErr_CheckSignals() != 0) {  // Ctrl-C: the KeyboardInterrupt is now pending
+      cancel = true;
+      interrupted = true;
+      error = nullptr;
+      break;
+    }
+    if (interrupted) break;  // the progress callback raised
+  }
+  {
+    py::gil_scoped_release release;
+    worker.join();
+  }
+  // Interrupted: the worker's own error (it was cancelled) is not the news.
+  if (interrupted) {
+    if (error) std::rethrow_exception(error);  // what the callback raised
+    throw py::error_already_set();               // the pending KeyboardInterrupt
+  }
+  if (worker_error) std::rethrow_exception(worker_error);
+  return result;
+}
+
+// ---- numpy views of the IR (copies into whole arrays; no per-point Python objects) ----
+
+py::dict toolpath_arrays(const Toolpath& tp) {
+  std::size_t npaths = 0, npoints = 0;
+  for (const auto& l : tp.layers)
+    for (const auto& p : l.paths) ++npaths, npoints += p.points.size();
+  py::array_t<double> points({npoints, std::size_t(3)});
+  py::array_t<std::int64_t> path_offsets(npaths + 1), layer_offsets(tp.layers.size() + 1);
+  py::array_t<double> layer_z(tp.layers.size());
+  py::array_t<std::int32_t> role(npaths), tool(npaths);
+  py::array_t<double> width(npaths), height(npaths), speed(npaths), power(npaths),
+      temperature(npaths);
+  std::size_t mix_n = 0;
+  for (const auto& l : tp.layers)
+    for (const auto& p : l.paths) mix_n = std::max(mix_n, p.mixture.size());
+  py::array_t<double> mixture({npaths, mix_n});
+  auto P = points.mutable_unchecked<2>();
+  auto PO = path_offsets.mutable_unchecked<1>();
+  auto LO = layer_offsets.mutable_unchecked<1>();
+  auto LZ = layer_z.mutable_unchecked<1>();
+  auto R = role.mutable_unchecked<1>();
+  auto T = tool.mutable_unchecked<1>();
+  auto W = width.mutable_unchecked<1>(), H = height.mutable_unchecked<1>(),
+       S = speed.mutable_unchecked<1>(), PW = power.mutable_unchecked<1>(),
+       TE = temperature.mutable_unchecked<1>();
+  auto MX = mixture.mutable_unchecked<2>();
+  {
+    py::gil_scoped_release release;
+    std::size_t k = 0, j = 0;
+    for (std::size_t li = 0; li < tp.layers.size(); ++li) {
+      LO(li) = static_cast<std::int64_t>(j);
+      LZ(li) = tp.layers[li].z;
+      for (const auto& p : tp.layers[li].paths) {
+        PO(j) = static_cast<std::int64_t>(k);
+        R(j) = static_cast<std::int32_t>(p.role);
+        T(j) = p.tool;
+        W(j) = p.width, H(j) = p.height, S(j) = p.speed, PW(j) = p.power, TE(j) = p.temperature;
+        for (std::size_t c = 0; c < mix_n; ++c) MX(j, c) = c < p.mixture.size() ? p.mixture[c] : 0.0;
+        for (const auto& q : p.points) {
+          P(k, 0) = q.x, P(k, 1) = q.y, P(k, 2) = q.z;
+          ++k;
+        }
+        ++j;
+      }
+    }
+    PO(j) = static_cast<std::int64_t>(k);
+    LO(tp.layers.size()) = static_cast<std::int64_t>(j);
+  }
+  py::dict d;
+  d["points"] = points;
+  d["path_offsets"] = path_offsets;
+  d["layer_offsets"] = layer_offsets;
+  d["layer_z"] = layer_z;
+  d["role"] = role;
+  d["tool"] = tool;
+  d["width"] = width;
+  d["height"] = height;
+  d["speed"] = speed;
+  d["power"] = power;
+  d["temperature"] = temperature;
+  d["mixture"] = mixture;
+  return d;
+}
+
+py::dict lattice_arrays(const Graph& g) {
+  py::array_t<double> nodes({g.nodes.size(), std::size_t(3)});
+  py::array_t<std::int64_t> edges({g.edges.size(), std::size_t(2)});
+  py::array_t<std::int32_t> material(g.edges.size());
+  auto N = nodes.mutable_unchecked<2>();
+  auto E = edges.mutable_unchecked<2>();
+  auto M = material.mutable_unchecked<1>();
+  for (std::size_t i = 0; i < g.nodes.size(); ++i)
+    N(i, 0) = g.nodes[i].x, N(i, 1) = g.nodes[i].y, N(i, 2) = g.nodes[i].z;
+  for (std::size_t i = 0; i < g.edges.size(); ++i)
+    E(i, 0) = g.edges[i].a, E(i, 1) = g.edges[i].b, M(i) = g.edges[i].material;
+  py::dict d;
+  d["nodes"] = nodes;
+  d["edges"] = edges;
+  d["material"] = material;
+  return d;
+}
+
+// A lattice from numpy arrays, checked: shapes, finite coordinates, edge indices in range.
+Graph lattice_from_arrays(const py::object& nodes_obj, const py::object& edges_obj,
+                          const py::object& material_obj) {
+  const auto nodes = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(nodes_obj);
+  if (!nodes || nodes.ndim() != 2 || nodes.shape(1) != 3)
+    throw SettingError("nodes must be an (n, 3) array of numbers", {"", 0, "nodes"});
+  const py::array e_arr = py::array::ensure(edges_obj);
+  if (!e_arr || e_arr.ndim() != 2 || e_arr.shape(1) != 2)
+    throw SettingError("edges must be an (m, 2) array of node indices", {"", 0, "edges"});
+  if (!py::dtype::of<std::int64_t>().kind() || (e_arr.dtype().kind() != 'i' && e_arr.dtype().kind() != 'u'))
+    throw SettingError("edges must be integers (got dtype " + std::string(py::str(e_arr.dtype())) + ")",
+                       {"", 0, "edges"});
+  const auto edges = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(e_arr);
+  Graph g;
+  const auto N = nodes.unchecked<2>();
+  for (py::ssize_t i = 0; i < nodes.shape(0); ++i) {
+    const Vec3 p{N(i, 0), N(i, 1), N(i, 2)};
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+      throw SettingError("node " + std::to_string(i) + " is not finite", {"", 0, "nodes[" + std::to_string(i) + "]"});
+    g.nodes.push_back(p);
+  }
+  const auto E = edges.unchecked<2>();
+  std::vector<int> materials;
+  if (!material_obj.is_none()) {
+    const auto m = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(material_obj);
+    if (!m || m.ndim() != 1 || m.shape(0) != edges.shape(0))
+      throw SettingError("material must be an (m,) array, one per edge", {"", 0, "material"});
+    for (py::ssize_t i = 0; i < m.shape(0); ++i) materials.push_back(static_cast<int>(m.at(i)));
+  }
+  for (py::ssize_t i = 0; i < edges.shape(0); ++i) {
+    const auto a = E(i, 0), b = E(i, 1);
+    if (a < 0 || b < 0 || a >= nodes.shape(0) || b >= nodes.shape(0))
+      throw SettingError("edge " + std::to_string(i) + " names node " + std::to_string(a < 0 || a >= nodes.shape(0) ? a : b) +
+                             " of " + std::to_string(nodes.shape(0)),
+                         {"", 0, "edges[" + std::to_string(i) + "]"});
+    Edge e;
+    e.a = static_cast<NodeId>(a), e.b = static_cast<NodeId>(b);
+    e.material = materials.empty() ? 0 : materials[static_cast<std::size_t>(i)];
+    g.edges.push_back(e);
+  }
+  return g;
+}
+
+std::vector<std::string> flag_keys(const std::vector<std::string>& sections) {
+  std::vector<std::string> out;
+  for (const auto& s : all_settings())
+    if (std::find(sections.begin(), sections.end(), s.section()) != sections.end()) out.push_back(s.key);
+  return out;
+}
+
+}  // namespace
+
+PYBIND11_MODULE(_trellis, m) {
+  m.doc() = "Trellis: toolpaths for architected materials (the C++ core).";
+  py::register_exception_translator(&translate);
+
+  m.def("version", [] { return std::string(TRELLIS_VERSION_STRING); });
+  m.def("route_names", &route_names);
+  m.def("route_sections", &route_sections);
+  m.def("settings", [] {
+    py::list out;
+    for (const auto& s : all_settings()) {
+      py::dict d;
+      d["key"] = s.key;
+      d["section"] = s.section();
+      const char* kinds[] = {"number", "integer", "bool", "choice", "text", "numbers"};
+      d["kind"] = kinds[static_cast<int>(s.kind)];
+      d["unit"] = s.unit;
+      d["doc"] = s.doc;
+      d["flag"] = s.flag;
+      d["default"] = s.derived.empty() ? py::cast(s.default_text()) : py::none();
+      d["derived"] = s.derived;
+      d["range"] = s.range_text();
+      d["choices"] = s.choices;
+      out.append(d);
+    }
+    return out;
+  });
+
+  // run(route, input, outputs: dict, machine, settings: dict key -> value, origins: dict key ->
+  // name, command, progress) -> dict(files, summary, toolpath arrays, lattice arrays)
+  m.def(
+      "run",
+      [](const std::string& route, const std::string& input, const std::map<std::string, std::string>& outputs,
+         const std::string& machine, const py::dict& settings, const std::string& command,
+         const py::object& progress) {
+        Job job;
+        job.route = route;
+        route_sections(route);  // throws for an unknown route
+        job.input = input;
+        job.machine = machine;
+        job.command = command;
+        if (!machine.empty()) job.settings.load_toml_file(machine);
+        const auto keys = flag_keys(route_sections(route));
+        for (const auto& [k, v] : settings) {
+          const auto key = k.cast<std::string>();
+          if (std::find(keys.begin(), keys.end(), key) == keys.end()) {
+            if (!find_setting(key))
+              job.settings.set(key, std::string(), {"keyword " + key});  // throws: unknown
+            throw SettingError("the " + route + " route does not read [" + key.substr(0, key.find('.')) + "]",
+                               {"", 0, key});
+          }
+          job.settings.set(key, to_value(key, v), {"keyword " + key});
+        }
+        for (const auto& [name, path] : outputs) {
+          if (name == "output") job.output = path;
+          else if (name == "report") job.report = path;
+          else if (name == "toolpath") job.toolpath = path;
+          else if (name == "gcode") job.gcode = path;
+          else if (name == "lattice") job.lattice = path;
+          else if (name == "preview") job.preview = path;
+          else throw SettingError("unknown output '" + name + "'", {"", 0, name});
+        }
+        job.name = job.output.empty() ? route : std::filesystem::path(job.output).stem().string();
+        Diagnostics diag;
+        const JobResult r = run_interruptible([&](const Progress& p) { return run_job(job, diag, p); }, progress);
+        py::dict d;
+        d["files"] = r.files;
+        d["summary"] = r.summary;
+        d["exit_code"] = r.exit_code;
+        py::list warnings;
+        for (const auto& msg : diag.messages()) warnings.append(py::make_tuple(msg.kind, msg.text));
+        d["warnings"] = warnings;
+        d["toolpath"] = r.toolpath ? py::object(py::cast(std::make_shared<Toolpath>(*r.toolpath))) : py::none();
+        d["lattice"] = r.lattice ? py::object(py::cast(std::make_shared<Graph>(*r.lattice))) : py::none();
+        return d;
+      },
+      py::arg("route"), py::arg("input"), py::arg("outputs"), py::arg("machine"), py::arg("settings"),
+      py::arg("command"), py::arg("progress"));
+
+  m.def("run_job_file",
+        [](const std::string& path, const std::string& output_dir, const std::vector<std::string>& sets,
+           const py::object& progress) {
+          const Job job = load_job(path, output_dir, sets);
+          Diagnostics diag;
+          const JobResult r = run_interruptible([&](const Progress& p) { return run_job(job, diag, p); }, progress);
+          py::dict d;
+          d["files"] = r.files;
+          d["summary"] = r.summary;
+          d["exit_code"] = r.exit_code;
+          d["toolpath"] = r.toolpath ? py::object(py::cast(std::make_shared<Toolpath>(*r.toolpath))) : py::none();
+          d["lattice"] = r.lattice ? py::object(py::cast(std::make_shared<Graph>(*r.lattice))) : py::none();
+          return d;
+        });
+
+  m.def("rerun", [](const std::string& path, const std::string& out) {
+    Job job = job_from_output(path);
+    const std::string target = out.empty() ? path : out;
+    const std::string ext = std::filesystem::path(path).extension().string();
+    job.output = job.report = job.toolpath = job.gcode = job.lattice = job.preview = "";
+    if (ext == ".json") (job.route == "lattice2d" || job.route == "lattice3d" ? job.output : job.toolpath) = target;
+    else if (job.route == "plan") job.gcode = target;
+    else job.output = target;
+    Diagnostics diag;
+    py::gil_scoped_release release;
+    return run_job(job, diag, {}).files;
+  });
+
+  py::class_<Toolpath, std::shared_ptr<Toolpath>>(m, "Toolpath")
+      .def_property_readonly("layer_count", [](const Toolpath& t) { return t.layers.size(); })
+      .def_property_readonly("path_count", &Toolpath::path_count)
+      .def_property_readonly("point_count",
+                             [](const Toolpath& t) {
+                               std::size_t n = 0;
+                               for (const auto& l : t.layers)
+                                 for (const auto& p : l.paths) n += p.points.size();
+                               return n;
+                             })
+      .def_property_readonly("extrusion_length", &Toolpath::extrusion_length)
+      .def_readonly("source", &Toolpath::source)
+      .def("arrays", &toolpath_arrays, "every point and path attribute as numpy arrays (one copy)")
+      .def("to_json", [](const Toolpath& t) { return toolpath_to_json(t); })
+      .def("png", [](const Toolpath& t, std::size_t layer, int size) {
+        if (layer >= t.layers.size())
+          throw SettingError("layer " + std::to_string(layer) + " of " + std::to_string(t.layers.size()),
+                             {"", 0, "layer"});
+        const auto tmp = std::filesystem::temp_directory_path() /
+                         ("trellis_py_" + std::to_string(reinterpret_cast<std::uintptr_t>(&t)) + ".png");
+        RenderOptions ro;
+        ro.size_px = size;
+        render_layer_png(t, layer, tmp.string(), ro);
+        const std::string data = read_file(tmp.string());
+        std::filesystem::remove(tmp);
+        return py::bytes(data);
+      }, py::arg("layer") = 0, py::arg("size") = 600);
+
+  py::class_<Graph, std::shared_ptr<Graph>>(m, "Lattice")
+      .def_property_readonly("node_count", [](const Graph& g) { return g.nodes.size(); })
+      .def_property_readonly("edge_count", [](const Graph& g) { return g.edges.size(); })
+      .def_property_readonly("total_length", &Graph::total_length)
+      .def("arrays", &lattice_arrays)
+      .def("to_json", [](const Graph& g) { return lattice_to_json(g); })
+      .def("write", [](const Graph& g, const std::string& path) { write_lattice(path, g); });
+
+  m.def("lattice_from_arrays",
+        [](const py::object& nodes, const py::object& edges, const py::object& material) {
+          return std::make_shared<Graph>(lattice_from_arrays(nodes, edges, material));
+        },
+        py::arg("nodes"), py::arg("edges"), py::arg("material") = py::none());
+  m.def("read_lattice", [](const std::string& path, double merge_tolerance) {
+    Diagnostics diag;
+    return std::make_shared<Graph>(read_lattice(path, {merge_tolerance, true}, diag));
+  }, py::arg("path"), py::arg("merge_tolerance") = 1e-6);
+  m.def("read_toolpath", [](const std::string& path) {
+    const auto ext = std::filesystem::path(path).extension().string();
+    if (ext == ".json") return std::make_shared<Toolpath>(read_toolpath(path));
+    if (ext == ".cli" || ext == ".CLI") return std::make_shared<Toolpath>(read_cli_file(path));
+    Diagnostics diag;
+    return std::make_shared<Toolpath>(read_print(path, nullptr, nullptr, diag));
+  });
+  m.def("toolpath_from_json", [](const std::string& text) {
+    return std::make_shared<Toolpath>(toolpath_from_json(text, "<string>"));
+  });
+  // Analysis as the CLI reports it (the same JSON), for json.loads on the Python side.
+  m.def("analyze_json",
+        [](const std::string& path, const std::string& design, double bead_width, double layer_height,
+           bool align, bool strict) {
+          Diagnostics diag;
+          Graph g;
+          if (!design.empty()) g = read_lattice(design, {}, diag);
+          AnalysisParams params;
+          if (bead_width > 0) params.width = bead_width;
+          if (layer_height > 0) params.layer_height = layer_height;
+          params.align_centers = align;
+          GcodeReadOptions read;
+          read.stop_on_error = strict;
+          py::gil_scoped_release release;
+          return analysis_json(analyze_gcode_file(path, design.empty() ? nullptr : &g, params, read, diag));
+        },
+        py::arg("path"), py::arg("design") = "", py::arg("bead_width") = 0.0,
+        py::arg("layer_height") = 0.0, py::arg("align") = false, py::arg("strict") = false);
+  m.def("check_json",
+        [](const std::string& lattice, const std::string& print, const std::string& machine,
+           const py::dict& settings) {
+          Settings st;
+          if (!machine.empty()) st.load_toml_file(machine);
+          for (const auto& [k, v] : settings) {
+            const auto key = k.cast<std::string>();
+            st.set(key, to_value(key, v), {"keyword " + key});
+          }
+          const Config cfg = st.config();
+          cfg.aero.nozzle.validate();
+          py::gil_scoped_release release;
+          Diagnostics diag;
+          const Graph g = read_lattice(lattice, {cfg.merge_tolerance, true}, diag);
+          CheckOptions check;
+          check.nozzle = cfg.aero.nozzle;
+          const Toolpath tp = read_print(print, machine.empty() ? nullptr : &st, &check.snap, diag);
+          return collision_check_json(check_collisions(g, tp, check), check);
+        });
+  // Parses .vcad text (errors with line and column); returns the design's bounds if it has a root.
+  m.def("parse_vcad", [](const std::string& text, const std::string& name) {
+    const VcadDesign d = parse_vcad(text, name);
+    py::dict out;
+    out["has_root"] = d.has_root;
+    return out;
+  });
+  m.def("gcode_text", [](const Toolpath& t, const std::string& machine, const py::dict& settings) {
+    Settings st;
+    if (!machine.empty()) st.load_toml_file(machine);
+    for (const auto& [k, v] : settings) {
+      const auto key = k.cast<std::string>();
+      st.set(key, to_value(key, v), {"keyword " + key});
+    }
+    return write_gcode(t, st.config().machine);
+  });
+}

@@ -1,0 +1,241 @@
+"""The Python door: every route as a call, the same files as the CLI, numpy in and out, errors
+mapped with their place, long calls interruptible."""
+import filecmp
+import os
+import signal
+import subprocess
+import threading
+import time
+
+import numpy as np
+import pytest
+
+import trellis
+
+ROOT = os.environ.get("TRELLIS_SOURCE_DIR", os.path.join(os.path.dirname(__file__), "..", ".."))
+CLI = os.environ.get("TRELLIS_CLI", "trellis")
+ENDER = os.path.join(ROOT, "profiles", "ender3_s1_pro_tpu.toml")
+BATH = os.path.join(ROOT, "profiles", "embedded_aero_410um.toml")
+FRESH = os.path.join(ROOT, "profiles", "fresh_nonplanar_2syringe.toml")
+LASER = os.path.join(ROOT, "profiles", "pbf_316l_25um.toml")
+MIXING = os.path.join(ROOT, "profiles", "geeetech_mizar_m_mixing.toml")
+
+
+def cli(*args, cwd=None):
+    r = subprocess.run([CLI, *map(str, args)], capture_output=True, text=True, cwd=cwd)
+    assert r.returncode == 0, r.stderr
+    return r
+
+
+def test_version_and_settings_come_from_the_library():
+    assert trellis.__version__.count(".") == 2
+    keys = {s["key"] for s in trellis.settings()}
+    assert "extrusion.layer_height" in keys and "pbf.cell_type" in keys
+    slice_keys = {s["key"] for s in trellis.settings("slice")}
+    assert "slice.walls" in slice_keys and "pbf.cell" not in slice_keys
+
+
+# Each route through Python writes exactly the bytes the CLI writes with the same settings.
+CASES = [
+    ("lattice2d", lambda out: trellis.lattice2d(out, pattern="voronoi", density=2, seed=3, size=(6, 6)),
+     ["lattice2d", "--pattern", "voronoi", "--density", "2", "--seed", "3", "--size", "6,6"]),
+    ("lattice3d", lambda out: trellis.lattice3d(out, cell_type="bcc", cell=5, count=(2, 2, 1)),
+     ["lattice3d", "--cell-type", "bcc", "--cell", "5", "--count", "2,2,1"]),
+    ("slice", lambda out: trellis.slice(os.path.join(ROOT, "examples/designs/fgm_column2_plate.vcad"), out,
+                                        machine=ENDER, walls=3, infill=0.3),
+     ["slice", os.path.join(ROOT, "examples/designs/fgm_column2_plate.vcad"), "--machine", ENDER,
+      "--walls", "3", "--infill", "0.3"]),
+    ("slice_graded", lambda out: trellis.slice(os.path.join(ROOT, "examples/designs/fgm_column2_plate.vcad"), out,
+                                               machine=MIXING, strategy=2, colors=4),
+     ["slice", os.path.join(ROOT, "examples/designs/fgm_column2_plate.vcad"), "--machine", MIXING,
+      "--strategy", "2", "--colors", "4"]),
+    ("pbf", lambda out: trellis.pbf(out, machine=LASER, size=(2.5, 2.5, 0.5), cell_type="schwarz_d"),
+     ["pbf", "--machine", LASER, "--size", "2.5,2.5,0.5", "--cell-type", "schwarz_d"]),
+    ("nonplanar", lambda out: trellis.nonplanar(None, out, machine=FRESH, height_fn="0.2*x", domain=(0, 0, 8, 4),
+                                                layers=2),
+     ["nonplanar", "--machine", FRESH, "--height-fn", "0.2*x", "--domain", "0,0,8,4", "--layers", "2"]),
+    ("surface", lambda out: trellis.surface("miura", out, depth=2),
+     ["surface", "miura", "--depth", "2"]),
+]
+EXT = {"lattice2d": ".json", "lattice3d": ".json", "slice": ".gcode", "slice_graded": ".gcode",
+       "pbf": ".cli", "nonplanar": ".gcode", "surface": ".stl"}
+
+
+@pytest.mark.parametrize("name,call,args", CASES, ids=[c[0] for c in CASES])
+def test_python_writes_the_same_bytes_as_the_cli(tmp_path, name, call, args):
+    py_out = tmp_path / "py" / ("out" + EXT[name])
+    cli_out = tmp_path / "cli" / ("out" + EXT[name])
+    py_out.parent.mkdir()
+    cli_out.parent.mkdir()
+    call(str(py_out))
+    cli(*args, "-o", cli_out)
+    assert filecmp.cmp(py_out, cli_out, shallow=False)
+
+
+def test_plan_routes_same_bytes_and_in_memory_results(tmp_path):
+    lat = trellis.lattice2d(tmp_path / "l.json", pattern="penrose", cell=1.2, size=(8, 8))
+    assert lat.lattice.edge_count > 50
+    for planner in ("gippo", "euler"):
+        r = trellis.plan(planner, tmp_path / "l.json", tmp_path / f"{planner}.json", machine=ENDER,
+                         gcode=tmp_path / f"{planner}.gcode", iterations=20) if planner == "gippo" else \
+            trellis.plan(planner, tmp_path / "l.json", tmp_path / f"{planner}.json", machine=ENDER,
+                         gcode=tmp_path / f"{planner}.gcode")
+        extra = ["--iterations", "20"] if planner == "gippo" else []
+        cli("plan", planner, tmp_path / "l.json", "-o", tmp_path / f"c_{planner}.json", "--machine", ENDER,
+            "--gcode", tmp_path / f"c_{planner}.gcode", *extra)
+        assert filecmp.cmp(tmp_path / f"{planner}.gcode", tmp_path / f"c_{planner}.gcode", shallow=False)
+        assert filecmp.cmp(tmp_path / f"{planner}.json", tmp_path / f"c_{planner}.json", shallow=False)
+        tp = r.toolpath
+        # Every strut once: the path lengths add up to the lattice's length.
+        seg = np.diff(tp.points, axis=0)
+        lengths = np.linalg.norm(seg, axis=1)
+        inside = np.ones(len(lengths), bool)
+        inside[tp.path_offsets[1:-1] - 1] = False  # no segment between two paths
+        assert abs(lengths[inside].sum() - lat.lattice.total_length) < 1e-6
+    # A Lattice object straight in; AERO on a 3D lattice with its independent check.
+    cells = trellis.lattice3d(cell_type="octet", cell=7, count=(2, 2, 1)).lattice
+    r = trellis.plan("aero", cells, machine=BATH, gcode=tmp_path / "octet.nc")
+    assert "collisions 0" in r.summary
+    assert r.toolpath.path_count > 0 and (tmp_path / "octet.nc").exists()
+
+
+def test_lattices_from_numpy_and_bad_arrays_name_the_argument():
+    nodes = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0]], float)
+    edges = np.array([[0, 1], [1, 2], [2, 3], [3, 0]])
+    lat = trellis.Lattice.from_arrays(nodes, edges, material=[0, 0, 1, 1])
+    assert np.array_equal(lat.nodes, nodes) and np.array_equal(lat.edges, edges)
+    assert list(lat.material) == [0, 0, 1, 1]
+    r = trellis.plan("euler", lat)
+    assert r.toolpath.path_count == 2  # two materials, one closed loop each part
+    cases = [
+        (lambda: trellis.Lattice.from_arrays(nodes[:, :2], edges), "nodes"),
+        (lambda: trellis.Lattice.from_arrays(nodes, edges[:, :1]), "edges"),
+        (lambda: trellis.Lattice.from_arrays(nodes, edges.astype(float)), "edges"),
+        (lambda: trellis.Lattice.from_arrays(nodes, np.array([[0, 7]])), "edges[0]"),
+        (lambda: trellis.Lattice.from_arrays(np.array([[0, 0, np.nan]]), np.zeros((0, 2), int)), "nodes[0]"),
+        (lambda: trellis.Lattice.from_arrays(nodes, edges, material=[0]), "material"),
+    ]
+    for fn, element in cases:
+        with pytest.raises(trellis.SettingError) as e:
+            fn()
+        assert e.value.element == element, (element, e.value)
+
+
+def test_bad_keywords_and_values_raise_mapped_errors():
+    with pytest.raises(trellis.SettingError) as e:
+        trellis.lattice2d(patern="honeycomb")
+    assert e.value.element == "patern" and "pattern" in str(e.value)
+    with pytest.raises(trellis.SettingError) as e:
+        trellis.lattice2d(cell=-1)
+    assert "lattice2d.cell" in e.value.element and "out of range" in str(e.value)
+    with pytest.raises(trellis.SettingError) as e:
+        trellis.lattice2d(pattern="hexagons")
+    assert "one of honeycomb" in str(e.value)
+    with pytest.raises(trellis.SettingError):
+        trellis.lattice2d(cell="big")
+    with pytest.raises(trellis.SettingError):
+        trellis.lattice3d(count=(2, 2))
+    with pytest.raises(trellis.SettingError) as e:
+        trellis.lattice2d(set={"slice.walls": 3})
+    assert "does not read" in str(e.value)
+    with pytest.raises(trellis.InputError) as e:
+        trellis.read_lattice(os.path.join(ROOT, "examples/designs/csg_bracket.vcad"))
+    assert e.value.file.endswith("csg_bracket.vcad")
+    with pytest.raises(trellis.InputError) as e:
+        trellis.slice("/nonexistent.vcad", machine=ENDER)
+    # Precision kept: a tiny k reaches the writer as written.
+    tp = trellis.plan("euler", trellis.lattice2d(pattern="square", size=(3, 3)).lattice).toolpath
+    text = tp.gcode(machine=ENDER, set={"extrusion.k": 4e-7})
+    assert "M82" in text or "M83" in text
+
+
+def test_a_million_points_as_one_array_quickly():
+    # A 1,000,000-point toolpath: a dense 3D lattice's Euler plan, then read as numpy.
+    r = trellis.plan("euler", trellis.lattice3d(cell_type="cubic", cell=1, count=(66, 66, 80)).lattice)
+    tp = r.toolpath
+    assert tp.point_count >= 1_000_000, tp.point_count
+    t0 = time.perf_counter()
+    pts = tp.points
+    elapsed = time.perf_counter() - t0
+    assert pts.shape == (tp.point_count, 3) and pts.dtype == np.float64
+    assert elapsed < 0.05, elapsed
+
+
+def test_progress_reaches_python_and_ctrl_c_cancels_within_a_second():
+    seen = []
+    trellis.plan("gippo", trellis.lattice2d(pattern="voronoi", density=3, size=(10, 10)).lattice,
+                 iterations=300, progress=lambda stage, f: seen.append((stage, f)))
+    assert seen and all(0 <= f <= 1 for _, f in seen)
+    # A long GIPPO run interrupted by SIGINT from a timer thread.
+    lat = trellis.lattice2d(pattern="voronoi", density=4, size=(30, 30)).lattice
+    timer = threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT))
+    t0 = time.perf_counter()
+    timer.start()
+    with pytest.raises(KeyboardInterrupt):
+        trellis.plan("gippo", lat, iterations=10_000_000)
+    assert time.perf_counter() - t0 < 1.5
+    timer.join()
+
+
+def test_jobs_from_files_and_dicts(tmp_path):
+    r = trellis.run_job(os.path.join(ROOT, "examples/jobs/penrose_lattice.toml"), output_dir=tmp_path / "a",
+                        set={"lattice2d.cell": 1.5})
+    assert r.lattice is not None and any(f.endswith(".lattice.json") for f in r.files)
+    r2 = trellis.run_job({"job": {"route": "lattice2d", "name": "d", "output_dir": str(tmp_path / "b")},
+                          "lattice2d": {"pattern": "penrose", "cell": 1.5, "size": [10.0, 10.0]},
+                          "output": {"png": False}})
+    assert r2.lattice.edge_count == r.lattice.edge_count
+    # rerun of a file made from Python: the same bytes.
+    out = tmp_path / "s.gcode"
+    trellis.slice(os.path.join(ROOT, "examples/designs/fgm_column2_plate.vcad"), out, machine=ENDER)
+    trellis.rerun(out, tmp_path / "again.gcode")
+    assert filecmp.cmp(out, tmp_path / "again.gcode", shallow=False)
+
+
+def test_readers_and_pictures(tmp_path):
+    r = trellis.slice(os.path.join(ROOT, "examples/designs/fgm_column2_plate.vcad"), tmp_path / "p.gcode",
+                      machine=ENDER, toolpath=tmp_path / "p.json")
+    back = trellis.read_toolpath(tmp_path / "p.json")
+    assert back.point_count == r.toolpath.point_count
+    g = trellis.read_toolpath(tmp_path / "p.gcode")
+    assert g.layer_count == r.toolpath.layer_count
+    laser = trellis.pbf(tmp_path / "g.cli", size=(2.5, 2.5, 0.3))
+    cli_back = trellis.read_toolpath(tmp_path / "g.cli")
+    assert cli_back.layer_count == laser.toolpath.layer_count
+    assert np.allclose(cli_back.points, laser.toolpath.points, atol=1e-5)
+    png = r.toolpath._repr_png_()
+    assert png[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_fields_built_in_python_slice_like_their_vcad_file(tmp_path):
+    part = trellis.difference(
+        trellis.union(trellis.rectprism(40, 30, 10), trellis.cylinder(10, 10).translate(0, 0, 8), blend=2),
+        trellis.cylinder(5, 40),
+        trellis.torus(10, 1.5).translate(0, 0, 12),
+        trellis.cylinder(2.5, 40).rotate(90, 0, 0))
+    assert "union(2)" in part.vcad() and "rotate(90, 0, 0)" in part.vcad()
+    a = trellis.slice(part, machine=ENDER).toolpath
+    b = trellis.slice(os.path.join(ROOT, "examples/designs/csg_bracket.vcad"), machine=ENDER).toolpath
+    assert a.path_count == b.path_count
+    assert np.allclose(a.points, b.points)
+    graded = trellis.fgrade(["0.5 + x/24", "0.5 - x/24"], ["a", "b"], trellis.rectprism(20, 10, 0.6))
+    r = trellis.slice(graded, machine=MIXING, strategy=2, colors=4)
+    assert len(np.unique(r.toolpath.mixture.round(4), axis=0)) == 4
+    with pytest.raises(trellis.InputError) as e:
+        trellis.parse_vcad("union() {\n  spere(2);\n}\n")
+    assert e.value.line == 2
+    with pytest.raises(trellis.SettingError):
+        trellis.tpms("gyriod", 2.5)
+
+
+def test_analysis_and_check_as_dicts(tmp_path):
+    lat = tmp_path / "l.json"
+    trellis.lattice2d(lat, pattern="snub-square", cell=1.2, size=(10, 10))
+    trellis.plan("euler", lat, tmp_path / "p.json", machine=ENDER, gcode=tmp_path / "p.gcode", center=True)
+    a = trellis.analyze(tmp_path / "p.gcode", lat, align=True)
+    assert a["missing_edges"] == 0 and abs(a["extrusion_ratio"] - 1) < 2e-3
+    cells = tmp_path / "octet.json"
+    trellis.lattice3d(cells, cell_type="octet", cell=7, count=(2, 2, 1))
+    trellis.plan("aero", cells, tmp_path / "o.json", machine=BATH, gcode=tmp_path / "o.nc")
+    c = trellis.check(cells, tmp_path / "o.nc")
+    assert c["collisions"] == 0 and c["struts_printed_once"] == c["struts"] > 0

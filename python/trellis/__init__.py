@@ -1,0 +1,366 @@
+"""Trellis: toolpaths for architected materials, from Python.
+
+Every route of the command line is a call here, with the same settings (keyword arguments named
+as the CLI flags, ``layer_height`` for ``--layer-height``; any setting by its dotted key through
+``set={"extrusion.k": 0.9}``), the same defaults, the same errors and the same output files::
+
+    import trellis
+    lat = trellis.lattice2d(pattern="penrose", cell=1.2, size=(10, 10)).lattice
+    res = trellis.plan("gippo", lat, machine="profiles/ender3_s1_pro_tpu.toml", gcode="p.gcode")
+    pts = res.toolpath.points          # (n, 3) numpy array of every point
+
+Long calls release the GIL, report progress to ``progress(stage, fraction)`` and stop on Ctrl-C
+(KeyboardInterrupt). Errors are ``trellis.InputError``, ``trellis.SettingError`` and
+``trellis.GeometryError`` with ``file``, ``line`` and ``element``.
+"""
+import os
+import shlex
+import sys
+import tempfile
+
+from . import _trellis
+from .errors import GeometryError, InputError, SettingError, TrellisError
+from .fields import (Field, cone, cube, cylinder, difference, fgrade, function, gyroid, intersection,
+                     mesh, rectprism, sphere, torus, tpms, union)
+
+__all__ = ["Field", "sphere", "cube", "rectprism", "cylinder", "cone", "torus", "function", "tpms",
+           "gyroid", "mesh", "union", "intersection", "difference", "fgrade", "parse_vcad",
+           "analyze", "check", "lattice2d", "lattice3d", "plan", "gcode", "slice", "pbf", "nonplanar", "surface",
+           "run_job", "rerun", "settings", "read_lattice", "read_toolpath", "Lattice", "Toolpath",
+           "Result", "TrellisError", "InputError", "SettingError", "GeometryError", "__version__"]
+
+__version__ = _trellis.version()
+
+
+class Lattice:
+    """A strut lattice: ``nodes`` (n, 3), ``edges`` (m, 2) and ``material`` (m,) numpy arrays."""
+
+    def __init__(self, core):
+        self._core = core
+        self._arrays = None
+
+    @staticmethod
+    def from_arrays(nodes, edges, material=None):
+        """A lattice from arrays; shapes, finite coordinates and edge indices are checked."""
+        return Lattice(_trellis.lattice_from_arrays(nodes, edges, material))
+
+    def _a(self):
+        if self._arrays is None:
+            self._arrays = self._core.arrays()
+        return self._arrays
+
+    nodes = property(lambda self: self._a()["nodes"])
+    edges = property(lambda self: self._a()["edges"])
+    material = property(lambda self: self._a()["material"])
+    node_count = property(lambda self: self._core.node_count)
+    edge_count = property(lambda self: self._core.edge_count)
+    total_length = property(lambda self: self._core.total_length)
+
+    def write(self, path):
+        self._core.write(os.fspath(path))
+
+    def to_json(self):
+        return self._core.to_json()
+
+    def __repr__(self):
+        return f"<trellis.Lattice {self.node_count} nodes, {self.edge_count} struts>"
+
+
+ROLES = ["strut", "contour", "handle", "perimeter", "infill", "other", "skin"]
+
+
+class Toolpath:
+    """Layers of paths. Whole arrays, no per-point objects: ``points`` (N, 3),
+    ``path_offsets`` (P + 1,) — path i is ``points[path_offsets[i]:path_offsets[i + 1]]`` —
+    ``layer_offsets`` (L + 1,) into the paths, ``layer_z``, and per path ``role`` (index into
+    ``trellis.ROLES``), ``tool``, ``width``, ``height``, ``speed``, ``power``,
+    ``temperature`` and ``mixture`` (P, materials)."""
+
+    def __init__(self, core):
+        self._core = core
+        self._arrays = None
+
+    def arrays(self):
+        """Every array at once (a dict), computed on first use."""
+        if self._arrays is None:
+            self._arrays = self._core.arrays()
+        return self._arrays
+
+    def __getattr__(self, name):
+        if name.startswith("_"):
+            raise AttributeError(name)
+        arrays = self.arrays()
+        if name in arrays:
+            return arrays[name]
+        raise AttributeError(name)
+
+    layer_count = property(lambda self: self._core.layer_count)
+    path_count = property(lambda self: self._core.path_count)
+    point_count = property(lambda self: self._core.point_count)
+    extrusion_length = property(lambda self: self._core.extrusion_length)
+
+    def path(self, i):
+        """The points of path i, an (n, 3) view into ``points``."""
+        o = self.path_offsets
+        return self.points[o[i]:o[i + 1]]
+
+    def to_json(self):
+        return self._core.to_json()
+
+    def gcode(self, machine=None, set=None):
+        """The G-code text for a machine profile (str)."""
+        return _trellis.gcode_text(self._core, os.fspath(machine) if machine else "", set or {})
+
+    def png(self, layer=0, size=600):
+        """A PNG (bytes) of one layer."""
+        return self._core.png(layer, size)
+
+    def _repr_png_(self):
+        return self.png(self.layer_count // 2)
+
+    def __repr__(self):
+        return (f"<trellis.Toolpath {self.layer_count} layers, {self.path_count} paths, "
+                f"{self.point_count} points>")
+
+
+class Result:
+    """What a route wrote and made: ``files``, ``summary``, ``warnings``, and the in-memory
+    ``toolpath`` / ``lattice`` when the route makes one."""
+
+    def __init__(self, d):
+        self.files = list(d["files"])
+        self.summary = d["summary"]
+        self.warnings = list(d.get("warnings", []))
+        self.exit_code = d.get("exit_code", 0)
+        self.toolpath = Toolpath(d["toolpath"]) if d.get("toolpath") is not None else None
+        self.lattice = Lattice(d["lattice"]) if d.get("lattice") is not None else None
+
+    def __repr__(self):
+        return f"<trellis.Result {self.summary!r}>"
+
+
+def _route_keywords(route):
+    """keyword (flag with _) -> setting key, for the route's sections."""
+    sections = set(_trellis.route_sections(route))
+    out = {}
+    for s in _trellis.settings():
+        if s["section"] in sections and s["flag"]:
+            out.setdefault(s["flag"].replace("-", "_"), s["key"])
+    return out
+
+
+_KEYWORDS = {}
+
+
+def _keywords(route, command):
+    key = (route, command)
+    if key not in _KEYWORDS:
+        kw = _route_keywords(route)
+        if command in ("gippo", "euler"):
+            kw = {k: v for k, v in kw.items() if not v.startswith(("aero.", "nozzle."))}
+        if command in ("euler", "aero"):
+            kw = {k: v for k, v in kw.items() if not v.startswith("gippo.")}
+        _KEYWORDS[key] = kw
+    return _KEYWORDS[key]
+
+
+def _path(p):
+    return "" if p is None else os.fspath(p)
+
+
+def _call(route, input, outputs, machine, set, progress, kwargs, command=None, extra=None):
+    keywords = _keywords(route, command or route)
+    values = dict(extra or {})
+    for name, value in kwargs.items():
+        if name not in keywords:
+            near = [k for k in keywords if k.startswith(name[:3])][:3]
+            raise SettingError(f"unknown keyword '{name}' for trellis.{command or route}()"
+                               + (f" (did you mean {', '.join(near)}?)" if near else "")
+                               + "; any setting can be given as set={'section.key': value}",
+                               element=name)
+        values[keywords[name]] = value
+    for key, value in (set or {}).items():
+        values[key] = value
+    outs = {k: _path(v) for k, v in outputs.items() if v is not None}
+    cmd = "python: trellis." + (command or route) + "(" + ", ".join(
+        [repr(_path(input))] if input else []) + ")"
+    return Result(_trellis.run(route, _path(input), outs, _path(machine), values, cmd, progress))
+
+
+def _temp_input(obj, suffix):
+    """A Lattice or Toolpath object written to a temporary file for a route that reads files."""
+    fd, path = tempfile.mkstemp(suffix=suffix, prefix="trellis_")
+    with os.fdopen(fd, "w") as f:
+        f.write(obj.to_json())
+    return path
+
+
+def lattice2d(output=None, *, preview=None, progress=None, set=None, **settings):
+    """A 2D lattice from the atlas ([lattice2d] settings: pattern, cell, size, ...)."""
+    return _call("lattice2d", None, {"output": output, "preview": preview}, None, set, progress,
+                 settings)
+
+
+def lattice3d(output=None, *, preview=None, progress=None, set=None, **settings):
+    """A 3D lattice: unit cells (cell_type, cell, count) or a Voronoi foam (kind='foam')."""
+    return _call("lattice3d", None, {"output": output, "preview": preview}, None, set, progress,
+                 settings)
+
+
+def plan(planner, lattice, output=None, *, machine=None, gcode=None, report=None, preview=None,
+         progress=None, set=None, **settings):
+    """Plans paths over a lattice (a file or a ``Lattice``): planner 'gippo', 'euler' or 'aero'."""
+    if planner not in ("gippo", "euler", "aero"):
+        raise SettingError(f"unknown planner '{planner}' (expected gippo, euler or aero)",
+                           element="planner")
+    temp = None
+    if isinstance(lattice, Lattice):
+        temp = lattice = _temp_input(lattice, ".json")
+    try:
+        return _call("plan", lattice, {"toolpath": output, "gcode": gcode, "report": report,
+                                       "preview": preview}, machine, set, progress, settings,
+                     command=planner, extra={"plan.planner": planner})
+    finally:
+        if temp:
+            os.remove(temp)
+
+
+def gcode(toolpath, output=None, *, machine, progress=None, set=None, **settings):
+    """G-code (or .nc) from a toolpath (a file or a ``Toolpath``) for a machine profile."""
+    temp = None
+    if isinstance(toolpath, Toolpath):
+        temp = toolpath = _temp_input(toolpath, ".json")
+    try:
+        return _call("gcode", toolpath, {"output": output}, machine, set, progress, settings)
+    finally:
+        if temp:
+            os.remove(temp)
+
+
+def slice(design, output=None, *, machine, report=None, toolpath=None, preview=None,
+          progress=None, set=None, **settings):
+    """Slices a .vcad design, a mesh, or a ``Field`` built in Python: walls, skins, infill;
+    graded designs with strategy=1 or 2."""
+    temp = None
+    if isinstance(design, Field):
+        parse_vcad(design.vcad())
+        fd, temp = tempfile.mkstemp(suffix=".vcad", prefix="trellis_design_")
+        with os.fdopen(fd, "w") as f:
+            f.write(design.vcad())
+        design = temp
+    try:
+        return _call("slice", design, {"output": output, "report": report, "toolpath": toolpath,
+                                       "preview": preview}, machine, set, progress, settings)
+    finally:
+        if temp:
+            os.remove(temp)
+
+
+def parse_vcad(text, name="<vcad>"):
+    """Checks .vcad text (errors name the line and column); returns {'has_root': bool}."""
+    return _trellis.parse_vcad(text, name)
+
+
+def analyze(gcode, design=None, *, bead_width=0.0, layer_height=0.0, align=False, strict=False):
+    """Measures any G-code (ours or another slicer's) against a design lattice: the same numbers
+    as `trellis analyze`, as a dict."""
+    import json
+    return json.loads(_trellis.analyze_json(os.fspath(gcode), _path(design), bead_width, layer_height,
+                                            align, strict))
+
+
+def check(lattice, print_file, *, machine=None, set=None, **nozzle):
+    """Replays a print against the nozzle model (collisions, struts missing or repeated), as a
+    dict; nozzle settings by keyword (radius, tip_clearance, node_clearance, cone)."""
+    import json
+    values = {f"nozzle.{k}": v for k, v in nozzle.items()}
+    values.update(set or {})
+    return json.loads(_trellis.check_json(os.fspath(lattice), os.fspath(print_file), _path(machine),
+                                          values))
+
+
+def pbf(output=None, *, envelope=None, machine=None, report=None, toolpath=None, preview=None,
+        progress=None, set=None, **settings):
+    """Laser powder-bed paths for a TPMS sheet lattice (.cli)."""
+    return _call("pbf", envelope, {"output": output, "report": report, "toolpath": toolpath,
+                                   "preview": preview}, machine, set, progress, settings)
+
+
+def nonplanar(surface=None, output=None, *, machine, report=None, toolpath=None, preview=None,
+              progress=None, set=None, **settings):
+    """Non-planar layers on a surface mesh, a height function (height_fn, domain) or a test
+    surface (set={'surface.kind': 'corrugation'})."""
+    return _call("nonplanar", surface, {"output": output, "report": report, "toolpath": toolpath,
+                                        "preview": preview}, machine, set, progress, settings)
+
+
+def surface(kind, output=None, *, machine=None, preview=None, progress=None, set=None, **settings):
+    """The non-planar paper's test surfaces (STL), or the angle test (toolpath JSON / G-code)."""
+    return _call("surface", None, {"output": output, "preview": preview}, machine, set, progress,
+                 settings, extra={"surface.kind": kind})
+
+
+def run_job(job, output_dir=None, set=None, progress=None):
+    """Runs a job file (a path), or a job given as a dict of tables ({'job': {...}, ...})."""
+    if isinstance(job, dict):
+        fd, path = tempfile.mkstemp(suffix=".toml", prefix="trellis_job_", dir=os.getcwd())
+        with os.fdopen(fd, "w") as f:
+            f.write(_toml(job))
+        try:
+            return Result(_trellis.run_job_file(path, _path(output_dir),
+                                                [f"{k}={v}" for k, v in (set or {}).items()],
+                                                progress))
+        finally:
+            os.remove(path)
+    return Result(_trellis.run_job_file(os.fspath(job), _path(output_dir),
+                                        [f"{k}={_text(v)}" for k, v in (set or {}).items()],
+                                        progress))
+
+
+def _text(v):
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, (list, tuple)):
+        return ",".join(repr(float(x)) for x in v)
+    return str(v)
+
+
+def _toml(tables):
+    def value(v):
+        if isinstance(v, bool):
+            return "true" if v else "false"
+        if isinstance(v, str):
+            return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+        if isinstance(v, (list, tuple)):
+            return "[" + ", ".join(value(x) for x in v) + "]"
+        return repr(v)
+    lines = []
+    for name, table in tables.items():
+        lines.append(f"[{name}]")
+        lines += [f"{k} = {value(v)}" for k, v in table.items()]
+    return "\n".join(lines) + "\n"
+
+
+def rerun(path, output=None):
+    """Regenerates an output from the job in its header (byte for byte)."""
+    return _trellis.rerun(os.fspath(path), _path(output))
+
+
+def settings(route=None):
+    """Every setting (dicts: key, kind, unit, default, range, doc, flag), or a route's."""
+    all_settings = _trellis.settings()
+    if route is None:
+        return all_settings
+    sections = set(_trellis.route_sections(route))
+    return [s for s in all_settings if s["section"] in sections]
+
+
+def read_lattice(path, merge_tolerance=1e-6):
+    """A lattice file (JSON, CSV, AERO pairs, OBJ) as a ``Lattice``."""
+    return Lattice(_trellis.read_lattice(os.fspath(path), merge_tolerance))
+
+
+def read_toolpath(path):
+    """A toolpath JSON, a laser build file (.cli, ASCII or binary), or G-code / .nc (read back
+    into design coordinates), as a ``Toolpath``."""
+    return Toolpath(_trellis.read_toolpath(os.fspath(path)))

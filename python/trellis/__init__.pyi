@@ -1,0 +1,306 @@
+"""Type stubs generated from the settings schema by python/gen_stubs.py; do not edit."""
+from os import PathLike as _PathLike
+from typing import Any, Callable, Literal, Mapping, Sequence
+
+import numpy as np
+
+from .errors import GeometryError, InputError, SettingError, TrellisError
+
+PathLike = str | _PathLike[str]
+Progress = Callable[[str, float], None]
+
+__version__: str
+ROLES: list[str]
+
+class Lattice:
+    nodes: np.ndarray
+    edges: np.ndarray
+    material: np.ndarray
+    node_count: int
+    edge_count: int
+    total_length: float
+    @staticmethod
+    def from_arrays(nodes: Any, edges: Any, material: Any = None) -> Lattice: ...
+    def write(self, path: PathLike) -> None: ...
+    def to_json(self) -> str: ...
+
+class Toolpath:
+    points: np.ndarray
+    path_offsets: np.ndarray
+    layer_offsets: np.ndarray
+    layer_z: np.ndarray
+    role: np.ndarray
+    tool: np.ndarray
+    width: np.ndarray
+    height: np.ndarray
+    speed: np.ndarray
+    power: np.ndarray
+    temperature: np.ndarray
+    mixture: np.ndarray
+    layer_count: int
+    path_count: int
+    point_count: int
+    extrusion_length: float
+    def arrays(self) -> dict[str, np.ndarray]: ...
+    def path(self, i: int) -> np.ndarray: ...
+    def to_json(self) -> str: ...
+    def gcode(self, machine: PathLike | None = None, set: Mapping[str, Any] | None = None) -> str: ...
+    def png(self, layer: int = 0, size: int = 600) -> bytes: ...
+
+class Result:
+    files: list[str]
+    summary: str
+    warnings: list[tuple[str, str]]
+    exit_code: int
+    toolpath: Toolpath | None
+    lattice: Lattice | None
+
+def lattice2d(
+    output: PathLike | None = None, *, preview: PathLike | None = None,
+    progress: Progress | None = None,
+    set: Mapping[str, Any] | None = None,
+    arrowhead_inner: float = ...,  # lattice2d.arrowhead_inner: arrowhead: inner chevron angle
+    arrowhead_outer: float = ...,  # lattice2d.arrowhead_outer: arrowhead: outer chevron angle
+    cell: float = ...,  # lattice2d.cell: cell size: hexagon side, rhombus side, edge or period (see lattice2d --help)
+    contour: bool = ...,  # lattice2d.contour: add the region outline as struts
+    density: float = ...,  # lattice2d.density: Voronoi seeds per mm²
+    diameter: float = ...,  # lattice2d.diameter: circle diameter
+    frames: int = ...,  # output.frames: aero: step pictures of the first N trails
+    handle_length: float = ...,  # lattice2d.handle_length: handle length along x
+    handle_width: float = ...,  # lattice2d.handle_width: handle width along y
+    handles: bool = ...,  # lattice2d.handles: tensile-test handles at both x ends
+    image_size: int = ...,  # output.image_size: preview image size
+    pattern: Literal['honeycomb', 'voronoi', 'penrose', 'snub-square', 'arrowhead', 'reentrant-honeycomb', 'square', 'triangle', 'lines'] = ...,  # lattice2d.pattern: atlas pattern
+    preview_layers: int = ...,  # output.preview_layers: PNG previews spread over the layers
+    reentrant_angle: float = ...,  # lattice2d.reentrant_angle: re-entrant honeycomb: strut angle below horizontal
+    region: Literal['rectangle', 'circle'] = ...,  # lattice2d.region: crop region
+    region_center: Sequence[float] = ...,  # lattice2d.center: region centre x, y
+    rotation: float = ...,  # lattice2d.rotation: pattern rotation about the region centre
+    seed: int = ...,  # lattice2d.seed: Voronoi random seed
+    size: Sequence[float] = ...,  # lattice2d.size: rectangle width, height
+    strand: float = ...,  # lattice2d.strand: strand distance of square, triangle and lines
+    threads: int = ...,  # run.threads: worker threads (0 = all cores)
+    z: float = ...,  # lattice2d.z: height of the lattice plane
+) -> Result: ...
+
+def lattice3d(
+    output: PathLike | None = None, *, preview: PathLike | None = None,
+    progress: Progress | None = None,
+    set: Mapping[str, Any] | None = None,
+    box: Sequence[float] = ...,  # lattice3d.box: foam box width, depth, height
+    cell: float = ...,  # lattice3d.cell: unit cell side
+    cell_type: Literal['cubic', 'bcc', 'fcc', 'octet', 'diamond', 'kelvin', 'rhombic-dodecahedron'] = ...,  # lattice3d.cell_type: unit cell
+    count: Sequence[float] = ...,  # lattice3d.count: cells along X, Y, Z
+    density: float = ...,  # lattice3d.density: foam seeds per mm³
+    frames: int = ...,  # output.frames: aero: step pictures of the first N trails
+    image_size: int = ...,  # output.image_size: preview image size
+    kind: Literal['cells', 'foam'] = ...,  # lattice3d.kind: unit cells tessellated, or a stochastic Voronoi foam
+    materials: Literal['none', 'xy-plane', 'component', 'vertical'] = ...,  # lattice3d.materials: per-strut material rule
+    mesh: str = ...,  # lattice3d.mesh: foam inside this closed mesh instead of the box
+    preview_layers: int = ...,  # output.preview_layers: PNG previews spread over the layers
+    seed: int = ...,  # lattice3d.seed: foam random seed
+    threads: int = ...,  # run.threads: worker threads (0 = all cores)
+) -> Result: ...
+
+def plan(
+    planner: Literal['gippo', 'euler', 'aero'], lattice: PathLike | Lattice, output: PathLike | None = None, *, machine: PathLike | None = None, gcode: PathLike | None = None, report: PathLike | None = None, preview: PathLike | None = None,
+    progress: Progress | None = None,
+    set: Mapping[str, Any] | None = None,
+    arrowhead_inner: float = ...,  # lattice2d.arrowhead_inner: arrowhead: inner chevron angle
+    arrowhead_outer: float = ...,  # lattice2d.arrowhead_outer: arrowhead: outer chevron angle
+    box: Sequence[float] = ...,  # lattice3d.box: foam box width, depth, height
+    cell: float = ...,  # lattice2d.cell: cell size: hexagon side, rhombus side, edge or period (see lattice2d --help)
+    cell_type: Literal['cubic', 'bcc', 'fcc', 'octet', 'diamond', 'kelvin', 'rhombic-dodecahedron'] = ...,  # lattice3d.cell_type: unit cell
+    center: bool = ...,  # placement.center: move the part's XY centre to the bed centre
+    collisions: bool = ...,  # aero.collisions: plan around the nozzle (false: trails = Euler lower bound)
+    cone: float = ...,  # nozzle.cone: struts within this angle of vertical print bottom-up
+    contour: bool = ...,  # lattice2d.contour: add the region outline as struts
+    count: Sequence[float] = ...,  # lattice3d.count: cells along X, Y, Z
+    density: float = ...,  # lattice2d.density: Voronoi seeds per mm²
+    diameter: float = ...,  # lattice2d.diameter: circle diameter
+    frames: int = ...,  # output.frames: aero: step pictures of the first N trails
+    handle_length: float = ...,  # lattice2d.handle_length: handle length along x
+    handle_width: float = ...,  # lattice2d.handle_width: handle width along y
+    handles: bool = ...,  # lattice2d.handles: tensile-test handles at both x ends
+    image_size: int = ...,  # output.image_size: preview image size
+    iterations: int = ...,  # gippo.iterations: solutions generated, best kept (paper: 500)
+    kind: Literal['cells', 'foam'] = ...,  # lattice3d.kind: unit cells tessellated, or a stochastic Voronoi foam
+    layer_height: float = ...,  # extrusion.layer_height: layer thickness LT when a path has none (Eq. 4)
+    layer_rotation: float = ...,  # layers.rotation: pattern rotation added per layer
+    layers: int = ...,  # layers.count: layers of the 2D pattern (0 with layers.solid: from its height)
+    long_nodes: int = ...,  # plan.long_path_nodes: LTS/OE: a path is long with this many nodes
+    lookahead: float = ...,  # gradient.lookahead: issue each mixture change this much printed path before the region (dead volume, FGM paper A.1: L = V_melt / (h(w-h) + pi h^2/4))
+    materials: Literal['none', 'xy-plane', 'component', 'vertical'] = ...,  # lattice3d.materials: per-strut material rule
+    merge_tolerance: float = ...,  # lattice.merge_tolerance: merge nodes closer than this
+    mesh: str = ...,  # lattice3d.mesh: foam inside this closed mesh instead of the box
+    method: Literal['dynamic', 'groups'] = ...,  # aero.method: dynamic (refresh after every trail) or groups (the paper's)
+    mode: Literal['max', 'min'] = ...,  # gippo.mode: take the longest (max) or shortest (min) edge
+    node_clearance: float = ...,  # nozzle.node_clearance: no collision within this of a node the two struts share
+    nozzle_radius: float = ...,  # nozzle.radius: nozzle radius R (vertical cylinder)
+    onto: Literal['', 'sphere-cap', 'mesh', 'function'] = ...,  # onto.kind: lay the planned layers on a surface (empty: flat)
+    order: Literal['longest-first', 'travel'] = ...,  # plan.order: path order: longest-first (paper) or travel (nearest neighbour + 2-opt)
+    overlap: float = ...,  # nozzle.overlap: the writer's node overlap: struts planned as if this much longer
+    pattern: Literal['honeycomb', 'voronoi', 'penrose', 'snub-square', 'arrowhead', 'reentrant-honeycomb', 'square', 'triangle', 'lines'] = ...,  # lattice2d.pattern: atlas pattern
+    preview_layers: int = ...,  # output.preview_layers: PNG previews spread over the layers
+    reentrant_angle: float = ...,  # lattice2d.reentrant_angle: re-entrant honeycomb: strut angle below horizontal
+    region: Literal['rectangle', 'circle'] = ...,  # lattice2d.region: crop region
+    region_center: Sequence[float] = ...,  # lattice2d.center: region centre x, y
+    rotation: float = ...,  # lattice2d.rotation: pattern rotation about the region centre
+    seed: int = ...,  # lattice2d.seed: Voronoi random seed
+    size: Sequence[float] = ...,  # lattice2d.size: rectangle width, height
+    solid: str = ...,  # layers.solid: closed mesh each layer's pattern is cropped to
+    speed: float = ...,  # speed.print: printing speed
+    strand: float = ...,  # lattice2d.strand: strand distance of square, triangle and lines
+    threads: int = ...,  # run.threads: worker threads (0 = all cores)
+    tip_clearance: float = ...,  # nozzle.tip_clearance: material less than this above the tip is not hit
+    tries: int = ...,  # aero.tries: dynamic: planner runs (strategies, then shuffled orders; best kept)
+    z: float = ...,  # lattice2d.z: height of the lattice plane
+) -> Result: ...
+
+def gcode(
+    toolpath: PathLike | Toolpath, output: PathLike | None = None, *, machine: PathLike,
+    progress: Progress | None = None,
+    set: Mapping[str, Any] | None = None,
+    center: bool = ...,  # placement.center: move the part's XY centre to the bed centre
+    layer_height: float = ...,  # extrusion.layer_height: layer thickness LT when a path has none (Eq. 4)
+    lookahead: float = ...,  # gradient.lookahead: issue each mixture change this much printed path before the region (dead volume, FGM paper A.1: L = V_melt / (h(w-h) + pi h^2/4))
+    speed: float = ...,  # speed.print: printing speed
+    threads: int = ...,  # run.threads: worker threads (0 = all cores)
+) -> Result: ...
+
+def slice(
+    design: PathLike, output: PathLike | None = None, *, machine: PathLike, report: PathLike | None = None, toolpath: PathLike | None = None, preview: PathLike | None = None,
+    progress: Progress | None = None,
+    set: Mapping[str, Any] | None = None,
+    bead_width: float = ...,  # slice.bead_width: bead width (wall and fill spacing)
+    bottom: int = ...,  # slice.bottom: solid bottom layers
+    center: bool = ...,  # placement.center: move the part's XY centre to the bed centre
+    colors: int = ...,  # fgm.colors: palette size (two materials: N bands; three: d² triangles, e.g. 9)
+    concentric: bool = ...,  # fgm.concentric: Strategy 2: concentric fill instead of rectilinear
+    fixed_angle: bool = ...,  # fgm.fixed_angle: Strategy 2: lines at slice.infill_angle instead of along the iso-lines
+    frames: int = ...,  # output.frames: aero: step pictures of the first N trails
+    image_size: int = ...,  # output.image_size: preview image size
+    infill: float = ...,  # slice.infill: sparse infill density (fraction of solid)
+    infill_angle: float = ...,  # slice.infill_angle: infill angle, +90 every other layer
+    layer_height: float = ...,  # extrusion.layer_height: layer thickness LT when a path has none (Eq. 4)
+    lookahead: float = ...,  # gradient.lookahead: issue each mixture change this much printed path before the region (dead volume, FGM paper A.1: L = V_melt / (h(w-h) + pi h^2/4))
+    material_resolution: float = ...,  # fgm.material_resolution: XY grid of the material iso-contours
+    mesh_voxel: float = ...,  # slice.mesh_voxel: voxel of mesh distance fields (field route)
+    preview_layers: int = ...,  # output.preview_layers: PNG previews spread over the layers
+    resolution: float = ...,  # slice.resolution: XY grid step of field contours
+    route: Literal['auto', 'field', 'mesh'] = ...,  # slice.route: auto (.vcad: field, meshes: mesh), field (contours of the implicit field) or mesh (plane cuts)
+    speed: float = ...,  # speed.print: printing speed
+    strategy: int = ...,  # slice.strategy: graded designs: 0 one material, 1 walls/infill cut by colour faces + purge, 2 colour faces filled densely (FGM paper)
+    threads: int = ...,  # run.threads: worker threads (0 = all cores)
+    top: int = ...,  # slice.top: solid top layers
+    walls: int = ...,  # slice.walls: number of walls
+    zipper: float = ...,  # fgm.zipper: Strategy 1: overlap band β (fraction of the gradient) where colours alternate
+) -> Result: ...
+
+def pbf(
+    output: PathLike | None = None, *, envelope: PathLike | None = None, machine: PathLike | None = None, report: PathLike | None = None, toolpath: PathLike | None = None, preview: PathLike | None = None,
+    progress: Progress | None = None,
+    set: Mapping[str, Any] | None = None,
+    beam_comp: float = ...,  # scan.beam_compensation: beam compensation: hatch ends pulled in by this
+    binary: bool = ...,  # pbf.binary: binary CLI geometry (the header stays ASCII, with CLI+ blocks)
+    c: str = ...,  # pbf.c: sheet parameter c (Φ = φ² − c²): a number or an expression of x, y, z, rho, r
+    cell: float = ...,  # pbf.cell: TPMS cell size
+    cell_type: Literal['gyroid', 'schwarz_p', 'schwarz_d', 'neovius', 'iwp'] = ...,  # pbf.cell_type: TPMS of the sheet
+    envelope: str = ...,  # pbf.envelope: .vcad solid the lattice fills instead of the box
+    frames: int = ...,  # output.frames: aero: step pictures of the first N trails
+    grade_axis: Literal['z', 'r'] = ...,  # pbf.grade_axis: grading axis: z (axial) or r (radial)
+    grade_center: float = ...,  # pbf.grade_center: sigmoid centre
+    grade_to: str = ...,  # pbf.grade_to: TYPE:CELL blended in by a sigmoid (graded cell size)
+    grade_width: float = ...,  # pbf.grade_width: sigmoid width
+    hatch: float = ...,  # scan.hatch_distance: hatch distance
+    hatch_rotation: float = ...,  # pbf.hatch_rotation: hatch rotation per layer (paper: 67)
+    hierarchical: str = ...,  # pbf.hierarchical: TYPE:CELL:WEIGHT superposed (hierarchical lattice)
+    image_size: int = ...,  # output.image_size: preview image size
+    layer_height: float = ...,  # scan.layer: powder layer thickness
+    lhd: float = ...,  # scan.segment_gap: gap LHD between contour scan vectors (the paper tested 0-120 µm; outside is a warning)
+    memory_budget: float = ...,  # pbf.memory_budget: refuse a run estimated above this; 0 = the memory available
+    min_inclination: float = ...,  # pbf.min_inclination: shallower walls are hatched
+    preview_layers: int = ...,  # output.preview_layers: PNG previews spread over the layers
+    resolution: float = ...,  # pbf.resolution: sampling step: the STL route's voxel; direct contours on a grid twice as coarse
+    route: Literal['direct', 'stl'] = ...,  # pbf.route: direct (slice the field) or stl (marching cubes mesh, for comparison)
+    size: Sequence[float] = ...,  # pbf.size: box X, Y, Z centred at the origin
+    sl: float = ...,  # scan.segment_length: contour scan vector length SL: straight chords on φ = 0 (the paper tested 5-400 µm; outside is a warning)
+    solids: str = ...,  # pbf.solids: .vcad solid parts (bosses), hatched
+    strategy: Literal['hybrid', 'r67'] = ...,  # pbf.strategy: hybrid (contours on thin walls, hatch at joints) or r67 (hatch everything)
+    thickness: float = ...,  # pbf.thickness: uniform wall thickness t: c = t·|∇φ|/2 (0: use pbf.c)
+    thin_multiple: float = ...,  # pbf.thin_multiple: thin wall: width <= this × melt pool
+    threads: int = ...,  # run.threads: worker threads (0 = all cores)
+    wall_azimuth: float = ...,  # pbf.wall_azimuth: the wall's direction from X
+    wall_inclination: float = ...,  # pbf.wall_inclination: the wall's angle from horizontal
+    wall_thickness: float = ...,  # pbf.wall_thickness: a plane thin wall of this thickness instead of a TPMS (PBF paper Fig. 3; box from pbf.size, default 2,2,20); 0 = off
+) -> Result: ...
+
+def nonplanar(
+    surface: PathLike | None = None, output: PathLike | None = None, *, machine: PathLike, report: PathLike | None = None, toolpath: PathLike | None = None, preview: PathLike | None = None,
+    progress: Progress | None = None,
+    set: Mapping[str, Any] | None = None,
+    amplitude_scale: float = ...,  # surface.amplitude_scale: corrugation amplitude factor
+    angle: float = ...,  # surface.angle: corrugation slope
+    angles: Sequence[float] = ...,  # nonplanar.angles: path directions cycled over the layers (0,90 = cross-hatch; 0 = parallel)
+    bead_width: float = ...,  # nonplanar.bead_width: path width = plane spacing
+    center: bool = ...,  # placement.center: move the part's XY centre to the bed centre
+    chord_tol: float = ...,  # nonplanar.chord_tolerance: max distance of a path segment from the surface
+    depth: float = ...,  # surface.depth: Miura-Ori fold depth
+    diameter: float = ...,  # surface.diameter: sphere-cap footprint diameter
+    domain: Sequence[float] = ...,  # nonplanar.domain: x0, y0, x1, y1 of the height function
+    fillet: float = ...,  # surface.fillet: fillet diameter at peaks and valleys
+    flat: float = ...,  # surface.flat: flat clamping end length
+    frames: int = ...,  # output.frames: aero: step pictures of the first N trails
+    height: float = ...,  # surface.height: M curve height
+    height_fn: str = ...,  # nonplanar.height_fn: surface z = f(x, y) instead of a mesh (muparser)
+    image_size: int = ...,  # output.image_size: preview image size
+    kind: Literal['corrugation', 'miura', 'm-curve', 'sphere-cap', 'angle-test'] = ...,  # surface.kind: generated test surface (non-planar paper)
+    layer_height: float = ...,  # extrusion.layer_height: layer thickness LT when a path has none (Eq. 4)
+    layer_tools: str = ...,  # nonplanar.layer_tools: tools per layer: LAYERS:TOOL groups (3:0,3:1,3:0) or a tool list (0,1)
+    layers: int = ...,  # nonplanar.layers: number of layers
+    length: float = ...,  # surface.length: length along X
+    lookahead: float = ...,  # gradient.lookahead: issue each mixture change this much printed path before the region (dead volume, FGM paper A.1: L = V_melt / (h(w-h) + pi h^2/4))
+    max_join: float = ...,  # nonplanar.max_join: longest end-to-end connector printed instead of a travel
+    offset: Literal['vertical', 'normal'] = ...,  # nonplanar.offset: layers stack vertically (paper) or along the surface normal
+    periods: float = ...,  # surface.periods: corrugation periods
+    preview_layers: int = ...,  # output.preview_layers: PNG previews spread over the layers
+    radius: float = ...,  # surface.radius: sphere-cap radius
+    resolution: float = ...,  # surface.resolution: grid spacing of generated meshes
+    speed: float = ...,  # speed.print: printing speed
+    threads: int = ...,  # run.threads: worker threads (0 = all cores)
+    width: float = ...,  # surface.width: width along Y
+) -> Result: ...
+
+def surface(
+    kind: str, output: PathLike | None = None, *, machine: PathLike | None = None, preview: PathLike | None = None,
+    progress: Progress | None = None,
+    set: Mapping[str, Any] | None = None,
+    amplitude_scale: float = ...,  # surface.amplitude_scale: corrugation amplitude factor
+    angle: float = ...,  # surface.angle: corrugation slope
+    center: bool = ...,  # placement.center: move the part's XY centre to the bed centre
+    depth: float = ...,  # surface.depth: Miura-Ori fold depth
+    diameter: float = ...,  # surface.diameter: sphere-cap footprint diameter
+    fillet: float = ...,  # surface.fillet: fillet diameter at peaks and valleys
+    flat: float = ...,  # surface.flat: flat clamping end length
+    frames: int = ...,  # output.frames: aero: step pictures of the first N trails
+    height: float = ...,  # surface.height: M curve height
+    image_size: int = ...,  # output.image_size: preview image size
+    kind: Literal['corrugation', 'miura', 'm-curve', 'sphere-cap', 'angle-test'] = ...,  # surface.kind: generated test surface (non-planar paper)
+    layer_height: float = ...,  # extrusion.layer_height: layer thickness LT when a path has none (Eq. 4)
+    length: float = ...,  # surface.length: length along X
+    lookahead: float = ...,  # gradient.lookahead: issue each mixture change this much printed path before the region (dead volume, FGM paper A.1: L = V_melt / (h(w-h) + pi h^2/4))
+    periods: float = ...,  # surface.periods: corrugation periods
+    preview_layers: int = ...,  # output.preview_layers: PNG previews spread over the layers
+    radius: float = ...,  # surface.radius: sphere-cap radius
+    resolution: float = ...,  # surface.resolution: grid spacing of generated meshes
+    speed: float = ...,  # speed.print: printing speed
+    threads: int = ...,  # run.threads: worker threads (0 = all cores)
+    width: float = ...,  # surface.width: width along Y
+) -> Result: ...
+
+def run_job(job: PathLike | Mapping[str, Mapping[str, Any]], output_dir: PathLike | None = None,
+            set: Mapping[str, Any] | None = None, progress: Progress | None = None) -> Result: ...
+def rerun(path: PathLike, output: PathLike | None = None) -> list[str]: ...
+def settings(route: str | None = None) -> list[dict[str, Any]]: ...
+def read_lattice(path: PathLike, merge_tolerance: float = 1e-6) -> Lattice: ...
+def read_toolpath(path: PathLike) -> Toolpath: ...

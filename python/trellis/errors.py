@@ -1,0 +1,23 @@
+"""Errors raised by Trellis, with the library's messages (the same as the CLI's)."""
+
+
+class TrellisError(Exception):
+    """Any error reported by the library. `file`, `line` and `element` say where, when known."""
+
+    def __init__(self, message, file="", line=0, element=""):
+        super().__init__(message)
+        self.file = file
+        self.line = line
+        self.element = element
+
+
+class InputError(TrellisError):
+    """A malformed or unreadable input file (lattice, design, mesh, toolpath, G-code, profile)."""
+
+
+class SettingError(TrellisError, ValueError):
+    """An unknown setting or keyword, a wrong type, a value out of range, a broken rule."""
+
+
+class GeometryError(TrellisError):
+    """Input that parses but cannot be planned, sliced or written."""

@@ -1,0 +1,149 @@
+"""Implicit designs built in Python, written as OpenVCAD text (.vcad) — the language the slicer
+reads (the FGM paper's Appendix B). Operators: ``a | b`` union, ``a & b`` intersection,
+``a - b`` difference; ``.translate()``, ``.rotate()``, ``.scale()``; ``fgrade`` for material
+fractions. ``str(field)`` is the .vcad text; ``trellis.slice(field, ...)`` slices it.
+
+    part = (trellis.rectprism(40, 30, 10) | trellis.cylinder(10, 18)) - trellis.cylinder(5, 40)
+    graded = trellis.fgrade(["0.5 + x/80", "0.5 - x/80"], ["a", "b"], part)
+"""
+import os
+
+_TPMS = ("gyroid", "schwarz_p", "schwarz_d", "diamond", "neovius", "iwp")
+
+
+def _num(v):
+    v = float(v)
+    return repr(int(v)) if v.is_integer() and abs(v) < 1e15 else repr(v)
+
+
+def _str(s):
+    return '"' + str(s).replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+def _args(*xs, material=None):
+    parts = [x if isinstance(x, str) else _num(x) for x in xs]
+    if material is not None:
+        parts.append(_str(material))
+    return ", ".join(parts)
+
+
+class Field:
+    """An implicit design (a .vcad statement)."""
+
+    def __init__(self, text):
+        self._text = text
+
+    def __or__(self, other):
+        return union(self, other)
+
+    def __and__(self, other):
+        return intersection(self, other)
+
+    def __sub__(self, other):
+        return difference(self, other)
+
+    def translate(self, x, y, z):
+        return Field(f"translate({_args(x, y, z)}) {{\n{_indent(self._text)}\n}}")
+
+    def rotate(self, x, y, z):
+        """Degrees, about X then Y then Z."""
+        return Field(f"rotate({_args(x, y, z)}) {{\n{_indent(self._text)}\n}}")
+
+    def scale(self, x, y=None, z=None):
+        a = _args(x) if y is None else _args(x, y, z)
+        return Field(f"scale({a}) {{\n{_indent(self._text)}\n}}")
+
+    def vcad(self):
+        """The design as .vcad text."""
+        return self._text + "\n"
+
+    def __str__(self):
+        return self.vcad()
+
+    def __repr__(self):
+        first = self._text.splitlines()[0]
+        return f"<trellis.Field {first[:60]}>"
+
+
+def _indent(text):
+    return "\n".join("  " + line for line in text.splitlines())
+
+
+def _block(op, fields, blend=None):
+    head = f"{op}({_num(blend)})" if blend else f"{op}()"
+    return Field(head + " {\n" + "\n".join(_indent(f._text) for f in fields) + "\n}")
+
+
+def union(*fields, blend=None):
+    """Union (smooth with a blend radius in mm)."""
+    return _block("union", fields, blend)
+
+
+def intersection(*fields, blend=None):
+    return _block("intersection", fields, blend)
+
+
+def difference(first, *others, blend=None):
+    """The first field minus the others."""
+    return _block("difference", (first,) + others, blend)
+
+
+def sphere(r, material=None):
+    return Field(f"sphere({_args(r, material=material)});")
+
+
+def cube(s, material=None):
+    return Field(f"cube({_args(s, material=material)});")
+
+
+def rectprism(x, y, z, material=None):
+    """A box of side lengths x, y, z centred at the origin."""
+    return Field(f"rectprism({_args(x, y, z, material=material)});")
+
+
+def cylinder(r, h, material=None):
+    return Field(f"cylinder({_args(r, h, material=material)});")
+
+
+def cone(r, h, material=None):
+    return Field(f"cone({_args(r, h, material=material)});")
+
+
+def torus(R, r, material=None):
+    return Field(f"torus({_args(R, r, material=material)});")
+
+
+def function(lo, hi, expr, material=None):
+    """A user field f(x, y, z) <= 0 inside the box lo..hi (muparser expression)."""
+    box = f"({_args(*lo)}), ({_args(*hi)})"
+    return Field(f"function({box}, {_str(expr)}" + (f", {_str(material)}" if material else "") + ");")
+
+
+def tpms(kind, cell, c=None, material=None):
+    """A TPMS network solid, or the sheet Φ = φ² − c² with c a number or an expression."""
+    if kind not in _TPMS:
+        from .errors import SettingError
+        raise SettingError(f"unknown TPMS '{kind}' (expected {', '.join(_TPMS)})", element="kind")
+    parts = [_num(cell)]
+    if c is not None:
+        parts.append(_str(c) if isinstance(c, str) else _num(c))
+    if material is not None:
+        parts.append(_str(material))
+    return Field(f"{kind}({', '.join(parts)});")
+
+
+def gyroid(cell, c=None, material=None):
+    return tpms("gyroid", cell, c, material)
+
+
+def mesh(path, material=None):
+    """A closed mesh (STL, OBJ, 3MF) as a distance field."""
+    return Field(f"mesh({_str(os.path.abspath(os.fspath(path)))}" +
+                 (f", {_str(material)}" if material else "") + ");")
+
+
+def fgrade(fractions, materials, body, mode=None):
+    """Material volume fractions (expressions of x, y, z, rho, phi, r, ...) over `body`."""
+    head = "fgrade([" + ", ".join(_str(f) for f in fractions) + "], [" + \
+        ", ".join(_str(m) for m in materials) + "]" + (f", {_str(mode)}" if mode else "") + ")"
+    return Field(head + " {\n" + _indent(body._text) + "\n}")

@@ -1,0 +1,70 @@
+// `trellis analyze part.cli --design sheet.vcad`: a laser build file (any tool's) against its
+// design — vectors outside the part, FR_a per layer, scan time — as a report and a summary.
+#include <fmt/format.h>
+
+#include <nlohmann/json.hpp>
+
+#include "routes.hpp"
+#include "trellis/field/vcad.hpp"
+#include "trellis/machine/cli.hpp"
+#include "trellis/machine/laser.hpp"
+#include "trellis/slice/pbf_analysis.hpp"
+
+namespace trellis {
+
+JobResult analyze_build_file(const std::string& path, const std::string& design,
+                             const LaserProfile& prof, std::string* report_json, Diagnostics& diag) {
+  const Toolpath tp = read_cli_file(path, &diag);
+  std::size_t vectors = 0;
+  for (const auto& l : tp.layers) vectors += l.paths.size();
+  nlohmann::ordered_json j;
+  j["format"] = "trellis.laser_analysis";
+  j["version"] = 1;
+  j["file"] = path;
+  j["layers"] = tp.layers.size();
+  j["vectors"] = vectors;
+  JobResult out;
+  out.toolpath = std::make_shared<Toolpath>(tp);
+  if (design.empty()) {
+    out.summary = fmt::format("{}: {} layers, {} vectors (no --design: nothing to measure against)",
+                              path, tp.layers.size(), vectors);
+  } else {
+    LaserAnalysisOptions lo;
+    lo.melt_pool = prof.melt_pool_width;
+    lo.timing = scan_timing(prof);
+    const LaserAnalysis a = analyze_laser_toolpath(tp, read_vcad(design).field, lo);
+    j["design"] = design;
+    j["outside_vectors"] = a.outside_vectors;
+    j["outside_length_mm"] = a.outside_length;
+    j["max_outside_mm"] = a.max_outside;
+    j["scan_length_mm"] = a.scan_length;
+    j["scan_time_s"] = a.scan_time;
+    j["fr_a"] = {{"mean", a.fr_mean}, {"cv", a.fr_cv}};
+    nlohmann::ordered_json s;
+    for (const char* k : {"z_mm", "design_z_mm", "area_mm2", "fr_a", "contour_mm", "hatch_mm",
+                          "outside_vectors", "outside_mm", "scan_time_s"})
+      s[k] = nlohmann::json::array();
+    for (const auto& L : a.layers) {
+      s["z_mm"].push_back(L.z);
+      s["design_z_mm"].push_back(L.design_z);
+      s["area_mm2"].push_back(L.area);
+      s["fr_a"].push_back(L.fr);
+      s["contour_mm"].push_back(L.contour_length);
+      s["hatch_mm"].push_back(L.hatch_length);
+      s["outside_vectors"].push_back(L.outside_vectors);
+      s["outside_mm"].push_back(L.outside_length);
+      s["scan_time_s"].push_back(L.scan_time);
+    }
+    j["per_layer"] = s;
+    out.summary = fmt::format(
+        "{}: {} layers, {} vectors ({} mm); outside the design: {} vectors ({} mm, farthest {} µm); "
+        "FR_a mean {} cv {}; scan time {} s",
+        path, tp.layers.size(), a.vectors, routes::fixed(a.scan_length, 1), a.outside_vectors,
+        routes::fixed(a.outside_length, 3), routes::fixed(a.max_outside * 1e3, 1),
+        routes::fixed(a.fr_mean, 3), routes::fixed(a.fr_cv, 3), routes::fixed(a.scan_time, 1));
+  }
+  if (report_json) *report_json = j.dump(2) + "\n";
+  return out;
+}
+
+}  // namespace trellis

@@ -1,0 +1,35 @@
+// The routes behind run_job (private). Each reads its settings from the Config, writes the
+// outputs the Job asks for, and returns what it wrote and a summary line.
+#pragma once
+#include <string>
+
+#include "trellis/job/job.hpp"
+#include "trellis/render/render.hpp"
+#include "trellis/toolpath/toolpath.hpp"
+
+namespace trellis::routes {
+
+JobResult lattice2d(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress);
+JobResult lattice3d(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress);
+JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress);
+JobResult gcode(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress);
+JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress);
+JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress);
+JobResult nonplanar(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress);
+JobResult surface(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress);
+
+// The job as it is embedded into a file at `path` (paths relative to its folder).
+std::string embedded_job(const Job& job, const std::string& path);
+// A JSON output with the job added as its "job" field; reports (`command` true) also record the
+// literal command line, which main outputs leave out so that CLI, Python and rerun agree.
+std::string with_job(const std::string& json, const Job& job, const std::string& path,
+                     bool command = true);
+// Writes the toolpath JSON with the job embedded.
+void write_toolpath_with_job(const std::string& path, Toolpath toolpath, const Job& job);
+// DIR/layer_0000.png … for `count` layers spread over the toolpath (all when count >= layers).
+void previews(const Toolpath& tp, const std::string& dir, int count, const RenderOptions& ro,
+              JobResult& out);
+std::string preview_name(const std::string& dir, const std::string& file);
+std::string fixed(double v, int decimals);
+
+}  // namespace trellis::routes

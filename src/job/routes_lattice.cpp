@@ -1,0 +1,339 @@
+// Lattice routes: 2D atlas, 3D cells and foams, planning (GIPPO / Euler / AERO with its
+// independent collision check) and G-code from a toolpath.
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+
+#include "routes.hpp"
+#include "trellis/analysis/collisions.hpp"
+#include "trellis/core/error.hpp"
+#include "trellis/core/file.hpp"
+#include "trellis/geom/mesh_io.hpp"
+#include "trellis/lattice/io.hpp"
+#include "trellis/machine/gcode_writer.hpp"
+#include "trellis/plan/report.hpp"
+#include "trellis/toolpath/json.hpp"
+
+namespace trellis::routes {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+// The struts as one path each in one layer: a picture of the design itself.
+Toolpath strut_picture(const Graph& g) {
+  Toolpath tp;
+  tp.layers.emplace_back();
+  if (!g.nodes.empty()) tp.layers[0].z = g.nodes.front().z;
+  for (const auto& e : g.edges) {
+    Path p;
+    p.points = {g.nodes[e.a], g.nodes[e.b]};
+    p.tool = e.material;
+    tp.layers[0].paths.push_back(std::move(p));
+  }
+  return tp;
+}
+
+AtlasParams atlas_of(const Config& c, const Settings& st) {
+  AtlasParams a = c.lattice2d;
+  if (!st.has("lattice2d.center")) a.region.center = corner_at_origin(a);
+  return a;
+}
+
+HeightField onto_surface(const OntoConfig& o) {
+  if (o.kind == "sphere-cap") return sphere_cap(o.radius, o.diameter);
+  if (o.kind == "mesh") {
+    if (o.file.empty()) throw SettingError("onto.kind = mesh needs onto.file", {"", 0, "onto.file"});
+    return HeightField::from_mesh(read_mesh(o.file), o.file);
+  }
+  if (o.domain.size() != 4 || o.height_fn.empty())
+    throw SettingError("onto.kind = function needs onto.height_fn and onto.domain",
+                       {"", 0, "onto.height_fn"});
+  return HeightField::from_expression(o.height_fn, {{o.domain[0], o.domain[1]}, {o.domain[2], o.domain[3]}},
+                                      "z = " + o.height_fn);
+}
+
+// GIPPO parts: layer i at z = i·h, rotated by i·rotation, cropped to the solid's section.
+Graph layered_lattice(AtlasParams base, const Config& c) {
+  Graph all;
+  TriangleMesh solid;
+  BBox3 box;
+  int count = c.layers.count;
+  const double h = c.machine.layer_height;
+  if (!c.layers.solid.empty()) {
+    solid = read_mesh(c.layers.solid);
+    require_closed(solid, c.layers.solid);
+    box = bounds(solid);
+    if (count <= 0) count = static_cast<int>(std::floor((box.max.z - box.min.z) / h + 1e-9));
+    if (count < 1) throw GeometryError("solid '" + c.layers.solid + "' is thinner than one layer");
+  }
+  if (count < 1) throw SettingError("layers.count must be >= 1 without layers.solid", {"", 0, "layers.count"});
+  for (int i = 0; i < count; ++i) {
+    AtlasParams a = base;
+    a.rotation_deg += i * c.layers.rotation_deg;
+    a.z = a.z + i * h;
+    if (!c.layers.solid.empty()) {
+      a.crop = slice_mesh(solid, box.min.z + (i + 0.5) * h);
+      if (a.crop.empty()) continue;
+      a.region.shape = RegionShape::Circle;
+      a.region.center = {(box.min.x + box.max.x) / 2, (box.min.y + box.max.y) / 2};
+      a.region.diameter = std::hypot(box.max.x - box.min.x, box.max.y - box.min.y) + 2 * a.cell_size;
+    }
+    const Graph layer = make_lattice2d(a);
+    const auto offset = static_cast<NodeId>(all.nodes.size());
+    all.nodes.insert(all.nodes.end(), layer.nodes.begin(), layer.nodes.end());
+    for (Edge e : layer.edges) {
+      e.a += offset, e.b += offset;
+      all.edges.push_back(e);
+    }
+  }
+  return all;
+}
+
+Graph cells_or_foam(const Config& c, Diagnostics& diag) {
+  Graph g = c.lattice3d.kind == "foam" ? voronoi_foam(c.lattice3d.foam, diag)
+                                       : cell_lattice(c.lattice3d.cells);
+  assign_materials(g, material_rule_from_string(c.lattice3d.materials));
+  return g;
+}
+
+void write_gcode_out(const std::string& path, Toolpath tp, const Job& job, const Config& c,
+                     JobResult& out, GcodeStats* stats = nullptr) {
+  if (path.empty()) return;
+  tp.job = embedded_job(job, path);
+  const GcodeStats s = write_gcode_file(path, tp, c.machine);
+  if (stats) *stats = s;
+  out.files.push_back(path);
+}
+
+JobResult plan_aero_route(const Job& job, const Config& c, const Graph& g, const std::string& input,
+                          Diagnostics& diag, const Progress& progress,
+                          std::chrono::steady_clock::time_point t0, JobResult out) {
+  AeroParams p = c.aero;
+  p.progress = progress;
+  const AeroResult r = plan_aero(g, p, diag);
+  Toolpath tp = aero_toolpath(g, r, "trellis " + job.route + " aero " + input);
+  // The independent check sees the struts as printed (ends pushed past their nodes by the
+  // overlap, as the embedded writer does).
+  CheckOptions check;
+  check.nozzle = p.nozzle;
+  check.snap = p.nozzle.end_overlap + 0.05;
+  Toolpath printed = tp;
+  for (auto& l : printed.layers)
+    for (auto& path : l.paths) extend_path_ends(path, p.nozzle.end_overlap);
+  const CollisionCheck chk = check_collisions(g, printed, check);
+  out.toolpath = std::make_shared<Toolpath>(tp);
+  out.lattice = std::make_shared<Graph>(g);
+  const double secs = seconds_since(t0);
+  if (!job.toolpath.empty()) {
+    write_toolpath_with_job(job.toolpath, tp, job);
+    out.files.push_back(job.toolpath);
+  }
+  if (!job.gcode.empty()) write_gcode_out(job.gcode, tp, job, c, out);
+  if (!job.report.empty()) {
+    AeroReportInput in{input, g.nodes.size(), g.edges.size(), secs};
+    in.checked_collisions = static_cast<long long>(chk.collisions);
+    in.checked_once = chk.printed_once == g.edges.size() && chk.repeated.empty();
+    write_file_atomic(job.report, with_job(aero_report_json(r, p, diag, in), job, job.report));
+    out.files.push_back(job.report);
+  }
+  if (!job.preview.empty()) {
+    fs::create_directories(job.preview);
+    View3dOptions v;
+    v.size_px = c.output.image_size;
+    for (const auto& h : chk.hits) v.marks.push_back(h.point);
+    v.title = std::to_string(r.trails.trails.size()) + " trails, " +
+              std::to_string(chk.collisions) + " collisions (" + fs::path(input).filename().string() + ")";
+    out.files.push_back(preview_name(job.preview, "3d.png"));
+    render_3d_png(tp, out.files.back(), v);
+    const auto frames = std::min<std::size_t>(static_cast<std::size_t>(c.output.frames), r.trails.trails.size());
+    for (std::size_t k = 1; k <= frames; ++k) {
+      View3dOptions f;
+      f.size_px = c.output.image_size;
+      f.upto = k;
+      f.title = "step " + std::to_string(k) + " of " + std::to_string(r.trails.trails.size());
+      out.files.push_back(preview_name(job.preview, fmt::format("step_{:04}.png", k)));
+      render_3d_png(tp, out.files.back(), f);
+    }
+  }
+  out.summary = fmt::format(
+      "aero {}: {} struts, {} groups, {} trails (lower bound {}), longest {} struts, travel {} "
+      "moves / {} mm, collisions {} (checked; {} unavoidable), {} s",
+      to_string(p.method), g.edges.size(), r.groups, r.trails.trails.size(), r.lower_bound_trails,
+      r.max_trail_edges, r.travel_moves, fixed(r.travel_length, 1), chk.collisions, r.mutual_pairs,
+      fixed(secs, 3));
+  return out;
+}
+
+}  // namespace
+
+JobResult lattice2d(const Job& job, const Config& c, Diagnostics&, const Progress&) {
+  JobResult out;
+  const AtlasParams a = atlas_of(c, job.settings);
+  const Graph g = make_lattice2d(a);
+  if (!job.output.empty()) {
+    write_file_atomic(job.output, with_job(lattice_to_json(g), job, job.output, false));
+    out.files.push_back(job.output);
+  }
+  out.lattice = std::make_shared<Graph>(g);
+  if (!job.preview.empty()) {
+    fs::create_directories(job.preview);
+    RenderOptions ro;
+    ro.travel = false, ro.starts = false, ro.size_px = c.output.image_size;
+    out.files.push_back(preview_name(job.preview, "layer_0000.png"));
+    render_layer_png(strut_picture(g), 0, out.files.back(), ro);
+  }
+  out.summary = fmt::format("lattice: {}, {} nodes, {} edges, {} mm of struts, lower bound {} paths",
+                            to_string(a.pattern), g.nodes.size(), g.edges.size(),
+                            fixed(g.total_length(), 1), lower_bound_paths(g));
+  return out;
+}
+
+JobResult lattice3d(const Job& job, const Config& c, Diagnostics& diag, const Progress&) {
+  JobResult out;
+  const Graph g = cells_or_foam(c, diag);
+  if (!job.output.empty()) {
+    write_file_atomic(job.output, with_job(lattice_to_json(g), job, job.output, false));
+    out.files.push_back(job.output);
+  }
+  out.lattice = std::make_shared<Graph>(g);
+  if (!job.preview.empty()) {
+    fs::create_directories(job.preview);
+    View3dOptions v;
+    v.travel = false;
+    v.size_px = c.output.image_size;
+    v.title = std::to_string(g.edges.size()) + " struts";
+    out.files.push_back(preview_name(job.preview, "3d.png"));
+    render_3d_png(strut_picture(g), out.files.back(), v);
+  }
+  int materials = 0;
+  for (const auto& e : g.edges) materials = std::max(materials, e.material + 1);
+  const BBox3 b = g.bbox();
+  out.summary = fmt::format("{}: {} nodes, {} struts, {} material(s), {} x {} x {} mm",
+                            c.lattice3d.kind == "foam" ? std::string("foam")
+                                                       : to_string(c.lattice3d.cells.cell),
+                            g.nodes.size(), g.edges.size(), materials, fixed(b.max.x - b.min.x, 2),
+                            fixed(b.max.y - b.min.y, 2), fixed(b.max.z - b.min.z, 2));
+  return out;
+}
+
+JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
+  const auto t0 = std::chrono::steady_clock::now();
+  JobResult out;
+  Graph g;
+  std::string input = job.input;
+  HeightField surface;
+  if (!c.onto.kind.empty()) surface = onto_surface(c.onto);
+  if (!job.input.empty()) {
+    g = read_lattice(job.input, {c.merge_tolerance, true}, diag);
+  } else if (c.planner == "aero") {
+    g = cells_or_foam(c, diag);
+    input = "lattice3d";
+  } else {
+    progress("lattice", 0);
+    AtlasParams a = atlas_of(c, job.settings);
+    if (!c.onto.kind.empty() && !job.settings.has("lattice2d.center")) {
+      const BBox2 b = surface.domain();
+      a.region.center = {(b.min.x + b.max.x) / 2, (b.min.y + b.max.y) / 2};
+    }
+    g = layered_lattice(a, c);
+    input = "atlas:" + to_string(a.pattern);
+  }
+  if (!job.lattice.empty()) {
+    write_lattice(job.lattice, g);
+    out.files.push_back(job.lattice);
+  }
+  if (c.planner == "aero") return plan_aero_route(job, c, g, input, diag, progress, t0, out);
+
+  PlanParams p = c.plan;
+  p.planner = planner_from_string(c.planner);
+  p.layer_height = c.machine.layer_height;
+  PlanResult r = plan_lattice(g, p, diag, progress);
+  if (!c.onto.kind.empty()) {
+    progress("surface", 0);
+    r.toolpath = project_onto_surface(r.toolpath, surface, c.onto.project);
+    r.travel = travel_stats(r.toolpath);
+  }
+  r.toolpath.source = "trellis " + c.planner + " " + fs::path(input).filename().string();
+  out.toolpath = std::make_shared<Toolpath>(r.toolpath);
+  out.lattice = std::make_shared<Graph>(g);
+  const double secs = seconds_since(t0);
+  if (!job.toolpath.empty()) {
+    write_toolpath_with_job(job.toolpath, r.toolpath, job);
+    out.files.push_back(job.toolpath);
+  }
+  GcodeStats gs;
+  if (!job.gcode.empty()) write_gcode_out(job.gcode, r.toolpath, job, c, out, &gs);
+  if (!job.report.empty()) {
+    write_file_atomic(job.report, with_job(plan_report_json(r, p, diag, {input, g.nodes.size(), g.edges.size()}),
+                                           job, job.report));
+    out.files.push_back(job.report);
+  }
+  if (!job.preview.empty()) {
+    fs::create_directories(job.preview);
+    RenderOptions ro;
+    ro.size_px = c.output.image_size;
+    ro.bead_width = c.machine.nozzle_diameter;
+    previews(r.toolpath, job.preview, c.output.preview_layers, ro, out);
+    if (!c.onto.kind.empty() || !c.layers.solid.empty()) {
+      View3dOptions v;
+      v.size_px = c.output.image_size;
+      v.title = job.name;
+      out.files.push_back(preview_name(job.preview, "3d.png"));
+      render_3d_png(r.toolpath, out.files.back(), v);
+    }
+    if (!r.layers.empty() && !r.layers.front().scores.empty()) {
+      out.files.push_back(preview_name(job.preview, "scores.png"));
+      render_scores_png(r.layers.front().scores, r.layers.front().best_iteration,
+                        job.name + ": GIPPO score per iteration (layer 0)", out.files.back());
+    }
+  }
+  out.summary = fmt::format(
+      "{}: {} edges, {} layer(s), {} paths (lower bound {}), score {}, LTS {}%, OE {}%, travel {} "
+      "moves / {} mm, {} s",
+      c.planner, g.edges.size(), r.toolpath.layers.size(), r.total.paths, r.total.lower_bound_paths,
+      fixed(r.total.score, 4), fixed(r.total.lts, 1), fixed(r.total.oe, 2), r.travel.moves,
+      fixed(r.travel.length, 1), fixed(secs, 3));
+  if (!job.gcode.empty())
+    out.summary += fmt::format("\n{}: {} mm printed, ~{} min", c.machine.flavor,
+                               fixed(gs.print_length, 1), fixed(gs.print_time_s / 60, 1));
+  return out;
+}
+
+JobResult gcode(const Job& job, const Config& c, Diagnostics& diag, const Progress&) {
+  JobResult out;
+  if (job.input.empty()) throw SettingError("gcode needs a toolpath JSON to read", {"", 0, "job.input"});
+  const Toolpath tp = read_toolpath(job.input);
+  // The toolpath's bead heights were set when it was planned; say so when they are not the
+  // machine's layer height (E follows the path's own height).
+  for (const auto& l : tp.layers) {
+    const auto odd = std::find_if(l.paths.begin(), l.paths.end(), [&](const Path& p) {
+      return p.height > 0 && std::abs(p.height - c.machine.layer_height) > 0.01 * c.machine.layer_height;
+    });
+    if (odd == l.paths.end()) continue;
+    diag.warn("layer_height_differs",
+              fmt::format("the toolpath's bead height is {} mm but extrusion.layer_height is {} mm; E "
+                          "follows the toolpath (plan with --machine to use the profile's)",
+                          fixed(odd->height, 3), fixed(c.machine.layer_height, 3)));
+    break;
+  }
+  GcodeStats s;
+  write_gcode_out(job.output, tp, job, c, out, &s);
+  out.toolpath = std::make_shared<Toolpath>(tp);
+  out.summary = fmt::format(
+      "{}: {} paths, {} mm printed, {} travel moves ({} mm), {} retractions, {}{} mm filament, "
+      "~{} min, {} bytes",
+      c.machine.flavor, s.paths, fixed(s.print_length, 1), s.travel_moves, fixed(s.travel_length, 1),
+      s.retractions, s.tool_changes ? std::to_string(s.tool_changes) + " tool changes, " : "",
+      fixed(s.filament, 2), fixed(s.print_time_s / 60, 1), s.bytes);
+  return out;
+}
+
+}  // namespace trellis::routes

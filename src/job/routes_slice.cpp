@@ -1,0 +1,434 @@
+// Slicing routes: planar and graded slicing, laser powder-bed TPMS sheets, non-planar layers on
+// a surface and the non-planar paper's test surfaces.
+#include <fmt/format.h>
+#include <sys/resource.h>
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+
+#include "routes.hpp"
+#include "trellis/core/error.hpp"
+#include "trellis/core/file.hpp"
+#include "trellis/field/vcad.hpp"
+#include "trellis/geom/mesh_io.hpp"
+#include "trellis/machine/gcode_writer.hpp"
+#include "trellis/machine/cli.hpp"
+#include "trellis/machine/laser.hpp"
+#include "trellis/slice/nonplanar.hpp"
+#include "trellis/slice/pbf.hpp"
+#include "trellis/slice/pipeline.hpp"
+
+namespace trellis::routes {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+TpmsKind tpms_kind(const std::string& name) {
+  if (name == "gyroid") return TpmsKind::Gyroid;
+  if (name == "schwarz_p" || name == "p") return TpmsKind::SchwarzP;
+  if (name == "schwarz_d" || name == "diamond" || name == "d") return TpmsKind::SchwarzD;
+  if (name == "neovius") return TpmsKind::Neovius;
+  if (name == "iwp") return TpmsKind::Iwp;
+  throw SettingError("unknown cell type '" + name +
+                     "' (expected gyroid, schwarz_p, schwarz_d, neovius or iwp)");
+}
+
+// "TYPE:CELL" or "TYPE:CELL:WEIGHT".
+Field tpms_spec(const std::string& spec, double* weight, const char* key) {
+  const auto a = spec.find(':');
+  if (a == std::string::npos) throw SettingError("expected TYPE:CELL, got '" + spec + "'", {"", 0, key});
+  const auto b = spec.find(':', a + 1);
+  double cell = 0;
+  try {
+    cell = std::stod(spec.substr(a + 1, b == std::string::npos ? std::string::npos : b - a - 1));
+    if (weight && b != std::string::npos) *weight = std::stod(spec.substr(b + 1));
+  } catch (const std::exception&) {
+    throw SettingError("bad number in '" + spec + "'", {"", 0, key});
+  }
+  if (!(cell > 0)) throw SettingError("cell size must be > 0 in '" + spec + "'", {"", 0, key});
+  return tpms(tpms_kind(spec.substr(0, a)), {cell, cell, cell});
+}
+
+PbfDesign pbf_design(const PbfConfig& p) {
+  if (p.wall_thickness > 0) {
+    // The paper's thin-wall experiments (Fig. 3): a plane wall cut by the box.
+    const Vec3 s = p.size.size() == 3 ? Vec3{p.size[0], p.size[1], p.size[2]} : Vec3{2, 2, 20};
+    return plane_wall(p.wall_thickness, p.wall_inclination, p.wall_azimuth, s);
+  }
+  PbfDesign d;
+  d.phi = tpms(tpms_kind(p.cell_type), {p.cell, p.cell, p.cell});
+  if (!p.grade_to.empty()) {
+    const Field other = tpms_spec(p.grade_to, nullptr, "pbf.grade_to");
+    const std::string s = p.grade_axis == "z" ? "z" : "rho";
+    d.phi = blend(d.phi, other,
+                  {fmt::format("1/(1+exp(-({}-({}))/({})))", s, p.grade_center, p.grade_width)});
+  }
+  if (!p.hierarchical.empty()) {
+    double w = 0.3;
+    const Field fine = tpms_spec(p.hierarchical, &w, "pbf.hierarchical");
+    d.phi = blend(d.phi, fine, {fmt::format("{}", w)});
+  }
+  d.c = {p.c};
+  d.thickness = p.thickness;
+  if (!p.envelope.empty()) {
+    d.envelope = read_vcad(p.envelope).field;
+  } else {
+    const double side = 4 * p.cell;
+    const Vec3 s = p.size.size() == 3 ? Vec3{p.size[0], p.size[1], p.size[2]} : Vec3{side, side, side};
+    d.envelope = rectprism(s);
+  }
+  if (!p.solids.empty()) d.solids = read_vcad(p.solids).field;
+  return d;
+}
+
+// Per-layer columns of the report (z, FR_a of the path and of R67, lengths, area, scan times).
+nlohmann::ordered_json pbf_layer_series(const PbfResult& r) {
+  nlohmann::ordered_json s;
+  for (const char* k : {"z_mm", "fr_a", "fr_a_r67", "contour_mm", "hatch_mm", "r67_hatch_mm",
+                        "area_mm2", "scan_time_s", "scan_time_r67_s"})
+    s[k] = nlohmann::json::array();
+  for (const auto& L : r.layers) {
+    s["z_mm"].push_back(L.z);
+    s["fr_a"].push_back(L.fr);
+    s["fr_a_r67"].push_back(L.fr_r67);
+    s["contour_mm"].push_back(L.contour_length);
+    s["hatch_mm"].push_back(L.hatch_length);
+    s["r67_hatch_mm"].push_back(L.r67_length);
+    s["area_mm2"].push_back(L.area);
+    s["scan_time_s"].push_back(L.scan_time);
+    s["scan_time_r67_s"].push_back(L.scan_time_r67);
+  }
+  return s;
+}
+
+// FR_a over layers (paper Fig. 3(b)): this path and the R67 baseline.
+void render_fr_plot(const PbfResult& r, bool r67, const std::string& path) {
+  std::vector<double> x;
+  PlotSeries fh{r67 ? "R67" : "hybrid", {}, 0.85, 0.1, 0.1}, fb{"R67 baseline", {}, 0.1, 0.3, 0.8};
+  for (std::size_t i = 0; i < r.layers.size(); ++i) {
+    x.push_back(static_cast<double>(i + 1));
+    const bool any = r.layers[i].area > 0;
+    fh.values.push_back(any ? r.layers[i].fr : NAN);
+    fb.values.push_back(any ? r.layers[i].fr_r67 : NAN);
+  }
+  render_series_png(x, {fh, fb}, "filling ratio FR_a = D·ΣL/A per layer", "layer", path);
+}
+
+double peak_rss_mb() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return static_cast<double>(u.ru_maxrss) / 1024.0;
+}
+
+std::vector<int> parse_layer_tools(const std::string& text) {
+  std::vector<int> out;
+  std::size_t start = 0;
+  while (start <= text.size()) {
+    const std::size_t comma = std::min(text.find(',', start), text.size());
+    const std::string item = text.substr(start, comma - start);
+    const auto colon = item.find(':');
+    try {
+      std::size_t used = 0;
+      if (colon == std::string::npos) {
+        const int tool = std::stoi(item, &used);
+        if (used != item.size() || tool < 0) throw std::invalid_argument(item);
+        out.push_back(tool);
+      } else {
+        const int count = std::stoi(item.substr(0, colon), &used);
+        if (used != colon || count < 1) throw std::invalid_argument(item);
+        const std::string t = item.substr(colon + 1);
+        const int tool = std::stoi(t, &used);
+        if (used != t.size() || tool < 0) throw std::invalid_argument(item);
+        out.insert(out.end(), static_cast<std::size_t>(count), tool);
+      }
+    } catch (const std::logic_error&) {
+      throw SettingError("bad entry '" + item +
+                             "' (expected LAYERS:TOOL groups like 3:0,3:1,3:0 or tools like 0,1)",
+                         {"", 0, "nonplanar.layer_tools"});
+    }
+    start = comma + 1;
+  }
+  return out;
+}
+
+HeightField test_surface(const SurfaceConfig& s) {
+  if (s.kind == "corrugation") return corrugation(s.corrugation);
+  if (s.kind == "miura") {
+    MiuraParams m = s.miura;
+    m.length = s.corrugation.length, m.width = s.corrugation.width;
+    return miura(m);
+  }
+  if (s.kind == "m-curve") {
+    MCurveParams m = s.m_curve;
+    m.fillet_diameter = s.corrugation.fillet_diameter;
+    return m_curve(m);
+  }
+  return sphere_cap(s.radius, s.diameter);
+}
+
+// Designs and surfaces are centred at the origin: on the bed centre unless a setting says not.
+MachineProfile centred(MachineProfile m, const Job& job) {
+  if (!job.settings.has("placement.center")) m.center = true;
+  return m;
+}
+
+void write_gcode_out(const std::string& path, Toolpath tp, const Job& job, const MachineProfile& m,
+                     JobResult& out, GcodeStats& stats) {
+  out.toolpath = std::make_shared<Toolpath>(tp);
+  if (path.empty()) return;
+  tp.job = embedded_job(job, path);
+  stats = write_gcode_file(path, tp, m);
+  out.files.push_back(path);
+}
+
+}  // namespace
+
+JobResult slice(const Job& job, const Config& c, Diagnostics&, const Progress& progress) {
+  JobResult out;
+  if (job.input.empty()) throw SettingError("slice needs a design (.vcad) or mesh to read", {"", 0, "job.input"});
+  SliceJob sj = c.slice;
+  sj.input = job.input;
+  sj.planar.layer_height = c.machine.layer_height;
+  if (!job.settings.has("slice.bead_width")) sj.planar.bead_width = c.machine.nozzle_diameter;
+  sj.fgm.angle_deg = sj.planar.infill_angle;
+  sj.purge.melt_volume = c.machine.melt_volume;
+  sj.purge.threshold = c.machine.purge_threshold;
+  sj.purge.x = c.machine.purge_x;
+  sj.purge.y = c.machine.purge_y;
+  sj.purge.side = c.machine.purge_side;
+  SliceResult r = run_slice(sj, progress);
+  // The file name only: outputs must not depend on where the command ran.
+  r.toolpath.source = "trellis slice " + fs::path(job.input).filename().string() + " (" +
+                      to_string(r.route) + " route)";
+  GcodeStats g;
+  write_gcode_out(job.output, r.toolpath, job, centred(c.machine, job), out, g);
+  if (!job.toolpath.empty()) {
+    write_toolpath_with_job(job.toolpath, r.toolpath, job);
+    out.files.push_back(job.toolpath);
+  }
+  if (!job.report.empty()) {
+    write_file_atomic(job.report, with_job(slice_report_json(sj, r, &g), job, job.report));
+    out.files.push_back(job.report);
+  }
+  RenderOptions ro;
+  ro.colour_by_mixture = sj.strategy != 0;
+  ro.starts = sj.strategy == 0;
+  ro.size_px = c.output.image_size;
+  previews(r.toolpath, job.preview, c.output.preview_layers, ro, out);
+  if (sj.strategy != 0)
+    out.summary = fmt::format(
+        "strategy {}: {} colours, {} faces, {} paths, {} {} changes (look-ahead {} mm), {} purges "
+        "({} mm3), gradient error mean {} max {} (bound {}), shortest {} mm; {} route, {} layers, ~{} min",
+        sj.strategy, sj.fgm.palette.colors, r.fgm.faces, r.fgm.paths, g.gradient_changes,
+        c.machine.gradient_mode, fixed(c.machine.lookahead, 0), r.fgm.purges,
+        fixed(r.fgm.purge_volume, 0), fixed(r.fgm.error_mean, 4), fixed(r.fgm.error_max, 4),
+        fixed(r.fgm.error_bound, 4), fixed(r.fgm.shortest_path, 2), to_string(r.route),
+        r.outlines.size(), fixed(g.print_time_s / 60, 1));
+  else
+    out.summary = fmt::format(
+        "{} route: {} layers of {} mm, {} paths ({} wall loops, {} skin paths, {} infill lines), "
+        "{} mm extruded, ~{} min; outlines {} s, walls+infill {} s",
+        to_string(r.route), r.outlines.size(), fixed(c.machine.layer_height, 3), r.planar.paths,
+        r.planar.walls, r.planar.skin_lines, r.planar.infill_lines, fixed(r.planar.extruded_length, 1),
+        fixed(g.print_time_s / 60, 1), fixed(r.outline_seconds, 2), fixed(r.plan_seconds, 2));
+  return out;
+}
+
+JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
+  JobResult out;
+  const LaserProfile& prof = c.laser;
+  PbfDesign d = pbf_design(c.pbf);
+  if (!job.input.empty()) d.envelope = read_vcad(job.input).field;
+  PbfOptions po = c.pbf.options;
+  po.layer = prof.layer;
+  po.segment_length = prof.segment_length;
+  po.segment_gap = prof.segment_gap;
+  po.hatch_distance = prof.hatch_distance;
+  po.beam_compensation = prof.beam_compensation;
+  po.melt_pool = prof.melt_pool_width;
+  po.hybrid = c.pbf.strategy == "hybrid";
+  po.stl_route = c.pbf.route == "stl";
+  po.timing = scan_timing(prof);
+  po.memory_budget = c.pbf.memory_budget_mb * 1e6;
+  const PbfResult r = plan_pbf(d, po, progress);
+  diag.merge(r.diagnostics);
+  Toolpath tp = pbf_toolpath(r, prof.contour_power, prof.contour_speed, prof.hatch_power, prof.hatch_speed);
+  out.toolpath = std::make_shared<Toolpath>(tp);
+  if (!job.output.empty()) {
+    tp.job = embedded_job(job, job.output);
+    write_cli_file(job.output, tp, prof, CliWriteOptions{c.pbf.binary, true});
+    out.files.push_back(job.output);
+  }
+  if (!job.toolpath.empty()) {
+    write_toolpath_with_job(job.toolpath, tp, job);
+    out.files.push_back(job.toolpath);
+  }
+  const PbfStats h = fr_stats(r.layers, false), b = fr_stats(r.layers, true);
+  const double rss = peak_rss_mb();
+  if (!job.report.empty()) {
+    nlohmann::ordered_json j;
+    j["format"] = "trellis.pbf_report";
+    j["version"] = 1;
+    j["route"] = c.pbf.route;
+    j["strategy"] = c.pbf.strategy;
+    j["settings"] = {{"cell_type", c.pbf.cell_type}, {"cell_mm", c.pbf.cell},
+                     {"c", d.c.text}, {"thickness_mm", c.pbf.thickness},
+                     {"layer_mm", po.layer}, {"segment_length_mm", po.segment_length},
+                     {"segment_gap_mm", po.segment_gap}, {"hatch_distance_mm", po.hatch_distance},
+                     {"beam_compensation_mm", po.beam_compensation}, {"melt_pool_mm", po.melt_pool},
+                     {"resolution_mm", po.resolution}, {"thin_multiple", po.thin_multiple},
+                     {"min_inclination_deg", po.min_inclination}};
+    j["layers"] = r.layers.size();
+    j["contour_vectors"] = r.contour_vectors;
+    j["hatch_vectors"] = r.hatch_vectors;
+    j["contour_length_mm"] = r.contour_length;
+    j["hatch_length_mm"] = r.hatch_length;
+    j["scan_length_mm"] = r.contour_length + r.hatch_length;
+    j["fr_a"] = {{"mean", h.mean}, {"min", h.min}, {"max", h.max}, {"cv", h.cv}};
+    j["fr_a_r67_baseline"] = {{"mean", b.mean}, {"min", b.min}, {"max", b.max}, {"cv", b.cv}};
+    const PbfStats t = thickness_stats(r.layers);
+    j["wall_thickness_mm"] = {{"mean", t.mean}, {"min", t.min}, {"max", t.max}, {"spread", t.cv}};
+    if (po.stl_route)
+      j["mesh"] = {{"triangles", r.mesh_triangles}, {"mesh_bytes", r.mesh_bytes}, {"grid_bytes", r.grid_bytes}};
+    j["scan_time_s"] = {{"hybrid", r.scan_time},
+                        {"r67_baseline", r.scan_time_r67},
+                        {"saving", r.scan_time_r67 > 0 ? 1 - r.scan_time / r.scan_time_r67 : 0}};
+    j["per_layer"] = pbf_layer_series(r);  // paper Fig. 3(b)
+    j["warnings"] = nlohmann::json::array();
+    for (const auto& m : r.diagnostics.messages())
+      j["warnings"].push_back({{"kind", m.kind}, {"message", m.text}});
+    j["memory_estimate_mb"] = r.memory_estimate / 1e6;
+    j["time_s"] = r.seconds;
+    j["peak_memory_mb"] = rss;
+    write_file_atomic(job.report, with_job(j.dump(2) + "\n", job, job.report));
+    out.files.push_back(job.report);
+  }
+  RenderOptions ro;
+  ro.colour_by_role = true;
+  ro.travel = false;
+  ro.starts = false;
+  ro.bead_width = prof.melt_pool_width;
+  ro.margin_mm = 0.2;
+  ro.size_px = c.output.image_size;
+  previews(tp, job.preview, c.output.preview_layers, ro, out);
+  if (!job.preview.empty() && c.output.preview_layers > 0) {
+    out.files.push_back(preview_name(job.preview, "fr_a.png"));
+    render_fr_plot(r, c.pbf.strategy == "r67", out.files.back());
+  }
+  out.summary = fmt::format(
+      "{} ({} route): {} layers, {} contour vectors ({} mm), {} hatch vectors ({} mm); FR_a mean {} "
+      "cv {} (R67 baseline {} cv {}); scan time {} s (R67 {} s); {} s, peak {} MB",
+      c.pbf.strategy, c.pbf.route, r.layers.size(), r.contour_vectors, fixed(r.contour_length, 1),
+      r.hatch_vectors, fixed(r.hatch_length, 1), fixed(h.mean, 3), fixed(h.cv, 3), fixed(b.mean, 3),
+      fixed(b.cv, 3), fixed(r.scan_time, 1), fixed(r.scan_time_r67, 1), fixed(r.seconds, 2), fixed(rss, 0));
+  return out;
+}
+
+JobResult nonplanar(const Job& job, const Config& c, Diagnostics&, const Progress& progress) {
+  JobResult out;
+  const auto& np = c.nonplanar;
+  HeightField surface;
+  if (!job.input.empty() && !np.height_fn.empty())
+    throw SettingError("give a surface mesh or nonplanar.height_fn, not both", {"", 0, "nonplanar.height_fn"});
+  if (!job.input.empty()) {
+    surface = HeightField::from_mesh(read_mesh(job.input), fs::path(job.input).filename().string());
+  } else if (!np.height_fn.empty()) {
+    if (np.domain.size() != 4)
+      throw SettingError("the height function needs nonplanar.domain = x0,y0,x1,y1 (--domain)",
+                         {"", 0, "nonplanar.domain"});
+    surface = HeightField::from_expression(
+        np.height_fn, {{np.domain[0], np.domain[1]}, {np.domain[2], np.domain[3]}}, "z = " + np.height_fn);
+  } else if (job.settings.has("surface.kind")) {
+    surface = test_surface(c.surface);
+  } else {
+    throw SettingError("give a surface mesh, --height-fn with --domain, or a test surface (--set surface.kind=...)",
+                       {"", 0, "job.input"});
+  }
+  NonplanarParams prm = np.params;
+  prm.layer_height = c.machine.layer_height;
+  if (!job.settings.has("nonplanar.bead_width")) prm.width = c.machine.nozzle_diameter;
+  if (!np.layer_tools.empty()) {
+    prm.layer_tools = parse_layer_tools(np.layer_tools);
+    if (np.layer_tools.find(':') != std::string::npos && !job.settings.has("nonplanar.layers"))
+      prm.layers = static_cast<int>(prm.layer_tools.size());
+  }
+  NonplanarResult r = slice_nonplanar(surface, prm, progress);
+  const SurfaceDeviation dev = surface_deviation(r.toolpath, surface, prm);
+  GcodeStats g;
+  write_gcode_out(job.output, r.toolpath, job, centred(c.machine, job), out, g);
+  if (!job.toolpath.empty()) {
+    write_toolpath_with_job(job.toolpath, r.toolpath, job);
+    out.files.push_back(job.toolpath);
+  }
+  if (!job.report.empty()) {
+    write_file_atomic(job.report, with_job(nonplanar_report_json(r, prm, surface, dev, &g), job, job.report));
+    out.files.push_back(job.report);
+  }
+  if (!job.preview.empty()) {
+    fs::create_directories(job.preview);
+    View3dOptions v;
+    v.size_px = c.output.image_size;
+    v.title = surface.name();
+    out.files.push_back(preview_name(job.preview, "3d.png"));
+    render_3d_png(r.toolpath, out.files.back(), v);
+  }
+  std::size_t paths = 0, travel = 0;
+  double length = 0;
+  for (const auto& l : r.layers) paths += l.paths, travel += l.travel_moves, length += l.length;
+  out.summary = fmt::format(
+      "{} layers of {} mm, {} paths of {} mm width, {} travel moves within layers, {} tool changes, "
+      "{} mm of path, steepest descent {} deg, max deviation from the surface {} mm (chords {} mm), ~{} min",
+      r.layers.size(), fixed(prm.layer_height, 3), paths, fixed(prm.width, 3), travel, g.tool_changes,
+      fixed(length, 1), fixed(r.max_descent_deg, 1), fixed(dev.max_point, 4), fixed(dev.max_chord, 4),
+      fixed(g.print_time_s / 60, 1));
+  return out;
+}
+
+JobResult surface(const Job& job, const Config& c, Diagnostics&, const Progress&) {
+  JobResult out;
+  if (c.surface.kind == "angle-test") {
+    // The print-angle test path: toolpath JSON, or G-code for the job's machine.
+    AngleTestParams p;
+    Toolpath tp = angle_test(p);
+    out.toolpath = std::make_shared<Toolpath>(tp);
+    const std::string ext = fs::path(job.output).extension().string();
+    if (job.output.empty()) {
+    } else if (ext == ".json") {
+      write_toolpath_with_job(job.output, tp, job);
+      out.files.push_back(job.output);
+    } else {
+      if (job.machine.empty())
+        throw SettingError("the angle test as G-code needs --machine (or write .json)", {"", 0, "--machine"});
+      GcodeStats g;
+      write_gcode_out(job.output, tp, job, c.machine, out, g);
+    }
+    if (!job.preview.empty()) {
+      fs::create_directories(job.preview);
+      out.files.push_back(preview_name(job.preview, "3d.png"));
+      render_3d_png(tp, out.files.back(), {});
+    }
+    out.summary = fmt::format("angle test: {} lines", tp.layers[0].paths.size());
+    return out;
+  }
+  const HeightField s = test_surface(c.surface);
+  const TriangleMesh mesh = surface_mesh(s, c.surface.resolution);
+  if (!job.output.empty()) {
+    write_file_atomic(job.output, mesh_to_stl(mesh, s.name()));
+    out.files.push_back(job.output);
+  }
+  if (!job.preview.empty()) {
+    fs::create_directories(job.preview);
+    NonplanarParams prm;
+    prm.layers = 1;
+    View3dOptions v;
+    v.size_px = c.output.image_size;
+    v.title = s.name();
+    out.files.push_back(preview_name(job.preview, "3d.png"));
+    render_3d_png(slice_nonplanar(s, prm).toolpath, out.files.back(), v);
+  }
+  out.summary = fmt::format("{}: {} triangles", s.name(), mesh.triangles.size());
+  return out;
+}
+
+}  // namespace trellis::routes

@@ -1,0 +1,125 @@
+#include <fmt/format.h>
+
+#include <filesystem>
+#include <nlohmann/json.hpp>
+
+#include "routes.hpp"
+#include "trellis/core/error.hpp"
+#include "trellis/core/file.hpp"
+#include "trellis/machine/gcode_reader.hpp"
+#include "trellis/toolpath/json.hpp"
+
+#include <cstdio>
+#include <tbb/global_control.h>
+
+namespace trellis {
+
+namespace fs = std::filesystem;
+
+namespace routes {
+
+std::string embedded_job(const Job& job, const std::string& path) {
+  const std::string dir = fs::path(path).parent_path().string();
+  return job_toml(job, dir.empty() ? "." : dir);
+}
+
+std::string with_job(const std::string& json, const Job& job, const std::string& path, bool command) {
+  nlohmann::ordered_json j = nlohmann::ordered_json::parse(json);
+  j["job"] = embedded_job(job, path);
+  // The literal command line goes into reports only (like their timings), so that a file made
+  // from the CLI, from Python or by rerun is the same file.
+  if (command && !job.command.empty()) j["command"] = job.command;
+  return j.dump(2) + "\n";
+}
+
+void write_toolpath_with_job(const std::string& path, Toolpath toolpath, const Job& job) {
+  toolpath.job = embedded_job(job, path);
+  write_toolpath(path, toolpath);
+}
+
+std::string preview_name(const std::string& dir, const std::string& file) {
+  return (fs::path(dir) / file).string();
+}
+
+void previews(const Toolpath& tp, const std::string& dir, int count, const RenderOptions& ro,
+              JobResult& out) {
+  const std::size_t n = tp.layers.size();
+  if (dir.empty() || count <= 0 || n == 0) return;
+  fs::create_directories(dir);
+  const std::size_t k = std::min<std::size_t>(static_cast<std::size_t>(count), n);
+  for (std::size_t t = 0; t < k; ++t) {
+    const std::size_t layer = k == 1 ? n / 2 : t * (n - 1) / (k - 1);
+    out.files.push_back(preview_name(dir, fmt::format("layer_{:04}.png", layer)));
+    render_layer_png(tp, layer, out.files.back(), ro);
+  }
+}
+
+std::string fixed(double v, int decimals) {
+  return fmt::format("{:.{}f}", v, decimals);
+}
+
+}  // namespace routes
+
+Toolpath read_print(const std::string& path, const Settings* machine, double* snap,
+                    Diagnostics& diag) {
+  const auto ext = fs::path(path).extension().string();
+  if (ext != ".gcode" && ext != ".nc" && ext != ".g") return read_toolpath(path);
+  const std::string text = read_file(path);
+  Settings embedded;
+  bool have = machine != nullptr;
+  if (!have && text.find("\n; job: ") != std::string::npos) {
+    embedded = job_from_output(path).settings;
+    machine = &embedded;
+    have = true;
+  }
+  const MachineProfile profile = have ? machine->config().machine : MachineProfile{};
+  GcodeReadOptions read;
+  if (have && profile.parsed_flavor() != Flavor::Marlin) {
+    read.valve_on = profile.valve_on;
+    read.valve_off = profile.valve_off;
+  }
+  if (have && snap && *snap == 0.05) *snap = profile.node_overlap + 0.05;
+  Toolpath tp = read_gcode(text, read, diag, path);
+  // Back to design coordinates: undo the placement written into the header and the tool offsets.
+  double dx = 0, dy = 0;
+  const auto at = text.find("; placement offset = ");
+  if (at != std::string::npos &&
+      std::sscanf(text.c_str() + at, "; placement offset = %lf, %lf", &dx, &dy) != 2)
+    dx = dy = 0;
+  for (auto& l : tp.layers)
+    for (auto& p : l.paths) {
+      const Vec2 t = have ? profile.tool_offset(p.tool) : Vec2{};
+      for (auto& q : p.points) {
+        q.x -= t.x + dx;
+        q.y -= t.y + dy;
+      }
+    }
+  return tp;
+}
+
+JobResult run_job(const Job& job, Diagnostics& diag, const Progress& progress) {
+  const std::vector<std::string> sections = route_sections(job.route);
+  const Config c = job.settings.config();
+  check_rules(c, job.settings, sections);
+  // run.threads bounds every parallel loop of the run (0 = all cores).
+  std::unique_ptr<tbb::global_control> threads;
+  if (c.threads > 0)
+    threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
+                                                    static_cast<std::size_t>(c.threads));
+  for (const std::string* out : {&job.output, &job.report, &job.toolpath, &job.gcode, &job.lattice}) {
+    if (out->empty()) continue;
+    const fs::path dir = fs::path(*out).parent_path();
+    if (!dir.empty()) fs::create_directories(dir);
+  }
+  const std::string& r = job.route;
+  if (r == "lattice2d") return routes::lattice2d(job, c, diag, progress);
+  if (r == "lattice3d") return routes::lattice3d(job, c, diag, progress);
+  if (r == "plan") return routes::plan(job, c, diag, progress);
+  if (r == "gcode") return routes::gcode(job, c, diag, progress);
+  if (r == "slice") return routes::slice(job, c, diag, progress);
+  if (r == "pbf") return routes::pbf(job, c, diag, progress);
+  if (r == "nonplanar") return routes::nonplanar(job, c, diag, progress);
+  return routes::surface(job, c, diag, progress);
+}
+
+}  // namespace trellis

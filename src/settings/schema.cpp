@@ -1,0 +1,651 @@
+// The one table of settings. Each entry binds a dotted key to the member of Config that holds
+// it; the default is that member's initialiser (Config{}), so it is written nowhere else.
+#include <cmath>
+#include <limits>
+
+#include "trellis/core/error.hpp"
+#include "trellis/settings/settings.hpp"
+
+namespace trellis {
+
+namespace {
+
+// Builders. `Acc` is a lambda `(Config&) -> T&` naming the member.
+template <class Acc>
+Setting number(std::string key, std::string unit, double lo, double hi, std::string doc,
+               std::string flag, Acc acc) {
+  Setting s;
+  s.key = std::move(key), s.unit = std::move(unit), s.doc = std::move(doc);
+  s.flag = std::move(flag), s.min = lo, s.max = hi, s.kind = SettingKind::Number;
+  s.get = [acc](const Config& c) { return SettingValue(acc(const_cast<Config&>(c))); };
+  s.set = [acc](Config& c, const SettingValue& v) { acc(c) = std::get<double>(v); };
+  return s;
+}
+
+// A number that must be > lo.
+template <class Acc>
+Setting positive(std::string key, std::string unit, double hi, std::string doc, std::string flag,
+                 Acc acc) {
+  Setting s = number(std::move(key), std::move(unit), 0, hi, std::move(doc), std::move(flag), acc);
+  s.positive = true;
+  return s;
+}
+
+template <class Acc>
+Setting integer(std::string key, double lo, double hi, std::string doc, std::string flag, Acc acc) {
+  Setting s;
+  s.key = std::move(key), s.doc = std::move(doc), s.flag = std::move(flag);
+  s.min = lo, s.max = hi, s.kind = SettingKind::Integer;
+  s.get = [acc](const Config& c) {
+    return SettingValue(static_cast<long long>(acc(const_cast<Config&>(c))));
+  };
+  s.set = [acc](Config& c, const SettingValue& v) {
+    using T = std::remove_reference_t<decltype(acc(c))>;
+    acc(c) = static_cast<T>(std::get<long long>(v));
+  };
+  return s;
+}
+
+template <class Acc>
+Setting boolean(std::string key, std::string doc, std::string flag, Acc acc) {
+  Setting s;
+  s.key = std::move(key), s.doc = std::move(doc), s.flag = std::move(flag);
+  s.kind = SettingKind::Bool;
+  s.get = [acc](const Config& c) { return SettingValue(acc(const_cast<Config&>(c))); };
+  s.set = [acc](Config& c, const SettingValue& v) { acc(c) = std::get<bool>(v); };
+  return s;
+}
+
+template <class Acc>
+Setting text(std::string key, std::string doc, std::string flag, Acc acc) {
+  Setting s;
+  s.key = std::move(key), s.doc = std::move(doc), s.flag = std::move(flag);
+  s.kind = SettingKind::Text;
+  s.get = [acc](const Config& c) { return SettingValue(acc(const_cast<Config&>(c))); };
+  s.set = [acc](Config& c, const SettingValue& v) { acc(c) = std::get<std::string>(v); };
+  return s;
+}
+
+// A file path: relative paths in a job are relative to the job file.
+template <class Acc>
+Setting path(std::string key, std::string doc, std::string flag, Acc acc) {
+  Setting s = text(std::move(key), std::move(doc), std::move(flag), acc);
+  s.unit = "path";
+  return s;
+}
+
+// A choice stored as its name.
+template <class Acc>
+Setting choice(std::string key, std::vector<std::string> choices, std::string doc,
+               std::string flag, Acc acc) {
+  Setting s = text(std::move(key), std::move(doc), std::move(flag), acc);
+  s.kind = SettingKind::Choice;
+  s.choices = std::move(choices);
+  return s;
+}
+
+// A choice stored as an enum.
+template <class E, class Acc>
+Setting choice_enum(std::string key, std::vector<std::pair<std::string, E>> map, std::string doc,
+                    std::string flag, Acc acc) {
+  Setting s;
+  s.key = std::move(key), s.doc = std::move(doc), s.flag = std::move(flag);
+  s.kind = SettingKind::Choice;
+  for (const auto& [name, e] : map) s.choices.push_back(name);
+  s.get = [acc, map](const Config& c) {
+    const E e = acc(const_cast<Config&>(c));
+    for (const auto& [name, v] : map)
+      if (v == e) return SettingValue(name);
+    return SettingValue(map.front().first);
+  };
+  s.set = [acc, map](Config& c, const SettingValue& v) {
+    for (const auto& [name, e] : map)
+      if (name == std::get<std::string>(v)) acc(c) = e;
+  };
+  return s;
+}
+
+template <class Acc>
+Setting numbers(std::string key, std::string unit, double lo, double hi, int count,
+                std::string doc, std::string flag, Acc acc) {
+  Setting s;
+  s.key = std::move(key), s.unit = std::move(unit), s.doc = std::move(doc);
+  s.flag = std::move(flag), s.min = lo, s.max = hi, s.count = count;
+  s.kind = SettingKind::Numbers;
+  s.get = [acc](const Config& c) { return SettingValue(acc(const_cast<Config&>(c))); };
+  s.set = [acc](Config& c, const SettingValue& v) { acc(c) = std::get<std::vector<double>>(v); };
+  return s;
+}
+
+// A list of numbers kept in several members: `get`/`set` convert.
+template <class Get, class Set>
+Setting numbers_via(std::string key, std::string unit, double lo, double hi, int count,
+                    std::string doc, std::string flag, Get get, Set set) {
+  Setting s;
+  s.key = std::move(key), s.unit = std::move(unit), s.doc = std::move(doc);
+  s.flag = std::move(flag), s.min = lo, s.max = hi, s.count = count;
+  s.kind = SettingKind::Numbers;
+  s.get = [get](const Config& c) { return SettingValue(get(c)); };
+  s.set = [set](Config& c, const SettingValue& v) { set(c, std::get<std::vector<double>>(v)); };
+  return s;
+}
+
+Setting derived(Setting s, std::string from) {
+  s.derived = std::move(from);
+  return s;
+}
+
+// The machine profile's table (machine/profile.hpp) as schema entries: its members and defaults.
+void add_machine(std::vector<Setting>& out) {
+  for (const auto& d : machine_settings()) {
+    Setting s;
+    s.key = d.key, s.unit = d.unit, s.doc = d.doc, s.min = d.min, s.max = d.max;
+    std::visit(
+        [&](auto member) {
+          using T = std::remove_cvref_t<decltype(MachineProfile{}.*member)>;
+          if constexpr (std::is_same_v<T, double>) {
+            s.kind = SettingKind::Number;
+            s.get = [member](const Config& c) { return SettingValue(c.machine.*member); };
+            s.set = [member](Config& c, const SettingValue& v) {
+              c.machine.*member = std::get<double>(v);
+            };
+          } else if constexpr (std::is_same_v<T, int>) {
+            s.kind = SettingKind::Integer;
+            s.get = [member](const Config& c) {
+              return SettingValue(static_cast<long long>(c.machine.*member));
+            };
+            s.set = [member](Config& c, const SettingValue& v) {
+              c.machine.*member = static_cast<int>(std::get<long long>(v));
+            };
+          } else if constexpr (std::is_same_v<T, bool>) {
+            s.kind = SettingKind::Bool;
+            s.get = [member](const Config& c) { return SettingValue(c.machine.*member); };
+            s.set = [member](Config& c, const SettingValue& v) {
+              c.machine.*member = std::get<bool>(v);
+            };
+          } else {
+            s.kind = SettingKind::Text;
+            s.get = [member](const Config& c) { return SettingValue(c.machine.*member); };
+            s.set = [member](Config& c, const SettingValue& v) {
+              c.machine.*member = std::get<std::string>(v);
+            };
+          }
+        },
+        d.member);
+    const std::string key = d.key;
+    if (key == "machine.flavor") s.choices = {"marlin", "pneumatic", "embedded"};
+    if (key == "gradient.mode") s.choices = {"mixing", "tools", "temperature"};
+    if (key == "gradient.flow") s.choices = {"", "pla", "tpu"};
+    if (key == "embedded.drive") s.choices = {"pressure", "syringe"};
+    if (!s.choices.empty()) s.kind = SettingKind::Choice;
+    if (key == "extrusion.layer_height") s.flag = "layer-height";
+    if (key == "placement.center") {
+      s.flag = "center";
+      s.derived = "true for slice and nonplanar (designs are centred at the origin), false otherwise";
+    }
+    if (key == "speed.print") s.flag = "speed";
+    if (key == "gradient.lookahead") s.flag = "lookahead";
+    if (key == "machine.name") {
+      // Shared by printer and laser profiles.
+      s.set = [](Config& c, const SettingValue& v) {
+        c.machine.name = c.laser.name = std::get<std::string>(v);
+      };
+    }
+    out.push_back(std::move(s));
+  }
+}
+
+std::vector<Setting> make_table() {
+  using C = Config;
+  std::vector<Setting> t;
+  add_machine(t);
+
+  // laser.* and scan.*: the laser profile.
+  t.push_back(positive("laser.spot_diameter", "mm", 5, "laser spot diameter", "",
+                       [](C& c) -> auto& { return c.laser.spot_diameter; }));
+  t.push_back(positive("laser.melt_pool_width", "mm", 5,
+                       "melt pool width D (PBF paper Eq. 8: FR_a = D·ΣL/A)", "",
+                       [](C& c) -> auto& { return c.laser.melt_pool_width; }));
+  t.push_back(number("laser.contour_power", "W", 0, 10000, "laser power on contour vectors", "",
+                     [](C& c) -> auto& { return c.laser.contour_power; }));
+  t.push_back(positive("laser.contour_speed", "mm/s", 100000, "scan speed on contour vectors", "",
+                       [](C& c) -> auto& { return c.laser.contour_speed; }));
+  t.push_back(number("laser.hatch_power", "W", 0, 10000, "laser power on hatch vectors", "",
+                     [](C& c) -> auto& { return c.laser.hatch_power; }));
+  t.push_back(positive("laser.hatch_speed", "mm/s", 100000, "scan speed on hatch vectors", "",
+                       [](C& c) -> auto& { return c.laser.hatch_speed; }));
+  t.push_back(number("scan.layer", "mm", 0.001, 1, "powder layer thickness", "layer-height",
+                     [](C& c) -> auto& { return c.laser.layer; }));
+  t.push_back(number("scan.hatch_distance", "mm", 0.001, 5, "hatch distance", "hatch",
+                     [](C& c) -> auto& { return c.laser.hatch_distance; }));
+  t.push_back(number("scan.beam_compensation", "mm", 0, 1,
+                     "beam compensation: hatch ends pulled in by this", "beam-comp",
+                     [](C& c) -> auto& { return c.laser.beam_compensation; }));
+  t.push_back(number("scan.segment_length", "mm", 0.0001, 1000,
+                     "contour scan vector length SL: straight chords on φ = 0 (the paper tested "
+                     "5-400 µm; outside is a warning)", "sl",
+                     [](C& c) -> auto& { return c.laser.segment_length; }));
+  t.push_back(number("scan.segment_gap", "mm", 0, 1000,
+                     "gap LHD between contour scan vectors (the paper tested 0-120 µm; outside is "
+                     "a warning)", "lhd", [](C& c) -> auto& { return c.laser.segment_gap; }));
+  // timing.*: the scanner, for the scan-time model.
+  t.push_back(number("timing.jump_speed", "mm/s", 1, 1e6, "positioning speed between vectors", "",
+                     [](C& c) -> auto& { return c.laser.jump_speed; }));
+  t.push_back(number("timing.jump_delay", "µs", 0, 1e5, "wait after every jump", "",
+                     [](C& c) -> auto& { return c.laser.jump_delay; }));
+  t.push_back(number("timing.mark_delay", "µs", 0, 1e5, "wait after every marked vector", "",
+                     [](C& c) -> auto& { return c.laser.mark_delay; }));
+  t.push_back(number("timing.polygon_delay", "µs", 0, 1e5, "wait at every corner inside a polyline",
+                     "", [](C& c) -> auto& { return c.laser.polygon_delay; }));
+  t.push_back(boolean("timing.skywriting", "run in and out of each vector instead of the mark delay",
+                      "", [](C& c) -> auto& { return c.laser.skywriting; }));
+  t.push_back(number("timing.skywriting_time", "µs", 0, 1e5, "run-in + run-out per vector with skywriting",
+                     "", [](C& c) -> auto& { return c.laser.skywriting_time; }));
+
+  // lattice2d.*: the 2D atlas.
+  t.push_back(choice_enum<Pattern>(
+      "lattice2d.pattern",
+      {{"honeycomb", Pattern::Honeycomb}, {"voronoi", Pattern::Voronoi},
+       {"penrose", Pattern::Penrose}, {"snub-square", Pattern::SnubSquare},
+       {"arrowhead", Pattern::Arrowhead}, {"reentrant-honeycomb", Pattern::ReentrantHoneycomb},
+       {"square", Pattern::Square}, {"triangle", Pattern::Triangle}, {"lines", Pattern::Lines}},
+      "atlas pattern", "pattern", [](C& c) -> auto& { return c.lattice2d.pattern; }));
+  t.push_back(positive("lattice2d.cell", "mm", 1000,
+                       "cell size: hexagon side, rhombus side, edge or period (see lattice2d --help)",
+                       "cell", [](C& c) -> auto& { return c.lattice2d.cell_size; }));
+  t.push_back(derived(positive("lattice2d.strand", "mm", 1000,
+                               "strand distance of square, triangle and lines", "strand",
+                               [](C& c) -> auto& { return c.lattice2d.strand_distance; }),
+                      "the cell size"));
+  t.push_back(number("lattice2d.rotation", "deg", -360, 360, "pattern rotation about the region centre",
+                     "rotation", [](C& c) -> auto& { return c.lattice2d.rotation_deg; }));
+  t.push_back(positive("lattice2d.density", "1/mm²", 1000, "Voronoi seeds per mm²", "density",
+                       [](C& c) -> auto& { return c.lattice2d.voronoi_density; }));
+  t.push_back(integer("lattice2d.seed", 0, 9e15, "Voronoi random seed", "seed",
+                      [](C& c) -> auto& { return c.lattice2d.seed; }));
+  t.push_back(choice_enum<RegionShape>(
+      "lattice2d.region", {{"rectangle", RegionShape::Rectangle}, {"circle", RegionShape::Circle}},
+      "crop region", "region", [](C& c) -> auto& { return c.lattice2d.region.shape; }));
+  {
+    Setting s = numbers_via("lattice2d.size", "mm", 0, 100000, 2, "rectangle width, height", "size",
+        [](const Config& c) {
+      return (std::vector<double>{c.lattice2d.region.width, c.lattice2d.region.height});
+    },
+        [](Config& c, const std::vector<double>& xs) {
+      c.lattice2d.region.width = xs[0], c.lattice2d.region.height = xs[1];
+    });
+    s.positive = true;
+    t.push_back(std::move(s));
+  }
+  t.push_back(positive("lattice2d.diameter", "mm", 100000, "circle diameter", "diameter",
+                       [](C& c) -> auto& { return c.lattice2d.region.diameter; }));
+  {
+    Setting s = numbers_via("lattice2d.center", "mm", -1e5, 1e5, 2, "region centre x, y", "region-center",
+        [](const Config& c) {
+      return (std::vector<double>{c.lattice2d.region.center.x, c.lattice2d.region.center.y});
+    },
+        [](Config& c, const std::vector<double>& xs) {
+      c.lattice2d.region.center = {xs[0], xs[1]};
+    });
+    t.push_back(derived(std::move(s), "the region's lower-left corner at 0,0 (on a surface: its centre)"));
+  }
+  t.push_back(number("lattice2d.z", "mm", -1e5, 1e5, "height of the lattice plane", "z",
+                     [](C& c) -> auto& { return c.lattice2d.z; }));
+  t.push_back(boolean("lattice2d.contour", "add the region outline as struts", "contour",
+                      [](C& c) -> auto& { return c.lattice2d.contour; }));
+  t.push_back(boolean("lattice2d.handles", "tensile-test handles at both x ends", "handles",
+                      [](C& c) -> auto& { return c.lattice2d.handles; }));
+  t.push_back(positive("lattice2d.handle_length", "mm", 1000, "handle length along x",
+                       "handle-length", [](C& c) -> auto& { return c.lattice2d.handle_length; }));
+  t.push_back(positive("lattice2d.handle_width", "mm", 1000, "handle width along y",
+                       "handle-width", [](C& c) -> auto& { return c.lattice2d.handle_width; }));
+  t.push_back(positive("lattice2d.handle_spacing", "mm", 100, "fill strand spacing in handles",
+                       "", [](C& c) -> auto& { return c.lattice2d.handle_spacing; }));
+  t.push_back(number("lattice2d.reentrant_angle", "deg", 1, 89,
+                     "re-entrant honeycomb: strut angle below horizontal", "reentrant-angle",
+                     [](C& c) -> auto& { return c.lattice2d.reentrant_angle_deg; }));
+  t.push_back(number("lattice2d.arrowhead_outer", "deg", 1, 89, "arrowhead: outer chevron angle",
+                     "arrowhead-outer", [](C& c) -> auto& { return c.lattice2d.arrowhead_outer_deg; }));
+  t.push_back(number("lattice2d.arrowhead_inner", "deg", 1, 89, "arrowhead: inner chevron angle",
+                     "arrowhead-inner", [](C& c) -> auto& { return c.lattice2d.arrowhead_inner_deg; }));
+
+  // lattice3d.*
+  t.push_back(choice("lattice3d.kind", {"cells", "foam"},
+                     "unit cells tessellated, or a stochastic Voronoi foam", "kind",
+                     [](C& c) -> auto& { return c.lattice3d.kind; }));
+  t.push_back(choice_enum<UnitCell>(
+      "lattice3d.cell_type",
+      {{"cubic", UnitCell::Cubic}, {"bcc", UnitCell::Bcc}, {"fcc", UnitCell::Fcc},
+       {"octet", UnitCell::Octet}, {"diamond", UnitCell::Diamond}, {"kelvin", UnitCell::Kelvin},
+       {"rhombic-dodecahedron", UnitCell::RhombicDodecahedron}},
+      "unit cell", "cell-type", [](C& c) -> auto& { return c.lattice3d.cells.cell; }));
+  t.push_back(positive("lattice3d.cell", "mm", 10000, "unit cell side", "cell",
+                       [](C& c) -> auto& { return c.lattice3d.cells.size; }));
+  {
+    Setting s = numbers_via("lattice3d.count", "", 1, 1000, 3, "cells along X, Y, Z", "count",
+        [](const Config& c) {
+      const auto& p = c.lattice3d.cells;
+      return (std::vector<double>{double(p.nx), double(p.ny), double(p.nz)});
+    },
+        [](Config& c, const std::vector<double>& xs) {
+      auto& p = c.lattice3d.cells;
+      p.nx = int(xs[0]), p.ny = int(xs[1]), p.nz = int(xs[2]);
+    });
+    s.whole = true;
+    t.push_back(std::move(s));
+  }
+  {
+    Setting s = numbers_via("lattice3d.box", "mm", 0, 100000, 3, "foam box width, depth, height", "box",
+        [](const Config& c) {
+      const auto& f = c.lattice3d.foam;
+      return (std::vector<double>{f.width, f.depth, f.height});
+    },
+        [](Config& c, const std::vector<double>& xs) {
+      auto& f = c.lattice3d.foam;
+      f.width = xs[0], f.depth = xs[1], f.height = xs[2];
+    });
+    s.positive = true;
+    t.push_back(std::move(s));
+  }
+  t.push_back(path("lattice3d.mesh", "foam inside this closed mesh instead of the box", "mesh",
+                   [](C& c) -> auto& { return c.lattice3d.foam.mesh; }));
+  t.push_back(positive("lattice3d.density", "1/mm³", 100, "foam seeds per mm³", "density",
+                       [](C& c) -> auto& { return c.lattice3d.foam.density; }));
+  t.push_back(integer("lattice3d.seed", 0, 9e15, "foam random seed", "seed",
+                      [](C& c) -> auto& { return c.lattice3d.foam.seed; }));
+  t.push_back(choice("lattice3d.materials", {"none", "xy-plane", "component", "vertical"},
+                     "per-strut material rule", "materials",
+                     [](C& c) -> auto& { return c.lattice3d.materials; }));
+
+  // lattice.*: reading lattice files.
+  t.push_back(number("lattice.merge_tolerance", "mm", 0, 10, "merge nodes closer than this",
+                     "merge-tolerance", [](C& c) -> auto& { return c.merge_tolerance; }));
+
+  // layers.* and onto.*: GIPPO parts of many layers, on solids and surfaces.
+  t.push_back(integer("layers.count", 0, 100000,
+                      "layers of the 2D pattern (0 with layers.solid: from its height)", "layers",
+                      [](C& c) -> auto& { return c.layers.count; }));
+  t.push_back(number("layers.rotation", "deg", -360, 360, "pattern rotation added per layer",
+                     "layer-rotation", [](C& c) -> auto& { return c.layers.rotation_deg; }));
+  t.push_back(path("layers.solid", "closed mesh each layer's pattern is cropped to", "solid",
+                   [](C& c) -> auto& { return c.layers.solid; }));
+  t.push_back(choice("onto.kind", {"", "sphere-cap", "mesh", "function"},
+                     "lay the planned layers on a surface (empty: flat)", "onto",
+                     [](C& c) -> auto& { return c.onto.kind; }));
+  t.push_back(positive("onto.radius", "mm", 1e5, "sphere-cap radius", "",
+                       [](C& c) -> auto& { return c.onto.radius; }));
+  t.push_back(positive("onto.diameter", "mm", 1e5, "sphere-cap footprint diameter", "",
+                       [](C& c) -> auto& { return c.onto.diameter; }));
+  t.push_back(path("onto.file", "surface mesh (onto.kind = mesh)", "",
+                   [](C& c) -> auto& { return c.onto.file; }));
+  t.push_back(text("onto.height_fn", "surface z = f(x, y) (onto.kind = function)", "",
+                   [](C& c) -> auto& { return c.onto.height_fn; }));
+  t.push_back(derived(numbers("onto.domain", "mm", -1e5, 1e5, 4, "x0, y0, x1, y1 of onto.height_fn",
+                              "", [](C& c) -> auto& { return c.onto.domain; }),
+                      "none (needed with onto.kind = function)"));
+  t.push_back(choice_enum<OffsetMode>("onto.offset",
+                                      {{"normal", OffsetMode::Normal}, {"vertical", OffsetMode::Vertical}},
+                                      "layers stack along the surface normal or vertically", "",
+                                      [](C& c) -> auto& { return c.onto.project.offset; }));
+  t.push_back(positive("onto.chord_tolerance", "mm", 10, "max distance of a path from the surface",
+                       "", [](C& c) -> auto& { return c.onto.project.chord_tolerance; }));
+
+  // plan.*, gippo.*
+  t.push_back(choice("plan.planner", {"gippo", "euler", "aero"},
+                     "gippo (paper), euler (minimum paths) or aero (3D, embedded)", "",
+                     [](C& c) -> auto& { return c.planner; }));
+  t.push_back(choice_enum<PathOrder>(
+      "plan.order", {{"longest-first", PathOrder::LongestFirst}, {"travel", PathOrder::Travel}},
+      "path order: longest-first (paper) or travel (nearest neighbour + 2-opt)", "order",
+      [](C& c) -> auto& { return c.plan.order; }));
+  t.push_back(integer("plan.long_path_nodes", 2, 1e6, "LTS/OE: a path is long with this many nodes",
+                      "long-nodes", [](C& c) -> auto& { return c.plan.long_path_nodes; }));
+  t.push_back(integer("plan.seed", 0, 9e15, "random seed (gippo iterations, aero shuffled runs)",
+                      "seed", [](C& c) -> auto& { return c.plan.gippo.seed; }));
+  t.push_back(choice_enum<GippoMode>("gippo.mode", {{"max", GippoMode::Max}, {"min", GippoMode::Min}},
+                                     "take the longest (max) or shortest (min) edge", "mode",
+                                     [](C& c) -> auto& { return c.plan.gippo.mode; }));
+  t.push_back(integer("gippo.iterations", 1, 1e7, "solutions generated, best kept (paper: 500)",
+                      "iterations", [](C& c) -> auto& { return c.plan.gippo.iterations; }));
+
+  // aero.*, nozzle.*
+  t.push_back(choice_enum<AeroMethod>(
+      "aero.method", {{"dynamic", AeroMethod::Dynamic}, {"groups", AeroMethod::Groups}},
+      "dynamic (refresh after every trail) or groups (the paper's)", "method",
+      [](C& c) -> auto& { return c.aero.method; }));
+  t.push_back(boolean("aero.collisions", "plan around the nozzle (false: trails = Euler lower bound)",
+                      "collisions", [](C& c) -> auto& { return c.aero.collisions; }));
+  t.push_back(derived(integer("aero.tries", 1, 100000,
+                              "dynamic: planner runs (strategies, then shuffled orders; best kept)",
+                              "tries", [](C& c) -> auto& { return c.aero.tries; }),
+                      "8, fewer above 25,000 struts"));
+  t.push_back(positive("nozzle.radius", "mm", 100, "nozzle radius R (vertical cylinder)",
+                       "nozzle-radius", [](C& c) -> auto& { return c.aero.nozzle.radius; }));
+  t.push_back(number("nozzle.tip_clearance", "mm", 0, 100,
+                     "material less than this above the tip is not hit", "tip-clearance",
+                     [](C& c) -> auto& { return c.aero.nozzle.tip_clearance; }));
+  t.push_back(number("nozzle.node_clearance", "mm", 0, 100,
+                     "no collision within this of a node the two struts share", "node-clearance",
+                     [](C& c) -> auto& { return c.aero.nozzle.node_clearance; }));
+  t.push_back(number("nozzle.cone", "deg", 0, 90,
+                     "struts within this angle of vertical print bottom-up", "cone",
+                     [](C& c) -> auto& { return c.aero.nozzle.cone_half_angle_deg; }));
+  t.push_back(number("nozzle.overlap", "mm", 0, 10,
+                     "the writer's node overlap: struts planned as if this much longer", "overlap",
+                     [](C& c) -> auto& { return c.aero.nozzle.end_overlap; }));
+
+  // slice.*, fgm.*
+  t.push_back(choice_enum<SliceRoute>(
+      "slice.route", {{"auto", SliceRoute::Auto}, {"field", SliceRoute::Field}, {"mesh", SliceRoute::Mesh}},
+      "auto (.vcad: field, meshes: mesh), field (contours of the implicit field) or mesh (plane cuts)",
+      "route", [](C& c) -> auto& { return c.slice.route; }));
+  t.push_back(integer("slice.walls", 0, 100, "number of walls", "walls",
+                      [](C& c) -> auto& { return c.slice.planar.walls; }));
+  t.push_back(number("slice.infill", "", 0, 1, "sparse infill density (fraction of solid)",
+                     "infill", [](C& c) -> auto& { return c.slice.planar.infill_density; }));
+  t.push_back(number("slice.infill_angle", "deg", -360, 360, "infill angle, +90 every other layer",
+                     "infill-angle", [](C& c) -> auto& { return c.slice.planar.infill_angle; }));
+  t.push_back(integer("slice.top", 0, 1000, "solid top layers", "top",
+                      [](C& c) -> auto& { return c.slice.planar.top_layers; }));
+  t.push_back(integer("slice.bottom", 0, 1000, "solid bottom layers", "bottom",
+                      [](C& c) -> auto& { return c.slice.planar.bottom_layers; }));
+  t.push_back(derived(positive("slice.bead_width", "mm", 10, "bead width (wall and fill spacing)",
+                               "bead-width", [](C& c) -> auto& { return c.slice.planar.bead_width; }),
+                      "extrusion.nozzle_diameter"));
+  t.push_back(positive("slice.resolution", "mm", 10, "XY grid step of field contours",
+                       "resolution", [](C& c) -> auto& { return c.slice.field.resolution; }));
+  t.push_back(positive("slice.mesh_voxel", "mm", 10, "voxel of mesh distance fields (field route)",
+                       "mesh-voxel", [](C& c) -> auto& { return c.slice.mesh_voxel; }));
+  t.push_back(integer("slice.strategy", 0, 2,
+                      "graded designs: 0 one material, 1 walls/infill cut by colour faces + purge, "
+                      "2 colour faces filled densely (FGM paper)",
+                      "strategy", [](C& c) -> auto& { return c.slice.strategy; }));
+  t.push_back(integer("fgm.colors", 1, 1000,
+                      "palette size (two materials: N bands; three: d² triangles, e.g. 9)",
+                      "colors", [](C& c) -> auto& { return c.slice.fgm.palette.colors; }));
+  t.push_back(boolean("fgm.concentric", "Strategy 2: concentric fill instead of rectilinear",
+                      "concentric", [](C& c) -> auto& { return c.slice.fgm.concentric; }));
+  t.push_back(boolean("fgm.fixed_angle",
+                      "Strategy 2: lines at slice.infill_angle instead of along the iso-lines",
+                      "fixed-angle", [](C& c) -> auto& { return c.slice.fgm.fixed_angle; }));
+  t.push_back(positive("fgm.material_resolution", "mm", 100,
+                       "XY grid of the material iso-contours", "material-resolution",
+                       [](C& c) -> auto& { return c.slice.fgm.material_resolution; }));
+  t.push_back(number("fgm.zipper", "", 0, 1,
+                     "Strategy 1: overlap band β (fraction of the gradient) where colours alternate",
+                     "zipper", [](C& c) -> auto& { return c.slice.fgm.zipper; }));
+
+  // pbf.*
+  t.push_back(choice("pbf.cell_type", {"gyroid", "schwarz_p", "schwarz_d", "neovius", "iwp"},
+                     "TPMS of the sheet", "cell-type", [](C& c) -> auto& { return c.pbf.cell_type; }));
+  t.push_back(positive("pbf.cell", "mm", 1000, "TPMS cell size", "cell",
+                       [](C& c) -> auto& { return c.pbf.cell; }));
+  t.push_back(text("pbf.c", "sheet parameter c (Φ = φ² − c²): a number or an expression of x, y, z, rho, r",
+                   "c", [](C& c) -> auto& { return c.pbf.c; }));
+  t.push_back(number("pbf.thickness", "mm", 0, 100,
+                     "uniform wall thickness t: c = t·|∇φ|/2 (0: use pbf.c)", "thickness",
+                     [](C& c) -> auto& { return c.pbf.thickness; }));
+  t.push_back(derived(numbers("pbf.size", "mm", 0, 10000, 3, "box X, Y, Z centred at the origin",
+                              "size", [](C& c) -> auto& { return c.pbf.size; }),
+                      "4 cells a side"));
+  t.push_back(path("pbf.envelope", ".vcad solid the lattice fills instead of the box", "envelope",
+                   [](C& c) -> auto& { return c.pbf.envelope; }));
+  t.push_back(path("pbf.solids", ".vcad solid parts (bosses), hatched", "solids",
+                   [](C& c) -> auto& { return c.pbf.solids; }));
+  t.push_back(text("pbf.grade_to", "TYPE:CELL blended in by a sigmoid (graded cell size)",
+                   "grade-to", [](C& c) -> auto& { return c.pbf.grade_to; }));
+  t.push_back(choice("pbf.grade_axis", {"z", "r"}, "grading axis: z (axial) or r (radial)",
+                     "grade-axis", [](C& c) -> auto& { return c.pbf.grade_axis; }));
+  t.push_back(number("pbf.grade_center", "mm", -1e5, 1e5, "sigmoid centre", "grade-center",
+                     [](C& c) -> auto& { return c.pbf.grade_center; }));
+  t.push_back(positive("pbf.grade_width", "mm", 1e5, "sigmoid width", "grade-width",
+                       [](C& c) -> auto& { return c.pbf.grade_width; }));
+  t.push_back(text("pbf.hierarchical", "TYPE:CELL:WEIGHT superposed (hierarchical lattice)",
+                   "hierarchical", [](C& c) -> auto& { return c.pbf.hierarchical; }));
+  t.push_back(choice("pbf.route", {"direct", "stl"},
+                     "direct (slice the field) or stl (marching cubes mesh, for comparison)",
+                     "route", [](C& c) -> auto& { return c.pbf.route; }));
+  t.push_back(choice("pbf.strategy", {"hybrid", "r67"},
+                     "hybrid (contours on thin walls, hatch at joints) or r67 (hatch everything)",
+                     "strategy", [](C& c) -> auto& { return c.pbf.strategy; }));
+  t.push_back(number("pbf.wall_thickness", "mm", 0, 100,
+                     "a plane thin wall of this thickness instead of a TPMS (PBF paper Fig. 3; box "
+                     "from pbf.size, default 2,2,20); 0 = off", "wall-thickness",
+                     [](C& c) -> auto& { return c.pbf.wall_thickness; }));
+  t.push_back(positive("pbf.wall_inclination", "deg", 90, "the wall's angle from horizontal",
+                       "wall-inclination", [](C& c) -> auto& { return c.pbf.wall_inclination; }));
+  t.push_back(number("pbf.wall_azimuth", "deg", -360, 360, "the wall's direction from X",
+                     "wall-azimuth", [](C& c) -> auto& { return c.pbf.wall_azimuth; }));
+  t.push_back(number("pbf.hatch_rotation", "deg", -360, 360, "hatch rotation per layer (paper: 67)",
+                     "hatch-rotation", [](C& c) -> auto& { return c.pbf.options.hatch_rotation; }));
+  t.push_back(boolean("pbf.binary", "binary CLI geometry (the header stays ASCII, with CLI+ blocks)",
+                      "binary", [](C& c) -> auto& { return c.pbf.binary; }));
+  t.push_back(number("pbf.memory_budget", "MB", 0, 1e9,
+                     "refuse a run estimated above this; 0 = the memory available", "memory-budget",
+                     [](C& c) -> auto& { return c.pbf.memory_budget_mb; }));
+  t.push_back(positive("pbf.resolution", "mm", 10,
+                       "sampling step: the STL route's voxel; direct contours on a grid twice as coarse",
+                       "resolution", [](C& c) -> auto& { return c.pbf.options.resolution; }));
+  t.push_back(positive("pbf.thin_multiple", "", 100, "thin wall: width <= this × melt pool",
+                       "thin-multiple", [](C& c) -> auto& { return c.pbf.options.thin_multiple; }));
+  t.push_back(number("pbf.min_inclination", "deg", 0, 90, "shallower walls are hatched",
+                     "min-inclination", [](C& c) -> auto& { return c.pbf.options.min_inclination; }));
+
+  // nonplanar.*, surface.*
+  t.push_back(derived(positive("nonplanar.bead_width", "mm", 100, "path width = plane spacing",
+                               "bead-width", [](C& c) -> auto& { return c.nonplanar.params.width; }),
+                      "extrusion.nozzle_diameter"));
+  t.push_back(integer("nonplanar.layers", 1, 1e6, "number of layers", "layers",
+                      [](C& c) -> auto& { return c.nonplanar.params.layers; }));
+  t.push_back(numbers("nonplanar.angles", "deg", -360, 360, 0,
+                      "path directions cycled over the layers (0,90 = cross-hatch; 0 = parallel)",
+                      "angles", [](C& c) -> auto& { return c.nonplanar.params.angles; }));
+  t.push_back(choice_enum<OffsetMode>(
+      "nonplanar.offset", {{"vertical", OffsetMode::Vertical}, {"normal", OffsetMode::Normal}},
+      "layers stack vertically (paper) or along the surface normal", "offset",
+      [](C& c) -> auto& { return c.nonplanar.params.offset; }));
+  t.push_back(positive("nonplanar.chord_tolerance", "mm", 10,
+                       "max distance of a path segment from the surface", "chord-tol",
+                       [](C& c) -> auto& { return c.nonplanar.params.chord_tolerance; }));
+  t.push_back(derived(positive("nonplanar.max_join", "mm", 1e5,
+                               "longest end-to-end connector printed instead of a travel",
+                               "max-join", [](C& c) -> auto& { return c.nonplanar.params.max_join; }),
+                      "4 × bead width"));
+  t.push_back(text("nonplanar.layer_tools",
+                   "tools per layer: LAYERS:TOOL groups (3:0,3:1,3:0) or a tool list (0,1)",
+                   "layer-tools", [](C& c) -> auto& { return c.nonplanar.layer_tools; }));
+  t.push_back(text("nonplanar.height_fn", "surface z = f(x, y) instead of a mesh (muparser)",
+                   "height-fn", [](C& c) -> auto& { return c.nonplanar.height_fn; }));
+  t.push_back(derived(numbers("nonplanar.domain", "mm", -1e5, 1e5, 4,
+                              "x0, y0, x1, y1 of the height function", "domain",
+                              [](C& c) -> auto& { return c.nonplanar.domain; }),
+                      "none (needed with nonplanar.height_fn)"));
+  t.push_back(choice("surface.kind", {"corrugation", "miura", "m-curve", "sphere-cap", "angle-test"},
+                     "generated test surface (non-planar paper)", "kind",
+                     [](C& c) -> auto& { return c.surface.kind; }));
+  t.push_back(positive("surface.length", "mm", 1e4, "length along X", "length",
+                       [](C& c) -> auto& { return c.surface.corrugation.length; }));
+  t.push_back(positive("surface.width", "mm", 1e4, "width along Y", "width",
+                       [](C& c) -> auto& { return c.surface.corrugation.width; }));
+  t.push_back(number("surface.periods", "", 0, 1000, "corrugation periods", "periods",
+                     [](C& c) -> auto& { return c.surface.corrugation.periods; }));
+  t.push_back(number("surface.angle", "deg", 0, 89, "corrugation slope", "angle",
+                     [](C& c) -> auto& { return c.surface.corrugation.angle_deg; }));
+  t.push_back(number("surface.amplitude_scale", "", 0, 10, "corrugation amplitude factor",
+                     "amplitude-scale", [](C& c) -> auto& { return c.surface.corrugation.amplitude_scale; }));
+  t.push_back(number("surface.fillet", "mm", 0, 100, "fillet diameter at peaks and valleys",
+                     "fillet", [](C& c) -> auto& { return c.surface.corrugation.fillet_diameter; }));
+  t.push_back(number("surface.flat", "mm", 0, 1000, "flat clamping end length", "flat",
+                     [](C& c) -> auto& { return c.surface.corrugation.flat_length; }));
+  t.push_back(number("surface.depth", "mm", 0, 1000, "Miura-Ori fold depth", "depth",
+                     [](C& c) -> auto& { return c.surface.miura.depth; }));
+  t.push_back(positive("surface.height", "mm", 1000, "M curve height", "height",
+                       [](C& c) -> auto& { return c.surface.m_curve.height; }));
+  t.push_back(positive("surface.radius", "mm", 1e5, "sphere-cap radius", "radius",
+                       [](C& c) -> auto& { return c.surface.radius; }));
+  t.push_back(positive("surface.diameter", "mm", 1e5, "sphere-cap footprint diameter", "diameter",
+                       [](C& c) -> auto& { return c.surface.diameter; }));
+  t.push_back(positive("surface.resolution", "mm", 100, "grid spacing of generated meshes",
+                       "resolution", [](C& c) -> auto& { return c.surface.resolution; }));
+
+  // output.*, run.*
+  t.push_back(integer("output.preview_layers", 0, 100000, "PNG previews spread over the layers",
+                      "preview-layers", [](C& c) -> auto& { return c.output.preview_layers; }));
+  t.push_back(integer("output.image_size", 16, 8000, "preview image size", "image-size",
+                      [](C& c) -> auto& { return c.output.image_size; }));
+  t.push_back(boolean("output.gcode", "plan: also write G-code for the machine", "",
+                      [](C& c) -> auto& { return c.output.gcode; }));
+  t.push_back(boolean("output.png", "jobs: write previews", "",
+                      [](C& c) -> auto& { return c.output.png; }));
+  t.push_back(integer("output.frames", 0, 10000, "aero: step pictures of the first N trails",
+                      "frames", [](C& c) -> auto& { return c.output.frames; }));
+  t.push_back(integer("run.threads", 0, 1024, "worker threads (0 = all cores)", "threads",
+                      [](C& c) -> auto& { return c.threads; }));
+  return t;
+}
+
+}  // namespace
+
+const std::vector<Setting>& all_settings() {
+  static const std::vector<Setting> table = make_table();
+  return table;
+}
+
+const std::vector<std::pair<std::string, std::string>>& setting_sections() {
+  static const std::vector<std::pair<std::string, std::string>> s = {
+      {"machine", "the printer: name, G-code flavour, bed"},
+      {"placement", "where the part goes on the bed"},
+      {"extrusion", "nozzle, filament, layer height, Eq. 4 extrusion"},
+      {"speed", "feed rates and acceleration"},
+      {"temperature", "nozzle, bed, fan"},
+      {"retraction", "retraction and Z hop"},
+      {"flow", "pre- and post-flow"},
+      {"pneumatic", "valve and pressure commands"},
+      {"embedded", "printing in a support bath"},
+      {"gradient", "how a mixture is made: mixing, tools, temperature"},
+      {"purge", "Strategy 1 purge towers"},
+      {"gcode", "start/end templates"},
+      {"laser", "laser powder-bed machine: spot, powers, speeds"},
+      {"scan", "laser scan parameters: layer, hatch, SL, LHD"},
+      {"timing", "laser scanner timing for the scan-time model"},
+      {"lattice2d", "2D atlas patterns"},
+      {"lattice3d", "3D unit cells and foams"},
+      {"lattice", "reading lattice files"},
+      {"layers", "GIPPO parts of many layers"},
+      {"onto", "planned layers laid on a surface"},
+      {"plan", "path planning"},
+      {"gippo", "the GIPPO planner"},
+      {"aero", "the AERO planner (3D, embedded)"},
+      {"nozzle", "the nozzle model for collisions"},
+      {"slice", "planar slicing"},
+      {"fgm", "graded (FGM) slicing"},
+      {"pbf", "laser powder-bed TPMS lattices"},
+      {"nonplanar", "non-planar layers on a surface"},
+      {"surface", "generated test surfaces"},
+      {"output", "previews and extra outputs"},
+      {"run", "execution"},
+  };
+  return s;
+}
+
+}  // namespace trellis

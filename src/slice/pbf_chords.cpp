@@ -1,0 +1,163 @@
+#include "pbf_chords.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace trellis::pbf_detail {
+
+namespace {
+
+double dist(Vec2 a, Vec2 b) {
+  return std::hypot(b.x - a.x, b.y - a.y);
+}
+
+// A polyline with its cumulative arc length.
+class Walk {
+ public:
+  explicit Walk(const std::vector<Vec2>& l) : l_(l), s_(l.size(), 0.0) {
+    for (std::size_t k = 1; k < l.size(); ++k) s_[k] = s_[k - 1] + dist(l[k - 1], l[k]);
+  }
+  double length() const { return s_.empty() ? 0 : s_.back(); }
+  // The point at arc length `arc`.
+  Vec2 at(double arc) const {
+    const std::size_t k = segment(arc);
+    const double len = s_[k + 1] - s_[k];
+    const double t = len > 0 ? std::clamp((arc - s_[k]) / len, 0.0, 1.0) : 0.0;
+    return l_[k] + (l_[k + 1] - l_[k]) * t;
+  }
+  // The first point after arc length `from` at distance r from c (leaving the disc around c),
+  // as its arc length; false if the line ends inside the disc.
+  bool leave_disc(Vec2 c, double r, double from, double* arc) const {
+    for (std::size_t k = segment(from); k + 1 < l_.size(); ++k) {
+      const double s0 = std::max(from, s_[k]);
+      const Vec2 a = at_in(k, s0), b = l_[k + 1];
+      if (dist(b, c) < r) continue;
+      const Vec2 d = b - a, e = a - c;
+      const double A = d.x * d.x + d.y * d.y, B = 2 * (d.x * e.x + d.y * e.y),
+                   C = e.x * e.x + e.y * e.y - r * r;
+      if (!(A > 0)) continue;
+      const double t =
+          std::clamp((-B + std::sqrt(std::max(0.0, B * B - 4 * A * C))) / (2 * A), 0.0, 1.0);
+      *arc = s0 + t * (s_[k + 1] - s0);
+      return true;
+    }
+    return false;
+  }
+
+ private:
+  std::size_t segment(double arc) const {
+    const auto it = std::upper_bound(s_.begin(), s_.end(), arc);
+    const auto k = static_cast<std::size_t>(std::max<std::ptrdiff_t>(0, it - s_.begin() - 1));
+    return std::min(k, l_.size() - 2);
+  }
+  Vec2 at_in(std::size_t k, double arc) const {
+    const double len = s_[k + 1] - s_[k];
+    const double t = len > 0 ? std::clamp((arc - s_[k]) / len, 0.0, 1.0) : 0.0;
+    return l_[k] + (l_[k + 1] - l_[k]) * t;
+  }
+  const std::vector<Vec2>& l_;
+  std::vector<double> s_;
+};
+
+// q on the curve at distance r from c: alternately onto the curve and back onto the circle,
+// ending on the curve (the two cross at a wide angle when r is small against the curvature
+// radius, so this converges in a few rounds).
+Vec2 on_curve_at(Vec2 c, double r, Vec2 q, const CurveProjector& project) {
+  for (int it = 0; it < 3; ++it) {
+    q = project(q);
+    const double d = dist(c, q);
+    if (!(d > 0)) break;
+    q = c + (q - c) * (r / d);
+  }
+  return project(q);
+}
+
+void open_chords(const std::vector<Vec2>& line, double sl, double gap, double phase,
+                 const CurveProjector& project, std::vector<std::vector<Vec2>>& out) {
+  if (line.size() < 2) return;
+  const Walk w(line);
+  if (!(w.length() > 1e-6)) return;
+  const double period = sl + gap;
+  Vec2 s = project(line.front());
+  double s_arc = 0;
+  double len = sl;
+  if (phase > 0 && phase < sl) {
+    len = sl - phase;  // the first chord, cut short by the pattern's start before the line
+  } else if (phase >= sl) {
+    const double g = period - phase;  // the first gap, partly before the line
+    double arc = 0;
+    if (g > 1e-9) {
+      if (!w.leave_disc(s, g, 0, &arc)) return;
+      s = on_curve_at(s, g, w.at(arc), project);
+      s_arc = arc;
+    }
+  }
+  const Vec2 end = project(line.back());
+  for (int guard = 0; guard < 10000000; ++guard) {
+    double arc = 0;
+    if (!w.leave_disc(s, len, s_arc, &arc)) {
+      if (dist(s, end) > 1e-6) out.push_back({s, end});  // the last chord, short
+      return;
+    }
+    const Vec2 e = on_curve_at(s, len, w.at(arc), project);
+    out.push_back({s, e});
+    len = sl;
+    if (gap > 0) {
+      double next = 0;
+      if (!w.leave_disc(e, gap, arc, &next)) return;
+      s = on_curve_at(e, gap, w.at(next), project);
+      s_arc = next;
+    } else {
+      s = e;
+      s_arc = arc;
+    }
+  }
+}
+
+}  // namespace
+
+std::vector<Vec2> trim_arc(const std::vector<Vec2>& line, double cut, bool from_start) {
+  if (line.size() < 2 || cut <= 0) return line;
+  std::vector<Vec2> l = line;
+  if (!from_start) std::reverse(l.begin(), l.end());
+  const Walk w(l);
+  std::vector<Vec2> out;
+  if (w.length() <= cut) return out;
+  out.push_back(w.at(cut));
+  double acc = 0;
+  for (std::size_t k = 1; k < l.size(); ++k) {
+    acc += dist(l[k - 1], l[k]);
+    if (acc > cut) out.push_back(l[k]);
+  }
+  if (!from_start) std::reverse(out.begin(), out.end());
+  return out;
+}
+
+void chord_vectors(const std::vector<Vec2>& line, bool closed, double sl, double gap, double phase,
+                   const CurveProjector& project, std::vector<std::vector<Vec2>>& out) {
+  if (!closed || line.size() < 3) {
+    open_chords(line, sl, gap, phase, project, out);
+    return;
+  }
+  // A loop: start `phase` along it, go round once, stop `gap` (along the loop) before the start.
+  const Walk w(line);
+  const double total = w.length();
+  if (!(total > 1e-6)) return;
+  const double start = std::fmod(phase, total);
+  std::vector<Vec2> ring;
+  ring.push_back(w.at(start));
+  double acc = 0;
+  std::vector<Vec2> before;
+  for (std::size_t k = 1; k < line.size(); ++k) {
+    acc += dist(line[k - 1], line[k]);
+    if (acc > start)
+      ring.push_back(line[k]);
+    else
+      before.push_back(line[k]);
+  }
+  ring.insert(ring.end(), before.begin(), before.end());
+  ring.push_back(ring.front());
+  open_chords(trim_arc(ring, gap, false), sl, gap, 0, project, out);
+}
+
+}  // namespace trellis::pbf_detail

@@ -1,0 +1,26 @@
+#include "trellis/toolpath/scan_time.hpp"
+
+#include <cmath>
+
+namespace trellis {
+
+void ScanClock::mark(const Vec2* p, std::size_t n, double speed) {
+  if (n < 2) return;
+  if (started_) {
+    const double d = std::hypot(p[0].x - at_.x, p[0].y - at_.y);
+    if (d > 0) {
+      jump_s_ += d / t_.jump_speed;
+      delay_s_ += t_.jump_delay * 1e-6;
+    }
+  }
+  started_ = true;
+  double len = 0;
+  for (std::size_t k = 1; k < n; ++k) len += std::hypot(p[k].x - p[k - 1].x, p[k].y - p[k - 1].y);
+  mark_s_ += len / speed;
+  delay_s_ += (t_.skywriting ? t_.skywriting_time : t_.mark_delay) * 1e-6;
+  delay_s_ += static_cast<double>(n - 2) * t_.polygon_delay * 1e-6;
+  at_ = p[n - 1];
+  ++vectors_;
+}
+
+}  // namespace trellis

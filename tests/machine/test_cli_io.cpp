@@ -1,0 +1,162 @@
+// Laser build files: CLI written by Trellis (ASCII and binary, with CLI+ blocks) reads back into
+// the same vectors; malformed files are refused with the byte offset of the problem.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <random>
+#include <string>
+
+#include "trellis/core/error.hpp"
+#include "trellis/machine/cli.hpp"
+
+using namespace trellis;
+
+namespace {
+
+// Random layers: open contour polylines of 2–6 points and two-point hatch vectors, anywhere in
+// ±60 mm, including negative and tiny coordinates.
+Toolpath random_laser_toolpath(unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> xy(-60, 60), small(-0.01, 0.01);
+  std::uniform_int_distribution<int> count(0, 30), pts(2, 6), coin(0, 9);
+  Toolpath tp;
+  for (int i = 0; i < 12; ++i) {
+    Layer l;
+    l.z = 0.02 * (i + 1);
+    const int n = count(rng);
+    for (int k = 0; k < n; ++k) {
+      Path p;
+      p.role = coin(rng) < 5 ? PathRole::Contour : PathRole::Infill;
+      const int m = p.role == PathRole::Infill ? 2 : pts(rng);
+      for (int j = 0; j < m; ++j) {
+        const bool tiny = coin(rng) == 0;
+        p.points.push_back({tiny ? small(rng) : xy(rng), tiny ? small(rng) : xy(rng), l.z});
+      }
+      l.paths.push_back(std::move(p));
+    }
+    tp.layers.push_back(std::move(l));
+  }
+  return tp;
+}
+
+// The writer puts each layer's contours first, then its hatches: compare in that order.
+std::vector<const Path*> in_file_order(const Layer& l) {
+  std::vector<const Path*> out;
+  for (const auto& p : l.paths)
+    if (!(p.role == PathRole::Infill && p.points.size() == 2)) out.push_back(&p);
+  for (const auto& p : l.paths)
+    if (p.role == PathRole::Infill && p.points.size() == 2) out.push_back(&p);
+  return out;
+}
+
+TEST(CliIo, AsciiAndBinaryRoundTripWithin1Micrometre) {
+  LaserProfile prof;
+  prof.contour_power = 55;
+  prof.contour_speed = 700;
+  prof.hatch_power = 120;
+  prof.hatch_speed = 1100;
+  for (unsigned seed = 1; seed <= 5; ++seed) {
+    const Toolpath tp = random_laser_toolpath(seed);
+    for (const bool binary : {false, true}) {
+      const std::string bytes = write_cli(tp, prof, {binary, true});
+      const Toolpath back = read_cli(bytes, "mem.cli");
+      ASSERT_EQ(back.layers.size(), tp.layers.size());
+      for (std::size_t i = 0; i < tp.layers.size(); ++i) {
+        EXPECT_NEAR(back.layers[i].z, tp.layers[i].z, 1e-3);
+        const auto want = in_file_order(tp.layers[i]);
+        ASSERT_EQ(back.layers[i].paths.size(), want.size()) << "layer " << i;
+        for (std::size_t k = 0; k < want.size(); ++k) {
+          const Path& got = back.layers[i].paths[k];
+          EXPECT_EQ(got.role, want[k]->role);
+          ASSERT_EQ(got.points.size(), want[k]->points.size());
+          for (std::size_t j = 0; j < got.points.size(); ++j) {
+            EXPECT_NEAR(got.points[j].x, want[k]->points[j].x, 1e-3);
+            EXPECT_NEAR(got.points[j].y, want[k]->points[j].y, 1e-3);
+          }
+          // CLI+: the profile's power and speed per id.
+          const bool hatch = got.role == PathRole::Infill;
+          EXPECT_EQ(got.power, hatch ? 120 : 55);
+          EXPECT_EQ(got.speed, hatch ? 1100 : 700);
+        }
+      }
+    }
+  }
+}
+
+// Each broken file is refused with a ParseError naming the file and the byte offset where the
+// problem starts.
+TEST(CliIo, MalformedFilesNameTheOffset) {
+  const std::string head = "$$HEADERSTART\n$$ASCII\n$$UNITS/0.001\n$$HEADEREND\n$$GEOMETRYSTART\n";
+  struct Case {
+    std::string text, at;  // `at`: the text the reported offset must point to
+  };
+  const std::vector<Case> cases = {
+      {"no header here", ""},
+      {head + "$$LAYER/20\n$$POLYLINE/1,2,2,0,0,1x0,5\n$$GEOMETRYEND\n", "1x0,5"},
+      {head + "$$LAYER/20\n$$POLYLINE/1,2,3,0,0,10,5\n$$GEOMETRYEND\n", "$$POLYLINE/1,2,3"},
+      {head + "$$POLYLINE/1,2,2,0,0,10,5\n$$GEOMETRYEND\n", "$$POLYLINE"},
+      {head + "$$LAYER/40\n$$LAYER/20\n$$GEOMETRYEND\n", "$$LAYER/20"},
+      {head + "$$LAYER/20\n$$HATCHES/2,1,0,0,1\n$$GEOMETRYEND\n", "$$HATCHES"},
+      {head + "$$LAYER/20\n$$HATCHES/2,1,0,0,1,nan\n$$GEOMETRYEND\n", "nan"},
+      {head + "$$LAYER/20\n", ""},
+      {head + "LAYER/20\n$$GEOMETRYEND\n", "LAYER/20"},
+  };
+  for (const auto& c : cases) {
+    try {
+      read_cli(c.text, "bad.cli");
+      ADD_FAILURE() << "accepted: " << c.text;
+    } catch (const ParseError& e) {
+      EXPECT_EQ(e.where().file, "bad.cli");
+      const std::size_t want =
+          c.at.empty() ? (c.text.find("$$HEADERSTART") == std::string::npos ? 0 : c.text.size())
+                       : c.text.find(c.at);
+      EXPECT_NE(std::string(e.what()).find("offset " + std::to_string(want)), std::string::npos)
+          << e.what() << " / expected offset " << want;
+    }
+  }
+  // Binary: an unknown command, a count larger than the file, a file cut inside a command.
+  const std::string bhead = "$$HEADERSTART\n$$BINARY\n$$UNITS/0.001\n$$HEADEREND";
+  auto u16 = [](std::uint16_t v) { return std::string(reinterpret_cast<const char*>(&v), 2); };
+  auto i32 = [](std::int32_t v) { return std::string(reinterpret_cast<const char*>(&v), 4); };
+  auto f32 = [](float v) { return std::string(reinterpret_cast<const char*>(&v), 4); };
+  const std::string layer = u16(127) + f32(20);
+  const std::vector<std::pair<std::string, std::size_t>> bins = {
+      {bhead + layer + u16(99), bhead.size() + layer.size()},
+      {bhead + layer + u16(132) + i32(2) + i32(1000000) + f32(1), bhead.size() + layer.size()},
+      {bhead + layer + u16(130) + i32(1) + i32(2) + i32(2) + f32(0) + f32(0) + f32(1),
+       bhead.size() + layer.size()},
+      {bhead + u16(132) + i32(2) + i32(1) + f32(0) + f32(0) + f32(1) + f32(1), bhead.size()},
+  };
+  for (const auto& [bytes, want] : bins) {
+    try {
+      read_cli(bytes, "bad.cli");
+      ADD_FAILURE() << "binary case accepted";
+    } catch (const ParseError& e) {
+      EXPECT_NE(std::string(e.what()).find("offset " + std::to_string(want)), std::string::npos)
+          << e.what() << " / expected offset " << want;
+    }
+  }
+}
+
+// Another tool's CLI: short binary commands and $$UNITS other than 1 µm, ids without CLI+
+// blocks (roles from the command and the $$LABEL text).
+TEST(CliIo, ReadsShortBinaryCommandsAndOtherUnits) {
+  auto u16 = [](std::uint16_t v) { return std::string(reinterpret_cast<const char*>(&v), 2); };
+  std::string f = "$$HEADERSTART\n$$BINARY\n$$UNITS/0.01\n$$LABEL/3,part hatch\n$$HEADEREND\n";
+  f += u16(128) + u16(5);  // layer z = 0.05 mm
+  f += u16(129) + u16(1) + u16(0) + u16(3) + u16(0) + u16(0) + u16(100) + u16(0) + u16(100) +
+       u16(100);                                                            // contour, 3 points
+  f += u16(131) + u16(3) + u16(1) + u16(10) + u16(20) + u16(30) + u16(40);  // one hatch
+  const Toolpath tp = read_cli(f, "short.cli");
+  ASSERT_EQ(tp.layers.size(), 1u);
+  EXPECT_NEAR(tp.layers[0].z, 0.05, 1e-12);
+  ASSERT_EQ(tp.layers[0].paths.size(), 2u);
+  EXPECT_EQ(tp.layers[0].paths[0].role, PathRole::Contour);
+  EXPECT_NEAR(tp.layers[0].paths[0].points[2].y, 1.0, 1e-12);
+  EXPECT_EQ(tp.layers[0].paths[1].role, PathRole::Infill);
+  EXPECT_NEAR(tp.layers[0].paths[1].points[1].x, 0.3, 1e-12);
+}
+
+}  // namespace
