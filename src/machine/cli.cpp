@@ -223,7 +223,8 @@ class Reader {
         const std::size_t c = line.find(',');
         if (c == std::string_view::npos) fail(i, "$$LABEL needs id,text");
         const auto id = numbers(i + 8, i + c);
-        ids_[static_cast<int>(id.at(0))].label = std::string(line.substr(c + 1));
+        if (id.size() != 1 || !(std::abs(id[0]) <= 1e9)) fail(i + 8, "$$LABEL needs one id number");
+        ids_[static_cast<int>(id[0])].label = std::string(line.substr(c + 1));
       } else if (line.find("PROFILE_DEF=") != std::string_view::npos) {
         read_profile_def(i, line);
       }

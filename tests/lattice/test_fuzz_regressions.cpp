@@ -7,6 +7,7 @@
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/lattice/io.hpp"
+#include "trellis/machine/cli.hpp"
 #include "trellis/toolpath/json.hpp"
 
 using namespace trellis;
@@ -36,6 +37,7 @@ TEST(FuzzRegressions, EveryParserSurvivesEveryCrashInput) {
       clean_graph(parse_obj_lines(text, "f").graph, {}, d);
     });
     survive([&] { toolpath_from_json(text, "f"); });
+    survive([&] { read_cli(text, "f"); });
     survive([&] {
       Diagnostics d;
       Graph design;
