@@ -2,9 +2,8 @@
 #include <iostream>
 
 #include "commands.hpp"
-#include "trellis/core/error.hpp"
-#include "trellis/core/file.hpp"
 #include "trellis/analysis/collisions.hpp"
+#include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/lattice/io.hpp"
 #include "trellis/plan/aero.hpp"
@@ -39,6 +38,10 @@ void plan_aero_cli(const Opts& o) {
   for (auto& l : printed.layers)
     for (auto& path : l.paths) extend_path_ends(path, p.nozzle.end_overlap);
   const CollisionCheck c = check_collisions(g, printed, check);
+  if (p.collisions && c.collisions != r.collisions_planned)
+    diag.warn("collision_count_mismatch",
+              "the independent check finds " + std::to_string(c.collisions) +
+                  " collision(s), the plan counts " + std::to_string(r.collisions_planned));
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   write_toolpath(o.output, tp);
   if (!o.report.empty()) {
@@ -67,8 +70,9 @@ void plan_aero_cli(const Opts& o) {
             << " groups, " << r.trails.trails.size() << " trails (lower bound "
             << r.lower_bound_trails << "), longest " << r.max_trail_edges << " struts, travel "
             << r.travel_moves << " moves / " << num(r.travel_length, 1) << " mm, collisions "
-            << c.collisions << " (checked; " << r.mutual_pairs << " unavoidable), " << num(secs, 3)
-            << " s -> " << o.output << "\n";
+            << c.collisions << " (checked; planned " << r.collisions_planned << ", lower bound "
+            << r.collisions_lower_bound << (r.collisions_proven_minimal() ? ", proven minimal" : "")
+            << "), " << num(secs, 3) << " s -> " << o.output << "\n";
 }
 
 }  // namespace
@@ -150,6 +154,15 @@ void add_plan(CLI::App& app) {
       ->check(CLI::Range(0, 100000))
       ->capture_default_str()
       ->group(ag);
+  cmd->add_flag("--greedy-collisions{false}", o->aero.fewest_collisions,
+                "aero: no fewest-collisions order (print the strut obstructing the fewest when "
+                "stuck, as before)")
+      ->group(ag);
+  cmd->add_option("--exact-struts", o->aero.order.exact_max_struts,
+                  "aero: solve obstruction cycles exactly (integer program) in parts up to this "
+                  "many struts; 0 = local search only")
+      ->capture_default_str()
+      ->group(ag);
   cmd->add_option("--frames", o->frames,
                   "aero: with --png, also PREFIX.stepNN.png for the first N trails")
       ->group(ag);
@@ -169,9 +182,8 @@ void add_plan(CLI::App& app) {
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     write_toolpath(o->output, r.toolpath);
     if (!o->report.empty())
-      write_file_atomic(
-          o->report,
-          plan_report_json(r, p, diag, {o->input, g.nodes.size(), g.edges.size()}));
+      write_file_atomic(o->report,
+                        plan_report_json(r, p, diag, {o->input, g.nodes.size(), g.edges.size()}));
     if (!o->png_prefix.empty()) {
       for (std::size_t i = 0; i < r.toolpath.layers.size(); ++i) {
         char name[32];
