@@ -17,6 +17,7 @@ void add_check(CLI::App& app) {
     std::string lattice, print, machine, report, png;
     CheckOptions check;
     double merge_tolerance = 1e-6;
+    bool keep_graph = false;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand(
@@ -35,19 +36,23 @@ void add_check(CLI::App& app) {
   cmd->add_option("--report", o->report, "report JSON with every collision");
   cmd->add_option("--png", o->png, "isometric picture with the collisions ringed in red");
   add_nozzle_options(cmd, o->check.nozzle, "Nozzle model");
+  cmd->add_flag("--keep-graph", o->keep_graph,
+                "the lattice exactly as given: no node merging, no T-junction splitting");
   cmd->add_option("--snap", o->check.snap,
                   "segment ends within this of a node are at it (mm; default 0.05, or the "
                   "profile's node overlap + 0.05)");
   cmd->callback([o] {
     Diagnostics diag;
-    const Graph g = read_lattice(o->lattice, {o->merge_tolerance, true}, diag);
+    const Graph g = read_lattice(
+        o->lattice, o->keep_graph ? keep_graph_options() : CleanOptions{o->merge_tolerance, true},
+        diag);
     CheckOptions check = o->check;
     Toolpath tp;
     auto ends_with = [](const std::string& s, const std::string& tail) {
       return s.size() >= tail.size() && s.compare(s.size() - tail.size(), tail.size(), tail) == 0;
     };
-    const bool gcode = ends_with(o->print, ".gcode") || ends_with(o->print, ".nc") ||
-                       ends_with(o->print, ".g");
+    const bool gcode =
+        ends_with(o->print, ".gcode") || ends_with(o->print, ".nc") || ends_with(o->print, ".g");
     if (gcode) {
       GcodeReadOptions read;
       MachineProfile profile;
@@ -91,16 +96,15 @@ void add_check(CLI::App& app) {
       render_3d_png(tp, o->png, v);
     }
     print_warnings(diag);
-    std::cout << "check: " << c.paths << " paths, " << c.segments << " segments, "
-              << c.printed_once << "/" << c.struts << " struts printed once, " << c.missing.size()
-              << " missing, " << c.repeated.size() << " repeated, " << c.off_design_segments
-              << " off the design, " << c.top_down.size() << " steep struts top-down, "
-              << c.collisions << " collisions\n";
+    std::cout << "check: " << c.paths << " paths, " << c.segments << " segments, " << c.printed_once
+              << "/" << c.struts << " struts printed once, " << c.missing.size() << " missing, "
+              << c.repeated.size() << " repeated, " << c.off_design_segments << " off the design, "
+              << c.top_down.size() << " steep struts top-down, " << c.collisions << " collisions\n";
     for (std::size_t i = 0; i < std::min<std::size_t>(c.hits.size(), 10); ++i) {
       const auto& h = c.hits[i];
       std::cout << "  collision: path " << h.path << " segment " << h.segment << " (strut "
-                << h.strut << ") hits strut " << h.hit_strut << " at (" << num(h.point.x, 3)
-                << ", " << num(h.point.y, 3) << ", " << num(h.point.z, 3) << "), tip at ("
+                << h.strut << ") hits strut " << h.hit_strut << " at (" << num(h.point.x, 3) << ", "
+                << num(h.point.y, 3) << ", " << num(h.point.z, 3) << "), tip at ("
                 << num(h.tip.x, 3) << ", " << num(h.tip.y, 3) << ", " << num(h.tip.z, 3) << ")\n";
     }
     if (!c.ok()) set_exit_code(1);

@@ -26,7 +26,8 @@ void plan_aero_cli(const Opts& o) {
   p.threads = o.p.gippo.threads;
   p.progress.report = progress_line;
   Diagnostics diag;
-  const Graph g = read_lattice(o.input, {o.merge_tolerance, true}, diag);
+  const Graph g = read_lattice(
+      o.input, o.keep_graph ? keep_graph_options() : CleanOptions{o.merge_tolerance, true}, diag);
   const AeroResult r = plan_aero(g, p, diag);
   const Toolpath tp = aero_toolpath(g, r, "trellis plan aero " + o.input);
   // The independent check sees the struts as they will be printed (ends pushed past their
@@ -82,6 +83,7 @@ void add_plan(CLI::App& app) {
     std::string planner, input, output, report, mode = "max", order = "longest-first", png_prefix;
     PlanParams p;
     double merge_tolerance = 1e-6;
+    bool keep_graph = false;
     // aero
     AeroParams aero;
     std::string method = "dynamic";
@@ -130,6 +132,8 @@ void add_plan(CLI::App& app) {
   cmd->add_option("--merge-tolerance", o->merge_tolerance, "merge nodes closer than this (mm)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
+  cmd->add_flag("--keep-graph", o->keep_graph,
+                "keep the lattice exactly as given: no node merging, no T-junction splitting");
   cmd->add_option("--png", o->png_prefix,
                   "write PREFIX.layerNNN.png previews (PREFIX.scores.png for gippo; for aero an "
                   "isometric PREFIX.png)");
@@ -175,7 +179,9 @@ void add_plan(CLI::App& app) {
     p.order = path_order_from_string(o->order);
     p.gippo.progress.report = progress_line;
     Diagnostics diag;
-    const Graph g = read_lattice(o->input, {o->merge_tolerance, true}, diag);
+    const Graph g = read_lattice(
+        o->input, o->keep_graph ? keep_graph_options() : CleanOptions{o->merge_tolerance, true},
+        diag);
     PlanResult r = plan_lattice(g, p, diag);
     r.toolpath.source = "trellis plan " + o->planner + " " + o->input;
     const double secs =

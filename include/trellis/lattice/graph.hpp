@@ -62,7 +62,17 @@ TriangleMesh lattice_walls(const Graph& g, double width, double height);
 struct CleanOptions {
   double merge_tolerance = 1e-6;  // nodes closer than this (mm) become one
   bool split_t_junctions = true;  // a node lying on another edge splits that edge
+  // false: nodes stay as listed, even where they coincide (counted as a warning); a segment
+  // list (which has no node ids) still joins ends at identical coordinates. With
+  // split_t_junctions = false too, an indexed lattice keeps exactly its nodes and struts (only
+  // self-loops and duplicates, which cannot be printed as such, are dropped, with warnings).
+  bool merge_nodes = true;
 };
+
+// Both off: the lattice exactly as given (`--keep-graph`).
+inline CleanOptions keep_graph_options() {
+  return {1e-6, false, false};
+}
 
 // Merges coincident nodes (throws GeometryError for coordinates beyond kMaxCoordinate or a
 // tolerance that is negative or not finite), splits T-junctions, drops self-loops, zero-length and
