@@ -16,6 +16,7 @@ void add_lattice3d(CLI::App& app) {
     std::vector<int> count{1, 1, 1};
     std::vector<double> box;
     bool foam_mode = false;
+    double radius = 0.25;
   };
   auto o = std::make_shared<Opts>();
   std::string names;
@@ -41,7 +42,11 @@ void add_lattice3d(CLI::App& app) {
   cmd->add_option("--materials", o->materials, "per-strut material rule")
       ->check(CLI::IsMember({"none", "xy-plane", "component", "vertical"}))
       ->capture_default_str();
-  cmd->add_option("-o,--output", o->output, "lattice JSON to write")->required();
+  cmd->add_option("-o,--output", o->output, "lattice to write: JSON, or a 3MF beam lattice (.3mf)")
+      ->required();
+  cmd->add_option("--radius", o->radius, "strut radius written to a 3MF beam lattice (mm)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   cmd->add_option("--png", o->png, "isometric preview PNG");
   cmd->callback([o] {
     Diagnostics diag;
@@ -61,7 +66,7 @@ void add_lattice3d(CLI::App& app) {
       g = cell_lattice(o->cells);
     }
     assign_materials(g, material_rule_from_string(o->materials));
-    write_lattice(o->output, g);
+    write_lattice(o->output, g, o->radius);
     if (!o->png.empty()) {
       // The struts as one path each, in a single layer, for the 3D view.
       Toolpath tp;

@@ -157,11 +157,11 @@ Graph split_t_junctions(const Graph& g, double tol, Diagnostics& diag,
                                       std::to_string(hits.size()) + " node(s) lying on it");
     NodeId prev = e.a;
     for (const auto& [t, n] : hits) {
-      out.edges.push_back({prev, n, e.material, e.directed});
+      out.edges.push_back({prev, n, e.material, e.directed, e.radius});
       new_origin.push_back(origin_of_edge[ei]);
       prev = n;
     }
-    out.edges.push_back({prev, e.b, e.material, e.directed});
+    out.edges.push_back({prev, e.b, e.material, e.directed, e.radius});
     new_origin.push_back(origin_of_edge[ei]);
   }
   origin_of_edge = std::move(new_origin);

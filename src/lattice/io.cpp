@@ -322,6 +322,11 @@ static LatticeInput lattice_from_document(const json& doc, const std::string& or
           throw ParseError("material must be an integer 0..255", {origin, 0, el + ".material"});
         edge.material = m->get<int>();
       }
+      if (auto r = e.find("radius"); r != e.end()) {
+        if (!r->is_number() || !(r->get<double>() > 0) || !std::isfinite(r->get<double>()))
+          throw ParseError("radius must be a positive number (mm)", {origin, 0, el + ".radius"});
+        edge.radius = r->get<double>();
+      }
       if (auto d = e.find("directed"); d != e.end()) {
         if (!d->is_boolean()) throw ParseError("directed must be true or false", {origin, 0, el});
         edge.directed = d->get<bool>();
@@ -401,10 +406,12 @@ Graph read_lattice(const std::string& path, const CleanOptions& options, Diagnos
     }
   } else if (ends_with(name, ".obj")) {
     in = parse_obj_lines(read_file(path), path);
+  } else if (ends_with(name, ".3mf")) {
+    in = read_beam_lattice_3mf(path, diag);
   } else {
     throw ParseError(
         "unknown lattice format (expected .json, .csv, NAME_vertices.csv/"
-        "NAME_edges.csv or .obj)",
+        "NAME_edges.csv, .obj or .3mf)",
         {path});
   }
   Graph g = clean_graph(in.graph, options, diag, in.edge_where);
@@ -431,22 +438,29 @@ std::string lattice_to_json(const Graph& g) {
   }
   out += "],\n \"edges\": [";
   bool extra = false;
-  for (const auto& e : g.edges) extra |= e.material != 0 || e.directed;
+  for (const auto& e : g.edges) extra |= e.material != 0 || e.directed || e.radius > 0;
   for (std::size_t i = 0; i < g.edges.size(); ++i) {
     const auto& e = g.edges[i];
     out += i ? (extra ? ",\n  " : ", ") : "\n  ";
-    if (extra)
-      out += "{\"ends\": [" + std::to_string(e.a) + ", " + std::to_string(e.b) +
-             "], \"material\": " + std::to_string(e.material) +
-             (e.directed ? ", \"directed\": true}" : "}");
-    else
+    if (!extra) {
       out += "[" + std::to_string(e.a) + ", " + std::to_string(e.b) + "]";
+      continue;
+    }
+    out += "{\"ends\": [" + std::to_string(e.a) + ", " + std::to_string(e.b) +
+           "], \"material\": " + std::to_string(e.material);
+    if (e.directed) out += ", \"directed\": true";
+    if (e.radius > 0) {
+      out += ", \"radius\": ";
+      num(out, e.radius);
+    }
+    out += "}";
   }
   out += "]}\n";
   return out;
 }
 
-void write_lattice(const std::string& path, const Graph& g) {
+void write_lattice(const std::string& path, const Graph& g, double beam_radius) {
+  if (ends_with(lower(path), ".3mf")) return write_beam_lattice_3mf(path, g, beam_radius);
   write_file_atomic(path, lattice_to_json(g));
 }
 

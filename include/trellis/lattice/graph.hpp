@@ -1,5 +1,5 @@
 // A strut lattice as an undirected graph embedded in 3D: nodes are points (mm), edges are struts.
-// Edges may carry a material index and a `directed` flag (print only from a to b).
+// Edges may carry a material index, a `directed` flag (print only from a to b) and a radius.
 #pragma once
 #include <cstdint>
 #include <string>
@@ -17,6 +17,7 @@ struct Edge {
   NodeId a = 0, b = 0;
   int material = 0;
   bool directed = false;
+  double radius = 0;  // strut radius (mm) where the input gives one (3MF beams), 0 = not given
   NodeId other(NodeId n) const { return n == a ? b : a; }
 };
 
