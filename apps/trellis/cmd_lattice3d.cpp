@@ -17,6 +17,7 @@ void add_lattice3d(CLI::App& app) {
     std::vector<double> box;
     bool foam_mode = false;
     double radius = 0.25;
+    ConformalParams conformal;
   };
   auto o = std::make_shared<Opts>();
   std::string names;
@@ -39,6 +40,15 @@ void add_lattice3d(CLI::App& app) {
   cmd->add_option("--mesh", o->foam.mesh, "foam inside this closed mesh (STL, OBJ, 3MF)");
   cmd->add_option("--density", o->foam.density, "foam seeds per mm³")->capture_default_str();
   cmd->add_option("--seed", o->foam.seed, "foam random seed")->capture_default_str();
+  cmd->add_option("--conformal", o->conformal.mesh,
+                  "the --cell lattice clipped to this closed mesh (STL, OBJ, 3MF)");
+  cmd->add_option("--skin", o->conformal.skin,
+                  "with --conformal: a stochastic (Voronoi) skin this thick (mm); 0 = none")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  cmd->add_option("--skin-density", o->conformal.skin_density, "skin foam seeds per mm³")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   cmd->add_option("--materials", o->materials, "per-strut material rule")
       ->check(CLI::IsMember({"none", "xy-plane", "component", "vertical"}))
       ->capture_default_str();
@@ -51,7 +61,12 @@ void add_lattice3d(CLI::App& app) {
   cmd->callback([o] {
     Diagnostics diag;
     Graph g;
-    if (o->foam_mode) {
+    if (!o->conformal.mesh.empty()) {
+      o->conformal.cell = unit_cell_from_string(o->cell);
+      o->conformal.size = o->cells.size;
+      o->conformal.seed = o->foam.seed;
+      g = conformal_lattice(o->conformal, diag);
+    } else if (o->foam_mode) {
       if (!o->box.empty()) {
         o->foam.width = o->box[0];
         o->foam.depth = o->box[1];
