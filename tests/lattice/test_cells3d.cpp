@@ -221,3 +221,16 @@ TEST(Cells3d, ConformalLatticeInASphereWithAndWithoutSkin) {
   EXPECT_EQ(parts, 1);
   EXPECT_THROW(conformal_lattice({}, diag), SettingError);
 }
+
+TEST(Cells3d, FoamWithTooFewSeedsInsideAMeshIsAClearError) {
+  // A 1 mm cube at 0.5 seeds/mm³ holds fewer than 4 seeds: an error, not a crash.
+  TriangleMesh box;
+  box.add_prism({{0, 0}, {1, 0}, {1, 1}, {0, 1}}, 0, 1);
+  const std::string path = testing::TempDir() + "/tiny_box.stl";
+  write_stl(path, box);
+  Diagnostics diag;
+  FoamParams p;
+  p.mesh = path;
+  p.density = 0.5;
+  EXPECT_THROW(voronoi_foam(p, diag), GeometryError);
+}
