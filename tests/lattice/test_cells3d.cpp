@@ -223,9 +223,10 @@ TEST(Cells3d, ConformalLatticeInASphereWithAndWithoutSkin) {
 }
 
 TEST(Cells3d, FoamWithTooFewSeedsInsideAMeshIsAClearError) {
-  // A 1 mm cube at 0.5 seeds/mm³ holds fewer than 4 seeds: an error, not a crash.
+  // A 2 x 2 x 1 mm box at 0.5 seeds/mm³ holds 2 seeds, too few for 3D cells: an error, not
+  // a crash.
   TriangleMesh box;
-  box.add_prism({{0, 0}, {1, 0}, {1, 1}, {0, 1}}, 0, 1);
+  box.add_prism({{0, 0}, {2, 0}, {2, 2}, {0, 2}}, 0, 1);
   const std::string path = testing::TempDir() + "/tiny_box.stl";
   write_stl(path, box);
   Diagnostics diag;
