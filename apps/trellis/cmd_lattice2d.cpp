@@ -1,6 +1,7 @@
 #include <iostream>
 
 #include "commands.hpp"
+#include "trellis/analysis/pores.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/lattice/atlas.hpp"
 #include "trellis/lattice/io.hpp"
@@ -15,6 +16,7 @@ void add_lattice2d(CLI::App& app) {
     std::string pattern = "honeycomb", output, png;
     std::vector<double> center;
     double diameter = 0;
+    double line_width = 0.4;
   };
   auto o = std::make_shared<Opts>();
   std::string names;
@@ -39,7 +41,8 @@ void add_lattice2d(CLI::App& app) {
   cmd->add_option("--width", o->a.region.width, "rectangle width (mm)")->capture_default_str();
   cmd->add_option("--height", o->a.region.height, "rectangle height (mm)")->capture_default_str();
   cmd->add_option("--diameter", o->diameter, "crop to a circle of this diameter instead (mm)");
-  cmd->add_option("--center", o->center, "region centre x,y (mm); default: lower-left corner at 0,0")
+  cmd->add_option("--center", o->center,
+                  "region centre x,y (mm); default: lower-left corner at 0,0")
       ->delimiter(',')
       ->expected(2);
   cmd->add_option("--z", o->a.z, "height of the lattice plane (mm)")->capture_default_str();
@@ -50,6 +53,10 @@ void add_lattice2d(CLI::App& app) {
   cmd->add_option("--handle-width", o->a.handle_width, "handle width along y (mm)")
       ->capture_default_str();
   cmd->add_option("-o,--output", o->output, "lattice JSON to write")->required();
+  cmd->add_option("--line-width", o->line_width,
+                  "printed line width for the pore area it reports (mm)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   cmd->add_option("--png", o->png, "also write a PNG preview of the struts");
   cmd->callback([o] {
     AtlasParams a = o->a;
@@ -58,13 +65,16 @@ void add_lattice2d(CLI::App& app) {
       a.region.shape = RegionShape::Circle;
       a.region.diameter = o->diameter;
     }
-    a.region.center = o->center.size() == 2 ? Vec2{o->center[0], o->center[1]} : corner_at_origin(a);
+    a.region.center =
+        o->center.size() == 2 ? Vec2{o->center[0], o->center[1]} : corner_at_origin(a);
     const Graph g = make_lattice2d(a);
     write_lattice(o->output, g);
+    const PoreArea pores = pore_area(g, o->line_width);
     std::cout << "lattice: " << to_string(a.pattern) << ", " << g.nodes.size() << " nodes, "
               << g.edges.size() << " edges, " << num(g.total_length(), 1)
-              << " mm of struts, lower bound " << lower_bound_paths(g) << " paths -> " << o->output
-              << "\n";
+              << " mm of struts, lower bound " << lower_bound_paths(g) << " paths, pore area "
+              << num(pores.percent(), 1) << "% (" << pores.count << " pores at "
+              << num(o->line_width, 2) << " mm lines) -> " << o->output << "\n";
     if (!o->png.empty()) {
       // One path per strut, drawn without order colours: a picture of the design itself.
       Toolpath tp;

@@ -7,6 +7,7 @@
 #include "trellis/core/file.hpp"
 #include "trellis/lattice/io.hpp"
 #include "trellis/plan/aero.hpp"
+#include "trellis/plan/gippo.hpp"
 #include "trellis/plan/report.hpp"
 #include "trellis/render/render.hpp"
 #include "trellis/toolpath/json.hpp"
@@ -84,6 +85,8 @@ void add_plan(CLI::App& app) {
     PlanParams p;
     double merge_tolerance = 1e-6;
     bool keep_graph = false;
+    int seeds = 0;
+    std::string seeds_report;
     // aero
     AeroParams aero;
     std::string method = "dynamic";
@@ -116,6 +119,11 @@ void add_plan(CLI::App& app) {
       ->check(CLI::Range(1, 10000000))
       ->capture_default_str();
   cmd->add_option("--seed", o->p.gippo.seed, "gippo: random seed")->capture_default_str();
+  cmd->add_option("--seeds", o->seeds,
+                  "gippo: also run seeds SEED .. SEED+N-1 and report the best score's spread")
+      ->check(CLI::Range(0, 100000));
+  cmd->add_option("--seeds-report", o->seeds_report,
+                  "gippo --seeds: JSON with every seed's scores");
   cmd->add_option("--threads", o->p.gippo.threads, "threads (0 = all cores)")
       ->check(CLI::Range(0, 1024))
       ->capture_default_str();
@@ -199,6 +207,15 @@ void add_plan(CLI::App& app) {
       if (!r.layers.empty() && !r.layers[0].scores.empty())
         render_scores_png(r.layers[0].scores, r.layers[0].best_iteration,
                           "GIPPO score per iteration", o->png_prefix + ".scores.png");
+    }
+    if (o->seeds > 0 && p.planner == Planner::Gippo) {
+      const GippoRobustness rob = gippo_robustness(g, p.gippo, o->seeds);
+      if (!o->seeds_report.empty())
+        write_file_atomic(o->seeds_report, gippo_robustness_json(rob, p.gippo));
+      std::cout << "gippo robustness over " << o->seeds << " seeds: best score mean "
+                << num(rob.mean, 4) << ", SD " << num(rob.sd, 4) << " (CV "
+                << num(rob.cv_percent(), 2) << "%), min " << num(rob.min, 4) << ", max "
+                << num(rob.max, 4) << "\n";
     }
     print_warnings(diag);
     std::cout << o->planner << ": " << g.edges.size() << " edges, " << r.toolpath.layers.size()

@@ -7,8 +7,8 @@
 #include <cmath>
 #include <tuple>
 
-#include "trellis/core/rng.hpp"
 #include "trellis/core/error.hpp"
+#include "trellis/core/rng.hpp"
 #include "trellis/geom/mesh_io.hpp"
 #include "trellis/lattice/atlas.hpp"
 #include "trellis/lattice/cells3d.hpp"
