@@ -294,7 +294,9 @@ void stop_after_nodes(glp_tree* tree, void* info) {
     glp_ios_terminate(tree);
 }
 
-// The exact minimum by integer programming with lazily added cycle rows. Tightens `lower` and,
+// The exact minimum by integer programming with lazily added cycle rows (GLPK: a Debian-packaged
+// MIP solver whose C API is small; the cycle rows are ours, the branch and cut is GLPK's).
+// GLPK keeps its environment per thread, so planners on different threads do not interfere. Tightens `lower` and,
 // when it finds a better order, `order`; returns true if it ran to the end (lower == cost).
 bool solve_exact(const Part& p, const CollisionOrderParams& params, std::vector<Local>& order,
                  std::size_t& upper, std::size_t& lower) {
