@@ -51,8 +51,8 @@ void add_check(CLI::App& app) {
     auto ends_with = [](const std::string& s, const std::string& tail) {
       return s.size() >= tail.size() && s.compare(s.size() - tail.size(), tail.size(), tail) == 0;
     };
-    const bool gcode =
-        ends_with(o->print, ".gcode") || ends_with(o->print, ".nc") || ends_with(o->print, ".g");
+    const bool gcode = ends_with(o->print, ".gcode") || ends_with(o->print, ".nc") ||
+                       ends_with(o->print, ".g");
     if (gcode) {
       GcodeReadOptions read;
       MachineProfile profile;
@@ -96,15 +96,16 @@ void add_check(CLI::App& app) {
       render_3d_png(tp, o->png, v);
     }
     print_warnings(diag);
-    std::cout << "check: " << c.paths << " paths, " << c.segments << " segments, " << c.printed_once
-              << "/" << c.struts << " struts printed once, " << c.missing.size() << " missing, "
-              << c.repeated.size() << " repeated, " << c.off_design_segments << " off the design, "
-              << c.top_down.size() << " steep struts top-down, " << c.collisions << " collisions\n";
+    std::cout << "check: " << c.paths << " paths, " << c.segments << " segments, "
+              << c.printed_once << "/" << c.struts << " struts printed once, " << c.missing.size()
+              << " missing, " << c.repeated.size() << " repeated, " << c.off_design_segments
+              << " off the design, " << c.top_down.size() << " steep struts top-down, "
+              << c.collisions << " collisions\n";
     for (std::size_t i = 0; i < std::min<std::size_t>(c.hits.size(), 10); ++i) {
       const auto& h = c.hits[i];
       std::cout << "  collision: path " << h.path << " segment " << h.segment << " (strut "
-                << h.strut << ") hits strut " << h.hit_strut << " at (" << num(h.point.x, 3) << ", "
-                << num(h.point.y, 3) << ", " << num(h.point.z, 3) << "), tip at ("
+                << h.strut << ") hits strut " << h.hit_strut << " at (" << num(h.point.x, 3)
+                << ", " << num(h.point.y, 3) << ", " << num(h.point.z, 3) << "), tip at ("
                 << num(h.tip.x, 3) << ", " << num(h.tip.y, 3) << ", " << num(h.tip.z, 3) << ")\n";
     }
     if (!c.ok()) set_exit_code(1);

@@ -41,8 +41,7 @@ void add_lattice2d(CLI::App& app) {
   cmd->add_option("--width", o->a.region.width, "rectangle width (mm)")->capture_default_str();
   cmd->add_option("--height", o->a.region.height, "rectangle height (mm)")->capture_default_str();
   cmd->add_option("--diameter", o->diameter, "crop to a circle of this diameter instead (mm)");
-  cmd->add_option("--center", o->center,
-                  "region centre x,y (mm); default: lower-left corner at 0,0")
+  cmd->add_option("--center", o->center, "region centre x,y (mm); default: lower-left corner at 0,0")
       ->delimiter(',')
       ->expected(2);
   cmd->add_option("--z", o->a.z, "height of the lattice plane (mm)")->capture_default_str();
@@ -65,8 +64,7 @@ void add_lattice2d(CLI::App& app) {
       a.region.shape = RegionShape::Circle;
       a.region.diameter = o->diameter;
     }
-    a.region.center =
-        o->center.size() == 2 ? Vec2{o->center[0], o->center[1]} : corner_at_origin(a);
+    a.region.center = o->center.size() == 2 ? Vec2{o->center[0], o->center[1]} : corner_at_origin(a);
     const Graph g = make_lattice2d(a);
     write_lattice(o->output, g);
     const PoreArea pores = pore_area(g, o->line_width);

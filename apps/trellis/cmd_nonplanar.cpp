@@ -104,6 +104,8 @@ void add_nonplanar(CLI::App& app) {
       ->capture_default_str();
   auto* tools = cmd->add_option("--layer-tools", o->layer_tools,
                                 "tools per layer: LAYERS:TOOL groups (3:0,3:1,3:0) or TOOL list");
+  cmd->add_flag("--surface-spacing", o->prm.spacing_along_surface,
+                "lines one width apart along the surface (arc length), not in the slicing planes");
   cmd->add_option("--speed", o->prm.speed, "print speed (mm/s; 0 = profile)")->capture_default_str();
   cmd->add_flag("--no-center", o->no_center, "keep surface XY coordinates (no bed centring)");
   cmd->add_option("--set", o->sets, "override a machine setting: section.key=value (repeatable)");

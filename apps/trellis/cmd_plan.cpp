@@ -2,8 +2,9 @@
 #include <iostream>
 
 #include "commands.hpp"
-#include "trellis/analysis/collisions.hpp"
 #include "trellis/core/error.hpp"
+#include "trellis/core/file.hpp"
+#include "trellis/analysis/collisions.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/lattice/io.hpp"
 #include "trellis/plan/aero.hpp"
@@ -73,8 +74,9 @@ void plan_aero_cli(const Opts& o) {
             << r.lower_bound_trails << "), longest " << r.max_trail_edges << " struts, travel "
             << r.travel_moves << " moves / " << num(r.travel_length, 1) << " mm, collisions "
             << c.collisions << " (checked; planned " << r.collisions_planned << ", lower bound "
-            << r.collisions_lower_bound << (r.collisions_proven_minimal() ? ", proven minimal" : "")
-            << "), " << num(secs, 3) << " s -> " << o.output << "\n";
+            << r.collisions_lower_bound
+            << (r.collisions_proven_minimal() ? ", proven minimal" : "") << "), " << num(secs, 3)
+            << " s -> " << o.output << "\n";
 }
 
 }  // namespace
@@ -122,8 +124,7 @@ void add_plan(CLI::App& app) {
   cmd->add_option("--seeds", o->seeds,
                   "gippo: also run seeds SEED .. SEED+N-1 and report the best score's spread")
       ->check(CLI::Range(0, 100000));
-  cmd->add_option("--seeds-report", o->seeds_report,
-                  "gippo --seeds: JSON with every seed's scores");
+  cmd->add_option("--seeds-report", o->seeds_report, "gippo --seeds: JSON with every seed's scores");
   cmd->add_option("--threads", o->p.gippo.threads, "threads (0 = all cores)")
       ->check(CLI::Range(0, 1024))
       ->capture_default_str();
@@ -196,8 +197,9 @@ void add_plan(CLI::App& app) {
         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     write_toolpath(o->output, r.toolpath);
     if (!o->report.empty())
-      write_file_atomic(o->report,
-                        plan_report_json(r, p, diag, {o->input, g.nodes.size(), g.edges.size()}));
+      write_file_atomic(
+          o->report,
+          plan_report_json(r, p, diag, {o->input, g.nodes.size(), g.edges.size()}));
     if (!o->png_prefix.empty()) {
       for (std::size_t i = 0; i < r.toolpath.layers.size(); ++i) {
         char name[32];
