@@ -1,11 +1,10 @@
 // Runs the trellis binary as a user would: exit codes, messages, outputs.
 #include <gtest/gtest.h>
-
-#include <regex>
 #include <sys/wait.h>
 
 #include <filesystem>
 #include <fstream>
+#include <regex>
 #include <set>
 #include <sstream>
 
