@@ -296,8 +296,9 @@ void stop_after_nodes(glp_tree* tree, void* info) {
 
 // The exact minimum by integer programming with lazily added cycle rows (GLPK: a Debian-packaged
 // MIP solver whose C API is small; the cycle rows are ours, the branch and cut is GLPK's).
-// GLPK keeps its environment per thread, so planners on different threads do not interfere. Tightens `lower` and,
-// when it finds a better order, `order`; returns true if it ran to the end (lower == cost).
+// GLPK keeps its environment per thread, so planners on different threads do not interfere.
+// Tightens `lower` and, when it finds a better order, `order`; returns true if it ran to the end
+// (lower == cost).
 bool solve_exact(const Part& p, const CollisionOrderParams& params, std::vector<Local>& order,
                  std::size_t& upper, std::size_t& lower) {
   const std::size_t m = p.arcs.size();
@@ -323,15 +324,16 @@ bool solve_exact(const Part& p, const CollisionOrderParams& params, std::vector<
     glp_set_mat_row(lp, row, static_cast<int>(cycle.size()), ind.data(), val.data());
   };
   std::vector<std::uint32_t> parent(p.struts.size(), kNo), depth(p.struts.size());
-  // Start: the shortest cycle through every arc.
+  // Start: the shortest cycle of up to 4 relations through every arc (longer ones are added as
+  // the solutions need them; starting with all of them costs more than it saves).
   std::set<std::vector<std::uint32_t>> seen;
   const std::vector<char> all(m, 1);
-  auto add_cycles = [&](const std::vector<char>& use, std::size_t cap) {
+  auto add_cycles = [&](const std::vector<char>& use, std::size_t cap, std::size_t max_len) {
     std::size_t added = 0;
     for (std::uint32_t a = 0; a < m && added < cap; ++a) {
       if (!use[a]) continue;
       std::size_t budget = SIZE_MAX;
-      auto c = shortest_cycle(p, a, use, 1 << 30, parent, depth, budget);
+      auto c = shortest_cycle(p, a, use, max_len, parent, depth, budget);
       if (c.empty()) continue;
       std::vector<std::uint32_t> key = c;
       std::sort(key.begin(), key.end());
@@ -341,7 +343,7 @@ bool solve_exact(const Part& p, const CollisionOrderParams& params, std::vector<
     }
     return added;
   };
-  add_cycles(all, m);
+  add_cycles(all, m, 4);
   bool done = false;
   std::size_t node_limit = params.exact_node_limit;
   for (int round = 0; round < params.exact_rounds && !done; ++round) {
@@ -377,7 +379,7 @@ bool solve_exact(const Part& p, const CollisionOrderParams& params, std::vector<
       done = true;
       break;
     }
-    if (add_cycles(keep, 300) == 0) break;
+    if (add_cycles(keep, 300, std::size_t{1} << 30) == 0) break;
   }
   glp_delete_prob(lp);
   return done;
