@@ -81,7 +81,7 @@ Graph conformal_lattice(const ConformalParams& p, Diagnostics& diag) {
   const Vec3 span = box.max - box.min;
   // Depth below the surface from the mesh's signed distance field, exact enough for the band
   // that matters (the skin plus a strut).
-  const double voxel = p.voxel > 0 ? p.voxel : std::max(p.size / 20, 1e-3);
+  const double voxel = p.voxel > 0 ? p.voxel : std::max(p.size / 10, 1e-3);
   MeshSdfOptions sdf;
   sdf.voxel = voxel;
   sdf.band_voxels = std::max(3.0, (p.skin + p.size) / voxel + 2);

@@ -62,7 +62,7 @@ struct ConformalParams {
   double skin_density = 0.05;       // skin foam seeds per mm³
   std::uint64_t seed = 1;           // skin foam seed
   int core_material = 0, skin_material = 0;
-  double voxel = 0;  // distance-field voxel (mm); 0 = size / 20
+  double voxel = 0;  // distance-field voxel (mm); 0 = size / 10
 };
 Graph conformal_lattice(const ConformalParams& params, Diagnostics& diag);
 
