@@ -1000,15 +1000,46 @@ SurfaceDeviation surface_deviation(const Toolpath& tp, const HeightField& surfac
       return std::abs(distance_to_surface(f, q, off) - off);
     };
     SurfaceDeviation local;
+    // Vertical mode: the distance from a chord midpoint to any surface point bounds its distance
+    // to the surface from above — to the point below it (the vertical gap) and to the surface
+    // point under its foot on the tangent plane (tight on slopes). Midpoints are visited by
+    // falling bound and the minimisation stops once no bound can beat the largest distance
+    // found: the same maximum, a fraction of the work.
+    std::vector<std::pair<double, Vec3>> mids;
     for (const auto& p : tp.layers[k].paths)
       for (std::size_t i = 0; i < p.points.size(); ++i) {
         const double d = dev(p.points[i], false);
         if (d > local.max_point) local.max_point = d, local.worst = p.points[i];
         if (i == 0) continue;
         const Vec3 mid = (p.points[i - 1] + p.points[i]) * 0.5;
-        const double c = dev(mid, true);
-        if (c > local.max_chord) local.max_chord = c, local.worst_chord = mid;
+        double bound = 1e300;
+        if (prm.offset == OffsetMode::Vertical) {
+          const double z = f(mid.x, mid.y);
+          if (std::isfinite(z)) {
+            bound = std::abs(mid.z - off - z);
+            const double h = 1e-3;
+            const double fx = (f(mid.x + h, mid.y) - f(mid.x - h, mid.y)) / (2 * h);
+            const double fy = (f(mid.x, mid.y + h) - f(mid.x, mid.y - h)) / (2 * h);
+            if (std::isfinite(fx) && std::isfinite(fy)) {
+              const Vec3 q{mid.x, mid.y, mid.z - off};
+              const double len = std::sqrt(fx * fx + fy * fy + 1);
+              const Vec3 n{-fx / len, -fy / len, 1 / len};
+              const double along = (q.z - z) * n.z;  // signed distance to the tangent plane
+              const Vec3 foot = q - n * along;
+              const double zf = f(foot.x, foot.y);
+              if (std::isfinite(zf)) bound = std::min(bound, distance(q, Vec3{foot.x, foot.y, zf}));
+            }
+          }
+        }
+        mids.emplace_back(bound, mid);
       }
+    std::stable_sort(mids.begin(), mids.end(),
+                     [](const auto& a, const auto& b) { return a.first > b.first; });
+    for (const auto& [bound, mid] : mids) {
+      if (bound <= local.max_chord) break;
+      const double c = dev(mid, true);
+      if (c > local.max_chord) local.max_chord = c, local.worst_chord = mid;
+    }
     std::lock_guard lock(m);
     if (local.max_point > out.max_point) out.max_point = local.max_point, out.worst = local.worst;
     if (local.max_chord > out.max_chord)

@@ -520,3 +520,39 @@ TEST(Nonplanar, SurfaceSpacingKeepsLinesOneWidthApartAlongTheSlope) {
   ASSERT_EQ(a.size(), b.size());
   for (std::size_t i = 0; i < a.size(); ++i) EXPECT_NEAR(a[i], b[i], 1e-9);
 }
+
+namespace {
+
+// The self-check's largest chord distance (found with pruning by upper bounds) equals a brute
+// force: every chord midpoint's distance to the surface by dense sampling around it.
+TEST(NonplanarCheck, PrunedChordDeviationEqualsBruteForce) {
+  for (const HeightField& s : {corrugation(CorrugationParams{}), m_curve(MCurveParams{})}) {
+    NonplanarParams prm;
+    prm.layers = 2;
+    prm.width = 1.0;  // fewer chords: the brute force stays quick
+    prm.chord_tolerance = 0.02;
+    const NonplanarResult r = slice_nonplanar(s, prm);
+    const SurfaceDeviation dev = surface_deviation(r.toolpath, s, prm);
+    auto f = s.evaluator();
+    double brute = 0;
+    for (std::size_t k = 0; k < r.toolpath.layers.size(); ++k)
+      for (const auto& p : r.toolpath.layers[k].paths)
+        for (std::size_t i = 1; i < p.points.size(); ++i) {
+          const Vec3 m = (p.points[i - 1] + p.points[i]) * 0.5;
+          const Vec3 q{m.x, m.y, m.z - static_cast<double>(k) * prm.layer_height};
+          double best = 1e300;
+          const double r0 = 0.08, step = 0.002;
+          for (double dx = -r0; dx <= r0; dx += step)
+            for (double dy = -r0; dy <= r0; dy += step) {
+              const double z = f(q.x + dx, q.y + dy);
+              if (std::isfinite(z)) best = std::min(best, std::hypot(dx, dy, z - q.z));
+            }
+          if (best < 1e299) brute = std::max(brute, best);
+        }
+    EXPECT_GT(brute, 0);
+    // Sampling overestimates a distance by at most about half a step squared over it.
+    EXPECT_NEAR(dev.max_chord, brute, 2e-4) << s.name();
+  }
+}
+
+}  // namespace
