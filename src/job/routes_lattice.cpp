@@ -72,7 +72,10 @@ Graph layered_lattice(AtlasParams base, const Config& c) {
     solid = read_mesh(c.layers.solid);
     require_closed(solid, c.layers.solid);
     box = bounds(solid);
-    if (count <= 0) count = static_cast<int>(std::floor((box.max.z - box.min.z) / h + 1e-9));
+    // The layer rule (GIPPO paper: a 4 mm part in 0.148 mm layers prints 28 layers): every
+    // started layer is printed, ceil(H / h); a layer is cropped to the solid's section at its
+    // middle, or just below the top for a partial top layer.
+    if (count <= 0) count = static_cast<int>(std::ceil((box.max.z - box.min.z) / h - 1e-9));
     if (count < 1) throw GeometryError("solid '" + c.layers.solid + "' is thinner than one layer");
   }
   if (count < 1) throw SettingError("layers.count must be >= 1 without layers.solid", {"", 0, "layers.count"});
@@ -81,7 +84,7 @@ Graph layered_lattice(AtlasParams base, const Config& c) {
     a.rotation_deg += i * c.layers.rotation_deg;
     a.z = a.z + i * h;
     if (!c.layers.solid.empty()) {
-      a.crop = slice_mesh(solid, box.min.z + (i + 0.5) * h);
+      a.crop = slice_mesh(solid, trellis::solid_section_z(box, i, h));
       if (a.crop.empty()) continue;
       a.region.shape = RegionShape::Circle;
       a.region.center = {(box.min.x + box.max.x) / 2, (box.min.y + box.max.y) / 2};

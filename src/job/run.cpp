@@ -66,6 +66,10 @@ std::string fixed(double v, int decimals) {
 
 }  // namespace routes
 
+double solid_section_z(const BBox3& box, int layer, double h) {
+  return std::min(box.min.z + (layer + 0.5) * h, box.max.z - 1e-3 * h);
+}
+
 Toolpath read_print(const std::string& path, const Settings* machine, double* snap,
                     Diagnostics& diag) {
   const auto ext = fs::path(path).extension().string();
