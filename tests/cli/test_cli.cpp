@@ -203,10 +203,10 @@ TEST(Cli, AnalyzeAndCompareOurOwnGcode) {
   EXPECT_NE(r.out.find("ratio 1.000, double 0.00 mm, off-design 0.00 mm, missing 0 of"), std::string::npos) << r.out;
   const std::string report = trellis::read_file(in_work("an.report.json"));
   EXPECT_NE(report.find("\"missing_edges\": 0"), std::string::npos);
-  r = run("compare " + lat + " " + gc + " " + gc + " --align --png " + in_work("cmp"));
+  r = run("compare " + lat + " " + gc + " " + gc + " --align --preview " + in_work("cmp"));
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("ratio"), std::string::npos);
-  EXPECT_TRUE(fs::exists(in_work("cmp.an.layer000.png")));
+  EXPECT_TRUE(fs::exists(in_work("cmp/an_layer_0000.png")));
   // Garbage lines are warnings naming the line, not crashes.
   const std::string bad = write("bad.gcode", "G1 X1 Y1 E1\nG1 X@@ E2\nG1 X2 Y2 E3\n");
   r = run("analyze " + bad);
