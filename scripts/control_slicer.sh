@@ -31,7 +31,7 @@ while read -r spec; do
     files+=("$out/$name.prusa$w.gcode")
   done
   "$bin" compare "$out/$name.json" "${files[@]}" --align --bead-width 0.2 --report "$out/$name.compare.json" \
-    --png "$out/$name" >/dev/null
+    --preview "$out/$name" >/dev/null
   /usr/bin/python3 - "$out/$name.compare.json" "$name" <<'PY'
 import json, re, sys
 for r in json.load(open(sys.argv[1])):

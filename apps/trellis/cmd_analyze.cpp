@@ -37,8 +37,9 @@ void add_common(CLI::App* cmd, AnalyzeOpts& o) {
   cmd->add_flag("--strict", o.read.stop_on_error,
                 "stop at the first unreadable line (default: warn and skip)");
   cmd->add_option("--report", o.report, "JSON report to write");
-  cmd->add_option("--png", o.png,
-                  "write PREFIX.<file>.layerNNN.png: doubles red, missing struts blue");
+  cmd->add_option("--preview", o.png,
+                  "folder for PNGs per file and layer (FILE_layer_0000.png): doubles red, missing "
+                  "struts blue; needs --design");
 }
 
 std::vector<Analysis> run(const AnalyzeOpts& o) {
@@ -61,9 +62,11 @@ std::vector<Analysis> run(const AnalyzeOpts& o) {
           blue.push_back(
               {design.nodes[design.edges[e].a].xy(), design.nodes[design.edges[e].b].xy()});
         char name[64];
-        std::snprintf(name, sizeof name, ".layer%03zu.png", i);
+        std::snprintf(name, sizeof name, "_layer_%04zu.png", i);
+        std::filesystem::create_directories(o.png);
         render_overlay_png(dsegs, tp.layers[i], a.layers[i].doubles, blue, o.params.width,
-                           o.png + "." + std::filesystem::path(f).stem().string() + name);
+                           (std::filesystem::path(o.png) /
+                            (std::filesystem::path(f).stem().string() + name)).string());
       }
     }
   }

@@ -13,8 +13,7 @@ void add_check(CLI::App& app) {
     std::string lattice, print, machine, report, preview;
     std::vector<std::string> sets;
     double snap = 0.05;
-    std::map<std::string, std::string> values;
-    std::vector<std::pair<std::string, CLI::Option*>> options;
+    SettingFlags flags;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand(
@@ -34,24 +33,18 @@ void add_check(CLI::App& app) {
   cmd->add_option("--report", o->report, "report JSON with every collision");
   cmd->add_option("--preview", o->preview, "folder for an isometric picture with the collisions ringed");
   cmd->add_option("--set", o->sets, "any [nozzle] or [lattice] setting: section.key=value");
-  for (const auto& s : all_settings()) {
-    if (s.flag.empty() || (s.section() != "nozzle" && s.section() != "lattice")) continue;
-    o->options.emplace_back(
-        s.key, cmd->add_option("--" + s.flag, o->values[s.key],
-                               s.doc + " (" + s.unit + "; default " + s.default_text() + ")")
-                   ->group("Nozzle model"));
-  }
+  o->flags.add(cmd, {"nozzle", "lattice"});
   cmd->add_option("--snap", o->snap,
                   "segment ends within this of a node are at it (mm; default 0.05, or the "
                   "profile's node overlap + 0.05)");
   cmd->callback([o] {
     Settings st = command_settings(o->machine, o->sets);
-    for (const auto& [key, opt] : o->options)
-      if (opt->count() > 0) st.set_text(key, o->values[key], {"--" + find_setting(key)->flag});
+    o->flags.apply(st);
     const Config cfg = st.config();
     cfg.aero.nozzle.validate();
     Diagnostics diag;
-    const Graph g = read_lattice(o->lattice, {cfg.merge_tolerance, true}, diag);
+    const Graph g = read_lattice(
+        o->lattice, cfg.keep_graph ? keep_graph_options() : CleanOptions{cfg.merge_tolerance, true}, diag);
     CheckOptions check;
     check.nozzle = cfg.aero.nozzle;
     check.snap = o->snap;

@@ -28,9 +28,7 @@ struct RouteSpec {
 struct RouteOpts {
   std::string input, extra, machine, output, report, toolpath, gcode, preview;
   std::vector<std::string> sets;
-  std::map<std::string, std::string> values;  // setting key -> text from its flag
-  std::map<std::string, int> bools;           // setting key -> 1 / 0 from --flag / --no-flag
-  std::vector<std::pair<std::string, CLI::Option*>> options;
+  SettingFlags flags;
 };
 
 std::string help_of(const Setting& s) {
@@ -39,29 +37,6 @@ std::string help_of(const Setting& s) {
   h += "; " + s.key + ", default " + (s.derived.empty() ? s.default_text() : s.derived);
   if (s.kind == SettingKind::Choice || s.kind == SettingKind::Numbers) h += "; " + s.range_text();
   return h;
-}
-
-void add_setting_flags(CLI::App* cmd, RouteOpts& o, const std::vector<std::string>& sections) {
-  for (const auto& s : all_settings()) {
-    if (s.flag.empty()) continue;
-    if (std::find(sections.begin(), sections.end(), s.section()) == sections.end()) continue;
-    const std::string group = "Settings [" + s.section() + "]";
-    if (s.kind == SettingKind::Bool) {
-      auto* on = cmd->add_flag_callback(
-          "--" + s.flag, [&o, key = s.key] { o.bools[key] = 1; }, help_of(s));
-      on->group(group);
-      cmd->add_flag_callback("--no-" + s.flag, [&o, key = s.key] { o.bools[key] = 0; },
-                             "turn " + s.key + " off")
-          ->group(group);
-      continue;
-    }
-    auto* opt = cmd->add_option("--" + s.flag, o.values[s.key], help_of(s))->group(group);
-    if (s.kind == SettingKind::Numbers) opt->type_name("LIST");
-    else if (s.kind == SettingKind::Choice) opt->type_name("NAME");
-    else if (s.kind == SettingKind::Text) opt->type_name(s.unit == "path" ? "FILE" : "TEXT");
-    else opt->type_name(s.kind == SettingKind::Integer ? "INT" : "NUMBER");
-    o.options.emplace_back(s.key, opt);
-  }
 }
 
 std::string command_line(int argc, char** argv) {
@@ -76,6 +51,35 @@ std::string command_line(int argc, char** argv) {
 }
 
 }  // namespace
+
+void SettingFlags::add(CLI::App* cmd, const std::vector<std::string>& sections) {
+  for (const auto& s : all_settings()) {
+    if (s.flag.empty()) continue;
+    if (std::find(sections.begin(), sections.end(), s.section()) == sections.end()) continue;
+    const std::string group = "Settings [" + s.section() + "]";
+    if (s.kind == SettingKind::Bool) {
+      cmd->add_flag_callback("--" + s.flag, [this, key = s.key] { bools[key] = 1; }, help_of(s))
+          ->group(group);
+      cmd->add_flag_callback("--no-" + s.flag, [this, key = s.key] { bools[key] = 0; },
+                             "turn " + s.key + " off")
+          ->group(group);
+      continue;
+    }
+    auto* opt = cmd->add_option("--" + s.flag, values[s.key], help_of(s))->group(group);
+    if (s.kind == SettingKind::Numbers) opt->type_name("LIST");
+    else if (s.kind == SettingKind::Choice) opt->type_name("NAME");
+    else if (s.kind == SettingKind::Text) opt->type_name(s.unit == "path" ? "FILE" : "TEXT");
+    else opt->type_name(s.kind == SettingKind::Integer ? "INT" : "NUMBER");
+    options.emplace_back(s.key, opt);
+  }
+}
+
+void SettingFlags::apply(Settings& st) const {
+  for (const auto& [key, opt] : options)
+    if (opt->count() > 0) st.set_text(key, values.at(key), {"--" + find_setting(key)->flag});
+  for (const auto& [key, on] : bools)
+    st.set(key, on != 0, {"--" + std::string(on ? "" : "no-") + find_setting(key)->flag});
+}
 
 Settings command_settings(const std::string& machine, const std::vector<std::string>& sets) {
   Settings st;
@@ -212,7 +216,7 @@ void add_routes(CLI::App& app, int argc, char** argv) {
     if (spec.toolpath) cmd->add_option("--toolpath", o->toolpath, "also write the toolpath JSON");
     cmd->add_option("--preview", o->preview, "folder for PNG previews (layer_0000.png, ...)");
     cmd->add_option("--set", o->sets, "any setting: section.key=value (repeatable; `trellis settings`)");
-    add_setting_flags(cmd, *o, spec.flag_sections);
+    o->flags.add(cmd, spec.flag_sections);
     const bool machine_required = route == "gcode" || route == "slice" || route == "nonplanar";
     cmd->callback([o, route, machine_required, argc, argv] {
       if (machine_required && o->machine.empty())
@@ -229,10 +233,7 @@ void add_routes(CLI::App& app, int argc, char** argv) {
       if (route == "plan") job.settings.set("plan.planner", o->extra, {"planner argument"});
       if (route == "surface" && !o->extra.empty())
         job.settings.set("surface.kind", o->extra, {"kind argument"});
-      for (const auto& [key, opt] : o->options)
-        if (opt->count() > 0) job.settings.set_text(key, o->values[key], {"--" + find_setting(key)->flag});
-      for (const auto& [key, on] : o->bools)
-        job.settings.set(key, on != 0, {"--" + std::string(on ? "" : "no-") + find_setting(key)->flag});
+      o->flags.apply(job.settings);
       for (const auto& s : o->sets) {
         const auto eq = s.find('=');
         if (eq == std::string::npos)

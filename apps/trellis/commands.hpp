@@ -3,6 +3,8 @@
 #pragma once
 #include <CLI/CLI.hpp>
 
+#include <map>
+
 #include "trellis/core/diagnostics.hpp"
 #include "trellis/job/job.hpp"
 #include "trellis/lattice/collision.hpp"
@@ -35,6 +37,16 @@ int exit_code();
 void progress_line(const std::string& stage, double fraction);
 // Prints the warnings of a run on stderr.
 void print_warnings(const Diagnostics& diag);
+
+// Flags generated from the settings schema for the given sections (`--name VALUE`; booleans
+// `--name` / `--no-name`); `apply` sets what was given, each naming its flag as its origin.
+struct SettingFlags {
+  std::map<std::string, std::string> values;
+  std::map<std::string, int> bools;
+  std::vector<std::pair<std::string, CLI::Option*>> options;
+  void add(CLI::App* cmd, const std::vector<std::string>& sections);
+  void apply(Settings& settings) const;
+};
 
 // Settings of a command: the machine profile (if any), then --set assignments.
 Settings command_settings(const std::string& machine, const std::vector<std::string>& sets);

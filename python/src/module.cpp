@@ -476,7 +476,8 @@ PYBIND11_MODULE(_trellis, m) {
           cfg.aero.nozzle.validate();
           py::gil_scoped_release release;
           Diagnostics diag;
-          const Graph g = read_lattice(lattice, {cfg.merge_tolerance, true}, diag);
+          const Graph g = read_lattice(
+              lattice, cfg.keep_graph ? keep_graph_options() : CleanOptions{cfg.merge_tolerance, true}, diag);
           CheckOptions check;
           check.nozzle = cfg.aero.nozzle;
           const Toolpath tp = read_print(print, machine.empty() ? nullptr : &st, &check.snap, diag);

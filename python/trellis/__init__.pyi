@@ -70,6 +70,7 @@ def lattice2d(
     handle_width: float = ...,  # lattice2d.handle_width: handle width along y
     handles: bool = ...,  # lattice2d.handles: tensile-test handles at both x ends
     image_size: int = ...,  # output.image_size: preview image size
+    line_width: float = ...,  # lattice2d.line_width: printed line width for the reported pore area
     pattern: Literal['honeycomb', 'voronoi', 'penrose', 'snub-square', 'arrowhead', 'reentrant-honeycomb', 'square', 'triangle', 'lines'] = ...,  # lattice2d.pattern: atlas pattern
     preview_layers: int = ...,  # output.preview_layers: PNG previews spread over the layers
     reentrant_angle: float = ...,  # lattice2d.reentrant_angle: re-entrant honeycomb: strut angle below horizontal
@@ -94,11 +95,14 @@ def lattice3d(
     density: float = ...,  # lattice3d.density: foam seeds per mm³
     frames: int = ...,  # output.frames: aero: step pictures of the first N trails
     image_size: int = ...,  # output.image_size: preview image size
-    kind: Literal['cells', 'foam'] = ...,  # lattice3d.kind: unit cells tessellated, or a stochastic Voronoi foam
+    kind: Literal['cells', 'foam', 'conformal'] = ...,  # lattice3d.kind: unit cells tessellated, a stochastic Voronoi foam, or cells clipped to a closed mesh (lattice3d.mesh) with an optional stochas
     materials: Literal['none', 'xy-plane', 'component', 'vertical'] = ...,  # lattice3d.materials: per-strut material rule
-    mesh: str = ...,  # lattice3d.mesh: foam inside this closed mesh instead of the box
+    mesh: str = ...,  # lattice3d.mesh: foam: inside this closed mesh instead of the box; conformal: the mesh to fill
     preview_layers: int = ...,  # output.preview_layers: PNG previews spread over the layers
+    radius: float = ...,  # lattice3d.radius: strut radius written to a 3MF beam lattice (-o part.3mf)
     seed: int = ...,  # lattice3d.seed: foam random seed
+    skin: float = ...,  # lattice3d.skin: conformal: a stochastic (Voronoi) skin this thick; 0 = none
+    skin_density: float = ...,  # lattice3d.skin_density: conformal: skin foam seeds per mm³
     threads: int = ...,  # run.threads: worker threads (0 = all cores)
 ) -> Result: ...
 
@@ -118,21 +122,25 @@ def plan(
     count: Sequence[float] = ...,  # lattice3d.count: cells along X, Y, Z
     density: float = ...,  # lattice2d.density: Voronoi seeds per mm²
     diameter: float = ...,  # lattice2d.diameter: circle diameter
+    exact_struts: int = ...,  # aero.exact_struts: solve obstruction cycles exactly (integer program) in parts up to this many struts; 0 = local search only
+    fewest_collisions: bool = ...,  # aero.fewest_collisions: break obstruction cycles where it costs the fewest collisions (proven minimal where the exact solver finishes); false = the greedy order
     frames: int = ...,  # output.frames: aero: step pictures of the first N trails
     handle_length: float = ...,  # lattice2d.handle_length: handle length along x
     handle_width: float = ...,  # lattice2d.handle_width: handle width along y
     handles: bool = ...,  # lattice2d.handles: tensile-test handles at both x ends
     image_size: int = ...,  # output.image_size: preview image size
     iterations: int = ...,  # gippo.iterations: solutions generated, best kept (paper: 500)
-    kind: Literal['cells', 'foam'] = ...,  # lattice3d.kind: unit cells tessellated, or a stochastic Voronoi foam
+    keep_graph: bool = ...,  # lattice.keep_graph: the lattice exactly as given: no node merging, no T-junction splitting
+    kind: Literal['cells', 'foam', 'conformal'] = ...,  # lattice3d.kind: unit cells tessellated, a stochastic Voronoi foam, or cells clipped to a closed mesh (lattice3d.mesh) with an optional stochas
     layer_height: float = ...,  # extrusion.layer_height: layer thickness LT when a path has none (Eq. 4)
     layer_rotation: float = ...,  # layers.rotation: pattern rotation added per layer
     layers: int = ...,  # layers.count: layers of the 2D pattern (0 with layers.solid: from its height)
+    line_width: float = ...,  # lattice2d.line_width: printed line width for the reported pore area
     long_nodes: int = ...,  # plan.long_path_nodes: LTS/OE: a path is long with this many nodes
     lookahead: float = ...,  # gradient.lookahead: issue each mixture change this much printed path before the region (dead volume, FGM paper A.1: L = V_melt / (h(w-h) + pi h^2/4))
     materials: Literal['none', 'xy-plane', 'component', 'vertical'] = ...,  # lattice3d.materials: per-strut material rule
     merge_tolerance: float = ...,  # lattice.merge_tolerance: merge nodes closer than this
-    mesh: str = ...,  # lattice3d.mesh: foam inside this closed mesh instead of the box
+    mesh: str = ...,  # lattice3d.mesh: foam: inside this closed mesh instead of the box; conformal: the mesh to fill
     method: Literal['dynamic', 'groups'] = ...,  # aero.method: dynamic (refresh after every trail) or groups (the paper's)
     mode: Literal['max', 'min'] = ...,  # gippo.mode: take the longest (max) or shortest (min) edge
     node_clearance: float = ...,  # nozzle.node_clearance: no collision within this of a node the two struts share
@@ -142,12 +150,16 @@ def plan(
     overlap: float = ...,  # nozzle.overlap: the writer's node overlap: struts planned as if this much longer
     pattern: Literal['honeycomb', 'voronoi', 'penrose', 'snub-square', 'arrowhead', 'reentrant-honeycomb', 'square', 'triangle', 'lines'] = ...,  # lattice2d.pattern: atlas pattern
     preview_layers: int = ...,  # output.preview_layers: PNG previews spread over the layers
+    radius: float = ...,  # lattice3d.radius: strut radius written to a 3MF beam lattice (-o part.3mf)
     reentrant_angle: float = ...,  # lattice2d.reentrant_angle: re-entrant honeycomb: strut angle below horizontal
     region: Literal['rectangle', 'circle'] = ...,  # lattice2d.region: crop region
     region_center: Sequence[float] = ...,  # lattice2d.center: region centre x, y
     rotation: float = ...,  # lattice2d.rotation: pattern rotation about the region centre
     seed: int = ...,  # lattice2d.seed: Voronoi random seed
+    seeds: int = ...,  # gippo.seeds: robustness: also run seeds plan.seed .. +N-1 and report the best score's spread (paper Fig. 2 v-vi); 0 = off
     size: Sequence[float] = ...,  # lattice2d.size: rectangle width, height
+    skin: float = ...,  # lattice3d.skin: conformal: a stochastic (Voronoi) skin this thick; 0 = none
+    skin_density: float = ...,  # lattice3d.skin_density: conformal: skin foam seeds per mm³
     solid: str = ...,  # layers.solid: closed mesh each layer's pattern is cropped to
     speed: float = ...,  # speed.print: printing speed
     strand: float = ...,  # lattice2d.strand: strand distance of square, triangle and lines
@@ -267,6 +279,7 @@ def nonplanar(
     radius: float = ...,  # surface.radius: sphere-cap radius
     resolution: float = ...,  # surface.resolution: grid spacing of generated meshes
     speed: float = ...,  # speed.print: printing speed
+    surface_spacing: bool = ...,  # nonplanar.surface_spacing: lines one width apart along the surface (arc length), not in the slicing planes
     threads: int = ...,  # run.threads: worker threads (0 = all cores)
     width: float = ...,  # surface.width: width along Y
 ) -> Result: ...

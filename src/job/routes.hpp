@@ -24,6 +24,8 @@ std::string embedded_job(const Job& job, const std::string& path);
 // literal command line, which main outputs leave out so that CLI, Python and rerun agree.
 std::string with_job(const std::string& json, const Job& job, const std::string& path,
                      bool command = true);
+// A JSON document with `field` set to another JSON document (text).
+std::string with_field(const std::string& json, const std::string& field, const std::string& value_json);
 // Writes the toolpath JSON with the job embedded.
 void write_toolpath_with_job(const std::string& path, Toolpath toolpath, const Job& job);
 // DIR/layer_0000.png … for `count` layers spread over the toolpath (all when count >= layers).

@@ -9,6 +9,7 @@
 
 #include "routes.hpp"
 #include "trellis/analysis/collisions.hpp"
+#include "trellis/analysis/pores.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/geom/mesh_io.hpp"
@@ -71,7 +72,10 @@ Graph layered_lattice(AtlasParams base, const Config& c) {
     solid = read_mesh(c.layers.solid);
     require_closed(solid, c.layers.solid);
     box = bounds(solid);
-    if (count <= 0) count = static_cast<int>(std::floor((box.max.z - box.min.z) / h + 1e-9));
+    // The layer rule (GIPPO paper: a 4 mm part in 0.148 mm layers prints 28 layers): every
+    // started layer is printed, ceil(H / h); a layer is cropped to the solid's section at its
+    // middle, or just below the top for a partial top layer.
+    if (count <= 0) count = static_cast<int>(std::ceil((box.max.z - box.min.z) / h - 1e-9));
     if (count < 1) throw GeometryError("solid '" + c.layers.solid + "' is thinner than one layer");
   }
   if (count < 1) throw SettingError("layers.count must be >= 1 without layers.solid", {"", 0, "layers.count"});
@@ -80,7 +84,7 @@ Graph layered_lattice(AtlasParams base, const Config& c) {
     a.rotation_deg += i * c.layers.rotation_deg;
     a.z = a.z + i * h;
     if (!c.layers.solid.empty()) {
-      a.crop = slice_mesh(solid, box.min.z + (i + 0.5) * h);
+      a.crop = slice_mesh(solid, trellis::solid_section_z(box, i, h));
       if (a.crop.empty()) continue;
       a.region.shape = RegionShape::Circle;
       a.region.center = {(box.min.x + box.max.x) / 2, (box.min.y + box.max.y) / 2};
@@ -98,8 +102,19 @@ Graph layered_lattice(AtlasParams base, const Config& c) {
 }
 
 Graph cells_or_foam(const Config& c, Diagnostics& diag) {
-  Graph g = c.lattice3d.kind == "foam" ? voronoi_foam(c.lattice3d.foam, diag)
-                                       : cell_lattice(c.lattice3d.cells);
+  Graph g;
+  if (c.lattice3d.kind == "conformal") {
+    ConformalParams p = c.lattice3d.conformal;
+    p.mesh = c.lattice3d.foam.mesh;
+    if (p.mesh.empty())
+      throw SettingError("a conformal lattice needs lattice3d.mesh (--mesh FILE)", {"", 0, "lattice3d.mesh"});
+    p.cell = c.lattice3d.cells.cell;
+    p.size = c.lattice3d.cells.size;
+    p.seed = c.lattice3d.foam.seed;
+    g = conformal_lattice(p, diag);
+  } else {
+    g = c.lattice3d.kind == "foam" ? voronoi_foam(c.lattice3d.foam, diag) : cell_lattice(c.lattice3d.cells);
+  }
   assign_materials(g, material_rule_from_string(c.lattice3d.materials));
   return g;
 }
@@ -129,6 +144,10 @@ JobResult plan_aero_route(const Job& job, const Config& c, const Graph& g, const
   for (auto& l : printed.layers)
     for (auto& path : l.paths) extend_path_ends(path, p.nozzle.end_overlap);
   const CollisionCheck chk = check_collisions(g, printed, check);
+  if (p.collisions && chk.collisions != r.collisions_planned)
+    diag.warn("collision_count_mismatch",
+              fmt::format("the independent check finds {} collision(s), the plan counts {}",
+                          chk.collisions, r.collisions_planned));
   out.toolpath = std::make_shared<Toolpath>(tp);
   out.lattice = std::make_shared<Graph>(g);
   const double secs = seconds_since(t0);
@@ -165,10 +184,11 @@ JobResult plan_aero_route(const Job& job, const Config& c, const Graph& g, const
   }
   out.summary = fmt::format(
       "aero {}: {} struts, {} groups, {} trails (lower bound {}), longest {} struts, travel {} "
-      "moves / {} mm, collisions {} (checked; {} unavoidable), {} s",
+      "moves / {} mm, collisions {} (checked; planned {}, lower bound {}{}), {} s",
       to_string(p.method), g.edges.size(), r.groups, r.trails.trails.size(), r.lower_bound_trails,
-      r.max_trail_edges, r.travel_moves, fixed(r.travel_length, 1), chk.collisions, r.mutual_pairs,
-      fixed(secs, 3));
+      r.max_trail_edges, r.travel_moves, fixed(r.travel_length, 1), chk.collisions,
+      r.collisions_planned, r.collisions_lower_bound,
+      r.collisions_proven_minimal() ? ", proven minimal" : "", fixed(secs, 3));
   return out;
 }
 
@@ -190,16 +210,23 @@ JobResult lattice2d(const Job& job, const Config& c, Diagnostics&, const Progres
     out.files.push_back(preview_name(job.preview, "layer_0000.png"));
     render_layer_png(strut_picture(g), 0, out.files.back(), ro);
   }
-  out.summary = fmt::format("lattice: {}, {} nodes, {} edges, {} mm of struts, lower bound {} paths",
-                            to_string(a.pattern), g.nodes.size(), g.edges.size(),
-                            fixed(g.total_length(), 1), lower_bound_paths(g));
+  const PoreArea pores = pore_area(g, c.line_width);
+  out.summary = fmt::format(
+      "lattice: {}, {} nodes, {} edges, {} mm of struts, lower bound {} paths, pore area {}% ({} "
+      "pores at {} mm lines)",
+      to_string(a.pattern), g.nodes.size(), g.edges.size(), fixed(g.total_length(), 1),
+      lower_bound_paths(g), fixed(pores.percent(), 1), pores.count, fixed(c.line_width, 2));
   return out;
 }
 
 JobResult lattice3d(const Job& job, const Config& c, Diagnostics& diag, const Progress&) {
   JobResult out;
   const Graph g = cells_or_foam(c, diag);
-  if (!job.output.empty()) {
+  if (fs::path(job.output).extension() == ".3mf") {
+    // A 3MF beam lattice (no room for the job: it is not a file `rerun` can regenerate).
+    write_lattice(job.output, g, c.lattice3d.radius);
+    out.files.push_back(job.output);
+  } else if (!job.output.empty()) {
     write_file_atomic(job.output, with_job(lattice_to_json(g), job, job.output, false));
     out.files.push_back(job.output);
   }
@@ -217,8 +244,7 @@ JobResult lattice3d(const Job& job, const Config& c, Diagnostics& diag, const Pr
   for (const auto& e : g.edges) materials = std::max(materials, e.material + 1);
   const BBox3 b = g.bbox();
   out.summary = fmt::format("{}: {} nodes, {} struts, {} material(s), {} x {} x {} mm",
-                            c.lattice3d.kind == "foam" ? std::string("foam")
-                                                       : to_string(c.lattice3d.cells.cell),
+                            c.lattice3d.kind == "cells" ? to_string(c.lattice3d.cells.cell) : c.lattice3d.kind,
                             g.nodes.size(), g.edges.size(), materials, fixed(b.max.x - b.min.x, 2),
                             fixed(b.max.y - b.min.y, 2), fixed(b.max.z - b.min.z, 2));
   return out;
@@ -232,7 +258,8 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
   HeightField surface;
   if (!c.onto.kind.empty()) surface = onto_surface(c.onto);
   if (!job.input.empty()) {
-    g = read_lattice(job.input, {c.merge_tolerance, true}, diag);
+    g = read_lattice(job.input, c.keep_graph ? keep_graph_options() : CleanOptions{c.merge_tolerance, true},
+                     diag);
   } else if (c.planner == "aero") {
     g = cells_or_foam(c, diag);
     input = "lattice3d";
@@ -256,6 +283,16 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
   p.planner = planner_from_string(c.planner);
   p.layer_height = c.machine.layer_height;
   PlanResult r = plan_lattice(g, p, diag, progress);
+  p.gippo.progress = progress;  // the robustness runs below call plan_gippo directly
+  std::string robustness;
+  if (c.gippo_seeds > 0 && p.planner == Planner::Gippo) {
+    // The paper's robustness run (Fig. 2 v-vi): the best score over many seeds.
+    const GippoRobustness rob = gippo_robustness(g, p.gippo, c.gippo_seeds);
+    robustness = gippo_robustness_json(rob, p.gippo);
+    out.summary = fmt::format("gippo robustness over {} seeds: best score mean {}, SD {} (CV {}%), min {}, max {}\n",
+                              c.gippo_seeds, fixed(rob.mean, 4), fixed(rob.sd, 4),
+                              fixed(rob.cv_percent(), 2), fixed(rob.min, 4), fixed(rob.max, 4));
+  }
   if (!c.onto.kind.empty()) {
     progress("surface", 0);
     r.toolpath = project_onto_surface(r.toolpath, surface, c.onto.project);
@@ -272,8 +309,9 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
   GcodeStats gs;
   if (!job.gcode.empty()) write_gcode_out(job.gcode, r.toolpath, job, c, out, &gs);
   if (!job.report.empty()) {
-    write_file_atomic(job.report, with_job(plan_report_json(r, p, diag, {input, g.nodes.size(), g.edges.size()}),
-                                           job, job.report));
+    std::string report = plan_report_json(r, p, diag, {input, g.nodes.size(), g.edges.size()});
+    if (!robustness.empty()) report = with_field(report, "gippo_robustness", robustness);
+    write_file_atomic(job.report, with_job(report, job, job.report));
     out.files.push_back(job.report);
   }
   if (!job.preview.empty()) {
@@ -295,7 +333,7 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
                         job.name + ": GIPPO score per iteration (layer 0)", out.files.back());
     }
   }
-  out.summary = fmt::format(
+  out.summary += fmt::format(
       "{}: {} edges, {} layer(s), {} paths (lower bound {}), score {}, LTS {}%, OE {}%, travel {} "
       "moves / {} mm, {} s",
       c.planner, g.edges.size(), r.toolpath.layers.size(), r.total.paths, r.total.lower_bound_paths,

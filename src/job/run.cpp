@@ -32,6 +32,12 @@ std::string with_job(const std::string& json, const Job& job, const std::string&
   return j.dump(2) + "\n";
 }
 
+std::string with_field(const std::string& json, const std::string& field, const std::string& value_json) {
+  nlohmann::ordered_json j = nlohmann::ordered_json::parse(json);
+  j[field] = nlohmann::ordered_json::parse(value_json);
+  return j.dump(2) + "\n";
+}
+
 void write_toolpath_with_job(const std::string& path, Toolpath toolpath, const Job& job) {
   toolpath.job = embedded_job(job, path);
   write_toolpath(path, toolpath);
@@ -59,6 +65,10 @@ std::string fixed(double v, int decimals) {
 }
 
 }  // namespace routes
+
+double solid_section_z(const BBox3& box, int layer, double h) {
+  return std::min(box.min.z + (layer + 0.5) * h, box.max.z - 1e-3 * h);
+}
 
 Toolpath read_print(const std::string& path, const Settings* machine, double* snap,
                     Diagnostics& diag) {

@@ -157,11 +157,11 @@ Graph split_t_junctions(const Graph& g, double tol, Diagnostics& diag,
                                       std::to_string(hits.size()) + " node(s) lying on it");
     NodeId prev = e.a;
     for (const auto& [t, n] : hits) {
-      out.edges.push_back({prev, n, e.material, e.directed});
+      out.edges.push_back({prev, n, e.material, e.directed, e.radius});
       new_origin.push_back(origin_of_edge[ei]);
       prev = n;
     }
-    out.edges.push_back({prev, e.b, e.material, e.directed});
+    out.edges.push_back({prev, e.b, e.material, e.directed, e.radius});
     new_origin.push_back(origin_of_edge[ei]);
   }
   origin_of_edge = std::move(new_origin);
@@ -185,7 +185,18 @@ Graph clean_graph(const Graph& input, const CleanOptions& options, Diagnostics& 
     if (input.edges[i].a >= input.nodes.size() || input.edges[i].b >= input.nodes.size())
       throw GeometryError("node index out of range", {"", 0, edge_name(where, i)});
   Graph g;
-  const auto map = merge_nodes(input.nodes, options.merge_tolerance, g.nodes, diag);
+  if (!options.merge_nodes) {
+    std::vector<Vec3> merged;
+    Diagnostics quiet;
+    merge_nodes(input.nodes, std::max(options.merge_tolerance, 1e-9), merged, quiet);
+    if (merged.size() < input.nodes.size())
+      diag.warn("coincident_nodes_kept",
+                std::to_string(input.nodes.size() - merged.size()) +
+                    " node(s) lie on another node but are kept apart (node merging is off): "
+                    "struts meeting there are not joined");
+  }
+  const auto map =
+      merge_nodes(input.nodes, options.merge_nodes ? options.merge_tolerance : 0.0, g.nodes, diag);
   std::vector<std::size_t> origin;
   g.edges.reserve(input.edges.size());
   for (std::size_t i = 0; i < input.edges.size(); ++i) {

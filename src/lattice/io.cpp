@@ -1,5 +1,6 @@
 #include "trellis/lattice/io.hpp"
 
+#include <algorithm>
 #include <charconv>
 #include <cmath>
 #include <filesystem>
@@ -15,7 +16,6 @@ namespace trellis {
 using nlohmann::json;
 
 namespace {
-
 
 // Splits on commas (or, if there is no comma, on whitespace).
 std::vector<std::string_view> split_fields(std::string_view line) {
@@ -115,6 +115,15 @@ NodeId node_index(long v, std::size_t count, const std::string& origin, long lin
   return static_cast<NodeId>(v);
 }
 
+int field_material(std::string_view f, const std::string& origin, long line, int column) {
+  long v;
+  if (!parse_long(f, v) || v < 0 || v > 255)
+    throw ParseError("column " + std::to_string(column) + ": material '" +
+                         std::string(f.substr(0, 40)) + "' is not an integer 0..255",
+                     {origin, line});
+  return static_cast<int>(v);
+}
+
 void require_edges(const LatticeInput& in, const std::string& origin) {
   if (in.graph.edges.empty()) throw ParseError("no edges found", {origin});
 }
@@ -123,19 +132,43 @@ void require_edges(const LatticeInput& in, const std::string& origin) {
 
 LatticeInput parse_segments_csv(const std::string& text, const std::string& origin) {
   LatticeInput in;
+  bool header_material = false;  // a header line whose last name is "material"
+  {
+    std::size_t pos = 0;
+    while (pos < text.size()) {
+      auto end = text.find('\n', pos);
+      if (end == std::string::npos) end = text.size();
+      const std::string_view line = trim(std::string_view(text).substr(pos, end - pos));
+      pos = end + 1;
+      if (line.empty() || line.front() == '#') continue;
+      const auto f = split_fields(line);
+      header_material = std::all_of(f.begin(), f.end(), is_name) && !f.empty() &&
+                        (f.back() == "material" || f.back() == "\"material\"");
+      break;
+    }
+  }
   for_each_record(text, [&](long line, const std::vector<std::string_view>& f) {
-    if (f.size() != 6 && f.size() != 4)
-      throw ParseError("expected 6 numbers x1,y1,z1,x2,y2,z2 (or 4 for 2D), got " +
-                           std::to_string(f.size()) + " field(s)",
-                       {origin, line});
+    // 3D + material has 7 fields; 2D + material (5) only under a header naming the column,
+    // so that a 3D line missing a number stays an error.
+    const bool with_material = f.size() == 7 || (f.size() == 5 && header_material);
+    if (f.size() != 6 && f.size() != 4 && !with_material)
+      throw ParseError(
+          "expected x1,y1,z1,x2,y2,z2[,material] (or x1,y1,x2,y2 for 2D, with a "
+          "header x1,y1,x2,y2,material for a material column), got " +
+              std::to_string(f.size()) + " field(s)",
+          {origin, line});
+    const bool three_d = f.size() >= 6;
+    const std::size_t coords = three_d ? 6 : 4;
     double v[6];
-    for (std::size_t i = 0; i < f.size(); ++i) v[i] = field_double(f[i], origin, line, i + 1);
-    const Vec3 p = f.size() == 6 ? Vec3{v[0], v[1], v[2]} : Vec3{v[0], v[1], 0};
-    const Vec3 q = f.size() == 6 ? Vec3{v[3], v[4], v[5]} : Vec3{v[2], v[3], 0};
+    for (std::size_t i = 0; i < coords; ++i) v[i] = field_double(f[i], origin, line, i + 1);
+    const int material =
+        with_material ? field_material(f[coords], origin, line, static_cast<int>(coords) + 1) : 0;
+    const Vec3 p = three_d ? Vec3{v[0], v[1], v[2]} : Vec3{v[0], v[1], 0};
+    const Vec3 q = three_d ? Vec3{v[3], v[4], v[5]} : Vec3{v[2], v[3], 0};
     const auto n = static_cast<NodeId>(in.graph.nodes.size());
     in.graph.nodes.push_back(p);
     in.graph.nodes.push_back(q);
-    in.graph.edges.push_back({n, n + 1});
+    in.graph.edges.push_back({n, n + 1, material});
     in.edge_where.push_back(origin + ":" + std::to_string(line));
   });
   require_edges(in, origin);
@@ -155,8 +188,8 @@ LatticeInput parse_aero_pair(const std::string& vtext, const std::string& vorigi
   });
   if (in.graph.nodes.empty()) throw ParseError("no vertices found", {vorigin});
   for_each_record(etext, [&](long line, const std::vector<std::string_view>& f) {
-    if (f.size() != 2)
-      throw ParseError("expected i,j, got " + std::to_string(f.size()) + " field(s)",
+    if (f.size() != 2 && f.size() != 3)
+      throw ParseError("expected i,j[,material], got " + std::to_string(f.size()) + " field(s)",
                        {eorigin, line});
     long v[2];
     for (int i = 0; i < 2; ++i)
@@ -165,8 +198,9 @@ LatticeInput parse_aero_pair(const std::string& vtext, const std::string& vorigi
                              std::string(f[i].substr(0, 40)) + "' is not an integer node index",
                          {eorigin, line});
     const auto n = in.graph.nodes.size();
-    in.graph.edges.push_back(
-        {node_index(v[0], n, eorigin, line, ""), node_index(v[1], n, eorigin, line, "")});
+    in.graph.edges.push_back({node_index(v[0], n, eorigin, line, ""),
+                              node_index(v[1], n, eorigin, line, ""),
+                              f.size() == 3 ? field_material(f[2], eorigin, line, 3) : 0});
     in.edge_where.push_back(eorigin + ":" + std::to_string(line));
   });
   require_edges(in, eorigin);
@@ -175,7 +209,16 @@ LatticeInput parse_aero_pair(const std::string& vtext, const std::string& vorigi
 
 LatticeInput parse_obj_lines(const std::string& text, const std::string& origin) {
   LatticeInput in;
-  std::vector<std::pair<long, std::vector<long>>> lines;  // (line number, raw indices)
+  struct LineRecord {
+    long line;
+    std::vector<long> idx;
+    int material;
+  };
+  std::vector<LineRecord> lines;
+  // `usemtl NAME` sets the material of the lines after it: NAME an integer 0..255 is that
+  // material, any other name the next free number in order of appearance.
+  std::vector<std::string> names;
+  int material = 0;
   std::size_t pos = 0;
   long line_no = 0;
   while (pos < text.size()) {
@@ -187,7 +230,18 @@ LatticeInput parse_obj_lines(const std::string& text, const std::string& origin)
     if (line.size() < 2 || line.front() == '#') continue;
     const auto f = split_fields(line);
     if (f.empty()) continue;
-    if (f[0] == "v") {
+    if (f[0] == "usemtl") {
+      if (f.size() != 2) throw ParseError("'usemtl' needs one name", {origin, line_no});
+      long v;
+      if (parse_long(f[1], v)) {
+        material = field_material(f[1], origin, line_no, 2);
+      } else {
+        auto it = std::find(names.begin(), names.end(), std::string(f[1]));
+        if (it == names.end()) it = names.insert(names.end(), std::string(f[1]));
+        material = static_cast<int>(it - names.begin());
+        if (material > 255) throw ParseError("more than 256 materials", {origin, line_no});
+      }
+    } else if (f[0] == "v") {
       if (f.size() < 4 || f.size() > 5) throw ParseError("'v' needs x y z", {origin, line_no});
       in.graph.nodes.push_back({field_double(f[1], origin, line_no, 2),
                                 field_double(f[2], origin, line_no, 3),
@@ -206,14 +260,14 @@ LatticeInput parse_obj_lines(const std::string& text, const std::string& origin)
         if (v < 0) v = static_cast<long>(in.graph.nodes.size()) + v + 1;
         idx.push_back(v - 1);
       }
-      lines.emplace_back(line_no, std::move(idx));
+      lines.push_back({line_no, std::move(idx), material});
     }
   }
-  for (const auto& [line, idx] : lines)
+  for (const auto& [line, idx, mat] : lines)
     for (std::size_t i = 1; i < idx.size(); ++i) {
       const auto n = in.graph.nodes.size();
-      in.graph.edges.push_back(
-          {node_index(idx[i - 1], n, origin, line, ""), node_index(idx[i], n, origin, line, "")});
+      in.graph.edges.push_back({node_index(idx[i - 1], n, origin, line, ""),
+                                node_index(idx[i], n, origin, line, ""), mat});
       in.edge_where.push_back(origin + ":" + std::to_string(line));
     }
   require_edges(in, origin);
@@ -268,6 +322,11 @@ static LatticeInput lattice_from_document(const json& doc, const std::string& or
         if (!m->is_number_integer() || m->get<long>() < 0 || m->get<long>() > 255)
           throw ParseError("material must be an integer 0..255", {origin, 0, el + ".material"});
         edge.material = m->get<int>();
+      }
+      if (auto r = e.find("radius"); r != e.end()) {
+        if (!r->is_number() || !(r->get<double>() > 0) || !std::isfinite(r->get<double>()))
+          throw ParseError("radius must be a positive number (mm)", {origin, 0, el + ".radius"});
+        edge.radius = r->get<double>();
       }
       if (auto d = e.find("directed"); d != e.end()) {
         if (!d->is_boolean()) throw ParseError("directed must be true or false", {origin, 0, el});
@@ -338,12 +397,22 @@ Graph read_lattice(const std::string& path, const CleanOptions& options, Diagnos
     in = parse_aero_pair(read_file(vpath), vpath, read_file(epath), epath);
   } else if (ends_with(name, ".csv") || ends_with(name, ".txt")) {
     in = parse_segments_csv(read_file(path), path);
+    if (!options.merge_nodes) {  // no node ids: ends at the same point (1 pm) are one node
+      CleanOptions o = options;
+      o.merge_nodes = true;
+      o.merge_tolerance = 1e-9;
+      Graph g = clean_graph(in.graph, o, diag, in.edge_where);
+      if (g.edges.empty()) throw GeometryError("no edges left after cleaning", {path});
+      return g;
+    }
   } else if (ends_with(name, ".obj")) {
     in = parse_obj_lines(read_file(path), path);
+  } else if (ends_with(name, ".3mf")) {
+    in = read_beam_lattice_3mf(path, diag);
   } else {
     throw ParseError(
         "unknown lattice format (expected .json, .csv, NAME_vertices.csv/"
-        "NAME_edges.csv or .obj)",
+        "NAME_edges.csv, .obj or .3mf)",
         {path});
   }
   Graph g = clean_graph(in.graph, options, diag, in.edge_where);
@@ -370,22 +439,29 @@ std::string lattice_to_json(const Graph& g) {
   }
   out += "],\n \"edges\": [";
   bool extra = false;
-  for (const auto& e : g.edges) extra |= e.material != 0 || e.directed;
+  for (const auto& e : g.edges) extra |= e.material != 0 || e.directed || e.radius > 0;
   for (std::size_t i = 0; i < g.edges.size(); ++i) {
     const auto& e = g.edges[i];
     out += i ? (extra ? ",\n  " : ", ") : "\n  ";
-    if (extra)
-      out += "{\"ends\": [" + std::to_string(e.a) + ", " + std::to_string(e.b) +
-             "], \"material\": " + std::to_string(e.material) +
-             (e.directed ? ", \"directed\": true}" : "}");
-    else
+    if (!extra) {
       out += "[" + std::to_string(e.a) + ", " + std::to_string(e.b) + "]";
+      continue;
+    }
+    out += "{\"ends\": [" + std::to_string(e.a) + ", " + std::to_string(e.b) +
+           "], \"material\": " + std::to_string(e.material);
+    if (e.directed) out += ", \"directed\": true";
+    if (e.radius > 0) {
+      out += ", \"radius\": ";
+      num(out, e.radius);
+    }
+    out += "}";
   }
   out += "]}\n";
   return out;
 }
 
-void write_lattice(const std::string& path, const Graph& g) {
+void write_lattice(const std::string& path, const Graph& g, double beam_radius) {
+  if (ends_with(lower(path), ".3mf")) return write_beam_lattice_3mf(path, g, beam_radius);
   write_file_atomic(path, lattice_to_json(g));
 }
 

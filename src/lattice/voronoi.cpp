@@ -116,7 +116,12 @@ Graph voronoi_foam(const FoamParams& p, Diagnostics& diag) {
           pts.emplace_back(m.x, m.y, m.z);
         }
   }
+  if (seeds.size() < 4)
+    throw GeometryError("only " + std::to_string(seeds.size()) +
+                        " foam seed(s) inside the mesh (4 or more needed): raise the density");
   Delaunay3 dt(pts.begin(), pts.end());
+  if (dt.dimension() < 3)  // all seeds on a plane: no Voronoi vertices
+    throw GeometryError("the foam seeds are coplanar: raise the density or change the seed");
   const double eps = 1e-9 * std::max({size.x, size.y, size.z});
   auto keep = [&](Vec3 v) {
     if (!mesh.triangles.empty()) return inside_mesh(mesh, v);

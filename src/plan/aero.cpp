@@ -1,18 +1,20 @@
 #include "trellis/plan/aero.hpp"
 
-#include <algorithm>
-#include <chrono>
-#include <queue>
-#include <random>
-#include <atomic>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
 #include <cmath>
 #include <limits>
-#include <tuple>
 #include <nlohmann/json.hpp>
+#include <queue>
+#include <random>
+#include <tuple>
 
 #include "trellis/core/error.hpp"
+#include "trellis/plan/collision_order.hpp"
 #include "trellis/plan/euler.hpp"
 
 namespace trellis {
@@ -62,11 +64,16 @@ enum class Strategy { Lowest, Mean, Continue, Nearest, Unlock };
 
 const char* to_string(Strategy s) {
   switch (s) {
-    case Strategy::Lowest: return "lowest";
-    case Strategy::Mean: return "mean";
-    case Strategy::Continue: return "continue";
-    case Strategy::Nearest: return "nearest";
-    case Strategy::Unlock: return "unlock";
+    case Strategy::Lowest:
+      return "lowest";
+    case Strategy::Mean:
+      return "mean";
+    case Strategy::Continue:
+      return "continue";
+    case Strategy::Nearest:
+      return "nearest";
+    case Strategy::Unlock:
+      return "unlock";
   }
   return "?";
 }
@@ -98,9 +105,7 @@ class Planner {
     }
     by_height_.resize(m);
     for (EdgeId e = 0; e < m; ++e) by_height_[e] = e;
-    auto low = [&](EdgeId e) {
-      return std::min(g.nodes[g.edges[e].a].z, g.nodes[g.edges[e].b].z);
-    };
+    auto low = [&](EdgeId e) { return std::min(g.nodes[g.edges[e].a].z, g.nodes[g.edges[e].b].z); };
     std::sort(by_height_.begin(), by_height_.end(), [&](EdgeId a, EdgeId b) {
       const double la = low(a), lb = low(b);
       return la != lb ? la < lb : a < b;
@@ -168,16 +173,16 @@ class Planner {
       std::vector<std::pair<int, std::vector<Trail>>> group;
       for (std::size_t mi = 0; mi < available_.size(); ++mi)
         if (!available_[mi].empty())
-          group.push_back(
-              {static_cast<int>(mi), decompose(static_cast<int>(mi), MixedEuler::kNoNode, nullptr, true)});
+          group.push_back({static_cast<int>(mi),
+                           decompose(static_cast<int>(mi), MixedEuler::kNoNode, nullptr, true)});
       for (auto& [mat, trails] : group) {
         while (!trails.empty()) {
           const std::size_t k = choose(trails);
           Trail t = std::move(trails[k]);
           trails.erase(trails.begin() + static_cast<std::ptrdiff_t>(k));
           // Join with the previous trail when it ends where this one starts.
-          const bool join = cur_ != MixedEuler::kNoNode && cur_material_ == mat &&
-                            t.nodes.front() == cur_;
+          const bool join =
+              cur_ != MixedEuler::kNoNode && cur_material_ == mat && t.nodes.front() == cur_;
           print(std::move(t), mat, join);
         }
       }
@@ -237,7 +242,8 @@ class Planner {
 
   void compact(int mat) {
     auto& v = available_[static_cast<std::size_t>(mat)];
-    v.erase(std::remove_if(v.begin(), v.end(), [&](EdgeId e) { return printed_[e] != 0; }), v.end());
+    v.erase(std::remove_if(v.begin(), v.end(), [&](EdgeId e) { return printed_[e] != 0; }),
+            v.end());
   }
 
   // Current material if it still has printable struts, else the one whose nearest printable
@@ -366,11 +372,21 @@ class Planner {
         const NodeId end = f ? t.nodes.front() : t.nodes.back();
         double key = 0;
         switch (strategy_) {
-          case Strategy::Lowest: key = zmin; break;
-          case Strategy::Mean: key = zsum / static_cast<double>(t.nodes.size()); break;
-          case Strategy::Continue: key = zmin + (continuable(t, end) ? 0 : 1.0); break;
-          case Strategy::Nearest: key = distance(pos_, g_.nodes[start]); break;
-          case Strategy::Unlock: key = zmin - static_cast<double>(unlocks(t)); break;
+          case Strategy::Lowest:
+            key = zmin;
+            break;
+          case Strategy::Mean:
+            key = zsum / static_cast<double>(t.nodes.size());
+            break;
+          case Strategy::Continue:
+            key = zmin + (continuable(t, end) ? 0 : 1.0);
+            break;
+          case Strategy::Nearest:
+            key = distance(pos_, g_.nodes[start]);
+            break;
+          case Strategy::Unlock:
+            key = zmin - static_cast<double>(unlocks(t));
+            break;
         }
         // Ties (same height): the nearer start.
         key += 1e-6 * distance(pos_, g_.nodes[start]);
@@ -393,7 +409,8 @@ class Planner {
     std::size_t n = 0;
     for (EdgeId e : t.edges) in_trail_[e] = tick_;
     for (EdgeId e : t.edges)
-      for (const EdgeId* s = blocking_->blocked_by.begin(e); s != blocking_->blocked_by.end(e); ++s) {
+      for (const EdgeId* s = blocking_->blocked_by.begin(e); s != blocking_->blocked_by.end(e);
+           ++s) {
         if (printed_[*s] || in_trail_[*s] == tick_) continue;
         if (seen_[*s] != tick_) {
           seen_[*s] = tick_;
@@ -488,9 +505,11 @@ class Planner {
         const NodeId first = f ? c.nodes.back() : c.nodes.front();
         const NodeId last = f ? c.nodes.front() : c.nodes.back();
         for (std::uint32_t j : ends_at_[first])
-          if (j + 1 < count && out_.trail_material[j] == mat) allowed = std::max(allowed, last_time(j));
+          if (j + 1 < count && out_.trail_material[j] == mat)
+            allowed = std::max(allowed, last_time(j));
         for (std::uint32_t j : starts_at_[last])
-          if (out_.trail_material[j] == mat) allowed = std::max(allowed, j > 0 ? last_time(j - 1) : 0.0);
+          if (out_.trail_material[j] == mat)
+            allowed = std::max(allowed, j > 0 ? last_time(j - 1) : 0.0);
       }
       if (allowed == -std::numeric_limits<double>::infinity()) continue;
       double needed = -std::numeric_limits<double>::infinity();  // latest print time it needs
@@ -556,7 +575,7 @@ class Planner {
     if (step < 1e-6) renumber();
   }
 
-  public:
+ public:
   // Local search after planning. A trail is dissolved when it can join other trails without
   // travel: as a whole (appended to a trail that ends where it starts, or prepended to one
   // that starts where it ends, earlier or later in the print), or split in two pieces that
@@ -646,7 +665,8 @@ class Planner {
       const EdgeId x = t.edges[i];
       for (const EdgeId* u = blocking_->blocks.begin(x); u != blocking_->blocks.end(x); ++u) {
         if (owner_[*u] == k)
-          inner.push_back({std::min<std::size_t>(i, pos_in_[*u]), std::max<std::size_t>(i, pos_in_[*u])});
+          inner.push_back(
+              {std::min<std::size_t>(i, pos_in_[*u]), std::max<std::size_t>(i, pos_in_[*u])});
         else
           need[i] = std::max(need[i], time_[*u]);
       }
@@ -689,7 +709,7 @@ class Planner {
     // Two pieces [0, s) and [s, n).
     for (std::size_t s = 1; s < n; ++s) {
       if (cut[s] > 0) continue;
-      const bool p_inner = any_inner && first_inner_end < s;   // an inner pair inside [0, s)
+      const bool p_inner = any_inner && first_inner_end < s;    // an inner pair inside [0, s)
       const bool q_inner = any_inner && last_inner_start >= s;  // an inner pair inside [s, n)
       if (!find_target(k, 0, s, UINT32_MAX, pre_need[s], pre_dead[s], !p_inner && !pre_dir[s], tp))
         continue;
@@ -759,9 +779,10 @@ class Planner {
   }
 
   // Nothing is printable: every remaining strut obstructs another remaining one. Print the one
-  // that obstructs the fewest (so the fewest collisions follow), the lowest of those, and record
-  // it. (The rule is "the lowest"; the lowest may only be waiting behind a cycle and
-  // cost more collisions than breaking the cycle where it is cheapest.)
+  // that obstructs the fewest (so the fewest collisions follow), the lowest of those (the
+  // collisions are counted from the finished order). (The rule is "the lowest"; the lowest
+  // may only be waiting behind a cycle and cost more collisions than breaking the cycle where it is
+  // cheapest.)
   void force_lowest() {
     while (printed_[by_height_[lowest_]]) ++lowest_;
     EdgeId best = by_height_[lowest_];
@@ -769,7 +790,6 @@ class Planner {
       const EdgeId e = by_height_[i];
       if (!printed_[e] && pending_[e] < pending_[best]) best = e;
     }
-    out_.violations.push_back({best, pending_[best]});
     pending_[best] = 0;
     make_available(best);
   }
@@ -784,9 +804,9 @@ class Planner {
   std::vector<char> printed_;
   std::vector<std::uint32_t> pending_;
   std::vector<std::vector<EdgeId>> available_;  // per material, lazily compacted
-  using LowHeap = std::priority_queue<std::pair<double, EdgeId>, std::vector<std::pair<double, EdgeId>>,
-                                      std::greater<>>;
-  std::vector<LowHeap> low_heap_;  // per material: printable struts by lowest end
+  using LowHeap = std::priority_queue<std::pair<double, EdgeId>,
+                                      std::vector<std::pair<double, EdgeId>>, std::greater<>>;
+  std::vector<LowHeap> low_heap_;         // per material: printable struts by lowest end
   std::vector<std::size_t> avail_count_;  // per material: printable struts not yet printed
   std::size_t window_ = 1024, continue_window_ = 512, cap_ = 1024;
   std::vector<EdgeId> window_edges_;
@@ -801,7 +821,7 @@ class Planner {
   mutable std::uint32_t tick_ = 0;
   std::size_t lowest_ = 0, done_ = 0, unlocked_ = 0;
   std::vector<std::uint32_t> owner_, pos_in_;  // merge pass: trail of each strut, place in it
-  std::vector<Trail> cache_;  // the rest of the last decomposition
+  std::vector<Trail> cache_;                   // the rest of the last decomposition
   int cache_material_ = -1;
   std::size_t cache_stamp_ = 0;  // unlocked_ when it was made
   std::vector<double> time_ = std::vector<double>(g_.edges.size(), 0.0);
@@ -821,8 +841,8 @@ class Planner {
 
 namespace {
 
-// The lattice renumbered in a canonical order (nodes by x, then y, then z, at 1 nm; struts by their new
-// end ids), so the plan depends on the geometry, not on the order of the input file.
+// The lattice renumbered in a canonical order (nodes by x, then y, then z, at 1 nm; struts by their
+// new end ids), so the plan depends on the geometry, not on the order of the input file.
 struct Canonical {
   Graph graph;
   std::vector<NodeId> node_from;  // canonical node -> input node
@@ -878,12 +898,18 @@ AeroResult plan_aero(const Graph& input, const AeroParams& params, Diagnostics& 
     for (auto& n : t.nodes) n = c.node_from[n];
     for (auto& e : t.edges) e = c.edge_from[e];
   }
-  for (auto& v : r.violations) {
-    v.edge = c.edge_from[v.edge];
+  for (auto& v : r.violations) v.edge = c.edge_from[v.edge];
+  if (r.collisions_planned > 0) {
+    std::string which;
+    for (std::size_t i = 0; i < r.violations.size() && i < 20; ++i)
+      which += (i ? ", " : "") + std::to_string(r.violations[i].edge);
+    if (r.violations.size() > 20) which += ", ...";
     diag.warn("collision_unavoidable",
-              "no strut could be printed without obstructing a remaining one: printed strut " +
-                  std::to_string(v.edge) + " anyway (it obstructs the fewest, " +
-                  std::to_string(v.obstructs) + " later strut(s))");
+              std::to_string(r.collisions_planned) + " nozzle collision(s) planned (" +
+                  (r.collisions_proven_minimal()
+                       ? std::string("proven minimal")
+                       : "no order has fewer than " + std::to_string(r.collisions_lower_bound)) +
+                  "): struts " + which + " are printed before struts they obstruct");
   }
   for (EdgeId e = 0; e < input.edges.size(); ++e) {
     const Edge& ed = input.edges[e];
@@ -897,6 +923,15 @@ AeroResult plan_aero(const Graph& input, const AeroParams& params, Diagnostics& 
 }
 
 namespace {
+
+// Each strut's place in the print order.
+std::vector<std::size_t> print_rank(const Graph& g, const PathSet& trails) {
+  std::vector<std::size_t> rank(g.edges.size(), 0);
+  std::size_t k = 0;
+  for (const auto& t : trails.trails)
+    for (EdgeId e : t.edges) rank[e] = k++;
+  return rank;
+}
 
 AeroResult plan_canonical(const Graph& g, const AeroParams& params) {
   AeroResult r;
@@ -929,10 +964,31 @@ AeroResult plan_canonical(const Graph& g, const AeroParams& params) {
   }
   r.groups = r.group_sizes.size();
   r.seconds_blocking = since(t0);
+  // Fewest collisions: the relations an optimal (or locally optimal) order breaks are dropped,
+  // so the planner works on a relation without cycles and never has to force a strut.
+  BlockingGraph reduced;
+  const BlockingGraph* plan_with = params.collisions ? &blocking : nullptr;
+  if (params.collisions) {
+    const auto t = Clock::now();
+    params.progress("fewest collisions", 0);
+    CollisionOrderParams op = params.order;
+    op.seed = params.seed;
+    std::vector<double> height(g.edges.size());
+    for (EdgeId e = 0; e < g.edges.size(); ++e)
+      height[e] = g.nodes[g.edges[e].a].z + g.nodes[g.edges[e].b].z;
+    const CollisionOrder order = fewest_collisions(blocking, op, height);
+    r.collision_parts = order.parts;
+    r.collisions_lower_bound = order.lower_bound;
+    if (params.fewest_collisions) {
+      reduced = without_relations(blocking, order.broken);
+      plan_with = &reduced;
+    }
+    r.seconds_order = since(t);
+  }
   const auto t1 = Clock::now();
   // Dynamic: a portfolio of runs — each trail-selection strategy as is, then with the
   // printable struts shuffled before every decomposition (Hierholzer's trails depend on that
-  // order) — run in parallel, the best plan kept: fewest violations, then trails, then travel,
+  // order) — run in parallel, the best plan kept: fewest collisions, then trails, then travel,
   // then the lowest run index, so the result does not depend on thread timing.
   std::vector<Strategy> strategies = {Strategy::Nearest};
   std::size_t runs = 1;
@@ -954,8 +1010,7 @@ AeroResult plan_canonical(const Graph& g, const AeroParams& params) {
           k < strategies.size() ? 0 : params.seed * 1000003ULL + k;  // 0 = no shuffle
       Progress quiet;  // cancellation only: the portfolio reports progress per run
       quiet.cancel = params.progress.cancel;
-      Planner planner(g, params.collisions ? &blocking : nullptr, dir, strategy, seed, trial,
-                      quiet);
+      Planner planner(g, plan_with, dir, strategy, seed, trial, quiet);
       if (params.method == AeroMethod::Groups || !params.collisions) {
         planner.run_groups();
       } else {
@@ -963,6 +1018,8 @@ AeroResult plan_canonical(const Graph& g, const AeroParams& params) {
         planner.merge_pass();
       }
       trial.strategy = std::string(to_string(strategy)) + (seed ? "+shuffle" : "");
+      if (params.collisions)
+        trial.collisions_planned = count_collisions(blocking, print_rank(g, trial.trails));
       const auto& ts = trial.trails.trails;
       trial.travel_moves = ts.empty() ? 0 : ts.size() - 1;
       for (std::size_t j = 1; j < ts.size(); ++j)
@@ -974,14 +1031,25 @@ AeroResult plan_canonical(const Graph& g, const AeroParams& params) {
   if (params.progress.cancelled()) throw Cancelled("AERO planning cancelled");
   std::size_t best = 0;
   auto key = [](const AeroResult& x) {
-    return std::make_tuple(x.violations.size(), x.trails.trails.size(), x.travel_length);
+    return std::make_tuple(x.collisions_planned, x.trails.trails.size(), x.travel_length);
   };
   for (std::size_t k = 1; k < runs; ++k)
     if (key(trials[k]) < key(trials[best])) best = k;
   r = std::move(trials[best]);
+  if (params.collisions) {
+    // The struts printed before struts they obstruct: one collision per such pair.
+    const std::vector<std::size_t> rank = print_rank(g, r.trails);
+    for (EdgeId s = 0; s < g.edges.size(); ++s) {
+      std::size_t n = 0;
+      for (const EdgeId* u = blocking.blocks.begin(s); u != blocking.blocks.end(s); ++u)
+        n += rank[s] < rank[*u];
+      if (n) r.violations.push_back({s, n});
+    }
+  }
   r.runs = runs;
   r.seconds_planning = since(t1);
-  for (const auto& t : r.trails.trails) r.max_trail_edges = std::max(r.max_trail_edges, t.edges.size());
+  for (const auto& t : r.trails.trails)
+    r.max_trail_edges = std::max(r.max_trail_edges, t.edges.size());
   params.progress("plan", 1);
   return r;
 }
@@ -1039,7 +1107,34 @@ std::string aero_report_json(const AeroResult& r, const AeroParams& p, const Dia
   for (const auto& x : r.violations) v.push_back({{"strut", x.edge}, {"obstructs", x.obstructs}});
   j["violations"] = std::move(v);
   j["unavoidable_collisions"] = r.mutual_pairs;
+  j["fewest_collisions"] = p.fewest_collisions;
+  j["collisions_planned"] = r.collisions_planned;
+  j["collisions_lower_bound"] = r.collisions_lower_bound;
+  j["collisions_proven_minimal"] = r.collisions_proven_minimal();
+  {
+    // Strongly connected parts of the obstruction relation (only these can cost collisions).
+    std::size_t exact = 0, proven = 0, largest = 0;
+    nlohmann::ordered_json list = nlohmann::ordered_json::array();
+    for (const auto& part : r.collision_parts) {
+      exact += part.exact;
+      proven += part.proven();
+      largest = std::max(largest, part.struts);
+      if (list.size() < 50)
+        list.push_back({{"struts", part.struts},
+                        {"relations", part.relations},
+                        {"planned", part.planned},
+                        {"lower_bound", part.lower_bound},
+                        {"proven_minimal", part.proven()},
+                        {"solved_exactly", part.exact}});
+    }
+    j["collision_parts"] = {{"count", r.collision_parts.size()},
+                            {"largest_struts", largest},
+                            {"proven_minimal", proven},
+                            {"solved_exactly", exact},
+                            {"largest_50", std::move(list)}};
+  }
   j["seconds"] = {{"collision_model", r.seconds_blocking},
+                  {"fewest_collisions", r.seconds_order},
                   {"planning", r.seconds_planning},
                   {"total", in.seconds}};
   nlohmann::ordered_json w;

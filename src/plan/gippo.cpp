@@ -8,6 +8,8 @@
 #include <atomic>
 #include <bit>
 #include <cassert>
+#include <cmath>
+#include <nlohmann/json.hpp>
 
 #include "trellis/core/error.hpp"
 #include "trellis/core/rng.hpp"
@@ -315,6 +317,50 @@ GippoResult plan_gippo(const Graph& g, const GippoParams& params) {
   result.worst = worst->to_paths();
   result.worst_iteration = worst->iteration;
   return result;
+}
+
+GippoRobustness gippo_robustness(const Graph& g, const GippoParams& params, int seeds) {
+  if (seeds < 1) throw SettingError("the robustness run needs at least one seed");
+  GippoRobustness r;
+  for (int k = 0; k < seeds; ++k) {
+    if (params.progress.cancelled()) throw Error("GIPPO robustness run cancelled");
+    GippoParams p = params;
+    p.seed = params.seed + static_cast<std::uint64_t>(k);
+    p.progress = {};
+    p.progress.cancel = params.progress.cancel;
+    const GippoResult one = plan_gippo(g, p);
+    r.seeds.push_back(p.seed);
+    r.best_scores.push_back(one.scores.empty() ? 0.0 : one.scores[one.best_iteration]);
+    r.worst_scores.push_back(one.scores.empty() ? 0.0 : one.scores[one.worst_iteration]);
+    params.progress("seeds", static_cast<double>(k + 1) / seeds);
+  }
+  const auto n = static_cast<double>(seeds);
+  double sum = 0;
+  for (double v : r.best_scores) sum += v;
+  r.mean = sum / n;
+  double ss = 0;
+  for (double v : r.best_scores) ss += (v - r.mean) * (v - r.mean);
+  r.sd = seeds > 1 ? std::sqrt(ss / (n - 1)) : 0.0;
+  r.min = *std::min_element(r.best_scores.begin(), r.best_scores.end());
+  r.max = *std::max_element(r.best_scores.begin(), r.best_scores.end());
+  return r;
+}
+
+std::string gippo_robustness_json(const GippoRobustness& r, const GippoParams& params) {
+  nlohmann::ordered_json j;
+  j["planner"] = "gippo";
+  j["mode"] = params.mode == GippoMode::Max ? "max" : "min";
+  j["iterations"] = params.iterations;
+  j["seeds"] = r.seeds.size();
+  j["first_seed"] = params.seed;
+  j["best_score"] = {{"mean", r.mean},
+                     {"sd", r.sd},
+                     {"cv_percent", r.cv_percent()},
+                     {"min", r.min},
+                     {"max", r.max}};
+  j["best_score_per_seed"] = r.best_scores;
+  j["worst_score_per_seed"] = r.worst_scores;
+  return j.dump(2) + "\n";
 }
 
 }  // namespace trellis

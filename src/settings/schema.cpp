@@ -306,12 +306,16 @@ std::vector<Setting> make_table() {
                      [](C& c) -> auto& { return c.lattice2d.reentrant_angle_deg; }));
   t.push_back(number("lattice2d.arrowhead_outer", "deg", 1, 89, "arrowhead: outer chevron angle",
                      "arrowhead-outer", [](C& c) -> auto& { return c.lattice2d.arrowhead_outer_deg; }));
+  t.push_back(positive("lattice2d.line_width", "mm", 100,
+                       "printed line width for the reported pore area", "line-width",
+                       [](C& c) -> auto& { return c.line_width; }));
   t.push_back(number("lattice2d.arrowhead_inner", "deg", 1, 89, "arrowhead: inner chevron angle",
                      "arrowhead-inner", [](C& c) -> auto& { return c.lattice2d.arrowhead_inner_deg; }));
 
   // lattice3d.*
-  t.push_back(choice("lattice3d.kind", {"cells", "foam"},
-                     "unit cells tessellated, or a stochastic Voronoi foam", "kind",
+  t.push_back(choice("lattice3d.kind", {"cells", "foam", "conformal"},
+                     "unit cells tessellated, a stochastic Voronoi foam, or cells clipped to a "
+                     "closed mesh (lattice3d.mesh) with an optional stochastic skin", "kind",
                      [](C& c) -> auto& { return c.lattice3d.kind; }));
   t.push_back(choice_enum<UnitCell>(
       "lattice3d.cell_type",
@@ -347,7 +351,15 @@ std::vector<Setting> make_table() {
     s.positive = true;
     t.push_back(std::move(s));
   }
-  t.push_back(path("lattice3d.mesh", "foam inside this closed mesh instead of the box", "mesh",
+  t.push_back(number("lattice3d.skin", "mm", 0, 1000,
+                     "conformal: a stochastic (Voronoi) skin this thick; 0 = none", "skin",
+                     [](C& c) -> auto& { return c.lattice3d.conformal.skin; }));
+  t.push_back(positive("lattice3d.skin_density", "1/mm³", 100, "conformal: skin foam seeds per mm³",
+                       "skin-density", [](C& c) -> auto& { return c.lattice3d.conformal.skin_density; }));
+  t.push_back(positive("lattice3d.radius", "mm", 100,
+                       "strut radius written to a 3MF beam lattice (-o part.3mf)", "radius",
+                       [](C& c) -> auto& { return c.lattice3d.radius; }));
+  t.push_back(path("lattice3d.mesh", "foam: inside this closed mesh instead of the box; conformal: the mesh to fill", "mesh",
                    [](C& c) -> auto& { return c.lattice3d.foam.mesh; }));
   t.push_back(positive("lattice3d.density", "1/mm³", 100, "foam seeds per mm³", "density",
                        [](C& c) -> auto& { return c.lattice3d.foam.density; }));
@@ -360,6 +372,9 @@ std::vector<Setting> make_table() {
   // lattice.*: reading lattice files.
   t.push_back(number("lattice.merge_tolerance", "mm", 0, 10, "merge nodes closer than this",
                      "merge-tolerance", [](C& c) -> auto& { return c.merge_tolerance; }));
+  t.push_back(boolean("lattice.keep_graph",
+                      "the lattice exactly as given: no node merging, no T-junction splitting",
+                      "keep-graph", [](C& c) -> auto& { return c.keep_graph; }));
 
   // layers.* and onto.*: GIPPO parts of many layers, on solids and surfaces.
   t.push_back(integer("layers.count", 0, 100000,
@@ -407,6 +422,10 @@ std::vector<Setting> make_table() {
                                      [](C& c) -> auto& { return c.plan.gippo.mode; }));
   t.push_back(integer("gippo.iterations", 1, 1e7, "solutions generated, best kept (paper: 500)",
                       "iterations", [](C& c) -> auto& { return c.plan.gippo.iterations; }));
+  t.push_back(integer("gippo.seeds", 0, 100000,
+                      "robustness: also run seeds plan.seed .. +N-1 and report the best score's "
+                      "spread (paper Fig. 2 v-vi); 0 = off", "seeds",
+                      [](C& c) -> auto& { return c.gippo_seeds; }));
 
   // aero.*, nozzle.*
   t.push_back(choice_enum<AeroMethod>(
@@ -415,6 +434,14 @@ std::vector<Setting> make_table() {
       [](C& c) -> auto& { return c.aero.method; }));
   t.push_back(boolean("aero.collisions", "plan around the nozzle (false: trails = Euler lower bound)",
                       "collisions", [](C& c) -> auto& { return c.aero.collisions; }));
+  t.push_back(boolean("aero.fewest_collisions",
+                      "break obstruction cycles where it costs the fewest collisions (proven "
+                      "minimal where the exact solver finishes); false = the greedy order",
+                      "fewest-collisions", [](C& c) -> auto& { return c.aero.fewest_collisions; }));
+  t.push_back(integer("aero.exact_struts", 0, 1e7,
+                      "solve obstruction cycles exactly (integer program) in parts up to this many "
+                      "struts; 0 = local search only", "exact-struts",
+                      [](C& c) -> auto& { return c.aero.order.exact_max_struts; }));
   t.push_back(derived(integer("aero.tries", 1, 100000,
                               "dynamic: planner runs (strategies, then shuffled orders; best kept)",
                               "tries", [](C& c) -> auto& { return c.aero.tries; }),
@@ -544,6 +571,9 @@ std::vector<Setting> make_table() {
       "nonplanar.offset", {{"vertical", OffsetMode::Vertical}, {"normal", OffsetMode::Normal}},
       "layers stack vertically (paper) or along the surface normal", "offset",
       [](C& c) -> auto& { return c.nonplanar.params.offset; }));
+  t.push_back(boolean("nonplanar.surface_spacing",
+                      "lines one width apart along the surface (arc length), not in the slicing planes",
+                      "surface-spacing", [](C& c) -> auto& { return c.nonplanar.params.spacing_along_surface; }));
   t.push_back(positive("nonplanar.chord_tolerance", "mm", 10,
                        "max distance of a path segment from the surface", "chord-tol",
                        [](C& c) -> auto& { return c.nonplanar.params.chord_tolerance; }));

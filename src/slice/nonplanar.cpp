@@ -3,6 +3,7 @@
 // non-planar serpentines; the mesh parts are a grid index and exact plane/triangle cuts.
 #include "trellis/slice/nonplanar.hpp"
 
+#include <muParser.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
@@ -13,10 +14,8 @@
 #include <limits>
 #include <map>
 #include <mutex>
-#include <numbers>
-
-#include <muParser.h>
 #include <nlohmann/json.hpp>
+#include <numbers>
 
 #include "../field/node.hpp"
 #include "trellis/core/error.hpp"
@@ -34,7 +33,9 @@ std::string fmt_mm(double v) {
   std::snprintf(buf, sizeof buf, "%.3f", v);
   return buf;
 }
-std::string fmt_xy(Vec2 p) { return "(" + fmt_mm(p.x) + ", " + fmt_mm(p.y) + ")"; }
+std::string fmt_xy(Vec2 p) {
+  return "(" + fmt_mm(p.x) + ", " + fmt_mm(p.y) + ")";
+}
 
 Vec3 cross(Vec3 a, Vec3 b) {
   return {a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x};
@@ -51,7 +52,7 @@ Vec3 unit(Vec3 a) {
 struct HeightField::Impl {
   std::string name;
   BBox2 domain;
-  std::function<Eval()> make;  // functions
+  std::function<Eval()> make;      // functions
   std::vector<double> profile_xs;  // surfaces constant in Y: x where z is (nearly) linear between
 
   // Meshes: triangles, facet data, vertex normals and an XY grid of triangle ids.
@@ -107,8 +108,7 @@ struct HeightField::Impl {
   }
 };
 
-HeightField HeightField::from_function(std::function<Eval()> make, BBox2 domain,
-                                       std::string name) {
+HeightField HeightField::from_function(std::function<Eval()> make, BBox2 domain, std::string name) {
   if (!(domain.width() > 0 && domain.height() > 0))
     throw GeometryError("surface '" + name + "': empty domain");
   auto impl = std::make_shared<Impl>();
@@ -177,8 +177,8 @@ HeightField HeightField::from_mesh(const TriangleMesh& mesh, std::string name) {
   impl->domain = box;
   // Grid of about two triangles per cell.
   const double area = std::max(box.width() * box.height(), 1e-12);
-  impl->cell = std::max(std::sqrt(area / static_cast<double>(impl->triangles.size()) * 2.0),
-                        span * 1e-6);
+  impl->cell =
+      std::max(std::sqrt(area / static_cast<double>(impl->triangles.size()) * 2.0), span * 1e-6);
   impl->nx = std::max(1, static_cast<int>(std::ceil(box.width() / impl->cell)));
   impl->ny = std::max(1, static_cast<int>(std::ceil(box.height() / impl->cell)));
   const std::size_t cells = static_cast<std::size_t>(impl->nx) * impl->ny;
@@ -224,8 +224,7 @@ HeightField HeightField::from_mesh(const TriangleMesh& mesh, std::string name) {
           const auto ta = impl->cell_tris[i], tb = impl->cell_tris[j];
           if (!separated(impl->tri(ta), impl->tri(tb))) {
             long expected = -1;
-            if (bad_a.compare_exchange_strong(expected, std::min(ta, tb)))
-              bad_b = std::max(ta, tb);
+            if (bad_a.compare_exchange_strong(expected, std::min(ta, tb))) bad_b = std::max(ta, tb);
             return;
           }
         }
@@ -238,8 +237,10 @@ HeightField HeightField::from_mesh(const TriangleMesh& mesh, std::string name) {
     const Vec3 cp = (p[0] + p[1] + p[2]) * (1.0 / 3), cq = (q[0] + q[1] + q[2]) * (1.0 / 3);
     double b[3];
     Vec2 at = (cp.xy() + cq.xy()) * 0.5;
-    if (impl->locate(static_cast<std::size_t>(bad_a), cq.xy(), b)) at = cq.xy();
-    else if (impl->locate(static_cast<std::size_t>(bad_b), cp.xy(), b)) at = cp.xy();
+    if (impl->locate(static_cast<std::size_t>(bad_a), cq.xy(), b))
+      at = cq.xy();
+    else if (impl->locate(static_cast<std::size_t>(bad_b), cp.xy(), b))
+      at = cp.xy();
     auto z_on = [&](long t) {
       double bb[3];
       impl->locate(static_cast<std::size_t>(t), at, bb, 1e9);
@@ -248,8 +249,8 @@ HeightField HeightField::from_mesh(const TriangleMesh& mesh, std::string name) {
     };
     throw GeometryError("surface '" + name + "' is not a height field: triangles " +
                         std::to_string(bad_a.load()) + " and " + std::to_string(bad_b.load()) +
-                        " lie above one another near " + fmt_xy(at) + " (z " +
-                        fmt_mm(z_on(bad_a)) + " and " + fmt_mm(z_on(bad_b)) + ")");
+                        " lie above one another near " + fmt_xy(at) + " (z " + fmt_mm(z_on(bad_a)) +
+                        " and " + fmt_mm(z_on(bad_b)) + ")");
   }
   HeightField h;
   h.impl_ = impl;
@@ -315,9 +316,15 @@ TriangleMesh surface_mesh(const HeightField& surface, double resolution) {
   return mesh;
 }
 
-const std::string& HeightField::name() const { return impl_->name; }
-BBox2 HeightField::domain() const { return impl_->domain; }
-bool HeightField::is_mesh() const { return impl_->mesh(); }
+const std::string& HeightField::name() const {
+  return impl_->name;
+}
+BBox2 HeightField::domain() const {
+  return impl_->domain;
+}
+bool HeightField::is_mesh() const {
+  return impl_->mesh();
+}
 
 HeightField::Eval HeightField::evaluator() const {
   if (impl_->mesh()) {
@@ -341,13 +348,14 @@ double HeightField::height(Vec2 p) const {
   return evaluator()(p.x, p.y);
 }
 
-
 OffsetMode offset_mode_from_string(const std::string& name) {
   if (name == "vertical") return OffsetMode::Vertical;
   if (name == "normal") return OffsetMode::Normal;
   throw SettingError("unknown offset mode '" + name + "' (expected vertical or normal)");
 }
-const char* to_string(OffsetMode m) { return m == OffsetMode::Vertical ? "vertical" : "normal"; }
+const char* to_string(OffsetMode m) {
+  return m == OffsetMode::Vertical ? "vertical" : "normal";
+}
 
 namespace {
 
@@ -450,9 +458,8 @@ struct SurfacePoint {
   OffsetMode mode;
   double offset;
   Vec3 operator()(Vec2 p) const {
-    const double z = mode == OffsetMode::Vertical || offset == 0
-                         ? f(p.x, p.y) + offset
-                         : envelope_height(f, p, offset);
+    const double z = mode == OffsetMode::Vertical || offset == 0 ? f(p.x, p.y) + offset
+                                                                 : envelope_height(f, p, offset);
     if (!std::isfinite(z)) return {kNaN, kNaN, kNaN};
     return {p.x, p.y, z};
   }
@@ -506,8 +513,10 @@ std::vector<std::vector<Vec3>> sample_curve(const SurfacePoint& sp, Vec2 a, Vec2
   auto edge = [&](double s_in, double s_out) {
     for (int k = 0; k < 60 && std::abs(s_out - s_in) > 1e-7; ++k) {
       const double m = 0.5 * (s_in + s_out);
-      if (is_finite(at(m))) s_in = m;
-      else s_out = m;
+      if (is_finite(at(m)))
+        s_in = m;
+      else
+        s_out = m;
     }
     return s_in;
   };
@@ -579,8 +588,8 @@ void mesh_sections(const HeightField::Impl& m, Vec2 d, Vec2 n, std::vector<Line>
     const long i0 = std::max(0L, static_cast<long>(std::ceil((lo - v0) / w - 1e-12)));
     const long i1 = std::min(static_cast<long>(lines.size()) - 1,
                              static_cast<long>(std::floor((hi - v0) / w + 1e-12)));
-    for (long i = i0; i <= i1; ++i) bucket[static_cast<std::size_t>(i)].push_back(
-        static_cast<std::uint32_t>(t));
+    for (long i = i0; i <= i1; ++i)
+      bucket[static_cast<std::size_t>(i)].push_back(static_cast<std::uint32_t>(t));
   }
   std::mutex error_mutex;
   std::string error;
@@ -619,9 +628,8 @@ void mesh_sections(const HeightField::Impl& m, Vec2 d, Vec2 n, std::vector<Line>
       if (!pieces.empty() && c.u0 < end_u - eps) {
         std::lock_guard lock(error_mutex);
         if (error.empty())
-          error = "surface '" + name + "' is not a height field: above " +
-                  fmt_xy(c.p0.xy()) + " it is at z " + fmt_mm(c.p0.z) + " and at z " +
-                  fmt_mm(pieces.back().back().z);
+          error = "surface '" + name + "' is not a height field: above " + fmt_xy(c.p0.xy()) +
+                  " it is at z " + fmt_mm(c.p0.z) + " and at z " + fmt_mm(pieces.back().back().z);
         return;
       }
       if (!pieces.empty() && c.u0 <= end_u + eps &&
@@ -653,7 +661,8 @@ void footprint_vrange(const HeightField& surface, Vec2 d, Vec2 n, double w, doub
       const double v = n.x * x + n.y * y;
       lo = std::min(lo, v), hi = std::max(hi, v);
     }
-  if (lo > hi) throw GeometryError("surface '" + surface.name() + "' has no footprint in its domain");
+  if (lo > hi)
+    throw GeometryError("surface '" + surface.name() + "' has no footprint in its domain");
   double dlo = 1e300, dhi = -1e300;
   for (Vec2 c : {box.min, box.max, Vec2{box.min.x, box.max.y}, Vec2{box.max.x, box.min.y}}) {
     const double v = n.x * c.x + n.y * c.y;
@@ -679,32 +688,98 @@ void footprint_vrange(const HeightField& surface, Vec2 d, Vec2 n, double w, doub
   *vhi = refine(hi, std::min(dhi, hi + 2 * step));
 }
 
-// The plane sections of one layer: lines across the footprint spaced by the width, each cut into
-// pieces where the surface exists, sampled within the chord tolerance.
-std::vector<Line> layer_lines(const HeightField& surface, double angle_deg, double offset,
-                              const NonplanarParams& prm) {
-  const double a = angle_deg * std::numbers::pi / 180;
-  const Vec2 d{std::cos(a), std::sin(a)}, n{-std::sin(a), std::cos(a)};
-  const BBox2 box = surface.domain();
-  double vlo = 1e300, vhi = -1e300;
+// The range of v = n·p over the footprint.
+void line_range(const HeightField& surface, Vec2 d, Vec2 n, double w, double* vlo, double* vhi) {
+  *vlo = 1e300, *vhi = -1e300;
   const auto& impl = surface.impl();
   if (impl.mesh()) {
     for (const auto& t : impl.triangles)
       for (auto vi : t) {
         const double v = n.x * impl.vertices[vi].x + n.y * impl.vertices[vi].y;
-        vlo = std::min(vlo, v), vhi = std::max(vhi, v);
+        *vlo = std::min(*vlo, v), *vhi = std::max(*vhi, v);
       }
   } else {
-    footprint_vrange(surface, d, n, prm.width, &vlo, &vhi);
+    footprint_vrange(surface, d, n, w, vlo, vhi);
   }
+}
+
+// Line offsets `w` apart along the surface: the arc length across the lines, s(v), integrated
+// in steps of w/8 and averaged over 17 points along each step's line, then inverted.
+std::vector<double> surface_spaced(const HeightField& surface, Vec2 d, Vec2 n, double vlo,
+                                   double vhi, double w) {
+  auto f = surface.evaluator();
+  const BBox2 box = surface.domain();
+  const long steps = std::max(1L, static_cast<long>(std::ceil((vhi - vlo) / (w / 8))));
+  const double dv = (vhi - vlo) / static_cast<double>(steps);
+  std::vector<double> s(static_cast<std::size_t>(steps) + 1, 0.0);
+  for (long k = 0; k < steps; ++k) {
+    const double v = vlo + dv * static_cast<double>(k);
+    double u0, u1, sum = 0;
+    int count = 0;
+    if (dv > 0 && clip_line(box, d, n, v + dv / 2, &u0, &u1))
+      for (int j = 0; j <= 16; ++j) {
+        const double u = u0 + (u1 - u0) * j / 16.0;
+        const Vec2 p = n * v + d * u, q = n * (v + dv) + d * u;
+        const double z0 = f(p.x, p.y), z1 = f(q.x, q.y);
+        if (!std::isfinite(z0) || !std::isfinite(z1)) continue;
+        sum += std::hypot(dv, z1 - z0);
+        ++count;
+      }
+    s[static_cast<std::size_t>(k) + 1] =
+        s[static_cast<std::size_t>(k)] + (count ? sum / count : dv);
+  }
+  const double total = s.back();
+  const auto lines = static_cast<std::size_t>(std::max(1.0, std::round(total / w)));
+  const double s0 = 0.5 * (total - static_cast<double>(lines - 1) * w);
+  std::vector<double> out;
+  std::size_t k = 0;
+  for (std::size_t i = 0; i < lines; ++i) {
+    const double target = s0 + static_cast<double>(i) * w;
+    while (k + 1 < s.size() - 1 && s[k + 1] < target) ++k;
+    const double ds = s[k + 1] - s[k];
+    const double t = ds > 0 ? std::clamp((target - s[k]) / ds, 0.0, 1.0) : 0.0;
+    out.push_back(vlo + dv * (static_cast<double>(k) + t));
+  }
+  return out;
+}
+
+}  // namespace
+
+std::vector<double> nonplanar_line_positions(const HeightField& surface, double angle_deg,
+                                             const NonplanarParams& prm) {
+  const double a = angle_deg * std::numbers::pi / 180;
+  const Vec2 d{std::cos(a), std::sin(a)}, n{-std::sin(a), std::cos(a)};
+  double vlo, vhi;
+  line_range(surface, d, n, prm.width, &vlo, &vhi);
   const double w = prm.width;
-  const std::size_t count =
-      static_cast<std::size_t>(std::max(1.0, std::round((vhi - vlo) / w)));
+  if (prm.spacing_along_surface) return surface_spaced(surface, d, n, vlo, vhi, w);
+  const std::size_t count = static_cast<std::size_t>(std::max(1.0, std::round((vhi - vlo) / w)));
   const double v0 = vlo + 0.5 * ((vhi - vlo) - static_cast<double>(count - 1) * w);
-  std::vector<Line> lines(count);
-  for (std::size_t i = 0; i < count; ++i) lines[i].v = v0 + static_cast<double>(i) * w;
+  std::vector<double> out(count);
+  for (std::size_t i = 0; i < count; ++i) out[i] = v0 + static_cast<double>(i) * w;
+  return out;
+}
+
+namespace {
+
+// The plane sections of one layer: lines across the footprint spaced by the width (in the
+// slicing direction or along the surface), each cut into pieces where the surface exists,
+// sampled within the chord tolerance.
+std::vector<Line> layer_lines(const HeightField& surface, double angle_deg, double offset,
+                              const NonplanarParams& prm) {
+  const double a = angle_deg * std::numbers::pi / 180;
+  const Vec2 d{std::cos(a), std::sin(a)}, n{-std::sin(a), std::cos(a)};
+  const BBox2 box = surface.domain();
+  const auto& impl = surface.impl();
+  const double w = prm.width;
+  const std::vector<double> vs = nonplanar_line_positions(surface, angle_deg, prm);
+  std::vector<Line> lines(vs.size());
+  for (std::size_t i = 0; i < vs.size(); ++i) lines[i].v = vs[i];
+  const double v0 = vs.front();
   const double tol = prm.chord_tolerance;
-  if (impl.mesh() && (prm.offset == OffsetMode::Vertical || offset == 0)) {
+  // Mesh sections walk evenly spaced planes; surface spacing samples the mesh like a function.
+  if (impl.mesh() && !prm.spacing_along_surface &&
+      (prm.offset == OffsetMode::Vertical || offset == 0)) {
     mesh_sections(impl, d, n, lines, v0, w, surface.name());
     tbb::parallel_for(std::size_t{0}, lines.size(), [&](std::size_t i) {
       for (auto& p : lines[i].pieces) {
@@ -930,18 +1005,50 @@ SurfaceDeviation surface_deviation(const Toolpath& tp, const HeightField& surfac
       return std::abs(distance_to_surface(f, q, off) - off);
     };
     SurfaceDeviation local;
+    // Vertical mode: the distance from a chord midpoint to any surface point bounds its distance
+    // to the surface from above — to the point below it (the vertical gap) and to the surface
+    // point under its foot on the tangent plane (tight on slopes). Midpoints are visited by
+    // falling bound and the minimisation stops once no bound can beat the largest distance
+    // found: the same maximum, a fraction of the work.
+    std::vector<std::pair<double, Vec3>> mids;
     for (const auto& p : tp.layers[k].paths)
       for (std::size_t i = 0; i < p.points.size(); ++i) {
         const double d = dev(p.points[i], false);
         if (d > local.max_point) local.max_point = d, local.worst = p.points[i];
         if (i == 0) continue;
         const Vec3 mid = (p.points[i - 1] + p.points[i]) * 0.5;
-        const double c = dev(mid, true);
-        if (c > local.max_chord) local.max_chord = c, local.worst_chord = mid;
+        double bound = 1e300;
+        if (prm.offset == OffsetMode::Vertical) {
+          const double z = f(mid.x, mid.y);
+          if (std::isfinite(z)) {
+            bound = std::abs(mid.z - off - z);
+            const double h = 1e-3;
+            const double fx = (f(mid.x + h, mid.y) - f(mid.x - h, mid.y)) / (2 * h);
+            const double fy = (f(mid.x, mid.y + h) - f(mid.x, mid.y - h)) / (2 * h);
+            if (std::isfinite(fx) && std::isfinite(fy)) {
+              const Vec3 q{mid.x, mid.y, mid.z - off};
+              const double len = std::sqrt(fx * fx + fy * fy + 1);
+              const Vec3 n{-fx / len, -fy / len, 1 / len};
+              const double along = (q.z - z) * n.z;  // signed distance to the tangent plane
+              const Vec3 foot = q - n * along;
+              const double zf = f(foot.x, foot.y);
+              if (std::isfinite(zf)) bound = std::min(bound, distance(q, Vec3{foot.x, foot.y, zf}));
+            }
+          }
+        }
+        mids.emplace_back(bound, mid);
       }
+    std::stable_sort(mids.begin(), mids.end(),
+                     [](const auto& a, const auto& b) { return a.first > b.first; });
+    for (const auto& [bound, mid] : mids) {
+      if (bound <= local.max_chord) break;
+      const double c = dev(mid, true);
+      if (c > local.max_chord) local.max_chord = c, local.worst_chord = mid;
+    }
     std::lock_guard lock(m);
     if (local.max_point > out.max_point) out.max_point = local.max_point, out.worst = local.worst;
-    if (local.max_chord > out.max_chord) out.max_chord = local.max_chord, out.worst_chord = local.worst_chord;
+    if (local.max_chord > out.max_chord)
+      out.max_chord = local.max_chord, out.worst_chord = local.worst_chord;
   });
   return out;
 }
@@ -1036,8 +1143,7 @@ Toolpath project_onto_surface(const Toolpath& planar, const HeightField& surface
   tbb::parallel_for(std::size_t{0}, planar.layers.size(), [&](std::size_t k) {
     auto& f = evals.local();
     const auto& in = planar.layers[k];
-    const double off = prm.layer_height > 0 ? static_cast<double>(k) * prm.layer_height
-                                            : in.z - z0;
+    const double off = prm.layer_height > 0 ? static_cast<double>(k) * prm.layer_height : in.z - z0;
     // Where the ray from the planar point along `dir` meets the surface; NaN if it does not.
     auto base = [&](Vec3 p) -> Vec2 {
       if (vertical) return p.xy();

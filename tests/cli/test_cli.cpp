@@ -5,6 +5,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <regex>
 #include <set>
 #include <sstream>
 
@@ -201,10 +202,10 @@ TEST(Cli, AnalyzeAndCompareOurOwnGcode) {
   EXPECT_NE(r.out.find("ratio 1.000, double 0.00 mm, off-design 0.00 mm, missing 0 of"), std::string::npos) << r.out;
   const std::string report = trellis::read_file(in_work("an.report.json"));
   EXPECT_NE(report.find("\"missing_edges\": 0"), std::string::npos);
-  r = run("compare " + lat + " " + gc + " " + gc + " --align --png " + in_work("cmp"));
+  r = run("compare " + lat + " " + gc + " " + gc + " --align --preview " + in_work("cmp"));
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("ratio"), std::string::npos);
-  EXPECT_TRUE(fs::exists(in_work("cmp.an.layer000.png")));
+  EXPECT_TRUE(fs::exists(in_work("cmp/an_layer_0000.png")));
   // Garbage lines are warnings naming the line, not crashes.
   const std::string bad = write("bad.gcode", "G1 X1 Y1 E1\nG1 X@@ E2\nG1 X2 Y2 E3\n");
   r = run("analyze " + bad);
@@ -518,4 +519,41 @@ TEST(Cli, NonplanarBadSurfacesExitTwoNamingWhere) {
   EXPECT_FALSE(fs::exists(in_work("never.gcode")));
   EXPECT_EQ(run("surface corrugation --periods 2.3 -o " + in_work("never.stl")).code, 2);
   EXPECT_FALSE(fs::exists(in_work("never.stl")));
+}
+
+TEST(Cli, AeroFoamThroughA3mfBeamLatticePlansTheFewestCollisionsTheGcodeHas) {
+  // A foam written as a 3MF beam lattice, planned from the 3MF; the G-code replayed by `check`
+  // has exactly the collisions the report plans, and the report proves them minimal.
+  const std::string foam = in_work("foam.3mf"), tp = in_work("foam_path.json"),
+                    rep = in_work("foam_report.json"), nc = in_work("foam.nc");
+  const std::string prof = std::string(TRELLIS_SOURCE_DIR) + "/profiles/embedded_aero_410um.toml";
+  CmdResult r = run("lattice3d --kind foam --box 20,20,20 --density 0.005 -o " + foam);
+  ASSERT_EQ(r.code, 0) << r.err;
+  r = run("plan aero " + foam + " -o " + tp + " --report " + rep);
+  ASSERT_EQ(r.code, 0) << r.err;
+  const std::string report = trellis::read_file(rep);
+  auto number = [&](const std::string& key) {
+    std::smatch m;
+    const std::regex re("\"" + key + "\": ([0-9]+)");
+    EXPECT_TRUE(std::regex_search(report, m, re)) << key;
+    return m.size() > 1 ? std::stol(m[1]) : -1L;
+  };
+  const long planned = number("collisions_planned"), bound = number("collisions_lower_bound");
+  EXPECT_GT(planned, 0);
+  EXPECT_EQ(planned, bound);
+  EXPECT_NE(report.find("\"collisions_proven_minimal\": true"), std::string::npos);
+  EXPECT_EQ(number("collisions"), planned);
+  r = run("gcode " + tp + " --machine " + prof + " -o " + nc);
+  ASSERT_EQ(r.code, 0) << r.err;
+  r = run("check " + foam + " " + nc + " --machine " + prof);
+  EXPECT_EQ(r.code, 1) << r.err;  // collisions remain: not ok
+  EXPECT_NE(r.out.find(", " + std::to_string(planned) + " collisions"), std::string::npos) << r.out;
+  // --keep-graph keeps the AERO bunny's 1,091 struts (1,093 after T-junction splitting).
+  const std::string bunny =
+      std::string(TRELLIS_SOURCE_DIR) + "/tests/data/aero/stanford_bunny_edges.csv";
+  r = run("plan aero " + bunny + " --keep-graph -o " + in_work("bunny.json"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("1091 struts"), std::string::npos) << r.out;
+  r = run("plan aero " + bunny + " -o " + in_work("bunny.json"));
+  EXPECT_NE(r.out.find("1093 struts"), std::string::npos) << r.out;
 }

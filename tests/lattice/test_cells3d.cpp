@@ -4,7 +4,9 @@
 #include <map>
 
 #include "trellis/core/error.hpp"
+#include "trellis/field/field.hpp"
 #include "trellis/geom/mesh.hpp"
+#include "trellis/geom/mesh_io.hpp"
 #include "trellis/lattice/cells3d.hpp"
 
 using namespace trellis;
@@ -26,9 +28,7 @@ bool interior(const Graph& g, NodeId n, double lo, double hi) {
 }  // namespace
 
 TEST(Cells3d, CountsOfTheClassicCells) {
-  auto make = [](UnitCell c, int n, double size = 7) {
-    return cell_lattice({c, size, n, n, n});
-  };
+  auto make = [](UnitCell c, int n, double size = 7) { return cell_lattice({c, size, n, n, n}); };
   const Graph octet = make(UnitCell::Octet, 1);
   EXPECT_EQ(octet.nodes.size(), 14u);
   EXPECT_EQ(octet.edges.size(), 36u);
@@ -51,7 +51,7 @@ TEST(Cells3d, CountsOfTheClassicCells) {
 TEST(Cells3d, EdgeLengthsAndInteriorDegreesOfThePolyhedralCells) {
   struct Case {
     UnitCell cell;
-    double length;       // in cell sides
+    double length;  // in cell sides
     std::vector<int> interior_degrees;
   };
   const std::vector<Case> cases = {
@@ -153,4 +153,85 @@ TEST(Cells3d, MaterialRules) {
   for (const auto& e : two.edges) vertical += e.material;
   EXPECT_EQ(vertical, 8);
   EXPECT_THROW(material_rule_from_string("rigid"), SettingError);
+}
+
+TEST(Cells3d, ConformalLatticeInASphereWithAndWithoutSkin) {
+  // A sphere of radius 10 (marching cubes at 1 mm, so its surface is within ~0.3 mm of the
+  // true one) written as 3MF.
+  const double R = 10, tol = 0.35;
+  const TriangleMesh ball = field_to_mesh(sphere(R), {{-11, -11, -11}, {11, 11, 11}}, 1.0);
+  const std::string path = testing::TempDir() + "/conformal_ball.3mf";
+  write_3mf(path, ball);
+  Diagnostics diag;
+  ConformalParams p;
+  p.mesh = path;
+  p.cell = UnitCell::Cubic;
+  p.size = 4;
+  // No skin: exactly the struts of the periodic lattice with both ends inside.
+  const Graph clipped = conformal_lattice(p, diag);
+  const BBox3 b = bounds(ball);
+  CellLatticeParams cells{UnitCell::Cubic, 4, 0, 0, 0};
+  cells.nx = static_cast<int>(std::ceil((b.max.x - b.min.x) / 4));
+  cells.ny = static_cast<int>(std::ceil((b.max.y - b.min.y) / 4));
+  cells.nz = static_cast<int>(std::ceil((b.max.z - b.min.z) / 4));
+  Graph full = cell_lattice(cells);
+  std::size_t surely_in = 0, surely_out_found = 0;
+  auto key = [](Vec3 a, Vec3 c) {
+    auto r = [](double v) { return std::llround(v * 1000); };
+    auto k1 = std::make_tuple(r(a.x), r(a.y), r(a.z)), k2 = std::make_tuple(r(c.x), r(c.y), r(c.z));
+    return k1 < k2 ? std::make_pair(k1, k2) : std::make_pair(k2, k1);
+  };
+  std::map<decltype(key({}, {})), int> have;
+  for (const auto& e : clipped.edges) have[key(clipped.nodes[e.a], clipped.nodes[e.b])] = 1;
+  for (const auto& e : full.edges) {
+    const Vec3 a = full.nodes[e.a] + b.min, c = full.nodes[e.b] + b.min;
+    const double far = std::max(norm(a), norm(c));
+    if (far < R - tol) {
+      ++surely_in;
+      EXPECT_TRUE(have.count(key(a, c)));
+    }
+    if (far > R + tol && have.count(key(a, c))) ++surely_out_found;
+  }
+  EXPECT_GT(surely_in, 50u);
+  EXPECT_EQ(surely_out_found, 0u);
+  EXPECT_EQ(have.size(), clipped.edges.size());
+  // With a 2 mm skin: core struts at least 2 mm deep, skin struts inside, all one piece.
+  p.skin = 2;
+  p.skin_density = 0.1;
+  p.core_material = 0;
+  p.skin_material = 1;
+  const Graph g = conformal_lattice(p, diag);
+  std::size_t core = 0, skin = 0;
+  for (const auto& e : g.edges) {
+    const double ra = norm(g.nodes[e.a]), rb = norm(g.nodes[e.b]);
+    EXPECT_LT(std::max(ra, rb), R + tol);
+    if (e.material == 1) {
+      ++skin;
+      EXPECT_GT(std::max(ra, rb), R - 2 - tol);  // an end within the skin
+    } else {
+      ++core;
+      // Core struts and the joins: at least one end 2 mm deep.
+      EXPECT_LT(std::min(ra, rb), R - 2 + tol);
+    }
+  }
+  EXPECT_GT(core, 20u);
+  EXPECT_GT(skin, 50u);
+  int parts = 0;
+  connected_components(g, &parts);
+  EXPECT_EQ(parts, 1);
+  EXPECT_THROW(conformal_lattice({}, diag), SettingError);
+}
+
+TEST(Cells3d, FoamWithTooFewSeedsInsideAMeshIsAClearError) {
+  // A 2 x 2 x 1 mm box at 0.5 seeds/mm³ holds 2 seeds, too few for 3D cells: an error, not
+  // a crash.
+  TriangleMesh box;
+  box.add_prism({{0, 0}, {2, 0}, {2, 2}, {0, 2}}, 0, 1);
+  const std::string path = testing::TempDir() + "/tiny_box.stl";
+  write_stl(path, box);
+  Diagnostics diag;
+  FoamParams p;
+  p.mesh = path;
+  p.density = 0.5;
+  EXPECT_THROW(voronoi_foam(p, diag), GeometryError);
 }

@@ -5,6 +5,7 @@
 
 #include "support/temp_dir.hpp"
 #include "trellis/core/error.hpp"
+#include "trellis/core/file.hpp"
 #include "trellis/lattice/io.hpp"
 
 using namespace trellis;
@@ -146,4 +147,87 @@ TEST(LatticeJson, WriteReadRoundTripIsExact) {
   EXPECT_EQ(back.graph.nodes, g.nodes);
   EXPECT_EQ(back.graph.edges[1].material, 4);
   EXPECT_TRUE(back.graph.edges[1].directed);
+}
+
+TEST(ReadLattice, KeepGraphLeavesTheBunnyAsGiven) {
+  // The bunny has two nodes lying on struts: split by default (1,093 struts), kept as given
+  // (1,091, the file's own nodes and struts in order) with keep_graph_options().
+  const std::string path = std::string(TRELLIS_TEST_DATA) + "/aero/stanford_bunny_edges.csv";
+  Diagnostics d1, d2;
+  const Graph split = read_lattice(path, {}, d1);
+  const Graph kept = read_lattice(path, keep_graph_options(), d2);
+  EXPECT_EQ(split.edges.size(), 1093u);
+  EXPECT_GT(d1.count("t_junction_split"), 0u);
+  ASSERT_EQ(kept.edges.size(), 1091u);
+  EXPECT_EQ(d2.count("t_junction_split"), 0u);
+  const std::string vpath = std::string(TRELLIS_TEST_DATA) + "/aero/stanford_bunny_vertices.csv";
+  const LatticeInput raw = parse_aero_pair(read_file(vpath), vpath, read_file(path), path);
+  ASSERT_EQ(kept.nodes.size(), raw.graph.nodes.size());
+  for (std::size_t i = 0; i < kept.nodes.size(); ++i) EXPECT_EQ(kept.nodes[i], raw.graph.nodes[i]);
+  for (std::size_t i = 0; i < kept.edges.size(); ++i) {
+    EXPECT_EQ(kept.edges[i].a, raw.graph.edges[i].a);
+    EXPECT_EQ(kept.edges[i].b, raw.graph.edges[i].b);
+  }
+}
+
+TEST(ReadLattice, NodeMergingOffKeepsCoincidentNodesAndSaysSo) {
+  // Two struts whose ends coincide at node 1 and node 2: merged by default (a path of two
+  // struts), kept apart (two separate struts, a warning) with merging off.
+  const std::string json = temp_file("coincide.json",
+                                     "{\"nodes\": [[0,0,0],[1,0,0],[1,0,0],[2,0,0]], "
+                                     "\"edges\": [[0,1],[2,3]]}");
+  Diagnostics d1, d2;
+  EXPECT_EQ(read_lattice(json, {}, d1).nodes.size(), 3u);
+  CleanOptions off;
+  off.merge_nodes = false;
+  EXPECT_EQ(read_lattice(json, off, d2).nodes.size(), 4u);
+  EXPECT_EQ(d2.count("coincident_nodes_kept"), 1u);
+  // A segment list has no node ids: ends at the same point still join.
+  const std::string csv = temp_file("segs.csv", "0,0,0,1,0,0\n1,0,0,2,0,0\n");
+  Diagnostics d3;
+  EXPECT_EQ(read_lattice(csv, keep_graph_options(), d3).nodes.size(), 3u);
+}
+
+TEST(ReadLattice, EveryFormatCarriesAMaterialColumn) {
+  // The same two-material lattice in each format reads to the same struts and materials.
+  const std::vector<std::pair<std::string, std::string>> files = {
+      {"m.json",
+       "{\"nodes\": [[0,0,0],[1,0,0],[1,1,0]], \"edges\": [[0,1],[1,2]], \"material\": [0, 3]}"},
+      {"m.csv", "x1,y1,z1,x2,y2,z2,material\n0,0,0,1,0,0,0\n1,0,0,1,1,0,3\n"},
+      {"m_nohead.csv", "0,0,0,1,0,0,0\n1,0,0,1,1,0,3\n"},
+      {"m.obj", "v 0 0 0\nv 1 0 0\nv 1 1 0\nusemtl 0\nl 1 2\nusemtl 3\nl 2 3\n"},
+  };
+  temp_file("m_vertices.csv", "0,0,0\n1,0,0\n1,1,0\n");
+  std::vector<std::pair<std::string, std::string>> all = files;
+  all.push_back({"m_edges.csv", "0,1,0\n1,2,3\n"});  // the AERO pair with a third column
+  for (const auto& [name, text] : all) {
+    const std::string path = temp_file(name, text);
+    Diagnostics d;
+    const Graph g = read_lattice(path, {}, d);
+    ASSERT_EQ(g.edges.size(), 2u) << name;
+    for (const auto& e : g.edges) {
+      const Vec3 mid = (g.nodes[e.a] + g.nodes[e.b]) * 0.5;
+      EXPECT_EQ(e.material, mid.y > 0.25 ? 3 : 0) << name;
+    }
+  }
+  // 2D with a material column needs the header naming it.
+  const LatticeInput two_d = parse_segments_csv("x1,y1,x2,y2,material\n0,0,1,0,2\n", "t.csv");
+  EXPECT_EQ(two_d.graph.edges.at(0).material, 2);
+  // OBJ material names other than numbers: numbered in order of appearance.
+  const LatticeInput named = parse_obj_lines(
+      "v 0 0 0\nv 1 0 0\nv 2 0 0\nusemtl soft\nl 1 2\nusemtl hard\nl 2 3\n", "n.obj");
+  EXPECT_EQ(named.graph.edges.at(0).material, 0);
+  EXPECT_EQ(named.graph.edges.at(1).material, 1);
+}
+
+TEST(ReadLattice, BadMaterialsNameTheLine) {
+  expect_parse_error([] { parse_segments_csv("0,0,0,1,0,0,0\n0,0,0,1,0,0,x\n", "s.csv"); }, 2,
+                     "column 7: material 'x'");
+  expect_parse_error([] { parse_segments_csv("0,0,0,1,0,0,256\n", "s.csv"); }, 1,
+                     "not an integer 0..255");
+  expect_parse_error([] { parse_aero_pair("0,0,0\n1,0,0\n", "v.csv", "0,1,-1\n", "e.csv"); }, 1,
+                     "column 3: material '-1'");
+  expect_parse_error([] { parse_obj_lines("v 0 0 0\nv 1 0 0\nusemtl 300\nl 1 2\n", "o.obj"); }, 3,
+                     "material '300'");
+  expect_parse_error([] { parse_obj_lines("v 0 0 0\nusemtl\n", "o.obj"); }, 2, "usemtl");
 }

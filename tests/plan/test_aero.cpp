@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <iostream>
 #include <map>
 #include <set>
 
@@ -9,6 +10,9 @@
 #include "trellis/core/error.hpp"
 #include "trellis/lattice/cells3d.hpp"
 #include "trellis/lattice/io.hpp"
+#include "trellis/machine/gcode_reader.hpp"
+#include "trellis/machine/gcode_writer.hpp"
+#include "trellis/machine/profile.hpp"
 #include "trellis/plan/aero.hpp"
 #include "trellis/plan/euler.hpp"
 
@@ -87,7 +91,8 @@ TEST(MixedEuler, MixedLowerBoundMatchesExhaustiveOrientations) {
       std::vector<int> bal(g.nodes.size(), 0);
       for (EdgeId e : all) {
         bool forward = dir[e] > 0;
-        if (!dir[e]) forward = (mask >> (std::find(free.begin(), free.end(), e) - free.begin())) & 1;
+        if (!dir[e])
+          forward = (mask >> (std::find(free.begin(), free.end(), e) - free.begin())) & 1;
         const Edge& ed = g.edges[e];
         bal[forward ? ed.a : ed.b]++;
         bal[forward ? ed.b : ed.a]--;
@@ -144,15 +149,17 @@ TEST(Aero, TheAeroExamplesBeatTheAeroProgramByHalf) {
                                                           {"cylindrical", 272},
                                                           {"interpenetrated_spheres", 135},
                                                           {"hollow_sphere", 75}};
-  for (const char* name : {"octet_3x3x3", "stanford_bunny", "cylindrical", "interpenetrated_spheres",
-                           "hollow_sphere", "octet_3x3x2", "cubic", "cubic_sphere", "filled_sphere"}) {
+  for (const char* name :
+       {"octet_3x3x3", "stanford_bunny", "cylindrical", "interpenetrated_spheres", "hollow_sphere",
+        "octet_3x3x2", "cubic", "cubic_sphere", "filled_sphere"}) {
     const Graph g = aero_lattice(name);
     Diagnostics d;
     const AeroResult r = plan_aero(g, {}, d);
     const CollisionCheck c = check(g, r);
     EXPECT_EQ(c.printed_once, g.edges.size()) << name;
     EXPECT_TRUE(c.top_down.empty()) << name;
-    if (aero_trails.count(name)) EXPECT_LE(r.trails.trails.size() * 2, aero_trails.at(name)) << name;
+    if (aero_trails.count(name))
+      EXPECT_LE(r.trails.trails.size() * 2, aero_trails.at(name)) << name;
     // A strut is forced only when every remaining one obstructs another; the collisions that
     // follow are at most the struts it obstructs.
     std::size_t obstructed = 0;
@@ -256,5 +263,90 @@ TEST(Aero, ThePlanDependsOnTheGeometryNotTheInputOrder) {
     ASSERT_EQ(a.trails.trails[t].nodes.size(), b.trails.trails[t].nodes.size());
     for (std::size_t k = 0; k < a.trails.trails[t].nodes.size(); ++k)
       EXPECT_EQ(g.nodes[a.trails.trails[t].nodes[k]], h.nodes[b.trails.trails[t].nodes[k]]);
+  }
+}
+
+namespace {
+
+// Writes the plan as G-code for the single-nozzle embedded machine, reads it back and replays
+// it with the independent checker.
+CollisionCheck replay_gcode(const Graph& g, const AeroResult& r) {
+  const MachineProfile prof =
+      load_profile(std::string(TRELLIS_SOURCE_DIR) + "/profiles/embedded_aero_410um.toml");
+  const std::string gcode = write_gcode(aero_toolpath(g, r, "test"), prof);
+  GcodeReadOptions read;
+  read.valve_on = prof.valve_on;
+  read.valve_off = prof.valve_off;
+  Diagnostics d;
+  const Toolpath back = read_gcode(gcode, read, d);
+  CheckOptions o;
+  o.snap = prof.node_overlap + 0.05;
+  return check_collisions(g, back, o);
+}
+
+struct Case {
+  std::string name;
+  Graph graph;
+  bool foam = false;
+};
+
+std::vector<Case> collision_cases() {
+  std::vector<Case> cases;
+  for (const char* name :
+       {"octet_3x3x3", "stanford_bunny", "cylindrical", "interpenetrated_spheres", "hollow_sphere",
+        "octet_3x3x2", "cubic", "cubic_sphere", "filled_sphere"})
+    cases.push_back({name, aero_lattice(name)});
+  // The three foam densities.
+  const double foams[3][2] = {{20, 0.005}, {30, 0.002}, {40, 0.0005}};
+  for (const auto& f : foams) {
+    FoamParams fp;
+    fp.width = fp.depth = fp.height = f[0];
+    fp.density = f[1];
+    Diagnostics d;
+    cases.push_back({"foam " + std::to_string(f[1]), voronoi_foam(fp, d), true});
+  }
+  // Dense random lattices of about 100 to 500 struts.
+  const std::pair<int, double> dense[] = {{4, 0.3}, {4, 0.45}, {5, 0.3}, {5, 0.47}};
+  for (std::size_t i = 0; i < 4; ++i)
+    cases.push_back({"dense " + std::to_string(i),
+                     test::dense_lattice3d(100 + i, dense[i].first, dense[i].second)});
+  return cases;
+}
+
+}  // namespace
+
+TEST(Aero, ReplayedGcodeFindsExactlyThePlannedCollisions) {
+  for (const Case& c : collision_cases()) {
+    const Graph& g = c.graph;
+    if (c.name.rfind("dense", 0) == 0) {
+      EXPECT_GE(g.edges.size(), 100u) << c.name;
+      EXPECT_LE(g.edges.size(), 500u) << c.name;
+    }
+    Diagnostics d;
+    AeroParams p;
+    const AeroResult r = plan_aero(g, p, d);
+    const CollisionCheck replay = replay_gcode(g, r);
+    EXPECT_EQ(replay.printed_once, g.edges.size()) << c.name;
+    EXPECT_TRUE(replay.top_down.empty()) << c.name;
+    EXPECT_EQ(replay.collisions, r.collisions_planned) << c.name;
+    EXPECT_LE(r.collisions_lower_bound, r.collisions_planned) << c.name;
+    // Each mutually obstructing pair costs one collision in any order: a weaker bound.
+    EXPECT_LE(r.mutual_pairs, r.collisions_lower_bound) << c.name;
+    if (c.foam) EXPECT_LE(10 * r.collisions_planned, 11 * r.collisions_lower_bound) << c.name;
+    // Against the greedy of earlier versions: never more collisions, trails within 10 %.
+    AeroParams greedy = p;
+    greedy.fewest_collisions = false;
+    const AeroResult old = plan_aero(g, greedy, d);
+    EXPECT_EQ(check(g, old).collisions, old.collisions_planned) << c.name;
+    EXPECT_LE(r.collisions_planned, old.collisions_planned) << c.name;
+    EXPECT_LE(10 * r.trails.trails.size(), 11 * old.trails.trails.size()) << c.name;
+    std::size_t listed = 0;
+    for (const auto& v : r.violations) listed += v.obstructs;
+    EXPECT_EQ(listed, r.collisions_planned) << c.name;
+    std::cout << c.name << ": " << g.edges.size() << " struts, collisions " << r.collisions_planned
+              << " (greedy " << old.collisions_planned << "), lower bound "
+              << r.collisions_lower_bound << (r.collisions_proven_minimal() ? " proven" : "")
+              << ", trails " << r.trails.trails.size() << " (greedy " << old.trails.trails.size()
+              << ")\n";
   }
 }

@@ -36,7 +36,8 @@ HeightField random_surface(std::mt19937& rng) {
   auto make = [waves]() -> HeightField::Eval {
     return [waves](double x, double y) {
       double z = 0;
-      for (const auto& wv : waves) z += wv.amp * std::sin(wv.k * (wv.ax * x + wv.ay * y) + wv.phase);
+      for (const auto& wv : waves)
+        z += wv.amp * std::sin(wv.k * (wv.ax * x + wv.ay * y) + wv.phase);
       return z;
     };
   };
@@ -230,7 +231,8 @@ TEST(Nonplanar, ProfilesAreContinuousAndTangentAtFillets) {
   EXPECT_LT(worst_kink, 0.01);  // slopes change smoothly: every corner is filleted
   // Peaks at ±amplitude: 5 periods over 30 mm at 45° rise 1.5 mm, less the fillet's cut.
   double top = -1, bottom = 1;
-  for (double x = 0; x <= 44; x += 0.001) top = std::max(top, z(x)), bottom = std::min(bottom, z(x));
+  for (double x = 0; x <= 44; x += 0.001)
+    top = std::max(top, z(x)), bottom = std::min(bottom, z(x));
   const double cut = 0.25 / std::cos(45 * kDeg) - 0.25;  // fillet r = 0.25 at a 90° corner
   EXPECT_NEAR(top, 1.5 - cut, 1e-3);
   EXPECT_NEAR(bottom, -1.5 + cut, 1e-3);
@@ -441,14 +443,14 @@ TEST(NonplanarJobs, SolidLayersAreCroppedToTheirCrossSections) {
     const Vec3 a = g.nodes[e.a], b = g.nodes[e.b];
     const long i = std::lround(a.z / h);
     layers.insert(i);
-    const auto regions = slice_mesh(solid, (static_cast<double>(i) + 0.5) * h);
+    const auto regions = slice_mesh(solid, solid_section_z(bounds(solid), static_cast<int>(i), h));
     const Vec2 mid = (a.xy() + b.xy()) * 0.5;
     bool inside = false;
     for (const auto& r : regions) inside = inside || contains(r, mid, 1e-6);
     EXPECT_TRUE(inside) << "strut at layer " << i << " leaves the cross-section";
     ++checked;
   }
-  EXPECT_EQ(layers.size(), 27u);  // 4 mm / 0.148 mm
+  EXPECT_EQ(layers.size(), 28u);  // every started layer of 4 mm / 0.148 mm, as the paper prints
   EXPECT_GT(checked, 1000u);
 }
 
@@ -465,6 +467,93 @@ TEST(NonplanarJobs, LatticeOnSphereFollowsItLayerByLayer) {
   const SurfaceDeviation dev = surface_deviation(tp, sphere_cap(c.onto.radius, c.onto.diameter), check);
   EXPECT_LE(dev.max_point, 0.01);
   EXPECT_LE(dev.max_chord, c.onto.project.chord_tolerance + 1e-4);
+}
+
+}  // namespace
+
+TEST(Nonplanar, SurfaceSpacingKeepsLinesOneWidthApartAlongTheSlope) {
+  // The 45° corrugation, lines along Y (spaced in x): in the slicing planes they lie 0.4 mm
+  // apart in x, 0.57 mm along the slopes; along the surface they lie 0.4 mm ± 5 % apart, measured
+  // independently by integrating the profile z(x) between neighbouring lines.
+  const CorrugationParams c;
+  const HeightField surface = corrugation(c);
+  const auto z = profile_function(corrugation_profile(c));
+  auto along = [&](double x0, double x1) {
+    double s = 0;
+    const int n = 400;
+    for (int i = 0; i < n; ++i) {
+      const double a = x0 + (x1 - x0) * i / n, b = x0 + (x1 - x0) * (i + 1) / n;
+      s += std::hypot(b - a, z(b) - z(a));
+    }
+    return s;
+  };
+  NonplanarParams prm;
+  prm.width = 0.4;
+  // Angle 90: lines along +Y, n = (-1, 0), so v = -x.
+  prm.spacing_along_surface = true;
+  std::vector<double> v = nonplanar_line_positions(surface, 90, prm);
+  ASSERT_GT(v.size(), 50u);
+  for (std::size_t i = 1; i < v.size(); ++i) {
+    const double gap = along(-v[i - 1], -v[i]);
+    EXPECT_NEAR(gap, prm.width, 0.05 * prm.width)
+        << "between x = " << -v[i - 1] << " and " << -v[i];
+  }
+  prm.spacing_along_surface = false;
+  v = nonplanar_line_positions(surface, 90, prm);
+  double widest = 0;
+  for (std::size_t i = 1; i < v.size(); ++i) widest = std::max(widest, along(-v[i - 1], -v[i]));
+  EXPECT_GT(widest, 1.35 * prm.width);  // the planar spacing's limit, for contrast
+  // The sliced layers follow: on the surface, one path per layer, the footprint covered.
+  prm.spacing_along_surface = true;
+  prm.layers = 2;
+  const NonplanarResult r = slice_nonplanar(surface, prm);
+  const SurfaceDeviation dev = surface_deviation(r.toolpath, surface, prm);
+  EXPECT_LE(dev.max_point, 0.01);
+  EXPECT_LE(dev.max_chord, prm.chord_tolerance + 1e-4);
+  for (std::size_t k = 0; k < 2; ++k) {
+    EXPECT_EQ(r.toolpath.layers[k].paths.size(), 1u) << "layer " << k;
+    EXPECT_GE(footprint_coverage(r.toolpath, k, surface, prm.width, 0.04), 0.98) << "layer " << k;
+  }
+  // Along X (angle 0) the surface is level across the lines: the same lines as planar spacing.
+  const auto a = nonplanar_line_positions(surface, 0, prm);
+  prm.spacing_along_surface = false;
+  const auto b = nonplanar_line_positions(surface, 0, prm);
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t i = 0; i < a.size(); ++i) EXPECT_NEAR(a[i], b[i], 1e-9);
+}
+
+namespace {
+
+// The self-check's largest chord distance (found with pruning by upper bounds) equals a brute
+// force: every chord midpoint's distance to the surface by dense sampling around it.
+TEST(NonplanarCheck, PrunedChordDeviationEqualsBruteForce) {
+  for (const HeightField& s : {corrugation(CorrugationParams{}), m_curve(MCurveParams{})}) {
+    NonplanarParams prm;
+    prm.layers = 2;
+    prm.width = 1.0;  // fewer chords: the brute force stays quick
+    prm.chord_tolerance = 0.02;
+    const NonplanarResult r = slice_nonplanar(s, prm);
+    const SurfaceDeviation dev = surface_deviation(r.toolpath, s, prm);
+    auto f = s.evaluator();
+    double brute = 0;
+    for (std::size_t k = 0; k < r.toolpath.layers.size(); ++k)
+      for (const auto& p : r.toolpath.layers[k].paths)
+        for (std::size_t i = 1; i < p.points.size(); ++i) {
+          const Vec3 m = (p.points[i - 1] + p.points[i]) * 0.5;
+          const Vec3 q{m.x, m.y, m.z - static_cast<double>(k) * prm.layer_height};
+          double best = 1e300;
+          const double r0 = 0.08, step = 0.002;
+          for (double dx = -r0; dx <= r0; dx += step)
+            for (double dy = -r0; dy <= r0; dy += step) {
+              const double z = f(q.x + dx, q.y + dy);
+              if (std::isfinite(z)) best = std::min(best, std::hypot(dx, dy, z - q.z));
+            }
+          if (best < 1e299) brute = std::max(brute, best);
+        }
+    EXPECT_GT(brute, 0);
+    // Sampling overestimates a distance by at most about half a step squared over it.
+    EXPECT_NEAR(dev.max_chord, brute, 2e-4) << s.name();
+  }
 }
 
 }  // namespace

@@ -48,7 +48,8 @@ inline Graph random_graph(std::uint64_t seed, int n, int m) {
 
 // Random 3D strut lattice: a jittered n×n×n grid (spacing 5 mm, jitter ±`jitter` mm) with a
 // random subset of its axis struts and face diagonals (vertical, inclined and horizontal struts).
-inline Graph random_lattice3d(std::uint64_t seed, int n = 4, double keep = 0.6, double jitter = 0.3) {
+inline Graph random_lattice3d(std::uint64_t seed, int n = 4, double keep = 0.6,
+                              double jitter = 0.3) {
   Rng rng(seed);
   Graph g;
   auto id = [&](int i, int j, int k) { return static_cast<NodeId>((k * n + j) * n + i); };
@@ -69,6 +70,28 @@ inline Graph random_lattice3d(std::uint64_t seed, int n = 4, double keep = 0.6, 
         if (j + 1 < n && k + 1 < n && rng.uniform01() < keep * 0.5)
           g.edges.push_back({id(i, j + 1, k), id(i, j, k + 1)});
       }
+  if (g.edges.empty()) g.edges.push_back({0, 1});
+  return g;
+}
+
+// A dense random strut lattice: nodes on an n x n x n grid of pitch 2 mm, each moved up to
+// ±0.3 mm per axis, and each pair of nodes 1.6-3.8 mm apart joined with probability `keep`
+// (axis, face- and body-diagonal neighbours): the kind of stochastic lattice whose obstruction
+// relation has many cycles.
+inline Graph dense_lattice3d(std::uint64_t seed, int n = 5, double keep = 0.47) {
+  Rng rng(seed);
+  Graph g;
+  for (int k = 0; k < n; ++k)
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < n; ++i)
+        g.nodes.push_back({2.0 * i + 0.3 * (2 * rng.uniform01() - 1),
+                           2.0 * j + 0.3 * (2 * rng.uniform01() - 1),
+                           2.0 * k + 0.3 * (2 * rng.uniform01() - 1)});
+  for (NodeId a = 0; a < g.nodes.size(); ++a)
+    for (NodeId b = a + 1; b < g.nodes.size(); ++b) {
+      const double d = distance(g.nodes[a], g.nodes[b]);
+      if (d >= 1.6 && d <= 3.8 && rng.uniform01() < keep) g.edges.push_back({a, b});
+    }
   if (g.edges.empty()) g.edges.push_back({0, 1});
   return g;
 }

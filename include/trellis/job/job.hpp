@@ -72,6 +72,10 @@ Job job_from_output(const std::string& path);
 Toolpath read_print(const std::string& path, const Settings* machine, double* snap,
                     Diagnostics& diag);
 
+// GIPPO parts on a solid: the height at which layer `layer` (of thickness h) is cropped to the
+// solid's section — its middle, or just below the top for a partial top layer.
+double solid_section_z(const BBox3& box, int layer, double h);
+
 struct JobResult {
   std::vector<std::string> files;  // written, in order
   // What the route made, in memory (for callers such as the Python package); may be null.

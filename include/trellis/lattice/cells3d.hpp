@@ -49,6 +49,23 @@ struct FoamParams {
 // inside it are kept. Reproducible for a seed. Throws SettingError / IoError / GeometryError.
 Graph voronoi_foam(const FoamParams& params, Diagnostics& diag);
 
+// A conformal lattice like the AERO paper's bunny: a periodic cell lattice clipped to a closed
+// mesh (struts with both ends inside), optionally with a stochastic skin: the core keeps only
+// struts at least `skin` deep, a Voronoi foam fills the outer `skin` mm, and every core node
+// that lost a strut to the clipping is joined to its nearest skin node. Depth comes from the
+// mesh's signed distance field (OpenVDB). Throws SettingError / IoError / GeometryError.
+struct ConformalParams {
+  std::string mesh;                 // closed STL/OBJ/3MF
+  UnitCell cell = UnitCell::Cubic;  // periodic core cell
+  double size = 5.0;                // cell side (mm)
+  double skin = 0;                  // stochastic skin thickness (mm); 0 = no skin
+  double skin_density = 0.05;       // skin foam seeds per mm³
+  std::uint64_t seed = 1;           // skin foam seed
+  int core_material = 0, skin_material = 0;
+  double voxel = 0;  // distance-field voxel (mm); 0 = size / 10
+};
+Graph conformal_lattice(const ConformalParams& params, Diagnostics& diag);
+
 enum class MaterialRule {
   None,       // all material 0
   XyPlane,    // struts in the XY plane material 0 (rigid), all others 1 (flexible)

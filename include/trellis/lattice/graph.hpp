@@ -1,5 +1,5 @@
 // A strut lattice as an undirected graph embedded in 3D: nodes are points (mm), edges are struts.
-// Edges may carry a material index and a `directed` flag (print only from a to b).
+// Edges may carry a material index, a `directed` flag (print only from a to b) and a radius.
 #pragma once
 #include <cstdint>
 #include <string>
@@ -17,6 +17,7 @@ struct Edge {
   NodeId a = 0, b = 0;
   int material = 0;
   bool directed = false;
+  double radius = 0;  // strut radius (mm) where the input gives one (3MF beams), 0 = not given
   NodeId other(NodeId n) const { return n == a ? b : a; }
 };
 
@@ -62,7 +63,17 @@ TriangleMesh lattice_walls(const Graph& g, double width, double height);
 struct CleanOptions {
   double merge_tolerance = 1e-6;  // nodes closer than this (mm) become one
   bool split_t_junctions = true;  // a node lying on another edge splits that edge
+  // false: nodes stay as listed, even where they coincide (counted as a warning); a segment
+  // list (which has no node ids) still joins ends at identical coordinates. With
+  // split_t_junctions = false too, an indexed lattice keeps exactly its nodes and struts (only
+  // self-loops and duplicates, which cannot be printed as such, are dropped, with warnings).
+  bool merge_nodes = true;
 };
+
+// Both off: the lattice exactly as given (`--keep-graph`).
+inline CleanOptions keep_graph_options() {
+  return {1e-6, false, false};
+}
 
 // Merges coincident nodes (throws GeometryError for coordinates beyond kMaxCoordinate or a
 // tolerance that is negative or not finite), splits T-junctions, drops self-loops, zero-length and

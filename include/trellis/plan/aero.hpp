@@ -9,8 +9,14 @@
 // after every trail, and the next decomposition is made as if the current trail were still
 // open at its end node, so a trail runs on through later groups whenever the struts allow.
 // Both order trails by nearest start (trails reversed where no strut is one-way) and keep
-// materials in separate trails. If no strut is printable, the lowest remaining one is printed
-// anyway and counted as a violation.
+// materials in separate trails.
+//
+// Fewest collisions (default): before planning, the obstruction relation's cycles are broken
+// where it costs the fewest collisions (plan/collision_order.hpp: exact per strongly connected
+// part where the integer program finishes, local search beyond), and the planner runs on what
+// is left, which has no cycle. Without it (the greedy of earlier versions) the planner, when no
+// strut is printable, prints the remaining strut that obstructs the fewest. Either way the
+// result counts the collisions of the order it returns, with a lower bound for any order.
 #pragma once
 #include <cstdint>
 #include <string>
@@ -19,6 +25,7 @@
 #include "trellis/core/diagnostics.hpp"
 #include "trellis/core/progress.hpp"
 #include "trellis/lattice/collision.hpp"
+#include "trellis/plan/collision_order.hpp"
 #include "trellis/plan/paths.hpp"
 #include "trellis/toolpath/toolpath.hpp"
 
@@ -37,6 +44,10 @@ struct AeroParams {
   // 8, fewer above 25,000 struts (200,000 / struts, at least 1) to bound the time.
   int tries = 0;
   std::uint64_t seed = 1;  // for the shuffled runs: same seed, same plan
+  // Break the obstruction cycles where it costs the fewest collisions before planning (exact
+  // where possible); false = the greedy (print the strut obstructing the fewest when stuck).
+  bool fewest_collisions = true;
+  CollisionOrderParams order;  // the exact solver's and local search's budgets
   Progress progress;
 };
 
@@ -58,13 +69,18 @@ struct AeroResult {
   std::size_t blocking_relations = 0, pairs_tested = 0;
   std::size_t decompositions = 0;
   std::size_t insertions = 0;
-  std::size_t merges = 0;      // trails moved onto another trail after planning  // trails placed into the past (joined to an earlier trail)
-  std::size_t runs = 1;  // planner runs tried
-  std::string strategy;  // the trail-selection strategy that won (see aero.cpp)
-  std::vector<AeroViolation> violations;
+  std::size_t merges = 0;  // trails moved onto another trail after planning  // trails placed into
+                           // the past (joined to an earlier trail)
+  std::size_t runs = 1;    // planner runs tried
+  std::string strategy;    // the trail-selection strategy that won (see aero.cpp)
+  std::vector<AeroViolation> violations;   // struts printed before struts they obstruct
+  std::size_t collisions_planned = 0;      // collisions of the returned order (nozzle model)
+  std::size_t collisions_lower_bound = 0;  // no order of these struts has fewer
+  bool collisions_proven_minimal() const { return collisions_planned == collisions_lower_bound; }
+  std::vector<CollisionPart> collision_parts;  // strongly connected parts, largest first
   std::size_t mutual_pairs = 0;  // pairs of struts obstructing each other: a lower bound on
                                  // the collisions of any order
-  double seconds_blocking = 0, seconds_planning = 0;
+  double seconds_blocking = 0, seconds_order = 0, seconds_planning = 0;
 };
 
 // Throws GeometryError for a lattice without edges, SettingError for bad nozzle settings.

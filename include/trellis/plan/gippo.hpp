@@ -17,6 +17,7 @@
 #pragma once
 #include <cmath>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "trellis/core/progress.hpp"
@@ -48,6 +49,20 @@ struct GippoResult {
 };
 
 GippoResult plan_gippo(const Graph& g, const GippoParams& params);
+
+// Robustness (the paper's Fig. 2 v-vi): GIPPO run with `seeds` consecutive seeds from
+// params.seed; the spread of the best score over the seeds.
+struct GippoRobustness {
+  std::vector<std::uint64_t> seeds;
+  std::vector<double> best_scores;   // per seed
+  std::vector<double> worst_scores;  // per seed
+  double mean = 0, sd = 0;           // of the best scores (sample standard deviation, n - 1)
+  double min = 0, max = 0;
+  double cv_percent() const { return mean != 0 ? 100 * sd / std::abs(mean) : 0; }
+};
+// Throws SettingError for seeds < 1.
+GippoRobustness gippo_robustness(const Graph& g, const GippoParams& params, int seeds);
+std::string gippo_robustness_json(const GippoRobustness& r, const GippoParams& params);
 
 // One GIPPO iteration (exposed for tests and benchmarks).
 PathSet gippo_iteration(const Graph& g, GippoMode mode, std::uint64_t seed, std::uint64_t k);

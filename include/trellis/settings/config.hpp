@@ -19,9 +19,11 @@ namespace trellis {
 
 // lattice3d.*: unit cells tessellated, or a Voronoi foam.
 struct Lattice3dConfig {
-  std::string kind = "cells";  // cells | foam
+  std::string kind = "cells";  // cells | foam | conformal
   CellLatticeParams cells;
   FoamParams foam;
+  ConformalParams conformal;   // skin, skin density (mesh, cell, seed from the others)
+  double radius = 0.25;        // mm, strut radius written to 3MF beam lattices
   std::string materials = "none";  // none | xy-plane | component | vertical
 };
 
@@ -101,6 +103,9 @@ struct Config {
   std::string planner = "gippo";  // plan.planner: gippo | euler | aero
   PlanParams plan;      // plan.* and gippo.*
   double merge_tolerance = 1e-6;  // lattice.merge_tolerance (mm)
+  bool keep_graph = false;        // lattice.keep_graph: no node merging, no T-junction splitting
+  double line_width = 0.4;        // lattice2d.line_width (mm): for the pore area
+  int gippo_seeds = 0;            // gippo.seeds: robustness run over this many seeds
   AeroParams aero;
   SliceJob slice;       // slice.* and fgm.* (input set by the route)
   PbfConfig pbf;

@@ -60,8 +60,8 @@ OffsetMode offset_mode_from_string(const std::string& name);  // vertical | norm
 const char* to_string(OffsetMode m);
 
 struct NonplanarParams {
-  double width = 0.4;          // path width = plane spacing (mm)
-  double layer_height = 0.3;   // mm
+  double width = 0.4;         // path width = plane spacing (mm)
+  double layer_height = 0.3;  // mm
   int layers = 6;
   // Plane direction per layer in degrees from +X (0 = paths along X), cycled over the layers:
   // {0, 90} is the paper's cross-hatch, {0} keeps one direction.
@@ -74,17 +74,21 @@ struct NonplanarParams {
   // Tool per layer, cycled; e.g. {0,0,0,1,1,1,0,0,0} for the paper's black/clear/black M.
   std::vector<int> layer_tools{0};
   double speed = 0;  // mm/s on every path, 0 = profile default
+  // false: lines `width` apart in the slicing direction (the paper's, and its stated limit:
+  // on a 45° slope they lie 1.41 widths apart on the surface); true: `width` apart along the
+  // surface (arc length across the lines, averaged along them; exact for extruded profiles).
+  bool spacing_along_surface = false;
 };
 
 struct NonplanarLayerReport {
   double offset = 0;  // mm above (or along the normal from) the surface
   double angle = 0;
   int tool = 0;
-  std::size_t lines = 0;       // plane sections (major paths)
-  std::size_t paths = 0;       // continuous paths after joining
+  std::size_t lines = 0;         // plane sections (major paths)
+  std::size_t paths = 0;         // continuous paths after joining
   std::size_t travel_moves = 0;  // within the layer
-  double length = 0;           // extruded path length (mm)
-  double connector_length = 0; // of it, joining lines (mm)
+  double length = 0;             // extruded path length (mm)
+  double connector_length = 0;   // of it, joining lines (mm)
 };
 
 struct NonplanarResult {
@@ -92,6 +96,11 @@ struct NonplanarResult {
   std::vector<NonplanarLayerReport> layers;
   double max_descent_deg = 0;  // steepest downward segment
 };
+
+// Where the lines of a layer at `angle_deg` lie: their offsets v along the direction across them
+// (n = (-sin, cos) of the angle), in increasing order.
+std::vector<double> nonplanar_line_positions(const HeightField& surface, double angle_deg,
+                                             const NonplanarParams& params);
 
 // Plans every layer (layers in parallel). Throws GeometryError when a plane meets the surface
 // twice above one point (not a height field), naming the place.
@@ -146,11 +155,11 @@ HeightField corrugation(const CorrugationParams& p);
 
 struct MiuraParams {
   double length = 44, width = 16;
-  double depth = 4;          // fold depth (0, 2, 4, 6 mm in the paper)
-  double periods_x = 4;      // zig-zag periods of the creases along the length
-  double periods_y = 2;      // fold periods across the width
-  double shift = 2;          // sideways zig-zag of the folds (mm)
-  double taper_length = 0;   // fold depth ramps up from 0 over this length at both ends (mm)
+  double depth = 4;         // fold depth (0, 2, 4, 6 mm in the paper)
+  double periods_x = 4;     // zig-zag periods of the creases along the length
+  double periods_y = 2;     // fold periods across the width
+  double shift = 2;         // sideways zig-zag of the folds (mm)
+  double taper_length = 0;  // fold depth ramps up from 0 over this length at both ends (mm)
 };
 HeightField miura(const MiuraParams& p);
 
