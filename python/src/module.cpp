@@ -26,6 +26,7 @@
 #include "trellis/machine/gcode_writer.hpp"
 #include "trellis/render/render.hpp"
 #include "trellis/toolpath/json.hpp"
+#include "trellis/version.hpp"
 
 namespace py = pybind11;
 using namespace trellis;
@@ -288,7 +289,7 @@ PYBIND11_MODULE(_trellis, m) {
   m.doc() = "Trellis: toolpaths for architected materials (the C++ core).";
   py::register_exception_translator(&translate);
 
-  m.def("version", [] { return std::string(TRELLIS_VERSION_STRING); });
+  m.def("version", [] { return std::string(trellis::version()); });
   m.def("route_names", &route_names);
   m.def("route_sections", &route_sections);
   m.def("settings", [] {

@@ -8,6 +8,7 @@
 #include "trellis/core/file.hpp"
 #include "trellis/machine/gcode_reader.hpp"
 #include "trellis/toolpath/json.hpp"
+#include "trellis/version.hpp"
 
 #include <cstdio>
 #include <tbb/global_control.h>
@@ -29,6 +30,7 @@ std::string with_job(const std::string& json, const Job& job, const std::string&
   // The literal command line goes into reports only (like their timings), so that a file made
   // from the CLI, from Python or by rerun is the same file.
   if (command && !job.command.empty()) j["command"] = job.command;
+  j["generator"] = std::string("Trellis ") + TRELLIS_VERSION;
   return j.dump(2) + "\n";
 }
 

@@ -280,9 +280,9 @@ static LatticeInput lattice_from_document(const json& doc, const std::string& or
   for (auto it = doc.begin(); it != doc.end(); ++it)
     if (it.key() != "nodes" && it.key() != "edges" && it.key() != "material" &&
         it.key() != "directed" && it.key() != "name" && it.key() != "units" && it.key() != "meta" &&
-        it.key() != "job")
+        it.key() != "job" && it.key() != "generator")
       throw ParseError("unknown key '" + it.key() +
-                           "' (expected nodes, edges, material, directed, name, units, meta, job)",
+                           "' (expected nodes, edges, material, directed, name, units, meta, job, generator)",
                        {origin});
   if (auto u = doc.find("units"); u != doc.end() && *u != "mm")
     throw ParseError("only \"units\": \"mm\" is supported", {origin, 0, "units"});

@@ -1,5 +1,7 @@
 #include "trellis/toolpath/json.hpp"
 
+#include "trellis/version.hpp"
+
 #include <cmath>
 #include <nlohmann/json.hpp>
 
@@ -31,7 +33,8 @@ std::string toolpath_to_json(const Toolpath& tp) {
   json doc = {{"format", "trellis.toolpath"},
               {"version", 1},
               {"units", "mm"},
-              {"source", tp.source}};
+              {"source", tp.source},
+              {"generator", std::string("Trellis ") + TRELLIS_VERSION}};
   if (!tp.job.empty()) doc["job"] = tp.job;
   doc["layers"] = std::move(layers);
   return doc.dump(1) + "\n";
