@@ -276,6 +276,22 @@ Graph lattice_from_arrays(const py::object& nodes_obj, const py::object& edges_o
   return g;
 }
 
+// Runs a job interruptibly; its files, summary, warnings and in-memory results as a dict.
+py::dict run_job_dict(const Job& job, const py::object& progress) {
+  Diagnostics diag;
+  const JobResult r = run_interruptible([&](const Progress& p) { return run_job(job, diag, p); }, progress);
+  py::dict d;
+  d["files"] = r.files;
+  d["summary"] = r.summary;
+  d["exit_code"] = r.exit_code;
+  py::list warnings;
+  for (const auto& msg : diag.messages()) warnings.append(py::make_tuple(msg.kind, msg.text));
+  d["warnings"] = warnings;
+  d["toolpath"] = r.toolpath ? py::object(py::cast(std::make_shared<Toolpath>(*r.toolpath))) : py::none();
+  d["lattice"] = r.lattice ? py::object(py::cast(std::make_shared<Graph>(*r.lattice))) : py::none();
+  return d;
+}
+
 std::vector<std::string> flag_keys(const std::vector<std::string>& sections) {
   std::vector<std::string> out;
   for (const auto& s : all_settings())
@@ -347,18 +363,7 @@ PYBIND11_MODULE(_trellis, m) {
           else throw SettingError("unknown output '" + name + "'", {"", 0, name});
         }
         job.name = job.output.empty() ? route : std::filesystem::path(job.output).stem().string();
-        Diagnostics diag;
-        const JobResult r = run_interruptible([&](const Progress& p) { return run_job(job, diag, p); }, progress);
-        py::dict d;
-        d["files"] = r.files;
-        d["summary"] = r.summary;
-        d["exit_code"] = r.exit_code;
-        py::list warnings;
-        for (const auto& msg : diag.messages()) warnings.append(py::make_tuple(msg.kind, msg.text));
-        d["warnings"] = warnings;
-        d["toolpath"] = r.toolpath ? py::object(py::cast(std::make_shared<Toolpath>(*r.toolpath))) : py::none();
-        d["lattice"] = r.lattice ? py::object(py::cast(std::make_shared<Graph>(*r.lattice))) : py::none();
-        return d;
+        return run_job_dict(job, progress);
       },
       py::arg("route"), py::arg("input"), py::arg("outputs"), py::arg("machine"), py::arg("settings"),
       py::arg("command"), py::arg("progress"));
@@ -366,16 +371,7 @@ PYBIND11_MODULE(_trellis, m) {
   m.def("run_job_file",
         [](const std::string& path, const std::string& output_dir, const std::vector<std::string>& sets,
            const py::object& progress) {
-          const Job job = load_job(path, output_dir, sets);
-          Diagnostics diag;
-          const JobResult r = run_interruptible([&](const Progress& p) { return run_job(job, diag, p); }, progress);
-          py::dict d;
-          d["files"] = r.files;
-          d["summary"] = r.summary;
-          d["exit_code"] = r.exit_code;
-          d["toolpath"] = r.toolpath ? py::object(py::cast(std::make_shared<Toolpath>(*r.toolpath))) : py::none();
-          d["lattice"] = r.lattice ? py::object(py::cast(std::make_shared<Graph>(*r.lattice))) : py::none();
-          return d;
+          return run_job_dict(load_job(path, output_dir, sets), progress);
         });
 
   m.def("rerun", [](const std::string& path, const std::string& out) {
