@@ -487,6 +487,16 @@ PYBIND11_MODULE(_trellis, m) {
     out["has_root"] = d.has_root;
     return out;
   });
+  m.def("cli_bytes", [](const Toolpath& t, const std::string& machine, const py::dict& settings,
+                        bool binary) {
+    Settings st;
+    if (!machine.empty()) st.load_toml_file(machine);
+    for (const auto& [k, v] : settings) {
+      const auto key = k.cast<std::string>();
+      st.set(key, to_value(key, v), {"keyword " + key});
+    }
+    return py::bytes(write_cli(t, st.config().laser, CliWriteOptions{binary, true}));
+  });
   m.def("gcode_text", [](const Toolpath& t, const std::string& machine, const py::dict& settings) {
     Settings st;
     if (!machine.empty()) st.load_toml_file(machine);

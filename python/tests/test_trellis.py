@@ -85,6 +85,10 @@ def test_plan_routes_same_bytes_and_in_memory_results(tmp_path):
             "--gcode", tmp_path / f"c_{planner}.gcode", *extra)
         assert filecmp.cmp(tmp_path / f"{planner}.gcode", tmp_path / f"c_{planner}.gcode", shallow=False)
         assert filecmp.cmp(tmp_path / f"{planner}.json", tmp_path / f"c_{planner}.json", shallow=False)
+        # The gcode route from the toolpath file, both ways.
+        trellis.gcode(tmp_path / f"{planner}.json", tmp_path / f"g_{planner}.nc", machine=BATH)
+        cli("gcode", tmp_path / f"{planner}.json", "--machine", BATH, "-o", tmp_path / f"cg_{planner}.nc")
+        assert filecmp.cmp(tmp_path / f"g_{planner}.nc", tmp_path / f"cg_{planner}.nc", shallow=False)
         tp = r.toolpath
         # Every strut once: the path lengths add up to the lattice's length.
         seg = np.diff(tp.points, axis=0)
@@ -175,6 +179,14 @@ def test_progress_reaches_python_and_ctrl_c_cancels_within_a_second():
         trellis.plan("gippo", lat, iterations=10_000_000)
     assert time.perf_counter() - t0 < 1.5
     timer.join()
+    # And a long PBF run.
+    timer = threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT))
+    t0 = time.perf_counter()
+    timer.start()
+    with pytest.raises(KeyboardInterrupt):
+        trellis.pbf(size=(20, 20, 20), resolution=0.01)
+    assert time.perf_counter() - t0 < 1.5
+    timer.join()
 
 
 def test_jobs_from_files_and_dicts(tmp_path):
@@ -203,6 +215,10 @@ def test_readers_and_pictures(tmp_path):
     cli_back = trellis.read_toolpath(tmp_path / "g.cli")
     assert cli_back.layer_count == laser.toolpath.layer_count
     assert np.allclose(cli_back.points, laser.toolpath.points, atol=1e-5)
+    # The same geometry as the file written by the route (whose header also carries the job).
+    geometry = lambda b: b[b.index(b"$$HEADEREND"):]
+    assert geometry(laser.toolpath.cli()) == geometry((tmp_path / "g.cli").read_bytes())
+    assert b"$$BINARY" in laser.toolpath.cli(binary=True)
     png = r.toolpath._repr_png_()
     assert png[:8] == b"\x89PNG\r\n\x1a\n"
 

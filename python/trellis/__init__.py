@@ -111,6 +111,10 @@ class Toolpath:
         """The G-code text for a machine profile (str)."""
         return _trellis.gcode_text(self._core, os.fspath(machine) if machine else "", set or {})
 
+    def cli(self, machine=None, set=None, binary=False):
+        """The laser build file (Common Layer Interface, ASCII or binary) as bytes."""
+        return _trellis.cli_bytes(self._core, os.fspath(machine) if machine else "", set or {}, binary)
+
     def png(self, layer=0, size=600):
         """A PNG (bytes) of one layer."""
         return self._core.png(layer, size)
