@@ -59,6 +59,8 @@ def main():
             "    def arrays(self) -> dict[str, np.ndarray]: ...",
             "    def path(self, i: int) -> np.ndarray: ...", "    def to_json(self) -> str: ...",
             "    def gcode(self, machine: PathLike | None = None, set: Mapping[str, Any] | None = None) -> str: ...",
+            "    def cli(self, machine: PathLike | None = None, set: Mapping[str, Any] | None = None, "
+            "binary: bool = False) -> bytes: ...",
             "    def png(self, layer: int = 0, size: int = 600) -> bytes: ...", "",
             "class Result:", "    files: list[str]", "    summary: str", "    warnings: list[tuple[str, str]]",
             "    exit_code: int", "    toolpath: Toolpath | None", "    lattice: Lattice | None", ""]
@@ -86,7 +88,14 @@ def main():
             "def rerun(path: PathLike, output: PathLike | None = None) -> list[str]: ...",
             "def settings(route: str | None = None) -> list[dict[str, Any]]: ...",
             "def read_lattice(path: PathLike, merge_tolerance: float = 1e-6) -> Lattice: ...",
-            "def read_toolpath(path: PathLike) -> Toolpath: ..."]
+            "def read_toolpath(path: PathLike) -> Toolpath: ...",
+           "def parse_vcad(text: str, name: str = ...) -> dict[str, Any]: ...",
+           "def analyze(gcode: PathLike, design: PathLike | None = None, *, bead_width: float = ...,",
+           "            layer_height: float = ..., align: bool = ..., strict: bool = ...) -> dict[str, Any]: ...",
+           "def check(lattice: PathLike, print_file: PathLike, *, machine: PathLike | None = None,",
+           "          set: Mapping[str, Any] | None = None, **nozzle: float) -> dict[str, Any]: ...",
+           "from .fields import (Field, cone, cube, cylinder, difference, fgrade, function, gyroid,",
+           "                     intersection, mesh, rectprism, sphere, torus, tpms, union)"]
     print("\n".join(out))
 
 
