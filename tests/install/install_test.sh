@@ -30,7 +30,10 @@ cmake -S "$here/consumer" -B "$tmp/build" -G Ninja -DCMAKE_BUILD_TYPE=Release \
 cmake --build "$tmp/build" >/dev/null
 
 # The consumer must load the installed library and the installed modules, not the build tree's.
-ldd "$tmp/build/consumer" | grep -q "libtrellis.so.* => $prefix/lib/libtrellis.so" ||
+# (ldd's output is kept first: `ldd | grep -q` under pipefail fails whenever grep stops reading
+# early and ldd gets SIGPIPE.)
+linked=$(ldd "$tmp/build/consumer")
+grep -q "libtrellis.so.* => $prefix/lib/libtrellis.so" <<<"$linked" ||
   { echo "the consumer does not link $prefix/lib/libtrellis.so" >&2; ldd "$tmp/build/consumer" >&2; exit 1; }
 LD_DEBUG=files "$tmp/build/consumer" 2>"$tmp/ld.txt"
 for m in cgal vdb; do
