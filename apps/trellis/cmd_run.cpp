@@ -55,18 +55,7 @@ void add_rerun(CLI::App& app) {
   cmd->add_option("output", o->input, "a file written by Trellis")->required();
   cmd->add_option("-o,--output", o->out, "where to write (default: the file itself)");
   cmd->callback([o] {
-    Job job = job_from_output(o->input);
-    const std::string target = o->out.empty() ? o->input : o->out;
-    const std::string ext = std::filesystem::path(o->input).extension().string();
-    job.output = job.report = job.toolpath = job.gcode = job.lattice = job.preview = "";
-    if (ext == ".json") {
-      if (job.route == "lattice2d" || job.route == "lattice3d") job.output = target;
-      else job.toolpath = target;
-    } else if (job.route == "plan") {
-      job.gcode = target;
-    } else {
-      job.output = target;
-    }
+    const Job job = rerun_job(o->input, o->out);
     Diagnostics diag;
     print_result(run_job(job, diag, {}), diag);
   });

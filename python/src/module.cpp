@@ -375,13 +375,7 @@ PYBIND11_MODULE(_trellis, m) {
         });
 
   m.def("rerun", [](const std::string& path, const std::string& out) {
-    Job job = job_from_output(path);
-    const std::string target = out.empty() ? path : out;
-    const std::string ext = std::filesystem::path(path).extension().string();
-    job.output = job.report = job.toolpath = job.gcode = job.lattice = job.preview = "";
-    if (ext == ".json") (job.route == "lattice2d" || job.route == "lattice3d" ? job.output : job.toolpath) = target;
-    else if (job.route == "plan") job.gcode = target;
-    else job.output = target;
+    const Job job = rerun_job(path, out);
     Diagnostics diag;
     py::gil_scoped_release release;
     return run_job(job, diag, {}).files;

@@ -224,6 +224,19 @@ std::string job_toml(const Job& job, const std::string& base) {
   return out;
 }
 
+Job rerun_job(const std::string& path, const std::string& target) {
+  Job job = job_from_output(path);
+  const std::string to = target.empty() ? path : target;
+  job.output = job.report = job.toolpath = job.gcode = job.lattice = job.preview = "";
+  if (fs::path(path).extension() == ".json")
+    (job.route == "lattice2d" || job.route == "lattice3d" ? job.output : job.toolpath) = to;
+  else if (job.route == "plan")
+    job.gcode = to;
+  else
+    job.output = to;
+  return job;
+}
+
 Job job_from_output(const std::string& path) {
   const std::string text = read_file(path);
   std::string job;

@@ -1,13 +1,15 @@
-// Fuzzes the laser (PBF) profile reader: any input parses or throws trellis::Error.
+// Fuzzes the laser (PBF) profile reader — a settings TOML read through the schema: any input
+// parses or throws trellis::Error.
 #include <string>
 
 #include "trellis/core/error.hpp"
-#include "trellis/machine/laser.hpp"
+#include "trellis/settings/settings.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const unsigned char* data, std::size_t size) {
   try {
-    (void)trellis::laser_profile_from_toml(std::string(reinterpret_cast<const char*>(data), size),
-                                           "fuzz.toml");
+    trellis::Settings st;
+    st.load_toml(std::string(reinterpret_cast<const char*>(data), size), "fuzz.toml");
+    (void)st.config().laser;
   } catch (const trellis::Error&) {
   }
   return 0;

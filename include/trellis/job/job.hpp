@@ -64,6 +64,9 @@ std::string job_toml(const Job& job, const std::string& base);
 // The job embedded in an output (G-code / .nc / .cli header comments, toolpath or report JSON).
 // Throws ParseError naming the file when it has none.
 Job job_from_output(const std::string& path);
+// The job that regenerates `path` (an output of Trellis) as the same kind of file at `target`
+// (default: over `path`); its other outputs are not written.
+Job rerun_job(const std::string& path, const std::string& target = "");
 
 // Reads a print back into design coordinates for checking against its lattice: a toolpath JSON
 // as it is; G-code with the valve commands and tool offsets of `machine` — by default the

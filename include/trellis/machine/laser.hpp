@@ -31,12 +31,9 @@ struct LaserProfile {
 // The profile's speeds and delays as the scan-time model's settings.
 ScanTiming scan_timing(const LaserProfile& profile);
 
-// TOML: [machine] name; [laser] spot_diameter melt_pool_width contour_power contour_speed
-// hatch_power hatch_speed; [scan] layer hatch_distance beam_compensation segment_length
-// segment_gap; [timing] jump_speed jump_delay mark_delay polygon_delay skywriting (bool)
-// skywriting_time. Unknown keys, wrong types, values out of range → SettingError (file:line).
-LaserProfile laser_profile_from_toml(const std::string& text, const std::string& origin);
-LaserProfile load_laser_profile(const std::string& path);
+// Laser profiles are TOML files of settings ([machine] name, [laser], [scan], [timing]), read
+// through the one settings schema (settings/settings.hpp: Settings::load_toml_file, then
+// config().laser), which declares every key with its unit, range and doc.
 
 // ASCII CLI: $$HEADERSTART … $$HEADEREND, $$GEOMETRYSTART, per layer $$LAYER/z, contour paths as
 // $$POLYLINE/1,2,n,… (id 1, open), hatch paths (two points) as one $$HATCHES/2,n,… record,
