@@ -331,6 +331,9 @@ JobResult nonplanar(const Job& job, const Config& c, Diagnostics&, const Progres
   HeightField surface;
   if (!job.input.empty() && !np.height_fn.empty())
     throw SettingError("give a surface mesh or nonplanar.height_fn, not both", {"", 0, "nonplanar.height_fn"});
+  if ((!job.input.empty() || !np.height_fn.empty()) && job.settings.has("surface.kind"))
+    throw SettingError("give one surface: a mesh, nonplanar.height_fn or a test surface (surface.kind)",
+                       {"", 0, "surface.kind"});
   if (!job.input.empty()) {
     surface = HeightField::from_mesh(read_mesh(job.input), fs::path(job.input).filename().string());
   } else if (!np.height_fn.empty()) {

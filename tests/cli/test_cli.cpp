@@ -517,6 +517,11 @@ TEST(Cli, NonplanarBadSurfacesExitTwoNamingWhere) {
           in_work("never.gcode"));
   EXPECT_EQ(r.code, 2);
   EXPECT_FALSE(fs::exists(in_work("never.gcode")));
+  // Two surfaces at once is an error, not one of them silently.
+  r = run("nonplanar " + cube + " --set surface.kind=miura --machine " + prof + " -o " + in_work("never.gcode"));
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("give one surface"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(in_work("never.gcode")));
   EXPECT_EQ(run("surface corrugation --periods 2.3 -o " + in_work("never.stl")).code, 2);
   EXPECT_FALSE(fs::exists(in_work("never.stl")));
 }
