@@ -275,3 +275,19 @@ def test_installed_package_works_from_anywhere(tmp_path):
     assert r.returncode == 0, r.stderr
     path, edges, files = r.stdout.split()
     assert path.startswith(str(site)) and int(edges) > 10 and int(files) == 2
+
+
+def test_machine_errors_write_nothing(tmp_path):
+    # A graded design with Strategy 2 on the single-nozzle Ender: no mixing hotend.
+    out = tmp_path / "g.gcode"
+    with pytest.raises(trellis.MachineError) as e:
+        trellis.slice(os.path.join(ROOT, "examples/designs/fgm_column2_plate.vcad"), out,
+                      machine=ENDER, strategy=2, colors=4)
+    assert "mixing" in str(e.value)
+    assert not out.exists()
+    # A part bigger than the bed.
+    with pytest.raises(trellis.MachineError) as e:
+        trellis.slice(os.path.join(ROOT, "examples/designs/fgm_column2_plate.vcad"), out,
+                      machine=ENDER, strategy="none", set={"machine.bed_x": 5})
+    assert "machine.bed_x" in str(e.value)
+    assert not out.exists()
