@@ -67,6 +67,7 @@ export function decodeScene(i) {
         dz = positions[3 * v + 5] - positions[3 * v + 2];
       extruded += Math.sqrt(dx * dx + dy * dy + dz * dz);
     }
+  const lod = lodIndex(pathFirst, pathLayer, paths, L, segments);
   // Travel: from each path's last point to the next path's first point, in print order.
   const travelList = [];
   let travelLength = 0, t = 0;
@@ -102,8 +103,30 @@ export function decodeScene(i) {
   if (bbox.isEmpty()) bbox.set(new Vector3(0, 0, 0), new Vector3(1, 1, 1));
   return {
     meta, layerCount: L, positions, pathFirst, pathLayer, pathCount: paths, attr, role, tool, index,
-    layerSeg, layerTravel, travel, bbox, design,
+    layerSeg, layerTravel, travel, bbox, design, lod,
     stats: { layers: L, paths, segments, points, extruded, travelMoves: travelList.length / 2, travelLength,
       designLines: design ? design.lines : 0 },
   };
+}
+
+// While the view moves, large files are drawn from a reduced index of about LOD_BUDGET segments:
+// every k-th segment and the first and last of every path, so what is drawn keeps the shape of
+// the part (software WebGL is bound by the pixels the lines cover, so the segments are kept short
+// rather than merged); the full index is drawn once the view rests. Null for small files.
+export const LOD_BUDGET = 50000;
+
+function lodIndex(pathFirst, pathLayer, paths, L, segments) {
+  if (segments <= LOD_BUDGET) return null;
+  const k = Math.ceil(segments / LOD_BUDGET);
+  const out = new Uint32Array(Math.ceil(segments / k) * 2 + paths * 4 + 2);
+  const layerSeg = new Uint32Array(L + 1);
+  let n = 0, layer = 0, c = 0;
+  for (let q = 0; q < paths; ++q) {
+    while (layer < pathLayer[q]) layerSeg[++layer] = n / 2;
+    const a = pathFirst[q], b = pathFirst[q + 1] - 1;
+    for (let v = a; v < b; ++v, ++c)
+      if (c % k === 0 || v === a || v === b - 1) { out[n++] = v; out[n++] = v + 1; }
+  }
+  while (layer < L) layerSeg[++layer] = n / 2;
+  return { index: out.slice(0, n), layerSeg, step: k };
 }

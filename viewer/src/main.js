@@ -7,6 +7,7 @@ import { decodeScene } from './data.js';
 import { colorMap, ROLE_COLORS, TOOL_COLORS, MIX_A, MIX_B, NO_VALUE, mixColor } from './colors.js';
 
 const $ = (id) => document.getElementById(id);
+const REFINE_CHUNK = 100000;  // segments added per frame while refining a large file
 
 const MODES = {
   feature: { kind: 'category', title: 'Feature type' },
@@ -30,6 +31,8 @@ class Viewer {
     this.canvas = $('tv-canvas');
     this.renderer = new THREE.WebGLRenderer({ canvas: this.canvas, antialias: false, preserveDrawingBuffer: true });
     this.renderer.setPixelRatio(1);
+    // Colours go to the screen as they are, so a segment's pixel equals its colour on the bar.
+    this.renderer.outputColorSpace = THREE.LinearSRGBColorSpace;
     this.renderer.setClearColor(0xf4f5f7);
     this.scene = new THREE.Scene();
     this.camera = new THREE.PerspectiveCamera(35, 1, 0.01, 1e6);
@@ -85,7 +88,7 @@ class Viewer {
 
   select(i) {
     if (i === this.current) return;
-    for (const obj of [this.lines, this.travel, this.design]) {
+    for (const obj of [this.lines, this.lod, this.travel, this.design]) {
       if (!obj) continue;
       this.scene.remove(obj);
       obj.geometry.dispose();
@@ -100,9 +103,21 @@ class Viewer {
     g.setIndex(new THREE.BufferAttribute(s.index, 1));
     g.boundingBox = s.bbox.clone();
     g.boundingSphere = s.bbox.getBoundingSphere(new THREE.Sphere());
-    this.lines = new THREE.LineSegments(g, new THREE.LineBasicMaterial({ vertexColors: true }));
+    const material = new THREE.LineBasicMaterial({ vertexColors: true });
+    this.lines = new THREE.LineSegments(g, material);
     this.lines.frustumCulled = false;
     this.scene.add(this.lines);
+    this.lod = null;
+    if (s.lod) {
+      const lg = new THREE.BufferGeometry();
+      lg.setAttribute('position', g.attributes.position);
+      lg.setAttribute('color', g.attributes.color);
+      lg.setIndex(new THREE.BufferAttribute(s.lod.index, 1));
+      this.lod = new THREE.LineSegments(lg, material);
+      this.lod.frustumCulled = false;
+      this.lod.visible = false;
+      this.scene.add(this.lod);
+    }
     const tg = new THREE.BufferGeometry();
     tg.setAttribute('position', new THREE.BufferAttribute(s.travel, 3));
     this.travel = new THREE.LineSegments(tg, new THREE.LineBasicMaterial({ color: 0x9a9aa6, transparent: true, opacity: 0.6 }));
@@ -260,10 +275,15 @@ class Viewer {
       : `${lo + 1}–${hi + 1} of ${L} (z ${z[lo].toFixed(2)}–${z[hi].toFixed(2)} mm)`;
     if (L === 0) {
       this.lines.geometry.setDrawRange(0, 0);
+      if (this.lod) this.lod.geometry.setDrawRange(0, 0);
       this.travel.geometry.setDrawRange(0, 0);
     } else {
       const a = s.layerSeg[lo] * 2, b = s.layerSeg[hi + 1] * 2;
       this.lines.geometry.setDrawRange(a, b - a);
+      if (this.lod) {
+        const la = s.lod.layerSeg[lo] * 2, lb = s.lod.layerSeg[hi + 1] * 2;
+        this.lod.geometry.setDrawRange(la, lb - la);
+      }
       const ta = s.layerTravel[lo] * 2, tb = s.layerTravel[hi + 1] * 2;
       this.travel.geometry.setDrawRange(ta, tb - ta);
     }
@@ -341,14 +361,70 @@ class Viewer {
     this.playing = requestAnimationFrame(tick);
   }
 
+  // Draws on the next frame. A large file is drawn reduced first (data.js, lodIndex) and then
+  // refined in chunks of the full index over the following frames while the view rests, so the
+  // page answers the mouse at once whatever the file size.
   requestRender() {
+    this.cancelRefine();
     if (this.pending) return;
-    this.pending = requestAnimationFrame(() => { this.pending = 0; this.render(); });
+    this.pending = requestAnimationFrame(() => {
+      this.pending = 0;
+      this.render(this.lod !== null);
+      if (this.lod) this.restTimer = setTimeout(() => this.refine(), 150);
+    });
   }
 
-  render() {
+  cancelRefine() {
+    clearTimeout(this.restTimer);
+    if (this.refining) cancelAnimationFrame(this.refining);
+    this.refining = 0;
+  }
+
+  // Draws the scene; `reduced` draws the reduced index of a large file.
+  render(reduced = false) {
+    const lod = reduced && this.lod !== null;
+    this.lines.visible = !lod;
+    if (this.lod) this.lod.visible = lod;
     this.renderer.render(this.scene, this.camera);
     this.updateScale();
+    this.fullFrame = !lod;
+    if (this.firstFrameMs === undefined) {
+      const gl = this.renderer.getContext();
+      gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, new Uint8Array(4));
+      this.firstFrameMs = performance.now();
+    }
+  }
+
+  // Adds the full index over the reduced picture, REFINE_CHUNK segments per frame (the reduced
+  // lines are a subset of the full ones, so the result is the full picture).
+  refine() {
+    const s = this.s, g = this.lines.geometry;
+    const a = g.drawRange.start, end = a + g.drawRange.count;
+    let at = a;
+    const others = [this.lod, this.travel, this.design].filter((o) => o && o.visible);
+    const step = () => {
+      const n = Math.min(REFINE_CHUNK * 2, end - at);
+      others.forEach((o) => (o.visible = false));
+      this.lines.visible = true;
+      g.setDrawRange(at, n);
+      this.renderer.autoClear = false;
+      this.renderer.render(this.scene, this.camera);
+      this.renderer.autoClear = true;
+      g.setDrawRange(a, end - a);
+      others.forEach((o) => (o.visible = true));
+      at += n;
+      if (at < end) this.refining = requestAnimationFrame(step);
+      else { this.refining = 0; this.fullFrame = true; }
+    };
+    this.refining = requestAnimationFrame(step);
+  }
+
+  // Resolves once the full picture is drawn.
+  async whenDrawn() {
+    for (;;) {
+      await new Promise((r) => requestAnimationFrame(r));
+      if (this.fullFrame && !this.pending && !this.refining) return;
+    }
   }
 
   updateScale() {
@@ -367,7 +443,9 @@ class Viewer {
   // --- API for tests and notebooks ---------------------------------------------------------
   stats() {
     const st = this.s.stats;
-    return { ...st, name: this.s.meta.name, kind: this.s.meta.kind, decodeMs: this.decodeMs, loadMs: this.loadMs };
+    return { ...st, name: this.s.meta.name, kind: this.s.meta.kind, decodeMs: this.decodeMs, loadMs: this.loadMs,
+      firstFrameMs: this.firstFrameMs,
+      reducedSegments: this.s.lod ? this.s.lod.index.length / 2 : st.segments };
   }
 
   // Page pixel (CSS px) of a model point.
@@ -396,9 +474,11 @@ class Viewer {
       mixture: s.attr[6 * p], temperature: s.attr[6 * p + 2] };
   }
 
-  // Renders `frames` frames while orbiting the whole model; returns frames per second (each frame
-  // waits for the GPU by reading back a pixel).
-  measureFps(frames = 60) {
+  // Renders `frames` frames while orbiting the whole model as the view draws it while moving
+  // (`reduced`, the default) or in full; returns frames per second (each frame waits for the GPU
+  // by reading back a pixel).
+  measureFps(frames = 60, reduced = true) {
+    this.cancelRefine();
     const gl = this.renderer.getContext();
     const px = new Uint8Array(4);
     const t = performance.now();
@@ -407,10 +487,12 @@ class Viewer {
       off.applyAxisAngle(new THREE.Vector3(0, 0, 1), 0.02);
       this.camera.position.copy(this.controls.target).add(off);
       this.camera.lookAt(this.controls.target);
-      this.renderer.render(this.scene, this.camera);
+      this.render(reduced);
       gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, px);
     }
-    return frames / ((performance.now() - t) / 1000);
+    const fps = frames / ((performance.now() - t) / 1000);
+    this.requestRender();
+    return fps;
   }
 }
 
