@@ -33,7 +33,7 @@ class Viewer {
     this.renderer.setPixelRatio(1);
     // Colours go to the screen as they are, so a segment's pixel equals its colour on the bar.
     this.renderer.outputColorSpace = THREE.LinearSRGBColorSpace;
-    this.renderer.setClearColor(0xf4f5f7);
+    this.renderer.setClearColor(new THREE.Color().setRGB(0xf4 / 255, 0xf5 / 255, 0xf7 / 255, THREE.LinearSRGBColorSpace));
     this.scene = new THREE.Scene();
     this.camera = new THREE.PerspectiveCamera(35, 1, 0.01, 1e6);
     this.camera.up.set(0, 0, 1);
