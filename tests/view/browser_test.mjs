@@ -4,13 +4,15 @@
 // page's counts equal what Trellis reports for the same file, colour modes change the model's
 // pixels, a known segment's colour equals its mixture / temperature on the colour bar, and the
 // layer slider hides the layers above. Screenshots go to OUT_DIR.
-// Usage: node browser_test.mjs TRELLIS SOURCE_DIR NODE_MODULES OUT_DIR
+// The Python package's Toolpath._repr_html_ (the viewer in an iframe, as Jupyter shows it) is
+// opened the same way.
+// Usage: node browser_test.mjs TRELLIS SOURCE_DIR NODE_MODULES OUT_DIR PYTHON_PACKAGE_DIR
 import { createRequire } from 'node:module';
 import { execFileSync } from 'node:child_process';
 import { mkdirSync, readFileSync, writeFileSync, statSync, rmSync, existsSync } from 'node:fs';
 import { join } from 'node:path';
 
-const [trellis, source, nodeModules, out] = process.argv.slice(2);
+const [trellis, source, nodeModules, out, pythonDir] = process.argv.slice(2);
 const require = createRequire(join(nodeModules, 'noop.js'));
 const puppeteer = require('puppeteer-core');
 rmSync(out, { recursive: true, force: true });
@@ -199,6 +201,29 @@ for (const c of cases) {
     check(/^1 of 2/.test(label), `mix.gcode: layer label "${label}"`);
     await page.screenshot({ path: join(out, 'mix.gcode.layer1.png') });
   }
+  await page.close();
+}
+// Python: Toolpath._repr_html_ inside a notebook-like page.
+{
+  execFileSync('/usr/bin/python3', ['-c', `
+import trellis
+t = trellis.read_toolpath("toolpath.json")
+open("notebook.html", "w").write("<html><body><h2>In [1]: toolpath</h2>" + t._repr_html_() + "</body></html>")
+`], { cwd: out, env: { ...process.env, PYTHONPATH: pythonDir } });
+  const page = await browser.newPage();
+  await page.setViewport({ width: 1000, height: 700 });
+  const errors = [];
+  page.on('console', (m) => { if (m.type() === 'error') errors.push(m.text()); });
+  page.on('pageerror', (e) => errors.push(e.message));
+  await page.goto('file://' + join(out, 'notebook.html'), { waitUntil: 'load' });
+  const frame = page.frames().find((f) => f !== page.mainFrame());
+  await frame.waitForFunction(() => window.trellisViewer !== undefined);
+  await frame.evaluate(() => window.trellisViewer.whenDrawn());
+  const st = await frame.evaluate(() => window.trellisViewer.stats());
+  check(errors.length === 0, `python _repr_html_: no console errors${errors.length ? ': ' + errors.join(' | ') : ''}`);
+  check(st.layers === plan.layers_count && st.paths === plan.paths && st.segments === plan.edges,
+    `python _repr_html_: viewer in the iframe shows ${st.layers} layer(s), ${st.paths} paths, ${st.segments} segments (plan report ${plan.layers_count}, ${plan.paths}, ${plan.edges})`);
+  await page.screenshot({ path: join(out, 'python_repr_html.png') });
   await page.close();
 }
 await browser.close();
