@@ -7,18 +7,17 @@ import sys
 
 out, mb = sys.argv[1], float(sys.argv[2]) if len(sys.argv) > 2 else 100.0
 limit = int(mb * 1e6)
-e = 0.0
 size = 0
-lines = ["G21\n", "G90\n", "M82\n", "M104 S215\n", "G92 E0\n"]
+
 with open(out, "w") as f:
+    f.write("G21\nG90\nM83 ; relative E: short lines, as slicers write them\nM104 S215\n")
     layer = 0
     while size < limit:
         z = 0.2 * (layer + 1)
         buf = [f";LAYER_CHANGE\n;Z:{z:.2f}\nG1 Z{z:.2f} F600\n", ";TYPE:External perimeter\n",
                "G1 X0 Y0 F9000\n"]
         for x, y in ((100, 0), (100, 100), (0, 100), (0, 0)):
-            e += 100 * 0.033
-            buf.append(f"G1 X{x} Y{y} E{e:.5f} F1800\n")
+            buf.append(f"G1 X{x} Y{y} E3.3 F1800\n")
         buf.append(";TYPE:Solid infill\n")
         buf.append("G1 X0.5 Y0.5 F9000\n")
         # zigzag of short segments (a wavy infill as slicers write for Arachne / gyroid)
@@ -29,8 +28,7 @@ with open(out, "w") as f:
             for i in xs:
                 x = 0.5 + i * 0.495
                 yy = y + 0.1 * math.sin(i * 0.7 + layer)
-                e += 0.495 * 0.033
-                buf.append(f"G1 X{x:.3f} Y{yy:.3f} E{e:.5f}\n")
+                buf.append(f"G1 X{x:.2f} Y{yy:.2f} E.0163\n")
                 n += 1
         text = "".join(buf)
         f.write(text)

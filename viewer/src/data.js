@@ -113,7 +113,7 @@ export function decodeScene(i) {
 // every k-th segment and the first and last of every path, so what is drawn keeps the shape of
 // the part (software WebGL is bound by the pixels the lines cover, so the segments are kept short
 // rather than merged); the full index is drawn once the view rests. Null for small files.
-export const LOD_BUDGET = 50000;
+export const LOD_BUDGET = 40000;
 
 function lodIndex(pathFirst, pathLayer, paths, L, segments) {
   if (segments <= LOD_BUDGET) return null;
