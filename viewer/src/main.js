@@ -133,6 +133,7 @@ class Viewer {
       this.design.frustumCulled = false;
       this.scene.add(this.design);
     }
+    $('tv-design').parentElement.style.display = s.design ? '' : 'none';
     const L = s.layerCount;
     for (const id of ['tv-layer-lo', 'tv-layer-hi']) $(id).max = Math.max(0, L - 1);
     $('tv-layer-lo').value = 0;
@@ -223,6 +224,15 @@ class Viewer {
         body.appendChild(row);
       }
       if (!legend.items.length) body.textContent = 'no paths';
+      if (this.s.design) {
+        const row = document.createElement('div');
+        const sw = document.createElement('span');
+        sw.className = 'tv-swatch';
+        sw.style.background = 'rgb(120,120,135)';
+        row.appendChild(sw);
+        row.appendChild(document.createTextNode(`design strut (${this.s.design.lines})`));
+        body.appendChild(row);
+      }
       return;
     }
     const cv = document.createElement('canvas');
