@@ -172,7 +172,7 @@ void render_layer_png(const Toolpath& tp, std::size_t index, const std::string& 
 
   // Title: the file, the layer and its Z, and what colour means.
   cairo_t* c = cr.get();
-  const double fs = band * 0.34, pad = band * 0.25;
+  const double fs = band * 0.3, pad = band * 0.2;
   cairo_set_source_rgb(c, 0.1, 0.1, 0.1);
   const std::string name = !opt.title.empty() ? opt.title : !tp.source.empty() ? tp.source : "toolpath";
   text(c, pad, pad + fs, fs, name, true);
@@ -182,7 +182,7 @@ void render_layer_png(const Toolpath& tp, std::size_t index, const std::string& 
                                                  : "colour: mixture";
   std::snprintf(line, sizeof line, "layer %zu of %zu, z = %.3f mm, %zu paths; %s", index + 1,
                 tp.layers.size(), layer.z, n, meaning);
-  text(c, pad, pad + 2.2 * fs, fs * 0.85, line);
+  text(c, pad, pad + 2.3 * fs, fs * 0.85, line);
   // Legend band: what colour means (left), scale bar in mm (right).
   const double y0 = band + Hd, ymid = y0 + band * 0.5, sw = band * 0.3;
   double x = pad;

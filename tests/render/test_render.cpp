@@ -119,11 +119,18 @@ TEST(Render, LayerPngHasTitleLegendAndScaleBar) {
   EXPECT_GT(count(im, band, band + 400, infill), 100u);
   EXPECT_GT(count(im, band + 400, im.h, contour), 20u);
   EXPECT_GT(count(im, band + 400, im.h, infill), 20u);
-  // Title text: dark pixels in the title band.
-  std::size_t dark = 0;
-  for (int y = 0; y < band; ++y)
-    for (int x = 0; x < im.w; ++x) dark += (im.at(x, y) & 0xff) < 0x60;
-  EXPECT_GT(dark, 50u);
+  // Title text, two lines (the file; layer, Z and what colour means): dark pixels in each.
+  auto dark = [&](int y0, int y1) {
+    std::size_t n = 0;
+    for (int y = y0; y < y1; ++y)
+      for (int x = 0; x < im.w; ++x) {
+        const unsigned c = im.at(x, y);
+        n += (c >> 16) < 0x60 && ((c >> 8) & 0xff) < 0x60 && (c & 0xff) < 0x60;
+      }
+    return n;
+  };
+  EXPECT_GT(dark(0, band * 55 / 100), 50u);
+  EXPECT_GT(dark(band * 6 / 10, band), 50u);
   // Scale bar: 0.25 of 40 mm rounds down to 10 mm = 200 px at 20 px/mm.
   EXPECT_NEAR(longest_black_run(im, band + 400, im.h), 200, 2);
 }

@@ -24,7 +24,7 @@ struct RenderOptions {
 
 // Height (px) of the title band above and the legend band below a layer PNG of `size_px`.
 inline int layer_band_px(int size_px) {
-  return size_px / 16 > 28 ? size_px / 16 : 28;
+  return size_px / 12 > 36 ? size_px / 12 : 36;
 }
 
 // Writes one PNG of `layer` (index into toolpath.layers), atomically.
