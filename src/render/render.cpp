@@ -80,6 +80,51 @@ double text_width(cairo_t* cr, double size, const std::string& s) {
   return e.x_advance;
 }
 
+struct LegendItem {
+  std::string label;
+  double r, g, b;
+};
+
+// The band below a picture: `items` as colour swatches (and, with `order_bar`, a print-order colour
+// bar first) on the left, a scale bar of a round number of mm on the right.
+void legend_band(cairo_t* c, int W, double y0, int band, const std::vector<LegendItem>& items,
+                 bool order_bar, double px_per_mm) {
+  const double fs = band * 0.3 * 0.85, pad = band * 0.2, ymid = y0 + band * 0.5, sw = band * 0.3;
+  double x = pad;
+  auto label = [&](const std::string& t) {
+    cairo_set_source_rgb(c, 0.1, 0.1, 0.1);
+    text(c, x, ymid + fs * 0.35, fs, t);
+    x += text_width(c, fs, t) + sw;
+  };
+  if (order_bar) {
+    label("first");
+    x -= sw * 0.5;
+    const double bar = 3 * band;
+    for (int i = 0; i < static_cast<int>(bar); ++i) {
+      order_colour(c, i / (bar - 1));
+      cairo_rectangle(c, x + i, ymid - sw / 2, 1, sw);
+      cairo_fill(c);
+    }
+    x += bar + sw * 0.5;
+    label("last (print order)");
+  }
+  for (const auto& it : items) {
+    cairo_set_source_rgb(c, it.r, it.g, it.b);
+    cairo_rectangle(c, x, ymid - sw / 2, sw * 1.6, sw);
+    cairo_fill(c);
+    x += sw * 2;
+    label(it.label);
+  }
+  const double len = nice_length(0.25 * W / px_per_mm);
+  const double bar_px = len * px_per_mm, bx = W - pad - bar_px;
+  cairo_set_source_rgb(c, 0, 0, 0);
+  cairo_rectangle(c, bx, ymid + sw * 0.2, bar_px, std::max(2.0, band * 0.08));
+  cairo_fill(c);
+  char lab[64];
+  std::snprintf(lab, sizeof lab, "%g mm", len);
+  text(c, bx + bar_px / 2 - text_width(c, fs, lab) / 2, ymid - sw * 0.2, fs, lab);
+}
+
 }  // namespace
 
 namespace impl {
@@ -264,9 +309,11 @@ void render_3d_png(const Toolpath& tp, const std::string& path, const View3dOpti
   const double margin = 0.04 * std::max(u1 - u0, v1 - v0) + 1e-6;
   const double w = u1 - u0 + 2 * margin, h = v1 - v0 + 2 * margin;
   const double title_px = opt.title.empty() ? 0 : 28;
+  const int band = layer_band_px(opt.size_px);
   const double scale = opt.size_px / std::max(w, h);
-  const int W = std::max(16, static_cast<int>(std::ceil(w * scale)));
-  const int H = std::max(16, static_cast<int>(std::ceil(h * scale + title_px)));
+  const int W = std::max({16, static_cast<int>(std::ceil(w * scale)), 10 * band});
+  const int Hd = std::max(16, static_cast<int>(std::ceil(h * scale + title_px)));
+  const int H = Hd + band;
   Surface surface(cairo_image_surface_create(CAIRO_FORMAT_RGB24, W, H), cairo_surface_destroy);
   Context cr(cairo_create(surface.get()), cairo_destroy);
   cairo_set_source_rgb(cr.get(), 1, 1, 1);
@@ -280,7 +327,7 @@ void render_3d_png(const Toolpath& tp, const std::string& path, const View3dOpti
   }
   auto to_px = [&](Vec3 p) {
     const auto [u, v] = project(p);
-    return std::pair<double, double>{(u - u0 + margin) * scale, H - (v - v0 + margin) * scale};
+    return std::pair<double, double>{(u - u0 + margin) * scale, Hd - (v - v0 + margin) * scale};
   };
   cairo_set_line_cap(cr.get(), CAIRO_LINE_CAP_ROUND);
   cairo_set_line_join(cr.get(), CAIRO_LINE_JOIN_ROUND);
@@ -331,6 +378,25 @@ void render_3d_png(const Toolpath& tp, const std::string& path, const View3dOpti
     cairo_arc(cr.get(), x, y, 7.0, 0, 2 * M_PI);
     cairo_stroke(cr.get());
   }
+  // Axes: X red, Y green, Z blue, from the lower left corner of the drawing.
+  {
+    const double L = band * 0.8, ox = band * 0.6, oy = Hd - band * 0.4;
+    const Vec3 axes[] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+    const char* names[] = {"X", "Y", "Z"};
+    for (int k = 0; k < 3; ++k) {
+      const auto [u, v] = project(axes[k]);
+      cairo_set_source_rgb(cr.get(), k == 0 ? 0.85 : 0.1, k == 1 ? 0.6 : 0.1, k == 2 ? 0.85 : 0.1);
+      cairo_set_line_width(cr.get(), 2.0);
+      cairo_move_to(cr.get(), ox, oy);
+      cairo_line_to(cr.get(), ox + u * L, oy - v * L);
+      cairo_stroke(cr.get());
+      text(cr.get(), ox + u * L * 1.2 - 4, oy - v * L * 1.2 + 4, band * 0.25, names[k]);
+    }
+  }
+  std::vector<LegendItem> items = {{"path start", 0.0, 0.6, 0.0}};
+  if (opt.upto > 0) items.push_back({"not yet printed", 0.85, 0.85, 0.85});
+  if (!opt.marks.empty()) items.push_back({"collision (ring)", 0.9, 0.0, 0.0});
+  legend_band(cr.get(), W, Hd, band, items, true, scale);
   cairo_surface_flush(surface.get());
   save_png(surface.get(), path);
 }
@@ -346,14 +412,30 @@ void render_overlay_png(const std::vector<Segment2>& design, const Layer& printe
   const double margin = 1.0;
   const double w = box.max.x - box.min.x + 2 * margin, h = box.max.y - box.min.y + 2 * margin;
   const double scale = size_px / std::max({w, h, 1e-6});
-  const int W = std::max(16, static_cast<int>(std::ceil(w * scale)));
-  const int H = std::max(16, static_cast<int>(std::ceil(h * scale)));
+  const int band = layer_band_px(size_px);
+  const int Wd = std::max(16, static_cast<int>(std::ceil(w * scale)));
+  const int Hd = std::max(16, static_cast<int>(std::ceil(h * scale)));
+  const int W = std::max(Wd, 12 * band), H = Hd + 2 * band;
   Surface surface(cairo_image_surface_create(CAIRO_FORMAT_RGB24, W, H), cairo_surface_destroy);
   Context cr(cairo_create(surface.get()), cairo_destroy);
   cairo_t* c = cr.get();
   cairo_set_source_rgb(c, 1, 1, 1);
   cairo_paint(c);
-  cairo_translate(c, 0, H);
+  {
+    // Title: the picture's name (FILE_layer_NNNN) and the printed layer's Z.
+    std::string name = path.substr(path.find_last_of('/') + 1);
+    if (name.size() > 4) name.resize(name.size() - 4);
+    char line[128];
+    std::snprintf(line, sizeof line, "printed layer at z = %.3f mm against the design", printed.z);
+    cairo_set_source_rgb(c, 0.1, 0.1, 0.1);
+    text(c, band * 0.2, band * 0.5, band * 0.3, name, true);
+    text(c, band * 0.2, band * 0.89, band * 0.255, line);
+    legend_band(c, W, band + Hd, band,
+                {{"design", 0.85, 0.85, 0.85}, {"printed", 0.15, 0.15, 0.15},
+                 {"deposited twice", 0.9, 0.1, 0.1}, {"missing strut", 0.1, 0.3, 0.95}},
+                false, scale);
+  }
+  cairo_translate(c, (W - Wd) / 2.0, band + Hd);
   cairo_scale(c, scale, -scale);
   cairo_translate(c, -box.min.x + margin, -box.min.y + margin);
   cairo_set_line_cap(c, CAIRO_LINE_CAP_ROUND);

@@ -154,3 +154,42 @@ TEST(Render, LayerPngOrderHasColourBar) {
     }
   EXPECT_GT(colours.size(), 50u);
 }
+
+// The 3D view and the analysis overlay carry a legend band too: the 3D view a print-order colour
+// bar and a scale bar, the overlay a swatch for each of its four colours and a scale bar.
+TEST(Render, ThreeDAndOverlayHaveLegends) {
+  const Toolpath tp = two_features();
+  const trellis::test::TempDir tmp("trellis_render_3d");
+  const std::string p3 = tmp.file("3d.png"), po = tmp.file("overlay.png");
+  View3dOptions v;
+  v.size_px = 800;
+  render_3d_png(tp, p3, v);
+  const Image a = decode(p3);
+  const int band = layer_band_px(800);
+  std::set<unsigned> colours;
+  for (int y = a.h - band; y < a.h; ++y)
+    for (int x = 0; x < a.w; ++x) {
+      const unsigned c = a.at(x, y);
+      const int r = c >> 16, g = (c >> 8) & 0xff, b = c & 0xff;
+      if (std::max({r, g, b}) - std::min({r, g, b}) > 60) colours.insert(c);
+    }
+  EXPECT_GT(colours.size(), 50u);
+  EXPECT_GT(longest_black_run(a, a.h - band, a.h), 40);
+  render_overlay_png({{{0, 0}, {40, 0}}}, tp.layers[0], {{{0, 20}, {40, 20}}}, {{{0, 10}, {40, 10}}},
+                     0.4, po, 800);
+  const Image o = decode(po);
+  auto near = [&](int y0, int y1, int r, int g, int b) {
+    std::size_t n = 0;
+    for (int y = y0; y < y1; ++y)
+      for (int x = 0; x < o.w; ++x) {
+        const unsigned c = o.at(x, y);
+        n += std::abs(int(c >> 16) - r) < 8 && std::abs(int((c >> 8) & 0xff) - g) < 8 &&
+             std::abs(int(c & 0xff) - b) < 8;
+      }
+    return n;
+  };
+  EXPECT_GT(near(o.h - band, o.h, 230, 25, 25), 50u);   // deposited twice
+  EXPECT_GT(near(o.h - band, o.h, 25, 76, 242), 50u);   // missing strut
+  EXPECT_GT(near(o.h - band, o.h, 217, 217, 217), 50u);  // design
+  EXPECT_NEAR(longest_black_run(o, o.h - band, o.h), 10 * 800 / 42.0, 2);  // 10 mm; 42 mm wide with margins
+}
