@@ -23,7 +23,8 @@ void add_render(CLI::App& app) {
       "dashed grey, path starts are green dots and ends small dark dots. Each PNG has a title\n"
       "(file, layer, Z, what colour means), a legend or colour bar and a scale bar in mm.\n"
       "Without --layer every layer is written as OUT.layerNNN.png (OUT without .png).");
-  cmd->add_option("toolpath", o->input, "toolpath JSON, G-code (.gcode/.g/.nc) or laser .cli")->required();
+  cmd->add_option("toolpath", o->input, "toolpath JSON, G-code (.gcode/.g/.nc) or laser .cli")
+      ->required();
   cmd->add_option("--colour", o->colour, "what colour means: feature, order or mixture")
       ->check(CLI::IsMember({"feature", "order", "mixture"}))
       ->capture_default_str();
@@ -39,7 +40,8 @@ void add_render(CLI::App& app) {
     Diagnostics diag;
     const ViewScene scene = load_view_scene(o->input, o->load, diag);
     if (scene.kind == "lattice")
-      throw ParseError(o->input + ": a lattice, not a toolpath (plan it first, or `trellis view` it)");
+      throw ParseError(o->input +
+                       ": a lattice, not a toolpath (plan it first, or `trellis view` it)");
     print_warnings(diag);
     const Toolpath& tp = scene.toolpath;
     o->r.colour_by_role = o->colour == "feature";

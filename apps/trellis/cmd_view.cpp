@@ -26,8 +26,10 @@ void add_view(CLI::App& app) {
   cmd->add_option("-o,--output", o->output, "HTML file to write")->required();
   cmd->add_option("--title", o->title, "page title (default: the file names)");
   cmd->add_option("--machine", o->load.machine, "machine profile (.nc valve commands)");
-  cmd->add_option("--valve-on", o->load.valve_on, "pneumatic files: the command that opens the valve");
-  cmd->add_option("--valve-off", o->load.valve_off, "pneumatic files: the command that closes the valve");
+  cmd->add_option("--valve-on", o->load.valve_on,
+                  "pneumatic files: the command that opens the valve");
+  cmd->add_option("--valve-off", o->load.valve_off,
+                  "pneumatic files: the command that closes the valve");
   cmd->callback([o] {
     Diagnostics diag;
     std::vector<ViewScene> scenes;

@@ -2,11 +2,10 @@
 // template bundled from viewer/ at build time (viewer_template.inc, made by viewer/build.mjs).
 #include "trellis/view/view.hpp"
 
-#include <nlohmann/json.hpp>
-
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <nlohmann/json.hpp>
 
 #include "trellis/analysis/metrics.hpp"
 #include "trellis/core/error.hpp"
@@ -28,8 +27,8 @@ const char kTemplateText[] =
     ;
 const std::string_view kTemplate(kTemplateText, sizeof kTemplateText - 1);
 constexpr std::string_view kDataMarker = "<!--TRELLIS_DATA-->";
-constexpr std::string_view kPathRoles[] = {"strut",    "contour", "handle", "perimeter",
-                                           "infill",   "other",   "skin"};
+constexpr std::string_view kPathRoles[] = {"strut",  "contour", "handle", "perimeter",
+                                           "infill", "other",   "skin"};
 
 std::string lower_ext(const std::string& path) {
   std::string e = fs::path(path).extension().string();
@@ -103,8 +102,8 @@ std::string base64(std::string_view in) {
   out.reserve((in.size() + 2) / 3 * 4);
   std::size_t i = 0;
   for (; i + 3 <= in.size(); i += 3) {
-    const std::uint32_t v = (std::uint8_t(in[i]) << 16) | (std::uint8_t(in[i + 1]) << 8) |
-                            std::uint8_t(in[i + 2]);
+    const std::uint32_t v =
+        (std::uint8_t(in[i]) << 16) | (std::uint8_t(in[i + 1]) << 8) | std::uint8_t(in[i + 2]);
     out += kAlphabet[v >> 18];
     out += kAlphabet[(v >> 12) & 63];
     out += kAlphabet[(v >> 6) & 63];
@@ -175,11 +174,16 @@ std::string script_safe(std::string text) {
 std::string html_escape(const std::string& s) {
   std::string out;
   for (char c : s) {
-    if (c == '<') out += "&lt;";
-    else if (c == '>') out += "&gt;";
-    else if (c == '&') out += "&amp;";
-    else if (c == '"') out += "&quot;";
-    else out += c;
+    if (c == '<')
+      out += "&lt;";
+    else if (c == '>')
+      out += "&gt;";
+    else if (c == '&')
+      out += "&amp;";
+    else if (c == '"')
+      out += "&quot;";
+    else
+      out += c;
   }
   return out;
 }
@@ -197,8 +201,8 @@ void append_scene(std::string& html, const ViewScene& s, std::size_t index) {
   meta["warnings"] = s.warnings;
   meta["design_lines"] = s.design.size();
   const std::string id = "tv-" + std::to_string(index);
-  html += "<script type=\"application/json\" id=\"" + id + "-meta\">" +
-          script_safe(meta.dump()) + "</script>\n";
+  html += "<script type=\"application/json\" id=\"" + id + "-meta\">" + script_safe(meta.dump()) +
+          "</script>\n";
   for (std::size_t i = 0; i < s.toolpath.layers.size(); ++i)
     html += "<script type=\"application/octet-stream\" id=\"" + id + "-l" + std::to_string(i) +
             "\">" + base64(encode_layer(s.toolpath.layers[i])) + "</script>\n";
@@ -256,9 +260,10 @@ ViewScene view_scene(const Toolpath& toolpath, const std::string& name) {
 std::string viewer_html(const std::vector<ViewScene>& scenes, const std::string& title) {
   const std::size_t at = kTemplate.find(kDataMarker);
   if (at == std::string_view::npos) throw Error("viewer template has no data marker");
-  std::string data = "<script type=\"application/json\" id=\"tv-index\">" +
-                     script_safe(nlohmann::json{{"title", title}, {"scenes", scenes.size()}}.dump()) +
-                     "</script>\n";
+  std::string data =
+      "<script type=\"application/json\" id=\"tv-index\">" +
+      script_safe(nlohmann::json{{"title", title}, {"scenes", scenes.size()}}.dump()) +
+      "</script>\n";
   for (std::size_t i = 0; i < scenes.size(); ++i) append_scene(data, scenes[i], i);
   std::string html;
   html.reserve(kTemplate.size() + data.size() + title.size() + 64);

@@ -1,6 +1,5 @@
-#include <gtest/gtest.h>
-
 #include <cairo.h>
+#include <gtest/gtest.h>
 
 #include <filesystem>
 #include <set>
@@ -61,7 +60,8 @@ Image decode(const std::string& path) {
   const unsigned char* data = cairo_image_surface_get_data(s);
   for (int y = 0; y < im.h; ++y)
     for (int x = 0; x < im.w; ++x)
-      im.px.push_back(*reinterpret_cast<const std::uint32_t*>(data + y * stride + 4 * x) & 0xffffff);
+      im.px.push_back(*reinterpret_cast<const std::uint32_t*>(data + y * stride + 4 * x) &
+                      0xffffff);
   cairo_surface_destroy(s);
   return im;
 }
@@ -175,8 +175,8 @@ TEST(Render, ThreeDAndOverlayHaveLegends) {
     }
   EXPECT_GT(colours.size(), 50u);
   EXPECT_GT(longest_black_run(a, a.h - band, a.h), 40);
-  render_overlay_png({{{0, 0}, {40, 0}}}, tp.layers[0], {{{0, 20}, {40, 20}}}, {{{0, 10}, {40, 10}}},
-                     0.4, po, 800);
+  render_overlay_png({{{0, 0}, {40, 0}}}, tp.layers[0], {{{0, 20}, {40, 20}}},
+                     {{{0, 10}, {40, 10}}}, 0.4, po, 800);
   const Image o = decode(po);
   auto near = [&](int y0, int y1, int r, int g, int b) {
     std::size_t n = 0;
@@ -188,8 +188,9 @@ TEST(Render, ThreeDAndOverlayHaveLegends) {
       }
     return n;
   };
-  EXPECT_GT(near(o.h - band, o.h, 230, 25, 25), 50u);   // deposited twice
-  EXPECT_GT(near(o.h - band, o.h, 25, 76, 242), 50u);   // missing strut
+  EXPECT_GT(near(o.h - band, o.h, 230, 25, 25), 50u);    // deposited twice
+  EXPECT_GT(near(o.h - band, o.h, 25, 76, 242), 50u);    // missing strut
   EXPECT_GT(near(o.h - band, o.h, 217, 217, 217), 50u);  // design
-  EXPECT_NEAR(longest_black_run(o, o.h - band, o.h), 10 * 800 / 42.0, 2);  // 10 mm; 42 mm wide with margins
+  EXPECT_NEAR(longest_black_run(o, o.h - band, o.h), 10 * 800 / 42.0,
+              2);  // 10 mm; 42 mm wide with margins
 }

@@ -19,9 +19,9 @@ struct ViewScene {
   std::string kind;  // gcode, nc, cli, toolpath, lattice, check
   Toolpath toolpath;
   std::vector<std::pair<Vec3, Vec3>> design;  // overlay lines (a lattice, the checked struts)
-  std::vector<char> design_flag;  // per design line: 1 = flagged (a collision), 0 = not
-  double print_time_s = -1;       // time estimate (s), < 0 when unknown
-  double filament_mm = -1;        // filament (mm of E), < 0 when unknown
+  std::vector<char> design_flag;              // per design line: 1 = flagged (a collision), 0 = not
+  double print_time_s = -1;                   // time estimate (s), < 0 when unknown
+  double filament_mm = -1;                    // filament (mm of E), < 0 when unknown
   std::vector<std::string> warnings;
 };
 
