@@ -49,7 +49,7 @@ void order_colour(cairo_t* cr, double t) {
 }
 
 // Feature-type colours, indexed by PathRole (the viewer's palette, viewer/src/colors.js).
-constexpr double kRoleRgb[][3] = {{31, 119, 180}, {214, 39, 40},  {148, 103, 189}, {255, 127, 14},
+constexpr double kRoleRgb[][3] = {{31, 119, 180}, {214, 39, 40},   {148, 103, 189}, {255, 127, 14},
                                   {44, 160, 44},  {127, 127, 127}, {227, 119, 194}};
 
 void role_colour(cairo_t* cr, PathRole role) {
@@ -156,9 +156,12 @@ void render_layer_png(const Toolpath& tp, std::size_t index, const std::string& 
   enum class Mode { Order, Role, Mixture2, Mixture3 } mode = Mode::Order;
   bool mixed2 = false, mixed3 = false;
   for (const auto& p : layer.paths) (p.mixture.size() >= 3 ? mixed3 : mixed2) |= !p.mixture.empty();
-  if (opt.colour_by_mixture && mixed3) mode = Mode::Mixture3;
-  else if (opt.colour_by_mixture && mixed2) mode = Mode::Mixture2;
-  else if (opt.colour_by_role || opt.colour_by_mixture) mode = Mode::Role;
+  if (opt.colour_by_mixture && mixed3)
+    mode = Mode::Mixture3;
+  else if (opt.colour_by_mixture && mixed2)
+    mode = Mode::Mixture2;
+  else if (opt.colour_by_role || opt.colour_by_mixture)
+    mode = Mode::Role;
   cairo_save(cr.get());
   // Millimetres, y up, the layer centred in the middle band.
   cairo_translate(cr.get(), (W - Wd) / 2.0, band + Hd);
@@ -219,12 +222,14 @@ void render_layer_png(const Toolpath& tp, std::size_t index, const std::string& 
   cairo_t* c = cr.get();
   const double fs = band * 0.3, pad = band * 0.2;
   cairo_set_source_rgb(c, 0.1, 0.1, 0.1);
-  const std::string name = !opt.title.empty() ? opt.title : !tp.source.empty() ? tp.source : "toolpath";
+  const std::string name = !opt.title.empty()   ? opt.title
+                           : !tp.source.empty() ? tp.source
+                                                : "toolpath";
   text(c, pad, pad + fs, fs, name, true);
   char line[256];
-  const char* meaning = mode == Mode::Order      ? "colour: print order"
-                        : mode == Mode::Role     ? "colour: feature type"
-                                                 : "colour: mixture";
+  const char* meaning = mode == Mode::Order  ? "colour: print order"
+                        : mode == Mode::Role ? "colour: feature type"
+                                             : "colour: mixture";
   std::snprintf(line, sizeof line, "layer %zu of %zu, z = %.3f mm, %zu paths; %s", index + 1,
                 tp.layers.size(), layer.z, n, meaning);
   text(c, pad, pad + 2.3 * fs, fs * 0.85, line);
@@ -258,7 +263,8 @@ void render_layer_png(const Toolpath& tp, std::size_t index, const std::string& 
     }
   } else {
     // A colour bar: print order first .. last, or the fraction of material 1.
-    const std::string lo = mode == Mode::Order ? "first" : "0", hi = mode == Mode::Order ? "last" : "1";
+    const std::string lo = mode == Mode::Order ? "first" : "0",
+                      hi = mode == Mode::Order ? "last" : "1";
     const std::string what = mode == Mode::Order ? "" : " material 1";
     cairo_set_source_rgb(c, 0.1, 0.1, 0.1);
     text(c, x, ymid + fs * 0.3, fs * 0.85, lo);
@@ -320,7 +326,8 @@ void render_3d_png(const Toolpath& tp, const std::string& path, const View3dOpti
   cairo_paint(cr.get());
   if (!opt.title.empty()) {
     cairo_set_source_rgb(cr.get(), 0.1, 0.1, 0.1);
-    cairo_select_font_face(cr.get(), "sans-serif", CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
+    cairo_select_font_face(cr.get(), "sans-serif", CAIRO_FONT_SLANT_NORMAL,
+                           CAIRO_FONT_WEIGHT_NORMAL);
     cairo_set_font_size(cr.get(), 16);
     cairo_move_to(cr.get(), 8, 20);
     cairo_show_text(cr.get(), opt.title.c_str());
@@ -431,8 +438,10 @@ void render_overlay_png(const std::vector<Segment2>& design, const Layer& printe
     text(c, band * 0.2, band * 0.5, band * 0.3, name, true);
     text(c, band * 0.2, band * 0.89, band * 0.255, line);
     legend_band(c, W, band + Hd, band,
-                {{"design", 0.85, 0.85, 0.85}, {"printed", 0.15, 0.15, 0.15},
-                 {"deposited twice", 0.9, 0.1, 0.1}, {"missing strut", 0.1, 0.3, 0.95}},
+                {{"design", 0.85, 0.85, 0.85},
+                 {"printed", 0.15, 0.15, 0.15},
+                 {"deposited twice", 0.9, 0.1, 0.1},
+                 {"missing strut", 0.1, 0.3, 0.95}},
                 false, scale);
   }
   cairo_translate(c, (W - Wd) / 2.0, band + Hd);

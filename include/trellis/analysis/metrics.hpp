@@ -25,7 +25,7 @@ struct GcodeCounts {
   double extruded_length = 0, travel_length = 0, filament = 0, print_time_s = 0;
   // Per-path sums for Eq. 1-3 (a path = a run of connected extrusion moves; its edges = moves).
   std::size_t paths = 0;
-  double weighted = 0;                       // Σ length_i · edges_i
+  double weighted = 0;                        // Σ length_i · edges_i
   double long_length = 0, long_weighted = 0;  // the same over long paths (≥ long_nodes nodes)
 };
 

@@ -16,9 +16,10 @@ struct RenderOptions {
   double margin_mm = 1.0;
   bool travel = true;
   bool starts = true;
-  double bead_width = 0;  // line width in mm; 0 = from paths or 0.2
+  double bead_width = 0;           // line width in mm; 0 = from paths or 0.2
   bool colour_by_role = false;     // feature type (the viewer's palette); else print order
-  bool colour_by_mixture = false;  // graded paths by their first material's fraction (blue 0 .. red 1); three materials as RGB
+  bool colour_by_mixture = false;  // graded paths by their first material's fraction (blue 0 .. red
+                                   // 1); three materials as RGB
   std::string title;               // first line of the title band; default: the toolpath's source
 };
 
@@ -31,10 +32,10 @@ inline int layer_band_px(int size_px) {
 void render_layer_png(const Toolpath& toolpath, std::size_t layer, const std::string& path,
                       const RenderOptions& options = {});
 
-// An oblique 3D view (a dimetric projection) of a whole toolpath (all layers), paths coloured by print order from blue
-// to red, start points green, travel dashed grey; `upto` > 0 draws only the first `upto` paths
-// (a frame of the print order) over the rest in light grey. Optional `marks` (3D points) are
-// drawn as red rings, e.g. collisions.
+// An oblique 3D view (a dimetric projection) of a whole toolpath (all layers), paths coloured by
+// print order from blue to red, start points green, travel dashed grey; `upto` > 0 draws only the
+// first `upto` paths (a frame of the print order) over the rest in light grey. Optional `marks` (3D
+// points) are drawn as red rings, e.g. collisions.
 struct View3dOptions {
   int size_px = 1000;
   double azimuth_deg = -60;   // view direction around Z (from +X towards +Y)
