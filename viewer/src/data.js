@@ -74,8 +74,8 @@ export function decodeScene(i) {
   for (let q = 1; q < paths; ++q) {
     const a = (pathFirst[q] - 1) * 3, b = pathFirst[q] * 3;
     const dx = positions[b] - positions[a], dy = positions[b + 1] - positions[a + 1], dz = positions[b + 2] - positions[a + 2];
-    const d = Math.sqrt(dx * dx + dy * dy + dz * dz);
-    if (d > 1e-9) { travelList.push(a, b); travelLength += d; }
+    // Length in XY, as `trellis analyze` reports travel (a Z hop adds nothing).
+    if (dx * dx + dy * dy + dz * dz > 1e-18) { travelList.push(a, b); travelLength += Math.sqrt(dx * dx + dy * dy); }
     while (t < pathLayer[q]) layerTravel[++t] = travelList.length / 2;
   }
   while (t < L) layerTravel[++t] = travelList.length / 2;

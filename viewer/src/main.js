@@ -336,7 +336,7 @@ class Viewer {
     else {
       rows.push(['layers', st.layers], ['paths', st.paths], ['segments', st.segments],
         ['extruded length', st.extruded.toFixed(1) + ' mm'], ['travel moves', st.travelMoves],
-        ['travel length', st.travelLength.toFixed(1) + ' mm']);
+        ['travel length (XY)', st.travelLength.toFixed(1) + ' mm']);
       if (meta.print_time_s >= 0) rows.push(['time estimate', formatTime(meta.print_time_s)]);
       if (meta.filament_mm >= 0) rows.push(['filament', meta.filament_mm.toFixed(1) + ' mm']);
       if (st.designLines) rows.push(['design struts', st.designLines]);
