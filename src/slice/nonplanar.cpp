@@ -571,6 +571,54 @@ std::vector<std::vector<Vec3>> sample_curve(const SurfacePoint& sp, Vec2 a, Vec2
   return pieces;
 }
 
+// A connector from a to b (ends of pieces on neighbouring lines, both on the footprint's edge)
+// whose straight way crosses a hole: each sample inside the hole is pushed along `away` (the
+// lines' direction, away from the hole) to just inside the hole's edge (by `margin`), so the
+// connector hugs the edge in
+// the strip between the two lines, where no other line runs. Empty if it cannot.
+std::vector<Vec3> hug_connector(const SurfacePoint& sp, Vec3 a, Vec3 b, Vec2 away, double step,
+                                double reach, double margin) {
+  const double len = std::hypot(b.x - a.x, b.y - a.y);
+  const int n = std::max(2, static_cast<int>(std::ceil(len / step)));
+  std::vector<Vec3> out{a};
+  for (int i = 1; i < n; ++i) {
+    const Vec2 q = a.xy() + (b.xy() - a.xy()) * (static_cast<double>(i) / n);
+    Vec3 p = sp(q);
+    if (!is_finite(p)) {
+      double lo = 0, hi = step;  // inside at lo; march out to a finite hi, then bisect
+      while (hi <= reach && !is_finite(sp(q + away * hi))) lo = hi, hi *= 2;
+      if (hi > reach) return {};
+      for (int k = 0; k < 50 && hi - lo > 1e-7; ++k) {
+        const double m = 0.5 * (lo + hi);
+        (is_finite(sp(q + away * m)) ? hi : lo) = m;
+      }
+      // A margin inside the footprint, so chords between edge points (sagitta step²/8R) stay on it.
+      p = sp(q + away * (hi + margin));
+      if (!is_finite(p)) return {};
+    }
+    out.push_back(p);
+  }
+  out.push_back(b);
+  // Every chord must stay over the footprint (the self-check's test); otherwise travel.
+  for (std::size_t i = 1; i < out.size(); ++i)
+    if (!is_finite(sp((out[i - 1].xy() + out[i].xy()) * 0.5))) return {};
+  return out;
+}
+
+// Whether the footprint goes on past the end `a` of a piece (coming from `before`): a hole, not
+// the outer edge. Marches on in steps of `step` until the domain ends.
+bool hole_ahead(const SurfacePoint& sp, Vec3 a, Vec3 before, const BBox2& box, double step) {
+  Vec2 t{a.x - before.x, a.y - before.y};
+  const double len = std::hypot(t.x, t.y);
+  if (len <= 0) return false;
+  t = t * (1 / len);
+  for (Vec2 q = a.xy() + t * step; q.x >= box.min.x && q.x <= box.max.x && q.y >= box.min.y &&
+                                   q.y <= box.max.y;
+       q = q + t * step)
+    if (is_finite(sp(q))) return true;
+  return false;
+}
+
 // The u-interval of the line {p : dot(p, n) = v} (direction d) inside a box, empty if none.
 bool clip_line(const BBox2& box, Vec2 d, Vec2 n, double v, double* u0, double* u1) {
   double lo = -1e300, hi = 1e300;
@@ -949,6 +997,25 @@ NonplanarResult slice_nonplanar(const HeightField& surface, const NonplanarParam
             rep.connector_length += clen;
             cur.points.insert(cur.points.end(), c.begin() + 1, c.end() - 1);
             joined = true;
+          } else if (neighbours && cur.points.size() >= 2 &&
+                     hole_ahead(sp, a, cur.points[cur.points.size() - 2], surface.domain(),
+                                prm.width)) {
+            // Around a hole: hug its edge, pushed back the way the last piece came.
+            const double ang = rep.angle * std::numbers::pi / 180;
+            const Vec2 d{std::cos(ang), std::sin(ang)};
+            const Vec3 t = cur.points.back() - cur.points[cur.points.size() - 2];
+            const Vec2 away = (t.x * d.x + t.y * d.y) > 0 ? d * -1.0 : d;
+            auto c = hug_connector(sp, a, b, away, std::clamp(prm.width / 4, 0.01, 0.1),
+                                   std::max(10 * distance_xy(a, b), 10 * prm.width),
+                                   prm.chord_tolerance);
+            if (!c.empty()) {
+              double clen = 0;
+              for (std::size_t i = 1; i < c.size(); ++i) clen += distance(c[i - 1], c[i]);
+              rep.connector_length += clen;
+              ++rep.hole_joins;
+              cur.points.insert(cur.points.end(), c.begin() + 1, c.end() - 1);
+              joined = true;
+            }
           }
         }
         if (!joined) flush();
@@ -1140,7 +1207,8 @@ std::string nonplanar_report_json(const NonplanarResult& r, const NonplanarParam
                       {"travel_moves", l.travel_moves},
                       {"length_mm", l.length},
                       {"connector_length_mm", l.connector_length},
-                      {"jumps", l.jumps}});
+                      {"jumps", l.jumps},
+                      {"hole_joins", l.hole_joins}});
   j["per_layer"] = layers;
   if (g)
     j["gcode"] = {{"tool_changes", g->tool_changes},

@@ -583,3 +583,22 @@ TEST(Nonplanar, JumpsSplitPathsInsteadOfBridgingThem) {
   const NonplanarResult s = slice_nonplanar(smooth, prm);
   for (const auto& l : s.layers) EXPECT_EQ(l.jumps, 0u);
 }
+
+// A footprint with a hole: lines that meet the hole are joined around it along its edge (in the
+// strip between neighbouring lines) instead of ending there, so a layer is a couple of paths,
+// not one per piece; every point and chord stays on the surface.
+TEST(Nonplanar, HolesAreJoinedAroundTheirEdge) {
+  NonplanarParams prm;
+  prm.layers = 2;
+  prm.angles = {0, 90};
+  const HeightField annulus =
+      HeightField::from_expression("x^2+y^2<9 ? 0/0 : 0.1*x", {{-8, -8}, {8, 8}}, "annulus");
+  const NonplanarResult r = slice_nonplanar(annulus, prm);
+  for (const auto& l : r.layers) {
+    EXPECT_LE(l.paths, 3u) << l.angle;
+    EXPECT_GE(l.hole_joins, 10u) << l.angle;
+  }
+  const SurfaceDeviation dev = surface_deviation(r.toolpath, annulus, prm);
+  EXPECT_LE(dev.max_point, 1e-6);
+  EXPECT_LE(dev.max_chord, prm.chord_tolerance);
+}
