@@ -44,6 +44,14 @@ Toolpath strut_picture(const Graph& g) {
 
 AtlasParams atlas_of(const Config& c, const Settings& st) {
   AtlasParams a = c.lattice2d;
+  if (c.target_porosity > 0) {
+    if (st.has("lattice2d.cell"))
+      throw SettingError("give lattice2d.cell or lattice2d.target_porosity, not both (the target "
+                         "sets the cell)",
+                         {"", 0, "lattice2d.target_porosity"});
+    a.cell_size = cell_for_porosity(a, c.target_porosity, c.line_width);
+    if (a.strand_distance > 0) a.strand_distance = a.cell_size;
+  }
   if (!st.has("lattice2d.center")) a.region.center = corner_at_origin(a);
   return a;
 }
@@ -208,9 +216,12 @@ JobResult lattice2d(const Job& job, const Config& c, Diagnostics&, const Progres
   const PoreArea pores = pore_area(g, c.line_width);
   out.summary = fmt::format(
       "lattice: {}, {} nodes, {} edges, {} mm of struts, lower bound {} paths, pore area {}% ({} "
-      "pores at {} mm lines)",
+      "pores at {} mm lines){}",
       to_string(a.pattern), g.nodes.size(), g.edges.size(), fixed(g.total_length(), 1),
-      lower_bound_paths(g), fixed(pores.percent(), 1), pores.count, fixed(c.line_width, 2));
+      lower_bound_paths(g), fixed(pores.percent(), 1), pores.count, fixed(c.line_width, 2),
+      c.target_porosity > 0 ? fmt::format("; cell {} mm for the {}% target", fixed(a.cell_size, 4),
+                                          fixed(c.target_porosity, 1))
+                            : std::string());
   return out;
 }
 

@@ -6,6 +6,7 @@
 #include <cstddef>
 #include <vector>
 
+#include "trellis/lattice/atlas.hpp"
 #include "trellis/lattice/graph.hpp"
 
 namespace trellis {
@@ -21,5 +22,12 @@ struct PoreArea {
 
 // Throws SettingError for a width that is not positive.
 PoreArea pore_area(const Graph& g, double width);
+
+// The cell size at which the 2D lattice `params` (pattern, region, ...) printed with lines
+// `width` wide has `target_percent` pore area (GIPPO Table 1 tunes each design to a pore share):
+// bracketed, then bisected until within 0.1 % (points) or 40 steps. Pore area grows with the
+// cell. Throws SettingError for Voronoi (its density, not a cell size, sets the pores) and for
+// targets no cell size in 1.05 width .. 1000 width reaches.
+double cell_for_porosity(const AtlasParams& params, double target_percent, double width);
 
 }  // namespace trellis

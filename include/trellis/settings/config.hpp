@@ -105,6 +105,7 @@ struct Config {
   double merge_tolerance = 1e-6;  // lattice.merge_tolerance (mm)
   bool keep_graph = false;        // lattice.keep_graph: no node merging, no T-junction splitting
   double line_width = 0.4;        // lattice2d.line_width (mm): for the pore area
+  double target_porosity = 0;     // lattice2d.target_porosity (%): tune the cell size; 0 = off
   int gippo_seeds = 0;            // gippo.seeds: robustness run over this many seeds
   AeroParams aero;
   SliceJob slice;       // slice.* and fgm.* (input set by the route)
