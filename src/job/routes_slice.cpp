@@ -184,7 +184,7 @@ void write_gcode_out(const std::string& path, Toolpath tp, const Job& job, const
 
 }  // namespace
 
-JobResult slice(const Job& job, const Config& c, Diagnostics&, const Progress& progress) {
+JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
   JobResult out;
   if (job.input.empty()) throw SettingError("slice needs a design (.vcad) or mesh to read", {"", 0, "job.input"});
   SliceJob sj = c.slice;
@@ -198,6 +198,9 @@ JobResult slice(const Job& job, const Config& c, Diagnostics&, const Progress& p
   sj.purge.y = c.machine.purge_y;
   sj.purge.side = c.machine.purge_side;
   SliceResult r = run_slice(sj, progress);
+  if (r.repaired)
+    diag.warn("mesh_repaired", fs::path(job.input).filename().string() +
+                                   " was not closed and manifold; repaired: " + r.repair.summary());
   // The file name only: outputs must not depend on where the command ran.
   r.toolpath.source = "trellis slice " + fs::path(job.input).filename().string() + " (" +
                       to_string(r.route) + " route)";

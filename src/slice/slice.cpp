@@ -106,12 +106,12 @@ std::vector<LayerOutline> slice_field(const Field& field, const std::vector<doub
 }
 
 std::vector<LayerOutline> slice_mesh_layers(const TriangleMesh& mesh, const std::vector<double>& zs,
-                                            double stitch_tolerance) {
+                                            double stitch_tolerance, bool overlapping) {
   std::vector<LayerOutline> out(zs.size());
   const auto buckets = triangles_by_plane(mesh, zs);
   tbb::parallel_for(std::size_t{0}, zs.size(), [&](std::size_t i) {
     out[i].z = zs[i];
-    out[i].regions = slice_mesh(mesh, zs[i], buckets[i], stitch_tolerance);
+    out[i].regions = slice_mesh(mesh, zs[i], buckets[i], stitch_tolerance, overlapping);
   });
   return out;
 }
