@@ -15,6 +15,7 @@
 #include <tbb/parallel_for.h>
 
 #include "mesh_3mf_module.hpp"
+#include "mesh_weld.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/core/text.hpp"
@@ -102,33 +103,31 @@ TriangleMesh parse_stl(const std::string& bytes, const std::string& name) {
     std::uint32_t count;
     std::memcpy(&count, bytes.data() + 80, 4);
     if (84 + 50ull * count == bytes.size()) {
-      // Records in parallel; the first invalid coordinate (lowest triangle) is reported.
-      std::vector<Vec3> corners(3ull * count);
+      // Coordinates checked in parallel; the first invalid one (lowest triangle) is reported.
+      const char* records = bytes.data() + 84;
       std::atomic<std::uint32_t> bad{count};
       tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, count, 4096),
                         [&](const tbb::blocked_range<std::uint32_t>& range) {
         for (std::uint32_t t = range.begin(); t < range.end(); ++t) {
-          const char* rec = bytes.data() + 84 + 50ull * t + 12;
           float f[9];
-          std::memcpy(f, rec, 36);
-          for (int k = 0; k < 3; ++k) {
-            Vec3& v = corners[3ull * t + static_cast<std::size_t>(k)];
-            v = {f[3 * k], f[3 * k + 1], f[3 * k + 2]};
-            if (!valid_coordinate(v)) {
+          std::memcpy(f, records + 50ull * t + 12, 36);
+          for (int k = 0; k < 3; ++k)
+            if (!valid_coordinate({f[3 * k], f[3 * k + 1], f[3 * k + 2]})) {
               std::uint32_t seen = bad.load();
               while (t < seen && !bad.compare_exchange_weak(seen, t)) {
               }
             }
-          }
         }
       });
       if (bad.load() < count) {
         const std::uint32_t t = bad.load();
+        float f[9];
+        std::memcpy(f, records + 50ull * t + 12, 36);
         for (int k = 0; k < 3; ++k)
-          check_coordinate(corners[3ull * t + static_cast<std::size_t>(k)], name, 0,
+          check_coordinate({f[3 * k], f[3 * k + 1], f[3 * k + 2]}, name, 0,
                            "triangle " + std::to_string(t));
       }
-      TriangleMesh mesh = weld_corners(corners);
+      TriangleMesh mesh = weld_binary_stl(records, count);
       if (mesh.triangles.empty()) throw ParseError("STL has no triangles", {name, 0, ""});
       return mesh;
     }

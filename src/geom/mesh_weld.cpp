@@ -10,6 +10,7 @@
 #include <cstring>
 
 #include "trellis/core/error.hpp"
+#include "mesh_weld.hpp"
 #include "trellis/geom/mesh_io.hpp"
 
 namespace trellis {
@@ -36,16 +37,14 @@ bool same(const Vec3& a, const Vec3& b) {
 
 constexpr std::size_t kGrain = 1 << 15;  // corners per task
 
-}  // namespace
-
-TriangleMesh weld_corners(const std::vector<Vec3>& corners) {
-  const std::size_t n = corners.size() - corners.size() % 3;
+// `corner(i)` gives corner i's coordinates; n is a multiple of 3.
+template <class Corner>
+TriangleMesh weld_soup(std::size_t n, const Corner& corner) {
   if (n >= 0xffffffffull) throw GeometryError("more than 4,294,967,294 triangle corners");
   // Buckets of ~4,096 corners (~1,000 vertices): each bucket's table stays in the cache.
   const int bucket_bits = static_cast<int>(std::min<std::size_t>(std::bit_width(n / 4096), 16));
   const std::size_t buckets = std::size_t{1} << bucket_bits;
   const std::size_t chunks = (n + kGrain - 1) / kGrain;
-  std::vector<std::uint64_t> hash(n);
   std::vector<std::uint32_t> count(chunks * buckets, 0);  // per chunk, per bucket
   auto bucket_of = [&](std::uint64_t h) {
     return bucket_bits ? static_cast<std::size_t>(h >> (64 - bucket_bits)) : 0;
@@ -53,8 +52,7 @@ TriangleMesh weld_corners(const std::vector<Vec3>& corners) {
   tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
     std::uint32_t* cnt = count.data() + c * buckets;
     for (std::size_t i = c * kGrain, e = std::min(n, i + kGrain); i < e; ++i) {
-      hash[i] = hash_of(corners[i]);
-      ++cnt[bucket_of(hash[i])];
+      ++cnt[bucket_of(hash_of(corner(i)))];
     }
   });
   // Counting sort by bucket, stable: within a bucket corners stay in file order.
@@ -71,11 +69,21 @@ TriangleMesh weld_corners(const std::vector<Vec3>& corners) {
     }
     start[buckets] = at;
   }
-  std::vector<std::uint32_t> sorted(n);
+  // Each corner with its coordinates goes to its bucket, so a bucket is welded from memory
+  // that is contiguous and in the cache, not by random reads across the whole soup.
+  struct Entry {
+    Vec3 p;
+    std::uint32_t index;
+    std::uint32_t hash;  // the low bits (the top ones chose the bucket)
+  };
+  std::vector<Entry> sorted(n);
   tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
     std::uint32_t* off = offset.data() + c * buckets;
-    for (std::size_t i = c * kGrain, e = std::min(n, i + kGrain); i < e; ++i)
-      sorted[off[bucket_of(hash[i])]++] = static_cast<std::uint32_t>(i);
+    for (std::size_t i = c * kGrain, e = std::min(n, i + kGrain); i < e; ++i) {
+      const Vec3 p = corner(i);
+      const std::uint64_t h = hash_of(p);  // again: cheaper than storing it
+      sorted[off[bucket_of(h)]++] = {p, static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(h)};
+    }
   });
   // Each corner's representative: the first corner with the same coordinates.
   std::vector<std::uint32_t> rep(n);
@@ -84,18 +92,18 @@ TriangleMesh weld_corners(const std::vector<Vec3>& corners) {
     if (lo == hi) return;
     const std::size_t size = std::bit_ceil(2 * (hi - lo));
     constexpr std::uint32_t kEmpty = 0xffffffffu;
-    std::vector<std::uint32_t> table(size, kEmpty);
+    std::vector<std::uint32_t> table(size, kEmpty);  // positions in `sorted`
     for (std::size_t k = lo; k < hi; ++k) {
-      const std::uint32_t i = sorted[k];
-      for (std::size_t s = hash[i] & (size - 1);; s = (s + 1) & (size - 1)) {
+      const Entry& e = sorted[k];
+      for (std::size_t s = e.hash & (size - 1);; s = (s + 1) & (size - 1)) {
         const std::uint32_t j = table[s];
         if (j == kEmpty) {
-          table[s] = i;
-          rep[i] = i;
+          table[s] = static_cast<std::uint32_t>(k);
+          rep[e.index] = e.index;
           break;
         }
-        if (hash[j] == hash[i] && same(corners[j], corners[i])) {
-          rep[i] = j;
+        if (sorted[j].hash == e.hash && same(sorted[j].p, e.p)) {
+          rep[e.index] = sorted[j].index;
           break;
         }
       }
@@ -107,7 +115,7 @@ TriangleMesh weld_corners(const std::vector<Vec3>& corners) {
   for (std::size_t i = 0; i < n; ++i) {
     if (rep[i] == i) {
       id[i] = static_cast<std::uint32_t>(mesh.vertices.size());
-      const Vec3 v = corners[i];
+      const Vec3 v = corner(i);
       mesh.vertices.push_back({v.x == 0 ? 0.0 : v.x, v.y == 0 ? 0.0 : v.y, v.z == 0 ? 0.0 : v.z});
     } else {
       id[i] = id[rep[i]];
@@ -120,6 +128,21 @@ TriangleMesh weld_corners(const std::vector<Vec3>& corners) {
     mesh.triangles.push_back({a, b, c});
   }
   return mesh;
+}
+
+}  // namespace
+
+TriangleMesh weld_corners(const std::vector<Vec3>& corners) {
+  return weld_soup(corners.size() - corners.size() % 3,
+                   [&](std::size_t i) { return corners[i]; });
+}
+
+TriangleMesh weld_binary_stl(const char* records, std::size_t count) {
+  return weld_soup(3 * count, [records](std::size_t i) {
+    float f[3];
+    std::memcpy(f, records + 50 * (i / 3) + 12 + 12 * (i % 3), 12);
+    return Vec3{f[0], f[1], f[2]};
+  });
 }
 
 TriangleMesh weld(const TriangleMesh& mesh) {
