@@ -155,7 +155,7 @@ TriangleMesh repair_mesh(const TriangleMesh& input, const MeshRepairOptions& opt
   if (CGAL::is_closed(mesh)) {
     std::map<Face, std::array<std::size_t, 3>> was;
     for (Face f : mesh.faces()) was[f] = face_vertices(mesh, f);
-    PMP::orient_to_bound_a_volume(mesh);
+    PMP::orient(mesh);  // each shell outwards
     for (Face f : mesh.faces())
       if (face_vertices(mesh, f) != was[f]) ++report.inverted_faces;
   }
