@@ -2,7 +2,7 @@
 // the triangles as a polygon soup lose their duplicates and are oriented consistently (the soup
 // functions split non-manifold edges and vertices while doing so), become a halfedge mesh whose
 // open seams are stitched, whose zero-area faces are collapsed and whose small holes are
-// triangulated; finally every shell is oriented to bound a volume.
+// triangulated; finally every shell is oriented outwards.
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Polygon_mesh_processing/bbox.h>
 #include <CGAL/Polygon_mesh_processing/border.h>
@@ -151,11 +151,12 @@ TriangleMesh repair_mesh(const TriangleMesh& input, const MeshRepairOptions& opt
   }
   report.nonmanifold_vertices = PMP::duplicate_non_manifold_vertices(mesh);
 
-  // Every shell bounds a volume (outwards; nested shells alternate), if the mesh is closed.
+  // Every shell outwards, as other slicers take them: CAD assemblies overlap shells (motor.stl);
+  // nesting them as cavities (orient_to_bound_a_volume) loses parts PrusaSlicer prints.
   if (CGAL::is_closed(mesh)) {
     std::map<Face, std::array<std::size_t, 3>> was;
     for (Face f : mesh.faces()) was[f] = face_vertices(mesh, f);
-    PMP::orient(mesh);  // each shell outwards
+    PMP::orient(mesh);  // every shell outwards: a solid each, united when sliced
     for (Face f : mesh.faces())
       if (face_vertices(mesh, f) != was[f]) ++report.inverted_faces;
   }
