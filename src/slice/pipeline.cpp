@@ -63,6 +63,16 @@ TriangleMesh closed_mesh(TriangleMesh mesh, const SliceJob& job, SliceResult& r)
                     c.open_edges, c.nonmanifold_edges, r.repair.summary(), after.open_edges,
                     after.nonmanifold_edges, after.first_problem),
         {job.input, 0, ""});
+  // A surface, not a solid (e.g. one sheet whose edge became a "hole" and was filled).
+  const BBox3 b = bounds(fixed);
+  const double diagonal = norm(b.max - b.min);
+  if (!(std::abs(volume(fixed)) > 1e-9 * diagonal * diagonal * diagonal))
+    throw GeometryError(
+        fmt::format("mesh is not closed and manifold ({} open edges, {} non-manifold edges) and "
+                    "encloses no volume once repaired ({}): it is a surface, not a solid. Export "
+                    "the part as a solid",
+                    c.open_edges, c.nonmanifold_edges, r.repair.summary()),
+        {job.input, 0, ""});
   return fixed;
 }
 
