@@ -23,6 +23,8 @@ struct PlanParams {
   double layer_height = 0.148;      // bead height (mm); nozzle z = design z + this
   std::size_t long_path_nodes = 5;  // LTS/OE threshold (paper: 5 nodes)
   double level_tolerance = 1e-6;    // edges within this z span are planar (mm)
+  bool merge_ends = false;          // join paths that end at the same node (merge_shared_ends)
+  bool keep_worst = false;          // gippo: also build the lowest-score solution's toolpath
 };
 
 struct LayerReport {
@@ -33,10 +35,12 @@ struct LayerReport {
   PathMetrics worst;           // gippo: lowest-score iteration
   std::vector<double> scores;  // gippo: every iteration
   std::size_t best_iteration = 0;
+  std::size_t merged = 0;      // joins made by merge_ends
 };
 
 struct PlanResult {
   Toolpath toolpath;
+  Toolpath worst;  // gippo with keep_worst: the lowest-score iteration, ordered and placed alike
   std::vector<LayerReport> layers;
   PathMetrics total;  // summed over layers (score and percentages length-weighted)
   TravelStats travel;
