@@ -208,6 +208,7 @@ def slice(
     material_resolution: float = ...,  # fgm.material_resolution: XY grid of the material iso-contours
     mesh_voxel: float = ...,  # slice.mesh_voxel: voxel of mesh distance fields (field route)
     preview_layers: int = ...,  # output.preview_layers: PNG previews spread over the layers
+    repair: bool = ...,  # slice.repair: repair meshes that are not closed and manifold (stitch seams, drop degenerate and duplicate faces, orient, fill small holes, split non-manifold edges); --no-re
     resolution: float = ...,  # slice.resolution: XY grid step of field contours
     route: Literal['auto', 'field', 'mesh'] = ...,  # slice.route: auto (.vcad: field, meshes: mesh), field (contours of the implicit field) or mesh (plane cuts)
     speed: float = ...,  # speed.print: printing speed

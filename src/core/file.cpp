@@ -20,6 +20,18 @@ std::string read_file(const std::string& path) {
   if (std::filesystem::is_directory(path, ec)) throw IoError("is a directory", {path});
   std::ifstream in(path, std::ios::binary);
   if (!in) throw IoError(std::string("cannot open: ") + std::strerror(errno), {path});
+  // A regular file is read straight into a string of its size (one copy: meshes of 50 MB and
+  // more); anything else (a pipe) through a stream.
+  const auto size = std::filesystem::file_size(path, ec);
+  if (!ec && std::filesystem::is_regular_file(path, ec)) {
+    std::string out(size, '\0');
+    in.read(out.data(), static_cast<std::streamsize>(size));
+    out.resize(static_cast<std::size_t>(in.gcount()));
+    if (in.gcount() == static_cast<std::streamsize>(size) && in.peek() == EOF) return out;
+    std::ostringstream rest;  // the file grew while reading
+    rest << in.rdbuf();
+    return out + rest.str();
+  }
   std::ostringstream ss;
   ss << in.rdbuf();
   return ss.str();

@@ -11,6 +11,33 @@ namespace trellis {
 
 namespace impl {
 
+namespace {
+
+double millimetres_per_unit(DWORD unit) {
+  switch (unit) {
+    case NMR::MODELUNIT_MICROMETER: return 1e-3;
+    case NMR::MODELUNIT_MILLIMETER: return 1.0;
+    case NMR::MODELUNIT_CENTIMETER: return 10.0;
+    case NMR::MODELUNIT_INCH: return 25.4;
+    case NMR::MODELUNIT_FOOT: return 304.8;
+    case NMR::MODELUNIT_METER: return 1000.0;
+    default: return 0.0;
+  }
+}
+
+DWORD unit_of(const std::string& name) {
+  if (name == "micron") return NMR::MODELUNIT_MICROMETER;
+  if (name == "millimeter") return NMR::MODELUNIT_MILLIMETER;
+  if (name == "centimeter") return NMR::MODELUNIT_CENTIMETER;
+  if (name == "inch") return NMR::MODELUNIT_INCH;
+  if (name == "foot") return NMR::MODELUNIT_FOOT;
+  if (name == "meter") return NMR::MODELUNIT_METER;
+  throw SettingError("unknown 3MF unit '" + name +
+                     "' (micron, millimeter, centimeter, inch, foot or meter)");
+}
+
+}  // namespace
+
 TriangleMesh read_3mf(const std::string& path) {
   using namespace NMR;
   // lib3mf 1.8 C interface; every handle released on every path.
@@ -37,6 +64,12 @@ TriangleMesh read_3mf(const std::string& path) {
   if (lib3mf_reader_readfromfileutf8(reader.p, path.c_str()) != LIB3MF_OK)
     fail("not a readable 3MF file", reader.p);
 
+  // Millimetres per model unit (3MF core spec: the <model unit="..."> attribute, default mm).
+  DWORD unit = MODELUNIT_MILLIMETER;
+  if (lib3mf_model_getunit(model.p, &unit) != LIB3MF_OK) fail("cannot read the model unit", model.p);
+  const double mm = millimetres_per_unit(unit);
+  if (!(mm > 0)) fail("unknown model unit " + std::to_string(unit), nullptr);
+
   TriangleMesh b;
   auto add_mesh = [&](PLib3MFBase* object, const MODELTRANSFORM* tf) {
     DWORD nv = 0, nt = 0;
@@ -55,7 +88,7 @@ TriangleMesh read_3mf(const std::string& path) {
              m[1][0] * p.x + m[1][1] * p.y + m[1][2] * p.z + m[1][3],
              m[2][0] * p.x + m[2][1] * p.y + m[2][2] * p.z + m[2][3]};
       }
-      return p;
+      return p * mm;
     };
     // Vertices as stored (transformed): welding and coordinate checks are mesh_io's.
     const auto base = static_cast<std::uint32_t>(b.vertices.size());
@@ -110,8 +143,10 @@ TriangleMesh read_3mf(const std::string& path) {
   return b;
 }
 
-void write_3mf(const std::string& path, const TriangleMesh& mesh) {
+void write_3mf(const std::string& path, const TriangleMesh& mesh, const std::string& unit_name) {
   using namespace NMR;
+  const DWORD unit = unit_of(unit_name);
+  const double scale = 1.0 / millimetres_per_unit(unit);
   struct Handle {
     PLib3MFBase* p = nullptr;
     ~Handle() {
@@ -121,15 +156,15 @@ void write_3mf(const std::string& path, const TriangleMesh& mesh) {
   Handle model, object, item, writer;
   std::vector<MODELMESHVERTEX> verts(mesh.vertices.size());
   for (std::size_t i = 0; i < verts.size(); ++i) {
-    verts[i].m_fPosition[0] = static_cast<float>(mesh.vertices[i].x);
-    verts[i].m_fPosition[1] = static_cast<float>(mesh.vertices[i].y);
-    verts[i].m_fPosition[2] = static_cast<float>(mesh.vertices[i].z);
+    verts[i].m_fPosition[0] = static_cast<float>(mesh.vertices[i].x * scale);
+    verts[i].m_fPosition[1] = static_cast<float>(mesh.vertices[i].y * scale);
+    verts[i].m_fPosition[2] = static_cast<float>(mesh.vertices[i].z * scale);
   }
   std::vector<MODELMESHTRIANGLE> tris(mesh.triangles.size());
   for (std::size_t i = 0; i < tris.size(); ++i)
     for (int k = 0; k < 3; ++k) tris[i].m_nIndices[k] = mesh.triangles[i][k];
   const std::string tmp = path + ".tmp";
-  if (lib3mf_createmodel(&model.p) != LIB3MF_OK ||
+  if (lib3mf_createmodel(&model.p) != LIB3MF_OK || lib3mf_model_setunit(model.p, unit) != LIB3MF_OK ||
       lib3mf_model_addmeshobject(model.p, &object.p) != LIB3MF_OK ||
       lib3mf_meshobject_setgeometry(object.p, verts.data(), static_cast<DWORD>(verts.size()),
                                     tris.data(), static_cast<DWORD>(tris.size())) != LIB3MF_OK ||

@@ -7,10 +7,15 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <atomic>
 #include <map>
 #include <unordered_map>
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include "mesh_3mf_module.hpp"
+#include "mesh_weld.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/core/text.hpp"
@@ -28,36 +33,11 @@ std::string lower_extension(const std::string& path) {
   return ext;
 }
 
-struct VecHash {
-  std::size_t operator()(const Vec3& v) const {
-    std::uint64_t h = 1469598103934665603ull;
-    for (double d : {v.x, v.y, v.z}) {
-      std::uint64_t b;
-      const double z = d == 0 ? 0.0 : d;  // -0 and +0 weld
-      std::memcpy(&b, &z, 8);
-      h = (h ^ b) * 1099511628211ull;
-    }
-    return static_cast<std::size_t>(h);
-  }
-};
-
-// Appends a triangle given by coordinates, welding exact duplicates.
+// Triangles given by their corners' coordinates, welded once at the end (weld_corners).
 struct Builder {
-  TriangleMesh mesh;
-  std::unordered_map<Vec3, std::uint32_t, VecHash> index;
-  std::uint32_t vertex(Vec3 p) {
-    if (p.x == 0) p.x = 0;
-    if (p.y == 0) p.y = 0;
-    if (p.z == 0) p.z = 0;
-    auto [it, inserted] = index.try_emplace(p, static_cast<std::uint32_t>(mesh.vertices.size()));
-    if (inserted) mesh.vertices.push_back(p);
-    return it->second;
-  }
-  void triangle(Vec3 a, Vec3 b, Vec3 c) {
-    const auto ia = vertex(a), ib = vertex(b), ic = vertex(c);
-    if (ia == ib || ib == ic || ia == ic) return;  // degenerate
-    mesh.triangles.push_back({ia, ib, ic});
-  }
+  std::vector<Vec3> corners;
+  void triangle(Vec3 a, Vec3 b, Vec3 c) { corners.insert(corners.end(), {a, b, c}); }
+  TriangleMesh weld() const { return weld_corners(corners); }
 };
 
 // Vertices must be finite and within ±1e6 mm (as lattice nodes are).
@@ -111,8 +91,9 @@ TriangleMesh parse_ascii_stl(const std::string& text, const std::string& name) {
     }
   }
   if (in_facet) throw ParseError("file ends inside a facet", {name, line, ""});
-  if (b.mesh.triangles.empty()) throw ParseError("STL has no triangles", {name, 0, ""});
-  return std::move(b.mesh);
+  TriangleMesh mesh = b.weld();
+  if (mesh.triangles.empty()) throw ParseError("STL has no triangles", {name, 0, ""});
+  return mesh;
 }
 
 }  // namespace
@@ -122,21 +103,33 @@ TriangleMesh parse_stl(const std::string& bytes, const std::string& name) {
     std::uint32_t count;
     std::memcpy(&count, bytes.data() + 80, 4);
     if (84 + 50ull * count == bytes.size()) {
-      Builder b;
-      for (std::uint32_t t = 0; t < count; ++t) {
-        const char* rec = bytes.data() + 84 + 50ull * t + 12;
-        Vec3 v[3];
-        for (int k = 0; k < 3; ++k) {
-          float f[3];
-          std::memcpy(f, rec + 12 * k, 12);
-          v[k] = {f[0], f[1], f[2]};
-          if (!valid_coordinate(v[k]))
-            check_coordinate(v[k], name, 0, "triangle " + std::to_string(t));
+      // Coordinates checked in parallel; the first invalid one (lowest triangle) is reported.
+      const char* records = bytes.data() + 84;
+      std::atomic<std::uint32_t> bad{count};
+      tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, count, 4096),
+                        [&](const tbb::blocked_range<std::uint32_t>& range) {
+        for (std::uint32_t t = range.begin(); t < range.end(); ++t) {
+          float f[9];
+          std::memcpy(f, records + 50ull * t + 12, 36);
+          for (int k = 0; k < 3; ++k)
+            if (!valid_coordinate({f[3 * k], f[3 * k + 1], f[3 * k + 2]})) {
+              std::uint32_t seen = bad.load();
+              while (t < seen && !bad.compare_exchange_weak(seen, t)) {
+              }
+            }
         }
-        b.triangle(v[0], v[1], v[2]);
+      });
+      if (bad.load() < count) {
+        const std::uint32_t t = bad.load();
+        float f[9];
+        std::memcpy(f, records + 50ull * t + 12, 36);
+        for (int k = 0; k < 3; ++k)
+          check_coordinate({f[3 * k], f[3 * k + 1], f[3 * k + 2]}, name, 0,
+                           "triangle " + std::to_string(t));
       }
-      if (b.mesh.triangles.empty()) throw ParseError("STL has no triangles", {name, 0, ""});
-      return std::move(b.mesh);
+      TriangleMesh mesh = weld_binary_stl(records, count);
+      if (mesh.triangles.empty()) throw ParseError("STL has no triangles", {name, 0, ""});
+      return mesh;
     }
   }
   const std::string head(trim(bytes.substr(0, std::min<std::size_t>(bytes.size(), 256))));
@@ -190,8 +183,9 @@ TriangleMesh parse_obj(const std::string& text, const std::string& name) {
         b.triangle(verts[idx[0]], verts[idx[k]], verts[idx[k + 1]]);
     }
   }
-  if (b.mesh.triangles.empty()) throw ParseError("OBJ has no faces", {name, 0, ""});
-  return std::move(b.mesh);
+  TriangleMesh mesh = b.weld();
+  if (mesh.triangles.empty()) throw ParseError("OBJ has no faces", {name, 0, ""});
+  return mesh;
 }
 
 TriangleMesh read_obj(const std::string& path) {
@@ -203,18 +197,14 @@ TriangleMesh read_obj(const std::string& path) {
 TriangleMesh read_3mf(const std::string& path) {
   (void)read_file(path);  // clear IoError for a missing file
   const TriangleMesh stored = detail::module_table<Mesh3mfModule>("3mf").read_3mf(path);
-  Builder b;
-  auto at = [&](std::uint32_t i) {
-    check_coordinate(stored.vertices[i], path, 0);
-    return stored.vertices[i];
-  };
-  for (const auto& t : stored.triangles) b.triangle(at(t[0]), at(t[1]), at(t[2]));
-  if (b.mesh.triangles.empty()) throw ParseError("3MF has no mesh triangles", {path, 0, ""});
-  return std::move(b.mesh);
+  for (const auto& v : stored.vertices) check_coordinate(v, path, 0);
+  TriangleMesh mesh = weld(stored);
+  if (mesh.triangles.empty()) throw ParseError("3MF has no mesh triangles", {path, 0, ""});
+  return mesh;
 }
 
-void write_3mf(const std::string& path, const TriangleMesh& mesh) {
-  detail::module_table<Mesh3mfModule>("3mf").write_3mf(path, mesh);
+void write_3mf(const std::string& path, const TriangleMesh& mesh, const std::string& unit) {
+  detail::module_table<Mesh3mfModule>("3mf").write_3mf(path, mesh, unit);
 }
 
 TriangleMesh read_mesh(const std::string& path) {
@@ -224,13 +214,6 @@ TriangleMesh read_mesh(const std::string& path) {
   if (ext == "3mf") return read_3mf(path);
   throw ParseError("unknown mesh format '." + ext + "' (expected .stl, .obj or .3mf)",
                    {path, 0, ""});
-}
-
-TriangleMesh weld(const TriangleMesh& mesh) {
-  Builder b;
-  for (const auto& t : mesh.triangles)
-    b.triangle(mesh.vertices[t[0]], mesh.vertices[t[1]], mesh.vertices[t[2]]);
-  return std::move(b.mesh);
 }
 
 MeshCheck check_mesh(const TriangleMesh& mesh) {
@@ -335,11 +318,11 @@ Regions slice_mesh(const TriangleMesh& mesh, double z, double stitch_tolerance) 
 }
 
 Regions slice_mesh(const TriangleMesh& mesh, double z, const std::vector<std::uint32_t>& triangles,
-                   double stitch_tolerance) {
+                   double stitch_tolerance, bool overlapping) {
   std::vector<Segment2> segments;
   for (const std::uint32_t t : triangles) cut_triangle(mesh, mesh.triangles[t], z, segments);
   const StitchedLines lines = stitch_segments(segments, stitch_tolerance);
-  return nest_oriented_rings(lines.loops);
+  return overlapping ? unite_oriented_rings(lines.loops) : nest_oriented_rings(lines.loops);
 }
 
 std::vector<std::vector<std::uint32_t>> triangles_by_plane(const TriangleMesh& mesh,

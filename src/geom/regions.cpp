@@ -153,6 +153,19 @@ Regions nest_rings(const std::vector<std::vector<Vec2>>& rings) {
   return out;
 }
 
+Regions unite_oriented_rings(const std::vector<std::vector<Vec2>>& rings) {
+  cl::Paths paths;
+  for (const auto& r : rings)
+    if (r.size() >= 3) paths.push_back(to_path(r));
+  cl::Clipper clipper;
+  clipper.AddPaths(paths, cl::ptSubject, true);
+  cl::PolyTree tree;
+  clipper.Execute(cl::ctUnion, tree, cl::pftPositive, cl::pftPositive);
+  Regions out;
+  collect(tree, out);
+  return out;
+}
+
 Regions nest_oriented_rings(std::vector<std::vector<Vec2>> rings) {
   struct Ring {
     std::vector<Vec2> pts;

@@ -187,6 +187,9 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
   sj.purge.y = c.machine.purge_y;
   sj.purge.side = c.machine.purge_side;
   SliceResult r = run_slice(sj, progress);
+  if (r.repaired)
+    diag.warn("mesh_repaired", fs::path(job.input).filename().string() +
+                                   " was not closed and manifold; repaired: " + r.repair.summary());
   // The file name only: outputs must not depend on where the command ran.
   r.toolpath.source = "trellis slice " + fs::path(job.input).filename().string() + " (" +
                       to_string(r.route) + " route)";

@@ -13,7 +13,9 @@
 #include "trellis/geom/mesh_io.hpp"
 #include "trellis/lattice/atlas.hpp"
 #include "trellis/lattice/cells3d.hpp"
-#include "voronoi_module.hpp"
+#include "../core/cgal_module.hpp"
+#include "trellis/core/diagnostics.hpp"
+#include "trellis/geom/mesh_repair.hpp"
 
 namespace trellis {
 
@@ -168,5 +170,5 @@ Graph voronoi_foam(const FoamParams& p, Diagnostics& diag) {
 
 }  // namespace trellis
 
-TRELLIS_MODULE_ENTRY(cgal, trellis::VoronoiModule, &trellis::impl::voronoi_segments,
-                     &trellis::impl::voronoi_foam)
+TRELLIS_MODULE_ENTRY(cgal, trellis::CgalModule, &trellis::impl::voronoi_segments,
+                     &trellis::impl::voronoi_foam, &trellis::impl::repair_mesh)

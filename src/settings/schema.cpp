@@ -511,6 +511,11 @@ std::vector<Setting> make_table() {
                        "resolution", [](C& c) -> auto& { return c.slice.field.resolution; }));
   t.push_back(positive("slice.mesh_voxel", "mm", 10, "voxel of mesh distance fields (field route)",
                        "mesh-voxel", [](C& c) -> auto& { return c.slice.mesh_voxel; }));
+  t.push_back(boolean("slice.repair",
+                      "repair meshes that are not closed and manifold (stitch seams, drop "
+                      "degenerate and duplicate faces, orient, fill small holes, split "
+                      "non-manifold edges); --no-repair refuses them",
+                      "repair", [](C& c) -> auto& { return c.slice.repair; }));
   {
     Setting strategy = integer(
         "slice.strategy", 0, 2,

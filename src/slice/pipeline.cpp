@@ -2,6 +2,7 @@
 
 #include "trellis/slice/fgm.hpp"
 
+#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include <chrono>
@@ -37,6 +38,42 @@ bool ends_with_ci(const std::string& s, const std::string& suffix) {
     if (std::tolower(static_cast<unsigned char>(s[s.size() - suffix.size() + i])) != suffix[i])
       return false;
   return true;
+}
+
+// A mesh that is not a closed 2-manifold: repaired (counts in `r`), or refused when repair is
+// off or leaves it open; the messages say what to do.
+TriangleMesh closed_mesh(TriangleMesh mesh, const SliceJob& job, SliceResult& r) {
+  const MeshCheck c = check_mesh(mesh);
+  if (c.closed()) return mesh;
+  if (!job.repair)
+    throw GeometryError(fmt::format("mesh is not closed and manifold: {} open edges, {} "
+                                    "non-manifold edges; first: {}. Slice without --no-repair to "
+                                    "have it repaired, or fix it in a mesh editor",
+                                    c.open_edges, c.nonmanifold_edges, c.first_problem),
+                        {job.input, 0, ""});
+  TriangleMesh fixed = repair_mesh(mesh, job.repair_options, r.repair);
+  r.repaired = true;
+  const MeshCheck after = check_mesh(fixed);
+  if (!after.closed() || fixed.triangles.empty())
+    throw GeometryError(
+        fmt::format("mesh is not closed and manifold ({} open edges, {} non-manifold edges) and "
+                    "repair could not close it ({}); still {} open edges, {} non-manifold edges; "
+                    "first: {}. Close the large holes in a mesh editor (or export the part "
+                    "again as a solid) and slice that",
+                    c.open_edges, c.nonmanifold_edges, r.repair.summary(), after.open_edges,
+                    after.nonmanifold_edges, after.first_problem),
+        {job.input, 0, ""});
+  // A surface, not a solid (e.g. one sheet whose edge became a "hole" and was filled).
+  const BBox3 b = bounds(fixed);
+  const double diagonal = norm(b.max - b.min);
+  if (!(std::abs(volume(fixed)) > 1e-9 * diagonal * diagonal * diagonal))
+    throw GeometryError(
+        fmt::format("mesh is not closed and manifold ({} open edges, {} non-manifold edges) and "
+                    "encloses no volume once repaired ({}): it is a surface, not a solid. Export "
+                    "the part as a solid",
+                    c.open_edges, c.nonmanifold_edges, r.repair.summary()),
+        {job.input, 0, ""});
+  return fixed;
 }
 
 double seconds_since(std::chrono::steady_clock::time_point t0) {
@@ -79,7 +116,7 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
                              "purpose",
                          {job.input, 0, "slice.strategy"});
   } else {
-    mesh = weld(read_mesh(job.input));
+    mesh = closed_mesh(read_mesh(job.input), job, r);  // welded by the reader
     r.mesh_triangles = mesh.triangles.size();
   }
   if (r.route == SliceRoute::Field) {
@@ -100,12 +137,11 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
       mesh = field_to_mesh(field, r.extent, job.mesh_voxel);
       r.mesh_triangles = mesh.triangles.size();
     } else {
-      require_closed(mesh, job.input);
       r.extent = bounds(mesh);
       check_layers(r.extent);
     }
     progress.check("slicing");
-    r.outlines = slice_mesh_layers(mesh, zs);
+    r.outlines = slice_mesh_layers(mesh, zs, 1e-6, r.repaired);
     progress("outlines", 1.0);
   }
   // The extent of a design is a bound (blends, clip boxes): drop empty layers below and above
@@ -196,6 +232,18 @@ std::string slice_report_json(const SliceJob& job, const SliceResult& r, const G
                   {"blocks", r.field_stats.blocks},
                   {"blocks_skipped_by_bounds", r.field_stats.skipped_blocks}};
   if (r.mesh_triangles) j["mesh_triangles"] = r.mesh_triangles;
+  if (r.repaired)
+    j["mesh_repair"] = {{"degenerate_faces", r.repair.degenerate_faces},
+                        {"duplicate_faces", r.repair.duplicate_faces},
+                        {"nonmanifold_edges", r.repair.nonmanifold_edges},
+                        {"flipped_faces", r.repair.flipped_faces},
+                        {"stitched_edges", r.repair.stitched_edges},
+                        {"snapped_vertices", r.repair.snapped_vertices},
+                        {"holes_filled", r.repair.holes_filled},
+                        {"hole_faces", r.repair.hole_faces},
+                        {"nonmanifold_vertices", r.repair.nonmanifold_vertices},
+                        {"inverted_faces", r.repair.inverted_faces},
+                        {"summary", r.repair.summary()}};
   if (job.strategy == 1 || job.strategy == 2)
     j["fgm"] = {{"strategy", job.strategy},
                 {"purges", r.fgm.purges},

@@ -10,20 +10,26 @@
 
 namespace trellis {
 
-// By extension (.stl, .obj, .3mf; case-insensitive). Vertices are welded (exact match, as STL
-// repeats them). Throws ParseError naming file and line (or triangle) on malformed input.
+// By extension (.stl, .obj, .3mf; case-insensitive). Vertices are welded once, here (exact
+// match, as STL repeats them); the result needs no second weld. Throws ParseError naming file and line (or triangle) on malformed input.
 TriangleMesh read_mesh(const std::string& path);
 TriangleMesh read_stl(const std::string& path);
 TriangleMesh read_obj(const std::string& path);
 TriangleMesh read_3mf(const std::string& path);
-// 3MF with one mesh object and one build item (lib3mf), written atomically.
-void write_3mf(const std::string& path, const TriangleMesh& mesh);
+// 3MF with one mesh object and one build item (lib3mf), written atomically. `unit` is the 3MF
+// model unit (micron, millimeter, centimeter, inch, foot, meter); the mesh is in mm and scaled to
+// it. read_3mf honours the unit of the file it reads and returns millimetres.
+void write_3mf(const std::string& path, const TriangleMesh& mesh,
+               const std::string& unit = "millimeter");
 // STL from memory (for tests and fuzzing); `name` appears in errors.
 TriangleMesh parse_stl(const std::string& bytes, const std::string& name);
 TriangleMesh parse_obj(const std::string& text, const std::string& name);
 
-// Merges vertices with identical coordinates and drops degenerate triangles.
+// Merges vertices with identical coordinates (-0 == +0) and drops degenerate triangles. Vertices
+// are numbered in order of first use; the result does not depend on the thread count.
 TriangleMesh weld(const TriangleMesh& mesh);
+// The same from a triangle soup: corners[3t], [3t+1], [3t+2] are triangle t (counter-clockwise).
+TriangleMesh weld_corners(const std::vector<Vec3>& corners);
 
 struct MeshCheck {
   std::size_t triangles = 0;
@@ -42,8 +48,10 @@ double volume(const TriangleMesh& mesh);
 // Cross-section at height z: closed, oriented, nested polygons. The mesh must be closed.
 Regions slice_mesh(const TriangleMesh& mesh, double z, double stitch_tolerance = 1e-6);
 // The same over only the listed triangles (e.g. those triangles_by_plane gives for z).
+// `overlapping`: shells may intersect (repaired meshes): the union of their sections (positive
+// winding) instead of the faster nesting of rings that do not cross.
 Regions slice_mesh(const TriangleMesh& mesh, double z, const std::vector<std::uint32_t>& triangles,
-                   double stitch_tolerance = 1e-6);
+                   double stitch_tolerance = 1e-6, bool overlapping = false);
 // For each plane zs[i], the triangles slice_mesh cuts there (lowest vertex <= z < highest), so
 // slicing many layers visits each triangle only at the planes it spans.
 std::vector<std::vector<std::uint32_t>> triangles_by_plane(const TriangleMesh& mesh,

@@ -21,6 +21,9 @@ Regions nest_rings(const std::vector<std::vector<Vec2>>& rings);
 // outer ring containing it. Linear-ish instead of Clipper's quadratic nesting. If the total
 // area is negative (an inside-out mesh) all rings are flipped first.
 Regions nest_oriented_rings(std::vector<std::vector<Vec2>> rings);
+// Oriented rings that may overlap (a repaired mesh's shells often intersect one another): the
+// points of positive winding number, i.e. the union of the solids, as a slicer must print them.
+Regions unite_oriented_rings(const std::vector<std::vector<Vec2>>& rings);
 
 // Inward (delta < 0) or outward offset. Corners: mitred up to 2× delta, rounded beyond, with
 // arcs no farther than `arc_tolerance` from the true offset.

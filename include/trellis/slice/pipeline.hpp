@@ -4,6 +4,7 @@
 #include <functional>
 #include <string>
 
+#include "trellis/geom/mesh_repair.hpp"
 #include "trellis/machine/gcode_writer.hpp"
 #include "trellis/slice/fgm.hpp"
 #include "trellis/slice/slice.hpp"
@@ -26,6 +27,10 @@ struct SliceJob {
   bool strategy_chosen = false;
   FgmOptions fgm;    // palette and fill (bead width, layer, grid from above)
   PurgeOptions purge;  // Strategy 1
+  // Meshes that are not closed and manifold: repaired (geom/mesh_repair.hpp) and sliced, or,
+  // with repair off, refused.
+  bool repair = true;
+  MeshRepairOptions repair_options;
 };
 
 struct SliceResult {
@@ -37,6 +42,8 @@ struct SliceResult {
   PlanarStats planar;
   FgmStats fgm;
   std::size_t mesh_triangles = 0;
+  bool repaired = false;  // the mesh needed repair; `repair` says what changed
+  MeshRepairReport repair;
   double outline_seconds = 0, plan_seconds = 0;
 };
 

@@ -55,9 +55,11 @@ Regions contour_at(const Field& field, Evaluator& evaluator, double z,
 std::vector<LayerOutline> slice_field(const Field& field, const std::vector<double>& zs,
                                       const FieldSliceOptions& options, SliceStats* stats = nullptr,
                                       const Progress& progress = {});
+// `overlapping`: the union of intersecting shells (slice_mesh), for repaired meshes.
 std::vector<LayerOutline> slice_mesh_layers(const TriangleMesh& mesh,
                                             const std::vector<double>& zs,
-                                            double stitch_tolerance = 1e-6);
+                                            double stitch_tolerance = 1e-6,
+                                            bool overlapping = false);
 
 struct PlanarOptions {
   double layer_height = 0.2;     // mm

@@ -1,0 +1,156 @@
+// Welding a triangle soup (STL stores every corner of every triangle) into an indexed mesh, in
+// parallel and without a node-based map: corners are hashed, bucketed by the hash's top bits
+// (a counting sort), and each bucket, small enough for the cache, is welded by its own
+// open-addressing table. Equal coordinates (with -0 == +0) give one vertex; vertices are numbered
+// in the order of their first corner, so the result does not depend on the thread count.
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <bit>
+#include <cstring>
+
+#include "trellis/core/error.hpp"
+#include "mesh_weld.hpp"
+#include "trellis/geom/mesh_io.hpp"
+
+namespace trellis {
+
+namespace {
+
+std::uint64_t bits(double d) {
+  const double z = d == 0 ? 0.0 : d;  // -0 and +0 weld
+  std::uint64_t b;
+  std::memcpy(&b, &z, 8);
+  return b;
+}
+
+std::uint64_t hash_of(const Vec3& v) {
+  std::uint64_t h = bits(v.x) * 0x9E3779B97F4A7C15ull;
+  h = (h ^ (h >> 29) ^ bits(v.y)) * 0xBF58476D1CE4E5B9ull;
+  h = (h ^ (h >> 31) ^ bits(v.z)) * 0x94D049BB133111EBull;
+  return h ^ (h >> 32);
+}
+
+bool same(const Vec3& a, const Vec3& b) {
+  return bits(a.x) == bits(b.x) && bits(a.y) == bits(b.y) && bits(a.z) == bits(b.z);
+}
+
+constexpr std::size_t kGrain = 1 << 15;  // corners per task
+
+// `corner(i)` gives corner i's coordinates; n is a multiple of 3.
+template <class Corner>
+TriangleMesh weld_soup(std::size_t n, const Corner& corner) {
+  if (n >= 0xffffffffull) throw GeometryError("more than 4,294,967,294 triangle corners");
+  // Buckets of ~4,096 corners (~1,000 vertices): each bucket's table stays in the cache.
+  const int bucket_bits = static_cast<int>(std::min<std::size_t>(std::bit_width(n / 4096), 16));
+  const std::size_t buckets = std::size_t{1} << bucket_bits;
+  const std::size_t chunks = (n + kGrain - 1) / kGrain;
+  std::vector<std::uint32_t> count(chunks * buckets, 0);  // per chunk, per bucket
+  auto bucket_of = [&](std::uint64_t h) {
+    return bucket_bits ? static_cast<std::size_t>(h >> (64 - bucket_bits)) : 0;
+  };
+  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
+    std::uint32_t* cnt = count.data() + c * buckets;
+    for (std::size_t i = c * kGrain, e = std::min(n, i + kGrain); i < e; ++i) {
+      ++cnt[bucket_of(hash_of(corner(i)))];
+    }
+  });
+  // Counting sort by bucket, stable: within a bucket corners stay in file order.
+  std::vector<std::size_t> start(buckets + 1, 0);
+  std::vector<std::uint32_t> offset(chunks * buckets);
+  {
+    std::size_t at = 0;
+    for (std::size_t b = 0; b < buckets; ++b) {
+      start[b] = at;
+      for (std::size_t c = 0; c < chunks; ++c) {
+        offset[c * buckets + b] = static_cast<std::uint32_t>(at);
+        at += count[c * buckets + b];
+      }
+    }
+    start[buckets] = at;
+  }
+  // Each corner with its coordinates goes to its bucket, so a bucket is welded from memory
+  // that is contiguous and in the cache, not by random reads across the whole soup.
+  struct Entry {
+    Vec3 p;
+    std::uint32_t index;
+    std::uint32_t hash;  // the low bits (the top ones chose the bucket)
+  };
+  std::vector<Entry> sorted(n);
+  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
+    std::uint32_t* off = offset.data() + c * buckets;
+    for (std::size_t i = c * kGrain, e = std::min(n, i + kGrain); i < e; ++i) {
+      const Vec3 p = corner(i);
+      const std::uint64_t h = hash_of(p);  // again: cheaper than storing it
+      sorted[off[bucket_of(h)]++] = {p, static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(h)};
+    }
+  });
+  // Each corner's representative: the first corner with the same coordinates.
+  std::vector<std::uint32_t> rep(n);
+  tbb::parallel_for(std::size_t{0}, buckets, [&](std::size_t b) {
+    const std::size_t lo = start[b], hi = start[b + 1];
+    if (lo == hi) return;
+    const std::size_t size = std::bit_ceil(2 * (hi - lo));
+    constexpr std::uint32_t kEmpty = 0xffffffffu;
+    std::vector<std::uint32_t> table(size, kEmpty);  // positions in `sorted`
+    for (std::size_t k = lo; k < hi; ++k) {
+      const Entry& e = sorted[k];
+      for (std::size_t s = e.hash & (size - 1);; s = (s + 1) & (size - 1)) {
+        const std::uint32_t j = table[s];
+        if (j == kEmpty) {
+          table[s] = static_cast<std::uint32_t>(k);
+          rep[e.index] = e.index;
+          break;
+        }
+        if (sorted[j].hash == e.hash && same(sorted[j].p, e.p)) {
+          rep[e.index] = sorted[j].index;
+          break;
+        }
+      }
+    }
+  });
+  // Vertex numbers in order of first appearance.
+  TriangleMesh mesh;
+  std::vector<std::uint32_t> id(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (rep[i] == i) {
+      id[i] = static_cast<std::uint32_t>(mesh.vertices.size());
+      const Vec3 v = corner(i);
+      mesh.vertices.push_back({v.x == 0 ? 0.0 : v.x, v.y == 0 ? 0.0 : v.y, v.z == 0 ? 0.0 : v.z});
+    } else {
+      id[i] = id[rep[i]];
+    }
+  }
+  mesh.triangles.reserve(n / 3);
+  for (std::size_t t = 0; t < n; t += 3) {
+    const std::uint32_t a = id[t], b = id[t + 1], c = id[t + 2];
+    if (a == b || b == c || a == c) continue;  // degenerate: two corners coincide
+    mesh.triangles.push_back({a, b, c});
+  }
+  return mesh;
+}
+
+}  // namespace
+
+TriangleMesh weld_corners(const std::vector<Vec3>& corners) {
+  return weld_soup(corners.size() - corners.size() % 3,
+                   [&](std::size_t i) { return corners[i]; });
+}
+
+TriangleMesh weld_binary_stl(const char* records, std::size_t count) {
+  return weld_soup(3 * count, [records](std::size_t i) {
+    float f[3];
+    std::memcpy(f, records + 50 * (i / 3) + 12 + 12 * (i % 3), 12);
+    return Vec3{f[0], f[1], f[2]};
+  });
+}
+
+TriangleMesh weld(const TriangleMesh& mesh) {
+  std::vector<Vec3> corners(3 * mesh.triangles.size());
+  tbb::parallel_for(std::size_t{0}, mesh.triangles.size(), [&](std::size_t t) {
+    for (int k = 0; k < 3; ++k) corners[3 * t + k] = mesh.vertices[mesh.triangles[t][k]];
+  });
+  return weld_corners(corners);
+}
+
+}  // namespace trellis
