@@ -7,6 +7,7 @@
 
 #include "trellis/core/error.hpp"
 #include "trellis/core/text.hpp"
+#include "trellis/machine/bgcode.hpp"
 
 namespace trellis {
 
@@ -63,15 +64,100 @@ bool starts_with(std::string_view s, std::string_view p) {
   return s.substr(0, p.size()) == p;
 }
 
-PathRole role_from_type(std::string_view t) {
-  // Cura: WALL-OUTER, WALL-INNER, SKIN, FILL, SUPPORT, SKIRT; PrusaSlicer: External perimeter,
-  // Perimeter, Solid infill, Internal infill, Top solid infill, Skirt/Brim, ...
-  if (t.find("WALL") != t.npos || t.find("erimeter") != t.npos) return PathRole::Perimeter;
-  if (t.find("FILL") != t.npos || t.find("SKIN") != t.npos || t.find("nfill") != t.npos)
-    return PathRole::Infill;
-  if (t.find("STRUT") != t.npos || t.find("strut") != t.npos) return PathRole::Strut;
+// Is `s` the command `cmd` (its words, then the end of the line, a blank or a comment)? Whole
+// words: "M3" matches "M3 S1000" but not "M300".
+bool is_command(std::string_view s, std::string_view cmd) {
+  if (cmd.empty() || s.size() < cmd.size()) return false;
+  for (std::size_t i = 0; i < cmd.size(); ++i)
+    if (upper(s[i]) != upper(cmd[i])) return false;
+  if (s.size() == cmd.size()) return true;
+  const char next = s[cmd.size()];
+  return next == ' ' || next == '\t' || next == ';' || next == '*' || next == '(';
+}
+
+// The value after `key` in a command's arguments, empty if absent. A one-letter key is a G-code
+// word (letter and number, blanks optional: "S200 T1" or "S200T1": a letter after a digit starts
+// the next word); a longer one (Klipper's
+// "HEATER=") runs to the next blank.
+std::string_view param(std::string_view args, std::string_view key) {
+  const bool letter = key.size() == 1;
+  for (std::size_t p = 0; p < args.size();) {
+    while (p < args.size() && (args[p] == ' ' || args[p] == '\t')) ++p;
+    if (p < args.size() && (args[p] == ';' || args[p] == '*')) break;
+    std::size_t q = p + 1;
+    while (q < args.size() && args[q] != ' ' && args[q] != '\t' && args[q] != '*' &&
+           args[q] != ';' && !(letter && is_alpha(args[q]) && is_digit(args[q - 1])))
+      ++q;
+    const std::string_view word = args.substr(p, std::min(q, args.size()) - p);
+    if (word.size() >= key.size()) {
+      bool same = true;
+      for (std::size_t i = 0; i < key.size() && same; ++i) same = upper(word[i]) == upper(key[i]);
+      if (same) return word.substr(key.size());
+    }
+    p = q;
+  }
+  return {};
+}
+
+// "a:b:c" (RepRapFirmware lists) as numbers; false if one does not parse.
+bool number_list(std::string_view s, std::vector<double>& out) {
+  out.clear();
+  while (!s.empty()) {
+    const auto colon = s.find(':');
+    const std::string_view item = s.substr(0, colon);
+    double v = 0;
+    if (!parse_number(item.data(), item.data() + item.size(), v) || !std::isfinite(v)) return false;
+    out.push_back(v);
+    if (colon == std::string_view::npos) break;
+    s.remove_prefix(colon + 1);
+  }
+  return !out.empty();
+}
+
+}  // namespace
+
+// ;TYPE: names, both ways. PrusaSlicer's vocabulary where it has the role (Cura's names are read
+// too); Trellis' own roles (Strut, Contour, Handle) under their own names. See docs/gcode.md.
+const char* gcode_type_name(PathRole role) {
+  switch (role) {
+    case PathRole::Perimeter:
+      return "Perimeter";
+    case PathRole::Infill:
+      return "Internal infill";
+    case PathRole::Skin:
+      return "Solid infill";
+    case PathRole::Purge:
+      return "Wipe tower";
+    case PathRole::Strut:
+      return "Strut";
+    case PathRole::Contour:
+      return "Contour";
+    case PathRole::Handle:
+      return "Handle";
+    case PathRole::Other:
+      break;
+  }
+  return "Custom";
+}
+
+PathRole role_from_gcode_type(std::string_view t) {
+  t = trim(t);
+  auto has = [&](std::string_view w) { return t.find(w) != t.npos; };
+  // Cura: WALL-OUTER, WALL-INNER, SKIN, FILL, SUPPORT, SKIRT, PRIME-TOWER; PrusaSlicer: External
+  // perimeter, Perimeter, Overhang perimeter, Solid infill, Top solid infill, Bridge infill,
+  // Internal infill, Gap fill, Skirt/Brim, Support material, Wipe tower, Custom.
+  if (has("WALL") || has("erimeter")) return PathRole::Perimeter;
+  if (has("SKIN") || has("olid infill") || has("ridge infill") || has("Gap fill"))
+    return PathRole::Skin;
+  if (has("FILL") || has("nfill")) return PathRole::Infill;
+  if (has("ipe tower") || has("PRIME-TOWER") || has("urge")) return PathRole::Purge;
+  if (has("STRUT") || has("trut")) return PathRole::Strut;
+  if (has("ontour")) return PathRole::Contour;
+  if (has("andle")) return PathRole::Handle;
   return PathRole::Other;
 }
+
+namespace {
 
 // One parsed word: letter and value.
 struct Word {
@@ -96,7 +182,18 @@ void GcodeScanner::comment(std::string_view c) {
   if (starts_with(c, "LAYER:") || starts_with(c, "LAYER_CHANGE")) {
     sink_.layer_change(std::nan(""));
   } else if (starts_with(c, "TYPE:")) {
-    sink_.role(role_from_type(c.substr(5)));
+    sink_.role(role_from_gcode_type(c.substr(5)));
+  } else if (starts_with(c, "WIDTH:") || starts_with(c, "HEIGHT:")) {
+    const bool w = c[0] == 'W';
+    const std::string_view v = trim(c.substr(w ? 6 : 7));
+    double mm = 0;
+    if (parse_number(v.data(), v.data() + v.size(), mm) && std::isfinite(mm) && mm > 0 &&
+        mm < kMaxValue) {
+      if (w)
+        sink_.width(mm);
+      else
+        sink_.height(mm);
+    }
   }
 }
 
@@ -129,8 +226,8 @@ void GcodeScanner::finish() {
 void GcodeScanner::line(std::string_view text) {
   ++line_no_;
   std::string_view s = trim(text);
-  if (!opt_.valve_on.empty() && starts_with(s, opt_.valve_on)) valve_ = true;
-  if (!opt_.valve_off.empty() && starts_with(s, opt_.valve_off)) valve_ = false;
+  if (is_command(s, opt_.valve_on)) valve_ = true;
+  if (is_command(s, opt_.valve_off)) valve_ = false;
   // The comment (memchr-fast); a checksum (*) or a parenthesised comment ends the words too, which
   // the word loops check as they go.
   if (const auto semi = s.find(';'); semi != std::string_view::npos) {
@@ -154,6 +251,8 @@ void GcodeScanner::line(std::string_view text) {
   if (k == 1) {
     if (c == 'T' || c == 'G' || c == 'M')
       return bad("command '" + std::string(s.substr(0, 20)) + "' has no number");
+    if (is_alpha(c) && k < s.size() && (is_alpha(s[k]) || s[k] == '_'))
+      return extended(s);     // Klipper: NAME KEY=VALUE ...
     if (is_alpha(c)) return;  // a bare parameter line: ignore
     return bad("unreadable line '" + std::string(s.substr(0, 40)) + "'");
   }
@@ -173,40 +272,160 @@ void GcodeScanner::line(std::string_view text) {
       inches_ = false;
     else if (code == 92)
       move(args, 92);
-  } else if (c == 'M') {
-    if (code == 82)
-      abs_e_ = true;
-    else if (code == 83)
-      abs_e_ = false;
-    else if (code == 104 || code == 109) {
-      const auto sp = args.find_first_of("Ss");
-      if (sp == std::string_view::npos) return;
-      const char* b = args.data() + sp + 1;
-      const char* e = b;
-      while (e < args.data() + args.size() && *e != ' ' && *e != '\t' && *e != '*') ++e;
-      double t = 0;
-      if (!parse_number(b, e, t) || !std::isfinite(t) || t < 0 || t > 1000)
-        return bad("bad temperature in '" + std::string(args.substr(0, 30)) + "'");
-      sink_.temperature(t);
-    } else if (code == 165) {
-      std::vector<double> mix;
-      std::size_t p = 0;
-      while (p < args.size()) {
-        while (p < args.size() && args[p] == ' ') ++p;
-        if (p >= args.size()) break;
-        std::size_t q = p + 1;
-        while (q < args.size() && args[q] != ' ') ++q;
-        double v = 0;
-        if (std::from_chars(args.data() + p + 1, args.data() + q, v).ec == std::errc() &&
-            std::isfinite(v))
-          mix.push_back(v);
-        p = q;
-      }
-      sink_.mixture(mix);
+    else if (code == 10 && !param(args, "P").empty()) {  // RepRapFirmware G10 P<tool> S<t>
+      double tool = 0, t = 0;
+      const std::string_view pv = param(args, "P"), sv = param(args, "S");
+      const std::string_view sn = sv.substr(0, sv.find(':'));
+      if (!parse_number(pv.data(), pv.data() + pv.size(), tool) || tool < 0 || tool > 255)
+        return bad("bad tool in '" + std::string(args.substr(0, 40)) + "'");
+      if (sv.empty()) return;
+      if (!parse_number(sn.data(), sn.data() + sn.size(), t) || t < 0 || t > 1000)
+        return bad("bad temperature in '" + std::string(args.substr(0, 40)) + "'");
+      set_temperature(static_cast<int>(tool), t);
     }
+  } else if (c == 'M') {
+    mcode(static_cast<int>(code), args);
   } else if (c == 'T') {
     if (code < 0 || code > 255) return bad("tool number out of range");
-    sink_.tool_change(static_cast<int>(code));
+    select_tool(static_cast<int>(code));
+  }
+}
+
+void GcodeScanner::set_temperature(int tool, double t) {
+  if (tool < 0 || tool > 255) return bad("tool number out of range");
+  if (tool_temp_.size() <= static_cast<std::size_t>(tool))
+    tool_temp_.resize(tool + 1, std::nan(""));
+  tool_temp_[tool] = t;
+  if (tool == tool_ && !(t == reported_temp_)) {
+    reported_temp_ = t;
+    sink_.temperature(t);
+  }
+}
+
+void GcodeScanner::select_tool(int tool) {
+  tool_ = tool;
+  sink_.tool_change(tool);
+  if (static_cast<std::size_t>(tool) < tool_temp_.size() && std::isfinite(tool_temp_[tool]) &&
+      !(tool_temp_[tool] == reported_temp_)) {
+    reported_temp_ = tool_temp_[tool];
+    sink_.temperature(reported_temp_);
+  }
+  if (static_cast<std::size_t>(tool) < tool_mix_.size() && !tool_mix_[tool].empty())
+    sink_.mixture(tool_mix_[tool]);
+}
+
+void GcodeScanner::set_mixture(int tool, std::vector<double> mix) {
+  if (tool < 0 || tool > 255) return bad("tool number out of range");
+  if (tool_mix_.size() <= static_cast<std::size_t>(tool)) tool_mix_.resize(tool + 1);
+  tool_mix_[tool] = mix;
+  if (tool == tool_) sink_.mixture(mix);
+}
+
+void GcodeScanner::mcode(int code, std::string_view args) {
+  // A parameter's number, or NaN when it is absent; a bad number is a bad line.
+  bool ok = true;
+  auto num = [&](std::string_view key) {
+    const std::string_view v = param(args, key);
+    double x = 0;
+    if (v.empty()) return std::nan("");
+    std::string_view n = v.substr(0, v.find_first_of("*:"));
+    if (!parse_number(n.data(), n.data() + n.size(), x) || !std::isfinite(x)) {
+      ok = false;
+      return std::nan("");
+    }
+    return x;
+  };
+  auto tool_param = [&](std::string_view key) {
+    const double t = num(key);
+    return std::isfinite(t) ? static_cast<int>(t) : tool_;
+  };
+  switch (code) {
+    case 82:
+      abs_e_ = true;
+      return;
+    case 83:
+      abs_e_ = false;
+      return;
+    case 104:
+    case 109:
+    case 568: {  // Marlin / Klipper M104 S [T]; M109 S or R; RepRapFirmware M568 P<tool> S<t>
+      double t = num("S");
+      if (!std::isfinite(t) && code == 109) t = num("R");
+      const int tool = tool_param(code == 568 ? "P" : "T");
+      if (!ok) return bad("bad number in '" + std::string(args.substr(0, 40)) + "'");
+      if (!std::isfinite(t)) return;
+      if (t < 0 || t > 1000)
+        return bad("bad temperature in '" + std::string(args.substr(0, 30)) + "'");
+      return set_temperature(tool, t);
+    }
+    case 165: {  // Marlin mixing: A B C D H I
+      std::vector<double> mix;
+      for (const char* k : {"A", "B", "C", "D", "H", "I"}) {
+        const double v = num(k);
+        if (!std::isfinite(v)) break;
+        mix.push_back(v);
+      }
+      if (!ok) return bad("bad number in '" + std::string(args.substr(0, 40)) + "'");
+      if (!mix.empty()) set_mixture(tool_, std::move(mix));
+      return;
+    }
+    case 163: {  // Marlin: M163 S<input> P<weight>, committed by M164
+      const double i = num("S"), w = num("P");
+      if (!ok || !std::isfinite(i) || !std::isfinite(w) || i < 0 || i > 15)
+        return bad("bad M163 '" + std::string(args.substr(0, 40)) + "'");
+      if (m163_.size() <= static_cast<std::size_t>(i)) m163_.resize(static_cast<std::size_t>(i) + 1, 0);
+      m163_[static_cast<std::size_t>(i)] = w;
+      return;
+    }
+    case 164: {
+      double sum = 0;
+      for (double w : m163_) sum += w;
+      if (sum > 0) {
+        std::vector<double> mix = m163_;
+        for (double& w : mix) w /= sum;
+        set_mixture(tool_, std::move(mix));
+      }
+      m163_.clear();
+      return;
+    }
+    case 567: {  // RepRapFirmware: M567 P<tool> E<a>:<b>:...
+      const int tool = tool_param("P");
+      std::vector<double> mix;
+      if (!ok || !number_list(param(args, "E"), mix))
+        return bad("bad mix ratio in '" + std::string(args.substr(0, 40)) + "'");
+      return set_mixture(tool, std::move(mix));
+    }
+    default:
+      return;
+  }
+}
+
+// Klipper's extended commands the reader needs: ACTIVATE_EXTRUDER EXTRUDER=extruder<N> and
+// SET_HEATER_TEMPERATURE HEATER=extruder<N> TARGET=<t> (extruder = 0, extruder1 = 1, ...).
+void GcodeScanner::extended(std::string_view s) {
+  const auto blank = s.find_first_of(" \t");
+  const std::string_view name = s.substr(0, blank);
+  const std::string_view args = blank == std::string_view::npos ? std::string_view{} : s.substr(blank);
+  auto extruder = [&](std::string_view v) {
+    if (v.size() < 8 || v.substr(0, 8) != "extruder") return -1;
+    if (v.size() == 8) return 0;
+    double n = 0;
+    if (!parse_number(v.data() + 8, v.data() + v.size(), n) || n < 0 || n > 255) return -1;
+    return static_cast<int>(n);
+  };
+  if (name == "ACTIVATE_EXTRUDER") {
+    const int t = extruder(param(args, "EXTRUDER="));
+    if (t < 0) return bad("unknown extruder in '" + std::string(s.substr(0, 60)) + "'");
+    if (t != tool_) select_tool(t);
+  } else if (name == "SET_HEATER_TEMPERATURE") {
+    const int t = extruder(param(args, "HEATER="));
+    if (t < 0) return;  // the bed or a chamber
+    const std::string_view v = param(args, "TARGET=");
+    double c = 0;
+    if (v.empty()) c = 0;
+    else if (!parse_number(v.data(), v.data() + v.size(), c) || !std::isfinite(c) || c < 0 || c > 1000)
+      return bad("bad temperature in '" + std::string(s.substr(0, 60)) + "'");
+    set_temperature(t, c);
   }
 }
 
@@ -391,6 +610,8 @@ class ToolpathBuilder : public GcodeSink {
     p.role = role_;
     p.mixture = mixture_;
     p.temperature = temperature_;
+    p.width = width_;
+    p.height = height_;
     p.speed = feed;
     p.filament = e;
     layer.paths.push_back(std::move(p));
@@ -414,6 +635,14 @@ class ToolpathBuilder : public GcodeSink {
     close();
     temperature_ = t;
   }
+  void width(double w) override {
+    if (w != width_) close();
+    width_ = w;
+  }
+  void height(double h) override {
+    if (h != height_) close();
+    height_ = h;
+  }
 
  private:
   void close() { path_ = nullptr; }
@@ -433,7 +662,7 @@ class ToolpathBuilder : public GcodeSink {
   int tool_ = 0;
   PathRole role_ = PathRole::Strut;
   std::vector<double> mixture_;
-  double temperature_ = 0;
+  double temperature_ = 0, width_ = 0, height_ = 0;
   bool commented_ = false, new_layer_ = false;
 };
 
@@ -449,7 +678,10 @@ Toolpath read_gcode(std::string_view text, const GcodeReadOptions& options, Diag
   tp.source = origin;
   ToolpathBuilder builder(tp);
   GcodeScanner scanner(builder, options, diag, origin);
-  scanner.feed(text);
+  if (is_bgcode(text))
+    scanner.feed(bgcode_to_text(text, origin));
+  else
+    scanner.feed(text);
   scanner.finish();
   return tp;
 }
@@ -459,6 +691,21 @@ void scan_gcode_file(const std::string& path, GcodeSink& sink, const GcodeReadOp
   std::ifstream in(path, std::ios::binary);
   if (!in) throw IoError("cannot open", {path});
   GcodeScanner scanner(sink, options, diag, path);
+  char magic[4] = {};
+  in.read(magic, 4);
+  const std::string_view head(magic, static_cast<std::size_t>(in.gcount()));
+  if (is_bgcode(head)) {
+    in.seekg(0);
+    read_bgcode(
+        [&](char* dst, std::size_t n) {
+          in.read(dst, static_cast<std::streamsize>(n));
+          return static_cast<std::size_t>(in.gcount());
+        },
+        [&](std::string_view t) { scanner.feed(t); }, path);
+    scanner.finish();
+    return;
+  }
+  scanner.feed(head);
   std::string buf(1 << 20, '\0');
   while (in) {
     in.read(buf.data(), static_cast<std::streamsize>(buf.size()));
