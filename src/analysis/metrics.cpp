@@ -15,6 +15,9 @@ namespace trellis {
 void CountingSink::extrude(Vec3 a, Vec3 b, double e, double feed) {
   const double len = distance(a, b);
   ++counts.extrusion_moves;
+  if (layer_pending_) ++comment_layers_, layer_pending_ = false;
+  if (!(std::abs(a.z - layer_z_) <= 1e-4)) ++z_layers_, layer_z_ = a.z;
+  counts.layers = commented_ ? comment_layers_ : z_layers_;
   const Vec3 gap = a - last_;
   if (state_ != State::Extruding || dot(gap, gap) > 1e-18) {
     close_path();
@@ -211,18 +214,29 @@ Analysis analyze(const Toolpath& printed_in, const GcodeCounts& counts, const Gr
   Analysis a;
   a.printed = printed_in;  // the one copy: aligned in place, kept for pictures
   Toolpath& printed = a.printed;
-  if (design && p.align_centers) {
-    // Slicers place parts on the bed: move the print's XY centre onto the design's.
+  if (design) {
+    // Slicers place parts on the bed: move the print's XY centre onto the design's, on request or
+    // when most of the print lies outside the design's XY box.
     BBox3 pb;
     for (const auto& l : printed.layers)
       for (const auto& path : l.paths)
         for (const auto& q : path.points) pb.add(q);
     const BBox3 db = design->bbox();
     if (!pb.empty() && !db.empty()) {
-      const double dx = db.center().x - pb.center().x, dy = db.center().y - pb.center().y;
-      for (auto& l : printed.layers)
-        for (auto& path : l.paths)
-          for (auto& q : path.points) q = {q.x + dx, q.y + dy, q.z};
+      const double ox = std::max(0.0, std::min(pb.max.x, db.max.x + p.width) -
+                                          std::max(pb.min.x, db.min.x - p.width));
+      const double oy = std::max(0.0, std::min(pb.max.y, db.max.y + p.width) -
+                                          std::max(pb.min.y, db.min.y - p.width));
+      const double area = std::max(pb.max.x - pb.min.x, p.width) * std::max(pb.max.y - pb.min.y, p.width);
+      const bool outside = ox * oy < 0.5 * area;
+      if (p.align_centers || (p.auto_align && outside)) {
+        const double dx = db.center().x - pb.center().x, dy = db.center().y - pb.center().y;
+        for (auto& l : printed.layers)
+          for (auto& path : l.paths)
+            for (auto& q : path.points) q = {q.x + dx, q.y + dy, q.z};
+        a.shift = {dx, dy};
+        a.auto_aligned = !p.align_centers;
+      }
     }
   }
   a.counts = counts;
@@ -293,7 +307,7 @@ Analysis analyze_gcode_file(const std::string& path, const Graph* design,
                             Diagnostics& diag) {
   CountingSink counter(params.long_nodes, params.acceleration);
   Toolpath tp;
-  if (!design) {
+  if (!design && !params.keep_printed) {
     // Counts only: constant memory whatever the file size.
     scan_gcode_file(path, counter, read, diag);
   } else {
@@ -326,7 +340,7 @@ Analysis analyze_gcode_file(const std::string& path, const Graph* design,
 std::string analysis_json(const Analysis& a) {
   nlohmann::ordered_json j;
   j["name"] = a.name;
-  j["layers"] = a.layers.size();
+  j["layers"] = a.has_design ? a.layers.size() : a.counts.layers;
   j["paths"] = a.paths;
   j["extrusion_starts"] = a.counts.extrusion_starts;
   j["extruded_length_mm"] = a.extruded_length;
@@ -340,6 +354,8 @@ std::string analysis_json(const Analysis& a) {
   j["lts"] = a.lts;
   j["oe"] = a.oe;
   if (a.has_design) {
+    j["aligned_by_mm"] = {a.shift.x, a.shift.y};
+    j["auto_aligned"] = a.auto_aligned;
     j["nominal_length_mm"] = a.nominal_length;
     j["extrusion_ratio"] = a.extrusion_ratio;
     j["double_length_mm"] = a.double_length;

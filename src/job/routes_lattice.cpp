@@ -123,7 +123,7 @@ void write_gcode_out(const std::string& path, Toolpath tp, const Job& job, const
                      JobResult& out, GcodeStats* stats = nullptr) {
   if (path.empty()) return;
   tp.job = embedded_job(job, path);
-  const GcodeStats s = write_gcode_file(path, tp, c.machine);
+  const GcodeStats s = write_gcode_file(path, tp, c.machine, gcode_thumbnails(tp, c.machine));
   if (stats) *stats = s;
   out.files.push_back(path);
 }

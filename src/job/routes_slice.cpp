@@ -178,7 +178,7 @@ void write_gcode_out(const std::string& path, Toolpath tp, const Job& job, const
   out.toolpath = std::make_shared<Toolpath>(tp);
   if (path.empty()) return;
   tp.job = embedded_job(job, path);
-  stats = write_gcode_file(path, tp, m);
+  stats = write_gcode_file(path, tp, m, gcode_thumbnails(tp, m));
   out.files.push_back(path);
 }
 

@@ -68,6 +68,14 @@ std::string fixed(double v, int decimals) {
 
 }  // namespace routes
 
+std::vector<GcodeThumbnail> gcode_thumbnails(const Toolpath& toolpath,
+                                             const MachineProfile& machine) {
+  std::vector<GcodeThumbnail> out;
+  for (const auto& [w, h] : machine.thumbnail_sizes())
+    out.push_back({w, h, render_thumbnail_png(toolpath, w, h)});
+  return out;
+}
+
 double solid_section_z(const BBox3& box, int layer, double h) {
   return std::min(box.min.z + (layer + 0.5) * h, box.max.z - 1e-3 * h);
 }

@@ -16,6 +16,8 @@ namespace trellis {
 // Streaming counts over G-code moves (constant memory).
 struct GcodeCounts {
   std::size_t extrusion_moves = 0, extrusion_starts = 0, travel_moves = 0, retractions = 0;
+  // Layers with extrusion: by layer comments (;LAYER:, ;LAYER_CHANGE) when the file has them,
+  // else by the Z of the extrusion (a new layer wherever it changes).
   std::size_t layers = 0;
   double extruded_length = 0, travel_length = 0, filament = 0, print_time_s = 0;
   // Per-path sums for Eq. 1-3 (a path = a run of connected extrusion moves; its edges = moves).
@@ -28,7 +30,10 @@ class CountingSink : public GcodeSink {
  public:
   explicit CountingSink(std::size_t long_nodes = 5, double acceleration = 0)
       : long_nodes_(long_nodes), acceleration_(acceleration) {}
-  void layer_change(double) override { ++counts.layers; }
+  void layer_change(double) override {
+    commented_ = true;
+    layer_pending_ = true;
+  }
   void extrude(Vec3 a, Vec3 b, double e, double feed) override;
   void travel(Vec3 a, Vec3 b, double feed) override;
   void retract() override;
@@ -46,6 +51,9 @@ class CountingSink : public GcodeSink {
   double acceleration_;
   double path_length_ = 0;
   std::size_t path_edges_ = 0;
+  bool commented_ = false, layer_pending_ = true;
+  std::size_t comment_layers_ = 0, z_layers_ = 0;
+  double layer_z_ = std::nan("");
   void close_path();
 };
 
@@ -56,6 +64,10 @@ struct AnalysisParams {
   double min_covered = 0.5;     // a strut is missing if less than this fraction is covered
   std::size_t long_nodes = 5;
   bool align_centers = false;  // move the print's XY centre onto the design's before measuring
+  // Without align_centers: align anyway when the print lies mostly outside the design's XY box
+  // (a part placed on the bed); Analysis::auto_aligned says so.
+  bool auto_align = true;
+  bool keep_printed = false;  // build the IR (Analysis::printed) even without a design
   double acceleration = 0;     // mm/s² for the print-time estimate (0 = feed rates only)
 };
 
@@ -85,6 +97,8 @@ struct Analysis {
   std::size_t design_edges = 0, missing_edges = 0;
   double score = 0, score_corrected = 0, lts = 0, oe = 0;
   bool has_design = false;
+  bool auto_aligned = false;  // the print was moved onto the design by auto_align
+  Vec2 shift;                 // XY added to the print to align it (0 if not aligned)
   std::vector<LayerAnalysis> layers;
   Toolpath printed;  // the print as measured (after alignment), for pictures
 };
