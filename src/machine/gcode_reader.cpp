@@ -169,7 +169,11 @@ struct Word {
 
 GcodeScanner::GcodeScanner(GcodeSink& sink, GcodeReadOptions options, Diagnostics& diag,
                            std::string origin)
-    : sink_(sink), opt_(std::move(options)), diag_(diag), origin_(std::move(origin)) {}
+    : sink_(sink), opt_(std::move(options)), diag_(diag), origin_(std::move(origin)) {
+  // A profile's valve command may carry a comment ("M3 ; pressure on"): the command is its words.
+  for (std::string* v : {&opt_.valve_on, &opt_.valve_off})
+    *v = std::string(trim(std::string_view(*v).substr(0, v->find(';'))));
+}
 
 void GcodeScanner::bad(const std::string& what) {
   if (opt_.stop_on_error) throw ParseError(what, {origin_, line_no_});
