@@ -223,12 +223,20 @@ Analysis analyze(const Toolpath& printed_in, const GcodeCounts& counts, const Gr
         for (const auto& q : path.points) pb.add(q);
     const BBox3 db = design->bbox();
     if (!pb.empty() && !db.empty()) {
-      const double ox = std::max(0.0, std::min(pb.max.x, db.max.x + p.width) -
-                                          std::max(pb.min.x, db.min.x - p.width));
-      const double oy = std::max(0.0, std::min(pb.max.y, db.max.y + p.width) -
-                                          std::max(pb.min.y, db.min.y - p.width));
-      const double area = std::max(pb.max.x - pb.min.x, p.width) * std::max(pb.max.y - pb.min.y, p.width);
-      const bool outside = ox * oy < 0.5 * area;
+      // Outside: less than half of the extruded length (by segment midpoints) lies in the
+      // design's XY box grown by a bead width; a few stray deposits do not count.
+      double inside = 0, total = 0;
+      for (const auto& l : printed.layers)
+        for (const auto& path : l.paths)
+          for (std::size_t k = 1; k < path.points.size(); ++k) {
+            const Vec3 m = (path.points[k - 1] + path.points[k]) * 0.5;
+            const double len = distance_xy(path.points[k - 1], path.points[k]);
+            total += len;
+            if (m.x >= db.min.x - p.width && m.x <= db.max.x + p.width &&
+                m.y >= db.min.y - p.width && m.y <= db.max.y + p.width)
+              inside += len;
+          }
+      const bool outside = total > 0 && inside < 0.5 * total;
       if (p.align_centers || (p.auto_align && outside)) {
         const double dx = db.center().x - pb.center().x, dy = db.center().y - pb.center().y;
         for (auto& l : printed.layers)

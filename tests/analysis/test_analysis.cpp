@@ -84,8 +84,24 @@ TEST(Analysis, AlignmentFindsAPartPlacedOnTheBed) {
   CountingSink counter;
   GcodeScanner(counter, {}, d).feed(gcode);
   AnalysisParams params;
+  params.auto_align = false;
   EXPECT_EQ(analyze(read_gcode(gcode, {}, d), counter.counts, &g, params).missing_edges,
             g.edges.size());
   params.align_centers = true;
-  EXPECT_EQ(analyze(read_gcode(gcode, {}, d), counter.counts, &g, params).missing_edges, 0u);
+  Analysis a = analyze(read_gcode(gcode, {}, d), counter.counts, &g, params);
+  EXPECT_EQ(a.missing_edges, 0u);
+  EXPECT_FALSE(a.auto_aligned);
+  // Without --align the print, all of it away from the design, is aligned anyway and says so.
+  params.align_centers = false;
+  params.auto_align = true;
+  a = analyze(read_gcode(gcode, {}, d), counter.counts, &g, params);
+  EXPECT_EQ(a.missing_edges, 0u);
+  EXPECT_TRUE(a.auto_aligned);
+  EXPECT_NEAR(a.shift.x, -110, 20);  // the default bed is 220 mm: its centre is at 110, 110
+  // The same print where the design is: left alone.
+  p.center = false;
+  const std::string here = write_gcode(tp, p);
+  a = analyze(read_gcode(here, {}, d), counter.counts, &g, params);
+  EXPECT_FALSE(a.auto_aligned);
+  EXPECT_EQ(a.missing_edges, 0u);
 }

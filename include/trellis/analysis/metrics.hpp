@@ -64,8 +64,8 @@ struct AnalysisParams {
   double min_covered = 0.5;     // a strut is missing if less than this fraction is covered
   std::size_t long_nodes = 5;
   bool align_centers = false;  // move the print's XY centre onto the design's before measuring
-  // Without align_centers: align anyway when the print lies mostly outside the design's XY box
-  // (a part placed on the bed); Analysis::auto_aligned says so.
+  // Without align_centers: align anyway when less than half of the extruded length lies in the
+  // design's XY box (a part placed on the bed); Analysis::auto_aligned says so.
   bool auto_align = true;
   bool keep_printed = false;  // build the IR (Analysis::printed) even without a design
   double acceleration = 0;     // mm/s² for the print-time estimate (0 = feed rates only)
