@@ -55,10 +55,10 @@ std::vector<Analysis> run(const AnalyzeOpts& o) {
         analyze_gcode_file(f, o.design.empty() ? nullptr : &design, params, o.read, diag));
     const Analysis& a = out.back();
     if (a.auto_aligned)
-      diag.warn("analyze_aligned",
-                f + ": the print lies outside the design, moved by (" + num(a.shift.x, 2) + ", " +
-                    num(a.shift.y, 2) + ") mm to align their centres; pass --align to always "
-                    "align");
+      diag.warn("analyze_aligned", f + ": the print lies outside the design, moved by (" +
+                                       num(a.shift.x, 2) + ", " + num(a.shift.y, 2) +
+                                       ") mm to align their centres; pass --align to always "
+                                       "align");
     if (o.png.empty()) continue;
     const Toolpath& tp = a.printed;
     if (tp.layers.empty())
@@ -88,8 +88,8 @@ std::vector<Analysis> run(const AnalyzeOpts& o) {
             {design.nodes[design.edges[e].a].xy(), design.nodes[design.edges[e].b].xy()});
       render_overlay_png(dsegs, tp.layers[i], a.layers[i].doubles, blue, o.params.width, name(i));
     }
-    std::cout << "wrote " << std::min(a.layers.size(), tp.layers.size())
-              << " layer picture(s) to " << o.png << "\n";
+    std::cout << "wrote " << std::min(a.layers.size(), tp.layers.size()) << " layer picture(s) to "
+              << o.png << "\n";
   }
   print_warnings(diag);
   return out;

@@ -83,7 +83,8 @@ double solid_section_z(const BBox3& box, int layer, double h) {
 Toolpath read_print(const std::string& path, const Settings* machine, double* snap,
                     Diagnostics& diag) {
   const auto ext = fs::path(path).extension().string();
-  if (ext != ".gcode" && ext != ".nc" && ext != ".g" && ext != ".bgcode") return read_toolpath(path);
+  if (ext != ".gcode" && ext != ".nc" && ext != ".g" && ext != ".bgcode")
+    return read_toolpath(path);
   const std::string text = read_file(path);
   Settings embedded;
   bool have = machine != nullptr;

@@ -53,9 +53,9 @@ class BitReader {
 std::string inflate_zlib(std::string_view data, std::size_t size, const std::string& where) {
   std::string out(size, '\0');
   uLongf got = static_cast<uLongf>(size);
-  const int rc = uncompress(reinterpret_cast<Bytef*>(out.data()), &got,
-                            reinterpret_cast<const Bytef*>(data.data()),
-                            static_cast<uLong>(data.size()));
+  const int rc =
+      uncompress(reinterpret_cast<Bytef*>(out.data()), &got,
+                 reinterpret_cast<const Bytef*>(data.data()), static_cast<uLong>(data.size()));
   if (rc != Z_OK || got != size)
     throw ParseError("Deflate data does not decompress to the " + std::to_string(size) +
                          " bytes its block header states (zlib: " + std::to_string(rc) + ")",
@@ -216,14 +216,14 @@ void read_bgcode(const std::function<std::size_t(char*, std::size_t)>& read,
     return reinterpret_cast<const unsigned char*>(buf.data());
   };
   const unsigned char* h = need(10, "the file header");
-  if (std::memcmp(h, "GCDE", 4) != 0) throw ParseError("not a binary G-code file (no GCDE magic)", {origin});
+  if (std::memcmp(h, "GCDE", 4) != 0)
+    throw ParseError("not a binary G-code file (no GCDE magic)", {origin});
   if (u32(h + 4) != 1)
-    throw ParseError("binary G-code version " + std::to_string(u32(h + 4)) +
-                         " (this reader knows version 1)",
-                     {origin});
+    throw ParseError(
+        "binary G-code version " + std::to_string(u32(h + 4)) + " (this reader knows version 1)",
+        {origin});
   const std::uint16_t checksum = u16(h + 8);
-  if (checksum > 1)
-    throw ParseError("unknown checksum type " + std::to_string(checksum), {origin});
+  if (checksum > 1) throw ParseError("unknown checksum type " + std::to_string(checksum), {origin});
   MeatPackDecoder meatpack;
   std::string decoded, block;
   std::size_t gcode_blocks = 0;
@@ -242,8 +242,7 @@ void read_bgcode(const std::function<std::size_t(char*, std::size_t)>& read,
     const auto compression = u16(b + 2);
     const std::size_t size = u32(b + 4);
     (void)p;
-    if (type > 5)
-      throw ParseError("unknown block type " + std::to_string(type), {origin, 0, at});
+    if (type > 5) throw ParseError("unknown block type " + std::to_string(type), {origin, 0, at});
     if (compression > 3)
       throw ParseError("unknown compression " + std::to_string(compression), {origin, 0, at});
     std::size_t stored = size;
@@ -265,8 +264,7 @@ void read_bgcode(const std::function<std::size_t(char*, std::size_t)>& read,
       const std::uint32_t want = u32(c);
       const auto got = static_cast<std::uint32_t>(
           crc32(0L, reinterpret_cast<const Bytef*>(block.data()), static_cast<uInt>(block.size())));
-      if (want != got)
-        throw ParseError("CRC32 mismatch (damaged file)", {origin, 0, at});
+      if (want != got) throw ParseError("CRC32 mismatch (damaged file)", {origin, 0, at});
     }
     const auto* bp = reinterpret_cast<const unsigned char*>(block.data());
     const std::uint16_t encoding = u16(bp + header);

@@ -152,7 +152,8 @@ void GcodeScanner::mcode(int code, std::string_view args) {
       const double i = num("S"), w = num("P");
       if (!ok || !std::isfinite(i) || !std::isfinite(w) || i < 0 || i > 15)
         return bad("bad M163 '" + std::string(args.substr(0, 40)) + "'");
-      if (m163_.size() <= static_cast<std::size_t>(i)) m163_.resize(static_cast<std::size_t>(i) + 1, 0);
+      if (m163_.size() <= static_cast<std::size_t>(i))
+        m163_.resize(static_cast<std::size_t>(i) + 1, 0);
       m163_[static_cast<std::size_t>(i)] = w;
       return;
     }
@@ -184,7 +185,8 @@ void GcodeScanner::mcode(int code, std::string_view args) {
 void GcodeScanner::extended(std::string_view s) {
   const auto blank = s.find_first_of(" \t");
   const std::string_view name = s.substr(0, blank);
-  const std::string_view args = blank == std::string_view::npos ? std::string_view{} : s.substr(blank);
+  const std::string_view args =
+      blank == std::string_view::npos ? std::string_view{} : s.substr(blank);
   auto extruder = [&](std::string_view v) {
     if (v.size() < 8 || v.substr(0, 8) != "extruder") return -1;
     if (v.size() == 8) return 0;
@@ -201,8 +203,10 @@ void GcodeScanner::extended(std::string_view s) {
     if (t < 0) return;  // the bed or a chamber
     const std::string_view v = param(args, "TARGET=");
     double c = 0;
-    if (v.empty()) c = 0;
-    else if (!parse_number(v.data(), v.data() + v.size(), c) || !std::isfinite(c) || c < 0 || c > 1000)
+    if (v.empty())
+      c = 0;
+    else if (!parse_number(v.data(), v.data() + v.size(), c) || !std::isfinite(c) || c < 0 ||
+             c > 1000)
       return bad("bad temperature in '" + std::string(s.substr(0, 60)) + "'");
     set_temperature(t, c);
   }

@@ -5,9 +5,9 @@
 #include <fstream>
 #include <numbers>
 
+#include "gcode_lex.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/text.hpp"
-#include "gcode_lex.hpp"
 #include "trellis/machine/bgcode.hpp"
 
 namespace trellis {

@@ -616,8 +616,8 @@ class Writer {
 
 }  // namespace
 
-std::string write_gcode(const Toolpath& toolpath, const MachineProfile& profile,
-                        GcodeStats* stats, const std::vector<GcodeThumbnail>& thumbnails) {
+std::string write_gcode(const Toolpath& toolpath, const MachineProfile& profile, GcodeStats* stats,
+                        const std::vector<GcodeThumbnail>& thumbnails) {
   validate(profile);
   if (toolpath.path_count() == 0) throw GeometryError("the toolpath has no paths to write");
   GcodeStats s;

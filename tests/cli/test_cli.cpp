@@ -567,10 +567,13 @@ TEST(Cli, AnalyzeWithoutDesignCountsAndDrawsLayersAndAlignsPlacedPrints) {
   const std::string lat = in_work("al.json"), tp = in_work("al.tp.json"), gc = in_work("al.gcode");
   const std::string prof = std::string(TRELLIS_SOURCE_DIR) + "/profiles/ender3_s1_pro_tpu.toml";
   // A sliced sphere: many layers.
-  ASSERT_EQ(run("slice " + write("al.vcad", "sphere(3);\n") + " --machine " + prof + " -o " + gc).code, 0);
+  ASSERT_EQ(
+      run("slice " + write("al.vcad", "sphere(3);\n") + " --machine " + prof + " -o " + gc).code,
+      0);
   const std::string text = trellis::read_file(gc);
   int layers = 0;
-  for (std::size_t at = text.find(";LAYER:"); at != std::string::npos; at = text.find(";LAYER:", at + 1))
+  for (std::size_t at = text.find(";LAYER:"); at != std::string::npos;
+       at = text.find(";LAYER:", at + 1))
     ++layers;
   ASSERT_GT(layers, 10);
   // Layers counted without --design, from the comments; and from Z alone when comments are gone.
@@ -591,7 +594,8 @@ TEST(Cli, AnalyzeWithoutDesignCountsAndDrawsLayersAndAlignsPlacedPrints) {
     std::snprintf(name, sizeof name, "al_layer_%04d.png", i);
     EXPECT_TRUE(fs::exists(fs::path(in_work("alpng")) / name)) << name;
   }
-  EXPECT_NE(r.out.find("wrote " + std::to_string(layers) + " layer picture(s)"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("wrote " + std::to_string(layers) + " layer picture(s)"), std::string::npos)
+      << r.out;
   // A lattice printed on the bed centre, away from the design's place.
   ASSERT_EQ(run("lattice2d --pattern triangle --cell 1 --size 5,5 -o " + lat).code, 0);
   ASSERT_EQ(run("plan euler " + lat + " -o " + tp).code, 0);

@@ -71,7 +71,8 @@ std::vector<const Path*> flat(const Toolpath& tp) {
 
 // Same moves: paths, points, E, tool, temperature and mixture; with comments kept also roles,
 // widths and layers.
-void expect_same(const Toolpath& text, const Toolpath& bin, bool comments, const std::string& what) {
+void expect_same(const Toolpath& text, const Toolpath& bin, bool comments,
+                 const std::string& what) {
   const auto a = flat(text), b = flat(bin);
   ASSERT_EQ(a.size(), b.size()) << what;
   ASSERT_GT(a.size(), 10u);
@@ -96,7 +97,8 @@ const std::string kEncoder = std::string(TRELLIS_SOURCE_DIR) + "/tests/machine/b
 void encode(const std::string& in, const std::string& out, int compression, int encoding,
             const std::string& extra = "") {
   const std::string cmd = "/usr/bin/python3 " + kEncoder + " " + in + " " + out + " " +
-                          std::to_string(compression) + " " + std::to_string(encoding) + " " + extra;
+                          std::to_string(compression) + " " + std::to_string(encoding) + " " +
+                          extra;
   ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
 }
 

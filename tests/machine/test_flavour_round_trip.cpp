@@ -114,7 +114,8 @@ TEST(FlavourRoundTrip, EveryProfileReadsBackPathsRolesAndBeads) {
         EXPECT_EQ(p.temperature, m.nozzle_temperature) << profile;
       }
   }
-  EXPECT_TRUE(flavours.count("marlin") && flavours.count("pneumatic") && flavours.count("embedded"));
+  EXPECT_TRUE(flavours.count("marlin") && flavours.count("pneumatic") &&
+              flavours.count("embedded"));
 }
 
 TEST(FlavourRoundTrip, MixturesToolsAndTemperaturesOfGradedPaths) {
@@ -130,7 +131,8 @@ TEST(FlavourRoundTrip, MixturesToolsAndTemperaturesOfGradedPaths) {
       const Toolpath back = round_trip(tp, st, dir.file(profile.stem().string() + mode + ".gcode"));
       expect_same_paths(tp, back, m, what);
       for (std::size_t l = 0; l < tp.layers.size() && l < back.layers.size(); ++l)
-        for (std::size_t i = 0; i < tp.layers[l].paths.size() && i < back.layers[l].paths.size(); ++i) {
+        for (std::size_t i = 0; i < tp.layers[l].paths.size() && i < back.layers[l].paths.size();
+             ++i) {
           const Path& p = tp.layers[l].paths[i];
           const Path& q = back.layers[l].paths[i];
           const double a = p.mixture[0];

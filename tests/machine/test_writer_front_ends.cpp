@@ -35,12 +35,18 @@ std::string unbase64(const std::string& s) {
   unsigned v = 0;
   for (char c : s) {
     int d;
-    if (c >= 'A' && c <= 'Z') d = c - 'A';
-    else if (c >= 'a' && c <= 'z') d = c - 'a' + 26;
-    else if (c >= '0' && c <= '9') d = c - '0' + 52;
-    else if (c == '+') d = 62;
-    else if (c == '/') d = 63;
-    else break;  // '=' padding
+    if (c >= 'A' && c <= 'Z')
+      d = c - 'A';
+    else if (c >= 'a' && c <= 'z')
+      d = c - 'a' + 26;
+    else if (c >= '0' && c <= '9')
+      d = c - '0' + 52;
+    else if (c == '+')
+      d = 62;
+    else if (c == '/')
+      d = 63;
+    else
+      break;  // '=' padding
     v = (v << 6) | static_cast<unsigned>(d);
     bits += 6;
     if (bits >= 8) {
@@ -74,9 +80,11 @@ TEST(FrontEnds, ThumbnailsArePngsOfTheStatedSizeInPrusaSlicersBlock) {
   m.thumbnails = "16x16,220x124";
   const Toolpath tp = layers(3);
   const std::string g = write_gcode(tp, m, nullptr, gcode_thumbnails(tp, m));
-  const std::regex block(R"(; thumbnail begin (\d+)x(\d+) (\d+)\n((?:; [A-Za-z0-9+/=]{1,78}\n)+); thumbnail end\n)");
+  const std::regex block(
+      R"(; thumbnail begin (\d+)x(\d+) (\d+)\n((?:; [A-Za-z0-9+/=]{1,78}\n)+); thumbnail end\n)");
   int found = 0;
-  for (auto it = std::sregex_iterator(g.begin(), g.end(), block); it != std::sregex_iterator(); ++it) {
+  for (auto it = std::sregex_iterator(g.begin(), g.end(), block); it != std::sregex_iterator();
+       ++it) {
     const auto& mt = *it;
     std::string b64;
     std::istringstream rows(mt[4].str());
@@ -127,7 +135,8 @@ TEST(FrontEnds, LayerCountTypesAndBeadSizes) {
   EXPECT_TRUE(width && height);
   EXPECT_EQ(role_from_gcode_type(gcode_type_name(PathRole::Purge)), PathRole::Purge);
   for (int r = 0; r < 8; ++r)
-    EXPECT_EQ(role_from_gcode_type(gcode_type_name(static_cast<PathRole>(r))), static_cast<PathRole>(r));
+    EXPECT_EQ(role_from_gcode_type(gcode_type_name(static_cast<PathRole>(r))),
+              static_cast<PathRole>(r));
 }
 
 TEST(FrontEnds, M73ProgressOnlyWhereTheFirmwareTakesIt) {

@@ -67,7 +67,7 @@ struct AnalysisParams {
   // Without align_centers: align anyway when less than half of the extruded length lies in the
   // design's XY box (a part placed on the bed); Analysis::auto_aligned says so.
   bool auto_align = true;
-  bool keep_printed = false;  // build the IR (Analysis::printed) even without a design
+  bool keep_printed = false;   // build the IR (Analysis::printed) even without a design
   double acceleration = 0;     // mm/s² for the print-time estimate (0 = feed rates only)
 };
 

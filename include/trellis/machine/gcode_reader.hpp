@@ -89,9 +89,9 @@ class GcodeScanner {
   double e_ = 0, feed_ = 0;
   bool abs_pos_ = true, abs_e_ = true, inches_ = false, valve_ = false;
   int tool_ = 0;
-  std::vector<double> tool_temp_;               // per tool, NaN = not set
-  std::vector<std::vector<double>> tool_mix_;   // RepRapFirmware M567: per tool
-  std::vector<double> m163_;                    // Marlin M163 weights before M164
+  std::vector<double> tool_temp_;              // per tool, NaN = not set
+  std::vector<std::vector<double>> tool_mix_;  // RepRapFirmware M567: per tool
+  std::vector<double> m163_;                   // Marlin M163 weights before M164
   double reported_temp_ = std::nan("");
 };
 

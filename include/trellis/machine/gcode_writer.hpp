@@ -3,9 +3,9 @@
 // pressure per path instead of E; `embedded` is pneumatic inside a support bath: every travel
 // lifts straight up to the bath surface plus a clearance, moves, and re-enters straight down;
 // optional dwell at nodes and overlap past path ends; one nozzle per tool with XY offsets,
-// pressures, the idle nozzle raised and a tool-change command. Numbers: XYZ with 3 decimals (1 µm, finer than any motion
-// system here), E with 5 (10 nm of filament, so per-segment rounding cannot accumulate), both
-// without trailing zeros; F in whole mm/min.
+// pressures, the idle nozzle raised and a tool-change command. Numbers: XYZ with 3 decimals (1 µm,
+// finer than any motion system here), E with 5 (10 nm of filament, so per-segment rounding cannot
+// accumulate), both without trailing zeros; F in whole mm/min.
 //
 // What other tools read (PrusaSlicer's conventions, docs/gcode.md): embedded PNG thumbnails,
 // ;LAYER_COUNT: in the header, ;TYPE: (gcode_type_name), ;WIDTH: and ;HEIGHT: before each path
@@ -46,7 +46,8 @@ struct GcodeThumbnail {
 bool gcode_progress_supported(const std::string& flavor);
 // Standard base64 (RFC 4648, with padding).
 std::string base64(std::string_view bytes);
-// A thumbnail as PrusaSlicer embeds it: "; thumbnail begin WxH LEN", base64 rows, "; thumbnail end".
+// A thumbnail as PrusaSlicer embeds it: "; thumbnail begin WxH LEN", base64 rows, "; thumbnail
+// end".
 std::string thumbnail_block(const GcodeThumbnail& thumbnail);
 
 // E for a segment of `length` mm printed at layer thickness `layer` (Eq. 4).
