@@ -15,6 +15,7 @@
 #pragma once
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "trellis/machine/profile.hpp"
@@ -34,6 +35,8 @@ struct GcodeStats {
   std::size_t tool_changes = 0;  // embedded
   std::size_t gradient_changes = 0;  // mixture / tool / temperature commands for graded paths
   double lookahead = 0;              // mm of path the changes were issued early
+  // Printable but suspicious (machine/machine_check.hpp): kind and message.
+  std::vector<std::pair<std::string, std::string>> warnings;
 };
 
 // A picture for printer front ends: PNG bytes of a width x height image.
@@ -53,6 +56,8 @@ std::string thumbnail_block(const GcodeThumbnail& thumbnail);
 // E for a segment of `length` mm printed at layer thickness `layer` (Eq. 4).
 double extrusion_for(double length, double layer, const MachineProfile& profile);
 
+// Checks the toolpath against the machine first (check_for_machine): MachineError if it cannot
+// print as meant, warnings into the stats.
 std::string write_gcode(const Toolpath& toolpath, const MachineProfile& profile,
                         GcodeStats* stats = nullptr,
                         const std::vector<GcodeThumbnail>& thumbnails = {});
