@@ -44,6 +44,7 @@ std::string twin_text() {
     tp.layers.push_back(layer);
   }
   MachineProfile m;
+  m.mixing_inputs = 2;
   m.retract_length = 0.8;
   m.nozzle_temperature = 210;
   std::string text = write_gcode(tp, m);
