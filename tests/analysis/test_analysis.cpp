@@ -99,11 +99,10 @@ TEST(Analysis, AlignmentFindsAPartPlacedOnTheBed) {
   a = analyze(read_gcode(gcode, {}, d), counter.counts, &g, params);
   EXPECT_EQ(a.missing_edges, 0u);
   EXPECT_TRUE(a.auto_aligned);
-  EXPECT_NEAR(a.shift.x, -110, 20);  // the default bed is 220 mm: its centre is at 110, 110
+  EXPECT_NEAR(a.shift.x, -1000, 20);  // from the bed centre back to the design
+  EXPECT_NEAR(a.shift.y, -1000, 20);
   // The same print where the design is: left alone.
-  p.center = false;
-  const std::string here = write_gcode(tp, p);
-  a = analyze(read_gcode(here, {}, d), counter.counts, &g, params);
+  a = analyze(tp, counter.counts, &g, params);
   EXPECT_FALSE(a.auto_aligned);
   EXPECT_EQ(a.missing_edges, 0u);
 }

@@ -609,7 +609,7 @@ TEST(Cli, AnalyzeWithoutDesignCountsAndDrawsLayersAndAlignsPlacedPrints) {
   EXPECT_NE(r.err.find("--align"), std::string::npos) << r.err;
   // A print where the design is: no move, no note.
   const std::string here = in_work("al_here.gcode");
-  ASSERT_EQ(run("gcode " + tp + " --machine " + prof + " -o " + here).code, 0);
+  ASSERT_EQ(run("gcode " + tp + " --machine " + prof + " --no-center -o " + here).code, 0);
   r = run("analyze " + here + " --design " + lat);
   EXPECT_NE(r.out.find("missing 0 of"), std::string::npos) << r.out;
   EXPECT_EQ(r.err.find("--align"), std::string::npos) << r.err;
