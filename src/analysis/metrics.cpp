@@ -15,13 +15,21 @@ namespace trellis {
 void CountingSink::extrude(Vec3 a, Vec3 b, double e, double feed) {
   const double len = distance(a, b);
   ++counts.extrusion_moves;
-  if (layer_pending_) ++comment_layers_, layer_pending_ = false;
-  if (!(std::abs(a.z - layer_z_) <= 1e-4)) ++z_layers_, layer_z_ = a.z;
-  counts.layers = commented_ ? comment_layers_ : z_layers_;
   const Vec3 gap = a - last_;
-  if (state_ != State::Extruding || dot(gap, gap) > 1e-18) {
+  const bool run_starts = state_ != State::Extruding || dot(gap, gap) > 1e-18;
+  if (run_starts) {
     close_path();
     ++counts.extrusion_starts;
+  }
+  if (run_starts || attribute_changed_) {
+    // A new path of the IR: the same layer rule as the IR builder (gcode_reader.cpp).
+    ++counts.toolpath_paths;
+    attribute_changed_ = false;
+    if (counts.layers == 0 || layer_pending_ || (!commented_ && std::abs(a.z - layer_z_) > 1e-4)) {
+      ++counts.layers;
+      layer_z_ = a.z;
+      layer_pending_ = false;
+    }
   }
   path_length_ += len;
   ++path_edges_;
@@ -334,6 +342,8 @@ Analysis analyze_gcode_file(const std::string& path, const Graph* design,
       void role(PathRole r) override { a.role(r), b.role(r); }
       void mixture(const std::vector<double>& m) override { a.mixture(m), b.mixture(m); }
       void temperature(double t) override { a.temperature(t), b.temperature(t); }
+      void width(double w) override { a.width(w), b.width(w); }
+      void height(double h) override { a.height(h), b.height(h); }
     };
     auto builder = make_toolpath_builder(tp);
     Both both(counter, *builder);
@@ -348,8 +358,9 @@ Analysis analyze_gcode_file(const std::string& path, const Graph* design,
 std::string analysis_json(const Analysis& a) {
   nlohmann::ordered_json j;
   j["name"] = a.name;
-  j["layers"] = a.has_design ? a.layers.size() : a.counts.layers;
+  j["layers"] = a.counts.layers;
   j["paths"] = a.paths;
+  j["toolpath_paths"] = a.counts.toolpath_paths;
   j["extrusion_starts"] = a.counts.extrusion_starts;
   j["extruded_length_mm"] = a.extruded_length;
   j["travel_moves"] = a.counts.travel_moves;
