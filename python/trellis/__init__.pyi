@@ -142,6 +142,7 @@ def plan(
     long_nodes: int = ...,  # plan.long_path_nodes: LTS/OE: a path is long with this many nodes
     lookahead: float = ...,  # gradient.lookahead: issue each mixture change this much printed path before the region (dead volume, FGM paper A.1: L = V_melt / (h(w-h) + pi h^2/4))
     materials: Literal['none', 'xy-plane', 'component', 'vertical'] = ...,  # lattice3d.materials: per-strut material rule
+    merge_ends: bool = ...,  # plan.merge_ends: join paths that end at the same node into one (fewer paths and starts; GIPPO keeps its paths as grown otherwise)
     merge_tolerance: float = ...,  # lattice.merge_tolerance: merge nodes closer than this
     mesh: str = ...,  # lattice3d.mesh: foam: inside this closed mesh instead of the box; conformal: the mesh to fill
     method: Literal['dynamic', 'groups'] = ...,  # aero.method: dynamic (refresh after every trail) or groups (the paper's)
@@ -169,6 +170,7 @@ def plan(
     threads: int = ...,  # run.threads: worker threads (0 = all cores)
     tip_clearance: float = ...,  # nozzle.tip_clearance: material less than this above the tip is not hit
     tries: int = ...,  # aero.tries: dynamic: planner runs (strategies, then shuffled orders; best kept)
+    worst: bool = ...,  # gippo.worst: also write the lowest-score solution beside the best (NAME.worst.json, worst_layer_*.png previews), as the paper compares them
     z: float = ...,  # lattice2d.z: height of the lattice plane
 ) -> Result: ...
 
