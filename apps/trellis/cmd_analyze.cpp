@@ -29,7 +29,8 @@ void add_common(CLI::App* cmd, AnalyzeOpts& o) {
   cmd->add_option("--acceleration", o.params.acceleration, "mm/s² for the print-time estimate (0 = feed rates only)")
       ->check(CLI::NonNegativeNumber);
   cmd->add_flag("--align", o.params.align_centers,
-                "move the print's XY centre onto the design's (for parts placed on the bed)");
+                "move the print's XY centre onto the design's (for parts placed on the bed; done "
+                "anyway, with a note, when the print lies mostly outside the design)");
   cmd->add_option("--valve-on", o.read.valve_on,
                   "pneumatic files: the command that opens the valve");
   cmd->add_option("--valve-off", o.read.valve_off,
@@ -37,9 +38,9 @@ void add_common(CLI::App* cmd, AnalyzeOpts& o) {
   cmd->add_flag("--strict", o.read.stop_on_error,
                 "stop at the first unreadable line (default: warn and skip)");
   cmd->add_option("--report", o.report, "JSON report to write");
-  cmd->add_option("--preview", o.png,
-                  "folder for PNGs per file and layer (FILE_layer_0000.png): doubles red, missing "
-                  "struts blue; needs --design");
+  cmd->add_option("--preview,--png", o.png,
+                  "folder for PNGs per file and layer (FILE_layer_0000.png); with --design the "
+                  "design in grey, doubles red, missing struts blue");
 }
 
 std::vector<Analysis> run(const AnalyzeOpts& o) {
@@ -47,28 +48,48 @@ std::vector<Analysis> run(const AnalyzeOpts& o) {
   Graph design;
   if (!o.design.empty()) design = read_lattice(o.design, {}, diag);
   std::vector<Analysis> out;
+  AnalysisParams params = o.params;
+  params.keep_printed = !o.png.empty();
   for (const auto& f : o.files) {
     out.push_back(
-        analyze_gcode_file(f, o.design.empty() ? nullptr : &design, o.params, o.read, diag));
-    if (!o.png.empty() && !o.design.empty()) {
-      const Toolpath& tp = out.back().printed;
-      std::vector<Segment2> dsegs;
-      for (const auto& e : design.edges)
-        dsegs.push_back({design.nodes[e.a].xy(), design.nodes[e.b].xy()});
-      const auto& a = out.back();
-      for (std::size_t i = 0; i < a.layers.size() && i < tp.layers.size(); ++i) {
-        std::vector<Segment2> blue;
-        for (EdgeId e : a.layers[i].missing)
-          blue.push_back(
-              {design.nodes[design.edges[e].a].xy(), design.nodes[design.edges[e].b].xy()});
-        char name[64];
-        std::snprintf(name, sizeof name, "_layer_%04zu.png", i);
-        std::filesystem::create_directories(o.png);
-        render_overlay_png(dsegs, tp.layers[i], a.layers[i].doubles, blue, o.params.width,
-                           (std::filesystem::path(o.png) /
-                            (std::filesystem::path(f).stem().string() + name)).string());
-      }
+        analyze_gcode_file(f, o.design.empty() ? nullptr : &design, params, o.read, diag));
+    const Analysis& a = out.back();
+    if (a.auto_aligned)
+      diag.warn("analyze_aligned", f + ": the print lies outside the design, moved by (" +
+                                       num(a.shift.x, 2) + ", " + num(a.shift.y, 2) +
+                                       ") mm to align their centres; pass --align to always "
+                                       "align");
+    if (o.png.empty()) continue;
+    const Toolpath& tp = a.printed;
+    if (tp.layers.empty())
+      throw GeometryError("nothing to draw for --preview: the file has no extrusion", {f});
+    std::filesystem::create_directories(o.png);
+    const std::string stem = std::filesystem::path(f).stem().string();
+    auto name = [&](std::size_t i) {
+      char buf[64];
+      std::snprintf(buf, sizeof buf, "_layer_%04zu.png", i);
+      return (std::filesystem::path(o.png) / (stem + buf)).string();
+    };
+    if (o.design.empty()) {
+      RenderOptions ro;
+      ro.colour_by_role = true;
+      ro.bead_width = o.params.width;
+      for (std::size_t i = 0; i < tp.layers.size(); ++i) render_layer_png(tp, i, name(i), ro);
+      std::cout << "wrote " << tp.layers.size() << " layer picture(s) to " << o.png << "\n";
+      continue;
     }
+    std::vector<Segment2> dsegs;
+    for (const auto& e : design.edges)
+      dsegs.push_back({design.nodes[e.a].xy(), design.nodes[e.b].xy()});
+    for (std::size_t i = 0; i < a.layers.size() && i < tp.layers.size(); ++i) {
+      std::vector<Segment2> blue;
+      for (EdgeId e : a.layers[i].missing)
+        blue.push_back(
+            {design.nodes[design.edges[e].a].xy(), design.nodes[design.edges[e].b].xy()});
+      render_overlay_png(dsegs, tp.layers[i], a.layers[i].doubles, blue, o.params.width, name(i));
+    }
+    std::cout << "wrote " << std::min(a.layers.size(), tp.layers.size()) << " layer picture(s) to "
+              << o.png << "\n";
   }
   print_warnings(diag);
   return out;
@@ -81,8 +102,10 @@ void add_analyze(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "analyze", "Measure a G-code file (any slicer), optionally against the design lattice");
   cmd->footer(
-      "Reads Marlin/RepRap G-code (G0-G3, G90/91, M82/83, G92, G20/21, T, M165; Cura and\n"
-      "PrusaSlicer layer/type comments). With --design: extrusion ratio (printed / nominal\n"
+      "Reads Marlin, RepRapFirmware and Klipper G-code (G0-G3, G90/91, M82/83, G92, G20/21;\n"
+      "tools, temperatures and mixing in each one's commands; Cura and PrusaSlicer comments)\n"
+      "and PrusaSlicer's binary G-code (.bgcode). Layers come from layer comments, else from\n"
+      "Z changes. With --design: extrusion ratio (printed / nominal\n"
       "length), double-deposited length, off-design length, missing struts, and the GIPPO score\n"
       "corrected by EdgesReal/EdgesNominal.");
   cmd->add_option("gcode", o->files, "G-code file")->required()->expected(1);

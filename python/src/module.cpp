@@ -507,6 +507,6 @@ PYBIND11_MODULE(_trellis, m) {
       const auto key = k.cast<std::string>();
       st.set(key, to_value(key, v), {"keyword " + key});
     }
-    return write_gcode(t, st.config().machine);
+    return write_gcode(t, st.config().machine, nullptr, gcode_thumbnails(t, st.config().machine));
   });
 }

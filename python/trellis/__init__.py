@@ -69,7 +69,7 @@ class Lattice:
         return f"<trellis.Lattice {self.node_count} nodes, {self.edge_count} struts>"
 
 
-ROLES = ["strut", "contour", "handle", "perimeter", "infill", "other", "skin"]
+ROLES = ["strut", "contour", "handle", "perimeter", "infill", "other", "skin", "purge"]
 
 
 class Toolpath:

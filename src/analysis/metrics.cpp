@@ -222,18 +222,37 @@ Analysis analyze(const Toolpath& printed_in, const GcodeCounts& counts, const Gr
   Analysis a;
   a.printed = printed_in;  // the one copy: aligned in place, kept for pictures
   Toolpath& printed = a.printed;
-  if (design && p.align_centers) {
-    // Slicers place parts on the bed: move the print's XY centre onto the design's.
+  if (design) {
+    // Slicers place parts on the bed: move the print's XY centre onto the design's, on request or
+    // when most of the print lies outside the design's XY box.
     BBox3 pb;
     for (const auto& l : printed.layers)
       for (const auto& path : l.paths)
         for (const auto& q : path.points) pb.add(q);
     const BBox3 db = design->bbox();
     if (!pb.empty() && !db.empty()) {
-      const double dx = db.center().x - pb.center().x, dy = db.center().y - pb.center().y;
-      for (auto& l : printed.layers)
-        for (auto& path : l.paths)
-          for (auto& q : path.points) q = {q.x + dx, q.y + dy, q.z};
+      // Outside: less than half of the extruded length (by segment midpoints) lies in the
+      // design's XY box grown by a bead width; a few stray deposits do not count.
+      double inside = 0, total = 0;
+      for (const auto& l : printed.layers)
+        for (const auto& path : l.paths)
+          for (std::size_t k = 1; k < path.points.size(); ++k) {
+            const Vec3 m = (path.points[k - 1] + path.points[k]) * 0.5;
+            const double len = distance_xy(path.points[k - 1], path.points[k]);
+            total += len;
+            if (m.x >= db.min.x - p.width && m.x <= db.max.x + p.width &&
+                m.y >= db.min.y - p.width && m.y <= db.max.y + p.width)
+              inside += len;
+          }
+      const bool outside = total > 0 && inside < 0.5 * total;
+      if (p.align_centers || (p.auto_align && outside)) {
+        const double dx = db.center().x - pb.center().x, dy = db.center().y - pb.center().y;
+        for (auto& l : printed.layers)
+          for (auto& path : l.paths)
+            for (auto& q : path.points) q = {q.x + dx, q.y + dy, q.z};
+        a.shift = {dx, dy};
+        a.auto_aligned = !p.align_centers;
+      }
     }
   }
   a.counts = counts;
@@ -304,7 +323,7 @@ Analysis analyze_gcode_file(const std::string& path, const Graph* design,
                             Diagnostics& diag) {
   CountingSink counter(params.long_nodes, params.acceleration);
   Toolpath tp;
-  if (!design) {
+  if (!design && !params.keep_printed) {
     // Counts only: constant memory whatever the file size.
     scan_gcode_file(path, counter, read, diag);
   } else {
@@ -323,6 +342,8 @@ Analysis analyze_gcode_file(const std::string& path, const Graph* design,
       void role(PathRole r) override { a.role(r), b.role(r); }
       void mixture(const std::vector<double>& m) override { a.mixture(m), b.mixture(m); }
       void temperature(double t) override { a.temperature(t), b.temperature(t); }
+      void width(double w) override { a.width(w), b.width(w); }
+      void height(double h) override { a.height(h), b.height(h); }
     };
     auto builder = make_toolpath_builder(tp);
     Both both(counter, *builder);
@@ -352,6 +373,8 @@ std::string analysis_json(const Analysis& a) {
   j["lts"] = a.lts;
   j["oe"] = a.oe;
   if (a.has_design) {
+    j["aligned_by_mm"] = {a.shift.x, a.shift.y};
+    j["auto_aligned"] = a.auto_aligned;
     j["nominal_length_mm"] = a.nominal_length;
     j["extrusion_ratio"] = a.extrusion_ratio;
     j["double_length_mm"] = a.double_length;

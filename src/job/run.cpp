@@ -53,7 +53,7 @@ GcodeStats write_gcode_out(const std::string& path, Toolpath tp, const Job& job,
   if (!out.toolpath) out.toolpath = std::make_shared<Toolpath>(tp);
   if (path.empty()) return stats;
   tp.job = embedded_job(job, path);
-  stats = write_gcode_file(path, tp, machine);
+  stats = write_gcode_file(path, tp, machine, gcode_thumbnails(tp, machine));
   for (const auto& [kind, message] : stats.warnings) diag.warn(kind, message);
   out.files.push_back(path);
   return stats;
@@ -107,6 +107,14 @@ std::string fixed(double v, int decimals) {
 
 }  // namespace routes
 
+std::vector<GcodeThumbnail> gcode_thumbnails(const Toolpath& toolpath,
+                                             const MachineProfile& machine) {
+  std::vector<GcodeThumbnail> out;
+  for (const auto& [w, h] : machine.thumbnail_sizes())
+    out.push_back({w, h, render_thumbnail_png(toolpath, w, h)});
+  return out;
+}
+
 double solid_section_z(const BBox3& box, int layer, double h) {
   return std::min(box.min.z + (layer + 0.5) * h, box.max.z - 1e-3 * h);
 }
@@ -114,7 +122,8 @@ double solid_section_z(const BBox3& box, int layer, double h) {
 Toolpath read_print(const std::string& path, const Settings* machine, double* snap,
                     Diagnostics& diag) {
   const auto ext = fs::path(path).extension().string();
-  if (ext != ".gcode" && ext != ".nc" && ext != ".g") return read_toolpath(path);
+  if (ext != ".gcode" && ext != ".nc" && ext != ".g" && ext != ".bgcode")
+    return read_toolpath(path);
   const std::string text = read_file(path);
   Settings embedded;
   bool have = machine != nullptr;

@@ -5,72 +5,26 @@
 #include <fstream>
 #include <numbers>
 
+#include "gcode_lex.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/text.hpp"
+#include "trellis/machine/bgcode.hpp"
 
 namespace trellis {
 
+using namespace gcode_lex;
+
 namespace {
 
-constexpr double kMaxValue = 1e6;
-
-// Locale-free ASCII classification: the reader's hot path.
-inline bool is_digit(char c) {
-  return c >= '0' && c <= '9';
-}
-inline bool is_alpha(char c) {
-  return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z');
-}
-inline char upper(char c) {
-  return c >= 'a' && c <= 'z' ? static_cast<char>(c - 32) : c;
-}
-
-// G-code numbers are plain decimals ([-+]digits[.digits]). With at most 15 significant digits
-// the mantissa and 10^k are exact doubles, so one division gives the correctly rounded value,
-// about 3x faster than std::from_chars; anything else falls back to from_chars.
-// Parses a plain decimal ([-+]digits[.digits], at most 15 digits) at b; returns the end of it, or
-// nullptr if what is there is not such a number.
-const char* scan_decimal(const char* b, const char* e, double& out) {
-  static constexpr double kPow10[] = {1e0, 1e1, 1e2,  1e3,  1e4,  1e5,  1e6,  1e7,
-                                      1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15};
-  const char* p = b;
-  const bool neg = p < e && *p == '-';
-  if (p < e && (*p == '-' || *p == '+')) ++p;
-  std::uint64_t m = 0;
-  const char* start = p;
-  while (p < e && is_digit(*p)) m = m * 10 + static_cast<unsigned>(*p++ - '0');
-  const auto int_digits = p - start;
-  std::ptrdiff_t frac = 0;
-  if (p < e && *p == '.') {
-    const char* f = ++p;
-    while (p < e && is_digit(*p)) m = m * 10 + static_cast<unsigned>(*p++ - '0');
-    frac = p - f;
-  }
-  if (int_digits + frac == 0 || int_digits + frac > 15) return nullptr;
-  out = frac ? static_cast<double>(m) / kPow10[frac] : static_cast<double>(m);
-  if (neg) out = -out;
-  return p;
-}
-
-bool parse_number(const char* b, const char* e, double& out) {
-  if (scan_decimal(b, e, out) == e) return true;
-  if (b < e && *b == '+') ++b;
-  const auto r = std::from_chars(b, e, out);
-  return b < e && r.ec == std::errc() && r.ptr == e;
-}
-
-bool starts_with(std::string_view s, std::string_view p) {
-  return s.substr(0, p.size()) == p;
-}
-
-PathRole role_from_type(std::string_view t) {
-  // Cura: WALL-OUTER, WALL-INNER, SKIN, FILL, SUPPORT, SKIRT; PrusaSlicer: External perimeter,
-  // Perimeter, Solid infill, Internal infill, Top solid infill, Skirt/Brim, ...
-  if (t.find("WALL") != t.npos || t.find("erimeter") != t.npos) return PathRole::Perimeter;
-  if (t.find("FILL") != t.npos || t.find("SKIN") != t.npos || t.find("nfill") != t.npos)
-    return PathRole::Infill;
-  if (t.find("STRUT") != t.npos || t.find("strut") != t.npos) return PathRole::Strut;
-  return PathRole::Other;
+// Is `s` the command `cmd` (its words, then the end of the line, a blank or a comment)? Whole
+// words: "M3" matches "M3 S1000" but not "M300".
+bool is_command(std::string_view s, std::string_view cmd) {
+  if (cmd.empty() || s.size() < cmd.size()) return false;
+  for (std::size_t i = 0; i < cmd.size(); ++i)
+    if (upper(s[i]) != upper(cmd[i])) return false;
+  if (s.size() == cmd.size()) return true;
+  const char next = s[cmd.size()];
+  return next == ' ' || next == '\t' || next == ';' || next == '*' || next == '(';
 }
 
 // One parsed word: letter and value.
@@ -83,7 +37,11 @@ struct Word {
 
 GcodeScanner::GcodeScanner(GcodeSink& sink, GcodeReadOptions options, Diagnostics& diag,
                            std::string origin)
-    : sink_(sink), opt_(std::move(options)), diag_(diag), origin_(std::move(origin)) {}
+    : sink_(sink), opt_(std::move(options)), diag_(diag), origin_(std::move(origin)) {
+  // A profile's valve command may carry a comment ("M3 ; pressure on"): the command is its words.
+  for (std::string* v : {&opt_.valve_on, &opt_.valve_off})
+    *v = std::string(trim(std::string_view(*v).substr(0, v->find(';'))));
+}
 
 void GcodeScanner::bad(const std::string& what) {
   if (opt_.stop_on_error) throw ParseError(what, {origin_, line_no_});
@@ -96,7 +54,18 @@ void GcodeScanner::comment(std::string_view c) {
   if (starts_with(c, "LAYER:") || starts_with(c, "LAYER_CHANGE")) {
     sink_.layer_change(std::nan(""));
   } else if (starts_with(c, "TYPE:")) {
-    sink_.role(role_from_type(c.substr(5)));
+    sink_.role(role_from_gcode_type(c.substr(5)));
+  } else if (starts_with(c, "WIDTH:") || starts_with(c, "HEIGHT:")) {
+    const bool w = c[0] == 'W';
+    const std::string_view v = trim(c.substr(w ? 6 : 7));
+    double mm = 0;
+    if (parse_number(v.data(), v.data() + v.size(), mm) && std::isfinite(mm) && mm > 0 &&
+        mm < kMaxValue) {
+      if (w)
+        sink_.width(mm);
+      else
+        sink_.height(mm);
+    }
   }
 }
 
@@ -129,8 +98,8 @@ void GcodeScanner::finish() {
 void GcodeScanner::line(std::string_view text) {
   ++line_no_;
   std::string_view s = trim(text);
-  if (!opt_.valve_on.empty() && starts_with(s, opt_.valve_on)) valve_ = true;
-  if (!opt_.valve_off.empty() && starts_with(s, opt_.valve_off)) valve_ = false;
+  if (is_command(s, opt_.valve_on)) valve_ = true;
+  if (is_command(s, opt_.valve_off)) valve_ = false;
   // The comment (memchr-fast); a checksum (*) or a parenthesised comment ends the words too, which
   // the word loops check as they go.
   if (const auto semi = s.find(';'); semi != std::string_view::npos) {
@@ -154,6 +123,8 @@ void GcodeScanner::line(std::string_view text) {
   if (k == 1) {
     if (c == 'T' || c == 'G' || c == 'M')
       return bad("command '" + std::string(s.substr(0, 20)) + "' has no number");
+    if (is_alpha(c) && k < s.size() && (is_alpha(s[k]) || s[k] == '_'))
+      return extended(s);     // Klipper: NAME KEY=VALUE ...
     if (is_alpha(c)) return;  // a bare parameter line: ignore
     return bad("unreadable line '" + std::string(s.substr(0, 40)) + "'");
   }
@@ -173,40 +144,22 @@ void GcodeScanner::line(std::string_view text) {
       inches_ = false;
     else if (code == 92)
       move(args, 92);
-  } else if (c == 'M') {
-    if (code == 82)
-      abs_e_ = true;
-    else if (code == 83)
-      abs_e_ = false;
-    else if (code == 104 || code == 109) {
-      const auto sp = args.find_first_of("Ss");
-      if (sp == std::string_view::npos) return;
-      const char* b = args.data() + sp + 1;
-      const char* e = b;
-      while (e < args.data() + args.size() && *e != ' ' && *e != '\t' && *e != '*') ++e;
-      double t = 0;
-      if (!parse_number(b, e, t) || !std::isfinite(t) || t < 0 || t > 1000)
-        return bad("bad temperature in '" + std::string(args.substr(0, 30)) + "'");
-      sink_.temperature(t);
-    } else if (code == 165) {
-      std::vector<double> mix;
-      std::size_t p = 0;
-      while (p < args.size()) {
-        while (p < args.size() && args[p] == ' ') ++p;
-        if (p >= args.size()) break;
-        std::size_t q = p + 1;
-        while (q < args.size() && args[q] != ' ') ++q;
-        double v = 0;
-        if (std::from_chars(args.data() + p + 1, args.data() + q, v).ec == std::errc() &&
-            std::isfinite(v))
-          mix.push_back(v);
-        p = q;
-      }
-      sink_.mixture(mix);
+    else if (code == 10 && !param(args, "P").empty()) {  // RepRapFirmware G10 P<tool> S<t>
+      double tool = 0, t = 0;
+      const std::string_view pv = param(args, "P"), sv = param(args, "S");
+      const std::string_view sn = sv.substr(0, sv.find(':'));
+      if (!parse_number(pv.data(), pv.data() + pv.size(), tool) || tool < 0 || tool > 255)
+        return bad("bad tool in '" + std::string(args.substr(0, 40)) + "'");
+      if (sv.empty()) return;
+      if (!parse_number(sn.data(), sn.data() + sn.size(), t) || t < 0 || t > 1000)
+        return bad("bad temperature in '" + std::string(args.substr(0, 40)) + "'");
+      set_temperature(static_cast<int>(tool), t);
     }
+  } else if (c == 'M') {
+    mcode(static_cast<int>(code), args);
   } else if (c == 'T') {
     if (code < 0 || code > 255) return bad("tool number out of range");
-    sink_.tool_change(static_cast<int>(code));
+    select_tool(static_cast<int>(code));
   }
 }
 
@@ -391,6 +344,8 @@ class ToolpathBuilder : public GcodeSink {
     p.role = role_;
     p.mixture = mixture_;
     p.temperature = temperature_;
+    p.width = width_;
+    p.height = height_;
     p.speed = feed;
     p.filament = e;
     layer.paths.push_back(std::move(p));
@@ -414,6 +369,14 @@ class ToolpathBuilder : public GcodeSink {
     close();
     temperature_ = t;
   }
+  void width(double w) override {
+    if (w != width_) close();
+    width_ = w;
+  }
+  void height(double h) override {
+    if (h != height_) close();
+    height_ = h;
+  }
 
  private:
   void close() { path_ = nullptr; }
@@ -433,7 +396,7 @@ class ToolpathBuilder : public GcodeSink {
   int tool_ = 0;
   PathRole role_ = PathRole::Strut;
   std::vector<double> mixture_;
-  double temperature_ = 0;
+  double temperature_ = 0, width_ = 0, height_ = 0;
   bool commented_ = false, new_layer_ = false;
 };
 
@@ -449,7 +412,10 @@ Toolpath read_gcode(std::string_view text, const GcodeReadOptions& options, Diag
   tp.source = origin;
   ToolpathBuilder builder(tp);
   GcodeScanner scanner(builder, options, diag, origin);
-  scanner.feed(text);
+  if (is_bgcode(text))
+    scanner.feed(bgcode_to_text(text, origin));
+  else
+    scanner.feed(text);
   scanner.finish();
   return tp;
 }
@@ -459,6 +425,21 @@ void scan_gcode_file(const std::string& path, GcodeSink& sink, const GcodeReadOp
   std::ifstream in(path, std::ios::binary);
   if (!in) throw IoError("cannot open", {path});
   GcodeScanner scanner(sink, options, diag, path);
+  char magic[4] = {};
+  in.read(magic, 4);
+  const std::string_view head(magic, static_cast<std::size_t>(in.gcount()));
+  if (is_bgcode(head)) {
+    in.seekg(0);
+    read_bgcode(
+        [&](char* dst, std::size_t n) {
+          in.read(dst, static_cast<std::streamsize>(n));
+          return static_cast<std::size_t>(in.gcount());
+        },
+        [&](std::string_view t) { scanner.feed(t); }, path);
+    scanner.finish();
+    return;
+  }
+  scanner.feed(head);
   std::string buf(1 << 20, '\0');
   while (in) {
     in.read(buf.data(), static_cast<std::streamsize>(buf.size()));

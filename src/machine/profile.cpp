@@ -158,6 +158,10 @@ const std::vector<SettingDecl>& machine_settings() {
       {"gcode.end", "", "end template", 0, 0, &P::end_gcode},
       {"gcode.extension", "", "default output extension (.gcode for marlin, .nc for pneumatic)", 0,
        0, &P::file_extension},
+      {"gcode.thumbnails", "px",
+       "PNG previews embedded in the G-code header for printer screens and front ends, "
+       "\"WxH,WxH\" (PrusaSlicer's thumbnail format); empty = none",
+       0, 0, &P::thumbnails},
   };
   return table;
 }
@@ -354,8 +358,34 @@ void apply_override(MachineProfile& p, const std::string& assignment) {
   validate(p);
 }
 
+std::vector<std::pair<int, int>> MachineProfile::thumbnail_sizes() const {
+  std::vector<std::pair<int, int>> out;
+  std::size_t a = 0;
+  while (a < thumbnails.size()) {
+    std::size_t b = thumbnails.find(',', a);
+    if (b == std::string::npos) b = thumbnails.size();
+    const std::string item = thumbnails.substr(a, b - a);
+    const auto x = item.find('x');
+    int w = 0, h = 0;
+    const bool ok =
+        x != std::string::npos &&
+        std::from_chars(item.data(), item.data() + x, w).ptr == item.data() + x &&
+        std::from_chars(item.data() + x + 1, item.data() + item.size(), h).ptr ==
+            item.data() + item.size() &&
+        w >= 1 && h >= 1 && w <= 1024 && h <= 1024;
+    if (!ok)
+      throw SettingError("thumbnail size '" + item +
+                             "' is not WxH with 1..1024 pixels each way (e.g. 220x124)",
+                         {"", 0, "gcode.thumbnails"});
+    out.push_back({w, h});
+    a = b + 1;
+  }
+  return out;
+}
+
 void validate(const MachineProfile& p) {
   p.parsed_flavor();
+  p.thumbnail_sizes();
   if (p.gradient_mode != "mixing" && p.gradient_mode != "tools" && p.gradient_mode != "temperature")
     throw SettingError("unknown gradient mode '" + p.gradient_mode +
                            "' (expected mixing, tools or temperature)",

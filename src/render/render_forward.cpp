@@ -35,4 +35,8 @@ void render_series_png(const std::vector<double>& x, const std::vector<PlotSerie
   cairo().render_series_png(x, series, title, x_label, path);
 }
 
+std::string render_thumbnail_png(const Toolpath& toolpath, int width, int height) {
+  return cairo().render_thumbnail_png(toolpath, width, height);
+}
+
 }  // namespace trellis

@@ -600,7 +600,7 @@ void measure_gradient_error(const Field& field, const Toolpath& tp,
     Evaluator& ev = evaluators.local();
     Acc& a = acc.local();
     for (const auto& p : l.paths) {
-      if (p.mixture.empty() || p.role == PathRole::Other) continue;
+      if (p.mixture.empty() || p.role == PathRole::Purge) continue;
       for (const auto& q : p.points) {
         const auto f = ev.fractions({q.x, q.y, layers[idx].z});
         if (f.empty()) continue;
@@ -804,7 +804,7 @@ Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>&
           change = std::max(change, std::abs(after[m] - before[m]));
         if (purge.melt_volume > 0 && change > purge.threshold) {
           Path tower;
-          tower.role = PathRole::Other;
+          tower.role = PathRole::Purge;
           tower.mixture = piece.path.mixture;
           tower.width = o.bead_width;
           tower.height = o.layer_height;

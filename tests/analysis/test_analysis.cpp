@@ -86,8 +86,23 @@ TEST(Analysis, AlignmentFindsAPartPlacedOnTheBed) {
   CountingSink counter;
   GcodeScanner(counter, {}, d).feed(gcode);
   AnalysisParams params;
+  params.auto_align = false;
   EXPECT_EQ(analyze(read_gcode(gcode, {}, d), counter.counts, &g, params).missing_edges,
             g.edges.size());
   params.align_centers = true;
-  EXPECT_EQ(analyze(read_gcode(gcode, {}, d), counter.counts, &g, params).missing_edges, 0u);
+  Analysis a = analyze(read_gcode(gcode, {}, d), counter.counts, &g, params);
+  EXPECT_EQ(a.missing_edges, 0u);
+  EXPECT_FALSE(a.auto_aligned);
+  // Without --align the print, all of it away from the design, is aligned anyway and says so.
+  params.align_centers = false;
+  params.auto_align = true;
+  a = analyze(read_gcode(gcode, {}, d), counter.counts, &g, params);
+  EXPECT_EQ(a.missing_edges, 0u);
+  EXPECT_TRUE(a.auto_aligned);
+  EXPECT_NEAR(a.shift.x, -1000, 20);  // from the bed centre back to the design
+  EXPECT_NEAR(a.shift.y, -1000, 20);
+  // The same print where the design is: left alone.
+  a = analyze(tp, counter.counts, &g, params);
+  EXPECT_FALSE(a.auto_aligned);
+  EXPECT_EQ(a.missing_edges, 0u);
 }

@@ -566,6 +566,56 @@ TEST(Cli, AeroFoamThroughA3mfBeamLatticePlansTheFewestCollisionsTheGcodeHas) {
   EXPECT_NE(r.out.find("1093 struts"), std::string::npos) << r.out;
 }
 
+TEST(Cli, AnalyzeWithoutDesignCountsAndDrawsLayersAndAlignsPlacedPrints) {
+  const std::string lat = in_work("al.json"), tp = in_work("al.tp.json"), gc = in_work("al.gcode");
+  const std::string prof = std::string(TRELLIS_SOURCE_DIR) + "/profiles/ender3_s1_pro_tpu.toml";
+  // A sliced sphere: many layers.
+  ASSERT_EQ(
+      run("slice " + write("al.vcad", "sphere(3);\n") + " --machine " + prof + " -o " + gc).code,
+      0);
+  const std::string text = trellis::read_file(gc);
+  int layers = 0;
+  for (std::size_t at = text.find(";LAYER:"); at != std::string::npos;
+       at = text.find(";LAYER:", at + 1))
+    ++layers;
+  ASSERT_GT(layers, 10);
+  // Layers counted without --design, from the comments; and from Z alone when comments are gone.
+  CmdResult r = run("analyze " + gc);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find(": " + std::to_string(layers) + " layer(s)"), std::string::npos) << r.out;
+  std::string bare;
+  std::istringstream in(text);
+  for (std::string line; std::getline(in, line);)
+    if (line.rfind(";", 0) != 0) bare += line + "\n";
+  r = run("analyze " + write("bare.gcode", bare));
+  EXPECT_NE(r.out.find(": " + std::to_string(layers) + " layer(s)"), std::string::npos) << r.out;
+  // --png without a design: a picture per layer, and it says so.
+  r = run("analyze " + gc + " --png " + in_work("alpng"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  for (int i = 0; i < layers; ++i) {
+    char name[32];
+    std::snprintf(name, sizeof name, "al_layer_%04d.png", i);
+    EXPECT_TRUE(fs::exists(fs::path(in_work("alpng")) / name)) << name;
+  }
+  EXPECT_NE(r.out.find("wrote " + std::to_string(layers) + " layer picture(s)"), std::string::npos)
+      << r.out;
+  // A lattice printed on the bed centre, away from the design's place.
+  ASSERT_EQ(run("lattice2d --pattern triangle --cell 1 --size 5,5 -o " + lat).code, 0);
+  ASSERT_EQ(run("plan euler " + lat + " -o " + tp).code, 0);
+  ASSERT_EQ(run("gcode " + tp + " --machine " + prof + " --center -o " + gc).code, 0);
+  // Against the design without --align: aligned anyway, with a note naming --align.
+  r = run("analyze " + gc + " --design " + lat);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("missing 0 of"), std::string::npos) << r.out;
+  EXPECT_NE(r.err.find("--align"), std::string::npos) << r.err;
+  // A print where the design is: no move, no note.
+  const std::string here = in_work("al_here.gcode");
+  ASSERT_EQ(run("gcode " + tp + " --machine " + prof + " --no-center -o " + here).code, 0);
+  r = run("analyze " + here + " --design " + lat);
+  EXPECT_NE(r.out.find("missing 0 of"), std::string::npos) << r.out;
+  EXPECT_EQ(r.err.find("--align"), std::string::npos) << r.err;
+}
+
 // gippo.worst: the lowest-score solution is written and drawn beside the best; read back it
 // covers every strut of the lattice once and its Eq. 1 score is the report's lowest score.
 TEST(Cli, GippoWritesAndDrawsItsWorstSolution) {

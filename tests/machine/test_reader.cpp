@@ -175,3 +175,69 @@ TEST(Reader, MalformedLinesAreCountedOrStopTheRead) {
     EXPECT_EQ(e.where().line, 2);
   }
 }
+
+TEST(Reader, ValveCommandsMatchWholeWords) {
+  // M300 is a beep, not the valve command M3: the move after it must not extrude.
+  GcodeReadOptions opt;
+  opt.valve_on = "M3";
+  opt.valve_off = "M5";
+  Diagnostics d;
+  const Toolpath tp = read_gcode(
+      "G0 X0 Y0\nM300 S440 P200\nG1 X10 Y0\nM3 S1000\nG1 X20 Y0\nM5\nM3;open\nG1 X30 Y0\nM50\n"
+      "G1 X40 Y0\n",
+      opt, d);
+  ASSERT_EQ(tp.layers.size(), 1u);
+  ASSERT_EQ(tp.layers[0].paths.size(), 1u);
+  const auto& pts = tp.layers[0].paths[0].points;
+  // Open from "M3 S1000" (x = 10) on; M5 and "M3;open" close and reopen it without a move, and
+  // M50 is not M5: one path from 10 to 40. Prefix matching would start it at 0 (M300) and end it
+  // at 30 (M50).
+  EXPECT_DOUBLE_EQ(pts.front().x, 10);
+  EXPECT_DOUBLE_EQ(pts.back().x, 40);
+}
+
+TEST(Reader, RepRapFirmwareAndKlipperDialects) {
+  Diagnostics d;
+  // RepRapFirmware: tool temperatures by M568 / G10 P, mixing by M567 P<tool> E<a>:<b>.
+  const Toolpath rrf = read_gcode(
+      "M568 P0 S205 R150\nG10 P1 S230 R160\nM567 P1 E0.3:0.7\nT0\nG1 X1 E1\nT1\nG1 X2 E2\n"
+      "M568 P1 S240\nG1 X3 E3\nG10 ; a firmware retraction, not a tool setting\nG1 X4 E4\n",
+      {}, d, "rrf");
+  EXPECT_EQ(d.total(), 0u) << (d.messages().empty() ? "" : d.messages()[0].text);
+  ASSERT_EQ(rrf.layers.size(), 1u);
+  const auto& r = rrf.layers[0].paths;
+  ASSERT_EQ(r.size(), 3u);
+  EXPECT_EQ(r[0].tool, 0);
+  EXPECT_EQ(r[0].temperature, 205);
+  EXPECT_TRUE(r[0].mixture.empty());
+  EXPECT_EQ(r[1].tool, 1);
+  EXPECT_EQ(r[1].temperature, 230);
+  EXPECT_EQ(r[1].mixture, (std::vector<double>{0.3, 0.7}));
+  EXPECT_EQ(r[2].temperature, 240);  // the tool in use changed its temperature
+  // Klipper: ACTIVATE_EXTRUDER and SET_HEATER_TEMPERATURE; the bed heater is not a nozzle.
+  const Toolpath kl = read_gcode(
+      "SET_HEATER_TEMPERATURE HEATER=extruder TARGET=200\n"
+      "SET_HEATER_TEMPERATURE HEATER=extruder1 TARGET=215\n"
+      "SET_HEATER_TEMPERATURE HEATER=heater_bed TARGET=60\nG1 X1 E1\n"
+      "ACTIVATE_EXTRUDER EXTRUDER=extruder1\nG1 X2 E2\nM104 T0 S190\n"
+      "ACTIVATE_EXTRUDER EXTRUDER=extruder\nG1 X3 E3\n",
+      {}, d, "klipper");
+  EXPECT_EQ(d.total(), 0u) << (d.messages().empty() ? "" : d.messages()[0].text);
+  ASSERT_EQ(kl.layers.size(), 1u);
+  const auto& k = kl.layers[0].paths;
+  ASSERT_EQ(k.size(), 3u);
+  EXPECT_EQ(k[0].tool, 0);
+  EXPECT_EQ(k[0].temperature, 200);
+  EXPECT_EQ(k[1].tool, 1);
+  EXPECT_EQ(k[1].temperature, 215);
+  EXPECT_EQ(k[2].tool, 0);
+  EXPECT_EQ(k[2].temperature, 190);
+  // Marlin's M163/M164 virtual-tool mix, normalised.
+  const Toolpath m = read_gcode("M163 S0 P1\nM163 S1 P3\nM164 S0\nG1 X1 E1\n", {}, d, "m163");
+  ASSERT_EQ(m.layers.size(), 1u);
+  EXPECT_EQ(m.layers[0].paths[0].mixture, (std::vector<double>{0.25, 0.75}));
+  // A bad mix ratio is a named bad line.
+  Diagnostics bad;
+  read_gcode("M567 P0 E0.5:x\n", {}, bad, "bad");
+  EXPECT_EQ(bad.count("gcode_bad_line"), 1u);
+}

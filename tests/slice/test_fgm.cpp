@@ -340,7 +340,7 @@ TEST(Fgm, Strategy1KeepsEveryPlanarPathAndPurgesBetweenColours) {
     for (const auto& p : planar.layers[li].paths) uncut += p.length();
     const auto& paths = tp.layers[li].paths;
     for (std::size_t k = 0; k < paths.size(); ++k) {
-      if (paths[k].role == PathRole::Other) {  // a purge block
+      if (paths[k].role == PathRole::Purge) {  // a purge block
         EXPECT_GE(paths[k].length(), L - 1e-6);
         for (const auto& q : paths[k].points) EXPECT_LT(q.x, -10);
         continue;

@@ -67,6 +67,10 @@ struct AnalysisParams {
   double min_covered = 0.5;     // a strut is missing if less than this fraction is covered
   std::size_t long_nodes = 5;
   bool align_centers = false;  // move the print's XY centre onto the design's before measuring
+  // Without align_centers: align anyway when less than half of the extruded length lies in the
+  // design's XY box (a part placed on the bed); Analysis::auto_aligned says so.
+  bool auto_align = true;
+  bool keep_printed = false;   // build the IR (Analysis::printed) even without a design
   double acceleration = 0;     // mm/s² for the print-time estimate (0 = feed rates only)
 };
 
@@ -96,6 +100,8 @@ struct Analysis {
   std::size_t design_edges = 0, missing_edges = 0;
   double score = 0, score_corrected = 0, lts = 0, oe = 0;
   bool has_design = false;
+  bool auto_aligned = false;  // the print was moved onto the design by auto_align
+  Vec2 shift;                 // XY added to the print to align it (0 if not aligned)
   std::vector<LayerAnalysis> layers;
   Toolpath printed;  // the print as measured (after alignment), for pictures
 };

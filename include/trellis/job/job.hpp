@@ -22,6 +22,7 @@
 #include "trellis/core/diagnostics.hpp"
 #include "trellis/core/progress.hpp"
 #include "trellis/lattice/graph.hpp"
+#include "trellis/machine/gcode_writer.hpp"
 #include "trellis/machine/laser.hpp"
 #include "trellis/settings/settings.hpp"
 #include "trellis/toolpath/toolpath.hpp"
@@ -74,6 +75,11 @@ Job rerun_job(const std::string& path, const std::string& target = "");
 // header undone. `snap` gets the profile's node overlap + 0.05 when it is left at 0.05.
 Toolpath read_print(const std::string& path, const Settings* machine, double* snap,
                     Diagnostics& diag);
+
+// The thumbnails the machine's gcode.thumbnails asks for, drawn from the toolpath (cairo module),
+// for write_gcode.
+std::vector<GcodeThumbnail> gcode_thumbnails(const Toolpath& toolpath,
+                                             const MachineProfile& machine);
 
 // GIPPO parts on a solid: the height at which layer `layer` (of thickness h) is cropped to the
 // solid's section — its middle, or just below the top for a partial top layer.

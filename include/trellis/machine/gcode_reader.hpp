@@ -1,17 +1,23 @@
-// G-code reader (Marlin / RepRap flavours): turns any slicer's G-code back into moves, and into
-// the toolpath IR. Understands G0/G1, G2/G3 (arcs split within a chord tolerance), G90/G91,
-// M82/M83, G92, G20/G21, T<n>, M165 (mixing), M104/M109 (nozzle temperature), and the layer / type comments of Cura (;LAYER:,
-// ;TYPE:), PrusaSlicer (;LAYER_CHANGE, ;Z:, ;TYPE:) and Trellis. A move extrudes when E grows
-// (or, for pneumatic files, while the valve command is in force).
+// G-code reader (Marlin, RepRapFirmware and Klipper dialects): turns any slicer's G-code back into
+// moves, and into the toolpath IR. Understands G0/G1, G2/G3 (arcs split within a chord
+// tolerance), G90/G91, M82/M83, G92, G20/G21; tools: T<n>, Klipper ACTIVATE_EXTRUDER; nozzle
+// temperatures per tool: M104/M109 S<t> [T<n>], RepRapFirmware M568 P<tool> S<t> and G10 P<tool>
+// S<t>, Klipper SET_HEATER_TEMPERATURE HEATER=extruder[N] TARGET=<t>; mixtures: Marlin M165 and
+// M163/M164, RepRapFirmware M567 P<tool> E<a>:<b>...; the comments of Cura (;LAYER:, ;TYPE:),
+// PrusaSlicer (;LAYER_CHANGE, ;Z:, ;TYPE:, ;WIDTH:, ;HEIGHT:) and Trellis. A move extrudes when E
+// grows (or, for pneumatic files, while the valve command is in force). PrusaSlicer's binary
+// G-code (.bgcode, machine/bgcode.hpp) is recognised by its magic and decoded on the fly.
 //
 // The reader streams: `GcodeScanner` calls a sink per move, so metrics over a 1 GB file run in
 // constant memory; `read_gcode` builds the toolpath IR (paths split at travel and retraction).
 // Bad lines (garbage words, numbers that do not parse, NaN, |value| > 1e6) are counted as
 // warnings naming the line and skipped, or stop the read with a ParseError if asked.
 #pragma once
+#include <cmath>
 #include <memory>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "trellis/core/diagnostics.hpp"
 #include "trellis/toolpath/toolpath.hpp"
@@ -21,9 +27,17 @@ namespace trellis {
 struct GcodeReadOptions {
   double arc_tolerance = 0.005;  // max chord error when splitting G2/G3 (mm)
   bool stop_on_error = false;    // throw ParseError at the first bad line instead of skipping it
-  std::string valve_on;          // pneumatic: a line starting with this opens the valve
-  std::string valve_off;         // ... and this closes it
+  // Pneumatic: a line whose first words are these opens / closes the valve (whole words: "M3"
+  // does not match "M300").
+  std::string valve_on;
+  std::string valve_off;
 };
+
+// ;TYPE: comment names: PrusaSlicer's vocabulary for the roles it has (Perimeter, Internal infill,
+// Solid infill, Wipe tower, Custom), Trellis' own for the rest (Strut, Contour, Handle); the
+// reader also knows Cura's (WALL-OUTER, SKIN, FILL, ...). docs/gcode.md has the table.
+const char* gcode_type_name(PathRole role);
+PathRole role_from_gcode_type(std::string_view type);
 
 // What the scanner reports. Positions are absolute, in mm.
 class GcodeSink {
@@ -36,7 +50,9 @@ class GcodeSink {
   virtual void tool_change(int tool) {}
   virtual void role(PathRole role) {}  // from a ;TYPE: comment
   virtual void mixture(const std::vector<double>& fractions) {}
-  virtual void temperature(double celsius) {}      // M104 / M109 S<t>
+  virtual void temperature(double celsius) {}  // nozzle temperature of the tool in use
+  virtual void width(double mm) {}             // from a ;WIDTH: comment
+  virtual void height(double mm) {}            // from a ;HEIGHT: comment
 };
 
 class GcodeScanner {
@@ -57,6 +73,11 @@ class GcodeScanner {
   void arc(Vec3 target, double e_target, double i, double j, double r, bool has_r, bool cw,
            double feed);
   void segment(Vec3 to, double e_to, double feed);
+  void mcode(int code, std::string_view args);
+  void extended(std::string_view s);  // Klipper-style NAME KEY=VALUE commands
+  void set_temperature(int tool, double celsius);
+  void select_tool(int tool);
+  void set_mixture(int tool, std::vector<double> mix);
 
   GcodeSink& sink_;
   GcodeReadOptions opt_;
@@ -67,6 +88,11 @@ class GcodeScanner {
   Vec3 pos_;
   double e_ = 0, feed_ = 0;
   bool abs_pos_ = true, abs_e_ = true, inches_ = false, valve_ = false;
+  int tool_ = 0;
+  std::vector<double> tool_temp_;              // per tool, NaN = not set
+  std::vector<std::vector<double>> tool_mix_;  // RepRapFirmware M567: per tool
+  std::vector<double> m163_;                   // Marlin M163 weights before M164
+  double reported_temp_ = std::nan("");
 };
 
 // A sink that builds the toolpath IR into `toolpath` (paths split at travel, retraction, tool,

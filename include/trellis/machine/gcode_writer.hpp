@@ -3,11 +3,18 @@
 // pressure per path instead of E; `embedded` is pneumatic inside a support bath: every travel
 // lifts straight up to the bath surface plus a clearance, moves, and re-enters straight down;
 // optional dwell at nodes and overlap past path ends; one nozzle per tool with XY offsets,
-// pressures, the idle nozzle raised and a tool-change command. Numbers: XYZ with 3 decimals (1 µm, finer than any motion
-// system here), E with 5 (10 nm of filament, so per-segment rounding cannot accumulate), both
-// without trailing zeros; F in whole mm/min.
+// pressures, the idle nozzle raised and a tool-change command. Numbers: XYZ with 3 decimals (1 µm,
+// finer than any motion system here), E with 5 (10 nm of filament, so per-segment rounding cannot
+// accumulate), both without trailing zeros; F in whole mm/min.
+//
+// What other tools read (PrusaSlicer's conventions, docs/gcode.md): embedded PNG thumbnails,
+// ;LAYER_COUNT: in the header, ;TYPE: (gcode_type_name), ;WIDTH: and ;HEIGHT: before each path
+// where they change, M73 P<percent> R<minutes left> at every layer for firmwares that show it
+// (Marlin, RepRapFirmware, Klipper), and the closing "; total layers count", "; estimated printing
+// time (normal mode)" and "; filament used [mm]" lines.
 #pragma once
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -32,16 +39,32 @@ struct GcodeStats {
   std::vector<std::pair<std::string, std::string>> warnings;
 };
 
+// A picture for printer front ends: PNG bytes of a width x height image.
+struct GcodeThumbnail {
+  int width = 0, height = 0;
+  std::string png;
+};
+
+// Whether the flavour's firmware takes M73 progress (Marlin, RepRapFirmware, Klipper).
+bool gcode_progress_supported(const std::string& flavor);
+// Standard base64 (RFC 4648, with padding).
+std::string base64(std::string_view bytes);
+// A thumbnail as PrusaSlicer embeds it: "; thumbnail begin WxH LEN", base64 rows, "; thumbnail
+// end".
+std::string thumbnail_block(const GcodeThumbnail& thumbnail);
+
 // E for a segment of `length` mm printed at layer thickness `layer` (Eq. 4).
 double extrusion_for(double length, double layer, const MachineProfile& profile);
 
 // Checks the toolpath against the machine first (check_for_machine): MachineError if it cannot
 // print as meant, warnings into the stats.
 std::string write_gcode(const Toolpath& toolpath, const MachineProfile& profile,
-                        GcodeStats* stats = nullptr);
+                        GcodeStats* stats = nullptr,
+                        const std::vector<GcodeThumbnail>& thumbnails = {});
 // Writes atomically; returns the stats.
 GcodeStats write_gcode_file(const std::string& path, const Toolpath& toolpath,
-                            const MachineProfile& profile);
+                            const MachineProfile& profile,
+                            const std::vector<GcodeThumbnail>& thumbnails = {});
 
 // Expands {key} / {section.key} placeholders with setting values; throws SettingError.
 std::string expand_template(const std::string& text, const MachineProfile& profile,

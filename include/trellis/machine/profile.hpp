@@ -97,6 +97,7 @@ struct MachineProfile {
   std::string start_gcode = "G28";
   std::string end_gcode = "M84";
   std::string file_extension = "";  // default output extension: "" = by flavor
+  std::string thumbnails = "16x16,220x124";  // PNG previews in the G-code header, "WxH,..."
 
   Flavor parsed_flavor() const;
   // Tools used for a gradient in `tools` mode (gradient_tools, or all tools).
@@ -108,6 +109,8 @@ struct MachineProfile {
   double tool_pressure(int tool) const;
   // down_flow as (descent angle in degrees, factor), sorted by angle (throws SettingError).
   std::vector<std::pair<double, double>> down_flow_table() const;
+  // thumbnails as (width, height) pairs (throws SettingError).
+  std::vector<std::pair<int, int>> thumbnail_sizes() const;
 };
 
 

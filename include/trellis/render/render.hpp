@@ -54,6 +54,10 @@ void render_overlay_png(const std::vector<Segment2>& design, const Layer& printe
                         const std::vector<Segment2>& red, const std::vector<Segment2>& blue,
                         double bead_width, const std::string& path, int size_px = 1000);
 
+// A thumbnail for G-code headers (PNG bytes, width x height): the whole print seen from the front
+// and above, fitted on a transparent background, shaded by height.
+std::string render_thumbnail_png(const Toolpath& toolpath, int width, int height);
+
 // Scatter of scores per iteration with the best one marked.
 void render_scores_png(const std::vector<double>& scores, std::size_t best_iteration,
                        const std::string& title, const std::string& path);

@@ -1,0 +1,51 @@
+// PrusaSlicer binary G-code (.bgcode), read from its published specification (libbgcode
+// doc/specifications.md; no libbgcode code is used): a 10-byte file header ("GCDE", version 1,
+// checksum type) followed by blocks (file / printer / print / slicer metadata, thumbnails,
+// G-code), each a header (type, compression, sizes), parameters, data and an optional CRC32 over
+// all three. Compression: none, Deflate (zlib), Heatshrink with window/lookahead 11/4 or 12/4.
+// G-code blocks are plain text or MeatPack (with or without comments kept).
+#pragma once
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <string_view>
+
+namespace trellis {
+
+// True if `head` (the first bytes of a file) starts with the bgcode magic "GCDE".
+bool is_bgcode(std::string_view head);
+
+// Heatshrink (LZSS) decoder: bit stream MSB first; tag 1 = a literal byte (8 bits), tag 0 = a
+// back-reference of `window_bits` bits (distance - 1) and `lookahead_bits` bits (count - 1).
+// Stops after `size` bytes; a stream that ends early or points before the start is a ParseError.
+std::string heatshrink_decode(std::string_view data, int window_bits, int lookahead_bits,
+                              std::size_t size);
+
+// MeatPack decoder (Marlin's packing, as used in bgcode G-code blocks): 4-bit codes for the 15
+// commonest characters, two per byte, 0b1111 = a full byte follows; 0xFF 0xFF <cmd> switches
+// packing / the no-spaces mode (where code 11 means 'E' instead of ' ').
+class MeatPackDecoder {
+ public:
+  void feed(std::string_view data, std::string& out);
+
+ private:
+  void inner(std::uint8_t c, std::string& out);
+  void command(std::uint8_t c);
+  void put(char c, std::string& out);
+  bool active_ = false, no_spaces_ = false, cmd_next_ = false;
+  int ff_count_ = 0, full_chars_ = 0;
+  char second_ = 0;
+};
+
+// Reads the blocks of a bgcode file from `read` (which fills a buffer with up to n bytes and
+// returns how many it got), checks each CRC, decompresses and decodes the G-code blocks and calls
+// `text` with each piece of G-code in order (constant memory: one block at a time). Metadata
+// blocks become `; key = value` comment lines, thumbnails are skipped. Errors name `origin` and
+// the byte offset of the block.
+void read_bgcode(const std::function<std::size_t(char*, std::size_t)>& read,
+                 const std::function<void(std::string_view)>& text, const std::string& origin);
+
+// The whole file as G-code text (tests, small files).
+std::string bgcode_to_text(std::string_view bytes, const std::string& origin = "bgcode");
+
+}  // namespace trellis

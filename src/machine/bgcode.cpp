@@ -1,0 +1,322 @@
+#include "trellis/machine/bgcode.hpp"
+
+#include <zlib.h>
+
+#include <cstring>
+#include <vector>
+
+#include "trellis/core/error.hpp"
+
+namespace trellis {
+
+namespace {
+
+constexpr std::size_t kMaxBlock = std::size_t{1} << 28;  // 256 MiB: PrusaSlicer writes 64 KiB
+
+enum class BlockType : std::uint16_t {
+  FileMetadata = 0,
+  Gcode = 1,
+  SlicerMetadata = 2,
+  PrinterMetadata = 3,
+  PrintMetadata = 4,
+  Thumbnail = 5
+};
+
+std::uint16_t u16(const unsigned char* p) {
+  return static_cast<std::uint16_t>(p[0] | (p[1] << 8));
+}
+std::uint32_t u32(const unsigned char* p) {
+  return static_cast<std::uint32_t>(p[0]) | (static_cast<std::uint32_t>(p[1]) << 8) |
+         (static_cast<std::uint32_t>(p[2]) << 16) | (static_cast<std::uint32_t>(p[3]) << 24);
+}
+
+// Reads bits MSB first.
+class BitReader {
+ public:
+  explicit BitReader(std::string_view d) : d_(d) {}
+  // Returns false when fewer than n bits are left.
+  bool get(int n, unsigned& v) {
+    if (pos_ + static_cast<std::size_t>(n) > d_.size() * 8) return false;
+    v = 0;
+    for (int i = 0; i < n; ++i, ++pos_) {
+      const auto byte = static_cast<unsigned char>(d_[pos_ / 8]);
+      v = (v << 1) | ((byte >> (7 - pos_ % 8)) & 1u);
+    }
+    return true;
+  }
+
+ private:
+  std::string_view d_;
+  std::size_t pos_ = 0;
+};
+
+std::string inflate_zlib(std::string_view data, std::size_t size, const std::string& where) {
+  std::string out(size, '\0');
+  uLongf got = static_cast<uLongf>(size);
+  const int rc =
+      uncompress(reinterpret_cast<Bytef*>(out.data()), &got,
+                 reinterpret_cast<const Bytef*>(data.data()), static_cast<uLong>(data.size()));
+  if (rc != Z_OK || got != size)
+    throw ParseError("Deflate data does not decompress to the " + std::to_string(size) +
+                         " bytes its block header states (zlib: " + std::to_string(rc) + ")",
+                     {where});
+  return out;
+}
+
+// "key=value" lines as "; key = value" comments.
+std::string metadata_comments(std::string_view ini) {
+  std::string out;
+  std::size_t a = 0;
+  while (a < ini.size()) {
+    std::size_t b = ini.find('\n', a);
+    if (b == std::string_view::npos) b = ini.size();
+    const std::string_view l = ini.substr(a, b - a);
+    const auto eq = l.find('=');
+    if (eq != std::string_view::npos) {
+      out += "; ";
+      out += l.substr(0, eq);
+      out += " = ";
+      out += l.substr(eq + 1);
+      out += '\n';
+    }
+    a = b + 1;
+  }
+  return out;
+}
+
+}  // namespace
+
+bool is_bgcode(std::string_view head) {
+  return head.size() >= 4 && head.substr(0, 4) == "GCDE";
+}
+
+std::string heatshrink_decode(std::string_view data, int window_bits, int lookahead_bits,
+                              std::size_t size) {
+  std::string out;
+  out.reserve(size);
+  BitReader bits(data);
+  while (out.size() < size) {
+    unsigned tag = 0, v = 0, count = 0;
+    if (!bits.get(1, tag)) break;
+    if (tag) {
+      if (!bits.get(8, v)) break;
+      out += static_cast<char>(v);
+      continue;
+    }
+    if (!bits.get(window_bits, v) || !bits.get(lookahead_bits, count)) break;
+    const std::size_t offset = std::size_t{v} + 1;
+    if (offset > out.size())
+      throw ParseError("Heatshrink back-reference " + std::to_string(offset) +
+                       " bytes back at output byte " + std::to_string(out.size()));
+    for (unsigned k = 0; k <= count && out.size() < size; ++k) out += out[out.size() - offset];
+  }
+  if (out.size() != size)
+    throw ParseError("Heatshrink data ends after " + std::to_string(out.size()) + " of " +
+                     std::to_string(size) + " bytes");
+  return out;
+}
+
+void MeatPackDecoder::put(char c, std::string& out) {
+  out += c;
+}
+
+void MeatPackDecoder::command(std::uint8_t c) {
+  switch (c) {
+    case 0xFB:  // enable packing
+      active_ = true;
+      break;
+    case 0xFA:  // disable packing
+      active_ = false;
+      break;
+    case 0xF9:  // reset all
+      active_ = no_spaces_ = false;
+      break;
+    case 0xF7:  // no spaces on
+      no_spaces_ = true;
+      break;
+    case 0xF6:  // no spaces off
+      no_spaces_ = false;
+      break;
+    default:  // 0xF8 query config, or unknown: nothing to decode
+      break;
+  }
+}
+
+void MeatPackDecoder::inner(std::uint8_t c, std::string& out) {
+  if (!active_) return put(static_cast<char>(c), out);
+  if (full_chars_ > 0) {  // a byte that could not be packed
+    put(static_cast<char>(c), out);
+    if (second_) {
+      put(second_, out);
+      second_ = 0;
+    }
+    --full_chars_;
+    return;
+  }
+  static constexpr char kCodes[] = "0123456789. \nGX";
+  auto code = [&](unsigned n) { return n == 11 && no_spaces_ ? 'E' : kCodes[n]; };
+  const unsigned lo = c & 0xF, hi = c >> 4;
+  if (lo == 0xF) {
+    ++full_chars_;
+    if (hi == 0xF)
+      ++full_chars_;
+    else
+      second_ = code(hi);
+    return;
+  }
+  const char first = code(lo);
+  put(first, out);
+  if (first == '\n') return;  // the other half of a line's last byte is padding
+  if (hi == 0xF)
+    ++full_chars_;
+  else
+    put(code(hi), out);
+}
+
+void MeatPackDecoder::feed(std::string_view data, std::string& out) {
+  for (const char ch : data) {
+    const auto c = static_cast<std::uint8_t>(ch);
+    if (c == 0xFF && !cmd_next_) {
+      if (ff_count_) {
+        cmd_next_ = true;
+        ff_count_ = 0;
+      } else {
+        ff_count_ = 1;
+      }
+    } else if (cmd_next_) {
+      command(c);
+      cmd_next_ = false;
+    } else {
+      if (ff_count_) {  // a single 0xFF: two full bytes follow
+        inner(0xFF, out);
+        ff_count_ = 0;
+      }
+      inner(c, out);
+    }
+  }
+}
+
+void read_bgcode(const std::function<std::size_t(char*, std::size_t)>& read,
+                 const std::function<void(std::string_view)>& text, const std::string& origin) {
+  std::size_t offset = 0;
+  std::vector<char> buf;
+  auto need = [&](std::size_t n, const char* what) {
+    buf.resize(n);
+    std::size_t got = 0;
+    while (got < n) {
+      const std::size_t k = read(buf.data() + got, n - got);
+      if (k == 0) break;
+      got += k;
+    }
+    if (got != n)
+      throw ParseError(std::string("binary G-code ends inside ") + what + " at byte " +
+                           std::to_string(offset + got),
+                       {origin});
+    offset += n;
+    return reinterpret_cast<const unsigned char*>(buf.data());
+  };
+  const unsigned char* h = need(10, "the file header");
+  if (std::memcmp(h, "GCDE", 4) != 0)
+    throw ParseError("not a binary G-code file (no GCDE magic)", {origin});
+  if (u32(h + 4) != 1)
+    throw ParseError(
+        "binary G-code version " + std::to_string(u32(h + 4)) + " (this reader knows version 1)",
+        {origin});
+  const std::uint16_t checksum = u16(h + 8);
+  if (checksum > 1) throw ParseError("unknown checksum type " + std::to_string(checksum), {origin});
+  MeatPackDecoder meatpack;
+  std::string decoded, block;
+  std::size_t gcode_blocks = 0;
+  for (;;) {
+    // End of file: a clean end only between blocks.
+    char first = 0;
+    if (read(&first, 1) == 0) break;
+    const std::size_t start = offset;
+    const std::string at = "block at byte " + std::to_string(start);
+    block.assign(1, first);
+    offset += 1;
+    const unsigned char* p = need(7, "a block header");
+    block.append(buf.data(), 7);
+    const auto* b = reinterpret_cast<const unsigned char*>(block.data());
+    const auto type = u16(b);
+    const auto compression = u16(b + 2);
+    const std::size_t size = u32(b + 4);
+    (void)p;
+    if (type > 5) throw ParseError("unknown block type " + std::to_string(type), {origin, 0, at});
+    if (compression > 3)
+      throw ParseError("unknown compression " + std::to_string(compression), {origin, 0, at});
+    std::size_t stored = size;
+    if (compression != 0) {
+      need(4, "a block header");
+      block.append(buf.data(), 4);
+      stored = u32(reinterpret_cast<const unsigned char*>(block.data()) + 8);
+    }
+    if (size > kMaxBlock || stored > kMaxBlock)
+      throw ParseError("block of " + std::to_string(std::max(size, stored)) +
+                           " bytes (more than 256 MiB: a damaged header?)",
+                       {origin, 0, at});
+    const std::size_t header = block.size();
+    const std::size_t params = type == static_cast<std::uint16_t>(BlockType::Thumbnail) ? 6 : 2;
+    need(params + stored, "a block");
+    block.append(buf.data(), params + stored);
+    if (checksum == 1) {
+      const unsigned char* c = need(4, "a block checksum");
+      const std::uint32_t want = u32(c);
+      const auto got = static_cast<std::uint32_t>(
+          crc32(0L, reinterpret_cast<const Bytef*>(block.data()), static_cast<uInt>(block.size())));
+      if (want != got) throw ParseError("CRC32 mismatch (damaged file)", {origin, 0, at});
+    }
+    const auto* bp = reinterpret_cast<const unsigned char*>(block.data());
+    const std::uint16_t encoding = u16(bp + header);
+    const std::string_view data(block.data() + header + params, stored);
+    if (type == static_cast<std::uint16_t>(BlockType::Thumbnail)) continue;
+    std::string plain;
+    switch (compression) {
+      case 0:
+        plain.assign(data);
+        break;
+      case 1:
+        plain = inflate_zlib(data, size, origin + " " + at);
+        break;
+      default:
+        try {
+          plain = heatshrink_decode(data, compression == 2 ? 11 : 12, 4, size);
+        } catch (const ParseError& e) {
+          throw ParseError(e.message(), {origin, 0, at});
+        }
+    }
+    if (type == static_cast<std::uint16_t>(BlockType::Gcode)) {
+      ++gcode_blocks;
+      if (encoding == 0) {
+        text(plain);
+      } else if (encoding == 1 || encoding == 2) {
+        decoded.clear();
+        meatpack.feed(plain, decoded);
+        text(decoded);
+      } else {
+        throw ParseError("unknown G-code encoding " + std::to_string(encoding), {origin, 0, at});
+      }
+    } else {
+      if (encoding != 0)
+        throw ParseError("unknown metadata encoding " + std::to_string(encoding), {origin, 0, at});
+      text(metadata_comments(plain));
+    }
+  }
+  if (gcode_blocks == 0) throw ParseError("binary G-code file without G-code blocks", {origin});
+}
+
+std::string bgcode_to_text(std::string_view bytes, const std::string& origin) {
+  std::size_t pos = 0;
+  std::string out;
+  read_bgcode(
+      [&](char* dst, std::size_t n) {
+        const std::size_t k = std::min(n, bytes.size() - pos);
+        std::memcpy(dst, bytes.data() + pos, k);
+        pos += k;
+        return k;
+      },
+      [&](std::string_view t) { out.append(t); }, origin);
+  return out;
+}
+
+}  // namespace trellis

@@ -1,0 +1,215 @@
+// The G-code reader's dialect commands (gcode_reader.hpp): tools, nozzle temperatures per tool
+// and mixtures as Marlin, RepRapFirmware and Klipper write them, and the ;TYPE: vocabulary.
+#include <cmath>
+
+#include "gcode_lex.hpp"
+#include "trellis/core/text.hpp"
+#include "trellis/machine/gcode_reader.hpp"
+
+namespace trellis {
+
+using namespace gcode_lex;
+
+namespace {
+
+// "a:b:c" (RepRapFirmware lists) as numbers; false if one does not parse.
+bool number_list(std::string_view s, std::vector<double>& out) {
+  out.clear();
+  while (!s.empty()) {
+    const auto colon = s.find(':');
+    const std::string_view item = s.substr(0, colon);
+    double v = 0;
+    if (!parse_number(item.data(), item.data() + item.size(), v) || !std::isfinite(v)) return false;
+    out.push_back(v);
+    if (colon == std::string_view::npos) break;
+    s.remove_prefix(colon + 1);
+  }
+  return !out.empty();
+}
+
+}  // namespace
+
+// ;TYPE: names, both ways. PrusaSlicer's vocabulary where it has the role (Cura's names are read
+// too); Trellis' own roles (Strut, Contour, Handle) under their own names. See docs/gcode.md.
+const char* gcode_type_name(PathRole role) {
+  switch (role) {
+    case PathRole::Perimeter:
+      return "Perimeter";
+    case PathRole::Infill:
+      return "Internal infill";
+    case PathRole::Skin:
+      return "Solid infill";
+    case PathRole::Purge:
+      return "Wipe tower";
+    case PathRole::Strut:
+      return "Strut";
+    case PathRole::Contour:
+      return "Contour";
+    case PathRole::Handle:
+      return "Handle";
+    case PathRole::Other:
+      break;
+  }
+  return "Custom";
+}
+
+PathRole role_from_gcode_type(std::string_view t) {
+  t = trim(t);
+  auto has = [&](std::string_view w) { return t.find(w) != t.npos; };
+  // Cura: WALL-OUTER, WALL-INNER, SKIN, FILL, SUPPORT, SKIRT, PRIME-TOWER; PrusaSlicer: External
+  // perimeter, Perimeter, Overhang perimeter, Solid infill, Top solid infill, Bridge infill,
+  // Internal infill, Gap fill, Skirt/Brim, Support material, Wipe tower, Custom.
+  if (has("WALL") || has("erimeter")) return PathRole::Perimeter;
+  if (has("SKIN") || has("olid infill") || has("ridge infill") || has("Gap fill"))
+    return PathRole::Skin;
+  if (has("FILL") || has("nfill")) return PathRole::Infill;
+  if (has("ipe tower") || has("PRIME-TOWER") || has("urge")) return PathRole::Purge;
+  if (has("STRUT") || has("trut")) return PathRole::Strut;
+  if (has("ontour")) return PathRole::Contour;
+  if (has("andle")) return PathRole::Handle;
+  return PathRole::Other;
+}
+
+void GcodeScanner::set_temperature(int tool, double t) {
+  if (tool < 0 || tool > 255) return bad("tool number out of range");
+  if (tool_temp_.size() <= static_cast<std::size_t>(tool))
+    tool_temp_.resize(tool + 1, std::nan(""));
+  tool_temp_[tool] = t;
+  if (tool == tool_ && !(t == reported_temp_)) {
+    reported_temp_ = t;
+    sink_.temperature(t);
+  }
+}
+
+void GcodeScanner::select_tool(int tool) {
+  tool_ = tool;
+  sink_.tool_change(tool);
+  if (static_cast<std::size_t>(tool) < tool_temp_.size() && std::isfinite(tool_temp_[tool]) &&
+      !(tool_temp_[tool] == reported_temp_)) {
+    reported_temp_ = tool_temp_[tool];
+    sink_.temperature(reported_temp_);
+  }
+  if (static_cast<std::size_t>(tool) < tool_mix_.size() && !tool_mix_[tool].empty())
+    sink_.mixture(tool_mix_[tool]);
+}
+
+void GcodeScanner::set_mixture(int tool, std::vector<double> mix) {
+  if (tool < 0 || tool > 255) return bad("tool number out of range");
+  if (tool_mix_.size() <= static_cast<std::size_t>(tool)) tool_mix_.resize(tool + 1);
+  tool_mix_[tool] = mix;
+  if (tool == tool_) sink_.mixture(mix);
+}
+
+void GcodeScanner::mcode(int code, std::string_view args) {
+  // A parameter's number, or NaN when it is absent; a bad number is a bad line.
+  bool ok = true;
+  auto num = [&](std::string_view key) {
+    const std::string_view v = param(args, key);
+    double x = 0;
+    if (v.empty()) return std::nan("");
+    std::string_view n = v.substr(0, v.find_first_of("*:"));
+    if (!parse_number(n.data(), n.data() + n.size(), x) || !std::isfinite(x)) {
+      ok = false;
+      return std::nan("");
+    }
+    return x;
+  };
+  auto tool_param = [&](std::string_view key) {
+    const double t = num(key);
+    return std::isfinite(t) ? static_cast<int>(t) : tool_;
+  };
+  switch (code) {
+    case 82:
+      abs_e_ = true;
+      return;
+    case 83:
+      abs_e_ = false;
+      return;
+    case 104:
+    case 109:
+    case 568: {  // Marlin / Klipper M104 S [T]; M109 S or R; RepRapFirmware M568 P<tool> S<t>
+      double t = num("S");
+      if (!std::isfinite(t) && code == 109) t = num("R");
+      const int tool = tool_param(code == 568 ? "P" : "T");
+      if (!ok) return bad("bad number in '" + std::string(args.substr(0, 40)) + "'");
+      if (!std::isfinite(t)) return;
+      if (t < 0 || t > 1000)
+        return bad("bad temperature in '" + std::string(args.substr(0, 30)) + "'");
+      return set_temperature(tool, t);
+    }
+    case 165: {  // Marlin mixing: A B C D H I
+      std::vector<double> mix;
+      for (const char* k : {"A", "B", "C", "D", "H", "I"}) {
+        const double v = num(k);
+        if (!std::isfinite(v)) break;
+        mix.push_back(v);
+      }
+      if (!ok) return bad("bad number in '" + std::string(args.substr(0, 40)) + "'");
+      if (!mix.empty()) set_mixture(tool_, std::move(mix));
+      return;
+    }
+    case 163: {  // Marlin: M163 S<input> P<weight>, committed by M164
+      const double i = num("S"), w = num("P");
+      if (!ok || !std::isfinite(i) || !std::isfinite(w) || i < 0 || i > 15)
+        return bad("bad M163 '" + std::string(args.substr(0, 40)) + "'");
+      if (m163_.size() <= static_cast<std::size_t>(i))
+        m163_.resize(static_cast<std::size_t>(i) + 1, 0);
+      m163_[static_cast<std::size_t>(i)] = w;
+      return;
+    }
+    case 164: {
+      double sum = 0;
+      for (double w : m163_) sum += w;
+      if (sum > 0) {
+        std::vector<double> mix = m163_;
+        for (double& w : mix) w /= sum;
+        set_mixture(tool_, std::move(mix));
+      }
+      m163_.clear();
+      return;
+    }
+    case 567: {  // RepRapFirmware: M567 P<tool> E<a>:<b>:...
+      const int tool = tool_param("P");
+      std::vector<double> mix;
+      if (!ok || !number_list(param(args, "E"), mix))
+        return bad("bad mix ratio in '" + std::string(args.substr(0, 40)) + "'");
+      return set_mixture(tool, std::move(mix));
+    }
+    default:
+      return;
+  }
+}
+
+// Klipper's extended commands the reader needs: ACTIVATE_EXTRUDER EXTRUDER=extruder<N> and
+// SET_HEATER_TEMPERATURE HEATER=extruder<N> TARGET=<t> (extruder = 0, extruder1 = 1, ...).
+void GcodeScanner::extended(std::string_view s) {
+  const auto blank = s.find_first_of(" \t");
+  const std::string_view name = s.substr(0, blank);
+  const std::string_view args =
+      blank == std::string_view::npos ? std::string_view{} : s.substr(blank);
+  auto extruder = [&](std::string_view v) {
+    if (v.size() < 8 || v.substr(0, 8) != "extruder") return -1;
+    if (v.size() == 8) return 0;
+    double n = 0;
+    if (!parse_number(v.data() + 8, v.data() + v.size(), n) || n < 0 || n > 255) return -1;
+    return static_cast<int>(n);
+  };
+  if (name == "ACTIVATE_EXTRUDER") {
+    const int t = extruder(param(args, "EXTRUDER="));
+    if (t < 0) return bad("unknown extruder in '" + std::string(s.substr(0, 60)) + "'");
+    if (t != tool_) select_tool(t);
+  } else if (name == "SET_HEATER_TEMPERATURE") {
+    const int t = extruder(param(args, "HEATER="));
+    if (t < 0) return;  // the bed or a chamber
+    const std::string_view v = param(args, "TARGET=");
+    double c = 0;
+    if (v.empty())
+      c = 0;
+    else if (!parse_number(v.data(), v.data() + v.size(), c) || !std::isfinite(c) || c < 0 ||
+             c > 1000)
+      return bad("bad temperature in '" + std::string(s.substr(0, 60)) + "'");
+    set_temperature(t, c);
+  }
+}
+
+}  // namespace trellis
