@@ -197,6 +197,19 @@ JobResult slice(const Job& job, const Config& c, Diagnostics&, const Progress& p
   sj.purge.x = c.machine.purge_x;
   sj.purge.y = c.machine.purge_y;
   sj.purge.side = c.machine.purge_side;
+  sj.purge.automatic = c.machine.purge_position == "auto";
+  sj.purge.clearance = c.machine.purge_clearance;
+  {
+    // The bed as the writer will place the toolpath on it.
+    const MachineProfile placed = centred(c.machine, job);
+    sj.purge.bed_x = placed.bed_x;
+    sj.purge.bed_y = placed.bed_y;
+    sj.purge.centred = placed.center;
+    sj.purge.offset_x = placed.offset_x;
+    sj.purge.offset_y = placed.offset_y;
+  }
+  sj.purge.speed = c.machine.print_speed;
+  sj.purge.density = {c.machine.density_a, c.machine.density_b, c.machine.density_c};
   SliceResult r = run_slice(sj, progress);
   // The file name only: outputs must not depend on where the command ran.
   r.toolpath.source = "trellis slice " + fs::path(job.input).filename().string() + " (" +
@@ -221,10 +234,16 @@ JobResult slice(const Job& job, const Config& c, Diagnostics&, const Progress& p
         "strategy {}: {} colours, {} faces, {} paths, {} {} changes (look-ahead {} mm), {} purges "
         "({} mm3), gradient error mean {} max {} (bound {}), shortest {} mm; {} route, {} layers, ~{} min",
         sj.strategy, sj.fgm.palette.colors, r.fgm.faces, r.fgm.paths, g.gradient_changes,
-        c.machine.gradient_mode, fixed(c.machine.lookahead, 0), r.fgm.purges,
+        c.machine.gradient_mode, fixed(g.lookahead, 0), r.fgm.purges,
         fixed(r.fgm.purge_volume, 0), fixed(r.fgm.error_mean, 4), fixed(r.fgm.error_max, 4),
         fixed(r.fgm.error_bound, 4), fixed(r.fgm.shortest_path, 2), to_string(r.route),
         r.outlines.size(), fixed(g.print_time_s / 60, 1));
+  if (sj.strategy != 0 && r.fgm.tower.built)
+    out.summary += fmt::format("; prime tower {} mm square at ({}, {}), {} layers, {} mm3, {} g, ~{} min",
+                               fixed(r.fgm.tower.side, 1), fixed(r.fgm.tower.x, 1),
+                               fixed(r.fgm.tower.y, 1), r.fgm.tower.layers,
+                               fixed(r.fgm.tower.volume, 0), fixed(r.fgm.tower.mass, 1),
+                               fixed(r.fgm.tower.time / 60, 1));
   else
     out.summary = fmt::format(
         "{} route: {} layers of {} mm, {} paths ({} wall loops, {} skin paths, {} infill lines), "

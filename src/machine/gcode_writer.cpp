@@ -372,11 +372,19 @@ class Writer {
     std::string command;
   };
   void plan_changes() {
-    stats_.lookahead = p_.lookahead;
     std::vector<const Path*> paths;
+    bool tower = false;
     for (const auto& l : tp_.layers)
       for (const auto& p : l.paths)
-        if (p.points.size() >= 2) paths.push_back(&p);
+        if (p.points.size() >= 2) {
+          paths.push_back(&p);
+          tower = tower || p.role == PathRole::Tower;
+        }
+    // A prime tower flushes the dead volume after the change (FGM paper A.1: look-ahead for
+    // Strategy 2 *or* a purge tower for Strategy 1), and a tool changer swaps tools between
+    // paths: both issue each change right before its path.
+    const double lookahead = tower || p_.gradient_mode == "tools" ? 0.0 : p_.lookahead;
+    stats_.lookahead = lookahead;
     std::vector<double> start(paths.size() + 1, 0);  // printed length before each path
     for (std::size_t k = 0; k < paths.size(); ++k) start[k + 1] = start[k] + paths[k]->length();
     std::string last;
@@ -387,9 +395,9 @@ class Writer {
       last = c;
       ++stats_.gradient_changes;
       // Locate printed length start[k] - L.
-      const double target = std::max(0.0, start[k] - p_.lookahead);
+      const double target = std::max(0.0, start[k] - lookahead);
       std::size_t j = k;
-      if (p_.lookahead > 0)
+      if (lookahead > 0)
         j = static_cast<std::size_t>(std::upper_bound(start.begin(), start.begin() + k + 1, target) -
                                      start.begin()) - 1;
       Change ch{j, 1, 0, c};

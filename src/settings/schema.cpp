@@ -177,6 +177,7 @@ void add_machine(std::vector<Setting>& out) {
     if (key == "gradient.mode") s.choices = {"mixing", "tools", "temperature"};
     if (key == "gradient.flow") s.choices = {"", "pla", "tpu"};
     if (key == "embedded.drive") s.choices = {"pressure", "syringe"};
+    if (key == "purge.position") s.choices = {"auto", "fixed"};
     if (!s.choices.empty()) s.kind = SettingKind::Choice;
     if (key == "extrusion.layer_height") s.flag = "layer-height";
     if (key == "placement.center") {

@@ -209,6 +209,27 @@ std::string slice_report_json(const SliceJob& job, const SliceResult& r, const G
                 {"gradient_changes", g ? g->gradient_changes : 0},
                 {"lookahead_mm", g ? g->lookahead : 0.0},
                 {"fill", job.fgm.concentric ? "concentric" : "rectilinear"}};
+  if (r.fgm.tower.built) {
+    // §4.1 reports material and time per colour.
+    nlohmann::ordered_json colours = nlohmann::json::array();
+    for (const auto& c : r.fgm.tower.colours)
+      colours.push_back({{"color", c.color},
+                         {"mixture", c.mixture},
+                         {"purges", c.purges},
+                         {"length_mm", c.length},
+                         {"volume_mm3", c.volume},
+                         {"mass_g", c.mass},
+                         {"time_s", c.time}});
+    j["fgm"]["tower"] = {{"centre_mm", {r.fgm.tower.x, r.fgm.tower.y}},
+                         {"side_mm", r.fgm.tower.side},
+                         {"layers", r.fgm.tower.layers},
+                         {"purge_length_mm", r.fgm.tower.purge_path},
+                         {"length_mm", r.fgm.tower.length},
+                         {"volume_mm3", r.fgm.tower.volume},
+                         {"mass_g", r.fgm.tower.mass},
+                         {"time_s", r.fgm.tower.time},
+                         {"colours", colours}};
+  }
   if (g) {
     j["gcode"] = {{"bytes", g->bytes},
                   {"filament_mm", g->filament},

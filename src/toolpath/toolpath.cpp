@@ -5,7 +5,7 @@
 namespace trellis {
 
 namespace {
-constexpr const char* kRoleNames[] = {"strut", "contour", "handle", "perimeter", "infill", "other", "skin"};
+constexpr const char* kRoleNames[] = {"strut", "contour", "handle", "perimeter", "infill", "other", "skin", "tower"};
 }
 
 const char* to_string(PathRole role) {
@@ -13,10 +13,10 @@ const char* to_string(PathRole role) {
 }
 
 PathRole path_role_from_string(const std::string& name) {
-  for (int i = 0; i < 7; ++i)
+  for (int i = 0; i < 8; ++i)
     if (name == kRoleNames[i]) return static_cast<PathRole>(i);
   throw ParseError("unknown path role '" + name +
-                   "' (expected strut, contour, handle, perimeter, infill, skin or other)");
+                   "' (expected strut, contour, handle, perimeter, infill, skin, tower or other)");
 }
 
 double Path::length() const {

@@ -12,7 +12,7 @@
 
 namespace trellis {
 
-enum class PathRole { Strut, Contour, Handle, Perimeter, Infill, Other, Skin };
+enum class PathRole { Strut, Contour, Handle, Perimeter, Infill, Other, Skin, Tower };
 
 const char* to_string(PathRole role);
 PathRole path_role_from_string(const std::string& name);  // throws ParseError
