@@ -208,6 +208,8 @@ JobResult slice(const Job& job, const Config& c, Diagnostics&, const Progress& p
     sj.purge.offset_x = placed.offset_x;
     sj.purge.offset_y = placed.offset_y;
   }
+  if (c.machine.gradient_mode == "tools") sj.tools = std::max(1, c.machine.gradient_tools);
+  sj.quantize = c.machine.quantize;
   sj.purge.speed = c.machine.print_speed;
   sj.purge.density = {c.machine.density_a, c.machine.density_b, c.machine.density_c};
   SliceResult r = run_slice(sj, progress);
@@ -233,17 +235,14 @@ JobResult slice(const Job& job, const Config& c, Diagnostics&, const Progress& p
     out.summary = fmt::format(
         "strategy {}: {} colours, {} faces, {} paths, {} {} changes (look-ahead {} mm), {} purges "
         "({} mm3), gradient error mean {} max {} (bound {}), shortest {} mm; {} route, {} layers, ~{} min",
-        sj.strategy, sj.fgm.palette.colors, r.fgm.faces, r.fgm.paths, g.gradient_changes,
+        sj.strategy,
+        r.fgm.quantized_from ? fmt::format("{} (quantized from {})", sj.tools, r.fgm.quantized_from)
+                             : std::to_string(sj.fgm.palette.colors),
+        r.fgm.faces, r.fgm.paths, g.gradient_changes,
         c.machine.gradient_mode, fixed(g.lookahead, 0), r.fgm.purges,
         fixed(r.fgm.purge_volume, 0), fixed(r.fgm.error_mean, 4), fixed(r.fgm.error_max, 4),
         fixed(r.fgm.error_bound, 4), fixed(r.fgm.shortest_path, 2), to_string(r.route),
         r.outlines.size(), fixed(g.print_time_s / 60, 1));
-  if (sj.strategy != 0 && r.fgm.tower.built)
-    out.summary += fmt::format("; prime tower {} mm square at ({}, {}), {} layers, {} mm3, {} g, ~{} min",
-                               fixed(r.fgm.tower.side, 1), fixed(r.fgm.tower.x, 1),
-                               fixed(r.fgm.tower.y, 1), r.fgm.tower.layers,
-                               fixed(r.fgm.tower.volume, 0), fixed(r.fgm.tower.mass, 1),
-                               fixed(r.fgm.tower.time / 60, 1));
   else
     out.summary = fmt::format(
         "{} route: {} layers of {} mm, {} paths ({} wall loops, {} skin paths, {} infill lines), "
@@ -251,6 +250,12 @@ JobResult slice(const Job& job, const Config& c, Diagnostics&, const Progress& p
         to_string(r.route), r.outlines.size(), fixed(c.machine.layer_height, 3), r.planar.paths,
         r.planar.walls, r.planar.skin_lines, r.planar.infill_lines, fixed(r.planar.extruded_length, 1),
         fixed(g.print_time_s / 60, 1), fixed(r.outline_seconds, 2), fixed(r.plan_seconds, 2));
+  if (sj.strategy != 0 && r.fgm.tower.built)
+    out.summary += fmt::format("; prime tower {} mm square at ({}, {}), {} layers, {} mm3, {} g, ~{} min",
+                               fixed(r.fgm.tower.side, 1), fixed(r.fgm.tower.x, 1),
+                               fixed(r.fgm.tower.y, 1), r.fgm.tower.layers,
+                               fixed(r.fgm.tower.volume, 0), fixed(r.fgm.tower.mass, 1),
+                               fixed(r.fgm.tower.time / 60, 1));
   return out;
 }
 

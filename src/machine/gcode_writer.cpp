@@ -1,5 +1,6 @@
 #include "trellis/machine/gcode_writer.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -86,8 +87,8 @@ class Writer {
     for (const auto& l : tp_.layers)
       for (const auto& path : l.paths) points += path.points.size();
     out_.reserve(points * 40 + 8192);
-    header();
     plan_changes();
+    header();
     for (std::size_t li = 0; li < tp_.layers.size(); ++li) layer(li);
     footer();
     stats_.bytes = out_.size();
@@ -169,7 +170,14 @@ class Writer {
       temp("M140 S", p_.bed_temperature);
       temp("M190 S", p_.bed_temperature);
     }
-    if (p_.nozzle_temperature > 0) {
+    if (p_.nozzle_temperature > 0 && !tools_used_.empty()) {
+      // A tool changer: every tool the print uses starts heating now (the first to print
+      // temperature, the others to standby if set), the first is waited for.
+      for (std::size_t i = 0; i < tools_used_.size(); ++i)
+        temp(("M104 T" + std::to_string(tools_used_[i]) + " S").c_str(),
+             i == 0 || standby_ <= 0 ? p_.nozzle_temperature : standby_);
+      temp(("M109 T" + std::to_string(tools_used_[0]) + " S").c_str(), p_.nozzle_temperature);
+    } else if (p_.nozzle_temperature > 0) {
       temp("M104 S", p_.nozzle_temperature);
       temp("M109 S", p_.nozzle_temperature);
     }
@@ -338,8 +346,7 @@ class Writer {
     std::string c;
     const double a = std::clamp(mix[0], 0.0, 1.0);
     if (p_.gradient_mode == "tools") {
-      const int n = std::max(1, p_.gradient_tools);
-      c = "T" + std::to_string(static_cast<int>(std::lround((1 - a) * (n - 1))));
+      c = "T" + std::to_string(tool_of(mix));
     } else if (p_.gradient_mode == "temperature") {
       const double t = a * p_.temperature_a + (1 - a) * p_.temperature_b;
       c = "M104 S";
@@ -363,6 +370,33 @@ class Writer {
     return c;
   }
 
+  // Tool changers: the tool that prints a mixture (tool 0 = material A … the last = B).
+  int tool_of(const std::vector<double>& mix) const {
+    const int n = std::max(1, p_.gradient_tools);
+    const double a = std::clamp(mix[0], 0.0, 1.0);
+    return static_cast<int>(std::lround((1 - a) * (n - 1)));
+  }
+
+  // A tool change: the tool left goes to standby (if set), the new one is selected and waited
+  // for at its printing temperature (it was heated in the header, so the wait is short).
+  std::string tool_change_command(const std::string& select, int tool) {
+    if (std::find(tools_used_.begin(), tools_used_.end(), tool) == tools_used_.end())
+      tools_used_.push_back(tool);
+    std::string c;
+    if (last_tool_ >= 0 && standby_ > 0) {
+      c += "M104 T" + std::to_string(last_tool_) + " S";
+      append_fixed(c, standby_, 1);
+      c += '\n';
+    }
+    c += select;
+    if (p_.nozzle_temperature > 0) {
+      c += "\nM109 T" + std::to_string(tool) + " S";
+      append_fixed(c, p_.nozzle_temperature, 1);
+    }
+    last_tool_ = tool;
+    return c;
+  }
+
   // Where each mixture change is issued: before the path that needs it, or, with a look-ahead
   // L, at the point L mm of printed path earlier (a segment split there), so the dead volume is
   // purged by the time the region starts. Computed once over the whole print.
@@ -383,7 +417,8 @@ class Writer {
     // A prime tower flushes the dead volume after the change (FGM paper A.1: look-ahead for
     // Strategy 2 *or* a purge tower for Strategy 1), and a tool changer swaps tools between
     // paths: both issue each change right before its path.
-    const double lookahead = tower || p_.gradient_mode == "tools" ? 0.0 : p_.lookahead;
+    const bool tools = p_.gradient_mode == "tools";
+    const double lookahead = tower || tools ? 0.0 : p_.lookahead;
     stats_.lookahead = lookahead;
     std::vector<double> start(paths.size() + 1, 0);  // printed length before each path
     for (std::size_t k = 0; k < paths.size(); ++k) start[k + 1] = start[k] + paths[k]->length();
@@ -400,7 +435,7 @@ class Writer {
       if (lookahead > 0)
         j = static_cast<std::size_t>(std::upper_bound(start.begin(), start.begin() + k + 1, target) -
                                      start.begin()) - 1;
-      Change ch{j, 1, 0, c};
+      Change ch{j, 1, 0, tools ? tool_change_command(c, tool_of(paths[k]->mixture)) : c};
       if (j < k) {
         double at = start[j];
         const auto& pts = paths[j]->points;
@@ -523,6 +558,9 @@ class Writer {
   Flavor flavor_;
   std::string out_;
   std::vector<Change> changes_;  // mixture changes in print order
+  std::vector<int> tools_used_;  // tool changers: tools in order of first use
+  int last_tool_ = -1;
+  double standby_ = 0;           // °C for idle tools, 0 = they stay at printing temperature
   std::size_t next_change_ = 0, path_index_ = 0;
   GcodeStats stats_;
   double dx_ = 0, dy_ = 0;

@@ -113,6 +113,10 @@ const std::vector<SettingDecl>& machine_settings() {
        "issue each mixture change this much printed path before the region (dead volume, FGM "
        "paper A.1: L = V_melt / (h(w-h) + pi h^2/4))",
        0, 100000, &P::lookahead},
+      {"gradient.quantize", "",
+       "tools: allow more palette colours than tools, each printed by the nearest tool (the "
+       "palette becomes the tools' mixes and the error reported is theirs); off = an error",
+       0, 0, &P::quantize},
       {"purge.melt_volume", "mm³",
        "Strategy 1 and tool changers: dead volume V_melt flushed into the prime tower after each "
        "colour change, as a purge of L = V/(h(w-h)+pi h^2/4) mm (0 = no tower)",

@@ -23,6 +23,8 @@ void Palette::check() const {
     throw SettingError("gradient palettes mix two or three materials (the design has " +
                        std::to_string(materials) + ")");
   if (colors < 1 || colors > 1000) throw SettingError("the palette needs 1 to 1000 colours");
+  if (ends && (materials != 2 || colors < 2))
+    throw SettingError("a tool palette has two materials and at least two colours");
   if (materials == 3) {
     const int d = divisions();
     if (d * d != colors || d < 1)
@@ -36,7 +38,15 @@ int Palette::divisions() const {
   return static_cast<int>(std::lround(std::sqrt(static_cast<double>(std::max(colors, 1)))));
 }
 
-double Palette::band() const { return 1.0 / divisions(); }
+double Palette::band() const {
+  if (ends && materials != 3) return colors > 1 ? 1.0 / (colors - 1) : 1.0;
+  return 1.0 / divisions();
+}
+
+double Palette::level(int k) const {
+  if (ends && materials != 3) return (k - 0.5) * band();
+  return static_cast<double>(k) / divisions();
+}
 
 double Palette::error_bound() const { return (materials == 3 ? 2.0 / 3.0 : 0.5) * band(); }
 
@@ -59,7 +69,7 @@ Palette::Cell Palette::cell(int color) const {
 
 std::vector<double> Palette::mixture(int color) const {
   if (materials != 3) {
-    const double m = (color + 0.5) / colors;
+    const double m = ends ? (colors > 1 ? 1.0 * color / (colors - 1) : 0.5) : (color + 0.5) / colors;
     return {m, 1 - m};
   }
   const Cell c = cell(color);
@@ -68,6 +78,7 @@ std::vector<double> Palette::mixture(int color) const {
 }
 
 int Palette::color_of(double f) const {
+  if (ends) return std::clamp(static_cast<int>(std::floor(f * (colors - 1) + 0.5)), 0, colors - 1);
   return std::clamp(static_cast<int>(std::floor(f * colors)), 0, colors - 1);
 }
 
@@ -442,7 +453,7 @@ std::vector<ColorFace> palette_zones(const Field& field, Evaluator& ev, double z
   require_materials(field, palette);
   const int d = palette.divisions();
   std::vector<double> levels;
-  for (int k = 1; k < d; ++k) levels.push_back(static_cast<double>(k) / d);
+  for (int k = 1; k < d; ++k) levels.push_back(palette.level(k));
   std::vector<ColorFace> zones;
   if (palette.materials == 2) {
     auto slabs = rect_slabs(ev, z, lo, hi, 0, levels, resolution, chord_tolerance);
@@ -677,10 +688,10 @@ Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>&
     std::vector<double> levels;
     for (int k = 1; k < d; ++k) {
       if (beta > 0) {
-        levels.push_back(k * o.palette.band() - beta / 2);
-        levels.push_back(k * o.palette.band() + beta / 2);
+        levels.push_back(o.palette.level(k) - beta / 2);
+        levels.push_back(o.palette.level(k) + beta / 2);
       } else {
-        levels.push_back(k * o.palette.band());
+        levels.push_back(o.palette.level(k));
       }
     }
     // Zone k lies between level k-1 and level k (two materials: of the first fraction; three:

@@ -6,12 +6,16 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <set>
 #include <sstream>
 
 #include "trellis/core/error.hpp"
 #include "trellis/field/vcad.hpp"
 #include "trellis/machine/gcode_writer.hpp"
 #include "trellis/slice/fgm.hpp"
+#include "trellis/slice/pipeline.hpp"
+#include "support/temp_dir.hpp"
+#include "trellis/core/file.hpp"
 
 using namespace trellis;
 
@@ -30,6 +34,9 @@ struct Replay {
   std::vector<std::vector<double>> mixtures;  // parsed M165 fractions per change
   Vec2 offset;
   std::size_t changes_inside_paths = 0;  // a change between two joined extrusions
+  // Extrusions by a tool whose temperature was never set, or not waited for since it was.
+  std::size_t cold_extrusions = 0;
+  std::set<int> tools;  // tools that extruded
 };
 
 Replay replay(const std::string& gcode) {
@@ -41,6 +48,9 @@ Replay replay(const std::string& gcode) {
   bool relative = false, extruding = false;
   std::string current;
   bool change_pending = false;
+  int active = 0;
+  std::map<int, double> target;
+  std::set<int> waited;
   while (std::getline(in, line)) {
     if (line.rfind("; placement offset = ", 0) == 0) {
       std::sscanf(line.c_str() + 21, "%lf, %lf", &r.offset.x, &r.offset.y);
@@ -52,7 +62,22 @@ Replay replay(const std::string& gcode) {
     if (!(words >> cmd)) continue;
     if (cmd == "M83") relative = true;
     if (cmd == "M82") relative = false;
+    if (cmd == "M104" || cmd == "M109") {
+      int tool = active;
+      double t = -1;
+      for (std::string w; words >> w;) {
+        if (w[0] == 'T') tool = std::stoi(w.substr(1));
+        if (w[0] == 'S') t = std::stod(w.substr(1));
+      }
+      if (t >= 0) {
+        target[tool] = t;
+        waited.erase(tool);
+      }
+      if (cmd == "M109") waited.insert(tool);
+      continue;
+    }
     if (cmd == "M165" || (cmd[0] == 'T' && cmd.size() > 1)) {
+      if (cmd[0] == 'T') active = std::stoi(cmd.substr(1));
       current = code;
       r.changes.push_back(code);
       std::vector<double> mix;
@@ -84,6 +109,8 @@ Replay replay(const std::string& gcode) {
     const bool moves = std::hypot(q.x - pos.x, q.y - pos.y) > 1e-9;
     if (cmd == "G1" && has_e && de > 0 && moves) {
       if (change_pending) ++r.changes_inside_paths;
+      if (!(target[active] > 0) || !waited.count(active)) ++r.cold_extrusions;
+      r.tools.insert(active);
       r.segments.push_back({pos, q, current, r.changes.size(), extruding});
       extruding = true;
     } else if (moves || std::abs(q.z - pos.z) > 1e-9) {
@@ -338,4 +365,55 @@ TEST(PrimeTower, StandsOnEveryLayerUpToTheLastChange) {
   EXPECT_EQ(c.tower_layers, p.stats.tower.layers);
   EXPECT_GT(c.tower_layers, with_purge);
   EXPECT_LT(c.tower_layers, p.graded.layers.size());
+}
+
+TEST(PrimeTower, ToolChangerHeatsEveryToolAndReportsWhatIsPrinted) {
+  // Eight colours on five tools: refused unless quantising is asked for; then the palette is
+  // the tools' five mixes and the reported gradient error is the one the replayed G-code has.
+  trellis::test::TempDir dir;
+  const std::string vcad = dir.file("plate.vcad");
+  write_file_atomic(vcad, kPlate);
+  SliceJob job;
+  job.input = vcad;
+  job.strategy = 1;
+  job.planar.layer_height = 0.2;
+  job.planar.top_layers = job.planar.bottom_layers = 1;
+  job.fgm.palette.colors = 8;
+  job.fgm.material_resolution = 0.5;
+  job.tools = 5;
+  job.purge = bed_purge(360, 360);
+  EXPECT_THROW(run_slice(job), SettingError);
+  job.quantize = true;
+  const SliceResult r = run_slice(job);
+  EXPECT_EQ(r.fgm.quantized_from, 8);
+  EXPECT_NEAR(r.fgm.error_bound, 0.125, 1e-9);
+  MachineProfile prof;
+  prof.bed_x = prof.bed_y = 360;
+  prof.center = true;
+  prof.gradient_mode = "tools";
+  prof.gradient_tools = 5;
+  prof.nozzle_temperature = 215;
+  prof.lookahead = 450;
+  const Replay rp = replay(write_gcode(r.toolpath, prof));
+  EXPECT_EQ(rp.changes_inside_paths, 0u);
+  EXPECT_EQ(rp.cold_extrusions, 0u);
+  EXPECT_GE(rp.tools.size(), 4u);
+  // The error of what is printed: tool t prints 1 - t/4 of material A.
+  const Field f = design(kPlate);
+  Evaluator ev(f);
+  double worst = 0;
+  for (const auto& s : rp.segments) {
+    const double a = 1 - std::stoi(s.mixture.substr(1)) / 4.0;
+    const Vec3 m = (s.a + s.b) * 0.5;
+    const Vec2 q{m.x - rp.offset.x, m.y - rp.offset.y};
+    if (std::abs(q.x) > 20 || std::abs(q.y) > 10) continue;  // the tower
+    const auto li = static_cast<std::size_t>(std::lround(s.b.z / 0.2)) - 1;
+    for (const Vec3 e : {s.a, s.b}) {
+      const double frac = std::clamp(
+          ev.fractions({e.x - rp.offset.x, e.y - rp.offset.y, r.outlines[li].z})[0], 0.0, 1.0);
+      worst = std::max(worst, std::abs(frac - a));
+    }
+  }
+  EXPECT_LE(worst, 0.125 + 1e-3);
+  EXPECT_NEAR(worst, r.fgm.error_max, 2e-3);
 }

@@ -24,10 +24,15 @@ namespace trellis {
 struct Palette {
   int colors = 8;
   int materials = 2;  // 2 or 3
+  // Two materials, a tool changer's palette: colour k printed at k/(N-1) (tool k of N holds
+  // that fixed mix, from pure B to pure A), its band reaching halfway to its neighbours, so the
+  // end colours are the pure materials and every colour is exactly what a tool prints.
+  bool ends = false;
   // Throws SettingError naming the problem (colour count, material count).
   void check() const;
   int divisions() const;  // three materials: d (colors = d²)
   double band() const;    // α
+  double level(int k) const;  // two materials: edge between bands k-1 and k (k = 1 … N-1)
   double mid(int k) const { return mixture(k)[0]; }
   // Colour k's commanded mixture (one fraction per material, summing to 1).
   std::vector<double> mixture(int k) const;
@@ -151,6 +156,7 @@ struct FgmStats {
   std::size_t error_samples = 0;
   int materials = 2;
   double band = 0;  // α
+  int quantized_from = 0;  // tool changers: the colours asked for, when more than the tools
 };
 
 // Fills stats.error_* for a graded toolpath (layer i planned from outline zs[i]).

@@ -23,6 +23,10 @@ struct SliceJob {
   int strategy = 0;  // 0: one material; 1 / 2: the FGM paper's strategies (slice/fgm.hpp)
   FgmOptions fgm;    // palette and fill (bead width, layer, grid from above)
   PurgeOptions purge;  // Strategy 1
+  // A tool changer (gradient.mode = tools): its tool count; 0 = mixing or temperature. More
+  // colours than tools is an error unless `quantize` (then the palette is the tools').
+  int tools = 0;
+  bool quantize = false;
 };
 
 struct SliceResult {
