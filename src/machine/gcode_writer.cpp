@@ -359,13 +359,7 @@ class Writer {
         append_fixed(c, f, 1);
       }
     } else {
-      static constexpr char kLetters[] = {'A', 'B', 'C', 'D', 'H', 'I'};
-      c = "M165";
-      for (std::size_t i = 0; i < mix.size() && i < 6; ++i) {
-        c += ' ';
-        c += kLetters[i];
-        append_fixed(c, mix[i], 4);
-      }
+      c = mixing_command(mix);
     }
     return c;
   }
@@ -394,6 +388,55 @@ class Writer {
       append_fixed(c, p_.nozzle_temperature, 1);
     }
     last_tool_ = tool;
+    return c;
+  }
+
+  // A mixing hotend's command in the profile's dialect (gradient.dialect): Marlin M165 (mix
+  // factors A B C D H I for up to six inputs), Marlin M163/M164 (each input's factor, then the
+  // mix stored into virtual tool 0, the active one), RepRapFirmware M567 (tool 0's mix ratio
+  // E<a>:<b>…) or the profile's template (gradient.template: {a} {b} {c} … each input's share,
+  // other {setting} placeholders as in gcode.start), e.g. a Klipper fork's mixing macro.
+  std::string mixing_command(const std::vector<double>& mix) const {
+    static constexpr char kLetters[] = {'A', 'B', 'C', 'D', 'H', 'I'};
+    std::string c;
+    const std::string& d = p_.gradient_dialect;
+    if (d == "m163") {
+      for (std::size_t i = 0; i < mix.size(); ++i) {
+        c += "M163 S" + std::to_string(i) + " P";
+        append_fixed(c, mix[i], 4);
+        c += '\n';
+      }
+      return c + "M164 S0";
+    }
+    if (d == "m567") {
+      c = "M567 P0 E";
+      for (std::size_t i = 0; i < mix.size(); ++i) {
+        if (i) c += ':';
+        append_fixed(c, mix[i], 4);
+      }
+      return c;
+    }
+    if (d == "template") {
+      if (p_.gradient_template.empty())
+        throw SettingError("gradient.dialect = template needs gradient.template (e.g. "
+                           "\"M567 P0 E{a}:{b}\")",
+                           {"", 0, "gradient.template"});
+      std::string t = p_.gradient_template;
+      for (std::size_t i = 0; i < mix.size() && i < 6; ++i) {
+        const std::string key = std::string("{") + static_cast<char>('a' + i) + "}";
+        std::string v;
+        append_fixed(v, mix[i], 4);
+        for (auto pos = t.find(key); pos != std::string::npos; pos = t.find(key, pos + v.size()))
+          t.replace(pos, key.size(), v);
+      }
+      return expand_template(t, p_, "gradient.template");
+    }
+    c = "M165";
+    for (std::size_t i = 0; i < mix.size() && i < 6; ++i) {
+      c += ' ';
+      c += kLetters[i];
+      append_fixed(c, mix[i], 4);
+    }
     return c;
   }
 

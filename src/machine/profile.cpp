@@ -113,6 +113,16 @@ const std::vector<SettingDecl>& machine_settings() {
        "issue each mixture change this much printed path before the region (dead volume, FGM "
        "paper A.1: L = V_melt / (h(w-h) + pi h^2/4))",
        0, 100000, &P::lookahead},
+      {"gradient.dialect", "",
+       "mixing: how a mixture is commanded: m165 (Marlin M165 A B C), m163 (Marlin M163 S<i> "
+       "P<share> per input + M164 S0, virtual tool 0), m567 (RepRapFirmware M567 P0 E<a>:<b>) "
+       "or template (gradient.template)",
+       0, 0, &P::gradient_dialect},
+      {"gradient.template", "",
+       "mixing, dialect template: the command for one mixture, {a} {b} {c} … replaced by each "
+       "input's share (0..1), other {setting} placeholders as in gcode.start; e.g. a Klipper "
+       "mixing macro or an ink writer's valves",
+       0, 0, &P::gradient_template},
       {"gradient.quantize", "",
        "tools: allow more palette colours than tools, each printed by the nearest tool (the "
        "palette becomes the tools' mixes and the error reported is theirs); off = an error",

@@ -178,6 +178,7 @@ void add_machine(std::vector<Setting>& out) {
     if (key == "gradient.flow") s.choices = {"", "pla", "tpu"};
     if (key == "embedded.drive") s.choices = {"pressure", "syringe"};
     if (key == "purge.position") s.choices = {"auto", "fixed"};
+    if (key == "gradient.dialect") s.choices = {"m165", "m163", "m567", "template"};
     if (!s.choices.empty()) s.kind = SettingKind::Choice;
     if (key == "extrusion.layer_height") s.flag = "layer-height";
     if (key == "placement.center") {

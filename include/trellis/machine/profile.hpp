@@ -77,6 +77,8 @@ struct MachineProfile {
   double temperature_b = 225;            // ... and for 100% material B (linear between)
   std::string flow_model;                // temperature: "" | "pla" | "tpu" → M221 (Eq. 3 / 4)
   double lookahead = 0;                  // issue each change this many mm of path earlier
+  std::string gradient_dialect = "m165";  // mixing: m165 | m163 (virtual tool) | m567 (RRF) | template
+  std::string gradient_template;         // mixing, dialect template: {a} {b} {c} = shares
   bool quantize = false;                 // tools: print more colours than tools, each by the nearest
   // [purge] Strategy 1 purge towers (FGM paper A.1)
   double melt_volume = 0;      // hotend dead volume V_melt (mm³); 0 = no towers
