@@ -184,7 +184,7 @@ void write_gcode_out(const std::string& path, Toolpath tp, const Job& job, const
 
 }  // namespace
 
-JobResult slice(const Job& job, const Config& c, Diagnostics&, const Progress& progress) {
+JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
   JobResult out;
   if (job.input.empty()) throw SettingError("slice needs a design (.vcad) or mesh to read", {"", 0, "job.input"});
   SliceJob sj = c.slice;
@@ -213,6 +213,13 @@ JobResult slice(const Job& job, const Config& c, Diagnostics&, const Progress& p
   sj.purge.speed = c.machine.print_speed;
   sj.purge.density = {c.machine.density_a, c.machine.density_b, c.machine.density_c};
   SliceResult r = run_slice(sj, progress);
+  if (sj.strategy != 0 && r.fgm.colours_used < r.fgm.colours_total)
+    diag.warn("palette_partly_used",
+              fmt::format("{}: only {} of the {} palette colours are printed: the design's "
+                          "fractions span part of 0..1 (each band stays 1/{} wide; the paper's "
+                          "palettes span the whole range)",
+                          job.input, r.fgm.colours_used, r.fgm.colours_total,
+                          r.fgm.colours_total));
   // The file name only: outputs must not depend on where the command ran.
   r.toolpath.source = "trellis slice " + fs::path(job.input).filename().string() + " (" +
                       to_string(r.route) + " route)";

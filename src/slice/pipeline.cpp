@@ -6,6 +6,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <set>
 
 #include "trellis/core/error.hpp"
 #include "trellis/field/vcad.hpp"
@@ -160,6 +161,14 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
     r.fgm.materials = fo.palette.materials;
     r.fgm.band = fo.palette.band();
     r.fgm.quantized_from = quantized_from;
+    {
+      std::set<std::vector<double>> used;
+      for (const auto& l : r.toolpath.layers)
+        for (const auto& p : l.paths)
+          if (p.role != PathRole::Tower && !p.mixture.empty()) used.insert(p.mixture);
+      r.fgm.colours_used = static_cast<int>(used.size());
+      r.fgm.colours_total = fo.palette.colors;
+    }
     // Zippering prints the neighbouring colour up to β/2 beyond a boundary.
     r.fgm.error_bound = fo.palette.error_bound() + (job.strategy == 1 ? fo.zipper / 2 : 0.0);
     if (job.tools > 1) {
@@ -234,6 +243,7 @@ std::string slice_report_json(const SliceJob& job, const SliceResult& r, const G
                 {"purge_mass_g", r.fgm.purge_volume * 1.24e-3},
                 {"colors", r.fgm.quantized_from ? job.tools : job.fgm.palette.colors},
                 {"colors_asked", job.fgm.palette.colors},
+                {"colors_used", r.fgm.colours_used},
                 {"materials", r.fgm.materials},
                 {"zipper_percent", 100 * job.fgm.zipper},
                 {"material_resolution_mm", job.fgm.material_resolution},

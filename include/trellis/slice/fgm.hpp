@@ -156,6 +156,7 @@ struct FgmStats {
   std::size_t error_samples = 0;
   int materials = 2;
   double band = 0;  // α
+  int colours_used = 0, colours_total = 0;  // palette colours some part path prints
   int quantized_from = 0;  // tool changers: the colours asked for, when more than the tools
 };
 
