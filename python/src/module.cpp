@@ -24,6 +24,7 @@
 #include "trellis/machine/cli.hpp"
 #include "trellis/machine/gcode_reader.hpp"
 #include "trellis/machine/gcode_writer.hpp"
+#include "trellis/machine/machine_check.hpp"
 #include "trellis/render/render.hpp"
 #include "trellis/toolpath/json.hpp"
 #include "trellis/version.hpp"
@@ -48,6 +49,8 @@ void translate(std::exception_ptr p) {
     raise_python("SettingError", e);
   } catch (const GeometryError& e) {
     raise_python("GeometryError", e);
+  } catch (const MachineError& e) {
+    raise_python("MachineError", e);
   } catch (const Cancelled& e) {
     PyErr_SetString(PyExc_KeyboardInterrupt, e.what());
   } catch (const ParseError& e) {

@@ -10,8 +10,9 @@ as the CLI flags, ``layer_height`` for ``--layer-height``; any setting by its do
     pts = res.toolpath.points          # (n, 3) numpy array of every point
 
 Long calls release the GIL, report progress to ``progress(stage, fraction)`` and stop on Ctrl-C
-(KeyboardInterrupt). Errors are ``trellis.InputError``, ``trellis.SettingError`` and
-``trellis.GeometryError`` with ``file``, ``line`` and ``element``.
+(KeyboardInterrupt). Errors are ``trellis.InputError``, ``trellis.SettingError``,
+``trellis.GeometryError`` and ``trellis.MachineError`` (the output would not print on the
+machine; nothing written) with ``file``, ``line`` and ``element``.
 """
 import os
 import shlex
@@ -19,7 +20,7 @@ import sys
 import tempfile
 
 from . import _trellis
-from .errors import GeometryError, InputError, SettingError, TrellisError
+from .errors import GeometryError, InputError, MachineError, SettingError, TrellisError
 from .fields import (Field, cone, cube, cylinder, difference, fgrade, function, gyroid, intersection,
                      mesh, rectprism, sphere, torus, tpms, union)
 
@@ -27,7 +28,8 @@ __all__ = ["Field", "sphere", "cube", "rectprism", "cylinder", "cone", "torus", 
            "gyroid", "mesh", "union", "intersection", "difference", "fgrade", "parse_vcad",
            "analyze", "check", "lattice2d", "lattice3d", "plan", "gcode", "slice", "pbf", "nonplanar", "surface",
            "run_job", "rerun", "settings", "read_lattice", "read_toolpath", "Lattice", "Toolpath",
-           "Result", "TrellisError", "InputError", "SettingError", "GeometryError", "__version__"]
+           "Result", "TrellisError", "InputError", "SettingError", "GeometryError", "MachineError",
+           "__version__"]
 
 __version__ = _trellis.version()
 

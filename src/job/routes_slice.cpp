@@ -14,6 +14,7 @@
 #include "trellis/machine/gcode_writer.hpp"
 #include "trellis/machine/cli.hpp"
 #include "trellis/machine/laser.hpp"
+#include "trellis/machine/machine_check.hpp"
 #include "trellis/slice/nonplanar.hpp"
 #include "trellis/slice/pbf.hpp"
 #include "trellis/slice/pipeline.hpp"
@@ -167,20 +168,7 @@ HeightField test_surface(const SurfaceConfig& s) {
   return sphere_cap(s.radius, s.diameter);
 }
 
-// Designs and surfaces are centred at the origin: on the bed centre unless a setting says not.
-MachineProfile centred(MachineProfile m, const Job& job) {
-  if (!job.settings.has("placement.center")) m.center = true;
-  return m;
-}
 
-void write_gcode_out(const std::string& path, Toolpath tp, const Job& job, const MachineProfile& m,
-                     JobResult& out, GcodeStats& stats) {
-  out.toolpath = std::make_shared<Toolpath>(tp);
-  if (path.empty()) return;
-  tp.job = embedded_job(job, path);
-  stats = write_gcode_file(path, tp, m);
-  out.files.push_back(path);
-}
 
 }  // namespace
 
@@ -189,6 +177,7 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
   if (job.input.empty()) throw SettingError("slice needs a design (.vcad) or mesh to read", {"", 0, "job.input"});
   SliceJob sj = c.slice;
   sj.input = job.input;
+  sj.strategy_chosen = job.settings.has("slice.strategy");
   sj.planar.layer_height = c.machine.layer_height;
   if (!job.settings.has("slice.bead_width")) sj.planar.bead_width = c.machine.nozzle_diameter;
   sj.fgm.angle_deg = sj.planar.infill_angle;
@@ -201,14 +190,16 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
   sj.purge.clearance = c.machine.purge_clearance;
   {
     // The bed as the writer will place the toolpath on it.
-    const MachineProfile placed = centred(c.machine, job);
+    const MachineProfile& placed = c.machine;
     sj.purge.bed_x = placed.bed_x;
     sj.purge.bed_y = placed.bed_y;
     sj.purge.centred = placed.center;
+    sj.purge.circular = placed.bed_shape == "circle";
+    sj.purge.origin_centre = placed.origin == "center";
     sj.purge.offset_x = placed.offset_x;
     sj.purge.offset_y = placed.offset_y;
   }
-  if (c.machine.gradient_mode == "tools") sj.tools = std::max(1, c.machine.gradient_tools);
+  if (c.machine.gradient_mode == "tools") sj.tools = std::max(1, c.machine.gradient_tool_count());
   sj.quantize = c.machine.quantize;
   sj.purge.speed = c.machine.print_speed;
   sj.purge.density = {c.machine.density_a, c.machine.density_b, c.machine.density_c};
@@ -224,13 +215,14 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
   r.toolpath.source = "trellis slice " + fs::path(job.input).filename().string() + " (" +
                       to_string(r.route) + " route)";
   GcodeStats g;
-  write_gcode_out(job.output, r.toolpath, job, centred(c.machine, job), out, g);
+  if (!job.output.empty()) note_planar_in_bath(c.machine, "slice", diag);
+  g = write_gcode_out(job.output, r.toolpath, job, c.machine, out, diag);
   if (!job.toolpath.empty()) {
     write_toolpath_with_job(job.toolpath, r.toolpath, job);
     out.files.push_back(job.toolpath);
   }
   if (!job.report.empty()) {
-    write_file_atomic(job.report, with_job(slice_report_json(sj, r, &g), job, job.report));
+    write_file_atomic(job.report, with_job(slice_report_json(sj, r, &g), job, job.report, true, &diag));
     out.files.push_back(job.report);
   }
   RenderOptions ro;
@@ -356,7 +348,7 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
   return out;
 }
 
-JobResult nonplanar(const Job& job, const Config& c, Diagnostics&, const Progress& progress) {
+JobResult nonplanar(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
   JobResult out;
   const auto& np = c.nonplanar;
   HeightField surface;
@@ -387,16 +379,18 @@ JobResult nonplanar(const Job& job, const Config& c, Diagnostics&, const Progres
     if (np.layer_tools.find(':') != std::string::npos && !job.settings.has("nonplanar.layers"))
       prm.layers = static_cast<int>(prm.layer_tools.size());
   }
+  require_bath(job, c.machine, "nonplanar", "non-planar layers are printed inside a support bath (the "
+               "non-planar paper's FRESH set-up)");
   NonplanarResult r = slice_nonplanar(surface, prm, progress);
   const SurfaceDeviation dev = surface_deviation(r.toolpath, surface, prm);
   GcodeStats g;
-  write_gcode_out(job.output, r.toolpath, job, centred(c.machine, job), out, g);
+  g = write_gcode_out(job.output, r.toolpath, job, c.machine, out, diag);
   if (!job.toolpath.empty()) {
     write_toolpath_with_job(job.toolpath, r.toolpath, job);
     out.files.push_back(job.toolpath);
   }
   if (!job.report.empty()) {
-    write_file_atomic(job.report, with_job(nonplanar_report_json(r, prm, surface, dev, &g), job, job.report));
+    write_file_atomic(job.report, with_job(nonplanar_report_json(r, prm, surface, dev, &g), job, job.report, true, &diag));
     out.files.push_back(job.report);
   }
   if (!job.preview.empty()) {
@@ -419,7 +413,7 @@ JobResult nonplanar(const Job& job, const Config& c, Diagnostics&, const Progres
   return out;
 }
 
-JobResult surface(const Job& job, const Config& c, Diagnostics&, const Progress&) {
+JobResult surface(const Job& job, const Config& c, Diagnostics& diag, const Progress&) {
   JobResult out;
   if (c.surface.kind == "angle-test") {
     // The print-angle test path: toolpath JSON, or G-code for the job's machine.
@@ -435,7 +429,7 @@ JobResult surface(const Job& job, const Config& c, Diagnostics&, const Progress&
       if (job.machine.empty())
         throw SettingError("the angle test as G-code needs --machine (or write .json)", {"", 0, "--machine"});
       GcodeStats g;
-      write_gcode_out(job.output, tp, job, c.machine, out, g);
+      g = write_gcode_out(job.output, tp, job, c.machine, out, diag);
     }
     if (!job.preview.empty()) {
       fs::create_directories(job.preview);

@@ -179,12 +179,11 @@ void add_machine(std::vector<Setting>& out) {
     if (key == "embedded.drive") s.choices = {"pressure", "syringe"};
     if (key == "purge.position") s.choices = {"auto", "fixed"};
     if (key == "gradient.dialect") s.choices = {"m165", "m163", "m567", "template"};
+    if (key == "machine.bed_shape") s.choices = {"rectangle", "circle"};
+    if (key == "machine.origin") s.choices = {"corner", "center"};
     if (!s.choices.empty()) s.kind = SettingKind::Choice;
     if (key == "extrusion.layer_height") s.flag = "layer-height";
-    if (key == "placement.center") {
-      s.flag = "center";
-      s.derived = "true for slice and nonplanar (designs are centred at the origin), false otherwise";
-    }
+    if (key == "placement.center") s.flag = "center";
     if (key == "speed.print") s.flag = "speed";
     if (key == "gradient.lookahead") s.flag = "lookahead";
     if (key == "machine.name") {
@@ -216,6 +215,18 @@ std::vector<Setting> make_table() {
                      [](C& c) -> auto& { return c.laser.hatch_power; }));
   t.push_back(positive("laser.hatch_speed", "mm/s", 100000, "scan speed on hatch vectors", "",
                        [](C& c) -> auto& { return c.laser.hatch_speed; }));
+  t.push_back(positive("laser.max_power", "W", 100000,
+                       "highest laser power the machine delivers; higher powers are refused", "",
+                       [](C& c) -> auto& { return c.laser.max_power; }));
+  t.push_back(positive("laser.max_speed", "mm/s", 1e6,
+                       "fastest scan speed of the scanner; faster vectors are refused", "",
+                       [](C& c) -> auto& { return c.laser.max_speed; }));
+  t.push_back(positive("laser.build_x", "mm", 10000, "build plate size in X", "",
+                       [](C& c) -> auto& { return c.laser.build_x; }));
+  t.push_back(positive("laser.build_y", "mm", 10000, "build plate size in Y", "",
+                       [](C& c) -> auto& { return c.laser.build_y; }));
+  t.push_back(positive("laser.build_z", "mm", 10000, "build height", "",
+                       [](C& c) -> auto& { return c.laser.build_z; }));
   t.push_back(number("scan.layer", "mm", 0.001, 1, "powder layer thickness", "layer-height",
                      [](C& c) -> auto& { return c.laser.layer; }));
   t.push_back(number("scan.hatch_distance", "mm", 0.001, 5, "hatch distance", "hatch",
@@ -485,10 +496,15 @@ std::vector<Setting> make_table() {
                        "resolution", [](C& c) -> auto& { return c.slice.field.resolution; }));
   t.push_back(positive("slice.mesh_voxel", "mm", 10, "voxel of mesh distance fields (field route)",
                        "mesh-voxel", [](C& c) -> auto& { return c.slice.mesh_voxel; }));
-  t.push_back(integer("slice.strategy", 0, 2,
-                      "graded designs: 0 one material, 1 walls/infill cut by colour faces + purge, "
-                      "2 colour faces filled densely (FGM paper)",
-                      "strategy", [](C& c) -> auto& { return c.slice.strategy; }));
+  {
+    Setting strategy = integer(
+        "slice.strategy", 0, 2,
+        "graded designs (FGM paper): 1 walls/infill cut by colour faces + purge, 2 colour faces "
+        "filled densely, none (0) one material on purpose; a graded design without it is an error",
+        "strategy", [](C& c) -> auto& { return c.slice.strategy; });
+    strategy.names = {{"none", 0}};
+    t.push_back(std::move(strategy));
+  }
   t.push_back(integer("fgm.colors", 1, 1000,
                       "palette size (two materials: N bands; three: d² triangles, e.g. 9)",
                       "colors", [](C& c) -> auto& { return c.slice.fgm.palette.colors; }));
@@ -657,7 +673,7 @@ const std::vector<std::pair<std::string, std::string>>& setting_sections() {
       {"gradient", "how a mixture is made: mixing, tools, temperature"},
       {"purge", "Strategy 1 purge towers"},
       {"gcode", "start/end templates"},
-      {"laser", "laser powder-bed machine: spot, powers, speeds"},
+      {"laser", "laser powder-bed machine: spot, powers, speeds, limits, build area"},
       {"scan", "laser scan parameters: layer, hatch, SL, LHD"},
       {"timing", "laser scanner timing for the scan-time model"},
       {"lattice2d", "2D atlas patterns"},

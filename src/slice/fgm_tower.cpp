@@ -90,7 +90,8 @@ Vec2 place(const BBox2& part, double s, const PurgeOptions& o) {
                     {std::max(t.max.x, part.max.x), std::max(t.max.y, part.max.y)}};
     // Where the bed's centre lies in design coordinates.
     const Vec2 mid = o.centred ? Vec2{(all.min.x + all.max.x) / 2, (all.min.y + all.max.y) / 2}
-                               : Vec2{o.bed_x / 2 - o.offset_x, o.bed_y / 2 - o.offset_y};
+                     : o.origin_centre ? Vec2{-o.offset_x, -o.offset_y}
+                                       : Vec2{o.bed_x / 2 - o.offset_x, o.bed_y / 2 - o.offset_y};
     if (o.circular) {
       const double r = o.bed_x / 2 + 1e-9;
       for (const BBox2& b : {t, part})

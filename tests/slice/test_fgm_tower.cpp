@@ -300,6 +300,8 @@ TEST(PrimeTower, MixingChangesFlushIntoATowerBesideThePart) {
   ASSERT_TRUE(p.stats.tower.built);
   EXPECT_GT(p.stats.purges, 5u);
   MachineProfile prof;
+  prof.mixing_inputs = 2;
+  prof.tool_count = 5;
   prof.bed_x = prof.bed_y = 200;
   prof.center = true;
   prof.lookahead = 960;  // ignored: the tower flushes the dead volume
@@ -321,6 +323,8 @@ TEST(PrimeTower, ToolChangesHappenAtPathEndsAndPrimeInTheTower) {
   const Field f = design(kPlate);
   const Plan p = plan(f, 5, bed_purge(360, 360));
   MachineProfile prof;
+  prof.mixing_inputs = 2;
+  prof.tool_count = 5;
   prof.bed_x = prof.bed_y = 360;
   prof.center = true;
   prof.gradient_mode = "tools";
@@ -339,6 +343,8 @@ TEST(PrimeTower, PlacedWhereTheBedHasRoomOrRefused) {
   ASSERT_TRUE(back.stats.tower.built);
   EXPECT_GT(back.stats.tower.y - back.stats.tower.side / 2, 10 + 5 - 1e-6);
   MachineProfile prof;
+  prof.mixing_inputs = 2;
+  prof.tool_count = 5;
   prof.bed_x = 45;
   prof.bed_y = 200;
   prof.center = true;
@@ -392,6 +398,8 @@ TEST(PrimeTower, StandsOnEveryLayerUpToTheLastChange) {
   }
   EXPECT_LE(with_purge, 3u);
   MachineProfile prof;
+  prof.mixing_inputs = 2;
+  prof.tool_count = 5;
   prof.bed_x = prof.bed_y = 200;
   prof.center = true;
   const Checked c = check_tower_print(p, f, prof, 5);
@@ -422,13 +430,18 @@ TEST(PrimeTower, ToolChangerHeatsEveryToolAndReportsWhatIsPrinted) {
   EXPECT_EQ(r.fgm.quantized_from, 8);
   EXPECT_NEAR(r.fgm.error_bound, 0.125, 1e-9);
   MachineProfile prof;
+  prof.mixing_inputs = 2;
+  prof.tool_count = 5;
   prof.bed_x = prof.bed_y = 360;
   prof.center = true;
   prof.gradient_mode = "tools";
   prof.gradient_tools = 5;
   prof.nozzle_temperature = 215;
+  prof.standby_temperature = 170;  // idle tools wait here
   prof.lookahead = 450;
-  const Replay rp = replay(write_gcode(r.toolpath, prof));
+  const std::string gcode = write_gcode(r.toolpath, prof);
+  const Replay rp = replay(gcode);
+  EXPECT_NE(gcode.find("S170"), std::string::npos);
   EXPECT_EQ(rp.changes_inside_paths, 0u);
   EXPECT_EQ(rp.cold_extrusions, 0u);
   EXPECT_GE(rp.tools.size(), 4u);
@@ -460,6 +473,10 @@ TEST(PrimeTower, EveryMixingDialectPrintsTheGradientAsDesigned) {
   const Plan p = plan(f, 6, bed_purge(200, 200));
   for (const std::string dialect : {"m165", "m163", "m567", "template"}) {
     MachineProfile prof;
+  prof.mixing_inputs = 2;
+  prof.tool_count = 5;
+    prof.mixing_inputs = 2;
+    prof.tool_count = 5;
     prof.bed_x = prof.bed_y = 200;
     prof.center = true;
     prof.gradient_dialect = dialect;
@@ -474,6 +491,7 @@ TEST(PrimeTower, EveryMixingDialectPrintsTheGradientAsDesigned) {
     }
   }
   MachineProfile bad;
+  bad.mixing_inputs = 2;
   bad.gradient_dialect = "template";
   EXPECT_THROW(write_gcode(p.graded, bad), SettingError);
 }

@@ -116,6 +116,7 @@ struct PurgeOptions {
   // the bed centre) or design coordinates + offset; bed_x = 0: no bed check.
   double bed_x = 0, bed_y = 0;
   bool circular = false;   // round bed of diameter bed_x
+  bool origin_centre = false;  // design (0, 0) + offset is the bed's centre, not its corner
   bool centred = true;
   double offset_x = 0, offset_y = 0;
   double speed = 0;        // print speed (mm/s) for the per-colour time estimate; 0 = none
