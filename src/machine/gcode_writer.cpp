@@ -192,6 +192,7 @@ class Writer {
 
   void footer() {
     if (flavor_ == Flavor::Marlin && p_.retract_length > 0 && printed_) retract();
+    for (int t : tools_used_) line("M104 T" + std::to_string(t) + " S0");  // idle tools too
     if (known_ && flavor_ == Flavor::Embedded) {
       move_z(safe_z_);
     } else if (known_) {
@@ -454,6 +455,15 @@ class Writer {
     // Strategy 2 *or* a purge tower for Strategy 1), and a tool changer swaps tools between
     // paths: both issue each change right before its path.
     const bool tools = p_.gradient_mode == "tools";
+    // Paths carrying a tool of their own on a multi-tool Marlin machine: the tools they use,
+    // in order, heated in the header (tool_change_command records them again when printing).
+    select_tools_ = flavor_ == Flavor::Marlin && p_.tool_count > 1;
+    if (select_tools_) {
+      for (const Path* p : paths)
+        if (p->mixture.empty() &&
+            std::find(tools_used_.begin(), tools_used_.end(), p->tool) == tools_used_.end())
+          tools_used_.push_back(p->tool);
+    }
     const double lookahead = tower || tools ? 0.0 : p_.lookahead;
     stats_.lookahead = lookahead;
     std::vector<double> start(paths.size() + 1, 0);  // printed length before each path
@@ -504,6 +514,10 @@ class Writer {
     ++stats_.paths;
     const bool embedded = flavor_ == Flavor::Embedded;
     if (embedded) change_tool(input.tool);
+    // A multi-tool Marlin machine printing a path with a tool of its own (no mixture that
+    // chose the tool): select it at the path's start, heated as every tool change is.
+    if (select_tools_ && input.mixture.empty() && input.tool != last_tool_)
+      line(tool_change_command("T" + std::to_string(input.tool), input.tool));
     Path path_copy;
     const Path* pp = &input;
     if (embedded && p_.node_overlap > 0) {  // each path end pushed past its end node
@@ -597,6 +611,7 @@ class Writer {
   std::vector<Change> changes_;  // mixture changes in print order
   std::vector<int> tools_used_;  // tool changers: tools in order of first use
   int last_tool_ = -1;
+  bool select_tools_ = false;    // multi-tool Marlin: T for each path's own tool
   double standby_ = 0;           // °C for idle tools (temperature.standby), 0 = they stay at printing temperature
   std::size_t next_change_ = 0, path_index_ = 0;
   GcodeStats stats_;

@@ -495,3 +495,31 @@ TEST(PrimeTower, EveryMixingDialectPrintsTheGradientAsDesigned) {
   bad.gradient_dialect = "template";
   EXPECT_THROW(write_gcode(p.graded, bad), SettingError);
 }
+
+TEST(PrimeTower, MultiToolMarlinSelectsAndHeatsEachPathsTool) {
+  // Paths with their own tool (no mixture) on a two-tool Marlin machine: each tool selected
+  // at its path's start and heated before its first extrusion; one-tool machines write no T.
+  Toolpath tp;
+  Layer l;
+  l.z = 0.2;
+  for (int k = 0; k < 4; ++k) {
+    Path p;
+    p.role = PathRole::Perimeter;
+    p.tool = k % 2;
+    p.points = {{0, 10.0 * k, 0.2}, {20, 10.0 * k, 0.2}, {20, 10.0 * k + 5, 0.2}};
+    l.paths.push_back(p);
+  }
+  tp.layers.push_back(l);
+  MachineProfile prof;
+  prof.tool_count = 2;
+  prof.nozzle_temperature = 210;
+  prof.standby_temperature = 150;
+  const Replay r = replay(write_gcode(tp, prof));
+  EXPECT_EQ(r.changes.size(), 4u);
+  EXPECT_EQ(r.cold_extrusions, 0u);
+  EXPECT_EQ(r.tools, (std::set<int>{0, 1}));
+  EXPECT_EQ(r.changes_inside_paths, 0u);
+  prof.tool_count = 1;
+  for (auto& p : tp.layers[0].paths) p.tool = 0;
+  EXPECT_TRUE(replay(write_gcode(tp, prof)).changes.empty());
+}
