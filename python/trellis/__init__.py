@@ -68,7 +68,7 @@ class Lattice:
         return f"<trellis.Lattice {self.node_count} nodes, {self.edge_count} struts>"
 
 
-ROLES = ["strut", "contour", "handle", "perimeter", "infill", "other", "skin"]
+ROLES = ["strut", "contour", "handle", "perimeter", "infill", "other", "skin", "tower"]
 
 
 class Toolpath:
