@@ -643,6 +643,123 @@ double purge_length(double volume, double h, double w) {
   return area > 0 ? volume / area : 0;
 }
 
+void add_prime_tower(Toolpath& tp, const FgmOptions& o, const PurgeOptions& purge,
+                     FgmStats& st) {
+  st.purges = 0;
+  st.purge_length = st.purge_volume = 0;
+  st.tower = {};
+  if (!(purge.melt_volume > 0)) return;
+  const double L = purge_length(purge.melt_volume, o.layer_height, o.bead_width);
+  auto color_of = [&](const Path& p) { return p.mixture.empty() ? -1 : o.palette.color_of(p.mixture); };
+  // Which paths need a purge before them, and the last layer with one.
+  std::vector<std::vector<char>> purge_before(tp.layers.size());
+  std::size_t most = 0;
+  long last_purge_layer = -1;
+  int last = -1, first_color = -1;
+  BBox2 part{{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()},
+             {-std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()}};
+  for (std::size_t li = 0; li < tp.layers.size(); ++li) {
+    const auto& paths = tp.layers[li].paths;
+    purge_before[li].assign(paths.size(), 0);
+    std::size_t count = 0;
+    for (std::size_t i = 0; i < paths.size(); ++i) {
+      for (const auto& q : paths[i].points) {
+        part.min = {std::min(part.min.x, q.x), std::min(part.min.y, q.y)};
+        part.max = {std::max(part.max.x, q.x), std::max(part.max.y, q.y)};
+      }
+      const int color = color_of(paths[i]);
+      if (color < 0) continue;
+      if (first_color < 0) first_color = color;
+      if (last >= 0 && color != last) {
+        // The mixture change: the largest change of any material's share.
+        const auto before = o.palette.mixture(last), after = o.palette.mixture(color);
+        double change = 0;
+        for (std::size_t m = 0; m < after.size(); ++m)
+          change = std::max(change, std::abs(after[m] - before[m]));
+        if (change > purge.threshold) {
+          purge_before[li][i] = 1;
+          ++count;
+        }
+      }
+      last = color;
+    }
+    most = std::max(most, count);
+    if (count > 0) last_purge_layer = static_cast<long>(li);
+  }
+  if (last_purge_layer < 0) return;
+  const double side = tower::side_for(most, L, o.bead_width, purge.side);
+  // The footprint of the beads, not of their centre lines.
+  const BBox2 beads{{part.min.x - o.bead_width / 2, part.min.y - o.bead_width / 2},
+                    {part.max.x + o.bead_width / 2, part.max.y + o.bead_width / 2}};
+  const tower::Square sq(tower::place(beads, side, purge), side, o.bead_width);
+  st.tower.built = true;
+  st.tower.x = sq.centre().x;
+  st.tower.y = sq.centre().y;
+  st.tower.side = side;
+  st.tower.purge_path = L;
+  st.tower.layers = static_cast<std::size_t>(last_purge_layer) + 1;
+  std::map<int, TowerColour> colours;
+  auto tower_path = [&](std::vector<Vec2> pts, int color, double z) {
+    Path p;
+    p.role = PathRole::Tower;
+    p.mixture = o.palette.mixture(color);
+    p.width = o.bead_width;
+    p.height = o.layer_height;
+    for (const Vec2 q : pts) p.points.push_back({q.x, q.y, z});
+    TowerColour& c = colours[color];
+    c.color = color;
+    c.mixture = p.mixture;
+    c.length += p.length();
+    return p;
+  };
+  const int k = sq.lines_for(L);
+  last = -1;
+  for (std::size_t li = 0; li < tp.layers.size(); ++li) {
+    Layer& layer = tp.layers[li];
+    std::vector<Path> out;
+    const bool across = li % 2 == 1;  // lines cross the layer below's
+    int used = 0;
+    if (static_cast<long>(li) <= last_purge_layer) {
+      // Wall and sparse lines in the colour already loaded, around the lines the purges use.
+      const auto purges = std::count(purge_before[li].begin(), purge_before[li].end(), 1);
+      const int base = last >= 0 ? last : first_color;
+      out.push_back(tower_path(sq.wall(), base, layer.z));
+      auto sparse = sq.sparse(static_cast<int>(purges) * k, across);
+      if (sparse.size() >= 2) out.push_back(tower_path(std::move(sparse), base, layer.z));
+    }
+    for (std::size_t i = 0; i < layer.paths.size(); ++i) {
+      const int color = color_of(layer.paths[i]);
+      if (purge_before[li][i]) {
+        Path p = tower_path(sq.zigzag(used, k, across), color, layer.z);
+        used += k;
+        st.purge_length += p.length();
+        ++st.purges;
+        ++colours[color].purges;
+        out.push_back(std::move(p));
+      }
+      if (color >= 0) last = color;
+      out.push_back(std::move(layer.paths[i]));
+    }
+    layer.paths = std::move(out);
+  }
+  const double bead_area = o.layer_height * (o.bead_width - o.layer_height) +
+                           3.14159265358979323846 * o.layer_height * o.layer_height / 4;
+  st.purge_volume = st.purge_length * bead_area;
+  for (auto& [color, c] : colours) {
+    c.volume = c.length * bead_area;
+    double density = 0;
+    for (std::size_t m = 0; m < c.mixture.size(); ++m)
+      density += c.mixture[m] * (m < purge.density.size() ? purge.density[m] : 1.0);
+    c.mass = c.volume * 1e-3 * density;
+    c.time = purge.speed > 0 ? c.length / purge.speed : 0;
+    st.tower.length += c.length;
+    st.tower.volume += c.volume;
+    st.tower.mass += c.mass;
+    st.tower.time += c.time;
+    st.tower.colours.push_back(c);
+  }
+}
+
 Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>& layers,
                             const Toolpath& planar, const FgmOptions& o, const PurgeOptions& purge,
                             FgmStats* stats) {
@@ -778,97 +895,13 @@ Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>&
   Toolpath tp;
   FgmStats st;
   st.shortest_path = std::numeric_limits<double>::infinity();
-  const double L = purge_length(purge.melt_volume, o.layer_height, o.bead_width);
-  // Which pieces need a purge before them, and the last layer with one.
-  std::vector<std::vector<char>> purge_before(per.size());
-  std::size_t most = 0;
-  long last_purge_layer = -1;
-  int last = -1, first_color = -1;
-  BBox2 part{{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()},
-             {-std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()}};
-  for (std::size_t li = 0; li < per.size(); ++li) {
-    purge_before[li].assign(per[li].size(), 0);
-    std::size_t count = 0;
-    for (std::size_t i = 0; i < per[li].size(); ++i) {
-      const Piece& piece = per[li][i];
-      for (const auto& q : piece.path.points) {
-        part.min = {std::min(part.min.x, q.x), std::min(part.min.y, q.y)};
-        part.max = {std::max(part.max.x, q.x), std::max(part.max.y, q.y)};
-      }
-      if (first_color < 0) first_color = piece.color;
-      if (last >= 0 && piece.color != last && purge.melt_volume > 0) {
-        // The mixture change: the largest change of any material's share.
-        const auto before = o.palette.mixture(last), after = o.palette.mixture(piece.color);
-        double change = 0;
-        for (std::size_t m = 0; m < after.size(); ++m)
-          change = std::max(change, std::abs(after[m] - before[m]));
-        if (change > purge.threshold) {
-          purge_before[li][i] = 1;
-          ++count;
-        }
-      }
-      last = piece.color;
-    }
-    most = std::max(most, count);
-    if (count > 0) last_purge_layer = static_cast<long>(li);
-  }
-  std::optional<tower::Square> sq;
-  if (last_purge_layer >= 0) {
-    const double side = tower::side_for(most, L, o.bead_width, purge.side);
-    // The footprint of the beads, not of their centre lines.
-    const BBox2 beads{{part.min.x - o.bead_width / 2, part.min.y - o.bead_width / 2},
-                      {part.max.x + o.bead_width / 2, part.max.y + o.bead_width / 2}};
-    sq.emplace(tower::place(beads, side, purge), side, o.bead_width);
-    st.tower.built = true;
-    st.tower.x = sq->centre().x;
-    st.tower.y = sq->centre().y;
-    st.tower.side = side;
-    st.tower.purge_path = L;
-    st.tower.layers = static_cast<std::size_t>(last_purge_layer) + 1;
-  }
-  std::map<int, TowerColour> colours;
-  auto tower_path = [&](std::vector<Vec2> pts, int color, double z) {
-    Path p;
-    p.role = PathRole::Tower;
-    p.mixture = o.palette.mixture(color);
-    p.width = o.bead_width;
-    p.height = o.layer_height;
-    for (const Vec2 q : pts) p.points.push_back({q.x, q.y, z});
-    TowerColour& c = colours[color];
-    c.color = color;
-    c.mixture = p.mixture;
-    c.length += p.length();
-    return p;
-  };
-  last = -1;
+  int last = -1;
   for (std::size_t li = 0; li < per.size(); ++li) {
     st.faces += faces_per[li];
     Layer layer;
     layer.z = planar.layers[li].z;
-    const bool tower_layer = sq && static_cast<long>(li) <= last_purge_layer;
-    const bool across = li % 2 == 1;  // lines cross the layer below's
-    int used = 0;
-    if (tower_layer) {
-      // Wall and sparse lines in the colour already loaded, around the lines the purges use.
-      const int k = sq->lines_for(L);
-      const auto purges = std::count(purge_before[li].begin(), purge_before[li].end(), 1);
-      const int base = last >= 0 ? last : first_color;
-      layer.paths.push_back(tower_path(sq->wall(), base, layer.z));
-      auto sparse = sq->sparse(static_cast<int>(purges) * k, across);
-      if (sparse.size() >= 2) layer.paths.push_back(tower_path(std::move(sparse), base, layer.z));
-    }
-    for (std::size_t i = 0; i < per[li].size(); ++i) {
-      Piece& piece = per[li][i];
+    for (auto& piece : per[li]) {
       if (last >= 0 && piece.color != last) ++st.colour_changes;
-      if (purge_before[li][i]) {
-        const int k = sq->lines_for(L);
-        Path p = tower_path(sq->zigzag(used, k, across), piece.color, layer.z);
-        used += k;
-        st.purge_length += p.length();
-        ++st.purges;
-        ++colours[piece.color].purges;
-        layer.paths.push_back(std::move(p));
-      }
       last = piece.color;
       st.shortest_path = std::min(st.shortest_path, piece.path.length());
       ++st.paths;
@@ -876,22 +909,7 @@ Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>&
     }
     if (!layer.paths.empty()) tp.layers.push_back(std::move(layer));
   }
-  const double bead_area = o.layer_height * (o.bead_width - o.layer_height) +
-                           3.14159265358979323846 * o.layer_height * o.layer_height / 4;
-  st.purge_volume = st.purge_length * bead_area;
-  for (auto& [color, c] : colours) {
-    c.volume = c.length * bead_area;
-    double density = 0;
-    for (std::size_t m = 0; m < c.mixture.size(); ++m)
-      density += c.mixture[m] * (m < purge.density.size() ? purge.density[m] : 1.0);
-    c.mass = c.volume * 1e-3 * density;
-    c.time = purge.speed > 0 ? c.length / purge.speed : 0;
-    st.tower.length += c.length;
-    st.tower.volume += c.volume;
-    st.tower.mass += c.mass;
-    st.tower.time += c.time;
-    st.tower.colours.push_back(c);
-  }
+  add_prime_tower(tp, o, purge, st);
   if (st.paths == 0) st.shortest_path = 0;
   if (stats) *stats = st;
   return tp;

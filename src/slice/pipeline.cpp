@@ -162,6 +162,9 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
     fo.resolution = job.field.resolution;
     if (job.strategy == 2) {
       r.toolpath = plan_fgm_strategy2(field, r.outlines, fo, &r.fgm);
+      // A tool changer primes each tool it changes to (Strategy 2 on a mixing hotend runs the
+      // change ahead instead: gradient.lookahead).
+      if (job.tools > 0) add_prime_tower(r.toolpath, fo, job.purge, r.fgm);
     } else {
       const Toolpath planar = plan_planar(r.outlines, job.planar, &r.planar);
       r.toolpath = plan_fgm_strategy1(field, r.outlines, planar, fo, job.purge, &r.fgm);

@@ -523,3 +523,43 @@ TEST(PrimeTower, MultiToolMarlinSelectsAndHeatsEachPathsTool) {
   for (auto& p : tp.layers[0].paths) p.tool = 0;
   EXPECT_TRUE(replay(write_gcode(tp, prof)).changes.empty());
 }
+
+TEST(PrimeTower, Strategy2OnAToolChangerPrimesEveryToolInTheTower) {
+  trellis::test::TempDir dir;
+  const std::string vcad = dir.file("plate.vcad");
+  write_file_atomic(vcad, kPlate);
+  SliceJob job;
+  job.input = vcad;
+  job.strategy = 2;
+  job.planar.layer_height = 0.2;
+  job.fgm.palette.colors = 5;
+  job.fgm.material_resolution = 0.5;
+  job.tools = 5;
+  job.purge = bed_purge(360, 360);
+  const SliceResult r = run_slice(job);
+  ASSERT_TRUE(r.fgm.tower.built);
+  MachineProfile prof;
+  prof.bed_x = prof.bed_y = 360;
+  prof.center = true;
+  prof.tool_count = 5;
+  prof.gradient_mode = "tools";
+  prof.nozzle_temperature = 215;
+  const Replay rp = replay(write_gcode(r.toolpath, prof));
+  EXPECT_EQ(rp.cold_extrusions, 0u);
+  EXPECT_EQ(rp.changes_inside_paths, 0u);
+  const double L = purge_length(20, 0.2, 0.4);
+  std::map<std::size_t, double> tower;
+  std::set<std::size_t> done;
+  for (const auto& s : rp.segments) {
+    if (s.change < 2 || done.count(s.change)) continue;
+    const Vec3 m = (s.a + s.b) * 0.5;
+    if (std::abs(m.x - rp.offset.x) <= 20.3 && std::abs(m.y - rp.offset.y) <= 10.3) {
+      EXPECT_GE(tower[s.change], L - 1e-3) << s.mixture;
+      done.insert(s.change);
+    } else {
+      tower[s.change] += distance_xy(s.a, s.b);
+    }
+  }
+  EXPECT_EQ(done.size(), rp.changes.size() - 1);
+  EXPECT_GT(done.size(), 5u);
+}

@@ -180,6 +180,13 @@ Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>&
                             const Toolpath& planar, const FgmOptions& options,
                             const PurgeOptions& purge, FgmStats* stats = nullptr);
 
+// The prime tower for a graded toolpath whose paths are in print order, each with its palette
+// colour's mixture (Strategy 1, or Strategy 2 on a tool changer): a purge before every change
+// above the threshold, walls and sparse lines below the last one (PurgeOptions). Fills
+// stats.purges, purge_length, purge_volume and tower; GeometryError if no bed space fits.
+void add_prime_tower(Toolpath& toolpath, const FgmOptions& options, const PurgeOptions& purge,
+                     FgmStats& stats);
+
 // Strategy 2 over the layer outlines (from slice_field). Paths carry mixture {m, 1-m} with m the
 // band's mid value of the first material.
 Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>& layers,
