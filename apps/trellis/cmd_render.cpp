@@ -3,7 +3,7 @@
 #include "commands.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/render/render.hpp"
-#include "trellis/toolpath/json.hpp"
+#include "trellis/view/view.hpp"
 
 namespace trellis::cli {
 
@@ -11,15 +11,24 @@ void add_render(CLI::App& app) {
   struct Opts {
     std::string input, output;
     int layer = -1;
+    std::string colour = "feature";
     RenderOptions r;
+    ViewLoadOptions load;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand("render", "Render toolpath layers to PNG");
   cmd->footer(
-      "Paths are coloured by print order (blue first, red last), travel is dashed grey,\n"
-      "path starts are green dots and ends small dark dots.\n"
+      "Reads a toolpath JSON, G-code of any slicer (.gcode/.g/.nc) or a laser .cli. Paths are\n"
+      "coloured by feature type (or print order, blue first and red last, or mixture), travel is\n"
+      "dashed grey, path starts are green dots and ends small dark dots. Each PNG has a title\n"
+      "(file, layer, Z, what colour means), a legend or colour bar and a scale bar in mm.\n"
       "Without --layer every layer is written as OUT.layerNNN.png (OUT without .png).");
-  cmd->add_option("toolpath", o->input, "toolpath JSON")->required();
+  cmd->add_option("toolpath", o->input, "toolpath JSON, G-code (.gcode/.g/.nc) or laser .cli")
+      ->required();
+  cmd->add_option("--colour", o->colour, "what colour means: feature, order or mixture")
+      ->check(CLI::IsMember({"feature", "order", "mixture"}))
+      ->capture_default_str();
+  cmd->add_option("--machine", o->load.machine, ".nc files: machine profile (valve commands)");
   cmd->add_option("-o,--output", o->output, "PNG file (with --layer) or prefix")->required();
   cmd->add_option("--layer", o->layer, "layer index (0-based)");
   cmd->add_option("--image-size", o->r.size_px, "image size in pixels")
@@ -28,7 +37,16 @@ void add_render(CLI::App& app) {
   cmd->add_option("--bead-width", o->r.bead_width, "line width (mm; 0 = from the toolpath)");
   cmd->add_flag("!--no-travel", o->r.travel, "do not draw travel moves");
   cmd->callback([o] {
-    const Toolpath tp = read_toolpath(o->input);
+    Diagnostics diag;
+    const ViewScene scene = load_view_scene(o->input, o->load, diag);
+    if (scene.kind == "lattice")
+      throw ParseError(o->input +
+                       ": a lattice, not a toolpath (plan it first, or `trellis view` it)");
+    print_warnings(diag);
+    const Toolpath& tp = scene.toolpath;
+    o->r.colour_by_role = o->colour == "feature";
+    o->r.colour_by_mixture = o->colour == "mixture";
+    if (o->r.title.empty()) o->r.title = scene.name;
     if (o->layer >= 0) {
       render_layer_png(tp, static_cast<std::size_t>(o->layer), o->output, o->r);
       std::cout << "wrote " << o->output << "\n";

@@ -14,6 +14,7 @@ Long calls release the GIL, report progress to ``progress(stage, fraction)`` and
 ``trellis.GeometryError`` and ``trellis.MachineError`` (the output would not print on the
 machine; nothing written) with ``file``, ``line`` and ``element``.
 """
+import html
 import os
 import shlex
 import sys
@@ -123,6 +124,23 @@ class Toolpath:
 
     def _repr_png_(self):
         return self.png(self.layer_count // 2)
+
+    def view_html(self, title=None):
+        """The interactive 3D viewer of ``trellis view`` for this toolpath: one self-contained
+        HTML page (str) that needs no server and no network."""
+        return self._core.view_html(title or self._core.source or "toolpath")
+
+    def save_view(self, path, title=None):
+        """Writes the viewer page (``view_html``) to ``path``."""
+        with open(os.fspath(path), "w", encoding="utf-8") as f:
+            f.write(self.view_html(title))
+
+    def _repr_html_(self):
+        # Jupyter shows the viewer inline: the page in an iframe, so its script and styles stay
+        # out of the notebook's own page.
+        page = html.escape(self.view_html(), quote=True)
+        return (f'<iframe class="trellis-view" srcdoc="{page}" style="width:100%;height:560px;'
+                f'border:1px solid #ccc" sandbox="allow-scripts"></iframe>')
 
     def __repr__(self):
         return (f"<trellis.Toolpath {self.layer_count} layers, {self.path_count} paths, "

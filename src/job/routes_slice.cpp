@@ -226,6 +226,7 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
     out.files.push_back(job.report);
   }
   RenderOptions ro;
+  ro.colour_by_role = true;  // slice previews: feature type by default
   ro.colour_by_mixture = sj.strategy != 0;
   ro.starts = sj.strategy == 0;
   ro.size_px = c.output.image_size;

@@ -426,6 +426,10 @@ std::vector<Setting> make_table() {
       "plan.order", {{"longest-first", PathOrder::LongestFirst}, {"travel", PathOrder::Travel}},
       "path order: longest-first (paper) or travel (nearest neighbour + 2-opt)", "order",
       [](C& c) -> auto& { return c.plan.order; }));
+  t.push_back(boolean("plan.merge_ends",
+                      "join paths that end at the same node into one (fewer paths and starts; "
+                      "GIPPO keeps its paths as grown otherwise)",
+                      "merge-ends", [](C& c) -> auto& { return c.plan.merge_ends; }));
   t.push_back(integer("plan.long_path_nodes", 2, 1e6, "LTS/OE: a path is long with this many nodes",
                       "long-nodes", [](C& c) -> auto& { return c.plan.long_path_nodes; }));
   t.push_back(integer("plan.seed", 0, 9e15, "random seed (gippo iterations, aero shuffled runs)",
