@@ -170,6 +170,7 @@ def plan(
     threads: int = ...,  # run.threads: worker threads (0 = all cores)
     tip_clearance: float = ...,  # nozzle.tip_clearance: material less than this above the tip is not hit
     tries: int = ...,  # aero.tries: dynamic: planner runs (strategies, then shuffled orders; best kept)
+    worst: bool = ...,  # gippo.worst: also write the lowest-score solution beside the best (NAME.worst.json, worst_layer_*.png previews), as the paper compares them
     z: float = ...,  # lattice2d.z: height of the lattice plane
 ) -> Result: ...
 

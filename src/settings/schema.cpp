@@ -439,6 +439,10 @@ std::vector<Setting> make_table() {
                                      [](C& c) -> auto& { return c.plan.gippo.mode; }));
   t.push_back(integer("gippo.iterations", 1, 1e7, "solutions generated, best kept (paper: 500)",
                       "iterations", [](C& c) -> auto& { return c.plan.gippo.iterations; }));
+  t.push_back(boolean("gippo.worst",
+                      "also write the lowest-score solution beside the best (NAME.worst.json, "
+                      "worst_layer_*.png previews), as the paper compares them",
+                      "worst", [](C& c) -> auto& { return c.plan.keep_worst; }));
   t.push_back(integer("gippo.seeds", 0, 100000,
                       "robustness: also run seeds plan.seed .. +N-1 and report the best score's "
                       "spread (paper Fig. 2 v-vi); 0 = off", "seeds",
