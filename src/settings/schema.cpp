@@ -317,6 +317,11 @@ std::vector<Setting> make_table() {
   t.push_back(number("lattice2d.reentrant_angle", "deg", 1, 89,
                      "re-entrant honeycomb: strut angle below horizontal", "reentrant-angle",
                      [](C& c) -> auto& { return c.lattice2d.reentrant_angle_deg; }));
+  t.push_back(number("lattice2d.cell_height", "mm", 0, 1e5,
+                     "arrowhead and re-entrant honeycomb: the unit cell's vertical length (the "
+                     "cell size is the horizontal one, GIPPO Table 1); sets the arrowhead's inner "
+                     "angle or the re-entrant rib length; 0 = from the angles",
+                     "cell-height", [](C& c) -> auto& { return c.lattice2d.cell_height; }));
   t.push_back(number("lattice2d.arrowhead_outer", "deg", 1, 89, "arrowhead: outer chevron angle",
                      "arrowhead-outer", [](C& c) -> auto& { return c.lattice2d.arrowhead_outer_deg; }));
   t.push_back(positive("lattice2d.line_width", "mm", 100,

@@ -469,7 +469,7 @@ struct SurfacePoint {
 // pieces split where the footprint ends (ends found by bisection), each refined until the curve
 // at the quarter points of every chord is within `tol` of it.
 std::vector<std::vector<Vec3>> sample_curve(const SurfacePoint& sp, Vec2 a, Vec2 b, double tol,
-                                            double base_step) {
+                                            double base_step, std::size_t* jumps = nullptr) {
   const double len = std::hypot(b.x - a.x, b.y - a.y);
   std::vector<std::vector<Vec3>> pieces;
   if (len <= 0) return pieces;
@@ -486,6 +486,22 @@ std::vector<std::vector<Vec3>> sample_curve(const SurfacePoint& sp, Vec2 a, Vec2
   }
   const double min_step = 1e-5;
   std::vector<Vec3> cur;
+  // A chord steeper than 100:1 that still rises by more than the tolerance when narrowed to
+  // 0.1 µm (bisection keeping the half with the larger rise) is a jump, not a steep slope: a
+  // continuous surface's rise vanishes with the interval.
+  auto is_jump = [&](double s0, Vec3 p0, double s1, Vec3 p1) {
+    if (!(std::abs(p1.z - p0.z) > tol && std::abs(p1.z - p0.z) > 100 * (s1 - s0))) return false;
+    for (int k = 0; k < 60 && s1 - s0 > 1e-7; ++k) {
+      const double sm = 0.5 * (s0 + s1);
+      const Vec3 pm = at(sm);
+      if (!is_finite(pm)) return false;
+      if (std::abs(pm.z - p0.z) >= std::abs(p1.z - pm.z))
+        s1 = sm, p1 = pm;
+      else
+        s0 = sm, p0 = pm;
+    }
+    return std::abs(p1.z - p0.z) > tol;
+  };
   // Refines between (s0,p0) and (s1,p1), appending points after p0 up to p1.
   auto refine = [&](auto&& self, double s0, Vec3 p0, double s1, Vec3 p1, int depth) -> void {
     if (s1 - s0 > min_step && depth < 40) {
@@ -506,6 +522,13 @@ std::vector<std::vector<Vec3>> sample_curve(const SurfacePoint& sp, Vec2 a, Vec2
         self(self, sm, pm, s1, p1, depth + 1);
         return;
       }
+    }
+    if (is_jump(s0, p0, s1, p1)) {
+      // The surface jumps here (a discontinuous height function): split the path instead of
+      // printing a bridge through the air.
+      if (jumps) ++*jumps;
+      if (cur.size() >= 2 && distance(cur.front(), cur.back()) > 1e-4) pieces.push_back(cur);
+      cur.clear();
     }
     cur.push_back(p1);
   };
@@ -571,6 +594,7 @@ bool clip_line(const BBox2& box, Vec2 d, Vec2 n, double v, double* u0, double* u
 struct Line {
   double v = 0;
   std::vector<std::vector<Vec3>> pieces;  // in increasing u
+  std::size_t jumps = 0;                  // where the surface jumps (split, sample_curve)
 };
 
 // Exact sections of a mesh by the lines v = v_i (direction d): triangle cuts chained in u.
@@ -800,7 +824,7 @@ std::vector<Line> layer_lines(const HeightField& surface, double angle_deg, doub
     auto& f = evals.local();
     const SurfacePoint sp{f, prm.offset, offset};
     const Vec2 o = n * lines[i].v;
-    lines[i].pieces = sample_curve(sp, o + d * u0, o + d * u1, tol * 0.5, step);
+    lines[i].pieces = sample_curve(sp, o + d * u0, o + d * u1, tol * 0.5, step, &lines[i].jumps);
     for (auto& p : lines[i].pieces) p = simplify_polyline(p, tol * 0.5);
   });
   return lines;
@@ -863,6 +887,7 @@ NonplanarResult slice_nonplanar(const HeightField& surface, const NonplanarParam
           if (first < 0) first = static_cast<long>(i);
           last = static_cast<long>(i);
         }
+      for (std::size_t i = 0; i < per_layer[k].size(); ++i) rep.jumps += per_layer[k][i].jumps;
       for (std::size_t i = 0; i < per_layer[k].size(); ++i)
         for (auto& p : per_layer[k][i].pieces) {
           pieces.push_back(std::move(p));
@@ -1090,9 +1115,10 @@ std::string nonplanar_report_json(const NonplanarResult& r, const NonplanarParam
   j["chord_tolerance_mm"] = prm.chord_tolerance;
   j["layers"] = r.layers.size();
   double length = 0, conn = 0;
-  std::size_t travel = 0, changes = 0;
+  std::size_t travel = 0, changes = 0, jumps = 0;
   for (std::size_t k = 0; k < r.layers.size(); ++k) {
     length += r.layers[k].length, conn += r.layers[k].connector_length;
+    jumps += r.layers[k].jumps;
     travel += r.layers[k].travel_moves;
     if (k > 0 && r.layers[k].tool != r.layers[k - 1].tool) ++changes;
   }
@@ -1100,6 +1126,7 @@ std::string nonplanar_report_json(const NonplanarResult& r, const NonplanarParam
   j["connector_length_mm"] = conn;
   j["travel_moves_within_layers"] = travel;
   j["tool_changes"] = changes;
+  j["surface_jumps"] = jumps;
   j["max_descent_deg"] = r.max_descent_deg;
   j["max_deviation_mm"] = dev.max_point;
   j["max_chord_deviation_mm"] = dev.max_chord;
@@ -1112,7 +1139,8 @@ std::string nonplanar_report_json(const NonplanarResult& r, const NonplanarParam
                       {"paths", l.paths},
                       {"travel_moves", l.travel_moves},
                       {"length_mm", l.length},
-                      {"connector_length_mm", l.connector_length}});
+                      {"connector_length_mm", l.connector_length},
+                      {"jumps", l.jumps}});
   j["per_layer"] = layers;
   if (g)
     j["gcode"] = {{"tool_changes", g->tool_changes},

@@ -89,6 +89,7 @@ struct NonplanarLayerReport {
   std::size_t travel_moves = 0;  // within the layer
   double length = 0;             // extruded path length (mm)
   double connector_length = 0;   // of it, joining lines (mm)
+  std::size_t jumps = 0;         // places where the surface jumps: paths split there, no bridge
 };
 
 struct NonplanarResult {
