@@ -186,10 +186,34 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
   sj.purge.x = c.machine.purge_x;
   sj.purge.y = c.machine.purge_y;
   sj.purge.side = c.machine.purge_side;
+  sj.purge.automatic = c.machine.purge_position == "auto";
+  sj.purge.clearance = c.machine.purge_clearance;
+  {
+    // The bed as the writer will place the toolpath on it.
+    const MachineProfile& placed = c.machine;
+    sj.purge.bed_x = placed.bed_x;
+    sj.purge.bed_y = placed.bed_y;
+    sj.purge.centred = placed.center;
+    sj.purge.circular = placed.bed_shape == "circle";
+    sj.purge.origin_centre = placed.origin == "center";
+    sj.purge.offset_x = placed.offset_x;
+    sj.purge.offset_y = placed.offset_y;
+  }
+  if (c.machine.gradient_mode == "tools") sj.tools = std::max(1, c.machine.gradient_tool_count());
+  sj.quantize = c.machine.quantize;
+  sj.purge.speed = c.machine.print_speed;
+  sj.purge.density = {c.machine.density_a, c.machine.density_b, c.machine.density_c};
   SliceResult r = run_slice(sj, progress);
   if (r.repaired)
     diag.warn("mesh_repaired", fs::path(job.input).filename().string() +
                                    " was not closed and manifold; repaired: " + r.repair.summary());
+  if (sj.strategy != 0 && r.fgm.colours_used < r.fgm.colours_total)
+    diag.warn("palette_partly_used",
+              fmt::format("{}: only {} of the {} palette colours are printed: the design's "
+                          "fractions span part of 0..1 (each band stays 1/{} wide; the paper's "
+                          "palettes span the whole range)",
+                          job.input, r.fgm.colours_used, r.fgm.colours_total,
+                          r.fgm.colours_total));
   // The file name only: outputs must not depend on where the command ran.
   r.toolpath.source = "trellis slice " + fs::path(job.input).filename().string() + " (" +
                       to_string(r.route) + " route)";
@@ -214,8 +238,11 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
     out.summary = fmt::format(
         "strategy {}: {} colours, {} faces, {} paths, {} {} changes (look-ahead {} mm), {} purges "
         "({} mm3), gradient error mean {} max {} (bound {}), shortest {} mm; {} route, {} layers, ~{} min",
-        sj.strategy, sj.fgm.palette.colors, r.fgm.faces, r.fgm.paths, g.gradient_changes,
-        c.machine.gradient_mode, fixed(c.machine.lookahead, 0), r.fgm.purges,
+        sj.strategy,
+        r.fgm.quantized_from ? fmt::format("{} (quantized from {})", sj.tools, r.fgm.quantized_from)
+                             : std::to_string(sj.fgm.palette.colors),
+        r.fgm.faces, r.fgm.paths, g.gradient_changes,
+        c.machine.gradient_mode, fixed(g.lookahead, 0), r.fgm.purges,
         fixed(r.fgm.purge_volume, 0), fixed(r.fgm.error_mean, 4), fixed(r.fgm.error_max, 4),
         fixed(r.fgm.error_bound, 4), fixed(r.fgm.shortest_path, 2), to_string(r.route),
         r.outlines.size(), fixed(g.print_time_s / 60, 1));
@@ -226,6 +253,12 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
         to_string(r.route), r.outlines.size(), fixed(c.machine.layer_height, 3), r.planar.paths,
         r.planar.walls, r.planar.skin_lines, r.planar.infill_lines, fixed(r.planar.extruded_length, 1),
         fixed(g.print_time_s / 60, 1), fixed(r.outline_seconds, 2), fixed(r.plan_seconds, 2));
+  if (sj.strategy != 0 && r.fgm.tower.built)
+    out.summary += fmt::format("; prime tower {} mm square at ({}, {}), {} layers, {} mm3, {} g, ~{} min",
+                               fixed(r.fgm.tower.side, 1), fixed(r.fgm.tower.x, 1),
+                               fixed(r.fgm.tower.y, 1), r.fgm.tower.layers,
+                               fixed(r.fgm.tower.volume, 0), fixed(r.fgm.tower.mass, 1),
+                               fixed(r.fgm.tower.time / 60, 1));
   return out;
 }
 

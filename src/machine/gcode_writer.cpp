@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -94,6 +95,7 @@ class Writer {
     flavor_ = p.parsed_flavor();
     down_flow_ = p.down_flow_table();
     e_axis_ = flavor_ == Flavor::Marlin || (flavor_ == Flavor::Embedded && p.embedded_drive == "syringe");
+    standby_ = p.standby_temperature;
     placement();
   }
 
@@ -102,8 +104,8 @@ class Writer {
     for (const auto& l : tp_.layers)
       for (const auto& path : l.paths) points += path.points.size();
     out_.reserve(points * 40 + 8192);
-    header();
     plan_changes();
+    header();
     for (std::size_t li = 0; li < tp_.layers.size(); ++li) layer(li);
     footer();
     if (gcode_progress_supported(p_.flavor)) insert_progress();
@@ -204,7 +206,14 @@ class Writer {
       temp("M140 S", p_.bed_temperature);
       temp("M190 S", p_.bed_temperature);
     }
-    if (p_.nozzle_temperature > 0) {
+    if (p_.nozzle_temperature > 0 && !tools_used_.empty()) {
+      // A tool changer: every tool the print uses starts heating now (the first to print
+      // temperature, the others to standby if set), the first is waited for.
+      for (std::size_t i = 0; i < tools_used_.size(); ++i)
+        temp(("M104 T" + std::to_string(tools_used_[i]) + " S").c_str(),
+             i == 0 || standby_ <= 0 ? p_.nozzle_temperature : standby_);
+      temp(("M109 T" + std::to_string(tools_used_[0]) + " S").c_str(), p_.nozzle_temperature);
+    } else if (p_.nozzle_temperature > 0) {
       temp("M104 S", p_.nozzle_temperature);
       temp("M109 S", p_.nozzle_temperature);
     }
@@ -217,6 +226,7 @@ class Writer {
 
   void footer() {
     if (flavor_ == Flavor::Marlin && p_.retract_length > 0 && printed_) retract();
+    for (int t : tools_used_) line("M104 T" + std::to_string(t) + " S0");  // idle tools too
     if (known_ && flavor_ == Flavor::Embedded) {
       move_z(safe_z_);
     } else if (known_) {
@@ -374,8 +384,7 @@ class Writer {
     std::string c;
     const double a = std::clamp(mix[0], 0.0, 1.0);
     if (p_.gradient_mode == "tools") {
-      const int n = std::max(1, p_.gradient_tool_count());
-      c = "T" + std::to_string(static_cast<int>(std::lround((1 - a) * (n - 1))));
+      c = "T" + std::to_string(tool_of(mix));
     } else if (p_.gradient_mode == "temperature") {
       const double t = a * p_.temperature_a + (1 - a) * p_.temperature_b;
       c = "M104 S";
@@ -388,13 +397,83 @@ class Writer {
         append_fixed(c, f, 1);
       }
     } else {
-      static constexpr char kLetters[] = {'A', 'B', 'C', 'D', 'H', 'I'};
-      c = "M165";
-      for (std::size_t i = 0; i < mix.size() && i < 6; ++i) {
-        c += ' ';
-        c += kLetters[i];
+      c = mixing_command(mix);
+    }
+    return c;
+  }
+
+  // Tool changers: the tool that prints a mixture (tool 0 = material A … the last = B).
+  int tool_of(const std::vector<double>& mix) const {
+    const int n = std::max(1, p_.gradient_tool_count());
+    const double a = std::clamp(mix[0], 0.0, 1.0);
+    return static_cast<int>(std::lround((1 - a) * (n - 1)));
+  }
+
+  // A tool change: the tool left goes to standby (if set), the new one is selected and waited
+  // for at its printing temperature (it was heated in the header, so the wait is short).
+  std::string tool_change_command(const std::string& select, int tool) {
+    if (std::find(tools_used_.begin(), tools_used_.end(), tool) == tools_used_.end())
+      tools_used_.push_back(tool);
+    std::string c;
+    if (last_tool_ >= 0 && standby_ > 0) {
+      c += "M104 T" + std::to_string(last_tool_) + " S";
+      append_fixed(c, standby_, 1);
+      c += '\n';
+    }
+    c += select;
+    if (p_.nozzle_temperature > 0) {
+      c += "\nM109 T" + std::to_string(tool) + " S";
+      append_fixed(c, p_.nozzle_temperature, 1);
+    }
+    last_tool_ = tool;
+    return c;
+  }
+
+  // A mixing hotend's command in the profile's dialect (gradient.dialect): Marlin M165 (mix
+  // factors A B C D H I for up to six inputs), Marlin M163/M164 (each input's factor, then the
+  // mix stored into virtual tool 0, the active one), RepRapFirmware M567 (tool 0's mix ratio
+  // E<a>:<b>…) or the profile's template (gradient.template: {a} {b} {c} … each input's share,
+  // other {setting} placeholders as in gcode.start), e.g. a Klipper fork's mixing macro.
+  std::string mixing_command(const std::vector<double>& mix) const {
+    static constexpr char kLetters[] = {'A', 'B', 'C', 'D', 'H', 'I'};
+    std::string c;
+    const std::string& d = p_.gradient_dialect;
+    if (d == "m163") {
+      for (std::size_t i = 0; i < mix.size(); ++i) {
+        c += "M163 S" + std::to_string(i) + " P";
+        append_fixed(c, mix[i], 4);
+        c += '\n';
+      }
+      return c + "M164 S0";
+    }
+    if (d == "m567") {
+      c = "M567 P0 E";
+      for (std::size_t i = 0; i < mix.size(); ++i) {
+        if (i) c += ':';
         append_fixed(c, mix[i], 4);
       }
+      return c;
+    }
+    if (d == "template") {
+      if (p_.gradient_template.empty())
+        throw SettingError("gradient.dialect = template needs gradient.template (e.g. "
+                           "\"M567 P0 E{a}:{b}\")",
+                           {"", 0, "gradient.template"});
+      std::string t = p_.gradient_template;
+      for (std::size_t i = 0; i < mix.size() && i < 6; ++i) {
+        const std::string key = std::string("{") + static_cast<char>('a' + i) + "}";
+        std::string v;
+        append_fixed(v, mix[i], 4);
+        for (auto pos = t.find(key); pos != std::string::npos; pos = t.find(key, pos + v.size()))
+          t.replace(pos, key.size(), v);
+      }
+      return expand_template(t, p_, "gradient.template");
+    }
+    c = "M165";
+    for (std::size_t i = 0; i < mix.size() && i < 6; ++i) {
+      c += ' ';
+      c += kLetters[i];
+      append_fixed(c, mix[i], 4);
     }
     return c;
   }
@@ -408,11 +487,29 @@ class Writer {
     std::string command;
   };
   void plan_changes() {
-    stats_.lookahead = p_.lookahead;
     std::vector<const Path*> paths;
+    bool tower = false;
     for (const auto& l : tp_.layers)
       for (const auto& p : l.paths)
-        if (p.points.size() >= 2) paths.push_back(&p);
+        if (p.points.size() >= 2) {
+          paths.push_back(&p);
+          tower = tower || p.role == PathRole::Purge;
+        }
+    // A prime tower flushes the dead volume after the change (FGM paper A.1: look-ahead for
+    // Strategy 2 *or* a purge tower for Strategy 1), and a tool changer swaps tools between
+    // paths: both issue each change right before its path.
+    const bool tools = p_.gradient_mode == "tools";
+    // Paths carrying a tool of their own on a multi-tool Marlin machine: the tools they use,
+    // in order, heated in the header (tool_change_command records them again when printing).
+    select_tools_ = flavor_ == Flavor::Marlin && p_.tool_count > 1;
+    if (select_tools_) {
+      for (const Path* p : paths)
+        if (p->mixture.empty() &&
+            std::find(tools_used_.begin(), tools_used_.end(), p->tool) == tools_used_.end())
+          tools_used_.push_back(p->tool);
+    }
+    const double lookahead = tower || tools ? 0.0 : p_.lookahead;
+    stats_.lookahead = lookahead;
     std::vector<double> start(paths.size() + 1, 0);  // printed length before each path
     for (std::size_t k = 0; k < paths.size(); ++k) start[k + 1] = start[k] + paths[k]->length();
     std::string last;
@@ -423,12 +520,12 @@ class Writer {
       last = c;
       ++stats_.gradient_changes;
       // Locate printed length start[k] - L.
-      const double target = std::max(0.0, start[k] - p_.lookahead);
+      const double target = std::max(0.0, start[k] - lookahead);
       std::size_t j = k;
-      if (p_.lookahead > 0)
+      if (lookahead > 0)
         j = static_cast<std::size_t>(std::upper_bound(start.begin(), start.begin() + k + 1, target) -
                                      start.begin()) - 1;
-      Change ch{j, 1, 0, c};
+      Change ch{j, 1, 0, tools ? tool_change_command(c, tool_of(paths[k]->mixture)) : c};
       if (j < k) {
         double at = start[j];
         const auto& pts = paths[j]->points;
@@ -461,6 +558,10 @@ class Writer {
     ++stats_.paths;
     const bool embedded = flavor_ == Flavor::Embedded;
     if (embedded) change_tool(input.tool);
+    // A multi-tool Marlin machine printing a path with a tool of its own (no mixture that
+    // chose the tool): select it at the path's start, heated as every tool change is.
+    if (select_tools_ && input.mixture.empty() && input.tool != last_tool_)
+      line(tool_change_command("T" + std::to_string(input.tool), input.tool));
     Path path_copy;
     const Path* pp = &input;
     if (embedded && p_.node_overlap > 0) {  // each path end pushed past its end node
@@ -582,6 +683,10 @@ class Writer {
   Flavor flavor_;
   std::string out_;
   std::vector<Change> changes_;  // mixture changes in print order
+  std::vector<int> tools_used_;  // tool changers: tools in order of first use
+  int last_tool_ = -1;
+  bool select_tools_ = false;    // multi-tool Marlin: T for each path's own tool
+  double standby_ = 0;           // °C for idle tools (temperature.standby), 0 = they stay at printing temperature
   std::size_t next_change_ = 0, path_index_ = 0;
   GcodeStats stats_;
   double dx_ = 0, dy_ = 0;

@@ -144,15 +144,45 @@ const std::vector<SettingDecl>& machine_settings() {
        "issue each mixture change this much printed path before the region (dead volume, FGM "
        "paper A.1: L = V_melt / (h(w-h) + pi h^2/4))",
        0, 100000, &P::lookahead},
+      {"gradient.dialect", "",
+       "mixing: how a mixture is commanded: m165 (Marlin M165 A B C), m163 (Marlin M163 S<i> "
+       "P<share> per input + M164 S0, virtual tool 0), m567 (RepRapFirmware M567 P0 E<a>:<b>) "
+       "or template (gradient.template)",
+       0, 0, &P::gradient_dialect},
+      {"gradient.template", "",
+       "mixing, dialect template: the command for one mixture, {a} {b} {c} … replaced by each "
+       "input's share (0..1), other {setting} placeholders as in gcode.start; e.g. a Klipper "
+       "mixing macro or an ink writer's valves",
+       0, 0, &P::gradient_template},
+      {"gradient.quantize", "",
+       "tools: allow more palette colours than tools, each printed by the nearest tool (the "
+       "palette becomes the tools' mixes and the error reported is theirs); off = an error",
+       0, 0, &P::quantize},
       {"purge.melt_volume", "mm³",
-       "Strategy 1: hotend dead volume V_melt; a purge block of L = V/(h(w-h)+pi h^2/4) before "
-       "a colour change (0 = none)",
+       "Strategy 1 and tool changers: dead volume V_melt flushed into the prime tower after each "
+       "colour change, as a purge of L = V/(h(w-h)+pi h^2/4) mm (0 = no tower)",
        0, 100000, &P::melt_volume},
       {"purge.threshold", "", "Strategy 1: mixture change (0..1) above which a purge is printed", 0,
        1, &P::purge_threshold},
-      {"purge.x", "mm", "purge tower centre X (design coordinates)", -10000, 10000, &P::purge_x},
-      {"purge.y", "mm", "purge tower centre Y", -10000, 10000, &P::purge_y},
-      {"purge.side", "mm", "purge tower side", 1, 1000, &P::purge_side},
+      {"purge.position", "",
+       "where the prime tower stands: auto (beside the part on free bed space, clearance apart) "
+       "or fixed (centred at purge.x, purge.y)",
+       0, 0, &P::purge_position},
+      {"purge.x", "mm", "prime tower centre X when purge.position = fixed (design coordinates)",
+       -10000, 10000, &P::purge_x},
+      {"purge.y", "mm", "prime tower centre Y when purge.position = fixed", -10000, 10000,
+       &P::purge_y},
+      {"purge.side", "mm",
+       "smallest prime tower side; the tower grows until its busiest layer holds that layer's "
+       "purges",
+       1, 1000, &P::purge_side},
+      {"purge.clearance", "mm", "gap between the prime tower and the part's footprint", 0, 1000,
+       &P::purge_clearance},
+      {"purge.density_a", "g/cm³", "density of material A (tower mass per colour)", 0.01, 30,
+       &P::density_a},
+      {"purge.density_b", "g/cm³", "density of material B", 0.01, 30, &P::density_b},
+      {"purge.density_c", "g/cm³", "density of material C (three-material designs)", 0.01, 30,
+       &P::density_c},
       {"gcode.start", "", "start template; {section.key} or {key} inserts a setting", 0, 0,
        &P::start_gcode},
       {"gcode.end", "", "end template", 0, 0, &P::end_gcode},

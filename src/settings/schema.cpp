@@ -177,6 +177,8 @@ void add_machine(std::vector<Setting>& out) {
     if (key == "gradient.mode") s.choices = {"mixing", "tools", "temperature"};
     if (key == "gradient.flow") s.choices = {"", "pla", "tpu"};
     if (key == "embedded.drive") s.choices = {"pressure", "syringe"};
+    if (key == "purge.position") s.choices = {"auto", "fixed"};
+    if (key == "gradient.dialect") s.choices = {"m165", "m163", "m567", "template"};
     if (key == "machine.bed_shape") s.choices = {"rectangle", "circle"};
     if (key == "machine.origin") s.choices = {"corner", "center"};
     if (!s.choices.empty()) s.kind = SettingKind::Choice;

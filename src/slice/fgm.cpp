@@ -7,11 +7,14 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <map>
+#include <optional>
 #include <string>
 
 #include "trellis/core/error.hpp"
 #include "trellis/geom/contour.hpp"
 #include "trellis/geom/regions.hpp"
+#include "fgm_tower.hpp"
 
 namespace trellis {
 
@@ -20,6 +23,8 @@ void Palette::check() const {
     throw SettingError("gradient palettes mix two or three materials (the design has " +
                        std::to_string(materials) + ")");
   if (colors < 1 || colors > 1000) throw SettingError("the palette needs 1 to 1000 colours");
+  if (ends && (materials != 2 || colors < 2))
+    throw SettingError("a tool palette has two materials and at least two colours");
   if (materials == 3) {
     const int d = divisions();
     if (d * d != colors || d < 1)
@@ -33,7 +38,15 @@ int Palette::divisions() const {
   return static_cast<int>(std::lround(std::sqrt(static_cast<double>(std::max(colors, 1)))));
 }
 
-double Palette::band() const { return 1.0 / divisions(); }
+double Palette::band() const {
+  if (ends && materials != 3) return colors > 1 ? 1.0 / (colors - 1) : 1.0;
+  return 1.0 / divisions();
+}
+
+double Palette::level(int k) const {
+  if (ends && materials != 3) return (k - 0.5) * band();
+  return static_cast<double>(k) / divisions();
+}
 
 double Palette::error_bound() const { return (materials == 3 ? 2.0 / 3.0 : 0.5) * band(); }
 
@@ -56,7 +69,7 @@ Palette::Cell Palette::cell(int color) const {
 
 std::vector<double> Palette::mixture(int color) const {
   if (materials != 3) {
-    const double m = (color + 0.5) / colors;
+    const double m = ends ? (colors > 1 ? 1.0 * color / (colors - 1) : 0.5) : (color + 0.5) / colors;
     return {m, 1 - m};
   }
   const Cell c = cell(color);
@@ -65,6 +78,7 @@ std::vector<double> Palette::mixture(int color) const {
 }
 
 int Palette::color_of(double f) const {
+  if (ends) return std::clamp(static_cast<int>(std::floor(f * (colors - 1) + 0.5)), 0, colors - 1);
   return std::clamp(static_cast<int>(std::floor(f * colors)), 0, colors - 1);
 }
 
@@ -439,7 +453,7 @@ std::vector<ColorFace> palette_zones(const Field& field, Evaluator& ev, double z
   require_materials(field, palette);
   const int d = palette.divisions();
   std::vector<double> levels;
-  for (int k = 1; k < d; ++k) levels.push_back(static_cast<double>(k) / d);
+  for (int k = 1; k < d; ++k) levels.push_back(palette.level(k));
   std::vector<ColorFace> zones;
   if (palette.materials == 2) {
     auto slabs = rect_slabs(ev, z, lo, hi, 0, levels, resolution, chord_tolerance);
@@ -600,7 +614,7 @@ void measure_gradient_error(const Field& field, const Toolpath& tp,
     Evaluator& ev = evaluators.local();
     Acc& a = acc.local();
     for (const auto& p : l.paths) {
-      if (p.mixture.empty() || p.role == PathRole::Purge) continue;
+      if (p.mixture.empty() || p.role == PathRole::Other || p.role == PathRole::Purge) continue;
       for (const auto& q : p.points) {
         const auto f = ev.fractions({q.x, q.y, layers[idx].z});
         if (f.empty()) continue;
@@ -629,29 +643,122 @@ double purge_length(double volume, double h, double w) {
   return area > 0 ? volume / area : 0;
 }
 
-namespace {
-
-// A square zig-zag of about `length` mm centred at c (lines `spacing` apart; the square grows
-// with the length needed).
-std::vector<Vec2> purge_block(Vec2 c, double side, double spacing, double length) {
-  std::vector<Vec2> pts;
-  const int lines = std::max(2, static_cast<int>(std::ceil(length / side)));
-  const double span = std::min(side, spacing * (lines - 1));
-  for (int i = 0; i < lines; ++i) {
-    const double y = c.y - span / 2 + (lines > 1 ? span * i / (lines - 1) : 0);
-    const double x0 = c.x - side / 2, x1 = c.x + side / 2;
-    if (i % 2 == 0) {
-      pts.push_back({x0, y});
-      pts.push_back({x1, y});
-    } else {
-      pts.push_back({x1, y});
-      pts.push_back({x0, y});
+void add_prime_tower(Toolpath& tp, const FgmOptions& o, const PurgeOptions& purge,
+                     FgmStats& st) {
+  st.purges = 0;
+  st.purge_length = st.purge_volume = 0;
+  st.tower = {};
+  if (!(purge.melt_volume > 0)) return;
+  const double L = purge_length(purge.melt_volume, o.layer_height, o.bead_width);
+  auto color_of = [&](const Path& p) { return p.mixture.empty() ? -1 : o.palette.color_of(p.mixture); };
+  // Which paths need a purge before them, and the last layer with one.
+  std::vector<std::vector<char>> purge_before(tp.layers.size());
+  std::size_t most = 0;
+  long last_purge_layer = -1;
+  int last = -1, first_color = -1;
+  BBox2 part{{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()},
+             {-std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()}};
+  for (std::size_t li = 0; li < tp.layers.size(); ++li) {
+    const auto& paths = tp.layers[li].paths;
+    purge_before[li].assign(paths.size(), 0);
+    std::size_t count = 0;
+    for (std::size_t i = 0; i < paths.size(); ++i) {
+      for (const auto& q : paths[i].points) {
+        part.min = {std::min(part.min.x, q.x), std::min(part.min.y, q.y)};
+        part.max = {std::max(part.max.x, q.x), std::max(part.max.y, q.y)};
+      }
+      const int color = color_of(paths[i]);
+      if (color < 0) continue;
+      if (first_color < 0) first_color = color;
+      if (last >= 0 && color != last) {
+        // The mixture change: the largest change of any material's share.
+        const auto before = o.palette.mixture(last), after = o.palette.mixture(color);
+        double change = 0;
+        for (std::size_t m = 0; m < after.size(); ++m)
+          change = std::max(change, std::abs(after[m] - before[m]));
+        if (change > purge.threshold) {
+          purge_before[li][i] = 1;
+          ++count;
+        }
+      }
+      last = color;
     }
+    most = std::max(most, count);
+    if (count > 0) last_purge_layer = static_cast<long>(li);
   }
-  return pts;
+  if (last_purge_layer < 0) return;
+  const double side = tower::side_for(most, L, o.bead_width, purge.side);
+  // The footprint of the beads, not of their centre lines.
+  const BBox2 beads{{part.min.x - o.bead_width / 2, part.min.y - o.bead_width / 2},
+                    {part.max.x + o.bead_width / 2, part.max.y + o.bead_width / 2}};
+  const tower::Square sq(tower::place(beads, side, purge), side, o.bead_width);
+  st.tower.built = true;
+  st.tower.x = sq.centre().x;
+  st.tower.y = sq.centre().y;
+  st.tower.side = side;
+  st.tower.purge_path = L;
+  st.tower.layers = static_cast<std::size_t>(last_purge_layer) + 1;
+  std::map<int, TowerColour> colours;
+  auto tower_path = [&](std::vector<Vec2> pts, int color, double z) {
+    Path p;
+    p.role = PathRole::Purge;
+    p.mixture = o.palette.mixture(color);
+    p.width = o.bead_width;
+    p.height = o.layer_height;
+    for (const Vec2 q : pts) p.points.push_back({q.x, q.y, z});
+    TowerColour& c = colours[color];
+    c.color = color;
+    c.mixture = p.mixture;
+    c.length += p.length();
+    return p;
+  };
+  const int k = sq.lines_for(L);
+  last = -1;
+  for (std::size_t li = 0; li < tp.layers.size(); ++li) {
+    Layer& layer = tp.layers[li];
+    std::vector<Path> out;
+    const bool across = li % 2 == 1;  // lines cross the layer below's
+    int used = 0;
+    if (static_cast<long>(li) <= last_purge_layer) {
+      // Wall and sparse lines in the colour already loaded, around the lines the purges use.
+      const auto purges = std::count(purge_before[li].begin(), purge_before[li].end(), 1);
+      const int base = last >= 0 ? last : first_color;
+      out.push_back(tower_path(sq.wall(), base, layer.z));
+      auto sparse = sq.sparse(static_cast<int>(purges) * k, across);
+      if (sparse.size() >= 2) out.push_back(tower_path(std::move(sparse), base, layer.z));
+    }
+    for (std::size_t i = 0; i < layer.paths.size(); ++i) {
+      const int color = color_of(layer.paths[i]);
+      if (purge_before[li][i]) {
+        Path p = tower_path(sq.zigzag(used, k, across), color, layer.z);
+        used += k;
+        st.purge_length += p.length();
+        ++st.purges;
+        ++colours[color].purges;
+        out.push_back(std::move(p));
+      }
+      if (color >= 0) last = color;
+      out.push_back(std::move(layer.paths[i]));
+    }
+    layer.paths = std::move(out);
+  }
+  const double bead_area = o.layer_height * (o.bead_width - o.layer_height) +
+                           3.14159265358979323846 * o.layer_height * o.layer_height / 4;
+  st.purge_volume = st.purge_length * bead_area;
+  for (auto& [color, c] : colours) {
+    c.volume = c.length * bead_area;
+    double density = 0;
+    for (std::size_t m = 0; m < c.mixture.size(); ++m)
+      density += c.mixture[m] * (m < purge.density.size() ? purge.density[m] : 1.0);
+    c.mass = c.volume * 1e-3 * density;
+    c.time = purge.speed > 0 ? c.length / purge.speed : 0;
+    st.tower.length += c.length;
+    st.tower.volume += c.volume;
+    st.tower.mass += c.mass;
+    st.tower.time += c.time;
+    st.tower.colours.push_back(c);
+  }
 }
-
-}  // namespace
 
 Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>& layers,
                             const Toolpath& planar, const FgmOptions& o, const PurgeOptions& purge,
@@ -698,10 +805,10 @@ Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>&
     std::vector<double> levels;
     for (int k = 1; k < d; ++k) {
       if (beta > 0) {
-        levels.push_back(k * o.palette.band() - beta / 2);
-        levels.push_back(k * o.palette.band() + beta / 2);
+        levels.push_back(o.palette.level(k) - beta / 2);
+        levels.push_back(o.palette.level(k) + beta / 2);
       } else {
-        levels.push_back(k * o.palette.band());
+        levels.push_back(o.palette.level(k));
       }
     }
     // Zone k lies between level k-1 and level k (two materials: of the first fraction; three:
@@ -788,33 +895,13 @@ Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>&
   Toolpath tp;
   FgmStats st;
   st.shortest_path = std::numeric_limits<double>::infinity();
-  const double L = purge_length(purge.melt_volume, o.layer_height, o.bead_width);
   int last = -1;
   for (std::size_t li = 0; li < per.size(); ++li) {
     st.faces += faces_per[li];
     Layer layer;
     layer.z = planar.layers[li].z;
     for (auto& piece : per[li]) {
-      if (last >= 0 && piece.color != last) {
-        ++st.colour_changes;
-        // The mixture change: the largest change of any material's share.
-        const auto before = o.palette.mixture(last), after = o.palette.mixture(piece.color);
-        double change = 0;
-        for (std::size_t m = 0; m < after.size(); ++m)
-          change = std::max(change, std::abs(after[m] - before[m]));
-        if (purge.melt_volume > 0 && change > purge.threshold) {
-          Path tower;
-          tower.role = PathRole::Purge;
-          tower.mixture = piece.path.mixture;
-          tower.width = o.bead_width;
-          tower.height = o.layer_height;
-          for (const Vec2 q : purge_block({purge.x, purge.y}, purge.side, o.bead_width, L))
-            tower.points.push_back({q.x, q.y, layer.z});
-          st.purge_length += tower.length();
-          ++st.purges;
-          layer.paths.push_back(std::move(tower));
-        }
-      }
+      if (last >= 0 && piece.color != last) ++st.colour_changes;
       last = piece.color;
       st.shortest_path = std::min(st.shortest_path, piece.path.length());
       ++st.paths;
@@ -822,8 +909,7 @@ Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>&
     }
     if (!layer.paths.empty()) tp.layers.push_back(std::move(layer));
   }
-  st.purge_volume = st.purge_length * (o.layer_height * (o.bead_width - o.layer_height) +
-                                       3.14159265358979323846 * o.layer_height * o.layer_height / 4);
+  add_prime_tower(tp, o, purge, st);
   if (st.paths == 0) st.shortest_path = 0;
   if (stats) *stats = st;
   return tp;

@@ -7,6 +7,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <set>
 
 #include "trellis/core/error.hpp"
 #include "trellis/field/vcad.hpp"
@@ -170,20 +171,70 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
                           {job.input, 0, ""});
     fo.palette.materials = static_cast<int>(field.materials().size());
     fo.palette.check();
+    int quantized_from = 0;
+    if (job.tools > 0) {
+      // A tool changer prints N fixed mixes (tool 0 = material A … the last = B): the palette's
+      // colours are those mixes, never more colours than tools unless quantising is asked for.
+      if (fo.palette.materials != 2)
+        throw GeometryError("a tool changer prints two-material gradients (one fixed mix per "
+                            "tool); the design has three materials",
+                            {job.input, 0, ""});
+      if (fo.palette.colors > job.tools) {
+        if (!job.quantize)
+          throw SettingError(std::to_string(fo.palette.colors) + " colours on " +
+                                 std::to_string(job.tools) +
+                                 " tools: each colour needs a tool (use --colors " +
+                                 std::to_string(job.tools) +
+                                 ", or gradient.quantize = true to print each colour with the "
+                                 "nearest tool)",
+                             {"", 0, "fgm.colors"});
+        quantized_from = fo.palette.colors;
+        fo.palette.colors = job.tools;
+      }
+      fo.palette.ends = fo.palette.colors > 1;
+    }
     fo.layer_height = h;
     fo.bead_width = job.planar.bead_width;
     fo.resolution = job.field.resolution;
     if (job.strategy == 2) {
       r.toolpath = plan_fgm_strategy2(field, r.outlines, fo, &r.fgm);
+      // A tool changer primes each tool it changes to (Strategy 2 on a mixing hotend runs the
+      // change ahead instead: gradient.lookahead).
+      if (job.tools > 0) add_prime_tower(r.toolpath, fo, job.purge, r.fgm);
     } else {
       const Toolpath planar = plan_planar(r.outlines, job.planar, &r.planar);
       r.toolpath = plan_fgm_strategy1(field, r.outlines, planar, fo, job.purge, &r.fgm);
     }
-    measure_gradient_error(field, r.toolpath, r.outlines, h, r.fgm);
     r.fgm.materials = fo.palette.materials;
     r.fgm.band = fo.palette.band();
+    r.fgm.quantized_from = quantized_from;
+    {
+      std::set<std::vector<double>> used;
+      for (const auto& l : r.toolpath.layers)
+        for (const auto& p : l.paths)
+          if (p.role != PathRole::Purge && !p.mixture.empty()) used.insert(p.mixture);
+      r.fgm.colours_used = static_cast<int>(used.size());
+      r.fgm.colours_total = fo.palette.colors;
+    }
     // Zippering prints the neighbouring colour up to β/2 beyond a boundary.
     r.fgm.error_bound = fo.palette.error_bound() + (job.strategy == 1 ? fo.zipper / 2 : 0.0);
+    if (job.tools > 1) {
+      // What a tool prints (the writer's nearest tool): the error is measured on that.
+      const double n = job.tools - 1;
+      auto tool_mix = [&](double a) { return 1 - std::round((1 - std::clamp(a, 0.0, 1.0)) * n) / n; };
+      for (auto& l : r.toolpath.layers)
+        for (auto& p : l.paths)
+          if (p.mixture.size() == 2) p.mixture = {tool_mix(p.mixture[0]), 1 - tool_mix(p.mixture[0])};
+      double bound = 0;
+      for (int k = 0; k < fo.palette.colors; ++k) {
+        const double lo = k == 0 ? 0.0 : fo.palette.level(k);
+        const double hi = k + 1 == fo.palette.colors ? 1.0 : fo.palette.level(k + 1);
+        const double t = tool_mix(fo.palette.mixture(k)[0]);
+        bound = std::max({bound, std::abs(t - lo), std::abs(hi - t)});
+      }
+      r.fgm.error_bound = bound + (job.strategy == 1 ? fo.zipper / 2 : 0.0);
+    }
+    measure_gradient_error(field, r.toolpath, r.outlines, h, r.fgm);
   } else {
     r.toolpath = plan_planar(r.outlines, job.planar, &r.planar);
   }
@@ -249,7 +300,9 @@ std::string slice_report_json(const SliceJob& job, const SliceResult& r, const G
                 {"purges", r.fgm.purges},
                 {"purge_volume_mm3", r.fgm.purge_volume},
                 {"purge_mass_g", r.fgm.purge_volume * 1.24e-3},
-                {"colors", job.fgm.palette.colors},
+                {"colors", r.fgm.quantized_from ? job.tools : job.fgm.palette.colors},
+                {"colors_asked", job.fgm.palette.colors},
+                {"colors_used", r.fgm.colours_used},
                 {"materials", r.fgm.materials},
                 {"zipper_percent", 100 * job.fgm.zipper},
                 {"material_resolution_mm", job.fgm.material_resolution},
@@ -265,6 +318,27 @@ std::string slice_report_json(const SliceJob& job, const SliceResult& r, const G
                 {"gradient_changes", g ? g->gradient_changes : 0},
                 {"lookahead_mm", g ? g->lookahead : 0.0},
                 {"fill", job.fgm.concentric ? "concentric" : "rectilinear"}};
+  if (r.fgm.tower.built) {
+    // §4.1 reports material and time per colour.
+    nlohmann::ordered_json colours = nlohmann::json::array();
+    for (const auto& c : r.fgm.tower.colours)
+      colours.push_back({{"color", c.color},
+                         {"mixture", c.mixture},
+                         {"purges", c.purges},
+                         {"length_mm", c.length},
+                         {"volume_mm3", c.volume},
+                         {"mass_g", c.mass},
+                         {"time_s", c.time}});
+    j["fgm"]["tower"] = {{"centre_mm", {r.fgm.tower.x, r.fgm.tower.y}},
+                         {"side_mm", r.fgm.tower.side},
+                         {"layers", r.fgm.tower.layers},
+                         {"purge_length_mm", r.fgm.tower.purge_path},
+                         {"length_mm", r.fgm.tower.length},
+                         {"volume_mm3", r.fgm.tower.volume},
+                         {"mass_g", r.fgm.tower.mass},
+                         {"time_s", r.fgm.tower.time},
+                         {"colours", colours}};
+  }
   if (g) {
     j["gcode"] = {{"bytes", g->bytes},
                   {"filament_mm", g->filament},

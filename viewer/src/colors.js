@@ -2,9 +2,10 @@
 // colour bar. The same functions colour the model and draw the bar, so a segment's colour can be
 // looked up on the bar.
 
-// Indexed by PathRole (toolpath.hpp): strut, contour, handle, perimeter, infill, other, skin.
+// Indexed by PathRole (toolpath.hpp): strut, contour, handle, perimeter, infill, other, skin, purge.
 export const ROLE_COLORS = [
   [31, 119, 180], [214, 39, 40], [148, 103, 189], [255, 127, 14], [44, 160, 44], [127, 127, 127], [227, 119, 194],
+  [188, 189, 34],
 ];
 export const TOOL_COLORS = [
   [31, 119, 180], [255, 127, 14], [44, 160, 44], [214, 39, 40], [148, 103, 189], [140, 86, 75], [23, 190, 207], [188, 189, 34],

@@ -89,10 +89,17 @@ struct MachineProfile {
   double temperature_b = 225;            // ... and for 100% material B (linear between)
   std::string flow_model;                // temperature: "" | "pla" | "tpu" → M221 (Eq. 3 / 4)
   double lookahead = 0;                  // issue each change this many mm of path earlier
+  std::string gradient_dialect = "m165";  // mixing: m165 | m163 (virtual tool) | m567 (RRF) | template
+  std::string gradient_template;         // mixing, dialect template: {a} {b} {c} = shares
+  bool quantize = false;                 // tools: print more colours than tools, each by the nearest
   // [purge] Strategy 1 purge towers (FGM paper A.1)
   double melt_volume = 0;      // hotend dead volume V_melt (mm³); 0 = no towers
   double purge_threshold = 0;  // mixture change (0..1) that needs a purge
-  double purge_x = -20, purge_y = 0, purge_side = 10;  // tower centre and side (mm)
+  std::string purge_position = "auto";  // auto (beside the part) | fixed (at purge_x, purge_y)
+  double purge_x = -20, purge_y = 0, purge_side = 10;  // tower centre (fixed) and least side (mm)
+  double purge_clearance = 5;  // gap between the tower and the part (mm)
+  // material densities (g/cm³) for tower masses per colour
+  double density_a = 1.24, density_b = 1.24, density_c = 1.24;
   // [gcode] templates; {key} is replaced by that setting's value, e.g. {nozzle_temperature}
   std::string start_gcode = "G28";
   std::string end_gcode = "M84";

@@ -24,10 +24,15 @@ namespace trellis {
 struct Palette {
   int colors = 8;
   int materials = 2;  // 2 or 3
+  // Two materials, a tool changer's palette: colour k printed at k/(N-1) (tool k of N holds
+  // that fixed mix, from pure B to pure A), its band reaching halfway to its neighbours, so the
+  // end colours are the pure materials and every colour is exactly what a tool prints.
+  bool ends = false;
   // Throws SettingError naming the problem (colour count, material count).
   void check() const;
   int divisions() const;  // three materials: d (colors = d²)
   double band() const;    // α
+  double level(int k) const;  // two materials: edge between bands k-1 and k (k = 1 … N-1)
   double mid(int k) const { return mixture(k)[0]; }
   // Colour k's commanded mixture (one fraction per material, summing to 1).
   std::vector<double> mixture(int k) const;
@@ -93,12 +98,58 @@ struct FgmOptions {
   double zipper = 0;          // Strategy 1: overlap band width β (fraction 0..1 of the gradient)
 };
 
+// The prime (purge) tower of Strategy 1 and tool changers: one square tower per print, beside
+// the part, printed on every layer from the first up to the last layer with a purge so each
+// tower layer stands on the one below. Per layer: a wall loop and sparse lines in the colour
+// already loaded, then before each colour change whose mixture differs from the previous by
+// more than `threshold` a dense zig-zag of at least L = V_melt / A (Appendix A.1, A = h(w-h) +
+// πh²/4) in the new colour, lines one bead apart (alternating direction layer by layer). The
+// side is the smallest (≥ `side`) whose layer holds its layer's purges.
+struct PurgeOptions {
+  double melt_volume = 0;  // V_melt (mm³); 0 = no tower
+  double threshold = 0;    // mixture change (0..1) that needs a purge; 0 = every change
+  bool automatic = true;   // place beside the part on free bed space; false: centre at (x, y)
+  double x = -20, y = 0;   // tower centre when not automatic (design coordinates, mm)
+  double side = 10;        // smallest tower side (mm)
+  double clearance = 5;    // gap between the tower and the part's footprint (mm)
+  // The bed, as the writer places the toolpath on it: centred (the box of part and tower on
+  // the bed centre) or design coordinates + offset; bed_x = 0: no bed check.
+  double bed_x = 0, bed_y = 0;
+  bool circular = false;   // round bed of diameter bed_x
+  bool origin_centre = false;  // design (0, 0) + offset is the bed's centre, not its corner
+  bool centred = true;
+  double offset_x = 0, offset_y = 0;
+  double speed = 0;        // print speed (mm/s) for the per-colour time estimate; 0 = none
+  std::vector<double> density{1.24, 1.24, 1.24};  // g/cm³ per material, for masses
+};
+
+// One colour's share of the tower (§4.1 reports material and time per colour).
+struct TowerColour {
+  int color = 0;
+  std::vector<double> mixture;
+  std::size_t purges = 0;
+  double length = 0;  // mm of tower path printed in this colour (purges, walls, sparse lines)
+  double volume = 0;  // mm³ (capsule bead)
+  double mass = 0;    // g (mixture-weighted density)
+  double time = 0;    // s at the print speed
+};
+
+struct TowerStats {
+  bool built = false;
+  double x = 0, y = 0, side = 0;  // centre and side (design coordinates, mm)
+  std::size_t layers = 0;         // tower layers (first layer up to the last purge)
+  double purge_path = 0;          // L of one purge (mm, Eq. A.1)
+  double length = 0, volume = 0, mass = 0, time = 0;
+  std::vector<TowerColour> colours;  // palette order, colours with tower path only
+};
+
 struct FgmStats {
   std::size_t faces = 0, paths = 0, colour_changes = 0;
   double shortest_path = 0;  // mm
-  std::size_t purges = 0;    // Strategy 1: purge blocks printed
-  double purge_length = 0;   // mm of purge path
+  std::size_t purges = 0;    // Strategy 1: purges printed into the tower
+  double purge_length = 0;   // mm of purge path (the dense part of the tower)
   double purge_volume = 0;   // mm³ (capsule bead, Appendix A.1)
+  TowerStats tower;          // the whole tower: purges, walls and sparse lines
   // Gradient error: the largest |design fraction - commanded fraction| over the materials, at
   // every point of every graded path (purge blocks excluded), the design sampled at the layer's
   // slicing plane; error_bound is the palette's (α/2, or 2α/3 for three materials).
@@ -106,6 +157,8 @@ struct FgmStats {
   std::size_t error_samples = 0;
   int materials = 2;
   double band = 0;  // α
+  int colours_used = 0, colours_total = 0;  // palette colours some part path prints
+  int quantized_from = 0;  // tool changers: the colours asked for, when more than the tools
 };
 
 // Fills stats.error_* for a graded toolpath (layer i planned from outline zs[i]).
@@ -113,28 +166,26 @@ void measure_gradient_error(const Field& field, const Toolpath& toolpath,
                             const std::vector<LayerOutline>& layers, double layer_height,
                             FgmStats& stats);
 
-// Purge towers for Strategy 1: before a colour whose mixture differs from the previous by more
-// than `threshold`, a square zig-zag of path length L = V_melt / A (Appendix A.1, A = h(w-h) +
-// πh²/4) is printed at (x, y) in the new colour, so the dead volume is flushed.
-struct PurgeOptions {
-  double melt_volume = 0;  // V_melt (mm³); 0 = no purge towers
-  double threshold = 0;    // mixture change (0..1) that needs a purge; 0 = every change
-  double x = -20, y = 0;   // tower centre (design coordinates, mm)
-  double side = 10;        // tower side (mm)
-};
-
 // L of Appendix A.1: path length that extrudes `volume` at layer height h and bead width w.
 double purge_length(double volume, double layer_height, double bead_width);
 
 // Strategy 1: the planar slicer's walls, skins and infill (`planar`, one layer per outline) cut
 // by the colour faces; each piece keeps its role and gets its colour's mixture; pieces are
-// printed colour by colour in palette order (reversed every other layer), a purge block before
-// each colour change above the threshold. With `zipper` β > 0, pieces in the band |f - k/N| <
+// printed colour by colour in palette order (reversed every other layer), a purge into the
+// prime tower before each colour change above the threshold (PathRole::Purge; GeometryError if
+// the tower fits nowhere on the bed beside the part). With `zipper` β > 0, pieces in the band |f - k/N| <
 // β/2 around each colour boundary alternate (in planar order) between the two colours, so the
 // materials interlock across the boundary (the paper's zippering, Fig. 8-9).
 Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>& layers,
                             const Toolpath& planar, const FgmOptions& options,
                             const PurgeOptions& purge, FgmStats* stats = nullptr);
+
+// The prime tower for a graded toolpath whose paths are in print order, each with its palette
+// colour's mixture (Strategy 1, or Strategy 2 on a tool changer): a purge before every change
+// above the threshold, walls and sparse lines below the last one (PurgeOptions). Fills
+// stats.purges, purge_length, purge_volume and tower; GeometryError if no bed space fits.
+void add_prime_tower(Toolpath& toolpath, const FgmOptions& options, const PurgeOptions& purge,
+                     FgmStats& stats);
 
 // Strategy 2 over the layer outlines (from slice_field). Paths carry mixture {m, 1-m} with m the
 // band's mid value of the first material.

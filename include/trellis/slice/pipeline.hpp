@@ -31,6 +31,10 @@ struct SliceJob {
   // with repair off, refused.
   bool repair = true;
   MeshRepairOptions repair_options;
+  // A tool changer (gradient.mode = tools): its tool count; 0 = mixing or temperature. More
+  // colours than tools is an error unless `quantize` (then the palette is the tools').
+  int tools = 0;
+  bool quantize = false;
 };
 
 struct SliceResult {
