@@ -63,7 +63,7 @@ std::vector<Analysis> run(const AnalyzeOpts& o) {
               {design.nodes[design.edges[e].a].xy(), design.nodes[design.edges[e].b].xy()});
         char name[64];
         std::snprintf(name, sizeof name, "_layer_%04zu.png", i);
-        std::filesystem::create_directories(o.png);
+        create_output_directories(o.png);
         render_overlay_png(dsegs, tp.layers[i], a.layers[i].doubles, blue, o.params.width,
                            (std::filesystem::path(o.png) /
                             (std::filesystem::path(f).stem().string() + name)).string());

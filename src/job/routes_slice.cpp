@@ -197,6 +197,7 @@ JobResult slice(const Job& job, const Config& c, Diagnostics&, const Progress& p
   sj.purge.x = c.machine.purge_x;
   sj.purge.y = c.machine.purge_y;
   sj.purge.side = c.machine.purge_side;
+  sj.budget = budget_of(job, c);
   SliceResult r = run_slice(sj, progress);
   // The file name only: outputs must not depend on where the command ran.
   r.toolpath.source = "trellis slice " + fs::path(job.input).filename().string() + " (" +
@@ -250,7 +251,14 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
   po.hybrid = c.pbf.strategy == "hybrid";
   po.stl_route = c.pbf.route == "stl";
   po.timing = scan_timing(prof);
-  po.memory_budget = c.pbf.memory_budget_mb * 1e6;
+  const Budget budget = budget_of(job, c);
+  po.memory_budget = budget.force ? HUGE_VAL : budget.memory;
+  {
+    const BBox3 e = d.part().extent();
+    if (!e.empty() && std::isfinite(e.min.x) && std::isfinite(e.max.x) && std::isfinite(e.min.y) &&
+        std::isfinite(e.max.y) && std::isfinite(e.min.z) && std::isfinite(e.max.z) && po.layer > 0)
+      check_budget(estimate_pbf_time(e, po.resolution, po.layer, threads_of_run()), budget);
+  }
   const PbfResult r = plan_pbf(d, po, progress);
   diag.merge(r.diagnostics);
   Toolpath tp = pbf_toolpath(r, prof.contour_power, prof.contour_speed, prof.hatch_power, prof.hatch_speed);
@@ -356,6 +364,7 @@ JobResult nonplanar(const Job& job, const Config& c, Diagnostics&, const Progres
     if (np.layer_tools.find(':') != std::string::npos && !job.settings.has("nonplanar.layers"))
       prm.layers = static_cast<int>(prm.layer_tools.size());
   }
+  check_budget(estimate_nonplanar(surface.domain(), prm), budget_of(job, c));
   NonplanarResult r = slice_nonplanar(surface, prm, progress);
   const SurfaceDeviation dev = surface_deviation(r.toolpath, surface, prm);
   GcodeStats g;
@@ -369,7 +378,7 @@ JobResult nonplanar(const Job& job, const Config& c, Diagnostics&, const Progres
     out.files.push_back(job.report);
   }
   if (!job.preview.empty()) {
-    fs::create_directories(job.preview);
+    create_output_directories(job.preview);
     View3dOptions v;
     v.size_px = c.output.image_size;
     v.title = surface.name();
@@ -407,7 +416,7 @@ JobResult surface(const Job& job, const Config& c, Diagnostics&, const Progress&
       write_gcode_out(job.output, tp, job, c.machine, out, g);
     }
     if (!job.preview.empty()) {
-      fs::create_directories(job.preview);
+      create_output_directories(job.preview);
       out.files.push_back(preview_name(job.preview, "3d.png"));
       render_3d_png(tp, out.files.back(), {});
     }
@@ -421,7 +430,7 @@ JobResult surface(const Job& job, const Config& c, Diagnostics&, const Progress&
     out.files.push_back(job.output);
   }
   if (!job.preview.empty()) {
-    fs::create_directories(job.preview);
+    create_output_directories(job.preview);
     NonplanarParams prm;
     prm.layers = 1;
     View3dOptions v;

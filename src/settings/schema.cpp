@@ -547,9 +547,6 @@ std::vector<Setting> make_table() {
                      "hatch-rotation", [](C& c) -> auto& { return c.pbf.options.hatch_rotation; }));
   t.push_back(boolean("pbf.binary", "binary CLI geometry (the header stays ASCII, with CLI+ blocks)",
                       "binary", [](C& c) -> auto& { return c.pbf.binary; }));
-  t.push_back(number("pbf.memory_budget", "MB", 0, 1e9,
-                     "refuse a run estimated above this; 0 = the memory available", "memory-budget",
-                     [](C& c) -> auto& { return c.pbf.memory_budget_mb; }));
   t.push_back(positive("pbf.resolution", "mm", 10,
                        "sampling step: the STL route's voxel; direct contours on a grid twice as coarse",
                        "resolution", [](C& c) -> auto& { return c.pbf.options.resolution; }));
@@ -631,6 +628,16 @@ std::vector<Setting> make_table() {
                       "frames", [](C& c) -> auto& { return c.output.frames; }));
   t.push_back(integer("run.threads", 0, 1024, "worker threads (0 = all cores)", "threads",
                       [](C& c) -> auto& { return c.threads; }));
+  t.push_back(derived(positive("run.max_memory", "MB", 1e9,
+                               "refuse a run whose estimate (made from its settings before it "
+                               "starts) needs more memory than this",
+                               "max-memory", [](C& c) -> auto& { return c.budget.max_memory_mb; }),
+                      "the memory available when the run starts"));
+  t.push_back(positive("run.max_time", "s", 1e9,
+                       "refuse a run whose estimated time is longer than this", "max-time",
+                       [](C& c) -> auto& { return c.budget.max_time; }));
+  t.push_back(boolean("run.force", "run even when the estimate is beyond run.max_memory or run.max_time",
+                      "force", [](C& c) -> auto& { return c.budget.force; }));
   return t;
 }
 

@@ -4,6 +4,7 @@
 #include <functional>
 #include <string>
 
+#include "trellis/core/budget.hpp"
 #include "trellis/machine/gcode_writer.hpp"
 #include "trellis/slice/fgm.hpp"
 #include "trellis/slice/slice.hpp"
@@ -23,6 +24,9 @@ struct SliceJob {
   int strategy = 0;  // 0: one material; 1 / 2: the FGM paper's strategies (slice/fgm.hpp)
   FgmOptions fgm;    // palette and fill (bead width, layer, grid from above)
   PurgeOptions purge;  // Strategy 1
+  // The work estimated from the extent, the layers and the grids is checked against this before
+  // any layer is sliced (core/budget.hpp).
+  Budget budget;
 };
 
 struct SliceResult {
