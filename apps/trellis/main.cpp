@@ -155,7 +155,8 @@ int main(int argc, char** argv) {
     std::cerr << "trellis: error: " << msg << "\n";
     return 2;
   } catch (const CLI::ParseError& e) {
-    app.exit(e);
+    // A flag's value out of range or missing: one error line like every other.
+    std::cerr << "trellis: error: " << e.what() << "; `trellis --help` lists the commands\n";
     return 2;
   } catch (const trellis::Error& e) {
     std::cerr << "trellis: error: " << e.what() << "\n";

@@ -108,6 +108,10 @@ extern "C" void cleanup_on_signal(int sig) {
 std::string read_file(const std::string& path) {
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec)) throw IoError("is a directory", {path});
+  // A device or a pipe (/dev/zero, a FIFO) would never end or block: only files are inputs.
+  struct stat st {};
+  if (::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode))
+    throw IoError("not a regular file", {path});
   std::ifstream in(path, std::ios::binary);
   if (!in) throw IoError(std::string("cannot open: ") + std::strerror(errno), {path});
   std::ostringstream ss;

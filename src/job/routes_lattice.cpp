@@ -273,7 +273,14 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
       const BBox2 b = surface.domain();
       a.region.center = {(b.min.x + b.max.x) / 2, (b.min.y + b.max.y) / 2};
     }
-    check_budget(estimate_lattice2d(a, std::max(1, c.layers.count)), budget_of(job, c));
+    const Estimate lattice = estimate_lattice2d(a, std::max(1, c.layers.count));
+    check_budget(lattice, budget_of(job, c));
+    // The planner's work too, before the lattice is made (about one edge per cell unit); the
+    // exact check follows once the lattice is there.
+    if (c.planner == "gippo")
+      check_budget(estimate_gippo(static_cast<std::size_t>(lattice.bytes / 1e4),
+                                  c.plan.gippo.iterations, c.gippo_seeds),
+                   budget_of(job, c));
     g = layered_lattice(a, c);
     input = "atlas:" + to_string(a.pattern);
   }

@@ -163,13 +163,19 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
     fo.layer_height = h;
     fo.bead_width = job.planar.bead_width;
     fo.resolution = job.field.resolution;
-    if (job.strategy == 2) {
-      r.toolpath = plan_fgm_strategy2(field, r.outlines, fo, &r.fgm);
-    } else {
-      const Toolpath planar = plan_planar(r.outlines, job.planar, &r.planar);
-      r.toolpath = plan_fgm_strategy1(field, r.outlines, planar, fo, job.purge, &r.fgm);
+    try {
+      if (job.strategy == 2) {
+        r.toolpath = plan_fgm_strategy2(field, r.outlines, fo, &r.fgm);
+      } else {
+        const Toolpath planar = plan_planar(r.outlines, job.planar, &r.planar);
+        r.toolpath = plan_fgm_strategy1(field, r.outlines, planar, fo, job.purge, &r.fgm);
+      }
+      measure_gradient_error(field, r.toolpath, r.outlines, h, r.fgm);
+    } catch (const GeometryError& e) {
+      // A fraction that is not a number: name the design it came from.
+      if (!e.where().file.empty()) throw;
+      throw GeometryError(e.message(), {job.input, 0, e.where().element});
     }
-    measure_gradient_error(field, r.toolpath, r.outlines, h, r.fgm);
     r.fgm.materials = fo.palette.materials;
     r.fgm.band = fo.palette.band();
     // Zippering prints the neighbouring colour up to β/2 beyond a boundary.
