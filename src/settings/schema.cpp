@@ -351,9 +351,10 @@ std::vector<Setting> make_table() {
     s.positive = true;
     t.push_back(std::move(s));
   }
-  t.push_back(number("lattice3d.skin", "mm", 0, 1000,
-                     "conformal: a stochastic (Voronoi) skin this thick; 0 = none", "skin",
-                     [](C& c) -> auto& { return c.lattice3d.conformal.skin; }));
+  t.push_back(derived(positive("lattice3d.skin", "mm", 1000,
+                               "conformal: a stochastic (Voronoi) skin this thick", "skin",
+                               [](C& c) -> auto& { return c.lattice3d.conformal.skin; }),
+                      "none"));
   t.push_back(positive("lattice3d.skin_density", "1/mm³", 100, "conformal: skin foam seeds per mm³",
                        "skin-density", [](C& c) -> auto& { return c.lattice3d.conformal.skin_density; }));
   t.push_back(positive("lattice3d.radius", "mm", 100,
@@ -509,9 +510,10 @@ std::vector<Setting> make_table() {
                        [](C& c) -> auto& { return c.pbf.cell; }));
   t.push_back(text("pbf.c", "sheet parameter c (Φ = φ² − c²): a number or an expression of x, y, z, rho, r",
                    "c", [](C& c) -> auto& { return c.pbf.c; }));
-  t.push_back(number("pbf.thickness", "mm", 0, 100,
-                     "uniform wall thickness t: c = t·|∇φ|/2 (0: use pbf.c)", "thickness",
-                     [](C& c) -> auto& { return c.pbf.thickness; }));
+  t.push_back(derived(positive("pbf.thickness", "mm", 100,
+                               "uniform wall thickness t: c = t·|∇φ|/2 instead of pbf.c", "thickness",
+                               [](C& c) -> auto& { return c.pbf.thickness; }),
+                      "none: the sheet parameter pbf.c"));
   t.push_back(derived(numbers("pbf.size", "mm", 0, 10000, 3, "box X, Y, Z centred at the origin",
                               "size", [](C& c) -> auto& { return c.pbf.size; }),
                       "4 cells a side"));
@@ -535,10 +537,11 @@ std::vector<Setting> make_table() {
   t.push_back(choice("pbf.strategy", {"hybrid", "r67"},
                      "hybrid (contours on thin walls, hatch at joints) or r67 (hatch everything)",
                      "strategy", [](C& c) -> auto& { return c.pbf.strategy; }));
-  t.push_back(number("pbf.wall_thickness", "mm", 0, 100,
-                     "a plane thin wall of this thickness instead of a TPMS (PBF paper Fig. 3; box "
-                     "from pbf.size, default 2,2,20); 0 = off", "wall-thickness",
-                     [](C& c) -> auto& { return c.pbf.wall_thickness; }));
+  t.push_back(derived(positive("pbf.wall_thickness", "mm", 100,
+                               "a plane thin wall of this thickness instead of a TPMS (PBF paper "
+                               "Fig. 3; box from pbf.size, default 2,2,20)", "wall-thickness",
+                               [](C& c) -> auto& { return c.pbf.wall_thickness; }),
+                      "none: a TPMS"));
   t.push_back(positive("pbf.wall_inclination", "deg", 90, "the wall's angle from horizontal",
                        "wall-inclination", [](C& c) -> auto& { return c.pbf.wall_inclination; }));
   t.push_back(number("pbf.wall_azimuth", "deg", -360, 360, "the wall's direction from X",
