@@ -3,7 +3,7 @@ PRESET ?= release
 BUILD  := build/$(PRESET)
 JOBS   ?= $(shell nproc)
 
-.PHONY: deps configure build demo test python bench compare fuzz asan format clean
+.PHONY: deps configure build demo test python bench bench-viewer compare fuzz asan format clean
 
 deps:
 	@bash scripts/install-deps.sh
@@ -25,6 +25,10 @@ python: build
 
 bench: build
 	@for b in $(BUILD)/bench/bench_*; do echo "== $$b"; $$b --benchmark_min_time=1; done
+
+# The viewer with a ~100 MB G-code file in headless Chromium (docs/viewer.md).
+bench-viewer: build
+	@node bench/viewer_bench.mjs $(BUILD)/apps/trellis/trellis $(BUILD)/viewer/node_modules out/bench_viewer
 
 compare: build
 	@bash scripts/control_slicer.sh $(BUILD)/apps/trellis/trellis out/control

@@ -61,7 +61,9 @@ def main():
             "    def gcode(self, machine: PathLike | None = None, set: Mapping[str, Any] | None = None) -> str: ...",
             "    def cli(self, machine: PathLike | None = None, set: Mapping[str, Any] | None = None, "
             "binary: bool = False) -> bytes: ...",
-            "    def png(self, layer: int = 0, size: int = 600) -> bytes: ...", "",
+            "    def png(self, layer: int = 0, size: int = 600) -> bytes: ...",
+            "    def view_html(self, title: str | None = None) -> str: ...",
+            "    def save_view(self, path: PathLike, title: str | None = None) -> None: ...", "",
             "class Result:", "    files: list[str]", "    summary: str", "    warnings: list[tuple[str, str]]",
             "    exit_code: int", "    toolpath: Toolpath | None", "    lattice: Lattice | None", ""]
     for route, command, head, ret in ROUTES:

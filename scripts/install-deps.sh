@@ -7,11 +7,15 @@ pkgs=(cmake g++ make pkg-config ninja-build ccache
       libpolyclipping-dev libcairo2-dev libcgal-dev libgmp-dev libmpfr-dev libeigen3-dev
       libmuparser-dev libopenvdb-dev libboost-iostreams-dev lib3mf-dev libzip-dev
       libglpk-dev libgtest-dev libbenchmark-dev prusa-slicer python3
-      pybind11-dev python3-dev python3-numpy python3-pytest)
+      pybind11-dev python3-dev python3-numpy python3-pytest
+      chromium)
 missing=()
 for p in "${pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
+# The viewer's build step (viewer/, docs/viewer.md) runs node and `npm ci`; a node from elsewhere
+# (e.g. NodeSource, which bundles npm and conflicts with Debian's npm package) is fine.
+command -v node >/dev/null && command -v npm >/dev/null || missing+=(nodejs npm)
 if [ ${#missing[@]} -eq 0 ]; then
   echo "install-deps: all ${#pkgs[@]} packages present"
   exit 0

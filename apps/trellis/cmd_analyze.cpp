@@ -95,7 +95,7 @@ void add_analyze(CLI::App& app) {
     const auto runs = run(*o);
     const Analysis& a = runs.front();
     if (!o->report.empty()) write_file_atomic(o->report, analysis_json(a));
-    std::cout << a.name << ": " << a.layers.size() << " layer(s), " << a.paths << " paths, "
+    std::cout << a.name << ": " << a.counts.layers << " layer(s), " << a.paths << " paths, "
               << a.counts.extrusion_starts << " extrusion starts, " << num(a.extruded_length, 1)
               << " mm extruded, " << a.counts.travel_moves << " travel moves ("
               << num(a.counts.travel_length, 1) << " mm), " << a.counts.retractions

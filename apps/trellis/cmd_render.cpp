@@ -6,7 +6,7 @@
 #include "trellis/core/budget.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/render/render.hpp"
-#include "trellis/toolpath/json.hpp"
+#include "trellis/view/view.hpp"
 
 namespace trellis::cli {
 
@@ -15,15 +15,24 @@ void add_render(CLI::App& app) {
     std::string input, output;
     int layer = -1;
     bool force = false;
+    std::string colour = "feature";
     RenderOptions r;
+    ViewLoadOptions load;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand("render", "Render toolpath layers to PNG");
   cmd->footer(
-      "Paths are coloured by print order (blue first, red last), travel is dashed grey,\n"
-      "path starts are green dots and ends small dark dots.\n"
+      "Reads a toolpath JSON, G-code of any slicer (.gcode/.g/.nc) or a laser .cli. Paths are\n"
+      "coloured by feature type (or print order, blue first and red last, or mixture), travel is\n"
+      "dashed grey, path starts are green dots and ends small dark dots. Each PNG has a title\n"
+      "(file, layer, Z, what colour means), a legend or colour bar and a scale bar in mm.\n"
       "Without --layer every layer is written as OUT.layerNNN.png (OUT without .png).");
-  cmd->add_option("toolpath", o->input, "toolpath JSON")->required();
+  cmd->add_option("toolpath", o->input, "toolpath JSON, G-code (.gcode/.g/.nc) or laser .cli")
+      ->required();
+  cmd->add_option("--colour", o->colour, "what colour means: feature, order or mixture")
+      ->check(CLI::IsMember({"feature", "order", "mixture"}))
+      ->capture_default_str();
+  cmd->add_option("--machine", o->load.machine, ".nc files: machine profile (valve commands)");
   cmd->add_option("-o,--output", o->output, "PNG file (with --layer) or prefix")->required();
   cmd->add_option("--layer", o->layer, "layer index (0-based)");
   cmd->add_option("--image-size", o->r.size_px, "image size in pixels")
@@ -34,7 +43,16 @@ void add_render(CLI::App& app) {
   cmd->add_flag("--force", o->force, "render even when the estimate is beyond the budget");
   cmd->add_flag("!--no-travel", o->r.travel, "do not draw travel moves");
   cmd->callback([o] {
-    const Toolpath tp = read_toolpath(o->input);
+    Diagnostics diag;
+    const ViewScene scene = load_view_scene(o->input, o->load, diag);
+    if (scene.kind == "lattice")
+      throw ParseError(o->input +
+                       ": a lattice, not a toolpath (plan it first, or `trellis view` it)");
+    print_warnings(diag);
+    const Toolpath& tp = scene.toolpath;
+    o->r.colour_by_role = o->colour == "feature";
+    o->r.colour_by_mixture = o->colour == "mixture";
+    if (o->r.title.empty()) o->r.title = scene.name;
     // Estimate before work: an RGBA surface and its PNG per image.
     const double px = double(o->r.size_px) * o->r.size_px;
     const double images = o->layer >= 0 ? 1.0 : double(tp.layers.size());

@@ -23,6 +23,7 @@ void add_analyze(CLI::App& app);
 void add_compare(CLI::App& app);
 void add_walls(CLI::App& app);
 void add_check(CLI::App& app);
+void add_view(CLI::App& app);
 
 // Laser build files (.cli) for `analyze`: measured against a .vcad design (cmd_analyze_laser.cpp).
 bool is_laser_build_file(const std::string& path);

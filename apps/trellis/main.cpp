@@ -95,6 +95,7 @@ int main(int argc, char** argv) {
   trellis::cli::add_check(app);
   trellis::cli::add_compare(app);
   trellis::cli::add_walls(app);
+  trellis::cli::add_view(app);
   // A misspelt command: name the nearest one instead of CLI11's "a subcommand is required".
   CLI::App* level = &app;
   for (int i = 1; i < argc && argv[i][0] != '-' && !level->get_subcommands({}).empty(); ++i) {

@@ -24,8 +24,10 @@
 #include "trellis/machine/cli.hpp"
 #include "trellis/machine/gcode_reader.hpp"
 #include "trellis/machine/gcode_writer.hpp"
+#include "trellis/machine/machine_check.hpp"
 #include "trellis/render/render.hpp"
 #include "trellis/toolpath/json.hpp"
+#include "trellis/view/view.hpp"
 #include "trellis/version.hpp"
 
 namespace py = pybind11;
@@ -48,6 +50,8 @@ void translate(std::exception_ptr p) {
     raise_python("SettingError", e);
   } catch (const GeometryError& e) {
     raise_python("GeometryError", e);
+  } catch (const MachineError& e) {
+    raise_python("MachineError", e);
   } catch (const Cancelled& e) {
     PyErr_SetString(PyExc_KeyboardInterrupt, e.what());
   } catch (const ParseError& e) {
@@ -395,6 +399,11 @@ PYBIND11_MODULE(_trellis, m) {
       .def_readonly("source", &Toolpath::source)
       .def("arrays", &toolpath_arrays, "every point and path attribute as numpy arrays (one copy)")
       .def("to_json", [](const Toolpath& t) { return toolpath_to_json(t); })
+      .def("view_html",
+           [](const Toolpath& t, const std::string& title) {
+             return viewer_html({view_scene(t, title)}, title);
+           },
+           py::arg("title") = "toolpath", "the interactive viewer page (trellis view) of this toolpath")
       .def("png", [](const Toolpath& t, std::size_t layer, int size) {
         if (layer >= t.layers.size())
           throw SettingError("layer " + std::to_string(layer) + " of " + std::to_string(t.layers.size()),

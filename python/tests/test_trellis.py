@@ -42,9 +42,9 @@ CASES = [
     ("lattice3d", lambda out: trellis.lattice3d(out, cell_type="bcc", cell=5, count=(2, 2, 1)),
      ["lattice3d", "--cell-type", "bcc", "--cell", "5", "--count", "2,2,1"]),
     ("slice", lambda out: trellis.slice(os.path.join(ROOT, "examples/designs/fgm_column2_plate.vcad"), out,
-                                        machine=ENDER, walls=3, infill=0.3),
+                                        machine=ENDER, walls=3, infill=0.3, strategy="none"),
      ["slice", os.path.join(ROOT, "examples/designs/fgm_column2_plate.vcad"), "--machine", ENDER,
-      "--walls", "3", "--infill", "0.3"]),
+      "--walls", "3", "--infill", "0.3", "--strategy", "none"]),
     ("slice_graded", lambda out: trellis.slice(os.path.join(ROOT, "examples/designs/fgm_column2_plate.vcad"), out,
                                                machine=MIXING, strategy=2, colors=4),
      ["slice", os.path.join(ROOT, "examples/designs/fgm_column2_plate.vcad"), "--machine", MIXING,
@@ -199,14 +199,15 @@ def test_jobs_from_files_and_dicts(tmp_path):
     assert r2.lattice.edge_count == r.lattice.edge_count
     # rerun of a file made from Python: the same bytes.
     out = tmp_path / "s.gcode"
-    trellis.slice(os.path.join(ROOT, "examples/designs/fgm_column2_plate.vcad"), out, machine=ENDER)
+    trellis.slice(os.path.join(ROOT, "examples/designs/fgm_column2_plate.vcad"), out, machine=ENDER,
+                  strategy="none")
     trellis.rerun(out, tmp_path / "again.gcode")
     assert filecmp.cmp(out, tmp_path / "again.gcode", shallow=False)
 
 
 def test_readers_and_pictures(tmp_path):
     r = trellis.slice(os.path.join(ROOT, "examples/designs/fgm_column2_plate.vcad"), tmp_path / "p.gcode",
-                      machine=ENDER, toolpath=tmp_path / "p.json")
+                      machine=ENDER, toolpath=tmp_path / "p.json", strategy="none")
     back = trellis.read_toolpath(tmp_path / "p.json")
     assert back.point_count == r.toolpath.point_count
     g = trellis.read_toolpath(tmp_path / "p.gcode")
@@ -274,3 +275,19 @@ def test_installed_package_works_from_anywhere(tmp_path):
     assert r.returncode == 0, r.stderr
     path, edges, files = r.stdout.split()
     assert path.startswith(str(site)) and int(edges) > 10 and int(files) == 2
+
+
+def test_machine_errors_write_nothing(tmp_path):
+    # A graded design with Strategy 2 on the single-nozzle Ender: no mixing hotend.
+    out = tmp_path / "g.gcode"
+    with pytest.raises(trellis.MachineError) as e:
+        trellis.slice(os.path.join(ROOT, "examples/designs/fgm_column2_plate.vcad"), out,
+                      machine=ENDER, strategy=2, colors=4)
+    assert "mixing" in str(e.value)
+    assert not out.exists()
+    # A part bigger than the bed.
+    with pytest.raises(trellis.MachineError) as e:
+        trellis.slice(os.path.join(ROOT, "examples/designs/fgm_column2_plate.vcad"), out,
+                      machine=ENDER, strategy="none", set={"machine.bed_x": 5})
+    assert "machine.bed_x" in str(e.value)
+    assert not out.exists()

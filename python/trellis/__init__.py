@@ -10,16 +10,18 @@ as the CLI flags, ``layer_height`` for ``--layer-height``; any setting by its do
     pts = res.toolpath.points          # (n, 3) numpy array of every point
 
 Long calls release the GIL, report progress to ``progress(stage, fraction)`` and stop on Ctrl-C
-(KeyboardInterrupt). Errors are ``trellis.InputError``, ``trellis.SettingError`` and
-``trellis.GeometryError`` with ``file``, ``line`` and ``element``.
+(KeyboardInterrupt). Errors are ``trellis.InputError``, ``trellis.SettingError``,
+``trellis.GeometryError`` and ``trellis.MachineError`` (the output would not print on the
+machine; nothing written) with ``file``, ``line`` and ``element``.
 """
+import html
 import os
 import shlex
 import sys
 import tempfile
 
 from . import _trellis
-from .errors import GeometryError, InputError, SettingError, TrellisError
+from .errors import GeometryError, InputError, MachineError, SettingError, TrellisError
 from .fields import (Field, cone, cube, cylinder, difference, fgrade, function, gyroid, intersection,
                      mesh, rectprism, sphere, torus, tpms, union)
 
@@ -27,7 +29,8 @@ __all__ = ["Field", "sphere", "cube", "rectprism", "cylinder", "cone", "torus", 
            "gyroid", "mesh", "union", "intersection", "difference", "fgrade", "parse_vcad",
            "analyze", "check", "lattice2d", "lattice3d", "plan", "gcode", "slice", "pbf", "nonplanar", "surface",
            "run_job", "rerun", "settings", "read_lattice", "read_toolpath", "Lattice", "Toolpath",
-           "Result", "TrellisError", "InputError", "SettingError", "GeometryError", "__version__"]
+           "Result", "TrellisError", "InputError", "SettingError", "GeometryError", "MachineError",
+           "__version__"]
 
 __version__ = _trellis.version()
 
@@ -121,6 +124,23 @@ class Toolpath:
 
     def _repr_png_(self):
         return self.png(self.layer_count // 2)
+
+    def view_html(self, title=None):
+        """The interactive 3D viewer of ``trellis view`` for this toolpath: one self-contained
+        HTML page (str) that needs no server and no network."""
+        return self._core.view_html(title or self._core.source or "toolpath")
+
+    def save_view(self, path, title=None):
+        """Writes the viewer page (``view_html``) to ``path``."""
+        with open(os.fspath(path), "w", encoding="utf-8") as f:
+            f.write(self.view_html(title))
+
+    def _repr_html_(self):
+        # Jupyter shows the viewer inline: the page in an iframe, so its script and styles stay
+        # out of the notebook's own page.
+        page = html.escape(self.view_html(), quote=True)
+        return (f'<iframe class="trellis-view" srcdoc="{page}" style="width:100%;height:560px;'
+                f'border:1px solid #ccc" sandbox="allow-scripts"></iframe>')
 
     def __repr__(self):
         return (f"<trellis.Toolpath {self.layer_count} layers, {self.path_count} paths, "

@@ -47,6 +47,8 @@ class Toolpath:
     def gcode(self, machine: PathLike | None = None, set: Mapping[str, Any] | None = None) -> str: ...
     def cli(self, machine: PathLike | None = None, set: Mapping[str, Any] | None = None, binary: bool = False) -> bytes: ...
     def png(self, layer: int = 0, size: int = 600) -> bytes: ...
+    def view_html(self, title: str | None = None) -> str: ...
+    def save_view(self, path: PathLike, title: str | None = None) -> None: ...
 
 class Result:
     files: list[str]
@@ -122,7 +124,7 @@ def plan(
     box: Sequence[float] = ...,  # lattice3d.box: foam box width, depth, height
     cell: float = ...,  # lattice2d.cell: cell size: hexagon side, rhombus side, edge or period (see lattice2d --help)
     cell_type: Literal['cubic', 'bcc', 'fcc', 'octet', 'diamond', 'kelvin', 'rhombic-dodecahedron'] = ...,  # lattice3d.cell_type: unit cell
-    center: bool = ...,  # placement.center: move the part's XY centre to the bed centre
+    center: bool = ...,  # placement.center: move the part's XY centre to the bed centre (false: design coordinates are bed coordinates)
     collisions: bool = ...,  # aero.collisions: plan around the nozzle (false: trails = Euler lower bound)
     cone: float = ...,  # nozzle.cone: struts within this angle of vertical print bottom-up
     contour: bool = ...,  # lattice2d.contour: add the region outline as struts
@@ -149,6 +151,7 @@ def plan(
     materials: Literal['none', 'xy-plane', 'component', 'vertical'] = ...,  # lattice3d.materials: per-strut material rule
     max_memory: float = ...,  # run.max_memory: refuse a run whose estimate (made from its settings before it starts) needs more memory than this
     max_time: float = ...,  # run.max_time: refuse a run whose estimated time is longer than this
+    merge_ends: bool = ...,  # plan.merge_ends: join paths that end at the same node into one (fewer paths and starts; GIPPO keeps its paths as grown otherwise)
     merge_tolerance: float = ...,  # lattice.merge_tolerance: merge nodes closer than this
     mesh: str = ...,  # lattice3d.mesh: foam: inside this closed mesh instead of the box; conformal: the mesh to fill
     method: Literal['dynamic', 'groups'] = ...,  # aero.method: dynamic (refresh after every trail) or groups (the paper's)
@@ -183,7 +186,7 @@ def gcode(
     toolpath: PathLike | Toolpath, output: PathLike | None = None, *, machine: PathLike,
     progress: Progress | None = None,
     set: Mapping[str, Any] | None = None,
-    center: bool = ...,  # placement.center: move the part's XY centre to the bed centre
+    center: bool = ...,  # placement.center: move the part's XY centre to the bed centre (false: design coordinates are bed coordinates)
     force: bool = ...,  # run.force: run even when the estimate is beyond run.max_memory or run.max_time
     layer_height: float = ...,  # extrusion.layer_height: layer thickness LT when a path has none (Eq. 4)
     lookahead: float = ...,  # gradient.lookahead: issue each mixture change this much printed path before the region (dead volume, FGM paper A.1: L = V_melt / (h(w-h) + pi h^2/4))
@@ -199,7 +202,7 @@ def slice(
     set: Mapping[str, Any] | None = None,
     bead_width: float = ...,  # slice.bead_width: bead width (wall and fill spacing)
     bottom: int = ...,  # slice.bottom: solid bottom layers
-    center: bool = ...,  # placement.center: move the part's XY centre to the bed centre
+    center: bool = ...,  # placement.center: move the part's XY centre to the bed centre (false: design coordinates are bed coordinates)
     colors: int = ...,  # fgm.colors: palette size (two materials: N bands; three: d² triangles, e.g. 9)
     concentric: bool = ...,  # fgm.concentric: Strategy 2: concentric fill instead of rectilinear
     fixed_angle: bool = ...,  # fgm.fixed_angle: Strategy 2: lines at slice.infill_angle instead of along the iso-lines
@@ -218,7 +221,7 @@ def slice(
     resolution: float = ...,  # slice.resolution: XY grid step of field contours
     route: Literal['auto', 'field', 'mesh'] = ...,  # slice.route: auto (.vcad: field, meshes: mesh), field (contours of the implicit field) or mesh (plane cuts)
     speed: float = ...,  # speed.print: printing speed
-    strategy: int = ...,  # slice.strategy: graded designs: 0 one material, 1 walls/infill cut by colour faces + purge, 2 colour faces filled densely (FGM paper)
+    strategy: int = ...,  # slice.strategy: graded designs (FGM paper): 1 walls/infill cut by colour faces + purge, 2 colour faces filled densely, none (0) one material on purpose; a graded design wit
     threads: int = ...,  # run.threads: worker threads (0 = all cores)
     top: int = ...,  # slice.top: solid top layers
     walls: int = ...,  # slice.walls: number of walls
@@ -273,7 +276,7 @@ def nonplanar(
     angle: float = ...,  # surface.angle: corrugation slope
     angles: Sequence[float] = ...,  # nonplanar.angles: path directions cycled over the layers (0,90 = cross-hatch; 0 = parallel)
     bead_width: float = ...,  # nonplanar.bead_width: path width = plane spacing
-    center: bool = ...,  # placement.center: move the part's XY centre to the bed centre
+    center: bool = ...,  # placement.center: move the part's XY centre to the bed centre (false: design coordinates are bed coordinates)
     chord_tol: float = ...,  # nonplanar.chord_tolerance: max distance of a path segment from the surface
     depth: float = ...,  # surface.depth: Miura-Ori fold depth
     diameter: float = ...,  # surface.diameter: sphere-cap footprint diameter
@@ -311,7 +314,7 @@ def surface(
     set: Mapping[str, Any] | None = None,
     amplitude_scale: float = ...,  # surface.amplitude_scale: corrugation amplitude factor
     angle: float = ...,  # surface.angle: corrugation slope
-    center: bool = ...,  # placement.center: move the part's XY centre to the bed centre
+    center: bool = ...,  # placement.center: move the part's XY centre to the bed centre (false: design coordinates are bed coordinates)
     depth: float = ...,  # surface.depth: Miura-Ori fold depth
     diameter: float = ...,  # surface.diameter: sphere-cap footprint diameter
     fillet: float = ...,  # surface.fillet: fillet diameter at peaks and valleys

@@ -21,3 +21,9 @@ class SettingError(TrellisError, ValueError):
 
 class GeometryError(TrellisError):
     """Input that parses but cannot be planned, sliced or written."""
+
+
+class MachineError(TrellisError):
+    """The output would not print as meant on the machine: outside the bed, a tool or mixing
+    hotend it lacks, a bath route on an in-air machine, a temperature, speed or power over its
+    limits. Nothing was written."""

@@ -16,9 +16,20 @@ void CountingSink::extrude(Vec3 a, Vec3 b, double e, double feed) {
   const double len = distance(a, b);
   ++counts.extrusion_moves;
   const Vec3 gap = a - last_;
-  if (state_ != State::Extruding || dot(gap, gap) > 1e-18) {
+  const bool run_starts = state_ != State::Extruding || dot(gap, gap) > 1e-18;
+  if (run_starts) {
     close_path();
     ++counts.extrusion_starts;
+  }
+  if (run_starts || attribute_changed_) {
+    // A new path of the IR: the same layer rule as the IR builder (gcode_reader.cpp).
+    ++counts.toolpath_paths;
+    attribute_changed_ = false;
+    if (counts.layers == 0 || layer_pending_ || (!commented_ && std::abs(a.z - layer_z_) > 1e-4)) {
+      ++counts.layers;
+      layer_z_ = a.z;
+      layer_pending_ = false;
+    }
   }
   path_length_ += len;
   ++path_edges_;
@@ -326,8 +337,9 @@ Analysis analyze_gcode_file(const std::string& path, const Graph* design,
 std::string analysis_json(const Analysis& a) {
   nlohmann::ordered_json j;
   j["name"] = a.name;
-  j["layers"] = a.layers.size();
+  j["layers"] = a.counts.layers;
   j["paths"] = a.paths;
+  j["toolpath_paths"] = a.counts.toolpath_paths;
   j["extrusion_starts"] = a.counts.extrusion_starts;
   j["extruded_length_mm"] = a.extruded_length;
   j["travel_moves"] = a.counts.travel_moves;

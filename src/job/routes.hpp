@@ -5,6 +5,7 @@
 
 #include "trellis/core/budget.hpp"
 #include "trellis/job/job.hpp"
+#include "trellis/machine/gcode_writer.hpp"
 #include "trellis/slice/nonplanar.hpp"
 #include "trellis/render/render.hpp"
 #include "trellis/toolpath/toolpath.hpp"
@@ -24,12 +25,23 @@ JobResult surface(const Job& job, const Config& c, Diagnostics& diag, const Prog
 std::string embedded_job(const Job& job, const std::string& path);
 // A JSON output with the job added as its "job" field; reports (`command` true) also record the
 // literal command line, which main outputs leave out so that CLI, Python and rerun agree.
+// Reports also get the run's warnings (`diag`) as a "warnings" array when they have none.
 std::string with_job(const std::string& json, const Job& job, const std::string& path,
-                     bool command = true);
+                     bool command = true, const Diagnostics* diag = nullptr);
 // A JSON document with `field` set to another JSON document (text).
 std::string with_field(const std::string& json, const std::string& field, const std::string& value_json);
 // Writes the toolpath JSON with the job embedded.
 void write_toolpath_with_job(const std::string& path, Toolpath toolpath, const Job& job);
+// Writes G-code for the machine at `path` (nothing when empty) with the job embedded, after the
+// machine check; its warnings go to `diag`. Keeps the toolpath in `out` either way.
+GcodeStats write_gcode_out(const std::string& path, Toolpath tp, const Job& job,
+                           const MachineProfile& machine, JobResult& out, Diagnostics& diag);
+// Bath routes (nonplanar, plan aero) writing G-code need a bath machine (machine.flavor =
+// embedded): MachineError naming the route, the machine and a bath profile otherwise.
+void require_bath(const Job& job, const MachineProfile& machine, const std::string& route,
+                  const std::string& why);
+// Planar routes on a bath machine: a warning (planar layers print in a bath too, e.g. FRESH).
+void note_planar_in_bath(const MachineProfile& machine, const std::string& route, Diagnostics& diag);
 // DIR/layer_0000.png … for `count` layers spread over the toolpath (all when count >= layers).
 void previews(const Toolpath& tp, const std::string& dir, int count, const RenderOptions& ro,
               JobResult& out);

@@ -119,18 +119,12 @@ Graph cells_or_foam(const Config& c, Diagnostics& diag) {
   return g;
 }
 
-void write_gcode_out(const std::string& path, Toolpath tp, const Job& job, const Config& c,
-                     JobResult& out, GcodeStats* stats = nullptr) {
-  if (path.empty()) return;
-  tp.job = embedded_job(job, path);
-  const GcodeStats s = write_gcode_file(path, tp, c.machine);
-  if (stats) *stats = s;
-  out.files.push_back(path);
-}
 
 JobResult plan_aero_route(const Job& job, const Config& c, const Graph& g, const std::string& input,
                           Diagnostics& diag, const Progress& progress,
                           std::chrono::steady_clock::time_point t0, JobResult out) {
+  require_bath(job, c.machine, "plan aero", "AERO trails are printed inside a support bath (the "
+               "AERO paper's embedded printing)");
   AeroParams p = c.aero;
   p.progress = progress;
   const AeroResult r = plan_aero(g, p, diag);
@@ -151,11 +145,12 @@ JobResult plan_aero_route(const Job& job, const Config& c, const Graph& g, const
   out.toolpath = std::make_shared<Toolpath>(tp);
   out.lattice = std::make_shared<Graph>(g);
   const double secs = seconds_since(t0);
+  // G-code first: the machine check refuses before any file is written.
+  if (!job.gcode.empty()) write_gcode_out(job.gcode, tp, job, c.machine, out, diag);
   if (!job.toolpath.empty()) {
     write_toolpath_with_job(job.toolpath, tp, job);
     out.files.push_back(job.toolpath);
   }
-  if (!job.gcode.empty()) write_gcode_out(job.gcode, tp, job, c, out);
   if (!job.report.empty()) {
     AeroReportInput in{input, g.nodes.size(), g.edges.size(), secs};
     in.checked_collisions = static_cast<long long>(chk.collisions);
@@ -321,16 +316,19 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
   out.toolpath = std::make_shared<Toolpath>(r.toolpath);
   out.lattice = std::make_shared<Graph>(g);
   const double secs = seconds_since(t0);
+  GcodeStats gs;
+  if (!job.gcode.empty()) {
+    if (c.onto.kind.empty()) note_planar_in_bath(c.machine, "plan " + c.planner, diag);
+    gs = write_gcode_out(job.gcode, r.toolpath, job, c.machine, out, diag);
+  }
   if (!job.toolpath.empty()) {
     write_toolpath_with_job(job.toolpath, r.toolpath, job);
     out.files.push_back(job.toolpath);
   }
-  GcodeStats gs;
-  if (!job.gcode.empty()) write_gcode_out(job.gcode, r.toolpath, job, c, out, &gs);
   if (!job.report.empty()) {
     std::string report = plan_report_json(r, p, diag, {input, g.nodes.size(), g.edges.size()});
     if (!robustness.empty()) report = with_field(report, "gippo_robustness", robustness);
-    write_file_atomic(job.report, with_job(report, job, job.report));
+    write_file_atomic(job.report, with_job(report, job, job.report, true, &diag));
     out.files.push_back(job.report);
   }
   if (!job.preview.empty()) {
@@ -382,7 +380,7 @@ JobResult gcode(const Job& job, const Config& c, Diagnostics& diag, const Progre
     break;
   }
   GcodeStats s;
-  write_gcode_out(job.output, tp, job, c, out, &s);
+  s = write_gcode_out(job.output, tp, job, c.machine, out, diag);
   out.toolpath = std::make_shared<Toolpath>(tp);
   out.summary = fmt::format(
       "{}: {} paths, {} mm printed, {} travel moves ({} mm), {} retractions, {}{} mm filament, "

@@ -14,6 +14,7 @@
 #include "trellis/machine/gcode_writer.hpp"
 #include "trellis/machine/cli.hpp"
 #include "trellis/machine/laser.hpp"
+#include "trellis/machine/machine_check.hpp"
 #include "trellis/slice/nonplanar.hpp"
 #include "trellis/slice/pbf.hpp"
 #include "trellis/slice/pipeline.hpp"
@@ -167,28 +168,16 @@ HeightField test_surface(const SurfaceConfig& s) {
   return sphere_cap(s.radius, s.diameter);
 }
 
-// Designs and surfaces are centred at the origin: on the bed centre unless a setting says not.
-MachineProfile centred(MachineProfile m, const Job& job) {
-  if (!job.settings.has("placement.center")) m.center = true;
-  return m;
-}
 
-void write_gcode_out(const std::string& path, Toolpath tp, const Job& job, const MachineProfile& m,
-                     JobResult& out, GcodeStats& stats) {
-  out.toolpath = std::make_shared<Toolpath>(tp);
-  if (path.empty()) return;
-  tp.job = embedded_job(job, path);
-  stats = write_gcode_file(path, tp, m);
-  out.files.push_back(path);
-}
 
 }  // namespace
 
-JobResult slice(const Job& job, const Config& c, Diagnostics&, const Progress& progress) {
+JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
   JobResult out;
   if (job.input.empty()) throw SettingError("slice needs a design (.vcad) or mesh to read", {"", 0, "job.input"});
   SliceJob sj = c.slice;
   sj.input = job.input;
+  sj.strategy_chosen = job.settings.has("slice.strategy");
   sj.planar.layer_height = c.machine.layer_height;
   if (!job.settings.has("slice.bead_width")) sj.planar.bead_width = c.machine.nozzle_diameter;
   sj.fgm.angle_deg = sj.planar.infill_angle;
@@ -203,16 +192,18 @@ JobResult slice(const Job& job, const Config& c, Diagnostics&, const Progress& p
   r.toolpath.source = "trellis slice " + fs::path(job.input).filename().string() + " (" +
                       to_string(r.route) + " route)";
   GcodeStats g;
-  write_gcode_out(job.output, r.toolpath, job, centred(c.machine, job), out, g);
+  if (!job.output.empty()) note_planar_in_bath(c.machine, "slice", diag);
+  g = write_gcode_out(job.output, r.toolpath, job, c.machine, out, diag);
   if (!job.toolpath.empty()) {
     write_toolpath_with_job(job.toolpath, r.toolpath, job);
     out.files.push_back(job.toolpath);
   }
   if (!job.report.empty()) {
-    write_file_atomic(job.report, with_job(slice_report_json(sj, r, &g), job, job.report));
+    write_file_atomic(job.report, with_job(slice_report_json(sj, r, &g), job, job.report, true, &diag));
     out.files.push_back(job.report);
   }
   RenderOptions ro;
+  ro.colour_by_role = true;  // slice previews: feature type by default
   ro.colour_by_mixture = sj.strategy != 0;
   ro.starts = sj.strategy == 0;
   ro.size_px = c.output.image_size;
@@ -333,7 +324,7 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
   return out;
 }
 
-JobResult nonplanar(const Job& job, const Config& c, Diagnostics&, const Progress& progress) {
+JobResult nonplanar(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
   JobResult out;
   const auto& np = c.nonplanar;
   HeightField surface;
@@ -364,17 +355,19 @@ JobResult nonplanar(const Job& job, const Config& c, Diagnostics&, const Progres
     if (np.layer_tools.find(':') != std::string::npos && !job.settings.has("nonplanar.layers"))
       prm.layers = static_cast<int>(prm.layer_tools.size());
   }
+  require_bath(job, c.machine, "nonplanar", "non-planar layers are printed inside a support bath (the "
+               "non-planar paper's FRESH set-up)");
   check_budget(estimate_nonplanar(surface.domain(), prm), budget_of(job, c));
   NonplanarResult r = slice_nonplanar(surface, prm, progress);
   const SurfaceDeviation dev = surface_deviation(r.toolpath, surface, prm);
   GcodeStats g;
-  write_gcode_out(job.output, r.toolpath, job, centred(c.machine, job), out, g);
+  g = write_gcode_out(job.output, r.toolpath, job, c.machine, out, diag);
   if (!job.toolpath.empty()) {
     write_toolpath_with_job(job.toolpath, r.toolpath, job);
     out.files.push_back(job.toolpath);
   }
   if (!job.report.empty()) {
-    write_file_atomic(job.report, with_job(nonplanar_report_json(r, prm, surface, dev, &g), job, job.report));
+    write_file_atomic(job.report, with_job(nonplanar_report_json(r, prm, surface, dev, &g), job, job.report, true, &diag));
     out.files.push_back(job.report);
   }
   if (!job.preview.empty()) {
@@ -397,7 +390,7 @@ JobResult nonplanar(const Job& job, const Config& c, Diagnostics&, const Progres
   return out;
 }
 
-JobResult surface(const Job& job, const Config& c, Diagnostics&, const Progress&) {
+JobResult surface(const Job& job, const Config& c, Diagnostics& diag, const Progress&) {
   JobResult out;
   if (c.surface.kind == "angle-test") {
     // The print-angle test path: toolpath JSON, or G-code for the job's machine.
@@ -413,7 +406,7 @@ JobResult surface(const Job& job, const Config& c, Diagnostics&, const Progress&
       if (job.machine.empty())
         throw SettingError("the angle test as G-code needs --machine (or write .json)", {"", 0, "--machine"});
       GcodeStats g;
-      write_gcode_out(job.output, tp, job, c.machine, out, g);
+      g = write_gcode_out(job.output, tp, job, c.machine, out, diag);
     }
     if (!job.preview.empty()) {
       create_output_directories(job.preview);

@@ -7,6 +7,7 @@
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/machine/gcode_reader.hpp"
+#include "trellis/machine/machine_check.hpp"
 #include "trellis/toolpath/json.hpp"
 #include "trellis/version.hpp"
 
@@ -24,8 +25,14 @@ std::string embedded_job(const Job& job, const std::string& path) {
   return job_toml(job, dir.empty() ? "." : dir);
 }
 
-std::string with_job(const std::string& json, const Job& job, const std::string& path, bool command) {
+std::string with_job(const std::string& json, const Job& job, const std::string& path, bool command,
+                     const Diagnostics* diag) {
   nlohmann::ordered_json j = nlohmann::ordered_json::parse(json);
+  if (diag && !j.contains("warnings")) {
+    j["warnings"] = nlohmann::ordered_json::array();
+    for (const auto& m : diag->messages())
+      j["warnings"].push_back({{"kind", m.kind}, {"message", m.text}});
+  }
   j["job"] = embedded_job(job, path);
   // The literal command line goes into reports only (like their timings), so that a file made
   // from the CLI, from Python or by rerun is the same file.
@@ -38,6 +45,38 @@ std::string with_field(const std::string& json, const std::string& field, const 
   nlohmann::ordered_json j = nlohmann::ordered_json::parse(json);
   j[field] = nlohmann::ordered_json::parse(value_json);
   return j.dump(2) + "\n";
+}
+
+GcodeStats write_gcode_out(const std::string& path, Toolpath tp, const Job& job,
+                           const MachineProfile& machine, JobResult& out, Diagnostics& diag) {
+  GcodeStats stats;
+  if (!out.toolpath) out.toolpath = std::make_shared<Toolpath>(tp);
+  if (path.empty()) return stats;
+  tp.job = embedded_job(job, path);
+  stats = write_gcode_file(path, tp, machine);
+  for (const auto& [kind, message] : stats.warnings) diag.warn(kind, message);
+  out.files.push_back(path);
+  return stats;
+}
+
+void require_bath(const Job& job, const MachineProfile& m, const std::string& route,
+                  const std::string& why) {
+  const std::string& out = route == "nonplanar" ? job.output : job.gcode;
+  if (out.empty() || fs::path(out).extension() == ".json" || m.has_bath()) return;
+  throw MachineError(route + ": " + why + ", but the machine '" + m.name +
+                         "' prints in air (machine.flavor = " + m.flavor +
+                         "); use a bath profile (machine.flavor = embedded), e.g. " +
+                         (route == "nonplanar" ? "profiles/fresh_nonplanar_2syringe.toml"
+                                               : "profiles/embedded_aero_410um.toml") +
+                         ", or write a toolpath (.json) instead of G-code",
+                     {job.machine, 0, "machine.flavor"});
+}
+
+void note_planar_in_bath(const MachineProfile& m, const std::string& route, Diagnostics& diag) {
+  if (!m.has_bath()) return;
+  diag.warn("planar_in_bath", route + " prints flat layers but the machine '" + m.name +
+                                  "' prints in a support bath (machine.flavor = embedded): "
+                                  "travel lifts out of the bath between paths");
 }
 
 void write_toolpath_with_job(const std::string& path, Toolpath toolpath, const Job& job) {
@@ -93,19 +132,7 @@ Toolpath read_print(const std::string& path, const Settings* machine, double* sn
   if (have && snap && *snap == 0.05) *snap = profile.node_overlap + 0.05;
   Toolpath tp = read_gcode(text, read, diag, path);
   // Back to design coordinates: undo the placement written into the header and the tool offsets.
-  double dx = 0, dy = 0;
-  const auto at = text.find("; placement offset = ");
-  if (at != std::string::npos &&
-      std::sscanf(text.c_str() + at, "; placement offset = %lf, %lf", &dx, &dy) != 2)
-    dx = dy = 0;
-  for (auto& l : tp.layers)
-    for (auto& p : l.paths) {
-      const Vec2 t = have ? profile.tool_offset(p.tool) : Vec2{};
-      for (auto& q : p.points) {
-        q.x -= t.x + dx;
-        q.y -= t.y + dy;
-      }
-    }
+  to_design_coordinates(tp, text, have ? &profile : nullptr);
   return tp;
 }
 

@@ -1,4 +1,5 @@
 #include "trellis/machine/cli.hpp"
+#include "trellis/machine/machine_check.hpp"
 
 #include "trellis/version.hpp"
 
@@ -433,6 +434,7 @@ class Reader {
 }  // namespace
 
 std::string write_cli(const Toolpath& tp, const LaserProfile& prof, const CliWriteOptions& o) {
+  check_for_laser(tp, prof);  // power, speed and build area before anything is written
   std::string out = header(tp, prof, o);
   if (o.binary)
     binary_geometry(tp, out);

@@ -1,10 +1,13 @@
 #include "trellis/machine/gcode_writer.hpp"
 
+#include <fmt/format.h>
+
 #include <cmath>
 #include <numbers>
 
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
+#include "trellis/machine/machine_check.hpp"
 #include "trellis/version.hpp"
 
 namespace trellis {
@@ -74,7 +77,7 @@ void append_fixed(std::string& out, double v, int decimals) {
 
 class Writer {
  public:
-  Writer(const MachineProfile& p, const Toolpath& tp) : p_(p), tp_(tp) {
+  Writer(const MachineProfile& p, const Toolpath& tp, double lift) : p_(p), tp_(tp), lift_(lift) {
     flavor_ = p.parsed_flavor();
     down_flow_ = p.down_flow_table();
     e_axis_ = flavor_ == Flavor::Marlin || (flavor_ == Flavor::Embedded && p.embedded_drive == "syringe");
@@ -106,12 +109,9 @@ class Writer {
     for (const auto& l : tp_.layers)
       for (const auto& path : l.paths)
         for (const auto& q : path.points) box.add(q);
-    if (p_.center && !box.empty()) {
-      dx_ = p_.bed_x / 2 - box.center().x;
-      dy_ = p_.bed_y / 2 - box.center().y;
-    }
-    dx_ += p_.offset_x;
-    dy_ += p_.offset_y;
+    const Vec2 shift = placement_offset(tp_, p_);
+    dx_ = shift.x;
+    dy_ = shift.y;
     if (flavor_ == Flavor::Embedded)
       safe_z_ = std::max(p_.bath_surface, box.empty() ? 0.0 : box.max.z) + p_.travel_clearance;
   }
@@ -157,6 +157,7 @@ class Writer {
       line(std::string("; setting ") + d.key + " = " + v);
     }
     line("; placement offset = " + std::to_string(dx_) + ", " + std::to_string(dy_));
+    if (lift_ > 0) line("; placement lift = " + std::to_string(lift_));
     line("G21 ; millimetres");
     line("G90 ; absolute positions");
     if (e_axis_) line(p_.relative_e ? "M83 ; relative E" : "M82 ; absolute E");
@@ -325,20 +326,11 @@ class Writer {
   // material A), or a nozzle temperature linear in the mixture (foaming filament), with the
   // flow compensation of the FGM paper's Eq. 3 (PLA) or Eq. 4 (TPU) as M221.
   std::string gradient_command(const std::vector<double>& mix) const {
-    if (mix.size() > 2 && p_.gradient_mode != "mixing")
-      throw SettingError("a " + std::to_string(mix.size()) +
-                             "-material mixture needs a mixing hotend (gradient.mode = mixing); "
-                             "tools and temperature make mixtures of two materials",
-                         {"", 0, "gradient.mode"});
-    if (p_.gradient_mode == "mixing" && static_cast<int>(mix.size()) > p_.gradient_inputs)
-      throw SettingError("the design mixes " + std::to_string(mix.size()) +
-                             " materials but the hotend has gradient.inputs = " +
-                             std::to_string(p_.gradient_inputs),
-                         {"", 0, "gradient.inputs"});
+    // check_for_machine has refused mixtures the machine cannot make.
     std::string c;
     const double a = std::clamp(mix[0], 0.0, 1.0);
     if (p_.gradient_mode == "tools") {
-      const int n = std::max(1, p_.gradient_tools);
+      const int n = std::max(1, p_.gradient_tool_count());
       c = "T" + std::to_string(static_cast<int>(std::lround((1 - a) * (n - 1))));
     } else if (p_.gradient_mode == "temperature") {
       const double t = a * p_.temperature_a + (1 - a) * p_.temperature_b;
@@ -512,6 +504,7 @@ class Writer {
 
   const MachineProfile& p_;
   const Toolpath& tp_;
+  double lift_ = 0;  // Z added to every point (placement.lift), in the header for readers
   Flavor flavor_;
   std::string out_;
   std::vector<Change> changes_;  // mixture changes in print order
@@ -545,10 +538,30 @@ class Writer {
 
 std::string write_gcode(const Toolpath& toolpath, const MachineProfile& profile,
                         GcodeStats* stats) {
-  validate(profile);
   if (toolpath.path_count() == 0) throw GeometryError("the toolpath has no paths to write");
   GcodeStats s;
-  std::string out = Writer(profile, toolpath).run(s);
+  // Below the bed: lifted onto it (placement.lift), a copy only then.
+  const double lift = placement_lift(toolpath, profile);
+  Toolpath lifted;
+  const Toolpath* tp = &toolpath;
+  if (lift > 0) {
+    lifted = toolpath;
+    for (auto& l : lifted.layers) {
+      l.z += lift;
+      for (auto& path : l.paths)
+        for (auto& q : path.points) q.z += lift;
+    }
+    tp = &lifted;
+    s.warnings.emplace_back(
+        "lifted", fmt::format("the toolpath reaches Z {:.3f} mm, below the bed: lifted by {:.3f} mm "
+                              "so that its lowest point is at Z 0 (placement.lift = false refuses "
+                              "instead)",
+                              -lift, lift));
+  }
+  for (auto& w : check_for_machine(*tp, profile)) s.warnings.emplace_back(w.kind, w.message);
+  auto warnings = std::move(s.warnings);
+  std::string out = Writer(profile, *tp, lift).run(s);
+  s.warnings = std::move(warnings);
   if (stats) *stats = s;
   return out;
 }

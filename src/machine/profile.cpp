@@ -20,9 +20,31 @@ const std::vector<SettingDecl>& machine_settings() {
        "G-code dialect: marlin (E values), pneumatic (valve + pressure) or embedded (pneumatic "
        "in a support bath: vertical lifts out of the bath for travel, tools with offsets)",
        0, 0, &P::flavor},
-      {"machine.bed_x", "mm", "bed size in X", 1, 10000, &P::bed_x},
-      {"machine.bed_y", "mm", "bed size in Y", 1, 10000, &P::bed_y},
-      {"placement.center", "", "move the part's XY centre to the bed centre", 0, 0, &P::center},
+      {"machine.bed_x", "mm", "build area in X (a circular bed: its diameter)", 1, 10000,
+       &P::bed_x},
+      {"machine.bed_y", "mm", "build area in Y (ignored for a circular bed)", 1, 10000, &P::bed_y},
+      {"machine.bed_z", "mm", "build height", 1, 10000, &P::bed_z},
+      {"machine.bed_shape", "", "shape of the build area: rectangle or circle (diameter bed_x)", 0,
+       0, &P::bed_shape},
+      {"machine.origin", "",
+       "where X0 Y0 is: corner (the bed runs 0..bed_x) or center (-bed_x/2..bed_x/2; delta "
+       "printers)",
+       0, 0, &P::origin},
+      {"machine.tools", "",
+       "tools or nozzles the machine has (tool changer, multi-nozzle head); paths for a tool it "
+       "lacks are refused",
+       1, 64, &P::tool_count},
+      {"machine.mixing_inputs", "",
+       "filament inputs of a mixing hotend (M165 A B C ...); 1 = no mixing hotend", 1, 6,
+       &P::mixing_inputs},
+      {"placement.center", "",
+       "move the part's XY centre to the bed centre (false: design coordinates are bed "
+       "coordinates)",
+       0, 0, &P::center},
+      {"placement.lift", "",
+       "a toolpath reaching below Z 0 is lifted so that its lowest point is on the bed (false: "
+       "below the bed is an error)",
+       0, 0, &P::lift},
       {"placement.offset_x", "mm", "X offset added after centring", -10000, 10000, &P::offset_x},
       {"placement.offset_y", "mm", "Y offset added after centring", -10000, 10000, &P::offset_y},
       {"extrusion.nozzle_diameter", "mm", "nozzle diameter d_n (Eq. 4)", 0.01, 10,
@@ -44,6 +66,8 @@ const std::vector<SettingDecl>& machine_settings() {
       {"speed.travel", "mm/s", "travel speed", 0.01, 2000, &P::travel_speed},
       {"speed.z", "mm/s", "speed of Z moves", 0.01, 1000, &P::z_speed},
       {"speed.acceleration", "mm/s²", "acceleration for print-time estimates, 0 = feed rates only", 0, 100000, &P::acceleration},
+      {"speed.max", "mm/s", "fastest feed the machine moves at; faster settings are refused", 0.01,
+       10000, &P::max_speed},
       {"speed.short_path_factor", "", "speed factor for short paths (paper: 0.6)", 0.01, 10,
        &P::short_path_factor},
       {"speed.short_path_segments", "", "paths with fewer segments than this are short", 0, 1000000,
@@ -52,6 +76,13 @@ const std::vector<SettingDecl>& machine_settings() {
        &P::nozzle_temperature},
       {"temperature.bed", "°C", "bed temperature, 0 = leave unset", 0, 200, &P::bed_temperature},
       {"temperature.fan", "%", "part-cooling fan", 0, 100, &P::fan_percent},
+      {"temperature.standby", "°C",
+       "temperature of idle tools on a multi-tool machine, 0 = switched off", 0, 500,
+       &P::standby_temperature},
+      {"temperature.max_nozzle", "°C", "hottest nozzle temperature the machine allows", 0, 500,
+       &P::max_nozzle_temperature},
+      {"temperature.max_bed", "°C", "hottest bed temperature the machine allows", 0, 200,
+       &P::max_bed_temperature},
       {"retraction.length", "mm", "filament retracted before travel", 0, 50, &P::retract_length},
       {"retraction.speed", "mm/s", "retraction speed", 0.01, 500, &P::retract_speed},
       {"retraction.z_hop", "mm", "lift during travel", 0, 50, &P::z_hop},
@@ -97,10 +128,10 @@ const std::vector<SettingDecl>& machine_settings() {
        "how a path's mixture is made: mixing (M165 A.. B..), tools (T<n>, the nearest of "
        "gradient.tools) or temperature (M104 S<t>, foaming filament)",
        0, 0, &P::gradient_mode},
-      {"gradient.tools", "", "tools: number of tools, tool 0 = material A ... last = material B",
-       1, 64, &P::gradient_tools},
-      {"gradient.inputs", "", "mixing: filament inputs of the hotend (2 or 3 for graded designs)",
-       1, 6, &P::gradient_inputs},
+      {"gradient.tools", "",
+       "tools: how many tools hold the gradient, tool 0 = material A ... last = material B (0 = "
+       "all of machine.tools)",
+       0, 64, &P::gradient_tools},
       {"gradient.temperature_a", "°C", "temperature: nozzle temperature for 100% material A", 0,
        500, &P::temperature_a},
       {"gradient.temperature_b", "°C", "temperature: nozzle temperature for 100% material B", 0,
@@ -335,6 +366,12 @@ void validate(const MachineProfile& p) {
   p.tool_offset(0);
   p.tool_pressure(0);
   p.down_flow_table();
+  if (p.bed_shape != "rectangle" && p.bed_shape != "circle")
+    throw SettingError("unknown bed shape '" + p.bed_shape + "' (expected rectangle or circle)",
+                       {"", 0, "machine.bed_shape"});
+  if (p.origin != "corner" && p.origin != "center")
+    throw SettingError("unknown origin '" + p.origin + "' (expected corner or center)",
+                       {"", 0, "machine.origin"});
   if (p.embedded_drive != "pressure" && p.embedded_drive != "syringe")
     throw SettingError("unknown embedded drive '" + p.embedded_drive +
                            "' (expected pressure or syringe)",

@@ -137,6 +137,7 @@ PlanResult plan_lattice(const Graph& g, const PlanParams& params, Diagnostics& d
       set = plan_euler(sub);
       progress("euler", static_cast<double>(pi + 1) / static_cast<double>(parts.size()));
     }
+    if (params.merge_ends) report.merged = merge_shared_ends(set);
     report.metrics = path_metrics(sub, set, params.long_path_nodes);
     // Order in the sub-graph, starting where the previous part ended.
     order_paths(sub, set, params.order, at);

@@ -36,6 +36,7 @@ std::string plan_report_json(const PlanResult& r, const PlanParams& p, const Dia
   j["order"] = to_string(p.order);
   j["layer_height_mm"] = p.layer_height;
   j["long_path_nodes"] = p.long_path_nodes;
+  j["merge_ends"] = p.merge_ends;
   j["input"] = ctx.input;
   j["nodes"] = ctx.nodes;
   j["lattice_edges"] = ctx.edges;
@@ -49,6 +50,7 @@ std::string plan_report_json(const PlanResult& r, const PlanParams& p, const Dia
     jl["z"] = l.z;
     jl["material"] = l.material;
     put_metrics(jl, l.metrics);
+    if (p.merge_ends) jl["merged_paths"] = l.merged;
     if (!l.scores.empty()) {
       const auto [mn, mx] = std::minmax_element(l.scores.begin(), l.scores.end());
       jl["best_iteration"] = l.best_iteration;

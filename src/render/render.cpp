@@ -48,6 +48,83 @@ void order_colour(cairo_t* cr, double t) {
   cairo_set_source_rgb(cr, r * 0.9, g * 0.75, b * 0.9);
 }
 
+// Feature-type colours, indexed by PathRole (the viewer's palette, viewer/src/colors.js).
+constexpr double kRoleRgb[][3] = {{31, 119, 180}, {214, 39, 40},   {148, 103, 189}, {255, 127, 14},
+                                  {44, 160, 44},  {127, 127, 127}, {227, 119, 194}};
+
+void role_colour(cairo_t* cr, PathRole role) {
+  const auto& c = kRoleRgb[static_cast<int>(role)];
+  cairo_set_source_rgb(cr, c[0] / 255, c[1] / 255, c[2] / 255);
+}
+
+// A length of 1, 2 or 5 × 10^k mm, at most `max_mm`.
+double nice_length(double max_mm) {
+  const double p = std::pow(10.0, std::floor(std::log10(max_mm)));
+  for (double k : {5.0, 2.0, 1.0})
+    if (k * p <= max_mm) return k * p;
+  return p;
+}
+
+void text(cairo_t* cr, double x, double y, double size, const std::string& s, bool bold = false) {
+  cairo_select_font_face(cr, "sans-serif", CAIRO_FONT_SLANT_NORMAL,
+                         bold ? CAIRO_FONT_WEIGHT_BOLD : CAIRO_FONT_WEIGHT_NORMAL);
+  cairo_set_font_size(cr, size);
+  cairo_move_to(cr, x, y);
+  cairo_show_text(cr, s.c_str());
+}
+
+double text_width(cairo_t* cr, double size, const std::string& s) {
+  cairo_set_font_size(cr, size);
+  cairo_text_extents_t e;
+  cairo_text_extents(cr, s.c_str(), &e);
+  return e.x_advance;
+}
+
+struct LegendItem {
+  std::string label;
+  double r, g, b;
+};
+
+// The band below a picture: `items` as colour swatches (and, with `order_bar`, a print-order colour
+// bar first) on the left, a scale bar of a round number of mm on the right.
+void legend_band(cairo_t* c, int W, double y0, int band, const std::vector<LegendItem>& items,
+                 bool order_bar, double px_per_mm) {
+  const double fs = band * 0.3 * 0.85, pad = band * 0.2, ymid = y0 + band * 0.5, sw = band * 0.3;
+  double x = pad;
+  auto label = [&](const std::string& t) {
+    cairo_set_source_rgb(c, 0.1, 0.1, 0.1);
+    text(c, x, ymid + fs * 0.35, fs, t);
+    x += text_width(c, fs, t) + sw;
+  };
+  if (order_bar) {
+    label("first");
+    x -= sw * 0.5;
+    const double bar = 3 * band;
+    for (int i = 0; i < static_cast<int>(bar); ++i) {
+      order_colour(c, i / (bar - 1));
+      cairo_rectangle(c, x + i, ymid - sw / 2, 1, sw);
+      cairo_fill(c);
+    }
+    x += bar + sw * 0.5;
+    label("last (print order)");
+  }
+  for (const auto& it : items) {
+    cairo_set_source_rgb(c, it.r, it.g, it.b);
+    cairo_rectangle(c, x, ymid - sw / 2, sw * 1.6, sw);
+    cairo_fill(c);
+    x += sw * 2;
+    label(it.label);
+  }
+  const double len = nice_length(0.25 * W / px_per_mm);
+  const double bar_px = len * px_per_mm, bx = W - pad - bar_px;
+  cairo_set_source_rgb(c, 0, 0, 0);
+  cairo_rectangle(c, bx, ymid + sw * 0.2, bar_px, std::max(2.0, band * 0.08));
+  cairo_fill(c);
+  char lab[64];
+  std::snprintf(lab, sizeof lab, "%g mm", len);
+  text(c, bx + bar_px / 2 - text_width(c, fs, lab) / 2, ymid - sw * 0.2, fs, lab);
+}
+
 }  // namespace
 
 namespace impl {
@@ -65,19 +142,33 @@ void render_layer_png(const Toolpath& tp, std::size_t index, const std::string& 
   const double w = box.max.x - box.min.x + 2 * opt.margin_mm;
   const double h = box.max.y - box.min.y + 2 * opt.margin_mm;
   const double scale = opt.size_px / std::max({w, h, 1e-6});
-  const int W = std::max(16, static_cast<int>(std::ceil(w * scale)));
-  const int H = std::max(16, static_cast<int>(std::ceil(h * scale)));
+  const int Wd = std::max(16, static_cast<int>(std::ceil(w * scale)));
+  const int Hd = std::max(16, static_cast<int>(std::ceil(h * scale)));
+  // A title band above the layer and a legend band below it (kLegendBand in render.hpp).
+  const int band = layer_band_px(opt.size_px);
+  const int W = std::max(Wd, 8 * band);
+  const int H = Hd + 2 * band;
   Surface surface(cairo_image_surface_create(CAIRO_FORMAT_RGB24, W, H), cairo_surface_destroy);
   Context cr(cairo_create(surface.get()), cairo_destroy);
   cairo_set_source_rgb(cr.get(), 1, 1, 1);
   cairo_paint(cr.get());
-  // Millimetres, y up.
-  cairo_translate(cr.get(), 0, H);
+  const std::size_t n = layer.paths.size();
+  enum class Mode { Order, Role, Mixture2, Mixture3 } mode = Mode::Order;
+  bool mixed2 = false, mixed3 = false;
+  for (const auto& p : layer.paths) (p.mixture.size() >= 3 ? mixed3 : mixed2) |= !p.mixture.empty();
+  if (opt.colour_by_mixture && mixed3)
+    mode = Mode::Mixture3;
+  else if (opt.colour_by_mixture && mixed2)
+    mode = Mode::Mixture2;
+  else if (opt.colour_by_role || opt.colour_by_mixture)
+    mode = Mode::Role;
+  cairo_save(cr.get());
+  // Millimetres, y up, the layer centred in the middle band.
+  cairo_translate(cr.get(), (W - Wd) / 2.0, band + Hd);
   cairo_scale(cr.get(), scale, -scale);
   cairo_translate(cr.get(), -box.min.x + opt.margin_mm, -box.min.y + opt.margin_mm);
   cairo_set_line_cap(cr.get(), CAIRO_LINE_CAP_ROUND);
   cairo_set_line_join(cr.get(), CAIRO_LINE_JOIN_ROUND);
-  const std::size_t n = layer.paths.size();
   if (opt.travel && n > 1) {
     cairo_set_source_rgba(cr.get(), 0.4, 0.4, 0.4, 0.8);
     cairo_set_line_width(cr.get(), 1.0 / scale);
@@ -91,23 +182,20 @@ void render_layer_png(const Toolpath& tp, std::size_t index, const std::string& 
     cairo_stroke(cr.get());
     cairo_set_dash(cr.get(), nullptr, 0, 0);
   }
+  double bead_min = 1e300;
   for (std::size_t i = 0; i < n; ++i) {
     const Path& p = layer.paths[i];
     const double bead = opt.bead_width > 0 ? opt.bead_width : (p.width > 0 ? p.width : 0.2);
+    bead_min = std::min(bead_min, bead);
     cairo_set_line_width(cr.get(), std::max(bead, 1.5 / scale));
-    if (opt.colour_by_mixture && p.mixture.size() >= 3) {
+    if (mode == Mode::Mixture3 && p.mixture.size() >= 3) {
       // Three materials: A red, B green, C blue, mixed.
       cairo_set_source_rgb(cr.get(), std::clamp(p.mixture[0], 0.0, 1.0),
                            std::clamp(p.mixture[1], 0.0, 1.0), std::clamp(p.mixture[2], 0.0, 1.0));
-    } else if (opt.colour_by_mixture && !p.mixture.empty()) {
+    } else if ((mode == Mode::Mixture2 || mode == Mode::Mixture3) && !p.mixture.empty()) {
       order_colour(cr.get(), std::clamp(p.mixture[0], 0.0, 1.0));
-    } else if (opt.colour_by_role) {
-      switch (p.role) {
-        case PathRole::Contour: cairo_set_source_rgb(cr.get(), 0.85, 0.1, 0.1); break;
-        case PathRole::Infill: cairo_set_source_rgb(cr.get(), 0.1, 0.3, 0.85); break;
-        case PathRole::Skin: cairo_set_source_rgb(cr.get(), 0.1, 0.6, 0.2); break;
-        default: cairo_set_source_rgb(cr.get(), 0.15, 0.15, 0.15); break;
-      }
+    } else if (mode != Mode::Order) {
+      role_colour(cr.get(), p.role);
     } else {
       order_colour(cr.get(), n > 1 ? static_cast<double>(i) / (n - 1) : 0.0);
     }
@@ -116,15 +204,89 @@ void render_layer_png(const Toolpath& tp, std::size_t index, const std::string& 
       cairo_line_to(cr.get(), p.points[k].x, p.points[k].y);
     cairo_stroke(cr.get());
   }
-  if (opt.starts)
+  if (opt.starts && n > 0) {
+    // Sized to the part: at most 3.5 px, and no wider than the bead, so small parts stay visible.
+    const double r = std::max(1.0 / scale, std::min(3.5 / scale, 0.5 * bead_min));
     for (const auto& p : layer.paths) {
       cairo_set_source_rgb(cr.get(), 0.0, 0.6, 0.0);
-      cairo_arc(cr.get(), p.points.front().x, p.points.front().y, 3.5 / scale, 0, 2 * M_PI);
+      cairo_arc(cr.get(), p.points.front().x, p.points.front().y, r, 0, 2 * M_PI);
       cairo_fill(cr.get());
       cairo_set_source_rgb(cr.get(), 0.1, 0.1, 0.1);
-      cairo_arc(cr.get(), p.points.back().x, p.points.back().y, 2.0 / scale, 0, 2 * M_PI);
+      cairo_arc(cr.get(), p.points.back().x, p.points.back().y, 0.6 * r, 0, 2 * M_PI);
       cairo_fill(cr.get());
     }
+  }
+  cairo_restore(cr.get());
+
+  // Title: the file, the layer and its Z, and what colour means.
+  cairo_t* c = cr.get();
+  const double fs = band * 0.3, pad = band * 0.2;
+  cairo_set_source_rgb(c, 0.1, 0.1, 0.1);
+  const std::string name = !opt.title.empty()   ? opt.title
+                           : !tp.source.empty() ? tp.source
+                                                : "toolpath";
+  text(c, pad, pad + fs, fs, name, true);
+  char line[256];
+  const char* meaning = mode == Mode::Order  ? "colour: print order"
+                        : mode == Mode::Role ? "colour: feature type"
+                                             : "colour: mixture";
+  std::snprintf(line, sizeof line, "layer %zu of %zu, z = %.3f mm, %zu paths; %s", index + 1,
+                tp.layers.size(), layer.z, n, meaning);
+  text(c, pad, pad + 2.3 * fs, fs * 0.85, line);
+  // Legend band: what colour means (left), scale bar in mm (right).
+  const double y0 = band + Hd, ymid = y0 + band * 0.5, sw = band * 0.3;
+  double x = pad;
+  if (mode == Mode::Role) {
+    bool used[7] = {};
+    for (const auto& p : layer.paths) used[static_cast<int>(p.role)] = true;
+    for (int r = 0; r < 7; ++r) {
+      if (!used[r]) continue;
+      role_colour(c, static_cast<PathRole>(r));
+      cairo_rectangle(c, x, ymid - sw / 2, sw * 1.6, sw);
+      cairo_fill(c);
+      x += sw * 2;
+      cairo_set_source_rgb(c, 0.1, 0.1, 0.1);
+      const std::string label = to_string(static_cast<PathRole>(r));
+      text(c, x, ymid + fs * 0.3, fs * 0.85, label);
+      x += text_width(c, fs * 0.85, label) + sw;
+    }
+  } else if (mode == Mode::Mixture3) {
+    const char* names[] = {"material 1", "material 2", "material 3"};
+    for (int k = 0; k < 3; ++k) {
+      cairo_set_source_rgb(c, k == 0, k == 1, k == 2);
+      cairo_rectangle(c, x, ymid - sw / 2, sw * 1.6, sw);
+      cairo_fill(c);
+      x += sw * 2;
+      cairo_set_source_rgb(c, 0.1, 0.1, 0.1);
+      text(c, x, ymid + fs * 0.3, fs * 0.85, names[k]);
+      x += text_width(c, fs * 0.85, names[k]) + sw;
+    }
+  } else {
+    // A colour bar: print order first .. last, or the fraction of material 1.
+    const std::string lo = mode == Mode::Order ? "first" : "0",
+                      hi = mode == Mode::Order ? "last" : "1";
+    const std::string what = mode == Mode::Order ? "" : " material 1";
+    cairo_set_source_rgb(c, 0.1, 0.1, 0.1);
+    text(c, x, ymid + fs * 0.3, fs * 0.85, lo);
+    x += text_width(c, fs * 0.85, lo) + sw * 0.5;
+    const double bar = 4 * band;
+    for (int i = 0; i < static_cast<int>(bar); ++i) {
+      order_colour(c, i / (bar - 1));
+      cairo_rectangle(c, x + i, ymid - sw / 2, 1, sw);
+      cairo_fill(c);
+    }
+    x += bar + sw * 0.5;
+    cairo_set_source_rgb(c, 0.1, 0.1, 0.1);
+    text(c, x, ymid + fs * 0.3, fs * 0.85, hi + what);
+  }
+  const double len = nice_length(0.25 * W / scale);
+  const double bar_px = len * scale, bx = W - pad - bar_px;
+  cairo_set_source_rgb(c, 0, 0, 0);
+  cairo_rectangle(c, bx, ymid + sw * 0.2, bar_px, std::max(2.0, band * 0.08));
+  cairo_fill(c);
+  char lab[64];
+  std::snprintf(lab, sizeof lab, "%g mm", len);
+  text(c, bx + bar_px / 2 - text_width(c, fs * 0.85, lab) / 2, ymid - sw * 0.2, fs * 0.85, lab);
   cairo_surface_flush(surface.get());
   save_png(surface.get(), path);
 }
@@ -153,23 +315,26 @@ void render_3d_png(const Toolpath& tp, const std::string& path, const View3dOpti
   const double margin = 0.04 * std::max(u1 - u0, v1 - v0) + 1e-6;
   const double w = u1 - u0 + 2 * margin, h = v1 - v0 + 2 * margin;
   const double title_px = opt.title.empty() ? 0 : 28;
+  const int band = layer_band_px(opt.size_px);
   const double scale = opt.size_px / std::max(w, h);
-  const int W = std::max(16, static_cast<int>(std::ceil(w * scale)));
-  const int H = std::max(16, static_cast<int>(std::ceil(h * scale + title_px)));
+  const int W = std::max({16, static_cast<int>(std::ceil(w * scale)), 10 * band});
+  const int Hd = std::max(16, static_cast<int>(std::ceil(h * scale + title_px)));
+  const int H = Hd + band;
   Surface surface(cairo_image_surface_create(CAIRO_FORMAT_RGB24, W, H), cairo_surface_destroy);
   Context cr(cairo_create(surface.get()), cairo_destroy);
   cairo_set_source_rgb(cr.get(), 1, 1, 1);
   cairo_paint(cr.get());
   if (!opt.title.empty()) {
     cairo_set_source_rgb(cr.get(), 0.1, 0.1, 0.1);
-    cairo_select_font_face(cr.get(), "sans-serif", CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
+    cairo_select_font_face(cr.get(), "sans-serif", CAIRO_FONT_SLANT_NORMAL,
+                           CAIRO_FONT_WEIGHT_NORMAL);
     cairo_set_font_size(cr.get(), 16);
     cairo_move_to(cr.get(), 8, 20);
     cairo_show_text(cr.get(), opt.title.c_str());
   }
   auto to_px = [&](Vec3 p) {
     const auto [u, v] = project(p);
-    return std::pair<double, double>{(u - u0 + margin) * scale, H - (v - v0 + margin) * scale};
+    return std::pair<double, double>{(u - u0 + margin) * scale, Hd - (v - v0 + margin) * scale};
   };
   cairo_set_line_cap(cr.get(), CAIRO_LINE_CAP_ROUND);
   cairo_set_line_join(cr.get(), CAIRO_LINE_JOIN_ROUND);
@@ -220,6 +385,25 @@ void render_3d_png(const Toolpath& tp, const std::string& path, const View3dOpti
     cairo_arc(cr.get(), x, y, 7.0, 0, 2 * M_PI);
     cairo_stroke(cr.get());
   }
+  // Axes: X red, Y green, Z blue, from the lower left corner of the drawing.
+  {
+    const double L = band * 0.8, ox = band * 0.6, oy = Hd - band * 0.4;
+    const Vec3 axes[] = {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}};
+    const char* names[] = {"X", "Y", "Z"};
+    for (int k = 0; k < 3; ++k) {
+      const auto [u, v] = project(axes[k]);
+      cairo_set_source_rgb(cr.get(), k == 0 ? 0.85 : 0.1, k == 1 ? 0.6 : 0.1, k == 2 ? 0.85 : 0.1);
+      cairo_set_line_width(cr.get(), 2.0);
+      cairo_move_to(cr.get(), ox, oy);
+      cairo_line_to(cr.get(), ox + u * L, oy - v * L);
+      cairo_stroke(cr.get());
+      text(cr.get(), ox + u * L * 1.2 - 4, oy - v * L * 1.2 + 4, band * 0.25, names[k]);
+    }
+  }
+  std::vector<LegendItem> items = {{"path start", 0.0, 0.6, 0.0}};
+  if (opt.upto > 0) items.push_back({"not yet printed", 0.85, 0.85, 0.85});
+  if (!opt.marks.empty()) items.push_back({"collision (ring)", 0.9, 0.0, 0.0});
+  legend_band(cr.get(), W, Hd, band, items, true, scale);
   cairo_surface_flush(surface.get());
   save_png(surface.get(), path);
 }
@@ -235,14 +419,32 @@ void render_overlay_png(const std::vector<Segment2>& design, const Layer& printe
   const double margin = 1.0;
   const double w = box.max.x - box.min.x + 2 * margin, h = box.max.y - box.min.y + 2 * margin;
   const double scale = size_px / std::max({w, h, 1e-6});
-  const int W = std::max(16, static_cast<int>(std::ceil(w * scale)));
-  const int H = std::max(16, static_cast<int>(std::ceil(h * scale)));
+  const int band = layer_band_px(size_px);
+  const int Wd = std::max(16, static_cast<int>(std::ceil(w * scale)));
+  const int Hd = std::max(16, static_cast<int>(std::ceil(h * scale)));
+  const int W = std::max(Wd, 12 * band), H = Hd + 2 * band;
   Surface surface(cairo_image_surface_create(CAIRO_FORMAT_RGB24, W, H), cairo_surface_destroy);
   Context cr(cairo_create(surface.get()), cairo_destroy);
   cairo_t* c = cr.get();
   cairo_set_source_rgb(c, 1, 1, 1);
   cairo_paint(c);
-  cairo_translate(c, 0, H);
+  {
+    // Title: the picture's name (FILE_layer_NNNN) and the printed layer's Z.
+    std::string name = path.substr(path.find_last_of('/') + 1);
+    if (name.size() > 4) name.resize(name.size() - 4);
+    char line[128];
+    std::snprintf(line, sizeof line, "printed layer at z = %.3f mm against the design", printed.z);
+    cairo_set_source_rgb(c, 0.1, 0.1, 0.1);
+    text(c, band * 0.2, band * 0.5, band * 0.3, name, true);
+    text(c, band * 0.2, band * 0.89, band * 0.255, line);
+    legend_band(c, W, band + Hd, band,
+                {{"design", 0.85, 0.85, 0.85},
+                 {"printed", 0.15, 0.15, 0.15},
+                 {"deposited twice", 0.9, 0.1, 0.1},
+                 {"missing strut", 0.1, 0.3, 0.95}},
+                false, scale);
+  }
+  cairo_translate(c, (W - Wd) / 2.0, band + Hd);
   cairo_scale(c, scale, -scale);
   cairo_translate(c, -box.min.x + margin, -box.min.y + margin);
   cairo_set_line_cap(c, CAIRO_LINE_CAP_ROUND);

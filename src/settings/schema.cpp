@@ -177,12 +177,11 @@ void add_machine(std::vector<Setting>& out) {
     if (key == "gradient.mode") s.choices = {"mixing", "tools", "temperature"};
     if (key == "gradient.flow") s.choices = {"", "pla", "tpu"};
     if (key == "embedded.drive") s.choices = {"pressure", "syringe"};
+    if (key == "machine.bed_shape") s.choices = {"rectangle", "circle"};
+    if (key == "machine.origin") s.choices = {"corner", "center"};
     if (!s.choices.empty()) s.kind = SettingKind::Choice;
     if (key == "extrusion.layer_height") s.flag = "layer-height";
-    if (key == "placement.center") {
-      s.flag = "center";
-      s.derived = "true for slice and nonplanar (designs are centred at the origin), false otherwise";
-    }
+    if (key == "placement.center") s.flag = "center";
     if (key == "speed.print") s.flag = "speed";
     if (key == "gradient.lookahead") s.flag = "lookahead";
     if (key == "machine.name") {
@@ -214,6 +213,18 @@ std::vector<Setting> make_table() {
                      [](C& c) -> auto& { return c.laser.hatch_power; }));
   t.push_back(positive("laser.hatch_speed", "mm/s", 100000, "scan speed on hatch vectors", "",
                        [](C& c) -> auto& { return c.laser.hatch_speed; }));
+  t.push_back(positive("laser.max_power", "W", 100000,
+                       "highest laser power the machine delivers; higher powers are refused", "",
+                       [](C& c) -> auto& { return c.laser.max_power; }));
+  t.push_back(positive("laser.max_speed", "mm/s", 1e6,
+                       "fastest scan speed of the scanner; faster vectors are refused", "",
+                       [](C& c) -> auto& { return c.laser.max_speed; }));
+  t.push_back(positive("laser.build_x", "mm", 10000, "build plate size in X", "",
+                       [](C& c) -> auto& { return c.laser.build_x; }));
+  t.push_back(positive("laser.build_y", "mm", 10000, "build plate size in Y", "",
+                       [](C& c) -> auto& { return c.laser.build_y; }));
+  t.push_back(positive("laser.build_z", "mm", 10000, "build height", "",
+                       [](C& c) -> auto& { return c.laser.build_z; }));
   t.push_back(number("scan.layer", "mm", 0.001, 1, "powder layer thickness", "layer-height",
                      [](C& c) -> auto& { return c.laser.layer; }));
   t.push_back(number("scan.hatch_distance", "mm", 0.001, 5, "hatch distance", "hatch",
@@ -414,6 +425,10 @@ std::vector<Setting> make_table() {
       "plan.order", {{"longest-first", PathOrder::LongestFirst}, {"travel", PathOrder::Travel}},
       "path order: longest-first (paper) or travel (nearest neighbour + 2-opt)", "order",
       [](C& c) -> auto& { return c.plan.order; }));
+  t.push_back(boolean("plan.merge_ends",
+                      "join paths that end at the same node into one (fewer paths and starts; "
+                      "GIPPO keeps its paths as grown otherwise)",
+                      "merge-ends", [](C& c) -> auto& { return c.plan.merge_ends; }));
   t.push_back(integer("plan.long_path_nodes", 2, 1e6, "LTS/OE: a path is long with this many nodes",
                       "long-nodes", [](C& c) -> auto& { return c.plan.long_path_nodes; }));
   t.push_back(integer("plan.seed", 0, 9e15, "random seed (gippo iterations, aero shuffled runs)",
@@ -484,10 +499,15 @@ std::vector<Setting> make_table() {
                        "resolution", [](C& c) -> auto& { return c.slice.field.resolution; }));
   t.push_back(positive("slice.mesh_voxel", "mm", 10, "voxel of mesh distance fields (field route)",
                        "mesh-voxel", [](C& c) -> auto& { return c.slice.mesh_voxel; }));
-  t.push_back(integer("slice.strategy", 0, 2,
-                      "graded designs: 0 one material, 1 walls/infill cut by colour faces + purge, "
-                      "2 colour faces filled densely (FGM paper)",
-                      "strategy", [](C& c) -> auto& { return c.slice.strategy; }));
+  {
+    Setting strategy = integer(
+        "slice.strategy", 0, 2,
+        "graded designs (FGM paper): 1 walls/infill cut by colour faces + purge, 2 colour faces "
+        "filled densely, none (0) one material on purpose; a graded design without it is an error",
+        "strategy", [](C& c) -> auto& { return c.slice.strategy; });
+    strategy.names = {{"none", 0}};
+    t.push_back(std::move(strategy));
+  }
   t.push_back(integer("fgm.colors", 1, 1000,
                       "palette size (two materials: N bands; three: d² triangles, e.g. 9)",
                       "colors", [](C& c) -> auto& { return c.slice.fgm.palette.colors; }));
@@ -665,7 +685,7 @@ const std::vector<std::pair<std::string, std::string>>& setting_sections() {
       {"gradient", "how a mixture is made: mixing, tools, temperature"},
       {"purge", "Strategy 1 purge towers"},
       {"gcode", "start/end templates"},
-      {"laser", "laser powder-bed machine: spot, powers, speeds"},
+      {"laser", "laser powder-bed machine: spot, powers, speeds, limits, build area"},
       {"scan", "laser scan parameters: layer, hatch, SL, LHD"},
       {"timing", "laser scanner timing for the scan-time model"},
       {"lattice2d", "2D atlas patterns"},

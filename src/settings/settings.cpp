@@ -107,6 +107,7 @@ std::string Setting::range_text() const {
         r = count ? fmt::format("{} {}numbers, each ", count, whole ? "whole " : "")
                   : std::string(whole ? "whole numbers, each " : "numbers, each ");
       const bool open_top = max >= 1e299, open_bottom = min <= -1e299;
+      for (const auto& [name, v] : names) r = name + " (= " + std::to_string(v) + ") or " + r;
       if (positive && open_top) return r + "> " + number_text(min);
       if (open_bottom && open_top) return r + "any finite number";
       return r + (positive ? "> " + number_text(min) + " and <= " : number_text(min) + " .. ") +
@@ -185,6 +186,12 @@ void Settings::set(const std::string& key, SettingValue value, const SettingOrig
       check_number(*s, std::get<double>(value), origin);
       break;
     case SettingKind::Integer:
+      if (auto* t = std::get_if<std::string>(&value))
+        for (const auto& [name, v] : s->names)
+          if (*t == name) {
+            value = v;
+            break;
+          }
       if (auto* d = std::get_if<double>(&value))
         if (std::isfinite(*d) && std::floor(*d) == *d && std::abs(*d) < 9e15)
           value = static_cast<long long>(*d);
@@ -243,6 +250,8 @@ void Settings::set_text(const std::string& key, const std::string& text,
       std::string t = text;
       t.erase(0, t.find_first_not_of(" \t"));
       t.erase(t.find_last_not_of(" \t") + 1);
+      for (const auto& [name, v] : s->names)
+        if (t == name) return set(key, v, origin);
       double v = 0;
       const auto r = std::from_chars(t.data(), t.data() + t.size(), v);
       if (t.empty() || r.ec != std::errc() || r.ptr != t.data() + t.size())

@@ -104,6 +104,14 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
     VcadOptions vo;
     vo.mesh_voxel = job.mesh_voxel;
     field = read_vcad(job.input, vo).field;
+    // A graded design printed as one material must be asked for: nothing silent.
+    if (job.strategy == 0 && !job.strategy_chosen && field.materials().size() >= 2)
+      throw SettingError("the design is graded (" + std::to_string(field.materials().size()) +
+                             " materials) but no gradient strategy was chosen: slice with "
+                             "--strategy 1 (walls and infill by colour, purge) or 2 (dense fill "
+                             "by colour), or --strategy none to print it as one material on "
+                             "purpose",
+                         {job.input, 0, "slice.strategy"});
   } else {
     mesh = weld(read_mesh(job.input));
     r.mesh_triangles = mesh.triangles.size();

@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include "support/machines.hpp"
 #include "support/random_graphs.hpp"
 #include "trellis/analysis/metrics.hpp"
 #include "trellis/lattice/atlas.hpp"
@@ -11,7 +12,7 @@ using namespace trellis;
 namespace {
 
 Analysis measure(const Toolpath& tp, const Graph& design, const AnalysisParams& params = {}) {
-  MachineProfile p;
+  MachineProfile p = test::open_bed();
   p.retract_length = 0.5;
   Diagnostics d;
   const std::string g = write_gcode(tp, p);
@@ -77,8 +78,9 @@ TEST(Analysis, FindsDoublesMissingStrutsAndOffDesignDeposits) {
 TEST(Analysis, AlignmentFindsAPartPlacedOnTheBed) {
   const Graph g = test::random_planar_graph(9);
   const Toolpath tp = plan(g, Planner::Euler);
-  MachineProfile p;
+  MachineProfile p = test::open_bed();
   p.center = true;
+  p.origin = "corner";  // placed at the bed centre, (1000, 1000)
   Diagnostics d;
   const std::string gcode = write_gcode(tp, p);
   CountingSink counter;

@@ -5,6 +5,7 @@
 #include "trellis/lattice/cells3d.hpp"
 #include "trellis/machine/gcode_reader.hpp"
 #include "trellis/machine/gcode_writer.hpp"
+#include "trellis/machine/machine_check.hpp"
 #include "trellis/plan/aero.hpp"
 
 using namespace trellis;
@@ -99,13 +100,9 @@ TEST(CollisionCheck, EmbeddedGcodeReadBackIsCleanAndComplete) {
   read.valve_on = prof.valve_on;
   read.valve_off = prof.valve_off;
   Toolpath back = read_gcode(gcode, read, d);
+  to_design_coordinates(back, gcode, &prof);  // placement and each nozzle's offset undone
   std::size_t paths = 0;
-  for (auto& l : back.layers)
-    for (auto& p : l.paths) {
-      const Vec2 off = prof.tool_offset(p.tool);
-      for (auto& q : p.points) q.x -= off.x, q.y -= off.y;
-      ++paths;
-    }
+  for (const auto& l : back.layers) paths += l.paths.size();
   EXPECT_EQ(paths, r.trails.trails.size());
   CheckOptions o;
   o.snap = prof.node_overlap + 0.05;

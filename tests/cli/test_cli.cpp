@@ -105,7 +105,8 @@ TEST(Cli, PrintedWhereTheCoordinatesSayUnlessCentred) {
   const std::string profile = std::string(TRELLIS_SOURCE_DIR) + "/profiles/ender3_s1_pro_tpu.toml";
   for (bool centre : {false, true}) {
     const std::string gc = in_work(centre ? "c.gcode" : "nc.gcode");
-    ASSERT_EQ(run("gcode " + tp + " --machine " + profile + " -o " + gc + (centre ? " --center" : "")).code, 0);
+    ASSERT_EQ(run("gcode " + tp + " --machine " + profile + " -o " + gc +
+                  (centre ? "" : " --set placement.center=false")).code, 0);
     double lo = 1e9, hi = -1e9;
     for (const auto& d : trellis::test::replay_gcode(trellis::read_file(gc)).deposits) {
       lo = std::min({lo, d.x0, d.x1});
@@ -220,7 +221,7 @@ TEST(Cli, SliceDesignWritesGcodeReportAndPreviews) {
   const std::string prof = std::string(TRELLIS_SOURCE_DIR) + "/profiles/ender3_s1_pro_tpu.toml";
   const CmdResult r = run("slice " + design + " --machine " + prof + " -o " + in_work("ring.gcode") +
                           " --report " + in_work("ring.json") + " --preview " +
-                          in_work("ring_png") + " --layer-height 0.5 --set extrusion.nozzle_diameter=0.8 --bead-width 0.4 --walls 2 --infill 0.3");
+                          in_work("ring_png") + " --layer-height 0.5 --set extrusion.nozzle_diameter=0.8 --bead-width 0.4 --walls 2 --infill 0.3 --strategy none");
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("field route: 20 layers"), std::string::npos) << r.out;
   EXPECT_TRUE(fs::exists(in_work("ring_png") + "/layer_0000.png"));
@@ -389,7 +390,7 @@ TEST(Cli, GradedDesignStrategy2WritesMixtures) {
   const std::string d = write("graded.vcad",
                               "fgrade([\"0.5 + x/24\", \"0.5 - x/24\"], [\"a\", \"b\"]) {\n"
                               "  rectprism(20, 10, 0.6);\n}\n");
-  const std::string prof = std::string(TRELLIS_SOURCE_DIR) + "/profiles/ender3_s1_pro_tpu.toml";
+  const std::string prof = std::string(TRELLIS_SOURCE_DIR) + "/profiles/geeetech_mizar_m_mixing.toml";
   CmdResult r = run("slice " + d + " --machine " + prof + " -o " + in_work("graded.gcode") +
                     " --strategy 2 --colors 4 --layer-height 0.3 --set extrusion.nozzle_diameter=0.4 --report " + in_work("graded.json"));
   ASSERT_EQ(r.code, 0) << r.err;
@@ -460,7 +461,8 @@ TEST(Cli, ThreeMaterialDesignOnAThreeInputMixer) {
   r = run("slice " + d + " --machine " + root + "/profiles/geeetech_mizar_m_mixing.toml -o " +
           in_work("tri_never.gcode") + " --strategy 2 --colors 9");
   EXPECT_EQ(r.code, 2);
-  EXPECT_NE(r.err.find("gradient.inputs"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("machine.mixing_inputs = 2"), std::string::npos) << r.err;
+  EXPECT_FALSE(std::filesystem::exists(in_work("tri_never.gcode")));
   r = run("slice " + d + " --machine " + root + "/profiles/geeetech_a20t_mixing.toml -o " +
           in_work("tri_never.gcode") + " --strategy 1 --colors 8");
   EXPECT_EQ(r.code, 2);

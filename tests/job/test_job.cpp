@@ -188,8 +188,11 @@ TEST(Jobs, PrecedenceProfileJobCommandLineOnEveryRoute) {
     return zs.size() < 2 ? -1L : std::lround(zs[1] - zs[0]);
   };
   const std::vector<RouteCase> cases = {
-      {"slice", "input = \"" + kRoot + "/examples/designs/fgm_column2_plate.vcad\"\n", ".gcode", gcode_step},
-      {"nonplanar", "\n[nonplanar]\nheight_fn = \"0\"\ndomain = [0, 0, 5, 5]\nlayers = 3\n", ".gcode", gcode_step},
+      {"slice", "input = \"" + kRoot + "/examples/designs/fgm_column2_plate.vcad\"\n[slice]\nstrategy = \"none\"\n",
+       ".gcode", gcode_step},
+      // Non-planar layers print in a bath: a syringe-driven bath machine (E still written).
+      {"nonplanar", "\n[machine]\nflavor = \"embedded\"\n[embedded]\ndrive = \"syringe\"\n[gcode]\nextension = \".gcode\"\n"
+                    "[nonplanar]\nheight_fn = \"0\"\ndomain = [0, 0, 5, 5]\nlayers = 3\n", ".gcode", gcode_step},
       {"plan", "\n[lattice2d]\npattern = \"square\"\nsize = [4, 4]\n[layers]\ncount = 3\n[plan]\nplanner = \"euler\"\n",
        ".gcode", gcode_step},
       {"pbf", "\n[pbf]\nsize = [2.5, 2.5, 0.5]\n", ".cli", cli_step},

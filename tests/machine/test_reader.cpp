@@ -3,6 +3,7 @@
 #include <cmath>
 #include <numbers>
 
+#include "support/machines.hpp"
 #include "support/random_graphs.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/lattice/atlas.hpp"
@@ -59,13 +60,13 @@ void expect_round_trip(const Toolpath& tp, const MachineProfile& profile,
 }  // namespace
 
 TEST(Reader, RoundTripForEveryWriterOnManyLattices) {
-  MachineProfile marlin;
+  MachineProfile marlin = test::open_bed();
   marlin.retract_length = 0.8;
   marlin.z_hop = 0.3;
   MachineProfile relative = marlin;
   relative.relative_e = true;
   relative.pre_flow = 0.05;
-  MachineProfile pneumatic;
+  MachineProfile pneumatic = test::open_bed();
   pneumatic.flavor = "pneumatic";
   pneumatic.valve_on = "M3";
   pneumatic.valve_off = "M5";

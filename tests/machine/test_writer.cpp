@@ -6,6 +6,7 @@
 #include <map>
 #include <numbers>
 
+#include "support/machines.hpp"
 #include "support/gcode_replay.hpp"
 #include "support/random_graphs.hpp"
 #include "trellis/core/error.hpp"
@@ -19,7 +20,7 @@ using namespace trellis;
 namespace {
 
 MachineProfile marlin() {
-  MachineProfile p;
+  MachineProfile p = test::open_bed();
   p.nozzle_diameter = 0.2;
   p.layer_height = 0.148;
   p.retract_length = 0.8;
@@ -30,7 +31,7 @@ MachineProfile marlin() {
 }
 
 MachineProfile pneumatic() {
-  MachineProfile p;
+  MachineProfile p = test::open_bed();
   p.flavor = "pneumatic";
   p.valve_on = "M3";
   p.valve_off = "M5";
@@ -136,6 +137,7 @@ TEST(Writer, ShortPathsSlowDownAndRetractionHappens) {
 TEST(Writer, CentringMovesThePartToTheBedCentre) {
   MachineProfile p = marlin();
   p.center = true;
+  p.origin = "corner";
   p.bed_x = 200;
   p.bed_y = 100;
   Toolpath tp;
@@ -146,6 +148,11 @@ TEST(Writer, CentringMovesThePartToTheBedCentre) {
   ASSERT_EQ(r.deposits.size(), 1u);
   EXPECT_NEAR(r.deposits[0].x0, 95, 1e-9);
   EXPECT_NEAR(r.deposits[0].y1, 55, 1e-9);
+  // A machine whose origin is the bed centre (a delta): the centre is X0 Y0.
+  p.origin = "center";
+  const auto c = test::replay_gcode(write_gcode(tp, p));
+  EXPECT_NEAR(c.deposits[0].x0, -5, 1e-9);
+  EXPECT_NEAR(c.deposits[0].y1, 5, 1e-9);
 }
 
 TEST(Writer, TemplatesExpandAndUnknownPlaceholdersFail) {
@@ -246,7 +253,7 @@ TEST(Writer, MixturesBecomeM165AndReadBack) {
     p.mixture = mixes[i];
     tp.layers[0].paths.push_back(p);
   }
-  const trellis::MachineProfile prof;
+  const trellis::MachineProfile prof = trellis::test::open_bed({}, 0, 2);
   const std::string g = trellis::write_gcode(tp, prof);
   std::size_t count = 0;
   for (std::size_t pos = g.find("M165"); pos != std::string::npos; pos = g.find("M165", pos + 1)) ++count;
@@ -280,6 +287,7 @@ TEST(Writer, EmbeddedTravelLeavesTheBathVerticallyAndSwapsNozzles) {
   trellis::MachineProfile prof =
       trellis::load_profile(std::string(TRELLIS_SOURCE_DIR) + "/profiles/embedded_aero_two_nozzle.toml");
   prof.node_overlap = 0.5;
+  prof.center = false;  // design coordinates are bed coordinates
   trellis::GcodeStats stats;
   const std::string g = trellis::write_gcode(tp, prof, &stats);
   EXPECT_EQ(stats.tool_changes, 1u);  // T0 selected, then one change to T1

@@ -12,6 +12,7 @@
 #include "trellis/lattice/io.hpp"
 #include "trellis/machine/gcode_reader.hpp"
 #include "trellis/machine/gcode_writer.hpp"
+#include "trellis/machine/machine_check.hpp"
 #include "trellis/machine/profile.hpp"
 #include "trellis/plan/aero.hpp"
 #include "trellis/plan/euler.hpp"
@@ -278,7 +279,8 @@ CollisionCheck replay_gcode(const Graph& g, const AeroResult& r) {
   read.valve_on = prof.valve_on;
   read.valve_off = prof.valve_off;
   Diagnostics d;
-  const Toolpath back = read_gcode(gcode, read, d);
+  Toolpath back = read_gcode(gcode, read, d);
+  to_design_coordinates(back, gcode, &prof);  // the writer centred and lifted it onto the bed
   CheckOptions o;
   o.snap = prof.node_overlap + 0.05;
   return check_collisions(g, back, o);

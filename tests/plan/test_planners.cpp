@@ -259,3 +259,58 @@ TEST(Order, TravelOrderKeepsPathsValidAndBeatsLongestFirst) {
   }
   EXPECT_EQ(better, total);
 }
+
+// plan.merge_ends: joins trails that end at one node and splices closed trails into a trail
+// through one of their nodes; the result still covers every edge once, and on GIPPO's trails of
+// the atlas patterns it never adds paths and reaches the lower bound where GIPPO stopped above it.
+TEST(MergeEnds, JoinsSharedEndsAndSplicesLoopsKeepingEveryEdgeOnce) {
+  // A path 0-1-2 and a path 2-3 share node 2; a path 3-5 shares node 3 with that; a triangle
+  // 4-5-6-4 hangs off node 5.
+  Graph g;
+  for (int i = 0; i < 7; ++i) g.nodes.push_back({static_cast<double>(i), 0, 0});
+  auto edge = [&](int a, int b) {
+    Edge e;
+    e.a = static_cast<NodeId>(a);
+    e.b = static_cast<NodeId>(b);
+    g.edges.push_back(e);
+    return static_cast<EdgeId>(g.edges.size() - 1);
+  };
+  const EdgeId e01 = edge(0, 1), e12 = edge(1, 2), e23 = edge(2, 3), e45 = edge(4, 5),
+               e56 = edge(5, 6), e64 = edge(6, 4), e35 = edge(3, 5);
+  PathSet set;
+  set.trails.push_back({{0, 1, 2}, {e01, e12}, 2});
+  set.trails.push_back({{3, 2}, {e23}, 1});
+  set.trails.push_back({{4, 5, 6, 4}, {e45, e56, e64}, 3});
+  set.trails.push_back({{3, 5}, {e35}, 1});
+  ASSERT_EQ(validate_paths(g, set), "");
+  EXPECT_EQ(merge_shared_ends(set), 3u);  // 0-1-2 + 3-2; the loop into 3-5; then both at 3
+  EXPECT_EQ(set.trails.size(), 1u);
+  EXPECT_EQ(validate_paths(g, set), "");
+  // Random graphs: every edge once, count falls by the joins, never below the lower bound.
+  for (std::uint64_t seed = 1; seed <= 30; ++seed) {
+    const Graph r = random_graph(seed, 40, 70);
+    GippoParams gp;
+    gp.iterations = 5;
+    gp.seed = seed;
+    PathSet s = plan_gippo(r, gp).best;
+    const std::size_t before = s.trails.size();
+    const std::size_t joins = merge_shared_ends(s);
+    EXPECT_EQ(validate_paths(r, s), "") << seed;
+    EXPECT_EQ(s.trails.size(), before - joins) << seed;
+    EXPECT_GE(s.trails.size(), lower_bound_paths(r)) << seed;
+  }
+  // The Ø48 mm arrowhead: GIPPO stops above the bound, the merge reaches it.
+  AtlasParams a;
+  a.pattern = Pattern::Arrowhead;
+  a.region.shape = RegionShape::Circle;
+  a.region.diameter = 48;
+  const Graph arrow = make_lattice2d(a);
+  GippoParams gp;
+  gp.iterations = 20;
+  PathSet s = plan_gippo(arrow, gp).best;
+  const std::size_t before = s.trails.size();
+  merge_shared_ends(s);
+  EXPECT_EQ(validate_paths(arrow, s), "");
+  EXPECT_LT(s.trails.size(), before);
+  EXPECT_EQ(s.trails.size(), lower_bound_paths(arrow));
+}

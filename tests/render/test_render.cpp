@@ -1,6 +1,8 @@
+#include <cairo.h>
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <set>
 
 #include "support/temp_dir.hpp"
 #include "trellis/core/error.hpp"
@@ -32,8 +34,163 @@ TEST(Render, LayerPngHasTheAspectOfTheLayer) {
   ASSERT_GT(png.size(), 100u);
   EXPECT_EQ(png.substr(1, 3), "PNG");
   EXPECT_EQ(be32(png, 16), 440u);  // width: 22 mm
-  EXPECT_EQ(be32(png, 20), 240u);  // height: 12 mm
+  // height: 12 mm, plus the title band above and the legend band below
+  EXPECT_EQ(be32(png, 20), 240u + 2 * layer_band_px(440));
   EXPECT_THROW(render_layer_png(tp, 3, path, o), SettingError);
   render_scores_png({0.1, 0.3, 0.2}, 1, "scores", path);
   EXPECT_EQ(read_file(path).substr(1, 3), "PNG");
+}
+
+namespace {
+
+// A decoded PNG: RGB of every pixel.
+struct Image {
+  int w = 0, h = 0;
+  std::vector<unsigned> px;  // 0xRRGGBB
+  unsigned at(int x, int y) const { return px[static_cast<std::size_t>(y) * w + x]; }
+};
+
+Image decode(const std::string& path) {
+  cairo_surface_t* s = cairo_image_surface_create_from_png(path.c_str());
+  EXPECT_EQ(cairo_surface_status(s), CAIRO_STATUS_SUCCESS);
+  Image im;
+  im.w = cairo_image_surface_get_width(s);
+  im.h = cairo_image_surface_get_height(s);
+  const int stride = cairo_image_surface_get_stride(s);
+  const unsigned char* data = cairo_image_surface_get_data(s);
+  for (int y = 0; y < im.h; ++y)
+    for (int x = 0; x < im.w; ++x)
+      im.px.push_back(*reinterpret_cast<const std::uint32_t*>(data + y * stride + 4 * x) &
+                      0xffffff);
+  cairo_surface_destroy(s);
+  return im;
+}
+
+std::size_t count(const Image& im, int y0, int y1, unsigned rgb) {
+  std::size_t n = 0;
+  for (int y = y0; y < y1; ++y)
+    for (int x = 0; x < im.w; ++x) n += im.at(x, y) == rgb;
+  return n;
+}
+
+// Longest run of black pixels in one row of the band [y0, y1).
+int longest_black_run(const Image& im, int y0, int y1) {
+  int best = 0;
+  for (int y = y0; y < y1; ++y)
+    for (int x = 0, run = 0; x < im.w; ++x) {
+      run = im.at(x, y) == 0 ? run + 1 : 0;
+      best = std::max(best, run);
+    }
+  return best;
+}
+
+Toolpath two_features() {
+  Toolpath tp;
+  Path wall, fill;
+  wall.role = PathRole::Contour;
+  wall.points = {{0, 0, 0.2}, {40, 0, 0.2}, {40, 20, 0.2}, {0, 20, 0.2}, {0, 0, 0.2}};
+  fill.role = PathRole::Infill;
+  fill.points = {{2, 2, 0.2}, {38, 18, 0.2}};
+  wall.width = fill.width = 0.4;
+  tp.layers.push_back({0.2, {wall, fill}});
+  tp.source = "two_features.json";
+  return tp;
+}
+
+}  // namespace
+
+// Every layer PNG explains itself: a title band with dark text, a legend band with a swatch of
+// each feature type drawn and a scale bar whose length in pixels is a round number of mm.
+TEST(Render, LayerPngHasTitleLegendAndScaleBar) {
+  const Toolpath tp = two_features();
+  const trellis::test::TempDir tmp("trellis_render_legend");
+  const std::string path = tmp.file("layer.png");
+  RenderOptions o;
+  o.size_px = 800;
+  o.margin_mm = 0;
+  o.colour_by_role = true;
+  render_layer_png(tp, 0, path, o);
+  const Image im = decode(path);
+  const int band = layer_band_px(800);
+  ASSERT_EQ(im.h, 400 + 2 * band);  // 40 x 20 mm at 20 px/mm
+  const unsigned contour = 0xd62728, infill = 0x2ca02c;
+  // The drawing has both colours, and so has the legend band below it.
+  EXPECT_GT(count(im, band, band + 400, contour), 100u);
+  EXPECT_GT(count(im, band, band + 400, infill), 100u);
+  EXPECT_GT(count(im, band + 400, im.h, contour), 20u);
+  EXPECT_GT(count(im, band + 400, im.h, infill), 20u);
+  // Title text, two lines (the file; layer, Z and what colour means): dark pixels in each.
+  auto dark = [&](int y0, int y1) {
+    std::size_t n = 0;
+    for (int y = y0; y < y1; ++y)
+      for (int x = 0; x < im.w; ++x) {
+        const unsigned c = im.at(x, y);
+        n += (c >> 16) < 0x60 && ((c >> 8) & 0xff) < 0x60 && (c & 0xff) < 0x60;
+      }
+    return n;
+  };
+  EXPECT_GT(dark(0, band * 55 / 100), 50u);
+  EXPECT_GT(dark(band * 6 / 10, band), 50u);
+  // Scale bar: 0.25 of 40 mm rounds down to 10 mm = 200 px at 20 px/mm.
+  EXPECT_NEAR(longest_black_run(im, band + 400, im.h), 200, 2);
+}
+
+// Print order: the legend band carries a colour bar (many distinct colours).
+TEST(Render, LayerPngOrderHasColourBar) {
+  const Toolpath tp = two_features();
+  const trellis::test::TempDir tmp("trellis_render_bar");
+  const std::string path = tmp.file("layer.png");
+  RenderOptions o;
+  o.size_px = 800;
+  render_layer_png(tp, 0, path, o);
+  const Image im = decode(path);
+  std::set<unsigned> colours;
+  const int band = layer_band_px(800);
+  for (int y = im.h - band; y < im.h; ++y)
+    for (int x = 0; x < im.w; ++x) {
+      const unsigned c = im.at(x, y);
+      const int r = c >> 16, g = (c >> 8) & 0xff, b = c & 0xff;
+      if (std::max({r, g, b}) - std::min({r, g, b}) > 60) colours.insert(c);
+    }
+  EXPECT_GT(colours.size(), 50u);
+}
+
+// The 3D view and the analysis overlay carry a legend band too: the 3D view a print-order colour
+// bar and a scale bar, the overlay a swatch for each of its four colours and a scale bar.
+TEST(Render, ThreeDAndOverlayHaveLegends) {
+  const Toolpath tp = two_features();
+  const trellis::test::TempDir tmp("trellis_render_3d");
+  const std::string p3 = tmp.file("3d.png"), po = tmp.file("overlay.png");
+  View3dOptions v;
+  v.size_px = 800;
+  render_3d_png(tp, p3, v);
+  const Image a = decode(p3);
+  const int band = layer_band_px(800);
+  std::set<unsigned> colours;
+  for (int y = a.h - band; y < a.h; ++y)
+    for (int x = 0; x < a.w; ++x) {
+      const unsigned c = a.at(x, y);
+      const int r = c >> 16, g = (c >> 8) & 0xff, b = c & 0xff;
+      if (std::max({r, g, b}) - std::min({r, g, b}) > 60) colours.insert(c);
+    }
+  EXPECT_GT(colours.size(), 50u);
+  EXPECT_GT(longest_black_run(a, a.h - band, a.h), 40);
+  render_overlay_png({{{0, 0}, {40, 0}}}, tp.layers[0], {{{0, 20}, {40, 20}}},
+                     {{{0, 10}, {40, 10}}}, 0.4, po, 800);
+  const Image o = decode(po);
+  auto near = [&](int y0, int y1, int r, int g, int b) {
+    std::size_t n = 0;
+    for (int y = y0; y < y1; ++y)
+      for (int x = 0; x < o.w; ++x) {
+        const unsigned c = o.at(x, y);
+        n += std::abs(int(c >> 16) - r) < 8 && std::abs(int((c >> 8) & 0xff) - g) < 8 &&
+             std::abs(int(c & 0xff) - b) < 8;
+      }
+    return n;
+  };
+  EXPECT_GT(near(o.h - band, o.h, 230, 25, 25), 50u);    // deposited twice
+  EXPECT_GT(near(o.h - band, o.h, 25, 76, 242), 50u);    // missing strut
+  EXPECT_GT(near(o.h - band, o.h, 217, 217, 217), 50u);  // design
+  EXPECT_NEAR(longest_black_run(o, o.h - band, o.h), 10 * 800 / 42.0,
+              2);  // 10 mm; 42 mm wide with margins
 }

@@ -9,6 +9,8 @@
 #include <set>
 #include <tuple>
 
+#include "support/machines.hpp"
+#include "trellis/machine/machine_check.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/field/vcad.hpp"
 #include "trellis/geom/regions.hpp"
@@ -54,8 +56,8 @@ Fidelity run(const Field& f, int colors, double h, bool concentric, double bead 
   o.material_resolution = material_resolution;
   o.palette.materials = static_cast<int>(f.materials().size());
   const Toolpath tp = plan_fgm_strategy2(f, outlines, o);
-  MachineProfile prof;
-  prof.gradient_inputs = 3;
+  MachineProfile prof = test::open_bed({}, 0, 2);
+  prof.mixing_inputs = 3;
   Diagnostics diag;
   const Toolpath back = read_gcode(write_gcode(tp, prof), {}, diag);
   Evaluator ev(f);
@@ -240,7 +242,7 @@ TEST(Fgm, LookAheadIssuesChangesOneDeadVolumeEarly) {
   Evaluator ev(f);
   const double L = 40;
   auto worst = [&](double lookahead) {
-    MachineProfile prof;
+    MachineProfile prof = test::open_bed({}, 0, 2);
     prof.lookahead = lookahead;
     Diagnostics diag;
     const Toolpath back = read_gcode(write_gcode(tp, prof), {}, diag);
@@ -283,12 +285,12 @@ TEST(Fgm, ToolsAndTemperatureModes) {
     p.mixture = {a, 1 - a};
     tp.layers[0].paths.push_back(p);
   }
-  MachineProfile tools;
+  MachineProfile tools = test::open_bed({}, 5);
   tools.gradient_mode = "tools";
   tools.gradient_tools = 5;
   const std::string g = write_gcode(tp, tools);
   for (const char* t : {"\nT0\n", "\nT1\n", "\nT2\n", "\nT3\n", "\nT4\n"}) EXPECT_NE(g.find(t), std::string::npos) << t;
-  MachineProfile foam;
+  MachineProfile foam = test::open_bed();
   foam.gradient_mode = "temperature";
   foam.flow_model = "pla";
   GcodeStats st;
@@ -359,7 +361,7 @@ TEST(Fgm, Strategy1KeepsEveryPlanarPathAndPurgesBetweenColours) {
   EXPECT_NEAR(st.purge_volume, st.purge_length * (h * (o.bead_width - h) + M_PI * h * h / 4), 1e-6);
   // Fidelity, read back (purge blocks excluded: they lie off the part).
   Diagnostics diag;
-  const Toolpath back = read_gcode(write_gcode(tp, MachineProfile{}), {}, diag);
+  const Toolpath back = read_gcode(write_gcode(tp, test::open_bed({}, 0, 2)), {}, diag);
   Evaluator ev(f);
   double worst = 0;
   std::size_t n = 0;
@@ -507,8 +509,8 @@ TEST(Fgm, ThreeMaterialsStrategy1AndWriters) {
     EXPECT_NEAR(pieces, uncut, 1e-6 * uncut) << "layer " << li;
   }
   EXPECT_GT(st.colour_changes, 3u);
-  MachineProfile prof;
-  prof.gradient_inputs = 3;
+  MachineProfile prof = test::open_bed({}, 0, 2);
+  prof.mixing_inputs = 3;
   Diagnostics diag;
   const Toolpath back = read_gcode(write_gcode(tp, prof), {}, diag);
   Evaluator ev(f);
@@ -527,12 +529,12 @@ TEST(Fgm, ThreeMaterialsStrategy1AndWriters) {
     }
   EXPECT_GT(n, 100u);
   EXPECT_LE(worst, o.palette.error_bound() + 1e-4);
-  MachineProfile two;
-  EXPECT_THROW(write_gcode(tp, two), SettingError);
+  MachineProfile two = test::open_bed({}, 0, 2);
+  EXPECT_THROW(write_gcode(tp, two), MachineError);
   prof.gradient_mode = "tools";
-  EXPECT_THROW(write_gcode(tp, prof), SettingError);
+  EXPECT_THROW(write_gcode(tp, prof), MachineError);
   prof.gradient_mode = "temperature";
-  EXPECT_THROW(write_gcode(tp, prof), SettingError);
+  EXPECT_THROW(write_gcode(tp, prof), MachineError);
   o.zipper = 0.05;
   EXPECT_THROW(plan_fgm_strategy1(f, sl.outlines, sl.planar, o, {}, nullptr), SettingError);
 }

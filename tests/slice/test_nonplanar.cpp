@@ -8,6 +8,7 @@
 #include <random>
 #include <set>
 
+#include "support/machines.hpp"
 #include "support/gcode_replay.hpp"
 #include "support/temp_dir.hpp"
 #include "trellis/core/error.hpp"
@@ -264,7 +265,7 @@ TEST(Nonplanar, ToolGroupsAndInBathHopsInTheGcode) {
   prm.angles = {0};
   prm.layer_tools = {0, 0, 0, 1, 1, 1, 0, 0, 0};
   const NonplanarResult r = slice_nonplanar(m_curve({}), prm);
-  MachineProfile p;
+  MachineProfile p = test::open_bed({}, 2);
   p.flavor = "embedded";
   p.embedded_drive = "syringe";
   p.filament_diameter = 14.5;
@@ -296,7 +297,7 @@ TEST(Nonplanar, DownFlowScalesSteepDescents) {
   Path p;
   p.points = {{0, 0, 5}, {10, 0, 5}, {11, 0, 5 - std::tan(60 * kDeg)}};  // flat, then 60° down
   tp.layers[0].paths.push_back(p);
-  MachineProfile m;
+  MachineProfile m = test::open_bed();
   m.relative_e = true;
   m.short_path_segments = 0;
   m.down_flow = "45,0.8; 80,0.6";
@@ -347,7 +348,7 @@ TEST(Nonplanar, ProjectedLatticeKeepsEveryEdgeOnce) {
     const SurfaceDeviation dev = surface_deviation(on, cap, check);
     EXPECT_LE(dev.max_point, 0.01);
     EXPECT_LE(dev.max_chord, prm.chord_tolerance + 1e-4);
-    MachineProfile m;
+    MachineProfile m = test::open_bed();
     const test::Replay rep = test::replay_gcode(write_gcode(on, m));
     // Which layer a deposit belongs to: its height above the cap (vertical) or distance order.
     const std::size_t layers_checked = mode == OffsetMode::Vertical ? 3 : 1;

@@ -543,6 +543,9 @@ TEST(Pipeline, SlicesEveryAppendixBDesign) {
     job.input = kDesigns + name;
     job.planar.layer_height = 1.0;  // coarse: this checks the route, not the detail
     job.field.resolution = 0.25;
+    // Graded designs: one material only when asked for (--strategy none), never silently.
+    EXPECT_THROW(run_slice(job), SettingError) << name;
+    job.strategy_chosen = true;
     const SliceResult r = run_slice(job);
     EXPECT_EQ(r.route, SliceRoute::Field);
     EXPECT_GT(r.planar.paths, 0u) << name;
@@ -554,6 +557,7 @@ TEST(Pipeline, SlicesEveryAppendixBDesign) {
   field_job.input = mesh_job.input = kDesigns + "fgm_column5_ring_radial.vcad";
   field_job.planar.layer_height = mesh_job.planar.layer_height = 2.0;
   mesh_job.route = SliceRoute::Mesh;
+  field_job.strategy_chosen = mesh_job.strategy_chosen = true;
   mesh_job.mesh_voxel = 0.25;
   const SliceResult a = run_slice(field_job), b = run_slice(mesh_job);
   EXPECT_EQ(b.route, SliceRoute::Mesh);

@@ -16,11 +16,16 @@ namespace trellis {
 // Streaming counts over G-code moves (constant memory).
 struct GcodeCounts {
   std::size_t extrusion_moves = 0, extrusion_starts = 0, travel_moves = 0, retractions = 0;
+  // Layers as the toolpath IR has them (gcode_reader.hpp): by layer comment, else by the z of
+  // the extrusion; a layer without extrusion is not counted.
   std::size_t layers = 0;
+  // Paths of the toolpath IR: runs of connected extrusion, split also where the tool, feature
+  // type, mixture or temperature changes (the paths `trellis view` shows).
+  std::size_t toolpath_paths = 0;
   double extruded_length = 0, travel_length = 0, filament = 0, print_time_s = 0;
   // Per-path sums for Eq. 1-3 (a path = a run of connected extrusion moves; its edges = moves).
   std::size_t paths = 0;
-  double weighted = 0;                       // Σ length_i · edges_i
+  double weighted = 0;                        // Σ length_i · edges_i
   double long_length = 0, long_weighted = 0;  // the same over long paths (≥ long_nodes nodes)
 };
 
@@ -28,10 +33,14 @@ class CountingSink : public GcodeSink {
  public:
   explicit CountingSink(std::size_t long_nodes = 5, double acceleration = 0)
       : long_nodes_(long_nodes), acceleration_(acceleration) {}
-  void layer_change(double) override { ++counts.layers; }
+  void layer_change(double) override { commented_ = layer_pending_ = true; }
   void extrude(Vec3 a, Vec3 b, double e, double feed) override;
   void travel(Vec3 a, Vec3 b, double feed) override;
   void retract() override;
+  void tool_change(int) override { attribute_changed_ = true; }
+  void role(PathRole) override { attribute_changed_ = true; }
+  void mixture(const std::vector<double>&) override { attribute_changed_ = true; }
+  void temperature(double) override { attribute_changed_ = true; }
   // Closes the last path; call once after the last line.
   void finish();
   GcodeCounts counts;
@@ -40,6 +49,8 @@ class CountingSink : public GcodeSink {
   enum class State { Idle, Extruding, Travelling };
   State state_ = State::Idle;
   bool extruded_ = false;
+  bool commented_ = false, layer_pending_ = false, attribute_changed_ = false;
+  double layer_z_ = 0;
   double pending_ = 0;  // travel length since the last extrusion
   Vec3 last_;
   std::size_t long_nodes_;

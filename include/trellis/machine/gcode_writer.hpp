@@ -8,6 +8,8 @@
 // without trailing zeros; F in whole mm/min.
 #pragma once
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "trellis/machine/profile.hpp"
 #include "trellis/toolpath/toolpath.hpp"
@@ -26,11 +28,15 @@ struct GcodeStats {
   std::size_t tool_changes = 0;  // embedded
   std::size_t gradient_changes = 0;  // mixture / tool / temperature commands for graded paths
   double lookahead = 0;              // mm of path the changes were issued early
+  // Printable but suspicious (machine/machine_check.hpp): kind and message.
+  std::vector<std::pair<std::string, std::string>> warnings;
 };
 
 // E for a segment of `length` mm printed at layer thickness `layer` (Eq. 4).
 double extrusion_for(double length, double layer, const MachineProfile& profile);
 
+// Checks the toolpath against the machine first (check_for_machine): MachineError if it cannot
+// print as meant, warnings into the stats.
 std::string write_gcode(const Toolpath& toolpath, const MachineProfile& profile,
                         GcodeStats* stats = nullptr);
 // Writes atomically; returns the stats.

@@ -19,6 +19,10 @@ struct LaserProfile {
   double beam_compensation = 0.03;   // mm
   double segment_length = 0.1;       // SL (mm)
   double segment_gap = 0.02;         // LHD (mm)
+  // Capabilities: what the machine can do (machine/machine_check.hpp checks against them).
+  double max_power = 1000;                             // W
+  double max_speed = 10000;                            // mm/s
+  double build_x = 250, build_y = 250, build_z = 300;  // build plate and height (mm)
   // Scanner timing ([timing]), for the scan-time model (ScanClock).
   double jump_speed = 5000;      // mm/s, positioning moves between vectors
   double jump_delay = 250;       // µs, after every jump

@@ -16,10 +16,18 @@ struct MachineProfile {
   // [machine]
   std::string name = "generic Marlin FDM";
   std::string flavor = "marlin";    // marlin | pneumatic | embedded
-  double bed_x = 220, bed_y = 220;  // bed size (mm), for centring
+  // Capabilities: what the machine can do. Every writer checks the toolpath against them before
+  // it writes (machine/machine_check.hpp).
+  double bed_x = 220, bed_y = 220;  // build area (mm); a circle: bed_x is its diameter
+  double bed_z = 250;               // build height (mm)
+  std::string bed_shape = "rectangle";  // rectangle | circle
+  std::string origin = "corner";        // corner (0,0 at a corner) | center (0,0 at the centre)
+  int tool_count = 1;                   // tools / nozzles (tool changers, multi-nozzle heads)
+  int mixing_inputs = 1;                // filament inputs of a mixing hotend; 1 = no mixing
   // [placement]
-  bool center = false;                // move the part's XY centre to the bed centre
+  bool center = true;                 // move the part's XY centre to the bed centre
   double offset_x = 0, offset_y = 0;  // added after centring (mm)
+  bool lift = true;  // a toolpath reaching below Z 0 is lifted so its lowest point is at Z 0
   // [extrusion] (Eq. 4: E = k·4·L·LT·EM·d_n / (π·f_d²))
   double nozzle_diameter = 0.4;       // d_n (mm)
   double filament_diameter = 1.75;    // f_d (mm)
@@ -37,12 +45,16 @@ struct MachineProfile {
   double travel_speed = 100;
   double z_speed = 10;
   double acceleration = 0;  // mm/s², for time estimates; 0 = feed rates only
+  double max_speed = 500;   // fastest feed the machine moves at (mm/s)
   double short_path_factor = 0.6;  // speed factor for paths under short_path_segments
   int short_path_segments = 4;
   // [temperature] (°C, 0 = leave unset) and fan (%)
   double nozzle_temperature = 0;
   double bed_temperature = 0;
   double fan_percent = 0;
+  double standby_temperature = 0;   // idle tools of a multi-tool machine (°C), 0 = switched off
+  double max_nozzle_temperature = 300;
+  double max_bed_temperature = 120;
   // [retraction]
   double retract_length = 0;  // filament (mm)
   double retract_speed = 30;  // mm/s
@@ -71,8 +83,8 @@ struct MachineProfile {
   double bath_travel = 0;       // travel up to this long stays inside the bath (mm)
   // [gradient] how a path's material mixture (graded designs) is made
   std::string gradient_mode = "mixing";  // mixing (M165) | tools (T<n>) | temperature (M104)
-  int gradient_tools = 5;                // tools: tool 0 holds material A, the last material B
-  int gradient_inputs = 2;               // mixing: filament inputs of the hotend (M165 A B C …)
+  int gradient_tools = 0;  // tools: tools holding the gradient (0 = all of tool_count); tool 0
+                           // holds material A, the last material B
   double temperature_a = 190;            // temperature: °C for 100% material A ...
   double temperature_b = 225;            // ... and for 100% material B (linear between)
   std::string flow_model;                // temperature: "" | "pla" | "tpu" → M221 (Eq. 3 / 4)
@@ -87,6 +99,10 @@ struct MachineProfile {
   std::string file_extension = "";  // default output extension: "" = by flavor
 
   Flavor parsed_flavor() const;
+  // Tools used for a gradient in `tools` mode (gradient_tools, or all tools).
+  int gradient_tool_count() const { return gradient_tools > 0 ? gradient_tools : tool_count; }
+  // A support bath: the embedded flavour.
+  bool has_bath() const { return flavor == "embedded"; }
   // Per-tool XY offset and pressure from tool_offsets / tool_pressures (throws SettingError).
   Vec2 tool_offset(int tool) const;
   double tool_pressure(int tool) const;

@@ -37,6 +37,13 @@ struct PathMetrics {
 double gippo_score(const PathSet& set);  // Eq. 1
 PathMetrics path_metrics(const Graph& g, const PathSet& set, std::size_t long_nodes = 5);
 
+// Joins trails that end at the same node into one trail, and splices each closed trail (both
+// ends at one node) into an open trail that visits one of its nodes (a trail may pass a node
+// again, so the result is still a trail), until neither applies. Returns how many joins were
+// made (the path count falls by that much). Deterministic: nodes in increasing order, trails
+// by index.
+std::size_t merge_shared_ends(PathSet& set);
+
 // Every edge covered exactly once, consecutive nodes joined by the listed edge. Returns an empty
 // string if valid, else what is wrong (used by tests and as a debug assertion).
 std::string validate_paths(const Graph& g, const PathSet& set);

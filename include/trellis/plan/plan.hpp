@@ -23,6 +23,7 @@ struct PlanParams {
   double layer_height = 0.148;      // bead height (mm); nozzle z = design z + this
   std::size_t long_path_nodes = 5;  // LTS/OE threshold (paper: 5 nodes)
   double level_tolerance = 1e-6;    // edges within this z span are planar (mm)
+  bool merge_ends = false;          // join paths that end at the same node (merge_shared_ends)
 };
 
 struct LayerReport {
@@ -33,6 +34,7 @@ struct LayerReport {
   PathMetrics worst;           // gippo: lowest-score iteration
   std::vector<double> scores;  // gippo: every iteration
   std::size_t best_iteration = 0;
+  std::size_t merged = 0;      // joins made by merge_ends
 };
 
 struct PlanResult {

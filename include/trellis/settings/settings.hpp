@@ -31,6 +31,7 @@ struct Setting {
   bool positive = false;             // the range excludes min itself (> min)
   std::vector<std::string> choices;  // Choice
   int count = 0;                     // Numbers: exact count (0 = any)
+  std::vector<std::pair<std::string, long long>> names;  // Integer: named values ("none" = 0)
   bool whole = false;                // Numbers: each a whole number
   // Settings whose value by default follows another one (e.g. the bead width follows the
   // nozzle): unset, the route derives it; this text says from what.

@@ -22,6 +22,9 @@ struct SliceJob {
   double mesh_voxel = 0.25;             // mm, mesh → distance field (field route of a mesh)
   PlanarOptions planar;
   int strategy = 0;  // 0: one material; 1 / 2: the FGM paper's strategies (slice/fgm.hpp)
+  // Whether `strategy` was chosen: a graded design (two or more materials) with strategy 0 not
+  // chosen is an error, so that a gradient is never dropped silently.
+  bool strategy_chosen = false;
   FgmOptions fgm;    // palette and fill (bead width, layer, grid from above)
   PurgeOptions purge;  // Strategy 1
   // The work estimated from the extent, the layers and the grids is checked against this before

@@ -1,0 +1,51 @@
+// Checks a toolpath against the machine it is written for, before any file is written: the
+// capabilities of the profile (build volume, tools, mixing inputs, bath, temperature and speed
+// limits; laser power, speed and build area) against what the paths ask for. What cannot print
+// as meant is a MachineError (exit 2, no file); what may print but looks wrong is a warning.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "trellis/core/error.hpp"
+#include "trellis/core/vec.hpp"
+#include "trellis/machine/laser.hpp"
+#include "trellis/machine/profile.hpp"
+#include "trellis/toolpath/toolpath.hpp"
+
+namespace trellis {
+
+// The toolpath asks for something the machine cannot do (message names what, where and the
+// setting).
+class MachineError : public Error {
+  using Error::Error;
+};
+
+struct MachineWarning {
+  std::string kind;  // e.g. "bath_route_in_air", "temperature_unset"
+  std::string message;
+};
+
+// The XY shift the G-code writer applies to design coordinates: to the bed centre when
+// placement.center, then placement.offset_x/y (tool offsets come on top, per tool).
+Vec2 placement_offset(const Toolpath& toolpath, const MachineProfile& profile);
+// The Z lift the writer applies: with placement.lift, how far the lowest point is below Z 0.
+double placement_lift(const Toolpath& toolpath, const MachineProfile& profile);
+
+// Undoes what our writer did to place a toolpath on the machine: the header's "; placement
+// offset = dx, dy" and "; placement lift = dz", and (with the machine profile) each tool's XY
+// offset, so that G-code read back is in design coordinates again.
+void to_design_coordinates(Toolpath& toolpath, const std::string& gcode_text,
+                           const MachineProfile* profile);
+
+// Every error found, in one MachineError (the first few named, with counts); returns warnings.
+// Checks: each point after placement (and its tool's offset) inside the build area and between
+// Z 0 and machine.bed_z; tools < machine.tools; mixtures only on a mixing hotend with enough
+// inputs (or in tools / temperature mode with enough tools); temperatures and feeds within the
+// machine's limits.
+std::vector<MachineWarning> check_for_machine(const Toolpath& toolpath, const MachineProfile& profile);
+
+// Laser: power and speed per vector and of the profile within the laser's limits, the part
+// within the build area (centred on the plate) and height.
+std::vector<MachineWarning> check_for_laser(const Toolpath& toolpath, const LaserProfile& profile);
+
+}  // namespace trellis

@@ -1,0 +1,49 @@
+// The interactive viewer: one self-contained HTML file (WebGL, three.js bundled at build time from
+// viewer/) showing toolpaths read from any input Trellis understands. The data goes into the page
+// as compact binary arrays (base64, one chunk per layer), never as JSON text, so a 100 MB G-code
+// file stays a few seconds to open. The statistics the page shows are computed by the page from
+// those arrays and equal what `trellis analyze` / `trellis check` report for the same file.
+#pragma once
+#include <string>
+#include <vector>
+
+#include "trellis/core/diagnostics.hpp"
+#include "trellis/core/vec.hpp"
+#include "trellis/toolpath/toolpath.hpp"
+
+namespace trellis {
+
+// One file shown in the viewer.
+struct ViewScene {
+  std::string name;  // file name as shown
+  std::string kind;  // gcode, nc, cli, toolpath, lattice, check
+  Toolpath toolpath;
+  std::vector<std::pair<Vec3, Vec3>> design;  // overlay lines (a lattice, the checked struts)
+  std::vector<char> design_flag;              // per design line: 1 = flagged (a collision), 0 = not
+  double print_time_s = -1;                   // time estimate (s), < 0 when unknown
+  double filament_mm = -1;                    // filament (mm of E), < 0 when unknown
+  std::vector<std::string> warnings;
+};
+
+struct ViewLoadOptions {
+  std::string machine;    // profile for .nc valve commands and .cli laser timing (optional)
+  std::string valve_on;   // pneumatic G-code: the command that opens the valve (overrides machine)
+  std::string valve_off;  // ... and closes it
+};
+
+// Reads FILE by its extension: .gcode/.g/.gco/.nc (G-code of any slicer), .cli (laser build
+// file), toolpath JSON, lattice JSON/CSV/OBJ (drawn as struts), a `trellis check` report JSON.
+// Throws ParseError naming the file when it is none of these.
+ViewScene load_view_scene(const std::string& path, const ViewLoadOptions& options,
+                          Diagnostics& diag);
+
+// A scene of an in-memory toolpath (the Python `_repr_html_`).
+ViewScene view_scene(const Toolpath& toolpath, const std::string& name);
+
+// The HTML page. `title` shows in the tab and the panel.
+std::string viewer_html(const std::vector<ViewScene>& scenes, const std::string& title);
+
+// The bundled page template without data (for the size check; < 2 MB).
+std::size_t viewer_template_size();
+
+}  // namespace trellis

@@ -1,0 +1,231 @@
+// The viewer in a real browser: makes one file of each kind with the trellis CLI (and PrusaSlicer),
+// writes a viewer page for each, opens it in Debian's headless Chromium through the DevTools
+// protocol (puppeteer-core, pinned in viewer/package.json) and checks: no console errors, the
+// page's counts equal what Trellis reports for the same file, colour modes change the model's
+// pixels, a known segment's colour equals its mixture / temperature on the colour bar, and the
+// layer slider hides the layers above. Screenshots go to OUT_DIR.
+// The Python package's Toolpath._repr_html_ (the viewer in an iframe, as Jupyter shows it) is
+// opened the same way.
+// Usage: node browser_test.mjs TRELLIS SOURCE_DIR NODE_MODULES OUT_DIR PYTHON_PACKAGE_DIR
+import { createRequire } from 'node:module';
+import { execFileSync } from 'node:child_process';
+import { mkdirSync, readFileSync, writeFileSync, statSync, rmSync, existsSync } from 'node:fs';
+import { join } from 'node:path';
+
+const [trellis, source, nodeModules, out, pythonDir] = process.argv.slice(2);
+const require = createRequire(join(nodeModules, 'noop.js'));
+const puppeteer = require('puppeteer-core');
+rmSync(out, { recursive: true, force: true });
+mkdirSync(out, { recursive: true });
+
+let failures = 0;
+function check(ok, what) {
+  console.log(`${ok ? 'ok  ' : 'FAIL'} ${what}`);
+  if (!ok) failures += 1;
+}
+function run(cmd, args) {
+  return execFileSync(cmd, args, { cwd: out, encoding: 'utf8', stdio: ['ignore', 'pipe', 'pipe'] });
+}
+const tr = (...args) => run(trellis, args);
+const json = (f) => JSON.parse(readFileSync(join(out, f), 'utf8'));
+const profile = (name) => join(source, 'profiles', name);
+
+// --- inputs ------------------------------------------------------------------------------------
+tr('lattice2d', '--pattern', 'honeycomb', '--cell', '1', '-o', 'lattice.json');
+tr('plan', 'gippo', 'lattice.json', '-o', 'toolpath.json', '--report', 'plan_report.json');
+tr('gcode', 'toolpath.json', '--machine', profile('ender3_s1_pro_tpu.toml'), '-o', 'part.gcode');
+tr('lattice3d', '--cell-type', 'octet', '--cell', '7', '--count', '2,2,2', '-o', 'octet.json');
+tr('plan', 'aero', 'octet.json', '-o', 'octet_path.json');
+tr('gcode', 'octet_path.json', '--machine', profile('embedded_aero_410um.toml'), '-o', 'octet.nc');
+tr('pbf', '--cell-type', 'gyroid', '--cell', '2.5', '--size', '5,5,2', '-o', 'gyroid.cli');
+run('prusa-slicer', ['--export-gcode', '--layer-height', '0.3', '--first-layer-height', '0.3',
+  '-o', join(out, 'prusa.gcode'), '/usr/share/PrusaSlicer/shapes/M3_hex_nut.stl']);
+// A two-material, temperature-changing print written by hand (as another program would):
+// layer 1 has 11 lines along X at y = 2i with mixture i/10 and 200 + 3i °C; layer 2 has lines
+// along Y between them.
+{
+  const g = ['G21', 'G90', 'M83', ';LAYER_CHANGE', ';Z:0.2'];
+  for (let i = 0; i <= 10; ++i) {
+    g.push(`M165 A${(i / 10).toFixed(2)} B${(1 - i / 10).toFixed(2)}`, `M104 S${200 + 3 * i}`);
+    g.push(`G0 X0 Y${2 * i} Z0.2`, `G1 X20 Y${2 * i} E1.0 F1200`);
+  }
+  g.push(';LAYER_CHANGE', ';Z:0.4');
+  for (let i = 0; i < 10; ++i) g.push(`G0 X${2 * i + 1} Y1 Z0.4`, `G1 X${2 * i + 1} Y19 E1.0 F1200`);
+  writeFileSync(join(out, 'mix.gcode'), g.join('\n') + '\n');
+}
+
+// What Trellis reports for each file: [layers, paths, segments] (lattices: struts).
+function analyze(file, ...extra) {
+  tr('analyze', file, '--report', file + '.report.json', ...extra);
+  const r = json(file + '.report.json');
+  return { layers: r.layers, paths: r.toolpath_paths, segments: r.segments };
+}
+const plan = json('plan_report.json');
+tr('plan', 'aero', join(source, 'tests/data/aero/cubic_edges.csv'), '-o', 'cubic_path.json',
+  '--report', 'cubic_report.json');
+tr('analyze', 'gyroid.cli', '--report', 'cli_report.json');
+const cli = json('cli_report.json');
+const cases = [
+  { file: 'part.gcode', expect: analyze('part.gcode') },
+  { file: 'prusa.gcode', expect: analyze('prusa.gcode') },
+  { file: 'octet.nc', args: ['--machine', profile('embedded_aero_410um.toml')],
+    expect: analyze('octet.nc', '--valve-on', 'M3', '--valve-off', 'M5') },
+  { file: 'gyroid.cli', expect: { layers: cli.layers, paths: cli.vectors } },
+  { file: 'toolpath.json', expect: { layers: plan.layers_count, paths: plan.paths, segments: plan.edges } },
+  { file: 'lattice.json', expect: { designLines: plan.lattice_edges } },
+  { file: join(source, 'tests/data/aero/cubic_edges.csv'), name: 'cubic_edges.csv',
+    expect: { designLines: json('cubic_report.json').struts } },
+  { file: 'mix.gcode', expect: analyze('mix.gcode') },
+];
+
+// --- browser -----------------------------------------------------------------------------------
+const browser = await puppeteer.launch({
+  executablePath: '/usr/bin/chromium',
+  headless: true,
+  args: ['--no-sandbox', '--use-angle=swiftshader', '--enable-unsafe-swiftshader', '--mute-audio'],
+});
+
+async function open(html) {
+  const page = await browser.newPage();
+  await page.setViewport({ width: 1000, height: 700 });
+  const errors = [];
+  page.on('console', (m) => { if (m.type() === 'error') errors.push(m.text()); });
+  page.on('pageerror', (e) => errors.push(e.message));
+  page.on('requestfailed', (r) => errors.push('request failed: ' + r.url()));
+  page.on('request', (r) => { if (!r.url().startsWith('file:') && !r.url().startsWith('data:')) errors.push('network: ' + r.url()); });
+  await page.goto('file://' + html, { waitUntil: 'load' });
+  await page.waitForFunction(() => window.trellisViewer !== undefined);
+  await page.evaluate(() => window.trellisViewer.whenDrawn());
+  return { page, errors };
+}
+
+// RGBA of canvas pixels around page pixel (x, y): the (2r+1)² neighbourhood.
+async function around(page, x, y, r = 1) {
+  return page.evaluate((x, y, r) => {
+    const v = window.trellisViewer, gl = v.renderer.getContext();
+    const h = gl.drawingBufferHeight, px = new Uint8Array(4), out = [];
+    for (let dy = -r; dy <= r; ++dy)
+      for (let dx = -r; dx <= r; ++dx) {
+        gl.readPixels(Math.floor(x) + dx, h - 1 - (Math.floor(y) + dy), 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, px);
+        out.push([px[0], px[1], px[2]]);
+      }
+    return out;
+  }, x, y, r);
+}
+// Every 2nd canvas pixel, RGB.
+async function frame(page) {
+  return page.evaluate(() => {
+    const gl = window.trellisViewer.renderer.getContext();
+    const w = gl.drawingBufferWidth, h = gl.drawingBufferHeight;
+    const all = new Uint8Array(w * h * 4);
+    gl.readPixels(0, 0, w, h, gl.RGBA, gl.UNSIGNED_BYTE, all);
+    const out = [];
+    for (let y = 0; y < h; y += 2) for (let x = 0; x < w; x += 2) { const k = 4 * (y * w + x); out.push(all[k], all[k + 1], all[k + 2]); }
+    return out;
+  });
+}
+const BG = [0xf4, 0xf5, 0xf7];
+const diff = (a, b) => Math.max(...[0, 1, 2].map((i) => Math.abs(a[i] - b[i])));
+const isBg = (c) => diff(c, BG) <= 2;
+
+for (const c of cases) {
+  const name = c.name || c.file;
+  const html = join(out, name + '.html');
+  tr('view', c.file, ...(c.args || []), '-o', html);
+  const { page, errors } = await open(html);
+  const st = await page.evaluate(() => window.trellisViewer.stats());
+  check(errors.length === 0, `${name}: no console errors${errors.length ? ': ' + errors.join(' | ') : ''}`);
+  for (const [k, v] of Object.entries(c.expect))
+    check(st[k] === v, `${name}: page ${k} ${st[k]} == Trellis report ${v}`);
+  const shown = await page.$$eval('#tv-stats-table td.v', (tds) => Object.fromEntries(tds.map((td) => [td.dataset.stat, td.textContent])));
+  if (c.expect.layers !== undefined)
+    check(shown.layers === String(c.expect.layers) && shown.paths === String(c.expect.paths),
+      `${name}: statistics panel shows layers ${shown.layers}, paths ${shown.paths}`);
+  const legend = await page.$eval('#tv-legend', (e) => e.innerText);
+  check(/Feature type/.test(legend), `${name}: legend says what colour means ("${legend.split('\n')[0]}")`);
+  check(/\d mm/.test(await page.$eval('#tv-scale', (e) => e.innerText)), `${name}: scale bar in mm`);
+  await page.screenshot({ path: join(out, name + '.png') });
+  if (name === 'part.gcode') {
+    check(statSync(html).size - statSync(join(out, 'part.gcode')).size < 2e6,
+      `part.gcode: page ${statSync(html).size} bytes, under 2 MB plus the data`);
+    // Colour modes change the pixels where the model is.
+    const a = await frame(page);
+    await page.select('#tv-mode', 'order');
+    await page.evaluate(() => window.trellisViewer.whenDrawn());
+    const b = await frame(page);
+    let model = 0, changed = 0;
+    for (let i = 0; i < a.length; i += 3) {
+      const pa = [a[i], a[i + 1], a[i + 2]], pb = [b[i], b[i + 1], b[i + 2]];
+      if (isBg(pa)) continue;
+      model += 1;
+      if (diff(pa, pb) > 8) changed += 1;
+    }
+    check(model > 200 && changed > 0.5 * model,
+      `part.gcode: feature -> order changes ${changed} of ${model} model pixels`);
+    await page.screenshot({ path: join(out, 'part.gcode.order.png') });
+  }
+  if (name === 'mix.gcode') {
+    await page.click('#tv-top');
+    for (const mode of ['mixture', 'temperature']) {
+      await page.select('#tv-mode', mode);
+      await page.evaluate(() => window.trellisViewer.whenDrawn());
+      let worst = 0;
+      for (const i of [1, 4, 8]) {
+        const value = mode === 'mixture' ? i / 10 : 200 + 3 * i;
+        const [x, y] = await page.evaluate((yy) => window.trellisViewer.project(4.5, yy, 0.2), 2 * i);
+        const bar = await page.evaluate((v) => {
+          const at = window.trellisViewer.colorbarAt(v), cv = document.getElementById('tv-colorbar');
+          const r = cv.getBoundingClientRect();
+          const p = cv.getContext('2d').getImageData(Math.round(at.x - r.left - 1.5), 7, 1, 1).data;
+          return [p[0], p[1], p[2]];
+        }, value);
+        const px = await around(page, x, y, 1);
+        const best = Math.min(...px.map((p) => diff(p, bar)));
+        worst = Math.max(worst, best);
+        const next = mode === 'mixture' ? (i + 1) / 10 : 200 + 3 * (i + 1);
+        const barNext = await page.evaluate((v) => window.trellisViewer.colorbarAt(v).color, next);
+        check(best <= 6 && diff(bar, barNext) > 12,
+          `mix.gcode: ${mode} ${value}: segment pixel within ${best} of the colour bar at that value (neighbour value ${diff(bar, barNext)} away)`);
+      }
+      await page.screenshot({ path: join(out, `mix.gcode.${mode}.png`) });
+    }
+    // The layer slider hides the layers above: a point on a layer-2 line only.
+    const [x, y] = await page.evaluate(() => window.trellisViewer.project(5, 11, 0.4));
+    const before = await around(page, x, y, 2);
+    await page.evaluate(() => { const e = document.getElementById('tv-layer-hi'); e.value = 0; e.dispatchEvent(new Event('input')); });
+    await page.evaluate(() => window.trellisViewer.whenDrawn());
+    const after = await around(page, x, y, 2);
+    check(before.some((p) => !isBg(p)) && after.every(isBg),
+      `mix.gcode: layer 2 drawn at (${x.toFixed(0)}, ${y.toFixed(0)}) before, gone with the slider at layer 1`);
+    const label = await page.$eval('#tv-layer-label', (e) => e.textContent);
+    check(/^1 of 2/.test(label), `mix.gcode: layer label "${label}"`);
+    await page.screenshot({ path: join(out, 'mix.gcode.layer1.png') });
+  }
+  await page.close();
+}
+// Python: Toolpath._repr_html_ inside a notebook-like page.
+{
+  execFileSync('/usr/bin/python3', ['-c', `
+import trellis
+t = trellis.read_toolpath("toolpath.json")
+open("notebook.html", "w").write("<html><body><h2>In [1]: toolpath</h2>" + t._repr_html_() + "</body></html>")
+`], { cwd: out, env: { ...process.env, PYTHONPATH: pythonDir } });
+  const page = await browser.newPage();
+  await page.setViewport({ width: 1000, height: 700 });
+  const errors = [];
+  page.on('console', (m) => { if (m.type() === 'error') errors.push(m.text()); });
+  page.on('pageerror', (e) => errors.push(e.message));
+  await page.goto('file://' + join(out, 'notebook.html'), { waitUntil: 'load' });
+  const frame = page.frames().find((f) => f !== page.mainFrame());
+  await frame.waitForFunction(() => window.trellisViewer !== undefined);
+  await frame.evaluate(() => window.trellisViewer.whenDrawn());
+  const st = await frame.evaluate(() => window.trellisViewer.stats());
+  check(errors.length === 0, `python _repr_html_: no console errors${errors.length ? ': ' + errors.join(' | ') : ''}`);
+  check(st.layers === plan.layers_count && st.paths === plan.paths && st.segments === plan.edges,
+    `python _repr_html_: viewer in the iframe shows ${st.layers} layer(s), ${st.paths} paths, ${st.segments} segments (plan report ${plan.layers_count}, ${plan.paths}, ${plan.edges})`);
+  await page.screenshot({ path: join(out, 'python_repr_html.png') });
+  await page.close();
+}
+await browser.close();
+console.log(failures ? `${failures} check(s) failed` : 'all checks passed');
+process.exit(failures ? 1 : 0);

@@ -1,0 +1,127 @@
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+
+#include "support/temp_dir.hpp"
+#include "trellis/core/error.hpp"
+#include "trellis/core/file.hpp"
+#include "trellis/view/view.hpp"
+
+using namespace trellis;
+
+namespace {
+
+std::string unbase64(const std::string& in) {
+  auto val = [](char c) -> int {
+    if (c >= 'A' && c <= 'Z') return c - 'A';
+    if (c >= 'a' && c <= 'z') return c - 'a' + 26;
+    if (c >= '0' && c <= '9') return c - '0' + 52;
+    return c == '+' ? 62 : c == '/' ? 63 : -1;
+  };
+  std::string out;
+  unsigned buf = 0;
+  int bits = 0;
+  for (char c : in) {
+    const int v = val(c);
+    if (v < 0) continue;
+    buf = (buf << 6) | v;
+    bits += 6;
+    if (bits >= 8) {
+      bits -= 8;
+      out += static_cast<char>((buf >> bits) & 0xff);
+    }
+  }
+  return out;
+}
+
+// The text of the element with `id` in `html`.
+std::string element(const std::string& html, const std::string& id) {
+  const auto at = html.find("id=\"" + id + "\">");
+  if (at == std::string::npos) return "";
+  const auto start = html.find('>', at) + 1;
+  return html.substr(start, html.find("</script>", start) - start);
+}
+
+Toolpath sample() {
+  Toolpath tp;
+  Path a, b;
+  a.points = {{0, 0, 0.2}, {10, 0, 0.2}, {10, 5, 0.2}};
+  a.role = PathRole::Perimeter;
+  a.temperature = 215;
+  a.mixture = {0.25, 0.75};
+  b.points = {{1, 1, 0.2}, {9, 4, 0.2}};
+  b.role = PathRole::Infill;
+  b.tool = 1;
+  tp.layers.push_back({0.2, {a, b}});
+  tp.layers.push_back({0.4, {b}});
+  return tp;
+}
+
+}  // namespace
+
+// The page carries each layer as one binary chunk with the layout data.js decodes: counts,
+// float32 positions, path starts, six float32 attributes per path, role and tool bytes.
+TEST(View, LayerChunksHoldTheToolpath) {
+  const std::string html = viewer_html({view_scene(sample(), "sample")}, "sample");
+  const std::string l0 = unbase64(element(html, "tv-0-l0"));
+  ASSERT_GE(l0.size(), 8u);
+  std::uint32_t counts[2];
+  std::memcpy(counts, l0.data(), 8);
+  EXPECT_EQ(counts[0], 5u);  // points
+  EXPECT_EQ(counts[1], 2u);  // paths
+  const std::size_t pos = 8, first = pos + 5 * 12, attr = first + 2 * 4, role = attr + 2 * 24;
+  ASSERT_EQ(l0.size(), (role + 4 + 3) / 4 * 4);
+  float p[15];
+  std::memcpy(p, l0.data() + pos, sizeof p);
+  EXPECT_EQ(p[3], 10.0f);
+  EXPECT_EQ(p[14], 0.2f);
+  std::uint32_t starts[2];
+  std::memcpy(starts, l0.data() + first, 8);
+  EXPECT_EQ(starts[1], 3u);
+  float at[12];
+  std::memcpy(at, l0.data() + attr, sizeof at);
+  EXPECT_EQ(at[0], 0.25f);   // mixture of material 1
+  EXPECT_EQ(at[2], 215.0f);  // temperature
+  EXPECT_EQ(at[6], -1.0f);   // path b: no mixture
+  EXPECT_EQ(static_cast<int>(l0[role]), static_cast<int>(PathRole::Perimeter));
+  EXPECT_EQ(static_cast<int>(l0[role + 3]), 1);  // tool of path b
+  EXPECT_FALSE(element(html, "tv-0-l1").empty());
+  EXPECT_TRUE(element(html, "tv-0-l2").empty());
+}
+
+// Small parts: the page is the bundled template (< 2 MB) plus the data.
+TEST(View, PageIsSmallAndSelfContained) {
+  EXPECT_LT(viewer_template_size(), 2u << 20);
+  const std::string html = viewer_html({view_scene(sample(), "sample")}, "a <title>");
+  EXPECT_LT(html.size(), viewer_template_size() + 4096);
+  EXPECT_EQ(html.find("http://"), html.find("http://www.w3.org"));  // no fetched resources
+  EXPECT_EQ(html.find("src=\"http"), std::string::npos);
+  EXPECT_NE(html.find("<title>a &lt;title&gt;</title>"), std::string::npos);
+}
+
+TEST(View, UnknownFileKindIsAnErrorNamingTheFile) {
+  const trellis::test::TempDir tmp("trellis_view");
+  const std::string f = tmp.file("part.stp");
+  write_file_atomic(f, "ISO-10303-21;");
+  Diagnostics diag;
+  try {
+    load_view_scene(f, {}, diag);
+    FAIL() << "no error";
+  } catch (const ParseError& e) {
+    EXPECT_NE(std::string(e.what()).find("part.stp"), std::string::npos);
+  }
+  EXPECT_THROW(load_view_scene(tmp.file("missing.gcode"), {}, diag), IoError);
+}
+
+// The CLI: a bad input is exit code 2 and no page is left behind.
+TEST(View, CliErrorLeavesNoPage) {
+  const trellis::test::TempDir tmp("trellis_view_cli");
+  const std::string out = tmp.file("v.html");
+  const std::string cmd = std::string(TRELLIS_CLI) + " view " + tmp.file("missing.gcode") + " -o " +
+                          out + " 2>/dev/null";
+  const int rc = std::system(cmd.c_str());
+  EXPECT_EQ(WEXITSTATUS(rc), 2);
+  EXPECT_FALSE(std::filesystem::exists(out));
+}

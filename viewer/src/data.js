@@ -1,0 +1,132 @@
+// Decodes one scene of the page: the JSON meta block and the base64 binary layer chunks written
+// by src/view/view.cpp, merged into the flat arrays the renderer draws (one draw call per kind,
+// layers contiguous so a layer range is one draw range).
+import { Box3, Vector3 } from 'three';
+
+function bytes(id) {
+  const el = document.getElementById(id);
+  const text = el.textContent.trim();
+  if (Uint8Array.fromBase64) return Uint8Array.fromBase64(text);
+  const bin = atob(text);
+  const out = new Uint8Array(bin.length);
+  for (let i = 0; i < bin.length; ++i) out[i] = bin.charCodeAt(i);
+  return out;
+}
+
+export function decodeScene(i) {
+  const id = `tv-${i}`;
+  const meta = JSON.parse(document.getElementById(`${id}-meta`).textContent);
+  const L = meta.layer_z.length;
+  const chunks = [];
+  let points = 0, paths = 0;
+  for (let l = 0; l < L; ++l) {
+    const b = bytes(`${id}-l${l}`);
+    const u32 = new Uint32Array(b.buffer, b.byteOffset, 2);
+    const np = u32[0], nq = u32[1];
+    let off = 8;
+    const pos = new Float32Array(b.buffer, b.byteOffset + off, np * 3); off += np * 12;
+    const first = new Uint32Array(b.buffer, b.byteOffset + off, nq); off += nq * 4;
+    const attr = new Float32Array(b.buffer, b.byteOffset + off, nq * 6); off += nq * 24;
+    const role = b.subarray(off, off + nq); off += nq;
+    const tool = b.subarray(off, off + nq);
+    chunks.push({ np, nq, pos, first, attr, role, tool });
+    points += np;
+    paths += nq;
+  }
+  const positions = new Float32Array(points * 3);
+  const pathFirst = new Uint32Array(paths + 1);
+  const pathLayer = new Uint32Array(paths);
+  const attr = new Float32Array(paths * 6);
+  const role = new Uint8Array(paths), tool = new Uint8Array(paths);
+  const layerSeg = new Uint32Array(L + 1), layerTravel = new Uint32Array(L + 1);
+  let segments = 0, P = 0, Q = 0;
+  for (let l = 0; l < L; ++l) {
+    const c = chunks[l];
+    positions.set(c.pos, P * 3);
+    attr.set(c.attr, Q * 6);
+    role.set(c.role, Q);
+    tool.set(c.tool, Q);
+    for (let q = 0; q < c.nq; ++q) {
+      pathFirst[Q + q] = P + c.first[q];
+      pathLayer[Q + q] = l;
+      const end = q + 1 < c.nq ? c.first[q + 1] : c.np;
+      segments += Math.max(0, end - c.first[q] - 1);
+    }
+    P += c.np;
+    Q += c.nq;
+    layerSeg[l + 1] = segments;
+  }
+  pathFirst[paths] = points;
+  const index = new Uint32Array(segments * 2);
+  let k = 0, extruded = 0;
+  for (let q = 0; q < paths; ++q)
+    for (let v = pathFirst[q]; v + 1 < pathFirst[q + 1]; ++v) {
+      index[k++] = v;
+      index[k++] = v + 1;
+      const dx = positions[3 * v + 3] - positions[3 * v], dy = positions[3 * v + 4] - positions[3 * v + 1],
+        dz = positions[3 * v + 5] - positions[3 * v + 2];
+      extruded += Math.sqrt(dx * dx + dy * dy + dz * dz);
+    }
+  const lod = lodIndex(pathFirst, pathLayer, paths, L, segments);
+  // Travel: from each path's last point to the next path's first point, in print order.
+  const travelList = [];
+  let travelLength = 0, t = 0;
+  for (let q = 1; q < paths; ++q) {
+    const a = (pathFirst[q] - 1) * 3, b = pathFirst[q] * 3;
+    const dx = positions[b] - positions[a], dy = positions[b + 1] - positions[a + 1], dz = positions[b + 2] - positions[a + 2];
+    // Length in XY, as `trellis analyze` reports travel (a Z hop adds nothing).
+    if (dx * dx + dy * dy + dz * dz > 1e-18) { travelList.push(a, b); travelLength += Math.sqrt(dx * dx + dy * dy); }
+    while (t < pathLayer[q]) layerTravel[++t] = travelList.length / 2;
+  }
+  while (t < L) layerTravel[++t] = travelList.length / 2;
+  const travel = new Float32Array(travelList.length * 3);
+  for (let j = 0; j < travelList.length; ++j) travel.set(positions.subarray(travelList[j], travelList[j] + 3), j * 3);
+  const bbox = new Box3();
+  const v = new Vector3();
+  for (let j = 0; j < positions.length; j += 3) bbox.expandByPoint(v.set(positions[j], positions[j + 1], positions[j + 2]));
+  let design = null;
+  const del = document.getElementById(`${id}-design`);
+  if (del) {
+    const b = bytes(`${id}-design`);
+    const n = new Uint32Array(b.buffer, b.byteOffset, 1)[0];
+    const dpos = new Float32Array(b.buffer, b.byteOffset + 4, n * 6).slice();
+    const flag = b.subarray(4 + n * 24, 4 + n * 25);
+    const colors = new Uint8Array(n * 6);
+    for (let e = 0; e < n; ++e) {
+      const c = flag[e] ? [220, 30, 30] : [120, 120, 135];
+      colors.set(c, 6 * e);
+      colors.set(c, 6 * e + 3);
+    }
+    for (let j = 0; j < dpos.length; j += 3) bbox.expandByPoint(v.set(dpos[j], dpos[j + 1], dpos[j + 2]));
+    design = { positions: dpos, colors, lines: n };
+  }
+  if (bbox.isEmpty()) bbox.set(new Vector3(0, 0, 0), new Vector3(1, 1, 1));
+  return {
+    meta, layerCount: L, positions, pathFirst, pathLayer, pathCount: paths, attr, role, tool, index,
+    layerSeg, layerTravel, travel, bbox, design, lod,
+    stats: { layers: L, paths, segments, points, extruded, travelMoves: travelList.length / 2, travelLength,
+      designLines: design ? design.lines : 0 },
+  };
+}
+
+// While the view moves, large files are drawn from a reduced index of about LOD_BUDGET segments:
+// every k-th segment and the first and last of every path, so what is drawn keeps the shape of
+// the part (software WebGL is bound by the pixels the lines cover, so the segments are kept short
+// rather than merged); the full index is drawn once the view rests. Null for small files.
+export const LOD_BUDGET = 40000;
+
+function lodIndex(pathFirst, pathLayer, paths, L, segments) {
+  if (segments <= LOD_BUDGET) return null;
+  const k = Math.ceil(segments / LOD_BUDGET);
+  const out = new Uint32Array(Math.ceil(segments / k) * 2 + paths * 4 + 2);
+  const layerSeg = new Uint32Array(L + 1);
+  let n = 0, layer = 0, c = 0;
+  for (let q = 0; q < paths; ++q) {
+    while (layer < pathLayer[q]) layerSeg[++layer] = n / 2;
+    const a = pathFirst[q], b = pathFirst[q + 1] - 1;
+    for (let v = a; v < b; ++v, ++c)
+      if (c % k === 0 || v === a || v === b - 1) { out[n++] = v; out[n++] = v + 1; }
+  }
+  while (layer < L) layerSeg[++layer] = n / 2;
+  return { index: out.slice(0, n), layerSeg, step: k };
+}

@@ -1,0 +1,514 @@
+// Trellis viewer: reads the scenes the page carries (binary layer chunks, see
+// src/view/view.cpp for the layout), draws them with three.js and answers the controls.
+// window.trellisViewer is the page's API for tests and notebooks.
+import * as THREE from 'three';
+import { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js';
+import { decodeScene } from './data.js';
+import { colorMap, ROLE_COLORS, TOOL_COLORS, MIX_A, MIX_B, NO_VALUE, mixColor } from './colors.js';
+
+const $ = (id) => document.getElementById(id);
+const REFINE_CHUNK = 100000;  // segments added per frame while refining a large file
+
+const MODES = {
+  feature: { kind: 'category', title: 'Feature type' },
+  tool: { kind: 'category', title: 'Tool' },
+  mixture: { kind: 'mixture', title: 'Mixture: fraction of material 1', unit: '' },
+  temperature: { kind: 'range', title: 'Nozzle temperature', unit: '°C', attr: 2 },
+  speed: { kind: 'range', title: 'Speed', unit: 'mm/s', attr: 3 },
+  width: { kind: 'range', title: 'Bead width', unit: 'mm', attr: 4 },
+  order: { kind: 'range', title: 'Print order (path number)', unit: '' },
+  power: { kind: 'range', title: 'Laser power', unit: 'W', attr: 5 },
+};
+
+class Viewer {
+  constructor() {
+    const index = JSON.parse($('tv-index').textContent);
+    this.title = index.title;
+    this.t0 = performance.now();
+    this.scenes = [];
+    for (let i = 0; i < index.scenes; ++i) this.scenes.push(decodeScene(i));
+    this.decodeMs = performance.now() - this.t0;
+    this.canvas = $('tv-canvas');
+    this.renderer = new THREE.WebGLRenderer({ canvas: this.canvas, antialias: false, preserveDrawingBuffer: true });
+    this.renderer.setPixelRatio(1);
+    // Colours go to the screen as they are, so a segment's pixel equals its colour on the bar.
+    this.renderer.outputColorSpace = THREE.LinearSRGBColorSpace;
+    this.renderer.setClearColor(new THREE.Color().setRGB(0xf4 / 255, 0xf5 / 255, 0xf7 / 255, THREE.LinearSRGBColorSpace));
+    this.scene = new THREE.Scene();
+    this.camera = new THREE.PerspectiveCamera(35, 1, 0.01, 1e6);
+    this.camera.up.set(0, 0, 1);
+    this.controls = new OrbitControls(this.camera, this.canvas);
+    this.controls.addEventListener('change', () => this.requestRender());
+    this.mode = 'feature';
+    this.current = -1;
+    this.showTravel = false;
+    this.showDesign = true;
+    this.playing = null;
+    this.buildUi();
+    window.addEventListener('resize', () => this.resize());
+    this.resize();
+    this.select(0);
+    this.loadMs = performance.now() - this.t0;
+  }
+
+  buildUi() {
+    $('tv-title').textContent = this.title;
+    const sel = $('tv-scene');
+    this.scenes.forEach((s, i) => {
+      const o = document.createElement('option');
+      o.value = i;
+      o.textContent = `${s.meta.name} (${s.meta.kind})`;
+      sel.appendChild(o);
+    });
+    if (this.scenes.length < 2) $('tv-scene-row').style.display = 'none';
+    sel.addEventListener('change', () => this.select(Number(sel.value)));
+    $('tv-mode').addEventListener('change', () => this.setMode($('tv-mode').value));
+    $('tv-fit').addEventListener('click', () => this.view('fit'));
+    $('tv-top').addEventListener('click', () => this.view('top'));
+    $('tv-front').addEventListener('click', () => this.view('front'));
+    $('tv-iso').addEventListener('click', () => this.view('iso'));
+    const range = () => this.setLayers(Number($('tv-layer-lo').value), Number($('tv-layer-hi').value));
+    $('tv-layer-lo').addEventListener('input', range);
+    $('tv-layer-hi').addEventListener('input', range);
+    $('tv-single').addEventListener('change', range);
+    $('tv-travel').addEventListener('change', () => this.setTravel($('tv-travel').checked));
+    $('tv-design').addEventListener('change', () => { this.showDesign = $('tv-design').checked; this.applyRange(); });
+    $('tv-play').addEventListener('click', () => this.play());
+  }
+
+  resize() {
+    const w = window.innerWidth, h = window.innerHeight;
+    this.renderer.setSize(w, h, false);
+    this.canvas.style.width = w + 'px';
+    this.canvas.style.height = h + 'px';
+    this.camera.aspect = w / Math.max(1, h);
+    this.camera.updateProjectionMatrix();
+    this.requestRender();
+  }
+
+  select(i) {
+    if (i === this.current) return;
+    for (const obj of [this.lines, this.lod, this.travel, this.design]) {
+      if (!obj) continue;
+      this.scene.remove(obj);
+      obj.geometry.dispose();
+    }
+    this.current = i;
+    const s = this.scenes[i];
+    this.s = s;
+    const g = new THREE.BufferGeometry();
+    g.setAttribute('position', new THREE.BufferAttribute(s.positions, 3));
+    this.colors = new Uint8Array(s.positions.length);
+    g.setAttribute('color', new THREE.BufferAttribute(this.colors, 3, true));
+    g.setIndex(new THREE.BufferAttribute(s.index, 1));
+    g.boundingBox = s.bbox.clone();
+    g.boundingSphere = s.bbox.getBoundingSphere(new THREE.Sphere());
+    const material = new THREE.LineBasicMaterial({ vertexColors: true });
+    this.lines = new THREE.LineSegments(g, material);
+    this.lines.frustumCulled = false;
+    this.scene.add(this.lines);
+    this.lod = null;
+    if (s.lod) {
+      const lg = new THREE.BufferGeometry();
+      lg.setAttribute('position', g.attributes.position);
+      lg.setAttribute('color', g.attributes.color);
+      lg.setIndex(new THREE.BufferAttribute(s.lod.index, 1));
+      this.lod = new THREE.LineSegments(lg, material);
+      this.lod.frustumCulled = false;
+      this.lod.visible = false;
+      this.scene.add(this.lod);
+    }
+    const tg = new THREE.BufferGeometry();
+    tg.setAttribute('position', new THREE.BufferAttribute(s.travel, 3));
+    this.travel = new THREE.LineSegments(tg, new THREE.LineBasicMaterial({ color: 0x9a9aa6, transparent: true, opacity: 0.6 }));
+    this.travel.frustumCulled = false;
+    this.travel.visible = this.showTravel;
+    this.scene.add(this.travel);
+    this.design = null;
+    if (s.design) {
+      const dg = new THREE.BufferGeometry();
+      dg.setAttribute('position', new THREE.BufferAttribute(s.design.positions, 3));
+      dg.setAttribute('color', new THREE.BufferAttribute(s.design.colors, 3, true));
+      this.design = new THREE.LineSegments(dg, new THREE.LineBasicMaterial({ vertexColors: true }));
+      this.design.frustumCulled = false;
+      this.scene.add(this.design);
+    }
+    $('tv-design').parentElement.style.display = s.design ? '' : 'none';
+    const L = s.layerCount;
+    for (const id of ['tv-layer-lo', 'tv-layer-hi']) $(id).max = Math.max(0, L - 1);
+    $('tv-layer-lo').value = 0;
+    $('tv-layer-hi').value = Math.max(0, L - 1);
+    $('tv-single').checked = false;
+    this.layerLo = 0;
+    this.layerHi = Math.max(0, L - 1);
+    this.applyRange();
+    this.setMode(this.mode);
+    this.fillStats();
+    this.view('iso');
+  }
+
+  setMode(mode) {
+    if (!MODES[mode]) throw new Error(`unknown colour mode ${mode}`);
+    this.mode = mode;
+    $('tv-mode').value = mode;
+    const s = this.s;
+    const n = s.pathCount;
+    const rgb = new Uint8Array(n * 3);
+    const m = MODES[mode];
+    let legend;
+    if (m.kind === 'category') {
+      const key = mode === 'feature' ? s.role : s.tool;
+      const palette = mode === 'feature' ? ROLE_COLORS : TOOL_COLORS;
+      const used = new Map();
+      for (let p = 0; p < n; ++p) {
+        const c = palette[key[p] % palette.length];
+        rgb[3 * p] = c[0]; rgb[3 * p + 1] = c[1]; rgb[3 * p + 2] = c[2];
+        used.set(key[p], (used.get(key[p]) || 0) + 1);
+      }
+      legend = { kind: 'category', items: [...used.keys()].sort((a, b) => a - b).map((k) => ({
+        label: mode === 'feature' ? s.meta.roles[k] : `tool ${k}`, color: palette[k % palette.length], paths: used.get(k) })) };
+    } else {
+      const value = this.valueOf(mode);
+      let lo = Infinity, hi = -Infinity;
+      for (let p = 0; p < n; ++p) {
+        const v = value(p);
+        if (v === null) continue;
+        if (v < lo) lo = v;
+        if (v > hi) hi = v;
+      }
+      if (m.kind === 'mixture') { lo = 0; hi = 1; }
+      const has = lo <= hi;
+      if (!has) { lo = 0; hi = 1; }
+      const span = hi > lo ? hi - lo : 1;
+      const fn = m.kind === 'mixture' ? mixColor : colorMap;
+      for (let p = 0; p < n; ++p) {
+        const v = value(p);
+        const c = v === null ? NO_VALUE : fn(hi > lo ? (v - lo) / span : 0.5);
+        rgb[3 * p] = c[0]; rgb[3 * p + 1] = c[1]; rgb[3 * p + 2] = c[2];
+      }
+      legend = { kind: 'bar', lo, hi, has, fn, unit: m.unit };
+    }
+    const colors = this.colors;
+    const first = s.pathFirst;
+    for (let p = 0; p < n; ++p) {
+      const r = rgb[3 * p], g = rgb[3 * p + 1], b = rgb[3 * p + 2];
+      for (let k = first[p] * 3, e = first[p + 1] * 3; k < e; k += 3) { colors[k] = r; colors[k + 1] = g; colors[k + 2] = b; }
+    }
+    this.lines.geometry.attributes.color.needsUpdate = true;
+    this.legend = legend;
+    this.drawLegend(m.title, legend);
+    this.requestRender();
+  }
+
+  // The value a path is coloured by in `mode` (null = not known for this path).
+  valueOf(mode) {
+    const s = this.s, a = s.attr;
+    if (mode === 'order') return (p) => p;
+    if (mode === 'mixture') return (p) => (a[6 * p] >= 0 ? a[6 * p] : null);
+    const k = MODES[mode].attr;
+    return (p) => (a[6 * p + k] > 0 ? a[6 * p + k] : null);
+  }
+
+  drawLegend(title, legend) {
+    $('tv-legend-title').textContent = title;
+    const body = $('tv-legend-body');
+    body.textContent = '';
+    if (legend.kind === 'category') {
+      for (const it of legend.items) {
+        const row = document.createElement('div');
+        const sw = document.createElement('span');
+        sw.className = 'tv-swatch';
+        sw.style.background = `rgb(${it.color.join(',')})`;
+        row.appendChild(sw);
+        row.appendChild(document.createTextNode(`${it.label} (${it.paths} paths)`));
+        body.appendChild(row);
+      }
+      if (!legend.items.length) body.textContent = 'no paths';
+      if (this.s.design) {
+        const row = document.createElement('div');
+        const sw = document.createElement('span');
+        sw.className = 'tv-swatch';
+        sw.style.background = 'rgb(120,120,135)';
+        row.appendChild(sw);
+        row.appendChild(document.createTextNode(`design strut (${this.s.design.lines})`));
+        body.appendChild(row);
+      }
+      return;
+    }
+    const cv = document.createElement('canvas');
+    cv.id = 'tv-colorbar';
+    cv.width = 200; cv.height = 14;
+    const ctx = cv.getContext('2d');
+    for (let x = 0; x < cv.width; ++x) {
+      const c = legend.fn(x / (cv.width - 1));
+      ctx.fillStyle = `rgb(${c[0]},${c[1]},${c[2]})`;
+      ctx.fillRect(x, 0, 1, cv.height);
+    }
+    body.appendChild(cv);
+    const labels = document.createElement('div');
+    labels.className = 'tv-bar-labels';
+    const fmt = (v) => (Math.abs(v) >= 100 ? v.toFixed(0) : Math.abs(v) >= 1 ? v.toFixed(1) : v.toFixed(2));
+    const u = legend.unit ? ' ' + legend.unit : '';
+    for (const v of [legend.lo, (legend.lo + legend.hi) / 2, legend.hi]) {
+      const sp = document.createElement('span');
+      sp.textContent = fmt(v) + u;
+      labels.appendChild(sp);
+    }
+    body.appendChild(labels);
+    if (!legend.has) {
+      const note = document.createElement('div');
+      note.textContent = 'no path in this file carries this value (grey)';
+      body.appendChild(note);
+    }
+  }
+
+  setLayers(lo, hi) {
+    const L = this.s.layerCount;
+    lo = Math.max(0, Math.min(lo, L - 1));
+    hi = Math.max(0, Math.min(hi, L - 1));
+    if ($('tv-single').checked) lo = hi;
+    if (lo > hi) [lo, hi] = [hi, lo];
+    this.layerLo = lo;
+    this.layerHi = hi;
+    $('tv-layer-lo').value = lo;
+    $('tv-layer-hi').value = hi;
+    this.applyRange();
+  }
+
+  applyRange() {
+    const s = this.s;
+    const L = s.layerCount;
+    const lo = this.layerLo, hi = this.layerHi;
+    const z = s.meta.layer_z;
+    $('tv-layer-label').textContent = L === 0 ? '(none)' : lo === hi
+      ? `${lo + 1} of ${L} (z ${z[lo].toFixed(3)} mm)`
+      : `${lo + 1}–${hi + 1} of ${L} (z ${z[lo].toFixed(2)}–${z[hi].toFixed(2)} mm)`;
+    if (L === 0) {
+      this.lines.geometry.setDrawRange(0, 0);
+      if (this.lod) this.lod.geometry.setDrawRange(0, 0);
+      this.travel.geometry.setDrawRange(0, 0);
+    } else {
+      const a = s.layerSeg[lo] * 2, b = s.layerSeg[hi + 1] * 2;
+      this.lines.geometry.setDrawRange(a, b - a);
+      if (this.lod) {
+        const la = s.lod.layerSeg[lo] * 2, lb = s.lod.layerSeg[hi + 1] * 2;
+        this.lod.geometry.setDrawRange(la, lb - la);
+      }
+      const ta = s.layerTravel[lo] * 2, tb = s.layerTravel[hi + 1] * 2;
+      this.travel.geometry.setDrawRange(ta, tb - ta);
+    }
+    if (this.design) this.design.visible = this.showDesign;
+    this.requestRender();
+  }
+
+  setTravel(on) {
+    this.showTravel = on;
+    $('tv-travel').checked = on;
+    this.travel.visible = on;
+    this.requestRender();
+  }
+
+  view(which) {
+    const box = this.s.bbox;
+    const center = box.getCenter(new THREE.Vector3());
+    const radius = Math.max(1e-3, box.getSize(new THREE.Vector3()).length() / 2);
+    const dist = radius / Math.sin(THREE.MathUtils.degToRad(this.camera.fov / 2)) * 1.05;
+    let dir;
+    if (which === 'top') dir = new THREE.Vector3(0, -1e-4, 1);
+    else if (which === 'front') dir = new THREE.Vector3(0, -1, 0);
+    else if (which === 'iso') dir = new THREE.Vector3(1, -1, 0.9);
+    else dir = this.camera.position.clone().sub(this.controls.target);
+    if (dir.lengthSq() === 0) dir.set(1, -1, 0.9);
+    dir.normalize();
+    this.controls.target.copy(center);
+    this.camera.position.copy(center).addScaledVector(dir, dist);
+    this.camera.near = dist / 1000;
+    this.camera.far = dist * 10 + radius * 4;
+    this.camera.updateProjectionMatrix();
+    this.controls.update();
+    this.requestRender();
+  }
+
+  fillStats() {
+    const st = this.s.stats, meta = this.s.meta;
+    const rows = [['file', meta.name], ['kind', meta.kind]];
+    if (meta.kind === 'lattice') rows.push(['struts', st.designLines]);
+    else {
+      rows.push(['layers', st.layers], ['paths', st.paths], ['segments', st.segments],
+        ['extruded length', st.extruded.toFixed(1) + ' mm'], ['travel moves', st.travelMoves],
+        ['travel length (XY)', st.travelLength.toFixed(1) + ' mm']);
+      if (meta.print_time_s >= 0) rows.push(['time estimate', formatTime(meta.print_time_s)]);
+      if (meta.filament_mm >= 0) rows.push(['filament', meta.filament_mm.toFixed(1) + ' mm']);
+      if (st.designLines) rows.push(['design struts', st.designLines]);
+    }
+    rows.push(['warnings', meta.warnings.length]);
+    const table = $('tv-stats-table');
+    table.textContent = '';
+    for (const [k, v] of rows) {
+      const tr = table.insertRow();
+      tr.insertCell().textContent = k;
+      const td = tr.insertCell();
+      td.className = 'v';
+      td.textContent = v;
+      td.dataset.stat = k;
+    }
+    $('tv-warnings').textContent = meta.warnings.join('\n');
+  }
+
+  play() {
+    if (this.playing) { cancelAnimationFrame(this.playing); this.playing = null; this.applyRange(); return; }
+    const s = this.s;
+    const a = s.layerSeg[this.layerLo] * 2, b = s.layerSeg[this.layerHi + 1] * 2;
+    const steps = 600;
+    let i = 0;
+    const tick = () => {
+      i += 1;
+      const n = Math.round(((b - a) / 2) * Math.min(1, i / steps)) * 2;
+      this.lines.geometry.setDrawRange(a, n);
+      this.render();
+      this.playing = i < steps ? requestAnimationFrame(tick) : null;
+    };
+    this.playing = requestAnimationFrame(tick);
+  }
+
+  // Draws on the next frame. A large file is drawn reduced first (data.js, lodIndex) and then
+  // refined in chunks of the full index over the following frames while the view rests, so the
+  // page answers the mouse at once whatever the file size.
+  requestRender() {
+    this.cancelRefine();
+    if (this.pending) return;
+    this.pending = requestAnimationFrame(() => {
+      this.pending = 0;
+      this.render(this.lod !== null);
+      if (this.lod) this.restTimer = setTimeout(() => this.refine(), 150);
+    });
+  }
+
+  cancelRefine() {
+    clearTimeout(this.restTimer);
+    if (this.refining) cancelAnimationFrame(this.refining);
+    this.refining = 0;
+  }
+
+  // Draws the scene; `reduced` draws the reduced index of a large file.
+  render(reduced = false) {
+    const lod = reduced && this.lod !== null;
+    this.lines.visible = !lod;
+    if (this.lod) this.lod.visible = lod;
+    this.renderer.render(this.scene, this.camera);
+    this.updateScale();
+    this.fullFrame = !lod;
+    if (this.firstFrameMs === undefined) {
+      const gl = this.renderer.getContext();
+      gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, new Uint8Array(4));
+      this.firstFrameMs = performance.now();
+    }
+  }
+
+  // Adds the full index over the reduced picture, REFINE_CHUNK segments per frame (the reduced
+  // lines are a subset of the full ones, so the result is the full picture).
+  refine() {
+    const s = this.s, g = this.lines.geometry;
+    const a = g.drawRange.start, end = a + g.drawRange.count;
+    let at = a;
+    const others = [this.lod, this.travel, this.design].filter((o) => o && o.visible);
+    const step = () => {
+      const n = Math.min(REFINE_CHUNK * 2, end - at);
+      others.forEach((o) => (o.visible = false));
+      this.lines.visible = true;
+      g.setDrawRange(at, n);
+      this.renderer.autoClear = false;
+      this.renderer.render(this.scene, this.camera);
+      this.renderer.autoClear = true;
+      g.setDrawRange(a, end - a);
+      others.forEach((o) => (o.visible = true));
+      at += n;
+      if (at < end) this.refining = requestAnimationFrame(step);
+      else { this.refining = 0; this.fullFrame = true; }
+    };
+    this.refining = requestAnimationFrame(step);
+  }
+
+  // Resolves once the full picture is drawn.
+  async whenDrawn() {
+    for (;;) {
+      await new Promise((r) => requestAnimationFrame(r));
+      if (this.fullFrame && !this.pending && !this.refining) return;
+    }
+  }
+
+  updateScale() {
+    const h = this.renderer.domElement.height;
+    const d = this.camera.position.distanceTo(this.controls.target);
+    const mmVisible = 2 * d * Math.tan(THREE.MathUtils.degToRad(this.camera.fov / 2));
+    const pxPerMm = h / mmVisible;
+    const target = 120 / pxPerMm;
+    const p = Math.pow(10, Math.floor(Math.log10(target)));
+    const nice = [1, 2, 5, 10].map((k) => k * p).filter((v) => v <= target).pop() || p;
+    $('tv-scale-bar').style.width = (nice * pxPerMm).toFixed(1) + 'px';
+    $('tv-scale-label').textContent = `${nice >= 1 ? nice : nice.toPrecision(1)} mm (at the orbit centre)`;
+    this.pxPerMm = pxPerMm;
+  }
+
+  // --- API for tests and notebooks ---------------------------------------------------------
+  stats() {
+    const st = this.s.stats;
+    return { ...st, name: this.s.meta.name, kind: this.s.meta.kind, decodeMs: this.decodeMs, loadMs: this.loadMs,
+      firstFrameMs: this.firstFrameMs,
+      reducedSegments: this.s.lod ? this.s.lod.index.length / 2 : st.segments };
+  }
+
+  // Page pixel (CSS px) of a model point.
+  project(x, y, z) {
+    const v = new THREE.Vector3(x, y, z).project(this.camera);
+    const r = this.canvas.getBoundingClientRect();
+    return [r.left + (v.x + 1) / 2 * r.width, r.top + (1 - v.y) / 2 * r.height];
+  }
+
+  // Page pixel of `value` on the colour bar, and the colour the bar has there.
+  colorbarAt(value) {
+    const L = this.legend;
+    if (!L || L.kind !== 'bar') return null;
+    const t = L.hi > L.lo ? (value - L.lo) / (L.hi - L.lo) : 0.5;
+    const cv = $('tv-colorbar');
+    const r = cv.getBoundingClientRect();
+    const x = Math.round(t * (cv.width - 1));
+    return { x: r.left + 1 + x + 0.5, y: r.top + r.height / 2, color: L.fn(t) };
+  }
+
+  // A path's first segment: [a, b] in model coordinates, its layer and its value in `mode`.
+  pathInfo(p) {
+    const s = this.s, k = s.pathFirst[p] * 3, P = s.positions;
+    return { a: [P[k], P[k + 1], P[k + 2]], b: [P[k + 3], P[k + 4], P[k + 5]], layer: s.pathLayer[p],
+      value: this.valueOf(this.mode === 'feature' || this.mode === 'tool' ? 'order' : this.mode)(p),
+      mixture: s.attr[6 * p], temperature: s.attr[6 * p + 2] };
+  }
+
+  // Renders `frames` frames while orbiting the whole model as the view draws it while moving
+  // (`reduced`, the default) or in full; returns frames per second (each frame waits for the GPU
+  // by reading back a pixel).
+  measureFps(frames = 60, reduced = true) {
+    this.cancelRefine();
+    const gl = this.renderer.getContext();
+    const px = new Uint8Array(4);
+    const t = performance.now();
+    for (let i = 0; i < frames; ++i) {
+      const off = this.camera.position.clone().sub(this.controls.target);
+      off.applyAxisAngle(new THREE.Vector3(0, 0, 1), 0.02);
+      this.camera.position.copy(this.controls.target).add(off);
+      this.camera.lookAt(this.controls.target);
+      this.render(reduced);
+      gl.readPixels(0, 0, 1, 1, gl.RGBA, gl.UNSIGNED_BYTE, px);
+    }
+    const fps = frames / ((performance.now() - t) / 1000);
+    this.requestRender();
+    return fps;
+  }
+}
+
+function formatTime(s) {
+  const h = Math.floor(s / 3600), m = Math.floor((s % 3600) / 60), sec = Math.round(s % 60);
+  return h ? `${h} h ${m} min` : m ? `${m} min ${sec} s` : `${sec} s`;
+}
+
+window.trellisViewer = new Viewer();
