@@ -109,7 +109,8 @@ Estimate estimate_pbf_time(const BBox3& box, double resolution, double layer, do
   const double layers = (box.max.z - box.min.z) / layer + 1;
   Estimate e;
   e.bytes = 0;  // plan_pbf's own estimate (pbf_memory_estimate) covers memory
-  e.seconds = layers * nx * ny * 1e-7 / threads;
+  // The default gyroid cube (10 mm, 334 layers of 203 x 203 samples) takes 18 s on two cores.
+  e.seconds = layers * nx * ny * 2.5e-6 / threads;
   e.what = fmt::format("{:.3g} layers of {:.3g} x {:.3g} samples", layers, nx, ny);
   e.change = "--resolution (pbf.resolution), --layer-height (scan.layer) or --size (pbf.size)";
   return e;
