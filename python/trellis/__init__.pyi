@@ -65,6 +65,7 @@ def lattice2d(
     arrowhead_inner: float = ...,  # lattice2d.arrowhead_inner: arrowhead: inner chevron angle
     arrowhead_outer: float = ...,  # lattice2d.arrowhead_outer: arrowhead: outer chevron angle
     cell: float = ...,  # lattice2d.cell: cell size: hexagon side, rhombus side, edge or period (see lattice2d --help)
+    cell_height: float = ...,  # lattice2d.cell_height: arrowhead and re-entrant honeycomb: the unit cell's vertical length (the cell size is the horizontal one, GIPPO Table 1); sets the arrowhead's i
     contour: bool = ...,  # lattice2d.contour: add the region outline as struts
     density: float = ...,  # lattice2d.density: Voronoi seeds per mm²
     diameter: float = ...,  # lattice2d.diameter: circle diameter
@@ -123,6 +124,7 @@ def plan(
     arrowhead_outer: float = ...,  # lattice2d.arrowhead_outer: arrowhead: outer chevron angle
     box: Sequence[float] = ...,  # lattice3d.box: foam box width, depth, height
     cell: float = ...,  # lattice2d.cell: cell size: hexagon side, rhombus side, edge or period (see lattice2d --help)
+    cell_height: float = ...,  # lattice2d.cell_height: arrowhead and re-entrant honeycomb: the unit cell's vertical length (the cell size is the horizontal one, GIPPO Table 1); sets the arrowhead's i
     cell_type: Literal['cubic', 'bcc', 'fcc', 'octet', 'diamond', 'kelvin', 'rhombic-dodecahedron'] = ...,  # lattice3d.cell_type: unit cell
     center: bool = ...,  # placement.center: move the part's XY centre to the bed centre (false: design coordinates are bed coordinates)
     collisions: bool = ...,  # aero.collisions: plan around the nozzle (false: trails = Euler lower bound)
@@ -179,6 +181,7 @@ def plan(
     threads: int = ...,  # run.threads: worker threads (0 = all cores)
     tip_clearance: float = ...,  # nozzle.tip_clearance: material less than this above the tip is not hit
     tries: int = ...,  # aero.tries: dynamic: planner runs (strategies, then shuffled orders; best kept)
+    worst: bool = ...,  # gippo.worst: also write the lowest-score solution beside the best (NAME.worst.json, worst_layer_*.png previews), as the paper compares them
     z: float = ...,  # lattice2d.z: height of the lattice plane
 ) -> Result: ...
 

@@ -44,7 +44,7 @@ void require_bath(const Job& job, const MachineProfile& machine, const std::stri
 void note_planar_in_bath(const MachineProfile& machine, const std::string& route, Diagnostics& diag);
 // DIR/layer_0000.png … for `count` layers spread over the toolpath (all when count >= layers).
 void previews(const Toolpath& tp, const std::string& dir, int count, const RenderOptions& ro,
-              JobResult& out);
+              JobResult& out, const std::string& prefix = "layer_");
 std::string preview_name(const std::string& dir, const std::string& file);
 std::string fixed(double v, int decimals);
 

@@ -325,6 +325,18 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
     write_toolpath_with_job(job.toolpath, r.toolpath, job);
     out.files.push_back(job.toolpath);
   }
+  // The lowest-score GIPPO solution beside the best (gippo.worst).
+  const bool worst = p.keep_worst && !r.worst.layers.empty();
+  if (worst && c.planner == "gippo" && !c.onto.kind.empty())
+    r.worst = project_onto_surface(r.worst, surface, c.onto.project);
+  if (worst && !job.toolpath.empty()) {
+    std::string name = job.toolpath;
+    if (name.size() > 5 && name.compare(name.size() - 5, 5, ".json") == 0) name.resize(name.size() - 5);
+    name += ".worst.json";
+    r.worst.source = r.toolpath.source + " (lowest-score solution)";
+    write_toolpath(name, r.worst);
+    out.files.push_back(name);
+  }
   if (!job.report.empty()) {
     std::string report = plan_report_json(r, p, diag, {input, g.nodes.size(), g.edges.size()});
     if (!robustness.empty()) report = with_field(report, "gippo_robustness", robustness);
@@ -337,6 +349,7 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
     ro.size_px = c.output.image_size;
     ro.bead_width = c.machine.nozzle_diameter;
     previews(r.toolpath, job.preview, c.output.preview_layers, ro, out);
+    if (worst) previews(r.worst, job.preview, c.output.preview_layers, ro, out, "worst_layer_");
     if (!c.onto.kind.empty() || !c.layers.solid.empty()) {
       View3dOptions v;
       v.size_px = c.output.image_size;

@@ -359,6 +359,13 @@ JobResult nonplanar(const Job& job, const Config& c, Diagnostics& diag, const Pr
                "non-planar paper's FRESH set-up)");
   check_budget(estimate_nonplanar(surface.domain(), prm), budget_of(job, c));
   NonplanarResult r = slice_nonplanar(surface, prm, progress);
+  std::size_t jumps = 0;
+  for (const auto& l : r.layers) jumps += l.jumps;
+  if (jumps)
+    diag.warn("surface_jumps",
+              fmt::format("the surface jumps at {} place(s) along the lines (a discontinuous "
+                          "height): the paths are split there instead of bridged through the air",
+                          jumps));
   const SurfaceDeviation dev = surface_deviation(r.toolpath, surface, prm);
   GcodeStats g;
   g = write_gcode_out(job.output, r.toolpath, job, c.machine, out, diag);

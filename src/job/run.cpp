@@ -89,14 +89,14 @@ std::string preview_name(const std::string& dir, const std::string& file) {
 }
 
 void previews(const Toolpath& tp, const std::string& dir, int count, const RenderOptions& ro,
-              JobResult& out) {
+              JobResult& out, const std::string& prefix) {
   const std::size_t n = tp.layers.size();
   if (dir.empty() || count <= 0 || n == 0) return;
   create_output_directories(dir);
   const std::size_t k = std::min<std::size_t>(static_cast<std::size_t>(count), n);
   for (std::size_t t = 0; t < k; ++t) {
     const std::size_t layer = k == 1 ? n / 2 : t * (n - 1) / (k - 1);
-    out.files.push_back(preview_name(dir, fmt::format("layer_{:04}.png", layer)));
+    out.files.push_back(preview_name(dir, fmt::format("{}{:04}.png", prefix, layer)));
     render_layer_png(tp, layer, out.files.back(), ro);
   }
 }

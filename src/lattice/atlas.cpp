@@ -176,10 +176,11 @@ std::vector<Segment2> arrowhead(double w, double outer_deg, double inner_deg, do
   return out;
 }
 
-std::vector<Segment2> reentrant(double w, double angle_deg, double half) {
+std::vector<Segment2> reentrant(double w, double angle_deg, double rib, double half) {
   // Zigzag lines k with points j at x = jW/2; low points ((j+k) even) at y = k(h-a), high points
-  // at y = k(h-a)+a; vertical struts of length h from each low point to the line above.
-  const double h = w;
+  // at y = k(h-a)+a; vertical struts of length h (the rib) from each low point to the line above.
+  // The unit cell (two zigzag lines) is W wide and 2(h - a) high.
+  const double h = rib;
   const double a = w / 2 * std::tan(angle_deg * kPi / 180);
   const double pitch = h - a;
   auto point = [&](int j, int k) {
@@ -195,6 +196,18 @@ std::vector<Segment2> reentrant(double w, double angle_deg, double half) {
       if (((j + k) % 2 + 2) % 2 == 0) out.push_back({point(j, k), point(j, k + 1)});
     }
   return out;
+}
+
+// The arrowhead's unit cell is W wide and a1 - a2 high (outer minus inner apex height).
+double arrowhead_inner(const AtlasParams& p) {
+  if (p.cell_height <= 0) return p.arrowhead_inner_deg;
+  const double a1 = p.cell_size / 2 * std::tan(p.arrowhead_outer_deg * kPi / 180);
+  return std::atan((a1 - p.cell_height) / (p.cell_size / 2)) * 180 / kPi;
+}
+
+double reentrant_rib(const AtlasParams& p) {
+  const double a = p.cell_size / 2 * std::tan(p.reentrant_angle_deg * kPi / 180);
+  return p.cell_height > 0 ? p.cell_height / 2 + a : p.cell_size;
 }
 
 void require(bool ok, const std::string& what) {
@@ -283,9 +296,9 @@ std::vector<Segment2> pattern_segments(const AtlasParams& p, double half) {
     case Pattern::SnubSquare:
       return snub_square(p.cell_size, half);
     case Pattern::Arrowhead:
-      return arrowhead(p.cell_size, p.arrowhead_outer_deg, p.arrowhead_inner_deg, half);
+      return arrowhead(p.cell_size, p.arrowhead_outer_deg, arrowhead_inner(p), half);
     case Pattern::ReentrantHoneycomb:
-      return reentrant(p.cell_size, p.reentrant_angle_deg, half);
+      return reentrant(p.cell_size, p.reentrant_angle_deg, reentrant_rib(p), half);
     case Pattern::Square:
       return square(strand, half);
     case Pattern::Triangle:
@@ -317,6 +330,14 @@ Graph make_lattice2d(const AtlasParams& p) {
   require(p.arrowhead_inner_deg > 0 && p.arrowhead_outer_deg > p.arrowhead_inner_deg &&
               p.arrowhead_outer_deg < 85,
           "arrowhead angles need 0 < inner < outer < 85 degrees");
+  require(std::isfinite(p.cell_height) && p.cell_height >= 0, "cell height must be >= 0 mm");
+  if (p.pattern == Pattern::Arrowhead && p.cell_height > 0) {
+    const double a1 = p.cell_size / 2 * std::tan(p.arrowhead_outer_deg * kPi / 180);
+    require(p.cell_height < a1,
+            "arrowhead: the cell height must be below the outer chevron's height, " +
+                std::to_string(a1) + " mm for this cell and outer angle (the inner angle would "
+                "be <= 0)");
+  }
   require(!p.handles || r.shape == RegionShape::Rectangle, "handles need a rectangular region");
   require(!p.handles || (p.handle_length > 0 && p.handle_width > 0 && p.handle_spacing > 0),
           "handle length, width and spacing must be > 0 mm");

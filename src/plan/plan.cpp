@@ -93,6 +93,30 @@ PathMetrics pooled(const std::vector<LayerReport>& layers, std::size_t long_node
   return m;
 }
 
+// The trails of one part as paths on the toolpath's layer at the part's z (the last layer when
+// it is at the same z).
+void append_layer(Toolpath& tp, const Graph& sub, const PathSet& set, const Part& part,
+                  const PlanParams& params) {
+  Layer* layer = nullptr;
+  const double z = part.z + params.layer_height;
+  if (!tp.layers.empty() && std::abs(tp.layers.back().z - z) <= params.level_tolerance)
+    layer = &tp.layers.back();
+  else
+    layer = &tp.layers.emplace_back(Layer{z, {}});
+  for (const auto& t : set.trails) {
+    Path p;
+    p.role = PathRole::Strut;
+    p.tool = part.material;
+    p.height = params.layer_height;
+    p.points.reserve(t.nodes.size());
+    for (NodeId n : t.nodes) {
+      const Vec3 q = sub.nodes[n];
+      p.points.push_back({q.x, q.y, q.z + params.layer_height});
+    }
+    layer->paths.push_back(std::move(p));
+  }
+}
+
 }  // namespace
 
 PlanResult plan_lattice(const Graph& g, const PlanParams& params, Diagnostics& diag,
@@ -119,7 +143,7 @@ PlanResult plan_lattice(const Graph& g, const PlanParams& params, Diagnostics& d
     report.z = part.z;
     report.material = part.material;
     report.edges = sub.edges.size();
-    PathSet set;
+    PathSet set, worst;
     if (params.planner == Planner::Gippo) {
       GippoParams gp = params.gippo;
       gp.progress.cancel = progress.cancel;
@@ -133,6 +157,7 @@ PlanResult plan_lattice(const Graph& g, const PlanParams& params, Diagnostics& d
       report.scores = std::move(r.scores);
       report.best_iteration = r.best_iteration;
       report.worst = path_metrics(sub, r.worst, params.long_path_nodes);
+      if (params.keep_worst) worst = std::move(r.worst);
     } else {
       set = plan_euler(sub);
       progress("euler", static_cast<double>(pi + 1) / static_cast<double>(parts.size()));
@@ -140,25 +165,12 @@ PlanResult plan_lattice(const Graph& g, const PlanParams& params, Diagnostics& d
     if (params.merge_ends) report.merged = merge_shared_ends(set);
     report.metrics = path_metrics(sub, set, params.long_path_nodes);
     // Order in the sub-graph, starting where the previous part ended.
+    Vec3 worst_at = at;
     order_paths(sub, set, params.order, at);
-    Layer* layer = nullptr;
-    const double z = part.z + params.layer_height;
-    if (!result.toolpath.layers.empty() &&
-        std::abs(result.toolpath.layers.back().z - z) <= params.level_tolerance)
-      layer = &result.toolpath.layers.back();
-    else
-      layer = &result.toolpath.layers.emplace_back(Layer{z, {}});
-    for (const auto& t : set.trails) {
-      Path p;
-      p.role = PathRole::Strut;
-      p.tool = part.material;
-      p.height = params.layer_height;
-      p.points.reserve(t.nodes.size());
-      for (NodeId n : t.nodes) {
-        const Vec3 q = sub.nodes[n];
-        p.points.push_back({q.x, q.y, q.z + params.layer_height});
-      }
-      layer->paths.push_back(std::move(p));
+    append_layer(result.toolpath, sub, set, part, params);
+    if (params.keep_worst && !worst.trails.empty()) {
+      order_paths(sub, worst, params.order, worst_at);
+      append_layer(result.worst, sub, worst, part, params);
     }
     if (!set.trails.empty()) at = sub.nodes[set.trails.back().nodes.back()];
     result.layers.push_back(std::move(report));

@@ -315,6 +315,11 @@ std::vector<Setting> make_table() {
   t.push_back(number("lattice2d.reentrant_angle", "deg", 1, 89,
                      "re-entrant honeycomb: strut angle below horizontal", "reentrant-angle",
                      [](C& c) -> auto& { return c.lattice2d.reentrant_angle_deg; }));
+  t.push_back(number("lattice2d.cell_height", "mm", 0, 1e5,
+                     "arrowhead and re-entrant honeycomb: the unit cell's vertical length (the "
+                     "cell size is the horizontal one, GIPPO Table 1); sets the arrowhead's inner "
+                     "angle or the re-entrant rib length; 0 = from the angles",
+                     "cell-height", [](C& c) -> auto& { return c.lattice2d.cell_height; }));
   t.push_back(number("lattice2d.arrowhead_outer", "deg", 1, 89, "arrowhead: outer chevron angle",
                      "arrowhead-outer", [](C& c) -> auto& { return c.lattice2d.arrowhead_outer_deg; }));
   t.push_back(positive("lattice2d.line_width", "mm", 100,
@@ -438,6 +443,10 @@ std::vector<Setting> make_table() {
                                      [](C& c) -> auto& { return c.plan.gippo.mode; }));
   t.push_back(integer("gippo.iterations", 1, 1e7, "solutions generated, best kept (paper: 500)",
                       "iterations", [](C& c) -> auto& { return c.plan.gippo.iterations; }));
+  t.push_back(boolean("gippo.worst",
+                      "also write the lowest-score solution beside the best (NAME.worst.json, "
+                      "worst_layer_*.png previews), as the paper compares them",
+                      "worst", [](C& c) -> auto& { return c.plan.keep_worst; }));
   t.push_back(integer("gippo.seeds", 0, 100000,
                       "robustness: also run seeds plan.seed .. +N-1 and report the best score's "
                       "spread (paper Fig. 2 v-vi); 0 = off", "seeds",

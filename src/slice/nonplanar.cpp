@@ -469,7 +469,7 @@ struct SurfacePoint {
 // pieces split where the footprint ends (ends found by bisection), each refined until the curve
 // at the quarter points of every chord is within `tol` of it.
 std::vector<std::vector<Vec3>> sample_curve(const SurfacePoint& sp, Vec2 a, Vec2 b, double tol,
-                                            double base_step) {
+                                            double base_step, std::size_t* jumps = nullptr) {
   const double len = std::hypot(b.x - a.x, b.y - a.y);
   std::vector<std::vector<Vec3>> pieces;
   if (len <= 0) return pieces;
@@ -486,6 +486,22 @@ std::vector<std::vector<Vec3>> sample_curve(const SurfacePoint& sp, Vec2 a, Vec2
   }
   const double min_step = 1e-5;
   std::vector<Vec3> cur;
+  // A chord steeper than 100:1 that still rises by more than the tolerance when narrowed to
+  // 0.1 µm (bisection keeping the half with the larger rise) is a jump, not a steep slope: a
+  // continuous surface's rise vanishes with the interval.
+  auto is_jump = [&](double s0, Vec3 p0, double s1, Vec3 p1) {
+    if (!(std::abs(p1.z - p0.z) > tol && std::abs(p1.z - p0.z) > 100 * (s1 - s0))) return false;
+    for (int k = 0; k < 60 && s1 - s0 > 1e-7; ++k) {
+      const double sm = 0.5 * (s0 + s1);
+      const Vec3 pm = at(sm);
+      if (!is_finite(pm)) return false;
+      if (std::abs(pm.z - p0.z) >= std::abs(p1.z - pm.z))
+        s1 = sm, p1 = pm;
+      else
+        s0 = sm, p0 = pm;
+    }
+    return std::abs(p1.z - p0.z) > tol;
+  };
   // Refines between (s0,p0) and (s1,p1), appending points after p0 up to p1.
   auto refine = [&](auto&& self, double s0, Vec3 p0, double s1, Vec3 p1, int depth) -> void {
     if (s1 - s0 > min_step && depth < 40) {
@@ -506,6 +522,13 @@ std::vector<std::vector<Vec3>> sample_curve(const SurfacePoint& sp, Vec2 a, Vec2
         self(self, sm, pm, s1, p1, depth + 1);
         return;
       }
+    }
+    if (is_jump(s0, p0, s1, p1)) {
+      // The surface jumps here (a discontinuous height function): split the path instead of
+      // printing a bridge through the air.
+      if (jumps) ++*jumps;
+      if (cur.size() >= 2 && distance(cur.front(), cur.back()) > 1e-4) pieces.push_back(cur);
+      cur.clear();
     }
     cur.push_back(p1);
   };
@@ -548,6 +571,54 @@ std::vector<std::vector<Vec3>> sample_curve(const SurfacePoint& sp, Vec2 a, Vec2
   return pieces;
 }
 
+// A connector from a to b (ends of pieces on neighbouring lines, both on the footprint's edge)
+// whose straight way crosses a hole: each sample inside the hole is pushed along `away` (the
+// lines' direction, away from the hole) to just inside the hole's edge (by `margin`), so the
+// connector hugs the edge in
+// the strip between the two lines, where no other line runs. Empty if it cannot.
+std::vector<Vec3> hug_connector(const SurfacePoint& sp, Vec3 a, Vec3 b, Vec2 away, double step,
+                                double reach, double margin) {
+  const double len = std::hypot(b.x - a.x, b.y - a.y);
+  const int n = std::max(2, static_cast<int>(std::ceil(len / step)));
+  std::vector<Vec3> out{a};
+  for (int i = 1; i < n; ++i) {
+    const Vec2 q = a.xy() + (b.xy() - a.xy()) * (static_cast<double>(i) / n);
+    Vec3 p = sp(q);
+    if (!is_finite(p)) {
+      double lo = 0, hi = step;  // inside at lo; march out to a finite hi, then bisect
+      while (hi <= reach && !is_finite(sp(q + away * hi))) lo = hi, hi *= 2;
+      if (hi > reach) return {};
+      for (int k = 0; k < 50 && hi - lo > 1e-7; ++k) {
+        const double m = 0.5 * (lo + hi);
+        (is_finite(sp(q + away * m)) ? hi : lo) = m;
+      }
+      // A margin inside the footprint, so chords between edge points (sagitta step²/8R) stay on it.
+      p = sp(q + away * (hi + margin));
+      if (!is_finite(p)) return {};
+    }
+    out.push_back(p);
+  }
+  out.push_back(b);
+  // Every chord must stay over the footprint (the self-check's test); otherwise travel.
+  for (std::size_t i = 1; i < out.size(); ++i)
+    if (!is_finite(sp((out[i - 1].xy() + out[i].xy()) * 0.5))) return {};
+  return out;
+}
+
+// Whether the footprint goes on past the end `a` of a piece (coming from `before`): a hole, not
+// the outer edge. Marches on in steps of `step` until the domain ends.
+bool hole_ahead(const SurfacePoint& sp, Vec3 a, Vec3 before, const BBox2& box, double step) {
+  Vec2 t{a.x - before.x, a.y - before.y};
+  const double len = std::hypot(t.x, t.y);
+  if (len <= 0) return false;
+  t = t * (1 / len);
+  for (Vec2 q = a.xy() + t * step; q.x >= box.min.x && q.x <= box.max.x && q.y >= box.min.y &&
+                                   q.y <= box.max.y;
+       q = q + t * step)
+    if (is_finite(sp(q))) return true;
+  return false;
+}
+
 // The u-interval of the line {p : dot(p, n) = v} (direction d) inside a box, empty if none.
 bool clip_line(const BBox2& box, Vec2 d, Vec2 n, double v, double* u0, double* u1) {
   double lo = -1e300, hi = 1e300;
@@ -571,6 +642,7 @@ bool clip_line(const BBox2& box, Vec2 d, Vec2 n, double v, double* u0, double* u
 struct Line {
   double v = 0;
   std::vector<std::vector<Vec3>> pieces;  // in increasing u
+  std::size_t jumps = 0;                  // where the surface jumps (split, sample_curve)
 };
 
 // Exact sections of a mesh by the lines v = v_i (direction d): triangle cuts chained in u.
@@ -800,7 +872,7 @@ std::vector<Line> layer_lines(const HeightField& surface, double angle_deg, doub
     auto& f = evals.local();
     const SurfacePoint sp{f, prm.offset, offset};
     const Vec2 o = n * lines[i].v;
-    lines[i].pieces = sample_curve(sp, o + d * u0, o + d * u1, tol * 0.5, step);
+    lines[i].pieces = sample_curve(sp, o + d * u0, o + d * u1, tol * 0.5, step, &lines[i].jumps);
     for (auto& p : lines[i].pieces) p = simplify_polyline(p, tol * 0.5);
   });
   return lines;
@@ -863,6 +935,7 @@ NonplanarResult slice_nonplanar(const HeightField& surface, const NonplanarParam
           if (first < 0) first = static_cast<long>(i);
           last = static_cast<long>(i);
         }
+      for (std::size_t i = 0; i < per_layer[k].size(); ++i) rep.jumps += per_layer[k][i].jumps;
       for (std::size_t i = 0; i < per_layer[k].size(); ++i)
         for (auto& p : per_layer[k][i].pieces) {
           pieces.push_back(std::move(p));
@@ -924,6 +997,25 @@ NonplanarResult slice_nonplanar(const HeightField& surface, const NonplanarParam
             rep.connector_length += clen;
             cur.points.insert(cur.points.end(), c.begin() + 1, c.end() - 1);
             joined = true;
+          } else if (neighbours && cur.points.size() >= 2 &&
+                     hole_ahead(sp, a, cur.points[cur.points.size() - 2], surface.domain(),
+                                prm.width)) {
+            // Around a hole: hug its edge, pushed back the way the last piece came.
+            const double ang = rep.angle * std::numbers::pi / 180;
+            const Vec2 d{std::cos(ang), std::sin(ang)};
+            const Vec3 t = cur.points.back() - cur.points[cur.points.size() - 2];
+            const Vec2 away = (t.x * d.x + t.y * d.y) > 0 ? d * -1.0 : d;
+            auto c = hug_connector(sp, a, b, away, std::clamp(prm.width / 4, 0.01, 0.1),
+                                   std::max(10 * distance_xy(a, b), 10 * prm.width),
+                                   prm.chord_tolerance);
+            if (!c.empty()) {
+              double clen = 0;
+              for (std::size_t i = 1; i < c.size(); ++i) clen += distance(c[i - 1], c[i]);
+              rep.connector_length += clen;
+              ++rep.hole_joins;
+              cur.points.insert(cur.points.end(), c.begin() + 1, c.end() - 1);
+              joined = true;
+            }
           }
         }
         if (!joined) flush();
@@ -1090,9 +1182,10 @@ std::string nonplanar_report_json(const NonplanarResult& r, const NonplanarParam
   j["chord_tolerance_mm"] = prm.chord_tolerance;
   j["layers"] = r.layers.size();
   double length = 0, conn = 0;
-  std::size_t travel = 0, changes = 0;
+  std::size_t travel = 0, changes = 0, jumps = 0;
   for (std::size_t k = 0; k < r.layers.size(); ++k) {
     length += r.layers[k].length, conn += r.layers[k].connector_length;
+    jumps += r.layers[k].jumps;
     travel += r.layers[k].travel_moves;
     if (k > 0 && r.layers[k].tool != r.layers[k - 1].tool) ++changes;
   }
@@ -1100,6 +1193,7 @@ std::string nonplanar_report_json(const NonplanarResult& r, const NonplanarParam
   j["connector_length_mm"] = conn;
   j["travel_moves_within_layers"] = travel;
   j["tool_changes"] = changes;
+  j["surface_jumps"] = jumps;
   j["max_descent_deg"] = r.max_descent_deg;
   j["max_deviation_mm"] = dev.max_point;
   j["max_chord_deviation_mm"] = dev.max_chord;
@@ -1112,7 +1206,9 @@ std::string nonplanar_report_json(const NonplanarResult& r, const NonplanarParam
                       {"paths", l.paths},
                       {"travel_moves", l.travel_moves},
                       {"length_mm", l.length},
-                      {"connector_length_mm", l.connector_length}});
+                      {"connector_length_mm", l.connector_length},
+                      {"jumps", l.jumps},
+                      {"hole_joins", l.hole_joins}});
   j["per_layer"] = layers;
   if (g)
     j["gcode"] = {{"tool_changes", g->tool_changes},

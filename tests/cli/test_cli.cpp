@@ -14,6 +14,7 @@
 #include "trellis/core/file.hpp"
 #include "trellis/geom/mesh.hpp"
 #include "trellis/geom/mesh_io.hpp"
+#include "trellis/toolpath/json.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -563,4 +564,38 @@ TEST(Cli, AeroFoamThroughA3mfBeamLatticePlansTheFewestCollisionsTheGcodeHas) {
   EXPECT_NE(r.out.find("1091 struts"), std::string::npos) << r.out;
   r = run("plan aero " + bunny + " -o " + in_work("bunny.json"));
   EXPECT_NE(r.out.find("1093 struts"), std::string::npos) << r.out;
+}
+
+// gippo.worst: the lowest-score solution is written and drawn beside the best; read back it
+// covers every strut of the lattice once and its Eq. 1 score is the report's lowest score.
+TEST(Cli, GippoWritesAndDrawsItsWorstSolution) {
+  const std::string lat = in_work("pw.json"), tp = in_work("pw.tp.json");
+  ASSERT_EQ(run("lattice2d --pattern penrose --size 12,12 -o " + lat).code, 0);
+  const CmdResult r = run("plan gippo " + lat + " -o " + tp + " --worst --iterations 40 --report " +
+                          in_work("pw.report.json") + " --preview " + in_work("pw_png"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  ASSERT_TRUE(std::filesystem::exists(in_work("pw.tp.worst.json")));
+  EXPECT_TRUE(std::filesystem::exists(in_work("pw_png/worst_layer_0000.png")));
+  const auto score = [](const trellis::Toolpath& t, std::size_t* struts) {
+    double num = 0, total = 0;
+    std::size_t paths = 0;
+    *struts = 0;
+    for (const auto& l : t.layers)
+      for (const auto& p : l.paths) {
+        num += p.length() * static_cast<double>(p.segments());
+        total += p.length();
+        *struts += p.segments();
+        ++paths;
+      }
+    return num / (total * static_cast<double>(paths));
+  };
+  std::size_t best_struts = 0, worst_struts = 0;
+  const double best = score(trellis::read_toolpath(tp), &best_struts);
+  const double worst = score(trellis::read_toolpath(in_work("pw.tp.worst.json")), &worst_struts);
+  EXPECT_EQ(worst_struts, best_struts);
+  const auto rep = nlohmann::json::parse(trellis::read_file(in_work("pw.report.json")));
+  const auto& layer = rep["layers"][0];
+  EXPECT_NEAR(worst, layer["score_min"].get<double>(), 1e-9);
+  EXPECT_NEAR(best, layer["score_max"].get<double>(), 1e-9);
+  EXPECT_LT(worst, best);
 }

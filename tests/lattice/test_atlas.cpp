@@ -1,7 +1,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <array>
 #include <map>
+#include <set>
 
 #include "trellis/core/error.hpp"
 #include "trellis/lattice/atlas.hpp"
@@ -173,4 +175,47 @@ TEST(Atlas, BadParametersAreSettingErrors) {
   a.reentrant_angle_deg = 60;
   EXPECT_THROW(make_lattice2d(a), SettingError);
   EXPECT_THROW(pattern_from_string("hexagons"), SettingError);
+}
+
+// The auxetic patterns' two lengths (GIPPO Table 1): cell_size across, cell_height up. The
+// pattern repeats with exactly that period in Y (every segment well inside has its copy shifted
+// by the height, none shifted by a slightly different one), and the arrowhead's inner angle
+// follows from the height.
+TEST(Atlas, AuxeticCellsHaveTheGivenVerticalLength) {
+  for (Pattern pattern : {Pattern::Arrowhead, Pattern::ReentrantHoneycomb}) {
+    for (double height : {0.6, 0.9, 1.4}) {
+      AtlasParams p;
+      p.pattern = pattern;
+      p.cell_size = 2;
+      p.cell_height = height;
+      p.arrowhead_outer_deg = 60;  // outer apex 1.732 mm: room for every height above
+      const auto segs = pattern_segments(p, 12);
+      auto key = [](Vec2 a, Vec2 b) {
+        if (b.x < a.x || (b.x == a.x && b.y < a.y)) std::swap(a, b);
+        return std::array<long long, 4>{std::llround(a.x * 1e6), std::llround(a.y * 1e6),
+                                        std::llround(b.x * 1e6), std::llround(b.y * 1e6)};
+      };
+      std::set<std::array<long long, 4>> all;
+      for (const auto& s : segs) all.insert(key(s.a, s.b));
+      auto periodic = [&](double dy) {
+        std::size_t inside = 0;
+        for (const auto& s : segs) {
+          if (std::max({std::abs(s.a.x), std::abs(s.a.y), std::abs(s.b.x), std::abs(s.b.y)}) > 5)
+            continue;
+          ++inside;
+          if (!all.count(key({s.a.x, s.a.y + dy}, {s.b.x, s.b.y + dy}))) return false;
+        }
+        return inside > 10;
+      };
+      EXPECT_TRUE(periodic(height)) << static_cast<int>(pattern) << " " << height;
+      EXPECT_FALSE(periodic(height * 1.05)) << static_cast<int>(pattern) << " " << height;
+      EXPECT_NO_THROW(make_lattice2d(p));
+    }
+  }
+  AtlasParams bad;
+  bad.pattern = Pattern::Arrowhead;
+  bad.cell_size = 2;
+  bad.arrowhead_outer_deg = 60;
+  bad.cell_height = 1.8;  // above the outer chevron's 1.732 mm
+  EXPECT_THROW(make_lattice2d(bad), SettingError);
 }

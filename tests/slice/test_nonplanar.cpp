@@ -558,3 +558,47 @@ TEST(NonplanarCheck, PrunedChordDeviationEqualsBruteForce) {
 }
 
 }  // namespace
+
+// A height function with a jump (a raised disc) is split at the jump instead of bridged by a
+// printed wall: no printed segment steeper than 80°, every chord on the surface, the jumps
+// counted; a steep but continuous surface (tanh, 25:1 at its steepest) has no jump.
+TEST(Nonplanar, JumpsSplitPathsInsteadOfBridgingThem) {
+  NonplanarParams prm;
+  prm.layers = 1;
+  const HeightField step = HeightField::from_expression("x^2+y^2<4 ? 5 : 0", {{-5, -5}, {5, 5}}, "disc");
+  const NonplanarResult r = slice_nonplanar(step, prm);
+  std::size_t jumps = 0;
+  for (const auto& l : r.layers) jumps += l.jumps;
+  EXPECT_GE(jumps, 16u);
+  double steepest = 0;
+  for (const auto& l : r.toolpath.layers)
+    for (const auto& p : l.paths)
+      for (std::size_t i = 1; i < p.points.size(); ++i) {
+        const Vec3 d = p.points[i] - p.points[i - 1];
+        steepest = std::max(steepest, std::atan2(std::abs(d.z), std::hypot(d.x, d.y)) * 180 / 3.14159265358979);
+      }
+  EXPECT_LT(steepest, 80);
+  EXPECT_LE(surface_deviation(r.toolpath, step, prm).max_chord, prm.chord_tolerance);
+  const HeightField smooth = HeightField::from_expression("2.5*tanh(20*x)", {{-5, -5}, {5, 5}}, "tanh");
+  const NonplanarResult s = slice_nonplanar(smooth, prm);
+  for (const auto& l : s.layers) EXPECT_EQ(l.jumps, 0u);
+}
+
+// A footprint with a hole: lines that meet the hole are joined around it along its edge (in the
+// strip between neighbouring lines) instead of ending there, so a layer is a couple of paths,
+// not one per piece; every point and chord stays on the surface.
+TEST(Nonplanar, HolesAreJoinedAroundTheirEdge) {
+  NonplanarParams prm;
+  prm.layers = 2;
+  prm.angles = {0, 90};
+  const HeightField annulus =
+      HeightField::from_expression("x^2+y^2<9 ? 0/0 : 0.1*x", {{-8, -8}, {8, 8}}, "annulus");
+  const NonplanarResult r = slice_nonplanar(annulus, prm);
+  for (const auto& l : r.layers) {
+    EXPECT_LE(l.paths, 3u) << l.angle;
+    EXPECT_GE(l.hole_joins, 10u) << l.angle;
+  }
+  const SurfaceDeviation dev = surface_deviation(r.toolpath, annulus, prm);
+  EXPECT_LE(dev.max_point, 1e-6);
+  EXPECT_LE(dev.max_chord, prm.chord_tolerance);
+}

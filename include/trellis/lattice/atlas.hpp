@@ -47,6 +47,11 @@ struct AtlasParams {
   double reentrant_angle_deg = 30;  // ReentrantHoneycomb strut angle below horizontal
   double arrowhead_outer_deg = 60;  // Arrowhead outer chevron angle
   double arrowhead_inner_deg = 30;  // Arrowhead inner chevron angle
+  // The auxetic patterns' second length (GIPPO paper Table 1: "vertical and horizontal lengths
+  // of the unit cell"; cell_size is the horizontal one): the unit cell's period in Y (mm). With
+  // it, the arrowhead's inner angle and the re-entrant honeycomb's rib length follow from the
+  // other settings; 0 = from the angles alone.
+  double cell_height = 0;
   std::uint64_t seed = 1;           // Voronoi seeds
   Region region;
   double z = 0;                 // height of the lattice plane (mm)

@@ -24,6 +24,7 @@ struct PlanParams {
   std::size_t long_path_nodes = 5;  // LTS/OE threshold (paper: 5 nodes)
   double level_tolerance = 1e-6;    // edges within this z span are planar (mm)
   bool merge_ends = false;          // join paths that end at the same node (merge_shared_ends)
+  bool keep_worst = false;          // gippo: also build the lowest-score solution's toolpath
 };
 
 struct LayerReport {
@@ -39,6 +40,7 @@ struct LayerReport {
 
 struct PlanResult {
   Toolpath toolpath;
+  Toolpath worst;  // gippo with keep_worst: the lowest-score iteration, ordered and placed alike
   std::vector<LayerReport> layers;
   PathMetrics total;  // summed over layers (score and percentages length-weighted)
   TravelStats travel;

@@ -89,6 +89,8 @@ struct NonplanarLayerReport {
   std::size_t travel_moves = 0;  // within the layer
   double length = 0;             // extruded path length (mm)
   double connector_length = 0;   // of it, joining lines (mm)
+  std::size_t jumps = 0;         // places where the surface jumps: paths split there, no bridge
+  std::size_t hole_joins = 0;    // connectors that go around a hole along its edge
 };
 
 struct NonplanarResult {
