@@ -63,7 +63,7 @@ std::vector<Analysis> run(const AnalyzeOpts& o) {
     const Toolpath& tp = a.printed;
     if (tp.layers.empty())
       throw GeometryError("nothing to draw for --preview: the file has no extrusion", {f});
-    std::filesystem::create_directories(o.png);
+    create_output_directories(o.png);
     const std::string stem = std::filesystem::path(f).stem().string();
     auto name = [&](std::size_t i) {
       char buf[64];

@@ -52,7 +52,7 @@ void add_check(CLI::App& app) {
     const CollisionCheck c = check_collisions(g, tp, check);
     if (!o->report.empty()) write_file_atomic(o->report, collision_check_json(c, check));
     if (!o->preview.empty()) {
-      std::filesystem::create_directories(o->preview);
+      create_output_directories(o->preview);
       View3dOptions v;
       for (const auto& h : c.hits) v.marks.push_back(h.point);
       v.title = std::to_string(c.collisions) + " collisions";

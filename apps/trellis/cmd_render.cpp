@@ -1,6 +1,9 @@
+#include <fmt/format.h>
+
 #include <iostream>
 
 #include "commands.hpp"
+#include "trellis/core/budget.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/render/render.hpp"
 #include "trellis/view/view.hpp"
@@ -11,6 +14,7 @@ void add_render(CLI::App& app) {
   struct Opts {
     std::string input, output;
     int layer = -1;
+    bool force = false;
     std::string colour = "feature";
     RenderOptions r;
     ViewLoadOptions load;
@@ -32,9 +36,11 @@ void add_render(CLI::App& app) {
   cmd->add_option("-o,--output", o->output, "PNG file (with --layer) or prefix")->required();
   cmd->add_option("--layer", o->layer, "layer index (0-based)");
   cmd->add_option("--image-size", o->r.size_px, "image size in pixels")
-      ->check(CLI::Range(16, 20000))
+      ->check(CLI::Range(16, 8000))
       ->capture_default_str();
-  cmd->add_option("--bead-width", o->r.bead_width, "line width (mm; 0 = from the toolpath)");
+  cmd->add_option("--bead-width", o->r.bead_width, "line width (mm; default: from the toolpath)")
+      ->check(CLI::PositiveNumber);
+  cmd->add_flag("--force", o->force, "render even when the estimate is beyond the budget");
   cmd->add_flag("!--no-travel", o->r.travel, "do not draw travel moves");
   cmd->callback([o] {
     Diagnostics diag;
@@ -47,6 +53,15 @@ void add_render(CLI::App& app) {
     o->r.colour_by_role = o->colour == "feature";
     o->r.colour_by_mixture = o->colour == "mixture";
     if (o->r.title.empty()) o->r.title = scene.name;
+    // Estimate before work: an RGBA surface and its PNG per image.
+    const double px = double(o->r.size_px) * o->r.size_px;
+    const double images = o->layer >= 0 ? 1.0 : double(tp.layers.size());
+    Budget budget;
+    budget.force = o->force;
+    check_budget({px * 4 * 2, images * px * 5e-8,
+                  fmt::format("{:.0f} image(s) of {} x {} px", images, o->r.size_px, o->r.size_px),
+                  "--image-size or --layer"},
+                 budget);
     if (o->layer >= 0) {
       render_layer_png(tp, static_cast<std::size_t>(o->layer), o->output, o->r);
       std::cout << "wrote " << o->output << "\n";

@@ -9,6 +9,7 @@
 #include "commands.hpp"
 #include "trellis/core/diagnostics.hpp"
 #include "trellis/core/error.hpp"
+#include "trellis/core/file.hpp"
 #include "trellis/version.hpp"
 
 namespace trellis::cli {
@@ -113,8 +114,13 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
+  // Interrupted runs leave no temporaries (exit 130 / 143); the outputs of a command are
+  // committed together when it succeeds and removed when it fails (core/file.hpp).
+  trellis::install_signal_cleanup();
   try {
+    trellis::OutputBatch outputs;
     app.parse(argc, argv);
+    outputs.commit();
   } catch (const CLI::CallForHelp& e) {
     return app.exit(e);
   } catch (const CLI::CallForAllHelp& e) {
@@ -150,10 +156,17 @@ int main(int argc, char** argv) {
     std::cerr << "trellis: error: " << msg << "\n";
     return 2;
   } catch (const CLI::ParseError& e) {
-    app.exit(e);
+    // A flag's value out of range or missing: one error line like every other.
+    std::cerr << "trellis: error: " << e.what() << "; `trellis --help` lists the commands\n";
     return 2;
   } catch (const trellis::Error& e) {
     std::cerr << "trellis: error: " << e.what() << "\n";
+    return 2;
+  } catch (const std::bad_alloc&) {
+    // Beyond what the estimate before the run foresaw: the same refusal, nothing written.
+    std::cerr << "trellis: error: run.max_memory: ran out of memory (the estimate before the "
+                 "run was too low): lower the resolution or the size of the job, or free memory; "
+                 "nothing was written\n";
     return 2;
   } catch (const std::exception& e) {
     std::cerr << "trellis: internal error: " << e.what() << "\n";

@@ -69,12 +69,15 @@ def lattice2d(
     contour: bool = ...,  # lattice2d.contour: add the region outline as struts
     density: float = ...,  # lattice2d.density: Voronoi seeds per mm²
     diameter: float = ...,  # lattice2d.diameter: circle diameter
+    force: bool = ...,  # run.force: run even when the estimate is beyond run.max_memory or run.max_time
     frames: int = ...,  # output.frames: aero: step pictures of the first N trails
     handle_length: float = ...,  # lattice2d.handle_length: handle length along x
     handle_width: float = ...,  # lattice2d.handle_width: handle width along y
     handles: bool = ...,  # lattice2d.handles: tensile-test handles at both x ends
     image_size: int = ...,  # output.image_size: preview image size
     line_width: float = ...,  # lattice2d.line_width: printed line width for the reported pore area
+    max_memory: float = ...,  # run.max_memory: refuse a run whose estimate (made from its settings before it starts) needs more memory than this
+    max_time: float = ...,  # run.max_time: refuse a run whose estimated time is longer than this
     pattern: Literal['honeycomb', 'voronoi', 'penrose', 'snub-square', 'arrowhead', 'reentrant-honeycomb', 'square', 'triangle', 'lines'] = ...,  # lattice2d.pattern: atlas pattern
     preview_layers: int = ...,  # output.preview_layers: PNG previews spread over the layers
     reentrant_angle: float = ...,  # lattice2d.reentrant_angle: re-entrant honeycomb: strut angle below horizontal
@@ -98,15 +101,18 @@ def lattice3d(
     cell_type: Literal['cubic', 'bcc', 'fcc', 'octet', 'diamond', 'kelvin', 'rhombic-dodecahedron'] = ...,  # lattice3d.cell_type: unit cell
     count: Sequence[float] = ...,  # lattice3d.count: cells along X, Y, Z
     density: float = ...,  # lattice3d.density: foam seeds per mm³
+    force: bool = ...,  # run.force: run even when the estimate is beyond run.max_memory or run.max_time
     frames: int = ...,  # output.frames: aero: step pictures of the first N trails
     image_size: int = ...,  # output.image_size: preview image size
     kind: Literal['cells', 'foam', 'conformal'] = ...,  # lattice3d.kind: unit cells tessellated, a stochastic Voronoi foam, or cells clipped to a closed mesh (lattice3d.mesh) with an optional stochas
     materials: Literal['none', 'xy-plane', 'component', 'vertical'] = ...,  # lattice3d.materials: per-strut material rule
+    max_memory: float = ...,  # run.max_memory: refuse a run whose estimate (made from its settings before it starts) needs more memory than this
+    max_time: float = ...,  # run.max_time: refuse a run whose estimated time is longer than this
     mesh: str = ...,  # lattice3d.mesh: foam: inside this closed mesh instead of the box; conformal: the mesh to fill
     preview_layers: int = ...,  # output.preview_layers: PNG previews spread over the layers
     radius: float = ...,  # lattice3d.radius: strut radius written to a 3MF beam lattice (-o part.3mf)
     seed: int = ...,  # lattice3d.seed: foam random seed
-    skin: float = ...,  # lattice3d.skin: conformal: a stochastic (Voronoi) skin this thick; 0 = none
+    skin: float = ...,  # lattice3d.skin: conformal: a stochastic (Voronoi) skin this thick
     skin_density: float = ...,  # lattice3d.skin_density: conformal: skin foam seeds per mm³
     threads: int = ...,  # run.threads: worker threads (0 = all cores)
 ) -> Result: ...
@@ -130,6 +136,7 @@ def plan(
     diameter: float = ...,  # lattice2d.diameter: circle diameter
     exact_struts: int = ...,  # aero.exact_struts: solve obstruction cycles exactly (integer program) in parts up to this many struts; 0 = local search only
     fewest_collisions: bool = ...,  # aero.fewest_collisions: break obstruction cycles where it costs the fewest collisions (proven minimal where the exact solver finishes); false = the greedy order
+    force: bool = ...,  # run.force: run even when the estimate is beyond run.max_memory or run.max_time
     frames: int = ...,  # output.frames: aero: step pictures of the first N trails
     handle_length: float = ...,  # lattice2d.handle_length: handle length along x
     handle_width: float = ...,  # lattice2d.handle_width: handle width along y
@@ -145,6 +152,8 @@ def plan(
     long_nodes: int = ...,  # plan.long_path_nodes: LTS/OE: a path is long with this many nodes
     lookahead: float = ...,  # gradient.lookahead: issue each mixture change this much printed path before the region (dead volume, FGM paper A.1: L = V_melt / (h(w-h) + pi h^2/4))
     materials: Literal['none', 'xy-plane', 'component', 'vertical'] = ...,  # lattice3d.materials: per-strut material rule
+    max_memory: float = ...,  # run.max_memory: refuse a run whose estimate (made from its settings before it starts) needs more memory than this
+    max_time: float = ...,  # run.max_time: refuse a run whose estimated time is longer than this
     merge_ends: bool = ...,  # plan.merge_ends: join paths that end at the same node into one (fewer paths and starts; GIPPO keeps its paths as grown otherwise)
     merge_tolerance: float = ...,  # lattice.merge_tolerance: merge nodes closer than this
     mesh: str = ...,  # lattice3d.mesh: foam: inside this closed mesh instead of the box; conformal: the mesh to fill
@@ -165,7 +174,7 @@ def plan(
     seed: int = ...,  # lattice2d.seed: Voronoi random seed
     seeds: int = ...,  # gippo.seeds: robustness: also run seeds plan.seed .. +N-1 and report the best score's spread (paper Fig. 2 v-vi); 0 = off
     size: Sequence[float] = ...,  # lattice2d.size: rectangle width, height
-    skin: float = ...,  # lattice3d.skin: conformal: a stochastic (Voronoi) skin this thick; 0 = none
+    skin: float = ...,  # lattice3d.skin: conformal: a stochastic (Voronoi) skin this thick
     skin_density: float = ...,  # lattice3d.skin_density: conformal: skin foam seeds per mm³
     solid: str = ...,  # layers.solid: closed mesh each layer's pattern is cropped to
     speed: float = ...,  # speed.print: printing speed
@@ -183,8 +192,11 @@ def gcode(
     progress: Progress | None = None,
     set: Mapping[str, Any] | None = None,
     center: bool = ...,  # placement.center: move the part's XY centre to the bed centre (false: design coordinates are bed coordinates)
+    force: bool = ...,  # run.force: run even when the estimate is beyond run.max_memory or run.max_time
     layer_height: float = ...,  # extrusion.layer_height: layer thickness LT when a path has none (Eq. 4)
     lookahead: float = ...,  # gradient.lookahead: issue each mixture change this much printed path before the region (dead volume, FGM paper A.1: L = V_melt / (h(w-h) + pi h^2/4))
+    max_memory: float = ...,  # run.max_memory: refuse a run whose estimate (made from its settings before it starts) needs more memory than this
+    max_time: float = ...,  # run.max_time: refuse a run whose estimated time is longer than this
     speed: float = ...,  # speed.print: printing speed
     threads: int = ...,  # run.threads: worker threads (0 = all cores)
 ) -> Result: ...
@@ -199,6 +211,7 @@ def slice(
     colors: int = ...,  # fgm.colors: palette size (two materials: N bands; three: d² triangles, e.g. 9)
     concentric: bool = ...,  # fgm.concentric: Strategy 2: concentric fill instead of rectilinear
     fixed_angle: bool = ...,  # fgm.fixed_angle: Strategy 2: lines at slice.infill_angle instead of along the iso-lines
+    force: bool = ...,  # run.force: run even when the estimate is beyond run.max_memory or run.max_time
     frames: int = ...,  # output.frames: aero: step pictures of the first N trails
     image_size: int = ...,  # output.image_size: preview image size
     infill: float = ...,  # slice.infill: sparse infill density (fraction of solid)
@@ -206,6 +219,8 @@ def slice(
     layer_height: float = ...,  # extrusion.layer_height: layer thickness LT when a path has none (Eq. 4)
     lookahead: float = ...,  # gradient.lookahead: issue each mixture change this much printed path before the region (dead volume, FGM paper A.1: L = V_melt / (h(w-h) + pi h^2/4))
     material_resolution: float = ...,  # fgm.material_resolution: XY grid of the material iso-contours
+    max_memory: float = ...,  # run.max_memory: refuse a run whose estimate (made from its settings before it starts) needs more memory than this
+    max_time: float = ...,  # run.max_time: refuse a run whose estimated time is longer than this
     mesh_voxel: float = ...,  # slice.mesh_voxel: voxel of mesh distance fields (field route)
     preview_layers: int = ...,  # output.preview_layers: PNG previews spread over the layers
     repair: bool = ...,  # slice.repair: repair meshes that are not closed and manifold (stitch seams, drop degenerate and duplicate faces, orient, fill small holes, split non-manifold edges); --no-re
@@ -229,6 +244,7 @@ def pbf(
     cell: float = ...,  # pbf.cell: TPMS cell size
     cell_type: Literal['gyroid', 'schwarz_p', 'schwarz_d', 'neovius', 'iwp'] = ...,  # pbf.cell_type: TPMS of the sheet
     envelope: str = ...,  # pbf.envelope: .vcad solid the lattice fills instead of the box
+    force: bool = ...,  # run.force: run even when the estimate is beyond run.max_memory or run.max_time
     frames: int = ...,  # output.frames: aero: step pictures of the first N trails
     grade_axis: Literal['z', 'r'] = ...,  # pbf.grade_axis: grading axis: z (axial) or r (radial)
     grade_center: float = ...,  # pbf.grade_center: sigmoid centre
@@ -240,7 +256,8 @@ def pbf(
     image_size: int = ...,  # output.image_size: preview image size
     layer_height: float = ...,  # scan.layer: powder layer thickness
     lhd: float = ...,  # scan.segment_gap: gap LHD between contour scan vectors (the paper tested 0-120 µm; outside is a warning)
-    memory_budget: float = ...,  # pbf.memory_budget: refuse a run estimated above this; 0 = the memory available
+    max_memory: float = ...,  # run.max_memory: refuse a run whose estimate (made from its settings before it starts) needs more memory than this
+    max_time: float = ...,  # run.max_time: refuse a run whose estimated time is longer than this
     min_inclination: float = ...,  # pbf.min_inclination: shallower walls are hatched
     preview_layers: int = ...,  # output.preview_layers: PNG previews spread over the layers
     resolution: float = ...,  # pbf.resolution: sampling step: the STL route's voxel; direct contours on a grid twice as coarse
@@ -249,12 +266,12 @@ def pbf(
     sl: float = ...,  # scan.segment_length: contour scan vector length SL: straight chords on φ = 0 (the paper tested 5-400 µm; outside is a warning)
     solids: str = ...,  # pbf.solids: .vcad solid parts (bosses), hatched
     strategy: Literal['hybrid', 'r67'] = ...,  # pbf.strategy: hybrid (contours on thin walls, hatch at joints) or r67 (hatch everything)
-    thickness: float = ...,  # pbf.thickness: uniform wall thickness t: c = t·|∇φ|/2 (0: use pbf.c)
+    thickness: float = ...,  # pbf.thickness: uniform wall thickness t: c = t·|∇φ|/2 instead of pbf.c
     thin_multiple: float = ...,  # pbf.thin_multiple: thin wall: width <= this × melt pool
     threads: int = ...,  # run.threads: worker threads (0 = all cores)
     wall_azimuth: float = ...,  # pbf.wall_azimuth: the wall's direction from X
     wall_inclination: float = ...,  # pbf.wall_inclination: the wall's angle from horizontal
-    wall_thickness: float = ...,  # pbf.wall_thickness: a plane thin wall of this thickness instead of a TPMS (PBF paper Fig. 3; box from pbf.size, default 2,2,20); 0 = off
+    wall_thickness: float = ...,  # pbf.wall_thickness: a plane thin wall of this thickness instead of a TPMS (PBF paper Fig. 3; box from pbf.size, default 2,2,20)
 ) -> Result: ...
 
 def nonplanar(
@@ -272,6 +289,7 @@ def nonplanar(
     domain: Sequence[float] = ...,  # nonplanar.domain: x0, y0, x1, y1 of the height function
     fillet: float = ...,  # surface.fillet: fillet diameter at peaks and valleys
     flat: float = ...,  # surface.flat: flat clamping end length
+    force: bool = ...,  # run.force: run even when the estimate is beyond run.max_memory or run.max_time
     frames: int = ...,  # output.frames: aero: step pictures of the first N trails
     height: float = ...,  # surface.height: M curve height
     height_fn: str = ...,  # nonplanar.height_fn: surface z = f(x, y) instead of a mesh (muparser)
@@ -283,6 +301,8 @@ def nonplanar(
     length: float = ...,  # surface.length: length along X
     lookahead: float = ...,  # gradient.lookahead: issue each mixture change this much printed path before the region (dead volume, FGM paper A.1: L = V_melt / (h(w-h) + pi h^2/4))
     max_join: float = ...,  # nonplanar.max_join: longest end-to-end connector printed instead of a travel
+    max_memory: float = ...,  # run.max_memory: refuse a run whose estimate (made from its settings before it starts) needs more memory than this
+    max_time: float = ...,  # run.max_time: refuse a run whose estimated time is longer than this
     offset: Literal['vertical', 'normal'] = ...,  # nonplanar.offset: layers stack vertically (paper) or along the surface normal
     periods: float = ...,  # surface.periods: corrugation periods
     preview_layers: int = ...,  # output.preview_layers: PNG previews spread over the layers
@@ -305,6 +325,7 @@ def surface(
     diameter: float = ...,  # surface.diameter: sphere-cap footprint diameter
     fillet: float = ...,  # surface.fillet: fillet diameter at peaks and valleys
     flat: float = ...,  # surface.flat: flat clamping end length
+    force: bool = ...,  # run.force: run even when the estimate is beyond run.max_memory or run.max_time
     frames: int = ...,  # output.frames: aero: step pictures of the first N trails
     height: float = ...,  # surface.height: M curve height
     image_size: int = ...,  # output.image_size: preview image size
@@ -312,6 +333,8 @@ def surface(
     layer_height: float = ...,  # extrusion.layer_height: layer thickness LT when a path has none (Eq. 4)
     length: float = ...,  # surface.length: length along X
     lookahead: float = ...,  # gradient.lookahead: issue each mixture change this much printed path before the region (dead volume, FGM paper A.1: L = V_melt / (h(w-h) + pi h^2/4))
+    max_memory: float = ...,  # run.max_memory: refuse a run whose estimate (made from its settings before it starts) needs more memory than this
+    max_time: float = ...,  # run.max_time: refuse a run whose estimated time is longer than this
     periods: float = ...,  # surface.periods: corrugation periods
     preview_layers: int = ...,  # output.preview_layers: PNG previews spread over the layers
     radius: float = ...,  # surface.radius: sphere-cap radius

@@ -1,6 +1,8 @@
 // Nodes of the field tree: primitives, CSG, transforms, TPMS, user functions, material grades.
 // Hand-written because the kernel is small and the slicers need batch evaluation and interval
 // bounds, which general SDF libraries (OpenVDB works on grids, not trees) do not give.
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -738,7 +740,12 @@ struct GradeNode : FieldNode {
     std::vector<double>& v = s.value_buffer(depth + 1, exprs.size());
     for (std::size_t i = 0; i < exprs.size(); ++i) {
       const double f = s.expr(exprs[i]).eval(p, d);
-      v[i] = std::isfinite(f) ? std::clamp(f, 0.0, 1.0) : 0.0;
+      if (!std::isfinite(f))
+        throw GeometryError(fmt::format("the fraction of '{}' = {} is {} at ({:g}, {:g}, {:g}): a "
+                                        "fraction must be a finite number everywhere in the part",
+                                        names[i], exprs[i].text, f, p.x, p.y, p.z),
+                            {"", 0, "fgrade"});
+      v[i] = std::clamp(f, 0.0, 1.0);
       sum += v[i];
     }
     for (std::size_t i = 0; i < exprs.size(); ++i) {

@@ -91,6 +91,36 @@ void resolve_path_settings(Settings& st, const std::string& base) {
     st.set(key, resolve(base, std::get<std::string>(e.value)), e.origin);
 }
 
+// An output named in a job file: a relative path inside the output folder.
+void check_output_name(const std::string& v, const Where& where) {
+  const fs::path p(v);
+  if (v.empty()) throw SettingError("an output name inside the output folder, not empty", where);
+  if (p.is_absolute() || p.has_root_name() || p.has_root_directory())
+    throw SettingError("'" + v + "' is an absolute path: outputs are named inside the output "
+                       "folder (set output_dir or `trellis run -o DIR` to choose the folder)",
+                       where);
+  for (const auto& part : p)
+    if (part == "..")
+      throw SettingError("'" + v + "' leaves the output folder ('..'): outputs are named inside "
+                         "it (set output_dir or `trellis run -o DIR` to choose the folder)",
+                         where);
+  if (std::any_of(v.begin(), v.end(), [](char ch) { return static_cast<unsigned char>(ch) < 0x20; }))
+    throw SettingError("control characters in an output name", where);
+}
+
+// `path` (lexically inside `dir`) must stay inside it once symbolic links are followed.
+void check_inside(const std::string& path, const std::string& dir, const std::string& origin) {
+  std::error_code ec;
+  const fs::path d = fs::weakly_canonical(fs::absolute(dir), ec);
+  const fs::path p = fs::weakly_canonical(fs::absolute(path), ec);
+  const fs::path rel = p.lexically_relative(d);
+  const bool inside = !ec && !rel.empty() && *rel.begin() != ".." && rel.is_relative();
+  if (!inside)
+    throw SettingError("output '" + path + "' leads outside the output folder '" + dir +
+                           "' (through a symbolic link?): outputs stay inside it",
+                       {origin, 0, "job.output_dir"});
+}
+
 std::string quoted(const std::string& s) {
   std::ostringstream os;
   os << toml::value<std::string>(s);
@@ -114,6 +144,8 @@ Job job_from_toml(const std::string& text, const std::string& origin, const std:
   Job job;
   job.name = fs::path(origin).stem().string();
   std::string output_dir;
+  // Explicit outputs are names inside the output folder; resolved once the folder is known.
+  std::vector<std::pair<std::string*, Where>> outputs;
   static const std::set<std::string> keys = {"route",  "name",     "input",   "machine", "command",
                                              "output", "report",   "toolpath", "gcode",  "lattice",
                                              "preview", "output_dir"};
@@ -133,18 +165,25 @@ Job job_from_toml(const std::string& text, const std::string& origin, const std:
     else if (key == "machine") job.machine = resolve(base, v);
     else if (key == "command") job.command = v;
     else if (key == "output_dir") output_dir = v;
-    else if (key == "output") job.output = resolve(base, v);
-    else if (key == "report") job.report = resolve(base, v);
-    else if (key == "toolpath") job.toolpath = resolve(base, v);
-    else if (key == "gcode") job.gcode = resolve(base, v);
-    else if (key == "lattice") job.lattice = resolve(base, v);
-    else if (key == "preview") job.preview = resolve(base, v);
+    else {
+      std::string* out = key == "output"     ? &job.output
+                         : key == "report"   ? &job.report
+                         : key == "toolpath" ? &job.toolpath
+                         : key == "gcode"    ? &job.gcode
+                         : key == "lattice"  ? &job.lattice
+                                             : &job.preview;
+      if (!embedded) check_output_name(v, where);
+      *out = embedded ? resolve(base, v) : v;
+      outputs.emplace_back(out, where);
+    }
   }
   if (!output_dir_override.empty()) output_dir = fs::absolute(output_dir_override).string();
   if (job.route.empty()) throw SettingError("missing route = \"...\"", {origin, 0, "job.route"});
   const auto sections = route_sections(job.route);
   if (job.name.empty() || job.name.find_first_of("/\\") != std::string::npos || job.name == "." ||
-      job.name == "..")
+      job.name == ".." || std::any_of(job.name.begin(), job.name.end(), [](char ch) {
+        return static_cast<unsigned char>(ch) < 0x20;
+      }))
     throw SettingError("a name without path separators, e.g. \"part\"", {origin, 0, "job.name"});
   // The machine profile first, then the job's own settings over it.
   if (!job.machine.empty() && !embedded) job.settings.load_toml_file(job.machine);
@@ -170,6 +209,7 @@ Job job_from_toml(const std::string& text, const std::string& origin, const std:
   if (!embedded) {
     // Default outputs under output_dir, named after the job.
     const fs::path dir = resolve(base, output_dir.empty() ? "out/" + job.name : output_dir);
+    for (auto& [out, where] : outputs) *out = (dir / *out).lexically_normal().string();
     auto def = [&](std::string& out, const std::string& suffix) {
       if (out.empty()) out = (dir / (job.name + suffix)).string();
     };
@@ -191,6 +231,10 @@ Job job_from_toml(const std::string& text, const std::string& origin, const std:
     if (r != "surface" && r != "gcode" && r != "lattice2d" && r != "lattice3d")
       def(job.report, ".report.json");
     if (c.output.png && r != "gcode") def(job.preview, "_preview");
+    // Nothing may land outside the output folder, through a symbolic link either.
+    for (const std::string* out :
+         {&job.output, &job.report, &job.toolpath, &job.gcode, &job.lattice, &job.preview})
+      if (!out->empty()) check_inside(*out, dir.string(), origin);
   }
   return job;
 }

@@ -3,8 +3,10 @@
 #pragma once
 #include <string>
 
+#include "trellis/core/budget.hpp"
 #include "trellis/job/job.hpp"
 #include "trellis/machine/gcode_writer.hpp"
+#include "trellis/slice/nonplanar.hpp"
 #include "trellis/render/render.hpp"
 #include "trellis/toolpath/toolpath.hpp"
 
@@ -45,5 +47,16 @@ void previews(const Toolpath& tp, const std::string& dir, int count, const Rende
               JobResult& out, const std::string& prefix = "layer_");
 std::string preview_name(const std::string& dir, const std::string& file);
 std::string fixed(double v, int decimals);
+
+// Estimates before work (estimate.cpp): each route checks its estimate with check_budget before
+// it allocates the work.
+Budget budget_of(const Job& job, const Config& c);
+double threads_of_run();
+Estimate estimate_lattice2d(const AtlasParams& a, int layers);
+Estimate estimate_lattice3d(const Config& c);
+Estimate estimate_gippo(std::size_t edges, int iterations, int seeds);
+Estimate estimate_aero(std::size_t edges, int tries);
+Estimate estimate_nonplanar(const BBox2& domain, const NonplanarParams& p);
+Estimate estimate_pbf_time(const BBox3& box, double resolution, double layer, double threads);
 
 }  // namespace trellis::routes

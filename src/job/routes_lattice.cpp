@@ -167,7 +167,7 @@ JobResult plan_aero_route(const Job& job, const Config& c, const Graph& g, const
     out.files.push_back(job.report);
   }
   if (!job.preview.empty()) {
-    fs::create_directories(job.preview);
+    create_output_directories(job.preview);
     View3dOptions v;
     v.size_px = c.output.image_size;
     for (const auto& h : chk.hits) v.marks.push_back(h.point);
@@ -200,6 +200,7 @@ JobResult plan_aero_route(const Job& job, const Config& c, const Graph& g, const
 JobResult lattice2d(const Job& job, const Config& c, Diagnostics&, const Progress&) {
   JobResult out;
   const AtlasParams a = atlas_of(c, job.settings);
+  check_budget(estimate_lattice2d(a, 1), budget_of(job, c));
   const Graph g = make_lattice2d(a);
   if (!job.output.empty()) {
     write_file_atomic(job.output, with_job(lattice_to_json(g), job, job.output, false));
@@ -207,7 +208,7 @@ JobResult lattice2d(const Job& job, const Config& c, Diagnostics&, const Progres
   }
   out.lattice = std::make_shared<Graph>(g);
   if (!job.preview.empty()) {
-    fs::create_directories(job.preview);
+    create_output_directories(job.preview);
     RenderOptions ro;
     ro.travel = false, ro.starts = false, ro.size_px = c.output.image_size;
     out.files.push_back(preview_name(job.preview, "layer_0000.png"));
@@ -227,6 +228,7 @@ JobResult lattice2d(const Job& job, const Config& c, Diagnostics&, const Progres
 
 JobResult lattice3d(const Job& job, const Config& c, Diagnostics& diag, const Progress&) {
   JobResult out;
+  check_budget(estimate_lattice3d(c), budget_of(job, c));
   const Graph g = cells_or_foam(c, diag);
   if (fs::path(job.output).extension() == ".3mf") {
     // A 3MF beam lattice (no room for the job: it is not a file `rerun` can regenerate).
@@ -238,7 +240,7 @@ JobResult lattice3d(const Job& job, const Config& c, Diagnostics& diag, const Pr
   }
   out.lattice = std::make_shared<Graph>(g);
   if (!job.preview.empty()) {
-    fs::create_directories(job.preview);
+    create_output_directories(job.preview);
     View3dOptions v;
     v.travel = false;
     v.size_px = c.output.image_size;
@@ -267,6 +269,7 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
     g = read_lattice(job.input, c.keep_graph ? keep_graph_options() : CleanOptions{c.merge_tolerance, true},
                      diag);
   } else if (c.planner == "aero") {
+    check_budget(estimate_lattice3d(c), budget_of(job, c));
     g = cells_or_foam(c, diag);
     input = "lattice3d";
   } else {
@@ -276,6 +279,14 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
       const BBox2 b = surface.domain();
       a.region.center = {(b.min.x + b.max.x) / 2, (b.min.y + b.max.y) / 2};
     }
+    const Estimate lattice = estimate_lattice2d(a, std::max(1, c.layers.count));
+    check_budget(lattice, budget_of(job, c));
+    // The planner's work too, before the lattice is made (about one edge per cell unit); the
+    // exact check follows once the lattice is there.
+    if (c.planner == "gippo")
+      check_budget(estimate_gippo(static_cast<std::size_t>(lattice.bytes / 1e4),
+                                  c.plan.gippo.iterations, c.gippo_seeds),
+                   budget_of(job, c));
     g = layered_lattice(a, c);
     input = "atlas:" + to_string(a.pattern);
   }
@@ -283,7 +294,15 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
     write_lattice(job.lattice, g);
     out.files.push_back(job.lattice);
   }
-  if (c.planner == "aero") return plan_aero_route(job, c, g, input, diag, progress, t0, out);
+  if (c.planner == "aero") {
+    const int tries = c.aero.tries > 0 ? c.aero.tries
+                                       : static_cast<int>(std::clamp<std::size_t>(
+                                             200000 / std::max<std::size_t>(1, g.edges.size()), 1, 8));
+    check_budget(estimate_aero(g.edges.size(), tries), budget_of(job, c));
+    return plan_aero_route(job, c, g, input, diag, progress, t0, out);
+  }
+  if (c.planner == "gippo")
+    check_budget(estimate_gippo(g.edges.size(), c.plan.gippo.iterations, c.gippo_seeds), budget_of(job, c));
 
   PlanParams p = c.plan;
   p.planner = planner_from_string(c.planner);
@@ -336,7 +355,7 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
     out.files.push_back(job.report);
   }
   if (!job.preview.empty()) {
-    fs::create_directories(job.preview);
+    create_output_directories(job.preview);
     RenderOptions ro;
     ro.size_px = c.output.image_size;
     ro.bead_width = c.machine.nozzle_diameter;

@@ -203,6 +203,7 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
   sj.quantize = c.machine.quantize;
   sj.purge.speed = c.machine.print_speed;
   sj.purge.density = {c.machine.density_a, c.machine.density_b, c.machine.density_c};
+  sj.budget = budget_of(job, c);
   SliceResult r = run_slice(sj, progress);
   if (r.repaired)
     diag.warn("mesh_repaired", fs::path(job.input).filename().string() +
@@ -277,7 +278,14 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
   po.hybrid = c.pbf.strategy == "hybrid";
   po.stl_route = c.pbf.route == "stl";
   po.timing = scan_timing(prof);
-  po.memory_budget = c.pbf.memory_budget_mb * 1e6;
+  const Budget budget = budget_of(job, c);
+  po.memory_budget = budget.force ? HUGE_VAL : budget.memory;
+  {
+    const BBox3 e = d.part().extent();
+    if (!e.empty() && std::isfinite(e.min.x) && std::isfinite(e.max.x) && std::isfinite(e.min.y) &&
+        std::isfinite(e.max.y) && std::isfinite(e.min.z) && std::isfinite(e.max.z) && po.layer > 0)
+      check_budget(estimate_pbf_time(e, po.resolution, po.layer, threads_of_run()), budget);
+  }
   const PbfResult r = plan_pbf(d, po, progress);
   diag.merge(r.diagnostics);
   Toolpath tp = pbf_toolpath(r, prof.contour_power, prof.contour_speed, prof.hatch_power, prof.hatch_speed);
@@ -385,6 +393,7 @@ JobResult nonplanar(const Job& job, const Config& c, Diagnostics& diag, const Pr
   }
   require_bath(job, c.machine, "nonplanar", "non-planar layers are printed inside a support bath (the "
                "non-planar paper's FRESH set-up)");
+  check_budget(estimate_nonplanar(surface.domain(), prm), budget_of(job, c));
   NonplanarResult r = slice_nonplanar(surface, prm, progress);
   std::size_t jumps = 0;
   for (const auto& l : r.layers) jumps += l.jumps;
@@ -405,7 +414,7 @@ JobResult nonplanar(const Job& job, const Config& c, Diagnostics& diag, const Pr
     out.files.push_back(job.report);
   }
   if (!job.preview.empty()) {
-    fs::create_directories(job.preview);
+    create_output_directories(job.preview);
     View3dOptions v;
     v.size_px = c.output.image_size;
     v.title = surface.name();
@@ -443,7 +452,7 @@ JobResult surface(const Job& job, const Config& c, Diagnostics& diag, const Prog
       g = write_gcode_out(job.output, tp, job, c.machine, out, diag);
     }
     if (!job.preview.empty()) {
-      fs::create_directories(job.preview);
+      create_output_directories(job.preview);
       out.files.push_back(preview_name(job.preview, "3d.png"));
       render_3d_png(tp, out.files.back(), {});
     }
@@ -457,7 +466,7 @@ JobResult surface(const Job& job, const Config& c, Diagnostics& diag, const Prog
     out.files.push_back(job.output);
   }
   if (!job.preview.empty()) {
-    fs::create_directories(job.preview);
+    create_output_directories(job.preview);
     NonplanarParams prm;
     prm.layers = 1;
     View3dOptions v;

@@ -92,7 +92,7 @@ void previews(const Toolpath& tp, const std::string& dir, int count, const Rende
               JobResult& out, const std::string& prefix) {
   const std::size_t n = tp.layers.size();
   if (dir.empty() || count <= 0 || n == 0) return;
-  fs::create_directories(dir);
+  create_output_directories(dir);
   const std::size_t k = std::min<std::size_t>(static_cast<std::size_t>(count), n);
   for (std::size_t t = 0; t < k; ++t) {
     const std::size_t layer = k == 1 ? n / 2 : t * (n - 1) / (k - 1);
@@ -145,20 +145,9 @@ Toolpath read_print(const std::string& path, const Settings* machine, double* sn
   return tp;
 }
 
-JobResult run_job(const Job& job, Diagnostics& diag, const Progress& progress) {
-  const std::vector<std::string> sections = route_sections(job.route);
-  const Config c = job.settings.config();
-  check_rules(c, job.settings, sections);
-  // run.threads bounds every parallel loop of the run (0 = all cores).
-  std::unique_ptr<tbb::global_control> threads;
-  if (c.threads > 0)
-    threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
-                                                    static_cast<std::size_t>(c.threads));
-  for (const std::string* out : {&job.output, &job.report, &job.toolpath, &job.gcode, &job.lattice}) {
-    if (out->empty()) continue;
-    const fs::path dir = fs::path(*out).parent_path();
-    if (!dir.empty()) fs::create_directories(dir);
-  }
+namespace {
+
+JobResult run_route(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
   const std::string& r = job.route;
   if (r == "lattice2d") return routes::lattice2d(job, c, diag, progress);
   if (r == "lattice3d") return routes::lattice3d(job, c, diag, progress);
@@ -168,6 +157,39 @@ JobResult run_job(const Job& job, Diagnostics& diag, const Progress& progress) {
   if (r == "pbf") return routes::pbf(job, c, diag, progress);
   if (r == "nonplanar") return routes::nonplanar(job, c, diag, progress);
   return routes::surface(job, c, diag, progress);
+}
+
+}  // namespace
+
+JobResult run_job(const Job& job, Diagnostics& diag, const Progress& progress) {
+  const std::vector<std::string> sections = route_sections(job.route);
+  const Config c = job.settings.config();
+  check_rules(c, job.settings, sections);
+  // run.threads bounds every parallel loop of the run (0 = all cores).
+  std::unique_ptr<tbb::global_control> threads;
+  if (c.threads > 0)
+    threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
+                                                    static_cast<std::size_t>(c.threads));
+  // Every output of the job is staged and committed together at the end; an error, a cancel or
+  // running out of memory leaves the output folders as they were (core/file.hpp).
+  OutputBatch batch;
+  for (const std::string* out : {&job.output, &job.report, &job.toolpath, &job.gcode, &job.lattice}) {
+    if (out->empty()) continue;
+    const fs::path dir = fs::path(*out).parent_path();
+    if (!dir.empty()) create_output_directories(dir.string());
+  }
+  JobResult result = [&] {
+    try {
+      return run_route(job, c, diag, progress);
+    } catch (const std::bad_alloc&) {
+      throw ResourceError(
+          "ran out of memory (the estimate before the run was too low): lower the resolution "
+          "or the size of the job, or raise the memory available (run.max_memory, --max-memory)",
+          {"", 0, "run.max_memory"});
+    }
+  }();
+  batch.commit();
+  return result;
 }
 
 }  // namespace trellis

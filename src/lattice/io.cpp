@@ -147,7 +147,13 @@ LatticeInput parse_segments_csv(const std::string& text, const std::string& orig
       break;
     }
   }
+  std::size_t columns = 0;  // of the first row: every row has as many
   for_each_record(text, [&](long line, const std::vector<std::string_view>& f) {
+    if (columns == 0) columns = f.size();
+    if (f.size() != columns)
+      throw ParseError("expected " + std::to_string(columns) + " fields like the first row, got " +
+                           std::to_string(f.size()) + " field(s)",
+                       {origin, line});
     // 3D + material has 7 fields; 2D + material (5) only under a header naming the column,
     // so that a 3D line missing a number stays an error.
     const bool with_material = f.size() == 7 || (f.size() == 5 && header_material);
@@ -178,9 +184,15 @@ LatticeInput parse_segments_csv(const std::string& text, const std::string& orig
 LatticeInput parse_aero_pair(const std::string& vtext, const std::string& vorigin,
                              const std::string& etext, const std::string& eorigin) {
   LatticeInput in;
+  std::size_t columns = 0;  // of the first row: every row has as many (no short row read as z = 0)
   for_each_record(vtext, [&](long line, const std::vector<std::string_view>& f) {
     if (f.size() != 3 && f.size() != 2)
       throw ParseError("expected x,y,z, got " + std::to_string(f.size()) + " field(s)",
+                       {vorigin, line});
+    if (columns == 0) columns = f.size();
+    if (f.size() != columns)
+      throw ParseError("expected " + std::to_string(columns) + " fields like the first row, got " +
+                           std::to_string(f.size()) + " field(s)",
                        {vorigin, line});
     const double x = field_double(f[0], vorigin, line, 1), y = field_double(f[1], vorigin, line, 2);
     const double z = f.size() == 3 ? field_double(f[2], vorigin, line, 3) : 0.0;
@@ -303,6 +315,10 @@ static LatticeInput lattice_from_document(const json& doc, const std::string& or
     const json& p = (*nodes)[i];
     if (!p.is_array() || (p.size() != 3 && p.size() != 2))
       throw ParseError("expected [x, y, z] or [x, y]", {origin, 0, el});
+    if (p.size() != (*nodes)[0].size())
+      throw ParseError("has " + std::to_string(p.size()) + " coordinates, nodes[0] has " +
+                           std::to_string((*nodes)[0].size()) + ": every node has as many",
+                       {origin, 0, el});
     in.graph.nodes.push_back({num(p[0], el), num(p[1], el), p.size() == 3 ? num(p[2], el) : 0.0});
   }
   auto index = [&](const json& v, const std::string& el) {

@@ -2,6 +2,7 @@
 
 #include <charconv>
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <numbers>
 
@@ -189,6 +190,13 @@ void GcodeScanner::move(std::string_view args, int g) {
     if (!ok || !std::isfinite(v) || std::abs(v) > kMaxValue)
       return bad("bad number in '" + std::string(args.substr(p, std::min<std::size_t>(q - p, 30))) +
                  "'");
+    // "X1e308": an exponent (which G-code has not) or X1 and E308? Neither is read as the other.
+    if (e + 1 < end && (*e == 'e' || *e == 'E') &&
+        (is_digit(e[1]) || ((e[1] == '-' || e[1] == '+') && e + 2 < end && is_digit(e[2]))))
+      return bad("'" + std::string(args.substr(p, std::min<std::size_t>(q - p + 6, 30))) +
+                 "': a number with an exponent, or two words without a space between them");
+    for (int i = 0; i < n; ++i)
+      if (words[i].letter == letter) return bad(std::string("the word ") + letter + " appears twice");
     if (n == 16) return bad("too many words");
     words[n++] = {letter, v};
     p = q;
@@ -422,6 +430,8 @@ Toolpath read_gcode(std::string_view text, const GcodeReadOptions& options, Diag
 
 void scan_gcode_file(const std::string& path, GcodeSink& sink, const GcodeReadOptions& options,
                      Diagnostics& diag) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) throw IoError("is a directory", {path});
   std::ifstream in(path, std::ios::binary);
   if (!in) throw IoError("cannot open", {path});
   GcodeScanner scanner(sink, options, diag, path);
@@ -447,6 +457,7 @@ void scan_gcode_file(const std::string& path, GcodeSink& sink, const GcodeReadOp
     if (got == 0) break;
     scanner.feed(std::string_view(buf.data(), got));
   }
+  if (in.bad()) throw IoError("cannot read", {path});
   scanner.finish();
 }
 

@@ -373,9 +373,10 @@ std::vector<Setting> make_table() {
     s.positive = true;
     t.push_back(std::move(s));
   }
-  t.push_back(number("lattice3d.skin", "mm", 0, 1000,
-                     "conformal: a stochastic (Voronoi) skin this thick; 0 = none", "skin",
-                     [](C& c) -> auto& { return c.lattice3d.conformal.skin; }));
+  t.push_back(derived(positive("lattice3d.skin", "mm", 1000,
+                               "conformal: a stochastic (Voronoi) skin this thick", "skin",
+                               [](C& c) -> auto& { return c.lattice3d.conformal.skin; }),
+                      "none"));
   t.push_back(positive("lattice3d.skin_density", "1/mm³", 100, "conformal: skin foam seeds per mm³",
                        "skin-density", [](C& c) -> auto& { return c.lattice3d.conformal.skin_density; }));
   t.push_back(positive("lattice3d.radius", "mm", 100,
@@ -549,9 +550,10 @@ std::vector<Setting> make_table() {
                        [](C& c) -> auto& { return c.pbf.cell; }));
   t.push_back(text("pbf.c", "sheet parameter c (Φ = φ² − c²): a number or an expression of x, y, z, rho, r",
                    "c", [](C& c) -> auto& { return c.pbf.c; }));
-  t.push_back(number("pbf.thickness", "mm", 0, 100,
-                     "uniform wall thickness t: c = t·|∇φ|/2 (0: use pbf.c)", "thickness",
-                     [](C& c) -> auto& { return c.pbf.thickness; }));
+  t.push_back(derived(positive("pbf.thickness", "mm", 100,
+                               "uniform wall thickness t: c = t·|∇φ|/2 instead of pbf.c", "thickness",
+                               [](C& c) -> auto& { return c.pbf.thickness; }),
+                      "none: the sheet parameter pbf.c"));
   t.push_back(derived(numbers("pbf.size", "mm", 0, 10000, 3, "box X, Y, Z centred at the origin",
                               "size", [](C& c) -> auto& { return c.pbf.size; }),
                       "4 cells a side"));
@@ -575,10 +577,11 @@ std::vector<Setting> make_table() {
   t.push_back(choice("pbf.strategy", {"hybrid", "r67"},
                      "hybrid (contours on thin walls, hatch at joints) or r67 (hatch everything)",
                      "strategy", [](C& c) -> auto& { return c.pbf.strategy; }));
-  t.push_back(number("pbf.wall_thickness", "mm", 0, 100,
-                     "a plane thin wall of this thickness instead of a TPMS (PBF paper Fig. 3; box "
-                     "from pbf.size, default 2,2,20); 0 = off", "wall-thickness",
-                     [](C& c) -> auto& { return c.pbf.wall_thickness; }));
+  t.push_back(derived(positive("pbf.wall_thickness", "mm", 100,
+                               "a plane thin wall of this thickness instead of a TPMS (PBF paper "
+                               "Fig. 3; box from pbf.size, default 2,2,20)", "wall-thickness",
+                               [](C& c) -> auto& { return c.pbf.wall_thickness; }),
+                      "none: a TPMS"));
   t.push_back(positive("pbf.wall_inclination", "deg", 90, "the wall's angle from horizontal",
                        "wall-inclination", [](C& c) -> auto& { return c.pbf.wall_inclination; }));
   t.push_back(number("pbf.wall_azimuth", "deg", -360, 360, "the wall's direction from X",
@@ -587,9 +590,6 @@ std::vector<Setting> make_table() {
                      "hatch-rotation", [](C& c) -> auto& { return c.pbf.options.hatch_rotation; }));
   t.push_back(boolean("pbf.binary", "binary CLI geometry (the header stays ASCII, with CLI+ blocks)",
                       "binary", [](C& c) -> auto& { return c.pbf.binary; }));
-  t.push_back(number("pbf.memory_budget", "MB", 0, 1e9,
-                     "refuse a run estimated above this; 0 = the memory available", "memory-budget",
-                     [](C& c) -> auto& { return c.pbf.memory_budget_mb; }));
   t.push_back(positive("pbf.resolution", "mm", 10,
                        "sampling step: the STL route's voxel; direct contours on a grid twice as coarse",
                        "resolution", [](C& c) -> auto& { return c.pbf.options.resolution; }));
@@ -671,6 +671,16 @@ std::vector<Setting> make_table() {
                       "frames", [](C& c) -> auto& { return c.output.frames; }));
   t.push_back(integer("run.threads", 0, 1024, "worker threads (0 = all cores)", "threads",
                       [](C& c) -> auto& { return c.threads; }));
+  t.push_back(derived(positive("run.max_memory", "MB", 1e9,
+                               "refuse a run whose estimate (made from its settings before it "
+                               "starts) needs more memory than this",
+                               "max-memory", [](C& c) -> auto& { return c.budget.max_memory_mb; }),
+                      "the memory available when the run starts"));
+  t.push_back(positive("run.max_time", "s", 1e9,
+                       "refuse a run whose estimated time is longer than this", "max-time",
+                       [](C& c) -> auto& { return c.budget.max_time; }));
+  t.push_back(boolean("run.force", "run even when the estimate is beyond run.max_memory or run.max_time",
+                      "force", [](C& c) -> auto& { return c.budget.force; }));
   return t;
 }
 

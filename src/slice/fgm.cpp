@@ -601,18 +601,20 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
 
 void measure_gradient_error(const Field& field, const Toolpath& tp,
                             const std::vector<LayerOutline>& layers, double h, FgmStats& st) {
+  // One sum per layer, added in layer order: the report is the same for any thread count
+  // (per-thread sums would be added in whatever order the threads ran).
   struct Acc {
     double sum = 0, max = 0;
     std::size_t n = 0;
   };
   tbb::enumerable_thread_specific<Evaluator> evaluators([&] { return Evaluator(field); });
-  tbb::enumerable_thread_specific<Acc> acc;
+  std::vector<Acc> acc(tp.layers.size());
   tbb::parallel_for(std::size_t{0}, tp.layers.size(), [&](std::size_t li) {
     const Layer& l = tp.layers[li];
     const auto idx = static_cast<std::size_t>(std::llround(l.z / h)) - 1;
     if (idx >= layers.size()) return;
     Evaluator& ev = evaluators.local();
-    Acc& a = acc.local();
+    Acc& a = acc[li];
     for (const auto& p : l.paths) {
       if (p.mixture.empty() || p.role == PathRole::Other || p.role == PathRole::Purge) continue;
       for (const auto& q : p.points) {

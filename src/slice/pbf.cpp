@@ -886,11 +886,13 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
     result.memory_estimate = pbf_memory_estimate(design, o, threads);
     const double budget = o.memory_budget > 0 ? o.memory_budget : available_memory_bytes();
     if (budget > 0 && result.memory_estimate > budget)
-      throw SettingError(fmt::format(
-          "this job needs about {:.0f} MB ({} threads at resolution {} mm, {} layers) but the "
-          "memory budget is {:.0f} MB: raise the resolution (--resolution), cut the part in "
-          "build-height ranges, run fewer threads or raise the budget (--memory-budget)",
-          result.memory_estimate / 1e6, threads, o.resolution, zs.size(), budget / 1e6));
+      throw ResourceError(fmt::format(
+          "refused before starting: this job needs about {:.0f} MB ({} threads at resolution {} "
+          "mm, {} layers, estimate) but the memory budget is {:.0f} MB: raise the resolution "
+          "(--resolution), cut the part in build-height ranges, run fewer threads or raise the "
+          "budget (--max-memory MB, or --force)",
+          result.memory_estimate / 1e6, threads, o.resolution, zs.size(), budget / 1e6),
+          {"", 0, "run.max_memory"});
   }
 
   // c as a constant or as its own field.

@@ -30,16 +30,6 @@ PbfDesign plane_wall(double thickness, double inclination_deg, double azimuth_de
   return d;
 }
 
-double available_memory_bytes() {
-  std::ifstream in("/proc/meminfo");
-  std::string key;
-  double kb = 0;
-  std::string unit;
-  while (in >> key >> kb >> unit)
-    if (key == "MemAvailable:") return kb * 1024;
-  return 0;  // unknown: no budget
-}
-
 // The direct route's memory (the STL route's mesh is not modelled: it is the comparison).
 double pbf_memory_estimate(const PbfDesign& design, const PbfOptions& o, int threads) {
   const BBox3 e = design.part().extent();

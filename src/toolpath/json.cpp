@@ -106,6 +106,10 @@ static Toolpath toolpath_from_document(const json& doc, const std::string& origi
   const auto version = doc.find("version");
   if (version == doc.end() || *version != 1)
     throw ParseError("unsupported toolpath version (this build reads version 1)", {origin});
+  if (auto units = doc.find("units"); units != doc.end() && *units != "mm")
+    throw ParseError("units " + units->dump() + ": a Trellis toolpath is in millimetres (\"mm\"); "
+                     "convert the coordinates, widths and heights",
+                     {origin, 0, "units"});
   Toolpath tp;
   if (auto it = doc.find("source"); it != doc.end() && it->is_string()) tp.source = *it;
   auto layers = doc.find("layers");

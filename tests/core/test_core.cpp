@@ -1,9 +1,13 @@
 #include <gtest/gtest.h>
+#include <sys/stat.h>
+
+#include <cmath>
 
 #include <filesystem>
 #include <set>
 
 #include "support/temp_dir.hpp"
+#include "trellis/core/budget.hpp"
 #include "trellis/core/diagnostics.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
@@ -63,6 +67,83 @@ TEST(File, AtomicWriteReplacesAndLeavesNoTempFiles) {
   std::size_t files = 0;
   for (auto& e : fs::directory_iterator(dir / "sub")) files += e.is_regular_file();
   EXPECT_EQ(files, 1u);
+}
+
+namespace {
+std::set<std::string> names_in(const fs::path& dir) {
+  std::set<std::string> out;
+  for (auto& e : fs::recursive_directory_iterator(dir)) out.insert(fs::relative(e.path(), dir).string());
+  return out;
+}
+}  // namespace
+
+TEST(File, BatchCommitsEveryOutputTogetherOrNone) {
+  const trellis::test::TempDir tmp("trellis_test_batch");
+  const fs::path dir = tmp.path();
+  write_file_atomic((dir / "old.txt").string(), "old");
+  const auto before = names_in(dir);
+  {
+    OutputBatch batch;
+    write_file_atomic((dir / "a.txt").string(), "a");
+    write_file_atomic((dir / "new" / "deep" / "b.txt").string(), "b");
+    write_file_atomic((dir / "old.txt").string(), "replaced");
+    // Staged: nothing visible under its name yet, the old file untouched.
+    EXPECT_FALSE(fs::exists(dir / "a.txt"));
+    EXPECT_EQ(read_file((dir / "old.txt").string()), "old");
+    // No commit: the batch ends as a failed job would.
+  }
+  EXPECT_EQ(names_in(dir), before);
+  EXPECT_EQ(read_file((dir / "old.txt").string()), "old");
+  {
+    OutputBatch batch;
+    write_file_atomic((dir / "a.txt").string(), "a");
+    {
+      OutputBatch inner;  // nested (a job inside a command): only the outer one commits
+      write_file_atomic((dir / "new" / "b.txt").string(), "b");
+      inner.commit();
+    }
+    EXPECT_FALSE(fs::exists(dir / "new" / "b.txt"));
+    batch.commit();
+  }
+  EXPECT_EQ(read_file((dir / "a.txt").string()), "a");
+  EXPECT_EQ(read_file((dir / "new" / "b.txt").string()), "b");
+  EXPECT_EQ(names_in(dir).size(), before.size() + 3);  // a.txt, new, new/b.txt; no temporaries
+}
+
+TEST(File, OutputsHonourTheUmask) {
+  const trellis::test::TempDir tmp("trellis_test_umask");
+  const mode_t old = ::umask(077);
+  write_file_atomic(tmp.file("private.txt"), "x");
+  ::umask(002);
+  write_file_atomic(tmp.file("group.txt"), "x");
+  ::umask(old);
+  EXPECT_EQ(fs::status(tmp.path() / "private.txt").permissions() & fs::perms::all,
+            fs::perms::owner_read | fs::perms::owner_write);
+  EXPECT_EQ(fs::status(tmp.path() / "group.txt").permissions() & fs::perms::all,
+            fs::perms::owner_read | fs::perms::owner_write | fs::perms::group_read |
+                fs::perms::group_write | fs::perms::others_read);
+}
+
+TEST(Budget, RefusesBeyondEitherLimitWithTheEstimateAndForceGoesBeyond) {
+  Budget b;
+  b.memory = 1e9;
+  b.seconds = 60;
+  EXPECT_NO_THROW(check_budget({5e8, 30, "a small run", "--x"}, b));
+  for (const Estimate& e : {Estimate{2e9, 1, "a big run", "--size"}, Estimate{1, 120, "a long run", "--size"},
+                            Estimate{std::nan(""), 1, "a NaN run", "--size"}}) {
+    try {
+      check_budget(e, b);
+      ADD_FAILURE() << e.what;
+    } catch (const ResourceError& err) {
+      const std::string m = err.what();
+      EXPECT_NE(m.find(e.what), std::string::npos) << m;
+      EXPECT_NE(m.find("--size"), std::string::npos) << m;
+      EXPECT_NE(m.find("--force"), std::string::npos) << m;
+      EXPECT_NE(m.find("estimate"), std::string::npos) << m;
+    }
+  }
+  b.force = true;
+  EXPECT_NO_THROW(check_budget({2e12, 1e9, "a huge run", "--size"}, b));
 }
 
 TEST(File, MissingFileIsAnIoErrorNamingIt) {

@@ -38,11 +38,14 @@ std::string temp_file(const std::string& name, const std::string& text) {
 
 TEST(LatticeJson, ReadsNodesEdgesMaterialAndDirected) {
   const auto in = parse_lattice_json(
-      R"({"nodes": [[0,0,0],[1,0,0],[1,1]], "edges": [[0,1], {"ends":[1,2],"material":2,"directed":true}]})",
+      R"({"nodes": [[0,0],[1,0],[1,1]], "edges": [[0,1], {"ends":[1,2],"material":2,"directed":true}]})",
       "t.json");
   ASSERT_EQ(in.graph.nodes.size(), 3u);
   ASSERT_EQ(in.graph.edges.size(), 2u);
   EXPECT_EQ(in.graph.nodes[2].z, 0.0);
+  // 2D and 3D nodes mixed: an error naming the node, not z = 0 (issue 24).
+  EXPECT_THROW(parse_lattice_json(R"({"nodes": [[0,0,0],[1,0,0],[1,1]], "edges": [[0,1]]})", "t.json"),
+               ParseError);
   EXPECT_EQ(in.graph.edges[1].material, 2);
   EXPECT_TRUE(in.graph.edges[1].directed);
   const auto arr = parse_lattice_json(
@@ -88,6 +91,8 @@ TEST(SegmentsCsv, ReadsWithHeaderCommentsAnd2D) {
 TEST(SegmentsCsv, BadLinesNameTheLine) {
   expect_parse_error([] { parse_segments_csv("0,0,0,1,0,0\n0,0,0,1,0\n", "s.csv"); }, 2,
                      "got 5 field");
+  expect_parse_error([] { parse_segments_csv("0,0,0,1,0,0\n0,0,1,0\n", "s.csv"); }, 2,
+                     "expected 6 fields like the first row");
   expect_parse_error([] { parse_segments_csv("0,0,0,1,0,0\n0,0,0,1,abc,0\n", "s.csv"); }, 2,
                      "column 5");
   expect_parse_error([] { parse_segments_csv("0,0,0,nan,0,0\n", "s.csv"); }, 1,
@@ -111,8 +116,11 @@ TEST(AeroPair, ReadsTheSharedOctetAndFindsTheOtherFile) {
 TEST(AeroPair, BadIndicesAndMissingPartner) {
   expect_parse_error([] { parse_aero_pair("0,0,0\n1,0,0\n", "v.csv", "0,1\n1,2\n", "e.csv"); }, 2,
                      "node index 2 out of range");
-  expect_parse_error([] { parse_aero_pair("0,0,0\n1,0\n1,1,1,1\n", "v.csv", "0,1\n", "e.csv"); }, 3,
+  expect_parse_error([] { parse_aero_pair("0,0,0\n1,0,0\n1,1,1,1\n", "v.csv", "0,1\n", "e.csv"); }, 3,
                      "expected x,y,z");
+  // A short row is not a 2D point among 3D ones (issue 24: it planned without a word).
+  expect_parse_error([] { parse_aero_pair("0,0,0\n1,0,0\n1,1\n", "v.csv", "0,1\n", "e.csv"); }, 3,
+                     "expected 3 fields like the first row");
   expect_parse_error([] { parse_aero_pair("0,0,0\n1,0,0\n", "v.csv", "0,1.5\n", "e.csv"); }, 1,
                      "not an integer");
   const auto lonely = temp_file("lonely_vertices.csv", "0,0,0\n");

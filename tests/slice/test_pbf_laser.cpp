@@ -272,7 +272,7 @@ TEST(PbfLaser, MemoryBudgetRefusesAJobAboveIt) {
   const double estimate = pbf_memory_estimate(d, o, 2);
   EXPECT_GT(estimate, 1e5);
   o.memory_budget = 1e4;
-  EXPECT_THROW(plan_pbf(d, o), SettingError);
+  EXPECT_THROW(plan_pbf(d, o), ResourceError);
   o.memory_budget = 0;
   EXPECT_GT(plan_pbf(d, o).memory_estimate, 0);
 }

@@ -41,6 +41,12 @@ class IoError : public Error {
   using Error::Error;
 };
 
+// A run refused before it starts because its estimated memory or time is beyond the budget
+// (run.max_memory, run.max_time; run.force goes beyond on purpose), or that ran out of memory.
+class ResourceError : public Error {
+  using Error::Error;
+};
+
 // The caller stopped the work through Progress::cancel (core/progress.hpp); nothing was produced.
 class Cancelled : public Error {
   using Error::Error;

@@ -1,5 +1,13 @@
 // File helpers: whole-file reads with clear errors, and atomic writes (temp file + rename) so a
 // failed run never leaves a half-written output behind.
+//
+// Outputs of one command or job are committed together: while an OutputBatch is open,
+// write_file_atomic writes each file to a temporary beside its target and the batch renames them
+// all at commit(); a batch closed without commit (an error, bad_alloc, a cancel) removes its
+// temporaries and the folders it created, so the output folder holds what it held before.
+// SIGINT/SIGTERM (install_signal_cleanup) remove the temporaries of the moment too, then exit
+// with 130/143. The set of live temporaries is the one process-wide state here: a signal handler
+// can reach nothing else.
 #pragma once
 #include <string>
 #include <string_view>
@@ -10,5 +18,31 @@ std::string read_file(const std::string& path);
 void write_file_atomic(const std::string& path, std::string_view content);
 // Line number (1-based) of byte offset `pos` in `text`.
 long line_of_offset(std::string_view text, std::size_t pos);
+
+// create_directories for an output folder: the folders it creates are removed again (when still
+// empty) if the enclosing OutputBatch is not committed or a signal ends the process.
+void create_output_directories(const std::string& dir);
+
+// Opens a batch of outputs (see above). Batches nest: only the outermost one commits or removes.
+class OutputBatch {
+ public:
+  OutputBatch();
+  ~OutputBatch();
+  OutputBatch(const OutputBatch&) = delete;
+  OutputBatch& operator=(const OutputBatch&) = delete;
+  // Renames every staged temporary onto its target (outermost batch only).
+  void commit();
+
+ private:
+  bool outer_ = false;
+  bool done_ = false;
+};
+
+// SIGINT and SIGTERM remove the live temporaries and created folders, then _exit(128 + signal).
+// For programs (the CLI); a library user keeps its own signal handling.
+void install_signal_cleanup();
+
+// The file mode new outputs get: 0666 less the process umask.
+unsigned output_file_mode();
 
 }  // namespace trellis

@@ -13,7 +13,8 @@
 //           default under output_dir named after the job (see docs/jobs.md)
 //   [section] any setting of the schema (settings.hpp; `trellis settings` lists them),
 //           overriding the machine profile.
-// Every path is relative to the job file's folder.
+// Input paths and output_dir are relative to the job file's folder; explicit outputs are names
+// inside the output folder (no "..", not absolute, no symbolic link leading out: SettingError).
 #pragma once
 #include <memory>
 #include <string>

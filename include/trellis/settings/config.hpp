@@ -61,7 +61,6 @@ struct PbfConfig {
   double wall_inclination = 90; // deg from horizontal
   double wall_azimuth = 0;      // deg from X
   bool binary = false;          // binary CLI geometry
-  double memory_budget_mb = 0;  // refuse above this estimate; 0 = the memory available
   std::string route = "direct"; // direct | stl
   std::string strategy = "hybrid";  // hybrid | r67
   PbfOptions options;           // resolution, thin_multiple, min_inclination (scan from laser)
@@ -93,6 +92,14 @@ struct OutputConfig {
   int frames = 0;           // aero: step pictures of the first N trails
 };
 
+// run.max_memory, run.max_time, run.force: the budget every route checks its estimate against
+// before it starts (core/budget.hpp).
+struct BudgetConfig {
+  double max_memory_mb = 0;  // MB; unset (derived) = the memory available when the run starts
+  double max_time = 600;     // s: ten minutes, generous for any route at sane settings
+  bool force = false;
+};
+
 struct Config {
   MachineProfile machine;
   LaserProfile laser;
@@ -114,6 +121,7 @@ struct Config {
   SurfaceConfig surface;
   OutputConfig output;
   int threads = 0;      // run.threads: 0 = all cores
+  BudgetConfig budget;  // run.max_memory, run.max_time, run.force
 };
 
 }  // namespace trellis

@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "trellis/core/budget.hpp"
 #include "trellis/core/diagnostics.hpp"
 #include "trellis/core/progress.hpp"
 #include "trellis/field/field.hpp"
@@ -61,7 +62,7 @@ struct PbfOptions {
   // Scan-time model (speeds, delays) for the per-layer times of this path and the R67 baseline.
   ScanTiming timing;
   // Bytes the run may use (grids, caches, layers; the STL route's mesh); 0 = the memory
-  // available now. A larger estimate before the run is a SettingError naming the setting to change.
+  // available now. A larger estimate before the run is a ResourceError naming the setting to change.
   double memory_budget = 0;
 };
 
@@ -107,8 +108,6 @@ struct PbfResult {
 // grids and caches, the layers' vectors and the toolpath made of them; the STL route's mesh is
 // not counted). plan_pbf refuses to start above PbfOptions::memory_budget.
 double pbf_memory_estimate(const PbfDesign& design, const PbfOptions& options, int threads);
-// MemAvailable from /proc/meminfo (bytes), 0 if unknown.
-double available_memory_bytes();
 
 // The paper's thin-wall experiments (Fig. 3): a plane wall of thickness t (mm) through the
 // origin, inclined `inclination` degrees from the horizontal (90 = vertical) and running along

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "trellis/geom/mesh_repair.hpp"
+#include "trellis/core/budget.hpp"
 #include "trellis/machine/gcode_writer.hpp"
 #include "trellis/slice/fgm.hpp"
 #include "trellis/slice/slice.hpp"
@@ -35,6 +36,9 @@ struct SliceJob {
   // colours than tools is an error unless `quantize` (then the palette is the tools').
   int tools = 0;
   bool quantize = false;
+  // The work estimated from the extent, the layers and the grids is checked against this before
+  // any layer is sliced (core/budget.hpp).
+  Budget budget;
 };
 
 struct SliceResult {

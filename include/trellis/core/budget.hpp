@@ -1,0 +1,29 @@
+// Estimate before work: every route estimates the memory and time a run needs from its settings
+// (layers × grid cells, lattice size, iterations × edges, image pixels, colours × material grid)
+// and refuses above the run's budget before allocating anything, with the estimate and the
+// setting to change in the message.
+#pragma once
+#include <string>
+
+namespace trellis {
+
+struct Budget {
+  double memory = 0;      // bytes; 0 = the memory available now (MemAvailable)
+  double seconds = 600;  // a generous bound on the estimated run time (10 minutes)
+  bool force = false;     // run.force: go beyond the budget on purpose
+};
+
+struct Estimate {
+  double bytes = 0;    // peak memory
+  double seconds = 0;  // run time on one core of an ordinary machine
+  std::string what;    // "GIPPO planning: 1e9 iterations × 1,200 edges"
+  std::string change;  // the settings that shrink it, e.g. "--iterations (gippo.iterations)"
+};
+
+// Throws ResourceError (exit 2) when the estimate is beyond the budget and force is off.
+void check_budget(const Estimate& estimate, const Budget& budget);
+
+// MemAvailable from /proc/meminfo (bytes), 0 if unknown.
+double available_memory_bytes();
+
+}  // namespace trellis

@@ -1,0 +1,60 @@
+#include "trellis/core/budget.hpp"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <fstream>
+
+#include "trellis/core/error.hpp"
+
+namespace trellis {
+
+double available_memory_bytes() {
+  std::ifstream in("/proc/meminfo");
+  std::string key, unit;
+  double kb = 0;
+  while (in >> key >> kb >> unit)
+    if (key == "MemAvailable:") return kb * 1024;
+  return 0;  // unknown: no memory budget
+}
+
+namespace {
+
+std::string bytes_text(double b) {
+  if (!std::isfinite(b)) return "an unbounded amount of memory";
+  if (b >= 1e12) return fmt::format("{:.3g} TB", b / 1e12);
+  if (b >= 1e9) return fmt::format("{:.3g} GB", b / 1e9);
+  return fmt::format("{:.0f} MB", std::ceil(b / 1e6));
+}
+
+std::string seconds_text(double s) {
+  if (!std::isfinite(s)) return "forever";
+  if (s >= 86400 * 365.0) return fmt::format("{:.3g} years", s / (86400 * 365.0));
+  if (s >= 86400) return fmt::format("{:.3g} days", s / 86400);
+  if (s >= 3600) return fmt::format("{:.3g} h", s / 3600);
+  if (s >= 60) return fmt::format("{:.3g} minutes", s / 60);
+  return fmt::format("{:.3g} s", s);
+}
+
+}  // namespace
+
+void check_budget(const Estimate& e, const Budget& b) {
+  if (b.force) return;
+  const double memory = b.memory > 0 ? b.memory : available_memory_bytes();
+  const bool too_big = !(e.bytes <= memory) && memory > 0;  // NaN estimates are refused too
+  const bool too_long = !(e.seconds <= b.seconds);
+  if (!too_big && !too_long) return;
+  std::string msg = "refused before starting: " + e.what + " needs about " +
+                    (e.bytes > 0 ? bytes_text(e.bytes) + " of memory and " : "") +
+                    seconds_text(e.seconds) + " (estimate), beyond the ";
+  if (too_big)
+    msg += "memory budget of " + bytes_text(memory) +
+           (b.memory > 0 ? " (run.max_memory)" : " (the memory available; run.max_memory)");
+  if (too_big && too_long) msg += " and the ";
+  if (too_long) msg += "time budget of " + seconds_text(b.seconds) + " (run.max_time)";
+  msg += ". Change " + e.change +
+         ", or raise the budget (--max-memory MB, --max-time S) or pass --force to run it anyway";
+  throw ResourceError(msg, {"", 0, too_big ? "run.max_memory" : "run.max_time"});
+}
+
+}  // namespace trellis

@@ -1,0 +1,30 @@
+// Fuzzes the 3MF readers (the file is written to a temporary path first, lib3mf reads files):
+// beam lattices (read_beam_lattice_3mf) and meshes (read_mesh). Any input reads or throws
+// trellis::Error; bad_alloc from a hostile size is the CLI's clean refusal, not a crash.
+#include <unistd.h>
+
+#include <fstream>
+#include <new>
+#include <string>
+
+#include "trellis/core/diagnostics.hpp"
+#include "trellis/core/error.hpp"
+#include "trellis/geom/mesh_io.hpp"
+#include "trellis/lattice/io.hpp"
+
+extern "C" int LLVMFuzzerTestOneInput(const unsigned char* data, std::size_t size) {
+  static const std::string path = "/tmp/trellis_fuzz_3mf_" + std::to_string(::getpid()) + ".3mf";
+  std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char*>(data), size);
+  try {
+    trellis::Diagnostics diag;
+    (void)trellis::read_beam_lattice_3mf(path, diag);
+  } catch (const trellis::Error&) {
+  } catch (const std::bad_alloc&) {
+  }
+  try {
+    (void)trellis::read_mesh(path);
+  } catch (const trellis::Error&) {
+  } catch (const std::bad_alloc&) {
+  }
+  return 0;
+}

@@ -1,0 +1,503 @@
+#!/usr/bin/env python3
+"""Hostile inputs (issue 24): malformed, hostile and oversized inputs to every command.
+
+Every case is generated here (settings out of range in job files and flags, broken lattice,
+design, mesh, toolpath, profile, job and G-code files, runaway requests) and run in a fresh
+folder whose output folder holds a file beforehand. Each must:
+  - exit 2 (never 3, never a crash or a hang: a case has 10 s),
+  - print one error that names where (the file and line, the flag or the setting),
+  - leave every folder exactly as it was (no output, no temporary),
+and a runaway request must be refused in under 2 s with its estimate, using under 200 MB.
+A second part sends SIGINT/SIGTERM during long writes and checks the exit status (130/143)
+and that no temporary is left.
+
+usage: hostile_test.py TRELLIS SOURCE_DIR [--list]
+"""
+import concurrent.futures
+import os
+import re
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+
+TRELLIS = os.path.abspath(sys.argv[1])
+ROOT = os.path.abspath(sys.argv[2])
+PROFILE = os.path.join(ROOT, "profiles", "ender3_s1_pro_tpu.toml")
+MIXING = os.path.join(ROOT, "profiles", "geeetech_a20t_mixing.toml")
+SYRINGE = os.path.join(ROOT, "profiles", "fresh_nonplanar_2syringe.toml")
+AERO = os.path.join(ROOT, "tests", "data", "aero")
+DESIGNS = os.path.join(ROOT, "examples", "designs")
+
+TINY_LATTICE = b'{"nodes": [[0,0,0],[10,0,0],[10,10,0],[0,10,0]], "edges": [[0,1],[1,2],[2,3],[3,0]]}\n'
+TINY_VCAD = b"root((-5,-5,0),(5,5,2),(0.1,0.1,0.1)) {\ncylinder(2,4);\n}\n"
+
+
+class Case:
+    def __init__(self, name, args, where, files=None, runaway=False, setup=None):
+        self.name, self.args, self.where = name, args, where
+        self.files = files or {}
+        self.runaway = runaway
+        self.setup = setup  # f(folder) before the run: symlinks and the like
+
+
+CASES = []
+
+
+def case(*a, **k):
+    CASES.append(Case(*a, **k))
+
+
+def settings_table():
+    out = subprocess.run([TRELLIS, "settings", "--markdown"], capture_output=True, text=True, check=True).stdout
+    rows = []
+    for line in out.splitlines():
+        m = re.match(r"\| `([a-z0-9_.]+)` \| (\w[\w/]*) \| [^|]* \| [^|]* \| ([^|]*) \| ([^|]*) \|", line)
+        if m:
+            rows.append((m.group(1), m.group(2), m.group(3).strip(), m.group(4).strip().strip("`")))
+    return rows
+
+
+def route_of(section):
+    if section in ("lattice2d",):
+        return "lattice2d"
+    if section in ("lattice3d",):
+        return "lattice3d"
+    if section in ("laser", "scan", "timing", "pbf"):
+        return "pbf"
+    if section in ("slice", "fgm"):
+        return "slice"
+    if section in ("nonplanar", "surface"):
+        return "nonplanar"
+    return "plan"
+
+
+def bad_values(kind, rng):
+    """Values outside the setting's range, as TOML text."""
+    out = []
+    m = re.match(r"> 0 and <= ([-0-9.e+]+)", rng)
+    if m:
+        out += ["0", "-1", repr(float(m.group(1)) * 10 + 1)]
+    m = re.match(r"([-0-9.e+]+) \.\. ([-0-9.e+]+)", rng)
+    if m:
+        lo, hi = float(m.group(1)), float(m.group(2))
+        out += [repr(lo - max(1.0, abs(lo))), repr(hi + max(1.0, abs(hi)))]
+    if kind in ("number", "integer"):
+        out += ["nan", "inf", '"x"']
+    if kind == "integer":
+        out += ["1.5"]
+    if kind == "choice":
+        out += ['"no-such-choice"']
+    return out
+
+
+def settings_cases():
+    for key, kind, rng, flag in settings_table():
+        section, name = key.split(".", 1)
+        route = route_of(section)
+        for i, v in enumerate(bad_values(kind, rng)):
+            text = f'[job]\nroute = "{route}"\nname = "j"\noutput_dir = "out"\n[{section}]\n{name} = {v}\n'
+            case(f"job {key} = {v}", ["run", "job.toml"], "job.toml:6", {"job.toml": text.encode()})
+            if flag and i < 2 and kind in ("number", "integer"):
+                cmd = {"lattice2d": ["lattice2d", "-o", "out/x.json"],
+                       "lattice3d": ["lattice3d", "-o", "out/x.json"],
+                       "pbf": ["pbf", "-o", "out/x.cli"],
+                       "slice": ["slice", "in.vcad", "--machine", PROFILE, "-o", "out/x.gcode"],
+                       "nonplanar": ["nonplanar", "--height-fn", "0.1*x", "--domain", "0,0,5,5",
+                                     "--machine", SYRINGE, "-o", "out/x.nc"],
+                       "plan": ["plan", "aero" if section in ("aero", "nozzle") else "gippo", "in.json",
+                                "-o", "out/x.json"]}[route]
+                case(f"flag {flag} {v}", cmd + [flag, v], flag,
+                     {"in.vcad": TINY_VCAD, "in.json": TINY_LATTICE})
+
+
+def lattice_cases():
+    bad_json = {
+        "truncated": b'{"nodes": [[0,0,0],[1,0,0]], "edges": [[0,',
+        "nodes not list": b'{"nodes": 3, "edges": []}',
+        "node short": b'{"nodes": [[0,0],[1,0,0]], "edges": [[0,1]]}',
+        "node string": b'{"nodes": [["a",0,0],[1,0,0]], "edges": [[0,1]]}',
+        "edge out of range": b'{"nodes": [[0,0,0],[1,0,0]], "edges": [[0,7]]}',
+        "edge negative": b'{"nodes": [[0,0,0],[1,0,0]], "edges": [[0,-1]]}',
+        "edge float": b'{"nodes": [[0,0,0],[1,0,0]], "edges": [[0,0.5]]}',
+        "overflow": b'{"nodes": [[0,0,1e999],[1,0,0]], "edges": [[0,1]]}',
+        "empty": b"",
+        "not json": b"hello",
+        "array": b"[1,2,3]",
+        "no edges": b'{"nodes": [[0,0,0]], "edges": []}',
+        "huge index": b'{"nodes": [[0,0,0],[1,0,0]], "edges": [[0,99999999999999999999]]}',
+    }
+    for n, body in bad_json.items():
+        case(f"lattice json {n}", ["plan", "euler", "bad.json", "-o", "out/t.json"], "bad.json",
+             {"bad.json": body})
+    bad_csv = {
+        "short row": b"0,0,0,1,0,0\n1,0,0,2,0\n",
+        "long row": b"0,0,0,1,0,0\n1,0,0,2,0,0,7,8\n",
+        "2d then 3d": b"0,0,1,0\n1,0,0,2,0,0\n",
+        "text": b"0,0,0,1,0,0\na,b,c,d,e,f\n",
+        "nan": b"0,0,0,1,0,0\nnan,0,0,2,0,0\n",
+        "inf": b"0,0,0,1,0,0\ninf,0,0,2,0,0\n",
+        "overflow": b"0,0,0,1,0,0\n1e999,0,0,2,0,0\n",
+    }
+    for n, body in bad_csv.items():
+        case(f"segments csv {n}", ["plan", "euler", "bad.csv", "-o", "out/t.json"], "bad.csv:2",
+             {"bad.csv": body})
+    verts = open(os.path.join(AERO, "cubic_vertices.csv"), "rb").read().splitlines()
+    edges = open(os.path.join(AERO, "cubic_edges.csv"), "rb").read()
+    for n, row in {"two columns": b"1,2", "four columns": b"1,2,3,4", "text": b"a,b,c",
+                   "nan": b"nan,0,0", "empty field": b"1,,2"}.items():
+        v = b"\n".join(verts[:2] + [row] + verts[3:]) + b"\n"
+        case(f"aero vertices {n}", ["plan", "aero", "x_vertices.csv", "-o", "out/t.json"],
+             "x_vertices.csv:3", {"x_vertices.csv": v, "x_edges.csv": edges})
+    for n, row in {"one column": b"1", "four columns": b"1,2,3,4", "out of range": b"1,100000",
+                   "negative": b"-1,2", "text": b"a,b"}.items():
+        e = edges.splitlines()
+        body = b"\n".join(e[:1] + [row] + e[2:]) + b"\n"
+        case(f"aero edges {n}", ["plan", "aero", "x_vertices.csv", "-o", "out/t.json"],
+             "x_edges.csv:2", {"x_vertices.csv": b"\n".join(verts) + b"\n", "x_edges.csv": body})
+    for n, body in {"bad v": b"v 0 0\nv 1 0 0\nl 1 2\n", "l out of range": b"v 0 0 0\nv 1 0 0\nl 1 9\n",
+                    "v text": b"v a b c\nv 1 0 0\nl 1 2\n", "l zero": b"v 0 0 0\nv 1 0 0\nl 0 1\n"}.items():
+        case(f"obj lines {n}", ["plan", "euler", "bad.obj", "-o", "out/t.json"], "bad.obj",
+             {"bad.obj": body})
+
+
+def design_cases():
+    bad = {
+        "unclosed": b"cylinder(2,4) {",
+        "unknown node": b"blob(1,2);",
+        "wrong args": b"cylinder(2);",
+        "text arg": b"cylinder(a,4);",
+        "nan fraction": b'fgrade(["sqrt(-1-x*x)","1-sqrt(-1-x*x)"],["a","b"]) { cylinder(10,5); }\n',
+        "inf fraction": b'fgrade(["1/(x-x)","1"],["a","b"]) { cylinder(10,5); }\n',
+        "bad expression": b'fgrade(["x+","1"],["a","b"]) { cylinder(10,5); }\n',
+        "empty": b"",
+        "overflow": b"cylinder(1e999,4);",
+        "root short": b"root((0,0,0),(1,1,1)) { cylinder(1,1); }",
+    }
+    for n, body in bad.items():
+        args = ["slice", "bad.vcad", "--machine", MIXING, "-o", "out/x.gcode"]
+        if "fraction" in n:
+            args += ["--strategy", "2"]
+        case(f"vcad {n}", args, "bad.vcad", {"bad.vcad": body})
+    meshes = {
+        "bad.stl": b"solid x\nfacet normal 0 0 1\nouter loop\nvertex 0 0\nendloop\nendfacet\nendsolid x\n",
+        "short.stl": b"\0" * 80 + b"\x10\0\0\0" + b"\0" * 30,
+        "empty.stl": b"",
+        "bad.obj": b"v 0 0 0\nv 1 0 0\nf 1 2 9\n",
+        "text.obj": b"v a b c\nf 1 2 3\n",
+        "bad.3mf": b"garbage",
+        "empty.3mf": b"PK\x05\x06" + b"\0" * 18,
+    }
+    for n, body in meshes.items():
+        case(f"mesh {n}", ["slice", n, "--machine", PROFILE, "-o", "out/x.gcode"], n, {n: body})
+        case(f"surface mesh {n}", ["nonplanar", n, "--machine", SYRINGE, "-o", "out/x.nc"], n, {n: body})
+
+
+def toolpath_cases():
+    good = ('{"format": "trellis.toolpath", "version": 1, "units": "mm", "layers": [{"z": 0.2, "paths": [{"points": [[0,0,0.2],[10,0,0.2]], '
+            '"role": "strut", "tool": 0, "width": 0.4, "height": 0.2}]}]}')
+    bad = {
+        "inch": good.replace('"mm"', '"inch"'),
+        "units number": good.replace('"mm"', "3"),
+        "overflow": good.replace("10,0,0.2", "1e999,0,0.2"),
+        "truncated": good[:40],
+        "points short": good.replace("[10,0,0.2]", "[10,0]"),
+        "layers not list": '{"format": "trellis.toolpath", "version": 1, "units": "mm", "layers": 4}',
+        "negative width": good.replace('"width": 0.4', '"width": -1'),
+        "nan text": good.replace("10,0,0.2", '"nan",0,0.2'),
+    }
+    for n, body in bad.items():
+        case(f"toolpath {n}", ["gcode", "bad.json", "--machine", PROFILE, "-o", "out/x.gcode"], "bad.json",
+             {"bad.json": body.encode()})
+
+
+def profile_cases():
+    base = open(PROFILE).read()
+    bad = {
+        "nozzle zero": re.sub(r"nozzle_diameter = [0-9.]+", "nozzle_diameter = 0", base),
+        "nozzle negative": re.sub(r"nozzle_diameter = [0-9.]+", "nozzle_diameter = -0.4", base),
+        "unknown key": base + "\n[speed]\nwarp = 9\n",
+        "not toml": "this is [not toml",
+        "nan bed": re.sub(r"bed_x = [0-9.]+", "bed_x = nan", base),
+    }
+    for n, body in bad.items():
+        case(f"profile {n}", ["gcode", "in.json", "--machine", "bad.toml", "-o", "out/x.gcode"], "bad.toml",
+             {"bad.toml": body.encode(), "in.json": b""})
+
+
+def job_cases():
+    def job(body):
+        return {"job.toml": ('[job]\nroute = "lattice2d"\noutput_dir = "out"\n' + body).encode()}
+    case("job name ..", ["run", "job.toml"], "job.name", job('name = "../escaped/x"\n'))
+    case("job name /", ["run", "job.toml"], "job.name", job('name = "a/b"\n'))
+    case("job output ..", ["run", "job.toml"], "job.toml:4", job('output = "../x.lattice.json"\n'))
+    case("job output deep ..", ["run", "job.toml"], "job.toml:4", job('output = "a/../../x.json"\n'))
+    case("job output absolute", ["run", "job.toml"], "job.toml:4", job('output = "/tmp/trellis_escape.json"\n'))
+    case("job preview absolute", ["run", "job.toml"], "job.toml:4", job('preview = "/tmp/trellis_escape"\n'))
+
+    def link_out(d):
+        os.makedirs(os.path.join(d, "elsewhere"), exist_ok=True)
+        os.symlink(os.path.join(d, "elsewhere"), os.path.join(d, "out", "link"))
+
+    case("job output via symlink", ["run", "job.toml"], "output_dir", job('output = "link/x.json"\n'),
+         setup=link_out)
+
+    def link_file(d):
+        os.symlink(os.path.join(d, "victim.json"), os.path.join(d, "out", "j.lattice.json"))
+        open(os.path.join(d, "victim.json"), "w").write("keep")
+
+    case("job default output is a symlink", ["run", "job.toml"], "output_dir", job('name = "j"\n'),
+         setup=link_file)
+    case("job route", ["run", "job.toml"], "job.route", {"job.toml": b'[job]\nroute = "nope"\n'})
+    case("job no table", ["run", "job.toml"], "job.toml", {"job.toml": b"[lattice2d]\ncell = 1\n"})
+    case("job unknown key", ["run", "job.toml"], "job.toml:4", job('bogus = "x"\n'))
+    case("job not toml", ["run", "job.toml"], "job.toml", {"job.toml": b"[job\n"})
+    case("job layer height 0", ["run", "job.toml"], "job.toml:6",
+         {"job.toml": b'[job]\nroute = "plan"\nname = "x"\noutput_dir = "out"\n[extrusion]\nlayer_height = 0\n'})
+    # Fails after its first outputs (lattice, toolpath, G-code) are made: the preview folder is a file.
+    def blocker(d):
+        open(os.path.join(d, "out", "blocker"), "w").write("a file\n")
+
+    case("job fails after first outputs", ["run", "job.toml"], "blocker",
+         {"job.toml": ('[job]\nroute = "plan"\nname = "x"\noutput_dir = "out"\nmachine = "' + PROFILE +
+                       '"\npreview = "blocker"\n[lattice2d]\ncell = 5\nsize = [40, 20]\n').encode()},
+         setup=blocker)
+
+
+def gcode_cases():
+    def unreadable(d):
+        os.makedirs(os.path.join(d, "dir.gcode"))
+
+    for cmd in (["check", "in.json", "dir.gcode"], ["analyze", "dir.gcode"], ["check", "in.json", "missing.gcode"],
+                ["analyze", "missing.gcode"]):
+        case(f"{cmd[0]} unreadable {cmd[-1]}", cmd, cmd[-1].split(".")[0], {"in.json": TINY_LATTICE}, setup=unreadable)
+    for n, body in {"X1e308": b"G1 X1e308 Y0 E1\n", "duplicate X": b"G1 X1 X2 Y0 E1\n",
+                    "bad number": b"G1 X1.2.3 Y0 E1\n", "inf": b"G1 Xinf Y0 E1\n"}.items():
+        case(f"gcode strict {n}", ["analyze", "bad.gcode", "--strict"], "bad.gcode:1", {"bad.gcode": body})
+
+
+def runaway_cases():
+    def big(args, where="refused before starting", files=None):
+        case("runaway " + " ".join(a for a in args if "/" not in a), args, where, files, runaway=True)
+
+    big(["nonplanar", "--height-fn", "0.1*x", "--domain", "0,0,100,100", "--layers", "100000",
+         "--machine", SYRINGE, "-o", "out/x.nc"])
+    big(["lattice2d", "--cell", "1", "--size", "2000,2000", "-o", "out/x.json"])
+    big(["lattice2d", "--pattern", "voronoi", "--density", "100", "--size", "2000,2000", "-o", "out/x.json"])
+    big(["lattice3d", "--count", "1000,1000,1000", "-o", "out/x.json"])
+    big(["slice", os.path.join(DESIGNS, "fgm_palette_plate.vcad"), "--strategy", "2", "--colors", "1000",
+         "--material-resolution", "1e-6", "--machine", MIXING, "-o", "out/x.gcode"])
+    big(["slice", "cube.vcad", "--walls", "100", "--resolution", "0.01", "--machine", PROFILE,
+         "-o", "out/x.gcode"], files={"cube.vcad": b"root((-50,-50,0),(50,50,100),(0.1,0.1,0.1)) {\nrectprism(100,100,100);\n}\n"})
+    big(["plan", "aero", "oc.json", "--tries", "100000", "-o", "out/x.json"], files={"oc.json": None})
+    big(["plan", "gippo", "l.json", "--iterations", "10000000", "-o", "out/x.json"], files={"l.json": None})
+    big(["pbf", "--size", "1000,1000,1000", "-o", "out/x.cli"])
+    big(["pbf", "--resolution", "1e-4", "-o", "out/x.cli"])
+    big(["pbf", "--resolution", "0.001", "--size", "50,50,50", "-o", "out/x.cli"])
+    big(["slice", os.path.join(DESIGNS, "csg_bracket.vcad"), "--layer-height", "0.001", "--resolution", "0.001",
+         "--machine", PROFILE, "-o", "out/x.gcode"])
+    big(["render", "tp.json", "--image-size", "20000", "-o", "out/x.png"], "--image-size", files={"tp.json": None})
+    big(["run", "job.toml"], files={"job.toml": b'[job]\nroute = "lattice2d"\nname = "x"\noutput_dir = "out"\n'
+                                                b'[lattice2d]\ncell = 1\nsize = [2000, 2000]\n'})
+    big(["run", "job.toml"], files={"job.toml": b'[job]\nroute = "plan"\nname = "x"\noutput_dir = "out"\n'
+                                                b'[lattice2d]\ncell = 0.5\nsize = [100, 100]\n[gippo]\niterations = 10000000\n'})
+
+
+def prepared(folder, c):
+    """Inputs some cases share, made by Trellis itself."""
+    if "oc.json" in c.files:
+        subprocess.run([TRELLIS, "lattice3d", "--cell-type", "octet", "--count", "4,4,4", "-o",
+                        os.path.join(folder, "oc.json")], capture_output=True, check=True)
+    if "l.json" in c.files or "tp.json" in c.files:
+        subprocess.run([TRELLIS, "lattice2d", "--cell", "1", "--size", "40,40", "-o",
+                        os.path.join(folder, "l.json")], capture_output=True, check=True)
+    if "tp.json" in c.files:
+        subprocess.run([TRELLIS, "plan", "euler", os.path.join(folder, "l.json"), "-o",
+                        os.path.join(folder, "tp.json")], capture_output=True, check=True)
+
+
+def snapshot(folder):
+    out = {}
+    for dirpath, dirnames, filenames in os.walk(folder):
+        for n in dirnames + filenames:
+            p = os.path.join(dirpath, n)
+            st = os.lstat(p)
+            out[os.path.relpath(p, folder)] = (st.st_mode, st.st_size, st.st_mtime_ns)
+    return out
+
+
+def limit_memory():
+    """A run that is not refused must not take the machine with it (4 GB of address space)."""
+    import resource
+    if not os.environ.get("HOSTILE_NO_RLIMIT"):  # sanitizers reserve terabytes of address space
+        resource.setrlimit(resource.RLIMIT_AS, (4 << 30, 4 << 30))
+
+
+def run_case(c):
+    with tempfile.TemporaryDirectory(prefix="hostile_") as d:
+        os.makedirs(os.path.join(d, "out"))
+        open(os.path.join(d, "out", "keep.txt"), "w").write("here before\n")
+        for n, body in c.files.items():
+            if body is not None:
+                open(os.path.join(d, n), "wb").write(body)
+        prepared(d, c)
+        if c.setup:
+            c.setup(d)
+        before = snapshot(d)
+        tmp_before = set(os.listdir("/tmp"))
+        t0 = time.monotonic()
+        p = subprocess.Popen([TRELLIS] + c.args, cwd=d, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                             preexec_fn=limit_memory)
+        try:
+            out, err = p.communicate(timeout=10)
+        except subprocess.TimeoutExpired:
+            p.kill()
+            p.communicate()
+            return f"{c.name}: still running after 10 s"
+        secs = time.monotonic() - t0
+        err = err.decode(errors="replace")
+        problems = []
+        if p.returncode != 2:
+            problems.append(f"exit {p.returncode}, expected 2")
+        if "internal error" in err:
+            problems.append("internal error")
+        if "error:" not in err:
+            problems.append("no error message")
+        elif c.where not in err:
+            problems.append(f"message does not name {c.where!r}")
+        after = snapshot(d)
+        # Folder mtimes may move (a temporary came and went); contents may not.
+        before = {k: v for k, v in before.items() if not (v[0] & 0o040000)} | {k: 0 for k, v in before.items() if v[0] & 0o040000}
+        after = {k: v for k, v in after.items() if not (v[0] & 0o040000)} | {k: 0 for k, v in after.items() if v[0] & 0o040000}
+        if after != before:
+            added = sorted(set(after) - set(before))
+            changed = sorted(k for k in before if k in after and after[k] != before[k])
+            removed = sorted(set(before) - set(after))
+            problems.append(f"files changed: added {added} changed {changed} removed {removed}")
+        leaked = {n for n in set(os.listdir("/tmp")) - tmp_before if n.startswith("trellis_escape")}
+        if leaked:
+            problems.append(f"wrote outside: {sorted(leaked)}")
+        if c.runaway:
+            if secs > 2:
+                problems.append(f"refusal took {secs:.1f} s")
+            if "estimate" not in err and c.where == "refused before starting":
+                problems.append("no estimate in the message")
+        if problems:
+            return f"{c.name}: " + "; ".join(problems) + f"\n    {' '.join(c.args)}\n    stderr: {err.strip()[:400]}"
+        return None
+
+
+def peak_memory_mb(args, folder):
+    """Peak RSS (MB) of one run, from wait4."""
+    def limits():  # a run that is not refused must not take the machine with it
+        import resource
+        resource.setrlimit(resource.RLIMIT_CPU, (10, 10))
+        if not os.environ.get("HOSTILE_NO_RLIMIT"):
+            resource.setrlimit(resource.RLIMIT_AS, (4 << 30, 4 << 30))
+
+    p = subprocess.Popen([TRELLIS] + args, cwd=folder, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                         preexec_fn=limits)
+    _, status, ru = os.wait4(p.pid, 0)
+    p.returncode = os.waitstatus_to_exitcode(status)
+    return ru.ru_maxrss / 1024, p.returncode
+
+
+def memory_checks():
+    """Refusals stay under 200 MB."""
+    problems = []
+    with tempfile.TemporaryDirectory(prefix="hostile_mem_") as d:
+        for c in [c for c in CASES if c.runaway and not any(v is None for v in c.files.values())]:
+            for n, body in c.files.items():
+                open(os.path.join(d, n), "wb").write(body)
+            mb, rc = peak_memory_mb(c.args, d)
+            if mb > 200 or rc != 2:
+                problems.append(f"{c.name}: peak {mb:.0f} MB, exit {rc}")
+    return problems
+
+
+def signal_checks():
+    """SIGINT / SIGTERM during long writes: exit 130 / 143, no temporary, no output."""
+    problems = []
+    interrupted = {signal.SIGINT: 0, signal.SIGTERM: 0}
+    long_runs = [
+        ["pbf", "--size", "12,12,12", "--threads", "1", "-o", "out/x.cli"],
+        ["slice", os.path.join(DESIGNS, "csg_bracket.vcad"), "--resolution", "0.02", "--threads", "1",
+         "--machine", PROFILE, "-o", "out/x.gcode"],
+        ["run", "job.toml"],
+    ]
+    job = ('[job]\nroute = "pbf"\nname = "x"\noutput_dir = "out"\n[pbf]\nsize = [12, 12, 12]\n'
+           '[run]\nthreads = 1\n').encode()
+    for sig, code in ((signal.SIGINT, 130), (signal.SIGTERM, 143)):
+        for args in long_runs:
+            for delay in (0.3, 1.5):
+                with tempfile.TemporaryDirectory(prefix="hostile_sig_") as d:
+                    os.makedirs(os.path.join(d, "out"))
+                    open(os.path.join(d, "out", "keep.txt"), "w").write("here before\n")
+                    open(os.path.join(d, "job.toml"), "wb").write(job)
+                    before = snapshot(d)
+                    p = subprocess.Popen([TRELLIS] + args, cwd=d, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+                    time.sleep(delay)
+                    p.send_signal(sig)
+                    try:
+                        p.communicate(timeout=10)
+                    except subprocess.TimeoutExpired:
+                        p.kill()
+                        p.communicate()
+                        problems.append(f"{sig.name} {' '.join(args)}: did not stop")
+                        continue
+                    if p.returncode == 0:
+                        continue  # finished before the signal: nothing to check
+                    interrupted[sig] += 1
+                    if p.returncode != code:
+                        problems.append(f"{sig.name} after {delay} s {' '.join(args)}: exit {p.returncode}, expected {code}")
+                    after = snapshot(d)
+                    # Folder mtimes may move (a temporary came and went); contents may not.
+        before = {k: v for k, v in before.items() if not (v[0] & 0o040000)} | {k: 0 for k, v in before.items() if v[0] & 0o040000}
+        after = {k: v for k, v in after.items() if not (v[0] & 0o040000)} | {k: 0 for k, v in after.items() if v[0] & 0o040000}
+        if after != before:
+                        problems.append(f"{sig.name} after {delay} s {' '.join(args)}: left {sorted(set(after) - set(before))}")
+    for sig, n in interrupted.items():
+        if n < 3:
+            problems.append(f"{sig.name}: only {n} run(s) were still running when signalled")
+    return problems
+
+
+def umask_check():
+    problems = []
+    with tempfile.TemporaryDirectory(prefix="hostile_umask_") as d:
+        for mask, mode in ((0o077, 0o600), (0o002, 0o664), (0o022, 0o644)):
+            subprocess.run([TRELLIS, "lattice2d", "--size", "5,5", "-o", "u.json"], cwd=d, check=True,
+                           capture_output=True, preexec_fn=lambda m=mask: os.umask(m))
+            got = os.stat(os.path.join(d, "u.json")).st_mode & 0o777
+            if got != mode:
+                problems.append(f"umask {mask:03o}: output mode {got:03o}, expected {mode:03o}")
+            os.remove(os.path.join(d, "u.json"))
+    return problems
+
+
+def main():
+    settings_cases()
+    lattice_cases()
+    design_cases()
+    toolpath_cases()
+    profile_cases()
+    job_cases()
+    gcode_cases()
+    runaway_cases()
+    if "--list" in sys.argv:
+        for c in CASES:
+            print(c.name)
+        return 0
+    t0 = time.monotonic()
+    with concurrent.futures.ThreadPoolExecutor(max_workers=2) as pool:
+        failures = [f for f in pool.map(run_case, CASES) if f]
+    failures += memory_checks() + signal_checks() + umask_check()
+    print(f"{len(CASES)} hostile inputs, {len(failures)} problem(s), {time.monotonic() - t0:.0f} s")
+    for f in failures:
+        print("FAIL " + f)
+    return 1 if failures or len(CASES) < 200 else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
