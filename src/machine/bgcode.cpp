@@ -1,5 +1,7 @@
 #include "trellis/machine/bgcode.hpp"
 
+#include <cctype>
+
 #include <zlib.h>
 
 #include <cstring>
@@ -117,7 +119,19 @@ std::string heatshrink_decode(std::string_view data, int window_bits, int lookah
 }
 
 void MeatPackDecoder::put(char c, std::string& out) {
+  // No-spaces mode drops the spaces between words ("G1X10Y2E.4"); put one back before each
+  // word letter that follows a value (outside comments), so the text is ordinary G-code and a
+  // number glued to a letter can still be told from a malformed one by the text reader.
+  if (c == '\n') {
+    comment_ = false;
+  } else if (c == ';') {
+    comment_ = true;
+  } else if (no_spaces_ && !comment_ && std::isalpha(static_cast<unsigned char>(c)) &&
+             (std::isdigit(static_cast<unsigned char>(prev_)) || prev_ == '.')) {
+    out += ' ';
+  }
   out += c;
+  prev_ = c;
 }
 
 void MeatPackDecoder::command(std::uint8_t c) {

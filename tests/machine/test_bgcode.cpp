@@ -149,7 +149,7 @@ TEST(Bgcode, MeatPackDecodesHandPackedBytes) {
   MeatPackDecoder ns;
   std::string out2;
   ns.feed(std::string("\xff\xff\xfb\xff\xff\xf7\x1d\x1e\x1b\x0c", 10), out2);
-  EXPECT_EQ(out2, "G1X1E1\n");
+  EXPECT_EQ(out2, "G1 X1 E1\n");  // the spaces between words put back
 }
 
 TEST(Bgcode, HeatshrinkBackReferencesAndLiterals) {

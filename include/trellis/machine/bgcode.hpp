@@ -35,6 +35,8 @@ class MeatPackDecoder {
   bool active_ = false, no_spaces_ = false, cmd_next_ = false;
   int ff_count_ = 0, full_chars_ = 0;
   char second_ = 0;
+  char prev_ = '\n';      // the last character put, for no-spaces mode
+  bool comment_ = false;  // inside a ; comment
 };
 
 // Reads the blocks of a bgcode file from `read` (which fills a buffer with up to n bytes and
