@@ -328,25 +328,8 @@ Analysis analyze_gcode_file(const std::string& path, const Graph* design,
     scan_gcode_file(path, counter, read, diag);
   } else {
     // One pass feeding both the counter and the IR builder (the design comparison needs the IR).
-    struct Both : GcodeSink {
-      GcodeSink& a;
-      GcodeSink& b;
-      Both(GcodeSink& x, GcodeSink& y) : a(x), b(y) {}
-      void layer_change(double z) override { a.layer_change(z), b.layer_change(z); }
-      void extrude(Vec3 p, Vec3 q, double e, double f) override {
-        a.extrude(p, q, e, f), b.extrude(p, q, e, f);
-      }
-      void travel(Vec3 p, Vec3 q, double f) override { a.travel(p, q, f), b.travel(p, q, f); }
-      void retract() override { a.retract(), b.retract(); }
-      void tool_change(int t) override { a.tool_change(t), b.tool_change(t); }
-      void role(PathRole r) override { a.role(r), b.role(r); }
-      void mixture(const std::vector<double>& m) override { a.mixture(m), b.mixture(m); }
-      void temperature(double t) override { a.temperature(t), b.temperature(t); }
-      void width(double w) override { a.width(w), b.width(w); }
-      void height(double h) override { a.height(h), b.height(h); }
-    };
     auto builder = make_toolpath_builder(tp);
-    Both both(counter, *builder);
+    TeeSink both(counter, *builder);
     scan_gcode_file(path, both, read, diag);
   }
   counter.finish();

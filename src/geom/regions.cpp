@@ -140,30 +140,30 @@ Regions stroke(const std::vector<std::vector<Vec2>>& lines, double width, double
   return out;
 }
 
-Regions nest_rings(const std::vector<std::vector<Vec2>>& rings) {
+namespace {
+
+// The rings as regions, united under one fill rule.
+Regions union_of_rings(const std::vector<std::vector<Vec2>>& rings, cl::PolyFillType rule) {
   cl::Paths paths;
   for (const auto& r : rings)
     if (r.size() >= 3) paths.push_back(to_path(r));
   cl::Clipper clipper;
   clipper.AddPaths(paths, cl::ptSubject, true);
   cl::PolyTree tree;
-  clipper.Execute(cl::ctUnion, tree, cl::pftEvenOdd, cl::pftEvenOdd);
+  clipper.Execute(cl::ctUnion, tree, rule, rule);
   Regions out;
   collect(tree, out);
   return out;
 }
 
+}  // namespace
+
+Regions nest_rings(const std::vector<std::vector<Vec2>>& rings) {
+  return union_of_rings(rings, cl::pftEvenOdd);
+}
+
 Regions unite_oriented_rings(const std::vector<std::vector<Vec2>>& rings) {
-  cl::Paths paths;
-  for (const auto& r : rings)
-    if (r.size() >= 3) paths.push_back(to_path(r));
-  cl::Clipper clipper;
-  clipper.AddPaths(paths, cl::ptSubject, true);
-  cl::PolyTree tree;
-  clipper.Execute(cl::ctUnion, tree, cl::pftPositive, cl::pftPositive);
-  Regions out;
-  collect(tree, out);
-  return out;
+  return union_of_rings(rings, cl::pftPositive);
 }
 
 Regions nest_oriented_rings(std::vector<std::vector<Vec2>> rings) {

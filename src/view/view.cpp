@@ -41,21 +41,7 @@ ViewScene load_gcode(const std::string& path, const GcodeReadOptions& read, Diag
   ViewScene s;
   CountingSink counter;
   auto builder = make_toolpath_builder(s.toolpath);
-  struct Both : GcodeSink {
-    GcodeSink& a;
-    GcodeSink& b;
-    Both(GcodeSink& x, GcodeSink& y) : a(x), b(y) {}
-    void layer_change(double z) override { a.layer_change(z), b.layer_change(z); }
-    void extrude(Vec3 p, Vec3 q, double e, double f) override {
-      a.extrude(p, q, e, f), b.extrude(p, q, e, f);
-    }
-    void travel(Vec3 p, Vec3 q, double f) override { a.travel(p, q, f), b.travel(p, q, f); }
-    void retract() override { a.retract(), b.retract(); }
-    void tool_change(int t) override { a.tool_change(t), b.tool_change(t); }
-    void role(PathRole r) override { a.role(r), b.role(r); }
-    void mixture(const std::vector<double>& m) override { a.mixture(m), b.mixture(m); }
-    void temperature(double t) override { a.temperature(t), b.temperature(t); }
-  } both(counter, *builder);
+  TeeSink both(counter, *builder);  // the builder also gets ;WIDTH:/;HEIGHT:
   Diagnostics local;
   scan_gcode_file(path, both, read, local);
   counter.finish();

@@ -55,6 +55,28 @@ class GcodeSink {
   virtual void height(double mm) {}            // from a ;HEIGHT: comment
 };
 
+// Every event to two sinks: one pass feeding, e.g., a counter and the toolpath builder.
+class TeeSink : public GcodeSink {
+ public:
+  TeeSink(GcodeSink& a, GcodeSink& b) : a_(a), b_(b) {}
+  void layer_change(double z) override { a_.layer_change(z), b_.layer_change(z); }
+  void extrude(Vec3 p, Vec3 q, double e, double f) override {
+    a_.extrude(p, q, e, f), b_.extrude(p, q, e, f);
+  }
+  void travel(Vec3 p, Vec3 q, double f) override { a_.travel(p, q, f), b_.travel(p, q, f); }
+  void retract() override { a_.retract(), b_.retract(); }
+  void tool_change(int t) override { a_.tool_change(t), b_.tool_change(t); }
+  void role(PathRole r) override { a_.role(r), b_.role(r); }
+  void mixture(const std::vector<double>& m) override { a_.mixture(m), b_.mixture(m); }
+  void temperature(double t) override { a_.temperature(t), b_.temperature(t); }
+  void width(double w) override { a_.width(w), b_.width(w); }
+  void height(double h) override { a_.height(h), b_.height(h); }
+
+ private:
+  GcodeSink& a_;
+  GcodeSink& b_;
+};
+
 class GcodeScanner {
  public:
   GcodeScanner(GcodeSink& sink, GcodeReadOptions options, Diagnostics& diag,
