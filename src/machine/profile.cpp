@@ -77,7 +77,9 @@ const std::vector<SettingDecl>& machine_settings() {
       {"temperature.bed", "°C", "bed temperature, 0 = leave unset", 0, 200, &P::bed_temperature},
       {"temperature.fan", "%", "part-cooling fan", 0, 100, &P::fan_percent},
       {"temperature.standby", "°C",
-       "temperature of idle tools on a multi-tool machine, 0 = switched off", 0, 500,
+       "temperature of idle tools on a multi-tool machine; 0 = they stay at the printing "
+       "temperature",
+       0, 500,
        &P::standby_temperature},
       {"temperature.max_nozzle", "°C", "hottest nozzle temperature the machine allows", 0, 500,
        &P::max_nozzle_temperature},

@@ -52,7 +52,7 @@ struct MachineProfile {
   double nozzle_temperature = 0;
   double bed_temperature = 0;
   double fan_percent = 0;
-  double standby_temperature = 0;   // idle tools of a multi-tool machine (°C), 0 = switched off
+  double standby_temperature = 0;   // idle tools of a multi-tool machine (°C), 0 = stay hot
   double max_nozzle_temperature = 300;
   double max_bed_temperature = 120;
   // [retraction]
