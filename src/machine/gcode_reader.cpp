@@ -1,5 +1,7 @@
 #include "trellis/machine/gcode_reader.hpp"
 
+#include <algorithm>
+
 #include <charconv>
 #include <cmath>
 #include <filesystem>
@@ -122,6 +124,15 @@ void GcodeScanner::line(std::string_view text) {
   std::size_t k = 1;
   while (k < s.size() && (is_digit(s[k]) || s[k] == '.')) ++k;
   if (k == 1) {
+    // A Klipper command or macro: an upper-case name of letters, digits and '_' (TEMPERATURE_WAIT,
+    // M-less names that start with T, G or M too).
+    const auto name_end = std::min(s.find_first_of(" \t"), s.size());
+    const bool klipper_name =
+        name_end >= 3 && (is_alpha(s[1]) || s[1] == '_') &&
+        std::all_of(s.begin(), s.begin() + static_cast<long>(name_end), [](char ch) {
+          return (ch >= 'A' && ch <= 'Z') || (ch >= '0' && ch <= '9') || ch == '_';
+        });
+    if (klipper_name) return extended(s);
     if (c == 'T' || c == 'G' || c == 'M')
       return bad("command '" + std::string(s.substr(0, 20)) + "' has no number");
     if (is_alpha(c) && k < s.size() && (is_alpha(s[k]) || s[k] == '_'))

@@ -210,12 +210,12 @@ class Writer {
       // A tool changer: every tool the print uses starts heating now (the first to print
       // temperature, the others to standby if set), the first is waited for.
       for (std::size_t i = 0; i < tools_used_.size(); ++i)
-        temp(("M104 T" + std::to_string(tools_used_[i]) + " S").c_str(),
-             i == 0 || standby_ <= 0 ? p_.nozzle_temperature : standby_);
-      temp(("M109 T" + std::to_string(tools_used_[0]) + " S").c_str(), p_.nozzle_temperature);
+        line(heat(tools_used_[i], i == 0 || standby_ <= 0 ? p_.nozzle_temperature : standby_,
+                  false));
+      line(heat(tools_used_[0], p_.nozzle_temperature, true));
     } else if (p_.nozzle_temperature > 0) {
-      temp("M104 S", p_.nozzle_temperature);
-      temp("M109 S", p_.nozzle_temperature);
+      line(heat(-1, p_.nozzle_temperature, false));
+      line(heat(-1, p_.nozzle_temperature, true));
     }
     const std::string start = expand_template(p_.start_gcode, p_, "gcode.start");
     if (!start.empty()) line(start);
@@ -226,7 +226,7 @@ class Writer {
 
   void footer() {
     if (flavor_ == Flavor::Marlin && p_.retract_length > 0 && printed_) retract();
-    for (int t : tools_used_) line("M104 T" + std::to_string(t) + " S0");  // idle tools too
+    for (int t : tools_used_) line(heat(t, 0, false));  // idle tools too
     if (known_ && flavor_ == Flavor::Embedded) {
       move_z(safe_z_);
     } else if (known_) {
@@ -384,11 +384,10 @@ class Writer {
     std::string c;
     const double a = std::clamp(mix[0], 0.0, 1.0);
     if (p_.gradient_mode == "tools") {
-      c = "T" + std::to_string(tool_of(mix));
+      c = select_tool(tool_of(mix));
     } else if (p_.gradient_mode == "temperature") {
       const double t = a * p_.temperature_a + (1 - a) * p_.temperature_b;
-      c = "M104 S";
-      append_fixed(c, t, 1);
+      c = heat(-1, t, false);
       if (!p_.flow_model.empty()) {
         const double f = p_.flow_model == "pla"
                              ? 100 * (8.35479e-6 * t * t * t - 5.37075e-3 * t * t + 1.13374 * t - 77.814)
@@ -400,6 +399,42 @@ class Writer {
       c = mixing_command(mix);
     }
     return c;
+  }
+
+  // Heaters and tools in the firmware's own words (machine.flavor): Marlin M104/M109 [T<n>];
+  // RepRapFirmware M568 P<n> S<t> A2 (tool heater active at t; A0 off) and M116 P<n> to wait;
+  // Klipper SET_HEATER_TEMPERATURE HEATER=extruder[<n>] and TEMPERATURE_WAIT (within 1 °C
+  // below the target). `tool` -1: the one tool of a single-tool machine.
+  std::string heat(int tool, double t, bool wait) const {
+    std::string c;
+    if (p_.flavor == "reprap") {
+      const std::string n = std::to_string(std::max(tool, 0));
+      if (t <= 0) return "M568 P" + n + " A0";
+      c = "M568 P" + n + " S";
+      append_fixed(c, t, 1);
+      c += " A2";
+      if (wait) c += "\nM116 P" + n;
+    } else if (p_.flavor == "klipper") {
+      const std::string h = tool <= 0 ? "extruder" : "extruder" + std::to_string(tool);
+      c = "SET_HEATER_TEMPERATURE HEATER=" + h + " TARGET=";
+      append_fixed(c, t, 1);
+      if (wait && t > 0) {
+        c += "\nTEMPERATURE_WAIT SENSOR=" + h + " MINIMUM=";
+        append_fixed(c, t - 1, 1);
+      }
+    } else {
+      c = wait ? "M109" : "M104";
+      if (tool >= 0) c += " T" + std::to_string(tool);
+      c += " S";
+      append_fixed(c, t, 1);
+    }
+    return c;
+  }
+  std::string select_tool(int tool) const {
+    if (p_.flavor == "klipper")
+      return std::string("ACTIVATE_EXTRUDER EXTRUDER=extruder") +
+             (tool > 0 ? std::to_string(tool) : std::string());
+    return "T" + std::to_string(tool);
   }
 
   // Tool changers: the tool that prints a mixture (tool 0 = material A … the last = B).
@@ -415,16 +450,9 @@ class Writer {
     if (std::find(tools_used_.begin(), tools_used_.end(), tool) == tools_used_.end())
       tools_used_.push_back(tool);
     std::string c;
-    if (last_tool_ >= 0 && standby_ > 0) {
-      c += "M104 T" + std::to_string(last_tool_) + " S";
-      append_fixed(c, standby_, 1);
-      c += '\n';
-    }
+    if (last_tool_ >= 0 && standby_ > 0) c += heat(last_tool_, standby_, false) + '\n';
     c += select;
-    if (p_.nozzle_temperature > 0) {
-      c += "\nM109 T" + std::to_string(tool) + " S";
-      append_fixed(c, p_.nozzle_temperature, 1);
-    }
+    if (p_.nozzle_temperature > 0) c += '\n' + heat(tool, p_.nozzle_temperature, true);
     last_tool_ = tool;
     return c;
   }
@@ -561,7 +589,7 @@ class Writer {
     // A multi-tool Marlin machine printing a path with a tool of its own (no mixture that
     // chose the tool): select it at the path's start, heated as every tool change is.
     if (select_tools_ && input.mixture.empty() && input.tool != last_tool_)
-      line(tool_change_command("T" + std::to_string(input.tool), input.tool));
+      line(tool_change_command(select_tool(input.tool), input.tool));
     Path path_copy;
     const Path* pp = &input;
     if (embedded && p_.node_overlap > 0) {  // each path end pushed past its end node

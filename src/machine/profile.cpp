@@ -17,8 +17,10 @@ const std::vector<SettingDecl>& machine_settings() {
   static const std::vector<SettingDecl> table = {
       {"machine.name", "", "printer name, written into headers", 0, 0, &P::name},
       {"machine.flavor", "",
-       "G-code dialect: marlin (E values), pneumatic (valve + pressure) or embedded (pneumatic "
-       "in a support bath: vertical lifts out of the bath for travel, tools with offsets)",
+       "G-code dialect: marlin (E values), reprap (RepRapFirmware: M568/M116 heaters), klipper "
+       "(SET_HEATER_TEMPERATURE, ACTIVATE_EXTRUDER), pneumatic (valve + pressure) or embedded "
+       "(pneumatic in a support bath: vertical lifts out of the bath for travel, tools with "
+       "offsets)",
        0, 0, &P::flavor},
       {"machine.bed_x", "mm", "build area in X (a circular bed: its diameter)", 1, 10000,
        &P::bed_x},
@@ -199,10 +201,12 @@ const std::vector<SettingDecl>& machine_settings() {
 }
 
 Flavor MachineProfile::parsed_flavor() const {
-  if (flavor == "marlin") return Flavor::Marlin;
+  // RepRapFirmware and Klipper are Marlin's family (E axis, G-code moves); heaters and tools are
+  // written in their own commands (gcode_writer.cpp).
+  if (flavor == "marlin" || flavor == "reprap" || flavor == "klipper") return Flavor::Marlin;
   if (flavor == "pneumatic") return Flavor::Pneumatic;
   if (flavor == "embedded") return Flavor::Embedded;
-  throw SettingError("unknown flavor '" + flavor + "' (expected marlin, pneumatic or embedded)",
+  throw SettingError("unknown flavor '" + flavor + "' (expected marlin, reprap, klipper, pneumatic or embedded)",
                      {"", 0, "machine.flavor"});
 }
 

@@ -173,7 +173,8 @@ void add_machine(std::vector<Setting>& out) {
         },
         d.member);
     const std::string key = d.key;
-    if (key == "machine.flavor") s.choices = {"marlin", "pneumatic", "embedded"};
+    if (key == "machine.flavor")
+      s.choices = {"marlin", "reprap", "klipper", "pneumatic", "embedded"};
     if (key == "gradient.mode") s.choices = {"mixing", "tools", "temperature"};
     if (key == "gradient.flow") s.choices = {"", "pla", "tpu"};
     if (key == "embedded.drive") s.choices = {"pressure", "syringe"};

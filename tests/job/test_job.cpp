@@ -129,7 +129,7 @@ TEST(Settings, BadValuesNameTheSourceAndTheAllowedValues) {
                                          {"extrusion.layer_height", "-1", "0.001 .. 10"},
                                          {"extrusion.layer_heigth", "1", "did you mean extrusion.layer_height"},
                                          {"gippo.mode", "maximum", "one of max, min"},
-                                         {"machine.flavor", "reprap", "one of marlin, pneumatic, embedded"},
+                                         {"machine.flavor", "smoothie", "one of marlin, reprap, klipper, pneumatic, embedded"},
                                          {"slice.walls", "2.5", "whole number"},
                                          {"lattice3d.count", "3,3", "3 whole numbers"},
                                          {"placement.center", "maybe", "true or false"},

@@ -38,7 +38,7 @@ TEST(Profile, UnknownKeysWrongTypesAndRangesNameFileAndLine) {
   expect_setting_error("[speed]\n\nprint = \"fast\"\n", 3, "expected a number");
   expect_setting_error("[speed]\nprint = -1\n", 2, "out of range");
   expect_setting_error("[speed]\nshort_path_segments = 2.5\n", 2, "expected an integer");
-  expect_setting_error("[machine]\nflavor = \"klipper\"\n", 0, "unknown flavor");
+  expect_setting_error("[machine]\nflavor = \"smoothie\"\n", 0, "unknown flavor");
   expect_setting_error("[speed\nprint = 1\n", 1, "");
   expect_setting_error("[temperature]\nnozzle = nan\n", 2, "out of range");
 }
