@@ -125,6 +125,19 @@ void legend_band(cairo_t* c, int W, double y0, int band, const std::vector<Legen
   text(c, bx + bar_px / 2 - text_width(c, fs, lab) / 2, ymid - sw * 0.2, fs, lab);
 }
 
+// The two axes of a plot (left edge x0 from top y0 down to the baseline y1, then right to x1),
+// and the font its labels use.
+void plot_axes(cairo_t* c, double x0, double y0, double x1, double y1) {
+  cairo_set_source_rgb(c, 0, 0, 0);
+  cairo_set_line_width(c, 1);
+  cairo_move_to(c, x0, y0);
+  cairo_line_to(c, x0, y1);
+  cairo_line_to(c, x1, y1);
+  cairo_stroke(c);
+  cairo_select_font_face(c, "sans-serif", CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
+  cairo_set_font_size(c, 13);
+}
+
 }  // namespace
 
 namespace impl {
@@ -495,14 +508,7 @@ void render_scores_png(const std::vector<double>& scores, std::size_t best,
     return L + (W - L - R) * (scores.size() > 1 ? i / (scores.size() - 1) : 0.5);
   };
   auto Y = [&](double s) { return H - B - (H - T - B) * (s - lo) / (hi - lo); };
-  cairo_set_source_rgb(c, 0, 0, 0);
-  cairo_set_line_width(c, 1);
-  cairo_move_to(c, L, T);
-  cairo_line_to(c, L, H - B);
-  cairo_line_to(c, W - R, H - B);
-  cairo_stroke(c);
-  cairo_select_font_face(c, "sans-serif", CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
-  cairo_set_font_size(c, 13);
+  plot_axes(c, L, T, W - R, H - B);
   char buf[128];
   for (int k = 0; k <= 4; ++k) {
     const double s = lo + (hi - lo) * k / 4;
@@ -565,14 +571,7 @@ void render_series_png(const std::vector<double>& x, const std::vector<PlotSerie
   if (x1 - x0 < 1e-12) x1 = x0 + 1;
   auto X = [&](double v) { return L + (W - L - R) * (v - x0) / (x1 - x0); };
   auto Y = [&](double v) { return H - B - (H - T - B) * (v - lo) / (hi - lo); };
-  cairo_set_source_rgb(c, 0, 0, 0);
-  cairo_set_line_width(c, 1);
-  cairo_move_to(c, L, T);
-  cairo_line_to(c, L, H - B);
-  cairo_line_to(c, W - R, H - B);
-  cairo_stroke(c);
-  cairo_select_font_face(c, "sans-serif", CAIRO_FONT_SLANT_NORMAL, CAIRO_FONT_WEIGHT_NORMAL);
-  cairo_set_font_size(c, 13);
+  plot_axes(c, L, T, W - R, H - B);
   char buf[128];
   for (int k = 0; k <= 4; ++k) {
     const double v = lo + (hi - lo) * k / 4, u = x0 + (x1 - x0) * k / 4;
