@@ -10,6 +10,7 @@
 #include <map>
 #include <string>
 
+#include "../geom/mesh_3mf_module.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/lattice/io.hpp"
@@ -160,7 +161,13 @@ LatticeInput read_beam_lattice_3mf(const std::string& path, Diagnostics& diag) {
   if (lib3mf_model_queryreader(model.p, "3mf", &reader.p) != LIB3MF_OK)
     throw ParseError("cannot create a 3MF reader" + last_error(model.p), {path});
   if (lib3mf_reader_readfromfileutf8(reader.p, path.c_str()) != LIB3MF_OK)
-    throw ParseError("not a readable 3MF file" + last_error(reader.p), {path});
+    throw unreadable_3mf(path, detail::module_table<Mesh3mfModule>("3mf").locate(path),
+                         last_error(reader.p));
+  // What lib3mf 1.8 accepts without a word (a coordinate "zz" as 0, an unknown unit) is checked
+  // by the same walk that places its refusals.
+  if (const Located3mf at = detail::module_table<Mesh3mfModule>("3mf").locate(path);
+      !at.what.empty())
+    throw ParseError(at.what, {path, 0, at.where});
   Reader r{path, diag, {}, {}, 0};
   // Build items (with their transforms); without any, every mesh object as stored.
   Handle items;
