@@ -286,11 +286,28 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
         std::isfinite(e.max.y) && std::isfinite(e.min.z) && std::isfinite(e.max.z) && po.layer > 0)
       check_budget(estimate_pbf_time(e, po.resolution, po.layer, threads_of_run()), budget);
   }
-  const PbfResult r = plan_pbf(d, po, progress);
-  diag.merge(r.diagnostics);
-  Toolpath tp = pbf_toolpath(r, prof.contour_power, prof.contour_speed, prof.hatch_power, prof.hatch_speed);
-  out.toolpath = std::make_shared<Toolpath>(tp);
-  if (!job.output.empty()) {
+  // A build file alone is written layer by layer as the layers come (memory does not grow with
+  // the layer count); the toolpath JSON and the layer previews need the whole toolpath.
+  const bool stream = !job.output.empty() && job.toolpath.empty() && job.preview.empty();
+  Toolpath tp;
+  PbfResult r;
+  if (stream) {
+    CliStreamWriter writer(job.output, prof, CliWriteOptions{c.pbf.binary, true}, "trellis pbf",
+                           embedded_job(job, job.output));
+    r = plan_pbf(d, po, progress, [&](std::size_t i, const PbfLayer& L) {
+      writer.add(pbf_layer_toolpath(L, i, po.layer, prof.contour_power, prof.contour_speed,
+                                    prof.hatch_power, prof.hatch_speed));
+    });
+    writer.finish();
+    diag.merge(r.diagnostics);
+    out.files.push_back(job.output);
+  } else {
+    r = plan_pbf(d, po, progress);
+    diag.merge(r.diagnostics);
+    tp = pbf_toolpath(r, prof.contour_power, prof.contour_speed, prof.hatch_power, prof.hatch_speed);
+    out.toolpath = std::make_shared<Toolpath>(tp);
+  }
+  if (!job.output.empty() && !stream) {
     tp.job = embedded_job(job, job.output);
     write_cli_file(job.output, tp, prof, CliWriteOptions{c.pbf.binary, true});
     out.files.push_back(job.output);

@@ -52,11 +52,9 @@ bool is_hatch(const Path& p) {
   return p.role == PathRole::Infill && p.points.size() == 2;
 }
 
-std::string header(const Toolpath& tp, const LaserProfile& prof, const CliWriteOptions& o) {
-  BBox3 box;
-  for (const auto& l : tp.layers)
-    for (const auto& p : l.paths)
-      for (const auto& q : p.points) box.add(q);
+// The header: every point's extent and the layer count are known only once all layers are.
+std::string header(BBox3 box, std::size_t layers, const std::string& source, const std::string& job,
+                   const LaserProfile& prof, const CliWriteOptions& o) {
   if (box.empty()) box.add({0, 0, 0});
   std::string out = "$$HEADERSTART\n";
   out += o.binary ? "$$BINARY\n" : "$$ASCII\n";
@@ -73,22 +71,37 @@ std::string header(const Toolpath& tp, const LaserProfile& prof, const CliWriteO
     out += fmt::format("// PROFILE_DEF={} NAME=\"hatch\" POWER={} SPEED={} //\n", kHatchId,
                        prof.hatch_power, prof.hatch_speed);
   }
-  out += fmt::format("//source: {}//\n", tp.source);
+  out += fmt::format("//source: {}//\n", source);
   // The job that made the file, one comment line each, for `trellis rerun`.
-  for (std::size_t a = 0; a < tp.job.size();) {
-    const std::size_t b = std::min(tp.job.find('\n', a), tp.job.size());
-    out += "//job: " + tp.job.substr(a, b - a) + "//\n";
+  for (std::size_t a = 0; a < job.size();) {
+    const std::size_t b = std::min(job.find('\n', a), job.size());
+    out += "//job: " + job.substr(a, b - a) + "//\n";
     a = b + 1;
   }
   out += fmt::format("$$DIMENSION/{:.6f},{:.6f},{:.6f},{:.6f},{:.6f},{:.6f}\n", box.min.x,
                      box.min.y, box.min.z, box.max.x, box.max.y, box.max.z);
-  out += fmt::format("$$LAYERS/{}\n$$HEADEREND", tp.layers.size());
+  out += fmt::format("$$LAYERS/{}\n$$HEADEREND", layers);
   return out;
 }
 
-void ascii_geometry(const Toolpath& tp, std::string& out) {
-  out += "\n$$GEOMETRYSTART\n";
-  for (const auto& layer : tp.layers) {
+BBox3 extent(const Toolpath& tp) {
+  BBox3 box;
+  for (const auto& l : tp.layers)
+    for (const auto& p : l.paths)
+      for (const auto& q : p.points) box.add(q);
+  return box;
+}
+
+std::string header(const Toolpath& tp, const LaserProfile& prof, const CliWriteOptions& o) {
+  return header(extent(tp), tp.layers.size(), tp.source, tp.job, prof, o);
+}
+
+// The geometry section: what comes before the first layer, each layer, what comes after.
+const char* kAsciiStart = "\n$$GEOMETRYSTART\n";
+const char* kAsciiEnd = "$$GEOMETRYEND\n";
+
+void ascii_layer(const Layer& layer, std::string& out) {
+  {
     out += "$$LAYER/";
     put(out, layer.z);
     out += '\n';
@@ -110,12 +123,17 @@ void ascii_geometry(const Toolpath& tp, std::string& out) {
       out += '\n';
     }
   }
-  out += "$$GEOMETRYEND\n";
 }
 
-void binary_geometry(const Toolpath& tp, std::string& out) {
+void ascii_geometry(const Toolpath& tp, std::string& out) {
+  out += kAsciiStart;
+  for (const auto& layer : tp.layers) ascii_layer(layer, out);
+  out += kAsciiEnd;
+}
+
+void binary_layer(const Layer& layer, std::string& out) {
   auto coord = [&](double mm) { put_bin(out, static_cast<float>(mm / kUnits)); };
-  for (const auto& layer : tp.layers) {
+  {
     put_bin<std::uint16_t>(out, 127);
     coord(layer.z);
     std::int32_t hatches = 0;
@@ -139,6 +157,10 @@ void binary_geometry(const Toolpath& tp, std::string& out) {
           for (const auto& q : p.points) coord(q.x), coord(q.y);
     }
   }
+}
+
+void binary_geometry(const Toolpath& tp, std::string& out) {
+  for (const auto& layer : tp.layers) binary_layer(layer, out);
 }
 
 // What the reader knows of each id: role and CLI+ power/speed.
@@ -463,6 +485,76 @@ std::string write_cli(const Toolpath& tp, const LaserProfile& prof, const CliWri
 void write_cli_file(const std::string& path, const Toolpath& tp, const LaserProfile& prof,
                     const CliWriteOptions& o) {
   write_file_atomic(path, write_cli(tp, prof, o));
+}
+
+CliStreamWriter::CliStreamWriter(std::string path, const LaserProfile& prof,
+                                 const CliWriteOptions& o, std::string source, std::string job)
+    : path_(std::move(path)), source_(std::move(source)), job_(std::move(job)), profile_(prof),
+      options_(o) {
+  check_for_laser(Toolpath{}, profile_);  // the profile's own power and speed
+  body_ = std::tmpfile();  // unlinked already: gone with the process, whatever happens
+  if (!body_) throw IoError(std::string("cannot create a temporary file: ") + std::strerror(errno),
+                            {path_});
+  if (!options_.binary) buffer_ += kAsciiStart;
+}
+
+CliStreamWriter::~CliStreamWriter() {
+  if (body_) std::fclose(body_);
+}
+
+void CliStreamWriter::flush() {
+  if (!buffer_.empty() && std::fwrite(buffer_.data(), 1, buffer_.size(), body_) != buffer_.size())
+    throw IoError(std::string("cannot write a temporary file: ") + std::strerror(errno), {path_});
+  buffer_.clear();
+}
+
+void CliStreamWriter::add(const Layer& layer) {
+  if (finished_) throw Error("CliStreamWriter: layer added after finish()");
+  Toolpath one;
+  one.layers.push_back(layer);
+  check_for_laser(one, profile_, layers_);
+  for (const auto& p : layer.paths)
+    for (const auto& q : p.points) box_.add(q);
+  if (options_.binary)
+    binary_layer(layer, buffer_);
+  else
+    ascii_layer(layer, buffer_);
+  ++layers_;
+  if (buffer_.size() > (1u << 20)) flush();
+}
+
+void CliStreamWriter::finish() {
+  if (finished_) return;
+  // The whole part within the build area (each layer was checked on its own).
+  Toolpath extent_only;
+  if (!box_.empty()) {
+    Path p;
+    p.points = {box_.min, box_.max};
+    extent_only.layers.push_back(Layer{});
+    extent_only.layers.back().paths.push_back(std::move(p));
+  }
+  check_for_laser(extent_only, profile_);
+  if (!options_.binary) buffer_ += kAsciiEnd;
+  flush();
+  if (std::fflush(body_) != 0)
+    throw IoError(std::string("cannot write a temporary file: ") + std::strerror(errno), {path_});
+  const std::string head = header(box_, layers_, source_, job_, profile_, options_);
+  write_file_atomic_with(path_, [&](const ByteWriter& put) {
+    put(head);
+    std::rewind(body_);
+    std::string chunk(1u << 20, '\0');
+    for (;;) {
+      const std::size_t n = std::fread(chunk.data(), 1, chunk.size(), body_);
+      if (n > 0) put(std::string_view(chunk.data(), n));
+      if (n < chunk.size()) {
+        if (std::ferror(body_))
+          throw IoError(std::string("cannot read a temporary file: ") + std::strerror(errno),
+                        {path_});
+        break;
+      }
+    }
+  });
+  finished_ = true;
 }
 
 std::string write_cli(const Toolpath& tp, const LaserProfile& prof) {
