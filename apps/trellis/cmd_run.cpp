@@ -24,7 +24,8 @@ void add_run(CLI::App& app) {
   cmd->add_option("-o,--output-dir", o->out, "output folder (replaces [job] output_dir)");
   cmd->add_option("--set", o->sets, "override a setting of the job: section.key=value (repeatable)");
   cmd->callback([o] {
-    const Job job = load_job(o->job, o->out, o->sets);
+    Job job = load_job(o->job, o->out, o->sets);
+    job.keep_toolpath = false;  // only the files are used here
     Diagnostics diag;
     Progress progress;
     progress.report = progress_line;
@@ -55,7 +56,8 @@ void add_rerun(CLI::App& app) {
   cmd->add_option("output", o->input, "a file written by Trellis")->required();
   cmd->add_option("-o,--output", o->out, "where to write (default: the file itself)");
   cmd->callback([o] {
-    const Job job = rerun_job(o->input, o->out);
+    Job job = rerun_job(o->input, o->out);
+    job.keep_toolpath = false;
     Diagnostics diag;
     print_result(run_job(job, diag, {}), diag);
   });

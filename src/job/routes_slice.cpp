@@ -304,7 +304,8 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
   }
   // A build file alone is written layer by layer as the layers come (memory does not grow with
   // the layer count); the toolpath JSON and the layer previews need the whole toolpath.
-  const bool stream = !job.output.empty() && job.toolpath.empty() && job.preview.empty();
+  const bool stream =
+      !job.keep_toolpath && !job.output.empty() && job.toolpath.empty() && job.preview.empty();
   Toolpath tp;
   PbfResult r;
   if (stream) {

@@ -40,6 +40,9 @@ struct Job {
   std::string output;    // the route's main output
   std::string report, toolpath, gcode, lattice, preview;
   Settings settings;
+  // false: a route that can write its outputs layer by layer in bounded memory (pbf) does so and
+  // leaves JobResult::toolpath empty (the command line; Python keeps the toolpath).
+  bool keep_toolpath = true;
 };
 
 // Routes and the settings sections each reads (for flags, headers and job checks).
