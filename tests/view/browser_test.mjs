@@ -54,6 +54,33 @@ run('prusa-slicer', ['--export-gcode', '--layer-height', '0.3', '--first-layer-h
   writeFileSync(join(out, 'mix.gcode'), g.join('\n') + '\n');
 }
 
+// Three materials (M165 A B C, as a mixing hotend's G-code would): layer 1 has lines along X at
+// y = 2i with the mixtures MIX3[i].
+const MIX3 = [[1, 0, 0], [0, 1, 0], [0, 0, 1], [0.6, 0.2, 0.2], [0.2, 0.5, 0.3], [0.1, 0.1, 0.8], [0.4, 0.4, 0.2]];
+{
+  const g = ['G21', 'G90', 'M83', ';LAYER_CHANGE', ';Z:0.2'];
+  MIX3.forEach(([a, b, c], i) => g.push(`M165 A${a} B${b} C${c}`, `G0 X0 Y${2 * i} Z0.2`, `G1 X20 Y${2 * i} E1.0 F1200`));
+  writeFileSync(join(out, 'mix3.gcode'), g.join('\n') + '\n');
+}
+// Deviation from a design: two design struts along X at y = 0 and y = 10; the print's lines along
+// X lie 0, 0.25, 0.5 and 1 mm beside the first.
+const DEV = [0, 0.25, 0.5, 1];
+{
+  writeFileSync(join(out, 'dev_design.json'), JSON.stringify({ units: 'mm',
+    nodes: [[0, 0, 0.2], [20, 0, 0.2], [0, 10, 0.2], [20, 10, 0.2]], edges: [[0, 1], [2, 3]] }));
+  const g = ['G21', 'G90', 'M83', ';LAYER_CHANGE', ';Z:0.2'];
+  for (const d of DEV) g.push(`G0 X0 Y${d} Z0.2`, `G1 X20 Y${d} E1.0 F1200`);
+  writeFileSync(join(out, 'dev.gcode'), g.join('\n') + '\n');
+}
+// A bath print of a dense foam with collisions the planner could not avoid, its `trellis check`
+// report, and the G-code as binary G-code (the test encoder written from the specification).
+tr('lattice3d', '--kind', 'foam', '--box', '8,8,8', '--density', '0.05', '-o', 'foam.json');
+tr('plan', 'aero', 'foam.json', '-o', 'foam_path.json', '--machine', profile('embedded_aero_410um.toml'), '--gcode', 'foam.nc');
+try { tr('check', 'foam.json', 'foam.nc', '--report', 'foam_check.json'); } catch (e) { if (e.status !== 1) throw e; }
+const foamCheck = json('foam_check.json');
+const foamFlagged = new Set(foamCheck.collision_list.flatMap((h) => [h.strut, h.hit_strut]).filter((e) => e >= 0)).size;
+run('/usr/bin/python3', [join(source, 'tests/machine/bgcode_encode.py'), join(out, 'part.gcode'), join(out, 'part.bgcode'), '1', '0']);
+
 // What Trellis reports for each file: [layers, paths, segments] (lattices: struts).
 function analyze(file, ...extra) {
   tr('analyze', file, '--report', file + '.report.json', ...extra);
@@ -76,7 +103,17 @@ const cases = [
   { file: join(source, 'tests/data/aero/cubic_edges.csv'), name: 'cubic_edges.csv',
     expect: { designLines: json('cubic_report.json').struts } },
   { file: 'mix.gcode', expect: analyze('mix.gcode') },
-];
+  { file: 'mix3.gcode', expect: analyze('mix3.gcode') },
+  { file: 'part.bgcode', expect: analyze('part.bgcode') },
+  { file: 'dev.gcode', args: ['--design', 'dev_design.json'], expect: { ...analyze('dev.gcode'), designLines: 2 } },
+  { file: 'foam.nc', args: ['--design', 'foam.json', '--machine', profile('embedded_aero_410um.toml')],
+    expect: { paths: foamCheck.paths, segments: foamCheck.segments, collisions: foamCheck.collisions,
+      ringed: foamCheck.collision_list.length, designLines: foamCheck.struts, designFlagged: foamFlagged } },
+  { file: 'foam_check.json', args: ['--design', 'foam.json'],
+    expect: { collisions: foamCheck.collisions, ringed: foamCheck.collision_list.length, designLines: foamCheck.struts,
+      designFlagged: foamFlagged } },
+  { file: 'foam.nc', name: 'foam_bed.nc', args: ['--machine', profile('embedded_aero_410um.toml')], expect: analyze('foam.nc', '--valve-on', 'M3', '--valve-off', 'M5') },
+].filter((c) => !process.env.TV_ONLY || process.env.TV_ONLY.split(',').includes(c.name || c.file));
 
 // --- browser -----------------------------------------------------------------------------------
 const browser = await puppeteer.launch({
@@ -200,6 +237,86 @@ for (const c of cases) {
     const label = await page.$eval('#tv-layer-label', (e) => e.textContent);
     check(/^1 of 2/.test(label), `mix.gcode: layer label "${label}"`);
     await page.screenshot({ path: join(out, 'mix.gcode.layer1.png') });
+  }
+  if (name === 'mix3.gcode') {
+    await page.click('#tv-top');
+    await page.select('#tv-mode', 'mixture');
+    await page.evaluate(() => window.trellisViewer.whenDrawn());
+    check(await page.$('#tv-triangle') !== null, 'mix3.gcode: three materials: the mixture triangle is the legend');
+    for (const [i, w] of MIX3.entries()) {
+      const [x, y] = await page.evaluate((yy) => window.trellisViewer.project(4.5, yy, 0.2), 2 * i);
+      const tri = await page.evaluate((w) => {
+        const at = window.trellisViewer.triangleAt(w);
+        const p = document.getElementById('tv-triangle').getContext('2d').getImageData(Math.floor(at.cx), Math.floor(at.cy), 1, 1).data;
+        return [p[0], p[1], p[2]];
+      }, w);
+      const px = await around(page, x, y, 1);
+      const best = Math.min(...px.map((p) => diff(p, tri)));
+      // The nearest other mixture of the file, on the triangle: the colours must tell them apart.
+      let other = 255;
+      for (const [j, v] of MIX3.entries())
+        if (j !== i) other = Math.min(other, diff(tri, await page.evaluate((v) => window.trellisViewer.triangleAt(v).color, v)));
+      check(best <= 6 && other > 12,
+        `mix3.gcode: mixture ${w.join(':')}: segment pixel within ${best} of the triangle at that mixture (next mixture ${other} away)`);
+    }
+    await page.screenshot({ path: join(out, 'mix3.gcode.mixture.png') });
+  }
+  if (name === 'dev.gcode') {
+    await page.click('#tv-top');
+    await page.click('#tv-design');  // the design struts off: the print's own colours
+    await page.select('#tv-mode', 'deviation');
+    await page.evaluate(() => window.trellisViewer.whenDrawn());
+    for (const d of [0.25, 0.5, 1]) {
+      const [x, y] = await page.evaluate((yy) => window.trellisViewer.project(10, yy, 0.2), d);
+      const bar = await page.evaluate((v) => {
+        const at = window.trellisViewer.colorbarAt(v), cv = document.getElementById('tv-colorbar');
+        const r = cv.getBoundingClientRect();
+        const p = cv.getContext('2d').getImageData(Math.round(at.x - r.left - 1.5), 7, 1, 1).data;
+        return [p[0], p[1], p[2]];
+      }, d);
+      const px = await around(page, x, y, 1);
+      const best = Math.min(...px.map((p) => diff(p, bar)));
+      const zero = await page.evaluate(() => window.trellisViewer.colorbarAt(0).color);
+      check(best <= 6 && diff(bar, zero) > 12,
+        `dev.gcode: a line ${d} mm beside the design strut: pixel within ${best} of the colour bar at ${d} mm`);
+    }
+    const legend = await page.$eval('#tv-legend', (e) => e.innerText);
+    check(/Deviation from the design/.test(legend) && /1\.0 mm/.test(legend), `dev.gcode: colour bar "${legend.replace(/\n/g, ' ')}"`);
+    await page.screenshot({ path: join(out, 'dev.gcode.deviation.png') });
+  }
+  if (name === 'foam.nc') {
+    await page.select('#tv-mode', 'collisions');
+    await page.evaluate(() => window.trellisViewer.whenDrawn());
+    // Every listed collision is ringed: the ring colour around the hit point.
+    const RING = [220, 20, 60];
+    let ringed = 0;
+    for (const h of foamCheck.collision_list) {
+      const [x, y] = await page.evaluate((p) => window.trellisViewer.project(...p), h.point);
+      const px = await around(page, x, y, 11);
+      if (px.filter((p) => diff(p, RING) <= 10).length >= 12) ringed += 1;
+    }
+    check(ringed === foamCheck.collision_list.length, `foam.nc: ${ringed} of ${foamCheck.collision_list.length} collisions ringed on screen`);
+    const legend = await page.$eval('#tv-legend', (e) => e.innerText);
+    check(new RegExp(`${foamCheck.collisions} collisions`).test(legend), `foam.nc: legend names the ${foamCheck.collisions} collisions`);
+    await page.screenshot({ path: join(out, 'foam.nc.collisions.png') });
+  }
+  if (name === 'foam_check.json') await page.screenshot({ path: join(out, 'foam_check.json.png') });
+  if (name === 'foam_bed.nc') {
+    const bed = await page.evaluate(() => window.trellisViewer.bedBox());
+    check(bed && bed.min.join() === '0,0,0' && bed.max.join() === '300,300,100',
+      `foam_bed.nc: build volume ${bed && bed.min.join(',')} to ${bed && bed.max.join(',')} (profile: 300 x 300 x 100 mm, corner origin)`);
+    const on = await frame(page);
+    await page.click('#tv-bed');
+    await page.evaluate(() => window.trellisViewer.whenDrawn());
+    await page.click('#tv-fit');
+    await page.evaluate(() => window.trellisViewer.whenDrawn());
+    const off = await frame(page);
+    await page.click('#tv-bed');
+    await page.evaluate(() => window.trellisViewer.whenDrawn());
+    const again = await frame(page);
+    const dark = (f) => { let n = 0; for (let i = 0; i < f.length; i += 3) if (diff([f[i], f[i + 1], f[i + 2]], [0x5a, 0x62, 0x70]) <= 12) n += 1; return n; };
+    check(dark(on) > 300 && dark(again) > 300 && dark(off) < dark(on) / 10,
+      `foam_bed.nc: build volume edges ${dark(on)} pixels, ${dark(off)} when switched off`);
   }
   await page.close();
 }

@@ -167,7 +167,7 @@ class Viewer {
     }
     this.bed = null;
     if (s.meta.bed) {
-      this.bed = new THREE.LineSegments(bedGeometry(s.meta.bed), new THREE.LineBasicMaterial({ color: 0x5a6270 }));
+      this.bed = new THREE.LineSegments(bedGeometry(s.meta.bed), new THREE.LineBasicMaterial({ color: new THREE.Color().setRGB(0x5a / 255, 0x62 / 255, 0x70 / 255, THREE.LinearSRGBColorSpace) }));
       this.bed.frustumCulled = false;
       this.bed.visible = $('tv-bed').checked;
       this.scene.add(this.bed);
