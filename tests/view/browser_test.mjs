@@ -19,7 +19,9 @@ rmSync(out, { recursive: true, force: true });
 mkdirSync(out, { recursive: true });
 
 let failures = 0;
+let tagNow = '';  // 'firefox.' while the Firefox round runs
 function check(ok, what) {
+  if (tagNow && !what.startsWith(tagNow)) what = tagNow + what;
   console.log(`${ok ? 'ok  ' : 'FAIL'} ${what}`);
   if (!ok) failures += 1;
 }
@@ -116,7 +118,7 @@ const cases = [
 ].filter((c) => !process.env.TV_ONLY || process.env.TV_ONLY.split(',').includes(c.name || c.file));
 
 // --- browser -----------------------------------------------------------------------------------
-const browser = await puppeteer.launch({
+let browser = await puppeteer.launch({
   executablePath: '/usr/bin/chromium',
   headless: true,
   args: ['--no-sandbox', '--use-angle=swiftshader', '--enable-unsafe-swiftshader', '--mute-audio'],
@@ -165,8 +167,9 @@ const BG = [0xf4, 0xf5, 0xf7];
 const diff = (a, b) => Math.max(...[0, 1, 2].map((i) => Math.abs(a[i] - b[i])));
 const isBg = (c) => diff(c, BG) <= 2;
 
-for (const c of cases) {
-  const name = c.name || c.file;
+async function runCase(c, tag = '') {
+  const base = c.name || c.file, name = tag + base;
+  tagNow = tag;
   const html = join(out, name + '.html');
   tr('view', c.file, ...(c.args || []), '-o', html);
   const { page, errors } = await open(html);
@@ -182,7 +185,7 @@ for (const c of cases) {
   check(/Feature type/.test(legend), `${name}: legend says what colour means ("${legend.split('\n')[0]}")`);
   check(/\d mm/.test(await page.$eval('#tv-scale', (e) => e.innerText)), `${name}: scale bar in mm`);
   await page.screenshot({ path: join(out, name + '.png') });
-  if (name === 'part.gcode') {
+  if (base === 'part.gcode') {
     check(statSync(html).size - statSync(join(out, 'part.gcode')).size < 2e6,
       `part.gcode: page ${statSync(html).size} bytes, under 2 MB plus the data`);
     // Colour modes change the pixels where the model is.
@@ -201,7 +204,7 @@ for (const c of cases) {
       `part.gcode: feature -> order changes ${changed} of ${model} model pixels`);
     await page.screenshot({ path: join(out, 'part.gcode.order.png') });
   }
-  if (name === 'mix.gcode') {
+  if (base === 'mix.gcode') {
     await page.click('#tv-top');
     for (const mode of ['mixture', 'temperature']) {
       await page.select('#tv-mode', mode);
@@ -238,7 +241,7 @@ for (const c of cases) {
     check(/^1 of 2/.test(label), `mix.gcode: layer label "${label}"`);
     await page.screenshot({ path: join(out, 'mix.gcode.layer1.png') });
   }
-  if (name === 'mix3.gcode') {
+  if (base === 'mix3.gcode') {
     await page.click('#tv-top');
     await page.select('#tv-mode', 'mixture');
     await page.evaluate(() => window.trellisViewer.whenDrawn());
@@ -261,7 +264,7 @@ for (const c of cases) {
     }
     await page.screenshot({ path: join(out, 'mix3.gcode.mixture.png') });
   }
-  if (name === 'dev.gcode') {
+  if (base === 'dev.gcode') {
     await page.click('#tv-top');
     await page.click('#tv-design');  // the design struts off: the print's own colours
     await page.select('#tv-mode', 'deviation');
@@ -284,7 +287,7 @@ for (const c of cases) {
     check(/Deviation from the design/.test(legend) && /1\.0 mm/.test(legend), `dev.gcode: colour bar "${legend.replace(/\n/g, ' ')}"`);
     await page.screenshot({ path: join(out, 'dev.gcode.deviation.png') });
   }
-  if (name === 'foam.nc') {
+  if (base === 'foam.nc') {
     await page.select('#tv-mode', 'collisions');
     await page.evaluate(() => window.trellisViewer.whenDrawn());
     // Every listed collision is ringed: the ring colour around the hit point.
@@ -300,8 +303,8 @@ for (const c of cases) {
     check(new RegExp(`${foamCheck.collisions} collisions`).test(legend), `foam.nc: legend names the ${foamCheck.collisions} collisions`);
     await page.screenshot({ path: join(out, 'foam.nc.collisions.png') });
   }
-  if (name === 'foam_check.json') await page.screenshot({ path: join(out, 'foam_check.json.png') });
-  if (name === 'foam_bed.nc') {
+  if (base === 'foam_check.json') await page.screenshot({ path: join(out, 'foam_check.json.png') });
+  if (base === 'foam_bed.nc') {
     const bed = await page.evaluate(() => window.trellisViewer.bedBox());
     check(bed && bed.min.join() === '0,0,0' && bed.max.join() === '300,300,100',
       `foam_bed.nc: build volume ${bed && bed.min.join(',')} to ${bed && bed.max.join(',')} (profile: 300 x 300 x 100 mm, corner origin)`);
@@ -320,6 +323,7 @@ for (const c of cases) {
   }
   await page.close();
 }
+for (const c of cases) await runCase(c);
 // Python: Toolpath._repr_html_ inside a notebook-like page.
 {
   execFileSync('/usr/bin/python3', ['-c', `
@@ -344,5 +348,19 @@ open("notebook.html", "w").write("<html><body><h2>In [1]: toolpath</h2>" + t._re
   await page.close();
 }
 await browser.close();
+
+// Firefox (Debian's firefox-esr, driven over WebDriver BiDi): the same pages from file://, with
+// WebGL on Mesa's software renderer. The same checks as in Chromium for one file of each kind.
+if (!existsSync('/usr/bin/firefox-esr')) check(false, 'firefox: /usr/bin/firefox-esr missing (scripts/install-deps.sh installs it)');
+else {
+  browser = await puppeteer.launch({
+    browser: 'firefox', executablePath: '/usr/bin/firefox-esr', headless: true,
+    extraPrefsFirefox: { 'webgl.force-enabled': true, 'gfx.webrender.software': true, 'webgl.out-of-process': false },
+    env: { ...process.env, LIBGL_ALWAYS_SOFTWARE: '1', MOZ_HEADLESS: '1', EGL_PLATFORM: 'surfaceless', MOZ_WEBGL_FORCE_EGL: '1' },
+  });
+  const firefoxCases = new Set(['part.gcode', 'mix.gcode', 'mix3.gcode', 'gyroid.cli', 'foam.nc', 'lattice.json']);
+  for (const c of cases) if (firefoxCases.has(c.name || c.file)) await runCase(c, 'firefox.');
+  await browser.close();
+}
 console.log(failures ? `${failures} check(s) failed` : 'all checks passed');
 process.exit(failures ? 1 : 0);

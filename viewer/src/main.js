@@ -272,7 +272,7 @@ class Viewer {
     }
     this.lines.geometry.attributes.color.needsUpdate = true;
     this.legend = legend;
-    this.drawLegend(m.title, legend);
+    this.drawLegend(legend.kind === 'triangle' ? 'Mixture of materials 1, 2 and 3' : m.title, legend);
     this.requestRender();
   }
 
@@ -710,7 +710,8 @@ function drawTriangle() {
   wrap.appendChild(cv);
   const labels = document.createElement('div');
   labels.className = 'tv-bar-labels';
-  for (const [i, name] of ['material 2', 'material 1 (top)', 'material 3'].entries()) {
+  labels.style.width = TRI_W + 'px';
+  for (const [i, name] of ['2', '1 (top)', '3'].entries()) {
     const sp = document.createElement('span');
     sp.textContent = name;
     sp.style.color = `rgb(${MIX3[[1, 0, 2][i]].join(',')})`;
