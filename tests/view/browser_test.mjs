@@ -295,8 +295,15 @@ async function runCase(c, tag = '') {
     let ringed = 0;
     for (const h of foamCheck.collision_list) {
       const [x, y] = await page.evaluate((p) => window.trellisViewer.project(...p), h.point);
-      const px = await around(page, x, y, 11);
-      if (px.filter((p) => diff(p, RING) <= 10).length >= 12) ringed += 1;
+      // A ring, not the colliding line through the point: ring colour at the ring's radius
+      // (22 px marker, circle of radius 25/64 of it) in at least 6 of 8 directions.
+      let dirs = 0;
+      for (let k = 0; k < 8; ++k) {
+        const a = (k * Math.PI) / 4, r = 22 * 25 / 64;
+        const px = await around(page, x + r * Math.cos(a), y + r * Math.sin(a), 1);
+        if (px.some((p) => diff(p, RING) <= 10)) dirs += 1;
+      }
+      if (dirs >= 6) ringed += 1;
     }
     check(ringed === foamCheck.collision_list.length, `foam.nc: ${ringed} of ${foamCheck.collision_list.length} collisions ringed on screen`);
     const legend = await page.$eval('#tv-legend', (e) => e.innerText);
