@@ -25,12 +25,4 @@ struct Mesh3mfModule {
   Located3mf (*locate)(const std::string&);
 };
 
-// The error for a file lib3mf could not read: the located problem where one is found, else
-// lib3mf's own message (`lib3mf_text`, ": ..." or empty) with the part it was reading.
-inline ParseError unreadable_3mf(const std::string& path, const Located3mf& at,
-                                 const std::string& lib3mf_text) {
-  if (!at.what.empty()) return ParseError(at.what, {path, 0, at.where});
-  return ParseError("not a readable 3MF file" + lib3mf_text, {path, 0, at.where});
-}
-
 }  // namespace trellis

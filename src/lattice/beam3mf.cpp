@@ -155,19 +155,18 @@ struct Reader {
 
 LatticeInput read_beam_lattice_3mf(const std::string& path, Diagnostics& diag) {
   (void)read_file(path);  // a clear IoError for a missing file
+  // The 3mf module's walk first (see read_3mf): places problems by part, line and column and
+  // refuses what lib3mf 1.8 would read without a word.
+  if (const Located3mf at = detail::module_table<Mesh3mfModule>("3mf").locate(path);
+      !at.what.empty())
+    throw ParseError(at.what, {path, 0, at.where});
   Handle model, reader;
   if (lib3mf_createmodel(&model.p) != LIB3MF_OK)
     throw ParseError("cannot create a 3MF model", {path});
   if (lib3mf_model_queryreader(model.p, "3mf", &reader.p) != LIB3MF_OK)
     throw ParseError("cannot create a 3MF reader" + last_error(model.p), {path});
   if (lib3mf_reader_readfromfileutf8(reader.p, path.c_str()) != LIB3MF_OK)
-    throw unreadable_3mf(path, detail::module_table<Mesh3mfModule>("3mf").locate(path),
-                         last_error(reader.p));
-  // What lib3mf 1.8 accepts without a word (a coordinate "zz" as 0, an unknown unit) is checked
-  // by the same walk that places its refusals.
-  if (const Located3mf at = detail::module_table<Mesh3mfModule>("3mf").locate(path);
-      !at.what.empty())
-    throw ParseError(at.what, {path, 0, at.where});
+    throw ParseError("not a readable 3MF file" + last_error(reader.p), {path});
   Reader r{path, diag, {}, {}, 0};
   // Build items (with their transforms); without any, every mesh object as stored.
   Handle items;
