@@ -76,8 +76,13 @@ void add_view(CLI::App& app) {
       } else if (!o->design.empty()) {
         diag.warn("view", f + " is a lattice: --design is not compared with it");
       }
-      if (machine && o->design.empty() && print && s.kind != "toolpath")
-        set_build_volume(s, cfg.machine, cfg.machine.name);
+      if (machine && print && s.kind != "toolpath") {
+        if (o->design.empty())
+          set_build_volume(s, cfg.machine, cfg.machine.name);
+        else
+          diag.warn("view", f + ": no build volume drawn: with --design the print is shown in "
+                                "design coordinates, not on the machine's bed");
+      }
       scenes.push_back(std::move(s));
       if (o->title.empty()) title += (title.empty() ? "" : ", ") + scenes.back().name;
     }
