@@ -333,6 +333,15 @@ class Viewer {
           body.appendChild(r2);
         }
       }
+      if (this.s.hits.length && this.mode !== 'collisions') {
+        const row = document.createElement('div');
+        const ring = document.createElement('span');
+        ring.className = 'tv-swatch';
+        ring.style.cssText = `border: 2px solid rgb(${COLLIDING.join(',')}); border-radius: 50%; width: 8px; height: 8px;`;
+        row.appendChild(ring);
+        row.appendChild(document.createTextNode(`collision, ringed (${this.s.hits.length} of ${this.s.meta.collisions})`));
+        body.appendChild(row);
+      }
       return;
     }
     if (legend.kind === 'triangle') {
