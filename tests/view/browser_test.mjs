@@ -81,6 +81,10 @@ tr('plan', 'aero', 'foam.json', '-o', 'foam_path.json', '--machine', profile('em
 try { tr('check', 'foam.json', 'foam.nc', '--report', 'foam_check.json'); } catch (e) { if (e.status !== 1) throw e; }
 const foamCheck = json('foam_check.json');
 const foamFlagged = new Set(foamCheck.collision_list.flatMap((h) => [h.strut, h.hit_strut]).filter((e) => e >= 0)).size;
+// The same machine with a round bed of 200 mm, (0,0) at its centre (a delta printer's layout).
+writeFileSync(join(out, 'round_bed.toml'), readFileSync(profile('embedded_aero_410um.toml'), 'utf8')
+  .replace(/^bed_shape = .*$/m, 'bed_shape = "circle"').replace(/^origin = .*$/m, 'origin = "center"')
+  .replace(/^bed_x = .*$/m, 'bed_x = 200'));
 run('/usr/bin/python3', [join(source, 'tests/machine/bgcode_encode.py'), join(out, 'part.gcode'), join(out, 'part.bgcode'), '1', '0']);
 
 // What Trellis reports for each file: [layers, paths, segments] (lattices: struts).
@@ -114,6 +118,7 @@ const cases = [
   { file: 'foam_check.json', args: ['--design', 'foam.json'],
     expect: { collisions: foamCheck.collisions, ringed: foamCheck.collision_list.length, designLines: foamCheck.struts,
       designFlagged: foamFlagged } },
+  { file: 'foam.nc', name: 'foam_round_bed.nc', args: ['--machine', join(out, 'round_bed.toml')], expect: analyze('foam.nc', '--valve-on', 'M3', '--valve-off', 'M5') },
   { file: 'foam.nc', name: 'foam_bed.nc', args: ['--machine', profile('embedded_aero_410um.toml')], expect: analyze('foam.nc', '--valve-on', 'M3', '--valve-off', 'M5') },
 ].filter((c) => !process.env.TV_ONLY || process.env.TV_ONLY.split(',').includes(c.name || c.file));
 
@@ -311,6 +316,13 @@ async function runCase(c, tag = '') {
     await page.screenshot({ path: join(out, 'foam.nc.collisions.png') });
   }
   if (base === 'foam_check.json') await page.screenshot({ path: join(out, 'foam_check.json.png') });
+  if (base === 'foam_round_bed.nc') {
+    const bed = await page.evaluate(() => window.trellisViewer.bedBox());
+    const close = (a, b) => a.every((v, i) => Math.abs(v - b[i]) < 1e-3);
+    check(bed && close(bed.min, [-100, -100, 0]) && close(bed.max, [100, 100, 100]),
+      `foam_round_bed.nc: round build volume ${bed && bed.min.map((v) => v.toFixed(1))} to ${bed && bed.max.map((v) => v.toFixed(1))} (profile: circle of 200 mm, centre origin, 100 mm high)`);
+    await page.screenshot({ path: join(out, 'foam_round_bed.nc.png') });
+  }
   if (base === 'foam_bed.nc') {
     const bed = await page.evaluate(() => window.trellisViewer.bedBox());
     check(bed && bed.min.join() === '0,0,0' && bed.max.join() === '300,300,100',
