@@ -158,3 +158,43 @@ TEST(View, DeviationIsTheDistanceToTheNearestStrut) {
     EXPECT_NEAR(s.deviation[i], best, 1e-5) << i;
   }
 }
+
+// A `trellis check` report is a viewer input: its collisions become rings, the struts it names are
+// flagged on the design, its counts become statistics; a report missing a count is an error
+// naming the file.
+TEST(View, CheckReportIsAnInput) {
+  const trellis::test::TempDir tmp("trellis_view_check");
+  const std::string f = tmp.file("check.json");
+  write_file_atomic(f, R"({"ok": false, "paths": 3, "segments": 9, "struts": 4,
+    "struts_printed_once": 4, "missing_struts": [], "repeated_struts": [], "off_design_segments": 0,
+    "collisions": 5, "collision_list": [
+      {"path": 2, "segment": 1, "strut": 3, "hit_strut": 0, "hit_path": 0, "tip": [0, 0, 1], "point": [1, 2, 3]},
+      {"path": 2, "segment": 2, "strut": 3, "hit_strut": 1, "hit_path": 0, "tip": [0, 0, 1], "point": [4, 5, 6]}]})");
+  Diagnostics diag;
+  ViewScene s = load_view_scene(f, {}, diag);
+  EXPECT_EQ(s.kind, "check");
+  EXPECT_TRUE(s.checked);
+  EXPECT_EQ(s.collisions, 5u);
+  ASSERT_EQ(s.hits.size(), 2u);
+  EXPECT_EQ(s.hits[1].path, 2);
+  EXPECT_EQ(s.hits[1].segment, 2);
+  EXPECT_EQ(s.hits[1].point.z, 6.0);
+  Graph g;
+  g.nodes = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+  for (NodeId a = 0; a < 4; ++a) g.edges.push_back({a, static_cast<NodeId>((a + 1) % 4), 0, false, 0});
+  set_design(s, g);
+  ASSERT_EQ(s.design_flag.size(), 4u);
+  EXPECT_EQ(std::vector<char>(s.design_flag.begin(), s.design_flag.end()),
+            (std::vector<char>{1, 1, 0, 1}));
+  const std::string html = viewer_html({s}, "check");
+  EXPECT_FALSE(element(html, "tv-0-extras").empty());
+  EXPECT_NE(html.find("\"collisions\":5"), std::string::npos);
+
+  write_file_atomic(f, R"({"collision_list": [], "paths": 1})");
+  try {
+    load_view_scene(f, {}, diag);
+    FAIL() << "no error";
+  } catch (const ParseError& e) {
+    EXPECT_NE(std::string(e.what()).find("check.json"), std::string::npos) << e.what();
+  }
+}
