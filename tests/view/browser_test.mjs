@@ -311,6 +311,21 @@ async function runCase(c, tag = '') {
       if (dirs >= 6) ringed += 1;
     }
     check(ringed === foamCheck.collision_list.length, `foam.nc: ${ringed} of ${foamCheck.collision_list.length} collisions ringed on screen`);
+    // The colliding segments are red: at each one's midpoint, away from every ring.
+    const rings = [];
+    for (const h of foamCheck.collision_list) rings.push(await page.evaluate((p) => window.trellisViewer.project(...p), h.point));
+    let tested = 0, red = 0;
+    for (const h of foamCheck.collision_list) {
+      const seg = await page.evaluate((path, segment) => {
+        const v = window.trellisViewer, s = v.s, k = (s.pathFirst[path] + segment) * 3, P = s.positions;
+        return [(P[k] + P[k + 3]) / 2, (P[k + 1] + P[k + 4]) / 2, (P[k + 2] + P[k + 5]) / 2];
+      }, h.path, h.segment);
+      const [x, y] = await page.evaluate((p) => window.trellisViewer.project(...p), seg);
+      if (rings.some(([rx, ry]) => Math.hypot(rx - x, ry - y) < 14)) continue;
+      tested += 1;
+      if ((await around(page, x, y, 1)).some((p) => diff(p, RING) <= 10)) red += 1;
+    }
+    check(tested >= 3 && red === tested, `foam.nc: ${red} of ${tested} colliding segments (away from the rings) drawn red`);
     const legend = await page.$eval('#tv-legend', (e) => e.innerText);
     check(new RegExp(`${foamCheck.collisions} collisions`).test(legend), `foam.nc: legend names the ${foamCheck.collisions} collisions`);
     await page.screenshot({ path: join(out, 'foam.nc.collisions.png') });
