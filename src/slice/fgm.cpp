@@ -659,13 +659,29 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
       };
       add_rings(inner);
       outer_rings[fi] = lines.size();
-      if (o.concentric) {
-        for (Regions r = offset(inner, -o.bead_width); !r.empty(); r = offset(r, -o.bead_width))
-          add_rings(r);
-      } else {
-        // The lines reach into the ring's bead by the overlap, so their round ends leave no
-        // slivers where they meet it at a shallow angle.
-        const Regions fill = offset(face.region, -o.bead_width * (1 - o.fill_overlap));
+      // Rings inward a bead apart (concentric: until none fits; rectilinear: the paper's palette
+      // plates have 3 perimeters and 100 % infill, §7.5, so a face narrower than that is printed
+      // along its iso-lines by rings alone). Where the next ring does not fit, the gap under a
+      // bead and a quarter left in the middle gets one ring 3/4 of a bead further in (a sliver's
+      // ring runs there and back: keep_uncovered keeps one way), and no lines.
+      Regions last = inner;
+      bool centre_filled = false;
+      for (int k = 1; o.concentric || k < o.perimeters; ++k) {
+        Regions r = offset(last, -o.bead_width);
+        // Less than 1/8 bead beyond the next ring's centre line: its ring would run around a
+        // sliver (or split into specks); the 3/4 ring covers the centre instead.
+        if (r.empty() || offset(last, -1.125 * o.bead_width).empty()) {
+          add_rings(offset(last, -0.75 * o.bead_width));
+          centre_filled = true;
+          break;
+        }
+        add_rings(r);
+        last = std::move(r);
+      }
+      if (!o.concentric && !centre_filled) {
+        // The lines reach into the innermost ring's bead by the overlap (what it covers already
+        // is trimmed below).
+        const Regions fill = offset(last, -o.bead_width * (1 - o.fill_overlap));
         // The paper's Strategy 2 prints perpendicular to the gradient: in each square of
         // orient_cell mm the lines run along the local iso-line (rounded to 5°), or at a fixed
         // angle, +90° a layer, if asked.

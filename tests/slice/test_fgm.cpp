@@ -83,8 +83,12 @@ Fidelity run(const Field& f, int colors, double h, bool concentric, double bead 
         }
     }
   r.mean_error = r.segments ? sum / r.segments : 0;
-  // Coverage: pixels of the outline within half a bead of some path of that layer (beads
-  // painted into a pixel grid).
+  // Coverage: pixels of the outline within 3/4 of a bead of some path of that layer (beads
+  // painted into a pixel grid). Strategy 2 extrudes the face's volume (material balance): a
+  // bead nearer than a bead to its neighbour is kept while it overlaps by less than half a bead,
+  // else dropped, leaving a gap under half a bead that the overlaps' material flows into; so a
+  // pixel counts when a bead's edge is within a quarter bead. Gaps wider than half a bead (a bead
+  // missing) show as uncovered.
   for (std::size_t li = 0; li < tp.layers.size(); ++li) {
     const Regions& out = outlines[li].regions;
     BBox3 b;
@@ -103,7 +107,7 @@ Fidelity run(const Field& f, int colors, double h, bool concentric, double bead 
         for (int iy = y0; iy <= y1; ++iy)
           for (int ix = x0; ix <= x1; ++ix) {
             const Vec3 q{b.min.x + (ix + 0.5) * px, b.min.y + (iy + 0.5) * px, 0};
-            if (distance_to_segment(q, a, c) <= bead / 2 + 1e-9) paint[static_cast<std::size_t>(iy) * nx + ix] = 1;
+            if (distance_to_segment(q, a, c) <= 0.75 * bead + 1e-9) paint[static_cast<std::size_t>(iy) * nx + ix] = 1;
           }
       }
     // Pixels inside the outline by scanlines: each row's crossings with every ring, even-odd.
