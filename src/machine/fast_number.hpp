@@ -53,7 +53,7 @@ constexpr int kMaxChars = 48;
 
 // std::llround(x) (half away from zero) for |x| < 2^62, without the libm call: truncation is
 // exact there, and so is the fraction x - trunc(x). False outside that range (and for NaN).
-inline bool round_half_away(double x, long long& q) {
+[[gnu::always_inline]] inline bool round_half_away(double x, long long& q) {
   if (!(std::abs(x) < 4.0e18)) return false;
   long long t = static_cast<long long>(x);
   const double f = x - static_cast<double>(t);
@@ -65,25 +65,45 @@ inline bool round_half_away(double x, long long& q) {
   return true;
 }
 
+// The decimal digits of u.
+[[gnu::always_inline]] inline char* put_uint(char* p, unsigned long long u) {
+  static constexpr char kTwo[] =
+      "00010203040506070809101112131415161718192021222324252627282930313233343536373839"
+      "40414243444546474849505152535455565758596061626364656667686970717273747576777879"
+      "8081828384858687888990919293949596979899";
+  if (u < 10) {
+    *p = static_cast<char>('0' + u);
+    return p + 1;
+  }
+  if (u < 100) {
+    std::memcpy(p, kTwo + 2 * u, 2);
+    return p + 2;
+  }
+  if (u < 1000) {
+    *p = static_cast<char>('0' + u / 100);
+    std::memcpy(p + 1, kTwo + 2 * (u % 100), 2);
+    return p + 3;
+  }
+  return std::to_chars(p, p + 24, u).ptr;
+}
+
 // Writes `frac` (< 10^decimals) as '.' and `decimals` digits without trailing zeros; nothing
 // if it is 0.
-inline char* fraction(char* p, unsigned long long frac, int decimals) {
+[[gnu::always_inline]] inline char* fraction(char* p, unsigned long long frac, int decimals) {
   if (!frac) return p;
-  while (frac % 10 == 0) {
-    frac /= 10;
-    --decimals;
-  }
   *p++ = '.';
   for (int i = decimals - 1; i >= 0; --i) {
     p[i] = static_cast<char>('0' + frac % 10);
     frac /= 10;
   }
-  return p + decimals;
+  char* e = p + decimals;
+  while (e[-1] == '0') --e;  // frac > 0: a digit other than 0 stops it
+  return e;
 }
 
 // v with at most `decimals` (0..6) decimals, trailing zeros removed: "12.5", "-0.001", "3".
 // Call with a constant `decimals` (it is inlined, the divisions become multiplications).
-inline char* fixed(char* p, double v, int decimals) {
+[[gnu::always_inline]] inline char* fixed(char* p, double v, int decimals) {
   static constexpr long long kPow[] = {1, 10, 100, 1000, 10000, 100000, 1000000};
   const unsigned long long scale = static_cast<unsigned long long>(kPow[decimals]);
   long long q;
@@ -93,7 +113,7 @@ inline char* fixed(char* p, double v, int decimals) {
     *p++ = '-';
     u = 0 - u;
   }
-  p = std::to_chars(p, p + 24, u / scale).ptr;
+  p = put_uint(p, u / scale);
   return fraction(p, u % scale, decimals);
 }
 
@@ -101,7 +121,7 @@ inline char* fixed(char* p, double v, int decimals) {
 // round(mm * 1e5) / 100 prints it (-0 as 0). With |round(mm * 1e5)| < 10^15 the decimal
 // q / 100 has at most 15 significant digits, so it is the shortest form that reads back as the
 // same double, and fmt prints it in fixed notation: its digits are q's. Beyond that, fmt itself.
-inline char* cli_um(char* p, double mm) {
+[[gnu::always_inline]] inline char* cli_um(char* p, double mm) {
   const double r = std::round(mm * 1e5);
   if (!(std::abs(r) < 1e15)) {
     double v = r / 100.0;
@@ -114,7 +134,7 @@ inline char* cli_um(char* p, double mm) {
     *p++ = '-';
     u = 0 - u;
   }
-  p = std::to_chars(p, p + 24, u / 100).ptr;
+  p = put_uint(p, u / 100);
   return fraction(p, u % 100, 2);
 }
 

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <cstring>
 #include <numbers>
 
 #include "trellis/core/error.hpp"
@@ -107,18 +108,29 @@ class Writer {
   // (known only once everything is written: the lines go in afterwards, at the marks).
   void insert_progress() {
     const double total = stats_.print_time_s;
-    std::string out;
-    out.reserve(out_.size() + progress_marks_.size() * 20);
-    std::size_t from = 0;
+    std::vector<std::string> lines;
+    lines.reserve(progress_marks_.size());
+    std::size_t added = 0;
     for (const auto& [at, t] : progress_marks_) {
-      out.append(out_, from, at - from);
       const int percent = total > 0 ? static_cast<int>(std::floor(100 * t / total)) : 0;
       const long left = std::lround(std::ceil(std::max(0.0, total - t) / 60));
-      out += "M73 P" + std::to_string(std::min(percent, 99)) + " R" + std::to_string(left) + "\n";
-      from = at;
+      lines.push_back("M73 P" + std::to_string(std::min(percent, 99)) + " R" +
+                      std::to_string(left) + "\n");
+      added += lines.back().size();
     }
-    out.append(out_, from);
-    out_ = std::move(out);
+    // In place, from the back: each stretch moves up by the lines inserted before it (no second
+    // buffer of the whole file).
+    std::size_t end = out_.size();
+    out_.resize(end + added);
+    char* d = out_.data();
+    std::size_t shift = added;
+    for (std::size_t k = progress_marks_.size(); k-- > 0;) {
+      const std::size_t at = progress_marks_[k].first;
+      std::memmove(d + at + shift, d + at, end - at);
+      shift -= lines[k].size();
+      std::memcpy(d + at + shift, lines[k].data(), lines[k].size());
+      end = at;
+    }
   }
 
   void placement() {
