@@ -178,7 +178,6 @@ void GcodeScanner::line(std::string_view text) {
 void GcodeScanner::move(std::string_view args, int g) {
   Word words[16];
   int n = 0;
-  std::uint32_t seen = 0;  // letters read so far
   std::size_t p = 0;
   while (p < args.size()) {
     while (p < args.size() && (args[p] == ' ' || args[p] == '\t')) ++p;
@@ -207,9 +206,8 @@ void GcodeScanner::move(std::string_view args, int g) {
         (is_digit(e[1]) || ((e[1] == '-' || e[1] == '+') && e + 2 < end && is_digit(e[2]))))
       return bad("'" + std::string(args.substr(p, std::min<std::size_t>(q - p + 6, 30))) +
                  "': a number with an exponent, or two words without a space between them");
-    const std::uint32_t bit = 1u << (letter - 'A');  // letter is upper-case A-Z here
-    if (seen & bit) return bad(std::string("the word ") + letter + " appears twice");
-    seen |= bit;
+    for (int i = 0; i < n; ++i)
+      if (words[i].letter == letter) return bad(std::string("the word ") + letter + " appears twice");
     if (n == 16) return bad("too many words");
     words[n++] = {letter, v};
     p = q;
