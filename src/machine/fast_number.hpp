@@ -5,6 +5,7 @@
 //  - cli_um(): fmt::format("{}", round(mm * 1e5) / 100), the shortest round-trip form of a
 //    coordinate in µm with two decimals (10 nm).
 #pragma once
+#include <bit>
 #include <charconv>
 #include <cmath>
 #include <cstdint>
@@ -14,7 +15,8 @@
 
 namespace trellis::fastnum {
 
-// Enough for any number fixed() or cli_um() writes (fallbacks included).
+// Enough for any number fixed() or cli_um() writes (fallbacks included), with the 8 bytes past
+// its end that the digit writers may scribble on.
 constexpr int kMaxChars = 48;
 
 // The formatting as it was before the fast path (v * 10^d rounded by std::llround, digits one
@@ -52,53 +54,94 @@ constexpr int kMaxChars = 48;
 }
 
 // std::llround(x) (half away from zero) for |x| < 2^62, without the libm call: truncation is
-// exact there, and so is the fraction x - trunc(x). False outside that range (and for NaN).
+// exact there, and so is the fraction x - trunc(x). Branch-free (coordinates round up or down at
+// random, a branch would be mispredicted half the time). False outside that range (and for NaN).
 [[gnu::always_inline]] inline bool round_half_away(double x, long long& q) {
   if (!(std::abs(x) < 4.0e18)) return false;
-  long long t = static_cast<long long>(x);
+  const long long t = static_cast<long long>(x);
   const double f = x - static_cast<double>(t);
-  if (f >= 0.5)
-    ++t;
-  else if (f <= -0.5)
-    --t;
-  q = t;
+  q = t + static_cast<long long>(f >= 0.5) - static_cast<long long>(f <= -0.5);
   return true;
 }
 
-// The decimal digits of u.
+inline constexpr char kTwoDigits[] =
+    "00010203040506070809101112131415161718192021222324252627282930313233343536373839"
+    "40414243444546474849505152535455565758596061626364656667686970717273747576777879"
+    "8081828384858687888990919293949596979899";
+
+// The decimal digits of u. Below 10^8 without branches on its length (it varies at random
+// between neighbouring coordinates): eight digits written, the significant ones kept. May write
+// up to 8 bytes past the returned end (the buffers here have room: kMaxChars).
 [[gnu::always_inline]] inline char* put_uint(char* p, unsigned long long u) {
-  static constexpr char kTwo[] =
-      "00010203040506070809101112131415161718192021222324252627282930313233343536373839"
-      "40414243444546474849505152535455565758596061626364656667686970717273747576777879"
-      "8081828384858687888990919293949596979899";
-  if (u < 10) {
-    *p = static_cast<char>('0' + u);
-    return p + 1;
-  }
-  if (u < 100) {
-    std::memcpy(p, kTwo + 2 * u, 2);
-    return p + 2;
-  }
-  if (u < 1000) {
-    *p = static_cast<char>('0' + u / 100);
-    std::memcpy(p + 1, kTwo + 2 * (u % 100), 2);
-    return p + 3;
-  }
-  return std::to_chars(p, p + 24, u).ptr;
+  if (u >= 100000000ULL) return std::to_chars(p, p + 24, u).ptr;
+  const int n = 1 + (u >= 10) + (u >= 100) + (u >= 1000) + (u >= 10000) + (u >= 100000) +
+                (u >= 1000000) + (u >= 10000000);
+  // Built in a register (byte stores read back as one word would stall store forwarding).
+  auto two = [](unsigned k) {
+    std::uint16_t t;
+    std::memcpy(&t, kTwoDigits + 2 * k, 2);
+    return static_cast<std::uint64_t>(t);
+  };
+  const unsigned hi = static_cast<unsigned>(u / 10000), lo = static_cast<unsigned>(u % 10000);
+  std::uint64_t w = two(hi / 100) | two(hi % 100) << 16 | two(lo / 100) << 32 | two(lo % 100) << 48;
+  w >>= 8 * (8 - n);  // the n significant digits to the front
+  std::memcpy(p, &w, 8);
+  return p + n;
 }
 
-// Writes `frac` (< 10^decimals) as '.' and `decimals` digits without trailing zeros; nothing
-// if it is 0.
+// Writes `frac` (0 < frac < 10^decimals, decimals <= 6) as '.' and `decimals` digits without
+// trailing zeros; nothing if frac is 0. Branch-free but for frac == 0; may write up to 8 bytes
+// past the returned end.
 [[gnu::always_inline]] inline char* fraction(char* p, unsigned long long frac, int decimals) {
   if (!frac) return p;
   *p++ = '.';
+  std::uint64_t w = 0x3030303030303030ULL;  // '0' x 8, the digits added in a register
   for (int i = decimals - 1; i >= 0; --i) {
-    p[i] = static_cast<char>('0' + frac % 10);
+    w += (frac % 10) << (8 * i);
     frac /= 10;
   }
-  char* e = p + decimals;
-  while (e[-1] == '0') --e;  // frac > 0: a digit other than 0 stops it
-  return e;
+  // Bit 7 of each byte that is a digit other than 0 (bytes past `decimals` are '0'): the last
+  // of them ends the fraction; frac > 0, so there is one.
+  const std::uint64_t nonzero = ((w ^ 0x3030303030303030ULL) + 0x7F7F7F7F7F7F7F7FULL) &
+                                0x8080808080808080ULL;
+  const int len = (63 - std::countl_zero(nonzero)) / 8 + 1;
+  std::memcpy(p, &w, 8);
+  return p + len;
+}
+
+// The eight decimal digits of q < 10^8 as bytes 0..9, the most significant in the lowest byte
+// (SWAR, after Lemire and Khuong: both halves of q split by 100, then by 10, in one register).
+[[gnu::always_inline]] inline std::uint64_t eight_digits(std::uint64_t q) {
+  const std::uint64_t merged = (q / 10000) | ((q % 10000) << 32);
+  const std::uint64_t top = ((merged * 10486ULL) >> 20) & ((0x7FULL << 32) | 0x7FULL);
+  const std::uint64_t bot = merged - 100ULL * top;
+  const std::uint64_t hundreds = (bot << 16) + top;
+  std::uint64_t tens = (hundreds * 103ULL) >> 10;
+  tens &= (0xFULL << 48) | (0xFULL << 32) | (0xFULL << 16) | 0xFULL;
+  tens += (hundreds - 10ULL * tens) << 8;
+  return tens;
+}
+
+// q / 10^decimals with at most `decimals` (1..6) decimals, trailing zeros removed, for
+// q < 10^8: all digits made at once in a register, integer part and fraction cut from it
+// with shifts (no branch on the number's length). May write up to 8 bytes past the end.
+[[gnu::always_inline]] inline char* fixed_small(char* p, std::uint64_t q, int decimals) {
+  const std::uint64_t raw = eight_digits(q);
+  const std::uint64_t nonzero = (raw + 0x7F7F7F7F7F7F7F7FULL) & 0x8080808080808080ULL;
+  const int first = nonzero ? std::countr_zero(nonzero) / 8 : 8;  // leading zero digits
+  const int start = first < 7 - decimals ? first : 7 - decimals;  // keep one integer digit
+  const std::uint64_t ascii = raw + 0x3030303030303030ULL;
+  const std::uint64_t int_part = ascii >> (8 * start);
+  std::memcpy(p, &int_part, 8);
+  p += 8 - decimals - start;
+  // The fraction: the last `decimals` digits, up to the last one that is not 0.
+  const std::uint64_t frac_nonzero =
+      (nonzero >> (8 * (8 - decimals)));  // bit 7 of each fraction digit other than 0
+  if (!frac_nonzero) return p;
+  *p++ = '.';
+  const std::uint64_t frac = ascii >> (8 * (8 - decimals));
+  std::memcpy(p, &frac, 8);
+  return p + (63 - std::countl_zero(frac_nonzero)) / 8 + 1;
 }
 
 // v with at most `decimals` (0..6) decimals, trailing zeros removed: "12.5", "-0.001", "3".
@@ -113,6 +156,7 @@ constexpr int kMaxChars = 48;
     *p++ = '-';
     u = 0 - u;
   }
+  if (decimals > 0 && u < 100000000ULL) return fixed_small(p, u, decimals);
   p = put_uint(p, u / scale);
   return fraction(p, u % scale, decimals);
 }
@@ -134,6 +178,7 @@ constexpr int kMaxChars = 48;
     *p++ = '-';
     u = 0 - u;
   }
+  if (u < 100000000ULL) return fixed_small(p, u, 2);
   p = put_uint(p, u / 100);
   return fraction(p, u % 100, 2);
 }
