@@ -540,8 +540,12 @@ class Writer {
     }
     const double lookahead = tower || tools ? 0.0 : p_.lookahead;
     stats_.lookahead = lookahead;
-    std::vector<double> start(paths.size() + 1, 0);  // printed length before each path
-    for (std::size_t k = 0; k < paths.size(); ++k) start[k + 1] = start[k] + paths[k]->length();
+    // Printed length before each path (needed only when some path carries a mixture).
+    const bool mixtures =
+        std::any_of(paths.begin(), paths.end(), [](const Path* p) { return !p->mixture.empty(); });
+    std::vector<double> start(mixtures ? paths.size() + 1 : 0, 0);
+    if (mixtures)
+      for (std::size_t k = 0; k < paths.size(); ++k) start[k + 1] = start[k] + paths[k]->length();
     std::string last;
     for (std::size_t k = 0; k < paths.size(); ++k) {
       if (paths[k]->mixture.empty()) continue;
