@@ -96,6 +96,7 @@ void ascii_geometry(const Toolpath& tp, std::string& out) {
   for (const auto& layer : tp.layers)
     for (const auto& p : layer.paths) points += p.points.size();
   out.reserve(out.size() + points * 18 + tp.layers.size() * 64 + 64);  // ~",123.45,67.89"
+  fastnum::advise_huge_pages(out);
   out += "\n$$GEOMETRYSTART\n";
   for (const auto& layer : tp.layers) {
     out += "$$LAYER/";
@@ -107,7 +108,12 @@ void ascii_geometry(const Toolpath& tp, std::string& out) {
         ++hatches;
         continue;
       }
-      fmt::format_to(std::back_inserter(out), "$$POLYLINE/{},2,{}", kContourId, p.points.size());
+      char head[64];  // "$$POLYLINE/<id>,2,<n>" (as fmt's "{}" prints integers)
+      char* h = fastnum::lit(head, "$$POLYLINE/");
+      h = std::to_chars(h, head + sizeof head, kContourId).ptr;
+      h = fastnum::lit(h, ",2,");
+      h = std::to_chars(h, head + sizeof head, p.points.size()).ptr;
+      out.append(head, static_cast<std::size_t>(h - head));
       for (const auto& q : p.points) put_xy(out, q);
       out += '\n';
     }

@@ -10,6 +10,11 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <string>
+
+#ifdef __linux__
+#include <sys/mman.h>
+#endif
 
 #include <fmt/format.h>
 
@@ -181,6 +186,22 @@ inline constexpr char kTwoDigits[] =
   if (u < 100000000ULL) return fixed_small(p, u, 2);
   p = put_uint(p, u / 100);
   return fraction(p, u % 100, 2);
+}
+
+// Asks for transparent huge pages under a large output buffer (reserved, not yet written):
+// 512x fewer page faults while the file is written. Advice only; nothing changes if refused.
+inline void advise_huge_pages(std::string& buffer) {
+#ifdef __linux__
+  constexpr std::uintptr_t kHuge = std::uintptr_t{2} << 20;
+  if (buffer.capacity() < 4 * kHuge) return;
+  std::uintptr_t a = reinterpret_cast<std::uintptr_t>(buffer.data());
+  std::uintptr_t b = a + buffer.capacity();
+  a = (a + kHuge - 1) & ~(kHuge - 1);
+  b &= ~(kHuge - 1);
+  if (b > a) madvise(reinterpret_cast<void*>(a), b - a, MADV_HUGEPAGE);
+#else
+  (void)buffer;
+#endif
 }
 
 // Copies a string literal (without its terminating NUL).

@@ -88,6 +88,7 @@ class Writer {
     for (const auto& l : tp_.layers)
       for (const auto& path : l.paths) points += path.points.size();
     out_.reserve(points * 40 + 8192);
+    fastnum::advise_huge_pages(out_);
     plan_changes();
     header();
     for (std::size_t li = 0; li < tp_.layers.size(); ++li) layer(li);
