@@ -218,13 +218,13 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
                           r.fgm.colours_total));
   if (sj.strategy != 0 && r.fgm.short_kept > 0)
     diag.warn("short_segments_kept",
-              fmt::format("{}: {} pieces under --min-segment {} mm are printed ({} merged): "
-                          "merging {} of them would exceed the gradient bound α/2 = {} (the "
-                          "other {} touch no piece of another colour end to end); use more "
-                          "colours or a smaller --min-segment",
+              fmt::format("{}: {} pieces under --min-segment {} mm are printed ({} merged into a "
+                          "neighbour; {} merges refused): merging would exceed the gradient bound "
+                          "α/2 = {} (or no piece of another colour touches it end to end); use "
+                          "more colours or a smaller --min-segment",
                           job.input, r.fgm.short_kept, fixed(r.fgm.min_segment, 2),
-                          r.fgm.short_merged, r.fgm.short_kept_bound, fixed(r.fgm.error_bound, 4),
-                          r.fgm.short_kept - std::min(r.fgm.short_kept, r.fgm.short_kept_bound)));
+                          r.fgm.short_merged, r.fgm.short_kept_bound,
+                          fixed(r.fgm.error_bound, 4)));
   // The file name only: outputs must not depend on where the command ran.
   r.toolpath.source = "trellis slice " + fs::path(job.input).filename().string() + " (" +
                       to_string(r.route) + " route)";

@@ -764,7 +764,9 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
 void merge_short_pieces(std::vector<Path>& paths, std::vector<int>& colours, Evaluator& ev,
                         double z, const Palette& palette, double min, FgmStats& st) {
   if (!(min > 0) || paths.empty()) return;
-  const double bound = palette.error_bound();
+  // α/2 (2α/3 for three materials), with a rounding allowance: a piece along a band's edge is
+  // exactly α/2 from both colours.
+  const double bound = palette.error_bound() + 1e-9;
   constexpr double touch = 1e-6;  // cut points of one line coincide
   auto near = [&](const Vec3& a, const Vec3& b) {
     return std::abs(a.x - b.x) <= touch && std::abs(a.y - b.y) <= touch;
@@ -1159,6 +1161,28 @@ Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>&
     std::stable_sort(per[li].begin(), per[li].end(), [&](const Piece& a, const Piece& b) {
       return li % 2 ? a.color > b.color : a.color < b.color;
     });
+    if (o.min_segment > 0) {
+      // Pieces of one colour and role printed one after the other where one ends and the next
+      // begins (a line cut only by a merged piece) are one piece: count the printed ones.
+      std::vector<Piece> joined;
+      for (auto& piece : per[li]) {
+        if (!joined.empty()) {
+          Path& last = joined.back().path;
+          const Vec3 a = last.points.back(), b = piece.path.points.front();
+          if (joined.back().color == piece.color && last.role == piece.path.role &&
+              last.width == piece.path.width && last.speed == piece.path.speed &&
+              std::abs(a.x - b.x) <= 1e-6 && std::abs(a.y - b.y) <= 1e-6) {
+            last.points.insert(last.points.end(), piece.path.points.begin() + 1,
+                               piece.path.points.end());
+            continue;
+          }
+        }
+        joined.push_back(std::move(piece));
+      }
+      per[li] = std::move(joined);
+      shorts_per[li].short_kept = 0;
+      for (const auto& piece : per[li]) shorts_per[li].short_kept += piece.path.length() < o.min_segment;
+    }
   });
   Toolpath tp;
   FgmStats st;

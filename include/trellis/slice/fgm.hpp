@@ -154,10 +154,11 @@ struct TowerStats {
 struct FgmStats {
   std::size_t faces = 0, paths = 0, colour_changes = 0;
   double shortest_path = 0;  // mm
-  // FgmOptions::min_segment: pieces under it joined to a neighbour (short_merged) and pieces
-  // printed under it (short_kept = short_kept_bound, a touching neighbour exists but its colour
-  // is further than the error bound from the design somewhere along the piece, + those touching
-  // no piece of another colour end to end).
+  // FgmOptions::min_segment: pieces under it joined to a neighbour (short_merged); pieces printed
+  // under it (short_kept, after joining); short pieces whose merge the error bound refused (a
+  // touching neighbour exists but its colour is further than α/2 from the design somewhere
+  // along the piece; counted before pieces of one colour are joined, so it may exceed
+  // short_kept); the others touch no piece of another colour end to end.
   double min_segment = 0;
   std::size_t short_merged = 0, short_kept = 0, short_kept_bound = 0;
   std::size_t purges = 0;    // Strategy 1: purges printed into the tower
