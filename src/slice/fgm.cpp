@@ -799,20 +799,40 @@ void merge_short_pieces(std::vector<Path>& paths, std::vector<int>& colours, Eva
     }
     return worst ? e : (f.empty() ? 0.0 : sum / static_cast<double>(f.size()));
   };
+  // Pieces by their ends, on a grid of `touch` cells (a lookup checks the 3 x 3 cells around).
+  auto key = [&](const Vec3& a) {
+    return std::pair<long long, long long>{std::llround(a.x / touch), std::llround(a.y / touch)};
+  };
+  std::map<std::pair<long long, long long>, std::vector<std::size_t>> ends;
+  auto add_ends = [&](std::size_t j) {
+    if (paths[j].points.size() < 2) return;
+    ends[key(paths[j].points.front())].push_back(j);
+    ends[key(paths[j].points.back())].push_back(j);
+  };
+  for (std::size_t j = 0; j < paths.size(); ++j) add_ends(j);
   std::vector<char> dead(paths.size(), 0);
   for (std::size_t i = 0; i < paths.size(); ++i) {
     Path& p = paths[i];
     if (dead[i] || p.points.size() < 2 || !(p.length() < min)) continue;
     // Pieces of another colour and the same role touching an end of this one.
     std::vector<std::size_t> touching;
-    for (std::size_t j = 0; j < paths.size(); ++j) {
-      const Path& q = paths[j];
-      if (j == i || dead[j] || colours[j] == colours[i] || q.role != p.role || q.points.size() < 2)
-        continue;
-      if (near(p.points.front(), q.points.front()) || near(p.points.front(), q.points.back()) ||
-          near(p.points.back(), q.points.front()) || near(p.points.back(), q.points.back()))
-        touching.push_back(j);
+    for (const Vec3& end : {p.points.front(), p.points.back()}) {
+      const auto k = key(end);
+      for (long long dx = -1; dx <= 1; ++dx)
+        for (long long dy = -1; dy <= 1; ++dy) {
+          const auto it = ends.find({k.first + dx, k.second + dy});
+          if (it == ends.end()) continue;
+          for (std::size_t j : it->second) {
+            const Path& q = paths[j];
+            if (j == i || dead[j] || colours[j] == colours[i] || q.role != p.role ||
+                q.points.size() < 2 ||
+                std::find(touching.begin(), touching.end(), j) != touching.end())
+              continue;
+            if (near(end, q.points.front()) || near(end, q.points.back())) touching.push_back(j);
+          }
+        }
     }
+    std::sort(touching.begin(), touching.end());
     if (touching.empty()) continue;
     const auto f = samples(p);
     std::size_t best = touching.front();
@@ -839,6 +859,7 @@ void merge_short_pieces(std::vector<Path>& paths, std::vector<int>& colours, Eva
       q.points.insert(q.points.begin(), pts.rbegin(), pts.rend() - 1);
     }
     dead[i] = 1;
+    add_ends(best);
     ++st.short_merged;
   }
   std::size_t n = 0;
