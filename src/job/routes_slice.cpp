@@ -219,12 +219,13 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
   if (sj.strategy != 0 && r.fgm.short_kept > 0)
     diag.warn("short_segments_kept",
               fmt::format("{}: {} pieces under --min-segment {} mm are printed ({} merged into a "
-                          "neighbour; {} merges refused): merging would exceed the gradient bound "
-                          "α/2 = {} (or no piece of another colour touches it end to end); use "
-                          "more colours or a smaller --min-segment",
+                          "neighbour): {} merges refused because merging would exceed the "
+                          "gradient bound {} = {}, the other short pieces touch no piece of "
+                          "another colour end to end; use more colours or a smaller "
+                          "--min-segment",
                           job.input, r.fgm.short_kept, fixed(r.fgm.min_segment, 2),
                           r.fgm.short_merged, r.fgm.short_kept_bound,
-                          fixed(r.fgm.error_bound, 4)));
+                          r.fgm.materials == 3 ? "2α/3" : "α/2", fixed(r.fgm.error_bound, 4)));
   // The file name only: outputs must not depend on where the command ran.
   r.toolpath.source = "trellis slice " + fs::path(job.input).filename().string() + " (" +
                       to_string(r.route) + " route)";
