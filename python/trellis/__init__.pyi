@@ -223,6 +223,7 @@ def slice(
     max_memory: float = ...,  # run.max_memory: refuse a run whose estimate (made from its settings before it starts) needs more memory than this
     max_time: float = ...,  # run.max_time: refuse a run whose estimated time is longer than this
     mesh_voxel: float = ...,  # slice.mesh_voxel: voxel of mesh distance fields (field route)
+    min_segment: float = ...,  # fgm.min_segment: pieces (Strategy 1) and paths (Strategy 2) shorter than this are joined to a touching piece of another colour where the design stays within α/2 of its
     preview_layers: int = ...,  # output.preview_layers: PNG previews spread over the layers
     repair: bool = ...,  # slice.repair: repair meshes that are not closed and manifold (stitch seams, drop degenerate and duplicate faces, orient, fill small holes, split non-manifold edges); --no-re
     resolution: float = ...,  # slice.resolution: XY grid step of field contours

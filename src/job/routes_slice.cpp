@@ -216,6 +216,16 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
                           "palettes span the whole range)",
                           job.input, r.fgm.colours_used, r.fgm.colours_total,
                           r.fgm.colours_total));
+  if (sj.strategy != 0 && r.fgm.short_kept > 0)
+    diag.warn("short_segments_kept",
+              fmt::format("{}: {} pieces under --min-segment {} mm are printed ({} merged into a "
+                          "neighbour): {} merges refused because merging would exceed the "
+                          "gradient bound {} = {}, the other short pieces touch no piece of "
+                          "another colour end to end; use more colours or a smaller "
+                          "--min-segment",
+                          job.input, r.fgm.short_kept, fixed(r.fgm.min_segment, 2),
+                          r.fgm.short_merged, r.fgm.short_kept_bound,
+                          r.fgm.materials == 3 ? "2α/3" : "α/2", fixed(r.fgm.error_bound, 4)));
   // The file name only: outputs must not depend on where the command ran.
   r.toolpath.source = "trellis slice " + fs::path(job.input).filename().string() + " (" +
                       to_string(r.route) + " route)";
@@ -255,6 +265,9 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
         to_string(r.route), r.outlines.size(), fixed(c.machine.layer_height, 3), r.planar.paths,
         r.planar.walls, r.planar.skin_lines, r.planar.infill_lines, fixed(r.planar.extruded_length, 1),
         fixed(g.print_time_s / 60, 1), fixed(r.outline_seconds, 2), fixed(r.plan_seconds, 2));
+  if (sj.strategy != 0 && r.fgm.min_segment > 0)
+    out.summary += fmt::format("; min segment {} mm: {} merged, {} kept under it",
+                               fixed(r.fgm.min_segment, 1), r.fgm.short_merged, r.fgm.short_kept);
   if (sj.strategy != 0 && r.fgm.tower.built)
     out.summary += fmt::format("; prime tower {} mm square at ({}, {}), {} layers, {} mm3, {} g, ~{} min",
                                fixed(r.fgm.tower.side, 1), fixed(r.fgm.tower.x, 1),

@@ -547,6 +547,11 @@ std::vector<Setting> make_table() {
                       "Strategy 2, rectilinear: rings around each colour face before its lines "
                       "(the FGM paper's palette plates: 3)",
                       "fgm-perimeters", [](C& c) -> auto& { return c.slice.fgm.perimeters; }));
+  t.push_back(number("fgm.min_segment", "mm", 0, 1000,
+                     "pieces (Strategy 1) and paths (Strategy 2) shorter than this are joined to "
+                     "a touching piece of another colour where the design stays within α/2 of "
+                     "its colour, the rest kept and counted (FGM paper §3.4.3: ~5 mm); 0 = off",
+                     "min-segment", [](C& c) -> auto& { return c.slice.fgm.min_segment; }));
 
   // pbf.*
   t.push_back(choice("pbf.cell_type", {"gyroid", "schwarz_p", "schwarz_d", "neovius", "iwp"},

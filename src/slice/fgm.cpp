@@ -617,6 +617,7 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
     Layer layer;
     std::vector<int> colors;
     std::size_t faces = 0;
+    FgmStats shorts;  // short_* only
   };
   std::vector<Planned> planned(layers.size());
   tbb::enumerable_thread_specific<Evaluator> evaluators([&] { return Evaluator(field); });
@@ -735,13 +736,18 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
         out.colors.push_back(faces[fi].color);
       }
     }
+    merge_short_pieces(layer.paths, out.colors, ev, lo.z, o.palette, o.min_segment, out.shorts);
   });
   Toolpath tp;
   FgmStats st;
   st.shortest_path = std::numeric_limits<double>::infinity();
   int last_color = -1;
+  st.min_segment = o.min_segment;
   for (auto& pl : planned) {
     st.faces += pl.faces;
+    st.short_merged += pl.shorts.short_merged;
+    st.short_kept += pl.shorts.short_kept;
+    st.short_kept_bound += pl.shorts.short_kept_bound;
     for (std::size_t i = 0; i < pl.layer.paths.size(); ++i) {
       st.shortest_path = std::min(st.shortest_path, pl.layer.paths[i].length());
       if (pl.colors[i] != last_color && last_color >= 0) ++st.colour_changes;
@@ -753,6 +759,121 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
   if (st.paths == 0) st.shortest_path = 0;
   if (stats) *stats = st;
   return tp;
+}
+
+void merge_short_pieces(std::vector<Path>& paths, std::vector<int>& colours, Evaluator& ev,
+                        double z, const Palette& palette, double min, FgmStats& st) {
+  if (!(min > 0) || paths.empty()) return;
+  // α/2 (2α/3 for three materials), with a rounding allowance: a piece along a band's edge is
+  // exactly α/2 from both colours.
+  const double bound = palette.error_bound() + 1e-9;
+  constexpr double touch = 1e-6;  // cut points of one line coincide
+  auto near = [&](const Vec3& a, const Vec3& b) {
+    return std::abs(a.x - b.x) <= touch && std::abs(a.y - b.y) <= touch;
+  };
+  // The design along a piece: fractions every 0.1 mm (and at every vertex).
+  auto samples = [&](const Path& p) {
+    std::vector<std::vector<double>> out;
+    for (std::size_t i = 0; i < p.points.size(); ++i) {
+      const Vec2 a = p.points[i].xy();
+      out.push_back(ev.fractions({a.x, a.y, z}));
+      if (i + 1 == p.points.size()) break;
+      const Vec2 b = p.points[i + 1].xy(), d = b - a;
+      const int n = static_cast<int>(std::ceil(std::hypot(d.x, d.y) / 0.1));
+      for (int k = 1; k < n; ++k) {
+        const Vec2 q = a + d * (static_cast<double>(k) / n);
+        out.push_back(ev.fractions({q.x, q.y, z}));
+      }
+    }
+    return out;
+  };
+  auto error = [&](const std::vector<std::vector<double>>& f, const std::vector<double>& mix,
+                   bool worst) {
+    double e = 0, sum = 0;
+    for (const auto& s : f) {
+      double es = 0;
+      for (std::size_t m = 0; m < s.size() && m < mix.size(); ++m)
+        es = std::max(es, std::abs(std::clamp(s[m], 0.0, 1.0) - mix[m]));
+      e = std::max(e, es);
+      sum += es;
+    }
+    return worst ? e : (f.empty() ? 0.0 : sum / static_cast<double>(f.size()));
+  };
+  // Pieces by their ends, on a grid of `touch` cells (a lookup checks the 3 x 3 cells around).
+  auto key = [&](const Vec3& a) {
+    return std::pair<long long, long long>{std::llround(a.x / touch), std::llround(a.y / touch)};
+  };
+  std::map<std::pair<long long, long long>, std::vector<std::size_t>> ends;
+  auto add_ends = [&](std::size_t j) {
+    if (paths[j].points.size() < 2) return;
+    ends[key(paths[j].points.front())].push_back(j);
+    ends[key(paths[j].points.back())].push_back(j);
+  };
+  for (std::size_t j = 0; j < paths.size(); ++j) add_ends(j);
+  std::vector<char> dead(paths.size(), 0);
+  for (std::size_t i = 0; i < paths.size(); ++i) {
+    Path& p = paths[i];
+    if (dead[i] || p.points.size() < 2 || !(p.length() < min)) continue;
+    // Pieces of another colour and the same role touching an end of this one.
+    std::vector<std::size_t> touching;
+    for (const Vec3& end : {p.points.front(), p.points.back()}) {
+      const auto k = key(end);
+      for (long long dx = -1; dx <= 1; ++dx)
+        for (long long dy = -1; dy <= 1; ++dy) {
+          const auto it = ends.find({k.first + dx, k.second + dy});
+          if (it == ends.end()) continue;
+          for (std::size_t j : it->second) {
+            const Path& q = paths[j];
+            if (j == i || dead[j] || colours[j] == colours[i] || q.role != p.role ||
+                q.points.size() < 2 ||
+                std::find(touching.begin(), touching.end(), j) != touching.end())
+              continue;
+            if (near(end, q.points.front()) || near(end, q.points.back())) touching.push_back(j);
+          }
+        }
+    }
+    std::sort(touching.begin(), touching.end());
+    if (touching.empty()) continue;
+    const auto f = samples(p);
+    std::size_t best = touching.front();
+    double best_mean = std::numeric_limits<double>::infinity();
+    for (std::size_t j : touching) {
+      const double m = error(f, palette.mixture(colours[j]), false);
+      if (m < best_mean) best_mean = m, best = j;
+    }
+    if (error(f, palette.mixture(colours[best]), true) > bound) {
+      ++st.short_kept_bound;
+      continue;
+    }
+    // Join: the neighbour's line runs on through this piece.
+    Path& q = paths[best];
+    std::vector<Vec3> pts = p.points;
+    for (auto& v : pts) v.z = q.points.front().z;
+    if (near(q.points.back(), pts.front())) {
+      q.points.insert(q.points.end(), pts.begin() + 1, pts.end());
+    } else if (near(q.points.back(), pts.back())) {
+      q.points.insert(q.points.end(), pts.rbegin() + 1, pts.rend());
+    } else if (near(q.points.front(), pts.back())) {
+      q.points.insert(q.points.begin(), pts.begin(), pts.end() - 1);
+    } else {
+      q.points.insert(q.points.begin(), pts.rbegin(), pts.rend() - 1);
+    }
+    dead[i] = 1;
+    add_ends(best);
+    ++st.short_merged;
+  }
+  std::size_t n = 0;
+  for (std::size_t i = 0; i < paths.size(); ++i) {
+    if (dead[i]) continue;
+    if (paths[i].length() < min) ++st.short_kept;
+    if (n != i) {
+      paths[n] = std::move(paths[i]);
+      colours[n] = colours[i];
+    }
+    ++n;
+  }
+  paths.resize(n);
+  colours.resize(n);
 }
 
 void measure_gradient_error(const Field& field, const Toolpath& tp,
@@ -934,6 +1055,7 @@ Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>&
   };
   std::vector<std::vector<Piece>> per(planar.layers.size());
   std::vector<std::size_t> faces_per(planar.layers.size(), 0);
+  std::vector<FgmStats> shorts_per(planar.layers.size());  // short_* only
   tbb::enumerable_thread_specific<Evaluator> evaluators([&] { return Evaluator(field); });
   tbb::parallel_for(std::size_t{0}, planar.layers.size(), [&](std::size_t li) {
     Evaluator& ev = evaluators.local();
@@ -1045,17 +1167,54 @@ Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>&
     }
     // Faces: zones that some path crosses.
     for (const auto& zone : zones) faces_per[li] += zone.count > 0;
+    if (o.min_segment > 0) {
+      std::vector<Path> paths;
+      std::vector<int> colours;
+      for (auto& piece : per[li]) {
+        paths.push_back(std::move(piece.path));
+        colours.push_back(piece.color);
+      }
+      merge_short_pieces(paths, colours, ev, z, o.palette, o.min_segment, shorts_per[li]);
+      per[li].clear();
+      for (std::size_t k = 0; k < paths.size(); ++k) per[li].push_back({std::move(paths[k]), colours[k]});
+    }
     // Colour by colour in palette order (reversed every other layer), the planar order within.
     std::stable_sort(per[li].begin(), per[li].end(), [&](const Piece& a, const Piece& b) {
       return li % 2 ? a.color > b.color : a.color < b.color;
     });
+    if (o.min_segment > 0) {
+      // Pieces of one colour and role printed one after the other where one ends and the next
+      // begins (a line cut only by a merged piece) are one piece: count the printed ones.
+      std::vector<Piece> joined;
+      for (auto& piece : per[li]) {
+        if (!joined.empty()) {
+          Path& last = joined.back().path;
+          const Vec3 a = last.points.back(), b = piece.path.points.front();
+          if (joined.back().color == piece.color && last.role == piece.path.role &&
+              last.width == piece.path.width && last.speed == piece.path.speed &&
+              std::abs(a.x - b.x) <= 1e-6 && std::abs(a.y - b.y) <= 1e-6) {
+            last.points.insert(last.points.end(), piece.path.points.begin() + 1,
+                               piece.path.points.end());
+            continue;
+          }
+        }
+        joined.push_back(std::move(piece));
+      }
+      per[li] = std::move(joined);
+      shorts_per[li].short_kept = 0;
+      for (const auto& piece : per[li]) shorts_per[li].short_kept += piece.path.length() < o.min_segment;
+    }
   });
   Toolpath tp;
   FgmStats st;
   st.shortest_path = std::numeric_limits<double>::infinity();
   int last = -1;
+  st.min_segment = o.min_segment;
   for (std::size_t li = 0; li < per.size(); ++li) {
     st.faces += faces_per[li];
+    st.short_merged += shorts_per[li].short_merged;
+    st.short_kept += shorts_per[li].short_kept;
+    st.short_kept_bound += shorts_per[li].short_kept_bound;
     Layer layer;
     layer.z = planar.layers[li].z;
     for (auto& piece : per[li]) {

@@ -398,6 +398,16 @@ std::string slice_report_json(const SliceJob& job, const SliceResult& r, const G
                 {"paths", r.fgm.paths},
                 {"colour_changes", r.fgm.colour_changes},
                 {"shortest_segment_mm", r.fgm.shortest_path},
+                {"min_segment", {{"min_mm", r.fgm.min_segment},
+                                 {"merged", r.fgm.short_merged},
+                                 {"kept", r.fgm.short_kept},
+                                 {"refused_by_gradient_bound", r.fgm.short_kept_bound},
+                                 {"kept_reason",
+                                  r.fgm.short_kept == 0
+                                      ? ""
+                                      : "merging would exceed the gradient bound α/2 (or no "
+                                        "piece of another colour touches it end to end); use "
+                                        "more colours or a smaller --min-segment"}}},
                 {"gradient_changes", g ? g->gradient_changes : 0},
                 {"lookahead_mm", g ? g->lookahead : 0.0},
                 {"fill", job.fgm.concentric ? "concentric" : "rectilinear"}};

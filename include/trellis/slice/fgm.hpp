@@ -99,6 +99,11 @@ struct FgmOptions {
   double angle_deg = 45;
   double orient_cell = 4;
   double zipper = 0;          // Strategy 1: overlap band width β (fraction 0..1 of the gradient)
+  // Pieces (Strategy 1) and paths (Strategy 2) shorter than this (mm; FGM paper §3.4.3: ~5 mm
+  // on desktop FFF) are joined to a piece of another colour they touch end to end, printed in
+  // its colour (one colour change fewer), only where the design along the piece stays within the
+  // palette's error bound (α/2) of that colour; the others are kept and counted. 0 = off.
+  double min_segment = 5;
 };
 
 // The prime (purge) tower of Strategy 1 and tool changers: one square tower per print, beside
@@ -149,6 +154,13 @@ struct TowerStats {
 struct FgmStats {
   std::size_t faces = 0, paths = 0, colour_changes = 0;
   double shortest_path = 0;  // mm
+  // FgmOptions::min_segment: pieces under it joined to a neighbour (short_merged); pieces printed
+  // under it (short_kept, after joining); short pieces whose merge the error bound refused (a
+  // touching neighbour exists but its colour is further than α/2 from the design somewhere
+  // along the piece; counted before pieces of one colour are joined, so it may exceed
+  // short_kept); the others touch no piece of another colour end to end.
+  double min_segment = 0;
+  std::size_t short_merged = 0, short_kept = 0, short_kept_bound = 0;
   std::size_t purges = 0;    // Strategy 1: purges printed into the tower
   double purge_length = 0;   // mm of purge path (the dense part of the tower)
   double purge_volume = 0;   // mm³ (capsule bead, Appendix A.1)
@@ -163,6 +175,15 @@ struct FgmStats {
   int colours_used = 0, colours_total = 0;  // palette colours some part path prints
   int quantized_from = 0;  // tool changers: the colours asked for, when more than the tools
 };
+
+// The minimum segment length (FgmOptions::min_segment) on one layer's graded pieces (colours[i]
+// is paths[i]'s palette colour; design sampled at z_design): each piece shorter than `min`
+// whose end coincides with an end of a piece of another colour and the same role is joined to
+// the touching piece whose colour is nearest the design mixture along it, if the design along
+// the piece (sampled every 0.1 mm) stays within palette.error_bound() of that colour; merged
+// pieces are removed. Adds to stats.short_merged / short_kept / short_kept_bound.
+void merge_short_pieces(std::vector<Path>& paths, std::vector<int>& colours, Evaluator& evaluator,
+                        double z_design, const Palette& palette, double min, FgmStats& stats);
 
 // Fills stats.error_* for a graded toolpath (layer i planned from outline zs[i]).
 void measure_gradient_error(const Field& field, const Toolpath& toolpath,
