@@ -17,6 +17,8 @@
 #include "trellis/machine/machine_check.hpp"
 #include "trellis/slice/nonplanar.hpp"
 #include "trellis/slice/pbf.hpp"
+#include "trellis/job/plate.hpp"
+#include "trellis/slice/slice.hpp"
 #include "trellis/slice/pipeline.hpp"
 
 namespace trellis::routes {
@@ -263,7 +265,172 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
   return out;
 }
 
+namespace {
+
+// The PBF options of a configuration (the laser profile's scan parameters over [pbf]).
+PbfOptions pbf_options(const Job& job, const Config& c) {
+  const LaserProfile& prof = c.laser;
+  PbfOptions po = c.pbf.options;
+  po.layer = prof.layer;
+  po.segment_length = prof.segment_length;
+  po.segment_gap = prof.segment_gap;
+  po.hatch_distance = prof.hatch_distance;
+  po.beam_compensation = prof.beam_compensation;
+  po.melt_pool = prof.melt_pool_width;
+  po.hybrid = c.pbf.strategy == "hybrid";
+  po.stl_route = c.pbf.route == "stl";
+  po.timing = scan_timing(prof);
+  const Budget budget = budget_of(job, c);
+  po.memory_budget = budget.force ? HUGE_VAL : budget.memory;
+  return po;
+}
+
+bool finite_box(const BBox3& e) {
+  return !e.empty() && std::isfinite(e.min.x) && std::isfinite(e.max.x) && std::isfinite(e.min.y) &&
+         std::isfinite(e.max.y) && std::isfinite(e.min.z) && std::isfinite(e.max.z);
+}
+
+// A build plate of PBF parts, or a shard of one part or of a plate (job/plate.hpp): every part
+// planned for the plate layers [a, b) only, placed, and its paths tagged with the part.
+JobResult pbf_plate(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
+  JobResult out;
+  const LaserProfile& prof = c.laser;
+  struct Part {
+    PlatePart place;
+    Config config;
+    PbfDesign design;
+    BBox3 extent;
+    std::size_t layers = 0;
+  };
+  std::vector<Part> parts;
+  const bool plate = !job.parts.empty();
+  const std::vector<PlatePart> placed = plate ? job.parts : std::vector<PlatePart>{PlatePart{}};
+  for (const PlatePart& pp : placed) {
+    Part p;
+    p.place = pp;
+    Settings st = job.settings;
+    if (!pp.settings_toml.empty()) st.load_toml(pp.settings_toml, job.origin + " part '" + pp.label + "'");
+    p.config = st.config();
+    p.design = pbf_design(p.config.pbf);
+    const std::string input = plate ? pp.input : job.input;
+    if (!input.empty()) p.design.envelope = read_vcad(input).field;
+    p.extent = p.design.part().extent();
+    if (!finite_box(p.extent))
+      throw GeometryError("part '" + pp.label + "' has no finite extent: give it an envelope",
+                          {job.origin, pp.line, "part"});
+    if (p.config.laser.layer != prof.layer)
+      throw SettingError("part '" + pp.label + "' sets its own layer thickness: every part of a "
+                         "plate is built in the plate's layers (scan.layer)",
+                         {job.origin, pp.line, "scan.layer"});
+    p.layers = layer_planes(p.extent.min.z, p.extent.max.z, prof.layer).size();
+    parts.push_back(std::move(p));
+  }
+  if (plate) {
+    std::vector<PartFootprint> fp;
+    for (const auto& p : parts) fp.push_back(place_footprint(p.place, p.extent));
+    check_plate(fp, {{0, 0}, {prof.build_x, prof.build_y}}, c.plate.clearance, job.origin);
+    for (const auto& p : parts)
+      if (p.extent.max.z - p.extent.min.z > prof.build_z)
+        throw SettingError(fmt::format("part '{}' is {:.3f} mm tall, the build height is {} mm",
+                                       p.place.label, p.extent.max.z - p.extent.min.z, prof.build_z),
+                           {job.origin, p.place.line, "laser.build_z"});
+  }
+  // Plate layer i holds layer i of every part that tall; its work is the parts' XY areas.
+  std::size_t total = 0;
+  for (const auto& p : parts) total = std::max(total, p.layers);
+  std::vector<double> work(total, 0.0);
+  for (const auto& p : parts)
+    for (std::size_t i = 0; i < p.layers; ++i)
+      work[i] += (p.extent.max.x - p.extent.min.x) * (p.extent.max.y - p.extent.min.y);
+  const auto [a, b] = job.shards ? shard_range(work, job.shard, job.shards)
+                                 : std::pair<std::size_t, std::size_t>{0, total};
+  Toolpath tp;
+  tp.source = plate ? fmt::format("trellis pbf plate ({} parts)", parts.size()) : "trellis pbf";
+  tp.layers.resize(b - a);
+  for (std::size_t i = a; i < b; ++i) tp.layers[i - a].z = static_cast<double>(i + 1) * prof.layer;
+  std::size_t contour_vectors = 0, hatch_vectors = 0;
+  for (std::size_t k = 0; k < parts.size(); ++k) {
+    const Part& p = parts[k];
+    if (plate) tp.part_labels.push_back(p.place.label);
+    if (a >= p.layers) continue;
+    PbfOptions po = pbf_options(job, p.config);
+    po.layer_begin = a;
+    po.layer_end = std::min(b, p.layers);
+    const PbfResult r = plan_pbf(p.design, po, progress);
+    diag.merge(r.diagnostics);
+    const Toolpath t = pbf_toolpath(r, prof.contour_power, prof.contour_speed, prof.hatch_power,
+                                    prof.hatch_speed);
+    for (std::size_t i = a; i < po.layer_end; ++i)
+      for (Path path : t.layers[i].paths) {
+        if (plate) {
+          for (Vec3& q : path.points) q = place_point(p.place, p.extent, q);
+          path.part = static_cast<int>(k + 1);
+        }
+        (path.points.size() == 2 && path.role == PathRole::Infill ? hatch_vectors : contour_vectors)++;
+        tp.layers[i - a].paths.push_back(std::move(path));
+      }
+  }
+  if (job.shards) {
+    out.files.push_back(write_shard(job, tp.layers, a, total, tp.source, tp.part_labels));
+    out.files.insert(out.files.begin(), out.files.back().substr(0, out.files.back().size() - 5));
+    out.summary = fmt::format("shard {} of {}: layers {}..{} of {}, {} contour and {} hatch vectors",
+                              job.shard, job.shards, a, b, total, contour_vectors, hatch_vectors);
+    return out;
+  }
+  out.toolpath = std::make_shared<Toolpath>(tp);
+  write_pbf_main(job, c, tp, out);
+  if (!job.toolpath.empty()) {
+    write_toolpath_with_job(job.toolpath, tp, job);
+    out.files.push_back(job.toolpath);
+  }
+  if (!job.report.empty()) {
+    nlohmann::ordered_json j;
+    j["format"] = "trellis.plate_report";
+    j["version"] = 1;
+    j["route"] = "pbf";
+    j["layers"] = total;
+    j["contour_vectors"] = contour_vectors;
+    j["hatch_vectors"] = hatch_vectors;
+    j["parts"] = nlohmann::ordered_json::array();
+    for (const auto& p : parts)
+      j["parts"].push_back({{"label", p.place.label}, {"x_mm", p.place.x}, {"y_mm", p.place.y},
+                            {"rotation_deg", p.place.rotation}, {"layers", p.layers}});
+    write_file_atomic(job.report, with_job(j.dump(2) + "\n", job, job.report, true, &diag));
+    out.files.push_back(job.report);
+  }
+  RenderOptions ro;
+  ro.colour_by_role = true;
+  ro.travel = false;
+  ro.starts = false;
+  ro.bead_width = prof.melt_pool_width;
+  ro.margin_mm = 0.2;
+  ro.size_px = c.output.image_size;
+  previews(tp, job.preview, c.output.preview_layers, ro, out);
+  out.summary = fmt::format("plate of {} parts: {} layers, {} contour vectors, {} hatch vectors",
+                            parts.size(), total, contour_vectors, hatch_vectors);
+  return out;
+}
+
+}  // namespace
+
+void write_slice_main(const Job& job, const Config& c, Toolpath& tp, JobResult& out,
+                      Diagnostics& diag, GcodeStats* stats) {
+  MachineProfile m = c.machine;
+  // A plate is placed already: its parts' x, y are bed coordinates.
+  if (!tp.part_labels.empty()) m.center = false;
+  const GcodeStats g = write_gcode_out(job.output, tp, job, m, out, diag);
+  if (stats) *stats = g;
+}
+
+void write_pbf_main(const Job& job, const Config& c, Toolpath& tp, JobResult& out) {
+  if (job.output.empty()) return;
+  tp.job = embedded_job(job, job.output);
+  write_cli_file(job.output, tp, c.laser, CliWriteOptions{c.pbf.binary, true});
+  out.files.push_back(job.output);
+}
+
 JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
+  if (!job.parts.empty() || job.shards) return pbf_plate(job, c, diag, progress);
   JobResult out;
   const LaserProfile& prof = c.laser;
   PbfDesign d = pbf_design(c.pbf);

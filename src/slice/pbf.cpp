@@ -943,7 +943,10 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
   tbb::enumerable_thread_specific<Ctx> contexts([&] { return Ctx(part, design, c_field); });
   std::atomic<std::size_t> done{0};
   std::mutex progress_mutex;
-  tbb::parallel_for(std::size_t{0}, zs.size(), [&](std::size_t i) {
+  const std::size_t begin = std::min(o.layer_begin, zs.size());
+  const std::size_t end = std::max(begin, std::min(o.layer_end, zs.size()));
+  const std::size_t count = end - begin;
+  tbb::parallel_for(begin, end, [&](std::size_t i) {
     progress.check("PBF planning");
     Ctx& ctx = contexts.local();
     PbfLayer& L = result.layers[i];
@@ -1099,9 +1102,9 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
     L.fr = o.melt_pool * (L.contour_length + L.hatch_length) / L.area;
     L.fr_r67 = o.melt_pool * L.r67_length / L.area;
     const std::size_t d = ++done;
-    if (progress.report && (d % 32 == 0 || d == zs.size())) {
+    if (progress.report && (d % 32 == 0 || d == count)) {
       std::lock_guard lock(progress_mutex);
-      progress("layers", static_cast<double>(d) / static_cast<double>(zs.size()));
+      progress("layers", static_cast<double>(d) / static_cast<double>(count));
     }
   });
   for (const auto& L : result.layers) {

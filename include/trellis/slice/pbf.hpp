@@ -64,6 +64,9 @@ struct PbfOptions {
   // Bytes the run may use (grids, caches, layers; the STL route's mesh); 0 = the memory
   // available now. A larger estimate before the run is a ResourceError naming the setting to change.
   double memory_budget = 0;
+  // Only layers [layer_begin, layer_end) are computed (a shard, job/plate.hpp); the others stay
+  // empty in PbfResult::layers, which keeps one entry per layer of the whole part.
+  std::size_t layer_begin = 0, layer_end = static_cast<std::size_t>(-1);
 };
 
 struct PbfLayer {
