@@ -174,11 +174,12 @@ HeightField test_surface(const SurfaceConfig& s) {
 
 }  // namespace
 
-JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
-  JobResult out;
-  if (job.input.empty()) throw SettingError("slice needs a design (.vcad) or mesh to read", {"", 0, "job.input"});
+namespace {
+
+// The slicing job of a configuration (the machine's layer, bead, purge and bed over [slice]).
+SliceJob slice_job_of(const Job& job, const Config& c, const std::string& input) {
   SliceJob sj = c.slice;
-  sj.input = job.input;
+  sj.input = input;
   sj.strategy_chosen = job.settings.has("slice.strategy");
   sj.planar.layer_height = c.machine.layer_height;
   if (!job.settings.has("slice.bead_width")) sj.planar.bead_width = c.machine.nozzle_diameter;
@@ -206,6 +207,135 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
   sj.purge.speed = c.machine.print_speed;
   sj.purge.density = {c.machine.density_a, c.machine.density_b, c.machine.density_c};
   sj.budget = budget_of(job, c);
+  return sj;
+}
+
+// A build plate of sliced parts, or a shard of one (job/plate.hpp): each part sliced with its own
+// settings, placed (its x, y are bed coordinates) and dropped on the bed; plate layer i holds
+// layer i of every part that tall, parts in the order of the job file. A shard slices the parts
+// whole (skins look at the layers above and below) and keeps its layer range.
+JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
+  JobResult out;
+  const bool plate = !job.parts.empty();
+  const std::vector<PlatePart> placed = plate ? job.parts : std::vector<PlatePart>{PlatePart{}};
+  std::vector<PartFootprint> fp;
+  std::vector<Toolpath> tps;
+  const double h = c.machine.layer_height;
+  for (const PlatePart& pp : placed) {
+    Settings st = job.settings;
+    if (!pp.settings_toml.empty()) st.load_toml(pp.settings_toml, job.origin + " part '" + pp.label + "'");
+    const Config pc = st.config();
+    const std::string input = plate ? pp.input : job.input;
+    const Where where{job.origin, pp.line, plate ? "part.input" : "job.input"};
+    if (input.empty()) throw SettingError("slice needs a design (.vcad) or mesh to read", where);
+    if (pc.machine.layer_height != h)
+      throw SettingError("part '" + pp.label + "' sets its own layer height: every part of a "
+                         "plate prints in the plate's layers (extrusion.layer_height)",
+                         {job.origin, pp.line, "extrusion.layer_height"});
+    SliceJob sj = slice_job_of(job, pc, input);
+    if (sj.strategy != 0)
+      throw SettingError("graded slicing (slice.strategy 1 or 2) does not go on plates or "
+                         "shards: its look-ahead and purge tower cross layers",
+                         {job.origin, pp.line, "slice.strategy"});
+    SliceResult r = run_slice(sj, progress);
+    if (r.repaired)
+      diag.warn("mesh_repaired", fs::path(input).filename().string() +
+                                     " was not closed and manifold; repaired: " + r.repair.summary());
+    r.toolpath.source = "trellis slice " + fs::path(input).filename().string() + " (" +
+                        to_string(r.route) + " route)";
+    if (plate) {
+      BBox3 box;
+      for (const auto& l : r.toolpath.layers)
+        for (const auto& p : l.paths)
+          for (const auto& q : p.points) box.add(q);
+      fp.push_back(place_footprint(pp, box));
+      // Placed on the bed: the first layer at z = h.
+      const double dz = r.toolpath.layers.empty() ? 0 : h - r.toolpath.layers.front().z;
+      for (auto& l : r.toolpath.layers) {
+        l.z += dz;
+        for (auto& p : l.paths) {
+          p.part = static_cast<int>(tps.size() + 1);
+          for (auto& q : p.points) q = place_point(pp, box, q) + Vec3{0, 0, dz};
+        }
+      }
+    }
+    tps.push_back(std::move(r.toolpath));
+  }
+  if (plate) {
+    const MachineProfile& m = c.machine;
+    const BBox2 bed = m.origin == "center"
+                          ? BBox2{{-m.bed_x / 2, -m.bed_y / 2}, {m.bed_x / 2, m.bed_y / 2}}
+                          : BBox2{{0, 0}, {m.bed_x, m.bed_y}};
+    check_plate(fp, bed, c.plate.clearance, job.origin);
+  }
+  Toolpath tp;
+  std::size_t total = 0;
+  for (const auto& t : tps) total = std::max(total, t.layers.size());
+  std::vector<double> work(total, 0.0);
+  for (const auto& t : tps)
+    for (std::size_t i = 0; i < t.layers.size(); ++i) work[i] += static_cast<double>(t.layers[i].paths.size());
+  const auto [a, b] = job.shards ? shard_range(work, job.shard, job.shards)
+                                 : std::pair<std::size_t, std::size_t>{0, total};
+  tp.source = plate ? fmt::format("trellis slice plate ({} parts)", tps.size()) : tps.front().source;
+  if (plate)
+    for (const auto& pp : placed) tp.part_labels.push_back(pp.label);
+  tp.layers.resize(b - a);
+  std::size_t paths = 0;
+  for (std::size_t i = a; i < b; ++i) {
+    Layer& L = tp.layers[i - a];
+    bool have_z = false;
+    for (auto& t : tps) {
+      if (i >= t.layers.size()) continue;
+      if (!have_z) L.z = t.layers[i].z, have_z = true;
+      for (auto& p : t.layers[i].paths) L.paths.push_back(std::move(p)), ++paths;
+    }
+  }
+  if (job.shards) {
+    out.files.push_back(write_shard(job, tp.layers, a, total, tp.source, tp.part_labels));
+    out.files.insert(out.files.begin(), out.files.back().substr(0, out.files.back().size() - 5));
+    out.summary = fmt::format("shard {} of {}: layers {}..{} of {}, {} paths", job.shard,
+                              job.shards, a, b, total, paths);
+    return out;
+  }
+  if (!job.output.empty()) note_planar_in_bath(c.machine, "slice", diag);
+  GcodeStats g;
+  write_slice_main(job, c, tp, out, diag, &g);
+  if (!job.toolpath.empty()) {
+    write_toolpath_with_job(job.toolpath, tp, job);
+    out.files.push_back(job.toolpath);
+  }
+  if (!job.report.empty()) {
+    nlohmann::ordered_json j;
+    j["format"] = "trellis.plate_report";
+    j["version"] = 1;
+    j["route"] = "slice";
+    j["layers"] = total;
+    j["paths"] = paths;
+    j["print_time_s"] = g.print_time_s;
+    j["parts"] = nlohmann::ordered_json::array();
+    for (std::size_t k = 0; k < placed.size(); ++k)
+      j["parts"].push_back({{"label", placed[k].label}, {"input", fs::path(placed[k].input).filename().string()},
+                            {"x_mm", placed[k].x}, {"y_mm", placed[k].y},
+                            {"rotation_deg", placed[k].rotation}, {"layers", tps[k].layers.size()}});
+    write_file_atomic(job.report, with_job(j.dump(2) + "\n", job, job.report, true, &diag));
+    out.files.push_back(job.report);
+  }
+  RenderOptions ro;
+  ro.colour_by_role = true;
+  ro.size_px = c.output.image_size;
+  previews(tp, job.preview, c.output.preview_layers, ro, out);
+  out.summary = fmt::format("plate of {} parts: {} layers of {} mm, {} paths, ~{} min", placed.size(),
+                            total, fixed(h, 3), paths, fixed(g.print_time_s / 60, 1));
+  return out;
+}
+
+}  // namespace
+
+JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
+  if (!job.parts.empty() || job.shards) return slice_plate(job, c, diag, progress);
+  JobResult out;
+  if (job.input.empty()) throw SettingError("slice needs a design (.vcad) or mesh to read", {"", 0, "job.input"});
+  SliceJob sj = slice_job_of(job, c, job.input);
   SliceResult r = run_slice(sj, progress);
   if (r.repaired)
     diag.warn("mesh_repaired", fs::path(job.input).filename().string() +
