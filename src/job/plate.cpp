@@ -137,7 +137,7 @@ void check_plate(const std::vector<PartFootprint>& parts, const BBox2& area, dou
   for (std::size_t i = 0; i < parts.size(); ++i)
     for (std::size_t j = i + 1; j < parts.size(); ++j) {
       const double d = quad_distance(parts[i].corners, parts[j].corners);
-      if (d < clearance - eps)
+      if (d == 0 || d < clearance - eps)
         throw SettingError(
             fmt::format("parts '{}' (line {}) and '{}' (line {}) {}: {:.3f} mm apart, the "
                         "clearance is {} mm (plate.clearance)",
