@@ -5,7 +5,7 @@ set -euo pipefail
 pkgs=(cmake g++ make pkg-config ninja-build ccache
       libtbb-dev libcli11-dev nlohmann-json3-dev libfmt-dev libtomlplusplus-dev
       libpolyclipping-dev libcairo2-dev libcgal-dev libgmp-dev libmpfr-dev libeigen3-dev
-      libmuparser-dev libopenvdb-dev libboost-iostreams-dev lib3mf-dev libzip-dev
+      libmuparser-dev libopenvdb-dev libboost-iostreams-dev lib3mf-dev libzip-dev libexpat1-dev
       libglpk-dev zlib1g-dev libgtest-dev libbenchmark-dev prusa-slicer python3
       pybind11-dev python3-dev python3-numpy python3-pytest python3-distributed
       chromium)

@@ -10,6 +10,7 @@
 #include <map>
 #include <string>
 
+#include "../geom/mesh_3mf_module.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/lattice/io.hpp"
@@ -154,6 +155,11 @@ struct Reader {
 
 LatticeInput read_beam_lattice_3mf(const std::string& path, Diagnostics& diag) {
   (void)read_file(path);  // a clear IoError for a missing file
+  // The 3mf module's walk first (see read_3mf): places problems by part, line and column and
+  // refuses what lib3mf 1.8 would read without a word.
+  if (const Located3mf at = detail::module_table<Mesh3mfModule>("3mf").locate(path);
+      !at.what.empty())
+    throw ParseError(at.what, {path, 0, at.where});
   Handle model, reader;
   if (lib3mf_createmodel(&model.p) != LIB3MF_OK)
     throw ParseError("cannot create a 3MF model", {path});

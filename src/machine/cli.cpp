@@ -198,6 +198,12 @@ class Reader {
     throw ParseError(msg, Where{origin_, binary_ && offset > header_end_ ? 0 : line_of(offset),
                                 fmt::format("offset {}", offset)});
   }
+  // A count or id read as a number: a whole number an int holds, else an error at `offset`.
+  long whole(std::size_t offset, double x, const char* what) const {
+    if (!(std::abs(x) <= 2147483647.0) || x != std::floor(x))
+      fail(offset, fmt::format("{} must be a whole number, got {}", what, x));
+    return static_cast<long>(x);
+  }
   long line_of(std::size_t offset) const {
     long n = 1;
     for (std::size_t i = 0; i < offset && i < b_.size(); ++i) n += b_[i] == '\n';
@@ -254,7 +260,7 @@ class Reader {
         if (c == std::string_view::npos) fail(i, "$$LABEL needs id,text");
         const auto id = numbers(i + 8, i + c);
         if (id.size() != 1 || !(std::abs(id[0]) <= 1e9)) fail(i + 8, "$$LABEL needs one id number");
-        ids_[static_cast<int>(id[0])].label = std::string(line.substr(c + 1));
+        ids_[static_cast<int>(whole(i + 8, id[0], "$$LABEL id"))].label = std::string(line.substr(c + 1));
       } else if (line.find("PROFILE_DEF=") != std::string_view::npos) {
         read_profile_def(i, line);
       }
@@ -284,7 +290,7 @@ class Reader {
         fail(at, fmt::format("PROFILE_DEF needs a number after {}", key));
       return x;
     };
-    const int id = static_cast<int>(number("PROFILE_DEF="));
+    const int id = static_cast<int>(whole(at, number("PROFILE_DEF="), "PROFILE_DEF id"));
     IdInfo& info = ids_[id];
     const std::string_view name = field("NAME=");
     if (!name.empty() && info.label.empty()) info.label = std::string(name);
@@ -310,6 +316,7 @@ class Reader {
     return tp_.layers.back();
   }
   void start_layer(std::size_t at, double z) {
+    if (!std::isfinite(z)) fail(at, "layer z is not a finite number of millimetres ($$UNITS)");
     if (!tp_.layers.empty() && z < tp_.layers.back().z)
       fail(at, fmt::format("layer z = {} mm below the previous layer's {} mm (CLI layers ascend)",
                            z, tp_.layers.back().z));
@@ -324,6 +331,9 @@ class Reader {
     const double z = layer(at).z;
     for (long k = 0; k < n; ++k)
       p.points.push_back({xy[2 * k] * units_, xy[2 * k + 1] * units_, z});
+    for (const Vec3& q : p.points)
+      if (!std::isfinite(q.x) || !std::isfinite(q.y))
+        fail(at, "a coordinate times $$UNITS is not a finite number of millimetres");
     layer(at).paths.push_back(std::move(p));
   }
   void hatches(std::size_t at, int id, long n, const double* xy, long count) {
@@ -334,6 +344,9 @@ class Reader {
       Path p = make_path(id, true);
       p.points = {{xy[4 * k] * units_, xy[4 * k + 1] * units_, l.z},
                   {xy[4 * k + 2] * units_, xy[4 * k + 3] * units_, l.z}};
+      for (const Vec3& q : p.points)
+        if (!std::isfinite(q.x) || !std::isfinite(q.y))
+          fail(at, "a coordinate times $$UNITS is not a finite number of millimetres");
       l.paths.push_back(std::move(p));
     }
   }
@@ -374,11 +387,13 @@ class Reader {
         start_layer(s, v[0] * units_);
       } else if (cmd == "$$POLYLINE") {
         if (v.size() < 3) fail(s, "$$POLYLINE needs id,dir,n,points");
-        polyline(s, static_cast<int>(v[0]), static_cast<long>(v[2]), v.data() + 3,
+        polyline(s, static_cast<int>(whole(s, v[0], "$$POLYLINE id")),
+                 whole(s, v[2], "$$POLYLINE point count"), v.data() + 3,
                  static_cast<long>(v.size()) - 3);
       } else {
         if (v.size() < 2) fail(s, "$$HATCHES needs id,n,coordinates");
-        hatches(s, static_cast<int>(v[0]), static_cast<long>(v[1]), v.data() + 2,
+        hatches(s, static_cast<int>(whole(s, v[0], "$$HATCHES id")),
+                whole(s, v[1], "$$HATCHES count"), v.data() + 2,
                 static_cast<long>(v.size()) - 2);
       }
     }
@@ -425,6 +440,8 @@ class Reader {
               count(lng ? get<std::int32_t>(pos, at) : get<std::uint16_t>(pos, at), 2, lng ? 4 : 2);
           xy.resize(2 * static_cast<std::size_t>(n));
           for (auto& x : xy) x = lng ? get<float>(pos, at) : get<std::uint16_t>(pos, at);
+          if (!std::all_of(xy.begin(), xy.end(), [](double x) { return std::isfinite(x); }))
+            fail(at, "non-finite coordinate");
           polyline(at, id, n, xy.data(), static_cast<long>(xy.size()));
           break;
         }

@@ -192,6 +192,59 @@ def design_cases():
     for n, body in meshes.items():
         case(f"mesh {n}", ["slice", n, "--machine", PROFILE, "-o", "out/x.gcode"], n, {n: body})
         case(f"surface mesh {n}", ["nonplanar", n, "--machine", SYRINGE, "-o", "out/x.nc"], n, {n: body})
+    # Broken 3MF packages: the message names the part, line and column (or the element).
+    for n, (model, where) in broken_3mf_models().items():
+        body = package_3mf(model)
+        case(f"3mf {n}", ["slice", "bad.3mf", "--machine", PROFILE, "-o", "out/x.gcode"],
+             f"bad.3mf: 3D/3dmodel.model line {where}", {"bad.3mf": body})
+        case(f"beam 3mf {n}", ["plan", "euler", "bad.3mf", "-o", "out/t.json"],
+             f"bad.3mf: 3D/3dmodel.model line {where}", {"bad.3mf": body})
+
+
+GOOD_3MF = ('<?xml version="1.0" encoding="UTF-8"?>\n'
+            '<model unit="millimeter" xmlns="http://schemas.microsoft.com/3dmanufacturing/core/2015/02"\n'
+            ' xmlns:b="http://schemas.microsoft.com/3dmanufacturing/beamlattice/2017/02">\n'
+            '<resources><object id="1" type="model"><mesh><vertices>\n'
+            '<vertex x="0" y="0" z="0"/><vertex x="10" y="0" z="0"/><vertex x="0" y="10" z="0"/><vertex x="0" y="0" z="10"/>\n'
+            '</vertices><triangles>\n'
+            '<triangle v1="0" v2="2" v3="1"/><triangle v1="0" v2="1" v3="3"/><triangle v1="0" v2="3" v3="2"/><triangle v1="1" v2="2" v3="3"/>\n'
+            '</triangles><b:beamlattice radius="0.5" minlength="0.1" precision="0.1" clippingmode="none"><b:beams>\n'
+            '<b:beam v1="0" v2="1"/><b:beam v1="1" v2="2"/>\n'
+            '</b:beams></b:beamlattice></mesh></object></resources>\n'
+            '<build><item objectid="1"/></build></model>\n')
+
+
+def broken_3mf_models():
+    """Model parts with one problem each, and the line (and column) the message must name."""
+    return {
+        "malformed xml": (GOOD_3MF.replace("</vertices>", "</vertice>"), "6, column"),
+        "triangle index": (GOOD_3MF.replace('v3="3"/></triangles', 'v3="7"/></triangles').replace(
+            '<triangle v1="1" v2="2" v3="3"/>', '<triangle v1="1" v2="2" v3="9"/>'), "7, column"),
+        "vertex text": (GOOD_3MF.replace('<vertex x="10"', '<vertex x="ten"'), "5, column"),
+        "vertex missing z": (GOOD_3MF.replace('y="10" z="0"', 'y="10"'), "5, column"),
+        "vertex nan": (GOOD_3MF.replace('z="10"', 'z="nan"'), "5, column"),
+        "beam index": (GOOD_3MF.replace('<b:beam v1="1" v2="2"/>', '<b:beam v1="1" v2="12"/>'), "9, column"),
+        "unit": (GOOD_3MF.replace('unit="millimeter"', 'unit="parsec"'), "2, column"),
+        "item object": (GOOD_3MF.replace('objectid="1"', 'objectid="5"'), "11, column"),
+        "truncated": (GOOD_3MF[:GOOD_3MF.index("</triangles>")], "8, column"),
+    }
+
+
+def package_3mf(model):
+    import io
+    import zipfile
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w", zipfile.ZIP_DEFLATED) as z:
+        z.writestr("[Content_Types].xml",
+                   '<?xml version="1.0" encoding="UTF-8"?>\n<Types xmlns="http://schemas.openxmlformats.org/package/2006/content-types">'
+                   '<Default Extension="rels" ContentType="application/vnd.openxmlformats-package.relationships+xml"/>'
+                   '<Default Extension="model" ContentType="application/vnd.ms-package.3dmanufacturing-3dmodel+xml"/></Types>')
+        z.writestr("_rels/.rels",
+                   '<?xml version="1.0" encoding="UTF-8"?>\n<Relationships xmlns="http://schemas.openxmlformats.org/package/2006/relationships">'
+                   '<Relationship Target="/3D/3dmodel.model" Id="rel0" Type="http://schemas.microsoft.com/3dmanufacturing/2013/01/3dmodel"/>'
+                   '</Relationships>')
+        z.writestr("3D/3dmodel.model", model)
+    return buf.getvalue()
 
 
 def toolpath_cases():

@@ -102,6 +102,11 @@ TEST(CliIo, MalformedFilesNameTheOffset) {
       {head + "$$LAYER/20\n$$HATCHES/2,1,0,0,1,nan\n$$GEOMETRYEND\n", "nan"},
       {head + "$$LAYER/20\n", ""},
       {head + "LAYER/20\n$$GEOMETRYEND\n", "LAYER/20"},
+      {head + "$$LAYER/20\n$$POLYLINE/1e38,2,2,0,0,10,5\n$$GEOMETRYEND\n", "$$POLYLINE/1e38"},
+      {head + "$$LAYER/20\n$$HATCHES/1,1.5,0,0,1,1\n$$GEOMETRYEND\n", "$$HATCHES/1,1.5"},
+      {"$$HEADERSTART\n$$ASCII\n$$UNITS/1e300\n$$HEADEREND\n$$GEOMETRYSTART\n$$LAYER/1\n"
+       "$$POLYLINE/1,2,2,0,0,1e300,5\n$$GEOMETRYEND\n",
+       "$$POLYLINE/1,2,2,0,0,1e300"},
   };
   for (const auto& c : cases) {
     try {

@@ -1,0 +1,259 @@
+// Where a 3MF file is broken. lib3mf 1.8 refuses a bad package with a message but no position
+// ("Space in XML attribute name", "Could not read ZIP file"), so when it does, this reads the
+// package again on its own -- libzip for the ZIP container, expat streaming over the model part
+// -- and names the part, line and column of the first problem: a ZIP that is not one, a missing
+// part, malformed XML, or an element lib3mf would refuse (a vertex without a number, a triangle
+// or beam naming a vertex its mesh lacks, a build item naming an object that does not exist).
+// Hand-written because neither library reports positions; it checks only what it can locate and
+// otherwise leaves lib3mf's own message standing. Part of the 3mf module (no cost at start-up).
+#include <expat.h>
+#include <zip.h>
+
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <map>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "mesh_3mf_module.hpp"
+
+namespace trellis::impl {
+
+namespace {
+
+struct Zip {
+  zip_t* z = nullptr;
+  ~Zip() {
+    if (z) zip_discard(z);
+  }
+};
+
+struct ZipFile {
+  zip_file_t* f = nullptr;
+  ~ZipFile() {
+    if (f) zip_fclose(f);
+  }
+};
+
+std::string local_name(const XML_Char* name) {
+  const char* space = std::strrchr(name, ' ');  // "namespace-uri local" (XML_ParserCreateNS)
+  return space ? space + 1 : name;
+}
+
+// The element's name if it is in namespace `uri`, else "" (the slice extension has its own
+// <vertex>, other extensions their own elements: only the core's and beam lattices' are checked).
+std::string name_in(const XML_Char* name, const char* uri) {
+  const char* space = std::strrchr(name, ' ');
+  const std::size_t n = std::strlen(uri);
+  if (!space || static_cast<std::size_t>(space - name) != n || std::strncmp(name, uri, n) != 0)
+    return "";
+  return space + 1;
+}
+
+constexpr const char* kCore = "http://schemas.microsoft.com/3dmanufacturing/core/2015/02";
+constexpr const char* kBeams = "http://schemas.microsoft.com/3dmanufacturing/beamlattice/2017/02";
+
+const char* attribute(const XML_Char** atts, const char* name) {
+  for (int i = 0; atts[i]; i += 2)
+    if (local_name(atts[i]) == name) return atts[i + 1];
+  return nullptr;
+}
+
+bool parse_number(const char* s, double& v) {
+  if (!s || !*s) return false;
+  errno = 0;
+  char* end = nullptr;
+  v = std::strtod(s, &end);
+  return end && *end == '\0' && errno != ERANGE && std::isfinite(v);
+}
+
+bool parse_index(const char* s, unsigned long long& v) {
+  if (!s || !*s || *s == '-' || *s == '+') return false;
+  errno = 0;
+  char* end = nullptr;
+  v = std::strtoull(s, &end, 10);
+  return end && *end == '\0' && errno != ERANGE;
+}
+
+// Walks the model part's elements; stops at the first problem it can place.
+struct Walker {
+  XML_Parser parser = nullptr;
+  std::string problem;
+  long line = 0, column = 0;
+  unsigned long long vertices = 0, triangles = 0, beams = 0;
+  std::string object = "?";
+  std::map<std::string, bool> objects;  // ids seen
+  struct Ref {
+    std::string id;
+    long line, column;
+    std::string what;
+  };
+  std::vector<Ref> refs;  // build items and components, checked at the end
+
+  void fail(std::string what) {
+    if (!problem.empty()) return;
+    problem = std::move(what);
+    line = static_cast<long>(XML_GetCurrentLineNumber(parser));
+    column = static_cast<long>(XML_GetCurrentColumnNumber(parser)) + 1;
+    XML_StopParser(parser, XML_FALSE);
+  }
+
+  void index_attr(const XML_Char** atts, const char* name, const std::string& element) {
+    unsigned long long v = 0;
+    const char* s = attribute(atts, name);
+    if (!s)
+      fail(element + " has no attribute " + name);
+    else if (!parse_index(s, v))
+      fail(element + ": " + name + "=\"" + s + "\" is not a vertex index");
+    else if (v >= vertices)
+      fail(element + " refers to vertex " + s + " but the mesh of object " + object + " has " +
+           std::to_string(vertices) + " vertices");
+  }
+
+  void start(const XML_Char* name, const XML_Char** atts) {
+    std::string n = name_in(name, kCore);
+    if (n.empty() && name_in(name, kBeams) == "beam") n = "beam";
+    if (n == "model") {
+      const char* unit = attribute(atts, "unit");
+      static const char* units[] = {"micron", "millimeter", "centimeter", "inch", "foot", "meter"};
+      bool known = !unit;
+      for (const char* u : units) known = known || std::strcmp(unit, u) == 0;
+      if (!known) fail(std::string("unknown model unit \"") + unit + "\"");
+    } else if (n == "object") {
+      const char* id = attribute(atts, "id");
+      if (!id) return fail("object has no id");
+      object = id;
+      objects[object] = true;
+      vertices = triangles = beams = 0;
+    } else if (n == "vertex") {
+      const std::string element = "vertex " + std::to_string(vertices) + " of object " + object;
+      for (const char* axis : {"x", "y", "z"}) {
+        double v = 0;
+        const char* s = attribute(atts, axis);
+        if (!s) return fail(element + " has no " + axis);
+        if (!parse_number(s, v))
+          return fail(element + ": " + axis + "=\"" + s + "\" is not a finite number");
+      }
+      ++vertices;
+    } else if (n == "triangle") {
+      const std::string element = "triangle " + std::to_string(triangles) + " of object " + object;
+      for (const char* v : {"v1", "v2", "v3"}) {
+        index_attr(atts, v, element);
+        if (!problem.empty()) return;
+      }
+      ++triangles;
+    } else if (n == "beam") {
+      const std::string element = "beam " + std::to_string(beams) + " of object " + object;
+      for (const char* v : {"v1", "v2"}) {
+        index_attr(atts, v, element);
+        if (!problem.empty()) return;
+      }
+      for (const char* r : {"r1", "r2"}) {
+        double v = 0;
+        const char* s = attribute(atts, r);
+        if (s && (!parse_number(s, v) || v <= 0))
+          return fail(element + ": " + r + "=\"" + s + "\" is not a positive radius");
+      }
+      ++beams;
+    } else if (n == "item" || n == "component") {
+      const char* id = attribute(atts, "objectid");
+      if (!id) return fail(n + " has no objectid");
+      if (attribute(atts, "path")) return;  // an object in another part (production extension)
+      refs.push_back({id, static_cast<long>(XML_GetCurrentLineNumber(parser)),
+                      static_cast<long>(XML_GetCurrentColumnNumber(parser)) + 1, n});
+    }
+  }
+
+  void finish() {
+    if (!problem.empty()) return;
+    for (const auto& r : refs)
+      if (!objects.count(r.id)) {
+        problem = r.what + " refers to object " + r.id + ", which the model does not define";
+        line = r.line;
+        column = r.column;
+        return;
+      }
+  }
+};
+
+// The model part named by _rels/.rels (the 3MF start part), else the conventional name.
+std::string start_part(zip_t* z) {
+  const std::string fallback = "3D/3dmodel.model";
+  ZipFile rels;
+  rels.f = zip_fopen(z, "_rels/.rels", 0);
+  if (!rels.f) return fallback;
+  std::string text;
+  char buf[4096];
+  zip_int64_t n = 0;
+  while (text.size() < (1u << 20) && (n = zip_fread(rels.f, buf, sizeof buf)) > 0)
+    text.append(buf, static_cast<std::size_t>(n));
+  // <Relationship Target="/3D/3dmodel.model" ... Type=".../3dmodel"/>: a tolerant look-up, the
+  // exact parse is lib3mf's.
+  for (std::size_t at = text.find("<Relationship"); at != std::string::npos;
+       at = text.find("<Relationship", at + 1)) {
+    const std::size_t end = text.find('>', at);
+    const std::string rel = text.substr(at, end == std::string::npos ? std::string::npos : end - at);
+    if (rel.find("/3dmodel\"") == std::string::npos) continue;
+    const std::size_t t = rel.find("Target=\"");
+    if (t == std::string::npos) continue;
+    std::string target = rel.substr(t + 8, rel.find('"', t + 8) - (t + 8));
+    while (!target.empty() && target[0] == '/') target.erase(0, 1);
+    if (!target.empty()) return target;
+  }
+  return fallback;
+}
+
+}  // namespace
+
+Located3mf locate_3mf_problem(const std::string& path) {
+  Zip zip;
+  int code = 0;
+  zip.z = zip_open(path.c_str(), ZIP_RDONLY, &code);
+  if (!zip.z) {
+    zip_error_t e;
+    zip_error_init_with_code(&e, code);
+    std::string what = std::string("not a ZIP package (a 3MF file is one): ") + zip_error_strerror(&e);
+    zip_error_fini(&e);
+    return {"", what};
+  }
+  const std::string part = start_part(zip.z);
+  ZipFile file;
+  file.f = zip_fopen(zip.z, part.c_str(), 0);
+  if (!file.f) return {"", "the package has no model part " + part + ": " + zip_strerror(zip.z)};
+
+  std::unique_ptr<std::remove_pointer_t<XML_Parser>, void (*)(XML_Parser)> parser(
+      XML_ParserCreateNS(nullptr, ' '), XML_ParserFree);
+  if (!parser) return {};
+  Walker w;
+  w.parser = parser.get();
+  XML_SetUserData(parser.get(), &w);
+  XML_SetElementHandler(
+      parser.get(),
+      [](void* u, const XML_Char* name, const XML_Char** atts) {
+        static_cast<Walker*>(u)->start(name, atts);
+      },
+      nullptr);
+  char buf[1 << 16];
+  for (;;) {
+    const zip_int64_t n = zip_fread(file.f, buf, sizeof buf);
+    if (n < 0) return {part, std::string("cannot decompress: ") + zip_file_strerror(file.f)};
+    const XML_Status s = XML_Parse(parser.get(), buf, static_cast<int>(n), n == 0);
+    if (!w.problem.empty()) break;
+    if (s == XML_STATUS_ERROR) {
+      const long line = static_cast<long>(XML_GetCurrentLineNumber(parser.get()));
+      const long column = static_cast<long>(XML_GetCurrentColumnNumber(parser.get())) + 1;
+      return {part + " line " + std::to_string(line) + ", column " + std::to_string(column),
+              std::string("malformed XML: ") + XML_ErrorString(XML_GetErrorCode(parser.get()))};
+    }
+    if (n == 0) break;
+  }
+  w.finish();
+  if (w.problem.empty()) return {part, ""};
+  return {part + " line " + std::to_string(w.line) + ", column " + std::to_string(w.column),
+          w.problem};
+}
+
+}  // namespace trellis::impl
