@@ -218,9 +218,15 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag, const 
   JobResult out;
   const bool plate = !job.parts.empty();
   const std::vector<PlatePart> placed = plate ? job.parts : std::vector<PlatePart>{PlatePart{}};
-  std::vector<PartFootprint> fp;
-  std::vector<Toolpath> tps;
   const double h = c.machine.layer_height;
+  struct Part {
+    SliceJob sj;
+    BBox3 extent;
+    std::size_t layers = 0;
+  };
+  std::vector<Part> parts;
+  // First each part's extent and printed layers (its ends found plane by plane), for the plate
+  // check and the shards' ranges before any layer is sliced.
   for (const PlatePart& pp : placed) {
     Settings st = job.settings;
     if (!pp.settings_toml.empty()) st.load_toml(pp.settings_toml, job.origin + " part '" + pp.label + "'");
@@ -232,64 +238,67 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag, const 
       throw SettingError("part '" + pp.label + "' sets its own layer height: every part of a "
                          "plate prints in the plate's layers (extrusion.layer_height)",
                          {job.origin, pp.line, "extrusion.layer_height"});
-    SliceJob sj = slice_job_of(job, pc, input);
-    if (sj.strategy != 0)
+    Part p;
+    p.sj = slice_job_of(job, pc, input);
+    if (p.sj.strategy != 0)
       throw SettingError("graded slicing (slice.strategy 1 or 2) does not go on plates or "
                          "shards: its look-ahead and purge tower cross layers",
                          {job.origin, pp.line, "slice.strategy"});
-    SliceResult r = run_slice(sj, progress);
-    if (r.repaired)
-      diag.warn("mesh_repaired", fs::path(input).filename().string() +
-                                     " was not closed and manifold; repaired: " + r.repair.summary());
-    r.toolpath.source = "trellis slice " + fs::path(input).filename().string() + " (" +
-                        to_string(r.route) + " route)";
-    if (plate) {
-      BBox3 box;
-      for (const auto& l : r.toolpath.layers)
-        for (const auto& p : l.paths)
-          for (const auto& q : p.points) box.add(q);
-      fp.push_back(place_footprint(pp, box));
-      // Placed on the bed: the first layer at z = h.
-      const double dz = r.toolpath.layers.empty() ? 0 : h - r.toolpath.layers.front().z;
-      for (auto& l : r.toolpath.layers) {
-        l.z += dz;
-        for (auto& p : l.paths) {
-          p.part = static_cast<int>(tps.size() + 1);
-          for (auto& q : p.points) q = place_point(pp, box, q) + Vec3{0, 0, dz};
-        }
-      }
-    }
-    tps.push_back(std::move(r.toolpath));
+    SliceJob probe = p.sj;
+    probe.layer_begin = probe.layer_end = 0;
+    const SliceResult r = run_slice(probe, progress);
+    p.extent = r.extent;
+    p.layers = r.part_layers;
+    parts.push_back(std::move(p));
   }
   if (plate) {
+    std::vector<PartFootprint> fp;
+    for (std::size_t k = 0; k < parts.size(); ++k) fp.push_back(place_footprint(placed[k], parts[k].extent));
     const MachineProfile& m = c.machine;
     const BBox2 bed = m.origin == "center"
                           ? BBox2{{-m.bed_x / 2, -m.bed_y / 2}, {m.bed_x / 2, m.bed_y / 2}}
                           : BBox2{{0, 0}, {m.bed_x, m.bed_y}};
     check_plate(fp, bed, c.plate.clearance, job.origin);
   }
-  Toolpath tp;
+  // Plate layer i holds layer i of every part that tall; its work is the parts' XY areas.
   std::size_t total = 0;
-  for (const auto& t : tps) total = std::max(total, t.layers.size());
+  for (const auto& p : parts) total = std::max(total, p.layers);
   std::vector<double> work(total, 0.0);
-  for (const auto& t : tps)
-    for (std::size_t i = 0; i < t.layers.size(); ++i) work[i] += static_cast<double>(t.layers[i].paths.size());
+  for (const auto& p : parts)
+    for (std::size_t i = 0; i < p.layers; ++i)
+      work[i] += (p.extent.max.x - p.extent.min.x) * (p.extent.max.y - p.extent.min.y);
   const auto [a, b] = job.shards ? shard_range(work, job.shard, job.shards)
                                  : std::pair<std::size_t, std::size_t>{0, total};
-  tp.source = plate ? fmt::format("trellis slice plate ({} parts)", tps.size()) : tps.front().source;
-  if (plate)
-    for (const auto& pp : placed) tp.part_labels.push_back(pp.label);
+  Toolpath tp;
   tp.layers.resize(b - a);
+  for (std::size_t i = a; i < b; ++i) tp.layers[i - a].z = static_cast<double>(i + 1) * h;
   std::size_t paths = 0;
-  for (std::size_t i = a; i < b; ++i) {
-    Layer& L = tp.layers[i - a];
-    bool have_z = false;
-    for (auto& t : tps) {
-      if (i >= t.layers.size()) continue;
-      if (!have_z) L.z = t.layers[i].z, have_z = true;
-      for (auto& p : t.layers[i].paths) L.paths.push_back(std::move(p)), ++paths;
+  for (std::size_t k = 0; k < parts.size(); ++k) {
+    Part& p = parts[k];
+    if (plate) tp.part_labels.push_back(placed[k].label);
+    if (a >= p.layers) continue;
+    if (job.shards) p.sj.layer_begin = a, p.sj.layer_end = b;
+    SliceResult r = run_slice(p.sj, progress);
+    if (r.repaired)
+      diag.warn("mesh_repaired", fs::path(p.sj.input).filename().string() +
+                                     " was not closed and manifold; repaired: " + r.repair.summary());
+    if (!plate)
+      tp.source = "trellis slice " + fs::path(p.sj.input).filename().string() + " (" +
+                  to_string(r.route) + " route)";
+    for (std::size_t j = 0; j < r.toolpath.layers.size(); ++j) {
+      const std::size_t i = r.first_layer + j;  // the part's layer = the plate's layer
+      if (i < a || i >= b) continue;
+      for (Path& path : r.toolpath.layers[j].paths) {
+        if (plate) {
+          for (Vec3& q : path.points) q = place_point(placed[k], p.extent, q);
+          path.part = static_cast<int>(k + 1);
+        }
+        tp.layers[i - a].paths.push_back(std::move(path));
+        ++paths;
+      }
     }
   }
+  if (plate) tp.source = fmt::format("trellis slice plate ({} parts)", parts.size());
   if (job.shards) {
     out.files.push_back(write_shard(job, tp.layers, a, total, tp.source, tp.part_labels));
     out.files.insert(out.files.begin(), out.files.back().substr(0, out.files.back().size() - 5));
@@ -316,7 +325,7 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag, const 
     for (std::size_t k = 0; k < placed.size(); ++k)
       j["parts"].push_back({{"label", placed[k].label}, {"input", fs::path(placed[k].input).filename().string()},
                             {"x_mm", placed[k].x}, {"y_mm", placed[k].y},
-                            {"rotation_deg", placed[k].rotation}, {"layers", tps[k].layers.size()}});
+                            {"rotation_deg", placed[k].rotation}, {"layers", parts[k].layers}});
     write_file_atomic(job.report, with_job(j.dump(2) + "\n", job, job.report, true, &diag));
     out.files.push_back(job.report);
   }
