@@ -168,6 +168,8 @@ void GcodeScanner::line(std::string_view text) {
       set_temperature(static_cast<int>(tool), t);
     }
   } else if (c == 'M') {
+    // No firmware has M-codes past 9999; a longer number is no command we know (and no int).
+    if (code > 9999) return bad("unknown command '" + std::string(s.substr(0, 20)) + "'");
     mcode(static_cast<int>(code), args);
   } else if (c == 'T') {
     if (code < 0 || code > 255) return bad("tool number out of range");

@@ -1004,6 +1004,7 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
       const double period = o.segment_length + o.segment_gap;
       const double phase = std::fmod(o.contour_shift * static_cast<double>(i), 1.0) * period;
       const pbf_detail::CurveProjector project = [&](Vec2 q) {
+        const Vec2 q0 = q;
         for (int it = 0; it < 2; ++it) {  // Newton steps along φ's gradient in the layer
           const Vec3 p{q.x, q.y, z};
           const double f = ctx.phi.value(p);
@@ -1012,7 +1013,10 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
           if (!(gg > 0)) break;
           q = q - Vec2{g.x, g.y} * (f / gg);
         }
-        return q;
+        // The traced line lies within a grid cell of φ = 0; a Newton step that goes further
+        // (a near-zero gradient: a cell not much larger than the grid) is not kept.
+        const double moved = std::hypot(q.x - q0.x, q.y - q0.y);
+        return std::isfinite(moved) && moved <= 4 * o.resolution ? q : q0;
       };
       for (const auto& piece : pieces) {
         // A track ending at the part's outer boundary stops the beam compensation before it.

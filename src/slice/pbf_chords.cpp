@@ -62,14 +62,20 @@ class Walk {
 // q on the curve at distance r from c: alternately onto the curve and back onto the circle,
 // ending on the curve (the two cross at a wide angle when r is small against the curvature
 // radius, so this converges in a few rounds).
+// If that does not converge (the projection jumps to another branch where the curve turns within
+// r, e.g. a cell not much larger than SL), the line's own point q is kept: a chord never leaves
+// the neighbourhood of the line it stands for.
 Vec2 on_curve_at(Vec2 c, double r, Vec2 q, const CurveProjector& project) {
+  const Vec2 q0 = q;
   for (int it = 0; it < 3; ++it) {
     q = project(q);
     const double d = dist(c, q);
     if (!(d > 0)) break;
     q = c + (q - c) * (r / d);
   }
-  return project(q);
+  q = project(q);
+  const double d = dist(c, q);
+  return std::isfinite(d) && std::abs(d - r) <= 0.25 * r + 1e-6 && dist(q, q0) <= r ? q : q0;
 }
 
 void open_chords(const std::vector<Vec2>& line, double sl, double gap, double phase,
@@ -93,11 +99,21 @@ void open_chords(const std::vector<Vec2>& line, double sl, double gap, double ph
     }
   }
   const Vec2 end = project(line.back());
-  for (int guard = 0; guard < 10000000; ++guard) {
+  // Each chord advances along the line by at least half its length: where the projection jumps
+  // to another branch of the curve (a cell not much larger than SL), the disc test alone could
+  // stand still and emit the same chord millions of times (found by fuzz_job_run).
+  for (;;) {
     double arc = 0;
     if (!w.leave_disc(s, len, s_arc, &arc)) {
       if (dist(s, end) > 1e-6) out.push_back({s, end});  // the last chord, short
       return;
+    }
+    if (arc < s_arc + 0.5 * len) {
+      arc = s_arc + len;
+      if (arc >= w.length()) {
+        if (dist(s, end) > 1e-6) out.push_back({s, end});
+        return;
+      }
     }
     const Vec2 e = on_curve_at(s, len, w.at(arc), project);
     out.push_back({s, e});

@@ -12,6 +12,15 @@
 #include "trellis/geom/mesh_io.hpp"
 #include "trellis/lattice/io.hpp"
 
+// Debian's lib3mf 1.8 leaks the libzip handles of a package it refuses part way (its
+// COpcPackageReader error paths; the CLI exits right after such an error, so nothing
+// accumulates). Suppressed for lib3mf's frames only: a leak in Trellis's own code still stops the
+// fuzzer, and the located walk (src/geom/locate_3mf.cpp) runs first and keeps most broken input
+// from lib3mf altogether.
+extern "C" const char* __lsan_default_suppressions() {
+  return "leak:NMR::COpcPackageReader\n";
+}
+
 extern "C" int LLVMFuzzerTestOneInput(const unsigned char* data, std::size_t size) {
   static const std::string path = "/tmp/trellis_fuzz_3mf_" + std::to_string(::getpid()) + ".3mf";
   std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char*>(data), size);

@@ -348,6 +348,15 @@ def runaway_cases():
     big(["pbf", "--size", "1000,1000,1000", "-o", "out/x.cli"])
     big(["pbf", "--resolution", "1e-4", "-o", "out/x.cli"])
     big(["pbf", "--resolution", "0.001", "--size", "50,50,50", "-o", "out/x.cli"])
+    # Mesh inputs: a distance field or marching cubes far too fine (estimated from the mesh).
+    big(["slice", os.path.join(ROOT, "tests", "data", "mesh", "unit_centimeter.3mf"), "--route", "field",
+         "--mesh-voxel", "0.0005", "--machine", PROFILE, "-o", "out/x.gcode"])
+    big(["slice", os.path.join(DESIGNS, "csg_bracket.vcad"), "--route", "mesh", "--mesh-voxel", "0.001",
+         "--machine", PROFILE, "-o", "out/x.gcode"])
+    # Cells the sampling grid cannot resolve (fuzz_job_run: ran for minutes and wrote 40 m parts).
+    case("pbf unresolved cell", ["pbf", "--cell", "0.1", "-o", "out/x.cli"], "pbf.cell")
+    case("pbf unresolved graded cell", ["pbf", "--grade-to", "schwarz_p:0.05", "-o", "out/x.cli"],
+         "pbf.grade_to")
     big(["slice", os.path.join(DESIGNS, "csg_bracket.vcad"), "--layer-height", "0.001", "--resolution", "0.001",
          "--machine", PROFILE, "-o", "out/x.gcode"])
     big(["render", "tp.json", "--image-size", "20000", "-o", "out/x.png"], "--image-size", files={"tp.json": None})
