@@ -406,6 +406,26 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
 
 namespace {
 
+// Every TPMS cell of the design resolved by the sampling grid, else SettingError naming the key.
+void check_pbf_cells(const Config& c, const PbfOptions& po) {
+  if (!(c.pbf.wall_thickness > 0)) {
+    // The direct route traces φ = 0 on a grid of 2 × resolution: a cell of fewer than four grid
+    // steps is not resolved (the traced lines jump between branches of the sheet; found by
+    // fuzz_job_run with pbf.cell = 0.1 at the default 25 µm).
+    std::vector<std::pair<double, const char*>> cells = {{c.pbf.cell, "pbf.cell"}};
+    for (const auto& [spec, key] : {std::pair{c.pbf.grade_to, "pbf.grade_to"},
+                                    std::pair{c.pbf.hierarchical, "pbf.hierarchical"}})
+      if (const std::size_t colon = spec.find(':'); colon != std::string::npos)
+        cells.emplace_back(std::strtod(spec.c_str() + colon + 1, nullptr), key);
+    for (const auto& [cell, key] : cells)
+      if (cell > 0 && cell < 8 * po.resolution)
+        throw SettingError(fmt::format(
+            "{}: a cell of {} mm is not resolved by the {} mm sampling grid (2 × pbf.resolution); "
+            "cells need at least 8 × pbf.resolution = {} mm: raise the cell or lower --resolution",
+            key, cell, 2 * po.resolution, 8 * po.resolution));
+  }
+}
+
 // The PBF options of a configuration (the laser profile's scan parameters over [pbf]).
 PbfOptions pbf_options(const Job& job, const Config& c) {
   const LaserProfile& prof = c.laser;
@@ -450,6 +470,12 @@ JobResult pbf_plate(const Job& job, const Config& c, Diagnostics& diag, const Pr
     Settings st = job.settings;
     if (!pp.settings_toml.empty()) st.load_toml(pp.settings_toml, job.origin + " part '" + pp.label + "'");
     p.config = st.config();
+    try {
+      check_pbf_cells(p.config, pbf_options(job, p.config));
+    } catch (const SettingError& e) {
+      if (!plate) throw;
+      throw SettingError("part '" + pp.label + "': " + e.message(), {job.origin, pp.line, e.where().element});
+    }
     p.design = pbf_design(p.config.pbf);
     const std::string input = plate ? pp.input : job.input;
     if (!input.empty()) p.design.envelope = read_vcad(input).field;
@@ -584,22 +610,7 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
   po.hybrid = c.pbf.strategy == "hybrid";
   po.stl_route = c.pbf.route == "stl";
   po.timing = scan_timing(prof);
-  if (!(c.pbf.wall_thickness > 0)) {
-    // The direct route traces φ = 0 on a grid of 2 × resolution: a cell of fewer than four grid
-    // steps is not resolved (the traced lines jump between branches of the sheet; found by
-    // fuzz_job_run with pbf.cell = 0.1 at the default 25 µm).
-    std::vector<std::pair<double, const char*>> cells = {{c.pbf.cell, "pbf.cell"}};
-    for (const auto& [spec, key] : {std::pair{c.pbf.grade_to, "pbf.grade_to"},
-                                    std::pair{c.pbf.hierarchical, "pbf.hierarchical"}})
-      if (const std::size_t colon = spec.find(':'); colon != std::string::npos)
-        cells.emplace_back(std::strtod(spec.c_str() + colon + 1, nullptr), key);
-    for (const auto& [cell, key] : cells)
-      if (cell > 0 && cell < 8 * po.resolution)
-        throw SettingError(fmt::format(
-            "{}: a cell of {} mm is not resolved by the {} mm sampling grid (2 × pbf.resolution); "
-            "cells need at least 8 × pbf.resolution = {} mm: raise the cell or lower --resolution",
-            key, cell, 2 * po.resolution, 8 * po.resolution));
-  }
+  check_pbf_cells(c, po);
   const Budget budget = budget_of(job, c);
   po.memory_budget = budget.force ? HUGE_VAL : budget.memory;
   {

@@ -244,6 +244,11 @@ TEST(Plate, BadPlatesAndBadShardsExit2AndWriteNothing) {
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("'g04' does not fit the build area"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(out));
+  // A part whose cells the sampling grid cannot resolve: refused like a single part.
+  r = cli("run " + variant("fine.toml", "cell = 1.0\n", "cell = 0.2\n") + " -o " + out.string());
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("part 'g04': pbf.cell"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(out));
   const std::string good = kRoot + "/examples/jobs/gyroid_plate_pbf.toml";
   for (const char* bad : {"6/5", "0/5", "2", "a/b", "1/0"}) {
     r = cli("run " + good + " -o " + out.string() + " --shard " + bad);
