@@ -2,8 +2,11 @@
 #include <iostream>
 
 #include "commands.hpp"
+#include "trellis/analysis/collisions.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
+#include "trellis/job/job.hpp"
+#include "trellis/lattice/io.hpp"
 #include "trellis/view/view.hpp"
 
 namespace trellis::cli {
@@ -11,7 +14,8 @@ namespace trellis::cli {
 void add_view(CLI::App& app) {
   struct Opts {
     std::vector<std::string> files;
-    std::string output, title;
+    std::string output, title, design;
+    std::vector<std::string> sets;
     ViewLoadOptions load;
   };
   auto o = std::make_shared<Opts>();
@@ -21,11 +25,20 @@ void add_view(CLI::App& app) {
       "Reads G-code of any slicer (.gcode/.g/.gco), pneumatic or bath .nc, laser .cli, toolpath\n"
       "JSON and lattices (JSON/CSV/OBJ/3MF). Open the HTML in a browser (no server, no network):\n"
       "orbit with the left mouse button, pan with the right, zoom with the wheel; colour by\n"
-      "feature type, tool, mixture, temperature, speed, width, print order or laser power.");
+      "feature type, tool, mixture, temperature, speed, width, print order or laser power.\n"
+      "With --design (a lattice) the prints are shown in design coordinates over the design,\n"
+      "coloured by deviation from it, and replayed against the nozzle model as `trellis check`\n"
+      "does: colour by collisions rings every collision and marks the struts involved. A\n"
+      "`trellis check` report is a viewer input too. --machine draws the profile's build volume\n"
+      "around G-code (machine coordinates).");
   cmd->add_option("files", o->files, "files to show")->required()->expected(1, 1000);
   cmd->add_option("-o,--output", o->output, "HTML file to write")->required();
   cmd->add_option("--title", o->title, "page title (default: the file names)");
-  cmd->add_option("--machine", o->load.machine, "machine profile (.nc valve commands)");
+  cmd->add_option("--machine", o->load.machine,
+                  "machine profile (.nc valve commands, build volume, nozzle of the check)");
+  cmd->add_option("--design", o->design,
+                  "design lattice: overlay, deviation from it and the collision check");
+  cmd->add_option("--set", o->sets, "any [nozzle] or [lattice] setting of the check: section.key=value");
   cmd->add_option("--valve-on", o->load.valve_on,
                   "pneumatic files: the command that opens the valve");
   cmd->add_option("--valve-off", o->load.valve_off,
@@ -34,8 +47,43 @@ void add_view(CLI::App& app) {
     Diagnostics diag;
     std::vector<ViewScene> scenes;
     std::string title = o->title;
+    const bool machine = !o->load.machine.empty();
+    const Settings st = command_settings(o->load.machine, o->sets);
+    const Config cfg = st.config();
+    Graph design;
+    if (!o->design.empty()) {
+      cfg.aero.nozzle.validate();
+      design = read_lattice(
+          o->design,
+          cfg.keep_graph ? keep_graph_options() : CleanOptions{cfg.merge_tolerance, true}, diag);
+    }
     for (const auto& f : o->files) {
-      scenes.push_back(load_view_scene(f, o->load, diag));
+      ViewScene s = load_view_scene(f, o->load, diag);
+      const bool print = s.kind == "gcode" || s.kind == "nc" || s.kind == "bgcode" ||
+                         s.kind == "toolpath";
+      if (!o->design.empty() && s.kind != "lattice") {
+        if (print) {
+          // As `trellis check` reads it: back in design coordinates, then replayed.
+          CheckOptions check;
+          check.nozzle = cfg.aero.nozzle;
+          check.snap = 0.05;
+          s.toolpath = read_print(f, machine ? &st : nullptr, &check.snap, diag);
+          set_design(s, design);
+          set_collisions(s, check_collisions(design, s.toolpath, check));
+        } else {
+          set_design(s, design);
+        }
+      } else if (!o->design.empty()) {
+        diag.warn("view", f + " is a lattice: --design is not compared with it");
+      }
+      if (machine && print && s.kind != "toolpath") {
+        if (o->design.empty())
+          set_build_volume(s, cfg.machine, cfg.machine.name);
+        else
+          diag.warn("view", f + ": no build volume drawn: with --design the print is shown in "
+                                "design coordinates, not on the machine's bed");
+      }
+      scenes.push_back(std::move(s));
       if (o->title.empty()) title += (title.empty() ? "" : ", ") + scenes.back().name;
     }
     write_file_atomic(o->output, viewer_html(scenes, title));
@@ -45,11 +93,23 @@ void add_view(CLI::App& app) {
       for (const auto& l : s.toolpath.layers)
         for (const auto& p : l.paths) segments += p.segments(), ++paths;
       std::cout << s.name << " (" << s.kind << "): ";
-      if (s.kind == "lattice")
+      if (s.kind == "lattice") {
         std::cout << s.design.size() << " struts\n";
+        continue;
+      }
+      if (s.kind == "check")
+        std::cout << s.collisions << " collisions, " << s.hits.size() << " ringed";
       else
         std::cout << s.toolpath.layers.size() << " layer(s), " << paths << " paths, " << segments
-                  << " segments\n";
+                  << " segments";
+      if (s.checked && s.kind != "check") std::cout << ", " << s.collisions << " collisions";
+      if (!s.deviation.empty()) {
+        float worst = 0;
+        for (float d : s.deviation) worst = std::max(worst, d);
+        std::cout << ", deviation from the design up to " << num(worst, 3) << " mm";
+      }
+      if (!s.bed.shape.empty()) std::cout << ", build volume of " << s.bed.machine;
+      std::cout << "\n";
     }
     std::cout << "wrote " << o->output << "\n";
   });

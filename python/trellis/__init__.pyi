@@ -210,6 +210,7 @@ def slice(
     center: bool = ...,  # placement.center: move the part's XY centre to the bed centre (false: design coordinates are bed coordinates)
     colors: int = ...,  # fgm.colors: palette size (two materials: N bands; three: d² triangles, e.g. 9)
     concentric: bool = ...,  # fgm.concentric: Strategy 2: concentric fill instead of rectilinear
+    fgm_perimeters: int = ...,  # fgm.perimeters: Strategy 2, rectilinear: rings around each colour face before its lines (the FGM paper's palette plates: 3)
     fixed_angle: bool = ...,  # fgm.fixed_angle: Strategy 2: lines at slice.infill_angle instead of along the iso-lines
     force: bool = ...,  # run.force: run even when the estimate is beyond run.max_memory or run.max_time
     frames: int = ...,  # output.frames: aero: step pictures of the first N trails

@@ -9,6 +9,7 @@
 #include <cmath>
 
 #include "routes.hpp"
+#include "trellis/geom/mesh_io.hpp"
 
 namespace trellis::routes {
 
@@ -53,14 +54,28 @@ Estimate estimate_lattice3d(const Config& c) {
   } else if (l.kind == "cells") {
     struts = 36.0 * l.cells.nx * l.cells.ny * l.cells.nz;
     what = fmt::format("{} x {} x {} unit cells", l.cells.nx, l.cells.ny, l.cells.nz);
+  } else if (!l.foam.mesh.empty()) {
+    // A foam in a mesh or a conformal lattice: the mesh's box bounds the struts (the mesh is
+    // read here for its box; its reading was estimated from the file size before).
+    const BBox3 b = bounds(read_mesh(l.foam.mesh));
+    const Vec3 s = b.max - b.min;
+    const double volume = std::max(0.0, s.x * s.y * s.z);
+    if (l.kind == "foam") {
+      struts = 13 * l.foam.density * volume;
+    } else {
+      const double cell = l.cells.size;
+      struts = 36 * volume / (cell * cell * cell) +
+               (l.conformal.skin > 0 ? 13 * l.conformal.skin_density * volume : 0);
+    }
+    what = fmt::format("a {} lattice of about {:.3g} struts in {}", l.kind, struts, l.foam.mesh);
   } else {
-    return {};  // the mesh's size is known only once it is read
+    return {};
   }
   Estimate e;
   e.bytes = struts * 300;
   e.seconds = struts * 2e-6;
   e.what = what;
-  e.change = "--count (lattice3d.count), --box or --density";
+  e.change = "--count (lattice3d.count), --box, --density or --cell (lattice3d.cell)";
   return e;
 }
 

@@ -228,6 +228,7 @@ JobResult lattice2d(const Job& job, const Config& c, Diagnostics&, const Progres
 
 JobResult lattice3d(const Job& job, const Config& c, Diagnostics& diag, const Progress&) {
   JobResult out;
+  if (!c.lattice3d.foam.mesh.empty()) check_budget(mesh_read_estimate(c.lattice3d.foam.mesh), budget_of(job, c));
   check_budget(estimate_lattice3d(c), budget_of(job, c));
   const Graph g = cells_or_foam(c, diag);
   if (fs::path(job.output).extension() == ".3mf") {
@@ -269,6 +270,7 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
     g = read_lattice(job.input, c.keep_graph ? keep_graph_options() : CleanOptions{c.merge_tolerance, true},
                      diag);
   } else if (c.planner == "aero") {
+    if (!c.lattice3d.foam.mesh.empty()) check_budget(mesh_read_estimate(c.lattice3d.foam.mesh), budget_of(job, c));
     check_budget(estimate_lattice3d(c), budget_of(job, c));
     g = cells_or_foam(c, diag);
     input = "lattice3d";

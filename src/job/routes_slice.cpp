@@ -1,5 +1,6 @@
 // Slicing routes: planar and graded slicing, laser powder-bed TPMS sheets, non-planar layers on
 // a surface and the non-planar paper's test surfaces.
+#include <set>
 #include <fmt/format.h>
 #include <sys/resource.h>
 
@@ -751,6 +752,12 @@ JobResult nonplanar(const Job& job, const Config& c, Diagnostics& diag, const Pr
     View3dOptions v;
     v.size_px = c.output.image_size;
     v.title = surface.name();
+    // Two or more tools: each tool's group in its colour; else the height, so curved layers
+    // read as curved.
+    std::set<int> tools;
+    for (const auto& l : r.toolpath.layers)
+      for (const auto& p : l.paths) tools.insert(p.tool);
+    v.colour = tools.size() > 1 ? View3dOptions::Colour::Tool : View3dOptions::Colour::Height;
     out.files.push_back(preview_name(job.preview, "3d.png"));
     render_3d_png(r.toolpath, out.files.back(), v);
   }
@@ -805,6 +812,7 @@ JobResult surface(const Job& job, const Config& c, Diagnostics& diag, const Prog
     View3dOptions v;
     v.size_px = c.output.image_size;
     v.title = s.name();
+    v.colour = View3dOptions::Colour::Height;
     out.files.push_back(preview_name(job.preview, "3d.png"));
     render_3d_png(slice_nonplanar(s, prm).toolpath, out.files.back(), v);
   }

@@ -57,6 +57,15 @@ void role_colour(cairo_t* cr, PathRole role) {
   cairo_set_source_rgb(cr, c[0] / 255, c[1] / 255, c[2] / 255);
 }
 
+// Tool colours (the viewer's palette, viewer/src/colors.js TOOL_COLORS).
+constexpr double kToolRgb[][3] = {{31, 119, 180}, {255, 127, 14}, {44, 160, 44},  {214, 39, 40},
+                                  {148, 103, 189}, {140, 86, 75},  {23, 190, 207}, {188, 189, 34}};
+
+void tool_colour(cairo_t* cr, int tool) {
+  const auto& c = kToolRgb[static_cast<std::size_t>(std::max(0, tool)) % 8];
+  cairo_set_source_rgb(cr, c[0] / 255, c[1] / 255, c[2] / 255);
+}
+
 // A length of 1, 2 or 5 × 10^k mm, at most `max_mm`.
 double nice_length(double max_mm) {
   const double p = std::pow(10.0, std::floor(std::log10(max_mm)));
@@ -85,10 +94,12 @@ struct LegendItem {
   double r, g, b;
 };
 
-// The band below a picture: `items` as colour swatches (and, with `order_bar`, a print-order colour
-// bar first) on the left, a scale bar of a round number of mm on the right.
+// The band below a picture: `items` as colour swatches (and, with `order_bar`, a colour bar from
+// `bar_lo` to `bar_hi` first, print order by default) on the left, a scale bar of a round number
+// of mm on the right.
 void legend_band(cairo_t* c, int W, double y0, int band, const std::vector<LegendItem>& items,
-                 bool order_bar, double px_per_mm) {
+                 bool order_bar, double px_per_mm, const std::string& bar_lo = "first",
+                 const std::string& bar_hi = "last (print order)") {
   const double fs = band * 0.3 * 0.85, pad = band * 0.2, ymid = y0 + band * 0.5, sw = band * 0.3;
   double x = pad;
   auto label = [&](const std::string& t) {
@@ -97,7 +108,7 @@ void legend_band(cairo_t* c, int W, double y0, int band, const std::vector<Legen
     x += text_width(c, fs, t) + sw;
   };
   if (order_bar) {
-    label("first");
+    label(bar_lo);
     x -= sw * 0.5;
     const double bar = 3 * band;
     for (int i = 0; i < static_cast<int>(bar); ++i) {
@@ -106,7 +117,7 @@ void legend_band(cairo_t* c, int W, double y0, int band, const std::vector<Legen
       cairo_fill(c);
     }
     x += bar + sw * 0.5;
-    label("last (print order)");
+    label(bar_hi);
   }
   for (const auto& it : items) {
     cairo_set_source_rgb(c, it.r, it.g, it.b);
@@ -381,8 +392,33 @@ void render_3d_png(const Toolpath& tp, const std::string& path, const View3dOpti
     cairo_set_dash(cr.get(), nullptr, 0, 0);
   }
   cairo_set_line_width(cr.get(), 2.0);
+  double z0 = 1e300, z1 = -1e300;
+  std::vector<int> tools;
+  for (const Path* p : paths) {
+    for (const auto& q : p->points) z0 = std::min(z0, q.z), z1 = std::max(z1, q.z);
+    if (std::find(tools.begin(), tools.end(), p->tool) == tools.end()) tools.push_back(p->tool);
+  }
+  std::sort(tools.begin(), tools.end());
+  using Colour = View3dOptions::Colour;
   for (std::size_t i = 0; i < shown; ++i) {
-    order_colour(cr.get(), n > 1 ? static_cast<double>(i) / (n - 1) : 0.0);
+    if (opt.colour == Colour::Height) {
+      // Each segment in the colour of its mid height.
+      const Path& p = *paths[i];
+      for (std::size_t k = 1; k < p.points.size(); ++k) {
+        const double z = 0.5 * (p.points[k - 1].z + p.points[k].z);
+        order_colour(cr.get(), z1 > z0 ? (z - z0) / (z1 - z0) : 0.5);
+        const auto [ax, ay] = to_px(p.points[k - 1]);
+        const auto [bx, by] = to_px(p.points[k]);
+        cairo_move_to(cr.get(), ax, ay);
+        cairo_line_to(cr.get(), bx, by);
+        cairo_stroke(cr.get());
+      }
+      continue;
+    }
+    if (opt.colour == Colour::Tool)
+      tool_colour(cr.get(), paths[i]->tool);
+    else
+      order_colour(cr.get(), n > 1 ? static_cast<double>(i) / (n - 1) : 0.0);
     stroke_path(*paths[i]);
   }
   for (std::size_t i = 0; i < shown; ++i) {
@@ -413,10 +449,23 @@ void render_3d_png(const Toolpath& tp, const std::string& path, const View3dOpti
       text(cr.get(), ox + u * L * 1.2 - 4, oy - v * L * 1.2 + 4, band * 0.25, names[k]);
     }
   }
-  std::vector<LegendItem> items = {{"path start", 0.0, 0.6, 0.0}};
+  std::vector<LegendItem> items;
+  if (opt.colour == Colour::Tool)
+    for (int t : tools) {
+      const auto& c = kToolRgb[static_cast<std::size_t>(std::max(0, t)) % 8];
+      items.push_back({"tool " + std::to_string(t), c[0] / 255, c[1] / 255, c[2] / 255});
+    }
+  items.push_back({"path start", 0.0, 0.6, 0.0});
   if (opt.upto > 0) items.push_back({"not yet printed", 0.85, 0.85, 0.85});
   if (!opt.marks.empty()) items.push_back({"collision (ring)", 0.9, 0.0, 0.0});
-  legend_band(cr.get(), W, Hd, band, items, true, scale);
+  if (opt.colour == Colour::Height && z0 <= z1) {
+    char lo[64], hi[64];
+    std::snprintf(lo, sizeof lo, "z %.2f", z0);
+    std::snprintf(hi, sizeof hi, "%.2f mm (height)", z1);
+    legend_band(cr.get(), W, Hd, band, items, true, scale, lo, hi);
+  } else {
+    legend_band(cr.get(), W, Hd, band, items, opt.colour == Colour::Order, scale);
+  }
   cairo_surface_flush(surface.get());
   save_png(surface.get(), path);
 }

@@ -543,6 +543,10 @@ std::vector<Setting> make_table() {
   t.push_back(number("fgm.zipper", "", 0, 1,
                      "Strategy 1: overlap band β (fraction of the gradient) where colours alternate",
                      "zipper", [](C& c) -> auto& { return c.slice.fgm.zipper; }));
+  t.push_back(integer("fgm.perimeters", 1, 100,
+                      "Strategy 2, rectilinear: rings around each colour face before its lines "
+                      "(the FGM paper's palette plates: 3)",
+                      "fgm-perimeters", [](C& c) -> auto& { return c.slice.fgm.perimeters; }));
 
   // pbf.*
   t.push_back(choice("pbf.cell_type", {"gyroid", "schwarz_p", "schwarz_d", "neovius", "iwp"},

@@ -8,6 +8,7 @@
 #include <functional>
 #include <limits>
 #include <map>
+#include <memory>
 #include <optional>
 #include <string>
 
@@ -294,32 +295,143 @@ void padded_box(const Regions& r, double pad, Vec2& lo, Vec2& hi) {
   hi = {b.max.x + pad, b.max.y + pad};
 }
 
-// Gap fill for Strategy 2 (hand-written: a raster is far cheaper than the union of thousands of
-// overlapping beads as polygons). The layer's beads are painted into pixels a sixth of a bead
-// wide; each face's uncovered pixels are grouped 4-connected; each group of 0.08 bead² or more
-// gets lines a third of a bead apart along its long axis, clipped to where a bead stays inside the
-// face (`inners`), so no bead crosses into the next face; gaps no bead can reach (the tip of an
-// acute corner) stay.
-void fill_gaps(const std::vector<ColorFace>& faces, const std::vector<Regions>& inners,
-               std::vector<std::vector<std::vector<Vec2>>>& lines, double bead) {
+// The layer's bead raster for Strategy 2 (hand-written: a raster is far cheaper than the union of
+// thousands of overlapping beads as polygons): pixels an eighth of a bead wide over the faces'
+// box (a bead of margin); null for a layer over 5 m² (not to exhaust memory).
+std::unique_ptr<BeadRaster> layer_raster(const std::vector<ColorFace>& faces, double bead) {
   BBox2 box{{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()},
             {-std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()}};
   for (const auto& f : faces)
     for (const auto& poly : f.region)
       for (const Vec2 q : poly.outer) {
-        box.min = {std::min(box.min.x, q.x), std::min(box.min.y, q.y)};
-        box.max = {std::max(box.max.x, q.x), std::max(box.max.y, q.y)};
+        box.min = {std::min(box.min.x, q.x - bead), std::min(box.min.y, q.y - bead)};
+        box.max = {std::max(box.max.x, q.x + bead), std::max(box.max.y, q.y + bead)};
       }
-  if (!(box.max.x > box.min.x) || !(box.max.y > box.min.y)) return;
-  const double px = bead / 6, r = bead / 2;
-  const auto nx = static_cast<long>(std::ceil(box.width() / px)) + 1;
-  const auto ny = static_cast<long>(std::ceil(box.height() / px)) + 1;
-  if (nx * ny > 400'000'000L) return;  // a layer over 5 m²: skip rather than exhaust memory
-  BeadRaster raster({box.min, {box.min.x + static_cast<double>(nx) * px, box.min.y + static_cast<double>(ny) * px}}, px);
+  if (!(box.max.x > box.min.x) || !(box.max.y > box.min.y)) return nullptr;
+  const double px = bead / 8;
+  if ((box.width() / px + 1) * (box.height() / px + 1) > 400e6) return nullptr;
+  return std::make_unique<BeadRaster>(box, px);
+}
+
+// Paints the pixels whose centre lies in the rectangle of half-width r along a-b (a bead as E
+// deposits it: no round caps, so a line's start does not cover its own end when it closes).
+void paint_band(BeadRaster& raster, Vec2 a, Vec2 b, double r) {
+  const Vec2 d = b - a;
+  const double len = std::hypot(d.x, d.y);
+  if (!(len > 0)) return;
+  const Vec2 u{d.x / len, d.y / len};
+  const double px = raster.pixel();
+  const Vec2 o = raster.centre(0, 0);
+  const long x0 = std::max(0L, static_cast<long>(std::floor((std::min(a.x, b.x) - r - o.x) / px)));
+  const long x1 = std::min(raster.nx() - 1, static_cast<long>(std::ceil((std::max(a.x, b.x) + r - o.x) / px)));
+  const long y0 = std::max(0L, static_cast<long>(std::floor((std::min(a.y, b.y) - r - o.y) / px)));
+  const long y1 = std::min(raster.ny() - 1, static_cast<long>(std::ceil((std::max(a.y, b.y) + r - o.y) / px)));
+  for (long iy = y0; iy <= y1; ++iy)
+    for (long ix = x0; ix <= x1; ++ix) {
+      const Vec2 q = raster.centre(ix, iy) - a;
+      const double t = q.x * u.x + q.y * u.y, s = q.x * u.y - q.y * u.x;
+      if (t >= 0 && t <= len && std::abs(s) <= r) raster.set(ix, iy);
+    }
+}
+
+// The parts of `line` whose bead mostly adds area not yet printed (Strategy 2's material
+// balance): at every eighth of a bead along the line, the bead's cross-section (eight points
+// across its width) is looked up in the raster; where more than half of it is covered already
+// (a neighbouring bead nearer than half a bead, the ring a fill line runs into, a ring collapsing
+// onto itself) the line is cut. A bead kept next to one nearer than a bead overlaps it by less
+// than half a bead; one dropped leaves a gap under half a bead: on average they balance, so the
+// volume extruded is the face's. Kept pieces of at least `min_len` are painted (the line's own
+// beads half a bead behind, so a path running back over itself is cut too) and returned.
+std::vector<std::vector<Vec2>> keep_uncovered(const std::vector<Vec2>& line, BeadRaster& raster,
+                                              double bead, double min_len) {
+  struct Sample {
+    Vec2 p, u;
+    double s;
+  };
+  std::vector<Sample> samples;
+  const double step = raster.pixel();
+  double s = 0;
+  for (std::size_t k = 0; k + 1 < line.size(); ++k) {
+    const Vec2 a = line[k], d = line[k + 1] - line[k];
+    const double len = std::hypot(d.x, d.y);
+    if (!(len > 0)) continue;
+    const Vec2 u{d.x / len, d.y / len};
+    const int n = std::max(1, static_cast<int>(std::ceil(len / step)));
+    for (int i = 0; i < n; ++i) samples.push_back({a + d * (static_cast<double>(i) / n), u, s + len * i / n});
+    s += len;
+    if (k + 2 == line.size()) samples.push_back({line[k + 1], u, s});
+  }
+  std::vector<std::vector<Vec2>> out;
+  if (samples.size() < 2) return out;
+  std::vector<char> keep(samples.size(), 0);
+  std::size_t painted = 0;  // samples [0, painted] are painted as far as kept
+  auto paint_to = [&](std::size_t upto) {
+    for (; painted + 1 <= upto; ++painted)
+      if (keep[painted] && keep[painted + 1])
+        paint_band(raster, samples[painted].p, samples[painted + 1].p, bead / 2);
+  };
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    while (painted + 1 < i && samples[painted + 1].s <= samples[i].s - bead) paint_to(painted + 1);
+    const Vec2 v{-samples[i].u.y, samples[i].u.x};
+    int covered = 0;
+    for (int k = 0; k < 8; ++k)
+      covered += raster.covered_at(samples[i].p + v * (bead * ((k + 0.5) / 8 - 0.5)));
+    keep[i] = covered <= 4;
+  }
+  // Runs of kept samples; a closed line kept across its start is one piece.
+  std::vector<std::pair<std::size_t, std::size_t>> runs;
+  for (std::size_t i = 0; i < samples.size();) {
+    if (!keep[i]) {
+      ++i;
+      continue;
+    }
+    std::size_t j = i;
+    while (j + 1 < samples.size() && keep[j + 1]) ++j;
+    runs.push_back({i, j});
+    i = j + 1;
+  }
+  const bool closed = line.size() > 2 && std::hypot(line.front().x - line.back().x, line.front().y - line.back().y) < 1e-9;
+  auto piece_of = [&](std::size_t i, std::size_t j) {
+    std::vector<Vec2> piece;
+    for (std::size_t k = i; k <= j; ++k) {
+      // Only the line's own vertices and the run's ends: the samples between are collinear.
+      const bool vertex = k == i || k == j || samples[k].u.x != samples[k - 1].u.x ||
+                          samples[k].u.y != samples[k - 1].u.y;
+      if (vertex) piece.push_back(samples[k].p);
+    }
+    return piece;
+  };
+  std::vector<std::vector<Vec2>> pieces;
+  for (const auto& [i, j] : runs) pieces.push_back(piece_of(i, j));
+  if (closed && runs.size() > 1 && runs.front().first == 0 && runs.back().second + 1 == samples.size()) {
+    auto& last = pieces.back();
+    last.insert(last.end(), pieces.front().begin() + 1, pieces.front().end());
+    pieces.erase(pieces.begin());
+  }
+  paint_to(samples.size() - 1);
+  for (auto& piece : pieces) {
+    double len = 0;
+    for (std::size_t k = 1; k < piece.size(); ++k)
+      len += std::hypot(piece[k].x - piece[k - 1].x, piece[k].y - piece[k - 1].y);
+    if (len >= min_len && piece.size() >= 2) out.push_back(std::move(piece));
+  }
+  return out;
+}
+
+// Gap fill for Strategy 2: each face's pixels the beads painted into `raster` leave uncovered
+// are grouped 4-connected; each group of 0.08 bead² or more gets lines a bead apart along its
+// long axis (as many as its width holds, rounded), clipped to where a bead stays inside the face
+// (`inners`), so no bead crosses into the next face; gaps no bead can reach (the tip of an acute
+// corner) stay. Returns the candidate lines per face (keep_uncovered trims them).
+std::vector<std::vector<std::vector<Vec2>>> gap_lines(const std::vector<ColorFace>& faces,
+                                                      const std::vector<Regions>& inners,
+                                                      const BeadRaster& raster, double bead) {
+  std::vector<std::vector<std::vector<Vec2>>> lines(faces.size());
+  const double px = raster.pixel();
+  const long nx = raster.nx(), ny = raster.ny();
+  const Vec2 origin = raster.centre(0, 0) - Vec2{px / 2, px / 2};
+  const BBox2 box{origin, origin};
   auto centre = [&](long ix, long iy) { return raster.centre(ix, iy); };
-  for (const auto& face_lines : lines)
-    for (const auto& l : face_lines)
-      for (std::size_t k = 0; k + 1 < l.size(); ++k) raster.paint(l[k], l[k + 1], r);
   // Per face: its uncovered pixels (scanlines over its rings, even-odd; each edge's crossings
   // bucketed by row), then groups.
   std::vector<int> owner(static_cast<std::size_t>(nx * ny), -1);
@@ -397,10 +509,11 @@ void fill_gaps(const std::vector<ColorFace>& faces, const std::vector<Regions>& 
         const double s = q.x * u.x + q.y * u.y, t = q.x * v.x + q.y * v.y;
         s0 = std::min(s0, s), s1 = std::max(s1, s), t0 = std::min(t0, t), t1 = std::max(t1, t);
       }
-      const double step = bead / 3;
-      const int n = std::max(1, static_cast<int>(std::ceil((t1 - t0) / step)));
+      // Beads a bead wide side by side across the group's width (pixel centres ± half a pixel).
+      const double width = t1 - t0 + px;
+      const int n = std::max(1, static_cast<int>(std::lround(width / bead)));
       for (int k = 0; k < n; ++k) {
-        const double t = n == 1 ? 0.5 * (t0 + t1) : t0 + (t1 - t0) * k / (n - 1);
+        const double t = t0 - px / 2 + width * (k + 0.5) / n;
         gap_lines.push_back({c + u * (s0 - px) + v * t, c + u * (s1 + px) + v * t});
       }
     }
@@ -412,6 +525,7 @@ void fill_gaps(const std::vector<ColorFace>& faces, const std::vector<Regions>& 
       if (len >= 0.25 * bead) lines[fi].push_back(std::move(piece));
     }
   }
+  return lines;
 }
 
 // The direction (degrees) perpendicular to the gradient of the material fractions at p: the
@@ -526,6 +640,7 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
     Vec2 cursor{0, 0};
     std::vector<std::vector<std::vector<Vec2>>> face_lines(faces.size());
     std::vector<Regions> inners(faces.size());
+    std::vector<std::size_t> outer_rings(faces.size(), 0);  // face_lines[fi]'s first ones
     for (std::size_t fi = 0; fi < faces.size(); ++fi) {
       const ColorFace& face = faces[fi];
       // One ring half a bead inside the face (its bead reaches the face's edge, not beyond),
@@ -542,13 +657,31 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
           lines.push_back(std::move(ring));
         }
       };
-      if (o.concentric) {
-        for (Regions r = inner; !r.empty(); r = offset(r, -o.bead_width)) add_rings(r);
-      } else {
-        add_rings(inner);
-        // The lines reach into the ring's bead by the overlap, so their round ends leave no
-        // slivers where they meet it at a shallow angle.
-        const Regions fill = offset(face.region, -o.bead_width * (1 - o.fill_overlap));
+      add_rings(inner);
+      outer_rings[fi] = lines.size();
+      // Rings inward a bead apart (concentric: until none fits; rectilinear: the paper's palette
+      // plates have 3 perimeters and 100 % infill, §7.5, so a face narrower than that is printed
+      // along its iso-lines by rings alone). Where the next ring does not fit, the gap under a
+      // bead and a quarter left in the middle gets one ring 3/4 of a bead further in (a sliver's
+      // ring runs there and back: keep_uncovered keeps one way), and no lines.
+      Regions last = inner;
+      bool centre_filled = false;
+      for (int k = 1; o.concentric || k < o.perimeters; ++k) {
+        Regions r = offset(last, -o.bead_width);
+        // Less than 1/8 bead beyond the next ring's centre line: its ring would run around a
+        // sliver (or split into specks); the 3/4 ring covers the centre instead.
+        if (r.empty() || offset(last, -1.125 * o.bead_width).empty()) {
+          add_rings(offset(last, -0.75 * o.bead_width));
+          centre_filled = true;
+          break;
+        }
+        add_rings(r);
+        last = std::move(r);
+      }
+      if (!o.concentric && !centre_filled) {
+        // The lines reach into the innermost ring's bead by the overlap (what it covers already
+        // is trimmed below).
+        const Regions fill = offset(last, -o.bead_width * (1 - o.fill_overlap));
         // The paper's Strategy 2 prints perpendicular to the gradient: in each square of
         // orient_cell mm the lines run along the local iso-line (rounded to 5°), or at a fixed
         // angle, +90° a layer, if asked.
@@ -563,7 +696,30 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
         for (auto& run : runs) lines.push_back(std::move(run));
       }
     }
-    if (o.gap_fill) fill_gaps(faces, inners, face_lines, o.bead_width);
+    // Material balance (the paper: "no additional material or time regardless of palette
+    // size"): every face's outer ring, then its fill, then the gap fill, each kept only where its
+    // bead mostly covers what no bead covers yet (keep_uncovered), so the volume extruded is the
+    // faces' area × layer height at any palette size: fill lines end at the ring, a line beside
+    // the ring nearer than half a bead goes, a ring of a face narrower than two beads does not
+    // run back over itself.
+    if (auto raster = layer_raster(faces, o.bead_width)) {
+      const double min_piece = o.bead_width;
+      std::vector<std::vector<std::vector<Vec2>>> kept(faces.size());
+      auto keep = [&](std::size_t fi, const std::vector<Vec2>& line) {
+        for (auto& piece : keep_uncovered(line, *raster, o.bead_width, min_piece))
+          kept[fi].push_back(std::move(piece));
+      };
+      for (std::size_t fi = 0; fi < faces.size(); ++fi)
+        for (std::size_t k = 0; k < outer_rings[fi]; ++k) keep(fi, face_lines[fi][k]);
+      for (std::size_t fi = 0; fi < faces.size(); ++fi)
+        for (std::size_t k = outer_rings[fi]; k < face_lines[fi].size(); ++k) keep(fi, face_lines[fi][k]);
+      if (o.gap_fill) {
+        const auto gaps = gap_lines(faces, inners, *raster, o.bead_width);
+        for (std::size_t fi = 0; fi < faces.size(); ++fi)
+          for (const auto& line : gaps[fi]) keep(fi, line);
+      }
+      face_lines = std::move(kept);
+    }
     for (std::size_t fi = 0; fi < faces.size(); ++fi) {
       const std::vector<double> mix = o.palette.mixture(faces[fi].color);
       for (auto& line : face_lines[fi]) {

@@ -114,22 +114,6 @@ Estimate slice_estimate(const SliceJob& job, const BBox3& e, std::size_t layers,
   return est;
 }
 
-// Reading a mesh file, from its size: the triangle soup, its welded copy and the index (about
-// 8 times a binary STL's bytes, measured on the bundled meshes and rounded up); a 3MF is a ZIP
-// of XML, about 40 times.
-Estimate mesh_read_estimate(const std::string& path) {
-  std::error_code ec;
-  const double size = static_cast<double>(std::filesystem::file_size(path, ec));
-  Estimate e;
-  if (ec) return e;  // the reader says what is wrong with the file
-  const bool zip = ends_with_ci(path, ".3mf");
-  e.bytes = size * (zip ? 40 : 8);
-  e.seconds = size * (zip ? 2e-7 : 5e-8);
-  e.what = fmt::format("reading a {:.3g} MB mesh file", size / 1e6);
-  e.change = "the mesh (decimate it)";
-  return e;
-}
-
 // A mesh's signed distance field (OpenVDB, narrow band of ±3 voxels): its surface area over the
 // voxel's square, 6 voxels deep. Measured: a 10 mm cube at 0.01 mm, 3.6e7 voxels, 1.3 GB and 41 s
 // to slice; at 0.02 mm 0.31 GB and 9 s (about 36 B and 1.1 µs a voxel, rounded up).

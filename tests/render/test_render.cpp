@@ -194,3 +194,76 @@ TEST(Render, ThreeDAndOverlayHaveLegends) {
   EXPECT_NEAR(longest_black_run(o, o.h - band, o.h), 10 * 800 / 42.0,
               2);  // 10 mm; 42 mm wide with margins
 }
+
+// 3D views coloured by height: one path climbing from z 0 to 10 is drawn in many colours (by
+// print order it is one colour), and the legend band holds the height colour bar; coloured by
+// tool (the two-material non-planar groups), each tool's colour is in the drawing and as a
+// legend swatch.
+TEST(Render, ThreeDHeightColourBarAndToolGroups) {
+  const trellis::test::TempDir tmp("trellis_render_3d_height");
+  Toolpath ramp;
+  Path up;
+  for (int i = 0; i <= 50; ++i) up.points.push_back({i * 0.8, 0, i * 0.2});
+  ramp.layers.push_back({0, {up}});
+  const int band = layer_band_px(800);
+  auto saturated = [](const Image& im, int y0, int y1) {
+    std::set<unsigned> colours;
+    for (int y = y0; y < y1; ++y)
+      for (int x = 0; x < im.w; ++x) {
+        const unsigned c = im.at(x, y);
+        const int r = c >> 16, g = (c >> 8) & 0xff, b = c & 0xff;
+        if (std::max({r, g, b}) - std::min({r, g, b}) > 60) colours.insert(c);
+      }
+    return colours.size();
+  };
+  View3dOptions v;
+  v.size_px = 800;
+  v.colour = View3dOptions::Colour::Height;
+  render_3d_png(ramp, tmp.file("height.png"), v);
+  const Image h = decode(tmp.file("height.png"));
+  v.colour = View3dOptions::Colour::Order;
+  render_3d_png(ramp, tmp.file("order.png"), v);
+  const Image o = decode(tmp.file("order.png"));
+  // The top of the ramp is red (the bar's high end) and its foot blue only when coloured by height.
+  auto count_if = [](const Image& im, int y0, int y1, auto pred) {
+    std::size_t n = 0;
+    for (int y = y0; y < y1; ++y)
+      for (int x = 0; x < im.w; ++x) {
+        const unsigned c = im.at(x, y);
+        n += pred(int(c >> 16), int((c >> 8) & 0xff), int(c & 0xff));
+      }
+    return n;
+  };
+  auto red = [](int r, int g, int b) { return r > 200 && g < 20 && b < 15; };  // not the X axis (217, 25, 25)
+  auto blue = [](int r, int g, int b) { return b > 200 && r < 40 && g < 60; };
+  EXPECT_GT(count_if(h, 0, h.h - band, red), 10u);
+  EXPECT_GT(count_if(h, 0, h.h - band, blue), 30u);
+  EXPECT_LT(count_if(o, 0, o.h - band, red), 5u);
+  EXPECT_GT(saturated(h, h.h - band, h.h), 50u);  // the colour bar
+  EXPECT_GT(longest_black_run(h, h.h - band, h.h), 40);  // the scale bar
+
+  Toolpath two;
+  Path a, b;
+  a.points = {{0, 0, 0}, {20, 0, 1}, {20, 20, 2}};
+  b.points = {{0, 5, 0}, {15, 5, 3}, {15, 15, 1}};
+  b.tool = 1;
+  two.layers.push_back({0, {a, b}});
+  v.colour = View3dOptions::Colour::Tool;
+  render_3d_png(two, tmp.file("tools.png"), v);
+  const Image t = decode(tmp.file("tools.png"));
+  auto near = [&](int y0, int y1, unsigned rgb) {
+    std::size_t n = 0;
+    for (int y = y0; y < y1; ++y)
+      for (int x = 0; x < t.w; ++x) {
+        const unsigned c = t.at(x, y);
+        n += std::abs(int(c >> 16) - int(rgb >> 16)) < 10 &&
+             std::abs(int((c >> 8) & 0xff) - int((rgb >> 8) & 0xff)) < 10 &&
+             std::abs(int(c & 0xff) - int(rgb & 0xff)) < 10;
+      }
+    return n;
+  };
+  for (unsigned tool : {0x1f77b4u, 0xff7f0eu}) {
+    EXPECT_GT(near(0, t.h - band, tool), 100u) << std::hex << tool;
+    EXPECT_GT(count(t, t.h - band, t.h, tool), 20u) << std::hex << tool;  // legend swatch
+  }
+}

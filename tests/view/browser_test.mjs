@@ -19,7 +19,9 @@ rmSync(out, { recursive: true, force: true });
 mkdirSync(out, { recursive: true });
 
 let failures = 0;
+let tagNow = '';  // 'firefox.' while the Firefox round runs
 function check(ok, what) {
+  if (tagNow && !what.startsWith(tagNow)) what = tagNow + what;
   console.log(`${ok ? 'ok  ' : 'FAIL'} ${what}`);
   if (!ok) failures += 1;
 }
@@ -54,6 +56,37 @@ run('prusa-slicer', ['--export-gcode', '--layer-height', '0.3', '--first-layer-h
   writeFileSync(join(out, 'mix.gcode'), g.join('\n') + '\n');
 }
 
+// Three materials (M165 A B C, as a mixing hotend's G-code would): layer 1 has lines along X at
+// y = 2i with the mixtures MIX3[i].
+const MIX3 = [[1, 0, 0], [0, 1, 0], [0, 0, 1], [0.6, 0.2, 0.2], [0.2, 0.5, 0.3], [0.1, 0.1, 0.8], [0.4, 0.4, 0.2]];
+{
+  const g = ['G21', 'G90', 'M83', ';LAYER_CHANGE', ';Z:0.2'];
+  MIX3.forEach(([a, b, c], i) => g.push(`M165 A${a} B${b} C${c}`, `G0 X0 Y${2 * i} Z0.2`, `G1 X20 Y${2 * i} E1.0 F1200`));
+  writeFileSync(join(out, 'mix3.gcode'), g.join('\n') + '\n');
+}
+// Deviation from a design: two design struts along X at y = 0 and y = 10; the print's lines along
+// X lie 0, 0.25, 0.5 and 1 mm beside the first.
+const DEV = [0, 0.25, 0.5, 1];
+{
+  writeFileSync(join(out, 'dev_design.json'), JSON.stringify({ units: 'mm',
+    nodes: [[0, 0, 0.2], [20, 0, 0.2], [0, 10, 0.2], [20, 10, 0.2]], edges: [[0, 1], [2, 3]] }));
+  const g = ['G21', 'G90', 'M83', ';LAYER_CHANGE', ';Z:0.2'];
+  for (const d of DEV) g.push(`G0 X0 Y${d} Z0.2`, `G1 X20 Y${d} E1.0 F1200`);
+  writeFileSync(join(out, 'dev.gcode'), g.join('\n') + '\n');
+}
+// A bath print of a dense foam with collisions the planner could not avoid, its `trellis check`
+// report, and the G-code as binary G-code (the test encoder written from the specification).
+tr('lattice3d', '--kind', 'foam', '--box', '8,8,8', '--density', '0.05', '-o', 'foam.json');
+tr('plan', 'aero', 'foam.json', '-o', 'foam_path.json', '--machine', profile('embedded_aero_410um.toml'), '--gcode', 'foam.nc');
+try { tr('check', 'foam.json', 'foam.nc', '--report', 'foam_check.json'); } catch (e) { if (e.status !== 1) throw e; }
+const foamCheck = json('foam_check.json');
+const foamFlagged = new Set(foamCheck.collision_list.flatMap((h) => [h.strut, h.hit_strut]).filter((e) => e >= 0)).size;
+// The same machine with a round bed of 200 mm, (0,0) at its centre (a delta printer's layout).
+writeFileSync(join(out, 'round_bed.toml'), readFileSync(profile('embedded_aero_410um.toml'), 'utf8')
+  .replace(/^bed_shape = .*$/m, 'bed_shape = "circle"').replace(/^origin = .*$/m, 'origin = "center"')
+  .replace(/^bed_x = .*$/m, 'bed_x = 200'));
+run('/usr/bin/python3', [join(source, 'tests/machine/bgcode_encode.py'), join(out, 'part.gcode'), join(out, 'part.bgcode'), '1', '0']);
+
 // What Trellis reports for each file: [layers, paths, segments] (lattices: struts).
 function analyze(file, ...extra) {
   tr('analyze', file, '--report', file + '.report.json', ...extra);
@@ -76,10 +109,21 @@ const cases = [
   { file: join(source, 'tests/data/aero/cubic_edges.csv'), name: 'cubic_edges.csv',
     expect: { designLines: json('cubic_report.json').struts } },
   { file: 'mix.gcode', expect: analyze('mix.gcode') },
-];
+  { file: 'mix3.gcode', expect: analyze('mix3.gcode') },
+  { file: 'part.bgcode', expect: analyze('part.bgcode') },
+  { file: 'dev.gcode', args: ['--design', 'dev_design.json'], expect: { ...analyze('dev.gcode'), designLines: 2 } },
+  { file: 'foam.nc', args: ['--design', 'foam.json', '--machine', profile('embedded_aero_410um.toml')],
+    expect: { paths: foamCheck.paths, segments: foamCheck.segments, collisions: foamCheck.collisions,
+      ringed: foamCheck.collision_list.length, designLines: foamCheck.struts, designFlagged: foamFlagged } },
+  { file: 'foam_check.json', args: ['--design', 'foam.json'],
+    expect: { collisions: foamCheck.collisions, ringed: foamCheck.collision_list.length, designLines: foamCheck.struts,
+      designFlagged: foamFlagged } },
+  { file: 'foam.nc', name: 'foam_round_bed.nc', args: ['--machine', join(out, 'round_bed.toml')], expect: analyze('foam.nc', '--valve-on', 'M3', '--valve-off', 'M5') },
+  { file: 'foam.nc', name: 'foam_bed.nc', args: ['--machine', profile('embedded_aero_410um.toml')], expect: analyze('foam.nc', '--valve-on', 'M3', '--valve-off', 'M5') },
+].filter((c) => !process.env.TV_ONLY || process.env.TV_ONLY.split(',').includes(c.name || c.file));
 
 // --- browser -----------------------------------------------------------------------------------
-const browser = await puppeteer.launch({
+let browser = await puppeteer.launch({
   executablePath: '/usr/bin/chromium',
   headless: true,
   args: ['--no-sandbox', '--use-angle=swiftshader', '--enable-unsafe-swiftshader', '--mute-audio'],
@@ -128,8 +172,9 @@ const BG = [0xf4, 0xf5, 0xf7];
 const diff = (a, b) => Math.max(...[0, 1, 2].map((i) => Math.abs(a[i] - b[i])));
 const isBg = (c) => diff(c, BG) <= 2;
 
-for (const c of cases) {
-  const name = c.name || c.file;
+async function runCase(c, tag = '') {
+  const base = c.name || c.file, name = tag + base;
+  tagNow = tag;
   const html = join(out, name + '.html');
   tr('view', c.file, ...(c.args || []), '-o', html);
   const { page, errors } = await open(html);
@@ -145,7 +190,7 @@ for (const c of cases) {
   check(/Feature type/.test(legend), `${name}: legend says what colour means ("${legend.split('\n')[0]}")`);
   check(/\d mm/.test(await page.$eval('#tv-scale', (e) => e.innerText)), `${name}: scale bar in mm`);
   await page.screenshot({ path: join(out, name + '.png') });
-  if (name === 'part.gcode') {
+  if (base === 'part.gcode') {
     check(statSync(html).size - statSync(join(out, 'part.gcode')).size < 2e6,
       `part.gcode: page ${statSync(html).size} bytes, under 2 MB plus the data`);
     // Colour modes change the pixels where the model is.
@@ -164,7 +209,7 @@ for (const c of cases) {
       `part.gcode: feature -> order changes ${changed} of ${model} model pixels`);
     await page.screenshot({ path: join(out, 'part.gcode.order.png') });
   }
-  if (name === 'mix.gcode') {
+  if (base === 'mix.gcode') {
     await page.click('#tv-top');
     for (const mode of ['mixture', 'temperature']) {
       await page.select('#tv-mode', mode);
@@ -201,8 +246,118 @@ for (const c of cases) {
     check(/^1 of 2/.test(label), `mix.gcode: layer label "${label}"`);
     await page.screenshot({ path: join(out, 'mix.gcode.layer1.png') });
   }
+  if (base === 'mix3.gcode') {
+    await page.click('#tv-top');
+    await page.select('#tv-mode', 'mixture');
+    await page.evaluate(() => window.trellisViewer.whenDrawn());
+    check(await page.$('#tv-triangle') !== null, 'mix3.gcode: three materials: the mixture triangle is the legend');
+    for (const [i, w] of MIX3.entries()) {
+      const [x, y] = await page.evaluate((yy) => window.trellisViewer.project(4.5, yy, 0.2), 2 * i);
+      const tri = await page.evaluate((w) => {
+        const at = window.trellisViewer.triangleAt(w);
+        const p = document.getElementById('tv-triangle').getContext('2d').getImageData(Math.floor(at.cx), Math.floor(at.cy), 1, 1).data;
+        return [p[0], p[1], p[2]];
+      }, w);
+      const px = await around(page, x, y, 1);
+      const best = Math.min(...px.map((p) => diff(p, tri)));
+      // The nearest other mixture of the file, on the triangle: the colours must tell them apart.
+      let other = 255;
+      for (const [j, v] of MIX3.entries())
+        if (j !== i) other = Math.min(other, diff(tri, await page.evaluate((v) => window.trellisViewer.triangleAt(v).color, v)));
+      check(best <= 6 && other > 12,
+        `mix3.gcode: mixture ${w.join(':')}: segment pixel within ${best} of the triangle at that mixture (next mixture ${other} away)`);
+    }
+    await page.screenshot({ path: join(out, 'mix3.gcode.mixture.png') });
+  }
+  if (base === 'dev.gcode') {
+    await page.click('#tv-top');
+    await page.click('#tv-design');  // the design struts off: the print's own colours
+    await page.select('#tv-mode', 'deviation');
+    await page.evaluate(() => window.trellisViewer.whenDrawn());
+    for (const d of [0.25, 0.5, 1]) {
+      const [x, y] = await page.evaluate((yy) => window.trellisViewer.project(10, yy, 0.2), d);
+      const bar = await page.evaluate((v) => {
+        const at = window.trellisViewer.colorbarAt(v), cv = document.getElementById('tv-colorbar');
+        const r = cv.getBoundingClientRect();
+        const p = cv.getContext('2d').getImageData(Math.round(at.x - r.left - 1.5), 7, 1, 1).data;
+        return [p[0], p[1], p[2]];
+      }, d);
+      const px = await around(page, x, y, 1);
+      const best = Math.min(...px.map((p) => diff(p, bar)));
+      const zero = await page.evaluate(() => window.trellisViewer.colorbarAt(0).color);
+      check(best <= 6 && diff(bar, zero) > 12,
+        `dev.gcode: a line ${d} mm beside the design strut: pixel within ${best} of the colour bar at ${d} mm`);
+    }
+    const legend = await page.$eval('#tv-legend', (e) => e.innerText);
+    check(/Deviation from the design/.test(legend) && /1\.0 mm/.test(legend), `dev.gcode: colour bar "${legend.replace(/\n/g, ' ')}"`);
+    await page.screenshot({ path: join(out, 'dev.gcode.deviation.png') });
+  }
+  if (base === 'foam.nc') {
+    await page.select('#tv-mode', 'collisions');
+    await page.evaluate(() => window.trellisViewer.whenDrawn());
+    // Every listed collision is ringed: the ring colour around the hit point.
+    const RING = [220, 20, 60];
+    let ringed = 0;
+    for (const h of foamCheck.collision_list) {
+      const [x, y] = await page.evaluate((p) => window.trellisViewer.project(...p), h.point);
+      // A ring, not the colliding line through the point: ring colour at the ring's radius
+      // (22 px marker, circle of radius 25/64 of it) in at least 6 of 8 directions.
+      let dirs = 0;
+      for (let k = 0; k < 8; ++k) {
+        const a = (k * Math.PI) / 4, r = 22 * 25 / 64;
+        const px = await around(page, x + r * Math.cos(a), y + r * Math.sin(a), 1);
+        if (px.some((p) => diff(p, RING) <= 10)) dirs += 1;
+      }
+      if (dirs >= 6) ringed += 1;
+    }
+    check(ringed === foamCheck.collision_list.length, `foam.nc: ${ringed} of ${foamCheck.collision_list.length} collisions ringed on screen`);
+    // The colliding segments are red: at each one's midpoint, away from every ring.
+    const rings = [];
+    for (const h of foamCheck.collision_list) rings.push(await page.evaluate((p) => window.trellisViewer.project(...p), h.point));
+    let tested = 0, red = 0;
+    for (const h of foamCheck.collision_list) {
+      const seg = await page.evaluate((path, segment) => {
+        const v = window.trellisViewer, s = v.s, k = (s.pathFirst[path] + segment) * 3, P = s.positions;
+        return [(P[k] + P[k + 3]) / 2, (P[k + 1] + P[k + 4]) / 2, (P[k + 2] + P[k + 5]) / 2];
+      }, h.path, h.segment);
+      const [x, y] = await page.evaluate((p) => window.trellisViewer.project(...p), seg);
+      if (rings.some(([rx, ry]) => Math.hypot(rx - x, ry - y) < 14)) continue;
+      tested += 1;
+      if ((await around(page, x, y, 1)).some((p) => diff(p, RING) <= 10)) red += 1;
+    }
+    check(tested >= 3 && red === tested, `foam.nc: ${red} of ${tested} colliding segments (away from the rings) drawn red`);
+    const legend = await page.$eval('#tv-legend', (e) => e.innerText);
+    check(new RegExp(`${foamCheck.collisions} collisions`).test(legend), `foam.nc: legend names the ${foamCheck.collisions} collisions`);
+    await page.screenshot({ path: join(out, 'foam.nc.collisions.png') });
+  }
+  if (base === 'foam_check.json') await page.screenshot({ path: join(out, 'foam_check.json.png') });
+  if (base === 'foam_round_bed.nc') {
+    const bed = await page.evaluate(() => window.trellisViewer.bedBox());
+    const close = (a, b) => a.every((v, i) => Math.abs(v - b[i]) < 1e-3);
+    check(bed && close(bed.min, [-100, -100, 0]) && close(bed.max, [100, 100, 100]),
+      `foam_round_bed.nc: round build volume ${bed && bed.min.map((v) => v.toFixed(1))} to ${bed && bed.max.map((v) => v.toFixed(1))} (profile: circle of 200 mm, centre origin, 100 mm high)`);
+    await page.screenshot({ path: join(out, 'foam_round_bed.nc.png') });
+  }
+  if (base === 'foam_bed.nc') {
+    const bed = await page.evaluate(() => window.trellisViewer.bedBox());
+    check(bed && bed.min.join() === '0,0,0' && bed.max.join() === '300,300,100',
+      `foam_bed.nc: build volume ${bed && bed.min.join(',')} to ${bed && bed.max.join(',')} (profile: 300 x 300 x 100 mm, corner origin)`);
+    const on = await frame(page);
+    await page.click('#tv-bed');
+    await page.evaluate(() => window.trellisViewer.whenDrawn());
+    await page.click('#tv-fit');
+    await page.evaluate(() => window.trellisViewer.whenDrawn());
+    const off = await frame(page);
+    await page.click('#tv-bed');
+    await page.evaluate(() => window.trellisViewer.whenDrawn());
+    const again = await frame(page);
+    const dark = (f) => { let n = 0; for (let i = 0; i < f.length; i += 3) if (diff([f[i], f[i + 1], f[i + 2]], [0x5a, 0x62, 0x70]) <= 12) n += 1; return n; };
+    check(dark(on) > 300 && dark(again) > 300 && dark(off) < dark(on) / 10,
+      `foam_bed.nc: build volume edges ${dark(on)} pixels, ${dark(off)} when switched off`);
+  }
   await page.close();
 }
+for (const c of cases) await runCase(c);
 // Python: Toolpath._repr_html_ inside a notebook-like page.
 {
   execFileSync('/usr/bin/python3', ['-c', `
@@ -227,5 +382,19 @@ open("notebook.html", "w").write("<html><body><h2>In [1]: toolpath</h2>" + t._re
   await page.close();
 }
 await browser.close();
+
+// Firefox (Debian's firefox-esr, driven over WebDriver BiDi): the same pages from file://, with
+// WebGL on Mesa's software renderer. The same checks as in Chromium for one file of each kind.
+if (!existsSync('/usr/bin/firefox-esr')) check(false, 'firefox: /usr/bin/firefox-esr missing (scripts/install-deps.sh installs it)');
+else {
+  browser = await puppeteer.launch({
+    browser: 'firefox', executablePath: '/usr/bin/firefox-esr', headless: true,
+    extraPrefsFirefox: { 'webgl.force-enabled': true, 'gfx.webrender.software': true, 'webgl.out-of-process': false },
+    env: { ...process.env, LIBGL_ALWAYS_SOFTWARE: '1', MOZ_HEADLESS: '1', EGL_PLATFORM: 'surfaceless', MOZ_WEBGL_FORCE_EGL: '1' },
+  });
+  const firefoxCases = new Set(['part.gcode', 'mix.gcode', 'mix3.gcode', 'gyroid.cli', 'foam.nc', 'lattice.json']);
+  for (const c of cases) if (firefoxCases.has(c.name || c.file)) await runCase(c, 'firefox.');
+  await browser.close();
+}
 console.log(failures ? `${failures} check(s) failed` : 'all checks passed');
 process.exit(failures ? 1 : 0);

@@ -7,6 +7,7 @@
 #include "support/temp_dir.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
+#include "trellis/lattice/graph.hpp"
 #include "trellis/view/view.hpp"
 
 using namespace trellis;
@@ -62,7 +63,7 @@ Toolpath sample() {
 }  // namespace
 
 // The page carries each layer as one binary chunk with the layout data.js decodes: counts,
-// float32 positions, path starts, six float32 attributes per path, role and tool bytes.
+// float32 positions, path starts, seven float32 attributes per path, role and tool bytes.
 TEST(View, LayerChunksHoldTheToolpath) {
   const std::string html = viewer_html({view_scene(sample(), "sample")}, "sample");
   const std::string l0 = unbase64(element(html, "tv-0-l0"));
@@ -71,7 +72,7 @@ TEST(View, LayerChunksHoldTheToolpath) {
   std::memcpy(counts, l0.data(), 8);
   EXPECT_EQ(counts[0], 5u);  // points
   EXPECT_EQ(counts[1], 2u);  // paths
-  const std::size_t pos = 8, first = pos + 5 * 12, attr = first + 2 * 4, role = attr + 2 * 24;
+  const std::size_t pos = 8, first = pos + 5 * 12, attr = first + 2 * 4, role = attr + 2 * 28;
   ASSERT_EQ(l0.size(), (role + 4 + 3) / 4 * 4);
   float p[15];
   std::memcpy(p, l0.data() + pos, sizeof p);
@@ -80,11 +81,12 @@ TEST(View, LayerChunksHoldTheToolpath) {
   std::uint32_t starts[2];
   std::memcpy(starts, l0.data() + first, 8);
   EXPECT_EQ(starts[1], 3u);
-  float at[12];
+  float at[14];
   std::memcpy(at, l0.data() + attr, sizeof at);
   EXPECT_EQ(at[0], 0.25f);   // mixture of material 1
   EXPECT_EQ(at[2], 215.0f);  // temperature
-  EXPECT_EQ(at[6], -1.0f);   // path b: no mixture
+  EXPECT_EQ(at[6], -1.0f);   // path a: two materials, no third
+  EXPECT_EQ(at[7], -1.0f);   // path b: no mixture
   EXPECT_EQ(static_cast<int>(l0[role]), static_cast<int>(PathRole::Perimeter));
   EXPECT_EQ(static_cast<int>(l0[role + 3]), 1);  // tool of path b
   EXPECT_FALSE(element(html, "tv-0-l1").empty());
@@ -124,4 +126,75 @@ TEST(View, CliErrorLeavesNoPage) {
   const int rc = std::system(cmd.c_str());
   EXPECT_EQ(WEXITSTATUS(rc), 2);
   EXPECT_FALSE(std::filesystem::exists(out));
+}
+
+// Deviation from the design: every toolpath point's distance to the nearest strut, through the
+// grid, equals the brute-force minimum over all struts (random struts and points, some outside
+// the design's box).
+TEST(View, DeviationIsTheDistanceToTheNearestStrut) {
+  Graph g;
+  std::uint32_t seed = 12345;
+  auto rnd = [&] {
+    seed = seed * 1664525u + 1013904223u;
+    return (seed >> 8) / double(1 << 24);
+  };
+  for (int i = 0; i < 60; ++i) g.nodes.push_back({rnd() * 10, rnd() * 10, rnd() * 5});
+  for (int i = 0; i < 80; ++i) {
+    const auto a = static_cast<NodeId>(rnd() * 60), b = static_cast<NodeId>(rnd() * 60);
+    if (a != b) g.edges.push_back({a, b, 0, false, 0});
+  }
+  Toolpath tp;
+  Path p;
+  for (int i = 0; i < 300; ++i) p.points.push_back({rnd() * 16 - 3, rnd() * 16 - 3, rnd() * 9 - 2});
+  tp.layers.push_back({0, {p}});
+  ViewScene s = view_scene(tp, "random");
+  set_design(s, g);
+  ASSERT_EQ(s.deviation.size(), p.points.size());
+  ASSERT_EQ(s.design.size(), g.edges.size());
+  for (std::size_t i = 0; i < p.points.size(); ++i) {
+    double best = 1e300;
+    for (const auto& e : g.edges)
+      best = std::min(best, distance_to_segment(p.points[i], g.nodes[e.a], g.nodes[e.b]));
+    EXPECT_NEAR(s.deviation[i], best, 1e-5) << i;
+  }
+}
+
+// A `trellis check` report is a viewer input: its collisions become rings, the struts it names are
+// flagged on the design, its counts become statistics; a report missing a count is an error
+// naming the file.
+TEST(View, CheckReportIsAnInput) {
+  const trellis::test::TempDir tmp("trellis_view_check");
+  const std::string f = tmp.file("check.json");
+  write_file_atomic(f, R"({"ok": false, "paths": 3, "segments": 9, "struts": 4,
+    "struts_printed_once": 4, "missing_struts": [], "repeated_struts": [], "off_design_segments": 0,
+    "collisions": 5, "collision_list": [
+      {"path": 2, "segment": 1, "strut": 3, "hit_strut": 0, "hit_path": 0, "tip": [0, 0, 1], "point": [1, 2, 3]},
+      {"path": 2, "segment": 2, "strut": 3, "hit_strut": 1, "hit_path": 0, "tip": [0, 0, 1], "point": [4, 5, 6]}]})");
+  Diagnostics diag;
+  ViewScene s = load_view_scene(f, {}, diag);
+  EXPECT_EQ(s.kind, "check");
+  EXPECT_TRUE(s.checked);
+  EXPECT_EQ(s.collisions, 5u);
+  ASSERT_EQ(s.hits.size(), 2u);
+  EXPECT_EQ(s.hits[1].path, 2);
+  EXPECT_EQ(s.hits[1].segment, 2);
+  EXPECT_EQ(s.hits[1].point.z, 6.0);
+  Graph g;
+  g.nodes = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
+  for (NodeId a = 0; a < 4; ++a) g.edges.push_back({a, static_cast<NodeId>((a + 1) % 4), 0, false, 0});
+  set_design(s, g);
+  ASSERT_EQ(s.design_flag.size(), 4u);
+  EXPECT_EQ(std::vector<char>(s.design_flag.begin(), s.design_flag.end()),
+            (std::vector<char>{1, 1, 0, 1}));
+  const std::string html = viewer_html({s}, "check");
+  EXPECT_FALSE(element(html, "tv-0-extras").empty());
+  EXPECT_NE(html.find("\"collisions\":5"), std::string::npos);
+
+  write_file_atomic(f, R"({"collision_list": [], "paths": 1})");
+  try {
+    load_view_scene(f, {}, diag);
+    FAIL() << "no error";
+  } catch (const ParseError& e) {
+    EXPECT_NE(std::string(e.what()).find("check.json"), std::string::npos) << e.what();
+  }
 }

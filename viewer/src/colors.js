@@ -15,6 +15,16 @@ export const NO_VALUE = [170, 170, 170];
 export const MIX_A = [230, 110, 20];
 export const MIX_B = [20, 90, 220];
 
+// Three materials: the colours of materials 1, 2, 3 at the corners of the mixture triangle; a
+// mixture is their barycentric blend.
+export const MIX3 = [MIX_B, MIX_A, [40, 170, 60]];
+export function mix3Color(w) {
+  return [0, 1, 2].map((i) => Math.round(w[0] * MIX3[0][i] + w[1] * MIX3[1][i] + w[2] * MIX3[2][i]));
+}
+// Collisions mode: the colliding segment and ring, and a path without collisions.
+export const COLLIDING = [220, 20, 60];
+export const CLEAN = [200, 204, 212];
+
 const STOPS = [
   [0.0, [48, 18, 59]], [0.15, [65, 105, 225]], [0.35, [27, 207, 212]], [0.5, [97, 252, 108]],
   [0.65, [210, 233, 53]], [0.82, [254, 155, 45]], [1.0, [180, 20, 20]],

@@ -3,6 +3,9 @@
 // layers contiguous so a layer range is one draw range).
 import { Box3, Vector3 } from 'three';
 
+// Float attributes per path: mixture[0], mixture[1], temperature, speed, width, power, mixture[2].
+export const ATTRS = 7;
+
 function bytes(id) {
   const el = document.getElementById(id);
   const text = el.textContent.trim();
@@ -26,7 +29,7 @@ export function decodeScene(i) {
     let off = 8;
     const pos = new Float32Array(b.buffer, b.byteOffset + off, np * 3); off += np * 12;
     const first = new Uint32Array(b.buffer, b.byteOffset + off, nq); off += nq * 4;
-    const attr = new Float32Array(b.buffer, b.byteOffset + off, nq * 6); off += nq * 24;
+    const attr = new Float32Array(b.buffer, b.byteOffset + off, nq * ATTRS); off += nq * ATTRS * 4;
     const role = b.subarray(off, off + nq); off += nq;
     const tool = b.subarray(off, off + nq);
     chunks.push({ np, nq, pos, first, attr, role, tool });
@@ -36,14 +39,14 @@ export function decodeScene(i) {
   const positions = new Float32Array(points * 3);
   const pathFirst = new Uint32Array(paths + 1);
   const pathLayer = new Uint32Array(paths);
-  const attr = new Float32Array(paths * 6);
+  const attr = new Float32Array(paths * ATTRS);
   const role = new Uint8Array(paths), tool = new Uint8Array(paths);
   const layerSeg = new Uint32Array(L + 1), layerTravel = new Uint32Array(L + 1);
   let segments = 0, P = 0, Q = 0;
   for (let l = 0; l < L; ++l) {
     const c = chunks[l];
     positions.set(c.pos, P * 3);
-    attr.set(c.attr, Q * 6);
+    attr.set(c.attr, Q * ATTRS);
     role.set(c.role, Q);
     tool.set(c.tool, Q);
     for (let q = 0; q < c.nq; ++q) {
@@ -98,14 +101,30 @@ export function decodeScene(i) {
       colors.set(c, 6 * e + 3);
     }
     for (let j = 0; j < dpos.length; j += 3) bbox.expandByPoint(v.set(dpos[j], dpos[j + 1], dpos[j + 2]));
-    design = { positions: dpos, colors, lines: n };
+    design = { positions: dpos, colors, lines: n, flag: flag.slice() };
+  }
+  // Extras: deviation from the design per point, collisions (path, segment, point).
+  let deviation = null, hits = [];
+  if (document.getElementById(`${id}-extras`)) {
+    const b = bytes(`${id}-extras`);
+    const dv = new DataView(b.buffer, b.byteOffset, b.byteLength);
+    const n = dv.getUint32(0, true);
+    if (n) deviation = new Float32Array(b.buffer.slice(b.byteOffset + 4, b.byteOffset + 4 + 4 * n));
+    let off = 4 + 4 * n;
+    const h = dv.getUint32(off, true); off += 4;
+    for (let j = 0; j < h; ++j, off += 20)
+      hits.push({ path: dv.getInt32(off, true), segment: dv.getInt32(off + 4, true),
+        point: [dv.getFloat32(off + 8, true), dv.getFloat32(off + 12, true), dv.getFloat32(off + 16, true)] });
+    if (deviation && deviation.length !== points) throw new Error(`scene ${i}: ${deviation.length} deviations for ${points} points`);
+    for (const hit of hits) bbox.expandByPoint(v.set(...hit.point));
   }
   if (bbox.isEmpty()) bbox.set(new Vector3(0, 0, 0), new Vector3(1, 1, 1));
   return {
     meta, layerCount: L, positions, pathFirst, pathLayer, pathCount: paths, attr, role, tool, index,
-    layerSeg, layerTravel, travel, bbox, design, lod,
+    layerSeg, layerTravel, travel, bbox, design, lod, deviation, hits,
     stats: { layers: L, paths, segments, points, extruded, travelMoves: travelList.length / 2, travelLength,
-      designLines: design ? design.lines : 0 },
+      designLines: design ? design.lines : 0, designFlagged: design ? flaggedCount(design) : 0,
+      collisions: meta.checked ? meta.collisions : null, ringed: hits.length },
   };
 }
 
@@ -129,4 +148,10 @@ function lodIndex(pathFirst, pathLayer, paths, L, segments) {
   }
   while (layer < L) layerSeg[++layer] = n / 2;
   return { index: out.slice(0, n), layerSeg, step: k };
+}
+
+function flaggedCount(design) {
+  let n = 0;
+  for (const f of design.flag) if (f) n += 1;
+  return n;
 }

@@ -3,8 +3,8 @@
 // window.trellisViewer is the page's API for tests and notebooks.
 import * as THREE from 'three';
 import { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js';
-import { decodeScene } from './data.js';
-import { colorMap, ROLE_COLORS, TOOL_COLORS, MIX_A, MIX_B, NO_VALUE, mixColor } from './colors.js';
+import { decodeScene, ATTRS } from './data.js';
+import { colorMap, ROLE_COLORS, TOOL_COLORS, NO_VALUE, mixColor, mix3Color, MIX3, CLEAN, COLLIDING } from './colors.js';
 
 const $ = (id) => document.getElementById(id);
 const REFINE_CHUNK = 100000;  // segments added per frame while refining a large file
@@ -18,6 +18,8 @@ const MODES = {
   width: { kind: 'range', title: 'Bead width', unit: 'mm', attr: 4 },
   order: { kind: 'range', title: 'Print order (path number)', unit: '' },
   power: { kind: 'range', title: 'Laser power', unit: 'W', attr: 5 },
+  collisions: { kind: 'collisions', title: 'Collisions (nozzle replayed against the design)' },
+  deviation: { kind: 'range', title: 'Deviation from the design', unit: 'mm', perPoint: true },
 };
 
 class Viewer {
@@ -74,6 +76,7 @@ class Viewer {
     $('tv-travel').addEventListener('change', () => this.setTravel($('tv-travel').checked));
     $('tv-design').addEventListener('change', () => { this.showDesign = $('tv-design').checked; this.applyRange(); });
     $('tv-play').addEventListener('click', () => this.play());
+    $('tv-bed').addEventListener('change', () => { if (this.bed) this.bed.visible = $('tv-bed').checked; this.view('fit'); });
   }
 
   resize() {
@@ -88,7 +91,7 @@ class Viewer {
 
   select(i) {
     if (i === this.current) return;
-    for (const obj of [this.lines, this.lod, this.travel, this.design]) {
+    for (const obj of [this.lines, this.lod, this.travel, this.design, this.rings, this.hitLines, this.bed]) {
       if (!obj) continue;
       this.scene.remove(obj);
       obj.geometry.dispose();
@@ -134,6 +137,42 @@ class Viewer {
       this.scene.add(this.design);
     }
     $('tv-design').parentElement.style.display = s.design ? '' : 'none';
+    this.rings = null;
+    if (s.hits.length) {
+      const pts = new Float32Array(s.hits.length * 3);
+      s.hits.forEach((h, j) => pts.set(h.point, 3 * j));
+      const rg = new THREE.BufferGeometry();
+      rg.setAttribute('position', new THREE.BufferAttribute(pts, 3));
+      this.rings = new THREE.Points(rg, new THREE.PointsMaterial({ size: 22, sizeAttenuation: false, map: ringTexture(),
+        transparent: true, alphaTest: 0.5, depthTest: false, color: 0xffffff }));
+      this.rings.frustumCulled = false;
+      this.rings.renderOrder = 3;
+      this.scene.add(this.rings);
+    }
+    // The colliding segments, drawn over the model in the collisions mode.
+    this.hitLines = null;
+    const segs = s.hits.filter((h) => h.path >= 0 && h.path < s.pathCount &&
+      s.pathFirst[h.path] + h.segment + 1 < s.pathFirst[h.path + 1]);
+    if (segs.length) {
+      const hi = new Uint32Array(segs.length * 2);
+      segs.forEach((h, j) => { hi[2 * j] = s.pathFirst[h.path] + h.segment; hi[2 * j + 1] = hi[2 * j] + 1; });
+      const hg = new THREE.BufferGeometry();
+      hg.setAttribute('position', g.attributes.position);
+      hg.setIndex(new THREE.BufferAttribute(hi, 1));
+      this.hitLines = new THREE.LineSegments(hg, new THREE.LineBasicMaterial({ color: new THREE.Color().setRGB(...COLLIDING.map((c) => c / 255), THREE.LinearSRGBColorSpace), depthTest: false }));
+      this.hitLines.frustumCulled = false;
+      this.hitLines.renderOrder = 2;
+      this.hitLines.visible = false;
+      this.scene.add(this.hitLines);
+    }
+    this.bed = null;
+    if (s.meta.bed) {
+      this.bed = new THREE.LineSegments(bedGeometry(s.meta.bed), new THREE.LineBasicMaterial({ color: new THREE.Color().setRGB(0x5a / 255, 0x62 / 255, 0x70 / 255, THREE.LinearSRGBColorSpace) }));
+      this.bed.frustumCulled = false;
+      this.bed.visible = $('tv-bed').checked;
+      this.scene.add(this.bed);
+    }
+    $('tv-bed').parentElement.style.display = s.meta.bed ? '' : 'none';
     const L = s.layerCount;
     for (const id of ['tv-layer-lo', 'tv-layer-hi']) $(id).max = Math.max(0, L - 1);
     $('tv-layer-lo').value = 0;
@@ -156,7 +195,43 @@ class Viewer {
     const rgb = new Uint8Array(n * 3);
     const m = MODES[mode];
     let legend;
-    if (m.kind === 'category') {
+    let perPoint = null;  // per-vertex colours (deviation) instead of per-path ones
+    if (this.hitLines) this.hitLines.visible = m.kind === 'collisions';
+    if (m.kind === 'collisions') {
+      const hitPaths = new Set(s.hits.map((h) => h.path));
+      for (let p = 0; p < n; ++p) {
+        const c = hitPaths.has(p) ? [235, 170, 160] : CLEAN;
+        rgb[3 * p] = c[0]; rgb[3 * p + 1] = c[1]; rgb[3 * p + 2] = c[2];
+      }
+      const items = [];
+      if (s.meta.checked) {
+        items.push({ label: `colliding segment, ringed (${s.meta.collisions} collisions)`, color: COLLIDING, count: s.hits.length });
+        items.push({ label: 'path with a collision', color: [235, 170, 160] });
+        items.push({ label: 'no collision', color: CLEAN });
+      }
+      legend = { kind: 'category', items, note: s.meta.checked ? null
+        : 'no collision check: give the design (trellis view FILE --design LATTICE) or open a trellis check report' };
+    } else if (m.kind === 'mixture' && s.meta.materials >= 3) {
+      const a = s.attr;
+      for (let p = 0; p < n; ++p) {
+        const w = this.mixture3(p);
+        const c = w ? mix3Color(w) : NO_VALUE;
+        rgb[3 * p] = c[0]; rgb[3 * p + 1] = c[1]; rgb[3 * p + 2] = c[2];
+      }
+      legend = { kind: 'triangle' };
+    } else if (m.perPoint) {
+      const d = s.deviation;
+      let hi = 0;
+      if (d) for (let k = 0; k < d.length; ++k) if (d[k] > hi) hi = d[k];
+      const span = hi > 0 ? hi : 1;
+      perPoint = new Uint8Array(s.positions.length);
+      for (let k = 0; k < perPoint.length / 3; ++k) {
+        const c = d ? colorMap(d[k] / span) : NO_VALUE;
+        perPoint[3 * k] = c[0]; perPoint[3 * k + 1] = c[1]; perPoint[3 * k + 2] = c[2];
+      }
+      legend = { kind: 'bar', lo: 0, hi: d ? hi : 1, has: d !== null, fn: colorMap, unit: m.unit,
+        note: d ? null : 'no design given (trellis view FILE --design LATTICE)' };
+    } else if (m.kind === 'category') {
       const key = mode === 'feature' ? s.role : s.tool;
       const palette = mode === 'feature' ? ROLE_COLORS : TOOL_COLORS;
       const used = new Map();
@@ -190,13 +265,14 @@ class Viewer {
     }
     const colors = this.colors;
     const first = s.pathFirst;
-    for (let p = 0; p < n; ++p) {
+    if (perPoint) colors.set(perPoint);
+    else for (let p = 0; p < n; ++p) {
       const r = rgb[3 * p], g = rgb[3 * p + 1], b = rgb[3 * p + 2];
       for (let k = first[p] * 3, e = first[p + 1] * 3; k < e; k += 3) { colors[k] = r; colors[k + 1] = g; colors[k + 2] = b; }
     }
     this.lines.geometry.attributes.color.needsUpdate = true;
     this.legend = legend;
-    this.drawLegend(m.title, legend);
+    this.drawLegend(legend.kind === 'triangle' ? 'Mixture of materials 1, 2 and 3' : m.title, legend);
     this.requestRender();
   }
 
@@ -204,9 +280,20 @@ class Viewer {
   valueOf(mode) {
     const s = this.s, a = s.attr;
     if (mode === 'order') return (p) => p;
-    if (mode === 'mixture') return (p) => (a[6 * p] >= 0 ? a[6 * p] : null);
+    if (mode === 'mixture') return (p) => (a[ATTRS * p] >= 0 ? a[ATTRS * p] : null);
+    if (mode === 'collisions') return () => null;
+    if (mode === 'deviation') return (p) => (s.deviation ? s.deviation[s.pathFirst[p]] : null);
     const k = MODES[mode].attr;
-    return (p) => (a[6 * p + k] > 0 ? a[6 * p + k] : null);
+    return (p) => (a[ATTRS * p + k] > 0 ? a[ATTRS * p + k] : null);
+  }
+
+  // A path's mixture of three (or more) materials as fractions of materials 1, 2, 3 summing to 1
+  // (materials past the third are not shown); null when the path has none.
+  mixture3(p) {
+    const a = this.s.attr, o = ATTRS * p;
+    const w = [a[o], a[o + 1], a[o + 6]].map((x) => (x > 0 ? x : 0));
+    const sum = w[0] + w[1] + w[2];
+    return a[o] < 0 || sum <= 0 ? null : w.map((x) => x / sum);
   }
 
   drawLegend(title, legend) {
@@ -220,10 +307,14 @@ class Viewer {
         sw.className = 'tv-swatch';
         sw.style.background = `rgb(${it.color.join(',')})`;
         row.appendChild(sw);
-        row.appendChild(document.createTextNode(`${it.label} (${it.paths} paths)`));
+        row.appendChild(document.createTextNode(it.paths !== undefined ? `${it.label} (${it.paths} paths)` : it.label));
         body.appendChild(row);
       }
-      if (!legend.items.length) body.textContent = 'no paths';
+      if (legend.note) {
+        const note = document.createElement('div');
+        note.textContent = legend.note;
+        body.appendChild(note);
+      } else if (!legend.items.length) body.textContent = 'no paths';
       if (this.s.design) {
         const row = document.createElement('div');
         const sw = document.createElement('span');
@@ -232,7 +323,29 @@ class Viewer {
         row.appendChild(sw);
         row.appendChild(document.createTextNode(`design strut (${this.s.design.lines})`));
         body.appendChild(row);
+        if (this.s.stats.designFlagged) {
+          const r2 = document.createElement('div');
+          const s2 = document.createElement('span');
+          s2.className = 'tv-swatch';
+          s2.style.background = 'rgb(220,30,30)';
+          r2.appendChild(s2);
+          r2.appendChild(document.createTextNode(`strut in a collision (${this.s.stats.designFlagged})`));
+          body.appendChild(r2);
+        }
       }
+      if (this.s.hits.length && this.mode !== 'collisions') {
+        const row = document.createElement('div');
+        const ring = document.createElement('span');
+        ring.className = 'tv-swatch';
+        ring.style.cssText = `border: 2px solid rgb(${COLLIDING.join(',')}); border-radius: 50%; width: 8px; height: 8px;`;
+        row.appendChild(ring);
+        row.appendChild(document.createTextNode(`collision, ringed (${this.s.hits.length} of ${this.s.meta.collisions})`));
+        body.appendChild(row);
+      }
+      return;
+    }
+    if (legend.kind === 'triangle') {
+      body.appendChild(drawTriangle());
       return;
     }
     const cv = document.createElement('canvas');
@@ -257,7 +370,7 @@ class Viewer {
     body.appendChild(labels);
     if (!legend.has) {
       const note = document.createElement('div');
-      note.textContent = 'no path in this file carries this value (grey)';
+      note.textContent = legend.note || 'no path in this file carries this value (grey)';
       body.appendChild(note);
     }
   }
@@ -309,7 +422,9 @@ class Viewer {
   }
 
   view(which) {
-    const box = this.s.bbox;
+    // The model, and the build volume while it is shown (where the part sits on the bed).
+    const box = this.s.bbox.clone();
+    if (this.bed && this.bed.visible) box.union(new THREE.Box3().setFromBufferAttribute(this.bed.geometry.attributes.position));
     const center = box.getCenter(new THREE.Vector3());
     const radius = Math.max(1e-3, box.getSize(new THREE.Vector3()).length() / 2);
     const dist = radius / Math.sin(THREE.MathUtils.degToRad(this.camera.fov / 2)) * 1.05;
@@ -333,6 +448,7 @@ class Viewer {
     const st = this.s.stats, meta = this.s.meta;
     const rows = [['file', meta.name], ['kind', meta.kind]];
     if (meta.kind === 'lattice') rows.push(['struts', st.designLines]);
+    else if (meta.kind === 'check') { if (st.designLines) rows.push(['design struts', st.designLines]); }
     else {
       rows.push(['layers', st.layers], ['paths', st.paths], ['segments', st.segments],
         ['extruded length', st.extruded.toFixed(1) + ' mm'], ['travel moves', st.travelMoves],
@@ -341,6 +457,14 @@ class Viewer {
       if (meta.filament_mm >= 0) rows.push(['filament', meta.filament_mm.toFixed(1) + ' mm']);
       if (st.designLines) rows.push(['design struts', st.designLines]);
     }
+    if (meta.checked) rows.push(['collisions', meta.collisions], ['collisions ringed', st.ringed]);
+    if (this.s.deviation) {
+      let hi = 0;
+      for (const d of this.s.deviation) if (d > hi) hi = d;
+      rows.push(['deviation (max)', hi.toFixed(3) + ' mm']);
+    }
+    for (const [k, v] of meta.extra_stats) rows.push([k, v]);
+    if (meta.bed) rows.push(['build volume', `${meta.bed.machine}: ${meta.bed.shape === 'circle' ? 'Ø' + meta.bed.x : meta.bed.x + ' × ' + meta.bed.y} × ${meta.bed.z} mm`]);
     rows.push(['warnings', meta.warnings.length]);
     const table = $('tv-stats-table');
     table.textContent = '';
@@ -411,7 +535,7 @@ class Viewer {
     const s = this.s, g = this.lines.geometry;
     const a = g.drawRange.start, end = a + g.drawRange.count;
     let at = a;
-    const others = [this.lod, this.travel, this.design].filter((o) => o && o.visible);
+    const others = [this.lod, this.travel, this.design, this.rings, this.hitLines, this.bed].filter((o) => o && o.visible);
     const step = () => {
       const n = Math.min(REFINE_CHUNK * 2, end - at);
       others.forEach((o) => (o.visible = false));
@@ -465,6 +589,23 @@ class Viewer {
     return [r.left + (v.x + 1) / 2 * r.width, r.top + (1 - v.y) / 2 * r.height];
   }
 
+  // Page pixel of the mixture `w` (fractions of materials 1, 2, 3) on the mixture triangle, and
+  // the triangle's colour there.
+  triangleAt(w) {
+    const cv = $('tv-triangle');
+    if (!cv) return null;
+    const [x, y] = trianglePoint(w);
+    const r = cv.getBoundingClientRect();
+    return { x: r.left + 1 + x, y: r.top + 1 + y, cx: x, cy: y, color: mix3Color(w) };
+  }
+
+  // The build volume drawn: its box in model coordinates, or null.
+  bedBox() {
+    if (!this.bed) return null;
+    const b = new THREE.Box3().setFromBufferAttribute(this.bed.geometry.attributes.position);
+    return { min: b.min.toArray(), max: b.max.toArray(), visible: this.bed.visible };
+  }
+
   // Page pixel of `value` on the colour bar, and the colour the bar has there.
   colorbarAt(value) {
     const L = this.legend;
@@ -481,7 +622,7 @@ class Viewer {
     const s = this.s, k = s.pathFirst[p] * 3, P = s.positions;
     return { a: [P[k], P[k + 1], P[k + 2]], b: [P[k + 3], P[k + 4], P[k + 5]], layer: s.pathLayer[p],
       value: this.valueOf(this.mode === 'feature' || this.mode === 'tool' ? 'order' : this.mode)(p),
-      mixture: s.attr[6 * p], temperature: s.attr[6 * p + 2] };
+      mixture: s.attr[ATTRS * p], temperature: s.attr[ATTRS * p + 2], mixture3: this.mixture3(p) };
   }
 
   // Renders `frames` frames while orbiting the whole model as the view draws it while moving
@@ -504,6 +645,89 @@ class Viewer {
     this.requestRender();
     return fps;
   }
+}
+
+// A ring (the collision marker) as a texture drawn here, so the page fetches nothing.
+let ringTex = null;
+function ringTexture() {
+  if (ringTex) return ringTex;
+  const cv = document.createElement('canvas');
+  cv.width = cv.height = 64;
+  const ctx = cv.getContext('2d');
+  ctx.strokeStyle = `rgb(${COLLIDING.join(',')})`;
+  ctx.lineWidth = 9;
+  ctx.beginPath();
+  ctx.arc(32, 32, 25, 0, 2 * Math.PI);
+  ctx.stroke();
+  ringTex = new THREE.CanvasTexture(cv);
+  return ringTex;
+}
+
+// Build volume edges: a box, or a cylinder for a round bed, from z = 0 to the build height.
+function bedGeometry(bed) {
+  const v = [];
+  const x0 = bed.center ? -bed.x / 2 : 0, y0 = bed.center ? -bed.y / 2 : 0, z1 = bed.z;
+  if (bed.shape === 'circle') {
+    const cx = x0 + bed.x / 2, cy = y0 + bed.y / 2, r = bed.x / 2, N = 96;
+    for (let i = 0; i < N; ++i) {
+      const a = (2 * Math.PI * i) / N, b = (2 * Math.PI * (i + 1)) / N;
+      for (const z of [0, z1]) v.push(cx + r * Math.cos(a), cy + r * Math.sin(a), z, cx + r * Math.cos(b), cy + r * Math.sin(b), z);
+      if (i % (N / 4) === 0) v.push(cx + r * Math.cos(a), cy + r * Math.sin(a), 0, cx + r * Math.cos(a), cy + r * Math.sin(a), z1);
+    }
+  } else {
+    const X = [x0, x0 + bed.x], Y = [y0, y0 + bed.y], Z = [0, z1];
+    for (const z of Z) for (const [a, b] of [[0, 0, 1, 0], [1, 0, 1, 1], [1, 1, 0, 1], [0, 1, 0, 0]].map((q) => [[q[0], q[1]], [q[2], q[3]]]))
+      v.push(X[a[0]], Y[a[1]], z, X[b[0]], Y[b[1]], z);
+    for (const i of [0, 1]) for (const j of [0, 1]) v.push(X[i], Y[j], 0, X[i], Y[j], z1);
+  }
+  const g = new THREE.BufferGeometry();
+  g.setAttribute('position', new THREE.BufferAttribute(new Float32Array(v), 3));
+  return g;
+}
+
+// The mixture triangle: corners material 1 (top), 2 (bottom left), 3 (bottom right); each pixel
+// has the colour of its barycentric mixture, the colour segments of that mixture are drawn in.
+const TRI_W = 190, TRI_H = 150, TRI_PAD = 10;
+const TRI = [[TRI_W / 2, TRI_PAD], [TRI_PAD, TRI_H - TRI_PAD], [TRI_W - TRI_PAD, TRI_H - TRI_PAD]];
+function trianglePoint(w) {
+  return [0, 1].map((k) => w[0] * TRI[0][k] + w[1] * TRI[1][k] + w[2] * TRI[2][k]);
+}
+function drawTriangle() {
+  const wrap = document.createElement('div');
+  wrap.style.position = 'relative';
+  const cv = document.createElement('canvas');
+  cv.id = 'tv-triangle';
+  cv.width = TRI_W; cv.height = TRI_H;
+  cv.style.border = '1px solid #888';
+  cv.style.display = 'block';
+  const ctx = cv.getContext('2d');
+  const img = ctx.createImageData(TRI_W, TRI_H);
+  const [[ax, ay], [bx, by], [cx, cy]] = TRI;
+  const det = (by - cy) * (ax - cx) + (cx - bx) * (ay - cy);
+  for (let y = 0; y < TRI_H; ++y)
+    for (let x = 0; x < TRI_W; ++x) {
+      const px = x + 0.5, py = y + 0.5;
+      const l1 = ((by - cy) * (px - cx) + (cx - bx) * (py - cy)) / det;
+      const l2 = ((cy - ay) * (px - cx) + (ax - cx) * (py - cy)) / det;
+      const l3 = 1 - l1 - l2;
+      const k = 4 * (y * TRI_W + x);
+      if (l1 < -0.01 || l2 < -0.01 || l3 < -0.01) { img.data.set([255, 255, 255, 255], k); continue; }
+      const c = mix3Color([l1, l2, l3].map((l) => Math.max(0, l)));
+      img.data.set([c[0], c[1], c[2], 255], k);
+    }
+  ctx.putImageData(img, 0, 0);
+  wrap.appendChild(cv);
+  const labels = document.createElement('div');
+  labels.className = 'tv-bar-labels';
+  labels.style.width = TRI_W + 'px';
+  for (const [i, name] of ['2', '1 (top)', '3'].entries()) {
+    const sp = document.createElement('span');
+    sp.textContent = name;
+    sp.style.color = `rgb(${MIX3[[1, 0, 2][i]].join(',')})`;
+    labels.appendChild(sp);
+  }
+  wrap.appendChild(labels);
+  return wrap;
 }
 
 function formatTime(s) {

@@ -23,6 +23,9 @@ struct Estimate {
 // Throws ResourceError (exit 2) when the estimate is beyond the budget and force is off.
 void check_budget(const Estimate& estimate, const Budget& budget);
 
+// Reading a mesh file (STL, OBJ, 3MF), from its size alone: nothing is read.
+Estimate mesh_read_estimate(const std::string& path);
+
 // MemAvailable from /proc/meminfo (bytes), 0 if unknown.
 double available_memory_bytes();
 

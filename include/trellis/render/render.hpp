@@ -44,6 +44,10 @@ struct View3dOptions {
   std::size_t upto = 0;
   std::vector<Vec3> marks;
   std::string title;
+  // What colour means: print order (a first..last bar), height (a z colour bar in mm, so curved
+  // non-planar layers read as curved), or tool (a swatch per tool: the material groups of a
+  // multi-material print).
+  enum class Colour { Order, Height, Tool } colour = Colour::Order;
 };
 void render_3d_png(const Toolpath& toolpath, const std::string& path,
                    const View3dOptions& options = {});

@@ -88,6 +88,9 @@ struct FgmOptions {
   double material_resolution = 1.0;
   bool concentric = false;    // concentric fill instead of 100 % rectilinear
   double fill_overlap = 0.25; // Strategy 2: rectilinear lines reach this share of a bead into the ring
+  // Strategy 2, rectilinear: rings around each colour face before its lines (the paper's
+  // palette plates: 3 perimeters, §7.5)
+  int perimeters = 3;
   bool gap_fill = true;       // Strategy 2: lines through what the beads leave uncovered
   // Strategy 2's rectilinear lines run along the local iso-line (perpendicular to the gradient,
   // as the paper prints), one direction per square of orient_cell mm; fixed_angle: at

@@ -12,6 +12,12 @@
 #include "trellis/toolpath/toolpath.hpp"
 
 namespace trellis {
+struct Graph;
+struct CollisionCheck;
+struct MachineProfile;
+}  // namespace trellis
+
+namespace trellis {
 
 // One file shown in the viewer.
 struct ViewScene {
@@ -23,6 +29,27 @@ struct ViewScene {
   double print_time_s = -1;                   // time estimate (s), < 0 when unknown
   double filament_mm = -1;                    // filament (mm of E), < 0 when unknown
   std::vector<std::string> warnings;
+  // Deviation from the design (set_design): per toolpath point in print order, the distance (mm)
+  // to the nearest design strut; empty without a design.
+  std::vector<float> deviation;
+  // Collisions (set_collisions, or a `trellis check` report): the moving segment (path index in
+  // print order and segment within it; path < 0 when only the report's point is known) and the
+  // hit material's point, ringed in the view.
+  struct Hit {
+    long long path = -1, segment = -1;
+    Vec3 point;
+  };
+  std::vector<Hit> hits;
+  std::size_t collisions = 0;  // all collisions found (hits lists at most the checker's limit)
+  bool checked = false;        // a collision check ran (or a report was read)
+  // Build volume of a machine profile (set_build_volume): drawn as a box or a cylinder.
+  struct Bed {
+    std::string shape;  // "" = none, rectangle, circle
+    double x = 0, y = 0, z = 0;
+    bool center = false;  // (0,0) at the bed centre, else at a corner
+    std::string machine;  // the profile's name
+  } bed;
+  std::vector<std::pair<std::string, std::string>> extra_stats;  // more statistics rows
 };
 
 struct ViewLoadOptions {
@@ -36,6 +63,16 @@ struct ViewLoadOptions {
 // Throws ParseError naming the file when it is none of these.
 ViewScene load_view_scene(const std::string& path, const ViewLoadOptions& options,
                           Diagnostics& diag);
+
+// Sets the design overlay (every strut of `design`) and the deviation of every toolpath point from
+// it (distance to the nearest strut, mm). The toolpath must be in design coordinates.
+void set_design(ViewScene& scene, const Graph& design);
+
+// Flags the struts a collision check found hit or hitting (red) and lists the collisions.
+void set_collisions(ViewScene& scene, const CollisionCheck& check);
+
+// The build volume of `machine` drawn around a G-code file (machine coordinates).
+void set_build_volume(ViewScene& scene, const MachineProfile& machine, const std::string& name);
 
 // A scene of an in-memory toolpath (the Python `_repr_html_`).
 ViewScene view_scene(const Toolpath& toolpath, const std::string& name);
