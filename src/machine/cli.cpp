@@ -11,12 +11,14 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <iterator>
 #include <map>
 #include <string_view>
 #include <vector>
 
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
+#include "fast_number.hpp"
 
 namespace trellis {
 
@@ -28,17 +30,20 @@ constexpr double kUnits = 0.001;  // mm per CLI unit (1 µm)
 constexpr int kContourId = 1, kHatchId = 2;
 
 // Coordinates in µm with two decimals (10 nm), no trailing zeros.
+// (fastnum::cli_um: the bytes of fmt::format("{}", round(mm * 1e5) / 100.0), -0 as 0.)
 void put(std::string& out, double mm) {
-  double v = std::round(mm * 1e5) / 100.0;
-  if (v == 0) v = 0;
-  out += fmt::format("{}", v);
+  char buf[fastnum::kMaxChars];
+  out.append(buf, static_cast<std::size_t>(fastnum::cli_um(buf, mm) - buf));
 }
 
 void put_xy(std::string& out, const Vec3& q) {
-  out += ',';
-  put(out, q.x);
-  out += ',';
-  put(out, q.y);
+  char buf[2 * fastnum::kMaxChars + 2];
+  char* b = buf;
+  *b++ = ',';
+  b = fastnum::cli_um(b, q.x);
+  *b++ = ',';
+  b = fastnum::cli_um(b, q.y);
+  out.append(buf, static_cast<std::size_t>(b - buf));
 }
 
 template <class T>
@@ -101,6 +106,11 @@ std::string header(const Toolpath& tp, const LaserProfile& prof, const CliWriteO
 }
 
 void ascii_geometry(const Toolpath& tp, std::string& out) {
+  std::size_t points = 0;
+  for (const auto& layer : tp.layers)
+    for (const auto& p : layer.paths) points += p.points.size();
+  out.reserve(out.size() + points * 18 + tp.layers.size() * 64 + 64);  // ~",123.45,67.89"
+  fastnum::advise_huge_pages(out);
   out += "\n$$GEOMETRYSTART\n";
   for (const auto& layer : tp.layers) {
     out += "$$LAYER/";
@@ -116,12 +126,17 @@ void ascii_geometry(const Toolpath& tp, std::string& out) {
         ++hatches;
         continue;
       }
-      out += fmt::format("$$POLYLINE/{},2,{}", contour_id, p.points.size());
+      char head[64];  // "$$POLYLINE/<id>,2,<n>" (as fmt's "{}" prints integers)
+      char* h = fastnum::lit(head, "$$POLYLINE/");
+      h = std::to_chars(h, head + sizeof head, contour_id).ptr;
+      h = fastnum::lit(h, ",2,");
+      h = std::to_chars(h, head + sizeof head, p.points.size()).ptr;
+      out.append(head, static_cast<std::size_t>(h - head));
       for (const auto& q : p.points) put_xy(out, q);
       out += '\n';
     }
     if (hatches) {
-      out += fmt::format("$$HATCHES/{},{}", hatch_id, hatches);
+      fmt::format_to(std::back_inserter(out), "$$HATCHES/{},{}", hatch_id, hatches);
       for (const auto& p : layer.paths)
         if (is_hatch(p) && (p.part == part || tp.part_labels.empty()))
           for (const auto& q : p.points) put_xy(out, q);

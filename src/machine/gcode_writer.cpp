@@ -3,7 +3,9 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <charconv>
 #include <cmath>
+#include <cstring>
 #include <numbers>
 
 #include "trellis/core/error.hpp"
@@ -11,6 +13,7 @@
 #include "trellis/machine/gcode_reader.hpp"
 #include "trellis/machine/machine_check.hpp"
 #include "trellis/version.hpp"
+#include "fast_number.hpp"
 
 namespace trellis {
 
@@ -59,32 +62,13 @@ std::string duration_text(double seconds) {
 
 // Appends v with at most `decimals` decimals, trailing zeros removed (fast, locale-free).
 void append_fixed(std::string& out, double v, int decimals) {
-  static constexpr long long kPow[] = {1, 10, 100, 1000, 10000, 100000, 1000000};
-  const long long scale = kPow[decimals];
-  long long q = std::llround(v * static_cast<double>(scale));
-  if (q < 0) {
-    out += '-';
-    q = -q;
-  }
-  long long ip = q / scale, fp = q % scale;
-  char buf[32];
-  int n = 0;
-  do {
-    buf[n++] = static_cast<char>('0' + ip % 10);
-    ip /= 10;
-  } while (ip);
-  while (n) out += buf[--n];
-  if (fp) {
-    char frac[8];
-    for (int i = decimals - 1; i >= 0; --i) {
-      frac[i] = static_cast<char>('0' + fp % 10);
-      fp /= 10;
-    }
-    int len = decimals;
-    while (len > 0 && frac[len - 1] == '0') --len;
-    out += '.';
-    out.append(frac, len);
-  }
+  char buf[fastnum::kMaxChars];
+  out.append(buf, static_cast<std::size_t>(fastnum::fixed(buf, v, decimals) - buf));
+}
+
+// The F word's value: mm/s as a whole number of mm/min.
+char* put_feed(char* p, double mm_per_s) {
+  return std::to_chars(p, p + 24, std::lround(mm_per_s * 60)).ptr;
 }
 
 class Writer {
@@ -104,6 +88,7 @@ class Writer {
     for (const auto& l : tp_.layers)
       for (const auto& path : l.paths) points += path.points.size();
     out_.reserve(points * 40 + 8192);
+    fastnum::advise_huge_pages(out_);
     plan_changes();
     header();
     for (std::size_t li = 0; li < tp_.layers.size(); ++li) layer(li);
@@ -124,18 +109,29 @@ class Writer {
   // (known only once everything is written: the lines go in afterwards, at the marks).
   void insert_progress() {
     const double total = stats_.print_time_s;
-    std::string out;
-    out.reserve(out_.size() + progress_marks_.size() * 20);
-    std::size_t from = 0;
+    std::vector<std::string> lines;
+    lines.reserve(progress_marks_.size());
+    std::size_t added = 0;
     for (const auto& [at, t] : progress_marks_) {
-      out.append(out_, from, at - from);
       const int percent = total > 0 ? static_cast<int>(std::floor(100 * t / total)) : 0;
       const long left = std::lround(std::ceil(std::max(0.0, total - t) / 60));
-      out += "M73 P" + std::to_string(std::min(percent, 99)) + " R" + std::to_string(left) + "\n";
-      from = at;
+      lines.push_back("M73 P" + std::to_string(std::min(percent, 99)) + " R" +
+                      std::to_string(left) + "\n");
+      added += lines.back().size();
     }
-    out.append(out_, from);
-    out_ = std::move(out);
+    // In place, from the back: each stretch moves up by the lines inserted before it (no second
+    // buffer of the whole file).
+    std::size_t end = out_.size();
+    out_.resize(end + added);
+    char* d = out_.data();
+    std::size_t shift = added;
+    for (std::size_t k = progress_marks_.size(); k-- > 0;) {
+      const std::size_t at = progress_marks_[k].first;
+      std::memmove(d + at + shift, d + at, end - at);
+      shift -= lines[k].size();
+      std::memcpy(d + at + shift, lines[k].data(), lines[k].size());
+      end = at;
+    }
   }
 
   void placement() {
@@ -254,7 +250,10 @@ class Writer {
     out_ += " mm\n";
   }
 
-  void feed(double mm_per_s) { out_ += std::to_string(std::lround(mm_per_s * 60)); }
+  void feed(double mm_per_s) {
+    char buf[fastnum::kMaxChars];
+    out_.append(buf, static_cast<std::size_t>(put_feed(buf, mm_per_s) - buf));
+  }
 
   void layer(std::size_t li) {
     const Layer& l = tp_.layers[li];
@@ -320,18 +319,22 @@ class Writer {
   void move_xy(Vec3 q, double d, bool with_z = false) {
     const Vec2 o = offset();
     const double len = with_z && known_ ? distance(pos_, q) : d;
-    out_ += "G0 X";
-    append_fixed(out_, q.x + dx_ + o.x, 3);
-    out_ += " Y";
-    append_fixed(out_, q.y + dy_ + o.y, 3);
+    // The line composed in one buffer, appended once (the writer's hot path, with print_move).
+    using namespace fastnum;
+    char buf[6 * kMaxChars];
+    char* b = lit(buf, "G0 X");
+    b = fixed(b, q.x + dx_ + o.x, 3);
+    b = lit(b, " Y");
+    b = fixed(b, q.y + dy_ + o.y, 3);
     if (with_z) {
-      out_ += " Z";
-      append_fixed(out_, q.z, 3);
+      b = lit(b, " Z");
+      b = fixed(b, q.z, 3);
       pos_.z = q.z;
     }
-    out_ += " F";
-    feed(p_.travel_speed);
-    out_ += '\n';
+    b = lit(b, " F");
+    b = put_feed(b, p_.travel_speed);
+    *b++ = '\n';
+    out_.append(buf, static_cast<std::size_t>(b - buf));
     if (known_) {
       ++stats_.travel_moves;
       stats_.travel_length += d;
@@ -538,8 +541,12 @@ class Writer {
     }
     const double lookahead = tower || tools ? 0.0 : p_.lookahead;
     stats_.lookahead = lookahead;
-    std::vector<double> start(paths.size() + 1, 0);  // printed length before each path
-    for (std::size_t k = 0; k < paths.size(); ++k) start[k + 1] = start[k] + paths[k]->length();
+    // Printed length before each path (needed only when some path carries a mixture).
+    const bool mixtures =
+        std::any_of(paths.begin(), paths.end(), [](const Path* p) { return !p->mixture.empty(); });
+    std::vector<double> start(mixtures ? paths.size() + 1 : 0, 0);
+    if (mixtures)
+      for (std::size_t k = 0; k < paths.size(); ++k) start[k + 1] = start[k] + paths[k]->length();
     std::string last;
     for (std::size_t k = 0; k < paths.size(); ++k) {
       if (paths[k]->mixture.empty()) continue;
@@ -670,31 +677,34 @@ class Writer {
       const double len = distance(pos_, q);
       const double flow = down_factor(q);
       const Vec2 o = offset();
-      out_ += "G1 X";
-      append_fixed(out_, q.x + dx_ + o.x, 3);
-      out_ += " Y";
-      append_fixed(out_, q.y + dy_ + o.y, 3);
+      using namespace fastnum;
+      char buf[6 * kMaxChars];
+      char* b = lit(buf, "G1 X");
+      b = fixed(b, q.x + dx_ + o.x, 3);
+      b = lit(b, " Y");
+      b = fixed(b, q.y + dy_ + o.y, 3);
       if (std::abs(q.z - pos_.z) > 1e-9) {
-        out_ += " Z";
-        append_fixed(out_, q.z, 3);
+        b = lit(b, " Z");
+        b = fixed(b, q.z, 3);
       }
       if (marlin) {
         const double e = extrusion_for(len, layer, p_) * flow;
         e_ += e;
         stats_.filament += e;
-        out_ += " E";
-        append_fixed(out_, p_.relative_e ? e : e_, 5);
+        b = lit(b, " E");
+        b = fixed(b, p_.relative_e ? e : e_, 5);
       }
       // Pneumatic flow is set by pressure, not by E: the same flow over more length thins the
       // bead, so a steep descent is printed faster instead.
       const double f = marlin ? speed : speed / flow;
       if (first || f != last_feed_) {
-        out_ += " F";
-        feed(f);
+        b = lit(b, " F");
+        b = put_feed(b, f);
         first = false;
         last_feed_ = f;
       }
-      out_ += '\n';
+      *b++ = '\n';
+      out_.append(buf, static_cast<std::size_t>(b - buf));
       stats_.print_length += len;
       stats_.print_time_s += move_time(len, f, p_.acceleration);
       pos_ = q;
