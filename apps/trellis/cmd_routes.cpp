@@ -257,6 +257,7 @@ void add_routes(CLI::App& app, int argc, char** argv) {
       }
       job.report = o->report;
       job.preview = o->preview;
+      job.keep_toolpath = false;  // only the files are used here
       Diagnostics diag;
       Progress progress;
       progress.report = progress_line;

@@ -36,6 +36,7 @@ void add_run(CLI::App& app) {
         throw SettingError("the " + job.route + " route does not shard (pbf and slice plates do)",
                            {"", 0, "--shard"});
     }
+    job.keep_toolpath = false;  // only the files are used here
     Diagnostics diag;
     Progress progress;
     progress.report = progress_line;
@@ -87,7 +88,8 @@ void add_rerun(CLI::App& app) {
   cmd->add_option("output", o->input, "a file written by Trellis")->required();
   cmd->add_option("-o,--output", o->out, "where to write (default: the file itself)");
   cmd->callback([o] {
-    const Job job = rerun_job(o->input, o->out);
+    Job job = rerun_job(o->input, o->out);
+    job.keep_toolpath = false;
     Diagnostics diag;
     print_result(run_job(job, diag, {}), diag);
   });

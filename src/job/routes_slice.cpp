@@ -519,22 +519,25 @@ JobResult pbf_plate(const Job& job, const Config& c, Diagnostics& diag, const Pr
     const Part& p = parts[k];
     if (plate) tp.part_labels.push_back(p.place.label);
     if (a >= p.layers) continue;
-    PbfOptions po = pbf_options(job, p.config);
-    po.layer_begin = a;
-    po.layer_end = std::min(b, p.layers);
-    const PbfResult r = plan_pbf(p.design, po, progress);
+    const PbfOptions po = pbf_options(job, p.config);
+    const std::size_t end = std::min(b, p.layers);
+    // Each layer placed into the plate as it comes (laser's in-order layer sink).
+    const PbfResult r = plan_pbf(
+        p.design, po, progress,
+        [&](std::size_t i, const PbfLayer& L) {
+          Layer layer = pbf_layer_toolpath(L, i, prof.layer, prof.contour_power, prof.contour_speed,
+                                           prof.hatch_power, prof.hatch_speed);
+          for (Path& path : layer.paths) {
+            if (plate) {
+              for (Vec3& q : path.points) q = place_point(p.place, p.extent, q);
+              path.part = static_cast<int>(k + 1);
+            }
+            (path.points.size() == 2 && path.role == PathRole::Infill ? hatch_vectors : contour_vectors)++;
+            tp.layers[i - a].paths.push_back(std::move(path));
+          }
+        },
+        PbfLayerRange{a, end});
     diag.merge(r.diagnostics);
-    const Toolpath t = pbf_toolpath(r, prof.contour_power, prof.contour_speed, prof.hatch_power,
-                                    prof.hatch_speed);
-    for (std::size_t i = a; i < po.layer_end; ++i)
-      for (Path path : t.layers[i].paths) {
-        if (plate) {
-          for (Vec3& q : path.points) q = place_point(p.place, p.extent, q);
-          path.part = static_cast<int>(k + 1);
-        }
-        (path.points.size() == 2 && path.role == PathRole::Infill ? hatch_vectors : contour_vectors)++;
-        tp.layers[i - a].paths.push_back(std::move(path));
-      }
   }
   if (job.shards) {
     out.files.push_back(write_shard(job, tp.layers, a, total, tp.source, tp.part_labels));
@@ -620,11 +623,29 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
         std::isfinite(e.max.y) && std::isfinite(e.min.z) && std::isfinite(e.max.z) && po.layer > 0)
       check_budget(estimate_pbf_time(e, po.resolution, po.layer, threads_of_run()), budget);
   }
-  const PbfResult r = plan_pbf(d, po, progress);
-  diag.merge(r.diagnostics);
-  Toolpath tp = pbf_toolpath(r, prof.contour_power, prof.contour_speed, prof.hatch_power, prof.hatch_speed);
-  out.toolpath = std::make_shared<Toolpath>(tp);
-  if (!job.output.empty()) {
+  // A build file alone is written layer by layer as the layers come (memory does not grow with
+  // the layer count); the toolpath JSON and the layer previews need the whole toolpath.
+  const bool stream =
+      !job.keep_toolpath && !job.output.empty() && job.toolpath.empty() && job.preview.empty();
+  Toolpath tp;
+  PbfResult r;
+  if (stream) {
+    CliStreamWriter writer(job.output, prof, CliWriteOptions{c.pbf.binary, true}, "trellis pbf",
+                           embedded_job(job, job.output));
+    r = plan_pbf(d, po, progress, [&](std::size_t i, const PbfLayer& L) {
+      writer.add(pbf_layer_toolpath(L, i, po.layer, prof.contour_power, prof.contour_speed,
+                                    prof.hatch_power, prof.hatch_speed));
+    });
+    writer.finish();
+    diag.merge(r.diagnostics);
+    out.files.push_back(job.output);
+  } else {
+    r = plan_pbf(d, po, progress);
+    diag.merge(r.diagnostics);
+    tp = pbf_toolpath(r, prof.contour_power, prof.contour_speed, prof.hatch_power, prof.hatch_speed);
+    out.toolpath = std::make_shared<Toolpath>(tp);
+  }
+  if (!job.output.empty() && !stream) {
     tp.job = embedded_job(job, job.output);
     write_cli_file(job.output, tp, prof, CliWriteOptions{c.pbf.binary, true});
     out.files.push_back(job.output);

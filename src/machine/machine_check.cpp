@@ -240,6 +240,11 @@ std::vector<MachineWarning> check_for_machine(const Toolpath& tp, const MachineP
 }
 
 std::vector<MachineWarning> check_for_laser(const Toolpath& tp, const LaserProfile& p) {
+  return check_for_laser(tp, p, 0);
+}
+
+std::vector<MachineWarning> check_for_laser(const Toolpath& tp, const LaserProfile& p,
+                                            std::size_t first_layer) {
   Problems errors;
   const double eps = 1e-9;
   BBox3 box;
@@ -249,10 +254,10 @@ std::vector<MachineWarning> check_for_laser(const Toolpath& tp, const LaserProfi
       for (const Vec3& q : path.points) box.add(q);
       if (path.power > p.max_power + eps)
         errors.add("power", fmt::format("{} is scanned at {} W, above laser.max_power = {} W",
-                                        where(li, pi), num(path.power), num(p.max_power)));
+                                        where(first_layer + li, pi), num(path.power), num(p.max_power)));
       if (path.speed > p.max_speed + eps)
         errors.add("speed", fmt::format("{} is scanned at {} mm/s, above laser.max_speed = {} mm/s",
-                                        where(li, pi), num(path.speed), num(p.max_speed)));
+                                        where(first_layer + li, pi), num(path.speed), num(p.max_speed)));
     }
   for (const auto& [key, w] : {std::pair{"laser.contour_power", p.contour_power},
                                std::pair{"laser.hatch_power", p.hatch_power}})

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_pipeline.h>
 #include <tbb/task_arena.h>
 
 #include <algorithm>
@@ -845,6 +846,18 @@ void measure_wall_thickness(Ctx& ctx, const PbfDesign& design, double c_const, d
 }  // namespace
 
 PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress& progress) {
+  return plan_pbf(design, o, progress, {}, {});
+}
+
+std::size_t pbf_layer_count(const PbfDesign& design, const PbfOptions& o) {
+  if (!(o.layer > 0)) throw SettingError("layer thickness must be > 0");
+  const BBox3 e = design.part().extent();
+  if (e.empty() || !std::isfinite(e.min.z) || !std::isfinite(e.max.z)) return 0;
+  return layer_planes(e.min.z, e.max.z, o.layer).size();
+}
+
+PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress& progress,
+                   const PbfLayerSink& sink, PbfLayerRange range) {
   const auto t0 = std::chrono::steady_clock::now();
   if (!(o.layer > 0)) throw SettingError("layer thickness must be > 0");
   if (!(o.resolution > 0)) throw SettingError("resolution must be > 0");
@@ -883,7 +896,7 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
   if (zs.size() > 200000) throw SettingError("more than 200,000 layers: check the layer thickness");
   if (!o.stl_route) {
     const int threads = tbb::this_task_arena::max_concurrency();
-    result.memory_estimate = pbf_memory_estimate(design, o, threads);
+    result.memory_estimate = pbf_memory_estimate(design, o, threads, static_cast<bool>(sink));
     const double budget = o.memory_budget > 0 ? o.memory_budget : available_memory_bytes();
     if (budget > 0 && result.memory_estimate > budget)
       throw ResourceError(fmt::format(
@@ -939,17 +952,18 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
   mo_mid.refine_fraction = std::min(0.1, 5e-4 / H);
   mo_joint.refine_fraction = std::min(0.1, 1e-3 / H);
 
-  result.layers.resize(zs.size());
+  const std::size_t first = std::min(range.first, zs.size());
+  const std::size_t last = std::max(first, std::min(range.last, zs.size()));
+  result.layers.resize(last - first);
   tbb::enumerable_thread_specific<Ctx> contexts([&] { return Ctx(part, design, c_field); });
   std::atomic<std::size_t> done{0};
   std::mutex progress_mutex;
-  const std::size_t begin = std::min(o.layer_begin, zs.size());
-  const std::size_t end = std::max(begin, std::min(o.layer_end, zs.size()));
-  const std::size_t count = end - begin;
-  tbb::parallel_for(begin, end, [&](std::size_t i) {
+  const std::size_t count = last - first;
+  // Layer i into result.layers[i - first] (the calling thread's context).
+  auto compute = [&](std::size_t i) {
     progress.check("PBF planning");
     Ctx& ctx = contexts.local();
-    PbfLayer& L = result.layers[i];
+    PbfLayer& L = result.layers[i - first];
     const double z = zs[i];
     L.z = z;
     L.hatch_angle = std::fmod(o.hatch_angle + o.hatch_rotation * static_cast<double>(i), 180.0);
@@ -1105,20 +1119,48 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
     }
     L.fr = o.melt_pool * (L.contour_length + L.hatch_length) / L.area;
     L.fr_r67 = o.melt_pool * L.r67_length / L.area;
-    const std::size_t d = ++done;
-    if (progress.report && (d % 32 == 0 || d == count)) {
-      std::lock_guard lock(progress_mutex);
-      progress("layers", static_cast<double>(d) / static_cast<double>(count));
-    }
-  });
-  for (const auto& L : result.layers) {
-    result.contour_vectors += L.contours.size();
-    result.hatch_vectors += L.hatches.size();
-    result.contour_length += L.contour_length;
-    result.hatch_length += L.hatch_length;
-    result.scan_time += L.scan_time;
-    result.scan_time_r67 += L.scan_time_r67;
-  }
+  };
+  // A bounded in-order pipeline: layer numbers in order, layers computed in parallel (at most
+  // two per thread in flight), then summed up and handed to the sink in order; with a sink the
+  // vectors are dropped once it has them.
+  const std::size_t tokens =
+      2 * static_cast<std::size_t>(std::max(1, tbb::this_task_arena::max_concurrency()));
+  std::size_t next = first;
+  tbb::parallel_pipeline(
+      tokens,
+      tbb::make_filter<void, std::size_t>(tbb::filter_mode::serial_in_order,
+                                          [&](tbb::flow_control& fc) -> std::size_t {
+                                            if (next >= last) {
+                                              fc.stop();
+                                              return 0;
+                                            }
+                                            return next++;
+                                          }) &
+          tbb::make_filter<std::size_t, std::size_t>(tbb::filter_mode::parallel,
+                                                     [&](std::size_t i) {
+                                                       compute(i);
+                                                       return i;
+                                                     }) &
+          tbb::make_filter<std::size_t, void>(
+              tbb::filter_mode::serial_in_order, [&](std::size_t i) {
+                PbfLayer& L = result.layers[i - first];
+                result.contour_vectors += L.contours.size();
+                result.hatch_vectors += L.hatches.size();
+                result.contour_length += L.contour_length;
+                result.hatch_length += L.hatch_length;
+                result.scan_time += L.scan_time;
+                result.scan_time_r67 += L.scan_time_r67;
+                if (sink) {
+                  sink(i, L);
+                  std::vector<std::vector<Vec2>>().swap(L.contours);
+                  std::vector<Segment2>().swap(L.hatches);
+                }
+                const std::size_t d = ++done;
+                if (progress.report && (d % 32 == 0 || d == count)) {
+                  std::lock_guard lock(progress_mutex);
+                  progress("layers", static_cast<double>(d) / static_cast<double>(count));
+                }
+              }));
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return result;
 }
@@ -1127,10 +1169,17 @@ Toolpath pbf_toolpath(const PbfResult& r, double contour_power, double contour_s
                       double hatch_power, double hatch_speed) {
   Toolpath tp;
   tp.source = "trellis pbf";
-  for (std::size_t i = 0; i < r.layers.size(); ++i) {
-    const auto& L = r.layers[i];
+  for (std::size_t i = 0; i < r.layers.size(); ++i)
+    tp.layers.push_back(pbf_layer_toolpath(r.layers[i], i, r.layer, contour_power, contour_speed,
+                                           hatch_power, hatch_speed));
+  return tp;
+}
+
+Layer pbf_layer_toolpath(const PbfLayer& L, std::size_t i, double thickness, double contour_power,
+                         double contour_speed, double hatch_power, double hatch_speed) {
+  {
     Layer layer;
-    layer.z = static_cast<double>(i + 1) * r.layer;  // the powder surface of layer i
+    layer.z = static_cast<double>(i + 1) * thickness;  // the powder surface of layer i
     for (const auto& v : L.contours) {
       Path p;
       p.role = PathRole::Contour;
@@ -1147,9 +1196,8 @@ Toolpath pbf_toolpath(const PbfResult& r, double contour_power, double contour_s
       p.points = {{h.a.x, h.a.y, layer.z}, {h.b.x, h.b.y, layer.z}};
       layer.paths.push_back(std::move(p));
     }
-    tp.layers.push_back(std::move(layer));
+    return layer;
   }
-  return tp;
 }
 
 }  // namespace trellis

@@ -32,6 +32,11 @@ PbfDesign plane_wall(double thickness, double inclination_deg, double azimuth_de
 
 // The direct route's memory (the STL route's mesh is not modelled: it is the comparison).
 double pbf_memory_estimate(const PbfDesign& design, const PbfOptions& o, int threads) {
+  return pbf_memory_estimate(design, o, threads, false);
+}
+
+double pbf_memory_estimate(const PbfDesign& design, const PbfOptions& o, int threads,
+                           bool streamed) {
   const BBox3 e = design.part().extent();
   if (e.empty() || !std::isfinite(e.min.x) || !std::isfinite(e.max.x)) return 0;
   const double H = std::max(1, o.coarse) * o.resolution;
@@ -52,7 +57,8 @@ double pbf_memory_estimate(const PbfDesign& design, const PbfOptions& o, int thr
   so.resolution = 2 * o.resolution;
   double area = 0;
   for (const auto& l : slice_field(design.part(), zs, so)) area += trellis::area(l.regions) / 5;
-  const double layers = std::ceil((e.max.z - e.min.z) / o.layer);
+  // Streamed: the pipeline's layers in flight (two per thread) and the per-layer series.
+  const double layers = streamed ? 2.0 * threads : std::ceil((e.max.z - e.min.z) / o.layer);
   const double length = area / o.melt_pool;  // mm a layer
   const double vectors = length / std::max(std::min(o.segment_length, 4 * o.hatch_distance), 1e-3);
   double bytes = 36e6 + threads * per_thread + layers * vectors * 300;

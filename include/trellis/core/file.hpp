@@ -9,6 +9,7 @@
 // with 130/143. The set of live temporaries is the one process-wide state here: a signal handler
 // can reach nothing else.
 #pragma once
+#include <functional>
 #include <string>
 #include <string_view>
 
@@ -16,6 +17,11 @@ namespace trellis {
 
 std::string read_file(const std::string& path);
 void write_file_atomic(const std::string& path, std::string_view content);
+// The same, written in pieces (a file too large to hold): `fill` appends bytes through the writer
+// it is given; an exception from it removes the temporary.
+using ByteWriter = std::function<void(std::string_view)>;
+void write_file_atomic_with(const std::string& path,
+                            const std::function<void(const ByteWriter&)>& fill);
 // Line number (1-based) of byte offset `pos` in `text`.
 long line_of_offset(std::string_view text, std::size_t pos);
 

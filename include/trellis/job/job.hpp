@@ -56,6 +56,9 @@ struct Job {
   // Sharding (job/plate.hpp): shard `shard` (1-based) of `shards`; 0 = the whole job. Not part
   // of the embedded job: every shard and the merged file record the same job.
   int shard = 0, shards = 0;
+  // false: a route that can write its outputs layer by layer in bounded memory (pbf) does so and
+  // leaves JobResult::toolpath empty (the command line; Python keeps the toolpath).
+  bool keep_toolpath = true;
 };
 
 // Routes and the settings sections each reads (for flags, headers and job checks).

@@ -6,6 +6,7 @@
 // skip it — the convention of the 3MF Consortium's CLI+ exporter), which the reader maps back
 // onto each path's power and speed.
 #pragma once
+#include <cstdio>
 #include <string>
 
 #include "trellis/core/diagnostics.hpp"
@@ -23,6 +24,34 @@ std::string write_cli(const Toolpath& toolpath, const LaserProfile& profile,
                       const CliWriteOptions& options);
 void write_cli_file(const std::string& path, const Toolpath& toolpath, const LaserProfile& profile,
                     const CliWriteOptions& options);
+
+// A CLI file written layer by layer, in bounded memory: the geometry goes to an anonymous
+// temporary file as layers come; finish() writes the header (it needs every point's extent and
+// the layer count) and copies the geometry after it into `path` (atomically, see core/file.hpp).
+// The bytes are write_cli's for the toolpath of the same layers, source and job. Each layer is
+// checked against the laser as it comes (check_for_laser); an error leaves no file.
+class CliStreamWriter {
+ public:
+  CliStreamWriter(std::string path, const LaserProfile& profile, const CliWriteOptions& options,
+                  std::string source, std::string job);
+  ~CliStreamWriter();
+  CliStreamWriter(const CliStreamWriter&) = delete;
+  CliStreamWriter& operator=(const CliStreamWriter&) = delete;
+  void add(const Layer& layer);
+  void finish();
+  std::size_t layers() const { return layers_; }
+
+ private:
+  void flush();
+  std::string path_, source_, job_;
+  LaserProfile profile_;
+  CliWriteOptions options_;
+  std::FILE* body_ = nullptr;
+  std::string buffer_;
+  BBox3 box_;
+  std::size_t layers_ = 0;
+  bool finished_ = false;
+};
 
 // Any CLI file (ASCII or binary, with or without CLI+ blocks) → the toolpath IR: a layer per
 // $$LAYER (z in mm), a path per polyline (role Contour, or Infill when its id's label or

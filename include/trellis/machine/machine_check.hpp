@@ -47,5 +47,9 @@ std::vector<MachineWarning> check_for_machine(const Toolpath& toolpath, const Ma
 // Laser: power and speed per vector and of the profile within the laser's limits, the part
 // within the build area (centred on the plate) and height.
 std::vector<MachineWarning> check_for_laser(const Toolpath& toolpath, const LaserProfile& profile);
+// The same for a piece of a toolpath whose first layer is layer `first_layer` of the whole (a
+// file written layer by layer): messages name the whole's layer numbers.
+std::vector<MachineWarning> check_for_laser(const Toolpath& toolpath, const LaserProfile& profile,
+                                            std::size_t first_layer);
 
 }  // namespace trellis

@@ -64,9 +64,6 @@ struct PbfOptions {
   // Bytes the run may use (grids, caches, layers; the STL route's mesh); 0 = the memory
   // available now. A larger estimate before the run is a ResourceError naming the setting to change.
   double memory_budget = 0;
-  // Only layers [layer_begin, layer_end) are computed (a shard, job/plate.hpp); the others stay
-  // empty in PbfResult::layers, which keeps one entry per layer of the whole part.
-  std::size_t layer_begin = 0, layer_end = static_cast<std::size_t>(-1);
 };
 
 struct PbfLayer {
@@ -111,6 +108,10 @@ struct PbfResult {
 // grids and caches, the layers' vectors and the toolpath made of them; the STL route's mesh is
 // not counted). plan_pbf refuses to start above PbfOptions::memory_budget.
 double pbf_memory_estimate(const PbfDesign& design, const PbfOptions& options, int threads);
+// streamed: the layers' vectors go to a sink as they come (plan_pbf with a sink), so only the
+// pipeline's layers in flight count.
+double pbf_memory_estimate(const PbfDesign& design, const PbfOptions& options, int threads,
+                           bool streamed);
 
 // The paper's thin-wall experiments (Fig. 3): a plane wall of thickness t (mm) through the
 // origin, inclined `inclination` degrees from the horizontal (90 = vertical) and running along
@@ -121,9 +122,34 @@ PbfDesign plane_wall(double thickness, double inclination_deg, double azimuth_de
 PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& options,
                    const Progress& progress = {});
 
+// Streaming and layer ranges (issue 23: bounded memory, sharding). Layers are numbered from 0 at
+// the bottom of the part's extent; a layer's vectors depend only on the design, the options and
+// its number (hatch angle and contour phase included), so any range computed on its own gives
+// the same vectors as the whole run.
+struct PbfLayerRange {
+  std::size_t first = 0;                               // first layer number
+  std::size_t last = static_cast<std::size_t>(-1);     // one past the last (clamped to the count)
+};
+// Called in layer order, from one thread at a time, with the layer's number and the layer.
+using PbfLayerSink = std::function<void(std::size_t index, const PbfLayer& layer)>;
+// The number of layers plan_pbf makes for this design and options.
+std::size_t pbf_layer_count(const PbfDesign& design, const PbfOptions& options);
+// Layers [range.first, range.last) computed in parallel by a bounded in-order pipeline (at most
+// twice the threads' layers in flight) and handed to `sink` in order. With a sink, the result's
+// layers keep their series (z, FR_a, lengths, area, times) but not their vectors, so memory does
+// not grow with the layer count; without one they keep everything (as plan_pbf). The totals
+// (vectors, lengths, scan times) are over the range.
+PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& options, const Progress& progress,
+                   const PbfLayerSink& sink, PbfLayerRange range = {});
+
 // The toolpath IR: contour vectors role Contour, hatch vectors role Infill, with laser power and
 // speed per role.
 Toolpath pbf_toolpath(const PbfResult& result, double contour_power, double contour_speed,
                       double hatch_power, double hatch_speed);
+// Layer number `index` of a run with layers `layer` mm thick as a toolpath layer (what
+// pbf_toolpath makes of it): for writing layer by layer.
+Layer pbf_layer_toolpath(const PbfLayer& layer, std::size_t index, double layer_thickness,
+                         double contour_power, double contour_speed, double hatch_power,
+                         double hatch_speed);
 
 }  // namespace trellis
