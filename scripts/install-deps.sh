@@ -7,7 +7,7 @@ pkgs=(cmake g++ make pkg-config ninja-build ccache
       libpolyclipping-dev libcairo2-dev libcgal-dev libgmp-dev libmpfr-dev libeigen3-dev
       libmuparser-dev libopenvdb-dev libboost-iostreams-dev lib3mf-dev libzip-dev libexpat1-dev
       libglpk-dev zlib1g-dev libgtest-dev libbenchmark-dev prusa-slicer python3
-      pybind11-dev python3-dev python3-numpy python3-pytest
+      pybind11-dev python3-dev python3-numpy python3-pytest python3-distributed
       chromium firefox-esr)
 missing=()
 for p in "${pkgs[@]}"; do

@@ -5,12 +5,14 @@
 #include "commands.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/job/job.hpp"
+#include "trellis/job/plate.hpp"
+#include <tuple>
 
 namespace trellis::cli {
 
 void add_run(CLI::App& app) {
   struct Opts {
-    std::string job, out;
+    std::string job, out, shard;
     std::vector<std::string> sets;
   };
   auto o = std::make_shared<Opts>();
@@ -23,8 +25,17 @@ void add_run(CLI::App& app) {
   cmd->add_option("job", o->job, "job TOML")->required();
   cmd->add_option("-o,--output-dir", o->out, "output folder (replaces [job] output_dir)");
   cmd->add_option("--set", o->sets, "override a setting of the job: section.key=value (repeatable)");
+  cmd->add_option("--shard", o->shard,
+                  "K/N: compute shard K of N (layer ranges balanced by work; pbf and slice plates) "
+                  "and write OUTPUT.shard-K-of-N + its .json manifest for `trellis merge`");
   cmd->callback([o] {
     Job job = load_job(o->job, o->out, o->sets);
+    if (!o->shard.empty()) {
+      std::tie(job.shard, job.shards) = parse_shard(o->shard);
+      if (job.route != "pbf" && job.route != "slice")
+        throw SettingError("the " + job.route + " route does not shard (pbf and slice plates do)",
+                           {"", 0, "--shard"});
+    }
     job.keep_toolpath = false;  // only the files are used here
     Diagnostics diag;
     Progress progress;
@@ -38,6 +49,27 @@ void add_run(CLI::App& app) {
       std::cout << "  " << (rel.empty() || *rel.begin() == ".." ? f : rel.string()) << "\n";
     }
     if (r.exit_code) set_exit_code(r.exit_code);
+  });
+}
+
+void add_merge(CLI::App& app) {
+  struct Opts {
+    std::vector<std::string> manifests;
+    std::string out;
+  };
+  auto o = std::make_shared<Opts>();
+  auto* cmd = app.add_subcommand(
+      "merge", "Join the shards of `trellis run --shard K/N` into the single-process output");
+  cmd->footer(
+      "Give every shard's manifest (OUTPUT.shard-K-of-N.json). The merged file is byte for byte\n"
+      "the file `trellis run` writes without --shard. Shards of different jobs, a shard missing\n"
+      "or given twice: exit 2, nothing written.\nExample:\n"
+      "  trellis merge out/plate/plate.cli.shard-*-of-4.json -o out/plate/plate.cli");
+  cmd->add_option("manifests", o->manifests, "the shards' manifests")->required();
+  cmd->add_option("-o,--output", o->out, "the merged output")->required();
+  cmd->callback([o] {
+    Diagnostics diag;
+    print_result(merge_shards(o->manifests, o->out, diag), diag);
   });
 }
 

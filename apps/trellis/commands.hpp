@@ -18,6 +18,7 @@ void add_routes(CLI::App& app, int argc, char** argv);
 void add_render(CLI::App& app);
 void add_run(CLI::App& app);
 void add_rerun(CLI::App& app);
+void add_merge(CLI::App& app);
 void add_settings(CLI::App& app);
 void add_analyze(CLI::App& app);
 void add_compare(CLI::App& app);

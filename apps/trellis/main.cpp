@@ -90,6 +90,7 @@ int main(int argc, char** argv) {
   trellis::cli::add_render(app);
   trellis::cli::add_run(app);
   trellis::cli::add_rerun(app);
+  trellis::cli::add_merge(app);
   trellis::cli::add_settings(app);
   trellis::cli::add_analyze(app);
   trellis::cli::add_check(app);

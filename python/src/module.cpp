@@ -8,6 +8,7 @@
 #include <pybind11/stl.h>
 
 #include <atomic>
+#include <tuple>
 #include <chrono>
 #include <condition_variable>
 #include <filesystem>
@@ -20,6 +21,7 @@
 #include "trellis/core/file.hpp"
 #include "trellis/field/vcad.hpp"
 #include "trellis/job/job.hpp"
+#include "trellis/job/plate.hpp"
 #include "trellis/lattice/io.hpp"
 #include "trellis/machine/cli.hpp"
 #include "trellis/machine/gcode_reader.hpp"
@@ -377,6 +379,25 @@ PYBIND11_MODULE(_trellis, m) {
            const py::object& progress) {
           return run_job_dict(load_job(path, output_dir, sets), progress);
         });
+
+  // Exact sharding (job/plate.hpp), for trellis.distributed: shard "K/N" of a job file → the
+  // files it wrote (the shard and its manifest, last); merge of the manifests → the output.
+  m.def("run_shard", [](const std::string& path, const std::string& output_dir,
+                        const std::vector<std::string>& sets, const std::string& shard) {
+    Job job = load_job(path, output_dir, sets);
+    std::tie(job.shard, job.shards) = parse_shard(shard);
+    if (job.route != "pbf" && job.route != "slice")
+      throw SettingError("the " + job.route + " route does not shard (pbf and slice plates do)",
+                         {"", 0, "shard"});
+    Diagnostics diag;
+    py::gil_scoped_release release;
+    return run_job(job, diag, {}).files;
+  });
+  m.def("merge_shards", [](const std::vector<std::string>& manifests, const std::string& out) {
+    Diagnostics diag;
+    py::gil_scoped_release release;
+    return merge_shards(manifests, out, diag).files;
+  });
 
   m.def("rerun", [](const std::string& path, const std::string& out) {
     const Job job = rerun_job(path, out);

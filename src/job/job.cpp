@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <set>
 #include <sstream>
@@ -46,8 +47,8 @@ std::vector<std::string> route_sections(const std::string& route) {
   }
   else if (route == "slice") {
     s = machine_sections();
-    add({"slice", "fgm", "output", "run"});
-  } else if (route == "pbf") add({"machine", "laser", "scan", "timing", "pbf", "output", "run"});
+    add({"slice", "fgm", "plate", "output", "run"});
+  } else if (route == "pbf") add({"machine", "laser", "scan", "timing", "pbf", "plate", "output", "run"});
   else if (route == "nonplanar") {
     s = machine_sections();
     add({"nonplanar", "surface", "output", "run"});
@@ -127,6 +128,69 @@ std::string quoted(const std::string& s) {
   return os.str();
 }
 
+// [[part]] tables: a build plate (job/plate.hpp). Each part's own [part.SECTION] tables are kept
+// as TOML and checked now against the job's settings.
+std::vector<PlatePart> parse_plate_parts(const toml::table& root, const std::string& origin,
+                                         const std::string& base, const Job& job,
+                                         const std::vector<std::string>& sections) {
+  std::vector<PlatePart> parts;
+  const toml::node* node = root.get("part");
+  if (!node) return parts;
+  const toml::array* arr = node->as_array();
+  if (!arr || !arr->is_array_of_tables())
+    throw SettingError("parts of a plate are [[part]] tables", {origin, static_cast<long>(node->source().begin.line), "part"});
+  if (job.route != "pbf" && job.route != "slice")
+    throw SettingError("build plates ([[part]]) are for the pbf and slice routes, not " + job.route,
+                       {origin, static_cast<long>(node->source().begin.line), "part"});
+  std::set<std::string> labels;
+  for (const auto& el : *arr) {
+    const toml::table& t = *el.as_table();
+    PlatePart p;
+    p.line = static_cast<long>(t.source().begin.line);
+    p.label = "part" + std::to_string(parts.size() + 1);
+    for (const auto& [k, n] : t) {
+      const std::string key(k.str());
+      const Where where{origin, static_cast<long>(n.source().begin.line), "part." + key};
+      if (const toml::table* sub = n.as_table()) {
+        if (std::find(sections.begin(), sections.end(), key) == sections.end())
+          throw SettingError("the " + job.route + " route does not read [" + key + "]", where);
+        std::ostringstream os;
+        os << *sub;
+        p.settings_toml += "[" + key + "]\n" + os.str() + "\n";
+      } else if (key == "label" || key == "input") {
+        if (!n.is_string()) throw SettingError("expected a string", where);
+        const std::string v = *n.value<std::string>();
+        if (key == "label") {
+          if (v.empty() || std::any_of(v.begin(), v.end(), [](char ch) {
+                return static_cast<unsigned char>(ch) < 0x20 || ch == ',' || ch == '/';
+              }))
+            throw SettingError("a label without commas, slashes or control characters", where);
+          p.label = v;
+        } else {
+          p.input = resolve(base, v);
+        }
+      } else if (key == "x" || key == "y" || key == "rotation") {
+        if (!n.is_number()) throw SettingError("expected a number (mm, or degrees for rotation)", where);
+        const double v = *n.value<double>();
+        if (!std::isfinite(v)) throw SettingError("expected a finite number", where);
+        (key == "x" ? p.x : key == "y" ? p.y : p.rotation) = v;
+      } else {
+        throw SettingError("unknown key of a part (expected label, input, x, y, rotation or "
+                           "[part.SECTION] settings)",
+                           where);
+      }
+    }
+    if (!labels.insert(p.label).second)
+      throw SettingError("two parts are labelled '" + p.label + "'", {origin, p.line, "part.label"});
+    // The part's settings over the job's: checked now, so errors name the job file.
+    Settings st = job.settings;
+    if (!p.settings_toml.empty()) st.load_toml(p.settings_toml, origin + " part '" + p.label + "'");
+    parts.push_back(std::move(p));
+  }
+  if (parts.empty()) throw SettingError("a plate needs at least one [[part]]", {origin, 0, "part"});
+  return parts;
+}
+
 }  // namespace
 
 Job job_from_toml(const std::string& text, const std::string& origin, const std::string& base,
@@ -187,7 +251,9 @@ Job job_from_toml(const std::string& text, const std::string& origin, const std:
     throw SettingError("a name without path separators, e.g. \"part\"", {origin, 0, "job.name"});
   // The machine profile first, then the job's own settings over it.
   if (!job.machine.empty() && !embedded) job.settings.load_toml_file(job.machine);
-  job.settings.load_toml(text, origin, {"job"});
+  job.settings.load_toml(text, origin, {"job", "part"});
+  job.origin = origin;
+  job.parts = parse_plate_parts(root, origin, base, job, sections);
   for (const auto& [key, e] : job.settings.entries()) {
     const std::string sec = key.substr(0, key.find('.'));
     if (e.origin.source == origin &&
@@ -265,6 +331,17 @@ std::string job_toml(const Job& job, const std::string& base) {
   std::vector<std::string> sections = route_sections(job.route);
   sections.erase(std::remove(sections.begin(), sections.end(), "run"), sections.end());
   out += settings_toml(st, sections);
+  for (const PlatePart& p : job.parts) {
+    std::ostringstream os;
+    os << "\n[[part]]\nlabel = " << quoted(p.label) << "\n";
+    if (!p.input.empty()) os << "input = " << quoted(relative_to(p.input, base)) << "\n";
+    os << "x = " << toml::value<double>(p.x) << "\ny = " << toml::value<double>(p.y)
+       << "\nrotation = " << toml::value<double>(p.rotation) << "\n";
+    std::istringstream in(p.settings_toml);
+    for (std::string line; std::getline(in, line);)
+      if (!line.empty()) os << (line[0] == '[' ? "[part." + line.substr(1) : line) << "\n";
+    out += os.str();
+  }
   return out;
 }
 

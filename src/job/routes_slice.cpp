@@ -18,6 +18,8 @@
 #include "trellis/machine/machine_check.hpp"
 #include "trellis/slice/nonplanar.hpp"
 #include "trellis/slice/pbf.hpp"
+#include "trellis/job/plate.hpp"
+#include "trellis/slice/slice.hpp"
 #include "trellis/slice/pipeline.hpp"
 
 namespace trellis::routes {
@@ -173,11 +175,12 @@ HeightField test_surface(const SurfaceConfig& s) {
 
 }  // namespace
 
-JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
-  JobResult out;
-  if (job.input.empty()) throw SettingError("slice needs a design (.vcad) or mesh to read", {"", 0, "job.input"});
+namespace {
+
+// The slicing job of a configuration (the machine's layer, bead, purge and bed over [slice]).
+SliceJob slice_job_of(const Job& job, const Config& c, const std::string& input) {
   SliceJob sj = c.slice;
-  sj.input = job.input;
+  sj.input = input;
   sj.strategy_chosen = job.settings.has("slice.strategy");
   sj.planar.layer_height = c.machine.layer_height;
   if (!job.settings.has("slice.bead_width")) sj.planar.bead_width = c.machine.nozzle_diameter;
@@ -205,6 +208,144 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
   sj.purge.speed = c.machine.print_speed;
   sj.purge.density = {c.machine.density_a, c.machine.density_b, c.machine.density_c};
   sj.budget = budget_of(job, c);
+  return sj;
+}
+
+// A build plate of sliced parts, or a shard of one (job/plate.hpp): each part sliced with its own
+// settings, placed (its x, y are bed coordinates) and dropped on the bed; plate layer i holds
+// layer i of every part that tall, parts in the order of the job file. A shard slices the parts
+// whole (skins look at the layers above and below) and keeps its layer range.
+JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
+  JobResult out;
+  const bool plate = !job.parts.empty();
+  const std::vector<PlatePart> placed = plate ? job.parts : std::vector<PlatePart>{PlatePart{}};
+  const double h = c.machine.layer_height;
+  struct Part {
+    SliceJob sj;
+    BBox3 extent;
+    std::size_t layers = 0;
+  };
+  std::vector<Part> parts;
+  // First each part's extent and printed layers (its ends found plane by plane), for the plate
+  // check and the shards' ranges before any layer is sliced.
+  for (const PlatePart& pp : placed) {
+    Settings st = job.settings;
+    if (!pp.settings_toml.empty()) st.load_toml(pp.settings_toml, job.origin + " part '" + pp.label + "'");
+    const Config pc = st.config();
+    const std::string input = plate ? pp.input : job.input;
+    const Where where{job.origin, pp.line, plate ? "part.input" : "job.input"};
+    if (input.empty()) throw SettingError("slice needs a design (.vcad) or mesh to read", where);
+    if (pc.machine.layer_height != h)
+      throw SettingError("part '" + pp.label + "' sets its own layer height: every part of a "
+                         "plate prints in the plate's layers (extrusion.layer_height)",
+                         {job.origin, pp.line, "extrusion.layer_height"});
+    Part p;
+    p.sj = slice_job_of(job, pc, input);
+    if (p.sj.strategy != 0)
+      throw SettingError("graded slicing (slice.strategy 1 or 2) does not go on plates or "
+                         "shards: its look-ahead and purge tower cross layers",
+                         {job.origin, pp.line, "slice.strategy"});
+    SliceJob probe = p.sj;
+    probe.layer_begin = probe.layer_end = 0;
+    const SliceResult r = run_slice(probe, progress);
+    p.extent = r.extent;
+    p.layers = r.part_layers;
+    parts.push_back(std::move(p));
+  }
+  if (plate) {
+    std::vector<PartFootprint> fp;
+    for (std::size_t k = 0; k < parts.size(); ++k) fp.push_back(place_footprint(placed[k], parts[k].extent));
+    const MachineProfile& m = c.machine;
+    const BBox2 bed = m.origin == "center"
+                          ? BBox2{{-m.bed_x / 2, -m.bed_y / 2}, {m.bed_x / 2, m.bed_y / 2}}
+                          : BBox2{{0, 0}, {m.bed_x, m.bed_y}};
+    check_plate(fp, bed, c.plate.clearance, job.origin);
+  }
+  // Plate layer i holds layer i of every part that tall; its work is the parts' XY areas.
+  std::size_t total = 0;
+  for (const auto& p : parts) total = std::max(total, p.layers);
+  std::vector<double> work(total, 0.0);
+  for (const auto& p : parts)
+    for (std::size_t i = 0; i < p.layers; ++i)
+      work[i] += (p.extent.max.x - p.extent.min.x) * (p.extent.max.y - p.extent.min.y);
+  const auto [a, b] = job.shards ? shard_range(work, job.shard, job.shards)
+                                 : std::pair<std::size_t, std::size_t>{0, total};
+  Toolpath tp;
+  tp.layers.resize(b - a);
+  for (std::size_t i = a; i < b; ++i) tp.layers[i - a].z = static_cast<double>(i + 1) * h;
+  std::size_t paths = 0;
+  for (std::size_t k = 0; k < parts.size(); ++k) {
+    Part& p = parts[k];
+    if (plate) tp.part_labels.push_back(placed[k].label);
+    if (a >= p.layers) continue;
+    if (job.shards) p.sj.layer_begin = a, p.sj.layer_end = b;
+    SliceResult r = run_slice(p.sj, progress);
+    if (r.repaired)
+      diag.warn("mesh_repaired", fs::path(p.sj.input).filename().string() +
+                                     " was not closed and manifold; repaired: " + r.repair.summary());
+    if (!plate)
+      tp.source = "trellis slice " + fs::path(p.sj.input).filename().string() + " (" +
+                  to_string(r.route) + " route)";
+    for (std::size_t j = 0; j < r.toolpath.layers.size(); ++j) {
+      const std::size_t i = r.first_layer + j;  // the part's layer = the plate's layer
+      if (i < a || i >= b) continue;
+      for (Path& path : r.toolpath.layers[j].paths) {
+        if (plate) {
+          for (Vec3& q : path.points) q = place_point(placed[k], p.extent, q);
+          path.part = static_cast<int>(k + 1);
+        }
+        tp.layers[i - a].paths.push_back(std::move(path));
+        ++paths;
+      }
+    }
+  }
+  if (plate) tp.source = fmt::format("trellis slice plate ({} parts)", parts.size());
+  if (job.shards) {
+    out.files.push_back(write_shard(job, tp.layers, a, total, tp.source, tp.part_labels));
+    out.files.insert(out.files.begin(), out.files.back().substr(0, out.files.back().size() - 5));
+    out.summary = fmt::format("shard {} of {}: layers {}..{} of {}, {} paths", job.shard,
+                              job.shards, a, b, total, paths);
+    return out;
+  }
+  if (!job.output.empty()) note_planar_in_bath(c.machine, "slice", diag);
+  GcodeStats g;
+  write_slice_main(job, c, tp, out, diag, &g);
+  if (!job.toolpath.empty()) {
+    write_toolpath_with_job(job.toolpath, tp, job);
+    out.files.push_back(job.toolpath);
+  }
+  if (!job.report.empty()) {
+    nlohmann::ordered_json j;
+    j["format"] = "trellis.plate_report";
+    j["version"] = 1;
+    j["route"] = "slice";
+    j["layers"] = total;
+    j["paths"] = paths;
+    j["print_time_s"] = g.print_time_s;
+    j["parts"] = nlohmann::ordered_json::array();
+    for (std::size_t k = 0; k < placed.size(); ++k)
+      j["parts"].push_back({{"label", placed[k].label}, {"input", fs::path(placed[k].input).filename().string()},
+                            {"x_mm", placed[k].x}, {"y_mm", placed[k].y},
+                            {"rotation_deg", placed[k].rotation}, {"layers", parts[k].layers}});
+    write_file_atomic(job.report, with_job(j.dump(2) + "\n", job, job.report, true, &diag));
+    out.files.push_back(job.report);
+  }
+  RenderOptions ro;
+  ro.colour_by_role = true;
+  ro.size_px = c.output.image_size;
+  previews(tp, job.preview, c.output.preview_layers, ro, out);
+  out.summary = fmt::format("plate of {} parts: {} layers of {} mm, {} paths, ~{} min", placed.size(),
+                            total, fixed(h, 3), paths, fixed(g.print_time_s / 60, 1));
+  return out;
+}
+
+}  // namespace
+
+JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
+  if (!job.parts.empty() || job.shards) return slice_plate(job, c, diag, progress);
+  JobResult out;
+  if (job.input.empty()) throw SettingError("slice needs a design (.vcad) or mesh to read", {"", 0, "job.input"});
+  SliceJob sj = slice_job_of(job, c, job.input);
   SliceResult r = run_slice(sj, progress);
   if (r.repaired)
     diag.warn("mesh_repaired", fs::path(job.input).filename().string() +
@@ -277,21 +418,10 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
   return out;
 }
 
-JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
-  JobResult out;
-  const LaserProfile& prof = c.laser;
-  PbfDesign d = pbf_design(c.pbf);
-  if (!job.input.empty()) d.envelope = read_vcad(job.input).field;
-  PbfOptions po = c.pbf.options;
-  po.layer = prof.layer;
-  po.segment_length = prof.segment_length;
-  po.segment_gap = prof.segment_gap;
-  po.hatch_distance = prof.hatch_distance;
-  po.beam_compensation = prof.beam_compensation;
-  po.melt_pool = prof.melt_pool_width;
-  po.hybrid = c.pbf.strategy == "hybrid";
-  po.stl_route = c.pbf.route == "stl";
-  po.timing = scan_timing(prof);
+namespace {
+
+// Every TPMS cell of the design resolved by the sampling grid, else SettingError naming the key.
+void check_pbf_cells(const Config& c, const PbfOptions& po) {
   if (!(c.pbf.wall_thickness > 0)) {
     // The direct route traces φ = 0 on a grid of 2 × resolution: a cell of fewer than four grid
     // steps is not resolved (the traced lines jump between branches of the sheet; found by
@@ -308,6 +438,196 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
             "cells need at least 8 × pbf.resolution = {} mm: raise the cell or lower --resolution",
             key, cell, 2 * po.resolution, 8 * po.resolution));
   }
+}
+
+// The PBF options of a configuration (the laser profile's scan parameters over [pbf]).
+PbfOptions pbf_options(const Job& job, const Config& c) {
+  const LaserProfile& prof = c.laser;
+  PbfOptions po = c.pbf.options;
+  po.layer = prof.layer;
+  po.segment_length = prof.segment_length;
+  po.segment_gap = prof.segment_gap;
+  po.hatch_distance = prof.hatch_distance;
+  po.beam_compensation = prof.beam_compensation;
+  po.melt_pool = prof.melt_pool_width;
+  po.hybrid = c.pbf.strategy == "hybrid";
+  po.stl_route = c.pbf.route == "stl";
+  po.timing = scan_timing(prof);
+  const Budget budget = budget_of(job, c);
+  po.memory_budget = budget.force ? HUGE_VAL : budget.memory;
+  return po;
+}
+
+bool finite_box(const BBox3& e) {
+  return !e.empty() && std::isfinite(e.min.x) && std::isfinite(e.max.x) && std::isfinite(e.min.y) &&
+         std::isfinite(e.max.y) && std::isfinite(e.min.z) && std::isfinite(e.max.z);
+}
+
+// A build plate of PBF parts, or a shard of one part or of a plate (job/plate.hpp): every part
+// planned for the plate layers [a, b) only, placed, and its paths tagged with the part.
+JobResult pbf_plate(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
+  JobResult out;
+  const LaserProfile& prof = c.laser;
+  struct Part {
+    PlatePart place;
+    Config config;
+    PbfDesign design;
+    BBox3 extent;
+    std::size_t layers = 0;
+  };
+  std::vector<Part> parts;
+  const bool plate = !job.parts.empty();
+  const std::vector<PlatePart> placed = plate ? job.parts : std::vector<PlatePart>{PlatePart{}};
+  for (const PlatePart& pp : placed) {
+    Part p;
+    p.place = pp;
+    Settings st = job.settings;
+    if (!pp.settings_toml.empty()) st.load_toml(pp.settings_toml, job.origin + " part '" + pp.label + "'");
+    p.config = st.config();
+    try {
+      check_pbf_cells(p.config, pbf_options(job, p.config));
+    } catch (const SettingError& e) {
+      if (!plate) throw;
+      throw SettingError("part '" + pp.label + "': " + e.message(), {job.origin, pp.line, e.where().element});
+    }
+    p.design = pbf_design(p.config.pbf);
+    const std::string input = plate ? pp.input : job.input;
+    if (!input.empty()) p.design.envelope = read_vcad(input).field;
+    p.extent = p.design.part().extent();
+    if (!finite_box(p.extent))
+      throw GeometryError("part '" + pp.label + "' has no finite extent: give it an envelope",
+                          {job.origin, pp.line, "part"});
+    if (p.config.laser.layer != prof.layer)
+      throw SettingError("part '" + pp.label + "' sets its own layer thickness: every part of a "
+                         "plate is built in the plate's layers (scan.layer)",
+                         {job.origin, pp.line, "scan.layer"});
+    p.layers = layer_planes(p.extent.min.z, p.extent.max.z, prof.layer).size();
+    parts.push_back(std::move(p));
+  }
+  if (plate) {
+    std::vector<PartFootprint> fp;
+    for (const auto& p : parts) fp.push_back(place_footprint(p.place, p.extent));
+    check_plate(fp, {{0, 0}, {prof.build_x, prof.build_y}}, c.plate.clearance, job.origin);
+    for (const auto& p : parts)
+      if (p.extent.max.z - p.extent.min.z > prof.build_z)
+        throw SettingError(fmt::format("part '{}' is {:.3f} mm tall, the build height is {} mm",
+                                       p.place.label, p.extent.max.z - p.extent.min.z, prof.build_z),
+                           {job.origin, p.place.line, "laser.build_z"});
+  }
+  // Plate layer i holds layer i of every part that tall; its work is the parts' XY areas.
+  std::size_t total = 0;
+  for (const auto& p : parts) total = std::max(total, p.layers);
+  std::vector<double> work(total, 0.0);
+  for (const auto& p : parts)
+    for (std::size_t i = 0; i < p.layers; ++i)
+      work[i] += (p.extent.max.x - p.extent.min.x) * (p.extent.max.y - p.extent.min.y);
+  const auto [a, b] = job.shards ? shard_range(work, job.shard, job.shards)
+                                 : std::pair<std::size_t, std::size_t>{0, total};
+  Toolpath tp;
+  tp.source = plate ? fmt::format("trellis pbf plate ({} parts)", parts.size()) : "trellis pbf";
+  tp.layers.resize(b - a);
+  for (std::size_t i = a; i < b; ++i) tp.layers[i - a].z = static_cast<double>(i + 1) * prof.layer;
+  std::size_t contour_vectors = 0, hatch_vectors = 0;
+  for (std::size_t k = 0; k < parts.size(); ++k) {
+    const Part& p = parts[k];
+    if (plate) tp.part_labels.push_back(p.place.label);
+    if (a >= p.layers) continue;
+    const PbfOptions po = pbf_options(job, p.config);
+    const std::size_t end = std::min(b, p.layers);
+    // Each layer placed into the plate as it comes (laser's in-order layer sink).
+    const PbfResult r = plan_pbf(
+        p.design, po, progress,
+        [&](std::size_t i, const PbfLayer& L) {
+          Layer layer = pbf_layer_toolpath(L, i, prof.layer, prof.contour_power, prof.contour_speed,
+                                           prof.hatch_power, prof.hatch_speed);
+          for (Path& path : layer.paths) {
+            if (plate) {
+              for (Vec3& q : path.points) q = place_point(p.place, p.extent, q);
+              path.part = static_cast<int>(k + 1);
+            }
+            (path.points.size() == 2 && path.role == PathRole::Infill ? hatch_vectors : contour_vectors)++;
+            tp.layers[i - a].paths.push_back(std::move(path));
+          }
+        },
+        PbfLayerRange{a, end});
+    diag.merge(r.diagnostics);
+  }
+  if (job.shards) {
+    out.files.push_back(write_shard(job, tp.layers, a, total, tp.source, tp.part_labels));
+    out.files.insert(out.files.begin(), out.files.back().substr(0, out.files.back().size() - 5));
+    out.summary = fmt::format("shard {} of {}: layers {}..{} of {}, {} contour and {} hatch vectors",
+                              job.shard, job.shards, a, b, total, contour_vectors, hatch_vectors);
+    return out;
+  }
+  out.toolpath = std::make_shared<Toolpath>(tp);
+  write_pbf_main(job, c, tp, out);
+  if (!job.toolpath.empty()) {
+    write_toolpath_with_job(job.toolpath, tp, job);
+    out.files.push_back(job.toolpath);
+  }
+  if (!job.report.empty()) {
+    nlohmann::ordered_json j;
+    j["format"] = "trellis.plate_report";
+    j["version"] = 1;
+    j["route"] = "pbf";
+    j["layers"] = total;
+    j["contour_vectors"] = contour_vectors;
+    j["hatch_vectors"] = hatch_vectors;
+    j["parts"] = nlohmann::ordered_json::array();
+    for (const auto& p : parts)
+      j["parts"].push_back({{"label", p.place.label}, {"x_mm", p.place.x}, {"y_mm", p.place.y},
+                            {"rotation_deg", p.place.rotation}, {"layers", p.layers}});
+    write_file_atomic(job.report, with_job(j.dump(2) + "\n", job, job.report, true, &diag));
+    out.files.push_back(job.report);
+  }
+  RenderOptions ro;
+  ro.colour_by_role = true;
+  ro.travel = false;
+  ro.starts = false;
+  ro.bead_width = prof.melt_pool_width;
+  ro.margin_mm = 0.2;
+  ro.size_px = c.output.image_size;
+  previews(tp, job.preview, c.output.preview_layers, ro, out);
+  out.summary = fmt::format("plate of {} parts: {} layers, {} contour vectors, {} hatch vectors",
+                            parts.size(), total, contour_vectors, hatch_vectors);
+  return out;
+}
+
+}  // namespace
+
+void write_slice_main(const Job& job, const Config& c, Toolpath& tp, JobResult& out,
+                      Diagnostics& diag, GcodeStats* stats) {
+  MachineProfile m = c.machine;
+  // A plate is placed already: its parts' x, y are bed coordinates.
+  if (!tp.part_labels.empty()) m.center = false;
+  const GcodeStats g = write_gcode_out(job.output, tp, job, m, out, diag);
+  if (stats) *stats = g;
+}
+
+void write_pbf_main(const Job& job, const Config& c, Toolpath& tp, JobResult& out) {
+  if (job.output.empty()) return;
+  tp.job = embedded_job(job, job.output);
+  write_cli_file(job.output, tp, c.laser, CliWriteOptions{c.pbf.binary, true});
+  out.files.push_back(job.output);
+}
+
+JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
+  if (!job.parts.empty() || job.shards) return pbf_plate(job, c, diag, progress);
+  JobResult out;
+  const LaserProfile& prof = c.laser;
+  PbfDesign d = pbf_design(c.pbf);
+  if (!job.input.empty()) d.envelope = read_vcad(job.input).field;
+  PbfOptions po = c.pbf.options;
+  po.layer = prof.layer;
+  po.segment_length = prof.segment_length;
+  po.segment_gap = prof.segment_gap;
+  po.hatch_distance = prof.hatch_distance;
+  po.beam_compensation = prof.beam_compensation;
+  po.melt_pool = prof.melt_pool_width;
+  po.hybrid = c.pbf.strategy == "hybrid";
+  po.stl_route = c.pbf.route == "stl";
+  po.timing = scan_timing(prof);
+  check_pbf_cells(c, po);
   const Budget budget = budget_of(job, c);
   po.memory_budget = budget.force ? HUGE_VAL : budget.memory;
   {

@@ -669,6 +669,9 @@ std::vector<Setting> make_table() {
                        "resolution", [](C& c) -> auto& { return c.surface.resolution; }));
 
   // output.*, run.*
+  t.push_back(number("plate.clearance", "mm", 0, 1000,
+                       "build plates ([[part]] tables): the least gap between parts' footprints",
+                       "", [](C& c) -> auto& { return c.plate.clearance; }));
   t.push_back(integer("output.preview_layers", 0, 100000, "PNG previews spread over the layers",
                       "preview-layers", [](C& c) -> auto& { return c.output.preview_layers; }));
   t.push_back(integer("output.image_size", 16, 8000, "preview image size", "image-size",
@@ -732,6 +735,7 @@ const std::vector<std::pair<std::string, std::string>>& setting_sections() {
       {"pbf", "laser powder-bed TPMS lattices"},
       {"nonplanar", "non-planar layers on a surface"},
       {"surface", "generated test surfaces"},
+      {"plate", "build plates of many parts ([[part]] tables)"},
       {"output", "previews and extra outputs"},
       {"run", "execution"},
   };

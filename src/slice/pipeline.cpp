@@ -158,6 +158,7 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
   const auto t0 = std::chrono::steady_clock::now();
   const double h = job.planar.layer_height;
   if (!(h > 0)) throw SettingError("layer height must be > 0");
+  const bool ranged = job.layer_begin != 0 || job.layer_end != static_cast<std::size_t>(-1);
   std::vector<double> zs;
   auto check_layers = [&](const BBox3& e) {
     if (e.empty() || !std::isfinite(e.min.z) || !std::isfinite(e.max.z))
@@ -198,7 +199,7 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
     }
     r.extent = field.extent();
     check_layers(r.extent);
-    r.outlines = slice_field(field, zs, job.field, &r.field_stats, progress);
+    if (!ranged) r.outlines = slice_field(field, zs, job.field, &r.field_stats, progress);
   } else {
     if (is_vcad) {
       // The classic route for a design: marching cubes of its field (OpenVDB) at the mesh
@@ -214,8 +215,48 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
       check_layers(r.extent);
     }
     progress.check("slicing");
-    r.outlines = slice_mesh_layers(mesh, zs, 1e-6, r.repaired);
+    if (!ranged) r.outlines = slice_mesh_layers(mesh, zs, 1e-6, r.repaired);
     progress("outlines", 1.0);
+  }
+  // A range of the part's layers (a shard): the part's ends found plane by plane from the
+  // bottom and the top, then only the range and the layers its skins look at are sliced.
+  std::size_t range_lo = 0, range_a = 0, range_b = 0;
+  if (ranged) {
+    if (job.strategy != 0)
+      throw SettingError("graded slicing (strategy 1 or 2) does not shard: its look-ahead and "
+                         "purge tower cross layers",
+                         {job.input, 0, "slice.strategy"});
+    auto outlines_of = [&](const std::vector<double>& planes) {
+      return r.route == SliceRoute::Field
+                 ? slice_field(field, planes, job.field, &r.field_stats, progress)
+                 : slice_mesh_layers(mesh, planes, 1e-6, r.repaired);
+    };
+    std::size_t first = 0, last = zs.size();
+    while (first < last && outlines_of({zs[first]})[0].regions.empty()) ++first;
+    while (last > first && outlines_of({zs[last - 1]})[0].regions.empty()) --last;
+    if (first == last)
+      throw GeometryError("no layer has any outline: the design is empty at every slicing plane",
+                          {job.input, 0, ""});
+    const std::size_t n = last - first;
+    range_a = std::min(job.layer_begin, n);
+    range_b = std::max(range_a, std::min(job.layer_end, n));
+    const auto below = static_cast<std::size_t>(std::max(0, job.planar.bottom_layers));
+    const auto above = static_cast<std::size_t>(std::max(0, job.planar.top_layers));
+    range_lo = range_a >= below ? range_a - below : 0;
+    const std::size_t hi = range_a < range_b ? std::min(n, range_b + above) : range_lo;
+    r.outlines = outlines_of(std::vector<double>(zs.begin() + static_cast<long>(first + range_lo),
+                                                 zs.begin() + static_cast<long>(first + hi)));
+    r.part_layers = n;
+    r.first_layer = range_a;
+    r.outline_seconds = seconds_since(t0);
+    PlanarOptions po = job.planar;
+    po.first_index = range_lo;
+    po.plan_begin = range_a;
+    po.plan_end = range_b;
+    if (range_a < range_b) r.toolpath = plan_planar(r.outlines, po, &r.planar);
+    r.toolpath.source = "trellis slice " + job.input + " (" + to_string(r.route) + " route)";
+    r.plan_seconds = seconds_since(t0) - r.outline_seconds;
+    return r;
   }
   // The extent of a design is a bound (blends, clip boxes): drop empty layers below and above
   // the part so its first layer sits on the bed.
@@ -225,6 +266,7 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
   r.outlines = std::vector<LayerOutline>(r.outlines.begin() + static_cast<long>(first),
                                          r.outlines.begin() + static_cast<long>(last));
   r.outline_seconds = seconds_since(t0);
+  r.part_layers = r.outlines.size();
   if (r.outlines.empty())
     throw GeometryError("no layer has any outline: the design is empty at every slicing plane",
                         {job.input, 0, ""});

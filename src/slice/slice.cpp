@@ -384,9 +384,16 @@ Toolpath plan_planar(const std::vector<LayerOutline>& layers, const PlanarOption
   Toolpath tp;
   tp.layers.resize(n);
   std::vector<PlanarStats> per(n);
+  // Part layer g = first_index + i; only [plan_begin, plan_end) are planned.
+  auto planned = [&](std::size_t i) {
+    const std::size_t g = o.first_index + i;
+    return g >= o.plan_begin && g < o.plan_end;
+  };
   tbb::parallel_for(std::size_t{0}, n, [&](std::size_t i) {
+    if (!planned(i)) return;
     Layer& layer = tp.layers[i];
-    const double z = static_cast<double>(i + 1) * o.layer_height;
+    const std::size_t g = o.first_index + i;
+    const double z = static_cast<double>(g + 1) * o.layer_height;
     layer.z = z;
     if (outline[i].empty()) return;
     const long li = static_cast<long>(i);
@@ -399,7 +406,7 @@ Toolpath plan_planar(const std::vector<LayerOutline>& layers, const PlanarOption
                                     intersect_all(outline, li + 1, li + o.top_layers)));
     // Slivers narrower than a bead (a slowly changing wall) are not worth solid lines.
     if (!skin.empty()) skin = offset(offset(skin, -0.5 * o.bead_width), 0.5 * o.bead_width);
-    const bool odd = i % 2 == 1;
+    const bool odd = g % 2 == 1;
     const double infill_angle = o.infill_angle + (odd ? 90.0 : 0.0);
     const double skin_angle = 45.0 + (odd ? 90.0 : 0.0);
     const double sparse_spacing = o.infill_density > 0 ? w / o.infill_density : 0;
@@ -457,8 +464,16 @@ Toolpath plan_planar(const std::vector<LayerOutline>& layers, const PlanarOption
     }
   });
   PlanarStats total;
-  total.layers = n;
-  for (std::size_t i = 0; i < n; ++i) {
+  // The window's unplanned layers (the skins' neighbours) are dropped.
+  std::vector<Layer> kept;
+  std::vector<PlanarStats> kept_stats;
+  for (std::size_t i = 0; i < n; ++i)
+    if (planned(i)) kept.push_back(std::move(tp.layers[i])), kept_stats.push_back(per[i]);
+  tp.layers = std::move(kept);
+  per = std::move(kept_stats);
+  const std::size_t m = tp.layers.size();
+  total.layers = m;
+  for (std::size_t i = 0; i < m; ++i) {
     total.walls += per[i].walls;
     total.skin_lines += per[i].skin_lines;
     total.infill_lines += per[i].infill_lines;

@@ -30,6 +30,17 @@
 
 namespace trellis {
 
+// A part of a build plate ([[part]] tables of a job): its own design, placement on the plate and
+// settings over the job's (job/plate.hpp).
+struct PlatePart {
+  std::string label;      // names the part in outputs (CLI $$LABEL, G-code comments)
+  std::string input;      // its design (.vcad / mesh; the PBF envelope); empty: from its settings
+  double x = 0, y = 0;    // mm: where the centre of its footprint goes on the plate
+  double rotation = 0;    // degrees about z, counter-clockwise
+  std::string settings_toml;  // its own [part.SECTION] tables as TOML ("[pbf]\ncell = 2\n")
+  long line = 0;          // where it is in the job file (errors)
+};
+
 struct Job {
   std::string route;
   std::string name = "job";
@@ -40,6 +51,11 @@ struct Job {
   std::string output;    // the route's main output
   std::string report, toolpath, gcode, lattice, preview;
   Settings settings;
+  std::vector<PlatePart> parts;  // a build plate: empty for one part
+  std::string origin;            // the job file (errors naming plate parts)
+  // Sharding (job/plate.hpp): shard `shard` (1-based) of `shards`; 0 = the whole job. Not part
+  // of the embedded job: every shard and the merged file record the same job.
+  int shard = 0, shards = 0;
   // false: a route that can write its outputs layer by layer in bounded memory (pbf) does so and
   // leaves JobResult::toolpath empty (the command line; Python keeps the toolpath).
   bool keep_toolpath = true;

@@ -100,6 +100,11 @@ struct BudgetConfig {
   bool force = false;
 };
 
+// Build plates (job/plate.hpp).
+struct PlateConfig {
+  double clearance = 2;  // plate.clearance (mm): least gap between the parts' footprints
+};
+
 struct Config {
   MachineProfile machine;
   LaserProfile laser;
@@ -120,6 +125,7 @@ struct Config {
   NonplanarConfig nonplanar;
   SurfaceConfig surface;
   OutputConfig output;
+  PlateConfig plate;
   int threads = 0;      // run.threads: 0 = all cores
   BudgetConfig budget;  // run.max_memory, run.max_time, run.force
 };

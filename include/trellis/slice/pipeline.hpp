@@ -39,6 +39,10 @@ struct SliceJob {
   // The work estimated from the extent, the layers and the grids is checked against this before
   // any layer is sliced (core/budget.hpp).
   Budget budget;
+  // Sharding (job/plate.hpp): only the part's printed layers [layer_begin, layer_end) (counted
+  // from its first printed layer) are sliced and planned, with the outlines the skins need
+  // around them; the toolpath holds those layers. Planar slicing (strategy 0) only.
+  std::size_t layer_begin = 0, layer_end = static_cast<std::size_t>(-1);
 };
 
 struct SliceResult {
@@ -53,6 +57,9 @@ struct SliceResult {
   bool repaired = false;  // the mesh needed repair; `repair` says what changed
   MeshRepairReport repair;
   double outline_seconds = 0, plan_seconds = 0;
+  // The part's printed layers (all of them, also when only a range was asked for) and the index
+  // of the toolpath's first layer among them.
+  std::size_t part_layers = 0, first_layer = 0;
 };
 
 // Planar and graded slicing in one call. `progress` (core/progress.hpp): stages "outlines"

@@ -72,6 +72,13 @@ struct PlanarOptions {
   double infill_overlap = 0.15;  // fraction of a bead the infill reaches into the inner wall
   double simplify = 0.005;       // mm, outline simplification before offsetting
   double min_path = 0.05;        // mm, shorter infill pieces are dropped
+  // A window of a part's layers (sharding, job/plate.hpp): the outlines given are the part's
+  // layers first_index, first_index + 1, …, and only part layers [plan_begin, plan_end) get
+  // paths; the toolpath holds those layers only (z and the alternating angles as in the whole
+  // part). The window must reach bottom_layers below and top_layers above the planned layers
+  // (or the part's ends) for the skins to be those of the whole part.
+  std::size_t first_index = 0;
+  std::size_t plan_begin = 0, plan_end = static_cast<std::size_t>(-1);
 };
 
 struct PlanarStats {

@@ -28,6 +28,7 @@ struct Path {
   double power = 0;             // laser power (W), 0 if not a laser path
   double filament = 0;          // filament (mm of E) as read from G-code, 0 if not known
   double temperature = 0;       // nozzle temperature (°C) while printing it, 0 = not set
+  int part = 0;                 // build plates: index + 1 into Toolpath::part_labels, 0 = none
   std::size_t segments() const { return points.size() < 2 ? 0 : points.size() - 1; }
   double length() const;
 };
@@ -43,6 +44,8 @@ struct Toolpath {
   // The job that made it (TOML text, job/job.hpp), embedded in every output so that
   // `trellis rerun` can regenerate it; empty when it was not made by a job.
   std::string job;
+  // Build plates: the parts' labels (Path::part - 1 indexes them); empty for one part.
+  std::vector<std::string> part_labels;
 
   std::size_t path_count() const;
   double extrusion_length() const;

@@ -1,0 +1,340 @@
+// Build plates and exact sharding (issue 23): a plate of 16 gyroid parts (PBF) and one of nine
+// lattice tiles (FDM) merged from 1, 2 and 5 shards are byte for byte the single-process file;
+// plates that do not fit, overlapping parts, shard indices out of range, a missing shard and
+// shards of different jobs exit 2 and write nothing.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <set>
+#include <cmath>
+
+#include "trellis/core/error.hpp"
+#include "trellis/core/file.hpp"
+#include "trellis/job/job.hpp"
+#include "trellis/job/plate.hpp"
+#include "trellis/machine/cli.hpp"
+
+namespace fs = std::filesystem;
+using namespace trellis;
+
+namespace {
+
+const std::string kRoot = TRELLIS_SOURCE_DIR;
+
+const fs::path& plate_work() {
+  static const fs::path dir = [] {
+    std::string tmpl = (fs::temp_directory_path() / "trellis_plate_test_XXXXXX").string();
+    const char* d = ::mkdtemp(tmpl.data());
+    if (!d) throw std::runtime_error("mkdtemp failed");
+    return fs::path(d);
+  }();
+  return dir;
+}
+
+struct Cmd {
+  int code;
+  std::string err;
+};
+
+Cmd cli(const std::string& args) {
+  const std::string err = (plate_work() / "stderr.txt").string();
+  const std::string cmd = std::string(TRELLIS_CLI) + " " + args + " >/dev/null 2>" + err;
+  const int status = std::system(cmd.c_str());
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, read_file(err)};
+}
+
+// Runs `job_file` whole into `dir`, then in `n` shards into `dir`/shards-n and merges them;
+// returns {single, merged} bytes.
+std::pair<std::string, std::string> single_and_merged(const std::string& job_file,
+                                                      const fs::path& dir, int n) {
+  Diagnostics diag;
+  const Job whole = load_job(job_file, dir.string());
+  run_job(whole, diag);
+  const std::string single = read_file(whole.output);
+  const fs::path sdir = dir / ("shards-" + std::to_string(n));
+  std::vector<std::string> manifests;
+  for (int k = 1; k <= n; ++k) {
+    Job shard = load_job(job_file, sdir.string());
+    shard.shard = k;
+    shard.shards = n;
+    const JobResult r = run_job(shard, diag);
+    EXPECT_FALSE(fs::exists(shard.output)) << "a shard writes no whole output";
+    manifests.push_back(r.files.back());
+  }
+  // Merged beside the single run's output (paths in the embedded job are relative to it).
+  const std::string merged =
+      (dir / ("merged-" + std::to_string(n) + fs::path(whole.output).extension().string())).string();
+  merge_shards(manifests, merged, diag);
+  return {single, read_file(merged)};
+}
+
+}  // namespace
+
+TEST(Plate, PbfPlateOf16GyroidPartsMergesExactlyFrom1_2_5Shards) {
+  const std::string job = kRoot + "/examples/jobs/gyroid_plate_pbf.toml";
+  const fs::path dir = plate_work() / "pbf";
+  for (int n : {1, 2, 5}) {
+    const auto [single, merged] = single_and_merged(job, dir, n);
+    ASSERT_GT(single.size(), 1000u);
+    EXPECT_TRUE(single == merged) << n << " shards: merged file differs from the single run";
+  }
+  // One build file with every part: 16 labelled contour and hatch ids, each used.
+  const std::string cli_text = read_file((dir / "gyroid_plate.cli").string());
+  for (int k = 1; k <= 16; ++k) {
+    char label[16];
+    std::snprintf(label, sizeof label, "g%02d", k);
+    EXPECT_NE(cli_text.find("$$LABEL/" + std::to_string(2 * k - 1) + "," + label + " contour\n"),
+              std::string::npos)
+        << label;
+    EXPECT_NE(cli_text.find("$$LABEL/" + std::to_string(2 * k) + "," + label + " hatch\n"),
+              std::string::npos)
+        << label;
+    EXPECT_NE(cli_text.find("$$POLYLINE/" + std::to_string(2 * k - 1) + ","), std::string::npos)
+        << label << " has no contour vectors";
+    // The 1 mm cells of every fourth part are all thin wall (contours only).
+    if (k % 4 != 0)
+      EXPECT_NE(cli_text.find("$$HATCHES/" + std::to_string(2 * k) + ","), std::string::npos)
+          << label << " has no hatch vectors";
+  }
+  // Read back: every vector inside the build area, parts where the job placed them.
+  const Toolpath tp = read_cli(cli_text, "plate.cli");
+  BBox3 box;
+  for (const auto& l : tp.layers)
+    for (const auto& p : l.paths)
+      for (const auto& q : p.points) box.add(q);
+  EXPECT_GT(box.min.x, 18.0);
+  EXPECT_LT(box.max.x, 40.5);
+  EXPECT_GT(box.min.y, 18.0);
+  EXPECT_LT(box.max.y, 40.5);
+}
+
+TEST(Plate, FdmPlateOfNineLatticePartsMergesExactlyFrom1_2_5Shards) {
+  const std::string job = kRoot + "/examples/jobs/lattice_plate_fdm.toml";
+  const fs::path dir = plate_work() / "fdm";
+  for (int n : {1, 2, 5}) {
+    const auto [single, merged] = single_and_merged(job, dir, n);
+    ASSERT_GT(single.size(), 1000u);
+    EXPECT_TRUE(single == merged) << n << " shards: merged G-code differs from the single run";
+  }
+  // The nine parts are printed in every layer: extrusion moves near each part's centre.
+  const std::string g = read_file((dir / "lattice_plate.gcode").string());
+  const std::regex move(R"(G1 X([0-9.]+) Y([0-9.]+) E)");
+  std::set<int> parts;
+  for (auto it = std::sregex_iterator(g.begin(), g.end(), move); it != std::sregex_iterator(); ++it) {
+    const double x = std::stod((*it)[1]), y = std::stod((*it)[2]);
+    const int i = static_cast<int>(std::lround((x - 90) / 12)), j = static_cast<int>(std::lround((y - 90) / 12));
+    ASSERT_TRUE(i >= 0 && i < 3 && j >= 0 && j < 3) << x << "," << y << " is on no part";
+    ASSERT_LT(std::hypot(x - 90 - 12 * i, y - 90 - 12 * j), 4.3) << x << "," << y;
+    parts.insert(3 * j + i);
+  }
+  EXPECT_EQ(parts.size(), 9u);
+}
+
+TEST(Plate, ShardRangesAreContiguousAndBalancedByWork) {
+  std::vector<double> work(100, 1.0);
+  for (int i = 0; i < 50; ++i) work[static_cast<std::size_t>(i)] = 3.0;  // heavy lower half
+  for (int n : {1, 2, 3, 5, 7, 150}) {
+    std::size_t next = 0;
+    double most = 0;
+    for (int k = 1; k <= n; ++k) {
+      const auto [a, b] = shard_range(work, k, n);
+      EXPECT_EQ(a, next) << k << "/" << n;
+      EXPECT_LE(a, b);
+      double w = 0;
+      for (std::size_t i = a; i < b; ++i) w += work[i];
+      most = std::max(most, w);
+      next = b;
+    }
+    EXPECT_EQ(next, work.size()) << n;
+    // No shard carries more than its share plus one layer's work.
+    EXPECT_LE(most, 200.0 / n + 3.0 + 1e-9) << n;
+  }
+  // Equal layer counts would give the heavy half's shard 3× the work of the other.
+  const auto [a, b] = shard_range(work, 1, 2);
+  EXPECT_EQ(a, 0u);
+  EXPECT_EQ(b, 34u);
+}
+
+TEST(Plate, ShardFilesRoundTripExactly) {
+  std::vector<Layer> layers(2);
+  layers[0].z = 0.1 + 0.2;
+  Path p;
+  p.points = {{1.0 / 3, 2.0 / 7, 0.3}, {1e-17, -5.5, 0.3}};
+  p.role = PathRole::Infill;
+  p.part = 3;
+  p.tool = 1;
+  p.mixture = {0.25, 0.75};
+  p.speed = 800.125;
+  p.power = 99.5;
+  layers[1].paths.push_back(p);
+  const std::string bytes = shard_bytes(layers);
+  const auto back = layers_from_shard_bytes(bytes, "x");
+  ASSERT_EQ(back.size(), 2u);
+  EXPECT_EQ(back[0].z, layers[0].z);
+  ASSERT_EQ(back[1].paths.size(), 1u);
+  const Path& q = back[1].paths[0];
+  EXPECT_EQ(q.points, p.points);
+  EXPECT_EQ(q.part, 3);
+  EXPECT_EQ(q.tool, 1);
+  EXPECT_EQ(q.role, PathRole::Infill);
+  EXPECT_EQ(q.mixture, p.mixture);
+  EXPECT_EQ(q.speed, p.speed);
+  EXPECT_EQ(q.power, p.power);
+  EXPECT_EQ(shard_bytes(back), bytes);
+  EXPECT_THROW(layers_from_shard_bytes(bytes.substr(0, bytes.size() - 3), "x"), ParseError);
+}
+
+TEST(Plate, FootprintsOutsideTheAreaOrTooCloseAreRefused) {
+  PlatePart a;
+  a.label = "a";
+  a.x = 10, a.y = 10;
+  BBox3 box;
+  box.add({-2, -2, 0});
+  box.add({2, 2, 1});
+  PlatePart b = a;
+  b.label = "b";
+  b.x = 15.5;  // 1.5 mm gap
+  const BBox2 area{{0, 0}, {100, 100}};
+  EXPECT_NO_THROW(check_plate({place_footprint(a, box), place_footprint(b, box)}, area, 1.0, "j"));
+  EXPECT_THROW(check_plate({place_footprint(a, box), place_footprint(b, box)}, area, 2.0, "j"),
+               SettingError);
+  // Turned 45°, b's corner reaches 2.83 mm towards a: 0.67 mm apart.
+  b.rotation = 45;
+  EXPECT_THROW(check_plate({place_footprint(a, box), place_footprint(b, box)}, area, 1.0, "j"),
+               SettingError);
+  b.rotation = 0;
+  b.x = 11;  // overlapping
+  try {
+    check_plate({place_footprint(a, box), place_footprint(b, box)}, area, 0.0, "j");
+    ADD_FAILURE() << "overlap not refused";
+  } catch (const SettingError& e) {
+    EXPECT_NE(std::string(e.what()).find("'a'"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("'b'"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("overlap"), std::string::npos) << e.what();
+  }
+  a.x = 1;  // sticks out over x = 0
+  EXPECT_THROW(check_plate({place_footprint(a, box)}, area, 0.0, "j"), SettingError);
+}
+
+TEST(Plate, BadPlatesAndBadShardsExit2AndWriteNothing) {
+  const std::string job = read_file(kRoot + "/examples/jobs/gyroid_plate_pbf.toml");
+  auto variant = [&](const std::string& name, const std::string& from, const std::string& to) {
+    std::string text = std::regex_replace(job, std::regex(R"(\.\./\.\./profiles)"), kRoot + "/profiles");
+    const auto at = text.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    text.replace(at, from.size(), to);
+    const std::string path = (plate_work() / name).string();
+    std::ofstream(path) << text;
+    return path;
+  };
+  const fs::path out = plate_work() / "refused";
+  // g02 moved onto g01.
+  Cmd r = cli("run " + variant("overlap.toml", "x = 26\n", "x = 21\n") + " -o " + out.string());
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("'g01'"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("'g02'"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("overlap"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(out));
+  // g04 off the 100 mm plate.
+  r = cli("run " + variant("outside.toml", "x = 38\n", "x = 99\n") + " -o " + out.string());
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("'g04' does not fit the build area"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(out));
+  // A part whose cells the sampling grid cannot resolve: refused like a single part.
+  r = cli("run " + variant("fine.toml", "cell = 1.0\n", "cell = 0.2\n") + " -o " + out.string());
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("part 'g04': pbf.cell"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(out));
+  const std::string good = kRoot + "/examples/jobs/gyroid_plate_pbf.toml";
+  for (const char* bad : {"6/5", "0/5", "2", "a/b", "1/0"}) {
+    r = cli("run " + good + " -o " + out.string() + " --shard " + bad);
+    EXPECT_EQ(r.code, 2) << bad;
+    EXPECT_NE(r.err.find("--shard"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(out)) << bad;
+  }
+  // Shards: one missing, one of another split, one given twice.
+  const fs::path s3 = plate_work() / "s3", s2 = plate_work() / "s2";
+  for (int k = 1; k <= 3; ++k)
+    ASSERT_EQ(cli("run " + good + " -o " + s3.string() + " --shard " + std::to_string(k) + "/3").code, 0);
+  ASSERT_EQ(cli("run " + good + " -o " + s2.string() + " --shard 2/2").code, 0);
+  const std::string m1 = (s3 / "gyroid_plate.cli.shard-1-of-3.json").string();
+  const std::string m2 = (s3 / "gyroid_plate.cli.shard-2-of-3.json").string();
+  const std::string m3 = (s3 / "gyroid_plate.cli.shard-3-of-3.json").string();
+  const std::string merged = (s3 / "merged.cli").string();
+  r = cli("merge " + m1 + " " + m3 + " -o " + merged);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("shards 2 of 3 are missing"), std::string::npos) << r.err;
+  r = cli("merge " + m1 + " " + m2 + " " + (s2 / "gyroid_plate.cli.shard-2-of-2.json").string() +
+          " -o " + merged);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("another job"), std::string::npos) << r.err;
+  r = cli("merge " + m1 + " " + m2 + " " + m2 + " " + m3 + " -o " + merged);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("given twice"), std::string::npos) << r.err;
+  // The same split of another job (a setting changed): refused too.
+  const std::string other = variant("other.toml", "cell = 2.0", "cell = 2.5");
+  ASSERT_EQ(cli("run " + other + " -o " + (plate_work() / "o3").string() + " --shard 2/3").code, 0);
+  r = cli("merge " + m1 + " " + (plate_work() / "o3" / "gyroid_plate.cli.shard-2-of-3.json").string() + " " +
+          m3 + " -o " + merged);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("another job"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(merged));
+  // All three: the merge is written.
+  r = cli("merge " + m3 + " " + m1 + " " + m2 + " -o " + merged);
+  EXPECT_EQ(r.code, 0) << r.err;
+  EXPECT_TRUE(fs::exists(merged));
+}
+
+// examples/slurm: the array script run locally with SLURM_ARRAY_TASK_ID set by hand, then the
+// merge script; and submit.sh end to end against a stand-in `sbatch` that runs each array index
+// in turn. Both merge to the bytes of the single run.
+TEST(Plate, SlurmScriptsRunLocallyMergeToTheSingleRun) {
+  const std::string job = kRoot + "/examples/jobs/lattice_plate_fdm.toml";
+  const fs::path dir = plate_work() / "slurm";
+  Diagnostics diag;
+  const Job whole = load_job(job, (dir / "single").string());
+  run_job(whole, diag);
+  const std::string single = read_file(whole.output);
+  const std::string env = "JOB='" + job + "' OUT='" + (dir / "array").string() +
+                          "' SHARDS=3 TRELLIS='" + TRELLIS_CLI + "' ";
+  for (int k = 1; k <= 3; ++k)
+    ASSERT_EQ(std::system((env + "SLURM_ARRAY_TASK_ID=" + std::to_string(k) + " bash " + kRoot +
+                           "/examples/slurm/shard.sbatch >/dev/null")
+                              .c_str()),
+              0);
+  ASSERT_EQ(std::system((env + "bash " + kRoot + "/examples/slurm/merge.sbatch >/dev/null").c_str()), 0);
+  EXPECT_TRUE(read_file((dir / "array" / "lattice_plate.gcode").string()) == single);
+
+  // submit.sh with an sbatch that runs the array's indices one after the other.
+  const fs::path bin = dir / "bin";
+  fs::create_directories(bin);
+  std::ofstream(bin / "sbatch") << R"(#!/bin/bash
+array=""; exports=""; script=""
+for a in "$@"; do
+  case $a in
+    --array=*) array=${a#--array=} ;;
+    --export=*) exports=${a#--export=} ;;
+    --*) ;;
+    *) script=$a ;;
+  esac
+done
+IFS=, read -ra kv <<< "$exports"
+for x in "${kv[@]}"; do [ "$x" = ALL ] || export "$x"; done
+if [ -n "$array" ]; then
+  for i in $(seq "${array%-*}" "${array#*-}"); do SLURM_ARRAY_TASK_ID=$i bash "$script" >/dev/null || exit 1; done
+else
+  bash "$script" >/dev/null || exit 1
+fi
+echo 4242
+)";
+  fs::permissions(bin / "sbatch", fs::perms::owner_all);
+  const std::string cmd = "PATH='" + bin.string() + "':$PATH TRELLIS='" + TRELLIS_CLI + "' bash " +
+                          kRoot + "/examples/slurm/submit.sh " + job + " '" +
+                          (dir / "submitted").string() + "' 5 >/dev/null";
+  ASSERT_EQ(std::system(cmd.c_str()), 0);
+  EXPECT_TRUE(read_file((dir / "submitted" / "lattice_plate.gcode").string()) == single);
+}
