@@ -172,51 +172,6 @@ void create_output_directories(const std::string& dir) {
   }
 }
 
-void write_file_atomic(const std::string& path, std::string_view content) {
-  namespace fs = std::filesystem;
-  const fs::path target(path);
-  const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
-  create_output_directories(dir.string());
-  std::string tmpl = (dir / ("." + target.filename().string() + ".XXXXXX")).string();
-  int fd = -1, slot = -1;
-  {
-    SignalsHeld held;
-    fd = ::mkstemp(tmpl.data());
-    if (fd < 0) throw IoError(std::string("cannot create file: ") + std::strerror(errno), {path});
-    slot = hold(g_temp_slots, tmpl);
-  }
-  auto fail = [&](const std::string& why) {
-    if (fd >= 0) ::close(fd);
-    ::unlink(tmpl.c_str());
-    release(g_temp_slots, slot);
-    throw IoError("cannot write: " + why, {path});
-  };
-  std::size_t off = 0;
-  while (off < content.size()) {
-    const ssize_t n = ::write(fd, content.data() + off, content.size() - off);
-    if (n < 0) {
-      if (errno == EINTR) continue;
-      fail(std::strerror(errno));
-    }
-    off += static_cast<std::size_t>(n);
-  }
-  // mkstemp makes 0600; outputs get what the umask allows, like any file the user creates.
-  ::fchmod(fd, static_cast<mode_t>(output_file_mode()));
-  const int closed = ::close(fd);
-  fd = -1;
-  if (closed != 0) fail(std::strerror(errno));
-  Batch& b = batch();
-  {
-    std::lock_guard lock(b.mutex);
-    if (b.depth > 0) {
-      b.staged.push_back({tmpl, path, slot});
-      return;
-    }
-  }
-  if (std::rename(tmpl.c_str(), path.c_str()) != 0) fail(std::strerror(errno));
-  release(g_temp_slots, slot);
-}
-
 void write_file_atomic_with(const std::string& path,
                             const std::function<void(const ByteWriter&)>& fill) {
   namespace fs = std::filesystem;
@@ -273,6 +228,10 @@ void write_file_atomic_with(const std::string& path,
   }
   if (std::rename(tmpl.c_str(), path.c_str()) != 0) fail(std::strerror(errno));
   release(g_temp_slots, slot);
+}
+
+void write_file_atomic(const std::string& path, std::string_view content) {
+  write_file_atomic_with(path, [&](const ByteWriter& put) { put(content); });
 }
 
 OutputBatch::OutputBatch() {
