@@ -1,6 +1,8 @@
 """The Python door: every route as a call, the same files as the CLI, numpy in and out, errors
 mapped with their place, long calls interruptible."""
 import filecmp
+import json
+import math
 import os
 import signal
 import subprocess
@@ -291,3 +293,31 @@ def test_machine_errors_write_nothing(tmp_path):
                       machine=ENDER, strategy="none", set={"machine.bed_x": 5})
     assert "machine.bed_x" in str(e.value)
     assert not out.exists()
+
+
+def test_graded_report_gives_material_and_time_per_colour(tmp_path):
+    # §4.1 of the FGM paper reports material and time per colour. The report's part colours are
+    # checked against the G-code read back: the same mixtures, the same total length, and their
+    # volume against the filament the G-code extrudes. (Per colour, the commands come 960 mm of
+    # path early -- the look-ahead that flushes the mixer -- so lengths per commanded mixture
+    # differ from the colours deposited; the look-ahead replay is tests/slice/test_fgm.cpp's.)
+    graded = trellis.fgrade(["0.5 + x/24", "0.5 - x/24"], ["a", "b"], trellis.rectprism(20, 10, 0.6))
+    trellis.slice(graded, tmp_path / "g.gcode", machine=MIXING, strategy=2, colors=4,
+                  report=tmp_path / "g.json")
+    report = json.loads((tmp_path / "g.json").read_text())
+    colours = report["fgm"]["part_colours"]
+    assert len(colours) == 4
+    back = trellis.read_toolpath(tmp_path / "g.gcode")
+    points, offsets = back.points, back.path_offsets
+    printed = {}
+    for i in range(back.path_count):
+        p = points[offsets[i]:offsets[i + 1]]
+        key = tuple(np.round(back.mixture[i], 4))
+        printed[key] = printed.get(key, 0.0) + float(np.linalg.norm(np.diff(p, axis=0), axis=1).sum())
+    assert set(printed) == {tuple(np.round(c["mixture"], 4)) for c in colours}
+    assert sum(printed.values()) == pytest.approx(sum(c["length_mm"] for c in colours), rel=1e-3)
+    for c in colours:
+        assert c["mass_g"] > 0 and c["time_s"] > 0
+    filament_volume = report["gcode"]["filament_mm"] * math.pi * 1.75 ** 2 / 4
+    assert sum(c["volume_mm3"] for c in colours) == pytest.approx(filament_volume, rel=0.01)
+    assert report["fgm"]["part_mass_g"] == pytest.approx(sum(c["mass_g"] for c in colours))

@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <map>
 #include <set>
 
 #include "trellis/core/error.hpp"
@@ -453,6 +454,41 @@ std::string slice_report_json(const SliceJob& job, const SliceResult& r, const G
                 {"gradient_changes", g ? g->gradient_changes : 0},
                 {"lookahead_mm", g ? g->lookahead : 0.0},
                 {"fill", job.fgm.concentric ? "concentric" : "rectilinear"}};
+  if ((job.strategy == 1 || job.strategy == 2) && !r.toolpath.layers.empty()) {
+    // §4.1: material and time per colour of the part itself (the tower's share follows). Volume
+    // with the rectangular bead (bead width × layer height) the fills balance against and the
+    // writer's E deposits; densities per material from the profile, as the tower's.
+    std::map<std::vector<double>, std::pair<double, double>> by_mixture;  // length, time
+    for (const auto& l : r.toolpath.layers)
+      for (const auto& p : l.paths) {
+        if (p.role == PathRole::Purge || p.mixture.empty()) continue;
+        const double len = p.length();
+        const double speed = p.speed > 0 ? p.speed : job.purge.speed;
+        auto& [length, time] = by_mixture[p.mixture];
+        length += len;
+        time += speed > 0 ? len / speed : 0;
+      }
+    const double h = job.planar.layer_height, w = job.planar.bead_width;
+    const double bead_area = w * h;
+    nlohmann::ordered_json colours = nlohmann::json::array();
+    double mass_total = 0, time_total = 0;
+    for (const auto& [mixture, lt] : by_mixture) {
+      double density = 0;
+      for (std::size_t m = 0; m < mixture.size(); ++m)
+        density += mixture[m] * (m < job.purge.density.size() ? job.purge.density[m] : 1.0);
+      const double volume = lt.first * bead_area, mass = volume * 1e-3 * density;
+      mass_total += mass;
+      time_total += lt.second;
+      colours.push_back({{"mixture", mixture},
+                         {"length_mm", lt.first},
+                         {"volume_mm3", volume},
+                         {"mass_g", mass},
+                         {"time_s", lt.second}});
+    }
+    j["fgm"]["part_colours"] = colours;
+    j["fgm"]["part_mass_g"] = mass_total;
+    j["fgm"]["part_time_s"] = time_total;
+  }
   if (r.fgm.tower.built) {
     // §4.1 reports material and time per colour.
     nlohmann::ordered_json colours = nlohmann::json::array();
