@@ -54,6 +54,17 @@ Field tpms_spec(const std::string& spec, double* weight, const char* key) {
   return tpms(tpms_kind(spec.substr(0, a)), {cell, cell, cell});
 }
 
+// A shard's ending (`--shard K/N`): its layers and manifest written, the data file listed first
+// (the manifest's name without ".json"), and a summary of what it holds.
+JobResult shard_written(const Job& job, const Toolpath& tp, std::size_t first, std::size_t end,
+                        std::size_t total, const std::string& holds, JobResult out) {
+  out.files.push_back(write_shard(job, tp.layers, first, total, tp.source, tp.part_labels));
+  out.files.insert(out.files.begin(), out.files.back().substr(0, out.files.back().size() - 5));
+  out.summary = fmt::format("shard {} of {}: layers {}..{} of {}, {}", job.shard, job.shards, first,
+                            end, total, holds);
+  return out;
+}
+
 PbfDesign pbf_design(const PbfConfig& p) {
   if (p.wall_thickness > 0) {
     // The paper's thin-wall experiments (Fig. 3): a plane wall cut by the box.
@@ -300,13 +311,8 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag, const 
     }
   }
   if (plate) tp.source = fmt::format("trellis slice plate ({} parts)", parts.size());
-  if (job.shards) {
-    out.files.push_back(write_shard(job, tp.layers, a, total, tp.source, tp.part_labels));
-    out.files.insert(out.files.begin(), out.files.back().substr(0, out.files.back().size() - 5));
-    out.summary = fmt::format("shard {} of {}: layers {}..{} of {}, {} paths", job.shard,
-                              job.shards, a, b, total, paths);
-    return out;
-  }
+  if (job.shards)
+    return shard_written(job, tp, a, b, total, fmt::format("{} paths", paths), std::move(out));
   if (!job.output.empty()) note_planar_in_bath(c.machine, "slice", diag);
   GcodeStats g;
   write_slice_main(job, c, tp, out, diag, &g);
@@ -552,13 +558,10 @@ JobResult pbf_plate(const Job& job, const Config& c, Diagnostics& diag, const Pr
         PbfLayerRange{a, end});
     diag.merge(r.diagnostics);
   }
-  if (job.shards) {
-    out.files.push_back(write_shard(job, tp.layers, a, total, tp.source, tp.part_labels));
-    out.files.insert(out.files.begin(), out.files.back().substr(0, out.files.back().size() - 5));
-    out.summary = fmt::format("shard {} of {}: layers {}..{} of {}, {} contour and {} hatch vectors",
-                              job.shard, job.shards, a, b, total, contour_vectors, hatch_vectors);
-    return out;
-  }
+  if (job.shards)
+    return shard_written(job, tp, a, b, total,
+                         fmt::format("{} contour and {} hatch vectors", contour_vectors, hatch_vectors),
+                         std::move(out));
   out.toolpath = std::make_shared<Toolpath>(tp);
   write_pbf_main(job, c, tp, out);
   if (!job.toolpath.empty()) {

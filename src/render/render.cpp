@@ -48,6 +48,17 @@ void order_colour(cairo_t* cr, double t) {
   cairo_set_source_rgb(cr, r * 0.9, g * 0.75, b * 0.9);
 }
 
+// The order/fraction colour bar: `length` pixels wide, `height` high, centred on ymid; returns
+// its width.
+double draw_order_bar(cairo_t* c, double x, double ymid, double height, double length) {
+  for (int i = 0; i < static_cast<int>(length); ++i) {
+    order_colour(c, i / (length - 1));
+    cairo_rectangle(c, x + i, ymid - height / 2, 1, height);
+    cairo_fill(c);
+  }
+  return length;
+}
+
 // Feature-type colours, indexed by PathRole (the viewer's palette, viewer/src/colors.js).
 constexpr double kRoleRgb[][3] = {{31, 119, 180}, {214, 39, 40},   {148, 103, 189}, {255, 127, 14},
                                   {44, 160, 44},  {127, 127, 127}, {227, 119, 194}};
@@ -110,13 +121,7 @@ void legend_band(cairo_t* c, int W, double y0, int band, const std::vector<Legen
   if (order_bar) {
     label(bar_lo);
     x -= sw * 0.5;
-    const double bar = 3 * band;
-    for (int i = 0; i < static_cast<int>(bar); ++i) {
-      order_colour(c, i / (bar - 1));
-      cairo_rectangle(c, x + i, ymid - sw / 2, 1, sw);
-      cairo_fill(c);
-    }
-    x += bar + sw * 0.5;
+    x += draw_order_bar(c, x, ymid, sw, 3 * band) + sw * 0.5;
     label(bar_hi);
   }
   for (const auto& it : items) {
@@ -293,13 +298,7 @@ void render_layer_png(const Toolpath& tp, std::size_t index, const std::string& 
     cairo_set_source_rgb(c, 0.1, 0.1, 0.1);
     text(c, x, ymid + fs * 0.3, fs * 0.85, lo);
     x += text_width(c, fs * 0.85, lo) + sw * 0.5;
-    const double bar = 4 * band;
-    for (int i = 0; i < static_cast<int>(bar); ++i) {
-      order_colour(c, i / (bar - 1));
-      cairo_rectangle(c, x + i, ymid - sw / 2, 1, sw);
-      cairo_fill(c);
-    }
-    x += bar + sw * 0.5;
+    x += draw_order_bar(c, x, ymid, sw, 4 * band) + sw * 0.5;
     cairo_set_source_rgb(c, 0.1, 0.1, 0.1);
     text(c, x, ymid + fs * 0.3, fs * 0.85, hi + what);
   }
