@@ -3,9 +3,12 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <charconv>
+#include <cstdio>
 #include <cmath>
 #include <cstring>
+#include <memory>
 #include <numbers>
 
 #include "trellis/core/error.hpp"
@@ -73,9 +76,13 @@ char* put_feed(char* p, double mm_per_s) {
 
 class Writer {
  public:
+  // `stream`: the layers come from it (tp gives the source, job and labels only; no mixtures).
   Writer(const MachineProfile& p, const Toolpath& tp, double lift,
-         const std::vector<GcodeThumbnail>& thumbs)
-      : p_(p), tp_(tp), thumbnails_(thumbs), lift_(lift) {
+         const std::vector<GcodeThumbnail>& thumbs, const LayerSource* stream = nullptr,
+         std::size_t stream_layers = 0)
+      : p_(p), tp_(tp), thumbnails_(thumbs), layers_(stream ? *stream : layers_of(tp)),
+        layer_count_(stream ? stream_layers : tp.layers.size()), streamed_(stream != nullptr),
+        lift_(lift) {
     flavor_ = p.parsed_flavor();
     down_flow_ = p.down_flow_table();
     e_axis_ = flavor_ == Flavor::Marlin || (flavor_ == Flavor::Embedded && p.embedded_drive == "syringe");
@@ -91,7 +98,7 @@ class Writer {
     fastnum::advise_huge_pages(out_);
     plan_changes();
     header();
-    for (std::size_t li = 0; li < tp_.layers.size(); ++li) layer(li);
+    for (std::size_t li = 0; li < tp_.layers.size(); ++li) layer(li, tp_.layers[li]);
     footer();
     if (gcode_progress_supported(p_.flavor)) insert_progress();
     stats_.bytes = out_.size();
@@ -99,10 +106,69 @@ class Writer {
     return std::move(out_);
   }
 
+  // The same bytes in bounded memory: the text without the M73 lines goes to `raw` as it is
+  // written (flushed every few MB), then `put` receives it again with the M73 lines in place.
+  void stream(GcodeStats& stats, std::FILE* raw, const ByteWriter& put) {
+    constexpr std::size_t kFlush = std::size_t{4} << 20;
+    raw_ = raw;
+    out_.reserve(kFlush + (1u << 16));
+    plan_changes();
+    header();
+    layers_([&](std::size_t li, const Layer& l) {
+      layer(li, l);
+      if (out_.size() >= kFlush) flush_raw();
+    });
+    footer();
+    flush_raw();
+    copy_with_progress(put);
+    stats = stats_;
+  }
+
  private:
   void line(const std::string& s) {
     out_ += s;
     out_ += '\n';
+  }
+
+  // The M73 line for a mark `t` seconds into a print of `total` seconds.
+  static std::string progress_line(double t, double total) {
+    const int percent = total > 0 ? static_cast<int>(std::floor(100 * t / total)) : 0;
+    const long left = std::lround(std::ceil(std::max(0.0, total - t) / 60));
+    return "M73 P" + std::to_string(std::min(percent, 99)) + " R" + std::to_string(left) + "\n";
+  }
+
+  void flush_raw() {
+    if (!out_.empty() && std::fwrite(out_.data(), 1, out_.size(), raw_) != out_.size())
+      throw IoError(std::string("cannot write a temporary file: ") + std::strerror(errno));
+    flushed_ += out_.size();
+    out_.clear();
+  }
+
+  // The raw text read back with the M73 lines inserted at the marks (streamed writing).
+  void copy_with_progress(const ByteWriter& put) {
+    if (std::fflush(raw_) != 0)
+      throw IoError(std::string("cannot write a temporary file: ") + std::strerror(errno));
+    std::rewind(raw_);
+    const bool progress = gcode_progress_supported(p_.flavor);
+    std::string chunk(std::size_t{1} << 20, '\0');
+    std::size_t at = 0, mark = 0;
+    while (at < flushed_) {
+      std::size_t until = flushed_;
+      if (progress && mark < progress_marks_.size()) until = progress_marks_[mark].first;
+      if (at == until) {
+        const std::string l = progress_line(progress_marks_[mark].second, stats_.print_time_s);
+        put(l);
+        stats_.bytes += l.size();
+        ++mark;
+        continue;
+      }
+      const std::size_t n = std::fread(chunk.data(), 1, std::min(chunk.size(), until - at), raw_);
+      if (n == 0)
+        throw IoError(std::string("cannot read a temporary file: ") + std::strerror(errno));
+      put(std::string_view(chunk.data(), n));
+      at += n;
+    }
+    stats_.bytes += flushed_;
   }
 
   // M73 P<percent done> R<minutes left> at the start and at every layer, from the time estimate
@@ -113,10 +179,7 @@ class Writer {
     lines.reserve(progress_marks_.size());
     std::size_t added = 0;
     for (const auto& [at, t] : progress_marks_) {
-      const int percent = total > 0 ? static_cast<int>(std::floor(100 * t / total)) : 0;
-      const long left = std::lround(std::ceil(std::max(0.0, total - t) / 60));
-      lines.push_back("M73 P" + std::to_string(std::min(percent, 99)) + " R" +
-                      std::to_string(left) + "\n");
+      lines.push_back(progress_line(t, total));
       added += lines.back().size();
     }
     // In place, from the back: each stretch moves up by the lines inserted before it (no second
@@ -136,10 +199,11 @@ class Writer {
 
   void placement() {
     BBox3 box;
-    for (const auto& l : tp_.layers)
+    layers_([&](std::size_t, const Layer& l) {
       for (const auto& path : l.paths)
         for (const auto& q : path.points) box.add(q);
-    const Vec2 shift = placement_offset(tp_, p_);
+    });
+    const Vec2 shift = placement_offset(box, p_);
     dx_ = shift.x;
     dy_ = shift.y;
     if (flavor_ == Flavor::Embedded)
@@ -175,7 +239,7 @@ class Writer {
     line(std::string("; generated by Trellis ") + TRELLIS_VERSION + " (" + p_.flavor + ")");
     for (const auto& t : thumbnails_) out_ += thumbnail_block(t);
     if (!tp_.source.empty()) line("; source: " + tp_.source);
-    line(";LAYER_COUNT:" + std::to_string(tp_.layers.size()));
+    line(";LAYER_COUNT:" + std::to_string(layer_count_));
     // The job that made the file, for `trellis rerun`.
     for (std::size_t a = 0; a < tp_.job.size();) {
       const std::size_t b = std::min(tp_.job.find('\n', a), tp_.job.size());
@@ -242,7 +306,7 @@ class Writer {
       out_ += '\n';
     }
     line("; estimated printing time (normal mode) = " + duration_text(stats_.print_time_s));
-    line("; total layers count = " + std::to_string(tp_.layers.size()));
+    line("; total layers count = " + std::to_string(layer_count_));
     out_ += "; end: paths ";
     out_ += std::to_string(stats_.paths);
     out_ += ", filament ";
@@ -255,9 +319,8 @@ class Writer {
     out_.append(buf, static_cast<std::size_t>(put_feed(buf, mm_per_s) - buf));
   }
 
-  void layer(std::size_t li) {
-    const Layer& l = tp_.layers[li];
-    progress_marks_.push_back({out_.size(), stats_.print_time_s});
+  void layer(std::size_t li, const Layer& l) {
+    progress_marks_.push_back({flushed_ + out_.size(), stats_.print_time_s});
     out_ += ";LAYER:";
     out_ += std::to_string(li);
     out_ += "\n;Z:";
@@ -517,7 +580,26 @@ class Writer {
     double t;
     std::string command;
   };
+  // Streamed layers: the tools used and whether a prime tower is there, in one pass; mixtures
+  // (their look-ahead reaches back over paths) need the whole toolpath.
+  void plan_tools_streamed() {
+    bool tower = false;
+    select_tools_ = flavor_ == Flavor::Marlin && p_.tool_count > 1;
+    layers_([&](std::size_t, const Layer& l) {
+      for (const auto& p : l.paths) {
+        if (p.points.size() < 2) continue;
+        if (!p.mixture.empty()) throw Error("streamed G-code cannot carry mixtures (internal)");
+        tower = tower || p.role == PathRole::Purge;
+        if (select_tools_ &&
+            std::find(tools_used_.begin(), tools_used_.end(), p.tool) == tools_used_.end())
+          tools_used_.push_back(p.tool);
+      }
+    });
+    stats_.lookahead = tower || p_.gradient_mode == "tools" ? 0.0 : p_.lookahead;
+  }
+
   void plan_changes() {
+    if (streamed_) return plan_tools_streamed();
     std::vector<const Path*> paths;
     bool tower = false;
     for (const auto& l : tp_.layers)
@@ -714,6 +796,11 @@ class Writer {
   const MachineProfile& p_;
   const Toolpath& tp_;
   const std::vector<GcodeThumbnail>& thumbnails_;
+  LayerSource layers_;         // tp_'s layers, or the streamed ones
+  std::size_t layer_count_ = 0;
+  bool streamed_ = false;
+  std::FILE* raw_ = nullptr;   // streamed: the text so far, without M73 lines
+  std::size_t flushed_ = 0;    // bytes already in raw_
   std::vector<std::pair<std::size_t, double>> progress_marks_;  // (byte offset, time so far)
   std::string_view last_type_;
   double last_width_ = -1, last_height_ = -1;
@@ -751,6 +838,12 @@ class Writer {
   }
 };
 
+std::string lift_warning(double lift) {
+  return fmt::format("the toolpath reaches Z {:.3f} mm, below the bed: lifted by {:.3f} mm so that "
+                     "its lowest point is at Z 0 (placement.lift = false refuses instead)",
+                     -lift, lift);
+}
+
 }  // namespace
 
 std::string write_gcode(const Toolpath& toolpath, const MachineProfile& profile,
@@ -769,11 +862,7 @@ std::string write_gcode(const Toolpath& toolpath, const MachineProfile& profile,
         for (auto& q : path.points) q.z += lift;
     }
     tp = &lifted;
-    s.warnings.emplace_back(
-        "lifted", fmt::format("the toolpath reaches Z {:.3f} mm, below the bed: lifted by {:.3f} mm "
-                              "so that its lowest point is at Z 0 (placement.lift = false refuses "
-                              "instead)",
-                              -lift, lift));
+    s.warnings.emplace_back("lifted", lift_warning(lift));
   }
   for (auto& w : check_for_machine(*tp, profile)) s.warnings.emplace_back(w.kind, w.message);
   auto warnings = std::move(s.warnings);
@@ -781,6 +870,46 @@ std::string write_gcode(const Toolpath& toolpath, const MachineProfile& profile,
   s.warnings = std::move(warnings);
   if (stats) *stats = s;
   return out;
+}
+
+GcodeStats write_gcode_stream(const std::string& path, const Toolpath& meta,
+                              std::size_t layer_count, const LayerSource& layers,
+                              const MachineProfile& profile,
+                              const std::vector<GcodeThumbnail>& thumbnails) {
+  BBox3 box;
+  std::size_t paths = 0;
+  layers([&](std::size_t, const Layer& l) {
+    paths += l.paths.size();
+    for (const auto& path : l.paths)
+      for (const auto& q : path.points) box.add(q);
+  });
+  if (paths == 0) throw GeometryError("the toolpath has no paths to write");
+  GcodeStats s;
+  const double lift = placement_lift(box, profile);
+  LayerSource placed = layers;
+  if (lift > 0) {
+    placed = [&layers, lift](const LayerVisitor& visit) {
+      layers([&](std::size_t i, const Layer& l) {
+        Layer up = l;
+        up.z += lift;
+        for (auto& path : up.paths)
+          for (auto& q : path.points) q.z += lift;
+        visit(i, up);
+      });
+    };
+    box.min.z += lift;
+    box.max.z += lift;
+    s.warnings.emplace_back("lifted", lift_warning(lift));
+  }
+  for (auto& w : check_for_machine(placed, box, profile)) s.warnings.emplace_back(w.kind, w.message);
+  auto warnings = std::move(s.warnings);
+  std::unique_ptr<std::FILE, int (*)(std::FILE*)> raw(std::tmpfile(), &std::fclose);
+  if (!raw) throw IoError(std::string("cannot create a temporary file: ") + std::strerror(errno));
+  write_file_atomic_with(path, [&](const ByteWriter& put) {
+    Writer(profile, meta, lift, thumbnails, &placed, layer_count).stream(s, raw.get(), put);
+  });
+  s.warnings = std::move(warnings);
+  return s;
 }
 
 GcodeStats write_gcode_file(const std::string& path, const Toolpath& toolpath,
