@@ -16,8 +16,11 @@ trap 'rm -rf "$dir"' EXIT
 peak() {  # layer height, extra options → "peak_kB wall_time file_bytes"
   h=$1
   shift
-  /usr/bin/time -v "$T" slice "$D" --machine profiles/prusa_mk4s_lwpla.toml --layer-height "$h" \
-    -o "$dir/out.gcode" "$@" >"$dir/out.txt" 2>"$dir/time.txt"
+  if ! /usr/bin/time -v "$T" slice "$D" --machine profiles/prusa_mk4s_lwpla.toml --layer-height "$h" \
+    -o "$dir/out.gcode" "$@" >"$dir/out.txt" 2>"$dir/time.txt"; then
+    head -3 "$dir/time.txt" >&2
+    exit 1
+  fi
   kb=$(sed -n 's/.*Maximum resident set size (kbytes): //p' "$dir/time.txt")
   s=$(sed -n 's/.*Elapsed (wall clock) time (h:mm:ss or m:ss): //p' "$dir/time.txt")
   echo "$kb $s $(wc -c <"$dir/out.gcode")"

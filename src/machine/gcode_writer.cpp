@@ -202,6 +202,7 @@ class Writer {
     layers_([&](std::size_t, const Layer& l) {
       for (const auto& path : l.paths)
         for (const auto& q : path.points) box.add(q);
+      if (streamed_) plan_tools_streamed(l);  // the same pass
     });
     const Vec2 shift = placement_offset(box, p_);
     dx_ = shift.x;
@@ -580,26 +581,25 @@ class Writer {
     double t;
     std::string command;
   };
-  // Streamed layers: the tools used and whether a prime tower is there, in one pass; mixtures
+  // Streamed layers, one at a time: the tools used and whether a prime tower is there; mixtures
   // (their look-ahead reaches back over paths) need the whole toolpath.
-  void plan_tools_streamed() {
-    bool tower = false;
+  void plan_tools_streamed(const Layer& l) {
     select_tools_ = flavor_ == Flavor::Marlin && p_.tool_count > 1;
-    layers_([&](std::size_t, const Layer& l) {
-      for (const auto& p : l.paths) {
-        if (p.points.size() < 2) continue;
-        if (!p.mixture.empty()) throw Error("streamed G-code cannot carry mixtures (internal)");
-        tower = tower || p.role == PathRole::Purge;
-        if (select_tools_ &&
-            std::find(tools_used_.begin(), tools_used_.end(), p.tool) == tools_used_.end())
-          tools_used_.push_back(p.tool);
-      }
-    });
-    stats_.lookahead = tower || p_.gradient_mode == "tools" ? 0.0 : p_.lookahead;
+    for (const auto& p : l.paths) {
+      if (p.points.size() < 2) continue;
+      if (!p.mixture.empty()) throw Error("streamed G-code cannot carry mixtures (internal)");
+      tower_ = tower_ || p.role == PathRole::Purge;
+      if (select_tools_ &&
+          std::find(tools_used_.begin(), tools_used_.end(), p.tool) == tools_used_.end())
+        tools_used_.push_back(p.tool);
+    }
   }
 
   void plan_changes() {
-    if (streamed_) return plan_tools_streamed();
+    if (streamed_) {
+      stats_.lookahead = tower_ || p_.gradient_mode == "tools" ? 0.0 : p_.lookahead;
+      return;
+    }
     std::vector<const Path*> paths;
     bool tower = false;
     for (const auto& l : tp_.layers)
@@ -799,6 +799,7 @@ class Writer {
   LayerSource layers_;         // tp_'s layers, or the streamed ones
   std::size_t layer_count_ = 0;
   bool streamed_ = false;
+  bool tower_ = false;         // streamed: a prime tower is printed
   std::FILE* raw_ = nullptr;   // streamed: the text so far, without M73 lines
   std::size_t flushed_ = 0;    // bytes already in raw_
   std::vector<std::pair<std::size_t, double>> progress_marks_;  // (byte offset, time so far)

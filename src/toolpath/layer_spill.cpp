@@ -14,11 +14,13 @@ void put(std::string& out, const T& v) {
   out.append(reinterpret_cast<const char*>(&v), sizeof v);
 }
 
-template <class T>
-void put_vector(std::string& out, const std::vector<T>& v) {
-  put(out, static_cast<std::uint64_t>(v.size()));
-  out.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
-}
+
+// A path's fixed fields, written and read in one piece.
+struct PathHead {
+  std::int32_t role, tool, part, unused;
+  double width, height, speed, power, filament, temperature;
+  std::uint64_t mixture, points;
+};
 
 [[noreturn]] void fail(const char* what) {
   throw IoError(std::string(what) + " a temporary layer file: " + std::strerror(errno));
@@ -41,12 +43,11 @@ void LayerSpill::append(const Layer& layer) {
   put(buffer_, layer.z);
   put(buffer_, static_cast<std::uint64_t>(layer.paths.size()));
   for (const Path& p : layer.paths) {
-    put(buffer_, static_cast<std::int32_t>(p.role));
-    put(buffer_, static_cast<std::int32_t>(p.tool));
-    put(buffer_, static_cast<std::int32_t>(p.part));
-    for (double v : {p.width, p.height, p.speed, p.power, p.filament, p.temperature}) put(buffer_, v);
-    put_vector(buffer_, p.mixture);
-    put_vector(buffer_, p.points);
+    const PathHead h{static_cast<std::int32_t>(p.role), p.tool, p.part, 0, p.width, p.height,
+                     p.speed, p.power, p.filament, p.temperature, p.mixture.size(), p.points.size()};
+    put(buffer_, h);
+    buffer_.append(reinterpret_cast<const char*>(p.mixture.data()), p.mixture.size() * sizeof(double));
+    buffer_.append(reinterpret_cast<const char*>(p.points.data()), p.points.size() * sizeof(Vec3));
   }
   ++layers_;
   if (buffer_.size() > (1u << 20)) flush();
@@ -77,26 +78,22 @@ void LayerSpill::read(void* data, std::size_t n) {
 bool LayerSpill::next(Layer& layer) {
   if (writing_) throw Error("LayerSpill: next() before rewind()");
   if (read_layers_ == layers_) return false;
-  auto get = [&](auto& v) { read(&v, sizeof v); };
-  auto get_vector = [&](auto& v) {
-    std::uint64_t n = 0;
-    get(n);
-    v.resize(n);
-    read(v.data(), n * sizeof(v[0]));
-  };
-  get(layer.z);
+  read(&layer.z, sizeof layer.z);
   std::uint64_t paths = 0;
-  get(paths);
+  read(&paths, sizeof paths);
   layer.paths.resize(paths);
   for (Path& p : layer.paths) {
-    std::int32_t role = 0, tool = 0, part = 0;
-    get(role), get(tool), get(part);
-    p.role = static_cast<PathRole>(role);
-    p.tool = tool;
-    p.part = part;
-    for (double* v : {&p.width, &p.height, &p.speed, &p.power, &p.filament, &p.temperature}) get(*v);
-    get_vector(p.mixture);
-    get_vector(p.points);
+    PathHead h;
+    read(&h, sizeof h);
+    p.role = static_cast<PathRole>(h.role);
+    p.tool = h.tool;
+    p.part = h.part;
+    p.width = h.width, p.height = h.height, p.speed = h.speed, p.power = h.power;
+    p.filament = h.filament, p.temperature = h.temperature;
+    p.mixture.resize(h.mixture);
+    read(p.mixture.data(), h.mixture * sizeof(double));
+    p.points.resize(h.points);
+    read(p.points.data(), h.points * sizeof(Vec3));
   }
   ++read_layers_;
   return true;

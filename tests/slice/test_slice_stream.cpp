@@ -86,7 +86,7 @@ TEST(SliceStream, FieldRouteLayersAreTheWholeRunsForAnyRunLengthAndTokens) {
 TEST(SliceStream, MeshRouteLayersAreTheWholeRuns) {
   SliceJob job;
   job.input = kRoot + "/examples/designs/concave_cylinder.obj";
-  job.planar.layer_height = 0.5;
+  job.planar.layer_height = 0.2;
   for (const SliceStreamOptions o : {SliceStreamOptions{1, 2}, SliceStreamOptions{4, 3}})
     expect_streams_as_whole(job, o);
 }
