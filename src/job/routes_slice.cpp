@@ -259,12 +259,35 @@ void plate_report(const Job& job, const std::vector<PlatePart>& placed,
   }
 }
 
+std::string plate_summary(std::size_t parts, bool sequential, std::size_t layers, double h,
+                          std::size_t paths, const GcodeStats& g) {
+  return fmt::format("plate of {} parts{}: {} layers of {} mm, {} paths, ~{} min", parts,
+                     sequential ? " printed one after another" : "", layers, fixed(h, 3), paths,
+                     fixed(g.print_time_s / 60, 1));
+}
+
+// A plate's layers (each holding layer i of every part, paths tagged with their part) reordered
+// to print part by part: part 1's layers, then part 2's, … (plate.sequence = parts).
+std::vector<Layer> part_by_part(std::vector<Layer> plate_layers, const std::vector<SlicePart>& parts,
+                                double h) {
+  std::vector<Layer> out;
+  for (std::size_t k = 0; k < parts.size(); ++k)
+    for (std::size_t i = 0; i < parts[k].layers && i < plate_layers.size(); ++i) {
+      Layer layer;
+      layer.z = static_cast<double>(i + 1) * h;
+      for (Path& path : plate_layers[i].paths)
+        if (path.part == static_cast<int>(k + 1)) layer.paths.push_back(std::move(path));
+      out.push_back(std::move(layer));
+    }
+  return out;
+}
+
 // A plate (or one part) whose G-code alone is asked for, in bounded memory: each part's layers
 // streamed (slice/pipeline.hpp) into a temporary file of its own, placed; plate layer i then read
 // as layer i of every part that tall, in the job's order, for each pass of the writer.
 JobResult slice_plate_streamed(const Job& job, const Config& c, std::vector<SlicePart>& parts,
                                const std::vector<PlatePart>& placed, std::size_t total,
-                               Diagnostics& diag, const Progress& progress) {
+                               bool sequential, Diagnostics& diag, const Progress& progress) {
   JobResult out;
   const bool plate = !job.parts.empty();
   const double h = c.machine.layer_height;
@@ -292,7 +315,16 @@ JobResult slice_plate_streamed(const Job& job, const Config& c, std::vector<Slic
                     to_string(r.route) + " route)";
   }
   if (plate) meta.source = fmt::format("trellis slice plate ({} parts)", parts.size());
-  const LayerSource layers = [&](const LayerVisitor& visit) {
+  // Part by part: each part's layers in turn.
+  const LayerSource one_by_one = [&](const LayerVisitor& visit) {
+    std::size_t i = 0;
+    for (auto& s : spills) s->visit([&](std::size_t, const Layer& layer) { visit(i++, layer); });
+  };
+  if (sequential) {
+    total = 0;
+    for (auto& s : spills) total += s->layers();
+  }
+  const LayerSource layers = sequential ? one_by_one : [&](const LayerVisitor& visit) {
     for (auto& s : spills) s->rewind();
     Layer layer, piece;
     for (std::size_t i = 0; i < total; ++i) {
@@ -309,8 +341,7 @@ JobResult slice_plate_streamed(const Job& job, const Config& c, std::vector<Slic
   if (plate) m.center = false;  // a plate is placed already: its parts' x, y are bed coordinates
   const GcodeStats g = write_gcode_streamed(job.output, meta, total, layers, job, m, out, diag);
   plate_report(job, placed, parts, total, paths, g, diag, out);
-  out.summary = fmt::format("plate of {} parts: {} layers of {} mm, {} paths, ~{} min", placed.size(),
-                            total, fixed(h, 3), paths, fixed(g.print_time_s / 60, 1));
+  out.summary = plate_summary(placed.size(), sequential, total, h, paths, g);
   return out;
 }
 
@@ -323,6 +354,7 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag, const 
   const bool plate = !job.parts.empty();
   const std::vector<PlatePart> placed = plate ? job.parts : std::vector<PlatePart>{PlatePart{}};
   const double h = c.machine.layer_height;
+  const bool sequential = plate && c.plate.sequence == "parts";
   std::vector<SlicePart> parts;
   // First each part's extent and printed layers (its ends found plane by plane), for the plate
   // check and the shards' ranges before any layer is sliced.
@@ -358,6 +390,16 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag, const 
                           ? BBox2{{-m.bed_x / 2, -m.bed_y / 2}, {m.bed_x / 2, m.bed_y / 2}}
                           : BBox2{{0, 0}, {m.bed_x, m.bed_y}};
     check_plate(fp, bed, c.plate.clearance, job.origin);
+    if (sequential) {
+      if (job.shards)
+        throw SettingError("a plate printed part by part (plate.sequence = parts) does not shard "
+                           "by layers; shard it per layer (plate.sequence = layers)",
+                           {job.origin, 0, "plate.sequence"});
+      std::vector<double> heights;
+      for (const auto& p : parts) heights.push_back(static_cast<double>(p.layers) * h);
+      check_sequential(fp, heights, m.extruder_clearance_radius, m.extruder_clearance_height,
+                       job.origin);
+    }
   }
   // Plate layer i holds layer i of every part that tall; its work is the parts' XY areas.
   std::size_t total = 0;
@@ -369,7 +411,7 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag, const 
   const auto [a, b] = job.shards ? shard_range(work, job.shard, job.shards)
                                  : std::pair<std::size_t, std::size_t>{0, total};
   if (!job.shards && output_alone(job))
-    return slice_plate_streamed(job, c, parts, placed, total, diag, progress);
+    return slice_plate_streamed(job, c, parts, placed, total, sequential, diag, progress);
   Toolpath tp;
   tp.layers.resize(b - a);
   for (std::size_t i = a; i < b; ++i) tp.layers[i - a].z = static_cast<double>(i + 1) * h;
@@ -400,6 +442,7 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag, const 
   if (plate) tp.source = fmt::format("trellis slice plate ({} parts)", parts.size());
   if (job.shards)
     return shard_written(job, tp, a, b, total, fmt::format("{} paths", paths), std::move(out));
+  if (sequential) tp.layers = part_by_part(std::move(tp.layers), parts, h);
   if (!job.output.empty()) note_planar_in_bath(c.machine, "slice", diag);
   GcodeStats g;
   write_slice_main(job, c, tp, out, diag, &g);
@@ -407,13 +450,12 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag, const 
     write_toolpath_with_job(job.toolpath, tp, job);
     out.files.push_back(job.toolpath);
   }
-  plate_report(job, placed, parts, total, paths, g, diag, out);
+  plate_report(job, placed, parts, tp.layers.size(), paths, g, diag, out);
   RenderOptions ro;
   ro.colour_by_role = true;
   ro.size_px = c.output.image_size;
   previews(tp, job.preview, c.output.preview_layers, ro, out);
-  out.summary = fmt::format("plate of {} parts: {} layers of {} mm, {} paths, ~{} min", placed.size(),
-                            total, fixed(h, 3), paths, fixed(g.print_time_s / 60, 1));
+  out.summary = plate_summary(placed.size(), sequential, tp.layers.size(), h, paths, g);
   return out;
 }
 

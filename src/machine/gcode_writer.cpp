@@ -415,7 +415,8 @@ class Writer {
     const bool far = known_ && d >= p_.min_travel;
     if (flavor_ == Flavor::Marlin && far && printed_ && p_.retract_length > 0) retract();
     const double hop = far ? p_.z_hop : 0;
-    const double safe_z = known_ ? std::max(pos_.z, q.z) + hop : q.z + std::max(hop, 1.0);
+    const double safe_z = std::max(known_ ? std::max(pos_.z, q.z) + hop : q.z + std::max(hop, 1.0),
+                                   std::exchange(rise_to_, 0.0));
     if (!known_ || safe_z > pos_.z + 1e-9) move_z(safe_z);
     move_xy(q, d);
     if (std::abs(pos_.z - q.z) > 1e-9) move_z(q.z);
@@ -687,6 +688,7 @@ class Writer {
       pp = &path_copy;
     }
     const Path& path = *pp;
+    rise_over_finished_parts(path);
     travel_to(path.points.front());
     feature_comments(path);
     emit_changes(1, 0.0);
@@ -726,6 +728,17 @@ class Writer {
     emit_changes(SIZE_MAX, 0.0);  // any left for this path (rounding at its very end)
     ++path_index_;
     printed_ = true;
+  }
+
+  // A plate printed part by part: the travel to the next part, which starts lower than what is
+  // printed, first rises above every finished part (plus the Z hop, at least 1 mm), so the nozzle
+  // never passes over one below its top. Per-layer plates and single parts never start lower.
+  void rise_over_finished_parts(const Path& path) {
+    if (path.part == 0) return;
+    if (path.part != sequence_part_ && path.points.front().z < finished_top_ - 1e-9)
+      rise_to_ = finished_top_ + std::max(p_.z_hop, 1.0);
+    sequence_part_ = path.part;
+    for (const Vec3& q : path.points) finished_top_ = std::max(finished_top_, q.z);
   }
 
   // ;TYPE:, ;WIDTH:, ;HEIGHT: as PrusaSlicer writes them: before the path, when they change.
@@ -800,6 +813,9 @@ class Writer {
   std::size_t layer_count_ = 0;
   bool streamed_ = false;
   bool tower_ = false;         // streamed: a prime tower is printed
+  int sequence_part_ = 0;      // plates: the part printed last
+  double finished_top_ = 0;    // plates: highest point printed so far
+  double rise_to_ = 0;         // the next travel's least height (0 = none)
   std::FILE* raw_ = nullptr;   // streamed: the text so far, without M73 lines
   std::size_t flushed_ = 0;    // bytes already in raw_
   std::vector<std::pair<std::size_t, double>> progress_marks_;  // (byte offset, time so far)
