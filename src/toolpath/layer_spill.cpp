@@ -40,6 +40,9 @@ LayerSpill::~LayerSpill() {
 
 void LayerSpill::append(const Layer& layer) {
   if (!writing_) throw Error("LayerSpill: layer appended after reading started");
+  // The layer's byte count first, so that reading takes it in one piece.
+  const std::size_t start = buffer_.size();
+  put(buffer_, std::uint64_t{0});
   put(buffer_, layer.z);
   put(buffer_, static_cast<std::uint64_t>(layer.paths.size()));
   for (const Path& p : layer.paths) {
@@ -49,6 +52,8 @@ void LayerSpill::append(const Layer& layer) {
     buffer_.append(reinterpret_cast<const char*>(p.mixture.data()), p.mixture.size() * sizeof(double));
     buffer_.append(reinterpret_cast<const char*>(p.points.data()), p.points.size() * sizeof(Vec3));
   }
+  const std::uint64_t size = buffer_.size() - start - sizeof(std::uint64_t);
+  std::memcpy(buffer_.data() + start, &size, sizeof size);
   ++layers_;
   if (buffer_.size() > (1u << 20)) flush();
 }
@@ -65,7 +70,6 @@ void LayerSpill::rewind() {
     flush();
     if (std::fflush(file_) != 0) fail("cannot write");
     writing_ = false;
-    buffer_.shrink_to_fit();
   }
   std::rewind(file_);
   read_layers_ = 0;
@@ -78,22 +82,31 @@ void LayerSpill::read(void* data, std::size_t n) {
 bool LayerSpill::next(Layer& layer) {
   if (writing_) throw Error("LayerSpill: next() before rewind()");
   if (read_layers_ == layers_) return false;
-  read(&layer.z, sizeof layer.z);
+  std::uint64_t size = 0;
+  read(&size, sizeof size);
+  buffer_.resize(size);
+  read(buffer_.data(), size);
+  const char* at = buffer_.data();
+  auto take = [&](void* to, std::size_t n) {
+    std::memcpy(to, at, n);
+    at += n;
+  };
+  take(&layer.z, sizeof layer.z);
   std::uint64_t paths = 0;
-  read(&paths, sizeof paths);
+  take(&paths, sizeof paths);
   layer.paths.resize(paths);
   for (Path& p : layer.paths) {
     PathHead h;
-    read(&h, sizeof h);
+    take(&h, sizeof h);
     p.role = static_cast<PathRole>(h.role);
     p.tool = h.tool;
     p.part = h.part;
     p.width = h.width, p.height = h.height, p.speed = h.speed, p.power = h.power;
     p.filament = h.filament, p.temperature = h.temperature;
     p.mixture.resize(h.mixture);
-    read(p.mixture.data(), h.mixture * sizeof(double));
+    take(p.mixture.data(), h.mixture * sizeof(double));
     p.points.resize(h.points);
-    read(p.points.data(), h.points * sizeof(Vec3));
+    take(p.points.data(), h.points * sizeof(Vec3));
   }
   ++read_layers_;
   return true;

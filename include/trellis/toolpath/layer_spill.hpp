@@ -33,7 +33,7 @@ class LayerSpill {
   void flush();
   void read(void* data, std::size_t n);
   std::FILE* file_ = nullptr;
-  std::string buffer_;
+  std::string buffer_;  // writing: bytes not yet in the file; reading: the current layer
   std::size_t layers_ = 0, bytes_ = 0, read_layers_ = 0;
   bool writing_ = true;
 };
