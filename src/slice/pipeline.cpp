@@ -243,8 +243,17 @@ std::vector<LayerOutline> outlines_at(const SlicedDesign& d, const SliceJob& job
 // and the top (the extent of a design is a bound: blends, clip boxes).
 std::pair<std::size_t, std::size_t> printed_planes(const SlicedDesign& d, const SliceJob& job,
                                                    SliceResult& r, const Progress& progress) {
+  // An empty plane's samples count (the whole run samples it too); a printed plane is sampled
+  // again with its layer.
   auto empty_at = [&](double z) {
-    return outlines_at(d, job, r, {z}, &r.field_stats, progress)[0].regions.empty();
+    SliceStats probe;
+    const bool empty = outlines_at(d, job, r, {z}, &probe, progress)[0].regions.empty();
+    if (empty) {
+      r.field_stats.samples += probe.samples;
+      r.field_stats.blocks += probe.blocks;
+      r.field_stats.skipped_blocks += probe.skipped_blocks;
+    }
+    return empty;
   };
   std::size_t first = 0, last = d.zs.size();
   while (first < last && empty_at(d.zs[first])) ++first;

@@ -73,6 +73,8 @@ void expect_streams_as_whole(const SliceJob& job, const SliceStreamOptions& opti
   const TravelStats t = travel_stats(whole.toolpath);
   EXPECT_EQ(s.travel.moves, t.moves);
   EXPECT_EQ(s.travel.length, t.length);
+  EXPECT_EQ(s.field_stats.samples, whole.field_stats.samples);
+  EXPECT_EQ(s.field_stats.blocks, whole.field_stats.blocks);
 }
 
 TEST(SliceStream, FieldRouteLayersAreTheWholeRunsForAnyRunLengthAndTokens) {
