@@ -221,7 +221,8 @@ void add_routes(CLI::App& app, int argc, char** argv) {
                      : std::string();
     };
     if (spec.toolpath)
-      cmd->add_option("--toolpath", o->toolpath, "also write the toolpath JSON" + whole("--preview"));
+      cmd->add_option("--toolpath", o->toolpath,
+                      "also write the toolpath JSON" + whole("--preview"));
     cmd->add_option("--preview", o->preview,
                     "folder for PNG previews (layer_0000.png, ...)" + whole("--toolpath"));
     cmd->add_option("--set", o->sets, "any setting: section.key=value (repeatable; `trellis settings`)");

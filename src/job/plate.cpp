@@ -151,11 +151,12 @@ void check_sequential(const std::vector<PartFootprint>& parts, const std::vector
                       double radius, double height, const std::string& origin) {
   constexpr double eps = 1e-9;
   if (!(radius > 0) || !(height > 0))
-    throw SettingError("plate.sequence = parts prints each part whole before the next, which "
-                       "needs the machine's extruder clearance: set machine.extruder_clearance_radius "
-                       "and machine.extruder_clearance_height in the profile (PrusaSlicer's "
-                       "extruder_clearance_radius/_height), or print per layer (plate.sequence = layers)",
-                       {origin, 0, "plate.sequence"});
+    throw SettingError(
+        "plate.sequence = parts prints each part whole before the next, which "
+        "needs the machine's extruder clearance: set machine.extruder_clearance_radius "
+        "and machine.extruder_clearance_height in the profile (PrusaSlicer's "
+        "extruder_clearance_radius/_height), or print per layer (plate.sequence = layers)",
+        {origin, 0, "plate.sequence"});
   for (std::size_t i = 0; i + 1 < parts.size(); ++i)
     if (heights[i] > height + eps)
       throw SettingError(

@@ -251,9 +251,12 @@ void plate_report(const Job& job, const std::vector<PlatePart>& placed,
     j["print_time_s"] = g.print_time_s;
     j["parts"] = nlohmann::ordered_json::array();
     for (std::size_t k = 0; k < placed.size(); ++k)
-      j["parts"].push_back({{"label", placed[k].label}, {"input", fs::path(placed[k].input).filename().string()},
-                            {"x_mm", placed[k].x}, {"y_mm", placed[k].y},
-                            {"rotation_deg", placed[k].rotation}, {"layers", parts[k].layers}});
+      j["parts"].push_back({{"label", placed[k].label},
+                            {"input", fs::path(placed[k].input).filename().string()},
+                            {"x_mm", placed[k].x},
+                            {"y_mm", placed[k].y},
+                            {"rotation_deg", placed[k].rotation},
+                            {"layers", parts[k].layers}});
     write_file_atomic(job.report, with_job(j.dump(2) + "\n", job, job.report, true, &diag));
     out.files.push_back(job.report);
   }
@@ -268,8 +271,8 @@ std::string plate_summary(std::size_t parts, bool sequential, std::size_t layers
 
 // A plate's layers (each holding layer i of every part, paths tagged with their part) reordered
 // to print part by part: part 1's layers, then part 2's, … (plate.sequence = parts).
-std::vector<Layer> part_by_part(std::vector<Layer> plate_layers, const std::vector<SlicePart>& parts,
-                                double h) {
+std::vector<Layer> part_by_part(std::vector<Layer> plate_layers,
+                                const std::vector<SlicePart>& parts, double h) {
   std::vector<Layer> out;
   for (std::size_t k = 0; k < parts.size(); ++k)
     for (std::size_t i = 0; i < parts[k].layers && i < plate_layers.size(); ++i) {
@@ -299,16 +302,19 @@ JobResult slice_plate_streamed(const Job& job, const Config& c, std::vector<Slic
     if (plate) meta.part_labels.push_back(placed[k].label);
     spills.push_back(std::make_unique<LayerSpill>());
     LayerSpill& spill = *spills.back();
-    const SliceResult r = stream_slice(p.sj, [&](std::size_t, Layer&& layer) {
-      for (Path& path : layer.paths) {
-        if (plate) {
-          for (Vec3& q : path.points) q = place_point(placed[k], p.extent, q);
-          path.part = static_cast<int>(k + 1);
-        }
-        ++paths;
-      }
-      spill.append(layer);
-    }, progress);
+    const SliceResult r = stream_slice(
+        p.sj,
+        [&](std::size_t, Layer&& layer) {
+          for (Path& path : layer.paths) {
+            if (plate) {
+              for (Vec3& q : path.points) q = place_point(placed[k], p.extent, q);
+              path.part = static_cast<int>(k + 1);
+            }
+            ++paths;
+          }
+          spill.append(layer);
+        },
+        progress);
     warn_repaired(p.sj, r, diag);
     if (!plate)
       meta.source = "trellis slice " + fs::path(p.sj.input).filename().string() + " (" +
@@ -392,9 +398,10 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag, const 
     check_plate(fp, bed, c.plate.clearance, job.origin);
     if (sequential) {
       if (job.shards)
-        throw SettingError("a plate printed part by part (plate.sequence = parts) does not shard "
-                           "by layers; shard it per layer (plate.sequence = layers)",
-                           {job.origin, 0, "plate.sequence"});
+        throw SettingError(
+            "a plate printed part by part (plate.sequence = parts) does not shard "
+            "by layers; shard it per layer (plate.sequence = layers)",
+            {job.origin, 0, "plate.sequence"});
       std::vector<double> heights;
       for (const auto& p : parts) heights.push_back(static_cast<double>(p.layers) * h);
       check_sequential(fp, heights, m.extruder_clearance_radius, m.extruder_clearance_height,
@@ -470,7 +477,8 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
   // (the toolpath JSON, previews and graded slicing hold the whole toolpath).
   std::optional<LayerSpill> spill;
   if (sj.strategy == 0 && output_alone(job)) spill.emplace();
-  SliceResult r = spill ? stream_slice(sj, [&](std::size_t, Layer&& l) { spill->append(l); }, progress)
+  SliceResult r = spill ? stream_slice(
+                              sj, [&](std::size_t, Layer&& l) { spill->append(l); }, progress)
                         : run_slice(sj, progress);
   const std::size_t layers = r.streamed ? r.layers : r.outlines.size();
   if (r.repaired)
@@ -523,22 +531,23 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
   if (sj.strategy != 0)
     out.summary = fmt::format(
         "strategy {}: {} colours, {} faces, {} paths, {} {} changes (look-ahead {} mm), {} purges "
-        "({} mm3), gradient error mean {} max {} (bound {}), shortest {} mm; {} route, {} layers, ~{} min",
+        "({} mm3), gradient error mean {} max {} (bound {}), shortest {} mm; {} route, {} layers, "
+        "~{} min",
         sj.strategy,
         r.fgm.quantized_from ? fmt::format("{} (quantized from {})", sj.tools, r.fgm.quantized_from)
                              : std::to_string(sj.fgm.palette.colors),
-        r.fgm.faces, r.fgm.paths, g.gradient_changes,
-        c.machine.gradient_mode, fixed(g.lookahead, 0), r.fgm.purges,
-        fixed(r.fgm.purge_volume, 0), fixed(r.fgm.error_mean, 4), fixed(r.fgm.error_max, 4),
-        fixed(r.fgm.error_bound, 4), fixed(r.fgm.shortest_path, 2), to_string(r.route),
-        layers, fixed(g.print_time_s / 60, 1));
+        r.fgm.faces, r.fgm.paths, g.gradient_changes, c.machine.gradient_mode,
+        fixed(g.lookahead, 0), r.fgm.purges, fixed(r.fgm.purge_volume, 0),
+        fixed(r.fgm.error_mean, 4), fixed(r.fgm.error_max, 4), fixed(r.fgm.error_bound, 4),
+        fixed(r.fgm.shortest_path, 2), to_string(r.route), layers, fixed(g.print_time_s / 60, 1));
   else
     out.summary = fmt::format(
         "{} route: {} layers of {} mm, {} paths ({} wall loops, {} skin paths, {} infill lines), "
         "{} mm extruded, ~{} min; outlines {} s, walls+infill {} s",
         to_string(r.route), layers, fixed(c.machine.layer_height, 3), r.planar.paths,
-        r.planar.walls, r.planar.skin_lines, r.planar.infill_lines, fixed(r.planar.extruded_length, 1),
-        fixed(g.print_time_s / 60, 1), fixed(r.outline_seconds, 2), fixed(r.plan_seconds, 2));
+        r.planar.walls, r.planar.skin_lines, r.planar.infill_lines,
+        fixed(r.planar.extruded_length, 1), fixed(g.print_time_s / 60, 1),
+        fixed(r.outline_seconds, 2), fixed(r.plan_seconds, 2));
   if (sj.strategy != 0 && r.fgm.min_segment > 0)
     out.summary += fmt::format("; min segment {} mm: {} merged, {} kept under it",
                                fixed(r.fgm.min_segment, 1), r.fgm.short_merged, r.fgm.short_kept);

@@ -67,8 +67,8 @@ GcodeStats write_gcode_streamed(const std::string& path, Toolpath meta, std::siz
                                 const LayerSource& source, const Job& job,
                                 const MachineProfile& machine, JobResult& out, Diagnostics& diag) {
   meta.job = embedded_job(job, path);
-  const GcodeStats stats = write_gcode_stream(path, meta, layers, source, machine,
-                                              gcode_thumbnails(source, machine));
+  const GcodeStats stats =
+      write_gcode_stream(path, meta, layers, source, machine, gcode_thumbnails(source, machine));
   for (const auto& [kind, message] : stats.warnings) diag.warn(kind, message);
   out.files.push_back(path);
   return stats;

@@ -10,6 +10,7 @@
 #include <cstring>
 #include <memory>
 #include <numbers>
+#include <utility>
 
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
@@ -80,8 +81,12 @@ class Writer {
   Writer(const MachineProfile& p, const Toolpath& tp, double lift,
          const std::vector<GcodeThumbnail>& thumbs, const LayerSource* stream = nullptr,
          std::size_t stream_layers = 0)
-      : p_(p), tp_(tp), thumbnails_(thumbs), layers_(stream ? *stream : layers_of(tp)),
-        layer_count_(stream ? stream_layers : tp.layers.size()), streamed_(stream != nullptr),
+      : p_(p),
+        tp_(tp),
+        thumbnails_(thumbs),
+        layers_(stream ? *stream : layers_of(tp)),
+        layer_count_(stream ? stream_layers : tp.layers.size()),
+        streamed_(stream != nullptr),
         lift_(lift) {
     flavor_ = p.parsed_flavor();
     down_flow_ = p.down_flow_table();
@@ -809,15 +814,15 @@ class Writer {
   const MachineProfile& p_;
   const Toolpath& tp_;
   const std::vector<GcodeThumbnail>& thumbnails_;
-  LayerSource layers_;         // tp_'s layers, or the streamed ones
+  LayerSource layers_;  // tp_'s layers, or the streamed ones
   std::size_t layer_count_ = 0;
   bool streamed_ = false;
-  bool tower_ = false;         // streamed: a prime tower is printed
-  int sequence_part_ = 0;      // plates: the part printed last
-  double finished_top_ = 0;    // plates: highest point printed so far
-  double rise_to_ = 0;         // the next travel's least height (0 = none)
-  std::FILE* raw_ = nullptr;   // streamed: the text so far, without M73 lines
-  std::size_t flushed_ = 0;    // bytes already in raw_
+  bool tower_ = false;        // streamed: a prime tower is printed
+  int sequence_part_ = 0;     // plates: the part printed last
+  double finished_top_ = 0;   // plates: highest point printed so far
+  double rise_to_ = 0;        // the next travel's least height (0 = none)
+  std::FILE* raw_ = nullptr;  // streamed: the text so far, without M73 lines
+  std::size_t flushed_ = 0;   // bytes already in raw_
   std::vector<std::pair<std::size_t, double>> progress_marks_;  // (byte offset, time so far)
   std::string_view last_type_;
   double last_width_ = -1, last_height_ = -1;
@@ -856,9 +861,10 @@ class Writer {
 };
 
 std::string lift_warning(double lift) {
-  return fmt::format("the toolpath reaches Z {:.3f} mm, below the bed: lifted by {:.3f} mm so that "
-                     "its lowest point is at Z 0 (placement.lift = false refuses instead)",
-                     -lift, lift);
+  return fmt::format(
+      "the toolpath reaches Z {:.3f} mm, below the bed: lifted by {:.3f} mm so that "
+      "its lowest point is at Z 0 (placement.lift = false refuses instead)",
+      -lift, lift);
 }
 
 }  // namespace
@@ -918,7 +924,8 @@ GcodeStats write_gcode_stream(const std::string& path, const Toolpath& meta,
     box.max.z += lift;
     s.warnings.emplace_back("lifted", lift_warning(lift));
   }
-  for (auto& w : check_for_machine(placed, box, profile)) s.warnings.emplace_back(w.kind, w.message);
+  for (auto& w : check_for_machine(placed, box, profile))
+    s.warnings.emplace_back(w.kind, w.message);
   auto warnings = std::move(s.warnings);
   std::unique_ptr<std::FILE, int (*)(std::FILE*)> raw(std::tmpfile(), &std::fclose);
   if (!raw) throw IoError(std::string("cannot create a temporary file: ") + std::strerror(errno));

@@ -1,24 +1,22 @@
 #include "trellis/slice/pipeline.hpp"
 
-#include "trellis/slice/fgm.hpp"
-
 #include <fmt/format.h>
 #include <tbb/parallel_pipeline.h>
 #include <tbb/task_arena.h>
 
-#include <nlohmann/json.hpp>
-
 #include <chrono>
 #include <cmath>
 #include <deque>
-#include <optional>
 #include <filesystem>
 #include <map>
+#include <nlohmann/json.hpp>
+#include <optional>
 #include <set>
 
 #include "trellis/core/error.hpp"
 #include "trellis/field/vcad.hpp"
 #include "trellis/geom/mesh_io.hpp"
+#include "trellis/slice/fgm.hpp"
 
 namespace trellis {
 
@@ -164,8 +162,8 @@ SlicedDesign open_design(const SliceJob& job, SliceResult& r, const Progress& pr
                          bool outline_all) {
   SlicedDesign d;
   const bool is_vcad = ends_with_ci(job.input, ".vcad");
-  r.route = job.route == SliceRoute::Auto ? (is_vcad ? SliceRoute::Field : SliceRoute::Mesh)
-                                          : job.route;
+  r.route =
+      job.route == SliceRoute::Auto ? (is_vcad ? SliceRoute::Field : SliceRoute::Mesh) : job.route;
   const double h = job.planar.layer_height;
   if (!(h > 0)) throw SettingError("layer height must be > 0");
   const bool ranged = !outline_all;
@@ -423,9 +421,10 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
 SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progress& progress,
                          const SliceStreamOptions& options) {
   if (job.strategy != 0)
-    throw SettingError("graded slicing (strategy 1 or 2) does not stream: its look-ahead and "
-                       "purge tower cross layers",
-                       {job.input, 0, "slice.strategy"});
+    throw SettingError(
+        "graded slicing (strategy 1 or 2) does not stream: its look-ahead and "
+        "purge tower cross layers",
+        {job.input, 0, "slice.strategy"});
   SliceResult r;
   r.streamed = true;
   const auto t0 = std::chrono::steady_clock::now();
@@ -439,8 +438,9 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
   const std::size_t chunk = std::max<std::size_t>(1, options.chunk_layers);
   const std::size_t chunks = (n + chunk - 1) / chunk;
   const std::size_t tokens =
-      options.tokens ? options.tokens
-                     : 2 * static_cast<std::size_t>(std::max(1, tbb::this_task_arena::max_concurrency()));
+      options.tokens
+          ? options.tokens
+          : 2 * static_cast<std::size_t>(std::max(1, tbb::this_task_arena::max_concurrency()));
   // Outlines of a run of planes [a, b) of the part.
   struct Outlined {
     std::size_t a = 0, b = 0;
@@ -464,100 +464,86 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
   auto clock = [] { return std::chrono::steady_clock::now(); };
   tbb::parallel_pipeline(
       tokens,
-      tbb::make_filter<void, Outlined>(
-          tbb::filter_mode::serial_in_order,
-          [&](tbb::flow_control& fc) {
-            Outlined o;
-            if (next_chunk == chunks) {
-              fc.stop();
-              return o;
+      tbb::make_filter<void, Outlined>(tbb::filter_mode::serial_in_order, [&](tbb::flow_control&
+                                                                                  fc) {
+        Outlined o;
+        if (next_chunk == chunks) {
+          fc.stop();
+          return o;
+        }
+        progress.check("slicing");
+        o.a = next_chunk * chunk;
+        o.b = std::min(n, o.a + chunk);
+        ++next_chunk;
+        return o;
+      }) & tbb::make_filter<Outlined, Outlined>(tbb::filter_mode::parallel, [&](Outlined o) {
+        const auto t = clock();
+        o.outlines = outlines_at(d, job, r,
+                                 std::vector<double>(d.zs.begin() + static_cast<long>(first + o.a),
+                                                     d.zs.begin() + static_cast<long>(first + o.b)),
+                                 &o.stats, Progress{});
+        o.seconds = seconds_since(t);
+        return o;
+      }) & tbb::make_filter<Outlined, Planned>(tbb::filter_mode::serial_in_order, [&](Outlined o) {
+        outline_cpu += o.seconds;
+        r.field_stats.samples += o.stats.samples;
+        r.field_stats.blocks += o.stats.blocks;
+        r.field_stats.skipped_blocks += o.stats.skipped_blocks;
+        for (auto& l : o.outlines) {
+          r.outline_area += area(l.regions);
+          r.empty_layers += l.regions.empty() ? 1 : 0;
+          window.push_back(std::move(l));
+        }
+        received = o.b;
+        // Layer j is ready when the outlines up to j + top_layers are in (or all are).
+        const std::size_t ready = received == n ? n : (received > above ? received - above : 0);
+        Planned p;
+        p.a = next_plan;
+        p.b = std::max(next_plan, ready);
+        if (p.a < p.b) {
+          p.lo = p.a >= below ? p.a - below : 0;
+          const std::size_t hi = std::min(n, p.b + above);
+          for (std::size_t k = p.lo; k < hi; ++k) p.window.push_back(window[k - window_start]);
+          next_plan = p.b;
+          // The next batch starts at next_plan and reads below_layers under it.
+          const std::size_t keep = next_plan >= below ? next_plan - below : 0;
+          while (window_start < keep) window.pop_front(), ++window_start;
+        }
+        return p;
+      }) & tbb::make_filter<Planned, Planned>(tbb::filter_mode::parallel, [&](Planned p) {
+        if (p.a == p.b) return p;
+        const auto t = clock();
+        PlanarOptions po = job.planar;
+        po.first_index = p.lo;
+        po.plan_begin = p.a;
+        po.plan_end = p.b;
+        p.toolpath = plan_planar(p.window, po, &p.stats);
+        p.window.clear();
+        p.window.shrink_to_fit();
+        p.seconds = seconds_since(t);
+        return p;
+      }) & tbb::make_filter<Planned, void>(tbb::filter_mode::serial_in_order, [&](Planned p) {
+        plan_cpu += p.seconds;
+        r.planar.layers += p.stats.layers;
+        r.planar.paths += p.stats.paths;
+        r.planar.walls += p.stats.walls;
+        r.planar.skin_lines += p.stats.skin_lines;
+        r.planar.infill_lines += p.stats.infill_lines;
+        for (Layer& layer : p.toolpath.layers) {
+          for (const Path& path : layer.paths) {
+            // Summed path by path in print order, as plan_planar sums it.
+            r.planar.extruded_length += path.length();
+            if (path.points.empty()) continue;
+            if (last_point) {
+              const double dd = distance(*last_point, path.points.front());
+              if (dd > 1e-9) ++r.travel.moves, r.travel.length += dd;
             }
-            progress.check("slicing");
-            o.a = next_chunk * chunk;
-            o.b = std::min(n, o.a + chunk);
-            ++next_chunk;
-            return o;
-          }) &
-          tbb::make_filter<Outlined, Outlined>(
-              tbb::filter_mode::parallel,
-              [&](Outlined o) {
-                const auto t = clock();
-                o.outlines = outlines_at(
-                    d, job, r,
-                    std::vector<double>(d.zs.begin() + static_cast<long>(first + o.a),
-                                        d.zs.begin() + static_cast<long>(first + o.b)),
-                    &o.stats, Progress{});
-                o.seconds = seconds_since(t);
-                return o;
-              }) &
-          tbb::make_filter<Outlined, Planned>(
-              tbb::filter_mode::serial_in_order,
-              [&](Outlined o) {
-                outline_cpu += o.seconds;
-                r.field_stats.samples += o.stats.samples;
-                r.field_stats.blocks += o.stats.blocks;
-                r.field_stats.skipped_blocks += o.stats.skipped_blocks;
-                for (auto& l : o.outlines) {
-                  r.outline_area += area(l.regions);
-                  r.empty_layers += l.regions.empty() ? 1 : 0;
-                  window.push_back(std::move(l));
-                }
-                received = o.b;
-                // Layer j is ready when the outlines up to j + top_layers are in (or all are).
-                const std::size_t ready =
-                    received == n ? n : (received > above ? received - above : 0);
-                Planned p;
-                p.a = next_plan;
-                p.b = std::max(next_plan, ready);
-                if (p.a < p.b) {
-                  p.lo = p.a >= below ? p.a - below : 0;
-                  const std::size_t hi = std::min(n, p.b + above);
-                  for (std::size_t k = p.lo; k < hi; ++k) p.window.push_back(window[k - window_start]);
-                  next_plan = p.b;
-                  // The next batch starts at next_plan and reads below_layers under it.
-                  const std::size_t keep = next_plan >= below ? next_plan - below : 0;
-                  while (window_start < keep) window.pop_front(), ++window_start;
-                }
-                return p;
-              }) &
-          tbb::make_filter<Planned, Planned>(
-              tbb::filter_mode::parallel,
-              [&](Planned p) {
-                if (p.a == p.b) return p;
-                const auto t = clock();
-                PlanarOptions po = job.planar;
-                po.first_index = p.lo;
-                po.plan_begin = p.a;
-                po.plan_end = p.b;
-                p.toolpath = plan_planar(p.window, po, &p.stats);
-                p.window.clear();
-                p.window.shrink_to_fit();
-                p.seconds = seconds_since(t);
-                return p;
-              }) &
-          tbb::make_filter<Planned, void>(
-              tbb::filter_mode::serial_in_order, [&](Planned p) {
-                plan_cpu += p.seconds;
-                r.planar.layers += p.stats.layers;
-                r.planar.paths += p.stats.paths;
-                r.planar.walls += p.stats.walls;
-                r.planar.skin_lines += p.stats.skin_lines;
-                r.planar.infill_lines += p.stats.infill_lines;
-                for (Layer& layer : p.toolpath.layers) {
-                  for (const Path& path : layer.paths) {
-                    // Summed path by path in print order, as plan_planar sums it.
-                    r.planar.extruded_length += path.length();
-                    if (path.points.empty()) continue;
-                    if (last_point) {
-                      const double dd = distance(*last_point, path.points.front());
-                      if (dd > 1e-9) ++r.travel.moves, r.travel.length += dd;
-                    }
-                    last_point = path.points.back();
-                  }
-                  sink(written++, std::move(layer));
-                }
-                if (progress.report) progress("layers", static_cast<double>(written) / double(n));
-              }));
+            last_point = path.points.back();
+          }
+          sink(written++, std::move(layer));
+        }
+        if (progress.report) progress("layers", static_cast<double>(written) / double(n));
+      }));
   // Outlining and planning overlap: the wall time is shared out by their summed thread times.
   const double wall = seconds_since(t0), cpu = outline_cpu + plan_cpu;
   r.outline_seconds = cpu > 0 ? wall * outline_cpu / cpu : 0;

@@ -14,7 +14,6 @@ void put(std::string& out, const T& v) {
   out.append(reinterpret_cast<const char*>(&v), sizeof v);
 }
 
-
 // A path's fixed fields, written and read in one piece.
 struct PathHead {
   std::int32_t role, tool, part, unused;
@@ -46,10 +45,21 @@ void LayerSpill::append(const Layer& layer) {
   put(buffer_, layer.z);
   put(buffer_, static_cast<std::uint64_t>(layer.paths.size()));
   for (const Path& p : layer.paths) {
-    const PathHead h{static_cast<std::int32_t>(p.role), p.tool, p.part, 0, p.width, p.height,
-                     p.speed, p.power, p.filament, p.temperature, p.mixture.size(), p.points.size()};
+    const PathHead h{static_cast<std::int32_t>(p.role),
+                     p.tool,
+                     p.part,
+                     0,
+                     p.width,
+                     p.height,
+                     p.speed,
+                     p.power,
+                     p.filament,
+                     p.temperature,
+                     p.mixture.size(),
+                     p.points.size()};
     put(buffer_, h);
-    buffer_.append(reinterpret_cast<const char*>(p.mixture.data()), p.mixture.size() * sizeof(double));
+    buffer_.append(reinterpret_cast<const char*>(p.mixture.data()),
+                   p.mixture.size() * sizeof(double));
     buffer_.append(reinterpret_cast<const char*>(p.points.data()), p.points.size() * sizeof(Vec3));
   }
   const std::uint64_t size = buffer_.size() - start - sizeof(std::uint64_t);

@@ -35,7 +35,8 @@ fs::path job_file(const fs::path& dir, const std::string& sequence) {
   o << "[job]\nroute = \"slice\"\nname = \"plate\"\nmachine = \"" << kRoot
     << "/profiles/prusa_mk4s_lwpla.toml\"\n[extrusion]\nlayer_height = 0.3\n[slice]\nwalls = 1\n"
     << "infill = 0.2\nresolution = 0.2\n[plate]\nsequence = \"" << sequence << "\"\n";
-  const char* inputs[3] = {"csg_bracket.vcad", "gyroid_lattice_tile.vcad", "gyroid_lattice_tile.vcad"};
+  const char* inputs[3] = {"csg_bracket.vcad", "gyroid_lattice_tile.vcad",
+                           "gyroid_lattice_tile.vcad"};
   const char* labels[3] = {"bracket", "left", "right"};
   for (int k = 0; k < 3; ++k)
     o << "[[part]]\nlabel = \"" << labels[k] << "\"\ninput = \"" << kRoot << "/examples/designs/"
@@ -115,7 +116,8 @@ std::string run(const fs::path& file, const fs::path& out, bool keep) {
 
 int cli(const std::string& args, std::string& err) {
   const std::string e = (fs::temp_directory_path() / "trellis_seq_err.txt").string();
-  const int status = std::system((std::string(TRELLIS_CLI) + " " + args + " >/dev/null 2>" + e).c_str());
+  const int status =
+      std::system((std::string(TRELLIS_CLI) + " " + args + " >/dev/null 2>" + e).c_str());
   err = read_file(e);
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
@@ -126,7 +128,8 @@ TEST(SequentialPlate, EachPartWholeInTurnNeverBelowAFinishedPartsTop) {
   const std::string seq = run(job_file(dir / "seq", "parts"), dir / "seq" / "out", true);
   EXPECT_TRUE(seq == run(job_file(dir / "seq", "parts"), dir / "seq" / "stream", false))
       << "streamed sequential plate differs from the whole run";
-  const std::string per_layer = run(job_file(dir / "layers", "layers"), dir / "layers" / "out", true);
+  const std::string per_layer =
+      run(job_file(dir / "layers", "layers"), dir / "layers" / "out", true);
   const std::vector<Move> moves = read_moves(seq), reference = read_moves(per_layer);
 
   // Contiguous, in the job's order: the part of the extrusions changes twice, 0 → 1 → 2.
@@ -180,16 +183,19 @@ TEST(SequentialPlate, RefusedWhereTheMachineDoesNotAllowIt) {
   const std::string out = (dir / "out").string();
   std::string err;
   // The 18 mm bracket is printed first: above a 10 mm gantry clearance.
-  EXPECT_EQ(cli("run " + job + " -o " + out + " --set machine.extruder_clearance_height=10", err), 2);
+  EXPECT_EQ(cli("run " + job + " -o " + out + " --set machine.extruder_clearance_height=10", err),
+            2);
   EXPECT_NE(err.find("part 'bracket'"), std::string::npos) << err;
   EXPECT_NE(err.find("not printed last"), std::string::npos) << err;
   // 46.5 mm apart against a 50 mm radius.
-  EXPECT_EQ(cli("run " + job + " -o " + out + " --set machine.extruder_clearance_radius=50", err), 2);
+  EXPECT_EQ(cli("run " + job + " -o " + out + " --set machine.extruder_clearance_radius=50", err),
+            2);
   EXPECT_NE(err.find("'bracket'"), std::string::npos) << err;
   EXPECT_NE(err.find("'left'"), std::string::npos) << err;
   EXPECT_NE(err.find("extruder_clearance_radius = 50"), std::string::npos) << err;
   // A profile without clearances.
-  EXPECT_EQ(cli("run " + job + " -o " + out + " --set machine.extruder_clearance_radius=0", err), 2);
+  EXPECT_EQ(cli("run " + job + " -o " + out + " --set machine.extruder_clearance_radius=0", err),
+            2);
   EXPECT_NE(err.find("extruder clearance"), std::string::npos) << err;
   // Sharding a part-by-part plate.
   EXPECT_EQ(cli("run " + job + " -o " + out + " --shard 1/2", err), 2);

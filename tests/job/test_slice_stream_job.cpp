@@ -53,7 +53,8 @@ std::string slice_job(const fs::path& dir, const std::string& input, const std::
   const fs::path f = dir / "job.toml";
   std::ofstream(f) << "[job]\nroute = \"slice\"\nname = \"part\"\ninput = \"" << input
                    << "\"\nmachine = \"" << kRoot << "/profiles/" << machine << ".toml\"\n"
-                   << "[slice]\nresolution = 0.2\n" << extra;
+                   << "[slice]\nresolution = 0.2\n"
+                   << extra;
   return f.string();
 }
 
@@ -76,7 +77,8 @@ TEST(SliceStreamJob, ThumbnailsAndProgressComeOutAsWhole) {
   const auto [whole, streamed] = whole_and_streamed(job, dir);
   EXPECT_NE(streamed.find("; thumbnail begin 64x48"), std::string::npos);
   std::size_t progress = 0;
-  for (auto at = streamed.find("\nM73 P"); at != std::string::npos; at = streamed.find("\nM73 P", at + 1))
+  for (auto at = streamed.find("\nM73 P"); at != std::string::npos;
+       at = streamed.find("\nM73 P", at + 1))
     ++progress;
   EXPECT_GT(progress, 20u) << "M73 at every layer";
   EXPECT_TRUE(whole == streamed);
@@ -86,9 +88,9 @@ TEST(SliceStreamJob, ThumbnailsAndProgressComeOutAsWhole) {
 TEST(SliceStreamJob, MeshRouteAndBedCentreAsWhole) {
   const fs::path dir = work("mesh");
   for (const char* center : {"true", "false"}) {
-    const std::string job = slice_job(dir, kRoot + "/examples/designs/concave_cylinder.obj",
-                                      "voron_klipper", std::string("[placement]\ncenter = ") +
-                                                           center + "\noffset_x = 100\noffset_y = 100\n");
+    const std::string job = slice_job(
+        dir, kRoot + "/examples/designs/concave_cylinder.obj", "voron_klipper",
+        std::string("[placement]\ncenter = ") + center + "\noffset_x = 100\noffset_y = 100\n");
     const auto [whole, streamed] = whole_and_streamed(job, dir);
     ASSERT_GT(whole.size(), 10000u);
     EXPECT_TRUE(whole == streamed) << "center = " << center;
@@ -114,9 +116,11 @@ TEST(SliceStreamJob, FdmPlateStreamedIsWholeAndTheMergeOfItsShards) {
       manifests.push_back(run_job(shard, diag).files.back());
     }
     // Beside the streamed output: the embedded job's paths are relative to the file's folder.
-    const std::string merged = (dir / "stream" / ("merged-" + std::to_string(n) + ".gcode")).string();
+    const std::string merged =
+        (dir / "stream" / ("merged-" + std::to_string(n) + ".gcode")).string();
     merge_shards(manifests, merged, diag);
-    EXPECT_TRUE(read_file(merged) == streamed) << n << " shards merged differ from the streamed run";
+    EXPECT_TRUE(read_file(merged) == streamed)
+        << n << " shards merged differ from the streamed run";
   }
   fs::remove_all(dir);
 }

@@ -79,9 +79,9 @@ void expect_streams_as_whole(const SliceJob& job, const SliceStreamOptions& opti
 
 TEST(SliceStream, FieldRouteLayersAreTheWholeRunsForAnyRunLengthAndTokens) {
   const SliceJob job = bracket(0.3);  // 60 layers
-  for (const SliceStreamOptions o : {SliceStreamOptions{1, 1}, SliceStreamOptions{3, 2},
-                                     SliceStreamOptions{16, 0}, SliceStreamOptions{7, 8},
-                                     SliceStreamOptions{1000, 2}})
+  for (const SliceStreamOptions o :
+       {SliceStreamOptions{1, 1}, SliceStreamOptions{3, 2}, SliceStreamOptions{16, 0},
+        SliceStreamOptions{7, 8}, SliceStreamOptions{1000, 2}})
     expect_streams_as_whole(job, o);
 }
 
