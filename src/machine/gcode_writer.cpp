@@ -112,9 +112,9 @@ class Writer {
   }
 
   // The same bytes in bounded memory: the text without the M73 lines goes to `raw` as it is
-  // written (flushed every few MB), then `put` receives it again with the M73 lines in place.
+  // written (flushed every MB), then `put` receives it again with the M73 lines in place.
   void stream(GcodeStats& stats, std::FILE* raw, const ByteWriter& put) {
-    constexpr std::size_t kFlush = std::size_t{4} << 20;
+    constexpr std::size_t kFlush = std::size_t{1} << 20;
     raw_ = raw;
     out_.reserve(kFlush + (1u << 16));
     plan_changes();

@@ -30,7 +30,8 @@ struct PathHead {
 LayerSpill::LayerSpill() {
   file_ = std::tmpfile();  // unlinked already: gone with the process, whatever happens
   if (!file_) fail("cannot create");
-  std::setvbuf(file_, nullptr, _IOFBF, 1u << 20);
+  // Small buffers: a plate keeps one spill per part open at once.
+  std::setvbuf(file_, nullptr, _IOFBF, 64u << 10);
 }
 
 LayerSpill::~LayerSpill() {
@@ -65,7 +66,7 @@ void LayerSpill::append(const Layer& layer) {
   const std::uint64_t size = buffer_.size() - start - sizeof(std::uint64_t);
   std::memcpy(buffer_.data() + start, &size, sizeof size);
   ++layers_;
-  if (buffer_.size() > (1u << 20)) flush();
+  if (buffer_.size() > (256u << 10)) flush();
 }
 
 void LayerSpill::flush() {
@@ -80,6 +81,7 @@ void LayerSpill::rewind() {
     flush();
     if (std::fflush(file_) != 0) fail("cannot write");
     writing_ = false;
+    buffer_.shrink_to_fit();  // from now on it holds one layer
   }
   std::rewind(file_);
   read_layers_ = 0;
