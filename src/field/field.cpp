@@ -295,6 +295,10 @@ struct TpmsNode : FieldNode {
     phi(p, &g);
     return true;
   }
+  bool value_gradient(Vec3 p, double& v, Vec3& g, EvalState&, std::size_t) const override {
+    v = phi(p, &g);  // the same sines and sums as eval's and gradient's
+    return true;
+  }
   bool gradients(const Vec3* p, Vec3* g, std::size_t n, EvalState& s,
                  std::size_t depth) const override {
     sweep(p, n, s, depth, [&](std::size_t i, double sx, double cx, double sy, double cy, double sz,
@@ -1047,6 +1051,12 @@ Vec3 Evaluator::gradient(Vec3 p, double h) {
   values(pts, v, 6);
   const double inv = 0.5 / h;
   return {(v[0] - v[1]) * inv, (v[2] - v[3]) * inv, (v[4] - v[5]) * inv};
+}
+double Evaluator::value_gradient(Vec3 p, Vec3* g, double h) {
+  double v;
+  if (field_.node().value_gradient(p, v, *g, *state_, 0)) return v;
+  *g = gradient(p, h);
+  return value(p);
 }
 void Evaluator::gradients(const Vec3* p, Vec3* out, std::size_t n, double h) {
   if (field_.node().gradients(p, out, n, *state_, 0)) return;
