@@ -1020,9 +1020,8 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
       const pbf_detail::CurveProjector project = [&](Vec2 q) {
         const Vec2 q0 = q;
         for (int it = 0; it < 2; ++it) {  // Newton steps along φ's gradient in the layer
-          const Vec3 p{q.x, q.y, z};
-          const double f = ctx.phi.value(p);
-          const Vec3 g = ctx.phi.gradient(p);
+          Vec3 g;
+          const double f = ctx.phi.value_gradient({q.x, q.y, z}, &g);
           const double gg = g.x * g.x + g.y * g.y;
           if (!(gg > 0)) break;
           q = q - Vec2{g.x, g.y} * (f / gg);
