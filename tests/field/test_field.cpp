@@ -249,3 +249,36 @@ TEST(Vcad, FuzzRegressions) {
 }
 
 }  // namespace
+
+namespace {
+
+// value_gradient gives exactly value() and gradient(): one evaluation for a TPMS (all five
+// kinds, anisotropic cells, far and near points), and the two calls for other fields.
+TEST(Field, ValueGradientEqualsValueAndGradient) {
+  std::mt19937_64 rng(23);
+  std::uniform_real_distribution<double> U(-40, 40);
+  std::vector<Field> fields;
+  for (const TpmsKind k : {TpmsKind::Gyroid, TpmsKind::SchwarzP, TpmsKind::SchwarzD,
+                           TpmsKind::Neovius, TpmsKind::Iwp})
+    fields.push_back(tpms(k, {2.5, 3.0, 1.7}));
+  fields.push_back(sphere(4));                                         // no analytic gradient
+  fields.push_back(translate(tpms(TpmsKind::Gyroid, {2, 2, 2}), {0.3, 0, 1}));
+  std::size_t checked = 0;
+  for (const Field& f : fields) {
+    Evaluator a(f), b(f);
+    for (int i = 0; i < 2000; ++i) {
+      const Vec3 p{U(rng), U(rng), U(rng)};
+      Vec3 g;
+      const double v = a.value_gradient(p, &g);
+      const Vec3 g2 = b.gradient(p);
+      EXPECT_EQ(v, b.value(p));
+      EXPECT_EQ(g.x, g2.x);
+      EXPECT_EQ(g.y, g2.y);
+      EXPECT_EQ(g.z, g2.z);
+      ++checked;
+    }
+  }
+  EXPECT_EQ(checked, 14000u);
+}
+
+}  // namespace
