@@ -113,6 +113,7 @@ std::vector<MachineWarning> check_for_machine(const Toolpath& tp, const MachineP
   const int gradient_tools = p.gradient_tool_count();
   bool mixed = false;
   std::size_t max_materials = 0;
+  const bool fdm = p.parsed_flavor() == Flavor::Marlin;
   for (std::size_t li = 0; li < tp.layers.size(); ++li) {
     const auto& layer = tp.layers[li];
     for (std::size_t pi = 0; pi < layer.paths.size(); ++pi) {
@@ -142,6 +143,12 @@ std::vector<MachineWarning> check_for_machine(const Toolpath& tp, const MachineP
         errors.add("speed", fmt::format("{} is printed at {} mm/s, faster than the machine's "
                                         "speed.max = {} mm/s",
                                         where(li, pi), num(path.speed), num(p.max_speed)));
+      if (!fdm &&
+          ((path.flow > 0 && std::abs(path.flow - 1) > eps) || path.fan >= 0))
+        errors.add("process_flavor",
+                   fmt::format("{} sets a {} (a process field) but machine.flavor = {} has no E "
+                               "axis and no fan to set: print it on an FDM profile",
+                               where(li, pi), path.fan >= 0 ? "fan" : "flow", p.flavor));
       if (path.temperature > p.max_nozzle_temperature + eps)
         errors.add("path_temperature",
                    fmt::format("{} asks for {} °C, above temperature.max_nozzle = {} °C",

@@ -227,6 +227,9 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
       throw SettingError("graded slicing (strategy 1 or 2) does not shard: its look-ahead and "
                          "purge tower cross layers",
                          {job.input, 0, "slice.strategy"});
+    if (field.has_process())
+      throw SettingError("a design with process fields (fprocess) does not shard: slice it whole",
+                         {job.input, 0, "fprocess"});
     auto outlines_of = [&](const std::vector<double>& planes) {
       return r.route == SliceRoute::Field
                  ? slice_field(field, planes, job.field, &r.field_stats, progress)
@@ -364,6 +367,7 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
   } else {
     r.toolpath = plan_planar(r.outlines, job.planar, &r.planar);
   }
+  apply_slice_process(job, field, r);
   r.toolpath.source = "trellis slice " + job.input + " (" + to_string(r.route) + " route)";
   progress("walls and infill", 1.0);
   r.plan_seconds = seconds_since(t1);
@@ -515,6 +519,25 @@ std::string slice_report_json(const SliceJob& job, const SliceResult& r, const G
                   {"filament_mm", g->filament},
                   {"retractions", g->retractions},
                   {"print_time_s", g->print_time_s}};
+  }
+  if (r.process.active) {  // fprocess fields: what was written, against the field
+    auto& jp = j["process"];
+    jp["paths"] = r.process.paths;
+    jp["pieces"] = r.process.pieces;
+    jp["merged_under_min_length"] = r.process.merged;
+    for (int k = 0; k < kProcessParams; ++k) {
+      const ProcessParamStats& s = r.process.param[k];
+      if (!s.set) continue;
+      jp[to_string(static_cast<ProcessParam>(k))] = {
+          {"node", s.node}, {"step", job.process.step(static_cast<ProcessParam>(k))},
+          {"min", s.min}, {"max", s.max}, {"changes", s.changes},
+          {"max_deviation", s.max_deviation}};
+    }
+    if (g) {
+      jp["temperature_commands"] = g->temperature_changes;
+      jp["settle_time_s"] = g->settle_time_s;
+      jp["fan_commands"] = g->fan_changes;
+    }
   }
   return j.dump(2) + "\n";
 }

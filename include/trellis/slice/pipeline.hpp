@@ -8,6 +8,7 @@
 #include "trellis/core/budget.hpp"
 #include "trellis/machine/gcode_writer.hpp"
 #include "trellis/slice/fgm.hpp"
+#include "trellis/slice/fgm_process.hpp"
 #include "trellis/slice/slice.hpp"
 
 namespace trellis {
@@ -43,6 +44,8 @@ struct SliceJob {
   // from its first printed layer) are sliced and planned, with the outlines the skins need
   // around them; the toolpath holds those layers. Planar slicing (strategy 0) only.
   std::size_t layer_begin = 0, layer_end = static_cast<std::size_t>(-1);
+  // Process parameters a .vcad design sets with fprocess (slice/fgm_process.hpp).
+  ProcessOptions process;
 };
 
 struct SliceResult {
@@ -60,6 +63,7 @@ struct SliceResult {
   // The part's printed layers (all of them, also when only a range was asked for) and the index
   // of the toolpath's first layer among them.
   std::size_t part_layers = 0, first_layer = 0;
+  ProcessStats process;  // fprocess designs
 };
 
 // Planar and graded slicing in one call. `progress` (core/progress.hpp): stages "outlines"
