@@ -234,6 +234,8 @@ SliceJob slice_job_of(const Job& job, const Config& c, const std::string& input)
   sj.process.max_temperature = c.machine.max_nozzle_temperature;
   sj.process.max_speed = c.machine.max_speed;
   sj.process.temperature_from_mixture = c.machine.gradient_mode == "temperature";
+  sj.process.short_path_segments = c.machine.short_path_segments;
+  sj.process.short_path_factor = c.machine.short_path_factor;
   return sj;
 }
 

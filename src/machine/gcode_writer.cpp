@@ -282,9 +282,10 @@ class Writer {
   void chain(const std::vector<Path>& paths, std::size_t pi) {
     next_joined_ = pi + 1 < paths.size() && paths[pi + 1].joined;
     if (paths[pi].joined && pi > 0) return;  // chain_segments_ counted at the chain's start
+    // Each cut added one point: the bead's own segments are the pieces' less the cuts.
     chain_segments_ = paths[pi].segments();
     for (std::size_t k = pi + 1; k < paths.size() && paths[k].joined; ++k)
-      chain_segments_ += paths[k].segments();
+      chain_segments_ += paths[k].segments() - 1;
   }
 
   // The temperature the print starts at: the first path's own (a process field) or the profile's.

@@ -75,7 +75,7 @@ void check_range(const ProcessValues& v, Vec3 at, const ProcessOptions& o) {
 }
 
 struct LayerResult {
-  std::size_t paths = 0, pieces = 0, merged = 0, samples = 0;
+  std::size_t paths = 0, pieces = 0, merged = 0, samples = 0, short_slowed = 0;
   std::vector<unsigned> masks;  // per path of the layer: bit k = parameter k set by a field
   std::array<double, kProcessParams> deviation{};
   std::exception_ptr error;
@@ -147,14 +147,19 @@ class PathSplitter {
         }
         lo = t;
       }
-      if (distance(b, pieces.back().points.back()) > 1e-12 || pieces.back().points.size() < 2)
-        pieces.back().points.push_back(b);
+      if (distance(b, pieces.back().points.back()) > 1e-12) pieces.back().points.push_back(b);
     }
     if (pieces.back().points.size() < 2) {  // cut at the very end
       pieces.pop_back();
       keys.pop_back();
     }
     merge_short(pieces, keys);
+    const bool field_speed = std::any_of(keys.begin(), keys.end(), [](const Key& k) {
+      return !std::isnan(k.q[static_cast<int>(ProcessParam::Speed)]);
+    });
+    if (field_speed && o_.short_path_factor != 1 &&
+        path.segments() < static_cast<std::size_t>(std::max(0, o_.short_path_segments)))
+      ++r_.short_slowed;
     for (std::size_t k = 0; k < pieces.size(); ++k) {
       write(pieces[k], keys[k], k > 0 || path.joined);
       unsigned mask = 0;
@@ -290,6 +295,7 @@ void apply_process_fields(const Field& design, Toolpath& toolpath, const Process
     st.pieces += r.pieces;
     st.merged += r.merged;
     st.samples += r.samples;
+    st.short_slowed += r.short_slowed;
     for (int k = 0; k < kProcessParams; ++k)
       st.param[k].max_deviation = std::max(st.param[k].max_deviation, r.deviation[k]);
   }
@@ -386,6 +392,13 @@ std::vector<std::string> process_warnings(const ProcessStats& st, const ProcessO
           p.node, to_string(static_cast<ProcessParam>(k)), fmt_num(p.max_deviation), kUnits[k],
           fmt_num(half), kUnits[k], st.merged, fmt_num(o.min_length)));
   }
+  if (st.short_slowed > 0)
+    out.push_back(fmt::format(
+        "{}: {} paths of fewer than speed.short_path_segments = {} segments print at "
+        "speed.short_path_factor = {} x the speed field (as every short path does; set the "
+        "factor to 1 to print the field's speed there)",
+        st.param[static_cast<int>(ProcessParam::Speed)].node, st.short_slowed,
+        o.short_path_segments, fmt_num(o.short_path_factor)));
   return out;
 }
 

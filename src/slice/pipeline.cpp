@@ -525,6 +525,7 @@ std::string slice_report_json(const SliceJob& job, const SliceResult& r, const G
     jp["paths"] = r.process.paths;
     jp["pieces"] = r.process.pieces;
     jp["merged_under_min_length"] = r.process.merged;
+    jp["short_paths_slowed"] = r.process.short_slowed;
     for (int k = 0; k < kProcessParams; ++k) {
       const ProcessParamStats& s = r.process.param[k];
       if (!s.set) continue;

@@ -28,6 +28,10 @@ struct ProcessOptions {
   // The profile makes mixtures with the nozzle temperature (gradient.mode = temperature): a
   // temperature field on a graded print would fight it.
   bool temperature_from_mixture = false;
+  // The writer slows paths of fewer segments than this by the factor (speed.short_path_*),
+  // field speeds too: counted and warned about.
+  int short_path_segments = 0;
+  double short_path_factor = 1;
   double step(ProcessParam p) const;
 };
 
@@ -46,6 +50,7 @@ struct ProcessStats {
   std::size_t pieces = 0;      // after splitting
   std::size_t merged = 0;      // pieces under min_length merged into their neighbour
   std::size_t samples = 0;
+  std::size_t short_slowed = 0;  // paths with a field speed the writer slows as short paths
 };
 
 // Applies the design's process fields to every printed path of `toolpath` (in place). Throws
