@@ -45,7 +45,7 @@ struct ProcessNode : FieldNode {
         throw GeometryError(fmt::format("{}: {} = {} is {} at ({:g}, {:g}, {:g}): a process value "
                                         "must be a finite number everywhere in the part",
                                         label, kNames[k], exprs[i].text, v, p.x, p.y, p.z),
-                            {"", 0, "fprocess"});
+                            {"", 0, ""});
       out.value[k] = v;
       out.node[k] = &label;
     }

@@ -390,8 +390,8 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
                           job.input, r.fgm.short_kept, fixed(r.fgm.min_segment, 2),
                           r.fgm.short_merged, r.fgm.short_kept_bound,
                           r.fgm.materials == 3 ? "2α/3" : "α/2", fixed(r.fgm.error_bound, 4)));
-  for (const std::string& w : process_warnings(r.process, sj.process))
-    diag.warn("process_quantisation", w);
+  for (const auto& [kind, message] : process_warnings(r.process, sj.process))
+    diag.warn(kind, message);
   // The file name only: outputs must not depend on where the command ran.
   r.toolpath.source = "trellis slice " + fs::path(job.input).filename().string() + " (" +
                       to_string(r.route) + " route)";

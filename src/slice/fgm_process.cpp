@@ -70,7 +70,7 @@ void check_range(const ProcessValues& v, Vec3 at, const ProcessOptions& o) {
                       "(must be {})",
                       *v.node[k], to_string(static_cast<ProcessParam>(k)), fmt_num(x), at.x, at.y,
                       at.z, limit),
-          {"", 0, "fprocess"});
+          {"", 0, ""});
   }
 }
 
@@ -379,13 +379,14 @@ std::string process_summary(const ProcessStats& st, const GcodeStats& g) {
   return s;
 }
 
-std::vector<std::string> process_warnings(const ProcessStats& st, const ProcessOptions& o) {
-  std::vector<std::string> out;
+std::vector<std::pair<std::string, std::string>> process_warnings(const ProcessStats& st,
+                                                                  const ProcessOptions& o) {
+  std::vector<std::pair<std::string, std::string>> out;
   for (int k = 0; k < kProcessParams; ++k) {
     const ProcessParamStats& p = st.param[k];
     const double half = o.step(static_cast<ProcessParam>(k)) / 2;
     if (p.set && p.max_deviation > half * (1 + 1e-6) + 1e-9)
-      out.push_back(fmt::format(
+      out.emplace_back("process_quantisation", fmt::format(
           "{}: the written {} strays up to {}{} from the field, more than half its step ({}{}): "
           "{} pieces shorter than process.min_length = {} mm were merged into a neighbour; use a "
           "smaller --process-min-length or a larger step",
@@ -393,7 +394,7 @@ std::vector<std::string> process_warnings(const ProcessStats& st, const ProcessO
           fmt_num(half), kUnits[k], st.merged, fmt_num(o.min_length)));
   }
   if (st.short_slowed > 0)
-    out.push_back(fmt::format(
+    out.emplace_back("process_short_paths", fmt::format(
         "{}: {} paths of fewer than speed.short_path_segments = {} segments print at "
         "speed.short_path_factor = {} x the speed field (as every short path does; set the "
         "factor to 1 to print the field's speed there)",

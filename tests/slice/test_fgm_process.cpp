@@ -339,7 +339,9 @@ TEST(ProcessFields, MergedPiecesBeyondHalfAStepAreReported) {
   EXPECT_GT(s.result.process.merged, 0u);
   EXPECT_GT(s.result.process.param[1].max_deviation, 0.5);
   ASSERT_EQ(process_warnings(s.result.process, job.process).size(), 1u);
-  EXPECT_NE(process_warnings(s.result.process, job.process)[0].find("speed"), std::string::npos);
+  EXPECT_EQ(process_warnings(s.result.process, job.process)[0].first, "process_quantisation");
+  EXPECT_NE(process_warnings(s.result.process, job.process)[0].second.find("speed"),
+            std::string::npos);
 }
 
 TEST(ProcessFields, RefusedWhereTheyCannotPrint) {

@@ -75,8 +75,10 @@ void apply_slice_process(const SliceJob& job, const Field& design, SliceResult& 
 // written, its changes, and the settle time the temperature changes add (from the writer).
 struct GcodeStats;
 std::string process_summary(const ProcessStats& stats, const GcodeStats& gcode);
-// Parameters whose written values stray beyond half a step from the field (pieces merged under
-// min_length): one message each, naming the node.
-std::vector<std::string> process_warnings(const ProcessStats& stats, const ProcessOptions& options);
+// Warnings as (kind, message), naming the node: "process_quantisation" for a parameter whose
+// written values stray beyond half a step from the field (pieces merged under min_length),
+// "process_short_paths" when the writer slows short paths below the speed field.
+std::vector<std::pair<std::string, std::string>> process_warnings(const ProcessStats& stats,
+                                                                  const ProcessOptions& options);
 
 }  // namespace trellis
