@@ -436,8 +436,12 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
                                fixed(r.fgm.min_segment, 1), r.fgm.short_merged, r.fgm.short_kept);
   out.summary += process_summary(r.process, g);
   if (sj.strategy != 0 && r.fgm.tower.built)
-    out.summary += fmt::format("; prime tower {} mm square at ({}, {}), {} layers, {} mm3, {} g, ~{} min",
-                               fixed(r.fgm.tower.side, 1), fixed(r.fgm.tower.x, 1),
+    out.summary += fmt::format("; prime tower {} at ({}, {}), {} layers, {} mm3, {} g, ~{} min",
+                               r.fgm.tower.size_x == r.fgm.tower.size_y
+                                   ? fixed(r.fgm.tower.side, 1) + " mm square"
+                                   : fixed(r.fgm.tower.size_x, 1) + " x " +
+                                         fixed(r.fgm.tower.size_y, 1) + " mm",
+                               fixed(r.fgm.tower.x, 1),
                                fixed(r.fgm.tower.y, 1), r.fgm.tower.layers,
                                fixed(r.fgm.tower.volume, 0), fixed(r.fgm.tower.mass, 1),
                                fixed(r.fgm.tower.time / 60, 1));

@@ -506,6 +506,7 @@ std::string slice_report_json(const SliceJob& job, const SliceResult& r, const G
                          {"time_s", c.time}});
     j["fgm"]["tower"] = {{"centre_mm", {r.fgm.tower.x, r.fgm.tower.y}},
                          {"side_mm", r.fgm.tower.side},
+                         {"size_mm", {r.fgm.tower.size_x, r.fgm.tower.size_y}},
                          {"layers", r.fgm.tower.layers},
                          {"purge_length_mm", r.fgm.tower.purge_path},
                          {"length_mm", r.fgm.tower.length},
