@@ -308,6 +308,8 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag, const 
     if (a >= p.layers) continue;
     if (job.shards) p.sj.layer_begin = a, p.sj.layer_end = b;
     SliceResult r = run_slice(p.sj, progress);
+    for (const auto& [kind, message] : process_warnings(r.process, p.sj.process))
+      diag.warn(kind, message);
     if (r.repaired)
       diag.warn("mesh_repaired", fs::path(p.sj.input).filename().string() +
                                      " was not closed and manifold; repaired: " + r.repair.summary());

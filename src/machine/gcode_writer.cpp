@@ -297,22 +297,29 @@ class Writer {
   }
 
   // A path's own nozzle temperature (then the temperature.settle dwell before it extrudes) and
-  // fan, where they change; its flow multiplies E.
+  // fan, where they change; its flow multiplies E. A path without its own, after one with, goes
+  // back to the profile's.
   void process_commands(const Path& path) {
     path_flow_ = path.flow > 0 ? path.flow : 1.0;
-    if (path.temperature > 0 && path.temperature != nozzle_now_) {
-      line(heat(last_tool_ >= 0 ? last_tool_ : -1, path.temperature, false));
-      nozzle_now_ = path.temperature;
+    const double t = path.temperature > 0 ? path.temperature
+                     : own_temperature_   ? p_.nozzle_temperature
+                                          : 0.0;
+    if (t > 0 && t != nozzle_now_) {
+      line(heat(last_tool_ >= 0 ? last_tool_ : -1, t, false));
+      nozzle_now_ = t;
       ++stats_.temperature_changes;
       dwell(p_.settle_time);
       stats_.settle_time_s += p_.settle_time;
     }
-    if (path.fan >= 0 && path.fan != fan_now_) {
-      const long s = std::lround(std::clamp(path.fan, 0.0, 100.0) * 2.55);
+    own_temperature_ = own_temperature_ || path.temperature > 0;
+    const double fan = path.fan >= 0 ? path.fan : own_fan_ ? p_.fan_percent : -1.0;
+    if (fan >= 0 && fan != fan_now_) {
+      const long s = std::lround(std::clamp(fan, 0.0, 100.0) * 2.55);
       line(s == 0 ? std::string("M107") : "M106 S" + std::to_string(s));
-      fan_now_ = path.fan;
+      fan_now_ = fan;
       ++stats_.fan_changes;
     }
+    own_fan_ = own_fan_ || path.fan >= 0;
   }
 
   void retract() {
@@ -790,6 +797,7 @@ class Writer {
   // Process fields: the nozzle temperature and fan last set, the current path's flow factor,
   // and the bead (chain of joined paths) being written.
   double nozzle_now_ = -1, fan_now_ = -1, path_flow_ = 1;
+  bool own_temperature_ = false, own_fan_ = false;  // some path had its own
   bool next_joined_ = false;
   std::size_t chain_segments_ = 0;
   bool e_axis_ = false;  // moves carry E                              // F of the previous printing move

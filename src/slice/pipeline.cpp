@@ -227,9 +227,6 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
       throw SettingError("graded slicing (strategy 1 or 2) does not shard: its look-ahead and "
                          "purge tower cross layers",
                          {job.input, 0, "slice.strategy"});
-    if (field.has_process())
-      throw SettingError("a design with process fields (fprocess) does not shard: slice it whole",
-                         {job.input, 0, "fprocess"});
     auto outlines_of = [&](const std::vector<double>& planes) {
       return r.route == SliceRoute::Field
                  ? slice_field(field, planes, job.field, &r.field_stats, progress)
@@ -244,6 +241,9 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
     const std::size_t n = last - first;
     range_a = std::min(job.layer_begin, n);
     range_b = std::max(range_a, std::min(job.layer_end, n));
+    if (field.has_process() && range_a < range_b)  // shard files do not carry the values
+      throw SettingError("a design with process fields (fprocess) does not shard: slice it whole",
+                         {job.input, 0, "fprocess"});
     const auto below = static_cast<std::size_t>(std::max(0, job.planar.bottom_layers));
     const auto above = static_cast<std::size_t>(std::max(0, job.planar.top_layers));
     range_lo = range_a >= below ? range_a - below : 0;

@@ -330,6 +330,37 @@ TEST(ProcessFields, TheLanguageNamesMistakes) {
   EXPECT_TRUE(std::isnan(ev.process({0, 0, 0}).value[2]));
 }
 
+TEST(ProcessFields, UnsetParametersKeepTheProfilesValues) {
+  // Two discs: the left one hot and fanless by its own fprocess, the right one with none: the
+  // right one prints at the profile's temperature and fan, also after the left one.
+  trellis::test::TempDir dir;
+  MachineProfile prof = fdm_profile();
+  prof.fan_percent = 40;
+  const Sliced s = slice(R"vcad(union() {
+    translate(-15, 0, 0) { fprocess(["230", "0"], ["temperature", "fan"]) { cylinder(8, 2); } }
+    translate(15, 0, 0) { cylinder(8, 2); }
+  })vcad",
+                         job_for(""), prof, dir);
+  const Replay r = replay(s.gcode, prof.settle_time);
+  std::size_t left = 0, right = 0, unsettled = 0;
+  for (const Move& m : r.moves) {
+    unsettled += !m.settled;
+    if ((m.a.x + m.b.x) / 2 - r.offset.x < 0) {
+      ++left;
+      EXPECT_EQ(m.temperature, 230);
+      EXPECT_NEAR(m.fan, 0, 1e-9);
+    } else {
+      ++right;
+      EXPECT_EQ(m.temperature, prof.nozzle_temperature);
+      EXPECT_NEAR(m.fan, 40, 0.5 / 2.55);
+    }
+  }
+  EXPECT_GT(left, 100u);
+  EXPECT_GT(right, 100u);
+  EXPECT_EQ(unsettled, 0u);
+  EXPECT_GE(r.temperature_changes, 10u);  // back and forth on every layer
+}
+
 TEST(ProcessFields, MergedPiecesBeyondHalfAStepAreReported) {
   trellis::test::TempDir dir;
   SliceJob job = job_for("");
