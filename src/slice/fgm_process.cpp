@@ -97,6 +97,9 @@ class PathSplitter {
     for (int i = 0; i < kProcessParams; ++i) {
       const double s = o_.step(static_cast<ProcessParam>(i));
       k.q[i] = std::isnan(v.value[i]) ? v.value[i] : std::round(v.value[i] / s) * s;
+      // Every sample lies in a piece written with its own rounded value (unless merged).
+      if (!std::isnan(v.value[i]))
+        r_.deviation[i] = std::max(r_.deviation[i], std::abs(v.value[i] - k.q[i]));
     }
     return k;
   }
@@ -106,8 +109,10 @@ class PathSplitter {
     std::vector<Path> pieces;
     std::vector<Key> keys;
     Key cur = key(path.points.front());
+    Path proto = path;  // the attributes; its points released (pieces must not keep their capacity)
+    proto.points = std::vector<Vec3>();
     auto start = [&](Vec3 at, const Key& k) {
-      Path p = path;
+      Path p = proto;
       p.points.assign(1, at);
       pieces.push_back(std::move(p));
       keys.push_back(k);
@@ -125,7 +130,7 @@ class PathSplitter {
         for (int guard = 0; !(k == cur) && guard < 64; ++guard) {
           double l = lo, h = t;
           Key kh = k;
-          for (int it = 0; it < 40 && (h - l) * len > 1e-7; ++it) {
+          for (int it = 0; it < 40 && (h - l) * len > 1e-4; ++it) {  // 0.1 µm
             const double m = 0.5 * (l + h);
             Key km = key(a + (b - a) * m);
             if (km == cur) {
@@ -153,7 +158,8 @@ class PathSplitter {
       pieces.pop_back();
       keys.pop_back();
     }
-    merge_short(pieces, keys);
+    std::vector<char> grown;
+    merge_short(pieces, keys, grown);
     const bool field_speed = std::any_of(keys.begin(), keys.end(), [](const Key& k) {
       return !std::isnan(k.q[static_cast<int>(ProcessParam::Speed)]);
     });
@@ -167,30 +173,42 @@ class PathSplitter {
         if (!std::isnan(keys[k].q[i])) mask |= 1u << i;
       r_.masks.push_back(mask);
     }
-    measure(pieces);
+    // Pieces that took others in: measured; the rest are within the samples' rounding (key()).
+    for (std::size_t k = 0; k < pieces.size(); ++k)
+      if (grown[k]) measure(pieces[k]);
     return pieces;
   }
 
  private:
-  void merge_short(std::vector<Path>& pieces, std::vector<Key>& keys) {
-    std::size_t k = 0;
-    while (pieces.size() > 1 && k < pieces.size()) {
-      if (pieces[k].length() >= o_.min_length) {
-        ++k;
+  // Pieces under min_length joined to the previous piece (a short start: to the next), in one
+  // pass; `grown` marks the pieces that took others in (their deviation must be measured).
+  void merge_short(std::vector<Path>& pieces, std::vector<Key>& keys, std::vector<char>& grown) {
+    std::vector<Path> out;
+    std::vector<Key> out_keys;
+    grown.clear();
+    for (std::size_t i = 0; i < pieces.size(); ++i) {
+      Path& p = pieces[i];
+      if (!out.empty() && p.length() < o_.min_length) {
+        auto& prev = out.back().points;
+        prev.insert(prev.end(), p.points.begin() + 1, p.points.end());
+        grown.back() = 1;
+        ++r_.merged;
         continue;
       }
-      ++r_.merged;
-      if (k > 0) {  // into the previous piece, which keeps its values
-        auto& prev = pieces[k - 1].points;
-        prev.insert(prev.end(), pieces[k].points.begin() + 1, pieces[k].points.end());
-      } else {      // the first piece: into the next, which keeps its values
-        auto& next = pieces[1].points;
-        next.insert(next.begin(), pieces[0].points.begin(), pieces[0].points.end() - 1);
+      if (out.size() == 1 && out[0].length() < o_.min_length) {
+        p.points.insert(p.points.begin(), out[0].points.begin(), out[0].points.end() - 1);
+        out[0] = std::move(p);
+        out_keys[0] = keys[i];
+        grown[0] = 1;
+        ++r_.merged;
+        continue;
       }
-      pieces.erase(pieces.begin() + static_cast<long>(k));
-      keys.erase(keys.begin() + static_cast<long>(k));
-      if (k > 0) --k;  // the piece that grew is checked again
+      out.push_back(std::move(p));
+      out_keys.push_back(keys[i]);
+      grown.push_back(0);
     }
+    pieces = std::move(out);
+    keys = std::move(out_keys);
   }
 
   static void write(Path& p, const Key& k, bool joined) {
@@ -202,20 +220,17 @@ class PathSplitter {
     p.joined = joined;
   }
 
-  // Max |field − written| along each piece, at the sample spacing and both ends.
-  void measure(const std::vector<Path>& pieces) {
-    for (const Path& p : pieces) {
-      for (std::size_t i = 1; i < p.points.size(); ++i) {
-        const Vec3 a = p.points[i - 1], b = p.points[i];
-        const int n = std::max(1, static_cast<int>(std::ceil(distance(a, b) / o_.sample)));
-        for (int j = i == 1 ? 0 : 1; j <= n; ++j) {
-          const ProcessValues v = at(a + (b - a) * (static_cast<double>(j) / n));
-          for (int k = 0; k < kProcessParams; ++k) {
-            if (std::isnan(v.value[k])) continue;
-            const double w = written_process_value(p, static_cast<ProcessParam>(k));
-            if (!std::isnan(w))
-              r_.deviation[k] = std::max(r_.deviation[k], std::abs(v.value[k] - w));
-          }
+  // Max |field − written| along a piece, at the sample spacing and both ends.
+  void measure(const Path& p) {
+    for (std::size_t i = 1; i < p.points.size(); ++i) {
+      const Vec3 a = p.points[i - 1], b = p.points[i];
+      const int n = std::max(1, static_cast<int>(std::ceil(distance(a, b) / o_.sample)));
+      for (int j = i == 1 ? 0 : 1; j <= n; ++j) {
+        const ProcessValues v = at(a + (b - a) * (static_cast<double>(j) / n));
+        for (int k = 0; k < kProcessParams; ++k) {
+          if (std::isnan(v.value[k])) continue;
+          const double w = written_process_value(p, static_cast<ProcessParam>(k));
+          if (!std::isnan(w)) r_.deviation[k] = std::max(r_.deviation[k], std::abs(v.value[k] - w));
         }
       }
     }
