@@ -90,8 +90,8 @@ Field fprocess(Field child, std::vector<Expression> values, std::vector<std::str
                std::string label) {
   if (child.empty()) throw GeometryError("fprocess needs a child");
   if (values.size() != params.size())
-    throw GeometryError(fmt::format("fprocess: {} expressions but {} parameters", values.size(),
-                                    params.size()));
+    throw GeometryError(
+        fmt::format("fprocess: {} expressions but {} parameters", values.size(), params.size()));
   if (values.empty()) throw GeometryError("fprocess: needs at least one parameter");
   auto n = std::make_shared<ProcessNode>();
   for (std::size_t i = 0; i < params.size(); ++i) {

@@ -141,7 +141,8 @@ class PathSplitter {
             }
           }
           const Vec3 cut = a + (b - a) * h;
-          if (distance(cut, pieces.back().points.back()) > 1e-9) pieces.back().points.push_back(cut);
+          if (distance(cut, pieces.back().points.back()) > 1e-9)
+            pieces.back().points.push_back(cut);
           if (pieces.back().points.size() < 2) {  // a cut at the piece's start: re-key it
             keys.back() = kh;
           } else {
@@ -246,10 +247,14 @@ class PathSplitter {
 
 double ProcessOptions::step(ProcessParam p) const {
   switch (p) {
-    case ProcessParam::Temperature: return temperature_step;
-    case ProcessParam::Speed: return speed_step;
-    case ProcessParam::Flow: return flow_step;
-    case ProcessParam::Fan: return fan_step;
+    case ProcessParam::Temperature:
+      return temperature_step;
+    case ProcessParam::Speed:
+      return speed_step;
+    case ProcessParam::Flow:
+      return flow_step;
+    case ProcessParam::Fan:
+      return fan_step;
   }
   return 1;
 }
@@ -257,10 +262,14 @@ double ProcessOptions::step(ProcessParam p) const {
 double written_process_value(const Path& path, ProcessParam p) {
   const double nan = std::nan("");
   switch (p) {
-    case ProcessParam::Temperature: return path.temperature > 0 ? path.temperature : nan;
-    case ProcessParam::Speed: return path.speed > 0 ? path.speed : nan;
-    case ProcessParam::Flow: return path.flow > 0 ? path.flow : nan;
-    case ProcessParam::Fan: return path.fan >= 0 ? path.fan : nan;
+    case ProcessParam::Temperature:
+      return path.temperature > 0 ? path.temperature : nan;
+    case ProcessParam::Speed:
+      return path.speed > 0 ? path.speed : nan;
+    case ProcessParam::Flow:
+      return path.flow > 0 ? path.flow : nan;
+    case ProcessParam::Fan:
+      return path.fan >= 0 ? path.fan : nan;
   }
   return nan;
 }
@@ -364,7 +373,8 @@ void apply_slice_process(const SliceJob& job, const Field& design, SliceResult& 
   }
   const ProcessParamStats& t = r.process.param[static_cast<int>(ProcessParam::Temperature)];
   if (t.set && job.strategy != 0 && job.process.temperature_from_mixture)
-    throw SettingError(t.node + " sets the nozzle temperature, but the machine makes the "
+    throw SettingError(t.node +
+                           " sets the nozzle temperature, but the machine makes the "
                            "gradient's mixtures with it (gradient.mode = temperature): drop the "
                            "temperature field or print the gradient on a mixing or tool-changer "
                            "profile",
@@ -401,20 +411,25 @@ std::vector<std::pair<std::string, std::string>> process_warnings(const ProcessS
     const ProcessParamStats& p = st.param[k];
     const double half = o.step(static_cast<ProcessParam>(k)) / 2;
     if (p.set && p.max_deviation > half * (1 + 1e-6) + 1e-9)
-      out.emplace_back("process_quantisation", fmt::format(
-          "{}: the written {} strays up to {}{} from the field, more than half its step ({}{}): "
-          "{} pieces shorter than process.min_length = {} mm were merged into a neighbour; use a "
-          "smaller --process-min-length or a larger step",
-          p.node, to_string(static_cast<ProcessParam>(k)), fmt_num(p.max_deviation), kUnits[k],
-          fmt_num(half), kUnits[k], st.merged, fmt_num(o.min_length)));
+      out.emplace_back(
+          "process_quantisation",
+          fmt::format("{}: the written {} strays up to {}{} from the field, more than half its "
+                      "step ({}{}): "
+                      "{} pieces shorter than process.min_length = {} mm were merged into a "
+                      "neighbour; use a "
+                      "smaller --process-min-length or a larger step",
+                      p.node, to_string(static_cast<ProcessParam>(k)), fmt_num(p.max_deviation),
+                      kUnits[k], fmt_num(half), kUnits[k], st.merged, fmt_num(o.min_length)));
   }
   if (st.short_slowed > 0)
-    out.emplace_back("process_short_paths", fmt::format(
-        "{}: {} paths of fewer than speed.short_path_segments = {} segments print at "
-        "speed.short_path_factor = {} x the speed field (as every short path does; set the "
-        "factor to 1 to print the field's speed there)",
-        st.param[static_cast<int>(ProcessParam::Speed)].node, st.short_slowed,
-        o.short_path_segments, fmt_num(o.short_path_factor)));
+    out.emplace_back(
+        "process_short_paths",
+        fmt::format(
+            "{}: {} paths of fewer than speed.short_path_segments = {} segments print at "
+            "speed.short_path_factor = {} x the speed field (as every short path does; set the "
+            "factor to 1 to print the field's speed there)",
+            st.param[static_cast<int>(ProcessParam::Speed)].node, st.short_slowed,
+            o.short_path_segments, fmt_num(o.short_path_factor)));
   return out;
 }
 

@@ -25,7 +25,9 @@ int Block::lines(bool across) const {
   return std::max(0, static_cast<int>(std::floor((span - 2 * w_) / w_ + 1e-9)));
 }
 
-double Block::line_length(bool across) const { return std::max(0.0, (across ? sy_ : sx_) - 3 * w_); }
+double Block::line_length(bool across) const {
+  return std::max(0.0, (across ? sy_ : sx_) - 3 * w_);
+}
 
 int Block::lines_for(double length, bool across) const {
   const double l = line_length(across);
@@ -41,8 +43,11 @@ bool Block::holds(std::size_t most, double length) const {
 
 std::vector<Vec2> Block::wall() const {
   const double rx = sx_ / 2 - w_ / 2, ry = sy_ / 2 - w_ / 2;
-  return {{c_.x - rx, c_.y - ry}, {c_.x + rx, c_.y - ry}, {c_.x + rx, c_.y + ry},
-          {c_.x - rx, c_.y + ry}, {c_.x - rx, c_.y - ry}};
+  return {{c_.x - rx, c_.y - ry},
+          {c_.x + rx, c_.y - ry},
+          {c_.x + rx, c_.y + ry},
+          {c_.x - rx, c_.y + ry},
+          {c_.x - rx, c_.y - ry}};
 }
 
 std::vector<Vec2> Block::zigzag(int first, int count, bool across) const {
@@ -66,7 +71,8 @@ std::vector<Vec2> Block::zigzag(int first, int count, bool across) const {
 std::vector<Vec2> Block::sparse(int first, bool across) const {
   std::vector<Vec2> pts;
   int k = 0;
-  for (int j = first + (kSparse - first % kSparse) % kSparse; j < lines(across); j += kSparse, ++k) {
+  for (int j = first + (kSparse - first % kSparse) % kSparse; j < lines(across);
+       j += kSparse, ++k) {
     const auto line = zigzag(j, 1, across);
     if (k % 2) {
       pts.push_back(line[1]);
@@ -116,8 +122,8 @@ Vec2 place(const BBox2& part, double sx, double sy, const PurgeOptions& o) {
            (!o.centred || (all.width() <= o.bed_x + ex && all.height() <= o.bed_y + ex));
   };
   const std::string sizes = "a " + (sx == sy ? mm(sx) : mm(sx) + " x " + mm(sy)) + " mm tower " +
-                            mm(clr) + " mm from the part's " +
-                            mm(part.width()) + " x " + mm(part.height()) + " mm footprint on the " +
+                            mm(clr) + " mm from the part's " + mm(part.width()) + " x " +
+                            mm(part.height()) + " mm footprint on the " +
                             (o.circular ? "round bed of " + mm(o.bed_x) + " mm"
                                         : mm(o.bed_x) + " x " + mm(o.bed_y) + " mm bed");
   if (!o.automatic) {
@@ -125,13 +131,14 @@ Vec2 place(const BBox2& part, double sx, double sy, const PurgeOptions& o) {
     const BBox2 t = tower_box(c);
     if (t.max.x > part.min.x - clr && t.min.x < part.max.x + clr && t.max.y > part.min.y - clr &&
         t.min.y < part.max.y + clr)
-      throw GeometryError("the purge tower at (" + mm(o.x) + ", " + mm(o.y) + ") overlaps the part: " +
-                              sizes + " (use purge.position = auto, or move purge.x/purge.y)",
+      throw GeometryError("the purge tower at (" + mm(o.x) + ", " + mm(o.y) +
+                              ") overlaps the part: " + sizes +
+                              " (use purge.position = auto, or move purge.x/purge.y)",
                           {"", 0, "purge.x"});
     if (!fits(c))
-      throw GeometryError("the purge tower at (" + mm(o.x) + ", " + mm(o.y) +
-                              ") is off the bed: " + sizes,
-                          {"", 0, "purge.x"});
+      throw GeometryError(
+          "the purge tower at (" + mm(o.x) + ", " + mm(o.y) + ") is off the bed: " + sizes,
+          {"", 0, "purge.x"});
     return c;
   }
   const Vec2 mid{(part.min.x + part.max.x) / 2, (part.min.y + part.max.y) / 2};
@@ -181,9 +188,11 @@ Block plan_tower(const BBox2& part, std::size_t most, double length, double bead
   }
   if (best) return *best;
   const double need = static_cast<double>(most) * length * bead;
-  throw GeometryError(square_error + "; nor does any strip along a side of the part: the busiest "
-                          "layer has " + std::to_string(most) + " purges of " + mm(length) +
-                          " mm, about " + mm(need) + " mm2 of tower",
+  throw GeometryError(square_error +
+                          "; nor does any strip along a side of the part: the busiest "
+                          "layer has " +
+                          std::to_string(most) + " purges of " + mm(length) + " mm, about " +
+                          mm(need) + " mm2 of tower",
                       {"", 0, "purge.melt_volume"});
 }
 

@@ -21,12 +21,12 @@ class Block {
   Vec2 centre() const { return c_; }
   double size_x() const { return sx_; }
   double size_y() const { return sy_; }
-  int lines(bool across) const;            // lines inside the wall
-  double line_length(bool across) const;   // mm
+  int lines(bool across) const;                     // lines inside the wall
+  double line_length(bool across) const;            // mm
   int lines_for(double length, bool across) const;  // lines a zig-zag of at least `length` needs
   // Whether `most` purges of `length` mm fit one layer, in both line directions.
   bool holds(std::size_t most, double length) const;
-  std::vector<Vec2> wall() const;          // closed loop (first point repeated)
+  std::vector<Vec2> wall() const;  // closed loop (first point repeated)
   // Lines first … first+count-1 as one zig-zag.
   std::vector<Vec2> zigzag(int first, int count, bool across) const;
   // Every kSparse-th line from `first` on, as one zig-zag (empty if none is left).

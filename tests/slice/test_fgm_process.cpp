@@ -36,7 +36,9 @@ struct Replay {
   std::size_t travels = 0, retractions = 0, temperature_changes = 0;
 };
 
-double word(const std::string& w) { return std::stod(w.substr(1)); }
+double word(const std::string& w) {
+  return std::stod(w.substr(1));
+}
 
 Replay replay(const std::string& gcode, double settle) {
   Replay r;
@@ -268,8 +270,10 @@ TEST(ProcessFields, SplitPathsStayOneBead) {
     const Vec3 q = (m.a + m.b) * 0.5;
     const double field = ev.process({q.x - rb.offset.x, q.y - rb.offset.y, 0}).value[1];
     const bool slow = std::abs(m.feed - field * prof.short_path_factor) <= 0.25 + 1e-3;
-    if (slow) slow_b += distance(m.a, m.b);
-    else EXPECT_NEAR(m.feed, field, 0.5 + 1e-3);
+    if (slow)
+      slow_b += distance(m.a, m.b);
+    else
+      EXPECT_NEAR(m.feed, field, 0.5 + 1e-3);
   }
   EXPECT_GT(slow_a, 10);
   EXPECT_NEAR(slow_a, slow_b, 1e-3 * slow_a);
@@ -365,8 +369,8 @@ TEST(ProcessFields, MergedPiecesBeyondHalfAStepAreReported) {
   trellis::test::TempDir dir;
   SliceJob job = job_for("");
   job.process.min_length = 3;  // merges pieces of a fast-changing speed field
-  const Sliced s =
-      slice(R"vcad(fprocess(["30 + 2*x"], ["speed"]) { cylinder(10, 2); })vcad", job, fdm_profile(), dir);
+  const Sliced s = slice(R"vcad(fprocess(["30 + 2*x"], ["speed"]) { cylinder(10, 2); })vcad", job,
+                         fdm_profile(), dir);
   EXPECT_GT(s.result.process.merged, 0u);
   EXPECT_GT(s.result.process.param[1].max_deviation, 0.5);
   ASSERT_EQ(process_warnings(s.result.process, job.process).size(), 1u);

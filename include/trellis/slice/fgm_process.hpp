@@ -36,19 +36,19 @@ struct ProcessOptions {
 };
 
 struct ProcessParamStats {
-  bool set = false;            // some fprocess node sets it
-  double min = 0, max = 0;     // of the written values
-  std::size_t changes = 0;     // written value changes, in print order
-  double max_deviation = 0;    // |field − written| over the samples of every piece
-  std::string node;            // the fprocess node that sets it (first seen)
+  bool set = false;          // some fprocess node sets it
+  double min = 0, max = 0;   // of the written values
+  std::size_t changes = 0;   // written value changes, in print order
+  double max_deviation = 0;  // |field − written| over the samples of every piece
+  std::string node;          // the fprocess node that sets it (first seen)
 };
 
 struct ProcessStats {
   bool active = false;
   std::array<ProcessParamStats, kProcessParams> param;
-  std::size_t paths = 0;       // printed paths the field applies to
-  std::size_t pieces = 0;      // after splitting
-  std::size_t merged = 0;      // pieces under min_length merged into their neighbour
+  std::size_t paths = 0;   // printed paths the field applies to
+  std::size_t pieces = 0;  // after splitting
+  std::size_t merged = 0;  // pieces under min_length merged into their neighbour
   std::size_t samples = 0;
   std::size_t short_slowed = 0;  // paths with a field speed the writer slows as short paths
 };
@@ -59,8 +59,7 @@ struct ProcessStats {
 // slicer puts the first layer on Z = 0; a point is evaluated at its layer's slicing plane);
 // layers beyond it take its last entry, none = 0.
 void apply_process_fields(const Field& design, Toolpath& toolpath, const ProcessOptions& options,
-                          ProcessStats* stats = nullptr,
-                          const std::vector<double>& design_dz = {});
+                          ProcessStats* stats = nullptr, const std::vector<double>& design_dz = {});
 
 // The value a path is written with (NaN when the path does not set it).
 double written_process_value(const Path& path, ProcessParam p);
