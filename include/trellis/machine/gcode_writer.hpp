@@ -35,6 +35,11 @@ struct GcodeStats {
   std::size_t tool_changes = 0;  // embedded
   std::size_t gradient_changes = 0;  // mixture / tool / temperature commands for graded paths
   double lookahead = 0;              // mm of path the changes were issued early
+  // Process fields (Path::temperature, fan): nozzle temperature changes written between paths,
+  // each followed by the temperature.settle dwell, and the dwell time they add.
+  std::size_t temperature_changes = 0;
+  double settle_time_s = 0;
+  std::size_t fan_changes = 0;
   // Printable but suspicious (machine/machine_check.hpp): kind and message.
   std::vector<std::pair<std::string, std::string>> warnings;
 };
