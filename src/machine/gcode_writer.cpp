@@ -359,6 +359,7 @@ class Writer {
 
   // The temperature the print starts at: the first path's own (a process field) or the profile's.
   double first_nozzle_temperature() const {
+    if (streamed_) return first_temperature_ > 0 ? first_temperature_ : p_.nozzle_temperature;
     for (const auto& l : tp_.layers)
       for (const auto& p : l.paths)
         if (p.points.size() >= 2) return p.temperature > 0 ? p.temperature : p_.nozzle_temperature;
@@ -647,6 +648,7 @@ class Writer {
     for (const auto& p : l.paths) {
       if (p.points.size() < 2) continue;
       if (!p.mixture.empty()) throw Error("streamed G-code cannot carry mixtures (internal)");
+      if (!first_seen_) first_seen_ = true, first_temperature_ = p.temperature;
       tower_ = tower_ || p.role == PathRole::Purge;
       if (select_tools_ &&
           std::find(tools_used_.begin(), tools_used_.end(), p.tool) == tools_used_.end())
@@ -907,6 +909,9 @@ class Writer {
   // and the bead (chain of joined paths) being written.
   double nozzle_now_ = -1, fan_now_ = -1, path_flow_ = 1;
   bool own_temperature_ = false, own_fan_ = false;  // some path had its own
+  // Streamed: the first printed path's own temperature (0 = none), found by the placement pass.
+  double first_temperature_ = 0;
+  bool first_seen_ = false;
   bool next_joined_ = false;
   std::size_t chain_segments_ = 0;
   bool e_axis_ = false;  // moves carry E                              // F of the previous printing move
