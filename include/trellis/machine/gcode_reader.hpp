@@ -14,6 +14,7 @@
 // warnings naming the line and skipped, or stop the read with a ParseError if asked.
 #pragma once
 #include <cmath>
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -91,7 +92,17 @@ class GcodeScanner {
  private:
   void bad(const std::string& what);
   void comment(std::string_view c);
+  // The words of a move, by letter (a bit each in `seen`).
+  struct Words {
+    double value[26];
+    std::uint32_t seen = 0;
+  };
   void move(std::string_view args, int g);
+  void apply_move(const Words& words, int g);
+  // The common line "G0 "/"G1 " + plain words, read in one pass from `s` (a line start inside a
+  // buffer ending at `end`): the position after its newline, or null if the line is not that
+  // simple (anything else, near the buffer end, or anything to report): line() reads it then.
+  const char* simple_move(const char* s, const char* end);
   void arc(Vec3 target, double e_target, double i, double j, double r, bool has_r, bool cw,
            double feed);
   void segment(Vec3 to, double e_to, double feed);
