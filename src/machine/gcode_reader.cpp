@@ -381,6 +381,7 @@ class ToolpathBuilder : public GcodeSink {
     p.height = height_;
     p.speed = feed;
     p.filament = e;
+    p.part = part_;
     layer.paths.push_back(std::move(p));
     path_ = &layer.paths.back();
   }
@@ -410,6 +411,17 @@ class ToolpathBuilder : public GcodeSink {
     if (h != height_) close();
     height_ = h;
   }
+  void object(std::string_view label) override {
+    close();
+    if (label.empty()) {
+      part_ = 0;
+      return;
+    }
+    const auto& labels = tp_.part_labels;
+    const auto it = std::find(labels.begin(), labels.end(), label);
+    if (it == labels.end()) tp_.part_labels.emplace_back(label);
+    part_ = static_cast<int>(std::find(labels.begin(), labels.end(), label) - labels.begin()) + 1;
+  }
 
  private:
   void close() { path_ = nullptr; }
@@ -426,7 +438,7 @@ class ToolpathBuilder : public GcodeSink {
 
   Toolpath& tp_;
   Path* path_ = nullptr;
-  int tool_ = 0;
+  int tool_ = 0, part_ = 0;
   PathRole role_ = PathRole::Strut;
   std::vector<double> mixture_;
   double temperature_ = 0, width_ = 0, height_ = 0;

@@ -14,6 +14,7 @@
 #include "trellis/machine/machine_check.hpp"
 #include "trellis/version.hpp"
 #include "fast_number.hpp"
+#include "gcode_objects.hpp"
 
 namespace trellis {
 
@@ -90,6 +91,7 @@ class Writer {
     out_.reserve(points * 40 + 8192);
     fastnum::advise_huge_pages(out_);
     plan_changes();
+    objects_ = gcode_objects(tp_, p_, {dx_, dy_}, stats_.warnings);
     header();
     for (std::size_t li = 0; li < tp_.layers.size(); ++li) layer(li);
     footer();
@@ -218,6 +220,7 @@ class Writer {
     if (p_.fan_percent > 0)
       line("M106 S" + std::to_string(static_cast<int>(std::lround(p_.fan_percent * 2.55))));
     if (e_axis_) line("G92 E0");
+    out_ += objects_.definitions;
   }
 
   void footer() {
@@ -267,7 +270,20 @@ class Writer {
       line("G92 E0");
       e_ = 0;
     }
-    for (const auto& path : l.paths) print_path(path);
+    for (const auto& path : l.paths) {
+      if (objects_.style != ObjectStyle::None) enter_object(path.part);
+      print_path(path);
+    }
+    enter_object(0);
+  }
+
+  // Build plates: the end of the part being printed and the start of `part` (0: none), when
+  // it changes (gcode_objects.hpp).
+  void enter_object(int part) {
+    if (part == object_) return;
+    if (object_ > 0) out_ += objects_.end(object_);
+    if (part > 0) out_ += objects_.start(part);
+    object_ = part;
   }
 
   void retract() {
@@ -720,6 +736,8 @@ class Writer {
   double lift_ = 0;  // Z added to every point (placement.lift), in the header for readers
   Flavor flavor_;
   std::string out_;
+  GcodeObjects objects_;  // build plates: parts labelled for the firmware
+  int object_ = 0;        // the part whose moves are being written (Path::part), 0 = none
   std::vector<Change> changes_;  // mixture changes in print order
   std::vector<int> tools_used_;  // tool changers: tools in order of first use
   int last_tool_ = -1;
@@ -778,6 +796,7 @@ std::string write_gcode(const Toolpath& toolpath, const MachineProfile& profile,
   for (auto& w : check_for_machine(*tp, profile)) s.warnings.emplace_back(w.kind, w.message);
   auto warnings = std::move(s.warnings);
   std::string out = Writer(profile, *tp, lift, thumbnails).run(s);
+  warnings.insert(warnings.end(), s.warnings.begin(), s.warnings.end());  // the writer's own
   s.warnings = std::move(warnings);
   if (stats) *stats = s;
   return out;
