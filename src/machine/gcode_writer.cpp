@@ -84,7 +84,10 @@ class Writer {
     placement();
   }
 
-  std::string run(GcodeStats& stats) {
+  // Writes into `buffer`'s memory (its text cleared), which it returns.
+  std::string run(GcodeStats& stats, std::string buffer = {}) {
+    out_ = std::move(buffer);
+    out_.clear();
     std::size_t points = 0;
     for (const auto& l : tp_.layers)
       for (const auto& path : l.paths) points += path.points.size();
@@ -773,6 +776,13 @@ class Writer {
 
 std::string write_gcode(const Toolpath& toolpath, const MachineProfile& profile,
                         GcodeStats* stats, const std::vector<GcodeThumbnail>& thumbnails) {
+  std::string out;
+  write_gcode_into(out, toolpath, profile, stats, thumbnails);
+  return out;
+}
+
+void write_gcode_into(std::string& out, const Toolpath& toolpath, const MachineProfile& profile,
+                      GcodeStats* stats, const std::vector<GcodeThumbnail>& thumbnails) {
   if (toolpath.path_count() == 0) throw GeometryError("the toolpath has no paths to write");
   GcodeStats s;
   // Below the bed: lifted onto it (placement.lift), a copy only then.
@@ -795,11 +805,10 @@ std::string write_gcode(const Toolpath& toolpath, const MachineProfile& profile,
   }
   for (auto& w : check_for_machine(*tp, profile)) s.warnings.emplace_back(w.kind, w.message);
   auto warnings = std::move(s.warnings);
-  std::string out = Writer(profile, *tp, lift, thumbnails).run(s);
+  out = Writer(profile, *tp, lift, thumbnails).run(s, std::move(out));
   warnings.insert(warnings.end(), s.warnings.begin(), s.warnings.end());  // the writer's own
   s.warnings = std::move(warnings);
   if (stats) *stats = s;
-  return out;
 }
 
 GcodeStats write_gcode_file(const std::string& path, const Toolpath& toolpath,

@@ -61,6 +61,13 @@ double extrusion_for(double length, double layer, const MachineProfile& profile)
 std::string write_gcode(const Toolpath& toolpath, const MachineProfile& profile,
                         GcodeStats* stats = nullptr,
                         const std::vector<GcodeThumbnail>& thumbnails = {});
+// The same text into `out` (its old text replaced), reusing its memory: a caller that writes
+// many files keeps one buffer, whose pages the kernel then does not have to fault in and zero for
+// each file again (that, and whether it can hand out huge pages, is most of what varies between
+// runs of write_gcode on a busy machine: bench_gcode_writer).
+void write_gcode_into(std::string& out, const Toolpath& toolpath, const MachineProfile& profile,
+                      GcodeStats* stats = nullptr,
+                      const std::vector<GcodeThumbnail>& thumbnails = {});
 // Writes atomically; returns the stats.
 GcodeStats write_gcode_file(const std::string& path, const Toolpath& toolpath,
                             const MachineProfile& profile,
