@@ -2,9 +2,9 @@
 // scanning at 800 MB/s or more on one core, next to `wc -l` on the same file (the I/O ceiling).
 // Rates of the file benchmarks are per CPU second (user + system) of the one thread that reads,
 // and of the `wc -l` child for the ceiling: the bench machine is shared, so wall time measures
-// the neighbours. The large file is TRELLIS_BENCH_GCODE if set, else a ~256 MB file of Trellis'
+// the neighbours. The large file is TRELLIS_BENCH_GCODE if set, else a ~213 MB file of Trellis'
 // own Marlin G-code (travels, retractions, ;TYPE: and ;WIDTH: comments) written once into
-// $TMPDIR and removed at exit.
+// $TMPDIR (and unlinked at once).
 #include <benchmark/benchmark.h>
 
 #include <fcntl.h>
@@ -66,28 +66,34 @@ namespace {
 
 struct LargeFile {
   std::string path;
-  bool owned = false;
+  int fd = -1;
   std::uintmax_t bytes = 0;
   LargeFile() {
     if (const char* env = std::getenv("TRELLIS_BENCH_GCODE")) {
       path = env;
     } else {
+      // Written, then unlinked at once: read through /proc/self/fd (the wc child inherits the
+      // descriptor), so no file is left behind however the benchmark ends.
       const char* tmp = std::getenv("TMPDIR");
-      path = std::string(tmp ? tmp : "/tmp") + "/trellis_bench_gcode_" +
-             std::to_string(getpid()) + ".gcode";
-      owned = true;
-      std::ofstream out(path, std::ios::binary);
-      MachineProfile p;
-      p.retract_length = 0.8;
-      p.z_hop = 0.2;
-      // 16 pieces of 8 layers, each its own seed: ~256 MB.
-      for (std::uint64_t seed = 1; seed <= 16; ++seed)
-        out << write_gcode(bench::random_toolpath(8, 0.2, seed), p);
+      const std::string name = std::string(tmp ? tmp : "/tmp") + "/trellis_bench_gcode_" +
+                               std::to_string(getpid()) + ".gcode";
+      {
+        std::ofstream out(name, std::ios::binary);
+        MachineProfile p;
+        p.retract_length = 0.8;
+        p.z_hop = 0.2;
+        // 16 pieces of 8 layers, each its own seed: ~213 MB.
+        for (std::uint64_t seed = 1; seed <= 16; ++seed)
+          out << write_gcode(bench::random_toolpath(8, 0.2, seed), p);
+      }
+      fd = open(name.c_str(), O_RDONLY);
+      std::remove(name.c_str());
+      path = "/proc/self/fd/" + std::to_string(fd);
     }
     bytes = std::filesystem::file_size(path);
   }
   ~LargeFile() {
-    if (owned) std::remove(path.c_str());
+    if (fd >= 0) close(fd);
   }
 };
 

@@ -3,12 +3,22 @@
 // the fresh output included): the bench machine is shared, so wall time measures the neighbours.
 // Before/after side by side: bench/compare_io.sh.
 #include <benchmark/benchmark.h>
+#include <sys/prctl.h>
+
+#include <cstdlib>
 
 #include "random_toolpath.hpp"
 #include "trellis/machine/cli.hpp"
 #include "trellis/machine/gcode_writer.hpp"
 
 using namespace trellis;
+
+// TRELLIS_BENCH_NO_THP=1: this process gets no transparent huge pages (prctl), as when the kernel
+// has none to give: what a fresh output buffer then costs.
+static const bool kNoThp = [] {
+  const char* v = std::getenv("TRELLIS_BENCH_NO_THP");
+  return v && *v == '1' && prctl(PR_SET_THP_DISABLE, 1, 0, 0, 0) == 0;
+}();
 
 static void BM_WriteMarlin(benchmark::State& state) {
   static const Toolpath tp = bench::random_toolpath(20, 0.148, 1);
