@@ -332,7 +332,8 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag, const 
     for (std::size_t k = 0; k < placed.size(); ++k)
       j["parts"].push_back({{"label", placed[k].label}, {"input", fs::path(placed[k].input).filename().string()},
                             {"x_mm", placed[k].x}, {"y_mm", placed[k].y},
-                            {"rotation_deg", placed[k].rotation}, {"layers", parts[k].layers}});
+                            {"rotation_deg", placed[k].rotation}, {"layers", parts[k].layers},
+                            {"print_time_s", k < g.part_time_s.size() ? g.part_time_s[k] : 0.0}});
     write_file_atomic(job.report, with_job(j.dump(2) + "\n", job, job.report, true, &diag));
     out.files.push_back(job.report);
   }

@@ -95,6 +95,7 @@ class Writer {
     fastnum::advise_huge_pages(out_);
     plan_changes();
     objects_ = gcode_objects(tp_, p_, {dx_, dy_}, stats_.warnings);
+    stats_.part_time_s.assign(tp_.part_labels.size(), 0.0);
     header();
     for (std::size_t li = 0; li < tp_.layers.size(); ++li) layer(li);
     footer();
@@ -274,19 +275,25 @@ class Writer {
       e_ = 0;
     }
     for (const auto& path : l.paths) {
-      if (objects_.style != ObjectStyle::None) enter_object(path.part);
+      if (!tp_.part_labels.empty()) enter_object(path.part);
       print_path(path);
     }
     enter_object(0);
   }
 
   // Build plates: the end of the part being printed and the start of `part` (0: none), when
-  // it changes (gcode_objects.hpp).
+  // it changes (gcode_objects.hpp); the time in between goes to the part's estimate.
   void enter_object(int part) {
     if (part == object_) return;
-    if (object_ > 0) out_ += objects_.end(object_);
-    if (part > 0) out_ += objects_.start(part);
+    if (object_ > 0) {
+      if (objects_.style != ObjectStyle::None) out_ += objects_.end(object_);
+      if (stats_.part_time_s.size() < static_cast<std::size_t>(object_))
+        stats_.part_time_s.resize(static_cast<std::size_t>(object_));
+      stats_.part_time_s[static_cast<std::size_t>(object_ - 1)] += stats_.print_time_s - object_since_;
+    }
+    if (part > 0 && objects_.style != ObjectStyle::None) out_ += objects_.start(part);
     object_ = part;
+    object_since_ = stats_.print_time_s;
   }
 
   void retract() {
@@ -741,6 +748,7 @@ class Writer {
   std::string out_;
   GcodeObjects objects_;  // build plates: parts labelled for the firmware
   int object_ = 0;        // the part whose moves are being written (Path::part), 0 = none
+  double object_since_ = 0;  // the time estimate when that part began
   std::vector<Change> changes_;  // mixture changes in print order
   std::vector<int> tools_used_;  // tool changers: tools in order of first use
   int last_tool_ = -1;

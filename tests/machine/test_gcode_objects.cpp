@@ -8,6 +8,7 @@
 #include <cmath>
 #include <regex>
 
+#include "trellis/analysis/metrics.hpp"
 #include "trellis/core/rng.hpp"
 #include "trellis/machine/gcode_reader.hpp"
 #include "trellis/machine/gcode_writer.hpp"
@@ -207,4 +208,39 @@ TEST(GcodeObjects, ReaderTakesOtherSlicersSpellings) {
   EXPECT_EQ(parts, (std::vector<int>{1, 2, 0, 3}));
   read_gcode("M486 S1.5\nM486 Sx\nEXCLUDE_OBJECT_START\n", {}, diag);
   EXPECT_EQ(diag.count("gcode_bad_line"), 3u);
+}
+
+// The writer's time estimate per part (the plate report's) is what `trellis analyze` measures
+// for that part in the file, labels on or off, and the parts' times add up to no more than the
+// whole print's.
+TEST(GcodeObjects, TimePerPartIsWhatTheFileMeasures) {
+  const Toolpath tp = plate(nine_labels());
+  for (const bool labels : {true, false}) {
+    MachineProfile p = profile("marlin");
+    p.label_objects = labels;
+    GcodeStats stats;
+    const std::string g = write_gcode(tp, p, &stats);
+    ASSERT_EQ(stats.part_time_s.size(), 9u);
+    double sum = 0;
+    for (double t : stats.part_time_s) {
+      EXPECT_GT(t, 0);
+      sum += t;
+    }
+    EXPECT_LE(sum, stats.print_time_s + 1e-9);
+    if (!labels) continue;
+    Diagnostics diag;
+    CountingSink counter(5, p.acceleration);
+    GcodeScanner scanner(counter, {}, diag);
+    scanner.feed(g);
+    scanner.finish();
+    ASSERT_EQ(counter.counts.parts.size(), 9u);
+    // The first part printed also holds the travel from where the reader starts (0, 0, 0), which
+    // the writer does not time (it does not know where the head is).
+    const double first_travel =
+        std::hypot(centre(1).x, centre(1).y) / p.travel_speed;
+    for (std::size_t k = 0; k < 9; ++k)
+      EXPECT_NEAR(counter.counts.parts[k].print_time_s - (k == 0 ? first_travel : 0.0),
+                  stats.part_time_s[k], 0.01 * stats.part_time_s[k])
+          << counter.counts.parts[k].label;
+  }
 }

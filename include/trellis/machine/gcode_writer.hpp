@@ -35,6 +35,8 @@ struct GcodeStats {
   std::size_t tool_changes = 0;  // embedded
   std::size_t gradient_changes = 0;  // mixture / tool / temperature commands for graded paths
   double lookahead = 0;              // mm of path the changes were issued early
+  // Build plates: the time estimate per part (Path::part - 1): its moves and the travels into it.
+  std::vector<double> part_time_s;
   // Printable but suspicious (machine/machine_check.hpp): kind and message.
   std::vector<std::pair<std::string, std::string>> warnings;
 };
