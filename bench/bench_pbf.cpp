@@ -4,7 +4,7 @@
 //    resolution: time and peak memory side by side, for 1 to 5 cells a side (5: ~1 min and
 //    ~12 GB for the STL route; the paper's O(n⁴) baseline, where each layer scans the whole
 //    mesh, to 4 cells: ~85 s); and at the default 0.025 mm for 2 to 4 cells. Each route runs
-//    in its own forked process so its peak RSS is its own (wait4's ru_maxrss).
+//    in its own forked process so its peak RSS and CPU time are its own (wait4's rusage).
 #include <benchmark/benchmark.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
@@ -67,6 +67,10 @@ void route(benchmark::State& state, Route which, double resolution = 0.01) {
     const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     state.SetIterationTime(s);
     state.counters["peak_MB"] = static_cast<double>(ru.ru_maxrss) / 1024.0;
+    // The child's CPU time (user + system, all its threads): steadier than wall time on a
+    // shared machine.
+    state.counters["cpu_s"] = static_cast<double>(ru.ru_utime.tv_sec + ru.ru_stime.tv_sec) +
+                              1e-6 * static_cast<double>(ru.ru_utime.tv_usec + ru.ru_stime.tv_usec);
     if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) state.SkipWithError("child failed");
   }
 }

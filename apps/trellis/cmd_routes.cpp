@@ -213,8 +213,18 @@ void add_routes(CLI::App& app, int argc, char** argv) {
     }
     if (route == "plan") cmd->add_option("--gcode", o->gcode, "also write G-code (needs --machine)");
     if (spec.report) cmd->add_option("--report", o->report, "JSON report to write");
-    if (spec.toolpath) cmd->add_option("--toolpath", o->toolpath, "also write the toolpath JSON");
-    cmd->add_option("--preview", o->preview, "folder for PNG previews (layer_0000.png, ...)");
+    // slice (strategy 0) and pbf write their output alone layer by layer in bounded memory.
+    const bool streams = route == "slice" || route == "pbf";
+    auto whole = [streams](const char* other) {
+      return streams ? std::string(" (holds the whole toolpath in memory; without it and ") +
+                           other + " the output streams layer by layer)"
+                     : std::string();
+    };
+    if (spec.toolpath)
+      cmd->add_option("--toolpath", o->toolpath,
+                      "also write the toolpath JSON" + whole("--preview"));
+    cmd->add_option("--preview", o->preview,
+                    "folder for PNG previews (layer_0000.png, ...)" + whole("--toolpath"));
     cmd->add_option("--set", o->sets, "any setting: section.key=value (repeatable; `trellis settings`)");
     o->flags.add(cmd, spec.flag_sections);
     const bool machine_required = route == "gcode" || route == "slice" || route == "nonplanar";

@@ -61,6 +61,11 @@ class FieldNode {
   virtual bool exact_outside() const { return false; }
   // Analytic gradient if the node has one (TPMS, transforms of it); false → finite differences.
   virtual bool gradient(Vec3 p, Vec3& g, EvalState& s, std::size_t depth) const { return false; }
+  // The value and the analytic gradient together (TPMS: from one set of sines); false → the
+  // caller evaluates them apart. Must give the same numbers as value() and gradient().
+  virtual bool value_gradient(Vec3 p, double& v, Vec3& g, EvalState& s, std::size_t depth) const {
+    return false;
+  }
   // The same at n points (TPMS reuses sines along grid rows as in eval).
   virtual bool gradients(const Vec3* p, Vec3* g, std::size_t n, EvalState& s,
                          std::size_t depth) const {

@@ -20,10 +20,13 @@ struct Span {
   double lo, hi;
 };
 
-// The stretch of the line t = 0 (in along/across coordinates) within r of the segment a–b.
-bool capsule_span(Vec2 a, Vec2 b, double r, Span* out) {
+// The stretch of the line t = 0 (in along/across coordinates) within r of the segment a–b;
+// without b's disc when !end_disc (a ring's next edge adds it: the disc at a and the band beside
+// the segment form a convex set, so the stretch is still one interval).
+bool capsule_span(Vec2 a, Vec2 b, double r, Span* out, bool end_disc = true) {
   double lo = 1e300, hi = -1e300;
-  for (const Vec2 c : {a, b}) {  // the end discs
+  for (int e = 0; e < (end_disc ? 2 : 1); ++e) {  // the end discs
+    const Vec2 c = e == 0 ? a : b;
     if (std::abs(c.y) > r) continue;
     const double w = std::sqrt(r * r - c.y * c.y);
     lo = std::min(lo, c.x - w);
@@ -92,8 +95,16 @@ std::vector<Segment2> trim_hatch(const std::vector<Segment2>& segs, const Region
     for (const auto& s : hatch(region, angle_deg, spacing, origin))
       if (auto* sp = slot(line_of(s.a))) sp->push_back({along(s.a), along(s.b)});
   if (inset > 0) {
+    // Consecutive edges of a ring cut mostly the same stretch of a line (their capsules share
+    // the end disc of the common vertex): a span overlapping the one the previous edge left on
+    // the same line widens it instead of adding one (the union is the same; far fewer spans to
+    // sort). last[k]: (edge serial, span index) of the latest span on line k. Each vertex's
+    // disc is added once, by the edge starting there.
+    std::vector<std::pair<std::size_t, std::size_t>> last(spans.size(), {~std::size_t{0}, 0});
+    std::size_t serial = 0;
     auto add_ring = [&](const std::vector<Vec2>& ring) {
-      for (std::size_t i = 0, j = ring.size() - 1; i < ring.size(); j = i++) {
+      ++serial;  // a ring's first edge never widens the previous ring's spans
+      for (std::size_t i = 0, j = ring.size() - 1; i < ring.size(); j = i++, ++serial) {
         const double ta = across(ring[j]), tb = across(ring[i]);
         const auto k0 =
             std::max(k_lo, static_cast<long long>(std::ceil((std::min(ta, tb) - inset) / spacing)));
@@ -104,8 +115,21 @@ std::vector<Segment2> trim_hatch(const std::vector<Segment2>& segs, const Region
           if (!sp) continue;
           const double t = static_cast<double>(k) * spacing;
           Span c;
-          if (capsule_span({along(ring[j]), ta - t}, {along(ring[i]), tb - t}, inset, &c))
-            sp->push_back(c);
+          if (!capsule_span({along(ring[j]), ta - t}, {along(ring[i]), tb - t}, inset, &c, false))
+            continue;
+          auto& [from, at] = last[static_cast<std::size_t>(k - k_lo)];
+          if (from + 1 == serial && at < sp->size()) {
+            Span& p = (*sp)[at];
+            if (c.lo <= p.hi && c.hi >= p.lo) {
+              p.lo = std::min(p.lo, c.lo);
+              p.hi = std::max(p.hi, c.hi);
+              from = serial;
+              continue;
+            }
+          }
+          from = serial;
+          at = sp->size();
+          sp->push_back(c);
         }
       }
     };
@@ -134,8 +158,11 @@ std::vector<Segment2> trim_hatch(const std::vector<Segment2>& segs, const Region
     if (cur < s1) result.push_back({at(cur), at(s1)});
   }
   // Slivers shorter than a nanometre (touching spans) are dropped.
-  std::erase_if(result,
-                [](const Segment2& g) { return std::hypot(g.b.x - g.a.x, g.b.y - g.a.y) < 1e-6; });
+  // (Vectors at least 2 nm long in |dx| + |dy| are at least 1.4 nm long: no hypot for them.)
+  std::erase_if(result, [](const Segment2& g) {
+    const double dx = g.b.x - g.a.x, dy = g.b.y - g.a.y;
+    return std::abs(dx) + std::abs(dy) < 2e-6 && std::hypot(dx, dy) < 1e-6;
+  });
   return result;
 }
 

@@ -147,6 +147,40 @@ void check_plate(const std::vector<PartFootprint>& parts, const BBox2& area, dou
     }
 }
 
+void check_sequential(const std::vector<PartFootprint>& parts, const std::vector<double>& heights,
+                      double radius, double height, const std::string& origin) {
+  constexpr double eps = 1e-9;
+  if (!(radius > 0) || !(height > 0))
+    throw SettingError(
+        "plate.sequence = parts prints each part whole before the next, which "
+        "needs the machine's extruder clearance: set machine.extruder_clearance_radius "
+        "and machine.extruder_clearance_height in the profile (PrusaSlicer's "
+        "extruder_clearance_radius/_height), or print per layer (plate.sequence = layers)",
+        {origin, 0, "plate.sequence"});
+  for (std::size_t i = 0; i + 1 < parts.size(); ++i)
+    if (heights[i] > height + eps)
+      throw SettingError(
+          fmt::format("part '{}' (line {}) is {:.3f} mm tall, above the gantry's clearance "
+                      "machine.extruder_clearance_height = {} mm, but it is not printed last "
+                      "('{}' is): the gantry would hit it while the later parts print. Put it "
+                      "last in the job file, or print per layer (plate.sequence = layers)",
+                      parts[i].label, parts[i].line, heights[i], height, parts.back().label),
+          {origin, parts[i].line, "plate.sequence"});
+  for (std::size_t i = 0; i < parts.size(); ++i)
+    for (std::size_t j = i + 1; j < parts.size(); ++j) {
+      const double d = quad_distance(parts[i].corners, parts[j].corners);
+      if (d < radius - eps)
+        throw SettingError(
+            fmt::format("parts '{}' (line {}) and '{}' (line {}) are {:.3f} mm apart: printed "
+                        "one after the other (plate.sequence = parts) they must be at least "
+                        "machine.extruder_clearance_radius = {} mm apart, or the printhead hits "
+                        "the finished one; move them apart or print per layer "
+                        "(plate.sequence = layers)",
+                        parts[i].label, parts[i].line, parts[j].label, parts[j].line, d, radius),
+            {origin, parts[j].line, "part.x"});
+    }
+}
+
 std::pair<int, int> parse_shard(const std::string& text) {
   const auto slash = text.find('/');
   int k = 0, n = 0;

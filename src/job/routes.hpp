@@ -43,6 +43,13 @@ void write_toolpath_with_job(const std::string& path, Toolpath toolpath, const J
 // machine check; its warnings go to `diag`. Keeps the toolpath in `out` either way.
 GcodeStats write_gcode_out(const std::string& path, Toolpath tp, const Job& job,
                            const MachineProfile& machine, JobResult& out, Diagnostics& diag);
+// Whether a route writes its output alone (no toolpath JSON, previews or toolpath kept for the
+// caller): then it may stream its layers in bounded memory instead of holding the toolpath.
+bool output_alone(const Job& job);
+// write_gcode_out for streamed layers (`meta`: source and part labels; `layers` of them).
+GcodeStats write_gcode_streamed(const std::string& path, Toolpath meta, std::size_t layers,
+                                const LayerSource& source, const Job& job,
+                                const MachineProfile& machine, JobResult& out, Diagnostics& diag);
 // Bath routes (nonplanar, plan aero) writing G-code need a bath machine (machine.flavor =
 // embedded): MachineError naming the route, the machine and a bath profile otherwise.
 void require_bath(const Job& job, const MachineProfile& machine, const std::string& route,

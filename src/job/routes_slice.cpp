@@ -5,6 +5,7 @@
 #include <sys/resource.h>
 
 #include <filesystem>
+#include <optional>
 #include <nlohmann/json.hpp>
 
 #include "routes.hpp"
@@ -21,6 +22,7 @@
 #include "trellis/job/plate.hpp"
 #include "trellis/slice/slice.hpp"
 #include "trellis/slice/pipeline.hpp"
+#include "trellis/toolpath/layer_spill.hpp"
 
 namespace trellis::routes {
 
@@ -222,6 +224,134 @@ SliceJob slice_job_of(const Job& job, const Config& c, const std::string& input)
   return sj;
 }
 
+// A part of a plate sliced: its job, extent and printed layers.
+struct SlicePart {
+  SliceJob sj;
+  BBox3 extent;
+  std::size_t layers = 0;
+};
+
+void warn_repaired(const SliceJob& sj, const SliceResult& r, Diagnostics& diag) {
+  if (r.repaired)
+    diag.warn("mesh_repaired", fs::path(sj.input).filename().string() +
+                                   " was not closed and manifold; repaired: " + r.repair.summary());
+}
+
+// The plate's report (trellis.plate_report) and summary of the slice route.
+void plate_report(const Job& job, const std::vector<PlatePart>& placed,
+                  const std::vector<SlicePart>& parts, std::size_t total, std::size_t paths,
+                  const GcodeStats& g, Diagnostics& diag, JobResult& out) {
+  if (!job.report.empty()) {
+    nlohmann::ordered_json j;
+    j["format"] = "trellis.plate_report";
+    j["version"] = 1;
+    j["route"] = "slice";
+    j["layers"] = total;
+    j["paths"] = paths;
+    j["print_time_s"] = g.print_time_s;
+    j["parts"] = nlohmann::ordered_json::array();
+    for (std::size_t k = 0; k < placed.size(); ++k)
+      j["parts"].push_back({{"label", placed[k].label},
+                            {"input", fs::path(placed[k].input).filename().string()},
+                            {"x_mm", placed[k].x},
+                            {"y_mm", placed[k].y},
+                            {"rotation_deg", placed[k].rotation},
+                            {"layers", parts[k].layers},
+                            {"print_time_s", k < g.part_time_s.size() ? g.part_time_s[k] : 0.0}});
+    write_file_atomic(job.report, with_job(j.dump(2) + "\n", job, job.report, true, &diag));
+    out.files.push_back(job.report);
+  }
+}
+
+std::string plate_summary(std::size_t parts, bool sequential, std::size_t layers, double h,
+                          std::size_t paths, const GcodeStats& g) {
+  return fmt::format("plate of {} parts{}: {} layers of {} mm, {} paths, ~{} min", parts,
+                     sequential ? " printed one after another" : "", layers, fixed(h, 3), paths,
+                     fixed(g.print_time_s / 60, 1));
+}
+
+// A plate's layers (each holding layer i of every part, paths tagged with their part) reordered
+// to print part by part: part 1's layers, then part 2's, … (plate.sequence = parts).
+std::vector<Layer> part_by_part(std::vector<Layer> plate_layers,
+                                const std::vector<SlicePart>& parts, double h) {
+  std::vector<Layer> out;
+  for (std::size_t k = 0; k < parts.size(); ++k)
+    for (std::size_t i = 0; i < parts[k].layers && i < plate_layers.size(); ++i) {
+      Layer layer;
+      layer.z = static_cast<double>(i + 1) * h;
+      for (Path& path : plate_layers[i].paths)
+        if (path.part == static_cast<int>(k + 1)) layer.paths.push_back(std::move(path));
+      out.push_back(std::move(layer));
+    }
+  return out;
+}
+
+// A plate (or one part) whose G-code alone is asked for, in bounded memory: each part's layers
+// streamed (slice/pipeline.hpp) into a temporary file of its own, placed; plate layer i then read
+// as layer i of every part that tall, in the job's order, for each pass of the writer.
+JobResult slice_plate_streamed(const Job& job, const Config& c, std::vector<SlicePart>& parts,
+                               const std::vector<PlatePart>& placed, std::size_t total,
+                               bool sequential, Diagnostics& diag, const Progress& progress) {
+  JobResult out;
+  const bool plate = !job.parts.empty();
+  const double h = c.machine.layer_height;
+  std::vector<std::unique_ptr<LayerSpill>> spills;
+  Toolpath meta;
+  std::size_t paths = 0;
+  for (std::size_t k = 0; k < parts.size(); ++k) {
+    SlicePart& p = parts[k];
+    if (plate) meta.part_labels.push_back(placed[k].label);
+    spills.push_back(std::make_unique<LayerSpill>());
+    LayerSpill& spill = *spills.back();
+    const SliceResult r = stream_slice(
+        p.sj,
+        [&](std::size_t, Layer&& layer) {
+          for (Path& path : layer.paths) {
+            if (plate) {
+              for (Vec3& q : path.points) q = place_point(placed[k], p.extent, q);
+              path.part = static_cast<int>(k + 1);
+            }
+            ++paths;
+          }
+          spill.append(layer);
+        },
+        progress);
+    warn_repaired(p.sj, r, diag);
+    if (!plate)
+      meta.source = "trellis slice " + fs::path(p.sj.input).filename().string() + " (" +
+                    to_string(r.route) + " route)";
+  }
+  if (plate) meta.source = fmt::format("trellis slice plate ({} parts)", parts.size());
+  // Part by part: each part's layers in turn.
+  const LayerSource one_by_one = [&](const LayerVisitor& visit) {
+    std::size_t i = 0;
+    for (auto& s : spills) s->visit([&](std::size_t, const Layer& layer) { visit(i++, layer); });
+  };
+  if (sequential) {
+    total = 0;
+    for (auto& s : spills) total += s->layers();
+  }
+  const LayerSource layers = sequential ? one_by_one : [&](const LayerVisitor& visit) {
+    for (auto& s : spills) s->rewind();
+    Layer layer, piece;
+    for (std::size_t i = 0; i < total; ++i) {
+      layer.z = static_cast<double>(i + 1) * h;
+      layer.paths.clear();
+      for (auto& s : spills)
+        if (i < s->layers() && s->next(piece))
+          for (Path& path : piece.paths) layer.paths.push_back(std::move(path));
+      visit(i, layer);
+    }
+  };
+  note_planar_in_bath(c.machine, "slice", diag);
+  MachineProfile m = c.machine;
+  if (plate) m.center = false;  // a plate is placed already: its parts' x, y are bed coordinates
+  const GcodeStats g = write_gcode_streamed(job.output, meta, total, layers, job, m, out, diag);
+  plate_report(job, placed, parts, total, paths, g, diag, out);
+  out.summary = plate_summary(placed.size(), sequential, total, h, paths, g);
+  return out;
+}
+
 // A build plate of sliced parts, or a shard of one (job/plate.hpp): each part sliced with its own
 // settings, placed (its x, y are bed coordinates) and dropped on the bed; plate layer i holds
 // layer i of every part that tall, parts in the order of the job file. A shard slices the parts
@@ -231,12 +361,8 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag, const 
   const bool plate = !job.parts.empty();
   const std::vector<PlatePart> placed = plate ? job.parts : std::vector<PlatePart>{PlatePart{}};
   const double h = c.machine.layer_height;
-  struct Part {
-    SliceJob sj;
-    BBox3 extent;
-    std::size_t layers = 0;
-  };
-  std::vector<Part> parts;
+  const bool sequential = plate && c.plate.sequence == "parts";
+  std::vector<SlicePart> parts;
   // First each part's extent and printed layers (its ends found plane by plane), for the plate
   // check and the shards' ranges before any layer is sliced.
   for (const PlatePart& pp : placed) {
@@ -250,7 +376,7 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag, const 
       throw SettingError("part '" + pp.label + "' sets its own layer height: every part of a "
                          "plate prints in the plate's layers (extrusion.layer_height)",
                          {job.origin, pp.line, "extrusion.layer_height"});
-    Part p;
+    SlicePart p;
     p.sj = slice_job_of(job, pc, input);
     if (p.sj.strategy != 0)
       throw SettingError("graded slicing (slice.strategy 1 or 2) does not go on plates or "
@@ -271,6 +397,17 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag, const 
                           ? BBox2{{-m.bed_x / 2, -m.bed_y / 2}, {m.bed_x / 2, m.bed_y / 2}}
                           : BBox2{{0, 0}, {m.bed_x, m.bed_y}};
     check_plate(fp, bed, c.plate.clearance, job.origin);
+    if (sequential) {
+      if (job.shards)
+        throw SettingError(
+            "a plate printed part by part (plate.sequence = parts) does not shard "
+            "by layers; shard it per layer (plate.sequence = layers)",
+            {job.origin, 0, "plate.sequence"});
+      std::vector<double> heights;
+      for (const auto& p : parts) heights.push_back(static_cast<double>(p.layers) * h);
+      check_sequential(fp, heights, m.extruder_clearance_radius, m.extruder_clearance_height,
+                       job.origin);
+    }
   }
   // Plate layer i holds layer i of every part that tall; its work is the parts' XY areas.
   std::size_t total = 0;
@@ -281,19 +418,19 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag, const 
       work[i] += (p.extent.max.x - p.extent.min.x) * (p.extent.max.y - p.extent.min.y);
   const auto [a, b] = job.shards ? shard_range(work, job.shard, job.shards)
                                  : std::pair<std::size_t, std::size_t>{0, total};
+  if (!job.shards && output_alone(job))
+    return slice_plate_streamed(job, c, parts, placed, total, sequential, diag, progress);
   Toolpath tp;
   tp.layers.resize(b - a);
   for (std::size_t i = a; i < b; ++i) tp.layers[i - a].z = static_cast<double>(i + 1) * h;
   std::size_t paths = 0;
   for (std::size_t k = 0; k < parts.size(); ++k) {
-    Part& p = parts[k];
+    SlicePart& p = parts[k];
     if (plate) tp.part_labels.push_back(placed[k].label);
     if (a >= p.layers) continue;
     if (job.shards) p.sj.layer_begin = a, p.sj.layer_end = b;
     SliceResult r = run_slice(p.sj, progress);
-    if (r.repaired)
-      diag.warn("mesh_repaired", fs::path(p.sj.input).filename().string() +
-                                     " was not closed and manifold; repaired: " + r.repair.summary());
+    warn_repaired(p.sj, r, diag);
     if (!plate)
       tp.source = "trellis slice " + fs::path(p.sj.input).filename().string() + " (" +
                   to_string(r.route) + " route)";
@@ -313,6 +450,7 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag, const 
   if (plate) tp.source = fmt::format("trellis slice plate ({} parts)", parts.size());
   if (job.shards)
     return shard_written(job, tp, a, b, total, fmt::format("{} paths", paths), std::move(out));
+  if (sequential) tp.layers = part_by_part(std::move(tp.layers), parts, h);
   if (!job.output.empty()) note_planar_in_bath(c.machine, "slice", diag);
   GcodeStats g;
   write_slice_main(job, c, tp, out, diag, &g);
@@ -320,29 +458,12 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag, const 
     write_toolpath_with_job(job.toolpath, tp, job);
     out.files.push_back(job.toolpath);
   }
-  if (!job.report.empty()) {
-    nlohmann::ordered_json j;
-    j["format"] = "trellis.plate_report";
-    j["version"] = 1;
-    j["route"] = "slice";
-    j["layers"] = total;
-    j["paths"] = paths;
-    j["print_time_s"] = g.print_time_s;
-    j["parts"] = nlohmann::ordered_json::array();
-    for (std::size_t k = 0; k < placed.size(); ++k)
-      j["parts"].push_back({{"label", placed[k].label}, {"input", fs::path(placed[k].input).filename().string()},
-                            {"x_mm", placed[k].x}, {"y_mm", placed[k].y},
-                            {"rotation_deg", placed[k].rotation}, {"layers", parts[k].layers},
-                            {"print_time_s", k < g.part_time_s.size() ? g.part_time_s[k] : 0.0}});
-    write_file_atomic(job.report, with_job(j.dump(2) + "\n", job, job.report, true, &diag));
-    out.files.push_back(job.report);
-  }
+  plate_report(job, placed, parts, tp.layers.size(), paths, g, diag, out);
   RenderOptions ro;
   ro.colour_by_role = true;
   ro.size_px = c.output.image_size;
   previews(tp, job.preview, c.output.preview_layers, ro, out);
-  out.summary = fmt::format("plate of {} parts: {} layers of {} mm, {} paths, ~{} min", placed.size(),
-                            total, fixed(h, 3), paths, fixed(g.print_time_s / 60, 1));
+  out.summary = plate_summary(placed.size(), sequential, tp.layers.size(), h, paths, g);
   return out;
 }
 
@@ -353,7 +474,14 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
   JobResult out;
   if (job.input.empty()) throw SettingError("slice needs a design (.vcad) or mesh to read", {"", 0, "job.input"});
   SliceJob sj = slice_job_of(job, c, job.input);
-  SliceResult r = run_slice(sj, progress);
+  // G-code alone from planar slicing: layers stream through a temporary file in bounded memory
+  // (the toolpath JSON, previews and graded slicing hold the whole toolpath).
+  std::optional<LayerSpill> spill;
+  if (sj.strategy == 0 && output_alone(job)) spill.emplace();
+  SliceResult r = spill ? stream_slice(
+                              sj, [&](std::size_t, Layer&& l) { spill->append(l); }, progress)
+                        : run_slice(sj, progress);
+  const std::size_t layers = r.streamed ? r.layers : r.outlines.size();
   if (r.repaired)
     diag.warn("mesh_repaired", fs::path(job.input).filename().string() +
                                    " was not closed and manifold; repaired: " + r.repair.summary());
@@ -379,7 +507,14 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
                       to_string(r.route) + " route)";
   GcodeStats g;
   if (!job.output.empty()) note_planar_in_bath(c.machine, "slice", diag);
-  g = write_gcode_out(job.output, r.toolpath, job, c.machine, out, diag);
+  if (spill) {
+    Toolpath meta;
+    meta.source = r.toolpath.source;
+    g = write_gcode_streamed(job.output, meta, spill->layers(), spill->source(), job, c.machine,
+                             out, diag);
+  } else {
+    g = write_gcode_out(job.output, r.toolpath, job, c.machine, out, diag);
+  }
   if (!job.toolpath.empty()) {
     write_toolpath_with_job(job.toolpath, r.toolpath, job);
     out.files.push_back(job.toolpath);
@@ -397,22 +532,23 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
   if (sj.strategy != 0)
     out.summary = fmt::format(
         "strategy {}: {} colours, {} faces, {} paths, {} {} changes (look-ahead {} mm), {} purges "
-        "({} mm3), gradient error mean {} max {} (bound {}), shortest {} mm; {} route, {} layers, ~{} min",
+        "({} mm3), gradient error mean {} max {} (bound {}), shortest {} mm; {} route, {} layers, "
+        "~{} min",
         sj.strategy,
         r.fgm.quantized_from ? fmt::format("{} (quantized from {})", sj.tools, r.fgm.quantized_from)
                              : std::to_string(sj.fgm.palette.colors),
-        r.fgm.faces, r.fgm.paths, g.gradient_changes,
-        c.machine.gradient_mode, fixed(g.lookahead, 0), r.fgm.purges,
-        fixed(r.fgm.purge_volume, 0), fixed(r.fgm.error_mean, 4), fixed(r.fgm.error_max, 4),
-        fixed(r.fgm.error_bound, 4), fixed(r.fgm.shortest_path, 2), to_string(r.route),
-        r.outlines.size(), fixed(g.print_time_s / 60, 1));
+        r.fgm.faces, r.fgm.paths, g.gradient_changes, c.machine.gradient_mode,
+        fixed(g.lookahead, 0), r.fgm.purges, fixed(r.fgm.purge_volume, 0),
+        fixed(r.fgm.error_mean, 4), fixed(r.fgm.error_max, 4), fixed(r.fgm.error_bound, 4),
+        fixed(r.fgm.shortest_path, 2), to_string(r.route), layers, fixed(g.print_time_s / 60, 1));
   else
     out.summary = fmt::format(
         "{} route: {} layers of {} mm, {} paths ({} wall loops, {} skin paths, {} infill lines), "
         "{} mm extruded, ~{} min; outlines {} s, walls+infill {} s",
-        to_string(r.route), r.outlines.size(), fixed(c.machine.layer_height, 3), r.planar.paths,
-        r.planar.walls, r.planar.skin_lines, r.planar.infill_lines, fixed(r.planar.extruded_length, 1),
-        fixed(g.print_time_s / 60, 1), fixed(r.outline_seconds, 2), fixed(r.plan_seconds, 2));
+        to_string(r.route), layers, fixed(c.machine.layer_height, 3), r.planar.paths,
+        r.planar.walls, r.planar.skin_lines, r.planar.infill_lines,
+        fixed(r.planar.extruded_length, 1), fixed(g.print_time_s / 60, 1),
+        fixed(r.outline_seconds, 2), fixed(r.plan_seconds, 2));
   if (sj.strategy != 0 && r.fgm.min_segment > 0)
     out.summary += fmt::format("; min segment {} mm: {} merged, {} kept under it",
                                fixed(r.fgm.min_segment, 1), r.fgm.short_merged, r.fgm.short_kept);

@@ -59,6 +59,21 @@ GcodeStats write_gcode_out(const std::string& path, Toolpath tp, const Job& job,
   return stats;
 }
 
+bool output_alone(const Job& job) {
+  return !job.output.empty() && !job.keep_toolpath && job.toolpath.empty() && job.preview.empty();
+}
+
+GcodeStats write_gcode_streamed(const std::string& path, Toolpath meta, std::size_t layers,
+                                const LayerSource& source, const Job& job,
+                                const MachineProfile& machine, JobResult& out, Diagnostics& diag) {
+  meta.job = embedded_job(job, path);
+  const GcodeStats stats =
+      write_gcode_stream(path, meta, layers, source, machine, gcode_thumbnails(source, machine));
+  for (const auto& [kind, message] : stats.warnings) diag.warn(kind, message);
+  out.files.push_back(path);
+  return stats;
+}
+
 void require_bath(const Job& job, const MachineProfile& m, const std::string& route,
                   const std::string& why) {
   const std::string& out = route == "nonplanar" ? job.output : job.gcode;
@@ -109,9 +124,14 @@ std::string fixed(double v, int decimals) {
 
 std::vector<GcodeThumbnail> gcode_thumbnails(const Toolpath& toolpath,
                                              const MachineProfile& machine) {
+  return gcode_thumbnails(layers_of(toolpath), machine);
+}
+
+std::vector<GcodeThumbnail> gcode_thumbnails(const LayerSource& layers,
+                                             const MachineProfile& machine) {
   std::vector<GcodeThumbnail> out;
   for (const auto& [w, h] : machine.thumbnail_sizes())
-    out.push_back({w, h, render_thumbnail_png(toolpath, w, h)});
+    out.push_back({w, h, render_thumbnail_png(layers, w, h)});
   return out;
 }
 

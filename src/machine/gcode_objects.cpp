@@ -67,12 +67,13 @@ std::string GcodeObjects::end(int part) const {
   return "M486 S-1\n";
 }
 
-GcodeObjects gcode_objects(const Toolpath& tp, const MachineProfile& p, Vec2 shift,
+GcodeObjects gcode_objects(const std::vector<std::string>& labels, const LayerSource& layers,
+                           const MachineProfile& p, Vec2 shift,
                            std::vector<std::pair<std::string, std::string>>& warnings) {
   GcodeObjects o;
-  if (!p.label_objects || tp.part_labels.empty() || p.parsed_flavor() != Flavor::Marlin) return o;
+  if (!p.label_objects || labels.empty() || p.parsed_flavor() != Flavor::Marlin) return o;
   o.style = p.flavor == "klipper" ? ObjectStyle::Klipper : ObjectStyle::M486;
-  for (const std::string& label : tp.part_labels) {
+  for (const std::string& label : labels) {
     std::string n = written_name(label);
     if (n != label)
       warnings.emplace_back("label_renamed",
@@ -91,14 +92,22 @@ GcodeObjects gcode_objects(const Toolpath& tp, const MachineProfile& p, Vec2 shi
     o.definitions = fmt::format("M486 T{}\n", o.names.size());
     return o;
   }
-  std::vector<std::vector<Vec2>> points(o.names.size());
-  for (const auto& l : tp.layers)
+  // Each part's hull, grown a layer at a time.
+  std::vector<std::vector<Vec2>> hulls(o.names.size());
+  layers([&](std::size_t, const Layer& l) {
+    std::vector<std::vector<Vec2>> add(hulls.size());
     for (const auto& path : l.paths)
-      if (path.part >= 1 && path.part <= static_cast<int>(points.size()))
+      if (path.part >= 1 && path.part <= static_cast<int>(hulls.size()))
         for (const auto& q : path.points)
-          points[static_cast<std::size_t>(path.part - 1)].push_back({q.x + shift.x, q.y + shift.y});
+          add[static_cast<std::size_t>(path.part - 1)].push_back({q.x + shift.x, q.y + shift.y});
+    for (std::size_t i = 0; i < hulls.size(); ++i) {
+      if (add[i].empty()) continue;
+      add[i].insert(add[i].end(), hulls[i].begin(), hulls[i].end());
+      hulls[i] = convex_hull(std::move(add[i]));
+    }
+  });
   for (std::size_t i = 0; i < o.names.size(); ++i)
-    o.definitions += klipper_definition(o.names[i], convex_hull(std::move(points[i])));
+    o.definitions += klipper_definition(o.names[i], hulls[i]);
   return o;
 }
 

@@ -29,10 +29,13 @@ struct GcodeObjects {
   std::string end(int part) const;
 };
 
-// The objects of a plate for the profile's flavour; none without part labels, for the
-// pneumatic and embedded flavours, or with gcode.label_objects = false. `shift` is the writer's
-// XY placement. Two labels written alike are a MachineError.
-GcodeObjects gcode_objects(const Toolpath& toolpath, const MachineProfile& profile, Vec2 shift,
+// The objects of a plate (`labels`: Toolpath::part_labels) for the profile's flavour; none
+// without labels, for the pneumatic and embedded flavours, or with gcode.label_objects = false.
+// `shift` is the writer's XY placement; Klipper's polygons come from one pass over `layers`, a
+// layer at a time (memory bounded by a layer and the hulls). Two labels written alike are a
+// MachineError.
+GcodeObjects gcode_objects(const std::vector<std::string>& labels, const LayerSource& layers,
+                           const MachineProfile& profile, Vec2 shift,
                            std::vector<std::pair<std::string, std::string>>& warnings);
 
 }  // namespace trellis

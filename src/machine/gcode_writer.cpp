@@ -3,10 +3,14 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <charconv>
+#include <cstdio>
 #include <cmath>
 #include <cstring>
+#include <memory>
 #include <numbers>
+#include <utility>
 
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
@@ -74,9 +78,17 @@ char* put_feed(char* p, double mm_per_s) {
 
 class Writer {
  public:
+  // `stream`: the layers come from it (tp gives the source, job and labels only; no mixtures).
   Writer(const MachineProfile& p, const Toolpath& tp, double lift,
-         const std::vector<GcodeThumbnail>& thumbs)
-      : p_(p), tp_(tp), thumbnails_(thumbs), lift_(lift) {
+         const std::vector<GcodeThumbnail>& thumbs, const LayerSource* stream = nullptr,
+         std::size_t stream_layers = 0)
+      : p_(p),
+        tp_(tp),
+        thumbnails_(thumbs),
+        layers_(stream ? *stream : layers_of(tp)),
+        layer_count_(stream ? stream_layers : tp.layers.size()),
+        streamed_(stream != nullptr),
+        lift_(lift) {
     flavor_ = p.parsed_flavor();
     down_flow_ = p.down_flow_table();
     e_axis_ = flavor_ == Flavor::Marlin || (flavor_ == Flavor::Embedded && p.embedded_drive == "syringe");
@@ -94,10 +106,9 @@ class Writer {
     out_.reserve(points * 40 + 8192);
     fastnum::advise_huge_pages(out_);
     plan_changes();
-    objects_ = gcode_objects(tp_, p_, {dx_, dy_}, stats_.warnings);
-    stats_.part_time_s.assign(tp_.part_labels.size(), 0.0);
+    label_objects();
     header();
-    for (std::size_t li = 0; li < tp_.layers.size(); ++li) layer(li);
+    for (std::size_t li = 0; li < tp_.layers.size(); ++li) layer(li, tp_.layers[li]);
     footer();
     if (gcode_progress_supported(p_.flavor)) insert_progress();
     stats_.bytes = out_.size();
@@ -105,10 +116,70 @@ class Writer {
     return std::move(out_);
   }
 
+  // The same bytes in bounded memory: the text without the M73 lines goes to `raw` as it is
+  // written (flushed every MB), then `put` receives it again with the M73 lines in place.
+  void stream(GcodeStats& stats, std::FILE* raw, const ByteWriter& put) {
+    constexpr std::size_t kFlush = std::size_t{1} << 20;
+    raw_ = raw;
+    out_.reserve(kFlush + (1u << 16));
+    plan_changes();
+    label_objects();
+    header();
+    layers_([&](std::size_t li, const Layer& l) {
+      layer(li, l);
+      if (out_.size() >= kFlush) flush_raw();
+    });
+    footer();
+    flush_raw();
+    copy_with_progress(put);
+    stats = stats_;
+  }
+
  private:
   void line(const std::string& s) {
     out_ += s;
     out_ += '\n';
+  }
+
+  // The M73 line for a mark `t` seconds into a print of `total` seconds.
+  static std::string progress_line(double t, double total) {
+    const int percent = total > 0 ? static_cast<int>(std::floor(100 * t / total)) : 0;
+    const long left = std::lround(std::ceil(std::max(0.0, total - t) / 60));
+    return "M73 P" + std::to_string(std::min(percent, 99)) + " R" + std::to_string(left) + "\n";
+  }
+
+  void flush_raw() {
+    if (!out_.empty() && std::fwrite(out_.data(), 1, out_.size(), raw_) != out_.size())
+      throw IoError(std::string("cannot write a temporary file: ") + std::strerror(errno));
+    flushed_ += out_.size();
+    out_.clear();
+  }
+
+  // The raw text read back with the M73 lines inserted at the marks (streamed writing).
+  void copy_with_progress(const ByteWriter& put) {
+    if (std::fflush(raw_) != 0)
+      throw IoError(std::string("cannot write a temporary file: ") + std::strerror(errno));
+    std::rewind(raw_);
+    const bool progress = gcode_progress_supported(p_.flavor);
+    std::string chunk(std::size_t{1} << 20, '\0');
+    std::size_t at = 0, mark = 0;
+    while (at < flushed_) {
+      std::size_t until = flushed_;
+      if (progress && mark < progress_marks_.size()) until = progress_marks_[mark].first;
+      if (at == until) {
+        const std::string l = progress_line(progress_marks_[mark].second, stats_.print_time_s);
+        put(l);
+        stats_.bytes += l.size();
+        ++mark;
+        continue;
+      }
+      const std::size_t n = std::fread(chunk.data(), 1, std::min(chunk.size(), until - at), raw_);
+      if (n == 0)
+        throw IoError(std::string("cannot read a temporary file: ") + std::strerror(errno));
+      put(std::string_view(chunk.data(), n));
+      at += n;
+    }
+    stats_.bytes += flushed_;
   }
 
   // M73 P<percent done> R<minutes left> at the start and at every layer, from the time estimate
@@ -119,10 +190,7 @@ class Writer {
     lines.reserve(progress_marks_.size());
     std::size_t added = 0;
     for (const auto& [at, t] : progress_marks_) {
-      const int percent = total > 0 ? static_cast<int>(std::floor(100 * t / total)) : 0;
-      const long left = std::lround(std::ceil(std::max(0.0, total - t) / 60));
-      lines.push_back("M73 P" + std::to_string(std::min(percent, 99)) + " R" +
-                      std::to_string(left) + "\n");
+      lines.push_back(progress_line(t, total));
       added += lines.back().size();
     }
     // In place, from the back: each stretch moves up by the lines inserted before it (no second
@@ -142,10 +210,12 @@ class Writer {
 
   void placement() {
     BBox3 box;
-    for (const auto& l : tp_.layers)
+    layers_([&](std::size_t, const Layer& l) {
       for (const auto& path : l.paths)
         for (const auto& q : path.points) box.add(q);
-    const Vec2 shift = placement_offset(tp_, p_);
+      if (streamed_) plan_tools_streamed(l);  // the same pass
+    });
+    const Vec2 shift = placement_offset(box, p_);
     dx_ = shift.x;
     dy_ = shift.y;
     if (flavor_ == Flavor::Embedded)
@@ -181,7 +251,7 @@ class Writer {
     line(std::string("; generated by Trellis ") + TRELLIS_VERSION + " (" + p_.flavor + ")");
     for (const auto& t : thumbnails_) out_ += thumbnail_block(t);
     if (!tp_.source.empty()) line("; source: " + tp_.source);
-    line(";LAYER_COUNT:" + std::to_string(tp_.layers.size()));
+    line(";LAYER_COUNT:" + std::to_string(layer_count_));
     // The job that made the file, for `trellis rerun`.
     for (std::size_t a = 0; a < tp_.job.size();) {
       const std::size_t b = std::min(tp_.job.find('\n', a), tp_.job.size());
@@ -249,7 +319,7 @@ class Writer {
       out_ += '\n';
     }
     line("; estimated printing time (normal mode) = " + duration_text(stats_.print_time_s));
-    line("; total layers count = " + std::to_string(tp_.layers.size()));
+    line("; total layers count = " + std::to_string(layer_count_));
     out_ += "; end: paths ";
     out_ += std::to_string(stats_.paths);
     out_ += ", filament ";
@@ -262,9 +332,8 @@ class Writer {
     out_.append(buf, static_cast<std::size_t>(put_feed(buf, mm_per_s) - buf));
   }
 
-  void layer(std::size_t li) {
-    const Layer& l = tp_.layers[li];
-    progress_marks_.push_back({out_.size(), stats_.print_time_s});
+  void layer(std::size_t li, const Layer& l) {
+    progress_marks_.push_back({flushed_ + out_.size(), stats_.print_time_s});
     out_ += ";LAYER:";
     out_ += std::to_string(li);
     out_ += "\n;Z:";
@@ -279,6 +348,12 @@ class Writer {
       print_path(path);
     }
     enter_object(0);
+  }
+
+  // Build plates: the parts' names for the firmware (gcode_objects.hpp), their times from 0.
+  void label_objects() {
+    objects_ = gcode_objects(tp_.part_labels, layers_, p_, {dx_, dy_}, stats_.warnings);
+    stats_.part_time_s.assign(tp_.part_labels.size(), 0.0);
   }
 
   // Build plates: the end of the part being printed and the start of `part` (0: none), when
@@ -377,7 +452,8 @@ class Writer {
     const bool far = known_ && d >= p_.min_travel;
     if (flavor_ == Flavor::Marlin && far && printed_ && p_.retract_length > 0) retract();
     const double hop = far ? p_.z_hop : 0;
-    const double safe_z = known_ ? std::max(pos_.z, q.z) + hop : q.z + std::max(hop, 1.0);
+    const double safe_z = std::max(known_ ? std::max(pos_.z, q.z) + hop : q.z + std::max(hop, 1.0),
+                                   std::exchange(rise_to_, 0.0));
     if (!known_ || safe_z > pos_.z + 1e-9) move_z(safe_z);
     move_xy(q, d);
     if (std::abs(pos_.z - q.z) > 1e-9) move_z(q.z);
@@ -543,7 +619,25 @@ class Writer {
     double t;
     std::string command;
   };
+  // Streamed layers, one at a time: the tools used and whether a prime tower is there; mixtures
+  // (their look-ahead reaches back over paths) need the whole toolpath.
+  void plan_tools_streamed(const Layer& l) {
+    select_tools_ = flavor_ == Flavor::Marlin && p_.tool_count > 1;
+    for (const auto& p : l.paths) {
+      if (p.points.size() < 2) continue;
+      if (!p.mixture.empty()) throw Error("streamed G-code cannot carry mixtures (internal)");
+      tower_ = tower_ || p.role == PathRole::Purge;
+      if (select_tools_ &&
+          std::find(tools_used_.begin(), tools_used_.end(), p.tool) == tools_used_.end())
+        tools_used_.push_back(p.tool);
+    }
+  }
+
   void plan_changes() {
+    if (streamed_) {
+      stats_.lookahead = tower_ || p_.gradient_mode == "tools" ? 0.0 : p_.lookahead;
+      return;
+    }
     std::vector<const Path*> paths;
     bool tower = false;
     for (const auto& l : tp_.layers)
@@ -631,6 +725,7 @@ class Writer {
       pp = &path_copy;
     }
     const Path& path = *pp;
+    rise_over_finished_parts(path);
     travel_to(path.points.front());
     feature_comments(path);
     emit_changes(1, 0.0);
@@ -670,6 +765,17 @@ class Writer {
     emit_changes(SIZE_MAX, 0.0);  // any left for this path (rounding at its very end)
     ++path_index_;
     printed_ = true;
+  }
+
+  // A plate printed part by part: the travel to the next part, which starts lower than what is
+  // printed, first rises above every finished part (plus the Z hop, at least 1 mm), so the nozzle
+  // never passes over one below its top. Per-layer plates and single parts never start lower.
+  void rise_over_finished_parts(const Path& path) {
+    if (path.part == 0) return;
+    if (path.part != sequence_part_ && path.points.front().z < finished_top_ - 1e-9)
+      rise_to_ = finished_top_ + std::max(p_.z_hop, 1.0);
+    sequence_part_ = path.part;
+    for (const Vec3& q : path.points) finished_top_ = std::max(finished_top_, q.z);
   }
 
   // ;TYPE:, ;WIDTH:, ;HEIGHT: as PrusaSlicer writes them: before the path, when they change.
@@ -740,6 +846,15 @@ class Writer {
   const MachineProfile& p_;
   const Toolpath& tp_;
   const std::vector<GcodeThumbnail>& thumbnails_;
+  LayerSource layers_;  // tp_'s layers, or the streamed ones
+  std::size_t layer_count_ = 0;
+  bool streamed_ = false;
+  bool tower_ = false;        // streamed: a prime tower is printed
+  int sequence_part_ = 0;     // plates: the part printed last
+  double finished_top_ = 0;   // plates: highest point printed so far
+  double rise_to_ = 0;        // the next travel's least height (0 = none)
+  std::FILE* raw_ = nullptr;  // streamed: the text so far, without M73 lines
+  std::size_t flushed_ = 0;   // bytes already in raw_
   std::vector<std::pair<std::size_t, double>> progress_marks_;  // (byte offset, time so far)
   std::string_view last_type_;
   double last_width_ = -1, last_height_ = -1;
@@ -780,6 +895,13 @@ class Writer {
   }
 };
 
+std::string lift_warning(double lift) {
+  return fmt::format(
+      "the toolpath reaches Z {:.3f} mm, below the bed: lifted by {:.3f} mm so that "
+      "its lowest point is at Z 0 (placement.lift = false refuses instead)",
+      -lift, lift);
+}
+
 }  // namespace
 
 std::string write_gcode(const Toolpath& toolpath, const MachineProfile& profile,
@@ -805,11 +927,7 @@ void write_gcode_into(std::string& out, const Toolpath& toolpath, const MachineP
         for (auto& q : path.points) q.z += lift;
     }
     tp = &lifted;
-    s.warnings.emplace_back(
-        "lifted", fmt::format("the toolpath reaches Z {:.3f} mm, below the bed: lifted by {:.3f} mm "
-                              "so that its lowest point is at Z 0 (placement.lift = false refuses "
-                              "instead)",
-                              -lift, lift));
+    s.warnings.emplace_back("lifted", lift_warning(lift));
   }
   for (auto& w : check_for_machine(*tp, profile)) s.warnings.emplace_back(w.kind, w.message);
   auto warnings = std::move(s.warnings);
@@ -817,6 +935,48 @@ void write_gcode_into(std::string& out, const Toolpath& toolpath, const MachineP
   warnings.insert(warnings.end(), s.warnings.begin(), s.warnings.end());  // the writer's own
   s.warnings = std::move(warnings);
   if (stats) *stats = s;
+}
+
+GcodeStats write_gcode_stream(const std::string& path, const Toolpath& meta,
+                              std::size_t layer_count, const LayerSource& layers,
+                              const MachineProfile& profile,
+                              const std::vector<GcodeThumbnail>& thumbnails) {
+  BBox3 box;
+  std::size_t paths = 0;
+  layers([&](std::size_t, const Layer& l) {
+    paths += l.paths.size();
+    for (const auto& path : l.paths)
+      for (const auto& q : path.points) box.add(q);
+  });
+  if (paths == 0) throw GeometryError("the toolpath has no paths to write");
+  GcodeStats s;
+  const double lift = placement_lift(box, profile);
+  LayerSource placed = layers;
+  if (lift > 0) {
+    placed = [&layers, lift](const LayerVisitor& visit) {
+      layers([&](std::size_t i, const Layer& l) {
+        Layer up = l;
+        up.z += lift;
+        for (auto& path : up.paths)
+          for (auto& q : path.points) q.z += lift;
+        visit(i, up);
+      });
+    };
+    box.min.z += lift;
+    box.max.z += lift;
+    s.warnings.emplace_back("lifted", lift_warning(lift));
+  }
+  for (auto& w : check_for_machine(placed, box, profile))
+    s.warnings.emplace_back(w.kind, w.message);
+  auto warnings = std::move(s.warnings);
+  std::unique_ptr<std::FILE, int (*)(std::FILE*)> raw(std::tmpfile(), &std::fclose);
+  if (!raw) throw IoError(std::string("cannot create a temporary file: ") + std::strerror(errno));
+  write_file_atomic_with(path, [&](const ByteWriter& put) {
+    Writer(profile, meta, lift, thumbnails, &placed, layer_count).stream(s, raw.get(), put);
+  });
+  warnings.insert(warnings.end(), s.warnings.begin(), s.warnings.end());  // the writer's own
+  s.warnings = std::move(warnings);
+  return s;
 }
 
 GcodeStats write_gcode_file(const std::string& path, const Toolpath& toolpath,

@@ -9,13 +9,25 @@
 
 namespace trellis {
 
+namespace {
+
+BBox3 points_box(const Toolpath& tp) {
+  BBox3 box;
+  for (const auto& l : tp.layers)
+    for (const auto& path : l.paths)
+      for (const auto& q : path.points) box.add(q);
+  return box;
+}
+
+}  // namespace
+
 Vec2 placement_offset(const Toolpath& tp, const MachineProfile& p) {
+  return placement_offset(p.center ? points_box(tp) : BBox3{}, p);
+}
+
+Vec2 placement_offset(const BBox3& box, const MachineProfile& p) {
   Vec2 d{0, 0};
   if (p.center) {
-    BBox3 box;
-    for (const auto& l : tp.layers)
-      for (const auto& path : l.paths)
-        for (const auto& q : path.points) box.add(q);
     if (!box.empty()) {
       const Vec2 bed_centre = p.origin == "center" ? Vec2{0, 0} : Vec2{p.bed_x / 2, p.bed_y / 2};
       d = {bed_centre.x - box.center().x, bed_centre.y - box.center().y};
@@ -28,11 +40,12 @@ Vec2 placement_offset(const Toolpath& tp, const MachineProfile& p) {
 }
 
 double placement_lift(const Toolpath& tp, const MachineProfile& p) {
+  return p.lift ? placement_lift(points_box(tp), p) : 0;
+}
+
+double placement_lift(const BBox3& box, const MachineProfile& p) {
   if (!p.lift) return 0;
-  double low = 0;
-  for (const auto& l : tp.layers)
-    for (const auto& path : l.paths)
-      for (const auto& q : path.points) low = std::min(low, q.z);
+  const double low = box.empty() ? 0 : std::min(0.0, box.min.z);
   return std::ceil(-low * 1000 - 1e-9) / 1000;  // whole micrometres, at least -low
 }
 
@@ -95,10 +108,15 @@ std::string where(std::size_t layer, std::size_t path) {
 }  // namespace
 
 std::vector<MachineWarning> check_for_machine(const Toolpath& tp, const MachineProfile& p) {
+  return check_for_machine(layers_of(tp), p.center ? points_box(tp) : BBox3{}, p);
+}
+
+std::vector<MachineWarning> check_for_machine(const LayerSource& layers, const BBox3& box,
+                                              const MachineProfile& p) {
   validate(p);
   Problems errors;
   std::vector<MachineWarning> warnings;
-  const Vec2 shift = placement_offset(tp, p);
+  const Vec2 shift = placement_offset(box, p);
   const bool circle = p.bed_shape == "circle";
   const bool centred_origin = p.origin == "center";
   const double x0 = centred_origin ? -p.bed_x / 2 : 0, y0 = centred_origin ? -p.bed_y / 2 : 0;
@@ -113,8 +131,7 @@ std::vector<MachineWarning> check_for_machine(const Toolpath& tp, const MachineP
   const int gradient_tools = p.gradient_tool_count();
   bool mixed = false;
   std::size_t max_materials = 0;
-  for (std::size_t li = 0; li < tp.layers.size(); ++li) {
-    const auto& layer = tp.layers[li];
+  layers([&](std::size_t li, const Layer& layer) {
     for (std::size_t pi = 0; pi < layer.paths.size(); ++pi) {
       const Path& path = layer.paths[pi];
       if (path.points.size() < 2) continue;
@@ -158,7 +175,7 @@ std::vector<MachineWarning> check_for_machine(const Toolpath& tp, const MachineP
         outside = outside || !in;
       }
     }
-  }
+  });
   if (outside) {
     const std::string area =
         circle ? fmt::format("a circle of diameter {} mm", num(p.bed_x))

@@ -39,6 +39,14 @@ const std::vector<SettingDecl>& machine_settings() {
       {"machine.mixing_inputs", "",
        "filament inputs of a mixing hotend (M165 A B C ...); 1 = no mixing hotend", 1, 6,
        &P::mixing_inputs},
+      {"machine.extruder_clearance_radius", "mm",
+       "sequential plates (plate.sequence = parts): parts at least this far apart, so the "
+       "printhead around the nozzle misses finished parts; 0 = not known (sequential refused)",
+       0, 10000, &P::extruder_clearance_radius},
+      {"machine.extruder_clearance_height", "mm",
+       "sequential plates: height of the gantry (X carriage) above the nozzle tip; only the last "
+       "part may be taller; 0 = not known (sequential refused)",
+       0, 10000, &P::extruder_clearance_height},
       {"placement.center", "",
        "move the part's XY centre to the bed centre (false: design coordinates are bed "
        "coordinates)",

@@ -668,7 +668,7 @@ void render_series_png(const std::vector<double>& x, const std::vector<PlotSerie
   save_png(surface.get(), path);
 }
 
-std::string render_thumbnail_png(const Toolpath& tp, int width, int height) {
+std::string render_thumbnail_png(const LayerSource& layers, int width, int height) {
   if (width < 1 || height < 1 || width > 4096 || height > 4096)
     throw SettingError("thumbnail size " + std::to_string(width) + "x" + std::to_string(height) +
                        " (1..4096 pixels each way)");
@@ -681,13 +681,14 @@ std::string render_thumbnail_png(const Toolpath& tp, int width, int height) {
     return std::pair<double, double>{u, v};
   };
   double u0 = 1e300, u1 = -1e300, v0 = 1e300, v1 = -1e300, z0 = 1e300, z1 = -1e300;
-  for (const auto& l : tp.layers)
+  layers([&](std::size_t, const Layer& l) {
     for (const auto& p : l.paths)
       for (const auto& q : p.points) {
         const auto [u, v] = project(q);
         u0 = std::min(u0, u), u1 = std::max(u1, u), v0 = std::min(v0, v), v1 = std::max(v1, v);
         z0 = std::min(z0, q.z), z1 = std::max(z1, q.z);
       }
+  });
   Surface surface(cairo_image_surface_create(CAIRO_FORMAT_ARGB32, width, height),
                   cairo_surface_destroy);
   Context cr(cairo_create(surface.get()), cairo_destroy);
@@ -704,7 +705,7 @@ std::string render_thumbnail_png(const Toolpath& tp, int width, int height) {
     cairo_set_line_cap(cr.get(), CAIRO_LINE_CAP_ROUND);
     cairo_set_line_join(cr.get(), CAIRO_LINE_JOIN_ROUND);
     cairo_set_line_width(cr.get(), std::max(0.6, std::min(width, height) / 100.0));
-    for (const auto& l : tp.layers) {
+    layers([&](std::size_t, const Layer& l) {
       const double t = z1 > z0 ? (l.z - z0) / (z1 - z0) : 1.0;
       cairo_set_source_rgb(cr.get(), 0.55 + 0.45 * t, 0.25 + 0.45 * t, 0.05 + 0.25 * t);
       for (const auto& p : l.paths) {
@@ -717,7 +718,7 @@ std::string render_thumbnail_png(const Toolpath& tp, int width, int height) {
         }
         cairo_stroke(cr.get());
       }
-    }
+    });
   }
   cairo_surface_flush(surface.get());
   std::string png;

@@ -36,7 +36,11 @@ void render_series_png(const std::vector<double>& x, const std::vector<PlotSerie
 }
 
 std::string render_thumbnail_png(const Toolpath& toolpath, int width, int height) {
-  return cairo().render_thumbnail_png(toolpath, width, height);
+  return cairo().render_thumbnail_png(layers_of(toolpath), width, height);
+}
+
+std::string render_thumbnail_png(const LayerSource& layers, int width, int height) {
+  return cairo().render_thumbnail_png(layers, width, height);
 }
 
 }  // namespace trellis

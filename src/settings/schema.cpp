@@ -672,6 +672,11 @@ std::vector<Setting> make_table() {
   t.push_back(number("plate.clearance", "mm", 0, 1000,
                        "build plates ([[part]] tables): the least gap between parts' footprints",
                        "", [](C& c) -> auto& { return c.plate.clearance; }));
+  t.push_back(choice("plate.sequence", {"layers", "parts"},
+                     "FDM plates: layers (layer i of every part, then layer i + 1) or parts (each "
+                     "part whole before the next, where machine.extruder_clearance_radius and "
+                     "_height allow)",
+                     "", [](C& c) -> auto& { return c.plate.sequence; }));
   t.push_back(integer("output.preview_layers", 0, 100000, "PNG previews spread over the layers",
                       "preview-layers", [](C& c) -> auto& { return c.output.preview_layers; }));
   t.push_back(integer("output.image_size", 16, 8000, "preview image size", "image-size",

@@ -1019,13 +1019,16 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
       const double phase = std::fmod(o.contour_shift * static_cast<double>(i), 1.0) * period;
       const pbf_detail::CurveProjector project = [&](Vec2 q) {
         const Vec2 q0 = q;
-        for (int it = 0; it < 2; ++it) {  // Newton steps along φ's gradient in the layer
-          const Vec3 p{q.x, q.y, z};
-          const double f = ctx.phi.value(p);
-          const Vec3 g = ctx.phi.gradient(p);
+        // Newton steps along φ's gradient in the layer; a step under 1e-10 mm is the last (the
+        // next would be far below a double's resolution of the coordinates).
+        for (int it = 0; it < 2; ++it) {
+          Vec3 g;
+          const double f = ctx.phi.value_gradient({q.x, q.y, z}, &g);
           const double gg = g.x * g.x + g.y * g.y;
           if (!(gg > 0)) break;
-          q = q - Vec2{g.x, g.y} * (f / gg);
+          const Vec2 step = Vec2{g.x, g.y} * (f / gg);
+          q = q - step;
+          if (std::abs(step.x) + std::abs(step.y) < 1e-10) break;
         }
         // The traced line lies within a grid cell of φ = 0; a Newton step that goes further
         // (a near-zero gradient: a cell not much larger than the grid) is not kept.

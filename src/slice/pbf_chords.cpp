@@ -71,6 +71,7 @@ Vec2 on_curve_at(Vec2 c, double r, Vec2 q, const CurveProjector& project) {
     q = project(q);
     const double d = dist(c, q);
     if (!(d > 0)) break;
+    if (std::abs(d - r) < 1e-12) break;  // on the circle already: the rounds would stand still
     q = c + (q - c) * (r / d);
   }
   q = project(q);

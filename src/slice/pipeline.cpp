@@ -1,21 +1,22 @@
 #include "trellis/slice/pipeline.hpp"
 
-#include "trellis/slice/fgm.hpp"
-
 #include <fmt/format.h>
+#include <tbb/parallel_pipeline.h>
 #include <tbb/task_arena.h>
-
-#include <nlohmann/json.hpp>
 
 #include <chrono>
 #include <cmath>
+#include <deque>
 #include <filesystem>
 #include <map>
+#include <nlohmann/json.hpp>
+#include <optional>
 #include <set>
 
 #include "trellis/core/error.hpp"
 #include "trellis/field/vcad.hpp"
 #include "trellis/geom/mesh_io.hpp"
+#include "trellis/slice/fgm.hpp"
 
 namespace trellis {
 
@@ -149,18 +150,26 @@ Estimate meshing_estimate(const BBox3& box, double voxel) {
   return e;
 }
 
-}  // namespace
+struct SlicedDesign {
+  Field field;
+  TriangleMesh mesh;
+  std::vector<double> zs;  // slicing planes over the extent
+};
 
-SliceResult run_slice(const SliceJob& job, const Progress& progress) {
-  SliceResult r;
+// The design read (a field, or a mesh closed by repair), its route chosen, its layers' planes
+// and the budget checked; with `outline_all`, every plane outlined into r.outlines.
+SlicedDesign open_design(const SliceJob& job, SliceResult& r, const Progress& progress,
+                         bool outline_all) {
+  SlicedDesign d;
   const bool is_vcad = ends_with_ci(job.input, ".vcad");
-  r.route = job.route == SliceRoute::Auto ? (is_vcad ? SliceRoute::Field : SliceRoute::Mesh)
-                                          : job.route;
-  const auto t0 = std::chrono::steady_clock::now();
+  r.route =
+      job.route == SliceRoute::Auto ? (is_vcad ? SliceRoute::Field : SliceRoute::Mesh) : job.route;
   const double h = job.planar.layer_height;
   if (!(h > 0)) throw SettingError("layer height must be > 0");
-  const bool ranged = job.layer_begin != 0 || job.layer_end != static_cast<std::size_t>(-1);
-  std::vector<double> zs;
+  const bool ranged = !outline_all;
+  std::vector<double>& zs = d.zs;
+  Field& field = d.field;
+  TriangleMesh& mesh = d.mesh;
   auto check_layers = [&](const BBox3& e) {
     if (e.empty() || !std::isfinite(e.min.z) || !std::isfinite(e.max.z))
       throw GeometryError("the design has no finite extent in Z; give it a root() box",
@@ -172,8 +181,6 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
     check_budget(slice_estimate(job, e, zs.size(), is_vcad || r.route == SliceRoute::Field), job.budget);
   };
   // A design is a field, a mesh file a mesh; each route turns one into the other if it must.
-  Field field;
-  TriangleMesh mesh;
   if (is_vcad) {
     VcadOptions vo;
     vo.mesh_voxel = job.mesh_voxel;
@@ -219,6 +226,54 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
     if (!ranged) r.outlines = slice_mesh_layers(mesh, zs, 1e-6, r.repaired);
     progress("outlines", 1.0);
   }
+  return d;
+}
+
+// Outlines of the design at `planes` (the route's slicer).
+std::vector<LayerOutline> outlines_at(const SlicedDesign& d, const SliceJob& job, SliceResult& r,
+                                      const std::vector<double>& planes, SliceStats* stats,
+                                      const Progress& progress) {
+  return r.route == SliceRoute::Field ? slice_field(d.field, planes, job.field, stats, progress)
+                                      : slice_mesh_layers(d.mesh, planes, 1e-6, r.repaired);
+}
+
+// The part's printed planes [first, last) of d.zs: its ends found plane by plane from the bottom
+// and the top (the extent of a design is a bound: blends, clip boxes).
+std::pair<std::size_t, std::size_t> printed_planes(const SlicedDesign& d, const SliceJob& job,
+                                                   SliceResult& r, const Progress& progress) {
+  // An empty plane's samples count (the whole run samples it too); a printed plane is sampled
+  // again with its layer.
+  auto empty_at = [&](double z) {
+    SliceStats probe;
+    const bool empty = outlines_at(d, job, r, {z}, &probe, progress)[0].regions.empty();
+    if (empty) {
+      r.field_stats.samples += probe.samples;
+      r.field_stats.blocks += probe.blocks;
+      r.field_stats.skipped_blocks += probe.skipped_blocks;
+    }
+    return empty;
+  };
+  std::size_t first = 0, last = d.zs.size();
+  while (first < last && empty_at(d.zs[first])) ++first;
+  while (last > first && empty_at(d.zs[last - 1])) --last;
+  if (first == last)
+    throw GeometryError("no layer has any outline: the design is empty at every slicing plane",
+                        {job.input, 0, ""});
+  return {first, last};
+}
+
+}  // namespace
+
+SliceResult run_slice(const SliceJob& job, const Progress& progress) {
+  SliceResult r;
+  const bool is_vcad = ends_with_ci(job.input, ".vcad");
+  const auto t0 = std::chrono::steady_clock::now();
+  const double h = job.planar.layer_height;
+  const bool ranged = job.layer_begin != 0 || job.layer_end != static_cast<std::size_t>(-1);
+  SlicedDesign d = open_design(job, r, progress, !ranged);
+  const std::vector<double>& zs = d.zs;
+  const Field& field = d.field;
+
   // A range of the part's layers (a shard): the part's ends found plane by plane from the
   // bottom and the top, then only the range and the layers its skins look at are sliced.
   std::size_t range_lo = 0, range_a = 0, range_b = 0;
@@ -228,16 +283,9 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
                          "purge tower cross layers",
                          {job.input, 0, "slice.strategy"});
     auto outlines_of = [&](const std::vector<double>& planes) {
-      return r.route == SliceRoute::Field
-                 ? slice_field(field, planes, job.field, &r.field_stats, progress)
-                 : slice_mesh_layers(mesh, planes, 1e-6, r.repaired);
+      return outlines_at(d, job, r, planes, &r.field_stats, progress);
     };
-    std::size_t first = 0, last = zs.size();
-    while (first < last && outlines_of({zs[first]})[0].regions.empty()) ++first;
-    while (last > first && outlines_of({zs[last - 1]})[0].regions.empty()) --last;
-    if (first == last)
-      throw GeometryError("no layer has any outline: the design is empty at every slicing plane",
-                          {job.input, 0, ""});
+    const auto [first, last] = printed_planes(d, job, r, progress);
     const std::size_t n = last - first;
     range_a = std::min(job.layer_begin, n);
     range_b = std::max(range_a, std::min(job.layer_end, n));
@@ -370,6 +418,139 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
   return r;
 }
 
+SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progress& progress,
+                         const SliceStreamOptions& options) {
+  if (job.strategy != 0)
+    throw SettingError(
+        "graded slicing (strategy 1 or 2) does not stream: its look-ahead and "
+        "purge tower cross layers",
+        {job.input, 0, "slice.strategy"});
+  SliceResult r;
+  r.streamed = true;
+  const auto t0 = std::chrono::steady_clock::now();
+  const SlicedDesign d = open_design(job, r, progress, false);
+  const auto [first, last] = printed_planes(d, job, r, progress);
+  const std::size_t n = last - first;
+  r.part_layers = n;
+  r.layers = n;
+  const auto below = static_cast<std::size_t>(std::max(0, job.planar.bottom_layers));
+  const auto above = static_cast<std::size_t>(std::max(0, job.planar.top_layers));
+  const std::size_t chunk = std::max<std::size_t>(1, options.chunk_layers);
+  const std::size_t chunks = (n + chunk - 1) / chunk;
+  const std::size_t tokens =
+      options.tokens
+          ? options.tokens
+          : 2 * static_cast<std::size_t>(std::max(1, tbb::this_task_arena::max_concurrency()));
+  // Outlines of a run of planes [a, b) of the part.
+  struct Outlined {
+    std::size_t a = 0, b = 0;
+    std::vector<LayerOutline> outlines;
+    SliceStats stats;
+    double seconds = 0;
+  };
+  // Layers [a, b) to plan, with the outlines of part layers [lo, …) around them that their skins
+  // read (bottom_layers below, top_layers above, within the part).
+  struct Planned {
+    std::size_t a = 0, b = 0, lo = 0;
+    std::vector<LayerOutline> window;
+    Toolpath toolpath;
+    PlanarStats stats;
+    double seconds = 0;
+  };
+  std::deque<LayerOutline> window;  // part layers [window_start, received)
+  std::size_t window_start = 0, received = 0, next_plan = 0, next_chunk = 0, written = 0;
+  double outline_cpu = 0, plan_cpu = 0;
+  std::optional<Vec3> last_point;
+  auto clock = [] { return std::chrono::steady_clock::now(); };
+  tbb::parallel_pipeline(
+      tokens,
+      tbb::make_filter<void, Outlined>(tbb::filter_mode::serial_in_order, [&](tbb::flow_control&
+                                                                                  fc) {
+        Outlined o;
+        if (next_chunk == chunks) {
+          fc.stop();
+          return o;
+        }
+        progress.check("slicing");
+        o.a = next_chunk * chunk;
+        o.b = std::min(n, o.a + chunk);
+        ++next_chunk;
+        return o;
+      }) & tbb::make_filter<Outlined, Outlined>(tbb::filter_mode::parallel, [&](Outlined o) {
+        const auto t = clock();
+        o.outlines = outlines_at(d, job, r,
+                                 std::vector<double>(d.zs.begin() + static_cast<long>(first + o.a),
+                                                     d.zs.begin() + static_cast<long>(first + o.b)),
+                                 &o.stats, Progress{});
+        o.seconds = seconds_since(t);
+        return o;
+      }) & tbb::make_filter<Outlined, Planned>(tbb::filter_mode::serial_in_order, [&](Outlined o) {
+        outline_cpu += o.seconds;
+        r.field_stats.samples += o.stats.samples;
+        r.field_stats.blocks += o.stats.blocks;
+        r.field_stats.skipped_blocks += o.stats.skipped_blocks;
+        for (auto& l : o.outlines) {
+          r.outline_area += area(l.regions);
+          r.empty_layers += l.regions.empty() ? 1 : 0;
+          window.push_back(std::move(l));
+        }
+        received = o.b;
+        // Layer j is ready when the outlines up to j + top_layers are in (or all are).
+        const std::size_t ready = received == n ? n : (received > above ? received - above : 0);
+        Planned p;
+        p.a = next_plan;
+        p.b = std::max(next_plan, ready);
+        if (p.a < p.b) {
+          p.lo = p.a >= below ? p.a - below : 0;
+          const std::size_t hi = std::min(n, p.b + above);
+          for (std::size_t k = p.lo; k < hi; ++k) p.window.push_back(window[k - window_start]);
+          next_plan = p.b;
+          // The next batch starts at next_plan and reads below_layers under it.
+          const std::size_t keep = next_plan >= below ? next_plan - below : 0;
+          while (window_start < keep) window.pop_front(), ++window_start;
+        }
+        return p;
+      }) & tbb::make_filter<Planned, Planned>(tbb::filter_mode::parallel, [&](Planned p) {
+        if (p.a == p.b) return p;
+        const auto t = clock();
+        PlanarOptions po = job.planar;
+        po.first_index = p.lo;
+        po.plan_begin = p.a;
+        po.plan_end = p.b;
+        p.toolpath = plan_planar(p.window, po, &p.stats);
+        p.window.clear();
+        p.window.shrink_to_fit();
+        p.seconds = seconds_since(t);
+        return p;
+      }) & tbb::make_filter<Planned, void>(tbb::filter_mode::serial_in_order, [&](Planned p) {
+        plan_cpu += p.seconds;
+        r.planar.layers += p.stats.layers;
+        r.planar.paths += p.stats.paths;
+        r.planar.walls += p.stats.walls;
+        r.planar.skin_lines += p.stats.skin_lines;
+        r.planar.infill_lines += p.stats.infill_lines;
+        for (Layer& layer : p.toolpath.layers) {
+          for (const Path& path : layer.paths) {
+            // Summed path by path in print order, as plan_planar sums it.
+            r.planar.extruded_length += path.length();
+            if (path.points.empty()) continue;
+            if (last_point) {
+              const double dd = distance(*last_point, path.points.front());
+              if (dd > 1e-9) ++r.travel.moves, r.travel.length += dd;
+            }
+            last_point = path.points.back();
+          }
+          sink(written++, std::move(layer));
+        }
+        if (progress.report) progress("layers", static_cast<double>(written) / double(n));
+      }));
+  // Outlining and planning overlap: the wall time is shared out by their summed thread times.
+  const double wall = seconds_since(t0), cpu = outline_cpu + plan_cpu;
+  r.outline_seconds = cpu > 0 ? wall * outline_cpu / cpu : 0;
+  r.plan_seconds = wall - r.outline_seconds;
+  return r;
+}
+
 std::string slice_report_json(const SliceJob& job, const SliceResult& r, const GcodeStats* g) {
   nlohmann::ordered_json j;
   j["format"] = "trellis.slice_report";
@@ -387,14 +568,14 @@ std::string slice_report_json(const SliceJob& job, const SliceResult& r, const G
                    {"infill_angle_deg", job.planar.infill_angle},
                    {"resolution_mm", job.field.resolution},
                    {"mesh_voxel_mm", job.mesh_voxel}};
-  double outline_area = 0;
-  std::size_t empty_layers = 0;
+  double outline_area = r.outline_area;
+  std::size_t empty_layers = r.empty_layers;
   for (const auto& l : r.outlines) {
     outline_area += area(l.regions);
     empty_layers += l.regions.empty() ? 1 : 0;
   }
-  const TravelStats travel = travel_stats(r.toolpath);
-  j["layers"] = r.outlines.size();
+  const TravelStats travel = r.streamed ? r.travel : travel_stats(r.toolpath);
+  j["layers"] = r.streamed ? r.layers : r.outlines.size();
   j["empty_layers"] = empty_layers;
   j["paths"] = r.planar.paths;
   j["wall_loops"] = r.planar.walls;

@@ -69,4 +69,10 @@ void extend_path_ends(Path& path, double length) {
   push(q.back(), before_last);
 }
 
+LayerSource layers_of(const Toolpath& toolpath) {
+  return [&toolpath](const LayerVisitor& visit) {
+    for (std::size_t i = 0; i < toolpath.layers.size(); ++i) visit(i, toolpath.layers[i]);
+  };
+}
+
 }  // namespace trellis

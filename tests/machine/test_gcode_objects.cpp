@@ -4,11 +4,14 @@
 // moves; gcode.label_objects = false and the valve flavours write no labels; labels the firmware
 // cannot take are renamed with a warning, and two that would read alike are refused.
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <cmath>
+#include <filesystem>
 #include <regex>
 
 #include "trellis/analysis/metrics.hpp"
+#include "trellis/core/file.hpp"
 #include "trellis/core/rng.hpp"
 #include "trellis/machine/gcode_reader.hpp"
 #include "trellis/machine/gcode_writer.hpp"
@@ -242,5 +245,26 @@ TEST(GcodeObjects, TimePerPartIsWhatTheFileMeasures) {
       EXPECT_NEAR(counter.counts.parts[k].print_time_s - (k == 0 ? first_travel : 0.0),
                   stats.part_time_s[k], 0.01 * stats.part_time_s[k])
           << counter.counts.parts[k].label;
+  }
+}
+
+// Streamed writing (layers visited, never held: FDM plates from `trellis run`) labels the parts
+// with the same bytes as the whole toolpath's writing, Klipper's hull polygons included, and the
+// same time per part.
+TEST(GcodeObjects, StreamedPlateIsLabelledWithTheSameBytes) {
+  const Toolpath tp = plate(nine_labels());
+  Toolpath meta;
+  meta.part_labels = tp.part_labels;
+  const std::string path =
+      (std::filesystem::temp_directory_path() / ("trellis_objects_" + std::to_string(::getpid()) + ".gcode")).string();
+  for (const std::string flavor : {"marlin", "klipper"}) {
+    GcodeStats whole_stats;
+    const std::string whole = write_gcode(tp, profile(flavor), &whole_stats);
+    const GcodeStats s = write_gcode_stream(path, meta, tp.layers.size(), layers_of(tp), profile(flavor));
+    const std::string streamed = read_file(path);
+    std::filesystem::remove(path);
+    EXPECT_TRUE(streamed == whole) << flavor;
+    EXPECT_NE(streamed.find(flavor == "klipper" ? "POLYGON=[[" : "M486 S8 A"), std::string::npos);
+    EXPECT_EQ(s.part_time_s, whole_stats.part_time_s) << flavor;
   }
 }

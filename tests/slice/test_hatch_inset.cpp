@@ -108,3 +108,55 @@ TEST(Regions, HatchInsetKeepsItsDistanceAndMatchesTheOffsetHatch) {
 }
 
 }  // namespace
+
+namespace {
+
+// Rings sampled finely (edges much shorter than the inset, as the PBF section after
+// densification): consecutive edges' capsules overlap on every line, so trim_hatch widens spans
+// instead of adding them. Distances and length against sampling as above.
+TEST(Regions, HatchInsetOnFinelySampledRings) {
+  auto wavy = [](Vec2 c, double r, double amp, int lobes, int n, bool cw) {
+    std::vector<Vec2> ring;
+    for (int i = 0; i < n; ++i) {
+      const double a = 2 * std::numbers::pi * (cw ? n - i : i) / n;
+      const double rr = r + amp * std::sin(lobes * a);
+      ring.push_back(c + Vec2{rr * std::cos(a), rr * std::sin(a)});
+    }
+    return ring;
+  };
+  std::size_t checked = 0;
+  for (int trial = 0; trial < 3; ++trial) {
+    Polygon2 a;
+    a.outer = wavy({0, 0}, 5, 0.8, 7, 2500 + 300 * trial, false);
+    a.holes.push_back(wavy({0.3, -0.2}, 2, 0.4, 5, 1500, true));
+    const Regions keep = {a};
+    const double angle = 17.0 + 29.0 * trial, spacing = 0.15 + 0.02 * trial, inset = 0.3;
+    const auto got = hatch_inset(keep, {}, angle, spacing, inset);
+    double len = 0;
+    for (const auto& s : got) {
+      len += std::hypot(s.b.x - s.a.x, s.b.y - s.a.y);
+      for (const double t : {0.0, 0.5, 1.0}) {
+        const Vec2 p = s.a + (s.b - s.a) * t;
+        const double d = outline_distance(p, keep);
+        EXPECT_GE(d, inset - 1e-9) << "trial " << trial;
+        if (t != 0.5) {
+          EXPECT_NEAR(d, inset, 1e-7) << "trial " << trial;
+        }
+        ++checked;
+      }
+    }
+    const double delta = 0.02;
+    const auto base = hatch(keep, angle, spacing);
+    double sampled = 0;
+    for (const auto& s : base) {
+      const double l = std::hypot(s.b.x - s.a.x, s.b.y - s.a.y);
+      for (double x = 0.5 * delta; x < l; x += delta)
+        if (outline_distance(s.a + (s.b - s.a) * (x / l), keep) >= inset) sampled += delta;
+    }
+    EXPECT_NEAR(len, sampled, delta * (2.0 * static_cast<double>(got.size() + base.size()) + 2))
+        << "trial " << trial;
+  }
+  EXPECT_GT(checked, 500u);
+}
+
+}  // namespace

@@ -127,6 +127,9 @@ class Evaluator {
   // Central differences with step h (mm).
   Vec3 gradient(Vec3 p, double h = 1e-5);
   void gradients(const Vec3* points, Vec3* out, std::size_t n, double h = 1e-5);
+  // value(p), and gradient(p, h) into *g: the same numbers, from one evaluation where the field
+  // has an analytic gradient (TPMS).
+  double value_gradient(Vec3 p, Vec3* g, double h = 1e-5);
   Interval bound(const BBox3& box);
   // Volume fractions (sum 1 when any material is set) per Field::materials().
   std::vector<double> fractions(Vec3 p);

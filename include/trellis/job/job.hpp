@@ -100,6 +100,8 @@ Toolpath read_print(const std::string& path, const Settings* machine, double* sn
 // for write_gcode.
 std::vector<GcodeThumbnail> gcode_thumbnails(const Toolpath& toolpath,
                                              const MachineProfile& machine);
+std::vector<GcodeThumbnail> gcode_thumbnails(const LayerSource& layers,
+                                             const MachineProfile& machine);
 
 // GIPPO parts on a solid: the height at which layer `layer` (of thickness h) is cropped to the
 // solid's section — its middle, or just below the top for a partial top layer.

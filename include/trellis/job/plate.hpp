@@ -43,6 +43,13 @@ Vec3 place_point(const PlatePart& part, const BBox3& box, Vec3 p);
 void check_plate(const std::vector<PartFootprint>& parts, const BBox2& area, double clearance,
                  const std::string& origin);
 
+// A plate printed part by part (plate.sequence = parts), in the order of `parts`: the machine's
+// extruder clearance must be known (radius and height > 0); every part but the last at most
+// `clearance_height` tall (`heights`, mm; the gantry passes over finished parts); every two parts
+// at least `clearance_radius` apart. Else SettingError (exit 2) naming the parts.
+void check_sequential(const std::vector<PartFootprint>& parts, const std::vector<double>& heights,
+                      double clearance_radius, double clearance_height, const std::string& origin);
+
 // "K/N" (1 <= K <= N) → {K, N}; SettingError otherwise.
 std::pair<int, int> parse_shard(const std::string& text);
 // Layer range [a, b) of shard k (1-based) of n: contiguous, in order, splitting the total of

@@ -75,6 +75,15 @@ GcodeStats write_gcode_file(const std::string& path, const Toolpath& toolpath,
                             const MachineProfile& profile,
                             const std::vector<GcodeThumbnail>& thumbnails = {});
 
+// The same file from streamed layers (layer_count of them), in bounded memory: `layers` is visited
+// a few times (extent, machine check, tools, writing); `meta` gives the source, job and part
+// labels (its layers are not read). The bytes are write_gcode_file's for the same layers, except
+// that mixtures are refused (their look-ahead needs the whole toolpath).
+GcodeStats write_gcode_stream(const std::string& path, const Toolpath& meta,
+                              std::size_t layer_count, const LayerSource& layers,
+                              const MachineProfile& profile,
+                              const std::vector<GcodeThumbnail>& thumbnails = {});
+
 // Expands {key} / {section.key} placeholders with setting values; throws SettingError.
 std::string expand_template(const std::string& text, const MachineProfile& profile,
                             const std::string& which);

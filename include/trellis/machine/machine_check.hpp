@@ -30,6 +30,9 @@ struct MachineWarning {
 Vec2 placement_offset(const Toolpath& toolpath, const MachineProfile& profile);
 // The Z lift the writer applies: with placement.lift, how far the lowest point is below Z 0.
 double placement_lift(const Toolpath& toolpath, const MachineProfile& profile);
+// The same from the extent of every point (streamed layers: the extent gathered as they come).
+Vec2 placement_offset(const BBox3& points_box, const MachineProfile& profile);
+double placement_lift(const BBox3& points_box, const MachineProfile& profile);
 
 // Undoes what our writer did to place a toolpath on the machine: the header's "; placement
 // offset = dx, dy" and "; placement lift = dz", and (with the machine profile) each tool's XY
@@ -43,6 +46,9 @@ void to_design_coordinates(Toolpath& toolpath, const std::string& gcode_text,
 // inputs (or in tools / temperature mode with enough tools); temperatures and feeds within the
 // machine's limits.
 std::vector<MachineWarning> check_for_machine(const Toolpath& toolpath, const MachineProfile& profile);
+// The same over streamed layers, whose points span `points_box`.
+std::vector<MachineWarning> check_for_machine(const LayerSource& layers, const BBox3& points_box,
+                                              const MachineProfile& profile);
 
 // Laser: power and speed per vector and of the profile within the laser's limits, the part
 // within the build area (centred on the plate) and height.

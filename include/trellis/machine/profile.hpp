@@ -24,6 +24,10 @@ struct MachineProfile {
   std::string origin = "corner";        // corner (0,0 at a corner) | center (0,0 at the centre)
   int tool_count = 1;                   // tools / nozzles (tool changers, multi-nozzle heads)
   int mixing_inputs = 1;                // filament inputs of a mixing hotend; 1 = no mixing
+  // Sequential printing (plate.sequence = parts): the radius around the nozzle kept clear of
+  // finished parts and the height of the gantry above the nozzle tip (PrusaSlicer's
+  // extruder_clearance_radius / _height); 0 = not known, sequential printing refused.
+  double extruder_clearance_radius = 0, extruder_clearance_height = 0;
   // [placement]
   bool center = true;                 // move the part's XY centre to the bed centre
   double offset_x = 0, offset_y = 0;  // added after centring (mm)

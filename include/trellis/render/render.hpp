@@ -61,6 +61,8 @@ void render_overlay_png(const std::vector<Segment2>& design, const Layer& printe
 // A thumbnail for G-code headers (PNG bytes, width x height): the whole print seen from the front
 // and above, fitted on a transparent background, shaded by height.
 std::string render_thumbnail_png(const Toolpath& toolpath, int width, int height);
+// The same over streamed layers (visited twice: the extent, then the drawing).
+std::string render_thumbnail_png(const LayerSource& layers, int width, int height);
 
 // Scatter of scores per iteration with the best one marked.
 void render_scores_png(const std::vector<double>& scores, std::size_t best_iteration,

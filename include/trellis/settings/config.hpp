@@ -103,6 +103,9 @@ struct BudgetConfig {
 // Build plates (job/plate.hpp).
 struct PlateConfig {
   double clearance = 2;  // plate.clearance (mm): least gap between the parts' footprints
+  // plate.sequence: FDM plates printed layer by layer (every part's layer i, then layer i + 1)
+  // or part by part (each part whole before the next; the machine's extruder clearance allowing)
+  std::string sequence = "layers";
 };
 
 struct Config {

@@ -60,12 +60,31 @@ struct SliceResult {
   // The part's printed layers (all of them, also when only a range was asked for) and the index
   // of the toolpath's first layer among them.
   std::size_t part_layers = 0, first_layer = 0;
+  // Streamed (stream_slice): no outlines or toolpath are kept; what the report needs of them is
+  // summed as the layers pass.
+  bool streamed = false;
+  std::size_t layers = 0, empty_layers = 0;
+  double outline_area = 0;  // mm², all layers
+  TravelStats travel;
 };
 
 // Planar and graded slicing in one call. `progress` (core/progress.hpp): stages "outlines"
 // (from worker threads, under a lock) and "walls and infill"; cancel checked per layer while
 // outlining and between stages.
 SliceResult run_slice(const SliceJob& job, const Progress& progress = {});
+
+// Planar slicing (strategy 0) of the whole part streamed in bounded memory: layers are outlined
+// and planned by a oneTBB pipeline (a few runs of `chunk_layers` in flight, each planned with the
+// outlines its skins read around it) and handed to `sink` in order as each is done, never all
+// held. The layers are run_slice's, byte for byte; the result carries the statistics (no
+// outlines, no toolpath). Graded slicing (strategy 1 or 2) holds the whole print: SettingError.
+using LayerSink = std::function<void(std::size_t index, Layer&& layer)>;
+struct SliceStreamOptions {
+  std::size_t chunk_layers = 16;  // planes outlined together (a mesh is bucketed once per run)
+  std::size_t tokens = 0;         // runs in flight; 0 = twice the threads
+};
+SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progress& progress = {},
+                         const SliceStreamOptions& options = {});
 
 // The report: layers, paths, lengths, travel, print time (from the writer's stats if given).
 std::string slice_report_json(const SliceJob& job, const SliceResult& result,

@@ -5,6 +5,7 @@
 // next path's first point, in order.
 #pragma once
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -61,5 +62,12 @@ struct TravelStats {
   double length = 0;
 };
 TravelStats travel_stats(const Toolpath& toolpath, double min_move = 1e-9);
+
+// Layers visited in print order, one at a time: a toolpath held whole (layers_of) or layers
+// streamed from a temporary file (toolpath/layer_spill.hpp). A source can be visited again; each
+// visit starts at layer 0.
+using LayerVisitor = std::function<void(std::size_t index, const Layer& layer)>;
+using LayerSource = std::function<void(const LayerVisitor& visit)>;
+LayerSource layers_of(const Toolpath& toolpath);  // refers to `toolpath`: keep it alive
 
 }  // namespace trellis

@@ -1,0 +1,161 @@
+// Planar slicing streamed through the bounded pipeline (issue 23): the layers handed to the sink
+// are run_slice's layers, in order, byte for byte, for any run length and number of runs in
+// flight (skins read the outlines around each run), on the field and the mesh route; the
+// statistics are the whole run's; graded slicing refuses to stream.
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include <string>
+#include <vector>
+
+#include "trellis/core/error.hpp"
+#include "trellis/slice/pipeline.hpp"
+#include "trellis/toolpath/layer_spill.hpp"
+
+using namespace trellis;
+
+namespace {
+
+const std::string kRoot = TRELLIS_SOURCE_DIR;
+
+void expect_same_layer(const Layer& a, const Layer& b, std::size_t i) {
+  ASSERT_EQ(a.z, b.z) << "layer " << i;
+  ASSERT_EQ(a.paths.size(), b.paths.size()) << "layer " << i;
+  for (std::size_t k = 0; k < a.paths.size(); ++k) {
+    const Path &p = a.paths[k], &q = b.paths[k];
+    ASSERT_EQ(p.role, q.role) << "layer " << i << " path " << k;
+    ASSERT_EQ(p.width, q.width);
+    ASSERT_EQ(p.height, q.height);
+    ASSERT_EQ(p.points.size(), q.points.size()) << "layer " << i << " path " << k;
+    for (std::size_t m = 0; m < p.points.size(); ++m) {
+      ASSERT_EQ(p.points[m].x, q.points[m].x) << "layer " << i << " path " << k;
+      ASSERT_EQ(p.points[m].y, q.points[m].y);
+      ASSERT_EQ(p.points[m].z, q.points[m].z);
+    }
+  }
+}
+
+SliceJob bracket(double layer) {
+  SliceJob job;
+  job.input = kRoot + "/examples/designs/csg_bracket.vcad";
+  job.planar.layer_height = layer;
+  job.planar.walls = 2;
+  job.planar.top_layers = 3;
+  job.planar.bottom_layers = 5;  // unequal, so a window off by one side shows
+  job.field.resolution = 0.2;
+  return job;
+}
+
+void expect_streams_as_whole(const SliceJob& job, const SliceStreamOptions& options) {
+  const SliceResult whole = run_slice(job);
+  ASSERT_GT(whole.toolpath.layers.size(), 8u);
+  std::vector<Layer> got;
+  std::vector<std::size_t> order;
+  const SliceResult s = stream_slice(
+      job, [&](std::size_t i, Layer&& l) { order.push_back(i), got.push_back(std::move(l)); }, {},
+      options);
+  ASSERT_EQ(got.size(), whole.toolpath.layers.size())
+      << "chunk " << options.chunk_layers << " tokens " << options.tokens;
+  for (std::size_t i = 0; i < got.size(); ++i) {
+    ASSERT_EQ(order[i], i);
+    expect_same_layer(got[i], whole.toolpath.layers[i], i);
+  }
+  EXPECT_TRUE(s.streamed);
+  EXPECT_TRUE(s.toolpath.layers.empty()) << "a stream keeps no toolpath";
+  EXPECT_TRUE(s.outlines.empty()) << "a stream keeps no outlines";
+  EXPECT_EQ(s.layers, whole.outlines.size());
+  EXPECT_EQ(s.part_layers, whole.part_layers);
+  EXPECT_EQ(s.planar.paths, whole.planar.paths);
+  EXPECT_EQ(s.planar.walls, whole.planar.walls);
+  EXPECT_EQ(s.planar.skin_lines, whole.planar.skin_lines);
+  EXPECT_EQ(s.planar.infill_lines, whole.planar.infill_lines);
+  EXPECT_EQ(s.planar.extruded_length, whole.planar.extruded_length);
+  const TravelStats t = travel_stats(whole.toolpath);
+  EXPECT_EQ(s.travel.moves, t.moves);
+  EXPECT_EQ(s.travel.length, t.length);
+  EXPECT_EQ(s.field_stats.samples, whole.field_stats.samples);
+  EXPECT_EQ(s.field_stats.blocks, whole.field_stats.blocks);
+}
+
+TEST(SliceStream, FieldRouteLayersAreTheWholeRunsForAnyRunLengthAndTokens) {
+  const SliceJob job = bracket(0.3);  // 60 layers
+  for (const SliceStreamOptions o :
+       {SliceStreamOptions{1, 1}, SliceStreamOptions{3, 2}, SliceStreamOptions{16, 0},
+        SliceStreamOptions{7, 8}, SliceStreamOptions{1000, 2}})
+    expect_streams_as_whole(job, o);
+}
+
+TEST(SliceStream, MeshRouteLayersAreTheWholeRuns) {
+  SliceJob job;
+  job.input = kRoot + "/examples/designs/concave_cylinder.obj";
+  job.planar.layer_height = 0.2;
+  for (const SliceStreamOptions o : {SliceStreamOptions{1, 2}, SliceStreamOptions{4, 3}})
+    expect_streams_as_whole(job, o);
+}
+
+TEST(SliceStream, OneThreadAndManyAgree) {
+  const SliceJob job = bracket(0.4);
+  std::vector<Layer> one, many;
+  {
+    tbb::global_control c(tbb::global_control::max_allowed_parallelism, 1);
+    stream_slice(job, [&](std::size_t, Layer&& l) { one.push_back(std::move(l)); });
+  }
+  stream_slice(job, [&](std::size_t, Layer&& l) { many.push_back(std::move(l)); }, {}, {2, 6});
+  ASSERT_EQ(one.size(), many.size());
+  for (std::size_t i = 0; i < one.size(); ++i) expect_same_layer(one[i], many[i], i);
+}
+
+TEST(SliceStream, GradedSlicingDoesNotStream) {
+  SliceJob job;
+  job.input = kRoot + "/examples/designs/fgm_column1_cylinder.vcad";
+  job.strategy = 1;
+  job.strategy_chosen = true;
+  EXPECT_THROW(stream_slice(job, [](std::size_t, Layer&&) {}), SettingError);
+}
+
+TEST(LayerSpill, LayersComeBackAsTheyWent) {
+  Layer a;
+  a.z = 0.3;
+  Path p;
+  p.points = {{1, 2, 0.3}, {4, 5, 0.3}, {7, 8.5, 0.3}};
+  p.role = PathRole::Skin;
+  p.tool = 2;
+  p.part = 3;
+  p.mixture = {0.25, 0.75};
+  p.width = 0.45, p.height = 0.2, p.speed = 30, p.power = 1, p.filament = 2, p.temperature = 215;
+  a.paths = {p, Path{}};
+  Layer b;
+  b.z = 0.6;
+  LayerSpill spill;
+  spill.append(a);
+  spill.append(b);
+  for (int pass = 0; pass < 2; ++pass) {
+    std::vector<Layer> back;
+    spill.visit([&](std::size_t i, const Layer& l) {
+      EXPECT_EQ(i, back.size());
+      back.push_back(l);
+    });
+    ASSERT_EQ(back.size(), 2u);
+    EXPECT_EQ(back[0].z, 0.3);
+    EXPECT_EQ(back[1].z, 0.6);
+    EXPECT_TRUE(back[1].paths.empty());
+    ASSERT_EQ(back[0].paths.size(), 2u);
+    const Path& q = back[0].paths[0];
+    EXPECT_EQ(q.role, PathRole::Skin);
+    EXPECT_EQ(q.tool, 2);
+    EXPECT_EQ(q.part, 3);
+    EXPECT_EQ(q.mixture, p.mixture);
+    EXPECT_EQ(q.width, 0.45);
+    EXPECT_EQ(q.height, 0.2);
+    EXPECT_EQ(q.speed, 30);
+    EXPECT_EQ(q.power, 1);
+    EXPECT_EQ(q.filament, 2);
+    EXPECT_EQ(q.temperature, 215);
+    ASSERT_EQ(q.points.size(), 3u);
+    EXPECT_EQ(q.points[2].y, 8.5);
+    EXPECT_TRUE(back[0].paths[1].points.empty());
+  }
+  EXPECT_THROW(spill.append(a), Error) << "appending after reading started";
+}
+
+}  // namespace
