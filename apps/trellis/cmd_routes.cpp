@@ -158,7 +158,7 @@ void add_routes(CLI::App& app, int argc, char** argv) {
        "Profiles are TOML files (profiles/); `trellis settings machine` lists every setting.\n"
        "Settings merge: defaults < profile < flags and --set."},
       {"slice", "slice", "Slice a design (.vcad) or a mesh (.stl, .obj, .3mf) into walls, skins and infill",
-       with({"slice", "fgm", "output", "run"}, m), "design", true, "G-code file to write", true, true, true,
+       with({"slice", "fgm", "process", "output", "run"}, m), "design", true, "G-code file to write", true, true, true,
        "A .vcad design is contoured straight from its implicit field at every layer (no mesh); a\n"
        "mesh is cut by planes (--route mesh, its default) or turned into a distance field first.\n"
        "The layer height is the profile's extrusion.layer_height unless --layer-height says\n"

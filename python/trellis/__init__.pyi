@@ -210,8 +210,10 @@ def slice(
     center: bool = ...,  # placement.center: move the part's XY centre to the bed centre (false: design coordinates are bed coordinates)
     colors: int = ...,  # fgm.colors: palette size (two materials: N bands; three: d² triangles, e.g. 9)
     concentric: bool = ...,  # fgm.concentric: Strategy 2: concentric fill instead of rectilinear
+    fan_step: float = ...,  # process.fan_step: quantum of a fan field
     fgm_perimeters: int = ...,  # fgm.perimeters: Strategy 2, rectilinear: rings around each colour face before its lines (the FGM paper's palette plates: 3)
     fixed_angle: bool = ...,  # fgm.fixed_angle: Strategy 2: lines at slice.infill_angle instead of along the iso-lines
+    flow_step: float = ...,  # process.flow_step: quantum of a flow (extrusion multiplier) field
     force: bool = ...,  # run.force: run even when the estimate is beyond run.max_memory or run.max_time
     frames: int = ...,  # output.frames: aero: step pictures of the first N trails
     image_size: int = ...,  # output.image_size: preview image size
@@ -225,11 +227,15 @@ def slice(
     mesh_voxel: float = ...,  # slice.mesh_voxel: voxel of mesh distance fields (field route)
     min_segment: float = ...,  # fgm.min_segment: pieces (Strategy 1) and paths (Strategy 2) shorter than this are joined to a touching piece of another colour where the design stays within α/2 of its
     preview_layers: int = ...,  # output.preview_layers: PNG previews spread over the layers
+    process_min_length: float = ...,  # process.min_length: pieces of a path shorter than this are merged into a neighbour (their deviation from the field is reported, a warning beyond half a step)
+    process_sample: float = ...,  # process.sample: spacing of the field samples along each path (changes between samples are found by bisection)
     repair: bool = ...,  # slice.repair: repair meshes that are not closed and manifold (stitch seams, drop degenerate and duplicate faces, orient, fill small holes, split non-manifold edges); --no-re
     resolution: float = ...,  # slice.resolution: XY grid step of field contours
     route: Literal['auto', 'field', 'mesh'] = ...,  # slice.route: auto (.vcad: field, meshes: mesh), field (contours of the implicit field) or mesh (plane cuts)
     speed: float = ...,  # speed.print: printing speed
+    speed_step: float = ...,  # process.speed_step: quantum of a speed field (as above)
     strategy: int = ...,  # slice.strategy: graded designs (FGM paper): 1 walls/infill cut by colour faces + purge, 2 colour faces filled densely, none (0) one material on purpose; a graded design wit
+    temperature_step: float = ...,  # process.temperature_step: quantum of a temperature field: written rounded to it (within half a step), a path split where the rounded value changes
     threads: int = ...,  # run.threads: worker threads (0 = all cores)
     top: int = ...,  # slice.top: solid top layers
     walls: int = ...,  # slice.walls: number of walls

@@ -652,8 +652,9 @@ struct CsgNode : FieldNode {
     }
     return e;
   }
-  void fractions(Vec3 p, double* out, EvalState& s, std::size_t depth) const override {
-    // A union takes the materials of the child that holds the point (the deepest inside).
+  // A union takes the materials (and process values) of the child that holds the point (the
+  // deepest inside); the other operations those of their first child.
+  std::size_t holder(Vec3 p, EvalState& s, std::size_t depth) const {
     std::size_t pick = 0;
     if (op == Op::Union) {
       double best = kInf;
@@ -665,7 +666,13 @@ struct CsgNode : FieldNode {
         }
       }
     }
-    children[pick]->fractions(p, out, s, depth + 1);
+    return pick;
+  }
+  void fractions(Vec3 p, double* out, EvalState& s, std::size_t depth) const override {
+    children[holder(p, s, depth)]->fractions(p, out, s, depth + 1);
+  }
+  void process(Vec3 p, ProcessValues& out, EvalState& s, std::size_t depth) const override {
+    children[holder(p, s, depth)]->process(p, out, s, depth + 1);
   }
 };
 
@@ -742,6 +749,8 @@ struct TransformNode : FieldNode {
   BBox3 extent() const override { return map_box(children[0]->extent(), false); }
   void fractions(Vec3 p, double* out, EvalState& s, std::size_t depth) const override {
     children[0]->fractions(local(p), out, s, depth + 1);
+  }  void process(Vec3 p, ProcessValues& out, EvalState& s, std::size_t depth) const override {
+    children[0]->process(local(p), out, s, depth + 1);
   }
 };
 
@@ -874,6 +883,9 @@ const std::vector<std::string>& Field::materials() const {
 }
 bool Field::has_expressions() const {
   return node_ && node_->has_expressions();
+}
+bool Field::has_process() const {
+  return node_ && node_->has_process();
 }
 
 const char* to_string(TpmsKind kind) {
@@ -1089,6 +1101,11 @@ void Evaluator::gradients(const Vec3* p, Vec3* out, std::size_t n, double h) {
 }
 Interval Evaluator::bound(const BBox3& box) {
   return field_.node().bound(box, *state_, 0);
+}
+ProcessValues Evaluator::process(Vec3 p) {
+  ProcessValues v;
+  field_.node().process(p, v, *state_, 0);
+  return v;
 }
 std::vector<double> Evaluator::fractions(Vec3 p) {
   std::vector<double> out(field_.materials().size(), 0.0);

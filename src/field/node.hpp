@@ -77,6 +77,9 @@ class FieldNode {
   // Adds this node's contribution to fractions (indexed by the design's material table).
   virtual void fractions(Vec3 p, double* out, EvalState& s, std::size_t depth) const;
   virtual bool has_expressions() const;
+  // Sets the process values (fprocess) at p that are still NaN; default: the first child's.
+  virtual void process(Vec3 p, ProcessValues& out, EvalState& s, std::size_t depth) const;
+  virtual bool has_process() const;
 
   double value(Vec3 p, EvalState& s, std::size_t depth) const {
     double v;

@@ -525,6 +525,23 @@ class Parser {
       Field child = children_of(node, at);
       return at_node(at, [&] { return fgrade(child, exprs, args[1].list); });
     }
+    if (node == "fprocess") {
+      // fprocess(["expr", ...], ["temperature" | "speed" | "flow" | "fan", ...]) { ... }: the
+      // same shape as fgrade, process parameters instead of materials.
+      if (args.size() != 2 || args[0].kind != Arg::List || args[1].kind != Arg::List)
+        fail("fprocess takes ([\"expr\", ...], [\"temperature\" | \"speed\" | \"flow\" | "
+             "\"fan\", ...])",
+             at);
+      std::vector<Expression> exprs;
+      for (std::size_t i = 0; i < args[0].list.size(); ++i) {
+        check(args[0].list[i], i < list_pos.size() ? list_pos[i] : at);
+        exprs.push_back({args[0].list[i]});
+      }
+      const std::string label = fmt::format(
+          "fprocess at {}:{}", std::filesystem::path(name_).filename().string(), at.line);
+      Field child = children_of(node, at);
+      return at_node(at, [&] { return fprocess(child, exprs, args[1].list, label); });
+    }
     if (node == "root") fail("root may only be the outermost node", at);
     fail("unknown node '" + node + "'", at);
   }

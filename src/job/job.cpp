@@ -47,7 +47,7 @@ std::vector<std::string> route_sections(const std::string& route) {
   }
   else if (route == "slice") {
     s = machine_sections();
-    add({"slice", "fgm", "plate", "output", "run"});
+    add({"slice", "fgm", "process", "plate", "output", "run"});
   } else if (route == "pbf") add({"machine", "laser", "scan", "timing", "pbf", "plate", "output", "run"});
   else if (route == "nonplanar") {
     s = machine_sections();

@@ -67,6 +67,18 @@ JobResult shard_written(const Job& job, const Toolpath& tp, std::size_t first, s
   return out;
 }
 
+// A laser design (.vcad): process fields (fprocess) are FDM settings the laser route has no use
+// for, refused rather than dropped.
+Field laser_vcad(const std::string& path) {
+  Field f = read_vcad(path).field;
+  if (f.has_process())
+    throw SettingError("the design sets process fields (fprocess: temperature, speed, flow, fan), "
+                       "which only the FDM slice route writes; remove the fprocess node for laser "
+                       "powder-bed fusion (scan parameters come from the laser profile)",
+                       {path, 0, "fprocess"});
+  return f;
+}
+
 PbfDesign pbf_design(const PbfConfig& p) {
   if (p.wall_thickness > 0) {
     // The paper's thin-wall experiments (Fig. 3): a plane wall cut by the box.
@@ -89,13 +101,13 @@ PbfDesign pbf_design(const PbfConfig& p) {
   d.c = {p.c};
   d.thickness = p.thickness;
   if (!p.envelope.empty()) {
-    d.envelope = read_vcad(p.envelope).field;
+    d.envelope = laser_vcad(p.envelope);
   } else {
     const double side = 4 * p.cell;
     const Vec3 s = p.size.size() == 3 ? Vec3{p.size[0], p.size[1], p.size[2]} : Vec3{side, side, side};
     d.envelope = rectprism(s);
   }
-  if (!p.solids.empty()) d.solids = read_vcad(p.solids).field;
+  if (!p.solids.empty()) d.solids = laser_vcad(p.solids);
   return d;
 }
 
@@ -221,6 +233,11 @@ SliceJob slice_job_of(const Job& job, const Config& c, const std::string& input)
   sj.purge.speed = c.machine.print_speed;
   sj.purge.density = {c.machine.density_a, c.machine.density_b, c.machine.density_c};
   sj.budget = budget_of(job, c);
+  sj.process.max_temperature = c.machine.max_nozzle_temperature;
+  sj.process.max_speed = c.machine.max_speed;
+  sj.process.temperature_from_mixture = c.machine.gradient_mode == "temperature";
+  sj.process.short_path_segments = c.machine.short_path_segments;
+  sj.process.short_path_factor = c.machine.short_path_factor;
   return sj;
 }
 
@@ -316,6 +333,8 @@ JobResult slice_plate_streamed(const Job& job, const Config& c, std::vector<Slic
           spill.append(layer);
         },
         progress);
+    for (const auto& [kind, message] : process_warnings(r.process, p.sj.process))
+      diag.warn(kind, message);
     warn_repaired(p.sj, r, diag);
     if (!plate)
       meta.source = "trellis slice " + fs::path(p.sj.input).filename().string() + " (" +
@@ -430,6 +449,8 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag, const 
     if (a >= p.layers) continue;
     if (job.shards) p.sj.layer_begin = a, p.sj.layer_end = b;
     SliceResult r = run_slice(p.sj, progress);
+    for (const auto& [kind, message] : process_warnings(r.process, p.sj.process))
+      diag.warn(kind, message);
     warn_repaired(p.sj, r, diag);
     if (!plate)
       tp.source = "trellis slice " + fs::path(p.sj.input).filename().string() + " (" +
@@ -502,6 +523,8 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
                           job.input, r.fgm.short_kept, fixed(r.fgm.min_segment, 2),
                           r.fgm.short_merged, r.fgm.short_kept_bound,
                           r.fgm.materials == 3 ? "2α/3" : "α/2", fixed(r.fgm.error_bound, 4)));
+  for (const auto& [kind, message] : process_warnings(r.process, sj.process))
+    diag.warn(kind, message);
   // The file name only: outputs must not depend on where the command ran.
   r.toolpath.source = "trellis slice " + fs::path(job.input).filename().string() + " (" +
                       to_string(r.route) + " route)";
@@ -552,9 +575,14 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
   if (sj.strategy != 0 && r.fgm.min_segment > 0)
     out.summary += fmt::format("; min segment {} mm: {} merged, {} kept under it",
                                fixed(r.fgm.min_segment, 1), r.fgm.short_merged, r.fgm.short_kept);
+  out.summary += process_summary(r.process, g);
   if (sj.strategy != 0 && r.fgm.tower.built)
-    out.summary += fmt::format("; prime tower {} mm square at ({}, {}), {} layers, {} mm3, {} g, ~{} min",
-                               fixed(r.fgm.tower.side, 1), fixed(r.fgm.tower.x, 1),
+    out.summary += fmt::format("; prime tower {} at ({}, {}), {} layers, {} mm3, {} g, ~{} min",
+                               r.fgm.tower.size_x == r.fgm.tower.size_y
+                                   ? fixed(r.fgm.tower.side, 1) + " mm square"
+                                   : fixed(r.fgm.tower.size_x, 1) + " x " +
+                                         fixed(r.fgm.tower.size_y, 1) + " mm",
+                               fixed(r.fgm.tower.x, 1),
                                fixed(r.fgm.tower.y, 1), r.fgm.tower.layers,
                                fixed(r.fgm.tower.volume, 0), fixed(r.fgm.tower.mass, 1),
                                fixed(r.fgm.tower.time / 60, 1));
@@ -635,7 +663,7 @@ JobResult pbf_plate(const Job& job, const Config& c, Diagnostics& diag, const Pr
     }
     p.design = pbf_design(p.config.pbf);
     const std::string input = plate ? pp.input : job.input;
-    if (!input.empty()) p.design.envelope = read_vcad(input).field;
+    if (!input.empty()) p.design.envelope = laser_vcad(input);
     p.extent = p.design.part().extent();
     if (!finite_box(p.extent))
       throw GeometryError("part '" + pp.label + "' has no finite extent: give it an envelope",
@@ -756,7 +784,7 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
   JobResult out;
   const LaserProfile& prof = c.laser;
   PbfDesign d = pbf_design(c.pbf);
-  if (!job.input.empty()) d.envelope = read_vcad(job.input).field;
+  if (!job.input.empty()) d.envelope = laser_vcad(job.input);
   PbfOptions po = c.pbf.options;
   po.layer = prof.layer;
   po.segment_length = prof.segment_length;

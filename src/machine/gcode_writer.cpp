@@ -285,14 +285,18 @@ class Writer {
         line(heat(tools_used_[i], i == 0 || standby_ <= 0 ? p_.nozzle_temperature : standby_,
                   false));
       line(heat(tools_used_[0], p_.nozzle_temperature, true));
-    } else if (p_.nozzle_temperature > 0) {
-      line(heat(-1, p_.nozzle_temperature, false));
-      line(heat(-1, p_.nozzle_temperature, true));
+    } else if (const double t = first_nozzle_temperature(); t > 0) {
+      line(heat(-1, t, false));
+      line(heat(-1, t, true));
     }
     const std::string start = expand_template(p_.start_gcode, p_, "gcode.start");
     if (!start.empty()) line(start);
-    if (p_.fan_percent > 0)
+    if (p_.fan_percent > 0) {
       line("M106 S" + std::to_string(static_cast<int>(std::lround(p_.fan_percent * 2.55))));
+      fan_now_ = p_.fan_percent;
+    }
+    nozzle_now_ = tools_used_.empty() ? first_nozzle_temperature()
+                                      : p_.nozzle_temperature > 0 ? p_.nozzle_temperature : -1;
     if (e_axis_) line("G92 E0");
     out_ += objects_.definitions;
   }
@@ -343,9 +347,10 @@ class Writer {
       line("G92 E0");
       e_ = 0;
     }
-    for (const auto& path : l.paths) {
-      if (!tp_.part_labels.empty()) enter_object(path.part);
-      print_path(path);
+    for (std::size_t pi = 0; pi < l.paths.size(); ++pi) {
+      if (!tp_.part_labels.empty()) enter_object(l.paths[pi].part);
+      chain(l.paths, pi);
+      print_path(l.paths[pi]);
     }
     enter_object(0);
   }
@@ -369,6 +374,52 @@ class Writer {
     if (part > 0 && objects_.style != ObjectStyle::None) out_ += objects_.start(part);
     object_ = part;
     object_since_ = stats_.print_time_s;
+  }
+
+  // A bead split into joined paths (process fields) is one bead: priming at its start only,
+  // post-flow at its end only, the short-path factor by its whole segment count.
+  void chain(const std::vector<Path>& paths, std::size_t pi) {
+    next_joined_ = pi + 1 < paths.size() && paths[pi + 1].joined;
+    if (paths[pi].joined && pi > 0) return;  // chain_segments_ counted at the chain's start
+    // Each cut added one point: the bead's own segments are the pieces' less the cuts.
+    chain_segments_ = paths[pi].segments();
+    for (std::size_t k = pi + 1; k < paths.size() && paths[k].joined; ++k)
+      chain_segments_ += paths[k].segments() - 1;
+  }
+
+  // The temperature the print starts at: the first path's own (a process field) or the profile's.
+  double first_nozzle_temperature() const {
+    if (streamed_) return first_temperature_ > 0 ? first_temperature_ : p_.nozzle_temperature;
+    for (const auto& l : tp_.layers)
+      for (const auto& p : l.paths)
+        if (p.points.size() >= 2) return p.temperature > 0 ? p.temperature : p_.nozzle_temperature;
+    return p_.nozzle_temperature;
+  }
+
+  // A path's own nozzle temperature (then the temperature.settle dwell before it extrudes) and
+  // fan, where they change; its flow multiplies E. A path without its own, after one with, goes
+  // back to the profile's.
+  void process_commands(const Path& path) {
+    path_flow_ = path.flow > 0 ? path.flow : 1.0;
+    const double t = path.temperature > 0 ? path.temperature
+                     : own_temperature_   ? p_.nozzle_temperature
+                                          : 0.0;
+    if (t > 0 && t != nozzle_now_) {
+      line(heat(last_tool_ >= 0 ? last_tool_ : -1, t, false));
+      nozzle_now_ = t;
+      ++stats_.temperature_changes;
+      dwell(p_.settle_time);
+      stats_.settle_time_s += p_.settle_time;
+    }
+    own_temperature_ = own_temperature_ || path.temperature > 0;
+    const double fan = path.fan >= 0 ? path.fan : own_fan_ ? p_.fan_percent : -1.0;
+    if (fan >= 0 && fan != fan_now_) {
+      const long s = std::lround(std::clamp(fan, 0.0, 100.0) * 2.55);
+      line(s == 0 ? std::string("M107") : "M106 S" + std::to_string(s));
+      fan_now_ = fan;
+      ++stats_.fan_changes;
+    }
+    own_fan_ = own_fan_ || path.fan >= 0;
   }
 
   void retract() {
@@ -558,6 +609,7 @@ class Writer {
     if (last_tool_ >= 0 && standby_ > 0) c += heat(last_tool_, standby_, false) + '\n';
     c += select;
     if (p_.nozzle_temperature > 0) c += '\n' + heat(tool, p_.nozzle_temperature, true);
+    nozzle_now_ = p_.nozzle_temperature > 0 ? p_.nozzle_temperature : -1;
     last_tool_ = tool;
     return c;
   }
@@ -626,6 +678,7 @@ class Writer {
     for (const auto& p : l.paths) {
       if (p.points.size() < 2) continue;
       if (!p.mixture.empty()) throw Error("streamed G-code cannot carry mixtures (internal)");
+      if (!first_seen_) first_seen_ = true, first_temperature_ = p.temperature;
       tower_ = tower_ || p.role == PathRole::Purge;
       if (select_tools_ &&
           std::find(tools_used_.begin(), tools_used_.end(), p.tool) == tools_used_.end())
@@ -710,7 +763,7 @@ class Writer {
 
   void print_path(const Path& input) {
     if (input.points.size() < 2) return;
-    ++stats_.paths;
+    if (!input.joined) ++stats_.paths;
     const bool embedded = flavor_ == Flavor::Embedded;
     if (embedded) change_tool(input.tool);
     // A multi-tool Marlin machine printing a path with a tool of its own (no mixture that
@@ -729,18 +782,20 @@ class Writer {
     travel_to(path.points.front());
     feature_comments(path);
     emit_changes(1, 0.0);
+    process_commands(path);
     const bool marlin = e_axis_;  // E per segment (Marlin, or an embedded syringe pump)
     const MachineProfile& pressure_profile = embedded ? tool_profile_ : p_;
-    if (marlin) {
+    if (path.joined) {
+    } else if (marlin) {
       extra_filament(p_.pre_flow);
     } else {
       if (!p_.pressure_command.empty())
         line(expand_template(p_.pressure_command, pressure_profile, "pneumatic.pressure_command"));
       line(p_.valve_on);
     }
-    dwell(p_.pre_flow_dwell);
+    if (!path.joined) dwell(p_.pre_flow_dwell);
     double speed = path.speed > 0 ? path.speed : p_.print_speed;
-    if (path.segments() < static_cast<std::size_t>(p_.short_path_segments))
+    if (chain_segments_ < static_cast<std::size_t>(p_.short_path_segments))
       speed *= p_.short_path_factor;
     const double layer = path.height > 0 ? path.height : p_.layer_height;
     bool first = true;
@@ -759,9 +814,11 @@ class Writer {
       print_move(path.points[i], layer, speed, first, marlin);
       if (embedded && i + 1 < path.points.size()) dwell(p_.node_dwell);
     }
-    if (marlin) extra_filament(p_.post_flow);
-    dwell(p_.post_flow_dwell);
-    if (!marlin) line(p_.valve_off);
+    if (!next_joined_) {
+      if (marlin) extra_filament(p_.post_flow);
+      dwell(p_.post_flow_dwell);
+      if (!marlin) line(p_.valve_off);
+    }
     emit_changes(SIZE_MAX, 0.0);  // any left for this path (rounding at its very end)
     ++path_index_;
     printed_ = true;
@@ -820,7 +877,7 @@ class Writer {
         b = fixed(b, q.z, 3);
       }
       if (marlin) {
-        const double e = extrusion_for(len, layer, p_) * flow;
+        const double e = extrusion_for(len, layer, p_) * flow * path_flow_;
         e_ += e;
         stats_.filament += e;
         b = lit(b, " E");
@@ -881,6 +938,15 @@ class Writer {
   MachineProfile tool_profile_;  // ... the profile with its pressure
   std::vector<std::pair<double, double>> down_flow_;  // (descent deg, factor), by angle
   double last_feed_ = -1;
+  // Process fields: the nozzle temperature and fan last set, the current path's flow factor,
+  // and the bead (chain of joined paths) being written.
+  double nozzle_now_ = -1, fan_now_ = -1, path_flow_ = 1;
+  bool own_temperature_ = false, own_fan_ = false;  // some path had its own
+  // Streamed: the first printed path's own temperature (0 = none), found by the placement pass.
+  double first_temperature_ = 0;
+  bool first_seen_ = false;
+  bool next_joined_ = false;
+  std::size_t chain_segments_ = 0;
   bool e_axis_ = false;  // moves carry E                              // F of the previous printing move
 
   // Flow factor of a move from pos_ to q (1 unless it descends steeply).

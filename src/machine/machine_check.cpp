@@ -131,6 +131,7 @@ std::vector<MachineWarning> check_for_machine(const LayerSource& layers, const B
   const int gradient_tools = p.gradient_tool_count();
   bool mixed = false;
   std::size_t max_materials = 0;
+  const bool fdm = p.parsed_flavor() == Flavor::Marlin;
   layers([&](std::size_t li, const Layer& layer) {
     for (std::size_t pi = 0; pi < layer.paths.size(); ++pi) {
       const Path& path = layer.paths[pi];
@@ -159,6 +160,12 @@ std::vector<MachineWarning> check_for_machine(const LayerSource& layers, const B
         errors.add("speed", fmt::format("{} is printed at {} mm/s, faster than the machine's "
                                         "speed.max = {} mm/s",
                                         where(li, pi), num(path.speed), num(p.max_speed)));
+      if (!fdm &&
+          ((path.flow > 0 && std::abs(path.flow - 1) > eps) || path.fan >= 0))
+        errors.add("process_flavor",
+                   fmt::format("{} sets a {} (a process field) but machine.flavor = {} has no E "
+                               "axis and no fan to set: print it on an FDM profile",
+                               where(li, pi), path.fan >= 0 ? "fan" : "flow", p.flavor));
       if (path.temperature > p.max_nozzle_temperature + eps)
         errors.add("path_temperature",
                    fmt::format("{} asks for {} °C, above temperature.max_nozzle = {} °C",

@@ -95,6 +95,10 @@ const std::vector<SettingDecl>& machine_settings() {
        &P::max_nozzle_temperature},
       {"temperature.max_bed", "°C", "hottest bed temperature the machine allows", 0, 200,
        &P::max_bed_temperature},
+      {"temperature.settle", "s",
+       "dwell (G4) after each nozzle temperature change a process field (fprocess) makes, so "
+       "the melt reaches it before printing on (foaming filament); counted in the time estimate",
+       0, 600, &P::settle_time},
       {"retraction.length", "mm", "filament retracted before travel", 0, 50, &P::retract_length},
       {"retraction.speed", "mm/s", "retraction speed", 0.01, 500, &P::retract_speed},
       {"retraction.z_hop", "mm", "lift during travel", 0, 50, &P::z_hop},

@@ -553,6 +553,27 @@ std::vector<Setting> make_table() {
                      "its colour, the rest kept and counted (FGM paper §3.4.3: ~5 mm); 0 = off",
                      "min-segment", [](C& c) -> auto& { return c.slice.fgm.min_segment; }));
 
+  // process.*: fprocess fields of a design
+  t.push_back(positive("process.temperature_step", "°C", 100,
+                       "quantum of a temperature field: written rounded to it (within half a "
+                       "step), a path split where the rounded value changes",
+                       "temperature-step",
+                       [](C& c) -> auto& { return c.slice.process.temperature_step; }));
+  t.push_back(positive("process.speed_step", "mm/s", 1000, "quantum of a speed field (as above)",
+                       "speed-step", [](C& c) -> auto& { return c.slice.process.speed_step; }));
+  t.push_back(positive("process.flow_step", "", 10, "quantum of a flow (extrusion multiplier) field",
+                       "flow-step", [](C& c) -> auto& { return c.slice.process.flow_step; }));
+  t.push_back(positive("process.fan_step", "%", 100, "quantum of a fan field",
+                       "fan-step", [](C& c) -> auto& { return c.slice.process.fan_step; }));
+  t.push_back(positive("process.sample", "mm", 100,
+                       "spacing of the field samples along each path (changes between samples "
+                       "are found by bisection)",
+                       "process-sample", [](C& c) -> auto& { return c.slice.process.sample; }));
+  t.push_back(number("process.min_length", "mm", 0, 1000,
+                     "pieces of a path shorter than this are merged into a neighbour (their "
+                     "deviation from the field is reported, a warning beyond half a step)",
+                     "process-min-length", [](C& c) -> auto& { return c.slice.process.min_length; }));
+
   // pbf.*
   t.push_back(choice("pbf.cell_type", {"gyroid", "schwarz_p", "schwarz_d", "neovius", "iwp"},
                      "TPMS of the sheet", "cell-type", [](C& c) -> auto& { return c.pbf.cell_type; }));
@@ -737,6 +758,7 @@ const std::vector<std::pair<std::string, std::string>>& setting_sections() {
       {"nozzle", "the nozzle model for collisions"},
       {"slice", "planar slicing"},
       {"fgm", "graded (FGM) slicing"},
+      {"process", "process fields of a design (fprocess): quanta of temperature, speed, flow, fan"},
       {"pbf", "laser powder-bed TPMS lattices"},
       {"nonplanar", "non-planar layers on a surface"},
       {"surface", "generated test surfaces"},

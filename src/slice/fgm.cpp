@@ -966,15 +966,16 @@ void add_prime_tower(Toolpath& tp, const FgmOptions& o, const PurgeOptions& purg
     if (count > 0) last_purge_layer = static_cast<long>(li);
   }
   if (last_purge_layer < 0) return;
-  const double side = tower::side_for(most, L, o.bead_width, purge.side);
   // The footprint of the beads, not of their centre lines.
   const BBox2 beads{{part.min.x - o.bead_width / 2, part.min.y - o.bead_width / 2},
                     {part.max.x + o.bead_width / 2, part.max.y + o.bead_width / 2}};
-  const tower::Square sq(tower::place(beads, side, purge), side, o.bead_width);
+  const tower::Block sq = tower::plan_tower(beads, most, L, o.bead_width, purge);
   st.tower.built = true;
   st.tower.x = sq.centre().x;
   st.tower.y = sq.centre().y;
-  st.tower.side = side;
+  st.tower.side = std::max(sq.size_x(), sq.size_y());
+  st.tower.size_x = sq.size_x();
+  st.tower.size_y = sq.size_y();
   st.tower.purge_path = L;
   st.tower.layers = static_cast<std::size_t>(last_purge_layer) + 1;
   std::map<int, TowerColour> colours;
@@ -991,12 +992,12 @@ void add_prime_tower(Toolpath& tp, const FgmOptions& o, const PurgeOptions& purg
     c.length += p.length();
     return p;
   };
-  const int k = sq.lines_for(L);
   last = -1;
   for (std::size_t li = 0; li < tp.layers.size(); ++li) {
     Layer& layer = tp.layers[li];
     std::vector<Path> out;
     const bool across = li % 2 == 1;  // lines cross the layer below's
+    const int k = sq.lines_for(L, across);
     int used = 0;
     if (static_cast<long>(li) <= last_purge_layer) {
       // Wall and sparse lines in the colour already loaded, around the lines the purges use.

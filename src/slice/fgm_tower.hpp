@@ -1,6 +1,7 @@
-// The prime tower's geometry (slice/fgm.hpp, PurgeOptions): a square of side S whose wall loop
-// runs half a bead inside its edge and whose inside is cut into lines one bead apart; a purge
-// is a zig-zag over consecutive lines, the sparse fill every kSparse-th of the lines left.
+// The prime tower's geometry (slice/fgm.hpp, PurgeOptions): a block (a square, or a strip where
+// no square fits) whose wall loop runs half a bead inside its edge and whose inside is cut into
+// lines one bead apart; a purge is a zig-zag over consecutive lines, the sparse fill every
+// kSparse-th of the lines left.
 #pragma once
 #include <vector>
 
@@ -11,23 +12,29 @@ namespace trellis::tower {
 
 constexpr int kSparse = 4;  // sparse fill: one line in four (gaps of three beads to bridge)
 
-class Square {
+// The tower block: sx × sy mm around its centre. Lines run along X (`across` false: spaced in
+// Y, sy − 2w across) or along Y (`across` true), alternating by layer so each layer's lines
+// bridge the one below.
+class Block {
  public:
-  Square(Vec2 centre, double side, double bead) : c_(centre), s_(side), w_(bead) {}
+  Block(Vec2 centre, double sx, double sy, double bead) : c_(centre), sx_(sx), sy_(sy), w_(bead) {}
   Vec2 centre() const { return c_; }
-  double side() const { return s_; }
-  int lines() const;            // lines inside the wall
-  double line_length() const;   // mm
-  int lines_for(double length) const;  // lines a zig-zag of at least `length` needs
-  std::vector<Vec2> wall() const;      // closed loop (first point repeated)
-  // Lines first … first+count-1 as one zig-zag; `across`: lines along Y instead of X.
+  double size_x() const { return sx_; }
+  double size_y() const { return sy_; }
+  int lines(bool across) const;                     // lines inside the wall
+  double line_length(bool across) const;            // mm
+  int lines_for(double length, bool across) const;  // lines a zig-zag of at least `length` needs
+  // Whether `most` purges of `length` mm fit one layer, in both line directions.
+  bool holds(std::size_t most, double length) const;
+  std::vector<Vec2> wall() const;  // closed loop (first point repeated)
+  // Lines first … first+count-1 as one zig-zag.
   std::vector<Vec2> zigzag(int first, int count, bool across) const;
   // Every kSparse-th line from `first` on, as one zig-zag (empty if none is left).
   std::vector<Vec2> sparse(int first, bool across) const;
 
  private:
   Vec2 c_;
-  double s_, w_;
+  double sx_, sy_, w_;
 };
 
 // The smallest side ≥ options.side whose layer holds `most` purges of `length` mm each;
@@ -35,8 +42,15 @@ class Square {
 double side_for(std::size_t most, double length, double bead, double min_side);
 
 // The tower's centre: options.x/y, or automatically the first of right, left, back, front of the
-// part's footprint (clearance apart) where part and tower fit the bed. GeometryError naming
-// the sizes if the tower overlaps the part (+ clearance) or no side fits.
-Vec2 place(const BBox2& part, double side, const PurgeOptions& options);
+// part's footprint (clearance apart) where part and a sx × sy tower fit the bed. GeometryError
+// naming the sizes if the tower overlaps the part (+ clearance) or no side fits.
+Vec2 place(const BBox2& part, double sx, double sy, const PurgeOptions& options);
+
+// The tower of a print whose busiest layer has `most` purges of `length` mm: the smallest square
+// (side_for), placed by `place`; where no square fits beside the part, the smallest-area
+// rectangle along one of its sides that holds them (a long strip fits where a square cannot).
+// GeometryError when neither fits, with the area the purges need.
+Block plan_tower(const BBox2& part, std::size_t most, double length, double bead,
+                 const PurgeOptions& options);
 
 }  // namespace trellis::tower

@@ -289,6 +289,9 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
     const std::size_t n = last - first;
     range_a = std::min(job.layer_begin, n);
     range_b = std::max(range_a, std::min(job.layer_end, n));
+    if (field.has_process() && range_a < range_b)  // shard files do not carry the values
+      throw SettingError("a design with process fields (fprocess) does not shard: slice it whole",
+                         {job.input, 0, "fprocess"});
     const auto below = static_cast<std::size_t>(std::max(0, job.planar.bottom_layers));
     const auto above = static_cast<std::size_t>(std::max(0, job.planar.top_layers));
     range_lo = range_a >= below ? range_a - below : 0;
@@ -412,11 +415,34 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
   } else {
     r.toolpath = plan_planar(r.outlines, job.planar, &r.planar);
   }
+  apply_slice_process(job, field, r);
   r.toolpath.source = "trellis slice " + job.input + " (" + to_string(r.route) + " route)";
   progress("walls and infill", 1.0);
   r.plan_seconds = seconds_since(t1);
   return r;
 }
+
+namespace {
+
+// A design with process fields (fprocess) is sliced whole and then handed on layer by layer: the
+// process pass splits paths and counts changes over the whole print in order, so its output and
+// report are run_slice's exactly; memory is run_slice's, not bounded.
+SliceResult whole_to_sink(const SliceJob& job, const LayerSink& sink, const Progress& progress) {
+  SliceResult r = run_slice(job, progress);
+  r.streamed = true;
+  r.layers = r.outlines.size();
+  r.travel = travel_stats(r.toolpath);
+  for (const auto& l : r.outlines) {
+    r.outline_area += area(l.regions);
+    r.empty_layers += l.regions.empty() ? 1 : 0;
+  }
+  for (std::size_t i = 0; i < r.toolpath.layers.size(); ++i) sink(i, std::move(r.toolpath.layers[i]));
+  r.toolpath.layers.clear();
+  r.outlines.clear();
+  return r;
+}
+
+}  // namespace
 
 SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progress& progress,
                          const SliceStreamOptions& options) {
@@ -429,6 +455,7 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
   r.streamed = true;
   const auto t0 = std::chrono::steady_clock::now();
   const SlicedDesign d = open_design(job, r, progress, false);
+  if (d.field.has_process()) return whole_to_sink(job, sink, progress);
   const auto [first, last] = printed_planes(d, job, r, progress);
   const std::size_t n = last - first;
   r.part_layers = n;
@@ -683,6 +710,7 @@ std::string slice_report_json(const SliceJob& job, const SliceResult& r, const G
                          {"time_s", c.time}});
     j["fgm"]["tower"] = {{"centre_mm", {r.fgm.tower.x, r.fgm.tower.y}},
                          {"side_mm", r.fgm.tower.side},
+                         {"size_mm", {r.fgm.tower.size_x, r.fgm.tower.size_y}},
                          {"layers", r.fgm.tower.layers},
                          {"purge_length_mm", r.fgm.tower.purge_path},
                          {"length_mm", r.fgm.tower.length},
@@ -696,6 +724,26 @@ std::string slice_report_json(const SliceJob& job, const SliceResult& r, const G
                   {"filament_mm", g->filament},
                   {"retractions", g->retractions},
                   {"print_time_s", g->print_time_s}};
+  }
+  if (r.process.active) {  // fprocess fields: what was written, against the field
+    auto& jp = j["process"];
+    jp["paths"] = r.process.paths;
+    jp["pieces"] = r.process.pieces;
+    jp["merged_under_min_length"] = r.process.merged;
+    jp["short_paths_slowed"] = r.process.short_slowed;
+    for (int k = 0; k < kProcessParams; ++k) {
+      const ProcessParamStats& s = r.process.param[k];
+      if (!s.set) continue;
+      jp[to_string(static_cast<ProcessParam>(k))] = {
+          {"node", s.node}, {"step", job.process.step(static_cast<ProcessParam>(k))},
+          {"min", s.min}, {"max", s.max}, {"changes", s.changes},
+          {"max_deviation", s.max_deviation}};
+    }
+    if (g) {
+      jp["temperature_commands"] = g->temperature_changes;
+      jp["settle_time_s"] = g->settle_time_s;
+      jp["fan_commands"] = g->fan_changes;
+    }
   }
   return j.dump(2) + "\n";
 }

@@ -26,6 +26,9 @@ std::string toolpath_to_json(const Toolpath& tp) {
       if (p.power != 0) jp["power"] = p.power;
       if (p.filament != 0) jp["filament"] = p.filament;
       if (p.temperature != 0) jp["temperature"] = p.temperature;
+      if (p.flow != 0) jp["flow"] = p.flow;
+      if (p.fan >= 0) jp["fan"] = p.fan;
+      if (p.joined) jp["joined"] = true;
       paths.push_back(std::move(jp));
     }
     layers.push_back({{"z", layer.z}, {"paths", std::move(paths)}});
@@ -79,6 +82,16 @@ Path parse_path(const json& jp, const std::string& origin, const std::string& el
       p.temperature < 0)
     throw ParseError("tool, width, height, speed, power, filament and temperature must be >= 0",
                      {origin, 0, el});
+  p.flow = optional_number(jp, "flow", origin, el);
+  if (p.flow < 0) throw ParseError("flow must be >= 0", {origin, 0, el + ".flow"});
+  if (auto it = jp.find("fan"); it != jp.end()) {
+    p.fan = number(*it, origin, el + ".fan");
+    if (p.fan < 0 || p.fan > 100) throw ParseError("fan must be 0..100 %", {origin, 0, el + ".fan"});
+  }
+  if (auto it = jp.find("joined"); it != jp.end()) {
+    if (!it->is_boolean()) throw ParseError("joined must be true or false", {origin, 0, el + ".joined"});
+    p.joined = it->get<bool>();
+  }
   if (auto it = jp.find("mixture"); it != jp.end()) {
     if (!it->is_array()) throw ParseError("mixture must be an array", {origin, 0, el});
     for (std::size_t i = 0; i < it->size(); ++i)

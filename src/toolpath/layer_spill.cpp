@@ -16,8 +16,8 @@ void put(std::string& out, const T& v) {
 
 // A path's fixed fields, written and read in one piece.
 struct PathHead {
-  std::int32_t role, tool, part, unused;
-  double width, height, speed, power, filament, temperature;
+  std::int32_t role, tool, part, joined;
+  double width, height, speed, power, filament, temperature, flow, fan;
   std::uint64_t mixture, points;
 };
 
@@ -49,13 +49,15 @@ void LayerSpill::append(const Layer& layer) {
     const PathHead h{static_cast<std::int32_t>(p.role),
                      p.tool,
                      p.part,
-                     0,
+                     p.joined ? 1 : 0,
                      p.width,
                      p.height,
                      p.speed,
                      p.power,
                      p.filament,
                      p.temperature,
+                     p.flow,
+                     p.fan,
                      p.mixture.size(),
                      p.points.size()};
     put(buffer_, h);
@@ -115,6 +117,7 @@ bool LayerSpill::next(Layer& layer) {
     p.part = h.part;
     p.width = h.width, p.height = h.height, p.speed = h.speed, p.power = h.power;
     p.filament = h.filament, p.temperature = h.temperature;
+    p.flow = h.flow, p.fan = h.fan, p.joined = h.joined != 0;
     p.mixture.resize(h.mixture);
     take(p.mixture.data(), h.mixture * sizeof(double));
     p.points.resize(h.points);

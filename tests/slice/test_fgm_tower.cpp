@@ -362,12 +362,51 @@ TEST(PrimeTower, PlacedWhereTheBedHasRoomOrRefused) {
   fixed.x = 15;
   fixed.y = 0;
   EXPECT_THROW(plan(f, 4, fixed), GeometryError);
-  // A round bed: the tower must fit inside the circle.
-  PurgeOptions round = bed_purge(56, 56);
+  // A round bed: the tower must fit inside the circle (at 56 mm only as a strip).
+  PurgeOptions round = bed_purge(48, 48);
   round.circular = true;
   EXPECT_THROW(plan(f, 4, round), GeometryError);
+  round.bed_x = round.bed_y = 56;
+  const Plan strip = plan(f, 4, round);
+  ASSERT_TRUE(strip.stats.tower.built);
+  EXPECT_NE(strip.stats.tower.size_x, strip.stats.tower.size_y);
+  for (double sx : {-0.5, 0.5})
+    for (double sy : {-0.5, 0.5}) {
+      const auto& t = strip.stats.tower;
+      // The bed is centred on the box of part and tower.
+      const double cx = (std::min(-20.0, t.x - t.size_x / 2) + std::max(20.0, t.x + t.size_x / 2)) / 2;
+      const double cy = (std::min(-10.0, t.y - t.size_y / 2) + std::max(10.0, t.y + t.size_y / 2)) / 2;
+      EXPECT_LE(std::hypot(t.x + sx * t.size_x - cx, t.y + sy * t.size_y - cy), 28 + 1e-9);
+    }
   round.bed_x = round.bed_y = 80;
   EXPECT_TRUE(plan(f, 4, round).stats.tower.built);
+}
+
+TEST(PrimeTower, AStripBesideThePartWhereNoSquareFits) {
+  // 58 x 36 mm bed, 40 x 20 mm part: no square tower fits beside it, a strip does
+  // (the S1 48-colour palette plate on the Mizar's 255 mm bed, in small). The replay checks it
+  // like any tower: purges of at least L before the part goes on, no overlap with the part
+  // (+ clearance), every layer on the one below.
+  const Field f = design(kPlate);
+  const Plan p = plan(f, 4, bed_purge(58, 36));
+  ASSERT_TRUE(p.stats.tower.built);
+  const auto& t = p.stats.tower;
+  EXPECT_NE(t.size_x, t.size_y);  // a strip (here 11.6 x 32 mm to the right of the part)
+  MachineProfile prof;
+  prof.mixing_inputs = 2;
+  prof.tool_count = 5;
+  prof.bed_x = 58;
+  prof.bed_y = 36;
+  prof.center = true;
+  const Checked c = check_tower_print(p, f, prof, 5);
+  EXPECT_GT(c.changes, 0u);
+  // A bed with room for neither is refused, saying how much tower the purges need.
+  try {
+    plan(f, 4, bed_purge(58, 30));
+    FAIL() << "a tower that fits nowhere was placed";
+  } catch (const GeometryError& e) {
+    EXPECT_NE(std::string(e.what()).find("mm2 of tower"), std::string::npos) << e.what();
+  }
 }
 
 TEST(PrimeTower, NoTowerWithoutPurges) {

@@ -123,6 +123,7 @@ TEST(LayerSpill, LayersComeBackAsTheyWent) {
   p.part = 3;
   p.mixture = {0.25, 0.75};
   p.width = 0.45, p.height = 0.2, p.speed = 30, p.power = 1, p.filament = 2, p.temperature = 215;
+  p.flow = 0.8, p.fan = 40, p.joined = true;  // process fields (fprocess)
   a.paths = {p, Path{}};
   Layer b;
   b.z = 0.6;
@@ -151,6 +152,11 @@ TEST(LayerSpill, LayersComeBackAsTheyWent) {
     EXPECT_EQ(q.power, 1);
     EXPECT_EQ(q.filament, 2);
     EXPECT_EQ(q.temperature, 215);
+    EXPECT_EQ(q.flow, 0.8);
+    EXPECT_EQ(q.fan, 40);
+    EXPECT_TRUE(q.joined);
+    EXPECT_FALSE(back[0].paths[1].joined);
+    EXPECT_EQ(back[0].paths[1].fan, -1);
     ASSERT_EQ(q.points.size(), 3u);
     EXPECT_EQ(q.points[2].y, 8.5);
     EXPECT_TRUE(back[0].paths[1].points.empty());

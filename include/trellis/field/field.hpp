@@ -34,6 +34,21 @@ void check_expression(const std::string& text, long* error_column = nullptr);
 bool constant_expression(const std::string& text, double* value);
 
 enum class TpmsKind { Gyroid, SchwarzP, SchwarzD, Neovius, Iwp };
+
+// Process parameters a design may set as fields (fprocess): nozzle temperature (°C), feed
+// (mm/s), flow (extrusion multiplier on top of the machine's) and part-cooling fan (%).
+enum class ProcessParam { Temperature, Speed, Flow, Fan };
+inline constexpr int kProcessParams = 4;
+const char* to_string(ProcessParam p);
+// "temperature", "speed", "flow", "fan"; false for any other name.
+bool process_param_from_string(const std::string& name, ProcessParam* out);
+// The process values at a point: NaN where no fprocess node sets the parameter; `node` names the
+// fprocess node that set it (its label, e.g. "fprocess at design.vcad:3").
+struct ProcessValues {
+  double value[kProcessParams];
+  const std::string* node[kProcessParams];
+  ProcessValues();
+};
 const char* to_string(TpmsKind kind);
 
 class Field {
@@ -50,6 +65,8 @@ class Field {
   const std::vector<std::string>& materials() const;
   // Whether some node is a user expression (no interval bounds there).
   bool has_expressions() const;
+  // Whether some fprocess node sets process parameters.
+  bool has_process() const;
 
  private:
   std::shared_ptr<const FieldNode> node_;
@@ -94,6 +111,11 @@ Field scale(Field child, Vec3 factors);         // positive factors
 Field rotate(Field child, Vec3 degrees);          // about X, then Y, then Z
 // Material volume fractions of the child as expressions, one per material name.
 Field fgrade(Field child, std::vector<Expression> fractions, std::vector<std::string> materials);
+// Process parameters of the child as expressions, one per parameter name (temperature, speed,
+// flow, fan). A point takes the values of the innermost fprocess around the part of the design
+// that holds it (the child a union picks, as for materials); `label` names the node in errors.
+Field fprocess(Field child, std::vector<Expression> values, std::vector<std::string> params,
+               std::string label = "fprocess");
 // Hands the child the box of a .vcad root(): the solid is clipped to the box.
 Field clip_box(Field child, Vec3 min, Vec3 max);
 
@@ -133,6 +155,8 @@ class Evaluator {
   Interval bound(const BBox3& box);
   // Volume fractions (sum 1 when any material is set) per Field::materials().
   std::vector<double> fractions(Vec3 p);
+  // Process parameters set by fprocess nodes (NaN where none).
+  ProcessValues process(Vec3 p);
 
   struct State;
 

@@ -10,6 +10,8 @@
 //   union() intersection() difference() { ... }   optional blend radius: union(2) { ... }
 //   translate(x,y,z) scale(s | x,y,z) rotate(x,y,z) { ... }      degrees, X then Y then Z
 //   fgrade(["expr", ...], ["material", ...] [, "mode"]) { ... }
+//   fprocess(["expr", ...], ["temperature" | "speed" | "flow" | "fan", ...]) { ... }
+//                                      process parameters as fields (°C, mm/s, multiplier, %)
 //
 // Several statements in a block are a union. `;` after a leaf is optional; // and /* */ comment.
 // Expressions use x, y, z, rho, phic (phi), r, theta, phis, d, pi (muparser syntax).

@@ -37,6 +37,11 @@ struct GcodeStats {
   double lookahead = 0;              // mm of path the changes were issued early
   // Build plates: the time estimate per part (Path::part - 1): its moves and the travels into it.
   std::vector<double> part_time_s;
+  // Process fields (Path::temperature, fan): nozzle temperature changes written between paths,
+  // each followed by the temperature.settle dwell, and the dwell time they add.
+  std::size_t temperature_changes = 0;
+  double settle_time_s = 0;
+  std::size_t fan_changes = 0;
   // Printable but suspicious (machine/machine_check.hpp): kind and message.
   std::vector<std::pair<std::string, std::string>> warnings;
 };

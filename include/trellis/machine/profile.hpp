@@ -59,6 +59,7 @@ struct MachineProfile {
   double standby_temperature = 0;   // idle tools of a multi-tool machine (°C), 0 = stay hot
   double max_nozzle_temperature = 300;
   double max_bed_temperature = 120;
+  double settle_time = 5;  // s dwelt after each temperature change a process field makes
   // [retraction]
   double retract_length = 0;  // filament (mm)
   double retract_speed = 30;  // mm/s

@@ -144,7 +144,8 @@ struct TowerColour {
 
 struct TowerStats {
   bool built = false;
-  double x = 0, y = 0, side = 0;  // centre and side (design coordinates, mm)
+  double x = 0, y = 0, side = 0;  // centre and side (design coordinates, mm; a strip: its long side)
+  double size_x = 0, size_y = 0;  // X and Y extent (a square: both = side)
   std::size_t layers = 0;         // tower layers (first layer up to the last purge)
   double purge_path = 0;          // L of one purge (mm, Eq. A.1)
   double length = 0, volume = 0, mass = 0, time = 0;

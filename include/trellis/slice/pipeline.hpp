@@ -8,6 +8,7 @@
 #include "trellis/core/budget.hpp"
 #include "trellis/machine/gcode_writer.hpp"
 #include "trellis/slice/fgm.hpp"
+#include "trellis/slice/fgm_process.hpp"
 #include "trellis/slice/slice.hpp"
 
 namespace trellis {
@@ -43,6 +44,8 @@ struct SliceJob {
   // from its first printed layer) are sliced and planned, with the outlines the skins need
   // around them; the toolpath holds those layers. Planar slicing (strategy 0) only.
   std::size_t layer_begin = 0, layer_end = static_cast<std::size_t>(-1);
+  // Process parameters a .vcad design sets with fprocess (slice/fgm_process.hpp).
+  ProcessOptions process;
 };
 
 struct SliceResult {
@@ -66,6 +69,7 @@ struct SliceResult {
   std::size_t layers = 0, empty_layers = 0;
   double outline_area = 0;  // mm², all layers
   TravelStats travel;
+  ProcessStats process;  // fprocess designs
 };
 
 // Planar and graded slicing in one call. `progress` (core/progress.hpp): stages "outlines"

@@ -29,6 +29,11 @@ struct Path {
   double power = 0;             // laser power (W), 0 if not a laser path
   double filament = 0;          // filament (mm of E) as read from G-code, 0 if not known
   double temperature = 0;       // nozzle temperature (°C) while printing it, 0 = not set
+  double flow = 0;              // extrusion multiplier on top of the machine's, 0 = 1
+  double fan = -1;              // part-cooling fan (%) while printing it, < 0 = not set
+  // Continues the previous path's bead: split there because a process value (temperature,
+  // speed, flow, fan) changes; no travel, priming or short-path slow-down between the two.
+  bool joined = false;
   int part = 0;                 // build plates: index + 1 into Toolpath::part_labels, 0 = none
   std::size_t segments() const { return points.size() < 2 ? 0 : points.size() - 1; }
   double length() const;
