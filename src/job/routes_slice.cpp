@@ -435,8 +435,11 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag, const 
   for (const auto& p : parts)
     for (std::size_t i = 0; i < p.layers; ++i)
       work[i] += (p.extent.max.x - p.extent.min.x) * (p.extent.max.y - p.extent.min.y);
-  const auto [a, b] = job.shards ? shard_range(work, job.shard, job.shards)
-                                 : std::pair<std::size_t, std::size_t>{0, total};
+  // (Not a structured binding: clang 14, which builds the fuzz targets, cannot capture one.)
+  const std::pair<std::size_t, std::size_t> range =
+      job.shards ? shard_range(work, job.shard, job.shards)
+                 : std::pair<std::size_t, std::size_t>{0, total};
+  const std::size_t a = range.first, b = range.second;
   if (!job.shards && output_alone(job))
     return slice_plate_streamed(job, c, parts, placed, total, sequential, diag, progress);
   Toolpath tp;
@@ -692,8 +695,11 @@ JobResult pbf_plate(const Job& job, const Config& c, Diagnostics& diag, const Pr
   for (const auto& p : parts)
     for (std::size_t i = 0; i < p.layers; ++i)
       work[i] += (p.extent.max.x - p.extent.min.x) * (p.extent.max.y - p.extent.min.y);
-  const auto [a, b] = job.shards ? shard_range(work, job.shard, job.shards)
-                                 : std::pair<std::size_t, std::size_t>{0, total};
+  // (Not a structured binding: clang 14, which builds the fuzz targets, cannot capture one.)
+  const std::pair<std::size_t, std::size_t> range =
+      job.shards ? shard_range(work, job.shard, job.shards)
+                 : std::pair<std::size_t, std::size_t>{0, total};
+  const std::size_t a = range.first, b = range.second;
   Toolpath tp;
   tp.source = plate ? fmt::format("trellis pbf plate ({} parts)", parts.size()) : "trellis pbf";
   tp.layers.resize(b - a);
