@@ -33,6 +33,14 @@ void add_run(CLI::App& app) {
     Job job = load_job(o->job, o->out, o->sets);
     if (!o->shard.empty()) {
       std::tie(job.shard, job.shards) = parse_shard(o->shard);
+      if (job.route == "plan")
+        throw SettingError(
+            job.settings.config().planner == "aero"
+                ? "the plan route does not shard with the aero planner: AERO orders the struts of "
+                  "the whole lattice at once, there are no independent layers (docs/plates.md)"
+                : "the plan route does not shard: each layer's paths are ordered from where the "
+                  "layer before ended, so a shard would plan every layer below it (docs/plates.md)",
+            {"", 0, "--shard"});
       if (job.route != "pbf" && job.route != "slice" && job.route != "nonplanar")
         throw SettingError("the " + job.route + " route does not shard (pbf, slice and nonplanar do)",
                            {"", 0, "--shard"});

@@ -164,6 +164,20 @@ TEST(Plate, NonplanarMergesExactlyFrom1_2_5Shards) {
   EXPECT_FALSE(fs::exists(merged));
 }
 
+// The lattice planners carry state across layers (euler, gippo: path order; aero: one plan for
+// the whole lattice): --shard is refused saying why, exit 2, nothing written.
+TEST(Plate, LatticePlansRefuseShardsSayingWhy) {
+  const fs::path out = plate_work() / "plan_refused";
+  Cmd r = cli("run " + kRoot + "/examples/jobs/tiny_plan.toml -o " + out.string() + " --shard 1/2");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("ordered from where the layer before ended"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(out));
+  r = cli("run " + kRoot + "/examples/jobs/octet_aero.toml -o " + out.string() + " --shard 2/2");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("AERO orders the struts of the whole lattice"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(out));
+}
+
 TEST(Plate, ShardRangesAreContiguousAndBalancedByWork) {
   std::vector<double> work(100, 1.0);
   for (int i = 0; i < 50; ++i) work[static_cast<std::size_t>(i)] = 3.0;  // heavy lower half
