@@ -273,7 +273,8 @@ void plate_report(const Job& job, const std::vector<PlatePart>& placed,
                             {"x_mm", placed[k].x},
                             {"y_mm", placed[k].y},
                             {"rotation_deg", placed[k].rotation},
-                            {"layers", parts[k].layers}});
+                            {"layers", parts[k].layers},
+                            {"print_time_s", k < g.part_time_s.size() ? g.part_time_s[k] : 0.0}});
     write_file_atomic(job.report, with_job(j.dump(2) + "\n", job, job.report, true, &diag));
     out.files.push_back(job.report);
   }

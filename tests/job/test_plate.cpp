@@ -17,6 +17,7 @@
 #include "trellis/job/job.hpp"
 #include "trellis/job/plate.hpp"
 #include "trellis/machine/cli.hpp"
+#include "trellis/machine/gcode_reader.hpp"
 
 namespace fs = std::filesystem;
 using namespace trellis;
@@ -176,6 +177,37 @@ TEST(Plate, LatticePlansRefuseShardsSayingWhy) {
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("AERO orders the struts of the whole lattice"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(out));
+}
+
+// The nine parts are named in the G-code (M486, the profile being Marlin-flavoured): read back,
+// every extrusion lies in exactly one labelled part, inside that part's footprint (within 4.3 mm
+// of its place on the plate), and every part prints in every layer.
+TEST(Plate, FdmPlatePartsAreLabelledAndEachExtrusionIsInsideItsPart) {
+  const std::string job = kRoot + "/examples/jobs/lattice_plate_fdm.toml";
+  const fs::path dir = plate_work() / "fdm_labels";
+  Diagnostics diag;
+  const Job whole = load_job(job, dir.string());
+  run_job(whole, diag);
+  const std::string g = read_file(whole.output);
+  EXPECT_NE(g.find("M486 T9\n"), std::string::npos);
+  const Toolpath tp = read_gcode(g, {}, diag, whole.output);
+  std::vector<std::string> labels;
+  for (int k = 1; k <= 9; ++k) labels.push_back("tile" + std::to_string(k));
+  ASSERT_EQ(tp.part_labels, labels);
+  std::size_t layers_with_all = 0;
+  for (const auto& l : tp.layers) {
+    std::set<int> in_layer;
+    for (const auto& p : l.paths) {
+      ASSERT_GE(p.part, 1) << "a path at z " << l.z << " is in no labelled part";
+      const int k = p.part - 1;  // tile k+1 sits at (90 + 12 (k % 3), 90 + 12 (k / 3))
+      for (const Vec3& q : p.points)
+        ASSERT_LT(std::hypot(q.x - 90 - 12 * (k % 3), q.y - 90 - 12 * (k / 3)), 4.3)
+            << q.x << "," << q.y << " is outside " << tp.part_labels[static_cast<std::size_t>(k)];
+      in_layer.insert(p.part);
+    }
+    layers_with_all += in_layer.size() == 9;
+  }
+  EXPECT_EQ(layers_with_all, tp.layers.size());
 }
 
 TEST(Plate, ShardRangesAreContiguousAndBalancedByWork) {
