@@ -1035,8 +1035,7 @@ GcodeStats write_gcode_stream(const std::string& path, const Toolpath& meta,
   for (auto& w : check_for_machine(placed, box, profile))
     s.warnings.emplace_back(w.kind, w.message);
   auto warnings = std::move(s.warnings);
-  std::unique_ptr<std::FILE, int (*)(std::FILE*)> raw(std::tmpfile(), &std::fclose);
-  if (!raw) throw IoError(std::string("cannot create a temporary file: ") + std::strerror(errno));
+  std::unique_ptr<std::FILE, int (*)(std::FILE*)> raw(temporary_file(), &std::fclose);
   write_file_atomic_with(path, [&](const ByteWriter& put) {
     Writer(profile, meta, lift, thumbnails, &placed, layer_count).stream(s, raw.get(), put);
   });
