@@ -3,7 +3,9 @@
 # and reader benchmarks run against a baseline libtrellis (BASE: a directory holding the
 # libtrellis.so.0.1 of the commit to compare with; the benchmarks use only the public API, so
 # LD_LIBRARY_PATH swaps the library under the same benchmark code) and against this build's,
-# ROUNDS times each. Usage: bench/compare_io.sh BASE [BUILD=build/release] [ROUNDS=3]
+# ROUNDS times each. The two libraries must share the ABI the benchmarks use (GcodeSink gained
+# object() in issue 23: an older library needs the benchmark built against its own headers).
+# Usage: bench/compare_io.sh BASE [BUILD=build/release] [ROUNDS=3]
 set -euo pipefail
 base="$1"; build="${2:-build/release}"; rounds="${3:-3}"
 for r in $(seq "$rounds"); do

@@ -16,6 +16,7 @@ struct AnalyzeOpts {
   AnalysisParams params;
   GcodeReadOptions read;
   std::string design, report, png, machine;
+  double filament_diameter = 1.75;  // for the volume of each part of a plate (mm)
   std::vector<std::string> files;
 };
 
@@ -111,6 +112,10 @@ void add_analyze(CLI::App& app) {
   cmd->add_option("gcode", o->files, "G-code file")->required()->expected(1);
   cmd->add_option("--design", o->design, "design lattice (any lattice format); .vcad for a .cli");
   cmd->add_option("--machine", o->machine, ".cli files: laser profile (melt pool, scan timing)");
+  cmd->add_option("--filament-diameter", o->filament_diameter,
+                  "build plates: filament diameter for each part's volume (mm)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
   add_common(cmd, *o);
   cmd->callback([o] {
     if (is_laser_build_file(o->files.front()))
@@ -123,6 +128,13 @@ void add_analyze(CLI::App& app) {
               << " mm extruded, " << a.counts.travel_moves << " travel moves ("
               << num(a.counts.travel_length, 1) << " mm), " << a.counts.retractions
               << " retractions, score " << num(a.score, 4) << "\n";
+    // Build plates: each labelled part (M486 / Klipper EXCLUDE_OBJECT).
+    for (const auto& p : a.counts.parts)
+      std::cout << "  part " << p.label << ": " << num(p.extruded_length, 1) << " mm extruded, "
+                << num(p.filament, 2) << " mm filament ("
+                << num(p.filament * 3.14159265358979 * o->filament_diameter * o->filament_diameter / 4, 1)
+                << " mm³ at " << num(o->filament_diameter, 2) << " mm), "
+                << num(p.print_time_s / 60, 1) << " min\n";
     if (a.has_design)
       std::cout << "  against the design: ratio " << num(a.extrusion_ratio, 3) << ", double "
                 << num(a.double_length, 2) << " mm, off-design " << num(a.off_design_length, 2)

@@ -44,13 +44,32 @@ void CountingSink::extrude(Vec3 a, Vec3 b, double e, double feed) {
   last_ = b;
   counts.extruded_length += len;
   counts.filament += e;
-  counts.print_time_s += move_time(len, feed, acceleration_);
+  const double t = move_time(len, feed, acceleration_);
+  counts.print_time_s += t;
+  if (part_ >= 0) {
+    auto& p = counts.parts[static_cast<std::size_t>(part_)];
+    p.extruded_length += len;
+    p.filament += e;
+    p.print_time_s += t;
+  }
+}
+
+void CountingSink::object(std::string_view label) {
+  attribute_changed_ = true;
+  part_ = -1;
+  if (label.empty()) return;
+  const auto it = std::find_if(counts.parts.begin(), counts.parts.end(),
+                               [&](const GcodeCounts::Part& p) { return p.label == label; });
+  part_ = it - counts.parts.begin();
+  if (it == counts.parts.end()) counts.parts.push_back({std::string(label)});
 }
 
 void CountingSink::travel(Vec3 a, Vec3 b, double feed) {
   state_ = State::Travelling;
   pending_ += distance_xy(a, b);
-  counts.print_time_s += move_time(distance(a, b), feed, acceleration_);
+  const double t = move_time(distance(a, b), feed, acceleration_);
+  counts.print_time_s += t;
+  if (part_ >= 0) counts.parts[static_cast<std::size_t>(part_)].print_time_s += t;
 }
 
 void CountingSink::close_path() {
@@ -351,6 +370,14 @@ std::string analysis_json(const Analysis& a) {
   j["retractions"] = a.counts.retractions;
   j["filament_mm"] = a.counts.filament;
   j["print_time_s"] = a.counts.print_time_s;
+  if (!a.counts.parts.empty()) {
+    auto& parts = j["parts"] = nlohmann::json::array();
+    for (const auto& p : a.counts.parts)
+      parts.push_back({{"label", p.label},
+                       {"extruded_length_mm", p.extruded_length},
+                       {"filament_mm", p.filament},
+                       {"print_time_s", p.print_time_s}});
+  }
   j["segments"] = a.edges_real;
   j["score"] = a.score;
   j["lts"] = a.lts;

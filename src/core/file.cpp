@@ -2,6 +2,7 @@
 
 #include <functional>
 
+#include <fcntl.h>
 #include <signal.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -281,6 +282,31 @@ void install_signal_cleanup() {
 long line_of_offset(std::string_view text, std::size_t pos) {
   pos = std::min(pos, text.size());
   return 1 + static_cast<long>(std::count(text.begin(), text.begin() + pos, '\n'));
+}
+
+std::FILE* temporary_file() {
+  const char* env = std::getenv("TMPDIR");
+  const std::string dir = env && *env ? env : "/tmp";
+  int fd = -1;
+#ifdef O_TMPFILE
+  fd = ::open(dir.c_str(), O_TMPFILE | O_RDWR | O_CLOEXEC, 0600);  // never has a name
+#endif
+  if (fd < 0 && errno != ENOENT && errno != ENOTDIR && errno != EACCES) {
+    // A file system without O_TMPFILE: a named file, unlinked at once.
+    std::string name = dir + "/trellis-XXXXXX";
+    fd = ::mkostemp(name.data(), O_CLOEXEC);
+    if (fd >= 0) ::unlink(name.c_str());
+  }
+  if (fd < 0)
+    throw IoError("cannot create a temporary file in " + dir + " (TMPDIR): " +
+                  std::strerror(errno));
+  std::FILE* f = ::fdopen(fd, "w+b");
+  if (!f) {
+    const int e = errno;
+    ::close(fd);
+    throw IoError("cannot open a temporary file in " + dir + ": " + std::strerror(e));
+  }
+  return f;
 }
 
 }  // namespace trellis

@@ -94,7 +94,7 @@ class Reader {
   std::size_t pos_ = 0;
 };
 
-constexpr char kMagic[8] = {'T', 'R', 'L', 'S', 'H', 'R', 'D', '1'};
+constexpr char kMagic[8] = {'T', 'R', 'L', 'S', 'H', 'R', 'D', '2'};  // 2: flow, fan, joined
 
 std::string shard_name(const std::string& output, int k, int n) {
   return output + fmt::format(".shard-{}-of-{}", k, n);
@@ -228,7 +228,9 @@ std::string shard_bytes(const std::vector<Layer>& layers) {
       put<std::int32_t>(out, static_cast<std::int32_t>(p.role));
       put<std::int32_t>(out, p.tool);
       put<std::int32_t>(out, p.part);
-      for (double v : {p.width, p.height, p.speed, p.power, p.filament, p.temperature}) put(out, v);
+      put<std::int32_t>(out, p.joined ? 1 : 0);
+      for (double v : {p.width, p.height, p.speed, p.power, p.filament, p.temperature, p.flow, p.fan})
+        put(out, v);
       put<std::uint64_t>(out, p.mixture.size());
       for (double v : p.mixture) put(out, v);
       put<std::uint64_t>(out, p.points.size());
@@ -246,7 +248,7 @@ std::vector<Layer> layers_from_shard_bytes(const std::string& bytes, const std::
   std::vector<Layer> layers(r.count(16));
   for (Layer& l : layers) {
     l.z = r.get<double>();
-    l.paths.resize(r.count(12 + 6 * 8 + 16));
+    l.paths.resize(r.count(16 + 8 * 8 + 16));
     for (Path& p : l.paths) {
       const auto role = r.get<std::int32_t>();
       if (role < 0 || role > static_cast<std::int32_t>(PathRole::Purge))
@@ -254,7 +256,9 @@ std::vector<Layer> layers_from_shard_bytes(const std::string& bytes, const std::
       p.role = static_cast<PathRole>(role);
       p.tool = r.get<std::int32_t>();
       p.part = r.get<std::int32_t>();
-      for (double* v : {&p.width, &p.height, &p.speed, &p.power, &p.filament, &p.temperature})
+      p.joined = r.get<std::int32_t>() != 0;
+      for (double* v : {&p.width, &p.height, &p.speed, &p.power, &p.filament, &p.temperature,
+                        &p.flow, &p.fan})
         *v = r.get<double>();
       p.mixture.resize(r.count(8));
       for (double& v : p.mixture) v = r.get<double>();
@@ -277,7 +281,7 @@ std::string write_shard(const Job& job, const std::vector<Layer>& layers, std::s
   const std::string bytes = shard_bytes(layers);
   nlohmann::ordered_json j;
   j["format"] = "trellis.shard";
-  j["version"] = 1;
+  j["version"] = 2;
   j["route"] = job.route;
   j["output"] = fs::path(job.output).filename().string();
   j["shard"] = job.shard;
@@ -382,6 +386,7 @@ JobResult merge_shards(const std::vector<std::string>& manifests, const std::str
   if (!dir.empty()) create_output_directories(dir.string());
   if (job.route == "pbf") routes::write_pbf_main(job, c, tp, out);
   else if (job.route == "slice") routes::write_slice_main(job, c, tp, out, diag);
+  else if (job.route == "nonplanar") routes::write_nonplanar_main(job, c, tp, out, diag);
   else throw SettingError("the " + job.route + " route does not shard", {first_path, 0, "route"});
   batch.commit();
   out.summary = fmt::format("{} shards, {} layers", n, next);

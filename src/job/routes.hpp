@@ -21,12 +21,14 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
 JobResult nonplanar(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress);
 JobResult surface(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress);
 
-// The main output of the pbf and slice routes from their whole toolpath: what a single run writes
+// The main output of the pbf, slice and nonplanar routes from their whole toolpath: what a single run writes
 // and what `trellis merge` writes from the shards' layers (job/plate.hpp), so both are the same
 // bytes. `tp` gets the job embedded.
 void write_pbf_main(const Job& job, const Config& c, Toolpath& tp, JobResult& out);
 void write_slice_main(const Job& job, const Config& c, Toolpath& tp, JobResult& out,
                       Diagnostics& diag, GcodeStats* stats = nullptr);
+GcodeStats write_nonplanar_main(const Job& job, const Config& c, Toolpath& tp, JobResult& out,
+                                Diagnostics& diag);
 
 // The job as it is embedded into a file at `path` (paths relative to its folder).
 std::string embedded_job(const Job& job, const std::string& path);

@@ -273,7 +273,8 @@ void plate_report(const Job& job, const std::vector<PlatePart>& placed,
                             {"x_mm", placed[k].x},
                             {"y_mm", placed[k].y},
                             {"rotation_deg", placed[k].rotation},
-                            {"layers", parts[k].layers}});
+                            {"layers", parts[k].layers},
+                            {"print_time_s", k < g.part_time_s.size() ? g.part_time_s[k] : 0.0}});
     write_file_atomic(job.report, with_job(j.dump(2) + "\n", job, job.report, true, &diag));
     out.files.push_back(job.report);
   }
@@ -434,8 +435,11 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag, const 
   for (const auto& p : parts)
     for (std::size_t i = 0; i < p.layers; ++i)
       work[i] += (p.extent.max.x - p.extent.min.x) * (p.extent.max.y - p.extent.min.y);
-  const auto [a, b] = job.shards ? shard_range(work, job.shard, job.shards)
-                                 : std::pair<std::size_t, std::size_t>{0, total};
+  // (Not a structured binding: clang 14, which builds the fuzz targets, cannot capture one.)
+  const std::pair<std::size_t, std::size_t> range =
+      job.shards ? shard_range(work, job.shard, job.shards)
+                 : std::pair<std::size_t, std::size_t>{0, total};
+  const std::size_t a = range.first, b = range.second;
   if (!job.shards && output_alone(job))
     return slice_plate_streamed(job, c, parts, placed, total, sequential, diag, progress);
   Toolpath tp;
@@ -691,8 +695,11 @@ JobResult pbf_plate(const Job& job, const Config& c, Diagnostics& diag, const Pr
   for (const auto& p : parts)
     for (std::size_t i = 0; i < p.layers; ++i)
       work[i] += (p.extent.max.x - p.extent.min.x) * (p.extent.max.y - p.extent.min.y);
-  const auto [a, b] = job.shards ? shard_range(work, job.shard, job.shards)
-                                 : std::pair<std::size_t, std::size_t>{0, total};
+  // (Not a structured binding: clang 14, which builds the fuzz targets, cannot capture one.)
+  const std::pair<std::size_t, std::size_t> range =
+      job.shards ? shard_range(work, job.shard, job.shards)
+                 : std::pair<std::size_t, std::size_t>{0, total};
+  const std::size_t a = range.first, b = range.second;
   Toolpath tp;
   tp.source = plate ? fmt::format("trellis pbf plate ({} parts)", parts.size()) : "trellis pbf";
   tp.layers.resize(b - a);
@@ -769,6 +776,11 @@ void write_slice_main(const Job& job, const Config& c, Toolpath& tp, JobResult& 
   if (!tp.part_labels.empty()) m.center = false;
   const GcodeStats g = write_gcode_out(job.output, tp, job, m, out, diag);
   if (stats) *stats = g;
+}
+
+GcodeStats write_nonplanar_main(const Job& job, const Config& c, Toolpath& tp, JobResult& out,
+                                Diagnostics& diag) {
+  return write_gcode_out(job.output, tp, job, c.machine, out, diag);
 }
 
 void write_pbf_main(const Job& job, const Config& c, Toolpath& tp, JobResult& out) {
@@ -929,7 +941,21 @@ JobResult nonplanar(const Job& job, const Config& c, Diagnostics& diag, const Pr
   require_bath(job, c.machine, "nonplanar", "non-planar layers are printed inside a support bath (the "
                "non-planar paper's FRESH set-up)");
   check_budget(estimate_nonplanar(surface.domain(), prm), budget_of(job, c));
+  // A shard (`--shard K/N`) keeps layers [a, b) of the run. Each layer's lines are its own, but
+  // its serpentine starts where the layer before ended, so a shard slices layers 0..b-1 (the
+  // ones before it only for that start point; truncating prm.layers leaves them unchanged).
+  const std::size_t total = static_cast<std::size_t>(prm.layers);
+  const auto [a, b] = job.shards ? shard_range(std::vector<double>(total, 1.0), job.shard, job.shards)
+                                 : std::pair<std::size_t, std::size_t>{0, total};
+  if (job.shards) prm.layers = static_cast<int>(std::max<std::size_t>(b, 1));
   NonplanarResult r = slice_nonplanar(surface, prm, progress);
+  if (job.shards) {
+    prm.layers = static_cast<int>(total);
+    r.toolpath.layers.resize(b);
+    r.toolpath.layers.erase(r.toolpath.layers.begin(), r.toolpath.layers.begin() + static_cast<std::ptrdiff_t>(a));
+    r.layers.resize(b);
+    r.layers.erase(r.layers.begin(), r.layers.begin() + static_cast<std::ptrdiff_t>(a));
+  }
   std::size_t jumps = 0;
   for (const auto& l : r.layers) jumps += l.jumps;
   if (jumps)
@@ -937,9 +963,13 @@ JobResult nonplanar(const Job& job, const Config& c, Diagnostics& diag, const Pr
               fmt::format("the surface jumps at {} place(s) along the lines (a discontinuous "
                           "height): the paths are split there instead of bridged through the air",
                           jumps));
+  if (job.shards) {
+    std::size_t paths = 0;
+    for (const auto& l : r.toolpath.layers) paths += l.paths.size();
+    return shard_written(job, r.toolpath, a, b, total, fmt::format("{} paths", paths), std::move(out));
+  }
   const SurfaceDeviation dev = surface_deviation(r.toolpath, surface, prm);
-  GcodeStats g;
-  g = write_gcode_out(job.output, r.toolpath, job, c.machine, out, diag);
+  const GcodeStats g = write_nonplanar_main(job, c, r.toolpath, out, diag);
   if (!job.toolpath.empty()) {
     write_toolpath_with_job(job.toolpath, r.toolpath, job);
     out.files.push_back(job.toolpath);

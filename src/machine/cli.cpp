@@ -534,9 +534,7 @@ CliStreamWriter::CliStreamWriter(std::string path, const LaserProfile& prof,
     : path_(std::move(path)), source_(std::move(source)), job_(std::move(job)), profile_(prof),
       options_(o) {
   check_for_laser(Toolpath{}, profile_);  // the profile's own power and speed
-  body_ = std::tmpfile();  // unlinked already: gone with the process, whatever happens
-  if (!body_) throw IoError(std::string("cannot create a temporary file: ") + std::strerror(errno),
-                            {path_});
+  body_ = temporary_file();  // in $TMPDIR, unlinked already: gone with the process, whatever happens
   if (!options_.binary) buffer_ += kAsciiStart;
 }
 

@@ -13,6 +13,29 @@ using namespace gcode_lex;
 namespace {
 
 // "a:b:c" (RepRapFirmware lists) as numbers; false if one does not parse.
+// The label of "M486 S<id> A"<label>"" (or A<label> without quotes, to the next blank); empty if
+// none.
+std::string_view m486_label(std::string_view args) {
+  for (std::size_t i = 0; i < args.size(); ++i) {
+    if ((args[i] != 'A' && args[i] != 'a') || (i > 0 && args[i - 1] != ' ' && args[i - 1] != '\t'))
+      continue;
+    std::string_view v = args.substr(i + 1);
+    if (!v.empty() && v[0] == '"') {
+      v.remove_prefix(1);
+      return v.substr(0, v.find('"'));
+    }
+    return v.substr(0, v.find_first_of(" \t"));
+  }
+  return {};
+}
+
+// Klipper's NAME=<label>, NAME='<label>' or NAME="<label>".
+std::string_view unquoted(std::string_view v) {
+  if (v.size() >= 2 && (v[0] == '\'' || v[0] == '"') && v.back() == v[0])
+    return v.substr(1, v.size() - 2);
+  return v;
+}
+
 bool number_list(std::string_view s, std::vector<double>& out) {
   out.clear();
   while (!s.empty()) {
@@ -175,6 +198,20 @@ void GcodeScanner::mcode(int code, std::string_view args) {
         return bad("bad mix ratio in '" + std::string(args.substr(0, 40)) + "'");
       return set_mixture(tool, std::move(mix));
     }
+    case 486: {  // object labels: M486 S<id> [A"<label>"], M486 S-1 (M486 T<count> and P/U: cancels, not read)
+      const double id = num("S");
+      if (!ok) return bad("bad number in '" + std::string(args.substr(0, 40)) + "'");
+      if (!std::isfinite(id)) return;
+      if (id == -1) return sink_.object({});
+      if (id < 0 || id > 9999 || id != std::floor(id))
+        return bad("bad object id in '" + std::string(args.substr(0, 40)) + "'");
+      const auto k = static_cast<std::size_t>(id);
+      if (object_labels_.size() <= k) object_labels_.resize(k + 1);
+      const std::string_view label = m486_label(args);
+      if (!label.empty()) object_labels_[k] = std::string(label);
+      if (object_labels_[k].empty()) object_labels_[k] = std::to_string(k);
+      return sink_.object(object_labels_[k]);
+    }
     default:
       return;
   }
@@ -198,6 +235,11 @@ void GcodeScanner::extended(std::string_view s) {
     const int t = extruder(param(args, "EXTRUDER="));
     if (t < 0) return bad("unknown extruder in '" + std::string(s.substr(0, 60)) + "'");
     if (t != tool_) select_tool(t);
+  } else if (name == "EXCLUDE_OBJECT_START" || name == "EXCLUDE_OBJECT_END") {
+    const std::string_view label = unquoted(param(args, "NAME="));
+    if (name.back() == 'T' && label.empty())
+      return bad("EXCLUDE_OBJECT_START without NAME= in '" + std::string(s.substr(0, 60)) + "'");
+    sink_.object(name.back() == 'T' ? label : std::string_view{});
   } else if (name == "SET_HEATER_TEMPERATURE") {
     const int t = extruder(param(args, "HEATER="));
     if (t < 0) return;  // the bed or a chamber

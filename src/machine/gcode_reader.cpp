@@ -30,11 +30,18 @@ bool is_command(std::string_view s, std::string_view cmd) {
   return next == ' ' || next == '\t' || next == ';' || next == '*' || next == '(';
 }
 
-// One parsed word: letter and value.
-struct Word {
-  char letter;
-  double value;
-};
+// distance(a, b) > 1e-12 without the square root: the largest squared distance whose
+// (correctly rounded, monotonic) square root is still <= 1e-12, found once.
+const double kStillSquared = [] {
+  double t = 1e-24;
+  while (std::sqrt(t) > 1e-12) t = std::nextafter(t, 0.0);
+  while (std::sqrt(std::nextafter(t, 1.0)) <= 1e-12) t = std::nextafter(t, 1.0);
+  return t;
+}();
+bool moves(Vec3 a, Vec3 b) {
+  const Vec3 d = b - a;
+  return dot(d, d) > kStillSquared;
+}
 
 }  // namespace
 
@@ -74,7 +81,15 @@ void GcodeScanner::comment(std::string_view c) {
 
 void GcodeScanner::feed(std::string_view text) {
   std::size_t pos = 0;
+  const char* const end = text.data() + text.size();
+  const bool fast = opt_.valve_on.empty() && opt_.valve_off.empty();
   while (pos < text.size()) {
+    if (fast && partial_.empty()) {
+      if (const char* next = simple_move(text.data() + pos, end)) {
+        pos = static_cast<std::size_t>(next - text.data());
+        continue;
+      }
+    }
     const auto nl = text.find('\n', pos);
     if (nl == std::string_view::npos) {
       partial_.append(text.substr(pos));
@@ -89,6 +104,34 @@ void GcodeScanner::feed(std::string_view text) {
     }
     pos = nl + 1;
   }
+}
+
+const char* GcodeScanner::simple_move(const char* s, const char* end) {
+  if (end - s < 4 || s[0] != 'G' || (s[1] != '0' && s[1] != '1') || s[2] != ' ') return nullptr;
+  Words w;
+  int n = 0;
+  const char* p = s + 2;
+  for (;;) {
+    while (p < end && *p == ' ') ++p;
+    if (p == end) return nullptr;
+    const char c = *p;
+    if (c == '\n') break;
+    // Only upper-case words followed by a blank or the newline; no '\r', tab, comment, checksum.
+    if (c < 'A' || c > 'Z') return nullptr;
+    double v = 0;
+    const char* e = scan_decimal(p + 1, end, v);
+    if (e == nullptr || e == end || (*e != ' ' && *e != '\n') || !(std::abs(v) <= kMaxValue))
+      return nullptr;
+    const std::uint32_t bit = 1u << (c - 'A');
+    if ((w.seen & bit) || n == 16) return nullptr;
+    w.seen |= bit;
+    w.value[c - 'A'] = v;
+    ++n;
+    p = e;
+  }
+  ++line_no_;
+  apply_move(w, s[1] - '0');
+  return p + 1;
 }
 
 void GcodeScanner::finish() {
@@ -178,8 +221,9 @@ void GcodeScanner::line(std::string_view text) {
 }
 
 void GcodeScanner::move(std::string_view args, int g) {
-  Word words[16];
+  Words w;
   int n = 0;
+  const char* const end = args.data() + args.size();
   std::size_t p = 0;
   while (p < args.size()) {
     while (p < args.size() && (args[p] == ' ' || args[p] == '\t')) ++p;
@@ -187,7 +231,6 @@ void GcodeScanner::move(std::string_view args, int g) {
     const char letter = upper(args[p]);
     if (!is_alpha(letter)) return bad("unexpected '" + std::string(1, args[p]) + "'");
     const char* b = args.data() + p + 1;
-    const char* end = args.data() + args.size();
     // The number runs to the next blank or letter (G-code has no exponents). Fast path: a plain
     // decimal, parsed in the same pass that finds its end.
     double v = 0;
@@ -208,75 +251,44 @@ void GcodeScanner::move(std::string_view args, int g) {
         (is_digit(e[1]) || ((e[1] == '-' || e[1] == '+') && e + 2 < end && is_digit(e[2]))))
       return bad("'" + std::string(args.substr(p, std::min<std::size_t>(q - p + 6, 30))) +
                  "': a number with an exponent, or two words without a space between them");
-    for (int i = 0; i < n; ++i)
-      if (words[i].letter == letter) return bad(std::string("the word ") + letter + " appears twice");
+    const std::uint32_t bit = 1u << (letter - 'A');
+    if (w.seen & bit) return bad(std::string("the word ") + letter + " appears twice");
     if (n == 16) return bad("too many words");
-    words[n++] = {letter, v};
+    ++n;
+    w.seen |= bit;
+    w.value[letter - 'A'] = v;
     p = q;
   }
+  apply_move(w, g);
+}
+
+void GcodeScanner::apply_move(const Words& w, int g) {
   const double unit = inches_ ? 25.4 : 1.0;
+  auto has = [&](char letter) { return (w.seen >> (letter - 'A')) & 1u; };
+  auto word = [&](char letter) { return w.value[letter - 'A'] * unit; };
   if (g == 92) {
-    for (int i = 0; i < n; ++i) {
-      const double v = words[i].value;
-      switch (words[i].letter) {
-        case 'X':
-          pos_.x = v * unit;
-          break;
-        case 'Y':
-          pos_.y = v * unit;
-          break;
-        case 'Z':
-          pos_.z = v * unit;
-          break;
-        case 'E':
-          e_ = v * unit;
-          break;
-        default:
-          break;
-      }
-    }
+    if (has('X')) pos_.x = word('X');
+    if (has('Y')) pos_.y = word('Y');
+    if (has('Z')) pos_.z = word('Z');
+    if (has('E')) e_ = word('E');
     return;
   }
-  Vec3 to = pos_;
-  double e_to = e_, ci = 0, cj = 0, rad = 0;
-  bool has_r = false;
-  for (int i = 0; i < n; ++i) {
-    const double v = words[i].value * unit;
-    switch (words[i].letter) {
-      case 'X':
-        to.x = abs_pos_ ? v : pos_.x + v;
-        break;
-      case 'Y':
-        to.y = abs_pos_ ? v : pos_.y + v;
-        break;
-      case 'Z':
-        to.z = abs_pos_ ? v : pos_.z + v;
-        break;
-      case 'E':
-        e_to = abs_e_ ? v : e_ + v;
-        break;
-      case 'F':
-        if (v <= 0) return bad("feed rate must be > 0");
-        feed_ = v / 60;
-        break;
-      case 'I':
-        ci = v;
-        break;
-      case 'J':
-        cj = v;
-        break;
-      case 'R':
-        rad = v;
-        has_r = true;
-        break;
-      default:
-        break;
-    }
+  if (has('F')) {
+    if (word('F') <= 0) return bad("feed rate must be > 0");
+    feed_ = word('F') / 60;
   }
-  if (g == 2 || g == 3) return arc(to, e_to, ci, cj, rad, has_r, g == 2, feed_);
+  Vec3 to = pos_;
+  double e_to = e_;
+  if (has('X')) to.x = abs_pos_ ? word('X') : pos_.x + word('X');
+  if (has('Y')) to.y = abs_pos_ ? word('Y') : pos_.y + word('Y');
+  if (has('Z')) to.z = abs_pos_ ? word('Z') : pos_.z + word('Z');
+  if (has('E')) e_to = abs_e_ ? word('E') : e_ + word('E');
+  if (g == 2 || g == 3)
+    return arc(to, e_to, has('I') ? word('I') : 0, has('J') ? word('J') : 0,
+               has('R') ? word('R') : 0, has('R'), g == 2, feed_);
   const bool valve_extrudes = !opt_.valve_on.empty() && valve_ && g == 1;
   const double de = e_to - e_;
-  if (distance(pos_, to) > 1e-12) {
+  if (moves(pos_, to)) {
     if (de > 1e-12 || valve_extrudes)
       sink_.extrude(pos_, to, std::max(de, 0.0), feed_);
     else
@@ -369,6 +381,7 @@ class ToolpathBuilder : public GcodeSink {
     p.height = height_;
     p.speed = feed;
     p.filament = e;
+    p.part = part_;
     layer.paths.push_back(std::move(p));
     path_ = &layer.paths.back();
   }
@@ -398,6 +411,17 @@ class ToolpathBuilder : public GcodeSink {
     if (h != height_) close();
     height_ = h;
   }
+  void object(std::string_view label) override {
+    close();
+    if (label.empty()) {
+      part_ = 0;
+      return;
+    }
+    const auto& labels = tp_.part_labels;
+    const auto it = std::find(labels.begin(), labels.end(), label);
+    if (it == labels.end()) tp_.part_labels.emplace_back(label);
+    part_ = static_cast<int>(std::find(labels.begin(), labels.end(), label) - labels.begin()) + 1;
+  }
 
  private:
   void close() { path_ = nullptr; }
@@ -414,7 +438,7 @@ class ToolpathBuilder : public GcodeSink {
 
   Toolpath& tp_;
   Path* path_ = nullptr;
-  int tool_ = 0;
+  int tool_ = 0, part_ = 0;
   PathRole role_ = PathRole::Strut;
   std::vector<double> mixture_;
   double temperature_ = 0, width_ = 0, height_ = 0;

@@ -18,6 +18,7 @@
 #include "trellis/machine/machine_check.hpp"
 #include "trellis/version.hpp"
 #include "fast_number.hpp"
+#include "gcode_objects.hpp"
 
 namespace trellis {
 
@@ -95,13 +96,17 @@ class Writer {
     placement();
   }
 
-  std::string run(GcodeStats& stats) {
+  // Writes into `buffer`'s memory (its text cleared), which it returns.
+  std::string run(GcodeStats& stats, std::string buffer = {}) {
+    out_ = std::move(buffer);
+    out_.clear();
     std::size_t points = 0;
     for (const auto& l : tp_.layers)
       for (const auto& path : l.paths) points += path.points.size();
     out_.reserve(points * 40 + 8192);
     fastnum::advise_huge_pages(out_);
     plan_changes();
+    label_objects();
     header();
     for (std::size_t li = 0; li < tp_.layers.size(); ++li) layer(li, tp_.layers[li]);
     footer();
@@ -118,6 +123,7 @@ class Writer {
     raw_ = raw;
     out_.reserve(kFlush + (1u << 16));
     plan_changes();
+    label_objects();
     header();
     layers_([&](std::size_t li, const Layer& l) {
       layer(li, l);
@@ -292,6 +298,7 @@ class Writer {
     nozzle_now_ = tools_used_.empty() ? first_nozzle_temperature()
                                       : p_.nozzle_temperature > 0 ? p_.nozzle_temperature : -1;
     if (e_axis_) line("G92 E0");
+    out_ += objects_.definitions;
   }
 
   void footer() {
@@ -341,9 +348,32 @@ class Writer {
       e_ = 0;
     }
     for (std::size_t pi = 0; pi < l.paths.size(); ++pi) {
+      if (!tp_.part_labels.empty()) enter_object(l.paths[pi].part);
       chain(l.paths, pi);
       print_path(l.paths[pi]);
     }
+    enter_object(0);
+  }
+
+  // Build plates: the parts' names for the firmware (gcode_objects.hpp), their times from 0.
+  void label_objects() {
+    objects_ = gcode_objects(tp_.part_labels, layers_, p_, {dx_, dy_}, stats_.warnings);
+    stats_.part_time_s.assign(tp_.part_labels.size(), 0.0);
+  }
+
+  // Build plates: the end of the part being printed and the start of `part` (0: none), when
+  // it changes (gcode_objects.hpp); the time in between goes to the part's estimate.
+  void enter_object(int part) {
+    if (part == object_) return;
+    if (object_ > 0) {
+      if (objects_.style != ObjectStyle::None) out_ += objects_.end(object_);
+      if (stats_.part_time_s.size() < static_cast<std::size_t>(object_))
+        stats_.part_time_s.resize(static_cast<std::size_t>(object_));
+      stats_.part_time_s[static_cast<std::size_t>(object_ - 1)] += stats_.print_time_s - object_since_;
+    }
+    if (part > 0 && objects_.style != ObjectStyle::None) out_ += objects_.start(part);
+    object_ = part;
+    object_since_ = stats_.print_time_s;
   }
 
   // A bead split into joined paths (process fields) is one bead: priming at its start only,
@@ -888,6 +918,9 @@ class Writer {
   double lift_ = 0;  // Z added to every point (placement.lift), in the header for readers
   Flavor flavor_;
   std::string out_;
+  GcodeObjects objects_;  // build plates: parts labelled for the firmware
+  int object_ = 0;        // the part whose moves are being written (Path::part), 0 = none
+  double object_since_ = 0;  // the time estimate when that part began
   std::vector<Change> changes_;  // mixture changes in print order
   std::vector<int> tools_used_;  // tool changers: tools in order of first use
   int last_tool_ = -1;
@@ -939,6 +972,13 @@ std::string lift_warning(double lift) {
 
 std::string write_gcode(const Toolpath& toolpath, const MachineProfile& profile,
                         GcodeStats* stats, const std::vector<GcodeThumbnail>& thumbnails) {
+  std::string out;
+  write_gcode_into(out, toolpath, profile, stats, thumbnails);
+  return out;
+}
+
+void write_gcode_into(std::string& out, const Toolpath& toolpath, const MachineProfile& profile,
+                      GcodeStats* stats, const std::vector<GcodeThumbnail>& thumbnails) {
   if (toolpath.path_count() == 0) throw GeometryError("the toolpath has no paths to write");
   GcodeStats s;
   // Below the bed: lifted onto it (placement.lift), a copy only then.
@@ -957,10 +997,10 @@ std::string write_gcode(const Toolpath& toolpath, const MachineProfile& profile,
   }
   for (auto& w : check_for_machine(*tp, profile)) s.warnings.emplace_back(w.kind, w.message);
   auto warnings = std::move(s.warnings);
-  std::string out = Writer(profile, *tp, lift, thumbnails).run(s);
+  out = Writer(profile, *tp, lift, thumbnails).run(s, std::move(out));
+  warnings.insert(warnings.end(), s.warnings.begin(), s.warnings.end());  // the writer's own
   s.warnings = std::move(warnings);
   if (stats) *stats = s;
-  return out;
 }
 
 GcodeStats write_gcode_stream(const std::string& path, const Toolpath& meta,
@@ -995,11 +1035,11 @@ GcodeStats write_gcode_stream(const std::string& path, const Toolpath& meta,
   for (auto& w : check_for_machine(placed, box, profile))
     s.warnings.emplace_back(w.kind, w.message);
   auto warnings = std::move(s.warnings);
-  std::unique_ptr<std::FILE, int (*)(std::FILE*)> raw(std::tmpfile(), &std::fclose);
-  if (!raw) throw IoError(std::string("cannot create a temporary file: ") + std::strerror(errno));
+  std::unique_ptr<std::FILE, int (*)(std::FILE*)> raw(temporary_file(), &std::fclose);
   write_file_atomic_with(path, [&](const ByteWriter& put) {
     Writer(profile, meta, lift, thumbnails, &placed, layer_count).stream(s, raw.get(), put);
   });
+  warnings.insert(warnings.end(), s.warnings.begin(), s.warnings.end());  // the writer's own
   s.warnings = std::move(warnings);
   return s;
 }

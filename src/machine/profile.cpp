@@ -208,6 +208,11 @@ const std::vector<SettingDecl>& machine_settings() {
        "PNG previews embedded in the G-code header for printer screens and front ends, "
        "\"WxH,WxH\" (PrusaSlicer's thumbnail format); empty = none",
        0, 0, &P::thumbnails},
+      {"gcode.label_objects", "",
+       "build plates: each part's moves between the firmware's object start and end, so the "
+       "printer can cancel one part (M486 S<id> A\"<label>\" ... M486 S-1 for Marlin, Prusa and "
+       "RepRapFirmware; EXCLUDE_OBJECT_DEFINE / _START / _END for Klipper)",
+       0, 0, &P::label_objects},
   };
   return table;
 }

@@ -456,8 +456,9 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
   const auto t0 = std::chrono::steady_clock::now();
   const SlicedDesign d = open_design(job, r, progress, false);
   if (d.field.has_process()) return whole_to_sink(job, sink, progress);
-  const auto [first, last] = printed_planes(d, job, r, progress);
-  const std::size_t n = last - first;
+  // (Not a structured binding: clang 14, which builds the fuzz targets, cannot capture one.)
+  const std::pair<std::size_t, std::size_t> planes = printed_planes(d, job, r, progress);
+  const std::size_t first = planes.first, n = planes.second - planes.first;
   r.part_layers = n;
   r.layers = n;
   const auto below = static_cast<std::size_t>(std::max(0, job.planar.bottom_layers));

@@ -4,6 +4,7 @@
 #include <cstring>
 
 #include "trellis/core/error.hpp"
+#include "trellis/core/file.hpp"
 
 namespace trellis {
 
@@ -28,8 +29,7 @@ struct PathHead {
 }  // namespace
 
 LayerSpill::LayerSpill() {
-  file_ = std::tmpfile();  // unlinked already: gone with the process, whatever happens
-  if (!file_) fail("cannot create");
+  file_ = temporary_file();  // in $TMPDIR, unlinked already: gone with the process, whatever happens
   // Small buffers: a plate keeps one spill per part open at once.
   std::setvbuf(file_, nullptr, _IOFBF, 64u << 10);
 }

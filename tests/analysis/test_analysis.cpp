@@ -106,3 +106,50 @@ TEST(Analysis, AlignmentFindsAPartPlacedOnTheBed) {
   EXPECT_FALSE(a.auto_aligned);
   EXPECT_EQ(a.missing_edges, 0u);
 }
+
+// A plate's G-code measured per labelled part (M486 and Klipper): each part's extruded length
+// and filament are those of its own paths, the parts' sums are the whole file's, and each part's
+// time is at least its extrusions' at their feed rate.
+TEST(Analysis, PlatePartsAreMeasuredEachOnItsOwn) {
+  Toolpath tp;
+  tp.part_labels = {"left", "right"};
+  std::vector<double> length(2, 0.0);
+  for (int l = 0; l < 3; ++l) {
+    Layer layer{0.2 * (l + 1), {}};
+    for (int k = 0; k < 4; ++k) {
+      const int part = 1 + (k + l) % 2;
+      Path path;
+      path.part = part;
+      const double x0 = part == 1 ? 20 : 60, size = 5.0 + k;
+      path.points = {{x0, 20, layer.z}, {x0 + size, 20, layer.z}, {x0 + size, 20 + size, layer.z}};
+      length[static_cast<std::size_t>(part - 1)] += 2 * size;
+      path.speed = 20;
+      layer.paths.push_back(std::move(path));
+    }
+    tp.layers.push_back(std::move(layer));
+  }
+  for (const std::string flavor : {"marlin", "klipper"}) {
+    MachineProfile p = test::open_bed();
+    p.flavor = flavor;
+    p.center = false;
+    GcodeStats stats;
+    const std::string g = write_gcode(tp, p, &stats);
+    Diagnostics d;
+    CountingSink counter;
+    GcodeScanner(counter, {}, d).feed(g);
+    counter.finish();
+    const auto& parts = counter.counts.parts;
+    ASSERT_EQ(parts.size(), 2u) << flavor;
+    double filament = 0;
+    for (std::size_t i = 0; i < 2; ++i) {
+      EXPECT_EQ(parts[i].label, tp.part_labels[i]) << flavor;
+      EXPECT_NEAR(parts[i].extruded_length, length[i], 1e-6) << flavor;
+      EXPECT_NEAR(parts[i].filament, extrusion_for(length[i], p.layer_height, p), 1e-3) << flavor;
+      EXPECT_GE(parts[i].print_time_s, length[i] / 20 - 1e-9) << flavor;
+      filament += parts[i].filament;
+    }
+    EXPECT_NEAR(parts[0].extruded_length + parts[1].extruded_length, counter.counts.extruded_length, 1e-6);
+    EXPECT_NEAR(filament, counter.counts.filament, 1e-6) << flavor;
+    EXPECT_LE(parts[0].print_time_s + parts[1].print_time_s, counter.counts.print_time_s + 1e-9);
+  }
+}

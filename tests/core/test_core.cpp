@@ -160,3 +160,54 @@ TEST(File, LineOfOffset) {
   EXPECT_EQ(line_of_offset("a\nb\nc", 2), 2);
   EXPECT_EQ(line_of_offset("a\nb\nc", 4), 3);
 }
+
+namespace {
+// Sets TMPDIR for one scope and restores it after.
+struct TmpdirScope {
+  explicit TmpdirScope(const std::string& value) {
+    if (const char* v = std::getenv("TMPDIR")) old = v, had = true;
+    ::setenv("TMPDIR", value.c_str(), 1);
+  }
+  ~TmpdirScope() { had ? ::setenv("TMPDIR", old.c_str(), 1) : ::unsetenv("TMPDIR"); }
+  std::string old;
+  bool had = false;
+};
+}  // namespace
+
+TEST(File, TemporaryFilesAreAnonymousAndInTmpdir) {
+  const trellis::test::TempDir tmp("trellis_test_tmpdir");
+  {
+    const TmpdirScope scope(tmp.path().string());
+    std::FILE* f = temporary_file();
+    ASSERT_NE(f, nullptr);
+    ASSERT_GE(std::fputs("spilled", f), 0);
+    ASSERT_EQ(std::fflush(f), 0);
+    // The open file lives in TMPDIR but has no name there.
+    const auto target = fs::read_symlink("/proc/self/fd/" + std::to_string(::fileno(f))).string();
+    EXPECT_EQ(target.rfind(fs::canonical(tmp.path()).string() + "/", 0), 0u) << target;
+    EXPECT_TRUE(names_in(tmp.path()).empty());
+    std::rewind(f);
+    char buf[16] = {};
+    EXPECT_EQ(std::fread(buf, 1, 7, f), 7u);
+    EXPECT_STREQ(buf, "spilled");
+    std::fclose(f);
+  }
+  {
+    // A TMPDIR that is not there is an error naming it, not a silent fallback elsewhere.
+    const std::string missing = (tmp.path() / "missing").string();
+    const TmpdirScope scope(missing);
+    try {
+      std::fclose(temporary_file());
+      ADD_FAILURE() << "no error for a missing TMPDIR";
+    } catch (const IoError& e) {
+      EXPECT_NE(std::string(e.what()).find(missing), std::string::npos) << e.what();
+    }
+  }
+  {
+    const TmpdirScope scope("");  // empty: /tmp
+    std::FILE* f = temporary_file();
+    const auto target = fs::read_symlink("/proc/self/fd/" + std::to_string(::fileno(f))).string();
+    EXPECT_EQ(target.rfind("/tmp/", 0), 0u) << target;
+    std::fclose(f);
+  }
+}

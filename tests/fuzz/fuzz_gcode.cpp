@@ -1,6 +1,7 @@
 // Fuzzes the G-code reader (counts and IR) and, for small prints, the analysis of what it read:
-// never crashes, never hangs. Input starting with "GCDE" goes through the binary G-code decoder
+// never crashes, never hangs, and reading line by line counts exactly what feed() counts. Input starting with "GCDE" goes through the binary G-code decoder
 // (blocks, CRC, Deflate, Heatshrink, MeatPack), whose only failure is a ParseError.
+#include <algorithm>
 #include <string_view>
 
 #include "trellis/analysis/metrics.hpp"
@@ -15,6 +16,28 @@ extern "C" int LLVMFuzzerTestOneInput(const unsigned char* data, std::size_t siz
   scanner.feed(text);
   scanner.finish();
   counter.finish();
+  // Differential: line by line (the general reader only) must count exactly what feed() (with
+  // its one-pass reader of plain moves) counted.
+  {
+    trellis::Diagnostics diag2;
+    trellis::CountingSink lines(5, 500);
+    trellis::GcodeScanner general(lines, {}, diag2, "fuzz");
+    for (std::size_t pos = 0; pos < text.size();) {
+      const std::size_t nl = std::min(text.find('\n', pos), text.size());
+      general.line(text.substr(pos, nl - pos));
+      pos = nl + 1;
+    }
+    lines.finish();
+    const auto& a = counter.counts;
+    const auto& b = lines.counts;
+    if (a.extrusion_moves != b.extrusion_moves || a.travel_moves != b.travel_moves ||
+        a.retractions != b.retractions || a.layers != b.layers || a.paths != b.paths ||
+        !(a.extruded_length == b.extruded_length || (a.extruded_length != a.extruded_length &&
+                                                     b.extruded_length != b.extruded_length)) ||
+        !(a.filament == b.filament || (a.filament != a.filament && b.filament != b.filament)) ||
+        diag.total() != diag2.total() || scanner.lines() != general.lines())
+      __builtin_trap();
+  }
   trellis::Toolpath tp;
   try {
     tp = trellis::read_gcode(text, {}, diag, "fuzz");

@@ -17,6 +17,7 @@
 #include "trellis/job/job.hpp"
 #include "trellis/job/plate.hpp"
 #include "trellis/machine/cli.hpp"
+#include "trellis/machine/gcode_reader.hpp"
 
 namespace fs = std::filesystem;
 using namespace trellis;
@@ -134,6 +135,81 @@ TEST(Plate, FdmPlateOfNineLatticePartsMergesExactlyFrom1_2_5Shards) {
   EXPECT_EQ(parts.size(), 9u);
 }
 
+// Non-planar slicing shards by layer: each shard slices the layers up to its end (a layer's
+// serpentine starts where the one before ended) and keeps its own.
+TEST(Plate, NonplanarMergesExactlyFrom1_2_5Shards) {
+  const std::string job = kRoot + "/examples/jobs/corrugation_nonplanar.toml";
+  const fs::path dir = plate_work() / "nonplanar";
+  for (int n : {1, 2, 5}) {
+    const auto [single, merged] = single_and_merged(job, dir, n);
+    ASSERT_GT(single.size(), 1000u);
+    EXPECT_TRUE(single == merged) << n << " shards: merged G-code differs from the single run";
+  }
+  // Bad shard input: exit 2, nothing written.
+  const fs::path out = plate_work() / "nonplanar_refused";
+  for (const char* bad : {"7/5", "0/3", "x/2"}) {
+    const Cmd r = cli("run " + job + " -o " + out.string() + " --shard " + bad);
+    EXPECT_EQ(r.code, 2) << bad;
+    EXPECT_NE(r.err.find("--shard"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(out)) << bad;
+  }
+  // A shard missing from the merge: exit 2, no merged file.
+  const fs::path s3 = plate_work() / "nonplanar_s3";
+  for (int k : {1, 3})
+    ASSERT_EQ(cli("run " + job + " -o " + s3.string() + " --shard " + std::to_string(k) + "/3").code, 0);
+  const std::string merged = (s3 / "merged.gcode").string();
+  const Cmd r = cli("merge " + (s3 / "corrugation.gcode.shard-1-of-3.json").string() + " " +
+                    (s3 / "corrugation.gcode.shard-3-of-3.json").string() + " -o " + merged);
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("shards 2 of 3 are missing"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(merged));
+}
+
+// The lattice planners carry state across layers (euler, gippo: path order; aero: one plan for
+// the whole lattice): --shard is refused saying why, exit 2, nothing written.
+TEST(Plate, LatticePlansRefuseShardsSayingWhy) {
+  const fs::path out = plate_work() / "plan_refused";
+  Cmd r = cli("run " + kRoot + "/examples/jobs/tiny_plan.toml -o " + out.string() + " --shard 1/2");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("ordered from where the layer before ended"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(out));
+  r = cli("run " + kRoot + "/examples/jobs/octet_aero.toml -o " + out.string() + " --shard 2/2");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("AERO orders the struts of the whole lattice"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(out));
+}
+
+// The nine parts are named in the G-code (M486, the profile being Marlin-flavoured): read back,
+// every extrusion lies in exactly one labelled part, inside that part's footprint (within 4.3 mm
+// of its place on the plate), and every part prints in every layer.
+TEST(Plate, FdmPlatePartsAreLabelledAndEachExtrusionIsInsideItsPart) {
+  const std::string job = kRoot + "/examples/jobs/lattice_plate_fdm.toml";
+  const fs::path dir = plate_work() / "fdm_labels";
+  Diagnostics diag;
+  const Job whole = load_job(job, dir.string());
+  run_job(whole, diag);
+  const std::string g = read_file(whole.output);
+  EXPECT_NE(g.find("M486 T9\n"), std::string::npos);
+  const Toolpath tp = read_gcode(g, {}, diag, whole.output);
+  std::vector<std::string> labels;
+  for (int k = 1; k <= 9; ++k) labels.push_back("tile" + std::to_string(k));
+  ASSERT_EQ(tp.part_labels, labels);
+  std::size_t layers_with_all = 0;
+  for (const auto& l : tp.layers) {
+    std::set<int> in_layer;
+    for (const auto& p : l.paths) {
+      ASSERT_GE(p.part, 1) << "a path at z " << l.z << " is in no labelled part";
+      const int k = p.part - 1;  // tile k+1 sits at (90 + 12 (k % 3), 90 + 12 (k / 3))
+      for (const Vec3& q : p.points)
+        ASSERT_LT(std::hypot(q.x - 90 - 12 * (k % 3), q.y - 90 - 12 * (k / 3)), 4.3)
+            << q.x << "," << q.y << " is outside " << tp.part_labels[static_cast<std::size_t>(k)];
+      in_layer.insert(p.part);
+    }
+    layers_with_all += in_layer.size() == 9;
+  }
+  EXPECT_EQ(layers_with_all, tp.layers.size());
+}
+
 TEST(Plate, ShardRangesAreContiguousAndBalancedByWork) {
   std::vector<double> work(100, 1.0);
   for (int i = 0; i < 50; ++i) work[static_cast<std::size_t>(i)] = 3.0;  // heavy lower half
@@ -170,6 +246,7 @@ TEST(Plate, ShardFilesRoundTripExactly) {
   p.mixture = {0.25, 0.75};
   p.speed = 800.125;
   p.power = 99.5;
+  p.flow = 0.85, p.fan = 35, p.joined = true, p.temperature = 212.5;  // process fields
   layers[1].paths.push_back(p);
   const std::string bytes = shard_bytes(layers);
   const auto back = layers_from_shard_bytes(bytes, "x");
@@ -184,6 +261,10 @@ TEST(Plate, ShardFilesRoundTripExactly) {
   EXPECT_EQ(q.mixture, p.mixture);
   EXPECT_EQ(q.speed, p.speed);
   EXPECT_EQ(q.power, p.power);
+  EXPECT_EQ(q.flow, p.flow);
+  EXPECT_EQ(q.fan, p.fan);
+  EXPECT_EQ(q.joined, p.joined);
+  EXPECT_EQ(q.temperature, p.temperature);
   EXPECT_EQ(shard_bytes(back), bytes);
   EXPECT_THROW(layers_from_shard_bytes(bytes.substr(0, bytes.size() - 3), "x"), ParseError);
 }

@@ -1,11 +1,13 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 
 #include "support/machines.hpp"
 #include "support/random_graphs.hpp"
 #include "trellis/core/error.hpp"
+#include "trellis/core/rng.hpp"
 #include "trellis/lattice/atlas.hpp"
 #include "trellis/machine/gcode_reader.hpp"
 #include "trellis/machine/gcode_writer.hpp"
@@ -240,4 +242,97 @@ TEST(Reader, RepRapFirmwareAndKlipperDialects) {
   Diagnostics bad;
   read_gcode("M567 P0 E0.5:x\n", {}, bad, "bad");
   EXPECT_EQ(bad.count("gcode_bad_line"), 1u);
+}
+
+namespace {
+
+// Every event a scanner reports, as text with every digit of every number.
+class RecordingSink : public GcodeSink {
+ public:
+  std::string log;
+  void layer_change(double z) override { put("layer", {z}); }
+  void extrude(Vec3 a, Vec3 b, double e, double f) override {
+    put("extrude", {a.x, a.y, a.z, b.x, b.y, b.z, e, f});
+  }
+  void travel(Vec3 a, Vec3 b, double f) override { put("travel", {a.x, a.y, a.z, b.x, b.y, b.z, f}); }
+  void retract() override { put("retract", {}); }
+  void tool_change(int t) override { put("tool", {static_cast<double>(t)}); }
+  void role(PathRole r) override { put("role", {static_cast<double>(r)}); }
+  void mixture(const std::vector<double>& m) override { put("mixture", m); }
+  void temperature(double t) override { put("temperature", {t}); }
+  void width(double w) override { put("width", {w}); }
+  void height(double h) override { put("height", {h}); }
+
+ private:
+  void put(const char* what, const std::vector<double>& v) {
+    log += what;
+    char buf[40];
+    for (double x : v) log += (std::snprintf(buf, sizeof buf, " %a", x), buf);
+    log += '\n';
+  }
+};
+
+// Events and warnings of `text` read line by line (line(): the general reader) or fed in chunks
+// of `chunk` bytes (feed(): the one-pass reader of plain G0/G1 lines, the general one for the rest).
+std::string scan_log(std::string_view text, std::size_t chunk) {
+  RecordingSink sink;
+  Diagnostics diag;
+  GcodeScanner scanner(sink, {}, diag, "t");
+  if (chunk == 0) {
+    for (std::size_t pos = 0; pos < text.size();) {
+      const std::size_t nl = std::min(text.find('\n', pos), text.size());
+      scanner.line(text.substr(pos, nl - pos));
+      pos = nl + 1;
+    }
+  } else {
+    for (std::size_t pos = 0; pos < text.size(); pos += chunk) scanner.feed(text.substr(pos, chunk));
+    scanner.finish();
+  }
+  for (const auto& m : diag.messages()) sink.log += m.kind + ": " + m.text + "\n";
+  for (const auto& [kind, count] : diag.counts()) sink.log += kind + " x" + std::to_string(count) + "\n";
+  return sink.log + "lines " + std::to_string(scanner.lines()) + "\n";
+}
+
+}  // namespace
+
+// The one-pass reader of plain moves must not change a result: on our own G-code and on lines
+// made to fall just inside or outside what it takes (spellings, blanks, comments, checksums,
+// bad and long numbers, duplicate words, relative modes, arcs, inches), every event and every
+// warning is the one the general reader gives, whatever the chunks the text comes in.
+TEST(Reader, OnePassMovesReadExactlyAsTheGeneralReader) {
+  MachineProfile profile;
+  profile.retract_length = 0.8;
+  profile.z_hop = 0.2;
+  Toolpath tp;
+  Rng rng(5);
+  for (int l = 0; l < 3; ++l) {
+    Layer layer{0.2 * (l + 1), {}};
+    for (int k = 0; k < 40; ++k) {
+      Path path;
+      Vec3 q{rng.uniform01() * 200, rng.uniform01() * 200, layer.z};
+      for (int i = 0; i < 6; ++i) {
+        path.points.push_back(q);
+        q = q + Vec3{rng.uniform01() - 0.5, rng.uniform01() - 0.5, 0};
+      }
+      path.speed = 10 + k % 3;
+      layer.paths.push_back(std::move(path));
+    }
+    tp.layers.push_back(std::move(layer));
+  }
+  std::string text = write_gcode(tp, profile);
+  text +=
+      "G1 X1 Y2 E3\ng1 x1 y2\nG1 X1\tY2\nG1 X1 Y2\r\nG1 X1 Y2  \n  G1 X3\nG1 X1 Y2 ;c\nG1 X1;c\n"
+      "G1 X1 Y2*57\nG1 X1(c) Y2\nN10 G1 X4\nG1 X1Y2\nG1 X1E5\nG1 X1e5\nG1 X1E-5\nG1 X+5 Y.5 Z5.\n"
+      "G1 X-0 Y-.25\nG1 X1234567.5\nG1 X999999.9999\nG1 X1000000.0001\nG1 X1000001\n"
+      "G1 X1.2345678901234567 Y2\nG1 X12345678901234567\nG1 X1 X2\nG1 X\nG1 X-\nG1 X.\nG1 X1 F0\n"
+      "G1 X1 F-5\nG1 F1200\nG1 A1 B2 C3 D4 H5 K6 L7 M8 N9 O1 P2 Q3 S4 T5 U6 V7 W8\n"
+      "G1 X1 Y1 Z1 E1 F1 A1 B1 C1 D1 H1 I1 J1 K1 L1 M1 N1 O1\nG0 X5 Y5\nG0 \nG1\nG10\nG1 E-1\n"
+      "G92 E0\nG1 X2 E1\nG91\nG1 X1 Y1 E.5\nM83\nG1 X1 E.1\nG90\nM82\nG20\nG1 X1 Y1\nG21\n"
+      "G2 X10 Y0 I5 J0 E2\nG3 X0 Y0 R5 E3\nG1 X5 Y5 E4 F600\nG1 X5 Y5 E4\nG1 X5 Y5 E3\n"
+      ";LAYER_CHANGE\n;TYPE:Perimeter\n;WIDTH:0.45\nG1 X6 Y6 E5\nG1 X7 Y7 E6";
+  const std::string general = scan_log(text, 0);
+  EXPECT_GT(general.size(), 10000u);
+  for (std::size_t chunk : {std::size_t{1}, std::size_t{7}, std::size_t{64}, std::size_t{4096},
+                            text.size()})
+    EXPECT_EQ(scan_log(text, chunk), general) << "chunks of " << chunk;
 }

@@ -324,3 +324,27 @@ TEST(Writer, EmbeddedTravelLeavesTheBathVerticallyAndSwapsNozzles) {
 }
 
 }  // namespace
+// write_gcode_into replaces the buffer's text with exactly write_gcode's bytes, whatever the
+// buffer held (shorter, longer), and keeps using its memory.
+TEST(Writer, IntoAReusedBufferWritesTheSameBytes) {
+  Toolpath tp;
+  for (int l = 0; l < 3; ++l) {
+    const double z = 0.2 * (l + 1);
+    Path path;
+    path.points = {{0, 0, z}, {10, 5, z}};
+    tp.layers.push_back({z, {path}});
+  }
+  MachineProfile p;
+  p.nozzle_temperature = 200;
+  const std::string expected = write_gcode(tp, p);
+  std::string buffer(3 * expected.size(), 'x');
+  write_gcode_into(buffer, tp, p);
+  EXPECT_EQ(buffer, expected);
+  const char* memory = buffer.data();
+  write_gcode_into(buffer, tp, p);
+  EXPECT_EQ(buffer, expected);
+  EXPECT_EQ(buffer.data(), memory);
+  buffer = "G1 X1";
+  write_gcode_into(buffer, tp, p);
+  EXPECT_EQ(buffer, expected);
+}

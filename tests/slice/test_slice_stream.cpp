@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 
+#include <cstdlib>
 #include <string>
 #include <vector>
 
@@ -165,3 +166,18 @@ TEST(LayerSpill, LayersComeBackAsTheyWent) {
 }
 
 }  // namespace
+
+// The spill file goes where TMPDIR says (a batch node's scratch disk), not always /tmp.
+TEST(LayerSpill, HonoursTmpdir) {
+  const char* old = std::getenv("TMPDIR");
+  const std::string saved = old ? old : "";
+  ::setenv("TMPDIR", "/nonexistent-trellis-tmpdir", 1);
+  bool threw = false;
+  try {
+    LayerSpill spill;
+  } catch (const IoError& e) {
+    threw = std::string(e.what()).find("/nonexistent-trellis-tmpdir") != std::string::npos;
+  }
+  old ? ::setenv("TMPDIR", saved.c_str(), 1) : ::unsetenv("TMPDIR");
+  EXPECT_TRUE(threw) << "LayerSpill ignored TMPDIR";
+}

@@ -27,6 +27,13 @@ struct GcodeCounts {
   std::size_t paths = 0;
   double weighted = 0;                        // Σ length_i · edges_i
   double long_length = 0, long_weighted = 0;  // the same over long paths (≥ long_nodes nodes)
+  // Build plates: per labelled part (M486 / Klipper EXCLUDE_OBJECT), in order of first use, the
+  // extrusion and the time of the moves made while it is open (travels into it included).
+  struct Part {
+    std::string label;
+    double extruded_length = 0, filament = 0, print_time_s = 0;
+  };
+  std::vector<Part> parts;
 };
 
 class CountingSink : public GcodeSink {
@@ -41,6 +48,7 @@ class CountingSink : public GcodeSink {
   void role(PathRole) override { attribute_changed_ = true; }
   void mixture(const std::vector<double>&) override { attribute_changed_ = true; }
   void temperature(double) override { attribute_changed_ = true; }
+  void object(std::string_view label) override;
   // Closes the last path; call once after the last line.
   void finish();
   GcodeCounts counts;
@@ -55,6 +63,7 @@ class CountingSink : public GcodeSink {
   Vec3 last_;
   std::size_t long_nodes_;
   double acceleration_;
+  std::ptrdiff_t part_ = -1;  // index into counts.parts of the labelled part open, -1 = none
   double path_length_ = 0;
   std::size_t path_edges_ = 0;
   void close_path();

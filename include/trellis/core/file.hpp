@@ -9,6 +9,7 @@
 // with 130/143. The set of live temporaries is the one process-wide state here: a signal handler
 // can reach nothing else.
 #pragma once
+#include <cstdio>
 #include <functional>
 #include <string>
 #include <string_view>
@@ -47,6 +48,12 @@ class OutputBatch {
 // SIGINT and SIGTERM remove the live temporaries and created folders, then _exit(128 + signal).
 // For programs (the CLI); a library user keeps its own signal handling.
 void install_signal_cleanup();
+
+// An anonymous temporary file (read/write, binary) for data too large to hold in memory: made in
+// $TMPDIR (or /tmp when TMPDIR is unset or empty), unlinked already, so it is gone with the
+// process whatever happens. std::tmpfile ignores TMPDIR; this does not. Throws IoError naming the
+// folder if it cannot be made there.
+std::FILE* temporary_file();
 
 // The file mode new outputs get: 0666 less the process umask.
 unsigned output_file_mode();

@@ -4,7 +4,9 @@
 // temperatures per tool: M104/M109 S<t> [T<n>], RepRapFirmware M568 P<tool> S<t> and G10 P<tool>
 // S<t>, Klipper SET_HEATER_TEMPERATURE HEATER=extruder[N] TARGET=<t>; mixtures: Marlin M165 and
 // M163/M164, RepRapFirmware M567 P<tool> E<a>:<b>...; the comments of Cura (;LAYER:, ;TYPE:),
-// PrusaSlicer (;LAYER_CHANGE, ;Z:, ;TYPE:, ;WIDTH:, ;HEIGHT:) and Trellis. A move extrudes when E
+// PrusaSlicer (;LAYER_CHANGE, ;Z:, ;TYPE:, ;WIDTH:, ;HEIGHT:) and Trellis; the parts of a build
+// plate: M486 S<id> [A"<label>"] / M486 S-1, Klipper EXCLUDE_OBJECT_START / _END NAME=<label>
+// (read back as Path::part and Toolpath::part_labels). A move extrudes when E
 // grows (or, for pneumatic files, while the valve command is in force). PrusaSlicer's binary
 // G-code (.bgcode, machine/bgcode.hpp) is recognised by its magic and decoded on the fly.
 //
@@ -14,6 +16,7 @@
 // warnings naming the line and skipped, or stop the read with a ParseError if asked.
 #pragma once
 #include <cmath>
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -53,6 +56,10 @@ class GcodeSink {
   virtual void temperature(double celsius) {}  // nozzle temperature of the tool in use
   virtual void width(double mm) {}             // from a ;WIDTH: comment
   virtual void height(double mm) {}            // from a ;HEIGHT: comment
+  // The moves that follow belong to the labelled part (build plates: M486 S<id> A"<label>",
+  // Klipper EXCLUDE_OBJECT_START NAME=<label>); an empty label: to no part (M486 S-1,
+  // EXCLUDE_OBJECT_END).
+  virtual void object(std::string_view label) {}
 };
 
 // Every event to two sinks: one pass feeding, e.g., a counter and the toolpath builder.
@@ -71,6 +78,7 @@ class TeeSink : public GcodeSink {
   void temperature(double t) override { a_.temperature(t), b_.temperature(t); }
   void width(double w) override { a_.width(w), b_.width(w); }
   void height(double h) override { a_.height(h), b_.height(h); }
+  void object(std::string_view l) override { a_.object(l), b_.object(l); }
 
  private:
   GcodeSink& a_;
@@ -91,7 +99,17 @@ class GcodeScanner {
  private:
   void bad(const std::string& what);
   void comment(std::string_view c);
+  // The words of a move, by letter (a bit each in `seen`).
+  struct Words {
+    double value[26];
+    std::uint32_t seen = 0;
+  };
   void move(std::string_view args, int g);
+  void apply_move(const Words& words, int g);
+  // The common line "G0 "/"G1 " + plain words, read in one pass from `s` (a line start inside a
+  // buffer ending at `end`): the position after its newline, or null if the line is not that
+  // simple (anything else, near the buffer end, or anything to report): line() reads it then.
+  const char* simple_move(const char* s, const char* end);
   void arc(Vec3 target, double e_target, double i, double j, double r, bool has_r, bool cw,
            double feed);
   void segment(Vec3 to, double e_to, double feed);
@@ -114,6 +132,7 @@ class GcodeScanner {
   std::vector<double> tool_temp_;              // per tool, NaN = not set
   std::vector<std::vector<double>> tool_mix_;  // RepRapFirmware M567: per tool
   std::vector<double> m163_;                   // Marlin M163 weights before M164
+  std::vector<std::string> object_labels_;     // M486: labels by object id (A"<label>")
   double reported_temp_ = std::nan("");
 };
 

@@ -35,6 +35,8 @@ struct GcodeStats {
   std::size_t tool_changes = 0;  // embedded
   std::size_t gradient_changes = 0;  // mixture / tool / temperature commands for graded paths
   double lookahead = 0;              // mm of path the changes were issued early
+  // Build plates: the time estimate per part (Path::part - 1): its moves and the travels into it.
+  std::vector<double> part_time_s;
   // Process fields (Path::temperature, fan): nozzle temperature changes written between paths,
   // each followed by the temperature.settle dwell, and the dwell time they add.
   std::size_t temperature_changes = 0;
@@ -66,6 +68,13 @@ double extrusion_for(double length, double layer, const MachineProfile& profile)
 std::string write_gcode(const Toolpath& toolpath, const MachineProfile& profile,
                         GcodeStats* stats = nullptr,
                         const std::vector<GcodeThumbnail>& thumbnails = {});
+// The same text into `out` (its old text replaced), reusing its memory: a caller that writes
+// many files keeps one buffer, whose pages the kernel then does not have to fault in and zero for
+// each file again (that, and whether it can hand out huge pages, is most of what varies between
+// runs of write_gcode on a busy machine: bench_gcode_writer).
+void write_gcode_into(std::string& out, const Toolpath& toolpath, const MachineProfile& profile,
+                      GcodeStats* stats = nullptr,
+                      const std::vector<GcodeThumbnail>& thumbnails = {});
 // Writes atomically; returns the stats.
 GcodeStats write_gcode_file(const std::string& path, const Toolpath& toolpath,
                             const MachineProfile& profile,

@@ -110,6 +110,7 @@ struct MachineProfile {
   std::string end_gcode = "M84";
   std::string file_extension = "";  // default output extension: "" = by flavor
   std::string thumbnails = "16x16,220x124";  // PNG previews in the G-code header, "WxH,..."
+  bool label_objects = true;  // plates: each part's moves labelled for the firmware (M486 / Klipper)
 
   Flavor parsed_flavor() const;
   // Tools used for a gradient in `tools` mode (gradient_tools, or all tools).

@@ -1,8 +1,8 @@
 // Layers kept on disk instead of in memory: a streamed route appends each layer as it is done and
 // reads them back one at a time (as a LayerSource, toolpath/toolpath.hpp) for the passes that need
 // the whole print (bed check, placement, thumbnails, the writer), so memory holds one layer at a
-// time whatever the layer count. The file is an anonymous temporary (std::tmpfile), gone with the
-// object or the process; the bytes are the IR's fields as they are in memory (this machine only).
+// time whatever the layer count. The file is an anonymous temporary in $TMPDIR (temporary_file,
+// core/file.hpp), gone with the object or the process; the bytes are the IR's fields as they are in memory (this machine only).
 #pragma once
 #include <cstdio>
 #include <string>
