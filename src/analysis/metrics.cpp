@@ -171,7 +171,7 @@ std::vector<double> node_zones(const Graph& g, const std::vector<EdgeId>& edges,
 
 void analyse_layer(const Graph& g, const std::vector<EdgeId>& edges, const Layer& layer,
                    const AnalysisParams& p, LayerAnalysis& out) {
-  const double w = p.width, step = w / 4;
+  const double w = p.width;
   std::vector<Seg> printed, design;
   for (std::size_t pi = 0; pi < layer.paths.size(); ++pi)
     for (std::size_t k = 1; k < layer.paths[pi].points.size(); ++k)
@@ -184,6 +184,9 @@ void analyse_layer(const Graph& g, const std::vector<EdgeId>& edges, const Layer
   for (const auto& q : design) box.add({q.a.x, q.a.y, 0}), box.add({q.b.x, q.b.y, 0});
   const double extent = box.empty() ? 0 : std::max(box.max.x - box.min.x, box.max.y - box.min.y);
   const double cell = std::max({w, 0.25, extent / 512});
+  // Samples a quarter bead apart, but at most ~8192 across the layer (the same for any print
+  // under 800 mm at a 0.4 mm bead; bounded work on a read-back move metres long).
+  const double step = std::max(w / 4, extent / 8192);
   const SegmentGrid pgrid(printed, cell), dgrid(design, cell);
   const auto zone = node_zones(g, edges, w);
   std::vector<std::size_t> seen;

@@ -756,18 +756,9 @@ struct TransformNode : FieldNode {
 
 // ---------------------------------------------------------------- material grades, clip box
 
-struct GradeNode : FieldNode {
+struct GradeNode : PropertyNode {
   std::vector<Expression> exprs;
   std::vector<std::string> names;
-  void eval(const Vec3* p, double* out, std::size_t n, EvalState& s,
-            std::size_t depth) const override {
-    children[0]->eval(p, out, n, s, depth + 1);
-  }
-  Interval bound(const BBox3& b, EvalState& s, std::size_t depth) const override {
-    return children[0]->bound(b, s, depth + 1);
-  }
-  double lipschitz() const override { return children[0]->lipschitz(); }
-  BBox3 extent() const override { return children[0]->extent(); }
   void fractions(Vec3 p, double* out, EvalState& s, std::size_t depth) const override {
     // The distance d only if some expression reads it (a mesh's distance costs more than the
     // expressions).

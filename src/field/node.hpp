@@ -95,4 +95,18 @@ class FieldNode {
 
 using NodePtr = std::shared_ptr<const FieldNode>;
 
+// A node that only adds properties to its one child (fgrade's materials, fprocess's process
+// values): its values, bound, Lipschitz constant and extent are the child's.
+struct PropertyNode : FieldNode {
+  void eval(const Vec3* p, double* out, std::size_t n, EvalState& s,
+            std::size_t depth) const override {
+    children[0]->eval(p, out, n, s, depth + 1);
+  }
+  Interval bound(const BBox3& b, EvalState& s, std::size_t depth) const override {
+    return children[0]->bound(b, s, depth + 1);
+  }
+  double lipschitz() const override { return children[0]->lipschitz(); }
+  BBox3 extent() const override { return children[0]->extent(); }
+};
+
 }  // namespace trellis

@@ -14,23 +14,14 @@ namespace {
 
 constexpr const char* kNames[kProcessParams] = {"temperature", "speed", "flow", "fan"};
 
-struct ProcessNode : FieldNode {
+struct ProcessNode : PropertyNode {
   std::vector<Expression> exprs;
   std::vector<ProcessParam> params;
   std::string label;
-  void eval(const Vec3* p, double* out, std::size_t n, EvalState& s,
-            std::size_t depth) const override {
-    children[0]->eval(p, out, n, s, depth + 1);
-  }
-  Interval bound(const BBox3& b, EvalState& s, std::size_t depth) const override {
-    return children[0]->bound(b, s, depth + 1);
-  }
-  double lipschitz() const override { return children[0]->lipschitz(); }
   bool exact_outside() const override { return children[0]->exact_outside(); }
   bool gradient(Vec3 p, Vec3& g, EvalState& s, std::size_t depth) const override {
     return children[0]->gradient(p, g, s, depth + 1);
   }
-  BBox3 extent() const override { return children[0]->extent(); }
   void process(Vec3 p, ProcessValues& out, EvalState& s, std::size_t depth) const override {
     // Inner nodes first: the innermost fprocess that sets a parameter wins.
     children[0]->process(p, out, s, depth + 1);

@@ -104,16 +104,9 @@ std::string header(BBox3 box, std::size_t layers, const std::string& source, con
   return out;
 }
 
-BBox3 extent(const Toolpath& tp) {
-  BBox3 box;
-  for (const auto& l : tp.layers)
-    for (const auto& p : l.paths)
-      for (const auto& q : p.points) box.add(q);
-  return box;
-}
 
 std::string header(const Toolpath& tp, const LaserProfile& prof, const CliWriteOptions& o) {
-  return header(extent(tp), tp.layers.size(), tp.source, tp.job, prof, o, tp.part_labels);
+  return header(points_box(tp), tp.layers.size(), tp.source, tp.job, prof, o, tp.part_labels);
 }
 
 // The geometry section: what comes before the first layer, each layer, what comes after.

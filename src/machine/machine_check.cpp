@@ -9,18 +9,6 @@
 
 namespace trellis {
 
-namespace {
-
-BBox3 points_box(const Toolpath& tp) {
-  BBox3 box;
-  for (const auto& l : tp.layers)
-    for (const auto& path : l.paths)
-      for (const auto& q : path.points) box.add(q);
-  return box;
-}
-
-}  // namespace
-
 Vec2 placement_offset(const Toolpath& tp, const MachineProfile& p) {
   return placement_offset(p.center ? points_box(tp) : BBox3{}, p);
 }

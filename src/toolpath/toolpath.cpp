@@ -38,6 +38,14 @@ double Toolpath::extrusion_length() const {
   return len;
 }
 
+BBox3 points_box(const Toolpath& toolpath) {
+  BBox3 box;
+  for (const auto& l : toolpath.layers)
+    for (const auto& p : l.paths)
+      for (const auto& q : p.points) box.add(q);
+  return box;
+}
+
 TravelStats travel_stats(const Toolpath& toolpath, double min_move) {
   TravelStats s;
   const Vec3* last = nullptr;

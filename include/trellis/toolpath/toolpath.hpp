@@ -68,6 +68,9 @@ struct TravelStats {
 };
 TravelStats travel_stats(const Toolpath& toolpath, double min_move = 1e-9);
 
+// The box around every point of every path.
+BBox3 points_box(const Toolpath& toolpath);
+
 // Layers visited in print order, one at a time: a toolpath held whole (layers_of) or layers
 // streamed from a temporary file (toolpath/layer_spill.hpp). A source can be visited again; each
 // visit starts at layer 0.
