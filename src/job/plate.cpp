@@ -387,6 +387,10 @@ JobResult merge_shards(const std::vector<std::string>& manifests, const std::str
   if (job.route == "pbf") routes::write_pbf_main(job, c, tp, out);
   else if (job.route == "slice") routes::write_slice_main(job, c, tp, out, diag);
   else if (job.route == "nonplanar") routes::write_nonplanar_main(job, c, tp, out, diag);
+  else if (job.route == "plan") {
+    job.gcode = output;
+    routes::write_plan_main(job, c, tp, out, diag);
+  }
   else throw SettingError("the " + job.route + " route does not shard", {first_path, 0, "route"});
   batch.commit();
   out.summary = fmt::format("{} shards, {} layers", n, next);

@@ -30,6 +30,10 @@ void write_slice_main(const Job& job, const Config& c, Toolpath& tp, JobResult& 
 GcodeStats write_nonplanar_main(const Job& job, const Config& c, Toolpath& tp, JobResult& out,
                                 Diagnostics& diag);
 
+// The plan route's G-code (euler, gippo) from its whole toolpath, for the single run and merge.
+void write_plan_main(const Job& job, const Config& c, const Toolpath& tp, JobResult& out,
+                     Diagnostics& diag, GcodeStats* stats = nullptr);
+
 // The job as it is embedded into a file at `path` (paths relative to its folder).
 std::string embedded_job(const Job& job, const std::string& path);
 // A JSON output with the job added as its "job" field; reports (`command` true) also record the

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <tuple>
 
 #include "routes.hpp"
 #include "trellis/analysis/collisions.hpp"
@@ -13,6 +14,7 @@
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/geom/mesh_io.hpp"
+#include "trellis/job/plate.hpp"
 #include "trellis/lattice/io.hpp"
 #include "trellis/machine/gcode_writer.hpp"
 #include "trellis/plan/report.hpp"
@@ -195,7 +197,42 @@ JobResult plan_aero_route(const Job& job, const Config& c, const Graph& g, const
   return out;
 }
 
+// `--shard` on the plan route, before any work: what does not shard is refused (exit 2), saying
+// why and what does (docs/plates.md).
+void check_plan_shard(const Job& job, const Config& c) {
+  if (c.planner == "aero")
+    throw SettingError(
+        "the plan route does not shard with the aero planner: AERO plans the whole 3D lattice as "
+        "one problem (which struts obstruct which under the nozzle, between separate pieces of the "
+        "lattice too; the order breaking obstruction cycles with the fewest collisions; the best "
+        "of several planner runs by collisions, trails and travel over the whole lattice), so "
+        "neither its layers nor its connected parts plan alone (docs/plates.md)",
+        {"", 0, "--shard"});
+  if (job.gcode.empty())
+    throw SettingError("a shard of the plan route holds layers of its G-code: the job needs a machine "
+                       "(job.machine) and output.gcode = true",
+                       {"", 0, "--shard"});
+  PlanParams p = c.plan;
+  p.planner = planner_from_string(c.planner);
+  if (p.planner == Planner::Gippo && layers_carry_start(p))
+    throw SettingError(
+        "the plan route with planner = gippo and plan.order = travel does not shard with "
+        "plan.layer_start = continue: each layer's travel order starts where the layer below "
+        "ended, so a shard would plan every GIPPO layer below it. Set plan.layer_start = "
+        "independent (every layer starts at the lattice's lower corner, in the single run too) "
+        "or plan.order = longest-first (docs/plates.md)",
+        {"", 0, "plan.layer_start"});
+}
+
 }  // namespace
+
+void write_plan_main(const Job& job, const Config& c, const Toolpath& tp, JobResult& out,
+                     Diagnostics& diag, GcodeStats* stats) {
+  if (job.gcode.empty()) return;
+  if (c.onto.kind.empty()) note_planar_in_bath(c.machine, "plan " + c.planner, diag);
+  const GcodeStats gs = write_gcode_out(job.gcode, tp, job, c.machine, out, diag);
+  if (stats) *stats = gs;
+}
 
 JobResult lattice2d(const Job& job, const Config& c, Diagnostics&, const Progress&) {
   JobResult out;
@@ -262,6 +299,7 @@ JobResult lattice3d(const Job& job, const Config& c, Diagnostics& diag, const Pr
 JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
   const auto t0 = std::chrono::steady_clock::now();
   JobResult out;
+  if (job.shards) check_plan_shard(job, c);
   Graph g;
   std::string input = job.input;
   HeightField surface;
@@ -292,7 +330,7 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
     g = layered_lattice(a, c);
     input = "atlas:" + to_string(a.pattern);
   }
-  if (!job.lattice.empty()) {
+  if (!job.lattice.empty() && !job.shards) {
     write_lattice(job.lattice, g);
     out.files.push_back(job.lattice);
   }
@@ -309,7 +347,36 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
   PlanParams p = c.plan;
   p.planner = planner_from_string(c.planner);
   p.layer_height = c.machine.layer_height;
+  // A shard (`--shard K/N`) plans the toolpath layers [a, b), balanced by their edges; the other
+  // layers stay empty at their z (the surface projection offsets layer k by its index).
+  std::size_t first = 0, end = 0, total = 0;
+  if (job.shards) {
+    const std::vector<double> work = plan_layer_work(g, p);
+    total = work.size();
+    std::tie(first, end) = shard_range(work, job.shard, job.shards);
+    p.first_layer = first, p.end_layer = end;
+    p.keep_worst = false;
+  }
   PlanResult r = plan_lattice(g, p, diag, progress);
+  if (job.shards) {
+    // Layers below the shard were planned only for the start point they hand on.
+    for (std::size_t i = 0; i < first && i < r.toolpath.layers.size(); ++i) r.toolpath.layers[i].paths.clear();
+    if (!c.onto.kind.empty()) r.toolpath = project_onto_surface(r.toolpath, surface, c.onto.project);
+    r.toolpath.source = "trellis " + c.planner + " " + fs::path(input).filename().string();
+    if (r.toolpath.layers.size() != total)
+      throw Error(fmt::format("the plan has {} layers, its levels {}", r.toolpath.layers.size(), total));
+    std::vector<Layer> mine(r.toolpath.layers.begin() + static_cast<std::ptrdiff_t>(first),
+                            r.toolpath.layers.begin() + static_cast<std::ptrdiff_t>(end));
+    std::size_t paths = 0;
+    for (const auto& l : mine) paths += l.paths.size();
+    Job named = job;
+    named.output = job.gcode;  // the shard files are named after the G-code they make
+    out.files.push_back(write_shard(named, mine, first, total, r.toolpath.source, {}));
+    out.files.insert(out.files.begin(), out.files.back().substr(0, out.files.back().size() - 5));
+    out.summary = fmt::format("shard {} of {}: layers {}..{} of {}, {} paths", job.shard, job.shards,
+                              first, end, total, paths);
+    return out;
+  }
   p.gippo.progress = progress;  // the robustness runs below call plan_gippo directly
   std::string robustness;
   if (c.gippo_seeds > 0 && p.planner == Planner::Gippo) {
@@ -330,10 +397,7 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
   out.lattice = std::make_shared<Graph>(g);
   const double secs = seconds_since(t0);
   GcodeStats gs;
-  if (!job.gcode.empty()) {
-    if (c.onto.kind.empty()) note_planar_in_bath(c.machine, "plan " + c.planner, diag);
-    gs = write_gcode_out(job.gcode, r.toolpath, job, c.machine, out, diag);
-  }
+  write_plan_main(job, c, r.toolpath, out, diag, &gs);
   if (!job.toolpath.empty()) {
     write_toolpath_with_job(job.toolpath, r.toolpath, job);
     out.files.push_back(job.toolpath);

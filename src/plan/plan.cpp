@@ -22,6 +22,7 @@ std::string to_string(Planner p) {
 namespace {
 
 struct Part {
+  std::size_t level = 0;  // the toolpath layer it goes into
   double z = 0;
   int material = 0;
   std::vector<EdgeId> edges;
@@ -53,6 +54,7 @@ std::vector<Part> split_parts(const Graph& g, double tol, Diagnostics& diag) {
     if (planar)
       level = std::lower_bound(levels.begin(), levels.end(), g.nodes[e.a].z - tol) - levels.begin();
     Part& p = parts[{level, e.material}];
+    p.level = level;
     p.z = levels[level];
     p.material = e.material;
     p.edges.push_back(i);
@@ -132,11 +134,28 @@ PlanResult plan_lattice(const Graph& g, const PlanParams& params, Diagnostics& d
   PlanResult result;
   result.toolpath.source = to_string(params.planner);
   std::vector<PathSet> sets;
-  Vec3 at = g.bbox().min;
+  // The only state that crosses layers: where the travel order starts (the last trail's end).
+  const Vec3 corner = g.bbox().min;
+  Vec3 at = corner;
   const auto parts = split_parts(g, params.level_tolerance, diag);
+  // A shard plans its own layers, and those below it when their end point is its start.
+  const std::size_t plan_from = layers_carry_start(params) ? 0 : params.first_layer;
   for (std::size_t pi = 0; pi < parts.size(); ++pi) {
     progress.check("planning");
     const Part& part = parts[pi];
+    if (part.level < plan_from || part.level >= params.end_layer) {
+      // Not this shard's: the layer is kept, empty, at its z.
+      append_layer(result.toolpath, Graph{}, PathSet{}, part, params);
+      LayerReport skipped;
+      skipped.z = part.z;
+      skipped.material = part.material;
+      skipped.edges = part.edges.size();
+      result.layers.push_back(std::move(skipped));
+      continue;
+    }
+    // Independent layers: each layer's first part starts at the corner, as the first layer does.
+    if (params.layer_start == LayerStart::Independent && pi > 0 && parts[pi - 1].level != part.level)
+      at = corner;
     std::vector<NodeId> node_map;
     const Graph sub = subgraph(g, part.edges, node_map);
     LayerReport report;
@@ -179,6 +198,16 @@ PlanResult plan_lattice(const Graph& g, const PlanParams& params, Diagnostics& d
   result.total = pooled(result.layers, params.long_path_nodes, sets);
   result.travel = travel_stats(result.toolpath);
   return result;
+}
+
+std::vector<double> plan_layer_work(const Graph& g, const PlanParams& params) {
+  Diagnostics quiet;  // plan_lattice gives the warnings
+  std::vector<double> work;
+  for (const Part& p : split_parts(g, params.level_tolerance, quiet)) {
+    if (work.size() <= p.level) work.resize(p.level + 1, 0.0);
+    work[p.level] += static_cast<double>(p.edges.size());
+  }
+  return work;
 }
 
 }  // namespace trellis

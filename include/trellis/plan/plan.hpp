@@ -2,6 +2,7 @@
 // height) and materials, plan each part with gippo or euler, order the trails, and emit the
 // toolpath IR with metrics for the report.
 #pragma once
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -13,6 +14,10 @@
 namespace trellis {
 
 enum class Planner { Gippo, Euler };
+// Where the travel order (PathOrder::Travel) of a layer starts: where the layer below ended
+// (Continue), or at the lattice's lower corner like the first layer (Independent: no state
+// crosses layers, so a shard plans only its own layers). Longest-first ignores the start.
+enum class LayerStart { Continue, Independent };
 Planner planner_from_string(const std::string& name);  // throws SettingError
 std::string to_string(Planner p);
 
@@ -25,6 +30,11 @@ struct PlanParams {
   double level_tolerance = 1e-6;    // edges within this z span are planar (mm)
   bool merge_ends = false;          // join paths that end at the same node (merge_shared_ends)
   bool keep_worst = false;          // gippo: also build the lowest-score solution's toolpath
+  LayerStart layer_start = LayerStart::Continue;  // plan.layer_start
+  // A shard's layers (toolpath layers, one per planar level): only [first_layer, end_layer) are
+  // planned, every other layer stays empty at its z. With the travel order and
+  // LayerStart::Continue the layers below first_layer are planned too (their end is the start).
+  std::size_t first_layer = 0, end_layer = SIZE_MAX;
 };
 
 struct LayerReport {
@@ -50,5 +60,15 @@ struct PlanResult {
 // iteration; params.gippo.progress is not used here.
 PlanResult plan_lattice(const Graph& g, const PlanParams& params, Diagnostics& diag,
                         const Progress& progress = {});
+
+// The toolpath layers plan_lattice makes from `g` (one per planar level, one for a non-planar
+// lattice), each as its number of edges: the estimated work that balances shards.
+std::vector<double> plan_layer_work(const Graph& g, const PlanParams& params);
+
+// Whether a layer of plan_lattice depends on the layer below: only the travel order's start
+// point crosses layers, and only with LayerStart::Continue.
+inline bool layers_carry_start(const PlanParams& p) {
+  return p.order == PathOrder::Travel && p.layer_start == LayerStart::Continue;
+}
 
 }  // namespace trellis
