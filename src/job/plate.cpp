@@ -389,7 +389,7 @@ JobResult merge_shards(const std::vector<std::string>& manifests, const std::str
   else if (job.route == "nonplanar") routes::write_nonplanar_main(job, c, tp, out, diag);
   else if (job.route == "plan") {
     job.gcode = output;
-    routes::write_plan_main(job, c, tp, out, diag);
+    routes::merge_plan_main(job, c, tp, out, diag);
   }
   else throw SettingError("the " + job.route + " route does not shard", {first_path, 0, "route"});
   batch.commit();

@@ -33,6 +33,9 @@ GcodeStats write_nonplanar_main(const Job& job, const Config& c, Toolpath& tp, J
 // The plan route's G-code (euler, gippo) from its whole toolpath, for the single run and merge.
 void write_plan_main(const Job& job, const Config& c, const Toolpath& tp, JobResult& out,
                      Diagnostics& diag, GcodeStats* stats = nullptr);
+// `trellis merge` of plan shards: what they left to the merge (a travel order starts where the
+// layer below ended; then the surface, onto.*), then write_plan_main.
+void merge_plan_main(const Job& job, const Config& c, Toolpath& tp, JobResult& out, Diagnostics& diag);
 
 // The job as it is embedded into a file at `path` (paths relative to its folder).
 std::string embedded_job(const Job& job, const std::string& path);

@@ -212,16 +212,6 @@ void check_plan_shard(const Job& job, const Config& c) {
     throw SettingError("a shard of the plan route holds layers of its G-code: the job needs a machine "
                        "(job.machine) and output.gcode = true",
                        {"", 0, "--shard"});
-  PlanParams p = c.plan;
-  p.planner = planner_from_string(c.planner);
-  if (p.planner == Planner::Gippo && layers_carry_start(p))
-    throw SettingError(
-        "the plan route with planner = gippo and plan.order = travel does not shard with "
-        "plan.layer_start = continue: each layer's travel order starts where the layer below "
-        "ended, so a shard would plan every GIPPO layer below it. Set plan.layer_start = "
-        "independent (every layer starts at the lattice's lower corner, in the single run too) "
-        "or plan.order = longest-first (docs/plates.md)",
-        {"", 0, "plan.layer_start"});
 }
 
 }  // namespace
@@ -232,6 +222,22 @@ void write_plan_main(const Job& job, const Config& c, const Toolpath& tp, JobRes
   if (c.onto.kind.empty()) note_planar_in_bath(c.machine, "plan " + c.planner, diag);
   const GcodeStats gs = write_gcode_out(job.gcode, tp, job, c.machine, out, diag);
   if (stats) *stats = gs;
+}
+
+void merge_plan_main(const Job& job, const Config& c, Toolpath& tp, JobResult& out, Diagnostics& diag) {
+  PlanParams p = c.plan;
+  p.layer_height = c.machine.layer_height;
+  if (layers_carry_start(p)) {
+    // The travel order the shards left to the merge (plan_lattice's defer_order), then the
+    // surface, as the single run does after planning.
+    order_deferred_layers(tp, p);
+    if (!c.onto.kind.empty()) {
+      const std::string source = tp.source;
+      tp = project_onto_surface(tp, onto_surface(c.onto), c.onto.project);
+      tp.source = source;
+    }
+  }
+  write_plan_main(job, c, tp, out, diag);
 }
 
 JobResult lattice2d(const Job& job, const Config& c, Diagnostics&, const Progress&) {
@@ -356,12 +362,14 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
     std::tie(first, end) = shard_range(work, job.shard, job.shards);
     p.first_layer = first, p.end_layer = end;
     p.keep_worst = false;
+    // The travel order starts where the layer below ended: the merge orders (and lays on the
+    // surface) what the shards planned.
+    p.defer_order = layers_carry_start(p);
   }
   PlanResult r = plan_lattice(g, p, diag, progress);
   if (job.shards) {
-    // Layers below the shard were planned only for the start point they hand on.
-    for (std::size_t i = 0; i < first && i < r.toolpath.layers.size(); ++i) r.toolpath.layers[i].paths.clear();
-    if (!c.onto.kind.empty()) r.toolpath = project_onto_surface(r.toolpath, surface, c.onto.project);
+    if (!c.onto.kind.empty() && !p.defer_order)
+      r.toolpath = project_onto_surface(r.toolpath, surface, c.onto.project);
     r.toolpath.source = "trellis " + c.planner + " " + fs::path(input).filename().string();
     if (r.toolpath.layers.size() != total)
       throw Error(fmt::format("the plan has {} layers, its levels {}", r.toolpath.layers.size(), total));

@@ -458,12 +458,6 @@ std::vector<Setting> make_table() {
                       "robustness: also run seeds plan.seed .. +N-1 and report the best score's "
                       "spread (paper Fig. 2 v-vi); 0 = off", "seeds",
                       [](C& c) -> auto& { return c.gippo_seeds; }));
-  t.push_back(choice_enum<LayerStart>(
-      "plan.layer_start", {{"continue", LayerStart::Continue}, {"independent", LayerStart::Independent}},
-      "where a layer's travel order (plan.order = travel) starts: continue (where the layer below "
-      "ended) or independent (the lattice's lower corner, like the first layer: no state crosses "
-      "layers, so --shard plans only its own layers)",
-      "layer-start", [](C& c) -> auto& { return c.plan.layer_start; }));
 
   // aero.*, nozzle.*
   t.push_back(choice_enum<AeroMethod>(

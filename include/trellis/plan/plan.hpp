@@ -14,10 +14,7 @@
 namespace trellis {
 
 enum class Planner { Gippo, Euler };
-// Where the travel order (PathOrder::Travel) of a layer starts: where the layer below ended
-// (Continue), or at the lattice's lower corner like the first layer (Independent: no state
-// crosses layers, so a shard plans only its own layers). Longest-first ignores the start.
-enum class LayerStart { Continue, Independent };
+
 Planner planner_from_string(const std::string& name);  // throws SettingError
 std::string to_string(Planner p);
 
@@ -30,11 +27,14 @@ struct PlanParams {
   double level_tolerance = 1e-6;    // edges within this z span are planar (mm)
   bool merge_ends = false;          // join paths that end at the same node (merge_shared_ends)
   bool keep_worst = false;          // gippo: also build the lowest-score solution's toolpath
-  LayerStart layer_start = LayerStart::Continue;  // plan.layer_start
   // A shard's layers (toolpath layers, one per planar level): only [first_layer, end_layer) are
-  // planned, every other layer stays empty at its z. With the travel order and
-  // LayerStart::Continue the layers below first_layer are planned too (their end is the start).
+  // planned, every other layer stays empty at its z.
   std::size_t first_layer = 0, end_layer = SIZE_MAX;
+  // A shard of a travel-ordered plan (layers_carry_start): the travel order of a layer starts
+  // where the layer below ended, so only layer 0 is ordered here (from the lattice's corner);
+  // every other layer keeps its parts' trails in plan order, and all points stay at the
+  // design's z, for order_deferred_layers (the merge) to finish.
+  bool defer_order = false;
 };
 
 struct LayerReport {
@@ -65,10 +65,15 @@ PlanResult plan_lattice(const Graph& g, const PlanParams& params, Diagnostics& d
 // lattice), each as its number of edges: the estimated work that balances shards.
 std::vector<double> plan_layer_work(const Graph& g, const PlanParams& params);
 
-// Whether a layer of plan_lattice depends on the layer below: only the travel order's start
-// point crosses layers, and only with LayerStart::Continue.
-inline bool layers_carry_start(const PlanParams& p) {
-  return p.order == PathOrder::Travel && p.layer_start == LayerStart::Continue;
-}
+// Whether a layer of plan_lattice depends on the layer below. Only the travel order's start
+// point crosses layers (the end of the layer below); a layer's trails (GIPPO, Euler) do not
+// depend on it, and longest-first ignores it.
+inline bool layers_carry_start(const PlanParams& p) { return p.order == PathOrder::Travel; }
+
+// The rest of a plan made with defer_order (its shards' layers joined): every layer after the
+// first ordered from where the layer below ended, each part (a run of paths of one tool) from
+// where the part before it ended, then every point lifted by the layer height. The toolpath
+// plan_lattice makes without defer_order, to the bit.
+void order_deferred_layers(Toolpath& tp, const PlanParams& params);
 
 }  // namespace trellis
