@@ -59,8 +59,10 @@ Field tpms_spec(const std::string& spec, double* weight, const char* key) {
 // A shard's ending (`--shard K/N`): its layers and manifest written, the data file listed first
 // (the manifest's name without ".json"), and a summary of what it holds.
 JobResult shard_written(const Job& job, const Toolpath& tp, std::size_t first, std::size_t end,
-                        std::size_t total, const std::string& holds, JobResult out) {
-  out.files.push_back(write_shard(job, tp.layers, first, total, tp.source, tp.part_labels));
+                        std::size_t total, const std::string& holds, JobResult out,
+                        const std::string& graded_json = {}) {
+  out.files.push_back(
+      write_shard(job, tp.layers, first, total, tp.source, tp.part_labels, graded_json));
   out.files.insert(out.files.begin(), out.files.back().substr(0, out.files.back().size() - 5));
   out.summary = fmt::format("shard {} of {}: layers {}..{} of {}, {}", job.shard, job.shards, first,
                             end, total, holds);
@@ -241,6 +243,29 @@ SliceJob slice_job_of(const Job& job, const Config& c, const std::string& input)
   return sj;
 }
 
+void warn_palette(const std::string& input, int used, int total, Diagnostics& diag) {
+  if (used < total)
+    diag.warn("palette_partly_used",
+              fmt::format("{}: only {} of the {} palette colours are printed: the design's "
+                          "fractions span part of 0..1 (each band stays 1/{} wide; the paper's "
+                          "palettes span the whole range)",
+                          input, used, total, total));
+}
+
+// (A shard: its layers' short pieces.)
+void warn_short_segments(const std::string& input, const FgmStats& st, Diagnostics& diag) {
+  if (st.short_kept > 0)
+    diag.warn("short_segments_kept",
+              fmt::format("{}: {} pieces under --min-segment {} mm are printed ({} merged into a "
+                          "neighbour): {} merges refused because merging would exceed the "
+                          "gradient bound {} = {}, the other short pieces touch no piece of "
+                          "another colour end to end; use more colours or a smaller "
+                          "--min-segment",
+                          input, st.short_kept, fixed(st.min_segment, 2), st.short_merged,
+                          st.short_kept_bound, st.materials == 3 ? "2α/3" : "α/2",
+                          fixed(st.error_bound, 4)));
+}
+
 // A part of a plate sliced: its job, extent and printed layers.
 struct SlicePart {
   SliceJob sj;
@@ -397,9 +422,10 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag, const 
                          {job.origin, pp.line, "extrusion.layer_height"});
     SlicePart p;
     p.sj = slice_job_of(job, pc, input);
-    if (p.sj.strategy != 0)
-      throw SettingError("graded slicing (slice.strategy 1 or 2) does not go on plates or "
-                         "shards: its look-ahead and purge tower cross layers",
+    if (p.sj.strategy != 0 && plate)
+      throw SettingError("graded slicing (slice.strategy 1 or 2) does not go on plates: its "
+                         "purge tower and look-ahead would cross parts (one graded part shards: "
+                         "docs/plates.md)",
                          {job.origin, pp.line, "slice.strategy"});
     SliceJob probe = p.sj;
     probe.layer_begin = probe.layer_end = 0;
@@ -446,6 +472,7 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag, const 
   tp.layers.resize(b - a);
   for (std::size_t i = a; i < b; ++i) tp.layers[i - a].z = static_cast<double>(i + 1) * h;
   std::size_t paths = 0;
+  std::string graded_json;  // a graded shard: what the merge's whole-print step needs
   for (std::size_t k = 0; k < parts.size(); ++k) {
     SlicePart& p = parts[k];
     if (plate) tp.part_labels.push_back(placed[k].label);
@@ -455,11 +482,20 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag, const 
     for (const auto& [kind, message] : process_warnings(r.process, p.sj.process))
       diag.warn(kind, message);
     warn_repaired(p.sj, r, diag);
+    const bool graded = p.sj.strategy != 0;
+    if (graded) {
+      warn_short_segments(p.sj.input, r.fgm, diag);
+      graded_json = nlohmann::json{{"strategy", p.sj.strategy}, {"materials", r.fgm.materials}}.dump();
+    }
     if (!plate)
       tp.source = "trellis slice " + fs::path(p.sj.input).filename().string() + " (" +
                   to_string(r.route) + " route)";
     for (std::size_t j = 0; j < r.toolpath.layers.size(); ++j) {
-      const std::size_t i = r.first_layer + j;  // the part's layer = the plate's layer
+      // The part's layer = the plate's layer (graded slicing leaves out layers without paths:
+      // each layer's z says which it is).
+      const std::size_t i =
+          graded ? static_cast<std::size_t>(std::llround(r.toolpath.layers[j].z / h)) - 1
+                 : r.first_layer + j;
       if (i < a || i >= b) continue;
       for (Path& path : r.toolpath.layers[j].paths) {
         if (plate) {
@@ -473,7 +509,8 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag, const 
   }
   if (plate) tp.source = fmt::format("trellis slice plate ({} parts)", parts.size());
   if (job.shards)
-    return shard_written(job, tp, a, b, total, fmt::format("{} paths", paths), std::move(out));
+    return shard_written(job, tp, a, b, total, fmt::format("{} paths", paths), std::move(out),
+                         graded_json);
   if (sequential) tp.layers = part_by_part(std::move(tp.layers), parts, h);
   if (!job.output.empty()) note_planar_in_bath(c.machine, "slice", diag);
   GcodeStats g;
@@ -509,23 +546,10 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
   if (r.repaired)
     diag.warn("mesh_repaired", fs::path(job.input).filename().string() +
                                    " was not closed and manifold; repaired: " + r.repair.summary());
-  if (sj.strategy != 0 && r.fgm.colours_used < r.fgm.colours_total)
-    diag.warn("palette_partly_used",
-              fmt::format("{}: only {} of the {} palette colours are printed: the design's "
-                          "fractions span part of 0..1 (each band stays 1/{} wide; the paper's "
-                          "palettes span the whole range)",
-                          job.input, r.fgm.colours_used, r.fgm.colours_total,
-                          r.fgm.colours_total));
-  if (sj.strategy != 0 && r.fgm.short_kept > 0)
-    diag.warn("short_segments_kept",
-              fmt::format("{}: {} pieces under --min-segment {} mm are printed ({} merged into a "
-                          "neighbour): {} merges refused because merging would exceed the "
-                          "gradient bound {} = {}, the other short pieces touch no piece of "
-                          "another colour end to end; use more colours or a smaller "
-                          "--min-segment",
-                          job.input, r.fgm.short_kept, fixed(r.fgm.min_segment, 2),
-                          r.fgm.short_merged, r.fgm.short_kept_bound,
-                          r.fgm.materials == 3 ? "2α/3" : "α/2", fixed(r.fgm.error_bound, 4)));
+  if (sj.strategy != 0) {
+    warn_palette(job.input, r.fgm.colours_used, r.fgm.colours_total, diag);
+    warn_short_segments(job.input, r.fgm, diag);
+  }
   for (const auto& [kind, message] : process_warnings(r.process, sj.process))
     diag.warn(kind, message);
   // The file name only: outputs must not depend on where the command ran.
@@ -776,6 +800,24 @@ void write_slice_main(const Job& job, const Config& c, Toolpath& tp, JobResult& 
   if (!tp.part_labels.empty()) m.center = false;
   const GcodeStats g = write_gcode_out(job.output, tp, job, m, out, diag);
   if (stats) *stats = g;
+}
+
+void write_graded_merge(const Job& job, const Config& c, Toolpath& tp, const std::string& graded,
+                        JobResult& out, Diagnostics& diag) {
+  const nlohmann::json g = nlohmann::json::parse(graded);
+  const SliceJob sj = slice_job_of(job, c, job.input);
+  if (!g.contains("strategy") || !g["strategy"].is_number_integer() || !g.contains("materials") ||
+      !g["materials"].is_number_integer() || g["strategy"].get<int>() != sj.strategy)
+    throw SettingError("the shards' manifests say graded slicing, their job does not agree "
+                       "(slice.strategy): merge the shards of one run",
+                       {job.origin, 0, "slice.strategy"});
+  const FgmOptions fo = graded_options(sj, g["materials"].get<int>());
+  // The whole run has no layer without paths (a shard keeps its empty layers for the count).
+  std::erase_if(tp.layers, [](const Layer& l) { return l.paths.empty(); });
+  warn_palette(job.input, graded_colours_used(tp), fo.palette.colors, diag);
+  FgmStats st;
+  finish_graded(sj, fo, tp, st);
+  write_slice_main(job, c, tp, out, diag);
 }
 
 GcodeStats write_nonplanar_main(const Job& job, const Config& c, Toolpath& tp, JobResult& out,
