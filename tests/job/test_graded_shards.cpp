@@ -51,14 +51,16 @@ void write(const fs::path& path, const std::string& text) {
   std::ofstream(path) << text;
 }
 
-// A cylinder 16 mm across and 8 mm tall (40 layers) graded across X and up Z: every layer has
-// several colours (changes inside a layer) and its colours move up the layers (a layer's first
-// piece differs from the layer below's last), so purges and look-ahead cross shard boundaries.
+// A cylinder 16 mm across and 8.4 mm tall (42 layers: the boundaries of 2 and 5 shards fall
+// after odd and even layers, so a layer's alternation must not restart in a shard) graded across
+// X and up Z: every layer has several colours (changes inside a layer) and its colours move up
+// the layers (a layer's first piece differs from the layer below's last), so purges and the
+// look-ahead cross shard boundaries.
 std::string graded_design() {
   const fs::path p = work() / "designs" / "graded_xz.vcad";
   if (!fs::exists(p))
-    write(p, "fgrade([\"(x+8)/32 + z/16\", \"1 - (x+8)/32 - z/16\"], [\"blue\", \"yellow\"]) {\n"
-             "  cylinder(8, 8);\n}\n");
+    write(p, "fgrade([\"(x+8)/32 + z/16.8\", \"1 - (x+8)/32 - z/16.8\"], [\"blue\", \"yellow\"]) {\n"
+             "  cylinder(8, 8.4);\n}\n");
   return p.string();
 }
 
