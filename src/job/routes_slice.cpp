@@ -396,6 +396,49 @@ JobResult slice_plate_streamed(const Job& job, const Config& c, std::vector<Slic
   return out;
 }
 
+// A shard of one part (planar or graded slicing): the design opened once, its printed layers
+// found plane by plane, the shard's range of them (balanced by work as a plate's) sliced with
+// the layers its skins read and planned; a graded part's layers before the whole-print step
+// (slice/pipeline.hpp finish_graded, the merge's), the manifest saying so.
+JobResult slice_part_shard(const Job& job, const Config& c, Diagnostics& diag,
+                           const Progress& progress) {
+  JobResult out;
+  if (job.input.empty()) throw SettingError("slice needs a design (.vcad) or mesh to read", {job.origin, 0, "job.input"});
+  const double h = c.machine.layer_height;
+  SliceJob sj = slice_job_of(job, c, job.input);
+  std::size_t a = 0, b = 0, total = 0;
+  sj.range_of = [&](const BBox3& e, std::size_t layers) {
+    // As a plate's: layer i's work is the part's XY area.
+    total = layers;
+    const std::vector<double> work(layers, 0.0 + (e.max.x - e.min.x) * (e.max.y - e.min.y));
+    std::tie(a, b) = shard_range(work, job.shard, job.shards);
+    return std::pair<std::size_t, std::size_t>{a, b};
+  };
+  SliceResult r = run_slice(sj, progress);
+  for (const auto& [kind, message] : process_warnings(r.process, sj.process)) diag.warn(kind, message);
+  warn_repaired(sj, r, diag);
+  const bool graded = sj.strategy != 0;
+  if (graded) warn_short_segments(sj.input, r.fgm, diag);
+  Toolpath tp;
+  tp.source = "trellis slice " + fs::path(sj.input).filename().string() + " (" +
+              to_string(r.route) + " route)";
+  tp.layers.resize(b - a);
+  for (std::size_t i = a; i < b; ++i) tp.layers[i - a].z = static_cast<double>(i + 1) * h;
+  std::size_t paths = 0;
+  for (Layer& layer : r.toolpath.layers) {
+    // The part's layer from its z (graded slicing leaves out layers without paths).
+    const auto i = static_cast<std::size_t>(std::llround(layer.z / h)) - 1;
+    if (i < a || i >= b) continue;
+    paths += layer.paths.size();
+    for (Path& path : layer.paths) tp.layers[i - a].paths.push_back(std::move(path));
+  }
+  const std::string graded_json =
+      graded ? nlohmann::json{{"strategy", sj.strategy}, {"materials", r.fgm.materials}}.dump()
+             : std::string();
+  return shard_written(job, tp, a, b, total, fmt::format("{} paths", paths), std::move(out),
+                       graded_json);
+}
+
 // A build plate of sliced parts, or a shard of one (job/plate.hpp): each part sliced with its own
 // settings, placed (its x, y are bed coordinates) and dropped on the bed; plate layer i holds
 // layer i of every part that tall, parts in the order of the job file. A shard slices the parts
@@ -472,7 +515,6 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag, const 
   tp.layers.resize(b - a);
   for (std::size_t i = a; i < b; ++i) tp.layers[i - a].z = static_cast<double>(i + 1) * h;
   std::size_t paths = 0;
-  std::string graded_json;  // a graded shard: what the merge's whole-print step needs
   for (std::size_t k = 0; k < parts.size(); ++k) {
     SlicePart& p = parts[k];
     if (plate) tp.part_labels.push_back(placed[k].label);
@@ -482,20 +524,11 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag, const 
     for (const auto& [kind, message] : process_warnings(r.process, p.sj.process))
       diag.warn(kind, message);
     warn_repaired(p.sj, r, diag);
-    const bool graded = p.sj.strategy != 0;
-    if (graded) {
-      warn_short_segments(p.sj.input, r.fgm, diag);
-      graded_json = nlohmann::json{{"strategy", p.sj.strategy}, {"materials", r.fgm.materials}}.dump();
-    }
     if (!plate)
       tp.source = "trellis slice " + fs::path(p.sj.input).filename().string() + " (" +
                   to_string(r.route) + " route)";
     for (std::size_t j = 0; j < r.toolpath.layers.size(); ++j) {
-      // The part's layer = the plate's layer (graded slicing leaves out layers without paths:
-      // each layer's z says which it is).
-      const std::size_t i =
-          graded ? static_cast<std::size_t>(std::llround(r.toolpath.layers[j].z / h)) - 1
-                 : r.first_layer + j;
+      const std::size_t i = r.first_layer + j;  // the part's layer = the plate's layer
       if (i < a || i >= b) continue;
       for (Path& path : r.toolpath.layers[j].paths) {
         if (plate) {
@@ -509,8 +542,7 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag, const 
   }
   if (plate) tp.source = fmt::format("trellis slice plate ({} parts)", parts.size());
   if (job.shards)
-    return shard_written(job, tp, a, b, total, fmt::format("{} paths", paths), std::move(out),
-                         graded_json);
+    return shard_written(job, tp, a, b, total, fmt::format("{} paths", paths), std::move(out));
   if (sequential) tp.layers = part_by_part(std::move(tp.layers), parts, h);
   if (!job.output.empty()) note_planar_in_bath(c.machine, "slice", diag);
   GcodeStats g;
@@ -531,6 +563,7 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag, const 
 }  // namespace
 
 JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
+  if (job.parts.empty() && job.shards) return slice_part_shard(job, c, diag, progress);
   if (!job.parts.empty() || job.shards) return slice_plate(job, c, diag, progress);
   JobResult out;
   if (job.input.empty()) throw SettingError("slice needs a design (.vcad) or mesh to read", {"", 0, "job.input"});

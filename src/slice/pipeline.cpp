@@ -346,7 +346,8 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
   const bool is_vcad = ends_with_ci(job.input, ".vcad");
   const auto t0 = std::chrono::steady_clock::now();
   const double h = job.planar.layer_height;
-  const bool ranged = job.layer_begin != 0 || job.layer_end != static_cast<std::size_t>(-1);
+  const bool ranged = job.layer_begin != 0 || job.layer_end != static_cast<std::size_t>(-1) ||
+                      static_cast<bool>(job.range_of);
   SlicedDesign d = open_design(job, r, progress, !ranged);
   const std::vector<double>& zs = d.zs;
   const Field& field = d.field;
@@ -362,8 +363,10 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
     };
     const auto [first, last] = printed_planes(d, job, r, progress);
     const std::size_t n = last - first;
-    range_a = std::min(job.layer_begin, n);
-    range_b = std::max(range_a, std::min(job.layer_end, n));
+    const std::pair<std::size_t, std::size_t> asked =
+        job.range_of ? job.range_of(r.extent, n) : std::pair{job.layer_begin, job.layer_end};
+    range_a = std::min(asked.first, n);
+    range_b = std::max(range_a, std::min(asked.second, n));
     if (field.has_process() && range_a < range_b)  // shard files do not carry the values
       throw SettingError("a design with process fields (fprocess) does not shard: slice it whole",
                          {job.input, 0, "fprocess"});

@@ -46,6 +46,9 @@ struct SliceJob {
   // layer-local step only (no tower, mixtures as planned; finish_graded does the rest) and no
   // gradient error; layers without paths are left out as in the whole run.
   std::size_t layer_begin = 0, layer_end = static_cast<std::size_t>(-1);
+  // Or the range from the design's extent and its printed layers (found before any layer is
+  // sliced), so a shard of one part opens the design once.
+  std::function<std::pair<std::size_t, std::size_t>(const BBox3& extent, std::size_t layers)> range_of;
   // Process parameters a .vcad design sets with fprocess (slice/fgm_process.hpp).
   ProcessOptions process;
 };
