@@ -845,6 +845,16 @@ void write_graded_merge(const Job& job, const Config& c, Toolpath& tp, const std
                        "(slice.strategy): merge the shards of one run",
                        {job.origin, 0, "slice.strategy"});
   const FgmOptions fo = graded_options(sj, g["materials"].get<int>());
+  // Mixtures as a shard plans them: one share per material, each in 0..1.
+  for (std::size_t i = 0; i < tp.layers.size(); ++i)
+    for (const Path& p : tp.layers[i].paths)
+      if (!p.mixture.empty() &&
+          (p.mixture.size() != static_cast<std::size_t>(fo.palette.materials) ||
+           std::any_of(p.mixture.begin(), p.mixture.end(), [](double v) { return !(v >= 0 && v <= 1); })))
+        throw ParseError(fmt::format("graded shard layer {}: a path's mixture is not {} shares in "
+                                     "0..1; the shard files do not belong to this job",
+                                     i, fo.palette.materials),
+                         {job.origin});
   // The whole run has no layer without paths (a shard keeps its empty layers for the count).
   std::erase_if(tp.layers, [](const Layer& l) { return l.paths.empty(); });
   warn_palette(job.input, graded_colours_used(tp), fo.palette.colors, diag);

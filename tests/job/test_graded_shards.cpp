@@ -201,3 +201,28 @@ TEST(GradedShards, ProcessFieldsAndGradedPlatesRefuseShardsAndWriteNothing) {
   EXPECT_NE(r.err.find("plates"), std::string::npos) << r.err;
   EXPECT_TRUE(!fs::exists(out2) || fs::is_empty(out2)) << "nothing written";
 }
+
+// A graded shard whose mixtures are not the design's (a shard file of another job, or altered):
+// the merge refuses it (exit-2 error) and writes nothing, rather than place a tower by them.
+TEST(GradedShards, MergeRefusesMixturesThatAreNotShares) {
+  const std::string job = job_file("s1_tampered", 1, "geeetech_mizar_m_mixing.toml");
+  const fs::path dir = work() / "s1_tampered";
+  Diagnostics diag;
+  std::vector<std::string> manifests;
+  for (int k = 1; k <= 2; ++k) {
+    Job shard = load_job(job, dir.string());
+    shard.shard = k;
+    shard.shards = 2;
+    manifests.push_back(run_job(shard, diag).files.back());
+  }
+  const std::string data = manifests[1].substr(0, manifests[1].size() - 5);
+  std::vector<Layer> layers = layers_from_shard_bytes(read_file(data), data);
+  ASSERT_FALSE(layers.empty());
+  ASSERT_FALSE(layers.back().paths.empty());
+  ASSERT_EQ(layers.back().paths.front().mixture.size(), 2u);
+  layers.back().paths.front().mixture = {1.5, -0.5};  // same size: the manifest still matches
+  write_file_atomic(data, shard_bytes(layers));
+  const std::string merged = (dir / "merged.gcode").string();
+  EXPECT_THROW(merge_shards(manifests, merged, diag), ParseError);
+  EXPECT_FALSE(fs::exists(merged));
+}
