@@ -329,8 +329,14 @@ JobResult merge_shards(const std::vector<std::string>& manifests, const std::str
       first = j;
       first_path = path;
     } else {
+      // (A graded shard's outline planes are its own.)
+      auto common = [](const nlohmann::json& m, const char* k) {
+        nlohmann::json v = m.value(k, nlohmann::json());
+        if (v.is_object()) v.erase("outline_z");
+        return v;
+      };
       for (const char* k : {"job", "route", "shards", "total_layers", "output", "source", "part_labels", "graded"})
-        if (j.value(k, nlohmann::json()) != first.value(k, nlohmann::json()))
+        if (common(j, k) != common(first, k))
           throw SettingError(fmt::format("{} is a shard of another job than {} (their '{}' differ): "
                                          "merge the shards of one run",
                                          path, first_path, k),
@@ -352,6 +358,7 @@ JobResult merge_shards(const std::vector<std::string>& manifests, const std::str
                        {first_path, 0, "shards"});
   Toolpath tp;
   std::size_t next = 0;
+  std::vector<double> outline_z;  // graded shards of a design with process fields
   for (auto& [k, s] : by_index) {
     if (s.j["first_layer"].get<std::size_t>() != next)
       throw SettingError(fmt::format("shard {} starts at layer {} but the shards before it end at "
@@ -370,6 +377,15 @@ JobResult merge_shards(const std::vector<std::string>& manifests, const std::str
       throw ParseError("layer count differs from its manifest", {data});
     next += layers.size();
     for (auto& l : layers) tp.layers.push_back(std::move(l));
+    if (s.j.contains("graded") && s.j["graded"].is_object() && s.j["graded"].contains("outline_z")) {
+      const auto& zs = s.j["graded"]["outline_z"];
+      if (!zs.is_array() || zs.size() != layers.size())
+        throw ParseError("graded shard manifest: outline_z is not one plane per layer", {s.path});
+      for (const auto& z : zs) {
+        if (!z.is_number()) throw ParseError("graded shard manifest: outline_z holds a non-number", {s.path});
+        outline_z.push_back(z.get<double>());
+      }
+    }
   }
   if (next != first["total_layers"].get<std::size_t>())
     throw SettingError(fmt::format("the shards hold {} layers, the job has {}", next,
@@ -388,7 +404,7 @@ JobResult merge_shards(const std::vector<std::string>& manifests, const std::str
   if (!dir.empty()) create_output_directories(dir.string());
   if (job.route == "pbf") routes::write_pbf_main(job, c, tp, out);
   else if (job.route == "slice" && first.contains("graded"))
-    routes::write_graded_merge(job, c, tp, first["graded"].dump(), out, diag);
+    routes::write_graded_merge(job, c, tp, first["graded"].dump(), outline_z, next, out, diag);
   else if (job.route == "slice") routes::write_slice_main(job, c, tp, out, diag);
   else if (job.route == "nonplanar") routes::write_nonplanar_main(job, c, tp, out, diag);
   else throw SettingError("the " + job.route + " route does not shard", {first_path, 0, "route"});

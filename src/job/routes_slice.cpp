@@ -432,9 +432,21 @@ JobResult slice_part_shard(const Job& job, const Config& c, Diagnostics& diag,
     paths += layer.paths.size();
     for (Path& path : layer.paths) tp.layers[i - a].paths.push_back(std::move(path));
   }
-  const std::string graded_json =
-      graded ? nlohmann::json{{"strategy", sj.strategy}, {"materials", r.fgm.materials}}.dump()
-             : std::string();
+  std::string graded_json;
+  if (graded) {
+    // The same in every shard of the job: the strategy, the design's materials, whether its
+    // process fields need the merge's pass; and this shard's outline planes (that pass samples
+    // the design at them).
+    nlohmann::ordered_json gj{{"strategy", sj.strategy},
+                              {"materials", r.fgm.materials},
+                              {"process", r.process_fields}};
+    if (r.process_fields) {
+      std::vector<double> zs;
+      for (std::size_t i = a; i < b; ++i) zs.push_back(r.outlines.at(i - r.outline_first).z);
+      gj["outline_z"] = zs;
+    }
+    graded_json = gj.dump();
+  }
   return shard_written(job, tp, a, b, total, fmt::format("{} paths", paths), std::move(out),
                        graded_json);
 }
@@ -836,6 +848,7 @@ void write_slice_main(const Job& job, const Config& c, Toolpath& tp, JobResult& 
 }
 
 void write_graded_merge(const Job& job, const Config& c, Toolpath& tp, const std::string& graded,
+                        const std::vector<double>& outline_z, std::size_t total_layers,
                         JobResult& out, Diagnostics& diag) {
   const nlohmann::json g = nlohmann::json::parse(graded);
   const SliceJob sj = slice_job_of(job, c, job.input);
@@ -860,6 +873,27 @@ void write_graded_merge(const Job& job, const Config& c, Toolpath& tp, const std
   warn_palette(job.input, graded_colours_used(tp), fo.palette.colors, diag);
   FgmStats st;
   finish_graded(sj, fo, tp, st);
+  if (g.value("process", false)) {
+    // The process pass of the single run (slice/fgm_process.hpp), over every path, the tower's
+    // too, the design sampled at the outlines' planes.
+    if (outline_z.size() != total_layers)
+      throw SettingError(fmt::format("the shards carry {} outline planes for {} layers", outline_z.size(),
+                                     total_layers),
+                         {job.origin, 0, "outline_z"});
+    VcadOptions vo;
+    vo.mesh_voxel = sj.mesh_voxel;
+    const Field field = read_vcad(job.input, vo).field;
+    if (!field.has_process())
+      throw SettingError("the shards say the design has process fields, " + job.input +
+                             " has none: merge the shards of one run",
+                         {job.input, 0, "fprocess"});
+    SliceResult r;
+    r.toolpath = std::move(tp);
+    for (double z : outline_z) r.outlines.push_back({z, {}});
+    apply_slice_process(sj, field, r);
+    for (const auto& [kind, message] : process_warnings(r.process, sj.process)) diag.warn(kind, message);
+    tp = std::move(r.toolpath);
+  }
   write_slice_main(job, c, tp, out, diag);
 }
 

@@ -367,9 +367,13 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
         job.range_of ? job.range_of(r.extent, n) : std::pair{job.layer_begin, job.layer_end};
     range_a = std::min(asked.first, n);
     range_b = std::max(range_a, std::min(asked.second, n));
-    if (field.has_process() && range_a < range_b)  // shard files do not carry the values
-      throw SettingError("a design with process fields (fprocess) does not shard: slice it whole",
+    // Planar shard files do not carry the values; graded slicing leaves the process pass to
+    // the merge (it runs after the prime tower, over the tower's paths too).
+    if (field.has_process() && range_a < range_b && !graded)
+      throw SettingError("a design with process fields (fprocess) does not shard with planar "
+                         "slicing: slice it whole",
                          {job.input, 0, "fprocess"});
+    r.process_fields = field.has_process();
     // Strategy 2 plans each layer from its own outline: no skins, no margin.
     const auto below = job.strategy == 2 ? 0 : static_cast<std::size_t>(std::max(0, job.planar.bottom_layers));
     const auto above = job.strategy == 2 ? 0 : static_cast<std::size_t>(std::max(0, job.planar.top_layers));
@@ -379,6 +383,7 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
                                                  zs.begin() + static_cast<long>(first + hi)));
     r.part_layers = n;
     r.first_layer = range_a;
+    r.outline_first = range_lo;
     r.outline_seconds = seconds_since(t0);
     PlanarOptions po = job.planar;
     po.first_index = range_lo;

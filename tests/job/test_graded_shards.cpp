@@ -2,8 +2,9 @@
 // its layers' colour pieces (Strategy 1) or fills (Strategy 2), the merge places and prints the
 // prime tower over all layers and the writer runs the look-ahead over the whole print. The merged
 // G-code of 1, 2 and 5 shards is byte for byte the single run's, for Strategy 1 with a tower on a
-// mixing hotend, Strategy 2 with the 960 mm look-ahead, and both on a five-tool changer; designs
-// with process fields and graded plates are refused (exit 2, nothing written).
+// mixing hotend, Strategy 2 with the 960 mm look-ahead, both on a five-tool changer and both with
+// process fields; planar designs with process fields and graded plates are refused (exit 2,
+// nothing written).
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -170,21 +171,36 @@ TEST(GradedShards, ToolChangerMergesExactlyFrom1_2_5Shards) {
   }
 }
 
-// What does not shard says so: a graded design with process fields (fprocess, a whole-print
-// pass) and a graded part on a plate; exit 2, no shard file or manifest written.
-TEST(GradedShards, ProcessFieldsAndGradedPlatesRefuseShardsAndWriteNothing) {
+// Process fields (fprocess) on a graded design: the process pass runs in the merge, after the
+// tower, over every path (the tower's too) with the shards' outline planes; exact as well.
+TEST(GradedShards, ProcessFieldsOnAGradedDesignMergeExactly) {
   const fs::path design = work() / "designs" / "graded_process.vcad";
   write(design,
-        "fprocess([\"200 + 2*z\"], [\"temperature\"]) {\n"
-        "  fgrade([\"(x+8)/32 + z/16\", \"1 - (x+8)/32 - z/16\"], [\"blue\", \"yellow\"]) {\n"
-        "    cylinder(8, 8);\n  }\n}\n");
-  const fs::path job = work() / "process.toml";
-  write(job, "[job]\nroute = \"slice\"\nname = \"process\"\ninput = \"" + design.string() +
-                 "\"\nmachine = \"" + kRoot + "/profiles/geeetech_mizar_m_mixing.toml\"\n\n"
-                 "[slice]\nstrategy = 1\n");
+        "fprocess([\"200 + 2*z\", \"20 + 0.5*(x+8)\"], [\"temperature\", \"speed\"]) {\n"
+        "  fgrade([\"(x+8)/32 + z/16.8\", \"1 - (x+8)/32 - z/16.8\"], [\"blue\", \"yellow\"]) {\n"
+        "    cylinder(8, 8.4);\n  }\n}\n");
+  for (int strategy : {1, 2}) {
+    const std::string name = "process_s" + std::to_string(strategy);
+    const fs::path job = work() / (name + ".toml");
+    write(job, "[job]\nroute = \"slice\"\nname = \"" + name + "\"\ninput = \"" +
+                   design.string() + "\"\nmachine = \"" + kRoot +
+                   "/profiles/geeetech_mizar_m_mixing.toml\"\n\n[slice]\nstrategy = " +
+                   std::to_string(strategy) + "\n");
+    expect_merges_exactly(job.string(), name);
+    const std::string g = read_file((work() / name / (name + ".gcode")).string());
+    EXPECT_GT(count(g, "M104 S"), 10u) << name << ": temperature changes written";
+  }
+}
+
+// What does not shard says so: a planar design with process fields (its shard files do not
+// carry the values) and a graded part on a plate; exit 2, no shard file or manifest written.
+TEST(GradedShards, PlanarProcessFieldsAndGradedPlatesRefuseShardsAndWriteNothing) {
+  const fs::path design = work() / "designs" / "planar_process.vcad";
+  write(design, "fprocess([\"200 + 2*z\"], [\"temperature\"]) {\n  cylinder(8, 8.4);\n}\n");
+  const fs::path job = work() / "planar_process.toml";
+  write(job, "[job]\nroute = \"slice\"\nname = \"planar_process\"\ninput = \"" + design.string() +
+                 "\"\nmachine = \"" + kRoot + "/profiles/geeetech_mizar_m_mixing.toml\"\n");
   const fs::path out = work() / "refused_process";
-  // The whole run prints it (the refusal is the shard's, not the design's).
-  ASSERT_EQ(cli("run " + job.string() + " -o " + (work() / "process_whole").string()).code, 0);
   Cmd r = cli("run " + job.string() + " -o " + out.string() + " --shard 1/2");
   EXPECT_EQ(r.code, 2) << r.err;
   EXPECT_NE(r.err.find("process fields"), std::string::npos) << r.err;

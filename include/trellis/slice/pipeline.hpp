@@ -68,6 +68,10 @@ struct SliceResult {
   // The part's printed layers (all of them, also when only a range was asked for) and the index
   // of the toolpath's first layer among them.
   std::size_t part_layers = 0, first_layer = 0;
+  // A range: the part's layer of outlines[0] (the range less the layers its skins read), and
+  // whether the design has process fields (a graded shard leaves their pass to the merge).
+  std::size_t outline_first = 0;
+  bool process_fields = false;
   // Streamed (stream_slice): no outlines or toolpath are kept; what the report needs of them is
   // summed as the layers pass.
   bool streamed = false;
