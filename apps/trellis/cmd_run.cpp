@@ -26,8 +26,8 @@ void add_run(CLI::App& app) {
   cmd->add_option("-o,--output-dir", o->out, "output folder (replaces [job] output_dir)");
   cmd->add_option("--set", o->sets, "override a setting of the job: section.key=value (repeatable)");
   cmd->add_option("--shard", o->shard,
-                  "K/N: compute shard K of N (layer ranges balanced by work; pbf, slice and its "
-                  "plates, nonplanar, plan with euler or gippo) "
+                  "K/N: compute shard K of N (layer ranges balanced by work; pbf, slice (planar "
+                  "and graded) and its plates, nonplanar, plan with euler or gippo) "
                   "and write OUTPUT.shard-K-of-N + its .json manifest for `trellis merge`");
   cmd->callback([o] {
     Job job = load_job(o->job, o->out, o->sets);

@@ -27,6 +27,13 @@ JobResult surface(const Job& job, const Config& c, Diagnostics& diag, const Prog
 void write_pbf_main(const Job& job, const Config& c, Toolpath& tp, JobResult& out);
 void write_slice_main(const Job& job, const Config& c, Toolpath& tp, JobResult& out,
                       Diagnostics& diag, GcodeStats* stats = nullptr);
+// The merge of graded slicing shards (their layers before the whole-print step; `graded`: the
+// manifests' "graded" object; `outline_z`: the shards' outline planes in order, when the design
+// has process fields): the whole-print step (slice/pipeline.hpp finish_graded: prime tower, tool
+// mixtures; the process pass) on all layers in order, then write_slice_main.
+void write_graded_merge(const Job& job, const Config& c, Toolpath& tp, const std::string& graded,
+                        const std::vector<double>& outline_z, std::size_t total_layers,
+                        JobResult& out, Diagnostics& diag);
 GcodeStats write_nonplanar_main(const Job& job, const Config& c, Toolpath& tp, JobResult& out,
                                 Diagnostics& diag);
 
