@@ -78,7 +78,7 @@ char* put_feed(char* p, double mm_per_s) {
 
 class Writer {
  public:
-  // `stream`: the layers come from it (tp gives the source, job and labels only; no mixtures).
+  // `stream`: the layers come from it (tp gives the source, job and labels only).
   // `box`: the points' extent when the caller has it (a whole toolpath: one pass over the points
   // fewer; about 2 % of writing), else the writer finds it.
   Writer(const MachineProfile& p, const Toolpath& tp, double lift,
@@ -678,25 +678,86 @@ class Writer {
     std::size_t path, segment;  // before point `segment` of `path` (1-based), at fraction t
     double t;
     std::string command;
+    double target = -1;  // streamed: printed length to locate in `path` when it is printed (-1: none)
   };
-  // Streamed layers, one at a time: the tools used and whether a prime tower is there; mixtures
-  // (their look-ahead reaches back over paths) need the whole toolpath.
+  // Streamed layers, one at a time: the tools used, whether a prime tower is there, and what the
+  // look-ahead needs (each printed path's printed length before it; each path's mixture
+  // command), not the paths.
   void plan_tools_streamed(const Layer& l) {
     select_tools_ = flavor_ == Flavor::Marlin && p_.tool_count > 1;
     for (const auto& p : l.paths) {
       if (p.points.size() < 2) continue;
-      if (!p.mixture.empty()) throw Error("streamed G-code cannot carry mixtures (internal)");
       if (!first_seen_) first_seen_ = true, first_temperature_ = p.temperature;
       tower_ = tower_ || p.role == PathRole::Purge;
-      if (select_tools_ &&
+      if (select_tools_ && p.mixture.empty() &&
           std::find(tools_used_.begin(), tools_used_.end(), p.tool) == tools_used_.end())
         tools_used_.push_back(p.tool);
+      if (starts_.empty()) starts_.push_back(0);
+      const std::size_t k = starts_.size() - 1;
+      starts_.push_back(starts_.back() + p.length());
+      if (p.mixture.empty()) continue;
+      std::string c = gradient_command(p.mixture);  // kept only when it changes
+      if (wanted_.empty() || wanted_.back().command != c)
+        wanted_.push_back({k, std::move(c), tool_of(p.mixture)});
     }
   }
 
+  // The change of path k (mixture command c, tool `tool`) issued `lookahead` mm of printed
+  // length earlier; `start`: printed length before each path. Its segment is located now when
+  // `path_of` gives the paths, else when that path is printed (locate_changes).
+  void plan_change(std::size_t k, const std::string& c, int tool, const std::vector<double>& start,
+                   double lookahead, bool tools, const std::vector<const Path*>* path_of) {
+    ++stats_.gradient_changes;
+    // Locate printed length start[k] - L.
+    const double target = std::max(0.0, start[k] - lookahead);
+    std::size_t j = k;
+    if (lookahead > 0)
+      j = static_cast<std::size_t>(std::upper_bound(start.begin(), start.begin() + k + 1, target) -
+                                   start.begin()) - 1;
+    Change ch{j, 1, 0, tools ? tool_change_command(c, tool) : c};
+    if (j < k) {
+      ch.target = target;
+      if (path_of) locate(ch, *(*path_of)[j], start[j]);
+    }
+    changes_.push_back(std::move(ch));
+  }
+
+  // The segment and fraction of `path` (printed length `at` before it) where ch.target falls.
+  static void locate(Change& ch, const Path& path, double at) {
+    const auto& pts = path.points;
+    for (std::size_t i = 1; i < pts.size(); ++i) {
+      const double len = distance(pts[i - 1], pts[i]);
+      if (at + len >= ch.target) {
+        ch.segment = i;
+        ch.t = len > 0 ? (ch.target - at) / len : 0;
+        break;
+      }
+      at += len;
+    }
+    ch.target = -1;
+  }
+
+  // Streamed: the changes falling inside the path about to be printed, located on it.
+  void locate_changes(const Path& path) {
+    for (std::size_t c = next_change_; c < changes_.size() && changes_[c].path == path_index_; ++c)
+      if (changes_[c].target >= 0) locate(changes_[c], path, starts_[path_index_]);
+  }
+
   void plan_changes() {
+    // A prime tower flushes the dead volume after the change (FGM paper A.1: look-ahead for
+    // Strategy 2 *or* a purge tower for Strategy 1), and a tool changer swaps tools between
+    // paths: both issue each change right before its path.
+    const bool tools = p_.gradient_mode == "tools";
     if (streamed_) {
-      stats_.lookahead = tower_ || p_.gradient_mode == "tools" ? 0.0 : p_.lookahead;
+      const double lookahead = tower_ || tools ? 0.0 : p_.lookahead;
+      stats_.lookahead = lookahead;
+      std::string last;
+      for (const auto& w : wanted_) {
+        if (w.command == last) continue;
+        last = w.command;
+        plan_change(w.path, w.command, w.tool, starts_, lookahead, tools, nullptr);
+      }
+      wanted_ = {};
       return;
     }
     std::vector<const Path*> paths;
@@ -707,10 +768,6 @@ class Writer {
           paths.push_back(&p);
           tower = tower || p.role == PathRole::Purge;
         }
-    // A prime tower flushes the dead volume after the change (FGM paper A.1: look-ahead for
-    // Strategy 2 *or* a purge tower for Strategy 1), and a tool changer swaps tools between
-    // paths: both issue each change right before its path.
-    const bool tools = p_.gradient_mode == "tools";
     // Paths carrying a tool of their own on a multi-tool Marlin machine: the tools they use,
     // in order, heated in the header (tool_change_command records them again when printing).
     select_tools_ = flavor_ == Flavor::Marlin && p_.tool_count > 1;
@@ -734,28 +791,7 @@ class Writer {
       const std::string c = gradient_command(paths[k]->mixture);
       if (c == last) continue;
       last = c;
-      ++stats_.gradient_changes;
-      // Locate printed length start[k] - L.
-      const double target = std::max(0.0, start[k] - lookahead);
-      std::size_t j = k;
-      if (lookahead > 0)
-        j = static_cast<std::size_t>(std::upper_bound(start.begin(), start.begin() + k + 1, target) -
-                                     start.begin()) - 1;
-      Change ch{j, 1, 0, tools ? tool_change_command(c, tool_of(paths[k]->mixture)) : c};
-      if (j < k) {
-        double at = start[j];
-        const auto& pts = paths[j]->points;
-        for (std::size_t i = 1; i < pts.size(); ++i) {
-          const double len = distance(pts[i - 1], pts[i]);
-          if (at + len >= target) {
-            ch.segment = i;
-            ch.t = len > 0 ? (target - at) / len : 0;
-            break;
-          }
-          at += len;
-        }
-      }
-      changes_.push_back(std::move(ch));
+      plan_change(k, c, tool_of(paths[k]->mixture), start, lookahead, tools, &paths);
     }
   }
 
@@ -789,6 +825,7 @@ class Writer {
     rise_over_finished_parts(path);
     travel_to(path.points.front());
     feature_comments(path);
+    if (streamed_) locate_changes(path);
     emit_changes(1, 0.0);
     process_commands(path);
     const bool marlin = e_axis_;  // E per segment (Marlin, or an embedded syringe pump)
@@ -931,6 +968,15 @@ class Writer {
   int object_ = 0;        // the part whose moves are being written (Path::part), 0 = none
   double object_since_ = 0;  // the time estimate when that part began
   std::vector<Change> changes_;  // mixture changes in print order
+  // Streamed: printed length before each printed path (and after the last), and the paths
+  // carrying a mixture (index, command, tool) until the changes are planned.
+  struct Wanted {
+    std::size_t path;
+    std::string command;
+    int tool;
+  };
+  std::vector<double> starts_;
+  std::vector<Wanted> wanted_;
   std::vector<int> tools_used_;  // tool changers: tools in order of first use
   int last_tool_ = -1;
   bool select_tools_ = false;    // multi-tool Marlin: T for each path's own tool

@@ -1,0 +1,109 @@
+// Graded G-code written layer by layer (issue 23 item 2): the streamed writer plans the mixture
+// changes from a pass over the layers (each printed path's printed length before it and its
+// mixture command, not the paths) and locates a look-ahead change inside its path when that path
+// is printed, so write_gcode_stream of a graded toolpath is byte for byte write_gcode of it:
+// Strategy 1 with a prime tower and Strategy 2 with the 960 mm look-ahead on a mixing hotend,
+// and both on a five-tool changer.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "trellis/core/diagnostics.hpp"
+#include "trellis/core/file.hpp"
+#include "trellis/job/job.hpp"
+#include "trellis/machine/gcode_writer.hpp"
+#include "trellis/machine/profile.hpp"
+
+namespace fs = std::filesystem;
+using namespace trellis;
+
+namespace {
+
+const std::string kRoot = TRELLIS_SOURCE_DIR;
+
+fs::path work(const std::string& name) {
+  const fs::path dir =
+      fs::temp_directory_path() / ("trellis_graded_stream_" + std::to_string(::getpid()) + "_" + name);
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+// A cylinder graded across X and up Z (as tests/job/test_graded_shards.cpp): several colours
+// in every layer and colours moving up the layers, so changes fall inside layers, across layer
+// boundaries and, with the look-ahead, inside earlier paths.
+std::string graded_job(const fs::path& dir, int strategy, const std::string& profile,
+                       const std::string& extra) {
+  std::ofstream(dir / "graded.vcad")
+      << "fgrade([\"(x+8)/32 + z/16.8\", \"1 - (x+8)/32 - z/16.8\"], [\"blue\", \"yellow\"]) {\n"
+         "  cylinder(8, 8.4);\n}\n";
+  const fs::path f = dir / "job.toml";
+  std::ofstream(f) << "[job]\nroute = \"slice\"\nname = \"graded\"\ninput = \""
+                   << (dir / "graded.vcad").string() << "\"\nmachine = \"" << kRoot
+                   << "/profiles/" << profile << "\"\n\n[slice]\nstrategy = " << strategy << "\n" << extra;
+  return f.string();
+}
+
+struct Written {
+  std::string whole, streamed;
+  GcodeStats whole_stats, streamed_stats;
+};
+
+// The job's graded toolpath (kept whole), written whole and streamed layer by layer.
+Written both(int strategy, const std::string& profile, const std::string& extra = {}) {
+  const fs::path dir = work(profile + "_" + std::to_string(strategy));
+  Job job = load_job(graded_job(dir, strategy, profile, extra), dir.string(), {"output.png=false"});
+  job.keep_toolpath = true;
+  Diagnostics diag;
+  const JobResult r = run_job(job, diag);
+  EXPECT_TRUE(r.toolpath);
+  Written w;
+  if (!r.toolpath) return w;
+  const Toolpath& tp = *r.toolpath;
+  const MachineProfile m = load_profile(kRoot + "/profiles/" + profile);
+  w.whole = write_gcode(tp, m, &w.whole_stats);
+  Toolpath meta;
+  meta.source = tp.source;
+  meta.job = tp.job;
+  meta.part_labels = tp.part_labels;
+  const std::string path = (dir / "streamed.gcode").string();
+  w.streamed_stats = write_gcode_stream(path, meta, tp.layers.size(), layers_of(tp), m);
+  w.streamed = read_file(path);
+  fs::remove_all(dir);
+  return w;
+}
+
+void expect_same(const Written& w, const std::string& what) {
+  ASSERT_FALSE(w.whole.empty()) << what;
+  EXPECT_GT(w.whole_stats.gradient_changes, 10u) << what;
+  EXPECT_EQ(w.streamed_stats.gradient_changes, w.whole_stats.gradient_changes) << what;
+  EXPECT_EQ(w.streamed_stats.lookahead, w.whole_stats.lookahead) << what;
+  EXPECT_EQ(w.streamed.size(), w.whole.size()) << what;
+  EXPECT_TRUE(w.streamed == w.whole) << what << ": the streamed G-code differs from the whole";
+}
+
+}  // namespace
+
+TEST(GradedStream, Strategy1TowerStreamedIsWhole) {
+  const Written w = both(1, "geeetech_mizar_m_mixing.toml");
+  expect_same(w, "strategy 1, mixing hotend");
+  EXPECT_EQ(w.whole_stats.lookahead, 0) << "a prime tower issues each change right before its path";
+  EXPECT_NE(w.whole.find(";TYPE:Wipe tower"), std::string::npos);
+}
+
+TEST(GradedStream, Strategy2LookaheadStreamedIsWhole) {
+  const Written w = both(2, "geeetech_mizar_m_mixing.toml");
+  expect_same(w, "strategy 2, mixing hotend");
+  EXPECT_EQ(w.whole_stats.lookahead, 960);
+  EXPECT_NE(w.whole.find("M165 A"), std::string::npos);
+}
+
+TEST(GradedStream, ToolChangerStreamedIsWhole) {
+  for (const int strategy : {1, 2}) {
+    const Written w = both(strategy, "prusa_xl_5tools.toml", "\n[fgm]\ncolors = 5\n");
+    expect_same(w, "tool changer, strategy " + std::to_string(strategy));
+    EXPECT_NE(w.whole.find("\nT1\n"), std::string::npos) << "tools change";
+  }
+}
