@@ -877,22 +877,17 @@ void merge_short_pieces(std::vector<Path>& paths, std::vector<int>& colours, Eva
   colours.resize(n);
 }
 
-void measure_gradient_error(const Field& field, const Toolpath& tp,
-                            const std::vector<LayerOutline>& layers, double h, FgmStats& st) {
-  // One sum per layer, added in layer order: the report is the same for any thread count
-  // (per-thread sums would be added in whatever order the threads ran).
-  struct Acc {
-    double sum = 0, max = 0;
-    std::size_t n = 0;
-  };
+std::vector<GradientErrorSum> gradient_error_sums(const Field& field, const Toolpath& tp,
+                                                  const std::vector<LayerOutline>& layers,
+                                                  double h, std::size_t first_layer) {
   tbb::enumerable_thread_specific<Evaluator> evaluators([&] { return Evaluator(field); });
-  std::vector<Acc> acc(tp.layers.size());
+  std::vector<GradientErrorSum> acc(tp.layers.size());
   tbb::parallel_for(std::size_t{0}, tp.layers.size(), [&](std::size_t li) {
     const Layer& l = tp.layers[li];
-    const auto idx = static_cast<std::size_t>(std::llround(l.z / h)) - 1;
+    const auto idx = static_cast<std::size_t>(std::llround(l.z / h)) - 1 - first_layer;
     if (idx >= layers.size()) return;
     Evaluator& ev = evaluators.local();
-    Acc& a = acc[li];
+    GradientErrorSum& a = acc[li];
     for (const auto& p : l.paths) {
       if (p.mixture.empty() || p.role == PathRole::Other || p.role == PathRole::Purge) continue;
       for (const auto& q : p.points) {
@@ -907,10 +902,17 @@ void measure_gradient_error(const Field& field, const Toolpath& tp,
       }
     }
   });
+  return acc;
+}
+
+void measure_gradient_error(const Field& field, const Toolpath& tp,
+                            const std::vector<LayerOutline>& layers, double h, FgmStats& st) {
+  // One sum per layer, added in layer order: the report is the same for any thread count
+  // (per-thread sums would be added in whatever order the threads ran).
   double sum = 0;
   st.error_max = 0;
   st.error_samples = 0;
-  for (const auto& a : acc) {
+  for (const auto& a : gradient_error_sums(field, tp, layers, h)) {
     sum += a.sum;
     st.error_max = std::max(st.error_max, a.max);
     st.error_samples += a.n;

@@ -474,11 +474,16 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
   return r;
 }
 
+// Adds a layer's part paths to the per-mixture printed length and time (the report's table).
+void add_colour_use(const SliceJob& job, const Layer& l,
+                    std::map<std::vector<double>, std::pair<double, double>>& use);
+
 namespace {
 
-// A design with process fields (fprocess) is sliced whole and then handed on layer by layer: the
+// A design with process fields (fprocess), and graded slicing with a prime tower (placed from
+// every layer's footprint and purges), are sliced whole and then handed on layer by layer: the
 // process pass splits paths and counts changes over the whole print in order, so its output and
-// report are run_slice's exactly; memory is run_slice's, not bounded.
+// report are run_slice's exactly; memory is run_slice's less the G-code text, not bounded.
 SliceResult whole_to_sink(const SliceJob& job, const LayerSink& sink, const Progress& progress) {
   SliceResult r = run_slice(job, progress);
   r.streamed = true;
@@ -488,6 +493,8 @@ SliceResult whole_to_sink(const SliceJob& job, const LayerSink& sink, const Prog
     r.outline_area += area(l.regions);
     r.empty_layers += l.regions.empty() ? 1 : 0;
   }
+  if (job.strategy != 0)
+    for (const auto& l : r.toolpath.layers) add_colour_use(job, l, r.colour_use);
   for (std::size_t i = 0; i < r.toolpath.layers.size(); ++i) sink(i, std::move(r.toolpath.layers[i]));
   r.toolpath.layers.clear();
   r.outlines.clear();
@@ -498,23 +505,37 @@ SliceResult whole_to_sink(const SliceJob& job, const LayerSink& sink, const Prog
 
 SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progress& progress,
                          const SliceStreamOptions& options) {
-  if (job.strategy != 0)
-    throw SettingError(
-        "graded slicing (strategy 1 or 2) does not stream: its look-ahead and "
-        "purge tower cross layers",
-        {job.input, 0, "slice.strategy"});
+  const bool graded = job.strategy == 1 || job.strategy == 2;
+  // A prime tower (Strategy 1, tool changers) is placed and sized from every layer: whole.
+  if (graded && (job.strategy == 1 || job.tools > 0)) return whole_to_sink(job, sink, progress);
   SliceResult r;
   r.streamed = true;
   const auto t0 = std::chrono::steady_clock::now();
   const SlicedDesign d = open_design(job, r, progress, false);
+  if (graded) require_graded_design(job, ends_with_ci(job.input, ".vcad"), d.field);
   if (d.field.has_process()) return whole_to_sink(job, sink, progress);
+  // Strategy 2 on a mixing hotend: each layer planned from its own outline (no skins), the
+  // look-ahead is the writer's.
+  int quantized_from = 0;
+  const FgmOptions fo =
+      graded ? graded_options(job, static_cast<int>(d.field.materials().size()), &quantized_from)
+             : FgmOptions{};
+  double error_sum = 0;
+  int last_colour = -1;
+  std::set<std::vector<double>> colours_used;
+  std::map<std::vector<double>, int> colour_of_mixture;
+  if (graded) {
+    r.fgm.shortest_path = std::numeric_limits<double>::infinity();
+    r.fgm.min_segment = fo.min_segment;
+    for (int k = 0; k < fo.palette.colors; ++k) colour_of_mixture.emplace(fo.palette.mixture(k), k);
+  }
   // (Not a structured binding: clang 14, which builds the fuzz targets, cannot capture one.)
   const std::pair<std::size_t, std::size_t> planes = printed_planes(d, job, r, progress);
   const std::size_t first = planes.first, n = planes.second - planes.first;
   r.part_layers = n;
   r.layers = n;
-  const auto below = static_cast<std::size_t>(std::max(0, job.planar.bottom_layers));
-  const auto above = static_cast<std::size_t>(std::max(0, job.planar.top_layers));
+  const auto below = graded ? 0 : static_cast<std::size_t>(std::max(0, job.planar.bottom_layers));
+  const auto above = graded ? 0 : static_cast<std::size_t>(std::max(0, job.planar.top_layers));
   const std::size_t chunk = std::max<std::size_t>(1, options.chunk_layers);
   const std::size_t chunks = (n + chunk - 1) / chunk;
   const std::size_t tokens =
@@ -535,6 +556,8 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
     std::vector<LayerOutline> window;
     Toolpath toolpath;
     PlanarStats stats;
+    FgmStats fgm;                               // graded
+    std::vector<GradientErrorSum> error;        // graded: per toolpath layer
     double seconds = 0;
   };
   std::deque<LayerOutline> window;  // part layers [window_start, received)
@@ -597,7 +620,16 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
         po.first_index = p.lo;
         po.plan_begin = p.a;
         po.plan_end = p.b;
-        p.toolpath = plan_planar(p.window, po, &p.stats);
+        if (graded) {
+          FgmOptions o = fo;
+          o.first_layer = p.a;
+          naming_design(job, [&] { p.toolpath = plan_fgm_strategy2(d.field, p.window, o, &p.fgm); });
+          naming_design(job, [&] {
+            p.error = gradient_error_sums(d.field, p.toolpath, p.window, job.planar.layer_height, p.a);
+          });
+        } else {
+          p.toolpath = plan_planar(p.window, po, &p.stats);
+        }
         p.window.clear();
         p.window.shrink_to_fit();
         p.seconds = seconds_since(t);
@@ -609,10 +641,36 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
         r.planar.walls += p.stats.walls;
         r.planar.skin_lines += p.stats.skin_lines;
         r.planar.infill_lines += p.stats.infill_lines;
+        if (graded) {
+          // As plan_fgm_strategy2 and measure_gradient_error sum them over the whole print.
+          r.fgm.faces += p.fgm.faces;
+          r.fgm.short_merged += p.fgm.short_merged;
+          r.fgm.short_kept += p.fgm.short_kept;
+          r.fgm.short_kept_bound += p.fgm.short_kept_bound;
+          for (const Layer& layer : p.toolpath.layers)
+            for (const Path& path : layer.paths) {
+              r.fgm.shortest_path = std::min(r.fgm.shortest_path, path.length());
+              // The palette colour whose mixture the path prints (plan_fgm_strategy2 counts
+              // changes of its faces' colours).
+              const auto known = colour_of_mixture.find(path.mixture);
+              const int colour = known != colour_of_mixture.end() ? known->second
+                                                                   : fo.palette.color_of(path.mixture);
+              if (colour != last_colour && last_colour >= 0) ++r.fgm.colour_changes;
+              last_colour = colour;
+              ++r.fgm.paths;
+              if (path.role != PathRole::Purge && !path.mixture.empty()) colours_used.insert(path.mixture);
+            }
+          for (const auto& a : p.error) {
+            error_sum += a.sum;
+            r.fgm.error_max = std::max(r.fgm.error_max, a.max);
+            r.fgm.error_samples += a.n;
+          }
+          for (const Layer& layer : p.toolpath.layers) add_colour_use(job, layer, r.colour_use);
+        }
         for (Layer& layer : p.toolpath.layers) {
           for (const Path& path : layer.paths) {
             // Summed path by path in print order, as plan_planar sums it.
-            r.planar.extruded_length += path.length();
+            if (!graded) r.planar.extruded_length += path.length();  // (graded: run_slice's 0)
             if (path.points.empty()) continue;
             if (last_point) {
               const double dd = distance(*last_point, path.points.front());
@@ -624,11 +682,33 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
         }
         if (progress.report) progress("layers", static_cast<double>(written) / double(n));
       }));
+  if (graded) {
+    if (r.fgm.paths == 0) r.fgm.shortest_path = 0;
+    r.fgm.error_mean = r.fgm.error_samples ? error_sum / static_cast<double>(r.fgm.error_samples) : 0;
+    r.fgm.materials = fo.palette.materials;
+    r.fgm.band = fo.palette.band();
+    r.fgm.quantized_from = quantized_from;
+    r.fgm.colours_used = static_cast<int>(colours_used.size());
+    r.fgm.colours_total = fo.palette.colors;
+    r.fgm.error_bound = fo.palette.error_bound();
+  }
   // Outlining and planning overlap: the wall time is shared out by their summed thread times.
   const double wall = seconds_since(t0), cpu = outline_cpu + plan_cpu;
   r.outline_seconds = cpu > 0 ? wall * outline_cpu / cpu : 0;
   r.plan_seconds = wall - r.outline_seconds;
   return r;
+}
+
+void add_colour_use(const SliceJob& job, const Layer& l,
+                    std::map<std::vector<double>, std::pair<double, double>>& use) {
+  for (const auto& p : l.paths) {
+    if (p.role == PathRole::Purge || p.mixture.empty()) continue;
+    const double len = p.length();
+    const double speed = p.speed > 0 ? p.speed : job.purge.speed;
+    auto& [length, time] = use[p.mixture];
+    length += len;
+    time += speed > 0 ? len / speed : 0;
+  }
 }
 
 std::string slice_report_json(const SliceJob& job, const SliceResult& r, const GcodeStats* g) {
@@ -715,20 +795,14 @@ std::string slice_report_json(const SliceJob& job, const SliceResult& r, const G
                 {"gradient_changes", g ? g->gradient_changes : 0},
                 {"lookahead_mm", g ? g->lookahead : 0.0},
                 {"fill", job.fgm.concentric ? "concentric" : "rectilinear"}};
-  if ((job.strategy == 1 || job.strategy == 2) && !r.toolpath.layers.empty()) {
+  if ((job.strategy == 1 || job.strategy == 2) &&
+      (r.streamed ? !r.colour_use.empty() : !r.toolpath.layers.empty())) {
     // §4.1: material and time per colour of the part itself (the tower's share follows). Volume
     // with the rectangular bead (bead width × layer height) the fills balance against and the
     // writer's E deposits; densities per material from the profile, as the tower's.
-    std::map<std::vector<double>, std::pair<double, double>> by_mixture;  // length, time
-    for (const auto& l : r.toolpath.layers)
-      for (const auto& p : l.paths) {
-        if (p.role == PathRole::Purge || p.mixture.empty()) continue;
-        const double len = p.length();
-        const double speed = p.speed > 0 ? p.speed : job.purge.speed;
-        auto& [length, time] = by_mixture[p.mixture];
-        length += len;
-        time += speed > 0 ? len / speed : 0;
-      }
+    std::map<std::vector<double>, std::pair<double, double>> by_mixture = r.colour_use;  // length, time
+    if (!r.streamed)
+      for (const auto& l : r.toolpath.layers) add_colour_use(job, l, by_mixture);
     const double h = job.planar.layer_height, w = job.planar.bead_width;
     const double bead_area = w * h;
     nlohmann::ordered_json colours = nlohmann::json::array();

@@ -107,3 +107,69 @@ TEST(GradedStream, ToolChangerStreamedIsWhole) {
     EXPECT_NE(w.whole.find("\nT1\n"), std::string::npos) << "tools change";
   }
 }
+
+namespace {
+
+// The job run with the whole toolpath kept and streamed (the command line writing G-code alone):
+// {whole, streamed} G-code, report and summary.
+struct Runs {
+  std::string gcode[2], report[2], summary[2];
+  bool held[2] = {false, false};
+};
+
+Runs whole_and_streamed(int strategy, const std::string& profile, const std::string& extra = {}) {
+  const fs::path dir = work("job_" + profile + "_" + std::to_string(strategy));
+  const std::string f = graded_job(dir, strategy, profile, extra);
+  Runs out;
+  for (const int k : {0, 1}) {
+    Job job = load_job(f, (dir / (k ? "stream" : "whole")).string(), {"output.png=false"});
+    job.keep_toolpath = k == 0;
+    Diagnostics diag;
+    const JobResult r = run_job(job, diag);
+    out.held[k] = static_cast<bool>(r.toolpath);
+    out.gcode[k] = read_file(job.output);
+    out.report[k] = job.report.empty() ? std::string() : read_file(job.report);
+    out.summary[k] = r.summary;
+  }
+  fs::remove_all(dir);
+  return out;
+}
+
+// The report without its timings (seconds differ run to run).
+std::string without_timings(const std::string& report) {
+  std::string s = report;
+  for (const char* key : {"\"outline_seconds\"", "\"plan_seconds\"", "\"seconds\""}) {
+    for (auto at = s.find(key); at != std::string::npos; at = s.find(key, at + 1)) {
+      const auto end = s.find_first_of(",}\n", at);
+      s.erase(at, end - at);
+    }
+  }
+  return s;
+}
+
+void expect_same_runs(const Runs& r, const std::string& what) {
+  EXPECT_TRUE(r.held[0]) << what;
+  EXPECT_FALSE(r.held[1]) << what << ": a streamed run holds no toolpath";
+  ASSERT_FALSE(r.gcode[0].empty()) << what;
+  EXPECT_TRUE(r.gcode[1] == r.gcode[0]) << what << ": the streamed G-code differs from the whole";
+  EXPECT_EQ(r.summary[1], r.summary[0]) << what;
+  EXPECT_EQ(without_timings(r.report[1]), without_timings(r.report[0])) << what;
+}
+
+}  // namespace
+
+// Strategy 2 on a mixing hotend slices layer by layer (stream_slice): the same G-code, summary
+// and report (gradient error, colour changes, per-colour table) as the whole run.
+TEST(GradedStream, Strategy2JobStreamsAsWhole) {
+  const Runs r = whole_and_streamed(2, "geeetech_mizar_m_mixing.toml");
+  expect_same_runs(r, "strategy 2 job");
+  EXPECT_NE(r.summary[1].find("look-ahead 960 mm"), std::string::npos) << r.summary[1];
+}
+
+// A prime tower (Strategy 1, tool changers) is sliced whole, then written layer by layer: the
+// same bytes.
+TEST(GradedStream, TowerJobsWrittenLayerByLayerAsWhole) {
+  expect_same_runs(whole_and_streamed(1, "geeetech_mizar_m_mixing.toml"), "strategy 1 job");
+  expect_same_runs(whole_and_streamed(2, "prusa_xl_5tools.toml", "\n[fgm]\ncolors = 5\n"),
+                   "tool changer job");
+}

@@ -194,6 +194,16 @@ void merge_short_pieces(std::vector<Path>& paths, std::vector<int>& colours, Eva
 void measure_gradient_error(const Field& field, const Toolpath& toolpath,
                             const std::vector<LayerOutline>& layers, double layer_height,
                             FgmStats& stats);
+// The same sums layer by layer (streamed slicing adds them in layer order, as the whole
+// measurement does): toolpath layer i at z is the part's layer round(z / h) - 1, read from
+// layers[that - first_layer].
+struct GradientErrorSum {
+  double sum = 0, max = 0;
+  std::size_t n = 0;
+};
+std::vector<GradientErrorSum> gradient_error_sums(const Field& field, const Toolpath& toolpath,
+                                                  const std::vector<LayerOutline>& layers,
+                                                  double layer_height, std::size_t first_layer = 0);
 
 // L of Appendix A.1: path length that extrudes `volume` at layer height h and bead width w.
 double purge_length(double volume, double layer_height, double bead_width);

@@ -2,6 +2,7 @@
 // `trellis slice`.
 #pragma once
 #include <functional>
+#include <map>
 #include <string>
 
 #include "trellis/geom/mesh_repair.hpp"
@@ -79,6 +80,9 @@ struct SliceResult {
   double outline_area = 0;  // mm², all layers
   TravelStats travel;
   ProcessStats process;  // fprocess designs
+  // Streamed graded slicing: printed length and time (mm, s) of the part's paths per mixture,
+  // summed in print order (the report's per-colour table).
+  std::map<std::vector<double>, std::pair<double, double>> colour_use;
 };
 
 // Planar and graded slicing in one call. `progress` (core/progress.hpp): stages "outlines"
@@ -90,7 +94,10 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress = {});
 // and planned by a oneTBB pipeline (a few runs of `chunk_layers` in flight, each planned with the
 // outlines its skins read around it) and handed to `sink` in order as each is done, never all
 // held. The layers are run_slice's, byte for byte; the result carries the statistics (no
-// outlines, no toolpath). Graded slicing (strategy 1 or 2) holds the whole print: SettingError.
+// outlines, no toolpath). Graded slicing: Strategy 2 on a mixing hotend streams the same way
+// (each layer planned from its own outline, the gradient error and the statistics summed in
+// layer order); Strategy 1 and tool changers (a prime tower placed from every layer) and designs
+// with process fields are sliced whole (run_slice) and then handed to `sink` layer by layer.
 using LayerSink = std::function<void(std::size_t index, Layer&& layer)>;
 struct SliceStreamOptions {
   std::size_t chunk_layers = 16;  // planes outlined together (a mesh is bucketed once per run)
