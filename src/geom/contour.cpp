@@ -375,12 +375,14 @@ double crossing_guess(double before, double fa, double fb, double after) {
   }
   const double b = fb - fa - c - d;
   // Newton steps from the straight line's root, kept only if they stay inside the edge.
-  // (Two steps reach the cubic's root to far below the refinement tolerance from there.)
+  // (Usually two or three steps; at most six.)
   double t = fa / (fa - fb);
-  for (int it = 0; it < 2; ++it) {
+  for (int it = 0; it < 6; ++it) {
     const double p = fa + t * (b + t * (c + t * d)), dp = b + t * (2 * c + 3 * t * d);
-    t -= p / dp;
+    const double step = p / dp;
+    t -= step;
     if (!(t > 0 && t < 1)) return -1;
+    if (std::abs(step) < 1e-9) break;
   }
   return t;
 }
