@@ -275,6 +275,10 @@ void sincos_batch(const double* x, double* sn, double* cs, std::size_t n) {
 
 // fast_sincos(x) through the memo: the same numbers.
 inline void memo_sincos(SinCosMemo& m, double x, double* sn, double* cs) {
+  if (!(std::abs(x) < 1e6)) {  // far arguments and NaN: not kept
+    fast_sincos(x, sn, cs);
+    return;
+  }
   std::uint64_t u;
   std::memcpy(&u, &x, sizeof u);
   SinCosMemo::Entry& e = m.slots[(u * 0x9E3779B97F4A7C15ull) >> (64 - SinCosMemo::kBits)];
@@ -368,16 +372,17 @@ struct TpmsNode : FieldNode {
     sweep(p, n, s, depth, [&](std::size_t i, double sx, double cx, double sy, double cy, double sz,
                               double cz) { out[i] = combine(sx, cx, sy, cy, sz, cz); });
   }
-  // Sines per column and per row (the same fast_sincos calls as the point path makes for these
+  // Sines per column and per row (the same fast_sincos values as the point path's for these
   // coordinates, so the same numbers), combined at every node.
   template <class Fn>
   void sweep_grid(const GridPlane& g, EvalState& s, std::size_t depth, Fn fn) const {
     std::vector<double>& b = s.value_buffer(depth + 1, 2 * (g.w + g.rows));
     double *sx = b.data(), *cx = sx + g.w, *sy = cx + g.w, *cy = sy + g.rows;
-    for (std::size_t i = 0; i < g.w; ++i) fast_sincos(k.x * g.xs[i], &sx[i], &cx[i]);
-    for (std::size_t j = 0; j < g.rows; ++j) fast_sincos(k.y * g.ys[j], &sy[j], &cy[j]);
+    // Neighbouring blocks share their columns and rows: through the memo.
+    for (std::size_t i = 0; i < g.w; ++i) memo_sincos(s.sincos, k.x * g.xs[i], &sx[i], &cx[i]);
+    for (std::size_t j = 0; j < g.rows; ++j) memo_sincos(s.sincos, k.y * g.ys[j], &sy[j], &cy[j]);
     double sz, cz;
-    fast_sincos(k.z * g.z, &sz, &cz);
+    memo_sincos(s.sincos, k.z * g.z, &sz, &cz);
     for (std::size_t j = 0; j < g.rows; ++j) {
       const double syj = sy[j], cyj = cy[j];
       for (std::size_t i = 0; i < g.w; ++i) fn(j * g.w + i, sx[i], cx[i], syj, cyj, sz, cz);

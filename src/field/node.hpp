@@ -46,9 +46,9 @@ struct GridPlane {
 // Sines and cosines of recent arguments (direct-mapped by the argument's bits): TPMS bounds ask
 // for the centres of grid blocks, whose coordinates repeat along a row and a column.
 struct SinCosMemo {
-  static constexpr int kBits = 11;
+  static constexpr int kBits = 12;
   struct Entry {
-    std::uint64_t key = ~std::uint64_t{0};  // the argument's bits (a NaN pattern: never a key)
+    std::uint64_t key = ~std::uint64_t{0};  // the argument's bits (this one is a NaN: never kept)
     double s = 0, c = 0;
   };
   std::vector<Entry> slots = std::vector<Entry>(std::size_t{1} << kBits);
