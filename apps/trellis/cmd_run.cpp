@@ -26,23 +26,16 @@ void add_run(CLI::App& app) {
   cmd->add_option("-o,--output-dir", o->out, "output folder (replaces [job] output_dir)");
   cmd->add_option("--set", o->sets, "override a setting of the job: section.key=value (repeatable)");
   cmd->add_option("--shard", o->shard,
-                  "K/N: compute shard K of N (layer ranges balanced by work; pbf, slice and its "
-                  "plates, nonplanar) "
+                  "K/N: compute shard K of N (layer ranges balanced by work; pbf, slice (planar "
+                  "and graded) and its plates, nonplanar, plan with euler or gippo) "
                   "and write OUTPUT.shard-K-of-N + its .json manifest for `trellis merge`");
   cmd->callback([o] {
     Job job = load_job(o->job, o->out, o->sets);
     if (!o->shard.empty()) {
       std::tie(job.shard, job.shards) = parse_shard(o->shard);
-      if (job.route == "plan")
-        throw SettingError(
-            job.settings.config().planner == "aero"
-                ? "the plan route does not shard with the aero planner: AERO orders the struts of "
-                  "the whole lattice at once, there are no independent layers (docs/plates.md)"
-                : "the plan route does not shard: each layer's paths are ordered from where the "
-                  "layer before ended, so a shard would plan every layer below it (docs/plates.md)",
-            {"", 0, "--shard"});
-      if (job.route != "pbf" && job.route != "slice" && job.route != "nonplanar")
-        throw SettingError("the " + job.route + " route does not shard (pbf, slice and nonplanar do)",
+      // The plan route says itself what of it shards (planner, plan.order, plan.layer_start).
+      if (job.route != "pbf" && job.route != "slice" && job.route != "nonplanar" && job.route != "plan")
+        throw SettingError("the " + job.route + " route does not shard (pbf, slice, nonplanar and plan do)",
                            {"", 0, "--shard"});
     }
     job.keep_toolpath = false;  // only the files are used here

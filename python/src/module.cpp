@@ -386,8 +386,9 @@ PYBIND11_MODULE(_trellis, m) {
                         const std::vector<std::string>& sets, const std::string& shard) {
     Job job = load_job(path, output_dir, sets);
     std::tie(job.shard, job.shards) = parse_shard(shard);
-    if (job.route != "pbf" && job.route != "slice")
-      throw SettingError("the " + job.route + " route does not shard (pbf and slice plates do)",
+    // The plan route says itself what of it shards (not aero; euler and gippo need G-code).
+    if (job.route != "pbf" && job.route != "slice" && job.route != "nonplanar" && job.route != "plan")
+      throw SettingError("the " + job.route + " route does not shard (pbf, slice, nonplanar and plan do)",
                          {"", 0, "shard"});
     Diagnostics diag;
     py::gil_scoped_release release;

@@ -41,6 +41,19 @@ def test_dask_shards_merge_to_the_single_run(client, tmp_path):
     assert len(client.scheduler_info()["workers"]) == 2
 
 
+def test_gippo_lattice_layers_shard_over_dask_to_the_single_run(client, tmp_path):
+    # The plan route: 28 GIPPO layers in travel order (the merge orders each layer from where
+    # the layer below ended).
+    job = os.path.join(ROOT, "examples", "concave_cylinder_honeycomb.toml")
+    sets = {"output.png": "false", "plan.order": "travel"}
+    single = [f for f in trellis.run_job(job, output_dir=tmp_path / "single", set=sets).files
+              if f.endswith(".gcode")][0]
+    merged = trellis.distributed.run(job, shards=3, client=client, output_dir=tmp_path / "dask",
+                                     set=sets)
+    assert merged == str(tmp_path / "dask" / "concave_cylinder.gcode")
+    assert read(merged) == read(single)
+
+
 def test_a_worker_killed_mid_job_still_gives_the_same_bytes(client, tmp_path):
     # Finer layers: shards long enough (~0.5 s each) to kill a worker while they run.
     sets = {"output.png": "false", "scan.layer": "0.02"}

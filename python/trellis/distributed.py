@@ -1,6 +1,7 @@
 """Exact sharding of a Trellis job over a Dask cluster (``trellis run --shard`` + ``trellis merge``).
 
-A job of the ``pbf`` or ``slice`` route (one part or a build plate of ``[[part]]`` tables) is cut
+A job of the ``pbf`` or ``slice`` route (one part or a build plate of ``[[part]]`` tables), of the
+``nonplanar`` route or of the ``plan`` route with the ``euler`` or ``gippo`` planner is cut
 into ``shards`` layer ranges balanced by estimated work; each range runs as one Dask task on any
 worker, writing its shard file and manifest into ``output_dir``; the client then merges them into
 exactly the bytes ``trellis run`` writes in one process::

@@ -272,7 +272,8 @@ std::vector<Layer> layers_from_shard_bytes(const std::string& bytes, const std::
 
 std::string write_shard(const Job& job, const std::vector<Layer>& layers, std::size_t first,
                         std::size_t total, const std::string& source,
-                        const std::vector<std::string>& part_labels) {
+                        const std::vector<std::string>& part_labels,
+                        const std::string& graded_json) {
   if (job.output.empty())
     throw SettingError("a shard needs the job's main output (its name names the shard files)",
                        {"", 0, "--shard"});
@@ -281,7 +282,7 @@ std::string write_shard(const Job& job, const std::vector<Layer>& layers, std::s
   const std::string bytes = shard_bytes(layers);
   nlohmann::ordered_json j;
   j["format"] = "trellis.shard";
-  j["version"] = 2;
+  j["version"] = graded_json.empty() ? 2 : 3;
   j["route"] = job.route;
   j["output"] = fs::path(job.output).filename().string();
   j["shard"] = job.shard;
@@ -293,6 +294,7 @@ std::string write_shard(const Job& job, const std::vector<Layer>& layers, std::s
   j["data_bytes"] = bytes.size();
   j["source"] = source;
   j["part_labels"] = part_labels;
+  if (!graded_json.empty()) j["graded"] = nlohmann::ordered_json::parse(graded_json);
   j["job"] = routes::embedded_job(job, manifest);
   write_file_atomic(data, bytes);
   write_file_atomic(manifest, j.dump(2) + "\n");
@@ -327,8 +329,14 @@ JobResult merge_shards(const std::vector<std::string>& manifests, const std::str
       first = j;
       first_path = path;
     } else {
-      for (const char* k : {"job", "route", "shards", "total_layers", "output", "source", "part_labels"})
-        if (j.value(k, nlohmann::json()) != first.value(k, nlohmann::json()))
+      // (A graded shard's outline planes are its own.)
+      auto common = [](const nlohmann::json& m, const char* k) {
+        nlohmann::json v = m.value(k, nlohmann::json());
+        if (v.is_object()) v.erase("outline_z");
+        return v;
+      };
+      for (const char* k : {"job", "route", "shards", "total_layers", "output", "source", "part_labels", "graded"})
+        if (common(j, k) != common(first, k))
           throw SettingError(fmt::format("{} is a shard of another job than {} (their '{}' differ): "
                                          "merge the shards of one run",
                                          path, first_path, k),
@@ -350,6 +358,7 @@ JobResult merge_shards(const std::vector<std::string>& manifests, const std::str
                        {first_path, 0, "shards"});
   Toolpath tp;
   std::size_t next = 0;
+  std::vector<double> outline_z;  // graded shards of a design with process fields
   for (auto& [k, s] : by_index) {
     if (s.j["first_layer"].get<std::size_t>() != next)
       throw SettingError(fmt::format("shard {} starts at layer {} but the shards before it end at "
@@ -368,6 +377,15 @@ JobResult merge_shards(const std::vector<std::string>& manifests, const std::str
       throw ParseError("layer count differs from its manifest", {data});
     next += layers.size();
     for (auto& l : layers) tp.layers.push_back(std::move(l));
+    if (s.j.contains("graded") && s.j["graded"].is_object() && s.j["graded"].contains("outline_z")) {
+      const auto& zs = s.j["graded"]["outline_z"];
+      if (!zs.is_array() || zs.size() != layers.size())
+        throw ParseError("graded shard manifest: outline_z is not one plane per layer", {s.path});
+      for (const auto& z : zs) {
+        if (!z.is_number()) throw ParseError("graded shard manifest: outline_z holds a non-number", {s.path});
+        outline_z.push_back(z.get<double>());
+      }
+    }
   }
   if (next != first["total_layers"].get<std::size_t>())
     throw SettingError(fmt::format("the shards hold {} layers, the job has {}", next,
@@ -385,8 +403,14 @@ JobResult merge_shards(const std::vector<std::string>& manifests, const std::str
   const fs::path dir = fs::path(output).parent_path();
   if (!dir.empty()) create_output_directories(dir.string());
   if (job.route == "pbf") routes::write_pbf_main(job, c, tp, out);
+  else if (job.route == "slice" && first.contains("graded"))
+    routes::write_graded_merge(job, c, tp, first["graded"].dump(), outline_z, next, out, diag);
   else if (job.route == "slice") routes::write_slice_main(job, c, tp, out, diag);
   else if (job.route == "nonplanar") routes::write_nonplanar_main(job, c, tp, out, diag);
+  else if (job.route == "plan") {
+    job.gcode = output;
+    routes::merge_plan_main(job, c, tp, out, diag);
+  }
   else throw SettingError("the " + job.route + " route does not shard", {first_path, 0, "route"});
   batch.commit();
   out.summary = fmt::format("{} shards, {} layers", n, next);

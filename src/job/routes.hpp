@@ -27,8 +27,22 @@ JobResult surface(const Job& job, const Config& c, Diagnostics& diag, const Prog
 void write_pbf_main(const Job& job, const Config& c, Toolpath& tp, JobResult& out);
 void write_slice_main(const Job& job, const Config& c, Toolpath& tp, JobResult& out,
                       Diagnostics& diag, GcodeStats* stats = nullptr);
+// The merge of graded slicing shards (their layers before the whole-print step; `graded`: the
+// manifests' "graded" object; `outline_z`: the shards' outline planes in order, when the design
+// has process fields): the whole-print step (slice/pipeline.hpp finish_graded: prime tower, tool
+// mixtures; the process pass) on all layers in order, then write_slice_main.
+void write_graded_merge(const Job& job, const Config& c, Toolpath& tp, const std::string& graded,
+                        const std::vector<double>& outline_z, std::size_t total_layers,
+                        JobResult& out, Diagnostics& diag);
 GcodeStats write_nonplanar_main(const Job& job, const Config& c, Toolpath& tp, JobResult& out,
                                 Diagnostics& diag);
+
+// The plan route's G-code (euler, gippo) from its whole toolpath, for the single run and merge.
+void write_plan_main(const Job& job, const Config& c, const Toolpath& tp, JobResult& out,
+                     Diagnostics& diag, GcodeStats* stats = nullptr);
+// `trellis merge` of plan shards: what they left to the merge (a travel order starts where the
+// layer below ended; then the surface, onto.*), then write_plan_main.
+void merge_plan_main(const Job& job, const Config& c, Toolpath& tp, JobResult& out, Diagnostics& diag);
 
 // The job as it is embedded into a file at `path` (paths relative to its folder).
 std::string embedded_job(const Job& job, const std::string& path);

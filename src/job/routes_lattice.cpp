@@ -4,8 +4,10 @@
 
 #include <algorithm>
 #include <chrono>
+#include <climits>
 #include <cmath>
 #include <filesystem>
+#include <tuple>
 
 #include "routes.hpp"
 #include "trellis/analysis/collisions.hpp"
@@ -13,6 +15,7 @@
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/geom/mesh_io.hpp"
+#include "trellis/job/plate.hpp"
 #include "trellis/lattice/io.hpp"
 #include "trellis/machine/gcode_writer.hpp"
 #include "trellis/plan/report.hpp"
@@ -70,7 +73,11 @@ HeightField onto_surface(const OntoConfig& o) {
 }
 
 // GIPPO parts: layer i at z = i·h, rotated by i·rotation, cropped to the solid's section.
-Graph layered_lattice(AtlasParams base, const Config& c) {
+// Only layers [from, to) are made (a shard's); `sections` (when given) gets every layer's
+// section area of the solid (1 without a solid, 0 where the layer misses it: no layer there)
+// and `edges` each made layer's strut count, both over all layers.
+Graph layered_lattice(AtlasParams base, const Config& c, int from = 0, int to = INT_MAX,
+                      std::vector<double>* sections = nullptr, std::vector<std::size_t>* edges = nullptr) {
   Graph all;
   TriangleMesh solid;
   BBox3 box;
@@ -87,18 +94,23 @@ Graph layered_lattice(AtlasParams base, const Config& c) {
     if (count < 1) throw GeometryError("solid '" + c.layers.solid + "' is thinner than one layer");
   }
   if (count < 1) throw SettingError("layers.count must be >= 1 without layers.solid", {"", 0, "layers.count"});
+  if (sections) sections->assign(static_cast<std::size_t>(count), 1.0);
+  if (edges) edges->assign(static_cast<std::size_t>(count), 0);
   for (int i = 0; i < count; ++i) {
     AtlasParams a = base;
     a.rotation_deg += i * c.layers.rotation_deg;
     a.z = a.z + i * h;
     if (!c.layers.solid.empty()) {
       a.crop = slice_mesh(solid, trellis::solid_section_z(box, i, h));
+      if (sections) (*sections)[static_cast<std::size_t>(i)] = a.crop.empty() ? 0.0 : std::max(area(a.crop), 1e-9);
       if (a.crop.empty()) continue;
       a.region.shape = RegionShape::Circle;
       a.region.center = {(box.min.x + box.max.x) / 2, (box.min.y + box.max.y) / 2};
       a.region.diameter = std::hypot(box.max.x - box.min.x, box.max.y - box.min.y) + 2 * a.cell_size;
     }
+    if (i < from || i >= to) continue;
     const Graph layer = make_lattice2d(a);
+    if (edges) (*edges)[static_cast<std::size_t>(i)] = layer.edges.size();
     const auto offset = static_cast<NodeId>(all.nodes.size());
     all.nodes.insert(all.nodes.end(), layer.nodes.begin(), layer.nodes.end());
     for (Edge e : layer.edges) {
@@ -195,7 +207,48 @@ JobResult plan_aero_route(const Job& job, const Config& c, const Graph& g, const
   return out;
 }
 
+// `--shard` on the plan route, before any work: what does not shard is refused (exit 2), saying
+// why and what does (docs/plates.md).
+void check_plan_shard(const Job& job, const Config& c) {
+  if (c.planner == "aero")
+    throw SettingError(
+        "the plan route does not shard with the aero planner: AERO plans the whole 3D lattice as "
+        "one problem (which struts obstruct which under the nozzle, between separate pieces of the "
+        "lattice too; the order breaking obstruction cycles with the fewest collisions; the best "
+        "of several planner runs by collisions, trails and travel over the whole lattice), so "
+        "neither its layers nor its connected parts plan alone (docs/plates.md)",
+        {"", 0, "--shard"});
+  if (job.gcode.empty())
+    throw SettingError("a shard of the plan route holds layers of its G-code: the job needs a machine "
+                       "(job.machine) and output.gcode = true",
+                       {"", 0, "--shard"});
+}
+
 }  // namespace
+
+void write_plan_main(const Job& job, const Config& c, const Toolpath& tp, JobResult& out,
+                     Diagnostics& diag, GcodeStats* stats) {
+  if (job.gcode.empty()) return;
+  if (c.onto.kind.empty()) note_planar_in_bath(c.machine, "plan " + c.planner, diag);
+  const GcodeStats gs = write_gcode_out(job.gcode, tp, job, c.machine, out, diag);
+  if (stats) *stats = gs;
+}
+
+void merge_plan_main(const Job& job, const Config& c, Toolpath& tp, JobResult& out, Diagnostics& diag) {
+  PlanParams p = c.plan;
+  p.layer_height = c.machine.layer_height;
+  if (layers_carry_start(p)) {
+    // The travel order the shards left to the merge (plan_lattice's defer_order), then the
+    // surface, as the single run does after planning.
+    order_deferred_layers(tp, p);
+    if (!c.onto.kind.empty()) {
+      const std::string source = tp.source;
+      tp = project_onto_surface(tp, onto_surface(c.onto), c.onto.project);
+      tp.source = source;
+    }
+  }
+  write_plan_main(job, c, tp, out, diag);
+}
 
 JobResult lattice2d(const Job& job, const Config& c, Diagnostics&, const Progress&) {
   JobResult out;
@@ -262,8 +315,14 @@ JobResult lattice3d(const Job& job, const Config& c, Diagnostics& diag, const Pr
 JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
   const auto t0 = std::chrono::steady_clock::now();
   JobResult out;
+  if (job.shards) check_plan_shard(job, c);
   Graph g;
   std::string input = job.input;
+  // A shard of a made lattice (below): the layers that print (indices into layers.count), the
+  // shard's range of them and the lattice's z; `made` empty otherwise.
+  std::vector<int> made;
+  std::size_t made_first = 0, made_end = 0;
+  double made_z0 = 0;
   HeightField surface;
   if (!c.onto.kind.empty()) surface = onto_surface(c.onto);
   if (!job.input.empty()) {
@@ -289,10 +348,36 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
       check_budget(estimate_gippo(static_cast<std::size_t>(lattice.bytes / 1e4),
                                   c.plan.gippo.iterations, c.gippo_seeds),
                    budget_of(job, c));
-    g = layered_lattice(a, c);
+    if (job.shards && c.planner != "aero" && c.plan.order != PathOrder::Travel) {
+      // A shard of a made lattice makes only its own layers: which layers print comes from the
+      // solid's sections alone (cheap), the work per layer from their areas. Every layer with
+      // a section must hold struts for that count to be the plan's; each shard checks its own.
+      std::vector<double> sections;
+      layered_lattice(a, c, 0, 0, &sections);
+      std::vector<double> work;
+      for (std::size_t i = 0; i < sections.size(); ++i)
+        if (sections[i] > 0) made.push_back(static_cast<int>(i)), work.push_back(sections[i]);
+      if (made.empty()) throw GeometryError("the lattice has no edges to plan");
+      std::tie(made_first, made_end) = shard_range(work, job.shard, job.shards);
+      std::vector<std::size_t> edges;
+      if (made_first < made_end)
+        g = layered_lattice(a, c, made[made_first], made[made_end - 1] + 1, nullptr, &edges);
+      for (std::size_t k = made_first; k < made_end; ++k)
+        if (edges[static_cast<std::size_t>(made[k])] == 0)
+          throw GeometryError(
+              fmt::format("layer {} (z = {} mm) has a section of the solid but no struts of the {} "
+                          "pattern in it, so a shard cannot count the plan's layers without making "
+                          "them all: this job does not shard by layer (run it whole, or set "
+                          "lattice2d.contour = true so every section prints)",
+                          made[k], a.z + made[k] * c.machine.layer_height, to_string(a.pattern)),
+              {c.layers.solid, 0, "layers.solid"});
+      made_z0 = a.z;
+    } else {
+      g = layered_lattice(a, c);
+    }
     input = "atlas:" + to_string(a.pattern);
   }
-  if (!job.lattice.empty()) {
+  if (!job.lattice.empty() && !job.shards) {
     write_lattice(job.lattice, g);
     out.files.push_back(job.lattice);
   }
@@ -309,7 +394,55 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
   PlanParams p = c.plan;
   p.planner = planner_from_string(c.planner);
   p.layer_height = c.machine.layer_height;
-  PlanResult r = plan_lattice(g, p, diag, progress);
+  // A shard (`--shard K/N`) plans the toolpath layers [a, b), balanced by their edges; the other
+  // layers stay empty at their z (the surface projection offsets layer k by its index).
+  std::size_t first = 0, end = 0, total = 0;
+  if (!made.empty()) {
+    // Only the shard's layers were made: planned whole, then put at their places.
+    total = made.size(), first = made_first, end = made_end;
+  } else if (job.shards) {
+    const std::vector<double> work = plan_layer_work(g, p);
+    total = work.size();
+    std::tie(first, end) = shard_range(work, job.shard, job.shards);
+    p.first_layer = first, p.end_layer = end;
+    p.keep_worst = false;
+    // The travel order starts where the layer below ended: the merge orders (and lays on the
+    // surface) what the shards planned.
+    p.defer_order = layers_carry_start(p);
+  }
+  PlanResult r;
+  if (made.empty() || first < end) r = plan_lattice(g, p, diag, progress);
+  if (!made.empty()) {
+    if (r.toolpath.layers.size() != end - first)
+      throw Error(fmt::format("the shard's lattice has {} layers, it should have {}",
+                              r.toolpath.layers.size(), end - first));
+    // The layers below at their z (layer z = the lattice's z + the layer height, as planned), so
+    // the surface projection offsets each layer as in the whole plan.
+    std::vector<Layer> placed(first);
+    for (std::size_t k = 0; k < first; ++k)
+      placed[k].z = (made_z0 + made[k] * c.machine.layer_height) + p.layer_height;
+    placed.insert(placed.end(), r.toolpath.layers.begin(), r.toolpath.layers.end());
+    placed.resize(total);
+    r.toolpath.layers = std::move(placed);
+  }
+  if (job.shards) {
+    if (!c.onto.kind.empty() && !p.defer_order)
+      r.toolpath = project_onto_surface(r.toolpath, surface, c.onto.project);
+    r.toolpath.source = "trellis " + c.planner + " " + fs::path(input).filename().string();
+    if (r.toolpath.layers.size() != total)
+      throw Error(fmt::format("the plan has {} layers, its levels {}", r.toolpath.layers.size(), total));
+    std::vector<Layer> mine(r.toolpath.layers.begin() + static_cast<std::ptrdiff_t>(first),
+                            r.toolpath.layers.begin() + static_cast<std::ptrdiff_t>(end));
+    std::size_t paths = 0;
+    for (const auto& l : mine) paths += l.paths.size();
+    Job named = job;
+    named.output = job.gcode;  // the shard files are named after the G-code they make
+    out.files.push_back(write_shard(named, mine, first, total, r.toolpath.source, {}));
+    out.files.insert(out.files.begin(), out.files.back().substr(0, out.files.back().size() - 5));
+    out.summary = fmt::format("shard {} of {}: layers {}..{} of {}, {} paths", job.shard, job.shards,
+                              first, end, total, paths);
+    return out;
+  }
   p.gippo.progress = progress;  // the robustness runs below call plan_gippo directly
   std::string robustness;
   if (c.gippo_seeds > 0 && p.planner == Planner::Gippo) {
@@ -330,10 +463,7 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
   out.lattice = std::make_shared<Graph>(g);
   const double secs = seconds_since(t0);
   GcodeStats gs;
-  if (!job.gcode.empty()) {
-    if (c.onto.kind.empty()) note_planar_in_bath(c.machine, "plan " + c.planner, diag);
-    gs = write_gcode_out(job.gcode, r.toolpath, job, c.machine, out, diag);
-  }
+  write_plan_main(job, c, r.toolpath, out, diag, &gs);
   if (!job.toolpath.empty()) {
     write_toolpath_with_job(job.toolpath, r.toolpath, job);
     out.files.push_back(job.toolpath);

@@ -59,8 +59,10 @@ Field tpms_spec(const std::string& spec, double* weight, const char* key) {
 // A shard's ending (`--shard K/N`): its layers and manifest written, the data file listed first
 // (the manifest's name without ".json"), and a summary of what it holds.
 JobResult shard_written(const Job& job, const Toolpath& tp, std::size_t first, std::size_t end,
-                        std::size_t total, const std::string& holds, JobResult out) {
-  out.files.push_back(write_shard(job, tp.layers, first, total, tp.source, tp.part_labels));
+                        std::size_t total, const std::string& holds, JobResult out,
+                        const std::string& graded_json = {}) {
+  out.files.push_back(
+      write_shard(job, tp.layers, first, total, tp.source, tp.part_labels, graded_json));
   out.files.insert(out.files.begin(), out.files.back().substr(0, out.files.back().size() - 5));
   out.summary = fmt::format("shard {} of {}: layers {}..{} of {}, {}", job.shard, job.shards, first,
                             end, total, holds);
@@ -241,6 +243,29 @@ SliceJob slice_job_of(const Job& job, const Config& c, const std::string& input)
   return sj;
 }
 
+void warn_palette(const std::string& input, int used, int total, Diagnostics& diag) {
+  if (used < total)
+    diag.warn("palette_partly_used",
+              fmt::format("{}: only {} of the {} palette colours are printed: the design's "
+                          "fractions span part of 0..1 (each band stays 1/{} wide; the paper's "
+                          "palettes span the whole range)",
+                          input, used, total, total));
+}
+
+// (A shard: its layers' short pieces.)
+void warn_short_segments(const std::string& input, const FgmStats& st, Diagnostics& diag) {
+  if (st.short_kept > 0)
+    diag.warn("short_segments_kept",
+              fmt::format("{}: {} pieces under --min-segment {} mm are printed ({} merged into a "
+                          "neighbour): {} merges refused because merging would exceed the "
+                          "gradient bound {} = {}, the other short pieces touch no piece of "
+                          "another colour end to end; use more colours or a smaller "
+                          "--min-segment",
+                          input, st.short_kept, fixed(st.min_segment, 2), st.short_merged,
+                          st.short_kept_bound, st.materials == 3 ? "2α/3" : "α/2",
+                          fixed(st.error_bound, 4)));
+}
+
 // A part of a plate sliced: its job, extent and printed layers.
 struct SlicePart {
   SliceJob sj;
@@ -371,6 +396,61 @@ JobResult slice_plate_streamed(const Job& job, const Config& c, std::vector<Slic
   return out;
 }
 
+// A shard of one part (planar or graded slicing): the design opened once, its printed layers
+// found plane by plane, the shard's range of them (balanced by work as a plate's) sliced with
+// the layers its skins read and planned; a graded part's layers before the whole-print step
+// (slice/pipeline.hpp finish_graded, the merge's), the manifest saying so.
+JobResult slice_part_shard(const Job& job, const Config& c, Diagnostics& diag,
+                           const Progress& progress) {
+  JobResult out;
+  if (job.input.empty()) throw SettingError("slice needs a design (.vcad) or mesh to read", {job.origin, 0, "job.input"});
+  const double h = c.machine.layer_height;
+  SliceJob sj = slice_job_of(job, c, job.input);
+  std::size_t a = 0, b = 0, total = 0;
+  sj.range_of = [&](const BBox3& e, std::size_t layers) {
+    // As a plate's: layer i's work is the part's XY area.
+    total = layers;
+    const std::vector<double> work(layers, 0.0 + (e.max.x - e.min.x) * (e.max.y - e.min.y));
+    std::tie(a, b) = shard_range(work, job.shard, job.shards);
+    return std::pair<std::size_t, std::size_t>{a, b};
+  };
+  SliceResult r = run_slice(sj, progress);
+  for (const auto& [kind, message] : process_warnings(r.process, sj.process)) diag.warn(kind, message);
+  warn_repaired(sj, r, diag);
+  const bool graded = sj.strategy != 0;
+  if (graded) warn_short_segments(sj.input, r.fgm, diag);
+  Toolpath tp;
+  tp.source = "trellis slice " + fs::path(sj.input).filename().string() + " (" +
+              to_string(r.route) + " route)";
+  tp.layers.resize(b - a);
+  for (std::size_t i = a; i < b; ++i) tp.layers[i - a].z = static_cast<double>(i + 1) * h;
+  std::size_t paths = 0;
+  for (Layer& layer : r.toolpath.layers) {
+    // The part's layer from its z (graded slicing leaves out layers without paths).
+    const auto i = static_cast<std::size_t>(std::llround(layer.z / h)) - 1;
+    if (i < a || i >= b) continue;
+    paths += layer.paths.size();
+    for (Path& path : layer.paths) tp.layers[i - a].paths.push_back(std::move(path));
+  }
+  std::string graded_json;
+  if (graded) {
+    // The same in every shard of the job: the strategy, the design's materials, whether its
+    // process fields need the merge's pass; and this shard's outline planes (that pass samples
+    // the design at them).
+    nlohmann::ordered_json gj{{"strategy", sj.strategy},
+                              {"materials", r.fgm.materials},
+                              {"process", r.process_fields}};
+    if (r.process_fields) {
+      std::vector<double> zs;
+      for (std::size_t i = a; i < b; ++i) zs.push_back(r.outlines.at(i - r.outline_first).z);
+      gj["outline_z"] = zs;
+    }
+    graded_json = gj.dump();
+  }
+  return shard_written(job, tp, a, b, total, fmt::format("{} paths", paths), std::move(out),
+                       graded_json);
+}
+
 // A build plate of sliced parts, or a shard of one (job/plate.hpp): each part sliced with its own
 // settings, placed (its x, y are bed coordinates) and dropped on the bed; plate layer i holds
 // layer i of every part that tall, parts in the order of the job file. A shard slices the parts
@@ -397,9 +477,10 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag, const 
                          {job.origin, pp.line, "extrusion.layer_height"});
     SlicePart p;
     p.sj = slice_job_of(job, pc, input);
-    if (p.sj.strategy != 0)
-      throw SettingError("graded slicing (slice.strategy 1 or 2) does not go on plates or "
-                         "shards: its look-ahead and purge tower cross layers",
+    if (p.sj.strategy != 0 && plate)
+      throw SettingError("graded slicing (slice.strategy 1 or 2) does not go on plates: its "
+                         "purge tower and look-ahead would cross parts (one graded part shards: "
+                         "docs/plates.md)",
                          {job.origin, pp.line, "slice.strategy"});
     SliceJob probe = p.sj;
     probe.layer_begin = probe.layer_end = 0;
@@ -494,6 +575,7 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag, const 
 }  // namespace
 
 JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
+  if (job.parts.empty() && job.shards) return slice_part_shard(job, c, diag, progress);
   if (!job.parts.empty() || job.shards) return slice_plate(job, c, diag, progress);
   JobResult out;
   if (job.input.empty()) throw SettingError("slice needs a design (.vcad) or mesh to read", {"", 0, "job.input"});
@@ -509,23 +591,10 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
   if (r.repaired)
     diag.warn("mesh_repaired", fs::path(job.input).filename().string() +
                                    " was not closed and manifold; repaired: " + r.repair.summary());
-  if (sj.strategy != 0 && r.fgm.colours_used < r.fgm.colours_total)
-    diag.warn("palette_partly_used",
-              fmt::format("{}: only {} of the {} palette colours are printed: the design's "
-                          "fractions span part of 0..1 (each band stays 1/{} wide; the paper's "
-                          "palettes span the whole range)",
-                          job.input, r.fgm.colours_used, r.fgm.colours_total,
-                          r.fgm.colours_total));
-  if (sj.strategy != 0 && r.fgm.short_kept > 0)
-    diag.warn("short_segments_kept",
-              fmt::format("{}: {} pieces under --min-segment {} mm are printed ({} merged into a "
-                          "neighbour): {} merges refused because merging would exceed the "
-                          "gradient bound {} = {}, the other short pieces touch no piece of "
-                          "another colour end to end; use more colours or a smaller "
-                          "--min-segment",
-                          job.input, r.fgm.short_kept, fixed(r.fgm.min_segment, 2),
-                          r.fgm.short_merged, r.fgm.short_kept_bound,
-                          r.fgm.materials == 3 ? "2α/3" : "α/2", fixed(r.fgm.error_bound, 4)));
+  if (sj.strategy != 0) {
+    warn_palette(job.input, r.fgm.colours_used, r.fgm.colours_total, diag);
+    warn_short_segments(job.input, r.fgm, diag);
+  }
   for (const auto& [kind, message] : process_warnings(r.process, sj.process))
     diag.warn(kind, message);
   // The file name only: outputs must not depend on where the command ran.
@@ -776,6 +845,56 @@ void write_slice_main(const Job& job, const Config& c, Toolpath& tp, JobResult& 
   if (!tp.part_labels.empty()) m.center = false;
   const GcodeStats g = write_gcode_out(job.output, tp, job, m, out, diag);
   if (stats) *stats = g;
+}
+
+void write_graded_merge(const Job& job, const Config& c, Toolpath& tp, const std::string& graded,
+                        const std::vector<double>& outline_z, std::size_t total_layers,
+                        JobResult& out, Diagnostics& diag) {
+  const nlohmann::json g = nlohmann::json::parse(graded);
+  const SliceJob sj = slice_job_of(job, c, job.input);
+  if (!g.contains("strategy") || !g["strategy"].is_number_integer() || !g.contains("materials") ||
+      !g["materials"].is_number_integer() || g["strategy"].get<int>() != sj.strategy)
+    throw SettingError("the shards' manifests say graded slicing, their job does not agree "
+                       "(slice.strategy): merge the shards of one run",
+                       {job.origin, 0, "slice.strategy"});
+  const FgmOptions fo = graded_options(sj, g["materials"].get<int>());
+  // Mixtures as a shard plans them: one share per material, each in 0..1.
+  for (std::size_t i = 0; i < tp.layers.size(); ++i)
+    for (const Path& p : tp.layers[i].paths)
+      if (!p.mixture.empty() &&
+          (p.mixture.size() != static_cast<std::size_t>(fo.palette.materials) ||
+           std::any_of(p.mixture.begin(), p.mixture.end(), [](double v) { return !(v >= 0 && v <= 1); })))
+        throw ParseError(fmt::format("graded shard layer {}: a path's mixture is not {} shares in "
+                                     "0..1; the shard files do not belong to this job",
+                                     i, fo.palette.materials),
+                         {job.origin});
+  // The whole run has no layer without paths (a shard keeps its empty layers for the count).
+  std::erase_if(tp.layers, [](const Layer& l) { return l.paths.empty(); });
+  warn_palette(job.input, graded_colours_used(tp), fo.palette.colors, diag);
+  FgmStats st;
+  finish_graded(sj, fo, tp, st);
+  if (g.value("process", false)) {
+    // The process pass of the single run (slice/fgm_process.hpp), over every path, the tower's
+    // too, the design sampled at the outlines' planes.
+    if (outline_z.size() != total_layers)
+      throw SettingError(fmt::format("the shards carry {} outline planes for {} layers", outline_z.size(),
+                                     total_layers),
+                         {job.origin, 0, "outline_z"});
+    VcadOptions vo;
+    vo.mesh_voxel = sj.mesh_voxel;
+    const Field field = read_vcad(job.input, vo).field;
+    if (!field.has_process())
+      throw SettingError("the shards say the design has process fields, " + job.input +
+                             " has none: merge the shards of one run",
+                         {job.input, 0, "fprocess"});
+    SliceResult r;
+    r.toolpath = std::move(tp);
+    for (double z : outline_z) r.outlines.push_back({z, {}});
+    apply_slice_process(sj, field, r);
+    for (const auto& [kind, message] : process_warnings(r.process, sj.process)) diag.warn(kind, message);
+    tp = std::move(r.toolpath);
+  }
+  write_slice_main(job, c, tp, out, diag);
 }
 
 GcodeStats write_nonplanar_main(const Job& job, const Config& c, Toolpath& tp, JobResult& out,

@@ -79,9 +79,11 @@ char* put_feed(char* p, double mm_per_s) {
 class Writer {
  public:
   // `stream`: the layers come from it (tp gives the source, job and labels only; no mixtures).
+  // `box`: the points' extent when the caller has it (a whole toolpath: one pass over the points
+  // fewer; about 2 % of writing), else the writer finds it.
   Writer(const MachineProfile& p, const Toolpath& tp, double lift,
          const std::vector<GcodeThumbnail>& thumbs, const LayerSource* stream = nullptr,
-         std::size_t stream_layers = 0)
+         std::size_t stream_layers = 0, const BBox3* box = nullptr, std::size_t points = 0)
       : p_(p),
         tp_(tp),
         thumbnails_(thumbs),
@@ -93,16 +95,18 @@ class Writer {
     down_flow_ = p.down_flow_table();
     e_axis_ = flavor_ == Flavor::Marlin || (flavor_ == Flavor::Embedded && p.embedded_drive == "syringe");
     standby_ = p.standby_temperature;
-    placement();
+    points_ = points;
+    placement(box);
   }
 
   // Writes into `buffer`'s memory (its text cleared), which it returns.
   std::string run(GcodeStats& stats, std::string buffer = {}) {
     out_ = std::move(buffer);
     out_.clear();
-    std::size_t points = 0;
-    for (const auto& l : tp_.layers)
-      for (const auto& path : l.paths) points += path.points.size();
+    std::size_t points = points_;
+    if (points == 0)
+      for (const auto& l : tp_.layers)
+        for (const auto& path : l.paths) points += path.points.size();
     out_.reserve(points * 40 + 8192);
     fastnum::advise_huge_pages(out_);
     plan_changes();
@@ -208,13 +212,17 @@ class Writer {
     }
   }
 
-  void placement() {
+  void placement(const BBox3* known) {
     BBox3 box;
-    layers_([&](std::size_t, const Layer& l) {
-      for (const auto& path : l.paths)
-        for (const auto& q : path.points) box.add(q);
-      if (streamed_) plan_tools_streamed(l);  // the same pass
-    });
+    if (known && !streamed_) {
+      box = *known;
+    } else {
+      layers_([&](std::size_t, const Layer& l) {
+        for (const auto& path : l.paths)
+          for (const auto& q : path.points) box.add(q);
+        if (streamed_) plan_tools_streamed(l);  // the same pass
+      });
+    }
     const Vec2 shift = placement_offset(box, p_);
     dx_ = shift.x;
     dy_ = shift.y;
@@ -906,6 +914,7 @@ class Writer {
   LayerSource layers_;  // tp_'s layers, or the streamed ones
   std::size_t layer_count_ = 0;
   bool streamed_ = false;
+  std::size_t points_ = 0;  // points of the whole toolpath, when the caller counted them
   bool tower_ = false;        // streamed: a prime tower is printed
   int sequence_part_ = 0;     // plates: the part printed last
   double finished_top_ = 0;   // plates: highest point printed so far
@@ -981,8 +990,17 @@ void write_gcode_into(std::string& out, const Toolpath& toolpath, const MachineP
                       GcodeStats* stats, const std::vector<GcodeThumbnail>& thumbnails) {
   if (toolpath.path_count() == 0) throw GeometryError("the toolpath has no paths to write");
   GcodeStats s;
+  // The extent and the point count in one pass, shared by the lift, the machine check, the
+  // placement and the buffer's size.
+  BBox3 box;
+  std::size_t points = 0;
+  for (const auto& l : toolpath.layers)
+    for (const auto& path : l.paths) {
+      points += path.points.size();
+      for (const auto& q : path.points) box.add(q);
+    }
   // Below the bed: lifted onto it (placement.lift), a copy only then.
-  const double lift = placement_lift(toolpath, profile);
+  const double lift = placement_lift(box, profile);
   Toolpath lifted;
   const Toolpath* tp = &toolpath;
   if (lift > 0) {
@@ -994,10 +1012,14 @@ void write_gcode_into(std::string& out, const Toolpath& toolpath, const MachineP
     }
     tp = &lifted;
     s.warnings.emplace_back("lifted", lift_warning(lift));
+    // z + lift is monotone in z, so the lifted extent is the extent lifted, exactly.
+    box.min.z += lift;
+    box.max.z += lift;
   }
-  for (auto& w : check_for_machine(*tp, profile)) s.warnings.emplace_back(w.kind, w.message);
+  for (auto& w : check_for_machine(layers_of(*tp), profile.center ? box : BBox3{}, profile))
+    s.warnings.emplace_back(w.kind, w.message);
   auto warnings = std::move(s.warnings);
-  out = Writer(profile, *tp, lift, thumbnails).run(s, std::move(out));
+  out = Writer(profile, *tp, lift, thumbnails, nullptr, 0, &box, points).run(s, std::move(out));
   warnings.insert(warnings.end(), s.warnings.begin(), s.warnings.end());  // the writer's own
   s.warnings = std::move(warnings);
   if (stats) *stats = s;

@@ -22,6 +22,7 @@ std::string to_string(Planner p) {
 namespace {
 
 struct Part {
+  std::size_t level = 0;  // the toolpath layer it goes into
   double z = 0;
   int material = 0;
   std::vector<EdgeId> edges;
@@ -53,6 +54,7 @@ std::vector<Part> split_parts(const Graph& g, double tol, Diagnostics& diag) {
     if (planar)
       level = std::lower_bound(levels.begin(), levels.end(), g.nodes[e.a].z - tol) - levels.begin();
     Part& p = parts[{level, e.material}];
+    p.level = level;
     p.z = levels[level];
     p.material = e.material;
     p.edges.push_back(i);
@@ -96,7 +98,7 @@ PathMetrics pooled(const std::vector<LayerReport>& layers, std::size_t long_node
 // The trails of one part as paths on the toolpath's layer at the part's z (the last layer when
 // it is at the same z).
 void append_layer(Toolpath& tp, const Graph& sub, const PathSet& set, const Part& part,
-                  const PlanParams& params) {
+                  const PlanParams& params, bool lift = true) {
   Layer* layer = nullptr;
   const double z = part.z + params.layer_height;
   if (!tp.layers.empty() && std::abs(tp.layers.back().z - z) <= params.level_tolerance)
@@ -111,7 +113,7 @@ void append_layer(Toolpath& tp, const Graph& sub, const PathSet& set, const Part
     p.points.reserve(t.nodes.size());
     for (NodeId n : t.nodes) {
       const Vec3 q = sub.nodes[n];
-      p.points.push_back({q.x, q.y, q.z + params.layer_height});
+      p.points.push_back({q.x, q.y, lift ? q.z + params.layer_height : q.z});
     }
     layer->paths.push_back(std::move(p));
   }
@@ -132,11 +134,22 @@ PlanResult plan_lattice(const Graph& g, const PlanParams& params, Diagnostics& d
   PlanResult result;
   result.toolpath.source = to_string(params.planner);
   std::vector<PathSet> sets;
+  // The only state that crosses layers: where the travel order starts (the last trail's end).
   Vec3 at = g.bbox().min;
   const auto parts = split_parts(g, params.level_tolerance, diag);
   for (std::size_t pi = 0; pi < parts.size(); ++pi) {
     progress.check("planning");
     const Part& part = parts[pi];
+    if (part.level < params.first_layer || part.level >= params.end_layer) {
+      // Not this shard's: the layer is kept, empty, at its z.
+      append_layer(result.toolpath, Graph{}, PathSet{}, part, params);
+      LayerReport skipped;
+      skipped.z = part.z;
+      skipped.material = part.material;
+      skipped.edges = part.edges.size();
+      result.layers.push_back(std::move(skipped));
+      continue;
+    }
     std::vector<NodeId> node_map;
     const Graph sub = subgraph(g, part.edges, node_map);
     LayerReport report;
@@ -166,6 +179,15 @@ PlanResult plan_lattice(const Graph& g, const PlanParams& params, Diagnostics& d
     report.metrics = path_metrics(sub, set, params.long_path_nodes);
     // Order in the sub-graph, starting where the previous part ended.
     Vec3 worst_at = at;
+    if (params.defer_order) {
+      // Layer 0 starts at the corner, known here; the others start at the layer below's end.
+      if (part.level == 0) order_paths(sub, set, params.order, at);
+      append_layer(result.toolpath, sub, set, part, params, false);
+      if (!set.trails.empty()) at = sub.nodes[set.trails.back().nodes.back()];
+      result.layers.push_back(std::move(report));
+      sets.push_back(std::move(set));
+      continue;
+    }
     order_paths(sub, set, params.order, at);
     append_layer(result.toolpath, sub, set, part, params);
     if (params.keep_worst && !worst.trails.empty()) {
@@ -179,6 +201,54 @@ PlanResult plan_lattice(const Graph& g, const PlanParams& params, Diagnostics& d
   result.total = pooled(result.layers, params.long_path_nodes, sets);
   result.travel = travel_stats(result.toolpath);
   return result;
+}
+
+void order_deferred_layers(Toolpath& tp, const PlanParams& params) {
+  Vec3 at{};
+  for (std::size_t li = 0; li < tp.layers.size(); ++li) {
+    auto& paths = tp.layers[li].paths;
+    // Each part's paths are a run of one tool (parts of a level are planned in material order).
+    for (std::size_t i = 0; i < paths.size();) {
+      std::size_t j = i;
+      while (j < paths.size() && paths[j].tool == paths[i].tool) ++j;
+      if (li > 0) {
+        // The part's trails as they came out of the planner, over their own points.
+        Graph pts;
+        PathSet set;
+        for (std::size_t k = i; k < j; ++k) {
+          Trail t;
+          for (const Vec3& q : paths[k].points) {
+            t.nodes.push_back(static_cast<NodeId>(pts.nodes.size()));
+            pts.nodes.push_back(q);
+          }
+          t.edges.assign(t.nodes.size() - 1, 0);
+          set.trails.push_back(std::move(t));
+        }
+        order_paths(pts, set, params.order, at);
+        for (std::size_t k = i; k < j; ++k) {
+          const Trail& t = set.trails[k - i];
+          std::vector<Vec3> points;
+          points.reserve(t.nodes.size());
+          for (NodeId n : t.nodes) points.push_back(pts.nodes[n]);
+          paths[k].points = std::move(points);
+        }
+      }
+      at = paths[j - 1].points.back();
+      i = j;
+    }
+    for (auto& p : paths)
+      for (auto& q : p.points) q.z += params.layer_height;
+  }
+}
+
+std::vector<double> plan_layer_work(const Graph& g, const PlanParams& params) {
+  Diagnostics quiet;  // plan_lattice gives the warnings
+  std::vector<double> work;
+  for (const Part& p : split_parts(g, params.level_tolerance, quiet)) {
+    if (work.size() <= p.level) work.resize(p.level + 1, 0.0);
+    work[p.level] += static_cast<double>(p.edges.size());
+  }
+  return work;
 }
 
 }  // namespace trellis

@@ -626,8 +626,9 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
     const LayerOutline& lo = layers[li];
     Planned& out = planned[li];
     Layer& layer = out.layer;
+    const std::size_t g = o.first_layer + li;  // the part's layer (a shard plans a range)
     // As the planar slicer: the nozzle at the top of layer i, counted from the bed.
-    layer.z = static_cast<double>(li + 1) * o.layer_height;
+    layer.z = static_cast<double>(g + 1) * o.layer_height;
     // Material iso-lines on their own grid (half a bead at the finest: a face narrower than
     // that cannot be printed); crossings are refined on the field.
     // Paths stay half a bead inside their face: its edges need not follow the iso-lines closer
@@ -636,8 +637,8 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
                              std::max(o.material_resolution, o.bead_width / 2), 1e-2);
     out.faces = faces.size();
     // Palette order, reversed every other layer so a layer starts where the last one ended.
-    if (li % 2 == 1) std::reverse(faces.begin(), faces.end());
-    const double fixed_angle = o.angle_deg + (li % 2 ? 90.0 : 0.0);
+    if (g % 2 == 1) std::reverse(faces.begin(), faces.end());
+    const double fixed_angle = o.angle_deg + (g % 2 ? 90.0 : 0.0);
     Vec2 cursor{0, 0};
     std::vector<std::vector<std::vector<Vec2>>> face_lines(faces.size());
     std::vector<Regions> inners(faces.size());
@@ -1061,8 +1062,11 @@ Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>&
   tbb::parallel_for(std::size_t{0}, planar.layers.size(), [&](std::size_t li) {
     Evaluator& ev = evaluators.local();
     const Layer& pl = planar.layers[li];
-    // The outline this layer was planned from: nozzle z = (i + 1) h.
-    const auto idx = static_cast<std::size_t>(std::llround(pl.z / o.layer_height)) - 1;
+    // The outline this layer was planned from: nozzle z = (g + 1) h for the part's layer g
+    // (a shard's outlines start at first_layer).
+    const auto g = static_cast<std::size_t>(std::llround(pl.z / o.layer_height)) - 1;
+    if (g < o.first_layer) return;
+    const std::size_t idx = g - o.first_layer;
     if (idx >= layers.size()) return;
     // Zones: a colour's band, or with zippering the overlap band around each colour boundary
     // (|f - k/N| < β/2), where pieces alternate between the two neighbouring colours.
@@ -1181,7 +1185,7 @@ Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>&
     }
     // Colour by colour in palette order (reversed every other layer), the planar order within.
     std::stable_sort(per[li].begin(), per[li].end(), [&](const Piece& a, const Piece& b) {
-      return li % 2 ? a.color > b.color : a.color < b.color;
+      return g % 2 ? a.color > b.color : a.color < b.color;
     });
     if (o.min_segment > 0) {
       // Pieces of one colour and role printed one after the other where one ends and the next

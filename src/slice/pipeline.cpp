@@ -262,14 +262,92 @@ std::pair<std::size_t, std::size_t> printed_planes(const SlicedDesign& d, const 
   return {first, last};
 }
 
+// A fraction that is not a number (GeometryError without a file): name the design.
+template <class Work>
+void naming_design(const SliceJob& job, Work&& work) {
+  try {
+    work();
+  } catch (const GeometryError& e) {
+    if (!e.where().file.empty()) throw;
+    throw GeometryError(e.message(), {job.input, 0, e.where().element});
+  }
+}
+
+void require_graded_design(const SliceJob& job, bool is_vcad, const Field& field) {
+  if (!is_vcad || field.materials().size() < 2)
+    throw GeometryError("--strategy " + std::to_string(job.strategy) +
+                            " needs a .vcad design with two or three materials (fgrade)",
+                        {job.input, 0, ""});
+  if (field.materials().size() > 3)
+    throw GeometryError("gradient slicing mixes two or three materials; the design has " +
+                            std::to_string(field.materials().size()),
+                        {job.input, 0, ""});
+}
+
 }  // namespace
+
+int graded_colours_used(const Toolpath& tp) {
+  std::set<std::vector<double>> used;
+  for (const auto& l : tp.layers)
+    for (const auto& p : l.paths)
+      if (p.role != PathRole::Purge && !p.mixture.empty()) used.insert(p.mixture);
+  return static_cast<int>(used.size());
+}
+
+FgmOptions graded_options(const SliceJob& job, int materials, int* quantized_from) {
+  FgmOptions fo = job.fgm;
+  fo.palette.materials = materials;
+  fo.palette.check();
+  if (quantized_from) *quantized_from = 0;
+  if (job.tools > 0) {
+    // A tool changer prints N fixed mixes (tool 0 = material A … the last = B): the palette's
+    // colours are those mixes, never more colours than tools unless quantising is asked for.
+    if (fo.palette.materials != 2)
+      throw GeometryError("a tool changer prints two-material gradients (one fixed mix per "
+                          "tool); the design has three materials",
+                          {job.input, 0, ""});
+    if (fo.palette.colors > job.tools) {
+      if (!job.quantize)
+        throw SettingError(std::to_string(fo.palette.colors) + " colours on " +
+                               std::to_string(job.tools) +
+                               " tools: each colour needs a tool (use --colors " +
+                               std::to_string(job.tools) +
+                               ", or gradient.quantize = true to print each colour with the "
+                               "nearest tool)",
+                           {"", 0, "fgm.colors"});
+      if (quantized_from) *quantized_from = fo.palette.colors;
+      fo.palette.colors = job.tools;
+    }
+    fo.palette.ends = fo.palette.colors > 1;
+  }
+  fo.layer_height = job.planar.layer_height;
+  fo.bead_width = job.planar.bead_width;
+  fo.resolution = job.field.resolution;
+  return fo;
+}
+
+void finish_graded(const SliceJob& job, const FgmOptions& fo, Toolpath& tp, FgmStats& st) {
+  // Strategy 1 purges into the tower; a tool changer primes each tool it changes to (Strategy 2
+  // on a mixing hotend runs the change ahead instead: gradient.lookahead, the writer's).
+  if (job.strategy == 1 || job.tools > 0)
+    naming_design(job, [&] { add_prime_tower(tp, fo, job.purge, st); });
+  if (job.tools > 1) {
+    // What a tool prints (the writer's nearest tool).
+    const double n = job.tools - 1;
+    auto tool_mix = [&](double a) { return 1 - std::round((1 - std::clamp(a, 0.0, 1.0)) * n) / n; };
+    for (auto& l : tp.layers)
+      for (auto& p : l.paths)
+        if (p.mixture.size() == 2) p.mixture = {tool_mix(p.mixture[0]), 1 - tool_mix(p.mixture[0])};
+  }
+}
 
 SliceResult run_slice(const SliceJob& job, const Progress& progress) {
   SliceResult r;
   const bool is_vcad = ends_with_ci(job.input, ".vcad");
   const auto t0 = std::chrono::steady_clock::now();
   const double h = job.planar.layer_height;
-  const bool ranged = job.layer_begin != 0 || job.layer_end != static_cast<std::size_t>(-1);
+  const bool ranged = job.layer_begin != 0 || job.layer_end != static_cast<std::size_t>(-1) ||
+                      static_cast<bool>(job.range_of);
   SlicedDesign d = open_design(job, r, progress, !ranged);
   const std::vector<double>& zs = d.zs;
   const Field& field = d.field;
@@ -277,35 +355,59 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
   // A range of the part's layers (a shard): the part's ends found plane by plane from the
   // bottom and the top, then only the range and the layers its skins look at are sliced.
   std::size_t range_lo = 0, range_a = 0, range_b = 0;
+  const bool graded = job.strategy == 1 || job.strategy == 2;
+  if (graded) require_graded_design(job, is_vcad, field);
   if (ranged) {
-    if (job.strategy != 0)
-      throw SettingError("graded slicing (strategy 1 or 2) does not shard: its look-ahead and "
-                         "purge tower cross layers",
-                         {job.input, 0, "slice.strategy"});
     auto outlines_of = [&](const std::vector<double>& planes) {
       return outlines_at(d, job, r, planes, &r.field_stats, progress);
     };
     const auto [first, last] = printed_planes(d, job, r, progress);
     const std::size_t n = last - first;
-    range_a = std::min(job.layer_begin, n);
-    range_b = std::max(range_a, std::min(job.layer_end, n));
-    if (field.has_process() && range_a < range_b)  // shard files do not carry the values
-      throw SettingError("a design with process fields (fprocess) does not shard: slice it whole",
+    const std::pair<std::size_t, std::size_t> asked =
+        job.range_of ? job.range_of(r.extent, n) : std::pair{job.layer_begin, job.layer_end};
+    range_a = std::min(asked.first, n);
+    range_b = std::max(range_a, std::min(asked.second, n));
+    // Planar shard files do not carry the values; graded slicing leaves the process pass to
+    // the merge (it runs after the prime tower, over the tower's paths too).
+    if (field.has_process() && range_a < range_b && !graded)
+      throw SettingError("a design with process fields (fprocess) does not shard with planar "
+                         "slicing: slice it whole",
                          {job.input, 0, "fprocess"});
-    const auto below = static_cast<std::size_t>(std::max(0, job.planar.bottom_layers));
-    const auto above = static_cast<std::size_t>(std::max(0, job.planar.top_layers));
+    r.process_fields = field.has_process();
+    // Strategy 2 plans each layer from its own outline: no skins, no margin.
+    const auto below = job.strategy == 2 ? 0 : static_cast<std::size_t>(std::max(0, job.planar.bottom_layers));
+    const auto above = job.strategy == 2 ? 0 : static_cast<std::size_t>(std::max(0, job.planar.top_layers));
     range_lo = range_a >= below ? range_a - below : 0;
     const std::size_t hi = range_a < range_b ? std::min(n, range_b + above) : range_lo;
     r.outlines = outlines_of(std::vector<double>(zs.begin() + static_cast<long>(first + range_lo),
                                                  zs.begin() + static_cast<long>(first + hi)));
     r.part_layers = n;
     r.first_layer = range_a;
+    r.outline_first = range_lo;
     r.outline_seconds = seconds_since(t0);
     PlanarOptions po = job.planar;
     po.first_index = range_lo;
     po.plan_begin = range_a;
     po.plan_end = range_b;
-    if (range_a < range_b) r.toolpath = plan_planar(r.outlines, po, &r.planar);
+    if (graded && range_a < range_b) {
+      // The layer-local step of graded slicing; the whole-print step (finish_graded) is the
+      // merge's.
+      int quantized_from = 0;
+      FgmOptions fo = graded_options(job, static_cast<int>(field.materials().size()), &quantized_from);
+      fo.first_layer = range_lo;
+      r.fgm.materials = fo.palette.materials;
+      r.fgm.quantized_from = quantized_from;
+      naming_design(job, [&] {
+        if (job.strategy == 2) {
+          r.toolpath = plan_fgm_strategy2(field, r.outlines, fo, &r.fgm);
+        } else {
+          const Toolpath planar = plan_planar(r.outlines, po, &r.planar);
+          r.toolpath = plan_fgm_strategy1(field, r.outlines, planar, fo, PurgeOptions{}, &r.fgm);
+        }
+      });
+    } else if (range_a < range_b) {
+      r.toolpath = plan_planar(r.outlines, po, &r.planar);
+    }
     r.toolpath.source = "trellis slice " + job.input + " (" + to_string(r.route) + " route)";
     r.plan_seconds = seconds_since(t0) - r.outline_seconds;
     return r;
@@ -325,83 +427,33 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
   const auto t1 = std::chrono::steady_clock::now();
   progress.check("slicing");
   progress("walls and infill", 0.0);
-  if (job.strategy == 1 || job.strategy == 2) {
-    if (!is_vcad || field.materials().size() < 2)
-      throw GeometryError("--strategy " + std::to_string(job.strategy) +
-                              " needs a .vcad design with two or three materials (fgrade)",
-                          {job.input, 0, ""});
-    FgmOptions fo = job.fgm;
-    if (field.materials().size() > 3)
-      throw GeometryError("gradient slicing mixes two or three materials; the design has " +
-                              std::to_string(field.materials().size()),
-                          {job.input, 0, ""});
-    fo.palette.materials = static_cast<int>(field.materials().size());
-    fo.palette.check();
+  if (graded) {
     int quantized_from = 0;
-    if (job.tools > 0) {
-      // A tool changer prints N fixed mixes (tool 0 = material A … the last = B): the palette's
-      // colours are those mixes, never more colours than tools unless quantising is asked for.
-      if (fo.palette.materials != 2)
-        throw GeometryError("a tool changer prints two-material gradients (one fixed mix per "
-                            "tool); the design has three materials",
-                            {job.input, 0, ""});
-      if (fo.palette.colors > job.tools) {
-        if (!job.quantize)
-          throw SettingError(std::to_string(fo.palette.colors) + " colours on " +
-                                 std::to_string(job.tools) +
-                                 " tools: each colour needs a tool (use --colors " +
-                                 std::to_string(job.tools) +
-                                 ", or gradient.quantize = true to print each colour with the "
-                                 "nearest tool)",
-                             {"", 0, "fgm.colors"});
-        quantized_from = fo.palette.colors;
-        fo.palette.colors = job.tools;
-      }
-      fo.palette.ends = fo.palette.colors > 1;
-    }
-    fo.layer_height = h;
-    fo.bead_width = job.planar.bead_width;
-    fo.resolution = job.field.resolution;
-    // A fraction that is not a number (GeometryError without a file): name the design.
-    auto naming_design = [&](auto&& work) {
-      try {
-        work();
-      } catch (const GeometryError& e) {
-        if (!e.where().file.empty()) throw;
-        throw GeometryError(e.message(), {job.input, 0, e.where().element});
-      }
-    };
-    naming_design([&] {
+    const FgmOptions fo =
+        graded_options(job, static_cast<int>(field.materials().size()), &quantized_from);
+    // The layer-local step (what a shard does for its layers), then the whole-print step (what
+    // the merge does on all layers): one construction for the whole and the sharded run.
+    naming_design(job, [&] {
       if (job.strategy == 2) {
         r.toolpath = plan_fgm_strategy2(field, r.outlines, fo, &r.fgm);
-        // A tool changer primes each tool it changes to (Strategy 2 on a mixing hotend runs the
-        // change ahead instead: gradient.lookahead).
-        if (job.tools > 0) add_prime_tower(r.toolpath, fo, job.purge, r.fgm);
       } else {
         const Toolpath planar = plan_planar(r.outlines, job.planar, &r.planar);
-        r.toolpath = plan_fgm_strategy1(field, r.outlines, planar, fo, job.purge, &r.fgm);
+        r.toolpath = plan_fgm_strategy1(field, r.outlines, planar, fo, PurgeOptions{}, &r.fgm);
       }
     });
     r.fgm.materials = fo.palette.materials;
     r.fgm.band = fo.palette.band();
     r.fgm.quantized_from = quantized_from;
-    {
-      std::set<std::vector<double>> used;
-      for (const auto& l : r.toolpath.layers)
-        for (const auto& p : l.paths)
-          if (p.role != PathRole::Purge && !p.mixture.empty()) used.insert(p.mixture);
-      r.fgm.colours_used = static_cast<int>(used.size());
-      r.fgm.colours_total = fo.palette.colors;
-    }
+    r.fgm.colours_used = graded_colours_used(r.toolpath);
+    r.fgm.colours_total = fo.palette.colors;
+    finish_graded(job, fo, r.toolpath, r.fgm);
     // Zippering prints the neighbouring colour up to β/2 beyond a boundary.
     r.fgm.error_bound = fo.palette.error_bound() + (job.strategy == 1 ? fo.zipper / 2 : 0.0);
     if (job.tools > 1) {
-      // What a tool prints (the writer's nearest tool): the error is measured on that.
+      // What a tool prints (the writer's nearest tool, finish_graded): the error is measured on
+      // that.
       const double n = job.tools - 1;
       auto tool_mix = [&](double a) { return 1 - std::round((1 - std::clamp(a, 0.0, 1.0)) * n) / n; };
-      for (auto& l : r.toolpath.layers)
-        for (auto& p : l.paths)
-          if (p.mixture.size() == 2) p.mixture = {tool_mix(p.mixture[0]), 1 - tool_mix(p.mixture[0])};
       double bound = 0;
       for (int k = 0; k < fo.palette.colors; ++k) {
         const double lo = k == 0 ? 0.0 : fo.palette.level(k);
@@ -411,7 +463,7 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
       }
       r.fgm.error_bound = bound + (job.strategy == 1 ? fo.zipper / 2 : 0.0);
     }
-    naming_design([&] { measure_gradient_error(field, r.toolpath, r.outlines, h, r.fgm); });
+    naming_design(job, [&] { measure_gradient_error(field, r.toolpath, r.outlines, h, r.fgm); });
   } else {
     r.toolpath = plan_planar(r.outlines, job.planar, &r.planar);
   }

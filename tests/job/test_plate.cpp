@@ -165,17 +165,18 @@ TEST(Plate, NonplanarMergesExactlyFrom1_2_5Shards) {
   EXPECT_FALSE(fs::exists(merged));
 }
 
-// The lattice planners carry state across layers (euler, gippo: path order; aero: one plan for
-// the whole lattice): --shard is refused saying why, exit 2, nothing written.
+// The lattice plan route shards with euler and gippo (tests/job/test_plan_shard_job.cpp); AERO
+// plans the whole lattice at once and a plan without G-code has nothing to shard: --shard is
+// refused saying why, exit 2, nothing written.
 TEST(Plate, LatticePlansRefuseShardsSayingWhy) {
   const fs::path out = plate_work() / "plan_refused";
   Cmd r = cli("run " + kRoot + "/examples/jobs/tiny_plan.toml -o " + out.string() + " --shard 1/2");
   EXPECT_EQ(r.code, 2);
-  EXPECT_NE(r.err.find("ordered from where the layer before ended"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("holds layers of its G-code"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(out));
   r = cli("run " + kRoot + "/examples/jobs/octet_aero.toml -o " + out.string() + " --shard 2/2");
   EXPECT_EQ(r.code, 2);
-  EXPECT_NE(r.err.find("AERO orders the struts of the whole lattice"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("AERO plans the whole 3D lattice as one problem"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(out));
 }
 

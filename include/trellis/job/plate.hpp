@@ -62,10 +62,13 @@ std::vector<Layer> layers_from_shard_bytes(const std::string& bytes, const std::
 
 // Writes the shard of `job` (job.shard of job.shards): `layers` (its range [first, first +
 // layers.size()) of `total` layers) next to job.output as OUTPUT.shard-K-of-N plus the manifest
-// OUTPUT.shard-K-of-N.json, through write_file_atomic. Returns the manifest's path.
+// OUTPUT.shard-K-of-N.json, through write_file_atomic. Returns the manifest's path. A graded
+// slicing shard (layers before the whole-print step, slice/pipeline.hpp finish_graded) gives
+// `graded_json`, a JSON object the manifest keeps as "graded" (version 3) for the merge.
 std::string write_shard(const Job& job, const std::vector<Layer>& layers, std::size_t first,
                         std::size_t total, const std::string& source,
-                        const std::vector<std::string>& part_labels);
+                        const std::vector<std::string>& part_labels,
+                        const std::string& graded_json = {});
 
 // `trellis merge`: the manifests' layers joined and written to `output` by the route's own
 // writer. Exit-2 errors (nothing written) for manifests of different jobs, a shard missing or

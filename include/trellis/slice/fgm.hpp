@@ -104,6 +104,10 @@ struct FgmOptions {
   // its colour (one colour change fewer), only where the design along the piece stays within the
   // palette's error bound (α/2) of that colour; the others are kept and counted. 0 = off.
   double min_segment = 5;
+  // Sharding (job/plate.hpp): the outlines given are the part's printed layers first_layer,
+  // first_layer + 1, … (Strategy 1: the planar layers carry their own z); each layer is planned
+  // as in the whole part (z, the order reversed every other layer, the fixed angle).
+  std::size_t first_layer = 0;
 };
 
 // The prime (purge) tower of Strategy 1 and tool changers: one square tower per print, beside

@@ -42,8 +42,13 @@ struct SliceJob {
   Budget budget;
   // Sharding (job/plate.hpp): only the part's printed layers [layer_begin, layer_end) (counted
   // from its first printed layer) are sliced and planned, with the outlines the skins need
-  // around them; the toolpath holds those layers. Planar slicing (strategy 0) only.
+  // around them; the toolpath holds those layers. Graded slicing (strategy 1 or 2): the
+  // layer-local step only (no tower, mixtures as planned; finish_graded does the rest) and no
+  // gradient error; layers without paths are left out as in the whole run.
   std::size_t layer_begin = 0, layer_end = static_cast<std::size_t>(-1);
+  // Or the range from the design's extent and its printed layers (found before any layer is
+  // sliced), so a shard of one part opens the design once.
+  std::function<std::pair<std::size_t, std::size_t>(const BBox3& extent, std::size_t layers)> range_of;
   // Process parameters a .vcad design sets with fprocess (slice/fgm_process.hpp).
   ProcessOptions process;
 };
@@ -63,6 +68,10 @@ struct SliceResult {
   // The part's printed layers (all of them, also when only a range was asked for) and the index
   // of the toolpath's first layer among them.
   std::size_t part_layers = 0, first_layer = 0;
+  // A range: the part's layer of outlines[0] (the range less the layers its skins read), and
+  // whether the design has process fields (a graded shard leaves their pass to the merge).
+  std::size_t outline_first = 0;
+  bool process_fields = false;
   // Streamed (stream_slice): no outlines or toolpath are kept; what the report needs of them is
   // summed as the layers pass.
   bool streamed = false;
@@ -89,6 +98,24 @@ struct SliceStreamOptions {
 };
 SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progress& progress = {},
                          const SliceStreamOptions& options = {});
+
+// Graded slicing (strategy 1 or 2) in two steps, so that a sharded run (job/plate.hpp) and the
+// whole run build the same G-code: the layer-local step (each layer's colour faces, pieces or
+// fill, mixtures, short pieces merged) runs per shard, the whole-print step on all layers in
+// order (docs/plates.md, "Graded slicing").
+// The graded options of a job for a design of `materials` materials: the palette (a tool
+// changer's palette is its tools', quantised if asked: *quantized_from = the colours asked for),
+// bead, layer. SettingError / GeometryError naming job.input.
+FgmOptions graded_options(const SliceJob& job, int materials, int* quantized_from = nullptr);
+// The whole-print step on the planned layers (in order, no empty layer): the prime tower
+// (Strategy 1, and Strategy 2 on a tool changer: its place and size from every layer, a purge
+// where a layer's mixture differs from the one before, walls up to the last purge), then a
+// tool changer's mixtures made the tools' (what each tool prints). Fills stats.purges,
+// purge_length, purge_volume and tower; GeometryError naming job.input if no tower fits.
+void finish_graded(const SliceJob& job, const FgmOptions& options, Toolpath& toolpath,
+                   FgmStats& stats);
+// The palette colours some part path (not the tower) of a graded toolpath prints.
+int graded_colours_used(const Toolpath& toolpath);
 
 // The report: layers, paths, lengths, travel, print time (from the writer's stats if given).
 std::string slice_report_json(const SliceJob& job, const SliceResult& result,
