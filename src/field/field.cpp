@@ -279,6 +279,7 @@ inline void memo_sincos(SinCosMemo& m, double x, double* sn, double* cs) {
     fast_sincos(x, sn, cs);
     return;
   }
+  if (m.slots.empty()) m.slots.resize(std::size_t{1} << SinCosMemo::kBits);
   std::uint64_t u;
   std::memcpy(&u, &x, sizeof u);
   SinCosMemo::Entry& e = m.slots[(u * 0x9E3779B97F4A7C15ull) >> (64 - SinCosMemo::kBits)];

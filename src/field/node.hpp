@@ -51,7 +51,7 @@ struct SinCosMemo {
     std::uint64_t key = ~std::uint64_t{0};  // the argument's bits (this one is a NaN: never kept)
     double s = 0, c = 0;
   };
-  std::vector<Entry> slots = std::vector<Entry>(std::size_t{1} << kBits);
+  std::vector<Entry> slots;  // allocated on first use (an evaluator made for a few points skips it)
 };
 
 struct Evaluator::State {
