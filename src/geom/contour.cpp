@@ -506,6 +506,12 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
     if (k.ci > hi_ && k.cj > hj) parts[np++] = {k.i + hi_, k.j + hj, k.ci - hi_, k.cj - hj};
     Interval ranges[4];
     bool any_skippable = false;
+    Vec2 plo[4], phi[4];
+    for (int q = 0; q < np; ++q) {
+      plo[q] = m.node(parts[q].i, parts[q].j);
+      phi[q] = m.node(parts[q].i + parts[q].ci, parts[q].j + parts[q].cj);
+    }
+    f.prefetch_bounds(plo, phi, static_cast<std::size_t>(np));
     for (int q = 0; q < np; ++q) {
       ranges[q] = bound(parts[q]);
       any_skippable = any_skippable || excluded(ranges[q]);

@@ -171,6 +171,14 @@ class BoundCache {
       gen_ = 1;
     }
   }
+  // Starts loading the slots of these blocks (their probes would each wait for memory).
+  void prefetch(const Vec2* lo, const Vec2* hi, std::size_t n) const {
+    for (std::size_t k = 0; k < n; ++k) {
+      const char* s = reinterpret_cast<const char*>(&slots_[index(lo[k], hi[k])]);
+      __builtin_prefetch(s);
+      __builtin_prefetch(s + sizeof(Slot) - 1);
+    }
+  }
   Interval get(Evaluator& part, Vec2 lo, Vec2 hi) {
     std::size_t i = index(lo, hi);
     for (; slots_[i].gen == gen_; i = (i + 1) & (slots_.size() - 1)) {
@@ -402,6 +410,9 @@ class JointSection : public PlaneFunction {
   Interval bound(Vec2 lo, Vec2 hi) override {
     return {ctx_.bounds.get(ctx_.part, lo, hi).lo, std::numeric_limits<double>::infinity()};
   }
+  void prefetch_bounds(const Vec2* lo, const Vec2* hi, std::size_t n) override {
+    ctx_.bounds.prefetch(lo, hi, n);
+  }
 
  private:
   Ctx& ctx_;
@@ -462,6 +473,9 @@ class PartSection : public PlaneFunction {
     }
   }
   Interval bound(Vec2 lo, Vec2 hi) override { return ctx_.bounds.get(ctx_.part, lo, hi); }
+  void prefetch_bounds(const Vec2* lo, const Vec2* hi, std::size_t n) override {
+    ctx_.bounds.prefetch(lo, hi, n);
+  }
 
  private:
   Ctx& ctx_;
@@ -489,6 +503,9 @@ class MidSection : public PlaneFunction {
     b.add({hi.x, hi.y, z_});
     if (ctx_.bounds.get(ctx_.part, lo, hi).lo >= 0) return {1, std::numeric_limits<double>::infinity()};
     return ctx_.phi.bound(b);
+  }
+  void prefetch_bounds(const Vec2* lo, const Vec2* hi, std::size_t n) override {
+    ctx_.bounds.prefetch(lo, hi, n);
   }
 
  private:

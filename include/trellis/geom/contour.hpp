@@ -24,6 +24,11 @@ class PlaneFunction {
     (void)origin, (void)step;
     sample(points, out, w * rows);
   }
+  // A hint that bound() is about to be asked for these n rectangles (a cache of bounds can start
+  // loading them all at once). Default: nothing.
+  virtual void prefetch_bounds(const Vec2* lo, const Vec2* hi, std::size_t n) {
+    (void)lo, (void)hi, (void)n;
+  }
   // Conservative range of values over the rectangle; (-inf, inf) when unknown.
   virtual Interval bound(Vec2 lo, Vec2 hi) {
     return {-std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()};
