@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <numbers>
 
 #include "node.hpp"
@@ -18,6 +19,12 @@ namespace trellis {
 std::vector<double>& EvalState::value_buffer(std::size_t depth, std::size_t n) {
   if (values.size() <= depth) values.resize(depth + 1);
   auto& b = values[depth];
+  if (b.size() < n) b.resize(n);
+  return b;
+}
+std::vector<Vec3>& EvalState::grid_point_buffer(std::size_t depth, std::size_t n) {
+  if (grid_points.size() <= depth) grid_points.resize(depth + 1);
+  auto& b = grid_points[depth];
   if (b.size() < n) b.resize(n);
   return b;
 }
@@ -86,6 +93,25 @@ void FieldNode::fractions(Vec3 p, double* out, EvalState& s, std::size_t depth) 
   }
   if (!children.empty()) children.front()->fractions(p, out, s, depth + 1);
 }
+
+void FieldNode::eval_grid(const GridPlane& g, double* out, EvalState& s, std::size_t depth) const {
+  std::vector<Vec3>& p = s.grid_point_buffer(depth, g.size());
+  for (std::size_t j = 0; j < g.rows; ++j)
+    for (std::size_t i = 0; i < g.w; ++i) p[j * g.w + i] = {g.xs[i], g.ys[j], g.z};
+  eval(p.data(), out, g.size(), s, depth);
+}
+
+namespace {
+BBox3 grid_box(const GridPlane& g) {
+  BBox3 b;
+  double x0 = g.xs[0], x1 = g.xs[0], y0 = g.ys[0], y1 = g.ys[0];
+  for (std::size_t i = 1; i < g.w; ++i) x0 = std::min(x0, g.xs[i]), x1 = std::max(x1, g.xs[i]);
+  for (std::size_t j = 1; j < g.rows; ++j) y0 = std::min(y0, g.ys[j]), y1 = std::max(y1, g.ys[j]);
+  b.add({x0, y0, g.z});
+  b.add({x1, y1, g.z});
+  return b;
+}
+}  // namespace
 
 bool FieldNode::has_expressions() const {
   for (const auto& c : children)
@@ -247,6 +273,24 @@ void sincos_batch(const double* x, double* sn, double* cs, std::size_t n) {
   for (std::size_t i = 0; i < n; ++i) sincos_moderate(x[i], &sn[i], &cs[i]);
 }
 
+// fast_sincos(x) through the memo: the same numbers.
+inline void memo_sincos(SinCosMemo& m, double x, double* sn, double* cs) {
+  if (!(std::abs(x) < 1e6)) {  // far arguments and NaN: not kept
+    fast_sincos(x, sn, cs);
+    return;
+  }
+  if (m.slots.empty()) m.slots.resize(std::size_t{1} << SinCosMemo::kBits);
+  std::uint64_t u;
+  std::memcpy(&u, &x, sizeof u);
+  SinCosMemo::Entry& e = m.slots[(u * 0x9E3779B97F4A7C15ull) >> (64 - SinCosMemo::kBits)];
+  if (e.key != u) {
+    fast_sincos(x, &e.s, &e.c);
+    e.key = u;
+  }
+  *sn = e.s;
+  *cs = e.c;
+}
+
 struct TpmsNode : FieldNode {
   TpmsKind kind;
   Vec3 k;  // 2π / cell  (the network field φ; sheets are SheetNode around it)
@@ -328,6 +372,32 @@ struct TpmsNode : FieldNode {
             std::size_t depth) const override {
     sweep(p, n, s, depth, [&](std::size_t i, double sx, double cx, double sy, double cy, double sz,
                               double cz) { out[i] = combine(sx, cx, sy, cy, sz, cz); });
+  }
+  // Sines per column and per row (the same fast_sincos values as the point path's for these
+  // coordinates, so the same numbers), combined at every node.
+  template <class Fn>
+  void sweep_grid(const GridPlane& g, EvalState& s, std::size_t depth, Fn fn) const {
+    std::vector<double>& b = s.value_buffer(depth + 1, 2 * (g.w + g.rows));
+    double *sx = b.data(), *cx = sx + g.w, *sy = cx + g.w, *cy = sy + g.rows;
+    // Neighbouring blocks share their columns and rows: through the memo.
+    for (std::size_t i = 0; i < g.w; ++i) memo_sincos(s.sincos, k.x * g.xs[i], &sx[i], &cx[i]);
+    for (std::size_t j = 0; j < g.rows; ++j) memo_sincos(s.sincos, k.y * g.ys[j], &sy[j], &cy[j]);
+    double sz, cz;
+    memo_sincos(s.sincos, k.z * g.z, &sz, &cz);
+    for (std::size_t j = 0; j < g.rows; ++j) {
+      const double syj = sy[j], cyj = cy[j];
+      for (std::size_t i = 0; i < g.w; ++i) fn(j * g.w + i, sx[i], cx[i], syj, cyj, sz, cz);
+    }
+  }
+  void eval_grid(const GridPlane& g, double* out, EvalState& s, std::size_t depth) const override {
+    sweep_grid(g, s, depth, [&](std::size_t i, double sx, double cx, double sy, double cy,
+                                double sz, double cz) { out[i] = combine(sx, cx, sy, cy, sz, cz); });
+  }
+  bool gradients_grid(const GridPlane& g, Vec3* out, EvalState& s,
+                      std::size_t depth) const override {
+    sweep_grid(g, s, depth, [&](std::size_t i, double sx, double cx, double sy, double cy,
+                                double sz, double cz) { combine(sx, cx, sy, cy, sz, cz, &out[i]); });
+    return true;
   }
   // Calls fn(i, sin/cos of the three scaled coordinates) for each point. Rows of a grid (z
   // constant, y once a row, x repeating row after row) reuse the sines of the row above; other
@@ -412,9 +482,14 @@ struct TpmsNode : FieldNode {
   // second order (Taylor at the centre: Σ|∂iφ|·di + ½·A·(Σ ki·di)², A the Hessian bound above,
   // di the half extents), which is several times tighter on the small blocks contouring asks
   // about wherever the gradient in the block's plane is moderate (a narrow band around the sheet).
-  Interval bound(const BBox3& b, EvalState&, std::size_t) const override {
+  Interval bound(const BBox3& b, EvalState& st, std::size_t) const override {
     Vec3 g;
-    const double f = phi(b.center(), &g);
+    const Vec3 p = b.center();
+    double sx, cx, sy, cy, sz, cz;
+    memo_sincos(st.sincos, k.x * p.x, &sx, &cx);
+    memo_sincos(st.sincos, k.y * p.y, &sy, &cy);
+    memo_sincos(st.sincos, k.z * p.z, &sz, &cz);
+    const double f = combine(sx, cx, sy, cy, sz, cz, &g);
     double spread = phi_lipschitz() * half_diagonal(b);
     const double dx = 0.5 * (b.max.x - b.min.x), dy = 0.5 * (b.max.y - b.min.y),
                  dz = 0.5 * (b.max.z - b.min.z);
@@ -465,6 +540,14 @@ struct SheetNode : FieldNode {
       const double cv = ce.eval(p[i]);
       out[i] = out[i] * out[i] - cv * cv;
     }
+  }
+  void eval_grid(const GridPlane& g, double* out, EvalState& s, std::size_t depth) const override {
+    if (!c_constant || thickness > 0) {
+      FieldNode::eval_grid(g, out, s, depth);
+      return;
+    }
+    children[0]->eval_grid(g, out, s, depth + 1);
+    for (std::size_t i = 0, n = g.size(); i < n; ++i) out[i] = out[i] * out[i] - c * c;
   }
   Interval bound(const BBox3& b, EvalState& s, std::size_t depth) const override {
     if (!c_constant || thickness > 0) return {-kInf, kInf};
@@ -606,6 +689,28 @@ struct CsgNode : FieldNode {
       }
       // Buffers are fetched after each child ran: a child may grow this depth's buffer.
       children[c]->eval(p, s.value_buffer(depth, n).data(), n, s, depth + 1);
+      const double* v = s.values[depth].data();
+      for (std::size_t i = 0; i < n; ++i) out[i] = combine(out[i], v[i]);
+    }
+  }
+  // As eval, children combined grid by grid; a child whose bound over the grid shows it changes
+  // none of the values so far is skipped (exactly: the values are the same as eval's).
+  void eval_grid(const GridPlane& g, double* out, EvalState& s, std::size_t depth) const override {
+    children[0]->eval_grid(g, out, s, depth + 1);
+    const std::size_t n = g.size();
+    // A child's bound costs about as much as its grid of a few dozen nodes: asked for exact
+    // children (a box gap) and for larger grids.
+    const BBox3 box = n >= 16 ? grid_box(g) : BBox3{};
+    for (std::size_t c = 1; c < children.size(); ++c) {
+      if (n >= 16 && (exact[c] || n >= 64)) {
+        double lo = out[0], hi = out[0];
+        for (std::size_t i = 1; i < n; ++i) {
+          lo = std::min(lo, out[i]);
+          hi = std::max(hi, out[i]);
+        }
+        if (irrelevant(child_bound(c, box, s, depth), lo, hi)) continue;
+      }
+      children[c]->eval_grid(g, s.value_buffer(depth, n).data(), s, depth + 1);
       const double* v = s.values[depth].data();
       for (std::size_t i = 0; i < n; ++i) out[i] = combine(out[i], v[i]);
     }
@@ -797,6 +902,15 @@ struct ClipBoxNode : FieldNode {
     children[0]->eval(p, out, n, s, depth + 1);
     const Vec3 c = (lo + hi) * 0.5, h = (hi - lo) * 0.5;
     for (std::size_t i = 0; i < n; ++i) out[i] = std::max(out[i], box_sdf(p[i], c, h));
+  }
+  void eval_grid(const GridPlane& g, double* out, EvalState& s, std::size_t depth) const override {
+    children[0]->eval_grid(g, out, s, depth + 1);
+    const Vec3 c = (lo + hi) * 0.5, h = (hi - lo) * 0.5;
+    for (std::size_t j = 0; j < g.rows; ++j)
+      for (std::size_t i = 0; i < g.w; ++i) {
+        double& o = out[j * g.w + i];
+        o = std::max(o, box_sdf({g.xs[i], g.ys[j], g.z}, c, h));
+      }
   }
   Interval bound(const BBox3& b, EvalState& s, std::size_t depth) const override {
     const Interval a = children[0]->bound(b, s, depth + 1);
@@ -1069,6 +1183,16 @@ double Evaluator::value(Vec3 p) {
 }
 void Evaluator::values(const Vec3* points, double* out, std::size_t n) {
   field_.node().eval(points, out, n, *state_, 0);
+}
+void Evaluator::values_grid(const double* xs, std::size_t w, const double* ys, std::size_t rows,
+                            double z, double* out) {
+  if (w == 0 || rows == 0) return;
+  field_.node().eval_grid({xs, w, ys, rows, z}, out, *state_, 0);
+}
+bool Evaluator::gradients_grid(const double* xs, std::size_t w, const double* ys,
+                               std::size_t rows, double z, Vec3* out) {
+  if (w == 0 || rows == 0) return true;
+  return field_.node().gradients_grid({xs, w, ys, rows, z}, out, *state_, 0);
 }
 Vec3 Evaluator::gradient(Vec3 p, double h) {
   Vec3 g;

@@ -1,5 +1,6 @@
 // Internal: the nodes of the field expression tree and the per-thread evaluation state.
 #pragma once
+#include <cstdint>
 #include <limits>
 #include <memory>
 #include <string>
@@ -32,10 +33,33 @@ struct CompiledExpr {
   ~CompiledExpr();
 };
 
+// The nodes (xs[i], ys[j], z) of a grid in a plane of constant z, row by row (index j·w + i).
+struct GridPlane {
+  const double* xs;
+  std::size_t w;
+  const double* ys;
+  std::size_t rows;
+  double z;
+  std::size_t size() const { return w * rows; }
+};
+
+// Sines and cosines of recent arguments (direct-mapped by the argument's bits): TPMS bounds ask
+// for the centres of grid blocks, whose coordinates repeat along a row and a column.
+struct SinCosMemo {
+  static constexpr int kBits = 12;
+  struct Entry {
+    std::uint64_t key = ~std::uint64_t{0};  // the argument's bits (this one is a NaN: never kept)
+    double s = 0, c = 0;
+  };
+  std::vector<Entry> slots;  // allocated on first use (an evaluator made for a few points skips it)
+};
+
 struct Evaluator::State {
   // Scratch buffers by tree depth, so batch evaluation allocates once.
   std::vector<std::vector<double>> values;
   std::vector<std::vector<Vec3>> points;
+  std::vector<std::vector<Vec3>> grid_points;  // eval_grid's default, by depth
+  SinCosMemo sincos;
   std::unordered_map<const Expression*, std::unique_ptr<CompiledExpr>> exprs;
   const std::vector<std::string>* materials = nullptr;
   // Per-node, per-thread caches (e.g. a grid accessor), created on first use.
@@ -43,6 +67,7 @@ struct Evaluator::State {
   int material_index(const std::string& name) const;
   std::vector<double>& value_buffer(std::size_t depth, std::size_t n);
   std::vector<Vec3>& point_buffer(std::size_t depth, std::size_t n);
+  std::vector<Vec3>& grid_point_buffer(std::size_t depth, std::size_t n);
   CompiledExpr& expr(const Expression& e);
 };
 using EvalState = Evaluator::State;
@@ -53,6 +78,15 @@ class FieldNode {
   // Values at n points; `depth` indexes the scratch buffers this node may use (depth and deeper).
   virtual void eval(const Vec3* p, double* out, std::size_t n, EvalState& s,
                     std::size_t depth) const = 0;
+  // Values at the nodes of a grid in a plane (GridPlane): the same numbers as eval at those
+  // points. Default: the points listed, eval; a TPMS combines per-column and per-row sines,
+  // sheets, CSG and clip boxes combine their children's grids.
+  virtual void eval_grid(const GridPlane& g, double* out, EvalState& s, std::size_t depth) const;
+  // The analytic gradient at the grid's nodes (the same numbers as gradients() there); false
+  // where the node has no grid path (the caller falls back to points).
+  virtual bool gradients_grid(const GridPlane& g, Vec3* out, EvalState& s, std::size_t depth) const {
+    return false;
+  }
   // Conservative value interval over a box. Default: centre value ± Lipschitz · half diagonal.
   virtual Interval bound(const BBox3& box, EvalState& s, std::size_t depth) const;
   virtual double lipschitz() const { return 1.0; }
@@ -101,6 +135,9 @@ struct PropertyNode : FieldNode {
   void eval(const Vec3* p, double* out, std::size_t n, EvalState& s,
             std::size_t depth) const override {
     children[0]->eval(p, out, n, s, depth + 1);
+  }
+  void eval_grid(const GridPlane& g, double* out, EvalState& s, std::size_t depth) const override {
+    children[0]->eval_grid(g, out, s, depth + 1);
   }
   Interval bound(const BBox3& b, EvalState& s, std::size_t depth) const override {
     return children[0]->bound(b, s, depth + 1);

@@ -13,6 +13,8 @@ namespace trellis {
 
 namespace {
 
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
 // This thread's instance of T, kept between calls (a nested call gets a fresh one). Slicers
 // march thousands of layers; handing their buffers back to the allocator every time makes the
 // heap shrink and regrow, and the page faults cost more than the marching.
@@ -302,9 +304,9 @@ struct Marcher {
   // in one batch (one call per round instead of one per guess; the same guesses as refining them
   // one by one). Illinois steps inside the bracket.
   std::vector<Crossing>& pending;
-  void add(Vec2 a, Vec2 b, double fa, double fb) {
+  void add(Vec2 a, Vec2 b, double fa, double fb, double guess = -1) {
     Crossing c{a, b, 0, 1, fa - level, fb - level, 0, 0};
-    c.t = c.g_lo / (c.g_lo - c.g_hi);
+    c.t = guess > 0 && guess < 1 ? guess : c.g_lo / (c.g_lo - c.g_hi);
     if (!std::isfinite(c.t)) c.t = 0.5;
     pending.push_back(c);
   }
@@ -357,6 +359,34 @@ struct Marcher {
 
 }  // namespace
 
+double crossing_guess(double before, double fa, double fb, double after) {
+  // The polynomial p(s) through (0, fa), (1, fb) and the neighbours (−1, before), (2, after)
+  // that exist: p = fa + b·s + c·s² + d·s³.
+  const bool has_before = std::isfinite(before), has_after = std::isfinite(after);
+  if (!has_before && !has_after) return -1;
+  double c, d = 0;
+  if (has_before && has_after) {
+    d = (-before + 3 * fa - 3 * fb + after) / 6;
+    c = (before - 2 * fa + fb) / 2;
+  } else if (has_before) {
+    c = (before - 2 * fa + fb) / 2;
+  } else {
+    c = (fa - 2 * fb + after) / 2;
+  }
+  const double b = fb - fa - c - d;
+  // Newton steps from the straight line's root, kept only if they stay inside the edge.
+  // (Usually two or three steps; at most six.)
+  double t = fa / (fa - fb);
+  for (int it = 0; it < 6; ++it) {
+    const double p = fa + t * (b + t * (c + t * d)), dp = b + t * (2 * c + 3 * t * d);
+    const double step = p / dp;
+    t -= step;
+    if (!(t > 0 && t < 1)) return -1;
+    if (std::abs(step) < 1e-9) break;
+  }
+  return t;
+}
+
 ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
                          const MarchOptions& options) {
   ContourSet result;
@@ -396,7 +426,16 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
       std::size_t& slot = table.find_or_insert(key, m.pending.size());
       if (slot == m.pending.size()) {
         const std::size_t a = j * w + i, b = vertical ? a + w : a + 1;
-        m.add(pts[a], pts[b], val[a], val[b]);
+        double guess = -1;
+        if (options.cubic_guess) {
+          // The nodes before a and after b on the edge's line, where the block has them.
+          const std::size_t pos = vertical ? j : i, len = vertical ? hgt : w,
+                            step = vertical ? w : 1;
+          const double before = pos > 0 ? val[a - step] - level : kNaN;
+          const double after = pos + 2 < len ? val[b + step] - level : kNaN;
+          guess = crossing_guess(before, val[a] - level, val[b] - level, after);
+        }
+        m.add(pts[a], pts[b], val[a], val[b], guess);
       }
       return slot;
     };
@@ -467,6 +506,12 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
     if (k.ci > hi_ && k.cj > hj) parts[np++] = {k.i + hi_, k.j + hj, k.ci - hi_, k.cj - hj};
     Interval ranges[4];
     bool any_skippable = false;
+    Vec2 plo[4], phi[4];
+    for (int q = 0; q < np; ++q) {
+      plo[q] = m.node(parts[q].i, parts[q].j);
+      phi[q] = m.node(parts[q].i + parts[q].ci, parts[q].j + parts[q].cj);
+    }
+    f.prefetch_bounds(plo, phi, static_cast<std::size_t>(np));
     for (int q = 0; q < np; ++q) {
       ranges[q] = bound(parts[q]);
       any_skippable = any_skippable || excluded(ranges[q]);

@@ -171,6 +171,14 @@ class BoundCache {
       gen_ = 1;
     }
   }
+  // Starts loading the slots of these blocks (their probes would each wait for memory).
+  void prefetch(const Vec2* lo, const Vec2* hi, std::size_t n) const {
+    for (std::size_t k = 0; k < n; ++k) {
+      const char* s = reinterpret_cast<const char*>(&slots_[index(lo[k], hi[k])]);
+      __builtin_prefetch(s);
+      __builtin_prefetch(s + sizeof(Slot) - 1);
+    }
+  }
   Interval get(Evaluator& part, Vec2 lo, Vec2 hi) {
     std::size_t i = index(lo, hi);
     for (; slots_[i].gen == gen_; i = (i + 1) & (slots_.size() - 1)) {
@@ -239,6 +247,17 @@ struct Ctx {
   }
 };
 
+// f at the block of points p (w a row, row by row) of a plane z, as a grid: the same values as
+// f.values at those points.
+void evaluate_grid(Evaluator& f, const Vec2* p, std::size_t w, std::size_t rows, double z,
+                   std::vector<double>& xs, std::vector<double>& ys, double* out) {
+  xs.resize(w);
+  ys.resize(rows);
+  for (std::size_t i = 0; i < w; ++i) xs[i] = p[i].x;
+  for (std::size_t j = 0; j < rows; ++j) ys[j] = p[j * w].y;
+  f.values_grid(xs.data(), w, ys.data(), rows, z, out);
+}
+
 // Grid-node values of the part and of the joint measure, shared by the S and J marches of a
 // layer (both sample the same nodes).
 
@@ -299,7 +318,36 @@ class JointSection : public PlaneFunction {
   void sample_grid(Vec2 origin, double step, std::size_t w, std::size_t rows, const Vec2* p,
                    double* out) override {
     const auto b = grid_ ? grid_->block(origin, step, w, rows) : std::nullopt;
-    if (b) run(p, out, w * rows, *b); else sample(p, out, w * rows);
+    if (!b) {
+      sample(p, out, w * rows);
+      return;
+    }
+    if (grid_rows(p, out, w, rows, *b)) return;
+    run(p, out, w * rows, *b);
+  }
+  // The block as a grid: the part's values at every node, φ's gradient at every node (when φ
+  // has a grid path: a TPMS), the measure where the part is negative; false when φ has none.
+  bool grid_rows(const Vec2* p, double* out, std::size_t w, std::size_t rows,
+                 LayerGrid::BlockIndex key) {
+    const std::size_t n = w * rows;
+    part_.resize(n);
+    evaluate_grid(ctx_.part, p, w, rows, z_, xs_, ys_, part_.data());
+    bool inside = false;
+    for (std::size_t i = 0; i < n; ++i) inside |= part_[i] < 0;
+    if (inside) {
+      grads_.resize(n);
+      if (!ctx_.phi.gradients_grid(xs_.data(), w, ys_.data(), rows, z_, grads_.data()))
+        return false;
+    }
+    const bool cache_joint = cache_;
+    for (std::size_t i = 0; i < n; ++i) {
+      const double D = part_[i];
+      out[i] = D < 0 ? finish(p[i], D, grads_[i]) : D;
+      const std::size_t k = key(i);
+      grid_->set_part(k, D);
+      if (cache_joint) grid_->set_joint(k, out[i]);
+    }
+    return true;
   }
   // Cached nodes are read; the part is evaluated in one batch at the rest (most of them lie
   // outside the sheet, where the part's value is the answer). key(i): point i's node or npos.
@@ -362,6 +410,9 @@ class JointSection : public PlaneFunction {
   Interval bound(Vec2 lo, Vec2 hi) override {
     return {ctx_.bounds.get(ctx_.part, lo, hi).lo, std::numeric_limits<double>::infinity()};
   }
+  void prefetch_bounds(const Vec2* lo, const Vec2* hi, std::size_t n) override {
+    ctx_.bounds.prefetch(lo, hi, n);
+  }
 
  private:
   Ctx& ctx_;
@@ -372,7 +423,7 @@ class JointSection : public PlaneFunction {
   LayerGrid* grid_ = nullptr;
   std::vector<std::size_t> miss_, keys_, need_;
   std::vector<Vec3> pts_, grads_;
-  std::vector<double> part_, vals_;
+  std::vector<double> part_, vals_, xs_, ys_;
 };
 
 class PartSection : public PlaneFunction {
@@ -386,8 +437,16 @@ class PartSection : public PlaneFunction {
   }
   void sample_grid(Vec2 origin, double step, std::size_t w, std::size_t rows, const Vec2* p,
                    double* out) override {
-    if (const auto b = grid_.block(origin, step, w, rows)) run(p, out, w * rows, *b);
-    else sample(p, out, w * rows);
+    const auto b = grid_.block(origin, step, w, rows);
+    if (!b) {
+      sample(p, out, w * rows);
+      return;
+    }
+    // The whole block is evaluated as a grid (cheaper than reading the nodes a neighbouring
+    // block cached and evaluating the rest point by point; the same values).
+    LayerGrid::BlockIndex key = *b;
+    evaluate_grid(ctx_.part, p, w, rows, z_, xs_, ys_, out);
+    for (std::size_t i = 0; i < w * rows; ++i) grid_.set_part(key(i), out[i]);
   }
   // Cached nodes are read; the rest evaluated in one batch. key(i): point i's node or npos.
   template <class Key>
@@ -414,11 +473,15 @@ class PartSection : public PlaneFunction {
     }
   }
   Interval bound(Vec2 lo, Vec2 hi) override { return ctx_.bounds.get(ctx_.part, lo, hi); }
+  void prefetch_bounds(const Vec2* lo, const Vec2* hi, std::size_t n) override {
+    ctx_.bounds.prefetch(lo, hi, n);
+  }
 
  private:
   Ctx& ctx_;
   LayerGrid& grid_;
   double z_;
+  std::vector<double> xs_, ys_;
 };
 
 // φ at z, with blocks the part does not reach skipped (their mid-curve is clipped away anyway).
@@ -430,6 +493,10 @@ class MidSection : public PlaneFunction {
     for (std::size_t i = 0; i < n; ++i) buf_[i] = {p[i].x, p[i].y, z_};
     ctx_.phi.values(buf_.data(), out, n);
   }
+  void sample_grid(Vec2, double, std::size_t w, std::size_t rows, const Vec2* p,
+                   double* out) override {
+    evaluate_grid(ctx_.phi, p, w, rows, z_, xs_, ys_, out);
+  }
   Interval bound(Vec2 lo, Vec2 hi) override {
     BBox3 b;
     b.add({lo.x, lo.y, z_});
@@ -437,11 +504,15 @@ class MidSection : public PlaneFunction {
     if (ctx_.bounds.get(ctx_.part, lo, hi).lo >= 0) return {1, std::numeric_limits<double>::infinity()};
     return ctx_.phi.bound(b);
   }
+  void prefetch_bounds(const Vec2* lo, const Vec2* hi, std::size_t n) override {
+    ctx_.bounds.prefetch(lo, hi, n);
+  }
 
  private:
   Ctx& ctx_;
   double z_;
   std::vector<Vec3> buf_;
+  std::vector<double> xs_, ys_;
 };
 
 // Bisection of many brackets [lo, hi] at once: each round samples the middle of every bracket
@@ -949,6 +1020,9 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
   // With beam compensation the section is also the boundary hatch vectors keep their distance
   // from: refined to 0.25 µm (and its chords halved onto the field, below).
   mo_section.refine_fraction = std::min(0.1, (o.beam_compensation > 0 ? 2.5e-4 : 2e-3) / Hs);
+  // The section's crossings start from the cubic through the grid values along their edge:
+  // about one refinement sample each instead of three (the same tolerance).
+  mo_section.cubic_guess = true;
   mo_mid.refine_fraction = std::min(0.1, 5e-4 / H);
   mo_joint.refine_fraction = std::min(0.1, 1e-3 / H);
 

@@ -330,3 +330,78 @@ TEST(Field, TpmsBoundsAreConservativeAndNarrow) {
 }
 
 }  // namespace
+
+namespace {
+
+// The values (and, for TPMS, gradients) at a grid of a plane by values_grid / gradients_grid,
+// against values() / gradient() point by point at the same coordinates.
+struct GridCheck {
+  double worst_value = 0, worst_gradient = 0;
+  bool has_gradients = false;
+};
+GridCheck compare_grid(const Field& f, double x0, double y0, double step, std::size_t w,
+                       std::size_t rows, double z) {
+  Evaluator ev(f);
+  std::vector<double> xs(w), ys(rows);
+  for (std::size_t i = 0; i < w; ++i) xs[i] = x0 + static_cast<double>(i) * step;
+  for (std::size_t j = 0; j < rows; ++j) ys[j] = y0 + static_cast<double>(j) * step;
+  std::vector<double> grid(w * rows, std::numeric_limits<double>::quiet_NaN());
+  ev.values_grid(xs.data(), w, ys.data(), rows, z, grid.data());
+  std::vector<Vec3> grads(w * rows);
+  GridCheck c;
+  c.has_gradients = ev.gradients_grid(xs.data(), w, ys.data(), rows, z, grads.data());
+  Evaluator one(f);  // a fresh evaluator: nothing shared with the grid's
+  for (std::size_t j = 0; j < rows; ++j)
+    for (std::size_t i = 0; i < w; ++i) {
+      const Vec3 p{xs[i], ys[j], z};
+      const double v = one.value(p);
+      const double d = std::isfinite(grid[j * w + i]) ? std::abs(grid[j * w + i] - v) : 1e300;
+      c.worst_value = std::max(c.worst_value, d);
+      if (c.has_gradients)
+        c.worst_gradient = std::max(c.worst_gradient, norm(grads[j * w + i] - one.gradient(p)));
+    }
+  return c;
+}
+
+}  // namespace
+
+TEST(Field, GridValuesEqualPointValues) {
+  // Every TPMS kind, anisotropic cells, alone and as sheets cut by boxes (the PBF route's part),
+  // on grids large enough for CSG to skip children by their bounds and small ones that do not.
+  const TpmsKind kinds[] = {TpmsKind::Gyroid, TpmsKind::SchwarzP, TpmsKind::SchwarzD,
+                            TpmsKind::Neovius, TpmsKind::Iwp};
+  for (const TpmsKind kind : kinds) {
+    const Field phi = tpms(kind, {2.5, 3.0, 2.0});
+    const Field part = intersect({sheet(phi, {"0.3"}), rectprism({6, 5, 4})});
+    const std::vector<std::pair<std::string, Field>> fields = {
+        {"phi", phi},
+        {"sheet", sheet(phi, {"0.3"})},
+        {"part", part},
+        {"part+solid", unite({part, translate(sphere(1), {1, 1, 0})})},
+        {"part-hole", subtract({part, cylinder(0.8, 10)})},
+        {"smooth", smooth_intersect({sheet(phi, {"0.3"}), rectprism({6, 5, 4})}, 0.2)},
+        {"clip", clip_box(sheet(phi, {"0.2"}), {-2, -2, -2}, {2, 1.5, 2})},
+        {"graded", fgrade(part, {{"0.5"}, {"0.5"}}, {"a", "b"})},
+        // Paths without a grid of their own fall back to points: a rotated TPMS (x and y mix),
+        // a c that varies, a uniform thickness, a blend, an expression.
+        {"rotated", rotate(phi, {0, 0, 30})},
+        {"c(x)", sheet(phi, {"0.2 + 0.05*x"})},
+        {"thickness", sheet(phi, {}, 0.1)},
+        {"blend", blend(phi, tpms(TpmsKind::SchwarzP, {2, 2, 2}), {"0.3"})},
+        {"expression", expression_field({"sin(x)*cos(y) + z"})},
+    };
+    for (const auto& [name, f] : fields)
+      for (const auto& [w, rows, step] : {std::tuple<std::size_t, std::size_t, double>{5, 5, 0.025},
+                                          {17, 9, 0.1}, {1, 7, 0.05}, {3, 1, 0.3}}) {
+        const GridCheck c = compare_grid(f, -3.3, -2.8, step, w, rows, 0.37);
+        EXPECT_LE(c.worst_value, 1e-12) << to_string(kind) << " " << name << " " << w << "x" << rows;
+        if (name == "phi") {
+          EXPECT_TRUE(c.has_gradients) << to_string(kind);
+          EXPECT_LE(c.worst_gradient, 1e-12) << to_string(kind) << " " << w << "x" << rows;
+        }
+        if (name == "rotated") EXPECT_FALSE(c.has_gradients);  // no grid path: the caller's
+      }
+    // Far from the origin (sines by libm's full reduction, not through the memo).
+    EXPECT_LE(compare_grid(phi, 3e6, -2e6, 0.1, 5, 5, 1e6).worst_value, 1e-12) << to_string(kind);
+  }
+}

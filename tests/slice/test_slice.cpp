@@ -323,6 +323,65 @@ TEST(Contours, NestedMarchesKeepTheirOwnBuffers) {
   }
 }
 
+// The cubic first guess of a crossing: the exact root for a cubic along the edge, a quadratic
+// where a neighbour is missing; in a march, the same contour within the tolerance from about
+// one refinement sample per crossing instead of two or three.
+TEST(Contours, CubicGuessFindsCrossingsWithFewerSamples) {
+  // p(s) = (s − 0.3)(s + 2)(s − 4): values at s = −1, 0, 1, 2 and its root 0.3 in (0, 1).
+  const auto cubic = [](double s) { return (s - 0.3) * (s + 2) * (s - 4); };
+  EXPECT_NEAR(crossing_guess(cubic(-1), cubic(0), cubic(1), cubic(2)), 0.3, 1e-12);
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  const auto quad = [](double s) { return (s - 0.7) * (s + 1.5); };
+  EXPECT_NEAR(crossing_guess(nan, quad(0), quad(1), quad(2)), 0.7, 1e-12);
+  EXPECT_NEAR(crossing_guess(quad(-1), quad(0), quad(1), nan), 0.7, 1e-12);
+  EXPECT_EQ(crossing_guess(nan, -1, 1, nan), -1);  // no neighbour: the caller's straight line
+
+  // The PBF section's kind of field: a gyroid sheet φ² − c² (2.5 mm cells, c = 0.3) in a layer,
+  // on its 25 µm grid with its 0.25 µm tolerance. Not a distance: the straight line between two
+  // nodes misses its crossings by more than the tolerance.
+  struct Sheet : PlaneFunction {
+    void sample(const Vec2* p, double* out, std::size_t n) override {
+      const double k = 2 * std::numbers::pi / 2.5, z = 0.37;
+      for (std::size_t i = 0; i < n; ++i) {
+        const double x = k * p[i].x, y = k * p[i].y;
+        const double phi = std::sin(x) * std::cos(y) + std::sin(y) * std::cos(k * z) +
+                           std::sin(k * z) * std::cos(x);
+        out[i] = phi * phi - 0.09;
+      }
+    }
+  } sheet;
+  MarchOptions plain;
+  plain.resolution = 0.025;
+  plain.refine_fraction = 1e-2;
+  MarchOptions cubic_opts = plain;
+  cubic_opts.cubic_guess = true;
+  const ContourSet a = march_squares(sheet, {0, 0}, {2.5, 2.5}, 0, plain);
+  const ContourSet b = march_squares(sheet, {0, 0}, {2.5, 2.5}, 0, cubic_opts);
+  ASSERT_EQ(a.lines.loops.size(), b.lines.loops.size());
+  ASSERT_EQ(a.lines.open.size(), b.lines.open.size());
+  std::size_t crossings = 0;
+  double worst = 0;
+  auto check = [&](const std::vector<std::vector<Vec2>>& la, const std::vector<std::vector<Vec2>>& lb) {
+    for (std::size_t k = 0; k < la.size(); ++k) {
+      ASSERT_EQ(la[k].size(), lb[k].size());
+      for (std::size_t i = 0; i < la[k].size(); ++i) {
+        // Both within the bracket tolerance (1e-2 of a cell) of the same crossing.
+        worst = std::max(worst, std::hypot(la[k][i].x - lb[k][i].x, la[k][i].y - lb[k][i].y));
+        ++crossings;
+      }
+    }
+  };
+  check(a.lines.loops, b.lines.loops);
+  check(a.lines.open, b.lines.open);
+  ASSERT_GT(crossings, 500u);
+  EXPECT_LT(worst, 2e-2 * plain.resolution);
+  // The same grid nodes; about one refinement sample fewer per crossing (two become one).
+  ASSERT_GT(a.samples, b.samples);
+  EXPECT_GT(static_cast<double>(a.samples - b.samples), 0.9 * static_cast<double>(crossings))
+      << "samples: straight line " << a.samples << ", cubic " << b.samples << ", crossings "
+      << crossings;
+}
+
 // A material iso-line that leaves the domain comes back as an open polyline.
 TEST(Contours, OpenIsoLinesOfAMaterialField) {
   struct Ramp : PlaneFunction {

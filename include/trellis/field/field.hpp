@@ -146,6 +146,15 @@ class Evaluator {
 
   double value(Vec3 p);
   void values(const Vec3* points, double* out, std::size_t n);
+  // The values at the grid nodes (xs[i], ys[j], z), row by row (out[j·w + i]): the same numbers
+  // as values() at those points, cheaper for a TPMS (sines per column and per row, not per node)
+  // and for CSG (children whose bound over the grid shows they change nothing are skipped).
+  void values_grid(const double* xs, std::size_t w, const double* ys, std::size_t rows, double z,
+                   double* out);
+  // The analytic gradient at those nodes (TPMS); false (out untouched) where the field has no
+  // grid path for it.
+  bool gradients_grid(const double* xs, std::size_t w, const double* ys, std::size_t rows,
+                      double z, Vec3* out);
   // Central differences with step h (mm).
   Vec3 gradient(Vec3 p, double h = 1e-5);
   void gradients(const Vec3* points, Vec3* out, std::size_t n, double h = 1e-5);

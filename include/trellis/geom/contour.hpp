@@ -24,6 +24,11 @@ class PlaneFunction {
     (void)origin, (void)step;
     sample(points, out, w * rows);
   }
+  // A hint that bound() is about to be asked for these n rectangles (a cache of bounds can start
+  // loading them all at once). Default: nothing.
+  virtual void prefetch_bounds(const Vec2* lo, const Vec2* hi, std::size_t n) {
+    (void)lo, (void)hi, (void)n;
+  }
   // Conservative range of values over the rectangle; (-inf, inf) when unknown.
   virtual Interval bound(Vec2 lo, Vec2 hi) {
     return {-std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()};
@@ -48,7 +53,17 @@ struct MarchOptions {
   // Also stop refining a crossing once |f - level| <= this (0: position only).
   double value_tolerance = 0;
   std::size_t block = 16;  // cells per block side for bound-based skipping
+  // Start each crossing's refinement at the root of the cubic through the grid values on the
+  // edge's line (two nodes either side, where the block has them) instead of the straight
+  // line's: fewer refinement samples for smooth functions, the same tolerance.
+  bool cubic_guess = false;
 };
+
+// The root in (0, 1) of the polynomial through (−1, before), (0, fa), (1, fb), (2, after)
+// (fa, fb of opposite signs; a neighbour NaN when missing: a quadratic through the other three),
+// by Newton steps from the straight line's root; −1 when there is none to trust (no neighbour,
+// or a step leaves the edge).
+double crossing_guess(double before, double fa, double fb, double after);
 
 struct ContourSet {
   // Loops are oriented with the region where f < level on their left: outer rings
