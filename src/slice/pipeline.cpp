@@ -284,6 +284,15 @@ void require_graded_design(const SliceJob& job, bool is_vcad, const Field& field
                         {job.input, 0, ""});
 }
 
+// A graded print's paths are cut by colour (Strategy 1) or planned per colour face (Strategy 2):
+// the report's path count and extruded length are summed over the printed part paths (not purges
+// or the tower) in print order, the same for the whole and the streamed run.
+void count_graded_path(const Path& path, PlanarStats& s) {
+  if (path.role == PathRole::Purge) return;
+  ++s.paths;
+  s.extruded_length += path.length();
+}
+
 }  // namespace
 
 int graded_colours_used(const Toolpath& tp) {
@@ -441,6 +450,9 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
         r.toolpath = plan_fgm_strategy1(field, r.outlines, planar, fo, PurgeOptions{}, &r.fgm);
       }
     });
+    r.planar.paths = 0, r.planar.extruded_length = 0;
+    for (const Layer& layer : r.toolpath.layers)
+      for (const Path& path : layer.paths) count_graded_path(path, r.planar);
     r.fgm.materials = fo.palette.materials;
     r.fgm.band = fo.palette.band();
     r.fgm.quantized_from = quantized_from;
@@ -670,7 +682,8 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
         for (Layer& layer : p.toolpath.layers) {
           for (const Path& path : layer.paths) {
             // Summed path by path in print order, as plan_planar sums it.
-            if (!graded) r.planar.extruded_length += path.length();  // (graded: run_slice's 0)
+            if (!graded) r.planar.extruded_length += path.length();
+            else count_graded_path(path, r.planar);
             if (path.points.empty()) continue;
             if (last_point) {
               const double dd = distance(*last_point, path.points.front());

@@ -13,6 +13,8 @@
 #include <fstream>
 #include <regex>
 
+#include "support/cli_run.hpp"
+#include "support/temp_dir.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/job/job.hpp"
@@ -26,26 +28,11 @@ namespace {
 const std::string kRoot = TRELLIS_SOURCE_DIR;
 
 const fs::path& work() {
-  static const fs::path dir = [] {
-    std::string tmpl = (fs::temp_directory_path() / "trellis_graded_shards_XXXXXX").string();
-    const char* d = ::mkdtemp(tmpl.data());
-    if (!d) throw std::runtime_error("mkdtemp failed");
-    return fs::path(d);
-  }();
-  return dir;
+  static const test::TempDir dir("trellis_graded_shards");
+  return dir.path();
 }
 
-struct Cmd {
-  int code;
-  std::string err;
-};
-
-Cmd cli(const std::string& args) {
-  const std::string err = (work() / "stderr.txt").string();
-  const std::string cmd = std::string(TRELLIS_CLI) + " " + args + " >/dev/null 2>" + err;
-  const int status = std::system(cmd.c_str());
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, read_file(err)};
-}
+test::CliRun cli(const std::string& args) { return test::run_cli(args, work()); }
 
 void write(const fs::path& path, const std::string& text) {
   fs::create_directories(path.parent_path());
@@ -201,7 +188,7 @@ TEST(GradedShards, PlanarProcessFieldsAndGradedPlatesRefuseShardsAndWriteNothing
   write(job, "[job]\nroute = \"slice\"\nname = \"planar_process\"\ninput = \"" + design.string() +
                  "\"\nmachine = \"" + kRoot + "/profiles/geeetech_mizar_m_mixing.toml\"\n");
   const fs::path out = work() / "refused_process";
-  Cmd r = cli("run " + job.string() + " -o " + out.string() + " --shard 1/2");
+  auto r = cli("run " + job.string() + " -o " + out.string() + " --shard 1/2");
   EXPECT_EQ(r.code, 2) << r.err;
   EXPECT_NE(r.err.find("process fields"), std::string::npos) << r.err;
   EXPECT_TRUE(!fs::exists(out) || fs::is_empty(out)) << "nothing written";

@@ -12,7 +12,11 @@
 #include <regex>
 #include <set>
 
+#include <nlohmann/json.hpp>
+#include <sstream>
+
 #include "support/gcode_replay.hpp"
+#include "support/temp_dir.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/job/job.hpp"
@@ -29,13 +33,8 @@ struct CmdResult {
 
 // A fresh folder of this test binary's own.
 const fs::path& work() {
-  static const fs::path dir = [] {
-    std::string tmpl = (fs::temp_directory_path() / "trellis_job_test_XXXXXX").string();
-    const char* d = ::mkdtemp(tmpl.data());
-    if (!d) throw std::runtime_error("mkdtemp failed");
-    return fs::path(d);
-  }();
-  return dir;
+  static const test::TempDir dir("trellis_job_test");
+  return dir.path();
 }
 
 std::string in_work(const std::string& name) {
@@ -353,4 +352,42 @@ TEST(Docs, JobsDocumentEverySectionAndRoute) {
     ++n;
   }
   EXPECT_GE(n, 8u);
+}
+
+// The report's path count and extruded length of a graded run are the printed ones: read back
+// from the G-code by the independent replayer, for Strategy 1 (the planar paths before the
+// colour split; the tower is not part of them) and Strategy 2 (its own paths; before, 0 and 0).
+TEST(GradedReport, PathsAndExtrudedLengthAreWhatIsPrinted) {
+  for (const int strategy : {1, 2}) {
+    const fs::path out = work() / ("graded_report_" + std::to_string(strategy));
+    Job job = load_job(kRoot + "/examples/jobs/palette_plate_fgm.toml", out.string(),
+                       {"output.png=false", "slice.strategy=" + std::to_string(strategy)});
+    Diagnostics diag;
+    run_job(job, diag);
+    const auto rep = nlohmann::json::parse(read_file(job.report));
+    const double reported = rep.at("extruded_length_mm").get<double>();
+    const auto paths = rep.at("paths").get<std::size_t>();
+    // Deposits outside the tower (the tower is printed between ";TYPE:Wipe tower" and the next
+    // ";TYPE:").
+    std::string gcode = read_file(job.output), part;
+    {
+      std::istringstream in(gcode);
+      std::string line;
+      bool tower = false;
+      while (std::getline(in, line)) {
+        if (line.rfind(";TYPE:", 0) == 0) tower = line == ";TYPE:Wipe tower";
+        // A tower line becomes a travel for the part-only replay (E dropped).
+        if (tower && line.rfind("G1", 0) == 0 && line.find(" E") != std::string::npos)
+          line = line.substr(0, line.find(" E")) + " ; tower";
+        part += line + "\n";
+      }
+    }
+    const test::Replay r = test::replay_gcode(part);
+    double printed = 0;
+    for (const auto& d : r.deposits) printed += std::hypot(d.x1 - d.x0, d.y1 - d.y0, d.z1 - d.z0);
+    EXPECT_GT(reported, 1000.0) << "strategy " << strategy;
+    EXPECT_NEAR(reported, printed, 1e-4 * printed) << "strategy " << strategy;
+    if (strategy == 2) EXPECT_EQ(paths, r.extrusion_starts) << "strategy 2 prints its paths";
+    else EXPECT_GT(paths, 0u);
+  }
 }

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "support/temp_dir.hpp"
 #include "trellis/core/diagnostics.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/job/job.hpp"
@@ -15,9 +16,8 @@ using namespace trellis;
 namespace {
 
 TEST(PbfStreamJob, StreamedBuildFileIsTheWholeToolpathsFile) {
-  const fs::path dir = fs::temp_directory_path() / "trellis_pbf_stream_job";
-  fs::remove_all(dir);
-  fs::create_directories(dir);
+  const test::TempDir tmp("trellis_pbf_stream_job");
+  const fs::path dir = tmp.path();
   const fs::path job_file = dir / "g.toml";
   std::ofstream(job_file) << "[job]\nroute = \"pbf\"\nname = \"g\"\n[pbf]\nsize = [2.5, 2.5, 0.4]\n";
   for (const bool binary : {false, true}) {

@@ -10,6 +10,8 @@
 #include <filesystem>
 #include <fstream>
 
+#include "support/cli_run.hpp"
+#include "support/temp_dir.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/job/job.hpp"
 #include "trellis/job/plate.hpp"
@@ -22,26 +24,11 @@ namespace {
 const std::string kRoot = TRELLIS_SOURCE_DIR;
 
 const fs::path& work() {
-  static const fs::path dir = [] {
-    std::string tmpl = (fs::temp_directory_path() / "trellis_plan_shard_XXXXXX").string();
-    const char* d = ::mkdtemp(tmpl.data());
-    if (!d) throw std::runtime_error("mkdtemp failed");
-    return fs::path(d);
-  }();
-  return dir;
+  static const test::TempDir dir("trellis_plan_shard");
+  return dir.path();
 }
 
-struct Cmd {
-  int code;
-  std::string err;
-};
-
-Cmd cli(const std::string& args) {
-  const std::string err = (work() / "stderr.txt").string();
-  const std::string cmd = std::string(TRELLIS_CLI) + " " + args + " >/dev/null 2>" + err;
-  const int status = std::system(cmd.c_str());
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, read_file(err)};
-}
+test::CliRun cli(const std::string& args) { return test::run_cli(args, work()); }
 
 // The single run's G-code and the merges of 1, 2 and 5 shards of it, each shard a separate job.
 void expect_shards_merge_to_single(const std::string& job_file, const std::string& tag,
@@ -125,7 +112,7 @@ TEST(PlanShardJob, TwoMaterialsPerLayerMergeExactlyFrom1_2_5Shards) {
 // What does not shard says why: exit 2, nothing written.
 TEST(PlanShardJob, AeroAndPlansWithoutGcodeRefuseShards) {
   const fs::path out = work() / "refused";
-  Cmd r = cli("run " + kRoot + "/examples/jobs/octet_aero.toml -o " + out.string() + " --shard 2/2");
+  auto r = cli("run " + kRoot + "/examples/jobs/octet_aero.toml -o " + out.string() + " --shard 2/2");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("does not shard with the aero planner"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("neither its layers nor its connected parts"), std::string::npos) << r.err;

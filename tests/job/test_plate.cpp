@@ -12,6 +12,8 @@
 #include <set>
 #include <cmath>
 
+#include "support/cli_run.hpp"
+#include "support/temp_dir.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/job/job.hpp"
@@ -27,26 +29,11 @@ namespace {
 const std::string kRoot = TRELLIS_SOURCE_DIR;
 
 const fs::path& plate_work() {
-  static const fs::path dir = [] {
-    std::string tmpl = (fs::temp_directory_path() / "trellis_plate_test_XXXXXX").string();
-    const char* d = ::mkdtemp(tmpl.data());
-    if (!d) throw std::runtime_error("mkdtemp failed");
-    return fs::path(d);
-  }();
-  return dir;
+  static const test::TempDir dir("trellis_plate_test");
+  return dir.path();
 }
 
-struct Cmd {
-  int code;
-  std::string err;
-};
-
-Cmd cli(const std::string& args) {
-  const std::string err = (plate_work() / "stderr.txt").string();
-  const std::string cmd = std::string(TRELLIS_CLI) + " " + args + " >/dev/null 2>" + err;
-  const int status = std::system(cmd.c_str());
-  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, read_file(err)};
-}
+test::CliRun cli(const std::string& args) { return test::run_cli(args, plate_work()); }
 
 // Runs `job_file` whole into `dir`, then in `n` shards into `dir`/shards-n and merges them;
 // returns {single, merged} bytes.
@@ -148,7 +135,7 @@ TEST(Plate, NonplanarMergesExactlyFrom1_2_5Shards) {
   // Bad shard input: exit 2, nothing written.
   const fs::path out = plate_work() / "nonplanar_refused";
   for (const char* bad : {"7/5", "0/3", "x/2"}) {
-    const Cmd r = cli("run " + job + " -o " + out.string() + " --shard " + bad);
+    const auto r = cli("run " + job + " -o " + out.string() + " --shard " + bad);
     EXPECT_EQ(r.code, 2) << bad;
     EXPECT_NE(r.err.find("--shard"), std::string::npos) << r.err;
     EXPECT_FALSE(fs::exists(out)) << bad;
@@ -158,7 +145,7 @@ TEST(Plate, NonplanarMergesExactlyFrom1_2_5Shards) {
   for (int k : {1, 3})
     ASSERT_EQ(cli("run " + job + " -o " + s3.string() + " --shard " + std::to_string(k) + "/3").code, 0);
   const std::string merged = (s3 / "merged.gcode").string();
-  const Cmd r = cli("merge " + (s3 / "corrugation.gcode.shard-1-of-3.json").string() + " " +
+  const auto r = cli("merge " + (s3 / "corrugation.gcode.shard-1-of-3.json").string() + " " +
                     (s3 / "corrugation.gcode.shard-3-of-3.json").string() + " -o " + merged);
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("shards 2 of 3 are missing"), std::string::npos) << r.err;
@@ -170,7 +157,7 @@ TEST(Plate, NonplanarMergesExactlyFrom1_2_5Shards) {
 // refused saying why, exit 2, nothing written.
 TEST(Plate, LatticePlansRefuseShardsSayingWhy) {
   const fs::path out = plate_work() / "plan_refused";
-  Cmd r = cli("run " + kRoot + "/examples/jobs/tiny_plan.toml -o " + out.string() + " --shard 1/2");
+  auto r = cli("run " + kRoot + "/examples/jobs/tiny_plan.toml -o " + out.string() + " --shard 1/2");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("holds layers of its G-code"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(out));
@@ -315,7 +302,7 @@ TEST(Plate, BadPlatesAndBadShardsExit2AndWriteNothing) {
   };
   const fs::path out = plate_work() / "refused";
   // g02 moved onto g01.
-  Cmd r = cli("run " + variant("overlap.toml", "x = 26\n", "x = 21\n") + " -o " + out.string());
+  auto r = cli("run " + variant("overlap.toml", "x = 26\n", "x = 21\n") + " -o " + out.string());
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("'g01'"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("'g02'"), std::string::npos) << r.err;

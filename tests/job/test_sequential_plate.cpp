@@ -13,6 +13,8 @@
 #include <fstream>
 #include <sstream>
 
+#include "support/cli_run.hpp"
+#include "support/temp_dir.hpp"
 #include "trellis/core/diagnostics.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/job/job.hpp"
@@ -115,16 +117,15 @@ std::string run(const fs::path& file, const fs::path& out, bool keep) {
 }
 
 int cli(const std::string& args, std::string& err) {
-  const std::string e = (fs::temp_directory_path() / "trellis_seq_err.txt").string();
-  const int status =
-      std::system((std::string(TRELLIS_CLI) + " " + args + " >/dev/null 2>" + e).c_str());
-  err = read_file(e);
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  static const test::TempDir dir("trellis_seq_plate");
+  const test::CliRun r = test::run_cli(args, dir.path());
+  err = r.err;
+  return r.code;
 }
 
 TEST(SequentialPlate, EachPartWholeInTurnNeverBelowAFinishedPartsTop) {
-  const fs::path dir = fs::temp_directory_path() / "trellis_sequential_plate";
-  fs::remove_all(dir);
+  const test::TempDir tmp("trellis_sequential_plate");
+  const fs::path dir = tmp.path();
   const std::string seq = run(job_file(dir / "seq", "parts"), dir / "seq" / "out", true);
   EXPECT_TRUE(seq == run(job_file(dir / "seq", "parts"), dir / "seq" / "stream", false))
       << "streamed sequential plate differs from the whole run";
@@ -177,8 +178,8 @@ TEST(SequentialPlate, EachPartWholeInTurnNeverBelowAFinishedPartsTop) {
 }
 
 TEST(SequentialPlate, RefusedWhereTheMachineDoesNotAllowIt) {
-  const fs::path dir = fs::temp_directory_path() / "trellis_sequential_refused";
-  fs::remove_all(dir);
+  const test::TempDir tmp("trellis_sequential_refused");
+  const fs::path dir = tmp.path();
   const std::string job = job_file(dir, "parts").string();
   const std::string out = (dir / "out").string();
   std::string err;

@@ -8,6 +8,7 @@
 #include <tuple>
 
 #include "support/random_graphs.hpp"
+#include "support/temp_dir.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/core/rng.hpp"
@@ -19,8 +20,8 @@ namespace fs = std::filesystem;
 namespace {
 
 std::string temp_path(const std::string& name) {
-  const fs::path p = fs::temp_directory_path() / "trellis_test_beam3mf" / name;
-  fs::create_directories(p.parent_path());
+  static const test::TempDir dir("trellis_test_beam3mf");
+  const fs::path p = dir / name;
   return p.string();
 }
 
