@@ -14,6 +14,7 @@
 #include <regex>
 
 #include "support/cli_run.hpp"
+#include "support/shard_run.hpp"
 #include "support/temp_dir.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
@@ -61,30 +62,13 @@ std::string job_file(const std::string& name, int strategy, const std::string& p
   return p.string();
 }
 
-// The job run whole into `dir`, then in `n` shards into `dir`/shards-n merged beside it;
-// {single, merged} bytes.
-std::pair<std::string, std::string> single_and_merged(const std::string& job_file,
-                                                      const fs::path& dir, int n) {
-  Diagnostics diag;
-  const Job whole = load_job(job_file, dir.string());
-  run_job(whole, diag);
-  const std::string single = read_file(whole.output);
-  const fs::path sdir = dir / ("shards-" + std::to_string(n));
-  std::vector<std::string> manifests;
-  for (int k = 1; k <= n; ++k) {
-    Job shard = load_job(job_file, sdir.string());
-    shard.shard = k;
-    shard.shards = n;
-    const JobResult r = run_job(shard, diag);
-    EXPECT_FALSE(fs::exists(shard.output)) << "a shard writes no whole output";
-    manifests.push_back(r.files.back());
-    EXPECT_NE(read_file(manifests.back()).find("\"graded\""), std::string::npos)
+// The job run whole into `dir`, then in `n` shards merged beside it; each shard's manifest says
+// it is graded.
+test::WholeAndMerged single_and_merged(const std::string& job_file, const fs::path& dir, int n) {
+  return test::run_whole_and_shards(job_file, dir, n, {}, &Job::output, [](const Job&, const JobResult& r) {
+    EXPECT_NE(read_file(r.files.back()).find("\"graded\""), std::string::npos)
         << "a graded shard's manifest says so";
-  }
-  const std::string merged =
-      (dir / ("merged-" + std::to_string(n) + fs::path(whole.output).extension().string())).string();
-  merge_shards(manifests, merged, diag);
-  return {single, read_file(merged)};
+  });
 }
 
 std::size_t count(const std::string& text, const std::string& what) {

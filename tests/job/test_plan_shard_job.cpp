@@ -11,6 +11,7 @@
 #include <fstream>
 
 #include "support/cli_run.hpp"
+#include "support/shard_run.hpp"
 #include "support/temp_dir.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/job/job.hpp"
@@ -40,25 +41,16 @@ void expect_shards_merge_to_single(const std::string& job_file, const std::strin
   run_job(whole, diag);
   const std::string single = read_file(whole.gcode);
   for (int n : {1, 2, 5}) {
-    const fs::path sdir = dir / ("shards-" + std::to_string(n));
-    std::vector<std::string> manifests;
-    for (int k = 1; k <= n; ++k) {
-      Job shard = load_job(job_file, sdir.string(), sets);
-      shard.shard = k;
-      shard.shards = n;
-      const JobResult r = run_job(shard, diag);
-      EXPECT_FALSE(fs::exists(shard.gcode)) << tag << ": a shard writes no G-code";
-      if (!shard.lattice.empty()) {
-        EXPECT_FALSE(fs::exists(shard.lattice)) << tag;
-      }
-      ASSERT_EQ(r.files.size(), 2u) << tag;
-      EXPECT_EQ(r.files[0], shard.gcode + ".shard-" + std::to_string(k) + "-of-" + std::to_string(n));
-      manifests.push_back(r.files.back());
-    }
-    const std::string merged =
-        (dir / ("merged-" + std::to_string(n) + fs::path(whole.gcode).extension().string())).string();
-    merge_shards(manifests, merged, diag);
-    EXPECT_TRUE(single == read_file(merged)) << tag << ", " << n << " shards: merged G-code differs";
+    const std::string merged = test::merged_shards(
+        job_file, dir, n, sets, &Job::gcode, [&](const Job& shard, const JobResult& r) {
+          if (!shard.lattice.empty()) {
+            EXPECT_FALSE(fs::exists(shard.lattice)) << tag;
+          }
+          ASSERT_EQ(r.files.size(), 2u) << tag;
+          EXPECT_EQ(r.files[0], shard.gcode + ".shard-" + std::to_string(shard.shard) + "-of-" +
+                                    std::to_string(n));
+        });
+    EXPECT_TRUE(single == merged) << tag << ", " << n << " shards: merged G-code differs";
   }
 }
 

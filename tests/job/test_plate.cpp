@@ -13,6 +13,7 @@
 #include <cmath>
 
 #include "support/cli_run.hpp"
+#include "support/shard_run.hpp"
 #include "support/temp_dir.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
@@ -35,38 +36,13 @@ const fs::path& plate_work() {
 
 test::CliRun cli(const std::string& args) { return test::run_cli(args, plate_work()); }
 
-// Runs `job_file` whole into `dir`, then in `n` shards into `dir`/shards-n and merges them;
-// returns {single, merged} bytes.
-std::pair<std::string, std::string> single_and_merged(const std::string& job_file,
-                                                      const fs::path& dir, int n) {
-  Diagnostics diag;
-  const Job whole = load_job(job_file, dir.string());
-  run_job(whole, diag);
-  const std::string single = read_file(whole.output);
-  const fs::path sdir = dir / ("shards-" + std::to_string(n));
-  std::vector<std::string> manifests;
-  for (int k = 1; k <= n; ++k) {
-    Job shard = load_job(job_file, sdir.string());
-    shard.shard = k;
-    shard.shards = n;
-    const JobResult r = run_job(shard, diag);
-    EXPECT_FALSE(fs::exists(shard.output)) << "a shard writes no whole output";
-    manifests.push_back(r.files.back());
-  }
-  // Merged beside the single run's output (paths in the embedded job are relative to it).
-  const std::string merged =
-      (dir / ("merged-" + std::to_string(n) + fs::path(whole.output).extension().string())).string();
-  merge_shards(manifests, merged, diag);
-  return {single, read_file(merged)};
-}
-
 }  // namespace
 
 TEST(Plate, PbfPlateOf16GyroidPartsMergesExactlyFrom1_2_5Shards) {
   const std::string job = kRoot + "/examples/jobs/gyroid_plate_pbf.toml";
   const fs::path dir = plate_work() / "pbf";
   for (int n : {1, 2, 5}) {
-    const auto [single, merged] = single_and_merged(job, dir, n);
+    const auto [single, merged] = test::run_whole_and_shards(job, dir, n);
     ASSERT_GT(single.size(), 1000u);
     EXPECT_TRUE(single == merged) << n << " shards: merged file differs from the single run";
   }
@@ -104,7 +80,7 @@ TEST(Plate, FdmPlateOfNineLatticePartsMergesExactlyFrom1_2_5Shards) {
   const std::string job = kRoot + "/examples/jobs/lattice_plate_fdm.toml";
   const fs::path dir = plate_work() / "fdm";
   for (int n : {1, 2, 5}) {
-    const auto [single, merged] = single_and_merged(job, dir, n);
+    const auto [single, merged] = test::run_whole_and_shards(job, dir, n);
     ASSERT_GT(single.size(), 1000u);
     EXPECT_TRUE(single == merged) << n << " shards: merged G-code differs from the single run";
   }
@@ -128,7 +104,7 @@ TEST(Plate, NonplanarMergesExactlyFrom1_2_5Shards) {
   const std::string job = kRoot + "/examples/jobs/corrugation_nonplanar.toml";
   const fs::path dir = plate_work() / "nonplanar";
   for (int n : {1, 2, 5}) {
-    const auto [single, merged] = single_and_merged(job, dir, n);
+    const auto [single, merged] = test::run_whole_and_shards(job, dir, n);
     ASSERT_GT(single.size(), 1000u);
     EXPECT_TRUE(single == merged) << n << " shards: merged G-code differs from the single run";
   }
