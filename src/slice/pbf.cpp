@@ -343,7 +343,25 @@ class JointSection : public PlaneFunction {
                  LayerGrid::BlockIndex key) {
     const std::size_t n = w * rows;
     part_.resize(n);
-    evaluate_grid(ctx_.part, p, w, rows, z_, xs_, ys_, part_.data());
+    // The section march has usually sampled every node of the block (its blocks cover those
+    // where the part changes sign): its values are read, else the block is evaluated whole.
+    bool cached = true;
+    {
+      LayerGrid::BlockIndex probe = key;
+      for (std::size_t i = 0; i < n && cached; ++i) {
+        const std::size_t k = probe(i);
+        cached = grid_->has_part(k);
+        if (cached) part_[i] = grid_->part(k);
+      }
+    }
+    if (cached) {
+      xs_.resize(w);
+      ys_.resize(rows);
+      for (std::size_t i = 0; i < w; ++i) xs_[i] = p[i].x;
+      for (std::size_t j = 0; j < rows; ++j) ys_[j] = p[j * w].y;
+    } else {
+      evaluate_grid(ctx_.part, p, w, rows, z_, xs_, ys_, part_.data());
+    }
     bool inside = false;
     for (std::size_t i = 0; i < n; ++i) inside |= part_[i] < 0;
     if (inside) {
