@@ -44,9 +44,12 @@ struct GridPlane {
 };
 
 // Sines and cosines of recent arguments (direct-mapped by the argument's bits): TPMS bounds ask
-// for the centres of grid blocks, whose coordinates repeat along a row and a column.
+// for the centres of grid blocks, whose coordinates repeat along a row and a column. 16 k slots
+// (384 KB, within a core's L2): a PBF layer asks for a few thousand distinct arguments (its
+// grids' columns and rows and its blocks' centres), which thrashed 4 k direct-mapped slots
+// (2-3% of the direct route's time on the shipped example).
 struct SinCosMemo {
-  static constexpr int kBits = 12;
+  static constexpr int kBits = 14;
   struct Entry {
     std::uint64_t key = ~std::uint64_t{0};  // the argument's bits (this one is a NaN: never kept)
     double s = 0, c = 0;
