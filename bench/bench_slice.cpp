@@ -3,10 +3,17 @@
 #include <benchmark/benchmark.h>
 #include <tbb/global_control.h>
 
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+
 #include "trellis/field/vcad.hpp"
 #include "trellis/geom/mesh_io.hpp"
 #include "trellis/machine/gcode_writer.hpp"
 #include "trellis/machine/profile.hpp"
+#include "trellis/slice/fgm_process.hpp"
 #include "trellis/slice/pipeline.hpp"
 #include "trellis/slice/slice.hpp"
 
@@ -114,6 +121,51 @@ void BM_FgmTable3VaseStrategy1(benchmark::State& state) {
   fgm_job(state, "fgm_column6_vase.vcad", 1, 0);
 }
 
+
+// The process-field pass alone (issue 20 item 5): an 80 x 60 x 10 mm block (50 layers) with
+// temperature, speed, flow and fan varying across X and Y, so paths split along their length;
+// its planned walls and infill (sliced once outside the timing, from the block without the
+// fields) get the fields applied. Counters: paths, pieces written, field samples.
+void BM_ProcessFieldsBlock(benchmark::State& state) {
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism, 1);
+  const auto tmp = [](const std::string& name, const std::string& text) {
+    const std::string p = (std::filesystem::temp_directory_path() /
+                           ("trellis_bench_" + std::to_string(::getpid()) + "_" + name)).string();
+    std::ofstream(p) << text;
+    return p;
+  };
+  const std::string graded = tmp("graded.vcad",
+      "fprocess([\"215 + 20*sin(x/8)\", \"30 + 10*cos(y/6)\", \"0.8 + 0.2*sin((x+y)/10)\",\n"
+      "          \"50 + 50*sin(x/5)\"], [\"temperature\", \"speed\", \"flow\", \"fan\"]) {\n"
+      "  rectprism(80, 60, 10);\n}\n");
+  const std::string plain = tmp("plain.vcad", "rectprism(80, 60, 10);\n");
+  const Field design = read_vcad(graded).field;
+  SliceJob job;
+  job.input = plain;
+  job.planar.layer_height = 0.2;
+  job.planar.bead_width = 0.4;
+  const SliceResult r = run_slice(job);
+  std::remove(graded.c_str());
+  std::remove(plain.c_str());
+  std::vector<double> dz;
+  for (std::size_t i = 0; i < r.outlines.size() && i < r.toolpath.layers.size(); ++i)
+    dz.push_back(r.outlines[i].z - r.toolpath.layers[i].z);
+  const ProcessOptions options;
+  ProcessStats stats;
+  for (auto _ : state) {
+    state.PauseTiming();
+    Toolpath tp = r.toolpath;
+    stats = ProcessStats{};
+    state.ResumeTiming();
+    apply_process_fields(design, tp, options, &stats, dz);
+    benchmark::DoNotOptimize(tp);
+  }
+  state.counters["layers"] = static_cast<double>(r.toolpath.layers.size());
+  state.counters["paths"] = static_cast<double>(stats.paths);
+  state.counters["pieces"] = static_cast<double>(stats.pieces);
+  state.counters["samples"] = static_cast<double>(stats.samples);
+}
+
 }  // namespace
 
 BENCHMARK(BM_FgmTable3PlateStrategy1)->Arg(16)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
@@ -142,6 +194,7 @@ BENCHMARK(BM_FgmStrategy2PalettePlate)->Arg(12)->Arg(48)->Unit(benchmark::kSecon
 BENCHMARK(BM_ContourPerforatedPlate135x175)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_ContourVaseField)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_ContourGyroid135x175)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_ProcessFieldsBlock)->Unit(benchmark::kSecond)->Iterations(3)->UseRealTime();
 BENCHMARK(BM_SliceVaseField)->Arg(1)->Arg(2)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 BENCHMARK(BM_SliceVaseMesh)->Arg(2)->Unit(benchmark::kSecond)->Iterations(1)->UseRealTime();
 

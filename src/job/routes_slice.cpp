@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "routes.hpp"
+#include "../slice/process_json.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/field/vcad.hpp"
@@ -271,6 +272,7 @@ struct SlicePart {
   SliceJob sj;
   BBox3 extent;
   std::size_t layers = 0;
+  ProcessStats process;  // what its process fields wrote (the plate report's per-part object)
 };
 
 void warn_repaired(const SliceJob& sj, const SliceResult& r, Diagnostics& diag) {
@@ -292,7 +294,8 @@ void plate_report(const Job& job, const std::vector<PlatePart>& placed,
     j["paths"] = paths;
     j["print_time_s"] = g.print_time_s;
     j["parts"] = nlohmann::ordered_json::array();
-    for (std::size_t k = 0; k < placed.size(); ++k)
+    bool process = false;
+    for (std::size_t k = 0; k < placed.size(); ++k) {
       j["parts"].push_back({{"label", placed[k].label},
                             {"input", fs::path(placed[k].input).filename().string()},
                             {"x_mm", placed[k].x},
@@ -300,6 +303,17 @@ void plate_report(const Job& job, const std::vector<PlatePart>& placed,
                             {"rotation_deg", placed[k].rotation},
                             {"layers", parts[k].layers},
                             {"print_time_s", k < g.part_time_s.size() ? g.part_time_s[k] : 0.0}});
+      // A part's process fields: what was written against its field (the commands are the
+      // plate's, below: one nozzle prints every part).
+      if (parts[k].process.active) {
+        j["parts"].back()["process"] = process_json(parts[k].process, parts[k].sj.process);
+        process = true;
+      }
+    }
+    if (process)
+      j["process"] = {{"temperature_commands", g.temperature_changes},
+                      {"settle_time_s", g.settle_time_s},
+                      {"fan_commands", g.fan_changes}};
     write_file_atomic(job.report, with_job(j.dump(2) + "\n", job, job.report, true, &diag));
     out.files.push_back(job.report);
   }
@@ -360,6 +374,7 @@ JobResult slice_plate_streamed(const Job& job, const Config& c, std::vector<Slic
         progress);
     for (const auto& [kind, message] : process_warnings(r.process, p.sj.process))
       diag.warn(kind, message);
+    p.process = r.process;
     warn_repaired(p.sj, r, diag);
     if (!plate)
       meta.source = "trellis slice " + fs::path(p.sj.input).filename().string() + " (" +
@@ -535,6 +550,7 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag, const 
     SliceResult r = run_slice(p.sj, progress);
     for (const auto& [kind, message] : process_warnings(r.process, p.sj.process))
       diag.warn(kind, message);
+    p.process = r.process;
     warn_repaired(p.sj, r, diag);
     if (!plate)
       tp.source = "trellis slice " + fs::path(p.sj.input).filename().string() + " (" +

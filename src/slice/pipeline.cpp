@@ -13,6 +13,7 @@
 #include <optional>
 #include <set>
 
+#include "process_json.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/field/vcad.hpp"
 #include "trellis/geom/mesh_io.hpp"
@@ -865,26 +866,7 @@ std::string slice_report_json(const SliceJob& job, const SliceResult& r, const G
                   {"retractions", g->retractions},
                   {"print_time_s", g->print_time_s}};
   }
-  if (r.process.active) {  // fprocess fields: what was written, against the field
-    auto& jp = j["process"];
-    jp["paths"] = r.process.paths;
-    jp["pieces"] = r.process.pieces;
-    jp["merged_under_min_length"] = r.process.merged;
-    jp["short_paths_slowed"] = r.process.short_slowed;
-    for (int k = 0; k < kProcessParams; ++k) {
-      const ProcessParamStats& s = r.process.param[k];
-      if (!s.set) continue;
-      jp[to_string(static_cast<ProcessParam>(k))] = {
-          {"node", s.node}, {"step", job.process.step(static_cast<ProcessParam>(k))},
-          {"min", s.min}, {"max", s.max}, {"changes", s.changes},
-          {"max_deviation", s.max_deviation}};
-    }
-    if (g) {
-      jp["temperature_commands"] = g->temperature_changes;
-      jp["settle_time_s"] = g->settle_time_s;
-      jp["fan_commands"] = g->fan_changes;
-    }
-  }
+  if (r.process.active) j["process"] = process_json(r.process, job.process, g);  // fprocess fields
   return j.dump(2) + "\n";
 }
 

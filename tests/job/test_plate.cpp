@@ -11,6 +11,7 @@
 #include <regex>
 #include <set>
 #include <cmath>
+#include <nlohmann/json.hpp>
 
 #include "support/cli_run.hpp"
 #include "support/shard_run.hpp"
@@ -382,4 +383,44 @@ echo 4242
                           (dir / "submitted").string() + "' 5 >/dev/null";
   ASSERT_EQ(std::system(cmd.c_str()), 0);
   EXPECT_TRUE(read_file((dir / "submitted" / "lattice_plate.gcode").string()) == single);
+}
+
+// A plate whose parts carry process fields (fprocess): the plate report lists, per part, what
+// was written against that part's field (the same object as a single part's report), and the
+// plate's command counts; a part without fields has none. Whole and streamed runs agree.
+TEST(Plate, FdmPlateReportsEachPartsProcessFields) {
+  const fs::path dir = plate_work() / "process";
+  fs::create_directories(dir);
+  std::ofstream(dir / "warm.vcad")
+      << "fprocess([\"200 + 2*(z+5)\", \"20 + 0.5*(x+6)\"], [\"temperature\", \"speed\"]) {\n"
+         "  cylinder(6, 10);\n}\n";
+  std::ofstream(dir / "plain.vcad") << "cylinder(6, 10);\n";
+  std::ofstream(dir / "plate.toml")
+      << "[job]\nroute = \"slice\"\nname = \"proc_plate\"\nmachine = \"" << kRoot
+      << "/profiles/prusa_mk4s_lwpla.toml\"\n\n[extrusion]\nlayer_height = 0.3\n\n"
+         "[[part]]\nlabel = \"warm\"\ninput = \"warm.vcad\"\nx = 90\ny = 100\n\n"
+         "[[part]]\nlabel = \"plain\"\ninput = \"plain.vcad\"\nx = 120\ny = 100\n";
+  std::string reports[2];
+  for (const bool keep : {true, false}) {
+    Job job = load_job((dir / "plate.toml").string(), (dir / (keep ? "whole" : "stream")).string(),
+                       {"output.png=false"});
+    job.keep_toolpath = keep;
+    Diagnostics diag;
+    run_job(job, diag);
+    reports[keep ? 0 : 1] = read_file(job.report);
+  }
+  const auto rep = nlohmann::json::parse(reports[0]);
+  ASSERT_EQ(rep.at("parts").size(), 2u);
+  const auto& warm = rep["parts"][0];
+  ASSERT_TRUE(warm.contains("process")) << reports[0];
+  // 33 layers of 0.3 mm from z = -5: the field gives 200 ... 220 °C at the planes, written
+  // rounded to 1 °C.
+  EXPECT_GE(warm["process"]["temperature"]["min"].get<double>(), 200.0);
+  EXPECT_LE(warm["process"]["temperature"]["max"].get<double>(), 220.0);
+  EXPECT_GE(warm["process"]["temperature"]["changes"].get<int>(), 15);
+  EXPECT_LE(warm["process"]["temperature"]["max_deviation"].get<double>(), 0.5 + 1e-9);
+  EXPECT_TRUE(warm["process"].contains("speed"));
+  EXPECT_FALSE(rep["parts"][1].contains("process")) << "the plain part has no fields";
+  EXPECT_GE(rep.at("process").at("temperature_commands").get<int>(), 15);
+  EXPECT_EQ(nlohmann::json::parse(reports[1]), rep) << "streamed plate report differs";
 }

@@ -1,6 +1,7 @@
 // Process fields (fprocess): temperature, speed, flow and fan along every printed path, checked
 // on the written G-code by a replay that shares no code with the writer or the reader. It
-// follows positions, E (M82/M83, G92), F, M104/M109, M106/M107 and G4 line by line, and
+// follows positions, E (M82/M83, G92), F, the heater commands of Marlin, RepRapFirmware and
+// Klipper, M106/M107 and G4 line by line, and
 // compares what each extruding move is printed with against the design's field at points along
 // the move.
 #include <gtest/gtest.h>
@@ -59,17 +60,25 @@ Replay replay(const std::string& gcode, double settle) {
     for (std::string w; words >> w;) args.push_back(w);
     if (cmd == "M83") relative = true;
     if (cmd == "M82") relative = false;
-    if (cmd == "M104" || cmd == "M109") {
+    // A new target: a wait settles too; a set alone needs the dwell.
+    const auto set_temperature = [&](double t, bool wait) {
+      if (t <= 0) return;
+      if (heated && t != temperature) {
+        ++r.temperature_changes;
+        settled = wait;
+      }
+      temperature = t;
+      heated = true;
+    };
+    // Marlin M104/M109 S; RepRapFirmware M568 P<tool> S<t> (M116 waits); Klipper
+    // SET_HEATER_TEMPERATURE HEATER=… TARGET=<t> (TEMPERATURE_WAIT waits).
+    if (cmd == "M104" || cmd == "M109" || cmd == "M568")
       for (const auto& w : args)
-        if (w[0] == 'S' && word(w) > 0) {
-          if (heated && word(w) != temperature) {
-            ++r.temperature_changes;
-            settled = cmd == "M109";  // a wait settles too; M104 needs the dwell
-          }
-          temperature = word(w);
-          heated = true;
-        }
-    }
+        if (w[0] == 'S') set_temperature(word(w), cmd == "M109");
+    if (cmd == "SET_HEATER_TEMPERATURE")
+      for (const auto& w : args)
+        if (w.rfind("TARGET=", 0) == 0) set_temperature(std::stod(w.substr(7)), false);
+    if (cmd == "M116" || cmd == "TEMPERATURE_WAIT") settled = true;
     if (cmd == "M106")
       for (const auto& w : args)
         if (w[0] == 'S') fan = word(w) / 2.55;
@@ -234,6 +243,36 @@ TEST(ProcessFields, EveryTemperatureChangeSettlesBeforeTheNextExtrusion) {
   GcodeStats quick;
   write_gcode(s.result.toolpath, prof, &quick);
   EXPECT_NEAR(s.stats.print_time_s - quick.print_time_s, 3.0 * r.temperature_changes, 1e-6);
+}
+
+// The temperature field in each firmware's own words (machine.flavor): RepRapFirmware's M568
+// and Klipper's SET_HEATER_TEMPERATURE, read back by the replay, are within half a step of the
+// field on every extruding move and settle before it, as Marlin's M104.
+TEST(ProcessFields, EveryFirmwareWritesTheTemperatureField) {
+  trellis::test::TempDir dir;
+  for (const std::string flavor : {"marlin", "reprap", "klipper"}) {
+    MachineProfile prof = fdm_profile();
+    prof.flavor = flavor;
+    const Sliced s = slice(kGraded, job_for(""), prof, dir);
+    const Replay r = replay(s.gcode, prof.settle_time);
+    ASSERT_GT(r.moves.size(), 1000u) << flavor;
+    Evaluator ev(parse_vcad(kGraded, "design.vcad").field);
+    double worst = 0;
+    std::size_t unsettled = 0;
+    for (const Move& m : r.moves) {
+      ASSERT_GT(m.temperature, 0) << flavor << ": an extrusion before any temperature";
+      const auto li = static_cast<std::size_t>(std::lround(m.b.z / 0.2)) - 1;
+      ASSERT_LT(li, s.result.outlines.size());
+      const Vec3 q = (m.a + m.b) * 0.5;
+      worst = std::max(worst, std::abs(m.temperature - ev.process({q.x - r.offset.x, q.y - r.offset.y,
+                                                                    s.result.outlines[li].z}).value[0]));
+      unsettled += !m.settled;
+    }
+    EXPECT_LE(worst, 0.5 + 1e-3) << flavor;
+    EXPECT_EQ(unsettled, 0u) << flavor;
+    EXPECT_GE(r.temperature_changes, 9u) << flavor;
+    EXPECT_EQ(s.stats.temperature_changes, r.temperature_changes) << flavor;
+  }
 }
 
 TEST(ProcessFields, SplitPathsStayOneBead) {
