@@ -308,3 +308,72 @@ TEST(Pbf, UniformThicknessSheetsHaveNoSpread) {
 }
 
 }  // namespace
+
+namespace {
+
+// Distance from q to the segment a–b.
+double segment_distance(Vec2 q, Vec2 a, Vec2 b) {
+  const Vec2 d = b - a;
+  const double dd = d.x * d.x + d.y * d.y;
+  double t = dd > 0 ? ((q.x - a.x) * d.x + (q.y - a.y) * d.y) / dd : 0;
+  t = std::clamp(t, 0.0, 1.0);
+  return std::hypot(q.x - a.x - t * d.x, q.y - a.y - t * d.y);
+}
+
+// Every point of the mid-curve φ = 0 in a thin wall (found independently: grid points projected
+// onto φ = 0, kept where the sheet is clearly thinner than thin_multiple · D, steep and away from
+// the envelope) lies within a gap LHD (plus a little) of a contour vector: no thin wall loses its
+// track. A contouring march that skipped blocks it should not have (a wrong bound, a bound cache
+// answering for another block) leaves such points bare.
+TEST(Pbf, EveryThinWallPointOfTheMidCurveHasATrack) {
+  const double c = 0.08;  // walls mostly thinner than thin_multiple · D
+  const PbfDesign d = gyroid_cube(7.5, c);
+  PbfOptions o;
+  o.layer = 0.5;
+  const PbfResult r = plan_pbf(d, o);
+  ASSERT_GE(r.layers.size(), 10u);
+  Evaluator phi(d.phi), part(d.part());
+  const BBox3 e = d.part().extent();
+  const double margin = o.beam_compensation + 0.1;
+  const double cos_min = std::cos(o.min_inclination * kDeg);
+  std::size_t checked = 0, bare = 0;
+  for (const PbfLayer& L : r.layers) {
+    for (double x = e.min.x + margin; x <= e.max.x - margin; x += 0.1)
+      for (double y = e.min.y + margin; y <= e.max.y - margin; y += 0.1) {
+        // Newton steps onto φ = 0 in the layer.
+        Vec2 q{x, y};
+        Vec3 g{};
+        double f = 0;
+        for (int it = 0; it < 4; ++it) {
+          f = phi.value_gradient({q.x, q.y, L.z}, &g);
+          const double gg = g.x * g.x + g.y * g.y;
+          if (!(gg > 0)) break;
+          q = q - Vec2{g.x, g.y} * (f / gg);
+        }
+        f = phi.value_gradient({q.x, q.y, L.z}, &g);
+        const double gxy = std::hypot(g.x, g.y), gn = norm(g);
+        if (!(gn > 0) || std::abs(f) / gn > 1e-5 || std::hypot(q.x - x, q.y - y) > 0.1) continue;
+        if (q.x < e.min.x + margin || q.x > e.max.x - margin || q.y < e.min.y + margin ||
+            q.y > e.max.y - margin || part.value({q.x, q.y, L.z}) >= 0)
+          continue;
+        // Clearly a thin wall: narrower than thin_multiple · D by a fifth, steeper than the
+        // minimum inclination by a margin.
+        if (o.thin_multiple * o.melt_pool * gxy - 2 * c < 0.2 * 2 * c) continue;
+        if (cos_min - std::abs(g.z) / gn < 0.05) continue;
+        ++checked;
+        double nearest = 1e9;
+        for (const auto& v : L.contours)
+          for (std::size_t k = 1; k < v.size(); ++k)
+            nearest = std::min(nearest, segment_distance(q, v[k - 1], v[k]));
+        if (nearest > o.segment_gap + 0.02) {
+          ++bare;
+          ADD_FAILURE() << "no track within " << nearest << " mm of (" << q.x << ", " << q.y
+                        << ") at z " << L.z;
+          if (bare > 5) return;
+        }
+      }
+  }
+  EXPECT_GT(checked, 500u);
+}
+
+}  // namespace
