@@ -3,6 +3,8 @@
 // lines one bead apart; a purge is a zig-zag over consecutive lines, the sparse fill every
 // kSparse-th of the lines left.
 #pragma once
+#include <map>
+#include <optional>
 #include <vector>
 
 #include "trellis/core/vec.hpp"
@@ -52,5 +54,44 @@ Vec2 place(const BBox2& part, double sx, double sy, const PurgeOptions& options)
 // GeometryError when neither fits, with the area the purges need.
 Block plan_tower(const BBox2& part, std::size_t most, double length, double bead,
                  const PurgeOptions& options);
+
+
+// The prime tower of a print built in two passes over its layers in order: observe() every
+// layer (which paths purge, the footprint, the busiest layer), plan() the block, then add()
+// every layer from index 0 (the tower's wall, sparse lines and purges inserted before the paths
+// that change colour) and finish() the statistics. add_prime_tower runs both passes on a whole
+// toolpath; streamed slicing observes layers as they are planned and adds the tower as it reads
+// them back, so neither holds the print.
+class PrimeTower {
+ public:
+  PrimeTower(const FgmOptions& options, const PurgeOptions& purge);
+  void observe(const Layer& layer);
+  // Places and sizes the block into stats.tower (GeometryError where no bed space fits); false
+  // when nothing purges (no tower).
+  bool plan(FgmStats& stats);
+  void add(std::size_t index, Layer& layer);
+  // stats.purges, purge_length, purge_volume and the tower's per-colour table.
+  void finish(FgmStats& stats) const;
+
+ private:
+  int colour_of(const Path& p) const { return p.mixture.empty() ? -1 : o_.palette.color_of(p.mixture); }
+  bool purges(int before, int after) const;  // a change above the purge threshold
+  Path tower_path(std::vector<Vec2> points, int colour, double z);
+
+  FgmOptions o_;
+  PurgeOptions purge_;
+  double length_ = 0;  // of one purge
+  // observe()
+  BBox2 part_;
+  std::size_t most_ = 0, observed_ = 0;
+  long last_purge_layer_ = -1;
+  int seen_ = -1, first_colour_ = -1;
+  // add()
+  std::optional<Block> block_;
+  int last_ = -1;
+  std::map<int, TowerColour> colours_;
+  double purge_length_ = 0;
+  std::size_t purges_ = 0;
+};
 
 }  // namespace trellis::tower
