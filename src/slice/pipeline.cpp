@@ -14,7 +14,9 @@
 #include <set>
 
 #include "process_json.hpp"
+#include "fgm_tower.hpp"
 #include "trellis/core/error.hpp"
+#include "trellis/toolpath/layer_spill.hpp"
 #include "trellis/field/vcad.hpp"
 #include "trellis/geom/mesh_io.hpp"
 #include "trellis/slice/fgm.hpp"
@@ -288,6 +290,35 @@ void require_graded_design(const SliceJob& job, bool is_vcad, const Field& field
 // A graded print's paths are cut by colour (Strategy 1) or planned per colour face (Strategy 2):
 // the report's path count and extruded length are summed over the printed part paths (not purges
 // or the tower) in print order, the same for the whole and the streamed run.
+// A tool changer prints a two-material mixture with its nearest tool (tool k of n + 1 prints
+// the share 1 - k/n): the mixtures written, after the prime tower (which reads the palette's).
+void tool_mixtures(const SliceJob& job, Layer& layer) {
+  if (job.tools <= 1) return;
+  const double n = job.tools - 1;
+  for (auto& p : layer.paths)
+    if (p.mixture.size() == 2) {
+      const double t = 1 - std::round((1 - std::clamp(p.mixture[0], 0.0, 1.0)) * n) / n;
+      p.mixture = {t, 1 - t};
+    }
+}
+
+// The bound on the gradient error of what is printed: the palette's (zippering prints the
+// neighbouring colour up to β/2 beyond a boundary); on a tool changer, of the tools' mixtures.
+double graded_error_bound(const SliceJob& job, const FgmOptions& fo) {
+  const double zipper = job.strategy == 1 ? fo.zipper / 2 : 0.0;
+  if (job.tools <= 1) return fo.palette.error_bound() + zipper;
+  const double n = job.tools - 1;
+  auto tool_mix = [&](double a) { return 1 - std::round((1 - std::clamp(a, 0.0, 1.0)) * n) / n; };
+  double bound = 0;
+  for (int k = 0; k < fo.palette.colors; ++k) {
+    const double lo = k == 0 ? 0.0 : fo.palette.level(k);
+    const double hi = k + 1 == fo.palette.colors ? 1.0 : fo.palette.level(k + 1);
+    const double t = tool_mix(fo.palette.mixture(k)[0]);
+    bound = std::max({bound, std::abs(t - lo), std::abs(hi - t)});
+  }
+  return bound + zipper;
+}
+
 void count_graded_path(const Path& path, PlanarStats& s) {
   if (path.role == PathRole::Purge) return;
   ++s.paths;
@@ -341,14 +372,7 @@ void finish_graded(const SliceJob& job, const FgmOptions& fo, Toolpath& tp, FgmS
   // on a mixing hotend runs the change ahead instead: gradient.lookahead, the writer's).
   if (job.strategy == 1 || job.tools > 0)
     naming_design(job, [&] { add_prime_tower(tp, fo, job.purge, st); });
-  if (job.tools > 1) {
-    // What a tool prints (the writer's nearest tool).
-    const double n = job.tools - 1;
-    auto tool_mix = [&](double a) { return 1 - std::round((1 - std::clamp(a, 0.0, 1.0)) * n) / n; };
-    for (auto& l : tp.layers)
-      for (auto& p : l.paths)
-        if (p.mixture.size() == 2) p.mixture = {tool_mix(p.mixture[0]), 1 - tool_mix(p.mixture[0])};
-  }
+  for (auto& l : tp.layers) tool_mixtures(job, l);
 }
 
 SliceResult run_slice(const SliceJob& job, const Progress& progress) {
@@ -460,22 +484,7 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
     r.fgm.colours_used = graded_colours_used(r.toolpath);
     r.fgm.colours_total = fo.palette.colors;
     finish_graded(job, fo, r.toolpath, r.fgm);
-    // Zippering prints the neighbouring colour up to β/2 beyond a boundary.
-    r.fgm.error_bound = fo.palette.error_bound() + (job.strategy == 1 ? fo.zipper / 2 : 0.0);
-    if (job.tools > 1) {
-      // What a tool prints (the writer's nearest tool, finish_graded): the error is measured on
-      // that.
-      const double n = job.tools - 1;
-      auto tool_mix = [&](double a) { return 1 - std::round((1 - std::clamp(a, 0.0, 1.0)) * n) / n; };
-      double bound = 0;
-      for (int k = 0; k < fo.palette.colors; ++k) {
-        const double lo = k == 0 ? 0.0 : fo.palette.level(k);
-        const double hi = k + 1 == fo.palette.colors ? 1.0 : fo.palette.level(k + 1);
-        const double t = tool_mix(fo.palette.mixture(k)[0]);
-        bound = std::max({bound, std::abs(t - lo), std::abs(hi - t)});
-      }
-      r.fgm.error_bound = bound + (job.strategy == 1 ? fo.zipper / 2 : 0.0);
-    }
+    r.fgm.error_bound = graded_error_bound(job, fo);
     naming_design(job, [&] { measure_gradient_error(field, r.toolpath, r.outlines, h, r.fgm); });
   } else {
     r.toolpath = plan_planar(r.outlines, job.planar, &r.planar);
@@ -487,9 +496,6 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
   return r;
 }
 
-// Adds a layer's part paths to the per-mixture printed length and time (the report's table).
-void add_colour_use(const SliceJob& job, const Layer& l,
-                    std::map<std::vector<double>, std::pair<double, double>>& use);
 
 namespace {
 
@@ -519,8 +525,11 @@ SliceResult whole_to_sink(const SliceJob& job, const LayerSink& sink, const Prog
 SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progress& progress,
                          const SliceStreamOptions& options) {
   const bool graded = job.strategy == 1 || job.strategy == 2;
-  // A prime tower (Strategy 1, tool changers) is placed and sized from every layer: whole.
-  if (graded && (job.strategy == 1 || job.tools > 0)) return whole_to_sink(job, sink, progress);
+  // A prime tower (Strategy 1, tool changers) is placed and sized from every layer, and a tool
+  // changer's mixtures are made the tools' after it: the planned layers go to a temporary file
+  // first (the tower observes each), then are read back in order with the tower and the tools'
+  // mixtures added (tower::PrimeTower), and only then handed to the sink.
+  const bool tower_step = graded && (job.strategy == 1 || job.tools > 0);
   SliceResult r;
   r.streamed = true;
   const auto t0 = std::chrono::steady_clock::now();
@@ -533,6 +542,9 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
   const FgmOptions fo =
       graded ? graded_options(job, static_cast<int>(d.field.materials().size()), &quantized_from)
              : FgmOptions{};
+  std::optional<LayerSpill> held;
+  std::optional<tower::PrimeTower> tower;
+  if (tower_step) held.emplace(), tower.emplace(fo, job.purge);
   double error_sum = 0;
   int last_colour = -1;
   std::set<std::vector<double>> colours_used;
@@ -547,8 +559,11 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
   const std::size_t first = planes.first, n = planes.second - planes.first;
   r.part_layers = n;
   r.layers = n;
-  const auto below = graded ? 0 : static_cast<std::size_t>(std::max(0, job.planar.bottom_layers));
-  const auto above = graded ? 0 : static_cast<std::size_t>(std::max(0, job.planar.top_layers));
+  // Strategy 2 plans each layer from its own outline; planar layers and Strategy 1's (cut from
+  // them) read the skins' layers around them.
+  const bool own_outline = job.strategy == 2;
+  const auto below = own_outline ? 0 : static_cast<std::size_t>(std::max(0, job.planar.bottom_layers));
+  const auto above = own_outline ? 0 : static_cast<std::size_t>(std::max(0, job.planar.top_layers));
   const std::size_t chunk = std::max<std::size_t>(1, options.chunk_layers);
   const std::size_t chunks = (n + chunk - 1) / chunk;
   const std::size_t tokens =
@@ -635,10 +650,24 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
         po.plan_end = p.b;
         if (graded) {
           FgmOptions o = fo;
-          o.first_layer = p.a;
-          naming_design(job, [&] { p.toolpath = plan_fgm_strategy2(d.field, p.window, o, &p.fgm); });
+          o.first_layer = p.lo;
           naming_design(job, [&] {
-            p.error = gradient_error_sums(d.field, p.toolpath, p.window, job.planar.layer_height, p.a);
+            if (job.strategy == 2) {
+              p.toolpath = plan_fgm_strategy2(d.field, p.window, o, &p.fgm);
+            } else {
+              const Toolpath planar = plan_planar(p.window, po, &p.stats);
+              p.toolpath = plan_fgm_strategy1(d.field, p.window, planar, o, PurgeOptions{}, &p.fgm);
+            }
+          });
+          // The error of what is printed: a tool changer's nearest tool (finish_graded).
+          Toolpath mixed;
+          if (job.tools > 1) {
+            mixed = p.toolpath;
+            for (Layer& l : mixed.layers) tool_mixtures(job, l);
+          }
+          naming_design(job, [&] {
+            p.error = gradient_error_sums(d.field, job.tools > 1 ? mixed : p.toolpath, p.window,
+                                          job.planar.layer_height, p.lo);
           });
         } else {
           p.toolpath = plan_planar(p.window, po, &p.stats);
@@ -650,7 +679,7 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
       }) & tbb::make_filter<Planned, void>(tbb::filter_mode::serial_in_order, [&](Planned p) {
         plan_cpu += p.seconds;
         r.planar.layers += p.stats.layers;
-        r.planar.paths += p.stats.paths;
+        if (!graded) r.planar.paths += p.stats.paths;  // (graded: count_graded_path)
         r.planar.walls += p.stats.walls;
         r.planar.skin_lines += p.stats.skin_lines;
         r.planar.infill_lines += p.stats.infill_lines;
@@ -678,9 +707,18 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
             r.fgm.error_max = std::max(r.fgm.error_max, a.max);
             r.fgm.error_samples += a.n;
           }
-          for (const Layer& layer : p.toolpath.layers) add_colour_use(job, layer, r.colour_use);
+          if (!held)
+            for (const Layer& layer : p.toolpath.layers) add_colour_use(job, layer, r.colour_use);
         }
         for (Layer& layer : p.toolpath.layers) {
+          if (held) {
+            // Counted when read back with the tower (the travel goes through it).
+            for (const Path& path : layer.paths) count_graded_path(path, r.planar);
+            tower->observe(layer);
+            held->append(layer);
+            ++written;
+            continue;
+          }
           for (const Path& path : layer.paths) {
             // Summed path by path in print order, as plan_planar sums it.
             if (!graded) r.planar.extruded_length += path.length();
@@ -704,7 +742,31 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
     r.fgm.quantized_from = quantized_from;
     r.fgm.colours_used = static_cast<int>(colours_used.size());
     r.fgm.colours_total = fo.palette.colors;
-    r.fgm.error_bound = fo.palette.error_bound();
+    r.fgm.error_bound = graded_error_bound(job, fo);
+  }
+  if (held) {
+    // The tower's place and size from every layer, then each layer read back in order with its
+    // tower step and the tools' mixtures, as finish_graded does on the whole toolpath.
+    naming_design(job, [&] { tower->plan(r.fgm); });
+    Layer layer;
+    held->rewind();
+    for (std::size_t i = 0; held->next(layer); ++i) {
+      progress.check("slicing");
+      tower->add(i, layer);
+      tool_mixtures(job, layer);
+      add_colour_use(job, layer, r.colour_use);
+      for (const Path& path : layer.paths) {
+        if (path.points.empty()) continue;
+        if (last_point) {
+          const double dd = distance(*last_point, path.points.front());
+          if (dd > 1e-9) ++r.travel.moves, r.travel.length += dd;
+        }
+        last_point = path.points.back();
+      }
+      sink(i, std::move(layer));
+      layer = Layer{};
+    }
+    tower->finish(r.fgm);
   }
   // Outlining and planning overlap: the wall time is shared out by their summed thread times.
   const double wall = seconds_since(t0), cpu = outline_cpu + plan_cpu;

@@ -111,8 +111,11 @@ TEST(SliceStream, OneThreadAndManyAgree) {
   for (std::size_t i = 0; i < one.size(); ++i) expect_same_layer(one[i], many[i], i);
 }
 
-// Graded Strategy 2 (no tower) streams run by run: the layers and statistics are run_slice's
-// for any run length; Strategy 1 (a prime tower over every layer) is sliced whole and handed on.
+// Graded slicing streams run by run: Strategy 2 on a mixing hotend, and with a prime tower
+// (Strategy 1; either strategy on a five-tool changer) the planned layers go to a temporary file
+// and come back with the tower step and the tools' mixtures. The layers and every statistic the
+// report prints (fill, tower, per-colour use, travel, gradient error) are run_slice's for any
+// run length.
 TEST(SliceStream, GradedSlicingStreamsAsWhole) {
   // A cylinder graded across X and up Z: several colours per layer, moving up the layers.
   const std::string design =
@@ -120,29 +123,67 @@ TEST(SliceStream, GradedSlicingStreamsAsWhole) {
           .string();
   std::ofstream(design) << "fgrade([\"(x+8)/32 + z/16.8\", \"1 - (x+8)/32 - z/16.8\"], [\"blue\", "
                            "\"yellow\"]) {\n  cylinder(8, 8.4);\n}\n";
-  SliceJob job;
-  job.input = design;
-  job.strategy_chosen = true;
-  for (const int strategy : {2, 1}) {
-    job.strategy = strategy;
+  struct Case {
+    int strategy, tools;
+  };
+  for (const Case c : {Case{2, 0}, Case{1, 0}, Case{1, 5}, Case{2, 5}}) {
+    SliceJob job;
+    job.input = design;
+    job.strategy_chosen = true;
+    job.strategy = c.strategy;
+    job.tools = c.tools;
+    // Four colours on five tools: the tools print the nearest of their mixes (not the palette's).
+    if (c.tools) job.fgm.palette.colors = 4;
+    if (c.strategy == 1 || c.tools) {
+      job.purge.melt_volume = 20;  // a tower: every change purges
+      job.purge.bed_x = job.purge.bed_y = 250;
+      job.purge.speed = 40;
+    }
+    const std::string what = "strategy " + std::to_string(c.strategy) + ", " + std::to_string(c.tools) + " tools";
     const SliceResult whole = run_slice(job);
-    for (const std::size_t chunk : {std::size_t{16}, std::size_t{3}}) {
+    if (c.strategy == 1 || c.tools) {
+      ASSERT_TRUE(whole.fgm.tower.built) << what;
+      EXPECT_GT(whole.fgm.purges, 10u) << what;
+    }
+    std::map<std::vector<double>, std::pair<double, double>> whole_use;
+    for (const Layer& l : whole.toolpath.layers) add_colour_use(job, l, whole_use);
+    const TravelStats whole_travel = travel_stats(whole.toolpath);
+    for (const std::size_t chunk : {std::size_t{16}, std::size_t{3}, std::size_t{1}}) {
+      const std::string at = what + ", runs of " + std::to_string(chunk);
       std::vector<Layer> layers;
       const SliceResult s =
           stream_slice(job, [&](std::size_t, Layer&& l) { layers.push_back(std::move(l)); }, {}, {chunk, 4});
-      ASSERT_EQ(layers.size(), whole.toolpath.layers.size()) << strategy;
+      ASSERT_EQ(layers.size(), whole.toolpath.layers.size()) << at;
       for (std::size_t i = 0; i < layers.size(); ++i) expect_same_layer(whole.toolpath.layers[i], layers[i], i);
       EXPECT_GT(whole.fgm.paths, 0u);
-      EXPECT_EQ(s.fgm.paths, whole.fgm.paths) << strategy << " " << chunk;
-      EXPECT_EQ(s.fgm.faces, whole.fgm.faces);
-      EXPECT_EQ(s.fgm.colour_changes, whole.fgm.colour_changes) << strategy << " " << chunk;
-      EXPECT_EQ(s.fgm.shortest_path, whole.fgm.shortest_path);
-      EXPECT_EQ(s.fgm.error_samples, whole.fgm.error_samples);
-      EXPECT_EQ(s.fgm.error_mean, whole.fgm.error_mean) << "summed in the same order";
-      EXPECT_EQ(s.fgm.error_max, whole.fgm.error_max);
-      EXPECT_EQ(s.fgm.colours_used, whole.fgm.colours_used);
-      EXPECT_EQ(s.fgm.purges, whole.fgm.purges);
-      EXPECT_EQ(s.layers, whole.outlines.size());
+      EXPECT_EQ(s.fgm.paths, whole.fgm.paths) << at;
+      EXPECT_EQ(s.fgm.faces, whole.fgm.faces) << at;
+      EXPECT_EQ(s.fgm.colour_changes, whole.fgm.colour_changes) << at;
+      EXPECT_EQ(s.fgm.shortest_path, whole.fgm.shortest_path) << at;
+      EXPECT_EQ(s.fgm.short_merged, whole.fgm.short_merged) << at;
+      EXPECT_EQ(s.fgm.short_kept, whole.fgm.short_kept) << at;
+      EXPECT_EQ(s.fgm.error_samples, whole.fgm.error_samples) << at;
+      EXPECT_EQ(s.fgm.error_mean, whole.fgm.error_mean) << at << ": summed in the same order";
+      EXPECT_EQ(s.fgm.error_max, whole.fgm.error_max) << at;
+      EXPECT_EQ(s.fgm.error_bound, whole.fgm.error_bound) << at;
+      EXPECT_EQ(s.fgm.colours_used, whole.fgm.colours_used) << at;
+      EXPECT_EQ(s.fgm.purges, whole.fgm.purges) << at;
+      EXPECT_EQ(s.fgm.purge_length, whole.fgm.purge_length) << at;
+      EXPECT_EQ(s.fgm.tower.built, whole.fgm.tower.built) << at;
+      EXPECT_EQ(s.fgm.tower.x, whole.fgm.tower.x) << at;
+      EXPECT_EQ(s.fgm.tower.y, whole.fgm.tower.y) << at;
+      EXPECT_EQ(s.fgm.tower.size_x, whole.fgm.tower.size_x) << at;
+      EXPECT_EQ(s.fgm.tower.layers, whole.fgm.tower.layers) << at;
+      EXPECT_EQ(s.fgm.tower.volume, whole.fgm.tower.volume) << at;
+      EXPECT_EQ(s.fgm.tower.colours.size(), whole.fgm.tower.colours.size()) << at;
+      EXPECT_EQ(s.planar.paths, whole.planar.paths) << at;
+      EXPECT_EQ(s.planar.extruded_length, whole.planar.extruded_length) << at;
+      EXPECT_EQ(s.planar.walls, whole.planar.walls) << at;
+      EXPECT_EQ(s.planar.infill_lines, whole.planar.infill_lines) << at;
+      EXPECT_EQ(s.colour_use, whole_use) << at;
+      EXPECT_EQ(s.travel.moves, whole_travel.moves) << at;
+      EXPECT_EQ(s.travel.length, whole_travel.length) << at;
+      EXPECT_EQ(s.layers, whole.outlines.size()) << at;
     }
   }
   std::filesystem::remove(design);

@@ -123,6 +123,9 @@ void finish_graded(const SliceJob& job, const FgmOptions& options, Toolpath& too
                    FgmStats& stats);
 // The palette colours some part path (not the tower) of a graded toolpath prints.
 int graded_colours_used(const Toolpath& toolpath);
+// Adds a layer's part paths to the per-mixture printed length and time (the report's table).
+void add_colour_use(const SliceJob& job, const Layer& layer,
+                    std::map<std::vector<double>, std::pair<double, double>>& use);
 
 // The report: layers, paths, lengths, travel, print time (from the writer's stats if given).
 std::string slice_report_json(const SliceJob& job, const SliceResult& result,
