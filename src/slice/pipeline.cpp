@@ -499,10 +499,10 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
 
 namespace {
 
-// A design with process fields (fprocess), and graded slicing with a prime tower (placed from
-// every layer's footprint and purges), are sliced whole and then handed on layer by layer: the
-// process pass splits paths and counts changes over the whole print in order, so its output and
-// report are run_slice's exactly; memory is run_slice's less the G-code text, not bounded.
+// A design with process fields (fprocess) is sliced whole and then handed on layer by layer:
+// the process pass splits paths (the tower's too) and counts changes over the whole print in
+// order, so its output and report are run_slice's exactly; memory is run_slice's less the
+// G-code text, not bounded.
 SliceResult whole_to_sink(const SliceJob& job, const LayerSink& sink, const Progress& progress) {
   SliceResult r = run_slice(job, progress);
   r.streamed = true;
