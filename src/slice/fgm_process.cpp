@@ -276,47 +276,43 @@ double written_process_value(const Path& path, ProcessParam p) {
   return nan;
 }
 
-void apply_process_fields(const Field& design, Toolpath& toolpath, const ProcessOptions& o,
-                          ProcessStats* stats, const std::vector<double>& design_dz) {
-  ProcessStats st;
-  if (!design.has_process()) {
-    if (stats) *stats = st;
-    return;
-  }
+namespace {
+
+void check_options(const ProcessOptions& o) {
   for (int k = 0; k < kProcessParams; ++k)
     if (!(o.step(static_cast<ProcessParam>(k)) > 0))
       throw SettingError("process steps must be > 0", {"", 0, "process"});
   if (!(o.sample > 0)) throw SettingError("process.sample must be > 0", {"", 0, "process.sample"});
-  st.active = true;
-  std::vector<LayerResult> results(toolpath.layers.size());
-  tbb::enumerable_thread_specific<Evaluator> evaluators([&] { return Evaluator(design); });
-  tbb::parallel_for(std::size_t{0}, toolpath.layers.size(), [&](std::size_t li) {
-    LayerResult& r = results[li];
-    try {
-      const double dz = design_dz.empty() ? 0.0 : design_dz[std::min(li, design_dz.size() - 1)];
-      PathSplitter splitter(evaluators.local(), o, r, dz);
-      std::vector<Path> out;
-      for (const Path& p : toolpath.layers[li].paths) {
-        if (p.points.size() < 2) {
-          out.push_back(p);
-          r.masks.push_back(0);
-          continue;
-        }
-        ++r.paths;
-        for (Path& q : splitter.split(p)) {
-          out.push_back(std::move(q));
-          ++r.pieces;
-        }
-      }
-      toolpath.layers[li].paths = std::move(out);
-    } catch (...) {
-      r.error = std::current_exception();
+}
+
+// One layer's paths split where a rounded value changes (the layer-local step).
+void split_layer(Evaluator& ev, const ProcessOptions& o, Layer& layer, double dz, LayerResult& r) {
+  PathSplitter splitter(ev, o, r, dz);
+  std::vector<Path> out;
+  for (const Path& p : layer.paths) {
+    if (p.points.size() < 2) {
+      out.push_back(p);
+      r.masks.push_back(0);
+      continue;
     }
-  });
-  // The lowest layer's error, so the message does not depend on the threads.
-  for (const auto& r : results)
-    if (r.error) std::rethrow_exception(r.error);
-  for (const auto& r : results) {
+    ++r.paths;
+    for (Path& q : splitter.split(p)) {
+      out.push_back(std::move(q));
+      ++r.pieces;
+    }
+  }
+  layer.paths = std::move(out);
+}
+
+}  // namespace
+
+// The written values and their changes in print order (the whole-print step): a layer at a
+// time, after split_layer, for the whole and the streamed run alike.
+struct ProcessPass::Tally {
+  std::array<double, kProcessParams> last;
+  std::array<std::string, kProcessParams> nodes;
+  Tally() { last.fill(std::nan("")); }
+  void add(Evaluator& ev, const Layer& layer, const LayerResult& r, ProcessStats& st) {
     st.paths += r.paths;
     st.pieces += r.pieces;
     st.merged += r.merged;
@@ -324,25 +320,15 @@ void apply_process_fields(const Field& design, Toolpath& toolpath, const Process
     st.short_slowed += r.short_slowed;
     for (int k = 0; k < kProcessParams; ++k)
       st.param[k].max_deviation = std::max(st.param[k].max_deviation, r.deviation[k]);
-  }
-  // Written values and their changes in print order.
-  std::array<double, kProcessParams> last;
-  last.fill(std::nan(""));
-  std::array<std::string, kProcessParams> nodes;
-  {
-    Evaluator ev(design);  // the node names, from one sample of the design's paths
-    for (const auto& l : toolpath.layers)
-      for (const auto& p : l.paths) {
-        if (p.points.size() < 2) continue;
-        const ProcessValues v = ev.process(p.points.front());  // a node name: any point will do
+    const auto& paths = layer.paths;
+    for (std::size_t pi = 0; pi < paths.size(); ++pi) {
+      if (paths[pi].points.size() >= 2) {
+        // The node that sets a parameter: named from the first path that meets it.
+        const ProcessValues v = ev.process(paths[pi].points.front());
         for (int k = 0; k < kProcessParams; ++k)
           if (v.node[k] && nodes[k].empty()) nodes[k] = *v.node[k];
       }
-  }
-  for (std::size_t li = 0; li < toolpath.layers.size(); ++li) {
-    const auto& paths = toolpath.layers[li].paths;
-    for (std::size_t pi = 0; pi < paths.size(); ++pi) {
-      const unsigned mask = results[li].masks[pi];
+      const unsigned mask = r.masks[pi];
       for (int k = 0; k < kProcessParams; ++k) {
         if (!(mask & (1u << k))) continue;
         ProcessParamStats& s = st.param[k];
@@ -359,6 +345,48 @@ void apply_process_fields(const Field& design, Toolpath& toolpath, const Process
       }
     }
   }
+};
+
+ProcessPass::ProcessPass(const Field& design, const ProcessOptions& options)
+    : options_(options), ev_(std::make_unique<Evaluator>(design)),
+      tally_(std::make_unique<Tally>()) {
+  check_options(options_);
+  stats_.active = true;
+}
+ProcessPass::~ProcessPass() = default;
+
+void ProcessPass::layer(Layer& layer, double dz) {
+  LayerResult r;
+  split_layer(*ev_, options_, layer, dz, r);
+  tally_->add(*ev_, layer, r, stats_);
+}
+
+void apply_process_fields(const Field& design, Toolpath& toolpath, const ProcessOptions& o,
+                          ProcessStats* stats, const std::vector<double>& design_dz) {
+  ProcessStats st;
+  if (!design.has_process()) {
+    if (stats) *stats = st;
+    return;
+  }
+  check_options(o);
+  st.active = true;
+  std::vector<LayerResult> results(toolpath.layers.size());
+  tbb::enumerable_thread_specific<Evaluator> evaluators([&] { return Evaluator(design); });
+  tbb::parallel_for(std::size_t{0}, toolpath.layers.size(), [&](std::size_t li) {
+    LayerResult& r = results[li];
+    try {
+      const double dz = design_dz.empty() ? 0.0 : design_dz[std::min(li, design_dz.size() - 1)];
+      split_layer(evaluators.local(), o, toolpath.layers[li], dz, r);
+    } catch (...) {
+      r.error = std::current_exception();
+    }
+  });
+  // The lowest layer's error, so the message does not depend on the threads.
+  for (const auto& r : results)
+    if (r.error) std::rethrow_exception(r.error);
+  ProcessPass::Tally tally;
+  Evaluator ev(design);
+  for (std::size_t li = 0; li < toolpath.layers.size(); ++li) tally.add(ev, toolpath.layers[li], results[li], st);
   if (stats) *stats = st;
 }
 

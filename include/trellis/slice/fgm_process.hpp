@@ -6,6 +6,7 @@
 // written is measured against the field along every piece (max deviation per parameter).
 #pragma once
 #include <array>
+#include <memory>
 #include <string>
 
 #include "trellis/field/field.hpp"
@@ -60,6 +61,27 @@ struct ProcessStats {
 // layers beyond it take its last entry, none = 0.
 void apply_process_fields(const Field& design, Toolpath& toolpath, const ProcessOptions& options,
                           ProcessStats* stats = nullptr, const std::vector<double>& design_dz = {});
+
+// The same pass a layer at a time, in print order (streamed slicing): layer() splits the
+// layer's paths (`dz` added to its points' Z gives design coordinates) and counts what is
+// written; stats() is apply_process_fields's for the layers so far. Errors as
+// apply_process_fields's, at the layer that has them.
+class ProcessPass {
+ public:
+  ProcessPass(const Field& design, const ProcessOptions& options);
+  ~ProcessPass();
+  ProcessPass(const ProcessPass&) = delete;
+  ProcessPass& operator=(const ProcessPass&) = delete;
+  void layer(Layer& layer, double dz);
+  const ProcessStats& stats() const { return stats_; }
+  struct Tally;
+
+ private:
+  ProcessOptions options_;
+  std::unique_ptr<Evaluator> ev_;
+  std::unique_ptr<Tally> tally_;
+  ProcessStats stats_;
+};
 
 // The value a path is written with (NaN when the path does not set it).
 double written_process_value(const Path& path, ProcessParam p);
