@@ -390,18 +390,33 @@ void apply_process_fields(const Field& design, Toolpath& toolpath, const Process
   if (stats) *stats = st;
 }
 
+std::vector<double> process_design_dz(const SliceJob& job, const SliceResult& r) {
+  // A layer's outline is the one at its nozzle height (part layer g at (g + 1) h; a graded
+  // toolpath leaves out layers without paths, so the indices need not match).
+  std::vector<double> dz;
+  const double h = job.planar.layer_height;
+  for (const Layer& l : r.toolpath.layers) {
+    const long g = std::lround(l.z / h) - 1 - static_cast<long>(r.outline_first);
+    dz.push_back(g >= 0 && static_cast<std::size_t>(g) < r.outlines.size()
+                     ? r.outlines[static_cast<std::size_t>(g)].z - l.z
+                     : (dz.empty() ? 0.0 : dz.back()));
+  }
+  return dz;
+}
+
 void apply_slice_process(const SliceJob& job, const Field& design, SliceResult& r) {
   if (!design.has_process()) return;
   try {
-    std::vector<double> dz;
-    for (std::size_t i = 0; i < r.outlines.size() && i < r.toolpath.layers.size(); ++i)
-      dz.push_back(r.outlines[i].z - r.toolpath.layers[i].z);
-    apply_process_fields(design, r.toolpath, job.process, &r.process, dz);
+    apply_process_fields(design, r.toolpath, job.process, &r.process, process_design_dz(job, r));
   } catch (const GeometryError& e) {
     if (!e.where().file.empty()) throw;
     throw GeometryError(e.message(), {job.input, 0, e.where().element});
   }
-  const ProcessParamStats& t = r.process.param[static_cast<int>(ProcessParam::Temperature)];
+  check_process_temperature(job, r.process);
+}
+
+void check_process_temperature(const SliceJob& job, const ProcessStats& stats) {
+  const ProcessParamStats& t = stats.param[static_cast<int>(ProcessParam::Temperature)];
   if (t.set && job.strategy != 0 && job.process.temperature_from_mixture)
     throw SettingError(t.node +
                            " sets the nozzle temperature, but the machine makes the "

@@ -20,6 +20,7 @@
 #include "trellis/field/vcad.hpp"
 #include "trellis/geom/mesh_io.hpp"
 #include "trellis/slice/fgm.hpp"
+#include "trellis/slice/fgm_process.hpp"
 
 namespace trellis {
 
@@ -499,27 +500,6 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
 
 namespace {
 
-// A design with process fields (fprocess) is sliced whole and then handed on layer by layer:
-// the process pass splits paths (the tower's too) and counts changes over the whole print in
-// order, so its output and report are run_slice's exactly; memory is run_slice's less the
-// G-code text, not bounded.
-SliceResult whole_to_sink(const SliceJob& job, const LayerSink& sink, const Progress& progress) {
-  SliceResult r = run_slice(job, progress);
-  r.streamed = true;
-  r.layers = r.outlines.size();
-  r.travel = travel_stats(r.toolpath);
-  for (const auto& l : r.outlines) {
-    r.outline_area += area(l.regions);
-    r.empty_layers += l.regions.empty() ? 1 : 0;
-  }
-  if (job.strategy != 0)
-    for (const auto& l : r.toolpath.layers) add_colour_use(job, l, r.colour_use);
-  for (std::size_t i = 0; i < r.toolpath.layers.size(); ++i) sink(i, std::move(r.toolpath.layers[i]));
-  r.toolpath.layers.clear();
-  r.outlines.clear();
-  return r;
-}
-
 }  // namespace
 
 SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progress& progress,
@@ -535,7 +515,6 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
   const auto t0 = std::chrono::steady_clock::now();
   const SlicedDesign d = open_design(job, r, progress, false);
   if (graded) require_graded_design(job, ends_with_ci(job.input, ".vcad"), d.field);
-  if (d.field.has_process()) return whole_to_sink(job, sink, progress);
   // Strategy 2 on a mixing hotend: each layer planned from its own outline (no skins), the
   // look-ahead is the writer's.
   int quantized_from = 0;
@@ -545,6 +524,11 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
   std::optional<LayerSpill> held;
   std::optional<tower::PrimeTower> tower;
   if (tower_step) held.emplace(), tower.emplace(fo, job.purge);
+  // Process fields (fprocess): each layer split where a value changes and the written values
+  // counted in print order, after the tower (its paths take the field too), as the whole run's
+  // apply_slice_process.
+  std::optional<ProcessPass> process;
+  if (d.field.has_process()) process.emplace(d.field, job.process);
   double error_sum = 0;
   int last_colour = -1;
   std::set<std::vector<double>> colours_used;
@@ -559,6 +543,17 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
   const std::size_t first = planes.first, n = planes.second - planes.first;
   r.part_layers = n;
   r.layers = n;
+  const auto process_layer = [&](Layer& layer) {
+    // The layer's outline plane: part layer g prints at (g + 1) h.
+    const long g = std::lround(layer.z / job.planar.layer_height) - 1;
+    const std::size_t plane = first + static_cast<std::size_t>(std::clamp<long>(g, 0, static_cast<long>(n) - 1));
+    try {
+      process->layer(layer, d.zs[plane] - layer.z);
+    } catch (const GeometryError& e) {
+      if (!e.where().file.empty()) throw;
+      throw GeometryError(e.message(), {job.input, 0, e.where().element});
+    }
+  };
   // Strategy 2 plans each layer from its own outline; planar layers and Strategy 1's (cut from
   // them) read the skins' layers around them.
   const bool own_outline = job.strategy == 2;
@@ -592,6 +587,16 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
   std::size_t window_start = 0, received = 0, next_plan = 0, next_chunk = 0, written = 0;
   double outline_cpu = 0, plan_cpu = 0;
   std::optional<Vec3> last_point;
+  const auto add_travel = [&](const Layer& layer) {
+    for (const Path& path : layer.paths) {
+      if (path.points.empty()) continue;
+      if (last_point) {
+        const double dd = distance(*last_point, path.points.front());
+        if (dd > 1e-9) ++r.travel.moves, r.travel.length += dd;
+      }
+      last_point = path.points.back();
+    }
+  };
   auto clock = [] { return std::chrono::steady_clock::now(); };
   tbb::parallel_pipeline(
       tokens,
@@ -707,8 +712,6 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
             r.fgm.error_max = std::max(r.fgm.error_max, a.max);
             r.fgm.error_samples += a.n;
           }
-          if (!held)
-            for (const Layer& layer : p.toolpath.layers) add_colour_use(job, layer, r.colour_use);
         }
         for (Layer& layer : p.toolpath.layers) {
           if (held) {
@@ -723,13 +726,10 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
             // Summed path by path in print order, as plan_planar sums it.
             if (!graded) r.planar.extruded_length += path.length();
             else count_graded_path(path, r.planar);
-            if (path.points.empty()) continue;
-            if (last_point) {
-              const double dd = distance(*last_point, path.points.front());
-              if (dd > 1e-9) ++r.travel.moves, r.travel.length += dd;
-            }
-            last_point = path.points.back();
           }
+          if (process) process_layer(layer);
+          if (graded) add_colour_use(job, layer, r.colour_use);
+          add_travel(layer);
           sink(written++, std::move(layer));
         }
         if (progress.report) progress("layers", static_cast<double>(written) / double(n));
@@ -754,19 +754,17 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
       progress.check("slicing");
       tower->add(i, layer);
       tool_mixtures(job, layer);
+      if (process) process_layer(layer);
       add_colour_use(job, layer, r.colour_use);
-      for (const Path& path : layer.paths) {
-        if (path.points.empty()) continue;
-        if (last_point) {
-          const double dd = distance(*last_point, path.points.front());
-          if (dd > 1e-9) ++r.travel.moves, r.travel.length += dd;
-        }
-        last_point = path.points.back();
-      }
+      add_travel(layer);
       sink(i, std::move(layer));
       layer = Layer{};
     }
     tower->finish(r.fgm);
+  }
+  if (process) {
+    r.process = process->stats();
+    check_process_temperature(job, r.process);
   }
   // Outlining and planning overlap: the wall time is shared out by their summed thread times.
   const double wall = seconds_since(t0), cpu = outline_cpu + plan_cpu;

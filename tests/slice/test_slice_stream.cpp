@@ -7,6 +7,7 @@
 
 #include <unistd.h>
 
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -14,6 +15,7 @@
 #include <vector>
 
 #include "trellis/core/error.hpp"
+#include "trellis/slice/fgm_process.hpp"
 #include "trellis/slice/pipeline.hpp"
 #include "trellis/toolpath/layer_spill.hpp"
 
@@ -32,6 +34,13 @@ void expect_same_layer(const Layer& a, const Layer& b, std::size_t i) {
     ASSERT_EQ(p.width, q.width);
     ASSERT_EQ(p.height, q.height);
     ASSERT_EQ(p.mixture, q.mixture) << "layer " << i << " path " << k;
+    // Process fields (fprocess): what each piece is written with.
+    ASSERT_EQ(p.speed, q.speed) << "layer " << i << " path " << k;
+    ASSERT_TRUE(p.temperature == q.temperature || (std::isnan(p.temperature) && std::isnan(q.temperature)))
+        << "layer " << i << " path " << k;
+    ASSERT_TRUE(p.flow == q.flow || (std::isnan(p.flow) && std::isnan(q.flow))) << "layer " << i;
+    ASSERT_TRUE(p.fan == q.fan || (std::isnan(p.fan) && std::isnan(q.fan))) << "layer " << i;
+    ASSERT_EQ(p.joined, q.joined) << "layer " << i << " path " << k;
     ASSERT_EQ(p.points.size(), q.points.size()) << "layer " << i << " path " << k;
     for (std::size_t m = 0; m < p.points.size(); ++m) {
       ASSERT_EQ(p.points[m].x, q.points[m].x) << "layer " << i << " path " << k;
@@ -184,6 +193,62 @@ TEST(SliceStream, GradedSlicingStreamsAsWhole) {
       EXPECT_EQ(s.travel.moves, whole_travel.moves) << at;
       EXPECT_EQ(s.travel.length, whole_travel.length) << at;
       EXPECT_EQ(s.layers, whole.outlines.size()) << at;
+    }
+  }
+  std::filesystem::remove(design);
+}
+
+// Process fields (fprocess) stream too: each layer is split where a rounded value changes as it
+// passes (after the prime tower), and the written values are counted in print order; planar,
+// Strategy 1 with its tower and Strategy 2 give run_slice's layers and process statistics for
+// any run length.
+TEST(SliceStream, ProcessFieldsStreamAsWhole) {
+  const std::string design =
+      (std::filesystem::temp_directory_path() / ("trellis_process_stream_" + std::to_string(::getpid()) + ".vcad"))
+          .string();
+  // Temperature up Z, speed across X, flow across Y, fan up Z; graded in material across X.
+  std::ofstream(design)
+      << "fprocess([\"200 + 2*z\", \"30 + 0.7*x\", \"1 + 0.02*y\", \"50 + 5*z\"],\n"
+         "         [\"temperature\", \"speed\", \"flow\", \"fan\"]) {\n"
+         "  fgrade([\"(x+8)/16\", \"1 - (x+8)/16\"], [\"blue\", \"yellow\"]) {\n"
+         "    cylinder(8, 4);\n  }\n}\n";
+  for (const int strategy : {0, 1, 2}) {
+    SliceJob job;
+    job.input = design;
+    job.strategy_chosen = true;
+    job.strategy = strategy;
+    job.process.max_temperature = 290;
+    job.process.max_speed = 200;
+    if (strategy == 1) {
+      job.purge.melt_volume = 20;
+      job.purge.bed_x = job.purge.bed_y = 250;
+    }
+    const std::string what = "strategy " + std::to_string(strategy);
+    const SliceResult whole = run_slice(job);
+    ASSERT_TRUE(whole.process.active) << what;
+    ASSERT_GT(whole.process.pieces, whole.process.paths) << what << ": the fields split paths";
+    for (const std::size_t chunk : {std::size_t{16}, std::size_t{3}, std::size_t{1}}) {
+      const std::string at = what + ", runs of " + std::to_string(chunk);
+      std::vector<Layer> layers;
+      const SliceResult s =
+          stream_slice(job, [&](std::size_t, Layer&& l) { layers.push_back(std::move(l)); }, {}, {chunk, 4});
+      ASSERT_EQ(layers.size(), whole.toolpath.layers.size()) << at;
+      for (std::size_t i = 0; i < layers.size(); ++i) expect_same_layer(whole.toolpath.layers[i], layers[i], i);
+      EXPECT_EQ(s.process.paths, whole.process.paths) << at;
+      EXPECT_EQ(s.process.pieces, whole.process.pieces) << at;
+      EXPECT_EQ(s.process.merged, whole.process.merged) << at;
+      EXPECT_EQ(s.process.samples, whole.process.samples) << at;
+      for (int k = 0; k < kProcessParams; ++k) {
+        const ProcessParamStats &a = whole.process.param[k], &b = s.process.param[k];
+        EXPECT_TRUE(a.set) << at << " param " << k;
+        EXPECT_EQ(b.set, a.set) << at << " param " << k;
+        EXPECT_EQ(b.min, a.min) << at << " param " << k;
+        EXPECT_EQ(b.max, a.max) << at << " param " << k;
+        EXPECT_EQ(b.changes, a.changes) << at << " param " << k;
+        EXPECT_EQ(b.max_deviation, a.max_deviation) << at << " param " << k;
+        EXPECT_EQ(b.node, a.node) << at << " param " << k;
+      }
+      EXPECT_EQ(s.travel.moves, travel_stats(whole.toolpath).moves) << at;
     }
   }
   std::filesystem::remove(design);

@@ -91,6 +91,11 @@ double written_process_value(const Path& path, ProcessParam p);
 struct SliceJob;
 struct SliceResult;
 void apply_slice_process(const SliceJob& job, const Field& design, SliceResult& result);
+// A temperature field on a graded print whose machine makes its mixtures by temperature:
+// SettingError naming the node.
+void check_process_temperature(const SliceJob& job, const ProcessStats& stats);
+// Per toolpath layer of `result`, what to add to its points' Z for design coordinates.
+std::vector<double> process_design_dz(const SliceJob& job, const SliceResult& result);
 
 // The summary's part for a print with process fields ("" without): per parameter the range
 // written, its changes, and the settle time the temperature changes add (from the writer).

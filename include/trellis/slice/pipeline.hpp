@@ -98,8 +98,8 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress = {});
 // statistics summed in layer order (Strategy 2 plans each layer from its own outline, Strategy 1
 // cuts the planar layers by colour). With a prime tower (Strategy 1, tool changers), which is
 // placed and sized from every layer, the planned layers go to a temporary file first and come
-// back in order with the tower and the tools' mixtures added, before `sink`. Designs with process
-// fields are sliced whole (run_slice) and then handed to `sink` layer by layer.
+// back in order with the tower and the tools' mixtures added, before `sink`. Process fields
+// (fprocess) split each layer as it passes, after the tower, and are counted in print order.
 using LayerSink = std::function<void(std::size_t index, Layer&& layer)>;
 struct SliceStreamOptions {
   std::size_t chunk_layers = 16;  // planes outlined together (a mesh is bucketed once per run)
