@@ -347,18 +347,33 @@ struct ProcessPass::Tally {
   }
 };
 
+struct ProcessPass::Evaluators {
+  explicit Evaluators(const Field& design) : per_thread([&design] { return Evaluator(design); }) {}
+  tbb::enumerable_thread_specific<Evaluator> per_thread;
+};
+
 ProcessPass::ProcessPass(const Field& design, const ProcessOptions& options)
     : options_(options), ev_(std::make_unique<Evaluator>(design)),
-      tally_(std::make_unique<Tally>()) {
+      evaluators_(std::make_unique<Evaluators>(design)), tally_(std::make_unique<Tally>()) {
   check_options(options_);
   stats_.active = true;
 }
 ProcessPass::~ProcessPass() = default;
 
-void ProcessPass::layer(Layer& layer, double dz) {
-  LayerResult r;
-  split_layer(*ev_, options_, layer, dz, r);
-  tally_->add(*ev_, layer, r, stats_);
+void ProcessPass::layers(const std::vector<Layer*>& layers, const std::vector<double>& dz) {
+  // Split in parallel, then counted in order (the lowest layer's error first, as
+  // apply_process_fields).
+  std::vector<LayerResult> results(layers.size());
+  tbb::parallel_for(std::size_t{0}, layers.size(), [&](std::size_t i) {
+    try {
+      split_layer(evaluators_->per_thread.local(), options_, *layers[i], dz[i], results[i]);
+    } catch (...) {
+      results[i].error = std::current_exception();
+    }
+  });
+  for (const auto& r : results)
+    if (r.error) std::rethrow_exception(r.error);
+  for (std::size_t i = 0; i < layers.size(); ++i) tally_->add(*ev_, *layers[i], results[i], stats_);
 }
 
 void apply_process_fields(const Field& design, Toolpath& toolpath, const ProcessOptions& o,

@@ -543,12 +543,19 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
   const std::size_t first = planes.first, n = planes.second - planes.first;
   r.part_layers = n;
   r.layers = n;
-  const auto process_layer = [&](Layer& layer) {
-    // The layer's outline plane: part layer g prints at (g + 1) h.
-    const long g = std::lround(layer.z / job.planar.layer_height) - 1;
-    const std::size_t plane = first + static_cast<std::size_t>(std::clamp<long>(g, 0, static_cast<long>(n) - 1));
+  // Process fields on a run of layers in print order: each layer's outline plane is part layer
+  // g's, printed at (g + 1) h.
+  const auto process_layers = [&](std::vector<Layer>& run) {
+    std::vector<Layer*> ptrs;
+    std::vector<double> dz;
+    for (std::size_t i = 0; i < run.size(); ++i) {
+      const long g = std::lround(run[i].z / job.planar.layer_height) - 1;
+      const std::size_t plane = first + static_cast<std::size_t>(std::clamp<long>(g, 0, static_cast<long>(n) - 1));
+      ptrs.push_back(&run[i]);
+      dz.push_back(d.zs[plane] - run[i].z);
+    }
     try {
-      process->layer(layer, d.zs[plane] - layer.z);
+      process->layers(ptrs, dz);
     } catch (const GeometryError& e) {
       if (!e.where().file.empty()) throw;
       throw GeometryError(e.message(), {job.input, 0, e.where().element});
@@ -713,24 +720,28 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
             r.fgm.error_samples += a.n;
           }
         }
-        for (Layer& layer : p.toolpath.layers) {
-          if (held) {
+        if (held) {
+          for (Layer& layer : p.toolpath.layers) {
             // Counted when read back with the tower (the travel goes through it).
             for (const Path& path : layer.paths) count_graded_path(path, r.planar);
             tower->observe(layer);
             held->append(layer);
             ++written;
-            continue;
           }
-          for (const Path& path : layer.paths) {
-            // Summed path by path in print order, as plan_planar sums it.
-            if (!graded) r.planar.extruded_length += path.length();
-            else count_graded_path(path, r.planar);
+        } else {
+          // Summed path by path in print order, as plan_planar sums it (before process fields
+          // split the paths).
+          for (const Layer& layer : p.toolpath.layers)
+            for (const Path& path : layer.paths) {
+              if (!graded) r.planar.extruded_length += path.length();
+              else count_graded_path(path, r.planar);
+            }
+          if (process) process_layers(p.toolpath.layers);
+          for (Layer& layer : p.toolpath.layers) {
+            if (graded) add_colour_use(job, layer, r.colour_use);
+            add_travel(layer);
+            sink(written++, std::move(layer));
           }
-          if (process) process_layer(layer);
-          if (graded) add_colour_use(job, layer, r.colour_use);
-          add_travel(layer);
-          sink(written++, std::move(layer));
         }
         if (progress.report) progress("layers", static_cast<double>(written) / double(n));
       }));
@@ -748,17 +759,25 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
     // The tower's place and size from every layer, then each layer read back in order with its
     // tower step and the tools' mixtures, as finish_graded does on the whole toolpath.
     naming_design(job, [&] { tower->plan(r.fgm); });
-    Layer layer;
     held->rewind();
-    for (std::size_t i = 0; held->next(layer); ++i) {
+    std::vector<Layer> run;  // a run of layers read back (process fields split a run at once)
+    bool done = false;
+    for (std::size_t i = 0; !done;) {
       progress.check("slicing");
-      tower->add(i, layer);
-      tool_mixtures(job, layer);
-      if (process) process_layer(layer);
-      add_colour_use(job, layer, r.colour_use);
-      add_travel(layer);
-      sink(i, std::move(layer));
-      layer = Layer{};
+      run.clear();
+      Layer layer;
+      while (run.size() < chunk && !(done = !held->next(layer))) {
+        tower->add(i + run.size(), layer);
+        tool_mixtures(job, layer);
+        run.push_back(std::move(layer));
+        layer = Layer{};
+      }
+      if (process && !run.empty()) process_layers(run);
+      for (Layer& l : run) {
+        add_colour_use(job, l, r.colour_use);
+        add_travel(l);
+        sink(i++, std::move(l));
+      }
     }
     tower->finish(r.fgm);
   }

@@ -8,6 +8,7 @@
 #include <array>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "trellis/field/field.hpp"
 #include "trellis/toolpath/toolpath.hpp"
@@ -62,23 +63,25 @@ struct ProcessStats {
 void apply_process_fields(const Field& design, Toolpath& toolpath, const ProcessOptions& options,
                           ProcessStats* stats = nullptr, const std::vector<double>& design_dz = {});
 
-// The same pass a layer at a time, in print order (streamed slicing): layer() splits the
-// layer's paths (`dz` added to its points' Z gives design coordinates) and counts what is
-// written; stats() is apply_process_fields's for the layers so far. Errors as
-// apply_process_fields's, at the layer that has them.
+// The same pass a few layers at a time, in print order (streamed slicing): layers() splits the
+// layers' paths in parallel (`dz[i]` added to layer i's points' Z gives design coordinates) and
+// counts what is written in order; stats() is apply_process_fields's for the layers so far.
+// Errors as apply_process_fields's, at the lowest layer that has one.
 class ProcessPass {
  public:
   ProcessPass(const Field& design, const ProcessOptions& options);
   ~ProcessPass();
   ProcessPass(const ProcessPass&) = delete;
   ProcessPass& operator=(const ProcessPass&) = delete;
-  void layer(Layer& layer, double dz);
+  void layers(const std::vector<Layer*>& layers, const std::vector<double>& dz);
   const ProcessStats& stats() const { return stats_; }
   struct Tally;
+  struct Evaluators;
 
  private:
   ProcessOptions options_;
   std::unique_ptr<Evaluator> ev_;
+  std::unique_ptr<Evaluators> evaluators_;
   std::unique_ptr<Tally> tally_;
   ProcessStats stats_;
 };
