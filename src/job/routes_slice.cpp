@@ -596,10 +596,9 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
   JobResult out;
   if (job.input.empty()) throw SettingError("slice needs a design (.vcad) or mesh to read", {"", 0, "job.input"});
   SliceJob sj = slice_job_of(job, c, job.input);
-  // G-code alone: layers stream through a temporary file in bounded memory (planar slicing and
-  // graded Strategy 2 on a mixing hotend; a prime tower or process fields hold the whole
-  // toolpath while slicing, the G-code text is still written layer by layer); the toolpath
-  // JSON and previews hold the whole toolpath.
+  // G-code alone: layers stream through a temporary file in bounded memory (planar and graded
+  // slicing, a prime tower and process fields included); the toolpath JSON and previews hold
+  // the whole toolpath.
   std::optional<LayerSpill> spill;
   if (output_alone(job)) spill.emplace();
   SliceResult r = spill ? stream_slice(

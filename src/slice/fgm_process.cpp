@@ -276,47 +276,46 @@ double written_process_value(const Path& path, ProcessParam p) {
   return nan;
 }
 
-void apply_process_fields(const Field& design, Toolpath& toolpath, const ProcessOptions& o,
-                          ProcessStats* stats, const std::vector<double>& design_dz) {
-  ProcessStats st;
-  if (!design.has_process()) {
-    if (stats) *stats = st;
-    return;
-  }
+namespace {
+
+void check_process_options(const ProcessOptions& o) {
   for (int k = 0; k < kProcessParams; ++k)
     if (!(o.step(static_cast<ProcessParam>(k)) > 0))
       throw SettingError("process steps must be > 0", {"", 0, "process"});
   if (!(o.sample > 0)) throw SettingError("process.sample must be > 0", {"", 0, "process.sample"});
-  st.active = true;
-  std::vector<LayerResult> results(toolpath.layers.size());
-  tbb::enumerable_thread_specific<Evaluator> evaluators([&] { return Evaluator(design); });
-  tbb::parallel_for(std::size_t{0}, toolpath.layers.size(), [&](std::size_t li) {
-    LayerResult& r = results[li];
-    try {
-      const double dz = design_dz.empty() ? 0.0 : design_dz[std::min(li, design_dz.size() - 1)];
-      PathSplitter splitter(evaluators.local(), o, r, dz);
-      std::vector<Path> out;
-      for (const Path& p : toolpath.layers[li].paths) {
-        if (p.points.size() < 2) {
-          out.push_back(p);
-          r.masks.push_back(0);
-          continue;
-        }
-        ++r.paths;
-        for (Path& q : splitter.split(p)) {
-          out.push_back(std::move(q));
-          ++r.pieces;
-        }
-      }
-      toolpath.layers[li].paths = std::move(out);
-    } catch (...) {
-      r.error = std::current_exception();
+}
+
+// One layer's paths split by the field (the layer's own pieces and counts in r).
+void split_layer(Evaluator& ev, const ProcessOptions& o, Layer& layer, double dz, LayerResult& r) {
+  PathSplitter splitter(ev, o, r, dz);
+  std::vector<Path> out;
+  for (const Path& p : layer.paths) {
+    if (p.points.size() < 2) {
+      out.push_back(p);
+      r.masks.push_back(0);
+      continue;
     }
-  });
-  // The lowest layer's error, so the message does not depend on the threads.
-  for (const auto& r : results)
-    if (r.error) std::rethrow_exception(r.error);
-  for (const auto& r : results) {
+    ++r.paths;
+    for (Path& q : splitter.split(p)) {
+      out.push_back(std::move(q));
+      ++r.pieces;
+    }
+  }
+  layer.paths = std::move(out);
+}
+
+}  // namespace
+
+// What the whole-print statistics need, gathered layer by layer in print order: the sums, the
+// last written value of each parameter (its changes run across layers) and the node names.
+struct ProcessPass::Tally {
+  explicit Tally(const Field& design) : names(design) {}
+  ProcessStats st;
+  std::array<double, kProcessParams> last;
+  std::array<std::string, kProcessParams> nodes;
+  Evaluator names;  // the node names, from the first point of the design's paths
+
+  void add(const Layer& layer, const LayerResult& r) {
     st.paths += r.paths;
     st.pieces += r.pieces;
     st.merged += r.merged;
@@ -324,25 +323,19 @@ void apply_process_fields(const Field& design, Toolpath& toolpath, const Process
     st.short_slowed += r.short_slowed;
     for (int k = 0; k < kProcessParams; ++k)
       st.param[k].max_deviation = std::max(st.param[k].max_deviation, r.deviation[k]);
-  }
-  // Written values and their changes in print order.
-  std::array<double, kProcessParams> last;
-  last.fill(std::nan(""));
-  std::array<std::string, kProcessParams> nodes;
-  {
-    Evaluator ev(design);  // the node names, from one sample of the design's paths
-    for (const auto& l : toolpath.layers)
-      for (const auto& p : l.paths) {
+    bool named = true;
+    for (int k = 0; k < kProcessParams; ++k) named = named && !nodes[k].empty();
+    if (!named)
+      for (const auto& p : layer.paths) {
         if (p.points.size() < 2) continue;
-        const ProcessValues v = ev.process(p.points.front());  // a node name: any point will do
+        const ProcessValues v = names.process(p.points.front());  // a node name: any point will do
         for (int k = 0; k < kProcessParams; ++k)
           if (v.node[k] && nodes[k].empty()) nodes[k] = *v.node[k];
       }
-  }
-  for (std::size_t li = 0; li < toolpath.layers.size(); ++li) {
-    const auto& paths = toolpath.layers[li].paths;
+    // Written values and their changes in print order.
+    const auto& paths = layer.paths;
     for (std::size_t pi = 0; pi < paths.size(); ++pi) {
-      const unsigned mask = results[li].masks[pi];
+      const unsigned mask = r.masks[pi];
       for (int k = 0; k < kProcessParams; ++k) {
         if (!(mask & (1u << k))) continue;
         ProcessParamStats& s = st.param[k];
@@ -350,7 +343,6 @@ void apply_process_fields(const Field& design, Toolpath& toolpath, const Process
         if (!s.set) {
           s.set = true;
           s.min = s.max = w;
-          s.node = nodes[k];
         }
         s.min = std::min(s.min, w);
         s.max = std::max(s.max, w);
@@ -359,7 +351,65 @@ void apply_process_fields(const Field& design, Toolpath& toolpath, const Process
       }
     }
   }
-  if (stats) *stats = st;
+
+  ProcessStats finish() {
+    // A parameter's node: the first name seen over the whole print (known only at its end).
+    for (int k = 0; k < kProcessParams; ++k)
+      if (st.param[k].set) st.param[k].node = nodes[k];
+    return st;
+  }
+};
+
+ProcessPass::ProcessPass(const Field& design, const ProcessOptions& options)
+    : design_(design), options_(options) {
+  if (!design.has_process()) return;
+  check_process_options(options);
+  tally_ = std::make_unique<Tally>(design);
+  tally_->st.active = true;
+  tally_->last.fill(std::nan(""));
+  evaluator_ = std::make_unique<Evaluator>(design);
+}
+
+ProcessPass::~ProcessPass() = default;
+
+void ProcessPass::layer(Layer& layer, double design_dz) {
+  if (!tally_) return;
+  LayerResult r;
+  split_layer(*evaluator_, options_, layer, design_dz, r);
+  tally_->add(layer, r);
+}
+
+ProcessStats ProcessPass::finish() {
+  return tally_ ? tally_->finish() : ProcessStats{};
+}
+
+void apply_process_fields(const Field& design, Toolpath& toolpath, const ProcessOptions& o,
+                          ProcessStats* stats, const std::vector<double>& design_dz) {
+  if (!design.has_process()) {
+    if (stats) *stats = ProcessStats{};
+    return;
+  }
+  check_process_options(o);
+  std::vector<LayerResult> results(toolpath.layers.size());
+  tbb::enumerable_thread_specific<Evaluator> evaluators([&] { return Evaluator(design); });
+  tbb::parallel_for(std::size_t{0}, toolpath.layers.size(), [&](std::size_t li) {
+    LayerResult& r = results[li];
+    try {
+      const double dz = design_dz.empty() ? 0.0 : design_dz[std::min(li, design_dz.size() - 1)];
+      split_layer(evaluators.local(), o, toolpath.layers[li], dz, r);
+    } catch (...) {
+      r.error = std::current_exception();
+    }
+  });
+  // The lowest layer's error, so the message does not depend on the threads.
+  for (const auto& r : results)
+    if (r.error) std::rethrow_exception(r.error);
+  // The statistics in print order, as ProcessPass gathers them layer by layer.
+  ProcessPass::Tally tally(design);
+  tally.st.active = true;
+  tally.last.fill(std::nan(""));
+  for (std::size_t li = 0; li < toolpath.layers.size(); ++li) tally.add(toolpath.layers[li], results[li]);
+  if (stats) *stats = tally.finish();
 }
 
 void apply_slice_process(const SliceJob& job, const Field& design, SliceResult& r) {
@@ -373,7 +423,11 @@ void apply_slice_process(const SliceJob& job, const Field& design, SliceResult& 
     if (!e.where().file.empty()) throw;
     throw GeometryError(e.message(), {job.input, 0, e.where().element});
   }
-  const ProcessParamStats& t = r.process.param[static_cast<int>(ProcessParam::Temperature)];
+  check_slice_process(job, r.process);
+}
+
+void check_slice_process(const SliceJob& job, const ProcessStats& stats) {
+  const ProcessParamStats& t = stats.param[static_cast<int>(ProcessParam::Temperature)];
   if (t.set && job.strategy != 0 && job.process.temperature_from_mixture)
     throw SettingError(t.node +
                            " sets the nozzle temperature, but the machine makes the "

@@ -497,31 +497,6 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
 }
 
 
-namespace {
-
-// A design with process fields (fprocess), and graded slicing with a prime tower (placed from
-// every layer's footprint and purges), are sliced whole and then handed on layer by layer: the
-// process pass splits paths and counts changes over the whole print in order, so its output and
-// report are run_slice's exactly; memory is run_slice's less the G-code text, not bounded.
-SliceResult whole_to_sink(const SliceJob& job, const LayerSink& sink, const Progress& progress) {
-  SliceResult r = run_slice(job, progress);
-  r.streamed = true;
-  r.layers = r.outlines.size();
-  r.travel = travel_stats(r.toolpath);
-  for (const auto& l : r.outlines) {
-    r.outline_area += area(l.regions);
-    r.empty_layers += l.regions.empty() ? 1 : 0;
-  }
-  if (job.strategy != 0)
-    for (const auto& l : r.toolpath.layers) add_colour_use(job, l, r.colour_use);
-  for (std::size_t i = 0; i < r.toolpath.layers.size(); ++i) sink(i, std::move(r.toolpath.layers[i]));
-  r.toolpath.layers.clear();
-  r.outlines.clear();
-  return r;
-}
-
-}  // namespace
-
 SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progress& progress,
                          const SliceStreamOptions& options) {
   const bool graded = job.strategy == 1 || job.strategy == 2;
@@ -535,7 +510,22 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
   const auto t0 = std::chrono::steady_clock::now();
   const SlicedDesign d = open_design(job, r, progress, false);
   if (graded) require_graded_design(job, ends_with_ci(job.input, ".vcad"), d.field);
-  if (d.field.has_process()) return whole_to_sink(job, sink, progress);
+  // Process fields (fprocess): each layer's paths split as it is handed on, after the tower and
+  // the tools' mixtures (what apply_slice_process does on the whole toolpath); the statistics
+  // that run over the whole print (changes in print order, node names) gathered layer by layer.
+  std::optional<ProcessPass> process;
+  if (d.field.has_process()) process.emplace(d.field, job.process);
+  std::vector<double> outline_z;  // per part layer: its slicing plane (the process fields' Z;
+                                  // 8 bytes a layer, filled and read by the in-order last stage)
+  auto apply_process = [&](std::size_t i, Layer& layer) {
+    if (!process) return;
+    try {
+      process->layer(layer, outline_z[i] - layer.z);
+    } catch (const GeometryError& e) {
+      if (!e.where().file.empty()) throw;
+      throw GeometryError(e.message(), {job.input, 0, e.where().element});
+    }
+  };
   // Strategy 2 on a mixing hotend: each layer planned from its own outline (no skins), the
   // look-ahead is the writer's.
   int quantized_from = 0;
@@ -586,6 +576,7 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
     PlanarStats stats;
     FgmStats fgm;                               // graded
     std::vector<GradientErrorSum> error;        // graded: per toolpath layer
+    std::vector<double> zs;                     // process fields: layers [a, b)'s slicing planes
     double seconds = 0;
   };
   std::deque<LayerOutline> window;  // part layers [window_start, received)
@@ -635,6 +626,8 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
           p.lo = p.a >= below ? p.a - below : 0;
           const std::size_t hi = std::min(n, p.b + above);
           for (std::size_t k = p.lo; k < hi; ++k) p.window.push_back(window[k - window_start]);
+          if (process)
+            for (std::size_t k = p.a; k < p.b; ++k) p.zs.push_back(window[k - window_start].z);
           next_plan = p.b;
           // The next batch starts at next_plan and reads below_layers under it.
           const std::size_t keep = next_plan >= below ? next_plan - below : 0;
@@ -678,6 +671,7 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
         return p;
       }) & tbb::make_filter<Planned, void>(tbb::filter_mode::serial_in_order, [&](Planned p) {
         plan_cpu += p.seconds;
+        outline_z.insert(outline_z.end(), p.zs.begin(), p.zs.end());  // (this stage's alone)
         r.planar.layers += p.stats.layers;
         if (!graded) r.planar.paths += p.stats.paths;  // (graded: count_graded_path)
         r.planar.walls += p.stats.walls;
@@ -707,8 +701,6 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
             r.fgm.error_max = std::max(r.fgm.error_max, a.max);
             r.fgm.error_samples += a.n;
           }
-          if (!held)
-            for (const Layer& layer : p.toolpath.layers) add_colour_use(job, layer, r.colour_use);
         }
         for (Layer& layer : p.toolpath.layers) {
           if (held) {
@@ -723,6 +715,10 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
             // Summed path by path in print order, as plan_planar sums it.
             if (!graded) r.planar.extruded_length += path.length();
             else count_graded_path(path, r.planar);
+          }
+          apply_process(written, layer);
+          if (graded) add_colour_use(job, layer, r.colour_use);
+          for (const Path& path : layer.paths) {
             if (path.points.empty()) continue;
             if (last_point) {
               const double dd = distance(*last_point, path.points.front());
@@ -754,6 +750,7 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
       progress.check("slicing");
       tower->add(i, layer);
       tool_mixtures(job, layer);
+      apply_process(i, layer);
       add_colour_use(job, layer, r.colour_use);
       for (const Path& path : layer.paths) {
         if (path.points.empty()) continue;
@@ -767,6 +764,10 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
       layer = Layer{};
     }
     tower->finish(r.fgm);
+  }
+  if (process) {
+    r.process = process->finish();
+    check_slice_process(job, r.process);
   }
   // Outlining and planning overlap: the wall time is shared out by their summed thread times.
   const double wall = seconds_since(t0), cpu = outline_cpu + plan_cpu;

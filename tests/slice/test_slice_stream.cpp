@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "trellis/core/error.hpp"
+#include "trellis/slice/fgm_process.hpp"
 #include "trellis/slice/pipeline.hpp"
 #include "trellis/toolpath/layer_spill.hpp"
 
@@ -32,6 +33,13 @@ void expect_same_layer(const Layer& a, const Layer& b, std::size_t i) {
     ASSERT_EQ(p.width, q.width);
     ASSERT_EQ(p.height, q.height);
     ASSERT_EQ(p.mixture, q.mixture) << "layer " << i << " path " << k;
+    ASSERT_EQ(p.tool, q.tool) << "layer " << i << " path " << k;
+    // Process fields (fprocess) write these per piece of path.
+    ASSERT_EQ(p.temperature, q.temperature) << "layer " << i << " path " << k;
+    ASSERT_EQ(p.speed, q.speed) << "layer " << i << " path " << k;
+    ASSERT_EQ(p.flow, q.flow) << "layer " << i << " path " << k;
+    ASSERT_EQ(p.fan, q.fan) << "layer " << i << " path " << k;
+    ASSERT_EQ(p.joined, q.joined) << "layer " << i << " path " << k;
     ASSERT_EQ(p.points.size(), q.points.size()) << "layer " << i << " path " << k;
     for (std::size_t m = 0; m < p.points.size(); ++m) {
       ASSERT_EQ(p.points[m].x, q.points[m].x) << "layer " << i << " path " << k;
@@ -184,6 +192,78 @@ TEST(SliceStream, GradedSlicingStreamsAsWhole) {
       EXPECT_EQ(s.travel.moves, whole_travel.moves) << at;
       EXPECT_EQ(s.travel.length, whole_travel.length) << at;
       EXPECT_EQ(s.layers, whole.outlines.size()) << at;
+    }
+  }
+  std::filesystem::remove(design);
+}
+
+// Process fields (fprocess) stream too: each layer's paths are split as it is handed on (after
+// a prime tower and the tools' mixtures, so the tower is split too), and the statistics that run
+// over the whole print (changes in print order across layers, node names, ranges, deviations)
+// are gathered layer by layer: planar, Strategy 1 and 2 on a mixing hotend and Strategy 1 on a
+// five-tool changer, at any run length, are run_slice's.
+TEST(SliceStream, ProcessFieldsStreamAsWhole) {
+  const std::string design =
+      (std::filesystem::temp_directory_path() / ("trellis_process_stream_" + std::to_string(::getpid()) + ".vcad"))
+          .string();
+  // Speed across X, flow across Y, fan up Z: several pieces per path, changes inside layers and
+  // across layer boundaries.
+  std::ofstream(design) << "fprocess([\"30 + 0.7*x\", \"1 + 0.02*y\", \"40 + 12*z\"], [\"speed\", "
+                           "\"flow\", \"fan\"]) {\n  fgrade([\"(x+8)/32 + z/16.8\", \"1 - (x+8)/32 - "
+                           "z/16.8\"], [\"blue\", \"yellow\"]) {\n    cylinder(8, 4.2);\n  }\n}\n";
+  struct Case {
+    int strategy, tools;
+  };
+  for (const Case c : {Case{0, 0}, Case{1, 0}, Case{1, 5}, Case{2, 0}}) {
+    SliceJob job;
+    job.input = design;
+    job.strategy_chosen = true;
+    job.strategy = c.strategy;
+    job.tools = c.tools;
+    if (c.tools) job.fgm.palette.colors = 4;
+    if (c.strategy == 1 || c.tools) {
+      job.purge.melt_volume = 20;
+      job.purge.bed_x = job.purge.bed_y = 250;
+      job.purge.speed = 40;
+    }
+    const std::string what = "strategy " + std::to_string(c.strategy) + ", " + std::to_string(c.tools) + " tools";
+    const SliceResult whole = run_slice(job);
+    ASSERT_TRUE(whole.process.active) << what;
+    EXPECT_GT(whole.process.pieces, whole.process.paths + 50) << what << ": paths are split";
+    if (c.strategy == 1) ASSERT_TRUE(whole.fgm.tower.built) << what;
+    std::map<std::vector<double>, std::pair<double, double>> whole_use;
+    for (const Layer& l : whole.toolpath.layers) add_colour_use(job, l, whole_use);
+    const TravelStats whole_travel = travel_stats(whole.toolpath);
+    for (const std::size_t chunk : {std::size_t{16}, std::size_t{3}, std::size_t{1}}) {
+      const std::string at = what + ", runs of " + std::to_string(chunk);
+      std::vector<Layer> layers;
+      const SliceResult s =
+          stream_slice(job, [&](std::size_t, Layer&& l) { layers.push_back(std::move(l)); }, {}, {chunk, 4});
+      ASSERT_EQ(layers.size(), whole.toolpath.layers.size()) << at;
+      for (std::size_t i = 0; i < layers.size(); ++i) expect_same_layer(whole.toolpath.layers[i], layers[i], i);
+      const ProcessStats &a = whole.process, &b = s.process;
+      EXPECT_TRUE(b.active) << at;
+      EXPECT_EQ(b.paths, a.paths) << at;
+      EXPECT_EQ(b.pieces, a.pieces) << at;
+      EXPECT_EQ(b.merged, a.merged) << at;
+      EXPECT_EQ(b.samples, a.samples) << at;
+      EXPECT_EQ(b.short_slowed, a.short_slowed) << at;
+      for (int k = 0; k < kProcessParams; ++k) {
+        EXPECT_EQ(b.param[k].set, a.param[k].set) << at << " param " << k;
+        EXPECT_EQ(b.param[k].min, a.param[k].min) << at << " param " << k;
+        EXPECT_EQ(b.param[k].max, a.param[k].max) << at << " param " << k;
+        EXPECT_EQ(b.param[k].changes, a.param[k].changes) << at << " param " << k;
+        EXPECT_EQ(b.param[k].max_deviation, a.param[k].max_deviation) << at << " param " << k;
+        EXPECT_EQ(b.param[k].node, a.param[k].node) << at << " param " << k;
+      }
+      EXPECT_GT(a.param[static_cast<int>(ProcessParam::Fan)].changes, 5u) << at;
+      EXPECT_EQ(s.fgm.purges, whole.fgm.purges) << at;
+      EXPECT_EQ(s.fgm.tower.volume, whole.fgm.tower.volume) << at;
+      EXPECT_EQ(s.planar.paths, whole.planar.paths) << at;
+      EXPECT_EQ(s.planar.extruded_length, whole.planar.extruded_length) << at;
+      if (c.strategy != 0) EXPECT_EQ(s.colour_use, whole_use) << at;
+      EXPECT_EQ(s.travel.moves, whole_travel.moves) << at;
+      EXPECT_EQ(s.travel.length, whole_travel.length) << at;
     }
   }
   std::filesystem::remove(design);

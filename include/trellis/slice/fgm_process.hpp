@@ -6,6 +6,7 @@
 // written is measured against the field along every piece (max deviation per parameter).
 #pragma once
 #include <array>
+#include <memory>
 #include <string>
 
 #include "trellis/field/field.hpp"
@@ -61,6 +62,27 @@ struct ProcessStats {
 void apply_process_fields(const Field& design, Toolpath& toolpath, const ProcessOptions& options,
                           ProcessStats* stats = nullptr, const std::vector<double>& design_dz = {});
 
+// The same pass layer by layer, for a print streamed in order (stream_slice): layer() splits
+// one layer's paths (in place; `design_dz` as above) and gathers the statistics the whole print
+// needs (sums, each parameter's last written value, node names), so finish() returns exactly
+// what apply_process_fields reports for the same layers. Without fprocess it does nothing.
+class ProcessPass {
+ public:
+  ProcessPass(const Field& design, const ProcessOptions& options);
+  ~ProcessPass();
+  ProcessPass(const ProcessPass&) = delete;
+  ProcessPass& operator=(const ProcessPass&) = delete;
+  void layer(Layer& layer, double design_dz);
+  ProcessStats finish();
+  struct Tally;  // (shared with apply_process_fields)
+
+ private:
+  const Field& design_;
+  ProcessOptions options_;
+  std::unique_ptr<Tally> tally_;
+  std::unique_ptr<Evaluator> evaluator_;
+};
+
 // The value a path is written with (NaN when the path does not set it).
 double written_process_value(const Path& path, ProcessParam p);
 
@@ -69,6 +91,8 @@ double written_process_value(const Path& path, ProcessParam p);
 struct SliceJob;
 struct SliceResult;
 void apply_slice_process(const SliceJob& job, const Field& design, SliceResult& result);
+// Refuses a temperature field where the machine makes the gradient's mixtures by temperature.
+void check_slice_process(const SliceJob& job, const ProcessStats& stats);
 
 // The summary's part for a print with process fields ("" without): per parameter the range
 // written, its changes, and the settle time the temperature changes add (from the writer).

@@ -94,10 +94,13 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress = {});
 // and planned by a oneTBB pipeline (a few runs of `chunk_layers` in flight, each planned with the
 // outlines its skins read around it) and handed to `sink` in order as each is done, never all
 // held. The layers are run_slice's, byte for byte; the result carries the statistics (no
-// outlines, no toolpath). Graded slicing: Strategy 2 on a mixing hotend streams the same way
-// (each layer planned from its own outline, the gradient error and the statistics summed in
-// layer order); Strategy 1 and tool changers (a prime tower placed from every layer) and designs
-// with process fields are sliced whole (run_slice) and then handed to `sink` layer by layer.
+// outlines, no toolpath). Graded slicing streams the same way, the gradient error and the
+// statistics summed in layer order (Strategy 2 plans each layer from its own outline, Strategy 1
+// cuts the planar layers by colour). With a prime tower (Strategy 1, tool changers), which is
+// placed and sized from every layer, the planned layers go to a temporary file first and come
+// back in order with the tower and the tools' mixtures added, before `sink`. Process fields
+// (fprocess) split each layer's paths as it is handed on (after the tower), their statistics
+// gathered layer by layer (ProcessPass).
 using LayerSink = std::function<void(std::size_t index, Layer&& layer)>;
 struct SliceStreamOptions {
   std::size_t chunk_layers = 16;  // planes outlined together (a mesh is bucketed once per run)
