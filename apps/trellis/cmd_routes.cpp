@@ -213,8 +213,8 @@ void add_routes(CLI::App& app, int argc, char** argv) {
     }
     if (route == "plan") cmd->add_option("--gcode", o->gcode, "also write G-code (needs --machine)");
     if (spec.report) cmd->add_option("--report", o->report, "JSON report to write");
-    // slice (planar, graded, prime tower and process fields; docs/plates.md) and pbf write their
-    // output alone layer by layer.
+    // slice (planar, graded, process fields; docs/plates.md) and pbf write their output alone
+    // layer by layer.
     const bool streams = route == "slice" || route == "pbf";
     auto whole = [streams](const char* other) {
       return streams ? std::string(" (holds the whole toolpath in memory; without it and ") +

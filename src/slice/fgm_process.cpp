@@ -278,14 +278,14 @@ double written_process_value(const Path& path, ProcessParam p) {
 
 namespace {
 
-void check_process_options(const ProcessOptions& o) {
+void check_options(const ProcessOptions& o) {
   for (int k = 0; k < kProcessParams; ++k)
     if (!(o.step(static_cast<ProcessParam>(k)) > 0))
       throw SettingError("process steps must be > 0", {"", 0, "process"});
   if (!(o.sample > 0)) throw SettingError("process.sample must be > 0", {"", 0, "process.sample"});
 }
 
-// One layer's paths split by the field (the layer's own pieces and counts in r).
+// One layer's paths split where a rounded value changes (the layer-local step).
 void split_layer(Evaluator& ev, const ProcessOptions& o, Layer& layer, double dz, LayerResult& r) {
   PathSplitter splitter(ev, o, r, dz);
   std::vector<Path> out;
@@ -306,16 +306,13 @@ void split_layer(Evaluator& ev, const ProcessOptions& o, Layer& layer, double dz
 
 }  // namespace
 
-// What the whole-print statistics need, gathered layer by layer in print order: the sums, the
-// last written value of each parameter (its changes run across layers) and the node names.
+// The written values and their changes in print order (the whole-print step): a layer at a
+// time, after split_layer, for the whole and the streamed run alike.
 struct ProcessPass::Tally {
-  explicit Tally(const Field& design) : names(design) {}
-  ProcessStats st;
   std::array<double, kProcessParams> last;
   std::array<std::string, kProcessParams> nodes;
-  Evaluator names;  // the node names, from the first point of the design's paths
-
-  void add(const Layer& layer, const LayerResult& r) {
+  Tally() { last.fill(std::nan("")); }
+  void add(Evaluator& ev, const Layer& layer, const LayerResult& r, ProcessStats& st) {
     st.paths += r.paths;
     st.pieces += r.pieces;
     st.merged += r.merged;
@@ -323,18 +320,14 @@ struct ProcessPass::Tally {
     st.short_slowed += r.short_slowed;
     for (int k = 0; k < kProcessParams; ++k)
       st.param[k].max_deviation = std::max(st.param[k].max_deviation, r.deviation[k]);
-    bool named = true;
-    for (int k = 0; k < kProcessParams; ++k) named = named && !nodes[k].empty();
-    if (!named)
-      for (const auto& p : layer.paths) {
-        if (p.points.size() < 2) continue;
-        const ProcessValues v = names.process(p.points.front());  // a node name: any point will do
+    const auto& paths = layer.paths;
+    for (std::size_t pi = 0; pi < paths.size(); ++pi) {
+      if (paths[pi].points.size() >= 2) {
+        // The node that sets a parameter: named from the first path that meets it.
+        const ProcessValues v = ev.process(paths[pi].points.front());
         for (int k = 0; k < kProcessParams; ++k)
           if (v.node[k] && nodes[k].empty()) nodes[k] = *v.node[k];
       }
-    // Written values and their changes in print order.
-    const auto& paths = layer.paths;
-    for (std::size_t pi = 0; pi < paths.size(); ++pi) {
       const unsigned mask = r.masks[pi];
       for (int k = 0; k < kProcessParams; ++k) {
         if (!(mask & (1u << k))) continue;
@@ -343,6 +336,7 @@ struct ProcessPass::Tally {
         if (!s.set) {
           s.set = true;
           s.min = s.max = w;
+          s.node = nodes[k];
         }
         s.min = std::min(s.min, w);
         s.max = std::max(s.max, w);
@@ -351,45 +345,31 @@ struct ProcessPass::Tally {
       }
     }
   }
-
-  ProcessStats finish() {
-    // A parameter's node: the first name seen over the whole print (known only at its end).
-    for (int k = 0; k < kProcessParams; ++k)
-      if (st.param[k].set) st.param[k].node = nodes[k];
-    return st;
-  }
 };
 
 ProcessPass::ProcessPass(const Field& design, const ProcessOptions& options)
-    : design_(design), options_(options) {
-  if (!design.has_process()) return;
-  check_process_options(options);
-  tally_ = std::make_unique<Tally>(design);
-  tally_->st.active = true;
-  tally_->last.fill(std::nan(""));
-  evaluator_ = std::make_unique<Evaluator>(design);
+    : options_(options), ev_(std::make_unique<Evaluator>(design)),
+      tally_(std::make_unique<Tally>()) {
+  check_options(options_);
+  stats_.active = true;
 }
-
 ProcessPass::~ProcessPass() = default;
 
-void ProcessPass::layer(Layer& layer, double design_dz) {
-  if (!tally_) return;
+void ProcessPass::layer(Layer& layer, double dz) {
   LayerResult r;
-  split_layer(*evaluator_, options_, layer, design_dz, r);
-  tally_->add(layer, r);
-}
-
-ProcessStats ProcessPass::finish() {
-  return tally_ ? tally_->finish() : ProcessStats{};
+  split_layer(*ev_, options_, layer, dz, r);
+  tally_->add(*ev_, layer, r, stats_);
 }
 
 void apply_process_fields(const Field& design, Toolpath& toolpath, const ProcessOptions& o,
                           ProcessStats* stats, const std::vector<double>& design_dz) {
+  ProcessStats st;
   if (!design.has_process()) {
-    if (stats) *stats = ProcessStats{};
+    if (stats) *stats = st;
     return;
   }
-  check_process_options(o);
+  check_options(o);
+  st.active = true;
   std::vector<LayerResult> results(toolpath.layers.size());
   tbb::enumerable_thread_specific<Evaluator> evaluators([&] { return Evaluator(design); });
   tbb::parallel_for(std::size_t{0}, toolpath.layers.size(), [&](std::size_t li) {
@@ -404,29 +384,38 @@ void apply_process_fields(const Field& design, Toolpath& toolpath, const Process
   // The lowest layer's error, so the message does not depend on the threads.
   for (const auto& r : results)
     if (r.error) std::rethrow_exception(r.error);
-  // The statistics in print order, as ProcessPass gathers them layer by layer.
-  ProcessPass::Tally tally(design);
-  tally.st.active = true;
-  tally.last.fill(std::nan(""));
-  for (std::size_t li = 0; li < toolpath.layers.size(); ++li) tally.add(toolpath.layers[li], results[li]);
-  if (stats) *stats = tally.finish();
+  ProcessPass::Tally tally;
+  Evaluator ev(design);
+  for (std::size_t li = 0; li < toolpath.layers.size(); ++li) tally.add(ev, toolpath.layers[li], results[li], st);
+  if (stats) *stats = st;
+}
+
+std::vector<double> process_design_dz(const SliceJob& job, const SliceResult& r) {
+  // A layer's outline is the one at its nozzle height (part layer g at (g + 1) h; a graded
+  // toolpath leaves out layers without paths, so the indices need not match).
+  std::vector<double> dz;
+  const double h = job.planar.layer_height;
+  for (const Layer& l : r.toolpath.layers) {
+    const long g = std::lround(l.z / h) - 1 - static_cast<long>(r.outline_first);
+    dz.push_back(g >= 0 && static_cast<std::size_t>(g) < r.outlines.size()
+                     ? r.outlines[static_cast<std::size_t>(g)].z - l.z
+                     : (dz.empty() ? 0.0 : dz.back()));
+  }
+  return dz;
 }
 
 void apply_slice_process(const SliceJob& job, const Field& design, SliceResult& r) {
   if (!design.has_process()) return;
   try {
-    std::vector<double> dz;
-    for (std::size_t i = 0; i < r.outlines.size() && i < r.toolpath.layers.size(); ++i)
-      dz.push_back(r.outlines[i].z - r.toolpath.layers[i].z);
-    apply_process_fields(design, r.toolpath, job.process, &r.process, dz);
+    apply_process_fields(design, r.toolpath, job.process, &r.process, process_design_dz(job, r));
   } catch (const GeometryError& e) {
     if (!e.where().file.empty()) throw;
     throw GeometryError(e.message(), {job.input, 0, e.where().element});
   }
-  check_slice_process(job, r.process);
+  check_process_temperature(job, r.process);
 }
 
-void check_slice_process(const SliceJob& job, const ProcessStats& stats) {
+void check_process_temperature(const SliceJob& job, const ProcessStats& stats) {
   const ProcessParamStats& t = stats.param[static_cast<int>(ProcessParam::Temperature)];
   if (t.set && job.strategy != 0 && job.process.temperature_from_mixture)
     throw SettingError(t.node +

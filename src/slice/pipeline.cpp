@@ -20,6 +20,7 @@
 #include "trellis/field/vcad.hpp"
 #include "trellis/geom/mesh_io.hpp"
 #include "trellis/slice/fgm.hpp"
+#include "trellis/slice/fgm_process.hpp"
 
 namespace trellis {
 
@@ -497,6 +498,10 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
 }
 
 
+namespace {
+
+}  // namespace
+
 SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progress& progress,
                          const SliceStreamOptions& options) {
   const bool graded = job.strategy == 1 || job.strategy == 2;
@@ -510,22 +515,6 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
   const auto t0 = std::chrono::steady_clock::now();
   const SlicedDesign d = open_design(job, r, progress, false);
   if (graded) require_graded_design(job, ends_with_ci(job.input, ".vcad"), d.field);
-  // Process fields (fprocess): each layer's paths split as it is handed on, after the tower and
-  // the tools' mixtures (what apply_slice_process does on the whole toolpath); the statistics
-  // that run over the whole print (changes in print order, node names) gathered layer by layer.
-  std::optional<ProcessPass> process;
-  if (d.field.has_process()) process.emplace(d.field, job.process);
-  std::vector<double> outline_z;  // per part layer: its slicing plane (the process fields' Z;
-                                  // 8 bytes a layer, filled and read by the in-order last stage)
-  auto apply_process = [&](std::size_t i, Layer& layer) {
-    if (!process) return;
-    try {
-      process->layer(layer, outline_z[i] - layer.z);
-    } catch (const GeometryError& e) {
-      if (!e.where().file.empty()) throw;
-      throw GeometryError(e.message(), {job.input, 0, e.where().element});
-    }
-  };
   // Strategy 2 on a mixing hotend: each layer planned from its own outline (no skins), the
   // look-ahead is the writer's.
   int quantized_from = 0;
@@ -535,6 +524,11 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
   std::optional<LayerSpill> held;
   std::optional<tower::PrimeTower> tower;
   if (tower_step) held.emplace(), tower.emplace(fo, job.purge);
+  // Process fields (fprocess): each layer split where a value changes and the written values
+  // counted in print order, after the tower (its paths take the field too), as the whole run's
+  // apply_slice_process.
+  std::optional<ProcessPass> process;
+  if (d.field.has_process()) process.emplace(d.field, job.process);
   double error_sum = 0;
   int last_colour = -1;
   std::set<std::vector<double>> colours_used;
@@ -549,6 +543,17 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
   const std::size_t first = planes.first, n = planes.second - planes.first;
   r.part_layers = n;
   r.layers = n;
+  const auto process_layer = [&](Layer& layer) {
+    // The layer's outline plane: part layer g prints at (g + 1) h.
+    const long g = std::lround(layer.z / job.planar.layer_height) - 1;
+    const std::size_t plane = first + static_cast<std::size_t>(std::clamp<long>(g, 0, static_cast<long>(n) - 1));
+    try {
+      process->layer(layer, d.zs[plane] - layer.z);
+    } catch (const GeometryError& e) {
+      if (!e.where().file.empty()) throw;
+      throw GeometryError(e.message(), {job.input, 0, e.where().element});
+    }
+  };
   // Strategy 2 plans each layer from its own outline; planar layers and Strategy 1's (cut from
   // them) read the skins' layers around them.
   const bool own_outline = job.strategy == 2;
@@ -576,13 +581,22 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
     PlanarStats stats;
     FgmStats fgm;                               // graded
     std::vector<GradientErrorSum> error;        // graded: per toolpath layer
-    std::vector<double> zs;                     // process fields: layers [a, b)'s slicing planes
     double seconds = 0;
   };
   std::deque<LayerOutline> window;  // part layers [window_start, received)
   std::size_t window_start = 0, received = 0, next_plan = 0, next_chunk = 0, written = 0;
   double outline_cpu = 0, plan_cpu = 0;
   std::optional<Vec3> last_point;
+  const auto add_travel = [&](const Layer& layer) {
+    for (const Path& path : layer.paths) {
+      if (path.points.empty()) continue;
+      if (last_point) {
+        const double dd = distance(*last_point, path.points.front());
+        if (dd > 1e-9) ++r.travel.moves, r.travel.length += dd;
+      }
+      last_point = path.points.back();
+    }
+  };
   auto clock = [] { return std::chrono::steady_clock::now(); };
   tbb::parallel_pipeline(
       tokens,
@@ -626,8 +640,6 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
           p.lo = p.a >= below ? p.a - below : 0;
           const std::size_t hi = std::min(n, p.b + above);
           for (std::size_t k = p.lo; k < hi; ++k) p.window.push_back(window[k - window_start]);
-          if (process)
-            for (std::size_t k = p.a; k < p.b; ++k) p.zs.push_back(window[k - window_start].z);
           next_plan = p.b;
           // The next batch starts at next_plan and reads below_layers under it.
           const std::size_t keep = next_plan >= below ? next_plan - below : 0;
@@ -671,7 +683,6 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
         return p;
       }) & tbb::make_filter<Planned, void>(tbb::filter_mode::serial_in_order, [&](Planned p) {
         plan_cpu += p.seconds;
-        outline_z.insert(outline_z.end(), p.zs.begin(), p.zs.end());  // (this stage's alone)
         r.planar.layers += p.stats.layers;
         if (!graded) r.planar.paths += p.stats.paths;  // (graded: count_graded_path)
         r.planar.walls += p.stats.walls;
@@ -716,16 +727,9 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
             if (!graded) r.planar.extruded_length += path.length();
             else count_graded_path(path, r.planar);
           }
-          apply_process(written, layer);
+          if (process) process_layer(layer);
           if (graded) add_colour_use(job, layer, r.colour_use);
-          for (const Path& path : layer.paths) {
-            if (path.points.empty()) continue;
-            if (last_point) {
-              const double dd = distance(*last_point, path.points.front());
-              if (dd > 1e-9) ++r.travel.moves, r.travel.length += dd;
-            }
-            last_point = path.points.back();
-          }
+          add_travel(layer);
           sink(written++, std::move(layer));
         }
         if (progress.report) progress("layers", static_cast<double>(written) / double(n));
@@ -750,24 +754,17 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
       progress.check("slicing");
       tower->add(i, layer);
       tool_mixtures(job, layer);
-      apply_process(i, layer);
+      if (process) process_layer(layer);
       add_colour_use(job, layer, r.colour_use);
-      for (const Path& path : layer.paths) {
-        if (path.points.empty()) continue;
-        if (last_point) {
-          const double dd = distance(*last_point, path.points.front());
-          if (dd > 1e-9) ++r.travel.moves, r.travel.length += dd;
-        }
-        last_point = path.points.back();
-      }
+      add_travel(layer);
       sink(i, std::move(layer));
       layer = Layer{};
     }
     tower->finish(r.fgm);
   }
   if (process) {
-    r.process = process->finish();
-    check_slice_process(job, r.process);
+    r.process = process->stats();
+    check_process_temperature(job, r.process);
   }
   // Outlining and planning overlap: the wall time is shared out by their summed thread times.
   const double wall = seconds_since(t0), cpu = outline_cpu + plan_cpu;

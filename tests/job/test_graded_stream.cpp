@@ -180,8 +180,9 @@ TEST(GradedStream, Strategy2JobStreamsAsWhole) {
   EXPECT_NE(r.summary[1].find("look-ahead 960 mm"), std::string::npos) << r.summary[1];
 }
 
-// A prime tower (Strategy 1, tool changers) streams through a temporary file (the tower planned
-// from every layer's purges, then added as each layer is read back): the same bytes.
+// With a prime tower (Strategy 1, tool changers) the layers are planned run by run, held in a
+// temporary file while the tower observes them, and come back with the tower step: the same
+// G-code, summary and report.
 TEST(GradedStream, TowerJobsWrittenLayerByLayerAsWhole) {
   expect_same_runs(whole_and_streamed(1, "geeetech_mizar_m_mixing.toml"), "strategy 1 job");
   expect_same_runs(whole_and_streamed(2, "prusa_xl_5tools.toml", "\n[fgm]\ncolors = 5\n"),

@@ -62,25 +62,25 @@ struct ProcessStats {
 void apply_process_fields(const Field& design, Toolpath& toolpath, const ProcessOptions& options,
                           ProcessStats* stats = nullptr, const std::vector<double>& design_dz = {});
 
-// The same pass layer by layer, for a print streamed in order (stream_slice): layer() splits
-// one layer's paths (in place; `design_dz` as above) and gathers the statistics the whole print
-// needs (sums, each parameter's last written value, node names), so finish() returns exactly
-// what apply_process_fields reports for the same layers. Without fprocess it does nothing.
+// The same pass a layer at a time, in print order (streamed slicing): layer() splits the
+// layer's paths (`dz` added to its points' Z gives design coordinates) and counts what is
+// written; stats() is apply_process_fields's for the layers so far. Errors as
+// apply_process_fields's, at the layer that has them.
 class ProcessPass {
  public:
   ProcessPass(const Field& design, const ProcessOptions& options);
   ~ProcessPass();
   ProcessPass(const ProcessPass&) = delete;
   ProcessPass& operator=(const ProcessPass&) = delete;
-  void layer(Layer& layer, double design_dz);
-  ProcessStats finish();
-  struct Tally;  // (shared with apply_process_fields)
+  void layer(Layer& layer, double dz);
+  const ProcessStats& stats() const { return stats_; }
+  struct Tally;
 
  private:
-  const Field& design_;
   ProcessOptions options_;
+  std::unique_ptr<Evaluator> ev_;
   std::unique_ptr<Tally> tally_;
-  std::unique_ptr<Evaluator> evaluator_;
+  ProcessStats stats_;
 };
 
 // The value a path is written with (NaN when the path does not set it).
@@ -91,8 +91,11 @@ double written_process_value(const Path& path, ProcessParam p);
 struct SliceJob;
 struct SliceResult;
 void apply_slice_process(const SliceJob& job, const Field& design, SliceResult& result);
-// Refuses a temperature field where the machine makes the gradient's mixtures by temperature.
-void check_slice_process(const SliceJob& job, const ProcessStats& stats);
+// A temperature field on a graded print whose machine makes its mixtures by temperature:
+// SettingError naming the node.
+void check_process_temperature(const SliceJob& job, const ProcessStats& stats);
+// Per toolpath layer of `result`, what to add to its points' Z for design coordinates.
+std::vector<double> process_design_dz(const SliceJob& job, const SliceResult& result);
 
 // The summary's part for a print with process fields ("" without): per parameter the range
 // written, its changes, and the settle time the temperature changes add (from the writer).

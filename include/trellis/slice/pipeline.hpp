@@ -99,8 +99,7 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress = {});
 // cuts the planar layers by colour). With a prime tower (Strategy 1, tool changers), which is
 // placed and sized from every layer, the planned layers go to a temporary file first and come
 // back in order with the tower and the tools' mixtures added, before `sink`. Process fields
-// (fprocess) split each layer's paths as it is handed on (after the tower), their statistics
-// gathered layer by layer (ProcessPass).
+// (fprocess) split each layer as it passes, after the tower, and are counted in print order.
 using LayerSink = std::function<void(std::size_t index, Layer&& layer)>;
 struct SliceStreamOptions {
   std::size_t chunk_layers = 16;  // planes outlined together (a mesh is bucketed once per run)
