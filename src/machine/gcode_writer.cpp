@@ -689,12 +689,18 @@ class Writer {
       if (p.points.size() < 2) continue;
       if (!first_seen_) first_seen_ = true, first_temperature_ = p.temperature;
       tower_ = tower_ || p.role == PathRole::Purge;
+      // The printed lengths serve the look-ahead only: none with a tower or a tool changer (each
+      // change right before its path), so a print split into millions of pieces keeps nothing
+      // per path.
+      if (tower_ || p_.gradient_mode == "tools" || !(p_.lookahead > 0)) starts_ = {};
       if (select_tools_ && p.mixture.empty() &&
           std::find(tools_used_.begin(), tools_used_.end(), p.tool) == tools_used_.end())
         tools_used_.push_back(p.tool);
-      if (starts_.empty()) starts_.push_back(0);
-      const std::size_t k = starts_.size() - 1;
-      starts_.push_back(starts_.back() + p.length());
+      const std::size_t k = streamed_paths_++;
+      if (!(tower_ || p_.gradient_mode == "tools" || !(p_.lookahead > 0))) {
+        if (starts_.empty()) starts_.push_back(0);
+        starts_.push_back(starts_.back() + p.length());
+      }
       if (p.mixture.empty()) continue;
       std::string c = gradient_command(p.mixture);  // kept only when it changes
       if (wanted_.empty() || wanted_.back().command != c)
@@ -709,7 +715,7 @@ class Writer {
                    double lookahead, bool tools, const std::vector<const Path*>* path_of) {
     ++stats_.gradient_changes;
     // Locate printed length start[k] - L.
-    const double target = std::max(0.0, start[k] - lookahead);
+    const double target = lookahead > 0 ? std::max(0.0, start[k] - lookahead) : 0.0;
     std::size_t j = k;
     if (lookahead > 0)
       j = static_cast<std::size_t>(std::upper_bound(start.begin(), start.begin() + k + 1, target) -
@@ -975,7 +981,8 @@ class Writer {
     std::string command;
     int tool;
   };
-  std::vector<double> starts_;
+  std::vector<double> starts_;      // streamed, with a look-ahead: printed length before each path
+  std::size_t streamed_paths_ = 0;  // streamed: printed paths planned
   std::vector<Wanted> wanted_;
   std::vector<int> tools_used_;  // tool changers: tools in order of first use
   int last_tool_ = -1;

@@ -35,11 +35,16 @@ fs::path work(const std::string& name) {
 // A cylinder graded across X and up Z (as tests/job/test_graded_shards.cpp): several colours
 // in every layer and colours moving up the layers, so changes fall inside layers, across layer
 // boundaries and, with the look-ahead, inside earlier paths.
+// With `process`, inside process fields (fprocess: speed across X, flow across Y, fan up Z).
 std::string graded_job(const fs::path& dir, int strategy, const std::string& profile,
-                       const std::string& extra) {
+                       const std::string& extra, bool process = false) {
+  const std::string graded =
+      "fgrade([\"(x+8)/32 + z/16.8\", \"1 - (x+8)/32 - z/16.8\"], [\"blue\", \"yellow\"]) {\n"
+      "  cylinder(8, 8.4);\n}\n";
   std::ofstream(dir / "graded.vcad")
-      << "fgrade([\"(x+8)/32 + z/16.8\", \"1 - (x+8)/32 - z/16.8\"], [\"blue\", \"yellow\"]) {\n"
-         "  cylinder(8, 8.4);\n}\n";
+      << (process ? "fprocess([\"30 + 0.7*x\", \"1 + 0.02*y\", \"40 + 6*z\"], [\"speed\", "
+                    "\"flow\", \"fan\"]) {\n" + graded + "}\n"
+                  : graded);
   const fs::path f = dir / "job.toml";
   std::ofstream(f) << "[job]\nroute = \"slice\"\nname = \"graded\"\ninput = \""
                    << (dir / "graded.vcad").string() << "\"\nmachine = \"" << kRoot
@@ -118,9 +123,10 @@ struct Runs {
   bool held[2] = {false, false};
 };
 
-Runs whole_and_streamed(int strategy, const std::string& profile, const std::string& extra = {}) {
-  const fs::path dir = work("job_" + profile + "_" + std::to_string(strategy));
-  const std::string f = graded_job(dir, strategy, profile, extra);
+Runs whole_and_streamed(int strategy, const std::string& profile, const std::string& extra = {},
+                        bool process = false) {
+  const fs::path dir = work("job_" + profile + "_" + std::to_string(strategy) + (process ? "_process" : ""));
+  const std::string f = graded_job(dir, strategy, profile, extra, process);
   Runs out;
   for (const int k : {0, 1}) {
     Job job = load_job(f, (dir / (k ? "stream" : "whole")).string(), {"output.png=false"});
@@ -181,4 +187,24 @@ TEST(GradedStream, TowerJobsWrittenLayerByLayerAsWhole) {
   expect_same_runs(whole_and_streamed(1, "geeetech_mizar_m_mixing.toml"), "strategy 1 job");
   expect_same_runs(whole_and_streamed(2, "prusa_xl_5tools.toml", "\n[fgm]\ncolors = 5\n"),
                    "tool changer job");
+}
+
+// Process fields stream too, after the tower and the tools' mixtures (the tower's paths split as
+// well), their changes counted across layers as the whole run counts them: the same G-code,
+// summary and report on a mixing hotend (Strategy 1 and 2) and a five-tool changer.
+TEST(GradedStream, ProcessFieldJobsStreamAsWhole) {
+  struct Case {
+    int strategy;
+    const char* profile;
+    const char* extra;
+  };
+  for (const Case c : {Case{1, "geeetech_mizar_m_mixing.toml", ""}, Case{2, "geeetech_mizar_m_mixing.toml", ""},
+                       Case{1, "prusa_xl_5tools.toml", "\n[fgm]\ncolors = 5\n"}}) {
+    const std::string what = std::string(c.profile) + ", strategy " + std::to_string(c.strategy) + ", process";
+    const Runs r = whole_and_streamed(c.strategy, c.profile, c.extra, true);
+    expect_same_runs(r, what);
+    EXPECT_NE(r.summary[0].find("process fields:"), std::string::npos) << what << ": " << r.summary[0];
+    EXPECT_NE(r.report[0].find("\"process\""), std::string::npos) << what;
+    EXPECT_NE(r.gcode[0].find("\nM106 S"), std::string::npos) << what << ": the fan field is written";
+  }
 }

@@ -34,6 +34,7 @@ void expect_same_layer(const Layer& a, const Layer& b, std::size_t i) {
     ASSERT_EQ(p.width, q.width);
     ASSERT_EQ(p.height, q.height);
     ASSERT_EQ(p.mixture, q.mixture) << "layer " << i << " path " << k;
+    ASSERT_EQ(p.tool, q.tool) << "layer " << i << " path " << k;
     // Process fields (fprocess): what each piece is written with.
     ASSERT_EQ(p.speed, q.speed) << "layer " << i << " path " << k;
     ASSERT_TRUE(p.temperature == q.temperature || (std::isnan(p.temperature) && std::isnan(q.temperature)))
@@ -249,6 +250,76 @@ TEST(SliceStream, ProcessFieldsStreamAsWhole) {
         EXPECT_EQ(b.node, a.node) << at << " param " << k;
       }
       EXPECT_EQ(s.travel.moves, travel_stats(whole.toolpath).moves) << at;
+    }
+  }
+  std::filesystem::remove(design);
+}
+
+// Process fields on a five-tool changer (four colours: the tools' nearest mixes) with either
+// strategy, after the tower step and the tools' mixtures: layers, process statistics, per-colour
+// use and travel are run_slice's at any run length.
+TEST(SliceStream, ProcessFieldsOnToolChangersStreamAsWhole) {
+  const std::string design =
+      (std::filesystem::temp_directory_path() / ("trellis_process_tools_stream_" + std::to_string(::getpid()) + ".vcad"))
+          .string();
+  // Speed across X, flow across Y, fan up Z: several pieces per path, changes inside layers and
+  // across layer boundaries.
+  std::ofstream(design) << "fprocess([\"30 + 0.7*x\", \"1 + 0.02*y\", \"40 + 12*z\"], [\"speed\", "
+                           "\"flow\", \"fan\"]) {\n  fgrade([\"(x+8)/32 + z/16.8\", \"1 - (x+8)/32 - "
+                           "z/16.8\"], [\"blue\", \"yellow\"]) {\n    cylinder(8, 4.2);\n  }\n}\n";
+  struct Case {
+    int strategy, tools;
+  };
+  for (const Case c : {Case{1, 5}, Case{2, 5}}) {
+    SliceJob job;
+    job.input = design;
+    job.strategy_chosen = true;
+    job.strategy = c.strategy;
+    job.tools = c.tools;
+    if (c.tools) job.fgm.palette.colors = 4;
+    if (c.strategy == 1 || c.tools) {
+      job.purge.melt_volume = 20;
+      job.purge.bed_x = job.purge.bed_y = 250;
+      job.purge.speed = 40;
+    }
+    const std::string what = "strategy " + std::to_string(c.strategy) + ", " + std::to_string(c.tools) + " tools";
+    const SliceResult whole = run_slice(job);
+    ASSERT_TRUE(whole.process.active) << what;
+    EXPECT_GT(whole.process.pieces, whole.process.paths + 50) << what << ": paths are split";
+    ASSERT_TRUE(whole.fgm.tower.built) << what;
+    std::map<std::vector<double>, std::pair<double, double>> whole_use;
+    for (const Layer& l : whole.toolpath.layers) add_colour_use(job, l, whole_use);
+    const TravelStats whole_travel = travel_stats(whole.toolpath);
+    for (const std::size_t chunk : {std::size_t{16}, std::size_t{3}, std::size_t{1}}) {
+      const std::string at = what + ", runs of " + std::to_string(chunk);
+      std::vector<Layer> layers;
+      const SliceResult s =
+          stream_slice(job, [&](std::size_t, Layer&& l) { layers.push_back(std::move(l)); }, {}, {chunk, 4});
+      ASSERT_EQ(layers.size(), whole.toolpath.layers.size()) << at;
+      for (std::size_t i = 0; i < layers.size(); ++i) expect_same_layer(whole.toolpath.layers[i], layers[i], i);
+      const ProcessStats &a = whole.process, &b = s.process;
+      EXPECT_TRUE(b.active) << at;
+      EXPECT_EQ(b.paths, a.paths) << at;
+      EXPECT_EQ(b.pieces, a.pieces) << at;
+      EXPECT_EQ(b.merged, a.merged) << at;
+      EXPECT_EQ(b.samples, a.samples) << at;
+      EXPECT_EQ(b.short_slowed, a.short_slowed) << at;
+      for (int k = 0; k < kProcessParams; ++k) {
+        EXPECT_EQ(b.param[k].set, a.param[k].set) << at << " param " << k;
+        EXPECT_EQ(b.param[k].min, a.param[k].min) << at << " param " << k;
+        EXPECT_EQ(b.param[k].max, a.param[k].max) << at << " param " << k;
+        EXPECT_EQ(b.param[k].changes, a.param[k].changes) << at << " param " << k;
+        EXPECT_EQ(b.param[k].max_deviation, a.param[k].max_deviation) << at << " param " << k;
+        EXPECT_EQ(b.param[k].node, a.param[k].node) << at << " param " << k;
+      }
+      EXPECT_GT(a.param[static_cast<int>(ProcessParam::Fan)].changes, 5u) << at;
+      EXPECT_EQ(s.fgm.purges, whole.fgm.purges) << at;
+      EXPECT_EQ(s.fgm.tower.volume, whole.fgm.tower.volume) << at;
+      EXPECT_EQ(s.planar.paths, whole.planar.paths) << at;
+      EXPECT_EQ(s.planar.extruded_length, whole.planar.extruded_length) << at;
+      EXPECT_EQ(s.colour_use, whole_use) << at;
+      EXPECT_EQ(s.travel.moves, whole_travel.moves) << at;
+      EXPECT_EQ(s.travel.length, whole_travel.length) << at;
     }
   }
   std::filesystem::remove(design);
