@@ -11,6 +11,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -49,6 +50,27 @@ void expect_same_layer(const Layer& a, const Layer& b, std::size_t i) {
       ASSERT_EQ(p.points[m].z, q.points[m].z);
     }
   }
+}
+
+// stream_slice's layers at runs of `chunk` layers, each checked against the whole run's; the
+// streamed result (its statistics) for the caller to compare.
+SliceResult streamed_as_whole(const SliceJob& job, const SliceResult& whole, std::size_t chunk,
+                              const std::string& at) {
+  std::vector<Layer> layers;
+  SliceResult s =
+      stream_slice(job, [&](std::size_t, Layer&& l) { layers.push_back(std::move(l)); }, {}, {chunk, 4});
+  EXPECT_EQ(layers.size(), whole.toolpath.layers.size()) << at;
+  for (std::size_t i = 0; i < layers.size() && i < whole.toolpath.layers.size(); ++i)
+    expect_same_layer(whole.toolpath.layers[i], layers[i], i);
+  return s;
+}
+
+// The per-colour table and the travel of a whole toolpath (a streamed run sums them as it goes).
+std::pair<std::map<std::vector<double>, std::pair<double, double>>, TravelStats> use_and_travel(
+    const SliceJob& job, const Toolpath& tp) {
+  std::map<std::vector<double>, std::pair<double, double>> use;
+  for (const Layer& l : tp.layers) add_colour_use(job, l, use);
+  return {use, travel_stats(tp)};
 }
 
 SliceJob bracket(double layer) {
@@ -155,16 +177,11 @@ TEST(SliceStream, GradedSlicingStreamsAsWhole) {
       ASSERT_TRUE(whole.fgm.tower.built) << what;
       EXPECT_GT(whole.fgm.purges, 10u) << what;
     }
-    std::map<std::vector<double>, std::pair<double, double>> whole_use;
-    for (const Layer& l : whole.toolpath.layers) add_colour_use(job, l, whole_use);
-    const TravelStats whole_travel = travel_stats(whole.toolpath);
+    const auto [whole_use, whole_travel] = use_and_travel(job, whole.toolpath);
     for (const std::size_t chunk : {std::size_t{16}, std::size_t{3}, std::size_t{1}}) {
       const std::string at = what + ", runs of " + std::to_string(chunk);
-      std::vector<Layer> layers;
-      const SliceResult s =
-          stream_slice(job, [&](std::size_t, Layer&& l) { layers.push_back(std::move(l)); }, {}, {chunk, 4});
-      ASSERT_EQ(layers.size(), whole.toolpath.layers.size()) << at;
-      for (std::size_t i = 0; i < layers.size(); ++i) expect_same_layer(whole.toolpath.layers[i], layers[i], i);
+      const SliceResult s = streamed_as_whole(job, whole, chunk, at);
+      if (::testing::Test::HasFatalFailure()) return;
       EXPECT_GT(whole.fgm.paths, 0u);
       EXPECT_EQ(s.fgm.paths, whole.fgm.paths) << at;
       EXPECT_EQ(s.fgm.faces, whole.fgm.faces) << at;
@@ -230,11 +247,8 @@ TEST(SliceStream, ProcessFieldsStreamAsWhole) {
     ASSERT_GT(whole.process.pieces, whole.process.paths) << what << ": the fields split paths";
     for (const std::size_t chunk : {std::size_t{16}, std::size_t{3}, std::size_t{1}}) {
       const std::string at = what + ", runs of " + std::to_string(chunk);
-      std::vector<Layer> layers;
-      const SliceResult s =
-          stream_slice(job, [&](std::size_t, Layer&& l) { layers.push_back(std::move(l)); }, {}, {chunk, 4});
-      ASSERT_EQ(layers.size(), whole.toolpath.layers.size()) << at;
-      for (std::size_t i = 0; i < layers.size(); ++i) expect_same_layer(whole.toolpath.layers[i], layers[i], i);
+      const SliceResult s = streamed_as_whole(job, whole, chunk, at);
+      if (::testing::Test::HasFatalFailure()) return;
       EXPECT_EQ(s.process.paths, whole.process.paths) << at;
       EXPECT_EQ(s.process.pieces, whole.process.pieces) << at;
       EXPECT_EQ(s.process.merged, whole.process.merged) << at;
@@ -287,16 +301,11 @@ TEST(SliceStream, ProcessFieldsOnToolChangersStreamAsWhole) {
     ASSERT_TRUE(whole.process.active) << what;
     EXPECT_GT(whole.process.pieces, whole.process.paths + 50) << what << ": paths are split";
     ASSERT_TRUE(whole.fgm.tower.built) << what;
-    std::map<std::vector<double>, std::pair<double, double>> whole_use;
-    for (const Layer& l : whole.toolpath.layers) add_colour_use(job, l, whole_use);
-    const TravelStats whole_travel = travel_stats(whole.toolpath);
+    const auto [whole_use, whole_travel] = use_and_travel(job, whole.toolpath);
     for (const std::size_t chunk : {std::size_t{16}, std::size_t{3}, std::size_t{1}}) {
       const std::string at = what + ", runs of " + std::to_string(chunk);
-      std::vector<Layer> layers;
-      const SliceResult s =
-          stream_slice(job, [&](std::size_t, Layer&& l) { layers.push_back(std::move(l)); }, {}, {chunk, 4});
-      ASSERT_EQ(layers.size(), whole.toolpath.layers.size()) << at;
-      for (std::size_t i = 0; i < layers.size(); ++i) expect_same_layer(whole.toolpath.layers[i], layers[i], i);
+      const SliceResult s = streamed_as_whole(job, whole, chunk, at);
+      if (::testing::Test::HasFatalFailure()) return;
       const ProcessStats &a = whole.process, &b = s.process;
       EXPECT_TRUE(b.active) << at;
       EXPECT_EQ(b.paths, a.paths) << at;
