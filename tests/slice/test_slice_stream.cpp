@@ -52,6 +52,24 @@ void expect_same_layer(const Layer& a, const Layer& b, std::size_t i) {
   }
 }
 
+// A graded job on `design`: with a prime tower for Strategy 1 and tool changers (every change
+// purges, a 250 mm bed); four colours on `tools` tools, so the tools print the nearest of their
+// mixes (not the palette's).
+SliceJob graded_job(const std::string& design, int strategy, int tools) {
+  SliceJob job;
+  job.input = design;
+  job.strategy_chosen = true;
+  job.strategy = strategy;
+  job.tools = tools;
+  if (tools) job.fgm.palette.colors = 4;
+  if (strategy == 1 || tools) {
+    job.purge.melt_volume = 20;
+    job.purge.bed_x = job.purge.bed_y = 250;
+    job.purge.speed = 40;
+  }
+  return job;
+}
+
 // stream_slice's layers at runs of `chunk` layers, each checked against the whole run's; the
 // streamed result (its statistics) for the caller to compare.
 SliceResult streamed_as_whole(const SliceJob& job, const SliceResult& whole, std::size_t chunk,
@@ -159,18 +177,7 @@ TEST(SliceStream, GradedSlicingStreamsAsWhole) {
     int strategy, tools;
   };
   for (const Case c : {Case{2, 0}, Case{1, 0}, Case{1, 5}, Case{2, 5}}) {
-    SliceJob job;
-    job.input = design;
-    job.strategy_chosen = true;
-    job.strategy = c.strategy;
-    job.tools = c.tools;
-    // Four colours on five tools: the tools print the nearest of their mixes (not the palette's).
-    if (c.tools) job.fgm.palette.colors = 4;
-    if (c.strategy == 1 || c.tools) {
-      job.purge.melt_volume = 20;  // a tower: every change purges
-      job.purge.bed_x = job.purge.bed_y = 250;
-      job.purge.speed = 40;
-    }
+    const SliceJob job = graded_job(design, c.strategy, c.tools);
     const std::string what = "strategy " + std::to_string(c.strategy) + ", " + std::to_string(c.tools) + " tools";
     const SliceResult whole = run_slice(job);
     if (c.strategy == 1 || c.tools) {
@@ -285,17 +292,7 @@ TEST(SliceStream, ProcessFieldsOnToolChangersStreamAsWhole) {
     int strategy, tools;
   };
   for (const Case c : {Case{1, 5}, Case{2, 5}}) {
-    SliceJob job;
-    job.input = design;
-    job.strategy_chosen = true;
-    job.strategy = c.strategy;
-    job.tools = c.tools;
-    if (c.tools) job.fgm.palette.colors = 4;
-    if (c.strategy == 1 || c.tools) {
-      job.purge.melt_volume = 20;
-      job.purge.bed_x = job.purge.bed_y = 250;
-      job.purge.speed = 40;
-    }
+    const SliceJob job = graded_job(design, c.strategy, c.tools);
     const std::string what = "strategy " + std::to_string(c.strategy) + ", " + std::to_string(c.tools) + " tools";
     const SliceResult whole = run_slice(job);
     ASSERT_TRUE(whole.process.active) << what;
