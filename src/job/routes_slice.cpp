@@ -267,6 +267,10 @@ void warn_short_segments(const std::string& input, const FgmStats& st, Diagnosti
                           fixed(st.error_bound, 4)));
 }
 
+void warn_process(const ProcessStats& stats, const ProcessOptions& options, Diagnostics& diag) {
+  for (const auto& [kind, message] : process_warnings(stats, options)) diag.warn(kind, message);
+}
+
 // A part of a plate sliced: its job, extent and printed layers.
 struct SlicePart {
   SliceJob sj;
@@ -372,8 +376,7 @@ JobResult slice_plate_streamed(const Job& job, const Config& c, std::vector<Slic
           spill.append(layer);
         },
         progress);
-    for (const auto& [kind, message] : process_warnings(r.process, p.sj.process))
-      diag.warn(kind, message);
+    warn_process(r.process, p.sj.process, diag);
     p.process = r.process;
     warn_repaired(p.sj, r, diag);
     if (!plate)
@@ -430,7 +433,7 @@ JobResult slice_part_shard(const Job& job, const Config& c, Diagnostics& diag,
     return std::pair<std::size_t, std::size_t>{a, b};
   };
   SliceResult r = run_slice(sj, progress);
-  for (const auto& [kind, message] : process_warnings(r.process, sj.process)) diag.warn(kind, message);
+  warn_process(r.process, sj.process, diag);
   warn_repaired(sj, r, diag);
   const bool graded = sj.strategy != 0;
   if (graded) warn_short_segments(sj.input, r.fgm, diag);
@@ -548,8 +551,7 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag, const 
     if (a >= p.layers) continue;
     if (job.shards) p.sj.layer_begin = a, p.sj.layer_end = b;
     SliceResult r = run_slice(p.sj, progress);
-    for (const auto& [kind, message] : process_warnings(r.process, p.sj.process))
-      diag.warn(kind, message);
+    warn_process(r.process, p.sj.process, diag);
     p.process = r.process;
     warn_repaired(p.sj, r, diag);
     if (!plate)
@@ -612,8 +614,7 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
     warn_palette(job.input, r.fgm.colours_used, r.fgm.colours_total, diag);
     warn_short_segments(job.input, r.fgm, diag);
   }
-  for (const auto& [kind, message] : process_warnings(r.process, sj.process))
-    diag.warn(kind, message);
+  warn_process(r.process, sj.process, diag);
   // The file name only: outputs must not depend on where the command ran.
   r.toolpath.source = "trellis slice " + fs::path(job.input).filename().string() + " (" +
                       to_string(r.route) + " route)";
@@ -908,7 +909,7 @@ void write_graded_merge(const Job& job, const Config& c, Toolpath& tp, const std
     r.toolpath = std::move(tp);
     for (double z : outline_z) r.outlines.push_back({z, {}});
     apply_slice_process(sj, field, r);
-    for (const auto& [kind, message] : process_warnings(r.process, sj.process)) diag.warn(kind, message);
+    warn_process(r.process, sj.process, diag);
     tp = std::move(r.toolpath);
   }
   write_slice_main(job, c, tp, out, diag);

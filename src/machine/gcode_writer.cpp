@@ -692,12 +692,13 @@ class Writer {
       // The printed lengths serve the look-ahead only: none with a tower or a tool changer (each
       // change right before its path), so a print split into millions of pieces keeps nothing
       // per path.
-      if (tower_ || p_.gradient_mode == "tools" || !(p_.lookahead > 0)) starts_ = {};
+      const bool ahead = streamed_lookahead() > 0;
+      if (!ahead) starts_ = {};
       if (select_tools_ && p.mixture.empty() &&
           std::find(tools_used_.begin(), tools_used_.end(), p.tool) == tools_used_.end())
         tools_used_.push_back(p.tool);
       const std::size_t k = streamed_paths_++;
-      if (!(tower_ || p_.gradient_mode == "tools" || !(p_.lookahead > 0))) {
+      if (ahead) {
         if (starts_.empty()) starts_.push_back(0);
         starts_.push_back(starts_.back() + p.length());
       }
@@ -743,6 +744,12 @@ class Writer {
     ch.target = -1;
   }
 
+  // Streamed: how far ahead a change is issued, in printed length (0 with a prime tower, which
+  // flushes after the change, or a tool changer, which swaps tools between paths).
+  double streamed_lookahead() const {
+    return tower_ || p_.gradient_mode == "tools" ? 0.0 : p_.lookahead;
+  }
+
   // Streamed: the changes falling inside the path about to be printed, located on it.
   void locate_changes(const Path& path) {
     for (std::size_t c = next_change_; c < changes_.size() && changes_[c].path == path_index_; ++c)
@@ -755,14 +762,10 @@ class Writer {
     // paths: both issue each change right before its path.
     const bool tools = p_.gradient_mode == "tools";
     if (streamed_) {
-      const double lookahead = tower_ || tools ? 0.0 : p_.lookahead;
+      const double lookahead = streamed_lookahead();
       stats_.lookahead = lookahead;
-      std::string last;
-      for (const auto& w : wanted_) {
-        if (w.command == last) continue;
-        last = w.command;
-        plan_change(w.path, w.command, w.tool, starts_, lookahead, tools, nullptr);
-      }
+      // (Consecutive wanted commands differ: plan_tools_streamed keeps only changes.)
+      for (const auto& w : wanted_) plan_change(w.path, w.command, w.tool, starts_, lookahead, tools, nullptr);
       wanted_ = {};
       return;
     }

@@ -361,8 +361,8 @@ ProcessPass::ProcessPass(const Field& design, const ProcessOptions& options)
 ProcessPass::~ProcessPass() = default;
 
 void ProcessPass::layers(const std::vector<Layer*>& layers, const std::vector<double>& dz) {
-  // Split in parallel, then counted in order (the lowest layer's error first, as
-  // apply_process_fields).
+  // Split in parallel, then counted in order; the lowest layer's error, so the message does not
+  // depend on the threads.
   std::vector<LayerResult> results(layers.size());
   tbb::parallel_for(std::size_t{0}, layers.size(), [&](std::size_t i) {
     try {
@@ -378,31 +378,20 @@ void ProcessPass::layers(const std::vector<Layer*>& layers, const std::vector<do
 
 void apply_process_fields(const Field& design, Toolpath& toolpath, const ProcessOptions& o,
                           ProcessStats* stats, const std::vector<double>& design_dz) {
-  ProcessStats st;
   if (!design.has_process()) {
-    if (stats) *stats = st;
+    if (stats) *stats = ProcessStats{};
     return;
   }
-  check_options(o);
-  st.active = true;
-  std::vector<LayerResult> results(toolpath.layers.size());
-  tbb::enumerable_thread_specific<Evaluator> evaluators([&] { return Evaluator(design); });
-  tbb::parallel_for(std::size_t{0}, toolpath.layers.size(), [&](std::size_t li) {
-    LayerResult& r = results[li];
-    try {
-      const double dz = design_dz.empty() ? 0.0 : design_dz[std::min(li, design_dz.size() - 1)];
-      split_layer(evaluators.local(), o, toolpath.layers[li], dz, r);
-    } catch (...) {
-      r.error = std::current_exception();
-    }
-  });
-  // The lowest layer's error, so the message does not depend on the threads.
-  for (const auto& r : results)
-    if (r.error) std::rethrow_exception(r.error);
-  ProcessPass::Tally tally;
-  Evaluator ev(design);
-  for (std::size_t li = 0; li < toolpath.layers.size(); ++li) tally.add(ev, toolpath.layers[li], results[li], st);
-  if (stats) *stats = st;
+  // The streamed pass over every layer at once.
+  ProcessPass pass(design, o);
+  std::vector<Layer*> layers;
+  std::vector<double> dz;
+  for (std::size_t li = 0; li < toolpath.layers.size(); ++li) {
+    layers.push_back(&toolpath.layers[li]);
+    dz.push_back(design_dz.empty() ? 0.0 : design_dz[std::min(li, design_dz.size() - 1)]);
+  }
+  pass.layers(layers, dz);
+  if (stats) *stats = pass.stats();
 }
 
 std::vector<double> process_design_dz(const SliceJob& job, const SliceResult& r) {

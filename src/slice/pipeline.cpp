@@ -288,17 +288,19 @@ void require_graded_design(const SliceJob& job, bool is_vcad, const Field& field
                         {job.input, 0, ""});
 }
 
-// A graded print's paths are cut by colour (Strategy 1) or planned per colour face (Strategy 2):
-// the report's path count and extruded length are summed over the printed part paths (not purges
-// or the tower) in print order, the same for the whole and the streamed run.
-// A tool changer prints a two-material mixture with its nearest tool (tool k of n + 1 prints
-// the share 1 - k/n): the mixtures written, after the prime tower (which reads the palette's).
+// A tool changer prints a two-material mixture with its nearest tool: tool k of n + 1 prints
+// the first material's share 1 - k/n.
+double nearest_tool_share(double share, int tools) {
+  const double n = tools - 1;
+  return 1 - std::round((1 - std::clamp(share, 0.0, 1.0)) * n) / n;
+}
+
+// The mixtures a tool changer writes, after the prime tower (which reads the palette's).
 void tool_mixtures(const SliceJob& job, Layer& layer) {
   if (job.tools <= 1) return;
-  const double n = job.tools - 1;
   for (auto& p : layer.paths)
     if (p.mixture.size() == 2) {
-      const double t = 1 - std::round((1 - std::clamp(p.mixture[0], 0.0, 1.0)) * n) / n;
+      const double t = nearest_tool_share(p.mixture[0], job.tools);
       p.mixture = {t, 1 - t};
     }
 }
@@ -308,18 +310,27 @@ void tool_mixtures(const SliceJob& job, Layer& layer) {
 double graded_error_bound(const SliceJob& job, const FgmOptions& fo) {
   const double zipper = job.strategy == 1 ? fo.zipper / 2 : 0.0;
   if (job.tools <= 1) return fo.palette.error_bound() + zipper;
-  const double n = job.tools - 1;
-  auto tool_mix = [&](double a) { return 1 - std::round((1 - std::clamp(a, 0.0, 1.0)) * n) / n; };
   double bound = 0;
   for (int k = 0; k < fo.palette.colors; ++k) {
     const double lo = k == 0 ? 0.0 : fo.palette.level(k);
     const double hi = k + 1 == fo.palette.colors ? 1.0 : fo.palette.level(k + 1);
-    const double t = tool_mix(fo.palette.mixture(k)[0]);
+    const double t = nearest_tool_share(fo.palette.mixture(k)[0], job.tools);
     bound = std::max({bound, std::abs(t - lo), std::abs(hi - t)});
   }
   return bound + zipper;
 }
 
+// The layers below and above a planned layer whose outlines its skins read: planar layers and
+// Strategy 1's (cut from them); Strategy 2 plans each layer from its own outline.
+std::pair<std::size_t, std::size_t> skin_margins(const SliceJob& job) {
+  if (job.strategy == 2) return {0, 0};
+  return {static_cast<std::size_t>(std::max(0, job.planar.bottom_layers)),
+          static_cast<std::size_t>(std::max(0, job.planar.top_layers))};
+}
+
+// A graded print's paths are cut by colour (Strategy 1) or planned per colour face (Strategy 2):
+// the report's path count and extruded length are summed over the printed part paths (not purges
+// or the tower) in print order, the same for the whole and the streamed run.
 void count_graded_path(const Path& path, PlanarStats& s) {
   if (path.role == PathRole::Purge) return;
   ++s.paths;
@@ -409,9 +420,7 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
                          "slicing: slice it whole",
                          {job.input, 0, "fprocess"});
     r.process_fields = field.has_process();
-    // Strategy 2 plans each layer from its own outline: no skins, no margin.
-    const auto below = job.strategy == 2 ? 0 : static_cast<std::size_t>(std::max(0, job.planar.bottom_layers));
-    const auto above = job.strategy == 2 ? 0 : static_cast<std::size_t>(std::max(0, job.planar.top_layers));
+    const auto [below, above] = skin_margins(job);
     range_lo = range_a >= below ? range_a - below : 0;
     const std::size_t hi = range_a < range_b ? std::min(n, range_b + above) : range_lo;
     r.outlines = outlines_of(std::vector<double>(zs.begin() + static_cast<long>(first + range_lo),
@@ -497,11 +506,6 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
   return r;
 }
 
-
-namespace {
-
-}  // namespace
-
 SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progress& progress,
                          const SliceStreamOptions& options) {
   const bool graded = job.strategy == 1 || job.strategy == 2;
@@ -515,8 +519,6 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
   const auto t0 = std::chrono::steady_clock::now();
   const SlicedDesign d = open_design(job, r, progress, false);
   if (graded) require_graded_design(job, ends_with_ci(job.input, ".vcad"), d.field);
-  // Strategy 2 on a mixing hotend: each layer planned from its own outline (no skins), the
-  // look-ahead is the writer's.
   int quantized_from = 0;
   const FgmOptions fo =
       graded ? graded_options(job, static_cast<int>(d.field.materials().size()), &quantized_from)
@@ -554,18 +556,11 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
       ptrs.push_back(&run[i]);
       dz.push_back(d.zs[plane] - run[i].z);
     }
-    try {
-      process->layers(ptrs, dz);
-    } catch (const GeometryError& e) {
-      if (!e.where().file.empty()) throw;
-      throw GeometryError(e.message(), {job.input, 0, e.where().element});
-    }
+    naming_design(job, [&] { process->layers(ptrs, dz); });
   };
-  // Strategy 2 plans each layer from its own outline; planar layers and Strategy 1's (cut from
-  // them) read the skins' layers around them.
-  const bool own_outline = job.strategy == 2;
-  const auto below = own_outline ? 0 : static_cast<std::size_t>(std::max(0, job.planar.bottom_layers));
-  const auto above = own_outline ? 0 : static_cast<std::size_t>(std::max(0, job.planar.top_layers));
+  // (Not a structured binding: the pipeline's lambdas capture them.)
+  const std::pair<std::size_t, std::size_t> margins = skin_margins(job);
+  const std::size_t below = margins.first, above = margins.second;
   const std::size_t chunk = std::max<std::size_t>(1, options.chunk_layers);
   const std::size_t chunks = (n + chunk - 1) / chunk;
   const std::size_t tokens =

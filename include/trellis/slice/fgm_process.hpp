@@ -75,10 +75,10 @@ class ProcessPass {
   ProcessPass& operator=(const ProcessPass&) = delete;
   void layers(const std::vector<Layer*>& layers, const std::vector<double>& dz);
   const ProcessStats& stats() const { return stats_; }
-  struct Tally;
-  struct Evaluators;
 
  private:
+  struct Tally;
+  struct Evaluators;
   ProcessOptions options_;
   std::unique_ptr<Evaluator> ev_;
   std::unique_ptr<Evaluators> evaluators_;
