@@ -264,6 +264,7 @@ struct Crossing {
   Vec2 a, b;
   double t_lo, t_hi, g_lo, g_hi, t;
   int side;
+  double known;  // the function's own crossing (PlaneFunction::known_crossing), or −1
 };
 
 // One thread's marching buffers, reused from call to call (see Lease).
@@ -275,7 +276,10 @@ struct MarchBuffers {
   std::vector<unsigned char> sgn;
   std::vector<std::pair<std::size_t, std::size_t>> segments;
   std::vector<std::size_t> active;
+  std::vector<std::uint64_t> edges;  // each pending crossing's edge key (for crossing_sink)
+  std::vector<unsigned char> ok;
   void clear() {
+    edges.clear();
     table.clear();
     pending.clear();
     crossings.clear();
@@ -305,15 +309,34 @@ struct Marcher {
   // one by one). Illinois steps inside the bracket.
   std::vector<Crossing>& pending;
   void add(Vec2 a, Vec2 b, double fa, double fb, double guess = -1) {
-    Crossing c{a, b, 0, 1, fa - level, fb - level, 0, 0};
+    Crossing c{a, b, 0, 1, fa - level, fb - level, 0, 0, f.known_crossing(a, b, fa, fb)};
     c.t = guess > 0 && guess < 1 ? guess : c.g_lo / (c.g_lo - c.g_hi);
     if (!std::isfinite(c.t)) c.t = 0.5;
     pending.push_back(c);
   }
   void refine(std::vector<Vec2>& out, std::vector<std::size_t>& active, std::vector<Vec2>& pts,
-              std::vector<double>& vals) {
+              std::vector<double>& vals, std::vector<unsigned char>& ok) {
     const double tol = opt.refine_fraction;  // in units of the edge length (= resolution)
+    // Crossings the function already knows, checked in one batch: the confirmed ones are done.
     active.clear();
+    for (std::size_t i = 0; i < pending.size(); ++i)
+      if (pending[i].known > 0 && pending[i].known < 1) active.push_back(i);
+    if (!active.empty()) {
+      pts.resize(active.size());
+      ok.resize(active.size());
+      for (std::size_t k = 0; k < active.size(); ++k) {
+        const Crossing& c = pending[active[k]];
+        pts[k] = c.a + (c.b - c.a) * c.known;
+      }
+      f.confirm_crossings(pts.data(), pts.size(), ok.data());
+      samples += pts.size();
+      for (std::size_t k = 0; k < active.size(); ++k) {
+        if (!ok[k]) continue;
+        Crossing& c = pending[active[k]];
+        c.t = c.t_lo = c.t_hi = c.known;
+      }
+      active.clear();
+    }
     for (std::size_t i = 0; i < pending.size(); ++i)
       if (pending[i].t_hi - pending[i].t_lo > tol) active.push_back(i);
     for (int it = 0; it < opt.max_refine_iterations && !active.empty(); ++it) {
@@ -425,6 +448,7 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
           (((bj + j) * row + (bi + i)) << 1) | static_cast<std::uint64_t>(vertical);
       std::size_t& slot = table.find_or_insert(key, m.pending.size());
       if (slot == m.pending.size()) {
+        if (options.crossing_sink) buffers->edges.push_back(key);
         const std::size_t a = j * w + i, b = vertical ? a + w : a + 1;
         double guess = -1;
         if (options.cubic_guess) {
@@ -530,7 +554,16 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
       const Block top{bi, bj, std::min(B, nx - bi), std::min(B, ny - bj)};
       visit(top, bound(top));
     }
-  m.refine(crossings, buffers->active, buffers->guesses, buffers->guess_values);
+  const std::size_t known = m.pending.size();
+  m.refine(crossings, buffers->active, buffers->guesses, buffers->guess_values, buffers->ok);
+  if (options.crossing_sink) {
+    for (std::size_t k = 0; k < known; ++k) {
+      const std::uint64_t node = buffers->edges[k] >> 1;
+      const Vec2 a = m.node(node % row, node / row), c = crossings[k];
+      const double t = (buffers->edges[k] & 1) ? (c.y - a.y) / h : (c.x - a.x) / h;
+      options.crossing_sink(node % row, node / row, (buffers->edges[k] & 1) != 0, t);
+    }
+  }
   result.samples = m.samples;
   result.lines = walk_edges(crossings, segments);
   return result;

@@ -136,9 +136,22 @@ class LayerGrid {
   double part(std::size_t k) const { return nodes_[k].d; }
   double joint(std::size_t k) const { return nodes_[k].j; }
   void set_part(std::size_t k, double v) {
-    nodes_[k].d = v;
-    nodes_[k].dstamp = gen_;
+    Node& n = nodes_[k];
+    if (n.dstamp != gen_) n.th = n.tv = kNoCrossing;  // the node's first value this layer
+    n.d = v;
+    n.dstamp = gen_;
   }
+  // The section march's crossing on the edge from node k to its +x (vertical: +y) neighbour,
+  // as the parameter along it; kept while the node's part value is (set_part stamps both).
+  void set_crossing(std::size_t k, bool vertical, double t) {
+    (vertical ? nodes_[k].tv : nodes_[k].th) = static_cast<float>(t);
+  }
+  double crossing(std::size_t k, bool vertical) const {
+    return vertical ? nodes_[k].tv : nodes_[k].th;
+  }
+  static constexpr float kNoCrossing = -1;
+  std::size_t row() const { return nx_; }
+  double step() const { return h_; }
   void set_joint(std::size_t k, double v) {
     nodes_[k].j = v;
     nodes_[k].jstamp = gen_;
@@ -149,11 +162,12 @@ class LayerGrid {
   double h_ = 1, inv_ = 1;
   std::size_t nx_ = 0;
   std::uint32_t gen_ = 0;
-  // A node's part and joint values with the layer stamps that make them valid (one cache line
-  // for all four).
+  // A node's part and joint values with the layer stamps that make them valid, and the section's
+  // crossings on its +x and +y edges (valid with the part value; two nodes a cache line).
   struct Node {
     double d = 0, j = 0;
     std::uint32_t dstamp = 0, jstamp = 0;
+    float th = kNoCrossing, tv = kNoCrossing;
   };
   std::vector<Node> nodes_;
 };
@@ -437,6 +451,47 @@ class JointSection : public PlaneFunction {
       if (keys_[m] != LayerGrid::npos && cache_joint) grid_->set_joint(keys_[m], v);
     }
   }
+  // Crossings where the part decides the measure are the section march's (on the grid's finer
+  // nodes, refined at least as tightly as this march's): taken over where the measure's other
+  // terms are confirmed on the part's side there. Only when the section march stored them.
+  void use_section_crossings(bool on) { section_crossings_ = on; }
+  double known_crossing(Vec2 a, Vec2 b, double fa, double fb) override {
+    if (!section_crossings_) return -1;
+    const std::size_t ka = grid_->node(a), kb = grid_->node(b);
+    if (ka == LayerGrid::npos || kb == LayerGrid::npos || kb <= ka) return -1;
+    if (!grid_->has_part(ka) || !grid_->has_part(kb) || grid_->part(ka) != fa ||
+        grid_->part(kb) != fb)
+      return -1;  // the measure is not the part's value at an end
+    const bool vertical = a.x == b.x;
+    const std::size_t unit = vertical ? grid_->row() : 1, n = (kb - ka) / unit;
+    if (n == 0 || ka + n * unit != kb) return -1;
+    // The one finer edge along a→b where the part changes sign, and the section's crossing there.
+    std::size_t at = n;
+    for (std::size_t i = 0; i < n; ++i) {
+      const std::size_t k = ka + i * unit;
+      if (!grid_->has_part(k + unit)) return -1;
+      if ((grid_->part(k) < 0) != (grid_->part(k + unit) < 0)) {
+        if (at != n) return -1;
+        at = i;
+      }
+    }
+    if (at == n) return -1;
+    const double t = grid_->crossing(ka + at * unit, vertical);
+    if (!(t > 0 && t < 1)) return -1;
+    return (static_cast<double>(at) + t) / static_cast<double>(n);
+  }
+  // The part is ~0 at the points (its crossings): the measure there is its other terms,
+  // which must be on the part's side of the level (negative) for the crossing to be the part's.
+  void confirm_crossings(const Vec2* p, std::size_t n, unsigned char* ok) override {
+    pts_.resize(n);
+    grads_.resize(n);
+    for (std::size_t k = 0; k < n; ++k) pts_[k] = {p[k].x, p[k].y, z_};
+    ctx_.phi.gradients(pts_.data(), grads_.data(), n);
+    for (std::size_t k = 0; k < n; ++k) {
+      const double v = finish(p[k], -std::numeric_limits<double>::infinity(), grads_[k]);
+      ok[k] = std::isfinite(v) && v < 0;
+    }
+  }
   Interval bound(Vec2 lo, Vec2 hi) override {
     return {ctx_.bounds.get(ctx_.part, lo, hi).lo, std::numeric_limits<double>::infinity()};
   }
@@ -449,7 +504,7 @@ class JointSection : public PlaneFunction {
   const PbfDesign& d_;
   const PbfOptions& o_;
   double c_, z_, cos_min_;
-  bool invert_, cache_ = false;
+  bool invert_, cache_ = false, section_crossings_ = false;
   LayerGrid* grid_ = nullptr;
   std::vector<std::size_t> miss_, keys_, need_;
   std::vector<Vec3> pts_, grads_;
@@ -1055,6 +1110,10 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
   mo_section.cubic_guess = true;
   mo_mid.refine_fraction = std::min(0.1, 5e-4 / H);
   mo_joint.refine_fraction = std::min(0.1, 1e-3 / H);
+  // The thin-wall march (direct route, with compensation) takes the section's crossings where
+  // the part decides its measure, when they are refined at least as tightly as its own.
+  const bool section_crossings = !o.stl_route && o.hybrid && o.beam_compensation > 0 &&
+                                 mo_section.refine_fraction * Hs <= mo_joint.refine_fraction * H;
 
   const std::size_t first = std::min(range.first, zs.size());
   const std::size_t last = std::max(first, std::min(range.last, zs.size()));
@@ -1080,7 +1139,14 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
       S = o.stl_scan_all ? slice_mesh(mesh, z) : slice_mesh(mesh, z, buckets[i]);
     } else {
       PartSection fs(ctx, grid, z);
-      S = nest_oriented_rings(march_squares(fs, lo, hi, 0.0, mo_section).lines.loops);
+      MarchOptions mo = mo_section;
+      // The section's crossings are kept on the grid's nodes for the thin-wall march.
+      if (section_crossings)
+        mo.crossing_sink = [&grid, row = nx + 1](std::size_t ci, std::size_t cj, bool vertical,
+                                                 double t) {
+          grid.set_crossing(cj * row + ci, vertical, t);
+        };
+      S = nest_oriented_rings(march_squares(fs, lo, hi, 0.0, mo).lines.loops);
     }
     L.area = area(S);
     if (S.empty()) return;
@@ -1095,6 +1161,7 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
     // (no compensation), else the thin-wall measure (the thin region is marched instead).
     joint.use_grid(&grid, bc <= 0);
     thin.use_grid(&grid, bc > 0);
+    thin.use_section_crossings(section_crossings);
     Regions hatch_region = S;
     if (o.hybrid) {
       // Joints are contoured from their own field (a Boolean of S and J would spend its time on
