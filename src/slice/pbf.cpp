@@ -557,15 +557,28 @@ class PartSection : public PlaneFunction {
       if (keys_[m] != LayerGrid::npos) grid_.set_part(keys_[m], vals_[m]);
     }
   }
-  Interval bound(Vec2 lo, Vec2 hi) override { return ctx_.bounds.get(ctx_.part, lo, hi); }
+  // Blocks narrower than `shared` on both sides are bounded without the cache: the coarser
+  // thin-wall, joint and mid-curve marches never ask for them, so caching them only filled the
+  // table (they were most of its entries).
+  void share_bounds_from(double shared) { shared_ = shared; }
+  Interval bound(Vec2 lo, Vec2 hi) override {
+    if (hi.x - lo.x < shared_ && hi.y - lo.y < shared_) {
+      BBox3 b;
+      b.add({lo.x, lo.y, z_});
+      b.add({hi.x, hi.y, z_});
+      return ctx_.part.bound(b);
+    }
+    return ctx_.bounds.get(ctx_.part, lo, hi);
+  }
   void prefetch_bounds(const Vec2* lo, const Vec2* hi, std::size_t n) override {
+    if (n > 0 && hi[0].x - lo[0].x < shared_ && hi[0].y - lo[0].y < shared_) return;
     ctx_.bounds.prefetch(lo, hi, n);
   }
 
  private:
   Ctx& ctx_;
   LayerGrid& grid_;
-  double z_;
+  double z_, shared_ = 0;
   std::vector<double> xs_, ys_;
 };
 
@@ -1139,6 +1152,8 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
       S = o.stl_scan_all ? slice_mesh(mesh, z) : slice_mesh(mesh, z, buckets[i]);
     } else {
       PartSection fs(ctx, grid, z);
+      // The coarse marches' smallest blocks are 4 of their cells (MarchOptions::block's leaves).
+      if (Hs < H) fs.share_bounds_from(4 * H - 1e-9);
       MarchOptions mo = mo_section;
       // The section's crossings are kept on the grid's nodes for the thin-wall march.
       if (section_crossings)
