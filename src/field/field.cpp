@@ -903,14 +903,38 @@ struct ClipBoxNode : FieldNode {
     const Vec3 c = (lo + hi) * 0.5, h = (hi - lo) * 0.5;
     for (std::size_t i = 0; i < n; ++i) out[i] = std::max(out[i], box_sdf(p[i], c, h));
   }
+  // box_sdf's per-axis terms once per column and per row (the same arithmetic, so the same
+  // values); a grid inside the box on every axis needs no square root.
   void eval_grid(const GridPlane& g, double* out, EvalState& s, std::size_t depth) const override {
     children[0]->eval_grid(g, out, s, depth + 1);
     const Vec3 c = (lo + hi) * 0.5, h = (hi - lo) * 0.5;
-    for (std::size_t j = 0; j < g.rows; ++j)
-      for (std::size_t i = 0; i < g.w; ++i) {
-        double& o = out[j * g.w + i];
-        o = std::max(o, box_sdf({g.xs[i], g.ys[j], g.z}, c, h));
+    std::vector<double>& buf = s.value_buffer(depth, g.w + g.rows);  // free: children use deeper
+    double *qx = buf.data(), *qy = qx + g.w;
+    const double qz = std::abs(g.z - c.z) - h.z;
+    bool inside = qz < 0;
+    for (std::size_t i = 0; i < g.w; ++i) {
+      qx[i] = std::abs(g.xs[i] - c.x) - h.x;
+      inside = inside && qx[i] < 0;
+    }
+    for (std::size_t j = 0; j < g.rows; ++j) {
+      qy[j] = std::abs(g.ys[j] - c.y) - h.y;
+      inside = inside && qy[j] < 0;
+    }
+    const double oz = std::max(qz, 0.0);
+    for (std::size_t j = 0; j < g.rows; ++j) {
+      double* o = out + j * g.w;
+      const double qyj = qy[j], oy = std::max(qyj, 0.0);
+      if (inside) {
+        for (std::size_t i = 0; i < g.w; ++i)
+          o[i] = std::max(o[i], 0.0 + std::min(std::max({qx[i], qyj, qz}), 0.0));
+        continue;
       }
+      for (std::size_t i = 0; i < g.w; ++i) {
+        const double ox = std::max(qx[i], 0.0);
+        o[i] = std::max(o[i], std::sqrt(ox * ox + oy * oy + oz * oz) +
+                                  std::min(std::max({qx[i], qyj, qz}), 0.0));
+      }
+    }
   }
   Interval bound(const BBox3& b, EvalState& s, std::size_t depth) const override {
     const Interval a = children[0]->bound(b, s, depth + 1);

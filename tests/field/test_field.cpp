@@ -395,6 +395,13 @@ TEST(Field, GridValuesEqualPointValues) {
                                           {17, 9, 0.1}, {1, 7, 0.05}, {3, 1, 0.3}}) {
         const GridCheck c = compare_grid(f, -3.3, -2.8, step, w, rows, 0.37);
         EXPECT_LE(c.worst_value, 1e-12) << to_string(kind) << " " << name << " " << w << "x" << rows;
+        // Grids inside the boxes near their faces (a clip box's shortcut: no square root), and
+        // across their edges.
+        for (const Vec2 o :
+             {Vec2{1.895, 1.395}, Vec2{0.3, 1.45}, Vec2{1.95, 0.3}, Vec2{-2.05, 0.3}})
+          EXPECT_LE(compare_grid(f, o.x, o.y, step, w, rows, 0.37).worst_value, 1e-12)
+              << to_string(kind) << " " << name << " " << w << "x" << rows << " at " << o.x << ","
+              << o.y;
         if (name == "phi") {
           EXPECT_TRUE(c.has_gradients) << to_string(kind);
           EXPECT_LE(c.worst_gradient, 1e-12) << to_string(kind) << " " << w << "x" << rows;
