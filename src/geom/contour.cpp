@@ -276,7 +276,8 @@ struct MarchBuffers {
   std::vector<unsigned char> sgn;
   std::vector<std::pair<std::size_t, std::size_t>> segments;
   std::vector<std::size_t> active;
-  std::vector<std::uint64_t> edges;  // each pending crossing's edge key (for crossing_sink)
+  std::vector<std::uint64_t> edges;  // each pending crossing's edge key (for edge_crossings)
+  std::vector<double> ts;
   std::vector<unsigned char> ok;
   void clear() {
     edges.clear();
@@ -308,14 +309,16 @@ struct Marcher {
   // in one batch (one call per round instead of one per guess; the same guesses as refining them
   // one by one). Illinois steps inside the bracket.
   std::vector<Crossing>& pending;
-  void add(Vec2 a, Vec2 b, double fa, double fb, double guess = -1) {
-    Crossing c{a, b, 0, 1, fa - level, fb - level, 0, 0, f.known_crossing(a, b, fa, fb)};
+  void add(Vec2 a, Vec2 b, double fa, double fb, double guess, double known) {
+    Crossing c{a, b, 0, 1, fa - level, fb - level, 0, 0, known};
     c.t = guess > 0 && guess < 1 ? guess : c.g_lo / (c.g_lo - c.g_hi);
     if (!std::isfinite(c.t)) c.t = 0.5;
     pending.push_back(c);
   }
+  // out: the crossings; ts (if given): their parameters along their edges.
   void refine(std::vector<Vec2>& out, std::vector<std::size_t>& active, std::vector<Vec2>& pts,
-              std::vector<double>& vals, std::vector<unsigned char>& ok) {
+              std::vector<double>& vals, std::vector<unsigned char>& ok,
+              std::vector<double>* ts) {
     const double tol = opt.refine_fraction;  // in units of the edge length (= resolution)
     // Crossings the function already knows, checked in one batch: the confirmed ones are done.
     active.clear();
@@ -376,6 +379,10 @@ struct Marcher {
     out.resize(pending.size());
     for (std::size_t i = 0; i < pending.size(); ++i)
       out[i] = pending[i].a + (pending[i].b - pending[i].a) * pending[i].t;
+    if (ts) {
+      ts->resize(pending.size());
+      for (std::size_t i = 0; i < pending.size(); ++i) (*ts)[i] = pending[i].t;
+    }
     pending.clear();
   }
 };
@@ -448,7 +455,7 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
           (((bj + j) * row + (bi + i)) << 1) | static_cast<std::uint64_t>(vertical);
       std::size_t& slot = table.find_or_insert(key, m.pending.size());
       if (slot == m.pending.size()) {
-        if (options.crossing_sink) buffers->edges.push_back(key);
+        if (options.edge_crossings) buffers->edges.push_back(key);
         const std::size_t a = j * w + i, b = vertical ? a + w : a + 1;
         double guess = -1;
         if (options.cubic_guess) {
@@ -459,7 +466,8 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
           const double after = pos + 2 < len ? val[b + step] - level : kNaN;
           guess = crossing_guess(before, val[a] - level, val[b] - level, after);
         }
-        m.add(pts[a], pts[b], val[a], val[b], guess);
+        m.add(pts[a], pts[b], val[a], val[b], guess,
+              f.known_crossing(bi + i, bj + j, vertical, val[a], val[b]));
       }
       return slot;
     };
@@ -554,14 +562,13 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
       const Block top{bi, bj, std::min(B, nx - bi), std::min(B, ny - bj)};
       visit(top, bound(top));
     }
-  const std::size_t known = m.pending.size();
-  m.refine(crossings, buffers->active, buffers->guesses, buffers->guess_values, buffers->ok);
-  if (options.crossing_sink) {
-    for (std::size_t k = 0; k < known; ++k) {
-      const std::uint64_t node = buffers->edges[k] >> 1;
-      const Vec2 a = m.node(node % row, node / row), c = crossings[k];
-      const double t = (buffers->edges[k] & 1) ? (c.y - a.y) / h : (c.x - a.x) / h;
-      options.crossing_sink(node % row, node / row, (buffers->edges[k] & 1) != 0, t);
+  std::vector<double>* ts = options.edge_crossings ? &buffers->ts : nullptr;
+  m.refine(crossings, buffers->active, buffers->guesses, buffers->guess_values, buffers->ok, ts);
+  if (ts) {
+    options.edge_crossings->resize(ts->size());
+    for (std::size_t k = 0; k < ts->size(); ++k) {
+      const std::uint64_t e = buffers->edges[k], node = e >> 1;
+      (*options.edge_crossings)[k] = {node % row, node / row, (e & 1) != 0, (*ts)[k]};
     }
   }
   result.samples = m.samples;

@@ -90,6 +90,7 @@ class LayerGrid {
     if (nodes_.size() != n) nodes_.assign(n, Node{});
     if (++gen_ == 0) {  // stamps wrapped: forget everything
       std::fill(nodes_.begin(), nodes_.end(), Node{});
+      std::fill(cross_.begin(), cross_.end(), Cross{});
       gen_ = 1;
     }
   }
@@ -136,21 +137,24 @@ class LayerGrid {
   double part(std::size_t k) const { return nodes_[k].d; }
   double joint(std::size_t k) const { return nodes_[k].j; }
   void set_part(std::size_t k, double v) {
-    Node& n = nodes_[k];
-    if (n.dstamp != gen_) n.th = n.tv = kNoCrossing;  // the node's first value this layer
-    n.d = v;
-    n.dstamp = gen_;
+    nodes_[k].d = v;
+    nodes_[k].dstamp = gen_;
   }
   // The section march's crossing on the edge from node k to its +x (vertical: +y) neighbour,
-  // as the parameter along it; kept while the node's part value is (set_part stamps both).
+  // as the parameter along it (−1: none this layer). Apart from the nodes: only the section's
+  // crossing nodes are written, and the nodes stay 24 bytes.
   void set_crossing(std::size_t k, bool vertical, double t) {
-    (vertical ? nodes_[k].tv : nodes_[k].th) = static_cast<float>(t);
+    if (cross_.size() != nodes_.size()) cross_.assign(nodes_.size(), Cross{});
+    Cross& c = cross_[k];
+    if (c.stamp != gen_) c = {-1, -1, gen_};
+    (vertical ? c.tv : c.th) = static_cast<float>(t);
   }
   double crossing(std::size_t k, bool vertical) const {
-    return vertical ? nodes_[k].tv : nodes_[k].th;
+    if (k >= cross_.size() || cross_[k].stamp != gen_) return -1;
+    return vertical ? cross_[k].tv : cross_[k].th;
   }
-  static constexpr float kNoCrossing = -1;
   std::size_t row() const { return nx_; }
+  std::size_t size() const { return nodes_.size(); }
   double step() const { return h_; }
   void set_joint(std::size_t k, double v) {
     nodes_[k].j = v;
@@ -162,14 +166,18 @@ class LayerGrid {
   double h_ = 1, inv_ = 1;
   std::size_t nx_ = 0;
   std::uint32_t gen_ = 0;
-  // A node's part and joint values with the layer stamps that make them valid, and the section's
-  // crossings on its +x and +y edges (valid with the part value; two nodes a cache line).
+  // A node's part and joint values with the layer stamps that make them valid (one cache line
+  // for all four).
   struct Node {
     double d = 0, j = 0;
     std::uint32_t dstamp = 0, jstamp = 0;
-    float th = kNoCrossing, tv = kNoCrossing;
   };
   std::vector<Node> nodes_;
+  struct Cross {
+    float th = -1, tv = -1;
+    std::uint32_t stamp = 0;
+  };
+  std::vector<Cross> cross_;
 };
 
 // The part's bounds over the blocks of a layer: the section, joint and mid-curve marches ask
@@ -266,6 +274,7 @@ struct Ctx {
   std::optional<Evaluator> solids, c;
   LayerGrid grid;
   BoundCache bounds;  // the part's, over this layer's blocks
+  std::vector<EdgeCrossing> edge_crossings;  // the section march's, by grid edge
   Ctx(const Field& p, const PbfDesign& d, const Field& c_field)
       : part(p), phi(d.phi), sheet(trellis::sheet(d.phi, d.c, d.thickness)) {
     if (!d.solids.empty()) solids.emplace(d.solids);
@@ -453,26 +462,27 @@ class JointSection : public PlaneFunction {
   }
   // Crossings where the part decides the measure are the section march's (on the grid's finer
   // nodes, refined at least as tightly as this march's): taken over where the measure's other
-  // terms are confirmed on the part's side there. Only when the section march stored them.
-  void use_section_crossings(bool on) { section_crossings_ = on; }
-  double known_crossing(Vec2 a, Vec2 b, double fa, double fb) override {
-    if (!section_crossings_) return -1;
-    const std::size_t ka = grid_->node(a), kb = grid_->node(b);
-    if (ka == LayerGrid::npos || kb == LayerGrid::npos || kb <= ka) return -1;
+  // terms are confirmed on the part's side there. `stride`: this march's cell in grid cells
+  // (its grid starts at the grid's origin); 0: off (the section march stored none).
+  void use_section_crossings(std::size_t stride) { stride_ = stride; }
+  double known_crossing(std::size_t i, std::size_t j, bool vertical, double fa,
+                        double fb) override {
+    if (stride_ == 0) return -1;
+    const std::size_t row = grid_->row(), unit = vertical ? row : 1, n = stride_;
+    const std::size_t ka = j * n * row + i * n, kb = ka + n * unit;
+    if (kb >= grid_->size() || (!vertical && i * n + n >= row)) return -1;
     if (!grid_->has_part(ka) || !grid_->has_part(kb) || grid_->part(ka) != fa ||
         grid_->part(kb) != fb)
       return -1;  // the measure is not the part's value at an end
-    const bool vertical = a.x == b.x;
-    const std::size_t unit = vertical ? grid_->row() : 1, n = (kb - ka) / unit;
-    if (n == 0 || ka + n * unit != kb) return -1;
-    // The one finer edge along a→b where the part changes sign, and the section's crossing there.
+    // The one finer edge along the edge where the part changes sign, and the section's
+    // crossing there.
     std::size_t at = n;
-    for (std::size_t i = 0; i < n; ++i) {
-      const std::size_t k = ka + i * unit;
-      if (!grid_->has_part(k + unit)) return -1;
-      if ((grid_->part(k) < 0) != (grid_->part(k + unit) < 0)) {
+    for (std::size_t k = 0; k < n; ++k) {
+      const std::size_t q = ka + k * unit;
+      if (!grid_->has_part(q + unit)) return -1;
+      if ((grid_->part(q) < 0) != (grid_->part(q + unit) < 0)) {
         if (at != n) return -1;
-        at = i;
+        at = k;
       }
     }
     if (at == n) return -1;
@@ -504,7 +514,8 @@ class JointSection : public PlaneFunction {
   const PbfDesign& d_;
   const PbfOptions& o_;
   double c_, z_, cos_min_;
-  bool invert_, cache_ = false, section_crossings_ = false;
+  bool invert_, cache_ = false;
+  std::size_t stride_ = 0;
   LayerGrid* grid_ = nullptr;
   std::vector<std::size_t> miss_, keys_, need_;
   std::vector<Vec3> pts_, grads_;
@@ -564,8 +575,8 @@ class PartSection : public PlaneFunction {
   Interval bound(Vec2 lo, Vec2 hi) override {
     if (hi.x - lo.x < shared_ && hi.y - lo.y < shared_) {
       BBox3 b;
-      b.add({lo.x, lo.y, z_});
-      b.add({hi.x, hi.y, z_});
+      b.min = {lo.x, lo.y, z_};
+      b.max = {hi.x, hi.y, z_};
       return ctx_.part.bound(b);
     }
     return ctx_.bounds.get(ctx_.part, lo, hi);
@@ -1125,8 +1136,10 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
   mo_joint.refine_fraction = std::min(0.1, 1e-3 / H);
   // The thin-wall march (direct route, with compensation) takes the section's crossings where
   // the part decides its measure, when they are refined at least as tightly as its own.
+  const auto stride = static_cast<std::size_t>(std::llround(H / Hs));
   const bool section_crossings = !o.stl_route && o.hybrid && o.beam_compensation > 0 &&
-                                 mo_section.refine_fraction * Hs <= mo_joint.refine_fraction * H;
+                                 mo_section.refine_fraction * Hs <= mo_joint.refine_fraction * H &&
+                                 std::abs(H - static_cast<double>(stride) * Hs) < 1e-12;
 
   const std::size_t first = std::min(range.first, zs.size());
   const std::size_t last = std::max(first, std::min(range.last, zs.size()));
@@ -1155,13 +1168,12 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
       // The coarse marches' smallest blocks are 4 of their cells (MarchOptions::block's leaves).
       if (Hs < H) fs.share_bounds_from(4 * H - 1e-9);
       MarchOptions mo = mo_section;
+      mo.edge_crossings = section_crossings ? &ctx.edge_crossings : nullptr;
+      S = nest_oriented_rings(march_squares(fs, lo, hi, 0.0, mo).lines.loops);
       // The section's crossings are kept on the grid's nodes for the thin-wall march.
       if (section_crossings)
-        mo.crossing_sink = [&grid, row = nx + 1](std::size_t ci, std::size_t cj, bool vertical,
-                                                 double t) {
-          grid.set_crossing(cj * row + ci, vertical, t);
-        };
-      S = nest_oriented_rings(march_squares(fs, lo, hi, 0.0, mo).lines.loops);
+        for (const EdgeCrossing& c : ctx.edge_crossings)
+          grid.set_crossing(c.j * (nx + 1) + c.i, c.vertical, c.t);
     }
     L.area = area(S);
     if (S.empty()) return;
@@ -1176,7 +1188,7 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
     // (no compensation), else the thin-wall measure (the thin region is marched instead).
     joint.use_grid(&grid, bc <= 0);
     thin.use_grid(&grid, bc > 0);
-    thin.use_section_crossings(section_crossings);
+    thin.use_section_crossings(section_crossings ? stride : 0);
     Regions hatch_region = S;
     if (o.hybrid) {
       // Joints are contoured from their own field (a Boolean of S and J would spend its time on

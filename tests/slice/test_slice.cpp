@@ -384,65 +384,68 @@ TEST(Contours, CubicGuessFindsCrossingsWithFewerSamples) {
 
 // Crossings the function already knows (PlaneFunction::known_crossing) are taken without
 // refinement where confirm_crossings confirms them, and refined as usual where it does not;
-// crossing_sink reports every crossing by its grid edge.
+// MarchOptions::edge_crossings reports every crossing by its grid edge.
 TEST(Contours, KnownCrossingsAreTakenOnlyWhereConfirmed) {
+  const Vec2 lo{-2, -2};
+  const double h = 0.1;
   struct Disc : PlaneFunction {
-    Vec2 c{0.013, -0.021};
-    double r = 1.234;
+    Vec2 c{0.013, -0.021}, lo;
+    double r = 1.234, h = 0;
     double at(Vec2 p) const { return std::hypot(p.x - c.x, p.y - c.y) - r; }
     void sample(const Vec2* p, double* out, std::size_t n) override {
       for (std::size_t i = 0; i < n; ++i) out[i] = at(p[i]);
     }
     // Offers the exact crossing on every other edge, a wrong one (the edge's middle) elsewhere.
     std::size_t offered = 0;
-    double known_crossing(Vec2 a, Vec2 b, double fa, double fb) override {
-      (void)fa, (void)fb;
+    double known_crossing(std::size_t i, std::size_t j, bool vertical, double fa,
+                          double fb) override {
+      EXPECT_LT(fa * fb, 0);
       ++offered;
       if (offered % 2 == 0) return 0.5;
-      double lo = 0, hi = 1;  // bisection to the double's resolution
+      const auto node = [&](std::size_t ni, std::size_t nj) {
+        return Vec2{lo.x + static_cast<double>(ni) * h, lo.y + static_cast<double>(nj) * h};
+      };
+      const Vec2 a = node(i, j), b = vertical ? node(i, j + 1) : node(i + 1, j);
+      EXPECT_EQ(at(a), fa);
+      EXPECT_EQ(at(b), fb);
+      double t0 = 0, t1 = 1;  // bisection to the double's resolution
       for (int k = 0; k < 60; ++k) {
-        const double m = 0.5 * (lo + hi);
-        ((at(a + (b - a) * m) < 0) == (at(a) < 0) ? lo : hi) = m;
+        const double m = 0.5 * (t0 + t1);
+        ((at(a + (b - a) * m) < 0) == (fa < 0) ? t0 : t1) = m;
       }
-      return 0.5 * (lo + hi);
+      return 0.5 * (t0 + t1);
     }
     void confirm_crossings(const Vec2* p, std::size_t n, unsigned char* ok) override {
       for (std::size_t k = 0; k < n; ++k) ok[k] = std::abs(at(p[k])) < 1e-12;
     }
   };
   struct Plain : Disc {
-    double known_crossing(Vec2, Vec2, double, double) override { return -1; }
+    double known_crossing(std::size_t, std::size_t, bool, double, double) override { return -1; }
   };
   MarchOptions mo;
-  mo.resolution = 0.1;
+  mo.resolution = h;
   mo.refine_fraction = 1e-4;  // 0.01 µm
-  struct Edge {
-    std::size_t i, j;
-    bool vertical;
-    double t;
-  };
-  std::vector<Edge> edges;
-  mo.crossing_sink = [&](std::size_t i, std::size_t j, bool vertical, double t) {
-    edges.push_back({i, j, vertical, t});
-  };
-  const Vec2 lo{-2, -2};
+  std::vector<EdgeCrossing> edges;
+  mo.edge_crossings = &edges;
   Plain plain;
   const ContourSet a = march_squares(plain, lo, {2, 2}, 0, mo);
-  // The sink's edges and parameters give back the contour's points.
+  // The reported edges and parameters give back the contour's points.
   ASSERT_EQ(a.lines.loops.size(), 1u);
   const std::vector<Vec2>& loop = a.lines.loops[0];
   ASSERT_EQ(edges.size(), loop.size());
-  for (const Edge& e : edges) {
+  for (const EdgeCrossing& e : edges) {
     EXPECT_GT(e.t, 0);
     EXPECT_LT(e.t, 1);
-    const Vec2 p{lo.x + (static_cast<double>(e.i) + (e.vertical ? 0 : e.t)) * mo.resolution,
-                 lo.y + (static_cast<double>(e.j) + (e.vertical ? e.t : 0)) * mo.resolution};
+    const Vec2 p{lo.x + (static_cast<double>(e.i) + (e.vertical ? 0 : e.t)) * h,
+                 lo.y + (static_cast<double>(e.j) + (e.vertical ? e.t : 0)) * h};
     double nearest = 1e9;
     for (const Vec2& q : loop) nearest = std::min(nearest, std::hypot(q.x - p.x, q.y - p.y));
     EXPECT_LT(nearest, 1e-12) << e.i << "," << e.j << (e.vertical ? " vertical" : " horizontal");
   }
-  mo.crossing_sink = nullptr;
+  mo.edge_crossings = nullptr;
   Disc known;
+  known.lo = lo;
+  known.h = h;
   const ContourSet b = march_squares(known, lo, {2, 2}, 0, mo);
   ASSERT_EQ(b.lines.loops.size(), 1u);
   ASSERT_EQ(b.lines.loops[0].size(), loop.size());
@@ -450,7 +453,7 @@ TEST(Contours, KnownCrossingsAreTakenOnlyWhereConfirmed) {
   std::size_t exact = 0;
   for (const Vec2& p : b.lines.loops[0]) {
     // Every point on the circle to the tolerance: the wrong middles were refined.
-    EXPECT_LT(std::abs(known.at(p)), 2 * mo.refine_fraction * mo.resolution) << p.x << "," << p.y;
+    EXPECT_LT(std::abs(known.at(p)), 2 * mo.refine_fraction * h) << p.x << "," << p.y;
     exact += std::abs(known.at(p)) < 1e-12;
   }
   EXPECT_GE(exact, known.offered / 2);

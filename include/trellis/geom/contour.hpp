@@ -3,7 +3,6 @@
 // implicit field, for material iso-lines, and (stitching) for mesh slices.
 #pragma once
 #include <cstddef>
-#include <functional>
 #include <limits>
 #include <vector>
 
@@ -34,13 +33,15 @@ class PlaneFunction {
   virtual Interval bound(Vec2 lo, Vec2 hi) {
     return {-std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()};
   }
-  // A crossing of the level on the grid edge a→b (values fa, fb on opposite sides) that the
-  // function already knows to within the march's refinement tolerance, as the parameter t in
-  // (0, 1) along the edge (e.g. a finer march's crossing of a function that decides this one
-  // there); −1 when it knows none. Such candidates are checked all together with
-  // `confirm_crossings` and taken without refinement where confirmed. Default: none.
-  virtual double known_crossing(Vec2 a, Vec2 b, double fa, double fb) {
-    (void)a, (void)b, (void)fa, (void)fb;
+  // A crossing of the level on the grid edge from node (i, j) (lo + (i, j)·resolution) to its
+  // +x neighbour (vertical: +y), values fa and fb on opposite sides, that the function already
+  // knows to within the march's refinement tolerance, as the parameter t in (0, 1) along the
+  // edge (e.g. a finer march's crossing of a function that decides this one there); −1 when it
+  // knows none. Such candidates are checked all together with `confirm_crossings` and taken
+  // without refinement where confirmed. Default: none.
+  virtual double known_crossing(std::size_t i, std::size_t j, bool vertical, double fa,
+                                double fb) {
+    (void)i, (void)j, (void)vertical, (void)fa, (void)fb;
     return -1;
   }
   // ok[k] = 1 if points[k], a candidate from known_crossing, is a crossing of this function
@@ -73,10 +74,16 @@ struct MarchOptions {
   // edge's line (two nodes either side, where the block has them) instead of the straight
   // line's: fewer refinement samples for smooth functions, the same tolerance.
   bool cubic_guess = false;
-  // Called after refinement with every crossing: the grid node (i, j) (node (i, j) is lo +
-  // (i, j)·resolution) its edge starts at, whether the edge goes to (i, j + 1) rather than to
-  // (i + 1, j), and the crossing's parameter t in (0, 1) along the edge. Optional.
-  std::function<void(std::size_t i, std::size_t j, bool vertical, double t)> crossing_sink;
+  // If set, filled with every crossing by its grid edge (after refinement).
+  std::vector<struct EdgeCrossing>* edge_crossings = nullptr;
+};
+
+// A crossing on the grid edge from node (i, j) (lo + (i, j)·resolution) to (i + 1, j), or to
+// (i, j + 1) when vertical, at the parameter t in (0, 1) along it.
+struct EdgeCrossing {
+  std::size_t i, j;
+  bool vertical;
+  double t;
 };
 
 // The root in (0, 1) of the polynomial through (−1, before), (0, fa), (1, fb), (2, after)
