@@ -303,37 +303,57 @@ struct TpmsNode : FieldNode {
     fast_sincos(k.z * p.z, &sz, &cz);
     return combine(sx, cx, sy, cy, sz, cz, grad);
   }
-  // φ (and its gradient if `grad`) from the sines and cosines of the three scaled coordinates.
+  // φ (and its gradient if `grad`) from the sines and cosines of the three scaled coordinates,
+  // for the kind K (the per-node loops are instantiated per kind: no switch at every node).
+  template <TpmsKind K>
+  static double combine_k(Vec3 k, double sx, double cx, double sy, double cy, double sz,
+                          double cz, Vec3* grad) {
+    if constexpr (K == TpmsKind::Gyroid) {
+      if (grad)
+        *grad = {k.x * (cx * cy - sz * sx), k.y * (-sx * sy + cy * cz),
+                 k.z * (-sy * sz + cz * cx)};
+      return sx * cy + sy * cz + sz * cx;
+    } else if constexpr (K == TpmsKind::SchwarzP) {
+      if (grad) *grad = {-k.x * sx, -k.y * sy, -k.z * sz};
+      return cx + cy + cz;
+    } else if constexpr (K == TpmsKind::SchwarzD) {
+      if (grad)
+        *grad = {k.x * (cx * sy * sz + cx * cy * cz - sx * sy * cz - sx * cy * sz),
+                 k.y * (sx * cy * sz - sx * sy * cz + cx * cy * cz - cx * sy * sz),
+                 k.z * (sx * sy * cz - sx * cy * sz - cx * sy * sz + cx * cy * cz)};
+      return sx * sy * sz + sx * cy * cz + cx * sy * cz + cx * cy * sz;
+    } else if constexpr (K == TpmsKind::Neovius) {
+      if (grad)
+        *grad = {k.x * (-3 * sx - 4 * sx * cy * cz), k.y * (-3 * sy - 4 * cx * sy * cz),
+                 k.z * (-3 * sz - 4 * cx * cy * sz)};
+      return 3 * (cx + cy + cz) + 4 * cx * cy * cz;
+    } else if constexpr (K == TpmsKind::Iwp) {
+      // cos 2a = 2cos²a − 1, d/da cos 2a = −2 sin 2a = −4 sin a cos a.
+      if (grad)
+        *grad = {k.x * (-2 * sx * (cy + cz) + 4 * sx * cx),
+                 k.y * (-2 * sy * (cx + cz) + 4 * sy * cy),
+                 k.z * (-2 * sz * (cx + cy) + 4 * sz * cz)};
+      return 2 * (cx * cy + cy * cz + cz * cx) -
+             ((2 * cx * cx - 1) + (2 * cy * cy - 1) + (2 * cz * cz - 1));
+    } else {
+      return 0;
+    }
+  }
+  // Calls fn(std::integral_constant<TpmsKind, kind>).
+  template <class Fn>
+  decltype(auto) with_kind(Fn fn) const {
+    switch (kind) {
+      case TpmsKind::Gyroid: return fn(std::integral_constant<TpmsKind, TpmsKind::Gyroid>{});
+      case TpmsKind::SchwarzP: return fn(std::integral_constant<TpmsKind, TpmsKind::SchwarzP>{});
+      case TpmsKind::SchwarzD: return fn(std::integral_constant<TpmsKind, TpmsKind::SchwarzD>{});
+      case TpmsKind::Neovius: return fn(std::integral_constant<TpmsKind, TpmsKind::Neovius>{});
+      case TpmsKind::Iwp: return fn(std::integral_constant<TpmsKind, TpmsKind::Iwp>{});
+    }
+    return fn(std::integral_constant<TpmsKind, TpmsKind::Iwp>{});
+  }
   double combine(double sx, double cx, double sy, double cy, double sz, double cz,
                  Vec3* grad = nullptr) const {
-    switch (kind) {
-      case TpmsKind::Gyroid:
-        if (grad)
-          *grad = {k.x * (cx * cy - sz * sx), k.y * (-sx * sy + cy * cz), k.z * (-sy * sz + cz * cx)};
-        return sx * cy + sy * cz + sz * cx;
-      case TpmsKind::SchwarzP:
-        if (grad) *grad = {-k.x * sx, -k.y * sy, -k.z * sz};
-        return cx + cy + cz;
-      case TpmsKind::SchwarzD:
-        if (grad)
-          *grad = {k.x * (cx * sy * sz + cx * cy * cz - sx * sy * cz - sx * cy * sz),
-                   k.y * (sx * cy * sz - sx * sy * cz + cx * cy * cz - cx * sy * sz),
-                   k.z * (sx * sy * cz - sx * cy * sz - cx * sy * sz + cx * cy * cz)};
-        return sx * sy * sz + sx * cy * cz + cx * sy * cz + cx * cy * sz;
-      case TpmsKind::Neovius:
-        if (grad)
-          *grad = {k.x * (-3 * sx - 4 * sx * cy * cz), k.y * (-3 * sy - 4 * cx * sy * cz),
-                   k.z * (-3 * sz - 4 * cx * cy * sz)};
-        return 3 * (cx + cy + cz) + 4 * cx * cy * cz;
-      case TpmsKind::Iwp:
-        // cos 2a = 2cos²a − 1, d/da cos 2a = −2 sin 2a = −4 sin a cos a.
-        if (grad)
-          *grad = {k.x * (-2 * sx * (cy + cz) + 4 * sx * cx), k.y * (-2 * sy * (cx + cz) + 4 * sy * cy),
-                   k.z * (-2 * sz * (cx + cy) + 4 * sz * cz)};
-        return 2 * (cx * cy + cy * cz + cz * cx) -
-               ((2 * cx * cx - 1) + (2 * cy * cy - 1) + (2 * cz * cz - 1));
-    }
-    return 0;
+    return with_kind([&](auto K) { return combine_k<K.value>(k, sx, cx, sy, cy, sz, cz, grad); });
   }
   bool gradient(Vec3 p, Vec3& g, EvalState&, std::size_t) const override {
     phi(p, &g);
@@ -345,8 +365,12 @@ struct TpmsNode : FieldNode {
   }
   bool gradients(const Vec3* p, Vec3* g, std::size_t n, EvalState& s,
                  std::size_t depth) const override {
-    sweep(p, n, s, depth, [&](std::size_t i, double sx, double cx, double sy, double cy, double sz,
-                              double cz) { combine(sx, cx, sy, cy, sz, cz, &g[i]); });
+    with_kind([&](auto K) {
+      sweep(p, n, s, depth, [&](std::size_t i, double sx, double cx, double sy, double cy,
+                                double sz, double cz) {
+        combine_k<K.value>(k, sx, cx, sy, cy, sz, cz, &g[i]);
+      });
+    });
     return true;
   }
   // Bound on |φ|.
@@ -370,8 +394,12 @@ struct TpmsNode : FieldNode {
   }
   void eval(const Vec3* p, double* out, std::size_t n, EvalState& s,
             std::size_t depth) const override {
-    sweep(p, n, s, depth, [&](std::size_t i, double sx, double cx, double sy, double cy, double sz,
-                              double cz) { out[i] = combine(sx, cx, sy, cy, sz, cz); });
+    with_kind([&](auto K) {
+      sweep(p, n, s, depth, [&](std::size_t i, double sx, double cx, double sy, double cy,
+                                double sz, double cz) {
+        out[i] = combine_k<K.value>(k, sx, cx, sy, cy, sz, cz, nullptr);
+      });
+    });
   }
   // Sines per column and per row (the same fast_sincos values as the point path's for these
   // coordinates, so the same numbers), combined at every node.
@@ -390,13 +418,21 @@ struct TpmsNode : FieldNode {
     }
   }
   void eval_grid(const GridPlane& g, double* out, EvalState& s, std::size_t depth) const override {
-    sweep_grid(g, s, depth, [&](std::size_t i, double sx, double cx, double sy, double cy,
-                                double sz, double cz) { out[i] = combine(sx, cx, sy, cy, sz, cz); });
+    with_kind([&](auto K) {
+      sweep_grid(g, s, depth, [&](std::size_t i, double sx, double cx, double sy, double cy,
+                                  double sz, double cz) {
+        out[i] = combine_k<K.value>(k, sx, cx, sy, cy, sz, cz, nullptr);
+      });
+    });
   }
   bool gradients_grid(const GridPlane& g, Vec3* out, EvalState& s,
                       std::size_t depth) const override {
-    sweep_grid(g, s, depth, [&](std::size_t i, double sx, double cx, double sy, double cy,
-                                double sz, double cz) { combine(sx, cx, sy, cy, sz, cz, &out[i]); });
+    with_kind([&](auto K) {
+      sweep_grid(g, s, depth, [&](std::size_t i, double sx, double cx, double sy, double cy,
+                                  double sz, double cz) {
+        combine_k<K.value>(k, sx, cx, sy, cy, sz, cz, &out[i]);
+      });
+    });
     return true;
   }
   // Calls fn(i, sin/cos of the three scaled coordinates) for each point. Rows of a grid (z
