@@ -90,7 +90,6 @@ class LayerGrid {
     if (nodes_.size() != n) nodes_.assign(n, Node{});
     if (++gen_ == 0) {  // stamps wrapped: forget everything
       std::fill(nodes_.begin(), nodes_.end(), Node{});
-      std::fill(cross_.begin(), cross_.end(), Cross{});
       gen_ = 1;
     }
   }
@@ -140,18 +139,34 @@ class LayerGrid {
     nodes_[k].d = v;
     nodes_[k].dstamp = gen_;
   }
-  // The section march's crossing on the edge from node k to its +x (vertical: +y) neighbour,
-  // as the parameter along it (−1: none this layer). Apart from the nodes: only the section's
-  // crossing nodes are written, and the nodes stay 24 bytes.
-  void set_crossing(std::size_t k, bool vertical, double t) {
-    if (cross_.size() != nodes_.size()) cross_.assign(nodes_.size(), Cross{});
-    Cross& c = cross_[k];
-    if (c.stamp != gen_) c = {-1, -1, gen_};
-    (vertical ? c.tv : c.th) = static_cast<float>(t);
+  // The section march's crossings (on this grid's edges), replacing the layer's previous ones:
+  // an open-addressing table by node, a quarter full at most (a full-grid array would add 12
+  // bytes a node to every thread's memory for the few nodes on the section's outline).
+  void set_crossings(const std::vector<EdgeCrossing>& c) {
+    std::size_t cap = 1024;
+    while (cap < 4 * c.size()) cap *= 2;
+    if (cross_.size() < cap) cross_.resize(cap);
+    cmask_ = cap - 1;
+    if (++cgen_ == 0) {  // stamps wrapped: forget everything
+      std::fill(cross_.begin(), cross_.end(), Cross{});
+      cgen_ = 1;
+    }
+    for (const EdgeCrossing& e : c) {
+      const std::uint64_t k = e.j * nx_ + e.i;
+      std::size_t i = cslot(k);
+      while (cross_[i].gen == cgen_ && cross_[i].node != k) i = (i + 1) & cmask_;
+      Cross& x = cross_[i];
+      if (x.gen != cgen_) x = {k, cgen_, -1, -1};
+      (e.vertical ? x.tv : x.th) = static_cast<float>(e.t);
+    }
   }
+  // The section's crossing on the edge from node k to its +x (vertical: +y) neighbour, as the
+  // parameter along it; −1: none.
   double crossing(std::size_t k, bool vertical) const {
-    if (k >= cross_.size() || cross_[k].stamp != gen_) return -1;
-    return vertical ? cross_[k].tv : cross_[k].th;
+    if (cross_.empty()) return -1;
+    for (std::size_t i = cslot(k); cross_[i].gen == cgen_; i = (i + 1) & cmask_)
+      if (cross_[i].node == k) return vertical ? cross_[i].tv : cross_[i].th;
+    return -1;
   }
   std::size_t row() const { return nx_; }
   std::size_t size() const { return nodes_.size(); }
@@ -174,10 +189,16 @@ class LayerGrid {
   };
   std::vector<Node> nodes_;
   struct Cross {
+    std::uint64_t node = 0;
+    std::uint32_t gen = 0;  // the set_crossings call it belongs to (0: none)
     float th = -1, tv = -1;
-    std::uint32_t stamp = 0;
   };
+  std::size_t cslot(std::uint64_t k) const {
+    return static_cast<std::size_t>((k * 0x9E3779B97F4A7C15ull) >> 40) & cmask_;
+  }
   std::vector<Cross> cross_;
+  std::size_t cmask_ = 0;
+  std::uint32_t cgen_ = 0;
 };
 
 // The part's bounds over the blocks of a layer: the section, joint and mid-curve marches ask
@@ -1170,10 +1191,8 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
       MarchOptions mo = mo_section;
       mo.edge_crossings = section_crossings ? &ctx.edge_crossings : nullptr;
       S = nest_oriented_rings(march_squares(fs, lo, hi, 0.0, mo).lines.loops);
-      // The section's crossings are kept on the grid's nodes for the thin-wall march.
-      if (section_crossings)
-        for (const EdgeCrossing& c : ctx.edge_crossings)
-          grid.set_crossing(c.j * (nx + 1) + c.i, c.vertical, c.t);
+      // The section's crossings are kept with the grid for the thin-wall march.
+      if (section_crossings) grid.set_crossings(ctx.edge_crossings);
     }
     L.area = area(S);
     if (S.empty()) return;

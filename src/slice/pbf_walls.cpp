@@ -43,10 +43,10 @@ double pbf_memory_estimate(const PbfDesign& design, const PbfOptions& o, int thr
   const double Hs = H <= 0.025 + 1e-9 ? H : o.resolution;
   const double wx = e.max.x - e.min.x + 4 * H + 2 * H, wy = e.max.y - e.min.y + 4 * H + 2 * H;
   const double nodes = (wx / Hs + 2) * (wy / Hs + 2);
-  // Per thread: the node cache (24 B a node, 12 more for the section's crossings) and the march's scratch (edge table, crossings,
+  // Per thread: the node cache (24 B a node) and the march's scratch (edge table, crossings,
   // about 40 B a node of the coarse grid), the bound cache and the evaluators' sine memos
   // (about 4 MB: 64 k slots of 52 B for the largest layers, three memos of 384 KB).
-  const double per_thread = nodes * 36 + (wx / H + 2) * (wy / H + 2) * 40 + (4 << 20);
+  const double per_thread = nodes * 24 + (wx / H + 2) * (wy / H + 2) * 40 + (4 << 20);
   // The layers' vectors: the part's mean section area (five sample layers, on a grid of twice
   // the resolution) scanned with FR_a ≈ 1 (length A/D a layer) in vectors of SL (or 4 hatch
   // distances, the shorter); about 300 B a vector in the layers, the toolpath made from them and
