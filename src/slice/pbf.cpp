@@ -1123,8 +1123,9 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
       const double phase = std::fmod(o.contour_shift * static_cast<double>(i), 1.0) * period;
       const pbf_detail::CurveProjector project = [&](Vec2 q) {
         const Vec2 q0 = q;
-        // Newton steps along φ's gradient in the layer; a step under 1e-10 mm is the last (the
-        // next would be far below a double's resolution of the coordinates).
+        // Newton steps along φ's gradient in the layer; a step under 1e-7 mm is the last (Newton
+        // converges quadratically: the next would move the point by ~1e-14 mm, |∇²φ|/|∇φ| being
+        // of the order of the cell's inverse).
         for (int it = 0; it < 2; ++it) {
           Vec3 g;
           const double f = ctx.phi.value_gradient({q.x, q.y, z}, &g);
@@ -1132,7 +1133,7 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
           if (!(gg > 0)) break;
           const Vec2 step = Vec2{g.x, g.y} * (f / gg);
           q = q - step;
-          if (std::abs(step.x) + std::abs(step.y) < 1e-10) break;
+          if (std::abs(step.x) + std::abs(step.y) < 1e-7) break;
         }
         // The traced line lies within a grid cell of φ = 0; a Newton step that goes further
         // (a near-zero gradient: a cell not much larger than the grid) is not kept.

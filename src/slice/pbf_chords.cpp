@@ -67,15 +67,14 @@ class Walk {
 // the neighbourhood of the line it stands for.
 Vec2 on_curve_at(Vec2 c, double r, Vec2 q, const CurveProjector& project) {
   const Vec2 q0 = q;
-  for (int it = 0; it < 3; ++it) {
-    q = project(q);
-    const double d = dist(c, q);
-    if (!(d > 0)) break;
-    if (std::abs(d - r) < 1e-12) break;  // on the circle already: the rounds would stand still
-    q = c + (q - c) * (r / d);
-  }
   q = project(q);
-  const double d = dist(c, q);
+  double d = dist(c, q);
+  // A projected point within a picometre of the circle is where the two cross: the next round
+  // would move it by less than that (the rounds converge fast), so the rounds stop there.
+  for (int it = 0; it < 3 && d > 0 && std::abs(d - r) > 1e-9; ++it) {
+    q = project(c + (q - c) * (r / d));
+    d = dist(c, q);
+  }
   return std::isfinite(d) && std::abs(d - r) <= 0.25 * r + 1e-6 && dist(q, q0) <= r ? q : q0;
 }
 
