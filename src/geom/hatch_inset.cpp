@@ -20,6 +20,22 @@ struct Span {
   double lo, hi;
 };
 
+// std::ceil, std::floor and std::llround to an integer, the same numbers for |x| < 2^52 (line
+// numbers of a hatch), inline: the library calls were 3–5% of trim_hatch.
+long long ceil_ll(double x) {
+  const auto i = static_cast<long long>(x);
+  return i + (static_cast<double>(i) < x);
+}
+long long floor_ll(double x) {
+  const auto i = static_cast<long long>(x);
+  return i - (static_cast<double>(i) > x);
+}
+long long round_ll(double x) {  // halves away from zero; x − i is exact
+  const auto i = static_cast<long long>(x);
+  const double f = x - static_cast<double>(i);
+  return i + (f >= 0.5) - (f <= -0.5);
+}
+
 // The stretches of the lines t = const (in along/across coordinates s, t) within r of the
 // segment a–b, without b's disc (a ring's next edge adds it: the disc at a and the band beside the
 // segment form a convex set, so each stretch is one interval). Everything that does not depend on
@@ -109,7 +125,7 @@ std::vector<Segment2> trim_hatch(const std::vector<Segment2>& segs, const Region
   const Vec2 u{std::cos(ang), std::sin(ang)}, v{-std::sin(ang), std::cos(ang)};
   auto along = [&](Vec2 p) { return (p.x - origin.x) * u.x + (p.y - origin.y) * u.y; };
   auto across = [&](Vec2 p) { return (p.x - origin.x) * v.x + (p.y - origin.y) * v.y; };
-  auto line_of = [&](Vec2 p) { return static_cast<long long>(std::llround(across(p) / spacing)); };
+  auto line_of = [&](Vec2 p) { return round_ll(across(p) / spacing); };
   // The stretches to take out, per line (indexed from the lowest line with hatch), gathered in
   // one array (line, span) and grouped by line at the end.
   std::vector<long long> seg_line(segs.size());
@@ -148,9 +164,9 @@ std::vector<Segment2> trim_hatch(const std::vector<Segment2>& segs, const Region
       for (std::size_t i = 0, j = ring.size() - 1; i < ring.size(); j = i++, ++serial) {
         const double ta = st[j].y, tb = st[i].y;
         const auto k0 =
-            std::max(k_lo, static_cast<long long>(std::ceil((std::min(ta, tb) - inset) / spacing)));
+            std::max(k_lo, ceil_ll((std::min(ta, tb) - inset) / spacing));
         const auto k1 = std::min(
-            k_hi, static_cast<long long>(std::floor((std::max(ta, tb) + inset) / spacing)));
+            k_hi, floor_ll((std::max(ta, tb) + inset) / spacing));
         if (k0 > k1) continue;
         const Capsule capsule(st[j], st[i], inset);
         for (long long k = k0; k <= k1; ++k) {
