@@ -761,6 +761,11 @@ struct ThinPiece {
   bool boundary_start = false, boundary_end = false;
 };
 
+double dist2(Vec2 a, Vec2 b) {
+  const double dx = b.x - a.x, dy = b.y - a.y;
+  return dx * dx + dy * dy;
+}
+
 // Splits mid-curve lines (open ones first, loops from first_loop on, each loop's last point its
 // first) where the inverted joint measure changes sign; each switch is bisected along its chord
 // and classed by the part's value just past it. The measure is sampled in batches: all lines'
@@ -794,7 +799,7 @@ std::vector<ThinPiece> thin_pieces(Ctx& ctx, JointSection& thin,
     for (int it = 0; it < 30 && !active.empty(); ++it) {
       std::size_t keep = 0;
       for (const std::size_t s : active)
-        if (std::hypot(sw[s].b.x - sw[s].a.x, sw[s].b.y - sw[s].a.y) > refine) active[keep++] = s;
+        if (dist2(sw[s].a, sw[s].b) > refine * refine) active[keep++] = s;
       active.resize(keep);
       if (active.empty()) break;
       mid.resize(active.size());
@@ -1175,7 +1180,7 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
         }
         // The traced line lies within a grid cell of φ = 0; a Newton step that goes further
         // (a near-zero gradient: a cell not much larger than the grid) is not kept.
-        const double moved = std::hypot(q.x - q0.x, q.y - q0.y);
+        const double mx = q.x - q0.x, my = q.y - q0.y, moved = std::sqrt(mx * mx + my * my);
         return std::isfinite(moved) && moved <= 4 * o.resolution ? q : q0;
       };
       for (const auto& piece : pieces) {
