@@ -1164,32 +1164,23 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
       const std::vector<ThinPiece> pieces = thin_pieces(ctx, thin, lines, first_loop, z, o.refine);
       const double period = o.segment_length + o.segment_gap;
       const double phase = std::fmod(o.contour_shift * static_cast<double>(i), 1.0) * period;
-      const pbf_detail::CurveProjector project = [&](Vec2 q) {
-        const Vec2 q0 = q;
-        // Newton steps along φ's gradient in the layer; a step under 1e-7 mm is the last (Newton
-        // converges quadratically: the next would move the point by ~1e-14 mm, |∇²φ|/|∇φ| being
-        // of the order of the cell's inverse).
-        for (int it = 0; it < 2; ++it) {
-          Vec3 g;
-          const double f = ctx.phi.value_gradient({q.x, q.y, z}, &g);
-          const double gg = g.x * g.x + g.y * g.y;
-          if (!(gg > 0)) break;
-          const Vec2 step = Vec2{g.x, g.y} * (f / gg);
-          q = q - step;
-          if (std::abs(step.x) + std::abs(step.y) < 1e-7) break;
-        }
-        // The traced line lies within a grid cell of φ = 0; a Newton step that goes further
-        // (a near-zero gradient: a cell not much larger than the grid) is not kept.
-        const double mx = q.x - q0.x, my = q.y - q0.y, moved = std::sqrt(mx * mx + my * my);
-        return std::isfinite(moved) && moved <= 4 * o.resolution ? q : q0;
-      };
+      // φ and its gradient in the layer; the traced line lies within a grid cell of φ = 0, so a
+      // Newton step that goes further than 4 cells (a near-zero gradient: a cell not much
+      // larger than the grid) is not kept.
+      const pbf_detail::Curve curve{[&](Vec2 q, Vec2* grad) {
+                                      Vec3 g;
+                                      const double f = ctx.phi.value_gradient({q.x, q.y, z}, &g);
+                                      *grad = {g.x, g.y};
+                                      return f;
+                                    },
+                                    4 * o.resolution};
       for (const auto& piece : pieces) {
         // A track ending at the part's outer boundary stops the beam compensation before it.
         std::vector<Vec2> pts = piece.points;
         if (piece.boundary_start) pts = pbf_detail::trim_arc(pts, bc, true);
         if (piece.boundary_end) pts = pbf_detail::trim_arc(pts, bc, false);
         pbf_detail::chord_vectors(pts, piece.closed, o.segment_length, o.segment_gap, phase,
-                                  project, L.contours);
+                                  curve, L.contours);
       }
       for (const auto& v : L.contours)
         for (std::size_t k = 1; k < v.size(); ++k)

@@ -1,7 +1,6 @@
-// Contour chords (pbf_detail::chord_vectors) against an exact curve: a circle with its radial
-// projection. Each chord end is where the circle of radius SL (or LHD) around the previous end
-// meets the curve; the alternating projections converge fast, so they stop once a projected
-// point is within 1e-9 mm of that circle (a few projections per chord, not a fixed count).
+// Contour chords (pbf_detail::chord_vectors) against an exact curve: the circle φ = |q|² − R².
+// Each chord end is where the circle of radius SL (or LHD) around the previous end meets the
+// curve, found by Newton steps on both together: a few evaluations of φ per chord.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -15,11 +14,12 @@ using namespace trellis;
 TEST(PbfChords, ChordsOnACircleAreExactAndTakeFewProjections) {
   const double R = 0.5, sl = 0.1, gap = 0.02;
   std::size_t calls = 0;
-  const pbf_detail::CurveProjector project = [&](Vec2 q) {
-    ++calls;
-    const double r = std::sqrt(q.x * q.x + q.y * q.y);
-    return q * (R / r);
-  };
+  const pbf_detail::Curve curve{[&](Vec2 q, Vec2* g) {
+                                  ++calls;
+                                  *g = q * 2.0;
+                                  return q.x * q.x + q.y * q.y - R * R;
+                                },
+                                0.1};
   for (const bool closed : {true, false}) {
     // The curve as the marches leave it: points on it every ~50 µm (an arc when open).
     const int n = 63;
@@ -33,7 +33,7 @@ TEST(PbfChords, ChordsOnACircleAreExactAndTakeFewProjections) {
     for (const double phase : {0.0, 0.013, 0.11}) {
       std::vector<std::vector<Vec2>> out;
       calls = 0;
-      pbf_detail::chord_vectors(line, closed, sl, gap, phase, project, out);
+      pbf_detail::chord_vectors(line, closed, sl, gap, phase, curve, out);
       ASSERT_GT(out.size(), 10u);
       for (std::size_t i = 0; i < out.size(); ++i) {
         ASSERT_EQ(out[i].size(), 2u);
@@ -49,11 +49,10 @@ TEST(PbfChords, ChordsOnACircleAreExactAndTakeFewProjections) {
           EXPECT_NEAR(std::hypot(c.x - b.x, c.y - b.y), gap, 1e-8) << i;
         }
       }
-      // Two chord ends a chord (its end and the next start), each projected onto the curve and
-      // then stepped back onto the circle and projected until within 1e-9 mm of it: about three
-      // projections an end here; three rounds and a last projection every time would be eight
-      // a chord.
-      EXPECT_LE(calls, 7 * out.size() + 4) << (closed ? "loop" : "arc") << " phase " << phase;
+      // Two chord ends a chord (its end and the next start), each two or three Newton steps
+      // from the line's point (~0.6 µm off the circle): alternating projections onto the curve
+      // and the circle take about eight evaluations a chord.
+      EXPECT_LE(calls, 6 * out.size() + 6) << (closed ? "loop" : "arc") << " phase " << phase;
     }
   }
 }
