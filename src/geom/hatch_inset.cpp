@@ -163,10 +163,8 @@ std::vector<Segment2> trim_hatch(const std::vector<Segment2>& segs, const Region
       for (std::size_t i = 0; i < ring.size(); ++i) st[i] = {along(ring[i]), across(ring[i])};
       for (std::size_t i = 0, j = ring.size() - 1; i < ring.size(); j = i++, ++serial) {
         const double ta = st[j].y, tb = st[i].y;
-        const auto k0 =
-            std::max(k_lo, ceil_ll((std::min(ta, tb) - inset) / spacing));
-        const auto k1 = std::min(
-            k_hi, floor_ll((std::max(ta, tb) + inset) / spacing));
+        const auto k0 = std::max(k_lo, ceil_ll((std::min(ta, tb) - inset) / spacing));
+        const auto k1 = std::min(k_hi, floor_ll((std::max(ta, tb) + inset) / spacing));
         if (k0 > k1) continue;
         const Capsule capsule(st[j], st[i], inset);
         for (long long k = k0; k <= k1; ++k) {

@@ -914,7 +914,7 @@ void densify_on_part(Ctx& ctx, double z, Regions& S) {
     for (std::size_t k = 0; k < r->size(); ++k, ++m) {
       dense.push_back((*r)[k]);
       const double f = vals[m], df = (vals[n + m] - f) / h;  // along the normal
-      double t = df != 0 ? -f / df : 0;                        // the step along the normal
+      double t = df != 0 ? -f / df : 0;                      // the step along the normal
       const double cap = 0.25 * chord[m];
       t = std::isnan(t) ? 0 : std::clamp(t, -cap, cap);
       dense.push_back(Vec2{pts[m].x, pts[m].y} + normal[m] * t);
@@ -1179,8 +1179,8 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
         std::vector<Vec2> pts = piece.points;
         if (piece.boundary_start) pts = pbf_detail::trim_arc(pts, bc, true);
         if (piece.boundary_end) pts = pbf_detail::trim_arc(pts, bc, false);
-        pbf_detail::chord_vectors(pts, piece.closed, o.segment_length, o.segment_gap, phase,
-                                  curve, L.contours);
+        pbf_detail::chord_vectors(pts, piece.closed, o.segment_length, o.segment_gap, phase, curve,
+                                  L.contours);
       }
       for (const auto& v : L.contours)
         for (std::size_t k = 1; k < v.size(); ++k)
