@@ -877,47 +877,51 @@ std::vector<ThinPiece> thin_pieces(Ctx& ctx, JointSection& thin,
   return pieces;
 }
 
-// The section's rings come from a grid: puts a point in the middle of every chord, moved onto
-// the part's boundary by a Newton step along the chord's normal (at most a quarter chord). The
-// chord's ends lie on the boundary, so its normal through its middle meets the boundary where
-// the boundary runs parallel to the chord (on a circular arc: the gradient's own line there).
+// The section's rings come from a grid: puts a point, moved onto the part's boundary by a
+// Newton step along the part's gradient (at most a quarter chord), in the middle of every chord.
 void densify_on_part(Ctx& ctx, double z, Regions& S) {
   std::vector<std::vector<Vec2>*> rings;
   for (auto& p : S) {
     rings.push_back(&p.outer);
     for (auto& h : p.holes) rings.push_back(&h);
   }
-  std::size_t n = 0;
-  for (const auto* r : rings) n += r->size();
-  if (n == 0) return;
-  // The part's value at each middle and a step h along the normal: two batches of values in one
-  // (CSG gradients point by point cost twice as much).
-  constexpr double h = 1e-6;
-  std::vector<Vec3> pts(2 * n);
-  std::vector<Vec2> normal(n);  // unit, or zero for a chord of no length
-  std::vector<double> chord(n);
-  std::size_t m = 0;
+  std::vector<Vec3> mids;
   for (const auto* r : rings)
-    for (std::size_t k = 0; k < r->size(); ++k, ++m) {
-      const Vec2 a = (*r)[k], b = (*r)[(k + 1) % r->size()], c = (a + b) * 0.5, d = b - a;
-      chord[m] = std::sqrt(d.x * d.x + d.y * d.y);
-      normal[m] = chord[m] > 0 ? Vec2{-d.y / chord[m], d.x / chord[m]} : Vec2{};
-      pts[m] = {c.x, c.y, z};
-      pts[n + m] = {c.x + h * normal[m].x, c.y + h * normal[m].y, z};
+    for (std::size_t k = 0; k < r->size(); ++k) {
+      const Vec2 c = ((*r)[k] + (*r)[(k + 1) % r->size()]) * 0.5;
+      mids.push_back({c.x, c.y, z});
     }
-  std::vector<double> vals(2 * n);
+  if (mids.empty()) return;
+  // The part's value and its in-plane gradient by forward differences: three batches of values
+  // (CSG gradients point by point cost twice as much).
+  const std::size_t n = mids.size();
+  constexpr double h = 1e-6;
+  std::vector<Vec3> pts(3 * n);
+  for (std::size_t i = 0; i < n; ++i) {
+    pts[i] = mids[i];
+    pts[n + i] = {mids[i].x + h, mids[i].y, z};
+    pts[2 * n + i] = {mids[i].x, mids[i].y + h, z};
+  }
+  std::vector<double> vals(3 * n), f(n);
+  std::vector<Vec3> g(n);
   ctx.part.values(pts.data(), vals.data(), pts.size());
-  m = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    f[i] = vals[i];
+    g[i] = {(vals[n + i] - vals[i]) / h, (vals[2 * n + i] - vals[i]) / h, 0};
+  }
+  std::size_t m = 0;
   for (auto* r : rings) {
     std::vector<Vec2> dense;
     dense.reserve(2 * r->size());
     for (std::size_t k = 0; k < r->size(); ++k, ++m) {
-      dense.push_back((*r)[k]);
-      const double f = vals[m], df = (vals[n + m] - f) / h;  // along the normal
-      double t = df != 0 ? -f / df : 0;                      // the step along the normal
-      const double cap = 0.25 * chord[m];
-      t = std::isnan(t) ? 0 : std::clamp(t, -cap, cap);
-      dense.push_back(Vec2{pts[m].x, pts[m].y} + normal[m] * t);
+      const Vec2 a = (*r)[k], b = (*r)[(k + 1) % r->size()];
+      dense.push_back(a);
+      const double gg = g[m].x * g[m].x + g[m].y * g[m].y;
+      Vec2 step = gg > 0 ? Vec2{g[m].x, g[m].y} * (-f[m] / gg) : Vec2{};
+      // (Lengths by sqrt of the squares: std::hypot was 1.5% of the run.)
+      const double cap = 0.25 * std::sqrt(dist2(a, b)), len = std::sqrt(dist2(step, Vec2{}));
+      if (len > cap) step = step * (cap / len);
+      dense.push_back(Vec2{mids[m].x, mids[m].y} + step);
     }
     *r = std::move(dense);
   }
