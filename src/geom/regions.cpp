@@ -1,14 +1,12 @@
 #include "trellis/geom/regions.hpp"
 
-#include <clipper.hpp>
-
-#include "clipper_util.hpp"
-
 #include <algorithm>
-#include <utility>
+#include <clipper.hpp>
 #include <cmath>
 #include <numbers>
+#include <utility>
 
+#include "clipper_util.hpp"
 
 namespace trellis {
 
@@ -309,20 +307,29 @@ std::vector<Segment2> hatch(const Regions& regions, double angle_deg, double spa
     double t0, t1, s0, s1;  // t0 < t1
   };
   std::vector<Edge> edges;
+  std::size_t vertices = 0;
+  for (const auto& p : regions) {
+    vertices += p.outer.size();
+    for (const auto& h : p.holes) vertices += h.size();
+  }
+  edges.reserve(vertices);
   double tmin = 1e300, tmax = -1e300;
   auto add_ring = [&](const std::vector<Vec2>& ring) {
     for (std::size_t i = 0, j = ring.size() - 1; i < ring.size(); j = i++) {
       const Vec2 p = ring[j] - origin, q = ring[i] - origin;
-      double sp = p.x * u.x + p.y * u.y, tp = p.x * v.x + p.y * v.y;
-      double sq = q.x * u.x + q.y * u.y, tq = q.x * v.x + q.y * v.y;
+      const double sp = p.x * u.x + p.y * u.y, tp = p.x * v.x + p.y * v.y;
+      const double sq = q.x * u.x + q.y * u.y, tq = q.x * v.x + q.y * v.y;
       if (tp == tq) continue;
-      if (tp > tq) {
-        std::swap(tp, tq);
-        std::swap(sp, sq);
-      }
-      edges.push_back({tp, tq, sp, sq});
-      tmin = std::min(tmin, tp);
-      tmax = std::max(tmax, tq);
+      // (Built in place: swapping the ends through memory and copying the edge stalled on
+      // store forwarding.)
+      Edge& e = edges.emplace_back();
+      const bool up = tp < tq;
+      e.t0 = up ? tp : tq;
+      e.t1 = up ? tq : tp;
+      e.s0 = up ? sp : sq;
+      e.s1 = up ? sq : sp;
+      tmin = std::min(tmin, e.t0);
+      tmax = std::max(tmax, e.t1);
     }
   };
   for (const auto& p : regions) {

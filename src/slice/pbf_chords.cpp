@@ -7,8 +7,9 @@ namespace trellis::pbf_detail {
 
 namespace {
 
-double dist(Vec2 a, Vec2 b) {
-  return std::hypot(b.x - a.x, b.y - a.y);
+double dist(Vec2 a, Vec2 b) {  // (std::hypot guards against overflow, at 4× the cost)
+  const double dx = b.x - a.x, dy = b.y - a.y;
+  return std::sqrt(dx * dx + dy * dy);
 }
 
 // A polyline with its cumulative arc length.
@@ -59,33 +60,43 @@ class Walk {
   std::vector<double> s_;
 };
 
-// q on the curve at distance r from c: alternately onto the curve and back onto the circle,
-// ending on the curve (the two cross at a wide angle when r is small against the curvature
-// radius, so this converges in a few rounds).
-// If that does not converge (the projection jumps to another branch where the curve turns within
-// r, e.g. a cell not much larger than SL), the line's own point q is kept: a chord never leaves
-// the neighbourhood of the line it stands for.
-Vec2 on_curve_at(Vec2 c, double r, Vec2 q, const CurveProjector& project) {
+// q on the curve at distance r from c: Newton steps on the curve and the circle together (φ = 0
+// and |q − c|² = r², linearised at q: one evaluation of φ and its gradient a step); they cross
+// at a wide angle when r is small against the curvature radius, so two or three steps reach
+// 1e-7 mm and the last leaves ~1e-14 mm.
+// If that does not converge (the two run nearly parallel, or the steps jump to another branch
+// where the curve turns within r, e.g. a cell not much larger than SL), the line's own point q
+// is kept: a chord never leaves the neighbourhood of the line it stands for.
+Vec2 on_curve_at(Vec2 c, double r, Vec2 q, const Curve& curve) {
   const Vec2 q0 = q;
-  for (int it = 0; it < 3; ++it) {
-    q = project(q);
-    const double d = dist(c, q);
-    if (!(d > 0)) break;
-    if (std::abs(d - r) < 1e-12) break;  // on the circle already: the rounds would stand still
-    q = c + (q - c) * (r / d);
+  bool converged = false;
+  for (int it = 0; it < 6 && !converged; ++it) {
+    Vec2 g;
+    const double f = curve.field(q, &g);
+    const Vec2 e = q - c;
+    // g·δ = −f and e·δ = (r² − e·e)/2 (the circle, linearised).
+    const double det = g.x * e.y - g.y * e.x;
+    if (!(std::abs(det) > 1e-9 * std::sqrt((g.x * g.x + g.y * g.y) * (e.x * e.x + e.y * e.y))))
+      return q0;  // tangent, no gradient, or not finite
+    const double b1 = -f, b2 = 0.5 * (r * r - (e.x * e.x + e.y * e.y));
+    const Vec2 step{(b1 * e.y - g.y * b2) / det, (g.x * b2 - b1 * e.x) / det};
+    q = q + step;
+    converged = std::abs(step.x) + std::abs(step.y) < 1e-7;
   }
-  q = project(q);
-  const double d = dist(c, q);
-  return std::isfinite(d) && std::abs(d - r) <= 0.25 * r + 1e-6 && dist(q, q0) <= r ? q : q0;
+  const double d = dist(c, q), moved = dist(q, q0);
+  return converged && std::isfinite(d) && std::abs(d - r) <= 0.25 * r + 1e-6 &&
+                 moved <= std::min(r, curve.reach)
+             ? q
+             : q0;
 }
 
 void open_chords(const std::vector<Vec2>& line, double sl, double gap, double phase,
-                 const CurveProjector& project, std::vector<std::vector<Vec2>>& out) {
+                 const Curve& curve, std::vector<std::vector<Vec2>>& out) {
   if (line.size() < 2) return;
   const Walk w(line);
   if (!(w.length() > 1e-6)) return;
   const double period = sl + gap;
-  Vec2 s = project(line.front());
+  Vec2 s = project(curve, line.front());
   double s_arc = 0;
   double len = sl;
   if (phase > 0 && phase < sl) {
@@ -95,11 +106,11 @@ void open_chords(const std::vector<Vec2>& line, double sl, double gap, double ph
     double arc = 0;
     if (g > 1e-9) {
       if (!w.leave_disc(s, g, 0, &arc)) return;
-      s = on_curve_at(s, g, w.at(arc), project);
+      s = on_curve_at(s, g, w.at(arc), curve);
       s_arc = arc;
     }
   }
-  const Vec2 end = project(line.back());
+  const Vec2 end = project(curve, line.back());
   // Each chord advances along the line by at least half its length: where the projection jumps
   // to another branch of the curve (a cell not much larger than SL), the disc test alone could
   // stand still and emit the same chord millions of times (found by fuzz_job_run).
@@ -116,13 +127,13 @@ void open_chords(const std::vector<Vec2>& line, double sl, double gap, double ph
         return;
       }
     }
-    const Vec2 e = on_curve_at(s, len, w.at(arc), project);
+    const Vec2 e = on_curve_at(s, len, w.at(arc), curve);
     out.push_back({s, e});
     len = sl;
     if (gap > 0) {
       double next = 0;
       if (!w.leave_disc(e, gap, arc, &next)) return;
-      s = on_curve_at(e, gap, w.at(next), project);
+      s = on_curve_at(e, gap, w.at(next), curve);
       s_arc = next;
     } else {
       s = e;
@@ -132,6 +143,21 @@ void open_chords(const std::vector<Vec2>& line, double sl, double gap, double ph
 }
 
 }  // namespace
+
+Vec2 project(const Curve& curve, Vec2 q) {
+  const Vec2 q0 = q;
+  for (int it = 0; it < 2; ++it) {
+    Vec2 g;
+    const double f = curve.field(q, &g);
+    const double gg = g.x * g.x + g.y * g.y;
+    if (!(gg > 0)) break;
+    const Vec2 step = g * (f / gg);
+    q = q - step;
+    if (std::abs(step.x) + std::abs(step.y) < 1e-7) break;
+  }
+  const double moved = dist(q, q0);
+  return std::isfinite(moved) && moved <= curve.reach ? q : q0;
+}
 
 std::vector<Vec2> trim_arc(const std::vector<Vec2>& line, double cut, bool from_start) {
   if (line.size() < 2 || cut <= 0) return line;
@@ -151,9 +177,9 @@ std::vector<Vec2> trim_arc(const std::vector<Vec2>& line, double cut, bool from_
 }
 
 void chord_vectors(const std::vector<Vec2>& line, bool closed, double sl, double gap, double phase,
-                   const CurveProjector& project, std::vector<std::vector<Vec2>>& out) {
+                   const Curve& curve, std::vector<std::vector<Vec2>>& out) {
   if (!closed || line.size() < 3) {
-    open_chords(line, sl, gap, phase, project, out);
+    open_chords(line, sl, gap, phase, curve, out);
     return;
   }
   // A loop: start `phase` along it, go round once, stop `gap` (along the loop) before the start.
@@ -174,7 +200,7 @@ void chord_vectors(const std::vector<Vec2>& line, bool closed, double sl, double
   }
   ring.insert(ring.end(), before.begin(), before.end());
   ring.push_back(ring.front());
-  open_chords(trim_arc(ring, gap, false), sl, gap, 0, project, out);
+  open_chords(trim_arc(ring, gap, false), sl, gap, 0, curve, out);
 }
 
 }  // namespace trellis::pbf_detail
