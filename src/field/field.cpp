@@ -294,8 +294,7 @@ void sincos_batch(const double* x, double* sn, double* cs, std::size_t n) {
   std::uint64_t u;
   std::memcpy(&u, &x, sizeof u);
   if (!m.slots.empty() && std::abs(x) < 1e6) {
-    const SinCosMemo::Entry& e =
-        m.slots[(u * 0x9E3779B97F4A7C15ull) >> (64 - SinCosMemo::kBits)];
+    const SinCosMemo::Entry& e = m.slots[(u * 0x9E3779B97F4A7C15ull) >> (64 - SinCosMemo::kBits)];
     if (e.key == u) {
       *sn = e.s;
       *cs = e.c;
@@ -320,12 +319,11 @@ struct TpmsNode : FieldNode {
   // φ (and its gradient if `grad`) from the sines and cosines of the three scaled coordinates,
   // for the kind K (the per-node loops are instantiated per kind: no switch at every node).
   template <TpmsKind K>
-  static double combine_k(Vec3 k, double sx, double cx, double sy, double cy, double sz,
-                          double cz, Vec3* grad) {
+  static double combine_k(Vec3 k, double sx, double cx, double sy, double cy, double sz, double cz,
+                          Vec3* grad) {
     if constexpr (K == TpmsKind::Gyroid) {
       if (grad)
-        *grad = {k.x * (cx * cy - sz * sx), k.y * (-sx * sy + cy * cz),
-                 k.z * (-sy * sz + cz * cx)};
+        *grad = {k.x * (cx * cy - sz * sx), k.y * (-sx * sy + cy * cz), k.z * (-sy * sz + cz * cx)};
       return sx * cy + sy * cz + sz * cx;
     } else if constexpr (K == TpmsKind::SchwarzP) {
       if (grad) *grad = {-k.x * sx, -k.y * sy, -k.z * sz};
@@ -357,11 +355,16 @@ struct TpmsNode : FieldNode {
   template <class Fn>
   decltype(auto) with_kind(Fn fn) const {
     switch (kind) {
-      case TpmsKind::Gyroid: return fn(std::integral_constant<TpmsKind, TpmsKind::Gyroid>{});
-      case TpmsKind::SchwarzP: return fn(std::integral_constant<TpmsKind, TpmsKind::SchwarzP>{});
-      case TpmsKind::SchwarzD: return fn(std::integral_constant<TpmsKind, TpmsKind::SchwarzD>{});
-      case TpmsKind::Neovius: return fn(std::integral_constant<TpmsKind, TpmsKind::Neovius>{});
-      case TpmsKind::Iwp: return fn(std::integral_constant<TpmsKind, TpmsKind::Iwp>{});
+      case TpmsKind::Gyroid:
+        return fn(std::integral_constant<TpmsKind, TpmsKind::Gyroid>{});
+      case TpmsKind::SchwarzP:
+        return fn(std::integral_constant<TpmsKind, TpmsKind::SchwarzP>{});
+      case TpmsKind::SchwarzD:
+        return fn(std::integral_constant<TpmsKind, TpmsKind::SchwarzD>{});
+      case TpmsKind::Neovius:
+        return fn(std::integral_constant<TpmsKind, TpmsKind::Neovius>{});
+      case TpmsKind::Iwp:
+        return fn(std::integral_constant<TpmsKind, TpmsKind::Iwp>{});
     }
     return fn(std::integral_constant<TpmsKind, TpmsKind::Iwp>{});
   }
@@ -380,10 +383,10 @@ struct TpmsNode : FieldNode {
   bool gradients(const Vec3* p, Vec3* g, std::size_t n, EvalState& s,
                  std::size_t depth) const override {
     with_kind([&](auto K) {
-      sweep(p, n, s, depth, [&](std::size_t i, double sx, double cx, double sy, double cy,
-                                double sz, double cz) {
-        combine_k<K.value>(k, sx, cx, sy, cy, sz, cz, &g[i]);
-      });
+      sweep(p, n, s, depth,
+            [&](std::size_t i, double sx, double cx, double sy, double cy, double sz, double cz) {
+              combine_k<K.value>(k, sx, cx, sy, cy, sz, cz, &g[i]);
+            });
     });
     return true;
   }
@@ -409,10 +412,10 @@ struct TpmsNode : FieldNode {
   void eval(const Vec3* p, double* out, std::size_t n, EvalState& s,
             std::size_t depth) const override {
     with_kind([&](auto K) {
-      sweep(p, n, s, depth, [&](std::size_t i, double sx, double cx, double sy, double cy,
-                                double sz, double cz) {
-        out[i] = combine_k<K.value>(k, sx, cx, sy, cy, sz, cz, nullptr);
-      });
+      sweep(p, n, s, depth,
+            [&](std::size_t i, double sx, double cx, double sy, double cy, double sz, double cz) {
+              out[i] = combine_k<K.value>(k, sx, cx, sy, cy, sz, cz, nullptr);
+            });
     });
   }
   // Sines per column and per row (the same fast_sincos values as the point path's for these
@@ -433,19 +436,19 @@ struct TpmsNode : FieldNode {
   }
   void eval_grid(const GridPlane& g, double* out, EvalState& s, std::size_t depth) const override {
     with_kind([&](auto K) {
-      sweep_grid(g, s, depth, [&](std::size_t i, double sx, double cx, double sy, double cy,
-                                  double sz, double cz) {
-        out[i] = combine_k<K.value>(k, sx, cx, sy, cy, sz, cz, nullptr);
-      });
+      sweep_grid(
+          g, s, depth,
+          [&](std::size_t i, double sx, double cx, double sy, double cy, double sz, double cz) {
+            out[i] = combine_k<K.value>(k, sx, cx, sy, cy, sz, cz, nullptr);
+          });
     });
   }
   bool gradients_grid(const GridPlane& g, Vec3* out, EvalState& s,
                       std::size_t depth) const override {
     with_kind([&](auto K) {
-      sweep_grid(g, s, depth, [&](std::size_t i, double sx, double cx, double sy, double cy,
-                                  double sz, double cz) {
-        combine_k<K.value>(k, sx, cx, sy, cy, sz, cz, &out[i]);
-      });
+      sweep_grid(g, s, depth,
+                 [&](std::size_t i, double sx, double cx, double sy, double cy, double sz,
+                     double cz) { combine_k<K.value>(k, sx, cx, sy, cy, sz, cz, &out[i]); });
     });
     return true;
   }

@@ -317,8 +317,7 @@ struct Marcher {
   }
   // out: the crossings; ts (if given): their parameters along their edges.
   void refine(std::vector<Vec2>& out, std::vector<std::size_t>& active, std::vector<Vec2>& pts,
-              std::vector<double>& vals, std::vector<unsigned char>& ok,
-              std::vector<double>* ts) {
+              std::vector<double>& vals, std::vector<unsigned char>& ok, std::vector<double>* ts) {
     const double tol = opt.refine_fraction;  // in units of the edge length (= resolution)
     // Crossings the function already knows, checked in one batch: the confirmed ones are done.
     active.clear();

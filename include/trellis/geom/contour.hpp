@@ -39,8 +39,7 @@ class PlaneFunction {
   // edge (e.g. a finer march's crossing of a function that decides this one there); −1 when it
   // knows none. Such candidates are checked all together with `confirm_crossings` and taken
   // without refinement where confirmed. Default: none.
-  virtual double known_crossing(std::size_t i, std::size_t j, bool vertical, double fa,
-                                double fb) {
+  virtual double known_crossing(std::size_t i, std::size_t j, bool vertical, double fa, double fb) {
     (void)i, (void)j, (void)vertical, (void)fa, (void)fb;
     return -1;
   }
