@@ -1205,7 +1205,8 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
   // The thin-wall march (direct route, with compensation) takes the section's crossings where
   // the part decides its measure, when they are refined at least as tightly as its own.
   const auto stride = static_cast<std::size_t>(std::llround(H / Hs));
-  const bool section_crossings = !o.stl_route && o.hybrid && o.beam_compensation > 0 &&
+  const bool section_crossings = o.reuse_section_crossings && !o.stl_route && o.hybrid &&
+                                 o.beam_compensation > 0 &&
                                  mo_section.refine_fraction * Hs <= mo_joint.refine_fraction * H &&
                                  std::abs(H - static_cast<double>(stride) * Hs) < 1e-12;
 

@@ -59,6 +59,9 @@ struct PbfOptions {
   // plane cuts (a slicer without a plane index, O(layers × triangles): the STL baseline as the
   // PBF paper counts it, "approximately O(n⁴)"). For the comparison benchmark.
   bool stl_scan_all = false;
+  // Direct route: the thin-wall outline takes the section march's refined crossings where the
+  // part decides it (false: refines its own; for the tests that compare the two).
+  bool reuse_section_crossings = true;
   // Scan-time model (speeds, delays) for the per-layer times of this path and the R67 baseline.
   ScanTiming timing;
   // Bytes the run may use (grids, caches, layers; the STL route's mesh); 0 = the memory
