@@ -196,8 +196,8 @@ TEST(Pbf, ThinWallOutlineFromTheSectionCrossingsKeepsTheHatchEnds) {
         for (const Vec2 e : {s.a, s.b}) {
           double best = 1e9;
           for (const Segment2& t : *q)
-            best = std::min({best, std::hypot(t.a.x - e.x, t.a.y - e.y),
-                             std::hypot(t.b.x - e.x, t.b.y - e.y)});
+            best = std::min(
+                {best, std::hypot(t.a.x - e.x, t.a.y - e.y), std::hypot(t.b.x - e.x, t.b.y - e.y)});
           ++ends;
           moved += best > 1e-3;
         }
