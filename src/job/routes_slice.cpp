@@ -120,6 +120,16 @@ PbfDesign pbf_design(const PbfConfig& p) {
 // the lattice settings that would have filled it are named as ignored; any other design is the
 // envelope the configured lattice fills, with a warning when it holds a TPMS of its own (the
 // part is then the intersection of two lattices).
+void warn_lattice_envelope(const Field& f, const std::string& path, const PbfConfig& p,
+                           Diagnostics& diag) {
+  if (has_tpms(f))
+    diag.warn("pbf.envelope_lattice",
+              fmt::format("{} holds a TPMS that is not one sheet cut by boxes or intersections, so "
+                          "it is the envelope the configured lattice ({} cells of {} mm) fills: "
+                          "the part is the intersection of the two",
+                          path, p.cell_type, p.cell));
+}
+
 void pbf_input(PbfDesign& d, const std::string& path, const PbfConfig& p, const Settings& set,
                Diagnostics& diag) {
   const Field f = laser_vcad(path);
@@ -141,13 +151,18 @@ void pbf_input(PbfDesign& d, const std::string& path, const PbfConfig& p, const 
       return;
     }
   }
-  if (has_tpms(f))
-    diag.warn("pbf.envelope_lattice",
-              fmt::format("{} holds a TPMS that is not one sheet cut by boxes or intersections, so "
-                          "it is the envelope the configured lattice ({} cells of {} mm) fills: "
-                          "the part is the intersection of the two",
-                          path, p.cell_type, p.cell));
+  warn_lattice_envelope(f, path, p, diag);
   d.envelope = f;
+}
+
+// The part's design from its settings and its input .vcad (if any).
+PbfDesign pbf_part_design(const PbfConfig& p, const std::string& input, const Settings& set,
+                          Diagnostics& diag) {
+  PbfDesign d = pbf_design(p);
+  if (!p.envelope.empty() && p.wall_thickness <= 0)
+    warn_lattice_envelope(d.envelope, p.envelope, p, diag);
+  if (!input.empty()) pbf_input(d, input, p, set, diag);
+  return d;
 }
 
 // Per-layer columns of the report (z, FR_a of the path and of R67, lengths, area, scan times).
@@ -787,9 +802,7 @@ JobResult pbf_plate(const Job& job, const Config& c, Diagnostics& diag, const Pr
       if (!plate) throw;
       throw SettingError("part '" + pp.label + "': " + e.message(), {job.origin, pp.line, e.where().element});
     }
-    p.design = pbf_design(p.config.pbf);
-    const std::string input = plate ? pp.input : job.input;
-    if (!input.empty()) pbf_input(p.design, input, p.config.pbf, st, diag);
+    p.design = pbf_part_design(p.config.pbf, plate ? pp.input : job.input, st, diag);
     p.extent = p.design.part().extent();
     if (!finite_box(p.extent))
       throw GeometryError("part '" + pp.label + "' has no finite extent: give it an envelope",
@@ -967,8 +980,7 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
   if (!job.parts.empty() || job.shards) return pbf_plate(job, c, diag, progress);
   JobResult out;
   const LaserProfile& prof = c.laser;
-  PbfDesign d = pbf_design(c.pbf);
-  if (!job.input.empty()) pbf_input(d, job.input, c.pbf, job.settings, diag);
+  PbfDesign d = pbf_part_design(c.pbf, job.input, job.settings, diag);
   PbfOptions po = c.pbf.options;
   po.layer = prof.layer;
   po.segment_length = prof.segment_length;

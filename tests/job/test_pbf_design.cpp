@@ -141,6 +141,9 @@ TEST(PbfDesign, IgnoredLatticeSettingsAndLatticeEnvelopesAreNamed) {
          "sphere(0.4); } }\n";
   const PbfRun mixed = run_pbf(dir, "mixed", "mixed.vcad", {});
   EXPECT_EQ(mixed.diag.count("pbf.envelope_lattice"), 1u);
+  const PbfRun named =
+      run_pbf(dir, "named", "", {"pbf.envelope=" + (dir / "mixed.vcad").string()});
+  EXPECT_EQ(named.diag.count("pbf.envelope_lattice"), 1u);
   std::ofstream(dir / "solid.vcad") << "root((-2,-2,-2),(2,2,2),(0.05,0.05,0.05)) { sphere(1); }\n";
   const PbfRun solid = run_pbf(dir, "solid", "solid.vcad", {"pbf.cell=1"});
   EXPECT_EQ(solid.diag.total(), 0u);
