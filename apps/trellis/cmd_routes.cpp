@@ -166,10 +166,12 @@ void add_routes(CLI::App& app, int argc, char** argv) {
        "  trellis slice examples/designs/csg_bracket.vcad --machine profiles/ender3_s1_pro_tpu.toml\n"
        "      -o bracket.gcode --report bracket.json --preview bracket_preview"},
       {"pbf", "pbf", "Laser powder-bed toolpaths for a TPMS sheet lattice, straight from its field (.cli)",
-       {"laser", "scan", "timing", "pbf", "output", "run"}, "envelope", false, "CLI build file to write", true, true,
+       {"laser", "scan", "timing", "pbf", "output", "run"}, "design", false, "CLI build file to write", true, true,
        true,
        "The sheet is Φ = φ² − c² around a TPMS mid-surface φ (--cell-type, --cell; c from --c or\n"
-       "--thickness for uniform walls), inside a box (--size) or the solid of ENVELOPE.vcad. Per\n"
+       "--thickness for uniform walls), inside a box (--size) or the solid of DESIGN.vcad. A\n"
+       "DESIGN.vcad that is itself one TPMS sheet in its root box (gyroid(5, 0.3), maybe intersected\n"
+       "with solids) is planned as it is: its φ, c and box, the lattice flags unused. Per\n"
        "layer: thin, steep walls get one contour track on φ = 0 cut into scan vectors (--sl, --lhd);\n"
        "joints are hatched at 67° more every layer. --strategy r67 hatches everything (the\n"
        "baseline); --route stl meshes the field first, for comparison. Scan settings come from the\n"

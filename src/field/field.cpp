@@ -1244,6 +1244,58 @@ Field clip_box(Field child, Vec3 min, Vec3 max) {
   return Field(n);
 }
 
+// ---------------------------------------------------------------- a sheet design, split
+
+namespace {
+
+bool contains_tpms(const FieldNode& n) {
+  if (dynamic_cast<const TpmsNode*>(&n) || dynamic_cast<const SheetNode*>(&n)) return true;
+  for (const auto& c : n.children)
+    if (contains_tpms(*c)) return true;
+  return false;
+}
+
+// Down from n to the one sheet, through root boxes, sharp intersections (their other children
+// are envelopes, without a TPMS) and property nodes; false where the design is anything else.
+bool split_into(const NodePtr& n, SheetSplit& out, std::vector<Field>& envelopes) {
+  if (const auto* sh = dynamic_cast<const SheetNode*>(n.get())) {
+    out.phi = Field(sh->children[0]);
+    out.c = sh->c_constant ? Expression{fmt::format("{}", sh->c)} : sh->c_expr;
+    out.thickness = sh->thickness;
+    return true;
+  }
+  if (const auto* box = dynamic_cast<const ClipBoxNode*>(n.get())) {
+    envelopes.push_back(translate(rectprism(box->hi - box->lo), (box->lo + box->hi) * 0.5));
+    return split_into(n->children[0], out, envelopes);
+  }
+  if (dynamic_cast<const PropertyNode*>(n.get())) return split_into(n->children[0], out, envelopes);
+  const auto* csg = dynamic_cast<const CsgNode*>(n.get());
+  if (!csg || csg->op != Op::Intersection || csg->k > 0) return false;
+  const NodePtr* lattice = nullptr;
+  for (const auto& c : n->children) {
+    if (!contains_tpms(*c)) {
+      envelopes.emplace_back(c);
+      continue;
+    }
+    if (lattice) return false;  // two lattices intersected
+    lattice = &c;
+  }
+  return lattice && split_into(*lattice, out, envelopes);
+}
+
+}  // namespace
+
+std::optional<SheetSplit> split_sheet(const Field& design) {
+  if (design.empty()) return std::nullopt;
+  SheetSplit out;
+  std::vector<Field> envelopes;
+  if (!split_into(design.ptr(), out, envelopes)) return std::nullopt;
+  if (!envelopes.empty()) out.envelope = intersect(std::move(envelopes));
+  return out;
+}
+
+bool has_tpms(const Field& design) { return !design.empty() && contains_tpms(design.node()); }
+
 // ---------------------------------------------------------------- Evaluator
 
 Evaluator::Evaluator(const Field& field)

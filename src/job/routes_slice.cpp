@@ -2,6 +2,7 @@
 // a surface and the non-planar paper's test surfaces.
 #include <set>
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <sys/resource.h>
 
 #include <filesystem>
@@ -111,6 +112,56 @@ PbfDesign pbf_design(const PbfConfig& p) {
     d.envelope = rectprism(s);
   }
   if (!p.solids.empty()) d.solids = laser_vcad(p.solids);
+  return d;
+}
+
+// The .vcad given to `trellis pbf` (or a plate part): a design that is itself one TPMS sheet
+// (cut by a root box or intersected with solids) is planned as it is — its φ, c and boxes — and
+// the lattice settings that would have filled it are named as ignored; any other design is the
+// envelope the configured lattice fills, with a warning when it holds a TPMS of its own (the
+// part is then the intersection of two lattices).
+void warn_lattice_envelope(const Field& f, const std::string& path, const PbfConfig& p,
+                           Diagnostics& diag) {
+  if (has_tpms(f))
+    diag.warn("pbf.envelope_lattice",
+              fmt::format("{} holds a TPMS that is not one sheet cut by boxes or intersections, so "
+                          "it is the envelope the configured lattice ({} cells of {} mm) fills: "
+                          "the part is the intersection of the two",
+                          path, p.cell_type, p.cell));
+}
+
+void pbf_input(PbfDesign& d, const std::string& path, const PbfConfig& p, const Settings& set,
+               Diagnostics& diag) {
+  const Field f = laser_vcad(path);
+  if (p.wall_thickness <= 0) {
+    if (auto s = split_sheet(f)) {
+      d.phi = s->phi;
+      d.c = s->c;
+      d.thickness = s->thickness;
+      d.envelope = s->envelope;
+      std::vector<std::string> ignored;
+      for (const char* k : {"pbf.cell_type", "pbf.cell", "pbf.c", "pbf.thickness", "pbf.size",
+                            "pbf.envelope", "pbf.grade_to", "pbf.hierarchical"})
+        if (set.has(k)) ignored.push_back(k);
+      if (!ignored.empty())
+        diag.warn("pbf.design_lattice",
+                  fmt::format("{} is itself a TPMS sheet: its own lattice is planned and {} "
+                              "ignored (give a solid .vcad to fill it with the configured lattice)",
+                              path, fmt::join(ignored, ", ")));
+      return;
+    }
+  }
+  warn_lattice_envelope(f, path, p, diag);
+  d.envelope = f;
+}
+
+// The part's design from its settings and its input .vcad (if any).
+PbfDesign pbf_part_design(const PbfConfig& p, const std::string& input, const Settings& set,
+                          Diagnostics& diag) {
+  PbfDesign d = pbf_design(p);
+  if (!p.envelope.empty() && p.wall_thickness <= 0)
+    warn_lattice_envelope(d.envelope, p.envelope, p, diag);
+  if (!input.empty()) pbf_input(d, input, p, set, diag);
   return d;
 }
 
@@ -751,9 +802,7 @@ JobResult pbf_plate(const Job& job, const Config& c, Diagnostics& diag, const Pr
       if (!plate) throw;
       throw SettingError("part '" + pp.label + "': " + e.message(), {job.origin, pp.line, e.where().element});
     }
-    p.design = pbf_design(p.config.pbf);
-    const std::string input = plate ? pp.input : job.input;
-    if (!input.empty()) p.design.envelope = laser_vcad(input);
+    p.design = pbf_part_design(p.config.pbf, plate ? pp.input : job.input, st, diag);
     p.extent = p.design.part().extent();
     if (!finite_box(p.extent))
       throw GeometryError("part '" + pp.label + "' has no finite extent: give it an envelope",
@@ -931,8 +980,7 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
   if (!job.parts.empty() || job.shards) return pbf_plate(job, c, diag, progress);
   JobResult out;
   const LaserProfile& prof = c.laser;
-  PbfDesign d = pbf_design(c.pbf);
-  if (!job.input.empty()) d.envelope = laser_vcad(job.input);
+  PbfDesign d = pbf_part_design(c.pbf, job.input, job.settings, diag);
   PbfOptions po = c.pbf.options;
   po.layer = prof.layer;
   po.segment_length = prof.segment_length;

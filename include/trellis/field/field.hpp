@@ -11,6 +11,7 @@
 // sampling them. A node that cannot bound itself (a user expression) reports (-inf, +inf).
 #pragma once
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -118,6 +119,21 @@ Field fprocess(Field child, std::vector<Expression> values, std::vector<std::str
                std::string label = "fprocess");
 // Hands the child the box of a .vcad root(): the solid is clipped to the box.
 Field clip_box(Field child, Vec3 min, Vec3 max);
+
+// A design made of one TPMS sheet cut by root boxes and sharp intersections (a .vcad such as
+// `root(...) { gyroid(5, 0.3); }`), split for the laser route: the sheet's mid-surface φ, its c
+// (or uniform thickness) and the envelope (the boxes and the other intersected solids; empty
+// when there are none). nullopt for any other design: no sheet, more than one, or a sheet under
+// a union, difference, blend, transform or smooth intersection.
+struct SheetSplit {
+  Field phi;
+  Expression c;
+  double thickness = 0;
+  Field envelope;
+};
+std::optional<SheetSplit> split_sheet(const Field& design);
+// Whether the design has a TPMS anywhere (a network solid or a sheet).
+bool has_tpms(const Field& design);
 
 // --- meshes ---
 struct TriangleMesh;
