@@ -1265,7 +1265,10 @@ bool split_into(const NodePtr& n, SheetSplit& out, std::vector<Field>& envelopes
     return true;
   }
   if (const auto* box = dynamic_cast<const ClipBoxNode*>(n.get())) {
-    envelopes.push_back(translate(rectprism(box->hi - box->lo), (box->lo + box->hi) * 0.5));
+    BBox3 b;
+    b.add(box->lo);
+    b.add(box->hi);
+    out.boxes.push_back(b);
     return split_into(n->children[0], out, envelopes);
   }
   if (dynamic_cast<const PropertyNode*>(n.get())) return split_into(n->children[0], out, envelopes);

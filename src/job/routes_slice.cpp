@@ -139,6 +139,7 @@ void pbf_input(PbfDesign& d, const std::string& path, const PbfConfig& p, const 
       d.c = s->c;
       d.thickness = s->thickness;
       d.envelope = s->envelope;
+      d.clip = s->boxes;
       std::vector<std::string> ignored;
       for (const char* k : {"pbf.cell_type", "pbf.cell", "pbf.c", "pbf.thickness", "pbf.size",
                             "pbf.envelope", "pbf.grade_to", "pbf.hierarchical"})

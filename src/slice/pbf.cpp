@@ -29,6 +29,7 @@ Field PbfDesign::part() const {
   if (phi.empty()) throw GeometryError("PBF design needs a mid-surface field");
   Field f = sheet(phi, c, thickness);
   if (!envelope.empty()) f = intersect({f, envelope});
+  for (const BBox3& b : clip) f = clip_box(f, b.min, b.max);
   if (!solids.empty()) f = unite({f, solids});
   return f;
 }

@@ -122,14 +122,15 @@ Field clip_box(Field child, Vec3 min, Vec3 max);
 
 // A design made of one TPMS sheet cut by root boxes and sharp intersections (a .vcad such as
 // `root(...) { gyroid(5, 0.3); }`), split for the laser route: the sheet's mid-surface φ, its c
-// (or uniform thickness) and the envelope (the boxes and the other intersected solids; empty
-// when there are none). nullopt for any other design: no sheet, more than one, or a sheet under
-// a union, difference, blend, transform or smooth intersection.
+// (or uniform thickness), the other intersected solids (empty when none) and the root boxes.
+// nullopt for any other design: no sheet, more than one, or a sheet under a union, difference,
+// blend, transform or smooth intersection.
 struct SheetSplit {
   Field phi;
   Expression c;
   double thickness = 0;
   Field envelope;
+  std::vector<BBox3> boxes;
 };
 std::optional<SheetSplit> split_sheet(const Field& design);
 // Whether the design has a TPMS anywhere (a network solid or a sheet).

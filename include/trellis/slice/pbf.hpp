@@ -26,7 +26,8 @@ struct PbfDesign {
   double thickness = 0;  // > 0: uniform thickness instead of c (c = t·|∇φ|/2)
   Field envelope;     // where the lattice is (a box, a mesh field…)
   Field solids;       // optional solid parts (bosses), hatched; may be empty
-  // Φ ∩ envelope ∪ solids: the part.
+  std::vector<BBox3> clip;  // boxes Φ ∩ envelope is cut by (a .vcad's root box), if any
+  // Φ ∩ envelope (clipped) ∪ solids: the part.
   Field part() const;
 };
 
