@@ -130,7 +130,7 @@ void warn_lattice_envelope(const Field& f, const std::string& path, const PbfCon
                           path, p.cell_type, p.cell));
 }
 
-void pbf_input(PbfDesign& d, const std::string& path, const PbfConfig& p, const Settings& set,
+bool pbf_input(PbfDesign& d, const std::string& path, const PbfConfig& p, const Settings& set,
                Diagnostics& diag) {
   const Field f = laser_vcad(path);
   if (p.wall_thickness <= 0) {
@@ -149,20 +149,23 @@ void pbf_input(PbfDesign& d, const std::string& path, const PbfConfig& p, const 
                   fmt::format("{} is itself a TPMS sheet: its own lattice is planned and {} "
                               "ignored (give a solid .vcad to fill it with the configured lattice)",
                               path, fmt::join(ignored, ", ")));
-      return;
+      return true;
     }
   }
   warn_lattice_envelope(f, path, p, diag);
   d.envelope = f;
+  return false;
 }
 
-// The part's design from its settings and its input .vcad (if any).
+// The part's design from its settings and its input .vcad (if any); *from_design: the lattice
+// is the input's own sheet.
 PbfDesign pbf_part_design(const PbfConfig& p, const std::string& input, const Settings& set,
-                          Diagnostics& diag) {
+                          Diagnostics& diag, bool* from_design = nullptr) {
   PbfDesign d = pbf_design(p);
   if (!p.envelope.empty() && p.wall_thickness <= 0)
     warn_lattice_envelope(d.envelope, p.envelope, p, diag);
-  if (!input.empty()) pbf_input(d, input, p, set, diag);
+  const bool own = !input.empty() && pbf_input(d, input, p, set, diag);
+  if (from_design) *from_design = own;
   return d;
 }
 
@@ -981,7 +984,8 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
   if (!job.parts.empty() || job.shards) return pbf_plate(job, c, diag, progress);
   JobResult out;
   const LaserProfile& prof = c.laser;
-  PbfDesign d = pbf_part_design(c.pbf, job.input, job.settings, diag);
+  bool from_design = false;
+  PbfDesign d = pbf_part_design(c.pbf, job.input, job.settings, diag, &from_design);
   PbfOptions po = c.pbf.options;
   po.layer = prof.layer;
   po.segment_length = prof.segment_length;
@@ -1040,8 +1044,14 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
     j["version"] = 1;
     j["route"] = c.pbf.route;
     j["strategy"] = c.pbf.strategy;
-    j["settings"] = {{"cell_type", c.pbf.cell_type}, {"cell_mm", c.pbf.cell},
-                     {"c", d.c.text}, {"thickness_mm", c.pbf.thickness},
+    // The lattice is the design's own sheet (its φ named by the design file) or the settings'.
+    j["settings"] = {{"lattice", from_design ? "design " + fs::path(job.input).filename().string()
+                                             : std::string("settings")},
+                     {"cell_type", from_design ? nlohmann::ordered_json()
+                                               : nlohmann::ordered_json(c.pbf.cell_type)},
+                     {"cell_mm", from_design ? nlohmann::ordered_json()
+                                             : nlohmann::ordered_json(c.pbf.cell)},
+                     {"c", d.c.text}, {"thickness_mm", d.thickness},
                      {"layer_mm", po.layer}, {"segment_length_mm", po.segment_length},
                      {"segment_gap_mm", po.segment_gap}, {"hatch_distance_mm", po.hatch_distance},
                      {"beam_compensation_mm", po.beam_compensation}, {"melt_pool_mm", po.melt_pool},
@@ -1063,8 +1073,9 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
                         {"r67_baseline", r.scan_time_r67},
                         {"saving", r.scan_time_r67 > 0 ? 1 - r.scan_time / r.scan_time_r67 : 0}};
     j["per_layer"] = pbf_layer_series(r);  // paper Fig. 3(b)
+    // Every warning of the run: the design's (pbf_part_design) and the planner's.
     j["warnings"] = nlohmann::json::array();
-    for (const auto& m : r.diagnostics.messages())
+    for (const auto& m : diag.messages())
       j["warnings"].push_back({{"kind", m.kind}, {"message", m.text}});
     j["memory_estimate_mb"] = r.memory_estimate / 1e6;
     j["time_s"] = r.seconds;

@@ -137,6 +137,14 @@ TEST(PbfDesign, IgnoredLatticeSettingsAndLatticeEnvelopesAreNamed) {
   const PbfRun ignored = run_pbf(dir, "ignored", "sheet.vcad", {"pbf.cell=3"});
   ASSERT_EQ(ignored.diag.count("pbf.design_lattice"), 1u);
   EXPECT_NE(ignored.diag.messages().front().text.find("pbf.cell"), std::string::npos);
+  // The report says where the lattice came from and carries the warning.
+  const std::string* report = nullptr;
+  for (const auto& f : ignored.result.files)
+    if (f.ends_with(".json")) report = &f;
+  ASSERT_NE(report, nullptr);
+  const std::string json = read_file(*report);
+  EXPECT_NE(json.find("\"lattice\": \"design sheet.vcad\""), std::string::npos);
+  EXPECT_NE(json.find("\"kind\": \"pbf.design_lattice\""), std::string::npos);
   std::ofstream(dir / "mixed.vcad")
       << "root((-1.25,-1.25,-0.2),(1.25,1.25,0.2),(0.05,0.05,0.05)) { union() { gyroid(2.5, 0.3); "
          "sphere(0.4); } }\n";
