@@ -1069,6 +1069,9 @@ bool Field::has_expressions() const {
 bool Field::has_process() const {
   return node_ && node_->has_process();
 }
+double Field::lipschitz() const {
+  return node_ ? node_->lipschitz() : std::numeric_limits<double>::infinity();
+}
 
 const char* to_string(TpmsKind kind) {
   switch (kind) {

@@ -1164,6 +1164,16 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
     if (!constant_expression(design.c.text, &c_const)) c_field = expression_field(design.c);
   }
 
+  // A sheet nowhere as narrow as a thin wall has none: its horizontal width 2c / |∇xy φ| is at
+  // least 2c / max|∇φ| (φ's Lipschitz bound) with a constant c, and at least t with a uniform
+  // thickness t. Then the thin-wall measure is negative everywhere, and its march and the thin
+  // pieces of the mid-curve, which would find nothing, are skipped.
+  const double thin_width = o.thin_multiple * o.melt_pool;
+  result.thin_walls_possible =
+      design.thickness > 0
+          ? !(design.thickness > thin_width)
+          : !c_field.empty() || !(thin_width * design.phi.lipschitz() < 2 * std::abs(c_const));
+
   // The STL route: one marching-cubes mesh of the part, cut by planes.
   TriangleMesh mesh;
   std::vector<std::vector<std::uint32_t>> buckets;
@@ -1266,7 +1276,8 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
         // Joints = the section minus the thin walls, so the joints' outline along the sheet is
         // the section's (refined) one, not the coarse grid's; slivers between the two outlines
         // are narrower than a cell and within the compensation of both.
-        T = nest_oriented_rings(march_squares(thin, lo, hi, 0.0, mo_joint).lines.loops);
+        if (result.thin_walls_possible)
+          T = nest_oriented_rings(march_squares(thin, lo, hi, 0.0, mo_joint).lines.loops);
       } else {
         hatch_region = nest_oriented_rings(march_squares(joint, lo, hi, 0.0, mo_joint).lines.loops);
       }
@@ -1280,7 +1291,9 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
       }
       densify_on_mid_surface(ctx, z, lines);
       measure_wall_thickness(ctx, design, c_const, z, lines, L);
-      const std::vector<ThinPiece> pieces = thin_pieces(ctx, thin, lines, first_loop, z, o.refine);
+      const std::vector<ThinPiece> pieces =
+          result.thin_walls_possible ? thin_pieces(ctx, thin, lines, first_loop, z, o.refine)
+                                     : std::vector<ThinPiece>{};
       const double period = o.segment_length + o.segment_gap;
       const double phase = std::fmod(o.contour_shift * static_cast<double>(i), 1.0) * period;
       // φ and its gradient in the layer; the traced line lies within a grid cell of φ = 0, so a

@@ -412,3 +412,53 @@ TEST(Pbf, EveryThinWallPointOfTheMidCurveHasATrack) {
 }
 
 }  // namespace
+
+namespace {
+
+// A 5 mm gyroid sheet in a 5 × 5 × 1 mm box; `opaque`: φ as a blend of itself (the same values,
+// but no Lipschitz bound, so the planner cannot rule thin walls out and marches them).
+PbfDesign thick_or_thin(double c, bool opaque) {
+  PbfDesign d;
+  const Field phi = tpms(TpmsKind::Gyroid, {5, 5, 5});
+  d.phi = opaque ? blend(phi, phi, {"0.5"}) : phi;
+  d.c = {std::to_string(c)};
+  d.envelope = rectprism({5, 5, 1});
+  return d;
+}
+
+}  // namespace
+
+// A sheet nowhere as narrow as a thin wall (1.5 × 63.8 µm = 96 µm): 2c / max|∇φ| ≥ that for
+// c = 0.3 with 5 mm cells (max|∇φ| ≤ 2.2 /mm), so the thin-wall march is skipped — and the plan
+// is the one the march gives. Below the bound (c = 0.07; the bound allows thin walls from c < 0.105) thin walls exist
+// and are planned.
+TEST(Pbf, ThinWallsAreSkippedOnlyWhereTheSheetCannotHaveThem) {
+  PbfOptions o;
+  o.layer = 0.1;
+  const PbfResult thick = plan_pbf(thick_or_thin(0.3, false), o);
+  const PbfResult marched = plan_pbf(thick_or_thin(0.3, true), o);
+  EXPECT_FALSE(thick.thin_walls_possible);
+  EXPECT_TRUE(marched.thin_walls_possible);
+  ASSERT_EQ(thick.layers.size(), marched.layers.size());
+  EXPECT_EQ(marched.contour_vectors, 0u);  // the march finds no thin wall either
+  EXPECT_EQ(thick.contour_vectors, 0u);
+  std::size_t ends = 0;
+  for (std::size_t i = 0; i < thick.layers.size(); ++i) {
+    const auto& a = thick.layers[i].hatches;
+    const auto& b = marched.layers[i].hatches;
+    ASSERT_EQ(a.size(), b.size()) << "layer " << i;
+    for (std::size_t k = 0; k < a.size(); ++k) {
+      EXPECT_NEAR(a[k].a.x, b[k].a.x, 1e-6);
+      EXPECT_NEAR(a[k].a.y, b[k].a.y, 1e-6);
+      EXPECT_NEAR(a[k].b.x, b[k].b.x, 1e-6);
+      EXPECT_NEAR(a[k].b.y, b[k].b.y, 1e-6);
+      ends += 2;
+    }
+  }
+  EXPECT_GT(ends, 1000u);
+  const PbfResult thin = plan_pbf(thick_or_thin(0.07, false), o);
+  const PbfResult thin_marched = plan_pbf(thick_or_thin(0.07, true), o);
+  EXPECT_TRUE(thin.thin_walls_possible);
+  EXPECT_GT(thin_marched.contour_vectors, 0u);
+  EXPECT_EQ(thin.contour_vectors, thin_marched.contour_vectors);
+}

@@ -68,6 +68,9 @@ class Field {
   bool has_expressions() const;
   // Whether some fprocess node sets process parameters.
   bool has_process() const;
+  // A bound on |∇f| over all space (per mm); infinite where the field has none (expressions,
+  // blends, CSG of such).
+  double lipschitz() const;
 
  private:
   std::shared_ptr<const FieldNode> node_;

@@ -105,6 +105,9 @@ struct PbfResult {
   double seconds = 0;
   double scan_time = 0, scan_time_r67 = 0;  // s, sums over layers
   double memory_estimate = 0;               // bytes, estimated before the run
+  // False when the sheet is nowhere as narrow as a thin wall (thin_multiple · D), by φ's
+  // Lipschitz bound and a constant c, or a uniform thickness: no thin walls, their march skipped.
+  bool thin_walls_possible = true;
   Diagnostics diagnostics;                  // warnings (settings outside the paper's ranges…)
 };
 
