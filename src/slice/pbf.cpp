@@ -862,11 +862,6 @@ struct ThinPiece {
   bool boundary_start = false, boundary_end = false;
 };
 
-double dist2(Vec2 a, Vec2 b) {
-  const double dx = b.x - a.x, dy = b.y - a.y;
-  return dx * dx + dy * dy;
-}
-
 // Splits mid-curve lines (open ones first, loops from first_loop on, each loop's last point its
 // first) where the inverted joint measure changes sign; each switch is bisected along its chord
 // and classed by the part's value just past it. The measure is sampled in batches: all lines'
@@ -882,41 +877,40 @@ std::vector<ThinPiece> thin_pieces(Ctx& ctx, JointSection& thin,
     if (lines[li].size() >= 2) std::copy(lines[li].begin(), lines[li].end(), all.begin() + at[li]);
   std::vector<double> tv(all.size());
   if (!all.empty()) thin.sample(all.data(), tv.data(), all.size());
-  // The switches in order along the lines, bisected together while their chord is longer than
-  // `refine` (at most 30 halvings).
+  // The switches in order along the lines, bisected together (bisect_together, in mm along
+  // each one's chord from its first point) while the bracket is longer than `refine` (at most 30
+  // halvings); lo stays on the side of the measure before the switch.
   struct Switch {
-    Vec2 a, b;
+    Vec2 a, u;     // the chord's first point and direction
     bool leaving;  // the measure was negative before it
+    Vec2 at(double t) const { return a + u * t; }
   };
   std::vector<Switch> sw;
+  std::vector<Bracket> br;
   for (std::size_t li = 0; li < lines.size(); ++li)
     for (std::size_t k = at[li] + 1; k < at[li + 1]; ++k)
-      if ((tv[k] < 0) != (tv[k - 1] < 0)) sw.push_back({all[k - 1], all[k], tv[k - 1] < 0});
-  {
-    std::vector<std::size_t> active;
-    for (std::size_t s = 0; s < sw.size(); ++s) active.push_back(s);
-    std::vector<Vec2> mid;
-    std::vector<double> val;
-    for (int it = 0; it < 30 && !active.empty(); ++it) {
-      std::size_t keep = 0;
-      for (const std::size_t s : active)
-        if (dist2(sw[s].a, sw[s].b) > refine * refine) active[keep++] = s;
-      active.resize(keep);
-      if (active.empty()) break;
-      mid.resize(active.size());
-      val.resize(active.size());
-      for (std::size_t m = 0; m < active.size(); ++m)
-        mid[m] = (sw[active[m]].a + sw[active[m]].b) * 0.5;
-      thin.sample(mid.data(), val.data(), mid.size());
-      for (std::size_t m = 0; m < active.size(); ++m) {
-        Switch& x = sw[active[m]];
-        ((val[m] < 0) == x.leaving ? x.a : x.b) = mid[m];
+      if ((tv[k] < 0) != (tv[k - 1] < 0)) {
+        const double len = std::sqrt(dist2(all[k - 1], all[k]));
+        const Vec2 u = len > 0 ? (all[k] - all[k - 1]) * (1 / len) : Vec2{};
+        sw.push_back({all[k - 1], u, tv[k - 1] < 0});
+        br.push_back({0, len});
       }
-    }
-  }
+  std::vector<Vec2> mids;
+  bisect_together(
+      br, refine, 30,
+      [&](const std::vector<std::size_t>& act, const std::vector<double>& mid,
+          std::vector<double>& out) {
+        mids.resize(act.size());
+        for (std::size_t k = 0; k < act.size(); ++k) mids[k] = sw[act[k]].at(mid[k]);
+        thin.sample(mids.data(), out.data(), mids.size());
+        // As "on lo's side": the measure's sign before the switch (a leaving switch: negative).
+        for (std::size_t k = 0; k < act.size(); ++k)
+          out[k] = (out[k] < 0) == sw[act[k]].leaving ? -1.0 : 1.0;
+      },
+      [](double v) { return v < 0; });
   std::vector<Vec3> past(sw.size());
   for (std::size_t s = 0; s < sw.size(); ++s) {
-    const Vec2 q = sw[s].leaving ? sw[s].b : sw[s].a;
+    const Vec2 q = sw[s].at(sw[s].leaving ? br[s].hi : br[s].lo);
     past[s] = {q.x, q.y, z};
   }
   std::vector<double> past_part(sw.size());
@@ -942,7 +936,7 @@ std::vector<ThinPiece> thin_pieces(Ctx& ctx, JointSection& thin,
       if ((v < 0) != (prev < 0)) {
         switched = true;
         const std::size_t s = next_switch++;
-        const Vec2 x = (sw[s].a + sw[s].b) * 0.5;
+        const Vec2 x = sw[s].at(0.5 * (br[s].lo + br[s].hi));
         const bool boundary = past_part[s] >= 0;
         if (prev < 0) {
           cur.points.push_back(x);

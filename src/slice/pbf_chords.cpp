@@ -7,10 +7,7 @@ namespace trellis::pbf_detail {
 
 namespace {
 
-double dist(Vec2 a, Vec2 b) {  // (std::hypot guards against overflow, at 4× the cost)
-  const double dx = b.x - a.x, dy = b.y - a.y;
-  return std::sqrt(dx * dx + dy * dy);
-}
+double dist(Vec2 a, Vec2 b) { return std::sqrt(dist2(a, b)); }
 
 // A polyline with its cumulative arc length.
 class Walk {

@@ -141,10 +141,6 @@ Path make_path(const std::vector<Vec2>& pts, double z, PathRole role, const Plan
   return p;
 }
 
-double dist2(Vec2 a, Vec2 b) {
-  return (a.x - b.x) * (a.x - b.x) + (a.y - b.y) * (a.y - b.y);
-}
-
 // A closed ring rotated to start at the vertex nearest `from`.
 std::vector<Vec2> rotate_to_nearest(const std::vector<Vec2>& ring, Vec2 from) {
   std::size_t best = 0;

@@ -14,6 +14,13 @@ struct Vec2 {
   bool operator==(const Vec2&) const = default;
 };
 
+// Squared distance in the plane; lengths by its square root (std::hypot guards against overflow
+// at several times the cost, which shows on the per-layer hot paths).
+inline double dist2(Vec2 a, Vec2 b) {
+  const double dx = b.x - a.x, dy = b.y - a.y;
+  return dx * dx + dy * dy;
+}
+
 struct Vec3 {
   double x = 0, y = 0, z = 0;
   Vec3 operator+(Vec3 o) const { return {x + o.x, y + o.y, z + o.z}; }
