@@ -554,6 +554,11 @@ struct TpmsNode : FieldNode {
     return {std::max(f - spread, -phi_max()), std::min(f + spread, phi_max())};
   }
   double lipschitz() const override { return phi_lipschitz(); }
+  // Every term is a product of sines and cosines of k·x, k·y, k·z (or of their doubles).
+  Vec3 period() const override {
+    constexpr double tau = 2 * std::numbers::pi;
+    return {tau / k.x, tau / k.y, tau / k.z};
+  }
   BBox3 extent() const override { return infinite_box(); }
 };
 
@@ -894,6 +899,11 @@ struct TransformNode : FieldNode {
     return {c.lo * value_scale, c.hi * value_scale};
   }
   double lipschitz() const override { return children[0]->lipschitz() * lipschitz_factor; }
+  // A translation keeps the child's period (other transforms: none is claimed).
+  Vec3 period() const override {
+    if (to_local.m != Mat3{}.m || value_scale != 1) return {0, 0, 0};
+    return children[0]->period();
+  }
   bool exact_outside() const override {
     return lipschitz_factor == 1 && children[0]->exact_outside();
   }
@@ -1072,6 +1082,8 @@ bool Field::has_process() const {
 double Field::lipschitz() const {
   return node_ ? node_->lipschitz() : std::numeric_limits<double>::infinity();
 }
+
+Vec3 Field::period() const { return node_ ? node_->period() : Vec3{0, 0, 0}; }
 
 const char* to_string(TpmsKind kind) {
   switch (kind) {

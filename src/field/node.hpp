@@ -93,6 +93,8 @@ class FieldNode {
   // Conservative value interval over a box. Default: centre value ± Lipschitz · half diagonal.
   virtual Interval bound(const BBox3& box, EvalState& s, std::size_t depth) const;
   virtual double lipschitz() const { return 1.0; }
+  // A period of the field along each axis (f(p + P·e) = f(p)), 0 along axes it does not repeat.
+  virtual Vec3 period() const { return {0, 0, 0}; }
   // Whether the value outside the solid is at least the true distance to it (exact distances:
   // primitives, rigid transforms of them, sharp unions of them). Used for cheap bounds.
   virtual bool exact_outside() const { return false; }
@@ -146,6 +148,7 @@ struct PropertyNode : FieldNode {
     return children[0]->bound(b, s, depth + 1);
   }
   double lipschitz() const override { return children[0]->lipschitz(); }
+  Vec3 period() const override { return children[0]->period(); }
   BBox3 extent() const override { return children[0]->extent(); }
 };
 

@@ -4,6 +4,7 @@
 #include "trellis/geom/contour.hpp"
 
 #include <cmath>
+
 #include <cstdint>
 #include <functional>
 #include <optional>
@@ -434,6 +435,30 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
   std::vector<std::pair<std::size_t, std::size_t>>& segments = buffers->segments;
   const std::uint64_t row = nx + 1;
 
+  // Periodic tiles (PlaneFunction::period): top blocks that divide the period, one block per
+  // place in the period marched (its "tile"), the others where the function is periodic
+  // translated from it after refinement.
+  const Vec2 period = options.periodic_tiles ? f.period() : Vec2{0, 0};
+  auto period_cells = [&](double p) -> std::size_t {
+    if (!(p > 0) || !std::isfinite(p)) return 0;
+    const double r = p / h, c = std::round(r);
+    return c >= 1 && std::abs(r - c) <= 1e-6 * c ? static_cast<std::size_t>(c) : 0;
+  };
+  // A block side dividing the period: the divisor in 4..16 closest to 8 (small blocks keep the
+  // ring of blocks across the envelope's boundary, which are marched, thin), else the period.
+  auto tile_side = [](std::size_t p) -> std::size_t {
+    std::size_t best = 0;
+    for (std::size_t d = 4; d <= 16; ++d)
+      if (p % d == 0 && (best == 0 || (d > 8 ? d - 8 : 8 - d) < (best > 8 ? best - 8 : 8 - best)))
+        best = d;
+    return best ? best : (p <= 32 ? p : 0);
+  };
+  const std::size_t px = period_cells(period.x), py = period_cells(period.y);
+  const std::size_t tx = px ? tile_side(px) : 0, ty = py ? tile_side(py) : 0;
+  const bool tiling = tx > 0 && ty > 0;
+  const std::size_t Bx = tiling ? tx : B, By = tiling ? ty : B;
+  const bool keep_keys = tiling || options.edge_crossings;
+
   std::vector<Vec2>& pts = buffers->pts;
   std::vector<double>& val = buffers->val;
   std::vector<unsigned char>& sgn = buffers->sgn;  // node inside (below the level)
@@ -454,7 +479,7 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
           (((bj + j) * row + (bi + i)) << 1) | static_cast<std::uint64_t>(vertical);
       std::size_t& slot = table.find_or_insert(key, m.pending.size());
       if (slot == m.pending.size()) {
-        if (options.edge_crossings) buffers->edges.push_back(key);
+        if (keep_keys) buffers->edges.push_back(key);
         const std::size_t a = j * w + i, b = vertical ? a + w : a + 1;
         double guess = -1;
         if (options.cubic_guess) {
@@ -555,15 +580,86 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
     }
     for (int q = 0; q < np; ++q) visit(parts[q], ranges[q]);
   };
-  for (std::size_t bj = 0; bj < ny; bj += B)
-    for (std::size_t bi = 0; bi < nx; bi += B) {
+  // A tile: the block marched for its place in the period, and its segments.
+  struct Tile {
+    bool marched = false;
+    std::size_t bi = 0, bj = 0, s0 = 0, s1 = 0;
+  };
+  std::vector<Tile> tiles(tiling ? (px / Bx) * (py / By) : 0);
+  struct Replay {
+    std::size_t bi, bj, tile;
+  };
+  std::vector<Replay> replays;
+  for (std::size_t bj = 0; bj < ny; bj += By)
+    for (std::size_t bi = 0; bi < nx; bi += Bx) {
       ++result.blocks;
-      const Block top{bi, bj, std::min(B, nx - bi), std::min(B, ny - bj)};
+      const Block top{bi, bj, std::min(Bx, nx - bi), std::min(By, ny - bj)};
+      if (tiling && top.ci == Bx && top.cj == By &&
+          f.periodic(m.node(bi, bj), m.node(bi + Bx, bj + By))) {
+        const std::size_t t = ((bj % py) / By) * (px / Bx) + (bi % px) / Bx;
+        if (tiles[t].marched) {
+          replays.push_back({bi, bj, t});
+          ++result.tiled_blocks;
+          continue;
+        }
+        tiles[t] = {true, bi, bj, segments.size(), 0};
+        visit(top, bound(top));
+        tiles[t].s1 = segments.size();
+        continue;
+      }
       visit(top, bound(top));
     }
-  std::vector<double>* ts = options.edge_crossings ? &buffers->ts : nullptr;
+  std::vector<double>* ts = keep_keys ? &buffers->ts : nullptr;
   m.refine(crossings, buffers->active, buffers->guesses, buffers->guess_values, buffers->ok, ts);
-  if (ts) {
+  if (!replays.empty()) {
+    // Each tile's crossings in its block's own terms (node relative to the block's first, edge
+    // direction, parameter along the edge) and its segments between them; every other block
+    // of its place takes them translated: a crossing on an edge that already has one (marched
+    // by a neighbour, or translated for one) is that one, so the lines join as in one march.
+    struct Local {
+      std::size_t i, j;
+      bool vertical;
+      double t;
+    };
+    std::vector<std::vector<Local>> local(tiles.size());
+    std::vector<std::vector<std::pair<std::uint32_t, std::uint32_t>>> links(tiles.size());
+    std::vector<std::uint32_t> index(crossings.size(), UINT32_MAX);
+    for (std::size_t t = 0; t < tiles.size(); ++t) {
+      const Tile& tile = tiles[t];
+      if (!tile.marched) continue;
+      auto local_id = [&](std::size_t id) {
+        if (index[id] == UINT32_MAX) {
+          const std::uint64_t e = buffers->edges[id], node = e >> 1;
+          index[id] = static_cast<std::uint32_t>(local[t].size());
+          local[t].push_back({node % row - tile.bi, node / row - tile.bj, (e & 1) != 0, (*ts)[id]});
+        }
+        return index[id];
+      };
+      for (std::size_t s = tile.s0; s < tile.s1; ++s)
+        links[t].emplace_back(local_id(segments[s].first), local_id(segments[s].second));
+      for (std::size_t s = tile.s0; s < tile.s1; ++s)
+        index[segments[s].first] = index[segments[s].second] = UINT32_MAX;
+    }
+    std::vector<std::size_t> ids;
+    for (const Replay& r : replays) {
+      ids.resize(local[r.tile].size());
+      for (std::size_t k = 0; k < ids.size(); ++k) {
+        const Local& c = local[r.tile][k];
+        const std::size_t i = r.bi + c.i, j = r.bj + c.j;
+        const std::uint64_t key = ((j * row + i) << 1) | static_cast<std::uint64_t>(c.vertical);
+        const std::size_t id = table.find_or_insert(key, crossings.size());
+        if (id == crossings.size()) {
+          const Vec2 a = m.node(i, j), b = c.vertical ? m.node(i, j + 1) : m.node(i + 1, j);
+          crossings.push_back(a + (b - a) * c.t);
+          buffers->edges.push_back(key);
+          ts->push_back(c.t);
+        }
+        ids[k] = id;
+      }
+      for (const auto& [a, b] : links[r.tile]) segments.emplace_back(ids[a], ids[b]);
+    }
+  }
+  if (options.edge_crossings) {
     options.edge_crossings->resize(ts->size());
     for (std::size_t k = 0; k < ts->size(); ++k) {
       const std::uint64_t e = buffers->edges[k], node = e >> 1;

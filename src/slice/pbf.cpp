@@ -293,14 +293,37 @@ class BoundCache {
 // Per-thread evaluators of the part, the mid-surface, the solids and c.
 struct Ctx {
   Evaluator part, phi, sheet;  // sheet: Φ alone (no envelope), for thickness measurements
-  std::optional<Evaluator> solids, c;
+  std::optional<Evaluator> solids, c, envelope;
   LayerGrid grid;
   BoundCache bounds;  // the part's, over this layer's blocks
   std::vector<EdgeCrossing> edge_crossings;  // the section march's, by grid edge
-  Ctx(const Field& p, const PbfDesign& d, const Field& c_field)
-      : part(p), phi(d.phi), sheet(trellis::sheet(d.phi, d.c, d.thickness)) {
+  // The sheet's period along x and y when it repeats across the plane (0: it does not), and
+  // the boxes the part is clipped to.
+  Vec2 period;
+  const std::vector<BBox3>& clip;
+  Ctx(const Field& p, const PbfDesign& d, const Field& c_field, Vec2 sheet_period)
+      : part(p), phi(d.phi), sheet(trellis::sheet(d.phi, d.c, d.thickness)), period(sheet_period),
+        clip(d.clip) {
     if (!d.solids.empty()) solids.emplace(d.solids);
     if (!c_field.empty()) c.emplace(c_field);
+    if (!d.envelope.empty() && period.x > 0) envelope.emplace(d.envelope);
+  }
+  // Whether the part is the repeating sheet alone over the rectangle [lo, hi] at height z:
+  // strictly inside the root boxes and the envelope (its bound below 0), outside the solids
+  // (above 0). The part's sign, level set and bounds there are the sheet's (the envelope and
+  // the solids change the part's value only where their own sign decides it).
+  bool periodic(Vec2 lo, Vec2 hi, double z) {
+    if (!(period.x > 0 && period.y > 0)) return false;
+    for (const BBox3& b : clip)
+      if (!(lo.x > b.min.x && hi.x < b.max.x && lo.y > b.min.y && hi.y < b.max.y && z > b.min.z &&
+            z < b.max.z))
+        return false;
+    BBox3 box;
+    box.add({lo.x, lo.y, z});
+    box.add({hi.x, hi.y, z});
+    if (envelope && !(envelope->bound(box).hi < 0)) return false;
+    if (solids && !(solids->bound(box).lo > 0)) return false;
+    return true;
   }
 };
 
@@ -530,6 +553,10 @@ class JointSection : public PlaneFunction {
   void prefetch_bounds(const Vec2* lo, const Vec2* hi, std::size_t n) override {
     ctx_.bounds.prefetch(lo, hi, n);
   }
+  // The measure is the part's value or terms of φ's gradient and c: it repeats where the part
+  // is the sheet alone.
+  Vec2 period() const override { return ctx_.period; }
+  bool periodic(Vec2 lo, Vec2 hi) override { return ctx_.periodic(lo, hi, z_); }
 
  private:
   Ctx& ctx_;
@@ -607,6 +634,8 @@ class PartSection : public PlaneFunction {
     if (n > 0 && hi[0].x - lo[0].x < shared_ && hi[0].y - lo[0].y < shared_) return;
     ctx_.bounds.prefetch(lo, hi, n);
   }
+  Vec2 period() const override { return ctx_.period; }
+  bool periodic(Vec2 lo, Vec2 hi) override { return ctx_.periodic(lo, hi, z_); }
 
  private:
   Ctx& ctx_;
@@ -638,6 +667,10 @@ class MidSection : public PlaneFunction {
   void prefetch_bounds(const Vec2* lo, const Vec2* hi, std::size_t n) override {
     ctx_.bounds.prefetch(lo, hi, n);
   }
+  // φ repeats everywhere; the blocks skipped (outside the part) repeat where the part is the
+  // sheet alone.
+  Vec2 period() const override { return ctx_.period; }
+  bool periodic(Vec2 lo, Vec2 hi) override { return ctx_.periodic(lo, hi, z_); }
 
  private:
   Ctx& ctx_;
@@ -1218,7 +1251,14 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
   const std::size_t first = std::min(range.first, zs.size());
   const std::size_t last = std::max(first, std::min(range.last, zs.size()));
   result.layers.resize(last - first);
-  tbb::enumerable_thread_specific<Ctx> contexts([&] { return Ctx(part, design, c_field); });
+  // A sheet of constant c (or thickness) around a φ that repeats along x and y repeats too.
+  Vec2 sheet_period{0, 0};
+  if (o.periodic_tiles && (design.thickness > 0 || c_field.empty())) {
+    const Vec3 p = design.phi.period();
+    if (p.x > 0 && p.y > 0) sheet_period = {p.x, p.y};
+  }
+  tbb::enumerable_thread_specific<Ctx> contexts(
+      [&] { return Ctx(part, design, c_field, sheet_period); });
   std::atomic<std::size_t> done{0};
   std::mutex progress_mutex;
   const std::size_t count = last - first;

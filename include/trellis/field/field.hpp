@@ -71,6 +71,9 @@ class Field {
   // A bound on |∇f| over all space (per mm); infinite where the field has none (expressions,
   // blends, CSG of such).
   double lipschitz() const;
+  // A period along each axis, f(p + P·e) = f(p) (a TPMS: its cell; translations of it keep it),
+  // 0 along axes where none is known.
+  Vec3 period() const;
 
  private:
   std::shared_ptr<const FieldNode> node_;

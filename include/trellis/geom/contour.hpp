@@ -49,6 +49,16 @@ class PlaneFunction {
     (void)points;
     for (std::size_t k = 0; k < n; ++k) ok[k] = 0;
   }
+  // A function that repeats across the plane: its period along x and y (mm; 0: none), and
+  // whether it equals that repeating function on the rectangle [lo, hi] — the same sign at every
+  // point, the same level set, the same answers from bound() and known_crossing() up to the
+  // translation (e.g. a TPMS sheet where the part's envelope is negative throughout). The march
+  // then contours one period's blocks and translates their crossings to the others.
+  virtual Vec2 period() const { return {0, 0}; }
+  virtual bool periodic(Vec2 lo, Vec2 hi) {
+    (void)lo, (void)hi;
+    return false;
+  }
 };
 
 struct StitchedLines {
@@ -73,6 +83,11 @@ struct MarchOptions {
   // edge's line (two nodes either side, where the block has them) instead of the straight
   // line's: fewer refinement samples for smooth functions, the same tolerance.
   bool cubic_guess = false;
+  // Where the function declares a period that is a whole number of grid cells (see
+  // PlaneFunction::period), blocks where it is periodic are contoured once per period and
+  // translated; false: every block is contoured on its own (the crossings move within the
+  // refinement tolerance, nothing else).
+  bool periodic_tiles = true;
   // If set, filled with every crossing by its grid edge (after refinement).
   std::vector<struct EdgeCrossing>* edge_crossings = nullptr;
 };
@@ -98,6 +113,7 @@ struct ContourSet {
   std::size_t samples = 0;          // function evaluations (grid + refinement)
   std::size_t skipped_blocks = 0;   // blocks skipped by bounds
   std::size_t blocks = 0;
+  std::size_t tiled_blocks = 0;     // top blocks translated from another period's (no samples)
 };
 
 // Contours f = level over the rectangle [lo, hi]. The grid covers the rectangle with whole cells

@@ -63,6 +63,11 @@ struct PbfOptions {
   // Direct route: the thin-wall outline takes the section march's refined crossings where the
   // part decides it (false: refines its own; for the tests that compare the two).
   bool reuse_section_crossings = true;
+  // A sheet that repeats across the plane (a TPMS φ with a constant c or thickness): the
+  // contours of blocks where the part is that sheet alone (inside the envelope and the root
+  // boxes, outside the solids) are marched once per period and translated to the others
+  // (MarchOptions::periodic_tiles); false: every block is marched (for the tests that compare).
+  bool periodic_tiles = true;
   // Scan-time model (speeds, delays) for the per-layer times of this path and the R67 baseline.
   ScanTiming timing;
   // Bytes the run may use (grids, caches, layers; the STL route's mesh); 0 = the memory
