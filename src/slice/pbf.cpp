@@ -1283,7 +1283,10 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
       if (Hs < H) fs.share_bounds_from(4 * H - 1e-9);
       MarchOptions mo = mo_section;
       mo.edge_crossings = section_crossings ? &ctx.edge_crossings : nullptr;
-      S = nest_oriented_rings(march_squares(fs, lo, hi, 0.0, mo).lines.loops);
+      ContourSet section = march_squares(fs, lo, hi, 0.0, mo);
+      L.blocks += section.blocks;
+      L.tiled_blocks += section.tiled_blocks;
+      S = nest_oriented_rings(std::move(section.lines.loops));
       // The section's crossings are kept with the grid for the thin-wall march.
       if (section_crossings) grid.set_crossings(ctx.edge_crossings);
     }
@@ -1310,13 +1313,22 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
         // Joints = the section minus the thin walls, so the joints' outline along the sheet is
         // the section's (refined) one, not the coarse grid's; slivers between the two outlines
         // are narrower than a cell and within the compensation of both.
-        if (result.thin_walls_possible)
-          T = nest_oriented_rings(march_squares(thin, lo, hi, 0.0, mo_joint).lines.loops);
+        if (result.thin_walls_possible) {
+          ContourSet t = march_squares(thin, lo, hi, 0.0, mo_joint);
+          L.blocks += t.blocks;
+          L.tiled_blocks += t.tiled_blocks;
+          T = nest_oriented_rings(std::move(t.lines.loops));
+        }
       } else {
-        hatch_region = nest_oriented_rings(march_squares(joint, lo, hi, 0.0, mo_joint).lines.loops);
+        ContourSet j = march_squares(joint, lo, hi, 0.0, mo_joint);
+        L.blocks += j.blocks;
+        L.tiled_blocks += j.tiled_blocks;
+        hatch_region = nest_oriented_rings(std::move(j.lines.loops));
       }
       MidSection mid(ctx, z);
       const ContourSet m = march_squares(mid, lo, hi, 0.0, mo_mid);
+      L.blocks += m.blocks;
+      L.tiled_blocks += m.tiled_blocks;
       std::vector<std::vector<Vec2>> lines = m.lines.open;
       const std::size_t first_loop = lines.size();
       for (auto l : m.lines.loops) {
@@ -1458,6 +1470,8 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
                 result.hatch_length += L.hatch_length;
                 result.scan_time += L.scan_time;
                 result.scan_time_r67 += L.scan_time_r67;
+                result.blocks += L.blocks;
+                result.tiled_blocks += L.tiled_blocks;
                 if (sink) {
                   sink(i, L);
                   std::vector<std::vector<Vec2>>().swap(L.contours);

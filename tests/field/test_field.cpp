@@ -412,3 +412,43 @@ TEST(Field, GridValuesEqualPointValues) {
     EXPECT_LE(compare_grid(phi, 3e6, -2e6, 0.1, 5, 5, 1e6).worst_value, 1e-12) << to_string(kind);
   }
 }
+
+// A TPMS repeats after its cell along each axis (Field::period), translations keep it, other
+// transforms and other primitives claim none; half a cell is not a period (the test would fail
+// with one).
+TEST(Field, TpmsPeriodIsItsCell) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-20, 20);
+  for (auto kind : {TpmsKind::Gyroid, TpmsKind::SchwarzP, TpmsKind::SchwarzD, TpmsKind::Neovius,
+                    TpmsKind::Iwp}) {
+    const Vec3 cell{2.5, 3.2, 1.7};
+    for (const Field& f : {tpms(kind, cell), translate(tpms(kind, cell), {0.31, -1.7, 4.2})}) {
+      const Vec3 P = f.period();
+      EXPECT_NEAR(P.x, cell.x, 1e-12) << to_string(kind);
+      EXPECT_NEAR(P.y, cell.y, 1e-12) << to_string(kind);
+      EXPECT_NEAR(P.z, cell.z, 1e-12) << to_string(kind);
+      Evaluator ev(f);
+      double worst = 0, half = 0;
+      for (int i = 0; i < 300; ++i) {
+        const Vec3 p{u(rng), u(rng), u(rng)};
+        const double v = ev.value(p);
+        for (const Vec3 step : {Vec3{P.x, 0, 0}, Vec3{0, P.y, 0}, Vec3{0, 0, P.z},
+                                Vec3{-3 * P.x, 2 * P.y, 0}}) {
+          worst = std::max(worst, std::abs(ev.value(p + step) - v));
+          half = std::max(half, std::abs(ev.value(p + step * 0.5) - v));
+        }
+      }
+      EXPECT_LT(worst, 1e-9) << to_string(kind);
+      if (kind == TpmsKind::Gyroid || kind == TpmsKind::SchwarzD)
+        EXPECT_GT(half, 0.1) << to_string(kind);
+    }
+  }
+  const Field g = tpms(TpmsKind::Gyroid, {2.5, 2.5, 2.5});
+  for (const Field& f : {rotate(g, {0, 0, 30}), scale(g, {2, 2, 2}), sphere(3),
+                         sheet(g, {"0.2"}), intersect({g, cube(5)})}) {
+    const Vec3 P = f.period();
+    EXPECT_EQ(P.x, 0);
+    EXPECT_EQ(P.y, 0);
+    EXPECT_EQ(P.z, 0);
+  }
+}

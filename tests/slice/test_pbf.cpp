@@ -206,6 +206,89 @@ TEST(Pbf, ThinWallOutlineFromTheSectionCrossingsKeepsTheHatchEnds) {
   EXPECT_LE(moved, ends / 1000) << "of " << ends << " hatch ends";
 }
 
+// Periodic tiles (PbfOptions::periodic_tiles): on sheets that repeat across the plane (a TPMS
+// with a constant c or thickness) in a translated box, a sphere, a root box and around a solid
+// boss, the direct and STL routes plan the same layers with the tiles as without: the same
+// section areas (to 1e-4: the blocks differ, and so the crossings' first guesses; the
+// crossings' tolerance, 0.25 µm along a 40 mm outline, would allow 4e-3), every hatch end within 1 µm of one of the other plan, contour lengths within
+// a vector or two a layer (closed mid-curves may start elsewhere, which shifts their chords).
+// A c that varies is not periodic: nothing translated.
+TEST(Pbf, PeriodicTilesPlanTheSameLayers) {
+  struct Case {
+    const char* name;
+    PbfDesign d;
+    bool stl = false;
+  };
+  std::vector<Case> cases;
+  {
+    PbfDesign d = gyroid_cube(6);
+    d.envelope = translate(rectprism({6, 5, 2}), {0.37, -0.61, 0});
+    cases.push_back({"gyroid, translated box", d});
+    cases.push_back({"gyroid, translated box, STL route", d, true});
+  }
+  {
+    PbfDesign d;
+    d.phi = translate(tpms(TpmsKind::SchwarzP, {2, 2, 2}), {0.3, 0.1, 0});
+    d.c = {"0.25"};
+    d.envelope = sphere(3.1);
+    cases.push_back({"P, sphere", d});
+  }
+  {
+    PbfDesign d;
+    d.phi = tpms(TpmsKind::SchwarzD, {2.5, 2.5, 2.5});
+    d.thickness = 0.12;
+    d.clip = {BBox3{{-3.1, -2.9, 0}, {3.3, 2.6, 1.5}}};
+    cases.push_back({"D, uniform thickness, root box", d});
+  }
+  {
+    PbfDesign d = gyroid_cube(6);
+    d.envelope = rectprism({6, 6, 2});
+    d.solids = cylinder(1.1, 3);
+    cases.push_back({"gyroid, box, solid boss", d});
+  }
+  for (const Case& c : cases) {
+    PbfOptions o;
+    o.layer = 0.1;
+    o.stl_route = c.stl;
+    const PbfResult tiled = plan_pbf(c.d, o);
+    o.periodic_tiles = false;
+    const PbfResult plain = plan_pbf(c.d, o);
+    EXPECT_EQ(plain.tiled_blocks, 0u) << c.name;
+    EXPECT_GT(tiled.tiled_blocks, tiled.blocks / 5) << c.name;
+    ASSERT_EQ(tiled.layers.size(), plain.layers.size()) << c.name;
+    std::size_t ends = 0, moved = 0;
+    for (std::size_t i = 0; i < plain.layers.size(); ++i) {
+      const PbfLayer &a = plain.layers[i], &b = tiled.layers[i];
+      EXPECT_NEAR(a.area, b.area, 1e-4 * a.area) << c.name << " layer " << i;
+      EXPECT_NEAR(a.contour_length, b.contour_length, 2 * (o.segment_length + o.segment_gap) + 1e-9)
+          << c.name << " layer " << i;
+      EXPECT_LE(std::max(a.hatches.size(), b.hatches.size()) -
+                    std::min(a.hatches.size(), b.hatches.size()),
+                1u)
+          << c.name << " layer " << i;
+      for (const auto& [p, q] : {std::pair{&a.hatches, &b.hatches}, std::pair{&b.hatches, &a.hatches}})
+        for (const Segment2& s : *p)
+          for (const Vec2 e : {s.a, s.b}) {
+            double best = 1e9;
+            for (const Segment2& t : *q)
+              best = std::min({best, std::hypot(t.a.x - e.x, t.a.y - e.y),
+                               std::hypot(t.b.x - e.x, t.b.y - e.y)});
+            ++ends;
+            moved += best > 1e-3;
+          }
+    }
+    EXPECT_GT(ends, 2000u) << c.name;
+    EXPECT_LE(moved, ends / 1000) << c.name << ": of " << ends << " hatch ends";
+  }
+  PbfDesign graded = gyroid_cube(5);
+  graded.c = {"0.15 + 0.01 * x"};
+  PbfOptions o;
+  o.layer = 0.5;
+  const PbfResult r = plan_pbf(graded, o);
+  EXPECT_GT(r.blocks, 0u);
+  EXPECT_EQ(r.tiled_blocks, 0u);
+}
+
 TEST(Pbf, DirectAndStlRoutesGiveTheSameSections) {
   const PbfDesign d = gyroid_cube(2.5);
   PbfOptions o;

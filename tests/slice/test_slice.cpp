@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <map>
 #include <numbers>
 #include <random>
 
@@ -380,6 +381,84 @@ TEST(Contours, CubicGuessFindsCrossingsWithFewerSamples) {
   EXPECT_GT(static_cast<double>(a.samples - b.samples), 0.9 * static_cast<double>(crossings))
       << "samples: straight line " << a.samples << ", cubic " << b.samples << ", crossings "
       << crossings;
+}
+
+// A function that repeats across the plane, cut by a disc: where it declares the repeating
+// function alone (blocks inside the disc), the march contours one block per place in the period
+// and translates the rest (MarchOptions::periodic_tiles). The same loops, the same crossings
+// (each within the refinement tolerance of its edge's crossing), far fewer samples; nothing is
+// translated when the period is not a whole number of cells.
+TEST(Contours, PeriodicTilesGiveTheSameContours) {
+  struct Lattice : PlaneFunction {
+    double P = 2.5;
+    Vec2 o{6.13, 5.87};
+    double R = 5.3;
+    void sample(const Vec2* p, double* out, std::size_t n) override {
+      const double k = 2 * std::numbers::pi / P;
+      for (std::size_t i = 0; i < n; ++i) {
+        const double x = k * p[i].x, y = k * p[i].y;
+        const double phi = std::sin(x) * std::cos(y) + std::sin(y) * std::cos(0.4) +
+                           std::sin(0.4) * std::cos(x);
+        const double sheet = phi * phi - 0.09;
+        out[i] = std::max(sheet, std::hypot(p[i].x - o.x, p[i].y - o.y) - R);
+      }
+    }
+    Vec2 period() const override { return {P, P}; }
+    bool periodic(Vec2 lo, Vec2 hi) override {
+      for (const Vec2 c : {lo, hi, Vec2{lo.x, hi.y}, Vec2{hi.x, lo.y}})
+        if (!(std::hypot(c.x - o.x, c.y - o.y) < R)) return false;
+      return true;
+    }
+  } f;
+  MarchOptions tiled;
+  tiled.resolution = 0.025;
+  MarchOptions plain = tiled;
+  plain.periodic_tiles = false;
+  const ContourSet a = march_squares(f, {0, 0}, {12.5, 12}, 0, plain);
+  const ContourSet b = march_squares(f, {0, 0}, {12.5, 12}, 0, tiled);
+  EXPECT_EQ(a.tiled_blocks, 0u);
+  EXPECT_GT(b.tiled_blocks, b.blocks / 2);
+  // (Blocks outside the disc are marched whole: the function has no bound.)
+  EXPECT_LT(b.samples, a.samples / 2);
+  ASSERT_EQ(a.lines.loops.size(), b.lines.loops.size());
+  ASSERT_EQ(a.lines.open.size(), b.lines.open.size());
+  // Every point of one within twice the refinement tolerance of a point of the other (the loops
+  // may start elsewhere): points by their grid cell.
+  auto points = [](const ContourSet& c) {
+    std::vector<Vec2> v;
+    for (const auto& l : c.lines.loops) v.insert(v.end(), l.begin(), l.end());
+    for (const auto& l : c.lines.open) v.insert(v.end(), l.begin(), l.end());
+    return v;
+  };
+  const std::vector<Vec2> pa = points(a), pb = points(b);
+  ASSERT_EQ(pa.size(), pb.size());
+  ASSERT_GT(pa.size(), 5000u);
+  const double tol = 2 * tiled.refine_fraction * tiled.resolution + 1e-12;
+  auto worst_from = [&](const std::vector<Vec2>& from, const std::vector<Vec2>& to) {
+    std::map<std::pair<long, long>, std::vector<Vec2>> cells;
+    auto key = [](Vec2 p) {
+      return std::pair{static_cast<long>(std::floor(p.x / 0.01)), static_cast<long>(std::floor(p.y / 0.01))};
+    };
+    for (const Vec2 p : to) cells[key(p)].push_back(p);
+    double worst = 0;
+    for (const Vec2 p : from) {
+      double best = 1e9;
+      const auto [ci, cj] = key(p);
+      for (long di = -1; di <= 1; ++di)
+        for (long dj = -1; dj <= 1; ++dj) {
+          const auto it = cells.find({ci + di, cj + dj});
+          if (it == cells.end()) continue;
+          for (const Vec2 q : it->second) best = std::min(best, std::hypot(q.x - p.x, q.y - p.y));
+        }
+      worst = std::max(worst, best);
+    }
+    return worst;
+  };
+  EXPECT_LT(worst_from(pa, pb), tol);
+  EXPECT_LT(worst_from(pb, pa), tol);
+  // A period of 2.51 mm is not a whole number of 25 µm cells: every block is marched.
+  f.P = 2.51;
+  EXPECT_EQ(march_squares(f, {0, 0}, {12.5, 12}, 0, tiled).tiled_blocks, 0u);
 }
 
 // Crossings the function already knows (PlaneFunction::known_crossing) are taken without

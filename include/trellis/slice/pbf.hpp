@@ -90,6 +90,9 @@ struct PbfLayer {
   // sum, count.
   double t_min = 0, t_max = 0, t_sum = 0;
   std::size_t t_count = 0;
+  // Top blocks of this layer's marches, and those translated from another period's
+  // (PbfOptions::periodic_tiles) instead of contoured.
+  std::size_t blocks = 0, tiled_blocks = 0;
 };
 
 struct PbfStats {
@@ -113,6 +116,8 @@ struct PbfResult {
   // False when the sheet is nowhere as narrow as a thin wall (thin_multiple · D), by φ's
   // Lipschitz bound and a constant c, or a uniform thickness: no thin walls, their march skipped.
   bool thin_walls_possible = true;
+  // Sums of the layers' march blocks and of those translated from another period's.
+  std::size_t blocks = 0, tiled_blocks = 0;
   Diagnostics diagnostics;                  // warnings (settings outside the paper's ranges…)
 };
 
