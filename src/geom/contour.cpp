@@ -116,8 +116,10 @@ struct WalkBuffers {
   std::vector<char> used;
 };
 
+// mids (if given): a point for every edge, put between its ends.
 StitchedLines walk_edges(const std::vector<Vec2>& points,
-                         const std::vector<std::pair<std::size_t, std::size_t>>& edges) {
+                         const std::vector<std::pair<std::size_t, std::size_t>>& edges,
+                         const std::vector<Vec2>* mids = nullptr) {
   const std::size_t nv = points.size();
   Lease<WalkBuffers> buffers;
   // (Plain references, not a structured binding: lambdas below capture them, which clang
@@ -160,6 +162,7 @@ StitchedLines walk_edges(const std::vector<Vec2>& points,
       if (e == static_cast<std::size_t>(-1)) return v;
       used[e] = 1;
       v = edges[e].second;
+      if (mids) push(line, (*mids)[e]);
       if (v == from) return v;
       push(line, points[v]);
     }
@@ -278,6 +281,8 @@ struct MarchBuffers {
   std::vector<std::pair<std::size_t, std::size_t>> segments;
   std::vector<std::size_t> active;
   std::vector<std::uint64_t> edges;  // each pending crossing's edge key (for edge_crossings)
+  std::vector<Vec2> mids, mid_pts;   // segment midpoints (MarchOptions::segment_midpoints)
+  std::vector<double> mid_vals;
   std::vector<double> ts;
   std::vector<unsigned char> ok;
   void clear() {
@@ -611,6 +616,38 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
     }
   std::vector<double>* ts = keep_keys ? &buffers->ts : nullptr;
   m.refine(crossings, buffers->active, buffers->guesses, buffers->guess_values, buffers->ok, ts);
+  // Segment midpoints: the middle of each segment moved onto the level by a Newton step along
+  // the function's gradient (forward differences: three batches of values), at most a quarter
+  // of the segment.
+  std::vector<Vec2>& mids = buffers->mids;
+  mids.clear();
+  if (options.segment_midpoints) {
+    const std::size_t n = segments.size();
+    constexpr double dh = 1e-6;
+    std::vector<Vec2>& mp = buffers->mid_pts;
+    std::vector<double>& mv = buffers->mid_vals;
+    mp.resize(3 * n);
+    mv.resize(3 * n);
+    for (std::size_t k = 0; k < n; ++k) {
+      const Vec2 c = (crossings[segments[k].first] + crossings[segments[k].second]) * 0.5;
+      mp[k] = c;
+      mp[n + k] = {c.x + dh, c.y};
+      mp[2 * n + k] = {c.x, c.y + dh};
+    }
+    if (n > 0) f.sample(mp.data(), mv.data(), 3 * n);
+    m.samples += 3 * n;
+    mids.resize(n);
+    for (std::size_t k = 0; k < n; ++k) {
+      const Vec2 a = crossings[segments[k].first], b = crossings[segments[k].second];
+      const double fv = mv[k] - level;
+      const Vec2 g{(mv[n + k] - mv[k]) / dh, (mv[2 * n + k] - mv[k]) / dh};
+      const double gg = g.x * g.x + g.y * g.y;
+      Vec2 step = gg > 0 ? g * (-fv / gg) : Vec2{};
+      const double cap = 0.25 * std::sqrt(dist2(a, b)), len = std::sqrt(dist2(step, Vec2{}));
+      if (len > cap) step = step * (cap / len);
+      mids[k] = mp[k] + step;
+    }
+  }
   if (!replays.empty()) {
     // Each tile's crossings in its block's own terms (node relative to the block's first, edge
     // direction, parameter along the edge) and its segments between them; every other block
@@ -623,6 +660,7 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
     };
     std::vector<std::vector<Local>> local(tiles.size());
     std::vector<std::vector<std::pair<std::uint32_t, std::uint32_t>>> links(tiles.size());
+    std::vector<std::vector<Vec2>> link_mids(tiles.size());  // relative to the block's first node
     std::vector<std::uint32_t> index(crossings.size(), UINT32_MAX);
     for (std::size_t t = 0; t < tiles.size(); ++t) {
       const Tile& tile = tiles[t];
@@ -637,6 +675,9 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
       };
       for (std::size_t s = tile.s0; s < tile.s1; ++s)
         links[t].emplace_back(local_id(segments[s].first), local_id(segments[s].second));
+      if (!mids.empty())
+        for (std::size_t s = tile.s0; s < tile.s1; ++s)
+          link_mids[t].push_back(mids[s] - m.node(tile.bi, tile.bj));
       for (std::size_t s = tile.s0; s < tile.s1; ++s)
         index[segments[s].first] = index[segments[s].second] = UINT32_MAX;
     }
@@ -657,6 +698,10 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
         ids[k] = id;
       }
       for (const auto& [a, b] : links[r.tile]) segments.emplace_back(ids[a], ids[b]);
+      if (!mids.empty()) {
+        const Vec2 o = m.node(r.bi, r.bj);
+        for (const Vec2 d : link_mids[r.tile]) mids.push_back(o + d);
+      }
     }
   }
   if (options.edge_crossings) {
@@ -667,7 +712,7 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
     }
   }
   result.samples = m.samples;
-  result.lines = walk_edges(crossings, segments);
+  result.lines = walk_edges(crossings, segments, mids.empty() ? nullptr : &mids);
   return result;
 }
 

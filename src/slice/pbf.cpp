@@ -1005,56 +1005,6 @@ std::vector<ThinPiece> thin_pieces(Ctx& ctx, JointSection& thin,
   return pieces;
 }
 
-// The section's rings come from a grid: puts a point, moved onto the part's boundary by a
-// Newton step along the part's gradient (at most a quarter chord), in the middle of every chord.
-void densify_on_part(Ctx& ctx, double z, Regions& S) {
-  std::vector<std::vector<Vec2>*> rings;
-  for (auto& p : S) {
-    rings.push_back(&p.outer);
-    for (auto& h : p.holes) rings.push_back(&h);
-  }
-  std::vector<Vec3> mids;
-  for (const auto* r : rings)
-    for (std::size_t k = 0; k < r->size(); ++k) {
-      const Vec2 c = ((*r)[k] + (*r)[(k + 1) % r->size()]) * 0.5;
-      mids.push_back({c.x, c.y, z});
-    }
-  if (mids.empty()) return;
-  // The part's value and its in-plane gradient by forward differences: three batches of values
-  // (CSG gradients point by point cost twice as much).
-  const std::size_t n = mids.size();
-  constexpr double h = 1e-6;
-  std::vector<Vec3> pts(3 * n);
-  for (std::size_t i = 0; i < n; ++i) {
-    pts[i] = mids[i];
-    pts[n + i] = {mids[i].x + h, mids[i].y, z};
-    pts[2 * n + i] = {mids[i].x, mids[i].y + h, z};
-  }
-  std::vector<double> vals(3 * n), f(n);
-  std::vector<Vec3> g(n);
-  ctx.part.values(pts.data(), vals.data(), pts.size());
-  for (std::size_t i = 0; i < n; ++i) {
-    f[i] = vals[i];
-    g[i] = {(vals[n + i] - vals[i]) / h, (vals[2 * n + i] - vals[i]) / h, 0};
-  }
-  std::size_t m = 0;
-  for (auto* r : rings) {
-    std::vector<Vec2> dense;
-    dense.reserve(2 * r->size());
-    for (std::size_t k = 0; k < r->size(); ++k, ++m) {
-      const Vec2 a = (*r)[k], b = (*r)[(k + 1) % r->size()];
-      dense.push_back(a);
-      const double gg = g[m].x * g[m].x + g[m].y * g[m].y;
-      Vec2 step = gg > 0 ? Vec2{g[m].x, g[m].y} * (-f[m] / gg) : Vec2{};
-      // (Lengths by sqrt of the squares: std::hypot was 1.5% of the run.)
-      const double cap = 0.25 * std::sqrt(dist2(a, b)), len = std::sqrt(dist2(step, Vec2{}));
-      if (len > cap) step = step * (cap / len);
-      dense.push_back(Vec2{mids[m].x, mids[m].y} + step);
-    }
-    *r = std::move(dense);
-  }
-}
-
 // Wall thickness measured across the sheet at mid-curve points inside the part (every 32nd
 // point): from φ = 0 along ±∇φ to where Φ = 0 on each side, all rays bisected together.
 void measure_wall_thickness(Ctx& ctx, const PbfDesign& design, double c_const, double z,
@@ -1283,6 +1233,9 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
       if (Hs < H) fs.share_bounds_from(4 * H - 1e-9);
       MarchOptions mo = mo_section;
       mo.edge_crossings = section_crossings ? &ctx.edge_crossings : nullptr;
+      // With beam compensation every hatch vector keeps it from the section's outline: its
+      // chords are halved onto the field (a Newton step from each chord's middle).
+      mo.segment_midpoints = o.beam_compensation > 0;
       ContourSet section = march_squares(fs, lo, hi, 0.0, mo);
       L.blocks += section.blocks;
       L.tiled_blocks += section.tiled_blocks;
@@ -1293,9 +1246,8 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
     L.area = area(S);
     if (S.empty()) return;
     // With beam compensation every hatch vector keeps it from the section's outline (its chords
-    // halved onto the field on the direct route) and from the thin walls' outline.
+    // halved onto the field by the march on the direct route) and from the thin walls' outline.
     const double bc = o.beam_compensation;
-    if (bc > 0 && !o.stl_route) densify_on_part(ctx, z, S);
     Regions T;  // thin walls, when compensating
     JointSection joint(ctx, design, o, c_const, z);
     JointSection thin(ctx, design, o, c_const, z, true);

@@ -88,6 +88,11 @@ struct MarchOptions {
   // translated; false: every block is contoured on its own (the crossings move within the
   // refinement tolerance, nothing else).
   bool periodic_tiles = true;
+  // Also put a point in the middle of every segment (between two crossings), moved onto the
+  // level by one Newton step along the function's gradient from forward differences, at most a
+  // quarter of the segment: the outline's chords halved onto the curve (as translated with the
+  // periodic tiles).
+  bool segment_midpoints = false;
   // If set, filled with every crossing by its grid edge (after refinement).
   std::vector<struct EdgeCrossing>* edge_crossings = nullptr;
 };
