@@ -449,14 +449,15 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
     const double r = p / h, c = std::round(r);
     return c >= 1 && std::abs(r - c) <= 1e-6 * c ? static_cast<std::size_t>(c) : 0;
   };
-  // A block side dividing the period: the divisor in 4..16 closest to 8 (small blocks keep the
-  // ring of blocks across the envelope's boundary, which are marched, thin), else the period.
-  auto tile_side = [](std::size_t p) -> std::size_t {
+  // A block side dividing the period: the divisor in 4..4·tile_block closest to tile_block,
+  // else the period if it is that small; else no tiles.
+  const std::size_t want = std::max<std::size_t>(options.tile_block, 1);
+  auto tile_side = [&](std::size_t p) -> std::size_t {
+    auto off = [&](std::size_t d) { return d > want ? d - want : want - d; };
     std::size_t best = 0;
-    for (std::size_t d = 4; d <= 16; ++d)
-      if (p % d == 0 && (best == 0 || (d > 8 ? d - 8 : 8 - d) < (best > 8 ? best - 8 : 8 - best)))
-        best = d;
-    return best ? best : (p <= 32 ? p : 0);
+    for (std::size_t d = std::min<std::size_t>(4, want); d <= 4 * want; ++d)
+      if (p % d == 0 && (best == 0 || off(d) < off(best))) best = d;
+    return best ? best : (p <= 4 * want ? p : 0);
   };
   const std::size_t px = period_cells(period.x), py = period_cells(period.y);
   const std::size_t tx = px ? tile_side(px) : 0, ty = py ? tile_side(py) : 0;

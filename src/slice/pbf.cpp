@@ -1189,6 +1189,13 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
   // about one refinement sample each instead of three (the same tolerance).
   mo_section.cubic_guess = true;
   mo_mid.refine_fraction = std::min(0.1, 5e-4 / H);
+  // Periodic tiles about 0.25 mm a side (measured on the 2–4-cell cubes: smaller ones cost
+  // more per block, larger ones widen the ring of blocks marched along the envelope).
+  auto tile_cells = [](double h) {
+    return static_cast<std::size_t>(std::max(4.0, std::round(0.25 / h)));
+  };
+  mo_section.tile_block = tile_cells(Hs);
+  mo_mid.tile_block = mo_joint.tile_block = tile_cells(H);
   mo_joint.refine_fraction = std::min(0.1, 1e-3 / H);
   // The thin-wall march (direct route, with compensation) takes the section's crossings where
   // the part decides its measure, when they are refined at least as tightly as its own.
