@@ -116,10 +116,12 @@ struct WalkBuffers {
   std::vector<char> used;
 };
 
-// mids (if given): a point for every edge, put between its ends.
+// inner_at (if given): edge e's points inner[inner_at[e] .. inner_at[e + 1]), put between its
+// ends.
 StitchedLines walk_edges(const std::vector<Vec2>& points,
                          const std::vector<std::pair<std::size_t, std::size_t>>& edges,
-                         const std::vector<Vec2>* mids = nullptr) {
+                         const std::vector<std::size_t>* inner_at = nullptr,
+                         const std::vector<Vec2>* inner = nullptr) {
   const std::size_t nv = points.size();
   Lease<WalkBuffers> buffers;
   // (Plain references, not a structured binding: lambdas below capture them, which clang
@@ -162,7 +164,8 @@ StitchedLines walk_edges(const std::vector<Vec2>& points,
       if (e == static_cast<std::size_t>(-1)) return v;
       used[e] = 1;
       v = edges[e].second;
-      if (mids) push(line, (*mids)[e]);
+      if (inner_at)
+        for (std::size_t k = (*inner_at)[e]; k < (*inner_at)[e + 1]; ++k) push(line, (*inner)[k]);
       if (v == from) return v;
       push(line, points[v]);
     }
@@ -282,6 +285,8 @@ struct MarchBuffers {
   std::vector<std::size_t> active;
   std::vector<std::uint64_t> edges;  // each pending crossing's edge key (for edge_crossings)
   std::vector<Vec2> mids, mid_pts;   // segment midpoints (MarchOptions::segment_midpoints)
+  std::vector<Vec2> inner;           // points inside segments (midpoints, translated chains)
+  std::vector<std::size_t> inner_at;
   std::vector<double> mid_vals;
   std::vector<double> ts;
   std::vector<unsigned char> ok;
@@ -649,59 +654,134 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
       mids[k] = mp[k] + step;
     }
   }
+  // Points inside each segment, put between its ends by the walk: inner[inner_at[e] ..
+  // inner_at[e + 1]) (a midpoint each, or a translated tile's chain of points).
+  std::vector<Vec2>& inner = buffers->inner;
+  std::vector<std::size_t>& inner_at = buffers->inner_at;
+  inner.clear();
+  inner_at.clear();
+  const bool has_inner = !mids.empty() || !replays.empty();
+  if (has_inner) {
+    inner_at.resize(segments.size() + 1);
+    for (std::size_t e = 0; e <= segments.size(); ++e) inner_at[e] = mids.empty() ? 0 : e;
+    inner.assign(mids.begin(), mids.end());
+  }
+  std::vector<std::vector<Vec2>> tile_loops;  // loops inside a translated tile
   if (!replays.empty()) {
-    // Each tile's crossings in its block's own terms (node relative to the block's first, edge
-    // direction, parameter along the edge) and its segments between them; every other block
-    // of its place takes them translated: a crossing on an edge that already has one (marched
-    // by a neighbour, or translated for one) is that one, so the lines join as in one march.
-    struct Local {
+    // Each tile's lines as chains: from a crossing where a line enters the block to the one
+    // where it leaves (on the block's edges, in the block's own terms: node relative to its
+    // first, edge direction, parameter along the edge), with the crossings and midpoints
+    // between them relative to the block's first node; lines closed inside the block as loops.
+    // Every other block of the tile's place takes them translated: its chains' ends are looked
+    // up by grid edge (an edge that already has a crossing, marched by a neighbour or
+    // translated for one, keeps it), so the lines join as in one march, and only the ends are
+    // stitched. (A tile where a crossing would start two segments is taken segment by segment.)
+    struct End {
       std::size_t i, j;
       bool vertical;
       double t;
     };
-    std::vector<std::vector<Local>> local(tiles.size());
-    std::vector<std::vector<std::pair<std::uint32_t, std::uint32_t>>> links(tiles.size());
-    std::vector<std::vector<Vec2>> link_mids(tiles.size());  // relative to the block's first node
-    std::vector<std::uint32_t> index(crossings.size(), UINT32_MAX);
+    struct Chain {
+      End from, to;
+      std::size_t begin, end;  // its points in the tile's pts
+    };
+    struct Tiled {
+      std::vector<Chain> chains;
+      std::vector<std::pair<std::size_t, std::size_t>> loops;  // ranges of pts
+      std::vector<Vec2> pts;
+    };
+    std::vector<Tiled> tiled(tiles.size());
+    const std::size_t nc = crossings.size();
+    std::vector<std::size_t> out_seg(nc), stamp_out(nc, 0), stamp_in(nc, 0);
+    std::vector<char> used(segments.size(), 0);
     for (std::size_t t = 0; t < tiles.size(); ++t) {
       const Tile& tile = tiles[t];
       if (!tile.marched) continue;
-      auto local_id = [&](std::size_t id) {
-        if (index[id] == UINT32_MAX) {
-          const std::uint64_t e = buffers->edges[id], node = e >> 1;
-          index[id] = static_cast<std::uint32_t>(local[t].size());
-          local[t].push_back({node % row - tile.bi, node / row - tile.bj, (e & 1) != 0, (*ts)[id]});
-        }
-        return index[id];
+      Tiled& T = tiled[t];
+      const Vec2 o = m.node(tile.bi, tile.bj);
+      const std::size_t mark = t + 1;
+      auto end_of = [&](std::size_t id) {
+        const std::uint64_t e = buffers->edges[id], node = e >> 1;
+        return End{node % row - tile.bi, node / row - tile.bj, (e & 1) != 0, (*ts)[id]};
       };
-      for (std::size_t s = tile.s0; s < tile.s1; ++s)
-        links[t].emplace_back(local_id(segments[s].first), local_id(segments[s].second));
-      if (!mids.empty())
-        for (std::size_t s = tile.s0; s < tile.s1; ++s)
-          link_mids[t].push_back(mids[s] - m.node(tile.bi, tile.bj));
-      for (std::size_t s = tile.s0; s < tile.s1; ++s)
-        index[segments[s].first] = index[segments[s].second] = UINT32_MAX;
-    }
-    std::vector<std::size_t> ids;
-    for (const Replay& r : replays) {
-      ids.resize(local[r.tile].size());
-      for (std::size_t k = 0; k < ids.size(); ++k) {
-        const Local& c = local[r.tile][k];
-        const std::size_t i = r.bi + c.i, j = r.bj + c.j;
-        const std::uint64_t key = ((j * row + i) << 1) | static_cast<std::uint64_t>(c.vertical);
-        const std::size_t id = table.find_or_insert(key, crossings.size());
-        if (id == crossings.size()) {
-          const Vec2 a = m.node(i, j), b = c.vertical ? m.node(i, j + 1) : m.node(i + 1, j);
-          crossings.push_back(a + (b - a) * c.t);
-          buffers->edges.push_back(key);
-          ts->push_back(c.t);
-        }
-        ids[k] = id;
+      auto add_inner = [&](std::size_t e) {
+        for (std::size_t k = inner_at[e]; k < inner_at[e + 1]; ++k) T.pts.push_back(inner[k] - o);
+      };
+      bool chainable = true;
+      for (std::size_t e = tile.s0; e < tile.s1; ++e) {
+        const auto [from, to] = segments[e];
+        chainable = chainable && stamp_out[from] != mark && stamp_in[to] != mark;
+        stamp_out[from] = mark;
+        stamp_in[to] = mark;
+        out_seg[from] = e;
       }
-      for (const auto& [a, b] : links[r.tile]) segments.emplace_back(ids[a], ids[b]);
-      if (!mids.empty()) {
-        const Vec2 o = m.node(r.bi, r.bj);
-        for (const Vec2 d : link_mids[r.tile]) mids.push_back(o + d);
+      if (!chainable) {
+        for (std::size_t e = tile.s0; e < tile.s1; ++e) {
+          const std::size_t begin = T.pts.size();
+          add_inner(e);
+          T.chains.push_back({end_of(segments[e].first), end_of(segments[e].second), begin,
+                              T.pts.size()});
+        }
+        continue;
+      }
+      for (std::size_t e0 = tile.s0; e0 < tile.s1; ++e0) {
+        const std::size_t start = segments[e0].first;
+        if (stamp_in[start] == mark) continue;  // not where a line enters the block
+        const std::size_t begin = T.pts.size();
+        std::size_t v = start;
+        while (stamp_out[v] == mark) {
+          const std::size_t e = out_seg[v];
+          used[e] = 1;
+          add_inner(e);
+          v = segments[e].second;
+          if (stamp_out[v] == mark) T.pts.push_back(crossings[v] - o);
+        }
+        T.chains.push_back({end_of(start), end_of(v), begin, T.pts.size()});
+      }
+      for (std::size_t e0 = tile.s0; e0 < tile.s1; ++e0) {
+        if (used[e0]) continue;
+        const std::size_t start = segments[e0].first, begin = T.pts.size();
+        std::size_t v = start;
+        do {
+          const std::size_t e = out_seg[v];
+          used[e] = 1;
+          T.pts.push_back(crossings[v] - o);
+          add_inner(e);
+          v = segments[e].second;
+        } while (v != start && stamp_out[v] == mark && !used[out_seg[v]]);
+        T.loops.emplace_back(begin, T.pts.size());
+      }
+    }
+    auto lookup = [&](const Replay& r, const End& c) {
+      const std::size_t i = r.bi + c.i, j = r.bj + c.j;
+      const std::uint64_t key = ((j * row + i) << 1) | static_cast<std::uint64_t>(c.vertical);
+      const std::size_t id = table.find_or_insert(key, crossings.size());
+      if (id == crossings.size()) {
+        const Vec2 a = m.node(i, j), b = c.vertical ? m.node(i, j + 1) : m.node(i + 1, j);
+        crossings.push_back(a + (b - a) * c.t);
+        buffers->edges.push_back(key);
+        ts->push_back(c.t);
+      }
+      return id;
+    };
+    for (const Replay& r : replays) {
+      const Tiled& T = tiled[r.tile];
+      const Vec2 o = m.node(r.bi, r.bj);
+      for (const Chain& c : T.chains) {
+        segments.emplace_back(lookup(r, c.from), lookup(r, c.to));
+        for (std::size_t k = c.begin; k < c.end; ++k) inner.push_back(o + T.pts[k]);
+        inner_at.push_back(inner.size());
+      }
+      for (const auto& [begin, end] : T.loops) {
+        std::vector<Vec2> loop;
+        loop.reserve(end - begin);
+        for (std::size_t k = begin; k < end; ++k) {
+          const Vec2 p = o + T.pts[k];
+          if (loop.empty() || loop.back().x != p.x || loop.back().y != p.y) loop.push_back(p);
+        }
+        if (loop.size() >= 2 && loop.back().x == loop.front().x && loop.back().y == loop.front().y)
+          loop.pop_back();
+        if (loop.size() >= 3) tile_loops.push_back(std::move(loop));
       }
     }
   }
@@ -713,7 +793,8 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
     }
   }
   result.samples = m.samples;
-  result.lines = walk_edges(crossings, segments, mids.empty() ? nullptr : &mids);
+  result.lines = walk_edges(crossings, segments, has_inner ? &inner_at : nullptr, &inner);
+  for (auto& l : tile_loops) result.lines.loops.push_back(std::move(l));
   return result;
 }
 
