@@ -193,7 +193,6 @@ Regions nest_oriented_rings(std::vector<std::vector<Vec2>> rings) {
   }
   auto inside = [](const std::vector<Vec2>& ring, Vec2 p) { return inside_ring(ring, p); };
   Regions out(outers.size());
-  for (std::size_t i = 0; i < outers.size(); ++i) out[i].outer = outers[i].pts;
   for (auto& h : holes) {
     // A vertex of the hole is inside its outer ring (rings do not cross).
     const Vec2 probe = h.pts.front();
@@ -206,6 +205,8 @@ Regions nest_oriented_rings(std::vector<std::vector<Vec2>> rings) {
     }
     if (best < outers.size()) out[best].holes.push_back(std::move(h.pts));
   }
+  // (Moved once the holes have found their outer rings.)
+  for (std::size_t i = 0; i < outers.size(); ++i) out[i].outer = std::move(outers[i].pts);
   return out;
 }
 
