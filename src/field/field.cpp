@@ -67,12 +67,25 @@ double box_sdf(Vec3 p, Vec3 c, Vec3 h) {
   const double ox = std::max(qx, 0.0), oy = std::max(qy, 0.0), oz = std::max(qz, 0.0);
   return std::sqrt(ox * ox + oy * oy + oz * oz) + std::min(std::max({qx, qy, qz}), 0.0);
 }
-// Interval of the box SDF over a query box: exact lower bound from the box-to-box distance.
+// Interval of the box SDF over a query box, exact: the SDF is non-decreasing in each
+// q_i = |p_i − c_i| − h_i, and the query box holds the points where every q_i is least (the
+// nearest coordinate on each axis) and where every one is greatest (the farthest).
 Interval box_sdf_bound(const BBox3& q, Vec3 c, Vec3 h) {
-  const Vec3 m = q.center();
-  const double v = box_sdf(m, c, h);
-  const double hd = half_diagonal(q);
-  return {v - hd, v + hd};
+  auto axis = [](double lo, double hi, double c, double h, double& qlo, double& qhi) {
+    lo -= c;
+    hi -= c;
+    qlo = (lo > 0 ? lo : (hi < 0 ? -hi : 0.0)) - h;
+    qhi = std::max(std::abs(lo), std::abs(hi)) - h;
+  };
+  auto sdf = [](double qx, double qy, double qz) {
+    const double ox = std::max(qx, 0.0), oy = std::max(qy, 0.0), oz = std::max(qz, 0.0);
+    return std::sqrt(ox * ox + oy * oy + oz * oz) + std::min(std::max({qx, qy, qz}), 0.0);
+  };
+  double xl, xh, yl, yh, zl, zh;
+  axis(q.min.x, q.max.x, c.x, h.x, xl, xh);
+  axis(q.min.y, q.max.y, c.y, h.y, yl, yh);
+  axis(q.min.z, q.max.z, c.z, h.z, zl, zh);
+  return {sdf(xl, yl, zl), sdf(xh, yh, zh)};
 }
 
 }  // namespace
@@ -162,6 +175,9 @@ struct BoxNode : PointwiseNode<BoxNode> {
   Vec3 h;
   explicit BoxNode(Vec3 size) : h(size * 0.5) {}
   double at(Vec3 p) const { return box_sdf(p, {}, h); }
+  Interval bound(const BBox3& b, EvalState&, std::size_t) const override {
+    return box_sdf_bound(b, {}, h);
+  }
   BBox3 extent() const override { return box_of(h * -1.0, h); }
 };
 

@@ -1214,6 +1214,25 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
     const Vec3 p = design.phi.period();
     if (p.x > 0 && p.y > 0) sheet_period = {p.x, p.y};
   }
+  // The tiles pay where the part is the sheet alone over much of its extent; elsewhere their
+  // smaller blocks only cost (e.g. a lattice cut by another lattice, whose envelope is
+  // negative only inside its own walls). Checked on 0.5 mm blocks of three layers: tiles when
+  // at least 30% of the blocks are periodic.
+  if (sheet_period.x > 0 && !zs.empty()) {
+    Ctx probe(part, design, c_field, sheet_period);
+    std::size_t periodic = 0, total = 0;
+    const double step = 0.5;
+    for (const double f : {0.25, 0.5, 0.75}) {
+      const double z = zs[std::min(zs.size() - 1, static_cast<std::size_t>(f * static_cast<double>(zs.size())))];
+      for (double y = e.min.y; y < e.max.y; y += step)
+        for (double x = e.min.x; x < e.max.x; x += step) {
+          ++total;
+          periodic += probe.periodic({x, y}, {x + step, y + step}, z);
+        }
+    }
+    result.periodic_fraction = total ? static_cast<double>(periodic) / static_cast<double>(total) : 0;
+    if (!(result.periodic_fraction >= 0.3)) sheet_period = {0, 0};
+  }
   tbb::enumerable_thread_specific<Ctx> contexts(
       [&] { return Ctx(part, design, c_field, sheet_period); });
   std::atomic<std::size_t> done{0};

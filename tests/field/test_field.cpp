@@ -2,6 +2,7 @@
 // material fractions, and the .vcad reader (the FGM paper's listings and its errors).
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -450,5 +451,38 @@ TEST(Field, TpmsPeriodIsItsCell) {
     EXPECT_EQ(P.x, 0);
     EXPECT_EQ(P.y, 0);
     EXPECT_EQ(P.z, 0);
+  }
+}
+
+// A box's bound over a query box is exact: its least value is at the query point nearest the
+// box's centre on every axis, its greatest at a corner, and no point of the query box is outside
+// it (random boxes and queries, inside, across and outside the box).
+TEST(Field, BoxBoundsAreExact) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-6, 6), s(0.1, 4);
+  for (int trial = 0; trial < 300; ++trial) {
+    const Vec3 size{s(rng), s(rng), s(rng)}, at{u(rng), u(rng), u(rng)};
+    const Field f = translate(rectprism(size), at);
+    Evaluator ev(f);
+    BBox3 q;
+    q.add({u(rng), u(rng), u(rng)});
+    q.add({u(rng), u(rng), u(rng)});
+    if (trial % 3 == 0) q.max.z = q.min.z;  // flat, as a layer's blocks
+    const Interval b = ev.bound(q);
+    const Vec3 nearest{std::clamp(at.x, q.min.x, q.max.x), std::clamp(at.y, q.min.y, q.max.y),
+                       std::clamp(at.z, q.min.z, q.max.z)};
+    EXPECT_NEAR(b.lo, ev.value(nearest), 1e-12) << trial;
+    double corner = -1e300;
+    for (int c = 0; c < 8; ++c)
+      corner = std::max(corner, ev.value({(c & 1) ? q.max.x : q.min.x, (c & 2) ? q.max.y : q.min.y,
+                                          (c & 4) ? q.max.z : q.min.z}));
+    EXPECT_NEAR(b.hi, corner, 1e-12) << trial;
+    std::uniform_real_distribution<double> px(q.min.x, q.max.x), py(q.min.y, q.max.y),
+        pz(q.min.z, std::max(q.min.z, q.max.z));
+    for (int i = 0; i < 50; ++i) {
+      const double v = ev.value({px(rng), py(rng), q.max.z > q.min.z ? pz(rng) : q.min.z});
+      EXPECT_GE(v, b.lo - 1e-12);
+      EXPECT_LE(v, b.hi + 1e-12);
+    }
   }
 }

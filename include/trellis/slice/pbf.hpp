@@ -116,8 +116,11 @@ struct PbfResult {
   // False when the sheet is nowhere as narrow as a thin wall (thin_multiple · D), by φ's
   // Lipschitz bound and a constant c, or a uniform thickness: no thin walls, their march skipped.
   bool thin_walls_possible = true;
-  // Sums of the layers' march blocks and of those translated from another period's.
+  // Sums of the layers' march blocks and of those translated from another period's; the
+  // share of the part's extent where the part is the repeating sheet alone (on three layers;
+  // tiles are used from 0.3), 0 when the sheet does not repeat.
   std::size_t blocks = 0, tiled_blocks = 0;
+  double periodic_fraction = 0;
   Diagnostics diagnostics;                  // warnings (settings outside the paper's ranges…)
 };
 
