@@ -212,7 +212,7 @@ TEST(Pbf, ThinWallOutlineFromTheSectionCrossingsKeepsTheHatchEnds) {
 // section areas (to 1e-4: the blocks differ, and so the crossings' first guesses; the
 // crossings' tolerance, 0.25 µm along a 40 mm outline, would allow 4e-3), every hatch end within 1 µm of one of the other plan, contour lengths within
 // a vector or two a layer (closed mid-curves may start elsewhere, which shifts their chords).
-// A c that varies is not periodic: nothing translated.
+// A c that varies is not periodic, a lattice cut by another is too rarely: nothing translated.
 TEST(Pbf, PeriodicTilesPlanTheSameLayers) {
   struct Case {
     const char* name;
@@ -287,6 +287,17 @@ TEST(Pbf, PeriodicTilesPlanTheSameLayers) {
   const PbfResult r = plan_pbf(graded, o);
   EXPECT_GT(r.blocks, 0u);
   EXPECT_EQ(r.tiled_blocks, 0u);
+  // A lattice cut by another lattice is the sheet alone only inside the other's walls: too
+  // little of the plane for the tiles to pay (their smaller blocks cost); a box is mostly
+  // inside.
+  PbfDesign cut = gyroid_cube(5);
+  cut.envelope = intersect({tpms(TpmsKind::Gyroid, {5, 5, 5}, {"0.3"}), rectprism({5, 5, 5})});
+  const PbfResult c = plan_pbf(cut, o);
+  EXPECT_LT(c.periodic_fraction, 0.3);
+  EXPECT_EQ(c.tiled_blocks, 0u);
+  const PbfResult box = plan_pbf(gyroid_cube(5), o);
+  EXPECT_GT(box.periodic_fraction, 0.5);
+  EXPECT_GT(box.tiled_blocks, 0u);
 }
 
 TEST(Pbf, DirectAndStlRoutesGiveTheSameSections) {
