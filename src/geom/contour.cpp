@@ -427,6 +427,54 @@ double crossing_guess(double before, double fa, double fb, double after) {
   return t;
 }
 
+namespace {
+// A tile's lines for translation (see march_squares): chains from a crossing on the block's
+// edge to another, with the points between, and loops inside the block; in the block's own
+// terms (node relative to its first node, points relative to that node's position).
+struct TileEnd {
+  std::size_t i, j;
+  bool vertical;
+  double t;
+};
+struct TileChain {
+  TileEnd from, to;
+  std::size_t begin, end;  // its points in the tile's pts
+};
+struct TileLines {
+  std::vector<TileChain> chains;
+  std::vector<std::pair<std::size_t, std::size_t>> loops;  // ranges of pts
+  std::vector<Vec2> pts;
+  std::size_t bytes() const {
+    return chains.size() * sizeof(TileChain) + loops.size() * 16 + pts.size() * sizeof(Vec2);
+  }
+};
+}  // namespace
+
+// One phase's tiles: by place in the period (present: marched there), for that period and
+// those blocks.
+struct TileCache::Memo {
+  std::size_t px = 0, py = 0, bx = 0, by = 0;
+  std::vector<TileLines> tiles;
+  std::vector<char> present;
+  std::size_t bytes = 0;
+};
+
+std::shared_ptr<const TileCache::Memo> TileCache::find(std::uint64_t phase) const {
+  std::lock_guard lock(m_);
+  const auto it = memos_.find(phase);
+  return it == memos_.end() ? nullptr : it->second;
+}
+void TileCache::add(std::uint64_t phase, std::shared_ptr<const Memo> memo) {
+  std::lock_guard lock(m_);
+  if (memos_.count(phase) || bytes_ + memo->bytes > max_) return;
+  bytes_ += memo->bytes;
+  memos_.emplace(phase, std::move(memo));
+}
+std::size_t TileCache::bytes() const {
+  std::lock_guard lock(m_);
+  return bytes_;
+}
+
 ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
                          const MarchOptions& options) {
   ContourSet result;
@@ -601,6 +649,13 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
     std::size_t bi, bj, tile;
   };
   std::vector<Replay> replays;
+  // Tiles another march of this phase kept (for these periods and blocks).
+  std::shared_ptr<const TileCache::Memo> memo;
+  if (tiling && options.tile_cache) {
+    memo = options.tile_cache->find(options.tile_phase);
+    if (memo && (memo->px != px || memo->py != py || memo->bx != Bx || memo->by != By))
+      memo.reset();
+  }
   for (std::size_t bj = 0; bj < ny; bj += By)
     for (std::size_t bi = 0; bi < nx; bi += Bx) {
       ++result.blocks;
@@ -608,7 +663,7 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
       if (tiling && top.ci == Bx && top.cj == By &&
           f.periodic(m.node(bi, bj), m.node(bi + Bx, bj + By))) {
         const std::size_t t = ((bj % py) / By) * (px / Bx) + (bi % px) / Bx;
-        if (tiles[t].marched) {
+        if (tiles[t].marched || (memo && memo->present[t])) {
           replays.push_back({bi, bj, t});
           ++result.tiled_blocks;
           continue;
@@ -667,7 +722,12 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
     inner.assign(mids.begin(), mids.end());
   }
   std::vector<std::vector<Vec2>> tile_loops;  // loops inside a translated tile
-  if (!replays.empty()) {
+  bool any_marched = false;
+  for (const Tile& tile : tiles) any_marched = any_marched || tile.marched;
+  // The first march of a phase keeps its tiles for the later ones.
+  const bool keep = tiling && options.tile_cache && !memo && any_marched;
+  std::vector<TileLines> tiled(tiles.size());
+  if (!replays.empty() || keep) {
     // Each tile's lines as chains: from a crossing where a line enters the block to the one
     // where it leaves (on the block's edges, in the block's own terms: node relative to its
     // first, edge direction, parameter along the edge), with the crossings and midpoints
@@ -676,33 +736,18 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
     // up by grid edge (an edge that already has a crossing, marched by a neighbour or
     // translated for one, keeps it), so the lines join as in one march, and only the ends are
     // stitched. (A tile where a crossing would start two segments is taken segment by segment.)
-    struct End {
-      std::size_t i, j;
-      bool vertical;
-      double t;
-    };
-    struct Chain {
-      End from, to;
-      std::size_t begin, end;  // its points in the tile's pts
-    };
-    struct Tiled {
-      std::vector<Chain> chains;
-      std::vector<std::pair<std::size_t, std::size_t>> loops;  // ranges of pts
-      std::vector<Vec2> pts;
-    };
-    std::vector<Tiled> tiled(tiles.size());
     const std::size_t nc = crossings.size();
     std::vector<std::size_t> out_seg(nc), stamp_out(nc, 0), stamp_in(nc, 0);
     std::vector<char> used(segments.size(), 0);
     for (std::size_t t = 0; t < tiles.size(); ++t) {
       const Tile& tile = tiles[t];
       if (!tile.marched) continue;
-      Tiled& T = tiled[t];
+      TileLines& T = tiled[t];
       const Vec2 o = m.node(tile.bi, tile.bj);
       const std::size_t mark = t + 1;
       auto end_of = [&](std::size_t id) {
         const std::uint64_t e = buffers->edges[id], node = e >> 1;
-        return End{node % row - tile.bi, node / row - tile.bj, (e & 1) != 0, (*ts)[id]};
+        return TileEnd{node % row - tile.bi, node / row - tile.bj, (e & 1) != 0, (*ts)[id]};
       };
       auto add_inner = [&](std::size_t e) {
         for (std::size_t k = inner_at[e]; k < inner_at[e + 1]; ++k) T.pts.push_back(inner[k] - o);
@@ -752,7 +797,9 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
         T.loops.emplace_back(begin, T.pts.size());
       }
     }
-    auto lookup = [&](const Replay& r, const End& c) {
+  }
+  if (!replays.empty()) {
+    auto lookup = [&](const Replay& r, const TileEnd& c) {
       const std::size_t i = r.bi + c.i, j = r.bj + c.j;
       const std::uint64_t key = ((j * row + i) << 1) | static_cast<std::uint64_t>(c.vertical);
       const std::size_t id = table.find_or_insert(key, crossings.size());
@@ -765,9 +812,9 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
       return id;
     };
     for (const Replay& r : replays) {
-      const Tiled& T = tiled[r.tile];
+      const TileLines& T = tiles[r.tile].marched ? tiled[r.tile] : memo->tiles[r.tile];
       const Vec2 o = m.node(r.bi, r.bj);
-      for (const Chain& c : T.chains) {
+      for (const TileChain& c : T.chains) {
         segments.emplace_back(lookup(r, c.from), lookup(r, c.to));
         for (std::size_t k = c.begin; k < c.end; ++k) inner.push_back(o + T.pts[k]);
         inner_at.push_back(inner.size());
@@ -784,6 +831,20 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
         if (loop.size() >= 3) tile_loops.push_back(std::move(loop));
       }
     }
+  }
+  if (keep) {
+    auto kept = std::make_shared<TileCache::Memo>();
+    kept->px = px;
+    kept->py = py;
+    kept->bx = Bx;
+    kept->by = By;
+    kept->present.resize(tiles.size());
+    for (std::size_t t = 0; t < tiles.size(); ++t) {
+      kept->present[t] = tiles[t].marched;
+      kept->bytes += tiled[t].bytes();
+    }
+    kept->tiles = std::move(tiled);
+    options.tile_cache->add(options.tile_phase, std::move(kept));
   }
   if (options.edge_crossings) {
     options.edge_crossings->resize(ts->size());

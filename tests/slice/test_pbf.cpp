@@ -211,7 +211,8 @@ TEST(Pbf, ThinWallOutlineFromTheSectionCrossingsKeepsTheHatchEnds) {
 // boss, the direct and STL routes plan the same layers with the tiles as without: the same
 // section areas (to 1e-4: the blocks differ, and so the crossings' first guesses; the
 // crossings' tolerance, 0.25 µm along a 40 mm outline, would allow 4e-3), every hatch end within 1 µm of one of the other plan, contour lengths within
-// a vector or two a layer (closed mid-curves may start elsewhere, which shifts their chords).
+// a vector or two a layer (closed mid-curves may start elsewhere, which shifts their chords;
+// more on a few layers where φ = 0 crosses itself).
 // A c that varies is not periodic, a lattice cut by another is too rarely: nothing translated.
 TEST(Pbf, PeriodicTilesPlanTheSameLayers) {
   struct Case {
@@ -222,7 +223,8 @@ TEST(Pbf, PeriodicTilesPlanTheSameLayers) {
   std::vector<Case> cases;
   {
     PbfDesign d = gyroid_cube(6);
-    d.envelope = translate(rectprism({6, 5, 2}), {0.37, -0.61, 0});
+    // Taller than a period of 25 layers: layers a period apart share their tiles.
+    d.envelope = translate(rectprism({6, 5, 3}), {0.37, -0.61, 0});
     cases.push_back({"gyroid, translated box", d});
     cases.push_back({"gyroid, translated box, STL route", d, true});
   }
@@ -256,12 +258,16 @@ TEST(Pbf, PeriodicTilesPlanTheSameLayers) {
     EXPECT_EQ(plain.tiled_blocks, 0u) << c.name;
     EXPECT_GT(tiled.tiled_blocks, tiled.blocks / 5) << c.name;
     ASSERT_EQ(tiled.layers.size(), plain.layers.size()) << c.name;
-    std::size_t ends = 0, moved = 0;
+    std::size_t ends = 0, moved = 0, off_by_more = 0;
     for (std::size_t i = 0; i < plain.layers.size(); ++i) {
       const PbfLayer &a = plain.layers[i], &b = tiled.layers[i];
       EXPECT_NEAR(a.area, b.area, 1e-4 * a.area) << c.name << " layer " << i;
-      EXPECT_NEAR(a.contour_length, b.contour_length, 2 * (o.segment_length + o.segment_gap) + 1e-9)
+      // (Where φ = 0 crosses itself in the plane — the gyroid at z = ±P/2 — which way its lines
+      // join is decided by values ~1e-16 apart; the pieces, and so the chords, may differ.)
+      const double vectors = 2 * (o.segment_length + o.segment_gap) + 1e-9;
+      EXPECT_NEAR(a.contour_length, b.contour_length, vectors + 0.03 * a.contour_length)
           << c.name << " layer " << i;
+      off_by_more += std::abs(a.contour_length - b.contour_length) > vectors;
       EXPECT_LE(std::max(a.hatches.size(), b.hatches.size()) -
                     std::min(a.hatches.size(), b.hatches.size()),
                 1u)
@@ -277,6 +283,7 @@ TEST(Pbf, PeriodicTilesPlanTheSameLayers) {
             moved += best > 1e-3;
           }
     }
+    EXPECT_LE(off_by_more, plain.layers.size() / 10) << c.name;
     EXPECT_GT(ends, 2000u) << c.name;
     EXPECT_LE(moved, ends / 1000) << c.name << ": of " << ends << " hatch ends";
   }
