@@ -717,9 +717,19 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
   inner_at.clear();
   const bool has_inner = !mids.empty() || !replays.empty();
   if (has_inner) {
+    // A midpoint within midpoint_min_offset of its segment adds nothing: dropped.
     inner_at.resize(segments.size() + 1);
-    for (std::size_t e = 0; e <= segments.size(); ++e) inner_at[e] = mids.empty() ? 0 : e;
-    inner.assign(mids.begin(), mids.end());
+    inner_at[0] = 0;
+    const double keep2 = options.midpoint_min_offset * options.midpoint_min_offset;
+    for (std::size_t e = 0; e < segments.size(); ++e) {
+      if (!mids.empty()) {
+        const Vec2 a = crossings[segments[e].first], d = crossings[segments[e].second] - a,
+                   q = mids[e] - a;
+        const double cr = d.x * q.y - d.y * q.x, dd = d.x * d.x + d.y * d.y;
+        if (!(cr * cr <= keep2 * dd)) inner.push_back(mids[e]);
+      }
+      inner_at[e + 1] = inner.size();
+    }
   }
   std::vector<std::vector<Vec2>> tile_loops;  // loops inside a translated tile
   bool any_marched = false;

@@ -123,6 +123,9 @@ struct MarchOptions {
   // quarter of the segment: the outline's chords halved onto the curve (as translated with the
   // periodic tiles).
   bool segment_midpoints = false;
+  // Midpoints closer than this to their segment are left out (the segment is then that close
+  // to the curve where it bulges most).
+  double midpoint_min_offset = 0;
   // If set, filled with every crossing by its grid edge (after refinement).
   std::vector<struct EdgeCrossing>* edge_crossings = nullptr;
 };
