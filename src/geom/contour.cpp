@@ -432,20 +432,30 @@ namespace {
 // edge to another, with the points between, and loops inside the block; in the block's own
 // terms (node relative to its first node, points relative to that node's position).
 struct TileEnd {
-  std::size_t i, j;
+  std::uint32_t i, j;
   bool vertical;
-  double t;
+  float t;  // (float: a crossing's parameter to 6e-8 of its edge, far inside the refinement)
 };
 struct TileChain {
   TileEnd from, to;
-  std::size_t begin, end;  // its points in the tile's pts
+  std::uint32_t begin, end;  // its points in the tile's pts
+};
+// Points relative to the block's first node: floats (a block is well under 1 mm: 1e-8 mm), half
+// the memory the tiles kept for other layers take.
+struct TilePoint {
+  float x, y;
 };
 struct TileLines {
   std::vector<TileChain> chains;
-  std::vector<std::pair<std::size_t, std::size_t>> loops;  // ranges of pts
-  std::vector<Vec2> pts;
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> loops;  // ranges of pts
+  std::vector<TilePoint> pts;
+  void add(Vec2 p, Vec2 origin) {
+    pts.push_back({static_cast<float>(p.x - origin.x), static_cast<float>(p.y - origin.y)});
+  }
+  static Vec2 at(Vec2 origin, TilePoint q) { return {origin.x + q.x, origin.y + q.y}; }
+  std::uint32_t size() const { return static_cast<std::uint32_t>(pts.size()); }
   std::size_t bytes() const {
-    return chains.size() * sizeof(TileChain) + loops.size() * 16 + pts.size() * sizeof(Vec2);
+    return chains.size() * sizeof(TileChain) + loops.size() * 8 + pts.size() * sizeof(TilePoint);
   }
 };
 }  // namespace
@@ -757,10 +767,12 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
       const std::size_t mark = t + 1;
       auto end_of = [&](std::size_t id) {
         const std::uint64_t e = buffers->edges[id], node = e >> 1;
-        return TileEnd{node % row - tile.bi, node / row - tile.bj, (e & 1) != 0, (*ts)[id]};
+        return TileEnd{static_cast<std::uint32_t>(node % row - tile.bi),
+                       static_cast<std::uint32_t>(node / row - tile.bj), (e & 1) != 0,
+                       static_cast<float>((*ts)[id])};
       };
       auto add_inner = [&](std::size_t e) {
-        for (std::size_t k = inner_at[e]; k < inner_at[e + 1]; ++k) T.pts.push_back(inner[k] - o);
+        for (std::size_t k = inner_at[e]; k < inner_at[e + 1]; ++k) T.add(inner[k], o);
       };
       bool chainable = true;
       for (std::size_t e = tile.s0; e < tile.s1; ++e) {
@@ -772,39 +784,40 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
       }
       if (!chainable) {
         for (std::size_t e = tile.s0; e < tile.s1; ++e) {
-          const std::size_t begin = T.pts.size();
+          const std::uint32_t begin = T.size();
           add_inner(e);
           T.chains.push_back({end_of(segments[e].first), end_of(segments[e].second), begin,
-                              T.pts.size()});
+                              T.size()});
         }
         continue;
       }
       for (std::size_t e0 = tile.s0; e0 < tile.s1; ++e0) {
         const std::size_t start = segments[e0].first;
         if (stamp_in[start] == mark) continue;  // not where a line enters the block
-        const std::size_t begin = T.pts.size();
+        const std::uint32_t begin = T.size();
         std::size_t v = start;
         while (stamp_out[v] == mark) {
           const std::size_t e = out_seg[v];
           used[e] = 1;
           add_inner(e);
           v = segments[e].second;
-          if (stamp_out[v] == mark) T.pts.push_back(crossings[v] - o);
+          if (stamp_out[v] == mark) T.add(crossings[v], o);
         }
-        T.chains.push_back({end_of(start), end_of(v), begin, T.pts.size()});
+        T.chains.push_back({end_of(start), end_of(v), begin, T.size()});
       }
       for (std::size_t e0 = tile.s0; e0 < tile.s1; ++e0) {
         if (used[e0]) continue;
-        const std::size_t start = segments[e0].first, begin = T.pts.size();
+        const std::size_t start = segments[e0].first;
+        const std::uint32_t begin = T.size();
         std::size_t v = start;
         do {
           const std::size_t e = out_seg[v];
           used[e] = 1;
-          T.pts.push_back(crossings[v] - o);
+          T.add(crossings[v], o);
           add_inner(e);
           v = segments[e].second;
         } while (v != start && stamp_out[v] == mark && !used[out_seg[v]]);
-        T.loops.emplace_back(begin, T.pts.size());
+        T.loops.emplace_back(begin, T.size());
       }
     }
   }
@@ -815,9 +828,9 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
       const std::size_t id = table.find_or_insert(key, crossings.size());
       if (id == crossings.size()) {
         const Vec2 a = m.node(i, j), b = c.vertical ? m.node(i, j + 1) : m.node(i + 1, j);
-        crossings.push_back(a + (b - a) * c.t);
+        crossings.push_back(a + (b - a) * static_cast<double>(c.t));
         buffers->edges.push_back(key);
-        ts->push_back(c.t);
+        ts->push_back(static_cast<double>(c.t));
       }
       return id;
     };
@@ -826,14 +839,14 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
       const Vec2 o = m.node(r.bi, r.bj);
       for (const TileChain& c : T.chains) {
         segments.emplace_back(lookup(r, c.from), lookup(r, c.to));
-        for (std::size_t k = c.begin; k < c.end; ++k) inner.push_back(o + T.pts[k]);
+        for (std::size_t k = c.begin; k < c.end; ++k) inner.push_back(TileLines::at(o, T.pts[k]));
         inner_at.push_back(inner.size());
       }
       for (const auto& [begin, end] : T.loops) {
         std::vector<Vec2> loop;
         loop.reserve(end - begin);
         for (std::size_t k = begin; k < end; ++k) {
-          const Vec2 p = o + T.pts[k];
+          const Vec2 p = TileLines::at(o, T.pts[k]);
           if (loop.empty() || loop.back().x != p.x || loop.back().y != p.y) loop.push_back(p);
         }
         if (loop.size() >= 2 && loop.back().x == loop.front().x && loop.back().y == loop.front().y)
