@@ -454,8 +454,17 @@ struct TileLines {
   }
   static Vec2 at(Vec2 origin, TilePoint q) { return {origin.x + q.x, origin.y + q.y}; }
   std::uint32_t size() const { return static_cast<std::uint32_t>(pts.size()); }
-  std::size_t bytes() const {
-    return chains.size() * sizeof(TileChain) + loops.size() * 8 + pts.size() * sizeof(TilePoint);
+  // Trimmed to size for keeping; the bytes it then holds, with the allocator's overhead (about
+  // 32 B a block: a period has ~100 small tiles, so it counts).
+  std::size_t trim() {
+    chains.shrink_to_fit();
+    loops.shrink_to_fit();
+    pts.shrink_to_fit();
+    std::size_t b = sizeof(TileLines);
+    for (const std::size_t n : {chains.capacity() * sizeof(TileChain), loops.capacity() * 8,
+                                pts.capacity() * sizeof(TilePoint)})
+      if (n > 0) b += n + 32;
+    return b;
   }
 };
 }  // namespace
@@ -862,9 +871,10 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
     kept->bx = Bx;
     kept->by = By;
     kept->present.resize(tiles.size());
+    kept->bytes = sizeof(TileCache::Memo) + 2 * tiles.size() + 64;
     for (std::size_t t = 0; t < tiles.size(); ++t) {
       kept->present[t] = tiles[t].marched;
-      kept->bytes += tiled[t].bytes();
+      kept->bytes += tiled[t].trim();
     }
     kept->tiles = std::move(tiled);
     options.tile_cache->add(options.tile_phase, std::move(kept));

@@ -129,7 +129,7 @@ struct PbfResult {
 // not counted). plan_pbf refuses to start above PbfOptions::memory_budget.
 // Bytes each of the direct route's three marches may keep of tiles shared by layers a period
 // apart (TileCache).
-inline constexpr std::size_t kPbfTileCacheBytes = std::size_t{8} << 20;
+inline constexpr std::size_t kPbfTileCacheBytes = std::size_t{2} << 20;
 double pbf_memory_estimate(const PbfDesign& design, const PbfOptions& options, int threads);
 // streamed: the layers' vectors go to a sink as they come (plan_pbf with a sink), so only the
 // pipeline's layers in flight count.
