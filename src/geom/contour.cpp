@@ -440,8 +440,7 @@ struct TileChain {
   TileEnd from, to;
   std::uint32_t begin, end;  // its points in the tile's pts
 };
-// Points relative to the block's first node: floats (a block is well under 1 mm: 1e-8 mm), half
-// the memory the tiles kept for other layers take.
+// Points relative to the block's first node: floats (a block is well under 1 mm: 1e-8 mm).
 struct TilePoint {
   float x, y;
 };
@@ -454,45 +453,8 @@ struct TileLines {
   }
   static Vec2 at(Vec2 origin, TilePoint q) { return {origin.x + q.x, origin.y + q.y}; }
   std::uint32_t size() const { return static_cast<std::uint32_t>(pts.size()); }
-  // Trimmed to size for keeping; the bytes it then holds, with the allocator's overhead (about
-  // 32 B a block: a period has ~100 small tiles, so it counts).
-  std::size_t trim() {
-    chains.shrink_to_fit();
-    loops.shrink_to_fit();
-    pts.shrink_to_fit();
-    std::size_t b = sizeof(TileLines);
-    for (const std::size_t n : {chains.capacity() * sizeof(TileChain), loops.capacity() * 8,
-                                pts.capacity() * sizeof(TilePoint)})
-      if (n > 0) b += n + 32;
-    return b;
-  }
 };
 }  // namespace
-
-// One phase's tiles: by place in the period (present: marched there), for that period and
-// those blocks.
-struct TileCache::Memo {
-  std::size_t px = 0, py = 0, bx = 0, by = 0;
-  std::vector<TileLines> tiles;
-  std::vector<char> present;
-  std::size_t bytes = 0;
-};
-
-std::shared_ptr<const TileCache::Memo> TileCache::find(std::uint64_t phase) const {
-  std::lock_guard lock(m_);
-  const auto it = memos_.find(phase);
-  return it == memos_.end() ? nullptr : it->second;
-}
-void TileCache::add(std::uint64_t phase, std::shared_ptr<const Memo> memo) {
-  std::lock_guard lock(m_);
-  if (memos_.count(phase) || bytes_ + memo->bytes > max_) return;
-  bytes_ += memo->bytes;
-  memos_.emplace(phase, std::move(memo));
-}
-std::size_t TileCache::bytes() const {
-  std::lock_guard lock(m_);
-  return bytes_;
-}
 
 ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
                          const MarchOptions& options) {
@@ -668,13 +630,6 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
     std::size_t bi, bj, tile;
   };
   std::vector<Replay> replays;
-  // Tiles another march of this phase kept (for these periods and blocks).
-  std::shared_ptr<const TileCache::Memo> memo;
-  if (tiling && options.tile_cache) {
-    memo = options.tile_cache->find(options.tile_phase);
-    if (memo && (memo->px != px || memo->py != py || memo->bx != Bx || memo->by != By))
-      memo.reset();
-  }
   for (std::size_t bj = 0; bj < ny; bj += By)
     for (std::size_t bi = 0; bi < nx; bi += Bx) {
       ++result.blocks;
@@ -682,7 +637,7 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
       if (tiling && top.ci == Bx && top.cj == By &&
           f.periodic(m.node(bi, bj), m.node(bi + Bx, bj + By))) {
         const std::size_t t = ((bj % py) / By) * (px / Bx) + (bi % px) / Bx;
-        if (tiles[t].marched || (memo && memo->present[t])) {
+        if (tiles[t].marched) {
           replays.push_back({bi, bj, t});
           ++result.tiled_blocks;
           continue;
@@ -751,12 +706,8 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
     }
   }
   std::vector<std::vector<Vec2>> tile_loops;  // loops inside a translated tile
-  bool any_marched = false;
-  for (const Tile& tile : tiles) any_marched = any_marched || tile.marched;
-  // The first march of a phase keeps its tiles for the later ones.
-  const bool keep = tiling && options.tile_cache && !memo && any_marched;
   std::vector<TileLines> tiled(tiles.size());
-  if (!replays.empty() || keep) {
+  if (!replays.empty()) {
     // Each tile's lines as chains: from a crossing where a line enters the block to the one
     // where it leaves (on the block's edges, in the block's own terms: node relative to its
     // first, edge direction, parameter along the edge), with the crossings and midpoints
@@ -844,7 +795,7 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
       return id;
     };
     for (const Replay& r : replays) {
-      const TileLines& T = tiles[r.tile].marched ? tiled[r.tile] : memo->tiles[r.tile];
+      const TileLines& T = tiled[r.tile];
       const Vec2 o = m.node(r.bi, r.bj);
       for (const TileChain& c : T.chains) {
         segments.emplace_back(lookup(r, c.from), lookup(r, c.to));
@@ -863,21 +814,6 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
         if (loop.size() >= 3) tile_loops.push_back(std::move(loop));
       }
     }
-  }
-  if (keep) {
-    auto kept = std::make_shared<TileCache::Memo>();
-    kept->px = px;
-    kept->py = py;
-    kept->bx = Bx;
-    kept->by = By;
-    kept->present.resize(tiles.size());
-    kept->bytes = sizeof(TileCache::Memo) + 2 * tiles.size() + 64;
-    for (std::size_t t = 0; t < tiles.size(); ++t) {
-      kept->present[t] = tiles[t].marched;
-      kept->bytes += tiled[t].trim();
-    }
-    kept->tiles = std::move(tiled);
-    options.tile_cache->add(options.tile_phase, std::move(kept));
   }
   if (options.edge_crossings) {
     options.edge_crossings->resize(ts->size());

@@ -1233,23 +1233,6 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
     result.periodic_fraction = total ? static_cast<double>(periodic) / static_cast<double>(total) : 0;
     if (!(result.periodic_fraction >= 0.3)) sheet_period = {0, 0};
   }
-  // Layers a whole period of φ apart along z cut the same sheet (translated by whole periods in
-  // x and y where it is periodic), so they share their tiles: a phase per layer when the period
-  // is a whole number of layers (TileCache, one per march, each kept within kPbfTileCacheBytes).
-  std::size_t phases = 0;
-  if (sheet_period.x > 0) {
-    const double pz = design.phi.period().z, r = pz / o.layer, n = std::round(r);
-    if (pz > 0 && n >= 1 && std::abs(r - n) <= 1e-6 * n && static_cast<double>(zs.size()) > n)
-      phases = static_cast<std::size_t>(n);
-  }
-  TileCache section_tiles(kPbfTileCacheBytes), thin_tiles(kPbfTileCacheBytes), mid_tiles(kPbfTileCacheBytes);
-  // Layer i's phase, or nullopt (no phase: a last layer cut below the top is off the step).
-  auto phase_of = [&](std::size_t i) -> std::optional<std::uint64_t> {
-    if (phases == 0) return std::nullopt;
-    const double k = std::round((zs[i] - zs[0]) / o.layer);
-    if (std::abs(zs[i] - zs[0] - k * o.layer) > 1e-9) return std::nullopt;
-    return static_cast<std::uint64_t>(k) % phases;
-  };
   tbb::enumerable_thread_specific<Ctx> contexts(
       [&] { return Ctx(part, design, c_field, sheet_period); });
   std::atomic<std::size_t> done{0};
@@ -1264,14 +1247,6 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
     L.z = z;
     L.hatch_angle = std::fmod(o.hatch_angle + o.hatch_rotation * static_cast<double>(i), 180.0);
     // The sheet's cross-section S.
-    const std::optional<std::uint64_t> phase = phase_of(i);
-    auto with_tiles = [&](MarchOptions mo, TileCache& cache) {
-      if (phase) {
-        mo.tile_cache = &cache;
-        mo.tile_phase = *phase;
-      }
-      return mo;
-    };
     LayerGrid& grid = ctx.grid;
     grid.reset(lo, Hs, nx, ny);
     ctx.bounds.reset(z);
@@ -1282,7 +1257,7 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
       PartSection fs(ctx, grid, z);
       // The coarse marches' smallest blocks are 4 of their cells (MarchOptions::block's leaves).
       if (Hs < H) fs.share_bounds_from(4 * H - 1e-9);
-      MarchOptions mo = with_tiles(mo_section, section_tiles);
+      MarchOptions mo = mo_section;
       mo.edge_crossings = section_crossings ? &ctx.edge_crossings : nullptr;
       // With beam compensation every hatch vector keeps it from the section's outline: its
       // chords are halved onto the field (a Newton step from each chord's middle).
@@ -1319,7 +1294,7 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
         // the section's (refined) one, not the coarse grid's; slivers between the two outlines
         // are narrower than a cell and within the compensation of both.
         if (result.thin_walls_possible) {
-          ContourSet t = march_squares(thin, lo, hi, 0.0, with_tiles(mo_joint, thin_tiles));
+          ContourSet t = march_squares(thin, lo, hi, 0.0, mo_joint);
           L.blocks += t.blocks;
           L.tiled_blocks += t.tiled_blocks;
           T = nest_oriented_rings(std::move(t.lines.loops));
@@ -1331,7 +1306,7 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
         hatch_region = nest_oriented_rings(std::move(j.lines.loops));
       }
       MidSection mid(ctx, z);
-      const ContourSet m = march_squares(mid, lo, hi, 0.0, with_tiles(mo_mid, mid_tiles));
+      const ContourSet m = march_squares(mid, lo, hi, 0.0, mo_mid);
       L.blocks += m.blocks;
       L.tiled_blocks += m.tiled_blocks;
       std::vector<std::vector<Vec2>> lines = m.lines.open;

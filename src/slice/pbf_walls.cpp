@@ -63,8 +63,6 @@ double pbf_memory_estimate(const PbfDesign& design, const PbfOptions& o, int thr
   const double length = area / o.melt_pool;  // mm a layer
   const double vectors = length / std::max(std::min(o.segment_length, 4 * o.hatch_distance), 1e-3);
   double bytes = 36e6 + threads * per_thread + layers * vectors * 300;
-  // The tiles kept for layers a period apart, at most, when φ repeats along z.
-  if (o.periodic_tiles && design.phi.period().z > 0) bytes += 3.0 * kPbfTileCacheBytes;
   return bytes;
 }
 

@@ -223,7 +223,6 @@ TEST(Pbf, PeriodicTilesPlanTheSameLayers) {
   std::vector<Case> cases;
   {
     PbfDesign d = gyroid_cube(6);
-    // Taller than a period of 25 layers: layers a period apart share their tiles.
     d.envelope = translate(rectprism({6, 5, 3}), {0.37, -0.61, 0});
     cases.push_back({"gyroid, translated box", d});
     cases.push_back({"gyroid, translated box, STL route", d, true});

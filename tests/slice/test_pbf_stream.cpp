@@ -106,6 +106,26 @@ TEST(PbfStream, ALayerRangeOnItsOwnIsThatRangeOfTheWholeRun) {
   EXPECT_EQ(plan_pbf(d, o, {}, [](std::size_t, const PbfLayer&) {}, {n - 2}).layers.size(), 2u);
 }
 
+// The same for a part taller than a period of its TPMS (25 layers of 0.1 mm in 2.5 mm cells),
+// tiled across the plane: every layer's tiles are its own (a cache of tiles shared by layers a
+// period apart would make a shard started cold differ from the whole run in the last digits).
+TEST(PbfStream, ALayerRangeOfATallTiledPartIsThatRangeOfTheWholeRun) {
+  PbfDesign d = small_gyroid();
+  d.envelope = rectprism({5, 5, 6});
+  PbfOptions o;
+  o.layer = 0.1;  // 60 layers
+  const PbfResult whole = plan_pbf(d, o);
+  EXPECT_GT(whole.tiled_blocks, 0u);
+  const std::size_t n = whole.layers.size();
+  ASSERT_GT(n, 50u);
+  std::size_t next = 27;
+  const PbfResult part = plan_pbf(d, o, {}, [&](std::size_t i, const PbfLayer& L) {
+    ASSERT_EQ(i, next++);
+    expect_same_vectors(L, whole.layers[i], i);
+  }, {27, n});
+  EXPECT_EQ(next, n);
+}
+
 std::string temp_path(const std::string& name) {
   return (std::filesystem::temp_directory_path() / ("trellis_pbf_stream_" + name)).string();
 }

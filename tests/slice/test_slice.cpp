@@ -456,22 +456,6 @@ TEST(Contours, PeriodicTilesGiveTheSameContours) {
   };
   EXPECT_LT(worst_from(pa, pb), tol);
   EXPECT_LT(worst_from(pb, pa), tol);
-  // Marches of the same phase share tiles (TileCache): the first keeps the ones it marched,
-  // the second translates them all — every periodic block — and gives the same contours.
-  TileCache cache;
-  MarchOptions cached = tiled;
-  cached.tile_cache = &cache;
-  cached.tile_phase = 3;
-  const ContourSet c1 = march_squares(f, {0, 0}, {12.5, 12}, 0, cached);
-  EXPECT_GT(cache.bytes(), 0u);
-  const ContourSet c2 = march_squares(f, {0, 0}, {12.5, 12}, 0, cached);
-  EXPECT_EQ(c1.tiled_blocks, b.tiled_blocks);
-  EXPECT_EQ(c2.tiled_blocks, b.tiled_blocks + 100);  // the 10 × 10 tiles of a period
-  EXPECT_LT(c2.samples, b.samples);
-  const std::vector<Vec2> pc = points(c2);
-  ASSERT_EQ(pc.size(), pa.size());
-  EXPECT_LT(worst_from(pa, pc), tol);
-  EXPECT_LT(worst_from(pc, pa), tol);
   // A period of 2.51 mm is not a whole number of 25 µm cells: every block is marched.
   f.P = 2.51;
   EXPECT_EQ(march_squares(f, {0, 0}, {12.5, 12}, 0, tiled).tiled_blocks, 0u);

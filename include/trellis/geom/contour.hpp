@@ -5,9 +5,6 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
-#include <memory>
-#include <mutex>
-#include <unordered_map>
 #include <vector>
 
 #include "trellis/core/vec.hpp"
@@ -65,24 +62,6 @@ class PlaneFunction {
   }
 };
 
-// Tiles kept between marches of a function that repeats along a third axis as well (a TPMS's
-// layers a period apart): the first march of a phase keeps the tiles it marched, later marches
-// of the same phase translate those instead of marching their own (MarchOptions::tile_cache).
-// Shared between threads; tiles are kept while the total stays within max_bytes.
-class TileCache {
- public:
-  explicit TileCache(std::size_t max_bytes = std::size_t{16} << 20) : max_(max_bytes) {}
-  struct Memo;
-  std::shared_ptr<const Memo> find(std::uint64_t phase) const;
-  void add(std::uint64_t phase, std::shared_ptr<const Memo> memo);
-  std::size_t bytes() const;
-
- private:
-  mutable std::mutex m_;
-  std::unordered_map<std::uint64_t, std::shared_ptr<const Memo>> memos_;
-  std::size_t bytes_ = 0, max_;
-};
-
 struct StitchedLines {
   std::vector<std::vector<Vec2>> loops;  // closed, first point not repeated
   std::vector<std::vector<Vec2>> open;   // open polylines
@@ -114,10 +93,6 @@ struct MarchOptions {
   // ring of blocks across the edge of the periodic region (marched one by one) thin; each block
   // costs a little on its own.
   std::size_t tile_block = 8;
-  // Tiles of other marches of the same phase (the same function up to a translation by whole
-  // periods along x and y), and this march's phase; null: none kept.
-  TileCache* tile_cache = nullptr;
-  std::uint64_t tile_phase = 0;
   // Also put a point in the middle of every segment (between two crossings), moved onto the
   // level by one Newton step along the function's gradient from forward differences, at most a
   // quarter of the segment: the outline's chords halved onto the curve (as translated with the

@@ -127,9 +127,6 @@ struct PbfResult {
 // Bytes plan_pbf would use for this design and these options with `threads` workers (per-thread
 // grids and caches, the layers' vectors and the toolpath made of them; the STL route's mesh is
 // not counted). plan_pbf refuses to start above PbfOptions::memory_budget.
-// Bytes each of the direct route's three marches may keep of tiles shared by layers a period
-// apart (TileCache).
-inline constexpr std::size_t kPbfTileCacheBytes = std::size_t{2} << 20;
 double pbf_memory_estimate(const PbfDesign& design, const PbfOptions& options, int threads);
 // streamed: the layers' vectors go to a sink as they come (plan_pbf with a sink), so only the
 // pipeline's layers in flight count.
