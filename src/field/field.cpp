@@ -61,11 +61,13 @@ BBox3 infinite_box() {
   return box_of({-kInf, -kInf, -kInf}, {kInf, kInf, kInf});
 }
 // Exact signed distance to an axis-aligned box of half sizes h centred at c.
-double box_sdf(Vec3 p, Vec3 c, Vec3 h) {
-  const double qx = std::abs(p.x - c.x) - h.x, qy = std::abs(p.y - c.y) - h.y,
-               qz = std::abs(p.z - c.z) - h.z;
+// The box SDF from q_i = |p_i − c_i| − h_i.
+double box_sdf_q(double qx, double qy, double qz) {
   const double ox = std::max(qx, 0.0), oy = std::max(qy, 0.0), oz = std::max(qz, 0.0);
   return std::sqrt(ox * ox + oy * oy + oz * oz) + std::min(std::max({qx, qy, qz}), 0.0);
+}
+double box_sdf(Vec3 p, Vec3 c, Vec3 h) {
+  return box_sdf_q(std::abs(p.x - c.x) - h.x, std::abs(p.y - c.y) - h.y, std::abs(p.z - c.z) - h.z);
 }
 // Interval of the box SDF over a query box, exact: the SDF is non-decreasing in each
 // q_i = |p_i − c_i| − h_i, and the query box holds the points where every q_i is least (the
@@ -77,15 +79,11 @@ Interval box_sdf_bound(const BBox3& q, Vec3 c, Vec3 h) {
     qlo = (lo > 0 ? lo : (hi < 0 ? -hi : 0.0)) - h;
     qhi = std::max(std::abs(lo), std::abs(hi)) - h;
   };
-  auto sdf = [](double qx, double qy, double qz) {
-    const double ox = std::max(qx, 0.0), oy = std::max(qy, 0.0), oz = std::max(qz, 0.0);
-    return std::sqrt(ox * ox + oy * oy + oz * oz) + std::min(std::max({qx, qy, qz}), 0.0);
-  };
   double xl, xh, yl, yh, zl, zh;
   axis(q.min.x, q.max.x, c.x, h.x, xl, xh);
   axis(q.min.y, q.max.y, c.y, h.y, yl, yh);
   axis(q.min.z, q.max.z, c.z, h.z, zl, zh);
-  return {sdf(xl, yl, zl), sdf(xh, yh, zh)};
+  return {box_sdf_q(xl, yl, zl), box_sdf_q(xh, yh, zh)};
 }
 
 }  // namespace

@@ -4,7 +4,6 @@
 #include "trellis/geom/contour.hpp"
 
 #include <cmath>
-
 #include <cstdint>
 #include <functional>
 #include <optional>
@@ -284,7 +283,7 @@ struct MarchBuffers {
   std::vector<std::pair<std::size_t, std::size_t>> segments;
   std::vector<std::size_t> active;
   std::vector<std::uint64_t> edges;  // each pending crossing's edge key (for edge_crossings)
-  std::vector<Vec2> mids, mid_pts;   // segment midpoints (MarchOptions::segment_midpoints)
+  std::vector<Vec2> mid_pts;         // segment midpoints' samples (segment_midpoints)
   std::vector<Vec2> inner;           // points inside segments (midpoints, translated chains)
   std::vector<std::size_t> inner_at;
   std::vector<double> mid_vals;
@@ -651,11 +650,15 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
     }
   std::vector<double>* ts = keep_keys ? &buffers->ts : nullptr;
   m.refine(crossings, buffers->active, buffers->guesses, buffers->guess_values, buffers->ok, ts);
+  // Points inside each segment, put between its ends by the walk: inner[inner_at[e] ..
+  // inner_at[e + 1]) (a midpoint each, or a translated tile's chain of points).
+  std::vector<Vec2>& inner = buffers->inner;
+  std::vector<std::size_t>& inner_at = buffers->inner_at;
+  inner.clear();
+  inner_at.assign(segments.size() + 1, 0);
   // Segment midpoints: the middle of each segment moved onto the level by a Newton step along
   // the function's gradient (forward differences: three batches of values), at most a quarter
-  // of the segment.
-  std::vector<Vec2>& mids = buffers->mids;
-  mids.clear();
+  // of the segment; one within midpoint_min_offset of its segment adds nothing and is dropped.
   if (options.segment_midpoints) {
     const std::size_t n = segments.size();
     constexpr double dh = 1e-6;
@@ -671,7 +674,7 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
     }
     if (n > 0) f.sample(mp.data(), mv.data(), 3 * n);
     m.samples += 3 * n;
-    mids.resize(n);
+    const double keep2 = options.midpoint_min_offset * options.midpoint_min_offset;
     for (std::size_t k = 0; k < n; ++k) {
       const Vec2 a = crossings[segments[k].first], b = crossings[segments[k].second];
       const double fv = mv[k] - level;
@@ -680,33 +683,12 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
       Vec2 step = gg > 0 ? g * (-fv / gg) : Vec2{};
       const double cap = 0.25 * std::sqrt(dist2(a, b)), len = std::sqrt(dist2(step, Vec2{}));
       if (len > cap) step = step * (cap / len);
-      mids[k] = mp[k] + step;
+      const Vec2 mid = mp[k] + step, d = b - a, q = mid - a;
+      const double cr = d.x * q.y - d.y * q.x;
+      if (!(cr * cr <= keep2 * (d.x * d.x + d.y * d.y))) inner.push_back(mid);
+      inner_at[k + 1] = inner.size();
     }
   }
-  // Points inside each segment, put between its ends by the walk: inner[inner_at[e] ..
-  // inner_at[e + 1]) (a midpoint each, or a translated tile's chain of points).
-  std::vector<Vec2>& inner = buffers->inner;
-  std::vector<std::size_t>& inner_at = buffers->inner_at;
-  inner.clear();
-  inner_at.clear();
-  const bool has_inner = !mids.empty() || !replays.empty();
-  if (has_inner) {
-    // A midpoint within midpoint_min_offset of its segment adds nothing: dropped.
-    inner_at.resize(segments.size() + 1);
-    inner_at[0] = 0;
-    const double keep2 = options.midpoint_min_offset * options.midpoint_min_offset;
-    for (std::size_t e = 0; e < segments.size(); ++e) {
-      if (!mids.empty()) {
-        const Vec2 a = crossings[segments[e].first], d = crossings[segments[e].second] - a,
-                   q = mids[e] - a;
-        const double cr = d.x * q.y - d.y * q.x, dd = d.x * d.x + d.y * d.y;
-        if (!(cr * cr <= keep2 * dd)) inner.push_back(mids[e]);
-      }
-      inner_at[e + 1] = inner.size();
-    }
-  }
-  std::vector<std::vector<Vec2>> tile_loops;  // loops inside a translated tile
-  std::vector<TileLines> tiled(tiles.size());
   if (!replays.empty()) {
     // Each tile's lines as chains: from a crossing where a line enters the block to the one
     // where it leaves (on the block's edges, in the block's own terms: node relative to its
@@ -716,6 +698,7 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
     // up by grid edge (an edge that already has a crossing, marched by a neighbour or
     // translated for one, keeps it), so the lines join as in one march, and only the ends are
     // stitched. (A tile where a crossing would start two segments is taken segment by segment.)
+    std::vector<TileLines> tiled(tiles.size());
     const std::size_t nc = crossings.size();
     std::vector<std::size_t> out_seg(nc), stamp_out(nc, 0), stamp_in(nc, 0);
     std::vector<char> used(segments.size(), 0);
@@ -780,8 +763,6 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
         T.loops.emplace_back(begin, T.size());
       }
     }
-  }
-  if (!replays.empty()) {
     auto lookup = [&](const Replay& r, const TileEnd& c) {
       const std::size_t i = r.bi + c.i, j = r.bj + c.j;
       const std::uint64_t key = ((j * row + i) << 1) | static_cast<std::uint64_t>(c.vertical);
@@ -802,16 +783,18 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
         for (std::size_t k = c.begin; k < c.end; ++k) inner.push_back(TileLines::at(o, T.pts[k]));
         inner_at.push_back(inner.size());
       }
+    }
+    // Loops inside a tile are edges from a point of their own back to it, after every crossing
+    // with a grid edge (ids past those edge_crossings reports), so the walk closes them.
+    for (const Replay& r : replays) {
+      const TileLines& T = tiled[r.tile];
+      const Vec2 o = m.node(r.bi, r.bj);
       for (const auto& [begin, end] : T.loops) {
-        std::vector<Vec2> loop;
-        loop.reserve(end - begin);
-        for (std::size_t k = begin; k < end; ++k) {
-          const Vec2 p = TileLines::at(o, T.pts[k]);
-          if (loop.empty() || loop.back().x != p.x || loop.back().y != p.y) loop.push_back(p);
-        }
-        if (loop.size() >= 2 && loop.back().x == loop.front().x && loop.back().y == loop.front().y)
-          loop.pop_back();
-        if (loop.size() >= 3) tile_loops.push_back(std::move(loop));
+        const std::size_t id = crossings.size();
+        crossings.push_back(TileLines::at(o, T.pts[begin]));
+        segments.emplace_back(id, id);
+        for (std::size_t k = begin + 1; k < end; ++k) inner.push_back(TileLines::at(o, T.pts[k]));
+        inner_at.push_back(inner.size());
       }
     }
   }
@@ -823,8 +806,7 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
     }
   }
   result.samples = m.samples;
-  result.lines = walk_edges(crossings, segments, has_inner ? &inner_at : nullptr, &inner);
-  for (auto& l : tile_loops) result.lines.loops.push_back(std::move(l));
+  result.lines = walk_edges(crossings, segments, &inner_at, &inner);
   return result;
 }
 

@@ -79,6 +79,14 @@ namespace {
 
 constexpr double kDeg = std::numbers::pi / 180;
 
+// The flat box [lo, hi] at height z (a layer's block, for 3D bounds).
+BBox3 plane_box(Vec2 lo, Vec2 hi, double z) {
+  BBox3 b;
+  b.add({lo.x, lo.y, z});
+  b.add({hi.x, hi.y, z});
+  return b;
+}
+
 class LayerGrid {
  public:
   // Reused across layers by one thread: entries are valid when their stamp is the current one.
@@ -232,10 +240,7 @@ class BoundCache {
       const Slot& t = slots_[i];
       if (t.lo.x == lo.x && t.lo.y == lo.y && t.hi.x == hi.x && t.hi.y == hi.y) return t.v;
     }
-    BBox3 b;
-    b.add({lo.x, lo.y, z_});
-    b.add({hi.x, hi.y, z_});
-    const Interval v = part.bound(b);
+    const Interval v = part.bound(plane_box(lo, hi, z_));
     if (4 * (size_ + 1) > tags_.size()) {  // kept a quarter full at most (short probes)
       grow();
       i = free_slot(h);
@@ -318,9 +323,7 @@ struct Ctx {
       if (!(lo.x > b.min.x && hi.x < b.max.x && lo.y > b.min.y && hi.y < b.max.y && z > b.min.z &&
             z < b.max.z))
         return false;
-    BBox3 box;
-    box.add({lo.x, lo.y, z});
-    box.add({hi.x, hi.y, z});
+    const BBox3 box = plane_box(lo, hi, z);
     if (envelope && !(envelope->bound(box).hi < 0)) return false;
     if (solids && !(solids->bound(box).lo > 0)) return false;
     return true;
@@ -622,12 +625,7 @@ class PartSection : public PlaneFunction {
   // table (they were most of its entries).
   void share_bounds_from(double shared) { shared_ = shared; }
   Interval bound(Vec2 lo, Vec2 hi) override {
-    if (hi.x - lo.x < shared_ && hi.y - lo.y < shared_) {
-      BBox3 b;
-      b.min = {lo.x, lo.y, z_};
-      b.max = {hi.x, hi.y, z_};
-      return ctx_.part.bound(b);
-    }
+    if (hi.x - lo.x < shared_ && hi.y - lo.y < shared_) return ctx_.part.bound(plane_box(lo, hi, z_));
     return ctx_.bounds.get(ctx_.part, lo, hi);
   }
   void prefetch_bounds(const Vec2* lo, const Vec2* hi, std::size_t n) override {
@@ -658,11 +656,8 @@ class MidSection : public PlaneFunction {
     evaluate_grid(ctx_.phi, p, w, rows, z_, xs_, ys_, out);
   }
   Interval bound(Vec2 lo, Vec2 hi) override {
-    BBox3 b;
-    b.add({lo.x, lo.y, z_});
-    b.add({hi.x, hi.y, z_});
     if (ctx_.bounds.get(ctx_.part, lo, hi).lo >= 0) return {1, std::numeric_limits<double>::infinity()};
-    return ctx_.phi.bound(b);
+    return ctx_.phi.bound(plane_box(lo, hi, z_));
   }
   void prefetch_bounds(const Vec2* lo, const Vec2* hi, std::size_t n) override {
     ctx_.bounds.prefetch(lo, hi, n);
@@ -1188,6 +1183,11 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
   // The section's crossings start from the cubic through the grid values along their edge:
   // about one refinement sample each instead of three (the same tolerance).
   mo_section.cubic_guess = true;
+  // With beam compensation every hatch vector keeps it from the section's outline: its chords
+  // are halved onto the field (a Newton step from each chord's middle), except where the outline
+  // is within 0.1 µm of straight (a point more there only costs the hatching).
+  mo_section.segment_midpoints = o.beam_compensation > 0;
+  mo_section.midpoint_min_offset = 1e-4;
   mo_mid.refine_fraction = std::min(0.1, 5e-4 / H);
   // Periodic tiles about 0.25 mm a side (measured on the 2–4-cell cubes: smaller ones cost
   // more per block, larger ones widen the ring of blocks marched along the envelope).
@@ -1223,7 +1223,8 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
     std::size_t periodic = 0, total = 0;
     const double step = 0.5;
     for (const double f : {0.25, 0.5, 0.75}) {
-      const double z = zs[std::min(zs.size() - 1, static_cast<std::size_t>(f * static_cast<double>(zs.size())))];
+      const auto k = static_cast<std::size_t>(f * static_cast<double>(zs.size()));
+      const double z = zs[std::min(zs.size() - 1, k)];
       for (double y = e.min.y; y < e.max.y; y += step)
         for (double x = e.min.x; x < e.max.x; x += step) {
           ++total;
@@ -1246,6 +1247,12 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
     const double z = zs[i];
     L.z = z;
     L.hatch_angle = std::fmod(o.hatch_angle + o.hatch_rotation * static_cast<double>(i), 180.0);
+    // A march's contours, its blocks counted in the layer's.
+    auto counted = [&L](ContourSet c) {
+      L.blocks += c.blocks;
+      L.tiled_blocks += c.tiled_blocks;
+      return c;
+    };
     // The sheet's cross-section S.
     LayerGrid& grid = ctx.grid;
     grid.reset(lo, Hs, nx, ny);
@@ -1259,15 +1266,7 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
       if (Hs < H) fs.share_bounds_from(4 * H - 1e-9);
       MarchOptions mo = mo_section;
       mo.edge_crossings = section_crossings ? &ctx.edge_crossings : nullptr;
-      // With beam compensation every hatch vector keeps it from the section's outline: its
-      // chords are halved onto the field (a Newton step from each chord's middle).
-      mo.segment_midpoints = o.beam_compensation > 0;
-      // (Where the outline is that straight, 0.1 µm, a point more only costs the hatching.)
-      mo.midpoint_min_offset = 1e-4;
-      ContourSet section = march_squares(fs, lo, hi, 0.0, mo);
-      L.blocks += section.blocks;
-      L.tiled_blocks += section.tiled_blocks;
-      S = nest_oriented_rings(std::move(section.lines.loops));
+      S = nest_oriented_rings(counted(march_squares(fs, lo, hi, 0.0, mo)).lines.loops);
       // The section's crossings are kept with the grid for the thin-wall march.
       if (section_crossings) grid.set_crossings(ctx.edge_crossings);
     }
@@ -1293,22 +1292,14 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
         // Joints = the section minus the thin walls, so the joints' outline along the sheet is
         // the section's (refined) one, not the coarse grid's; slivers between the two outlines
         // are narrower than a cell and within the compensation of both.
-        if (result.thin_walls_possible) {
-          ContourSet t = march_squares(thin, lo, hi, 0.0, mo_joint);
-          L.blocks += t.blocks;
-          L.tiled_blocks += t.tiled_blocks;
-          T = nest_oriented_rings(std::move(t.lines.loops));
-        }
+        if (result.thin_walls_possible)
+          T = nest_oriented_rings(counted(march_squares(thin, lo, hi, 0.0, mo_joint)).lines.loops);
       } else {
-        ContourSet j = march_squares(joint, lo, hi, 0.0, mo_joint);
-        L.blocks += j.blocks;
-        L.tiled_blocks += j.tiled_blocks;
-        hatch_region = nest_oriented_rings(std::move(j.lines.loops));
+        hatch_region =
+            nest_oriented_rings(counted(march_squares(joint, lo, hi, 0.0, mo_joint)).lines.loops);
       }
       MidSection mid(ctx, z);
-      const ContourSet m = march_squares(mid, lo, hi, 0.0, mo_mid);
-      L.blocks += m.blocks;
-      L.tiled_blocks += m.tiled_blocks;
+      const ContourSet m = counted(march_squares(mid, lo, hi, 0.0, mo_mid));
       std::vector<std::vector<Vec2>> lines = m.lines.open;
       const std::size_t first_loop = lines.size();
       for (auto l : m.lines.loops) {

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <numbers>
 #include <tuple>
+#include <utility>
 #include <vector>
 
 #include "trellis/core/error.hpp"
@@ -100,6 +101,24 @@ TEST(Field, MarchingCubesOfAFieldIsClosedWithTheRightVolume) {
   EXPECT_GT(st.grid_bytes, 0u);
 }
 
+// Ends of hatch vectors of one plan with no end of the other within 1 µm, both ways: {ends
+// looked at, ends without}.
+std::pair<std::size_t, std::size_t> unmatched_ends(const std::vector<Segment2>& a,
+                                                   const std::vector<Segment2>& b) {
+  std::size_t ends = 0, moved = 0;
+  for (const auto& [p, q] : {std::pair{&a, &b}, std::pair{&b, &a}})
+    for (const Segment2& s : *p)
+      for (const Vec2 e : {s.a, s.b}) {
+        double best = 1e9;
+        for (const Segment2& t : *q)
+          best = std::min(
+              {best, std::hypot(t.a.x - e.x, t.a.y - e.y), std::hypot(t.b.x - e.x, t.b.y - e.y)});
+        ++ends;
+        moved += best > 1e-3;
+      }
+  return {ends, moved};
+}
+
 PbfDesign gyroid_cube(double size, double c = 0.15) {
   PbfDesign d;
   d.phi = tpms(TpmsKind::Gyroid, {2.5, 2.5, 2.5});
@@ -191,16 +210,9 @@ TEST(Pbf, ThinWallOutlineFromTheSectionCrossingsKeepsTheHatchEnds) {
     const auto& b = reused.layers[i].hatches;
     EXPECT_LE(std::max(a.size(), b.size()) - std::min(a.size(), b.size()), 1u) << "layer " << i;
     // Every end of one has an end of the other within 1 µm.
-    for (const auto& [p, q] : {std::pair{&a, &b}, std::pair{&b, &a}})
-      for (const Segment2& s : *p)
-        for (const Vec2 e : {s.a, s.b}) {
-          double best = 1e9;
-          for (const Segment2& t : *q)
-            best = std::min(
-                {best, std::hypot(t.a.x - e.x, t.a.y - e.y), std::hypot(t.b.x - e.x, t.b.y - e.y)});
-          ++ends;
-          moved += best > 1e-3;
-        }
+    const auto [n, off] = unmatched_ends(a, b);
+    ends += n;
+    moved += off;
   }
   EXPECT_GT(ends, 10000u);
   EXPECT_LE(moved, ends / 1000) << "of " << ends << " hatch ends";
@@ -271,16 +283,9 @@ TEST(Pbf, PeriodicTilesPlanTheSameLayers) {
                     std::min(a.hatches.size(), b.hatches.size()),
                 1u)
           << c.name << " layer " << i;
-      for (const auto& [p, q] : {std::pair{&a.hatches, &b.hatches}, std::pair{&b.hatches, &a.hatches}})
-        for (const Segment2& s : *p)
-          for (const Vec2 e : {s.a, s.b}) {
-            double best = 1e9;
-            for (const Segment2& t : *q)
-              best = std::min({best, std::hypot(t.a.x - e.x, t.a.y - e.y),
-                               std::hypot(t.b.x - e.x, t.b.y - e.y)});
-            ++ends;
-            moved += best > 1e-3;
-          }
+      const auto [n, off] = unmatched_ends(a.hatches, b.hatches);
+      ends += n;
+      moved += off;
     }
     EXPECT_LE(off_by_more, plain.layers.size() / 10) << c.name;
     EXPECT_GT(ends, 2000u) << c.name;
