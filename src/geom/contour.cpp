@@ -3,6 +3,7 @@
 // needs the field's interval bounds; no packaged contouring library does either.
 #include "trellis/geom/contour.hpp"
 
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <functional>
@@ -482,11 +483,15 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
     const double r = p / h, c = std::round(r);
     return c >= 1 && std::abs(r - c) <= 1e-6 * c ? static_cast<std::size_t>(c) : 0;
   };
-  // A block side dividing the period: the divisor in 4..4·tile_block closest to tile_block,
-  // else the period if it is that small; else no tiles.
+  // A block side dividing the period: the divisor in 4..4·tile_block closest to tile_block by
+  // ratio, else the period if it is that small; else no tiles. (By ratio: a period of 125 cells
+  // and 13 wanted takes 25, not 5; blocks much smaller than wanted cost the most.)
   const std::size_t want = std::max<std::size_t>(options.tile_block, 1);
   auto tile_side = [&](std::size_t p) -> std::size_t {
-    auto off = [&](std::size_t d) { return d > want ? d - want : want - d; };
+    auto off = [&](std::size_t d) {
+      const double r = static_cast<double>(d) / static_cast<double>(want);
+      return std::max(r, 1 / r);
+    };
     std::size_t best = 0;
     for (std::size_t d = std::min<std::size_t>(4, want); d <= 4 * want; ++d)
       if (p % d == 0 && (best == 0 || off(d) < off(best))) best = d;
@@ -581,10 +586,21 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
   };
   auto bound = [&](const Block& k) { return f.bound(m.node(k.i, k.j), m.node(k.i + k.ci, k.j + k.cj)); };
   auto excluded = [&](const Interval& r) { return r.lo >= level || r.hi < level; };
-  // `range` is the block's bound, computed once by the caller.
-  std::function<void(const Block&, const Interval&)> visit = [&](const Block& k, const Interval& range) {
+  // Blocks smaller than a tile where the function is periodic (along the envelope, where a
+  // tile-sized block would cross it): marched at the end by their cells, from the tiles'.
+  std::vector<Block> periodic_parts;
+  bool defer_periodic = false;  // while marching the top blocks, when tiling
+  // `range` is the block's bound, computed once by the caller; `checked`: the block is known
+  // not to be periodic.
+  std::function<void(const Block&, const Interval&, bool)> visit;
+  visit = [&](const Block& k, const Interval& range, bool checked) {
     if (excluded(range)) {
       ++result.skipped_blocks;
+      return;
+    }
+    if (defer_periodic && !checked &&
+        f.periodic(m.node(k.i, k.j), m.node(k.i + k.ci, k.j + k.cj))) {
+      periodic_parts.push_back(k);
       return;
     }
     const bool bounded = std::isfinite(range.lo) || std::isfinite(range.hi);
@@ -607,17 +623,24 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
       phi[q] = m.node(parts[q].i + parts[q].ci, parts[q].j + parts[q].cj);
     }
     f.prefetch_bounds(plo, phi, static_cast<std::size_t>(np));
+    bool periodic[4] = {false, false, false, false};
     for (int q = 0; q < np; ++q) {
       ranges[q] = bound(parts[q]);
-      any_skippable = any_skippable || excluded(ranges[q]);
+      periodic[q] = defer_periodic && !excluded(ranges[q]) && f.periodic(plo[q], phi[q]);
+      any_skippable = any_skippable || excluded(ranges[q]) || periodic[q];
     }
-    // If no quarter can be skipped, march the block whole: splitting would only sample the
-    // shared edges twice (a surface everywhere, like a TPMS sheet).
+    // If no quarter can be skipped (or taken from the tiles), march the block whole: splitting
+    // would only sample the shared edges twice (a surface everywhere, like a TPMS sheet).
     if (!any_skippable) {
       march_block(k.i, k.j, k.ci, k.cj);
       return;
     }
-    for (int q = 0; q < np; ++q) visit(parts[q], ranges[q]);
+    for (int q = 0; q < np; ++q) {
+      if (periodic[q])
+        periodic_parts.push_back(parts[q]);
+      else
+        visit(parts[q], ranges[q], defer_periodic);
+    }
   };
   // A tile: the block marched for its place in the period, and its segments.
   struct Tile {
@@ -629,25 +652,45 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
     std::size_t bi, bj, tile;
   };
   std::vector<Replay> replays;
+  auto tile_of = [&](std::size_t i, std::size_t j) {  // the tile of cell (i, j)'s place
+    return ((j % py) / By) * (px / Bx) + (i % px) / Bx;
+  };
+  defer_periodic = tiling;
   for (std::size_t bj = 0; bj < ny; bj += By)
     for (std::size_t bi = 0; bi < nx; bi += Bx) {
       ++result.blocks;
       const Block top{bi, bj, std::min(Bx, nx - bi), std::min(By, ny - bj)};
-      if (tiling && top.ci == Bx && top.cj == By &&
-          f.periodic(m.node(bi, bj), m.node(bi + Bx, bj + By))) {
-        const std::size_t t = ((bj % py) / By) * (px / Bx) + (bi % px) / Bx;
+      const bool whole = top.ci == Bx && top.cj == By;
+      if (tiling && whole && f.periodic(m.node(bi, bj), m.node(bi + Bx, bj + By))) {
+        const std::size_t t = tile_of(bi, bj);
         if (tiles[t].marched) {
           replays.push_back({bi, bj, t});
           ++result.tiled_blocks;
           continue;
         }
         tiles[t] = {true, bi, bj, segments.size(), 0};
-        visit(top, bound(top));
+        defer_periodic = false;
+        visit(top, bound(top), true);
+        defer_periodic = true;
         tiles[t].s1 = segments.size();
         continue;
       }
-      visit(top, bound(top));
+      visit(top, bound(top), whole);
     }
+  defer_periodic = false;
+  // Periodic parts (each inside one top block, so one tile's place) whose tile was marched are
+  // taken from it (below); the others are marched.
+  {
+    std::size_t kept = 0;
+    for (const Block& k : periodic_parts) {
+      if (tiles[tile_of(k.i, k.j)].marched)
+        periodic_parts[kept++] = k;
+      else
+        visit(k, bound(k), true);
+    }
+    periodic_parts.resize(kept);
+    result.tiled_parts = kept;
+  }
   std::vector<double>* ts = keep_keys ? &buffers->ts : nullptr;
   m.refine(crossings, buffers->active, buffers->guesses, buffers->guess_values, buffers->ok, ts);
   // Points inside each segment, put between its ends by the walk: inner[inner_at[e] ..
@@ -689,6 +732,7 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
       inner_at[k + 1] = inner.size();
     }
   }
+  std::vector<TileLines> tiled;
   if (!replays.empty()) {
     // Each tile's lines as chains: from a crossing where a line enters the block to the one
     // where it leaves (on the block's edges, in the block's own terms: node relative to its
@@ -698,7 +742,7 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
     // up by grid edge (an edge that already has a crossing, marched by a neighbour or
     // translated for one, keeps it), so the lines join as in one march, and only the ends are
     // stitched. (A tile where a crossing would start two segments is taken segment by segment.)
-    std::vector<TileLines> tiled(tiles.size());
+    tiled.resize(tiles.size());
     const std::size_t nc = crossings.size();
     std::vector<std::size_t> out_seg(nc), stamp_out(nc, 0), stamp_in(nc, 0);
     std::vector<char> used(segments.size(), 0);
@@ -784,6 +828,79 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
         inner_at.push_back(inner.size());
       }
     }
+  }
+  if (!periodic_parts.empty()) {
+    // A tile's segments by cell (the cell both its crossings' edges bound), row by row, built
+    // for the tiles the parts use; each part takes the segments of its cells' rows, translated
+    // by whole periods, their ends looked up by grid edge as the chains' are.
+    auto cell_of = [&](std::size_t id) {  // the two cells beside a crossing's edge
+      const std::uint64_t e = buffers->edges[id], node = e >> 1;
+      const std::size_t i = node % row, j = node / row;
+      return (e & 1) != 0 ? std::array<std::size_t, 4>{i - 1, j, i, j}
+                          : std::array<std::size_t, 4>{i, j - 1, i, j};
+    };
+    const std::size_t per_tile = Bx * By;
+    constexpr std::size_t kNone = ~std::size_t{0};
+    std::vector<std::size_t> index_of(tiles.size(), kNone);  // into cell_at
+    std::vector<std::uint32_t> cell_at, cell_segs, seg_slot;
+    auto build = [&](std::size_t t) {
+      const Tile& tile = tiles[t];
+      const std::size_t at = cell_at.size();
+      index_of[t] = at;
+      cell_at.resize(at + per_tile + 1, 0);
+      const std::size_t base = cell_segs.size();
+      seg_slot.clear();
+      for (std::size_t e = tile.s0; e < tile.s1; ++e) {
+        const auto a = cell_of(segments[e].first), b = cell_of(segments[e].second);
+        // The cell both edges bound (an edge's two cells differ, so one of a's is b's).
+        const bool first = (a[0] == b[0] && a[1] == b[1]) || (a[0] == b[2] && a[1] == b[3]);
+        const std::size_t li = (first ? a[0] : a[2]) - tile.bi, lj = (first ? a[1] : a[3]) - tile.bj;
+        seg_slot.push_back(static_cast<std::uint32_t>(lj * Bx + li));
+        ++cell_at[at + lj * Bx + li + 1];
+      }
+      cell_at[at] = static_cast<std::uint32_t>(base);
+      for (std::size_t k = 1; k <= per_tile; ++k) cell_at[at + k] += cell_at[at + k - 1];
+      cell_segs.resize(base + seg_slot.size());
+      std::vector<std::uint32_t> fill(cell_at.begin() + static_cast<std::ptrdiff_t>(at),
+                                      cell_at.begin() + static_cast<std::ptrdiff_t>(at + per_tile));
+      for (std::size_t k = 0; k < seg_slot.size(); ++k)
+        cell_segs[fill[seg_slot[k]]++] = static_cast<std::uint32_t>(tile.s0 + k);
+    };
+    for (const Block& k : periodic_parts) {
+      const std::size_t t = tile_of(k.i, k.j);
+      if (index_of[t] == kNone) build(t);
+      const Tile& tile = tiles[t];
+      const std::size_t li = (k.i % px) % Bx, lj = (k.j % py) % By;
+      // The part moved by (di, dj) cells onto the tile's block.
+      const std::size_t di = k.i - (tile.bi + li), dj = k.j - (tile.bj + lj);  // (modulo 2^64)
+      const Vec2 d = m.node(k.i, k.j) - m.node(tile.bi + li, tile.bj + lj);
+      auto moved = [&](std::size_t id) {
+        const std::uint64_t e = buffers->edges[id], node = e >> 1;
+        const std::size_t i = node % row + di, j = node / row + dj;
+        const bool vertical = (e & 1) != 0;
+        const std::uint64_t key = ((j * row + i) << 1) | static_cast<std::uint64_t>(vertical);
+        const std::size_t slot = table.find_or_insert(key, crossings.size());
+        if (slot == crossings.size()) {
+          const double u = (*ts)[id];
+          const Vec2 a = m.node(i, j), b = vertical ? m.node(i, j + 1) : m.node(i + 1, j);
+          crossings.push_back(a + (b - a) * u);
+          buffers->edges.push_back(key);
+          ts->push_back(u);
+        }
+        return slot;
+      };
+      const std::size_t at = index_of[t];
+      for (std::size_t r = lj; r < lj + k.cj; ++r)
+        for (std::size_t c = cell_at[at + r * Bx + li]; c < cell_at[at + r * Bx + li + k.ci]; ++c) {
+          const std::size_t e = cell_segs[c];
+          const std::size_t from = moved(segments[e].first), to = moved(segments[e].second);
+          segments.emplace_back(from, to);
+          for (std::size_t q = inner_at[e]; q < inner_at[e + 1]; ++q) inner.push_back(inner[q] + d);
+          inner_at.push_back(inner.size());
+        }
+    }
+  }
+  if (!replays.empty()) {
     // Loops inside a tile are edges from a point of their own back to it, after every crossing
     // with a grid edge (ids past those edge_crossings reports), so the walk closes them.
     for (const Replay& r : replays) {

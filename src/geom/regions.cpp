@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <clipper.hpp>
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <utility>
 
@@ -297,16 +298,21 @@ std::vector<std::vector<Vec2>> rings_of(const Regions& regions) {
   return out;
 }
 
-std::vector<Segment2> hatch(const Regions& regions, double angle_deg, double spacing,
-                            Vec2 origin) {
+std::vector<Segment2> hatch(const Regions& regions, double angle_deg, double spacing, Vec2 origin) {
   std::vector<Segment2> out;
   if (!(spacing > 0)) return out;
   const double a = angle_deg * std::numbers::pi / 180;
   const Vec2 u{std::cos(a), std::sin(a)}, v{-std::sin(a), std::cos(a)};  // along, across
-  // Edges in (s, t) = (along, across) coordinates relative to origin.
+  // Edges in (s, t) = (along, across) coordinates relative to origin, with the first line that
+  // reaches them. Lines at t = k·spacing; a line exactly on a vertex counts edges half-open
+  // [t0, t1), tested on the line's own t so rounding cannot move an edge to a neighbour's line.
+  // Edges between two lines are left out (most of a finely sampled outline's: its edges are
+  // much shorter than the spacing).
   struct Edge {
     double t0, t1, s0, s1;  // t0 < t1
+    long long k;            // the first line with t0 <= k·spacing (< t1)
   };
+  auto line_t = [&](long long k) { return static_cast<double>(k) * spacing; };
   std::vector<Edge> edges;
   std::size_t vertices = 0;
   for (const auto& p : regions) {
@@ -314,23 +320,32 @@ std::vector<Segment2> hatch(const Regions& regions, double angle_deg, double spa
     for (const auto& h : p.holes) vertices += h.size();
   }
   edges.reserve(vertices);
-  double tmin = 1e300, tmax = -1e300;
+  const double inv_spacing = 1 / spacing;
+  long long k0 = std::numeric_limits<long long>::max();
+  double tmax = -1e300;
   auto add_ring = [&](const std::vector<Vec2>& ring) {
     for (std::size_t i = 0, j = ring.size() - 1; i < ring.size(); j = i++) {
       const Vec2 p = ring[j] - origin, q = ring[i] - origin;
-      const double sp = p.x * u.x + p.y * u.y, tp = p.x * v.x + p.y * v.y;
-      const double sq = q.x * u.x + q.y * u.y, tq = q.x * v.x + q.y * v.y;
+      const double tp = p.x * v.x + p.y * v.y, tq = q.x * v.x + q.y * v.y;
       if (tp == tq) continue;
+      const double t0 = std::min(tp, tq), t1 = std::max(tp, tq);
+      // (The estimate from the inverse spacing is corrected on the lines' own t.)
+      auto k = static_cast<long long>(t0 * inv_spacing);
+      while (line_t(k - 1) >= t0) --k;
+      while (line_t(k) < t0) ++k;
+      if (line_t(k) >= t1) continue;  // no line reaches it
       // (Built in place: swapping the ends through memory and copying the edge stalled on
       // store forwarding.)
       Edge& e = edges.emplace_back();
+      const double sp = p.x * u.x + p.y * u.y, sq = q.x * u.x + q.y * u.y;
       const bool up = tp < tq;
-      e.t0 = up ? tp : tq;
-      e.t1 = up ? tq : tp;
+      e.t0 = t0;
+      e.t1 = t1;
       e.s0 = up ? sp : sq;
       e.s1 = up ? sq : sp;
-      tmin = std::min(tmin, e.t0);
-      tmax = std::max(tmax, e.t1);
+      e.k = k;
+      k0 = std::min(k0, k);
+      tmax = std::max(tmax, t1);
     }
   };
   for (const auto& p : regions) {
@@ -339,33 +354,24 @@ std::vector<Segment2> hatch(const Regions& regions, double angle_deg, double spa
       if (h.size() >= 3) add_ring(h);
   }
   if (edges.empty()) return out;
-  // Lines at t = k·spacing; a line exactly on a vertex counts edges half-open [t0, t1).
-  const auto k0 = static_cast<long long>(std::ceil(tmin / spacing));
-  const auto k1 = static_cast<long long>(std::floor(tmax / spacing));
-  if (k1 < k0) return out;
-  // Edges bucketed by the first line that reaches them (t0 <= t, tested on the line's own t so
-  // rounding cannot move an edge to a neighbour's bucket): a counting sort instead of sorting.
+  auto k1 = static_cast<long long>(tmax * inv_spacing);  // the last line before tmax
+  while (line_t(k1) >= tmax) --k1;
+  while (line_t(k1 + 1) < tmax) ++k1;
+  // Edges bucketed by their first line: a counting sort instead of sorting.
   const std::size_t lines = static_cast<std::size_t>(k1 - k0 + 1);
-  auto line_t = [&](long long k) { return static_cast<double>(k) * spacing; };
-  std::vector<std::size_t> first(edges.size()), bucket(lines + 1, 0);
-  for (std::size_t e = 0; e < edges.size(); ++e) {
-    long long k = std::max(k0, static_cast<long long>(std::ceil(edges[e].t0 / spacing)));
-    while (k > k0 && line_t(k - 1) >= edges[e].t0) --k;
-    while (k <= k1 && line_t(k) < edges[e].t0) ++k;
-    first[e] = static_cast<std::size_t>(k - k0);  // == lines: no line reaches it
-    ++bucket[first[e]];
-  }
+  std::vector<std::size_t> bucket(lines + 1, 0);
+  for (const Edge& e : edges) ++bucket[static_cast<std::size_t>(e.k - k0)];
   std::size_t sum = 0;
   for (auto& b : bucket) sum += std::exchange(b, sum);  // bucket[i]: start of line i's edges
   std::vector<std::size_t> order(edges.size());
-  for (std::size_t e = 0; e < edges.size(); ++e) order[bucket[first[e]]++] = e;
+  for (std::size_t e = 0; e < edges.size(); ++e)
+    order[bucket[static_cast<std::size_t>(edges[e].k - k0)]++] = e;
   std::vector<std::size_t> active;
   std::size_t next = 0;
   std::vector<double> xs;
   for (long long k = k0; k <= k1; ++k) {
     const double t = line_t(k);
-    while (next < edges.size() && first[order[next]] == static_cast<std::size_t>(k - k0))
-      active.push_back(order[next++]);
+    while (next < edges.size() && edges[order[next]].k == k) active.push_back(order[next++]);
     xs.clear();
     std::size_t w = 0;
     for (std::size_t idx : active) {

@@ -409,53 +409,73 @@ TEST(Contours, PeriodicTilesGiveTheSameContours) {
         if (!(std::hypot(c.x - o.x, c.y - o.y) < R)) return false;
       return true;
     }
+    // With a bound (the disc's distance interval; the sheet within [−0.09, 5.3]), blocks along
+    // the circle are split, and their quarters inside it are taken from the tiles by cells.
+    bool bounded = false;
+    Interval bound(Vec2 lo, Vec2 hi) override {
+      if (!bounded) return PlaneFunction::bound(lo, hi);
+      const double dx = std::max({lo.x - o.x, 0.0, o.x - hi.x}),
+                   dy = std::max({lo.y - o.y, 0.0, o.y - hi.y});
+      const double far = std::hypot(std::max(std::abs(lo.x - o.x), std::abs(hi.x - o.x)),
+                                    std::max(std::abs(lo.y - o.y), std::abs(hi.y - o.y)));
+      return {std::max(-0.09, std::hypot(dx, dy) - R), std::max(5.3, far - R)};
+    }
   } f;
   MarchOptions tiled;
   tiled.resolution = 0.025;
   MarchOptions plain = tiled;
   plain.periodic_tiles = false;
-  const ContourSet a = march_squares(f, {0, 0}, {12.5, 12}, 0, plain);
-  const ContourSet b = march_squares(f, {0, 0}, {12.5, 12}, 0, tiled);
-  EXPECT_EQ(a.tiled_blocks, 0u);
-  EXPECT_GT(b.tiled_blocks, b.blocks / 2);
-  // (Blocks outside the disc are marched whole: the function has no bound.)
-  EXPECT_LT(b.samples, a.samples / 2);
-  ASSERT_EQ(a.lines.loops.size(), b.lines.loops.size());
-  ASSERT_EQ(a.lines.open.size(), b.lines.open.size());
-  // Every point of one within twice the refinement tolerance of a point of the other (the loops
-  // may start elsewhere): points by their grid cell.
-  auto points = [](const ContourSet& c) {
-    std::vector<Vec2> v;
-    for (const auto& l : c.lines.loops) v.insert(v.end(), l.begin(), l.end());
-    for (const auto& l : c.lines.open) v.insert(v.end(), l.begin(), l.end());
-    return v;
-  };
-  const std::vector<Vec2> pa = points(a), pb = points(b);
-  ASSERT_EQ(pa.size(), pb.size());
-  ASSERT_GT(pa.size(), 5000u);
-  const double tol = 2 * tiled.refine_fraction * tiled.resolution + 1e-12;
-  auto worst_from = [&](const std::vector<Vec2>& from, const std::vector<Vec2>& to) {
-    std::map<std::pair<long, long>, std::vector<Vec2>> cells;
-    auto key = [](Vec2 p) {
-      return std::pair{static_cast<long>(std::floor(p.x / 0.01)), static_cast<long>(std::floor(p.y / 0.01))};
+  for (const bool bounded : {false, true}) {
+    SCOPED_TRACE(bounded ? "bounded" : "unbounded");
+    f.bounded = bounded;
+    const ContourSet a = march_squares(f, {0, 0}, {12.5, 12}, 0, plain);
+    const ContourSet b = march_squares(f, {0, 0}, {12.5, 12}, 0, tiled);
+    EXPECT_EQ(a.tiled_blocks, 0u);
+    EXPECT_EQ(a.tiled_parts, 0u);
+    EXPECT_GT(b.tiled_blocks, b.blocks / 2);
+    // (Unbounded, blocks across the circle are marched whole.)
+    if (bounded)
+      EXPECT_GT(b.tiled_parts, 100u);
+    else
+      EXPECT_EQ(b.tiled_parts, 0u);
+    EXPECT_LT(b.samples, a.samples / 2);
+    ASSERT_EQ(a.lines.loops.size(), b.lines.loops.size());
+    ASSERT_EQ(a.lines.open.size(), b.lines.open.size());
+    // Every point of one within twice the refinement tolerance of a point of the other (the loops
+    // may start elsewhere): points by their grid cell.
+    auto points = [](const ContourSet& c) {
+      std::vector<Vec2> v;
+      for (const auto& l : c.lines.loops) v.insert(v.end(), l.begin(), l.end());
+      for (const auto& l : c.lines.open) v.insert(v.end(), l.begin(), l.end());
+      return v;
     };
-    for (const Vec2 p : to) cells[key(p)].push_back(p);
-    double worst = 0;
-    for (const Vec2 p : from) {
-      double best = 1e9;
-      const auto [ci, cj] = key(p);
-      for (long di = -1; di <= 1; ++di)
-        for (long dj = -1; dj <= 1; ++dj) {
-          const auto it = cells.find({ci + di, cj + dj});
-          if (it == cells.end()) continue;
-          for (const Vec2 q : it->second) best = std::min(best, std::hypot(q.x - p.x, q.y - p.y));
-        }
-      worst = std::max(worst, best);
-    }
-    return worst;
-  };
-  EXPECT_LT(worst_from(pa, pb), tol);
-  EXPECT_LT(worst_from(pb, pa), tol);
+    const std::vector<Vec2> pa = points(a), pb = points(b);
+    ASSERT_EQ(pa.size(), pb.size());
+    ASSERT_GT(pa.size(), 5000u);
+    const double tol = 2 * tiled.refine_fraction * tiled.resolution + 1e-12;
+    auto worst_from = [&](const std::vector<Vec2>& from, const std::vector<Vec2>& to) {
+      std::map<std::pair<long, long>, std::vector<Vec2>> cells;
+      auto key = [](Vec2 p) {
+        return std::pair{static_cast<long>(std::floor(p.x / 0.01)), static_cast<long>(std::floor(p.y / 0.01))};
+      };
+      for (const Vec2 p : to) cells[key(p)].push_back(p);
+      double worst = 0;
+      for (const Vec2 p : from) {
+        double best = 1e9;
+        const auto [ci, cj] = key(p);
+        for (long di = -1; di <= 1; ++di)
+          for (long dj = -1; dj <= 1; ++dj) {
+            const auto it = cells.find({ci + di, cj + dj});
+            if (it == cells.end()) continue;
+            for (const Vec2 q : it->second) best = std::min(best, std::hypot(q.x - p.x, q.y - p.y));
+          }
+        worst = std::max(worst, best);
+      }
+      return worst;
+    };
+    EXPECT_LT(worst_from(pa, pb), tol);
+    EXPECT_LT(worst_from(pb, pa), tol);
+  }
   // A period of 2.51 mm is not a whole number of 25 µm cells: every block is marched.
   f.P = 2.51;
   EXPECT_EQ(march_squares(f, {0, 0}, {12.5, 12}, 0, tiled).tiled_blocks, 0u);

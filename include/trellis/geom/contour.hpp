@@ -127,6 +127,7 @@ struct ContourSet {
   std::size_t skipped_blocks = 0;   // blocks skipped by bounds
   std::size_t blocks = 0;
   std::size_t tiled_blocks = 0;     // top blocks translated from another period's (no samples)
+  std::size_t tiled_parts = 0;      // smaller blocks (along a boundary) translated by cells
 };
 
 // Contours f = level over the rectangle [lo, hi]. The grid covers the rectangle with whole cells
