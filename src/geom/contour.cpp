@@ -3,6 +3,7 @@
 // needs the field's interval bounds; no packaged contouring library does either.
 #include "trellis/geom/contour.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstdint>
@@ -700,33 +701,36 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
   inner.clear();
   inner_at.assign(segments.size() + 1, 0);
   // Segment midpoints: the middle of each segment moved onto the level by a Newton step along
-  // the function's gradient (forward differences: three batches of values), at most a quarter
-  // of the segment; one within midpoint_min_offset of its segment adds nothing and is dropped.
+  // the segment's normal (a forward difference: two batches of values; the curve between two
+  // crossings a cell apart is nearly parallel to its chord, so the normal is nearly the
+  // gradient's direction), at most a quarter of the segment; one within midpoint_min_offset of
+  // its segment adds nothing and is dropped.
   if (options.segment_midpoints) {
     const std::size_t n = segments.size();
     constexpr double dh = 1e-6;
     std::vector<Vec2>& mp = buffers->mid_pts;
     std::vector<double>& mv = buffers->mid_vals;
-    mp.resize(3 * n);
-    mv.resize(3 * n);
+    mp.resize(2 * n);
+    mv.resize(2 * n);
     for (std::size_t k = 0; k < n; ++k) {
-      const Vec2 c = (crossings[segments[k].first] + crossings[segments[k].second]) * 0.5;
+      const Vec2 a = crossings[segments[k].first], b = crossings[segments[k].second];
+      const Vec2 c = (a + b) * 0.5, d = b - a;
+      const double len = std::sqrt(d.x * d.x + d.y * d.y);
+      const Vec2 normal = len > 0 ? Vec2{-d.y / len, d.x / len} : Vec2{0, 0};
       mp[k] = c;
-      mp[n + k] = {c.x + dh, c.y};
-      mp[2 * n + k] = {c.x, c.y + dh};
+      mp[n + k] = c + normal * dh;
     }
-    if (n > 0) f.sample(mp.data(), mv.data(), 3 * n);
-    m.samples += 3 * n;
+    if (n > 0) f.sample(mp.data(), mv.data(), 2 * n);
+    m.samples += 2 * n;
     const double keep2 = options.midpoint_min_offset * options.midpoint_min_offset;
     for (std::size_t k = 0; k < n; ++k) {
       const Vec2 a = crossings[segments[k].first], b = crossings[segments[k].second];
-      const double fv = mv[k] - level;
-      const Vec2 g{(mv[n + k] - mv[k]) / dh, (mv[2 * n + k] - mv[k]) / dh};
-      const double gg = g.x * g.x + g.y * g.y;
-      Vec2 step = gg > 0 ? g * (-fv / gg) : Vec2{};
-      const double cap = 0.25 * std::sqrt(dist2(a, b)), len = std::sqrt(dist2(step, Vec2{}));
-      if (len > cap) step = step * (cap / len);
-      const Vec2 mid = mp[k] + step, d = b - a, q = mid - a;
+      const Vec2 d = b - a;
+      const double len = std::sqrt(d.x * d.x + d.y * d.y);
+      const double fv = mv[k] - level, slope = (mv[n + k] - mv[k]) / dh;
+      const double along = slope != 0 ? std::clamp(-fv / slope, -0.25 * len, 0.25 * len) : 0;
+      const Vec2 mid = len > 0 ? mp[k] + Vec2{-d.y / len, d.x / len} * along : mp[k];
+      const Vec2 q = mid - a;
       const double cr = d.x * q.y - d.y * q.x;
       if (!(cr * cr <= keep2 * (d.x * d.x + d.y * d.y))) inner.push_back(mid);
       inner_at[k + 1] = inner.size();

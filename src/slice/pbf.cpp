@@ -1189,10 +1189,11 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
   mo_section.segment_midpoints = o.beam_compensation > 0;
   mo_section.midpoint_min_offset = 1e-4;
   mo_mid.refine_fraction = std::min(0.1, 5e-4 / H);
-  // Periodic tiles about 0.25 mm a side (measured on the 2–4-cell cubes: smaller ones cost
-  // more per block, larger ones widen the ring of blocks marched along the envelope).
+  // Periodic tiles about 0.5 mm a side (measured on the 2–4-cell cubes at 25 µm: 2–3% faster
+  // than 0.25 mm, which cost more per block, and than 1.25 mm, whose blocks along the envelope
+  // are marched further in before their periodic quarters are taken from the tiles).
   auto tile_cells = [](double h) {
-    return static_cast<std::size_t>(std::max(4.0, std::round(0.25 / h)));
+    return static_cast<std::size_t>(std::max(4.0, std::round(0.5 / h)));
   };
   mo_section.tile_block = tile_cells(Hs);
   mo_mid.tile_block = mo_joint.tile_block = tile_cells(H);
