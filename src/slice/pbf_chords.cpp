@@ -59,8 +59,9 @@ class Walk {
 
 // q on the curve at distance r from c: Newton steps on the curve and the circle together (φ = 0
 // and |q − c|² = r², linearised at q: one evaluation of φ and its gradient a step); they cross
-// at a wide angle when r is small against the curvature radius, so two or three steps reach
-// 1e-7 mm and the last leaves ~1e-14 mm.
+// at a wide angle when r is small against the curvature radius, so the error after a step is
+// about the square of the step over the curvature radius: a step under 1e-5 mm (usually the
+// first or second from the line's point) leaves ~1e-10 mm, and is the last.
 // If that does not converge (the two run nearly parallel, or the steps jump to another branch
 // where the curve turns within r, e.g. a cell not much larger than SL), the line's own point q
 // is kept: a chord never leaves the neighbourhood of the line it stands for.
@@ -78,7 +79,7 @@ Vec2 on_curve_at(Vec2 c, double r, Vec2 q, const Curve& curve) {
     const double b1 = -f, b2 = 0.5 * (r * r - (e.x * e.x + e.y * e.y));
     const Vec2 step{(b1 * e.y - g.y * b2) / det, (g.x * b2 - b1 * e.x) / det};
     q = q + step;
-    converged = std::abs(step.x) + std::abs(step.y) < 1e-7;
+    converged = std::abs(step.x) + std::abs(step.y) < 1e-5;
   }
   const double d = dist(c, q), moved = dist(q, q0);
   return converged && std::isfinite(d) && std::abs(d - r) <= 0.25 * r + 1e-6 &&
