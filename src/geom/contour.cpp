@@ -618,17 +618,27 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
     if (k.ci > hi_ && k.cj > hj) parts[np++] = {k.i + hi_, k.j + hj, k.ci - hi_, k.cj - hj};
     Interval ranges[4];
     bool any_skippable = false;
+    // Quarters taken from the tiles need no bound (one the bound would skip has no segments).
     Vec2 plo[4], phi[4];
+    bool periodic[4] = {false, false, false, false};
+    int bounded_parts[4], nb = 0;
+    Vec2 blo[4], bhi[4];
     for (int q = 0; q < np; ++q) {
       plo[q] = m.node(parts[q].i, parts[q].j);
       phi[q] = m.node(parts[q].i + parts[q].ci, parts[q].j + parts[q].cj);
+      periodic[q] = defer_periodic && f.periodic(plo[q], phi[q]);
+      any_skippable = any_skippable || periodic[q];
+      if (!periodic[q]) {
+        blo[nb] = plo[q];
+        bhi[nb] = phi[q];
+        bounded_parts[nb++] = q;
+      }
     }
-    f.prefetch_bounds(plo, phi, static_cast<std::size_t>(np));
-    bool periodic[4] = {false, false, false, false};
-    for (int q = 0; q < np; ++q) {
+    f.prefetch_bounds(blo, bhi, static_cast<std::size_t>(nb));
+    for (int b = 0; b < nb; ++b) {
+      const int q = bounded_parts[b];
       ranges[q] = bound(parts[q]);
-      periodic[q] = defer_periodic && !excluded(ranges[q]) && f.periodic(plo[q], phi[q]);
-      any_skippable = any_skippable || excluded(ranges[q]) || periodic[q];
+      any_skippable = any_skippable || excluded(ranges[q]);
     }
     // If no quarter can be skipped (or taken from the tiles), march the block whole: splitting
     // would only sample the shared edges twice (a surface everywhere, like a TPMS sheet).
