@@ -591,17 +591,12 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
   // tile-sized block would cross it): marched at the end by their cells, from the tiles'.
   std::vector<Block> periodic_parts;
   bool defer_periodic = false;  // while marching the top blocks, when tiling
-  // `range` is the block's bound, computed once by the caller; `checked`: the block is known
-  // not to be periodic.
-  std::function<void(const Block&, const Interval&, bool)> visit;
-  visit = [&](const Block& k, const Interval& range, bool checked) {
+  // `range` is the block's bound, computed once by the caller (a block reaching here is not
+  // periodic, or not to be taken from the tiles).
+  std::function<void(const Block&, const Interval&)> visit;
+  visit = [&](const Block& k, const Interval& range) {
     if (excluded(range)) {
       ++result.skipped_blocks;
-      return;
-    }
-    if (defer_periodic && !checked &&
-        f.periodic(m.node(k.i, k.j), m.node(k.i + k.ci, k.j + k.cj))) {
-      periodic_parts.push_back(k);
       return;
     }
     const bool bounded = std::isfinite(range.lo) || std::isfinite(range.hi);
@@ -650,7 +645,7 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
       if (periodic[q])
         periodic_parts.push_back(parts[q]);
       else
-        visit(parts[q], ranges[q], defer_periodic);
+        visit(parts[q], ranges[q]);
     }
   };
   // A tile: the block marched for its place in the period, and its segments.
@@ -671,8 +666,11 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
     for (std::size_t bi = 0; bi < nx; bi += Bx) {
       ++result.blocks;
       const Block top{bi, bj, std::min(Bx, nx - bi), std::min(By, ny - bj)};
-      const bool whole = top.ci == Bx && top.cj == By;
-      if (tiling && whole && f.periodic(m.node(bi, bj), m.node(bi + Bx, bj + By))) {
+      if (tiling && f.periodic(m.node(bi, bj), m.node(bi + top.ci, bj + top.cj))) {
+        if (top.ci < Bx || top.cj < By) {  // a part block at the grid's end
+          periodic_parts.push_back(top);
+          continue;
+        }
         const std::size_t t = tile_of(bi, bj);
         if (tiles[t].marched) {
           replays.push_back({bi, bj, t});
@@ -681,12 +679,12 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
         }
         tiles[t] = {true, bi, bj, segments.size(), 0};
         defer_periodic = false;
-        visit(top, bound(top), true);
+        visit(top, bound(top));
         defer_periodic = true;
         tiles[t].s1 = segments.size();
         continue;
       }
-      visit(top, bound(top), whole);
+      visit(top, bound(top));
     }
   defer_periodic = false;
   // Periodic parts (each inside one top block, so one tile's place) whose tile was marched are
@@ -697,7 +695,7 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
       if (tiles[tile_of(k.i, k.j)].marched)
         periodic_parts[kept++] = k;
       else
-        visit(k, bound(k), true);
+        visit(k, bound(k));
     }
     periodic_parts.resize(kept);
     result.tiled_parts = kept;
@@ -746,6 +744,19 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
       inner_at[k + 1] = inner.size();
     }
   }
+  // The crossing on grid edge (i, j, vertical) at parameter t along it, unless the edge has one
+  // (marched by a neighbour, or translated for one): for the lines translated from the tiles.
+  auto crossing_on = [&](std::size_t i, std::size_t j, bool vertical, double t) {
+    const std::uint64_t key = ((j * row + i) << 1) | static_cast<std::uint64_t>(vertical);
+    const std::size_t id = table.find_or_insert(key, crossings.size());
+    if (id == crossings.size()) {
+      const Vec2 a = m.node(i, j), b = vertical ? m.node(i, j + 1) : m.node(i + 1, j);
+      crossings.push_back(a + (b - a) * t);
+      buffers->edges.push_back(key);
+      ts->push_back(t);
+    }
+    return id;
+  };
   std::vector<TileLines> tiled;
   if (!replays.empty()) {
     // Each tile's lines as chains: from a crossing where a line enters the block to the one
@@ -822,16 +833,7 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
       }
     }
     auto lookup = [&](const Replay& r, const TileEnd& c) {
-      const std::size_t i = r.bi + c.i, j = r.bj + c.j;
-      const std::uint64_t key = ((j * row + i) << 1) | static_cast<std::uint64_t>(c.vertical);
-      const std::size_t id = table.find_or_insert(key, crossings.size());
-      if (id == crossings.size()) {
-        const Vec2 a = m.node(i, j), b = c.vertical ? m.node(i, j + 1) : m.node(i + 1, j);
-        crossings.push_back(a + (b - a) * static_cast<double>(c.t));
-        buffers->edges.push_back(key);
-        ts->push_back(static_cast<double>(c.t));
-      }
-      return id;
+      return crossing_on(r.bi + c.i, r.bj + c.j, c.vertical, static_cast<double>(c.t));
     };
     for (const Replay& r : replays) {
       const TileLines& T = tiled[r.tile];
@@ -890,18 +892,7 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
       const Vec2 d = m.node(k.i, k.j) - m.node(tile.bi + li, tile.bj + lj);
       auto moved = [&](std::size_t id) {
         const std::uint64_t e = buffers->edges[id], node = e >> 1;
-        const std::size_t i = node % row + di, j = node / row + dj;
-        const bool vertical = (e & 1) != 0;
-        const std::uint64_t key = ((j * row + i) << 1) | static_cast<std::uint64_t>(vertical);
-        const std::size_t slot = table.find_or_insert(key, crossings.size());
-        if (slot == crossings.size()) {
-          const double u = (*ts)[id];
-          const Vec2 a = m.node(i, j), b = vertical ? m.node(i, j + 1) : m.node(i + 1, j);
-          crossings.push_back(a + (b - a) * u);
-          buffers->edges.push_back(key);
-          ts->push_back(u);
-        }
-        return slot;
+        return crossing_on(node % row + di, node / row + dj, (e & 1) != 0, (*ts)[id]);
       };
       const std::size_t at = index_of[t];
       for (std::size_t r = lj; r < lj + k.cj; ++r)

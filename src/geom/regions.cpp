@@ -313,6 +313,15 @@ std::vector<Segment2> hatch(const Regions& regions, double angle_deg, double spa
     long long k;            // the first line with t0 <= k·spacing (< t1)
   };
   auto line_t = [&](long long k) { return static_cast<double>(k) * spacing; };
+  // The first line at or after t (estimated from the inverse spacing, corrected on the lines'
+  // own t).
+  const double inv_spacing = 1 / spacing;
+  auto first_line = [&](double t) {
+    auto k = static_cast<long long>(t * inv_spacing);
+    while (line_t(k - 1) >= t) --k;
+    while (line_t(k) < t) ++k;
+    return k;
+  };
   std::vector<Edge> edges;
   std::size_t vertices = 0;
   for (const auto& p : regions) {
@@ -320,7 +329,6 @@ std::vector<Segment2> hatch(const Regions& regions, double angle_deg, double spa
     for (const auto& h : p.holes) vertices += h.size();
   }
   edges.reserve(vertices);
-  const double inv_spacing = 1 / spacing;
   long long k0 = std::numeric_limits<long long>::max();
   double tmax = -1e300;
   auto add_ring = [&](const std::vector<Vec2>& ring) {
@@ -329,10 +337,7 @@ std::vector<Segment2> hatch(const Regions& regions, double angle_deg, double spa
       const double tp = p.x * v.x + p.y * v.y, tq = q.x * v.x + q.y * v.y;
       if (tp == tq) continue;
       const double t0 = std::min(tp, tq), t1 = std::max(tp, tq);
-      // (The estimate from the inverse spacing is corrected on the lines' own t.)
-      auto k = static_cast<long long>(t0 * inv_spacing);
-      while (line_t(k - 1) >= t0) --k;
-      while (line_t(k) < t0) ++k;
+      const long long k = first_line(t0);
       if (line_t(k) >= t1) continue;  // no line reaches it
       // (Built in place: swapping the ends through memory and copying the edge stalled on
       // store forwarding.)
@@ -354,9 +359,7 @@ std::vector<Segment2> hatch(const Regions& regions, double angle_deg, double spa
       if (h.size() >= 3) add_ring(h);
   }
   if (edges.empty()) return out;
-  auto k1 = static_cast<long long>(tmax * inv_spacing);  // the last line before tmax
-  while (line_t(k1) >= tmax) --k1;
-  while (line_t(k1 + 1) < tmax) ++k1;
+  const long long k1 = first_line(tmax) - 1;  // the last line before tmax
   // Edges bucketed by their first line: a counting sort instead of sorting.
   const std::size_t lines = static_cast<std::size_t>(k1 - k0 + 1);
   std::vector<std::size_t> bucket(lines + 1, 0);

@@ -89,12 +89,12 @@ struct MarchOptions {
   // translated; false: every block is contoured on its own (the crossings move within the
   // refinement tolerance, nothing else).
   bool periodic_tiles = true;
-  // The tiles' side in cells: the divisor of the period closest to this. Small tiles keep the
-  // ring of blocks across the edge of the periodic region (marched one by one) thin; each block
-  // costs a little on its own.
+  // The tiles' side in cells: the divisor of the period closest to this (by ratio). Blocks across
+  // the edge of the periodic region are split, their periodic quarters taken from the tiles cell
+  // by cell; each block costs a little on its own.
   std::size_t tile_block = 8;
   // Also put a point in the middle of every segment (between two crossings), moved onto the
-  // level by one Newton step along the function's gradient from forward differences, at most a
+  // level by one Newton step along the segment's normal from a forward difference, at most a
   // quarter of the segment: the outline's chords halved onto the curve (as translated with the
   // periodic tiles).
   bool segment_midpoints = false;
