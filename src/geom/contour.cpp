@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <optional>
 #include <unordered_map>
 
@@ -433,9 +434,10 @@ namespace {
 // edge to another, with the points between, and loops inside the block; in the block's own
 // terms (node relative to its first node, points relative to that node's position).
 struct TileEnd {
-  std::uint32_t i, j;
-  bool vertical;
+  std::uint16_t i, jv;  // jv: j · 2 + (the edge is vertical); tiles are under 32,768 cells a side
   float t;  // (float: a crossing's parameter to 6e-8 of its edge, far inside the refinement)
+  std::size_t j() const { return jv >> 1; }
+  bool vertical() const { return (jv & 1) != 0; }
 };
 struct TileChain {
   TileEnd from, to;
@@ -454,8 +456,30 @@ struct TileLines {
   }
   static Vec2 at(Vec2 origin, TilePoint q) { return {origin.x + q.x, origin.y + q.y}; }
   std::uint32_t size() const { return static_cast<std::uint32_t>(pts.size()); }
+  std::size_t bytes() const {
+    return chains.capacity() * sizeof(TileChain) + loops.capacity() * sizeof(loops[0]) +
+           pts.capacity() * sizeof(TilePoint);
+  }
 };
 }  // namespace
+
+// One period's tiles (see march_squares), by place: the lines as chains (whole blocks take
+// them) and the segments one chain each, ordered by cell (blocks along a boundary take them by
+// cells): row r's are row_at[t][r] .. row_at[t][r + 1], by column, chain k's column col[t][k].
+struct PeriodTileData {
+  std::size_t px = 0, py = 0, bx = 0, by = 0;  // the period and the tile side, in cells
+  std::vector<TileLines> lines, cells;
+  std::vector<std::vector<std::uint32_t>> row_at;
+  std::vector<std::vector<std::uint16_t>> col;
+  std::size_t bytes() const {
+    std::size_t b = sizeof(*this);
+    for (const auto& l : lines) b += sizeof(l) + l.bytes();
+    for (const auto& l : cells) b += sizeof(l) + l.bytes();
+    for (const auto& r : row_at) b += sizeof(r) + r.capacity() * sizeof(std::uint32_t);
+    for (const auto& c : col) b += sizeof(c) + c.capacity() * sizeof(std::uint16_t);
+    return b;
+  }
+};
 
 ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
                          const MarchOptions& options) {
@@ -500,7 +524,7 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
   };
   const std::size_t px = period_cells(period.x), py = period_cells(period.y);
   const std::size_t tx = px ? tile_side(px) : 0, ty = py ? tile_side(py) : 0;
-  const bool tiling = tx > 0 && ty > 0;
+  const bool tiling = tx > 0 && ty > 0 && tx < 32768 && ty < 32768;  // (TileEnd)
   const std::size_t Bx = tiling ? tx : B, By = tiling ? ty : B;
   const bool keep_keys = tiling || options.edge_crossings;
 
@@ -653,7 +677,16 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
     bool marched = false;
     std::size_t bi = 0, bj = 0, s0 = 0, s1 = 0;
   };
-  std::vector<Tile> tiles(tiling ? (px / Bx) * (py / By) : 0);
+  const std::size_t ntiles = tiling ? (px / Bx) * (py / By) : 0;
+  std::vector<Tile> tiles(ntiles);
+  // Another march's tiles, when they fit this one (every place's, the same period and side).
+  const PeriodTileData* given = nullptr;
+  if (tiling && options.tiles_in && options.tiles_in->data) {
+    const PeriodTileData& d = *options.tiles_in->data;
+    if (d.px == px && d.py == py && d.bx == Bx && d.by == By && d.lines.size() == ntiles &&
+        d.cells.size() == ntiles)
+      given = &d;
+  }
   struct Replay {
     std::size_t bi, bj, tile;
   };
@@ -672,7 +705,7 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
           continue;
         }
         const std::size_t t = tile_of(bi, bj);
-        if (tiles[t].marched) {
+        if (given || tiles[t].marched) {
           replays.push_back({bi, bj, t});
           ++result.tiled_blocks;
           continue;
@@ -692,7 +725,7 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
   {
     std::size_t kept = 0;
     for (const Block& k : periodic_parts) {
-      if (tiles[tile_of(k.i, k.j)].marched)
+      if (given || tiles[tile_of(k.i, k.j)].marched)
         periodic_parts[kept++] = k;
       else
         visit(k, bound(k));
@@ -757,35 +790,86 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
     }
     return id;
   };
-  std::vector<TileLines> tiled;
-  if (!replays.empty()) {
-    // Each tile's lines as chains: from a crossing where a line enters the block to the one
-    // where it leaves (on the block's edges, in the block's own terms: node relative to its
-    // first, edge direction, parameter along the edge), with the crossings and midpoints
-    // between them relative to the block's first node; lines closed inside the block as loops.
-    // Every other block of the tile's place takes them translated: its chains' ends are looked
-    // up by grid edge (an edge that already has a crossing, marched by a neighbour or
-    // translated for one, keeps it), so the lines join as in one march, and only the ends are
-    // stitched. (A tile where a crossing would start two segments is taken segment by segment.)
-    tiled.resize(tiles.size());
+  // This march's tiles as lines: each tile's lines as chains, from a crossing where a line
+  // enters the block to the one where it leaves (on the block's edges, in the block's own terms:
+  // node relative to its first, edge direction, parameter along the edge), with the crossings
+  // and midpoints between them relative to the block's first node; lines closed inside the block
+  // as loops. Every other block of the tile's place takes them translated: its chains' ends are
+  // looked up by grid edge (an edge that already has a crossing, marched by a neighbour or
+  // translated for one, keeps it), so the lines join as in one march, and only the ends are
+  // stitched. (A tile where a crossing would start two segments is taken segment by segment.)
+  // Blocks along a boundary take a tile's segments by cells, each its own chain.
+  std::shared_ptr<PeriodTileData> made;
+  const bool exporting = options.tiles_out != nullptr;
+  if (!given && tiling && (exporting || !replays.empty() || !periodic_parts.empty())) {
+    made = std::make_shared<PeriodTileData>();
+    PeriodTileData& D = *made;
+    D.px = px, D.py = py, D.bx = Bx, D.by = By;
+    D.lines.resize(ntiles);
+    D.cells.resize(ntiles);
+    D.row_at.resize(ntiles);
+    D.col.resize(ntiles);
     const std::size_t nc = crossings.size();
     std::vector<std::size_t> out_seg(nc), stamp_out(nc, 0), stamp_in(nc, 0);
     std::vector<char> used(segments.size(), 0);
-    for (std::size_t t = 0; t < tiles.size(); ++t) {
+    std::vector<char> wants_cells(ntiles, exporting);
+    for (const Block& k : periodic_parts) wants_cells[tile_of(k.i, k.j)] = 1;
+    std::vector<std::uint32_t> seg_slot;
+    for (std::size_t t = 0; t < ntiles; ++t) {
       const Tile& tile = tiles[t];
       if (!tile.marched) continue;
-      TileLines& T = tiled[t];
       const Vec2 o = m.node(tile.bi, tile.bj);
-      const std::size_t mark = t + 1;
       auto end_of = [&](std::size_t id) {
         const std::uint64_t e = buffers->edges[id], node = e >> 1;
-        return TileEnd{static_cast<std::uint32_t>(node % row - tile.bi),
-                       static_cast<std::uint32_t>(node / row - tile.bj), (e & 1) != 0,
+        return TileEnd{static_cast<std::uint16_t>(node % row - tile.bi),
+                       static_cast<std::uint16_t>((node / row - tile.bj) << 1 | (e & 1)),
                        static_cast<float>((*ts)[id])};
       };
-      auto add_inner = [&](std::size_t e) {
+      auto add_inner = [&](TileLines& T, std::size_t e) {
         for (std::size_t k = inner_at[e]; k < inner_at[e + 1]; ++k) T.add(inner[k], o);
       };
+      if (wants_cells[t]) {
+        // The cell both a segment's crossings' edges bound (an edge's two cells differ, so one
+        // of a's is b's), counted per cell, then the segments in that order.
+        auto cells_of = [&](std::size_t id) {
+          const std::uint64_t e = buffers->edges[id], node = e >> 1;
+          const std::size_t i = node % row, j = node / row;
+          return (e & 1) != 0 ? std::array<std::size_t, 4>{i - 1, j, i, j}
+                              : std::array<std::size_t, 4>{i, j - 1, i, j};
+        };
+        std::vector<std::uint32_t> at(Bx * By + 1, 0);
+        seg_slot.clear();
+        for (std::size_t e = tile.s0; e < tile.s1; ++e) {
+          const auto a = cells_of(segments[e].first), b = cells_of(segments[e].second);
+          const bool first = (a[0] == b[0] && a[1] == b[1]) || (a[0] == b[2] && a[1] == b[3]);
+          const std::size_t li = (first ? a[0] : a[2]) - tile.bi;
+          const std::size_t lj = (first ? a[1] : a[3]) - tile.bj;
+          seg_slot.push_back(static_cast<std::uint32_t>(lj * Bx + li));
+          ++at[lj * Bx + li + 1];
+        }
+        for (std::size_t c = 1; c <= Bx * By; ++c) at[c] += at[c - 1];
+        std::vector<std::size_t> order(seg_slot.size());
+        {
+          std::vector<std::uint32_t> fill(at.begin(), at.end() - 1);
+          for (std::size_t k = 0; k < seg_slot.size(); ++k) order[fill[seg_slot[k]]++] = k;
+        }
+        TileLines& C = D.cells[t];
+        std::vector<std::uint32_t>& row_at = D.row_at[t];
+        row_at.resize(By + 1);
+        for (std::size_t r = 0; r <= By; ++r) row_at[r] = at[r * Bx];
+        std::vector<std::uint16_t>& col = D.col[t];
+        for (const std::size_t k : order) {
+          const std::size_t e = tile.s0 + k;
+          col.push_back(static_cast<std::uint16_t>(seg_slot[k] % Bx));
+          const std::uint32_t begin = C.size();
+          add_inner(C, e);
+          C.chains.push_back(
+              {end_of(segments[e].first), end_of(segments[e].second), begin, C.size()});
+        }
+      }
+      if (!exporting && replays.empty()) continue;
+      TileLines& T = D.lines[t];
+      const std::size_t mark = t + 1;
       bool chainable = true;
       for (std::size_t e = tile.s0; e < tile.s1; ++e) {
         const auto [from, to] = segments[e];
@@ -797,7 +881,7 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
       if (!chainable) {
         for (std::size_t e = tile.s0; e < tile.s1; ++e) {
           const std::uint32_t begin = T.size();
-          add_inner(e);
+          add_inner(T, e);
           T.chains.push_back({end_of(segments[e].first), end_of(segments[e].second), begin,
                               T.size()});
         }
@@ -811,7 +895,7 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
         while (stamp_out[v] == mark) {
           const std::size_t e = out_seg[v];
           used[e] = 1;
-          add_inner(e);
+          add_inner(T, e);
           v = segments[e].second;
           if (stamp_out[v] == mark) T.add(crossings[v], o);
         }
@@ -826,98 +910,80 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
           const std::size_t e = out_seg[v];
           used[e] = 1;
           T.add(crossings[v], o);
-          add_inner(e);
+          add_inner(T, e);
           v = segments[e].second;
         } while (v != start && stamp_out[v] == mark && !used[out_seg[v]]);
         T.loops.emplace_back(begin, T.size());
       }
     }
-    auto lookup = [&](const Replay& r, const TileEnd& c) {
-      return crossing_on(r.bi + c.i, r.bj + c.j, c.vertical, static_cast<double>(c.t));
-    };
-    for (const Replay& r : replays) {
-      const TileLines& T = tiled[r.tile];
-      const Vec2 o = m.node(r.bi, r.bj);
-      for (const TileChain& c : T.chains) {
-        segments.emplace_back(lookup(r, c.from), lookup(r, c.to));
-        for (std::size_t k = c.begin; k < c.end; ++k) inner.push_back(TileLines::at(o, T.pts[k]));
-        inner_at.push_back(inner.size());
+    if (exporting) {
+      // Made only where every place was marched (the rectangle one period, periodic throughout).
+      bool all = true;
+      for (const Tile& tile : tiles) all = all && tile.marched;
+      if (all) {
+        for (auto* v : {&D.lines, &D.cells})
+          for (TileLines& l : *v) {
+            l.chains.shrink_to_fit();
+            l.loops.shrink_to_fit();
+            l.pts.shrink_to_fit();
+          }
+        for (auto& c : D.col) c.shrink_to_fit();
+        *options.tiles_out = {made, made->bytes()};
       }
+      result.samples = m.samples;
+      return result;
     }
   }
-  if (!periodic_parts.empty()) {
-    // A tile's segments by cell (the cell both its crossings' edges bound), row by row, built
-    // for the tiles the parts use; each part takes the segments of its cells' rows, translated
-    // by whole periods, their ends looked up by grid edge as the chains' are.
-    auto cell_of = [&](std::size_t id) {  // the two cells beside a crossing's edge
-      const std::uint64_t e = buffers->edges[id], node = e >> 1;
-      const std::size_t i = node % row, j = node / row;
-      return (e & 1) != 0 ? std::array<std::size_t, 4>{i - 1, j, i, j}
-                          : std::array<std::size_t, 4>{i, j - 1, i, j};
-    };
-    const std::size_t per_tile = Bx * By;
-    constexpr std::size_t kNone = ~std::size_t{0};
-    std::vector<std::size_t> index_of(tiles.size(), kNone);  // into cell_at
-    std::vector<std::uint32_t> cell_at, cell_segs, seg_slot;
-    auto build = [&](std::size_t t) {
-      const Tile& tile = tiles[t];
-      const std::size_t at = cell_at.size();
-      index_of[t] = at;
-      cell_at.resize(at + per_tile + 1, 0);
-      const std::size_t base = cell_segs.size();
-      seg_slot.clear();
-      for (std::size_t e = tile.s0; e < tile.s1; ++e) {
-        const auto a = cell_of(segments[e].first), b = cell_of(segments[e].second);
-        // The cell both edges bound (an edge's two cells differ, so one of a's is b's).
-        const bool first = (a[0] == b[0] && a[1] == b[1]) || (a[0] == b[2] && a[1] == b[3]);
-        const std::size_t li = (first ? a[0] : a[2]) - tile.bi, lj = (first ? a[1] : a[3]) - tile.bj;
-        seg_slot.push_back(static_cast<std::uint32_t>(lj * Bx + li));
-        ++cell_at[at + lj * Bx + li + 1];
-      }
-      cell_at[at] = static_cast<std::uint32_t>(base);
-      for (std::size_t k = 1; k <= per_tile; ++k) cell_at[at + k] += cell_at[at + k - 1];
-      cell_segs.resize(base + seg_slot.size());
-      std::vector<std::uint32_t> fill(cell_at.begin() + static_cast<std::ptrdiff_t>(at),
-                                      cell_at.begin() + static_cast<std::ptrdiff_t>(at + per_tile));
-      for (std::size_t k = 0; k < seg_slot.size(); ++k)
-        cell_segs[fill[seg_slot[k]]++] = static_cast<std::uint32_t>(tile.s0 + k);
-    };
-    for (const Block& k : periodic_parts) {
-      const std::size_t t = tile_of(k.i, k.j);
-      if (index_of[t] == kNone) build(t);
-      const Tile& tile = tiles[t];
-      const std::size_t li = (k.i % px) % Bx, lj = (k.j % py) % By;
-      // The part moved by (di, dj) cells onto the tile's block.
-      const std::size_t di = k.i - (tile.bi + li), dj = k.j - (tile.bj + lj);  // (modulo 2^64)
-      const Vec2 d = m.node(k.i, k.j) - m.node(tile.bi + li, tile.bj + lj);
-      auto moved = [&](std::size_t id) {
-        const std::uint64_t e = buffers->edges[id], node = e >> 1;
-        return crossing_on(node % row + di, node / row + dj, (e & 1) != 0, (*ts)[id]);
-      };
-      const std::size_t at = index_of[t];
-      for (std::size_t r = lj; r < lj + k.cj; ++r)
-        for (std::size_t c = cell_at[at + r * Bx + li]; c < cell_at[at + r * Bx + li + k.ci]; ++c) {
-          const std::size_t e = cell_segs[c];
-          const std::size_t from = moved(segments[e].first), to = moved(segments[e].second);
-          segments.emplace_back(from, to);
-          for (std::size_t q = inner_at[e]; q < inner_at[e + 1]; ++q) inner.push_back(inner[q] + d);
-          inner_at.push_back(inner.size());
-        }
+  if (exporting && !made) {
+    result.samples = m.samples;
+    return result;
+  }
+  const PeriodTileData* D = given ? given : made.get();
+  // A tile's chain end for the block whose first node is (bi, bj).
+  auto end_at = [&](std::size_t bi, std::size_t bj, const TileEnd& c) {
+    return crossing_on(bi + c.i, bj + c.j(), c.vertical(), static_cast<double>(c.t));
+  };
+  // Whole blocks take their tile's chains, translated by whole periods.
+  for (const Replay& r : replays) {
+    const TileLines& T = D->lines[r.tile];
+    const Vec2 o = m.node(r.bi, r.bj);
+    for (const TileChain& c : T.chains) {
+      segments.emplace_back(end_at(r.bi, r.bj, c.from), end_at(r.bi, r.bj, c.to));
+      for (std::size_t k = c.begin; k < c.end; ++k) inner.push_back(TileLines::at(o, T.pts[k]));
+      inner_at.push_back(inner.size());
     }
   }
-  if (!replays.empty()) {
-    // Loops inside a tile are edges from a point of their own back to it, after every crossing
-    // with a grid edge (ids past those edge_crossings reports), so the walk closes them.
-    for (const Replay& r : replays) {
-      const TileLines& T = tiled[r.tile];
-      const Vec2 o = m.node(r.bi, r.bj);
-      for (const auto& [begin, end] : T.loops) {
-        const std::size_t id = crossings.size();
-        crossings.push_back(TileLines::at(o, T.pts[begin]));
-        segments.emplace_back(id, id);
-        for (std::size_t k = begin + 1; k < end; ++k) inner.push_back(TileLines::at(o, T.pts[k]));
+  // Blocks along a boundary take the segments of their cells' rows.
+  for (const Block& k : periodic_parts) {
+    const std::size_t t = tile_of(k.i, k.j);
+    const TileLines& C = D->cells[t];
+    const std::vector<std::uint32_t>& row_at = D->row_at[t];
+    const std::vector<std::uint16_t>& col = D->col[t];
+    const std::size_t li = (k.i % px) % Bx, lj = (k.j % py) % By;
+    const std::size_t oi = k.i - li, oj = k.j - lj;  // the first node of its top block
+    const Vec2 o = m.node(oi, oj);
+    for (std::size_t r = lj; r < lj + k.cj; ++r)
+      for (auto c = static_cast<std::size_t>(
+               std::lower_bound(col.begin() + row_at[r], col.begin() + row_at[r + 1], li) -
+               col.begin());
+           c < row_at[r + 1] && col[c] < li + k.ci; ++c) {
+        const TileChain& ch = C.chains[c];
+        segments.emplace_back(end_at(oi, oj, ch.from), end_at(oi, oj, ch.to));
+        for (std::size_t q = ch.begin; q < ch.end; ++q) inner.push_back(TileLines::at(o, C.pts[q]));
         inner_at.push_back(inner.size());
       }
+  }
+  // Loops inside a tile are edges from a point of their own back to it, after every crossing
+  // with a grid edge (ids past those edge_crossings reports), so the walk closes them.
+  for (const Replay& r : replays) {
+    const TileLines& T = D->lines[r.tile];
+    const Vec2 o = m.node(r.bi, r.bj);
+    for (const auto& [begin, end] : T.loops) {
+      const std::size_t id = crossings.size();
+      crossings.push_back(TileLines::at(o, T.pts[begin]));
+      segments.emplace_back(id, id);
+      for (std::size_t k = begin + 1; k < end; ++k) inner.push_back(TileLines::at(o, T.pts[k]));
+      inner_at.push_back(inner.size());
     }
   }
   if (options.edge_crossings) {

@@ -1239,6 +1239,98 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
   }
   tbb::enumerable_thread_specific<Ctx> contexts(
       [&] { return Ctx(part, design, c_field, sheet_period); });
+  // Layers a period apart along z (the sheet repeats along z too, by a whole number P of layers)
+  // take the same tiles: a class of layers (i mod P) has its tiles made once, at the height of
+  // its first layer, by marches of the sheet alone over one period from the layers' grid origin,
+  // and kept while later layers of the class remain (up to the budget; else made again). Made
+  // from the class alone, they are the same whichever layers a run covers (a layer range run on
+  // its own equals that range of the whole run). A last layer cut below the top (not whole
+  // periods above its class's first) marches its own.
+  struct ClassTiles {
+    PeriodTiles section, thin, joint, mid;
+    std::size_t bytes() const { return section.bytes + thin.bytes + joint.bytes + mid.bytes; }
+  };
+  std::size_t zp = 0;  // P; 0: no sharing along z
+  if (sheet_period.x > 0 && o.z_tiles_budget > 0) {
+    const double pz = design.phi.period().z, r = pz / o.layer, c = std::round(r);
+    if (pz > 0 && std::isfinite(r) && c >= 1 && std::abs(r - c) <= 1e-9 * c)
+      zp = static_cast<std::size_t>(c);
+  }
+  PbfDesign sheet_design = design;
+  sheet_design.envelope = Field{};
+  sheet_design.solids = Field{};
+  sheet_design.clip.clear();
+  const Field sheet_part = zp ? sheet_design.part() : Field{};
+  tbb::enumerable_thread_specific<Ctx> class_contexts(
+      [&] { return Ctx(sheet_part, sheet_design, c_field, sheet_period); });
+  std::vector<std::shared_ptr<const ClassTiles>> kept(zp);
+  std::size_t kept_bytes = 0;
+  std::mutex kept_mutex;
+  auto make_class_tiles = [&](std::size_t c) {
+    auto out = std::make_shared<ClassTiles>();
+    Ctx& cc = class_contexts.local();
+    const double z = zs[c];
+    const Vec2 top = lo + sheet_period;
+    cc.grid.reset(lo, Hs, static_cast<std::size_t>(std::llround(sheet_period.x / Hs)),
+                  static_cast<std::size_t>(std::llround(sheet_period.y / Hs)));
+    cc.bounds.reset(z);
+    if (!o.stl_route) {
+      PartSection fs(cc, cc.grid, z);
+      if (Hs < H) fs.share_bounds_from(4 * H - 1e-9);
+      MarchOptions mo = mo_section;
+      mo.edge_crossings = section_crossings ? &cc.edge_crossings : nullptr;
+      mo.tiles_out = &out->section;
+      march_squares(fs, lo, top, 0.0, mo);
+      if (section_crossings) cc.grid.set_crossings(cc.edge_crossings);
+    }
+    if (o.hybrid) {
+      const double bc = o.beam_compensation;
+      JointSection joint(cc, sheet_design, o, c_const, z);
+      JointSection thin(cc, sheet_design, o, c_const, z, true);
+      joint.use_grid(&cc.grid, bc <= 0);
+      thin.use_grid(&cc.grid, bc > 0);
+      thin.use_section_crossings(section_crossings ? stride : 0);
+      MarchOptions mj = mo_joint;
+      if (bc <= 0) {
+        mj.tiles_out = &out->joint;
+        march_squares(joint, lo, top, 0.0, mj);
+      } else if (result.thin_walls_possible) {
+        mj.tiles_out = &out->thin;
+        march_squares(thin, lo, top, 0.0, mj);
+      }
+      MidSection mid(cc, z);
+      MarchOptions mm = mo_mid;
+      mm.tiles_out = &out->mid;
+      march_squares(mid, lo, top, 0.0, mm);
+    }
+    return std::shared_ptr<const ClassTiles>(std::move(out));
+  };
+  auto class_tiles = [&](std::size_t i) -> std::shared_ptr<const ClassTiles> {
+    if (zp == 0 || zs[i] != e.min.z + (static_cast<double>(i) + 0.5) * o.layer) return nullptr;
+    const std::size_t c = i % zp;
+    {
+      std::lock_guard lock(kept_mutex);
+      if (kept[c]) return kept[c];
+    }
+    std::shared_ptr<const ClassTiles> t = make_class_tiles(c);
+    if (i + zp < last) {  // the class has a later layer in this run
+      std::lock_guard lock(kept_mutex);
+      if (kept[c]) return kept[c];
+      if (kept_bytes + t->bytes() <= o.z_tiles_budget) {
+        kept[c] = t;
+        kept_bytes += t->bytes();
+      }
+    }
+    return t;
+  };
+  auto release_class = [&](std::size_t i) {  // after the class's last layer in this run
+    if (zp == 0 || i + zp < last) return;
+    std::lock_guard lock(kept_mutex);
+    if (auto& k = kept[i % zp]) {
+      kept_bytes -= k->bytes();
+      k.reset();
+    }
+  };
   std::atomic<std::size_t> done{0};
   std::mutex progress_mutex;
   const std::size_t count = last - first;
@@ -1257,6 +1349,12 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
       return c;
     };
     // The sheet's cross-section S.
+    const std::shared_ptr<const ClassTiles> ct = class_tiles(i);
+    auto tiled = [&](const MarchOptions& base, const PeriodTiles ClassTiles::*which) {
+      MarchOptions m = base;
+      m.tiles_in = ct ? &(*ct.*which) : nullptr;
+      return m;
+    };
     LayerGrid& grid = ctx.grid;
     grid.reset(lo, Hs, nx, ny);
     ctx.bounds.reset(z);
@@ -1267,7 +1365,7 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
       PartSection fs(ctx, grid, z);
       // The coarse marches' smallest blocks are 4 of their cells (MarchOptions::block's leaves).
       if (Hs < H) fs.share_bounds_from(4 * H - 1e-9);
-      MarchOptions mo = mo_section;
+      MarchOptions mo = tiled(mo_section, &ClassTiles::section);
       mo.edge_crossings = section_crossings ? &ctx.edge_crossings : nullptr;
       S = nest_oriented_rings(counted(march_squares(fs, lo, hi, 0.0, mo)).lines.loops);
       // The section's crossings are kept with the grid for the thin-wall march.
@@ -1296,13 +1394,17 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
         // the section's (refined) one, not the coarse grid's; slivers between the two outlines
         // are narrower than a cell and within the compensation of both.
         if (result.thin_walls_possible)
-          T = nest_oriented_rings(counted(march_squares(thin, lo, hi, 0.0, mo_joint)).lines.loops);
+          T = nest_oriented_rings(
+              counted(march_squares(thin, lo, hi, 0.0, tiled(mo_joint, &ClassTiles::thin)))
+                  .lines.loops);
       } else {
-        hatch_region =
-            nest_oriented_rings(counted(march_squares(joint, lo, hi, 0.0, mo_joint)).lines.loops);
+        hatch_region = nest_oriented_rings(
+            counted(march_squares(joint, lo, hi, 0.0, tiled(mo_joint, &ClassTiles::joint)))
+                .lines.loops);
       }
       MidSection mid(ctx, z);
-      const ContourSet m = counted(march_squares(mid, lo, hi, 0.0, mo_mid));
+      const ContourSet m =
+          counted(march_squares(mid, lo, hi, 0.0, tiled(mo_mid, &ClassTiles::mid)));
       std::vector<std::vector<Vec2>> lines = m.lines.open;
       const std::size_t first_loop = lines.size();
       for (auto l : m.lines.loops) {
@@ -1421,42 +1523,42 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
       2 * static_cast<std::size_t>(std::max(1, tbb::this_task_arena::max_concurrency()));
   std::size_t next = first;
   tbb::parallel_pipeline(
-      tokens,
-      tbb::make_filter<void, std::size_t>(tbb::filter_mode::serial_in_order,
-                                          [&](tbb::flow_control& fc) -> std::size_t {
-                                            if (next >= last) {
-                                              fc.stop();
-                                              return 0;
-                                            }
-                                            return next++;
-                                          }) &
-          tbb::make_filter<std::size_t, std::size_t>(tbb::filter_mode::parallel,
-                                                     [&](std::size_t i) {
-                                                       compute(i);
-                                                       return i;
-                                                     }) &
-          tbb::make_filter<std::size_t, void>(
-              tbb::filter_mode::serial_in_order, [&](std::size_t i) {
-                PbfLayer& L = result.layers[i - first];
-                result.contour_vectors += L.contours.size();
-                result.hatch_vectors += L.hatches.size();
-                result.contour_length += L.contour_length;
-                result.hatch_length += L.hatch_length;
-                result.scan_time += L.scan_time;
-                result.scan_time_r67 += L.scan_time_r67;
-                result.blocks += L.blocks;
-                result.tiled_blocks += L.tiled_blocks;
-                if (sink) {
-                  sink(i, L);
-                  std::vector<std::vector<Vec2>>().swap(L.contours);
-                  std::vector<Segment2>().swap(L.hatches);
-                }
-                const std::size_t d = ++done;
-                if (progress.report && (d % 32 == 0 || d == count)) {
-                  std::lock_guard lock(progress_mutex);
-                  progress("layers", static_cast<double>(d) / static_cast<double>(count));
-                }
-              }));
+      tokens, tbb::make_filter<void, std::size_t>(tbb::filter_mode::serial_in_order,
+                                                  [&](tbb::flow_control& fc) -> std::size_t {
+                                                    if (next >= last) {
+                                                      fc.stop();
+                                                      return 0;
+                                                    }
+                                                    return next++;
+                                                  }) &
+                  tbb::make_filter<std::size_t, std::size_t>(tbb::filter_mode::parallel,
+                                                             [&](std::size_t i) {
+                                                               compute(i);
+                                                               return i;
+                                                             }) &
+                  tbb::make_filter<std::size_t, void>(
+                      tbb::filter_mode::serial_in_order, [&](std::size_t i) {
+                        release_class(i);
+                        PbfLayer& L = result.layers[i - first];
+                        result.contour_vectors += L.contours.size();
+                        result.hatch_vectors += L.hatches.size();
+                        result.contour_length += L.contour_length;
+                        result.hatch_length += L.hatch_length;
+                        result.scan_time += L.scan_time;
+                        result.scan_time_r67 += L.scan_time_r67;
+                        result.blocks += L.blocks;
+                        result.tiled_blocks += L.tiled_blocks;
+                        if (sink) {
+                          sink(i, L);
+                          std::vector<std::vector<Vec2>>().swap(L.contours);
+                          std::vector<Segment2>().swap(L.hatches);
+                        }
+                        const std::size_t d = ++done;
+                        if (progress.report && (d % 32 == 0 || d == count)) {
+                          std::lock_guard lock(progress_mutex);
+                          progress("layers", static_cast<double>(d) / static_cast<double>(count));
+                        }
+                      }));
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return result;
 }

@@ -62,7 +62,9 @@ double pbf_memory_estimate(const PbfDesign& design, const PbfOptions& o, int thr
   const double layers = streamed ? 2.0 * threads : std::ceil((e.max.z - e.min.z) / o.layer);
   const double length = area / o.melt_pool;  // mm a layer
   const double vectors = length / std::max(std::min(o.segment_length, 4 * o.hatch_distance), 1e-3);
-  double bytes = 36e6 + threads * per_thread + layers * vectors * 300;
+  // Plus the tiles kept for the layers a period above (at most their budget).
+  double bytes = 36e6 + threads * per_thread + layers * vectors * 300 +
+                 static_cast<double>(o.periodic_tiles ? o.z_tiles_budget : 0);
   return bytes;
 }
 

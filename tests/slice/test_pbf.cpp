@@ -218,13 +218,42 @@ TEST(Pbf, ThinWallOutlineFromTheSectionCrossingsKeepsTheHatchEnds) {
   EXPECT_LE(moved, ends / 1000) << "of " << ends << " hatch ends";
 }
 
+// Two plans of the same layers whose contours were marched from different blocks: the same
+// section areas (to 1e-4: the blocks differ, and so the crossings' first guesses; the
+// crossings' tolerance, 0.25 µm along a 40 mm outline, would allow 4e-3), every hatch end
+// within 1 µm of one of the other plan, contour lengths within a vector or two a layer (closed
+// mid-curves may start elsewhere, which shifts their chords; more on a few layers where φ = 0
+// crosses itself).
+void expect_same_plan(const PbfResult& plain, const PbfResult& tiled, const PbfOptions& o,
+                      const std::string& name) {
+  ASSERT_EQ(tiled.layers.size(), plain.layers.size()) << name;
+  std::size_t ends = 0, moved = 0, off_by_more = 0;
+  for (std::size_t i = 0; i < plain.layers.size(); ++i) {
+    const PbfLayer &a = plain.layers[i], &b = tiled.layers[i];
+    EXPECT_NEAR(a.area, b.area, 1e-4 * a.area) << name << " layer " << i;
+    // (Where φ = 0 crosses itself in the plane — the gyroid at z = ±P/2 — which way its lines
+    // join is decided by values ~1e-16 apart; the pieces, and so the chords, may differ.)
+    const double vectors = 2 * (o.segment_length + o.segment_gap) + 1e-9;
+    EXPECT_NEAR(a.contour_length, b.contour_length, vectors + 0.03 * a.contour_length)
+        << name << " layer " << i;
+    off_by_more += std::abs(a.contour_length - b.contour_length) > vectors;
+    EXPECT_LE(
+        std::max(a.hatches.size(), b.hatches.size()) - std::min(a.hatches.size(), b.hatches.size()),
+        1u)
+        << name << " layer " << i;
+    const auto [n, off] = unmatched_ends(a.hatches, b.hatches);
+    ends += n;
+    moved += off;
+  }
+  EXPECT_LE(off_by_more, plain.layers.size() / 10) << name;
+  EXPECT_GT(ends, 2000u) << name;
+  EXPECT_LE(moved, ends / 1000) << name << ": of " << ends << " hatch ends";
+}
+
 // Periodic tiles (PbfOptions::periodic_tiles): on sheets that repeat across the plane (a TPMS
 // with a constant c or thickness) in a translated box, a sphere, a root box and around a solid
-// boss, the direct and STL routes plan the same layers with the tiles as without: the same
-// section areas (to 1e-4: the blocks differ, and so the crossings' first guesses; the
-// crossings' tolerance, 0.25 µm along a 40 mm outline, would allow 4e-3), every hatch end within 1 µm of one of the other plan, contour lengths within
-// a vector or two a layer (closed mid-curves may start elsewhere, which shifts their chords;
-// more on a few layers where φ = 0 crosses itself).
+// boss, the direct and STL routes plan the same layers with the tiles as without
+// (expect_same_plan).
 // A c that varies is not periodic, a lattice cut by another is too rarely: nothing translated.
 TEST(Pbf, PeriodicTilesPlanTheSameLayers) {
   struct Case {
@@ -268,28 +297,7 @@ TEST(Pbf, PeriodicTilesPlanTheSameLayers) {
     const PbfResult plain = plan_pbf(c.d, o);
     EXPECT_EQ(plain.tiled_blocks, 0u) << c.name;
     EXPECT_GT(tiled.tiled_blocks, tiled.blocks / 5) << c.name;
-    ASSERT_EQ(tiled.layers.size(), plain.layers.size()) << c.name;
-    std::size_t ends = 0, moved = 0, off_by_more = 0;
-    for (std::size_t i = 0; i < plain.layers.size(); ++i) {
-      const PbfLayer &a = plain.layers[i], &b = tiled.layers[i];
-      EXPECT_NEAR(a.area, b.area, 1e-4 * a.area) << c.name << " layer " << i;
-      // (Where φ = 0 crosses itself in the plane — the gyroid at z = ±P/2 — which way its lines
-      // join is decided by values ~1e-16 apart; the pieces, and so the chords, may differ.)
-      const double vectors = 2 * (o.segment_length + o.segment_gap) + 1e-9;
-      EXPECT_NEAR(a.contour_length, b.contour_length, vectors + 0.03 * a.contour_length)
-          << c.name << " layer " << i;
-      off_by_more += std::abs(a.contour_length - b.contour_length) > vectors;
-      EXPECT_LE(std::max(a.hatches.size(), b.hatches.size()) -
-                    std::min(a.hatches.size(), b.hatches.size()),
-                1u)
-          << c.name << " layer " << i;
-      const auto [n, off] = unmatched_ends(a.hatches, b.hatches);
-      ends += n;
-      moved += off;
-    }
-    EXPECT_LE(off_by_more, plain.layers.size() / 10) << c.name;
-    EXPECT_GT(ends, 2000u) << c.name;
-    EXPECT_LE(moved, ends / 1000) << c.name << ": of " << ends << " hatch ends";
+    expect_same_plan(plain, tiled, o, c.name);
   }
   PbfDesign graded = gyroid_cube(5);
   graded.c = {"0.15 + 0.01 * x"};
@@ -309,6 +317,39 @@ TEST(Pbf, PeriodicTilesPlanTheSameLayers) {
   const PbfResult box = plan_pbf(gyroid_cube(5), o);
   EXPECT_GT(box.periodic_fraction, 0.5);
   EXPECT_GT(box.tiled_blocks, 0u);
+}
+
+// Layers a period apart along z take the same tiles (PbfOptions::z_tiles_budget), made once for
+// each class of layers from the sheet alone: the same layers as when each marches its own, more
+// blocks translated; with a budget too small to keep any, a class's tiles are made again for
+// each of its layers, and the plan is the same to the last digit.
+TEST(Pbf, LayersAPeriodApartTakeTheSameTiles) {
+  PbfDesign d = gyroid_cube(6);
+  d.envelope = translate(rectprism({6, 5, 5.2}), {0.37, -0.61, 0});
+  for (const bool stl : {false, true}) {
+    const std::string name = stl ? "STL route" : "direct route";
+    PbfOptions o;
+    o.layer = 0.1;  // 52 layers, 25 a period
+    o.stl_route = stl;
+    const PbfResult shared = plan_pbf(d, o);
+    o.z_tiles_budget = 1;
+    const PbfResult remade = plan_pbf(d, o);
+    o.z_tiles_budget = 0;
+    const PbfResult own = plan_pbf(d, o);
+    EXPECT_GT(shared.tiled_blocks, own.tiled_blocks + own.tiled_blocks / 5) << name;
+    EXPECT_EQ(shared.tiled_blocks, remade.tiled_blocks) << name;
+    expect_same_plan(own, shared, o, name);
+    ASSERT_EQ(shared.layers.size(), remade.layers.size());
+    for (std::size_t i = 0; i < shared.layers.size(); ++i) {
+      const PbfLayer &a = shared.layers[i], &b = remade.layers[i];
+      EXPECT_EQ(a.area, b.area) << name << " layer " << i;
+      EXPECT_EQ(a.contours, b.contours) << name << " layer " << i;
+      ASSERT_EQ(a.hatches.size(), b.hatches.size()) << name << " layer " << i;
+      for (std::size_t k = 0; k < a.hatches.size(); ++k)
+        ASSERT_TRUE(a.hatches[k].a == b.hatches[k].a && a.hatches[k].b == b.hatches[k].b)
+            << name << " layer " << i << " hatch " << k;
+    }
+  }
 }
 
 TEST(Pbf, DirectAndStlRoutesGiveTheSameSections) {

@@ -107,8 +107,9 @@ TEST(PbfStream, ALayerRangeOnItsOwnIsThatRangeOfTheWholeRun) {
 }
 
 // The same for a part taller than a period of its TPMS (25 layers of 0.1 mm in 2.5 mm cells),
-// tiled across the plane: every layer's tiles are its own (a cache of tiles shared by layers a
-// period apart would make a shard started cold differ from the whole run in the last digits).
+// tiled across the plane and along z: layers a period apart take tiles made from their class of
+// layers alone (PbfOptions::z_tiles_budget), so a shard started cold makes the same ones as the
+// whole run, which kept them from a layer the shard does not have.
 TEST(PbfStream, ALayerRangeOfATallTiledPartIsThatRangeOfTheWholeRun) {
   PbfDesign d = small_gyroid();
   d.envelope = rectprism({5, 5, 6});

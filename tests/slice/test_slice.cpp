@@ -387,7 +387,9 @@ TEST(Contours, CubicGuessFindsCrossingsWithFewerSamples) {
 // function alone (blocks inside the disc), the march contours one block per place in the period
 // and translates the rest (MarchOptions::periodic_tiles). The same loops, the same crossings
 // (each within the refinement tolerance of its edge's crossing), far fewer samples; nothing is
-// translated when the period is not a whole number of cells.
+// translated when the period is not a whole number of cells. Tiles made by a march over one
+// period of the repeating function alone (MarchOptions::tiles_out) give the same again with no
+// block marched for them (tiles_in); tiles of another grid are ignored.
 TEST(Contours, PeriodicTilesGiveTheSameContours) {
   struct Lattice : PlaneFunction {
     double P = 2.5;
@@ -425,11 +427,40 @@ TEST(Contours, PeriodicTilesGiveTheSameContours) {
   tiled.resolution = 0.025;
   MarchOptions plain = tiled;
   plain.periodic_tiles = false;
+  // The tiles of one period of the sheet alone (the disc far larger), from the same grid origin.
+  Lattice sheet = f;
+  sheet.R = 1e3;
+  PeriodTiles period_tiles, coarse_tiles;
+  {
+    MarchOptions out = tiled;
+    out.tiles_out = &period_tiles;
+    const ContourSet none = march_squares(sheet, {0, 0}, {2.5, 2.5}, 0, out);
+    EXPECT_TRUE(none.lines.loops.empty() && none.lines.open.empty());
+    ASSERT_TRUE(period_tiles.data);
+    EXPECT_GT(period_tiles.bytes, 10000u);
+    out.resolution = 0.05;
+    out.tiles_out = &coarse_tiles;
+    march_squares(sheet, {0, 0}, {2.5, 2.5}, 0, out);
+    ASSERT_TRUE(coarse_tiles.data);
+  }
+  MarchOptions given = tiled;
+  given.tiles_in = &period_tiles;
+  MarchOptions other_grid = tiled;
+  other_grid.tiles_in = &coarse_tiles;
   for (const bool bounded : {false, true}) {
     SCOPED_TRACE(bounded ? "bounded" : "unbounded");
     f.bounded = bounded;
     const ContourSet a = march_squares(f, {0, 0}, {12.5, 12}, 0, plain);
     const ContourSet b = march_squares(f, {0, 0}, {12.5, 12}, 0, tiled);
+    const ContourSet c = march_squares(f, {0, 0}, {12.5, 12}, 0, given);
+    const ContourSet d = march_squares(f, {0, 0}, {12.5, 12}, 0, other_grid);
+    EXPECT_EQ(d.samples, b.samples);
+    EXPECT_EQ(d.tiled_blocks, b.tiled_blocks);
+    EXPECT_EQ(d.lines.loops, b.lines.loops);
+    // Every periodic whole block translated, the tiles' places too; none sampled.
+    EXPECT_GT(c.tiled_blocks, b.tiled_blocks);
+    EXPECT_LT(c.samples, b.samples);
+    EXPECT_EQ(c.tiled_parts, b.tiled_parts);
     EXPECT_EQ(a.tiled_blocks, 0u);
     EXPECT_EQ(a.tiled_parts, 0u);
     EXPECT_GT(b.tiled_blocks, b.blocks / 2);
@@ -475,6 +506,12 @@ TEST(Contours, PeriodicTilesGiveTheSameContours) {
     };
     EXPECT_LT(worst_from(pa, pb), tol);
     EXPECT_LT(worst_from(pb, pa), tol);
+    ASSERT_EQ(a.lines.loops.size(), c.lines.loops.size());
+    ASSERT_EQ(a.lines.open.size(), c.lines.open.size());
+    const std::vector<Vec2> pc = points(c);
+    ASSERT_EQ(pa.size(), pc.size());
+    EXPECT_LT(worst_from(pa, pc), tol);
+    EXPECT_LT(worst_from(pc, pa), tol);
   }
   // A period of 2.51 mm is not a whole number of 25 µm cells: every block is marched.
   f.P = 2.51;

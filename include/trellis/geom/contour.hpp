@@ -5,6 +5,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <vector>
 
 #include "trellis/core/vec.hpp"
@@ -71,6 +72,13 @@ struct StitchedLines {
 // (the FGM paper's fuzzy comparison, 1e-6 mm for desktop printers). Zero-length segments drop.
 StitchedLines stitch_segments(const std::vector<Segment2>& segments, double tolerance = 1e-6);
 
+// The lines of one period's tiles (see MarchOptions::tiles_out), for other marches to translate.
+struct PeriodTileData;
+struct PeriodTiles {
+  std::shared_ptr<const PeriodTileData> data;  // none: the march made no tiles
+  std::size_t bytes = 0;                       // the memory they hold
+};
+
 struct MarchOptions {
   double resolution = 0.1;          // grid step (mm)
   // Crossings are refined on the function until the bracket is below this fraction of the
@@ -103,6 +111,15 @@ struct MarchOptions {
   double midpoint_min_offset = 0;
   // If set, filled with every crossing by its grid edge (after refinement).
   std::vector<struct EdgeCrossing>* edge_crossings = nullptr;
+  // Every periodic block takes its lines from these tiles, made by a march with tiles_out of the
+  // same periodic function (translated along the plane or a period along another axis, e.g. the
+  // layer a period below) on a grid that is the same modulo the period: none is marched here.
+  // Ignored unless they have this march's period and tile side and every place's tile.
+  const PeriodTiles* tiles_in = nullptr;
+  // Instead of contouring: the rectangle is one period of a function periodic throughout,
+  // starting at a node of the grid of the marches that take these tiles; every place's tile is
+  // marched and put here, and no lines are returned.
+  PeriodTiles* tiles_out = nullptr;
 };
 
 // A crossing on the grid edge from node (i, j) (lo + (i, j)·resolution) to (i + 1, j), or to
