@@ -465,19 +465,19 @@ struct TileLines {
 
 // One period's tiles (see march_squares), by place: the lines as chains (whole blocks take
 // them) and the segments one chain each, ordered by cell (blocks along a boundary take them by
-// cells): row r's are row_at[t][r] .. row_at[t][r + 1], by column, chain k's column col[t][k].
+// cells). All tiles' in one array each (kept for many layers: a few arrays, not a few per tile):
+// tile t's chains are lines.chains[chain_at[t] .. chain_at[t + 1]), its loops likewise
+// (loop_at); the segments of row r of its cells are cells.chains[row_at[t · (by + 1) + r] ..
+// row_at[t · (by + 1) + r + 1]), by column, chain k's column col[k].
 struct PeriodTileData {
   std::size_t px = 0, py = 0, bx = 0, by = 0;  // the period and the tile side, in cells
-  std::vector<TileLines> lines, cells;
-  std::vector<std::vector<std::uint32_t>> row_at;
-  std::vector<std::vector<std::uint16_t>> col;
+  TileLines lines, cells;
+  std::vector<std::uint32_t> chain_at, loop_at, row_at;
+  std::vector<std::uint16_t> col;
   std::size_t bytes() const {
-    std::size_t b = sizeof(*this);
-    for (const auto& l : lines) b += sizeof(l) + l.bytes();
-    for (const auto& l : cells) b += sizeof(l) + l.bytes();
-    for (const auto& r : row_at) b += sizeof(r) + r.capacity() * sizeof(std::uint32_t);
-    for (const auto& c : col) b += sizeof(c) + c.capacity() * sizeof(std::uint16_t);
-    return b;
+    return sizeof(*this) + lines.bytes() + cells.bytes() +
+           (chain_at.capacity() + loop_at.capacity() + row_at.capacity()) * sizeof(std::uint32_t) +
+           col.capacity() * sizeof(std::uint16_t);
   }
 };
 
@@ -683,8 +683,8 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
   const PeriodTileData* given = nullptr;
   if (tiling && options.tiles_in && options.tiles_in->data) {
     const PeriodTileData& d = *options.tiles_in->data;
-    if (d.px == px && d.py == py && d.bx == Bx && d.by == By && d.lines.size() == ntiles &&
-        d.cells.size() == ntiles)
+    if (d.px == px && d.py == py && d.bx == Bx && d.by == By && d.chain_at.size() == ntiles + 1 &&
+        d.row_at.size() == ntiles * (By + 1))
       given = &d;
   }
   struct Replay {
@@ -805,10 +805,10 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
     made = std::make_shared<PeriodTileData>();
     PeriodTileData& D = *made;
     D.px = px, D.py = py, D.bx = Bx, D.by = By;
-    D.lines.resize(ntiles);
-    D.cells.resize(ntiles);
-    D.row_at.resize(ntiles);
-    D.col.resize(ntiles);
+    D.chain_at.assign(ntiles + 1, 0);
+    D.loop_at.assign(ntiles + 1, 0);
+    D.row_at.assign(ntiles * (By + 1), 0);
+    TileLines& T = D.lines;
     const std::size_t nc = crossings.size();
     std::vector<std::size_t> out_seg(nc), stamp_out(nc, 0), stamp_in(nc, 0);
     std::vector<char> used(segments.size(), 0);
@@ -816,6 +816,8 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
     for (const Block& k : periodic_parts) wants_cells[tile_of(k.i, k.j)] = 1;
     std::vector<std::uint32_t> seg_slot;
     for (std::size_t t = 0; t < ntiles; ++t) {
+      D.chain_at[t] = static_cast<std::uint32_t>(T.chains.size());
+      D.loop_at[t] = static_cast<std::uint32_t>(T.loops.size());
       const Tile& tile = tiles[t];
       if (!tile.marched) continue;
       const Vec2 o = m.node(tile.bi, tile.bj);
@@ -853,14 +855,12 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
           std::vector<std::uint32_t> fill(at.begin(), at.end() - 1);
           for (std::size_t k = 0; k < seg_slot.size(); ++k) order[fill[seg_slot[k]]++] = k;
         }
-        TileLines& C = D.cells[t];
-        std::vector<std::uint32_t>& row_at = D.row_at[t];
-        row_at.resize(By + 1);
-        for (std::size_t r = 0; r <= By; ++r) row_at[r] = at[r * Bx];
-        std::vector<std::uint16_t>& col = D.col[t];
+        TileLines& C = D.cells;
+        const auto base = static_cast<std::uint32_t>(C.chains.size());
+        for (std::size_t r = 0; r <= By; ++r) D.row_at[t * (By + 1) + r] = base + at[r * Bx];
         for (const std::size_t k : order) {
           const std::size_t e = tile.s0 + k;
-          col.push_back(static_cast<std::uint16_t>(seg_slot[k] % Bx));
+          D.col.push_back(static_cast<std::uint16_t>(seg_slot[k] % Bx));
           const std::uint32_t begin = C.size();
           add_inner(C, e);
           C.chains.push_back(
@@ -868,7 +868,6 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
         }
       }
       if (!exporting && replays.empty()) continue;
-      TileLines& T = D.lines[t];
       const std::size_t mark = t + 1;
       bool chainable = true;
       for (std::size_t e = tile.s0; e < tile.s1; ++e) {
@@ -916,18 +915,19 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
         T.loops.emplace_back(begin, T.size());
       }
     }
+    D.chain_at[ntiles] = static_cast<std::uint32_t>(T.chains.size());
+    D.loop_at[ntiles] = static_cast<std::uint32_t>(T.loops.size());
     if (exporting) {
       // Made only where every place was marched (the rectangle one period, periodic throughout).
       bool all = true;
       for (const Tile& tile : tiles) all = all && tile.marched;
       if (all) {
-        for (auto* v : {&D.lines, &D.cells})
-          for (TileLines& l : *v) {
-            l.chains.shrink_to_fit();
-            l.loops.shrink_to_fit();
-            l.pts.shrink_to_fit();
-          }
-        for (auto& c : D.col) c.shrink_to_fit();
+        for (TileLines* l : {&D.lines, &D.cells}) {
+          l->chains.shrink_to_fit();
+          l->loops.shrink_to_fit();
+          l->pts.shrink_to_fit();
+        }
+        D.col.shrink_to_fit();
         *options.tiles_out = {made, made->bytes()};
       }
       result.samples = m.samples;
@@ -944,10 +944,12 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
     return crossing_on(bi + c.i, bj + c.j(), c.vertical(), static_cast<double>(c.t));
   };
   // Whole blocks take their tile's chains, translated by whole periods.
+  static const TileLines kNoLines;
+  const TileLines& T = D ? D->lines : kNoLines;
   for (const Replay& r : replays) {
-    const TileLines& T = D->lines[r.tile];
     const Vec2 o = m.node(r.bi, r.bj);
-    for (const TileChain& c : T.chains) {
+    for (std::size_t n = D->chain_at[r.tile]; n < D->chain_at[r.tile + 1]; ++n) {
+      const TileChain& c = T.chains[n];
       segments.emplace_back(end_at(r.bi, r.bj, c.from), end_at(r.bi, r.bj, c.to));
       for (std::size_t k = c.begin; k < c.end; ++k) inner.push_back(TileLines::at(o, T.pts[k]));
       inner_at.push_back(inner.size());
@@ -956,9 +958,9 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
   // Blocks along a boundary take the segments of their cells' rows.
   for (const Block& k : periodic_parts) {
     const std::size_t t = tile_of(k.i, k.j);
-    const TileLines& C = D->cells[t];
-    const std::vector<std::uint32_t>& row_at = D->row_at[t];
-    const std::vector<std::uint16_t>& col = D->col[t];
+    const TileLines& C = D->cells;
+    const std::uint32_t* row_at = D->row_at.data() + t * (By + 1);
+    const std::vector<std::uint16_t>& col = D->col;
     const std::size_t li = (k.i % px) % Bx, lj = (k.j % py) % By;
     const std::size_t oi = k.i - li, oj = k.j - lj;  // the first node of its top block
     const Vec2 o = m.node(oi, oj);
@@ -976,9 +978,9 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
   // Loops inside a tile are edges from a point of their own back to it, after every crossing
   // with a grid edge (ids past those edge_crossings reports), so the walk closes them.
   for (const Replay& r : replays) {
-    const TileLines& T = D->lines[r.tile];
     const Vec2 o = m.node(r.bi, r.bj);
-    for (const auto& [begin, end] : T.loops) {
+    for (std::size_t n = D->loop_at[r.tile]; n < D->loop_at[r.tile + 1]; ++n) {
+      const auto [begin, end] = T.loops[n];
       const std::size_t id = crossings.size();
       crossings.push_back(TileLines::at(o, T.pts[begin]));
       segments.emplace_back(id, id);
