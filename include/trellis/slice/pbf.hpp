@@ -72,7 +72,7 @@ struct PbfOptions {
   // layers P apart take the same tiles, made once per class of layers (i mod P) by marches of the
   // sheet alone over one period at the class's first height and kept, up to this many bytes, for
   // the class's later layers (0: every layer marches its own tiles; for the tests that compare).
-  std::size_t z_tiles_budget = std::size_t{12} << 20;
+  std::size_t z_tiles_budget = std::size_t{8} << 20;
   // Scan-time model (speeds, delays) for the per-layer times of this path and the R67 baseline.
   ScanTiming timing;
   // Bytes the run may use (grids, caches, layers; the STL route's mesh); 0 = the memory
