@@ -930,11 +930,9 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
         D.col.shrink_to_fit();
         *options.tiles_out = {made, made->bytes()};
       }
-      result.samples = m.samples;
-      return result;
     }
   }
-  if (exporting && !made) {
+  if (exporting) {
     result.samples = m.samples;
     return result;
   }

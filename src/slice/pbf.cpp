@@ -1266,6 +1266,24 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
   std::vector<std::shared_ptr<const ClassTiles>> kept(zp);
   std::size_t kept_bytes = 0;
   std::mutex kept_mutex;
+  // The section march of a context at height z over [a, b] (direct route): its crossings are kept
+  // with the context's grid for the thin-wall march.
+  auto march_section = [&](Ctx& c, double z, Vec2 a, Vec2 b, MarchOptions mo) {
+    PartSection fs(c, c.grid, z);
+    // The coarse marches' smallest blocks are 4 of their cells (MarchOptions::block's leaves).
+    if (Hs < H) fs.share_bounds_from(4 * H - 1e-9);
+    mo.edge_crossings = section_crossings ? &c.edge_crossings : nullptr;
+    ContourSet r = march_squares(fs, a, b, 0.0, mo);
+    if (section_crossings) c.grid.set_crossings(c.edge_crossings);
+    return r;
+  };
+  // The joint slots of the grid's nodes hold the joint measure when the joints are marched (no
+  // compensation), else the thin-wall measure (the thin region is marched instead).
+  auto use_grid = [&](Ctx& c, JointSection& joint, JointSection& thin) {
+    joint.use_grid(&c.grid, o.beam_compensation <= 0);
+    thin.use_grid(&c.grid, o.beam_compensation > 0);
+    thin.use_section_crossings(section_crossings ? stride : 0);
+  };
   auto make_class_tiles = [&](std::size_t c) {
     auto out = std::make_shared<ClassTiles>();
     Ctx& cc = class_contexts.local();
@@ -1275,23 +1293,16 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
                   static_cast<std::size_t>(std::llround(sheet_period.y / Hs)));
     cc.bounds.reset(z);
     if (!o.stl_route) {
-      PartSection fs(cc, cc.grid, z);
-      if (Hs < H) fs.share_bounds_from(4 * H - 1e-9);
       MarchOptions mo = mo_section;
-      mo.edge_crossings = section_crossings ? &cc.edge_crossings : nullptr;
       mo.tiles_out = &out->section;
-      march_squares(fs, lo, top, 0.0, mo);
-      if (section_crossings) cc.grid.set_crossings(cc.edge_crossings);
+      march_section(cc, z, lo, top, mo);
     }
     if (o.hybrid) {
-      const double bc = o.beam_compensation;
       JointSection joint(cc, sheet_design, o, c_const, z);
       JointSection thin(cc, sheet_design, o, c_const, z, true);
-      joint.use_grid(&cc.grid, bc <= 0);
-      thin.use_grid(&cc.grid, bc > 0);
-      thin.use_section_crossings(section_crossings ? stride : 0);
+      use_grid(cc, joint, thin);
       MarchOptions mj = mo_joint;
-      if (bc <= 0) {
+      if (o.beam_compensation <= 0) {
         mj.tiles_out = &out->joint;
         march_squares(joint, lo, top, 0.0, mj);
       } else if (result.thin_walls_possible) {
@@ -1362,14 +1373,9 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
     if (o.stl_route) {
       S = o.stl_scan_all ? slice_mesh(mesh, z) : slice_mesh(mesh, z, buckets[i]);
     } else {
-      PartSection fs(ctx, grid, z);
-      // The coarse marches' smallest blocks are 4 of their cells (MarchOptions::block's leaves).
-      if (Hs < H) fs.share_bounds_from(4 * H - 1e-9);
-      MarchOptions mo = tiled(mo_section, &ClassTiles::section);
-      mo.edge_crossings = section_crossings ? &ctx.edge_crossings : nullptr;
-      S = nest_oriented_rings(counted(march_squares(fs, lo, hi, 0.0, mo)).lines.loops);
-      // The section's crossings are kept with the grid for the thin-wall march.
-      if (section_crossings) grid.set_crossings(ctx.edge_crossings);
+      S = nest_oriented_rings(
+          counted(march_section(ctx, z, lo, hi, tiled(mo_section, &ClassTiles::section)))
+              .lines.loops);
     }
     L.area = area(S);
     if (S.empty()) return;
@@ -1379,11 +1385,7 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
     Regions T;  // thin walls, when compensating
     JointSection joint(ctx, design, o, c_const, z);
     JointSection thin(ctx, design, o, c_const, z, true);
-    // The joint slots of the grid's nodes hold the joint measure when the joints are marched
-    // (no compensation), else the thin-wall measure (the thin region is marched instead).
-    joint.use_grid(&grid, bc <= 0);
-    thin.use_grid(&grid, bc > 0);
-    thin.use_section_crossings(section_crossings ? stride : 0);
+    use_grid(ctx, joint, thin);
     Regions hatch_region = S;
     if (o.hybrid) {
       // Joints are contoured from their own field (a Boolean of S and J would spend its time on
