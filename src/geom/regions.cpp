@@ -331,26 +331,33 @@ std::vector<Segment2> hatch(const Regions& regions, double angle_deg, double spa
   edges.reserve(vertices);
   long long k0 = std::numeric_limits<long long>::max();
   double tmax = -1e300;
+  // Each vertex's across coordinate and first line are worked out once, for both its edges: an
+  // edge with the same first line at both ends lies between two lines.
   auto add_ring = [&](const std::vector<Vec2>& ring) {
-    for (std::size_t i = 0, j = ring.size() - 1; i < ring.size(); j = i++) {
-      const Vec2 p = ring[j] - origin, q = ring[i] - origin;
-      const double tp = p.x * v.x + p.y * v.y, tq = q.x * v.x + q.y * v.y;
-      if (tp == tq) continue;
-      const double t0 = std::min(tp, tq), t1 = std::max(tp, tq);
-      const long long k = first_line(t0);
-      if (line_t(k) >= t1) continue;  // no line reaches it
-      // (Built in place: swapping the ends through memory and copying the edge stalled on
-      // store forwarding.)
-      Edge& e = edges.emplace_back();
-      const double sp = p.x * u.x + p.y * u.y, sq = q.x * u.x + q.y * u.y;
-      const bool up = tp < tq;
-      e.t0 = t0;
-      e.t1 = t1;
-      e.s0 = up ? sp : sq;
-      e.s1 = up ? sq : sp;
-      e.k = k;
-      k0 = std::min(k0, k);
-      tmax = std::max(tmax, t1);
+    Vec2 p = ring.back() - origin;
+    double tp = p.x * v.x + p.y * v.y;
+    long long kp = first_line(tp);
+    for (const Vec2& r : ring) {
+      const Vec2 q = r - origin;
+      const double tq = q.x * v.x + q.y * v.y;
+      const long long kq = first_line(tq);
+      if (kp != kq) {  // a line in [min(tp, tq), max(tp, tq))
+        // (Built in place: swapping the ends through memory and copying the edge stalled on
+        // store forwarding.)
+        Edge& e = edges.emplace_back();
+        const double sp = p.x * u.x + p.y * u.y, sq = q.x * u.x + q.y * u.y;
+        const bool up = tp < tq;
+        e.t0 = up ? tp : tq;
+        e.t1 = up ? tq : tp;
+        e.s0 = up ? sp : sq;
+        e.s1 = up ? sq : sp;
+        e.k = up ? kp : kq;
+        k0 = std::min(k0, e.k);
+        tmax = std::max(tmax, e.t1);
+      }
+      p = q;
+      tp = tq;
+      kp = kq;
     }
   };
   for (const auto& p : regions) {

@@ -28,8 +28,9 @@ class Walk {
   bool leave_disc(Vec2 c, double r, double from, double* arc) const {
     for (std::size_t k = segment(from); k + 1 < l_.size(); ++k) {
       const double s0 = std::max(from, s_[k]);
-      const Vec2 a = at_in(k, s0), b = l_[k + 1];
-      if (dist(b, c) < r) continue;
+      const Vec2 b = l_[k + 1];
+      if (dist2(b, c) < r * r) continue;  // (squared: no root for the points inside)
+      const Vec2 a = at_in(k, s0);
       const Vec2 d = b - a, e = a - c;
       const double A = d.x * d.x + d.y * d.y, B = 2 * (d.x * e.x + d.y * e.y),
                    C = e.x * e.x + e.y * e.y - r * r;
