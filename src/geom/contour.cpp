@@ -814,7 +814,8 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
     std::vector<char> used(segments.size(), 0);
     std::vector<char> wants_cells(ntiles, exporting);
     for (const Block& k : periodic_parts) wants_cells[tile_of(k.i, k.j)] = 1;
-    std::vector<std::uint32_t> seg_slot;
+    std::vector<std::uint32_t> seg_slot, at, fill;  // (reused by the tiles)
+    std::vector<std::size_t> order;
     for (std::size_t t = 0; t < ntiles; ++t) {
       D.chain_at[t] = static_cast<std::uint32_t>(T.chains.size());
       D.loop_at[t] = static_cast<std::uint32_t>(T.loops.size());
@@ -830,6 +831,13 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
       auto add_inner = [&](TileLines& T, std::size_t e) {
         for (std::size_t k = inner_at[e]; k < inner_at[e + 1]; ++k) T.add(inner[k], o);
       };
+      // Segment e as a chain of its own.
+      auto add_segment = [&](TileLines& T, std::size_t e) {
+        const std::uint32_t begin = T.size();
+        add_inner(T, e);
+        T.chains.push_back(
+            {end_of(segments[e].first), end_of(segments[e].second), begin, T.size()});
+      };
       if (wants_cells[t]) {
         // The cell both a segment's crossings' edges bound (an edge's two cells differ, so one
         // of a's is b's), counted per cell, then the segments in that order.
@@ -839,7 +847,7 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
           return (e & 1) != 0 ? std::array<std::size_t, 4>{i - 1, j, i, j}
                               : std::array<std::size_t, 4>{i, j - 1, i, j};
         };
-        std::vector<std::uint32_t> at(Bx * By + 1, 0);
+        at.assign(Bx * By + 1, 0);
         seg_slot.clear();
         for (std::size_t e = tile.s0; e < tile.s1; ++e) {
           const auto a = cells_of(segments[e].first), b = cells_of(segments[e].second);
@@ -850,21 +858,15 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
           ++at[lj * Bx + li + 1];
         }
         for (std::size_t c = 1; c <= Bx * By; ++c) at[c] += at[c - 1];
-        std::vector<std::size_t> order(seg_slot.size());
-        {
-          std::vector<std::uint32_t> fill(at.begin(), at.end() - 1);
-          for (std::size_t k = 0; k < seg_slot.size(); ++k) order[fill[seg_slot[k]]++] = k;
-        }
+        order.resize(seg_slot.size());
+        fill.assign(at.begin(), at.end() - 1);
+        for (std::size_t k = 0; k < seg_slot.size(); ++k) order[fill[seg_slot[k]]++] = k;
         TileLines& C = D.cells;
         const auto base = static_cast<std::uint32_t>(C.chains.size());
         for (std::size_t r = 0; r <= By; ++r) D.row_at[t * (By + 1) + r] = base + at[r * Bx];
         for (const std::size_t k : order) {
-          const std::size_t e = tile.s0 + k;
           D.col.push_back(static_cast<std::uint16_t>(seg_slot[k] % Bx));
-          const std::uint32_t begin = C.size();
-          add_inner(C, e);
-          C.chains.push_back(
-              {end_of(segments[e].first), end_of(segments[e].second), begin, C.size()});
+          add_segment(C, tile.s0 + k);
         }
       }
       if (!exporting && replays.empty()) continue;
@@ -878,12 +880,7 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
         out_seg[from] = e;
       }
       if (!chainable) {
-        for (std::size_t e = tile.s0; e < tile.s1; ++e) {
-          const std::uint32_t begin = T.size();
-          add_inner(T, e);
-          T.chains.push_back({end_of(segments[e].first), end_of(segments[e].second), begin,
-                              T.size()});
-        }
+        for (std::size_t e = tile.s0; e < tile.s1; ++e) add_segment(T, e);
         continue;
       }
       for (std::size_t e0 = tile.s0; e0 < tile.s1; ++e0) {
@@ -937,22 +934,23 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
     return result;
   }
   const PeriodTileData* D = given ? given : made.get();
-  // A tile's chain end for the block whose first node is (bi, bj).
-  auto end_at = [&](std::size_t bi, std::size_t bj, const TileEnd& c) {
-    return crossing_on(bi + c.i, bj + c.j(), c.vertical(), static_cast<double>(c.t));
+  // A tile's chain taken by the block whose first node is (bi, bj): its ends found or added by
+  // grid edge, its points translated.
+  auto take_chain = [&](std::size_t bi, std::size_t bj, const TileLines& L, const TileChain& c) {
+    auto end_at = [&](const TileEnd& x) {
+      return crossing_on(bi + x.i, bj + x.j(), x.vertical(), static_cast<double>(x.t));
+    };
+    segments.emplace_back(end_at(c.from), end_at(c.to));
+    const Vec2 o = m.node(bi, bj);
+    for (std::size_t k = c.begin; k < c.end; ++k) inner.push_back(TileLines::at(o, L.pts[k]));
+    inner_at.push_back(inner.size());
   };
   // Whole blocks take their tile's chains, translated by whole periods.
   static const TileLines kNoLines;
   const TileLines& T = D ? D->lines : kNoLines;
-  for (const Replay& r : replays) {
-    const Vec2 o = m.node(r.bi, r.bj);
-    for (std::size_t n = D->chain_at[r.tile]; n < D->chain_at[r.tile + 1]; ++n) {
-      const TileChain& c = T.chains[n];
-      segments.emplace_back(end_at(r.bi, r.bj, c.from), end_at(r.bi, r.bj, c.to));
-      for (std::size_t k = c.begin; k < c.end; ++k) inner.push_back(TileLines::at(o, T.pts[k]));
-      inner_at.push_back(inner.size());
-    }
-  }
+  for (const Replay& r : replays)
+    for (std::size_t n = D->chain_at[r.tile]; n < D->chain_at[r.tile + 1]; ++n)
+      take_chain(r.bi, r.bj, T, T.chains[n]);
   // Blocks along a boundary take the segments of their cells' rows.
   for (const Block& k : periodic_parts) {
     const std::size_t t = tile_of(k.i, k.j);
@@ -961,17 +959,12 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
     const std::vector<std::uint16_t>& col = D->col;
     const std::size_t li = (k.i % px) % Bx, lj = (k.j % py) % By;
     const std::size_t oi = k.i - li, oj = k.j - lj;  // the first node of its top block
-    const Vec2 o = m.node(oi, oj);
     for (std::size_t r = lj; r < lj + k.cj; ++r)
       for (auto c = static_cast<std::size_t>(
                std::lower_bound(col.begin() + row_at[r], col.begin() + row_at[r + 1], li) -
                col.begin());
-           c < row_at[r + 1] && col[c] < li + k.ci; ++c) {
-        const TileChain& ch = C.chains[c];
-        segments.emplace_back(end_at(oi, oj, ch.from), end_at(oi, oj, ch.to));
-        for (std::size_t q = ch.begin; q < ch.end; ++q) inner.push_back(TileLines::at(o, C.pts[q]));
-        inner_at.push_back(inner.size());
-      }
+           c < row_at[r + 1] && col[c] < li + k.ci; ++c)
+        take_chain(oi, oj, C, C.chains[c]);
   }
   // Loops inside a tile are edges from a point of their own back to it, after every crossing
   // with a grid edge (ids past those edge_crossings reports), so the walk closes them.
