@@ -63,6 +63,8 @@ BBox3 infinite_box() {
 // Exact signed distance to an axis-aligned box of half sizes h centred at c.
 // The box SDF from q_i = |p_i − c_i| − h_i.
 double box_sdf_q(double qx, double qy, double qz) {
+  // Inside on every axis the root term is √0 = 0: skipped (the same value).
+  if (qx <= 0 && qy <= 0 && qz <= 0) return 0.0 + std::max({qx, qy, qz});
   const double ox = std::max(qx, 0.0), oy = std::max(qy, 0.0), oz = std::max(qz, 0.0);
   return std::sqrt(ox * ox + oy * oy + oz * oz) + std::min(std::max({qx, qy, qz}), 0.0);
 }

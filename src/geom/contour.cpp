@@ -116,6 +116,7 @@ namespace {
 struct WalkBuffers {
   std::vector<std::size_t> start, in_degree, out, fill, cursor, out_degree;
   std::vector<char> used;
+  std::vector<Vec2> line;  // the chain being walked (copied out at its size: one allocation)
 };
 
 // inner_at (if given): edge e's points inner[inner_at[e] .. inner_at[e + 1]), put between its
@@ -177,9 +178,9 @@ StitchedLines walk_edges(const std::vector<Vec2>& points,
         line.back().y == line.front().y)
       line.pop_back();
     if (closed && line.size() >= 3)
-      result.loops.push_back(std::move(line));
+      result.loops.emplace_back(line.begin(), line.end());
     else if (line.size() >= 2)
-      result.open.push_back(std::move(line));
+      result.open.emplace_back(line.begin(), line.end());
   };
 
   StitchedLines result;
@@ -188,7 +189,8 @@ StitchedLines walk_edges(const std::vector<Vec2>& points,
   for (std::size_t v = 0; v < nv; ++v) out_degree[v] = start[v + 1] - start[v];
   for (std::size_t v = 0; v < nv; ++v)
     while (out_degree[v] > in_degree[v] && cursor[v] < start[v + 1]) {
-      std::vector<Vec2> line;
+      std::vector<Vec2>& line = wb.line;
+      line.clear();
       const std::size_t end = walk(v, line);
       --out_degree[v];
       ++in_degree[v];
@@ -196,7 +198,8 @@ StitchedLines walk_edges(const std::vector<Vec2>& points,
     }
   for (std::size_t v = 0; v < nv; ++v)
     while (cursor[v] < start[v + 1]) {
-      std::vector<Vec2> line;
+      std::vector<Vec2>& line = wb.line;
+      line.clear();
       const std::size_t end = walk(v, line);
       finish(line, end == v, result);
     }

@@ -295,6 +295,14 @@ class BoundCache {
   double z_ = 0;
 };
 
+// A plane function's sampling buffers, kept by the thread's context from layer to layer (grown
+// once instead of on every layer: fewer allocations and page faults).
+struct SampleBuffers {
+  std::vector<std::size_t> miss, keys, need;
+  std::vector<Vec3> pts, grads;
+  std::vector<double> part, vals, xs, ys;
+};
+
 // Per-thread evaluators of the part, the mid-surface, the solids and c.
 struct Ctx {
   Evaluator part, phi, sheet;  // sheet: Φ alone (no envelope), for thickness measurements
@@ -302,6 +310,8 @@ struct Ctx {
   LayerGrid grid;
   BoundCache bounds;  // the part's, over this layer's blocks
   std::vector<EdgeCrossing> edge_crossings;  // the section march's, by grid edge
+  // For the layer's section, joint-measure, thin-measure and mid-surface functions.
+  SampleBuffers part_buffers, joint_buffers, thin_buffers, mid_buffers;
   // The sheet's period along x and y when it repeats across the plane (0: it does not), and
   // the boxes the part is clipped to.
   Vec2 period;
@@ -352,8 +362,14 @@ class JointSection : public PlaneFunction {
   // invert: the thin-wall region instead (inside the part, not a joint).
   JointSection(Ctx& ctx, const PbfDesign& d, const PbfOptions& o, double c_const, double z,
                bool invert = false)
-      : ctx_(ctx), d_(d), o_(o), c_(c_const), z_(z), cos_min_(std::cos(o.min_inclination * kDeg)),
-        invert_(invert) {}
+      : ctx_(ctx),
+        d_(d),
+        o_(o),
+        c_(c_const),
+        z_(z),
+        cos_min_(std::cos(o.min_inclination * kDeg)),
+        invert_(invert),
+        b_(invert ? ctx.thin_buffers : ctx.joint_buffers) {}
   // Part values are read from and written to the grid's nodes; the measure too when `cache` (the
   // layer's one JointSection that owns the grid's joint slots).
   void use_grid(LayerGrid* g, bool cache = true) {
@@ -569,17 +585,15 @@ class JointSection : public PlaneFunction {
   bool invert_, cache_ = false;
   std::size_t stride_ = 0;
   LayerGrid* grid_ = nullptr;
-  std::vector<std::size_t> miss_, keys_, need_;
-  std::vector<Vec3> pts_, grads_;
-  std::vector<double> part_, vals_, xs_, ys_;
+  SampleBuffers& b_;
+  std::vector<std::size_t>&miss_ = b_.miss, &keys_ = b_.keys, &need_ = b_.need;
+  std::vector<Vec3>&pts_ = b_.pts, &grads_ = b_.grads;
+  std::vector<double>&part_ = b_.part, &vals_ = b_.vals, &xs_ = b_.xs, &ys_ = b_.ys;
 };
 
 class PartSection : public PlaneFunction {
  public:
   PartSection(Ctx& ctx, LayerGrid& grid, double z) : ctx_(ctx), grid_(grid), z_(z) {}
-  std::vector<std::size_t> miss_, keys_;
-  std::vector<Vec3> pts_;
-  std::vector<double> vals_;
   void sample(const Vec2* p, double* out, std::size_t n) override {
     run(p, out, n, [&](std::size_t i) { return grid_.node(p[i]); });
   }
@@ -639,7 +653,10 @@ class PartSection : public PlaneFunction {
   Ctx& ctx_;
   LayerGrid& grid_;
   double z_, shared_ = 0;
-  std::vector<double> xs_, ys_;
+  SampleBuffers& b_ = ctx_.part_buffers;
+  std::vector<std::size_t>&miss_ = b_.miss, &keys_ = b_.keys;
+  std::vector<Vec3>& pts_ = b_.pts;
+  std::vector<double>&vals_ = b_.vals, &xs_ = b_.xs, &ys_ = b_.ys;
 };
 
 // φ at z, with blocks the part does not reach skipped (their mid-curve is clipped away anyway).
@@ -670,8 +687,9 @@ class MidSection : public PlaneFunction {
  private:
   Ctx& ctx_;
   double z_;
-  std::vector<Vec3> buf_;
-  std::vector<double> xs_, ys_;
+  SampleBuffers& b_ = ctx_.mid_buffers;
+  std::vector<Vec3>& buf_ = b_.pts;
+  std::vector<double>&xs_ = b_.xs, &ys_ = b_.ys;
 };
 
 // Bisection of many brackets [lo, hi] at once: each round samples the middle of every bracket
@@ -946,6 +964,17 @@ std::vector<ThinPiece> thin_pieces(Ctx& ctx, JointSection& thin,
 
   std::vector<ThinPiece> pieces;
   std::size_t next_switch = 0;
+  // The piece being built: its points gathered in one buffer, then copied out at their number.
+  std::vector<Vec2> cur;
+  bool cur_start = false;
+  auto emit = [&](bool boundary_end) {
+    if (cur.size() < 2) return;
+    ThinPiece p;
+    p.points.assign(cur.begin(), cur.end());
+    p.boundary_start = cur_start;
+    p.boundary_end = boundary_end;
+    pieces.push_back(std::move(p));
+  };
   for (std::size_t li = 0; li < lines.size(); ++li) {
     const auto& l = lines[li];
     if (l.size() < 2) continue;
@@ -953,10 +982,11 @@ std::vector<ThinPiece> thin_pieces(Ctx& ctx, JointSection& thin,
     const double* v_at = tv.data() + at[li];
     const std::size_t first_piece = pieces.size();
     bool switched = false;
-    ThinPiece cur;
+    cur.clear();
+    cur_start = false;
     if (v_at[0] < 0) {
-      cur.points.push_back(l[0]);
-      cur.boundary_start = !loop;  // an open mid-curve ends where the part does
+      cur.push_back(l[0]);
+      cur_start = !loop;  // an open mid-curve ends where the part does
     }
     double prev = v_at[0];
     for (std::size_t k = 1; k < l.size(); ++k) {
@@ -967,23 +997,19 @@ std::vector<ThinPiece> thin_pieces(Ctx& ctx, JointSection& thin,
         const Vec2 x = sw[s].at(0.5 * (br[s].lo + br[s].hi));
         const bool boundary = past_part[s] >= 0;
         if (prev < 0) {
-          cur.points.push_back(x);
-          cur.boundary_end = boundary;
-          if (cur.points.size() >= 2) pieces.push_back(std::move(cur));
-          cur = {};
+          cur.push_back(x);
+          emit(boundary);
+          cur.clear();
+          cur_start = false;
         } else {
-          cur = {};
-          cur.points = {x};
-          cur.boundary_start = boundary;
+          cur.assign(1, x);
+          cur_start = boundary;
         }
       }
-      if (v < 0) cur.points.push_back(l[k]);
+      if (v < 0) cur.push_back(l[k]);
       prev = v;
     }
-    if (prev < 0 && cur.points.size() >= 2) {
-      cur.boundary_end = !loop;
-      pieces.push_back(std::move(cur));
-    }
+    if (prev < 0) emit(!loop);
     if (!loop || v_at[0] >= 0 || prev >= 0 || pieces.size() == first_piece) continue;
     if (!switched) {
       pieces.back().closed = true;  // the whole loop is thin
@@ -1432,10 +1458,11 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
                                     4 * o.resolution};
       for (const auto& piece : pieces) {
         // A track ending at the part's outer boundary stops the beam compensation before it.
-        std::vector<Vec2> pts = piece.points;
-        if (piece.boundary_start) pts = pbf_detail::trim_arc(pts, bc, true);
-        if (piece.boundary_end) pts = pbf_detail::trim_arc(pts, bc, false);
-        pbf_detail::chord_vectors(pts, piece.closed, o.segment_length, o.segment_gap, phase, curve,
+        const std::vector<Vec2>* pts = &piece.points;
+        std::vector<Vec2> trimmed;
+        if (piece.boundary_start) pts = &(trimmed = pbf_detail::trim_arc(*pts, bc, true));
+        if (piece.boundary_end) pts = &(trimmed = pbf_detail::trim_arc(*pts, bc, false));
+        pbf_detail::chord_vectors(*pts, piece.closed, o.segment_length, o.segment_gap, phase, curve,
                                   L.contours);
       }
       for (const auto& v : L.contours)

@@ -160,17 +160,29 @@ Vec2 project(const Curve& curve, Vec2 q) {
 
 std::vector<Vec2> trim_arc(const std::vector<Vec2>& line, double cut, bool from_start) {
   if (line.size() < 2 || cut <= 0) return line;
-  std::vector<Vec2> l = line;
-  if (!from_start) std::reverse(l.begin(), l.end());
-  const Walk w(l);
-  std::vector<Vec2> out;
-  if (w.length() <= cut) return out;
-  out.push_back(w.at(cut));
-  double acc = 0;
-  for (std::size_t k = 1; k < l.size(); ++k) {
-    acc += dist(l[k - 1], l[k]);
-    if (acc > cut) out.push_back(l[k]);
+  // In place of a reversed copy: point i counted from the end the cut starts at.
+  const std::size_t n = line.size();
+  auto pt = [&](std::size_t i) { return from_start ? line[i] : line[n - 1 - i]; };
+  // The arc length s_i up to each point; j: the first point past the cut (s_j > cut).
+  double s = 0, s_before = 0, s_after = 0;
+  std::size_t j = 0;
+  for (std::size_t i = 1; i < n; ++i) {
+    const double next = s + dist(pt(i - 1), pt(i));
+    if (j == 0 && next > cut) {
+      j = i;
+      s_before = s;
+      s_after = next;
+    }
+    s = next;
   }
+  std::vector<Vec2> out;
+  if (s <= cut) return out;
+  // The point at arc length `cut`, on the segment from point j − 1 to j.
+  const double len = s_after - s_before;
+  const double t = len > 0 ? std::clamp((cut - s_before) / len, 0.0, 1.0) : 0.0;
+  out.reserve(n - j + 1);
+  out.push_back(pt(j - 1) + (pt(j) - pt(j - 1)) * t);
+  for (std::size_t i = j; i < n; ++i) out.push_back(pt(i));
   if (!from_start) std::reverse(out.begin(), out.end());
   return out;
 }
