@@ -388,12 +388,21 @@ struct TpmsNode : FieldNode {
                  Vec3* grad = nullptr) const {
     return with_kind([&](auto K) { return combine_k<K.value>(k, sx, cx, sy, cy, sz, cz, grad); });
   }
-  bool gradient(Vec3 p, Vec3& g, EvalState&, std::size_t) const override {
-    phi(p, &g);
+  // One point: z is usually a layer's, asked again and again (Newton steps along a layer's
+  // curves), so its sine goes through the memo; x and y rarely repeat.
+  double phi_point(Vec3 p, EvalState& s, Vec3* grad) const {
+    double sx, cx, sy, cy, sz, cz;
+    fast_sincos(k.x * p.x, &sx, &cx);
+    fast_sincos(k.y * p.y, &sy, &cy);
+    memo_sincos(s.sincos, k.z * p.z, &sz, &cz);
+    return combine(sx, cx, sy, cy, sz, cz, grad);
+  }
+  bool gradient(Vec3 p, Vec3& g, EvalState& s, std::size_t) const override {
+    phi_point(p, s, &g);
     return true;
   }
-  bool value_gradient(Vec3 p, double& v, Vec3& g, EvalState&, std::size_t) const override {
-    v = phi(p, &g);  // the same sines and sums as eval's and gradient's
+  bool value_gradient(Vec3 p, double& v, Vec3& g, EvalState& s, std::size_t) const override {
+    v = phi_point(p, s, &g);  // the same sines and sums as eval's and gradient's
     return true;
   }
   bool gradients(const Vec3* p, Vec3* g, std::size_t n, EvalState& s,
@@ -478,7 +487,7 @@ struct TpmsNode : FieldNode {
         double sx, cx, sy, cy, sz, cz;
         fast_sincos(k.x * p[i].x, &sx, &cx);
         fast_sincos(k.y * p[i].y, &sy, &cy);
-        fast_sincos(k.z * p[i].z, &sz, &cz);
+        memo_sincos(s.sincos, k.z * p[i].z, &sz, &cz);  // (a layer's z: see phi_point)
         fn(i, sx, cx, sy, cy, sz, cz);
       }
       return;
