@@ -157,14 +157,20 @@ std::vector<Segment2> trim_hatch(const std::vector<Segment2>& segs, const Region
     std::vector<std::pair<std::size_t, std::size_t>> last(lines, {~std::size_t{0}, 0});
     std::size_t serial = 0;
     std::vector<Vec2> st;  // the ring in (along, across) coordinates
+    std::vector<std::pair<long long, long long>> kr;  // each vertex's first and last line
     auto add_ring = [&](const std::vector<Vec2>& ring) {
       ++serial;  // a ring's first edge never widens the previous ring's spans
       st.resize(ring.size());
-      for (std::size_t i = 0; i < ring.size(); ++i) st[i] = {along(ring[i]), across(ring[i])};
+      kr.resize(ring.size());
+      // Each vertex's lines within reach, worked out once for both its edges (rounding is
+      // monotonic, so an edge's range is the union of its ends': the same numbers).
+      for (std::size_t i = 0; i < ring.size(); ++i) {
+        st[i] = {along(ring[i]), across(ring[i])};
+        kr[i] = {ceil_ll((st[i].y - inset) / spacing), floor_ll((st[i].y + inset) / spacing)};
+      }
       for (std::size_t i = 0, j = ring.size() - 1; i < ring.size(); j = i++, ++serial) {
-        const double ta = st[j].y, tb = st[i].y;
-        const auto k0 = std::max(k_lo, ceil_ll((std::min(ta, tb) - inset) / spacing));
-        const auto k1 = std::min(k_hi, floor_ll((std::max(ta, tb) + inset) / spacing));
+        const auto k0 = std::max(k_lo, std::min(kr[j].first, kr[i].first));
+        const auto k1 = std::min(k_hi, std::max(kr[j].second, kr[i].second));
         if (k0 > k1) continue;
         const Capsule capsule(st[j], st[i], inset);
         for (long long k = k0; k <= k1; ++k) {
