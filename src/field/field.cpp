@@ -324,12 +324,19 @@ struct TpmsNode : FieldNode {
   TpmsKind kind;
   Vec3 k;  // 2π / cell  (the network field φ; sheets are SheetNode around it)
 
-  // φ and, if `grad`, its gradient (analytic), from one sincos per axis.
-  double phi(Vec3 p, Vec3* grad = nullptr) const {
+  // The sines and cosines of one point's three scaled coordinates: z is usually a layer's,
+  // asked again and again (Newton steps along a layer's curves), so its sine goes through the
+  // memo; x and y rarely repeat.
+  void point_sines(Vec3 p, EvalState& s, double* sx, double* cx, double* sy, double* cy, double* sz,
+                   double* cz) const {
+    fast_sincos(k.x * p.x, sx, cx);
+    fast_sincos(k.y * p.y, sy, cy);
+    memo_sincos(s.sincos, k.z * p.z, sz, cz);
+  }
+  // φ and, if `grad`, its gradient (analytic) at one point.
+  double phi(Vec3 p, EvalState& s, Vec3* grad) const {
     double sx, cx, sy, cy, sz, cz;
-    fast_sincos(k.x * p.x, &sx, &cx);
-    fast_sincos(k.y * p.y, &sy, &cy);
-    fast_sincos(k.z * p.z, &sz, &cz);
+    point_sines(p, s, &sx, &cx, &sy, &cy, &sz, &cz);
     return combine(sx, cx, sy, cy, sz, cz, grad);
   }
   // φ (and its gradient if `grad`) from the sines and cosines of the three scaled coordinates,
@@ -388,21 +395,12 @@ struct TpmsNode : FieldNode {
                  Vec3* grad = nullptr) const {
     return with_kind([&](auto K) { return combine_k<K.value>(k, sx, cx, sy, cy, sz, cz, grad); });
   }
-  // One point: z is usually a layer's, asked again and again (Newton steps along a layer's
-  // curves), so its sine goes through the memo; x and y rarely repeat.
-  double phi_point(Vec3 p, EvalState& s, Vec3* grad) const {
-    double sx, cx, sy, cy, sz, cz;
-    fast_sincos(k.x * p.x, &sx, &cx);
-    fast_sincos(k.y * p.y, &sy, &cy);
-    memo_sincos(s.sincos, k.z * p.z, &sz, &cz);
-    return combine(sx, cx, sy, cy, sz, cz, grad);
-  }
   bool gradient(Vec3 p, Vec3& g, EvalState& s, std::size_t) const override {
-    phi_point(p, s, &g);
+    phi(p, s, &g);
     return true;
   }
   bool value_gradient(Vec3 p, double& v, Vec3& g, EvalState& s, std::size_t) const override {
-    v = phi_point(p, s, &g);  // the same sines and sums as eval's and gradient's
+    v = phi(p, s, &g);  // the same sines and sums as eval's and gradient's
     return true;
   }
   bool gradients(const Vec3* p, Vec3* g, std::size_t n, EvalState& s,
@@ -485,9 +483,7 @@ struct TpmsNode : FieldNode {
     if (n < 4) {
       for (std::size_t i = 0; i < n; ++i) {
         double sx, cx, sy, cy, sz, cz;
-        fast_sincos(k.x * p[i].x, &sx, &cx);
-        fast_sincos(k.y * p[i].y, &sy, &cy);
-        memo_sincos(s.sincos, k.z * p[i].z, &sz, &cz);  // (a layer's z: see phi_point)
+        point_sines(p[i], s, &sx, &cx, &sy, &cy, &sz, &cz);
         fn(i, sx, cx, sy, cy, sz, cz);
       }
       return;

@@ -429,7 +429,7 @@ class JointSection : public PlaneFunction {
   bool grid_rows(const Vec2* p, double* out, std::size_t w, std::size_t rows,
                  LayerGrid::BlockIndex key) {
     const std::size_t n = w * rows;
-    part_.resize(n);
+    b_.part.resize(n);
     // The section march has usually sampled every node of the block (its blocks cover those
     // where the part changes sign): its values are read, else the block is evaluated whole.
     bool cached = true;
@@ -438,28 +438,28 @@ class JointSection : public PlaneFunction {
       for (std::size_t i = 0; i < n && cached; ++i) {
         const std::size_t k = probe(i);
         cached = grid_->has_part(k);
-        if (cached) part_[i] = grid_->part(k);
+        if (cached) b_.part[i] = grid_->part(k);
       }
     }
     if (cached) {
-      xs_.resize(w);
-      ys_.resize(rows);
-      for (std::size_t i = 0; i < w; ++i) xs_[i] = p[i].x;
-      for (std::size_t j = 0; j < rows; ++j) ys_[j] = p[j * w].y;
+      b_.xs.resize(w);
+      b_.ys.resize(rows);
+      for (std::size_t i = 0; i < w; ++i) b_.xs[i] = p[i].x;
+      for (std::size_t j = 0; j < rows; ++j) b_.ys[j] = p[j * w].y;
     } else {
-      evaluate_grid(ctx_.part, p, w, rows, z_, xs_, ys_, part_.data());
+      evaluate_grid(ctx_.part, p, w, rows, z_, b_.xs, b_.ys, b_.part.data());
     }
     bool inside = false;
-    for (std::size_t i = 0; i < n; ++i) inside |= part_[i] < 0;
+    for (std::size_t i = 0; i < n; ++i) inside |= b_.part[i] < 0;
     if (inside) {
-      grads_.resize(n);
-      if (!ctx_.phi.gradients_grid(xs_.data(), w, ys_.data(), rows, z_, grads_.data()))
+      b_.grads.resize(n);
+      if (!ctx_.phi.gradients_grid(b_.xs.data(), w, b_.ys.data(), rows, z_, b_.grads.data()))
         return false;
     }
     const bool cache_joint = cache_;
     for (std::size_t i = 0; i < n; ++i) {
-      const double D = part_[i];
-      out[i] = D < 0 ? finish(p[i], D, grads_[i]) : D;
+      const double D = b_.part[i];
+      out[i] = D < 0 ? finish(p[i], D, b_.grads[i]) : D;
       const std::size_t k = key(i);
       grid_->set_part(k, D);
       if (cache_joint) grid_->set_joint(k, out[i]);
@@ -471,12 +471,12 @@ class JointSection : public PlaneFunction {
   template <class Key>
   void run(const Vec2* p, double* out, std::size_t n, Key key) {
     // Pass 1: cached joint values, and cached part values outside the part (the answer there)
-    // are settled at once; the rest is listed (miss_: point, keys_: its node or npos).
-    miss_.clear();
-    keys_.clear();
-    part_.clear();
-    need_.clear();
-    pts_.clear();
+    // are settled at once; the rest is listed (b_.miss: point, b_.keys: its node or npos).
+    b_.miss.clear();
+    b_.keys.clear();
+    b_.part.clear();
+    b_.need.clear();
+    b_.pts.clear();
     const bool cache_joint = grid_ && cache_;
     for (std::size_t i = 0; i < n; ++i) {
       const std::size_t k = key(i);
@@ -492,36 +492,37 @@ class JointSection : public PlaneFunction {
             if (cache_joint) grid_->set_joint(k, D);
             continue;
           }
-          miss_.push_back(i);
-          keys_.push_back(k);
-          part_.push_back(D);
+          b_.miss.push_back(i);
+          b_.keys.push_back(k);
+          b_.part.push_back(D);
           continue;
         }
       }
-      need_.push_back(miss_.size());
-      miss_.push_back(i);
-      keys_.push_back(k);
-      part_.push_back(0);
-      pts_.push_back({p[i].x, p[i].y, z_});
+      b_.need.push_back(b_.miss.size());
+      b_.miss.push_back(i);
+      b_.keys.push_back(k);
+      b_.part.push_back(0);
+      b_.pts.push_back({p[i].x, p[i].y, z_});
     }
     // Pass 2: the part where it was not cached, in one batch.
-    vals_.resize(pts_.size());
-    if (!pts_.empty()) ctx_.part.values(pts_.data(), vals_.data(), pts_.size());
-    for (std::size_t j = 0; j < need_.size(); ++j) {
-      const std::size_t m = need_[j];
-      part_[m] = vals_[j];
-      if (keys_[m] != LayerGrid::npos) grid_->set_part(keys_[m], vals_[j]);
+    b_.vals.resize(b_.pts.size());
+    if (!b_.pts.empty()) ctx_.part.values(b_.pts.data(), b_.vals.data(), b_.pts.size());
+    for (std::size_t j = 0; j < b_.need.size(); ++j) {
+      const std::size_t m = b_.need[j];
+      b_.part[m] = b_.vals[j];
+      if (b_.keys[m] != LayerGrid::npos) grid_->set_part(b_.keys[m], b_.vals[j]);
     }
     // Pass 3: φ's gradient in one batch at the points inside the part; the measure.
-    pts_.clear();
-    for (std::size_t m = 0; m < miss_.size(); ++m)
-      if (part_[m] < 0) pts_.push_back({p[miss_[m]].x, p[miss_[m]].y, z_});
-    grads_.resize(pts_.size());
-    if (!pts_.empty()) ctx_.phi.gradients(pts_.data(), grads_.data(), pts_.size());
-    for (std::size_t m = 0, g = 0; m < miss_.size(); ++m) {
-      const double v = part_[m] < 0 ? finish(p[miss_[m]], part_[m], grads_[g++]) : part_[m];
-      out[miss_[m]] = v;
-      if (keys_[m] != LayerGrid::npos && cache_joint) grid_->set_joint(keys_[m], v);
+    b_.pts.clear();
+    for (std::size_t m = 0; m < b_.miss.size(); ++m)
+      if (b_.part[m] < 0) b_.pts.push_back({p[b_.miss[m]].x, p[b_.miss[m]].y, z_});
+    b_.grads.resize(b_.pts.size());
+    if (!b_.pts.empty()) ctx_.phi.gradients(b_.pts.data(), b_.grads.data(), b_.pts.size());
+    for (std::size_t m = 0, g = 0; m < b_.miss.size(); ++m) {
+      const double v =
+          b_.part[m] < 0 ? finish(p[b_.miss[m]], b_.part[m], b_.grads[g++]) : b_.part[m];
+      out[b_.miss[m]] = v;
+      if (b_.keys[m] != LayerGrid::npos && cache_joint) grid_->set_joint(b_.keys[m], v);
     }
   }
   // Crossings where the part decides the measure are the section march's (on the grid's finer
@@ -557,12 +558,12 @@ class JointSection : public PlaneFunction {
   // The part is ~0 at the points (its crossings): the measure there is its other terms,
   // which must be on the part's side of the level (negative) for the crossing to be the part's.
   void confirm_crossings(const Vec2* p, std::size_t n, unsigned char* ok) override {
-    pts_.resize(n);
-    grads_.resize(n);
-    for (std::size_t k = 0; k < n; ++k) pts_[k] = {p[k].x, p[k].y, z_};
-    ctx_.phi.gradients(pts_.data(), grads_.data(), n);
+    b_.pts.resize(n);
+    b_.grads.resize(n);
+    for (std::size_t k = 0; k < n; ++k) b_.pts[k] = {p[k].x, p[k].y, z_};
+    ctx_.phi.gradients(b_.pts.data(), b_.grads.data(), n);
     for (std::size_t k = 0; k < n; ++k) {
-      const double v = finish(p[k], -std::numeric_limits<double>::infinity(), grads_[k]);
+      const double v = finish(p[k], -std::numeric_limits<double>::infinity(), b_.grads[k]);
       ok[k] = std::isfinite(v) && v < 0;
     }
   }
@@ -586,9 +587,6 @@ class JointSection : public PlaneFunction {
   std::size_t stride_ = 0;
   LayerGrid* grid_ = nullptr;
   SampleBuffers& b_;
-  std::vector<std::size_t>&miss_ = b_.miss, &keys_ = b_.keys, &need_ = b_.need;
-  std::vector<Vec3>&pts_ = b_.pts, &grads_ = b_.grads;
-  std::vector<double>&part_ = b_.part, &vals_ = b_.vals, &xs_ = b_.xs, &ys_ = b_.ys;
 };
 
 class PartSection : public PlaneFunction {
@@ -607,31 +605,31 @@ class PartSection : public PlaneFunction {
     // The whole block is evaluated as a grid (cheaper than reading the nodes a neighbouring
     // block cached and evaluating the rest point by point; the same values).
     LayerGrid::BlockIndex key = *b;
-    evaluate_grid(ctx_.part, p, w, rows, z_, xs_, ys_, out);
+    evaluate_grid(ctx_.part, p, w, rows, z_, b_.xs, b_.ys, out);
     for (std::size_t i = 0; i < w * rows; ++i) grid_.set_part(key(i), out[i]);
   }
   // Cached nodes are read; the rest evaluated in one batch. key(i): point i's node or npos.
   template <class Key>
   void run(const Vec2* p, double* out, std::size_t n, Key key) {
-    miss_.clear();
-    pts_.clear();
-    keys_.clear();
+    b_.miss.clear();
+    b_.pts.clear();
+    b_.keys.clear();
     for (std::size_t i = 0; i < n; ++i) {
       const std::size_t k = key(i);
       if (k != LayerGrid::npos && grid_.has_part(k)) {
         out[i] = grid_.part(k);
         continue;
       }
-      miss_.push_back(i);
-      keys_.push_back(k);
-      pts_.push_back({p[i].x, p[i].y, z_});
+      b_.miss.push_back(i);
+      b_.keys.push_back(k);
+      b_.pts.push_back({p[i].x, p[i].y, z_});
     }
-    if (miss_.empty()) return;
-    vals_.resize(miss_.size());
-    ctx_.part.values(pts_.data(), vals_.data(), pts_.size());
-    for (std::size_t m = 0; m < miss_.size(); ++m) {
-      out[miss_[m]] = vals_[m];
-      if (keys_[m] != LayerGrid::npos) grid_.set_part(keys_[m], vals_[m]);
+    if (b_.miss.empty()) return;
+    b_.vals.resize(b_.miss.size());
+    ctx_.part.values(b_.pts.data(), b_.vals.data(), b_.pts.size());
+    for (std::size_t m = 0; m < b_.miss.size(); ++m) {
+      out[b_.miss[m]] = b_.vals[m];
+      if (b_.keys[m] != LayerGrid::npos) grid_.set_part(b_.keys[m], b_.vals[m]);
     }
   }
   // Blocks narrower than `shared` on both sides are bounded without the cache: the coarser
@@ -654,9 +652,6 @@ class PartSection : public PlaneFunction {
   LayerGrid& grid_;
   double z_, shared_ = 0;
   SampleBuffers& b_ = ctx_.part_buffers;
-  std::vector<std::size_t>&miss_ = b_.miss, &keys_ = b_.keys;
-  std::vector<Vec3>& pts_ = b_.pts;
-  std::vector<double>&vals_ = b_.vals, &xs_ = b_.xs, &ys_ = b_.ys;
 };
 
 // φ at z, with blocks the part does not reach skipped (their mid-curve is clipped away anyway).
@@ -664,13 +659,13 @@ class MidSection : public PlaneFunction {
  public:
   MidSection(Ctx& ctx, double z) : ctx_(ctx), z_(z) {}
   void sample(const Vec2* p, double* out, std::size_t n) override {
-    buf_.resize(n);
-    for (std::size_t i = 0; i < n; ++i) buf_[i] = {p[i].x, p[i].y, z_};
-    ctx_.phi.values(buf_.data(), out, n);
+    b_.pts.resize(n);
+    for (std::size_t i = 0; i < n; ++i) b_.pts[i] = {p[i].x, p[i].y, z_};
+    ctx_.phi.values(b_.pts.data(), out, n);
   }
   void sample_grid(Vec2, double, std::size_t w, std::size_t rows, const Vec2* p,
                    double* out) override {
-    evaluate_grid(ctx_.phi, p, w, rows, z_, xs_, ys_, out);
+    evaluate_grid(ctx_.phi, p, w, rows, z_, b_.xs, b_.ys, out);
   }
   Interval bound(Vec2 lo, Vec2 hi) override {
     if (ctx_.bounds.get(ctx_.part, lo, hi).lo >= 0) return {1, std::numeric_limits<double>::infinity()};
@@ -688,8 +683,6 @@ class MidSection : public PlaneFunction {
   Ctx& ctx_;
   double z_;
   SampleBuffers& b_ = ctx_.mid_buffers;
-  std::vector<Vec3>& buf_ = b_.pts;
-  std::vector<double>&xs_ = b_.xs, &ys_ = b_.ys;
 };
 
 // Bisection of many brackets [lo, hi] at once: each round samples the middle of every bracket
