@@ -580,6 +580,11 @@ struct TpmsNode : FieldNode {
     constexpr double tau = 2 * std::numbers::pi;
     return {tau / k.x, tau / k.y, tau / k.z};
   }
+  // Gyroid and Schwarz D: every term has an odd number of sines (odd); the others are sums and
+  // products of cosines (even).
+  int inversion_parity() const override {
+    return kind == TpmsKind::Gyroid || kind == TpmsKind::SchwarzD ? -1 : 1;
+  }
   BBox3 extent() const override { return infinite_box(); }
 };
 
@@ -925,6 +930,10 @@ struct TransformNode : FieldNode {
     if (to_local.m != Mat3{}.m || value_scale != 1) return {0, 0, 0};
     return children[0]->period();
   }
+  // A linear map keeps the origin (−A·p = A·(−p)); a translation moves the centre.
+  int inversion_parity() const override {
+    return offset.x == 0 && offset.y == 0 && offset.z == 0 ? children[0]->inversion_parity() : 0;
+  }
   bool exact_outside() const override {
     return lipschitz_factor == 1 && children[0]->exact_outside();
   }
@@ -1105,6 +1114,10 @@ double Field::lipschitz() const {
 }
 
 Vec3 Field::period() const { return node_ ? node_->period() : Vec3{0, 0, 0}; }
+
+int Field::inversion_parity() const {
+  return node_ ? node_->inversion_parity() : 0;
+}
 
 const char* to_string(TpmsKind kind) {
   switch (kind) {

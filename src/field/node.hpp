@@ -95,6 +95,9 @@ class FieldNode {
   virtual double lipschitz() const { return 1.0; }
   // A period of the field along each axis (f(p + P·e) = f(p)), 0 along axes it does not repeat.
   virtual Vec3 period() const { return {0, 0, 0}; }
+  // f(−p) = parity · f(p) everywhere (the origin a centre of symmetry): 1 even, −1 odd, 0 where
+  // none is known.
+  virtual int inversion_parity() const { return 0; }
   // Whether the value outside the solid is at least the true distance to it (exact distances:
   // primitives, rigid transforms of them, sharp unions of them). Used for cheap bounds.
   virtual bool exact_outside() const { return false; }

@@ -484,6 +484,98 @@ struct PeriodTileData {
   }
 };
 
+std::size_t period_tile_side(std::size_t p, std::size_t tile_block) {
+  const std::size_t want = std::max<std::size_t>(tile_block, 1);
+  auto off = [&](std::size_t d) {
+    const double r = static_cast<double>(d) / static_cast<double>(want);
+    return std::max(r, 1 / r);
+  };
+  std::size_t best = 0;
+  for (std::size_t d = std::min<std::size_t>(4, want); d <= 4 * want; ++d)
+    if (p % d == 0 && (best == 0 || off(d) < off(best))) best = d;
+  return best ? best : (p <= 4 * want ? p : 0);
+}
+
+PeriodTiles point_reflected_tiles(const PeriodTiles& tiles, double h, std::size_t sx,
+                                  std::size_t sy, bool reverse) {
+  if (!tiles.data) return {};
+  const PeriodTileData& S = *tiles.data;
+  if (S.bx == 0 || S.by == 0 || sx % S.bx != 0 || sy % S.by != 0) return {};
+  const std::size_t nax = S.px / S.bx, nby = S.py / S.by, ntiles = nax * nby;
+  if (S.chain_at.size() != ntiles + 1 || S.loop_at.size() != ntiles + 1 ||
+      S.row_at.size() != ntiles * (S.by + 1))
+    return {};
+  auto made = std::make_shared<PeriodTileData>();
+  PeriodTileData& D = *made;
+  D.px = S.px, D.py = S.py, D.bx = S.bx, D.by = S.by;
+  D.chain_at.resize(ntiles + 1);
+  D.loop_at.resize(ntiles + 1);
+  D.row_at.resize(ntiles * (S.by + 1));
+  D.col.reserve(S.col.size());
+  for (TileLines* l : {&D.lines, &D.cells}) {
+    const TileLines& from = l == &D.lines ? S.lines : S.cells;
+    l->chains.reserve(from.chains.size());
+    l->loops.reserve(from.loops.size());
+    l->pts.reserve(from.pts.size());
+  }
+  // Block-local terms: node (i, j) goes to (bx − i, by − j), so a horizontal edge from (i, j)
+  // to (i + 1, j) runs back along the one from (bx − i − 1, by − j), at 1 − t; a point (x, y)
+  // goes to (bx·h − x, by·h − y).
+  const double wx = static_cast<double>(S.bx) * h, wy = static_cast<double>(S.by) * h;
+  auto end = [&](const TileEnd& e) {
+    const std::size_t i = e.vertical() ? S.bx - e.i : S.bx - 1 - e.i;
+    const std::size_t j = e.vertical() ? S.by - 1 - e.j() : S.by - e.j();
+    return TileEnd{static_cast<std::uint16_t>(i),
+                   static_cast<std::uint16_t>(j << 1 | (e.vertical() ? 1 : 0)), 1.0f - e.t};
+  };
+  auto point = [&](TilePoint q) {
+    return TilePoint{static_cast<float>(wx - static_cast<double>(q.x)),
+                     static_cast<float>(wy - static_cast<double>(q.y))};
+  };
+  auto points = [&](const TileLines& from, std::uint32_t b, std::uint32_t e, TileLines& to) {
+    if (reverse)
+      for (std::uint32_t k = e; k-- > b;) to.pts.push_back(point(from.pts[k]));
+    else
+      for (std::uint32_t k = b; k < e; ++k) to.pts.push_back(point(from.pts[k]));
+  };
+  auto chain = [&](const TileLines& from, const TileChain& c, TileLines& to) {
+    const std::uint32_t begin = to.size();
+    points(from, c.begin, c.end, to);
+    to.chains.push_back(reverse ? TileChain{end(c.to), end(c.from), begin, to.size()}
+                                : TileChain{end(c.from), end(c.to), begin, to.size()});
+  };
+  const std::size_t mx = sx / S.bx, my = sy / S.by;
+  for (std::size_t t = 0; t < ntiles; ++t) {
+    // Tile (a, b) covers nodes a·bx .. (a + 1)·bx, which come from s − (a + 1)·bx .. s − a·bx.
+    const std::size_t a = t % nax, b = t / nax;
+    const std::size_t u = ((my + nby - 1 - b % nby) % nby) * nax + (mx + nax - 1 - a % nax) % nax;
+    D.chain_at[t] = static_cast<std::uint32_t>(D.lines.chains.size());
+    D.loop_at[t] = static_cast<std::uint32_t>(D.lines.loops.size());
+    for (std::uint32_t n = S.chain_at[u]; n < S.chain_at[u + 1]; ++n)
+      chain(S.lines, S.lines.chains[n], D.lines);
+    for (std::uint32_t n = S.loop_at[u]; n < S.loop_at[u + 1]; ++n) {
+      const auto [lb, le] = S.lines.loops[n];
+      const std::uint32_t begin = D.lines.size();
+      points(S.lines, lb, le, D.lines);
+      D.lines.loops.emplace_back(begin, D.lines.size());
+    }
+    // The cells' segments by row, each row by column: rows and columns both run backwards.
+    const std::uint32_t* from_row = S.row_at.data() + u * (S.by + 1);
+    for (std::size_t r = 0; r < S.by; ++r) {
+      D.row_at[t * (S.by + 1) + r] = static_cast<std::uint32_t>(D.cells.chains.size());
+      const std::size_t fr = S.by - 1 - r;
+      for (std::uint32_t c = from_row[fr + 1]; c-- > from_row[fr];) {
+        D.col.push_back(static_cast<std::uint16_t>(S.bx - 1 - S.col[c]));
+        chain(S.cells, S.cells.chains[c], D.cells);
+      }
+    }
+    D.row_at[t * (S.by + 1) + S.by] = static_cast<std::uint32_t>(D.cells.chains.size());
+  }
+  D.chain_at[ntiles] = static_cast<std::uint32_t>(D.lines.chains.size());
+  D.loop_at[ntiles] = static_cast<std::uint32_t>(D.lines.loops.size());
+  return {made, made->bytes()};
+}
+
 ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
                          const MarchOptions& options) {
   ContourSet result;
@@ -514,19 +606,9 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
   // A block side dividing the period: the divisor in 4..4·tile_block closest to tile_block by
   // ratio, else the period if it is that small; else no tiles. (By ratio: a period of 125 cells
   // and 13 wanted takes 25, not 5; blocks much smaller than wanted cost the most.)
-  const std::size_t want = std::max<std::size_t>(options.tile_block, 1);
-  auto tile_side = [&](std::size_t p) -> std::size_t {
-    auto off = [&](std::size_t d) {
-      const double r = static_cast<double>(d) / static_cast<double>(want);
-      return std::max(r, 1 / r);
-    };
-    std::size_t best = 0;
-    for (std::size_t d = std::min<std::size_t>(4, want); d <= 4 * want; ++d)
-      if (p % d == 0 && (best == 0 || off(d) < off(best))) best = d;
-    return best ? best : (p <= 4 * want ? p : 0);
-  };
   const std::size_t px = period_cells(period.x), py = period_cells(period.y);
-  const std::size_t tx = px ? tile_side(px) : 0, ty = py ? tile_side(py) : 0;
+  const std::size_t tx = px ? period_tile_side(px, options.tile_block) : 0;
+  const std::size_t ty = py ? period_tile_side(py, options.tile_block) : 0;
   const bool tiling = tx > 0 && ty > 0 && tx < 32768 && ty < 32768;  // (TileEnd)
   const std::size_t Bx = tiling ? tx : B, By = tiling ? ty : B;
   const bool keep_keys = tiling || options.edge_crossings;

@@ -14,6 +14,7 @@
 #include <cstring>
 #include <mutex>
 #include <numbers>
+#include <numeric>
 #include <optional>
 #include <utility>
 
@@ -1187,10 +1188,10 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
   const double H = std::max(1, o.coarse) * o.resolution;
   const double Hs = H <= 0.025 + 1e-9 ? H : o.resolution;
   const double pad = 2 * H;
-  const Vec2 lo{std::floor((e.min.x - pad) / H) * H, std::floor((e.min.y - pad) / H) * H};
+  Vec2 lo{std::floor((e.min.x - pad) / H) * H, std::floor((e.min.y - pad) / H) * H};
   const Vec2 hi{std::ceil((e.max.x + pad) / H) * H, std::ceil((e.max.y + pad) / H) * H};
-  const auto nx = static_cast<std::size_t>(std::llround((hi.x - lo.x) / Hs));
-  const auto ny = static_cast<std::size_t>(std::llround((hi.y - lo.y) / Hs));
+  auto nx = static_cast<std::size_t>(std::llround((hi.x - lo.x) / Hs));
+  auto ny = static_cast<std::size_t>(std::llround((hi.y - lo.y) / Hs));
   // Crossings: the section to 2 µm (an area), the mid-curve to 0.5 µm (contour vectors must lie
   // within 1 µm of φ = 0), the joints to 1 µm (each hatch end is refined again on the field).
   MarchOptions mo_section, mo_mid, mo_joint;
@@ -1275,6 +1276,57 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
     if (pz > 0 && std::isfinite(r) && c >= 1 && std::abs(r - c) <= 1e-9 * c)
       zp = static_cast<std::size_t>(c);
   }
+  // Classes mirrored through the origin (PbfOptions::mirror_tiles): with z_c + z_c' ≡ 0 modulo
+  // the period, i.e. c + c' + 1 ≡ N = −2·min z / layer (mod P), class c' is class c turned half
+  // a turn (Φ(x, y, −z) = Φ(−x, −y, z); φ itself keeps or changes its sign). The turn takes
+  // grid node k to node s − k (s = −2·lo in cells, modulo the period): tiles go onto tiles when
+  // s is a multiple of every march's tile side, so lo is moved down until it is.
+  const int parity = design.phi.inversion_parity();
+  long long mirror_n = 0;
+  bool mirror = false;
+  std::size_t sx_s = 0, sy_s = 0, sx_c = 0, sy_c = 0;
+  if (zp && o.mirror_tiles && parity != 0) {
+    auto cells = [](double p, double h) -> std::size_t {  // as march_squares counts a period
+      const double r = p / h, c = std::round(r);
+      return c >= 1 && std::abs(r - c) <= 1e-6 * c ? static_cast<std::size_t>(c) : 0;
+    };
+    const std::size_t pxs = cells(sheet_period.x, Hs), pys = cells(sheet_period.y, Hs);
+    const std::size_t pxc = cells(sheet_period.x, H), pyc = cells(sheet_period.y, H);
+    const std::size_t tsx = pxs ? period_tile_side(pxs, mo_section.tile_block) : 0;
+    const std::size_t tsy = pys ? period_tile_side(pys, mo_section.tile_block) : 0;
+    const std::size_t tcx = pxc ? period_tile_side(pxc, mo_joint.tile_block) : 0;
+    const std::size_t tcy = pyc ? period_tile_side(pyc, mo_joint.tile_block) : 0;
+    const double n = -2 * e.min.z / o.layer, nr = std::round(n);
+    if (tsx && tsy && tcx && tcy && std::abs(n - nr) <= 1e-9 * std::max(1.0, std::abs(n))) {
+      // lo in section cells: a multiple of stride (a node of both grids) whose double is a
+      // multiple of both marches' tile sides.
+      auto unit = [&](std::size_t ts, std::size_t tc) {
+        const std::size_t a = ts % 2 ? ts : ts / 2, b = (tc % 2 ? tc : tc / 2) * stride;
+        return static_cast<double>(std::lcm(std::lcm(a, b), stride)) * Hs;
+      };
+      const double ux = unit(tsx, tcx), uy = unit(tsy, tcy);
+      lo = {std::floor((e.min.x - pad) / ux) * ux, std::floor((e.min.y - pad) / uy) * uy};
+      nx = static_cast<std::size_t>(std::llround((hi.x - lo.x) / Hs));
+      ny = static_cast<std::size_t>(std::llround((hi.y - lo.y) / Hs));
+      auto shift = [](double lo_, double h, std::size_t p) {
+        const long long s = -2 * std::llround(lo_ / h), pp = static_cast<long long>(p);
+        return static_cast<std::size_t>(((s % pp) + pp) % pp);
+      };
+      sx_s = shift(lo.x, Hs, pxs), sy_s = shift(lo.y, Hs, pys);
+      sx_c = shift(lo.x, H, pxc), sy_c = shift(lo.y, H, pyc);
+      mirror_n = static_cast<long long>(nr);
+      mirror = true;
+    }
+  }
+  result.mirror_tiles = mirror;
+  // The class whose tiles, turned, are class c's: the mirror class when it comes first, else c.
+  auto mirror_source = [&](std::size_t c) {
+    if (!mirror) return c;
+    const auto p = static_cast<long long>(zp);
+    const auto m =
+        static_cast<std::size_t>((((mirror_n - 1 - static_cast<long long>(c)) % p) + p) % p);
+    return std::min(m, c);
+  };
   PbfDesign sheet_design = design;
   sheet_design.envelope = Field{};
   sheet_design.solids = Field{};
@@ -1285,6 +1337,7 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
   std::vector<std::shared_ptr<const ClassTiles>> kept(zp);
   std::size_t kept_bytes = 0;
   std::mutex kept_mutex;
+  std::atomic<std::size_t> turned_classes{0};
   // The section march of a context at height z over [a, b] (direct route): its crossings are kept
   // with the context's grid for the thin-wall march.
   auto march_section = [&](Ctx& c, double z, Vec2 a, Vec2 b, MarchOptions mo) {
@@ -1342,7 +1395,24 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
       std::lock_guard lock(kept_mutex);
       if (kept[c]) return kept[c];
     }
-    std::shared_ptr<const ClassTiles> t = make_class_tiles(c);
+    std::shared_ptr<const ClassTiles> t;
+    if (const std::size_t m = mirror_source(c); m < c) {
+      std::shared_ptr<const ClassTiles> from;
+      {
+        std::lock_guard lock(kept_mutex);
+        from = kept[m];
+      }
+      if (!from) from = make_class_tiles(m);
+      auto turned = std::make_shared<ClassTiles>();
+      turned->section = point_reflected_tiles(from->section, Hs, sx_s, sy_s, false);
+      turned->thin = point_reflected_tiles(from->thin, H, sx_c, sy_c, false);
+      turned->joint = point_reflected_tiles(from->joint, H, sx_c, sy_c, false);
+      turned->mid = point_reflected_tiles(from->mid, H, sx_c, sy_c, parity < 0);
+      t = std::move(turned);
+      ++turned_classes;
+    } else {
+      t = make_class_tiles(c);
+    }
     if (i + zp < last) {  // the class has a later layer in this run
       std::lock_guard lock(kept_mutex);
       if (kept[c]) return kept[c];
@@ -1581,6 +1651,7 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
                           progress("layers", static_cast<double>(d) / static_cast<double>(count));
                         }
                       }));
+  result.turned_classes = turned_classes;
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return result;
 }

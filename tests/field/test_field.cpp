@@ -486,3 +486,28 @@ TEST(Field, BoxBoundsAreExact) {
     }
   }
 }
+
+// Field::inversion_parity: f(−p) = parity · f(p) at random points for every TPMS kind (odd: the
+// gyroid and Schwarz D; even: Schwarz P, Neovius, I-WP), kept by a scaling about the origin;
+// unknown (0) once translated, or for a sphere (not claimed).
+TEST(Field, InversionParityHoldsAtRandomPoints) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-7, 7);
+  const std::pair<TpmsKind, int> kinds[] = {{TpmsKind::Gyroid, -1},
+                                            {TpmsKind::SchwarzP, 1},
+                                            {TpmsKind::SchwarzD, -1},
+                                            {TpmsKind::Neovius, 1},
+                                            {TpmsKind::Iwp, 1}};
+  for (const auto& [kind, parity] : kinds) {
+    for (const Field f : {tpms(kind, {2.5, 2.1, 3}), scale(tpms(kind, {2, 2, 2}), {1.5, 1, 2})}) {
+      ASSERT_EQ(f.inversion_parity(), parity) << to_string(kind);
+      Evaluator e(f);
+      for (int k = 0; k < 200; ++k) {
+        const Vec3 p{u(rng), u(rng), u(rng)};
+        EXPECT_NEAR(e.value(p * -1.0), parity * e.value(p), 1e-12) << to_string(kind);
+      }
+    }
+    EXPECT_EQ(translate(tpms(kind, {2, 2, 2}), {0.3, 0, 0}).inversion_parity(), 0);
+  }
+  EXPECT_EQ(sphere(2).inversion_parity(), 0);
+}

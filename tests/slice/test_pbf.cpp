@@ -352,6 +352,63 @@ TEST(Pbf, LayersAPeriodApartTakeTheSameTiles) {
   }
 }
 
+// Classes of layers mirrored through the origin (PbfOptions::mirror_tiles): the gyroid (odd φ)
+// in a box, Schwarz D (odd) with a uniform thickness in a root box, Schwarz P (even) in a sphere,
+// on both routes: about half the classes take their mirror class's tiles turned, and the plan is
+// the same as when every class marches its own (expect_same_plan; the grid's origin moves too).
+// No turn for a translated φ (no known centre) or layers not symmetric about z = 0.
+TEST(Pbf, MirroredClassesTakeTurnedTiles) {
+  struct Case {
+    const char* name;
+    PbfDesign d;
+    bool stl = false;
+  };
+  std::vector<Case> cases;
+  cases.push_back({"gyroid, box", gyroid_cube(5)});
+  cases.push_back({"gyroid, box, STL route", gyroid_cube(5), true});
+  {
+    PbfDesign d;
+    d.phi = tpms(TpmsKind::SchwarzD, {2.5, 2.5, 2.5});
+    d.thickness = 0.12;
+    d.envelope = rectprism({6, 6, 6});
+    d.clip = {BBox3{{-3.1, -2.9, -2.5}, {3.3, 2.6, 2.5}}};
+    cases.push_back({"D, uniform thickness, root box", d});
+  }
+  {
+    PbfDesign d;
+    d.phi = tpms(TpmsKind::SchwarzP, {2, 2, 2});
+    d.c = {"0.25"};
+    d.envelope = sphere(3.1);
+    cases.push_back({"P, sphere", d});
+  }
+  for (const Case& c : cases) {
+    PbfOptions o;
+    o.layer = 0.1;
+    o.stl_route = c.stl;
+    const PbfResult turned = plan_pbf(c.d, o);
+    o.mirror_tiles = false;
+    const PbfResult own = plan_pbf(c.d, o);
+    EXPECT_TRUE(turned.mirror_tiles) << c.name;
+    EXPECT_FALSE(own.mirror_tiles) << c.name;
+    EXPECT_EQ(own.turned_classes, 0u) << c.name;
+    // (Classes: a period of layers, 20 or 25; those before their mirror, and the one or two
+    // that are their own mirror, march.)
+    const double period = c.d.phi.period().z / o.layer;
+    EXPECT_GE(static_cast<double>(turned.turned_classes), period / 2 - 1) << c.name;
+    EXPECT_LE(static_cast<double>(turned.turned_classes), period / 2) << c.name;
+    expect_same_plan(own, turned, o, c.name);
+  }
+  PbfOptions o;
+  o.layer = 0.1;
+  PbfDesign moved = gyroid_cube(5);
+  moved.phi = translate(moved.phi, {0.1, 0, 0});
+  EXPECT_FALSE(plan_pbf(moved, o).mirror_tiles);
+  PbfDesign high = gyroid_cube(5);
+  high.envelope = translate(high.envelope, {0, 0, 0.013});
+  EXPECT_FALSE(plan_pbf(high, o).mirror_tiles);
+  EXPECT_TRUE(plan_pbf(gyroid_cube(5), o).mirror_tiles);
+}
+
 TEST(Pbf, DirectAndStlRoutesGiveTheSameSections) {
   const PbfDesign d = gyroid_cube(2.5);
   PbfOptions o;

@@ -74,6 +74,9 @@ class Field {
   // A period along each axis, f(p + P·e) = f(p) (a TPMS: its cell; translations of it keep it),
   // 0 along axes where none is known.
   Vec3 period() const;
+  // f(−p) = parity · f(p) for every p, the origin a centre of symmetry: 1 (even, e.g. Schwarz
+  // P), −1 (odd, e.g. the gyroid), 0 where none is known (translated fields, CSG, expressions).
+  int inversion_parity() const;
 
  private:
   std::shared_ptr<const FieldNode> node_;

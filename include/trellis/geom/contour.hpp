@@ -79,6 +79,17 @@ struct PeriodTiles {
   std::size_t bytes = 0;                       // the memory they hold
 };
 
+// The tiles of the function g(p) = ±f(2c − p) (f's point reflection about a centre c), made from
+// f's tiles: grid node k of f's tiles (in cells from their origin) is node s − k of g's, modulo
+// the period; s must be a multiple of the tile side along each axis (else no tiles are made).
+// `reverse`: g = −f(2c − p) (inside and outside swap, the lines run the other way); h: the
+// tiles' grid step. Crossings keep their places to a float's precision (6e-8 of an edge).
+PeriodTiles point_reflected_tiles(const PeriodTiles& tiles, double h, std::size_t sx,
+                                  std::size_t sy, bool reverse);
+// The side (in cells) of the tiles of a period of `period_cells` cells that a march with
+// `tile_block` wanted makes (MarchOptions::tile_block); 0: that period is not tiled.
+std::size_t period_tile_side(std::size_t period_cells, std::size_t tile_block);
+
 struct MarchOptions {
   double resolution = 0.1;          // grid step (mm)
   // Crossings are refined on the function until the bracket is below this fraction of the

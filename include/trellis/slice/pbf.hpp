@@ -73,6 +73,13 @@ struct PbfOptions {
   // sheet alone over one period at the class's first height and kept, up to this many bytes, for
   // the class's later layers (0: every layer marches its own tiles; for the tests that compare).
   std::size_t z_tiles_budget = std::size_t{8} << 20;
+  // With layers sharing tiles along z and a φ symmetric through the origin (Field::
+  // inversion_parity: the gyroid, Schwarz P and D, …), the sheet at −z is the sheet at z turned
+  // half a turn about the z axis: a class of layers whose mirror class (its heights' negatives,
+  // modulo the period) comes first takes that class's tiles turned, instead of marching its own
+  // (the grid's origin is then moved out to where the turn maps tiles onto tiles); false: every
+  // class marches its own (for the tests that compare).
+  bool mirror_tiles = true;
   // Scan-time model (speeds, delays) for the per-layer times of this path and the R67 baseline.
   ScanTiming timing;
   // Bytes the run may use (grids, caches, layers; the STL route's mesh); 0 = the memory
@@ -126,6 +133,10 @@ struct PbfResult {
   // tiles are used from 0.3), 0 when the sheet does not repeat.
   std::size_t blocks = 0, tiled_blocks = 0;
   double periodic_fraction = 0;
+  // Whether classes of layers mirrored through the origin take each other's tiles turned
+  // (PbfOptions::mirror_tiles), and how many classes' tiles were made so (not marched).
+  bool mirror_tiles = false;
+  std::size_t turned_classes = 0;
   Diagnostics diagnostics;                  // warnings (settings outside the paper's ranges…)
 };
 
