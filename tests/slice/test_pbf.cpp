@@ -250,18 +250,28 @@ void expect_same_plan(const PbfResult& plain, const PbfResult& tiled, const PbfO
   EXPECT_LE(moved, ends / 1000) << name << ": of " << ends << " hatch ends";
 }
 
+struct PlanCase {
+  const char* name;
+  PbfDesign d;
+  bool stl = false;
+};
+// The plans of a case in 0.1 mm layers with a switch of PbfOptions on, then off.
+std::pair<PbfResult, PbfResult> plan_on_off(const PlanCase& c, bool PbfOptions::*on) {
+  PbfOptions o;
+  o.layer = 0.1;
+  o.stl_route = c.stl;
+  PbfResult first = plan_pbf(c.d, o);
+  o.*on = false;
+  return {std::move(first), plan_pbf(c.d, o)};
+}
+
 // Periodic tiles (PbfOptions::periodic_tiles): on sheets that repeat across the plane (a TPMS
 // with a constant c or thickness) in a translated box, a sphere, a root box and around a solid
 // boss, the direct and STL routes plan the same layers with the tiles as without
 // (expect_same_plan).
 // A c that varies is not periodic, a lattice cut by another is too rarely: nothing translated.
 TEST(Pbf, PeriodicTilesPlanTheSameLayers) {
-  struct Case {
-    const char* name;
-    PbfDesign d;
-    bool stl = false;
-  };
-  std::vector<Case> cases;
+  std::vector<PlanCase> cases;
   {
     PbfDesign d = gyroid_cube(6);
     d.envelope = translate(rectprism({6, 5, 3}), {0.37, -0.61, 0});
@@ -288,16 +298,11 @@ TEST(Pbf, PeriodicTilesPlanTheSameLayers) {
     d.solids = cylinder(1.1, 3);
     cases.push_back({"gyroid, box, solid boss", d});
   }
-  for (const Case& c : cases) {
-    PbfOptions o;
-    o.layer = 0.1;
-    o.stl_route = c.stl;
-    const PbfResult tiled = plan_pbf(c.d, o);
-    o.periodic_tiles = false;
-    const PbfResult plain = plan_pbf(c.d, o);
+  for (const PlanCase& c : cases) {
+    const auto [tiled, plain] = plan_on_off(c, &PbfOptions::periodic_tiles);
     EXPECT_EQ(plain.tiled_blocks, 0u) << c.name;
     EXPECT_GT(tiled.tiled_blocks, tiled.blocks / 5) << c.name;
-    expect_same_plan(plain, tiled, o, c.name);
+    expect_same_plan(plain, tiled, PbfOptions{}, c.name);
   }
   PbfDesign graded = gyroid_cube(5);
   graded.c = {"0.15 + 0.01 * x"};
@@ -358,12 +363,7 @@ TEST(Pbf, LayersAPeriodApartTakeTheSameTiles) {
 // the same as when every class marches its own (expect_same_plan; the grid's origin moves too).
 // No turn for a translated φ (no known centre) or layers not symmetric about z = 0.
 TEST(Pbf, MirroredClassesTakeTurnedTiles) {
-  struct Case {
-    const char* name;
-    PbfDesign d;
-    bool stl = false;
-  };
-  std::vector<Case> cases;
+  std::vector<PlanCase> cases;
   cases.push_back({"gyroid, box", gyroid_cube(5)});
   cases.push_back({"gyroid, box, STL route", gyroid_cube(5), true});
   {
@@ -381,22 +381,17 @@ TEST(Pbf, MirroredClassesTakeTurnedTiles) {
     d.envelope = sphere(3.1);
     cases.push_back({"P, sphere", d});
   }
-  for (const Case& c : cases) {
-    PbfOptions o;
-    o.layer = 0.1;
-    o.stl_route = c.stl;
-    const PbfResult turned = plan_pbf(c.d, o);
-    o.mirror_tiles = false;
-    const PbfResult own = plan_pbf(c.d, o);
+  for (const PlanCase& c : cases) {
+    const auto [turned, own] = plan_on_off(c, &PbfOptions::mirror_tiles);
     EXPECT_TRUE(turned.mirror_tiles) << c.name;
     EXPECT_FALSE(own.mirror_tiles) << c.name;
     EXPECT_EQ(own.turned_classes, 0u) << c.name;
     // (Classes: a period of layers, 20 or 25; those before their mirror, and the one or two
     // that are their own mirror, march.)
-    const double period = c.d.phi.period().z / o.layer;
+    const double period = c.d.phi.period().z / 0.1;
     EXPECT_GE(static_cast<double>(turned.turned_classes), period / 2 - 1) << c.name;
     EXPECT_LE(static_cast<double>(turned.turned_classes), period / 2) << c.name;
-    expect_same_plan(own, turned, o, c.name);
+    expect_same_plan(own, turned, PbfOptions{}, c.name);
   }
   PbfOptions o;
   o.layer = 0.1;

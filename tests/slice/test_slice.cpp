@@ -383,6 +383,36 @@ TEST(Contours, CubicGuessFindsCrossingsWithFewerSamples) {
       << crossings;
 }
 
+// The points of a march's lines, and the largest distance from a point of `from` to the
+// nearest of `to` (points by their 10 µm cell: for sets whose points pair up closely).
+std::vector<Vec2> contour_points(const ContourSet& c) {
+  std::vector<Vec2> v;
+  for (const auto& l : c.lines.loops) v.insert(v.end(), l.begin(), l.end());
+  for (const auto& l : c.lines.open) v.insert(v.end(), l.begin(), l.end());
+  return v;
+}
+double farthest_point(const std::vector<Vec2>& from, const std::vector<Vec2>& to) {
+  std::map<std::pair<long, long>, std::vector<Vec2>> cells;
+  auto key = [](Vec2 p) {
+    return std::pair{static_cast<long>(std::floor(p.x / 0.01)),
+                     static_cast<long>(std::floor(p.y / 0.01))};
+  };
+  for (const Vec2 p : to) cells[key(p)].push_back(p);
+  double worst = 0;
+  for (const Vec2 p : from) {
+    double best = 1e9;
+    const auto [ci, cj] = key(p);
+    for (long di = -1; di <= 1; ++di)
+      for (long dj = -1; dj <= 1; ++dj) {
+        const auto it = cells.find({ci + di, cj + dj});
+        if (it == cells.end()) continue;
+        for (const Vec2 q : it->second) best = std::min(best, std::hypot(q.x - p.x, q.y - p.y));
+      }
+    worst = std::max(worst, best);
+  }
+  return worst;
+}
+
 // A function that repeats across the plane, cut by a disc: where it declares the repeating
 // function alone (blocks inside the disc), the march contours one block per place in the period
 // and translates the rest (MarchOptions::periodic_tiles). The same loops, the same crossings
@@ -474,44 +504,18 @@ TEST(Contours, PeriodicTilesGiveTheSameContours) {
     ASSERT_EQ(a.lines.open.size(), b.lines.open.size());
     // Every point of one within twice the refinement tolerance of a point of the other (the loops
     // may start elsewhere): points by their grid cell.
-    auto points = [](const ContourSet& c) {
-      std::vector<Vec2> v;
-      for (const auto& l : c.lines.loops) v.insert(v.end(), l.begin(), l.end());
-      for (const auto& l : c.lines.open) v.insert(v.end(), l.begin(), l.end());
-      return v;
-    };
-    const std::vector<Vec2> pa = points(a), pb = points(b);
+    const std::vector<Vec2> pa = contour_points(a), pb = contour_points(b);
     ASSERT_EQ(pa.size(), pb.size());
     ASSERT_GT(pa.size(), 5000u);
     const double tol = 2 * tiled.refine_fraction * tiled.resolution + 1e-12;
-    auto worst_from = [&](const std::vector<Vec2>& from, const std::vector<Vec2>& to) {
-      std::map<std::pair<long, long>, std::vector<Vec2>> cells;
-      auto key = [](Vec2 p) {
-        return std::pair{static_cast<long>(std::floor(p.x / 0.01)), static_cast<long>(std::floor(p.y / 0.01))};
-      };
-      for (const Vec2 p : to) cells[key(p)].push_back(p);
-      double worst = 0;
-      for (const Vec2 p : from) {
-        double best = 1e9;
-        const auto [ci, cj] = key(p);
-        for (long di = -1; di <= 1; ++di)
-          for (long dj = -1; dj <= 1; ++dj) {
-            const auto it = cells.find({ci + di, cj + dj});
-            if (it == cells.end()) continue;
-            for (const Vec2 q : it->second) best = std::min(best, std::hypot(q.x - p.x, q.y - p.y));
-          }
-        worst = std::max(worst, best);
-      }
-      return worst;
-    };
-    EXPECT_LT(worst_from(pa, pb), tol);
-    EXPECT_LT(worst_from(pb, pa), tol);
+    EXPECT_LT(farthest_point(pa, pb), tol);
+    EXPECT_LT(farthest_point(pb, pa), tol);
     ASSERT_EQ(a.lines.loops.size(), c.lines.loops.size());
     ASSERT_EQ(a.lines.open.size(), c.lines.open.size());
-    const std::vector<Vec2> pc = points(c);
+    const std::vector<Vec2> pc = contour_points(c);
     ASSERT_EQ(pa.size(), pc.size());
-    EXPECT_LT(worst_from(pa, pc), tol);
-    EXPECT_LT(worst_from(pc, pa), tol);
+    EXPECT_LT(farthest_point(pa, pc), tol);
+    EXPECT_LT(farthest_point(pc, pa), tol);
   }
   // A period of 2.51 mm is not a whole number of 25 µm cells: every block is marched.
   f.P = 2.51;
@@ -553,12 +557,6 @@ TEST(Contours, PointReflectedTilesGiveTheSameContours) {
         a += l[j].x * l[i].y - l[i].x * l[j].y;
     return a / 2;
   };
-  auto points = [](const ContourSet& c) {
-    std::vector<Vec2> v;
-    for (const auto& l : c.lines.loops) v.insert(v.end(), l.begin(), l.end());
-    for (const auto& l : c.lines.open) v.insert(v.end(), l.begin(), l.end());
-    return v;
-  };
   MarchOptions mo;
   mo.resolution = 0.025;
   mo.tile_block = 20;                       // 0.5 mm tiles, five a period
@@ -592,33 +590,12 @@ TEST(Contours, PointReflectedTilesGiveTheSameContours) {
     ASSERT_EQ(a.lines.loops.size(), b.lines.loops.size());
     ASSERT_EQ(a.lines.open.size(), b.lines.open.size());
     EXPECT_NEAR(signed_area(a), signed_area(b), 1e-4 * std::abs(signed_area(a)));
-    const std::vector<Vec2> pa = points(a), pb = points(b);
+    const std::vector<Vec2> pa = contour_points(a), pb = contour_points(b);
     ASSERT_EQ(pa.size(), pb.size());
     ASSERT_GT(pa.size(), 1000u);
     const double tol = 2 * mo.refine_fraction * mo.resolution + 1e-6;
-    auto worst_from = [&](const std::vector<Vec2>& from, const std::vector<Vec2>& to) {
-      std::map<std::pair<long, long>, std::vector<Vec2>> cells;
-      auto key = [](Vec2 p) {
-        return std::pair{static_cast<long>(std::floor(p.x / 0.01)),
-                         static_cast<long>(std::floor(p.y / 0.01))};
-      };
-      for (const Vec2 p : to) cells[key(p)].push_back(p);
-      double worst = 0;
-      for (const Vec2 p : from) {
-        double best = 1e9;
-        const auto [ci, cj] = key(p);
-        for (long di = -1; di <= 1; ++di)
-          for (long dj = -1; dj <= 1; ++dj) {
-            const auto it = cells.find({ci + di, cj + dj});
-            if (it == cells.end()) continue;
-            for (const Vec2 q : it->second) best = std::min(best, std::hypot(q.x - p.x, q.y - p.y));
-          }
-        worst = std::max(worst, best);
-      }
-      return worst;
-    };
-    EXPECT_LT(worst_from(pa, pb), tol);
-    EXPECT_LT(worst_from(pb, pa), tol);
+    EXPECT_LT(farthest_point(pa, pb), tol);
+    EXPECT_LT(farthest_point(pb, pa), tol);
   }
 }
 
