@@ -484,6 +484,12 @@ struct PeriodTileData {
   }
 };
 
+std::size_t period_cells(double period, double h) {
+  if (!(period > 0) || !std::isfinite(period)) return 0;
+  const double r = period / h, c = std::round(r);
+  return c >= 1 && std::abs(r - c) <= 1e-6 * c ? static_cast<std::size_t>(c) : 0;
+}
+
 std::size_t period_tile_side(std::size_t p, std::size_t tile_block) {
   const std::size_t want = std::max<std::size_t>(tile_block, 1);
   auto off = [&](std::size_t d) {
@@ -548,7 +554,7 @@ PeriodTiles point_reflected_tiles(const PeriodTiles& tiles, double h, std::size_
   for (std::size_t t = 0; t < ntiles; ++t) {
     // Tile (a, b) covers nodes a·bx .. (a + 1)·bx, which come from s − (a + 1)·bx .. s − a·bx.
     const std::size_t a = t % nax, b = t / nax;
-    const std::size_t u = ((my + nby - 1 - b % nby) % nby) * nax + (mx + nax - 1 - a % nax) % nax;
+    const std::size_t u = ((my + nby - 1 - b) % nby) * nax + (mx + nax - 1 - a) % nax;
     D.chain_at[t] = static_cast<std::uint32_t>(D.lines.chains.size());
     D.loop_at[t] = static_cast<std::uint32_t>(D.lines.loops.size());
     for (std::uint32_t n = S.chain_at[u]; n < S.chain_at[u + 1]; ++n)
@@ -598,15 +604,10 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
   // place in the period marched (its "tile"), the others where the function is periodic
   // translated from it after refinement.
   const Vec2 period = options.periodic_tiles ? f.period() : Vec2{0, 0};
-  auto period_cells = [&](double p) -> std::size_t {
-    if (!(p > 0) || !std::isfinite(p)) return 0;
-    const double r = p / h, c = std::round(r);
-    return c >= 1 && std::abs(r - c) <= 1e-6 * c ? static_cast<std::size_t>(c) : 0;
-  };
   // A block side dividing the period: the divisor in 4..4·tile_block closest to tile_block by
   // ratio, else the period if it is that small; else no tiles. (By ratio: a period of 125 cells
   // and 13 wanted takes 25, not 5; blocks much smaller than wanted cost the most.)
-  const std::size_t px = period_cells(period.x), py = period_cells(period.y);
+  const std::size_t px = period_cells(period.x, h), py = period_cells(period.y, h);
   const std::size_t tx = px ? period_tile_side(px, options.tile_block) : 0;
   const std::size_t ty = py ? period_tile_side(py, options.tile_block) : 0;
   const bool tiling = tx > 0 && ty > 0 && tx < 32768 && ty < 32768;  // (TileEnd)

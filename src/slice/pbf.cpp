@@ -1190,8 +1190,6 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
   const double pad = 2 * H;
   Vec2 lo{std::floor((e.min.x - pad) / H) * H, std::floor((e.min.y - pad) / H) * H};
   const Vec2 hi{std::ceil((e.max.x + pad) / H) * H, std::ceil((e.max.y + pad) / H) * H};
-  auto nx = static_cast<std::size_t>(std::llround((hi.x - lo.x) / Hs));
-  auto ny = static_cast<std::size_t>(std::llround((hi.y - lo.y) / Hs));
   // Crossings: the section to 2 µm (an area), the mid-curve to 0.5 µm (contour vectors must lie
   // within 1 µm of φ = 0), the joints to 1 µm (each hatch end is refined again on the field).
   MarchOptions mo_section, mo_mid, mo_joint;
@@ -1286,12 +1284,9 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
   bool mirror = false;
   std::size_t sx_s = 0, sy_s = 0, sx_c = 0, sy_c = 0;
   if (zp && o.mirror_tiles && parity != 0) {
-    auto cells = [](double p, double h) -> std::size_t {  // as march_squares counts a period
-      const double r = p / h, c = std::round(r);
-      return c >= 1 && std::abs(r - c) <= 1e-6 * c ? static_cast<std::size_t>(c) : 0;
-    };
-    const std::size_t pxs = cells(sheet_period.x, Hs), pys = cells(sheet_period.y, Hs);
-    const std::size_t pxc = cells(sheet_period.x, H), pyc = cells(sheet_period.y, H);
+    const std::size_t pxs = period_cells(sheet_period.x, Hs),
+                      pys = period_cells(sheet_period.y, Hs);
+    const std::size_t pxc = period_cells(sheet_period.x, H), pyc = period_cells(sheet_period.y, H);
     const std::size_t tsx = pxs ? period_tile_side(pxs, mo_section.tile_block) : 0;
     const std::size_t tsy = pys ? period_tile_side(pys, mo_section.tile_block) : 0;
     const std::size_t tcx = pxc ? period_tile_side(pxc, mo_joint.tile_block) : 0;
@@ -1306,8 +1301,6 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
       };
       const double ux = unit(tsx, tcx), uy = unit(tsy, tcy);
       lo = {std::floor((e.min.x - pad) / ux) * ux, std::floor((e.min.y - pad) / uy) * uy};
-      nx = static_cast<std::size_t>(std::llround((hi.x - lo.x) / Hs));
-      ny = static_cast<std::size_t>(std::llround((hi.y - lo.y) / Hs));
       auto shift = [](double lo_, double h, std::size_t p) {
         const long long s = -2 * std::llround(lo_ / h), pp = static_cast<long long>(p);
         return static_cast<std::size_t>(((s % pp) + pp) % pp);
@@ -1319,6 +1312,8 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
     }
   }
   result.mirror_tiles = mirror;
+  const auto nx = static_cast<std::size_t>(std::llround((hi.x - lo.x) / Hs));
+  const auto ny = static_cast<std::size_t>(std::llround((hi.y - lo.y) / Hs));
   // The class whose tiles, turned, are class c's: the mirror class when it comes first, else c.
   auto mirror_source = [&](std::size_t c) {
     if (!mirror) return c;

@@ -412,6 +412,18 @@ double farthest_point(const std::vector<Vec2>& from, const std::vector<Vec2>& to
   }
   return worst;
 }
+// Two marches' lines alike: as many loops and open lines, as many points (more than
+// min_points), every point of each within tol of a point of the other.
+void expect_same_lines(const ContourSet& a, const ContourSet& b, double tol,
+                       std::size_t min_points) {
+  ASSERT_EQ(a.lines.loops.size(), b.lines.loops.size());
+  ASSERT_EQ(a.lines.open.size(), b.lines.open.size());
+  const std::vector<Vec2> pa = contour_points(a), pb = contour_points(b);
+  ASSERT_EQ(pa.size(), pb.size());
+  ASSERT_GT(pa.size(), min_points);
+  EXPECT_LT(farthest_point(pa, pb), tol);
+  EXPECT_LT(farthest_point(pb, pa), tol);
+}
 
 // A function that repeats across the plane, cut by a disc: where it declares the repeating
 // function alone (blocks inside the disc), the march contours one block per place in the period
@@ -500,22 +512,11 @@ TEST(Contours, PeriodicTilesGiveTheSameContours) {
     else
       EXPECT_EQ(b.tiled_parts, 0u);
     EXPECT_LT(b.samples, a.samples / 2);
-    ASSERT_EQ(a.lines.loops.size(), b.lines.loops.size());
-    ASSERT_EQ(a.lines.open.size(), b.lines.open.size());
     // Every point of one within twice the refinement tolerance of a point of the other (the loops
     // may start elsewhere): points by their grid cell.
-    const std::vector<Vec2> pa = contour_points(a), pb = contour_points(b);
-    ASSERT_EQ(pa.size(), pb.size());
-    ASSERT_GT(pa.size(), 5000u);
     const double tol = 2 * tiled.refine_fraction * tiled.resolution + 1e-12;
-    EXPECT_LT(farthest_point(pa, pb), tol);
-    EXPECT_LT(farthest_point(pb, pa), tol);
-    ASSERT_EQ(a.lines.loops.size(), c.lines.loops.size());
-    ASSERT_EQ(a.lines.open.size(), c.lines.open.size());
-    const std::vector<Vec2> pc = contour_points(c);
-    ASSERT_EQ(pa.size(), pc.size());
-    EXPECT_LT(farthest_point(pa, pc), tol);
-    EXPECT_LT(farthest_point(pc, pa), tol);
+    expect_same_lines(a, b, tol, 5000);
+    expect_same_lines(a, c, tol, 5000);
   }
   // A period of 2.51 mm is not a whole number of 25 µm cells: every block is marched.
   f.P = 2.51;
@@ -587,15 +588,8 @@ TEST(Contours, PointReflectedTilesGiveTheSameContours) {
     const ContourSet b = march_squares(g, lo, hi, 0, given);
     EXPECT_GT(b.tiled_blocks, a.tiled_blocks);
     EXPECT_LT(b.samples, a.samples);
-    ASSERT_EQ(a.lines.loops.size(), b.lines.loops.size());
-    ASSERT_EQ(a.lines.open.size(), b.lines.open.size());
+    expect_same_lines(a, b, 2 * mo.refine_fraction * mo.resolution + 1e-6, 1000);
     EXPECT_NEAR(signed_area(a), signed_area(b), 1e-4 * std::abs(signed_area(a)));
-    const std::vector<Vec2> pa = contour_points(a), pb = contour_points(b);
-    ASSERT_EQ(pa.size(), pb.size());
-    ASSERT_GT(pa.size(), 1000u);
-    const double tol = 2 * mo.refine_fraction * mo.resolution + 1e-6;
-    EXPECT_LT(farthest_point(pa, pb), tol);
-    EXPECT_LT(farthest_point(pb, pa), tol);
   }
 }
 

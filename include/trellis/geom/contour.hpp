@@ -86,6 +86,8 @@ struct PeriodTiles {
 // tiles' grid step. Crossings keep their places to a float's precision (6e-8 of an edge).
 PeriodTiles point_reflected_tiles(const PeriodTiles& tiles, double h, std::size_t sx,
                                   std::size_t sy, bool reverse);
+// A period as a whole number of grid cells of side h (within 1e-6 of one), else 0 (not tiled).
+std::size_t period_cells(double period, double h);
 // The side (in cells) of the tiles of a period of `period_cells` cells that a march with
 // `tile_block` wanted makes (MarchOptions::tile_block); 0: that period is not tiled.
 std::size_t period_tile_side(std::size_t period_cells, std::size_t tile_block);
