@@ -230,11 +230,41 @@ bool inside(const Regions& region, Vec2 p) {
                      [&](const Polygon2& poly) { return contains(poly, p, 0); });
 }
 
+// A point of the closed curve outside the region (more than a nanometre), inserted into it as
+// its first point; false if it has none (it is inside).
+bool start_outside(std::vector<Vec2>& loop, const Regions& region) {
+  const auto first =
+      std::find_if(loop.begin(), loop.end(), [&](Vec2 p) { return !inside(region, p); });
+  if (first != loop.end()) {
+    std::rotate(loop.begin(), first, loop.end());
+    return true;
+  }
+  // Every vertex inside: a chord may still cut across a corner of the outline.
+  auto closed = loop;
+  closed.push_back(loop.front());
+  for (const auto& piece : clip_polylines({closed}, region, false)) {
+    if (polyline_length(piece) <= 1e-6) continue;
+    const Vec2 m = (piece.front() + piece.back()) * 0.5;
+    std::size_t edge = 0;
+    double best = 1e300;
+    for (std::size_t i = 0; i < loop.size(); ++i) {
+      const Vec2 a = loop[i], b = loop[(i + 1) % loop.size()];
+      const double d = distance_to_segment({m.x, m.y, 0}, {a.x, a.y, 0}, {b.x, b.y, 0});
+      if (d < best) best = d, edge = i;
+    }
+    loop.insert(loop.begin() + static_cast<std::ptrdiff_t>(edge) + 1, m);
+    std::rotate(loop.begin(), loop.begin() + static_cast<std::ptrdiff_t>(edge) + 1, loop.end());
+    return true;
+  }
+  return false;
+}
+
 // The gyroid's curves in the region: lines crossing the march's box are clipped; closed curves
-// entirely inside are loops, others are opened at a point outside the region before clipping so
-// that every cut end lies on the outline.
+// inside are loops, others are opened at a point outside the region before clipping so that
+// every cut end lies on the outline.
 void gyroid(const Regions& region, const InfillSpec& spec, double z, InfillPaths& out) {
   const double period = 2 * kPi * kGyroidLengthPerArea * spec.bead_width / spec.density;
+  out.scale = period;
   GyroidSection f(period, z, spec.angle);
   // 16 cells a period: chords within about 0.4% of the period of the curve (6 µm at 50%), the
   // length 0.1% short of a fine march's; crossings refined to 0.1% of a cell.
@@ -248,13 +278,10 @@ void gyroid(const Regions& region, const InfillSpec& spec, double z, InfillPaths
   std::vector<std::vector<Vec2>> lines = set.lines.open;
   for (auto loop : set.lines.loops) {
     if (loop.size() < 3) continue;
-    const auto outside =
-        std::find_if(loop.begin(), loop.end(), [&](Vec2 p) { return !inside(region, p); });
-    if (outside == loop.end()) {
+    if (!start_outside(loop, region)) {
       if (ring_length(loop) >= spec.min_length) out.loops.push_back(std::move(loop));
       continue;
     }
-    std::rotate(loop.begin(), outside, loop.end());
     loop.push_back(loop.front());
     lines.push_back(std::move(loop));
   }
@@ -263,6 +290,7 @@ void gyroid(const Regions& region, const InfillSpec& spec, double z, InfillPaths
 
 void concentric(const Regions& region, const InfillSpec& spec, InfillPaths& out) {
   const double spacing = spec.bead_width / spec.density;
+  out.scale = spacing;
   for (int k = 0;; ++k) {
     const Regions ring_region = offset(region, -(k + 0.5) * spacing);
     if (ring_region.empty()) break;
@@ -322,6 +350,7 @@ void lattice(const Regions& region, const InfillSpec& spec, std::size_t layer, d
   } else {
     p.cell_size = atlas_length_per_unit_cell(p) / target;
   }
+  out.scale = p.cell_size;
   const double step = spec.lattice_layer_rotation == 0 && p.pattern == Pattern::Lines
                           ? 90
                           : spec.lattice_layer_rotation;
@@ -386,20 +415,24 @@ InfillPaths make_infill(const Regions& region, const InfillSpec& spec, std::size
   const double odd = layer_index % 2 == 1 ? 90 : 0;
   switch (spec.pattern) {
     case InfillPattern::Rectilinear:
-      add_hatch(region, spec.angle + odd, w / d, spec.min_length, out);
+      out.scale = w / d;
+      add_hatch(region, spec.angle + odd, out.scale, spec.min_length, out);
       break;
     case InfillPattern::Grid:
+      out.scale = 2 * w / d;
       for (const double a : {0.0, 90.0})
-        add_hatch(region, spec.angle + a, 2 * w / d, spec.min_length, out);
+        add_hatch(region, spec.angle + a, out.scale, spec.min_length, out);
       break;
     case InfillPattern::Triangles:
+      out.scale = 3 * w / d;
       for (const double a : {0.0, 60.0, 120.0})
-        add_hatch(region, spec.angle + a, 3 * w / d, spec.min_length, out);
+        add_hatch(region, spec.angle + a, out.scale, spec.min_length, out);
       break;
     case InfillPattern::Honeycomb: {
+      out.scale = honeycomb_side(d / w, w);
       const double deg = spec.angle + 60.0 * static_cast<double>(layer_index % 3);
-      const auto lines = honeycomb_lines(box_of(region), honeycomb_side(d / w, w), w, deg);
-      add_clipped(lines, region, spec.min_length, out.open);
+      add_clipped(honeycomb_lines(box_of(region), out.scale, w, deg), region, spec.min_length,
+                  out.open);
       break;
     }
     case InfillPattern::Gyroid:

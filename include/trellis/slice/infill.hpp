@@ -55,6 +55,10 @@ struct InfillPaths {
   // Lattice: the Euler planner's trails and the proven minimum, Σ max(1, odd nodes / 2) over
   // the cropped lattice's connected components.
   std::size_t trails = 0, trail_lower_bound = 0;
+  // The length the density gave (mm): the line spacing of each direction, the hexagon side, the
+  // gyroid's period, the ring spacing or the lattice's cell size (Voronoi: 1/√(seeds per mm²)).
+  // 0 when the region is empty.
+  double scale = 0;
 };
 
 // The infill of `region` (polygons with holes, outer rings counter-clockwise) for the layer
