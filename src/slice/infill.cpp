@@ -279,7 +279,10 @@ void gyroid(const Regions& region, const InfillSpec& spec, double z, InfillPaths
   for (auto loop : set.lines.loops) {
     if (loop.size() < 3) continue;
     if (!start_outside(loop, region)) {
-      if (ring_length(loop) >= spec.min_length) out.loops.push_back(std::move(loop));
+      if (ring_length(loop) >= spec.min_length) {
+        out.loops.push_back(std::move(loop));
+        out.loop_level.push_back(0);
+      }
       continue;
     }
     loop.push_back(loop.front());
@@ -288,15 +291,19 @@ void gyroid(const Regions& region, const InfillSpec& spec, double z, InfillPaths
   add_clipped(lines, region, spec.min_length, out.open);
 }
 
+// Each ring region is the previous one's inward offset (the first: the region's, by half a
+// spacing), so that the mitred corners of one are a spacing from the next, as round ones would be.
 void concentric(const Regions& region, const InfillSpec& spec, InfillPaths& out) {
   const double spacing = spec.bead_width / spec.density;
   out.scale = spacing;
-  for (int k = 0;; ++k) {
-    const Regions ring_region = offset(region, -(k + 0.5) * spacing);
-    if (ring_region.empty()) break;
+  Regions ring_region = offset(region, -0.5 * spacing);
+  for (std::uint32_t level = 0; !ring_region.empty(); ++level) {
     for (auto& ring : rings_of(ring_region))
-      if (ring.size() >= 3 && ring_length(ring) >= spec.min_length)
+      if (ring.size() >= 3 && ring_length(ring) >= spec.min_length) {
         out.loops.push_back(std::move(ring));
+        out.loop_level.push_back(level);
+      }
+    ring_region = offset(ring_region, -spacing);
   }
 }
 
@@ -370,6 +377,16 @@ void lattice(const Regions& region, const InfillSpec& spec, std::size_t layer, d
   } catch (const GeometryError&) {
     return;  // no strut inside the region (coordinates were checked above): nothing to fill
   }
+  // The atlas merges nodes closer than min_feature: a cut end that met a node inside is there,
+  // up to min_feature from the outline. Strut ends (degree 1) that near go back onto it.
+  std::vector<std::uint32_t> degree(g.nodes.size(), 0);
+  for (const auto& e : g.edges) ++degree[e.a], ++degree[e.b];
+  const OutlineSnap snap(region, p.min_feature);
+  for (NodeId n = 0; n < g.nodes.size(); ++n)
+    if (degree[n] == 1) {
+      const Vec2 q = snap.snap(g.nodes[n].xy());
+      g.nodes[n].x = q.x, g.nodes[n].y = q.y;
+    }
   const PathSet set = plan_euler(g);
   out.trails = set.trails.size();
   out.trail_lower_bound = lower_bound_paths(g);

@@ -52,6 +52,9 @@ struct InfillSpec {
 struct InfillPaths {
   std::vector<std::vector<Vec2>> open;   // open polylines; ends that were cut lie on the boundary
   std::vector<std::vector<Vec2>> loops;  // closed rings, first point not repeated
+  // Parallel to loops: Concentric, the ring's step inward (0: the outermost, k: k spacings in
+  // from it); Gyroid (closed curves inside the region) 0.
+  std::vector<std::uint32_t> loop_level;
   // Lattice: the Euler planner's trails and the proven minimum, Σ max(1, odd nodes / 2) over
   // the cropped lattice's connected components.
   std::size_t trails = 0, trail_lower_bound = 0;
