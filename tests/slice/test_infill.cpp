@@ -259,6 +259,7 @@ TEST(InfillPatterns, DensityIsHonouredOnLargeRegions) {
         EXPECT_LE(ratio, gyroid ? 1.25 : 1.1)
             << to_string(pattern) << " density " << d << " trial " << trial;
       }
+      if (d > 0.3 && trial > 0) continue;  // dense lattices take longest: once
       for (const auto& name : pattern_names()) {
         InfillSpec s = spec_of(InfillPattern::Lattice, d, name);
         s.seed = 1 + rng.uniform_index(1000);
