@@ -35,9 +35,9 @@ struct InfillSpec {
   double density = 0.2;     // fraction of solid, (0, 1]: deposited length × bead width / area
   double bead_width = 0.4;  // mm
   double angle = 45;        // deg, base direction of the lines, zig-zags, gyroid and lattice
-  // Open pieces shorter than this (mm) are dropped, and rings shorter than it. Lattice trails
-  // are all kept, so that their count is the planner's.
-  double min_length = 0.2;
+  // Open pieces shorter than this (mm) are dropped, and rings shorter than it (as the planar
+  // slicer's min_path). Lattice trails are all kept, so that their count is the planner's.
+  double min_length = 0.05;
   std::string lattice = "honeycomb";  // Lattice: an atlas pattern name (pattern_names())
   std::uint64_t seed = 1;             // Lattice: the Voronoi seeds, reproducible for a seed
   // Lattice: degrees added to `angle` per layer (0: every layer alike, so the cells stack into
