@@ -223,6 +223,9 @@ def slice(
     image_size: int = ...,  # output.image_size: preview image size
     infill: float = ...,  # slice.infill: sparse infill density (fraction of solid)
     infill_angle: float = ...,  # slice.infill_angle: infill angle, +90 every other layer
+    infill_lattice: Literal['honeycomb', 'voronoi', 'penrose', 'snub-square', 'arrowhead', 'reentrant-honeycomb', 'square', 'triangle', 'lines'] = ...,  # slice.infill_lattice: slice.infill_pattern = 
+    infill_pattern: Literal['rectilinear', 'grid', 'triangles', 'honeycomb', 'gyroid', 'concentric', 'lattice'] = ...,  # slice.infill_pattern: sparse infill: rectilinear (lines, turned 90° every laye
+    infill_seed: int = ...,  # slice.infill_seed: lattice infill: the Voronoi seed
     layer_height: float = ...,  # extrusion.layer_height: layer thickness LT when a path has none (Eq. 4)
     lookahead: float = ...,  # gradient.lookahead: issue each mixture change this much printed path before the region (dead volume, FGM paper A.1: L = V_melt / (h(w-h) + pi h^2/4))
     material_resolution: float = ...,  # fgm.material_resolution: XY grid of the material iso-contours

@@ -844,7 +844,7 @@ class Writer {
     }
     const Path& path = *pp;
     rise_over_finished_parts(path);
-    travel_to(path.points.front(), path.via, path.inside);
+    travel_to(path.points.front(), path.joined ? std::vector<Vec3>{} : path.via, path.inside);
     feature_comments(path);
     if (streamed_) locate_changes(path);
     emit_changes(1, 0.0);

@@ -520,6 +520,22 @@ std::vector<Setting> make_table() {
                       "degenerate and duplicate faces, orient, fill small holes, split "
                       "non-manifold edges); --no-repair refuses them",
                       "repair", [](C& c) -> auto& { return c.slice.repair; }));
+  t.push_back(choice_enum<InfillPattern>(
+      "slice.infill_pattern",
+      {{"rectilinear", InfillPattern::Rectilinear}, {"grid", InfillPattern::Grid},
+       {"triangles", InfillPattern::Triangles}, {"honeycomb", InfillPattern::Honeycomb},
+       {"gyroid", InfillPattern::Gyroid}, {"concentric", InfillPattern::Concentric},
+       {"lattice", InfillPattern::Lattice}},
+      "sparse infill: rectilinear (lines, turned 90° every layer), grid, triangles, honeycomb, "
+      "gyroid, concentric, or lattice (the 2D lattice slice.infill_lattice cropped to the infill "
+      "and planned by the Euler planner into the fewest paths); the density sets the spacing",
+      "infill-pattern", [](C& c) -> auto& { return c.slice.planar.infill_pattern; }));
+  t.push_back(choice("slice.infill_lattice", pattern_names(),
+                     "slice.infill_pattern = lattice: which 2D lattice (lattice2d patterns), its "
+                     "cell size set by the density",
+                     "infill-lattice", [](C& c) -> auto& { return c.slice.planar.infill_lattice; }));
+  t.push_back(integer("slice.infill_seed", 0, 9e15, "lattice infill: the Voronoi seed",
+                      "infill-seed", [](C& c) -> auto& { return c.slice.planar.infill_seed; }));
   t.push_back(choice_enum<Seam>(
       "slice.seam",
       {{"aligned", Seam::Aligned}, {"nearest", Seam::Nearest}, {"rear", Seam::Rear},

@@ -221,6 +221,7 @@ class PathSplitter {
     if (!std::isnan(q[2])) p.flow = q[2];
     if (!std::isnan(q[3])) p.fan = q[3];
     p.joined = joined;
+    if (joined) p.via.clear();  // no travel into a piece that continues the bead
   }
 
   // Max |field − written| along a piece, at the sample spacing and both ends.

@@ -249,10 +249,25 @@ std::vector<std::vector<Vec2>> connect_fill(const std::vector<std::vector<Vec2>>
       for (const auto& h : region[pi].holes)
         if (h.size() >= 3) polygon_of.push_back(pi);
     }
+    // Polygons that touch (Boolean results may share an edge) can be crossed by one line: the
+    // polygons joined by a line count once (union-find).
+    std::vector<std::size_t> root(region.size());
+    for (std::size_t k = 0; k < root.size(); ++k) root[k] = k;
+    auto find = [&](std::size_t k) {
+      while (root[k] != k) k = root[k] = root[root[k]];
+      return k;
+    };
+    auto poly = [&](const End& e) { return polygon_of[static_cast<std::size_t>(e.ring)]; };
+    for (std::size_t i = 0; i < n; ++i)
+      if (ends[2 * i].ring >= 0 && ends[2 * i + 1].ring >= 0)
+        root[find(poly(ends[2 * i]))] = find(poly(ends[2 * i + 1]));
     std::vector<char> touched(region.size(), 0);
     std::size_t count = 0;
-    for (const End& e : ends)
-      if (e.ring >= 0 && !touched[polygon_of[static_cast<std::size_t>(e.ring)]]++) ++count;
+    for (const End& e : ends) {
+      if (e.ring < 0) continue;
+      char& t = touched[find(poly(e))];
+      if (!t) t = 1, ++count;
+    }
     stats->regions += std::max<std::size_t>(count, 1);
   }
   // Each ring's ends in order along it.
@@ -566,6 +581,45 @@ std::vector<Vec2> rotated(const std::vector<Vec2>& ring, std::size_t start) {
   return out;
 }
 
+// Closed loops (concentric rings, gyroid curves) joined ring to ring: each loop is printed
+// whole from where the last one ended (closed at its start), then a straight connector to the
+// nearest vertex of the nearest loop left, when it is within `reach` and its middle inside the
+// region; else a new chain begins.
+std::vector<std::vector<Vec2>> chain_loops(const std::vector<std::vector<Vec2>>& loops,
+                                           const Regions& region, double reach,
+                                           double& connector_length) {
+  std::vector<std::vector<Vec2>> chains;
+  std::vector<char> used(loops.size(), 0);
+  auto inside = [&](Vec2 p) {
+    return std::any_of(region.begin(), region.end(),
+                       [&](const Polygon2& poly) { return trellis::contains(poly, p, 1e-6); });
+  };
+  for (std::size_t first = 0; first < loops.size(); ++first) {
+    if (used[first] || loops[first].size() < 3) continue;
+    std::vector<Vec2> chain;
+    std::size_t at = first, seam = 0;
+    for (;;) {
+      used[at] = 1;
+      const auto& loop = loops[at];
+      for (std::size_t k = 0; k <= loop.size(); ++k) chain.push_back(loop[(seam + k) % loop.size()]);
+      const Vec2 end = chain.back();
+      double best = reach * reach;
+      std::size_t next = loops.size(), next_seam = 0;
+      for (std::size_t j = 0; j < loops.size(); ++j) {
+        if (used[j] || loops[j].size() < 3) continue;
+        for (std::size_t k = 0; k < loops[j].size(); ++k)
+          if (const double d = dist2(loops[j][k], end); d < best) best = d, next = j, next_seam = k;
+      }
+      if (next == loops.size() || !inside((end + loops[next][next_seam]) * 0.5)) break;
+      connector_length += std::sqrt(best);
+      at = next;
+      seam = next_seam;
+    }
+    chains.push_back(std::move(chain));
+  }
+  return chains;
+}
+
 }  // namespace
 
 void link_layer(const std::vector<IslandPieces>& islands, const LinkOptions& o, double z,
@@ -592,14 +646,11 @@ void link_layer(const std::vector<IslandPieces>& islands, const LinkOptions& o, 
   for (const OrderStep& step : island_order) {
     const IslandPieces& is = islands[step.item];
     const double w = is.bead_width;
-    // The island's inside for travel: within its outer wall (a quarter bead outside the wall's
-    // centre line), routed along that centre line.
+    // The island's inside for travel: its outline, routed along its outer wall's centre line.
     std::unique_ptr<Comb> comb;
     if (o.comb) {
-      const Regions outline{is.outline};
-      Regions route = offset(outline, -0.5 * w);
-      if (!route.empty())
-        comb = std::make_unique<Comb>(offset(outline, -0.25 * w), std::move(route));
+      Regions route = is.route.empty() ? offset(Regions{is.outline}, -0.5 * w) : is.route;
+      if (!route.empty()) comb = std::make_unique<Comb>(Regions{is.outline}, std::move(route));
     }
     bool first_in_island = true;
     // Appends a path with its travel from the cursor.
@@ -668,13 +719,29 @@ void link_layer(const std::vector<IslandPieces>& islands, const LinkOptions& o, 
       ConnectStats cs;
       // Unconnected, the lines are connected with no connector allowed (the same bound).
       auto chains = connect_fill(f.lines, f.region, o.connect ? o.connect_max * f.spacing : 0, &cs);
-      stats.lower_bound += (f.lines.empty() ? 0 : cs.regions) + f.loops.size();
+      if (!f.lines.empty()) stats.lower_bound += cs.regions;
       stats.connector_length += cs.connector_length;
       stats.fill_chains += chains.size();
       for (auto& c : chains)
         if (c.size() >= 2) pieces.push_back({std::move(c), f.role, false});
-      for (const auto& l : f.loops)
-        if (l.size() >= 3) pieces.push_back({l, f.role, true});
+      if (f.loops.empty()) continue;
+      if (o.connect) {
+        double joined = 0;
+        auto loop_chains = chain_loops(f.loops, f.region, 1.5 * f.spacing, joined);
+        stats.connector_length += joined;
+        for (auto& c : loop_chains) pieces.push_back({std::move(c), f.role, false});
+      } else {
+        for (const auto& l : f.loops)
+          if (l.size() >= 3) pieces.push_back({l, f.role, true});
+      }
+      // Each polygon holding a loop needs a start of its own.
+      std::size_t holding = 0;
+      for (const auto& poly : f.region)
+        if (std::any_of(f.loops.begin(), f.loops.end(), [&](const auto& l) {
+              return !l.empty() && trellis::contains(poly, l.front(), 1e-6);
+            }))
+          ++holding;
+      stats.lower_bound += f.lines.empty() ? holding : 0;
     }
     std::vector<OrderItem> fill_items;
     for (const auto& pc : pieces) {

@@ -331,6 +331,17 @@ std::pair<std::size_t, std::size_t> skin_margins(const SliceJob& job) {
 // A graded print's paths are cut by colour (Strategy 1) or planned per colour face (Strategy 2):
 // the report's path count and extruded length are summed over the printed part paths (not purges
 // or the tower) in print order, the same for the whole and the streamed run.
+// The planar slicer's options for a design of extent r.extent: lattice infill on the part's
+// box, whatever window of layers is planned (shards and streamed runs stack the same cells).
+PlanarOptions planar_options(const SliceJob& job, const SliceResult& r) {
+  PlanarOptions po = job.planar;
+  const BBox3& e = r.extent;
+  if (!(po.infill_frame.width() > 0) && std::isfinite(e.min.x) && std::isfinite(e.max.x) &&
+      std::isfinite(e.min.y) && std::isfinite(e.max.y))
+    po.infill_frame = {{e.min.x, e.min.y}, {e.max.x, e.max.y}};
+  return po;
+}
+
 void count_graded_path(const Path& path, PlanarStats& s) {
   if (path.role == PathRole::Purge) return;
   ++s.paths;
@@ -429,7 +440,7 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
     r.first_layer = range_a;
     r.outline_first = range_lo;
     r.outline_seconds = seconds_since(t0);
-    PlanarOptions po = job.planar;
+    PlanarOptions po = planar_options(job, r);
     po.first_index = range_lo;
     po.plan_begin = range_a;
     po.plan_end = range_b;
@@ -481,7 +492,7 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
       if (job.strategy == 2) {
         r.toolpath = plan_fgm_strategy2(field, r.outlines, fo, &r.fgm);
       } else {
-        const Toolpath planar = plan_planar(r.outlines, job.planar, &r.planar);
+        const Toolpath planar = plan_planar(r.outlines, planar_options(job, r), &r.planar);
         r.toolpath = plan_fgm_strategy1(field, r.outlines, planar, fo, PurgeOptions{}, &r.fgm);
       }
     });
@@ -497,7 +508,7 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
     r.fgm.error_bound = graded_error_bound(job, fo);
     naming_design(job, [&] { measure_gradient_error(field, r.toolpath, r.outlines, h, r.fgm); });
   } else {
-    r.toolpath = plan_planar(r.outlines, job.planar, &r.planar);
+    r.toolpath = plan_planar(r.outlines, planar_options(job, r), &r.planar);
   }
   apply_slice_process(job, field, r);
   r.toolpath.source = "trellis slice " + job.input + " (" + to_string(r.route) + " route)";
@@ -651,7 +662,7 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
       }) & tbb::make_filter<Planned, Planned>(tbb::filter_mode::parallel, [&](Planned p) {
         if (p.a == p.b) return p;
         const auto t = clock();
-        PlanarOptions po = job.planar;
+        PlanarOptions po = planar_options(job, r);
         po.first_index = p.lo;
         po.plan_begin = p.a;
         po.plan_end = p.b;
@@ -690,6 +701,13 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
         r.planar.walls += p.stats.walls;
         r.planar.skin_lines += p.stats.skin_lines;
         r.planar.infill_lines += p.stats.infill_lines;
+        r.planar.link.add(p.stats.link);
+        r.planar.lattice_trails += p.stats.lattice_trails;
+        r.planar.lattice_trail_bound += p.stats.lattice_trail_bound;
+        r.planar.layer_seconds += p.stats.layer_seconds;
+        r.planar.link_seconds += p.stats.link_seconds;
+        r.planar.layer_link.insert(r.planar.layer_link.end(), p.stats.layer_link.begin(),
+                                   p.stats.layer_link.end());
         if (graded) {
           // As plan_fgm_strategy2 and measure_gradient_error sum them over the whole print.
           r.fgm.faces += p.fgm.faces;
@@ -833,6 +851,42 @@ std::string slice_report_json(const SliceJob& job, const SliceResult& r, const G
   j["travel_moves"] = travel.moves;
   j["travel_length_mm"] = travel.length;
   j["outline_area_mm2_total"] = outline_area;
+  if (job.strategy == 0) {
+    // The linking stage (slice/link.hpp): starts beside their lower bound, per layer and in all.
+    const PlanarOptions& po = job.planar;
+    const LinkStats& l = r.planar.link;
+    nlohmann::json per = {{"starts", nlohmann::json::array()},
+                          {"lower_bound", nlohmann::json::array()},
+                          {"travel_mm", nlohmann::json::array()},
+                          {"travels_leaving_part", nlohmann::json::array()}};
+    for (const LinkStats& s : r.planar.layer_link) {
+      per["starts"].push_back(s.starts);
+      per["lower_bound"].push_back(s.lower_bound);
+      per["travel_mm"].push_back(std::round(s.travel_length * 1000) / 1000);
+      per["travels_leaving_part"].push_back(s.travels - s.inside_travels);
+    }
+    j["linking"] = {{"seam", to_string(po.link.seam)},
+                    {"connect", po.link.connect},
+                    {"connect_max_spacings", po.link.connect_max},
+                    {"comb", po.link.comb},
+                    {"comb_detour", po.link.comb_detour},
+                    {"infill_pattern", to_string(po.infill_pattern)},
+                    {"starts", l.starts},
+                    {"starts_lower_bound", l.lower_bound},
+                    {"travels_in_layers", l.travels},
+                    {"travels_inside_part", l.inside_travels},
+                    {"travel_in_layers_mm", l.travel_length},
+                    {"fill_lines", l.fill_lines},
+                    {"fill_chains", l.fill_chains},
+                    {"connector_length_mm", l.connector_length},
+                    {"layer_plan_seconds", r.planar.layer_seconds},
+                    {"link_seconds", r.planar.link_seconds},
+                    {"per_layer", std::move(per)}};
+    if (po.infill_pattern == InfillPattern::Lattice)
+      j["linking"]["lattice"] = {{"pattern", po.infill_lattice},
+                                 {"trails", r.planar.lattice_trails},
+                                 {"trails_lower_bound", r.planar.lattice_trail_bound}};
+  }
   if (r.route == SliceRoute::Field)
     j["field"] = {{"samples", r.field_stats.samples},
                   {"blocks", r.field_stats.blocks},

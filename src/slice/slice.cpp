@@ -4,6 +4,7 @@
 #include <tbb/parallel_for.h>
 
 #include <atomic>
+#include <chrono>
 #include <cmath>
 #include <mutex>
 
@@ -330,6 +331,21 @@ Regions near(const Regions& regions, const BBox2& box) {
 
 }  // namespace
 
+void PlanarStats::add(const PlanarStats& o) {
+  layers += o.layers;
+  paths += o.paths;
+  walls += o.walls;
+  skin_lines += o.skin_lines;
+  infill_lines += o.infill_lines;
+  extruded_length += o.extruded_length;
+  link.add(o.link);
+  lattice_trails += o.lattice_trails;
+  lattice_trail_bound += o.lattice_trail_bound;
+  layer_seconds += o.layer_seconds;
+  link_seconds += o.link_seconds;
+  layer_link.insert(layer_link.end(), o.layer_link.begin(), o.layer_link.end());
+}
+
 Toolpath plan_planar(const std::vector<LayerOutline>& layers, const PlanarOptions& o,
                      PlanarStats* stats) {
   if (!(o.layer_height > 0)) throw SettingError("layer height must be > 0");
@@ -346,6 +362,16 @@ Toolpath plan_planar(const std::vector<LayerOutline>& layers, const PlanarOption
   });
 
   const double w = o.bead_width;
+  // Lattice infill's frame: the part's box, so its cells stack.
+  BBox2 frame = o.infill_frame;
+  if (!(frame.width() > 0) && o.infill_pattern == InfillPattern::Lattice) {
+    frame = {{1e300, 1e300}, {-1e300, -1e300}};
+    for (const auto& r : outline)
+      for (const auto& poly : r)
+        for (const Vec2 v : poly.outer)
+          frame.min = {std::min(frame.min.x, v.x), std::min(frame.min.y, v.y)},
+          frame.max = {std::max(frame.max.x, v.x), std::max(frame.max.y, v.y)};
+  }
   Toolpath tp;
   tp.layers.resize(n);
   std::vector<PlanarStats> per(n);
@@ -356,6 +382,7 @@ Toolpath plan_planar(const std::vector<LayerOutline>& layers, const PlanarOption
   };
   tbb::parallel_for(std::size_t{0}, n, [&](std::size_t i) {
     if (!planned(i)) return;
+    const auto t_layer = std::chrono::steady_clock::now();
     Layer& layer = tp.layers[i];
     const std::size_t g = o.first_index + i;
     const double z = static_cast<double>(g + 1) * o.layer_height;
@@ -392,6 +419,7 @@ Toolpath plan_planar(const std::vector<LayerOutline>& layers, const PlanarOption
         if (r.empty()) break;
         wall_regions.push_back(std::move(r));
       }
+      if (!wall_regions.empty()) is.route = wall_regions.front();
       for (auto it = wall_regions.rbegin(); it != wall_regions.rend(); ++it) {
         auto rings = rings_of(*it);
         std::erase_if(rings, [](const auto& r) { return r.size() < 3; });
@@ -414,17 +442,43 @@ Toolpath plan_planar(const std::vector<LayerOutline>& layers, const PlanarOption
           if (std::sqrt(dist2(seg.a, seg.b)) >= o.min_path) f.lines.push_back({seg.a, seg.b});
       };
       add_fill(solid, skin_angle, w, PathRole::Skin);
-      add_fill(sparse, infill_angle, sparse_spacing, PathRole::Infill);
+      if (o.infill_pattern == InfillPattern::Rectilinear || sparse.empty() || !(o.infill_density > 0)) {
+        add_fill(sparse, infill_angle, sparse_spacing, PathRole::Infill);
+      } else {
+        InfillSpec spec;
+        spec.pattern = o.infill_pattern;
+        spec.density = o.infill_density;
+        spec.bead_width = w;
+        spec.angle = o.infill_angle;
+        spec.min_length = o.min_path;
+        spec.lattice = o.infill_lattice;
+        spec.seed = o.infill_seed;
+        spec.frame = frame;
+        InfillPaths made = make_infill(sparse, spec, g, layers[i].z);
+        per[i].lattice_trails += made.trails;
+        per[i].lattice_trail_bound += made.trail_lower_bound;
+        IslandPieces::Fill& f = is.fills.emplace_back();
+        f.role = PathRole::Infill;
+        f.region = sparse;
+        f.spacing = made.scale > 0 ? made.scale : sparse_spacing;
+        f.lines = std::move(made.open);
+        f.loops = std::move(made.loops);
+      }
     }
     Vec2 cursor{-1e9, -1e9};
     LinkStats& ls = per[i].link;
+    const auto t_link = std::chrono::steady_clock::now();
     link_layer(islands, o.link, z, o.layer_height, g, cursor, false, layer.paths, ls);
+    const auto t_end = std::chrono::steady_clock::now();
+    per[i].link_seconds = std::chrono::duration<double>(t_end - t_link).count();
+    per[i].layer_seconds = std::chrono::duration<double>(t_end - t_layer).count();
     for (const auto& p : layer.paths) {
       if (p.role == PathRole::Skin) ++per[i].skin_lines;
       if (p.role == PathRole::Infill) ++per[i].infill_lines;
     }
   });
   PlanarStats total;
+  total.layer_link.reserve(tp.layers.size());
   // The window's unplanned layers (the skins' neighbours) are dropped.
   std::vector<Layer> kept;
   std::vector<PlanarStats> kept_stats;
@@ -439,6 +493,11 @@ Toolpath plan_planar(const std::vector<LayerOutline>& layers, const PlanarOption
     total.skin_lines += per[i].skin_lines;
     total.infill_lines += per[i].infill_lines;
     total.link.add(per[i].link);
+    total.layer_link.push_back(per[i].link);
+    total.lattice_trails += per[i].lattice_trails;
+    total.lattice_trail_bound += per[i].lattice_trail_bound;
+    total.layer_seconds += per[i].layer_seconds;
+    total.link_seconds += per[i].link_seconds;
     total.paths += tp.layers[i].paths.size();
     for (const auto& p : tp.layers[i].paths) total.extruded_length += p.length();
   }

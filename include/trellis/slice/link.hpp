@@ -34,7 +34,7 @@ struct LinkOptions {
   // Travel routed inside the part: a route inside is taken when it is at most comb_detour times
   // the straight distance (plus one bead); otherwise the travel goes straight and leaves it.
   bool comb = true;
-  double comb_detour = 3;
+  double comb_detour = 1.2;
   std::uint64_t seed = 1;  // random seams: the same seams for the same seed
 };
 
@@ -66,9 +66,9 @@ std::vector<std::vector<Vec2>> connect_fill(const std::vector<std::vector<Vec2>>
 std::size_t seam_vertex(const std::vector<Vec2>& ring, Seam seam, Vec2 from, std::uint64_t seed,
                         std::uint64_t key);
 
-// Travel inside a region (an island's inside, bounded by its outer wall): straight where the
-// straight line stays inside, else along the boundary of `route` (a region inside `inside`,
-// e.g. the outer wall's centre line) around what is in the way, shortened where it can be.
+// Travel inside a region (an island's outline): straight where the straight line stays inside,
+// else along the boundary of `route` (a region inside `inside`, e.g. the outer wall's centre
+// line) around what is in the way, shortened where it can be.
 class Comb {
  public:
   Comb(Regions inside, Regions route);
@@ -87,7 +87,10 @@ class Comb {
 // One island of a layer as the slicer planned it, for link_layer: wall loops in print order by
 // level (index 0 printed first; each level a set of closed rings), fill lines per region.
 struct IslandPieces {
-  Polygon2 outline;
+  Polygon2 outline;  // travel within it is inside the part
+  // The outer wall's centre line (the outline offset by -bead_width / 2), which travel inside is
+  // routed along; empty: made here from the outline.
+  Regions route;
   double bead_width = 0.4;
   std::vector<std::vector<std::vector<Vec2>>> walls;  // [level][ring] closed rings
   struct Fill {

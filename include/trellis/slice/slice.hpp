@@ -11,6 +11,7 @@
 #include "trellis/geom/contour.hpp"
 #include "trellis/geom/mesh.hpp"
 #include "trellis/geom/regions.hpp"
+#include "trellis/slice/infill.hpp"
 #include "trellis/slice/link.hpp"
 #include "trellis/toolpath/toolpath.hpp"
 
@@ -70,6 +71,14 @@ struct PlanarOptions {
   int bottom_layers = 4;
   double infill_density = 0.2;   // 0..1 of solid
   double infill_angle = 45;      // degrees; alternates with +90 every layer
+  // Sparse infill pattern (slice/infill.hpp); skins are rectilinear. Lattice: an atlas pattern
+  // (lattice/atlas.hpp) cropped to the infill region and planned by the Euler planner.
+  InfillPattern infill_pattern = InfillPattern::Rectilinear;
+  std::string infill_lattice = "honeycomb";
+  std::uint64_t infill_seed = 1;  // lattice: Voronoi seeds
+  // The part's XY box, so that lattice cells stack from layer to layer whatever window of
+  // layers is planned; empty (zero width): the box of the outlines given.
+  BBox2 infill_frame{};
   double infill_overlap = 0.15;  // fraction of a bead the infill reaches into the inner wall
   double simplify = 0.005;       // mm, outline simplification before offsetting
   double min_path = 0.05;        // mm, shorter infill pieces are dropped
@@ -88,6 +97,13 @@ struct PlanarStats {
   std::size_t layers = 0, paths = 0, walls = 0, skin_lines = 0, infill_lines = 0;
   double extruded_length = 0;
   LinkStats link;  // starts, their lower bound, travel (slice/link.hpp)
+  // Lattice infill: the Euler planner's trails and their proven minimum (before linking).
+  std::size_t lattice_trails = 0, lattice_trail_bound = 0;
+  // Time spent planning the layers and, of that, linking them (s, summed over the layers, so
+  // over threads: CPU time rather than wall time).
+  double layer_seconds = 0, link_seconds = 0;
+  std::vector<LinkStats> layer_link;  // per planned layer, in order
+  void add(const PlanarStats& o);     // sums, layer_link appended
 };
 
 // z of layer i's nozzle is (i + 1) · layer_height (the part's bottom on the bed).
