@@ -601,7 +601,8 @@ std::vector<std::vector<Vec2>> chain_loops(const std::vector<std::vector<Vec2>>&
     for (;;) {
       used[at] = 1;
       const auto& loop = loops[at];
-      for (std::size_t k = 0; k <= loop.size(); ++k) chain.push_back(loop[(seam + k) % loop.size()]);
+      for (std::size_t k = 0; k <= loop.size(); ++k)
+        chain.push_back(loop[(seam + k) % loop.size()]);
       const Vec2 end = chain.back();
       double best = reach * reach;
       std::size_t next = loops.size(), next_seam = 0;
