@@ -681,31 +681,73 @@ void link_layer(const std::vector<IslandPieces>& islands, const LinkOptions& o, 
       ++stats.starts;
       paths.push_back(std::move(p));
     };
-    // Walls level by level (the slicer's print order), each level's rings nearest first.
-    for (const auto& level : is.walls) {
-      std::vector<char> done(level.size(), 0);
-      std::vector<std::size_t> fixed(level.size(), 0);  // seams that do not depend on the cursor
-      if (o.seam != Seam::Nearest)
-        for (std::size_t r = 0; r < level.size(); ++r)
-          if (level[r].size() >= 3)
-            fixed[r] = seam_vertex(level[r], o.seam, cursor, o.seed, ring_key + r);
-      for (std::size_t count = 0; count < level.size(); ++count) {
-        std::size_t pick = level.size();
-        double bd = 1e300;
-        std::size_t seam = 0;
-        for (std::size_t r = 0; r < level.size(); ++r) {
-          if (done[r] || level[r].size() < 3) continue;
-          const std::size_t s =
-              o.seam == Seam::Nearest ? seam_vertex(level[r], o.seam, cursor, o.seed, 0) : fixed[r];
-          const double d = dist2(level[r][s], cursor);
-          if (d < bd) bd = d, pick = r, seam = s;
-        }
-        if (pick == level.size()) break;
-        done[pick] = 1;
-        ++stats.lower_bound;
-        emit(make_path(rotated(level[pick], seam), z, PathRole::Perimeter, w, layer_height, true));
+    // Walls: the loops around each boundary ring (the island's outline, each hole) printed
+    // together, from the inside out (walls[0] first, the last level the outer wall), so the hop
+    // between two of them is a bead; the groups in travel order. A loop belongs to the nearest
+    // loop one level further out.
+    {
+      const std::size_t levels = is.walls.size();
+      std::vector<std::vector<std::size_t>> seam(levels);
+      for (std::size_t l = 0; l < levels; ++l) {
+        seam[l].assign(is.walls[l].size(), 0);
+        if (o.seam != Seam::Nearest)
+          for (std::size_t r = 0; r < is.walls[l].size(); ++r)
+            seam[l][r] = seam_vertex(is.walls[l][r], o.seam, cursor, o.seed, ring_key + r);
+        ring_key += is.walls[l].size();
       }
-      ring_key += level.size();
+      // group[l][r]: the outermost loop (index in the last level) the loop belongs to.
+      std::vector<std::vector<std::size_t>> group(levels);
+      if (levels > 0) {
+        const auto& outer = is.walls.back();
+        group.back().resize(outer.size());
+        for (std::size_t r = 0; r < outer.size(); ++r) group.back()[r] = r;
+        for (std::size_t l = levels - 1; l-- > 0;) {
+          const auto& out = is.walls[l + 1];
+          group[l].resize(is.walls[l].size());
+          for (std::size_t r = 0; r < is.walls[l].size(); ++r) {
+            const Vec2 p = is.walls[l][r].front();
+            double best = 1e300;
+            std::size_t parent = 0;
+            for (std::size_t q = 0; q < out.size(); ++q)
+              for (const Vec2 v : out[q])
+                if (const double d = dist2(v, p); d < best) best = d, parent = q;
+            group[l][r] = out.empty() ? 0 : group[l + 1][parent];
+          }
+        }
+      }
+      const std::size_t groups = levels > 0 ? is.walls.back().size() : 0;
+      std::vector<char> group_done(groups, 0);
+      std::vector<std::vector<char>> done(levels);
+      for (std::size_t l = 0; l < levels; ++l) done[l].assign(is.walls[l].size(), 0);
+      // The nearest loop not printed (of `only` group, or any), from the innermost level out.
+      auto nearest = [&](long only, std::size_t& level, std::size_t& ring, std::size_t& at) {
+        for (std::size_t l = 0; l < levels; ++l) {
+          double bd = 1e300;
+          bool found = false;
+          for (std::size_t r = 0; r < is.walls[l].size(); ++r) {
+            if (done[l][r] || is.walls[l][r].size() < 3) continue;
+            if (only >= 0 && group[l][r] != static_cast<std::size_t>(only)) continue;
+            const std::size_t sv = o.seam == Seam::Nearest
+                                       ? seam_vertex(is.walls[l][r], o.seam, cursor, o.seed, 0)
+                                       : seam[l][r];
+            const double d = dist2(is.walls[l][r][sv], cursor);
+            if (d < bd) bd = d, level = l, ring = r, at = sv, found = true;
+          }
+          if (found) return true;
+        }
+        return false;
+      };
+      std::size_t l = 0, r = 0, sv = 0;
+      while (nearest(-1, l, r, sv)) {
+        const std::size_t g = group[l][r];
+        do {
+          done[l][r] = 1;
+          ++stats.lower_bound;
+          emit(make_path(rotated(is.walls[l][r], sv), z, PathRole::Perimeter, w, layer_height,
+                         true));
+        } while (nearest(static_cast<long>(g), l, r, sv));
+        if (g < groups) group_done[g] = 1;
+      }
     }
     // Fill: each region's lines joined into chains; all chains (and loops) of the island in
     // travel order from the last wall.
