@@ -17,6 +17,7 @@ struct AnalyzeOpts {
   GcodeReadOptions read;
   std::string design, report, png, machine;
   double filament_diameter = 1.75;  // for the volume of each part of a plate (mm)
+  bool per_layer = false;
   std::vector<std::string> files;
 };
 
@@ -27,7 +28,8 @@ void add_common(CLI::App* cmd, AnalyzeOpts& o) {
       ->capture_default_str();
   cmd->add_option("--layer-height", o.params.layer_height, "nozzle z = design z + this (mm)")
       ->capture_default_str();
-  cmd->add_option("--acceleration", o.params.acceleration, "mm/s² for the print-time estimate (0 = feed rates only)")
+  cmd->add_option("--acceleration", o.params.acceleration,
+                  "mm/s² for the print-time estimate (0 = feed rates only)")
       ->check(CLI::NonNegativeNumber);
   cmd->add_flag("--align", o.params.align_centers,
                 "move the print's XY centre onto the design's (for parts placed on the bed; done "
@@ -38,7 +40,10 @@ void add_common(CLI::App* cmd, AnalyzeOpts& o) {
                   "pneumatic files: the command that closes the valve");
   cmd->add_flag("--strict", o.read.stop_on_error,
                 "stop at the first unreadable line (default: warn and skip)");
-  cmd->add_option("--report", o.report, "JSON report to write");
+  cmd->add_option("--report", o.report, "JSON report to write (per-layer counts included)");
+  cmd->add_flag("--layers", o.per_layer,
+                "also print a line per layer: extrusion starts (with --design, beside the "
+                "fewest paths its struts allow), retractions, travel moves and length");
   cmd->add_option("--preview,--png", o.png,
                   "folder for PNGs per file and layer (FILE_layer_0000.png); with --design the "
                   "design in grey, doubles red, missing struts blue");
@@ -98,6 +103,26 @@ std::vector<Analysis> run(const AnalyzeOpts& o) {
 
 }  // namespace
 
+// A line per layer: starts (and the lower bound of the design's struts there), retractions,
+// travel.
+void print_layers(const Analysis& a) {
+  std::cout << "layer        z   starts" << (a.has_design ? "  (bound)" : "")
+            << "  retractions  travels  travel mm\n";
+  for (std::size_t i = 0; i < a.counts.per_layer.size(); ++i) {
+    const auto& l = a.counts.per_layer[i];
+    char buf[160];
+    std::snprintf(buf, sizeof buf, "%5zu %8.3f %8zu", i, l.z, l.starts);
+    std::cout << buf;
+    if (a.has_design) {
+      std::snprintf(buf, sizeof buf, "  (%5zu)", i < a.layers.size() ? a.layers[i].lower_bound : 0);
+      std::cout << buf;
+    }
+    std::snprintf(buf, sizeof buf, " %12zu %8zu %10.1f\n", l.retractions, l.travel_moves,
+                  l.travel_length);
+    std::cout << buf;
+  }
+}
+
 void add_analyze(CLI::App& app) {
   auto o = std::make_shared<AnalyzeOpts>();
   auto* cmd = app.add_subcommand(
@@ -123,6 +148,7 @@ void add_analyze(CLI::App& app) {
     const auto runs = run(*o);
     const Analysis& a = runs.front();
     if (!o->report.empty()) write_file_atomic(o->report, analysis_json(a));
+    if (o->per_layer) print_layers(a);
     std::cout << a.name << ": " << a.counts.layers << " layer(s), " << a.paths << " paths, "
               << a.counts.extrusion_starts << " extrusion starts, " << num(a.extruded_length, 1)
               << " mm extruded, " << a.counts.travel_moves << " travel moves ("
@@ -132,7 +158,9 @@ void add_analyze(CLI::App& app) {
     for (const auto& p : a.counts.parts)
       std::cout << "  part " << p.label << ": " << num(p.extruded_length, 1) << " mm extruded, "
                 << num(p.filament, 2) << " mm filament ("
-                << num(p.filament * 3.14159265358979 * o->filament_diameter * o->filament_diameter / 4, 1)
+                << num(p.filament * 3.14159265358979 * o->filament_diameter * o->filament_diameter /
+                           4,
+                       1)
                 << " mm³ at " << num(o->filament_diameter, 2) << " mm), "
                 << num(p.print_time_s / 60, 1) << " min\n";
     if (a.has_design)
@@ -152,6 +180,11 @@ void add_compare(CLI::App& app) {
   add_common(cmd, *o);
   cmd->callback([o] {
     const auto runs = run(*o);
+    if (o->per_layer)
+      for (const auto& a : runs) {
+        std::cout << a.name << ":\n";
+        print_layers(a);
+      }
     std::cout << comparison_table(runs);
     if (!o->report.empty()) {
       std::string all = "[\n";

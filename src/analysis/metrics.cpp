@@ -29,14 +29,18 @@ void CountingSink::extrude(Vec3 a, Vec3 b, double e, double feed) {
       ++counts.layers;
       layer_z_ = a.z;
       layer_pending_ = false;
+      counts.per_layer.push_back({a.z, 0, std::exchange(early_retractions_, 0), 0, 0});
     }
   }
+  if (run_starts) ++counts.per_layer.back().starts;
   path_length_ += len;
   ++path_edges_;
   if (state_ == State::Travelling && extruded_) {
     // A run of non-extruding moves between two extrusions is one travel move.
     ++counts.travel_moves;
     counts.travel_length += pending_;
+    ++counts.per_layer.back().travel_moves;
+    counts.per_layer.back().travel_length += pending_;
   }
   pending_ = 0;
   state_ = State::Extruding;
@@ -91,6 +95,10 @@ void CountingSink::finish() {
 
 void CountingSink::retract() {
   ++counts.retractions;
+  if (counts.per_layer.empty())
+    ++early_retractions_;
+  else
+    ++counts.per_layer.back().retractions;
   if (state_ == State::Extruding) state_ = State::Idle;
 }
 
@@ -301,6 +309,24 @@ Analysis analyze(const Toolpath& printed_in, const GcodeCounts& counts, const Gr
     else
       it->second.push_back(e);
   }
+  // Each level's least number of paths (its struts alone, as a graph).
+  std::vector<std::size_t> level_bound;
+  for (const auto& [z, edges] : levels) {
+    Graph g;
+    std::unordered_map<NodeId, NodeId> index;
+    auto node = [&](NodeId n) {
+      auto [it, fresh] = index.try_emplace(n, static_cast<NodeId>(g.nodes.size()));
+      if (fresh) g.nodes.push_back(design->nodes[n]);
+      return it->second;
+    };
+    for (EdgeId e : edges) {
+      Edge copy = design->edges[e];
+      copy.a = node(copy.a);
+      copy.b = node(copy.b);
+      g.edges.push_back(copy);
+    }
+    level_bound.push_back(lower_bound_paths(g));
+  }
   std::vector<bool> used(levels.size(), false);
   for (const auto& layer : printed.layers) {
     std::size_t best = 0;
@@ -311,6 +337,7 @@ Analysis analyze(const Toolpath& printed_in, const GcodeCounts& counts, const Gr
     LayerAnalysis la;
     la.z = layer.z;
     analyse_layer(*design, levels[best].second, layer, p, la);
+    la.lower_bound = level_bound[best];
     if (used[best]) la.nominal_length = 0;  // count each design level's length once
     used[best] = true;
     a.layers.push_back(std::move(la));
@@ -322,6 +349,7 @@ Analysis analyze(const Toolpath& printed_in, const GcodeCounts& counts, const Gr
       for (EdgeId e : levels[i].second) la.nominal_length += design->edge_length(e);
       la.missing = levels[i].second;
       la.design_edges = la.missing_edges = la.missing.size();
+      la.lower_bound = level_bound[i];
       a.layers.push_back(std::move(la));
     }
   for (const auto& l : a.layers) {
@@ -380,6 +408,28 @@ std::string analysis_json(const Analysis& a) {
                        {"extruded_length_mm", p.extruded_length},
                        {"filament_mm", p.filament},
                        {"print_time_s", p.print_time_s}});
+  }
+  {
+    // Per layer: starts, retractions, travel; with a design, the least number of paths.
+    nlohmann::ordered_json per;
+    per["z"] = nlohmann::json::array();
+    per["starts"] = nlohmann::json::array();
+    per["retractions"] = nlohmann::json::array();
+    per["travel_moves"] = nlohmann::json::array();
+    per["travel_mm"] = nlohmann::json::array();
+    for (const auto& l : a.counts.per_layer) {
+      per["z"].push_back(std::round(l.z * 1e4) / 1e4);
+      per["starts"].push_back(l.starts);
+      per["retractions"].push_back(l.retractions);
+      per["travel_moves"].push_back(l.travel_moves);
+      per["travel_mm"].push_back(std::round(l.travel_length * 1e3) / 1e3);
+    }
+    if (a.has_design) {
+      per["starts_lower_bound"] = nlohmann::json::array();
+      for (std::size_t i = 0; i < a.counts.per_layer.size(); ++i)
+        per["starts_lower_bound"].push_back(i < a.layers.size() ? a.layers[i].lower_bound : 0);
+    }
+    j["per_layer"] = std::move(per);
   }
   j["segments"] = a.edges_real;
   j["score"] = a.score;

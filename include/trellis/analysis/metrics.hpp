@@ -34,6 +34,15 @@ struct GcodeCounts {
     double extruded_length = 0, filament = 0, print_time_s = 0;
   };
   std::vector<Part> parts;
+  // Per layer (the IR's layers, in order): extrusion starts, retractions, travel moves and their
+  // XY length. A travel belongs to the layer of the extrusion it leads to, a retraction to the
+  // layer being printed (those before the first extrusion to the first layer).
+  struct Layer {
+    double z = 0;
+    std::size_t starts = 0, retractions = 0, travel_moves = 0;
+    double travel_length = 0;
+  };
+  std::vector<Layer> per_layer;
 };
 
 class CountingSink : public GcodeSink {
@@ -60,6 +69,7 @@ class CountingSink : public GcodeSink {
   bool commented_ = false, layer_pending_ = false, attribute_changed_ = false;
   double layer_z_ = 0;
   double pending_ = 0;  // travel length since the last extrusion
+  std::size_t early_retractions_ = 0;  // before the first extrusion
   Vec3 last_;
   std::size_t long_nodes_;
   double acceleration_;
@@ -96,6 +106,9 @@ struct LayerAnalysis {
   double double_length = 0;  // strut length covered by more than one pass (counted per extra pass)
   double off_design_length = 0;  // deposits farther than width/2 from every strut
   std::size_t design_edges = 0, missing_edges = 0;
+  // The fewest paths that print the layer's struts each once: Σ max(1, odd nodes / 2) over its
+  // connected components (lattice/graph.hpp).
+  std::size_t lower_bound = 0;
   std::vector<Segment2> doubles;  // pieces deposited twice (for pictures)
   std::vector<EdgeId> missing;    // missing struts
 };
