@@ -53,6 +53,44 @@ TEST(Analysis, TrellisOutputIsExactOnEveryPattern) {
   }
 }
 
+TEST(Analysis, PerLayerCountsSumToTheTotalsAndEulerMeetsTheBoundOnEveryLayer) {
+  // Three layers of honeycomb, each its own design level.
+  AtlasParams a;
+  a.pattern = pattern_from_string("honeycomb");
+  a.region.width = a.region.height = 8;
+  Graph g = make_lattice2d(a);
+  const std::size_t per = g.nodes.size(), edges = g.edges.size();
+  for (int level = 1; level < 3; ++level) {
+    for (std::size_t n = 0; n < per; ++n) g.nodes.push_back(g.nodes[n] + Vec3{0, 0, 0.2 * level});
+    for (std::size_t e = 0; e < edges; ++e) {
+      Edge copy = g.edges[e];
+      copy.a += static_cast<NodeId>(level * per);
+      copy.b += static_cast<NodeId>(level * per);
+      g.edges.push_back(copy);
+    }
+  }
+  for (Planner planner : {Planner::Gippo, Planner::Euler}) {
+    const Toolpath tp = plan(g, planner);
+    const Analysis m = measure(tp, g);
+    ASSERT_EQ(m.counts.per_layer.size(), 3u);
+    ASSERT_EQ(m.layers.size(), 3u);
+    std::size_t starts = 0, retractions = 0, travels = 0;
+    double travel = 0;
+    for (std::size_t i = 0; i < 3; ++i) {
+      const auto& l = m.counts.per_layer[i];
+      EXPECT_EQ(l.starts, tp.layers[i].paths.size());
+      EXPECT_GE(l.starts, m.layers[i].lower_bound);
+      if (planner == Planner::Euler) EXPECT_EQ(l.starts, m.layers[i].lower_bound);
+      starts += l.starts, retractions += l.retractions, travels += l.travel_moves;
+      travel += l.travel_length;
+    }
+    EXPECT_EQ(starts, m.counts.extrusion_starts);
+    EXPECT_EQ(retractions, m.counts.retractions);
+    EXPECT_EQ(travels, m.counts.travel_moves);
+    EXPECT_NEAR(travel, m.counts.travel_length, 1e-9 * (1 + travel));
+  }
+}
+
 TEST(Analysis, FindsDoublesMissingStrutsAndOffDesignDeposits) {
   const Graph g = test::random_planar_graph(4, 8, 8, 0.8);
   Toolpath tp = plan(g, Planner::Euler);
