@@ -165,7 +165,8 @@ std::string base64(std::string_view in) {
 //   u32 points, u32 paths; f32 xyz[points]; u32 first_point[paths];
 //   f32 attributes[paths][7] = mixture[0] (-1 none), mixture[1] (-1 unless 3+ materials),
 //   temperature, speed, width, power, mixture[2] (-1 none); u8 role[paths]; u8 tool[paths];
-//   padding to 4 bytes.
+//   padding to 4 bytes; u32 vias, and when vias > 0: u32 first_via[paths + 1], f32 xyz[vias]
+//   (the corners of the travel into each path, Path::via).
 std::string encode_layer(const Layer& layer) {
   std::size_t points = 0;
   for (const auto& p : layer.paths) points += p.points.size();
@@ -192,6 +193,19 @@ std::string encode_layer(const Layer& layer) {
   for (const auto& p : layer.paths) b += static_cast<char>(static_cast<std::uint8_t>(p.role));
   for (const auto& p : layer.paths) b += static_cast<char>(std::clamp(p.tool, 0, 255));
   while (b.size() % 4) b += '\0';
+  std::size_t vias = 0;
+  for (const auto& p : layer.paths) vias += p.via.size();
+  put_u32(b, static_cast<std::uint32_t>(vias));
+  if (vias > 0) {
+    std::uint32_t at = 0;
+    for (const auto& p : layer.paths) {
+      put_u32(b, at);
+      at += static_cast<std::uint32_t>(p.via.size());
+    }
+    put_u32(b, at);
+    for (const auto& p : layer.paths)
+      for (const auto& q : p.via) put_f32(b, q.x), put_f32(b, q.y), put_f32(b, q.z);
+  }
   return b;
 }
 

@@ -40,6 +40,9 @@ tr('lattice3d', '--cell-type', 'octet', '--cell', '7', '--count', '2,2,2', '-o',
 tr('plan', 'aero', 'octet.json', '-o', 'octet_path.json');
 tr('gcode', 'octet_path.json', '--machine', profile('embedded_aero_410um.toml'), '-o', 'octet.nc');
 tr('pbf', '--cell-type', 'gyroid', '--cell', '2.5', '--size', '5,5,2', '-o', 'gyroid.cli');
+// A sliced part: linked paths whose travel inside the part turns at `via` corners.
+tr('slice', join(source, 'examples/designs/csg_bracket.vcad'), '--machine', profile('voron_klipper.toml'),
+  '--layer-height', '0.3', '-o', 'sliced.gcode');
 run('prusa-slicer', ['--export-gcode', '--layer-height', '0.3', '--first-layer-height', '0.3',
   '-o', join(out, 'prusa.gcode'), '/usr/share/PrusaSlicer/shapes/M3_hex_nut.stl']);
 // A two-material, temperature-changing print written by hand (as another program would):
@@ -93,6 +96,10 @@ function analyze(file, ...extra) {
   const r = json(file + '.report.json');
   return { layers: r.layers, paths: r.toolpath_paths, segments: r.segments };
 }
+function travelOf(file) {
+  const r = json(file + '.report.json');
+  return { moves: r.travel_moves, length: r.travel_length_mm };
+}
 const plan = json('plan_report.json');
 tr('plan', 'aero', join(source, 'tests/data/aero/cubic_edges.csv'), '-o', 'cubic_path.json',
   '--report', 'cubic_report.json');
@@ -100,7 +107,8 @@ tr('analyze', 'gyroid.cli', '--report', 'cli_report.json');
 const cli = json('cli_report.json');
 const cases = [
   { file: 'part.gcode', expect: analyze('part.gcode') },
-  { file: 'prusa.gcode', expect: analyze('prusa.gcode') },
+  { file: 'prusa.gcode', expect: analyze('prusa.gcode'), travel: travelOf('prusa.gcode') },
+  { file: 'sliced.gcode', expect: analyze('sliced.gcode'), travel: travelOf('sliced.gcode') },
   { file: 'octet.nc', args: ['--machine', profile('embedded_aero_410um.toml')],
     expect: analyze('octet.nc', '--valve-on', 'M3', '--valve-off', 'M5') },
   { file: 'gyroid.cli', expect: { layers: cli.layers, paths: cli.vectors } },
@@ -182,6 +190,9 @@ async function runCase(c, tag = '') {
   check(errors.length === 0, `${name}: no console errors${errors.length ? ': ' + errors.join(' | ') : ''}`);
   for (const [k, v] of Object.entries(c.expect))
     check(st[k] === v, `${name}: page ${k} ${st[k]} == Trellis report ${v}`);
+  if (c.travel)  // drawn through the travel's corners, as the G-code moves (float32 positions)
+    check(st.travelMoves === c.travel.moves && Math.abs(st.travelLength - c.travel.length) <= 1e-4 * c.travel.length + 0.01,
+      `${name}: page travel ${st.travelMoves} moves, ${st.travelLength.toFixed(2)} mm == analyze ${c.travel.moves}, ${c.travel.length.toFixed(2)} mm`);
   const shown = await page.$$eval('#tv-stats-table td.v', (tds) => Object.fromEntries(tds.map((td) => [td.dataset.stat, td.textContent])));
   if (c.expect.layers !== undefined)
     check(shown.layers === String(c.expect.layers) && shown.paths === String(c.expect.paths),

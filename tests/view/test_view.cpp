@@ -55,7 +55,9 @@ Toolpath sample() {
   b.points = {{1, 1, 0.2}, {9, 4, 0.2}};
   b.role = PathRole::Infill;
   b.tool = 1;
+  b.via = {{5, 2, 0.2}};  // the travel into b turns here
   tp.layers.push_back({0.2, {a, b}});
+  b.via.clear();
   tp.layers.push_back({0.4, {b}});
   return tp;
 }
@@ -63,7 +65,8 @@ Toolpath sample() {
 }  // namespace
 
 // The page carries each layer as one binary chunk with the layout data.js decodes: counts,
-// float32 positions, path starts, seven float32 attributes per path, role and tool bytes.
+// float32 positions, path starts, seven float32 attributes per path, role and tool bytes, the
+// travel corners (via) per path.
 TEST(View, LayerChunksHoldTheToolpath) {
   const std::string html = viewer_html({view_scene(sample(), "sample")}, "sample");
   const std::string l0 = unbase64(element(html, "tv-0-l0"));
@@ -73,7 +76,23 @@ TEST(View, LayerChunksHoldTheToolpath) {
   EXPECT_EQ(counts[0], 5u);  // points
   EXPECT_EQ(counts[1], 2u);  // paths
   const std::size_t pos = 8, first = pos + 5 * 12, attr = first + 2 * 4, role = attr + 2 * 28;
-  ASSERT_EQ(l0.size(), (role + 4 + 3) / 4 * 4);
+  const std::size_t vias = (role + 4 + 3) / 4 * 4;
+  ASSERT_EQ(l0.size(), vias + 4 + 3 * 4 + 12);
+  std::uint32_t v[4];
+  std::memcpy(v, l0.data() + vias, sizeof v);
+  EXPECT_EQ(v[0], 1u);  // one corner, b's: first_via = 0, 0, 1
+  EXPECT_EQ(v[1], 0u);
+  EXPECT_EQ(v[2], 0u);
+  EXPECT_EQ(v[3], 1u);
+  float corner[3];
+  std::memcpy(corner, l0.data() + vias + 16, sizeof corner);
+  EXPECT_EQ(corner[0], 5.0f);
+  EXPECT_EQ(corner[1], 2.0f);
+  // A layer without corners ends with vias = 0.
+  const std::string l1 = unbase64(element(html, "tv-0-l1"));
+  std::uint32_t none = 1;
+  std::memcpy(&none, l1.data() + l1.size() - 4, 4);
+  EXPECT_EQ(none, 0u);
   float p[15];
   std::memcpy(p, l0.data() + pos, sizeof p);
   EXPECT_EQ(p[3], 10.0f);

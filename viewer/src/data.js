@@ -31,8 +31,17 @@ export function decodeScene(i) {
     const first = new Uint32Array(b.buffer, b.byteOffset + off, nq); off += nq * 4;
     const attr = new Float32Array(b.buffer, b.byteOffset + off, nq * ATTRS); off += nq * ATTRS * 4;
     const role = b.subarray(off, off + nq); off += nq;
-    const tool = b.subarray(off, off + nq);
-    chunks.push({ np, nq, pos, first, attr, role, tool });
+    const tool = b.subarray(off, off + nq); off += nq;
+    off = (off + 3) & ~3;
+    // The corners of the travel into each path (Path::via), if any.
+    let viaFirst = null, via = null;
+    const nv = off + 4 <= b.length ? new Uint32Array(b.buffer, b.byteOffset + off, 1)[0] : 0;
+    off += 4;
+    if (nv > 0) {
+      viaFirst = new Uint32Array(b.buffer, b.byteOffset + off, nq + 1); off += (nq + 1) * 4;
+      via = new Float32Array(b.buffer, b.byteOffset + off, nv * 3);
+    }
+    chunks.push({ np, nq, pos, first, attr, role, tool, viaFirst, via });
     points += np;
     paths += nq;
   }
@@ -42,6 +51,7 @@ export function decodeScene(i) {
   const attr = new Float32Array(paths * ATTRS);
   const role = new Uint8Array(paths), tool = new Uint8Array(paths);
   const layerSeg = new Uint32Array(L + 1), layerTravel = new Uint32Array(L + 1);
+  const viaOf = new Array(paths).fill(null);  // a path's travel corners (Float32Array xyz), if any
   let segments = 0, P = 0, Q = 0;
   for (let l = 0; l < L; ++l) {
     const c = chunks[l];
@@ -50,6 +60,7 @@ export function decodeScene(i) {
     role.set(c.role, Q);
     tool.set(c.tool, Q);
     for (let q = 0; q < c.nq; ++q) {
+      if (c.via && c.viaFirst[q + 1] > c.viaFirst[q]) viaOf[Q + q] = c.via.subarray(3 * c.viaFirst[q], 3 * c.viaFirst[q + 1]);
       pathFirst[Q + q] = P + c.first[q];
       pathLayer[Q + q] = l;
       const end = q + 1 < c.nq ? c.first[q + 1] : c.np;
@@ -71,19 +82,29 @@ export function decodeScene(i) {
       extruded += Math.sqrt(dx * dx + dy * dy + dz * dz);
     }
   const lod = lodIndex(pathFirst, pathLayer, paths, L, segments);
-  // Travel: from each path's last point to the next path's first point, in print order.
-  const travelList = [];
-  let travelLength = 0, t = 0;
+  // Travel: from each path's last point through its travel corners (if any) to the next path's
+  // first point, in print order; one travel move per path, drawn as segments.
+  const travelList = [];  // segment ends, xyz
+  let travelLength = 0, travelMoves = 0, t = 0;
   for (let q = 1; q < paths; ++q) {
     const a = (pathFirst[q] - 1) * 3, b = pathFirst[q] * 3;
-    const dx = positions[b] - positions[a], dy = positions[b + 1] - positions[a + 1], dz = positions[b + 2] - positions[a + 2];
-    // Length in XY, as `trellis analyze` reports travel (a Z hop adds nothing).
-    if (dx * dx + dy * dy + dz * dz > 1e-18) { travelList.push(a, b); travelLength += Math.sqrt(dx * dx + dy * dy); }
+    const pts = [positions.subarray(a, a + 3)];
+    const v = viaOf[q];
+    if (v) for (let j = 0; j < v.length; j += 3) pts.push(v.subarray(j, j + 3));
+    pts.push(positions.subarray(b, b + 3));
+    let moved = false;
+    for (let j = 1; j < pts.length; ++j) {
+      const p0 = pts[j - 1], p1 = pts[j];
+      const dx = p1[0] - p0[0], dy = p1[1] - p0[1], dz = p1[2] - p0[2];
+      // Length in XY, as `trellis analyze` reports travel (a Z hop adds nothing).
+      if (dx * dx + dy * dy + dz * dz > 1e-18) { travelList.push(p0, p1); travelLength += Math.sqrt(dx * dx + dy * dy); moved = true; }
+    }
+    if (moved) ++travelMoves;
     while (t < pathLayer[q]) layerTravel[++t] = travelList.length / 2;
   }
   while (t < L) layerTravel[++t] = travelList.length / 2;
   const travel = new Float32Array(travelList.length * 3);
-  for (let j = 0; j < travelList.length; ++j) travel.set(positions.subarray(travelList[j], travelList[j] + 3), j * 3);
+  for (let j = 0; j < travelList.length; ++j) travel.set(travelList[j], j * 3);
   const bbox = new Box3();
   const v = new Vector3();
   for (let j = 0; j < positions.length; j += 3) bbox.expandByPoint(v.set(positions[j], positions[j + 1], positions[j + 2]));
@@ -122,7 +143,7 @@ export function decodeScene(i) {
   return {
     meta, layerCount: L, positions, pathFirst, pathLayer, pathCount: paths, attr, role, tool, index,
     layerSeg, layerTravel, travel, bbox, design, lod, deviation, hits,
-    stats: { layers: L, paths, segments, points, extruded, travelMoves: travelList.length / 2, travelLength,
+    stats: { layers: L, paths, segments, points, extruded, travelMoves, travelLength,
       designLines: design ? design.lines : 0, designFlagged: design ? flaggedCount(design) : 0,
       collisions: meta.checked ? meta.collisions : null, ringed: hits.length },
   };
