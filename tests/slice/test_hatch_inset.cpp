@@ -8,26 +8,13 @@
 #include <random>
 
 #include "trellis/geom/regions.hpp"
+#include "support/random_regions.hpp"
 
 using namespace trellis;
+using test::outline_distance;
+using test::segment_distance;
 
 namespace {
-
-double segment_distance(Vec2 p, Vec2 a, Vec2 b) {
-  const Vec2 d = b - a;
-  const double dd = d.x * d.x + d.y * d.y;
-  const double t = dd > 0 ? std::clamp(((p.x - a.x) * d.x + (p.y - a.y) * d.y) / dd, 0.0, 1.0) : 0;
-  const Vec2 q = a + d * t;
-  return std::hypot(p.x - q.x, p.y - q.y);
-}
-
-double outline_distance(Vec2 p, const Regions& r) {
-  double best = 1e300;
-  for (const auto& ring : rings_of(r))
-    for (std::size_t i = 0, j = ring.size() - 1; i < ring.size(); j = i++)
-      best = std::min(best, segment_distance(p, ring[j], ring[i]));
-  return best;
-}
 
 bool inside(Vec2 p, const Regions& r) {  // even-odd over all rings
   bool in = false;

@@ -18,6 +18,8 @@
 #include "support/random_regions.hpp"
 
 using namespace trellis;
+using test::outline_distance;
+using test::segment_distance;
 
 namespace {
 
@@ -26,21 +28,9 @@ constexpr double kPi = std::numbers::pi;
 using test::random_region;
 using test::star;
 
-double segment_distance(Vec2 p, Vec2 a, Vec2 b) {
-  return distance_to_segment({p.x, p.y, 0}, {a.x, a.y, 0}, {b.x, b.y, 0});
-}
-
 Vec2 turn_deg(Vec2 p, double deg) {
   const double t = deg * kPi / 180;
   return {std::cos(t) * p.x - std::sin(t) * p.y, std::sin(t) * p.x + std::cos(t) * p.y};
-}
-
-double outline_distance(Vec2 p, const Regions& r) {
-  double best = 1e300;
-  for (const auto& ring : rings_of(r))
-    for (std::size_t i = 0, j = ring.size() - 1; i < ring.size(); j = i++)
-      best = std::min(best, segment_distance(p, ring[j], ring[i]));
-  return best;
 }
 
 bool inside(const Regions& r, Vec2 p, double tol = 1e-6) {

@@ -19,6 +19,7 @@
 #include "trellis/geom/regions.hpp"
 #include "trellis/slice/pipeline.hpp"
 #include "trellis/slice/slice.hpp"
+#include "support/random_regions.hpp"
 
 using namespace trellis;
 
@@ -27,16 +28,6 @@ namespace {
 const std::string kDesigns = std::string(TRELLIS_SOURCE_DIR) + "/examples/designs/";
 constexpr double kPi = std::numbers::pi;
 
-double seg_dist(Vec2 p, Vec2 a, Vec2 b) {
-  return distance_to_segment({p.x, p.y, 0}, {a.x, a.y, 0}, {b.x, b.y, 0});
-}
-double dist_to_rings(Vec2 p, const Regions& r) {
-  double best = 1e300;
-  for (const auto& ring : rings_of(r))
-    for (std::size_t i = 0, j = ring.size() - 1; i < ring.size(); j = i++)
-      best = std::min(best, seg_dist(p, ring[j], ring[i]));
-  return best;
-}
 
 struct Analytic {
   std::string name;
@@ -128,7 +119,7 @@ TEST(Contours, MatchExactCrossSections) {
       EXPECT_LT(worst, 1e-3 * opt.resolution) << s.name << " z=" << z;
       // Hausdorff: exact boundary → contour within the resolution (contour → exact is `worst`).
       double back = 0;
-      for (auto p : s.boundary(z)) back = std::max(back, dist_to_rings(p, r));
+      for (auto p : s.boundary(z)) back = std::max(back, test::outline_distance(p, r));
       EXPECT_LT(back, opt.resolution) << s.name << " z=" << z;
     }
   }
@@ -764,9 +755,9 @@ TEST(Routes, FieldAndMeshRoutesAgreeOnTheVase) {
     EXPECT_NEAR(area(a), area(b), 0.01 * area(b)) << z;
     double worst = 0;
     for (const auto& ring : rings_of(a))
-      for (std::size_t i = 0; i < ring.size(); i += 7) worst = std::max(worst, dist_to_rings(ring[i], b));
+      for (std::size_t i = 0; i < ring.size(); i += 7) worst = std::max(worst, test::outline_distance(ring[i], b));
     for (const auto& ring : rings_of(b))
-      for (auto p : ring) worst = std::max(worst, dist_to_rings(p, a));
+      for (auto p : ring) worst = std::max(worst, test::outline_distance(p, a));
     EXPECT_LT(worst, voxel) << "z=" << z;
   }
 }
@@ -794,7 +785,7 @@ struct Raster {
       const int j1 = std::min(ny - 1, static_cast<int>((std::max(a.y, b.y) + w - y0) / px));
       for (int j = j0; j <= j1; ++j)
         for (int i = i0; i <= i1; ++i)
-          if (seg_dist(center(i, j), a, b) <= w / 2) hit[static_cast<std::size_t>(j) * nx + i] = 1;
+          if (test::segment_distance(center(i, j), a, b) <= w / 2) hit[static_cast<std::size_t>(j) * nx + i] = 1;
     }
     for (std::size_t q = 0; q < hit.size(); ++q) count[q] += hit[q];
   }
@@ -834,7 +825,7 @@ TEST(Planar, WallsInsideNotOverlappingInfillAtDensity) {
       ASSERT_TRUE(inside(outline, q.xy()));
       if (p.role == PathRole::Perimeter) {
         // Walls stay at least half a bead inside the outline.
-        EXPECT_GE(dist_to_rings(q.xy(), outline), 0.5 * o.bead_width - 1e-3);
+        EXPECT_GE(test::outline_distance(q.xy(), outline), 0.5 * o.bead_width - 1e-3);
       }
     }
     (p.role == PathRole::Perimeter ? walls : fill).stamp(p, o.bead_width);

@@ -1,4 +1,5 @@
-// Seeded random polygons with holes for property tests (slice: infill patterns, linking).
+// Seeded random polygons with holes for property tests (slice: infill patterns, linking), and
+// distances to their outlines.
 #pragma once
 #include <algorithm>
 #include <cmath>
@@ -52,6 +53,18 @@ inline Regions random_region(Rng& rng, double scale) {
     out.push_back(island);
   }
   return out;
+}
+
+// Distance from p to segment a-b, and to the nearest ring of a region.
+inline double segment_distance(Vec2 p, Vec2 a, Vec2 b) {
+  return distance_to_segment({p.x, p.y, 0}, {a.x, a.y, 0}, {b.x, b.y, 0});
+}
+inline double outline_distance(Vec2 p, const Regions& r) {
+  double best = 1e300;
+  for (const auto& ring : rings_of(r))
+    for (std::size_t i = 0, j = ring.size() - 1; i < ring.size(); j = i++)
+      best = std::min(best, segment_distance(p, ring[j], ring[i]));
+  return best;
 }
 
 }  // namespace trellis::test
