@@ -209,7 +209,11 @@ def slice(
     bottom: int = ...,  # slice.bottom: solid bottom layers
     center: bool = ...,  # placement.center: move the part's XY centre to the bed centre (false: design coordinates are bed coordinates)
     colors: int = ...,  # fgm.colors: palette size (two materials: N bands; three: d² triangles, e.g. 9)
+    comb: bool = ...,  # slice.comb: keep travel inside the part (crossing no outer wall) where a route inside is at most slice.comb_detour times the straight distance; such travel does not retract (r
+    comb_detour: float = ...,  # slice.comb_detour: longest route inside the part, as a multiple of the straight distance (plus one bead); a longer one goes straight and retracts
     concentric: bool = ...,  # fgm.concentric: Strategy 2: concentric fill instead of rectilinear
+    connect: bool = ...,  # slice.connect: join skin and infill lines along the edge of their region into serpentines (as PrusaSlicer's connected rectilinear infill); --no-connect prints every line as
+    connect_max: float = ...,  # slice.connect_max: longest connector between two fill lines along their region's edge, in line spacings (a longer gap starts a new path)
     fan_step: float = ...,  # process.fan_step: quantum of a fan field
     fgm_perimeters: int = ...,  # fgm.perimeters: Strategy 2, rectilinear: rings around each colour face before its lines (the FGM paper's palette plates: 3)
     fixed_angle: bool = ...,  # fgm.fixed_angle: Strategy 2: lines at slice.infill_angle instead of along the iso-lines
@@ -232,6 +236,8 @@ def slice(
     repair: bool = ...,  # slice.repair: repair meshes that are not closed and manifold (stitch seams, drop degenerate and duplicate faces, orient, fill small holes, split non-manifold edges); --no-re
     resolution: float = ...,  # slice.resolution: XY grid step of field contours
     route: Literal['auto', 'field', 'mesh'] = ...,  # slice.route: auto (.vcad: field, meshes: mesh), field (contours of the implicit field) or mesh (plane cuts)
+    seam: Literal['aligned', 'nearest', 'rear', 'random'] = ...,  # slice.seam: where each wall loop starts: aligned (a sharp corner, else the rear-most point: the same place on every layer), nearest 
+    seam_seed: int = ...,  # slice.seam_seed: random seams: the seed
     speed: float = ...,  # speed.print: printing speed
     speed_step: float = ...,  # process.speed_step: quantum of a speed field (as above)
     strategy: int = ...,  # slice.strategy: graded designs (FGM paper): 1 walls/infill cut by colour faces + purge, 2 colour faces filled densely, none (0) one material on purpose; a graded design wit

@@ -94,7 +94,7 @@ class Reader {
   std::size_t pos_ = 0;
 };
 
-constexpr char kMagic[8] = {'T', 'R', 'L', 'S', 'H', 'R', 'D', '2'};  // 2: flow, fan, joined
+constexpr char kMagic[8] = {'T', 'R', 'L', 'S', 'H', 'R', 'D', '3'};  // 2: flow, fan, joined; 3: via, inside
 
 std::string shard_name(const std::string& output, int k, int n) {
   return output + fmt::format(".shard-{}-of-{}", k, n);
@@ -229,10 +229,13 @@ std::string shard_bytes(const std::vector<Layer>& layers) {
       put<std::int32_t>(out, p.tool);
       put<std::int32_t>(out, p.part);
       put<std::int32_t>(out, p.joined ? 1 : 0);
+      put<std::int32_t>(out, p.inside ? 1 : 0);
       for (double v : {p.width, p.height, p.speed, p.power, p.filament, p.temperature, p.flow, p.fan})
         put(out, v);
       put<std::uint64_t>(out, p.mixture.size());
       for (double v : p.mixture) put(out, v);
+      put<std::uint64_t>(out, p.via.size());
+      for (const Vec3& q : p.via) put(out, q.x), put(out, q.y), put(out, q.z);
       put<std::uint64_t>(out, p.points.size());
       for (const Vec3& q : p.points) put(out, q.x), put(out, q.y), put(out, q.z);
     }
@@ -248,7 +251,7 @@ std::vector<Layer> layers_from_shard_bytes(const std::string& bytes, const std::
   std::vector<Layer> layers(r.count(16));
   for (Layer& l : layers) {
     l.z = r.get<double>();
-    l.paths.resize(r.count(16 + 8 * 8 + 16));
+    l.paths.resize(r.count(20 + 8 * 8 + 24));
     for (Path& p : l.paths) {
       const auto role = r.get<std::int32_t>();
       if (role < 0 || role > static_cast<std::int32_t>(PathRole::Purge))
@@ -257,11 +260,14 @@ std::vector<Layer> layers_from_shard_bytes(const std::string& bytes, const std::
       p.tool = r.get<std::int32_t>();
       p.part = r.get<std::int32_t>();
       p.joined = r.get<std::int32_t>() != 0;
+      p.inside = r.get<std::int32_t>() != 0;
       for (double* v : {&p.width, &p.height, &p.speed, &p.power, &p.filament, &p.temperature,
                         &p.flow, &p.fan})
         *v = r.get<double>();
       p.mixture.resize(r.count(8));
       for (double& v : p.mixture) v = r.get<double>();
+      p.via.resize(r.count(24));
+      for (Vec3& q : p.via) q.x = r.get<double>(), q.y = r.get<double>(), q.z = r.get<double>();
       p.points.resize(r.count(24));
       for (Vec3& q : p.points) q.x = r.get<double>(), q.y = r.get<double>(), q.z = r.get<double>();
     }

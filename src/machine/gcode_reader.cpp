@@ -372,6 +372,12 @@ class ToolpathBuilder : public GcodeSink {
     close();
     Layer& layer = layer_for(a.z);
     Path p;
+    // The travel's corners in XY (a Z hop adds none) become the path's via points.
+    for (const Vec3& v : travel_) {
+      const Vec3 last = p.via.empty() ? travel_from_ : p.via.back();
+      if (distance_xy(v, last) > 1e-9 && distance_xy(v, a) > 1e-9) p.via.push_back(v);
+    }
+    travel_.clear();
     p.points = {a, b};
     p.tool = tool_;
     p.role = role_;
@@ -385,7 +391,11 @@ class ToolpathBuilder : public GcodeSink {
     layer.paths.push_back(std::move(p));
     path_ = &layer.paths.back();
   }
-  void travel(Vec3, Vec3, double) override { close(); }
+  void travel(Vec3 a, Vec3 b, double) override {
+    if (path_ || travel_.empty()) travel_from_ = a, travel_.clear();
+    close();
+    travel_.push_back(b);
+  }
   void retract() override { close(); }
   void tool_change(int tool) override {
     close();
@@ -438,6 +448,8 @@ class ToolpathBuilder : public GcodeSink {
 
   Toolpath& tp_;
   Path* path_ = nullptr;
+  Vec3 travel_from_;          // where the travel since the last extrusion began
+  std::vector<Vec3> travel_;  // its moves' ends
   int tool_ = 0, part_ = 0;
   PathRole role_ = PathRole::Strut;
   std::vector<double> mixture_;

@@ -476,7 +476,8 @@ class Writer {
 
   // The horizontal part of a travel (the tool's XY offset added), counted in the stats; with
   // `with_z` the move goes straight to q's height as well.
-  void move_xy(Vec3 q, double d, bool with_z = false) {
+  // `more`: a further leg of a travel through `via` points, already counted as one move.
+  void move_xy(Vec3 q, double d, bool with_z = false, bool more = false) {
     const Vec2 o = offset();
     const double len = with_z && known_ ? distance(pos_, q) : d;
     // The line composed in one buffer, appended once (the writer's hot path, with print_move).
@@ -496,7 +497,7 @@ class Writer {
     *b++ = '\n';
     out_.append(buf, static_cast<std::size_t>(b - buf));
     if (known_) {
-      ++stats_.travel_moves;
+      if (!more) ++stats_.travel_moves;
       stats_.travel_length += d;
       stats_.print_time_s += move_time(len, p_.travel_speed, p_.acceleration);
     }
@@ -504,17 +505,28 @@ class Writer {
     pos_.y = q.y;
   }
 
-  void travel_to(Vec3 q) {
+  // To q, through `via` (the linking stage's route, slice/link.hpp). A travel kept inside the
+  // part retracts and lifts only beyond retraction.inside_max; any other from min_travel on.
+  void travel_to(Vec3 q, const std::vector<Vec3>& via = {}, bool inside = false) {
     if (flavor_ == Flavor::Embedded) return travel_embedded(q);
-    const double d = known_ ? distance_xy(pos_, q) : 0;
+    double d = 0;
+    if (known_) {
+      Vec3 at = pos_;
+      for (const Vec3& v : via) d += distance_xy(at, v), at = v;
+      d += distance_xy(at, q);
+    }
     if (known_ && d < 1e-9 && std::abs(pos_.z - q.z) < 1e-9) return;
-    const bool far = known_ && d >= p_.min_travel;
+    const bool far = known_ && d >= p_.min_travel &&
+                     (!inside || (p_.inside_max > 0 && d > p_.inside_max));
     if (flavor_ == Flavor::Marlin && far && printed_ && p_.retract_length > 0) retract();
     const double hop = far ? p_.z_hop : 0;
     const double safe_z = std::max(known_ ? std::max(pos_.z, q.z) + hop : q.z + std::max(hop, 1.0),
                                    std::exchange(rise_to_, 0.0));
     if (!known_ || safe_z > pos_.z + 1e-9) move_z(safe_z);
-    move_xy(q, d);
+    bool more = false;
+    if (known_)
+      for (const Vec3& v : via) move_xy(v, distance_xy(pos_, v), false, std::exchange(more, true));
+    move_xy(q, known_ ? distance_xy(pos_, q) : 0, false, more);
     if (std::abs(pos_.z - q.z) > 1e-9) move_z(q.z);
     known_ = true;
     if (retracted_) unretract();
@@ -832,7 +844,7 @@ class Writer {
     }
     const Path& path = *pp;
     rise_over_finished_parts(path);
-    travel_to(path.points.front());
+    travel_to(path.points.front(), path.via, path.inside);
     feature_comments(path);
     if (streamed_) locate_changes(path);
     emit_changes(1, 0.0);

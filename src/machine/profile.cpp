@@ -104,6 +104,10 @@ const std::vector<SettingDecl>& machine_settings() {
       {"retraction.z_hop", "mm", "lift during travel", 0, 50, &P::z_hop},
       {"retraction.min_travel", "mm", "no retraction or lift for shorter travel", 0, 1000,
        &P::min_travel},
+      {"retraction.inside_max", "mm",
+       "a travel the slicer keeps inside the part (crossing no outer wall) retracts and lifts "
+       "only when longer than this; 0 = never",
+       0, 100000, &P::inside_max},
       {"flow.pre", "mm", "extra filament primed at each path start (marlin)", 0, 50, &P::pre_flow},
       {"flow.post", "mm", "extra filament pushed at each path end (marlin)", 0, 50, &P::post_flow},
       {"flow.pre_dwell", "s", "dwell at each path start after priming / opening", 0, 60,

@@ -206,6 +206,7 @@ void render_layer_png(const Toolpath& tp, std::size_t index, const std::string& 
     for (std::size_t i = 1; i < n; ++i) {
       const Vec3 a = layer.paths[i - 1].points.back(), b = layer.paths[i].points.front();
       cairo_move_to(cr.get(), a.x, a.y);
+      for (const Vec3& v : layer.paths[i].via) cairo_line_to(cr.get(), v.x, v.y);
       cairo_line_to(cr.get(), b.x, b.y);
     }
     cairo_stroke(cr.get());
@@ -385,6 +386,10 @@ void render_3d_png(const Toolpath& tp, const std::string& path, const View3dOpti
       const auto [ax, ay] = to_px(paths[i - 1]->points.back());
       const auto [bx, by] = to_px(paths[i]->points.front());
       cairo_move_to(cr.get(), ax, ay);
+      for (const Vec3& v : paths[i]->via) {
+        const auto [vx, vy] = to_px(v);
+        cairo_line_to(cr.get(), vx, vy);
+      }
       cairo_line_to(cr.get(), bx, by);
     }
     cairo_stroke(cr.get());

@@ -520,6 +520,35 @@ std::vector<Setting> make_table() {
                       "degenerate and duplicate faces, orient, fill small holes, split "
                       "non-manifold edges); --no-repair refuses them",
                       "repair", [](C& c) -> auto& { return c.slice.repair; }));
+  t.push_back(choice_enum<Seam>(
+      "slice.seam",
+      {{"aligned", Seam::Aligned}, {"nearest", Seam::Nearest}, {"rear", Seam::Rear},
+       {"random", Seam::Random}},
+      "where each wall loop starts: aligned (a sharp corner, else the rear-most point: the same "
+      "place on every layer), nearest (where the nozzle is), rear (largest Y), random (drawn "
+      "from slice.seam_seed)",
+      "seam", [](C& c) -> auto& { return c.slice.planar.link.seam; }));
+  t.push_back(integer("slice.seam_seed", 0, 9e15, "random seams: the seed", "seam-seed",
+                      [](C& c) -> auto& { return c.slice.planar.link.seed; }));
+  t.push_back(boolean("slice.connect",
+                      "join skin and infill lines along the edge of their region into "
+                      "serpentines (as PrusaSlicer's connected rectilinear infill); --no-connect "
+                      "prints every line as a path of its own",
+                      "connect", [](C& c) -> auto& { return c.slice.planar.link.connect; }));
+  t.push_back(positive("slice.connect_max", "", 1000,
+                       "longest connector between two fill lines along their region's edge, in "
+                       "line spacings (a longer gap starts a new path)",
+                       "connect-max", [](C& c) -> auto& { return c.slice.planar.link.connect_max; }));
+  t.push_back(boolean("slice.comb",
+                      "keep travel inside the part (crossing no outer wall) where a route inside "
+                      "is at most slice.comb_detour times the straight distance; such travel does "
+                      "not retract (retraction.inside_max); --no-comb: straight travel, every one "
+                      "treated as leaving the part",
+                      "comb", [](C& c) -> auto& { return c.slice.planar.link.comb; }));
+  t.push_back(positive("slice.comb_detour", "", 100,
+                       "longest route inside the part, as a multiple of the straight distance "
+                       "(plus one bead); a longer one goes straight and retracts",
+                       "comb-detour", [](C& c) -> auto& { return c.slice.planar.link.comb_detour; }));
   {
     Setting strategy = integer(
         "slice.strategy", 0, 2,

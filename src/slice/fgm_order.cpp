@@ -166,6 +166,7 @@ std::vector<Piece> split_paths(const std::vector<Path>& paths, EdgeGrid& edges,
       Piece piece{proto, colour_of(zones[p])};
       piece.path.mixture = palette.mixture(piece.color);
       piece.path.joined = p > 0 || path.joined;
+      if (p > 0) piece.path.via.clear();  // the travel into the path is the first piece's
       auto& q = piece.path.points;
       q.push_back(point_at(c0));
       // The vertices strictly between the two cuts.
@@ -245,6 +246,8 @@ void merge_short_runs(std::vector<Piece>& pieces, Evaluator& ev, double z, const
         next.points.insert(next.points.begin(), bead[i].path.points.begin(),
                            bead[i].path.points.end() - 1);
         next.joined = bead[i].path.joined;
+        next.via = bead[i].path.via;  // the travel into the bead, if it began it
+        next.inside = bead[i].path.inside;
       }
       bead.erase(bead.begin() + static_cast<long>(i));
       // The pieces on both sides of it may now be of one colour: one piece.
@@ -313,6 +316,9 @@ void group_by_tool(std::vector<Piece>& pieces, bool reverse, Vec2& cursor) {
       // Pieces that meet end to start (a wall cut at its seam) stay one bead.
       p.path.joined = !out.empty() && out.back().color == c &&
                       len2(out.back().path.points.back().xy(), pts.front().xy()) < 1e-9;
+      // Reordered: the travel into it is no longer the one planned (a straight move).
+      p.path.via.clear();
+      p.path.inside = false;
       cursor = pts.back().xy();
       out.push_back(std::move(p));
     }

@@ -599,7 +599,7 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
     for (const Path& path : layer.paths) {
       if (path.points.empty()) continue;
       if (last_point) {
-        const double dd = distance(*last_point, path.points.front());
+        const double dd = travel_into(*last_point, path);
         if (dd > 1e-9) ++r.travel.moves, r.travel.length += dd;
       }
       last_point = path.points.back();

@@ -9,6 +9,7 @@
 
 #include "trellis/core/error.hpp"
 #include "trellis/geom/mesh_io.hpp"
+#include "trellis/slice/link.hpp"
 
 namespace trellis {
 
@@ -129,34 +130,6 @@ Regions intersect_all(const std::vector<Regions>& layers, long from, long to) {
   return acc;
 }
 
-Path make_path(const std::vector<Vec2>& pts, double z, PathRole role, const PlanarOptions& o,
-               bool closed) {
-  Path p;
-  p.role = role;
-  p.width = o.bead_width;
-  p.height = o.layer_height;
-  p.points.reserve(pts.size() + 1);
-  for (auto v : pts) p.points.push_back({v.x, v.y, z});
-  if (closed && !pts.empty()) p.points.push_back({pts[0].x, pts[0].y, z});
-  return p;
-}
-
-// A closed ring rotated to start at the vertex nearest `from`.
-std::vector<Vec2> rotate_to_nearest(const std::vector<Vec2>& ring, Vec2 from) {
-  std::size_t best = 0;
-  double bd = 1e300;
-  for (std::size_t i = 0; i < ring.size(); ++i) {
-    const double d = dist2(ring[i], from);
-    if (d < bd) {
-      bd = d;
-      best = i;
-    }
-  }
-  std::vector<Vec2> out(ring.begin() + static_cast<long>(best), ring.end());
-  out.insert(out.end(), ring.begin(), ring.begin() + static_cast<long>(best));
-  return out;
-}
-
 // Hatch lines in sweep order → greedy nearest end among the next few lines (zig-zag order).
 void order_lines(std::vector<Segment2> lines, Vec2& cursor, std::vector<std::vector<Vec2>>& out) {
   constexpr std::size_t kWindow = 24;
@@ -190,10 +163,6 @@ void order_lines(std::vector<Segment2> lines, Vec2& cursor, std::vector<std::vec
   }
 }
 
-struct IslandOrder {
-  Vec2 anchor;
-  std::size_t index;
-};
 
 }  // namespace
 
@@ -407,56 +376,52 @@ Toolpath plan_planar(const std::vector<LayerOutline>& layers, const PlanarOption
     const double skin_angle = 45.0 + (odd ? 90.0 : 0.0);
     const double sparse_spacing = o.infill_density > 0 ? w / o.infill_density : 0;
 
-    // Islands in a stable order, nearest-first from the origin corner.
-    Vec2 cursor{-1e9, -1e9};
-    std::vector<char> done(outline[i].size(), 0);
-    for (std::size_t count = 0; count < outline[i].size(); ++count) {
-      std::size_t pick = 0;
-      double bd = 1e300;
-      for (std::size_t k = 0; k < outline[i].size(); ++k) {
-        if (done[k] || outline[i][k].outer.empty()) continue;
-        for (const auto& v : outline[i][k].outer) {
-          const double d = dist2(v, cursor);
-          if (d < bd) {
-            bd = d;
-            pick = k;
-          }
-        }
-      }
-      done[pick] = 1;
-      const Regions island{outline[i][pick]};
-      // Walls from the inside out (the outer wall last keeps the surface clean).
+    // Each island's walls (inside first, the outer wall last keeps the surface clean) and fill
+    // lines, linked into paths by the linking stage (slice/link.hpp).
+    std::vector<IslandPieces> islands;
+    islands.reserve(outline[i].size());
+    for (const auto& poly : outline[i]) {
+      if (poly.outer.empty()) continue;
+      IslandPieces& is = islands.emplace_back();
+      is.outline = poly;
+      is.bead_width = w;
+      const Regions island{poly};
       std::vector<Regions> wall_regions;
       for (int k = 0; k < o.walls; ++k) {
         Regions r = offset(island, -(k + 0.5) * w);
         if (r.empty()) break;
         wall_regions.push_back(std::move(r));
       }
-      for (auto it = wall_regions.rbegin(); it != wall_regions.rend(); ++it)
-        for (const auto& ring : rings_of(*it)) {
-          if (ring.size() < 3) continue;
-          const auto start = rotate_to_nearest(ring, cursor);
-          layer.paths.push_back(make_path(start, z, PathRole::Perimeter, o, true));
-          cursor = start.front();
-          ++per[i].walls;
-        }
+      for (auto it = wall_regions.rbegin(); it != wall_regions.rend(); ++it) {
+        auto rings = rings_of(*it);
+        std::erase_if(rings, [](const auto& r) { return r.size() < 3; });
+        per[i].walls += rings.size();
+        is.walls.push_back(std::move(rings));
+      }
       // Infill region: inside the innermost wall, reaching `infill_overlap` of a bead into it.
       const double inset = static_cast<double>(wall_regions.size()) * w + 0.5 * w - o.infill_overlap * w;
       const Regions inner = offset(island, -inset);
       if (inner.empty()) continue;
       const Regions solid = skin.empty() ? Regions{} : intersection(inner, near(skin, box_of(inner)));
       const Regions sparse = solid.empty() ? inner : difference(inner, solid);
-      auto emit = [&](const Regions& r, double angle, double spacing, PathRole role,
-                      std::size_t& counter) {
+      auto add_fill = [&](const Regions& r, double angle, double spacing, PathRole role) {
         if (r.empty() || !(spacing > 0)) return;
-        const bool link = role == PathRole::Skin;
-        for (const auto& run : fill_lines(r, angle, spacing, o.bead_width, o.min_path, link, cursor)) {
-          layer.paths.push_back(make_path(run, z, role, o, false));
-          ++counter;
-        }
+        IslandPieces::Fill& f = is.fills.emplace_back();
+        f.role = role;
+        f.region = r;
+        f.spacing = spacing;
+        for (const auto& seg : hatch(r, angle, spacing))
+          if (std::sqrt(dist2(seg.a, seg.b)) >= o.min_path) f.lines.push_back({seg.a, seg.b});
       };
-      emit(solid, skin_angle, w, PathRole::Skin, per[i].skin_lines);
-      emit(sparse, infill_angle, sparse_spacing, PathRole::Infill, per[i].infill_lines);
+      add_fill(solid, skin_angle, w, PathRole::Skin);
+      add_fill(sparse, infill_angle, sparse_spacing, PathRole::Infill);
+    }
+    Vec2 cursor{-1e9, -1e9};
+    LinkStats& ls = per[i].link;
+    link_layer(islands, o.link, z, o.layer_height, g, cursor, false, layer.paths, ls);
+    for (const auto& p : layer.paths) {
+      if (p.role == PathRole::Skin) ++per[i].skin_lines;
+      if (p.role == PathRole::Infill) ++per[i].infill_lines;
     }
   });
   PlanarStats total;
@@ -473,6 +438,7 @@ Toolpath plan_planar(const std::vector<LayerOutline>& layers, const PlanarOption
     total.walls += per[i].walls;
     total.skin_lines += per[i].skin_lines;
     total.infill_lines += per[i].infill_lines;
+    total.link.add(per[i].link);
     total.paths += tp.layers[i].paths.size();
     for (const auto& p : tp.layers[i].paths) total.extruded_length += p.length();
   }

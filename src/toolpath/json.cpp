@@ -29,6 +29,12 @@ std::string toolpath_to_json(const Toolpath& tp) {
       if (p.flow != 0) jp["flow"] = p.flow;
       if (p.fan >= 0) jp["fan"] = p.fan;
       if (p.joined) jp["joined"] = true;
+      if (!p.via.empty()) {
+        json via = json::array();
+        for (const auto& q : p.via) via.push_back({q.x, q.y, q.z});
+        jp["via"] = std::move(via);
+      }
+      if (p.inside) jp["inside"] = true;
       paths.push_back(std::move(jp));
     }
     layers.push_back({{"z", layer.z}, {"paths", std::move(paths)}});
@@ -91,6 +97,19 @@ Path parse_path(const json& jp, const std::string& origin, const std::string& el
   if (auto it = jp.find("joined"); it != jp.end()) {
     if (!it->is_boolean()) throw ParseError("joined must be true or false", {origin, 0, el + ".joined"});
     p.joined = it->get<bool>();
+  }
+  if (auto it = jp.find("inside"); it != jp.end()) {
+    if (!it->is_boolean()) throw ParseError("inside must be true or false", {origin, 0, el + ".inside"});
+    p.inside = it->get<bool>();
+  }
+  if (auto it = jp.find("via"); it != jp.end()) {
+    if (!it->is_array()) throw ParseError("via must be an array of [x, y, z]", {origin, 0, el + ".via"});
+    for (std::size_t i = 0; i < it->size(); ++i) {
+      const std::string ve = el + ".via[" + std::to_string(i) + "]";
+      const json& q = (*it)[i];
+      if (!q.is_array() || q.size() != 3) throw ParseError("expected [x, y, z]", {origin, 0, ve});
+      p.via.push_back({number(q[0], origin, ve), number(q[1], origin, ve), number(q[2], origin, ve)});
+    }
   }
   if (auto it = jp.find("mixture"); it != jp.end()) {
     if (!it->is_array()) throw ParseError("mixture must be an array", {origin, 0, el});

@@ -17,9 +17,9 @@ void put(std::string& out, const T& v) {
 
 // A path's fixed fields, written and read in one piece.
 struct PathHead {
-  std::int32_t role, tool, part, joined;
+  std::int32_t role, tool, part, joined, inside, unused;
   double width, height, speed, power, filament, temperature, flow, fan;
-  std::uint64_t mixture, points;
+  std::uint64_t mixture, via, points;
 };
 
 [[noreturn]] void fail(const char* what) {
@@ -50,6 +50,8 @@ void LayerSpill::append(const Layer& layer) {
                      p.tool,
                      p.part,
                      p.joined ? 1 : 0,
+                     p.inside ? 1 : 0,
+                     0,
                      p.width,
                      p.height,
                      p.speed,
@@ -59,10 +61,12 @@ void LayerSpill::append(const Layer& layer) {
                      p.flow,
                      p.fan,
                      p.mixture.size(),
+                     p.via.size(),
                      p.points.size()};
     put(buffer_, h);
     buffer_.append(reinterpret_cast<const char*>(p.mixture.data()),
                    p.mixture.size() * sizeof(double));
+    buffer_.append(reinterpret_cast<const char*>(p.via.data()), p.via.size() * sizeof(Vec3));
     buffer_.append(reinterpret_cast<const char*>(p.points.data()), p.points.size() * sizeof(Vec3));
   }
   const std::uint64_t size = buffer_.size() - start - sizeof(std::uint64_t);
@@ -118,8 +122,11 @@ bool LayerSpill::next(Layer& layer) {
     p.width = h.width, p.height = h.height, p.speed = h.speed, p.power = h.power;
     p.filament = h.filament, p.temperature = h.temperature;
     p.flow = h.flow, p.fan = h.fan, p.joined = h.joined != 0;
+    p.inside = h.inside != 0;
     p.mixture.resize(h.mixture);
     take(p.mixture.data(), h.mixture * sizeof(double));
+    p.via.resize(h.via);
+    take(p.via.data(), h.via * sizeof(Vec3));
     p.points.resize(h.points);
     take(p.points.data(), h.points * sizeof(Vec3));
   }

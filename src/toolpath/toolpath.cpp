@@ -46,6 +46,12 @@ BBox3 points_box(const Toolpath& toolpath) {
   return box;
 }
 
+double travel_into(Vec3 from, const Path& path) {
+  double d = 0;
+  for (const Vec3& v : path.via) d += distance(from, v), from = v;
+  return d + distance(from, path.points.front());
+}
+
 TravelStats travel_stats(const Toolpath& toolpath, double min_move) {
   TravelStats s;
   const Vec3* last = nullptr;
@@ -53,7 +59,7 @@ TravelStats travel_stats(const Toolpath& toolpath, double min_move) {
     for (const auto& path : layer.paths) {
       if (path.points.empty()) continue;
       if (last) {
-        const double d = distance(*last, path.points.front());
+        const double d = travel_into(*last, path);
         if (d > min_move) {
           ++s.moves;
           s.length += d;

@@ -874,8 +874,8 @@ TEST(Planar, WallsInsideNotOverlappingInfillAtDensity) {
   // Infill angle alternates.
   auto first_angle = [&](std::size_t layer, PathRole role) {
     for (const auto& p : tp.layers[layer].paths)
-      if (p.role == role) {
-        const Vec3 d = p.points.back() - p.points.front();
+      if (p.role == role) {  // its first line (a linked path zig-zags along its lines)
+        const Vec3 d = p.points[1] - p.points[0];
         return std::fmod(std::atan2(d.y, d.x) * 180 / kPi + 360, 180.0);
       }
     return -1.0;

@@ -65,6 +65,9 @@ struct MachineProfile {
   double retract_speed = 30;  // mm/s
   double z_hop = 0;           // lift during travel (mm)
   double min_travel = 0.5;    // travel shorter than this: no retract / hop (mm)
+  // A travel the slicer kept inside the part (Path::inside) retracts and hops only when longer
+  // than this (mm); 0 = never.
+  double inside_max = 0;
   // [flow]
   double pre_flow = 0;         // extra filament primed at each path start (mm)
   double post_flow = 0;        // extra filament pushed at each path end (mm)

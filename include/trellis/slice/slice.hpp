@@ -11,6 +11,7 @@
 #include "trellis/geom/contour.hpp"
 #include "trellis/geom/mesh.hpp"
 #include "trellis/geom/regions.hpp"
+#include "trellis/slice/link.hpp"
 #include "trellis/toolpath/toolpath.hpp"
 
 namespace trellis {
@@ -72,6 +73,7 @@ struct PlanarOptions {
   double infill_overlap = 0.15;  // fraction of a bead the infill reaches into the inner wall
   double simplify = 0.005;       // mm, outline simplification before offsetting
   double min_path = 0.05;        // mm, shorter infill pieces are dropped
+  LinkOptions link;              // seams, connected fill, travel inside (slice/link.hpp)
   // A window of a part's layers (sharding, job/plate.hpp): the outlines given are the part's
   // layers first_index, first_index + 1, …, and only part layers [plan_begin, plan_end) get
   // paths; the toolpath holds those layers only (z and the alternating angles as in the whole
@@ -82,8 +84,10 @@ struct PlanarOptions {
 };
 
 struct PlanarStats {
-  std::size_t layers = 0, paths = 0, walls = 0, skin_lines = 0, infill_lines = 0;  // skin_lines: skin paths (zig-zags)
+  // walls: wall loops; skin_lines / infill_lines: skin and infill paths (chains) printed
+  std::size_t layers = 0, paths = 0, walls = 0, skin_lines = 0, infill_lines = 0;
   double extruded_length = 0;
+  LinkStats link;  // starts, their lower bound, travel (slice/link.hpp)
 };
 
 // z of layer i's nozzle is (i + 1) · layer_height (the part's bottom on the bed).

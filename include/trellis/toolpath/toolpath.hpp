@@ -34,6 +34,11 @@ struct Path {
   // Continues the previous path's bead: split there because a process value (temperature,
   // speed, flow, fan) changes; no travel, priming or short-path slow-down between the two.
   bool joined = false;
+  // The travel into this path from the previous path's end, as the linking stage planned it
+  // (slice/link.hpp): through the points of `via` in order (empty: straight), and whether it
+  // stays inside the part (crosses no outer wall), so a writer need not retract for it.
+  std::vector<Vec3> via;
+  bool inside = false;
   int part = 0;                 // build plates: index + 1 into Toolpath::part_labels, 0 = none
   std::size_t segments() const { return points.size() < 2 ? 0 : points.size() - 1; }
   double length() const;
@@ -61,12 +66,15 @@ struct Toolpath {
 // printed past its end nodes, the embedded writer's node overlap).
 void extend_path_ends(Path& path, double length);
 
-// Travel between consecutive paths, in print order, across layers (first path has no travel in).
+// Travel between consecutive paths, in print order, across layers (first path has no travel in),
+// through each path's `via` points.
 struct TravelStats {
   std::size_t moves = 0;
   double length = 0;
 };
 TravelStats travel_stats(const Toolpath& toolpath, double min_move = 1e-9);
+// The length of the travel from `from` into `path` (through its via points).
+double travel_into(Vec3 from, const Path& path);
 
 // The box around every point of every path.
 BBox3 points_box(const Toolpath& toolpath);

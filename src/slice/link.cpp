@@ -1,0 +1,697 @@
+#include "trellis/slice/link.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include "trellis/core/error.hpp"
+#include "trellis/core/rng.hpp"
+#include "trellis/toolpath/order.hpp"
+
+namespace trellis {
+
+Seam seam_from_string(const std::string& name) {
+  if (name == "aligned") return Seam::Aligned;
+  if (name == "nearest") return Seam::Nearest;
+  if (name == "rear") return Seam::Rear;
+  if (name == "random") return Seam::Random;
+  throw SettingError("unknown seam '" + name + "' (expected aligned, nearest, rear or random)");
+}
+
+const char* to_string(Seam seam) {
+  switch (seam) {
+    case Seam::Aligned:
+      return "aligned";
+    case Seam::Nearest:
+      return "nearest";
+    case Seam::Rear:
+      return "rear";
+    case Seam::Random:
+      return "random";
+  }
+  return "?";
+}
+
+void LinkStats::add(const LinkStats& o) {
+  starts += o.starts;
+  lower_bound += o.lower_bound;
+  travels += o.travels;
+  inside_travels += o.inside_travels;
+  travel_length += o.travel_length;
+  connector_length += o.connector_length;
+  fill_lines += o.fill_lines;
+  fill_chains += o.fill_chains;
+}
+
+namespace {
+
+double cross(Vec2 a, Vec2 b) {
+  return a.x * b.y - a.y * b.x;
+}
+double len(Vec2 a) {
+  return std::sqrt(a.x * a.x + a.y * a.y);
+}
+
+// The edges of closed rings in a uniform grid: each edge is entered into the cells along it
+// (sampled every half cell) and their neighbours, so any point of an edge is found from its own
+// cell, and a segment sampled the same way meets every edge it crosses.
+class RingEdges {
+ public:
+  explicit RingEdges(const std::vector<const std::vector<Vec2>*>& rings) : rings_(rings) {
+    double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
+    std::size_t edges = 0;
+    for (const auto* r : rings_) {
+      edges += r->size();
+      for (const Vec2 p : *r)
+        x0 = std::min(x0, p.x), y0 = std::min(y0, p.y), x1 = std::max(x1, p.x),
+        y1 = std::max(y1, p.y);
+    }
+    if (edges == 0) return;
+    const double w = std::max(x1 - x0, 1e-6), h = std::max(y1 - y0, 1e-6);
+    cell_ = std::max({std::sqrt(w * h / static_cast<double>(edges)) * 2, w / 512, h / 512, 1e-6});
+    origin_ = {x0 - cell_, y0 - cell_};
+    nx_ = static_cast<long>(w / cell_) + 3;
+    ny_ = static_cast<long>(h / cell_) + 3;
+    std::vector<std::vector<std::uint32_t>> cells(static_cast<std::size_t>(nx_ * ny_));
+    for (std::size_t r = 0; r < rings_.size(); ++r) {
+      const auto& ring = *rings_[r];
+      for (std::size_t i = 0; i < ring.size(); ++i) {
+        const std::uint32_t id = static_cast<std::uint32_t>(edge_ids_.size());
+        edge_ids_.push_back({static_cast<std::uint32_t>(r), static_cast<std::uint32_t>(i)});
+        each_cell(ring[i], ring[(i + 1) % ring.size()], [&](long cx, long cy) {
+          for (long y = std::max(0L, cy - 1); y <= std::min(ny_ - 1, cy + 1); ++y)
+            for (long x = std::max(0L, cx - 1); x <= std::min(nx_ - 1, cx + 1); ++x) {
+              auto& v = cells[static_cast<std::size_t>(y * nx_ + x)];
+              if (v.empty() || v.back() != id) v.push_back(id);
+            }
+        });
+      }
+    }
+    start_.assign(cells.size() + 1, 0);
+    for (std::size_t c = 0; c < cells.size(); ++c) start_[c + 1] = start_[c] + cells[c].size();
+    ids_.reserve(start_.back());
+    for (const auto& v : cells) ids_.insert(ids_.end(), v.begin(), v.end());
+    stamp_.assign(edge_ids_.size(), 0);
+  }
+
+  bool empty() const { return edge_ids_.empty(); }
+  Vec2 a(std::uint32_t e) const { return (*rings_[edge_ids_[e].ring])[edge_ids_[e].index]; }
+  Vec2 b(std::uint32_t e) const {
+    const auto& ring = *rings_[edge_ids_[e].ring];
+    return ring[(edge_ids_[e].index + 1) % ring.size()];
+  }
+  std::uint32_t ring_of(std::uint32_t e) const { return edge_ids_[e].ring; }
+  std::uint32_t index_of(std::uint32_t e) const { return edge_ids_[e].index; }
+
+  // Each edge whose cells include one along a-b, once.
+  template <class Fn>
+  void along(Vec2 p, Vec2 q, Fn&& fn) const {
+    if (empty()) return;
+    const std::uint32_t s = next_stamp();
+    each_cell(p, q, [&](long cx, long cy) {
+      if (cx < 0 || cy < 0 || cx >= nx_ || cy >= ny_) return;
+      const std::size_t c = static_cast<std::size_t>(cy * nx_ + cx);
+      for (std::size_t k = start_[c]; k < start_[c + 1]; ++k) {
+        const std::uint32_t e = ids_[k];
+        if (stamp_[e] == s) continue;
+        stamp_[e] = s;
+        fn(e);
+      }
+    });
+  }
+
+  // Crossings of the ray from p towards +x with the rings (even-odd: inside when odd).
+  bool inside(Vec2 p) const {
+    if (empty()) return false;
+    const long cy = cell_of(p.y - origin_.y);
+    if (cy < 0 || cy >= ny_) return false;
+    const std::uint32_t s = next_stamp();
+    bool in = false;
+    for (long cx = std::max(0L, cell_of(p.x - origin_.x)); cx < nx_; ++cx) {
+      const std::size_t c = static_cast<std::size_t>(cy * nx_ + cx);
+      for (std::size_t k = start_[c]; k < start_[c + 1]; ++k) {
+        const std::uint32_t e = ids_[k];
+        if (stamp_[e] == s) continue;
+        stamp_[e] = s;
+        const Vec2 u = a(e), v = b(e);
+        if ((u.y > p.y) != (v.y > p.y) && p.x < (v.x - u.x) * (p.y - u.y) / (v.y - u.y) + u.x)
+          in = !in;
+      }
+    }
+    return in;
+  }
+
+ private:
+  struct EdgeId {
+    std::uint32_t ring, index;
+  };
+  long cell_of(double d) const { return static_cast<long>(std::floor(d / cell_)); }
+  template <class Fn>
+  void each_cell(Vec2 p, Vec2 q, Fn&& fn) const {
+    const double l = len(q - p);
+    const int steps = static_cast<int>(std::min(1e7, std::ceil(l / (0.5 * cell_)))) + 1;
+    long lx = -1 << 30, ly = -1 << 30;
+    for (int k = 0; k <= steps; ++k) {
+      const double t = static_cast<double>(k) / steps;
+      const long cx = cell_of(p.x + (q.x - p.x) * t - origin_.x);
+      const long cy = cell_of(p.y + (q.y - p.y) * t - origin_.y);
+      if (cx == lx && cy == ly) continue;
+      lx = cx, ly = cy;
+      fn(cx, cy);
+    }
+  }
+  std::uint32_t next_stamp() const {
+    if (++stamp_now_ == 0) {
+      std::fill(stamp_.begin(), stamp_.end(), 0);
+      stamp_now_ = 1;
+    }
+    return stamp_now_;
+  }
+
+  std::vector<const std::vector<Vec2>*> rings_;
+  std::vector<EdgeId> edge_ids_;
+  std::vector<std::size_t> start_;
+  std::vector<std::uint32_t> ids_;
+  mutable std::vector<std::uint32_t> stamp_;
+  mutable std::uint32_t stamp_now_ = 0;
+  Vec2 origin_;
+  double cell_ = 1;
+  long nx_ = 0, ny_ = 0;
+};
+
+std::vector<const std::vector<Vec2>*> ring_pointers(const Regions& region) {
+  std::vector<const std::vector<Vec2>*> rings;
+  for (const auto& poly : region) {
+    if (poly.outer.size() >= 3) rings.push_back(&poly.outer);
+    for (const auto& h : poly.holes)
+      if (h.size() >= 3) rings.push_back(&h);
+  }
+  return rings;
+}
+
+// Where segment p-q crosses segment a-b: parameters along each (false when parallel or apart).
+bool segments_cross(Vec2 p, Vec2 q, Vec2 a, Vec2 b, double& t, double& u) {
+  const Vec2 r = q - p, s = b - a;
+  const double d = cross(r, s);
+  if (std::abs(d) < 1e-300) return false;
+  t = cross(a - p, s) / d;
+  u = cross(a - p, r) / d;
+  return t >= 0 && t <= 1 && u >= 0 && u <= 1;
+}
+
+}  // namespace
+
+// ---------------------------------------------------------------- connect_fill
+
+std::vector<std::vector<Vec2>> connect_fill(const std::vector<std::vector<Vec2>>& lines,
+                                            const Regions& region, double max_connector,
+                                            ConnectStats* stats, double tolerance) {
+  const std::size_t n = lines.size();
+  std::vector<std::vector<Vec2>> chains;
+  if (stats) stats->lines += n;
+  const auto rings = ring_pointers(region);
+  const RingEdges edges(rings);
+  // Each line end (key 2i: first point, 2i+1: last) on the boundary: ring, edge, arc position.
+  struct End {
+    long ring = -1;
+    std::size_t edge = 0;
+    double s = 0;
+  };
+  std::vector<End> ends(2 * n);
+  std::vector<std::vector<double>> cum(rings.size());
+  for (std::size_t r = 0; r < rings.size(); ++r) {
+    const auto& ring = *rings[r];
+    cum[r].resize(ring.size() + 1, 0.0);
+    for (std::size_t i = 0; i < ring.size(); ++i)
+      cum[r][i + 1] = cum[r][i] + len(ring[(i + 1) % ring.size()] - ring[i]);
+  }
+  for (std::size_t key = 0; key < 2 * n; ++key) {
+    const auto& line = lines[key / 2];
+    if (line.size() < 2) continue;
+    const Vec2 p = key % 2 ? line.back() : line.front();
+    double best = tolerance;
+    edges.along(p, p, [&](std::uint32_t e) {
+      double t = 0;
+      const Vec2 a = edges.a(e), b = edges.b(e);
+      const double d = distance_to_segment({p.x, p.y, 0}, {a.x, a.y, 0}, {b.x, b.y, 0}, &t);
+      if (d <= best) {
+        best = d;
+        const std::size_t r = edges.ring_of(e), i = edges.index_of(e);
+        ends[key] = {static_cast<long>(r), i, cum[r][i] + t * (cum[r][i + 1] - cum[r][i])};
+      }
+    });
+  }
+  if (stats && n > 0) {
+    // Rings are listed polygon by polygon: the polygons holding an end.
+    std::vector<std::size_t> polygon_of;
+    for (std::size_t pi = 0; pi < region.size(); ++pi) {
+      if (region[pi].outer.size() >= 3) polygon_of.push_back(pi);
+      for (const auto& h : region[pi].holes)
+        if (h.size() >= 3) polygon_of.push_back(pi);
+    }
+    std::vector<char> touched(region.size(), 0);
+    std::size_t count = 0;
+    for (const End& e : ends)
+      if (e.ring >= 0 && !touched[polygon_of[static_cast<std::size_t>(e.ring)]]++) ++count;
+    stats->regions += std::max<std::size_t>(count, 1);
+  }
+  // Each ring's ends in order along it.
+  std::vector<std::vector<std::size_t>> on_ring(rings.size());
+  for (std::size_t key = 0; key < 2 * n; ++key)
+    if (ends[key].ring >= 0) on_ring[static_cast<std::size_t>(ends[key].ring)].push_back(key);
+  std::vector<std::size_t> slot(2 * n, 0);
+  for (auto& v : on_ring) {
+    std::sort(v.begin(), v.end(), [&](std::size_t a, std::size_t b) {
+      return ends[a].s != ends[b].s ? ends[a].s < ends[b].s : a < b;
+    });
+    for (std::size_t j = 0; j < v.size(); ++j) slot[v[j]] = j;
+  }
+  std::vector<char> used(n, 0);
+  // The neighbour of end `key` along its ring (forward or back) and the boundary between them.
+  auto neighbour = [&](std::size_t key, bool forward, double& length) -> long {
+    const End& e = ends[key];
+    if (e.ring < 0) return -1;
+    const auto& v = on_ring[static_cast<std::size_t>(e.ring)];
+    if (v.size() < 2) return -1;
+    const std::size_t m = v.size(), j = slot[key];
+    const std::size_t other = v[forward ? (j + 1) % m : (j + m - 1) % m];
+    const double total = cum[static_cast<std::size_t>(e.ring)].back();
+    double d = forward ? ends[other].s - e.s : e.s - ends[other].s;
+    const bool wraps = forward ? j + 1 == m : j == 0;
+    if (wraps) d += total;
+    length = d;
+    return static_cast<long>(other);
+  };
+  auto usable = [&](std::size_t key, bool forward, double& length) -> long {
+    const long other = neighbour(key, forward, length);
+    if (other < 0) return -1;
+    const std::size_t line = static_cast<std::size_t>(other) / 2;
+    if (line == key / 2 || used[line] || !(max_connector > 0) || length > max_connector) return -1;
+    return other;
+  };
+  auto options = [&](std::size_t key) {
+    double l = 0;
+    return (usable(key, true, l) >= 0 ? 1 : 0) + (usable(key, false, l) >= 0 ? 1 : 0);
+  };
+  // The boundary's vertices strictly between end `from` and end `to` (its neighbour).
+  auto connector = [&](std::size_t from, std::size_t to, bool forward, std::vector<Vec2>& out) {
+    const End& a = ends[from];
+    const End& b = ends[to];
+    const auto& ring = *rings[static_cast<std::size_t>(a.ring)];
+    const std::size_t m = ring.size();
+    if (forward) {
+      std::size_t count = (b.edge + m - a.edge) % m;
+      if (count == 0 && b.s < a.s) count = m;
+      for (std::size_t k = 1; k <= count; ++k) out.push_back(ring[(a.edge + k) % m]);
+    } else {
+      std::size_t count = (a.edge + m - b.edge) % m;
+      if (count == 0 && b.s > a.s) count = m;
+      for (std::size_t k = 0; k < count; ++k) out.push_back(ring[(a.edge + m - k) % m]);
+    }
+  };
+  auto append_line = [&](std::vector<Vec2>& chain, std::size_t entry) {
+    const auto& line = lines[entry / 2];
+    if (entry % 2 == 0)
+      chain.insert(chain.end(), line.begin(), line.end());
+    else
+      chain.insert(chain.end(), line.rbegin(), line.rend());
+  };
+  // Extends `chain` (ending at end `exit`) while a connector to an unused line exists.
+  auto extend = [&](std::vector<Vec2>& chain, std::size_t exit) {
+    for (;;) {
+      double lf = 0, lb = 0;
+      const long f = usable(exit, true, lf), b = usable(exit, false, lb);
+      if (f < 0 && b < 0) return exit;
+      const bool forward = f >= 0 && (b < 0 || lf <= lb);
+      const std::size_t entry = static_cast<std::size_t>(forward ? f : b);
+      connector(exit, entry, forward, chain);
+      if (stats) stats->connector_length += forward ? lf : lb;
+      append_line(chain, entry);
+      used[entry / 2] = 1;
+      exit = entry ^ 1;
+    }
+  };
+  for (std::size_t i = 0; i < n; ++i) {
+    if (used[i] || lines[i].size() < 2) continue;
+    used[i] = 1;
+    // Start from the end with fewer ways on, so the chain walks away from a dead end.
+    const std::size_t entry = options(2 * i + 1) < options(2 * i) ? 2 * i + 1 : 2 * i;
+    std::vector<Vec2> chain;
+    append_line(chain, entry);
+    extend(chain, entry ^ 1);
+    if (options(entry) > 0) {  // and backwards from where it began
+      std::reverse(chain.begin(), chain.end());
+      extend(chain, entry);
+    }
+    chains.push_back(std::move(chain));
+  }
+  if (stats) stats->chains += chains.size();
+  return chains;
+}
+
+// ---------------------------------------------------------------- seams
+
+std::size_t seam_vertex(const std::vector<Vec2>& ring, Seam seam, Vec2 from, std::uint64_t seed,
+                        std::uint64_t key) {
+  const std::size_t n = ring.size();
+  if (n == 0) return 0;
+  auto rear = [&](std::size_t a, std::size_t b) {  // a behind b
+    if (ring[a].y != ring[b].y) return ring[a].y > ring[b].y;
+    if (ring[a].x != ring[b].x) return ring[a].x < ring[b].x;
+    return a < b;
+  };
+  auto rear_most = [&] {
+    std::size_t best = 0;
+    for (std::size_t i = 1; i < n; ++i)
+      if (rear(i, best)) best = i;
+    return best;
+  };
+  switch (seam) {
+    case Seam::Nearest: {
+      std::size_t best = 0;
+      double bd = 1e300;
+      for (std::size_t i = 0; i < n; ++i)
+        if (const double d = dist2(ring[i], from); d < bd) bd = d, best = i;
+      return best;
+    }
+    case Seam::Rear:
+      return rear_most();
+    case Seam::Random:
+      return static_cast<std::size_t>(Rng::stream(seed, key).uniform_index(n));
+    case Seam::Aligned:
+      break;
+  }
+  // Turn at each vertex between the chords to the points `reach` before and after it along the
+  // ring (a corner rounded by offsetting still counts as one corner); positive = convex (the
+  // rings run with the material on their left).
+  double perimeter = 0;
+  std::vector<double> cum(n + 1, 0.0);
+  for (std::size_t i = 0; i < n; ++i) cum[i + 1] = cum[i] + len(ring[(i + 1) % n] - ring[i]);
+  perimeter = cum[n];
+  if (!(perimeter > 0)) return rear_most();
+  const double reach = std::min(0.8, perimeter / 8);
+  auto point_at = [&](double s) {  // s in [0, perimeter) after wrapping
+    s = std::fmod(s, perimeter);
+    if (s < 0) s += perimeter;
+    const std::size_t i =
+        static_cast<std::size_t>(std::upper_bound(cum.begin(), cum.end(), s) - cum.begin()) - 1;
+    const std::size_t k = std::min(i, n - 1);
+    const double l = cum[k + 1] - cum[k];
+    const double t = l > 0 ? (s - cum[k]) / l : 0;
+    return ring[k] + (ring[(k + 1) % n] - ring[k]) * t;
+  };
+  std::vector<double> turn(n, 0.0);
+  for (std::size_t i = 0; i < n; ++i) {
+    const Vec2 a = point_at(cum[i] - reach), b = ring[i], c = point_at(cum[i] + reach);
+    const Vec2 u = b - a, v = c - b;
+    if (len(u) < 1e-9 || len(v) < 1e-9) continue;
+    turn[i] = std::atan2(cross(u, v), u.x * v.x + u.y * v.y) * 180 / std::numbers::pi;
+  }
+  // The sharpest corner of a kind beyond `limit` degrees; corners within 5° of the sharpest
+  // count as equal and the rear-most of them wins, so rounding does not move the seam.
+  auto sharpest = [&](double sign, double limit) -> long {
+    double top = limit;
+    for (std::size_t i = 0; i < n; ++i) top = std::max(top, sign * turn[i]);
+    if (top <= limit) return -1;
+    long best = -1;
+    for (std::size_t i = 0; i < n; ++i)
+      if (sign * turn[i] >= top - 5 && (best < 0 || rear(i, static_cast<std::size_t>(best))))
+        best = static_cast<long>(i);
+    return best;
+  };
+  if (const long c = sharpest(-1, 30); c >= 0) return static_cast<std::size_t>(c);
+  if (const long c = sharpest(1, 60); c >= 0) return static_cast<std::size_t>(c);
+  return rear_most();
+}
+
+// ---------------------------------------------------------------- travel inside
+
+struct Comb::Impl {
+  Regions inside, route;
+  std::vector<const std::vector<Vec2>*> inside_rings, route_rings;
+  RingEdges inside_edges, route_edges;
+  Impl(Regions in, Regions r)
+      : inside(std::move(in)),
+        route(std::move(r)),
+        inside_rings(ring_pointers(inside)),
+        route_rings(ring_pointers(route)),
+        inside_edges(inside_rings),
+        route_edges(route_rings) {}
+
+  bool crosses(Vec2 a, Vec2 b) const {
+    bool hit = false;
+    inside_edges.along(a, b, [&](std::uint32_t e) {
+      double t = 0, u = 0;
+      if (!hit && segments_cross(a, b, inside_edges.a(e), inside_edges.b(e), t, u)) hit = true;
+    });
+    return hit;
+  }
+  bool straight(Vec2 a, Vec2 b) const {
+    return inside_edges.inside(a) && inside_edges.inside(b) && !crosses(a, b);
+  }
+};
+
+Comb::Comb(Regions inside, Regions route)
+    : impl_(std::make_shared<Impl>(std::move(inside), std::move(route))) {}
+
+bool Comb::contains(Vec2 p) const {
+  return impl_->inside_edges.inside(p);
+}
+
+bool Comb::straight(Vec2 a, Vec2 b) const {
+  return impl_->straight(a, b);
+}
+
+bool Comb::route(Vec2 a, Vec2 b, double max_length, std::vector<Vec2>& via) const {
+  via.clear();
+  const Impl& c = *impl_;
+  if (!c.inside_edges.inside(a) || !c.inside_edges.inside(b)) return false;
+  if (!c.crosses(a, b)) return len(b - a) <= max_length;
+  // Crossings of a-b with the route's rings (and a, b themselves where they lie on one), in
+  // order along a-b; between two crossings the line is inside or outside the route region.
+  struct Hit {
+    double t;
+    std::uint32_t edge;
+    double u;
+  };
+  std::vector<Hit> hits;
+  const RingEdges& re = c.route_edges;
+  if (re.empty()) return false;
+  re.along(a, b, [&](std::uint32_t e) {
+    double t = 0, u = 0;
+    if (segments_cross(a, b, re.a(e), re.b(e), t, u)) hits.push_back({t, e, u});
+  });
+  auto on_ring = [&](Vec2 p, double t) {
+    double best = 1e-6;
+    long edge = -1;
+    double at = 0;
+    re.along(p, p, [&](std::uint32_t e) {
+      double u = 0;
+      const Vec2 ea = re.a(e), eb = re.b(e);
+      const double d = distance_to_segment({p.x, p.y, 0}, {ea.x, ea.y, 0}, {eb.x, eb.y, 0}, &u);
+      if (d <= best) best = d, edge = e, at = u;
+    });
+    if (edge >= 0) hits.push_back({t, static_cast<std::uint32_t>(edge), at});
+  };
+  on_ring(a, 0);
+  on_ring(b, 1);
+  std::sort(hits.begin(), hits.end(), [](const Hit& x, const Hit& y) { return x.t < y.t; });
+  std::vector<Vec2> path{a};
+  const double total = len(b - a);
+  for (std::size_t k = 0; k + 1 < hits.size(); ++k) {
+    const Hit& h0 = hits[k];
+    const Hit& h1 = hits[k + 1];
+    if ((h1.t - h0.t) * total < 1e-7) continue;
+    const Vec2 mid = a + (b - a) * (0.5 * (h0.t + h1.t));
+    if (re.inside(mid)) continue;
+    // Outside the route region between h0 and h1: around its ring, the shorter way.
+    if (re.ring_of(h0.edge) != re.ring_of(h1.edge)) return false;
+    const auto& ring = *c.route_rings[re.ring_of(h0.edge)];
+    const std::size_t m = ring.size();
+    const std::size_t e0 = re.index_of(h0.edge), e1 = re.index_of(h1.edge);
+    auto arc = [&](bool forward, std::vector<Vec2>& pts) {
+      pts.clear();
+      pts.push_back(a + (b - a) * h0.t);
+      std::size_t count = forward ? (e1 + m - e0) % m : (e0 + m - e1) % m;
+      if (count == 0 && (forward ? h1.u < h0.u : h1.u > h0.u)) count = m;
+      for (std::size_t s = 0; s < count; ++s)
+        pts.push_back(forward ? ring[(e0 + 1 + s) % m] : ring[(e0 + m - s) % m]);
+      pts.push_back(a + (b - a) * h1.t);
+      double l = 0;
+      for (std::size_t s = 1; s < pts.size(); ++s) l += len(pts[s] - pts[s - 1]);
+      return l;
+    };
+    std::vector<Vec2> fwd, back;
+    const double lf = arc(true, fwd), lb = arc(false, back);
+    const auto& pick = lf <= lb ? fwd : back;
+    path.insert(path.end(), pick.begin(), pick.end());
+  }
+  path.push_back(b);
+  // Shortened: from each kept point, on to the last point still in straight sight.
+  std::vector<Vec2> kept{path.front()};
+  std::size_t i = 0;
+  while (i + 1 < path.size()) {
+    std::size_t j = i + 1;
+    while (j + 1 < path.size() && !c.crosses(path[i], path[j + 1])) ++j;
+    if (c.crosses(path[i], path[j])) return false;  // the route itself leaves the inside
+    kept.push_back(path[j]);
+    i = j;
+  }
+  double length = 0;
+  for (std::size_t s = 1; s < kept.size(); ++s) length += len(kept[s] - kept[s - 1]);
+  if (length > max_length) return false;
+  via.assign(kept.begin() + 1, kept.end() - 1);
+  return true;
+}
+
+// ---------------------------------------------------------------- a layer
+
+namespace {
+
+Path make_path(const std::vector<Vec2>& pts, double z, PathRole role, double width, double height,
+               bool closed) {
+  Path p;
+  p.role = role;
+  p.width = width;
+  p.height = height;
+  p.points.reserve(pts.size() + 1);
+  for (const Vec2 v : pts) p.points.push_back({v.x, v.y, z});
+  if (closed && !pts.empty()) p.points.push_back({pts[0].x, pts[0].y, z});
+  return p;
+}
+
+std::vector<Vec2> rotated(const std::vector<Vec2>& ring, std::size_t start) {
+  std::vector<Vec2> out(ring.begin() + static_cast<long>(start), ring.end());
+  out.insert(out.end(), ring.begin(), ring.begin() + static_cast<long>(start));
+  return out;
+}
+
+}  // namespace
+
+void link_layer(const std::vector<IslandPieces>& islands, const LinkOptions& o, double z,
+                double layer_height, std::uint64_t key, Vec2& cursor, bool cursor_known,
+                std::vector<Path>& paths, LinkStats& stats) {
+  // Islands in travel order, each entered at its first wall's seam (or first fill point).
+  auto entry_of = [&](const IslandPieces& is) -> Vec2 {
+    for (const auto& level : is.walls)
+      for (const auto& ring : level)
+        if (ring.size() >= 3) return ring[seam_vertex(ring, o.seam, cursor, o.seed, key)];
+    for (const auto& f : is.fills) {
+      if (!f.lines.empty() && !f.lines.front().empty()) return f.lines.front().front();
+      if (!f.loops.empty() && !f.loops.front().empty()) return f.loops.front().front();
+    }
+    return is.outline.outer.empty() ? Vec2{} : is.outline.outer.front();
+  };
+  std::vector<OrderItem> items;
+  for (const auto& is : islands) {
+    const Vec2 e = entry_of(is);
+    items.push_back({{e.x, e.y, 0}, {e.x, e.y, 0}, false});
+  }
+  const auto island_order = order_by_travel(items, {cursor.x, cursor.y, 0});
+  std::uint64_t ring_key = key * 0x100000001B3ull;
+  for (const OrderStep& step : island_order) {
+    const IslandPieces& is = islands[step.item];
+    const double w = is.bead_width;
+    // The island's inside for travel: within its outer wall (a quarter bead outside the wall's
+    // centre line), routed along that centre line.
+    std::unique_ptr<Comb> comb;
+    if (o.comb) {
+      const Regions outline{is.outline};
+      Regions route = offset(outline, -0.5 * w);
+      if (!route.empty())
+        comb = std::make_unique<Comb>(offset(outline, -0.25 * w), std::move(route));
+    }
+    bool first_in_island = true;
+    // Appends a path with its travel from the cursor.
+    auto emit = [&](Path p) {
+      const Vec2 start = p.points.front().xy();
+      if (cursor_known) {
+        ++stats.travels;
+        std::vector<Vec2> via;
+        double straight = len(start - cursor);
+        bool inside = false;
+        if (comb && (!first_in_island || comb->contains(cursor)))
+          inside = comb->route(cursor, start, o.comb_detour * straight + w, via);
+        double travel = 0;
+        Vec2 at = cursor;
+        for (const Vec2 v : via) travel += len(v - at), at = v;
+        travel += len(start - at);
+        if (inside) {
+          ++stats.inside_travels;
+          p.inside = true;
+          for (const Vec2 v : via) p.via.push_back({v.x, v.y, z});
+        }
+        stats.travel_length += inside ? travel : straight;
+      }
+      first_in_island = false;
+      cursor = p.points.back().xy();
+      cursor_known = true;
+      ++stats.starts;
+      paths.push_back(std::move(p));
+    };
+    // Walls level by level (the slicer's print order), each level's rings nearest first.
+    for (const auto& level : is.walls) {
+      std::vector<char> done(level.size(), 0);
+      std::vector<std::size_t> fixed(level.size(), 0);  // seams that do not depend on the cursor
+      if (o.seam != Seam::Nearest)
+        for (std::size_t r = 0; r < level.size(); ++r)
+          if (level[r].size() >= 3)
+            fixed[r] = seam_vertex(level[r], o.seam, cursor, o.seed, ring_key + r);
+      for (std::size_t count = 0; count < level.size(); ++count) {
+        std::size_t pick = level.size();
+        double bd = 1e300;
+        std::size_t seam = 0;
+        for (std::size_t r = 0; r < level.size(); ++r) {
+          if (done[r] || level[r].size() < 3) continue;
+          const std::size_t s =
+              o.seam == Seam::Nearest ? seam_vertex(level[r], o.seam, cursor, o.seed, 0) : fixed[r];
+          const double d = dist2(level[r][s], cursor);
+          if (d < bd) bd = d, pick = r, seam = s;
+        }
+        if (pick == level.size()) break;
+        done[pick] = 1;
+        ++stats.lower_bound;
+        emit(make_path(rotated(level[pick], seam), z, PathRole::Perimeter, w, layer_height, true));
+      }
+      ring_key += level.size();
+    }
+    // Fill: each region's lines joined into chains; all chains (and loops) of the island in
+    // travel order from the last wall.
+    struct Piece {
+      std::vector<Vec2> pts;
+      PathRole role;
+      bool loop;
+    };
+    std::vector<Piece> pieces;
+    for (const auto& f : is.fills) {
+      stats.fill_lines += f.lines.size();
+      ConnectStats cs;
+      // Unconnected, the lines are connected with no connector allowed (the same bound).
+      auto chains = connect_fill(f.lines, f.region, o.connect ? o.connect_max * f.spacing : 0, &cs);
+      stats.lower_bound += (f.lines.empty() ? 0 : cs.regions) + f.loops.size();
+      stats.connector_length += cs.connector_length;
+      stats.fill_chains += chains.size();
+      for (auto& c : chains)
+        if (c.size() >= 2) pieces.push_back({std::move(c), f.role, false});
+      for (const auto& l : f.loops)
+        if (l.size() >= 3) pieces.push_back({l, f.role, true});
+    }
+    std::vector<OrderItem> fill_items;
+    for (const auto& pc : pieces) {
+      const Vec2 a = pc.pts.front(), b = pc.loop ? pc.pts.front() : pc.pts.back();
+      fill_items.push_back({{a.x, a.y, 0}, {b.x, b.y, 0}, !pc.loop});
+    }
+    for (const OrderStep& s : order_by_travel(fill_items, {cursor.x, cursor.y, 0})) {
+      Piece& pc = pieces[s.item];
+      if (pc.loop) {
+        const std::size_t seam = seam_vertex(pc.pts, Seam::Nearest, cursor, o.seed, 0);
+        emit(make_path(rotated(pc.pts, seam), z, pc.role, w, layer_height, true));
+        continue;
+      }
+      if (s.reversed) std::reverse(pc.pts.begin(), pc.pts.end());
+      emit(make_path(pc.pts, z, pc.role, w, layer_height, false));
+    }
+  }
+}
+
+}  // namespace trellis

@@ -1,0 +1,177 @@
+#include "trellis/toolpath/order.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <tuple>
+
+namespace trellis {
+
+namespace {
+
+// The ends of the items not yet taken, in a uniform XY grid. Rebuilt over the remaining ends
+// when half are gone, so a search never walks a grid that is mostly empty.
+class EndGrid {
+ public:
+  EndGrid(const std::vector<OrderItem>& items, const std::vector<char>& taken)
+      : items_(items), taken_(taken) {
+    build();
+  }
+
+  // The nearest end to p among items not taken: (item, reversed), ties broken as documented.
+  OrderStep nearest(Vec3 p) {
+    if (remaining_ * 2 < built_with_) build();
+    double best = 1e300;
+    OrderStep pick{static_cast<std::size_t>(-1), false};
+    const long cx = cell_x(p.x), cy = cell_y(p.y);
+    const long rings = std::max(nx_, ny_);
+    for (long r = 0; r <= rings; ++r) {
+      if (r >= 1 && static_cast<double>(r - 1) * cell_ > best) break;
+      for (long y = cy - r; y <= cy + r; ++y) {
+        if (y < 0 || y >= ny_) continue;
+        const bool edge_row = y == cy - r || y == cy + r;
+        for (long x = cx - r; x <= cx + r; x += edge_row ? 1 : 2 * r) {
+          if (x >= 0 && x < nx_)
+            for (const std::size_t key : cells_[static_cast<std::size_t>(y * nx_ + x)]) {
+              const std::size_t i = key / 2;
+              if (taken_[i]) continue;
+              const bool rev = key % 2 == 1;
+              const double d = distance(p, rev ? items_[i].end : items_[i].start);
+              if (std::tie(d, i, rev) < std::tie(best, pick.item, pick.reversed)) {
+                best = d;
+                pick = {i, rev};
+              }
+            }
+          if (r == 0) break;
+        }
+      }
+    }
+    return pick;
+  }
+
+  void took() { --remaining_; }
+
+ private:
+  void build() {
+    double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
+    std::size_t ends = 0;
+    remaining_ = 0;
+    for (std::size_t i = 0; i < items_.size(); ++i) {
+      if (taken_[i]) continue;
+      ++remaining_;
+      for (const Vec3& q : {items_[i].start, items_[i].end}) {
+        x0 = std::min(x0, q.x), y0 = std::min(y0, q.y);
+        x1 = std::max(x1, q.x), y1 = std::max(y1, q.y);
+      }
+      ends += items_[i].reversible ? 2 : 1;
+    }
+    built_with_ = remaining_;
+    x0_ = x0, y0_ = y0;
+    const double w = std::max(x1 - x0, 1e-9), h = std::max(y1 - y0, 1e-9);
+    cell_ = std::max(std::sqrt(w * h / static_cast<double>(std::max<std::size_t>(ends, 1))),
+                     std::max(w, h) / 1024);
+    cell_ = std::max(cell_, 1e-9);
+    nx_ = std::clamp(static_cast<long>(w / cell_) + 1, 1L, 1025L);
+    ny_ = std::clamp(static_cast<long>(h / cell_) + 1, 1L, 1025L);
+    cells_.assign(static_cast<std::size_t>(nx_ * ny_), {});
+    for (std::size_t i = 0; i < items_.size(); ++i) {
+      if (taken_[i]) continue;
+      add(2 * i, items_[i].start);
+      if (items_[i].reversible) add(2 * i + 1, items_[i].end);
+    }
+  }
+  void add(std::size_t key, Vec3 q) {
+    cells_[static_cast<std::size_t>(cell_y(q.y) * nx_ + cell_x(q.x))].push_back(key);
+  }
+  long cell_x(double x) const {
+    return std::clamp(static_cast<long>(std::floor((x - x0_) / cell_)), 0L, nx_ - 1);
+  }
+  long cell_y(double y) const {
+    return std::clamp(static_cast<long>(std::floor((y - y0_) / cell_)), 0L, ny_ - 1);
+  }
+
+  const std::vector<OrderItem>& items_;
+  const std::vector<char>& taken_;
+  std::vector<std::vector<std::size_t>> cells_;
+  double x0_ = 0, y0_ = 0, cell_ = 1;
+  long nx_ = 1, ny_ = 1;
+  std::size_t remaining_ = 0, built_with_ = 0;
+};
+
+// 2-opt on the sequence: reversing a run of items also reverses each item in it.
+void two_opt(const std::vector<OrderItem>& items, std::vector<OrderStep>& order, Vec3 from) {
+  const std::size_t n = order.size();
+  if (n < 3) return;
+  auto s = [&](std::size_t i) {
+    const OrderItem& it = items[order[i].item];
+    return order[i].reversed ? it.end : it.start;
+  };
+  auto e = [&](std::size_t i) {
+    const OrderItem& it = items[order[i].item];
+    return order[i].reversed ? it.start : it.end;
+  };
+  // fixed_before[k]: items before k that cannot be reversed, so a run i..j can be reversed
+  // only when fixed_before[j + 1] == fixed_before[i].
+  std::vector<std::size_t> fixed_before(n + 1, 0);
+  bool any_fixed = false;
+  for (std::size_t k = 0; k < n; ++k) {
+    fixed_before[k + 1] = fixed_before[k] + (items[order[k].item].reversible ? 0 : 1);
+    any_fixed = any_fixed || !items[order[k].item].reversible;
+  }
+  const std::size_t window = n > 2000 ? 64 : n;
+  for (int pass = 0; pass < 20; ++pass) {
+    bool improved = false;
+    for (std::size_t i = 0; i + 1 < n; ++i) {
+      const Vec3 before = i == 0 ? from : e(i - 1);
+      for (std::size_t j = i + 1; j < n && j - i <= window; ++j) {
+        if (any_fixed && fixed_before[j + 1] != fixed_before[i]) break;
+        double old_cost = distance(before, s(i));
+        double new_cost = distance(before, e(j));
+        if (j + 1 < n) {
+          old_cost += distance(e(j), s(j + 1));
+          new_cost += distance(s(i), s(j + 1));
+        }
+        if (new_cost < old_cost - 1e-9) {
+          std::reverse(order.begin() + static_cast<long>(i),
+                       order.begin() + static_cast<long>(j) + 1);
+          for (std::size_t k = i; k <= j; ++k) order[k].reversed = !order[k].reversed;
+          improved = true;
+        }
+      }
+    }
+    if (!improved) break;
+  }
+}
+
+}  // namespace
+
+std::vector<OrderStep> order_by_travel(const std::vector<OrderItem>& items, Vec3 from) {
+  const std::size_t n = items.size();
+  std::vector<OrderStep> order;
+  order.reserve(n);
+  std::vector<char> taken(n, 0);
+  EndGrid grid(items, taken);
+  Vec3 at = from;
+  for (std::size_t step = 0; step < n; ++step) {
+    const OrderStep pick = grid.nearest(at);
+    taken[pick.item] = 1;
+    grid.took();
+    order.push_back(pick);
+    at = pick.reversed ? items[pick.item].start : items[pick.item].end;
+  }
+  two_opt(items, order, from);
+  return order;
+}
+
+double order_travel(const std::vector<OrderItem>& items, const std::vector<OrderStep>& order,
+                    Vec3 from) {
+  double len = 0;
+  Vec3 at = from;
+  for (const OrderStep& s : order) {
+    const OrderItem& it = items[s.item];
+    len += distance(at, s.reversed ? it.end : it.start);
+    at = s.reversed ? it.start : it.end;
+  }
+  return len;
+}
+
+}  // namespace trellis
