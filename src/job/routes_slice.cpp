@@ -313,12 +313,13 @@ void warn_short_segments(const std::string& input, const FgmStats& st, Diagnosti
   if (st.short_kept > 0)
     diag.warn("short_segments_kept",
               fmt::format("{}: {} pieces under --min-segment {} mm are printed ({} merged into a "
-                          "neighbour): {} merges refused because merging would exceed the "
-                          "gradient bound {} = {}, the other short pieces touch no piece of "
-                          "another colour end to end; use more colours or a smaller "
+                          "neighbour; {} of them beads of their own, the others runs of one "
+                          "mixture inside a longer bead): {} merges refused because merging "
+                          "would exceed the gradient bound {} = {}, the other short pieces touch "
+                          "no piece of another colour end to end; use more colours or a smaller "
                           "--min-segment",
                           input, st.short_kept, fixed(st.min_segment, 2), st.short_merged,
-                          st.short_kept_bound, st.materials == 3 ? "2α/3" : "α/2",
+                          st.short_beads, st.short_kept_bound, st.materials == 3 ? "2α/3" : "α/2",
                           fixed(st.error_bound, 4)));
 }
 

@@ -15,6 +15,8 @@
 #include "trellis/core/error.hpp"
 #include "trellis/geom/contour.hpp"
 #include "trellis/geom/regions.hpp"
+#include "trellis/slice/link.hpp"
+#include "trellis/toolpath/order.hpp"
 #include "fgm_fill.hpp"
 #include "fgm_order.hpp"
 #include "fgm_tower.hpp"
@@ -694,13 +696,15 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
         } else {
           for (const auto& poly : fill) {
             const Regions one{poly};
-            double spread = 0;
-            const double angle = directions->mean_angle(one, &spread);
-            if (spread >= o.orient_agree) {
+            double spread = 0, coherence = 0;
+            const double angle = directions->mean_angle(one, &spread, &coherence);
+            // One direction where the iso-lines keep one, or where they have none (three
+            // materials' iso-lines crossing: sectors would cut the lines every way).
+            if (spread >= o.orient_agree || coherence < 0.5) {
               hatch_at(one, angle);
               continue;
             }
-            for (auto& lane : fgm::join_lanes(fgm::sector_lines(one, *directions, o.orient_sector, o.bead_width, 0.05),
+            for (auto& lane : fgm::join_lanes(fgm::sector_lines(one, *directions, o.orient_sector, o.bead_width, 0.05, angle),
                                               0.75 * o.bead_width, 1.5 * o.orient_sector))
               runs.push_back(std::move(lane));
           }
@@ -762,6 +766,17 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
         for (auto& c : fgm::chain_pieces(std::move(island.pieces), {island.region}, chain, cursor))
           chains.push_back({std::move(c), island.colour});
       }
+      // The layer's beads reordered for the least travel (nearest neighbour, then 2-opt).
+      std::vector<OrderItem> items;
+      for (const auto& c : chains)
+        items.push_back({{c.first.front().x, c.first.front().y, 0}, {c.first.back().x, c.first.back().y, 0}, true});
+      std::vector<std::pair<std::vector<Vec2>, int>> ordered;
+      for (const OrderStep& step : order_by_travel(items, {0, 0, 0})) {
+        auto& c = chains[step.item];
+        if (step.reversed) std::reverse(c.first.begin(), c.first.end());
+        ordered.push_back(std::move(c));
+      }
+      chains = std::move(ordered);
     } else {
       for (std::size_t fi = 0; fi < faces.size(); ++fi)
         for (auto& c : fgm::chain_pieces(std::move(face_lines[fi]), inners[fi], chain, cursor))
@@ -779,6 +794,22 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
       out.colors.push_back(colour);
     }
     merge_short_pieces(layer.paths, out.colors, ev, lo.z, o.palette, o.min_segment, out.shorts);
+    // Travel between the beads kept inside the part where a route inside is short (the linking
+    // stage's Comb: within a quarter bead outside the outline's outer bead), so the writer
+    // neither retracts nor lifts for it.
+    const Regions route = offset(lo.regions, -0.5 * o.bead_width);
+    if (!route.empty()) {
+      const Comb comb(offset(lo.regions, -0.25 * o.bead_width), route);
+      for (std::size_t k = 1; k < layer.paths.size(); ++k) {
+        Path& p = layer.paths[k];
+        const Vec2 a = layer.paths[k - 1].points.back().xy(), b = p.points.front().xy();
+        std::vector<Vec2> via;
+        if (!p.joined && comb.route(a, b, 3 * std::hypot(b.x - a.x, b.y - a.y) + o.bead_width, via)) {
+          p.inside = true;
+          for (const Vec2 v : via) p.via.push_back({v.x, v.y, layer.z});
+        }
+      }
+    }
   });
   Toolpath tp;
   FgmStats st;
@@ -791,6 +822,7 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
     st.short_merged += pl.shorts.short_merged;
     st.short_kept += pl.shorts.short_kept;
     st.short_kept_bound += pl.shorts.short_kept_bound;
+    st.short_beads += pl.shorts.short_kept;  // Strategy 2's paths are beads
     for (std::size_t i = 0; i < pl.layer.paths.size(); ++i) {
       const Path& path = pl.layer.paths[i];
       st.shortest_path = std::min(st.shortest_path, path.length());
@@ -1129,9 +1161,14 @@ std::vector<fgm::Piece> path_order_layer(const Layer& planar, const std::vector<
     Vec2 cursor = pieces.front().path.points.front().xy();
     fgm::group_by_tool(pieces, g % 2 == 1, cursor);
   }
-  shorts.short_kept = 0;
+  shorts.short_kept = shorts.short_beads = 0;
   if (o.min_segment > 0)
-    for (const auto& p : pieces) shorts.short_kept += p.path.length() < o.min_segment;
+    for (std::size_t k = 0; k < pieces.size(); ++k) {
+      const bool short_piece = pieces[k].path.length() < o.min_segment;
+      const bool bead = !pieces[k].path.joined && (k + 1 == pieces.size() || !pieces[k + 1].path.joined);
+      shorts.short_kept += short_piece;
+      shorts.short_beads += short_piece && bead;
+    }
   return pieces;
 }
 
@@ -1312,6 +1349,7 @@ Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>&
       per[li] = std::move(joined);
       shorts_per[li].short_kept = 0;
       for (const auto& piece : per[li]) shorts_per[li].short_kept += piece.path.length() < o.min_segment;
+      shorts_per[li].short_beads = shorts_per[li].short_kept;  // face order: every piece a bead
     }
   });
   Toolpath tp;
@@ -1325,6 +1363,7 @@ Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>&
     st.short_merged += shorts_per[li].short_merged;
     st.short_kept += shorts_per[li].short_kept;
     st.short_kept_bound += shorts_per[li].short_kept_bound;
+    st.short_beads += shorts_per[li].short_beads;
     Layer layer;
     layer.z = planar.layers[li].z;
     for (auto& piece : per[li]) {

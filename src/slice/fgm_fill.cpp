@@ -79,9 +79,16 @@ double IsoDirections::angle(Vec2 p) const {
   return angle_of(at(p));
 }
 
-double IsoDirections::mean_angle(const Regions& region, double* spread) const {
+double IsoDirections::angle_or(Vec2 p, double fallback, double coherence) const {
+  const Tensor t = at(p);
+  if (!(t.xx + t.yy > 1e-18) || !(std::hypot(t.xx - t.yy, 2 * t.xy) >= coherence * (t.xx + t.yy)))
+    return fallback;
+  return angle_of(t);
+}
+
+double IsoDirections::mean_angle(const Regions& region, double* spread, double* coherence) const {
   Tensor sum;
-  double count = 0;
+  double count = 0, coherent = 0;
   for (const auto& s : hatch(region, 0, spacing_ / 2)) {
     const double len = dist(s.a, s.b);
     const int m = std::max(1, static_cast<int>(std::ceil(len / (spacing_ / 2))));
@@ -92,9 +99,11 @@ double IsoDirections::mean_angle(const Regions& region, double* spread) const {
       if (!(n > 0)) continue;
       sum.xx += (t.xx - t.yy) / n, sum.xy += 2 * t.xy / n;
       ++count;
+      coherent += n / (t.xx + t.yy);
     }
   }
   if (spread) *spread = count > 0 ? std::hypot(sum.xx, sum.xy) / count : 0.0;
+  if (coherence) *coherence = count > 0 ? coherent / count : 0.0;
   // sum.xx holds Σ cos 2φ, sum.xy Σ sin 2φ of the gradients' directions φ.
   if (!(std::hypot(sum.xx, sum.xy) > 0)) return fallback_;
   double deg = 0.5 * std::atan2(sum.xy, sum.xx) * 180 / kPi + 90;
@@ -103,12 +112,15 @@ double IsoDirections::mean_angle(const Regions& region, double* spread) const {
 }
 
 std::vector<std::vector<Vec2>> sector_lines(const Regions& region, const IsoDirections& dirs,
-                                            double sector, double spacing, double min_length) {
+                                            double sector, double spacing, double min_length,
+                                            double fallback) {
   std::vector<std::vector<Vec2>> out;
   if (region.empty() || !(spacing > 0) || !(sector > 0)) return out;
   const int n = std::max(1, static_cast<int>(std::lround(180 / sector)));
   const double step = 180.0 / n;
-  auto sector_of = [&](Vec2 p) { return static_cast<int>(std::lround(dirs.angle(p) / step)) % n; };
+  auto sector_of = [&](Vec2 p) {
+    return static_cast<int>(std::lround(dirs.angle_or(p, fallback, 0.5) / step)) % n;
+  };
   // The sectors the region meets: its directions sampled on lines half a line apart.
   std::set<int> used;
   for (const auto& s : hatch(region, 0, spacing / 2)) {

@@ -19,10 +19,16 @@ class IsoDirections {
  public:
   IsoDirections(Evaluator& evaluator, double z, Vec2 lo, Vec2 hi, double spacing, double fallback);
   double angle(Vec2 p) const;  // degrees in [0, 180)
+  // The same where the iso-lines there have a direction (the tensor's anisotropy at least
+  // `coherence`), else `fallback`.
+  double angle_or(Vec2 p, double fallback, double coherence) const;
   // The mean iso-line direction over the region (sampled half a grid step apart, each sample's
-  // direction with unit weight), and in *spread the mean resultant length of the doubled angles:
-  // 1 where every sample has that direction, 0 where they point every way.
-  double mean_angle(const Regions& region, double* spread = nullptr) const;
+  // direction with unit weight), in *spread the mean resultant length of the doubled angles (1
+  // where every sample has that direction, 0 where they point every way), in *coherence the
+  // samples' mean anisotropy (λ1 − λ2)/(λ1 + λ2) of the tensor (1 where the iso-lines of all
+  // the fractions run one way, 0 where three materials' iso-lines cross at every angle).
+  double mean_angle(const Regions& region, double* spread = nullptr,
+                    double* coherence = nullptr) const;
 
  private:
   struct Tensor {
@@ -41,9 +47,11 @@ class IsoDirections {
 // `sector` degrees (k·sector ± sector/2); where the local direction lies in sector k the region is
 // hatched at k·sector, so a line is within half a sector of the iso-line and ends only where
 // the direction leaves its sector (found by bisection) or at the region's edge. Pieces shorter
-// than `min_length` are dropped. Each line is two points.
+// than `min_length` are dropped. Where the iso-lines have no direction (three materials' crossing,
+// IsoDirections::angle_or below 0.5) the direction is `fallback`. Each line is two points.
 std::vector<std::vector<Vec2>> sector_lines(const Regions& region, const IsoDirections& directions,
-                                            double sector, double spacing, double min_length);
+                                            double sector, double spacing, double min_length,
+                                            double fallback);
 
 // Lines ending where a neighbouring sector's lines begin (sector_lines' cuts) joined into lanes
 // along the iso-lines: ends within `reach` of each other that face each other (their lines

@@ -702,6 +702,7 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
           r.fgm.short_merged += p.fgm.short_merged;
           r.fgm.short_kept += p.fgm.short_kept;
           r.fgm.short_kept_bound += p.fgm.short_kept_bound;
+          r.fgm.short_beads += p.fgm.short_beads;
           for (const Layer& layer : p.toolpath.layers)
             for (const Path& path : layer.paths) {
               r.fgm.shortest_path = std::min(r.fgm.shortest_path, path.length());
@@ -876,7 +877,7 @@ std::string slice_report_json(const SliceJob& job, const SliceResult& r, const G
                                     {"samples", r.fgm.error_samples}}},
                 {"band_percent", 100.0 * r.fgm.band},
                 {"faces", r.fgm.faces},
-                {"order", job.strategy == 1 ? to_string(job.fgm.order) : "faces"},
+                {"order", to_string(job.fgm.order)},
                 {"paths", r.fgm.paths},
                 {"joined_pieces", r.fgm.joined},
                 {"colour_changes", r.fgm.colour_changes},
@@ -886,6 +887,7 @@ std::string slice_report_json(const SliceJob& job, const SliceResult& r, const G
                                  {"merged", r.fgm.short_merged},
                                  {"kept", r.fgm.short_kept},
                                  {"refused_by_gradient_bound", r.fgm.short_kept_bound},
+                                 {"whole_beads", r.fgm.short_beads},
                                  {"kept_reason",
                                   r.fgm.short_kept == 0
                                       ? ""

@@ -190,6 +190,9 @@ struct FgmStats {
   // short_kept); the others touch no piece of another colour end to end.
   double min_segment = 0;
   std::size_t short_merged = 0, short_kept = 0, short_kept_bound = 0;
+  // Of short_kept, those that are a whole bead (a start and a stop, the paper's concern); the
+  // others, in path order, are runs of one mixture inside a longer bead.
+  std::size_t short_beads = 0;
   std::size_t purges = 0;    // Strategy 1: purges printed into the tower
   double purge_length = 0;   // mm of purge path (the dense part of the tower)
   double purge_volume = 0;   // mm³ (capsule bead, Appendix A.1)
@@ -258,7 +261,11 @@ void add_prime_tower(Toolpath& toolpath, const FgmOptions& options, const PurgeO
                      FgmStats& stats);
 
 // Strategy 2 over the layer outlines (from slice_field). Paths carry mixture {m, 1-m} with m the
-// band's mid value of the first material.
+// band's mid value of the first material. Each face's rings, lines and gap fill are chained into
+// few beads (rings whole, ring to ring; lines into serpentines); in face order the faces print
+// colour by colour in palette order (reversed every other layer), in path order (not on a tool
+// changer) the beads of every face are ordered for the least travel (nearest neighbour, then
+// 2-opt); travel between beads is routed inside the part where it can be (Path::via, inside).
 Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>& layers,
                             const FgmOptions& options, FgmStats* stats = nullptr);
 
