@@ -233,6 +233,7 @@ def slice(
     max_time: float = ...,  # run.max_time: refuse a run whose estimated time is longer than this
     mesh_voxel: float = ...,  # slice.mesh_voxel: voxel of mesh distance fields (field route)
     min_segment: float = ...,  # fgm.min_segment: pieces (Strategy 1) and paths (Strategy 2) shorter than this are joined to a touching piece of another colour where the design stays within α/2 of its
+    order: Literal['paths', 'faces'] = ...,  # fgm.order: graded print order: paths (Strategy 1: the planar order kept, each path cut at the colour faces into one bead whose mixture changes where it c
     preview_layers: int = ...,  # output.preview_layers: PNG previews spread over the layers
     process_min_length: float = ...,  # process.min_length: pieces of a path shorter than this are merged into a neighbour (their deviation from the field is reported, a warning beyond half a step)
     process_sample: float = ...,  # process.sample: spacing of the field samples along each path (changes between samples are found by bisection)

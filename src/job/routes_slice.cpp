@@ -313,12 +313,13 @@ void warn_short_segments(const std::string& input, const FgmStats& st, Diagnosti
   if (st.short_kept > 0)
     diag.warn("short_segments_kept",
               fmt::format("{}: {} pieces under --min-segment {} mm are printed ({} merged into a "
-                          "neighbour): {} merges refused because merging would exceed the "
-                          "gradient bound {} = {}, the other short pieces touch no piece of "
-                          "another colour end to end; use more colours or a smaller "
+                          "neighbour; {} of them beads of their own, the others runs of one "
+                          "mixture inside a longer bead): {} merges refused because merging "
+                          "would exceed the gradient bound {} = {}, the other short pieces touch "
+                          "no piece of another colour end to end; use more colours or a smaller "
                           "--min-segment",
                           input, st.short_kept, fixed(st.min_segment, 2), st.short_merged,
-                          st.short_kept_bound, st.materials == 3 ? "2α/3" : "α/2",
+                          st.short_beads, st.short_kept_bound, st.materials == 3 ? "2α/3" : "α/2",
                           fixed(st.error_bound, 4)));
 }
 
@@ -699,13 +700,15 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
   previews(r.toolpath, job.preview, c.output.preview_layers, ro, out);
   if (sj.strategy != 0)
     out.summary = fmt::format(
-        "strategy {}: {} colours, {} faces, {} paths, {} {} changes (look-ahead {} mm), {} purges "
+        "strategy {}: {} colours, {} faces, {} paths{}, {} {} changes (look-ahead {} mm), {} purges "
         "({} mm3), gradient error mean {} max {} (bound {}), shortest {} mm; {} route, {} layers, "
         "~{} min",
         sj.strategy,
         r.fgm.quantized_from ? fmt::format("{} (quantized from {})", sj.tools, r.fgm.quantized_from)
                              : std::to_string(sj.fgm.palette.colors),
-        r.fgm.faces, r.fgm.paths, g.gradient_changes, c.machine.gradient_mode,
+        r.fgm.faces, r.fgm.paths,
+        r.fgm.joined ? fmt::format(" in {} beads (path order)", r.fgm.paths - r.fgm.joined) : "",
+        g.gradient_changes, c.machine.gradient_mode,
         fixed(g.lookahead, 0), r.fgm.purges, fixed(r.fgm.purge_volume, 0),
         fixed(r.fgm.error_mean, 4), fixed(r.fgm.error_max, 4), fixed(r.fgm.error_bound, 4),
         fixed(r.fgm.shortest_path, 2), to_string(r.route), layers, fixed(g.print_time_s / 60, 1));

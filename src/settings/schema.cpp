@@ -577,6 +577,14 @@ std::vector<Setting> make_table() {
   t.push_back(integer("fgm.colors", 1, 1000,
                       "palette size (two materials: N bands; three: d² triangles, e.g. 9)",
                       "colors", [](C& c) -> auto& { return c.slice.fgm.palette.colors; }));
+  t.push_back(choice_enum<FgmOrder>(
+      "fgm.order", {{"paths", FgmOrder::Paths}, {"faces", FgmOrder::Faces}},
+      "graded print order: paths (Strategy 1: the planar order kept, each path cut at the colour "
+      "faces into one bead whose mixture changes where it crosses them, each change issued "
+      "gradient.lookahead early, no prime tower; a tool changer groups the pieces by tool, nearest "
+      "first; Strategy 2: islands nearest first) or faces (the FGM paper's colour-by-colour "
+      "order, Strategy 1 with a purge before each colour change)",
+      "order", [](C& c) -> auto& { return c.slice.fgm.order; }));
   t.push_back(boolean("fgm.concentric", "Strategy 2: concentric fill instead of rectilinear",
                       "concentric", [](C& c) -> auto& { return c.slice.fgm.concentric; }));
   t.push_back(boolean("fgm.fixed_angle",

@@ -15,6 +15,10 @@
 #include "trellis/core/error.hpp"
 #include "trellis/geom/contour.hpp"
 #include "trellis/geom/regions.hpp"
+#include "trellis/slice/link.hpp"
+#include "trellis/toolpath/order.hpp"
+#include "fgm_fill.hpp"
+#include "fgm_order.hpp"
 #include "fgm_tower.hpp"
 
 namespace trellis {
@@ -528,21 +532,6 @@ std::vector<std::vector<std::vector<Vec2>>> gap_lines(const std::vector<ColorFac
   return lines;
 }
 
-// The direction (degrees) perpendicular to the gradient of the material fractions at p: the
-// minor axis of their structure tensor Σ ∇f ∇fᵀ (central differences of `h`), which for two
-// materials is the iso-line's direction; `fallback` where the fractions are flat.
-double across_gradient(Evaluator& ev, double z, Vec2 p, double h, double fallback) {
-  const auto fx0 = ev.fractions({p.x - h, p.y, z}), fx1 = ev.fractions({p.x + h, p.y, z});
-  const auto fy0 = ev.fractions({p.x, p.y - h, z}), fy1 = ev.fractions({p.x, p.y + h, z});
-  double sxx = 0, syy = 0, sxy = 0;
-  for (std::size_t m = 0; m < fx0.size() && m < 3; ++m) {
-    const double gx = (fx1[m] - fx0[m]) / (2 * h), gy = (fy1[m] - fy0[m]) / (2 * h);
-    sxx += gx * gx, syy += gy * gy, sxy += gx * gy;
-  }
-  if (!(sxx + syy > 1e-18)) return fallback;
-  return 0.5 * std::atan2(2 * sxy, sxx - syy) * 180 / 3.14159265358979323846 + 90;
-}
-
 void require_materials(const Field& field, const Palette& palette) {
   palette.check();
   if (field.materials().size() < static_cast<std::size_t>(palette.materials))
@@ -640,6 +629,14 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
     if (g % 2 == 1) std::reverse(faces.begin(), faces.end());
     const double fixed_angle = o.angle_deg + (g % 2 ? 90.0 : 0.0);
     Vec2 cursor{0, 0};
+    // The iso-line directions over the layer, on the material grid.
+    std::optional<fgm::IsoDirections> directions;
+    if (!o.fixed_angle && !faces.empty()) {
+      Vec2 dlo, dhi;
+      padded_box(lo.regions, 2 * o.bead_width, dlo, dhi);
+      directions.emplace(ev, lo.z, dlo, dhi, std::max(o.material_resolution, o.bead_width / 2),
+                         fixed_angle);
+    }
     std::vector<std::vector<std::vector<Vec2>>> face_lines(faces.size());
     std::vector<Regions> inners(faces.size());
     std::vector<std::size_t> outer_rings(faces.size(), 0);  // face_lines[fi]'s first ones
@@ -684,17 +681,34 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
         // The lines reach into the innermost ring's bead by the overlap (what it covers already
         // is trimmed below).
         const Regions fill = offset(last, -o.bead_width * (1 - o.fill_overlap));
-        // The paper's Strategy 2 prints perpendicular to the gradient: in each square of
-        // orient_cell mm the lines run along the local iso-line (rounded to 5°), or at a fixed
-        // angle, +90° a layer, if asked.
-        auto runs = o.fixed_angle
-                        ? fill_lines(fill, fixed_angle, o.bead_width, o.bead_width, 0.05, true, cursor)
-                        : fill_lines_oriented(
-                              fill,
-                              [&](Vec2 c) {
-                                return across_gradient(ev, lo.z, c, o.orient_cell / 4, fixed_angle);
-                              },
-                              o.orient_cell, 5, o.bead_width, o.bead_width, 0.05, true, cursor);
+        // The paper's Strategy 2 prints perpendicular to the gradient: the lines run along the
+        // iso-lines, or at a fixed angle, +90° a layer, if asked. A part of the fill whose
+        // iso-lines keep one direction (their spread at least orient_agree) is hatched at that
+        // direction; a curved one by sectors of directions, each sector's lines continued across
+        // the sector's edges into lanes. They are chained into beads after the material balance.
+        std::vector<std::vector<Vec2>> runs;
+        auto hatch_at = [&](const Regions& r, double angle) {
+          for (const auto& seg : hatch(r, angle, o.bead_width))
+            if (std::hypot(seg.b.x - seg.a.x, seg.b.y - seg.a.y) >= 0.05) runs.push_back({seg.a, seg.b});
+        };
+        if (o.fixed_angle) {
+          hatch_at(fill, fixed_angle);
+        } else {
+          for (const auto& poly : fill) {
+            const Regions one{poly};
+            double spread = 0, coherence = 0;
+            const double angle = directions->mean_angle(one, &spread, &coherence);
+            // One direction where the iso-lines keep one, or where they have none (three
+            // materials' iso-lines crossing: sectors would cut the lines every way).
+            if (spread >= o.orient_agree || coherence < 0.5) {
+              hatch_at(one, angle);
+              continue;
+            }
+            for (auto& lane : fgm::join_lanes(fgm::sector_lines(one, *directions, o.orient_sector, o.bead_width, 0.05, angle),
+                                              0.75 * o.bead_width, 1.5 * o.orient_sector))
+              runs.push_back(std::move(lane));
+          }
+        }
         for (auto& run : runs) lines.push_back(std::move(run));
       }
     }
@@ -704,7 +718,8 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
     // faces' area × layer height at any palette size: fill lines end at the ring, a line beside
     // the ring nearer than half a bead goes, a ring of a face narrower than two beads does not
     // run back over itself.
-    if (auto raster = layer_raster(faces, o.bead_width)) {
+    std::unique_ptr<BeadRaster> raster = layer_raster(faces, o.bead_width);
+    if (raster) {
       const double min_piece = o.bead_width;
       std::vector<std::vector<std::vector<Vec2>>> kept(faces.size());
       auto keep = [&](std::size_t fi, const std::vector<Vec2>& line) {
@@ -722,37 +737,99 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
       }
       face_lines = std::move(kept);
     }
-    for (std::size_t fi = 0; fi < faces.size(); ++fi) {
-      const std::vector<double> mix = o.palette.mixture(faces[fi].color);
-      for (auto& line : face_lines[fi]) {
-        if (line.size() < 2) continue;
-        Path p;
-        p.role = PathRole::Infill;
-        p.mixture = mix;
-        p.width = o.bead_width;
-        p.height = o.layer_height;
-        for (const Vec2 q : line) p.points.push_back({q.x, q.y, layer.z});
-        if (p.length() <= 0) continue;
-        layer.paths.push_back(std::move(p));
-        out.colors.push_back(faces[fi].color);
+    // Each face's rings whole, ring to ring, its lines into serpentines, its gap fill where it
+    // is near: connectors up to three beads long inside the face (half a bead in from its edge),
+    // longer ones (up to ten beads) along a boundary the lines meet at a shallow angle.
+    fgm::ChainOptions chain;
+    chain.max_connector = 3 * o.bead_width;
+    chain.max_boundary_connector = 10 * o.bead_width;
+    chain.bead = o.bead_width;
+    chain.raster = raster.get();
+    std::vector<std::pair<std::vector<Vec2>, int>> chains;  // (points, colour) in print order
+    if (o.order == FgmOrder::Paths && !o.tool_changer) {
+      // Path order: island by island (each polygon of a face's inner region with its pieces),
+      // the next the island nearest where the last chain ended, whatever its colour (a mixing
+      // hotend or a temperature change runs the look-ahead ahead of the nozzle; the palette
+      // order would travel from island to island of one colour across the part).
+      auto isles = fgm::islands(faces, inners, std::move(face_lines));
+      std::vector<char> done(isles.size(), 0);
+      for (std::size_t n = 0; n < isles.size(); ++n) {
+        std::size_t pick = 0;
+        double best = std::numeric_limits<double>::infinity();
+        for (std::size_t k = 0; k < isles.size(); ++k)
+          if (!done[k]) {
+            const double d = fgm::island_distance(isles[k], cursor);
+            if (d < best) best = d, pick = k;
+          }
+        done[pick] = 1;
+        auto& island = isles[pick];
+        for (auto& c : fgm::chain_pieces(std::move(island.pieces), {island.region}, chain, cursor))
+          chains.push_back({std::move(c), island.colour});
       }
+      // The layer's beads reordered for the least travel (nearest neighbour, then 2-opt).
+      std::vector<OrderItem> items;
+      for (const auto& c : chains)
+        items.push_back({{c.first.front().x, c.first.front().y, 0}, {c.first.back().x, c.first.back().y, 0}, true});
+      std::vector<std::pair<std::vector<Vec2>, int>> ordered;
+      for (const OrderStep& step : order_by_travel(items, {0, 0, 0})) {
+        auto& c = chains[step.item];
+        if (step.reversed) std::reverse(c.first.begin(), c.first.end());
+        ordered.push_back(std::move(c));
+      }
+      chains = std::move(ordered);
+    } else {
+      for (std::size_t fi = 0; fi < faces.size(); ++fi)
+        for (auto& c : fgm::chain_pieces(std::move(face_lines[fi]), inners[fi], chain, cursor))
+          chains.push_back({std::move(c), faces[fi].color});
+    }
+    for (const auto& [line, colour] : chains) {
+      Path p;
+      p.role = PathRole::Infill;
+      p.mixture = o.palette.mixture(colour);
+      p.width = o.bead_width;
+      p.height = o.layer_height;
+      for (const Vec2 q : line) p.points.push_back({q.x, q.y, layer.z});
+      if (!(p.length() > 0)) continue;
+      layer.paths.push_back(std::move(p));
+      out.colors.push_back(colour);
     }
     merge_short_pieces(layer.paths, out.colors, ev, lo.z, o.palette, o.min_segment, out.shorts);
+    // Travel between the beads kept inside the part where a route inside is short (the linking
+    // stage's Comb: within a quarter bead outside the outline's outer bead), so the writer
+    // neither retracts nor lifts for it.
+    const Regions route = offset(lo.regions, -0.5 * o.bead_width);
+    if (!route.empty()) {
+      const Comb comb(offset(lo.regions, -0.25 * o.bead_width), route);
+      for (std::size_t k = 1; k < layer.paths.size(); ++k) {
+        Path& p = layer.paths[k];
+        const Vec2 a = layer.paths[k - 1].points.back().xy(), b = p.points.front().xy();
+        std::vector<Vec2> via;
+        if (!p.joined && comb.route(a, b, 3 * std::hypot(b.x - a.x, b.y - a.y) + o.bead_width, via)) {
+          p.inside = true;
+          for (const Vec2 v : via) p.via.push_back({v.x, v.y, layer.z});
+        }
+      }
+    }
   });
   Toolpath tp;
   FgmStats st;
   st.shortest_path = std::numeric_limits<double>::infinity();
   int last_color = -1;
+  std::vector<double> last_mixture;
   st.min_segment = o.min_segment;
   for (auto& pl : planned) {
     st.faces += pl.faces;
     st.short_merged += pl.shorts.short_merged;
     st.short_kept += pl.shorts.short_kept;
     st.short_kept_bound += pl.shorts.short_kept_bound;
+    st.short_beads += pl.shorts.short_kept;  // Strategy 2's paths are beads
     for (std::size_t i = 0; i < pl.layer.paths.size(); ++i) {
-      st.shortest_path = std::min(st.shortest_path, pl.layer.paths[i].length());
+      const Path& path = pl.layer.paths[i];
+      st.shortest_path = std::min(st.shortest_path, path.length());
       if (pl.colors[i] != last_color && last_color >= 0) ++st.colour_changes;
       last_color = pl.colors[i];
+      st.abrupt_changes += abrupt_start(last_mixture, path, o.palette);
+      last_mixture = path.mixture;
       ++st.paths;
     }
     if (!pl.layer.paths.empty()) tp.layers.push_back(std::move(pl.layer));
@@ -772,34 +849,8 @@ void merge_short_pieces(std::vector<Path>& paths, std::vector<int>& colours, Eva
   auto near = [&](const Vec3& a, const Vec3& b) {
     return std::abs(a.x - b.x) <= touch && std::abs(a.y - b.y) <= touch;
   };
-  // The design along a piece: fractions every 0.1 mm (and at every vertex).
-  auto samples = [&](const Path& p) {
-    std::vector<std::vector<double>> out;
-    for (std::size_t i = 0; i < p.points.size(); ++i) {
-      const Vec2 a = p.points[i].xy();
-      out.push_back(ev.fractions({a.x, a.y, z}));
-      if (i + 1 == p.points.size()) break;
-      const Vec2 b = p.points[i + 1].xy(), d = b - a;
-      const int n = static_cast<int>(std::ceil(std::hypot(d.x, d.y) / 0.1));
-      for (int k = 1; k < n; ++k) {
-        const Vec2 q = a + d * (static_cast<double>(k) / n);
-        out.push_back(ev.fractions({q.x, q.y, z}));
-      }
-    }
-    return out;
-  };
-  auto error = [&](const std::vector<std::vector<double>>& f, const std::vector<double>& mix,
-                   bool worst) {
-    double e = 0, sum = 0;
-    for (const auto& s : f) {
-      double es = 0;
-      for (std::size_t m = 0; m < s.size() && m < mix.size(); ++m)
-        es = std::max(es, std::abs(std::clamp(s[m], 0.0, 1.0) - mix[m]));
-      e = std::max(e, es);
-      sum += es;
-    }
-    return worst ? e : (f.empty() ? 0.0 : sum / static_cast<double>(f.size()));
-  };
+  auto samples = [&](const Path& p) { return fgm::design_along(ev, z, p); };
+  const auto& error = fgm::mixture_error;
   // Pieces by their ends, on a grid of `touch` cells (a lookup checks the 3 x 3 cells around).
   auto key = [&](const Vec3& a) {
     return std::pair<long long, long long>{std::llround(a.x / touch), std::llround(a.y / touch)};
@@ -1068,6 +1119,71 @@ void add_prime_tower(Toolpath& tp, const FgmOptions& o, const PurgeOptions& purg
   t.finish(st);
 }
 
+namespace {
+
+// Strategy 1's zones: a colour's band, or with zippering the overlap band around a colour
+// boundary, where pieces alternate between the two neighbouring colours.
+struct Zone {
+  int a = 0, b = 0;       // colours (a == b: a plain face)
+  std::size_t count = 0;  // pieces so far (for alternating)
+};
+
+// One layer in path order (FgmOrder::Paths): the planar paths cut where they cross the zones'
+// edges (the contours of the sets below[m][k] = {fraction m <= level k}), each run coloured by
+// the design at its middle (two materials: the zone between the levels; three: the palette's
+// triangle), short runs merged along their bead, a tool changer's pieces grouped by tool.
+std::vector<fgm::Piece> path_order_layer(const Layer& planar, const std::vector<Regions> (&below)[3],
+                                         const std::vector<double>& levels, std::vector<Zone>& zones,
+                                         Evaluator& ev, double z, std::size_t g, const FgmOptions& o,
+                                         Vec2 zlo, Vec2 zhi, FgmStats& shorts) {
+  std::vector<std::vector<Vec2>> rings;
+  for (const auto& sets : below)
+    for (const Regions& r : sets)
+      for (auto& ring : rings_of(r)) rings.push_back(std::move(ring));
+  fgm::EdgeGrid edges(rings, zlo, zhi);
+  const bool three = o.palette.materials == 3;
+  auto zone_at = [&](Vec2 p) {
+    const auto f = ev.fractions({p.x, p.y, z});
+    if (three) return o.palette.color_of(f);
+    const double v = f.empty() ? 0.0 : f[0];
+    return static_cast<int>(std::lower_bound(levels.begin(), levels.end(), v) - levels.begin());
+  };
+  auto colour_of = [&](int zone) {
+    Zone& zn = zones[static_cast<std::size_t>(zone)];
+    return zn.count++ % 2 ? zn.b : zn.a;
+  };
+  auto pieces = fgm::split_paths(planar.paths, edges, zone_at, colour_of, o.palette);
+  if (o.min_segment > 0)
+    // The faces' edges follow the iso-lines to 1e-4 of a band (below_sets): a run that only
+    // grazes the next band is within the bound to that tolerance.
+    fgm::merge_short_runs(pieces, ev, z, o.palette, o.min_segment, 1e-4 * o.palette.band(), shorts);
+  if (o.tool_changer && !pieces.empty()) {
+    Vec2 cursor = pieces.front().path.points.front().xy();
+    fgm::group_by_tool(pieces, g % 2 == 1, cursor);
+  }
+  shorts.short_kept = shorts.short_beads = 0;
+  if (o.min_segment > 0)
+    for (std::size_t k = 0; k < pieces.size(); ++k) {
+      const bool short_piece = pieces[k].path.length() < o.min_segment;
+      const bool bead = !pieces[k].path.joined && (k + 1 == pieces.size() || !pieces[k + 1].path.joined);
+      shorts.short_kept += short_piece;
+      shorts.short_beads += short_piece && bead;
+    }
+  return pieces;
+}
+
+}  // namespace
+
+const char* to_string(FgmOrder order) { return order == FgmOrder::Paths ? "paths" : "faces"; }
+
+bool abrupt_start(const std::vector<double>& before, const Path& path, const Palette& palette) {
+  if (path.joined || before.empty() || path.mixture.size() != before.size()) return false;
+  double change = 0;
+  for (std::size_t m = 0; m < before.size(); ++m)
+    change = std::max(change, std::abs(path.mixture[m] - before[m]));
+  return change > palette.band() + 1e-9;
+}
+
 Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>& layers,
                             const Toolpath& planar, const FgmOptions& o, const PurgeOptions& purge,
                             FgmStats* stats) {
@@ -1078,10 +1194,7 @@ Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>&
   require_materials(field, o.palette);
   if (o.zipper > 0 && o.palette.materials != 2)
     throw SettingError("zippering interlocks two neighbouring colours of a two-material palette");
-  struct Piece {
-    Path path;
-    int color;
-  };
+  using fgm::Piece;
   std::vector<std::vector<Piece>> per(planar.layers.size());
   std::vector<std::size_t> faces_per(planar.layers.size(), 0);
   std::vector<FgmStats> shorts_per(planar.layers.size());  // short_* only
@@ -1097,10 +1210,6 @@ Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>&
     if (idx >= layers.size()) return;
     // Zones: a colour's band, or with zippering the overlap band around each colour boundary
     // (|f - k/N| < β/2), where pieces alternate between the two neighbouring colours.
-    struct Zone {
-      int a = 0, b = 0;       // colours (a == b: a plain face)
-      std::size_t count = 0;  // pieces so far (for alternating)
-    };
     const double res = std::max(o.material_resolution, o.bead_width / 2);
     const double beta = o.zipper;
     const double z = layers[idx].z;
@@ -1139,6 +1248,11 @@ Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>&
       below[0] = below_sets(ev, z, zlo, zhi, 0, levels, res, 1e-4);
     }
     const int bands = static_cast<int>(levels.size()) + 1;
+    if (o.order == FgmOrder::Paths) {
+      per[li] = path_order_layer(pl, below, levels, zones, ev, z, g, o, zlo, zhi, shorts_per[li]);
+      for (const auto& zone : zones) faces_per[li] += zone.count > 0;
+      return;
+    }
 
     // Paths of one role share their attributes: each role's paths are cut together (piece
     // order within a role follows Clipper's, not the planar order).
@@ -1235,30 +1349,36 @@ Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>&
       per[li] = std::move(joined);
       shorts_per[li].short_kept = 0;
       for (const auto& piece : per[li]) shorts_per[li].short_kept += piece.path.length() < o.min_segment;
+      shorts_per[li].short_beads = shorts_per[li].short_kept;  // face order: every piece a bead
     }
   });
   Toolpath tp;
   FgmStats st;
   st.shortest_path = std::numeric_limits<double>::infinity();
   int last = -1;
+  std::vector<double> last_mixture;
   st.min_segment = o.min_segment;
   for (std::size_t li = 0; li < per.size(); ++li) {
     st.faces += faces_per[li];
     st.short_merged += shorts_per[li].short_merged;
     st.short_kept += shorts_per[li].short_kept;
     st.short_kept_bound += shorts_per[li].short_kept_bound;
+    st.short_beads += shorts_per[li].short_beads;
     Layer layer;
     layer.z = planar.layers[li].z;
     for (auto& piece : per[li]) {
       if (last >= 0 && piece.color != last) ++st.colour_changes;
+      st.abrupt_changes += abrupt_start(last_mixture, piece.path, o.palette);
       last = piece.color;
+      last_mixture = piece.path.mixture;
       st.shortest_path = std::min(st.shortest_path, piece.path.length());
       ++st.paths;
+      st.joined += piece.path.joined;
       layer.paths.push_back(std::move(piece.path));
     }
     if (!layer.paths.empty()) tp.layers.push_back(std::move(layer));
   }
-  add_prime_tower(tp, o, purge, st);
+  if (o.order == FgmOrder::Faces || o.tool_changer) add_prime_tower(tp, o, purge, st);
   if (st.paths == 0) st.shortest_path = 0;
   if (stats) *stats = st;
   return tp;

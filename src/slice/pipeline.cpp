@@ -396,6 +396,7 @@ FgmOptions graded_options(const SliceJob& job, int materials, int* quantized_fro
       fo.palette.colors = job.tools;
     }
     fo.palette.ends = fo.palette.colors > 1;
+    fo.tool_changer = true;
   }
   fo.layer_height = job.planar.layer_height;
   fo.bead_width = job.planar.bead_width;
@@ -403,11 +404,15 @@ FgmOptions graded_options(const SliceJob& job, int materials, int* quantized_fro
   return fo;
 }
 
+bool graded_tower(const SliceJob& job) {
+  return (job.strategy == 1 && job.fgm.order == FgmOrder::Faces) || job.tools > 0;
+}
+
 void finish_graded(const SliceJob& job, const FgmOptions& fo, Toolpath& tp, FgmStats& st) {
-  // Strategy 1 purges into the tower; a tool changer primes each tool it changes to (Strategy 2
-  // on a mixing hotend runs the change ahead instead: gradient.lookahead, the writer's).
-  if (job.strategy == 1 || job.tools > 0)
-    naming_design(job, [&] { add_prime_tower(tp, fo, job.purge, st); });
+  // Strategy 1 in face order purges into the tower; a tool changer primes each tool it changes
+  // to (in path order, and Strategy 2, a mixing hotend runs the change ahead instead:
+  // gradient.lookahead, the writer's).
+  if (graded_tower(job)) naming_design(job, [&] { add_prime_tower(tp, fo, job.purge, st); });
   for (auto& l : tp.layers) tool_mixtures(job, l);
 }
 
@@ -533,11 +538,11 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
 SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progress& progress,
                          const SliceStreamOptions& options) {
   const bool graded = job.strategy == 1 || job.strategy == 2;
-  // A prime tower (Strategy 1, tool changers) is placed and sized from every layer, and a tool
+  // A prime tower (Strategy 1 in face order, tool changers) is placed and sized from every layer, and a tool
   // changer's mixtures are made the tools' after it: the planned layers go to a temporary file
   // first (the tower observes each), then are read back in order with the tower and the tools'
   // mixtures added (tower::PrimeTower), and only then handed to the sink.
-  const bool tower_step = graded && (job.strategy == 1 || job.tools > 0);
+  const bool tower_step = graded && graded_tower(job);
   SliceResult r;
   r.streamed = true;
   const auto t0 = std::chrono::steady_clock::now();
@@ -557,6 +562,7 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
   if (d.field.has_process()) process.emplace(d.field, job.process);
   double error_sum = 0;
   int last_colour = -1;
+  std::vector<double> last_mixture;
   std::set<std::vector<double>> colours_used;
   std::map<std::vector<double>, int> colour_of_mixture;
   if (graded) {
@@ -727,6 +733,7 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
           r.fgm.short_merged += p.fgm.short_merged;
           r.fgm.short_kept += p.fgm.short_kept;
           r.fgm.short_kept_bound += p.fgm.short_kept_bound;
+          r.fgm.short_beads += p.fgm.short_beads;
           for (const Layer& layer : p.toolpath.layers)
             for (const Path& path : layer.paths) {
               r.fgm.shortest_path = std::min(r.fgm.shortest_path, path.length());
@@ -737,6 +744,9 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
                                                                    : fo.palette.color_of(path.mixture);
               if (colour != last_colour && last_colour >= 0) ++r.fgm.colour_changes;
               last_colour = colour;
+              r.fgm.abrupt_changes += abrupt_start(last_mixture, path, fo.palette);
+              last_mixture = path.mixture;
+              r.fgm.joined += path.joined;
               ++r.fgm.paths;
               if (path.role != PathRole::Purge && !path.mixture.empty()) colours_used.insert(path.mixture);
             }
@@ -934,13 +944,17 @@ std::string slice_report_json(const SliceJob& job, const SliceResult& r, const G
                                     {"samples", r.fgm.error_samples}}},
                 {"band_percent", 100.0 * r.fgm.band},
                 {"faces", r.fgm.faces},
+                {"order", to_string(job.fgm.order)},
                 {"paths", r.fgm.paths},
+                {"joined_pieces", r.fgm.joined},
                 {"colour_changes", r.fgm.colour_changes},
+                {"abrupt_changes", r.fgm.abrupt_changes},
                 {"shortest_segment_mm", r.fgm.shortest_path},
                 {"min_segment", {{"min_mm", r.fgm.min_segment},
                                  {"merged", r.fgm.short_merged},
                                  {"kept", r.fgm.short_kept},
                                  {"refused_by_gradient_bound", r.fgm.short_kept_bound},
+                                 {"whole_beads", r.fgm.short_beads},
                                  {"kept_reason",
                                   r.fgm.short_kept == 0
                                       ? ""

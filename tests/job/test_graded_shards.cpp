@@ -104,15 +104,28 @@ void expect_merges_exactly(const std::string& job, const std::string& name) {
 
 }  // namespace
 
-// Strategy 1 on the Mizar M mixing hotend (purge on in its profile): the prime tower stands on
-// every layer up to the last purge, and purges sit in the upper shards' layers too.
+// Strategy 1 in face order on the Mizar M mixing hotend (purge on in its profile): the prime
+// tower stands on every layer up to the last purge, and purges sit in the upper shards' layers
+// too.
 TEST(GradedShards, Strategy1WithPrimeTowerMergesExactlyFrom1_2_5Shards) {
-  const std::string job = job_file("s1_mixing", 1, "geeetech_mizar_m_mixing.toml");
+  const std::string job =
+      job_file("s1_mixing", 1, "geeetech_mizar_m_mixing.toml", "\n[fgm]\norder = \"faces\"\n");
   expect_merges_exactly(job, "s1_mixing");
   const std::string g = read_file((work() / "s1_mixing" / "s1_mixing.gcode").string());
   const auto tower = layers_of(g, ";TYPE:Wipe tower");
   ASSERT_FALSE(tower.empty()) << "no prime tower";
   EXPECT_GT(tower.back(), 20) << "the tower reaches into the upper shards' layers";
+  EXPECT_GT(count(g, "M165"), 40u);
+}
+
+// Strategy 1 in path order (the default) on the mixing hotend: no tower; the planar paths cut
+// into joined pieces whose mixture changes the look-ahead writes 960 mm of path early, across
+// layers and so across shard boundaries.
+TEST(GradedShards, Strategy1InPathOrderMergesExactlyFrom1_2_5Shards) {
+  const std::string job = job_file("s1_paths", 1, "geeetech_mizar_m_mixing.toml");
+  expect_merges_exactly(job, "s1_paths");
+  const std::string g = read_file((work() / "s1_paths" / "s1_paths.gcode").string());
+  EXPECT_TRUE(layers_of(g, ";TYPE:Wipe tower").empty()) << "path order prints no tower";
   EXPECT_GT(count(g, "M165"), 40u);
 }
 

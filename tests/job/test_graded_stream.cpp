@@ -93,10 +93,18 @@ void expect_same(const Written& w, const std::string& what) {
 }  // namespace
 
 TEST(GradedStream, Strategy1TowerStreamedIsWhole) {
-  const Written w = both(1, "geeetech_mizar_m_mixing.toml");
-  expect_same(w, "strategy 1, mixing hotend");
+  const Written w = both(1, "geeetech_mizar_m_mixing.toml", "\n[fgm]\norder = \"faces\"\n");
+  expect_same(w, "strategy 1 in face order, mixing hotend");
   EXPECT_EQ(w.whole_stats.lookahead, 0) << "a prime tower issues each change right before its path";
   EXPECT_NE(w.whole.find(";TYPE:Wipe tower"), std::string::npos);
+}
+
+// Strategy 1 in path order: changes inside beads, each written 960 mm of path early.
+TEST(GradedStream, Strategy1PathOrderStreamedIsWhole) {
+  const Written w = both(1, "geeetech_mizar_m_mixing.toml");
+  expect_same(w, "strategy 1 in path order, mixing hotend");
+  EXPECT_EQ(w.whole_stats.lookahead, 960);
+  EXPECT_EQ(w.whole.find(";TYPE:Wipe tower"), std::string::npos);
 }
 
 TEST(GradedStream, Strategy2LookaheadStreamedIsWhole) {
@@ -184,7 +192,9 @@ TEST(GradedStream, Strategy2JobStreamsAsWhole) {
 // temporary file while the tower observes them, and come back with the tower step: the same
 // G-code, summary and report.
 TEST(GradedStream, TowerJobsWrittenLayerByLayerAsWhole) {
-  expect_same_runs(whole_and_streamed(1, "geeetech_mizar_m_mixing.toml"), "strategy 1 job");
+  expect_same_runs(whole_and_streamed(1, "geeetech_mizar_m_mixing.toml", "\n[fgm]\norder = \"faces\"\n"),
+                   "strategy 1 job, face order");
+  expect_same_runs(whole_and_streamed(1, "geeetech_mizar_m_mixing.toml"), "strategy 1 job, path order");
   expect_same_runs(whole_and_streamed(2, "prusa_xl_5tools.toml", "\n[fgm]\ncolors = 5\n"),
                    "tool changer job");
 }

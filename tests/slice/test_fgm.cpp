@@ -331,6 +331,7 @@ TEST(Fgm, Strategy1KeepsEveryPlanarPathAndPurgesBetweenColours) {
   const Toolpath& planar = sl.planar;
   FgmOptions o = fgm_options(6, h);
   o.material_resolution = 0.2;
+  o.order = FgmOrder::Faces;  // the paper's colour-by-colour order, a purge between colours
   PurgeOptions purge;
   purge.melt_volume = 20;
   purge.threshold = 0;  // every change

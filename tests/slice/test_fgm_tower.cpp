@@ -166,7 +166,10 @@ struct Plan {
   FgmOptions options;
 };
 
-Plan plan(const Field& f, int colors, const PurgeOptions& purge, double h = 0.2) {
+// Strategy 1 in the paper's face order (a purge between colours), unless a tool changer's
+// path order (pieces grouped by tool) is asked for.
+Plan plan(const Field& f, int colors, const PurgeOptions& purge, double h = 0.2,
+          bool tool_changer = false) {
   Plan p;
   const BBox3 e = f.extent();
   p.zs = layer_planes(e.min.z, e.max.z, h);
@@ -179,6 +182,8 @@ Plan plan(const Field& f, int colors, const PurgeOptions& purge, double h = 0.2)
   p.options.layer_height = h;
   p.options.bead_width = po.bead_width;
   p.options.material_resolution = 0.5;
+  p.options.order = tool_changer ? FgmOrder::Paths : FgmOrder::Faces;
+  p.options.tool_changer = tool_changer;
   p.graded = plan_fgm_strategy1(f, p.outlines, p.planar, p.options, purge, &p.stats);
   return p;
 }
@@ -321,7 +326,10 @@ TEST(PrimeTower, MixingChangesFlushIntoATowerBesideThePart) {
 
 TEST(PrimeTower, ToolChangesHappenAtPathEndsAndPrimeInTheTower) {
   const Field f = design(kPlate);
-  const Plan p = plan(f, 5, bed_purge(360, 360));
+  for (const bool grouped : {false, true}) {
+  // Face order, and a tool changer's path order: its pieces grouped by tool, chained.
+  const Plan p = plan(f, 5, bed_purge(360, 360), 0.2, grouped);
+  ASSERT_TRUE(p.stats.tower.built);
   MachineProfile prof;
   prof.mixing_inputs = 2;
   prof.tool_count = 5;
@@ -334,6 +342,18 @@ TEST(PrimeTower, ToolChangesHappenAtPathEndsAndPrimeInTheTower) {
   EXPECT_GT(r.changes.size(), 5u);
   EXPECT_EQ(r.changes_inside_paths, 0u);
   for (const auto& c : r.changes) EXPECT_EQ(c[0], 'T') << c;
+  if (grouped) {
+    // One change per tool a layer uses (and one where a layer starts with another tool).
+    std::size_t used = 0;
+    for (const auto& l : p.graded.layers) {
+      std::set<std::vector<double>> mixes;
+      for (const auto& q : l.paths)
+        if (q.role != PathRole::Purge) mixes.insert(q.mixture);
+      used += mixes.size();
+    }
+    EXPECT_LE(r.changes.size(), used + p.graded.layers.size());
+  }
+  }
 }
 
 TEST(PrimeTower, PlacedWhereTheBedHasRoomOrRefused) {

@@ -55,12 +55,14 @@ void expect_same_layer(const Layer& a, const Layer& b, std::size_t i) {
 // A graded job on `design`: with a prime tower for Strategy 1 and tool changers (every change
 // purges, a 250 mm bed); four colours on `tools` tools, so the tools print the nearest of their
 // mixes (not the palette's).
-SliceJob graded_job(const std::string& design, int strategy, int tools) {
+SliceJob graded_job(const std::string& design, int strategy, int tools,
+                    FgmOrder order = FgmOrder::Faces) {
   SliceJob job;
   job.input = design;
   job.strategy_chosen = true;
   job.strategy = strategy;
   job.tools = tools;
+  job.fgm.order = order;
   if (tools) job.fgm.palette.colors = 4;
   if (strategy == 1 || tools) {
     job.purge.melt_volume = 20;
@@ -161,11 +163,12 @@ TEST(SliceStream, OneThreadAndManyAgree) {
   for (std::size_t i = 0; i < one.size(); ++i) expect_same_layer(one[i], many[i], i);
 }
 
-// Graded slicing streams run by run: Strategy 2 on a mixing hotend, and with a prime tower
-// (Strategy 1; either strategy on a five-tool changer) the planned layers go to a temporary file
-// and come back with the tower step and the tools' mixtures. The layers and every statistic the
-// report prints (fill, tower, per-colour use, travel, gradient error) are run_slice's for any
-// run length.
+// Graded slicing streams run by run: Strategy 2 on a mixing hotend, Strategy 1 in path order
+// (joined pieces, no tower), and with a prime tower (Strategy 1 in face order; either strategy on
+// a five-tool changer, Strategy 1's pieces grouped by tool) the planned layers go to a temporary
+// file and come back with the tower step and the tools' mixtures. The layers and every
+// statistic the report prints (fill, tower, per-colour use, travel, gradient error) are
+// run_slice's for any run length.
 TEST(SliceStream, GradedSlicingStreamsAsWhole) {
   // A cylinder graded across X and up Z: several colours per layer, moving up the layers.
   const std::string design =
@@ -175,15 +178,22 @@ TEST(SliceStream, GradedSlicingStreamsAsWhole) {
                            "\"yellow\"]) {\n  cylinder(8, 8.4);\n}\n";
   struct Case {
     int strategy, tools;
+    FgmOrder order;
   };
-  for (const Case c : {Case{2, 0}, Case{1, 0}, Case{1, 5}, Case{2, 5}}) {
-    const SliceJob job = graded_job(design, c.strategy, c.tools);
-    const std::string what = "strategy " + std::to_string(c.strategy) + ", " + std::to_string(c.tools) + " tools";
+  for (const Case c : {Case{2, 0, FgmOrder::Paths}, Case{1, 0, FgmOrder::Faces},
+                       Case{1, 0, FgmOrder::Paths}, Case{1, 5, FgmOrder::Paths},
+                       Case{2, 5, FgmOrder::Paths}}) {
+    const SliceJob job = graded_job(design, c.strategy, c.tools, c.order);
+    const std::string what = "strategy " + std::to_string(c.strategy) + ", " + std::to_string(c.tools) +
+                             " tools, " + to_string(c.order) + " order";
     const SliceResult whole = run_slice(job);
-    if (c.strategy == 1 || c.tools) {
+    if ((c.strategy == 1 && c.order == FgmOrder::Faces) || c.tools) {
       ASSERT_TRUE(whole.fgm.tower.built) << what;
       EXPECT_GT(whole.fgm.purges, 10u) << what;
+    } else {
+      EXPECT_FALSE(whole.fgm.tower.built) << what;
     }
+    if (c.strategy == 1 && c.order == FgmOrder::Paths && !c.tools) EXPECT_GT(whole.fgm.joined, 10u) << what;
     const auto [whole_use, whole_travel] = use_and_travel(job, whole.toolpath);
     for (const std::size_t chunk : {std::size_t{16}, std::size_t{3}, std::size_t{1}}) {
       const std::string at = what + ", runs of " + std::to_string(chunk);
@@ -193,6 +203,8 @@ TEST(SliceStream, GradedSlicingStreamsAsWhole) {
       EXPECT_EQ(s.fgm.paths, whole.fgm.paths) << at;
       EXPECT_EQ(s.fgm.faces, whole.fgm.faces) << at;
       EXPECT_EQ(s.fgm.colour_changes, whole.fgm.colour_changes) << at;
+      EXPECT_EQ(s.fgm.joined, whole.fgm.joined) << at;
+      EXPECT_EQ(s.fgm.abrupt_changes, whole.fgm.abrupt_changes) << at;
       EXPECT_EQ(s.fgm.shortest_path, whole.fgm.shortest_path) << at;
       EXPECT_EQ(s.fgm.short_merged, whole.fgm.short_merged) << at;
       EXPECT_EQ(s.fgm.short_kept, whole.fgm.short_kept) << at;
@@ -225,8 +237,9 @@ TEST(SliceStream, GradedSlicingStreamsAsWhole) {
 
 // Process fields (fprocess) stream too: each layer is split where a rounded value changes as it
 // passes (after the prime tower), and the written values are counted in print order; planar,
-// Strategy 1 with its tower and Strategy 2 give run_slice's layers and process statistics for
-// any run length.
+// Strategy 1 with its tower (face order) and with joined pieces (path order, the fields
+// splitting the pieces further) and Strategy 2 give run_slice's layers and process statistics
+// for any run length.
 TEST(SliceStream, ProcessFieldsStreamAsWhole) {
   const std::string design =
       (std::filesystem::temp_directory_path() / ("trellis_process_stream_" + std::to_string(::getpid()) + ".vcad"))
@@ -237,18 +250,20 @@ TEST(SliceStream, ProcessFieldsStreamAsWhole) {
          "         [\"temperature\", \"speed\", \"flow\", \"fan\"]) {\n"
          "  fgrade([\"(x+8)/16\", \"1 - (x+8)/16\"], [\"blue\", \"yellow\"]) {\n"
          "    cylinder(8, 4);\n  }\n}\n";
-  for (const int strategy : {0, 1, 2}) {
+  for (const auto& [strategy, order] : {std::pair{0, FgmOrder::Paths}, std::pair{1, FgmOrder::Faces},
+                                        std::pair{1, FgmOrder::Paths}, std::pair{2, FgmOrder::Paths}}) {
     SliceJob job;
     job.input = design;
     job.strategy_chosen = true;
     job.strategy = strategy;
+    job.fgm.order = order;
     job.process.max_temperature = 290;
     job.process.max_speed = 200;
     if (strategy == 1) {
       job.purge.melt_volume = 20;
       job.purge.bed_x = job.purge.bed_y = 250;
     }
-    const std::string what = "strategy " + std::to_string(strategy);
+    const std::string what = "strategy " + std::to_string(strategy) + ", " + to_string(order) + " order";
     const SliceResult whole = run_slice(job);
     ASSERT_TRUE(whole.process.active) << what;
     ASSERT_GT(whole.process.pieces, whole.process.paths) << what << ": the fields split paths";

@@ -2,8 +2,10 @@
 // first material's volume fraction f ∈ [0, 1] is cut into a palette of N colours (bands of
 // width α = 1/N, each printed at its mid value); every layer's outline is cut into colour faces
 // along iso-contours of f; Strategy 2 offsets each face inward by half a bead and fills it
-// completely (a ring, then 100 % rectilinear inside it, or concentric rings), colour by colour in palette order, reversed
-// every other layer, each path carrying its mixture (written as M165 by the G-code writer).
+// completely (rings, then 100 % rectilinear inside them along the iso-lines, or concentric
+// rings), each face's pieces chained into few beads, face by face in palette order (reversed
+// every other layer) or, in path order, island by island nearest first; each path carries its
+// mixture (written as M165 by the G-code writer).
 //
 // Two- and three-material designs (`fgrade` with two or three fractions).
 #pragma once
@@ -77,8 +79,21 @@ std::vector<Regions> level_slabs(const Field& field, Evaluator& evaluator, doubl
                                  Vec2 hi, const std::vector<double>& levels, double resolution,
                                  double chord_tolerance = 1e-4);
 
+// Strategy 1's print order (fgm.order). Paths: the planar slicer's order kept, each path cut
+// where it crosses a colour face's edge into pieces that continue one bead (Path::joined), each
+// with its colour's mixture; the writer issues every change the look-ahead earlier along the
+// printed path, and no prime tower is printed (a change along a bead is one band, the gradient's
+// own; the paper's purge is for the abrupt changes between faces). A tool changer cannot change
+// inside a bead: its pieces are grouped by tool (palette order) and chained nearest first within
+// a tool, the tower priming each tool. Faces: the paper's Algorithm 2, colour by colour in
+// palette order, the planar order within a colour, a purge before each colour change.
+enum class FgmOrder { Paths, Faces };
+const char* to_string(FgmOrder order);
+
 struct FgmOptions {
   Palette palette;
+  FgmOrder order = FgmOrder::Paths;
+  bool tool_changer = false;  // the colours are tools (FgmOrder::Paths groups pieces by tool)
   double bead_width = 0.4;
   double layer_height = 0.2;
   double resolution = 0.1;    // XY grid of the outline contours (mm), for reference
@@ -93,11 +108,16 @@ struct FgmOptions {
   int perimeters = 3;
   bool gap_fill = true;       // Strategy 2: lines through what the beads leave uncovered
   // Strategy 2's rectilinear lines run along the local iso-line (perpendicular to the gradient,
-  // as the paper prints), one direction per square of orient_cell mm; fixed_angle: at
-  // angle_deg instead, +90° every layer.
+  // as the paper prints), directions sampled on the material grid: a polygon of a face's fill
+  // whose directions agree (the mean resultant length of the doubled angles at least
+  // orient_agree, i.e. within about ±13° at 0.9) is hatched at their mean; a curved one is cut
+  // into sectors of orient_sector degrees, each part hatched at its sector's direction (within
+  // half a sector of the iso-line) and the lines continued across the sectors' edges into lanes;
+  // fixed_angle: at angle_deg instead, +90° every layer.
   bool fixed_angle = false;
   double angle_deg = 45;
-  double orient_cell = 4;
+  double orient_sector = 15;
+  double orient_agree = 0.9;
   double zipper = 0;          // Strategy 1: overlap band width β (fraction 0..1 of the gradient)
   // Pieces (Strategy 1) and paths (Strategy 2) shorter than this (mm; FGM paper §3.4.3: ~5 mm
   // on desktop FFF) are joined to a piece of another colour they touch end to end, printed in
@@ -158,6 +178,10 @@ struct TowerStats {
 
 struct FgmStats {
   std::size_t faces = 0, paths = 0, colour_changes = 0;
+  // FgmOrder::Paths: pieces that continue the previous piece's bead (paths - joined = beads), and
+  // bead starts whose mixture differs from the previous bead's end by more than one palette step
+  // (after a travel; where the face order would purge, the look-ahead places them too).
+  std::size_t joined = 0, abrupt_changes = 0;
   double shortest_path = 0;  // mm
   // FgmOptions::min_segment: pieces under it joined to a neighbour (short_merged); pieces printed
   // under it (short_kept, after joining); short pieces whose merge the error bound refused (a
@@ -166,6 +190,9 @@ struct FgmStats {
   // short_kept); the others touch no piece of another colour end to end.
   double min_segment = 0;
   std::size_t short_merged = 0, short_kept = 0, short_kept_bound = 0;
+  // Of short_kept, those that are a whole bead (a start and a stop, the paper's concern); the
+  // others, in path order, are runs of one mixture inside a longer bead.
+  std::size_t short_beads = 0;
   std::size_t purges = 0;    // Strategy 1: purges printed into the tower
   double purge_length = 0;   // mm of purge path (the dense part of the tower)
   double purge_volume = 0;   // mm³ (capsule bead, Appendix A.1)
@@ -205,16 +232,23 @@ std::vector<GradientErrorSum> gradient_error_sums(const Field& field, const Tool
                                                   const std::vector<LayerOutline>& layers,
                                                   double layer_height, std::size_t first_layer = 0);
 
+// Whether `path` starts a bead (is not joined) with a mixture more than one palette step (α) from
+// `before`, the mixture of the part path printed before it (FgmStats::abrupt_changes).
+bool abrupt_start(const std::vector<double>& before, const Path& path, const Palette& palette);
+
 // L of Appendix A.1: path length that extrudes `volume` at layer height h and bead width w.
 double purge_length(double volume, double layer_height, double bead_width);
 
 // Strategy 1: the planar slicer's walls, skins and infill (`planar`, one layer per outline) cut
-// by the colour faces; each piece keeps its role and gets its colour's mixture; pieces are
-// printed colour by colour in palette order (reversed every other layer), a purge into the
-// prime tower before each colour change above the threshold (PathRole::Purge; GeometryError if
-// the tower fits nowhere on the bed beside the part). With `zipper` β > 0, pieces in the band |f - k/N| <
-// β/2 around each colour boundary alternate (in planar order) between the two colours, so the
-// materials interlock across the boundary (the paper's zippering, Fig. 8-9).
+// by the colour faces; each piece keeps its role and gets its colour's mixture. In face order
+// (FgmOptions::order) pieces are printed colour by colour in palette order (reversed every other
+// layer), a purge into the prime tower before each colour change above the threshold
+// (PathRole::Purge; GeometryError if the tower fits nowhere on the bed beside the part). In path
+// order the planar order stays, each path's pieces joined into its bead (no tower, `purge`
+// unused), or on a tool changer grouped by tool, chained nearest first, with the tower. With
+// `zipper` β > 0, pieces in the band |f - k/N| < β/2 around each colour boundary alternate (in
+// planar order) between the two colours, so the materials interlock across the boundary (the
+// paper's zippering, Fig. 8-9).
 Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>& layers,
                             const Toolpath& planar, const FgmOptions& options,
                             const PurgeOptions& purge, FgmStats* stats = nullptr);
@@ -227,7 +261,11 @@ void add_prime_tower(Toolpath& toolpath, const FgmOptions& options, const PurgeO
                      FgmStats& stats);
 
 // Strategy 2 over the layer outlines (from slice_field). Paths carry mixture {m, 1-m} with m the
-// band's mid value of the first material.
+// band's mid value of the first material. Each face's rings, lines and gap fill are chained into
+// few beads (rings whole, ring to ring; lines into serpentines); in face order the faces print
+// colour by colour in palette order (reversed every other layer), in path order (not on a tool
+// changer) the beads of every face are ordered for the least travel (nearest neighbour, then
+// 2-opt); travel between beads is routed inside the part where it can be (Path::via, inside).
 Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>& layers,
                             const FgmOptions& options, FgmStats* stats = nullptr);
 

@@ -123,6 +123,10 @@ FgmOptions graded_options(const SliceJob& job, int materials, int* quantized_fro
 // purge_length, purge_volume and tower; GeometryError naming job.input if no tower fits.
 void finish_graded(const SliceJob& job, const FgmOptions& options, Toolpath& toolpath,
                    FgmStats& stats);
+// Whether a graded job prints a prime tower: Strategy 1 in face order (fgm.order = faces), and
+// any tool changer; not Strategy 1 in path order or Strategy 2 on a mixing hotend or by
+// temperature (their changes run ahead of the nozzle by gradient.lookahead).
+bool graded_tower(const SliceJob& job);
 // The palette colours some part path (not the tower) of a graded toolpath prints.
 int graded_colours_used(const Toolpath& toolpath);
 // Adds a layer's part paths to the per-mixture printed length and time (the report's table).
