@@ -1,5 +1,6 @@
 #include <filesystem>
 #include <iostream>
+#include <map>
 
 #include "commands.hpp"
 #include "trellis/analysis/metrics.hpp"
@@ -47,8 +48,9 @@ void add_common(CLI::App* cmd, AnalyzeOpts& o) {
                 "also print a line per layer: extrusion starts (with --design, beside the "
                 "fewest paths its struts allow), retractions, travel moves and length");
   cmd->add_option("--preview,--png", o.png,
-                  "folder for PNGs per file and layer (FILE_layer_0000.png); with --design the "
-                  "design in grey, doubles red, missing struts blue")
+                  "folder for PNGs per file and layer (FILE_layer_0000.png, FILE_2_... for a "
+                  "second file of that name); with --design the design in grey, doubles red, "
+                  "missing struts blue")
       ->check(path_value());
   add_follow_symlinks(cmd, o.follow);
 }
@@ -71,6 +73,7 @@ std::vector<Analysis> run(const AnalyzeOpts& o) {
   std::vector<Analysis> out;
   AnalysisParams params = o.params;
   params.keep_printed = !o.png.empty();
+  std::map<std::string, int> stems;  // files of one name (a/x.gcode, b/x.gcode): x, x_2, ...
   for (const auto& f : o.files) {
     out.push_back(
         analyze_gcode_file(f, o.design.empty() ? nullptr : &design, params, o.read, diag));
@@ -85,7 +88,8 @@ std::vector<Analysis> run(const AnalyzeOpts& o) {
     if (tp.layers.empty())
       throw GeometryError("nothing to draw for --preview: the file has no extrusion", {f});
     create_output_directories(o.png);
-    const std::string stem = std::filesystem::path(f).stem().string();
+    std::string stem = std::filesystem::path(f).stem().string();
+    if (const int n = ++stems[stem]; n > 1) stem += "_" + std::to_string(n);
     auto name = [&](std::size_t i) {
       char buf[64];
       std::snprintf(buf, sizeof buf, "_layer_%04zu.png", i);
