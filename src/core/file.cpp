@@ -90,6 +90,7 @@ struct Batch {
   std::vector<std::pair<std::string, int>> dirs;  // created, in order
   std::vector<std::pair<detail::FileId, std::string>> inputs;  // never written (RunFiles)
   std::vector<detail::FileId> written;                         // each target once
+  bool checked = false;  // RunFiles checked the run: what it reads from now on is an input too
 };
 
 Batch& batch() {
@@ -118,6 +119,19 @@ void remove_staged(Batch& b) {
 void forget_run(Batch& b) {
   b.inputs.clear();
   b.written.clear();
+  b.checked = false;
+}
+
+// A file a checked run reads is one of its inputs, declared or not (a mesh its design names, the
+// edges file beside AERO vertices): the run never writes it.
+void guard_read(const std::string& path) {
+  Batch& b = batch();
+  std::lock_guard lock(b.mutex);
+  if (b.depth == 0 || !b.checked) return;
+  const detail::FileId id = detail::file_id(path);
+  for (const auto& in : b.inputs)
+    if (in.first == id) return;
+  b.inputs.emplace_back(id, "a file this run reads");
 }
 
 // A write of the open batch to `path`: refused over an input of the run or a target written
@@ -130,8 +144,7 @@ void claim_target(const std::string& path, const detail::PathState& s) {
   if (b.depth == 0) return;
   for (const auto& [id, role] : b.inputs)
     if (id == s.id)
-      throw IoError("would overwrite " + role + ", an input of this run: nothing was written",
-                    {path});
+      throw IoError("would overwrite " + role + " (one file): nothing was written", {path});
   for (const auto& id : b.written)
     if (id == s.id)
       throw IoError("written twice by this run (two outputs on one path): nothing was written",
@@ -258,6 +271,7 @@ std::string read_file(const std::string& path) {
   struct stat st {};
   if (::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode))
     throw IoError("not a regular file", {path});
+  guard_read(path);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw IoError(std::string("cannot open: ") + std::strerror(errno), {path});
   // A regular file is read straight into a string of its size (one copy: meshes of 50 MB and
@@ -401,7 +415,9 @@ namespace detail {
 void guard_inputs(const std::vector<std::pair<FileId, std::string>>& inputs) {
   Batch& b = batch();
   std::lock_guard lock(b.mutex);
-  if (b.depth > 0) b.inputs.insert(b.inputs.end(), inputs.begin(), inputs.end());
+  if (b.depth == 0) return;
+  b.inputs.insert(b.inputs.end(), inputs.begin(), inputs.end());
+  b.checked = true;
 }
 
 }  // namespace detail

@@ -45,7 +45,8 @@ FileId file_id(const std::string& path);
 bool names_folder(const std::string& path);
 
 // While an OutputBatch is open, every write to one of these files (role: "the input") is
-// refused, whatever path names it (file.cpp).
+// refused, whatever path names it, and so is every write to a file read_file reads from now on
+// (file.cpp).
 void guard_inputs(const std::vector<std::pair<FileId, std::string>>& inputs);
 
 }  // namespace trellis::detail

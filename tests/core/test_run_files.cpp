@@ -171,3 +171,21 @@ TEST(File, StaleTemporariesOfDeadRunsAreRemovedByTheNextWrite) {
   EXPECT_TRUE(fs::exists(tmp / other));  // another output's
   EXPECT_EQ(read_file(tmp.file("out.gcode")), "whole");
 }
+
+TEST(RunFiles, AFileReadAfterTheCheckIsAnInputButNotOneReadBefore) {
+  const test::TempDir tmp("trellis_test_runfiles");
+  const std::string before = tmp.file("header.gcode"), after = tmp.file("edges.csv");
+  write_file_atomic(before, "old");
+  write_file_atomic(after, "keep");
+  OutputBatch batch;
+  (void)read_file(before);  // `rerun FILE` reads the job in FILE, then writes FILE again
+  RunFiles files;
+  files.check();
+  (void)read_file(after);  // a file the inputs name (the edges beside AERO vertices)
+  EXPECT_TRUE(has(refusal([&] { write_file_atomic(after, "x"); }),
+                  "would overwrite a file this run reads"));
+  write_file_atomic(before, "new");
+  batch.commit();
+  EXPECT_EQ(read_file(before), "new");
+  EXPECT_EQ(read_file(after), "keep");
+}

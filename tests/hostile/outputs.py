@@ -28,6 +28,16 @@ import time
 TINY_LATTICE = b'{"nodes": [[0,0,0],[10,0,0],[10,10,0],[0,10,0]], "edges": [[0,1],[1,2],[2,3],[3,0]]}\n'
 TINY_VCAD = b"root((-5,-5,0),(5,5,2),(0.1,0.1,0.1)) {\ncylinder(2,4);\n}\n"
 TEMP_MARK = ".trellis-tmp."
+# A closed mesh: a tetrahedron, 10 mm.
+TETRA = "".join(
+    f"facet normal 0 0 0\nouter loop\n" + "".join(f"vertex {x} {y} {z}\n" for x, y, z in f) + "endloop\nendfacet\n"
+    for f in (((0, 0, 0), (0, 10, 0), (10, 0, 0)), ((0, 0, 0), (10, 0, 0), (0, 0, 10)),
+              ((0, 0, 0), (0, 0, 10), (0, 10, 0)), ((10, 0, 0), (0, 10, 0), (0, 0, 10))))
+TETRA = ("solid t\n" + TETRA + "endsolid t\n").encode()
+
+
+def root_aero(root):
+    return os.path.join(root, "tests", "data", "aero")
 
 
 class Env:
@@ -49,6 +59,10 @@ class Env:
         d = self.template
         open(os.path.join(d, "l.json"), "wb").write(TINY_LATTICE)
         open(os.path.join(d, "a.vcad"), "wb").write(TINY_VCAD)
+        open(os.path.join(d, "t.stl"), "wb").write(TETRA)
+        open(os.path.join(d, "m.vcad"), "w").write('root((-1,-1,0),(11,11,10),(0.5,0.5,0.5)) {\nmesh("t.stl");\n}\n')
+        for part in ("vertices", "edges"):
+            shutil.copy(os.path.join(root_aero(self.root), f"cubic_{part}.csv"), os.path.join(d, f"c_{part}.csv"))
         shutil.copy(self.profile, os.path.join(d, "p.toml"))
         for args in (["plan", "euler", "l.json", "-o", "tp.json"],
                      ["gcode", "tp.json", "--machine", "p.toml", "-o", "g.gcode"],
@@ -154,6 +168,10 @@ def input_cases(env):
         ("merge -o a shard", ["merge", "sh/x.cli.shard-1-of-1.json", "-o", "sh/x.cli.shard-1-of-1"], ["the shard"]),
         ("merge -o its manifest", ["merge", "sh/x.cli.shard-1-of-1.json", "-o", "sh/x.cli.shard-1-of-1.json"], ["the shard manifest"]),
         ("hard link", ["walls", "l.json", "-o", "hard.stl"], ["the lattice"]),
+        # Inputs no role names, read by the run: refused as they are about to be written.
+        ("aero -o its edges file", ["plan", "aero", "c_vertices.csv", "-o", "c_edges.csv"], ["a file this run reads"]),
+        ("slice --toolpath the design's mesh", ["slice", "m.vcad", "--machine", P, "-o", "out/x.gcode",
+                                                "--toolpath", "t.stl"], ["a file this run reads", "t.stl"]),
     ]
     for name, args, phrases in cases:
         setup = (lambda d: os.link(os.path.join(d, "l.json"), os.path.join(d, "hard.stl"))) if name == "hard link" else None

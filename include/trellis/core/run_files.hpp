@@ -10,7 +10,9 @@
 //     --follow-symlinks): then the file it points to is written and the link kept. A link to a
 //     FIFO or a character device (/dev/stdout) is written through like the device itself.
 // When an OutputBatch is open (core/file.hpp), check() hands it the inputs: any later write of
-// the run to one of them — a name no role declared, such as a preview or a shard — is refused.
+// the run to one of them — by a name no role declared, such as a preview or a shard — is
+// refused, and so is a write to any file the run reads after the check (read_file: a mesh its
+// design names, the edges file beside AERO vertices).
 #pragma once
 #include <string>
 #include <vector>
