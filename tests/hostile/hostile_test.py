@@ -22,7 +22,8 @@ import sys
 import tempfile
 import time
 
-import outputs
+sys.dont_write_bytecode = True  # no __pycache__ in the source tree
+import outputs  # noqa: E402
 
 TRELLIS = os.path.abspath(sys.argv[1])
 ROOT = os.path.abspath(sys.argv[2])

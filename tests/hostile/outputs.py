@@ -455,7 +455,7 @@ def signal_cases(env):
                     if p.returncode == 0:
                         continue  # finished before the signal: nothing to check
                     interrupted[sig.name] += 1
-                    env.count("signal")
+                    env.count("signal " + sig.name)
                     name = f"{sig.name} after {delay} s {' '.join(args[:2])}"
                     if p.returncode != code:
                         env.fail("signal", name, f"exit {p.returncode}, expected {code}", err)
