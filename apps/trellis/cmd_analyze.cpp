@@ -1,5 +1,6 @@
 #include <filesystem>
 #include <iostream>
+#include <map>
 
 #include "commands.hpp"
 #include "trellis/analysis/metrics.hpp"
@@ -18,6 +19,7 @@ struct AnalyzeOpts {
   std::string design, report, png, machine;
   double filament_diameter = 1.75;  // for the volume of each part of a plate (mm)
   bool per_layer = false;
+  bool follow = false;
   std::vector<std::string> files;
 };
 
@@ -40,13 +42,28 @@ void add_common(CLI::App* cmd, AnalyzeOpts& o) {
                   "pneumatic files: the command that closes the valve");
   cmd->add_flag("--strict", o.read.stop_on_error,
                 "stop at the first unreadable line (default: warn and skip)");
-  cmd->add_option("--report", o.report, "JSON report to write (per-layer counts included)");
+  cmd->add_option("--report", o.report, "JSON report to write (per-layer counts included)")
+      ->check(path_value());
   cmd->add_flag("--layers", o.per_layer,
                 "also print a line per layer: extrusion starts (with --design, beside the "
                 "fewest paths its struts allow), retractions, travel moves and length");
   cmd->add_option("--preview,--png", o.png,
-                  "folder for PNGs per file and layer (FILE_layer_0000.png); with --design the "
-                  "design in grey, doubles red, missing struts blue");
+                  "folder for PNGs per file and layer (FILE_layer_0000.png, FILE_2_... for a "
+                  "second file of that name); with --design the design in grey, doubles red, "
+                  "missing struts blue")
+      ->check(path_value());
+  add_follow_symlinks(cmd, o.follow);
+}
+
+// The files of analyze and compare, checked before anything is read (core/run_files.hpp).
+void check_files(const AnalyzeOpts& o) {
+  RunFiles files(o.follow);
+  for (const auto& f : o.files) files.input("the G-code", f);
+  files.input("the design", o.design);
+  files.input("the machine profile (--machine)", o.machine);
+  files.output("the report (--report)", o.report);
+  files.output_folder("the preview folder (--preview)", o.png);
+  files.check();
 }
 
 std::vector<Analysis> run(const AnalyzeOpts& o) {
@@ -56,6 +73,7 @@ std::vector<Analysis> run(const AnalyzeOpts& o) {
   std::vector<Analysis> out;
   AnalysisParams params = o.params;
   params.keep_printed = !o.png.empty();
+  std::map<std::string, int> stems;  // files of one name (a/x.gcode, b/x.gcode): x, x_2, ...
   for (const auto& f : o.files) {
     out.push_back(
         analyze_gcode_file(f, o.design.empty() ? nullptr : &design, params, o.read, diag));
@@ -70,7 +88,8 @@ std::vector<Analysis> run(const AnalyzeOpts& o) {
     if (tp.layers.empty())
       throw GeometryError("nothing to draw for --preview: the file has no extrusion", {f});
     create_output_directories(o.png);
-    const std::string stem = std::filesystem::path(f).stem().string();
+    std::string stem = std::filesystem::path(f).stem().string();
+    if (const int n = ++stems[stem]; n > 1) stem += "_" + std::to_string(n);
     auto name = [&](std::size_t i) {
       char buf[64];
       std::snprintf(buf, sizeof buf, "_layer_%04zu.png", i);
@@ -134,15 +153,18 @@ void add_analyze(CLI::App& app) {
       "Z changes. With --design: extrusion ratio (printed / nominal\n"
       "length), double-deposited length, off-design length, missing struts, and the GIPPO score\n"
       "corrected by EdgesReal/EdgesNominal.");
-  cmd->add_option("gcode", o->files, "G-code file")->required()->expected(1);
-  cmd->add_option("--design", o->design, "design lattice (any lattice format); .vcad for a .cli");
-  cmd->add_option("--machine", o->machine, ".cli files: laser profile (melt pool, scan timing)");
+  cmd->add_option("gcode", o->files, "G-code file")->required()->expected(1)->check(path_value());
+  cmd->add_option("--design", o->design, "design lattice (any lattice format); .vcad for a .cli")
+      ->check(path_value());
+  cmd->add_option("--machine", o->machine, ".cli files: laser profile (melt pool, scan timing)")
+      ->check(path_value());
   cmd->add_option("--filament-diameter", o->filament_diameter,
                   "build plates: filament diameter for each part's volume (mm)")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
   add_common(cmd, *o);
   cmd->callback([o] {
+    check_files(*o);
     if (is_laser_build_file(o->files.front()))
       return analyze_laser_file(o->files.front(), o->design, o->machine, o->report);
     const auto runs = run(*o);
@@ -175,10 +197,14 @@ void add_compare(CLI::App& app) {
   auto o = std::make_shared<AnalyzeOpts>();
   auto* cmd =
       app.add_subcommand("compare", "Compare G-code files against one design, side by side");
-  cmd->add_option("design", o->design, "design lattice")->required();
-  cmd->add_option("gcode", o->files, "G-code files")->required()->expected(1, 1000);
+  cmd->add_option("design", o->design, "design lattice")->required()->check(path_value());
+  cmd->add_option("gcode", o->files, "G-code files")
+      ->required()
+      ->expected(1, 1000)
+      ->check(path_value());
   add_common(cmd, *o);
   cmd->callback([o] {
+    check_files(*o);
     const auto runs = run(*o);
     if (o->per_layer)
       for (const auto& a : runs) {

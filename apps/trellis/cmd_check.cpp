@@ -14,6 +14,7 @@ void add_check(CLI::App& app) {
     std::vector<std::string> sets;
     double snap = 0.05;
     SettingFlags flags;
+    bool follow = false;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand(
@@ -27,17 +28,28 @@ void add_check(CLI::App& app) {
       "except within --node-clearance of a node the two struts share. Steep struts (within --cone\n"
       "of vertical) must be printed bottom-up.\n"
       "Exit status: 0 if clean, 1 if anything was found, 2 for bad input.");
-  cmd->add_option("lattice", o->lattice, "design lattice")->required();
-  cmd->add_option("print", o->print, "toolpath JSON or G-code")->required();
-  cmd->add_option("--machine", o->machine, "machine profile the G-code was written for");
-  cmd->add_option("--report", o->report, "report JSON with every collision");
-  cmd->add_option("--preview", o->preview, "folder for an isometric picture with the collisions ringed");
+  cmd->add_option("lattice", o->lattice, "design lattice")->required()->check(path_value());
+  cmd->add_option("print", o->print, "toolpath JSON or G-code")->required()->check(path_value());
+  cmd->add_option("--machine", o->machine, "machine profile the G-code was written for")
+      ->check(path_value());
+  cmd->add_option("--report", o->report, "report JSON with every collision")->check(path_value());
+  cmd->add_option("--preview", o->preview,
+                  "folder for an isometric picture with the collisions ringed")
+      ->check(path_value());
+  add_follow_symlinks(cmd, o->follow);
   cmd->add_option("--set", o->sets, "any [nozzle] or [lattice] setting: section.key=value");
   o->flags.add(cmd, {"nozzle", "lattice"});
   cmd->add_option("--snap", o->snap,
                   "segment ends within this of a node are at it (mm; default 0.05, or the "
                   "profile's node overlap + 0.05)");
   cmd->callback([o] {
+    RunFiles files(o->follow);
+    files.input("the lattice", o->lattice);
+    files.input("the print", o->print);
+    files.input("the machine profile (--machine)", o->machine);
+    files.output("the report (--report)", o->report);
+    files.output_folder("the preview folder (--preview)", o->preview);
+    files.check();
     Settings st = command_settings(o->machine, o->sets);
     o->flags.apply(st);
     const Config cfg = st.config();

@@ -18,6 +18,7 @@ void add_render(CLI::App& app) {
     std::string colour = "feature";
     RenderOptions r;
     ViewLoadOptions load;
+    bool follow = false;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand("render", "Render toolpath layers to PNG");
@@ -28,12 +29,17 @@ void add_render(CLI::App& app) {
       "(file, layer, Z, what colour means), a legend or colour bar and a scale bar in mm.\n"
       "Without --layer every layer is written as OUT.layerNNN.png (OUT without .png).");
   cmd->add_option("toolpath", o->input, "toolpath JSON, G-code (.gcode/.g/.nc) or laser .cli")
-      ->required();
+      ->required()
+      ->check(path_value());
   cmd->add_option("--colour", o->colour, "what colour means: feature, order or mixture")
       ->check(CLI::IsMember({"feature", "order", "mixture"}))
       ->capture_default_str();
-  cmd->add_option("--machine", o->load.machine, ".nc files: machine profile (valve commands)");
-  cmd->add_option("-o,--output", o->output, "PNG file (with --layer) or prefix")->required();
+  cmd->add_option("--machine", o->load.machine, ".nc files: machine profile (valve commands)")
+      ->check(path_value());
+  cmd->add_option("-o,--output", o->output, "PNG file (with --layer) or prefix")
+      ->required()
+      ->check(path_value());
+  add_follow_symlinks(cmd, o->follow);
   cmd->add_option("--layer", o->layer, "layer index (0-based)");
   cmd->add_option("--image-size", o->r.size_px, "image size in pixels")
       ->check(CLI::Range(16, 8000))
@@ -43,6 +49,13 @@ void add_render(CLI::App& app) {
   cmd->add_flag("--force", o->force, "render even when the estimate is beyond the budget");
   cmd->add_flag("!--no-travel", o->r.travel, "do not draw travel moves");
   cmd->callback([o] {
+    // Without --layer, -o is the prefix of OUT.layerNNN.png: the batch refuses any of them that
+    // is an input.
+    RunFiles files(o->follow);
+    files.input("the toolpath", o->input);
+    files.input("the machine profile (--machine)", o->load.machine);
+    if (o->layer >= 0) files.output("the PNG (-o)", o->output);
+    files.check();
     Diagnostics diag;
     const ViewScene scene = load_view_scene(o->input, o->load, diag);
     if (scene.kind == "lattice")

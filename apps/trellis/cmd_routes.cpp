@@ -70,6 +70,7 @@ void SettingFlags::add(CLI::App* cmd, const std::vector<std::string>& sections) 
     else if (s.kind == SettingKind::Choice) opt->type_name("NAME");
     else if (s.kind == SettingKind::Text) opt->type_name(s.unit == "path" ? "FILE" : "TEXT");
     else opt->type_name(s.kind == SettingKind::Integer ? "INT" : "NUMBER");
+    if (s.unit == "path") opt->check(path_value());
     options.emplace_back(s.key, opt);
   }
 }
@@ -204,17 +205,22 @@ void add_routes(CLI::App& app, int argc, char** argv) {
     if (route == "surface")
       cmd->add_option("kind", o->extra, "corrugation, miura, m-curve or sphere-cap (or --kind)");
     if (std::string(spec.input) != "") {
-      auto* in = cmd->add_option(spec.input, o->input, std::string("input ") + spec.input);
+      auto* in = cmd->add_option(spec.input, o->input, std::string("input ") + spec.input)
+                     ->check(path_value());
       if (spec.input_required) in->required();
     }
-    cmd->add_option("-o,--output", o->output, spec.output_doc)->required();
+    cmd->add_option("-o,--output", o->output, spec.output_doc)->required()->check(path_value());
     if (spec.machine) {
       cmd->add_option("--machine", o->machine,
                       route == "pbf" ? "laser profile (TOML); default: built-in values"
-                                     : "machine profile (TOML)");
+                                     : "machine profile (TOML)")
+          ->check(path_value());
     }
-    if (route == "plan") cmd->add_option("--gcode", o->gcode, "also write G-code (needs --machine)");
-    if (spec.report) cmd->add_option("--report", o->report, "JSON report to write");
+    if (route == "plan")
+      cmd->add_option("--gcode", o->gcode, "also write G-code (needs --machine)")
+          ->check(path_value());
+    if (spec.report)
+      cmd->add_option("--report", o->report, "JSON report to write")->check(path_value());
     // slice (planar, graded, process fields; docs/plates.md) and pbf write their output alone
     // layer by layer.
     const bool streams = route == "slice" || route == "pbf";
@@ -225,9 +231,11 @@ void add_routes(CLI::App& app, int argc, char** argv) {
     };
     if (spec.toolpath)
       cmd->add_option("--toolpath", o->toolpath,
-                      "also write the toolpath JSON" + whole("--preview"));
+                      "also write the toolpath JSON" + whole("--preview"))
+          ->check(path_value());
     cmd->add_option("--preview", o->preview,
-                    "folder for PNG previews (layer_0000.png, ...)" + whole("--toolpath"));
+                    "folder for PNG previews (layer_0000.png, ...)" + whole("--toolpath"))
+        ->check(path_value());
     cmd->add_option("--set", o->sets, "any setting: section.key=value (repeatable; `trellis settings`)");
     o->flags.add(cmd, spec.flag_sections);
     const bool machine_required = route == "gcode" || route == "slice" || route == "nonplanar";

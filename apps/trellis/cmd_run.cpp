@@ -14,6 +14,7 @@ void add_run(CLI::App& app) {
   struct Opts {
     std::string job, out, shard;
     std::vector<std::string> sets;
+    bool follow = false;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand("run", "Run a job file (any route): design, plan, write, report, previews");
@@ -22,8 +23,10 @@ void add_run(CLI::App& app) {
       "\"pbf\" | \"nonplanar\" | \"surface\", input, machine, output_dir, outputs; then any settings\n"
       "as [section] tables. Paths are relative to the job file. See docs/jobs.md and examples/.\n"
       "Precedence: defaults < the job's machine profile < the job's settings < --set.");
-  cmd->add_option("job", o->job, "job TOML")->required();
-  cmd->add_option("-o,--output-dir", o->out, "output folder (replaces [job] output_dir)");
+  cmd->add_option("job", o->job, "job TOML")->required()->check(path_value());
+  cmd->add_option("-o,--output-dir", o->out, "output folder (replaces [job] output_dir)")
+      ->check(path_value());
+  add_follow_symlinks(cmd, o->follow);
   cmd->add_option("--set", o->sets, "override a setting of the job: section.key=value (repeatable)");
   cmd->add_option("--shard", o->shard,
                   "K/N: compute shard K of N (layer ranges balanced by work; pbf, slice (planar "
@@ -31,6 +34,7 @@ void add_run(CLI::App& app) {
                   "and write OUTPUT.shard-K-of-N + its .json manifest for `trellis merge`");
   cmd->callback([o] {
     Job job = load_job(o->job, o->out, o->sets);
+    if (o->follow) job.settings.set("run.follow_symlinks", true, {"--follow-symlinks"});
     if (!o->shard.empty()) {
       std::tie(job.shard, job.shards) = parse_shard(o->shard);
       // The plan route says itself what of it shards (planner, plan.order, plan.layer_start).
@@ -58,6 +62,7 @@ void add_merge(CLI::App& app) {
   struct Opts {
     std::vector<std::string> manifests;
     std::string out;
+    bool follow = false;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand(
@@ -67,17 +72,21 @@ void add_merge(CLI::App& app) {
       "the file `trellis run` writes without --shard. Shards of different jobs, a shard missing\n"
       "or given twice: exit 2, nothing written.\nExample:\n"
       "  trellis merge out/plate/plate.cli.shard-*-of-4.json -o out/plate/plate.cli");
-  cmd->add_option("manifests", o->manifests, "the shards' manifests")->required();
-  cmd->add_option("-o,--output", o->out, "the merged output")->required();
+  cmd->add_option("manifests", o->manifests, "the shards' manifests")
+      ->required()
+      ->check(path_value());
+  cmd->add_option("-o,--output", o->out, "the merged output")->required()->check(path_value());
+  add_follow_symlinks(cmd, o->follow);
   cmd->callback([o] {
     Diagnostics diag;
-    print_result(merge_shards(o->manifests, o->out, diag), diag);
+    print_result(merge_shards(o->manifests, o->out, diag, o->follow), diag);
   });
 }
 
 void add_rerun(CLI::App& app) {
   struct Opts {
     std::string input, out;
+    bool follow = false;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand(
@@ -87,10 +96,13 @@ void add_rerun(CLI::App& app) {
       "the route, its inputs and every setting in force. rerun reads that job and writes the\n"
       "same kind of output again (to -o, default: over the file itself).\nExample:\n"
       "  trellis rerun part.gcode -o part_again.gcode && cmp part.gcode part_again.gcode");
-  cmd->add_option("output", o->input, "a file written by Trellis")->required();
-  cmd->add_option("-o,--output", o->out, "where to write (default: the file itself)");
+  cmd->add_option("output", o->input, "a file written by Trellis")->required()->check(path_value());
+  cmd->add_option("-o,--output", o->out, "where to write (default: the file itself)")
+      ->check(path_value());
+  add_follow_symlinks(cmd, o->follow);
   cmd->callback([o] {
     Job job = rerun_job(o->input, o->out);
+    if (o->follow) job.settings.set("run.follow_symlinks", true, {"--follow-symlinks"});
     job.keep_toolpath = false;
     Diagnostics diag;
     print_result(run_job(job, diag, {}), diag);

@@ -17,6 +17,7 @@ void add_view(CLI::App& app) {
     std::string output, title, design;
     std::vector<std::string> sets;
     ViewLoadOptions load;
+    bool follow = false;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand(
@@ -31,19 +32,31 @@ void add_view(CLI::App& app) {
       "does: colour by collisions rings every collision and marks the struts involved. A\n"
       "`trellis check` report is a viewer input too. --machine draws the profile's build volume\n"
       "around G-code (machine coordinates).");
-  cmd->add_option("files", o->files, "files to show")->required()->expected(1, 1000);
-  cmd->add_option("-o,--output", o->output, "HTML file to write")->required();
+  cmd->add_option("files", o->files, "files to show")
+      ->required()
+      ->expected(1, 1000)
+      ->check(path_value());
+  cmd->add_option("-o,--output", o->output, "HTML file to write")->required()->check(path_value());
+  add_follow_symlinks(cmd, o->follow);
   cmd->add_option("--title", o->title, "page title (default: the file names)");
   cmd->add_option("--machine", o->load.machine,
-                  "machine profile (.nc valve commands, build volume, nozzle of the check)");
+                  "machine profile (.nc valve commands, build volume, nozzle of the check)")
+      ->check(path_value());
   cmd->add_option("--design", o->design,
-                  "design lattice: overlay, deviation from it and the collision check");
+                  "design lattice: overlay, deviation from it and the collision check")
+      ->check(path_value());
   cmd->add_option("--set", o->sets, "any [nozzle] or [lattice] setting of the check: section.key=value");
   cmd->add_option("--valve-on", o->load.valve_on,
                   "pneumatic files: the command that opens the valve");
   cmd->add_option("--valve-off", o->load.valve_off,
                   "pneumatic files: the command that closes the valve");
   cmd->callback([o] {
+    RunFiles files(o->follow);
+    for (const auto& f : o->files) files.input("the file to show", f);
+    files.input("the machine profile (--machine)", o->load.machine);
+    files.input("the design (--design)", o->design);
+    files.output("the HTML (-o)", o->output);
+    files.check();
     Diagnostics diag;
     std::vector<ViewScene> scenes;
     std::string title = o->title;

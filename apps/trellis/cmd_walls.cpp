@@ -11,17 +11,23 @@ void add_walls(CLI::App& app) {
   struct Opts {
     std::string input, output;
     double width = 0.2, height = 0.148;
+    bool follow = false;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand("walls", "Export a lattice as solid walls (binary STL) for other slicers");
   cmd->footer("Each strut becomes a box width x height from its z upward and each node a 16-sided\n"
               "prism, as overlapping shells (slicers take their union). This is how the GIPPO paper\n"
               "fed its lattices to a conventional slicer (\"wall structure\", 0% infill).");
-  cmd->add_option("lattice", o->input, "lattice file")->required();
-  cmd->add_option("-o,--output", o->output, "STL file to write")->required();
+  cmd->add_option("lattice", o->input, "lattice file")->required()->check(path_value());
+  cmd->add_option("-o,--output", o->output, "STL file to write")->required()->check(path_value());
+  add_follow_symlinks(cmd, o->follow);
   cmd->add_option("--bead-width", o->width, "wall width = bead width (mm)")->check(CLI::PositiveNumber)->capture_default_str();
   cmd->add_option("--height", o->height, "wall height (mm)")->check(CLI::PositiveNumber)->capture_default_str();
   cmd->callback([o] {
+    RunFiles files(o->follow);
+    files.input("the lattice", o->input);
+    files.output("the STL (-o)", o->output);
+    files.check();
     Diagnostics diag;
     const Graph g = read_lattice(o->input, {}, diag);
     const TriangleMesh mesh = lattice_walls(g, o->width, o->height);

@@ -2,10 +2,10 @@
 // through the library. Errors are trellis::Error, turned into exit code 2 by main.
 #pragma once
 #include <CLI/CLI.hpp>
-
 #include <map>
 
 #include "trellis/core/diagnostics.hpp"
+#include "trellis/core/run_files.hpp"
 #include "trellis/job/job.hpp"
 #include "trellis/lattice/collision.hpp"
 #include "trellis/render/render.hpp"
@@ -49,6 +49,13 @@ struct SettingFlags {
   void add(CLI::App* cmd, const std::vector<std::string>& sections);
   void apply(Settings& settings) const;
 };
+
+// Checks a path option while parsing: an empty path (`-o ''`) is refused (exit 2).
+const CLI::Validator& path_value();
+// --follow-symlinks for the commands outside the routes (a route's comes from
+// run.follow_symlinks): outputs that are symbolic links are written through, not refused
+// (core/run_files.hpp).
+void add_follow_symlinks(CLI::App* cmd, bool& follow);
 
 // Settings of a command: the machine profile (if any), then --set assignments.
 Settings command_settings(const std::string& machine, const std::vector<std::string>& sets);

@@ -59,6 +59,19 @@ std::string nearest(const std::string& word, const std::vector<std::string>& can
   return best;
 }
 
+const CLI::Validator& path_value() {
+  static const CLI::Validator v(
+      [](std::string& path) { return path.empty() ? std::string("an empty path") : std::string(); },
+      "");
+  return v;
+}
+
+void add_follow_symlinks(CLI::App* cmd, bool& follow) {
+  cmd->add_flag("--follow-symlinks", follow,
+                "write an output whose path is a symbolic link to the file it points to (the "
+                "link kept); without it such an output is refused");
+}
+
 std::string num(double v, int decimals) {
   char buf[64];
   std::snprintf(buf, sizeof buf, "%.*f", decimals, v);

@@ -69,6 +69,7 @@ def lattice2d(
     contour: bool = ...,  # lattice2d.contour: add the region outline as struts
     density: float = ...,  # lattice2d.density: Voronoi seeds per mm²
     diameter: float = ...,  # lattice2d.diameter: circle diameter
+    follow_symlinks: bool = ...,  # run.follow_symlinks: write an output whose path is a symbolic link to the file it points to (the link kept); without it such an output is refused
     force: bool = ...,  # run.force: run even when the estimate is beyond run.max_memory or run.max_time
     frames: int = ...,  # output.frames: aero: step pictures of the first N trails
     handle_length: float = ...,  # lattice2d.handle_length: handle length along x
@@ -101,6 +102,7 @@ def lattice3d(
     cell_type: Literal['cubic', 'bcc', 'fcc', 'octet', 'diamond', 'kelvin', 'rhombic-dodecahedron'] = ...,  # lattice3d.cell_type: unit cell
     count: Sequence[float] = ...,  # lattice3d.count: cells along X, Y, Z
     density: float = ...,  # lattice3d.density: foam seeds per mm³
+    follow_symlinks: bool = ...,  # run.follow_symlinks: write an output whose path is a symbolic link to the file it points to (the link kept); without it such an output is refused
     force: bool = ...,  # run.force: run even when the estimate is beyond run.max_memory or run.max_time
     frames: int = ...,  # output.frames: aero: step pictures of the first N trails
     image_size: int = ...,  # output.image_size: preview image size
@@ -136,6 +138,7 @@ def plan(
     diameter: float = ...,  # lattice2d.diameter: circle diameter
     exact_struts: int = ...,  # aero.exact_struts: solve obstruction cycles exactly (integer program) in parts up to this many struts; 0 = local search only
     fewest_collisions: bool = ...,  # aero.fewest_collisions: break obstruction cycles where it costs the fewest collisions (proven minimal where the exact solver finishes); false = the greedy order
+    follow_symlinks: bool = ...,  # run.follow_symlinks: write an output whose path is a symbolic link to the file it points to (the link kept); without it such an output is refused
     force: bool = ...,  # run.force: run even when the estimate is beyond run.max_memory or run.max_time
     frames: int = ...,  # output.frames: aero: step pictures of the first N trails
     handle_length: float = ...,  # lattice2d.handle_length: handle length along x
@@ -192,6 +195,7 @@ def gcode(
     progress: Progress | None = None,
     set: Mapping[str, Any] | None = None,
     center: bool = ...,  # placement.center: move the part's XY centre to the bed centre (false: design coordinates are bed coordinates)
+    follow_symlinks: bool = ...,  # run.follow_symlinks: write an output whose path is a symbolic link to the file it points to (the link kept); without it such an output is refused
     force: bool = ...,  # run.force: run even when the estimate is beyond run.max_memory or run.max_time
     layer_height: float = ...,  # extrusion.layer_height: layer thickness LT when a path has none (Eq. 4)
     lookahead: float = ...,  # gradient.lookahead: issue each mixture change this much printed path before the region (dead volume, FGM paper A.1: L = V_melt / (h(w-h) + pi h^2/4))
@@ -218,6 +222,7 @@ def slice(
     fgm_perimeters: int = ...,  # fgm.perimeters: Strategy 2, rectilinear: rings around each colour face before its lines (the FGM paper's palette plates: 3)
     fixed_angle: bool = ...,  # fgm.fixed_angle: Strategy 2: lines at slice.infill_angle instead of along the iso-lines
     flow_step: float = ...,  # process.flow_step: quantum of a flow (extrusion multiplier) field
+    follow_symlinks: bool = ...,  # run.follow_symlinks: write an output whose path is a symbolic link to the file it points to (the link kept); without it such an output is refused
     force: bool = ...,  # run.force: run even when the estimate is beyond run.max_memory or run.max_time
     frames: int = ...,  # output.frames: aero: step pictures of the first N trails
     image_size: int = ...,  # output.image_size: preview image size
@@ -262,6 +267,7 @@ def pbf(
     cell: float = ...,  # pbf.cell: TPMS cell size
     cell_type: Literal['gyroid', 'schwarz_p', 'schwarz_d', 'neovius', 'iwp'] = ...,  # pbf.cell_type: TPMS of the sheet
     envelope: str = ...,  # pbf.envelope: .vcad solid the lattice fills instead of the box
+    follow_symlinks: bool = ...,  # run.follow_symlinks: write an output whose path is a symbolic link to the file it points to (the link kept); without it such an output is refused
     force: bool = ...,  # run.force: run even when the estimate is beyond run.max_memory or run.max_time
     frames: int = ...,  # output.frames: aero: step pictures of the first N trails
     grade_axis: Literal['z', 'r'] = ...,  # pbf.grade_axis: grading axis: z (axial) or r (radial)
@@ -307,6 +313,7 @@ def nonplanar(
     domain: Sequence[float] = ...,  # nonplanar.domain: x0, y0, x1, y1 of the height function
     fillet: float = ...,  # surface.fillet: fillet diameter at peaks and valleys
     flat: float = ...,  # surface.flat: flat clamping end length
+    follow_symlinks: bool = ...,  # run.follow_symlinks: write an output whose path is a symbolic link to the file it points to (the link kept); without it such an output is refused
     force: bool = ...,  # run.force: run even when the estimate is beyond run.max_memory or run.max_time
     frames: int = ...,  # output.frames: aero: step pictures of the first N trails
     height: float = ...,  # surface.height: M curve height
@@ -343,6 +350,7 @@ def surface(
     diameter: float = ...,  # surface.diameter: sphere-cap footprint diameter
     fillet: float = ...,  # surface.fillet: fillet diameter at peaks and valleys
     flat: float = ...,  # surface.flat: flat clamping end length
+    follow_symlinks: bool = ...,  # run.follow_symlinks: write an output whose path is a symbolic link to the file it points to (the link kept); without it such an output is refused
     force: bool = ...,  # run.force: run even when the estimate is beyond run.max_memory or run.max_time
     frames: int = ...,  # output.frames: aero: step pictures of the first N trails
     height: float = ...,  # surface.height: M curve height

@@ -1,7 +1,5 @@
 #include "trellis/core/file.hpp"
 
-#include <functional>
-
 #include <fcntl.h>
 #include <signal.h>
 #include <sys/stat.h>
@@ -11,15 +9,18 @@
 #include <array>
 #include <atomic>
 #include <cerrno>
+#include <charconv>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <mutex>
 #include <sstream>
 #include <vector>
 
+#include "output_path.hpp"
 #include "trellis/core/error.hpp"
 
 namespace trellis {
@@ -52,14 +53,23 @@ void release(std::array<std::atomic<char*>, N>& slots, int slot) {
   std::free(p);
 }
 
-// SIGINT/SIGTERM blocked while a temporary is created and recorded, so none escapes the table.
+// The signals that end a run with its temporaries removed: Ctrl-C, kill, a closed terminal, a
+// reader gone from the pipe an output is written into.
+constexpr std::array<int, 4> kCleanupSignals = {SIGINT, SIGTERM, SIGHUP, SIGPIPE};
+
+sigset_t cleanup_signals() {
+  sigset_t s;
+  sigemptyset(&s);
+  for (int sig : kCleanupSignals) sigaddset(&s, sig);
+  return s;
+}
+
+// Those signals blocked while a temporary is created and recorded (so none escapes the table)
+// and while a batch is committed (all of it, or none).
 class SignalsHeld {
  public:
   SignalsHeld() {
-    sigset_t s;
-    sigemptyset(&s);
-    sigaddset(&s, SIGINT);
-    sigaddset(&s, SIGTERM);
+    const sigset_t s = cleanup_signals();
     pthread_sigmask(SIG_BLOCK, &s, &old_);
   }
   ~SignalsHeld() { pthread_sigmask(SIG_SETMASK, &old_, nullptr); }
@@ -78,11 +88,22 @@ struct Batch {
   int depth = 0;
   std::vector<Staged> staged;
   std::vector<std::pair<std::string, int>> dirs;  // created, in order
+  std::vector<std::pair<detail::FileId, std::string>> inputs;  // never written (RunFiles)
+  std::vector<detail::FileId> written;                         // each target once
+  bool checked = false;  // RunFiles checked the run: what it reads from now on is an input too
 };
 
 Batch& batch() {
   static Batch b;
   return b;
+}
+
+void remove_created_dirs(Batch& b) {
+  for (auto it = b.dirs.rbegin(); it != b.dirs.rend(); ++it) {
+    ::rmdir(it->first.c_str());
+    release(g_dir_slots, it->second);
+  }
+  b.dirs.clear();
 }
 
 void remove_staged(Batch& b) {
@@ -91,11 +112,146 @@ void remove_staged(Batch& b) {
     release(g_temp_slots, s.slot);
   }
   b.staged.clear();
-  for (auto it = b.dirs.rbegin(); it != b.dirs.rend(); ++it) {
-    ::rmdir(it->first.c_str());
-    release(g_dir_slots, it->second);
+  remove_created_dirs(b);
+}
+
+// The end of a run's batch: nothing is refused any more.
+void forget_run(Batch& b) {
+  b.inputs.clear();
+  b.written.clear();
+  b.checked = false;
+}
+
+// A file a checked run reads is one of its inputs, declared or not (a mesh its design names, the
+// edges file beside AERO vertices): the run never writes it.
+void guard_read(const std::string& path) {
+  Batch& b = batch();
+  std::lock_guard lock(b.mutex);
+  if (b.depth == 0 || !b.checked) return;
+  const detail::FileId id = detail::file_id(path);
+  for (const auto& in : b.inputs)
+    if (in.first == id) return;
+  b.inputs.emplace_back(id, "a file this run reads");
+}
+
+// A write of the open batch to `path`: refused over an input of the run or a target written
+// already (the roles RunFiles checked miss derived names: previews, shards, `.worst.json`).
+// Character devices take any number of writes.
+void claim_target(const std::string& path, const detail::PathState& s) {
+  if (s.char_device) return;
+  Batch& b = batch();
+  std::lock_guard lock(b.mutex);
+  if (b.depth == 0) return;
+  for (const auto& [id, role] : b.inputs)
+    if (id == s.id)
+      throw IoError("would overwrite " + role + " (one file): nothing was written", {path});
+  for (const auto& id : b.written)
+    if (id == s.id)
+      throw IoError("written twice by this run (two outputs on one path): nothing was written",
+                    {path});
+  b.written.push_back(s.id);
+}
+
+// Temporaries are named .NAME.trellis-tmp.PID.XXXXXX beside their target: recognisable, and
+// the PID says whether the run that made one is still alive.
+std::string temporary_prefix(const std::string& name) {
+  return "." + name.substr(0, 200) + ".trellis-tmp.";
+}
+
+// Temporaries of `name` in `dir` left by runs that are gone (kill -9, a power cut).
+void remove_stale_temporaries(const std::filesystem::path& dir, const std::string& name) {
+  const std::string prefix = temporary_prefix(name);
+  std::error_code ec;
+  for (std::filesystem::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string f = it->path().filename().string();
+    if (f.rfind(prefix, 0) != 0) continue;
+    const char* first = f.data() + prefix.size();
+    const char* last = f.data() + f.size();
+    pid_t pid = 0;
+    const auto [rest, bad] = std::from_chars(first, last, pid);
+    if (bad != std::errc() || pid <= 0 || last - rest != 7 || *rest != '.') continue;
+    if (pid == ::getpid() || ::kill(pid, 0) == 0 || errno != ESRCH) continue;
+    struct stat st {};
+    if (::lstat(it->path().c_str(), &st) == 0 && S_ISREG(st.st_mode)) ::unlink(it->path().c_str());
   }
-  b.dirs.clear();
+}
+
+void write_all(int fd, std::string_view content, const std::string& path) {
+  std::size_t off = 0;
+  while (off < content.size()) {
+    const ssize_t n = ::write(fd, content.data() + off, content.size() - off);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      throw IoError(std::string("cannot write: ") + std::strerror(errno), {path});
+    }
+    off += static_cast<std::size_t>(n);
+  }
+}
+
+// A FIFO, a character device or a descriptor: opened and written, never replaced.
+void write_stream(const std::string& path, const detail::PathState& s,
+                  const std::function<void(const ByteWriter&)>& fill) {
+  const int fd = s.descriptor >= 0 ? ::fcntl(s.descriptor, F_DUPFD_CLOEXEC, 0)
+                                   : ::open(path.c_str(), O_WRONLY | O_NOCTTY | O_CLOEXEC);
+  if (fd < 0) throw IoError(std::string("cannot open: ") + std::strerror(errno), {path});
+  try {
+    fill([&](std::string_view content) { write_all(fd, content, path); });
+  } catch (...) {
+    ::close(fd);
+    throw;
+  }
+  if (::close(fd) != 0 && errno != EINTR)
+    throw IoError(std::string("cannot write: ") + std::strerror(errno), {path});
+}
+
+// A file: written to a temporary beside `target` (symbolic links resolved), renamed onto it now
+// or, in a batch, at commit.
+void write_through_temporary(const std::string& path, const std::string& target,
+                             const std::function<void(const ByteWriter&)>& fill) {
+  namespace fs = std::filesystem;
+  const fs::path t(target);
+  const fs::path dir = t.has_parent_path() ? t.parent_path() : fs::path(".");
+  create_output_directories(dir.string());
+  remove_stale_temporaries(dir, t.filename().string());
+  std::string tmpl =
+      (dir / (temporary_prefix(t.filename().string()) + std::to_string(::getpid()) + ".XXXXXX"))
+          .string();
+  int fd = -1, slot = -1;
+  {
+    SignalsHeld held;
+    fd = ::mkostemp(tmpl.data(), O_CLOEXEC);
+    if (fd < 0) throw IoError(std::string("cannot create file: ") + std::strerror(errno), {path});
+    slot = hold(g_temp_slots, tmpl);
+  }
+  auto drop = [&] {
+    if (fd >= 0) ::close(fd);
+    ::unlink(tmpl.c_str());
+    release(g_temp_slots, slot);
+  };
+  try {
+    fill([&](std::string_view content) { write_all(fd, content, path); });
+    ::fchmod(fd, static_cast<mode_t>(output_file_mode()));
+    const int closed = ::close(fd);
+    fd = -1;
+    if (closed != 0) throw IoError(std::string("cannot write: ") + std::strerror(errno), {path});
+  } catch (...) {
+    drop();
+    throw;
+  }
+  Batch& b = batch();
+  {
+    std::lock_guard lock(b.mutex);
+    if (b.depth > 0) {
+      b.staged.push_back({tmpl, target, slot});
+      return;
+    }
+  }
+  if (std::rename(tmpl.c_str(), target.c_str()) != 0) {
+    const int e = errno;
+    drop();
+    throw IoError(std::string("cannot write: ") + std::strerror(e), {path});
+  }
+  release(g_temp_slots, slot);
 }
 
 extern "C" void cleanup_on_signal(int sig) {
@@ -115,6 +271,7 @@ std::string read_file(const std::string& path) {
   struct stat st {};
   if (::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode))
     throw IoError("not a regular file", {path});
+  guard_read(path);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw IoError(std::string("cannot open: ") + std::strerror(errno), {path});
   // A regular file is read straight into a string of its size (one copy: meshes of 50 MB and
@@ -175,60 +332,19 @@ void create_output_directories(const std::string& dir) {
 
 void write_file_atomic_with(const std::string& path,
                             const std::function<void(const ByteWriter&)>& fill) {
-  namespace fs = std::filesystem;
-  const fs::path target(path);
-  const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
-  create_output_directories(dir.string());
-  std::string tmpl = (dir / ("." + target.filename().string() + ".XXXXXX")).string();
-  int fd = -1, slot = -1;
-  {
-    SignalsHeld held;
-    fd = ::mkstemp(tmpl.data());
-    if (fd < 0) throw IoError(std::string("cannot create file: ") + std::strerror(errno), {path});
-    slot = hold(g_temp_slots, tmpl);
-  }
-  auto drop = [&] {
-    if (fd >= 0) ::close(fd);
-    ::unlink(tmpl.c_str());
-    release(g_temp_slots, slot);
-  };
-  auto fail = [&](const std::string& why) {
-    drop();
-    throw IoError("cannot write: " + why, {path});
-  };
-  const ByteWriter put = [&](std::string_view content) {
-    std::size_t off = 0;
-    while (off < content.size()) {
-      const ssize_t n = ::write(fd, content.data() + off, content.size() - off);
-      if (n < 0) {
-        if (errno == EINTR) continue;
-        fail(std::strerror(errno));
-      }
-      off += static_cast<std::size_t>(n);
-    }
-  };
-  try {
-    fill(put);
-  } catch (const IoError&) {
-    throw;  // fail() has cleaned up
-  } catch (...) {
-    drop();
-    throw;
-  }
-  ::fchmod(fd, static_cast<mode_t>(output_file_mode()));
-  const int closed = ::close(fd);
-  fd = -1;
-  if (closed != 0) fail(std::strerror(errno));
-  Batch& b = batch();
-  {
-    std::lock_guard lock(b.mutex);
-    if (b.depth > 0) {
-      b.staged.push_back({tmpl, path, slot});
-      return;
-    }
-  }
-  if (std::rename(tmpl.c_str(), path.c_str()) != 0) fail(std::strerror(errno));
-  release(g_temp_slots, slot);
+  if (detail::names_folder(path))
+    throw IoError(
+        path.empty() ? "an output needs a path" : "names a folder: an output needs a file name",
+        {path});
+  const detail::PathState s = detail::inspect_path(path);
+  if (s.kind == detail::PathKind::Folder) throw IoError("is a folder: an output is a file", {path});
+  if (s.kind == detail::PathKind::Other)
+    throw IoError("is " + s.what + ": outputs are files, FIFOs or character devices", {path});
+  claim_target(path, s);
+  if (s.kind == detail::PathKind::Stream)
+    write_stream(path, s, fill);
+  else
+    write_through_temporary(path, s.target, fill);
 }
 
 void write_file_atomic(const std::string& path, std::string_view content) {
@@ -248,7 +364,14 @@ void OutputBatch::commit() {
   std::lock_guard lock(b.mutex);
   --b.depth;
   if (!outer_) return;
+  SignalsHeld held;
   std::string error;
+  for (const auto& s :
+       b.staged) {  // a folder made at a target meanwhile: refused before any rename
+    struct stat st {};
+    if (error.empty() && ::lstat(s.target.c_str(), &st) == 0 && S_ISDIR(st.st_mode))
+      error = s.target + ": a folder is there now, where an output file goes: nothing was written";
+  }
   for (const auto& s : b.staged) {
     if (error.empty() && std::rename(s.temp.c_str(), s.target.c_str()) != 0)
       error = s.target + ": cannot write: " + std::strerror(errno);
@@ -256,9 +379,13 @@ void OutputBatch::commit() {
     release(g_temp_slots, s.slot);
   }
   b.staged.clear();
+  forget_run(b);
+  if (!error.empty()) {
+    remove_created_dirs(b);  // the ones still empty
+    throw IoError(error);
+  }
   for (const auto& d : b.dirs) release(g_dir_slots, d.second);
   b.dirs.clear();
-  if (!error.empty()) throw IoError(error);
 }
 
 OutputBatch::~OutputBatch() {
@@ -266,18 +393,34 @@ OutputBatch::~OutputBatch() {
   Batch& b = batch();
   std::lock_guard lock(b.mutex);
   --b.depth;
-  if (outer_) remove_staged(b);
+  if (!outer_) return;
+  remove_staged(b);
+  forget_run(b);
 }
 
 void install_signal_cleanup() {
   struct sigaction sa {};
   sa.sa_handler = cleanup_on_signal;
-  sigemptyset(&sa.sa_mask);
-  sigaddset(&sa.sa_mask, SIGINT);
-  sigaddset(&sa.sa_mask, SIGTERM);
-  ::sigaction(SIGINT, &sa, nullptr);
-  ::sigaction(SIGTERM, &sa, nullptr);
+  sa.sa_mask = cleanup_signals();
+  for (int sig : kCleanupSignals) {
+    // A signal the run was started ignoring (nohup, a background job) stays ignored.
+    struct sigaction old {};
+    if (::sigaction(sig, nullptr, &old) == 0 && old.sa_handler == SIG_IGN) continue;
+    ::sigaction(sig, &sa, nullptr);
+  }
 }
+
+namespace detail {
+
+void guard_inputs(const std::vector<std::pair<FileId, std::string>>& inputs) {
+  Batch& b = batch();
+  std::lock_guard lock(b.mutex);
+  if (b.depth == 0) return;
+  b.inputs.insert(b.inputs.end(), inputs.begin(), inputs.end());
+  b.checked = true;
+}
+
+}  // namespace detail
 
 long line_of_offset(std::string_view text, std::size_t pos) {
   pos = std::min(pos, text.size());

@@ -4,6 +4,7 @@
 
 #include <cstdio>
 
+#include "lib3mf_write.hpp"
 #include "mesh_3mf_module.hpp"
 #include "trellis/core/error.hpp"
 
@@ -174,21 +175,15 @@ void write_3mf(const std::string& path, const TriangleMesh& mesh, const std::str
   std::vector<MODELMESHTRIANGLE> tris(mesh.triangles.size());
   for (std::size_t i = 0; i < tris.size(); ++i)
     for (int k = 0; k < 3; ++k) tris[i].m_nIndices[k] = mesh.triangles[i][k];
-  const std::string tmp = path + ".tmp";
-  if (lib3mf_createmodel(&model.p) != LIB3MF_OK || lib3mf_model_setunit(model.p, unit) != LIB3MF_OK ||
+  if (lib3mf_createmodel(&model.p) != LIB3MF_OK ||
+      lib3mf_model_setunit(model.p, unit) != LIB3MF_OK ||
       lib3mf_model_addmeshobject(model.p, &object.p) != LIB3MF_OK ||
       lib3mf_meshobject_setgeometry(object.p, verts.data(), static_cast<DWORD>(verts.size()),
                                     tris.data(), static_cast<DWORD>(tris.size())) != LIB3MF_OK ||
       lib3mf_model_addbuilditem(model.p, object.p, nullptr, &item.p) != LIB3MF_OK ||
       lib3mf_model_querywriter(model.p, "3mf", &writer.p) != LIB3MF_OK ||
-      lib3mf_writer_writetofileutf8(writer.p, tmp.c_str()) != LIB3MF_OK) {
-    std::remove(tmp.c_str());
+      !detail::write_3mf_package(writer.p, path))
     throw IoError("cannot write 3MF", {path, 0, ""});
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    std::remove(tmp.c_str());
-    throw IoError("cannot move the written 3MF into place", {path, 0, ""});
-  }
 }
 
 }  // namespace impl

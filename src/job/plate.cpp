@@ -96,11 +96,11 @@ class Reader {
 
 constexpr char kMagic[8] = {'T', 'R', 'L', 'S', 'H', 'R', 'D', '3'};  // 2: flow, fan, joined; 3: via, inside
 
+}  // namespace
+
 std::string shard_name(const std::string& output, int k, int n) {
   return output + fmt::format(".shard-{}-of-{}", k, n);
 }
-
-}  // namespace
 
 Vec3 place_point(const PlatePart& part, const BBox3& box, Vec3 p) {
   const double cx = 0.5 * (box.min.x + box.max.x), cy = 0.5 * (box.min.y + box.max.y);
@@ -308,7 +308,7 @@ std::string write_shard(const Job& job, const std::vector<Layer>& layers, std::s
 }
 
 JobResult merge_shards(const std::vector<std::string>& manifests, const std::string& output,
-                       Diagnostics& diag) {
+                       Diagnostics& diag, bool follow_symlinks) {
   if (manifests.empty()) throw SettingError("merge needs the shards' manifests (.json)", {"", 0, "manifests"});
   if (output.empty()) throw SettingError("merge needs -o OUTPUT", {"", 0, "-o"});
   struct Shard {
@@ -318,7 +318,10 @@ JobResult merge_shards(const std::vector<std::string>& manifests, const std::str
   std::map<int, Shard> by_index;
   nlohmann::json first;
   std::string first_path;
+  RunFiles files(follow_symlinks);
+  files.output("the merged output (-o)", output);
   for (const auto& path : manifests) {
+    files.input("the shard manifest", path);
     nlohmann::json j;
     try {
       j = nlohmann::json::parse(read_file(path));
@@ -373,6 +376,7 @@ JobResult merge_shards(const std::vector<std::string>& manifests, const std::str
                          {s.path, 0, "first_layer"});
     const std::string data =
         (fs::path(s.path).parent_path() / s.j["data"].get<std::string>()).string();
+    files.input("the shard", data);
     const std::string bytes = read_file(data);
     if (bytes.size() != s.j["data_bytes"].get<std::size_t>())
       throw ParseError(fmt::format("{} bytes, its manifest says {}", bytes.size(),
@@ -403,9 +407,11 @@ JobResult merge_shards(const std::vector<std::string>& manifests, const std::str
   Job job = job_from_toml(first["job"].get<std::string>(), first_path + " (job)",
                           base.empty() ? "." : base, true);
   job.output = output;
+  files.input("the input of the job", job.input);
   const Config c = job.settings.config();
   JobResult out;
   OutputBatch batch;
+  files.check();
   const fs::path dir = fs::path(output).parent_path();
   if (!dir.empty()) create_output_directories(dir.string());
   if (job.route == "pbf") routes::write_pbf_main(job, c, tp, out);

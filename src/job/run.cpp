@@ -1,18 +1,18 @@
 #include <fmt/format.h>
+#include <tbb/global_control.h>
 
+#include <cstdio>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
 #include "routes.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
+#include "trellis/job/plate.hpp"
 #include "trellis/machine/gcode_reader.hpp"
 #include "trellis/machine/machine_check.hpp"
 #include "trellis/toolpath/json.hpp"
 #include "trellis/version.hpp"
-
-#include <cstdio>
-#include <tbb/global_control.h>
 
 namespace trellis {
 
@@ -181,18 +181,49 @@ JobResult run_route(const Job& job, const Config& c, Diagnostics& diag, const Pr
 
 }  // namespace
 
+RunFiles job_files(const Job& job, bool follow_symlinks) {
+  RunFiles files(follow_symlinks);
+  files.input("the job file", job.origin);  // (an embedded job's origin names no file)
+  files.input("the input", job.input);
+  files.input("the machine profile", job.machine);
+  const std::vector<std::string> sections = route_sections(job.route);
+  for (const auto& [key, e] : job.settings.entries()) {
+    const Setting* s = find_setting(key);
+    if (s && s->unit == "path" &&
+        std::find(sections.begin(), sections.end(), s->section()) != sections.end())
+      files.input("the file of " + key, std::get<std::string>(e.value));
+  }
+  for (const PlatePart& p : job.parts) files.input("the design of part " + p.label, p.input);
+  files.output("the output", job.output);
+  files.output("the report", job.report);
+  files.output("the toolpath", job.toolpath);
+  files.output("the G-code", job.gcode);
+  files.output("the lattice", job.lattice);
+  files.output_folder("the preview folder", job.preview);
+  // A plan's shards are named after its G-code, the other routes' after their output.
+  const std::string& sharded = job.route == "plan" ? job.gcode : job.output;
+  if (job.shards > 0 && !sharded.empty()) {
+    const std::string data = shard_name(sharded, job.shard, job.shards);
+    files.output("the shard", data);
+    files.output("the shard manifest", data + ".json");
+  }
+  return files;
+}
+
 JobResult run_job(const Job& job, Diagnostics& diag, const Progress& progress) {
   const std::vector<std::string> sections = route_sections(job.route);
   const Config c = job.settings.config();
   check_rules(c, job.settings, sections);
+  // Every output of the job is staged and committed together at the end; an error, a cancel or
+  // running out of memory leaves the output folders as they were (core/file.hpp). Its files are
+  // checked before anything is written, and its inputs are never written (core/run_files.hpp).
+  OutputBatch batch;
+  job_files(job, c.follow_symlinks).check();
   // run.threads bounds every parallel loop of the run (0 = all cores).
   std::unique_ptr<tbb::global_control> threads;
   if (c.threads > 0)
     threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
                                                     static_cast<std::size_t>(c.threads));
-  // Every output of the job is staged and committed together at the end; an error, a cancel or
-  // running out of memory leaves the output folders as they were (core/file.hpp).
-  OutputBatch batch;
   for (const std::string* out : {&job.output, &job.report, &job.toolpath, &job.gcode, &job.lattice}) {
     if (out->empty()) continue;
     const fs::path dir = fs::path(*out).parent_path();

@@ -10,6 +10,7 @@
 #include <map>
 #include <string>
 
+#include "../geom/lib3mf_write.hpp"
 #include "../geom/mesh_3mf_module.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
@@ -260,15 +261,7 @@ void write_beam_lattice_3mf(const std::string& path, const Graph& g, double defa
     fail("cannot add the build item", model.p);
   if (lib3mf_model_querywriter(model.p, "3mf", &writer.p) != LIB3MF_OK)
     fail("cannot create a 3MF writer", model.p);
-  const std::string tmp = path + ".tmp";
-  if (lib3mf_writer_writetofileutf8(writer.p, tmp.c_str()) != LIB3MF_OK) {
-    std::remove(tmp.c_str());
-    fail("cannot write 3MF", writer.p);
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
-    std::remove(tmp.c_str());
-    throw IoError("cannot move the written 3MF into place", {path});
-  }
+  if (!detail::write_3mf_package(writer.p, path)) fail("cannot write 3MF", writer.p);
 }
 
 }  // namespace trellis

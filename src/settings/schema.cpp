@@ -773,6 +773,11 @@ std::vector<Setting> make_table() {
                        [](C& c) -> auto& { return c.budget.max_time; }));
   t.push_back(boolean("run.force", "run even when the estimate is beyond run.max_memory or run.max_time",
                       "force", [](C& c) -> auto& { return c.budget.force; }));
+  t.push_back(boolean(
+      "run.follow_symlinks",
+      "write an output whose path is a symbolic link to the file it points to "
+      "(the link kept); without it such an output is refused",
+      "follow-symlinks", [](C & c) -> auto& { return c.follow_symlinks; }));
   return t;
 }
 

@@ -8,19 +8,22 @@ folder whose output folder holds a file beforehand. Each must:
   - print one error that names where (the file and line, the flag or the setting),
   - leave every folder exactly as it was (no output, no temporary),
 and a runaway request must be refused in under 2 s with its estimate, using under 200 MB.
-A second part sends SIGINT/SIGTERM during long writes and checks the exit status (130/143)
-and that no temporary is left.
+A second part (outputs.py) checks that no run loses a file: outputs over inputs or over each
+other, /dev/null, FIFOs, symbolic links, empty paths and folders as outputs, failed jobs,
+SIGINT/SIGTERM/SIGHUP during long writes and temporaries left by kill -9.
 
 usage: hostile_test.py TRELLIS SOURCE_DIR [--list]
 """
 import concurrent.futures
 import os
 import re
-import signal
 import subprocess
 import sys
 import tempfile
 import time
+
+sys.dont_write_bytecode = True  # no __pycache__ in the source tree
+import outputs  # noqa: E402
 
 TRELLIS = os.path.abspath(sys.argv[1])
 ROOT = os.path.abspath(sys.argv[2])
@@ -478,53 +481,6 @@ def memory_checks():
     return problems
 
 
-def signal_checks():
-    """SIGINT / SIGTERM during long writes: exit 130 / 143, no temporary, no output."""
-    problems = []
-    interrupted = {signal.SIGINT: 0, signal.SIGTERM: 0}
-    long_runs = [
-        ["pbf", "--size", "12,12,12", "--threads", "1", "-o", "out/x.cli"],
-        ["slice", os.path.join(DESIGNS, "csg_bracket.vcad"), "--resolution", "0.02", "--threads", "1",
-         "--machine", PROFILE, "-o", "out/x.gcode"],
-        ["run", "job.toml"],
-    ]
-    job = ('[job]\nroute = "pbf"\nname = "x"\noutput_dir = "out"\n[pbf]\nsize = [12, 12, 12]\n'
-           '[run]\nthreads = 1\n').encode()
-    for sig, code in ((signal.SIGINT, 130), (signal.SIGTERM, 143)):
-        for args in long_runs:
-            for delay in (0.3, 1.5):
-                with tempfile.TemporaryDirectory(prefix="hostile_sig_") as d:
-                    os.makedirs(os.path.join(d, "out"))
-                    open(os.path.join(d, "out", "keep.txt"), "w").write("here before\n")
-                    open(os.path.join(d, "job.toml"), "wb").write(job)
-                    before = snapshot(d)
-                    p = subprocess.Popen([TRELLIS] + args, cwd=d, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-                    time.sleep(delay)
-                    p.send_signal(sig)
-                    try:
-                        p.communicate(timeout=10)
-                    except subprocess.TimeoutExpired:
-                        p.kill()
-                        p.communicate()
-                        problems.append(f"{sig.name} {' '.join(args)}: did not stop")
-                        continue
-                    if p.returncode == 0:
-                        continue  # finished before the signal: nothing to check
-                    interrupted[sig] += 1
-                    if p.returncode != code:
-                        problems.append(f"{sig.name} after {delay} s {' '.join(args)}: exit {p.returncode}, expected {code}")
-                    after = snapshot(d)
-                    # Folder mtimes may move (a temporary came and went); contents may not.
-        before = {k: v for k, v in before.items() if not (v[0] & 0o040000)} | {k: 0 for k, v in before.items() if v[0] & 0o040000}
-        after = {k: v for k, v in after.items() if not (v[0] & 0o040000)} | {k: 0 for k, v in after.items() if v[0] & 0o040000}
-        if after != before:
-                        problems.append(f"{sig.name} after {delay} s {' '.join(args)}: left {sorted(set(after) - set(before))}")
-    for sig, n in interrupted.items():
-        if n < 3:
-            problems.append(f"{sig.name}: only {n} run(s) were still running when signalled")
-    return problems
-
-
 def umask_check():
     problems = []
     with tempfile.TemporaryDirectory(prefix="hostile_umask_") as d:
@@ -554,8 +510,11 @@ def main():
     t0 = time.monotonic()
     with concurrent.futures.ThreadPoolExecutor(max_workers=2) as pool:
         failures = [f for f in pool.map(run_case, CASES) if f]
-    failures += memory_checks() + signal_checks() + umask_check()
+    output_problems, output_counts = outputs.checks(TRELLIS, ROOT)
+    failures += memory_checks() + output_problems + umask_check()
     print(f"{len(CASES)} hostile inputs, {len(failures)} problem(s), {time.monotonic() - t0:.0f} s")
+    print("outputs (tests/hostile/outputs.py), runs per class: " +
+          ", ".join(f"{k} {v}" for k, v in output_counts.items()))
     for f in failures:
         print("FAIL " + f)
     return 1 if failures or len(CASES) < 200 else 0

@@ -5,9 +5,18 @@
 // write_file_atomic writes each file to a temporary beside its target and the batch renames them
 // all at commit(); a batch closed without commit (an error, bad_alloc, a cancel) removes its
 // temporaries and the folders it created, so the output folder holds what it held before.
-// SIGINT/SIGTERM (install_signal_cleanup) remove the temporaries of the moment too, then exit
-// with 130/143. The set of live temporaries is the one process-wide state here: a signal handler
-// can reach nothing else.
+// Temporaries are named .NAME.trellis-tmp.PID.XXXXXX; one whose process is gone (kill -9) is
+// removed by the next write of NAME. SIGINT, SIGTERM, SIGHUP and SIGPIPE
+// (install_signal_cleanup) remove the temporaries of the moment too, then exit with 128 + the
+// signal. The set of live temporaries is the one process-wide state here: a signal handler can
+// reach nothing else; the open batch also holds the inputs of its run (RunFiles, never written)
+// and the targets written (each once).
+//
+// What a path names decides how it is written: a missing or regular file through a temporary and
+// rename (a symbolic link: the file it points to); a FIFO, a character device (/dev/null) or a
+// descriptor (/dev/stdout, /dev/fd/N) is opened and written through, never replaced; a folder,
+// a block device or a socket is an IoError. Whether a run may write there at all is RunFiles'
+// (core/run_files.hpp).
 #pragma once
 #include <cstdio>
 #include <functional>
@@ -45,8 +54,9 @@ class OutputBatch {
   bool done_ = false;
 };
 
-// SIGINT and SIGTERM remove the live temporaries and created folders, then _exit(128 + signal).
-// For programs (the CLI); a library user keeps its own signal handling.
+// SIGINT, SIGTERM, SIGHUP and SIGPIPE remove the live temporaries and created folders, then
+// _exit(128 + signal); a signal the process was started ignoring (nohup) stays ignored. For
+// programs (the CLI); a library user keeps its own signal handling.
 void install_signal_cleanup();
 
 // An anonymous temporary file (read/write, binary) for data too large to hold in memory: made in

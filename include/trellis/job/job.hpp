@@ -22,6 +22,7 @@
 
 #include "trellis/core/diagnostics.hpp"
 #include "trellis/core/progress.hpp"
+#include "trellis/core/run_files.hpp"
 #include "trellis/lattice/graph.hpp"
 #include "trellis/machine/gcode_writer.hpp"
 #include "trellis/machine/laser.hpp"
@@ -122,7 +123,13 @@ struct JobResult {
 JobResult analyze_build_file(const std::string& path, const std::string& design,
                              const LaserProfile& laser, std::string* report_json, Diagnostics& diag);
 
-// Runs the job's route: reads, plans or slices, writes every requested output atomically.
+// Every file the job reads (input, machine, path settings, parts' designs) and writes (its
+// outputs, the preview folder, the shard files of a shard), each with its role.
+RunFiles job_files(const Job& job, bool follow_symlinks);
+
+// Runs the job's route: reads, plans or slices, writes every requested output atomically. Its
+// files (job_files) are checked first (core/run_files.hpp): an output that is an input or another
+// output, a folder or a symbolic link (unless run.follow_symlinks) is refused before anything runs.
 JobResult run_job(const Job& job, Diagnostics& diag, const Progress& progress = {});
 
 }  // namespace trellis

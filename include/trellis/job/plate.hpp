@@ -56,6 +56,8 @@ std::pair<int, int> parse_shard(const std::string& text);
 // `work` (estimated work per layer, >= 0) as evenly as whole layers allow.
 std::pair<std::size_t, std::size_t> shard_range(const std::vector<double>& work, int k, int n);
 
+// The data file of shard k of n of `output`: OUTPUT.shard-K-of-N (its manifest adds ".json").
+std::string shard_name(const std::string& output, int k, int n);
 // Shard files: the toolpath layers of one shard, exact (binary doubles).
 std::string shard_bytes(const std::vector<Layer>& layers);
 std::vector<Layer> layers_from_shard_bytes(const std::string& bytes, const std::string& origin);
@@ -72,8 +74,9 @@ std::string write_shard(const Job& job, const std::vector<Layer>& layers, std::s
 
 // `trellis merge`: the manifests' layers joined and written to `output` by the route's own
 // writer. Exit-2 errors (nothing written) for manifests of different jobs, a shard missing or
-// given twice, or a shard file that does not match its manifest.
+// given twice, a shard file that does not match its manifest, or an output that is one of the
+// shards' files (RunFiles, with `follow_symlinks`).
 JobResult merge_shards(const std::vector<std::string>& manifests, const std::string& output,
-                       Diagnostics& diag);
+                       Diagnostics& diag, bool follow_symlinks = false);
 
 }  // namespace trellis

@@ -130,6 +130,7 @@ struct Config {
   OutputConfig output;
   PlateConfig plate;
   int threads = 0;      // run.threads: 0 = all cores
+  bool follow_symlinks = false;  // run.follow_symlinks: write through symbolic links (RunFiles)
   BudgetConfig budget;  // run.max_memory, run.max_time, run.force
 };
 
