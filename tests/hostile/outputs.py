@@ -16,6 +16,7 @@ Classes, each counted in the summary:
              folder left, checked after every run
   stale      a temporary left by kill -9 is removed by the next run writing the same output
 """
+import errno
 import os
 import shutil
 import signal
@@ -265,6 +266,23 @@ def read_fifo(path, into):
         into.append(f.read())
 
 
+def unblock_reader(fifo, reader):
+    """Opens the FIFO for writing so a reader still waiting in open() sees end of file.
+
+    A reader that has already read and closed it is no longer there to open against
+    (ENXIO), so the open is retried only while the reader thread lives."""
+    for _ in range(50):
+        try:
+            os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))
+            return
+        except OSError as e:
+            if e.errno != errno.ENXIO:
+                raise
+        reader.join(0.1)
+        if not reader.is_alive():
+            return
+
+
 def fifo_cases(env):
     P = env.profile
     cases = [
@@ -286,8 +304,9 @@ def fifo_cases(env):
             reader = threading.Thread(target=read_fifo, args=(fifo, got), daemon=True)
             reader.start()
             r = env.run(args, d)
+            reader.join(2)
             if reader.is_alive():  # trellis never opened it: unblock the reader
-                os.close(os.open(fifo, os.O_WRONLY | os.O_NONBLOCK))
+                unblock_reader(fifo, reader)
             reader.join(5)
             env.count("fifo")
             data = got[0] if got else b""
