@@ -36,11 +36,16 @@ void render_series_png(const std::vector<double>& x, const std::vector<PlotSerie
 }
 
 std::string render_thumbnail_png(const Toolpath& toolpath, int width, int height) {
-  return cairo().render_thumbnail_png(layers_of(toolpath), width, height);
+  return render_thumbnails_png(layers_of(toolpath), {{width, height}}).front();
 }
 
 std::string render_thumbnail_png(const LayerSource& layers, int width, int height) {
-  return cairo().render_thumbnail_png(layers, width, height);
+  return render_thumbnails_png(layers, {{width, height}}).front();
+}
+
+std::vector<std::string> render_thumbnails_png(const LayerSource& layers,
+                                               const std::vector<std::pair<int, int>>& sizes) {
+  return cairo().render_thumbnails_png(layers, sizes);
 }
 
 }  // namespace trellis
