@@ -168,19 +168,34 @@ class LayerWindows {
   std::vector<Regions> windows_;
 };
 
-// A layer's skin: its outline less what lies under it all the way down (`under`, the
-// intersection of the layers below that the skin reaches) and over it all the way up (`over`);
-// null: no skin on that side. One difference of their intersection, not the union of two
-// differences. Slivers narrower than a bead (a slowly changing wall) are not worth solid lines.
-Regions skin_of(const Regions& outline, const Regions* under, const Regions* over, double bead) {
-  if (!under && !over) return {};
-  Regions skin;
+// A layer's skin: its outline O less what lies under it all the way down (`under`, the
+// intersection of the layers below that the skin reaches) and over it all the way up (`over`),
+// C = under ∩ over (null: no skin on that side), opened by half a bead so that slivers narrower
+// than a bead (a slowly changing wall) get no solid lines. Opened as
+// dilate(erode(O) − dilate(C)), the same set as dilate(erode(O − C)) (up to Clipper's mitred
+// corners, well under a micrometre): erode(O) is the outer walls' region (`eroded`), and O − C,
+// mostly slivers along sloped walls, was the costliest region of a layer to subtract and offset.
+Regions skin_of(const Regions& eroded, const Regions* under, const Regions* over, double bead) {
+  if ((!under && !over) || eroded.empty()) return {};
+  Regions cover;
   if (under && over)
-    skin = difference(outline, under->empty() || over->empty() ? Regions{}
-                                                                : intersection(*under, *over));
+    cover = under->empty() || over->empty() ? Regions{} : intersection(*under, *over);
   else
-    skin = difference(outline, under ? *under : *over);
-  return skin.empty() ? skin : offset(offset(skin, -0.5 * bead), 0.5 * bead);
+    cover = under ? *under : *over;
+  const Regions core = cover.empty() ? eroded : difference(eroded, offset(cover, 0.5 * bead));
+  return core.empty() ? core : offset(core, 0.5 * bead);
+}
+
+// An island's wall regions, outside in: the outline offset by -(k + 0.5) beads, k < walls, while
+// not empty.
+std::vector<Regions> wall_regions(const Polygon2& island, int walls, double bead) {
+  std::vector<Regions> out;
+  for (int k = 0; k < walls; ++k) {
+    Regions r = offset(Regions{island}, -(k + 0.5) * bead);
+    if (r.empty()) break;
+    out.push_back(std::move(r));
+  }
+  return out;
 }
 
 // Hatch lines in sweep order → greedy nearest end among the next few lines (zig-zag order).
@@ -455,9 +470,22 @@ Toolpath plan_planar(const std::vector<LayerOutline>& layers, const PlanarOption
     layer.z = z;
     if (outline[i].empty()) return;
     const long li = static_cast<long>(i);
+    std::vector<std::vector<Regions>> walls(outline[i].size());
+    for (std::size_t k = 0; k < walls.size(); ++k)
+      if (!outline[i][k].outer.empty()) walls[k] = wall_regions(outline[i][k], o.walls, w);
     // Solid where the part has no material within bottom_layers below or top_layers above.
-    const Regions skin = skin_of(outline[i], B > 0 ? &below->at(li - B) : nullptr,
-                                 T > 0 ? &above->at(li + 1) : nullptr, w);
+    Regions skin;
+    if (B > 0 || T > 0) {
+      Regions eroded;  // the outline offset by half a bead: the outer walls' regions
+      if (o.walls > 0) {
+        for (const auto& r : walls)
+          if (!r.empty()) eroded.insert(eroded.end(), r.front().begin(), r.front().end());
+      } else {
+        eroded = offset(outline[i], -0.5 * w);
+      }
+      skin = skin_of(eroded, B > 0 ? &below->at(li - B) : nullptr,
+                     T > 0 ? &above->at(li + 1) : nullptr, w);
+    }
     const bool odd = g % 2 == 1;
     const double infill_angle = o.infill_angle + (odd ? 90.0 : 0.0);
     const double skin_angle = 45.0 + (odd ? 90.0 : 0.0);
@@ -467,18 +495,14 @@ Toolpath plan_planar(const std::vector<LayerOutline>& layers, const PlanarOption
     // lines, linked into paths by the linking stage (slice/link.hpp).
     std::vector<IslandPieces> islands;
     islands.reserve(outline[i].size());
-    for (const auto& poly : outline[i]) {
+    for (std::size_t k = 0; k < outline[i].size(); ++k) {
+      const Polygon2& poly = outline[i][k];
       if (poly.outer.empty()) continue;
       IslandPieces& is = islands.emplace_back();
       is.outline = poly;
       is.bead_width = w;
       const Regions island{poly};
-      std::vector<Regions> wall_regions;
-      for (int k = 0; k < o.walls; ++k) {
-        Regions r = offset(island, -(k + 0.5) * w);
-        if (r.empty()) break;
-        wall_regions.push_back(std::move(r));
-      }
+      const std::vector<Regions>& wall_regions = walls[k];
       if (!wall_regions.empty()) is.route = wall_regions.front();
       for (auto it = wall_regions.rbegin(); it != wall_regions.rend(); ++it) {
         auto rings = rings_of(*it);
@@ -490,7 +514,8 @@ Toolpath plan_planar(const std::vector<LayerOutline>& layers, const PlanarOption
       const double inset = static_cast<double>(wall_regions.size()) * w + 0.5 * w - o.infill_overlap * w;
       const Regions inner = offset(island, -inset);
       if (inner.empty()) continue;
-      const Regions solid = skin.empty() ? Regions{} : intersection(inner, near(skin, box_of(inner)));
+      const Regions skin_near = skin.empty() ? Regions{} : near(skin, box_of(inner));
+      const Regions solid = skin_near.empty() ? Regions{} : intersection(inner, skin_near);
       const Regions sparse = solid.empty() ? inner : difference(inner, solid);
       auto add_fill = [&](const Regions& r, double angle, double spacing, PathRole role) {
         if (r.empty() || !(spacing > 0)) return;
