@@ -679,5 +679,4 @@ void render_series_png(const std::vector<double>& x, const std::vector<PlotSerie
 
 TRELLIS_MODULE_ENTRY(cairo, trellis::RenderModule, &trellis::impl::render_layer_png,
                      &trellis::impl::render_3d_png, &trellis::impl::render_overlay_png,
-                     &trellis::impl::render_scores_png, &trellis::impl::render_series_png,
-                     &trellis::impl::render_thumbnails_png)
+                     &trellis::impl::render_scores_png, &trellis::impl::render_series_png)

@@ -16,14 +16,6 @@ struct RenderModule {
                             const std::string&);
   void (*render_series_png)(const std::vector<double>&, const std::vector<PlotSeries>&,
                             const std::string&, const std::string&, const std::string&);
-  std::vector<std::string> (*render_thumbnails_png)(const LayerSource&,
-                                                    const std::vector<std::pair<int, int>>&);
 };
-
-namespace impl {
-// src/render/thumbnail.cpp
-std::vector<std::string> render_thumbnails_png(const LayerSource& layers,
-                                               const std::vector<std::pair<int, int>>& sizes);
-}  // namespace impl
 
 }  // namespace trellis

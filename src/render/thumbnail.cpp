@@ -1,19 +1,21 @@
 // G-code thumbnails drawn straight into their pixel grid: every path's segments projected and
-// rasterised as one-pixel lines with a depth buffer (the nearest bead shows), each pixel shaded
-// by its layer's height and its depth. Stroking every path with cairo cost a quarter of a slice;
-// this is a few per cent of the layers' drawing. Small thumbnails are drawn at up to 4 × 4
-// samples a pixel and averaged, so their edges are smooth. cairo only encodes the PNG.
-#include <cairo.h>
+// rasterised as one-sample lines with a depth buffer (the nearest bead shows), each pixel shaded
+// by its layer's height and its depth; layers that would land on the samples of the layer above
+// are left out. Stroking every path with cairo cost a quarter of a slice.
+// Small thumbnails are drawn at up to 3 × 3 samples a pixel and averaged, so their edges are
+// smooth. No cairo: `trellis slice` does not load it for its thumbnails.
+#include <zlib.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <memory>
 
-#include "render_module.hpp"
 #include "trellis/core/error.hpp"
+#include "trellis/render/render.hpp"
 
-namespace trellis::impl {
+namespace trellis {
 
 namespace {
 
@@ -25,18 +27,42 @@ struct Viewed {
   double u, v, depth;
 };
 
-Viewed view(Vec3 p) {
-  const double sa = std::sin(kAzimuth), ca = std::cos(kAzimuth);
-  const double se = std::sin(kElevation), ce = std::cos(kElevation);
-  return {-p.x * sa + p.y * ca, -(p.x * ca + p.y * sa) * se + p.z * ce,
-          (p.x * ca + p.y * sa) * ce + p.z * se};
-}
+struct View {
+  double sa = std::sin(kAzimuth), ca = std::cos(kAzimuth);
+  double se = std::sin(kElevation), ce = std::cos(kElevation);
+  Viewed operator()(Vec3 p) const {
+    const double across = p.x * ca + p.y * sa;
+    return {-p.x * sa + p.y * ca, -across * se + p.z * ce, across * ce + p.z * se};
+  }
+};
 
-// The print's extent in the view, and its heights (for the shading).
+// A layer as the thumbnail needs it: its height when all its points lie at one (NaN otherwise),
+// and the length of its paths.
+struct LayerSummary {
+  double flat_z = std::numeric_limits<double>::quiet_NaN();
+  double length = 0;
+};
+
+// The print's extent in the view, its heights (for the shading), and its layers.
 struct Extent {
   double u0 = 1e300, u1 = -1e300, v0 = 1e300, v1 = -1e300;
   double d0 = 1e300, d1 = -1e300, z0 = 1e300, z1 = -1e300;
+  View view;
+  std::vector<LayerSummary> layers;
   bool empty() const { return u0 > u1; }
+  void add(const Layer& l) {
+    LayerSummary& s = layers.emplace_back();
+    bool first = true;
+    for (const auto& p : l.paths) {
+      for (std::size_t k = 0; k < p.points.size(); ++k) {
+        const Vec3 q = p.points[k];
+        add(q);
+        if (first) s.flat_z = q.z, first = false;
+        if (q.z != s.flat_z) s.flat_z = std::numeric_limits<double>::quiet_NaN();
+        if (k > 0) s.length += norm(q - p.points[k - 1]);
+      }
+    }
+  }
   void add(Vec3 p) {
     const Viewed q = view(p);
     u0 = std::min(u0, q.u), u1 = std::max(u1, q.u), v0 = std::min(v0, q.v), v1 = std::max(v1, q.v);
@@ -49,17 +75,31 @@ struct Extent {
 class Canvas {
  public:
   Canvas(int width, int height, const Extent& e) : width_(width), height_(height), extent_(e) {
-    // Up to 4 × 4 samples a pixel, at most ~256 samples across.
-    ss_ = std::clamp(256 / std::max(width, height), 1, 4);
+    // Small thumbnails: up to 3 × 3 samples a pixel, at most 48 samples across.
+    ss_ = std::clamp(48 / std::max(width, height), 1, 3);
     w_ = width * ss_;
     h_ = height * ss_;
-    depth_.assign(static_cast<std::size_t>(w_) * static_cast<std::size_t>(h_), 0.0f);
-    shade_.assign(depth_.size(), 0.0f);
+    pixels_.resize(static_cast<std::size_t>(w_) * static_cast<std::size_t>(h_));
     const double margin = 0.05 * std::max(e.u1 - e.u0, e.v1 - e.v0) + 1e-6;
     const double fw = e.u1 - e.u0 + 2 * margin, fh = e.v1 - e.v0 + 2 * margin;
     scale_ = std::min(w_ / fw, h_ / fh);
     ox_ = (w_ - fw * scale_) / 2 - (e.u0 - margin) * scale_;
     oy_ = h_ - (h_ - fh * scale_) / 2 + (e.v0 - margin) * scale_;
+  }
+
+  // A layer's paths, unless the layer above will cover it: in this view the higher of two points
+  // on one sample is always the nearer, so a flat layer is left out when the next one is flat,
+  // has about as much to draw (no feature ends here) and lies less than half a sample above the
+  // lowest layer left out since the last one drawn. Most layers of a part land on the samples of
+  // their neighbours; drawing every one was most of the work.
+  void layer(const Layer& l, const LayerSummary& here, const LayerSummary* next) {
+    if (next && !std::isnan(here.flat_z) && !std::isnan(next->flat_z) &&
+        next->length >= 0.9 * here.length) {
+      if (std::isnan(skipped_z_)) skipped_z_ = here.flat_z;
+      if (std::abs(next->flat_z - skipped_z_) * extent_.view.ce * scale_ < 0.5) return;
+    }
+    skipped_z_ = std::numeric_limits<double>::quiet_NaN();
+    for (const auto& p : l.paths) path(p);
   }
 
   // A path's polyline; points closer than a sample to the last one drawn are passed over.
@@ -79,40 +119,44 @@ class Canvas {
   std::string png() const;
 
  private:
+  // A point in samples, half a sample on (so that truncating rounds) and kept on the canvas.
   struct Sample {
     double x, y;
     float depth;  // 0 (farthest) .. 1 (nearest), above 0 where drawn
     float shade;  // height: 0 (bottom) .. 1 (top)
   };
+  struct Pixel {
+    float depth = 0, shade = 0;
+  };
   Sample sample(Vec3 p) const {
-    const Viewed q = view(p);
+    const Viewed q = extent_.view(p);
     const double range = extent_.d1 - extent_.d0;
     const double d = range > 0 ? (q.depth - extent_.d0) / range : 1.0;
     const double t = extent_.z1 > extent_.z0 ? (p.z - extent_.z0) / (extent_.z1 - extent_.z0) : 1.0;
-    return {ox_ + q.u * scale_, oy_ - q.v * scale_, static_cast<float>(0.01 + 0.99 * d),
-            static_cast<float>(t)};
+    return {std::clamp(ox_ + q.u * scale_ + 0.5, 0.0, w_ - 0.01),
+            std::clamp(oy_ - q.v * scale_ + 0.5, 0.0, h_ - 0.01),
+            static_cast<float>(0.01 + 0.99 * d), static_cast<float>(t)};
   }
-  void plot(const Sample& s) {
-    if (s.x < -0.5 || s.y < -0.5) return;
-    const long x = static_cast<long>(s.x + 0.5), y = static_cast<long>(s.y + 0.5);  // rounded
-    if (x >= w_ || y >= h_) return;
-    const std::size_t i =
-        static_cast<std::size_t>(y) * static_cast<std::size_t>(w_) + static_cast<std::size_t>(x);
-    if (s.depth <= depth_[i]) return;
-    depth_[i] = s.depth;
-    shade_[i] = s.shade;
+  void plot(const Sample& s) { plot(pixels_.data(), s.x, s.y, s.depth, s.shade); }
+  void plot(Pixel* px, double x, double y, float depth, float shade) const {
+    Pixel& p = px[static_cast<std::size_t>(y) * static_cast<std::size_t>(w_) +
+                  static_cast<std::size_t>(x)];
+    if (depth > p.depth) p = {depth, shade};
   }
   // Samples along a-b, a excluded (it was plotted as the end of the segment before).
   void line(const Sample& a, const Sample& b) {
     const double n = std::ceil(std::max(std::abs(b.x - a.x), std::abs(b.y - a.y)));
     if (n < 1) return plot(b);
-    const double dx = (b.x - a.x) / n, dy = (b.y - a.y) / n;
-    const auto dd = static_cast<float>((b.depth - a.depth) / n);
-    const auto dt = static_cast<float>((b.shade - a.shade) / n);
-    Sample s = a;
-    for (long k = 1; k <= static_cast<long>(n); ++k) {
-      s.x += dx, s.y += dy, s.depth += dd, s.shade += dt;
-      plot(s);
+    const double step = 1 / n;
+    const double dx = (b.x - a.x) * step, dy = (b.y - a.y) * step;
+    const auto dd = static_cast<float>((b.depth - a.depth) * step);
+    const auto dt = static_cast<float>((b.shade - a.shade) * step);
+    Pixel* px = pixels_.data();
+    double x = a.x, y = a.y;
+    float depth = a.depth, shade = a.shade;
+    for (long k = static_cast<long>(n); k > 0; --k) {
+      x += dx, y += dy, depth += dd, shade += dt;
+      plot(px, x, y, depth, shade);
     }
   }
   // A drawn sample's colour (0..1 each): copper from dark (bottom) to light (top), darker away
@@ -125,48 +169,76 @@ class Canvas {
   int width_, height_, ss_ = 1, w_ = 0, h_ = 0;
   Extent extent_;
   double scale_ = 1, ox_ = 0, oy_ = 0;
-  std::vector<float> depth_, shade_;
+  double skipped_z_ = std::numeric_limits<double>::quiet_NaN();  // the lowest layer left out
+  std::vector<Pixel> pixels_;
 };
 
-cairo_status_t append_png(void* closure, const unsigned char* data, unsigned int length) {
-  static_cast<std::string*>(closure)->append(reinterpret_cast<const char*>(data), length);
-  return CAIRO_STATUS_SUCCESS;
+// A PNG of 8-bit RGBA rows (no filter; zlib's fastest level: a thumbnail is small and written
+// once per G-code file).
+std::string encode_png(const std::vector<std::uint8_t>& rgba, int width, int height) {
+  std::string raw;
+  raw.reserve(static_cast<std::size_t>(height) * (4 * static_cast<std::size_t>(width) + 1));
+  for (int y = 0; y < height; ++y) {
+    raw.push_back('\0');  // filter: none
+    const auto* row =
+        rgba.data() + static_cast<std::size_t>(y) * 4 * static_cast<std::size_t>(width);
+    raw.append(reinterpret_cast<const char*>(row), 4 * static_cast<std::size_t>(width));
+  }
+  uLongf packed_size = compressBound(static_cast<uLong>(raw.size()));
+  std::string packed(packed_size, '\0');
+  if (compress2(reinterpret_cast<Bytef*>(packed.data()), &packed_size,
+                reinterpret_cast<const Bytef*>(raw.data()), static_cast<uLong>(raw.size()),
+                Z_BEST_SPEED) != Z_OK)
+    throw IoError("cannot encode the thumbnail PNG");
+  packed.resize(packed_size);
+  std::string out("\x89PNG\r\n\x1a\n", 8);
+  auto be32 = [&](std::string& s, std::uint32_t v) {
+    for (int shift = 24; shift >= 0; shift -= 8) s.push_back(static_cast<char>(v >> shift & 0xff));
+  };
+  auto chunk = [&](const char* type, const std::string& data) {
+    be32(out, static_cast<std::uint32_t>(data.size()));
+    const std::string body = type + data;
+    out += body;
+    be32(out, static_cast<std::uint32_t>(crc32(0L, reinterpret_cast<const Bytef*>(body.data()),
+                                               static_cast<uInt>(body.size()))));
+  };
+  std::string header;
+  be32(header, static_cast<std::uint32_t>(width));
+  be32(header, static_cast<std::uint32_t>(height));
+  header +=
+      std::string("\x08\x06\x00\x00\x00", 5);  // 8 bits, RGBA, deflate, no filter, no interlace
+  chunk("IHDR", header);
+  chunk("IDAT", packed);
+  chunk("IEND", {});
+  return out;
 }
 
 std::string Canvas::png() const {
-  std::unique_ptr<cairo_surface_t, decltype(&cairo_surface_destroy)> surface(
-      cairo_image_surface_create(CAIRO_FORMAT_ARGB32, width_, height_), cairo_surface_destroy);
-  cairo_surface_flush(surface.get());
-  unsigned char* data = cairo_image_surface_get_data(surface.get());
-  const int stride = cairo_image_surface_get_stride(surface.get());
-  if (!data) throw IoError("cannot make the thumbnail image");
-  // Each pixel: the mean of its samples, premultiplied by the share drawn (cairo's ARGB32).
-  for (int py = 0; py < height_; ++py) {
-    auto* row = reinterpret_cast<std::uint32_t*>(data + static_cast<std::ptrdiff_t>(py) * stride);
+  // Each pixel: the mean colour of its drawn samples, as opaque as the share drawn.
+  std::vector<std::uint8_t> rgba(4 * static_cast<std::size_t>(width_) *
+                                 static_cast<std::size_t>(height_));
+  for (int py = 0; py < height_; ++py)
     for (int px = 0; px < width_; ++px) {
       double sum[3] = {0, 0, 0};
       int drawn = 0;
       for (int sy = 0; sy < ss_; ++sy)
         for (int sx = 0; sx < ss_; ++sx) {
-          const std::size_t i =
-              static_cast<std::size_t>(py * ss_ + sy) * static_cast<std::size_t>(w_) +
-              static_cast<std::size_t>(px * ss_ + sx);
-          if (depth_[i] <= 0) continue;
+          const Pixel& p =
+              pixels_[static_cast<std::size_t>(py * ss_ + sy) * static_cast<std::size_t>(w_) +
+                      static_cast<std::size_t>(px * ss_ + sx)];
+          if (p.depth <= 0) continue;
           double rgb[3];
-          colour(depth_[i], shade_[i], rgb);
+          colour(p.depth, p.shade, rgb);
           for (int c = 0; c < 3; ++c) sum[c] += rgb[c];
           ++drawn;
         }
-      const double n = ss_ * ss_;
-      auto byte = [&](double v) { return static_cast<std::uint32_t>(std::lround(255 * v / n)); };
-      row[px] = byte(drawn) << 24 | byte(sum[0]) << 16 | byte(sum[1]) << 8 | byte(sum[2]);
+      auto* out = &rgba[4 * (static_cast<std::size_t>(py) * static_cast<std::size_t>(width_) +
+                             static_cast<std::size_t>(px))];
+      for (int c = 0; c < 3; ++c)
+        out[c] = static_cast<std::uint8_t>(drawn ? std::lround(255 * sum[c] / drawn) : 0);
+      out[3] = static_cast<std::uint8_t>(std::lround(255.0 * drawn / (ss_ * ss_)));
     }
-  }
-  cairo_surface_mark_dirty(surface.get());
-  std::string out;
-  if (cairo_surface_write_to_png_stream(surface.get(), append_png, &out) != CAIRO_STATUS_SUCCESS)
-    throw IoError("cannot encode the thumbnail PNG");
-  return out;
+  return encode_png(rgba, width_, height_);
 }
 
 }  // namespace
@@ -178,20 +250,28 @@ std::vector<std::string> render_thumbnails_png(const LayerSource& layers,
       throw SettingError("thumbnail size " + std::to_string(width) + "x" + std::to_string(height) +
                          " (1..4096 pixels each way)");
   Extent extent;
-  layers([&](std::size_t, const Layer& l) {
-    for (const auto& p : l.paths)
-      for (const Vec3 q : p.points) extent.add(q);
-  });
+  layers([&](std::size_t, const Layer& l) { extent.add(l); });
   std::vector<Canvas> canvases;
   for (const auto& [width, height] : sizes) canvases.emplace_back(width, height, extent);
-  if (!extent.empty())
+  if (!extent.empty()) {
+    std::size_t k = 0;
     layers([&](std::size_t, const Layer& l) {
-      for (const auto& p : l.paths)
-        for (Canvas& c : canvases) c.path(p);
+      const LayerSummary* next = k + 1 < extent.layers.size() ? &extent.layers[k + 1] : nullptr;
+      for (Canvas& c : canvases) c.layer(l, extent.layers[k], next);
+      ++k;
     });
+  }
   std::vector<std::string> out;
   for (const Canvas& c : canvases) out.push_back(c.png());
   return out;
 }
 
-}  // namespace trellis::impl
+std::string render_thumbnail_png(const Toolpath& toolpath, int width, int height) {
+  return render_thumbnails_png(layers_of(toolpath), {{width, height}}).front();
+}
+
+std::string render_thumbnail_png(const LayerSource& layers, int width, int height) {
+  return render_thumbnails_png(layers, {{width, height}}).front();
+}
+
+}  // namespace trellis
