@@ -43,16 +43,15 @@ class RingIndex {
     if (p.Y < y0_ - kNear || p.Y > y0_ + static_cast<cl::cInt>(step_ * buckets_) + kNear) return 0;
     const std::size_t b = bucket(p.Y);
     bool in = false;
-    for (std::size_t k = start_[b]; k < start_[b + 1]; ++k) {
-      const cl::IntPoint& a = ring_[edges_[k]];
-      const cl::IntPoint& c = ring_[(edges_[k] + 1) % ring_.size()];
-      if (near(p, a, c)) return -1;
-      if ((a.Y > p.Y) != (c.Y > p.Y)) {  // the ray towards +x crosses it left or right of p
-        const __int128 side = static_cast<__int128>(c.X - a.X) * (p.Y - a.Y) -
-                              static_cast<__int128>(p.X - a.X) * (c.Y - a.Y);
-        if ((side > 0) == (c.Y > a.Y)) in = !in;
-      }
-    }
+    for (std::size_t k = start_[b]; k < start_[b + 1]; ++k)
+      if (!cross(ring_, edges_[k], p, in)) return -1;
+    return in ? 1 : 0;
+  }
+  // The same from every edge (no index: for rings tested a few times).
+  static int scan(const cl::Path& ring, const cl::IntPoint& p) {
+    bool in = false;
+    for (std::size_t e = 0; e < ring.size(); ++e)
+      if (!cross(ring, e, p, in)) return -1;
     return in ? 1 : 0;
   }
 
@@ -71,13 +70,23 @@ class RingIndex {
       for (std::size_t b = lo; b <= hi; ++b) fn(e, b);
     }
   }
-  static bool near(const cl::IntPoint& p, const cl::IntPoint& a, const cl::IntPoint& c) {
+  // Edge e against p: false when p lies within kNear of it; else `in` flips when the ray from p
+  // towards +x crosses it.
+  static bool cross(const cl::Path& ring, std::size_t e, const cl::IntPoint& p, bool& in) {
+    const cl::IntPoint& a = ring[e];
+    const cl::IntPoint& c = ring[(e + 1) % ring.size()];
     const double dx = static_cast<double>(c.X - a.X), dy = static_cast<double>(c.Y - a.Y);
     const double px = static_cast<double>(p.X - a.X), py = static_cast<double>(p.Y - a.Y);
     const double len2 = dx * dx + dy * dy;
     const double t = len2 > 0 ? std::clamp((px * dx + py * dy) / len2, 0.0, 1.0) : 0.0;
     const double ex = px - t * dx, ey = py - t * dy;
-    return ex * ex + ey * ey <= static_cast<double>(kNear * kNear);
+    if (ex * ex + ey * ey <= static_cast<double>(kNear * kNear)) return false;
+    if ((a.Y > p.Y) != (c.Y > p.Y)) {
+      const __int128 side = static_cast<__int128>(c.X - a.X) * (p.Y - a.Y) -
+                            static_cast<__int128>(p.X - a.X) * (c.Y - a.Y);
+      if ((side > 0) == (c.Y > a.Y)) in = !in;
+    }
+    return true;
   }
 
   const cl::Path& ring_;
@@ -94,8 +103,10 @@ struct Ring {
   cl::cInt x0, y0, x1, y1;
   std::size_t parent = std::numeric_limits<std::size_t>::max();  // none: at the top
   std::vector<std::size_t> children;                             // in output order
-  std::unique_ptr<RingIndex> index;                              // made when first tested
+  std::size_t tests = 0;
+  std::unique_ptr<RingIndex> index;  // made once the ring has been tested a few times
   int locate(const cl::IntPoint& p) {
+    if (++tests <= 16) return RingIndex::scan(*path, p);
     if (!index) index = std::make_unique<RingIndex>(*path);
     return index->locate(p);
   }
