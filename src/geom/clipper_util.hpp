@@ -24,4 +24,8 @@ inline ClipperLib::Path to_path(const std::vector<Vec2>& ring) {
   return path;
 }
 
+// Clipper's closed output (rings that do not cross; outer rings of positive area) as polygons
+// with holes, in the order Clipper's PolyTree gives them (clipper_nest.cpp).
+std::vector<Polygon2> nest_paths(const ClipperLib::Paths& paths);
+
 }  // namespace trellis::clipper_util

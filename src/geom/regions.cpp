@@ -16,6 +16,7 @@ namespace cl = ClipperLib;
 namespace {
 
 using clipper_util::from_int;
+using clipper_util::nest_paths;
 using clipper_util::to_path;
 
 cl::Paths to_paths(const Regions& regions) {
@@ -27,33 +28,13 @@ cl::Paths to_paths(const Regions& regions) {
   }
   return out;
 }
-std::vector<Vec2> from_path(const cl::Path& path, bool want_ccw) {
-  std::vector<Vec2> ring;
-  ring.reserve(path.size());
-  for (const auto& p : path) ring.push_back(from_int(p));
-  if (cl::Orientation(path) != want_ccw) std::reverse(ring.begin(), ring.end());
-  return ring;
-}
-void collect(const cl::PolyNode& node, Regions& out) {
-  for (const cl::PolyNode* child : node.Childs) {
-    Polygon2 poly;
-    poly.outer = from_path(child->Contour, true);
-    for (const cl::PolyNode* hole : child->Childs) {
-      poly.holes.push_back(from_path(hole->Contour, false));
-      collect(*hole, out);
-    }
-    out.push_back(std::move(poly));
-  }
-}
 Regions boolean(const Regions& a, const Regions& b, cl::ClipType type) {
   cl::Clipper clipper;
   clipper.AddPaths(to_paths(a), cl::ptSubject, true);
   clipper.AddPaths(to_paths(b), cl::ptClip, true);
-  cl::PolyTree tree;
-  clipper.Execute(type, tree, cl::pftEvenOdd, cl::pftEvenOdd);
-  Regions out;
-  collect(tree, out);
-  return out;
+  cl::Paths out;
+  clipper.Execute(type, out, cl::pftEvenOdd, cl::pftEvenOdd);
+  return nest_paths(out);
 }
 
 std::vector<Vec2> simplify_ring(const std::vector<Vec2>& ring, double tol) {
@@ -116,11 +97,9 @@ Regions offset(const Regions& regions, double delta, double arc_tolerance, doubl
       off.AddPath(path, cl::jtMiter, cl::etClosedPolygon);
     }
   }
-  cl::PolyTree tree;
-  off.Execute(tree, delta * kClipperScale);
-  Regions out;
-  collect(tree, out);
-  return out;
+  cl::Paths out;
+  off.Execute(out, delta * kClipperScale);
+  return nest_paths(out);
 }
 
 Regions stroke(const std::vector<std::vector<Vec2>>& lines, double width, double arc_tolerance) {
@@ -132,11 +111,9 @@ Regions stroke(const std::vector<std::vector<Vec2>>& lines, double width, double
     if (closed) path.pop_back();
     off.AddPath(path, cl::jtMiter, closed ? cl::etClosedLine : cl::etOpenRound);
   }
-  cl::PolyTree tree;
-  off.Execute(tree, 0.5 * width * kClipperScale);
-  Regions out;
-  collect(tree, out);
-  return out;
+  cl::Paths out;
+  off.Execute(out, 0.5 * width * kClipperScale);
+  return nest_paths(out);
 }
 
 namespace {
@@ -148,11 +125,9 @@ Regions union_of_rings(const std::vector<std::vector<Vec2>>& rings, cl::PolyFill
     if (r.size() >= 3) paths.push_back(to_path(r));
   cl::Clipper clipper;
   clipper.AddPaths(paths, cl::ptSubject, true);
-  cl::PolyTree tree;
-  clipper.Execute(cl::ctUnion, tree, rule, rule);
-  Regions out;
-  collect(tree, out);
-  return out;
+  cl::Paths out;
+  clipper.Execute(cl::ctUnion, out, rule, rule);
+  return nest_paths(out);
 }
 
 }  // namespace

@@ -129,9 +129,12 @@ std::vector<GcodeThumbnail> gcode_thumbnails(const Toolpath& toolpath,
 
 std::vector<GcodeThumbnail> gcode_thumbnails(const LayerSource& layers,
                                              const MachineProfile& machine) {
+  const std::vector<std::pair<int, int>> sizes = machine.thumbnail_sizes();
   std::vector<GcodeThumbnail> out;
-  for (const auto& [w, h] : machine.thumbnail_sizes())
-    out.push_back({w, h, render_thumbnail_png(layers, w, h)});
+  if (sizes.empty()) return out;
+  std::vector<std::string> pngs = render_thumbnails_png(layers, sizes);
+  for (std::size_t i = 0; i < sizes.size(); ++i)
+    out.push_back({sizes[i].first, sizes[i].second, std::move(pngs[i])});
   return out;
 }
 

@@ -673,70 +673,10 @@ void render_series_png(const std::vector<double>& x, const std::vector<PlotSerie
   save_png(surface.get(), path);
 }
 
-std::string render_thumbnail_png(const LayerSource& layers, int width, int height) {
-  if (width < 1 || height < 1 || width > 4096 || height > 4096)
-    throw SettingError("thumbnail size " + std::to_string(width) + "x" + std::to_string(height) +
-                       " (1..4096 pixels each way)");
-  // The view printer front ends show: from the front, a little above, the part fitted into the
-  // image on a transparent background; paths shaded from dark (bottom) to light (top).
-  const double az = -90 * M_PI / 180, el = 30 * M_PI / 180;
-  auto project = [&](Vec3 p) {
-    const double u = -p.x * std::sin(az) + p.y * std::cos(az);
-    const double v = -(p.x * std::cos(az) + p.y * std::sin(az)) * std::sin(el) + p.z * std::cos(el);
-    return std::pair<double, double>{u, v};
-  };
-  double u0 = 1e300, u1 = -1e300, v0 = 1e300, v1 = -1e300, z0 = 1e300, z1 = -1e300;
-  layers([&](std::size_t, const Layer& l) {
-    for (const auto& p : l.paths)
-      for (const auto& q : p.points) {
-        const auto [u, v] = project(q);
-        u0 = std::min(u0, u), u1 = std::max(u1, u), v0 = std::min(v0, v), v1 = std::max(v1, v);
-        z0 = std::min(z0, q.z), z1 = std::max(z1, q.z);
-      }
-  });
-  Surface surface(cairo_image_surface_create(CAIRO_FORMAT_ARGB32, width, height),
-                  cairo_surface_destroy);
-  Context cr(cairo_create(surface.get()), cairo_destroy);
-  if (u0 <= u1) {
-    const double margin = 0.05 * std::max(u1 - u0, v1 - v0) + 1e-6;
-    const double w = u1 - u0 + 2 * margin, h = v1 - v0 + 2 * margin;
-    const double scale = std::min(width / w, height / h);
-    const double ox = (width - w * scale) / 2, oy = (height - h * scale) / 2;
-    auto to_px = [&](Vec3 p) {
-      const auto [u, v] = project(p);
-      return std::pair<double, double>{ox + (u - u0 + margin) * scale,
-                                       height - oy - (v - v0 + margin) * scale};
-    };
-    cairo_set_line_cap(cr.get(), CAIRO_LINE_CAP_ROUND);
-    cairo_set_line_join(cr.get(), CAIRO_LINE_JOIN_ROUND);
-    cairo_set_line_width(cr.get(), std::max(0.6, std::min(width, height) / 100.0));
-    layers([&](std::size_t, const Layer& l) {
-      const double t = z1 > z0 ? (l.z - z0) / (z1 - z0) : 1.0;
-      cairo_set_source_rgb(cr.get(), 0.55 + 0.45 * t, 0.25 + 0.45 * t, 0.05 + 0.25 * t);
-      for (const auto& p : l.paths) {
-        if (p.points.size() < 2) continue;
-        auto [x, y] = to_px(p.points[0]);
-        cairo_move_to(cr.get(), x, y);
-        for (std::size_t k = 1; k < p.points.size(); ++k) {
-          std::tie(x, y) = to_px(p.points[k]);
-          cairo_line_to(cr.get(), x, y);
-        }
-        cairo_stroke(cr.get());
-      }
-    });
-  }
-  cairo_surface_flush(surface.get());
-  std::string png;
-  if (cairo_surface_write_to_png_stream(surface.get(), append_png, &png) != CAIRO_STATUS_SUCCESS)
-    throw IoError("cannot encode the thumbnail PNG");
-  return png;
-}
-
 }  // namespace impl
 
 }  // namespace trellis
 
 TRELLIS_MODULE_ENTRY(cairo, trellis::RenderModule, &trellis::impl::render_layer_png,
                      &trellis::impl::render_3d_png, &trellis::impl::render_overlay_png,
-                     &trellis::impl::render_scores_png, &trellis::impl::render_series_png,
-                     &trellis::impl::render_thumbnail_png)
+                     &trellis::impl::render_scores_png, &trellis::impl::render_series_png)

@@ -1,4 +1,4 @@
-// Drawing runs in the cairo module, loaded on first use.
+// Drawing runs in the cairo module, loaded on first use (G-code thumbnails do not: thumbnail.cpp).
 #include "render_module.hpp"
 
 namespace trellis {
@@ -33,14 +33,6 @@ void render_series_png(const std::vector<double>& x, const std::vector<PlotSerie
                        const std::string& title, const std::string& x_label,
                        const std::string& path) {
   cairo().render_series_png(x, series, title, x_label, path);
-}
-
-std::string render_thumbnail_png(const Toolpath& toolpath, int width, int height) {
-  return cairo().render_thumbnail_png(layers_of(toolpath), width, height);
-}
-
-std::string render_thumbnail_png(const LayerSource& layers, int width, int height) {
-  return cairo().render_thumbnail_png(layers, width, height);
 }
 
 }  // namespace trellis

@@ -16,7 +16,6 @@ struct RenderModule {
                             const std::string&);
   void (*render_series_png)(const std::vector<double>&, const std::vector<PlotSeries>&,
                             const std::string&, const std::string&, const std::string&);
-  std::string (*render_thumbnail_png)(const LayerSource&, int, int);
 };
 
 }  // namespace trellis

@@ -72,7 +72,9 @@ class RingEdges {
     origin_ = {x0 - cell_, y0 - cell_};
     nx_ = static_cast<long>(w / cell_) + 3;
     ny_ = static_cast<long>(h / cell_) + 3;
-    std::vector<std::vector<std::uint32_t>> cells(static_cast<std::size_t>(nx_ * ny_));
+    // (cell, edge) pairs in the order the edges visit their cells, then counted into cells: an
+    // edge stamps a cell and its neighbours, so a cell's repeats of one edge are adjacent.
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> hits;
     for (std::size_t r = 0; r < rings_.size(); ++r) {
       const auto& ring = *rings_[r];
       for (std::size_t i = 0; i < ring.size(); ++i) {
@@ -80,17 +82,30 @@ class RingEdges {
         edge_ids_.push_back({static_cast<std::uint32_t>(r), static_cast<std::uint32_t>(i)});
         each_cell(ring[i], ring[(i + 1) % ring.size()], [&](long cx, long cy) {
           for (long y = std::max(0L, cy - 1); y <= std::min(ny_ - 1, cy + 1); ++y)
-            for (long x = std::max(0L, cx - 1); x <= std::min(nx_ - 1, cx + 1); ++x) {
-              auto& v = cells[static_cast<std::size_t>(y * nx_ + x)];
-              if (v.empty() || v.back() != id) v.push_back(id);
-            }
+            for (long x = std::max(0L, cx - 1); x <= std::min(nx_ - 1, cx + 1); ++x)
+              hits.push_back({static_cast<std::uint32_t>(y * nx_ + x), id});
         });
       }
     }
-    start_.assign(cells.size() + 1, 0);
-    for (std::size_t c = 0; c < cells.size(); ++c) start_[c + 1] = start_[c] + cells[c].size();
-    ids_.reserve(start_.back());
-    for (const auto& v : cells) ids_.insert(ids_.end(), v.begin(), v.end());
+    start_.assign(static_cast<std::size_t>(nx_ * ny_) + 1, 0);
+    for (const auto& [cell, id] : hits) ++start_[cell + 1];
+    for (std::size_t c = 1; c < start_.size(); ++c) start_[c] += start_[c - 1];
+    std::vector<std::size_t> fill(start_.begin(), start_.end() - 1);
+    ids_.resize(hits.size());
+    for (const auto& [cell, id] : hits) {
+      std::size_t& at = fill[cell];
+      if (at > start_[cell] && ids_[at - 1] == id) continue;  // the same edge again
+      ids_[at++] = id;
+    }
+    // Close the gaps repeats left: each cell's ids from start_ to fill.
+    std::size_t kept = 0;
+    for (std::size_t c = 0; c + 1 < start_.size(); ++c) {
+      const std::size_t from = start_[c], to = fill[c];
+      start_[c] = kept;
+      for (std::size_t k = from; k < to; ++k) ids_[kept++] = ids_[k];
+    }
+    start_.back() = kept;
+    ids_.resize(kept);
     stamp_.assign(edge_ids_.size(), 0);
   }
 
@@ -233,6 +248,10 @@ std::vector<std::vector<Vec2>> connect_fill(const std::vector<std::vector<Vec2>>
     edges.along(p, p, [&](std::uint32_t e) {
       double t = 0;
       const Vec2 a = edges.a(e), b = edges.b(e);
+      // (Farther than `best` from the edge's box: farther from the edge.)
+      if (p.x < std::min(a.x, b.x) - best || p.x > std::max(a.x, b.x) + best ||
+          p.y < std::min(a.y, b.y) - best || p.y > std::max(a.y, b.y) + best)
+        return;
       const double d = distance_to_segment({p.x, p.y, 0}, {a.x, a.y, 0}, {b.x, b.y, 0}, &t);
       if (d <= best) {
         best = d;

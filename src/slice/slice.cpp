@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <mutex>
+#include <optional>
 
 #include "trellis/core/error.hpp"
 #include "trellis/geom/mesh_io.hpp"
@@ -122,13 +123,79 @@ std::vector<LayerOutline> slice_mesh_layers(const TriangleMesh& mesh, const std:
 
 namespace {
 
-Regions intersect_all(const std::vector<Regions>& layers, long from, long to) {
-  // Intersection of outlines from..to inclusive; empty if any index is outside the part.
-  if (from < 0 || to >= static_cast<long>(layers.size()) || from > to) return {};
-  Regions acc = layers[static_cast<std::size_t>(from)];
-  for (long k = from + 1; k <= to && !acc.empty(); ++k)
-    acc = intersection(acc, layers[static_cast<std::size_t>(k)]);
-  return acc;
+// The intersection of every run of `width` consecutive layers that starts in [begin, end): what
+// lies under (or over) a layer's skin. A sparse table: runs of 2, 4, 8, … layers, each the
+// intersection of two runs of half its length, then a window as the intersection of two runs
+// that cover it (they may overlap). A window costs one intersection per level plus one, whatever
+// its start, where intersecting its layers one by one cost width - 1 and every layer read two
+// windows. Windows that do not fit in the layers are empty; so is any window holding an empty
+// layer.
+class LayerWindows {
+ public:
+  LayerWindows(const std::vector<Regions>& layers, long width, long begin, long end)
+      : begin_(begin), windows_(static_cast<std::size_t>(std::max(0L, end - begin))) {
+    const long lo = std::max(begin, 0L);
+    const long hi = std::min(end, static_cast<long>(layers.size()) - width + 1);
+    if (width < 1 || lo >= hi) return;
+    // run(a): layers a .. a + span - 1, for a in [lo, hi + width - span).
+    std::vector<Regions> runs;
+    long span = 1;
+    auto run = [&](long a) -> const Regions& {
+      const auto k = static_cast<std::size_t>(span == 1 ? a : a - lo);
+      return span == 1 ? layers[k] : runs[k];
+    };
+    for (; 2 * span <= width; span *= 2) {
+      std::vector<Regions> next(static_cast<std::size_t>(hi + width - 2 * span - lo));
+      tbb::parallel_for(std::size_t{0}, next.size(), [&](std::size_t k) {
+        const long a = lo + static_cast<long>(k);
+        next[k] = meet(run(a), run(a + span));
+      });
+      runs = std::move(next);
+    }
+    tbb::parallel_for(lo, hi, [&](long a) {
+      windows_[static_cast<std::size_t>(a - begin)] =
+          span == width ? run(a) : meet(run(a), run(a + width - span));
+    });
+  }
+  // Layers from .. from + width - 1 (from in [begin, end)).
+  const Regions& at(long from) const { return windows_[static_cast<std::size_t>(from - begin_)]; }
+
+ private:
+  static Regions meet(const Regions& a, const Regions& b) {
+    return a.empty() || b.empty() ? Regions{} : intersection(a, b);
+  }
+  long begin_;
+  std::vector<Regions> windows_;
+};
+
+// A layer's skin: its outline O less what lies under it all the way down (`under`, the
+// intersection of the layers below that the skin reaches) and over it all the way up (`over`),
+// C = under ∩ over (null: no skin on that side), opened by half a bead so that slivers narrower
+// than a bead (a slowly changing wall) get no solid lines. Opened as
+// dilate(erode(O) − dilate(C)), the same set as dilate(erode(O − C)) (up to Clipper's mitred
+// corners, well under a micrometre): erode(O) is the outer walls' region (`eroded`), and O − C,
+// mostly slivers along sloped walls, was the costliest region of a layer to subtract and offset.
+Regions skin_of(const Regions& eroded, const Regions* under, const Regions* over, double bead) {
+  if ((!under && !over) || eroded.empty()) return {};
+  Regions cover;
+  if (under && over)
+    cover = under->empty() || over->empty() ? Regions{} : intersection(*under, *over);
+  else
+    cover = under ? *under : *over;
+  const Regions core = cover.empty() ? eroded : difference(eroded, offset(cover, 0.5 * bead));
+  return core.empty() ? core : offset(core, 0.5 * bead);
+}
+
+// An island's wall regions, outside in: the outline offset by -(k + 0.5) beads, k < walls, while
+// not empty.
+std::vector<Regions> wall_regions(const Polygon2& island, int walls, double bead) {
+  std::vector<Regions> out;
+  for (int k = 0; k < walls; ++k) {
+    Regions r = offset(Regions{island}, -(k + 0.5) * bead);
+    if (r.empty()) break;
+    out.push_back(std::move(r));
+  }
+  return out;
 }
 
 // Hatch lines in sweep order → greedy nearest end among the next few lines (zig-zag order).
@@ -380,6 +447,20 @@ Toolpath plan_planar(const std::vector<LayerOutline>& layers, const PlanarOption
     const std::size_t g = o.first_index + i;
     return g >= o.plan_begin && g < o.plan_end;
   };
+  // The layers planned here, [p0, p1), and the runs of layers under and over their skins.
+  const std::size_t first = o.first_index, last = first + n;
+  const long p0 = static_cast<long>(std::clamp(o.plan_begin, first, last) - first);
+  const long p1 = std::max(p0, static_cast<long>(std::clamp(o.plan_end, first, last) - first));
+  const long B = o.bottom_layers, T = o.top_layers;
+  std::optional<LayerWindows> below_table, above_table;
+  if (B > 0 && B == T) {
+    below_table.emplace(outline, B, p0 - B, p1 + 1);
+  } else {
+    if (B > 0) below_table.emplace(outline, B, p0 - B, p1 - B);
+    if (T > 0) above_table.emplace(outline, T, p0 + 1, p1 + 1);
+  }
+  const LayerWindows* below = below_table ? &*below_table : nullptr;
+  const LayerWindows* above = above_table ? &*above_table : below;
   tbb::parallel_for(std::size_t{0}, n, [&](std::size_t i) {
     if (!planned(i)) return;
     const auto t_layer = std::chrono::steady_clock::now();
@@ -389,15 +470,22 @@ Toolpath plan_planar(const std::vector<LayerOutline>& layers, const PlanarOption
     layer.z = z;
     if (outline[i].empty()) return;
     const long li = static_cast<long>(i);
+    std::vector<std::vector<Regions>> walls(outline[i].size());
+    for (std::size_t k = 0; k < walls.size(); ++k)
+      if (!outline[i][k].outer.empty()) walls[k] = wall_regions(outline[i][k], o.walls, w);
     // Solid where the part has no material within bottom_layers below or top_layers above.
     Regions skin;
-    if (o.bottom_layers > 0)
-      skin = difference(outline[i], intersect_all(outline, li - o.bottom_layers, li - 1));
-    if (o.top_layers > 0)
-      skin = unite(skin, difference(outline[i],
-                                    intersect_all(outline, li + 1, li + o.top_layers)));
-    // Slivers narrower than a bead (a slowly changing wall) are not worth solid lines.
-    if (!skin.empty()) skin = offset(offset(skin, -0.5 * o.bead_width), 0.5 * o.bead_width);
+    if (B > 0 || T > 0) {
+      Regions eroded;  // the outline offset by half a bead: the outer walls' regions
+      if (o.walls > 0) {
+        for (const auto& r : walls)
+          if (!r.empty()) eroded.insert(eroded.end(), r.front().begin(), r.front().end());
+      } else {
+        eroded = offset(outline[i], -0.5 * w);
+      }
+      skin = skin_of(eroded, B > 0 ? &below->at(li - B) : nullptr,
+                     T > 0 ? &above->at(li + 1) : nullptr, w);
+    }
     const bool odd = g % 2 == 1;
     const double infill_angle = o.infill_angle + (odd ? 90.0 : 0.0);
     const double skin_angle = 45.0 + (odd ? 90.0 : 0.0);
@@ -407,18 +495,14 @@ Toolpath plan_planar(const std::vector<LayerOutline>& layers, const PlanarOption
     // lines, linked into paths by the linking stage (slice/link.hpp).
     std::vector<IslandPieces> islands;
     islands.reserve(outline[i].size());
-    for (const auto& poly : outline[i]) {
+    for (std::size_t k = 0; k < outline[i].size(); ++k) {
+      const Polygon2& poly = outline[i][k];
       if (poly.outer.empty()) continue;
       IslandPieces& is = islands.emplace_back();
       is.outline = poly;
       is.bead_width = w;
       const Regions island{poly};
-      std::vector<Regions> wall_regions;
-      for (int k = 0; k < o.walls; ++k) {
-        Regions r = offset(island, -(k + 0.5) * w);
-        if (r.empty()) break;
-        wall_regions.push_back(std::move(r));
-      }
+      const std::vector<Regions>& wall_regions = walls[k];
       if (!wall_regions.empty()) is.route = wall_regions.front();
       for (auto it = wall_regions.rbegin(); it != wall_regions.rend(); ++it) {
         auto rings = rings_of(*it);
@@ -430,7 +514,8 @@ Toolpath plan_planar(const std::vector<LayerOutline>& layers, const PlanarOption
       const double inset = static_cast<double>(wall_regions.size()) * w + 0.5 * w - o.infill_overlap * w;
       const Regions inner = offset(island, -inset);
       if (inner.empty()) continue;
-      const Regions solid = skin.empty() ? Regions{} : intersection(inner, near(skin, box_of(inner)));
+      const Regions skin_near = skin.empty() ? Regions{} : near(skin, box_of(inner));
+      const Regions solid = skin_near.empty() ? Regions{} : intersection(inner, skin_near);
       const Regions sparse = solid.empty() ? inner : difference(inner, solid);
       auto add_fill = [&](const Regions& r, double angle, double spacing, PathRole role) {
         if (r.empty() || !(spacing > 0)) return;

@@ -273,6 +273,62 @@ TEST(Regions, HatchMatchesABruteForceScanOfEveryEdge) {
   }
 }
 
+// Clipper's output is nested by us (no PolyTree): islands in holes of islands, and a plate with
+// many holes, through each operation. Every hole lies inside its polygon's outer ring and in no
+// other polygon; islands in a hole come before the polygon whose hole it is (a PolyTree's order).
+TEST(Regions, NestIslandsInHolesAndManyHoles) {
+  auto square = [](double c, double h, bool ccw) {
+    std::vector<Vec2> r{{c - h, c - h}, {c + h, c - h}, {c + h, c + h}, {c - h, c + h}};
+    if (!ccw) std::reverse(r.begin(), r.end());
+    return r;
+  };
+  // Concentric squares, half sizes 10, 9, …, 3: four islands with a hole each, each island in the
+  // hole of the one around it.
+  std::vector<std::vector<Vec2>> rings;
+  for (int k = 0; k < 8; ++k) rings.push_back(square(0, 10 - k, k % 2 == 0));
+  const auto check_nested = [](const Regions& r, const char* what) {
+    for (std::size_t i = 0; i < r.size(); ++i) {
+      for (const auto& h : r[i].holes) {
+        EXPECT_TRUE(inside_ring(r[i].outer, h.front()) ||
+                    inside_ring(r[i].outer, (h[0] + h[1]) * 0.5))
+            << what << ": polygon " << i;
+        for (std::size_t j = 0; j < r.size(); ++j)
+          if (j != i)
+            EXPECT_FALSE(contains(r[j], (h[0] + h[2]) * 0.5, 0)) << what << ": hole of " << i;
+      }
+      // An island inside polygon i's outer ring lies in one of its holes, and comes first.
+      for (std::size_t j = 0; j < r.size(); ++j)
+        if (j != i && inside_ring(r[i].outer, r[j].outer.front())) {
+          EXPECT_LT(j, i) << what;
+          EXPECT_FALSE(contains(r[i], r[j].outer.front(), 0)) << what;
+        }
+    }
+  };
+  const Regions nested = nest_rings(rings);
+  ASSERT_EQ(nested.size(), 4u);
+  EXPECT_NEAR(area(nested), 400 - 324 + 256 - 196 + 144 - 100 + 64 - 36, 1e-6);
+  for (const auto& poly : nested) EXPECT_EQ(poly.holes.size(), 1u);
+  EXPECT_NEAR(std::abs(signed_area(nested[0].outer)), 64, 1e-6);  // the innermost first
+  check_nested(nested, "nest_rings");
+  check_nested(offset(nested, -0.2), "offset in");
+  check_nested(offset(nested, 0.2), "offset out");
+  check_nested(unite(nested, {}), "unite");
+  check_nested(intersection(nested, Regions{Polygon2{square(0, 9.5, true), {}}}), "intersection");
+  check_nested(difference(nested, Regions{Polygon2{square(0, 4, true), {}}}), "difference");
+  // A plate with 30 x 30 holes: one polygon, every hole kept.
+  Polygon2 plate{square(75, 75, true), {}};
+  for (int k = 0; k < 900; ++k) {
+    const Vec2 c{(k % 30 + 0.5) * 5, (k / 30 + 0.5) * 5};
+    plate.holes.push_back({c + Vec2{-1, -1}, c + Vec2{-1, 1}, c + Vec2{1, 1}, c + Vec2{1, -1}});
+  }
+  for (const double d : {-0.3, 0.3}) {
+    const Regions r = offset(Regions{plate}, d);
+    ASSERT_EQ(r.size(), 1u) << d;
+    EXPECT_EQ(r[0].holes.size(), 900u) << d;
+    check_nested(r, "plate");
+  }
+}
+
 // Marching keeps its buffers per thread between calls; a function that marches while being
 // marched (nested) must get buffers of its own and leave the outer march's intact.
 TEST(Contours, NestedMarchesKeepTheirOwnBuffers) {

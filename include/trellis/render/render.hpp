@@ -4,6 +4,7 @@
 // scale bar in mm), and the GIPPO score over iterations (paper Fig. 2 i).
 #pragma once
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "trellis/geom/polygon.hpp"
@@ -59,10 +60,14 @@ void render_overlay_png(const std::vector<Segment2>& design, const Layer& printe
                         double bead_width, const std::string& path, int size_px = 1000);
 
 // A thumbnail for G-code headers (PNG bytes, width x height): the whole print seen from the front
-// and above, fitted on a transparent background, shaded by height.
+// and above, fitted on a transparent background, the nearest bead in each pixel shaded by height
+// and depth (paths rasterised straight into the pixel grid, not stroked with cairo).
 std::string render_thumbnail_png(const Toolpath& toolpath, int width, int height);
 // The same over streamed layers (visited twice: the extent, then the drawing).
 std::string render_thumbnail_png(const LayerSource& layers, int width, int height);
+// Thumbnails of several sizes from the same two visits of the layers.
+std::vector<std::string> render_thumbnails_png(const LayerSource& layers,
+                                               const std::vector<std::pair<int, int>>& sizes);
 
 // Scatter of scores per iteration with the best one marked.
 void render_scores_png(const std::vector<double>& scores, std::size_t best_iteration,
