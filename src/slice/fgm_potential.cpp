@@ -1,0 +1,264 @@
+// A potential whose level lines follow the material iso-lines a bead apart
+// (src/slice/fgm_potential.hpp).
+#include "fgm_potential.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <unordered_map>
+
+namespace trellis::fgm {
+
+namespace {
+
+// Which fraction the potential follows: the first of two; of three, the one whose gradient is
+// largest on average over the grid (ties: the lower index).
+std::size_t followed_material(const std::vector<std::vector<double>>& f, long nx, long ny,
+                              double h) {
+  if (f.empty() || f.front().size() < 3) return 0;
+  double best = -1;
+  std::size_t pick = 0;
+  for (std::size_t m = 0; m < 3; ++m) {
+    double sum = 0;
+    for (long j = 0; j + 1 < ny; ++j)
+      for (long i = 0; i + 1 < nx; ++i) {
+        const auto& a = f[static_cast<std::size_t>(j * nx + i)];
+        const auto& b = f[static_cast<std::size_t>(j * nx + i + 1)];
+        const auto& c = f[static_cast<std::size_t>((j + 1) * nx + i)];
+        sum += std::hypot(b[m] - a[m], c[m] - a[m]) / h;
+      }
+    if (sum > best * (1 + 1e-9)) best = sum, pick = m;
+  }
+  return pick;
+}
+
+}  // namespace
+
+IsoPotential::IsoPotential(Evaluator& ev, double z, Vec2 lo, Vec2 hi, double spacing)
+    : lo_(lo), h_(spacing) {
+  nx_ = std::max(2L, static_cast<long>(std::ceil((hi.x - lo.x) / spacing)) + 1);
+  ny_ = std::max(2L, static_cast<long>(std::ceil((hi.y - lo.y) / spacing)) + 1);
+  const auto n = static_cast<std::size_t>(nx_ * ny_);
+  std::vector<std::vector<double>> fr(n);
+  for (long j = 0; j < ny_; ++j)
+    for (long i = 0; i < nx_; ++i)
+      fr[static_cast<std::size_t>(j * nx_ + i)] = ev.fractions(
+          {lo.x + static_cast<double>(i) * spacing, lo.y + static_cast<double>(j) * spacing, z});
+  const std::size_t m = followed_material(fr, nx_, ny_, spacing);
+  std::vector<double> f(n, 0.0);
+  for (std::size_t k = 0; k < n; ++k)
+    f[k] = m < fr[k].size() ? std::clamp(fr[k][m], 0.0, 1.0) : 0.0;
+  fr.clear();
+  // ∇f at the nodes (central differences, one-sided at the border).
+  std::vector<Vec2> grad(n);
+  double largest = 0;
+  for (long j = 0; j < ny_; ++j)
+    for (long i = 0; i < nx_; ++i) {
+      const long i0 = std::max(i - 1, 0L), i1 = std::min(i + 1, nx_ - 1);
+      const long j0 = std::max(j - 1, 0L), j1 = std::min(j + 1, ny_ - 1);
+      auto at = [&](long a, long b) { return f[static_cast<std::size_t>(b * nx_ + a)]; };
+      const Vec2 d{(at(i1, j) - at(i0, j)) / (static_cast<double>(i1 - i0) * h_),
+                   (at(i, j1) - at(i, j0)) / (static_cast<double>(j1 - j0) * h_)};
+      grad[static_cast<std::size_t>(j * nx_ + i)] = d;
+      largest = std::max(largest, std::hypot(d.x, d.y));
+    }
+  g_.assign(n, 0.0);
+  // A fraction that changes by less than 1e-6 across a metre: flat.
+  if (!(largest > 1e-9)) return;
+  flat_ = false;
+  const double eps2 = 1e-4 * largest * largest;  // ε = 1 % of the steepest gradient
+  // Edges: x-edges (i, j)-(i+1, j), then y-edges (i, j)-(i, j+1); weight c and target
+  // difference d = h · n·e at the edge's middle.
+  const std::size_t ex = static_cast<std::size_t>((nx_ - 1) * ny_);
+  const std::size_t ey = static_cast<std::size_t>(nx_ * (ny_ - 1));
+  std::vector<double> c(ex + ey), d(ex + ey);
+  auto edge = [&](std::size_t e, std::size_t a, std::size_t b, bool along_x) {
+    const Vec2 m{0.5 * (grad[a].x + grad[b].x), 0.5 * (grad[a].y + grad[b].y)};
+    const double s2 = m.x * m.x + m.y * m.y;
+    c[e] = s2 / (s2 + eps2);
+    d[e] = s2 > 0 ? h_ * (along_x ? m.x : m.y) / std::sqrt(s2) : 0.0;
+  };
+  for (long j = 0; j < ny_; ++j)
+    for (long i = 0; i + 1 < nx_; ++i) {
+      const auto a = static_cast<std::size_t>(j * nx_ + i);
+      edge(static_cast<std::size_t>(j * (nx_ - 1) + i), a, a + 1, true);
+    }
+  for (long j = 0; j + 1 < ny_; ++j)
+    for (long i = 0; i < nx_; ++i) {
+      const auto a = static_cast<std::size_t>(j * nx_ + i);
+      edge(ex + static_cast<std::size_t>(j * nx_ + i), a, a + static_cast<std::size_t>(nx_), false);
+    }
+  // Normal equations L g = b (L the weighted grid Laplacian, plus a tiny μ·I fixing the free
+  // constant), by Jacobi-preconditioned conjugate gradients.
+  const double mu = 1e-9;
+  auto apply = [&](const std::vector<double>& x, std::vector<double>& y) {
+    for (std::size_t k = 0; k < n; ++k) y[k] = mu * x[k];
+    for (long j = 0; j < ny_; ++j)
+      for (long i = 0; i + 1 < nx_; ++i) {
+        const auto a = static_cast<std::size_t>(j * nx_ + i);
+        const double t = c[static_cast<std::size_t>(j * (nx_ - 1) + i)] * (x[a + 1] - x[a]);
+        y[a + 1] += t, y[a] -= t;
+      }
+    for (long j = 0; j + 1 < ny_; ++j)
+      for (long i = 0; i < nx_; ++i) {
+        const auto a = static_cast<std::size_t>(j * nx_ + i);
+        const auto b = a + static_cast<std::size_t>(nx_);
+        const double t = c[ex + a] * (x[b] - x[a]);
+        y[b] += t, y[a] -= t;
+      }
+  };
+  std::vector<double> rhs(n, 0.0), diag(n, mu);
+  for (long j = 0; j < ny_; ++j)
+    for (long i = 0; i + 1 < nx_; ++i) {
+      const auto a = static_cast<std::size_t>(j * nx_ + i);
+      const auto e = static_cast<std::size_t>(j * (nx_ - 1) + i);
+      rhs[a + 1] += c[e] * d[e], rhs[a] -= c[e] * d[e];
+      diag[a + 1] += c[e], diag[a] += c[e];
+    }
+  for (long j = 0; j + 1 < ny_; ++j)
+    for (long i = 0; i < nx_; ++i) {
+      const auto a = static_cast<std::size_t>(j * nx_ + i);
+      const auto b = a + static_cast<std::size_t>(nx_);
+      rhs[b] += c[ex + a] * d[ex + a], rhs[a] -= c[ex + a] * d[ex + a];
+      diag[b] += c[ex + a], diag[a] += c[ex + a];
+    }
+  std::vector<double> r = rhs, pre(n), p(n), q(n);
+  double bnorm = 0;
+  for (const double v : rhs) bnorm += v * v;
+  for (std::size_t k = 0; k < n; ++k) pre[k] = r[k] / diag[k];
+  p = pre;
+  double rz = 0;
+  for (std::size_t k = 0; k < n; ++k) rz += r[k] * pre[k];
+  // To a residual of 1e-10 of the right-hand side (g to well under a micrometre).
+  const std::size_t max_iter = 20 * static_cast<std::size_t>(nx_ + ny_) + 200;
+  for (iterations_ = 0; iterations_ < max_iter; ++iterations_) {
+    double rr = 0;
+    for (const double v : r) rr += v * v;
+    if (!(rr > 1e-20 * bnorm)) break;
+    apply(p, q);
+    double pq = 0;
+    for (std::size_t k = 0; k < n; ++k) pq += p[k] * q[k];
+    if (!(pq > 0)) break;
+    const double alpha = rz / pq;
+    for (std::size_t k = 0; k < n; ++k) g_[k] += alpha * p[k], r[k] -= alpha * q[k];
+    double rz_next = 0;
+    for (std::size_t k = 0; k < n; ++k) pre[k] = r[k] / diag[k], rz_next += r[k] * pre[k];
+    const double beta = rz_next / rz;
+    rz = rz_next;
+    for (std::size_t k = 0; k < n; ++k) p[k] = pre[k] + beta * p[k];
+  }
+}
+
+Vec2 IsoPotential::gradient(Vec2 p) const {
+  const double fx = std::clamp((p.x - lo_.x) / h_, 0.0, static_cast<double>(nx_ - 1));
+  const double fy = std::clamp((p.y - lo_.y) / h_, 0.0, static_cast<double>(ny_ - 1));
+  const long i = std::min(static_cast<long>(fx), nx_ - 2),
+             j = std::min(static_cast<long>(fy), ny_ - 2);
+  const double u = fx - static_cast<double>(i), v = fy - static_cast<double>(j);
+  const double a = node(i, j), b = node(i + 1, j), c = node(i, j + 1), d = node(i + 1, j + 1);
+  return {((1 - v) * (b - a) + v * (d - c)) / h_, ((1 - u) * (c - a) + u * (d - b)) / h_};
+}
+
+std::vector<std::vector<Vec2>> IsoPotential::level_lines(double step, double phase) const {
+  std::vector<std::vector<Vec2>> out;
+  if (flat_ || !(step > 0)) return out;
+  // Crossings are keyed by (grid edge, level): each is computed once from its edge's two nodes
+  // in one order, so the two cells sharing an edge meet exactly.
+  const std::uint64_t hx = static_cast<std::uint64_t>((nx_ - 1) * ny_);
+  constexpr std::int64_t kBias = std::int64_t{1} << 30;
+  auto key = [](std::uint64_t edge, std::int64_t k) {
+    return (edge << 31) | static_cast<std::uint64_t>(k + kBias);
+  };
+  auto level = [&](std::int64_t k) { return step * (static_cast<double>(k) + phase); };
+  auto corner = [&](long i, long j) {
+    return Vec2{lo_.x + static_cast<double>(i) * h_, lo_.y + static_cast<double>(j) * h_};
+  };
+  // The crossing of level k on the edge from node (i, j) along x (or y).
+  auto crossing = [&](long i, long j, bool along_x, std::int64_t k) {
+    const long i2 = along_x ? i + 1 : i, j2 = along_x ? j : j + 1;
+    const double va = node(i, j), vb = node(i2, j2);
+    const double t = (level(k) - va) / (vb - va);
+    const Vec2 a = corner(i, j), b = corner(i2, j2);
+    return a + (b - a) * std::clamp(t, 0.0, 1.0);
+  };
+  std::unordered_map<std::uint64_t, std::uint64_t> next;  // segment start -> end
+  std::unordered_map<std::uint64_t, Vec2> at;
+  std::unordered_map<std::uint64_t, char> is_end;
+  for (long j = 0; j + 1 < ny_; ++j)
+    for (long i = 0; i + 1 < nx_; ++i) {
+      // The cell's sides counter-clockwise: bottom, right, top, left, each as (node from, node
+      // to, grid edge, along x, edge start node).
+      const double v[4] = {node(i, j), node(i + 1, j), node(i + 1, j + 1), node(i, j + 1)};
+      const double lo = std::min({v[0], v[1], v[2], v[3]}), hi = std::max({v[0], v[1], v[2], v[3]});
+      const auto k0 = static_cast<std::int64_t>(std::ceil(lo / step - phase));
+      const auto k1 = static_cast<std::int64_t>(std::floor(hi / step - phase));
+      struct Side {
+        int from, to;
+        std::uint64_t edge;
+        long si, sj;
+        bool along_x;
+      };
+      const Side sides[4] = {
+          {0, 1, static_cast<std::uint64_t>(j * (nx_ - 1) + i), i, j, true},
+          {1, 2, hx + static_cast<std::uint64_t>(j * nx_ + i + 1), i + 1, j, false},
+          {2, 3, static_cast<std::uint64_t>((j + 1) * (nx_ - 1) + i), i, j + 1, true},
+          {3, 0, hx + static_cast<std::uint64_t>(j * nx_ + i), i, j, false}};
+      for (std::int64_t k = k0; k <= k1; ++k) {
+        const double l = level(k);
+        std::uint64_t keys[4];
+        bool up[4];
+        int count = 0;
+        for (const Side& s : sides) {
+          const bool a = v[s.from] >= l, b = v[s.to] >= l;
+          if (a == b) continue;
+          keys[count] = key(s.edge, k);
+          up[count] = b;  // below to above along the counter-clockwise walk
+          if (!at.count(keys[count])) at[keys[count]] = crossing(s.si, s.sj, s.along_x, k);
+          ++count;
+        }
+        if (count < 2) continue;
+        int s0 = up[0] ? 0 : 1;
+        // Lower g on the left: from an up crossing to the down crossing after it; a saddle whose
+        // centre is above joins the above corners (each up crossing to the down one before it).
+        auto link = [&](int a, int b) {
+          next[keys[a]] = keys[b];
+          is_end[keys[b]] = 1;
+        };
+        if (count == 2) {
+          link(s0, 1 - s0);
+        } else if (0.25 * (v[0] + v[1] + v[2] + v[3]) < l) {
+          link(s0, (s0 + 1) % 4);
+          link((s0 + 2) % 4, (s0 + 3) % 4);
+        } else {
+          link(s0, (s0 + 3) % 4);
+          link((s0 + 2) % 4, (s0 + 1) % 4);
+        }
+      }
+    }
+  // Open lines from the starts that end no segment, then the loops; in key order, so the lines
+  // come out the same on every run.
+  std::vector<std::uint64_t> starts;
+  starts.reserve(next.size());
+  for (const auto& [k, v] : next) starts.push_back(k);
+  std::sort(starts.begin(), starts.end());
+  std::unordered_map<std::uint64_t, char> used;
+  auto walk = [&](std::uint64_t s) {
+    std::vector<Vec2> line{at[s]};
+    used[s] = 1;
+    for (auto it = next.find(s); it != next.end();) {
+      const std::uint64_t e = it->second;
+      line.push_back(at[e]);
+      if (used.count(e)) break;  // closed
+      used[e] = 1;
+      it = next.find(e);
+    }
+    if (line.size() >= 2) out.push_back(std::move(line));
+  };
+  for (const std::uint64_t s : starts)
+    if (!is_end.count(s) && !used.count(s)) walk(s);
+  for (const std::uint64_t s : starts)
+    if (!used.count(s)) walk(s);
+  return out;
+}
+
+}  // namespace trellis::fgm
