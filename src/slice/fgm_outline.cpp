@@ -5,12 +5,20 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <unordered_map>
 
+#include "loop_bridge.hpp"
 #include "trellis/slice/link.hpp"
 
 namespace trellis::fgm {
 
 namespace {
+
+// Open fill pieces and closed level lines shorter than this many beads are left out: the corners
+// of the fill, the innermost arc of a family cut by the edge and the specks round an extreme of
+// the material, which neither pair nor bridge into anything (a speck of a layer's area, an
+// extrusion start each).
+constexpr double kDropOpen = 8;
 
 double dist(Vec2 a, Vec2 b) {
   return std::hypot(b.x - a.x, b.y - a.y);
@@ -27,33 +35,175 @@ std::uint64_t cell_key(long i, long j) {
          static_cast<std::uint32_t>(j);
 }
 
-// The fill's lines: the potential's level lines a bead apart clipped to the fill; hatch lines
-// at `angle` where there is no potential.
-std::vector<std::vector<Vec2>> fill_lines(const Regions& fill, const IsoPotential* potential,
-                                          double angle, double phase, double bead) {
-  std::vector<std::vector<Vec2>> lines;
-  if (!potential || potential->flat()) {
-    for (const auto& seg : hatch(fill, angle, bead))
-      if (dist(seg.a, seg.b) >= 0.05) lines.push_back({seg.a, seg.b});
-    return lines;
+// Level lines clipped to the fill. Clipping returns open paths cut at their extremes along its
+// sweep (and a closed line as open pieces): pieces whose ends meet, two at a point, are one line
+// again (a closed one, first == last, when it comes round); level lines never meet one another,
+// so two ends at a point are such a cut.
+std::vector<std::vector<Vec2>> clip_levels(const std::vector<std::vector<Vec2>>& levels,
+                                           const Regions& fill) {
+  const auto pieces = clip_polylines(levels, fill);
+  std::unordered_map<std::uint64_t, std::vector<std::size_t>> ends;  // point -> end keys 2i, 2i+1
+  auto key_of = [](Vec2 p) {
+    const auto q = [](double v) {
+      return static_cast<std::uint32_t>(static_cast<std::int64_t>(std::llround(v * 1e6)));
+    };
+    return (static_cast<std::uint64_t>(q(p.x)) << 32) | q(p.y);
+  };
+  for (std::size_t i = 0; i < pieces.size(); ++i) {
+    if (pieces[i].size() < 2) continue;
+    ends[key_of(pieces[i].front())].push_back(2 * i);
+    ends[key_of(pieces[i].back())].push_back(2 * i + 1);
   }
-  for (auto& piece : clip_polylines(potential->level_lines(bead, phase), fill)) {
+  auto mate = [&](std::size_t e) -> std::size_t {
+    const auto& v = ends[key_of(e % 2 ? pieces[e / 2].back() : pieces[e / 2].front())];
+    if (v.size() != 2) return SIZE_MAX;
+    return v[0] == e ? v[1] : v[0];
+  };
+  std::vector<char> used(pieces.size(), 0);
+  auto take = [&](std::size_t start) {
+    // From piece end `start` (entering there) through the pieces joined to it.
+    std::vector<Vec2> line;
+    for (std::size_t e = start; e != SIZE_MAX && !used[e / 2];) {
+      used[e / 2] = 1;
+      const auto& p = pieces[e / 2];
+      const std::size_t skip = line.empty() ? 0 : 1;
+      if (e % 2 == 0)
+        line.insert(line.end(), p.begin() + static_cast<long>(skip), p.end());
+      else
+        line.insert(line.end(), p.rbegin() + static_cast<long>(skip), p.rend());
+      e = mate(e ^ 1);
+    }
+    return line;
+  };
+  std::vector<std::vector<Vec2>> joined;
+  for (std::size_t i = 0; i < pieces.size(); ++i)
+    for (const std::size_t e : {2 * i, 2 * i + 1})
+      if (!used[i] && pieces[i].size() >= 2 && mate(e) == SIZE_MAX) joined.push_back(take(e));
+  for (std::size_t i = 0; i < pieces.size(); ++i)
+    if (!used[i] && pieces[i].size() >= 2) {
+      auto loop = take(2 * i);
+      loop.back() = loop.front();
+      joined.push_back(std::move(loop));
+    }
+  std::vector<std::vector<Vec2>> lines;
+  for (auto& piece : joined) {
+    const bool closed = dist(piece.front(), piece.back()) < 1e-9;
     std::vector<Vec2> line;
     for (const Vec2 q : piece)
       if (line.empty() || dist(line.back(), q) > 1e-9) line.push_back(q);
+    if (closed && line.size() > 1 && line.back() != line.front()) line.push_back(line.front());
     if (line.size() >= 2 && length(line) >= 0.05) lines.push_back(std::move(line));
   }
   return lines;
 }
 
+double to_polyline(Vec2 p, const std::vector<Vec2>& line) {
+  double best = std::numeric_limits<double>::infinity();
+  for (std::size_t k = 1; k < line.size(); ++k)
+    best = std::min(best, distance_to_segment({p.x, p.y, 0}, {line[k - 1].x, line[k - 1].y, 0},
+                                              {line[k].x, line[k].y, 0}));
+  return best;
+}
+
+Vec2 midpoint(const std::vector<Vec2>& line) {
+  const double half = 0.5 * length(line);
+  double s = 0;
+  for (std::size_t k = 1; k < line.size(); ++k) {
+    const double l = dist(line[k - 1], line[k]);
+    if (s + l >= half && l > 0) return line[k - 1] + (line[k] - line[k - 1]) * ((half - s) / l);
+    s += l;
+  }
+  return line.front();
+}
+
+// 1/|∇g| along a line (the spacing of the level lines there, in beads), its mean over samples.
+double mean_spread(const std::vector<Vec2>& line, const IsoPotential& g) {
+  double sum = 0;
+  int n = 0;
+  for (std::size_t k = 1; k < line.size(); k += std::max<std::size_t>(1, line.size() / 16)) {
+    const Vec2 d = g.gradient((line[k - 1] + line[k]) * 0.5);
+    const double slope = std::hypot(d.x, d.y);
+    sum += slope > 0 ? 1 / slope : 4.0;
+    ++n;
+  }
+  return n ? sum / n : 1.0;
+}
+
+// The fill of one island: closed lines and racetracks (loops) and the open rest, each open one's
+// flow factor (1, or 3/4 and 1/2 around a line put into an odd run).
+struct FillPieces {
+  std::vector<std::vector<Vec2>> closed;       // closed level lines
+  std::vector<std::vector<Vec2>> loops, rest;  // racetracks, open lines left over
+  std::vector<std::vector<Vec2>> open;         // every open line (for the flows), with its factor
+  std::vector<double> factor;
+};
+
+// The level lines a bead apart clipped to the fill, closed ones kept, open ones paired into
+// racetracks. A run of an odd number of lines side by side would leave one line open (a bead
+// of its own): a line half a level between the two of the run that lie furthest apart is put in
+// (g's level line there), the three extruding 3/4, 1/2 and 3/4 of the flow their spacing asks,
+// so the run pairs whole and the area stays covered once.
+FillPieces level_fill(const Regions& fill, const IsoPotential& g, double phase, double w) {
+  FillPieces out;
+  for (auto& line : clip_levels(g.level_lines(w, phase), fill)) {
+    if (line.size() > 3 && dist(line.front(), line.back()) < 1e-9)
+      out.closed.push_back(std::move(line));
+    else
+      out.open.push_back(std::move(line));
+  }
+  out.factor.assign(out.open.size(), 1.0);
+  std::vector<std::vector<std::size_t>> odd;
+  std::vector<std::vector<Vec2>> rest;
+  auto loops = pair_fill(out.open, fill, 8 * w, &rest, &odd);
+  bool added = false;
+  for (const auto& run : odd) {
+    std::size_t pick = SIZE_MAX;
+    double widest = 0;
+    for (std::size_t m = 0; m + 1 < run.size(); ++m) {
+      const double spread = mean_spread(out.open[run[m]], g) + mean_spread(out.open[run[m + 1]], g);
+      if (spread > widest) widest = spread, pick = m;
+    }
+    if (pick == SIZE_MAX) continue;
+    const auto& a = out.open[run[pick]];
+    const auto& b = out.open[run[pick + 1]];
+    const Vec2 ma = midpoint(a), mb = midpoint(b);
+    const double ka = g.value(ma) / w - phase, kb = g.value(mb) / w - phase;
+    if (std::abs(std::abs(ka - kb) - 1) > 0.25) continue;  // not neighbouring levels
+    const auto k = static_cast<std::int64_t>(std::llround(std::min(ka, kb)));
+    // The component of the half level between the two.
+    std::vector<Vec2> best;
+    double best_d = std::numeric_limits<double>::infinity();
+    for (auto& c : clip_levels(g.level_lines(w, phase + 0.5, &k), fill)) {
+      if (dist(c.front(), c.back()) < 1e-9) continue;
+      const Vec2 mc = midpoint(c);
+      const double d = to_polyline(mc, a) + to_polyline(mc, b);
+      if (d < best_d) best_d = d, best = std::move(c);
+    }
+    if (best.empty() || best_d > 1.5 * dist(ma, mb) + 4 * w) continue;
+    out.factor[run[pick]] *= 0.75;
+    out.factor[run[pick + 1]] *= 0.75;
+    out.open.push_back(std::move(best));
+    out.factor.push_back(0.5);
+    added = true;
+  }
+  if (added) {
+    rest.clear();
+    loops = pair_fill(out.open, fill, 8 * w, &rest);
+  }
+  out.loops = std::move(loops);
+  out.rest = std::move(rest);
+  return out;
+}
+
 }  // namespace
 
-void LineFlow::add(const std::vector<Vec2>& line, const IsoPotential& potential) {
+void LineFlow::add(const std::vector<Vec2>& line, const IsoPotential& potential, double factor) {
   for (std::size_t k = 1; k < line.size(); ++k) {
     const Vec2 a = line[k - 1], b = line[k];
     const Vec2 g = potential.gradient((a + b) * 0.5);
     const double slope = std::hypot(g.x, g.y);
-    const double flow = slope > 0 ? std::clamp(1 / slope, kMinFlow, kMaxFlow) : kMaxFlow;
+    const double flow =
+        slope > 0 ? std::clamp(factor / slope, kMinFlow, kMaxFlow) : kMaxFlow * factor;
     segments_.push_back({a, b, flow});
   }
   indexed_ = false;
@@ -107,6 +257,9 @@ OutlineBeads outline_beads(const Regions& outline, const IsoPotential* potential
     is.poly = poly;
     const Regions island{poly};
     // The rings half a bead, a bead and a half, … inside the outline (around each hole too).
+    // The outermost ones are the part's surface and stay whole loops; the others may be
+    // bridged into the fill.
+    std::vector<Strand> strands;
     int rings = 0;
     for (int k = 0; k < o.perimeters; ++k) {
       const Regions r = offset(island, -(k + 0.5) * w);
@@ -114,22 +267,46 @@ OutlineBeads outline_beads(const Regions& outline, const IsoPotential* potential
       for (auto ring : rings_of(r)) {
         if (ring.size() < 3) continue;
         ring.push_back(ring.front());
-        is.rings.push_back(std::move(ring));
+        if (k == 0)
+          is.rings.push_back(std::move(ring));
+        else
+          strands.push_back({std::move(ring), true, true});
       }
       ++rings;
     }
-    // The fill reaches fill_overlap of a bead short of the innermost ring's inner edge: the
-    // serpentines' connectors run along its edge, half over the ring.
-    const Regions fill = offset(island, -(rings * w + 0.5 * w - o.fill_overlap * w));
-    if (!fill.empty()) {
-      const auto lines = fill_lines(fill, potential, angle, phase, w);
+    // The fill reaches the innermost ring's bead (its serpentines' turns run along the edge, half
+    // over the ring).
+    const Regions fill = offset(island, -(rings * w));
+    if (!fill.empty() && levels) {
+      FillPieces pieces = level_fill(fill, *potential, phase, w);
+      for (const auto& line : pieces.closed) out.flow.add(line, *potential, 1.0);
+      for (std::size_t k = 0; k < pieces.open.size(); ++k)
+        out.flow.add(pieces.open[k], *potential, pieces.factor[k]);
+      st.lines += pieces.closed.size() + pieces.open.size();
+      for (auto& loop : pieces.closed)
+        if (length(loop) >= kDropOpen * w) strands.push_back({std::move(loop), true});
+      for (auto& loop : pieces.loops)
+        if (length(loop) >= kDropOpen * w) strands.push_back({std::move(loop), true});
+      for (auto& chain : connect_fill(pieces.rest, fill, 8 * w))
+        if (length(chain) >= kDropOpen * w) strands.push_back({std::move(chain), false});
+    } else if (!fill.empty()) {
+      // No gradient: lines at the angle, paired and joined the same way.
+      std::vector<std::vector<Vec2>> lines, rest;
+      for (const auto& seg : hatch(fill, angle, w))
+        if (dist(seg.a, seg.b) >= 0.05) lines.push_back({seg.a, seg.b});
       st.lines += lines.size();
-      if (levels)
-        for (const auto& line : lines) out.flow.add(line, *potential);
-      is.fill = connect_fill(lines, fill, 8 * w);
+      for (auto& loop : pair_fill(lines, fill, 8 * w, &rest))
+        strands.push_back({std::move(loop), true});
+      for (auto& chain : connect_fill(rest, fill, 8 * w))
+        if (length(chain) >= kDropOpen * w) strands.push_back({std::move(chain), false});
     }
-    st.rings += is.rings.size();
+    BridgeOptions bo;
+    bo.spacing = w;
+    bo.far = 2.5;  // level lines spread up to 2.5 beads (low |∇g|: flows widen them)
+    BridgeStats bs;
+    for (auto& s : bridge_strands(strands, bo, &bs)) is.fill.push_back(std::move(s.points));
     st.serpentines += is.fill.size();
+    st.rings += is.rings.size();
   }
   st.islands = isles.size();
   // Islands nearest first; in each, rings outside in from the outer ring's seam, then the fill
@@ -150,9 +327,27 @@ OutlineBeads outline_beads(const Regions& outline, const IsoPotential* potential
     done[pick] = 1;
     Island& is = isles[pick];
     if (!is.rings.empty()) {
+      // The outer ring starts at its aligned seam; where the fill is open (an odd run that no
+      // line could even out), next to that chain's first end instead, so the walls run into it.
       const auto& outer = is.rings.front();
       const std::vector<Vec2> open(outer.begin(), outer.end() - 1);
-      cursor = open[seam_vertex(open, Seam::Aligned, cursor, 1, 0)];
+      const auto chain = std::find_if(is.fill.begin(), is.fill.end(), [](const auto& f) {
+        return dist(f.front(), f.back()) > 1e-9;
+      });
+      if (chain == is.fill.end()) {
+        cursor = open[seam_vertex(open, Seam::Aligned, cursor, 1, 0)];
+      } else {
+        double best = std::numeric_limits<double>::infinity();
+        const Vec2 e = chain->front();
+        for (std::size_t k = 1; k < outer.size(); ++k) {
+          const Vec2 a = outer[k - 1], d = outer[k] - a;
+          const double l2 = d.x * d.x + d.y * d.y;
+          const double t =
+              l2 > 0 ? std::clamp(((e.x - a.x) * d.x + (e.y - a.y) * d.y) / l2, 0.0, 1.0) : 0.0;
+          const Vec2 q = a + d * t;
+          if (dist(q, e) < best) best = dist(q, e), cursor = q;
+        }
+      }
     }
     std::vector<std::vector<Vec2>> pieces = std::move(is.rings);
     for (auto& s : is.fill) pieces.push_back(std::move(s));

@@ -33,7 +33,8 @@ struct OutlineStats {
 class LineFlow {
  public:
   static constexpr double kMinFlow = 0.5, kMaxFlow = 2.0;
-  void add(const std::vector<Vec2>& line, const IsoPotential& potential);
+  // A line's segments at factor / |∇g| (the level lines' spacing there, times `factor`).
+  void add(const std::vector<Vec2>& line, const IsoPotential& potential, double factor);
   double at(Vec2 a, Vec2 b) const;
   bool empty() const { return segments_.empty(); }
 

@@ -67,29 +67,31 @@ IsoPotential::IsoPotential(Evaluator& ev, double z, Vec2 lo, Vec2 hi, double spa
   if (!(largest > 1e-9)) return;
   flat_ = false;
   const double eps2 = 1e-4 * largest * largest;  // ε = 1 % of the steepest gradient
-  // Edges: x-edges (i, j)-(i+1, j), then y-edges (i, j)-(i, j+1); weight c and target
-  // difference d = h · n·e at the edge's middle.
+  // Edges: x-edges (i, j)-(i+1, j), then y-edges (i, j)-(i, j+1); weight c, the unit normal n
+  // at the edge's middle and the target difference d = h · t·e (t: n, then blended, below).
   const std::size_t ex = static_cast<std::size_t>((nx_ - 1) * ny_);
   const std::size_t ey = static_cast<std::size_t>(nx_ * (ny_ - 1));
   std::vector<double> c(ex + ey), d(ex + ey);
-  auto edge = [&](std::size_t e, std::size_t a, std::size_t b, bool along_x) {
+  std::vector<Vec2> unit(ex + ey);
+  auto edge = [&](std::size_t e, std::size_t a, std::size_t b) {
     const Vec2 m{0.5 * (grad[a].x + grad[b].x), 0.5 * (grad[a].y + grad[b].y)};
     const double s2 = m.x * m.x + m.y * m.y;
     c[e] = s2 / (s2 + eps2);
-    d[e] = s2 > 0 ? h_ * (along_x ? m.x : m.y) / std::sqrt(s2) : 0.0;
+    unit[e] = s2 > 0 ? m * (1 / std::sqrt(s2)) : Vec2{0, 0};
   };
   for (long j = 0; j < ny_; ++j)
     for (long i = 0; i + 1 < nx_; ++i) {
       const auto a = static_cast<std::size_t>(j * nx_ + i);
-      edge(static_cast<std::size_t>(j * (nx_ - 1) + i), a, a + 1, true);
+      edge(static_cast<std::size_t>(j * (nx_ - 1) + i), a, a + 1);
     }
   for (long j = 0; j + 1 < ny_; ++j)
     for (long i = 0; i < nx_; ++i) {
       const auto a = static_cast<std::size_t>(j * nx_ + i);
-      edge(ex + static_cast<std::size_t>(j * nx_ + i), a, a + static_cast<std::size_t>(nx_), false);
+      edge(ex + static_cast<std::size_t>(j * nx_ + i), a, a + static_cast<std::size_t>(nx_));
     }
+  for (std::size_t e = 0; e < ex + ey; ++e) d[e] = h_ * (e < ex ? unit[e].x : unit[e].y);
   // Normal equations L g = b (L the weighted grid Laplacian, plus a tiny μ·I fixing the free
-  // constant), by Jacobi-preconditioned conjugate gradients.
+  // constant), by Jacobi-preconditioned conjugate gradients from the g so far.
   const double mu = 1e-9;
   auto apply = [&](const std::vector<double>& x, std::vector<double>& y) {
     for (std::size_t k = 0; k < n; ++k) y[k] = mu * x[k];
@@ -107,46 +109,61 @@ IsoPotential::IsoPotential(Evaluator& ev, double z, Vec2 lo, Vec2 hi, double spa
         y[b] += t, y[a] -= t;
       }
   };
-  std::vector<double> rhs(n, 0.0), diag(n, mu);
+  std::vector<double> diag(n, mu);
   for (long j = 0; j < ny_; ++j)
     for (long i = 0; i + 1 < nx_; ++i) {
       const auto a = static_cast<std::size_t>(j * nx_ + i);
       const auto e = static_cast<std::size_t>(j * (nx_ - 1) + i);
-      rhs[a + 1] += c[e] * d[e], rhs[a] -= c[e] * d[e];
       diag[a + 1] += c[e], diag[a] += c[e];
     }
   for (long j = 0; j + 1 < ny_; ++j)
     for (long i = 0; i < nx_; ++i) {
       const auto a = static_cast<std::size_t>(j * nx_ + i);
       const auto b = a + static_cast<std::size_t>(nx_);
-      rhs[b] += c[ex + a] * d[ex + a], rhs[a] -= c[ex + a] * d[ex + a];
       diag[b] += c[ex + a], diag[a] += c[ex + a];
     }
-  std::vector<double> r = rhs, pre(n), p(n), q(n);
-  double bnorm = 0;
-  for (const double v : rhs) bnorm += v * v;
-  for (std::size_t k = 0; k < n; ++k) pre[k] = r[k] / diag[k];
-  p = pre;
-  double rz = 0;
-  for (std::size_t k = 0; k < n; ++k) rz += r[k] * pre[k];
-  // To a residual of 1e-10 of the right-hand side (g to well under a micrometre).
-  const std::size_t max_iter = 20 * static_cast<std::size_t>(nx_ + ny_) + 200;
-  for (iterations_ = 0; iterations_ < max_iter; ++iterations_) {
-    double rr = 0;
-    for (const double v : r) rr += v * v;
-    if (!(rr > 1e-20 * bnorm)) break;
-    apply(p, q);
-    double pq = 0;
-    for (std::size_t k = 0; k < n; ++k) pq += p[k] * q[k];
-    if (!(pq > 0)) break;
-    const double alpha = rz / pq;
-    for (std::size_t k = 0; k < n; ++k) g_[k] += alpha * p[k], r[k] -= alpha * q[k];
-    double rz_next = 0;
-    for (std::size_t k = 0; k < n; ++k) pre[k] = r[k] / diag[k], rz_next += r[k] * pre[k];
-    const double beta = rz_next / rz;
-    rz = rz_next;
-    for (std::size_t k = 0; k < n; ++k) p[k] = pre[k] + beta * p[k];
-  }
+  std::vector<double> rhs(n), r(n), pre(n), p(n), q(n);
+  auto solve = [&] {
+    std::fill(rhs.begin(), rhs.end(), 0.0);
+    for (long j = 0; j < ny_; ++j)
+      for (long i = 0; i + 1 < nx_; ++i) {
+        const auto a = static_cast<std::size_t>(j * nx_ + i);
+        const auto e = static_cast<std::size_t>(j * (nx_ - 1) + i);
+        rhs[a + 1] += c[e] * d[e], rhs[a] -= c[e] * d[e];
+      }
+    for (long j = 0; j + 1 < ny_; ++j)
+      for (long i = 0; i < nx_; ++i) {
+        const auto a = static_cast<std::size_t>(j * nx_ + i);
+        const auto b = a + static_cast<std::size_t>(nx_);
+        rhs[b] += c[ex + a] * d[ex + a], rhs[a] -= c[ex + a] * d[ex + a];
+      }
+    apply(g_, q);
+    double bnorm = 0;
+    for (std::size_t k = 0; k < n; ++k) r[k] = rhs[k] - q[k], bnorm += rhs[k] * rhs[k];
+    for (std::size_t k = 0; k < n; ++k) pre[k] = r[k] / diag[k];
+    p = pre;
+    double rz = 0;
+    for (std::size_t k = 0; k < n; ++k) rz += r[k] * pre[k];
+    // To a residual of 1e-10 of the right-hand side (g to well under a micrometre).
+    const std::size_t max_iter = 20 * static_cast<std::size_t>(nx_ + ny_) + 200;
+    for (std::size_t it = 0; it < max_iter; ++it, ++iterations_) {
+      double rr = 0;
+      for (const double v : r) rr += v * v;
+      if (!(rr > 1e-20 * bnorm)) break;
+      apply(p, q);
+      double pq = 0;
+      for (std::size_t k = 0; k < n; ++k) pq += p[k] * q[k];
+      if (!(pq > 0)) break;
+      const double alpha = rz / pq;
+      for (std::size_t k = 0; k < n; ++k) g_[k] += alpha * p[k], r[k] -= alpha * q[k];
+      double rz_next = 0;
+      for (std::size_t k = 0; k < n; ++k) pre[k] = r[k] / diag[k], rz_next += r[k] * pre[k];
+      const double beta = rz_next / rz;
+      rz = rz_next;
+      for (std::size_t k = 0; k < n; ++k) p[k] = pre[k] + beta * p[k];
+    }
+  };
+  solve();
 }
 
 Vec2 IsoPotential::gradient(Vec2 p) const {
@@ -159,7 +176,18 @@ Vec2 IsoPotential::gradient(Vec2 p) const {
   return {((1 - v) * (b - a) + v * (d - c)) / h_, ((1 - u) * (c - a) + u * (d - b)) / h_};
 }
 
-std::vector<std::vector<Vec2>> IsoPotential::level_lines(double step, double phase) const {
+double IsoPotential::value(Vec2 p) const {
+  const double fx = std::clamp((p.x - lo_.x) / h_, 0.0, static_cast<double>(nx_ - 1));
+  const double fy = std::clamp((p.y - lo_.y) / h_, 0.0, static_cast<double>(ny_ - 1));
+  const long i = std::min(static_cast<long>(fx), nx_ - 2),
+             j = std::min(static_cast<long>(fy), ny_ - 2);
+  const double u = fx - static_cast<double>(i), v = fy - static_cast<double>(j);
+  return (1 - v) * ((1 - u) * node(i, j) + u * node(i + 1, j)) +
+         v * ((1 - u) * node(i, j + 1) + u * node(i + 1, j + 1));
+}
+
+std::vector<std::vector<Vec2>> IsoPotential::level_lines(double step, double phase,
+                                                         const std::int64_t* only) const {
   std::vector<std::vector<Vec2>> out;
   if (flat_ || !(step > 0)) return out;
   // Crossings are keyed by (grid edge, level): each is computed once from its edge's two nodes
@@ -190,8 +218,11 @@ std::vector<std::vector<Vec2>> IsoPotential::level_lines(double step, double pha
       // to, grid edge, along x, edge start node).
       const double v[4] = {node(i, j), node(i + 1, j), node(i + 1, j + 1), node(i, j + 1)};
       const double lo = std::min({v[0], v[1], v[2], v[3]}), hi = std::max({v[0], v[1], v[2], v[3]});
-      const auto k0 = static_cast<std::int64_t>(std::ceil(lo / step - phase));
-      const auto k1 = static_cast<std::int64_t>(std::floor(hi / step - phase));
+      // One level more each way than the range says: each side's crossing is decided by its own
+      // two nodes, the same in both cells sharing it, whatever the rounding of the range.
+      auto k0 = static_cast<std::int64_t>(std::ceil(lo / step - phase)) - 1;
+      auto k1 = static_cast<std::int64_t>(std::floor(hi / step - phase)) + 1;
+      if (only) k0 = std::max(k0, *only), k1 = std::min(k1, *only);
       struct Side {
         int from, to;
         std::uint64_t edge;

@@ -14,6 +14,7 @@
 // nearly flat spots counts little). Two materials: f is the first fraction; three: the fraction
 // that varies most over the layer (no direction follows all three: their iso-lines cross).
 #pragma once
+#include <cstdint>
 #include <vector>
 
 #include "trellis/field/field.hpp"
@@ -30,7 +31,10 @@ class IsoPotential {
   Vec2 gradient(Vec2 p) const;  // of the bilinear g (mm/mm)
   // The level lines g = step·(k + phase) for every integer k, as polylines (closed ones with
   // first == last), each directed with lower g on its left.
-  std::vector<std::vector<Vec2>> level_lines(double step, double phase) const;
+  // `only`: just level k = *only.
+  std::vector<std::vector<Vec2>> level_lines(double step, double phase,
+                                             const std::int64_t* only = nullptr) const;
+  double value(Vec2 p) const;  // the bilinear g
   std::size_t iterations() const { return iterations_; }
 
  private:
