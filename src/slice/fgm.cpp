@@ -691,15 +691,7 @@ std::vector<fgm::Piece> path_order_layer(const Layer& planar, const std::vector<
 void outline_layer(Evaluator& ev, const LayerOutline& lo, std::size_t g, const FgmOptions& o,
                    Layer& layer, std::vector<int>& colours, std::size_t& faces, FgmStats& shorts) {
   const double res = std::max(o.material_resolution, o.bead_width / 2);
-  const double angle = o.angle_deg + (g % 2 ? 90.0 : 0.0);
-  if (lo.regions.empty()) return;
-  Vec2 dlo, dhi;
-  padded_box(lo.regions, 2 * o.bead_width, dlo, dhi);
-  std::optional<fgm::IsoPotential> potential;
-  if (!o.fixed_angle) potential.emplace(ev, lo.z, dlo, dhi, res);
-  Vec2 cursor{0, 0};
-  fgm::OutlineBeads beads = fgm::outline_beads(lo.regions, potential ? &*potential : nullptr,
-                                               angle, g % 2 ? 0.5 : 0.0, o, layer.z, cursor);
+  fgm::OutlineBeads beads = fgm::layer_beads(ev, lo, g, o);
   Layer uncut;
   uncut.z = layer.z;
   uncut.paths = std::move(beads.paths);

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <unordered_map>
 
 #include "loop_bridge.hpp"
@@ -381,6 +382,28 @@ OutlineBeads outline_beads(const Regions& outline, const IsoPotential* potential
     }
   }
   return out;
+}
+
+OutlineBeads layer_beads(Evaluator& ev, const LayerOutline& layer, std::size_t g,
+                         const FgmOptions& o) {
+  Vec2 cursor{0, 0};
+  const double z = static_cast<double>(g + 1) * o.layer_height;
+  const double angle = o.angle_deg + (g % 2 ? 90.0 : 0.0);
+  if (layer.regions.empty()) return {};
+  std::optional<IsoPotential> potential;
+  if (!o.fixed_angle) {
+    // The outline's box, two beads of margin.
+    Vec2 lo{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()};
+    Vec2 hi{-lo.x, -lo.y};
+    for (const auto& poly : layer.regions)
+      for (const Vec2 q : poly.outer)
+        lo = {std::min(lo.x, q.x), std::min(lo.y, q.y)}, hi = {std::max(hi.x, q.x), std::max(hi.y, q.y)};
+    const double pad = 2 * o.bead_width;
+    potential.emplace(ev, layer.z, Vec2{lo.x - pad, lo.y - pad}, Vec2{hi.x + pad, hi.y + pad},
+                      std::max(o.material_resolution, o.bead_width / 2));
+  }
+  return outline_beads(layer.regions, potential ? &*potential : nullptr, angle, g % 2 ? 0.5 : 0.0,
+                       o, z, cursor);
 }
 
 void apply_flow(std::vector<Piece>& pieces, const LineFlow& flow, double bead) {

@@ -16,6 +16,7 @@
 #include "fgm_potential.hpp"
 #include "trellis/geom/regions.hpp"
 #include "trellis/slice/fgm.hpp"
+#include "trellis/slice/slice.hpp"
 #include "trellis/toolpath/toolpath.hpp"
 
 namespace trellis::fgm {
@@ -63,6 +64,12 @@ struct OutlineBeads {
 // beads is routed inside the part (Path::via).
 OutlineBeads outline_beads(const Regions& outline, const IsoPotential* potential, double angle,
                            double phase, const FgmOptions& options, double z, Vec2& cursor);
+
+// One layer's beads as Strategy 2 plans them in path order: the potential over the outline's box
+// (on the material grid), the lines staggered half a bead every other layer (part layer g),
+// fixed_angle: lines at angle_deg, +90° every other layer. What plan_fgm_strategy2 then cuts.
+OutlineBeads layer_beads(Evaluator& evaluator, const LayerOutline& layer, std::size_t g,
+                         const FgmOptions& options);
 
 // Pieces (cut by colour, in print order) split further where the fill's flow changes (quantised
 // to 1/20; runs under 2 mm take the flow before them): the parts after a piece's first are joined

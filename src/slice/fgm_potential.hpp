@@ -6,13 +6,15 @@
 // have to be the iso-lines and a bead apart everywhere), and the least-squares g trades a few
 // degrees of direction for spacing (|∇g| ≠ 1), which the fill makes up by extruding more or less
 // per millimetre (flow = 1/|∇g|). Level lines never end inside the layer: they close or reach
-// its edge, so joined along the edge they make serpentines with no ends in the middle (lanes of
-// hatch lines through sectors of directions end wherever the sectors do).
+// its edge, so paired along the edge into loops and bridged they make beads with no ends in the
+// middle (lanes of hatch lines through sectors of directions end wherever the sectors do).
 //
 // g: bilinear over a grid of `spacing` mm, solved by conjugate gradients on the grid's edges
 // (each edge's difference against n along it, weighted by |∇f|²/(|∇f|² + ε²) so the direction of
-// nearly flat spots counts little). Two materials: f is the first fraction; three: the fraction
-// that varies most over the layer (no direction follows all three: their iso-lines cross).
+// nearly flat spots counts little), then again with each edge's target bent halfway towards g's
+// own direction (three rounds: spacing kept better near saddles and folds). Two materials: f is
+// the first fraction; three: the fraction that varies most over the layer (no direction follows
+// all three: their iso-lines cross).
 #pragma once
 #include <cstdint>
 #include <vector>

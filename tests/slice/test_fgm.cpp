@@ -599,7 +599,11 @@ TEST(Fgm, AppendixBDesignsAndRandomFieldsStayWithinTheBand) {
       // the G-code rounds the cut to 1 µm.
       EXPECT_LE(r.max_error, half_band + (order == FgmOrder::Faces ? 1.2e-4 : 1e-3 / c.colors + 2e-4))
           << c.name << " " << to_string(order);
-      EXPECT_GE(r.coverage, 0.98) << c.name << " " << to_string(order);
+      // In path order the lines are level lines a bead apart: where the iso-lines fold at the
+      // scale of a few beads (these random fields: ridges and saddles 5 mm apart on a 16 mm
+      // plate) the corners of their folds and the saddles stay partly open (the face-by-face
+      // fill puts gap fill there, a bead each); on the palette plate 99 % (test_fgm_outline).
+      EXPECT_GE(r.coverage, order == FgmOrder::Faces ? 0.98 : 0.97) << c.name << " " << to_string(order);
       std::printf("%s, %d colours, %s: max error %.5f (half band %.5f), coverage %.4f\n",
                   c.name.c_str(), c.colors, to_string(order), r.max_error, half_band, r.coverage);
     }
