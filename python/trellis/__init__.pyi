@@ -215,11 +215,11 @@ def slice(
     colors: int = ...,  # fgm.colors: palette size (two materials: N bands; three: d² triangles, e.g. 9)
     comb: bool = ...,  # slice.comb: keep travel inside the part (crossing no outer wall) where a route inside is at most slice.comb_detour times the straight distance; such travel does not retract (r
     comb_detour: float = ...,  # slice.comb_detour: longest route inside the part, as a multiple of the straight distance (plus one bead); a longer one goes straight and retracts
-    concentric: bool = ...,  # fgm.concentric: Strategy 2: concentric fill instead of rectilinear
+    concentric: bool = ...,  # fgm.concentric: Strategy 2: each colour face filled with concentric rings instead of lines (face by face, in either order)
     connect: bool = ...,  # slice.connect: join skin and infill lines along the edge of their region into serpentines (as PrusaSlicer's connected rectilinear infill); --no-connect prints every line as
     connect_max: float = ...,  # slice.connect_max: longest connector between two fill lines along their region's edge, in line spacings (a longer gap starts a new path)
     fan_step: float = ...,  # process.fan_step: quantum of a fan field
-    fgm_perimeters: int = ...,  # fgm.perimeters: Strategy 2, rectilinear: rings around each colour face before its lines (the FGM paper's palette plates: 3)
+    fgm_perimeters: int = ...,  # fgm.perimeters: Strategy 2, rectilinear: rings around each island's outline (path order) or each colour face (face order) before its lines (the FGM paper's palette pl
     fixed_angle: bool = ...,  # fgm.fixed_angle: Strategy 2: lines at slice.infill_angle instead of along the iso-lines
     flow_step: float = ...,  # process.flow_step: quantum of a flow (extrusion multiplier) field
     follow_symlinks: bool = ...,  # run.follow_symlinks: write an output whose path is a symbolic link to the file it points to (the link kept); without it such an output is refused

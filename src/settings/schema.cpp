@@ -582,10 +582,14 @@ std::vector<Setting> make_table() {
       "graded print order: paths (Strategy 1: the planar order kept, each path cut at the colour "
       "faces into one bead whose mixture changes where it crosses them, each change issued "
       "gradient.lookahead early, no prime tower; a tool changer groups the pieces by tool, nearest "
-      "first; Strategy 2: islands nearest first) or faces (the FGM paper's colour-by-colour "
-      "order, Strategy 1 with a purge before each colour change)",
+      "first; Strategy 2 on a mixing or temperature machine: each island filled whole, "
+      "fgm.perimeters rings and lines along the iso-lines joined into few beads, cut at the colour "
+      "faces the same way) or faces (the FGM paper's colour-by-colour order: Strategy 1 with a "
+      "purge before each colour change, Strategy 2 each face filled on its own)",
       "order", [](C& c) -> auto& { return c.slice.fgm.order; }));
-  t.push_back(boolean("fgm.concentric", "Strategy 2: concentric fill instead of rectilinear",
+  t.push_back(boolean("fgm.concentric",
+                      "Strategy 2: each colour face filled with concentric rings instead of lines "
+                      "(face by face, in either order)",
                       "concentric", [](C& c) -> auto& { return c.slice.fgm.concentric; }));
   t.push_back(boolean("fgm.fixed_angle",
                       "Strategy 2: lines at slice.infill_angle instead of along the iso-lines",
@@ -597,8 +601,9 @@ std::vector<Setting> make_table() {
                      "Strategy 1: overlap band β (fraction of the gradient) where colours alternate",
                      "zipper", [](C& c) -> auto& { return c.slice.fgm.zipper; }));
   t.push_back(integer("fgm.perimeters", 1, 100,
-                      "Strategy 2, rectilinear: rings around each colour face before its lines "
-                      "(the FGM paper's palette plates: 3)",
+                      "Strategy 2, rectilinear: rings around each island's outline (path order) or "
+                      "each colour face (face order) before its lines (the FGM paper's palette "
+                      "plates: 3)",
                       "fgm-perimeters", [](C& c) -> auto& { return c.slice.fgm.perimeters; }));
   t.push_back(number("fgm.min_segment", "mm", 0, 1000,
                      "pieces (Strategy 1) and paths (Strategy 2) shorter than this are joined to "

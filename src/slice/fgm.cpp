@@ -19,6 +19,7 @@
 #include "trellis/toolpath/order.hpp"
 #include "fgm_fill.hpp"
 #include "fgm_order.hpp"
+#include "fgm_outline.hpp"
 #include "fgm_tower.hpp"
 
 namespace trellis {
@@ -595,6 +596,125 @@ std::vector<ColorFace> color_faces(const Field& field, Evaluator& ev, double z,
   return faces;
 }
 
+namespace {
+
+// Strategy 1's zones: a colour's band, or with zippering the overlap band around a colour
+// boundary, where pieces alternate between the two neighbouring colours.
+struct Zone {
+  int a = 0, b = 0;       // colours (a == b: a plain face)
+  std::size_t count = 0;  // pieces so far (for alternating)
+};
+
+// The zones a path order cuts paths at, over [zlo, zhi] at z: zone k lies between level k-1
+// and level k (two materials: of the first fraction, with zippering β > 0 the overlap bands
+// around each band edge as zones of their own; three: the palette's triangles, found by
+// splitting on the first, second and third fractions), below[m][k] = {fraction m <= level k}.
+struct PathZones {
+  std::vector<double> levels;
+  std::vector<Zone> zones;
+  std::vector<Regions> below[3];
+};
+PathZones path_zones(Evaluator& ev, double z, Vec2 zlo, Vec2 zhi, const FgmOptions& o, double beta) {
+  const double res = std::max(o.material_resolution, o.bead_width / 2);
+  PathZones pz;
+  const int d = o.palette.divisions();
+  for (int k = 1; k < d; ++k) {
+    if (beta > 0) {
+      pz.levels.push_back(o.palette.level(k) - beta / 2);
+      pz.levels.push_back(o.palette.level(k) + beta / 2);
+    } else {
+      pz.levels.push_back(o.palette.level(k));
+    }
+  }
+  if (o.palette.materials == 3) {
+    pz.zones.resize(static_cast<std::size_t>(o.palette.colors));
+    for (int c = 0; c < o.palette.colors; ++c) pz.zones[static_cast<std::size_t>(c)] = {c, c, 0};
+    for (std::size_t m = 0; m < 3; ++m)
+      pz.below[m] = below_sets(ev, z, zlo, zhi, m, pz.levels, res, 1e-4);
+  } else {
+    for (std::size_t k = 0; k <= pz.levels.size(); ++k) {
+      const int c = beta > 0 ? static_cast<int>(k / 2) : static_cast<int>(k);
+      pz.zones.push_back({c, beta > 0 && k % 2 ? c + 1 : c, 0});  // odd with β: overlap c | c+1
+    }
+    pz.below[0] = below_sets(ev, z, zlo, zhi, 0, pz.levels, res, 1e-4);
+  }
+  return pz;
+}
+
+// One layer in path order (FgmOrder::Paths): the planar paths cut where they cross the zones'
+// edges (the contours of the sets below[m][k] = {fraction m <= level k}), each run coloured by
+// the design at its middle (two materials: the zone between the levels; three: the palette's
+// triangle), short runs merged along their bead, a tool changer's pieces grouped by tool.
+std::vector<fgm::Piece> path_order_layer(const Layer& planar, const std::vector<Regions> (&below)[3],
+                                         const std::vector<double>& levels, std::vector<Zone>& zones,
+                                         Evaluator& ev, double z, std::size_t g, const FgmOptions& o,
+                                         Vec2 zlo, Vec2 zhi, FgmStats& shorts) {
+  std::vector<std::vector<Vec2>> rings;
+  for (const auto& sets : below)
+    for (const Regions& r : sets)
+      for (auto& ring : rings_of(r)) rings.push_back(std::move(ring));
+  fgm::EdgeGrid edges(rings, zlo, zhi);
+  const bool three = o.palette.materials == 3;
+  auto zone_at = [&](Vec2 p) {
+    const auto f = ev.fractions({p.x, p.y, z});
+    if (three) return o.palette.color_of(f);
+    const double v = f.empty() ? 0.0 : f[0];
+    return static_cast<int>(std::lower_bound(levels.begin(), levels.end(), v) - levels.begin());
+  };
+  auto colour_of = [&](int zone) {
+    Zone& zn = zones[static_cast<std::size_t>(zone)];
+    return zn.count++ % 2 ? zn.b : zn.a;
+  };
+  auto pieces = fgm::split_paths(planar.paths, edges, zone_at, colour_of, o.palette);
+  if (o.min_segment > 0)
+    // The faces' edges follow the iso-lines to 1e-4 of a band (below_sets): a run that only
+    // grazes the next band is within the bound to that tolerance.
+    fgm::merge_short_runs(pieces, ev, z, o.palette, o.min_segment, 1e-4 * o.palette.band(), shorts);
+  if (o.tool_changer && !pieces.empty()) {
+    Vec2 cursor = pieces.front().path.points.front().xy();
+    fgm::group_by_tool(pieces, g % 2 == 1, cursor);
+  }
+  shorts.short_kept = shorts.short_beads = 0;
+  if (o.min_segment > 0)
+    for (std::size_t k = 0; k < pieces.size(); ++k) {
+      const bool short_piece = pieces[k].path.length() < o.min_segment;
+      const bool bead = !pieces[k].path.joined && (k + 1 == pieces.size() || !pieces[k + 1].path.joined);
+      shorts.short_kept += short_piece;
+      shorts.short_beads += short_piece && bead;
+    }
+  return pieces;
+}
+
+// Strategy 2 in path order, one layer: each island filled whole (fgm_outline.hpp), the beads
+// cut where they cross the colour zones' edges into joined pieces with their colour's mixture
+// (path_order_layer, Strategy 1's cutter; no zippering).
+void outline_layer(Evaluator& ev, const LayerOutline& lo, std::size_t g, const FgmOptions& o,
+                   Layer& layer, std::vector<int>& colours, std::size_t& faces, FgmStats& shorts) {
+  const double res = std::max(o.material_resolution, o.bead_width / 2);
+  fgm::OutlineBeads beads = fgm::layer_beads(ev, lo, g, o);
+  Layer uncut;
+  uncut.z = layer.z;
+  uncut.paths = std::move(beads.paths);
+  if (uncut.paths.empty()) return;
+  BBox3 box;
+  for (const auto& p : uncut.paths)
+    for (const auto& q : p.points) box.add({q.x, q.y, 0});
+  const Vec2 zlo{box.min.x - 2 * res, box.min.y - 2 * res};
+  const Vec2 zhi{box.max.x + 2 * res, box.max.y + 2 * res};
+  PathZones pz = path_zones(ev, lo.z, zlo, zhi, o, 0);
+  FgmOptions po = o;
+  po.zipper = 0;
+  auto pieces = path_order_layer(uncut, pz.below, pz.levels, pz.zones, ev, lo.z, g, po, zlo, zhi, shorts);
+  fgm::apply_flow(pieces, beads.flow, o.bead_width);
+  for (auto& piece : pieces) {
+    colours.push_back(piece.color);
+    layer.paths.push_back(std::move(piece.path));
+  }
+  for (const auto& zone : pz.zones) faces += zone.count > 0;
+}
+
+}  // namespace
+
 Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>& layers,
                             const FgmOptions& o, FgmStats* stats) {
   if (!(o.bead_width > 0) || !(o.resolution > 0))
@@ -609,6 +729,9 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
     FgmStats shorts;  // short_* only
   };
   std::vector<Planned> planned(layers.size());
+  // Path order on a machine that changes the mixture along a bead: each island filled whole
+  // and cut at the colour zones (outline_layer); the paper's face-by-face fill otherwise.
+  const bool outline_route = o.order == FgmOrder::Paths && !o.tool_changer && !o.concentric;
   tbb::enumerable_thread_specific<Evaluator> evaluators([&] { return Evaluator(field); });
   tbb::parallel_for(std::size_t{0}, layers.size(), [&](std::size_t li) {
     Evaluator& ev = evaluators.local();
@@ -618,6 +741,10 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
     const std::size_t g = o.first_layer + li;  // the part's layer (a shard plans a range)
     // As the planar slicer: the nozzle at the top of layer i, counted from the bed.
     layer.z = static_cast<double>(g + 1) * o.layer_height;
+    if (outline_route) {
+      outline_layer(ev, lo, g, o, out.layer, out.colors, out.faces, out.shorts);
+      return;
+    }
     // Material iso-lines on their own grid (half a bead at the finest: a face narrower than
     // that cannot be printed); crossings are refined on the field.
     // Paths stay half a bead inside their face: its edges need not follow the iso-lines closer
@@ -822,7 +949,8 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
     st.short_merged += pl.shorts.short_merged;
     st.short_kept += pl.shorts.short_kept;
     st.short_kept_bound += pl.shorts.short_kept_bound;
-    st.short_beads += pl.shorts.short_kept;  // Strategy 2's paths are beads
+    // Face by face every path is a bead; in path order pieces of a bead are counted apart.
+    st.short_beads += outline_route ? pl.shorts.short_beads : pl.shorts.short_kept;
     for (std::size_t i = 0; i < pl.layer.paths.size(); ++i) {
       const Path& path = pl.layer.paths[i];
       st.shortest_path = std::min(st.shortest_path, path.length());
@@ -830,6 +958,7 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
       last_color = pl.colors[i];
       st.abrupt_changes += abrupt_start(last_mixture, path, o.palette);
       last_mixture = path.mixture;
+      st.joined += path.joined;
       ++st.paths;
     }
     if (!pl.layer.paths.empty()) tp.layers.push_back(std::move(pl.layer));
@@ -1119,61 +1248,6 @@ void add_prime_tower(Toolpath& tp, const FgmOptions& o, const PurgeOptions& purg
   t.finish(st);
 }
 
-namespace {
-
-// Strategy 1's zones: a colour's band, or with zippering the overlap band around a colour
-// boundary, where pieces alternate between the two neighbouring colours.
-struct Zone {
-  int a = 0, b = 0;       // colours (a == b: a plain face)
-  std::size_t count = 0;  // pieces so far (for alternating)
-};
-
-// One layer in path order (FgmOrder::Paths): the planar paths cut where they cross the zones'
-// edges (the contours of the sets below[m][k] = {fraction m <= level k}), each run coloured by
-// the design at its middle (two materials: the zone between the levels; three: the palette's
-// triangle), short runs merged along their bead, a tool changer's pieces grouped by tool.
-std::vector<fgm::Piece> path_order_layer(const Layer& planar, const std::vector<Regions> (&below)[3],
-                                         const std::vector<double>& levels, std::vector<Zone>& zones,
-                                         Evaluator& ev, double z, std::size_t g, const FgmOptions& o,
-                                         Vec2 zlo, Vec2 zhi, FgmStats& shorts) {
-  std::vector<std::vector<Vec2>> rings;
-  for (const auto& sets : below)
-    for (const Regions& r : sets)
-      for (auto& ring : rings_of(r)) rings.push_back(std::move(ring));
-  fgm::EdgeGrid edges(rings, zlo, zhi);
-  const bool three = o.palette.materials == 3;
-  auto zone_at = [&](Vec2 p) {
-    const auto f = ev.fractions({p.x, p.y, z});
-    if (three) return o.palette.color_of(f);
-    const double v = f.empty() ? 0.0 : f[0];
-    return static_cast<int>(std::lower_bound(levels.begin(), levels.end(), v) - levels.begin());
-  };
-  auto colour_of = [&](int zone) {
-    Zone& zn = zones[static_cast<std::size_t>(zone)];
-    return zn.count++ % 2 ? zn.b : zn.a;
-  };
-  auto pieces = fgm::split_paths(planar.paths, edges, zone_at, colour_of, o.palette);
-  if (o.min_segment > 0)
-    // The faces' edges follow the iso-lines to 1e-4 of a band (below_sets): a run that only
-    // grazes the next band is within the bound to that tolerance.
-    fgm::merge_short_runs(pieces, ev, z, o.palette, o.min_segment, 1e-4 * o.palette.band(), shorts);
-  if (o.tool_changer && !pieces.empty()) {
-    Vec2 cursor = pieces.front().path.points.front().xy();
-    fgm::group_by_tool(pieces, g % 2 == 1, cursor);
-  }
-  shorts.short_kept = shorts.short_beads = 0;
-  if (o.min_segment > 0)
-    for (std::size_t k = 0; k < pieces.size(); ++k) {
-      const bool short_piece = pieces[k].path.length() < o.min_segment;
-      const bool bead = !pieces[k].path.joined && (k + 1 == pieces.size() || !pieces[k + 1].path.joined);
-      shorts.short_kept += short_piece;
-      shorts.short_beads += short_piece && bead;
-    }
-  return pieces;
-}
-
-}  // namespace
-
 const char* to_string(FgmOrder order) { return order == FgmOrder::Paths ? "paths" : "faces"; }
 
 bool abrupt_start(const std::vector<double>& before, const Path& path, const Palette& palette) {
@@ -1223,30 +1297,10 @@ Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>&
     const Vec2 zlo{box.min.x - 2 * res, box.min.y - 2 * res};
     const Vec2 zhi{box.max.x + 2 * res, box.max.y + 2 * res};
     const int d = o.palette.divisions();
-    std::vector<double> levels;
-    for (int k = 1; k < d; ++k) {
-      if (beta > 0) {
-        levels.push_back(o.palette.level(k) - beta / 2);
-        levels.push_back(o.palette.level(k) + beta / 2);
-      } else {
-        levels.push_back(o.palette.level(k));
-      }
-    }
-    // Zone k lies between level k-1 and level k (two materials: of the first fraction; three:
-    // the palette's triangles, found by splitting on the first, second and third fractions).
-    std::vector<Zone> zones;
-    std::vector<Regions> below[3];
-    if (o.palette.materials == 3) {
-      zones.resize(static_cast<std::size_t>(o.palette.colors));
-      for (int c = 0; c < o.palette.colors; ++c) zones[static_cast<std::size_t>(c)] = {c, c, 0};
-      for (std::size_t m = 0; m < 3; ++m) below[m] = below_sets(ev, z, zlo, zhi, m, levels, res, 1e-4);
-    } else {
-      for (std::size_t k = 0; k <= levels.size(); ++k) {
-        const int c = beta > 0 ? static_cast<int>(k / 2) : static_cast<int>(k);
-        zones.push_back({c, beta > 0 && k % 2 ? c + 1 : c, 0});  // odd with β: overlap c | c+1
-      }
-      below[0] = below_sets(ev, z, zlo, zhi, 0, levels, res, 1e-4);
-    }
+    PathZones pz = path_zones(ev, z, zlo, zhi, o, beta);
+    const std::vector<double>& levels = pz.levels;
+    std::vector<Zone>& zones = pz.zones;
+    const std::vector<Regions>(&below)[3] = pz.below;
     const int bands = static_cast<int>(levels.size()) + 1;
     if (o.order == FgmOrder::Paths) {
       per[li] = path_order_layer(pl, below, levels, zones, ev, z, g, o, zlo, zhi, shorts_per[li]);

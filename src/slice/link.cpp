@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 #include "trellis/core/error.hpp"
@@ -218,50 +219,101 @@ bool segments_cross(Vec2 p, Vec2 q, Vec2 a, Vec2 b, double& t, double& u) {
 
 // ---------------------------------------------------------------- connect_fill
 
-std::vector<std::vector<Vec2>> connect_fill(const std::vector<std::vector<Vec2>>& lines,
-                                            const Regions& region, double max_connector,
-                                            ConnectStats* stats, double tolerance) {
-  const std::size_t n = lines.size();
-  std::vector<std::vector<Vec2>> chains;
-  if (stats) stats->lines += n;
-  const auto rings = ring_pointers(region);
-  const RingEdges edges(rings);
-  // Each line end (key 2i: first point, 2i+1: last) on the boundary: ring, edge, arc position.
-  struct End {
-    long ring = -1;
-    std::size_t edge = 0;
-    double s = 0;
-  };
-  std::vector<End> ends(2 * n);
-  std::vector<std::vector<double>> cum(rings.size());
-  for (std::size_t r = 0; r < rings.size(); ++r) {
-    const auto& ring = *rings[r];
-    cum[r].resize(ring.size() + 1, 0.0);
-    for (std::size_t i = 0; i < ring.size(); ++i)
-      cum[r][i + 1] = cum[r][i] + len(ring[(i + 1) % ring.size()] - ring[i]);
+namespace {
+
+// The ends of a region's fill lines that lie on its boundary (within `tolerance`), in order
+// along each boundary ring: end key 2i is line i's first point, 2i + 1 its last.
+class FillEnds {
+ public:
+  FillEnds(const std::vector<std::vector<Vec2>>& lines, const Regions& region, double tolerance)
+      : lines_(lines), rings_(ring_pointers(region)), ends_(2 * lines.size()), cum_(rings_.size()) {
+    const RingEdges edges(rings_);
+    for (std::size_t r = 0; r < rings_.size(); ++r) {
+      const auto& ring = *rings_[r];
+      cum_[r].resize(ring.size() + 1, 0.0);
+      for (std::size_t i = 0; i < ring.size(); ++i)
+        cum_[r][i + 1] = cum_[r][i] + len(ring[(i + 1) % ring.size()] - ring[i]);
+    }
+    for (std::size_t key = 0; key < 2 * lines.size(); ++key) {
+      const auto& line = lines[key / 2];
+      if (line.size() < 2) continue;
+      const Vec2 p = key % 2 ? line.back() : line.front();
+      double best = tolerance;
+      edges.along(p, p, [&](std::uint32_t e) {
+        double t = 0;
+        const Vec2 a = edges.a(e), b = edges.b(e);
+        // (Farther than `best` from the edge's box: farther from the edge.)
+        if (p.x < std::min(a.x, b.x) - best || p.x > std::max(a.x, b.x) + best ||
+            p.y < std::min(a.y, b.y) - best || p.y > std::max(a.y, b.y) + best)
+          return;
+        const double d = distance_to_segment({p.x, p.y, 0}, {a.x, a.y, 0}, {b.x, b.y, 0}, &t);
+        if (d <= best) {
+          best = d;
+          const std::size_t r = edges.ring_of(e), i = edges.index_of(e);
+          ends_[key] = {static_cast<long>(r), i, cum_[r][i] + t * (cum_[r][i + 1] - cum_[r][i])};
+        }
+      });
+    }
+    // Each ring's ends in order along it.
+    on_ring_.resize(rings_.size());
+    for (std::size_t key = 0; key < 2 * lines.size(); ++key)
+      if (ends_[key].ring >= 0) on_ring_[static_cast<std::size_t>(ends_[key].ring)].push_back(key);
+    slot_.assign(2 * lines.size(), 0);
+    for (auto& v : on_ring_) {
+      std::sort(v.begin(), v.end(), [&](std::size_t a, std::size_t b) {
+        return ends_[a].s != ends_[b].s ? ends_[a].s < ends_[b].s : a < b;
+      });
+      for (std::size_t j = 0; j < v.size(); ++j) slot_[v[j]] = j;
+    }
   }
-  for (std::size_t key = 0; key < 2 * n; ++key) {
-    const auto& line = lines[key / 2];
-    if (line.size() < 2) continue;
-    const Vec2 p = key % 2 ? line.back() : line.front();
-    double best = tolerance;
-    edges.along(p, p, [&](std::uint32_t e) {
-      double t = 0;
-      const Vec2 a = edges.a(e), b = edges.b(e);
-      // (Farther than `best` from the edge's box: farther from the edge.)
-      if (p.x < std::min(a.x, b.x) - best || p.x > std::max(a.x, b.x) + best ||
-          p.y < std::min(a.y, b.y) - best || p.y > std::max(a.y, b.y) + best)
-        return;
-      const double d = distance_to_segment({p.x, p.y, 0}, {a.x, a.y, 0}, {b.x, b.y, 0}, &t);
-      if (d <= best) {
-        best = d;
-        const std::size_t r = edges.ring_of(e), i = edges.index_of(e);
-        ends[key] = {static_cast<long>(r), i, cum[r][i] + t * (cum[r][i + 1] - cum[r][i])};
-      }
-    });
+
+  long ring(std::size_t key) const { return ends_[key].ring; }
+
+  // The neighbour of end `key` along its ring (forward or back) and the boundary between them;
+  // -1 when the end is not on the boundary or alone on its ring.
+  long neighbour(std::size_t key, bool forward, double& length) const {
+    const End& e = ends_[key];
+    if (e.ring < 0) return -1;
+    const auto& v = on_ring_[static_cast<std::size_t>(e.ring)];
+    if (v.size() < 2) return -1;
+    const std::size_t m = v.size(), j = slot_[key];
+    const std::size_t other = v[forward ? (j + 1) % m : (j + m - 1) % m];
+    const double total = cum_[static_cast<std::size_t>(e.ring)].back();
+    double d = forward ? ends_[other].s - e.s : e.s - ends_[other].s;
+    const bool wraps = forward ? j + 1 == m : j == 0;
+    if (wraps) d += total;
+    length = d;
+    return static_cast<long>(other);
   }
-  if (stats && n > 0) {
-    // Rings are listed polygon by polygon: the polygons holding an end.
+
+  // The boundary's vertices strictly between end `from` and end `to` (its neighbour).
+  void connector(std::size_t from, std::size_t to, bool forward, std::vector<Vec2>& out) const {
+    const End& a = ends_[from];
+    const End& b = ends_[to];
+    const auto& ring = *rings_[static_cast<std::size_t>(a.ring)];
+    const std::size_t m = ring.size();
+    if (forward) {
+      std::size_t count = (b.edge + m - a.edge) % m;
+      if (count == 0 && b.s < a.s) count = m;
+      for (std::size_t k = 1; k <= count; ++k) out.push_back(ring[(a.edge + k) % m]);
+    } else {
+      std::size_t count = (a.edge + m - b.edge) % m;
+      if (count == 0 && b.s > a.s) count = m;
+      for (std::size_t k = 0; k < count; ++k) out.push_back(ring[(a.edge + m - k) % m]);
+    }
+  }
+
+  // Line (entry / 2) from end `entry` to its other end, appended.
+  void append_line(std::vector<Vec2>& chain, std::size_t entry) const {
+    const auto& line = lines_[entry / 2];
+    if (entry % 2 == 0)
+      chain.insert(chain.end(), line.begin(), line.end());
+    else
+      chain.insert(chain.end(), line.rbegin(), line.rend());
+  }
+
+  // Polygons of the region holding a line end, polygons crossed by one line counted once.
+  std::size_t regions(const Regions& region) const {
     std::vector<std::size_t> polygon_of;
     for (std::size_t pi = 0; pi < region.size(); ++pi) {
       if (region[pi].outer.size() >= 3) polygon_of.push_back(pi);
@@ -277,47 +329,47 @@ std::vector<std::vector<Vec2>> connect_fill(const std::vector<std::vector<Vec2>>
       return k;
     };
     auto poly = [&](const End& e) { return polygon_of[static_cast<std::size_t>(e.ring)]; };
+    const std::size_t n = lines_.size();
     for (std::size_t i = 0; i < n; ++i)
-      if (ends[2 * i].ring >= 0 && ends[2 * i + 1].ring >= 0)
-        root[find(poly(ends[2 * i]))] = find(poly(ends[2 * i + 1]));
+      if (ends_[2 * i].ring >= 0 && ends_[2 * i + 1].ring >= 0)
+        root[find(poly(ends_[2 * i]))] = find(poly(ends_[2 * i + 1]));
     std::vector<char> touched(region.size(), 0);
     std::size_t count = 0;
-    for (const End& e : ends) {
+    for (const End& e : ends_) {
       if (e.ring < 0) continue;
       char& t = touched[find(poly(e))];
       if (!t) t = 1, ++count;
     }
-    stats->regions += std::max<std::size_t>(count, 1);
+    return std::max<std::size_t>(count, 1);
   }
-  // Each ring's ends in order along it.
-  std::vector<std::vector<std::size_t>> on_ring(rings.size());
-  for (std::size_t key = 0; key < 2 * n; ++key)
-    if (ends[key].ring >= 0) on_ring[static_cast<std::size_t>(ends[key].ring)].push_back(key);
-  std::vector<std::size_t> slot(2 * n, 0);
-  for (auto& v : on_ring) {
-    std::sort(v.begin(), v.end(), [&](std::size_t a, std::size_t b) {
-      return ends[a].s != ends[b].s ? ends[a].s < ends[b].s : a < b;
-    });
-    for (std::size_t j = 0; j < v.size(); ++j) slot[v[j]] = j;
-  }
-  std::vector<char> used(n, 0);
-  // The neighbour of end `key` along its ring (forward or back) and the boundary between them.
-  auto neighbour = [&](std::size_t key, bool forward, double& length) -> long {
-    const End& e = ends[key];
-    if (e.ring < 0) return -1;
-    const auto& v = on_ring[static_cast<std::size_t>(e.ring)];
-    if (v.size() < 2) return -1;
-    const std::size_t m = v.size(), j = slot[key];
-    const std::size_t other = v[forward ? (j + 1) % m : (j + m - 1) % m];
-    const double total = cum[static_cast<std::size_t>(e.ring)].back();
-    double d = forward ? ends[other].s - e.s : e.s - ends[other].s;
-    const bool wraps = forward ? j + 1 == m : j == 0;
-    if (wraps) d += total;
-    length = d;
-    return static_cast<long>(other);
+
+ private:
+  struct End {
+    long ring = -1;
+    std::size_t edge = 0;
+    double s = 0;
   };
+  const std::vector<std::vector<Vec2>>& lines_;
+  std::vector<const std::vector<Vec2>*> rings_;
+  std::vector<End> ends_;
+  std::vector<std::vector<double>> cum_;
+  std::vector<std::vector<std::size_t>> on_ring_;
+  std::vector<std::size_t> slot_;
+};
+
+}  // namespace
+
+std::vector<std::vector<Vec2>> connect_fill(const std::vector<std::vector<Vec2>>& lines,
+                                            const Regions& region, double max_connector,
+                                            ConnectStats* stats, double tolerance) {
+  const std::size_t n = lines.size();
+  std::vector<std::vector<Vec2>> chains;
+  if (stats) stats->lines += n;
+  const FillEnds ends(lines, region, tolerance);
+  if (stats && n > 0) stats->regions += ends.regions(region);
+  std::vector<char> used(n, 0);
   auto usable = [&](std::size_t key, bool forward, double& length) -> long {
-    const long other = neighbour(key, forward, length);
+    const long other = ends.neighbour(key, forward, length);
     if (other < 0) return -1;
     const std::size_t line = static_cast<std::size_t>(other) / 2;
     if (line == key / 2 || used[line] || !(max_connector > 0) || length > max_connector) return -1;
@@ -327,29 +379,6 @@ std::vector<std::vector<Vec2>> connect_fill(const std::vector<std::vector<Vec2>>
     double l = 0;
     return (usable(key, true, l) >= 0 ? 1 : 0) + (usable(key, false, l) >= 0 ? 1 : 0);
   };
-  // The boundary's vertices strictly between end `from` and end `to` (its neighbour).
-  auto connector = [&](std::size_t from, std::size_t to, bool forward, std::vector<Vec2>& out) {
-    const End& a = ends[from];
-    const End& b = ends[to];
-    const auto& ring = *rings[static_cast<std::size_t>(a.ring)];
-    const std::size_t m = ring.size();
-    if (forward) {
-      std::size_t count = (b.edge + m - a.edge) % m;
-      if (count == 0 && b.s < a.s) count = m;
-      for (std::size_t k = 1; k <= count; ++k) out.push_back(ring[(a.edge + k) % m]);
-    } else {
-      std::size_t count = (a.edge + m - b.edge) % m;
-      if (count == 0 && b.s > a.s) count = m;
-      for (std::size_t k = 0; k < count; ++k) out.push_back(ring[(a.edge + m - k) % m]);
-    }
-  };
-  auto append_line = [&](std::vector<Vec2>& chain, std::size_t entry) {
-    const auto& line = lines[entry / 2];
-    if (entry % 2 == 0)
-      chain.insert(chain.end(), line.begin(), line.end());
-    else
-      chain.insert(chain.end(), line.rbegin(), line.rend());
-  };
   // Extends `chain` (ending at end `exit`) while a connector to an unused line exists.
   auto extend = [&](std::vector<Vec2>& chain, std::size_t exit) {
     for (;;) {
@@ -358,9 +387,9 @@ std::vector<std::vector<Vec2>> connect_fill(const std::vector<std::vector<Vec2>>
       if (f < 0 && b < 0) return exit;
       const bool forward = f >= 0 && (b < 0 || lf <= lb);
       const std::size_t entry = static_cast<std::size_t>(forward ? f : b);
-      connector(exit, entry, forward, chain);
+      ends.connector(exit, entry, forward, chain);
       if (stats) stats->connector_length += forward ? lf : lb;
-      append_line(chain, entry);
+      ends.append_line(chain, entry);
       used[entry / 2] = 1;
       exit = entry ^ 1;
     }
@@ -371,7 +400,7 @@ std::vector<std::vector<Vec2>> connect_fill(const std::vector<std::vector<Vec2>>
     // Start from the end with fewer ways on, so the chain walks away from a dead end.
     const std::size_t entry = options(2 * i + 1) < options(2 * i) ? 2 * i + 1 : 2 * i;
     std::vector<Vec2> chain;
-    append_line(chain, entry);
+    ends.append_line(chain, entry);
     extend(chain, entry ^ 1);
     if (options(entry) > 0) {  // and backwards from where it began
       std::reverse(chain.begin(), chain.end());
@@ -381,6 +410,120 @@ std::vector<std::vector<Vec2>> connect_fill(const std::vector<std::vector<Vec2>>
   }
   if (stats) stats->chains += chains.size();
   return chains;
+}
+
+std::vector<std::vector<Vec2>> pair_fill(const std::vector<std::vector<Vec2>>& lines,
+                                         const Regions& region, double max_connector,
+                                         std::vector<std::vector<Vec2>>* rest,
+                                         std::vector<std::vector<std::size_t>>* odd_runs,
+                                         double tolerance) {
+  const std::size_t n = lines.size();
+  const FillEnds ends(lines, region, tolerance);
+  // Line i's possible partners j: an end of j neighbours i's first point along the boundary and
+  // j's other end neighbours i's last point, both within max_connector (two lines side by side
+  // whose ends can be turned into each other on both sides).
+  struct Partner {
+    std::size_t j;
+    std::size_t near_first, near_last;  // j's ends beside i's first and last point
+    bool first_forward, last_forward;   // the way along the boundary from i's end to them
+  };
+  std::vector<std::vector<Partner>> partners(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    if (lines[i].size() < 2) continue;
+    for (const bool f0 : {true, false}) {
+      double l0 = 0;
+      const long a = ends.neighbour(2 * i, f0, l0);
+      if (a < 0 || static_cast<std::size_t>(a) / 2 == i || !(l0 <= max_connector)) continue;
+      const std::size_t b = static_cast<std::size_t>(a) ^ 1;
+      for (const bool f1 : {true, false}) {
+        double l1 = 0;
+        if (ends.neighbour(2 * i + 1, f1, l1) != static_cast<long>(b) || !(l1 <= max_connector))
+          continue;
+        const std::size_t j = b / 2;
+        if (std::none_of(partners[i].begin(), partners[i].end(),
+                         [&](const Partner& p) { return p.j == j; }))
+          partners[i].push_back({j, static_cast<std::size_t>(a), b, f0, f1});
+      }
+    }
+  }
+  // Partners make paths and cycles (a line has at most two, its neighbours on either side);
+  // each paired from one end, alternately, so a run of k lines makes k/2 loops.
+  std::vector<char> done(n, 0);
+  std::vector<std::vector<Vec2>> loops;
+  auto make = [&](std::size_t i, const Partner& p) {
+    // Line i first to last, the boundary to j, j back, the boundary to i's first point.
+    std::vector<Vec2> loop;
+    ends.append_line(loop, 2 * i);
+    ends.connector(2 * i + 1, p.near_last, p.last_forward, loop);
+    ends.append_line(loop, p.near_last);
+    ends.connector(p.near_first, 2 * i, !p.first_forward, loop);
+    loop.push_back(loop.front());
+    done[i] = done[p.j] = 1;
+    loops.push_back(std::move(loop));
+  };
+  auto mutual = [&](std::size_t i, std::size_t j) {
+    return std::any_of(partners[j].begin(), partners[j].end(),
+                       [&](const Partner& p) { return p.j == i; });
+  };
+  // The partner of i in a run other than `from` (SIZE_MAX: none).
+  auto next_in_run = [&](std::size_t i, std::size_t from) {
+    for (const Partner& p : partners[i])
+      if (p.j != from && mutual(i, p.j)) return p.j;
+    return SIZE_MAX;
+  };
+  auto line_length = [&](std::size_t i) {
+    double l = 0;
+    for (std::size_t k = 1; k < lines[i].size(); ++k) l += len(lines[i][k] - lines[i][k - 1]);
+    return l;
+  };
+  // Pairs the run (a path of lines) in order, the first with the second, …
+  auto pair_run = [&](const std::vector<std::size_t>& run) {
+    for (std::size_t k = 0; k + 1 < run.size(); k += 2)
+      for (const Partner& p : partners[run[k]])
+        if (p.j == run[k + 1]) {
+          make(run[k], p);
+          break;
+        }
+  };
+  std::vector<char> seen(n, 0);
+  for (std::size_t i = 0; i < n; ++i) {
+    // Runs from their ends (a line with one partner); an odd run leaves its shorter end line.
+    std::size_t count = 0;
+    for (const Partner& p : partners[i]) count += mutual(i, p.j);
+    if (seen[i] || count != 1) continue;
+    std::vector<std::size_t> run{i};
+    seen[i] = 1;
+    for (std::size_t prev = SIZE_MAX, at = i;;) {
+      const std::size_t nx = next_in_run(at, prev);
+      if (nx == SIZE_MAX || seen[nx]) break;
+      seen[nx] = 1;
+      run.push_back(nx);
+      prev = at, at = nx;
+    }
+    if (run.size() % 2 == 1 && line_length(run.front()) < line_length(run.back()))
+      std::reverse(run.begin(), run.end());
+    if (odd_runs && run.size() % 2 == 1 && run.size() > 1) odd_runs->push_back(run);
+    pair_run(run);
+  }
+  for (std::size_t i = 0; i < n; ++i) {
+    // Cycles: from any line round.
+    if (seen[i] || partners[i].empty()) continue;
+    std::vector<std::size_t> run{i};
+    seen[i] = 1;
+    for (std::size_t prev = SIZE_MAX, at = i;;) {
+      const std::size_t nx = next_in_run(at, prev);
+      if (nx == SIZE_MAX || seen[nx]) break;
+      seen[nx] = 1;
+      run.push_back(nx);
+      prev = at, at = nx;
+    }
+    if (odd_runs && run.size() % 2 == 1 && run.size() > 1) odd_runs->push_back(run);
+    pair_run(run);
+  }
+  if (rest)
+    for (std::size_t i = 0; i < n; ++i)
+      if (!done[i]) rest->push_back(lines[i]);
+  return loops;
 }
 
 // ---------------------------------------------------------------- seams

@@ -36,7 +36,8 @@ struct Fidelity {
 
 // layers > 0: only that many slicing planes, spread over the height. px: coverage pixel (mm).
 Fidelity run(const Field& f, int colors, double h, bool concentric, double bead = 0.4,
-             double material_resolution = 0.2, std::size_t layers = 0, double px = 0.05) {
+             double material_resolution = 0.2, std::size_t layers = 0, double px = 0.05,
+             FgmOrder order = FgmOrder::Paths) {
   FieldSliceOptions so;
   so.resolution = 0.1;
   const BBox3 e = f.extent();
@@ -52,6 +53,7 @@ Fidelity run(const Field& f, int colors, double h, bool concentric, double bead 
   o.layer_height = h;
   o.bead_width = bead;
   o.concentric = concentric;
+  o.order = order;
   // The wavy iso-lines of the test designs curve on a millimetre scale.
   o.material_resolution = material_resolution;
   o.palette.materials = static_cast<int>(f.materials().size());
@@ -88,7 +90,8 @@ Fidelity run(const Field& f, int colors, double h, bool concentric, double bead 
   // bead nearer than a bead to its neighbour is kept while it overlaps by less than half a bead,
   // else dropped, leaving a gap under half a bead that the overlaps' material flows into; so a
   // pixel counts when a bead's edge is within a quarter bead. Gaps wider than half a bead (a bead
-  // missing) show as uncovered.
+  // missing) show as uncovered. A path wider than the bead (in path order, lines further apart
+  // than a bead extrude more: Path::width, flow) counts with its width.
   for (std::size_t li = 0; li < tp.layers.size(); ++li) {
     const Regions& out = outlines[li].regions;
     BBox3 b;
@@ -97,7 +100,8 @@ Fidelity run(const Field& f, int colors, double h, bool concentric, double bead 
     const auto nx = static_cast<int>((b.max.x - b.min.x) / px) + 1;
     const auto ny = static_cast<int>((b.max.y - b.min.y) / px) + 1;
     std::vector<char> paint(static_cast<std::size_t>(nx) * ny, 0);
-    for (const auto& p : tp.layers[li].paths)
+    for (const auto& p : tp.layers[li].paths) {
+      const double reach = 0.75 * (p.width > 0 ? p.width : bead);
       for (std::size_t k = 0; k + 1 < p.points.size(); ++k) {
         const Vec3 a{p.points[k].x, p.points[k].y, 0}, c{p.points[k + 1].x, p.points[k + 1].y, 0};
         const int x0 = std::max(0, static_cast<int>((std::min(a.x, c.x) - bead - b.min.x) / px));
@@ -107,9 +111,10 @@ Fidelity run(const Field& f, int colors, double h, bool concentric, double bead 
         for (int iy = y0; iy <= y1; ++iy)
           for (int ix = x0; ix <= x1; ++ix) {
             const Vec3 q{b.min.x + (ix + 0.5) * px, b.min.y + (iy + 0.5) * px, 0};
-            if (distance_to_segment(q, a, c) <= 0.75 * bead + 1e-9) paint[static_cast<std::size_t>(iy) * nx + ix] = 1;
+            if (distance_to_segment(q, a, c) <= reach + 1e-9) paint[static_cast<std::size_t>(iy) * nx + ix] = 1;
           }
       }
+    }
     // Pixels inside the outline by scanlines: each row's crossings with every ring, even-odd.
     std::size_t inside = 0, covered = 0;
     std::vector<double> xs;
@@ -581,18 +586,27 @@ TEST(Fgm, AppendixBDesignsAndRandomFieldsStayWithinTheBand) {
     cases.push_back({design(vcad), expr, 2 + static_cast<int>(rng() % static_cast<unsigned>(most - 1)),
                      0.25});
   }
-  for (const auto& c : cases) {
-    const double extent = std::max(c.field.extent().max.x - c.field.extent().min.x,
-                                   c.field.extent().max.y - c.field.extent().min.y);
-    const Fidelity r = run(c.field, c.colors, 0.3, false, 0.4, c.material_resolution, 3,
-                           extent > 40 ? 0.1 : 0.05);
-    const double half_band = 0.5 / c.colors;
-    EXPECT_GT(r.segments, 0u) << c.name;
-    EXPECT_LE(r.max_error, half_band + 1.2e-4) << c.name;
-    EXPECT_GE(r.coverage, 0.98) << c.name;
-    std::printf("%s, %d colours: max error %.5f (half band %.5f), coverage %.4f\n", c.name.c_str(),
-                c.colors, r.max_error, half_band, r.coverage);
-  }
+  for (const auto& c : cases)
+    for (const FgmOrder order : {FgmOrder::Faces, FgmOrder::Paths}) {
+      const double extent = std::max(c.field.extent().max.x - c.field.extent().min.x,
+                                     c.field.extent().max.y - c.field.extent().min.y);
+      const Fidelity r = run(c.field, c.colors, 0.3, false, 0.4, c.material_resolution, 3,
+                             extent > 40 ? 0.1 : 0.05, order);
+      const double half_band = 0.5 / c.colors;
+      EXPECT_GT(r.segments, 0u) << c.name;
+      // Face by face every bead stays half a bead inside its face; in path order a bead is cut
+      // where it crosses a face's edge (those edges follow the iso-lines to 1e-4 of a band), and
+      // the G-code rounds the cut to 1 µm.
+      EXPECT_LE(r.max_error, half_band + (order == FgmOrder::Faces ? 1.2e-4 : 1e-3 / c.colors + 2e-4))
+          << c.name << " " << to_string(order);
+      // In path order the lines are level lines a bead apart: where the iso-lines fold at the
+      // scale of a few beads (these random fields: ridges and saddles 5 mm apart on a 16 mm
+      // plate) the corners of their folds and the saddles stay partly open (the face-by-face
+      // fill puts gap fill there, a bead each); on the palette plate 99 % (test_fgm_outline).
+      EXPECT_GE(r.coverage, order == FgmOrder::Faces ? 0.98 : 0.97) << c.name << " " << to_string(order);
+      std::printf("%s, %d colours, %s: max error %.5f (half band %.5f), coverage %.4f\n",
+                  c.name.c_str(), c.colors, to_string(order), r.max_error, half_band, r.coverage);
+    }
 }
 
 TEST(Fgm, Strategy2LinesRunAlongTheIsoLines) {
@@ -641,9 +655,10 @@ TEST(Fgm, Strategy2LinesRunAlongTheIsoLines) {
 }
 
 TEST(Fgm, Strategy2BeadsStayInsideTheirFace) {
-  // No bead crosses into another face: every path point of a colour lies in that colour's face
-  // (recomputed) at least half a bead from its edge (1 µm slack), rings, lines and
-  // gap fill alike, for rectilinear and concentric fills, two and three materials.
+  // The paper's face-by-face fill (fgm.order = faces): no bead crosses into another face: every
+  // path point of a colour lies in that colour's face (recomputed) at least half a bead from its
+  // edge (1 µm slack), rings, lines and gap fill alike, for rectilinear and concentric fills,
+  // two and three materials.
   const std::vector<std::string> designs = {
       "fgrade([\"0.5 + x/24 + 0.1*sin(y)\", \"0.5 - x/24 - 0.1*sin(y)\"], [\"a\", \"b\"]) {\n"
       "  rectprism(20, 12, 0.3);\n}\n",
@@ -659,6 +674,7 @@ TEST(Fgm, Strategy2BeadsStayInsideTheirFace) {
       o.layer_height = 0.3;
       o.concentric = concentric;
       o.material_resolution = 0.2;
+      o.order = FgmOrder::Faces;
       const Toolpath tp = plan_fgm_strategy2(f, outlines, o);
       Evaluator ev(f);
       // The faces as Strategy 2 cuts them (its edges follow the iso-lines to 1% of a band).
@@ -724,7 +740,7 @@ Balance balance(const Field& f, const std::vector<LayerOutline>& outlines, const
       b.shortest = std::min(b.shortest, p.length());
     }
   b.under5 = paths ? double(short_paths) / double(paths) : 0;
-  const double px = 0.04, w = o.bead_width;
+  const double px = 0.04, w_bead = o.bead_width;
   std::size_t inside = 0, twice = 0;
   EXPECT_EQ(back.layers.size(), outlines.size());
   for (std::size_t li = 0; li < outlines.size() && li < back.layers.size(); ++li) {
@@ -738,6 +754,8 @@ Balance balance(const Field& f, const std::vector<LayerOutline>& outlines, const
     std::vector<unsigned char> count(static_cast<std::size_t>(nx) * ny, 0);
     for (const auto& p : back.layers[li].paths)
       for (std::size_t k = 0; k + 1 < p.points.size(); ++k) {
+        // A path wider than the bead (path order: lines further apart extrude more) as wide.
+        const double w = p.width > 0 ? p.width : w_bead;
         const Vec2 a = p.points[k].xy(), c = p.points[k + 1].xy();
         const Vec2 d = c - a;
         const double len = std::hypot(d.x, d.y);
@@ -791,21 +809,33 @@ TEST(Fgm, Strategy2DepositsThePartsVolumeAtEveryPaletteSize) {
       read_vcad(std::string(TRELLIS_SOURCE_DIR) + "/examples/designs/fgm_palette_plate.vcad").field;
   FieldSliceOptions so;
   const auto outlines = slice_field(f, {0.9}, so);
+  // Face by face (fgm.order = faces: rectilinear and concentric) and in path order (each island
+  // filled whole, its beads cut at the colour edges; concentric stays face by face).
+  struct Fill {
+    bool concentric;
+    FgmOrder order;
+  };
   for (int colors : {4, 12, 24, 48})
-    for (bool concentric : {false, true}) {
+    for (const Fill fill : {Fill{false, FgmOrder::Faces}, Fill{true, FgmOrder::Faces},
+                            Fill{false, FgmOrder::Paths}}) {
+      const bool concentric = fill.concentric;
       FgmOptions o;
       o.palette.colors = colors;
       o.layer_height = 0.2;
       o.bead_width = 0.4;
       o.concentric = concentric;
+      o.order = fill.order;
       const Balance b = balance(f, outlines, o);
-      std::printf("colours %2d %-11s volume x%.4f, double coverage %.2f %%, shortest path %.3f mm, "
-                  "%.1f %% of paths under 5 mm\n",
-                  colors, concentric ? "concentric" : "rectilinear", b.ratio, 100 * b.double_,
-                  b.shortest, 100 * b.under5);
-      EXPECT_NEAR(b.ratio, 1.0, 0.03) << colors << (concentric ? " concentric" : " rectilinear");
-      EXPECT_LE(b.double_, 0.05) << colors << (concentric ? " concentric" : " rectilinear");
-      // No piece shorter than a bead is printed (trimmed remnants are dropped).
-      EXPECT_GE(b.shortest, o.bead_width - 2e-3) << colors << (concentric ? " concentric" : " rectilinear");
+      const std::string what = std::to_string(colors) + (concentric ? " concentric " : " rectilinear ") +
+                               to_string(fill.order);
+      std::printf("colours %2d %-11s %-5s volume x%.4f, double coverage %.2f %%, shortest path "
+                  "%.3f mm, %.1f %% of paths under 5 mm\n",
+                  colors, concentric ? "concentric" : "rectilinear", to_string(fill.order), b.ratio,
+                  100 * b.double_, b.shortest, 100 * b.under5);
+      EXPECT_NEAR(b.ratio, 1.0, 0.03) << what;
+      EXPECT_LE(b.double_, 0.05) << what;
+      // Face by face no piece shorter than a bead is printed (trimmed remnants are dropped); in
+      // path order a piece is a run of one mixture inside a bead, as short as a crossing makes it.
+      if (fill.order == FgmOrder::Faces) EXPECT_GE(b.shortest, o.bead_width - 2e-3) << what;
     }
 }

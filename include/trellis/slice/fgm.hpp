@@ -1,11 +1,13 @@
 // Gradient-informed slicing of functionally graded designs (FGM paper, §3.2.3 and §3.5): the
 // first material's volume fraction f ∈ [0, 1] is cut into a palette of N colours (bands of
 // width α = 1/N, each printed at its mid value); every layer's outline is cut into colour faces
-// along iso-contours of f; Strategy 2 offsets each face inward by half a bead and fills it
-// completely (rings, then 100 % rectilinear inside them along the iso-lines, or concentric
-// rings), each face's pieces chained into few beads, face by face in palette order (reversed
-// every other layer) or, in path order, island by island nearest first; each path carries its
-// mixture (written as M165 by the G-code writer).
+// along iso-contours of f; Strategy 2 either (the paper's, face order and tool changers) offsets
+// each face inward by half a bead and fills it completely (rings, then 100 % rectilinear inside
+// them along the iso-lines, or concentric rings), each face's pieces chained into few beads, face
+// by face in palette order (reversed every other layer), or (path order on a machine that changes
+// the mixture along a bead) fills each island whole — rings around its outline, lines along the
+// iso-lines inside them, joined into few beads — and cuts the beads at the faces' edges as
+// Strategy 1 does; each path carries its mixture (written as M165 by the G-code writer).
 //
 // Two- and three-material designs (`fgrade` with two or three fractions).
 #pragma once
@@ -87,6 +89,7 @@ std::vector<Regions> level_slabs(const Field& field, Evaluator& evaluator, doubl
 // inside a bead: its pieces are grouped by tool (palette order) and chained nearest first within
 // a tool, the tower priming each tool. Faces: the paper's Algorithm 2, colour by colour in
 // palette order, the planar order within a colour, a purge before each colour change.
+// Strategy 2 in path order (not on a tool changer, not concentric): see plan_fgm_strategy2.
 enum class FgmOrder { Paths, Faces };
 const char* to_string(FgmOrder order);
 
@@ -101,12 +104,14 @@ struct FgmOptions {
   // only has to be finer than the features of the gradient (contour chords between grid cells
   // deviate by c²/8ρ: 6 µm for 1 mm cells on a 20 mm curvature radius); at least half a bead.
   double material_resolution = 1.0;
-  bool concentric = false;    // concentric fill instead of 100 % rectilinear
-  double fill_overlap = 0.25; // Strategy 2: rectilinear lines reach this share of a bead into the ring
-  // Strategy 2, rectilinear: rings around each colour face before its lines (the paper's
-  // palette plates: 3 perimeters, §7.5)
+  bool concentric = false;    // concentric fill instead of 100 % rectilinear (face by face)
+  // Strategy 2 face by face: rectilinear lines reach this share of a bead into the ring (in path
+  // order the lines reach the innermost ring's bead)
+  double fill_overlap = 0.25;
+  // Strategy 2, rectilinear: rings around each colour face (face order) or each island's
+  // outline (path order) before its lines (the paper's palette plates: 3 perimeters, §7.5)
   int perimeters = 3;
-  bool gap_fill = true;       // Strategy 2: lines through what the beads leave uncovered
+  bool gap_fill = true;       // Strategy 2 face by face: lines through what the beads leave uncovered
   // Strategy 2's rectilinear lines run along the local iso-line (perpendicular to the gradient,
   // as the paper prints), directions sampled on the material grid: a polygon of a face's fill
   // whose directions agree (the mean resultant length of the doubled angles at least
@@ -261,11 +266,21 @@ void add_prime_tower(Toolpath& toolpath, const FgmOptions& options, const PurgeO
                      FgmStats& stats);
 
 // Strategy 2 over the layer outlines (from slice_field). Paths carry mixture {m, 1-m} with m the
-// band's mid value of the first material. Each face's rings, lines and gap fill are chained into
-// few beads (rings whole, ring to ring; lines into serpentines); in face order the faces print
-// colour by colour in palette order (reversed every other layer), in path order (not on a tool
-// changer) the beads of every face are ordered for the least travel (nearest neighbour, then
-// 2-opt); travel between beads is routed inside the part where it can be (Path::via, inside).
+// band's mid value of the first material.
+// Face order, a tool changer, or concentric: the paper's fill, each face on its own: its rings,
+// lines and gap fill chained into few beads (rings whole, ring to ring; lines into
+// serpentines), the faces colour by colour in palette order (reversed every other layer), or on
+// a tool changer in path order island by island nearest first.
+// Path order otherwise (a mixing hotend or a temperature-graded filament: the mixture changes
+// along a bead): each island filled whole (src/slice/fgm_outline.hpp): fgm.perimeters rings
+// around its outline, inside them level lines a bead apart of a potential whose gradient follows
+// the material iso-lines (perpendicular to the gradient, wider or narrower where they spread or
+// bunch: Path::flow), paired into loops and bridged with the inner rings into few beads (one per
+// island where every run of lines pairs); the beads cut where they cross a colour zone's edge
+// into joined pieces with their colour's mixture (Strategy 1's cutter, short runs merged within
+// the bound), so every point's mixture is within the palette's bound by construction and the
+// outline is filled once.
+// Travel between beads is routed inside the part where it can be (Path::via, inside).
 Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>& layers,
                             const FgmOptions& options, FgmStats* stats = nullptr);
 

@@ -58,6 +58,21 @@ std::vector<std::vector<Vec2>> connect_fill(const std::vector<std::vector<Vec2>>
                                             const Regions& region, double max_connector,
                                             ConnectStats* stats = nullptr, double tolerance = 1e-4);
 
+// Lines of one region's fill (as connect_fill takes them) paired into closed loops: two lines
+// side by side whose ends neighbour each other along the boundary on both sides (each piece of
+// boundary at most `max_connector`) make a loop (one line, the boundary to the other, back
+// along it, the boundary to the start: a racetrack); a run of such lines is paired from one end,
+// so a run of k lines makes k/2 loops (an odd run leaves the shorter of its end lines). Returns
+// the loops (first == last); the lines left over go to *rest in the order given, and the runs of
+// an odd number of lines (their lines' indices in order, side by side) to *odd_runs. Loops lying
+// side by side can be joined into one by a bridge (two short cross connectors for two short
+// spans), which no serpentine's ends allow.
+std::vector<std::vector<Vec2>> pair_fill(const std::vector<std::vector<Vec2>>& lines,
+                                         const Regions& region, double max_connector,
+                                         std::vector<std::vector<Vec2>>* rest,
+                                         std::vector<std::vector<std::size_t>>* odd_runs = nullptr,
+                                         double tolerance = 1e-4);
+
 // The vertex a closed ring (first point not repeated) starts at. Aligned: the sharpest concave
 // corner sharper than 30° (a seam hides there), else the sharpest convex corner sharper than
 // 60°, else the rear-most vertex (largest y, then smallest x), so similar layers put their
