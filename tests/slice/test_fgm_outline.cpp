@@ -289,8 +289,11 @@ TEST(FgmOutline, TheIslandIsCoveredOnce) {
   };
   std::vector<Run> runs;
   runs.push_back({"palette plate, middle layer", plate, slice_field(plate, {0.9}, FieldSliceOptions{}), 24});
-  for (const Case& c : cases()) {
-    if (c.materials != 2) continue;
+  std::vector<Case> all = cases();
+  // A design clamped flat over most of the plate (f = 0 for x < -4, 1 for x > 4): no level line
+  // passes there; the three-material disc is flat where one fraction is clamped at 0.
+  all.push_back({"clamped slope", two_materials("0.5 + x/8", "rectprism(30, 20, 0.6);"), 8, 2, 0.5});
+  for (const Case& c : all) {
     Field f = parse_vcad(c.vcad, "test.vcad").field;
     const BBox3 e = f.extent();
     auto outlines = slice_field(f, {0.5 * (e.min.z + e.max.z)}, FieldSliceOptions{});
@@ -310,7 +313,12 @@ TEST(FgmOutline, TheIslandIsCoveredOnce) {
     std::printf("%-70s covered %.4f (exact width %.4f), under three %.5f\n", r.name.c_str(),
                 wide.coverage, exact.coverage, exact.three);
     EXPECT_GE(wide.coverage, &r == &runs.front() ? 0.99 : 0.95);
-    EXPECT_LE(exact.three, 5e-4);
+    // Designs flat over part of the island (a fraction clamped): the level lines bordering the
+    // flat part (g spreads them, and the line put into an odd run there) overlap so that 2-3.5 %
+    // lies under three beads — a known fault (README, "Not in this release"), bounded here so
+    // it cannot grow unseen; elsewhere hardly a pixel.
+    const bool flat_part = r.name == "clamped slope" || r.name == "three materials";
+    EXPECT_LE(exact.three, flat_part ? 0.04 : 5e-4);
   }
 }
 
