@@ -1233,7 +1233,9 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
   Vec2 sheet_period{0, 0};
   if (o.periodic_tiles && (design.thickness > 0 || c_field.empty())) {
     const Vec3 p = design.phi.period();
-    if (p.x > 0 && p.y > 0) sheet_period = {p.x, p.y};
+    // A period wider than the part never repeats inside it, and a tile's grid spans a whole
+    // period (a 947 mm cell on a 3 mm part was a 34 GB grid): no tiles then.
+    if (p.x > 0 && p.y > 0 && p.x <= hi.x - lo.x && p.y <= hi.y - lo.y) sheet_period = {p.x, p.y};
   }
   // The tiles pay where the part is the sheet alone over much of its extent; elsewhere their
   // smaller blocks only cost (e.g. a lattice cut by another lattice, whose envelope is

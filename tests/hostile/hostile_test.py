@@ -333,6 +333,43 @@ def gcode_cases():
         case(f"gcode strict {n}", ["analyze", "bad.gcode", "--strict"], "bad.gcode:1", {"bad.gcode": body})
 
 
+def nonsense_cases():
+    """Values that parse but mean nothing (issue 47): refused naming the value, nothing written."""
+    mixed = ('{"format": "trellis.toolpath", "version": 1, "units": "mm", "layers": [{"z": 0.2, "paths": [{"points": '
+             '[[0,0,0.2],[10,0,0.2]], "role": "strut", "tool": 0, "width": 0.4, "height": 0.2, "mixture": [%s]}]}]}')
+    for n, mixture in {"negative": "-0.5, 1.5", "above 1": "0.2, 1.2", "three": "0.5, 0.7, -0.2"}.items():
+        case(f"toolpath mixture {n}", ["gcode", "mix.json", "--machine", MIXING, "-o", "out/x.gcode"], "mixture",
+             {"mix.json": (mixed % mixture).encode()})
+    for flag, value in (("--bead-width", "1e308"), ("--bead-width", "inf"), ("--bead-width", "nan"),
+                        ("--height", "1e308"), ("--height", "-inf")):
+        case(f"walls {flag} {value}", ["walls", "l.json", flag, value, "-o", "out/x.stl"], flag,
+             {"l.json": TINY_LATTICE})
+    for value in ("nan", "inf", "1e308"):
+        case(f"analyze --layer-height {value}", ["analyze", "g.gcode", "--layer-height", value], "--layer-height",
+             {"g.gcode": b"G21\nG90\nM83\nG1 X0 Y0 Z0.2\nG1 X10 Y0 E1\n"})
+    case("analyze --bead-width inf", ["analyze", "g.gcode", "--bead-width", "inf"], "--bead-width",
+         {"g.gcode": b"G1 X10 Y0 E1\n"})
+    for value in ("-1", "-5"):
+        case(f"render --layer {value}", ["render", "tp.json", "--layer", value, "-o", "out/x.png"], "--layer",
+             {"tp.json": None})
+    case("render --bead-width nan", ["render", "tp.json", "--layer", "0", "--bead-width", "nan", "-o", "out/x.png"],
+         "--bead-width", {"tp.json": None})
+    # A height-field grid far beyond memory (an 8 TB allocation before) or beyond any integer.
+    for value in ("1e-5", "1e-300"):
+        case(f"surface --resolution {value}", ["surface", "miura", "--resolution", value, "-o", "out/x.stl"],
+             "surface.resolution")
+
+
+def big_cell_check():
+    """A TPMS cell far larger than the part (a 947 mm cell on a 3.2 mm box allocated 34 GB for
+    its periodic tiles) runs within a normal part's memory."""
+    with tempfile.TemporaryDirectory(prefix="hostile_cell_") as d:
+        mb, rc = peak_memory_mb(["pbf", "--cell", "947", "--size", "3.2,3.2,3.2", "-o", "x.cli"], d)
+        if rc != 0 or mb > 1000 or not os.path.exists(os.path.join(d, "x.cli")):
+            return [f"pbf --cell 947 --size 3.2,3.2,3.2: exit {rc}, peak {mb:.0f} MB"]
+    return []
+
+
 def runaway_cases():
     def big(args, where="refused before starting", files=None):
         case("runaway " + " ".join(a for a in args if "/" not in a), args, where, files, runaway=True)
@@ -502,6 +539,7 @@ def main():
     profile_cases()
     job_cases()
     gcode_cases()
+    nonsense_cases()
     runaway_cases()
     if "--list" in sys.argv:
         for c in CASES:
@@ -511,7 +549,7 @@ def main():
     with concurrent.futures.ThreadPoolExecutor(max_workers=2) as pool:
         failures = [f for f in pool.map(run_case, CASES) if f]
     output_problems, output_counts = outputs.checks(TRELLIS, ROOT)
-    failures += memory_checks() + output_problems + umask_check()
+    failures += memory_checks() + output_problems + umask_check() + big_cell_check()
     print(f"{len(CASES)} hostile inputs, {len(failures)} problem(s), {time.monotonic() - t0:.0f} s")
     print("outputs (tests/hostile/outputs.py), runs per class: " +
           ", ".join(f"{k} {v}" for k, v in output_counts.items()))
