@@ -127,7 +127,7 @@ def test_lattices_from_numpy_and_bad_arrays_name_the_argument():
         (lambda: trellis.Lattice.from_arrays(nodes, edges, material=[0, 300, 0, 0]), "material[1]"),
         (lambda: trellis.Lattice.from_arrays(nodes, edges, material=[0, 0, -1, 0]), "material[2]"),
         (lambda: trellis.Lattice.from_arrays(nodes, edges, material=[0, 0.5, 0, 0]), "material"),
-        (lambda: trellis.Lattice.from_arrays(nodes * [1, 1e300, 1], edges), "nodes[1]"),
+        (lambda: trellis.Lattice.from_arrays(nodes * [1, 1e300, 1], edges), "nodes[2]"),
         (lambda: trellis.Lattice.from_arrays(nodes, np.array([[0, 2**62]])), "edges[0]"),
         (lambda: trellis.Lattice.from_arrays(nodes, np.array([[0, 2**64 - 1]], np.uint64)), "edges[0]"),
     ]
@@ -207,12 +207,14 @@ def test_python_values_reach_files_only_through_escaping_writers(tmp_path, monke
     assert r.lattice.edge_count > 0
     # Toolpath.png: rendered in a private folder, not a predictable /tmp/trellis_py_<address>.png
     # (a planted symbolic link there would be written through), and the folder removed.
-    monkeypatch.setenv("TMPDIR", str(tmp_path))
     tp = trellis.plan("euler", trellis.lattice2d(pattern="square", cell=2, size=(6, 6)).lattice).toolpath
-    created = _created_in(tmp_path, lambda: tp.png(0, 64))
+    tmp = tmp_path / "tmp"
+    tmp.mkdir()
+    monkeypatch.setenv("TMPDIR", str(tmp))
+    created = _created_in(tmp, lambda: tp.png(0, 64))
     assert created and all(is_dir and name.startswith("trellis_png_") and name != "trellis_png_XXXXXX"
                            for name, is_dir in created), created
-    assert os.listdir(tmp_path) == []
+    assert os.listdir(tmp) == []
     with pytest.raises(trellis.SettingError) as e:
         tp.png(0, 10**6)
     assert e.value.element == "size"
