@@ -1153,7 +1153,21 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
   double c_const = 0;
   Field c_field;
   if (design.thickness <= 0) {
-    if (!constant_expression(design.c.text, &c_const)) c_field = expression_field(design.c);
+    // c = 1/0 filled the box solid, sqrt(-1) sliced noise: a c that is not a finite number at
+    // the part's centre is refused.
+    const Vec3 centre = e.center();
+    double at_centre = 0;
+    if (!constant_expression(design.c.text, &c_const)) {
+      c_field = expression_field(design.c);
+      at_centre = Evaluator(c_field).value(centre);
+    } else {
+      at_centre = c_const;
+    }
+    if (!std::isfinite(at_centre))
+      throw SettingError(fmt::format("the sheet parameter c = '{}' is {} at the part's centre "
+                                     "({:g}, {:g}, {:g}): it must be a finite number",
+                                     design.c.text, std::isnan(at_centre) ? "not a number" : "infinite", centre.x, centre.y, centre.z),
+                         {"", 0, "pbf.c"});
   }
 
   // A sheet nowhere as narrow as a thin wall has none: its horizontal width 2c / |∇xy φ| is at

@@ -360,6 +360,19 @@ def nonsense_cases():
              "surface.resolution")
 
 
+    # .vcad numbers are decimal (0x10 was read as 16); a blend radius is not negative; a TPMS
+    # sheet's c must be a number (1/0 filled the box solid, sqrt(-1) sliced noise).
+    for n, (body, where) in {"hex": (b"sphere(0x10);\n", "bad.vcad:1:8"),
+                             "hex float": (b"sphere(0x1p3);\n", "bad.vcad:1:8"),
+                             "negative blend": (b"union(-1) {\n  sphere(2);\n  cube(2);\n}\n", "bad.vcad:1:7")}.items():
+        case(f"vcad {n}", ["slice", "bad.vcad", "--machine", PROFILE, "-o", "out/x.gcode"], where,
+             {"bad.vcad": body})
+    for c in ("1/0", "sqrt(-1)", "0*x + 1/0"):
+        case(f"pbf c {c}", ["pbf", "--c", c, "--size", "3,3,3", "-o", "out/x.cli"], "pbf.c")
+    case("pbf vcad sheet c sqrt(-1)", ["pbf", "sheet.vcad", "-o", "out/x.cli"], "pbf.c",
+         {"sheet.vcad": b'root((-5,-5,0),(5,5,2),(0.1,0.1,0.1)) {\ngyroid(2.5, "sqrt(-1)");\n}\n'})
+
+
 def big_cell_check():
     """A TPMS cell far larger than the part (a 947 mm cell on a 3.2 mm box allocated 34 GB for
     its periodic tiles) runs within a normal part's memory."""
