@@ -223,6 +223,10 @@ Job job_from_toml(const std::string& text, const std::string& origin, const std:
           where);
     if (!n.is_string()) throw SettingError("expected a string", where);
     const std::string v = *n.value<std::string>();
+    // An empty path is not "none" (input = "" made the plan route generate a lattice instead):
+    // leave the key out for none.
+    if (v.empty() && key != "command")
+      throw SettingError("an empty string: leave the key out for none", where);
     if (key == "route") job.route = v;
     else if (key == "name") job.name = v;
     else if (key == "input") job.input = resolve(base, v);

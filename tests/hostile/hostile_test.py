@@ -373,6 +373,32 @@ def nonsense_cases():
          {"sheet.vcad": b'root((-5,-5,0),(5,5,2),(0.1,0.1,0.1)) {\ngyroid(2.5, "sqrt(-1)");\n}\n'})
 
 
+    # File readers: an STL facet without its loop, an OBJ face index that is not an integer, a
+    # laser build file whose $$UNITS scale its coordinates beyond ±1e6 mm.
+    def tetra(drop):
+        """A closed tetrahedron in ASCII STL with `drop` left out of its second facet."""
+        v = [(0, 0, 0), (10, 0, 0), (0, 10, 0), (0, 0, 10)]
+        out = ["solid t"]
+        for k, (a, b, c) in enumerate([(0, 2, 1), (0, 1, 3), (0, 3, 2), (1, 2, 3)]):
+            facet = ["facet normal 0 0 0", "outer loop"] + [f"vertex {v[i][0]} {v[i][1]} {v[i][2]}" for i in (a, b, c)]
+            facet += ["endloop", "endfacet"]
+            out += [x for x in facet if k != 1 or x != drop]
+        return ("\n".join(out + ["endsolid t"]) + "\n").encode()
+    stl = {"no endloop": tetra("endloop"), "no outer loop": tetra("outer loop")}
+    for n, body in stl.items():
+        case(f"mesh stl {n}", ["slice", "m.stl", "--machine", PROFILE, "-o", "out/x.gcode"], "m.stl:", {"m.stl": body})
+    case("mesh obj face 1.5", ["slice", "m.obj", "--machine", PROFILE, "-o", "out/x.gcode"], "m.obj:5",
+         {"m.obj": b"v 0 0 0\nv 10 0 0\nv 0 10 0\nv 0 0 10\nf 1.5 2 3\nf 1 2 4\nf 1 3 4\nf 2 3 4\n"})
+    for units in ("1e300", "1e10"):
+        case(f"cli $$UNITS/{units}", ["analyze", "u.cli"], "u.cli",
+             {"u.cli": f"$$HEADERSTART\n$$ASCII\n$$UNITS/{units}\n$$HEADEREND\n$$GEOMETRYSTART\n$$LAYER/1\n"
+                       "$$HATCHES/1,1,0,0,10,0\n$$GEOMETRYEND\n".encode()})
+    # A job's empty path is not "none": input = "" made the plan route generate a lattice.
+    for key in ("input", "machine", "output", "output_dir"):
+        case(f"job {key} empty", ["run", "job.toml"], "job." + key,
+             {"job.toml": f'[job]\nroute = "plan"\n{key} = ""\n'.encode()})
+
+
 def big_cell_check():
     """A TPMS cell far larger than the part (a 947 mm cell on a 3.2 mm box allocated 34 GB for
     its periodic tiles) runs within a normal part's memory."""
