@@ -403,7 +403,7 @@ def _toml_value(v, key):
 
 def _toml(tables):
     """A job dict as TOML text: {'job': {...}, 'slice': {...}, 'part': [{...}, {...}]} — tables,
-    arrays of tables ([[part]]) and their sub-tables ([part.machine]); every key and string
+    arrays of tables ([[part]]) and their sub-tables ([part.slice]); every key and string
     escaped, so no value can start a table or a key of its own."""
     lines = []
 

@@ -398,6 +398,13 @@ def nonsense_cases():
         case(f"job {key} empty", ["run", "job.toml"], "job." + key,
              {"job.toml": f'[job]\nroute = "plan"\n{key} = ""\n'.encode()})
 
+    # A part of a plate cannot have its own machine, plate or run settings (they were ignored).
+    for section, setting in (("machine", "bed_x = 1"), ("plate", "clearance = 50"), ("run", "threads = 1")):
+        case(f"plate part [{section}]", ["run", "job.toml"], "job.toml:9: part." + section,
+             {"job.toml": ('[job]\nroute = "slice"\noutput_dir = "out"\n'
+                           f'machine = "{PROFILE}"\n[[part]]\ninput = "{DESIGNS}/csg_bracket.vcad"\n'
+                           f'x = 110\ny = 110\n[part.{section}]\n{setting}\n').encode()})
+
 
 def big_cell_check():
     """A TPMS cell far larger than the part (a 947 mm cell on a 3.2 mm box allocated 34 GB for
