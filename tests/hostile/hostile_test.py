@@ -369,6 +369,8 @@ def nonsense_cases():
              {"bad.vcad": body})
     for c in ("1/0", "sqrt(-1)", "0*x + 1/0"):
         case(f"pbf c {c}", ["pbf", "--c", c, "--size", "3,3,3", "-o", "out/x.cli"], "pbf.c")
+    case("pbf vcad sheet cell 0.001", ["pbf", "sheet.vcad", "-o", "out/x.cli"], "sheet.vcad: pbf.resolution",
+         {"sheet.vcad": b'root((-5,-5,0),(5,5,2),(0.1,0.1,0.1)) {\ngyroid(0.001, 0.3);\n}\n'})
     case("pbf vcad sheet c sqrt(-1)", ["pbf", "sheet.vcad", "-o", "out/x.cli"], "pbf.c",
          {"sheet.vcad": b'root((-5,-5,0),(5,5,2),(0.1,0.1,0.1)) {\ngyroid(2.5, "sqrt(-1)");\n}\n'})
 
