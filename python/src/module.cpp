@@ -8,17 +8,17 @@
 #include <pybind11/stl.h>
 
 #include <atomic>
-#include <tuple>
 #include <chrono>
 #include <condition_variable>
 #include <cstdlib>
 #include <filesystem>
 #include <mutex>
 #include <thread>
+#include <tuple>
 
-#include "trellis/core/error.hpp"
 #include "trellis/analysis/collisions.hpp"
 #include "trellis/analysis/metrics.hpp"
+#include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/field/vcad.hpp"
 #include "trellis/job/job.hpp"
@@ -30,8 +30,8 @@
 #include "trellis/machine/machine_check.hpp"
 #include "trellis/render/render.hpp"
 #include "trellis/toolpath/json.hpp"
-#include "trellis/view/view.hpp"
 #include "trellis/version.hpp"
+#include "trellis/view/view.hpp"
 
 namespace py = pybind11;
 using namespace trellis;
@@ -71,10 +71,12 @@ SettingValue to_value(const std::string& name, const py::handle& v) {
   if (py::isinstance<py::bool_>(v)) return v.cast<bool>();
   if (py::isinstance<py::int_>(v) || (PyIndex_Check(v.ptr()) && !py::isinstance<py::array>(v))) {
     int overflow = 0;
-    const long long n = PyLong_AsLongLongAndOverflow(py::int_(py::reinterpret_borrow<py::object>(v)).ptr(), &overflow);
+    const long long n = PyLong_AsLongLongAndOverflow(
+        py::int_(py::reinterpret_borrow<py::object>(v)).ptr(), &overflow);
     if (overflow != 0)
-      throw SettingError("integer " + std::string(py::str(v)) + " is beyond the range of a setting (±9.2e18)",
-                         {"", 0, name});
+      throw SettingError(
+          "integer " + std::string(py::str(v)) + " is beyond the range of a setting (±9.2e18)",
+          {"", 0, name});
     return n;
   }
   if (py::isinstance<py::float_>(v)) return v.cast<double>();
@@ -260,26 +262,32 @@ Graph lattice_from_arrays(const py::object& nodes_obj, const py::object& edges_o
     throw SettingError("edges must be integers (got dtype " + std::string(py::str(e_arr.dtype())) + ")",
                        {"", 0, "edges"});
   const auto edges = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(e_arr);
-  if (nodes.shape(0) == 0) throw SettingError("no nodes: a lattice needs at least one strut", {"", 0, "nodes"});
+  if (nodes.shape(0) == 0)
+    throw SettingError("no nodes: a lattice needs at least one strut", {"", 0, "nodes"});
   Graph g;
   const auto N = nodes.unchecked<2>();
   for (py::ssize_t i = 0; i < nodes.shape(0); ++i) {
     const Vec3 p{N(i, 0), N(i, 1), N(i, 2)};
     if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z) ||
-        std::abs(p.x) > kMaxCoordinate || std::abs(p.y) > kMaxCoordinate || std::abs(p.z) > kMaxCoordinate)
-      throw SettingError("node " + std::to_string(i) + " is not finite or beyond ±1e6 mm (as the file readers refuse)",
+        std::abs(p.x) > kMaxCoordinate || std::abs(p.y) > kMaxCoordinate ||
+        std::abs(p.z) > kMaxCoordinate)
+      throw SettingError("node " + std::to_string(i) +
+                             " is not finite or beyond ±1e6 mm (as the file readers refuse)",
                          {"", 0, "nodes[" + std::to_string(i) + "]"});
     g.nodes.push_back(p);
   }
-  if (edges.shape(0) == 0) throw SettingError("no edges: a lattice needs at least one strut", {"", 0, "edges"});
+  if (edges.shape(0) == 0)
+    throw SettingError("no edges: a lattice needs at least one strut", {"", 0, "edges"});
   const auto E = edges.unchecked<2>();
   std::vector<int> materials;
   if (!material_obj.is_none()) {
     const py::array m_arr = py::array::ensure(material_obj);
     if (m_arr && m_arr.dtype().kind() != 'i' && m_arr.dtype().kind() != 'u')
-      throw SettingError("material must be integers 0..255 (got dtype " + std::string(py::str(m_arr.dtype())) + ")",
+      throw SettingError("material must be integers 0..255 (got dtype " +
+                             std::string(py::str(m_arr.dtype())) + ")",
                          {"", 0, "material"});
-    const auto m = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(m_arr);
+    const auto m =
+        py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(m_arr);
     if (!m || m.ndim() != 1 || m.shape(0) != edges.shape(0))
       throw SettingError("material must be an (m,) array, one per edge", {"", 0, "material"});
     for (py::ssize_t i = 0; i < m.shape(0); ++i) {
@@ -453,10 +461,13 @@ PYBIND11_MODULE(_trellis, m) {
           throw SettingError("layer " + std::to_string(layer) + " of " + std::to_string(t.layers.size()),
                              {"", 0, "layer"});
         if (size < 16 || size > 8000)
-          throw SettingError("size " + std::to_string(size) + " px: expected 16..8000 (as output.image_size)", {"", 0, "size"});
+          throw SettingError(
+              "size " + std::to_string(size) + " px: expected 16..8000 (as output.image_size)",
+              {"", 0, "size"});
         // Rendered into a private folder (mode 0700, unpredictable name) and read back.
         std::string dir = (std::filesystem::temp_directory_path() / "trellis_png_XXXXXX").string();
-        if (!::mkdtemp(dir.data())) throw IoError("cannot create a private temporary folder in " + dir);
+        if (!::mkdtemp(dir.data()))
+          throw IoError("cannot create a private temporary folder in " + dir);
         struct Remove {
           std::string dir;
           ~Remove() {

@@ -2,10 +2,11 @@
 // must point at a line and column.
 #include "trellis/field/vcad.hpp"
 
+#include <fmt/format.h>
+
 #include <cctype>
 #include <cmath>
 #include <filesystem>
-#include <fmt/format.h>
 #include <optional>
 #include <string_view>
 #include <variant>
@@ -460,7 +461,8 @@ class Parser {
           c = expression(args[1], "sheet c");
         double v = 0;
         if (constant_expression(c.text, &v) && !std::isfinite(v))
-          fail(fmt::format("{}: the sheet parameter c = \"{}\" is not a finite number", node, c.text),
+          fail(fmt::format("{}: the sheet parameter c = \"{}\" is not a finite number", node,
+                           c.text),
                args[1].pos);
       }
       std::string m;
@@ -494,7 +496,8 @@ class Parser {
     if (node == "union" || node == "intersection" || node == "difference") {
       if (args.size() > 1) fail(node + " takes no argument or a blend radius", at);
       const double k = args.empty() ? 0.0 : number(args[0], "blend radius");
-      if (k < 0) fail(fmt::format("{}: the blend radius must be ≥ 0 mm, got {}", node, k), args[0].pos);
+      if (k < 0)
+        fail(fmt::format("{}: the blend radius must be ≥ 0 mm, got {}", node, k), args[0].pos);
       auto kids = list_of(node, at);
       return at_node(at, [&] {
         if (node == "union") return k > 0 ? smooth_unite(kids, k) : unite(kids);

@@ -156,8 +156,8 @@ std::vector<PlatePart> parse_plate_parts(const toml::table& root, const std::str
           throw SettingError("the " + job.route + " route does not read [" + key + "]", where);
         // One machine, one plate, one run: a part's own [part.machine] was silently ignored.
         if (key == "machine" || key == "plate" || key == "run")
-          throw SettingError("[" + key + "] is the whole plate's: set it in the job's own [" +
-                                 key + "] table, not in a part",
+          throw SettingError("[" + key + "] is the whole plate's: set it in the job's own [" + key +
+                                 "] table, not in a part",
                              where);
         std::ostringstream os;
         os << *sub;

@@ -378,7 +378,8 @@ class Reader {
       p.points = {{xy[4 * k] * units_, xy[4 * k + 1] * units_, l.z},
                   {xy[4 * k + 2] * units_, xy[4 * k + 3] * units_, l.z}};
       for (const Vec3& q : p.points)
-        if (!std::isfinite(q.x) || !std::isfinite(q.y) || std::abs(q.x) > 1e6 || std::abs(q.y) > 1e6)
+        if (!std::isfinite(q.x) || !std::isfinite(q.y) || std::abs(q.x) > 1e6 ||
+            std::abs(q.y) > 1e6)
           fail(at, "a coordinate times $$UNITS is not a finite number of millimetres within ±1e6");
       l.paths.push_back(std::move(p));
     }

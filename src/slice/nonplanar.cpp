@@ -279,7 +279,8 @@ TriangleMesh surface_mesh(const HeightField& surface, double resolution) {
     return mesh;
   }
   if (!(resolution > 0) || !std::isfinite(resolution))
-    throw SettingError("mesh resolution must be a finite number > 0", {"", 0, "surface.resolution"});
+    throw SettingError("mesh resolution must be a finite number > 0",
+                       {"", 0, "surface.resolution"});
   const BBox2 box = surface.domain();
   if (!std::isfinite(box.width()) || !std::isfinite(box.height()))
     throw GeometryError("surface '" + surface.name() + "' has a domain that is not finite",
@@ -293,12 +294,13 @@ TriangleMesh surface_mesh(const HeightField& surface, double resolution) {
   const double ny = profiled ? 1.0 : std::max(1.0, std::ceil(box.height() / resolution));
   const double points = (nx + 1) * (ny + 1);
   if (!(points <= kMaxGridPoints))
-    throw ResourceError(fmt::format("surface '{}': a {:g} x {:g} mm domain at {:g} mm resolution is "
-                                    "a grid of {:.3g} points (about {:.3g} GB; at most {:g}): raise "
-                                    "surface.resolution",
-                                    surface.name(), box.width(), box.height(), resolution, points,
-                                    points * 80 / 1e9, kMaxGridPoints),
-                        {"", 0, "surface.resolution"});
+    throw ResourceError(
+        fmt::format("surface '{}': a {:g} x {:g} mm domain at {:g} mm resolution is "
+                    "a grid of {:.3g} points (about {:.3g} GB; at most {:g}): raise "
+                    "surface.resolution",
+                    surface.name(), box.width(), box.height(), resolution, points,
+                    points * 80 / 1e9, kMaxGridPoints),
+        {"", 0, "surface.resolution"});
   std::vector<double> xs = impl.profile_xs, ys;
   if (xs.empty()) {
     const long n = static_cast<long>(nx);

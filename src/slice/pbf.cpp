@@ -1164,10 +1164,12 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
       at_centre = c_const;
     }
     if (!std::isfinite(at_centre))
-      throw SettingError(fmt::format("the sheet parameter c = '{}' is {} at the part's centre "
-                                     "({:g}, {:g}, {:g}): it must be a finite number",
-                                     design.c.text, std::isnan(at_centre) ? "not a number" : "infinite", centre.x, centre.y, centre.z),
-                         {"", 0, "pbf.c"});
+      throw SettingError(
+          fmt::format("the sheet parameter c = '{}' is {} at the part's centre "
+                      "({:g}, {:g}, {:g}): it must be a finite number",
+                      design.c.text, std::isnan(at_centre) ? "not a number" : "infinite", centre.x,
+                      centre.y, centre.z),
+          {"", 0, "pbf.c"});
   }
 
   // A sheet nowhere as narrow as a thin wall has none: its horizontal width 2c / |∇xy φ| is at

@@ -473,10 +473,9 @@ ViewScene view_scene(const Toolpath& toolpath, const std::string& name) {
 std::string viewer_html(const std::vector<ViewScene>& scenes, const std::string& title) {
   const std::size_t at = kTemplate.find(kDataMarker);
   if (at == std::string_view::npos) throw Error("viewer template has no data marker");
-  std::string data =
-      "<script type=\"application/json\" id=\"tv-index\">" +
-      script_json(nlohmann::json{{"title", title}, {"scenes", scenes.size()}}) +
-      "</script>\n";
+  std::string data = "<script type=\"application/json\" id=\"tv-index\">" +
+                     script_json(nlohmann::json{{"title", title}, {"scenes", scenes.size()}}) +
+                     "</script>\n";
   for (std::size_t i = 0; i < scenes.size(); ++i) append_scene(data, scenes[i], i);
   std::string html;
   html.reserve(kTemplate.size() + data.size() + title.size() + 64);

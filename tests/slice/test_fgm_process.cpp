@@ -446,7 +446,8 @@ TEST(ProcessFields, RefusedWhereTheyCannotPrint) {
 // holds (a float -> int overflow before), is refused naming process.sample; nothing is split.
 TEST(ProcessFields, NonFiniteOrRunawaySamplingIsRefused) {
   const Field f =
-      parse_vcad(R"vcad(fprocess(["200 + x"], ["temperature"]) { cube(1e5); })vcad", "d.vcad").field;
+      parse_vcad(R"vcad(fprocess(["200 + x"], ["temperature"]) { cube(1e5); })vcad", "d.vcad")
+          .field;
   auto refused = [&](std::vector<Vec3> points, double sample, const std::string& expect) {
     Toolpath tp;
     Path p;

@@ -9,8 +9,8 @@
 #include <random>
 #include <set>
 
-#include "support/machines.hpp"
 #include "support/gcode_replay.hpp"
+#include "support/machines.hpp"
 #include "support/temp_dir.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/geom/mesh.hpp"
@@ -618,7 +618,8 @@ TEST(Nonplanar, AbsurdSurfaceGridIsRefusedWithItsSize) {
       ADD_FAILURE() << "accepted resolution " << resolution;
     } catch (const ResourceError& e) {
       EXPECT_EQ(e.where().element, "surface.resolution");
-      EXPECT_NE(std::string(e.what()).find("raise surface.resolution"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("raise surface.resolution"), std::string::npos)
+          << e.what();
     }
   }
   EXPECT_THROW(surface_mesh(flat(10), std::numeric_limits<double>::infinity()), SettingError);
