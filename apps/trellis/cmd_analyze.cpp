@@ -26,13 +26,14 @@ struct AnalyzeOpts {
 void add_common(CLI::App* cmd, AnalyzeOpts& o) {
   cmd->add_option("--bead-width", o.params.width,
                   "bead width: deposits within width/2 cover a strut (mm)")
-      ->check(CLI::PositiveNumber)
+      ->check(number_value(0, 100, true))
       ->capture_default_str();
   cmd->add_option("--layer-height", o.params.layer_height, "nozzle z = design z + this (mm)")
+      ->check(number_value(-100, 100))
       ->capture_default_str();
   cmd->add_option("--acceleration", o.params.acceleration,
                   "mm/s² for the print-time estimate (0 = feed rates only)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(number_value(0, 1e6));
   cmd->add_flag("--align", o.params.align_centers,
                 "move the print's XY centre onto the design's (for parts placed on the bed; done "
                 "anyway, with a note, when the print lies mostly outside the design)");
@@ -160,7 +161,7 @@ void add_analyze(CLI::App& app) {
       ->check(path_value());
   cmd->add_option("--filament-diameter", o->filament_diameter,
                   "build plates: filament diameter for each part's volume (mm)")
-      ->check(CLI::PositiveNumber)
+      ->check(number_value(0, 100, true))
       ->capture_default_str();
   add_common(cmd, *o);
   cmd->callback([o] {

@@ -40,12 +40,12 @@ void add_render(CLI::App& app) {
       ->required()
       ->check(path_value());
   add_follow_symlinks(cmd, o->follow);
-  cmd->add_option("--layer", o->layer, "layer index (0-based)");
+  cmd->add_option("--layer", o->layer, "layer index (0-based)")->check(number_value(0, 1e9));
   cmd->add_option("--image-size", o->r.size_px, "image size in pixels")
       ->check(CLI::Range(16, 8000))
       ->capture_default_str();
   cmd->add_option("--bead-width", o->r.bead_width, "line width (mm; default: from the toolpath)")
-      ->check(CLI::PositiveNumber);
+      ->check(number_value(0, 100, true));
   cmd->add_flag("--force", o->force, "render even when the estimate is beyond the budget");
   cmd->add_flag("!--no-travel", o->r.travel, "do not draw travel moves");
   cmd->callback([o] {

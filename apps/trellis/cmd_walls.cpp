@@ -21,8 +21,12 @@ void add_walls(CLI::App& app) {
   cmd->add_option("lattice", o->input, "lattice file")->required()->check(path_value());
   cmd->add_option("-o,--output", o->output, "STL file to write")->required()->check(path_value());
   add_follow_symlinks(cmd, o->follow);
-  cmd->add_option("--bead-width", o->width, "wall width = bead width (mm)")->check(CLI::PositiveNumber)->capture_default_str();
-  cmd->add_option("--height", o->height, "wall height (mm)")->check(CLI::PositiveNumber)->capture_default_str();
+  cmd->add_option("--bead-width", o->width, "wall width = bead width (mm)")
+      ->check(number_value(0, 100, true))
+      ->capture_default_str();
+  cmd->add_option("--height", o->height, "wall height (mm)")
+      ->check(number_value(0, 100, true))
+      ->capture_default_str();
   cmd->callback([o] {
     RunFiles files(o->follow);
     files.input("the lattice", o->input);

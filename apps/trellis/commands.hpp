@@ -50,6 +50,9 @@ struct SettingFlags {
   void apply(Settings& settings) const;
 };
 
+// Checks a number option while parsing: finite and within lo..hi (above lo when `above_lo`), so
+// that `inf`, `nan` and 1e308 are refused (exit 2) as CLI::PositiveNumber lets them through.
+CLI::Validator number_value(double lo, double hi, bool above_lo = false);
 // Checks a path option while parsing: an empty path (`-o ''`) is refused (exit 2).
 const CLI::Validator& path_value();
 // --follow-symlinks for the commands outside the routes (a route's comes from

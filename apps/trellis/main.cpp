@@ -2,7 +2,9 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <iostream>
 
@@ -57,6 +59,22 @@ std::string nearest(const std::string& word, const std::vector<std::string>& can
     if (row[c.size()] < best_d) best_d = row[c.size()], best = c;
   }
   return best;
+}
+
+CLI::Validator number_value(double lo, double hi, bool above_lo) {
+  return CLI::Validator(
+      [=](std::string& text) -> std::string {
+        double v = 0;
+        const char* begin = text.c_str();
+        char* end = nullptr;
+        v = std::strtod(begin, &end);
+        const bool in = std::isfinite(v) && (above_lo ? v > lo : v >= lo) && v <= hi;
+        if (end == begin || *end != '\0' || !in)
+          return "'" + text + "' is not a finite number " + (above_lo ? "above " : "from ") +
+                 num(lo, 0) + (above_lo ? " up to " : " to ") + num(hi, 0);
+        return std::string();
+      },
+      "");
 }
 
 const CLI::Validator& path_value() {

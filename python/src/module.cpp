@@ -8,16 +8,17 @@
 #include <pybind11/stl.h>
 
 #include <atomic>
-#include <tuple>
 #include <chrono>
 #include <condition_variable>
+#include <cstdlib>
 #include <filesystem>
 #include <mutex>
 #include <thread>
+#include <tuple>
 
-#include "trellis/core/error.hpp"
 #include "trellis/analysis/collisions.hpp"
 #include "trellis/analysis/metrics.hpp"
+#include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/field/vcad.hpp"
 #include "trellis/job/job.hpp"
@@ -29,8 +30,8 @@
 #include "trellis/machine/machine_check.hpp"
 #include "trellis/render/render.hpp"
 #include "trellis/toolpath/json.hpp"
-#include "trellis/view/view.hpp"
 #include "trellis/version.hpp"
+#include "trellis/view/view.hpp"
 
 namespace py = pybind11;
 using namespace trellis;
@@ -68,7 +69,16 @@ void translate(std::exception_ptr p) {
 // A Python value as a setting value (numbers, bools, text, sequences of numbers).
 SettingValue to_value(const std::string& name, const py::handle& v) {
   if (py::isinstance<py::bool_>(v)) return v.cast<bool>();
-  if (py::isinstance<py::int_>(v)) return static_cast<long long>(v.cast<long long>());
+  if (py::isinstance<py::int_>(v) || (PyIndex_Check(v.ptr()) && !py::isinstance<py::array>(v))) {
+    int overflow = 0;
+    const long long n = PyLong_AsLongLongAndOverflow(
+        py::int_(py::reinterpret_borrow<py::object>(v)).ptr(), &overflow);
+    if (overflow != 0)
+      throw SettingError(
+          "integer " + std::string(py::str(v)) + " is beyond the range of a setting (±9.2e18)",
+          {"", 0, name});
+    return n;
+  }
   if (py::isinstance<py::float_>(v)) return v.cast<double>();
   if (py::isinstance<py::str>(v)) return v.cast<std::string>();
   if (py::isinstance<py::array>(v) || py::isinstance<py::sequence>(v)) {
@@ -252,21 +262,41 @@ Graph lattice_from_arrays(const py::object& nodes_obj, const py::object& edges_o
     throw SettingError("edges must be integers (got dtype " + std::string(py::str(e_arr.dtype())) + ")",
                        {"", 0, "edges"});
   const auto edges = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(e_arr);
+  if (nodes.shape(0) == 0)
+    throw SettingError("no nodes: a lattice needs at least one strut", {"", 0, "nodes"});
   Graph g;
   const auto N = nodes.unchecked<2>();
   for (py::ssize_t i = 0; i < nodes.shape(0); ++i) {
     const Vec3 p{N(i, 0), N(i, 1), N(i, 2)};
-    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
-      throw SettingError("node " + std::to_string(i) + " is not finite", {"", 0, "nodes[" + std::to_string(i) + "]"});
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z) ||
+        std::abs(p.x) > kMaxCoordinate || std::abs(p.y) > kMaxCoordinate ||
+        std::abs(p.z) > kMaxCoordinate)
+      throw SettingError("node " + std::to_string(i) +
+                             " is not finite or beyond ±1e6 mm (as the file readers refuse)",
+                         {"", 0, "nodes[" + std::to_string(i) + "]"});
     g.nodes.push_back(p);
   }
+  if (edges.shape(0) == 0)
+    throw SettingError("no edges: a lattice needs at least one strut", {"", 0, "edges"});
   const auto E = edges.unchecked<2>();
   std::vector<int> materials;
   if (!material_obj.is_none()) {
-    const auto m = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(material_obj);
+    const py::array m_arr = py::array::ensure(material_obj);
+    if (m_arr && m_arr.dtype().kind() != 'i' && m_arr.dtype().kind() != 'u')
+      throw SettingError("material must be integers 0..255 (got dtype " +
+                             std::string(py::str(m_arr.dtype())) + ")",
+                         {"", 0, "material"});
+    const auto m =
+        py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(m_arr);
     if (!m || m.ndim() != 1 || m.shape(0) != edges.shape(0))
       throw SettingError("material must be an (m,) array, one per edge", {"", 0, "material"});
-    for (py::ssize_t i = 0; i < m.shape(0); ++i) materials.push_back(static_cast<int>(m.at(i)));
+    for (py::ssize_t i = 0; i < m.shape(0); ++i) {
+      if (m.at(i) < 0 || m.at(i) > 255)
+        throw SettingError("material " + std::to_string(m.at(i)) + " of edge " + std::to_string(i) +
+                               ": expected an integer 0..255 (as the file readers)",
+                           {"", 0, "material[" + std::to_string(i) + "]"});
+      materials.push_back(static_cast<int>(m.at(i)));
+    }
   }
   for (py::ssize_t i = 0; i < edges.shape(0); ++i) {
     const auto a = E(i, 0), b = E(i, 1);
@@ -430,14 +460,26 @@ PYBIND11_MODULE(_trellis, m) {
         if (layer >= t.layers.size())
           throw SettingError("layer " + std::to_string(layer) + " of " + std::to_string(t.layers.size()),
                              {"", 0, "layer"});
-        const auto tmp = std::filesystem::temp_directory_path() /
-                         ("trellis_py_" + std::to_string(reinterpret_cast<std::uintptr_t>(&t)) + ".png");
+        if (size < 16 || size > 8000)
+          throw SettingError(
+              "size " + std::to_string(size) + " px: expected 16..8000 (as output.image_size)",
+              {"", 0, "size"});
+        // Rendered into a private folder (mode 0700, unpredictable name) and read back.
+        std::string dir = (std::filesystem::temp_directory_path() / "trellis_png_XXXXXX").string();
+        if (!::mkdtemp(dir.data()))
+          throw IoError("cannot create a private temporary folder in " + dir);
+        struct Remove {
+          std::string dir;
+          ~Remove() {
+            std::error_code ec;
+            std::filesystem::remove_all(dir, ec);
+          }
+        } remove{dir};
+        const std::string tmp = dir + "/layer.png";
         RenderOptions ro;
         ro.size_px = size;
-        render_layer_png(t, layer, tmp.string(), ro);
-        const std::string data = read_file(tmp.string());
-        std::filesystem::remove(tmp);
-        return py::bytes(data);
+        render_layer_png(t, layer, tmp, ro);
+        return py::bytes(read_file(tmp));
       }, py::arg("layer") = 0, py::arg("size") = 600);
 
   py::class_<Graph, std::shared_ptr<Graph>>(m, "Lattice")

@@ -120,11 +120,115 @@ def test_lattices_from_numpy_and_bad_arrays_name_the_argument():
         (lambda: trellis.Lattice.from_arrays(nodes, np.array([[0, 7]])), "edges[0]"),
         (lambda: trellis.Lattice.from_arrays(np.array([[0, 0, np.nan]]), np.zeros((0, 2), int)), "nodes[0]"),
         (lambda: trellis.Lattice.from_arrays(nodes, edges, material=[0]), "material"),
+        # What the file readers refuse: no struts, materials beyond 0..255, coordinates beyond
+        # ±1e6 mm, node indices far out of range.
+        (lambda: trellis.Lattice.from_arrays(np.zeros((0, 3)), np.zeros((0, 2), int)), "nodes"),
+        (lambda: trellis.Lattice.from_arrays(nodes, np.zeros((0, 2), int)), "edges"),
+        (lambda: trellis.Lattice.from_arrays(nodes, edges, material=[0, 300, 0, 0]), "material[1]"),
+        (lambda: trellis.Lattice.from_arrays(nodes, edges, material=[0, 0, -1, 0]), "material[2]"),
+        (lambda: trellis.Lattice.from_arrays(nodes, edges, material=[0, 0.5, 0, 0]), "material"),
+        (lambda: trellis.Lattice.from_arrays(nodes * [1, 1e300, 1], edges), "nodes[2]"),
+        (lambda: trellis.Lattice.from_arrays(nodes, np.array([[0, 2**62]])), "edges[0]"),
+        (lambda: trellis.Lattice.from_arrays(nodes, np.array([[0, 2**64 - 1]], np.uint64)), "edges[0]"),
     ]
     for fn, element in cases:
         with pytest.raises(trellis.SettingError) as e:
             fn()
         assert e.value.element == element, (element, e.value)
+
+
+def _created_in(folder, fn):
+    """The entries (name, is a folder) created directly in `folder` while fn() runs (inotify)."""
+    import ctypes
+    import struct
+    libc = ctypes.CDLL(None, use_errno=True)
+    fd = libc.inotify_init1(os.O_NONBLOCK)
+    assert fd >= 0
+    try:
+        assert libc.inotify_add_watch(fd, os.fsencode(folder), 0x100) >= 0  # IN_CREATE
+        result = fn()
+        assert result
+        data = b""
+        while True:
+            try:
+                chunk = os.read(fd, 65536)
+            except BlockingIOError:
+                break
+            if not chunk:
+                break
+            data += chunk
+        created, at = [], 0
+        while at < len(data):
+            _, mask, _, size = struct.unpack_from("iIII", data, at)
+            name = data[at + 16:at + 16 + size].rstrip(b"\0").decode()
+            created.append((name, bool(mask & 0x40000000)))  # IN_ISDIR
+            at += 16 + size
+        return created
+    finally:
+        os.close(fd)
+
+
+def test_python_values_reach_files_only_through_escaping_writers(tmp_path, monkeypatch):
+    # Fields: a string where a number goes, a non-finite number, a string holding '"' (a .vcad
+    # string has no escapes) or a non-field in an operation never reach the .vcad text.
+    hostile = [
+        (lambda: trellis.sphere('1); mesh("/etc/passwd"); sphere(2'), TypeError),
+        (lambda: trellis.rectprism(1, "2", 3), TypeError),
+        (lambda: trellis.sphere(float("nan")), ValueError),
+        (lambda: trellis.sphere(1).translate(0, float("inf"), 0), ValueError),
+        (lambda: trellis.sphere(1, material='a"); mesh("/etc/passwd'), ValueError),
+        (lambda: trellis.gyroid(2.5, c='0"); mesh("/etc/passwd'), ValueError),
+        (lambda: trellis.fgrade(['1"); mesh("/etc/passwd'], ["a"], trellis.cube(2)), ValueError),
+        (lambda: trellis.union(-1), TypeError),
+        (lambda: trellis.union(trellis.cube(1), "mesh(\"/etc/passwd\");"), TypeError),
+        (lambda: trellis.sphere(True), TypeError),
+    ]
+    for fn, kind in hostile:
+        with pytest.raises(kind):
+            fn()
+    assert trellis.cube(np.float64(2.5)).vcad() == "cube(2.5);\n"
+    assert trellis.cube(np.int64(3), material="m1").vcad() == 'cube(3, "m1");\n'
+    # Job dicts: keys and values that would start a table or a key of their own are escaped, so
+    # the TOML reads back as the dict it came from, and the job names the key it was given.
+    import tomllib
+    job = {"job": {"route": "lattice2d", "name": 'd"\n[output]\npng = true\n\\', "a=b": 1},
+           "out put": {'png = true\n[lattice2d]\ncell': False, "x\x01": [1.5, "y\"z"]},
+           "part": [{"input": "p.vcad", "machine": {"bed x": 3}}, {"input": "q\\"}]}
+    assert tomllib.loads(trellis._toml(job)) == job
+    out = tmp_path / "job"
+    with pytest.raises(trellis.TrellisError) as e:
+        trellis.run_job({"job": {"route": "lattice2d", "name": "d", "output_dir": str(out)},
+                         "output": {'png = true\n[lattice2d]\ncell': False}})
+    assert "png = true" in str(e.value), e.value
+    assert not out.exists()
+    r = trellis.run_job({"job": {"route": "lattice2d", "name": "d", "output_dir": str(out)},
+                         "lattice2d": {"pattern": "penrose", "cell": np.float64(1.5), "size": (10, 10)},
+                         "output": {"png": False}})
+    assert r.lattice.edge_count > 0
+    # Toolpath.png: rendered in a private folder, not a predictable /tmp/trellis_py_<address>.png
+    # (a planted symbolic link there would be written through), and the folder removed.
+    tp = trellis.plan("euler", trellis.lattice2d(pattern="square", cell=2, size=(6, 6)).lattice).toolpath
+    tmp = tmp_path / "tmp"
+    tmp.mkdir()
+    monkeypatch.setenv("TMPDIR", str(tmp))
+    created = _created_in(tmp, lambda: tp.png(0, 64))
+    assert created and all(is_dir and name.startswith("trellis_png_") and name != "trellis_png_XXXXXX"
+                           for name, is_dir in created), created
+    assert os.listdir(tmp) == []
+    with pytest.raises(trellis.SettingError) as e:
+        tp.png(0, 10**6)
+    assert e.value.element == "size"
+
+
+def test_python_integers_beyond_a_setting_raise_a_setting_error(tmp_path):
+    lat = trellis.lattice2d(pattern="honeycomb", cell=1, size=(5, 5)).lattice
+    for value in (2**70, -2**70):
+        with pytest.raises(trellis.SettingError) as e:
+            trellis.plan("gippo", lat, iterations=value)
+        assert e.value.element == "gippo.iterations" and "beyond" in str(e.value)
+    with pytest.raises(trellis.SettingError) as e:
+        trellis.plan("gippo", lat, iterations=np.int64(10**8))  # numpy integers are integers
+    assert e.value.element == "gippo.iterations"
 
 
 def test_bad_keywords_and_values_raise_mapped_errors():

@@ -15,7 +15,9 @@ Long calls release the GIL, report progress to ``progress(stage, fraction)`` and
 machine; nothing written) with ``file``, ``line`` and ``element``.
 """
 import html
+import numbers
 import os
+import re
 import shlex
 import sys
 import tempfile
@@ -332,7 +334,7 @@ def run_job(job, output_dir=None, set=None, progress=None):
             f.write(_toml(job))
         try:
             return Result(_trellis.run_job_file(path, _path(output_dir),
-                                                [f"{k}={v}" for k, v in (set or {}).items()],
+                                                [f"{k}={_text(v)}" for k, v in (set or {}).items()],
                                                 progress))
         finally:
             os.remove(path)
@@ -349,19 +351,86 @@ def _text(v):
     return str(v)
 
 
+_BARE_KEY = re.compile(r"[A-Za-z0-9_-]+")
+
+
+def _toml_key(key):
+    """A key (or a table name) in TOML: its dotted parts bare when they can be, else quoted."""
+    if not isinstance(key, str) or not key:
+        raise TypeError(f"job keys and table names are non-empty strings, got {key!r}")
+    parts = key.split(".")
+    if all(_BARE_KEY.fullmatch(p) for p in parts):
+        return key
+    return _toml_string(key)
+
+
+def _toml_string(s):
+    out = []
+    for c in s:
+        if c in ('"', "\\"):
+            out.append("\\" + c)
+        elif c == "\n":
+            out.append("\\n")
+        elif c == "\t":
+            out.append("\\t")
+        elif c == "\r":
+            out.append("\\r")
+        elif ord(c) < 0x20 or ord(c) == 0x7F:
+            out.append(f"\\u{ord(c):04X}")
+        else:
+            out.append(c)
+    return '"' + "".join(out) + '"'
+
+
+def _toml_value(v, key):
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, str):
+        return _toml_string(v)
+    if isinstance(v, numbers.Integral):
+        return str(int(v))
+    if isinstance(v, numbers.Real):
+        return repr(float(v))
+    if isinstance(v, os.PathLike):
+        return _toml_string(os.fspath(v))
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_toml_value(x, key) for x in v) + "]"
+    if isinstance(v, dict):
+        return "{" + ", ".join(f"{_toml_key(k)} = {_toml_value(x, k)}" for k, x in v.items()) + "}"
+    raise TypeError(f"job value of '{key}' must be a string, number, bool, list or dict, "
+                    f"got {type(v).__name__} {v!r}")
+
+
 def _toml(tables):
-    def value(v):
-        if isinstance(v, bool):
-            return "true" if v else "false"
-        if isinstance(v, str):
-            return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
-        if isinstance(v, (list, tuple)):
-            return "[" + ", ".join(value(x) for x in v) + "]"
-        return repr(v)
+    """A job dict as TOML text: {'job': {...}, 'slice': {...}, 'part': [{...}, {...}]} — tables,
+    arrays of tables ([[part]]) and their sub-tables ([part.slice]); every key and string
+    escaped, so no value can start a table or a key of its own."""
     lines = []
-    for name, table in tables.items():
-        lines.append(f"[{name}]")
-        lines += [f"{k} = {value(v)}" for k, v in table.items()]
+
+    def table(name, body, array):
+        if not isinstance(body, dict):
+            raise TypeError(f"job table '{name}' must be a dict, got {type(body).__name__} {body!r}")
+        lines.append(f"[[{name}]]" if array else f"[{name}]")
+        subs = []
+        for k, v in body.items():
+            if isinstance(v, dict):
+                subs.append((k, v, False))
+            elif isinstance(v, (list, tuple)) and v and all(isinstance(x, dict) for x in v):
+                subs.append((k, v, True))
+            else:
+                lines.append(f"{_toml_key(k)} = {_toml_value(v, k)}")
+        for k, v, is_array in subs:
+            for item in (v if is_array else [v]):
+                table(f"{name}.{_toml_key(k)}", item, is_array)
+
+    if not isinstance(tables, dict):
+        raise TypeError(f"a job is a dict of tables, got {type(tables).__name__}")
+    for name, body in tables.items():
+        if isinstance(body, (list, tuple)):
+            for item in body:
+                table(_toml_key(name), item, True)
+        else:
+            table(_toml_key(name), body, False)
     return "\n".join(lines) + "\n"
 
 

@@ -6,25 +6,46 @@ fractions. ``str(field)`` is the .vcad text; ``trellis.slice(field, ...)`` slice
     part = (trellis.rectprism(40, 30, 10) | trellis.cylinder(10, 18)) - trellis.cylinder(5, 40)
     graded = trellis.fgrade(["0.5 + x/80", "0.5 - x/80"], ["a", "b"], part)
 """
+import math
+import numbers
 import os
 
 _TPMS = ("gyroid", "schwarz_p", "schwarz_d", "diamond", "neovius", "iwp")
 
 
-def _num(v):
+# Every argument reaches the .vcad text through _num or _str, never verbatim: a number is written
+# from a real number only, a string is one .vcad string literal. The .vcad lexer has no escapes
+# (a string ends at the next '"'), so a string holding '"' cannot be written and is refused.
+def _num(v, name="argument"):
+    if isinstance(v, bool) or not isinstance(v, numbers.Real):
+        raise TypeError(f"{name} must be a number, got {type(v).__name__} {v!r}")
     v = float(v)
+    if not math.isfinite(v):
+        raise ValueError(f"{name} must be a finite number, got {v!r}")
     return repr(int(v)) if v.is_integer() and abs(v) < 1e15 else repr(v)
 
 
-def _str(s):
-    return '"' + str(s).replace("\\", "\\\\").replace('"', '\\"') + '"'
+def _str(s, name="argument"):
+    if not isinstance(s, str):
+        raise TypeError(f"{name} must be a string, got {type(s).__name__} {s!r}")
+    bad = next((c for c in s if c == '"' or c == "\0"), None)
+    if bad is not None:
+        raise ValueError(f"{name} must not contain {bad!r} (a .vcad string cannot hold it): {s!r}")
+    return '"' + s + '"'
 
 
 def _args(*xs, material=None):
-    parts = [x if isinstance(x, str) else _num(x) for x in xs]
+    parts = [_num(x) for x in xs]
     if material is not None:
-        parts.append(_str(material))
+        parts.append(_str(material, "material"))
     return ", ".join(parts)
+
+
+def _field(f, name="argument"):
+    if not isinstance(f, Field):
+        raise TypeError(f"{name} must be a trellis.Field (a shape or an operation), "
+                        f"got {type(f).__name__} {f!r}")
+    return f
 
 
 class Field:
@@ -70,8 +91,11 @@ def _indent(text):
 
 
 def _block(op, fields, blend=None):
-    head = f"{op}({_num(blend)})" if blend else f"{op}()"
-    return Field(head + " {\n" + "\n".join(_indent(f._text) for f in fields) + "\n}")
+    head = f"{op}({_num(blend, 'blend')})" if blend else f"{op}()"
+    if not fields:
+        raise TypeError(f"{op}() needs at least one field")
+    return Field(head + " {\n" + "\n".join(_indent(_field(f, f"{op}() argument")._text)
+                                          for f in fields) + "\n}")
 
 
 def union(*fields, blend=None):
@@ -116,7 +140,8 @@ def torus(R, r, material=None):
 def function(lo, hi, expr, material=None):
     """A user field f(x, y, z) <= 0 inside the box lo..hi (muparser expression)."""
     box = f"({_args(*lo)}), ({_args(*hi)})"
-    return Field(f"function({box}, {_str(expr)}" + (f", {_str(material)}" if material else "") + ");")
+    return Field(f"function({box}, {_str(expr, 'expr')}" +
+                 (f", {_str(material, 'material')}" if material else "") + ");")
 
 
 def tpms(kind, cell, c=None, material=None):
@@ -124,11 +149,11 @@ def tpms(kind, cell, c=None, material=None):
     if kind not in _TPMS:
         from .errors import SettingError
         raise SettingError(f"unknown TPMS '{kind}' (expected {', '.join(_TPMS)})", element="kind")
-    parts = [_num(cell)]
+    parts = [_num(cell, "cell")]
     if c is not None:
-        parts.append(_str(c) if isinstance(c, str) else _num(c))
+        parts.append(_str(c, "c") if isinstance(c, str) else _num(c, "c"))
     if material is not None:
-        parts.append(_str(material))
+        parts.append(_str(material, "material"))
     return Field(f"{kind}({', '.join(parts)});")
 
 
@@ -138,12 +163,15 @@ def gyroid(cell, c=None, material=None):
 
 def mesh(path, material=None):
     """A closed mesh (STL, OBJ, 3MF) as a distance field."""
-    return Field(f"mesh({_str(os.path.abspath(os.fspath(path)))}" +
-                 (f", {_str(material)}" if material else "") + ");")
+    return Field(f"mesh({_str(os.path.abspath(os.fspath(path)), 'path')}" +
+                 (f", {_str(material, 'material')}" if material else "") + ");")
 
 
 def fgrade(fractions, materials, body, mode=None):
     """Material volume fractions (expressions of x, y, z, rho, phi, r, ...) over `body`."""
-    head = "fgrade([" + ", ".join(_str(f) for f in fractions) + "], [" + \
-        ", ".join(_str(m) for m in materials) + "]" + (f", {_str(mode)}" if mode else "") + ")"
-    return Field(head + " {\n" + _indent(body._text) + "\n}")
+    if isinstance(fractions, str) or isinstance(materials, str):
+        raise TypeError("fgrade: fractions and materials are lists of strings")
+    head = "fgrade([" + ", ".join(_str(f, "fractions") for f in fractions) + "], [" + \
+        ", ".join(_str(m, "materials") for m in materials) + "]" + \
+        (f", {_str(mode, 'mode')}" if mode else "") + ")"
+    return Field(head + " {\n" + _indent(_field(body, "fgrade body")._text) + "\n}")

@@ -2,11 +2,13 @@
 // must point at a line and column.
 #include "trellis/field/vcad.hpp"
 
+#include <fmt/format.h>
+
 #include <cctype>
 #include <cmath>
 #include <filesystem>
-#include <fmt/format.h>
 #include <optional>
+#include <string_view>
 #include <variant>
 
 #include "trellis/core/error.hpp"
@@ -103,6 +105,10 @@ class Lexer {
       const double v = std::strtod(begin, &end);
       if (end == begin) fail(fmt::format("unexpected '{}'", c), t.pos);
       const std::size_t len = static_cast<std::size_t>(end - begin);
+      // Decimal only: strtod also reads 0x10 (as 16), 0x1p3, inf and nan.
+      const std::string_view text(begin, len);
+      if (text.find_first_not_of("0123456789.eE+-") != std::string_view::npos)
+        fail(fmt::format("'{}' is not a decimal number", text), t.pos);
       if (!std::isfinite(v) || std::abs(v) > 1e6)
         fail("number beyond ±1e6 (mm): out of range", t.pos);
       for (std::size_t k = 0; k < len; ++k) advance();
@@ -453,6 +459,11 @@ class Parser {
           c.text = fmt::format("{}", args[1].number);
         else
           c = expression(args[1], "sheet c");
+        double v = 0;
+        if (constant_expression(c.text, &v) && !std::isfinite(v))
+          fail(fmt::format("{}: the sheet parameter c = \"{}\" is not a finite number", node,
+                           c.text),
+               args[1].pos);
       }
       std::string m;
       if (args.size() == 3) {
@@ -485,6 +496,8 @@ class Parser {
     if (node == "union" || node == "intersection" || node == "difference") {
       if (args.size() > 1) fail(node + " takes no argument or a blend radius", at);
       const double k = args.empty() ? 0.0 : number(args[0], "blend radius");
+      if (k < 0)
+        fail(fmt::format("{}: the blend radius must be ≥ 0 mm, got {}", node, k), args[0].pos);
       auto kids = list_of(node, at);
       return at_node(at, [&] {
         if (node == "union") return k > 0 ? smooth_unite(kids, k) : unite(kids);

@@ -56,7 +56,7 @@ TriangleMesh parse_ascii_stl(const std::string& text, const std::string& name) {
   long line = 0;
   Vec3 v[3];
   int nv = 0;
-  bool in_facet = false;
+  bool in_facet = false, in_loop = false;
   while (pos < text.size()) {
     const std::size_t end = std::min(text.find('\n', pos), text.size());
     const std::string_view raw(text.data() + pos, end - pos);
@@ -65,8 +65,9 @@ TriangleMesh parse_ascii_stl(const std::string& text, const std::string& name) {
     const std::string s(trim(std::string(raw)));
     if (s.empty()) continue;
     if (s.rfind("vertex", 0) == 0) {
-      if (!in_facet || nv >= 3)
-        throw ParseError("'vertex' outside a facet or a fourth vertex", {name, line, ""});
+      if (!in_loop || nv >= 3)
+        throw ParseError("'vertex' outside a facet's 'outer loop' or a fourth vertex",
+                         {name, line, ""});
       double x, y, z;
       char extra;
       if (std::sscanf(s.c_str() + 6, "%lf %lf %lf %c", &x, &y, &z, &extra) != 3)
@@ -81,10 +82,17 @@ TriangleMesh parse_ascii_stl(const std::string& text, const std::string& name) {
     } else if (s.rfind("endfacet", 0) == 0) {
       if (!in_facet || nv != 3)
         throw ParseError("facet without exactly three vertices", {name, line, ""});
+      if (in_loop) throw ParseError("'endfacet' before the facet's 'endloop'", {name, line, ""});
       b.triangle(v[0], v[1], v[2]);
       in_facet = false;
-    } else if (s.rfind("outer", 0) == 0 || s.rfind("endloop", 0) == 0 ||
-               s.rfind("solid", 0) == 0 || s.rfind("endsolid", 0) == 0) {
+    } else if (s.rfind("outer", 0) == 0) {
+      if (!in_facet || in_loop || nv != 0)
+        throw ParseError("'outer loop' outside a facet or given twice", {name, line, ""});
+      in_loop = true;
+    } else if (s.rfind("endloop", 0) == 0) {
+      if (!in_loop) throw ParseError("'endloop' without 'outer loop'", {name, line, ""});
+      in_loop = false;
+    } else if (s.rfind("solid", 0) == 0 || s.rfind("endsolid", 0) == 0) {
       continue;
     } else {
       throw ParseError("unexpected '" + s.substr(0, 40) + "' in ASCII STL", {name, line, ""});
@@ -169,7 +177,10 @@ TriangleMesh parse_obj(const std::string& text, const std::string& name) {
         if (p >= s.size()) break;
         char* stop = nullptr;
         const long v = std::strtol(s.c_str() + p, &stop, 10);
-        if (stop == s.c_str() + p) throw ParseError("bad face index", {name, line, ""});
+        if (stop == s.c_str() + p || (*stop != '\0' && *stop != ' ' && *stop != '/'))
+          throw ParseError("bad face index '" + s.substr(p, s.find(' ', p) - p) +
+                               "' (an integer, optionally /texture/normal)",
+                           {name, line, ""});
         const long n = static_cast<long>(verts.size());
         const long i = v < 0 ? n + v : v - 1;
         if (i < 0 || i >= n)

@@ -154,6 +154,11 @@ std::vector<PlatePart> parse_plate_parts(const toml::table& root, const std::str
       if (const toml::table* sub = n.as_table()) {
         if (std::find(sections.begin(), sections.end(), key) == sections.end())
           throw SettingError("the " + job.route + " route does not read [" + key + "]", where);
+        // One machine, one plate, one run: a part's own [part.machine] was silently ignored.
+        if (key == "machine" || key == "plate" || key == "run")
+          throw SettingError("[" + key + "] is the whole plate's: set it in the job's own [" + key +
+                                 "] table, not in a part",
+                             where);
         std::ostringstream os;
         os << *sub;
         p.settings_toml += "[" + key + "]\n" + os.str() + "\n";
@@ -223,6 +228,10 @@ Job job_from_toml(const std::string& text, const std::string& origin, const std:
           where);
     if (!n.is_string()) throw SettingError("expected a string", where);
     const std::string v = *n.value<std::string>();
+    // An empty path is not "none" (input = "" made the plan route generate a lattice instead):
+    // leave the key out for none.
+    if (v.empty() && key != "command")
+      throw SettingError("an empty string: leave the key out for none", where);
     if (key == "route") job.route = v;
     else if (key == "name") job.name = v;
     else if (key == "input") job.input = resolve(base, v);

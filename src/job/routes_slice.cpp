@@ -140,6 +140,18 @@ bool pbf_input(PbfDesign& d, const std::string& path, const PbfConfig& p, const 
       d.thickness = s->thickness;
       d.envelope = s->envelope;
       d.clip = s->boxes;
+      // The sheet's own cell against the sampling grid, as check_pbf_cells does for pbf.cell (a
+      // 0.001 mm cell traced 330,000 aliasing contour vectors).
+      const Vec3 per = d.phi.period();
+      const double cell = std::min({per.x > 0 ? per.x : HUGE_VAL, per.y > 0 ? per.y : HUGE_VAL,
+                                    per.z > 0 ? per.z : HUGE_VAL});
+      if (cell < 8 * p.options.resolution)
+        throw SettingError(fmt::format("its TPMS cell of {} mm is not resolved by the {} mm "
+                                       "sampling grid (2 × pbf.resolution); cells need at least 8 "
+                                       "× pbf.resolution = {} mm: raise the cell or lower "
+                                       "--resolution",
+                                       cell, 2 * p.options.resolution, 8 * p.options.resolution),
+                           {path, 0, "pbf.resolution"});
       std::vector<std::string> ignored;
       for (const char* k : {"pbf.cell_type", "pbf.cell", "pbf.c", "pbf.thickness", "pbf.size",
                             "pbf.envelope", "pbf.grade_to", "pbf.hierarchical"})

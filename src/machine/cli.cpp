@@ -284,7 +284,8 @@ class Reader {
         align_ = true;
       else if (line.starts_with("$$UNITS/")) {
         const auto v = numbers(i + 8, i + line.size());
-        if (v.size() != 1 || !(v[0] > 0)) fail(i + 8, "$$UNITS needs one positive number");
+        if (v.size() != 1 || !(v[0] > 0) || !(v[0] <= 1000))
+          fail(i + 8, "$$UNITS needs one positive number up to 1000 (mm per unit)");
         units_ = v[0];
       } else if (line.starts_with("$$LABEL/")) {
         const std::size_t c = line.find(',');
@@ -347,7 +348,8 @@ class Reader {
     return tp_.layers.back();
   }
   void start_layer(std::size_t at, double z) {
-    if (!std::isfinite(z)) fail(at, "layer z is not a finite number of millimetres ($$UNITS)");
+    if (!std::isfinite(z) || std::abs(z) > 1e6)
+      fail(at, "layer z is not a finite number of millimetres within ±1e6 ($$UNITS)");
     if (!tp_.layers.empty() && z < tp_.layers.back().z)
       fail(at, fmt::format("layer z = {} mm below the previous layer's {} mm (CLI layers ascend)",
                            z, tp_.layers.back().z));
@@ -363,8 +365,8 @@ class Reader {
     for (long k = 0; k < n; ++k)
       p.points.push_back({xy[2 * k] * units_, xy[2 * k + 1] * units_, z});
     for (const Vec3& q : p.points)
-      if (!std::isfinite(q.x) || !std::isfinite(q.y))
-        fail(at, "a coordinate times $$UNITS is not a finite number of millimetres");
+      if (!std::isfinite(q.x) || !std::isfinite(q.y) || std::abs(q.x) > 1e6 || std::abs(q.y) > 1e6)
+        fail(at, "a coordinate times $$UNITS is not a finite number of millimetres within ±1e6");
     layer(at).paths.push_back(std::move(p));
   }
   void hatches(std::size_t at, int id, long n, const double* xy, long count) {
@@ -376,8 +378,9 @@ class Reader {
       p.points = {{xy[4 * k] * units_, xy[4 * k + 1] * units_, l.z},
                   {xy[4 * k + 2] * units_, xy[4 * k + 3] * units_, l.z}};
       for (const Vec3& q : p.points)
-        if (!std::isfinite(q.x) || !std::isfinite(q.y))
-          fail(at, "a coordinate times $$UNITS is not a finite number of millimetres");
+        if (!std::isfinite(q.x) || !std::isfinite(q.y) || std::abs(q.x) > 1e6 ||
+            std::abs(q.y) > 1e6)
+          fail(at, "a coordinate times $$UNITS is not a finite number of millimetres within ±1e6");
       l.paths.push_back(std::move(p));
     }
   }

@@ -143,6 +143,15 @@ std::vector<MachineWarning> check_for_machine(const LayerSource& layers, const B
       if (!path.mixture.empty()) {
         mixed = true;
         max_materials = std::max(max_materials, path.mixture.size());
+        // A fraction outside 0..1 would be written as it is (M165 B1.5) and make the
+        // firmware's mix whatever it makes of it.
+        for (std::size_t m = 0; m < path.mixture.size(); ++m)
+          if (!(path.mixture[m] >= -eps && path.mixture[m] <= 1 + eps)) {
+            errors.add("mixture", fmt::format("{} has mixture[{}] = {}: each material fraction "
+                                              "must be within 0..1",
+                                              where(li, pi), m, num(path.mixture[m])));
+            break;
+          }
       }
       if (path.speed > p.max_speed + eps)
         errors.add("speed", fmt::format("{} is printed at {} mm/s, faster than the machine's "

@@ -19,6 +19,22 @@ namespace trellis {
 
 namespace {
 
+// Samples along a segment of `length` mm at `sample` mm spacing, at least 1. A non-finite point
+// or a count beyond an int (a runaway rather than a design) is an error naming the setting.
+int samples_along(double length, double sample) {
+  constexpr double kMaxSamples = 1e8;
+  if (!std::isfinite(length))
+    throw GeometryError("a path has a point that is not finite: cannot sample its process values",
+                        {"", 0, "process.sample"});
+  const double n = std::ceil(length / sample);
+  if (!(n <= kMaxSamples))
+    throw GeometryError(fmt::format("a {:g} mm segment at {:g} mm spacing needs {:g} samples (more "
+                                    "than {:g}): raise process.sample",
+                                    length, sample, n, kMaxSamples),
+                        {"", 0, "process.sample"});
+  return std::max(1, static_cast<int>(n));
+}
+
 // The rounded values a piece is written with; NaN where no fprocess sets the parameter.
 struct Key {
   double q[kProcessParams];
@@ -123,7 +139,7 @@ class PathSplitter {
     for (std::size_t i = 1; i < path.points.size(); ++i) {
       const Vec3 a = path.points[i - 1], b = path.points[i];
       const double len = distance(a, b);
-      const int n = std::max(1, static_cast<int>(std::ceil(len / o_.sample)));
+      const int n = samples_along(len, o_.sample);
       double lo = 0;
       for (int j = 1; j <= n; ++j) {
         const double t = static_cast<double>(j) / n;
@@ -228,7 +244,7 @@ class PathSplitter {
   void measure(const Path& p) {
     for (std::size_t i = 1; i < p.points.size(); ++i) {
       const Vec3 a = p.points[i - 1], b = p.points[i];
-      const int n = std::max(1, static_cast<int>(std::ceil(distance(a, b) / o_.sample)));
+      const int n = samples_along(distance(a, b), o_.sample);
       for (int j = i == 1 ? 0 : 1; j <= n; ++j) {
         const ProcessValues v = at(a + (b - a) * (static_cast<double>(j) / n));
         for (int k = 0; k < kProcessParams; ++k) {

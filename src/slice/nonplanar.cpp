@@ -3,6 +3,7 @@
 // non-planar serpentines; the mesh parts are a grid index and exact plane/triangle cuts.
 #include "trellis/slice/nonplanar.hpp"
 
+#include <fmt/format.h>
 #include <muParser.h>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
@@ -277,17 +278,38 @@ TriangleMesh surface_mesh(const HeightField& surface, double resolution) {
     mesh.triangles = impl.triangles;
     return mesh;
   }
-  if (!(resolution > 0)) throw SettingError("mesh resolution must be > 0");
+  if (!(resolution > 0) || !std::isfinite(resolution))
+    throw SettingError("mesh resolution must be a finite number > 0",
+                       {"", 0, "surface.resolution"});
   const BBox2 box = surface.domain();
+  if (!std::isfinite(box.width()) || !std::isfinite(box.height()))
+    throw GeometryError("surface '" + surface.name() + "' has a domain that is not finite",
+                        {"", 0, "surface.resolution"});
+  // Grid intervals along X and Y, checked as doubles before any count becomes an integer: a
+  // grid of more than kMaxGridPoints (about 80 bytes each with its triangles) is refused.
+  constexpr double kMaxGridPoints = 5e7;
+  const bool profiled = !impl.profile_xs.empty();
+  const double nx = profiled ? static_cast<double>(impl.profile_xs.size()) - 1
+                             : std::max(1.0, std::ceil(box.width() / resolution));
+  const double ny = profiled ? 1.0 : std::max(1.0, std::ceil(box.height() / resolution));
+  const double points = (nx + 1) * (ny + 1);
+  if (!(points <= kMaxGridPoints))
+    throw ResourceError(
+        fmt::format("surface '{}': a {:g} x {:g} mm domain at {:g} mm resolution is "
+                    "a grid of {:.3g} points (about {:.3g} GB; at most {:g}): raise "
+                    "surface.resolution",
+                    surface.name(), box.width(), box.height(), resolution, points,
+                    points * 80 / 1e9, kMaxGridPoints),
+        {"", 0, "surface.resolution"});
   std::vector<double> xs = impl.profile_xs, ys;
   if (xs.empty()) {
-    const long n = std::max(1L, static_cast<long>(std::ceil(box.width() / resolution)));
+    const long n = static_cast<long>(nx);
     for (long i = 0; i <= n; ++i) xs.push_back(box.min.x + box.width() * i / n);
   }
-  if (!impl.profile_xs.empty()) {
+  if (profiled) {
     ys = {box.min.y, box.max.y};
   } else {
-    const long n = std::max(1L, static_cast<long>(std::ceil(box.height() / resolution)));
+    const long n = static_cast<long>(ny);
     for (long j = 0; j <= n; ++j) ys.push_back(box.min.y + box.height() * j / n);
   }
   const auto f = surface.evaluator();

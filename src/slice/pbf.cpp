@@ -1153,7 +1153,23 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
   double c_const = 0;
   Field c_field;
   if (design.thickness <= 0) {
-    if (!constant_expression(design.c.text, &c_const)) c_field = expression_field(design.c);
+    // c = 1/0 filled the box solid, sqrt(-1) sliced noise: a c that is not a finite number at
+    // the part's centre is refused.
+    const Vec3 centre = e.center();
+    double at_centre = 0;
+    if (!constant_expression(design.c.text, &c_const)) {
+      c_field = expression_field(design.c);
+      at_centre = Evaluator(c_field).value(centre);
+    } else {
+      at_centre = c_const;
+    }
+    if (!std::isfinite(at_centre))
+      throw SettingError(
+          fmt::format("the sheet parameter c = '{}' is {} at the part's centre "
+                      "({:g}, {:g}, {:g}): it must be a finite number",
+                      design.c.text, std::isnan(at_centre) ? "not a number" : "infinite", centre.x,
+                      centre.y, centre.z),
+          {"", 0, "pbf.c"});
   }
 
   // A sheet nowhere as narrow as a thin wall has none: its horizontal width 2c / |∇xy φ| is at
@@ -1233,7 +1249,9 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
   Vec2 sheet_period{0, 0};
   if (o.periodic_tiles && (design.thickness > 0 || c_field.empty())) {
     const Vec3 p = design.phi.period();
-    if (p.x > 0 && p.y > 0) sheet_period = {p.x, p.y};
+    // A period wider than the part never repeats inside it, and a tile's grid spans a whole
+    // period (a 947 mm cell on a 3 mm part was a 34 GB grid): no tiles then.
+    if (p.x > 0 && p.y > 0 && p.x <= hi.x - lo.x && p.y <= hi.y - lo.y) sheet_period = {p.x, p.y};
   }
   // The tiles pay where the part is the sheet alone over much of its extent; elsewhere their
   // smaller blocks only cost (e.g. a lattice cut by another lattice, whose envelope is

@@ -105,7 +105,11 @@ bool LayerSpill::next(Layer& layer) {
   buffer_.resize(size);
   read(buffer_.data(), size);
   const char* at = buffer_.data();
+  const char* const end = at + buffer_.size();
+  // An empty vector's data() may be null: memcpy must not see it even for zero bytes.
   auto take = [&](void* to, std::size_t n) {
+    if (n == 0) return;
+    if (n > static_cast<std::size_t>(end - at)) fail("layer record shorter than its contents");
     std::memcpy(to, at, n);
     at += n;
   };

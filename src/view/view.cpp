@@ -236,11 +236,25 @@ std::string encode_extras(const ViewScene& s) {
   return b;
 }
 
-// JSON text safe inside <script>: no "</" sequence.
-std::string script_safe(std::string text) {
-  for (std::size_t at = 0; (at = text.find("</", at)) != std::string::npos; at += 3)
-    text.replace(at, 2, "<\\/");
-  return text;
+// JSON as text safe inside <script>: `<`, `>` and `&` occur in JSON only inside strings, where
+// \u003c, \u003e and \u0026 mean the same characters, so no content (`</script>`, `<!--`,
+// `<script`) can change how the page parses. Invalid UTF-8 (a G-code comment echoed in a warning)
+// becomes U+FFFD instead of failing the page.
+std::string script_json(const nlohmann::json& value) {
+  const std::string text = value.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+  std::string out;
+  out.reserve(text.size());
+  for (char c : text) {
+    if (c == '<')
+      out += "\\u003c";
+    else if (c == '>')
+      out += "\\u003e";
+    else if (c == '&')
+      out += "\\u0026";
+    else
+      out += c;
+  }
+  return out;
 }
 
 std::string html_escape(const std::string& s) {
@@ -283,7 +297,7 @@ void append_scene(std::string& html, const ViewScene& s, std::size_t index) {
     meta["bed"] = {{"shape", s.bed.shape}, {"x", s.bed.x},           {"y", s.bed.y},
                    {"z", s.bed.z},         {"center", s.bed.center}, {"machine", s.bed.machine}};
   const std::string id = "tv-" + std::to_string(index);
-  html += "<script type=\"application/json\" id=\"" + id + "-meta\">" + script_safe(meta.dump()) +
+  html += "<script type=\"application/json\" id=\"" + id + "-meta\">" + script_json(meta) +
           "</script>\n";
   for (std::size_t i = 0; i < s.toolpath.layers.size(); ++i)
     html += "<script type=\"application/octet-stream\" id=\"" + id + "-l" + std::to_string(i) +
@@ -459,10 +473,9 @@ ViewScene view_scene(const Toolpath& toolpath, const std::string& name) {
 std::string viewer_html(const std::vector<ViewScene>& scenes, const std::string& title) {
   const std::size_t at = kTemplate.find(kDataMarker);
   if (at == std::string_view::npos) throw Error("viewer template has no data marker");
-  std::string data =
-      "<script type=\"application/json\" id=\"tv-index\">" +
-      script_safe(nlohmann::json{{"title", title}, {"scenes", scenes.size()}}.dump()) +
-      "</script>\n";
+  std::string data = "<script type=\"application/json\" id=\"tv-index\">" +
+                     script_json(nlohmann::json{{"title", title}, {"scenes", scenes.size()}}) +
+                     "</script>\n";
   for (std::size_t i = 0; i < scenes.size(); ++i) append_scene(data, scenes[i], i);
   std::string html;
   html.reserve(kTemplate.size() + data.size() + title.size() + 64);

@@ -333,6 +333,91 @@ def gcode_cases():
         case(f"gcode strict {n}", ["analyze", "bad.gcode", "--strict"], "bad.gcode:1", {"bad.gcode": body})
 
 
+def nonsense_cases():
+    """Values that parse but mean nothing (issue 47): refused naming the value, nothing written."""
+    mixed = ('{"format": "trellis.toolpath", "version": 1, "units": "mm", "layers": [{"z": 0.2, "paths": [{"points": '
+             '[[0,0,0.2],[10,0,0.2]], "role": "strut", "tool": 0, "width": 0.4, "height": 0.2, "mixture": [%s]}]}]}')
+    for n, mixture in {"negative": "-0.5, 1.5", "above 1": "0.2, 1.2", "three": "0.5, 0.7, -0.2"}.items():
+        case(f"toolpath mixture {n}", ["gcode", "mix.json", "--machine", MIXING, "-o", "out/x.gcode"], "mixture",
+             {"mix.json": (mixed % mixture).encode()})
+    for flag, value in (("--bead-width", "1e308"), ("--bead-width", "inf"), ("--bead-width", "nan"),
+                        ("--height", "1e308"), ("--height", "-inf")):
+        case(f"walls {flag} {value}", ["walls", "l.json", flag, value, "-o", "out/x.stl"], flag,
+             {"l.json": TINY_LATTICE})
+    for value in ("nan", "inf", "1e308"):
+        case(f"analyze --layer-height {value}", ["analyze", "g.gcode", "--layer-height", value], "--layer-height",
+             {"g.gcode": b"G21\nG90\nM83\nG1 X0 Y0 Z0.2\nG1 X10 Y0 E1\n"})
+    case("analyze --bead-width inf", ["analyze", "g.gcode", "--bead-width", "inf"], "--bead-width",
+         {"g.gcode": b"G1 X10 Y0 E1\n"})
+    for value in ("-1", "-5"):
+        case(f"render --layer {value}", ["render", "tp.json", "--layer", value, "-o", "out/x.png"], "--layer",
+             {"tp.json": None})
+    case("render --bead-width nan", ["render", "tp.json", "--layer", "0", "--bead-width", "nan", "-o", "out/x.png"],
+         "--bead-width", {"tp.json": None})
+    # A height-field grid far beyond memory (an 8 TB allocation before) or beyond any integer.
+    for value in ("1e-5", "1e-300"):
+        case(f"surface --resolution {value}", ["surface", "miura", "--resolution", value, "-o", "out/x.stl"],
+             "surface.resolution")
+
+
+    # .vcad numbers are decimal (0x10 was read as 16); a blend radius is not negative; a TPMS
+    # sheet's c must be a number (1/0 filled the box solid, sqrt(-1) sliced noise).
+    for n, (body, where) in {"hex": (b"sphere(0x10);\n", "bad.vcad:1:8"),
+                             "hex float": (b"sphere(0x1p3);\n", "bad.vcad:1:8"),
+                             "negative blend": (b"union(-1) {\n  sphere(2);\n  cube(2);\n}\n", "bad.vcad:1:7")}.items():
+        case(f"vcad {n}", ["slice", "bad.vcad", "--machine", PROFILE, "-o", "out/x.gcode"], where,
+             {"bad.vcad": body})
+    for c in ("1/0", "sqrt(-1)", "0*x + 1/0"):
+        case(f"pbf c {c}", ["pbf", "--c", c, "--size", "3,3,3", "-o", "out/x.cli"], "pbf.c")
+    case("pbf vcad sheet cell 0.001", ["pbf", "sheet.vcad", "-o", "out/x.cli"], "sheet.vcad: pbf.resolution",
+         {"sheet.vcad": b'root((-5,-5,0),(5,5,2),(0.1,0.1,0.1)) {\ngyroid(0.001, 0.3);\n}\n'})
+    case("pbf vcad sheet c sqrt(-1)", ["pbf", "sheet.vcad", "-o", "out/x.cli"], "pbf.c",
+         {"sheet.vcad": b'root((-5,-5,0),(5,5,2),(0.1,0.1,0.1)) {\ngyroid(2.5, "sqrt(-1)");\n}\n'})
+
+
+    # File readers: an STL facet without its loop, an OBJ face index that is not an integer, a
+    # laser build file whose $$UNITS scale its coordinates beyond ±1e6 mm.
+    def tetra(drop):
+        """A closed tetrahedron in ASCII STL with `drop` left out of its second facet."""
+        v = [(0, 0, 0), (10, 0, 0), (0, 10, 0), (0, 0, 10)]
+        out = ["solid t"]
+        for k, (a, b, c) in enumerate([(0, 2, 1), (0, 1, 3), (0, 3, 2), (1, 2, 3)]):
+            facet = ["facet normal 0 0 0", "outer loop"] + [f"vertex {v[i][0]} {v[i][1]} {v[i][2]}" for i in (a, b, c)]
+            facet += ["endloop", "endfacet"]
+            out += [x for x in facet if k != 1 or x != drop]
+        return ("\n".join(out + ["endsolid t"]) + "\n").encode()
+    stl = {"no endloop": tetra("endloop"), "no outer loop": tetra("outer loop")}
+    for n, body in stl.items():
+        case(f"mesh stl {n}", ["slice", "m.stl", "--machine", PROFILE, "-o", "out/x.gcode"], "m.stl:", {"m.stl": body})
+    case("mesh obj face 1.5", ["slice", "m.obj", "--machine", PROFILE, "-o", "out/x.gcode"], "m.obj:5",
+         {"m.obj": b"v 0 0 0\nv 10 0 0\nv 0 10 0\nv 0 0 10\nf 1.5 2 3\nf 1 2 4\nf 1 3 4\nf 2 3 4\n"})
+    for units in ("1e300", "1e10"):
+        case(f"cli $$UNITS/{units}", ["analyze", "u.cli"], "u.cli",
+             {"u.cli": f"$$HEADERSTART\n$$ASCII\n$$UNITS/{units}\n$$HEADEREND\n$$GEOMETRYSTART\n$$LAYER/1\n"
+                       "$$HATCHES/1,1,0,0,10,0\n$$GEOMETRYEND\n".encode()})
+    # A job's empty path is not "none": input = "" made the plan route generate a lattice.
+    for key in ("input", "machine", "output", "output_dir"):
+        case(f"job {key} empty", ["run", "job.toml"], "job." + key,
+             {"job.toml": f'[job]\nroute = "plan"\n{key} = ""\n'.encode()})
+
+    # A part of a plate cannot have its own machine, plate or run settings (they were ignored).
+    for section, setting in (("machine", "bed_x = 1"), ("plate", "clearance = 50"), ("run", "threads = 1")):
+        case(f"plate part [{section}]", ["run", "job.toml"], "job.toml:9: part." + section,
+             {"job.toml": ('[job]\nroute = "slice"\noutput_dir = "out"\n'
+                           f'machine = "{PROFILE}"\n[[part]]\ninput = "{DESIGNS}/csg_bracket.vcad"\n'
+                           f'x = 110\ny = 110\n[part.{section}]\n{setting}\n').encode()})
+
+
+def big_cell_check():
+    """A TPMS cell far larger than the part (a 947 mm cell on a 3.2 mm box allocated 34 GB for
+    its periodic tiles) runs within a normal part's memory."""
+    with tempfile.TemporaryDirectory(prefix="hostile_cell_") as d:
+        mb, rc = peak_memory_mb(["pbf", "--cell", "947", "--size", "3.2,3.2,3.2", "-o", "x.cli"], d)
+        if rc != 0 or mb > 1000 or not os.path.exists(os.path.join(d, "x.cli")):
+            return [f"pbf --cell 947 --size 3.2,3.2,3.2: exit {rc}, peak {mb:.0f} MB"]
+    return []
+
+
 def runaway_cases():
     def big(args, where="refused before starting", files=None):
         case("runaway " + " ".join(a for a in args if "/" not in a), args, where, files, runaway=True)
@@ -502,6 +587,7 @@ def main():
     profile_cases()
     job_cases()
     gcode_cases()
+    nonsense_cases()
     runaway_cases()
     if "--list" in sys.argv:
         for c in CASES:
@@ -511,7 +597,7 @@ def main():
     with concurrent.futures.ThreadPoolExecutor(max_workers=2) as pool:
         failures = [f for f in pool.map(run_case, CASES) if f]
     output_problems, output_counts = outputs.checks(TRELLIS, ROOT)
-    failures += memory_checks() + output_problems + umask_check()
+    failures += memory_checks() + output_problems + umask_check() + big_cell_check()
     print(f"{len(CASES)} hostile inputs, {len(failures)} problem(s), {time.monotonic() - t0:.0f} s")
     print("outputs (tests/hostile/outputs.py), runs per class: " +
           ", ".join(f"{k} {v}" for k, v in output_counts.items()))

@@ -104,9 +104,16 @@ TEST(CliIo, MalformedFilesNameTheOffset) {
       {head + "LAYER/20\n$$GEOMETRYEND\n", "LAYER/20"},
       {head + "$$LAYER/20\n$$POLYLINE/1e38,2,2,0,0,10,5\n$$GEOMETRYEND\n", "$$POLYLINE/1e38"},
       {head + "$$LAYER/20\n$$HATCHES/1,1.5,0,0,1,1\n$$GEOMETRYEND\n", "$$HATCHES/1,1.5"},
+      // $$UNITS beyond 1000 mm per unit, and coordinates beyond ±1e6 mm once scaled.
       {"$$HEADERSTART\n$$ASCII\n$$UNITS/1e300\n$$HEADEREND\n$$GEOMETRYSTART\n$$LAYER/1\n"
-       "$$POLYLINE/1,2,2,0,0,1e300,5\n$$GEOMETRYEND\n",
-       "$$POLYLINE/1,2,2,0,0,1e300"},
+       "$$POLYLINE/1,2,2,0,0,1,5\n$$GEOMETRYEND\n",
+       "1e300\n$$HEADEREND"},
+      {"$$HEADERSTART\n$$ASCII\n$$UNITS/1\n$$HEADEREND\n$$GEOMETRYSTART\n$$LAYER/1\n"
+       "$$POLYLINE/1,2,2,0,0,2e6,5\n$$GEOMETRYEND\n",
+       "$$POLYLINE/1,2,2,0,0,2e6"},
+      {"$$HEADERSTART\n$$ASCII\n$$UNITS/1\n$$HEADEREND\n$$GEOMETRYSTART\n$$LAYER/3e6\n"
+       "$$POLYLINE/1,2,2,0,0,2,5\n$$GEOMETRYEND\n",
+       "$$LAYER/3e6"},
   };
   for (const auto& c : cases) {
     try {

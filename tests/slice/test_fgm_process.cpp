@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <numbers>
 #include <sstream>
 
@@ -16,6 +17,7 @@
 #include "trellis/field/vcad.hpp"
 #include "trellis/machine/gcode_writer.hpp"
 #include "trellis/machine/machine_check.hpp"
+#include "trellis/slice/fgm_process.hpp"
 #include "trellis/slice/pipeline.hpp"
 
 using namespace trellis;
@@ -438,4 +440,33 @@ TEST(ProcessFields, RefusedWhereTheyCannotPrint) {
   job.layer_begin = 0;
   job.layer_end = 5;
   EXPECT_THROW(run_slice(job), SettingError);
+}
+
+// A path with a point that is not finite, or a segment that would need more samples than an int
+// holds (a float -> int overflow before), is refused naming process.sample; nothing is split.
+TEST(ProcessFields, NonFiniteOrRunawaySamplingIsRefused) {
+  const Field f =
+      parse_vcad(R"vcad(fprocess(["200 + x"], ["temperature"]) { cube(1e5); })vcad", "d.vcad")
+          .field;
+  auto refused = [&](std::vector<Vec3> points, double sample, const std::string& expect) {
+    Toolpath tp;
+    Path p;
+    p.points = std::move(points);
+    p.role = PathRole::Perimeter;
+    tp.layers.push_back({0.2, {p}});
+    ProcessOptions o;
+    o.sample = sample;
+    try {
+      apply_process_fields(f, tp, o);
+      ADD_FAILURE() << "accepted: " << expect;
+    } catch (const GeometryError& e) {
+      EXPECT_EQ(e.where().element, "process.sample");
+      EXPECT_NE(std::string(e.what()).find(expect), std::string::npos) << e.what();
+    }
+    ASSERT_EQ(tp.layers[0].paths.size(), 1u);
+  };
+  const double inf = std::numeric_limits<double>::infinity();
+  refused({{0, 0, 0.2}, {inf, 0, 0.2}}, 0.2, "not finite");
+  refused({{0, 0, 0.2}, {std::nan(""), 0, 0.2}}, 0.2, "not finite");
+  refused({{0, 0, 0.2}, {1e4, 0, 0.2}}, 1e-9, "raise process.sample");
 }

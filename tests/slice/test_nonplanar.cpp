@@ -4,12 +4,13 @@
 
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <numbers>
 #include <random>
 #include <set>
 
-#include "support/machines.hpp"
 #include "support/gcode_replay.hpp"
+#include "support/machines.hpp"
 #include "support/temp_dir.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/geom/mesh.hpp"
@@ -601,4 +602,25 @@ TEST(Nonplanar, HolesAreJoinedAroundTheirEdge) {
   const SurfaceDeviation dev = surface_deviation(r.toolpath, annulus, prm);
   EXPECT_LE(dev.max_point, 1e-6);
   EXPECT_LE(dev.max_chord, prm.chord_tolerance);
+}
+
+// A grid that would not fit in memory (an 8 TB allocation before), or whose count is beyond any
+// integer, is refused naming surface.resolution before anything is allocated.
+TEST(Nonplanar, AbsurdSurfaceGridIsRefusedWithItsSize) {
+  auto flat = [](double w) {
+    return HeightField::from_function([] { return [](double, double) { return 1.0; }; },
+                                      {{0, 0}, {w, w}}, "flat");
+  };
+  EXPECT_GT(surface_mesh(flat(10), 0.5).triangles.size(), 0u);
+  for (double resolution : {1e-4, 1e-300, std::numeric_limits<double>::denorm_min()}) {
+    try {
+      surface_mesh(flat(100), resolution);
+      ADD_FAILURE() << "accepted resolution " << resolution;
+    } catch (const ResourceError& e) {
+      EXPECT_EQ(e.where().element, "surface.resolution");
+      EXPECT_NE(std::string(e.what()).find("raise surface.resolution"), std::string::npos)
+          << e.what();
+    }
+  }
+  EXPECT_THROW(surface_mesh(flat(10), std::numeric_limits<double>::infinity()), SettingError);
 }

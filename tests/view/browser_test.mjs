@@ -67,6 +67,12 @@ const MIX3 = [[1, 0, 0], [0, 1, 0], [0, 0, 1], [0.6, 0.2, 0.2], [0.2, 0.5, 0.3],
   MIX3.forEach(([a, b, c], i) => g.push(`M165 A${a} B${b} C${c}`, `G0 X0 Y${2 * i} Z0.2`, `G1 X20 Y${2 * i} E1.0 F1200`));
   writeFileSync(join(out, 'mix3.gcode'), g.join('\n') + '\n');
 }
+// Hostile strings: a G-code line, a file name and a title that would end or comment out the data
+// block if the page did not escape them; the page must still load and show the same counts.
+const HOSTILE = '<!--<script>x.gcode';
+const HOSTILE_TITLE = '<!--<script></script><script>window.pwned = 1</script>';
+writeFileSync(join(out, HOSTILE), readFileSync(join(out, 'mix.gcode'), 'utf8') +
+  '<!--<script>\n;</script><script>window.pwned = 1</script>\n');
 // Deviation from a design: two design struts along X at y = 0 and y = 10; the print's lines along
 // X lie 0, 0.25, 0.5 and 1 mm beside the first.
 const DEV = [0, 0.25, 0.5, 1];
@@ -118,6 +124,7 @@ const cases = [
     expect: { designLines: json('cubic_report.json').struts } },
   { file: 'mix.gcode', expect: analyze('mix.gcode') },
   { file: 'mix3.gcode', expect: analyze('mix3.gcode') },
+  { file: HOSTILE, args: ['--title', HOSTILE_TITLE], expect: analyze(HOSTILE) },
   { file: 'part.bgcode', expect: analyze('part.bgcode') },
   { file: 'dev.gcode', args: ['--design', 'dev_design.json'], expect: { ...analyze('dev.gcode'), designLines: 2 } },
   { file: 'foam.nc', args: ['--design', 'foam.json', '--machine', profile('embedded_aero_410um.toml')],
@@ -256,6 +263,13 @@ async function runCase(c, tag = '') {
     const label = await page.$eval('#tv-layer-label', (e) => e.textContent);
     check(/^1 of 2/.test(label), `mix.gcode: layer label "${label}"`);
     await page.screenshot({ path: join(out, 'mix.gcode.layer1.png') });
+  }
+  if (base === HOSTILE) {
+    const title = await page.title();
+    check(title === HOSTILE_TITLE, `${name}: the page title is the --title as given ("${title}")`);
+    check(await page.evaluate(() => window.pwned === undefined), `${name}: no script from the file or the title ran`);
+    const index = await page.evaluate(() => JSON.parse(document.getElementById('tv-index').textContent).title);
+    check(index === HOSTILE_TITLE, `${name}: the data block holds the title as given`);
   }
   if (base === 'mix3.gcode') {
     await page.click('#tv-top');

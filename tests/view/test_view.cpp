@@ -3,6 +3,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <nlohmann/json.hpp>
 
 #include "support/temp_dir.hpp"
 #include "trellis/core/error.hpp"
@@ -120,6 +121,42 @@ TEST(View, PageIsSmallAndSelfContained) {
   EXPECT_EQ(html.find("http://"), html.find("http://www.w3.org"));  // no fetched resources
   EXPECT_EQ(html.find("src=\"http"), std::string::npos);
   EXPECT_NE(html.find("<title>a &lt;title&gt;</title>"), std::string::npos);
+}
+
+// Hostile strings (a G-code line echoed as a warning, a file name, a title) cannot change how the
+// page parses: every embedded JSON block holds no `<`, `>` or `&`, the page has as many <script>
+// tags as with harmless strings, and the JSON still reads back the strings as they were.
+TEST(View, EmbeddedStringsCannotChangeHowThePageParses) {
+  const std::string hostile[] = {"<!--<script>", "</script><script>alert(1)</script>",
+                                 "<!-- a & b -->", "]]></title><img src=x onerror=alert(1)>"};
+  auto page = [&](bool bad) {
+    ViewScene s = view_scene(sample(), bad ? hostile[0] + "x.gcode" : "x.gcode");
+    s.toolpath.source = bad ? hostile[2] : "source";
+    for (const auto& h : hostile) s.warnings.push_back(bad ? h : "warning");
+    s.warnings.push_back(bad ? "bad UTF-8 \xff\xfe" : "warning");
+    return viewer_html({s}, bad ? hostile[1] + hostile[3] : "title");
+  };
+  const std::string good = page(false), html = page(true);
+  auto count = [](const std::string& text, const std::string& what) {
+    std::size_t n = 0;
+    for (auto at = text.find(what); at != std::string::npos; at = text.find(what, at + 1)) ++n;
+    return n;
+  };
+  EXPECT_EQ(count(html, "<script"), count(good, "<script"));
+  EXPECT_EQ(count(html, "</script"), count(good, "</script"));
+  EXPECT_EQ(count(html, "<!--"), count(good, "<!--"));
+  for (const char* id : {"tv-index", "tv-0-meta"}) {
+    const std::string text = element(html, id);
+    ASSERT_FALSE(text.empty()) << id;
+    EXPECT_EQ(text.find_first_of("<>&"), std::string::npos) << id << ": " << text;
+  }
+  const auto index = nlohmann::json::parse(element(html, "tv-index"));
+  EXPECT_EQ(index["title"], hostile[1] + hostile[3]);
+  const auto meta = nlohmann::json::parse(element(html, "tv-0-meta"));
+  EXPECT_EQ(meta["name"], hostile[0] + "x.gcode");
+  EXPECT_EQ(meta["source"], hostile[2]);
+  for (std::size_t i = 0; i < std::size(hostile); ++i) EXPECT_EQ(meta["warnings"][i], hostile[i]);
+  EXPECT_EQ(meta["warnings"][4], "bad UTF-8 \xef\xbf\xbd\xef\xbf\xbd");  // U+FFFD each
 }
 
 TEST(View, UnknownFileKindIsAnErrorNamingTheFile) {
