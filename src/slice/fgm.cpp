@@ -953,7 +953,6 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
     st.short_beads += outline_route ? pl.shorts.short_beads : pl.shorts.short_kept;
     for (std::size_t i = 0; i < pl.layer.paths.size(); ++i) {
       const Path& path = pl.layer.paths[i];
-      st.shortest_path = std::min(st.shortest_path, path.length());
       if (pl.colors[i] != last_color && last_color >= 0) ++st.colour_changes;
       last_color = pl.colors[i];
       st.abrupt_changes += abrupt_start(last_mixture, path, o.palette);
@@ -961,6 +960,7 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
       st.joined += path.joined;
       ++st.paths;
     }
+    st.shortest_path = std::min(st.shortest_path, shortest_piece(pl.layer));
     if (!pl.layer.paths.empty()) tp.layers.push_back(std::move(pl.layer));
   }
   if (st.paths == 0) st.shortest_path = 0;
@@ -1083,6 +1083,19 @@ std::vector<GradientErrorSum> gradient_error_sums(const Field& field, const Tool
     }
   });
   return acc;
+}
+
+double shortest_piece(const Layer& layer) {
+  double best = std::numeric_limits<double>::infinity(), run = 0;
+  const Path* prev = nullptr;
+  for (const Path& p : layer.paths) {
+    const bool continues = prev && p.joined && p.mixture == prev->mixture;
+    if (prev && !continues) best = std::min(best, run), run = 0;
+    run += p.length();
+    prev = &p;
+  }
+  if (prev) best = std::min(best, run);
+  return best;
 }
 
 void measure_gradient_error(const Field& field, const Toolpath& tp,

@@ -311,13 +311,13 @@ OutlineBeads outline_beads(const Regions& outline, const IsoPotential* potential
         if (length(chain) >= kDropOpen * w) strands.push_back({std::move(chain), false});
       // Where g is flat no level line passes: a fraction clamped at 0 or 1 over part of the
       // island (three materials: a corner of the triangle), or a design constant there. What
-      // lies further than a bead from every line and is wider than a bead is hatched at the
+      // lies further than a bead from every line and is wider than two beads is hatched at the
       // layer's angle like an island without a gradient: its beads meet the level lines' beads
       // (a line extruding more where the lines spread overlaps them by up to half a bead; under
       // 2 % of the coverage checked in test_fgm_outline). Level lines spread to three beads at
       // most near a saddle: no such gap there.
       Regions gap = difference(fill, stroke(drawn, 2 * w));
-      gap = offset(offset(gap, -0.5 * w), 0.5 * w);
+      gap = offset(offset(gap, -w), w);
       if (!gap.empty()) add_hatch(gap, angle, w, strands, st);
     } else if (!fill.empty()) {
       // No gradient: lines at the angle, paired and joined the same way.

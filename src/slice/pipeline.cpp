@@ -734,9 +734,9 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
           r.fgm.short_kept += p.fgm.short_kept;
           r.fgm.short_kept_bound += p.fgm.short_kept_bound;
           r.fgm.short_beads += p.fgm.short_beads;
-          for (const Layer& layer : p.toolpath.layers)
+          for (const Layer& layer : p.toolpath.layers) {
+            r.fgm.shortest_path = std::min(r.fgm.shortest_path, shortest_piece(layer));
             for (const Path& path : layer.paths) {
-              r.fgm.shortest_path = std::min(r.fgm.shortest_path, path.length());
               // The palette colour whose mixture the path prints (plan_fgm_strategy2 counts
               // changes of its faces' colours).
               const auto known = colour_of_mixture.find(path.mixture);
@@ -750,6 +750,7 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
               ++r.fgm.paths;
               if (path.role != PathRole::Purge && !path.mixture.empty()) colours_used.insert(path.mixture);
             }
+          }
           for (const auto& a : p.error) {
             error_sum += a.sum;
             r.fgm.error_max = std::max(r.fgm.error_max, a.max);

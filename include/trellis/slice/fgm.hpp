@@ -222,6 +222,11 @@ struct FgmStats {
 void merge_short_pieces(std::vector<Path>& paths, std::vector<int>& colours, Evaluator& evaluator,
                         double z_design, const Palette& palette, double min, FgmStats& stats);
 
+// The shortest piece of one mixture in a layer: a path and the paths joined to it in the same
+// mixture count as one (Strategy 2 in path order splits a piece where its flow changes); the
+// report's shortest segment. Infinity for a layer without paths.
+double shortest_piece(const Layer& layer);
+
 // Fills stats.error_* for a graded toolpath (layer i planned from outline zs[i]).
 void measure_gradient_error(const Field& field, const Toolpath& toolpath,
                             const std::vector<LayerOutline>& layers, double layer_height,
