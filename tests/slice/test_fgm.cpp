@@ -10,6 +10,7 @@
 #include <tuple>
 
 #include "support/machines.hpp"
+#include "support/scanline.hpp"
 #include "trellis/machine/machine_check.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/field/vcad.hpp"
@@ -117,22 +118,10 @@ Fidelity run(const Field& f, int colors, double h, bool concentric, double bead 
     }
     // Pixels inside the outline by scanlines: each row's crossings with every ring, even-odd.
     std::size_t inside = 0, covered = 0;
-    std::vector<double> xs;
-    for (int iy = 0; iy < ny; ++iy) {
-      const double y = b.min.y + (iy + 0.5) * px;
-      xs.clear();
-      for (const auto& ring : rings_of(out))
-        for (std::size_t i = 0, j = ring.size() - 1; i < ring.size(); j = i++)
-          if ((ring[i].y > y) != (ring[j].y > y))
-            xs.push_back(ring[j].x + (ring[i].x - ring[j].x) * (y - ring[j].y) / (ring[i].y - ring[j].y));
-      std::sort(xs.begin(), xs.end());
-      for (std::size_t k = 0; k + 1 < xs.size(); k += 2)
-        for (int ix = std::max(0, static_cast<int>(std::ceil((xs[k] - b.min.x) / px - 0.5)));
-             ix < nx && b.min.x + (ix + 0.5) * px < xs[k + 1]; ++ix) {
-          ++inside;
-          covered += paint[static_cast<std::size_t>(iy) * nx + ix];
-        }
-    }
+    test::for_each_pixel_inside(out, {b.min.x, b.min.y}, px, nx, ny, [&](int ix, int iy) {
+      ++inside;
+      covered += paint[static_cast<std::size_t>(iy) * nx + ix];
+    });
     if (inside) r.coverage = std::min(r.coverage, double(covered) / double(inside));
   }
   return r;

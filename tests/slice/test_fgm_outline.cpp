@@ -11,6 +11,7 @@
 #include <string>
 
 #include "../../src/slice/fgm_outline.hpp"
+#include "support/scanline.hpp"
 #include "trellis/field/vcad.hpp"
 #include "trellis/geom/regions.hpp"
 #include "trellis/slice/fgm.hpp"
@@ -148,24 +149,12 @@ Raster raster(const Layer& layer, const Regions& outline, double inset, double s
     }
   }
   std::size_t inside = 0, covered = 0, three = 0;
-  std::vector<double> xs;
-  for (int iy = 0; iy < ny; ++iy) {
-    const double y = b.min.y + (iy + 0.5) * px;
-    xs.clear();
-    for (const auto& ring : rings_of(inner))
-      for (std::size_t i = 0, j = ring.size() - 1; i < ring.size(); j = i++)
-        if ((ring[i].y > y) != (ring[j].y > y))
-          xs.push_back(ring[j].x + (ring[i].x - ring[j].x) * (y - ring[j].y) / (ring[i].y - ring[j].y));
-    std::sort(xs.begin(), xs.end());
-    for (std::size_t k = 0; k + 1 < xs.size(); k += 2)
-      for (int ix = std::max(0, static_cast<int>(std::ceil((xs[k] - b.min.x) / px - 0.5)));
-           ix < nx && b.min.x + (ix + 0.5) * px < xs[k + 1]; ++ix) {
-        const unsigned char n = count[static_cast<std::size_t>(iy) * nx + ix];
-        ++inside;
-        covered += n >= 1;
-        three += n >= 3;
-      }
-  }
+  test::for_each_pixel_inside(inner, {b.min.x, b.min.y}, px, nx, ny, [&](int ix, int iy) {
+    const unsigned char n = count[static_cast<std::size_t>(iy) * nx + ix];
+    ++inside;
+    covered += n >= 1;
+    three += n >= 3;
+  });
   Raster out;
   out.coverage = inside ? double(covered) / double(inside) : 1;
   out.three = inside ? double(three) / double(inside) : 0;
