@@ -1,6 +1,8 @@
 #include <fmt/format.h>
 
+#include <filesystem>
 #include <iostream>
+#include <system_error>
 
 #include "commands.hpp"
 #include "trellis/core/budget.hpp"
@@ -51,6 +53,18 @@ void add_render(CLI::App& app) {
   cmd->callback([o] {
     // Without --layer, -o is the prefix of OUT.layerNNN.png: the batch refuses any of them that
     // is an input.
+    if (o->layer < 0) {
+      // Each layer's PNG is written beside the prefix: a device or FIFO there (-o /dev/null)
+      // would scatter files through its folder.
+      std::error_code ec;
+      const auto st = std::filesystem::status(o->output, ec);
+      if (!ec && (std::filesystem::is_character_file(st) || std::filesystem::is_block_file(st) ||
+                  std::filesystem::is_fifo(st) || std::filesystem::is_socket(st)))
+        throw SettingError(o->output +
+                           ": without --layer, -o is the prefix of one PNG per layer "
+                           "(OUT.layerNNN.png beside it), and this is a device or FIFO; give "
+                           "--layer N to write one PNG to it");
+    }
     RunFiles files(o->follow);
     files.input("the toolpath", o->input);
     files.input("the machine profile (--machine)", o->load.machine);

@@ -251,6 +251,21 @@ def devnull_cases(env):
                 env.fail("devnull", name, c)
         finally:
             shutil.rmtree(d, ignore_errors=True)
+    # Every layer's PNG beside a device: refused, nothing written next to /dev/null.
+    d = env.folder()
+    try:
+        before = set(os.listdir("/dev"))
+        r = env.run(["render", "tp.json", "-o", "/dev/null"], d)
+        env.count("devnull")
+        new = sorted(set(os.listdir("/dev")) - before)
+        if r.returncode != 2 or new or b"--layer" not in r.stderr:
+            env.fail("devnull", "render every layer -o /dev/null", f"exit {r.returncode}, new in /dev: {new}", r.stderr)
+        for n in new:
+            if n.startswith("null.layer"):
+                os.unlink(os.path.join("/dev", n))
+        devnull_ok(env, "render every layer -o /dev/null")
+    finally:
+        shutil.rmtree(d, ignore_errors=True)
     # /dev/stdout into a pipe: the file arrives on stdout.
     d = env.folder()
     r = env.run(["lattice2d", "--size", "10,10", "-o", "/dev/stdout"], d)
