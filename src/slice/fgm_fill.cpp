@@ -161,6 +161,46 @@ std::vector<std::vector<Vec2>> sector_lines(const Regions& region, const IsoDire
   return out;
 }
 
+namespace {
+
+// Pairs of ends e < f of different pieces (end 2k: piece k's first point, 2k + 1 its last)
+// within `reach` of each other that `accept(e, f)` takes, shortest first (ties by index): found
+// through a grid of `reach` cells.
+struct EndPair {
+  double d;
+  std::size_t e, f;
+};
+template <class Accept>
+std::vector<EndPair> end_pairs(const std::vector<Vec2>& at, double reach, Accept&& accept) {
+  const double cell = std::max(reach, 1e-3);
+  auto key = [&](Vec2 q) {
+    return std::pair<long, long>{static_cast<long>(std::floor(q.x / cell)),
+                                 static_cast<long>(std::floor(q.y / cell))};
+  };
+  std::map<std::pair<long, long>, std::vector<std::size_t>> grid;
+  for (std::size_t e = 0; e < at.size(); ++e) grid[key(at[e])].push_back(e);
+  std::vector<EndPair> pairs;
+  for (std::size_t e = 0; e < at.size(); ++e) {
+    const auto c = key(at[e]);
+    for (long x = c.first - 1; x <= c.first + 1; ++x)
+      for (long y = c.second - 1; y <= c.second + 1; ++y) {
+        const auto it = grid.find({x, y});
+        if (it == grid.end()) continue;
+        for (const std::size_t f : it->second) {
+          if (f <= e || f / 2 == e / 2) continue;
+          const double d = dist(at[e], at[f]);
+          if (d <= reach && accept(e, f)) pairs.push_back({d, e, f});
+        }
+      }
+  }
+  std::sort(pairs.begin(), pairs.end(), [](const EndPair& a, const EndPair& b) {
+    return a.d < b.d || (a.d == b.d && (a.e < b.e || (a.e == b.e && a.f < b.f)));
+  });
+  return pairs;
+}
+
+}  // namespace
+
 std::vector<std::vector<Vec2>> join_lanes(const std::vector<std::vector<Vec2>>& lines, double reach,
                                           double max_turn) {
   // End 2k is line k's first point, 2k + 1 its last; `out` its direction away from the line.
@@ -173,39 +213,13 @@ std::vector<std::vector<Vec2>> join_lanes(const std::vector<std::vector<Vec2>>& 
     at[2 * k] = a, out[2 * k] = {-u.x, -u.y};
     at[2 * k + 1] = b, out[2 * k + 1] = u;
   }
-  const double cell = std::max(reach, 1e-3);
-  auto key = [&](Vec2 q) {
-    return std::pair<long, long>{static_cast<long>(std::floor(q.x / cell)),
-                                 static_cast<long>(std::floor(q.y / cell))};
-  };
-  std::map<std::pair<long, long>, std::vector<std::size_t>> grid;
-  for (std::size_t e = 0; e < 2 * n; ++e) grid[key(at[e])].push_back(e);
   const double facing = -std::cos(max_turn * kPi / 180);
   // Pairs of ends that continue each other, nearest first, each end in one pair at most.
-  struct Pair {
-    double d;
-    std::size_t e, f;
-  };
-  std::vector<Pair> pairs;
-  for (std::size_t e = 0; e < 2 * n; ++e) {
-    const auto c = key(at[e]);
-    for (long x = c.first - 1; x <= c.first + 1; ++x)
-      for (long y = c.second - 1; y <= c.second + 1; ++y) {
-        const auto it = grid.find({x, y});
-        if (it == grid.end()) continue;
-        for (const std::size_t f : it->second) {
-          if (f <= e || f / 2 == e / 2) continue;
-          const double d = dist(at[e], at[f]);
-          if (d <= reach && out[e].x * out[f].x + out[e].y * out[f].y <= facing)
-            pairs.push_back({d, e, f});
-        }
-      }
-  }
-  std::sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) {
-    return a.d < b.d || (a.d == b.d && (a.e < b.e || (a.e == b.e && a.f < b.f)));
+  const auto pairs = end_pairs(at, reach, [&](std::size_t e, std::size_t f) {
+    return out[e].x * out[f].x + out[e].y * out[f].y <= facing;
   });
   std::vector<std::size_t> mate(2 * n, SIZE_MAX);
-  for (const Pair& p : pairs)
+  for (const EndPair& p : pairs)
     if (mate[p.e] == SIZE_MAX && mate[p.f] == SIZE_MAX) mate[p.e] = p.f, mate[p.f] = p.e;
   // Lanes: from each line with a free end (then the closed ones), line to line through mates.
   std::vector<char> used(n, 0);
@@ -380,39 +394,14 @@ std::vector<std::vector<Vec2>> match_ends(const std::vector<std::vector<Vec2>>& 
   std::vector<Vec2> at(2 * n);
   for (std::size_t k = 0; k < n; ++k)
     at[2 * k] = pieces[k].front(), at[2 * k + 1] = pieces[k].back();
-  const double reach = join.reach(), cell = std::max(reach, 1e-3);
-  auto key = [&](Vec2 q) {
-    return std::pair<long, long>{static_cast<long>(std::floor(q.x / cell)),
-                                 static_cast<long>(std::floor(q.y / cell))};
-  };
-  std::map<std::pair<long, long>, std::vector<std::size_t>> grid;
-  for (std::size_t e = 0; e < 2 * n; ++e) grid[key(at[e])].push_back(e);
-  struct Link {
-    double d;
-    std::size_t e, f;
-  };
-  std::vector<Link> links;
-  for (std::size_t e = 0; e < 2 * n; ++e) {
-    const auto c = key(at[e]);
-    for (long x = c.first - 1; x <= c.first + 1; ++x)
-      for (long y = c.second - 1; y <= c.second + 1; ++y) {
-        const auto it = grid.find({x, y});
-        if (it == grid.end()) continue;
-        for (const std::size_t f : it->second)
-          if (f > e && f / 2 != e / 2 && dist(at[e], at[f]) <= reach)
-            links.push_back({dist(at[e], at[f]), e, f});
-      }
-  }
-  std::sort(links.begin(), links.end(), [](const Link& a, const Link& b) {
-    return a.d < b.d || (a.d == b.d && (a.e < b.e || (a.e == b.e && a.f < b.f)));
-  });
+  const auto links = end_pairs(at, join.reach(), [](std::size_t, std::size_t) { return true; });
   std::vector<std::size_t> root(n), mate(2 * n, SIZE_MAX);
   for (std::size_t k = 0; k < n; ++k) root[k] = k;
   auto find = [&](std::size_t k) {
     while (root[k] != k) k = root[k] = root[root[k]];
     return k;
   };
-  for (const Link& l : links) {
+  for (const EndPair& l : links) {
     if (mate[l.e] != SIZE_MAX || mate[l.f] != SIZE_MAX || find(l.e / 2) == find(l.f / 2)) continue;
     if (!join.join(at[l.e], at[l.f])) continue;
     mate[l.e] = l.f, mate[l.f] = l.e;
