@@ -524,8 +524,15 @@ class Parser {
       if (args.size() < 2 || args.size() > 3 || args[0].kind != Arg::List ||
           args[1].kind != Arg::List)
         fail("fgrade takes ([\"expr\", ...], [\"material\", ...] [, \"mode\"])", at);
-      if (args.size() == 3 && args[2].kind != Arg::String)
-        fail("fgrade: the mode is a string", args[2].pos);
+      // OpenVCAD's optional third argument names a blending mode; Trellis has one (fractions
+      // clamped to 0..1 and normalised), so a mode would be ignored: refused instead.
+      if (args.size() == 3)
+        fail(args[2].kind == Arg::String
+                 ? fmt::format("fgrade: the mode \"{}\" is not supported (the fractions are always "
+                               "clamped to 0..1 and normalised); leave the third argument out",
+                               args[2].text)
+                 : std::string("fgrade: a third argument is not supported; leave it out"),
+             args[2].pos);
       if (args[0].list.size() != args[1].list.size())
         fail(fmt::format("fgrade: {} expressions but {} materials", args[0].list.size(),
                          args[1].list.size()),

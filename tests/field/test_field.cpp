@@ -196,6 +196,8 @@ TEST(Vcad, ErrorsNameLineAndColumn) {
       {"sphere(1) }", 1, 11, "expected a node name"},
       {"fgrade([\"x/2\", \"1-x/\"], [\"a\", \"b\"]) { sphere(1); }", 1, 21, "bad expression"},
       {"fgrade([\"x\"], [\"a\", \"b\"]) { sphere(1); }", 1, 1, "1 expressions but 2 materials"},
+      {"fgrade([\"x\", \"1-x\"], [\"a\", \"b\"], \"banana\") { sphere(1); }", 1, 34,
+       "mode \"banana\" is not supported"},
       {"sphere(-1);", 1, 1, "positive"},
       {"sphere(1", 1, 9, "expected"},
       {"sphere(\"a);", 1, 8, "string not closed"},
