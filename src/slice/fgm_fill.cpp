@@ -9,6 +9,7 @@
 #include <set>
 
 #include "fgm_order.hpp"
+#include "fgm_potential.hpp"
 
 namespace trellis::fgm {
 
@@ -25,15 +26,8 @@ double dist(Vec2 a, Vec2 b) {
 IsoDirections::IsoDirections(Evaluator& ev, double z, Vec2 lo, Vec2 hi, double spacing,
                              double fallback)
     : lo_(lo), spacing_(spacing), fallback_(fallback) {
-  nx_ = static_cast<long>(std::ceil((hi.x - lo.x) / spacing)) + 1;
-  ny_ = static_cast<long>(std::ceil((hi.y - lo.y) / spacing)) + 1;
-  nx_ = std::max(nx_, 2L), ny_ = std::max(ny_, 2L);
-  const auto n = static_cast<std::size_t>(nx_ * ny_);
-  std::vector<std::vector<double>> f(n);
-  for (long j = 0; j < ny_; ++j)
-    for (long i = 0; i < nx_; ++i)
-      f[static_cast<std::size_t>(j * nx_ + i)] = ev.fractions(
-          {lo.x + static_cast<double>(i) * spacing, lo.y + static_cast<double>(j) * spacing, z});
+  const std::vector<std::vector<double>> f = sample_fractions(ev, z, lo, hi, spacing, nx_, ny_);
+  const auto n = f.size();
   t_.resize(n);
   auto at = [&](long i, long j) -> const std::vector<double>& {
     return f[static_cast<std::size_t>(std::clamp(j, 0L, ny_ - 1) * nx_ +

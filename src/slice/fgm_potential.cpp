@@ -38,16 +38,22 @@ std::size_t followed_material(const std::vector<std::vector<double>>& f, long nx
 
 }  // namespace
 
+std::vector<std::vector<double>> sample_fractions(Evaluator& ev, double z, Vec2 lo, Vec2 hi,
+                                                  double spacing, long& nx, long& ny) {
+  nx = std::max(2L, static_cast<long>(std::ceil((hi.x - lo.x) / spacing)) + 1);
+  ny = std::max(2L, static_cast<long>(std::ceil((hi.y - lo.y) / spacing)) + 1);
+  std::vector<std::vector<double>> f(static_cast<std::size_t>(nx * ny));
+  for (long j = 0; j < ny; ++j)
+    for (long i = 0; i < nx; ++i)
+      f[static_cast<std::size_t>(j * nx + i)] = ev.fractions(
+          {lo.x + static_cast<double>(i) * spacing, lo.y + static_cast<double>(j) * spacing, z});
+  return f;
+}
+
 IsoPotential::IsoPotential(Evaluator& ev, double z, Vec2 lo, Vec2 hi, double spacing)
     : lo_(lo), h_(spacing) {
-  nx_ = std::max(2L, static_cast<long>(std::ceil((hi.x - lo.x) / spacing)) + 1);
-  ny_ = std::max(2L, static_cast<long>(std::ceil((hi.y - lo.y) / spacing)) + 1);
-  const auto n = static_cast<std::size_t>(nx_ * ny_);
-  std::vector<std::vector<double>> fr(n);
-  for (long j = 0; j < ny_; ++j)
-    for (long i = 0; i < nx_; ++i)
-      fr[static_cast<std::size_t>(j * nx_ + i)] = ev.fractions(
-          {lo.x + static_cast<double>(i) * spacing, lo.y + static_cast<double>(j) * spacing, z});
+  std::vector<std::vector<double>> fr = sample_fractions(ev, z, lo, hi, spacing, nx_, ny_);
+  const auto n = fr.size();
   const std::size_t m = followed_material(fr, nx_, ny_, spacing);
   std::vector<double> f(n, 0.0);
   for (std::size_t k = 0; k < n; ++k)
@@ -204,22 +210,22 @@ IsoPotential::IsoPotential(Evaluator& ev, double z, Vec2 lo, Vec2 hi, double spa
   }
 }
 
-Vec2 IsoPotential::gradient(Vec2 p) const {
+IsoPotential::Cell IsoPotential::cell(Vec2 p) const {
   const double fx = std::clamp((p.x - lo_.x) / h_, 0.0, static_cast<double>(nx_ - 1));
   const double fy = std::clamp((p.y - lo_.y) / h_, 0.0, static_cast<double>(ny_ - 1));
   const long i = std::min(static_cast<long>(fx), nx_ - 2),
              j = std::min(static_cast<long>(fy), ny_ - 2);
-  const double u = fx - static_cast<double>(i), v = fy - static_cast<double>(j);
+  return {i, j, fx - static_cast<double>(i), fy - static_cast<double>(j)};
+}
+
+Vec2 IsoPotential::gradient(Vec2 p) const {
+  const auto [i, j, u, v] = cell(p);
   const double a = node(i, j), b = node(i + 1, j), c = node(i, j + 1), d = node(i + 1, j + 1);
   return {((1 - v) * (b - a) + v * (d - c)) / h_, ((1 - u) * (c - a) + u * (d - b)) / h_};
 }
 
 double IsoPotential::value(Vec2 p) const {
-  const double fx = std::clamp((p.x - lo_.x) / h_, 0.0, static_cast<double>(nx_ - 1));
-  const double fy = std::clamp((p.y - lo_.y) / h_, 0.0, static_cast<double>(ny_ - 1));
-  const long i = std::min(static_cast<long>(fx), nx_ - 2),
-             j = std::min(static_cast<long>(fy), ny_ - 2);
-  const double u = fx - static_cast<double>(i), v = fy - static_cast<double>(j);
+  const auto [i, j, u, v] = cell(p);
   return (1 - v) * ((1 - u) * node(i, j) + u * node(i + 1, j)) +
          v * ((1 - u) * node(i, j + 1) + u * node(i + 1, j + 1));
 }

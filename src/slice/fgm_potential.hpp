@@ -24,6 +24,11 @@
 
 namespace trellis::fgm {
 
+// The material fractions at the nodes of a grid `spacing` apart from lo covering the box lo–hi:
+// nx × ny nodes (at least 2 × 2), row by row.
+std::vector<std::vector<double>> sample_fractions(Evaluator& evaluator, double z, Vec2 lo, Vec2 hi,
+                                                  double spacing, long& nx, long& ny);
+
 class IsoPotential {
  public:
   // Over the rectangle [lo, hi] at height z; where the fractions are flat everywhere (no
@@ -41,6 +46,12 @@ class IsoPotential {
 
  private:
   double node(long i, long j) const { return g_[static_cast<std::size_t>(j * nx_ + i)]; }
+  // The grid cell holding p (clamped to the grid) and p's place in it (0..1 each way).
+  struct Cell {
+    long i, j;
+    double u, v;
+  };
+  Cell cell(Vec2 p) const;
   Vec2 lo_;
   double h_;
   long nx_ = 0, ny_ = 0;

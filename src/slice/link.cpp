@@ -486,11 +486,8 @@ std::vector<std::vector<Vec2>> pair_fill(const std::vector<std::vector<Vec2>>& l
         }
   };
   std::vector<char> seen(n, 0);
-  for (std::size_t i = 0; i < n; ++i) {
-    // Runs from their ends (a line with one partner); an odd run leaves its shorter end line.
-    std::size_t count = 0;
-    for (const Partner& p : partners[i]) count += mutual(i, p.j);
-    if (seen[i] || count != 1) continue;
+  // The lines of a run from line i on, each partner to the next, none seen twice.
+  auto walk_run = [&](std::size_t i) {
     std::vector<std::size_t> run{i};
     seen[i] = 1;
     for (std::size_t prev = SIZE_MAX, at = i;;) {
@@ -500,6 +497,14 @@ std::vector<std::vector<Vec2>> pair_fill(const std::vector<std::vector<Vec2>>& l
       run.push_back(nx);
       prev = at, at = nx;
     }
+    return run;
+  };
+  for (std::size_t i = 0; i < n; ++i) {
+    // Runs from their ends (a line with one partner); an odd run leaves its shorter end line.
+    std::size_t count = 0;
+    for (const Partner& p : partners[i]) count += mutual(i, p.j);
+    if (seen[i] || count != 1) continue;
+    std::vector<std::size_t> run = walk_run(i);
     if (run.size() % 2 == 1 && line_length(run.front()) < line_length(run.back()))
       std::reverse(run.begin(), run.end());
     if (odd_runs && run.size() % 2 == 1 && run.size() > 1) odd_runs->push_back(run);
@@ -508,15 +513,7 @@ std::vector<std::vector<Vec2>> pair_fill(const std::vector<std::vector<Vec2>>& l
   for (std::size_t i = 0; i < n; ++i) {
     // Cycles: from any line round.
     if (seen[i] || partners[i].empty()) continue;
-    std::vector<std::size_t> run{i};
-    seen[i] = 1;
-    for (std::size_t prev = SIZE_MAX, at = i;;) {
-      const std::size_t nx = next_in_run(at, prev);
-      if (nx == SIZE_MAX || seen[nx]) break;
-      seen[nx] = 1;
-      run.push_back(nx);
-      prev = at, at = nx;
-    }
+    std::vector<std::size_t> run = walk_run(i);
     if (odd_runs && run.size() % 2 == 1 && run.size() > 1) odd_runs->push_back(run);
     pair_run(run);
   }
