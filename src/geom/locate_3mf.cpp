@@ -206,7 +206,123 @@ std::string start_part(zip_t* z) {
   return fallback;
 }
 
+std::string read_entry(zip_t* z, const char* name, std::size_t limit) {
+  ZipFile f;
+  f.f = zip_fopen(z, name, 0);
+  if (!f.f) return {};
+  std::string text;
+  char buf[4096];
+  zip_int64_t n = 0;
+  while (text.size() < limit && (n = zip_fread(f.f, buf, sizeof buf)) > 0)
+    text.append(buf, static_cast<std::size_t>(n));
+  return text;
+}
+
+// A relationship's target as a part name inside the package (OPC: absolute "/3D/x.model", or
+// relative to the folder the .rels part describes: "3D/_rels/a.model.rels" -> "3D/").
+std::string target_part(const std::string& rels_name, std::string target) {
+  if (!target.empty() && target[0] == '/') return target.substr(1);
+  std::string base = rels_name.substr(0, rels_name.find("_rels/"));
+  return base + target;
+}
+
+std::string attribute_text(const std::string& element, const char* name) {
+  const std::string key = std::string(" ") + name + "=";
+  std::size_t at = element.find(key);
+  if (at == std::string::npos) return {};
+  at += key.size();
+  if (at >= element.size()) return {};
+  const char quote = element[at];
+  const std::size_t end = element.find(quote, at + 1);
+  return end == std::string::npos ? std::string() : element.substr(at + 1, end - at - 1);
+}
+
 }  // namespace
+
+// PrusaSlicer's command line writes a thumbnail relationship in _rels/.rels without the
+// thumbnail part; lib3mf 1.8 then refuses the whole package ("Could not create OPC Part"). A
+// relationship to a part the package lacks says nothing about the geometry, so such
+// relationships are dropped (OPC, ECMA-376 part 2, 9.3: a relationship's target is a part name
+// or an external URI) and lib3mf reads the package from memory. Returns the repaired package, or
+// nothing when every relationship resolves.
+std::vector<unsigned char> package_without_dangling_relationships(const std::string& path) {
+  Zip zip;
+  int code = 0;
+  zip.z = zip_open(path.c_str(), ZIP_RDONLY, &code);
+  if (!zip.z) return {};
+  std::map<std::string, std::string> repaired;  // .rels part -> its text without dangling targets
+  const zip_int64_t entries = zip_get_num_entries(zip.z, 0);
+  for (zip_int64_t i = 0; i < entries; ++i) {
+    const char* name = zip_get_name(zip.z, static_cast<zip_uint64_t>(i), 0);
+    if (!name) continue;
+    const std::string rels_name = name;
+    if (rels_name.size() < 5 || rels_name.compare(rels_name.size() - 5, 5, ".rels") != 0) continue;
+    std::string text = read_entry(zip.z, name, 1u << 20);
+    bool changed = false;
+    for (std::size_t at = text.find("<Relationship "); at != std::string::npos;) {
+      const std::size_t end = text.find('>', at);
+      if (end == std::string::npos) break;
+      const std::string element = text.substr(at, end + 1 - at);
+      const std::string target = attribute_text(element, "Target");
+      const bool external = attribute_text(element, "TargetMode") == "External";
+      if (!external && !target.empty() &&
+          zip_name_locate(zip.z, target_part(rels_name, target).c_str(), ZIP_FL_NOCASE) < 0) {
+        text.erase(at, end + 1 - at);
+        changed = true;
+        at = text.find("<Relationship ", at);
+      } else {
+        at = text.find("<Relationship ", end);
+      }
+    }
+    if (changed) repaired[rels_name] = std::move(text);
+  }
+  if (repaired.empty()) return {};
+
+  // Copy the package into memory with the repaired parts (libzip's in-memory source).
+  std::vector<unsigned char> bytes;
+  {
+    FILE* f = std::fopen(path.c_str(), "rb");
+    if (!f) return {};
+    unsigned char buf[1 << 16];
+    std::size_t n = 0;
+    while ((n = std::fread(buf, 1, sizeof buf, f)) > 0) bytes.insert(bytes.end(), buf, buf + n);
+    std::fclose(f);
+  }
+  zip_error_t error;
+  zip_error_init(&error);
+  zip_source_t* source = zip_source_buffer_create(bytes.data(), bytes.size(), 0, &error);
+  if (!source) return {};
+  zip_source_keep(source);
+  zip_t* out = zip_open_from_source(source, 0, &error);
+  if (!out) {
+    zip_source_free(source);
+    return {};
+  }
+  for (const auto& [name, text] : repaired) {
+    zip_source_t* part = zip_source_buffer(out, text.data(), text.size(), 0);
+    if (!part || zip_file_add(out, name.c_str(), part, ZIP_FL_OVERWRITE | ZIP_FL_ENC_UTF_8) < 0) {
+      if (part) zip_source_free(part);
+      zip_discard(out);
+      zip_source_free(source);
+      return {};
+    }
+  }
+  if (zip_close(out) < 0) {  // the repaired texts live until here
+    zip_discard(out);
+    zip_source_free(source);
+    return {};
+  }
+  std::vector<unsigned char> result;
+  if (zip_source_open(source) == 0) {
+    unsigned char buf[1 << 16];
+    zip_int64_t n = 0;
+    while ((n = zip_source_read(source, buf, sizeof buf)) > 0)
+      result.insert(result.end(), buf, buf + n);
+    zip_source_close(source);
+  }
+  zip_source_free(source);
+  return result;
+}
 
 Located3mf locate_3mf_problem(const std::string& path) {
   Zip zip;

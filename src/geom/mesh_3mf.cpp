@@ -2,7 +2,10 @@
 // src/core/module.hpp): lib3mf and libzip load only when a 3MF file is read or written.
 #include <Model/COM/NMR_DLLInterfaces.h>
 
+#include <array>
 #include <cstdio>
+#include <functional>
+#include <vector>
 
 #include "lib3mf_write.hpp"
 #include "mesh_3mf_module.hpp"
@@ -67,7 +70,12 @@ TriangleMesh read_3mf(const std::string& path) {
   if (lib3mf_createmodel(&model.p) != LIB3MF_OK) fail("cannot create a 3MF model", nullptr);
   if (lib3mf_model_queryreader(model.p, "3mf", &reader.p) != LIB3MF_OK)
     fail("cannot create a 3MF reader", model.p);
-  if (lib3mf_reader_readfromfileutf8(reader.p, path.c_str()) != LIB3MF_OK) {
+  std::vector<unsigned char> repaired = package_without_dangling_relationships(path);
+  const bool read_ok =
+      repaired.empty()
+          ? lib3mf_reader_readfromfileutf8(reader.p, path.c_str()) == LIB3MF_OK
+          : lib3mf_reader_readfrombuffer(reader.p, repaired.data(), repaired.size()) == LIB3MF_OK;
+  if (!read_ok) {
     DWORD code = 0;
     LPCSTR text = nullptr;
     std::string lib3mf_text;
@@ -83,7 +91,27 @@ TriangleMesh read_3mf(const std::string& path) {
   if (!(mm > 0)) fail("unknown model unit " + std::to_string(unit), nullptr);
 
   TriangleMesh b;
-  auto add_mesh = [&](PLib3MFBase* object, const MODELTRANSFORM* tf) {
+  // 3MF core spec 3.4: a transform is 3 x 4 (row-major here: p' = M p + t); an item's
+  // transform applies after its components' own (4.1.1: a component is placed in its parent).
+  using Transform = std::array<std::array<double, 4>, 3>;
+  const Transform identity{{{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}}};
+  auto from = [](const MODELTRANSFORM& t) {
+    Transform m;
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 4; ++c) m[r][c] = t.m_fFields[r][c];
+    return m;
+  };
+  auto compose = [](const Transform& outer, const Transform& inner) {  // outer after inner
+    Transform m{};
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 4; ++c) {
+        double v = c == 3 ? outer[r][3] : 0.0;
+        for (int k = 0; k < 3; ++k) v += outer[r][k] * inner[k][c];
+        m[r][c] = v;
+      }
+    return m;
+  };
+  auto add_mesh = [&](PLib3MFBase* object, const Transform& m) {
     DWORD nv = 0, nt = 0;
     lib3mf_meshobject_getvertexcount(object, &nv);
     lib3mf_meshobject_gettrianglecount(object, &nt);
@@ -93,14 +121,11 @@ TriangleMesh read_3mf(const std::string& path) {
     if (nt) lib3mf_meshobject_gettriangleindices(object, tris.data(), nt, nullptr);
     auto at = [&](DWORD i) {
       const float* f = verts[i].m_fPosition;
-      Vec3 p{f[0], f[1], f[2]};
-      if (tf) {
-        const auto& m = tf->m_fFields;
-        p = {m[0][0] * p.x + m[0][1] * p.y + m[0][2] * p.z + m[0][3],
-             m[1][0] * p.x + m[1][1] * p.y + m[1][2] * p.z + m[1][3],
-             m[2][0] * p.x + m[2][1] * p.y + m[2][2] * p.z + m[2][3]};
-      }
-      return p * mm;
+      const Vec3 p{f[0], f[1], f[2]};
+      return Vec3{m[0][0] * p.x + m[0][1] * p.y + m[0][2] * p.z + m[0][3],
+                  m[1][0] * p.x + m[1][1] * p.y + m[1][2] * p.z + m[1][3],
+                  m[2][0] * p.x + m[2][1] * p.y + m[2][2] * p.z + m[2][3]} *
+             mm;
     };
     // Vertices as stored (transformed): welding and coordinate checks are mesh_io's.
     const auto base = static_cast<std::uint32_t>(b.vertices.size());
@@ -112,6 +137,38 @@ TriangleMesh read_3mf(const std::string& path) {
           {base + t.m_nIndices[0], base + t.m_nIndices[1], base + t.m_nIndices[2]});
     }
   };
+  // A build item's object: a mesh, or components (other objects, each with its transform, to any
+  // depth -- PrusaSlicer's multi-part objects, Bambu Studio's and OrcaSlicer's assemblies).
+  std::function<bool(PLib3MFBase*, const Transform&, int)> add_object =
+      [&](PLib3MFBase* object, const Transform& m, int depth) -> bool {
+    if (depth > 64) fail("3MF components nest deeper than 64 levels (a cycle?)", nullptr);
+    BOOL is_mesh = false;
+    lib3mf_object_ismeshobject(object, &is_mesh);
+    if (is_mesh) {
+      add_mesh(object, m);
+      return true;
+    }
+    BOOL is_comp = false;
+    lib3mf_object_iscomponentsobject(object, &is_comp);
+    if (!is_comp) return false;
+    DWORD count = 0;
+    lib3mf_componentsobject_getcomponentcount(object, &count);
+    bool any = false;
+    for (DWORD i = 0; i < count; ++i) {
+      Handle component, child;
+      if (lib3mf_componentsobject_getcomponent(object, i, &component.p) != LIB3MF_OK) continue;
+      if (lib3mf_component_getobjectresource(component.p, &child.p) != LIB3MF_OK || !child.p)
+        fail("a 3MF component names an object the model does not define", component.p);
+      BOOL has_tf = false;
+      MODELTRANSFORM tf;
+      lib3mf_component_hastransform(component.p, &has_tf);
+      Transform placed = m;
+      if (has_tf && lib3mf_component_gettransform(component.p, &tf) == LIB3MF_OK)
+        placed = compose(m, from(tf));
+      any = add_object(child.p, placed, depth + 1) || any;
+    }
+    return any;
+  };
 
   Handle items;
   std::size_t built = 0;
@@ -122,22 +179,12 @@ TriangleMesh read_3mf(const std::string& path) {
       if (lib3mf_builditemiterator_getcurrent(items.p, &item.p) != LIB3MF_OK) break;
       Handle obj;  // a new reference: released like every other handle
       if (lib3mf_builditem_getobjectresource(item.p, &obj.p) != LIB3MF_OK || !obj.p) continue;
-      PLib3MFBase* object = obj.p;
-      BOOL is_mesh = false;
-      lib3mf_object_ismeshobject(object, &is_mesh);
-      if (!is_mesh) {
-        BOOL is_comp = false;
-        lib3mf_object_iscomponentsobject(object, &is_comp);
-        if (is_comp)
-          throw ParseError("3MF build item is a components object; only mesh objects are read",
-                           {path, 0, ""});
-        continue;
-      }
       BOOL has_tf = false;
       MODELTRANSFORM tf;
       lib3mf_builditem_hasobjecttransform(item.p, &has_tf);
-      if (has_tf) lib3mf_builditem_getobjecttransform(item.p, &tf);
-      add_mesh(object, has_tf ? &tf : nullptr);
+      Transform m = identity;
+      if (has_tf && lib3mf_builditem_getobjecttransform(item.p, &tf) == LIB3MF_OK) m = from(tf);
+      if (!add_object(obj.p, m, 0)) continue;
       ++built;
     }
   }
@@ -148,7 +195,7 @@ TriangleMesh read_3mf(const std::string& path) {
       while (lib3mf_resourceiterator_movenext(objects.p, &more) == LIB3MF_OK && more) {
         Handle res;
         if (lib3mf_resourceiterator_getcurrent(objects.p, &res.p) != LIB3MF_OK) break;
-        add_mesh(res.p, nullptr);
+        add_mesh(res.p, identity);
       }
     }
   }

@@ -1,6 +1,9 @@
 // The 3MF module's table (src/core/module.hpp): read_3mf returns the stored triangles with build
 // transforms and the model unit applied (millimetres), not yet welded or checked.
 #pragma once
+#include <string>
+#include <vector>
+
 #include "../core/module.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/geom/mesh.hpp"
@@ -16,6 +19,7 @@ struct Located3mf {
 
 namespace impl {
 Located3mf locate_3mf_problem(const std::string& path);
+std::vector<unsigned char> package_without_dangling_relationships(const std::string& path);
 }
 
 struct Mesh3mfModule {

@@ -128,6 +128,27 @@ TEST(MeshIo, ThreeMfUnitsAreMillimetres) {
   EXPECT_NEAR(volume(read_mesh((dir.path() / "inch.3mf").string())), 1000, 0.01);  // float text
 }
 
+// Real packages from other tools (tests/data/mesh/README.md): PrusaSlicer's command line names
+// a thumbnail part it does not write, which lib3mf 1.8 alone refuses; components objects nest
+// with their transforms composed.
+TEST(MeshIo, ThreeMfFromOtherToolsReads) {
+  const TriangleMesh prusa = read_mesh(kData + "prusaslicer_cli_cube.3mf");
+  EXPECT_EQ(prusa.triangles.size(), 12u);
+  EXPECT_NEAR(volume(prusa), 1000, 1e-3);
+
+  const TriangleMesh nested = read_mesh(kData + "components_nested.3mf");
+  EXPECT_EQ(nested.triangles.size(), 24u);
+  const BBox3 b = bounds(nested);
+  EXPECT_NEAR(b.min.x, -10, 1e-6);
+  EXPECT_NEAR(b.max.x, 0, 1e-6);
+  EXPECT_NEAR(b.min.y, 0, 1e-6);
+  EXPECT_NEAR(b.max.y, 30, 1e-6);
+  EXPECT_NEAR(b.min.z, 5, 1e-6);
+  EXPECT_NEAR(b.max.z, 15, 1e-6);
+  EXPECT_NEAR(volume(nested), 2000, 1e-3);
+  EXPECT_TRUE(check_mesh(nested).closed());
+}
+
 namespace {
 
 void quad(TriangleMesh& m, std::initializer_list<Vec3> corners) {
