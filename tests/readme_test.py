@@ -1,11 +1,16 @@
 #!/usr/bin/env python3
-"""Runs the README's commands as written and checks what they print.
+"""Runs the README's commands and every `--help` example as written and checks what they print.
 
 Every line `$ COMMAND` inside a ``` block is run with bash, in order, in one fresh folder that
 has the repository's examples/ and profiles/ beside it (so the README's relative paths work) and
 `trellis` on the PATH. The lines the README shows under a command must appear in what it
 printed (times, minutes and megabytes may differ); a command whose shown output has
 `trellis: error` must exit 2, every other command 0.
+
+Then every example in `trellis --help` and in each command's `--help` (lines beginning
+`  trellis `, with their indented continuation lines) runs in the same folder, in the order the
+help texts give them (the top-level help first: later examples read its outputs); each must
+exit 0.
 
 usage: readme_test.py TRELLIS_BINARY REPO_ROOT
 """
@@ -37,6 +42,33 @@ def commands(readme):
         elif in_block and current is not None:
             current[2].append(line)
         i += 1
+    return out
+
+
+def help_examples(binary):
+    """(where, command) for every example line of `trellis --help` and each command's --help."""
+    top = subprocess.run([binary, "--help"], capture_output=True, text=True).stdout
+    names, in_list = [], False
+    for line in top.splitlines():
+        if line.startswith("Subcommands:"):
+            in_list = True
+        elif in_list and line.strip():
+            names.append(line.split()[0])
+    out = []
+    for name in [None] + names:
+        args = [binary, "--help"] if name is None else [binary, name, "--help"]
+        text = subprocess.run(args, capture_output=True, text=True).stdout
+        where = "trellis --help" if name is None else f"trellis {name} --help"
+        lines = text.splitlines()
+        for i, line in enumerate(lines):
+            if not line.startswith("  trellis "):
+                continue
+            cmd = line.strip()
+            j = i + 1
+            while j < len(lines) and lines[j].startswith("      ") and lines[j].lstrip().startswith("-"):
+                cmd += " " + lines[j].strip()
+                j += 1
+            out.append((where, cmd))
     return out
 
 
@@ -80,10 +112,19 @@ def main():
             for p in problems:
                 print(f"    {p}")
             print("    printed:\n      " + "\n      ".join((r.stdout + r.stderr).splitlines()[:12]))
-    print(f"{len(cmds) - failures} passed, {failures} failed")
+    examples = help_examples(binary)
+    for where, cmd in examples:
+        r = subprocess.run(["bash", "-c", cmd], cwd=work, env=env, capture_output=True, text=True,
+                           timeout=600)
+        if r.returncode != 0:
+            failures += 1
+            print(f"{where}: {cmd}\n    exit {r.returncode}\n    printed:\n      " +
+                  "\n      ".join((r.stdout + r.stderr).splitlines()[:12]))
+    print(f"{len(cmds) + len(examples) - failures} passed, {failures} failed "
+          f"({len(cmds)} README commands, {len(examples)} --help examples)")
     if not failures:
         shutil.rmtree(work, ignore_errors=True)
-    return 1 if failures or not cmds else 0
+    return 1 if failures or not cmds or not examples else 0
 
 
 if __name__ == "__main__":

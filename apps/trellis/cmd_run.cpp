@@ -70,8 +70,10 @@ void add_merge(CLI::App& app) {
   cmd->footer(
       "Give every shard's manifest (OUTPUT.shard-K-of-N.json). The merged file is byte for byte\n"
       "the file `trellis run` writes without --shard. Shards of different jobs, a shard missing\n"
-      "or given twice: exit 2, nothing written.\nExample:\n"
-      "  trellis merge out/plate/plate.cli.shard-*-of-4.json -o out/plate/plate.cli");
+      "or given twice: exit 2, nothing written.\nExample (each shard may run on another machine):\n"
+      "  trellis run examples/jobs/gyroid_plate_pbf.toml -o out/plate --shard 1/2\n"
+      "  trellis run examples/jobs/gyroid_plate_pbf.toml -o out/plate --shard 2/2\n"
+      "  trellis merge out/plate/gyroid_plate.cli.shard-*-of-2.json -o out/plate/gyroid_plate.cli");
   cmd->add_option("manifests", o->manifests, "the shards' manifests")
       ->required()
       ->check(path_value());

@@ -111,7 +111,7 @@ int main(int argc, char** argv) {
       "  trellis run examples/honeycomb_tensile.toml\n"
       "  trellis slice examples/designs/csg_bracket.vcad --machine profiles/ender3_s1_pro_tpu.toml -o bracket.gcode\n"
       "  trellis pbf --cell-type gyroid --cell 2.5 --size 10,10,10 -o lattice.cli\n"
-      "  trellis lattice3d --cell octet --size 7 --count 3 3 3 -o octet.json\n"
+      "  trellis lattice3d --cell-type octet --cell 7 --count 3,3,3 -o octet.json\n"
       "  trellis plan aero octet.json -o octet_path.json --report octet_report.json\n"
       "  trellis gcode octet_path.json --machine profiles/embedded_aero_410um.toml -o octet.nc\n"
       "  trellis check octet.json octet.nc --machine profiles/embedded_aero_410um.toml"};
