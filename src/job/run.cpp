@@ -182,6 +182,40 @@ JobResult run_route(const Job& job, const Config& c, Diagnostics& diag, const Pr
   return routes::surface(job, c, diag, progress);
 }
 
+// A machine profile is for one kind of machine: a laser profile has [laser], [scan] or [timing];
+// an extrusion profile (FDM, pneumatic, bath) has machine.flavor or the extrusion sections. A
+// route given the other kind is refused (its keys would be ignored), naming the kind it needs.
+void check_profile_kind(const Job& job, const std::vector<std::string>& sections) {
+  if (job.machine.empty()) return;
+  const Settings::Entry* laser = nullptr;
+  const Settings::Entry* extrusion = nullptr;
+  std::string laser_key, extrusion_key;
+  const auto& deposition = machine_sections();
+  for (const auto& [key, e] : job.settings.entries()) {
+    if (e.origin.source != job.machine) continue;
+    const std::string sec = key.substr(0, key.find('.'));
+    if ((sec == "laser" || sec == "scan" || sec == "timing") && !laser) {
+      laser = &e;
+      laser_key = key;
+    } else if ((key == "machine.flavor" ||
+                (sec != "machine" &&
+                 std::find(deposition.begin(), deposition.end(), sec) != deposition.end())) &&
+               !extrusion) {
+      extrusion = &e;
+      extrusion_key = key;
+    }
+  }
+  const bool route_laser = std::find(sections.begin(), sections.end(), "laser") != sections.end();
+  if (route_laser && extrusion && !laser)
+    throw SettingError("the " + job.route + " route makes laser paths and needs a laser profile "
+                       "(with [laser] and [scan]); this is an extrusion profile",
+                       {job.machine, extrusion->origin.line, extrusion_key});
+  if (!route_laser && laser && !extrusion)
+    throw SettingError("the " + job.route + " route makes extrusion paths and needs an FDM, "
+                       "pneumatic or bath profile; this is a laser profile",
+                       {job.machine, laser->origin.line, laser_key});
+}
+
 }  // namespace
 
 RunFiles job_files(const Job& job, bool follow_symlinks) {
@@ -217,6 +251,7 @@ JobResult run_job(const Job& job, Diagnostics& diag, const Progress& progress) {
   const std::vector<std::string> sections = route_sections(job.route);
   const Config c = job.settings.config();
   check_rules(c, job.settings, sections);
+  check_profile_kind(job, sections);
   // Every output of the job is staged and committed together at the end; an error, a cancel or
   // running out of memory leaves the output folders as they were (core/file.hpp). Its files are
   // checked before anything is written, and its inputs are never written (core/run_files.hpp).

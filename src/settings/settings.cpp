@@ -371,13 +371,37 @@ void check_rules(const Config& c, const Settings& st, const std::vector<std::str
     return Where{"", 0, a + " (" + st.origin_text(a) + ") and " + b + " (" + st.origin_text(b) + ")"};
   };
   const double nozzle = c.machine.nozzle_diameter;
-  // In air (marlin) a bead taller than 0.8 × the nozzle does not bond; in a bath or from a
-  // syringe the bead is a strut as thick as the nozzle, so the rule is FDM's only.
-  if (uses("extrusion") && c.machine.flavor == "marlin" && c.machine.layer_height > 0.8 * nozzle + 1e-12)
+  const bool fdm = c.machine.flavor == "marlin" || c.machine.flavor == "reprap" ||
+                   c.machine.flavor == "klipper";  // Marlin's family (MachineProfile::parsed_flavor)
+  // In air (FDM: Marlin, RepRapFirmware, Klipper) a bead taller than 0.8 × the nozzle does not
+  // bond; in a bath or from a syringe the bead is a strut as thick as the nozzle, so the rule is
+  // FDM's only.
+  if (uses("extrusion") && fdm && c.machine.layer_height > 0.8 * nozzle + 1e-12)
     throw SettingError(fmt::format("layer height {} mm is more than 0.8 × the nozzle ({} mm): the "
                                    "bead would not bond; lower the layer height or use a larger nozzle",
                                    number_text(c.machine.layer_height), number_text(nozzle)),
                        where("extrusion.layer_height", "extrusion.nozzle_diameter"));
+  // A mixing hotend's command must be one the firmware has: Marlin M165 or M163/M164,
+  // RepRapFirmware M567; Klipper has no mixing command (a macro: gradient.dialect = template).
+  if (uses("gradient") && c.machine.gradient_mode == "mixing" && c.machine.mixing_inputs > 1 &&
+      c.machine.gradient_dialect != "template") {
+    const std::string& f = c.machine.flavor;
+    const std::string& d = c.machine.gradient_dialect;
+    const char* has = f == "marlin"    ? "m165 or m163"
+                      : f == "reprap"  ? "m567"
+                      : f == "klipper" ? ""
+                                       : nullptr;
+    const bool ok = (f == "marlin" && (d == "m165" || d == "m163")) || (f == "reprap" && d == "m567");
+    if (has && !ok)
+      throw SettingError(
+          fmt::format("{} has no {} command for a mixing hotend; use "
+                      "gradient.dialect = {}",
+                      f == "marlin" ? "Marlin" : f == "reprap" ? "RepRapFirmware" : "Klipper",  // "the X firmware"
+                      d == "m165" ? "M165" : d == "m163" ? "M163/M164" : "M567",
+                      *has ? std::string(has) + " (or template with a macro)"
+                           : "template with gradient.template naming your macro"),
+          where("gradient.dialect", "machine.flavor"));
+  }
   auto bead_rule = [&](const char* key, double w) {
     if (!st.has(key)) return;
     if (w < 0.5 * nozzle - 1e-12 || w > 2.5 * nozzle + 1e-12)

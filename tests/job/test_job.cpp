@@ -169,6 +169,70 @@ TEST(Settings, CrossRulesNameBothSettingsAndWhereTheyCameFrom) {
   EXPECT_FALSE(fs::exists(in_work("never.gcode")));
 }
 
+// A profile of the wrong kind for the route is refused naming the file and a key that shows its
+// kind; a mixing command the firmware lacks is refused; the 0.8 × nozzle rule is the whole FDM
+// family's (Marlin, RepRapFirmware, Klipper), not Marlin's alone.
+TEST(Settings, ProfilesOfTheWrongKindAndFirmwareDialectsAreRefused) {
+  const std::string fdm = kRoot + "/profiles/ender3_s1_pro_tpu.toml";
+  const std::string laser = kRoot + "/profiles/pbf_316l_25um.toml";
+  const CmdResult p = run("pbf --cell-type gyroid --cell 2.5 --size 5,5,1 --machine " + fdm + " -o " +
+                          in_work("never.cli"));
+  EXPECT_EQ(p.code, 2);
+  EXPECT_NE(p.err.find(fdm + ":"), std::string::npos) << p.err;
+  EXPECT_NE(p.err.find("needs a laser profile"), std::string::npos) << p.err;
+  EXPECT_FALSE(fs::exists(in_work("never.cli")));
+  const std::string vcad = kRoot + "/examples/designs/csg_bracket.vcad";
+  const CmdResult s = run("slice " + vcad + " --machine " + laser + " -o " + in_work("never.gcode"));
+  EXPECT_EQ(s.code, 2);
+  EXPECT_NE(s.err.find(laser + ":"), std::string::npos) << s.err;
+  EXPECT_NE(s.err.find("laser profile"), std::string::npos) << s.err;
+  EXPECT_FALSE(fs::exists(in_work("never.gcode")));
+
+  // The same mixing profile on each firmware: Marlin takes M165, RepRapFirmware M567 only,
+  // Klipper a macro only.
+  std::ifstream in(kRoot + "/profiles/geeetech_a20t_mixing.toml");
+  const std::string mixing((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  ASSERT_NE(mixing.find("flavor = \"marlin\""), std::string::npos);
+  auto with_flavor = [&](const std::string& flavor) {
+    std::string t = mixing;
+    t.replace(t.find("flavor = \"marlin\""), 17, "flavor = \"" + flavor + "\"");
+    return write(flavor + "_mixing.toml", t);
+  };
+  const std::string graded = kRoot + "/examples/designs/fgm_column1_cylinder.vcad";
+  struct Case {
+    std::string flavor, extra;
+    bool ok;
+  };
+  for (const Case& c : std::vector<Case>{
+           {"marlin", "", true},
+           {"reprap", "", false},
+           {"reprap", " --set gradient.dialect=m567", true},
+           {"klipper", "", false},
+           {"klipper", " --set gradient.dialect=m567", false},
+           {"klipper", " --set gradient.dialect=template --set gradient.template=MIX_{a}_{b}", true}}) {
+    const std::string out = in_work("mix_" + c.flavor + ".gcode");
+    fs::remove(out);
+    const CmdResult r = run("slice " + graded + " --strategy 1 --machine " + with_flavor(c.flavor) +
+                            c.extra + " -o " + out);
+    EXPECT_EQ(r.code, c.ok ? 0 : 2) << c.flavor << c.extra << ": " << r.err;
+    EXPECT_EQ(fs::exists(out), c.ok) << c.flavor << c.extra;
+    if (!c.ok) EXPECT_NE(r.err.find("gradient.dialect"), std::string::npos) << r.err;
+  }
+
+  // --layer-height 0.3 on a 0.2 mm nozzle: refused on every FDM firmware.
+  std::ifstream in2(fdm);
+  const std::string ender((std::istreambuf_iterator<char>(in2)), std::istreambuf_iterator<char>());
+  for (const std::string flavor : {"reprap", "klipper"}) {
+    std::string t = ender;
+    t.replace(t.find("flavor = \"marlin\""), 17, "flavor = \"" + flavor + "\"");
+    const CmdResult r = run("slice " + vcad + " --machine " + write(flavor + "_fdm.toml", t) +
+                            " --layer-height 0.3 -o " + in_work("never.gcode"));
+    EXPECT_EQ(r.code, 2) << flavor;
+    EXPECT_NE(r.err.find("0.8 × the nozzle"), std::string::npos) << flavor << ": " << r.err;
+  }
+  EXPECT_FALSE(fs::exists(in_work("never.gcode")));
+}
+
 // Default < profile < job < command line, on every route that reads a layer height or pattern
 // setting: the written output shows the value and its header records it.
 TEST(Jobs, PrecedenceProfileJobCommandLineOnEveryRoute) {
