@@ -51,6 +51,7 @@ GcodeScanner::GcodeScanner(GcodeSink& sink, GcodeReadOptions options, Diagnostic
   // A profile's valve command may carry a comment ("M3 ; pressure on"): the command is its words.
   for (std::string* v : {&opt_.valve_on, &opt_.valve_off})
     *v = std::string(trim(std::string_view(*v).substr(0, v->find(';'))));
+  header_valves_ = opt_.valve_on.empty() && opt_.valve_off.empty();
 }
 
 void GcodeScanner::bad(const std::string& what) {
@@ -59,8 +60,41 @@ void GcodeScanner::bad(const std::string& what) {
              origin_ + ":" + std::to_string(line_no_) + ": " + what + " (line skipped)");
 }
 
+// A TOML string value as Trellis writes it in a "; job:" header line: 'literal' or "basic".
+static std::string toml_string_value(std::string_view v) {
+  v = trim(v);
+  if (v.size() < 2 || (v.front() != '\'' && v.front() != '"') || v.back() != v.front()) return {};
+  const bool basic = v.front() == '"';
+  v = v.substr(1, v.size() - 2);
+  if (!basic) return std::string(v);
+  std::string out;
+  for (std::size_t i = 0; i < v.size(); ++i) {
+    if (v[i] == '\\' && i + 1 < v.size()) ++i;
+    out += v[i];
+  }
+  return out;
+}
+
 void GcodeScanner::comment(std::string_view c) {
   c = trim(c);
+  // Our own pneumatic files name their valve commands in the job header ("; job: flavor =
+  // 'pneumatic'" in [machine], then "; job: valve_on = 'M3 ; valve open'" in [pneumatic]): a
+  // reader given none takes them from there, so the file reads back as written.
+  if (header_valves_ && starts_with(c, "job: ")) {
+    const std::string_view kv = trim(c.substr(5));
+    const auto eq = kv.find('=');
+    if (eq != std::string_view::npos) {
+      const std::string_view key = trim(kv.substr(0, eq));
+      const std::string value = toml_string_value(kv.substr(eq + 1));
+      if (key == "flavor") {
+        pneumatic_header_ = value == "pneumatic";
+      } else if (pneumatic_header_ && (key == "valve_on" || key == "valve_off")) {
+        std::string& v = key == "valve_on" ? opt_.valve_on : opt_.valve_off;
+        v = std::string(trim(std::string_view(value).substr(0, value.find(';'))));
+      }
+    }
+    return;
+  }
   if (starts_with(c, "LAYER:") || starts_with(c, "LAYER_CHANGE")) {
     sink_.layer_change(std::nan(""));
   } else if (starts_with(c, "TYPE:")) {
@@ -82,9 +116,9 @@ void GcodeScanner::comment(std::string_view c) {
 void GcodeScanner::feed(std::string_view text) {
   std::size_t pos = 0;
   const char* const end = text.data() + text.size();
-  const bool fast = opt_.valve_on.empty() && opt_.valve_off.empty();
   while (pos < text.size()) {
-    if (fast && partial_.empty()) {
+    // Valve commands may be learnt from the header on the way (comment()): checked per line.
+    if (partial_.empty() && opt_.valve_on.empty() && opt_.valve_off.empty()) {
       if (const char* next = simple_move(text.data() + pos, end)) {
         pos = static_cast<std::size_t>(next - text.data());
         continue;

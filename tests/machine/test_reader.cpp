@@ -85,6 +85,44 @@ TEST(Reader, RoundTripForEveryWriterOnManyLattices) {
     expect_round_trip(planned(test::random_planar_graph(seed), Planner::Euler), marlin, "random");
 }
 
+// A pneumatic file Trellis wrote names its valve commands in its job header: read with no valve
+// options it gives what the profile's commands give. A Marlin file's header also lists
+// [pneumatic] (valve_on = 'M106', the fan): it is not taken, the file reads by E as before.
+TEST(Reader, OurPneumaticFilesReadBackFromTheirHeader) {
+  MachineProfile pneumatic = test::open_bed();
+  pneumatic.flavor = "pneumatic";
+  pneumatic.valve_on = "M3 ; valve open";
+  pneumatic.valve_off = "M5";
+  AtlasParams a;
+  a.pattern = pattern_from_string("honeycomb");
+  a.region.width = a.region.height = 6;
+  const Toolpath tp = planned(make_lattice2d(a), Planner::Gippo);
+  const std::string body = write_gcode(tp, pneumatic);
+  GcodeReadOptions given;
+  given.valve_on = pneumatic.valve_on;
+  given.valve_off = pneumatic.valve_off;
+  Diagnostics d;
+  const Toolpath expected = read_gcode(body, given, d, "given.nc");
+  ASSERT_GT(expected.path_count(), 0u);
+  const std::string header =
+      "; job: [machine]\n; job: flavor = 'pneumatic'\n; job: [pneumatic]\n"
+      "; job: valve_on = 'M3 ; valve open'\n; job: valve_off = \"M5\"\n";
+  const Toolpath back = read_gcode(header + body, {}, d, "header.nc");
+  EXPECT_EQ(back.path_count(), expected.path_count());
+  EXPECT_NEAR(back.extrusion_length(), expected.extrusion_length(), 1e-9);
+  EXPECT_EQ(read_gcode(body, {}, d, "bare.nc").path_count(), 0u);  // no header, no options
+
+  MachineProfile marlin = test::open_bed();
+  const std::string mbody = write_gcode(tp, marlin);
+  const std::string mheader =
+      "; job: [machine]\n; job: flavor = 'marlin'\n; job: [pneumatic]\n"
+      "; job: valve_on = 'M106'\n; job: valve_off = 'M107'\n";
+  const Toolpath m0 = read_gcode(mbody, {}, d, "m.gcode");
+  const Toolpath m1 = read_gcode(mheader + mbody, {}, d, "mh.gcode");
+  EXPECT_EQ(m1.path_count(), m0.path_count());
+  EXPECT_NEAR(m1.extrusion_length(), m0.extrusion_length(), 1e-9);
+}
+
 TEST(Reader, ModesUnitsArcsAndComments) {
   const std::string g =
       "; Cura-like\n;LAYER:0\nG21\nG90\nM83\nG92 E0\n;TYPE:WALL-OUTER\n"

@@ -31,7 +31,8 @@ struct GcodeReadOptions {
   double arc_tolerance = 0.005;  // max chord error when splitting G2/G3 (mm)
   bool stop_on_error = false;    // throw ParseError at the first bad line instead of skipping it
   // Pneumatic: a line whose first words are these opens / closes the valve (whole words: "M3"
-  // does not match "M300").
+  // does not match "M300"). Left empty, a file Trellis wrote for a pneumatic machine supplies
+  // them from its "; job:" header.
   std::string valve_on;
   std::string valve_off;
 };
@@ -128,6 +129,9 @@ class GcodeScanner {
   Vec3 pos_;
   double e_ = 0, feed_ = 0;
   bool abs_pos_ = true, abs_e_ = true, inches_ = false, valve_ = false;
+  bool header_valves_ = false;     // no valve commands given: take them from our job header
+  bool pneumatic_header_ = false;  // the header's flavor is 'pneumatic'
+
   int tool_ = 0;
   std::vector<double> tool_temp_;              // per tool, NaN = not set
   std::vector<std::vector<double>> tool_mix_;  // RepRapFirmware M567: per tool
