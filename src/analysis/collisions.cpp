@@ -68,7 +68,16 @@ CollisionCheck check_collisions(const Graph& design, const Toolpath& toolpath,
   };
   std::vector<Vec3> ends;
   std::vector<Seg> segs;
-  for (const auto& layer : toolpath.layers)
+  // A planar design (a 2D lattice, every node at one z) is printed layer by layer at the layers'
+  // heights: each layer's segments are matched in the design's plane, and every strut is due
+  // once per printed layer.
+  const bool planar = !design.nodes.empty() &&
+                      std::all_of(design.nodes.begin(), design.nodes.end(), [&](const Vec3& n) {
+                        return std::abs(n.z - design.nodes.front().z) <= 1e-9;
+                      });
+  std::size_t printed_layers = 0;
+  for (const auto& layer : toolpath.layers) {
+    const std::size_t before = segs.size();
     for (const auto& path : layer.paths) {
       for (std::size_t i = 0; i + 1 < path.points.size(); ++i) {
         if (distance(path.points[i], path.points[i + 1]) <= 0) continue;
@@ -78,6 +87,13 @@ CollisionCheck check_collisions(const Graph& design, const Toolpath& toolpath,
       }
       ++c.paths;
     }
+    if (segs.size() > before) ++printed_layers;
+  }
+  const int due = planar ? static_cast<int>(std::max<std::size_t>(printed_layers, 1)) : 1;
+  auto in_plane = [&](Vec3 p) {
+    if (planar) p.z = design.nodes.front().z;
+    return p;
+  };
   c.segments = segs.size();
   const NodeSnap snap(design, options.snap);
   std::unordered_map<std::uint64_t, EdgeId> strut_of;
@@ -90,8 +106,8 @@ CollisionCheck check_collisions(const Graph& design, const Toolpath& toolpath,
   std::vector<int> times(design.edges.size(), 0);
   for (std::size_t i = 0; i < segs.size(); ++i) {
     Seg& s = segs[i];
-    s.na = snap.find(ends[2 * i]);
-    s.nb = snap.find(ends[2 * i + 1]);
+    s.na = snap.find(in_plane(ends[2 * i]));
+    s.nb = snap.find(in_plane(ends[2 * i + 1]));
     if (s.na != kNone && s.nb != kNone) {
       auto it = strut_of.find(pair_key(s.na, s.nb));
       if (it != strut_of.end()) s.strut = it->second;
@@ -106,9 +122,9 @@ CollisionCheck check_collisions(const Graph& design, const Toolpath& toolpath,
       c.top_down.push_back({s.path, static_cast<EdgeId>(s.strut)});
   }
   for (EdgeId e = 0; e < design.edges.size(); ++e) {
-    if (times[e] == 0) c.missing.push_back(e);
-    if (times[e] > 1) c.repeated.push_back(e);
-    if (times[e] == 1) ++c.printed_once;
+    if (times[e] < due) c.missing.push_back(e);  // planar: missing from some layer
+    if (times[e] > due) c.repeated.push_back(e);
+    if (times[e] == due) ++c.printed_once;
   }
   // Replay: each segment's tip sweep against every segment printed before it.
   const FootprintIndex index(ends, options.nozzle.radius);

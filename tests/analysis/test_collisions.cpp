@@ -111,3 +111,44 @@ TEST(CollisionCheck, EmbeddedGcodeReadBackIsCleanAndComplete) {
   EXPECT_EQ(c.collisions, 0u);
   EXPECT_TRUE(c.ok());
 }
+
+// A 2D lattice (every node at z = 0) printed as GIPPO plans it, at the layer heights: matched in
+// the design's plane, each strut due once per printed layer.
+TEST(CollisionCheck, PlanarDesignsAreMatchedLayerByLayer) {
+  Graph g;
+  g.nodes = {{0, 0, 0}, {4, 0, 0}, {4, 4, 0}, {0, 4, 0}};
+  g.edges = {{0, 1}, {1, 2}, {2, 3}, {3, 0}};
+  const CheckOptions o;
+  auto square = [](double z) {
+    return path({{0, 0, z}, {4, 0, z}, {4, 4, z}, {0, 4, z}, {0, 0, z}});
+  };
+  Toolpath one = toolpath({square(0.2)});
+  const CollisionCheck a = check_collisions(g, one, o);
+  EXPECT_EQ(a.printed_once, 4u);
+  EXPECT_TRUE(a.ok());
+
+  Toolpath two = one;
+  two.layers.push_back({1, {square(0.4)}});
+  const CollisionCheck b = check_collisions(g, two, o);
+  EXPECT_EQ(b.printed_once, 4u);  // once in each of the two layers
+  EXPECT_TRUE(b.ok());
+
+  Toolpath partial = one;  // the second layer lacks the closing strut
+  partial.layers.push_back({1, {path({{0, 0, 0.4}, {4, 0, 0.4}, {4, 4, 0.4}, {0, 4, 0.4}})}});
+  const CollisionCheck c = check_collisions(g, partial, o);
+  EXPECT_EQ(c.missing, std::vector<EdgeId>{3});
+  EXPECT_FALSE(c.ok());
+
+  Toolpath twice = toolpath({square(0.2), path({{0, 0, 0.2}, {4, 0, 0.2}})});
+  EXPECT_EQ(check_collisions(g, twice, o).repeated, std::vector<EdgeId>{0});
+
+  Toolpath off = toolpath({path({{0, 0, 0.2}, {4, 1, 0.2}})});
+  EXPECT_EQ(check_collisions(g, off, o).off_design_segments, 1u);
+
+  // A 3D design keeps matching in space: the same square one layer up is off a design at z = 0
+  // once the design has a node elsewhere in z.
+  Graph spatial = g;
+  spatial.nodes.push_back({0, 0, 3});
+  spatial.edges.push_back({0, 4});
+  EXPECT_EQ(check_collisions(spatial, one, o).off_design_segments, 4u);
+}
