@@ -13,10 +13,12 @@ exactly the bytes ``trellis run`` writes in one process::
         out = trellis.distributed.run("examples/jobs/gyroid_plate_pbf.toml", client=client,
                                       shards=8, output_dir="out/plate")
 
-On a cluster, pass ``scheduler="tcp://host:8786"`` (or a ``Client``) instead; ``output_dir`` must
-then be a folder every worker and the client see (a shared file system). A worker that dies
-mid-job is replaced and its shard recomputed (Dask reschedules lost tasks; ``retries`` more
-times for tasks that raise), and the merged file is the same bytes.
+On a cluster, pass ``scheduler="tcp://host:8786"`` or a ``Client`` (e.g.
+``Client(scheduler_file=...)`` for workers started with ``dask-worker --scheduler-file``) instead;
+``output_dir`` must then be a folder every worker and the client see (a shared file system), and
+the workers must import ``trellis``. A worker that dies mid-job loses the shard it was computing:
+Dask gives it to another worker, which computes it again (``retries`` more times for shards that
+raise), and the merged file is the same bytes (tests/cluster/dask_test.py kills one).
 """
 import os
 
