@@ -50,3 +50,11 @@ def test_gippo_lattice_layers_shard_over_dask_to_the_single_run(client, tmp_path
                                      set=sets)
     assert merged == str(tmp_path / "dask" / "concave_cylinder.gcode")
     assert read(merged) == read(single)
+
+
+def test_a_shard_error_is_raised_as_the_trellis_error_and_nothing_is_merged(client, tmp_path):
+    out = tmp_path / "bad"
+    with pytest.raises(trellis.SettingError, match="scan.layer"):
+        trellis.distributed.run(PLATE, shards=3, client=client, output_dir=out, retries=0,
+                                set={"output.png": "false", "scan.layer": "-1"})
+    assert not (out / "gyroid_plate.cli").exists()

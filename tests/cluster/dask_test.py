@@ -2,7 +2,8 @@
 `dask-worker` commands (Debian's python3-distributed), each its own process tree, joined through a
 scheduler file. While the shards run, one worker's whole process tree is killed (SIGKILL, its
 nanny too, so nothing replaces it) at a moment it is computing a shard; the run must still merge
-to the bytes of the one-process run, with that shard recomputed on the surviving worker.
+to the bytes of the one-process run, with that shard recomputed on the surviving worker and the
+shards the killed worker had finished not computed again.
 Exit 77 (skipped) only when the programs are missing.
     dask_test.py PYTHON_PACKAGE_DIR SOURCE_DIR
 """
@@ -23,12 +24,14 @@ SETS = {"output.png": "false", "scan.layer": "0.02"}
 RUN_TIMEOUT = 120
 
 
-def executing(dask_worker):
-    """On a worker (client.run): the keys of the tasks it is computing now."""
-    return sorted(str(ts.key) for ts in dask_worker.state.executing)
+def worker_now(dask_worker):
+    """On a worker (client.run): the keys it is computing, how many tasks it has finished, and how
+    many results it still holds."""
+    state = dask_worker.state
+    return sorted(str(ts.key) for ts in state.executing), state.executed_count, len(dask_worker.data)
 
 
-def task_place(dask_scheduler, key):
+def task_place(key, dask_scheduler=None):
     """On the scheduler: the task's state and the worker computing it, if any."""
     ts = dask_scheduler.tasks.get(key)
     if ts is None:
@@ -36,28 +39,33 @@ def task_place(dask_scheduler, key):
     return ts.state, ts.processing_on.address if ts.processing_on else None
 
 
-def catch_a_worker_computing(client, daemons, names, out):
-    """Waits until at least one shard is written and a worker is computing another, stops that
-    worker's processes (SIGSTOP), and makes sure from the scheduler that the shard is still in
-    its hands: then the SIGKILL lands mid-shard, with no race against the shard finishing. Returns
-    (worker address, its shard's key, shards written at the kill)."""
-    deadline = time.monotonic() + RUN_TIMEOUT
-    while time.monotonic() < deadline:
-        done = [f for f in os.listdir(out) if f.endswith(".json")] if os.path.isdir(out) else []
-        if done:
-            busy = {a: keys for a, keys in client.run(executing).items() if keys}
-            for addr, keys in busy.items():
-                proc = daemons.procs[names[addr]]
-                os.killpg(proc.pid, signal.SIGSTOP)
-                time.sleep(0.5)  # a result already on the wire reaches the scheduler meanwhile
-                state, where = client.run_on_scheduler(task_place, keys[0])
-                if state == "processing" and where == addr:
-                    written = len([f for f in os.listdir(out) if f.endswith(".json")])
-                    daemons.kill_group(names[addr])
-                    return addr, keys[0], written
-                os.killpg(proc.pid, signal.SIGCONT)  # it finished first: try the next one
+def catch_a_worker_computing(client, daemons, names, out, running):
+    """Waits for a worker that has finished a shard, whose result the client has taken (the
+    worker holds none), and that is computing another; stops that worker's processes (SIGSTOP)
+    and makes sure from the scheduler that the shard is still in its hands, so that the SIGKILL
+    lands mid-shard with no race against the shard's end. Returns (worker address, its shard's
+    key, shard manifests written at the kill)."""
+    def manifests():
+        return [f for f in os.listdir(out) if ".shard-" in f and f.endswith(".json")] \
+            if os.path.isdir(out) else []
+
+    while running():
+        for addr, (keys, executed, held) in client.run(worker_now).items():
+            if not keys or executed < 1 or held:
+                continue
+            proc = daemons.procs[names[addr]]
+            os.killpg(proc.pid, signal.SIGSTOP)
+            time.sleep(0.5)  # a result already on the wire reaches the scheduler meanwhile
+            state, where = client.run_on_scheduler(task_place, keys[0])
+            if state == "processing" and where == addr:
+                written = len(manifests())
+                daemons.kill_group(names[addr])
+                return addr, keys[0], written
+            os.killpg(proc.pid, signal.SIGCONT)  # it finished first: look again
         time.sleep(0.05)
-    fail("no worker was caught computing a shard after the first shard was written")
+    fail(f"the run ended (or {RUN_TIMEOUT} s passed) and no worker was seen computing a shard "
+         "after handing over the result of its first (trellis.distributed.run must take each "
+         "result as its shard ends)")
 
 
 def main():
@@ -115,7 +123,9 @@ def main():
         with get_task_stream(client=client) as stream:
             t = threading.Thread(target=drive, daemon=True)
             t.start()
-            victim, key, written = catch_a_worker_computing(client, daemons, names, out)
+            victim, key, written = catch_a_worker_computing(
+                client, daemons, names, out,
+                lambda: t.is_alive() and time.monotonic() - t0 < RUN_TIMEOUT)
             killed_at = time.monotonic() - t0
             t.join(RUN_TIMEOUT)
             if t.is_alive():
@@ -127,15 +137,20 @@ def main():
             fail(f"trellis.distributed.run raised {result['error']!r}")
 
         survivor = [a for a in names if a != victim][0]
+        runs = [(r["key"], r["worker"]) for r in stream.data
+                if r["key"].startswith("run_shard-") and r.get("status") == "OK"]
         finished = {}
-        for rec in stream.data:
-            if rec["key"].startswith("run_shard-") and rec.get("status") == "OK":
-                finished[rec["key"]] = rec["worker"]
+        for k, w in runs:
+            finished.setdefault(k, []).append(w)
         if len(finished) != SHARDS:
             fail(f"{len(finished)} shards finished, not {SHARDS}: {finished}")
-        if finished.get(key) != survivor:
+        if finished.get(key) != [survivor]:
             fail(f"the killed worker's shard {key} finished on {finished.get(key)}, not on the "
-                 f"surviving worker {survivor}")
+                 f"surviving worker {survivor} alone")
+        # The shards the killed worker had finished were not lost with it.
+        twice = {k: [names[w] for w in ws] for k, ws in finished.items() if len(ws) > 1}
+        if twice:
+            fail(f"shards computed twice: {twice}")
         left = list(client.scheduler_info()["workers"])
         if left != [survivor]:
             fail(f"workers at the end: {left}; expected only the survivor {survivor}")
@@ -146,9 +161,10 @@ def main():
         if merged != one:
             fail(f"{result['path']} ({len(merged)} bytes) differs from the one-process run "
                  f"({len(one)} bytes)")
-        per_worker = {names[a]: list(finished.values()).count(a) for a in names}
-        print(f"PASSED: {SHARDS} shards merged to the one-process bytes ({len(one)} bytes); shards "
-              f"finished per worker {per_worker}; one process {one_process:.1f} s, cluster up in "
+        per_worker = {names[a]: [w for _, w in runs].count(a) for a in names}
+        print(f"PASSED: {SHARDS} shards merged to the one-process bytes ({len(one)} bytes), each "
+              f"finished once; shards finished per worker {per_worker}; one "
+              f"process {one_process:.1f} s, cluster up in "
               f"{up:.1f} s, sharded run {sharded:.1f} s, total {time.monotonic() - started:.1f} s")
     finally:
         if client is not None:
