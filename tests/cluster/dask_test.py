@@ -19,8 +19,9 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from daemons import Daemons, fail, require, skip, wait_until  # noqa: E402
 
 SHARDS = 8
-# Finer layers than the example's: shards of about a second each, long enough to catch one.
-SETS = {"output.png": "false", "scan.layer": "0.02"}
+# Finer layers than the example's: shards of about a second each (more under load), long enough
+# for the test to see one running and stop its worker in the middle.
+SETS = {"output.png": "false", "scan.layer": "0.005"}
 RUN_TIMEOUT = 120
 
 
