@@ -1,10 +1,10 @@
 """trellis.distributed on a Dask cluster started as a user starts one: `dask-scheduler` and two
 `dask-worker` commands (Debian's python3-distributed), each its own process tree, joined through a
 scheduler file. While the shards run, one worker's whole process tree is killed (SIGKILL, its
-nanny too, so nothing replaces it) at a moment it is computing a shard; the run must still merge
-to the bytes of the one-process run, with that shard recomputed on the surviving worker and the
-shards the killed worker had finished not computed again.
-Exit 77 (skipped) only when the programs are missing.
+nanny too, so nothing replaces it) at a moment it has handed over one shard and is computing
+another; the run must still merge to the bytes of the one-process run, with that shard
+recomputed on the surviving worker and the shards the killed worker had finished not computed
+again. Exit 77 (skipped) only when the programs are missing.
     dask_test.py PYTHON_PACKAGE_DIR SOURCE_DIR
 """
 import os
@@ -16,7 +16,7 @@ import threading
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from daemons import Daemons, fail, require, skip, wait_until  # noqa: E402
+from daemons import Daemons, fail, require, wait_until  # noqa: E402
 
 SHARDS = 8
 # Finer layers than the example's: shards of about a second each (more under load), long enough
@@ -94,6 +94,7 @@ def main():
         one_process = time.monotonic() - t0
 
         sched_file = os.path.join(tmp, "scheduler.json")
+        t0 = time.monotonic()
         daemons.start("scheduler", ["dask-scheduler", "--host", "127.0.0.1", "--port", "0",
                                     "--no-dashboard", "--scheduler-file", sched_file], env)
         wait_until("the scheduler file", lambda: os.path.exists(sched_file), 60, daemons)
@@ -108,7 +109,7 @@ def main():
         wait_until("two workers", lambda: len(client.scheduler_info()["workers"]) == 2, 60,
                    daemons)
         names = {a: w["name"] for a, w in client.scheduler_info()["workers"].items()}
-        up = time.monotonic() - started
+        up = time.monotonic() - t0
 
         out = os.path.join(tmp, "dask")
         result = {}
