@@ -1,9 +1,7 @@
 """trellis.distributed: a job sharded over a Dask LocalCluster of two worker processes merges to
-the bytes of the single-process run, also when a worker is killed while shards are running."""
+the bytes of the single-process run. A worker killed mid-run, on a cluster started from the
+dask-scheduler and dask-worker commands: tests/cluster/dask_test.py."""
 import os
-import signal
-import threading
-import time
 
 import pytest
 
@@ -54,33 +52,9 @@ def test_gippo_lattice_layers_shard_over_dask_to_the_single_run(client, tmp_path
     assert read(merged) == read(single)
 
 
-def test_a_worker_killed_mid_job_still_gives_the_same_bytes(client, tmp_path):
-    # Finer layers: shards long enough (~0.5 s each) to kill a worker while they run.
-    sets = {"output.png": "false", "scan.layer": "0.02"}
-    single = trellis.run_job(PLATE, output_dir=tmp_path / "single", set=sets).files[0]
-    out = tmp_path / "dask"
-    result = {}
-
-    def drive():
-        try:
-            result["path"] = trellis.distributed.run(PLATE, shards=8, client=client,
-                                                     output_dir=out, set=sets)
-        except BaseException as e:  # reported below
-            result["error"] = e
-
-    t = threading.Thread(target=drive)
-    t.start()
-    killed = None
-    deadline = time.time() + 60
-    while killed is None and time.time() < deadline and t.is_alive():
-        busy = [w for w, tasks in client.processing().items() if tasks]
-        done = [f for f in os.listdir(out)] if out.exists() else []
-        if busy and any(f.endswith(".json") for f in done):
-            pids = client.run(os.getpid, workers=[busy[0]])
-            killed = pids[busy[0]]
-            os.kill(killed, signal.SIGKILL)
-        time.sleep(0.02)
-    t.join(120)
-    assert killed is not None, "no worker was busy after the first shard: nothing was killed"
-    assert "error" not in result, result.get("error")
-    assert read(result["path"]) == read(single)
+def test_a_shard_error_is_raised_as_the_trellis_error_and_nothing_is_merged(client, tmp_path):
+    out = tmp_path / "bad"
+    with pytest.raises(trellis.SettingError, match="scan.layer"):
+        trellis.distributed.run(PLATE, shards=3, client=client, output_dir=out, retries=0,
+                                set={"output.png": "false", "scan.layer": "-1"})
+    assert not (out / "gyroid_plate.cli").exists()

@@ -13,10 +13,12 @@ exactly the bytes ``trellis run`` writes in one process::
         out = trellis.distributed.run("examples/jobs/gyroid_plate_pbf.toml", client=client,
                                       shards=8, output_dir="out/plate")
 
-On a cluster, pass ``scheduler="tcp://host:8786"`` (or a ``Client``) instead; ``output_dir`` must
-then be a folder every worker and the client see (a shared file system). A worker that dies
-mid-job is replaced and its shard recomputed (Dask reschedules lost tasks; ``retries`` more
-times for tasks that raise), and the merged file is the same bytes.
+On a cluster, pass ``scheduler="tcp://host:8786"`` or a ``Client`` (e.g.
+``Client(scheduler_file=...)`` for workers started with ``dask-worker --scheduler-file``) instead;
+``output_dir`` must then be a folder every worker and the client see (a shared file system), and
+the workers must import ``trellis``. A worker that dies mid-job loses the shard it was computing:
+Dask gives it to another worker, which computes it again (``retries`` more times for shards that
+raise), and the merged file is the same bytes (tests/cluster/dask_test.py kills one).
 """
 import os
 
@@ -44,7 +46,7 @@ def run(job, shards, client=None, scheduler=None, output_dir=None, output=None, 
     it in ``output_dir``). Errors of a shard (a bad setting, a plate that does not fit) are
     raised here as ``trellis`` errors; nothing is merged then.
     """
-    from dask.distributed import Client, LocalCluster  # python3-distributed
+    from dask.distributed import Client, LocalCluster, as_completed  # python3-distributed
 
     if not isinstance(shards, int) or shards < 1:
         raise ValueError("shards must be a positive integer")
@@ -64,7 +66,15 @@ def run(job, shards, client=None, scheduler=None, output_dir=None, output=None, 
         futures = [client.submit(run_shard, job, out_dir, k, shards, set, pure=False,
                                  retries=retries)
                    for k in range(1, shards + 1)]
-        manifests = client.gather(futures)
+        shard_of = {f.key: k for k, f in enumerate(futures)}
+        manifests = [None] * shards
+        # Each manifest's path is taken as its shard ends and the task then released: Dask
+        # recomputes the held results of a lost worker, so a worker lost late would otherwise
+        # take all its finished shards with it. Only the shards it was computing are run again.
+        done = as_completed(futures, with_results=True)
+        del futures
+        for future, path in done:
+            manifests[shard_of[future.key]] = path
         if output is None:
             import json
             with open(manifests[0]) as f:

@@ -335,9 +335,9 @@ TEST(Plate, BadPlatesAndBadShardsExit2AndWriteNothing) {
   EXPECT_TRUE(fs::exists(merged));
 }
 
-// examples/slurm: the array script run locally with SLURM_ARRAY_TASK_ID set by hand, then the
-// merge script; and submit.sh end to end against a stand-in `sbatch` that runs each array index
-// in turn. Both merge to the bytes of the single run.
+// examples/slurm without a Slurm: the array script run locally with SLURM_ARRAY_TASK_ID set by
+// hand, then the merge script, merge to the bytes of the single run. submit.sh (array, afterok
+// dependency, merge) runs on a real Slurm in tests/cluster/slurm_test.py.
 TEST(Plate, SlurmScriptsRunLocallyMergeToTheSingleRun) {
   const std::string job = kRoot + "/examples/jobs/lattice_plate_fdm.toml";
   const fs::path dir = plate_work() / "slurm";
@@ -354,35 +354,6 @@ TEST(Plate, SlurmScriptsRunLocallyMergeToTheSingleRun) {
               0);
   ASSERT_EQ(std::system((env + "bash " + kRoot + "/examples/slurm/merge.sbatch >/dev/null").c_str()), 0);
   EXPECT_TRUE(read_file((dir / "array" / "lattice_plate.gcode").string()) == single);
-
-  // submit.sh with an sbatch that runs the array's indices one after the other.
-  const fs::path bin = dir / "bin";
-  fs::create_directories(bin);
-  std::ofstream(bin / "sbatch") << R"(#!/bin/bash
-array=""; exports=""; script=""
-for a in "$@"; do
-  case $a in
-    --array=*) array=${a#--array=} ;;
-    --export=*) exports=${a#--export=} ;;
-    --*) ;;
-    *) script=$a ;;
-  esac
-done
-IFS=, read -ra kv <<< "$exports"
-for x in "${kv[@]}"; do [ "$x" = ALL ] || export "$x"; done
-if [ -n "$array" ]; then
-  for i in $(seq "${array%-*}" "${array#*-}"); do SLURM_ARRAY_TASK_ID=$i bash "$script" >/dev/null || exit 1; done
-else
-  bash "$script" >/dev/null || exit 1
-fi
-echo 4242
-)";
-  fs::permissions(bin / "sbatch", fs::perms::owner_all);
-  const std::string cmd = "PATH='" + bin.string() + "':$PATH TRELLIS='" + TRELLIS_CLI + "' bash " +
-                          kRoot + "/examples/slurm/submit.sh " + job + " '" +
-                          (dir / "submitted").string() + "' 5 >/dev/null";
-  ASSERT_EQ(std::system(cmd.c_str()), 0);
-  EXPECT_TRUE(read_file((dir / "submitted" / "lattice_plate.gcode").string()) == single);
 }
 
 // A plate whose parts carry process fields (fprocess): the plate report lists, per part, what
