@@ -6,6 +6,7 @@
 #include <chrono>
 #include <climits>
 #include <cmath>
+#include <numbers>
 #include <filesystem>
 #include <tuple>
 
@@ -114,6 +115,49 @@ Graph layered_lattice(AtlasParams base, const Config& c, int from = 0, int to = 
     const auto offset = static_cast<NodeId>(all.nodes.size());
     all.nodes.insert(all.nodes.end(), layer.nodes.begin(), layer.nodes.end());
     for (Edge e : layer.edges) {
+      e.a += offset, e.b += offset;
+      all.edges.push_back(e);
+    }
+  }
+  return all;
+}
+
+// [layers] on an input lattice: a 2D lattice is printed layers.count times, layer i at z + i·h
+// and turned by i·layers.rotation about the lattice's centre, as a pattern made in the job is.
+// What cannot apply is refused: layers.solid (it crops a pattern made in the job) and layers on
+// a 3D lattice.
+Graph stacked_layers(Graph g, const Job& job, const Config& c) {
+  const bool count = job.settings.has("layers.count") && c.layers.count != 1;
+  const bool turned = job.settings.has("layers.rotation") && c.layers.rotation_deg != 0;
+  if (job.settings.has("layers.solid"))
+    throw SettingError("layers.solid crops a pattern made in the job; the input lattice " + job.input +
+                           " is planned as it is (give the pattern's [lattice2d] settings instead of "
+                           "an input, or crop the lattice before)",
+                       {"", 0, "layers.solid"});
+  if (!count && !turned) return g;
+  const BBox3 b = g.bbox();
+  if (g.nodes.empty() || b.max.z - b.min.z > 1e-9)
+    throw SettingError("layers.count and layers.rotation stack a 2D lattice; " + job.input +
+                           " is a 3D lattice (z " + fixed(b.min.z, 3) + " .. " + fixed(b.max.z, 3) +
+                           " mm), planned as it is",
+                       {"", 0, count ? "layers.count" : "layers.rotation"});
+  if (c.layers.count < 1)
+    throw SettingError("layers.count must be >= 1 without layers.solid", {"", 0, "layers.count"});
+  if (turned && c.layers.count == 1)
+    throw SettingError("layers.rotation turns each further layer, but layers.count is 1",
+                       {"", 0, "layers.rotation"});
+  const Vec3 centre{(b.min.x + b.max.x) / 2, (b.min.y + b.max.y) / 2, 0};
+  Graph all;
+  for (int i = 0; i < c.layers.count; ++i) {
+    const double a = i * c.layers.rotation_deg * std::numbers::pi / 180;
+    const double ca = std::cos(a), sa = std::sin(a);
+    const auto offset = static_cast<NodeId>(all.nodes.size());
+    for (const Vec3& p : g.nodes) {
+      const double x = p.x - centre.x, y = p.y - centre.y;
+      all.nodes.push_back({centre.x + ca * x - sa * y, centre.y + sa * x + ca * y,
+                           p.z + i * c.machine.layer_height});
+    }
+    for (Edge e : g.edges) {
       e.a += offset, e.b += offset;
       all.edges.push_back(e);
     }
@@ -328,6 +372,7 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
   if (!job.input.empty()) {
     g = read_lattice(job.input, c.keep_graph ? keep_graph_options() : CleanOptions{c.merge_tolerance, true},
                      diag);
+    g = stacked_layers(std::move(g), job, c);
   } else if (c.planner == "aero") {
     if (!c.lattice3d.foam.mesh.empty()) check_budget(mesh_read_estimate(c.lattice3d.foam.mesh), budget_of(job, c));
     check_budget(estimate_lattice3d(c), budget_of(job, c));

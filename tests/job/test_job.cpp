@@ -5,6 +5,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -20,6 +21,7 @@
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/job/job.hpp"
+#include "trellis/toolpath/json.hpp"
 
 namespace fs = std::filesystem;
 using namespace trellis;
@@ -231,6 +233,48 @@ TEST(Settings, ProfilesOfTheWrongKindAndFirmwareDialectsAreRefused) {
     EXPECT_NE(r.err.find("0.8 × the nozzle"), std::string::npos) << flavor << ": " << r.err;
   }
   EXPECT_FALSE(fs::exists(in_work("never.gcode")));
+}
+
+// [layers] on a plan of an input lattice: honoured (layer i at z + i·h, turned i·rotation about
+// the lattice's centre) or refused where it cannot apply -- never one layer written silently.
+TEST(Jobs, LayersStackAnInputLattice) {
+  const std::string lat = in_work("stack_lattice.json");
+  ASSERT_EQ(run("lattice2d --pattern honeycomb --cell 2 --size 8,8 -o " + lat).code, 0);
+  const std::string one = in_work("stack_one.json"), three = in_work("stack_three.json");
+  ASSERT_EQ(run("plan gippo " + lat + " -o " + one).code, 0);
+  const CmdResult r = run("plan gippo " + lat + " -o " + three +
+                          " --set layers.count=3 --set layers.rotation=90");
+  ASSERT_EQ(r.code, 0) << r.err;
+  const Toolpath a = read_toolpath(one), b = read_toolpath(three);
+  ASSERT_EQ(a.layers.size(), 1u);
+  ASSERT_EQ(b.layers.size(), 3u);
+  auto box = [](const Layer& l) {
+    double x0 = 1e9, x1 = -1e9, y0 = 1e9, y1 = -1e9;
+    for (const auto& p : l.paths)
+      for (const auto& q : p.points)
+        x0 = std::min(x0, q.x), x1 = std::max(x1, q.x), y0 = std::min(y0, q.y), y1 = std::max(y1, q.y);
+    return std::array<double, 4>{x0, x1, y0, y1};
+  };
+  const auto b0 = box(b.layers[0]), b1 = box(b.layers[1]), b2 = box(b.layers[2]);
+  EXPECT_GT(b.layers[1].z, b.layers[0].z);
+  EXPECT_NEAR(b.layers[2].z - b.layers[1].z, b.layers[1].z - b.layers[0].z, 1e-9);
+  // A quarter turn swaps the extents; two quarter turns bring them back.
+  EXPECT_NEAR(b1[1] - b1[0], b0[3] - b0[2], 1e-6);
+  EXPECT_NEAR(b1[3] - b1[2], b0[1] - b0[0], 1e-6);
+  EXPECT_NEAR(b2[1] - b2[0], b0[1] - b0[0], 1e-6);
+  EXPECT_NEAR(b.extrusion_length(), 3 * a.extrusion_length(), 1e-6 * b.extrusion_length());
+
+  const CmdResult solid = run("plan gippo " + lat + " -o " + in_work("never.json") +
+                              " --set layers.solid=" + kRoot + "/examples/designs/Vase.stl");
+  EXPECT_EQ(solid.code, 2);
+  EXPECT_NE(solid.err.find("layers.solid"), std::string::npos) << solid.err;
+  const std::string cubes = in_work("stack_octet.json");
+  ASSERT_EQ(run("lattice3d --cell-type octet --cell 5 --count 1,1,1 -o " + cubes).code, 0);
+  const CmdResult spatial = run("plan euler " + cubes + " -o " + in_work("never.json") +
+                                " --set layers.count=2");
+  EXPECT_EQ(spatial.code, 2);
+  EXPECT_NE(spatial.err.find("3D lattice"), std::string::npos) << spatial.err;
+  EXPECT_FALSE(fs::exists(in_work("never.json")));
 }
 
 // Default < profile < job < command line, on every route that reads a layer height or pattern
