@@ -188,9 +188,13 @@ void add_machine(std::vector<Setting>& out) {
     if (key == "speed.print") s.flag = "speed";
     if (key == "gradient.lookahead") s.flag = "lookahead";
     if (key == "machine.name") {
-      // Shared by printer and laser profiles.
+      // Shared by printer and laser profiles. Every output's job header records it, the default
+      // too; the printer's default name read back from a laser build's header (merge, rerun)
+      // names no laser, so the laser keeps its own default.
       s.set = [](Config& c, const SettingValue& v) {
-        c.machine.name = c.laser.name = std::get<std::string>(v);
+        const std::string& name = std::get<std::string>(v);
+        c.machine.name = name;
+        c.laser.name = name == MachineProfile{}.name ? LaserProfile{}.name : name;
       };
     }
     out.push_back(std::move(s));

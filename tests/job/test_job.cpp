@@ -277,6 +277,26 @@ TEST(Jobs, LayersStackAnInputLattice) {
   EXPECT_FALSE(fs::exists(in_work("never.json")));
 }
 
+// A laser job without a machine profile: its shards merge, and its output reruns, to the bytes
+// of the one-process run (the merged header named the printer's default, "generic Marlin FDM").
+TEST(Jobs, LaserJobWithoutAProfileMergesAndRerunsToTheSameBytes) {
+  const std::string job = write("laser_no_profile.toml",
+                                "[job]\nroute = \"pbf\"\nname = \"g\"\n[pbf]\ncell_type = \"gyroid\"\n"
+                                "cell = 2.5\nsize = [4.0, 4.0, 0.5]\n[output]\npng = false\n");
+  const std::string one = in_work("laser_one"), shards = in_work("laser_shards");
+  ASSERT_EQ(run("run " + job + " -o " + one).code, 0);
+  for (int k = 1; k <= 2; ++k)
+    ASSERT_EQ(run("run " + job + " -o " + shards + " --shard " + std::to_string(k) + "/2").code, 0);
+  const CmdResult m = run("merge " + shards + "/g.cli.shard-1-of-2.json " + shards +
+                          "/g.cli.shard-2-of-2.json -o " + shards + "/g.cli");
+  ASSERT_EQ(m.code, 0) << m.err;
+  const std::string single = read_file(one + "/g.cli");
+  EXPECT_NE(single.find("//machine: PBF-LB//"), std::string::npos);
+  EXPECT_EQ(read_file(shards + "/g.cli"), single);
+  ASSERT_EQ(run("rerun " + one + "/g.cli -o " + in_work("laser_again.cli")).code, 0);
+  EXPECT_EQ(read_file(in_work("laser_again.cli")), single);
+}
+
 // Default < profile < job < command line, on every route that reads a layer height or pattern
 // setting: the written output shows the value and its header records it.
 TEST(Jobs, PrecedenceProfileJobCommandLineOnEveryRoute) {
