@@ -149,6 +149,7 @@ int main(int argc, char** argv) {
   // Interrupted runs leave no temporaries (exit 130 / 143); the outputs of a command are
   // committed together when it succeeds and removed when it fails (core/file.hpp).
   trellis::install_signal_cleanup();
+  if (argc > 1) trellis::set_interrupt_label(std::string("trellis ") + argv[1]);  // "trellis pbf"
   try {
     trellis::OutputBatch outputs;
     app.parse(argc, argv);

@@ -254,11 +254,33 @@ void write_through_temporary(const std::string& path, const std::string& target,
   release(g_temp_slots, slot);
 }
 
+// What an interrupted run says on stderr (set before the run; written from the handler with
+// write(2), the only output that is async-signal-safe).
+char g_interrupt_label[96] = "trellis";
+
+void say_interrupted(int sig) {
+  const char* why = sig == SIGINT    ? " interrupted (Ctrl-C)"
+                    : sig == SIGTERM ? " stopped (SIGTERM)"
+                    : sig == SIGHUP  ? " stopped: its terminal closed (SIGHUP)"
+                                     : nullptr;
+  if (!why) return;  // SIGPIPE: the reader is gone, stderr may be too
+  const char* tail = "; nothing was written and no file was changed\n";
+  auto put = [](const char* t) {
+    const ssize_t ignored = ::write(2, t, std::strlen(t));
+    (void)ignored;
+  };
+  put("\n");
+  put(g_interrupt_label);
+  put(why);
+  put(tail);
+}
+
 extern "C" void cleanup_on_signal(int sig) {
   for (auto& s : g_temp_slots)
     if (char* p = s.load()) ::unlink(p);
   for (std::size_t i = g_dir_slots.size(); i-- > 0;)
     if (char* p = g_dir_slots[i].load()) ::rmdir(p);
+  say_interrupted(sig);
   ::_exit(128 + sig);
 }
 
@@ -396,6 +418,12 @@ OutputBatch::~OutputBatch() {
   if (!outer_) return;
   remove_staged(b);
   forget_run(b);
+}
+
+void set_interrupt_label(const std::string& label) {
+  const std::size_t n = std::min(label.size(), sizeof g_interrupt_label - 1);
+  std::memcpy(g_interrupt_label, label.data(), n);
+  g_interrupt_label[n] = '\0';
 }
 
 void install_signal_cleanup() {

@@ -493,6 +493,11 @@ def signal_cases(env):
                     name = f"{sig.name} after {delay} s {' '.join(args[:2])}"
                     if p.returncode != code:
                         env.fail("signal", name, f"exit {p.returncode}, expected {code}", err)
+                    # It says what was stopped and that nothing was written.
+                    said = err.decode(errors="replace")
+                    if f"trellis {args[0]} " not in said or "nothing was written" not in said:
+                        env.fail("signal", name, "no message naming the command and what was left",
+                                 err)
                     c = changes(before, snapshot(d))
                     if c:
                         env.fail("signal", name, c)

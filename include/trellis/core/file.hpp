@@ -58,6 +58,9 @@ class OutputBatch {
 // _exit(128 + signal); a signal the process was started ignoring (nohup) stays ignored. For
 // programs (the CLI); a library user keeps its own signal handling.
 void install_signal_cleanup();
+// What the interrupted run is called in the message the signal handler prints ("trellis pbf
+// interrupted (Ctrl-C); nothing was written and no file was changed").
+void set_interrupt_label(const std::string& label);
 
 // An anonymous temporary file (read/write, binary) for data too large to hold in memory: made in
 // $TMPDIR (or /tmp when TMPDIR is unset or empty), unlinked already, so it is gone with the
