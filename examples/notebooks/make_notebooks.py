@@ -97,7 +97,9 @@ for name, r in results.items():
 table(["geometry", "struts", "GIPPO paths (max)", "lower bound", "euler paths", "score (max)",
        "LTS % max", "LTS % min", "score std over the iterations, % (paper: 1–6)"], rows)
 higher = sum(r["max"]["lts"] >= r["min"]["lts"] for r in results.values())
-print(f"max mode has the higher LTS on {higher} of {len(results)} geometries (paper: 'generally')")'''),
+print(f"max mode has the higher LTS on {higher} of {len(results)} geometries (paper: 'generally')")
+within = sum(1 <= np.std(r["max"]["layers"][0]["scores"]) * 100 <= 6 for r in results.values())
+print(f"score std over the iterations within the paper's 1-6 % on {within} of {len(results)} geometries")'''),
     new_markdown_cell('The Penrose lattice planned in *max* mode, coloured by print order '
                       '(`Toolpath.png`):'),
     new_code_cell('''\
@@ -106,17 +108,17 @@ Image(penrose.png(0, size=500))'''),
     new_markdown_cell(VIEWER_NOTE),
     new_code_cell('penrose'),
     new_markdown_cell('**Checks** against the paper: every solution covers every strut once, no '
-                      'plan beats the lower bound and `euler` reaches it, the score varies over the '
-                      'iterations about as much as the paper\'s 1–6 %, and *max* mode gives the '
-                      'higher LTS on most geometries.'),
+                      'plan beats the lower bound and `euler` reaches it, the score\'s spread over the '
+                      'iterations is within the paper\'s 1–6 % on all geometries but at most one, '
+                      'and *max* mode gives the higher LTS on most geometries.'),
     new_code_cell('''\
 for name, r in results.items():
     assert r["max"]["edges"] == r["struts"], name
     assert r["max"]["paths"] >= r["max"]["lower_bound_paths"], name
     assert r["euler"]["paths"] == r["euler"]["lower_bound_paths"], name
     assert 0 < r["max"]["score"] <= 1, name
-    assert 0.5 <= np.std(r["max"]["layers"][0]["scores"]) * 100 <= 7, name  # paper: 1-6 %
 assert higher >= 4, higher
+assert within >= 5, within
 print("all checks passed")'''),
 ]
 
@@ -137,7 +139,8 @@ nozzle model, and reports the collisions it could not avoid with a lower bound o
     new_code_cell('''\
 def aero(lattice, name):
     report = os.path.join(OUT, name + ".json")
-    r = trellis.plan("aero", lattice, report=report, preview=os.path.join(OUT, name))
+    r = trellis.plan("aero", lattice, report=report, preview=os.path.join(OUT, name),
+                     set={"output.image_size": 600})
     return r, json.load(open(report))
 
 t0 = time.perf_counter()
@@ -245,7 +248,7 @@ stl = os.path.join(OUT, "m.stl")
 trellis.surface("m-curve", stl)
 t0 = time.perf_counter()
 r = trellis.nonplanar(stl, machine=machine, layers=9, layer_tools="3:0,3:1,3:0", angles=[0],
-                      preview=os.path.join(OUT, "preview"))
+                      preview=os.path.join(OUT, "preview"), set={"output.image_size": 600})
 tp = r.toolpath
 print(r.summary)
 print(f"{time.perf_counter() - t0:.1f} s")'''),

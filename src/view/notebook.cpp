@@ -69,7 +69,13 @@ std::string viewer_notebook_script() {
 
 std::string viewer_notebook_view(const std::vector<ViewScene>& scenes, const std::string& title) {
   using namespace view_page;
-  std::string out = "<div class=\"trellis-nb-view\"><template>";
+  std::size_t points = 0;
+  for (const auto& s : scenes)
+    for (const auto& l : s.toolpath.layers)
+      for (const auto& p : l.paths) points += p.points.size();
+  // data-points: what the view holds, for a reader of the notebook file (and its size test).
+  std::string out =
+      "<div class=\"trellis-nb-view\" data-points=\"" + std::to_string(points) + "\"><template>";
   out += data_blocks(scenes, title, LayerData::Packed);
   out +=
       "</template><div class=\"tv-nb-msg\" style=\"padding:6px 8px;border:1px solid #ccc;"
