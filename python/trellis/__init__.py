@@ -161,17 +161,21 @@ class _NotebookState:
 
 
 def _cell_id():
-    """The id of the notebook cell being run (Jupyter sends it with the request), or None."""
+    """Which notebook cell is running: the id Jupyter sends with the request (JupyterLab), else
+    the cell's source as IPython recorded it; None outside IPython."""
     try:
         from IPython import get_ipython
     except ImportError:
         return None
     shell = get_ipython()
-    parent = getattr(shell, "get_parent", None) if shell is not None else None
-    if parent is None:
+    if shell is None:
         return None
-    message = parent() or {}
-    return (message.get("metadata") or {}).get("cellId")
+    parent = getattr(shell, "get_parent", None)
+    cell = ((parent() or {}).get("metadata") or {}).get("cellId") if parent else None
+    if cell is None:
+        inputs = shell.user_ns.get("_ih") or [""]
+        cell = "source:" + inputs[-1]
+    return cell
 
 
 def _notebook_script_once():

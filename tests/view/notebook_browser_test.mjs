@@ -44,7 +44,9 @@ script = trellis._trellis.viewer_notebook_script()
 counts = []
 for name in ("honeycomb.json", "octet_path.json"):
     t = trellis.read_toolpath(name)
-    counts.append({"layers": t.layer_count, "paths": t.path_count, "segments": t.point_count - t.path_count})
+    o = t.path_offsets  # first and last points of three paths, to compare with what the page unpacked
+    probe = {int(p): [t.points[o[p]].tolist(), t.points[o[p + 1] - 1].tolist()] for p in (0, t.path_count // 2, t.path_count - 1)}
+    counts.append({"layers": t.layer_count, "paths": t.path_count, "segments": t.point_count - t.path_count, "probe": probe})
 json.dump({"counts": counts, "sizes": [len(h) for h in html], "script": len(script),
            "first_has_script": html[0].startswith(script), "second_has_script": script in html[1]},
           open("expect.json", "w"))
@@ -88,6 +90,16 @@ const BG = [0xf4, 0xf5, 0xf7];
     const want = expect.counts[i];
     check(st.layers === want.layers && st.paths === want.paths && st.segments === want.segments,
       `view ${i + 1}${i ? ' (data only)' : ''}: ${st.layers} layers, ${st.paths} paths, ${st.segments} segments (toolpath: ${want.layers}, ${want.paths}, ${want.segments})`);
+    // Positions unpacked from 1 µm steps: within half a step (and float32) of the toolpath's.
+    let worst = 0;
+    for (const [p, [first, last]] of Object.entries(want.probe)) {
+      const got = await frame.evaluate((p) => {
+        const s = window.trellisViewer.s, P = s.positions, a = s.pathFirst[p] * 3, b = (s.pathFirst[p + 1] - 1) * 3;
+        return [[P[a], P[a + 1], P[a + 2]], [P[b], P[b + 1], P[b + 2]]];
+      }, Number(p));
+      for (const [g, w] of [[got[0], first], [got[1], last]]) for (let k = 0; k < 3; ++k) worst = Math.max(worst, Math.abs(g[k] - w[k]));
+    }
+    check(worst <= 6e-4, `view ${i + 1}: first and last points of three paths within ${worst.toExponential(1)} mm of the toolpath's`);
     const drawn = await frame.evaluate((bg) => {
       const gl = window.trellisViewer.renderer.getContext();
       const w = gl.drawingBufferWidth, h = gl.drawingBufferHeight, px = new Uint8Array(w * h * 4);

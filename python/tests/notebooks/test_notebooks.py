@@ -112,3 +112,24 @@ def test_a_1_mb_gcode_view_is_within_budget(tmp_path):
     print(f"\n{size} bytes of G-code: view {view} bytes (+ script {script} once); "
           f"five views {script + 5 * view} bytes, before {5 * before}")
     assert script + 5 * view < 5 * before / 3
+
+
+def test_the_cell_that_carried_the_script_carries_it_again_when_run_again(tmp_path):
+    """Re-running the first view's cell replaces its output: the new one must carry the script
+    (else the saved notebook would have none); other views stay data only."""
+    import trellis
+    trellis.plan("gippo", trellis.lattice2d(pattern="honeycomb", cell=1.0, size=(5, 5)).lattice,
+                 str(tmp_path / "t.json"), iterations=3)
+    nb = nbformat.v4.new_notebook(cells=[
+        nbformat.v4.new_code_cell("import trellis\nt = trellis.read_toolpath('t.json')"),
+        nbformat.v4.new_code_cell("t"), nbformat.v4.new_code_cell("u = t\nu")])
+    client = NotebookClient(nb, timeout=120, kernel_name="python3",
+                            resources={"metadata": {"path": str(tmp_path)}})
+    carries = lambda i: "window.trellisNotebook={" in nb.cells[i].outputs[0]["data"]["text/html"]
+    with client.setup_kernel():
+        for i, cell in enumerate(nb.cells):
+            client.execute_cell(cell, i)
+        assert carries(1) and not carries(2)
+        client.execute_cell(nb.cells[1], 1)
+        client.execute_cell(nb.cells[2], 2)
+        assert carries(1) and not carries(2)
