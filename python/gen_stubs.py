@@ -63,7 +63,8 @@ def main():
             "binary: bool = False) -> bytes: ...",
             "    def png(self, layer: int = 0, size: int = 600) -> bytes: ...",
             "    def view_html(self, title: str | None = None) -> str: ...",
-            "    def save_view(self, path: PathLike, title: str | None = None) -> None: ...", "",
+            "    def save_view(self, path: PathLike, title: str | None = None) -> None: ...",
+            "    def view_notebook(self, title: str | None = None) -> str: ...", "",
             "class Result:", "    files: list[str]", "    summary: str", "    warnings: list[tuple[str, str]]",
             "    exit_code: int", "    toolpath: Toolpath | None", "    lattice: Lattice | None", ""]
     for route, command, head, ret in ROUTES:
@@ -91,6 +92,7 @@ def main():
             "def settings(route: str | None = None) -> list[dict[str, Any]]: ...",
             "def read_lattice(path: PathLike, merge_tolerance: float = 1e-6) -> Lattice: ...",
             "def read_toolpath(path: PathLike) -> Toolpath: ...",
+            "def notebook_viewer() -> Any: ...",
            "def parse_vcad(text: str, name: str = ...) -> dict[str, Any]: ...",
            "def analyze(gcode: PathLike, design: PathLike | None = None, *, bead_width: float = ...,",
            "            layer_height: float = ..., align: bool = ..., strict: bool = ...) -> dict[str, Any]: ...",

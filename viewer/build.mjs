@@ -1,6 +1,7 @@
 // Build step (run by CMake, see src/CMakeLists.txt): bundles src/main.js with three.js (from
 // node_modules, installed by `npm ci` from package-lock.json) into src/template.html and writes
-// the page as a C++ string literal (viewer_template.inc) that libtrellis compiles in.
+// the page as a C++ string literal (viewer_template.inc) that libtrellis compiles in; and the
+// notebook loader src/notebook.js, minified, as viewer_notebook.inc beside it.
 // Usage: node build.mjs OUT.inc [NODE_MODULES_DIR] [OUT.html]
 import { createRequire } from 'node:module';
 import { readFileSync, writeFileSync, renameSync } from 'node:fs';
@@ -15,7 +16,7 @@ if (!out) {
 }
 // esbuild from the given node_modules (the build tree's `npm ci`), else from next to this script.
 const require = createRequire(join(nodeModules || join(here, 'node_modules'), 'noop.js'));
-const { build } = require('esbuild');
+const { build, transform } = require('esbuild');
 const result = await build({
   entryPoints: [join(here, 'src', 'main.js')],
   bundle: true,
@@ -37,15 +38,24 @@ const html = template.replace(marker, () => js);
 const delim = 'TVIEW';
 if (html.includes(')' + delim + '"')) throw new Error('page contains the raw-string delimiter');
 // Adjacent raw literals of at most 60000 bytes each (some compilers limit one literal's length).
-const parts = [];
-const buf = Buffer.from(html, 'utf8');
-for (let i = 0; i < buf.length; ) {
-  let j = Math.min(buf.length, i + 60000);
-  while (j < buf.length && (buf[j] & 0xc0) === 0x80) --j;  // do not split a UTF-8 character
-  parts.push('R"' + delim + '(' + buf.subarray(i, j).toString('utf8') + ')' + delim + '"');
-  i = j;
+function writeLiteral(file, text) {
+  const parts = [];
+  const buf = Buffer.from(text, 'utf8');
+  for (let i = 0; i < buf.length; ) {
+    let j = Math.min(buf.length, i + 60000);
+    while (j < buf.length && (buf[j] & 0xc0) === 0x80) --j;  // do not split a UTF-8 character
+    parts.push('R"' + delim + '(' + buf.subarray(i, j).toString('utf8') + ')' + delim + '"');
+    i = j;
+  }
+  writeFileSync(file + '.tmp', parts.join('\n') + '\n');
+  renameSync(file + '.tmp', file);
+  return buf.length;
 }
-writeFileSync(out + '.tmp', parts.join('\n') + '\n');
-renameSync(out + '.tmp', out);
+const pageBytes = writeLiteral(out, html);
+const loader = (await transform(readFileSync(join(here, 'src', 'notebook.js'), 'utf8'),
+  { minify: true, target: ['chrome110', 'firefox115'], loader: 'js', legalComments: 'none' })).code;
+if (loader.split('TRELLIS_PAGE').length !== 2) throw new Error('notebook.js: TRELLIS_PAGE must occur once');
+if (/<\/script|<!--/i.test(loader) || loader.includes(')' + delim + '"')) throw new Error('notebook.js: unsafe text');
+writeLiteral(join(dirname(out), 'viewer_notebook.inc'), loader);
 if (htmlOut) writeFileSync(htmlOut, html);
-console.log(`viewer: ${(buf.length / 1024).toFixed(0)} KiB page template -> ${out}`);
+console.log(`viewer: ${(pageBytes / 1024).toFixed(0)} KiB page template -> ${out}`);

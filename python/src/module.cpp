@@ -437,6 +437,9 @@ PYBIND11_MODULE(_trellis, m) {
     return run_job(job, diag, {}).files;
   });
 
+  m.def("viewer_notebook_script", &viewer_notebook_script,
+        "the viewer's script for a notebook page, sent once before the views");
+
   py::class_<Toolpath, std::shared_ptr<Toolpath>>(m, "Toolpath")
       .def_property_readonly("layer_count", [](const Toolpath& t) { return t.layers.size(); })
       .def_property_readonly("path_count", &Toolpath::path_count)
@@ -456,6 +459,12 @@ PYBIND11_MODULE(_trellis, m) {
              return viewer_html({view_scene(t, title)}, title);
            },
            py::arg("title") = "toolpath", "the interactive viewer page (trellis view) of this toolpath")
+      .def("view_notebook",
+           [](const Toolpath& t, const std::string& title) {
+             return viewer_notebook_view({view_scene(t, title)}, title);
+           },
+           py::arg("title") = "toolpath",
+           "this toolpath's view in a notebook: data only, shown by viewer_notebook_script()")
       .def("png", [](const Toolpath& t, std::size_t layer, int size) {
         if (layer >= t.layers.size())
           throw SettingError("layer " + std::to_string(layer) + " of " + std::to_string(t.layers.size()),

@@ -30,7 +30,8 @@ from .fields import (Field, cone, cube, cylinder, difference, fgrade, function, 
 __all__ = ["Field", "sphere", "cube", "rectprism", "cylinder", "cone", "torus", "function", "tpms",
            "gyroid", "mesh", "union", "intersection", "difference", "fgrade", "parse_vcad",
            "analyze", "check", "lattice2d", "lattice3d", "plan", "gcode", "slice", "pbf", "nonplanar", "surface",
-           "run_job", "rerun", "settings", "read_lattice", "read_toolpath", "Lattice", "Toolpath",
+           "run_job", "rerun", "settings", "read_lattice", "read_toolpath", "notebook_viewer", "Lattice",
+           "Toolpath",
            "Result", "TrellisError", "InputError", "SettingError", "GeometryError", "MachineError",
            "__version__"]
 
@@ -137,16 +138,70 @@ class Toolpath:
         with open(os.fspath(path), "w", encoding="utf-8") as f:
             f.write(self.view_html(title))
 
+    def view_notebook(self, title=None):
+        """This toolpath's view for a notebook page (str): its data only (layers packed and
+        deflated) and a call to the viewer script that ``notebook_viewer()`` puts on the page."""
+        return self._core.view_notebook(title or self._core.source or "toolpath")
+
     def _repr_html_(self):
-        # Jupyter shows the viewer inline: the page in an iframe, so its script and styles stay
-        # out of the notebook's own page.
-        page = html.escape(self.view_html(), quote=True)
-        return (f'<iframe class="trellis-view" srcdoc="{page}" style="width:100%;height:560px;'
-                f'border:1px solid #ccc" sandbox="allow-scripts"></iframe>')
+        # Jupyter shows the viewer inline, in a sandboxed iframe; the viewer's script goes into
+        # the notebook once (the first view of the kernel session carries it), every view its
+        # data only.
+        return _notebook_script_once() + self.view_notebook()
 
     def __repr__(self):
         return (f"<trellis.Toolpath {self.layer_count} layers, {self.path_count} paths, "
                 f"{self.point_count} points>")
+
+
+class _NotebookState:
+    """Which cell of this kernel session carried the viewer script (None: not sent yet)."""
+    sent = False
+    cell = None
+
+
+def _cell_id():
+    """Which notebook cell is running: the id Jupyter sends with the request (JupyterLab), else
+    the cell's source as IPython recorded it; None outside IPython."""
+    try:
+        from IPython import get_ipython
+    except ImportError:
+        return None
+    shell = get_ipython()
+    if shell is None:
+        return None
+    parent = getattr(shell, "get_parent", None)
+    cell = ((parent() or {}).get("metadata") or {}).get("cellId") if parent else None
+    if cell is None:
+        inputs = shell.user_ns.get("_ih") or [""]
+        cell = "source:" + inputs[-1]
+    return cell
+
+
+def _notebook_script_once():
+    """The viewer script when this view is the first of the session, or in the cell that sent it
+    first (run again, that cell's new output must carry it again); else ''."""
+    cell = _cell_id()
+    if _NotebookState.sent and (cell is None or cell != _NotebookState.cell):
+        return ""
+    _NotebookState.sent, _NotebookState.cell = True, cell
+    return _trellis.viewer_notebook_script()
+
+
+class _NotebookViewer:
+    def _repr_html_(self):
+        _NotebookState.sent, _NotebookState.cell = True, _cell_id()
+        return (_trellis.viewer_notebook_script()
+                + '<div style="font:12px system-ui,sans-serif;color:#666">Trellis viewer script '
+                  f'{html.escape(__version__)} loaded: every toolpath view in this notebook uses it.'
+                  '</div>')
+
+
+def notebook_viewer():
+    """Displayed in a notebook cell, puts the viewer's script on the page; every ``Toolpath``
+    shown after it carries only its data. The first view of a kernel session does this by itself;
+    call it in a cell above when the output that carried the script was cleared."""
+    return _NotebookViewer()
 
 
 class Result:

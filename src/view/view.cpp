@@ -1,13 +1,14 @@
-// Viewer pages: inputs read into scenes, scenes encoded as base64 binary chunks into the page
+// Viewer pages: inputs read into scenes, the scenes' data blocks (encode.cpp) put into the page
 // template bundled from viewer/ at build time (viewer_template.inc, made by viewer/build.mjs).
 #include "trellis/view/view.hpp"
 
 #include <cmath>
 #include <cstring>
-#include <limits>
 #include <filesystem>
+#include <limits>
 #include <nlohmann/json.hpp>
 
+#include "page.hpp"
 #include "trellis/analysis/collisions.hpp"
 #include "trellis/analysis/metrics.hpp"
 #include "trellis/core/error.hpp"
@@ -29,9 +30,6 @@ const char kTemplateText[] =
 #include "viewer_template.inc"
     ;
 const std::string_view kTemplate(kTemplateText, sizeof kTemplateText - 1);
-constexpr std::string_view kDataMarker = "<!--TRELLIS_DATA-->";
-constexpr std::string_view kPathRoles[] = {"strut",  "contour", "handle", "perimeter",
-                                           "infill", "other",   "skin",    "purge"};
 
 std::string lower_ext(const std::string& path) {
   std::string e = fs::path(path).extension().string();
@@ -122,194 +120,6 @@ bool looks_like_toolpath_json(const std::string& path) {
   return head.find("\"layers\"") != std::string::npos;
 }
 
-// --- encoding -------------------------------------------------------------------------------
-
-void put_u32(std::string& b, std::uint32_t v) {
-  char c[4];
-  std::memcpy(c, &v, 4);
-  b.append(c, 4);
-}
-void put_f32(std::string& b, double v) {
-  const float f = static_cast<float>(v);
-  char c[4];
-  std::memcpy(c, &f, 4);
-  b.append(c, 4);
-}
-
-std::string base64(std::string_view in) {
-  static constexpr char kAlphabet[] =
-      "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  std::string out;
-  out.reserve((in.size() + 2) / 3 * 4);
-  std::size_t i = 0;
-  for (; i + 3 <= in.size(); i += 3) {
-    const std::uint32_t v =
-        (std::uint8_t(in[i]) << 16) | (std::uint8_t(in[i + 1]) << 8) | std::uint8_t(in[i + 2]);
-    out += kAlphabet[v >> 18];
-    out += kAlphabet[(v >> 12) & 63];
-    out += kAlphabet[(v >> 6) & 63];
-    out += kAlphabet[v & 63];
-  }
-  if (i < in.size()) {
-    std::uint32_t v = std::uint8_t(in[i]) << 16;
-    if (i + 1 < in.size()) v |= std::uint8_t(in[i + 1]) << 8;
-    out += kAlphabet[v >> 18];
-    out += kAlphabet[(v >> 12) & 63];
-    out += i + 1 < in.size() ? kAlphabet[(v >> 6) & 63] : '=';
-    out += '=';
-  }
-  return out;
-}
-
-// One layer as bytes (little-endian, 4-byte aligned sections):
-//   u32 points, u32 paths; f32 xyz[points]; u32 first_point[paths];
-//   f32 attributes[paths][7] = mixture[0] (-1 none), mixture[1] (-1 unless 3+ materials),
-//   temperature, speed, width, power, mixture[2] (-1 none); u8 role[paths]; u8 tool[paths];
-//   padding to 4 bytes; u32 vias, and when vias > 0: u32 first_via[paths + 1], f32 xyz[vias]
-//   (the corners of the travel into each path, Path::via).
-std::string encode_layer(const Layer& layer) {
-  std::size_t points = 0;
-  for (const auto& p : layer.paths) points += p.points.size();
-  std::string b;
-  b.reserve(8 + points * 12 + layer.paths.size() * 34);
-  put_u32(b, static_cast<std::uint32_t>(points));
-  put_u32(b, static_cast<std::uint32_t>(layer.paths.size()));
-  for (const auto& p : layer.paths)
-    for (const auto& q : p.points) put_f32(b, q.x), put_f32(b, q.y), put_f32(b, q.z);
-  std::uint32_t first = 0;
-  for (const auto& p : layer.paths) {
-    put_u32(b, first);
-    first += static_cast<std::uint32_t>(p.points.size());
-  }
-  for (const auto& p : layer.paths) {
-    put_f32(b, p.mixture.size() > 0 ? p.mixture[0] : -1);
-    put_f32(b, p.mixture.size() > 2 ? p.mixture[1] : -1);
-    put_f32(b, p.temperature);
-    put_f32(b, p.speed);
-    put_f32(b, p.width);
-    put_f32(b, p.power);
-    put_f32(b, p.mixture.size() > 2 ? p.mixture[2] : -1);
-  }
-  for (const auto& p : layer.paths) b += static_cast<char>(static_cast<std::uint8_t>(p.role));
-  for (const auto& p : layer.paths) b += static_cast<char>(std::clamp(p.tool, 0, 255));
-  while (b.size() % 4) b += '\0';
-  std::size_t vias = 0;
-  for (const auto& p : layer.paths) vias += p.via.size();
-  put_u32(b, static_cast<std::uint32_t>(vias));
-  if (vias > 0) {
-    std::uint32_t at = 0;
-    for (const auto& p : layer.paths) {
-      put_u32(b, at);
-      at += static_cast<std::uint32_t>(p.via.size());
-    }
-    put_u32(b, at);
-    for (const auto& p : layer.paths)
-      for (const auto& q : p.via) put_f32(b, q.x), put_f32(b, q.y), put_f32(b, q.z);
-  }
-  return b;
-}
-
-std::string encode_design(const ViewScene& s) {
-  std::string b;
-  put_u32(b, static_cast<std::uint32_t>(s.design.size()));
-  for (const auto& [a, c] : s.design)
-    put_f32(b, a.x), put_f32(b, a.y), put_f32(b, a.z), put_f32(b, c.x), put_f32(b, c.y),
-        put_f32(b, c.z);
-  for (std::size_t i = 0; i < s.design.size(); ++i)
-    b += i < s.design_flag.size() ? s.design_flag[i] : '\0';
-  while (b.size() % 4) b += '\0';
-  return b;
-}
-
-// Per-scene extras: u32 points, f32 deviation[points] (empty: points = 0); u32 hits, then per
-// hit i32 path, i32 segment, f32 xyz.
-std::string encode_extras(const ViewScene& s) {
-  std::string b;
-  put_u32(b, static_cast<std::uint32_t>(s.deviation.size()));
-  for (float d : s.deviation) put_f32(b, d);
-  put_u32(b, static_cast<std::uint32_t>(s.hits.size()));
-  for (const auto& h : s.hits) {
-    put_u32(b, static_cast<std::uint32_t>(static_cast<std::int32_t>(h.path)));
-    put_u32(b, static_cast<std::uint32_t>(static_cast<std::int32_t>(h.segment)));
-    put_f32(b, h.point.x), put_f32(b, h.point.y), put_f32(b, h.point.z);
-  }
-  return b;
-}
-
-// JSON as text safe inside <script>: `<`, `>` and `&` occur in JSON only inside strings, where
-// \u003c, \u003e and \u0026 mean the same characters, so no content (`</script>`, `<!--`,
-// `<script`) can change how the page parses. Invalid UTF-8 (a G-code comment echoed in a warning)
-// becomes U+FFFD instead of failing the page.
-std::string script_json(const nlohmann::json& value) {
-  const std::string text = value.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
-  std::string out;
-  out.reserve(text.size());
-  for (char c : text) {
-    if (c == '<')
-      out += "\\u003c";
-    else if (c == '>')
-      out += "\\u003e";
-    else if (c == '&')
-      out += "\\u0026";
-    else
-      out += c;
-  }
-  return out;
-}
-
-std::string html_escape(const std::string& s) {
-  std::string out;
-  for (char c : s) {
-    if (c == '<')
-      out += "&lt;";
-    else if (c == '>')
-      out += "&gt;";
-    else if (c == '&')
-      out += "&amp;";
-    else if (c == '"')
-      out += "&quot;";
-    else
-      out += c;
-  }
-  return out;
-}
-
-void append_scene(std::string& html, const ViewScene& s, std::size_t index) {
-  nlohmann::json meta;
-  meta["name"] = s.name;
-  meta["kind"] = s.kind;
-  meta["source"] = s.toolpath.source;
-  meta["roles"] = std::vector<std::string>(std::begin(kPathRoles), std::end(kPathRoles));
-  meta["layer_z"] = nlohmann::json::array();
-  for (const auto& l : s.toolpath.layers) meta["layer_z"].push_back(l.z);
-  meta["print_time_s"] = s.print_time_s;
-  meta["filament_mm"] = s.filament_mm;
-  meta["warnings"] = s.warnings;
-  meta["design_lines"] = s.design.size();
-  std::size_t materials = 0;
-  for (const auto& l : s.toolpath.layers)
-    for (const auto& p : l.paths) materials = std::max(materials, p.mixture.size());
-  meta["materials"] = materials;
-  meta["checked"] = s.checked;
-  meta["collisions"] = s.collisions;
-  meta["extra_stats"] = s.extra_stats;
-  if (!s.bed.shape.empty())
-    meta["bed"] = {{"shape", s.bed.shape}, {"x", s.bed.x},           {"y", s.bed.y},
-                   {"z", s.bed.z},         {"center", s.bed.center}, {"machine", s.bed.machine}};
-  const std::string id = "tv-" + std::to_string(index);
-  html += "<script type=\"application/json\" id=\"" + id + "-meta\">" + script_json(meta) +
-          "</script>\n";
-  for (std::size_t i = 0; i < s.toolpath.layers.size(); ++i)
-    html += "<script type=\"application/octet-stream\" id=\"" + id + "-l" + std::to_string(i) +
-            "\">" + base64(encode_layer(s.toolpath.layers[i])) + "</script>\n";
-  if (!s.design.empty())
-    html += "<script type=\"application/octet-stream\" id=\"" + id + "-design\">" +
-            base64(encode_design(s)) + "</script>\n";
-  if (!s.deviation.empty() || !s.hits.empty())
-    html += "<script type=\"application/octet-stream\" id=\"" + id + "-extras\">" +
-            base64(encode_extras(s)) + "</script>\n";
-}
-
 }  // namespace
 
 ViewScene load_view_scene(const std::string& path, const ViewLoadOptions& options,
@@ -397,7 +207,8 @@ class StrutGrid {
       for (int x = c[0] - r; x <= c[0] + r; ++x)
         for (int y = c[1] - r; y <= c[1] + r; ++y)
           for (int z = c[2] - r; z <= c[2] + r; ++z) {
-            if (std::max({std::abs(x - c[0]), std::abs(y - c[1]), std::abs(z - c[2])}) != r) continue;
+            if (std::max({std::abs(x - c[0]), std::abs(y - c[1]), std::abs(z - c[2])}) != r)
+              continue;
             if (x < 0 || y < 0 || z < 0 || x >= n_[0] || y >= n_[1] || z >= n_[2]) continue;
             for (std::size_t e : cells_[flat(x, y, z)])
               best = std::min(best, distance_to_segment(p, struts_[e].first, struts_[e].second));
@@ -471,12 +282,10 @@ ViewScene view_scene(const Toolpath& toolpath, const std::string& name) {
 }
 
 std::string viewer_html(const std::vector<ViewScene>& scenes, const std::string& title) {
+  using namespace view_page;
   const std::size_t at = kTemplate.find(kDataMarker);
   if (at == std::string_view::npos) throw Error("viewer template has no data marker");
-  std::string data = "<script type=\"application/json\" id=\"tv-index\">" +
-                     script_json(nlohmann::json{{"title", title}, {"scenes", scenes.size()}}) +
-                     "</script>\n";
-  for (std::size_t i = 0; i < scenes.size(); ++i) append_scene(data, scenes[i], i);
+  const std::string data = data_blocks(scenes, title, LayerData::Chunks);
   std::string html;
   html.reserve(kTemplate.size() + data.size() + title.size() + 64);
   std::string head(kTemplate.substr(0, at));
@@ -490,6 +299,10 @@ std::string viewer_html(const std::vector<ViewScene>& scenes, const std::string&
 
 std::size_t viewer_template_size() {
   return kTemplate.size();
+}
+
+std::string_view view_page::page_template() {
+  return kTemplate;
 }
 
 }  // namespace trellis

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <nlohmann/json.hpp>
 
+#include "../../src/view/page.hpp"
 #include "support/temp_dir.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
@@ -237,7 +238,8 @@ TEST(View, CheckReportIsAnInput) {
   EXPECT_EQ(s.hits[1].point.z, 6.0);
   Graph g;
   g.nodes = {{0, 0, 0}, {1, 0, 0}, {1, 1, 0}, {0, 1, 0}};
-  for (NodeId a = 0; a < 4; ++a) g.edges.push_back({a, static_cast<NodeId>((a + 1) % 4), 0, false, 0});
+  for (NodeId a = 0; a < 4; ++a)
+    g.edges.push_back({a, static_cast<NodeId>((a + 1) % 4), 0, false, 0});
   set_design(s, g);
   ASSERT_EQ(s.design_flag.size(), 4u);
   EXPECT_EQ(std::vector<char>(s.design_flag.begin(), s.design_flag.end()),
@@ -253,4 +255,104 @@ TEST(View, CheckReportIsAnInput) {
   } catch (const ParseError& e) {
     EXPECT_NE(std::string(e.what()).find("check.json"), std::string::npos) << e.what();
   }
+}
+
+namespace {
+
+// Reads the packed layers (src/view/encode.cpp, pack_layers) back, as viewer/src/data.js does.
+struct PackReader {
+  const std::string& b;
+  std::size_t at = 0;
+  std::uint64_t varint() {
+    std::uint64_t v = 0;
+    for (int shift = 0;; shift += 7) {
+      const auto c = static_cast<std::uint8_t>(b.at(at++));
+      v |= std::uint64_t(c & 0x7f) << shift;
+      if (!(c & 0x80)) return v;
+    }
+  }
+  std::int64_t zigzag() {
+    const std::uint64_t v = varint();
+    return v & 1 ? -static_cast<std::int64_t>(v >> 1) - 1 : static_cast<std::int64_t>(v >> 1);
+  }
+  float f32() {
+    float f;
+    std::memcpy(&f, b.data() + at, 4);
+    at += 4;
+    return f;
+  }
+};
+
+std::size_t count(const std::string& s, const std::string& what) {
+  std::size_t n = 0;
+  for (auto at = s.find(what); at != std::string::npos; at = s.find(what, at + 1)) ++n;
+  return n;
+}
+
+}  // namespace
+
+// A notebook view's layers, packed: every point back within half a 1 µm step, the counts, the
+// attribute columns, roles, tools and travel corners as the per-layer chunks carry them.
+TEST(View, PackedLayersHoldTheToolpath) {
+  Toolpath tp = sample();
+  tp.layers[0].paths[0].points[1] = {10.0004, -3.14159, 0.2};
+  const std::string b = view_page::pack_layers(tp);
+  ASSERT_EQ(b.substr(0, 4), "TVP1");
+  double quantum;
+  std::memcpy(&quantum, b.data() + 4, 8);
+  EXPECT_EQ(quantum, 1e-3);
+  PackReader r{b, 12};
+  ASSERT_EQ(r.varint(), tp.layers.size());
+  std::int64_t last[3] = {0, 0, 0}, last_via[3] = {0, 0, 0};
+  for (const auto& layer : tp.layers) {
+    std::size_t np = 0, nv = 0;
+    for (const auto& p : layer.paths) np += p.points.size(), nv += p.via.size();
+    ASSERT_EQ(r.varint(), np);
+    ASSERT_EQ(r.varint(), layer.paths.size());
+    ASSERT_EQ(r.varint(), nv);
+    for (const auto& p : layer.paths) EXPECT_EQ(r.varint(), p.points.size());
+    for (const auto& p : layer.paths)
+      for (const auto& q : p.points)
+        for (int k = 0; k < 3; ++k) {
+          last[k] += r.zigzag();
+          EXPECT_NEAR(last[k] * quantum, k == 0 ? q.x : k == 1 ? q.y : q.z, quantum / 2 + 1e-12);
+        }
+    for (int k = 0; k < 7; ++k)
+      for (const auto& p : layer.paths) {
+        const float v = r.f32();
+        if (k == 0) EXPECT_EQ(v, p.mixture.empty() ? -1.0f : float(p.mixture[0]));
+        if (k == 2) EXPECT_EQ(v, float(p.temperature));
+      }
+    for (const auto& p : layer.paths) EXPECT_EQ(b.at(r.at++), static_cast<char>(p.role));
+    for (const auto& p : layer.paths) EXPECT_EQ(b.at(r.at++), static_cast<char>(p.tool));
+    if (nv > 0) {
+      for (const auto& p : layer.paths) EXPECT_EQ(r.varint(), p.via.size());
+      for (const auto& p : layer.paths)
+        for (const auto& q : p.via)
+          for (int k = 0; k < 3; ++k) {
+            last_via[k] += r.zigzag();
+            EXPECT_NEAR(last_via[k] * quantum, k == 0 ? q.x : k == 1 ? q.y : q.z, quantum / 2);
+          }
+    }
+  }
+  EXPECT_EQ(r.at, b.size());
+}
+
+// A notebook view is data only (no per-layer chunks, no script of the viewer), in one inert
+// <template> that hostile names cannot close; the viewer script has a single </script>, its own.
+TEST(View, NotebookViewIsDataOnlyAndCannotBeBrokenOutOf) {
+  const std::string hostile = "</template><script>window.pwned=1</script><!--";
+  const std::string view = viewer_notebook_view({view_scene(sample(), hostile)}, hostile);
+  EXPECT_EQ(view.find("tv-0-l0"), std::string::npos);
+  EXPECT_NE(view.find("id=\"tv-0-pack\""), std::string::npos);
+  EXPECT_EQ(count(view, "</template>"), 1u);
+  EXPECT_EQ(count(view, "<script"), 4u);  // index, meta, pack, and the call to the viewer
+  EXPECT_EQ(view.find("<script>window.pwned"), std::string::npos);
+  EXPECT_NE(view.find("data-points=\"7\""), std::string::npos);
+  EXPECT_LT(view.size(), 3000u);
+  const std::string script = viewer_notebook_script();
+  EXPECT_EQ(count(script, "</script"), 1u);
+  EXPECT_EQ(script.find("<!--"), std::string::npos);
+  EXPECT_GT(script.size(), viewer_template_size());
+  EXPECT_LT(script.size(), viewer_template_size() * 11 / 10);
 }

@@ -6,13 +6,71 @@ import { Box3, Vector3 } from 'three';
 // Float attributes per path: mixture[0], mixture[1], temperature, speed, width, power, mixture[2].
 export const ATTRS = 7;
 
+// Layer chunks unpacked from a scene's packed block (unpackScenes), by element id.
+const unpacked = new Map();
+
 function bytes(id) {
+  if (unpacked.has(id)) return unpacked.get(id);
   const el = document.getElementById(id);
   const text = el.textContent.trim();
   if (Uint8Array.fromBase64) return Uint8Array.fromBase64(text);
   const bin = atob(text);
   const out = new Uint8Array(bin.length);
   for (let i = 0; i < bin.length; ++i) out[i] = bin.charCodeAt(i);
+  return out;
+}
+
+// Scenes written packed (src/view/encode.cpp, pack_layers: a notebook view) are inflated and
+// turned back into the per-layer chunks decodeScene reads. Resolves at once when there are none.
+export async function unpackScenes() {
+  for (const el of document.querySelectorAll('script[id$="-pack"]')) {
+    const id = el.id.slice(0, -'-pack'.length);
+    const stream = new Blob([bytes(el.id)]).stream().pipeThrough(new DecompressionStream('deflate'));
+    const layers = unpackLayers(new Uint8Array(await new Response(stream).arrayBuffer()), id);
+    layers.forEach((chunk, l) => unpacked.set(`${id}-l${l}`, chunk));
+  }
+}
+
+function unpackLayers(b, id) {
+  if (String.fromCharCode(...b.subarray(0, 4)) !== 'TVP1') throw new Error(`${id}: not a packed scene`);
+  const dv = new DataView(b.buffer, b.byteOffset, b.byteLength);
+  const quantum = dv.getFloat64(4, true);
+  let at = 12;
+  const varint = () => {
+    let v = 0, scale = 1, c;
+    do { c = b[at++]; v += (c & 0x7f) * scale; scale *= 128; } while (c & 0x80);
+    return v;
+  };
+  const zigzag = () => { const v = varint(); return v % 2 ? -(v + 1) / 2 : v / 2; };
+  const steps = (n, last, into, from) => {
+    for (let k = 0; k < n * 3; ++k) { last[k % 3] += zigzag(); into[from + k] = last[k % 3] * quantum; }
+  };
+  const lastPoint = [0, 0, 0], lastVia = [0, 0, 0];
+  const L = varint(), out = [];
+  for (let l = 0; l < L; ++l) {
+    const np = varint(), nq = varint(), nv = varint();
+    const attrAt = 8 + np * 12 + nq * 4, roleAt = attrAt + nq * ATTRS * 4;
+    const viaAt = (roleAt + 2 * nq + 3) & ~3;
+    const size = viaAt + 4 + (nv > 0 ? (nq + 1) * 4 + nv * 12 : 0);
+    const chunk = new Uint8Array(size), c = new DataView(chunk.buffer);
+    c.setUint32(0, np, true);
+    c.setUint32(4, nq, true);
+    for (let q = 0, first = 0; q < nq; ++q) { c.setUint32(8 + np * 12 + 4 * q, first, true); first += varint(); }
+    const pos = new Float32Array(chunk.buffer, 8, np * 3);
+    steps(np, lastPoint, pos, 0);
+    const attr = new Float32Array(chunk.buffer, attrAt, nq * ATTRS);
+    for (let k = 0; k < ATTRS; ++k)
+      for (let q = 0; q < nq; ++q, at += 4) attr[q * ATTRS + k] = dv.getFloat32(at, true);
+    chunk.set(b.subarray(at, at + 2 * nq), roleAt);
+    at += 2 * nq;
+    c.setUint32(viaAt, nv, true);
+    if (nv > 0) {
+      for (let q = 0, first = 0; q <= nq; ++q) { c.setUint32(viaAt + 4 + 4 * q, first, true); if (q < nq) first += varint(); }
+      steps(nv, lastVia, new Float32Array(chunk.buffer, viaAt + 8 + nq * 4, nv * 3), 0);
+    }
+    out.push(chunk);
+  }
+  if (at !== b.length) throw new Error(`${id}: ${b.length - at} bytes left over in the packed scene`);
   return out;
 }
 

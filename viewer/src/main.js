@@ -3,7 +3,7 @@
 // window.trellisViewer is the page's API for tests and notebooks.
 import * as THREE from 'three';
 import { OrbitControls } from 'three/examples/jsm/controls/OrbitControls.js';
-import { decodeScene, ATTRS } from './data.js';
+import { decodeScene, unpackScenes, ATTRS } from './data.js';
 import { colorMap, ROLE_COLORS, TOOL_COLORS, NO_VALUE, mixColor, mix3Color, MIX3, CLEAN, COLLIDING } from './colors.js';
 
 const $ = (id) => document.getElementById(id);
@@ -735,4 +735,17 @@ function formatTime(s) {
   return h ? `${h} h ${m} min` : m ? `${m} min ${sec} s` : `${sec} s`;
 }
 
-window.trellisViewer = new Viewer();
+// A page with packed scenes (a notebook view) is inflated first (asynchronously); a page of
+// `trellis view` starts at once. Failures show on the page as well as in the console.
+if (document.querySelector('script[id$="-pack"]')) {
+  unpackScenes().then(() => { window.trellisViewer = new Viewer(); }).catch((e) => {
+    const p = document.createElement('div');
+    p.className = 'tv-panel';
+    p.style.cssText = 'left: 30%; top: 40%; color: #a00';
+    p.textContent = `The viewer could not read this view's data: ${e.message}`;
+    document.body.appendChild(p);
+    throw e;
+  });
+} else {
+  window.trellisViewer = new Viewer();
+}

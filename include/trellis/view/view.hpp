@@ -80,6 +80,15 @@ ViewScene view_scene(const Toolpath& toolpath, const std::string& name);
 // The HTML page. `title` shows in the tab and the panel.
 std::string viewer_html(const std::vector<ViewScene>& scenes, const std::string& title);
 
+// The viewer in a notebook (Python's Toolpath._repr_html_), where a page holds many views: the
+// viewer's script (about 0.6 MB) goes into the page once and each view carries only its data.
+// viewer_notebook_script() is a <script> that defines window.trellisNotebook (the page template
+// and a function that opens a view in a sandboxed iframe). viewer_notebook_view() is one view:
+// its data (layers packed: positions in 1 µm steps, deflated; see docs/viewer.md) and a call to
+// that function; a view whose page lacks the script waits for it and then says what to do.
+std::string viewer_notebook_script();
+std::string viewer_notebook_view(const std::vector<ViewScene>& scenes, const std::string& title);
+
 // The bundled page template without data (for the size check; < 2 MB).
 std::size_t viewer_template_size();
 

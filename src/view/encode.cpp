@@ -1,0 +1,326 @@
+// The data blocks of a viewer page: each scene's meta (JSON), its layers (base64 binary, as
+// chunks per layer or packed and deflated), the design overlay and the extras; viewer/src/data.js
+// reads them back.
+#include <zlib.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+
+#include "page.hpp"
+#include "trellis/core/error.hpp"
+
+namespace trellis::view_page {
+
+namespace {
+
+constexpr std::string_view kPathRoles[] = {"strut",  "contour", "handle", "perimeter",
+                                           "infill", "other",   "skin",   "purge"};
+
+void put_u32(std::string& b, std::uint32_t v) {
+  char c[4];
+  std::memcpy(c, &v, 4);
+  b.append(c, 4);
+}
+void put_f32(std::string& b, double v) {
+  const float f = static_cast<float>(v);
+  char c[4];
+  std::memcpy(c, &f, 4);
+  b.append(c, 4);
+}
+
+// One layer as bytes (little-endian, 4-byte aligned sections):
+//   u32 points, u32 paths; f32 xyz[points]; u32 first_point[paths];
+//   f32 attributes[paths][7] = mixture[0] (-1 none), mixture[1] (-1 unless 3+ materials),
+//   temperature, speed, width, power, mixture[2] (-1 none); u8 role[paths]; u8 tool[paths];
+//   padding to 4 bytes; u32 vias, and when vias > 0: u32 first_via[paths + 1], f32 xyz[vias]
+//   (the corners of the travel into each path, Path::via).
+std::string encode_layer(const Layer& layer) {
+  std::size_t points = 0;
+  for (const auto& p : layer.paths) points += p.points.size();
+  std::string b;
+  b.reserve(8 + points * 12 + layer.paths.size() * 34);
+  put_u32(b, static_cast<std::uint32_t>(points));
+  put_u32(b, static_cast<std::uint32_t>(layer.paths.size()));
+  for (const auto& p : layer.paths)
+    for (const auto& q : p.points) put_f32(b, q.x), put_f32(b, q.y), put_f32(b, q.z);
+  std::uint32_t first = 0;
+  for (const auto& p : layer.paths) {
+    put_u32(b, first);
+    first += static_cast<std::uint32_t>(p.points.size());
+  }
+  for (const auto& p : layer.paths) {
+    put_f32(b, p.mixture.size() > 0 ? p.mixture[0] : -1);
+    put_f32(b, p.mixture.size() > 2 ? p.mixture[1] : -1);
+    put_f32(b, p.temperature);
+    put_f32(b, p.speed);
+    put_f32(b, p.width);
+    put_f32(b, p.power);
+    put_f32(b, p.mixture.size() > 2 ? p.mixture[2] : -1);
+  }
+  for (const auto& p : layer.paths) b += static_cast<char>(static_cast<std::uint8_t>(p.role));
+  for (const auto& p : layer.paths) b += static_cast<char>(std::clamp(p.tool, 0, 255));
+  while (b.size() % 4) b += '\0';
+  std::size_t vias = 0;
+  for (const auto& p : layer.paths) vias += p.via.size();
+  put_u32(b, static_cast<std::uint32_t>(vias));
+  if (vias > 0) {
+    std::uint32_t at = 0;
+    for (const auto& p : layer.paths) {
+      put_u32(b, at);
+      at += static_cast<std::uint32_t>(p.via.size());
+    }
+    put_u32(b, at);
+    for (const auto& p : layer.paths)
+      for (const auto& q : p.via) put_f32(b, q.x), put_f32(b, q.y), put_f32(b, q.z);
+  }
+  return b;
+}
+
+std::string encode_design(const ViewScene& s) {
+  std::string b;
+  put_u32(b, static_cast<std::uint32_t>(s.design.size()));
+  for (const auto& [a, c] : s.design)
+    put_f32(b, a.x), put_f32(b, a.y), put_f32(b, a.z), put_f32(b, c.x), put_f32(b, c.y),
+        put_f32(b, c.z);
+  for (std::size_t i = 0; i < s.design.size(); ++i)
+    b += i < s.design_flag.size() ? s.design_flag[i] : '\0';
+  while (b.size() % 4) b += '\0';
+  return b;
+}
+
+// Per-scene extras: u32 points, f32 deviation[points] (empty: points = 0); u32 hits, then per
+// hit i32 path, i32 segment, f32 xyz.
+std::string encode_extras(const ViewScene& s) {
+  std::string b;
+  put_u32(b, static_cast<std::uint32_t>(s.deviation.size()));
+  for (float d : s.deviation) put_f32(b, d);
+  put_u32(b, static_cast<std::uint32_t>(s.hits.size()));
+  for (const auto& h : s.hits) {
+    put_u32(b, static_cast<std::uint32_t>(static_cast<std::int32_t>(h.path)));
+    put_u32(b, static_cast<std::uint32_t>(static_cast<std::int32_t>(h.segment)));
+    put_f32(b, h.point.x), put_f32(b, h.point.y), put_f32(b, h.point.z);
+  }
+  return b;
+}
+
+void put_varint(std::string& b, std::uint64_t v) {
+  while (v >= 0x80) {
+    b += static_cast<char>((v & 0x7f) | 0x80);
+    v >>= 7;
+  }
+  b += static_cast<char>(v);
+}
+void put_zigzag(std::string& b, std::int64_t v) {
+  put_varint(b, v < 0 ? (static_cast<std::uint64_t>(-(v + 1)) << 1) | 1
+                      : static_cast<std::uint64_t>(v) << 1);
+}
+
+// Steps of `quantum` mm, each coordinate written as its difference from the previous point's.
+class StepWriter {
+ public:
+  StepWriter(std::string& out, double quantum) : out_(out), quantum_(quantum) {}
+  void put(const Vec3& p) {
+    for (int k = 0; k < 3; ++k) {
+      const double v = k == 0 ? p.x : k == 1 ? p.y : p.z;
+      const auto q = static_cast<std::int64_t>(std::llround(v / quantum_));
+      put_zigzag(out_, q - last_[k]);
+      last_[k] = q;
+    }
+  }
+
+ private:
+  std::string& out_;
+  double quantum_;
+  std::int64_t last_[3] = {0, 0, 0};
+};
+
+// 1 µm, or coarser when the largest coordinate would not fit in 30 bits of steps.
+double pack_quantum(const Toolpath& t) {
+  double most = 0;
+  auto see = [&](const Vec3& p, const char* what) {
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+      throw GeometryError(std::string("viewer: a toolpath ") + what + " is not finite");
+    most = std::max({most, std::abs(p.x), std::abs(p.y), std::abs(p.z)});
+  };
+  for (const auto& l : t.layers)
+    for (const auto& p : l.paths) {
+      for (const auto& q : p.points) see(q, "point");
+      for (const auto& q : p.via) see(q, "travel corner");
+    }
+  return std::max(1e-3, most / double(1 << 30));
+}
+
+std::string deflate(const std::string& in) {
+  uLongf size = compressBound(static_cast<uLong>(in.size()));
+  std::string out(size, '\0');
+  if (compress2(reinterpret_cast<Bytef*>(out.data()), &size,
+                reinterpret_cast<const Bytef*>(in.data()), static_cast<uLong>(in.size()),
+                Z_BEST_COMPRESSION) != Z_OK)
+    throw Error("viewer: deflating the scene data failed");
+  out.resize(size);
+  return out;
+}
+
+void append_scene(std::string& html, const ViewScene& s, std::size_t index, LayerData layers) {
+  nlohmann::json meta;
+  meta["name"] = s.name;
+  meta["kind"] = s.kind;
+  meta["source"] = s.toolpath.source;
+  meta["roles"] = std::vector<std::string>(std::begin(kPathRoles), std::end(kPathRoles));
+  meta["layer_z"] = nlohmann::json::array();
+  for (const auto& l : s.toolpath.layers) meta["layer_z"].push_back(l.z);
+  meta["print_time_s"] = s.print_time_s;
+  meta["filament_mm"] = s.filament_mm;
+  meta["warnings"] = s.warnings;
+  meta["design_lines"] = s.design.size();
+  std::size_t materials = 0;
+  for (const auto& l : s.toolpath.layers)
+    for (const auto& p : l.paths) materials = std::max(materials, p.mixture.size());
+  meta["materials"] = materials;
+  meta["checked"] = s.checked;
+  meta["collisions"] = s.collisions;
+  meta["extra_stats"] = s.extra_stats;
+  if (!s.bed.shape.empty())
+    meta["bed"] = {{"shape", s.bed.shape}, {"x", s.bed.x},           {"y", s.bed.y},
+                   {"z", s.bed.z},         {"center", s.bed.center}, {"machine", s.bed.machine}};
+  const std::string id = "tv-" + std::to_string(index);
+  html += "<script type=\"application/json\" id=\"" + id + "-meta\">" + script_json(meta) +
+          "</script>\n";
+  if (layers == LayerData::Packed)
+    html += "<script type=\"application/octet-stream\" id=\"" + id + "-pack\">" +
+            base64(deflate(pack_layers(s.toolpath))) + "</script>\n";
+  else
+    for (std::size_t i = 0; i < s.toolpath.layers.size(); ++i)
+      html += "<script type=\"application/octet-stream\" id=\"" + id + "-l" + std::to_string(i) +
+              "\">" + base64(encode_layer(s.toolpath.layers[i])) + "</script>\n";
+  if (!s.design.empty())
+    html += "<script type=\"application/octet-stream\" id=\"" + id + "-design\">" +
+            base64(encode_design(s)) + "</script>\n";
+  if (!s.deviation.empty() || !s.hits.empty())
+    html += "<script type=\"application/octet-stream\" id=\"" + id + "-extras\">" +
+            base64(encode_extras(s)) + "</script>\n";
+}
+
+}  // namespace
+
+// Packed layers (before deflating):
+//   "TVP1"; f64 quantum (mm per step); varint layers; then per layer:
+//   varint points, varint paths, varint vias; varint points_of_path[paths];
+//   zigzag varint dx, dy, dz [points] (steps from the previous point, through all layers, from 0);
+//   f32 attribute columns: mixture[0] of every path, then mixture[1], temperature, speed, width,
+//   power, mixture[2] (each as in encode_layer); u8 role[paths]; u8 tool[paths];
+//   when vias > 0: varint vias_of_path[paths], zigzag varint dx, dy, dz [vias] (steps from the
+//   previous travel corner, through all layers, from 0).
+std::string pack_layers(const Toolpath& t) {
+  const double quantum = pack_quantum(t);
+  std::string b = "TVP1";
+  char q[8];
+  std::memcpy(q, &quantum, 8);
+  b.append(q, 8);
+  put_varint(b, t.layers.size());
+  StepWriter points(b, quantum), vias(b, quantum);
+  for (const auto& layer : t.layers) {
+    std::size_t np = 0, nv = 0;
+    for (const auto& p : layer.paths) np += p.points.size(), nv += p.via.size();
+    put_varint(b, np);
+    put_varint(b, layer.paths.size());
+    put_varint(b, nv);
+    for (const auto& p : layer.paths) put_varint(b, p.points.size());
+    for (const auto& p : layer.paths)
+      for (const auto& v : p.points) points.put(v);
+    auto column = [&](auto value) {
+      for (const auto& p : layer.paths) put_f32(b, value(p));
+    };
+    column([](const Path& p) { return p.mixture.size() > 0 ? p.mixture[0] : -1; });
+    column([](const Path& p) { return p.mixture.size() > 2 ? p.mixture[1] : -1; });
+    column([](const Path& p) { return p.temperature; });
+    column([](const Path& p) { return p.speed; });
+    column([](const Path& p) { return p.width; });
+    column([](const Path& p) { return p.power; });
+    column([](const Path& p) { return p.mixture.size() > 2 ? p.mixture[2] : -1; });
+    for (const auto& p : layer.paths) b += static_cast<char>(static_cast<std::uint8_t>(p.role));
+    for (const auto& p : layer.paths) b += static_cast<char>(std::clamp(p.tool, 0, 255));
+    if (nv > 0) {
+      for (const auto& p : layer.paths) put_varint(b, p.via.size());
+      for (const auto& p : layer.paths)
+        for (const auto& v : p.via) vias.put(v);
+    }
+  }
+  return b;
+}
+
+std::string data_blocks(const std::vector<ViewScene>& scenes, const std::string& title,
+                        LayerData layers) {
+  std::string data = "<script type=\"application/json\" id=\"tv-index\">" +
+                     script_json(nlohmann::json{{"title", title}, {"scenes", scenes.size()}}) +
+                     "</script>\n";
+  for (std::size_t i = 0; i < scenes.size(); ++i) append_scene(data, scenes[i], i, layers);
+  return data;
+}
+
+std::string base64(std::string_view in) {
+  static constexpr char kAlphabet[] =
+      "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  out.reserve((in.size() + 2) / 3 * 4);
+  std::size_t i = 0;
+  for (; i + 3 <= in.size(); i += 3) {
+    const std::uint32_t v =
+        (std::uint8_t(in[i]) << 16) | (std::uint8_t(in[i + 1]) << 8) | std::uint8_t(in[i + 2]);
+    out += kAlphabet[v >> 18];
+    out += kAlphabet[(v >> 12) & 63];
+    out += kAlphabet[(v >> 6) & 63];
+    out += kAlphabet[v & 63];
+  }
+  if (i < in.size()) {
+    std::uint32_t v = std::uint8_t(in[i]) << 16;
+    if (i + 1 < in.size()) v |= std::uint8_t(in[i + 1]) << 8;
+    out += kAlphabet[v >> 18];
+    out += kAlphabet[(v >> 12) & 63];
+    out += i + 1 < in.size() ? kAlphabet[(v >> 6) & 63] : '=';
+    out += '=';
+  }
+  return out;
+}
+
+// JSON as text safe inside <script>: `<`, `>` and `&` occur in JSON only inside strings, where
+// \u003c, \u003e and \u0026 mean the same characters, so no content (`</script>`, `<!--`,
+// `<script`) can change how the page parses. Invalid UTF-8 (a G-code comment echoed in a warning)
+// becomes U+FFFD instead of failing the page.
+std::string script_json(const nlohmann::json& value) {
+  const std::string text = value.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace);
+  std::string out;
+  out.reserve(text.size());
+  for (char c : text) {
+    if (c == '<')
+      out += "\\u003c";
+    else if (c == '>')
+      out += "\\u003e";
+    else if (c == '&')
+      out += "\\u0026";
+    else
+      out += c;
+  }
+  return out;
+}
+
+std::string html_escape(const std::string& s) {
+  std::string out;
+  for (char c : s) {
+    if (c == '<')
+      out += "&lt;";
+    else if (c == '>')
+      out += "&gt;";
+    else if (c == '&')
+      out += "&amp;";
+    else if (c == '"')
+      out += "&quot;";
+    else
+      out += c;
+  }
+  return out;
+}
+
+}  // namespace trellis::view_page
