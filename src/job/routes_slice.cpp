@@ -1051,6 +1051,15 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
     write_toolpath_with_job(job.toolpath, tp, job);
     out.files.push_back(job.toolpath);
   }
+  // A degenerate hybrid result is said: no wall was thin enough to be traced as contours, so the
+  // build is hatched throughout, as the R67 baseline would be.
+  if (c.pbf.strategy == "hybrid" && r.contour_vectors == 0 && r.hatch_vectors > 0)
+    diag.warn("pbf_no_contours",
+              fmt::format("the hybrid strategy made no contour vectors: no wall is as thin as "
+                          "pbf.thin_multiple × the melt pool ({} mm), so every wall was hatched as "
+                          "R67 would; thinner sheets (pbf.c, pbf.thickness) or a larger "
+                          "pbf.thin_multiple give contours",
+                          fixed(po.thin_multiple * po.melt_pool, 3)));
   const PbfStats h = fr_stats(r.layers, false), b = fr_stats(r.layers, true);
   const double rss = peak_rss_mb();
   if (!job.report.empty()) {

@@ -297,6 +297,21 @@ TEST(Jobs, LaserJobWithoutAProfileMergesAndRerunsToTheSameBytes) {
   EXPECT_EQ(read_file(in_work("laser_again.cli")), single);
 }
 
+// Hybrid PBF where no wall is thin enough for contours (a 3 mm gyroid at the default c): the
+// build is all hatch, and the run says so in stderr and the report; a 2.5 mm cell has contours.
+TEST(Jobs, HybridPbfWithoutContoursIsWarned) {
+  const std::string report = in_work("no_contours.json");
+  const CmdResult r = run("pbf --cell-type gyroid --cell 3 --size 6,6,0.4 -o " +
+                          in_work("no_contours.cli") + " --report " + report);
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.err.find("no contour vectors"), std::string::npos) << r.err;
+  EXPECT_NE(read_file(report).find("pbf_no_contours"), std::string::npos);
+  const CmdResult fine = run("pbf --cell-type gyroid --cell 2.5 --size 5,5,0.4 -o " +
+                             in_work("contours.cli"));
+  ASSERT_EQ(fine.code, 0) << fine.err;
+  EXPECT_EQ(fine.err.find("no contour vectors"), std::string::npos) << fine.err;
+}
+
 // Default < profile < job < command line, on every route that reads a layer height or pattern
 // setting: the written output shows the value and its header records it.
 TEST(Jobs, PrecedenceProfileJobCommandLineOnEveryRoute) {
