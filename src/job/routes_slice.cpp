@@ -320,6 +320,19 @@ void warn_palette(const std::string& input, int used, int total, Diagnostics& di
                           input, used, total, total));
 }
 
+// The printed mixtures are further from the design than the palette's bound allows (the tools
+// of a tool changer, zippering, or the design sampled at path points between faces): said
+// beyond 1 % of the bound.
+void warn_error_bound(const std::string& input, const FgmStats& st, Diagnostics& diag) {
+  if (st.error_bound > 0 && st.error_max > st.error_bound * 1.01 + 1e-9)
+    diag.warn("gradient_bound_exceeded",
+              fmt::format("{}: the printed mixture is up to {} from the design's, beyond the "
+                          "bound {} the palette promises (length-weighted mean {}); use more "
+                          "colours (or tools), or a smaller zipper",
+                          input, fixed(st.error_max, 4), fixed(st.error_bound, 4),
+                          fixed(st.error_mean, 4)));
+}
+
 // (A shard: its layers' short pieces.)
 void warn_short_segments(const std::string& input, const FgmStats& st, Diagnostics& diag) {
   if (st.short_kept > 0)
@@ -681,6 +694,7 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
   if (sj.strategy != 0) {
     warn_palette(job.input, r.fgm.colours_used, r.fgm.colours_total, diag);
     warn_short_segments(job.input, r.fgm, diag);
+    warn_error_bound(job.input, r.fgm, diag);
   }
   warn_process(r.process, sj.process, diag);
   // The file name only: outputs must not depend on where the command ran.

@@ -1070,13 +1070,19 @@ std::vector<GradientErrorSum> gradient_error_sums(const Field& field, const Tool
     GradientErrorSum& a = acc[li];
     for (const auto& p : l.paths) {
       if (p.mixture.empty() || p.role == PathRole::Other || p.role == PathRole::Purge) continue;
-      for (const auto& q : p.points) {
+      for (std::size_t k = 0; k < p.points.size(); ++k) {
+        const Vec3& q = p.points[k];
         const auto f = ev.fractions({q.x, q.y, layers[idx].z});
         if (f.empty()) continue;
         double e = 0;
         for (std::size_t m = 0; m < f.size() && m < p.mixture.size(); ++m)
           e = std::max(e, std::abs(std::clamp(f[m], 0.0, 1.0) - p.mixture[m]));
-        a.sum += e;
+        // The point's share of the path: half of each segment it ends.
+        double w = 0;
+        if (k > 0) w += 0.5 * distance(p.points[k - 1], q);
+        if (k + 1 < p.points.size()) w += 0.5 * distance(q, p.points[k + 1]);
+        a.sum += e * w;
+        a.length += w;
         a.max = std::max(a.max, e);
         ++a.n;
       }
@@ -1105,12 +1111,14 @@ void measure_gradient_error(const Field& field, const Toolpath& tp,
   double sum = 0;
   st.error_max = 0;
   st.error_samples = 0;
+  st.error_length = 0;
   for (const auto& a : gradient_error_sums(field, tp, layers, h)) {
     sum += a.sum;
     st.error_max = std::max(st.error_max, a.max);
     st.error_samples += a.n;
+    st.error_length += a.length;
   }
-  st.error_mean = st.error_samples ? sum / static_cast<double>(st.error_samples) : 0;
+  st.error_mean = st.error_length > 0 ? sum / st.error_length : 0;
 }
 
 double purge_length(double volume, double h, double w) {

@@ -755,6 +755,7 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
             error_sum += a.sum;
             r.fgm.error_max = std::max(r.fgm.error_max, a.max);
             r.fgm.error_samples += a.n;
+            r.fgm.error_length += a.length;
           }
         }
         if (held) {
@@ -784,7 +785,7 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
       }));
   if (graded) {
     if (r.fgm.paths == 0) r.fgm.shortest_path = 0;
-    r.fgm.error_mean = r.fgm.error_samples ? error_sum / static_cast<double>(r.fgm.error_samples) : 0;
+    r.fgm.error_mean = r.fgm.error_length > 0 ? error_sum / r.fgm.error_length : 0;
     r.fgm.materials = fo.palette.materials;
     r.fgm.band = fo.palette.band();
     r.fgm.quantized_from = quantized_from;
@@ -942,7 +943,9 @@ std::string slice_report_json(const SliceJob& job, const SliceResult& r, const G
                 {"gradient_error", {{"mean", r.fgm.error_mean},
                                     {"max", r.fgm.error_max},
                                     {"bound", r.fgm.error_bound},
-                                    {"samples", r.fgm.error_samples}}},
+                                    {"samples", r.fgm.error_samples},
+                                    {"length_mm", r.fgm.error_length},
+                                    {"mean_weighted_by", "length"}}},
                 {"band_percent", 100.0 * r.fgm.band},
                 {"faces", r.fgm.faces},
                 {"order", to_string(job.fgm.order)},

@@ -204,9 +204,12 @@ struct FgmStats {
   TowerStats tower;          // the whole tower: purges, walls and sparse lines
   // Gradient error: the largest |design fraction - commanded fraction| over the materials, at
   // every point of every graded path (purge blocks excluded), the design sampled at the layer's
-  // slicing plane; error_bound is the palette's (α/2, or 2α/3 for three materials).
+  // slicing plane; error_bound is the palette's (α/2, or 2α/3 for three materials). The mean is
+  // weighted by length (each point stands for half of each segment it ends), so finely divided
+  // stretches do not outweigh long ones; error_length is the printed length it covers (mm).
   double error_mean = 0, error_max = 0, error_bound = 0;
   std::size_t error_samples = 0;
+  double error_length = 0;
   int materials = 2;
   double band = 0;  // α
   int colours_used = 0, colours_total = 0;  // palette colours some part path prints
@@ -235,8 +238,9 @@ void measure_gradient_error(const Field& field, const Toolpath& toolpath,
 // measurement does): toolpath layer i at z is the part's layer round(z / h) - 1, read from
 // layers[that - first_layer].
 struct GradientErrorSum {
-  double sum = 0, max = 0;
+  double sum = 0, max = 0;  // sum: Σ error × length (mm)
   std::size_t n = 0;
+  double length = 0;  // Σ length (mm)
 };
 std::vector<GradientErrorSum> gradient_error_sums(const Field& field, const Toolpath& toolpath,
                                                   const std::vector<LayerOutline>& layers,
