@@ -24,10 +24,10 @@ import tempfile
 
 from . import _trellis
 from .errors import GeometryError, InputError, MachineError, SettingError, TrellisError
-from .fields import (Field, cone, cube, cylinder, difference, fgrade, function, gyroid, intersection,
+from .fields import (Field, Mesh, cone, cube, cylinder, difference, fgrade, function, gyroid, intersection,
                      mesh, rectprism, sphere, torus, tpms, union)
 
-__all__ = ["Field", "sphere", "cube", "rectprism", "cylinder", "cone", "torus", "function", "tpms",
+__all__ = ["Field", "Mesh", "sphere", "cube", "rectprism", "cylinder", "cone", "torus", "function", "tpms",
            "gyroid", "mesh", "union", "intersection", "difference", "fgrade", "parse_vcad",
            "analyze", "check", "lattice2d", "lattice3d", "plan", "gcode", "slice", "pbf", "nonplanar", "surface",
            "run_job", "rerun", "settings", "read_lattice", "read_toolpath", "Lattice", "Toolpath",
@@ -84,6 +84,28 @@ class Toolpath:
     def __init__(self, core):
         self._core = core
         self._arrays = None
+
+    @staticmethod
+    def from_arrays(points, path_offsets=None, layer_offsets=None, *, layer_z=None, role="strut",
+                    tool=0, width=0.0, height=0.0, speed=0.0, power=0.0, temperature=0.0,
+                    mixture=None):
+        """A toolpath designed in numpy (the inverse of ``arrays()``:
+        ``Toolpath.from_arrays(**tp.arrays())`` is ``tp`` again, array for array).
+
+        ``points`` (N, 3) mm; ``path_offsets`` (P + 1,) — path i is
+        ``points[path_offsets[i]:path_offsets[i + 1]]``, default one path of every point;
+        ``layer_offsets`` (L + 1,) into the paths, default one layer; ``layer_z`` per layer,
+        default its lowest point. Per path, a scalar for every path or a (P,) array: ``role``
+        (names of ``trellis.ROLES`` or their indices), ``tool``, ``width``, ``height``, ``speed``
+        (0 = the machine profile's), ``power``, ``temperature`` (0 = not set); ``mixture`` (k,)
+        or (P, k) fractions (a row of zeros: none). Checked as every reader checks a toolpath
+        file; errors are ``trellis.InputError`` naming the argument and index."""
+        attributes = {"role": role, "tool": tool, "width": width, "height": height,
+                      "speed": speed, "power": power, "temperature": temperature}
+        if mixture is not None:
+            attributes["mixture"] = mixture
+        return Toolpath(_trellis.toolpath_from_arrays(points, path_offsets, layer_offsets, layer_z,
+                                                      attributes))
 
     def arrays(self):
         """Every array at once (a dict), computed on first use."""
@@ -213,12 +235,57 @@ def _call(route, input, outputs, machine, set, progress, kwargs, command=None, e
     return Result(_trellis.run(route, _path(input), outs, _path(machine), values, cmd, progress))
 
 
-def _temp_input(obj, suffix):
-    """A Lattice or Toolpath object written to a temporary file for a route that reads files."""
-    fd, path = tempfile.mkstemp(suffix=suffix, prefix="trellis_")
-    with os.fdopen(fd, "w") as f:
-        f.write(obj.to_json())
-    return path
+_SIDECAR = ("output", "toolpath", "gcode", "report", "lattice")
+
+
+def _object_input(obj, outputs):
+    """An in-memory input (``Lattice``, ``Toolpath`` or ``Field``) as the file the route reads.
+    Written beside the call's first output and named after it (``p.gcode`` →
+    ``p.gcode.toolpath.json``, ``part.gcode.design.vcad``), so the job every output embeds names
+    a file that stays and ``trellis.rerun(output)`` regenerates it; in a temporary file, removed
+    after the call, when the call writes no file. Returns (path, remove_after, remove_on_error)."""
+    if isinstance(obj, Lattice):
+        text, suffix = obj.to_json(), ".lattice.json"
+    elif isinstance(obj, Toolpath):
+        text, suffix = obj.to_json(), ".toolpath.json"
+    elif isinstance(obj, Field):
+        obj._compiled()  # errors name the line and column before anything is written
+        text, suffix = obj.vcad(), ".design.vcad"
+    else:
+        return _path(obj), False, False
+    first = next((outputs[k] for k in _SIDECAR if outputs.get(k) is not None), None)
+    if first is None:
+        fd, path = tempfile.mkstemp(suffix=suffix, prefix="trellis_")
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            f.write(text)
+        return path, True, True
+    path = os.fspath(first) + suffix
+    folder = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(suffix=".tmp", prefix=".trellis_", dir=folder)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            f.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        os.remove(tmp)
+        raise
+    return path, False, True
+
+
+def _call_object(route, input, outputs, machine, set, progress, kwargs, command=None, extra=None):
+    """_call with `input` a file or an in-memory object (see _object_input)."""
+    path, remove_after, remove_on_error = _object_input(input, outputs)
+    ok = False
+    try:
+        result = _call(route, path or None, outputs, machine, set, progress, kwargs, command, extra)
+        ok = True
+        return result
+    finally:
+        if remove_after or (remove_on_error and not ok):
+            try:
+                os.remove(path)
+            except FileNotFoundError:
+                pass
 
 
 def lattice2d(output=None, *, preview=None, progress=None, set=None, **settings):
@@ -239,47 +306,22 @@ def plan(planner, lattice, output=None, *, machine=None, gcode=None, report=None
     if planner not in ("gippo", "euler", "aero"):
         raise SettingError(f"unknown planner '{planner}' (expected gippo, euler or aero)",
                            element="planner")
-    temp = None
-    if isinstance(lattice, Lattice):
-        temp = lattice = _temp_input(lattice, ".json")
-    try:
-        return _call("plan", lattice, {"toolpath": output, "gcode": gcode, "report": report,
-                                       "preview": preview}, machine, set, progress, settings,
-                     command=planner, extra={"plan.planner": planner})
-    finally:
-        if temp:
-            os.remove(temp)
+    return _call_object("plan", lattice, {"toolpath": output, "gcode": gcode, "report": report,
+                                          "preview": preview}, machine, set, progress, settings,
+                        command=planner, extra={"plan.planner": planner})
 
 
 def gcode(toolpath, output=None, *, machine, progress=None, set=None, **settings):
     """G-code (or .nc) from a toolpath (a file or a ``Toolpath``) for a machine profile."""
-    temp = None
-    if isinstance(toolpath, Toolpath):
-        temp = toolpath = _temp_input(toolpath, ".json")
-    try:
-        return _call("gcode", toolpath, {"output": output}, machine, set, progress, settings)
-    finally:
-        if temp:
-            os.remove(temp)
+    return _call_object("gcode", toolpath, {"output": output}, machine, set, progress, settings)
 
 
 def slice(design, output=None, *, machine, report=None, toolpath=None, preview=None,
           progress=None, set=None, **settings):
     """Slices a .vcad design, a mesh, or a ``Field`` built in Python: walls, skins, infill;
     graded designs with strategy=1 or 2."""
-    temp = None
-    if isinstance(design, Field):
-        parse_vcad(design.vcad())
-        fd, temp = tempfile.mkstemp(suffix=".vcad", prefix="trellis_design_")
-        with os.fdopen(fd, "w") as f:
-            f.write(design.vcad())
-        design = temp
-    try:
-        return _call("slice", design, {"output": output, "report": report, "toolpath": toolpath,
-                                       "preview": preview}, machine, set, progress, settings)
-    finally:
-        if temp:
-            os.remove(temp)
+    return _call_object("slice", design, {"output": output, "report": report, "toolpath": toolpath,
+                                          "preview": preview}, machine, set, progress, settings)
 
 
 def parse_vcad(text, name="<vcad>"):
@@ -287,28 +329,43 @@ def parse_vcad(text, name="<vcad>"):
     return _trellis.parse_vcad(text, name)
 
 
+def _core_or_path(obj, kind, name):
+    if isinstance(obj, kind):
+        return obj._core
+    if isinstance(obj, (Lattice, Toolpath, Field)):
+        raise TypeError(f"{name} must be a file or a trellis.{kind.__name__}, "
+                        f"got a trellis.{type(obj).__name__}")
+    return os.fspath(obj)
+
+
 def analyze(gcode, design=None, *, bead_width=0.0, layer_height=0.0, align=False, strict=False):
-    """Measures any G-code (ours or another slicer's) against a design lattice: the same numbers
-    as `trellis analyze`, as a dict."""
+    """Measures a print against a design lattice: the same numbers as `trellis analyze`, as a
+    dict. ``gcode`` is any G-code file (ours or another slicer's) or a ``Toolpath`` (measured as
+    planned, without G-code counts); ``design`` a lattice file or a ``Lattice``."""
     import json
-    return json.loads(_trellis.analyze_json(os.fspath(gcode), _path(design), bead_width, layer_height,
-                                            align, strict))
+    return json.loads(_trellis.analyze_json(
+        _core_or_path(gcode, Toolpath, "gcode"),
+        None if design is None else _core_or_path(design, Lattice, "design"),
+        bead_width, layer_height, align, strict))
 
 
 def check(lattice, print_file, *, machine=None, set=None, **nozzle):
     """Replays a print against the nozzle model (collisions, struts missing or repeated), as a
-    dict; nozzle settings by keyword (radius, tip_clearance, node_clearance, cone)."""
+    dict; ``lattice`` a file or a ``Lattice``, ``print_file`` G-code, a toolpath file or a
+    ``Toolpath``; nozzle settings by keyword (radius, tip_clearance, node_clearance, cone)."""
     import json
     values = {f"nozzle.{k}": v for k, v in nozzle.items()}
     values.update(set or {})
-    return json.loads(_trellis.check_json(os.fspath(lattice), os.fspath(print_file), _path(machine),
-                                          values))
+    return json.loads(_trellis.check_json(_core_or_path(lattice, Lattice, "lattice"),
+                                          _core_or_path(print_file, Toolpath, "print_file"),
+                                          _path(machine), values))
 
 
 def pbf(output=None, *, envelope=None, machine=None, report=None, toolpath=None, preview=None,
         progress=None, set=None, **settings):
-    """Laser powder-bed paths for a TPMS sheet lattice (.cli)."""
-    return _call("pbf", envelope, {"output": output, "report": report, "toolpath": toolpath,
+    """Laser powder-bed paths for a TPMS sheet lattice (.cli); ``envelope`` a design file or a
+    ``Field``."""
+    return _call_object("pbf", envelope, {"output": output, "report": report, "toolpath": toolpath,
                                    "preview": preview}, machine, set, progress, settings)
 
 
