@@ -223,14 +223,18 @@ PathRole role_of(const py::handle& v, const std::string& element) {
 std::vector<PathRole> roles(const py::object& obj, std::size_t n) {
   if (py::isinstance<py::str>(obj) || (PyIndex_Check(obj.ptr()) && !py::isinstance<py::array>(obj)))
     return std::vector<PathRole>(n, role_of(obj, "role"));
-  const py::array a = py::array::ensure(obj);
-  if (!a) bad("role", "role must be a name, an index or an array of them, one per path");
-  if (a.ndim() == 0) return std::vector<PathRole>(n, role_of(a.attr("item")(), "role"));
-  if (a.ndim() != 1 || static_cast<std::size_t>(a.shape(0)) != n)
-    bad("role", "role must be one name or index, or (n_paths,) = (" + std::to_string(n) + ",) of them");
+  // A list keeps its names and indices apart (numpy would make ["infill", 6] all strings).
+  const bool sequence = py::isinstance<py::list>(obj) || py::isinstance<py::tuple>(obj);
+  const py::array a = sequence ? py::array() : py::array::ensure(obj);
+  if (!sequence && !a) bad("role", "role must be a name, an index or an array of them, one per path");
+  if (!sequence && a.ndim() == 0) return std::vector<PathRole>(n, role_of(a.attr("item")(), "role"));
+  const std::size_t count = sequence ? py::len(obj) : static_cast<std::size_t>(a.shape(0));
+  if ((!sequence && a.ndim() != 1) || count != n)
+    bad("role", "role must be one name or index, or " + std::to_string(n) +
+                    " of them, one per path (got " + std::to_string(count) + ")");
   std::vector<PathRole> out;
   out.reserve(n);
-  const py::list items = a.attr("tolist")();
+  const py::list items = sequence ? py::list(obj) : py::list(a.attr("tolist")());
   for (std::size_t i = 0; i < n; ++i) out.push_back(role_of(items[i], "role[" + std::to_string(i) + "]"));
   return out;
 }

@@ -375,7 +375,8 @@ PYBIND11_MODULE(_trellis, m) {
     return std::make_shared<Toolpath>(toolpath_from_json(text, "<string>"));
   });
   // Analysis as the CLI reports it (the same JSON), for json.loads on the Python side. `print`
-  // is a G-code path or a Toolpath (measured as planned: no G-code counts); `design` a lattice
+  // is a G-code path or a Toolpath (measured as planned: no filament or retractions, which the
+  // machine's G-code adds); `design` a lattice
   // path, a Lattice or None.
   m.def("analyze_json",
         [](const py::object& print, const py::object& design, double bead_width, double layer_height,
@@ -394,7 +395,7 @@ PYBIND11_MODULE(_trellis, m) {
           if (py::isinstance<Toolpath>(print)) {
             const auto tp = print.cast<std::shared_ptr<Toolpath>>();
             py::gil_scoped_release release;
-            Analysis a = analyze(*tp, GcodeCounts{}, g.get(), params);
+            Analysis a = analyze(*tp, toolpath_counts(*tp), g.get(), params);
             a.name = tp->source;
             return analysis_json(a);
           }

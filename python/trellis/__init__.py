@@ -341,7 +341,8 @@ def _core_or_path(obj, kind, name):
 def analyze(gcode, design=None, *, bead_width=0.0, layer_height=0.0, align=False, strict=False):
     """Measures a print against a design lattice: the same numbers as `trellis analyze`, as a
     dict. ``gcode`` is any G-code file (ours or another slicer's) or a ``Toolpath`` (measured as
-    planned, without G-code counts); ``design`` a lattice file or a ``Lattice``."""
+    planned: no filament or retractions, which the machine adds); ``design`` a lattice file or a
+    ``Lattice``."""
     import json
     return json.loads(_trellis.analyze_json(
         _core_or_path(gcode, Toolpath, "gcode"),

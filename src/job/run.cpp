@@ -170,6 +170,23 @@ Toolpath read_print(const std::string& path, const Settings* machine, double* sn
 
 namespace {
 
+// A laser powder-bed profile ([laser]) has none of an extruder's settings: G-code written with it
+// would take every extrusion default silently. A route writing G-code with one is refused.
+void refuse_laser_profile_for_gcode(const Job& job) {
+  const bool writes_gcode =
+      job.route == "plan" ? !job.gcode.empty()
+                          : (job.route == "gcode" || job.route == "slice" || job.route == "nonplanar") &&
+                                !job.output.empty();
+  if (!writes_gcode) return;
+  for (const auto& [key, e] : job.settings.entries())
+    if (key.rfind("laser.", 0) == 0)
+      throw MachineError("'" + (job.machine.empty() ? e.origin.source : job.machine) +
+                             "' is a laser powder-bed profile (it sets " + key +
+                             "): G-code is for extrusion machines. Write a laser build file "
+                             "(.cli) instead: the pbf route, or Toolpath.cli(machine=...) in Python",
+                         {"", 0, key});
+}
+
 JobResult run_route(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
   const std::string& r = job.route;
   if (r == "lattice2d") return routes::lattice2d(job, c, diag, progress);
@@ -217,6 +234,7 @@ JobResult run_job(const Job& job, Diagnostics& diag, const Progress& progress) {
   const std::vector<std::string> sections = route_sections(job.route);
   const Config c = job.settings.config();
   check_rules(c, job.settings, sections);
+  refuse_laser_profile_for_gcode(job);
   // Every output of the job is staged and committed together at the end; an error, a cancel or
   // running out of memory leaves the output folders as they were (core/file.hpp). Its files are
   // checked before anything is written, and its inputs are never written (core/run_files.hpp).
