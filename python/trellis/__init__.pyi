@@ -41,6 +41,10 @@ class Toolpath:
     path_count: int
     point_count: int
     extrusion_length: float
+    @staticmethod
+    def from_arrays(points: Any, path_offsets: Any = None, layer_offsets: Any = None, *, layer_z: Any = None,
+                    role: Any = 'strut', tool: Any = 0, width: Any = 0.0, height: Any = 0.0, speed: Any = 0.0,
+                    power: Any = 0.0, temperature: Any = 0.0, mixture: Any = None) -> Toolpath: ...
     def arrays(self) -> dict[str, np.ndarray]: ...
     def path(self, i: int) -> np.ndarray: ...
     def to_json(self) -> str: ...
@@ -206,7 +210,7 @@ def gcode(
 ) -> Result: ...
 
 def slice(
-    design: PathLike, output: PathLike | None = None, *, machine: PathLike, report: PathLike | None = None, toolpath: PathLike | None = None, preview: PathLike | None = None,
+    design: PathLike | Field, output: PathLike | None = None, *, machine: PathLike, report: PathLike | None = None, toolpath: PathLike | None = None, preview: PathLike | None = None,
     progress: Progress | None = None,
     set: Mapping[str, Any] | None = None,
     bead_width: float = ...,  # slice.bead_width: bead width (wall and fill spacing)
@@ -258,7 +262,7 @@ def slice(
 ) -> Result: ...
 
 def pbf(
-    output: PathLike | None = None, *, envelope: PathLike | None = None, machine: PathLike | None = None, report: PathLike | None = None, toolpath: PathLike | None = None, preview: PathLike | None = None,
+    output: PathLike | None = None, *, envelope: PathLike | Field | None = None, machine: PathLike | None = None, report: PathLike | None = None, toolpath: PathLike | None = None, preview: PathLike | None = None,
     progress: Progress | None = None,
     set: Mapping[str, Any] | None = None,
     beam_comp: float = ...,  # scan.beam_compensation: beam compensation: hatch ends pulled in by this
@@ -377,9 +381,9 @@ def settings(route: str | None = None) -> list[dict[str, Any]]: ...
 def read_lattice(path: PathLike, merge_tolerance: float = 1e-6) -> Lattice: ...
 def read_toolpath(path: PathLike) -> Toolpath: ...
 def parse_vcad(text: str, name: str = ...) -> dict[str, Any]: ...
-def analyze(gcode: PathLike, design: PathLike | None = None, *, bead_width: float = ...,
+def analyze(gcode: PathLike | Toolpath, design: PathLike | Lattice | None = None, *, bead_width: float = ...,
             layer_height: float = ..., align: bool = ..., strict: bool = ...) -> dict[str, Any]: ...
-def check(lattice: PathLike, print_file: PathLike, *, machine: PathLike | None = None,
+def check(lattice: PathLike | Lattice, print_file: PathLike | Toolpath, *, machine: PathLike | None = None,
           set: Mapping[str, Any] | None = None, **nozzle: float) -> dict[str, Any]: ...
-from .fields import (Field, cone, cube, cylinder, difference, fgrade, function, gyroid,
+from .fields import (Field, Mesh, cone, cube, cylinder, difference, fgrade, function, gyroid,
                      intersection, mesh, rectprism, sphere, torus, tpms, union)

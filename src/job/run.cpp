@@ -170,21 +170,26 @@ Toolpath read_print(const std::string& path, const Settings* machine, double* sn
 
 namespace {
 
-// A laser powder-bed profile ([laser]) has none of an extruder's settings: G-code written with it
-// would take every extrusion default silently. A route writing G-code with one is refused.
+// A laser powder-bed profile ([laser], nothing of [extrusion]) has none of an extruder's
+// settings: G-code written with it would take every extrusion default silently. A route writing
+// G-code with one is refused. (A profile for both, with [extrusion] too, is one machine each way.)
 void refuse_laser_profile_for_gcode(const Job& job) {
   const bool writes_gcode =
       job.route == "plan" ? !job.gcode.empty()
                           : (job.route == "gcode" || job.route == "slice" || job.route == "nonplanar") &&
                                 !job.output.empty();
   if (!writes_gcode) return;
-  for (const auto& [key, e] : job.settings.entries())
-    if (key.rfind("laser.", 0) == 0)
-      throw MachineError("'" + (job.machine.empty() ? e.origin.source : job.machine) +
-                             "' is a laser powder-bed profile (it sets " + key +
-                             "): G-code is for extrusion machines. Write a laser build file "
-                             "(.cli) instead: the pbf route, or Toolpath.cli(machine=...) in Python",
-                         {"", 0, key});
+  std::string laser_key;
+  for (const auto& [key, e] : job.settings.entries()) {
+    if (key.rfind("extrusion.", 0) == 0) return;
+    if (laser_key.empty() && key.rfind("laser.", 0) == 0) laser_key = key;
+  }
+  if (laser_key.empty()) return;
+  throw MachineError("'" + job.machine + "' is a laser powder-bed profile (it sets " + laser_key +
+                         " and nothing of [extrusion]): G-code is for extrusion machines. Write a "
+                         "laser build file (.cli) instead: the pbf route, or "
+                         "Toolpath.cli(machine=...) in Python",
+                     {"", 0, laser_key});
 }
 
 JobResult run_route(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
