@@ -247,3 +247,24 @@ def test_check_and_analyze_take_objects(tmp_path):
     assert on_file["missing_edges"] == planned["missing_edges"] == 0
     assert math.isclose(planned["extruded_length_mm"], lat.total_length, rel_tol=1e-9)
     assert math.isclose(on_file["extruded_length_mm"], planned["extruded_length_mm"], rel_tol=2e-3)
+
+
+def test_a_machine_profile_as_a_dict_is_the_profile(tmp_path, private_tmp):
+    with open(ENDER, "rb") as f:
+        profile = tomllib.load(f)
+    tp = trellis.Toolpath.from_arrays(spiral_vase(turns=3), height=0.2)
+    trellis.gcode(tp, tmp_path / "file.gcode", machine=ENDER)
+    trellis.gcode(tp, tmp_path / "dict.gcode", machine=profile)
+    # The same G-code; the job in the header names the profile and the design it was given.
+    header = ("; job: machine =", "; job: input =")
+    body = lambda p: [line for line in p.read_text().splitlines() if not line.startswith(header)]
+    assert body(tmp_path / "file.gcode") == body(tmp_path / "dict.gcode")
+    assert (tmp_path / "dict.gcode.machine.toml").exists()  # beside the output, for rerun
+    trellis.rerun(tmp_path / "dict.gcode", tmp_path / "again.gcode")
+    assert filecmp.cmp(tmp_path / "dict.gcode", tmp_path / "again.gcode", shallow=False)
+    assert tp.gcode(machine=profile) == tp.gcode(machine=ENDER)
+    lat = trellis.lattice3d(cell_type="octet", cell=7, count=(1, 1, 1)).lattice
+    planned = trellis.plan("aero", lat, machine=BATH).toolpath
+    with open(BATH, "rb") as f:
+        assert trellis.check(lat, planned, machine=tomllib.load(f)) == trellis.check(lat, planned, machine=BATH)
+    assert os.listdir(private_tmp) == []

@@ -9,6 +9,9 @@ as the CLI flags, ``layer_height`` for ``--layer-height``; any setting by its do
     res = trellis.plan("gippo", lat, machine="profiles/ender3_s1_pro_tpu.toml", gcode="p.gcode")
     pts = res.toolpath.points          # (n, 3) numpy array of every point
 
+Wherever a call takes a file it takes the object too: a ``Lattice``, ``Toolpath`` or ``Field``
+for its input, a dict of tables for ``machine`` (written beside the output, so ``rerun`` works).
+
 Long calls release the GIL, report progress to ``progress(stage, fraction)`` and stop on Ctrl-C
 (KeyboardInterrupt). Errors are ``trellis.InputError``, ``trellis.SettingError``,
 ``trellis.GeometryError`` and ``trellis.MachineError`` (the output would not print on the
@@ -136,11 +139,13 @@ class Toolpath:
 
     def gcode(self, machine=None, set=None):
         """The G-code text for a machine profile (str)."""
-        return _trellis.gcode_text(self._core, os.fspath(machine) if machine else "", set or {})
+        with _MachineFile(machine) as path:
+            return _trellis.gcode_text(self._core, path, set or {})
 
     def cli(self, machine=None, set=None, binary=False):
         """The laser build file (Common Layer Interface, ASCII or binary) as bytes."""
-        return _trellis.cli_bytes(self._core, os.fspath(machine) if machine else "", set or {}, binary)
+        with _MachineFile(machine) as path:
+            return _trellis.cli_bytes(self._core, path, set or {}, binary)
 
     def png(self, layer=0, size=600):
         """A PNG (bytes) of one layer."""
@@ -238,30 +243,20 @@ def _call(route, input, outputs, machine, set, progress, kwargs, command=None, e
 _SIDECAR = ("output", "toolpath", "gcode", "report", "lattice")
 
 
-def _object_input(obj, outputs):
-    """An in-memory input (``Lattice``, ``Toolpath`` or ``Field``) as the file the route reads.
-    Written beside the call's first output and named after it (``p.gcode`` →
-    ``p.gcode.toolpath.json``, ``part.gcode.design.vcad``), so the job every output embeds names
-    a file that stays and ``trellis.rerun(output)`` regenerates it; in a temporary file, removed
-    after the call, when the call writes no file. Returns (path, remove_after, remove_on_error)."""
-    if isinstance(obj, Lattice):
-        text, suffix = obj.to_json(), ".lattice.json"
-    elif isinstance(obj, Toolpath):
-        text, suffix = obj.to_json(), ".toolpath.json"
-    elif isinstance(obj, Field):
-        obj._compiled()  # errors name the line and column before anything is written
-        text, suffix = obj.vcad(), ".design.vcad"
-    else:
-        return _path(obj), False, False
+def _sidecar(text, suffix, outputs):
+    """`text` as a file a route reads: beside the call's first output and named after it
+    (``p.gcode`` → ``p.gcode.toolpath.json``), so the job every output embeds names a file that
+    stays and ``trellis.rerun(output)`` regenerates it; in a temporary file, removed after the
+    call, when the call writes no file. Returns (path, remove_after)."""
     first = next((outputs[k] for k in _SIDECAR if outputs.get(k) is not None), None)
     if first is None:
         fd, path = tempfile.mkstemp(suffix=suffix, prefix="trellis_")
         with os.fdopen(fd, "w", encoding="utf-8") as f:
             f.write(text)
-        return path, True, True
+        return path, True
     path = os.fspath(first) + suffix
-    folder = os.path.dirname(os.path.abspath(path))
-    fd, tmp = tempfile.mkstemp(suffix=".tmp", prefix=".trellis_", dir=folder)
+    fd, tmp = tempfile.mkstemp(suffix=".tmp", prefix=".trellis_",
+                               dir=os.path.dirname(os.path.abspath(path)))
     try:
         with os.fdopen(fd, "w", encoding="utf-8") as f:
             f.write(text)
@@ -269,34 +264,78 @@ def _object_input(obj, outputs):
     except BaseException:
         os.remove(tmp)
         raise
-    return path, False, True
+    return path, False
+
+
+def _object_text(obj):
+    """An in-memory input (``Lattice``, ``Toolpath``, ``Field``, or a machine profile as a dict
+    of tables) as (file text, suffix); None for a path."""
+    if isinstance(obj, Lattice):
+        return obj.to_json(), ".lattice.json"
+    if isinstance(obj, Toolpath):
+        return obj.to_json(), ".toolpath.json"
+    if isinstance(obj, Field):
+        obj._compiled()  # errors name the line and column before anything is written
+        return obj.vcad(), ".design.vcad"
+    if isinstance(obj, dict):
+        return _toml(obj), ".machine.toml"
+    return None
 
 
 def _call_object(route, input, outputs, machine, set, progress, kwargs, command=None, extra=None):
-    """_call with `input` a file or an in-memory object (see _object_input)."""
-    path, remove_after, remove_on_error = _object_input(input, outputs)
+    """_call with the input and the machine each a file or an in-memory object, written as a
+    file beside the first output (see _sidecar) and removed again if the call fails."""
+    written = []
     ok = False
     try:
-        result = _call(route, path or None, outputs, machine, set, progress, kwargs, command, extra)
+        paths = []
+        for obj in (input, machine):
+            text = _object_text(obj)
+            if text is None:
+                paths.append(obj)
+                continue
+            path, remove_after = _sidecar(*text, outputs)
+            written.append((path, remove_after))
+            paths.append(path)
+        result = _call(route, paths[0], outputs, paths[1], set, progress, kwargs, command, extra)
         ok = True
         return result
     finally:
-        if remove_after or (remove_on_error and not ok):
-            try:
-                os.remove(path)
-            except FileNotFoundError:
-                pass
+        for path, remove_after in written:
+            if remove_after or not ok:
+                try:
+                    os.remove(path)
+                except FileNotFoundError:
+                    pass
+
+
+class _MachineFile:
+    """A machine profile given as a dict, in a temporary file for the call's duration."""
+
+    def __init__(self, machine):
+        self.machine = machine
+        self.temp = None
+
+    def __enter__(self):
+        if isinstance(self.machine, dict):
+            self.temp, _ = _sidecar(_toml(self.machine), ".machine.toml", {})
+            return self.temp
+        return _path(self.machine)
+
+    def __exit__(self, *exc):
+        if self.temp:
+            os.remove(self.temp)
 
 
 def lattice2d(output=None, *, preview=None, progress=None, set=None, **settings):
     """A 2D lattice from the atlas ([lattice2d] settings: pattern, cell, size, ...)."""
-    return _call("lattice2d", None, {"output": output, "preview": preview}, None, set, progress,
+    return _call_object("lattice2d", None, {"output": output, "preview": preview}, None, set, progress,
                  settings)
 
 
 def lattice3d(output=None, *, preview=None, progress=None, set=None, **settings):
     """A 3D lattice: unit cells (cell_type, cell, count) or a Voronoi foam (kind='foam')."""
-    return _call("lattice3d", None, {"output": output, "preview": preview}, None, set, progress,
+    return _call_object("lattice3d", None, {"output": output, "preview": preview}, None, set, progress,
                  settings)
 
 
@@ -357,9 +396,10 @@ def check(lattice, print_file, *, machine=None, set=None, **nozzle):
     import json
     values = {f"nozzle.{k}": v for k, v in nozzle.items()}
     values.update(set or {})
-    return json.loads(_trellis.check_json(_core_or_path(lattice, Lattice, "lattice"),
-                                          _core_or_path(print_file, Toolpath, "print_file"),
-                                          _path(machine), values))
+    with _MachineFile(machine) as path:
+        return json.loads(_trellis.check_json(_core_or_path(lattice, Lattice, "lattice"),
+                                              _core_or_path(print_file, Toolpath, "print_file"),
+                                              path, values))
 
 
 def pbf(output=None, *, envelope=None, machine=None, report=None, toolpath=None, preview=None,
@@ -374,13 +414,13 @@ def nonplanar(surface=None, output=None, *, machine, report=None, toolpath=None,
               progress=None, set=None, **settings):
     """Non-planar layers on a surface mesh, a height function (height_fn, domain) or a test
     surface (set={'surface.kind': 'corrugation'})."""
-    return _call("nonplanar", surface, {"output": output, "report": report, "toolpath": toolpath,
+    return _call_object("nonplanar", surface, {"output": output, "report": report, "toolpath": toolpath,
                                         "preview": preview}, machine, set, progress, settings)
 
 
 def surface(kind, output=None, *, machine=None, preview=None, progress=None, set=None, **settings):
     """The non-planar paper's test surfaces (STL), or the angle test (toolpath JSON / G-code)."""
-    return _call("surface", None, {"output": output, "preview": preview}, machine, set, progress,
+    return _call_object("surface", None, {"output": output, "preview": preview}, machine, set, progress,
                  settings, extra={"surface.kind": kind})
 
 
