@@ -45,7 +45,8 @@ py::dict toolpath_arrays(const Toolpath& tp) {
         R(j) = static_cast<std::int32_t>(p.role);
         T(j) = p.tool;
         W(j) = p.width, H(j) = p.height, S(j) = p.speed, PW(j) = p.power, TE(j) = p.temperature;
-        for (std::size_t c = 0; c < mix_n; ++c) MX(j, c) = c < p.mixture.size() ? p.mixture[c] : 0.0;
+        for (std::size_t c = 0; c < mix_n; ++c)
+          MX(j, c) = c < p.mixture.size() ? p.mixture[c] : 0.0;
         for (const auto& q : p.points) {
           P(k, 0) = q.x, P(k, 1) = q.y, P(k, 2) = q.z;
           ++k;
@@ -93,16 +94,20 @@ py::dict lattice_arrays(const Graph& g) {
 // A lattice from numpy arrays, checked: shapes, finite coordinates, edge indices in range.
 Graph lattice_from_arrays(const py::object& nodes_obj, const py::object& edges_obj,
                           const py::object& material_obj) {
-  const auto nodes = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(nodes_obj);
+  const auto nodes =
+      py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(nodes_obj);
   if (!nodes || nodes.ndim() != 2 || nodes.shape(1) != 3)
     throw SettingError("nodes must be an (n, 3) array of numbers", {"", 0, "nodes"});
   const py::array e_arr = py::array::ensure(edges_obj);
   if (!e_arr || e_arr.ndim() != 2 || e_arr.shape(1) != 2)
     throw SettingError("edges must be an (m, 2) array of node indices", {"", 0, "edges"});
-  if (!py::dtype::of<std::int64_t>().kind() || (e_arr.dtype().kind() != 'i' && e_arr.dtype().kind() != 'u'))
-    throw SettingError("edges must be integers (got dtype " + std::string(py::str(e_arr.dtype())) + ")",
-                       {"", 0, "edges"});
-  const auto edges = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(e_arr);
+  if (!py::dtype::of<std::int64_t>().kind() ||
+      (e_arr.dtype().kind() != 'i' && e_arr.dtype().kind() != 'u'))
+    throw SettingError(
+        "edges must be integers (got dtype " + std::string(py::str(e_arr.dtype())) + ")",
+        {"", 0, "edges"});
+  const auto edges =
+      py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(e_arr);
   if (nodes.shape(0) == 0)
     throw SettingError("no nodes: a lattice needs at least one strut", {"", 0, "nodes"});
   Graph g;
@@ -142,8 +147,9 @@ Graph lattice_from_arrays(const py::object& nodes_obj, const py::object& edges_o
   for (py::ssize_t i = 0; i < edges.shape(0); ++i) {
     const auto a = E(i, 0), b = E(i, 1);
     if (a < 0 || b < 0 || a >= nodes.shape(0) || b >= nodes.shape(0))
-      throw SettingError("edge " + std::to_string(i) + " names node " + std::to_string(a < 0 || a >= nodes.shape(0) ? a : b) +
-                             " of " + std::to_string(nodes.shape(0)),
+      throw SettingError("edge " + std::to_string(i) + " names node " +
+                             std::to_string(a < 0 || a >= nodes.shape(0) ? a : b) + " of " +
+                             std::to_string(nodes.shape(0)),
                          {"", 0, "edges[" + std::to_string(i) + "]"});
     Edge e;
     e.a = static_cast<NodeId>(a), e.b = static_cast<NodeId>(b);
@@ -152,7 +158,6 @@ Graph lattice_from_arrays(const py::object& nodes_obj, const py::object& edges_o
   }
   return g;
 }
-
 
 namespace {
 
@@ -165,7 +170,8 @@ std::vector<std::int64_t> int_vector(const py::object& obj, const char* name) {
   const py::array a = py::array::ensure(obj);
   if (!a || a.ndim() != 1) bad(name, std::string(name) + " must be a 1-d array of integers");
   if (a.size() > 0 && a.dtype().kind() != 'i' && a.dtype().kind() != 'u')
-    bad(name, std::string(name) + " must be integers (got dtype " + std::string(py::str(a.dtype())) + ")");
+    bad(name, std::string(name) + " must be integers (got dtype " +
+                  std::string(py::str(a.dtype())) + ")");
   const auto v = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(a);
   return {v.data(), v.data() + v.size()};
 }
@@ -216,8 +222,8 @@ PathRole role_of(const py::handle& v, const std::string& element) {
                        std::to_string(static_cast<int>(PathRole::Purge)) + " (trellis.ROLES)");
     return static_cast<PathRole>(code);
   }
-  bad(element, "role must be a name (trellis.ROLES) or its index, got " +
-                   std::string(py::str(py::repr(v))));
+  bad(element,
+      "role must be a name (trellis.ROLES) or its index, got " + std::string(py::str(py::repr(v))));
 }
 
 std::vector<PathRole> roles(const py::object& obj, std::size_t n) {
@@ -226,8 +232,10 @@ std::vector<PathRole> roles(const py::object& obj, std::size_t n) {
   // A list keeps its names and indices apart (numpy would make ["infill", 6] all strings).
   const bool sequence = py::isinstance<py::list>(obj) || py::isinstance<py::tuple>(obj);
   const py::array a = sequence ? py::array() : py::array::ensure(obj);
-  if (!sequence && !a) bad("role", "role must be a name, an index or an array of them, one per path");
-  if (!sequence && a.ndim() == 0) return std::vector<PathRole>(n, role_of(a.attr("item")(), "role"));
+  if (!sequence && !a)
+    bad("role", "role must be a name, an index or an array of them, one per path");
+  if (!sequence && a.ndim() == 0)
+    return std::vector<PathRole>(n, role_of(a.attr("item")(), "role"));
   const std::size_t count = sequence ? py::len(obj) : static_cast<std::size_t>(a.shape(0));
   if ((!sequence && a.ndim() != 1) || count != n)
     bad("role", "role must be one name or index, or " + std::to_string(n) +
@@ -235,7 +243,8 @@ std::vector<PathRole> roles(const py::object& obj, std::size_t n) {
   std::vector<PathRole> out;
   out.reserve(n);
   const py::list items = sequence ? py::list(obj) : py::list(a.attr("tolist")());
-  for (std::size_t i = 0; i < n; ++i) out.push_back(role_of(items[i], "role[" + std::to_string(i) + "]"));
+  for (std::size_t i = 0; i < n; ++i)
+    out.push_back(role_of(items[i], "role[" + std::to_string(i) + "]"));
   return out;
 }
 
@@ -262,7 +271,8 @@ std::vector<std::vector<double>> mixtures(const py::object& obj, std::size_t n) 
 Toolpath toolpath_from_arrays(const py::object& points_obj, const py::object& path_offsets_obj,
                               const py::object& layer_offsets_obj, const py::object& layer_z_obj,
                               const py::dict& attributes) {
-  const auto points = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(points_obj);
+  const auto points =
+      py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(points_obj);
   if (!points || points.ndim() != 2 || points.shape(1) != 3)
     bad("points", "points must be an (n, 3) array of numbers");
   const auto npoints = static_cast<std::int64_t>(points.shape(0));
@@ -329,8 +339,8 @@ Toolpath toolpath_from_arrays(const py::object& points_obj, const py::object& pa
         if (problem->attribute == "mixture")
           bad("mixture[" + std::to_string(j) + ", " + std::to_string(problem->index) + "]",
               "mixture of path " + std::to_string(j) + " " + problem->message);
-        bad(problem->attribute + at, problem->attribute + " of path " + std::to_string(j) + " " +
-                                         problem->message);
+        bad(problem->attribute + at,
+            problem->attribute + " of path " + std::to_string(j) + " " + problem->message);
       }
       for (const Vec3& q : p.points) zmin = any ? std::min(zmin, q.z) : q.z, any = true;
       layer.paths.push_back(std::move(p));

@@ -70,7 +70,8 @@ py::array_t<double> vector_array(const std::vector<double>& v) {
   return a;
 }
 
-py::dict evaluate(const CompiledField& f, const py::object& points_obj, const py::object& progress) {
+py::dict evaluate(const CompiledField& f, const py::object& points_obj,
+                  const py::object& progress) {
   const auto points = Doubles::ensure(points_obj);
   if (!points || points.ndim() != 2 || points.shape(1) != 3)
     bad("points", "points must be an (n, 3) array of numbers");
@@ -95,7 +96,8 @@ py::dict evaluate(const CompiledField& f, const py::object& points_obj, const py
           pr("evaluating", static_cast<double>(s) / static_cast<double>(n));
           const std::size_t e = std::min(n, s + kChunk);
           chunk.clear();
-          for (std::size_t i = s; i < e; ++i) chunk.push_back({in[3 * i], in[3 * i + 1], in[3 * i + 2]});
+          for (std::size_t i = s; i < e; ++i)
+            chunk.push_back({in[3 * i], in[3 * i + 1], in[3 * i + 2]});
           ev.values(chunk.data(), d + s, chunk.size());
           if (k > 0)
             for (std::size_t i = s; i < e; ++i) {
@@ -124,7 +126,8 @@ py::dict sample(const CompiledField& f, const py::object& lo, const py::object& 
   e.what = "sampling a field on " + std::to_string(static_cast<long long>(cells)) + " grid points";
   e.change = "the step (coarser) or the box (smaller)";
   check_budget(e, budget(max_memory_mb, force));
-  const std::vector<double> xs = axis(box.min.x, box.max.x, step), ys = axis(box.min.y, box.max.y, step),
+  const std::vector<double> xs = axis(box.min.x, box.max.x, step),
+                            ys = axis(box.min.y, box.max.y, step),
                             zs = axis(box.min.z, box.max.z, step);
   const std::size_t nx = xs.size(), ny = ys.size(), nz = zs.size();
   py::array_t<double> distance({nx, ny, nz});
@@ -189,8 +192,10 @@ void write_stl_arrays(const py::object& vertices_obj, const py::object& faces_ob
                       const std::string& path) {
   const auto v = Doubles::ensure(vertices_obj);
   if (!v || v.ndim() != 2 || v.shape(1) != 3) bad("vertices", "vertices must be an (n, 3) array");
-  const auto fa = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(faces_obj);
-  if (!fa || fa.ndim() != 2 || fa.shape(1) != 3) bad("faces", "faces must be an (m, 3) array of vertex indices");
+  const auto fa =
+      py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(faces_obj);
+  if (!fa || fa.ndim() != 2 || fa.shape(1) != 3)
+    bad("faces", "faces must be an (m, 3) array of vertex indices");
   TriangleMesh m;
   const auto V = v.unchecked<2>();
   for (py::ssize_t i = 0; i < v.shape(0); ++i) m.vertices.push_back({V(i, 0), V(i, 1), V(i, 2)});

@@ -16,6 +16,7 @@
 #include <thread>
 #include <tuple>
 
+#include "bindings.hpp"
 #include "trellis/analysis/collisions.hpp"
 #include "trellis/analysis/metrics.hpp"
 #include "trellis/core/error.hpp"
@@ -32,7 +33,6 @@
 #include "trellis/toolpath/json.hpp"
 #include "trellis/version.hpp"
 #include "trellis/view/view.hpp"
-#include "bindings.hpp"
 
 namespace py = pybind11;
 using namespace trellis;
@@ -351,14 +351,15 @@ PYBIND11_MODULE(_trellis, m) {
           return std::make_shared<Graph>(lattice_from_arrays(nodes, edges, material));
         },
         py::arg("nodes"), py::arg("edges"), py::arg("material") = py::none());
-  m.def("toolpath_from_arrays",
-        [](const py::object& points, const py::object& path_offsets, const py::object& layer_offsets,
-           const py::object& layer_z, const py::dict& attributes) {
-          return std::make_shared<Toolpath>(
-              toolpath_from_arrays(points, path_offsets, layer_offsets, layer_z, attributes));
-        },
-        py::arg("points"), py::arg("path_offsets"), py::arg("layer_offsets"), py::arg("layer_z"),
-        py::arg("attributes"));
+  m.def(
+      "toolpath_from_arrays",
+      [](const py::object& points, const py::object& path_offsets, const py::object& layer_offsets,
+         const py::object& layer_z, const py::dict& attributes) {
+        return std::make_shared<Toolpath>(
+            toolpath_from_arrays(points, path_offsets, layer_offsets, layer_z, attributes));
+      },
+      py::arg("points"), py::arg("path_offsets"), py::arg("layer_offsets"), py::arg("layer_z"),
+      py::arg("attributes"));
   bind_fields(m);
   m.def("read_lattice", [](const std::string& path, double merge_tolerance) {
     Diagnostics diag;
@@ -376,64 +377,67 @@ PYBIND11_MODULE(_trellis, m) {
   });
   // Analysis as the CLI reports it (the same JSON), for json.loads on the Python side. `print`
   // is a G-code path or a Toolpath (measured as planned: no filament or retractions, which the
-  // machine's G-code adds); `design` a lattice
-  // path, a Lattice or None.
-  m.def("analyze_json",
-        [](const py::object& print, const py::object& design, double bead_width, double layer_height,
-           bool align, bool strict) {
-          Diagnostics diag;
-          std::shared_ptr<const Graph> g;
-          if (py::isinstance<Graph>(design)) g = design.cast<std::shared_ptr<Graph>>();
-          else if (!design.is_none() && !design.cast<std::string>().empty())
-            g = std::make_shared<Graph>(read_lattice(design.cast<std::string>(), {}, diag));
-          AnalysisParams params;
-          if (bead_width > 0) params.width = bead_width;
-          if (layer_height > 0) params.layer_height = layer_height;
-          params.align_centers = align;
-          GcodeReadOptions read;
-          read.stop_on_error = strict;
-          if (py::isinstance<Toolpath>(print)) {
-            const auto tp = print.cast<std::shared_ptr<Toolpath>>();
-            py::gil_scoped_release release;
-            Analysis a = analyze(*tp, toolpath_counts(*tp), g.get(), params);
-            a.name = tp->source;
-            return analysis_json(a);
-          }
-          const auto path = print.cast<std::string>();
+  // machine's G-code adds); `design` a lattice path, a Lattice or None.
+  m.def(
+      "analyze_json",
+      [](const py::object& print, const py::object& design, double bead_width, double layer_height,
+         bool align, bool strict) {
+        Diagnostics diag;
+        std::shared_ptr<const Graph> g;
+        if (py::isinstance<Graph>(design))
+          g = design.cast<std::shared_ptr<Graph>>();
+        else if (!design.is_none() && !design.cast<std::string>().empty())
+          g = std::make_shared<Graph>(read_lattice(design.cast<std::string>(), {}, diag));
+        AnalysisParams params;
+        if (bead_width > 0) params.width = bead_width;
+        if (layer_height > 0) params.layer_height = layer_height;
+        params.align_centers = align;
+        GcodeReadOptions read;
+        read.stop_on_error = strict;
+        if (py::isinstance<Toolpath>(print)) {
+          const auto tp = print.cast<std::shared_ptr<Toolpath>>();
           py::gil_scoped_release release;
-          return analysis_json(analyze_gcode_file(path, g.get(), params, read, diag));
-        },
-        py::arg("print"), py::arg("design") = py::none(), py::arg("bead_width") = 0.0,
-        py::arg("layer_height") = 0.0, py::arg("align") = false, py::arg("strict") = false);
+          Analysis a = analyze(*tp, toolpath_counts(*tp), g.get(), params);
+          a.name = tp->source;
+          return analysis_json(a);
+        }
+        const auto path = print.cast<std::string>();
+        py::gil_scoped_release release;
+        return analysis_json(analyze_gcode_file(path, g.get(), params, read, diag));
+      },
+      py::arg("print"), py::arg("design") = py::none(), py::arg("bead_width") = 0.0,
+      py::arg("layer_height") = 0.0, py::arg("align") = false, py::arg("strict") = false);
   // The collision check of `trellis check`: the lattice a path or a Lattice (cleaned as the
   // readers clean files), the print a G-code / toolpath path or a Toolpath (design coordinates).
-  m.def("check_json",
-        [](const py::object& lattice, const py::object& print, const std::string& machine,
-           const py::dict& settings) {
-          Settings st;
-          if (!machine.empty()) st.load_toml_file(machine);
-          for (const auto& [k, v] : settings) {
-            const auto key = k.cast<std::string>();
-            st.set(key, to_value(key, v), {"keyword " + key});
-          }
-          const Config cfg = st.config();
-          cfg.aero.nozzle.validate();
-          const CleanOptions clean =
-              cfg.keep_graph ? keep_graph_options() : CleanOptions{cfg.merge_tolerance, true};
-          std::shared_ptr<Graph> given = py::isinstance<Graph>(lattice) ? lattice.cast<std::shared_ptr<Graph>>() : nullptr;
-          std::shared_ptr<Toolpath> printed = py::isinstance<Toolpath>(print) ? print.cast<std::shared_ptr<Toolpath>>() : nullptr;
-          const std::string lattice_path = given ? "" : lattice.cast<std::string>();
-          const std::string print_path = printed ? "" : print.cast<std::string>();
-          py::gil_scoped_release release;
-          Diagnostics diag;
-          const Graph g = given ? clean_graph(*given, clean, diag) : read_lattice(lattice_path, clean, diag);
-          CheckOptions check;
-          check.nozzle = cfg.aero.nozzle;
-          const Toolpath tp = printed ? *printed
-                                      : read_print(print_path, machine.empty() ? nullptr : &st,
-                                                   &check.snap, diag);
-          return collision_check_json(check_collisions(g, tp, check), check);
-        });
+  m.def("check_json", [](const py::object& lattice, const py::object& print,
+                         const std::string& machine, const py::dict& settings) {
+    Settings st;
+    if (!machine.empty()) st.load_toml_file(machine);
+    for (const auto& [k, v] : settings) {
+      const auto key = k.cast<std::string>();
+      st.set(key, to_value(key, v), {"keyword " + key});
+    }
+    const Config cfg = st.config();
+    cfg.aero.nozzle.validate();
+    const CleanOptions clean =
+        cfg.keep_graph ? keep_graph_options() : CleanOptions{cfg.merge_tolerance, true};
+    std::shared_ptr<Graph> given =
+        py::isinstance<Graph>(lattice) ? lattice.cast<std::shared_ptr<Graph>>() : nullptr;
+    std::shared_ptr<Toolpath> printed =
+        py::isinstance<Toolpath>(print) ? print.cast<std::shared_ptr<Toolpath>>() : nullptr;
+    const std::string lattice_path = given ? "" : lattice.cast<std::string>();
+    const std::string print_path = printed ? "" : print.cast<std::string>();
+    py::gil_scoped_release release;
+    Diagnostics diag;
+    const Graph g =
+        given ? clean_graph(*given, clean, diag) : read_lattice(lattice_path, clean, diag);
+    CheckOptions check;
+    check.nozzle = cfg.aero.nozzle;
+    const Toolpath tp =
+        printed ? *printed
+                : read_print(print_path, machine.empty() ? nullptr : &st, &check.snap, diag);
+    return collision_check_json(check_collisions(g, tp, check), check);
+  });
   // Parses .vcad text (errors with line and column); returns the design's bounds if it has a root.
   m.def("parse_vcad", [](const std::string& text, const std::string& name) {
     const VcadDesign d = parse_vcad(text, name);

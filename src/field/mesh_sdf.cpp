@@ -90,8 +90,8 @@ Field mesh_field(const TriangleMesh& input, const MeshSdfOptions& options, std::
   return Field(node);
 }
 
-TriangleMesh field_to_mesh(const Field& field, const BBox3& box, double voxel,
-                           MeshingStats* stats, const Progress* progress) {
+TriangleMesh field_to_mesh(const Field& field, const BBox3& box, double voxel, MeshingStats* stats,
+                           const Progress* progress) {
   static std::once_flag init;
   std::call_once(init, [] { openvdb::initialize(); });
   if (!(voxel > 0)) throw GeometryError("meshing voxel must be > 0");

@@ -1,8 +1,7 @@
 // mesh_field and field_to_mesh run in the OpenVDB module, loaded on first use.
-#include "mesh_sdf_module.hpp"
-
 #include <cstdio>
 
+#include "mesh_sdf_module.hpp"
 #include "trellis/field/meshing.hpp"
 
 namespace trellis {
@@ -21,13 +20,14 @@ Field mesh_field(const TriangleMesh& mesh, const MeshSdfOptions& options, std::s
 
 TriangleMesh field_to_mesh(const Field& field, const BBox3& box, double voxel,
                            MeshingStats* stats) {
-  return detail::module_table<MeshSdfModule>("vdb").field_to_mesh(field, box, voxel, stats, nullptr);
+  return detail::module_table<MeshSdfModule>("vdb").field_to_mesh(field, box, voxel, stats,
+                                                                  nullptr);
 }
 
 TriangleMesh field_to_mesh(const Field& field, const BBox3& box, double voxel,
                            const Progress& progress, MeshingStats* stats) {
   return detail::module_table<MeshSdfModule>("vdb").field_to_mesh(field, box, voxel, stats,
-                                                                   &progress);
+                                                                  &progress);
 }
 
 Estimate field_mesh_estimate(const BBox3& box, double voxel) {

@@ -174,10 +174,10 @@ namespace {
 // settings: G-code written with it would take every extrusion default silently. A route writing
 // G-code with one is refused. (A profile for both, with [extrusion] too, is one machine each way.)
 void refuse_laser_profile_for_gcode(const Job& job) {
-  const bool writes_gcode =
-      job.route == "plan" ? !job.gcode.empty()
-                          : (job.route == "gcode" || job.route == "slice" || job.route == "nonplanar") &&
-                                !job.output.empty();
+  const bool writes_gcode = job.route == "plan" ? !job.gcode.empty()
+                                                : (job.route == "gcode" || job.route == "slice" ||
+                                                   job.route == "nonplanar") &&
+                                                      !job.output.empty();
   if (!writes_gcode) return;
   std::string laser_key;
   for (const auto& [key, e] : job.settings.entries()) {

@@ -9,8 +9,12 @@ namespace {
 // Beyond ±1e6 (1 km, or 1000 km/s) nothing is printable, and writers could overflow.
 constexpr double kLimit = 1e6;
 
-bool in_range(double v) { return std::isfinite(v) && std::abs(v) <= kLimit; }
-bool in_range(Vec3 p) { return in_range(p.x) && in_range(p.y) && in_range(p.z); }
+bool in_range(double v) {
+  return std::isfinite(v) && std::abs(v) <= kLimit;
+}
+bool in_range(Vec3 p) {
+  return in_range(p.x) && in_range(p.y) && in_range(p.z);
+}
 
 }  // namespace
 
@@ -25,12 +29,13 @@ std::optional<PathProblem> path_problem(const Path& p) {
       return PathProblem{"mixture", i, "must be a finite fraction >= 0"};
   if (p.tool < 0) return PathProblem{"tool", 0, "must be >= 0"};
   const std::pair<const char*, double> values[] = {
-      {"width", p.width},       {"height", p.height},           {"speed", p.speed},
-      {"power", p.power},       {"filament", p.filament},       {"temperature", p.temperature},
+      {"width", p.width}, {"height", p.height},     {"speed", p.speed},
+      {"power", p.power}, {"filament", p.filament}, {"temperature", p.temperature},
       {"flow", p.flow}};
   for (const auto& [name, v] : values)
     if (!in_range(v) || v < 0) return PathProblem{name, 0, "must be a finite number >= 0"};
-  if (!std::isfinite(p.fan) || p.fan > 100) return PathProblem{"fan", 0, "must be 0..100 % (< 0: not set)"};
+  if (!std::isfinite(p.fan) || p.fan > 100)
+    return PathProblem{"fan", 0, "must be 0..100 % (< 0: not set)"};
   return std::nullopt;
 }
 

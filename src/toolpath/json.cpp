@@ -1,7 +1,5 @@
 #include "trellis/toolpath/json.hpp"
 
-#include "trellis/version.hpp"
-
 #include <cmath>
 #include <nlohmann/json.hpp>
 
@@ -9,6 +7,7 @@
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/toolpath/check.hpp"
+#include "trellis/version.hpp"
 
 namespace trellis {
 
@@ -126,8 +125,9 @@ Path parse_path(const json& jp, const std::string& origin, const std::string& el
     const bool indexed = problem->attribute == "points" || problem->attribute == "via" ||
                          problem->attribute == "mixture";
     throw ParseError(problem->attribute + " " + problem->message,
-                     {origin, 0, el + "." + problem->attribute +
-                                     (indexed ? "[" + std::to_string(problem->index) + "]" : "")});
+                     {origin, 0,
+                      el + "." + problem->attribute +
+                          (indexed ? "[" + std::to_string(problem->index) + "]" : "")});
   }
   return p;
 }
