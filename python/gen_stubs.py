@@ -18,20 +18,20 @@ ROUTES = [
     ("lattice2d", "lattice2d", "output: PathLike | None = None, *, preview: PathLike | None = None", "Result"),
     ("lattice3d", "lattice3d", "output: PathLike | None = None, *, preview: PathLike | None = None", "Result"),
     ("plan", "gippo", "planner: Literal['gippo', 'euler', 'aero'], lattice: PathLike | Lattice, "
-     "output: PathLike | None = None, *, machine: PathLike | None = None, gcode: PathLike | None = None, "
+     "output: PathLike | None = None, *, machine: Machine | None = None, gcode: PathLike | None = None, "
      "report: PathLike | None = None, preview: PathLike | None = None", "Result"),
-    ("gcode", "gcode", "toolpath: PathLike | Toolpath, output: PathLike | None = None, *, machine: PathLike",
+    ("gcode", "gcode", "toolpath: PathLike | Toolpath, output: PathLike | None = None, *, machine: Machine",
      "Result"),
-    ("slice", "slice", "design: PathLike, output: PathLike | None = None, *, machine: PathLike, "
+    ("slice", "slice", "design: PathLike | Field, output: PathLike | None = None, *, machine: Machine, "
      "report: PathLike | None = None, toolpath: PathLike | None = None, preview: PathLike | None = None",
      "Result"),
-    ("pbf", "pbf", "output: PathLike | None = None, *, envelope: PathLike | None = None, "
-     "machine: PathLike | None = None, report: PathLike | None = None, toolpath: PathLike | None = None, "
+    ("pbf", "pbf", "output: PathLike | None = None, *, envelope: PathLike | Field | None = None, "
+     "machine: Machine | None = None, report: PathLike | None = None, toolpath: PathLike | None = None, "
      "preview: PathLike | None = None", "Result"),
     ("nonplanar", "nonplanar", "surface: PathLike | None = None, output: PathLike | None = None, *, "
-     "machine: PathLike, report: PathLike | None = None, toolpath: PathLike | None = None, "
+     "machine: Machine, report: PathLike | None = None, toolpath: PathLike | None = None, "
      "preview: PathLike | None = None", "Result"),
-    ("surface", "surface", "kind: str, output: PathLike | None = None, *, machine: PathLike | None = None, "
+    ("surface", "surface", "kind: str, output: PathLike | None = None, *, machine: Machine | None = None, "
      "preview: PathLike | None = None", "Result"),
 ]
 
@@ -43,7 +43,7 @@ def main():
            "from typing import Any, Callable, Literal, Mapping, Sequence", "",
            "import numpy as np", "",
            "from .errors import GeometryError, InputError, SettingError, TrellisError", "",
-           "PathLike = str | _PathLike[str]", "Progress = Callable[[str, float], None]", "",
+           "PathLike = str | _PathLike[str]", "Machine = PathLike | Mapping[str, Mapping[str, Any]]", "Progress = Callable[[str, float], None]", "",
            "__version__: str", "ROLES: list[str]", "",
            "class Lattice:",
            "    nodes: np.ndarray", "    edges: np.ndarray", "    material: np.ndarray",
@@ -56,10 +56,16 @@ def main():
               "speed", "power", "temperature", "mixture"]:
         out.append(f"    {a}: np.ndarray")
     out += ["    layer_count: int", "    path_count: int", "    point_count: int", "    extrusion_length: float",
+            "    @staticmethod",
+            "    def from_arrays(points: Any, path_offsets: Any = None, layer_offsets: Any = None, *, "
+            "layer_z: Any = None,",
+            "                    role: Any = 'strut', tool: Any = 0, width: Any = 0.0, height: Any = 0.0, "
+            "speed: Any = 0.0,",
+            "                    power: Any = 0.0, temperature: Any = 0.0, mixture: Any = None) -> Toolpath: ...",
             "    def arrays(self) -> dict[str, np.ndarray]: ...",
             "    def path(self, i: int) -> np.ndarray: ...", "    def to_json(self) -> str: ...",
-            "    def gcode(self, machine: PathLike | None = None, set: Mapping[str, Any] | None = None) -> str: ...",
-            "    def cli(self, machine: PathLike | None = None, set: Mapping[str, Any] | None = None, "
+            "    def gcode(self, machine: Machine | None = None, set: Mapping[str, Any] | None = None) -> str: ...",
+            "    def cli(self, machine: Machine | None = None, set: Mapping[str, Any] | None = None, "
             "binary: bool = False) -> bytes: ...",
             "    def png(self, layer: int = 0, size: int = 600) -> bytes: ...",
             "    def view_html(self, title: str | None = None) -> str: ...",
@@ -94,11 +100,13 @@ def main():
             "def read_toolpath(path: PathLike) -> Toolpath: ...",
             "def notebook_viewer() -> Any: ...",
            "def parse_vcad(text: str, name: str = ...) -> dict[str, Any]: ...",
-           "def analyze(gcode: PathLike, design: PathLike | None = None, *, bead_width: float = ...,",
+           "def analyze(gcode: PathLike | Toolpath, design: PathLike | Lattice | None = None, *, "
+           "bead_width: float = ...,",
            "            layer_height: float = ..., align: bool = ..., strict: bool = ...) -> dict[str, Any]: ...",
-           "def check(lattice: PathLike, print_file: PathLike, *, machine: PathLike | None = None,",
+           "def check(lattice: PathLike | Lattice, print_file: PathLike | Toolpath, *, "
+           "machine: Machine | None = None,",
            "          set: Mapping[str, Any] | None = None, **nozzle: float) -> dict[str, Any]: ...",
-           "from .fields import (Field, cone, cube, cylinder, difference, fgrade, function, gyroid,",
+           "from .fields import (Field, Mesh, cone, cube, cylinder, difference, fgrade, function, gyroid,",
            "                     intersection, mesh, rectprism, sphere, torus, tpms, union)"]
     print("\n".join(out))
 

@@ -16,6 +16,7 @@
 #include <thread>
 #include <tuple>
 
+#include "bindings.hpp"
 #include "trellis/analysis/collisions.hpp"
 #include "trellis/analysis/metrics.hpp"
 #include "trellis/core/error.hpp"
@@ -95,10 +96,9 @@ SettingValue to_value(const std::string& name, const py::handle& v) {
                      {"", 0, name});
 }
 
-// Runs `fn` on a worker thread with the GIL released; progress goes to `callback` from this
-// thread; Ctrl-C sets the cancel flag and the call raises KeyboardInterrupt.
-JobResult run_interruptible(const std::function<JobResult(const Progress&)>& fn,
-                            const py::object& callback) {
+}  // namespace
+
+void run_interruptible(const std::function<void(const Progress&)>& fn, const py::object& callback) {
   std::atomic<bool> cancel{false};
   std::mutex m;
   std::condition_variable cv;
@@ -111,11 +111,10 @@ JobResult run_interruptible(const std::function<JobResult(const Progress&)>& fn,
     std::lock_guard<std::mutex> lock(m);
     stage = s, fraction = f;
   };
-  JobResult result;
   std::exception_ptr error, worker_error;
   std::thread worker([&] {
     try {
-      result = fn(progress);
+      fn(progress);
     } catch (...) {
       worker_error = std::current_exception();
     }
@@ -164,158 +163,15 @@ JobResult run_interruptible(const std::function<JobResult(const Progress&)>& fn,
     throw py::error_already_set();               // the pending KeyboardInterrupt
   }
   if (worker_error) std::rethrow_exception(worker_error);
-  return result;
 }
 
-// ---- numpy views of the IR (copies into whole arrays; no per-point Python objects) ----
-
-py::dict toolpath_arrays(const Toolpath& tp) {
-  std::size_t npaths = 0, npoints = 0;
-  for (const auto& l : tp.layers)
-    for (const auto& p : l.paths) ++npaths, npoints += p.points.size();
-  py::array_t<double> points({npoints, std::size_t(3)});
-  py::array_t<std::int64_t> path_offsets(npaths + 1), layer_offsets(tp.layers.size() + 1);
-  py::array_t<double> layer_z(tp.layers.size());
-  py::array_t<std::int32_t> role(npaths), tool(npaths);
-  py::array_t<double> width(npaths), height(npaths), speed(npaths), power(npaths),
-      temperature(npaths);
-  std::size_t mix_n = 0;
-  for (const auto& l : tp.layers)
-    for (const auto& p : l.paths) mix_n = std::max(mix_n, p.mixture.size());
-  py::array_t<double> mixture({npaths, mix_n});
-  auto P = points.mutable_unchecked<2>();
-  auto PO = path_offsets.mutable_unchecked<1>();
-  auto LO = layer_offsets.mutable_unchecked<1>();
-  auto LZ = layer_z.mutable_unchecked<1>();
-  auto R = role.mutable_unchecked<1>();
-  auto T = tool.mutable_unchecked<1>();
-  auto W = width.mutable_unchecked<1>(), H = height.mutable_unchecked<1>(),
-       S = speed.mutable_unchecked<1>(), PW = power.mutable_unchecked<1>(),
-       TE = temperature.mutable_unchecked<1>();
-  auto MX = mixture.mutable_unchecked<2>();
-  {
-    py::gil_scoped_release release;
-    std::size_t k = 0, j = 0;
-    for (std::size_t li = 0; li < tp.layers.size(); ++li) {
-      LO(li) = static_cast<std::int64_t>(j);
-      LZ(li) = tp.layers[li].z;
-      for (const auto& p : tp.layers[li].paths) {
-        PO(j) = static_cast<std::int64_t>(k);
-        R(j) = static_cast<std::int32_t>(p.role);
-        T(j) = p.tool;
-        W(j) = p.width, H(j) = p.height, S(j) = p.speed, PW(j) = p.power, TE(j) = p.temperature;
-        for (std::size_t c = 0; c < mix_n; ++c) MX(j, c) = c < p.mixture.size() ? p.mixture[c] : 0.0;
-        for (const auto& q : p.points) {
-          P(k, 0) = q.x, P(k, 1) = q.y, P(k, 2) = q.z;
-          ++k;
-        }
-        ++j;
-      }
-    }
-    PO(j) = static_cast<std::int64_t>(k);
-    LO(tp.layers.size()) = static_cast<std::int64_t>(j);
-  }
-  py::dict d;
-  d["points"] = points;
-  d["path_offsets"] = path_offsets;
-  d["layer_offsets"] = layer_offsets;
-  d["layer_z"] = layer_z;
-  d["role"] = role;
-  d["tool"] = tool;
-  d["width"] = width;
-  d["height"] = height;
-  d["speed"] = speed;
-  d["power"] = power;
-  d["temperature"] = temperature;
-  d["mixture"] = mixture;
-  return d;
-}
-
-py::dict lattice_arrays(const Graph& g) {
-  py::array_t<double> nodes({g.nodes.size(), std::size_t(3)});
-  py::array_t<std::int64_t> edges({g.edges.size(), std::size_t(2)});
-  py::array_t<std::int32_t> material(g.edges.size());
-  auto N = nodes.mutable_unchecked<2>();
-  auto E = edges.mutable_unchecked<2>();
-  auto M = material.mutable_unchecked<1>();
-  for (std::size_t i = 0; i < g.nodes.size(); ++i)
-    N(i, 0) = g.nodes[i].x, N(i, 1) = g.nodes[i].y, N(i, 2) = g.nodes[i].z;
-  for (std::size_t i = 0; i < g.edges.size(); ++i)
-    E(i, 0) = g.edges[i].a, E(i, 1) = g.edges[i].b, M(i) = g.edges[i].material;
-  py::dict d;
-  d["nodes"] = nodes;
-  d["edges"] = edges;
-  d["material"] = material;
-  return d;
-}
-
-// A lattice from numpy arrays, checked: shapes, finite coordinates, edge indices in range.
-Graph lattice_from_arrays(const py::object& nodes_obj, const py::object& edges_obj,
-                          const py::object& material_obj) {
-  const auto nodes = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(nodes_obj);
-  if (!nodes || nodes.ndim() != 2 || nodes.shape(1) != 3)
-    throw SettingError("nodes must be an (n, 3) array of numbers", {"", 0, "nodes"});
-  const py::array e_arr = py::array::ensure(edges_obj);
-  if (!e_arr || e_arr.ndim() != 2 || e_arr.shape(1) != 2)
-    throw SettingError("edges must be an (m, 2) array of node indices", {"", 0, "edges"});
-  if (!py::dtype::of<std::int64_t>().kind() || (e_arr.dtype().kind() != 'i' && e_arr.dtype().kind() != 'u'))
-    throw SettingError("edges must be integers (got dtype " + std::string(py::str(e_arr.dtype())) + ")",
-                       {"", 0, "edges"});
-  const auto edges = py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(e_arr);
-  if (nodes.shape(0) == 0)
-    throw SettingError("no nodes: a lattice needs at least one strut", {"", 0, "nodes"});
-  Graph g;
-  const auto N = nodes.unchecked<2>();
-  for (py::ssize_t i = 0; i < nodes.shape(0); ++i) {
-    const Vec3 p{N(i, 0), N(i, 1), N(i, 2)};
-    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z) ||
-        std::abs(p.x) > kMaxCoordinate || std::abs(p.y) > kMaxCoordinate ||
-        std::abs(p.z) > kMaxCoordinate)
-      throw SettingError("node " + std::to_string(i) +
-                             " is not finite or beyond ±1e6 mm (as the file readers refuse)",
-                         {"", 0, "nodes[" + std::to_string(i) + "]"});
-    g.nodes.push_back(p);
-  }
-  if (edges.shape(0) == 0)
-    throw SettingError("no edges: a lattice needs at least one strut", {"", 0, "edges"});
-  const auto E = edges.unchecked<2>();
-  std::vector<int> materials;
-  if (!material_obj.is_none()) {
-    const py::array m_arr = py::array::ensure(material_obj);
-    if (m_arr && m_arr.dtype().kind() != 'i' && m_arr.dtype().kind() != 'u')
-      throw SettingError("material must be integers 0..255 (got dtype " +
-                             std::string(py::str(m_arr.dtype())) + ")",
-                         {"", 0, "material"});
-    const auto m =
-        py::array_t<std::int64_t, py::array::c_style | py::array::forcecast>::ensure(m_arr);
-    if (!m || m.ndim() != 1 || m.shape(0) != edges.shape(0))
-      throw SettingError("material must be an (m,) array, one per edge", {"", 0, "material"});
-    for (py::ssize_t i = 0; i < m.shape(0); ++i) {
-      if (m.at(i) < 0 || m.at(i) > 255)
-        throw SettingError("material " + std::to_string(m.at(i)) + " of edge " + std::to_string(i) +
-                               ": expected an integer 0..255 (as the file readers)",
-                           {"", 0, "material[" + std::to_string(i) + "]"});
-      materials.push_back(static_cast<int>(m.at(i)));
-    }
-  }
-  for (py::ssize_t i = 0; i < edges.shape(0); ++i) {
-    const auto a = E(i, 0), b = E(i, 1);
-    if (a < 0 || b < 0 || a >= nodes.shape(0) || b >= nodes.shape(0))
-      throw SettingError("edge " + std::to_string(i) + " names node " + std::to_string(a < 0 || a >= nodes.shape(0) ? a : b) +
-                             " of " + std::to_string(nodes.shape(0)),
-                         {"", 0, "edges[" + std::to_string(i) + "]"});
-    Edge e;
-    e.a = static_cast<NodeId>(a), e.b = static_cast<NodeId>(b);
-    e.material = materials.empty() ? 0 : materials[static_cast<std::size_t>(i)];
-    g.edges.push_back(e);
-  }
-  return g;
-}
+namespace {
 
 // Runs a job interruptibly; its files, summary, warnings and in-memory results as a dict.
 py::dict run_job_dict(const Job& job, const py::object& progress) {
   Diagnostics diag;
-  const JobResult r = run_interruptible([&](const Progress& p) { return run_job(job, diag, p); }, progress);
+  JobResult r;
+  run_interruptible([&](const Progress& p) { r = run_job(job, diag, p); }, progress);
   py::dict d;
   d["files"] = r.files;
   d["summary"] = r.summary;
@@ -504,6 +360,16 @@ PYBIND11_MODULE(_trellis, m) {
           return std::make_shared<Graph>(lattice_from_arrays(nodes, edges, material));
         },
         py::arg("nodes"), py::arg("edges"), py::arg("material") = py::none());
+  m.def(
+      "toolpath_from_arrays",
+      [](const py::object& points, const py::object& path_offsets, const py::object& layer_offsets,
+         const py::object& layer_z, const py::dict& attributes) {
+        return std::make_shared<Toolpath>(
+            toolpath_from_arrays(points, path_offsets, layer_offsets, layer_z, attributes));
+      },
+      py::arg("points"), py::arg("path_offsets"), py::arg("layer_offsets"), py::arg("layer_z"),
+      py::arg("attributes"));
+  bind_fields(m);
   m.def("read_lattice", [](const std::string& path, double merge_tolerance) {
     Diagnostics diag;
     return std::make_shared<Graph>(read_lattice(path, {merge_tolerance, true}, diag));
@@ -518,44 +384,69 @@ PYBIND11_MODULE(_trellis, m) {
   m.def("toolpath_from_json", [](const std::string& text) {
     return std::make_shared<Toolpath>(toolpath_from_json(text, "<string>"));
   });
-  // Analysis as the CLI reports it (the same JSON), for json.loads on the Python side.
-  m.def("analyze_json",
-        [](const std::string& path, const std::string& design, double bead_width, double layer_height,
-           bool align, bool strict) {
-          Diagnostics diag;
-          Graph g;
-          if (!design.empty()) g = read_lattice(design, {}, diag);
-          AnalysisParams params;
-          if (bead_width > 0) params.width = bead_width;
-          if (layer_height > 0) params.layer_height = layer_height;
-          params.align_centers = align;
-          GcodeReadOptions read;
-          read.stop_on_error = strict;
+  // Analysis as the CLI reports it (the same JSON), for json.loads on the Python side. `print`
+  // is a G-code path or a Toolpath (measured as planned: no filament or retractions, which the
+  // machine's G-code adds); `design` a lattice path, a Lattice or None.
+  m.def(
+      "analyze_json",
+      [](const py::object& print, const py::object& design, double bead_width, double layer_height,
+         bool align, bool strict) {
+        Diagnostics diag;
+        std::shared_ptr<const Graph> g;
+        if (py::isinstance<Graph>(design))
+          g = design.cast<std::shared_ptr<Graph>>();
+        else if (!design.is_none() && !design.cast<std::string>().empty())
+          g = std::make_shared<Graph>(read_lattice(design.cast<std::string>(), {}, diag));
+        AnalysisParams params;
+        if (bead_width > 0) params.width = bead_width;
+        if (layer_height > 0) params.layer_height = layer_height;
+        params.align_centers = align;
+        GcodeReadOptions read;
+        read.stop_on_error = strict;
+        if (py::isinstance<Toolpath>(print)) {
+          const auto tp = print.cast<std::shared_ptr<Toolpath>>();
           py::gil_scoped_release release;
-          return analysis_json(analyze_gcode_file(path, design.empty() ? nullptr : &g, params, read, diag));
-        },
-        py::arg("path"), py::arg("design") = "", py::arg("bead_width") = 0.0,
-        py::arg("layer_height") = 0.0, py::arg("align") = false, py::arg("strict") = false);
-  m.def("check_json",
-        [](const std::string& lattice, const std::string& print, const std::string& machine,
-           const py::dict& settings) {
-          Settings st;
-          if (!machine.empty()) st.load_toml_file(machine);
-          for (const auto& [k, v] : settings) {
-            const auto key = k.cast<std::string>();
-            st.set(key, to_value(key, v), {"keyword " + key});
-          }
-          const Config cfg = st.config();
-          cfg.aero.nozzle.validate();
-          py::gil_scoped_release release;
-          Diagnostics diag;
-          const Graph g = read_lattice(
-              lattice, cfg.keep_graph ? keep_graph_options() : CleanOptions{cfg.merge_tolerance, true}, diag);
-          CheckOptions check;
-          check.nozzle = cfg.aero.nozzle;
-          const Toolpath tp = read_print(print, machine.empty() ? nullptr : &st, &check.snap, diag);
-          return collision_check_json(check_collisions(g, tp, check), check);
-        });
+          Analysis a = analyze(*tp, toolpath_counts(*tp), g.get(), params);
+          a.name = tp->source;
+          return analysis_json(a);
+        }
+        const auto path = print.cast<std::string>();
+        py::gil_scoped_release release;
+        return analysis_json(analyze_gcode_file(path, g.get(), params, read, diag));
+      },
+      py::arg("print"), py::arg("design") = py::none(), py::arg("bead_width") = 0.0,
+      py::arg("layer_height") = 0.0, py::arg("align") = false, py::arg("strict") = false);
+  // The collision check of `trellis check`: the lattice a path or a Lattice (cleaned as the
+  // readers clean files), the print a G-code / toolpath path or a Toolpath (design coordinates).
+  m.def("check_json", [](const py::object& lattice, const py::object& print,
+                         const std::string& machine, const py::dict& settings) {
+    Settings st;
+    if (!machine.empty()) st.load_toml_file(machine);
+    for (const auto& [k, v] : settings) {
+      const auto key = k.cast<std::string>();
+      st.set(key, to_value(key, v), {"keyword " + key});
+    }
+    const Config cfg = st.config();
+    cfg.aero.nozzle.validate();
+    const CleanOptions clean =
+        cfg.keep_graph ? keep_graph_options() : CleanOptions{cfg.merge_tolerance, true};
+    std::shared_ptr<Graph> given =
+        py::isinstance<Graph>(lattice) ? lattice.cast<std::shared_ptr<Graph>>() : nullptr;
+    std::shared_ptr<Toolpath> printed =
+        py::isinstance<Toolpath>(print) ? print.cast<std::shared_ptr<Toolpath>>() : nullptr;
+    const std::string lattice_path = given ? "" : lattice.cast<std::string>();
+    const std::string print_path = printed ? "" : print.cast<std::string>();
+    py::gil_scoped_release release;
+    Diagnostics diag;
+    const Graph g =
+        given ? clean_graph(*given, clean, diag) : read_lattice(lattice_path, clean, diag);
+    CheckOptions check;
+    check.nozzle = cfg.aero.nozzle;
+    const Toolpath tp =
+        printed ? *printed
+                : read_print(print_path, machine.empty() ? nullptr : &st, &check.snap, diag);
+    return collision_check_json(check_collisions(g, tp, check), check);
+  });
   // Parses .vcad text (errors with line and column); returns the design's bounds if it has a root.
   m.def("parse_vcad", [](const std::string& text, const std::string& name) {
     const VcadDesign d = parse_vcad(text, name);

@@ -9,6 +9,9 @@ as the CLI flags, ``layer_height`` for ``--layer-height``; any setting by its do
     res = trellis.plan("gippo", lat, machine="profiles/ender3_s1_pro_tpu.toml", gcode="p.gcode")
     pts = res.toolpath.points          # (n, 3) numpy array of every point
 
+Wherever a call takes a file it takes the object too: a ``Lattice``, ``Toolpath`` or ``Field``
+for its input, a dict of tables for ``machine`` (written beside the output, so ``rerun`` works).
+
 Long calls release the GIL, report progress to ``progress(stage, fraction)`` and stop on Ctrl-C
 (KeyboardInterrupt). Errors are ``trellis.InputError``, ``trellis.SettingError``,
 ``trellis.GeometryError`` and ``trellis.MachineError`` (the output would not print on the
@@ -24,10 +27,10 @@ import tempfile
 
 from . import _trellis
 from .errors import GeometryError, InputError, MachineError, SettingError, TrellisError
-from .fields import (Field, cone, cube, cylinder, difference, fgrade, function, gyroid, intersection,
+from .fields import (Field, Mesh, cone, cube, cylinder, difference, fgrade, function, gyroid, intersection,
                      mesh, rectprism, sphere, torus, tpms, union)
 
-__all__ = ["Field", "sphere", "cube", "rectprism", "cylinder", "cone", "torus", "function", "tpms",
+__all__ = ["Field", "Mesh", "sphere", "cube", "rectprism", "cylinder", "cone", "torus", "function", "tpms",
            "gyroid", "mesh", "union", "intersection", "difference", "fgrade", "parse_vcad",
            "analyze", "check", "lattice2d", "lattice3d", "plan", "gcode", "slice", "pbf", "nonplanar", "surface",
            "run_job", "rerun", "settings", "read_lattice", "read_toolpath", "notebook_viewer", "Lattice",
@@ -86,6 +89,28 @@ class Toolpath:
         self._core = core
         self._arrays = None
 
+    @staticmethod
+    def from_arrays(points, path_offsets=None, layer_offsets=None, *, layer_z=None, role="strut",
+                    tool=0, width=0.0, height=0.0, speed=0.0, power=0.0, temperature=0.0,
+                    mixture=None):
+        """A toolpath designed in numpy (the inverse of ``arrays()``:
+        ``Toolpath.from_arrays(**tp.arrays())`` is ``tp`` again, array for array).
+
+        ``points`` (N, 3) mm; ``path_offsets`` (P + 1,) — path i is
+        ``points[path_offsets[i]:path_offsets[i + 1]]``, default one path of every point;
+        ``layer_offsets`` (L + 1,) into the paths, default one layer; ``layer_z`` per layer,
+        default its lowest point. Per path, a scalar for every path or a (P,) array: ``role``
+        (names of ``trellis.ROLES`` or their indices), ``tool``, ``width``, ``height``, ``speed``
+        (0 = the machine profile's), ``power``, ``temperature`` (0 = not set); ``mixture`` (k,)
+        or (P, k) fractions (a row of zeros: none). Checked as every reader checks a toolpath
+        file; errors are ``trellis.InputError`` naming the argument and index."""
+        attributes = {"role": role, "tool": tool, "width": width, "height": height,
+                      "speed": speed, "power": power, "temperature": temperature}
+        if mixture is not None:
+            attributes["mixture"] = mixture
+        return Toolpath(_trellis.toolpath_from_arrays(points, path_offsets, layer_offsets, layer_z,
+                                                      attributes))
+
     def arrays(self):
         """Every array at once (a dict), computed on first use."""
         if self._arrays is None:
@@ -115,11 +140,13 @@ class Toolpath:
 
     def gcode(self, machine=None, set=None):
         """The G-code text for a machine profile (str)."""
-        return _trellis.gcode_text(self._core, os.fspath(machine) if machine else "", set or {})
+        with _MachineFile(machine) as path:
+            return _trellis.gcode_text(self._core, path, set or {})
 
     def cli(self, machine=None, set=None, binary=False):
         """The laser build file (Common Layer Interface, ASCII or binary) as bytes."""
-        return _trellis.cli_bytes(self._core, os.fspath(machine) if machine else "", set or {}, binary)
+        with _MachineFile(machine) as path:
+            return _trellis.cli_bytes(self._core, path, set or {}, binary)
 
     def png(self, layer=0, size=600):
         """A PNG (bytes) of one layer."""
@@ -268,23 +295,102 @@ def _call(route, input, outputs, machine, set, progress, kwargs, command=None, e
     return Result(_trellis.run(route, _path(input), outs, _path(machine), values, cmd, progress))
 
 
-def _temp_input(obj, suffix):
-    """A Lattice or Toolpath object written to a temporary file for a route that reads files."""
-    fd, path = tempfile.mkstemp(suffix=suffix, prefix="trellis_")
-    with os.fdopen(fd, "w") as f:
-        f.write(obj.to_json())
-    return path
+_SIDECAR = ("output", "toolpath", "gcode", "report", "lattice")
+
+
+def _sidecar(text, suffix, outputs):
+    """`text` as a file a route reads: beside the call's first output and named after it
+    (``p.gcode`` → ``p.gcode.toolpath.json``), so the job every output embeds names a file that
+    stays and ``trellis.rerun(output)`` regenerates it; in a temporary file, removed after the
+    call, when the call writes no file. Returns (path, remove_after)."""
+    first = next((outputs[k] for k in _SIDECAR if outputs.get(k) is not None), None)
+    if first is None:
+        fd, path = tempfile.mkstemp(suffix=suffix, prefix="trellis_")
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            f.write(text)
+        return path, True
+    path = os.fspath(first) + suffix
+    fd, tmp = tempfile.mkstemp(suffix=".tmp", prefix=".trellis_",
+                               dir=os.path.dirname(os.path.abspath(path)))
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            f.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        os.remove(tmp)
+        raise
+    return path, False
+
+
+def _object_text(obj):
+    """An in-memory input (``Lattice``, ``Toolpath``, ``Field``, or a machine profile as a dict
+    of tables) as (file text, suffix); None for a path."""
+    if isinstance(obj, Lattice):
+        return obj.to_json(), ".lattice.json"
+    if isinstance(obj, Toolpath):
+        return obj.to_json(), ".toolpath.json"
+    if isinstance(obj, Field):
+        obj._compiled()  # errors name the line and column before anything is written
+        return obj.vcad(), ".design.vcad"
+    if isinstance(obj, dict):
+        return _toml(obj), ".machine.toml"
+    return None
+
+
+def _call_object(route, input, outputs, machine, set, progress, kwargs, command=None, extra=None):
+    """_call with the input and the machine each a file or an in-memory object, written as a
+    file beside the first output (see _sidecar) and removed again if the call fails."""
+    written = []
+    ok = False
+    try:
+        paths = []
+        for obj in (input, machine):
+            text = _object_text(obj)
+            if text is None:
+                paths.append(obj)
+                continue
+            path, remove_after = _sidecar(*text, outputs)
+            written.append((path, remove_after))
+            paths.append(path)
+        result = _call(route, paths[0], outputs, paths[1], set, progress, kwargs, command, extra)
+        ok = True
+        return result
+    finally:
+        for path, remove_after in written:
+            if remove_after or not ok:
+                try:
+                    os.remove(path)
+                except FileNotFoundError:
+                    pass
+
+
+class _MachineFile:
+    """A machine profile given as a dict, in a temporary file for the call's duration."""
+
+    def __init__(self, machine):
+        self.machine = machine
+        self.temp = None
+
+    def __enter__(self):
+        if isinstance(self.machine, dict):
+            self.temp, _ = _sidecar(_toml(self.machine), ".machine.toml", {})
+            return self.temp
+        return _path(self.machine)
+
+    def __exit__(self, *exc):
+        if self.temp:
+            os.remove(self.temp)
 
 
 def lattice2d(output=None, *, preview=None, progress=None, set=None, **settings):
     """A 2D lattice from the atlas ([lattice2d] settings: pattern, cell, size, ...)."""
-    return _call("lattice2d", None, {"output": output, "preview": preview}, None, set, progress,
+    return _call_object("lattice2d", None, {"output": output, "preview": preview}, None, set, progress,
                  settings)
 
 
 def lattice3d(output=None, *, preview=None, progress=None, set=None, **settings):
     """A 3D lattice: unit cells (cell_type, cell, count) or a Voronoi foam (kind='foam')."""
-    return _call("lattice3d", None, {"output": output, "preview": preview}, None, set, progress,
+    return _call_object("lattice3d", None, {"output": output, "preview": preview}, None, set, progress,
                  settings)
 
 
@@ -294,47 +400,22 @@ def plan(planner, lattice, output=None, *, machine=None, gcode=None, report=None
     if planner not in ("gippo", "euler", "aero"):
         raise SettingError(f"unknown planner '{planner}' (expected gippo, euler or aero)",
                            element="planner")
-    temp = None
-    if isinstance(lattice, Lattice):
-        temp = lattice = _temp_input(lattice, ".json")
-    try:
-        return _call("plan", lattice, {"toolpath": output, "gcode": gcode, "report": report,
-                                       "preview": preview}, machine, set, progress, settings,
-                     command=planner, extra={"plan.planner": planner})
-    finally:
-        if temp:
-            os.remove(temp)
+    return _call_object("plan", lattice, {"toolpath": output, "gcode": gcode, "report": report,
+                                          "preview": preview}, machine, set, progress, settings,
+                        command=planner, extra={"plan.planner": planner})
 
 
 def gcode(toolpath, output=None, *, machine, progress=None, set=None, **settings):
     """G-code (or .nc) from a toolpath (a file or a ``Toolpath``) for a machine profile."""
-    temp = None
-    if isinstance(toolpath, Toolpath):
-        temp = toolpath = _temp_input(toolpath, ".json")
-    try:
-        return _call("gcode", toolpath, {"output": output}, machine, set, progress, settings)
-    finally:
-        if temp:
-            os.remove(temp)
+    return _call_object("gcode", toolpath, {"output": output}, machine, set, progress, settings)
 
 
 def slice(design, output=None, *, machine, report=None, toolpath=None, preview=None,
           progress=None, set=None, **settings):
     """Slices a .vcad design, a mesh, or a ``Field`` built in Python: walls, skins, infill;
     graded designs with strategy=1 or 2."""
-    temp = None
-    if isinstance(design, Field):
-        parse_vcad(design.vcad())
-        fd, temp = tempfile.mkstemp(suffix=".vcad", prefix="trellis_design_")
-        with os.fdopen(fd, "w") as f:
-            f.write(design.vcad())
-        design = temp
-    try:
-        return _call("slice", design, {"output": output, "report": report, "toolpath": toolpath,
-                                       "preview": preview}, machine, set, progress, settings)
-    finally:
-        if temp:
-            os.remove(temp)
+    return _call_object("slice", design, {"output": output, "report": report, "toolpath": toolpath,
+                                          "preview": preview}, machine, set, progress, settings)
 
 
 def parse_vcad(text, name="<vcad>"):
@@ -342,28 +423,45 @@ def parse_vcad(text, name="<vcad>"):
     return _trellis.parse_vcad(text, name)
 
 
+def _core_or_path(obj, kind, name):
+    if isinstance(obj, kind):
+        return obj._core
+    if isinstance(obj, (Lattice, Toolpath, Field)):
+        raise TypeError(f"{name} must be a file or a trellis.{kind.__name__}, "
+                        f"got a trellis.{type(obj).__name__}")
+    return os.fspath(obj)
+
+
 def analyze(gcode, design=None, *, bead_width=0.0, layer_height=0.0, align=False, strict=False):
-    """Measures any G-code (ours or another slicer's) against a design lattice: the same numbers
-    as `trellis analyze`, as a dict."""
+    """Measures a print against a design lattice: the same numbers as `trellis analyze`, as a
+    dict. ``gcode`` is any G-code file (ours or another slicer's) or a ``Toolpath`` (measured as
+    planned: no filament or retractions, which the machine adds); ``design`` a lattice file or a
+    ``Lattice``."""
     import json
-    return json.loads(_trellis.analyze_json(os.fspath(gcode), _path(design), bead_width, layer_height,
-                                            align, strict))
+    return json.loads(_trellis.analyze_json(
+        _core_or_path(gcode, Toolpath, "gcode"),
+        None if design is None else _core_or_path(design, Lattice, "design"),
+        bead_width, layer_height, align, strict))
 
 
 def check(lattice, print_file, *, machine=None, set=None, **nozzle):
     """Replays a print against the nozzle model (collisions, struts missing or repeated), as a
-    dict; nozzle settings by keyword (radius, tip_clearance, node_clearance, cone)."""
+    dict; ``lattice`` a file or a ``Lattice``, ``print_file`` G-code, a toolpath file or a
+    ``Toolpath``; nozzle settings by keyword (radius, tip_clearance, node_clearance, cone)."""
     import json
     values = {f"nozzle.{k}": v for k, v in nozzle.items()}
     values.update(set or {})
-    return json.loads(_trellis.check_json(os.fspath(lattice), os.fspath(print_file), _path(machine),
-                                          values))
+    with _MachineFile(machine) as path:
+        return json.loads(_trellis.check_json(_core_or_path(lattice, Lattice, "lattice"),
+                                              _core_or_path(print_file, Toolpath, "print_file"),
+                                              path, values))
 
 
 def pbf(output=None, *, envelope=None, machine=None, report=None, toolpath=None, preview=None,
         progress=None, set=None, **settings):
-    """Laser powder-bed paths for a TPMS sheet lattice (.cli)."""
-    return _call("pbf", envelope, {"output": output, "report": report, "toolpath": toolpath,
+    """Laser powder-bed paths for a TPMS sheet lattice (.cli); ``envelope`` a design file or a
+    ``Field``."""
+    return _call_object("pbf", envelope, {"output": output, "report": report, "toolpath": toolpath,
                                    "preview": preview}, machine, set, progress, settings)
 
 
@@ -371,13 +469,13 @@ def nonplanar(surface=None, output=None, *, machine, report=None, toolpath=None,
               progress=None, set=None, **settings):
     """Non-planar layers on a surface mesh, a height function (height_fn, domain) or a test
     surface (set={'surface.kind': 'corrugation'})."""
-    return _call("nonplanar", surface, {"output": output, "report": report, "toolpath": toolpath,
+    return _call_object("nonplanar", surface, {"output": output, "report": report, "toolpath": toolpath,
                                         "preview": preview}, machine, set, progress, settings)
 
 
 def surface(kind, output=None, *, machine=None, preview=None, progress=None, set=None, **settings):
     """The non-planar paper's test surfaces (STL), or the angle test (toolpath JSON / G-code)."""
-    return _call("surface", None, {"output": output, "preview": preview}, machine, set, progress,
+    return _call_object("surface", None, {"output": output, "preview": preview}, machine, set, progress,
                  settings, extra={"surface.kind": kind})
 
 

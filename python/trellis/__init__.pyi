@@ -7,6 +7,7 @@ import numpy as np
 from .errors import GeometryError, InputError, SettingError, TrellisError
 
 PathLike = str | _PathLike[str]
+Machine = PathLike | Mapping[str, Mapping[str, Any]]
 Progress = Callable[[str, float], None]
 
 __version__: str
@@ -41,11 +42,15 @@ class Toolpath:
     path_count: int
     point_count: int
     extrusion_length: float
+    @staticmethod
+    def from_arrays(points: Any, path_offsets: Any = None, layer_offsets: Any = None, *, layer_z: Any = None,
+                    role: Any = 'strut', tool: Any = 0, width: Any = 0.0, height: Any = 0.0, speed: Any = 0.0,
+                    power: Any = 0.0, temperature: Any = 0.0, mixture: Any = None) -> Toolpath: ...
     def arrays(self) -> dict[str, np.ndarray]: ...
     def path(self, i: int) -> np.ndarray: ...
     def to_json(self) -> str: ...
-    def gcode(self, machine: PathLike | None = None, set: Mapping[str, Any] | None = None) -> str: ...
-    def cli(self, machine: PathLike | None = None, set: Mapping[str, Any] | None = None, binary: bool = False) -> bytes: ...
+    def gcode(self, machine: Machine | None = None, set: Mapping[str, Any] | None = None) -> str: ...
+    def cli(self, machine: Machine | None = None, set: Mapping[str, Any] | None = None, binary: bool = False) -> bytes: ...
     def png(self, layer: int = 0, size: int = 600) -> bytes: ...
     def view_html(self, title: str | None = None) -> str: ...
     def save_view(self, path: PathLike, title: str | None = None) -> None: ...
@@ -121,7 +126,7 @@ def lattice3d(
 ) -> Result: ...
 
 def plan(
-    planner: Literal['gippo', 'euler', 'aero'], lattice: PathLike | Lattice, output: PathLike | None = None, *, machine: PathLike | None = None, gcode: PathLike | None = None, report: PathLike | None = None, preview: PathLike | None = None,
+    planner: Literal['gippo', 'euler', 'aero'], lattice: PathLike | Lattice, output: PathLike | None = None, *, machine: Machine | None = None, gcode: PathLike | None = None, report: PathLike | None = None, preview: PathLike | None = None,
     progress: Progress | None = None,
     set: Mapping[str, Any] | None = None,
     arrowhead_inner: float = ...,  # lattice2d.arrowhead_inner: arrowhead: inner chevron angle
@@ -192,7 +197,7 @@ def plan(
 ) -> Result: ...
 
 def gcode(
-    toolpath: PathLike | Toolpath, output: PathLike | None = None, *, machine: PathLike,
+    toolpath: PathLike | Toolpath, output: PathLike | None = None, *, machine: Machine,
     progress: Progress | None = None,
     set: Mapping[str, Any] | None = None,
     center: bool = ...,  # placement.center: move the part's XY centre to the bed centre (false: design coordinates are bed coordinates)
@@ -207,7 +212,7 @@ def gcode(
 ) -> Result: ...
 
 def slice(
-    design: PathLike, output: PathLike | None = None, *, machine: PathLike, report: PathLike | None = None, toolpath: PathLike | None = None, preview: PathLike | None = None,
+    design: PathLike | Field, output: PathLike | None = None, *, machine: Machine, report: PathLike | None = None, toolpath: PathLike | None = None, preview: PathLike | None = None,
     progress: Progress | None = None,
     set: Mapping[str, Any] | None = None,
     bead_width: float = ...,  # slice.bead_width: bead width (wall and fill spacing)
@@ -259,7 +264,7 @@ def slice(
 ) -> Result: ...
 
 def pbf(
-    output: PathLike | None = None, *, envelope: PathLike | None = None, machine: PathLike | None = None, report: PathLike | None = None, toolpath: PathLike | None = None, preview: PathLike | None = None,
+    output: PathLike | None = None, *, envelope: PathLike | Field | None = None, machine: Machine | None = None, report: PathLike | None = None, toolpath: PathLike | None = None, preview: PathLike | None = None,
     progress: Progress | None = None,
     set: Mapping[str, Any] | None = None,
     beam_comp: float = ...,  # scan.beam_compensation: beam compensation: hatch ends pulled in by this
@@ -300,7 +305,7 @@ def pbf(
 ) -> Result: ...
 
 def nonplanar(
-    surface: PathLike | None = None, output: PathLike | None = None, *, machine: PathLike, report: PathLike | None = None, toolpath: PathLike | None = None, preview: PathLike | None = None,
+    surface: PathLike | None = None, output: PathLike | None = None, *, machine: Machine, report: PathLike | None = None, toolpath: PathLike | None = None, preview: PathLike | None = None,
     progress: Progress | None = None,
     set: Mapping[str, Any] | None = None,
     amplitude_scale: float = ...,  # surface.amplitude_scale: corrugation amplitude factor
@@ -341,7 +346,7 @@ def nonplanar(
 ) -> Result: ...
 
 def surface(
-    kind: str, output: PathLike | None = None, *, machine: PathLike | None = None, preview: PathLike | None = None,
+    kind: str, output: PathLike | None = None, *, machine: Machine | None = None, preview: PathLike | None = None,
     progress: Progress | None = None,
     set: Mapping[str, Any] | None = None,
     amplitude_scale: float = ...,  # surface.amplitude_scale: corrugation amplitude factor
@@ -379,9 +384,9 @@ def read_lattice(path: PathLike, merge_tolerance: float = 1e-6) -> Lattice: ...
 def read_toolpath(path: PathLike) -> Toolpath: ...
 def notebook_viewer() -> Any: ...
 def parse_vcad(text: str, name: str = ...) -> dict[str, Any]: ...
-def analyze(gcode: PathLike, design: PathLike | None = None, *, bead_width: float = ...,
+def analyze(gcode: PathLike | Toolpath, design: PathLike | Lattice | None = None, *, bead_width: float = ...,
             layer_height: float = ..., align: bool = ..., strict: bool = ...) -> dict[str, Any]: ...
-def check(lattice: PathLike, print_file: PathLike, *, machine: PathLike | None = None,
+def check(lattice: PathLike | Lattice, print_file: PathLike | Toolpath, *, machine: Machine | None = None,
           set: Mapping[str, Any] | None = None, **nozzle: float) -> dict[str, Any]: ...
-from .fields import (Field, cone, cube, cylinder, difference, fgrade, function, gyroid,
+from .fields import (Field, Mesh, cone, cube, cylinder, difference, fgrade, function, gyroid,
                      intersection, mesh, rectprism, sphere, torus, tpms, union)

@@ -10,6 +10,8 @@ import math
 import numbers
 import os
 
+from . import _trellis
+
 _TPMS = ("gyroid", "schwarz_p", "schwarz_d", "diamond", "neovius", "iwp")
 
 
@@ -49,10 +51,79 @@ def _field(f, name="argument"):
 
 
 class Field:
-    """An implicit design (a .vcad statement)."""
+    """An implicit design (a .vcad statement). Besides slicing it, probe it with the kernel the
+    slicer uses (the text compiled once, on first use): ``evaluate(points)``, ``bounds()``,
+    ``sample(step)`` and ``mesh(step)``."""
 
     def __init__(self, text):
         self._text = text
+        self._core = None
+
+    @staticmethod
+    def from_vcad(text, name="<vcad>"):
+        """A field from .vcad text (checked now: errors name the line and column)."""
+        f = Field(text.rstrip("\n"))
+        f._core = _trellis.compile_vcad(f.vcad(), name)
+        return f
+
+    def _compiled(self):
+        if self._core is None:
+            self._core = _trellis.compile_vcad(self.vcad(), "<field>")
+        return self._core
+
+    @property
+    def materials(self):
+        """Material names in order of first appearance (the columns of ``fractions``)."""
+        return list(self._compiled().materials)
+
+    def bounds(self):
+        """The solid's box ((xmin, ymin, zmin), (xmax, ymax, zmax)); infinite coordinates where
+        the design is unbounded (a TPMS without a root box)."""
+        return self._compiled().bounds()
+
+    def evaluate(self, points, progress=None):
+        """The field at points (n, 3): ``{'distance': (n,), 'fractions': (n, k), 'materials'}``.
+        Distance is negative inside, zero on the surface (a signed distance for primitives, a
+        bound for the rest); fractions are the materials' volume fractions (k = 0 when the design
+        names none)."""
+        out = self._compiled().evaluate(points, progress)
+        out["materials"] = self.materials
+        return out
+
+    def _box(self, box, pad):
+        if box is None:
+            lo, hi = self.bounds()
+            if not all(math.isfinite(v) for v in lo + hi):
+                from .errors import SettingError
+                raise SettingError("the design is unbounded (a TPMS without a root box?): give "
+                                   "box=((xmin, ymin, zmin), (xmax, ymax, zmax))", element="box")
+            return [v - pad for v in lo], [v + pad for v in hi]
+        if len(box) != 2:
+            raise TypeError("box must be (min, max), each (x, y, z)")
+        return box
+
+    def sample(self, step, box=None, *, progress=None, max_memory=None, force=False):
+        """The field on a grid of spacing ``step`` (mm) over ``box`` (default: the bounds):
+        ``distance`` (nx, ny, nz) and ``fractions`` (nx, ny, nz, k), node (i, j, k) at
+        (``x[i]``, ``y[j]``, ``z[k]``), and ``origin``, ``step``, ``materials``. A grid beyond
+        ``max_memory`` MB (default: the memory available) is refused with the estimate unless
+        ``force``."""
+        lo, hi = self._box(box, 0.0)
+        out = self._compiled().sample(lo, hi, float(step), float(max_memory or 0), force, progress)
+        out["materials"] = self.materials
+        return out
+
+    def mesh(self, step, box=None, *, stl=None, progress=None, max_memory=None, force=False):
+        """The surface (f = 0) as a triangle mesh by marching cubes at ``step`` mm (OpenVDB, as
+        the PBF route's STL comparison), over ``box`` (default: the bounds plus two steps): a
+        ``trellis.Mesh`` with ``vertices`` (n, 3) and ``faces`` (m, 3); ``stl=path`` also writes
+        it as binary STL. Refused beyond ``max_memory`` MB unless ``force``."""
+        lo, hi = self._box(box, 2 * float(step))
+        out = self._compiled().mesh(lo, hi, float(step), float(max_memory or 0), force, progress)
+        m = Mesh(out["vertices"], out["faces"])
+        if stl is not None:
+            m.write_stl(stl)
+        return m
 
     def __or__(self, other):
         return union(self, other)
@@ -84,6 +155,32 @@ class Field:
     def __repr__(self):
         first = self._text.splitlines()[0]
         return f"<trellis.Field {first[:60]}>"
+
+
+class Mesh:
+    """A triangle mesh: ``vertices`` (n, 3) float and ``faces`` (m, 3) vertex indices,
+    counter-clockwise seen from outside."""
+
+    def __init__(self, vertices, faces):
+        self.vertices = vertices
+        self.faces = faces
+
+    def volume(self):
+        """The enclosed volume (mm³), from the divergence theorem (closed meshes)."""
+        v = self.vertices[self.faces]
+        return float((v[:, 0] * (_cross(v[:, 1], v[:, 2]))).sum() / 6.0)
+
+    def write_stl(self, path):
+        """Binary STL, written atomically by the library's writer."""
+        _trellis.write_stl(self.vertices, self.faces, os.fspath(path))
+
+    def __repr__(self):
+        return f"<trellis.Mesh {len(self.vertices)} vertices, {len(self.faces)} faces>"
+
+
+def _cross(a, b):
+    import numpy
+    return numpy.cross(a, b)
 
 
 def _indent(text):

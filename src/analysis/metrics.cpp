@@ -93,6 +93,27 @@ void CountingSink::finish() {
   close_path();
 }
 
+GcodeCounts toolpath_counts(const Toolpath& toolpath) {
+  CountingSink sink;
+  bool first = true;
+  Vec3 at;
+  for (const auto& layer : toolpath.layers) {
+    sink.layer_change(layer.z);
+    for (const auto& p : layer.paths) {
+      sink.role(p.role);
+      if (!first && !p.joined) {
+        for (const Vec3& v : p.via) sink.travel(at, v, 0), at = v;
+        sink.travel(at, p.points.front(), 0);
+      }
+      for (std::size_t i = 1; i < p.points.size(); ++i)
+        sink.extrude(p.points[i - 1], p.points[i], 0, p.speed);
+      if (!p.points.empty()) at = p.points.back(), first = false;
+    }
+  }
+  sink.finish();
+  return sink.counts;
+}
+
 void CountingSink::retract() {
   ++counts.retractions;
   if (counts.per_layer.empty())

@@ -90,8 +90,8 @@ Field mesh_field(const TriangleMesh& input, const MeshSdfOptions& options, std::
   return Field(node);
 }
 
-TriangleMesh field_to_mesh(const Field& field, const BBox3& box, double voxel,
-                           MeshingStats* stats) {
+TriangleMesh field_to_mesh(const Field& field, const BBox3& box, double voxel, MeshingStats* stats,
+                           const Progress* progress) {
   static std::once_flag init;
   std::call_once(init, [] { openvdb::initialize(); });
   if (!(voxel > 0)) throw GeometryError("meshing voxel must be > 0");
@@ -117,7 +117,11 @@ TriangleMesh field_to_mesh(const Field& field, const BBox3& box, double voxel,
   std::vector<Vec3> pts;
   std::vector<double> val;
   std::size_t samples = 0;
-  for (int bk = 0; bk < nz; bk += B)
+  for (int bk = 0; bk < nz; bk += B) {
+    if (progress) {
+      progress->check("meshing");
+      (*progress)("meshing", static_cast<double>(bk) / nz);
+    }
     for (int bj = 0; bj < ny; bj += B)
       for (int bi = 0; bi < nx; bi += B) {
         BBox3 b;
@@ -145,11 +149,13 @@ TriangleMesh field_to_mesh(const Field& field, const BBox3& box, double voxel,
               acc.setValue(openvdb::Coord(i0 + i, j0 + j, k0 + k), static_cast<float>(v));
             }
       }
+  }
   openvdb::tools::signedFloodFill(grid->tree());
   std::vector<openvdb::Vec3s> points;
   std::vector<openvdb::Vec3I> tris;
   std::vector<openvdb::Vec4I> quads;
   openvdb::tools::volumeToMesh(*grid, points, tris, quads, 0.0);
+  if (progress) (*progress)("meshing", 1.0);
   TriangleMesh mesh;
   mesh.vertices.reserve(points.size());
   for (const auto& p : points) mesh.vertices.push_back({p.x(), p.y(), p.z()});

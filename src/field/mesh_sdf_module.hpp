@@ -1,6 +1,7 @@
 // The OpenVDB module's table (src/core/module.hpp): mesh -> distance field and back.
 #pragma once
 #include "../core/module.hpp"
+#include "trellis/core/progress.hpp"
 #include "trellis/field/field.hpp"
 #include "trellis/geom/mesh.hpp"
 
@@ -9,7 +10,7 @@ namespace trellis {
 struct MeshSdfModule {
   detail::ModuleHeader header;
   Field (*mesh_field)(const TriangleMesh&, const MeshSdfOptions&, std::string);
-  TriangleMesh (*field_to_mesh)(const Field&, const BBox3&, double, MeshingStats*);
+  TriangleMesh (*field_to_mesh)(const Field&, const BBox3&, double, MeshingStats*, const Progress*);
 };
 
 }  // namespace trellis

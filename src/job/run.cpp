@@ -212,7 +212,8 @@ void check_profile_kind(const Job& job, const std::vector<std::string>& sections
                        {job.machine, extrusion->origin.line, extrusion_key});
   if (!route_laser && laser && !extrusion)
     throw SettingError("the " + job.route + " route makes extrusion paths and needs an FDM, "
-                       "pneumatic or bath profile; this is a laser profile",
+                       "pneumatic or bath profile; this is a laser profile (a laser build is a .cli file: "
+                       "the pbf route, or Toolpath.cli in Python)",
                        {job.machine, laser->origin.line, laser_key});
 }
 

@@ -1,13 +1,13 @@
 #include "trellis/toolpath/json.hpp"
 
-#include "trellis/version.hpp"
-
 #include <cmath>
 #include <nlohmann/json.hpp>
 
 #include "../core/json_document.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
+#include "trellis/toolpath/check.hpp"
+#include "trellis/version.hpp"
 
 namespace trellis {
 
@@ -84,12 +84,7 @@ Path parse_path(const json& jp, const std::string& origin, const std::string& el
   p.power = optional_number(jp, "power", origin, el);
   p.filament = optional_number(jp, "filament", origin, el);
   p.temperature = optional_number(jp, "temperature", origin, el);
-  if (p.tool < 0 || p.width < 0 || p.height < 0 || p.speed < 0 || p.power < 0 || p.filament < 0 ||
-      p.temperature < 0)
-    throw ParseError("tool, width, height, speed, power, filament and temperature must be >= 0",
-                     {origin, 0, el});
   p.flow = optional_number(jp, "flow", origin, el);
-  if (p.flow < 0) throw ParseError("flow must be >= 0", {origin, 0, el + ".flow"});
   if (auto it = jp.find("fan"); it != jp.end()) {
     p.fan = number(*it, origin, el + ".fan");
     if (p.fan < 0 || p.fan > 100) throw ParseError("fan must be 0..100 %", {origin, 0, el + ".fan"});
@@ -125,6 +120,14 @@ Path parse_path(const json& jp, const std::string& origin, const std::string& el
     if (!q.is_array() || q.size() != 3) throw ParseError("expected [x, y, z]", {origin, 0, pe});
     p.points.push_back(
         {number(q[0], origin, pe), number(q[1], origin, pe), number(q[2], origin, pe)});
+  }
+  if (const auto problem = path_problem(p)) {
+    const bool indexed = problem->attribute == "points" || problem->attribute == "via" ||
+                         problem->attribute == "mixture";
+    throw ParseError(problem->attribute + " " + problem->message,
+                     {origin, 0,
+                      el + "." + problem->attribute +
+                          (indexed ? "[" + std::to_string(problem->index) + "]" : "")});
   }
   return p;
 }

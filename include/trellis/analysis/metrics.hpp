@@ -132,6 +132,11 @@ struct Analysis {
 Analysis analyze(const Toolpath& printed, const GcodeCounts& counts, const Graph* design,
                  const AnalysisParams& params);
 
+// The counts of a planned toolpath, as its G-code would give them to a CountingSink: every
+// segment an extrusion move, the moves between paths (through their via points) travel, feeds
+// from the paths' speeds (0: no time). Filament and retractions are the machine's, so 0.
+GcodeCounts toolpath_counts(const Toolpath& toolpath);
+
 // Reads a G-code file and analyses it (the IR is kept in memory for the design comparison).
 Analysis analyze_gcode_file(const std::string& path, const Graph* design,
                             const AnalysisParams& params, const GcodeReadOptions& read,
