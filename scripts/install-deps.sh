@@ -8,7 +8,7 @@ pkgs=(cmake g++ make pkg-config ninja-build ccache
       libmuparser-dev libopenvdb-dev libboost-iostreams-dev lib3mf-dev libzip-dev libexpat1-dev
       libglpk-dev zlib1g-dev libgtest-dev libbenchmark-dev prusa-slicer python3
       pybind11-dev python3-dev python3-numpy python3-pytest python3-distributed
-      chromium firefox-esr time)
+      python3-pip python3-venv chromium firefox-esr time)
 missing=()
 for p in "${pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
