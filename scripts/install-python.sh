@@ -20,9 +20,11 @@ if [[ -d $site/trellis ]] && ! compgen -G "$site/trellis-*.dist-info" >/dev/null
 fi
 # Debian's Python is externally managed (PEP 668); pip installs into /usr/local, beside and not
 # over Debian's packages. Uninstalled first: the same version would otherwise be kept as it is.
-pip=("$py" -m pip --root-user-action=ignore -q)
-$SUDO "${pip[@]}" uninstall -y --break-system-packages trellis 2>/dev/null || true
-$SUDO "${pip[@]}" install --no-index --break-system-packages "$tmp"/trellis-*.whl
+opts=(-q --break-system-packages --root-user-action=ignore)
+if "$py" -m pip show -q trellis >/dev/null 2>&1; then
+  $SUDO "$py" -m pip uninstall -y "${opts[@]}" trellis
+fi
+$SUDO "$py" -m pip install "${opts[@]}" --no-index "$tmp"/trellis-*.whl
 version=$(cd / && "$py" -c 'import trellis; print(trellis.__version__)')
 bin=$("$py" -c 'import sysconfig; print(sysconfig.get_path("scripts"))')
 echo "installed trellis $version into $site and the trellis command into $bin"

@@ -8,7 +8,7 @@ PyPI is not reachable. With `requires = []` pip's isolated build has nothing to 
 
 The build tree: $TRELLIS_BUILD_DIR if set (configured there if it is new), else build/release when
 it was configured for this interpreter's extension ABI, else build/wheel-<python tag> (configured
-here for sys.executable, without tests and benchmarks). Only the targets the wheel carries are
+here for this interpreter, without tests and benchmarks). Only the targets the wheel carries are
 built. Progress goes to stderr (`pip install -v .` shows it).
 """
 import base64
@@ -118,11 +118,17 @@ def _unsuitable(tree):
 
 
 def _configure(tree):
-    _say(f"configuring {tree} for {sys.executable}")
+    _say(f"configuring {tree} for {_base_interpreter()}")
     generator = ["-G", "Ninja"] if _which("ninja") else []
     _run(["cmake", "-S", SOURCE, "-B", tree, *generator, "-DCMAKE_BUILD_TYPE=Release",
           "-DTRELLIS_BUILD_TESTS=OFF", "-DTRELLIS_BUILD_BENCH=OFF", "-DTRELLIS_BUILD_PYTHON=ON",
-          f"-DPython_EXECUTABLE={sys.executable}"])
+          f"-DPython_EXECUTABLE={_base_interpreter()}"])
+
+
+def _base_interpreter():
+    """The interpreter itself rather than a virtual environment's link to it: the tree's cache
+    keeps working after the environment is removed (the extension ABI is the same)."""
+    return os.path.realpath(getattr(sys, "_base_executable", sys.executable))
 
 
 def _which(program):
