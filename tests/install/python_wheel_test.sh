@@ -57,6 +57,13 @@ rc=0
 "$venv/bin/trellis" lattice2d --pattern no-such-pattern -o v.json 2>/dev/null || rc=$?
 [[ $rc == 2 ]] ||
   { echo "trellis with a bad pattern exited $rc through the entry point, not 2" >&2; exit 1; }
+# The CLI loads libtrellis and the CGAL module (Voronoi) from the environment.
+LD_DEBUG=files "$venv/bin/trellis" lattice2d --pattern voronoi -o v.json >/dev/null 2>ld.txt
+loaded=$(grep -o 'file=/[^ ]*trellis[^/ ]*\.so[^ ]*' ld.txt | sort -u | sed 's/^file=//')
+grep -q '/lib/trellis/trellis_cgal\.so$' <<<"$loaded" ||
+  { echo "the CLI did not load the environment's CGAL module:" >&2; echo "$loaded" >&2; exit 1; }
+outside=$(grep -v "^$venv/" <<<"$loaded" || true)
+[[ -z $outside ]] || { echo "the CLI loaded from outside the environment: $outside" >&2; exit 1; }
 
 # The routes below load the CGAL and cairo modules; every Trellis library mapped must be the
 # environment's.
