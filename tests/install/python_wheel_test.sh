@@ -87,6 +87,6 @@ assert not outside, f"loaded from outside the environment: {outside}"
 EOF
 
 TRELLIS_CLI=$venv/bin/trellis TRELLIS_SOURCE_DIR=$src "$venv/bin/python" -m pytest -q \
-  -p no:cacheprovider --basetemp="$tmp/pytest" "$src/python/tests"
+  -p no:cacheprovider --durations=8 --basetemp="$tmp/pytest" "$src/python/tests"
 echo "$(basename "${wheels[0]}") ($(du -k "${wheels[0]}" | cut -f1) KiB) installed into a venv;" \
      "python/tests passed there"
