@@ -218,6 +218,36 @@ def test_outputs_made_from_objects_rerun_to_the_same_bytes(tmp_path, private_tmp
     assert filecmp.cmp(tmp_path / "moved" / "v.gcode", tmp_path / "moved" / "v2.gcode", shallow=False)
 
 
+def test_a_mesh_object_is_a_mesh_file(tmp_path):
+    """A ``Mesh`` goes where a mesh file goes: nonplanar's surface and slice's design, the same
+    paths as from the file, and the output reruns from the mesh written beside it."""
+    n = 25
+    x, y = np.meshgrid(np.linspace(0, 24, n), np.linspace(0, 12, n // 2 + 1))
+    z = 1.5 * np.sin(x / 24 * 2 * np.pi)
+    vertices = np.column_stack([x.ravel(), y.ravel(), z.ravel()])
+    faces = []
+    rows, cols = x.shape
+    for r in range(rows - 1):
+        for c in range(cols - 1):
+            a = r * cols + c
+            faces += [(a, a + 1, a + cols + 1), (a, a + cols + 1, a + cols)]
+    surface = trellis.Mesh(vertices, np.array(faces))
+    fresh = os.path.join(ROOT, "profiles", "fresh_nonplanar_2syringe.toml")
+    a = trellis.nonplanar(surface, tmp_path / "a.gcode", machine=fresh, layers=2)
+    assert (tmp_path / "a.gcode.mesh.obj").exists()
+    with open(tmp_path / "s.obj", "w") as f:
+        f.write(surface.obj_text())
+    b = trellis.nonplanar(str(tmp_path / "s.obj"), tmp_path / "b.gcode", machine=fresh, layers=2)
+    assert a.toolpath.path_count == b.toolpath.path_count > 0
+    assert a.toolpath.point_count == b.toolpath.point_count
+    trellis.rerun(tmp_path / "a.gcode", tmp_path / "again.gcode")
+    assert filecmp.cmp(tmp_path / "a.gcode", tmp_path / "again.gcode", shallow=False)
+    # A closed mesh from a field slices like its file.
+    box = trellis.rectprism(10, 8, 2).mesh(0.25)
+    s = trellis.slice(box, tmp_path / "box.gcode", machine=ENDER, strategy="none")
+    assert s.toolpath.path_count > 0 and (tmp_path / "box.gcode.mesh.obj").exists()
+
+
 def test_a_failed_call_leaves_no_design_behind(tmp_path, private_tmp):
     tp = trellis.Toolpath.from_arrays(spiral_vase(radius=400.0, turns=2), height=0.2)  # beyond the bed
     with pytest.raises(trellis.MachineError):

@@ -323,8 +323,8 @@ def _sidecar(text, suffix, outputs):
 
 
 def _object_text(obj):
-    """An in-memory input (``Lattice``, ``Toolpath``, ``Field``, or a machine profile as a dict
-    of tables) as (file text, suffix); None for a path."""
+    """An in-memory input (``Lattice``, ``Toolpath``, ``Field``, ``Mesh``, or a machine profile as
+    a dict of tables) as (file text, suffix); None for a path."""
     if isinstance(obj, Lattice):
         return obj.to_json(), ".lattice.json"
     if isinstance(obj, Toolpath):
@@ -332,6 +332,8 @@ def _object_text(obj):
     if isinstance(obj, Field):
         obj._compiled()  # errors name the line and column before anything is written
         return obj.vcad(), ".design.vcad"
+    if isinstance(obj, Mesh):
+        return obj.obj_text(), ".mesh.obj"
     if isinstance(obj, dict):
         return _toml(obj), ".machine.toml"
     return None
@@ -467,8 +469,8 @@ def pbf(output=None, *, envelope=None, machine=None, report=None, toolpath=None,
 
 def nonplanar(surface=None, output=None, *, machine, report=None, toolpath=None, preview=None,
               progress=None, set=None, **settings):
-    """Non-planar layers on a surface mesh, a height function (height_fn, domain) or a test
-    surface (set={'surface.kind': 'corrugation'})."""
+    """Non-planar layers on a surface mesh (a file or a ``Mesh``), a height function (height_fn,
+    domain) or a test surface (set={'surface.kind': 'corrugation'})."""
     return _call_object("nonplanar", surface, {"output": output, "report": report, "toolpath": toolpath,
                                         "preview": preview}, machine, set, progress, settings)
 

@@ -170,6 +170,16 @@ class Mesh:
         v = self.vertices[self.faces]
         return float((v[:, 0] * (_cross(v[:, 1], v[:, 2]))).sum() / 6.0)
 
+    def obj_text(self):
+        """The mesh as Wavefront OBJ text, coordinates to full double precision (what a route
+        reads when a ``Mesh`` is given where a mesh file is expected)."""
+        import io
+        import numpy
+        out = io.StringIO()
+        numpy.savetxt(out, numpy.asarray(self.vertices, dtype=float), fmt="v %.17g %.17g %.17g")
+        numpy.savetxt(out, numpy.asarray(self.faces, dtype=numpy.int64) + 1, fmt="f %d %d %d")
+        return out.getvalue()
+
     def write_stl(self, path):
         """Binary STL, written atomically by the library's writer."""
         _trellis.write_stl(self.vertices, self.faces, os.fspath(path))

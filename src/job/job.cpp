@@ -211,6 +211,7 @@ Job job_from_toml(const std::string& text, const std::string& origin, const std:
   const toml::table* jt = root["job"].as_table();
   if (!jt) throw SettingError("a job needs a [job] table with route = \"...\"", {origin, 1, "job"});
   Job job;
+  job.embedded = embedded;
   job.name = fs::path(origin).stem().string();
   std::string output_dir;
   // Explicit outputs are names inside the output folder; resolved once the folder is known.

@@ -1148,7 +1148,8 @@ JobResult nonplanar(const Job& job, const Config& c, Diagnostics& diag, const Pr
   HeightField surface;
   if (!job.input.empty() && !np.height_fn.empty())
     throw SettingError("give a surface mesh or nonplanar.height_fn, not both", {"", 0, "nonplanar.height_fn"});
-  if ((!job.input.empty() || !np.height_fn.empty()) && job.settings.has("surface.kind"))
+  if ((!job.input.empty() || !np.height_fn.empty()) && job.settings.has("surface.kind") &&
+      !job.embedded)
     throw SettingError("give one surface: a mesh, nonplanar.height_fn or a test surface (surface.kind)",
                        {"", 0, "surface.kind"});
   if (!job.input.empty()) {

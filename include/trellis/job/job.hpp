@@ -60,6 +60,9 @@ struct Job {
   // false: a route that can write its outputs layer by layer in bounded memory (pbf) does so and
   // leaves JobResult::toolpath empty (the command line; Python keeps the toolpath).
   bool keep_toolpath = true;
+  // Read back from an output's header (rerun, merge): every setting is recorded there, given or
+  // not, so "the user gave this setting" cannot be told from Settings::has.
+  bool embedded = false;
 };
 
 // Routes and the settings sections each reads (for flags, headers and job checks).
