@@ -312,6 +312,31 @@ TEST(Jobs, HybridPbfWithoutContoursIsWarned) {
   EXPECT_EQ(fine.err.find("no contour vectors"), std::string::npos) << fine.err;
 }
 
+// Every shipped profile that changes tools or mixes flushes the dead volume as its comments say
+// (a prime tower needs purge.melt_volume > 0: without it 61 tool changes printed no purge), and a
+// melt printer may heat its nozzle.
+TEST(Profiles, ShippedProfilesPurgeAndHeatAsTheySay) {
+  std::size_t changers = 0;
+  for (const auto& entry : fs::directory_iterator(kRoot + "/profiles")) {
+    if (entry.path().extension() != ".toml") continue;
+    Settings s;
+    s.load_toml_file(entry.path().string());
+    const Config c = s.config();
+    const std::string name = entry.path().filename().string();
+    const bool changes = c.machine.tool_count > 1 || c.machine.mixing_inputs > 1;
+    if (changes && c.machine.flavor != "pneumatic" && c.machine.flavor != "embedded") {
+      ++changers;
+      EXPECT_GT(c.machine.melt_volume, 0) << name << ": tool changes or mixing without a purge volume";
+    }
+    std::ifstream in(entry.path());
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    if (text.find("PCL") != std::string::npos && text.find("melt") != std::string::npos) {
+      EXPECT_GE(c.machine.max_nozzle_temperature, 80) << name << ": a PCL melt needs a heated nozzle";
+    }
+  }
+  EXPECT_GE(changers, 4u);  // the two mixing hotends, the XL and the E3D tool changer
+}
+
 // Default < profile < job < command line, on every route that reads a layer height or pattern
 // setting: the written output shows the value and its header records it.
 TEST(Jobs, PrecedenceProfileJobCommandLineOnEveryRoute) {
