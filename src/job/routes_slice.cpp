@@ -1,5 +1,7 @@
 // Slicing routes: planar and graded slicing, laser powder-bed TPMS sheets, non-planar layers on
 // a surface and the non-planar paper's test surfaces.
+#include <algorithm>
+#include <cctype>
 #include <set>
 #include <fmt/format.h>
 #include <fmt/ranges.h>
@@ -74,6 +76,16 @@ JobResult shard_written(const Job& job, const Toolpath& tp, std::size_t first, s
 // A laser design (.vcad): process fields (fprocess) are FDM settings the laser route has no use
 // for, refused rather than dropped.
 Field laser_vcad(const std::string& path) {
+  // A mesh is not read as .vcad text ("unexpected character '\x00'"): the laser route plans from
+  // a field, and a solid part from a mesh is not scanned yet.
+  std::string ext = fs::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char ch) { return std::tolower(ch); });
+  if (ext == ".stl" || ext == ".obj" || ext == ".3mf")
+    throw SettingError("pbf plans TPMS sheet lattices and parts from a .vcad design (its field); "
+                       "a mesh is not scanned by this route yet: describe the part in .vcad (a "
+                       "lattice inside it with pbf.envelope, solid bosses with pbf.solids), or "
+                       "slice the mesh for extrusion with `trellis slice`",
+                       {path, 0, "job.input"});
   Field f = read_vcad(path).field;
   if (f.has_process())
     throw SettingError("the design sets process fields (fprocess: temperature, speed, flow, fan), "

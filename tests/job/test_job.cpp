@@ -337,6 +337,19 @@ TEST(Profiles, ShippedProfilesPurgeAndHeatAsTheySay) {
   EXPECT_GE(changers, 4u);  // the two mixing hotends, the XL and the E3D tool changer
 }
 
+// pbf given a mesh says what it plans from and what to do instead (it said "unexpected
+// character '\x00'", reading the STL as .vcad text); nothing is written.
+TEST(Jobs, PbfOfAMeshIsRefusedWithTheWayForward) {
+  for (const std::string mesh : {kRoot + "/examples/designs/Vase.stl",
+                                 std::string(TRELLIS_TEST_DATA) + "/mesh/unit_millimeter.3mf"}) {
+    const CmdResult r = run("pbf " + mesh + " -o " + in_work("never.cli"));
+    EXPECT_EQ(r.code, 2) << mesh;
+    EXPECT_NE(r.err.find(mesh + ":"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find(".vcad design"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(in_work("never.cli")));
+  }
+}
+
 // Default < profile < job < command line, on every route that reads a layer height or pattern
 // setting: the written output shows the value and its header records it.
 TEST(Jobs, PrecedenceProfileJobCommandLineOnEveryRoute) {
