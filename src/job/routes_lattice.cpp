@@ -129,7 +129,7 @@ Graph layered_lattice(AtlasParams base, const Config& c, int from = 0, int to = 
 Graph stacked_layers(Graph g, const Job& job, const Config& c) {
   const bool count = job.settings.has("layers.count") && c.layers.count != 1;
   const bool turned = job.settings.has("layers.rotation") && c.layers.rotation_deg != 0;
-  if (job.settings.has("layers.solid"))
+  if (!c.layers.solid.empty())
     throw SettingError("layers.solid crops a pattern made in the job; the input lattice " + job.input +
                            " is planned as it is (give the pattern's [lattice2d] settings instead of "
                            "an input, or crop the lattice before)",
