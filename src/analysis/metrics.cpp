@@ -76,6 +76,11 @@ void CountingSink::travel(Vec3 a, Vec3 b, double feed) {
   if (part_ >= 0) counts.parts[static_cast<std::size_t>(part_)].print_time_s += t;
 }
 
+void CountingSink::dwell(double seconds) {
+  counts.print_time_s += seconds;
+  if (part_ >= 0) counts.parts[static_cast<std::size_t>(part_)].print_time_s += seconds;
+}
+
 void CountingSink::close_path() {
   if (path_edges_ == 0) return;
   ++counts.paths;

@@ -191,3 +191,45 @@ TEST(Analysis, PlatePartsAreMeasuredEachOnItsOwn) {
     EXPECT_LE(parts[0].print_time_s + parts[1].print_time_s, counter.counts.print_time_s + 1e-9);
   }
 }
+
+// G4 dwells are time: the reader counts G4 P<ms> and S<s>, and a pneumatic file's dwells (before
+// and after each path) add the same time to analyze's estimate as to the writer's.
+TEST(Analysis, DwellsAreCountedAsTheWriterCountsThem) {
+  Diagnostics d;
+  CountingSink plain;
+  GcodeScanner s(plain, {}, d);
+  s.feed("G1 X10 E1 F600\nG4 P500\nG4 S2\nG4\n");
+  s.finish();
+  EXPECT_NEAR(plain.counts.print_time_s, 1 + 0.5 + 2, 1e-12);
+  EXPECT_EQ(d.total(), 0u);
+
+  AtlasParams a;
+  a.pattern = pattern_from_string("honeycomb");
+  a.region.width = a.region.height = 6;
+  PlanParams pp;
+  pp.planner = Planner::Gippo;
+  pp.gippo.iterations = 5;
+  const Toolpath tp = plan_lattice(make_lattice2d(a), pp, d).toolpath;
+  MachineProfile p = test::open_bed();
+  p.flavor = "pneumatic";
+  p.valve_on = "M3";
+  p.valve_off = "M5";
+  auto times = [&](double pre, double post) {
+    p.pre_flow_dwell = pre;
+    p.post_flow_dwell = post;
+    GcodeStats stats;
+    const std::string g = write_gcode(tp, p, &stats);
+    CountingSink counter;
+    GcodeReadOptions o;
+    o.valve_on = "M3";
+    o.valve_off = "M5";
+    GcodeScanner scan(counter, o, d);
+    scan.feed(g);
+    scan.finish();
+    return std::pair{stats.print_time_s, counter.counts.print_time_s};
+  };
+  const auto [w0, r0] = times(0, 0);
+  const auto [w1, r1] = times(0.2, 0.3);
+  ASSERT_GT(w1 - w0, 0.5 * tp.path_count() - 1e-9);
+  EXPECT_NEAR(r1 - r0, w1 - w0, 1e-6);
+}

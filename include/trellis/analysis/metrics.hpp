@@ -58,6 +58,7 @@ class CountingSink : public GcodeSink {
   void mixture(const std::vector<double>&) override { attribute_changed_ = true; }
   void temperature(double) override { attribute_changed_ = true; }
   void object(std::string_view label) override;
+  void dwell(double seconds) override;  // counted in the print time, as the writer counts it
   // Closes the last path; call once after the last line.
   void finish();
   GcodeCounts counts;

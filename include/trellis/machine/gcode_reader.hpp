@@ -57,6 +57,7 @@ class GcodeSink {
   virtual void temperature(double celsius) {}  // nozzle temperature of the tool in use
   virtual void width(double mm) {}             // from a ;WIDTH: comment
   virtual void height(double mm) {}            // from a ;HEIGHT: comment
+  virtual void dwell(double seconds) {}        // G4 P<ms> / S<s>: the machine waits
   // The moves that follow belong to the labelled part (build plates: M486 S<id> A"<label>",
   // Klipper EXCLUDE_OBJECT_START NAME=<label>); an empty label: to no part (M486 S-1,
   // EXCLUDE_OBJECT_END).
@@ -80,6 +81,7 @@ class TeeSink : public GcodeSink {
   void width(double w) override { a_.width(w), b_.width(w); }
   void height(double h) override { a_.height(h), b_.height(h); }
   void object(std::string_view l) override { a_.object(l), b_.object(l); }
+  void dwell(double s) override { a_.dwell(s), b_.dwell(s); }
 
  private:
   GcodeSink& a_;
