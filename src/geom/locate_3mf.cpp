@@ -179,33 +179,6 @@ struct Walker {
   }
 };
 
-// The model part named by _rels/.rels (the 3MF start part), else the conventional name.
-std::string start_part(zip_t* z) {
-  const std::string fallback = "3D/3dmodel.model";
-  ZipFile rels;
-  rels.f = zip_fopen(z, "_rels/.rels", 0);
-  if (!rels.f) return fallback;
-  std::string text;
-  char buf[4096];
-  zip_int64_t n = 0;
-  while (text.size() < (1u << 20) && (n = zip_fread(rels.f, buf, sizeof buf)) > 0)
-    text.append(buf, static_cast<std::size_t>(n));
-  // <Relationship Target="/3D/3dmodel.model" ... Type=".../3dmodel"/>: a tolerant look-up, the
-  // exact parse is lib3mf's.
-  for (std::size_t at = text.find("<Relationship"); at != std::string::npos;
-       at = text.find("<Relationship", at + 1)) {
-    const std::size_t end = text.find('>', at);
-    const std::string rel = text.substr(at, end == std::string::npos ? std::string::npos : end - at);
-    if (rel.find("/3dmodel\"") == std::string::npos) continue;
-    const std::size_t t = rel.find("Target=\"");
-    if (t == std::string::npos) continue;
-    std::string target = rel.substr(t + 8, rel.find('"', t + 8) - (t + 8));
-    while (!target.empty() && target[0] == '/') target.erase(0, 1);
-    if (!target.empty()) return target;
-  }
-  return fallback;
-}
-
 std::string read_entry(zip_t* z, const char* name, std::size_t limit) {
   ZipFile f;
   f.f = zip_fopen(z, name, 0);
@@ -235,6 +208,24 @@ std::string attribute_text(const std::string& element, const char* name) {
   const char quote = element[at];
   const std::size_t end = element.find(quote, at + 1);
   return end == std::string::npos ? std::string() : element.substr(at + 1, end - at - 1);
+}
+
+// The model part named by _rels/.rels (the 3MF start part), else the conventional name.
+std::string start_part(zip_t* z) {
+  const std::string fallback = "3D/3dmodel.model";
+  const std::string text = read_entry(z, "_rels/.rels", 1u << 20);
+  // <Relationship Target="/3D/3dmodel.model" ... Type=".../3dmodel"/>: a tolerant look-up, the
+  // exact parse is lib3mf's.
+  for (std::size_t at = text.find("<Relationship"); at != std::string::npos;
+       at = text.find("<Relationship", at + 1)) {
+    const std::size_t end = text.find('>', at);
+    const std::string rel = text.substr(at, end == std::string::npos ? std::string::npos : end - at);
+    if (rel.find("/3dmodel\"") == std::string::npos) continue;
+    std::string target = attribute_text(rel, "Target");
+    while (!target.empty() && target[0] == '/') target.erase(0, 1);
+    if (!target.empty()) return target;
+  }
+  return fallback;
 }
 
 }  // namespace

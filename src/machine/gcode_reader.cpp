@@ -43,14 +43,17 @@ bool moves(Vec3 a, Vec3 b) {
   return dot(d, d) > kStillSquared;
 }
 
+// A profile's valve command may carry a comment ("M3 ; pressure on"): the command is its words.
+std::string command_words(std::string_view command) {
+  return std::string(trim(command.substr(0, command.find(';'))));
+}
+
 }  // namespace
 
 GcodeScanner::GcodeScanner(GcodeSink& sink, GcodeReadOptions options, Diagnostics& diag,
                            std::string origin)
     : sink_(sink), opt_(std::move(options)), diag_(diag), origin_(std::move(origin)) {
-  // A profile's valve command may carry a comment ("M3 ; pressure on"): the command is its words.
-  for (std::string* v : {&opt_.valve_on, &opt_.valve_off})
-    *v = std::string(trim(std::string_view(*v).substr(0, v->find(';'))));
+  for (std::string* v : {&opt_.valve_on, &opt_.valve_off}) *v = command_words(*v);
   header_valves_ = opt_.valve_on.empty() && opt_.valve_off.empty();
 }
 
@@ -89,8 +92,7 @@ void GcodeScanner::comment(std::string_view c) {
       if (key == "flavor") {
         pneumatic_header_ = value == "pneumatic";
       } else if (pneumatic_header_ && (key == "valve_on" || key == "valve_off")) {
-        std::string& v = key == "valve_on" ? opt_.valve_on : opt_.valve_off;
-        v = std::string(trim(std::string_view(value).substr(0, value.find(';'))));
+        (key == "valve_on" ? opt_.valve_on : opt_.valve_off) = command_words(value);
       }
     }
     return;

@@ -371,8 +371,7 @@ void check_rules(const Config& c, const Settings& st, const std::vector<std::str
     return Where{"", 0, a + " (" + st.origin_text(a) + ") and " + b + " (" + st.origin_text(b) + ")"};
   };
   const double nozzle = c.machine.nozzle_diameter;
-  const bool fdm = c.machine.flavor == "marlin" || c.machine.flavor == "reprap" ||
-                   c.machine.flavor == "klipper";  // Marlin's family (MachineProfile::parsed_flavor)
+  const bool fdm = c.machine.parsed_flavor() == Flavor::Marlin;  // Marlin, RepRapFirmware, Klipper
   // In air (FDM: Marlin, RepRapFirmware, Klipper) a bead taller than 0.8 × the nozzle does not
   // bond; in a bath or from a syringe the bead is a strut as thick as the nozzle, so the rule is
   // FDM's only.
