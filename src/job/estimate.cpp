@@ -3,6 +3,8 @@
 // estimate is an order of magnitude, enough to refuse a run that would take hours or more memory
 // than the machine has, never a promise.
 #include <fmt/format.h>
+
+#include <filesystem>
 #include <tbb/task_arena.h>
 
 #include <algorithm>
@@ -115,6 +117,20 @@ Estimate estimate_nonplanar(const BBox2& domain, const NonplanarParams& p) {
   e.what = fmt::format("{} non-planar layers of {:.3g} lines over {:.0f} x {:.0f} mm", p.layers,
                        lines, wx, wy);
   e.change = "--bead-width (nonplanar.bead_width), --layers (nonplanar.layers) or the domain";
+  return e;
+}
+
+Estimate estimate_gcode_of(const std::string& toolpath_json) {
+  std::error_code ec;
+  const double size = static_cast<double>(std::filesystem::file_size(toolpath_json, ec));
+  Estimate e;
+  if (ec) return e;  // the reader says what is wrong with the file
+  // The JSON reader holds the whole toolpath (about 4 bytes per byte of JSON); reading and
+  // writing run at roughly 50 MB/s together on one core.
+  e.bytes = size * 4;
+  e.seconds = size * 2e-8;
+  e.what = fmt::format("writing G-code from a {:.3g} MB toolpath", size / 1e6);
+  e.change = "the toolpath (plan or slice it in parts: trellis run --shard)";
   return e;
 }
 

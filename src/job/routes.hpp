@@ -87,6 +87,8 @@ Estimate estimate_lattice3d(const Config& c);
 Estimate estimate_gippo(std::size_t edges, int iterations, int seeds);
 Estimate estimate_aero(std::size_t edges, int tries);
 Estimate estimate_nonplanar(const BBox2& domain, const NonplanarParams& p);
+// Writing a toolpath JSON file as G-code: reading it and writing about as many bytes of G-code.
+Estimate estimate_gcode_of(const std::string& toolpath_json);
 Estimate estimate_pbf_time(const BBox3& box, double resolution, double layer, double threads);
 
 }  // namespace trellis::routes
