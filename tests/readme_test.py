@@ -181,10 +181,15 @@ def run_documents(root, work, env):
         cmds = commands(text)
         run_blocks, run_lines = set(), set()
         for line_no, cmd, shown, block in cmds:
-            r = subprocess.run(["bash", "-c", cmd], cwd=work, env=env, capture_output=True,
-                               text=True, timeout=600)
             run_blocks.add(block)
             run_lines.add(line_no)
+            try:
+                r = subprocess.run(["bash", "-c", cmd], cwd=work, env=env, capture_output=True,
+                                   text=True, timeout=600)
+            except subprocess.TimeoutExpired:
+                failures += 1
+                print(f"{name}:{line_no}: $ {cmd}\n    still running after 600 s")
+                continue
             printed = normal(r.stdout + r.stderr)
             expect_error = any(s.startswith("trellis: error") for s in shown)
             want = 2 if expect_error else 0
