@@ -204,7 +204,8 @@ def run_documents(root, work, env):
                 print(f"{name}:{line_no}: $ {cmd}")
                 for p in problems:
                     print(f"    {p}")
-                print("    printed:\n      " + "\n      ".join((r.stdout + r.stderr).splitlines()[:12]))
+                head = (r.stdout + r.stderr).splitlines()[:12]
+                print("    printed:\n      " + "\n      ".join(head))
         total += len(cmds)
         # A line shown as a command in an indented or ~~~ fence, or outside any fence, would
         # otherwise be skipped without a word.
