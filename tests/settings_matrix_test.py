@@ -40,12 +40,24 @@ EXEMPT = {
     "run.force": "acts only when an estimate is over run.max_time/max_memory (test_job budgets)",
     "run.follow_symlinks": "acts only on an output that is a symbolic link (tests/hostile)",
     "run.max_memory": "refuses only a run whose estimate exceeds it (test_job budgets)",
+    "machine.name": "names the printer in the output's header (the job header this test leaves out)",
+    "machine.bed_shape": "a limit: refuses a part outside the circle (test_cli_machine, "
+                         "PartBiggerThanTheBedIsRefusedOnEveryRoute)",
+}
+
+# Settings still accepted without an effect in these scenarios, each with why (issue 46 keeps
+# them open). Listed, not skipped: they are run and reported, and the test fails when one of them
+# starts to change its output or to be refused, so that the list stays true.
+KNOWN_GAPS = {
+    "plan:aero.exact_struts": "solves obstruction cycles exactly up to this many struts; the small "
+                              "lattices here have none, and no test lattice with such a cycle exists yet",
 }
 
 # Values for text and list settings (numbers, choices and booleans are generated).
 TEXT = {
     "machine.name": ["matrix printer"],
     "lattice2d.target_porosity": ["60"],
+    "lattice.merge_tolerance": ["1", "0.5"],
     "extrusion.down_flow": ["10,0.5"],
     "pneumatic.pressure_command": ["M42 P{pressure}"],
     "pneumatic.valve_on": ["M42 P1 S1"],
@@ -73,6 +85,12 @@ TEXT = {
     "nonplanar.layer_tools": ["0,1"],
     "nonplanar.height_fn": ["0.1*x"],
     "nonplanar.domain": ["0,0,10,8"],
+    # Files made by setup() ({w}: its folder).
+    "lattice3d.mesh": ["{w}/cube.stl"],
+    "layers.solid": ["{w}/cube.stl"],
+    "onto.file": ["{w}/c.stl"],
+    "pbf.envelope": ["{w}/envelope.vcad"],
+    "pbf.solids": ["{w}/boss.vcad"],
 }
 
 
@@ -108,7 +126,8 @@ def scenarios(work):
              "--set", "fgm.colors=5", "-o", "{d}/s.gcode", "--report", "{d}/r.json"],
         ],
         "pbf": [["pbf", "--cell-type", "gyroid", "--cell", "2.5", "--size", "3,3,0.5", "-o", "{d}/p.cli",
-                 "--report", "{d}/r.json"]],
+                 "--report", "{d}/r.json"],
+                ["pbf", "--size", "3,3,0.3", "-o", "{d}/p.cli"]],
         "nonplanar": [["nonplanar", work + "/c.stl", "--machine", P + "fresh_nonplanar_2syringe.toml",
                        "-o", "{d}/c.gcode", "--report", "{d}/r.json"]],
         "surface": [["surface", "corrugation", "-o", "{d}/c.stl"]],
@@ -123,6 +142,9 @@ def setup(work):
     run_ok([T, "plan", "euler", TINY, "-o", work + "/tiny.toolpath.json"])
     run_ok([T, "surface", "corrugation", "-o", work + "/c.stl"])
     open(work + "/block.vcad", "w").write(BLOCK)
+    open(work + "/envelope.vcad", "w").write("cylinder(1.4, 0.4);\n")
+    open(work + "/boss.vcad", "w").write("translate(1, 1, 0) { rectprism(0.6, 0.6, 0.4); }\n")
+    write_cube(work + "/cube.stl", 12)
     open(work + "/graded.vcad", "w").write(GRADED)
     run_ok([T, "slice", work + "/block.vcad", "--machine", P + "ender3_s1_pro_tpu.toml", "-o",
             work + "/block.gcode", "--toolpath", work + "/block.toolpath.json"])
@@ -167,6 +189,20 @@ image_size = 120
 """
 
 
+def write_cube(path, side):
+    """An ASCII STL cube, side mm, centred on the origin in XY, from Z 0."""
+    h = side / 2
+    v = [(x, y, z) for z in (0, side) for y in (-h, h) for x in (-h, h)]
+    quads = [(0, 2, 3, 1), (4, 5, 7, 6), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5)]
+    out = ["solid cube"]
+    for a, b, c, d in quads:
+        for tri in ((a, b, c), (a, c, d)):
+            out.append("facet normal 0 0 0\nouter loop")
+            out += ["vertex %g %g %g" % v[i] for i in tri]
+            out.append("endloop\nendfacet")
+    open(path, "w").write("\n".join(out + ["endsolid cube"]) + "\n")
+
+
 def run_ok(argv):
     r = subprocess.run(argv, capture_output=True, text=True)
     if r.returncode:
@@ -197,11 +233,12 @@ def alternatives(key, s):
     if key in TEXT:
         return TEXT[key]
     kind, default, rng = s["kind"], s["default"], s["range"]
+    # Every choice and both booleans: a profile may hold a value other than the default.
     if kind == "bool":
-        return ["false" if default == "true" else "true"]
+        return ["false", "true"] if default == "true" else ["true", "false"]
     if kind == "choice":
-        return [c for c in rng[len("one of "):].split(" / ") if c != default and c != '""'][:4] \
-            if " / " in rng else [c for c in rng[len("one of "):].split(", ") if c != default and c != '""'][:4]
+        choices = rng[len("one of "):].split(", ")
+        return [c for c in choices if c != default and c != '""'] + [c for c in choices if c == default]
     if kind not in ("number", "integer"):
         return None
     nums = re.findall(r"-?[0-9]+(?:\.[0-9]+)?(?:e[+-]?[0-9]+)?", rng)
@@ -227,10 +264,12 @@ def alternatives(key, s):
         t = str(int(round(c))) if integer else f"{c:.6g}"
         if t not in out and (d is None or t != default):
             out.append(t)
-    return out[:4]
+    # The default last, as a probe: a profile may hold another value (ignored when silent).
+    return out[:4] + ([default] if default else [])
 
 
-DROP = {"job", "command", "generator", "input", "seconds"}  # "seconds": the run's own timings
+# The run's own timings and memory are not output.
+DROP = {"job", "command", "generator", "input", "seconds", "time_s", "peak_memory_mb"}
 
 
 def clean(o):
@@ -273,7 +312,12 @@ def run(argv, extra, work):
     try:
         r = subprocess.run([T] + [a.replace("{d}", d) for a in argv] + extra, capture_output=True,
                            text=True, timeout=120)
-        return r.returncode, r.stderr, (signature(d) if r.returncode == 0 else None)
+        if r.returncode:
+            return r.returncode, r.stderr, None
+        sig = signature(d)
+        # What the run says it made (the summary: pore area, counts) is output too.
+        sig["stdout"] = re.sub(r"[0-9.]+ s\b", "", r.stdout.replace(d, "{d}"))
+        return 0, r.stderr, sig
     finally:
         shutil.rmtree(d, ignore_errors=True)
 
@@ -283,7 +327,13 @@ def fixes(argv, key, flag):
     return (flag is not None and flag in argv) or any(a.startswith(key + "=") for a in argv)
 
 
-def try_setting(key, alts, scen, bases, work, cond_sets=(), flag=None):
+def names(msg, key):
+    """Whether a refusal names the setting ("machine.bed_x/bed_y/bed_z" names machine.bed_z)."""
+    section, name = key.split(".", 1)
+    return key in msg or re.search(rf"\b{section}\.[a-z_/]*\b{name}\b", msg) is not None
+
+
+def try_setting(key, alts, scen, bases, work, cond_sets=(), flag=None, default=None):
     """Outcomes of giving `key` each alternative over the scenarios: (verdict, detail)."""
     seen = []
     for i, argv in enumerate(scen):
@@ -303,7 +353,8 @@ def try_setting(key, alts, scen, bases, work, cond_sets=(), flag=None):
             if code == 0:
                 if sig != base:
                     return "changed", f"{' '.join(argv[:2])} {key}={a}"
-                seen.append(("silent", f"{' '.join(argv[:2])} {key}={a}"))
+                if a != default:  # the default given again changes nothing, as it should
+                    seen.append(("silent", f"{' '.join(argv[:2])} {key}={a}"))
             elif code == 2:
                 msg = last_line(err)
                 kind = "unused" if "does not use" in msg else "refused"
@@ -313,7 +364,7 @@ def try_setting(key, alts, scen, bases, work, cond_sets=(), flag=None):
     if any(k == "crash" for k, _ in seen):
         return "CRASH", next(m for k, m in seen if k == "crash")
     # A limit (bed size, budget, range of a design) shows its effect by refusing a value beyond it.
-    limit = [m for k, m in seen if k == "refused" and key in m]
+    limit = [m for k, m in seen if k == "refused" and names(m, key)]
     if limit:
         return "limit", limit[0]
     if any(k == "silent" for k, _ in seen):
@@ -346,7 +397,7 @@ def main():
     setup(work)
     table = route_settings()
     scen_all = scenarios(work)
-    failures, counts, no_values = [], {}, []
+    failures, counts, no_values, known = [], {}, [], []
     for route in routes:
         scen = scen_all[route]
         bases = []
@@ -364,16 +415,17 @@ def main():
         def one(key):
             if key in EXEMPT:
                 return key, "exempt", EXEMPT[key]
-            alts = alternatives(key, table[key])
+            alts = [a.replace("{w}", work) for a in (alternatives(key, table[key]) or [])]
             if not alts:
                 return key, "no-values", ""
             flag = table[key]["flag"]
-            verdict, detail = try_setting(key, alts, scen, bases, work, flag=flag)
+            default = table[key]["default"]
+            verdict, detail = try_setting(key, alts, scen, bases, work, flag=flag, default=default)
             if verdict == "unused" and f"{key}: the " in detail:
                 cond = condition_of(detail)
                 if cond:
-                    v2, d2 = try_setting(key, alts, scen, bases, work, cond, flag=flag)
-                    if v2 not in ("changed", "refused", "unused"):
+                    v2, d2 = try_setting(key, alts, scen, bases, work, cond, flag=flag, default=default)
+                    if v2 not in ("changed", "refused", "unused", "limit"):
                         return key, "COND-" + v2, f"{detail} | with {cond}: {d2}"
                     if v2 == "unused" and condition_of(d2) == cond:
                         return key, "COND-STILL-UNUSED", f"with {cond}: {d2}"
@@ -385,7 +437,13 @@ def main():
             counts[(route, verdict)] = counts.get((route, verdict), 0) + 1
             if verdict == "no-values":
                 no_values.append(f"{route}:{key}")
-            if verdict in ("SILENT", "CRASH", "none") or verdict.startswith("COND-"):
+            gap = KNOWN_GAPS.get(f"{route}:{key}")
+            if gap and verdict == "SILENT":
+                counts[(route, "known-gap")] = counts.get((route, "known-gap"), 0) + 1
+                known.append(f"{route}:{key} ({gap})")
+            elif gap:
+                failures.append(f"{route}: {key}: listed in KNOWN_GAPS but now {verdict}: remove it")
+            elif verdict in ("SILENT", "CRASH", "none") or verdict.startswith("COND-"):
                 failures.append(f"{route}: {key}: {verdict}: {detail}")
             if os.environ.get("MATRIX_VERBOSE"):
                 print(f"{route:10} {key:36} {verdict:9} {detail[:150]}", flush=True)
@@ -394,6 +452,8 @@ def main():
         print(route + ": " + ", ".join(f"{v} {n}" for (r, v), n in sorted(counts.items()) if r == route))
     if no_values:
         print("settings without a generated value (file paths): " + " ".join(no_values))
+    for k in known:
+        print("known gap: " + k)
     for f in failures:
         print("FAIL " + f)
     return 1 if failures else 0

@@ -1279,6 +1279,18 @@ JobResult surface(const Job& job, const Config& c, Diagnostics& diag, const Prog
     return out;
   }
   const HeightField s = test_surface(c.surface);
+  {
+    // The mesh's grid (profiled surfaces need fewer points: an upper bound).
+    const BBox2 box = s.domain();
+    const double points = (std::ceil(box.width() / c.surface.resolution) + 1) *
+                          (std::ceil(box.height() / c.surface.resolution) + 1);
+    Estimate e;
+    e.bytes = points * 80;
+    e.seconds = points * 2e-7;
+    e.what = fmt::format("a {:.3g}-point surface mesh", points);
+    e.change = "surface.resolution";
+    check_budget(e, budget_of(job, c));
+  }
   const TriangleMesh mesh = surface_mesh(s, c.surface.resolution);
   if (!job.output.empty()) {
     write_file_atomic(job.output, mesh_to_stl(mesh, s.name()));

@@ -3,6 +3,7 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <set>
 #include <nlohmann/json.hpp>
 
 #include "routes.hpp"
@@ -52,6 +53,7 @@ GcodeStats write_gcode_out(const std::string& path, Toolpath tp, const Job& job,
   GcodeStats stats;
   if (!out.toolpath) out.toolpath = std::make_shared<Toolpath>(tp);
   if (path.empty()) return stats;
+  check_settings_used(job, &tp);  // now that the toolpath is known: mixtures, tools, process values
   tp.job = embedded_job(job, path);
   stats = write_gcode_file(path, tp, machine, gcode_thumbnails(tp, machine));
   for (const auto& [kind, message] : stats.warnings) diag.warn(kind, message);
@@ -118,6 +120,58 @@ void previews(const Toolpath& tp, const std::string& dir, int count, const Rende
 
 std::string fixed(double v, int decimals) {
   return fmt::format("{:.{}f}", v, decimals);
+}
+
+
+// The facts of a run that Setting::when names (settings.hpp).
+static UseContext use_context(const Job& job) {
+  UseContext u;
+  u.route = job.route;
+  u.settings = &job.settings;
+  const std::string ext = fs::path(job.output).extension().string();
+  const bool gcode = job.route == "gcode" || job.route == "slice" ||
+                     (job.route == "plan" && !job.gcode.empty()) ||
+                     (job.route == "nonplanar" && !job.output.empty()) ||
+                     (job.route == "surface" && !job.output.empty() && ext != ".json" && ext != ".stl");
+  if (gcode) u.facts.push_back("gcode");
+  if (!job.preview.empty()) u.facts.push_back("preview");
+  if (!job.input.empty() || !job.parts.empty()) u.facts.push_back("input");
+  if (!job.report.empty()) u.facts.push_back("report");
+  if (ext == ".3mf") u.facts.push_back("3mf");
+  if (!job.origin.empty()) u.facts.push_back("job");
+  return u;
+}
+
+// Every setting the user gave (on the command line, in a job file or from Python; a machine
+// profile describes the machine and may hold settings a route does not use) must change this
+// run's output: one its route does not use here is refused with the reason (Setting::when).
+void check_settings_used(const Job& job, const Toolpath* written) {
+  if (job.embedded) return;  // an output's header records every setting, used or not
+  UseContext use = use_context(job);
+  if (!written) {
+    use.unknown = {"graded", "tools", "process"};
+  } else {
+    bool graded = false, process = false;
+    std::set<int> tools;
+    for (const auto& l : written->layers)
+      for (const auto& p : l.paths) {
+        graded |= !p.mixture.empty();
+        process |= p.temperature > 0;
+        tools.insert(p.tool);
+      }
+    if (graded) use.facts.push_back("graded");
+    if (tools.size() > 1) use.facts.push_back("tools");
+    if (process) use.facts.push_back("process");
+  }
+  for (const auto& [key, e] : job.settings.entries()) {
+    if (!job.machine.empty() && e.origin.source == job.machine) continue;
+    const Setting* s = find_setting(key);
+    if (!s) continue;
+    const std::string why = unused_reason(*s, use);
+    if (!why.empty())
+      throw SettingError("the " + job.route + " route does not use it in this run: " + why,
+                         {e.origin.source, e.origin.line, key});
+  }
 }
 
 }  // namespace routes
@@ -217,42 +271,6 @@ void check_profile_kind(const Job& job, const std::vector<std::string>& sections
                        {job.machine, laser->origin.line, laser_key});
 }
 
-// The facts of a run that Setting::when names (settings.hpp).
-UseContext use_context(const Job& job) {
-  UseContext u;
-  u.route = job.route;
-  u.settings = &job.settings;
-  const std::string ext = fs::path(job.output).extension().string();
-  const bool gcode = job.route == "gcode" || job.route == "slice" ||
-                     (job.route == "plan" && !job.gcode.empty()) ||
-                     (job.route == "nonplanar" && !job.output.empty()) ||
-                     (job.route == "surface" && !job.output.empty() && ext != ".json" && ext != ".stl");
-  if (gcode) u.facts.push_back("gcode");
-  if (!job.preview.empty()) u.facts.push_back("preview");
-  if (!job.input.empty() || !job.parts.empty()) u.facts.push_back("input");
-  if (!job.report.empty()) u.facts.push_back("report");
-  if (ext == ".3mf") u.facts.push_back("3mf");
-  if (!job.origin.empty()) u.facts.push_back("job");
-  return u;
-}
-
-// Every setting the user gave (on the command line, in a job file or from Python; a machine
-// profile describes the machine and may hold settings a route does not use) must change this
-// run's output: one its route does not use here is refused with the reason (Setting::when).
-void check_settings_used(const Job& job) {
-  if (job.embedded) return;  // an output's header records every setting, used or not
-  const UseContext use = use_context(job);
-  for (const auto& [key, e] : job.settings.entries()) {
-    if (!job.machine.empty() && e.origin.source == job.machine) continue;
-    const Setting* s = find_setting(key);
-    if (!s) continue;
-    const std::string why = unused_reason(*s, use);
-    if (!why.empty())
-      throw SettingError("the " + job.route + " route does not use it in this run: " + why,
-                         {e.origin.source, e.origin.line, key});
-  }
-}
-
 }  // namespace
 
 RunFiles job_files(const Job& job, bool follow_symlinks) {
@@ -289,7 +307,7 @@ JobResult run_job(const Job& job, Diagnostics& diag, const Progress& progress) {
   const Config c = job.settings.config();
   check_rules(c, job.settings, sections);
   check_profile_kind(job, sections);
-  check_settings_used(job);
+  routes::check_settings_used(job, nullptr);
   // Every output of the job is staged and committed together at the end; an error, a cancel or
   // running out of memory leaves the output folders as they were (core/file.hpp). Its files are
   // checked before anything is written, and its inputs are never written (core/run_files.hpp).

@@ -214,6 +214,13 @@ const Setting* find_in(const std::vector<Setting>& table, const std::string& key
 // output where they all hold.
 const std::vector<std::pair<const char*, const char*>>& when_table() {
   static const std::vector<std::pair<const char*, const char*>> t = {
+      // The surface route makes an STL; a machine matters only for the angle test's G-code.
+      {"machine.", "route!=surface or @gcode"},
+      {"placement.", "route!=surface or @gcode"},
+      {"extrusion.", "route!=surface or @gcode"},
+      {"speed.", "route!=surface or @gcode"},
+      {"machine.bed_z", "@gcode"},
+      {"machine.bed_shape", "@gcode"},
       // Only the G-code writer reads these.
       {"temperature.", "@gcode"},
       {"retraction.", "@gcode; machine.flavor=marlin|reprap|klipper"},
@@ -223,7 +230,7 @@ const std::vector<std::pair<const char*, const char*>>& when_table() {
       {"flow.post", "machine.flavor=marlin|reprap|klipper"},
       {"pneumatic.", "@gcode; machine.flavor=pneumatic|embedded"},
       {"embedded.", "@gcode; machine.flavor=embedded"},
-      {"gradient.", "@gcode"},
+      {"gradient.", "@gcode; @graded"},
       {"gradient.tools", "gradient.mode=tools"},
       {"gradient.quantize", "gradient.mode=tools"},
       {"gradient.temperature_a", "gradient.mode=temperature"},
@@ -231,7 +238,7 @@ const std::vector<std::pair<const char*, const char*>>& when_table() {
       {"gradient.flow", "gradient.mode=temperature"},
       {"gradient.dialect", "gradient.mode=mixing"},
       {"gradient.template", "gradient.mode=mixing; gradient.dialect=template"},
-      {"purge.", "@gcode"},
+      {"purge.", "@gcode; @graded or @tools"},
       {"purge.x", "purge.position=fixed"},
       {"purge.y", "purge.position=fixed"},
       {"gcode.", "@gcode"},
@@ -241,7 +248,15 @@ const std::vector<std::pair<const char*, const char*>>& when_table() {
       {"extrusion.k", "@gcode"},
       {"extrusion.relative_e", "@gcode; machine.flavor=marlin|reprap|klipper"},
       {"extrusion.down_flow", "@gcode"},
-      {"temperature.standby", "machine.tools>1"},
+      {"temperature.standby", "@tools"},
+      {"temperature.settle", "@process"},
+      {"machine.mixing_inputs", "@gcode; @graded"},
+      {"machine.extruder_clearance_radius", "plate.sequence=parts"},
+      {"machine.extruder_clearance_height", "plate.sequence=parts"},
+      {"embedded.tool_offsets", "@tools"},
+      {"embedded.tool_pressures", "@tools"},
+      {"embedded.tool_change", "@tools"},
+      {"embedded.raise_idle", "@tools"},
       // The 2D atlas, when the route makes its lattice (lattice2d, or plan without an input).
       {"lattice2d.", "route=lattice2d or !@input; plan.planner!=aero or route=lattice2d"},
       {"lattice2d.strand", "lattice2d.pattern=square|triangle|lines"},
@@ -256,7 +271,7 @@ const std::vector<std::pair<const char*, const char*>>& when_table() {
       {"lattice2d.cell_height", "lattice2d.pattern=arrowhead|reentrant-honeycomb"},
       {"lattice2d.arrowhead_outer", "lattice2d.pattern=arrowhead"},
       {"lattice2d.arrowhead_inner", "lattice2d.pattern=arrowhead"},
-      {"lattice2d.line_width", "lattice2d.target_porosity>0 or route=lattice2d"},
+      {"lattice2d.line_width", "lattice2d.target_porosity>0 or route=lattice2d"},  // the pore area said
       // 3D lattices, when the route makes one (lattice3d, or plan aero without an input).
       {"lattice3d.", "route=lattice3d or !@input; route=lattice3d or plan.planner=aero"},
       {"lattice3d.cell_type", "lattice3d.kind=cells|conformal"},
@@ -308,10 +323,13 @@ const std::vector<std::pair<const char*, const char*>>& when_table() {
       {"pbf.thin_multiple", "pbf.strategy=hybrid"},
       {"pbf.min_inclination", "pbf.strategy=hybrid"},
       {"nonplanar.domain", "nonplanar.height_fn"},
+      {"surface.length", "surface.kind=corrugation|miura|m-curve"},
+      {"surface.width", "surface.kind=corrugation|miura|m-curve"},
+      {"surface.resolution", "surface.kind=miura|sphere-cap"},  // profiles are exact
       {"surface.periods", "surface.kind=corrugation"},
       {"surface.angle", "surface.kind=corrugation"},
       {"surface.amplitude_scale", "surface.kind=corrugation"},
-      {"surface.fillet", "surface.kind=corrugation"},
+      {"surface.fillet", "surface.kind=corrugation|m-curve"},
       {"surface.flat", "surface.kind=corrugation"},
       {"surface.depth", "surface.kind=miura"},
       {"surface.height", "surface.kind=m-curve"},
@@ -531,7 +549,7 @@ std::vector<Setting> make_table() {
                      [](C& c) -> auto& { return c.lattice3d.materials; }));
 
   // lattice.*: reading lattice files.
-  t.push_back(number("lattice.merge_tolerance", "mm", 0, 10, "merge nodes closer than this",
+  t.push_back(number("lattice.merge_tolerance", "mm", 0, 1, "merge nodes closer than this",
                      "merge-tolerance", [](C& c) -> auto& { return c.merge_tolerance; }));
   t.push_back(boolean("lattice.keep_graph",
                       "the lattice exactly as given: no node merging, no T-junction splitting",

@@ -497,6 +497,9 @@ const char* fact_words(const std::string& fact) {
   if (fact == "report") return "a report is written";
   if (fact == "3mf") return "the output is 3MF";
   if (fact == "job") return "a job file is run (trellis run)";
+  if (fact == "graded") return "the toolpath carries mixtures (a graded design)";
+  if (fact == "tools") return "the toolpath uses several tools";
+  if (fact == "process") return "the toolpath carries process values (a process field)";
   return nullptr;
 }
 
@@ -532,7 +535,8 @@ Alternative evaluate(const std::string& alt, const UseContext& use) {
     const char* w = fact_words(fact);
     if (!w) throw std::logic_error("unknown fact in a setting's `when`: " + alt);
     const bool has = std::find(use.facts.begin(), use.facts.end(), fact) != use.facts.end();
-    a.holds = has != negated;
+    const bool unknown = std::find(use.unknown.begin(), use.unknown.end(), fact) != use.unknown.end();
+    a.holds = unknown || has != negated;
     a.words = negated ? fact_negated(fact) : std::string(w);
     return a;
   }

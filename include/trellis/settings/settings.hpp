@@ -40,7 +40,8 @@ struct Setting {
   // by "; " must all hold; a term's alternatives are joined by " or "; each is `key=a|b`,
   // `key!=a|b`, `key>n` (a number), `key` (given or not empty), `route=a|b`, or a fact of the run
   // `@gcode` (G-code is written), `@preview` (PNG previews are), `@input` (a design or lattice
-  // file is read), `@report`, `@3mf` (the output is 3MF), `@job` (a job file is run), each negated with a leading `!`.
+  // file is read), `@report`, `@3mf` (the output is 3MF), `@job` (a job file is run), and of the toolpath written:
+  // `@graded` (paths carry mixtures), `@tools` (several tools), `@process` (process values); each negated with a leading `!`.
   // A setting the user gives where this does not hold is refused, naming the reason
   // (unused_reason); docs/settings.md prints it.
   std::string when;
@@ -108,6 +109,7 @@ class Settings {
 struct UseContext {
   std::string route;
   std::vector<std::string> facts;
+  std::vector<std::string> unknown;  // facts not known yet (the toolpath's, before it is made): they hold
   const Settings* settings = nullptr;
 };
 // Why `s` has no effect in this run ("" when it is used): e.g. "it is used only when
