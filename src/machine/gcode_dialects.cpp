@@ -70,6 +70,10 @@ const char* gcode_type_name(PathRole role) {
       return "Contour";
     case PathRole::Handle:
       return "Handle";
+    case PathRole::Hatch:
+      return "Hatch";
+    case PathRole::Nonplanar:
+      return "Non-planar";
     case PathRole::Other:
       break;
   }
@@ -90,6 +94,8 @@ PathRole role_from_gcode_type(std::string_view t) {
   if (has("STRUT") || has("trut")) return PathRole::Strut;
   if (has("ontour")) return PathRole::Contour;
   if (has("andle")) return PathRole::Handle;
+  if (has("atch")) return PathRole::Hatch;
+  if (has("on-planar") || has("onplanar")) return PathRole::Nonplanar;
   return PathRole::Other;
 }
 
@@ -198,7 +204,8 @@ void GcodeScanner::mcode(int code, std::string_view args) {
         return bad("bad mix ratio in '" + std::string(args.substr(0, 40)) + "'");
       return set_mixture(tool, std::move(mix));
     }
-    case 486: {  // object labels: M486 S<id> [A"<label>"], M486 S-1 (M486 T<count> and P/U: cancels, not read)
+    case 486: {  // object labels: M486 S<id> [A"<label>"], M486 S-1 (M486 T<count> and P/U:
+                 // cancels, not read)
       const double id = num("S");
       if (!ok) return bad("bad number in '" + std::string(args.substr(0, 40)) + "'");
       if (!std::isfinite(id)) return;

@@ -1,7 +1,6 @@
 #include "trellis/machine/gcode_reader.hpp"
 
 #include <algorithm>
-
 #include <charconv>
 #include <cmath>
 #include <filesystem>
@@ -95,6 +94,15 @@ void GcodeScanner::comment(std::string_view c) {
         (key == "valve_on" ? opt_.valve_on : opt_.valve_off) = command_words(value);
       }
     }
+    return;
+  }
+  if (starts_with(c, "mixture lookahead = ")) {
+    const std::string_view v = trim(c.substr(20));
+    const std::string_view num = v.substr(0, v.find(' '));
+    double mm = 0;
+    if (parse_number(num.data(), num.data() + num.size(), mm) && std::isfinite(mm) && mm >= 0 &&
+        mm < kMaxValue)
+      sink_.mixture_lookahead(mm);
     return;
   }
   if (starts_with(c, "LAYER:") || starts_with(c, "LAYER_CHANGE")) {
@@ -238,11 +246,11 @@ void GcodeScanner::line(std::string_view text) {
     else if (code == 4) {  // dwell: G4 P<milliseconds> or S<seconds> (Marlin, RRF, Klipper)
       double ms = 0, sec = 0;
       const std::string_view pv = param(args, "P"), sv = param(args, "S");
-      if (!pv.empty() && (!parse_number(pv.data(), pv.data() + pv.size(), ms) || !(ms >= 0) ||
-                          ms > 1e9))
+      if (!pv.empty() &&
+          (!parse_number(pv.data(), pv.data() + pv.size(), ms) || !(ms >= 0) || ms > 1e9))
         return bad("bad dwell '" + std::string(args.substr(0, 40)) + "'");
-      if (!sv.empty() && (!parse_number(sv.data(), sv.data() + sv.size(), sec) || !(sec >= 0) ||
-                          sec > 1e6))
+      if (!sv.empty() &&
+          (!parse_number(sv.data(), sv.data() + sv.size(), sec) || !(sec >= 0) || sec > 1e6))
         return bad("bad dwell '" + std::string(args.substr(0, 40)) + "'");
       if (ms + sec > 0) sink_.dwell(ms / 1000 + sec);
     } else if (code == 10 && !param(args, "P").empty()) {  // RepRapFirmware G10 P<tool> S<t>

@@ -296,7 +296,7 @@ std::size_t count(const std::string& s, const std::string& what) {
 TEST(View, PackedLayersHoldTheToolpath) {
   Toolpath tp = sample();
   tp.layers[0].paths[0].points[1] = {10.0004, -3.14159, 0.2};
-  const std::string b = view_page::pack_layers(tp);
+  const std::string b = view_page::pack_layers(view_scene(tp, "sample"));
   ASSERT_EQ(b.substr(0, 4), "TVP1");
   double quantum;
   std::memcpy(&quantum, b.data() + 4, 8);
@@ -317,10 +317,11 @@ TEST(View, PackedLayersHoldTheToolpath) {
           last[k] += r.zigzag();
           EXPECT_NEAR(last[k] * quantum, k == 0 ? q.x : k == 1 ? q.y : q.z, quantum / 2 + 1e-12);
         }
-    for (int k = 0; k < 7; ++k)
+    for (int k = 0; k < 10; ++k)
       for (const auto& p : layer.paths) {
         const float v = r.f32();
-        if (k == 0) EXPECT_EQ(v, p.mixture.empty() ? -1.0f : float(p.mixture[0]));
+        // Mixture, and the commanded one (the same as planned: no look-ahead to undo).
+        if (k == 0 || k == 7) EXPECT_EQ(v, p.mixture.empty() ? -1.0f : float(p.mixture[0]));
         if (k == 2) EXPECT_EQ(v, float(p.temperature));
       }
     for (const auto& p : layer.paths) EXPECT_EQ(b.at(r.at++), static_cast<char>(p.role));
