@@ -317,10 +317,14 @@ async function runCase(c, tag = '') {
     await page.click('#tv-top');
     // Deposited (the default mixture mode): every line in the colour of its planned mixture.
     // Commanded: the lines printed while the next change was already issued show the next one.
+    // The file is placed on the bed: line i runs along X at the part's lowest y + 2i.
     const lineColours = async () => {
       const got = [];
       for (let i = 0; i < 40; ++i) {
-        const [x, y] = await page.evaluate((yy) => window.trellisViewer.project(45, yy, 0.2), 2 * i);
+        const [x, y] = await page.evaluate((i) => {
+          const v = window.trellisViewer, b = v.s.bbox;
+          return v.project(b.min.x + 45, b.min.y + 2 * i, b.min.z);
+        }, i);
         got.push(await around(page, x, y, 1));
       }
       return got;
@@ -467,15 +471,17 @@ async function runCase(c, tag = '') {
       `foam_bed.nc: the camera frames the part: ${span.w.toFixed(0)} x ${span.h.toFixed(0)} px of ${span.W} x ${span.H}`);
     await page.screenshot({ path: join(out, 'foam_bed.nc.png') });
     const bed = await page.evaluate(() => window.trellisViewer.bedBox());
+    // Framed with the build volume (the page's API), its edges show.
+    await page.evaluate(() => window.trellisViewer.view('iso', true));
+    await page.evaluate(() => window.trellisViewer.whenDrawn());
     check(bed && bed.min.join() === '0,0,0' && bed.max.join() === '300,300,100',
       `foam_bed.nc: build volume ${bed && bed.min.join(',')} to ${bed && bed.max.join(',')} (profile: 300 x 300 x 100 mm, corner origin)`);
     const on = await frame(page);
     await page.click('#tv-bed');
     await page.evaluate(() => window.trellisViewer.whenDrawn());
-    await page.click('#tv-fit');
-    await page.evaluate(() => window.trellisViewer.whenDrawn());
     const off = await frame(page);
     await page.click('#tv-bed');
+    await page.evaluate(() => window.trellisViewer.view('iso', true));
     await page.evaluate(() => window.trellisViewer.whenDrawn());
     const again = await frame(page);
     const dark = (f) => { let n = 0; for (let i = 0; i < f.length; i += 3) if (diff([f[i], f[i + 1], f[i + 2]], [0x5a, 0x62, 0x70]) <= 12) n += 1; return n; };

@@ -77,7 +77,7 @@ class Viewer {
     $('tv-travel').addEventListener('change', () => this.setTravel($('tv-travel').checked));
     $('tv-design').addEventListener('change', () => { this.showDesign = $('tv-design').checked; this.applyRange(); });
     $('tv-play').addEventListener('click', () => this.play());
-    $('tv-bed').addEventListener('change', () => { if (this.bed) this.bed.visible = $('tv-bed').checked; this.view('fit'); });
+    $('tv-bed').addEventListener('change', () => { if (this.bed) this.bed.visible = $('tv-bed').checked; this.requestRender(); });
   }
 
   resize() {
@@ -440,12 +440,14 @@ class Viewer {
     this.requestRender();
   }
 
-  view(which) {
-    // The camera frames the part; the build volume, while shown, stays in the depth range (drawn
-    // around it, off screen where it is larger than the view).
+  // Points the camera along `which` (top, front, iso, or fit: the current direction). It frames
+  // the part; the build volume, while shown, stays in the depth range (drawn around the part, off
+  // screen where it is larger than the view), and is framed too with `withBed`.
+  view(which, withBed = false) {
     const box = this.s.bbox.clone();
     const all = box.clone();
     if (this.bed && this.bed.visible) all.union(new THREE.Box3().setFromBufferAttribute(this.bed.geometry.attributes.position));
+    if (withBed) box.copy(all);
     const center = box.getCenter(new THREE.Vector3());
     const radius = Math.max(1e-3, box.getSize(new THREE.Vector3()).length() / 2);
     const dist = radius / Math.sin(THREE.MathUtils.degToRad(this.camera.fov / 2)) * 1.05;
