@@ -5,20 +5,20 @@
 #include <algorithm>
 #include <cerrno>
 #include <charconv>
-#include <cmath>
 #include <cstdio>
+#include <cmath>
 #include <cstring>
 #include <memory>
 #include <numbers>
 #include <utility>
 
-#include "fast_number.hpp"
-#include "gcode_objects.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/machine/gcode_reader.hpp"
 #include "trellis/machine/machine_check.hpp"
 #include "trellis/version.hpp"
+#include "fast_number.hpp"
+#include "gcode_objects.hpp"
 
 namespace trellis {
 
@@ -93,8 +93,7 @@ class Writer {
         lift_(lift) {
     flavor_ = p.parsed_flavor();
     down_flow_ = p.down_flow_table();
-    e_axis_ =
-        flavor_ == Flavor::Marlin || (flavor_ == Flavor::Embedded && p.embedded_drive == "syringe");
+    e_axis_ = flavor_ == Flavor::Marlin || (flavor_ == Flavor::Embedded && p.embedded_drive == "syringe");
     standby_ = p.standby_temperature;
     points_ = points;
     placement(box);
@@ -310,9 +309,8 @@ class Writer {
       line("M106 S" + std::to_string(static_cast<int>(std::lround(p_.fan_percent * 2.55))));
       fan_now_ = p_.fan_percent;
     }
-    nozzle_now_ = tools_used_.empty()         ? first_nozzle_temperature()
-                  : p_.nozzle_temperature > 0 ? p_.nozzle_temperature
-                                              : -1;
+    nozzle_now_ = tools_used_.empty() ? first_nozzle_temperature()
+                                      : p_.nozzle_temperature > 0 ? p_.nozzle_temperature : -1;
     if (e_axis_) line("G92 E0");
     out_ += objects_.definitions;
   }
@@ -385,8 +383,7 @@ class Writer {
       if (objects_.style != ObjectStyle::None) out_ += objects_.end(object_);
       if (stats_.part_time_s.size() < static_cast<std::size_t>(object_))
         stats_.part_time_s.resize(static_cast<std::size_t>(object_));
-      stats_.part_time_s[static_cast<std::size_t>(object_ - 1)] +=
-          stats_.print_time_s - object_since_;
+      stats_.part_time_s[static_cast<std::size_t>(object_ - 1)] += stats_.print_time_s - object_since_;
     }
     if (part > 0 && objects_.style != ObjectStyle::None) out_ += objects_.start(part);
     object_ = part;
@@ -525,8 +522,8 @@ class Writer {
       d += distance_xy(at, q);
     }
     if (known_ && d < 1e-9 && std::abs(pos_.z - q.z) < 1e-9) return;
-    const bool far =
-        known_ && d >= p_.min_travel && (!inside || (p_.inside_max > 0 && d > p_.inside_max));
+    const bool far = known_ && d >= p_.min_travel &&
+                     (!inside || (p_.inside_max > 0 && d > p_.inside_max));
     if (flavor_ == Flavor::Marlin && far && printed_ && p_.retract_length > 0) retract();
     const double hop = far ? p_.z_hop : 0;
     const double safe_z = std::max(known_ ? std::max(pos_.z, q.z) + hop : q.z + std::max(hop, 1.0),
@@ -574,10 +571,9 @@ class Writer {
       const double t = a * p_.temperature_a + (1 - a) * p_.temperature_b;
       c = heat(-1, t, false);
       if (!p_.flow_model.empty()) {
-        const double f =
-            p_.flow_model == "pla"
-                ? 100 * (8.35479e-6 * t * t * t - 5.37075e-3 * t * t + 1.13374 * t - 77.814)
-                : 100 * (3.09637e-4 * t * t - 1.38401e-1 * t + 15.9560);
+        const double f = p_.flow_model == "pla"
+                             ? 100 * (8.35479e-6 * t * t * t - 5.37075e-3 * t * t + 1.13374 * t - 77.814)
+                             : 100 * (3.09637e-4 * t * t - 1.38401e-1 * t + 15.9560);
         c += "\nM221 T0 S";
         append_fixed(c, f, 1);
       }
@@ -671,10 +667,9 @@ class Writer {
     }
     if (d == "template") {
       if (p_.gradient_template.empty())
-        throw SettingError(
-            "gradient.dialect = template needs gradient.template (e.g. "
-            "\"M567 P0 E{a}:{b}\")",
-            {"", 0, "gradient.template"});
+        throw SettingError("gradient.dialect = template needs gradient.template (e.g. "
+                           "\"M567 P0 E{a}:{b}\")",
+                           {"", 0, "gradient.template"});
       std::string t = p_.gradient_template;
       for (std::size_t i = 0; i < mix.size() && i < 6; ++i) {
         const std::string key = std::string("{") + static_cast<char>('a' + i) + "}";
@@ -701,8 +696,7 @@ class Writer {
     std::size_t path, segment;  // before point `segment` of `path` (1-based), at fraction t
     double t;
     std::string command;
-    double target =
-        -1;  // streamed: printed length to locate in `path` when it is printed (-1: none)
+    double target = -1;  // streamed: printed length to locate in `path` when it is printed (-1: none)
   };
   // Streamed layers, one at a time: the tools used, whether a prime tower is there, and what the
   // look-ahead needs (each printed path's printed length before it; each path's mixture
@@ -744,8 +738,7 @@ class Writer {
     std::size_t j = k;
     if (lookahead > 0)
       j = static_cast<std::size_t>(std::upper_bound(start.begin(), start.begin() + k + 1, target) -
-                                   start.begin()) -
-          1;
+                                   start.begin()) - 1;
     Change ch{j, 1, 0, tools ? tool_change_command(c, tool) : c};
     if (j < k) {
       ch.target = target;
@@ -790,8 +783,7 @@ class Writer {
       const double lookahead = streamed_lookahead();
       stats_.lookahead = lookahead;
       // (Consecutive wanted commands differ: plan_tools_streamed keeps only changes.)
-      for (const auto& w : wanted_)
-        plan_change(w.path, w.command, w.tool, starts_, lookahead, tools, nullptr);
+      for (const auto& w : wanted_) plan_change(w.path, w.command, w.tool, starts_, lookahead, tools, nullptr);
       wanted_ = {};
       return;
     }
@@ -986,7 +978,7 @@ class Writer {
   LayerSource layers_;  // tp_'s layers, or the streamed ones
   std::size_t layer_count_ = 0;
   bool streamed_ = false;
-  std::size_t points_ = 0;    // points of the whole toolpath, when the caller counted them
+  std::size_t points_ = 0;  // points of the whole toolpath, when the caller counted them
   bool tower_ = false;        // streamed: a prime tower is printed
   int sequence_part_ = 0;     // plates: the part printed last
   double finished_top_ = 0;   // plates: highest point printed so far
@@ -999,9 +991,9 @@ class Writer {
   double lift_ = 0;  // Z added to every point (placement.lift), in the header for readers
   Flavor flavor_;
   std::string out_;
-  GcodeObjects objects_;         // build plates: parts labelled for the firmware
-  int object_ = 0;               // the part whose moves are being written (Path::part), 0 = none
-  double object_since_ = 0;      // the time estimate when that part began
+  GcodeObjects objects_;  // build plates: parts labelled for the firmware
+  int object_ = 0;        // the part whose moves are being written (Path::part), 0 = none
+  double object_since_ = 0;  // the time estimate when that part began
   std::vector<Change> changes_;  // mixture changes in print order
   // Streamed: printed length before each printed path (and after the last), and the paths
   // carrying a mixture (index, command, tool) until the changes are planned.
@@ -1015,19 +1007,18 @@ class Writer {
   std::vector<Wanted> wanted_;
   std::vector<int> tools_used_;  // tool changers: tools in order of first use
   int last_tool_ = -1;
-  bool select_tools_ = false;  // multi-tool Marlin: T for each path's own tool
-  double standby_ =
-      0;  // °C for idle tools (temperature.standby), 0 = they stay at printing temperature
+  bool select_tools_ = false;    // multi-tool Marlin: T for each path's own tool
+  double standby_ = 0;           // °C for idle tools (temperature.standby), 0 = they stay at printing temperature
   std::size_t next_change_ = 0, path_index_ = 0;
   GcodeStats stats_;
   double dx_ = 0, dy_ = 0;
   double e_ = 0;
   Vec3 pos_;
   bool known_ = false, printed_ = false, retracted_ = false;
-  double safe_z_ = 0;                                 // embedded: travel height
-  int tool_ = -1;                                     // embedded: tool in use
-  Vec2 tool_offset_;                                  // ... its XY offset
-  MachineProfile tool_profile_;                       // ... the profile with its pressure
+  double safe_z_ = 0;        // embedded: travel height
+  int tool_ = -1;            // embedded: tool in use
+  Vec2 tool_offset_;         // ... its XY offset
+  MachineProfile tool_profile_;  // ... the profile with its pressure
   std::vector<std::pair<double, double>> down_flow_;  // (descent deg, factor), by angle
   double last_feed_ = -1;
   // Process fields: the nozzle temperature and fan last set, the current path's flow factor,
@@ -1039,8 +1030,7 @@ class Writer {
   bool first_seen_ = false;
   bool next_joined_ = false;
   std::size_t chain_segments_ = 0;
-  bool e_axis_ =
-      false;  // moves carry E                              // F of the previous printing move
+  bool e_axis_ = false;  // moves carry E                              // F of the previous printing move
 
   // Flow factor of a move from pos_ to q (1 unless it descends steeply).
   double down_factor(Vec3 q) const {
@@ -1063,8 +1053,8 @@ std::string lift_warning(double lift) {
 
 }  // namespace
 
-std::string write_gcode(const Toolpath& toolpath, const MachineProfile& profile, GcodeStats* stats,
-                        const std::vector<GcodeThumbnail>& thumbnails) {
+std::string write_gcode(const Toolpath& toolpath, const MachineProfile& profile,
+                        GcodeStats* stats, const std::vector<GcodeThumbnail>& thumbnails) {
   std::string out;
   write_gcode_into(out, toolpath, profile, stats, thumbnails);
   return out;

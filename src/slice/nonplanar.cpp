@@ -634,8 +634,8 @@ bool hole_ahead(const SurfacePoint& sp, Vec3 a, Vec3 before, const BBox2& box, d
   const double len = std::hypot(t.x, t.y);
   if (len <= 0) return false;
   t = t * (1 / len);
-  for (Vec2 q = a.xy() + t * step;
-       q.x >= box.min.x && q.x <= box.max.x && q.y >= box.min.y && q.y <= box.max.y;
+  for (Vec2 q = a.xy() + t * step; q.x >= box.min.x && q.x <= box.max.x && q.y >= box.min.y &&
+                                   q.y <= box.max.y;
        q = q + t * step)
     if (is_finite(sp(q))) return true;
   return false;
