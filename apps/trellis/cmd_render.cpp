@@ -26,15 +26,19 @@ void add_render(CLI::App& app) {
   auto* cmd = app.add_subcommand("render", "Render toolpath layers to PNG");
   cmd->footer(
       "Reads a toolpath JSON, G-code of any slicer (.gcode/.g/.nc) or a laser .cli. Paths are\n"
-      "coloured by feature type (or print order, blue first and red last, or mixture), travel is\n"
-      "dashed grey, path starts are green dots and ends small dark dots. Each PNG has a title\n"
+      "coloured by feature type (or print order, or mixture) in the viewer's colours, travel is\n"
+      "dashed grey, path starts are green dots and ends small dark dots. A G-code file's mixture\n"
+      "is drawn as deposited (its header's mixing look-ahead undone); --colour commanded draws\n"
+      "the mixture where the commands were issued. Each PNG has a title\n"
       "(file, layer, Z, what colour means), a legend or colour bar and a scale bar in mm.\n"
       "Without --layer every layer is written as OUT.layerNNN.png (OUT without .png).");
   cmd->add_option("toolpath", o->input, "toolpath JSON, G-code (.gcode/.g/.nc) or laser .cli")
       ->required()
       ->check(path_value());
-  cmd->add_option("--colour", o->colour, "what colour means: feature, order or mixture")
-      ->check(CLI::IsMember({"feature", "order", "mixture"}))
+  cmd->add_option("--colour", o->colour,
+                  "what colour means: feature, order, mixture (as deposited) or commanded (the "
+                  "mixture as commanded)")
+      ->check(CLI::IsMember({"feature", "order", "mixture", "commanded"}))
       ->capture_default_str();
   cmd->add_option("--machine", o->load.machine, ".nc files: machine profile (valve commands)")
       ->check(path_value());
@@ -71,14 +75,20 @@ void add_render(CLI::App& app) {
     if (o->layer >= 0) files.output("the PNG (-o)", o->output);
     files.check();
     Diagnostics diag;
-    const ViewScene scene = load_view_scene(o->input, o->load, diag);
+    ViewScene scene = load_view_scene(o->input, o->load, diag);
     if (scene.kind == "lattice")
       throw ParseError(o->input +
                        ": a lattice, not a toolpath (plan it first, or `trellis view` it)");
     print_warnings(diag);
-    const Toolpath& tp = scene.toolpath;
+    Toolpath& tp = scene.toolpath;
     o->r.colour_by_role = o->colour == "feature";
-    o->r.colour_by_mixture = o->colour == "mixture";
+    o->r.colour_by_mixture = o->colour == "mixture" || o->colour == "commanded";
+    o->r.mixture_label = mixture_label(scene, o->colour == "commanded");
+    if (o->colour == "commanded" && !scene.commanded.empty()) {
+      std::size_t k = 0;
+      for (auto& l : tp.layers)
+        for (auto& p : l.paths) p.mixture = scene.commanded.at(k++);
+    }
     if (o->r.title.empty()) o->r.title = scene.name;
     // Estimate before work: an RGBA surface and its PNG per image.
     const double px = double(o->r.size_px) * o->r.size_px;

@@ -217,9 +217,9 @@ PathRole role_of(const py::handle& v, const std::string& element) {
   }
   if (PyIndex_Check(v.ptr()) && !py::isinstance<py::bool_>(v)) {
     const long long code = py::int_(py::reinterpret_borrow<py::object>(v)).cast<long long>();
-    if (code < 0 || code > static_cast<long long>(PathRole::Purge))
+    if (code < 0 || code >= static_cast<long long>(kPathRoleCount))
       bad(element, "role code " + std::to_string(code) + ": expected 0.." +
-                       std::to_string(static_cast<int>(PathRole::Purge)) + " (trellis.ROLES)");
+                       std::to_string(kPathRoleCount - 1) + " (trellis.ROLES)");
     return static_cast<PathRole>(code);
   }
   bad(element,

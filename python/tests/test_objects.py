@@ -109,7 +109,7 @@ BAD = [
     (dict(path_offsets=[0, 2, 4], layer_z=[1.0, 2.0]), "layer_z"),
     (dict(role="strt"), "role"),
     (dict(path_offsets=[0, 2, 4], role=["strut", "bogus"]), "role[1]"),
-    (dict(role=9), "role"),
+    (dict(role=len(trellis.ROLES)), "role"),  # one past the last role
     (dict(path_offsets=[0, 2, 4], width=[0.4, -0.1]), "width[1]"),
     (dict(path_offsets=[0, 2, 4], width=[0.4, 0.4, 0.4]), "width"),
     (dict(height=float("inf")), "height[0]"),

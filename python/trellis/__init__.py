@@ -75,7 +75,8 @@ class Lattice:
         return f"<trellis.Lattice {self.node_count} nodes, {self.edge_count} struts>"
 
 
-ROLES = ["strut", "contour", "handle", "perimeter", "infill", "other", "skin", "purge"]
+ROLES = ["strut", "contour", "handle", "perimeter", "infill", "other", "skin", "purge", "hatch",
+         "nonplanar"]
 
 
 class Toolpath:

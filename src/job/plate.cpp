@@ -254,7 +254,7 @@ std::vector<Layer> layers_from_shard_bytes(const std::string& bytes, const std::
     l.paths.resize(r.count(20 + 8 * 8 + 24));
     for (Path& p : l.paths) {
       const auto role = r.get<std::int32_t>();
-      if (role < 0 || role > static_cast<std::int32_t>(PathRole::Purge))
+      if (role < 0 || role > static_cast<std::int32_t>(kPathRoleCount) - 1)
         throw ParseError("shard file: unknown path role", {origin});
       p.role = static_cast<PathRole>(role);
       p.tool = r.get<std::int32_t>();

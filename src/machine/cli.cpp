@@ -54,7 +54,7 @@ void put_bin(std::string& out, T v) {
 }
 
 bool is_hatch(const Path& p) {
-  return p.role == PathRole::Infill && p.points.size() == 2;
+  return (p.role == PathRole::Hatch || p.role == PathRole::Infill) && p.points.size() == 2;
 }
 
 // The header: every point's extent and the layer count are known only once all layers are.
@@ -336,7 +336,7 @@ class Reader {
     const std::string label = it == ids_.end() ? "" : it->second.label;
     const bool infill = hatch || label.find("hatch") != std::string::npos ||
                         label.find("infill") != std::string::npos;
-    p.role = infill ? PathRole::Infill : PathRole::Contour;
+    p.role = infill ? PathRole::Hatch : PathRole::Contour;
     if (it != ids_.end()) {
       if (it->second.power > 0) p.power = it->second.power;
       if (it->second.speed > 0) p.speed = it->second.speed;

@@ -70,6 +70,10 @@ const char* gcode_type_name(PathRole role) {
       return "Contour";
     case PathRole::Handle:
       return "Handle";
+    case PathRole::Hatch:
+      return "Hatch";
+    case PathRole::Nonplanar:
+      return "Non-planar";
     case PathRole::Other:
       break;
   }
@@ -90,6 +94,8 @@ PathRole role_from_gcode_type(std::string_view t) {
   if (has("STRUT") || has("trut")) return PathRole::Strut;
   if (has("ontour")) return PathRole::Contour;
   if (has("andle")) return PathRole::Handle;
+  if (has("atch")) return PathRole::Hatch;
+  if (has("on-planar") || has("onplanar")) return PathRole::Nonplanar;
   return PathRole::Other;
 }
 

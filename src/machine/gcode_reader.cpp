@@ -97,6 +97,15 @@ void GcodeScanner::comment(std::string_view c) {
     }
     return;
   }
+  if (starts_with(c, "mixture lookahead = ")) {
+    const std::string_view v = trim(c.substr(20));
+    const std::string_view num = v.substr(0, v.find(' '));
+    double mm = 0;
+    if (parse_number(num.data(), num.data() + num.size(), mm) && std::isfinite(mm) && mm >= 0 &&
+        mm < kMaxValue)
+      sink_.mixture_lookahead(mm);
+    return;
+  }
   if (starts_with(c, "LAYER:") || starts_with(c, "LAYER_CHANGE")) {
     sink_.layer_change(std::nan(""));
   } else if (starts_with(c, "TYPE:")) {

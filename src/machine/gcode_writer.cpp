@@ -273,6 +273,12 @@ class Writer {
       line(std::string("; setting ") + d.key + " = " + v);
     }
     line("; placement offset = " + std::to_string(dx_) + ", " + std::to_string(dy_));
+    // Readers undo the look-ahead to show the mixture deposited (machine/mixing_lag.hpp).
+    if (stats_.lookahead > 0 && stats_.gradient_changes > 0) {
+      std::string l = "; mixture lookahead = ";
+      append_fixed(l, stats_.lookahead, 3);
+      line(l + " mm (each mixture change is issued this far, in printed path, before its region)");
+    }
     if (lift_ > 0) line("; placement lift = " + std::to_string(lift_));
     line("G21 ; millimetres");
     line("G90 ; absolute positions");

@@ -12,6 +12,7 @@
 #include "render_module.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
+#include "trellis/render/palette.hpp"
 
 namespace trellis {
 
@@ -32,49 +33,40 @@ void save_png(cairo_surface_t* surface, const std::string& path) {
   write_file_atomic(path, png);
 }
 
-// Blue (first) to red (last) through green.
-void order_colour(cairo_t* cr, double t) {
-  const double h = (1 - t) * 240.0 / 60.0;  // hue in sextants, 4 (blue) .. 0 (red)
-  const double x = 1 - std::abs(std::fmod(h, 2.0) - 1);
-  double r = 0, g = 0, b = 0;
-  if (h < 1)
-    r = 1, g = x;
-  else if (h < 2)
-    r = x, g = 1;
-  else if (h < 3)
-    g = 1, b = x;
-  else
-    b = 1, g = x;
-  cairo_set_source_rgb(cr, r * 0.9, g * 0.75, b * 0.9);
+// Every colour comes from the shared palette (render/palette.hpp), as in the viewer.
+void set_rgb(cairo_t* cr, const Rgb& c) {
+  cairo_set_source_rgb(cr, c[0] / 255.0, c[1] / 255.0, c[2] / 255.0);
 }
 
-// The order/fraction colour bar: `length` pixels wide, `height` high, centred on ymid; returns
-// its width.
-double draw_order_bar(cairo_t* c, double x, double ymid, double height, double length) {
-  for (int i = 0; i < static_cast<int>(length); ++i) {
-    order_colour(c, i / (length - 1));
-    cairo_rectangle(c, x + i, ymid - height / 2, 1, height);
+// Ranged values (print order, height): the viewer's continuous map.
+void order_colour(cairo_t* cr, double t) {
+  set_rgb(cr, continuous_rgb(t));
+}
+
+// A colour bar of `colour(t)` for t in 0..1: `length` pixels wide, `height` high, centred on
+// ymid; returns its width. Its columns sit on whole pixels, so each pixel is one colour of the
+// map (a column at a fractional x would blend two with the background).
+template <class Colour>
+double draw_bar(cairo_t* c, double x, double ymid, double height, double length, Colour colour) {
+  const double x0 = std::round(x), y0 = std::round(ymid - height / 2), h = std::round(height);
+  const int n = static_cast<int>(length);
+  for (int i = 0; i < n; ++i) {
+    set_rgb(c, colour(n > 1 ? static_cast<double>(i) / (n - 1) : 0.0));
+    cairo_rectangle(c, x0 + i, y0, 1, h);
     cairo_fill(c);
   }
   return length;
 }
-
-// Feature-type colours, indexed by PathRole (the viewer's palette, viewer/src/colors.js).
-constexpr double kRoleRgb[][3] = {{31, 119, 180}, {214, 39, 40},   {148, 103, 189}, {255, 127, 14},
-                                  {44, 160, 44},  {127, 127, 127}, {227, 119, 194}};
-
-void role_colour(cairo_t* cr, PathRole role) {
-  const auto& c = kRoleRgb[static_cast<int>(role)];
-  cairo_set_source_rgb(cr, c[0] / 255, c[1] / 255, c[2] / 255);
+double draw_order_bar(cairo_t* c, double x, double ymid, double height, double length) {
+  return draw_bar(c, x, ymid, height, length, continuous_rgb);
 }
 
-// Tool colours (the viewer's palette, viewer/src/colors.js TOOL_COLORS).
-constexpr double kToolRgb[][3] = {{31, 119, 180}, {255, 127, 14}, {44, 160, 44},  {214, 39, 40},
-                                  {148, 103, 189}, {140, 86, 75},  {23, 190, 207}, {188, 189, 34}};
+void role_colour(cairo_t* cr, PathRole role) {
+  set_rgb(cr, role_rgb(role));
+}
 
 void tool_colour(cairo_t* cr, int tool) {
-  const auto& c = kToolRgb[static_cast<std::size_t>(std::max(0, tool)) % 8];
-  cairo_set_source_rgb(cr, c[0] / 255, c[1] / 255, c[2] / 255);
+  set_rgb(cr, tool_rgb(tool));
 }
 
 // A length of 1, 2 or 5 × 10^k mm, at most `max_mm`.
@@ -219,11 +211,12 @@ void render_layer_png(const Toolpath& tp, std::size_t index, const std::string& 
     bead_min = std::min(bead_min, bead);
     cairo_set_line_width(cr.get(), std::max(bead, 1.5 / scale));
     if (mode == Mode::Mixture3 && p.mixture.size() >= 3) {
-      // Three materials: A red, B green, C blue, mixed.
-      cairo_set_source_rgb(cr.get(), std::clamp(p.mixture[0], 0.0, 1.0),
-                           std::clamp(p.mixture[1], 0.0, 1.0), std::clamp(p.mixture[2], 0.0, 1.0));
+      // Three materials: the blend of their colours at the corners of the mixture triangle.
+      set_rgb(cr.get(), mixture3_rgb(p.mixture[0], p.mixture[1], p.mixture[2]));
     } else if ((mode == Mode::Mixture2 || mode == Mode::Mixture3) && !p.mixture.empty()) {
-      order_colour(cr.get(), std::clamp(p.mixture[0], 0.0, 1.0));
+      set_rgb(cr.get(), mixture_rgb(p.mixture[0]));
+    } else if (mode == Mode::Mixture2 || mode == Mode::Mixture3) {
+      set_rgb(cr.get(), palette().no_value);
     } else if (mode != Mode::Order) {
       role_colour(cr.get(), p.role);
     } else {
@@ -257,19 +250,21 @@ void render_layer_png(const Toolpath& tp, std::size_t index, const std::string& 
                                                 : "toolpath";
   text(c, pad, pad + fs, fs, name, true);
   char line[256];
-  const char* meaning = mode == Mode::Order  ? "colour: print order"
-                        : mode == Mode::Role ? "colour: feature type"
-                                             : "colour: mixture";
+  const std::string meaning = mode == Mode::Order  ? "colour: print order"
+                              : mode == Mode::Role ? "colour: feature type"
+                                                   : "colour: mixture " + opt.mixture_label;
   std::snprintf(line, sizeof line, "layer %zu of %zu, z = %.3f mm, %zu paths; %s", index + 1,
-                tp.layers.size(), layer.z, n, meaning);
-  text(c, pad, pad + 2.3 * fs, fs * 0.85, line);
+                tp.layers.size(), layer.z, n, meaning.c_str());
+  // Smaller type when the line would run past the picture's edge (a long mixture label).
+  const double line_fs = fs * 0.85 * std::min(1.0, (W - 2 * pad) / text_width(c, fs * 0.85, line));
+  text(c, pad, pad + 2.3 * fs, line_fs, line);
   // Legend band: what colour means (left), scale bar in mm (right).
   const double y0 = band + Hd, ymid = y0 + band * 0.5, sw = band * 0.3;
   double x = pad;
   if (mode == Mode::Role) {
-    bool used[7] = {};
-    for (const auto& p : layer.paths) used[static_cast<int>(p.role)] = true;
-    for (int r = 0; r < 7; ++r) {
+    bool used[kPathRoleCount] = {};
+    for (const auto& p : layer.paths) used[static_cast<std::size_t>(p.role)] = true;
+    for (std::size_t r = 0; r < kPathRoleCount; ++r) {
       if (!used[r]) continue;
       role_colour(c, static_cast<PathRole>(r));
       cairo_rectangle(c, x, ymid - sw / 2, sw * 1.6, sw);
@@ -283,7 +278,7 @@ void render_layer_png(const Toolpath& tp, std::size_t index, const std::string& 
   } else if (mode == Mode::Mixture3) {
     const char* names[] = {"material 1", "material 2", "material 3"};
     for (int k = 0; k < 3; ++k) {
-      cairo_set_source_rgb(c, k == 0, k == 1, k == 2);
+      set_rgb(c, palette().mixture3[k]);
       cairo_rectangle(c, x, ymid - sw / 2, sw * 1.6, sw);
       cairo_fill(c);
       x += sw * 2;
@@ -299,7 +294,9 @@ void render_layer_png(const Toolpath& tp, std::size_t index, const std::string& 
     cairo_set_source_rgb(c, 0.1, 0.1, 0.1);
     text(c, x, ymid + fs * 0.3, fs * 0.85, lo);
     x += text_width(c, fs * 0.85, lo) + sw * 0.5;
-    x += draw_order_bar(c, x, ymid, sw, 4 * band) + sw * 0.5;
+    x += (mode == Mode::Order ? draw_order_bar(c, x, ymid, sw, 4 * band)
+                              : draw_bar(c, x, ymid, sw, 4 * band, mixture_rgb)) +
+         sw * 0.5;
     cairo_set_source_rgb(c, 0.1, 0.1, 0.1);
     text(c, x, ymid + fs * 0.3, fs * 0.85, hi + what);
   }
@@ -456,8 +453,8 @@ void render_3d_png(const Toolpath& tp, const std::string& path, const View3dOpti
   std::vector<LegendItem> items;
   if (opt.colour == Colour::Tool)
     for (int t : tools) {
-      const auto& c = kToolRgb[static_cast<std::size_t>(std::max(0, t)) % 8];
-      items.push_back({"tool " + std::to_string(t), c[0] / 255, c[1] / 255, c[2] / 255});
+      const Rgb c = tool_rgb(t);
+      items.push_back({"tool " + std::to_string(t), c[0] / 255.0, c[1] / 255.0, c[2] / 255.0});
     }
   items.push_back({"path start", 0.0, 0.6, 0.0});
   if (opt.upto > 0) items.push_back({"not yet printed", 0.85, 0.85, 0.85});

@@ -972,7 +972,7 @@ NonplanarResult slice_nonplanar(const HeightField& surface, const NonplanarParam
     Path cur;
     auto flush = [&] {
       if (cur.points.size() >= 2) {
-        cur.role = PathRole::Other;
+        cur.role = PathRole::Nonplanar;
         cur.tool = rep.tool;
         cur.width = prm.width;
         cur.height = prm.layer_height;

@@ -1694,7 +1694,7 @@ Layer pbf_layer_toolpath(const PbfLayer& L, std::size_t i, double thickness, dou
     }
     for (const auto& h : L.hatches) {
       Path p;
-      p.role = PathRole::Infill;
+      p.role = PathRole::Hatch;
       p.power = hatch_power;
       p.speed = hatch_speed;
       p.points = {{h.a.x, h.a.y, layer.z}, {h.b.x, h.b.y, layer.z}};

@@ -44,7 +44,7 @@ LaserAnalysis analyze_laser_toolpath(const Toolpath& tp, const Field& part,
       if (p.points.size() < 2) continue;
       pts.clear();
       for (const auto& q : p.points) pts.push_back({q.x, q.y});
-      const bool hatch = p.role == PathRole::Infill;
+      const bool hatch = p.role == PathRole::Hatch || p.role == PathRole::Infill;
       clock.mark(pts.data(), pts.size(),
                  p.speed > 0 ? p.speed : (hatch ? o.timing.hatch_speed : o.timing.contour_speed));
       ++L.vectors;

@@ -213,7 +213,7 @@ Toolpath angle_test(const AngleTestParams& p) {
     if (!(a >= -90 && a <= 90))
       throw SettingError("angle test: angles must lie in [-90, 90] degrees");
     Path path;
-    path.role = PathRole::Other;
+    path.role = PathRole::Nonplanar;
     const double y = static_cast<double>(i) * p.spacing;
     Vec3 q{0, y, p.base_z};
     path.points.push_back(q);

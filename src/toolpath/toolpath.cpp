@@ -1,11 +1,15 @@
 #include "trellis/toolpath/toolpath.hpp"
 
+#include <iterator>
+
 #include "trellis/core/error.hpp"
 
 namespace trellis {
 
 namespace {
-constexpr const char* kRoleNames[] = {"strut", "contour", "handle", "perimeter", "infill", "other", "skin", "purge"};
+constexpr const char* kRoleNames[] = {"strut", "contour", "handle", "perimeter", "infill",
+                                      "other", "skin",    "purge",  "hatch",     "nonplanar"};
+static_assert(std::size(kRoleNames) == kPathRoleCount);
 }
 
 const char* to_string(PathRole role) {
@@ -13,10 +17,12 @@ const char* to_string(PathRole role) {
 }
 
 PathRole path_role_from_string(const std::string& name) {
-  for (int i = 0; i < 8; ++i)
+  for (std::size_t i = 0; i < kPathRoleCount; ++i)
     if (name == kRoleNames[i]) return static_cast<PathRole>(i);
-  throw ParseError("unknown path role '" + name +
-                   "' (expected strut, contour, handle, perimeter, infill, skin, purge or other)");
+  throw ParseError(
+      "unknown path role '" + name +
+      "' (expected strut, contour, handle, perimeter, infill, skin, purge, hatch, nonplanar "
+      "or other)");
 }
 
 double Path::length() const {

@@ -15,8 +15,46 @@ namespace trellis::view_page {
 
 namespace {
 
-constexpr std::string_view kPathRoles[] = {"strut",  "contour", "handle", "perimeter",
-                                           "infill", "other",   "skin",   "purge"};
+// The float attributes of a path, in order (viewer/src/data.js ATTRS): mixture[0] (-1 none),
+// mixture[1] (-1 unless 3+ materials), temperature, speed, width, power, mixture[2] (-1 none),
+// then the commanded mixture[0], [1], [2] the same way (machine/mixing_lag.hpp; the path's own
+// when the scene keeps none).
+constexpr std::size_t kAttributes = 10;
+
+double attribute(const Path& p, const std::vector<double>& commanded, std::size_t k) {
+  auto mix = [](const std::vector<double>& m, std::size_t i) {
+    return i == 0 ? (m.empty() ? -1 : m[0]) : m.size() > 2 ? m[i] : -1;
+  };
+  switch (k) {
+    case 0:
+      return mix(p.mixture, 0);
+    case 1:
+      return mix(p.mixture, 1);
+    case 2:
+      return p.temperature;
+    case 3:
+      return p.speed;
+    case 4:
+      return p.width;
+    case 5:
+      return p.power;
+    case 6:
+      return mix(p.mixture, 2);
+    default:
+      return mix(commanded, k - 7);
+  }
+}
+
+// The role byte: the PathRole, plus 0x80 when the path continues the previous one's bead (a piece
+// cut where the deposited mixture changes: not a path of its own in the counts).
+char role_byte(const Path& p) {
+  return static_cast<char>(static_cast<std::uint8_t>(p.role) | (p.joined ? 0x80 : 0));
+}
+
+// Path `k` (print order) of scene `s`: its commanded mixture.
+const std::vector<double>& commanded_of(const ViewScene& s, const Path& p, std::size_t k) {
+  return k < s.commanded.size() ? s.commanded[k] : p.mixture;
+}
 
 void put_u32(std::string& b, std::uint32_t v) {
   char c[4];
@@ -32,11 +70,11 @@ void put_f32(std::string& b, double v) {
 
 // One layer as bytes (little-endian, 4-byte aligned sections):
 //   u32 points, u32 paths; f32 xyz[points]; u32 first_point[paths];
-//   f32 attributes[paths][7] = mixture[0] (-1 none), mixture[1] (-1 unless 3+ materials),
-//   temperature, speed, width, power, mixture[2] (-1 none); u8 role[paths]; u8 tool[paths];
+//   f32 attributes[paths][kAttributes] (attribute()); u8 role[paths] (role_byte());
+//   u8 tool[paths];
 //   padding to 4 bytes; u32 vias, and when vias > 0: u32 first_via[paths + 1], f32 xyz[vias]
 //   (the corners of the travel into each path, Path::via).
-std::string encode_layer(const Layer& layer) {
+std::string encode_layer(const ViewScene& s, const Layer& layer, std::size_t first_path) {
   std::size_t points = 0;
   for (const auto& p : layer.paths) points += p.points.size();
   std::string b;
@@ -50,16 +88,12 @@ std::string encode_layer(const Layer& layer) {
     put_u32(b, first);
     first += static_cast<std::uint32_t>(p.points.size());
   }
-  for (const auto& p : layer.paths) {
-    put_f32(b, p.mixture.size() > 0 ? p.mixture[0] : -1);
-    put_f32(b, p.mixture.size() > 2 ? p.mixture[1] : -1);
-    put_f32(b, p.temperature);
-    put_f32(b, p.speed);
-    put_f32(b, p.width);
-    put_f32(b, p.power);
-    put_f32(b, p.mixture.size() > 2 ? p.mixture[2] : -1);
+  for (std::size_t q = 0; q < layer.paths.size(); ++q) {
+    const Path& p = layer.paths[q];
+    for (std::size_t k = 0; k < kAttributes; ++k)
+      put_f32(b, attribute(p, commanded_of(s, p, first_path + q), k));
   }
-  for (const auto& p : layer.paths) b += static_cast<char>(static_cast<std::uint8_t>(p.role));
+  for (const auto& p : layer.paths) b += role_byte(p);
   for (const auto& p : layer.paths) b += static_cast<char>(std::clamp(p.tool, 0, 255));
   while (b.size() % 4) b += '\0';
   std::size_t vias = 0;
@@ -168,7 +202,10 @@ void append_scene(std::string& html, const ViewScene& s, std::size_t index, Laye
   meta["name"] = s.name;
   meta["kind"] = s.kind;
   meta["source"] = s.toolpath.source;
-  meta["roles"] = std::vector<std::string>(std::begin(kPathRoles), std::end(kPathRoles));
+  std::vector<std::string> roles;
+  for (std::size_t r = 0; r < kPathRoleCount; ++r)
+    roles.emplace_back(to_string(static_cast<PathRole>(r)));
+  meta["roles"] = roles;
   meta["layer_z"] = nlohmann::json::array();
   for (const auto& l : s.toolpath.layers) meta["layer_z"].push_back(l.z);
   meta["print_time_s"] = s.print_time_s;
@@ -179,6 +216,8 @@ void append_scene(std::string& html, const ViewScene& s, std::size_t index, Laye
   for (const auto& l : s.toolpath.layers)
     for (const auto& p : l.paths) materials = std::max(materials, p.mixture.size());
   meta["materials"] = materials;
+  meta["mixture_read_back"] = s.mixture_read_back;
+  meta["mixture_lookahead_mm"] = s.mixture_lookahead;
   meta["checked"] = s.checked;
   meta["collisions"] = s.collisions;
   meta["extra_stats"] = s.extra_stats;
@@ -190,11 +229,13 @@ void append_scene(std::string& html, const ViewScene& s, std::size_t index, Laye
           "</script>\n";
   if (layers == LayerData::Packed)
     html += "<script type=\"application/octet-stream\" id=\"" + id + "-pack\">" +
-            base64(deflate(pack_layers(s.toolpath))) + "</script>\n";
+            base64(deflate(pack_layers(s))) + "</script>\n";
   else
-    for (std::size_t i = 0; i < s.toolpath.layers.size(); ++i)
+    for (std::size_t i = 0, first = 0; i < s.toolpath.layers.size(); ++i) {
       html += "<script type=\"application/octet-stream\" id=\"" + id + "-l" + std::to_string(i) +
-              "\">" + base64(encode_layer(s.toolpath.layers[i])) + "</script>\n";
+              "\">" + base64(encode_layer(s, s.toolpath.layers[i], first)) + "</script>\n";
+      first += s.toolpath.layers[i].paths.size();
+    }
   if (!s.design.empty())
     html += "<script type=\"application/octet-stream\" id=\"" + id + "-design\">" +
             base64(encode_design(s)) + "</script>\n";
@@ -209,11 +250,13 @@ void append_scene(std::string& html, const ViewScene& s, std::size_t index, Laye
 //   "TVP1"; f64 quantum (mm per step); varint layers; then per layer:
 //   varint points, varint paths, varint vias; varint points_of_path[paths];
 //   zigzag varint dx, dy, dz [points] (steps from the previous point, through all layers, from 0);
-//   f32 attribute columns: mixture[0] of every path, then mixture[1], temperature, speed, width,
-//   power, mixture[2] (each as in encode_layer); u8 role[paths]; u8 tool[paths];
+//   f32 attribute columns: attribute 0 of every path, then attribute 1, ... (as in
+//   encode_layer); u8 role[paths]; u8 tool[paths];
 //   when vias > 0: varint vias_of_path[paths], zigzag varint dx, dy, dz [vias] (steps from the
 //   previous travel corner, through all layers, from 0).
-std::string pack_layers(const Toolpath& t) {
+std::string pack_layers(const ViewScene& s) {
+  const Toolpath& t = s.toolpath;
+  std::size_t first_path = 0;
   const double quantum = pack_quantum(t);
   std::string b = "TVP1";
   char q[8];
@@ -230,17 +273,13 @@ std::string pack_layers(const Toolpath& t) {
     for (const auto& p : layer.paths) put_varint(b, p.points.size());
     for (const auto& p : layer.paths)
       for (const auto& v : p.points) points.put(v);
-    auto column = [&](auto value) {
-      for (const auto& p : layer.paths) put_f32(b, value(p));
-    };
-    column([](const Path& p) { return p.mixture.size() > 0 ? p.mixture[0] : -1; });
-    column([](const Path& p) { return p.mixture.size() > 2 ? p.mixture[1] : -1; });
-    column([](const Path& p) { return p.temperature; });
-    column([](const Path& p) { return p.speed; });
-    column([](const Path& p) { return p.width; });
-    column([](const Path& p) { return p.power; });
-    column([](const Path& p) { return p.mixture.size() > 2 ? p.mixture[2] : -1; });
-    for (const auto& p : layer.paths) b += static_cast<char>(static_cast<std::uint8_t>(p.role));
+    for (std::size_t k = 0; k < kAttributes; ++k)
+      for (std::size_t q = 0; q < layer.paths.size(); ++q) {
+        const Path& p = layer.paths[q];
+        put_f32(b, attribute(p, commanded_of(s, p, first_path + q), k));
+      }
+    first_path += layer.paths.size();
+    for (const auto& p : layer.paths) b += role_byte(p);
     for (const auto& p : layer.paths) b += static_cast<char>(std::clamp(p.tool, 0, 255));
     if (nv > 0) {
       for (const auto& p : layer.paths) put_varint(b, p.via.size());

@@ -27,8 +27,8 @@ enum class LayerData { Chunks, Packed };
 std::string data_blocks(const std::vector<ViewScene>& scenes, const std::string& title,
                         LayerData layers);
 
-// The Packed bytes of a toolpath before deflating (for tests): see encode.cpp for the layout.
-std::string pack_layers(const Toolpath& toolpath);
+// The Packed bytes of a scene's layers before deflating (for tests): see encode.cpp for the layout.
+std::string pack_layers(const ViewScene& scene);
 
 // JSON as text safe inside <script> (`<`, `>`, `&` as \u escapes; invalid UTF-8 as U+FFFD).
 std::string script_json(const nlohmann::json& value);

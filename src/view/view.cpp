@@ -17,6 +17,7 @@
 #include "trellis/lattice/io.hpp"
 #include "trellis/machine/cli.hpp"
 #include "trellis/machine/gcode_reader.hpp"
+#include "trellis/machine/mixing_lag.hpp"
 #include "trellis/machine/profile.hpp"
 #include "trellis/toolpath/json.hpp"
 
@@ -37,15 +38,28 @@ std::string lower_ext(const std::string& path) {
   return e;
 }
 
-// G-code: one pass feeding the IR builder and the counters `trellis analyze` reports.
+// The mixing look-ahead a file's header records.
+class LookaheadSink : public GcodeSink {
+ public:
+  void mixture_lookahead(double mm) override { mm_ = mm; }
+  double mm_ = 0;
+};
+
+// G-code: one pass feeding the IR builder and the counters `trellis analyze` reports; mixtures
+// then shown as deposited, the commanded ones kept.
 ViewScene load_gcode(const std::string& path, const GcodeReadOptions& read, Diagnostics& diag) {
   ViewScene s;
   CountingSink counter;
   auto builder = make_toolpath_builder(s.toolpath);
-  TeeSink both(counter, *builder);  // the builder also gets ;WIDTH:/;HEIGHT:
+  LookaheadSink lookahead;
+  TeeSink building(*builder, lookahead);
+  TeeSink both(counter, building);  // the builder also gets ;WIDTH:/;HEIGHT:
   Diagnostics local;
   scan_gcode_file(path, both, read, local);
   counter.finish();
+  s.mixture_read_back = true;
+  s.mixture_lookahead = lookahead.mm_;
+  if (s.mixture_lookahead > 0) s.commanded = deposit_mixtures(s.toolpath, s.mixture_lookahead);
   s.print_time_s = counter.counts.print_time_s;
   s.filament_mm = counter.counts.filament;
   for (const auto& m : local.messages()) s.warnings.push_back(m.kind + ": " + m.text);
@@ -271,6 +285,14 @@ void set_build_volume(ViewScene& s, const MachineProfile& m, const std::string& 
   s.bed.z = m.bed_z;
   s.bed.center = m.origin == "center";
   s.bed.machine = name;
+}
+
+std::string mixture_label(const ViewScene& s, bool commanded) {
+  if (!s.mixture_read_back) return "(as planned)";
+  if (!(s.mixture_lookahead > 0)) return "(as commanded; no look-ahead recorded)";
+  const std::string mm = std::to_string(static_cast<long>(std::lround(s.mixture_lookahead)));
+  return commanded ? "(as commanded, " + mm + " mm ahead)"
+                   : "(as deposited, " + mm + " mm look-ahead undone)";
 }
 
 ViewScene view_scene(const Toolpath& toolpath, const std::string& name) {

@@ -28,8 +28,8 @@ Toolpath random_laser_toolpath(unsigned seed) {
     const int n = count(rng);
     for (int k = 0; k < n; ++k) {
       Path p;
-      p.role = coin(rng) < 5 ? PathRole::Contour : PathRole::Infill;
-      const int m = p.role == PathRole::Infill ? 2 : pts(rng);
+      p.role = coin(rng) < 5 ? PathRole::Contour : PathRole::Hatch;
+      const int m = p.role == PathRole::Hatch ? 2 : pts(rng);
       for (int j = 0; j < m; ++j) {
         const bool tiny = coin(rng) == 0;
         p.points.push_back({tiny ? small(rng) : xy(rng), tiny ? small(rng) : xy(rng), l.z});
@@ -45,9 +45,9 @@ Toolpath random_laser_toolpath(unsigned seed) {
 std::vector<const Path*> in_file_order(const Layer& l) {
   std::vector<const Path*> out;
   for (const auto& p : l.paths)
-    if (!(p.role == PathRole::Infill && p.points.size() == 2)) out.push_back(&p);
+    if (!(p.role == PathRole::Hatch && p.points.size() == 2)) out.push_back(&p);
   for (const auto& p : l.paths)
-    if (p.role == PathRole::Infill && p.points.size() == 2) out.push_back(&p);
+    if (p.role == PathRole::Hatch && p.points.size() == 2) out.push_back(&p);
   return out;
 }
 
@@ -76,7 +76,7 @@ TEST(CliIo, AsciiAndBinaryRoundTripWithin1Micrometre) {
             EXPECT_NEAR(got.points[j].y, want[k]->points[j].y, 1e-3);
           }
           // CLI+: the profile's power and speed per id.
-          const bool hatch = got.role == PathRole::Infill;
+          const bool hatch = got.role == PathRole::Hatch;
           EXPECT_EQ(got.power, hatch ? 120 : 55);
           EXPECT_EQ(got.speed, hatch ? 1100 : 700);
         }
@@ -167,7 +167,7 @@ TEST(CliIo, ReadsShortBinaryCommandsAndOtherUnits) {
   ASSERT_EQ(tp.layers[0].paths.size(), 2u);
   EXPECT_EQ(tp.layers[0].paths[0].role, PathRole::Contour);
   EXPECT_NEAR(tp.layers[0].paths[0].points[2].y, 1.0, 1e-12);
-  EXPECT_EQ(tp.layers[0].paths[1].role, PathRole::Infill);
+  EXPECT_EQ(tp.layers[0].paths[1].role, PathRole::Hatch);
   EXPECT_NEAR(tp.layers[0].paths[1].points[1].x, 0.3, 1e-12);
 }
 

@@ -1,12 +1,15 @@
 #include <cairo.h>
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <set>
 
 #include "support/temp_dir.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
+#include "trellis/render/palette.hpp"
 #include "trellis/render/render.hpp"
 
 using namespace trellis;
@@ -224,7 +227,8 @@ TEST(Render, ThreeDHeightColourBarAndToolGroups) {
   v.colour = View3dOptions::Colour::Order;
   render_3d_png(ramp, tmp.file("order.png"), v);
   const Image o = decode(tmp.file("order.png"));
-  // The top of the ramp is red (the bar's high end) and its foot blue only when coloured by height.
+  // The top of the ramp has the bar's high-end colour and its foot the low end's (the palette's
+  // continuous map); by print order the one path has one colour, not the high end.
   auto count_if = [](const Image& im, int y0, int y1, auto pred) {
     std::size_t n = 0;
     for (int y = y0; y < y1; ++y)
@@ -234,12 +238,17 @@ TEST(Render, ThreeDHeightColourBarAndToolGroups) {
       }
     return n;
   };
-  auto red = [](int r, int g, int b) { return r > 200 && g < 20 && b < 15; };  // not the X axis (217, 25, 25)
-  auto blue = [](int r, int g, int b) { return b > 200 && r < 40 && g < 60; };
-  EXPECT_GT(count_if(h, 0, h.h - band, red), 10u);
-  EXPECT_GT(count_if(h, 0, h.h - band, blue), 30u);
+  auto near_rgb = [](const Rgb& c) {
+    return [c](int r, int g, int b) {
+      return std::abs(r - c[0]) <= 3 && std::abs(g - c[1]) <= 3 && std::abs(b - c[2]) <= 3;
+    };
+  };
+  // The last segment's mid z is 9.9 of 10, the first's 0.1.
+  const auto red = near_rgb(continuous_rgb(0.99)), blue = near_rgb(continuous_rgb(0.01));
+  EXPECT_GT(count_if(h, 0, h.h - band, red), 4u);  // each about 0.8 mm long
+  EXPECT_GT(count_if(h, 0, h.h - band, blue), 4u);
   EXPECT_LT(count_if(o, 0, o.h - band, red), 5u);
-  EXPECT_GT(saturated(h, h.h - band, h.h), 50u);  // the colour bar
+  EXPECT_GT(saturated(h, h.h - band, h.h), 50u);         // the colour bar
   EXPECT_GT(longest_black_run(h, h.h - band, h.h), 40);  // the scale bar
 
   Toolpath two;
@@ -265,5 +274,102 @@ TEST(Render, ThreeDHeightColourBarAndToolGroups) {
   for (unsigned tool : {0x1f77b4u, 0xff7f0eu}) {
     EXPECT_GT(near(0, t.h - band, tool), 100u) << std::hex << tool;
     EXPECT_GT(count(t, t.h - band, t.h, tool), 20u) << std::hex << tool;  // legend swatch
+  }
+}
+
+// One picture language: a layer PNG coloured by mixture draws fractions 0, 0.5 and 1 in the
+// colours the viewer computes for them (viewer/src/colors.js: mixColor, a round-half-up blend of
+// the two mixture2 colours of src/render/palette.json, the file both bundle), pixel for pixel;
+// the legend band's bar runs between the same two colours; feature types use the palette's
+// role colours, the new laser and non-planar roles included.
+TEST(Render, MixtureAndRolePixelsAreTheViewersColours) {
+  const auto json = nlohmann::json::parse(
+      read_file(std::string(TRELLIS_SOURCE_DIR) + "/src/render/palette.json"));
+  auto viewer_mix = [&](double t) {  // colors.js mixColor, written out again
+    const auto& a = json["mixture2"][0];
+    const auto& b = json["mixture2"][1];
+    unsigned rgb = 0;
+    for (int i = 0; i < 3; ++i) {
+      const double v = a[i].get<double>() + (b[i].get<double>() - a[i].get<double>()) * t;
+      rgb = rgb << 8 | static_cast<unsigned>(std::floor(v + 0.5));
+    }
+    return rgb;
+  };
+  Toolpath tp;
+  Layer layer{0.2, {}};
+  const double fractions[] = {0, 0.5, 1};
+  for (int i = 0; i < 3; ++i) {
+    Path p;
+    p.points = {{0, 4.0 * i, 0.2}, {30, 4.0 * i, 0.2}};
+    p.width = 2;
+    p.mixture = {fractions[i], 1 - fractions[i]};
+    layer.paths.push_back(p);
+  }
+  tp.layers.push_back(layer);
+  const trellis::test::TempDir tmp("trellis_render_palette");
+  RenderOptions o;
+  o.size_px = 600;
+  o.colour_by_mixture = true;
+  o.travel = false;
+  o.starts = false;
+  render_layer_png(tp, 0, tmp.file("mix.png"), o);
+  const Image im = decode(tmp.file("mix.png"));
+  const int band = layer_band_px(600);
+  const double scale = 600.0 / 32;  // 30 mm + 2 mm of margin
+  std::set<unsigned> seen;
+  for (int i = 0; i < 3; ++i) {
+    // The middle of line i: x = 15 mm, y = 4 i mm (y up, from the bottom of the drawing).
+    const int x = static_cast<int>(std::lround((15 + 1) * scale)) +
+                  (im.w - static_cast<int>(std::ceil(32 * scale))) / 2;
+    const int y = band + static_cast<int>(std::ceil((8 + 2) * scale)) -
+                  static_cast<int>(std::lround((4.0 * i + 1) * scale));
+    const unsigned px = im.at(x, y);
+    EXPECT_EQ(px, viewer_mix(fractions[i]))
+        << "mixture " << fractions[i] << std::hex << " pixel " << px;
+    const Rgb c = mixture_rgb(fractions[i]);
+    EXPECT_EQ(px, unsigned(c[0] << 16 | c[1] << 8 | c[2]));
+    seen.insert(px);
+  }
+  EXPECT_EQ(seen.size(), 3u);
+  // The legend's bar runs between the same two colours (its 1 px columns sit at fractional x, so
+  // within 3 of them).
+  auto near = [&](unsigned rgb) {
+    std::size_t n = 0;
+    for (int y = im.h - band; y < im.h; ++y)
+      for (int x = 0; x < im.w; ++x) {
+        const unsigned c = im.at(x, y);
+        bool close = true;
+        for (int s = 0; s < 24; s += 8)
+          close = close && std::abs(int((c >> s) & 0xff) - int((rgb >> s) & 0xff)) <= 3;
+        n += close;
+      }
+    return n;
+  };
+  EXPECT_GT(near(viewer_mix(0)), 5u);
+  EXPECT_GT(near(viewer_mix(1)), 5u);
+
+  // Feature types: each role's palette colour in the drawing and as a legend swatch.
+  Toolpath roles;
+  Layer rl{0.2, {}};
+  const PathRole shown[] = {PathRole::Hatch, PathRole::Nonplanar, PathRole::Contour};
+  for (int i = 0; i < 3; ++i) {
+    Path p;
+    p.points = {{0, 4.0 * i, 0.2}, {30, 4.0 * i, 0.2}};
+    p.width = 2;
+    p.role = shown[i];
+    rl.paths.push_back(p);
+  }
+  roles.layers.push_back(rl);
+  o.colour_by_mixture = false;
+  o.colour_by_role = true;
+  render_layer_png(roles, 0, tmp.file("roles.png"), o);
+  const Image r = decode(tmp.file("roles.png"));
+  for (const PathRole role : shown) {
+    const auto& entry = json["roles"][static_cast<std::size_t>(role)];
+    ASSERT_EQ(entry[0].get<std::string>(), to_string(role));
+    const unsigned rgb = entry[1][0].get<unsigned>() << 16 | entry[1][1].get<unsigned>() << 8 |
+                         entry[1][2].get<unsigned>();
+    EXPECT_GT(count(r, band, r.h - band, rgb), 500u) << to_string(role);
+    EXPECT_GT(count(r, r.h - band, r.h, rgb), 20u) << to_string(role);
   }
 }

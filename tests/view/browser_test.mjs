@@ -59,6 +59,24 @@ run('prusa-slicer', ['--export-gcode', '--layer-height', '0.3', '--first-layer-h
   writeFileSync(join(out, 'mix.gcode'), g.join('\n') + '\n');
 }
 
+// A graded print on a mixing hotend that issues each change 960 mm early (the Mizar M profile's
+// look-ahead): 40 non-planar-role lines of 60 mm along X at y = 2i, mixture 0 for 20 lines
+// (1200 mm, past the look-ahead), then stepping 0.2 .. 1 every 4 lines, written by `trellis
+// gcode`. Read back, each command runs 960 mm = 16 lines ahead of its region.
+const GRADE = (i) => (i < 20 ? 0 : (Math.floor((i - 20) / 4) + 1) / 5);
+{
+  const paths = [];
+  for (let i = 0; i < 40; ++i)
+    paths.push({ role: 'nonplanar', tool: 0, width: 0.8, height: 0.2, speed: 0, mixture: [GRADE(i), 1 - GRADE(i)],
+      points: [[0, 2 * i, 0.2], [30, 2 * i, 0.2], [60, 2 * i, 0.2]] });
+  writeFileSync(join(out, 'graded.json'), JSON.stringify({ format: 'trellis.toolpath', version: 1, units: 'mm',
+    source: 'browser test', layers: [{ z: 0.2, paths }] }));
+  tr('gcode', 'graded.json', '--machine', profile('geeetech_mizar_m_mixing.toml'), '-o', 'graded.gcode');
+}
+// The one palette of PNGs and viewer (src/render/palette.json, bundled into the page).
+const PALETTE = JSON.parse(readFileSync(join(source, 'src/render/palette.json'), 'utf8'));
+const paletteMix = (t) => [0, 1, 2].map((i) => Math.round(PALETTE.mixture2[0][i] + (PALETTE.mixture2[1][i] - PALETTE.mixture2[0][i]) * t));
+
 // Three materials (M165 A B C, as a mixing hotend's G-code would): layer 1 has lines along X at
 // y = 2i with the mixtures MIX3[i].
 const MIX3 = [[1, 0, 0], [0, 1, 0], [0, 0, 1], [0.6, 0.2, 0.2], [0.2, 0.5, 0.3], [0.1, 0.1, 0.8], [0.4, 0.4, 0.2]];
@@ -123,6 +141,7 @@ const cases = [
   { file: join(source, 'tests/data/aero/cubic_edges.csv'), name: 'cubic_edges.csv',
     expect: { designLines: json('cubic_report.json').struts } },
   { file: 'mix.gcode', expect: analyze('mix.gcode') },
+  { file: 'graded.gcode', expect: analyze('graded.gcode') },
   { file: 'mix3.gcode', expect: analyze('mix3.gcode') },
   { file: HOSTILE, args: ['--title', HOSTILE_TITLE], expect: analyze(HOSTILE) },
   { file: 'part.bgcode', expect: analyze('part.bgcode') },
@@ -252,6 +271,33 @@ async function runCase(c, tag = '') {
       }
       await page.screenshot({ path: join(out, `mix.gcode.${mode}.png`) });
     }
+    // One picture language: `trellis render` draws mixtures 0, 0.5 and 1 in the palette's
+    // colours, and the viewer's pixels on the same lines are those colours too.
+    await page.select('#tv-mode', 'mixture');
+    await page.evaluate(() => window.trellisViewer.whenDrawn());
+    tr('render', 'mix.gcode', '--layer', '0', '--colour', 'mixture', '--no-travel', '-o', 'mix.layer0.png');
+    const pngPixel = async (x, y) => page.evaluate(async (data, x, y) => {
+      const img = new Image();
+      img.src = 'data:image/png;base64,' + data;
+      await img.decode();
+      const cv = document.createElement('canvas');
+      cv.width = img.width; cv.height = img.height;
+      const ctx = cv.getContext('2d');
+      ctx.drawImage(img, 0, 0);
+      const p = ctx.getImageData(x, y, 1, 1).data;
+      return [p[0], p[1], p[2]];
+    }, readFileSync(join(out, 'mix.layer0.png')).toString('base64'), x, y);
+    // The PNG's geometry (src/render/render.cpp): 20 x 20 mm plus 1 mm margins in 1000 px, a title
+    // band of 1000 / 12 px above.
+    const s = 1000 / 22, band = Math.floor(1000 / 12);
+    for (const i of [0, 5, 10]) {
+      const want = paletteMix(i / 10);
+      const png = await pngPixel(Math.round((10 + 1) * s), Math.round(band + 1000 - (2 * i + 1) * s));
+      const [x, y] = await page.evaluate((yy) => window.trellisViewer.project(4.5, yy, 0.2), 2 * i);
+      const best = Math.min(...(await around(page, x, y, 1)).map((p) => diff(p, png)));
+      check(diff(png, want) === 0 && best <= 2,
+        `mix.gcode: mixture ${i / 10}: PNG pixel ${png} == palette ${want}, viewer pixel within ${best} of it`);
+    }
     // The layer slider hides the layers above: a point on a layer-2 line only.
     const [x, y] = await page.evaluate(() => window.trellisViewer.project(5, 11, 0.4));
     const before = await around(page, x, y, 2);
@@ -263,6 +309,53 @@ async function runCase(c, tag = '') {
     const label = await page.$eval('#tv-layer-label', (e) => e.textContent);
     check(/^1 of 2/.test(label), `mix.gcode: layer label "${label}"`);
     await page.screenshot({ path: join(out, 'mix.gcode.layer1.png') });
+  }
+  if (base === 'graded.gcode') {
+    // Feature type: the lines carry the non-planar role, by name.
+    const roles = await page.$eval('#tv-legend', (e) => e.innerText);
+    check(/nonplanar \(40 paths\)/.test(roles) && !/other/.test(roles), `graded.gcode: feature legend "${roles.replace(/\n/g, ' ')}"`);
+    await page.click('#tv-top');
+    // Deposited (the default mixture mode): every line in the colour of its planned mixture.
+    // Commanded: the lines printed while the next change was already issued show the next one.
+    // The file is placed on the bed: line i runs along X at the part's lowest y + 2i.
+    const lineColours = async () => {
+      const got = [];
+      for (let i = 0; i < 40; ++i) {
+        const [x, y] = await page.evaluate((i) => {
+          const v = window.trellisViewer, b = v.s.bbox;
+          return v.project(b.min.x + 45, b.min.y + 2 * i, b.min.z);
+        }, i);
+        got.push(await around(page, x, y, 1));
+      }
+      return got;
+    };
+    await page.select('#tv-mode', 'mixture');
+    await page.evaluate(() => window.trellisViewer.whenDrawn());
+    const depLegend = await page.$eval('#tv-legend', (e) => e.innerText);
+    const dep = await lineColours();
+    let depOk = 0;
+    dep.forEach((px, i) => { if (Math.min(...px.map((p) => diff(p, paletteMix(GRADE(i))))) <= 6) depOk += 1; });
+    check(depOk === 40, `graded.gcode: as deposited, ${depOk} of 40 lines in their planned mixture's colour`);
+    check(/as deposited/.test(depLegend) && /960 mm/.test(depLegend), `graded.gcode: legend "${depLegend.replace(/\n/g, ' ')}"`);
+    await page.screenshot({ path: join(out, 'graded.gcode.deposited.png') });
+    await page.select('#tv-mode', 'commanded');
+    await page.evaluate(() => window.trellisViewer.whenDrawn());
+    const cmdLegend = await page.$eval('#tv-legend', (e) => e.innerText);
+    const cmd = await lineColours();
+    let cmdOff = 0;
+    cmd.forEach((px, i) => { if (Math.min(...px.map((p) => diff(p, paletteMix(GRADE(i))))) > 6) cmdOff += 1; });
+    // Commanded 16 lines early: lines 4-19 show 0.2-0.8 where 0 is planned, lines 20-35 the
+    // next steps' mixtures; only 0-3 and 36-39 agree.
+    check(cmdOff === 32, `graded.gcode: as commanded, ${cmdOff} of 40 lines show another mixture than planned`);
+    check(/as commanded/.test(cmdLegend), `graded.gcode: legend "${cmdLegend.replace(/\n/g, ' ')}"`);
+    await page.screenshot({ path: join(out, 'graded.gcode.commanded.png') });
+  }
+  if (base === 'gyroid.cli') {
+    const shown = await page.$$eval('#tv-stats-table td.v', (tds) => Object.fromEntries(tds.map((td) => [td.dataset.stat, td.textContent])));
+    const legend = await page.$eval('#tv-legend', (e) => e.innerText);
+    check(shown['scan length'] !== undefined && shown['extruded length'] === undefined,
+      `gyroid.cli: a laser file shows "scan length" (${shown['scan length']}), no extruded length`);
+    check(/hatch/.test(legend) && /contour/.test(legend) && !/infill/.test(legend), `gyroid.cli: feature legend "${legend.replace(/\n/g, ' ')}"`);
   }
   if (base === HOSTILE) {
     const title = await page.title();
@@ -364,16 +457,31 @@ async function runCase(c, tag = '') {
     await page.screenshot({ path: join(out, 'foam_round_bed.nc.png') });
   }
   if (base === 'foam_bed.nc') {
+    // The camera frames the part, not the 300 mm bed: the part's box spans over a third of the
+    // view and lies inside it.
+    const span = await page.evaluate(() => {
+      const v = window.trellisViewer, b = v.s.bbox, xs = [], ys = [];
+      for (const x of [b.min.x, b.max.x]) for (const y of [b.min.y, b.max.y]) for (const z of [b.min.z, b.max.z]) {
+        const [px, py] = v.project(x, y, z); xs.push(px); ys.push(py);
+      }
+      return { w: Math.max(...xs) - Math.min(...xs), h: Math.max(...ys) - Math.min(...ys), x0: Math.min(...xs), x1: Math.max(...xs),
+        y0: Math.min(...ys), y1: Math.max(...ys), W: window.innerWidth, H: window.innerHeight };
+    });
+    check(Math.max(span.w / span.W, span.h / span.H) > 0.33 && span.x0 >= 0 && span.y0 >= 0 && span.x1 <= span.W && span.y1 <= span.H,
+      `foam_bed.nc: the camera frames the part: ${span.w.toFixed(0)} x ${span.h.toFixed(0)} px of ${span.W} x ${span.H}`);
+    await page.screenshot({ path: join(out, 'foam_bed.nc.png') });
     const bed = await page.evaluate(() => window.trellisViewer.bedBox());
+    // Framed with the build volume (the page's API), its edges show.
+    await page.evaluate(() => window.trellisViewer.view('iso', true));
+    await page.evaluate(() => window.trellisViewer.whenDrawn());
     check(bed && bed.min.join() === '0,0,0' && bed.max.join() === '300,300,100',
       `foam_bed.nc: build volume ${bed && bed.min.join(',')} to ${bed && bed.max.join(',')} (profile: 300 x 300 x 100 mm, corner origin)`);
     const on = await frame(page);
     await page.click('#tv-bed');
     await page.evaluate(() => window.trellisViewer.whenDrawn());
-    await page.click('#tv-fit');
-    await page.evaluate(() => window.trellisViewer.whenDrawn());
     const off = await frame(page);
     await page.click('#tv-bed');
+    await page.evaluate(() => window.trellisViewer.view('iso', true));
     await page.evaluate(() => window.trellisViewer.whenDrawn());
     const again = await frame(page);
     const dark = (f) => { let n = 0; for (let i = 0; i < f.length; i += 3) if (diff([f[i], f[i + 1], f[i + 2]], [0x5a, 0x62, 0x70]) <= 12) n += 1; return n; };

@@ -67,7 +67,8 @@ Toolpath sample() {
 }  // namespace
 
 // The page carries each layer as one binary chunk with the layout data.js decodes: counts,
-// float32 positions, path starts, seven float32 attributes per path, role and tool bytes, the
+// float32 positions, path starts, ten float32 attributes per path (the last three the commanded
+// mixture), role and tool bytes, the
 // travel corners (via) per path.
 TEST(View, LayerChunksHoldTheToolpath) {
   const std::string html = viewer_html({view_scene(sample(), "sample")}, "sample");
@@ -77,7 +78,7 @@ TEST(View, LayerChunksHoldTheToolpath) {
   std::memcpy(counts, l0.data(), 8);
   EXPECT_EQ(counts[0], 5u);  // points
   EXPECT_EQ(counts[1], 2u);  // paths
-  const std::size_t pos = 8, first = pos + 5 * 12, attr = first + 2 * 4, role = attr + 2 * 28;
+  const std::size_t pos = 8, first = pos + 5 * 12, attr = first + 2 * 4, role = attr + 2 * 40;
   const std::size_t vias = (role + 4 + 3) / 4 * 4;
   ASSERT_EQ(l0.size(), vias + 4 + 3 * 4 + 12);
   std::uint32_t v[4];
@@ -102,12 +103,13 @@ TEST(View, LayerChunksHoldTheToolpath) {
   std::uint32_t starts[2];
   std::memcpy(starts, l0.data() + first, 8);
   EXPECT_EQ(starts[1], 3u);
-  float at[14];
+  float at[20];
   std::memcpy(at, l0.data() + attr, sizeof at);
   EXPECT_EQ(at[0], 0.25f);   // mixture of material 1
   EXPECT_EQ(at[2], 215.0f);  // temperature
   EXPECT_EQ(at[6], -1.0f);   // path a: two materials, no third
-  EXPECT_EQ(at[7], -1.0f);   // path b: no mixture
+  EXPECT_EQ(at[7], 0.25f);   // commanded: as planned (a toolpath)
+  EXPECT_EQ(at[10], -1.0f);  // path b: no mixture
   EXPECT_EQ(static_cast<int>(l0[role]), static_cast<int>(PathRole::Perimeter));
   EXPECT_EQ(static_cast<int>(l0[role + 3]), 1);  // tool of path b
   EXPECT_FALSE(element(html, "tv-0-l1").empty());
@@ -296,7 +298,7 @@ std::size_t count(const std::string& s, const std::string& what) {
 TEST(View, PackedLayersHoldTheToolpath) {
   Toolpath tp = sample();
   tp.layers[0].paths[0].points[1] = {10.0004, -3.14159, 0.2};
-  const std::string b = view_page::pack_layers(tp);
+  const std::string b = view_page::pack_layers(view_scene(tp, "sample"));
   ASSERT_EQ(b.substr(0, 4), "TVP1");
   double quantum;
   std::memcpy(&quantum, b.data() + 4, 8);
@@ -317,10 +319,11 @@ TEST(View, PackedLayersHoldTheToolpath) {
           last[k] += r.zigzag();
           EXPECT_NEAR(last[k] * quantum, k == 0 ? q.x : k == 1 ? q.y : q.z, quantum / 2 + 1e-12);
         }
-    for (int k = 0; k < 7; ++k)
+    for (int k = 0; k < 10; ++k)
       for (const auto& p : layer.paths) {
         const float v = r.f32();
-        if (k == 0) EXPECT_EQ(v, p.mixture.empty() ? -1.0f : float(p.mixture[0]));
+        // Mixture, and the commanded one (the same as planned: no look-ahead to undo).
+        if (k == 0 || k == 7) EXPECT_EQ(v, p.mixture.empty() ? -1.0f : float(p.mixture[0]));
         if (k == 2) EXPECT_EQ(v, float(p.temperature));
       }
     for (const auto& p : layer.paths) EXPECT_EQ(b.at(r.at++), static_cast<char>(p.role));

@@ -3,8 +3,10 @@
 // layers contiguous so a layer range is one draw range).
 import { Box3, Vector3 } from 'three';
 
-// Float attributes per path: mixture[0], mixture[1], temperature, speed, width, power, mixture[2].
-export const ATTRS = 7;
+// Float attributes per path (src/view/encode.cpp, attribute()): mixture[0], mixture[1],
+// temperature, speed, width, power, mixture[2] (the mixture deposited), then the commanded
+// mixture[0], [1], [2].
+export const ATTRS = 10;
 
 // Layer chunks unpacked from a scene's packed block (unpackScenes), by element id.
 const unpacked = new Map();
@@ -108,6 +110,9 @@ export function decodeScene(i) {
   const pathLayer = new Uint32Array(paths);
   const attr = new Float32Array(paths * ATTRS);
   const role = new Uint8Array(paths), tool = new Uint8Array(paths);
+  // Pieces that continue the previous path's bead (cut where the deposited mixture changes; the
+  // role byte's high bit): not paths of their own in the counts.
+  let joined = 0;
   const layerSeg = new Uint32Array(L + 1), layerTravel = new Uint32Array(L + 1);
   const viaOf = new Array(paths).fill(null);  // a path's travel corners (Float32Array xyz), if any
   let segments = 0, P = 0, Q = 0;
@@ -115,7 +120,7 @@ export function decodeScene(i) {
     const c = chunks[l];
     positions.set(c.pos, P * 3);
     attr.set(c.attr, Q * ATTRS);
-    role.set(c.role, Q);
+    for (let q = 0; q < c.nq; ++q) { role[Q + q] = c.role[q] & 0x7f; if (c.role[q] & 0x80) joined += 1; }
     tool.set(c.tool, Q);
     for (let q = 0; q < c.nq; ++q) {
       if (c.via && c.viaFirst[q + 1] > c.viaFirst[q]) viaOf[Q + q] = c.via.subarray(3 * c.viaFirst[q], 3 * c.viaFirst[q + 1]);
@@ -201,7 +206,7 @@ export function decodeScene(i) {
   return {
     meta, layerCount: L, positions, pathFirst, pathLayer, pathCount: paths, attr, role, tool, index,
     layerSeg, layerTravel, travel, bbox, design, lod, deviation, hits,
-    stats: { layers: L, paths, segments, points, extruded, travelMoves, travelLength,
+    stats: { layers: L, paths: paths - joined, segments, points, extruded, travelMoves, travelLength,
       designLines: design ? design.lines : 0, designFlagged: design ? flaggedCount(design) : 0,
       collisions: meta.checked ? meta.collisions : null, ringed: hits.length },
   };

@@ -12,7 +12,8 @@ const REFINE_CHUNK = 100000;  // segments added per frame while refining a large
 const MODES = {
   feature: { kind: 'category', title: 'Feature type' },
   tool: { kind: 'category', title: 'Tool' },
-  mixture: { kind: 'mixture', title: 'Mixture: fraction of material 1', unit: '' },
+  mixture: { kind: 'mixture', title: 'Mixture as deposited: fraction of material 1', unit: '', attr: 0 },
+  commanded: { kind: 'mixture', title: 'Mixture as commanded: fraction of material 1', unit: '', attr: 7 },
   temperature: { kind: 'range', title: 'Nozzle temperature', unit: '°C', attr: 2 },
   speed: { kind: 'range', title: 'Speed', unit: 'mm/s', attr: 3 },
   width: { kind: 'range', title: 'Bead width', unit: 'mm', attr: 4 },
@@ -76,7 +77,7 @@ class Viewer {
     $('tv-travel').addEventListener('change', () => this.setTravel($('tv-travel').checked));
     $('tv-design').addEventListener('change', () => { this.showDesign = $('tv-design').checked; this.applyRange(); });
     $('tv-play').addEventListener('click', () => this.play());
-    $('tv-bed').addEventListener('change', () => { if (this.bed) this.bed.visible = $('tv-bed').checked; this.view('fit'); });
+    $('tv-bed').addEventListener('change', () => { if (this.bed) this.bed.visible = $('tv-bed').checked; this.requestRender(); });
   }
 
   resize() {
@@ -212,13 +213,12 @@ class Viewer {
       legend = { kind: 'category', items, note: s.meta.checked ? null
         : 'no collision check: give the design (trellis view FILE --design LATTICE) or open a trellis check report' };
     } else if (m.kind === 'mixture' && s.meta.materials >= 3) {
-      const a = s.attr;
       for (let p = 0; p < n; ++p) {
-        const w = this.mixture3(p);
+        const w = this.mixture3(p, m.attr);
         const c = w ? mix3Color(w) : NO_VALUE;
         rgb[3 * p] = c[0]; rgb[3 * p + 1] = c[1]; rgb[3 * p + 2] = c[2];
       }
-      legend = { kind: 'triangle' };
+      legend = { kind: 'triangle', note: this.mixtureNote(mode) };
     } else if (m.perPoint) {
       const d = s.deviation;
       let hi = 0;
@@ -261,7 +261,7 @@ class Viewer {
         const c = v === null ? NO_VALUE : fn(hi > lo ? (v - lo) / span : 0.5);
         rgb[3 * p] = c[0]; rgb[3 * p + 1] = c[1]; rgb[3 * p + 2] = c[2];
       }
-      legend = { kind: 'bar', lo, hi, has, fn, unit: m.unit };
+      legend = { kind: 'bar', lo, hi, has, fn, unit: m.unit, note: m.kind === 'mixture' && has ? this.mixtureNote(mode) : null, explain: m.kind === 'mixture' };
     }
     const colors = this.colors;
     const first = s.pathFirst;
@@ -272,7 +272,7 @@ class Viewer {
     }
     this.lines.geometry.attributes.color.needsUpdate = true;
     this.legend = legend;
-    this.drawLegend(legend.kind === 'triangle' ? 'Mixture of materials 1, 2 and 3' : m.title, legend);
+    this.drawLegend(legend.kind === 'triangle' ? `Mixture as ${mode === 'commanded' ? 'commanded' : 'deposited'}: materials 1, 2 and 3` : m.title, legend);
     this.requestRender();
   }
 
@@ -280,18 +280,33 @@ class Viewer {
   valueOf(mode) {
     const s = this.s, a = s.attr;
     if (mode === 'order') return (p) => p;
-    if (mode === 'mixture') return (p) => (a[ATTRS * p] >= 0 ? a[ATTRS * p] : null);
+    if (MODES[mode].kind === 'mixture') {
+      const k = MODES[mode].attr;
+      return (p) => (a[ATTRS * p + k] >= 0 ? a[ATTRS * p + k] : null);
+    }
     if (mode === 'collisions') return () => null;
     if (mode === 'deviation') return (p) => (s.deviation ? s.deviation[s.pathFirst[p]] : null);
     const k = MODES[mode].attr;
     return (p) => (a[ATTRS * p + k] > 0 ? a[ATTRS * p + k] : null);
   }
 
+  // What the mixture shown is: as deposited (a G-code file's commands shifted by its mixing
+  // look-ahead), as commanded, or as planned (a toolpath).
+  mixtureNote(mode) {
+    const meta = this.s.meta, L = meta.mixture_lookahead_mm;
+    if (!meta.mixture_read_back) return 'as planned (a toolpath: no mixing look-ahead applies)';
+    if (!(L > 0)) return 'the file records no mixing look-ahead: deposited = commanded';
+    return mode === 'commanded'
+      ? `M165 commands where issued, ${L.toFixed(0)} mm of printed path before the region they are for`
+      : `commands shifted ${L.toFixed(0)} mm of printed path later (the file's mixing look-ahead)`;
+  }
+
   // A path's mixture of three (or more) materials as fractions of materials 1, 2, 3 summing to 1
-  // (materials past the third are not shown); null when the path has none.
-  mixture3(p) {
-    const a = this.s.attr, o = ATTRS * p;
-    const w = [a[o], a[o + 1], a[o + 6]].map((x) => (x > 0 ? x : 0));
+  // (materials past the third are not shown); null when the path has none. `at`: the attribute
+  // of material 1 (0 deposited, 7 commanded).
+  mixture3(p, at = 0) {
+    const a = this.s.attr, o = ATTRS * p + at;
+    const w = [a[o], a[o + 1], a[at === 0 ? o + 6 : o + 2]].map((x) => (x > 0 ? x : 0));
     const sum = w[0] + w[1] + w[2];
     return a[o] < 0 || sum <= 0 ? null : w.map((x) => x / sum);
   }
@@ -346,6 +361,9 @@ class Viewer {
     }
     if (legend.kind === 'triangle') {
       body.appendChild(drawTriangle());
+      const note = document.createElement('div');
+      note.textContent = legend.note;
+      body.appendChild(note);
       return;
     }
     const cv = document.createElement('canvas');
@@ -368,8 +386,9 @@ class Viewer {
       labels.appendChild(sp);
     }
     body.appendChild(labels);
-    if (!legend.has) {
+    if (!legend.has || legend.note) {
       const note = document.createElement('div');
+      note.className = 'tv-legend-note';
       note.textContent = legend.note || 'no path in this file carries this value (grey)';
       body.appendChild(note);
     }
@@ -421,10 +440,14 @@ class Viewer {
     this.requestRender();
   }
 
-  view(which) {
-    // The model, and the build volume while it is shown (where the part sits on the bed).
+  // Points the camera along `which` (top, front, iso, or fit: the current direction). It frames
+  // the part; the build volume, while shown, stays in the depth range (drawn around the part, off
+  // screen where it is larger than the view), and is framed too with `withBed`.
+  view(which, withBed = false) {
     const box = this.s.bbox.clone();
-    if (this.bed && this.bed.visible) box.union(new THREE.Box3().setFromBufferAttribute(this.bed.geometry.attributes.position));
+    const all = box.clone();
+    if (this.bed && this.bed.visible) all.union(new THREE.Box3().setFromBufferAttribute(this.bed.geometry.attributes.position));
+    if (withBed) box.copy(all);
     const center = box.getCenter(new THREE.Vector3());
     const radius = Math.max(1e-3, box.getSize(new THREE.Vector3()).length() / 2);
     const dist = radius / Math.sin(THREE.MathUtils.degToRad(this.camera.fov / 2)) * 1.05;
@@ -438,7 +461,7 @@ class Viewer {
     this.controls.target.copy(center);
     this.camera.position.copy(center).addScaledVector(dir, dist);
     this.camera.near = dist / 1000;
-    this.camera.far = dist * 10 + radius * 4;
+    this.camera.far = dist * 10 + radius * 4 + 2 * all.distanceToPoint(this.camera.position) + all.getSize(new THREE.Vector3()).length();
     this.camera.updateProjectionMatrix();
     this.controls.update();
     this.requestRender();
@@ -451,8 +474,9 @@ class Viewer {
     else if (meta.kind === 'check') { if (st.designLines) rows.push(['design struts', st.designLines]); }
     else {
       rows.push(['layers', st.layers], ['paths', st.paths], ['segments', st.segments],
-        ['extruded length', st.extruded.toFixed(1) + ' mm'], ['travel moves', st.travelMoves],
-        ['travel length (XY)', st.travelLength.toFixed(1) + ' mm']);
+        [this.laser() ? 'scan length' : 'extruded length', st.extruded.toFixed(1) + ' mm'],
+        [this.laser() ? 'jumps' : 'travel moves', st.travelMoves],
+        [this.laser() ? 'jump length (XY)' : 'travel length (XY)', st.travelLength.toFixed(1) + ' mm']);
       if (meta.print_time_s >= 0) rows.push(['time estimate', formatTime(meta.print_time_s)]);
       if (meta.filament_mm >= 0) rows.push(['filament', meta.filament_mm.toFixed(1) + ' mm']);
       if (st.designLines) rows.push(['design struts', st.designLines]);
@@ -477,6 +501,15 @@ class Viewer {
       td.dataset.stat = k;
     }
     $('tv-warnings').textContent = meta.warnings.join('\n');
+  }
+
+  // A laser file (a .cli build file, or paths that carry a laser power): scans and jumps, not
+  // extrusion and travel.
+  laser() {
+    if (this.s.meta.kind === 'cli') return true;
+    const a = this.s.attr;
+    for (let p = 0; p < this.s.pathCount; ++p) if (a[ATTRS * p + 5] > 0) return true;
+    return false;
   }
 
   play() {
@@ -622,7 +655,8 @@ class Viewer {
     const s = this.s, k = s.pathFirst[p] * 3, P = s.positions;
     return { a: [P[k], P[k + 1], P[k + 2]], b: [P[k + 3], P[k + 4], P[k + 5]], layer: s.pathLayer[p],
       value: this.valueOf(this.mode === 'feature' || this.mode === 'tool' ? 'order' : this.mode)(p),
-      mixture: s.attr[ATTRS * p], temperature: s.attr[ATTRS * p + 2], mixture3: this.mixture3(p) };
+      mixture: s.attr[ATTRS * p], commanded: s.attr[ATTRS * p + 7], temperature: s.attr[ATTRS * p + 2],
+      mixture3: this.mixture3(p), role: s.meta.roles[s.role[p]] };
   }
 
   // Renders `frames` frames while orbiting the whole model as the view draws it while moving

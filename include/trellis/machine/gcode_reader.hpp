@@ -54,6 +54,9 @@ class GcodeSink {
   virtual void tool_change(int tool) {}
   virtual void role(PathRole role) {}  // from a ;TYPE: comment
   virtual void mixture(const std::vector<double>& fractions) {}
+  // From our header's "; mixture lookahead = L mm": each mixture change was issued L mm of
+  // printed path before the region it is for (machine/mixing_lag.hpp undoes it).
+  virtual void mixture_lookahead(double mm) {}
   virtual void temperature(double celsius) {}  // nozzle temperature of the tool in use
   virtual void width(double mm) {}             // from a ;WIDTH: comment
   virtual void height(double mm) {}            // from a ;HEIGHT: comment
@@ -77,6 +80,7 @@ class TeeSink : public GcodeSink {
   void tool_change(int t) override { a_.tool_change(t), b_.tool_change(t); }
   void role(PathRole r) override { a_.role(r), b_.role(r); }
   void mixture(const std::vector<double>& m) override { a_.mixture(m), b_.mixture(m); }
+  void mixture_lookahead(double mm) override { a_.mixture_lookahead(mm), b_.mixture_lookahead(mm); }
   void temperature(double t) override { a_.temperature(t), b_.temperature(t); }
   void width(double w) override { a_.width(w), b_.width(w); }
   void height(double h) override { a_.height(h), b_.height(h); }

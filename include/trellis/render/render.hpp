@@ -1,7 +1,8 @@
-// Pictures with cairo: a PNG per layer (paths coloured by feature type, print order from blue to
-// red, or mixture; travel dashed grey, start points as green dots, end points as small dark dots)
-// with a title band (file, layer, Z, what colour means) and a legend band (legend or colour bar,
-// scale bar in mm), and the GIPPO score over iterations (paper Fig. 2 i).
+// Pictures with cairo: a PNG per layer (paths coloured by feature type, print order or mixture in
+// the colours of the viewer, render/palette.hpp; travel dashed grey, start points as green dots,
+// end points as small dark dots) with a title band (file, layer, Z, what colour means) and a legend
+// band (legend or colour bar, scale bar in mm), and the GIPPO score over iterations (paper Fig. 2
+// i).
 #pragma once
 #include <string>
 #include <utility>
@@ -17,11 +18,15 @@ struct RenderOptions {
   double margin_mm = 1.0;
   bool travel = true;
   bool starts = true;
-  double bead_width = 0;           // line width in mm; 0 = from paths or 0.2
-  bool colour_by_role = false;     // feature type (the viewer's palette); else print order
-  bool colour_by_mixture = false;  // graded paths by their first material's fraction (blue 0 .. red
-                                   // 1); three materials as RGB
-  std::string title;               // first line of the title band; default: the toolpath's source
+  double bead_width = 0;        // line width in mm; 0 = from paths or 0.2
+  bool colour_by_role = false;  // feature type (the viewer's palette); else print order
+  // Graded paths by their first material's fraction (the palette's mixture map, as the viewer);
+  // three materials as the blend of their colours.
+  bool colour_by_mixture = false;
+  // What the mixture shown is, in the title after "colour: mixture" (a G-code file read back shows
+  // it as deposited, its mixing look-ahead undone; view/view.hpp).
+  std::string mixture_label = "(as planned)";
+  std::string title;  // first line of the title band; default: the toolpath's source
 };
 
 // Height (px) of the title band above and the legend band below a layer PNG of `size_px`.
@@ -34,9 +39,9 @@ void render_layer_png(const Toolpath& toolpath, std::size_t layer, const std::st
                       const RenderOptions& options = {});
 
 // An oblique 3D view (a dimetric projection) of a whole toolpath (all layers), paths coloured by
-// print order from blue to red, start points green, travel dashed grey; `upto` > 0 draws only the
-// first `upto` paths (a frame of the print order) over the rest in light grey. Optional `marks` (3D
-// points) are drawn as red rings, e.g. collisions.
+// print order (the palette's continuous map), start points green, travel dashed grey; `upto` > 0
+// draws only the first `upto` paths (a frame of the print order) over the rest in light grey.
+// Optional `marks` (3D points) are drawn as red rings, e.g. collisions.
 struct View3dOptions {
   int size_px = 1000;
   double azimuth_deg = -60;   // view direction around Z (from +X towards +Y)

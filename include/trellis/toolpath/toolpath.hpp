@@ -4,6 +4,7 @@
 // attributes a writer needs. Travel between paths is implicit: from one path's last point to the
 // next path's first point, in order.
 #pragma once
+#include <cstddef>
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -13,7 +14,20 @@
 
 namespace trellis {
 
-enum class PathRole { Strut, Contour, Handle, Perimeter, Infill, Other, Skin, Purge };
+// Hatch: a laser's fill vectors (PBF); Nonplanar: a path that rises and falls with a surface.
+enum class PathRole {
+  Strut,
+  Contour,
+  Handle,
+  Perimeter,
+  Infill,
+  Other,
+  Skin,
+  Purge,
+  Hatch,
+  Nonplanar
+};
+inline constexpr std::size_t kPathRoleCount = 10;
 
 const char* to_string(PathRole role);
 PathRole path_role_from_string(const std::string& name);  // throws ParseError
@@ -39,7 +53,7 @@ struct Path {
   // stays inside the part (crosses no outer wall), so a writer need not retract for it.
   std::vector<Vec3> via;
   bool inside = false;
-  int part = 0;                 // build plates: index + 1 into Toolpath::part_labels, 0 = none
+  int part = 0;  // build plates: index + 1 into Toolpath::part_labels, 0 = none
   std::size_t segments() const { return points.size() < 2 ? 0 : points.size() - 1; }
   double length() const;
 };

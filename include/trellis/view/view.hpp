@@ -50,6 +50,12 @@ struct ViewScene {
     std::string machine;  // the profile's name
   } bed;
   std::vector<std::pair<std::string, std::string>> extra_stats;  // more statistics rows
+  // Mixtures. A G-code file's paths carry the mixture deposited (machine/mixing_lag.hpp: the
+  // commanded one shifted by the file's mixing look-ahead); `commanded` keeps the commanded one per
+  // path in print order (empty: the same as the paths', e.g. a toolpath as planned).
+  bool mixture_read_back = false;  // read from G-code commands (else as planned)
+  double mixture_lookahead = 0;    // mm of printed path the commands ran ahead (0: none recorded)
+  std::vector<std::vector<double>> commanded;
 };
 
 struct ViewLoadOptions {
@@ -73,6 +79,10 @@ void set_collisions(ViewScene& scene, const CollisionCheck& check);
 
 // The build volume of `machine` drawn around a G-code file (machine coordinates).
 void set_build_volume(ViewScene& scene, const MachineProfile& machine, const std::string& name);
+
+// What a scene's mixture colours show, for a picture's title: "(as deposited: ...)", "(as
+// commanded ...)" or "(as planned)".
+std::string mixture_label(const ViewScene& scene, bool commanded);
 
 // A scene of an in-memory toolpath (the Python `_repr_html_`).
 ViewScene view_scene(const Toolpath& toolpath, const std::string& name);
