@@ -926,12 +926,29 @@ class Writer {
     }
   }
 
-  // One extruding move to q.
+  // Whether a move from pos_ to q writes nothing new at the output's precision: the same X, Y
+  // and Z to 3 decimals, or (with E) an E that rounds to the one before (`e`: this move's E).
+  // Written, it reads back as a zero-length extrusion or as a travel that splits the path.
+  bool silent_move(Vec3 q, Vec2 o, double e, bool marlin) const {
+    auto same = [](double a, double b, double scale) {
+      return std::llround(a * scale) == std::llround(b * scale);
+    };
+    if (same(q.x + dx_ + o.x, pos_.x + dx_ + o.x, 1e3) &&
+        same(q.y + dy_ + o.y, pos_.y + dy_ + o.y, 1e3) && same(q.z, pos_.z, 1e3))
+      return true;
+    if (!marlin) return false;
+    return p_.relative_e ? std::llround(e * 1e5) == 0 : same(e_ + e, e_, 1e5);
+  }
+
+  // One extruding move to q. A move too short to write (silent_move) is left out: its length and
+  // filament go into the next one.
   void print_move(Vec3 q, double layer, double speed, bool& first, bool marlin) {
     {
       const double len = distance(pos_, q);
       const double flow = down_factor(q);
       const Vec2 o = offset();
+      const double e = marlin ? extrusion_for(len, layer, p_) * flow * path_flow_ : 0.0;
+      if (silent_move(q, o, e, marlin)) return;
       using namespace fastnum;
       char buf[6 * kMaxChars];
       char* b = lit(buf, "G1 X");
@@ -943,7 +960,6 @@ class Writer {
         b = fixed(b, q.z, 3);
       }
       if (marlin) {
-        const double e = extrusion_for(len, layer, p_) * flow * path_flow_;
         e_ += e;
         stats_.filament += e;
         b = lit(b, " E");
