@@ -296,3 +296,89 @@ def test_every_output_of_every_example_job_reads_back(mirror, job):
                 problems.append(f"view {f}: exit {r.returncode} {r.stderr.strip()}")
             check_rerun(path, problems)
     assert not problems, "\n".join(problems)
+
+
+# The tiny plan's toolpath written by every G-code writer: each flavour's profile.
+FLAVOURS = {
+    "marlin": ("ender3_s1_pro_tpu.toml", ".gcode"),
+    "marlin_mixing": ("geeetech_mizar_m_mixing.toml", ".gcode"),
+    "reprap": ("e3d_toolchanger_rrf.toml", ".gcode"),
+    "klipper": ("voron_klipper.toml", ".gcode"),
+    "pneumatic": ("pneumatic_pcl_27g.toml", ".nc"),
+    "embedded": ("embedded_aero_410um.toml", ".nc"),
+}
+
+
+@pytest.fixture(scope="session")
+def tiny(mirror):
+    out = mirror / "out" / "tiny_flavours"
+    run_job(mirror, "jobs/tiny_plan.toml", out)
+    return out
+
+
+@pytest.mark.parametrize("flavour", sorted(FLAVOURS))
+def test_every_gcode_flavour_reads_back(tiny, flavour):
+    profile, ext = FLAVOURS[flavour]
+    out = str(tiny / flavour)
+    os.makedirs(out)
+    r = cli("gcode", tiny / "tiny.toolpath.json", "--machine", os.path.join(ROOT, "profiles", profile),
+            "-o", os.path.join(out, "tiny" + ext))
+    assert r.returncode == 0, r.stderr
+    problems = []
+    read_back(out, Planned(str(tiny / "tiny.toolpath.json")), problems,
+              lattice=os.path.join(ROOT, "examples", "lattices", "tiny.json"))
+    assert not problems, "\n".join(problems)
+
+
+@pytest.mark.parametrize("binary", [False, True])
+def test_cli_ascii_and_binary_read_back(mirror, binary):
+    out = str(mirror / "out" / f"gyroid_cli_{'binary' if binary else 'ascii'}")
+    run_job(mirror, "jobs/gyroid_pbf.toml", out, "--set", f"pbf.binary={str(binary).lower()}")
+    problems = []
+    read_back(out, Planned(os.path.join(out, "gyroid.toolpath.json")), problems)
+    with open(os.path.join(out, "gyroid.cli"), "rb") as f:
+        head = f.read()
+    assert (b"$$LAYER/" not in head) == binary  # binary geometry has no ASCII layer commands
+    assert not problems, "\n".join(problems)
+
+
+# Shardable routes with and without a machine: the merged shards are the one-process file.
+SHARD_JOBS = {
+    "pbf_machine": ('route = "pbf"\nmachine = "{root}/profiles/pbf_316l_25um.toml"',
+                    "[pbf]\ncell_type = \"gyroid\"\ncell = 2.5\nsize = [4.0, 4.0, 0.6]\n", ".cli"),
+    "pbf_no_machine": ('route = "pbf"', "[pbf]\ncell_type = \"gyroid\"\ncell = 2.5\n"
+                       "size = [4.0, 4.0, 0.6]\n", ".cli"),
+    "slice_machine": ('route = "slice"\ninput = "{root}/examples/designs/csg_bracket.vcad"\n'
+                      'machine = "{root}/profiles/ender3_s1_pro_tpu.toml"',
+                      "[extrusion]\nlayer_height = 0.6\n", ".gcode"),
+    "slice_no_machine": ('route = "slice"\ninput = "{root}/examples/designs/csg_bracket.vcad"',
+                         "[extrusion]\nlayer_height = 0.6\n", ".gcode"),
+    "plan_machine": ('route = "plan"\nmachine = "{root}/profiles/ender3_s1_pro_tpu.toml"',
+                     "[lattice2d]\npattern = \"honeycomb\"\ncell = 1.0\nsize = [6.0, 6.0]\n"
+                     "[layers]\ncount = 4\n[plan]\nplanner = \"euler\"\n", ".gcode"),
+    "nonplanar_machine": ('route = "nonplanar"\nmachine = "{root}/profiles/fresh_nonplanar_2syringe.toml"',
+                          "[surface]\nkind = \"corrugation\"\n[nonplanar]\nlayers = 4\n", ".gcode"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(SHARD_JOBS))
+def test_merged_shards_are_the_one_process_file(tmp_path, case):
+    job_lines, body, ext = SHARD_JOBS[case]
+    job = tmp_path / "job.toml"
+    job.write_text("[job]\n" + job_lines.format(root=ROOT) + "\nname = \"s\"\n" + body +
+                   "[output]\npng = false\n")
+    one, shards = tmp_path / "one", tmp_path / "shards"
+    r = cli("run", job, "-o", one)
+    assert r.returncode == 0, r.stderr
+    with open(one / ("s" + ext), "rb") as f:
+        single = f.read()
+    for n in (2, 3):
+        for k in range(1, n + 1):
+            r = cli("run", job, "-o", shards / str(n), "--shard", f"{k}/{n}")
+            assert r.returncode == 0, r.stderr
+        manifests = [shards / str(n) / f"s{ext}.shard-{k}-of-{n}.json" for k in range(1, n + 1)]
+        merged = shards / str(n) / ("s" + ext)
+        r = cli("merge", *manifests, "-o", merged)
+        assert r.returncode == 0, r.stderr
+        with open(merged, "rb") as f:
+            assert f.read() == single, f"{case}: {n} shards merged differ from the single run"
