@@ -128,11 +128,26 @@ CollisionCheck check_collisions(const Graph& design, const Toolpath& toolpath,
       auto it = strut_of.find(pair_key(s.na, s.nb));
       if (it != strut_of.end()) s.strut = it->second;
     }
+  }
+  // A strut printed as a polyline (laid on a surface, its points between the two nodes at no
+  // node): the run of a path's segments from node to node is that strut, printed once.
+  std::vector<char> continued(segs.size(), 0);
+  for (std::size_t i = 0; i < segs.size(); ++i) {
+    if (segs[i].strut >= 0 || segs[i].na == kNone || segs[i].nb != kNone) continue;
+    std::size_t j = i;
+    while (segs[j].nb == kNone && j + 1 < segs.size() && segs[j + 1].path == segs[i].path) ++j;
+    if (segs[j].nb != kNone)
+      if (const auto it = strut_of.find(pair_key(segs[i].na, segs[j].nb)); it != strut_of.end())
+        for (std::size_t k = i; k <= j; ++k) segs[k].strut = it->second, continued[k] = k > i;
+    i = j;
+  }
+  for (std::size_t i = 0; i < segs.size(); ++i) {
+    const Seg& s = segs[i];
     if (s.strut < 0) {
       ++c.off_design_segments;
       continue;
     }
-    ++times[static_cast<std::size_t>(s.strut)];
+    if (!continued[i]) ++times[static_cast<std::size_t>(s.strut)];
     const Vec3 a = ends[2 * i], b = ends[2 * i + 1];
     if (is_steep(a, b, options.nozzle) && b.z < a.z)
       c.top_down.push_back({s.path, static_cast<EdgeId>(s.strut)});

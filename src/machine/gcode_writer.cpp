@@ -508,6 +508,9 @@ class Writer {
   // To q, through `via` (the linking stage's route, slice/link.hpp). A travel kept inside the
   // part retracts and lifts only beyond retraction.inside_max; any other from min_travel on.
   void travel_to(Vec3 q, const std::vector<Vec3>& via = {}, bool inside = false) {
+    // A path that starts where the last one ended, whose last move was too short to write: no
+    // travel to the point it was to reach (the next move prints from where the nozzle is).
+    if (std::exchange(silent_, false) && via.empty() && distance(silent_to_, q) < 1e-9) return;
     if (flavor_ == Flavor::Embedded) return travel_embedded(q);
     double d = 0;
     if (known_) {
@@ -948,7 +951,12 @@ class Writer {
       const double flow = down_factor(q);
       const Vec2 o = offset();
       const double e = marlin ? extrusion_for(len, layer, p_) * flow * path_flow_ : 0.0;
-      if (silent_move(q, o, e, marlin)) return;
+      if (silent_move(q, o, e, marlin)) {
+        silent_ = true;
+        silent_to_ = q;
+        return;
+      }
+      silent_ = false;
       using namespace fastnum;
       char buf[6 * kMaxChars];
       char* b = lit(buf, "G1 X");
@@ -1022,6 +1030,8 @@ class Writer {
   std::size_t next_change_ = 0, path_index_ = 0;
   GcodeStats stats_;
   double dx_ = 0, dy_ = 0;
+  bool silent_ = false;  // the last printing move was left out (silent_move): it was to silent_to_
+  Vec3 silent_to_;
   double e_ = 0;
   Vec3 pos_;
   bool known_ = false, printed_ = false, retracted_ = false;
