@@ -391,3 +391,31 @@ def test_merged_shards_are_the_one_process_file(tmp_path, case):
         assert r.returncode == 0, r.stderr
         with open(merged, "rb") as f:
             assert f.read() == single, f"{case}: {n} shards merged differ from the single run"
+
+
+def test_a_3mf_beam_lattice_reads_back_as_the_design_of_its_print(mirror, tmp_path):
+    """The octet of jobs/octet_aero.toml as a 3MF beam lattice: the viewer shows its struts, and
+    `check` takes it as the design of the job's print (every strut printed once); a 3MF has no
+    room for the job, so rerun refuses it saying so, and analyze and render refuse it too."""
+    out = mirror / "out" / "octet_3mf"
+    run_job(mirror, "jobs/octet_aero.toml", out)
+    three = tmp_path / "octet.3mf"
+    r = cli("lattice3d", "--cell-type", "octet", "--cell", 7, "--count", "3,3,2", "-o", three)
+    assert r.returncode == 0, r.stderr
+    with open(out / "octet_aero.lattice.json") as f:
+        struts = len(json.load(f)["edges"])
+    r = cli("view", three, "-o", tmp_path / "octet.html")
+    assert r.returncode == 0, r.stderr
+    assert f"(lattice): {struts} struts" in r.stdout
+    report = tmp_path / "check.json"
+    r = cli("check", three, out / "octet_aero.nc", "--report", report)
+    assert r.returncode in (0, 1), r.stderr
+    with open(report) as f:
+        c = json.load(f)
+    assert c["struts"] == struts and not c["missing_struts"] and not c["repeated_struts"]
+    problems = []
+    refused(["rerun", three, "-o", tmp_path / "again.3mf"], "a 3MF", problems)
+    refused(["analyze", three], "a 3MF", problems)
+    refused(["render", three, "-o", tmp_path / "x.png", "--layer", "0"], "a 3MF", problems)
+    assert not problems, "\n".join(problems)
+    assert "carries no Trellis job" in cli("rerun", three, "-o", tmp_path / "again.3mf").stderr
