@@ -171,7 +171,8 @@ void add_analyze(CLI::App& app) {
   cmd->footer(
       "Reads Marlin, RepRapFirmware and Klipper G-code (G0-G3, G90/91, M82/83, G92, G20/21;\n"
       "tools, temperatures and mixing in each one's commands; Cura and PrusaSlicer comments)\n"
-      "and PrusaSlicer's binary G-code (.bgcode). Layers come from layer comments, else from\n"
+      "and PrusaSlicer's binary G-code (.bgcode); a toolpath JSON is measured as planned and a\n"
+      "laser .cli by its vectors. Layers come from layer comments, else from\n"
       "Z changes. With --design: extrusion ratio (printed / nominal\n"
       "length), double-deposited length, off-design length, missing struts, and the GIPPO score\n"
       "corrected by EdgesReal/EdgesNominal.");

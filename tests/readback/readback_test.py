@@ -359,14 +359,18 @@ SHARD_JOBS = {
                        "size = [4.0, 4.0, 0.6]\n", ".cli"),
     "slice_machine": ('route = "slice"\ninput = "{root}/examples/designs/csg_bracket.vcad"\n'
                       'machine = "{root}/profiles/ender3_s1_pro_tpu.toml"',
-                      "[extrusion]\nlayer_height = 0.6\n", ".gcode"),
+                      "[extrusion]\nlayer_height = 0.16\n", ".gcode"),
     "slice_no_machine": ('route = "slice"\ninput = "{root}/examples/designs/csg_bracket.vcad"',
-                         "[extrusion]\nlayer_height = 0.6\n", ".gcode"),
+                         "[extrusion]\nlayer_height = 0.16\n", ".gcode"),
     "plan_machine": ('route = "plan"\nmachine = "{root}/profiles/ender3_s1_pro_tpu.toml"',
                      "[lattice2d]\npattern = \"honeycomb\"\ncell = 1.0\nsize = [6.0, 6.0]\n"
                      "[layers]\ncount = 4\n[plan]\nplanner = \"euler\"\n", ".gcode"),
     "nonplanar_machine": ('route = "nonplanar"\nmachine = "{root}/profiles/fresh_nonplanar_2syringe.toml"',
                           "[surface]\nkind = \"corrugation\"\n[nonplanar]\nlayers = 4\n", ".gcode"),
+    # Without a machine a non-planar job writes its toolpath (G-code needs a bath machine); a
+    # plan without G-code has nothing to shard (refused: tests/job/test_plate.cpp).
+    "nonplanar_no_machine": ('route = "nonplanar"\noutput = "s.json"',
+                             "[surface]\nkind = \"corrugation\"\n[nonplanar]\nlayers = 4\n", ".json"),
 }
 
 
@@ -386,7 +390,8 @@ def test_merged_shards_are_the_one_process_file(tmp_path, case):
             r = cli("run", job, "-o", shards / str(n), "--shard", f"{k}/{n}")
             assert r.returncode == 0, r.stderr
         manifests = [shards / str(n) / f"s{ext}.shard-{k}-of-{n}.json" for k in range(1, n + 1)]
-        merged = shards / str(n) / ("s" + ext)
+        # Beside the single run's file: the job in its header names paths relative to it.
+        merged = one / f"merged-{n}{ext}"
         r = cli("merge", *manifests, "-o", merged)
         assert r.returncode == 0, r.stderr
         with open(merged, "rb") as f:
