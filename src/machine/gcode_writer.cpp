@@ -930,8 +930,10 @@ class Writer {
   }
 
   // Whether a move from pos_ to q writes nothing new at the output's precision: the same X, Y
-  // and Z to 3 decimals, or (with E) an E that rounds to the one before (`e`: this move's E).
-  // Written, it reads back as a zero-length extrusion or as a travel that splits the path.
+  // and Z to 3 decimals, or (with E) a move within two units of the last place (2 µm) whose E
+  // rounds to the one before (`e`: this move's E). Written, it reads back as a zero-length
+  // extrusion or as a travel that splits the path. Longer moves are always written (a tiny
+  // extrusion.k may round every E to the one before: leaving those out would cut corners).
   bool silent_move(Vec3 q, Vec2 o, double e, bool marlin) const {
     auto same = [](double a, double b, double scale) {
       return std::llround(a * scale) == std::llround(b * scale);
@@ -939,7 +941,7 @@ class Writer {
     if (same(q.x + dx_ + o.x, pos_.x + dx_ + o.x, 1e3) &&
         same(q.y + dy_ + o.y, pos_.y + dy_ + o.y, 1e3) && same(q.z, pos_.z, 1e3))
       return true;
-    if (!marlin) return false;
+    if (!marlin || distance(pos_, q) >= 2e-3) return false;
     return p_.relative_e ? std::llround(e * 1e5) == 0 : same(e_ + e, e_, 1e5);
   }
 
