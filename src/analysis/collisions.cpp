@@ -93,9 +93,9 @@ CollisionCheck check_collisions(const Graph& design, const Toolpath& toolpath,
   // levels as printed layers): printed layer k is matched in the plane of level k, as a single
   // planar design is (the nozzle prints a layer one layer height above its design plane).
   std::vector<double> levels;
-  const bool flat_struts = std::all_of(design.edges.begin(), design.edges.end(), [&](const Edge& e) {
-    return std::abs(design.nodes[e.a].z - design.nodes[e.b].z) <= 1e-9;
-  });
+  const bool flat_struts = std::all_of(
+      design.edges.begin(), design.edges.end(),
+      [&](const Edge& e) { return std::abs(design.nodes[e.a].z - design.nodes[e.b].z) <= 1e-9; });
   if (!planar && flat_struts) {
     for (const Vec3& n : design.nodes) levels.push_back(n.z);
     std::sort(levels.begin(), levels.end());
