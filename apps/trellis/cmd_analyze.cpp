@@ -8,6 +8,7 @@
 #include "trellis/core/file.hpp"
 #include "trellis/lattice/io.hpp"
 #include "trellis/render/render.hpp"
+#include "trellis/toolpath/json.hpp"
 
 namespace trellis::cli {
 
@@ -67,6 +68,27 @@ void check_files(const AnalyzeOpts& o) {
   files.check();
 }
 
+// One print measured: G-code of any slicer, or a toolpath JSON as planned (no filament or
+// retractions: the machine's G-code adds them). A file that is no print (a report, a lattice, a
+// mesh, a design) is refused naming it, never read as G-code with nothing in it.
+Analysis analyze_file(const std::string& f, const Graph* design, const AnalysisParams& params,
+                      const GcodeReadOptions& read, Diagnostics& diag) {
+  std::string ext = std::filesystem::path(f).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (ext == ".json") {
+    const Toolpath tp = read_toolpath(f);
+    Analysis a = analyze(tp, toolpath_counts(tp), design, params);
+    a.name = f;
+    return a;
+  }
+  for (const char* other : {".stl", ".3mf", ".obj", ".csv", ".vcad", ".toml", ".png", ".html"})
+    if (ext == other)
+      throw ParseError(f + ": a '" + ext +
+                       "' file is not a print: analyze reads G-code (.gcode/.g/.gco/.nc/.bgcode), "
+                       "a laser .cli or a toolpath JSON (a lattice goes to --design)");
+  return analyze_gcode_file(f, design, params, read, diag);
+}
+
 std::vector<Analysis> run(const AnalyzeOpts& o) {
   Diagnostics diag;
   Graph design;
@@ -76,8 +98,7 @@ std::vector<Analysis> run(const AnalyzeOpts& o) {
   params.keep_printed = !o.png.empty();
   std::map<std::string, int> stems;  // files of one name (a/x.gcode, b/x.gcode): x, x_2, ...
   for (const auto& f : o.files) {
-    out.push_back(
-        analyze_gcode_file(f, o.design.empty() ? nullptr : &design, params, o.read, diag));
+    out.push_back(analyze_file(f, o.design.empty() ? nullptr : &design, params, o.read, diag));
     const Analysis& a = out.back();
     if (a.auto_aligned)
       diag.warn("analyze_aligned", f + ": the print lies outside the design, moved by (" +
@@ -150,7 +171,8 @@ void add_analyze(CLI::App& app) {
   cmd->footer(
       "Reads Marlin, RepRapFirmware and Klipper G-code (G0-G3, G90/91, M82/83, G92, G20/21;\n"
       "tools, temperatures and mixing in each one's commands; Cura and PrusaSlicer comments)\n"
-      "and PrusaSlicer's binary G-code (.bgcode). Layers come from layer comments, else from\n"
+      "and PrusaSlicer's binary G-code (.bgcode); a toolpath JSON is measured as planned and a\n"
+      "laser .cli by its vectors. Layers come from layer comments, else from\n"
       "Z changes. With --design: extrusion ratio (printed / nominal\n"
       "length), double-deposited length, off-design length, missing struts, and the GIPPO score\n"
       "corrected by EdgesReal/EdgesNominal.");

@@ -22,8 +22,10 @@ void add_check(CLI::App& app) {
   cmd->footer(
       "The print is a toolpath JSON or G-code (.gcode/.nc). G-code is read with the valve commands\n"
       "and tool offsets of --machine, or of the machine recorded in the file by Trellis. Every\n"
-      "extruded segment is matched to a design strut by its end nodes and tested against\n"
-      "everything printed before it: the nozzle is a vertical cylinder of --nozzle-radius from the\n"
+      "extruded segment is matched to a design strut by its end nodes (a strut laid on a\n"
+      "surface as a polyline: its segments from node to node; a design of stacked planar\n"
+      "layers: printed layer k in the plane of layer k) and tested against everything printed\n"
+      "before it: the nozzle is a vertical cylinder of --nozzle-radius from the\n"
       "tip up; material above the tip by more than --tip-clearance within the radius is hit,\n"
       "except within --node-clearance of a node the two struts share. Steep struts (within --cone\n"
       "of vertical) must be printed bottom-up.\n"

@@ -62,7 +62,7 @@ CollisionCheck check_collisions(const Graph& design, const Toolpath& toolpath,
   c.struts = design.edges.size();
   // Every printed segment in print order, with its design nodes and strut.
   struct Seg {
-    std::size_t path, index;
+    std::size_t path, index, layer;
     std::uint32_t na, nb;
     long long strut;
   };
@@ -83,15 +83,31 @@ CollisionCheck check_collisions(const Graph& design, const Toolpath& toolpath,
         if (distance(path.points[i], path.points[i + 1]) <= 0) continue;
         ends.push_back(path.points[i]);
         ends.push_back(path.points[i + 1]);
-        segs.push_back({c.paths, i, kNone, kNone, -1});
+        segs.push_back({c.paths, i, printed_layers, kNone, kNone, -1});
       }
       ++c.paths;
     }
     if (segs.size() > before) ++printed_layers;
   }
+  // A design of planar layers stacked (GIPPO parts of many layers: every strut level, as many
+  // levels as printed layers): printed layer k is matched in the plane of level k, as a single
+  // planar design is (the nozzle prints a layer one layer height above its design plane).
+  std::vector<double> levels;
+  const bool flat_struts = std::all_of(
+      design.edges.begin(), design.edges.end(),
+      [&](const Edge& e) { return std::abs(design.nodes[e.a].z - design.nodes[e.b].z) <= 1e-9; });
+  if (!planar && flat_struts) {
+    for (const Vec3& n : design.nodes) levels.push_back(n.z);
+    std::sort(levels.begin(), levels.end());
+    levels.erase(std::unique(levels.begin(), levels.end(),
+                             [](double a, double b) { return std::abs(a - b) <= 1e-9; }),
+                 levels.end());
+    if (levels.size() != printed_layers) levels.clear();
+  }
   const int due = planar ? static_cast<int>(std::max<std::size_t>(printed_layers, 1)) : 1;
-  auto in_plane = [&](Vec3 p) {
+  auto in_plane = [&](Vec3 p, std::size_t layer) {
     if (planar) p.z = design.nodes.front().z;
+    if (!levels.empty()) p.z = levels[layer];
     return p;
   };
   c.segments = segs.size();
@@ -106,17 +122,32 @@ CollisionCheck check_collisions(const Graph& design, const Toolpath& toolpath,
   std::vector<int> times(design.edges.size(), 0);
   for (std::size_t i = 0; i < segs.size(); ++i) {
     Seg& s = segs[i];
-    s.na = snap.find(in_plane(ends[2 * i]));
-    s.nb = snap.find(in_plane(ends[2 * i + 1]));
+    s.na = snap.find(in_plane(ends[2 * i], s.layer));
+    s.nb = snap.find(in_plane(ends[2 * i + 1], s.layer));
     if (s.na != kNone && s.nb != kNone) {
       auto it = strut_of.find(pair_key(s.na, s.nb));
       if (it != strut_of.end()) s.strut = it->second;
     }
+  }
+  // A strut printed as a polyline (laid on a surface, its points between the two nodes at no
+  // node): the run of a path's segments from node to node is that strut, printed once.
+  std::vector<char> continued(segs.size(), 0);
+  for (std::size_t i = 0; i < segs.size(); ++i) {
+    if (segs[i].strut >= 0 || segs[i].na == kNone || segs[i].nb != kNone) continue;
+    std::size_t j = i;
+    while (segs[j].nb == kNone && j + 1 < segs.size() && segs[j + 1].path == segs[i].path) ++j;
+    if (segs[j].nb != kNone)
+      if (const auto it = strut_of.find(pair_key(segs[i].na, segs[j].nb)); it != strut_of.end())
+        for (std::size_t k = i; k <= j; ++k) segs[k].strut = it->second, continued[k] = k > i;
+    i = j;
+  }
+  for (std::size_t i = 0; i < segs.size(); ++i) {
+    const Seg& s = segs[i];
     if (s.strut < 0) {
       ++c.off_design_segments;
       continue;
     }
-    ++times[static_cast<std::size_t>(s.strut)];
+    if (!continued[i]) ++times[static_cast<std::size_t>(s.strut)];
     const Vec3 a = ends[2 * i], b = ends[2 * i + 1];
     if (is_steep(a, b, options.nozzle) && b.z < a.z)
       c.top_down.push_back({s.path, static_cast<EdgeId>(s.strut)});

@@ -106,7 +106,12 @@ GcodeCounts toolpath_counts(const Toolpath& toolpath) {
     sink.layer_change(layer.z);
     for (const auto& p : layer.paths) {
       sink.role(p.role);
-      if (!first && !p.joined) {
+      // A path that starts where the last one ended continues its run, as the writer prints it
+      // (no travel between them: machine/gcode_writer.cpp).
+      const bool moves =
+          !p.points.empty() && (!p.via.empty() || distance_xy(at, p.points.front()) >= 1e-9 ||
+                                std::abs(at.z - p.points.front().z) >= 1e-9);
+      if (!first && !p.joined && moves) {
         for (const Vec3& v : p.via) sink.travel(at, v, 0), at = v;
         sink.travel(at, p.points.front(), 0);
       }

@@ -23,11 +23,16 @@ JobResult analyze_build_file(const std::string& path, const std::string& design,
   j["file"] = path;
   j["layers"] = tp.layers.size();
   j["vectors"] = vectors;
+  // Read back as written, with or without a design: what `trellis.analyze` of the toolpath
+  // that made the file gives (paths, scanned length).
+  j["paths"] = vectors;
+  j["scan_length_mm"] = tp.extrusion_length();
   JobResult out;
   out.toolpath = std::make_shared<Toolpath>(tp);
   if (design.empty()) {
-    out.summary = fmt::format("{}: {} layers, {} vectors (no --design: nothing to measure against)",
-                              path, tp.layers.size(), vectors);
+    out.summary =
+        fmt::format("{}: {} layers, {} vectors ({} mm; no --design: nothing to measure against)",
+                    path, tp.layers.size(), vectors, routes::fixed(tp.extrusion_length(), 1));
   } else {
     LaserAnalysisOptions lo;
     lo.melt_pool = prof.melt_pool_width;
@@ -37,7 +42,7 @@ JobResult analyze_build_file(const std::string& path, const std::string& design,
     j["outside_vectors"] = a.outside_vectors;
     j["outside_length_mm"] = a.outside_length;
     j["max_outside_mm"] = a.max_outside;
-    j["scan_length_mm"] = a.scan_length;
+    j["scan_length_mm"] = a.scan_length;  // contours and hatches: the same length as above
     j["scan_time_s"] = a.scan_time;
     j["fr_a"] = {{"mean", a.fr_mean}, {"cv", a.fr_cv}};
     nlohmann::ordered_json s;

@@ -369,6 +369,13 @@ Job rerun_job(const std::string& path, const std::string& target) {
 }
 
 Job job_from_output(const std::string& path) {
+  std::string ext = fs::path(path).extension().string();
+  for (char& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  if (ext == ".3mf" || ext == ".stl")
+    throw ParseError("a " + ext.substr(1) +
+                         " file carries no Trellis job (meshes and beam lattices have no header): "
+                         "run the job again, or rerun its JSON or G-code output",
+                     {path});
   const std::string text = read_file(path);
   std::string job;
   // Header comment lines: "; job: …" (G-code), "//job: …//" (CLI).

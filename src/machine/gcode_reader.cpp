@@ -80,9 +80,10 @@ static std::string toml_string_value(std::string_view v) {
 
 void GcodeScanner::comment(std::string_view c) {
   c = trim(c);
-  // Our own pneumatic files name their valve commands in the job header ("; job: flavor =
-  // 'pneumatic'" in [machine], then "; job: valve_on = 'M3 ; valve open'" in [pneumatic]): a
-  // reader given none takes them from there, so the file reads back as written.
+  // Our own pneumatic and bath files name their valve commands in the job header ("; job:
+  // flavor = 'pneumatic'" or 'embedded' in [machine], then "; job: valve_on = 'M3 ; valve open'"
+  // in [pneumatic]): a reader given none takes them from there, so the file reads back as
+  // written.
   if (header_valves_ && starts_with(c, "job: ")) {
     const std::string_view kv = trim(c.substr(5));
     const auto eq = kv.find('=');
@@ -90,7 +91,7 @@ void GcodeScanner::comment(std::string_view c) {
       const std::string_view key = trim(kv.substr(0, eq));
       const std::string value = toml_string_value(kv.substr(eq + 1));
       if (key == "flavor") {
-        pneumatic_header_ = value == "pneumatic";
+        pneumatic_header_ = value == "pneumatic" || value == "embedded";
       } else if (pneumatic_header_ && (key == "valve_on" || key == "valve_off")) {
         (key == "valve_on" ? opt_.valve_on : opt_.valve_off) = command_words(value);
       }

@@ -514,6 +514,9 @@ class Writer {
   // To q, through `via` (the linking stage's route, slice/link.hpp). A travel kept inside the
   // part retracts and lifts only beyond retraction.inside_max; any other from min_travel on.
   void travel_to(Vec3 q, const std::vector<Vec3>& via = {}, bool inside = false) {
+    // A path that starts where the last one ended, whose last move was too short to write: no
+    // travel to the point it was to reach (the next move prints from where the nozzle is).
+    if (std::exchange(silent_, false) && via.empty() && distance(silent_to_, q) < 1e-9) return;
     if (flavor_ == Flavor::Embedded) return travel_embedded(q);
     double d = 0;
     if (known_) {
@@ -932,12 +935,36 @@ class Writer {
     }
   }
 
-  // One extruding move to q.
+  // Whether a move from pos_ to q writes nothing new at the output's precision: the same X, Y
+  // and Z to 3 decimals, or (with E) a move within two units of the last place (2 µm) whose E
+  // rounds to the one before (`e`: this move's E). Written, it reads back as a zero-length
+  // extrusion or as a travel that splits the path. Longer moves are always written (a tiny
+  // extrusion.k may round every E to the one before: leaving those out would cut corners).
+  bool silent_move(Vec3 q, Vec2 o, double e, bool marlin) const {
+    auto same = [](double a, double b, double scale) {
+      return std::llround(a * scale) == std::llround(b * scale);
+    };
+    if (same(q.x + dx_ + o.x, pos_.x + dx_ + o.x, 1e3) &&
+        same(q.y + dy_ + o.y, pos_.y + dy_ + o.y, 1e3) && same(q.z, pos_.z, 1e3))
+      return true;
+    if (!marlin || distance(pos_, q) >= 2e-3) return false;
+    return p_.relative_e ? std::llround(e * 1e5) == 0 : same(e_ + e, e_, 1e5);
+  }
+
+  // One extruding move to q. A move too short to write (silent_move) is left out: its length and
+  // filament go into the next one.
   void print_move(Vec3 q, double layer, double speed, bool& first, bool marlin) {
     {
       const double len = distance(pos_, q);
       const double flow = down_factor(q);
       const Vec2 o = offset();
+      const double e = marlin ? extrusion_for(len, layer, p_) * flow * path_flow_ : 0.0;
+      if (silent_move(q, o, e, marlin)) {
+        silent_ = true;
+        silent_to_ = q;
+        return;
+      }
+      silent_ = false;
       using namespace fastnum;
       char buf[6 * kMaxChars];
       char* b = lit(buf, "G1 X");
@@ -949,7 +976,6 @@ class Writer {
         b = fixed(b, q.z, 3);
       }
       if (marlin) {
-        const double e = extrusion_for(len, layer, p_) * flow * path_flow_;
         e_ += e;
         stats_.filament += e;
         b = lit(b, " E");
@@ -1012,6 +1038,8 @@ class Writer {
   std::size_t next_change_ = 0, path_index_ = 0;
   GcodeStats stats_;
   double dx_ = 0, dy_ = 0;
+  bool silent_ = false;  // the last printing move was left out (silent_move): it was to silent_to_
+  Vec3 silent_to_;
   double e_ = 0;
   Vec3 pos_;
   bool known_ = false, printed_ = false, retracted_ = false;

@@ -134,7 +134,8 @@ Analysis analyze(const Toolpath& printed, const GcodeCounts& counts, const Graph
                  const AnalysisParams& params);
 
 // The counts of a planned toolpath, as its G-code would give them to a CountingSink: every
-// segment an extrusion move, the moves between paths (through their via points) travel, feeds
+// segment an extrusion move, the moves between paths (through their via points) travel (none
+// where a path starts at the end of the last: one run, as the writer prints it), feeds
 // from the paths' speeds (0: no time). Filament and retractions are the machine's, so 0.
 GcodeCounts toolpath_counts(const Toolpath& toolpath);
 

@@ -136,7 +136,7 @@ class GcodeScanner {
   double e_ = 0, feed_ = 0;
   bool abs_pos_ = true, abs_e_ = true, inches_ = false, valve_ = false;
   bool header_valves_ = false;     // no valve commands given: take them from our job header
-  bool pneumatic_header_ = false;  // the header's flavor is 'pneumatic'
+  bool pneumatic_header_ = false;  // the header's flavor is 'pneumatic' or 'embedded'
 
   int tool_ = 0;
   std::vector<double> tool_temp_;              // per tool, NaN = not set
