@@ -4,6 +4,7 @@
 #include <map>
 
 #include "commands.hpp"
+#include "progress_display.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/job/job.hpp"
 
@@ -280,9 +281,10 @@ void add_routes(CLI::App& app, int argc, char** argv) {
       job.preview = o->preview;
       job.keep_toolpath = false;  // only the files are used here
       Diagnostics diag;
-      Progress progress;
-      progress.report = progress_line;
-      print_result(run_job(job, diag, progress), diag);
+      ProgressDisplay display(progress_mode(job.settings), "trellis " + route);
+      JobResult r = run_job(job, diag, display.progress());
+      display.finish();
+      print_result(r, diag);
     });
   }
 }

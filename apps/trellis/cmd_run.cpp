@@ -3,6 +3,7 @@
 #include <iostream>
 
 #include "commands.hpp"
+#include "progress_display.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/job/job.hpp"
 #include "trellis/job/plate.hpp"
@@ -44,9 +45,9 @@ void add_run(CLI::App& app) {
     }
     job.keep_toolpath = false;  // only the files are used here
     Diagnostics diag;
-    Progress progress;
-    progress.report = progress_line;
-    const JobResult r = run_job(job, diag, progress);
+    ProgressDisplay display(progress_mode(job.settings), "trellis run " + job.name);
+    const JobResult r = run_job(job, diag, display.progress());
+    display.finish();
     print_warnings(diag);
     std::cout << job.name << " (" << job.route << "): " << r.summary << "\n";
     for (const auto& f : r.files) {
@@ -89,6 +90,7 @@ void add_rerun(CLI::App& app) {
   struct Opts {
     std::string input, out;
     bool follow = false;
+    int progress = -1;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand(
@@ -102,12 +104,16 @@ void add_rerun(CLI::App& app) {
   cmd->add_option("-o,--output", o->out, "where to write (default: the file itself)")
       ->check(path_value());
   add_follow_symlinks(cmd, o->follow);
+  add_progress_flag(cmd, o->progress);
   cmd->callback([o] {
     Job job = rerun_job(o->input, o->out);
     if (o->follow) job.settings.set("run.follow_symlinks", true, {"--follow-symlinks"});
     job.keep_toolpath = false;
     Diagnostics diag;
-    print_result(run_job(job, diag, {}), diag);
+    ProgressDisplay display(progress_mode(o->progress), "trellis rerun");
+    JobResult r = run_job(job, diag, display.progress());
+    display.finish();
+    print_result(r, diag);
   });
 }
 
