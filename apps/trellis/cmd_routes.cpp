@@ -30,6 +30,7 @@ struct RouteOpts {
   std::string input, extra, machine, output, report, toolpath, gcode, preview;
   std::vector<std::string> sets;
   SettingFlags flags;
+  int progress = -1;  // --progress 1, --no-progress 0 (run.progress)
 };
 
 std::string help_of(const Setting& s) {
@@ -239,6 +240,7 @@ void add_routes(CLI::App& app, int argc, char** argv) {
         ->check(path_value());
     cmd->add_option("--set", o->sets, "any setting: section.key=value (repeatable; `trellis settings`)");
     o->flags.add(cmd, spec.flag_sections);
+    add_progress_flag(cmd, o->progress);
     const bool machine_required = route == "gcode" || route == "slice" || route == "nonplanar";
     cmd->callback([o, route, machine_required, argc, argv] {
       if (machine_required && o->machine.empty())
@@ -256,6 +258,8 @@ void add_routes(CLI::App& app, int argc, char** argv) {
       if (route == "surface" && !o->extra.empty())
         job.settings.set("surface.kind", o->extra, {"kind argument"});
       o->flags.apply(job.settings);
+      if (o->progress >= 0)
+        job.settings.set("run.progress", o->progress == 1, {o->progress ? "--progress" : "--no-progress"});
       for (const auto& s : o->sets) {
         const auto eq = s.find('=');
         if (eq == std::string::npos)

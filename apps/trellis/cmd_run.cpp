@@ -16,6 +16,7 @@ void add_run(CLI::App& app) {
     std::string job, out, shard;
     std::vector<std::string> sets;
     bool follow = false;
+    int progress = -1;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand("run", "Run a job file (any route): design, plan, write, report, previews");
@@ -28,6 +29,7 @@ void add_run(CLI::App& app) {
   cmd->add_option("-o,--output-dir", o->out, "output folder (replaces [job] output_dir)")
       ->check(path_value());
   add_follow_symlinks(cmd, o->follow);
+  add_progress_flag(cmd, o->progress);
   cmd->add_option("--set", o->sets, "override a setting of the job: section.key=value (repeatable)");
   cmd->add_option("--shard", o->shard,
                   "K/N: compute shard K of N (layer ranges balanced by work; pbf, slice (planar "
@@ -36,6 +38,8 @@ void add_run(CLI::App& app) {
   cmd->callback([o] {
     Job job = load_job(o->job, o->out, o->sets);
     if (o->follow) job.settings.set("run.follow_symlinks", true, {"--follow-symlinks"});
+    if (o->progress >= 0)
+      job.settings.set("run.progress", o->progress == 1, {o->progress ? "--progress" : "--no-progress"});
     if (!o->shard.empty()) {
       std::tie(job.shard, job.shards) = parse_shard(o->shard);
       // The plan route says itself what of it shards (planner, plan.order, plan.layer_start).

@@ -31,9 +31,12 @@ ProgressMode progress_mode(int asked) {
 }
 
 void add_progress_flag(CLI::App* cmd, int& asked) {
-  cmd->add_flag("--progress{1},--no-progress{0}", asked,
-                "progress on stderr (stage, %, ETA): by default on a terminal only; --progress "
-                "also into a pipe or log (a line per update), --no-progress never");
+  cmd->add_flag_callback(
+      "--progress", [&asked] { asked = 1; },
+      "progress on stderr (stage, %, ETA) also into a pipe or log, a line per update with the "
+      "estimates made before the run (by default: on a terminal only); run.progress");
+  cmd->add_flag_callback(
+      "--no-progress", [&asked] { asked = 0; }, "no progress on stderr, not even on a terminal");
 }
 
 ProgressMode progress_mode(const Settings& settings) {
@@ -61,6 +64,7 @@ void ProgressDisplay::report(const std::string& stage, double fraction) {
   const double now = std::chrono::duration<double>(Clock::now() - start_).count();
   std::lock_guard lock(mutex_);
   fraction = std::clamp(std::isfinite(fraction) ? fraction : 0.0, 0.0, 1.0);
+  if (fraction > 1 - 1e-9) fraction = 1;  // sums of shares that fall short by rounding
   // A new stage, or the same stage run again (a fraction falling back to its start): its clock
   // restarts. Otherwise a fraction below the last (threads finishing out of order) is ignored.
   const bool restart = stage != stage_ || (fraction_ >= 1 && fraction < 1) || fraction < fraction_ - 0.5;

@@ -140,12 +140,19 @@ Estimate estimate_nonplanar(const BBox2& domain, const NonplanarParams& p) {
   return e;
 }
 
-Estimate estimate_pbf_time(const PbfDesign& d, const PbfOptions& po) {
+Estimate estimate_pbf_time(const PbfDesign& d, const PbfOptions& po, bool toolpath_json) {
   const BBox3 box = d.part().extent();
   const double layers = (box.max.z - box.min.z) / po.layer + 1;
   Estimate e;
-  e.bytes = 0;  // plan_pbf's own estimate (pbf_memory_estimate) covers memory
+  e.bytes = 0;  // plan_pbf's own estimate (pbf_memory_estimate) covers the planning
   e.seconds = pbf_time_estimate(d, po, static_cast<int>(threads_of_run()));
+  if (toolpath_json) {
+    // The whole toolpath as JSON (--toolpath): its document is built in memory. Measured on a
+    // 6 mm gyroid cube (118,000 vectors): 0.67 s of CPU and 280 MB more than streaming.
+    const double vectors = pbf_vectors_estimate(d, po);
+    e.seconds += vectors * 6e-6;
+    e.bytes = 36e6 + vectors * 2500;
+  }
   e.what = fmt::format("PBF paths of {:.3g} layers of {:.3g} x {:.3g} mm at resolution {} mm", layers,
                        box.max.x - box.min.x, box.max.y - box.min.y, po.resolution);
   e.change = "--resolution (pbf.resolution), --layer-height (scan.layer) or --size (pbf.size)";

@@ -1041,7 +1041,7 @@ AeroResult plan_canonical(const Graph& g, const AeroParams& params) {
           best_run = k;
         }
       }
-      params.progress("plan", static_cast<double>(++finished) / static_cast<double>(runs));
+      params.progress("tries", static_cast<double>(++finished) / static_cast<double>(runs));
     });
   });
   if (params.progress.cancelled()) throw Cancelled("AERO planning cancelled");
@@ -1060,7 +1060,7 @@ AeroResult plan_canonical(const Graph& g, const AeroParams& params) {
   r.seconds_planning = since(t1);
   for (const auto& t : r.trails.trails)
     r.max_trail_edges = std::max(r.max_trail_edges, t.edges.size());
-  params.progress("plan", 1);
+  params.progress("tries", 1);
   return r;
 }
 

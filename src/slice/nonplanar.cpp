@@ -952,6 +952,7 @@ NonplanarResult slice_nonplanar(const HeightField& surface, const NonplanarParam
     }
     if (advance) advance(1.0);
   });
+  progress(stage, 1.0);
   // Join each layer's pieces by nearest neighbour, starting where the previous layer ended.
   Vec3 cursor{kNaN, kNaN, kNaN};
   HeightField::Eval f = surface.evaluator();

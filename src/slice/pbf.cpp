@@ -1144,7 +1144,7 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
     result.memory_estimate = pbf_memory_estimate(design, o, threads, static_cast<bool>(sink));
     if (progress.estimate)
       progress.estimate({result.memory_estimate, 0,
-                         fmt::format("PBF paths of {} layers at resolution {} mm on {} threads",
+                         fmt::format("PBF paths of {} layers at resolution {} mm on {} thread(s)",
                                      zs.size(), o.resolution, threads),
                          "--resolution (pbf.resolution)"});
     const double budget = o.memory_budget > 0 ? o.memory_budget : available_memory_bytes();

@@ -66,6 +66,14 @@ double pbf_time_estimate(const PbfDesign& design, const PbfOptions& o, int threa
   return 0.02 + layers * (s.perimeter * 1.4e-5 * grid + hatch * 2e-7) / std::max(1, threads);
 }
 
+double pbf_vectors_estimate(const PbfDesign& design, const PbfOptions& o) {
+  const BBox3 e = design.part().extent();
+  if (e.empty() || !std::isfinite(e.min.z) || !std::isfinite(e.max.z) || !(o.layer > 0)) return 0;
+  const double length = pbf_sample_sections(design, o).area / o.melt_pool;  // mm a layer, FR_a ≈ 1
+  return std::ceil((e.max.z - e.min.z) / o.layer) * length /
+         std::max(std::min(o.segment_length, 4 * o.hatch_distance), 1e-3);
+}
+
 // The direct route's memory (the STL route's mesh is not modelled: it is the comparison).
 double pbf_memory_estimate(const PbfDesign& design, const PbfOptions& o, int threads) {
   return pbf_memory_estimate(design, o, threads, false);

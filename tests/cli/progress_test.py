@@ -131,7 +131,7 @@ with tempfile.TemporaryDirectory() as d:
     for args, setting in [
             (["pbf", "--cell", "250", "--size", "100,100,100", "--max-time", "10", "-o", "g.cli"],
              "run.max_time"),
-            (["plan", "aero", "octet.json", "--tries", "10000000", "-o", "h.json",
+            (["plan", "aero", "octet.json", "--tries", "100000", "--max-time", "10", "-o", "h.json",
               "--machine", os.path.join(SRC, "profiles", "embedded_aero_410um.toml")], "aero.tries"),
             (["render", "e.json", "-o", "png2", "--image-size", "8000", "--max-time", "1"], "run.max_time"),
             (["nonplanar", "--machine", fresh, "--set", "surface.kind=corrugation", "--layers", "200",

@@ -152,6 +152,8 @@ double pbf_memory_estimate(const PbfDesign& design, const PbfOptions& options, i
 // Seconds plan_pbf (the direct route) takes with `threads` workers, from the outline length of
 // five sampled sections (an order of magnitude, for refusing runs beyond run.max_time).
 double pbf_time_estimate(const PbfDesign& design, const PbfOptions& options, int threads);
+// Scan vectors of the whole build, from the sampled sections' area (FR_a ≈ 1).
+double pbf_vectors_estimate(const PbfDesign& design, const PbfOptions& options);
 // The part's mean section over five sampled layers: area (mm²) and outline length (mm).
 struct PbfSections {
   double area = 0, perimeter = 0;
