@@ -37,10 +37,10 @@ PbfSections pbf_sample_sections(const PbfDesign& design, const PbfOptions& o) {
   if (e.empty() || !std::isfinite(e.min.x) || !std::isfinite(e.max.x)) return out;
   std::vector<double> zs;
   for (int k = 0; k < 5; ++k) zs.push_back(e.min.z + (k + 0.5) / 5 * (e.max.z - e.min.z));
-  // Twice the run's grid step, or coarser on a large build (at most 500 steps a side), so the
-  // estimate stays quick where the run would not be.
+  // Twice the run's grid step, or coarser on a large build (at most 200 steps a side), so the
+  // estimate stays quick (well under a second) where the run would not be.
   FieldSliceOptions so;
-  so.resolution = std::max(2 * o.resolution, std::max(e.max.x - e.min.x, e.max.y - e.min.y) / 500);
+  so.resolution = std::max(2 * o.resolution, std::max(e.max.x - e.min.x, e.max.y - e.min.y) / 200);
   for (const auto& l : slice_field(design.part(), zs, so)) {
     out.area += trellis::area(l.regions) / 5;
     for (const auto& ring : rings_of(l.regions))
