@@ -213,6 +213,7 @@ PYBIND11_MODULE(_trellis, m) {
       d["flag"] = s.flag;
       d["default"] = s.derived.empty() ? py::cast(s.default_text()) : py::none();
       d["derived"] = s.derived;
+      d["when"] = s.when.empty() ? std::string() : when_text(s.when);
       d["range"] = s.range_text();
       d["choices"] = s.choices;
       out.append(d);

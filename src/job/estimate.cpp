@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 
 #include "routes.hpp"
 #include "trellis/geom/mesh_io.hpp"
@@ -137,6 +138,20 @@ Estimate estimate_nonplanar(const BBox2& domain, const NonplanarParams& p) {
                        p.layers, normal ? "normal" : "vertical", lines, wx, wy);
   e.change = "--bead-width (nonplanar.bead_width), --layers (nonplanar.layers), --offset "
              "(nonplanar.offset) or the domain";
+  return e;
+}
+
+Estimate estimate_gcode_of(const std::string& toolpath_json) {
+  std::error_code ec;
+  const double size = static_cast<double>(std::filesystem::file_size(toolpath_json, ec));
+  Estimate e;
+  if (ec) return e;  // the reader says what is wrong with the file
+  // The JSON reader holds the whole toolpath (about 4 bytes per byte of JSON); reading and
+  // writing run at roughly 50 MB/s together on one core.
+  e.bytes = size * 4;
+  e.seconds = size * 2e-8;
+  e.what = fmt::format("writing G-code from a {:.3g} MB toolpath", size / 1e6);
+  e.change = "the toolpath (plan or slice it in parts: trellis run --shard)";
   return e;
 }
 

@@ -88,6 +88,8 @@ Estimate estimate_lattice3d(const Config& c);
 Estimate estimate_gippo(std::size_t edges, int iterations, int seeds);
 Estimate estimate_aero(std::size_t edges, int tries);
 Estimate estimate_nonplanar(const BBox2& domain, const NonplanarParams& p);
+// Writing a toolpath JSON file as G-code: reading it and writing about as many bytes of G-code.
+Estimate estimate_gcode_of(const std::string& toolpath_json);
 // toolpath_json: the whole toolpath is also written as JSON (time and memory of its document).
 Estimate estimate_pbf_time(const PbfDesign& design, const PbfOptions& options, bool toolpath_json);
 

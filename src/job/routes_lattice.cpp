@@ -563,9 +563,10 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
   return out;
 }
 
-JobResult gcode(const Job& job, const Config& c, Diagnostics& diag, const Progress&) {
+JobResult gcode(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
   JobResult out;
   if (job.input.empty()) throw SettingError("gcode needs a toolpath JSON to read", {"", 0, "job.input"});
+  check_budget(estimate_gcode_of(job.input), budget_of(job, c, progress));
   const Toolpath tp = read_toolpath(job.input);
   // The toolpath's bead heights were set when it was planned; say so when they are not the
   // machine's layer height (E follows the path's own height).

@@ -217,6 +217,42 @@ void check_profile_kind(const Job& job, const std::vector<std::string>& sections
                        {job.machine, laser->origin.line, laser_key});
 }
 
+// The facts of a run that Setting::when names (settings.hpp).
+UseContext use_context(const Job& job) {
+  UseContext u;
+  u.route = job.route;
+  u.settings = &job.settings;
+  const std::string ext = fs::path(job.output).extension().string();
+  const bool gcode = job.route == "gcode" || job.route == "slice" ||
+                     (job.route == "plan" && !job.gcode.empty()) ||
+                     (job.route == "nonplanar" && !job.output.empty()) ||
+                     (job.route == "surface" && !job.output.empty() && ext != ".json" && ext != ".stl");
+  if (gcode) u.facts.push_back("gcode");
+  if (!job.preview.empty()) u.facts.push_back("preview");
+  if (!job.input.empty() || !job.parts.empty()) u.facts.push_back("input");
+  if (!job.report.empty()) u.facts.push_back("report");
+  if (ext == ".3mf") u.facts.push_back("3mf");
+  if (!job.origin.empty()) u.facts.push_back("job");
+  return u;
+}
+
+// Every setting the user gave (on the command line, in a job file or from Python; a machine
+// profile describes the machine and may hold settings a route does not use) must change this
+// run's output: one its route does not use here is refused with the reason (Setting::when).
+void check_settings_used(const Job& job) {
+  if (job.embedded) return;  // an output's header records every setting, used or not
+  const UseContext use = use_context(job);
+  for (const auto& [key, e] : job.settings.entries()) {
+    if (!job.machine.empty() && e.origin.source == job.machine) continue;
+    const Setting* s = find_setting(key);
+    if (!s) continue;
+    const std::string why = unused_reason(*s, use);
+    if (!why.empty())
+      throw SettingError("the " + job.route + " route does not use it in this run: " + why,
+                         {e.origin.source, e.origin.line, key});
+  }
+}
+
 }  // namespace
 
 RunFiles job_files(const Job& job, bool follow_symlinks) {
@@ -253,6 +289,7 @@ JobResult run_job(const Job& job, Diagnostics& diag, const Progress& progress) {
   const Config c = job.settings.config();
   check_rules(c, job.settings, sections);
   check_profile_kind(job, sections);
+  check_settings_used(job);
   // Every output of the job is staged and committed together at the end; an error, a cancel or
   // running out of memory leaves the output folders as they were (core/file.hpp). Its files are
   // checked before anything is written, and its inputs are never written (core/run_files.hpp).

@@ -201,6 +201,139 @@ void add_machine(std::vector<Setting>& out) {
   }
 }
 
+const Setting* find_in(const std::vector<Setting>& table, const std::string& key) {
+  for (const Setting& s : table)
+    if (s.key == key) return &s;
+  return nullptr;
+}
+
+// When each setting is used (Setting::when), beyond its route reading its section. A key ending
+// in '.' covers its whole section; a later, longer entry adds its terms to the section's. These
+// are what `run_job` refuses a given setting by, and what the settings matrix test
+// (tests/settings_matrix_test.py) checks both ways: refused where a condition fails, changing the
+// output where they all hold.
+const std::vector<std::pair<const char*, const char*>>& when_table() {
+  static const std::vector<std::pair<const char*, const char*>> t = {
+      // Only the G-code writer reads these.
+      {"temperature.", "@gcode"},
+      {"retraction.", "@gcode; machine.flavor=marlin|reprap|klipper"},
+      {"flow.", "@gcode"},
+      {"retraction.inside_max", "route=slice|gcode"},
+      {"flow.pre", "machine.flavor=marlin|reprap|klipper"},
+      {"flow.post", "machine.flavor=marlin|reprap|klipper"},
+      {"pneumatic.", "@gcode; machine.flavor=pneumatic|embedded"},
+      {"embedded.", "@gcode; machine.flavor=embedded"},
+      {"gradient.", "@gcode"},
+      {"gradient.tools", "gradient.mode=tools"},
+      {"gradient.quantize", "gradient.mode=tools"},
+      {"gradient.temperature_a", "gradient.mode=temperature"},
+      {"gradient.temperature_b", "gradient.mode=temperature"},
+      {"gradient.flow", "gradient.mode=temperature"},
+      {"gradient.dialect", "gradient.mode=mixing"},
+      {"gradient.template", "gradient.mode=mixing; gradient.dialect=template"},
+      {"purge.", "@gcode"},
+      {"purge.x", "purge.position=fixed"},
+      {"purge.y", "purge.position=fixed"},
+      {"gcode.", "@gcode"},
+      {"gcode.extension", "@job"},
+      {"extrusion.filament_diameter", "@gcode"},
+      {"extrusion.multiplier", "@gcode"},
+      {"extrusion.k", "@gcode"},
+      {"extrusion.relative_e", "@gcode; machine.flavor=marlin|reprap|klipper"},
+      {"extrusion.down_flow", "@gcode"},
+      {"temperature.standby", "machine.tools>1"},
+      // The 2D atlas, when the route makes its lattice (lattice2d, or plan without an input).
+      {"lattice2d.", "route=lattice2d or !@input; plan.planner!=aero or route=lattice2d"},
+      {"lattice2d.strand", "lattice2d.pattern=square|triangle|lines"},
+      {"lattice2d.density", "lattice2d.pattern=voronoi"},
+      {"lattice2d.seed", "lattice2d.pattern=voronoi"},
+      {"lattice2d.size", "lattice2d.region=rectangle"},
+      {"lattice2d.diameter", "lattice2d.region=circle"},
+      {"lattice2d.handle_length", "lattice2d.handles=true"},
+      {"lattice2d.handle_width", "lattice2d.handles=true"},
+      {"lattice2d.handle_spacing", "lattice2d.handles=true"},
+      {"lattice2d.reentrant_angle", "lattice2d.pattern=reentrant-honeycomb"},
+      {"lattice2d.cell_height", "lattice2d.pattern=arrowhead|reentrant-honeycomb"},
+      {"lattice2d.arrowhead_outer", "lattice2d.pattern=arrowhead"},
+      {"lattice2d.arrowhead_inner", "lattice2d.pattern=arrowhead"},
+      {"lattice2d.line_width", "lattice2d.target_porosity>0 or route=lattice2d"},
+      // 3D lattices, when the route makes one (lattice3d, or plan aero without an input).
+      {"lattice3d.", "route=lattice3d or !@input; route=lattice3d or plan.planner=aero"},
+      {"lattice3d.cell_type", "lattice3d.kind=cells|conformal"},
+      {"lattice3d.count", "lattice3d.kind=cells"},
+      {"lattice3d.cell", "lattice3d.kind=cells|conformal"},
+      {"lattice3d.box", "lattice3d.kind=foam"},
+      {"lattice3d.skin", "lattice3d.kind=conformal"},
+      {"lattice3d.skin_density", "lattice3d.kind=conformal"},
+      {"lattice3d.mesh", "lattice3d.kind=foam|conformal"},
+      {"lattice3d.density", "lattice3d.kind=foam"},
+      {"lattice3d.seed", "lattice3d.kind=foam|conformal"},
+      {"lattice3d.radius", "@3mf"},
+      {"lattice.", "@input"},
+      {"lattice.merge_tolerance", "lattice.keep_graph=false"},
+      {"onto.", "onto.kind"},
+      {"onto.radius", "onto.kind=sphere-cap"},
+      {"onto.diameter", "onto.kind=sphere-cap"},
+      {"onto.file", "onto.kind=mesh"},
+      {"onto.height_fn", "onto.kind=function"},
+      {"onto.domain", "onto.kind=function"},
+      {"gippo.", "plan.planner=gippo"},
+      {"aero.", "plan.planner=aero"},
+      {"aero.tries", "aero.method=dynamic"},
+      {"aero.fewest_collisions", "aero.collisions=true"},
+      {"aero.exact_struts", "aero.collisions=true"},
+      {"nozzle.", "plan.planner=aero"},
+      {"plan.seed", "plan.planner=gippo|aero"},
+      {"output.preview_layers", "@preview; route=plan|slice|pbf|nonplanar"},
+      {"output.image_size", "@preview"},
+      {"output.frames", "@preview; plan.planner=aero"},
+      {"output.gcode", "route=plan; @job"},
+      {"output.png", "@job"},
+      {"slice.infill_lattice", "slice.infill_pattern=lattice"},
+      {"slice.infill_seed", "slice.infill_pattern=lattice; slice.infill_lattice=voronoi"},
+      {"slice.seam_seed", "slice.seam=random"},
+      {"slice.connect_max", "slice.connect=true"},
+      {"slice.comb_detour", "slice.comb=true"},
+      {"fgm.", "slice.strategy!=0"},
+      {"fgm.order", "slice.strategy=1"},
+      {"fgm.zipper", "slice.strategy=1"},
+      {"fgm.concentric", "slice.strategy=2"},
+      {"fgm.fixed_angle", "slice.strategy=2"},
+      {"fgm.perimeters", "slice.strategy=2"},
+      {"pbf.grade_axis", "pbf.grade_to"},
+      {"pbf.grade_center", "pbf.grade_to"},
+      {"pbf.grade_width", "pbf.grade_to"},
+      {"pbf.wall_inclination", "pbf.wall_thickness"},
+      {"pbf.wall_azimuth", "pbf.wall_thickness"},
+      {"pbf.thin_multiple", "pbf.strategy=hybrid"},
+      {"pbf.min_inclination", "pbf.strategy=hybrid"},
+      {"nonplanar.domain", "nonplanar.height_fn"},
+      {"surface.periods", "surface.kind=corrugation"},
+      {"surface.angle", "surface.kind=corrugation"},
+      {"surface.amplitude_scale", "surface.kind=corrugation"},
+      {"surface.fillet", "surface.kind=corrugation"},
+      {"surface.flat", "surface.kind=corrugation"},
+      {"surface.depth", "surface.kind=miura"},
+      {"surface.height", "surface.kind=m-curve"},
+      {"surface.radius", "surface.kind=sphere-cap"},
+      {"surface.diameter", "surface.kind=sphere-cap"},
+  };
+  return t;
+}
+
+void apply_when(std::vector<Setting>& table) {
+  for (Setting& s : table) {
+    for (const auto& [key, when] : when_table()) {
+      const std::string k = key;
+      const bool covers = k.back() == '.' ? s.key.compare(0, k.size(), k) == 0 : s.key == k;
+      if (covers) s.when += (s.when.empty() ? "" : "; ") + std::string(when);
+    }
+  }
+  for (const auto& [key, when] : when_table())
+    if (std::string(key).back() != '.' && !find_in(table, key))
+      throw std::logic_error(std::string("the when table names an unknown setting ") + key);
+}
+
 std::vector<Setting> make_table() {
   using C = Config;
   std::vector<Setting> t;
@@ -793,6 +926,7 @@ std::vector<Setting> make_table() {
       "write an output whose path is a symbolic link to the file it points to "
       "(the link kept); without it such an output is refused",
       "follow-symlinks", [](C & c) -> auto& { return c.follow_symlinks; }));
+  apply_when(t);
   return t;
 }
 

@@ -471,7 +471,133 @@ std::string settings_reference(const std::vector<std::string>& sections) {
              "\n" + std::string(31, ' ') + "default: " +
              (s.derived.empty() ? (def.empty() ? "\"\"" : def) : s.derived) + "; " + s.range_text() +
              (s.flag.empty() ? "" : "; flag --" + s.flag) + "\n";
+      if (!s.when.empty()) out += std::string(31, ' ') + "used when " + when_text(s.when) + "\n";
     }
+  }
+  return out;
+}
+
+namespace {
+
+std::vector<std::string> split_on(const std::string& text, const std::string& sep) {
+  std::vector<std::string> out;
+  std::size_t at = 0;
+  for (;;) {
+    const std::size_t next = text.find(sep, at);
+    out.push_back(text.substr(at, next == std::string::npos ? std::string::npos : next - at));
+    if (next == std::string::npos) return out;
+    at = next + sep.size();
+  }
+}
+
+const char* fact_words(const std::string& fact) {
+  if (fact == "gcode") return "G-code is written";
+  if (fact == "preview") return "PNG previews are written";
+  if (fact == "input") return "a design or lattice file is read";
+  if (fact == "report") return "a report is written";
+  if (fact == "3mf") return "the output is 3MF";
+  if (fact == "job") return "a job file is run (trellis run)";
+  return nullptr;
+}
+
+std::string fact_negated(const std::string& fact) {
+  if (fact == "gcode") return "no G-code is written";
+  if (fact == "preview") return "no PNG previews are written";
+  if (fact == "input") return "no design or lattice file is read";
+  if (fact == "report") return "no report is written";
+  return std::string("not: ") + fact_words(fact);
+}
+
+// One alternative of a term: whether it holds, and its words ("lattice2d.pattern = voronoi").
+struct Alternative {
+  bool holds = false;
+  std::string words, here;  // `here`: the value in force, for the reason
+};
+
+std::string value_in_force(const UseContext& use, const std::string& key) {
+  if (key == "route") return use.route;
+  if (!use.settings || !find_setting(key)) return "";
+  try {
+    return value_text(use.settings->value(key));
+  } catch (const std::exception&) {
+    return "";  // a derived setting left unset
+  }
+}
+
+Alternative evaluate(const std::string& alt, const UseContext& use) {
+  Alternative a;
+  if (!alt.empty() && (alt[0] == '@' || (alt.size() > 1 && alt[0] == '!' && alt[1] == '@'))) {
+    const bool negated = alt[0] == '!';
+    const std::string fact = alt.substr(negated ? 2 : 1);
+    const char* w = fact_words(fact);
+    if (!w) throw std::logic_error("unknown fact in a setting's `when`: " + alt);
+    const bool has = std::find(use.facts.begin(), use.facts.end(), fact) != use.facts.end();
+    a.holds = has != negated;
+    a.words = negated ? fact_negated(fact) : std::string(w);
+    return a;
+  }
+  const std::size_t ne = alt.find("!="), eq = alt.find('='), gt = alt.find('>');
+  if (ne != std::string::npos || eq != std::string::npos) {
+    const bool negated = ne != std::string::npos;
+    const std::string key = alt.substr(0, negated ? ne : eq);
+    const std::string list = alt.substr(negated ? ne + 2 : eq + 1);
+    a.here = value_in_force(use, key);
+    bool any = false;
+    for (const auto& v : split_on(list, "|")) any |= v == a.here;
+    a.holds = any != negated;
+    std::string shown = list;
+    for (std::size_t i = 0; (i = shown.find('|', i)) != std::string::npos;) shown.replace(i, 1, " or "), i += 4;
+    if (shown.empty()) shown = "''";
+    a.words = key + (negated ? " is not " : " = ") + shown;
+    return a;
+  }
+  if (gt != std::string::npos) {
+    const std::string key = alt.substr(0, gt);
+    a.here = value_in_force(use, key);
+    double v = 0;
+    try {
+      v = std::stod(a.here);
+    } catch (const std::exception&) {
+    }
+    a.holds = v > std::stod(alt.substr(gt + 1));
+    a.words = key + " > " + alt.substr(gt + 1);
+    return a;
+  }
+  a.here = value_in_force(use, alt);
+  a.holds = !a.here.empty();
+  a.words = alt + " is given";
+  return a;
+}
+
+}  // namespace
+
+std::string unused_reason(const Setting& s, const UseContext& use) {
+  if (s.when.empty()) return "";
+  for (const auto& term : split_on(s.when, "; ")) {
+    bool holds = false;
+    std::string words, here;
+    for (const auto& alt : split_on(term, " or ")) {
+      const Alternative a = evaluate(alt, use);
+      holds |= a.holds;
+      words += (words.empty() ? "" : " or ") + a.words;
+      if (!a.here.empty() && here.empty()) here = a.here;
+    }
+    if (!holds)
+      return "it is used only when " + words +
+             (here.empty() ? std::string() : " (here " + here + ")");
+  }
+  return "";
+}
+
+std::string when_text(const std::string& when) {
+  std::string out;
+  for (const auto& term : split_on(when, "; ")) {
+    std::string words;
+    for (const auto& alt : split_on(term, " or ")) {
+      UseContext none;
+      words += (words.empty() ? "" : " or ") + evaluate(alt, none).words;
+    }
+    out += (out.empty() ? "" : "; ") + words;
   }
   return out;
 }
@@ -496,6 +622,7 @@ std::string settings_markdown() {
       for (auto& ch : range)
         if (ch == '|') ch = '/';
       std::string doc = s.doc;
+      if (!s.when.empty()) doc += " (used when " + when_text(s.when) + ")";
       for (auto& ch : doc)
         if (ch == '|') ch = '/';
       out += "| `" + s.key + "` | " + kind_name(s.kind) + " | " + s.unit + " | `" + def + "` | " +

@@ -304,7 +304,7 @@ TEST(FgmOutline, TheIslandIsCoveredOnce) {
     EXPECT_GE(wide.coverage, &r == &runs.front() ? 0.99 : 0.95);
     // Designs flat over part of the island (a fraction clamped): the level lines bordering the
     // flat part (g spreads them, and the line put into an odd run there) overlap so that 2-3.5 %
-    // lies under three beads — a known fault (README, "Not in this release"), bounded here so
+    // lies under three beads — a known fault (docs/limitations.md), bounded here so
     // it cannot grow unseen; elsewhere hardly a pixel.
     const bool flat_part = r.name == "clamped slope" || r.name == "three materials";
     EXPECT_LE(exact.three, flat_part ? 0.04 : 5e-4);

@@ -36,6 +36,14 @@ struct Setting {
   // Settings whose value by default follows another one (e.g. the bead width follows the
   // nozzle): unset, the route derives it; this text says from what.
   std::string derived;
+  // When the setting is used at all (empty: whenever its route reads its section). Terms joined
+  // by "; " must all hold; a term's alternatives are joined by " or "; each is `key=a|b`,
+  // `key!=a|b`, `key>n` (a number), `key` (given or not empty), `route=a|b`, or a fact of the run
+  // `@gcode` (G-code is written), `@preview` (PNG previews are), `@input` (a design or lattice
+  // file is read), `@report`, `@3mf` (the output is 3MF), `@job` (a job file is run), each negated with a leading `!`.
+  // A setting the user gives where this does not hold is refused, naming the reason
+  // (unused_reason); docs/settings.md prints it.
+  std::string when;
   std::function<SettingValue(const Config&)> get;
   std::function<void(Config&, const SettingValue&)> set;
 
@@ -94,6 +102,19 @@ class Settings {
  private:
   std::map<std::string, Entry> entries_;
 };
+
+// What a run is, for Setting::when: its route, the facts ("gcode", "preview", "input", "report",
+// "3mf") and the settings in force.
+struct UseContext {
+  std::string route;
+  std::vector<std::string> facts;
+  const Settings* settings = nullptr;
+};
+// Why `s` has no effect in this run ("" when it is used): e.g. "it is used only when
+// lattice2d.pattern = voronoi (here honeycomb)".
+std::string unused_reason(const Setting& s, const UseContext& use);
+// `when` as words for documentation ("lattice2d.pattern = voronoi; G-code is written").
+std::string when_text(const std::string& when);
 
 // Checks the rules between settings (layer height vs nozzle, bead width vs nozzle, ...), naming
 // where the offending values came from. Route-specific rules take the sections the route uses.

@@ -1,0 +1,403 @@
+#!/usr/bin/env python3
+"""No setting without an effect: every setting of every route, given on the command line, either
+changes that route's output or is refused (exit 2, naming the setting).
+
+Generated from the schema: for each route, the settings of the sections it reads (`trellis
+settings ROUTE`), each given a few other values (the other choices, the number scaled and its range
+ends, the boolean flipped) over a handful of small scenarios of that route. A run's outputs are
+compared with the scenario's own outputs, less the job header that records every setting and the
+report's run times. Verdicts per route and setting:
+  changed   - some value changed the output of some scenario;
+  refused   - every scenario refused it (a setting the run does not use: "does not use K in this
+              run", or a limit the run exceeds, naming the setting);
+  SILENT    - accepted and ignored everywhere: the failure this test exists for.
+Where a refusal says "used only when K = V", the setting is given again with K = V and must then
+change the output: the declared condition (Setting::when, src/settings/schema.cpp) is checked
+both ways.
+
+Usage: settings_matrix_test.py [ROUTE...]   (env TRELLIS_CLI, TRELLIS_SOURCE_DIR)
+"""
+import concurrent.futures as cf
+import hashlib
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+
+ROOT = os.environ.get("TRELLIS_SOURCE_DIR", os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+T = os.environ.get("TRELLIS_CLI", os.path.join(ROOT, "build/release/apps/trellis/trellis"))
+P = os.path.join(ROOT, "profiles") + "/"
+D = os.path.join(ROOT, "examples/designs") + "/"
+TINY = os.path.join(ROOT, "examples/lattices/tiny.json")
+OCTET = os.path.join(ROOT, "examples/lattices/octet_3x3x2_edges.csv")
+
+# Settings whose effect is not on the output by design, each with where that effect is tested.
+EXEMPT = {
+    "run.threads": "outputs are byte-identical at any thread count (tests/hostile, test_job)",
+    "run.force": "acts only when an estimate is over run.max_time/max_memory (test_job budgets)",
+    "run.follow_symlinks": "acts only on an output that is a symbolic link (tests/hostile)",
+    "run.max_memory": "refuses only a run whose estimate exceeds it (test_job budgets)",
+}
+
+# Values for text and list settings (numbers, choices and booleans are generated).
+TEXT = {
+    "machine.name": ["matrix printer"],
+    "lattice2d.target_porosity": ["60"],
+    "extrusion.down_flow": ["10,0.5"],
+    "pneumatic.pressure_command": ["M42 P{pressure}"],
+    "pneumatic.valve_on": ["M42 P1 S1"],
+    "pneumatic.valve_off": ["M42 P1 S0"],
+    "embedded.tool_offsets": ["0,0;30,0"],
+    "embedded.tool_pressures": ["50,60"],
+    "embedded.tool_change": ["T{tool} ; matrix"],
+    "embedded.raise_idle": ["G1 Z20 ; raise {tool}"],
+    "gradient.template": ["MIX A{a} B{b}"],
+    "gcode.start": ["G28\nM117 matrix"],
+    "gcode.end": ["M84\nM117 matrix"],
+    "gcode.extension": [".g"],
+    "gcode.thumbnails": ["32x32", ""],
+    "lattice2d.size": ["12,8"],
+    "lattice2d.center": ["3,1"],
+    "lattice3d.count": ["2,1,1"],
+    "lattice3d.box": ["10,10,12"],
+    "onto.height_fn": ["0.05*x*x"],
+    "onto.domain": ["-6,-6,6,6"],
+    "pbf.c": ["0.3"],
+    "pbf.size": ["3,3,0.4"],
+    "pbf.grade_to": ["schwarz_p:3"],
+    "pbf.hierarchical": ["schwarz_p:1.25:0.5"],
+    "nonplanar.angles": ["0,45"],
+    "nonplanar.layer_tools": ["0,1"],
+    "nonplanar.height_fn": ["0.1*x"],
+    "nonplanar.domain": ["0,0,10,8"],
+}
+
+
+def scenarios(work):
+    """Small runs of each route; {d} is the run's output folder."""
+    ender, mizar = P + "ender3_s1_pro_tpu.toml", P + "geeetech_mizar_m_mixing.toml"
+    tiny_tp = work + "/tiny.toolpath.json"
+    hs = work + "/hs.json"
+    return {
+        "lattice2d": [["lattice2d", "-o", "{d}/l.json"], ["run", work + "/l2d.toml", "-o", "{d}"]],
+        "lattice3d": [["lattice3d", "-o", "{d}/l.json"], ["run", work + "/l3d.toml", "-o", "{d}"]],
+        "plan": [
+            ["plan", "euler", TINY, "-o", "{d}/t.json", "--report", "{d}/r.json"],
+            ["plan", "euler", TINY, "-o", "{d}/t.json", "--machine", ender, "--gcode", "{d}/t.gcode", "--report", "{d}/r.json"],
+            ["plan", "gippo", hs, "-o", "{d}/t.json", "--machine", ender, "--gcode", "{d}/t.gcode",
+             "--report", "{d}/r.json", "--iterations", "20", "--preview", "{d}/p"],
+            ["run", work + "/made2d.toml", "-o", "{d}"],
+            ["plan", "aero", OCTET, "-o", "{d}/t.json", "--machine", P + "embedded_aero_410um.toml",
+             "--gcode", "{d}/t.nc", "--report", "{d}/r.json", "--preview", "{d}/p"],
+            ["run", work + "/made3d.toml", "-o", "{d}"],
+        ],
+        "gcode": [["gcode", tiny_tp, "--machine", P + m, "-o", "{d}/t.gcode"] for m in
+                  ["ender3_s1_pro_tpu.toml", "pneumatic_pcl_27g.toml", "embedded_aero_two_nozzle.toml",
+                   "geeetech_mizar_m_mixing.toml", "voron_klipper.toml", "e3d_toolchanger_rrf.toml"]] +
+                 [["gcode", work + "/block.toolpath.json", "--machine", ender, "-o", "{d}/b.gcode"],
+                  ["gcode", work + "/graded.toolpath.json", "--machine", mizar, "-o", "{d}/g.gcode"],
+                  ["gcode", work + "/graded.toolpath.json", "--machine", P + "prusa_xl_5tools.toml", "-o", "{d}/g.gcode"]],
+        "slice": [
+            ["slice", work + "/block.vcad", "--machine", ender, "-o", "{d}/s.gcode", "--report", "{d}/r.json"],
+            ["slice", work + "/graded.vcad", "--strategy", "2", "--machine", mizar, "-o", "{d}/s.gcode",
+             "--report", "{d}/r.json"],
+            ["slice", work + "/graded.vcad", "--strategy", "1", "--machine", P + "prusa_xl_5tools.toml",
+             "--set", "fgm.colors=5", "-o", "{d}/s.gcode", "--report", "{d}/r.json"],
+        ],
+        "pbf": [["pbf", "--cell-type", "gyroid", "--cell", "2.5", "--size", "3,3,0.5", "-o", "{d}/p.cli",
+                 "--report", "{d}/r.json"]],
+        "nonplanar": [["nonplanar", work + "/c.stl", "--machine", P + "fresh_nonplanar_2syringe.toml",
+                       "-o", "{d}/c.gcode", "--report", "{d}/r.json"]],
+        "surface": [["surface", "corrugation", "-o", "{d}/c.stl"]],
+    }
+
+
+def setup(work):
+    open(work + "/made2d.toml", "w").write(MADE2D)
+    open(work + "/l2d.toml", "w").write('[job]\nroute = "lattice2d"\nname = "l"\n[output]\nimage_size = 120\n')
+    open(work + "/l3d.toml", "w").write('[job]\nroute = "lattice3d"\nname = "l"\n[output]\nimage_size = 120\n')
+    open(work + "/made3d.toml", "w").write(MADE3D)
+    run_ok([T, "plan", "euler", TINY, "-o", work + "/tiny.toolpath.json"])
+    run_ok([T, "surface", "corrugation", "-o", work + "/c.stl"])
+    open(work + "/block.vcad", "w").write(BLOCK)
+    open(work + "/graded.vcad", "w").write(GRADED)
+    run_ok([T, "slice", work + "/block.vcad", "--machine", P + "ender3_s1_pro_tpu.toml", "-o",
+            work + "/block.gcode", "--toolpath", work + "/block.toolpath.json"])
+    run_ok([T, "slice", work + "/graded.vcad", "--strategy", "2", "--machine", P + "geeetech_mizar_m_mixing.toml",
+            "-o", work + "/graded.gcode", "--toolpath", work + "/graded.toolpath.json"])
+    run_ok([T, "lattice2d", "--pattern", "honeycomb", "--cell", "2", "--set", "lattice2d.size=8,8",
+            "-o", work + "/hs.json"])
+
+
+# A small block with a hole (walls, skins, infill, travel inside and out) and a small two-material
+# plate graded along X, so that every slicing and writing setting has something to act on.
+BLOCK = """difference() {
+  rectprism(14, 10, 1.6);
+  cylinder(2, 10);
+}
+"""
+GRADED = """fgrade(["0.5 + x/14", "0.5 - x/14"], ["a", "b"]) {
+  rectprism(14, 8, 0.8);
+}
+"""
+MADE2D = """[job]
+route = "plan"
+name = "made2d"
+[plan]
+planner = "gippo"
+[gippo]
+iterations = 10
+[lattice2d]
+size = [6.0, 6.0]
+[output]
+image_size = 120
+"""
+MADE3D = """[job]
+route = "plan"
+name = "made3d"
+[plan]
+planner = "aero"
+[lattice3d]
+count = [2, 1, 1]
+[output]
+image_size = 120
+"""
+
+
+def run_ok(argv):
+    r = subprocess.run(argv, capture_output=True, text=True)
+    if r.returncode:
+        sys.exit(f"setup failed: {' '.join(argv)}\n{r.stderr}")
+
+
+def route_settings():
+    """Every setting with its type, default, range and flag, from `trellis settings --markdown`."""
+    out = subprocess.run([T, "settings", "--markdown"], capture_output=True, text=True, check=True).stdout
+    table = {}
+    for line in out.splitlines():
+        m = re.match(r"\| `([a-z0-9_]+\.[a-z0-9_]+)` \| (\w+) \| [^|]* \| `([^`]*)` \| ([^|]*) \| ([^|]*) \|", line)
+        if m:
+            flag = re.search(r"`--([a-z0-9-]+)`", m.group(5))
+            table[m.group(1)] = {"kind": m.group(2), "default": m.group(3), "range": m.group(4).strip(),
+                                 "flag": "--" + flag.group(1) if flag else None}
+    return table
+
+
+def sections_of(route):
+    out = subprocess.run([T, "settings", route], capture_output=True, text=True, check=True).stdout
+    return {m.group(1) for m in re.finditer(r"^\[([a-z0-9]+)\]", out, re.M)}
+
+
+def alternatives(key, s):
+    """Other values for a setting: the other choices, the flipped boolean, a number scaled and its
+    range's ends."""
+    if key in TEXT:
+        return TEXT[key]
+    kind, default, rng = s["kind"], s["default"], s["range"]
+    if kind == "bool":
+        return ["false" if default == "true" else "true"]
+    if kind == "choice":
+        return [c for c in rng[len("one of "):].split(" / ") if c != default and c != '""'][:4] \
+            if " / " in rng else [c for c in rng[len("one of "):].split(", ") if c != default and c != '""'][:4]
+    if kind not in ("number", "integer"):
+        return None
+    nums = re.findall(r"-?[0-9]+(?:\.[0-9]+)?(?:e[+-]?[0-9]+)?", rng)
+    positive = rng.startswith("> ")
+    if rng.startswith("none (= 0) or"):
+        nums = nums[1:]
+    lo, hi = (float(nums[0]), float(nums[1])) if len(nums) >= 2 else (-1e300, 1e300)
+    integer = kind == "integer"
+    try:
+        d = float(default)
+    except ValueError:
+        d = None  # derived from another setting
+    cands = []
+    if d is None or d == 0:
+        cands += [1, 3, 0.3]
+    else:
+        cands += [d + 1, d - 1] if integer else [d * 1.5, d * 0.6]
+    cands += [lo + (1e-6 * min(1.0, hi - lo) if positive else 0), hi]
+    out = []
+    for c in cands:
+        if c < lo or c > hi or (positive and c <= lo) or (d is not None and c == d):
+            continue
+        t = str(int(round(c))) if integer else f"{c:.6g}"
+        if t not in out and (d is None or t != default):
+            out.append(t)
+    return out[:4]
+
+
+DROP = {"job", "command", "generator", "input", "seconds"}  # "seconds": the run's own timings
+
+
+def clean(o):
+    if isinstance(o, dict):
+        return {k: clean(v) for k, v in o.items()
+                if k not in DROP and not k.endswith("_seconds") and "elapsed" not in k}
+    if isinstance(o, list):
+        return [clean(v) for v in o]
+    return o
+
+
+HEADER = ("; job:", "; setting ", "; generated by", "$$JOB", "// job:", "// setting ")
+
+
+def signature(d):
+    s = {}
+    for root, _, files in os.walk(d):
+        for f in sorted(files):
+            p = os.path.join(root, f)
+            rel = os.path.relpath(p, d)
+            b = open(p, "rb").read()
+            if f.endswith(".json"):
+                try:
+                    s[rel] = json.dumps(clean(json.loads(b)), sort_keys=True)
+                    continue
+                except ValueError:
+                    pass
+            try:
+                t = b.decode()
+                t = "\n".join(l for l in t.split("\n") if not l.startswith(HEADER))
+                b = t.encode()
+            except UnicodeDecodeError:
+                pass
+            s[rel] = hashlib.sha1(b).hexdigest()
+    return s
+
+
+def run(argv, extra, work):
+    d = tempfile.mkdtemp(dir=work)
+    try:
+        r = subprocess.run([T] + [a.replace("{d}", d) for a in argv] + extra, capture_output=True,
+                           text=True, timeout=120)
+        return r.returncode, r.stderr, (signature(d) if r.returncode == 0 else None)
+    finally:
+        shutil.rmtree(d, ignore_errors=True)
+
+
+def fixes(argv, key, flag):
+    """Whether the scenario gives `key` itself (its flag or --set), so another value would clash."""
+    return (flag is not None and flag in argv) or any(a.startswith(key + "=") for a in argv)
+
+
+def try_setting(key, alts, scen, bases, work, cond_sets=(), flag=None):
+    """Outcomes of giving `key` each alternative over the scenarios: (verdict, detail)."""
+    seen = []
+    for i, argv in enumerate(scen):
+        base = bases[i]
+        if base is None or fixes(argv, key, flag):
+            continue
+        extra0 = []
+        for k, v in cond_sets:
+            extra0 += ["--set", f"{k}={v}"]
+        if extra0:
+            code, err, base = run(argv, extra0, work)
+            if code:
+                seen.append(("refused", f"condition {extra0}: {last_line(err)}"))
+                continue
+        for a in alts:
+            code, err, sig = run(argv, extra0 + ["--set", f"{key}={a}"], work)
+            if code == 0:
+                if sig != base:
+                    return "changed", f"{' '.join(argv[:2])} {key}={a}"
+                seen.append(("silent", f"{' '.join(argv[:2])} {key}={a}"))
+            elif code == 2:
+                msg = last_line(err)
+                kind = "unused" if "does not use" in msg else "refused"
+                seen.append((kind, msg))
+            else:
+                seen.append(("crash", f"exit {code}: {' '.join(argv[:2])} {key}={a}: {last_line(err)}"))
+    if any(k == "crash" for k, _ in seen):
+        return "CRASH", next(m for k, m in seen if k == "crash")
+    # A limit (bed size, budget, range of a design) shows its effect by refusing a value beyond it.
+    limit = [m for k, m in seen if k == "refused" and key in m]
+    if limit:
+        return "limit", limit[0]
+    if any(k == "silent" for k, _ in seen):
+        return "SILENT", next(m for k, m in seen if k == "silent")
+    if not seen:
+        return "none", "no scenario"
+    unused = [m for k, m in seen if k == "unused"]
+    return ("unused", unused[0]) if unused else ("refused", seen[0][1])
+
+
+def last_line(err):
+    lines = [l for l in err.strip().split("\n") if l.startswith("trellis: error")] or err.strip().split("\n")
+    return lines[-1][:300] if lines else ""
+
+
+def condition_of(msg):
+    """`used only when K = V1 or V2` -> [(K, V1)], if K is a setting that can be given."""
+    m = re.search(r"used only when ([a-z0-9_]+\.[a-z0-9_]+) = ([^ ;()]+)", msg)
+    if m:
+        return [(m.group(1), m.group(2))]
+    m = re.search(r"used only when ([a-z0-9_]+\.[a-z0-9_]+) > ([0-9.]+)", msg)
+    if m:
+        return [(m.group(1), str(int(float(m.group(2))) + 1))]
+    return None
+
+
+def main():
+    routes = sys.argv[1:] or ["lattice2d", "lattice3d", "plan", "gcode", "slice", "pbf", "nonplanar", "surface"]
+    work = tempfile.mkdtemp(prefix="trellis_matrix_")
+    setup(work)
+    table = route_settings()
+    scen_all = scenarios(work)
+    failures, counts, no_values = [], {}, []
+    for route in routes:
+        scen = scen_all[route]
+        bases = []
+        for argv in scen:
+            code, err, sig = run(argv, [], work)
+            if code:
+                failures.append(f"{route}: scenario fails: {' '.join(argv)}: {last_line(err)}")
+            again = run(argv, [], work)[2] if code == 0 else None
+            if code == 0 and again != sig:
+                failures.append(f"{route}: scenario is not reproducible: {' '.join(argv)}")
+            bases.append(sig)
+        secs = sections_of(route)
+        keys = [k for k in table if k.split(".")[0] in secs]
+
+        def one(key):
+            if key in EXEMPT:
+                return key, "exempt", EXEMPT[key]
+            alts = alternatives(key, table[key])
+            if not alts:
+                return key, "no-values", ""
+            flag = table[key]["flag"]
+            verdict, detail = try_setting(key, alts, scen, bases, work, flag=flag)
+            if verdict == "unused" and f"{key}: the " in detail:
+                cond = condition_of(detail)
+                if cond:
+                    v2, d2 = try_setting(key, alts, scen, bases, work, cond, flag=flag)
+                    if v2 not in ("changed", "refused", "unused"):
+                        return key, "COND-" + v2, f"{detail} | with {cond}: {d2}"
+                    if v2 == "unused" and condition_of(d2) == cond:
+                        return key, "COND-STILL-UNUSED", f"with {cond}: {d2}"
+            return key, verdict, detail
+
+        with cf.ThreadPoolExecutor(max_workers=int(os.environ.get("MATRIX_JOBS", "2"))) as ex:
+            results = list(ex.map(one, keys))
+        for key, verdict, detail in results:
+            counts[(route, verdict)] = counts.get((route, verdict), 0) + 1
+            if verdict == "no-values":
+                no_values.append(f"{route}:{key}")
+            if verdict in ("SILENT", "CRASH", "none") or verdict.startswith("COND-"):
+                failures.append(f"{route}: {key}: {verdict}: {detail}")
+            if os.environ.get("MATRIX_VERBOSE"):
+                print(f"{route:10} {key:36} {verdict:9} {detail[:150]}", flush=True)
+    shutil.rmtree(work, ignore_errors=True)
+    for route in routes:
+        print(route + ": " + ", ".join(f"{v} {n}" for (r, v), n in sorted(counts.items()) if r == route))
+    if no_values:
+        print("settings without a generated value (file paths): " + " ".join(no_values))
+    for f in failures:
+        print("FAIL " + f)
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
