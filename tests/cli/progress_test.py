@@ -34,8 +34,9 @@ def check(cond, what):
         print("FAIL", what)
 
 
-# A job of a few seconds on one thread: long enough for several plain lines and an ETA.
-PBF = ["pbf", "--size", "6,6,12", "--threads", "1"]
+# A job of about 3 s of CPU on one thread (2,400 layers): long enough for several plain lines (one
+# a second), an ETA and the terminal form (shown after a second) even on a fast, idle machine.
+PBF = ["pbf", "--size", "6,6,48", "--threads", "1"]
 LINE = re.compile(r"^trellis pbf: (\S.*?) +(\d+)%(?:  ETA (.+))?$")
 
 
