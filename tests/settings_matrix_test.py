@@ -40,6 +40,7 @@ EXEMPT = {
     "run.force": "acts only when an estimate is over run.max_time/max_memory (test_job budgets)",
     "run.follow_symlinks": "acts only on an output that is a symbolic link (tests/hostile)",
     "run.max_memory": "refuses only a run whose estimate exceeds it (test_job budgets)",
+    "run.progress": "the command line's stderr only, never the outputs (tests/cli/progress_test.py)",
     "machine.name": "names the printer in the output's header (the job header this test leaves out)",
     "machine.bed_shape": "a limit: refuses a part outside the circle (test_cli_machine, "
                          "PartBiggerThanTheBedIsRefusedOnEveryRoute)",

@@ -5,6 +5,7 @@
 #include <system_error>
 
 #include "commands.hpp"
+#include "progress_display.hpp"
 #include "trellis/core/budget.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/render/render.hpp"
@@ -17,6 +18,8 @@ void add_render(CLI::App& app) {
     std::string input, output;
     int layer = -1;
     bool force = false;
+    double max_time = Budget{}.seconds, max_memory = 0;
+    int progress = -1;
     std::string colour = "feature";
     RenderOptions r;
     ViewLoadOptions load;
@@ -52,7 +55,16 @@ void add_render(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--bead-width", o->r.bead_width, "line width (mm; default: from the toolpath)")
       ->check(number_value(0, 100, true));
+  cmd->add_option("--max-time", o->max_time,
+                  "refuse when the estimated time is longer than this (s; run.max_time)")
+      ->check(number_value(0, 1e9, true))
+      ->capture_default_str();
+  cmd->add_option("--max-memory", o->max_memory,
+                  "refuse when the estimate needs more memory than this (MB; run.max_memory; "
+                  "default: the memory available)")
+      ->check(number_value(0, 1e9, true));
   cmd->add_flag("--force", o->force, "render even when the estimate is beyond the budget");
+  add_progress_flag(cmd, o->progress);
   cmd->add_flag("!--no-travel", o->r.travel, "do not draw travel moves");
   cmd->callback([o] {
     // Without --layer, -o is the prefix of OUT.layerNNN.png: the batch refuses any of them that
@@ -90,15 +102,22 @@ void add_render(CLI::App& app) {
         for (auto& p : l.paths) p.mixture = scene.commanded.at(k++);
     }
     if (o->r.title.empty()) o->r.title = scene.name;
-    // Estimate before work: an RGBA surface and its PNG per image.
-    const double px = double(o->r.size_px) * o->r.size_px;
-    const double images = o->layer >= 0 ? 1.0 : double(tp.layers.size());
+    // Estimate before work: the images and the points they draw.
+    const std::size_t first = o->layer >= 0 ? static_cast<std::size_t>(o->layer) : 0;
+    const std::size_t end = o->layer >= 0 ? std::min(first + 1, tp.layers.size()) : tp.layers.size();
+    double points = 0;
+    for (std::size_t i = first; i < end; ++i)
+      for (const auto& p : tp.layers[i].paths) points += static_cast<double>(p.points.size());
+    ProgressDisplay display(progress_mode(o->progress), "trellis render");
+    const Progress progress = display.progress();
     Budget budget;
     budget.force = o->force;
-    check_budget({px * 4 * 2, images * px * 5e-8,
-                  fmt::format("{:.0f} image(s) of {} x {} px", images, o->r.size_px, o->r.size_px),
-                  "--image-size or --layer"},
-                 budget);
+    budget.seconds = o->max_time;
+    budget.memory = o->max_memory * 1e6;
+    budget.seen = progress.estimate;
+    Estimate e = layer_images_estimate(o->layer >= 0 ? 1.0 : double(tp.layers.size()), o->r.size_px, points);
+    e.change = "--image-size or --layer";
+    check_budget(e, budget);
     if (o->layer >= 0) {
       render_layer_png(tp, static_cast<std::size_t>(o->layer), o->output, o->r);
       std::cout << "wrote " << o->output << "\n";
@@ -110,8 +129,11 @@ void add_render(CLI::App& app) {
     for (std::size_t i = 0; i < tp.layers.size(); ++i) {
       char name[32];
       std::snprintf(name, sizeof name, ".layer%03zu.png", i);
+      progress("layers", static_cast<double>(i) / static_cast<double>(tp.layers.size()));
       render_layer_png(tp, i, prefix + name, o->r);
     }
+    progress("layers", 1.0);
+    display.finish();
     std::cout << "wrote " << tp.layers.size() << " PNG(s): " << prefix << ".layerNNN.png\n";
   });
 }

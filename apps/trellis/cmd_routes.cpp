@@ -4,6 +4,7 @@
 #include <map>
 
 #include "commands.hpp"
+#include "progress_display.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/job/job.hpp"
 
@@ -29,6 +30,7 @@ struct RouteOpts {
   std::string input, extra, machine, output, report, toolpath, gcode, preview;
   std::vector<std::string> sets;
   SettingFlags flags;
+  int progress = -1;  // --progress 1, --no-progress 0 (run.progress)
 };
 
 std::string help_of(const Setting& s) {
@@ -238,6 +240,7 @@ void add_routes(CLI::App& app, int argc, char** argv) {
         ->check(path_value());
     cmd->add_option("--set", o->sets, "any setting: section.key=value (repeatable; `trellis settings`)");
     o->flags.add(cmd, spec.flag_sections);
+    add_progress_flag(cmd, o->progress);
     const bool machine_required = route == "gcode" || route == "slice" || route == "nonplanar";
     cmd->callback([o, route, machine_required, argc, argv] {
       if (machine_required && o->machine.empty())
@@ -255,6 +258,8 @@ void add_routes(CLI::App& app, int argc, char** argv) {
       if (route == "surface" && !o->extra.empty())
         job.settings.set("surface.kind", o->extra, {"kind argument"});
       o->flags.apply(job.settings);
+      if (o->progress >= 0)
+        job.settings.set("run.progress", o->progress == 1, {o->progress ? "--progress" : "--no-progress"});
       for (const auto& s : o->sets) {
         const auto eq = s.find('=');
         if (eq == std::string::npos)
@@ -280,9 +285,10 @@ void add_routes(CLI::App& app, int argc, char** argv) {
       job.preview = o->preview;
       job.keep_toolpath = false;  // only the files are used here
       Diagnostics diag;
-      Progress progress;
-      progress.report = progress_line;
-      print_result(run_job(job, diag, progress), diag);
+      ProgressDisplay display(progress_mode(job.settings), "trellis " + route);
+      JobResult r = run_job(job, diag, display.progress());
+      display.finish();
+      print_result(r, diag);
     });
   }
 }

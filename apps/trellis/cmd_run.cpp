@@ -3,6 +3,7 @@
 #include <iostream>
 
 #include "commands.hpp"
+#include "progress_display.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/job/job.hpp"
 #include "trellis/job/plate.hpp"
@@ -15,6 +16,7 @@ void add_run(CLI::App& app) {
     std::string job, out, shard;
     std::vector<std::string> sets;
     bool follow = false;
+    int progress = -1;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand("run", "Run a job file (any route): design, plan, write, report, previews");
@@ -27,6 +29,7 @@ void add_run(CLI::App& app) {
   cmd->add_option("-o,--output-dir", o->out, "output folder (replaces [job] output_dir)")
       ->check(path_value());
   add_follow_symlinks(cmd, o->follow);
+  add_progress_flag(cmd, o->progress);
   cmd->add_option("--set", o->sets, "override a setting of the job: section.key=value (repeatable)");
   cmd->add_option("--shard", o->shard,
                   "K/N: compute shard K of N (layer ranges balanced by work; pbf, slice (planar "
@@ -35,6 +38,8 @@ void add_run(CLI::App& app) {
   cmd->callback([o] {
     Job job = load_job(o->job, o->out, o->sets);
     if (o->follow) job.settings.set("run.follow_symlinks", true, {"--follow-symlinks"});
+    if (o->progress >= 0)
+      job.settings.set("run.progress", o->progress == 1, {o->progress ? "--progress" : "--no-progress"});
     if (!o->shard.empty()) {
       std::tie(job.shard, job.shards) = parse_shard(o->shard);
       // The plan route says itself what of it shards (planner, plan.order, plan.layer_start).
@@ -44,9 +49,9 @@ void add_run(CLI::App& app) {
     }
     job.keep_toolpath = false;  // only the files are used here
     Diagnostics diag;
-    Progress progress;
-    progress.report = progress_line;
-    const JobResult r = run_job(job, diag, progress);
+    ProgressDisplay display(progress_mode(job.settings), "trellis run " + job.name);
+    const JobResult r = run_job(job, diag, display.progress());
+    display.finish();
     print_warnings(diag);
     std::cout << job.name << " (" << job.route << "): " << r.summary << "\n";
     for (const auto& f : r.files) {
@@ -89,6 +94,7 @@ void add_rerun(CLI::App& app) {
   struct Opts {
     std::string input, out;
     bool follow = false;
+    int progress = -1;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand(
@@ -102,12 +108,16 @@ void add_rerun(CLI::App& app) {
   cmd->add_option("-o,--output", o->out, "where to write (default: the file itself)")
       ->check(path_value());
   add_follow_symlinks(cmd, o->follow);
+  add_progress_flag(cmd, o->progress);
   cmd->callback([o] {
     Job job = rerun_job(o->input, o->out);
     if (o->follow) job.settings.set("run.follow_symlinks", true, {"--follow-symlinks"});
     job.keep_toolpath = false;
     Diagnostics diag;
-    print_result(run_job(job, diag, {}), diag);
+    ProgressDisplay display(progress_mode(o->progress), "trellis rerun");
+    JobResult r = run_job(job, diag, display.progress());
+    display.finish();
+    print_result(r, diag);
   });
 }
 

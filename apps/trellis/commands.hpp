@@ -35,8 +35,6 @@ void analyze_laser_file(const std::string& path, const std::string& design,
 void set_exit_code(int code);
 int exit_code();
 
-// Progress on stderr when it is a terminal (carriage-return updates), silent otherwise.
-void progress_line(const std::string& stage, double fraction);
 // Prints the warnings of a run on stderr.
 void print_warnings(const Diagnostics& diag);
 

@@ -16,13 +16,6 @@
 
 namespace trellis::cli {
 
-void progress_line(const std::string& stage, double fraction) {
-  static const bool tty = ::isatty(2);
-  if (!tty) return;
-  std::fprintf(stderr, "\r%s: %3d%%%s", stage.c_str(), static_cast<int>(fraction * 100 + 0.5),
-               fraction >= 1 ? "\n" : "");
-}
-
 void print_warnings(const Diagnostics& diag) {
   for (const auto& [kind, n] : diag.counts()) {
     std::cerr << "warning: " << kind << " (" << n << ")\n";

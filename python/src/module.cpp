@@ -238,6 +238,10 @@ PYBIND11_MODULE(_trellis, m) {
         const auto keys = flag_keys(route_sections(route));
         for (const auto& [k, v] : settings) {
           const auto key = k.cast<std::string>();
+          if (key == "run.progress")
+            throw SettingError("run.progress is the command line's progress display; give "
+                               "progress=callable(stage, fraction) to the call instead",
+                               {"", 0, key});
           if (std::find(keys.begin(), keys.end(), key) == keys.end()) {
             if (!find_setting(key))
               job.settings.set(key, std::string(), {"keyword " + key});  // throws: unknown

@@ -42,6 +42,7 @@ std::string seconds_text(double s) {
 }  // namespace
 
 void check_budget(const Estimate& e, const Budget& b) {
+  if (b.seen) b.seen(e);
   if (b.force) return;
   const double memory = b.memory > 0 ? b.memory : available_memory_bytes();
   const bool too_big = !(e.bytes <= memory) && memory > 0;  // NaN estimates are refused too

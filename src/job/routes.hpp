@@ -7,6 +7,7 @@
 #include "trellis/job/job.hpp"
 #include "trellis/machine/gcode_writer.hpp"
 #include "trellis/slice/nonplanar.hpp"
+#include "trellis/slice/pbf.hpp"
 #include "trellis/render/render.hpp"
 #include "trellis/toolpath/toolpath.hpp"
 
@@ -79,8 +80,8 @@ std::string preview_name(const std::string& dir, const std::string& file);
 std::string fixed(double v, int decimals);
 
 // Estimates before work (estimate.cpp): each route checks its estimate with check_budget before
-// it allocates the work.
-Budget budget_of(const Job& job, const Config& c);
+// it allocates the work; the budget tells `progress.estimate` each estimate it checks.
+Budget budget_of(const Job& job, const Config& c, const Progress& progress);
 double threads_of_run();
 Estimate estimate_lattice2d(const AtlasParams& a, int layers);
 Estimate estimate_lattice3d(const Config& c);
@@ -93,6 +94,7 @@ Estimate estimate_nonplanar(const BBox2& domain, const NonplanarParams& p);
 void check_settings_used(const Job& job, const Toolpath* written);
 // Writing a toolpath JSON file as G-code: reading it and writing about as many bytes of G-code.
 Estimate estimate_gcode_of(const std::string& toolpath_json);
-Estimate estimate_pbf_time(const BBox3& box, double resolution, double layer, double threads);
+// toolpath_json: the whole toolpath is also written as JSON (time and memory of its document).
+Estimate estimate_pbf_time(const PbfDesign& design, const PbfOptions& options, bool toolpath_json);
 
 }  // namespace trellis::routes

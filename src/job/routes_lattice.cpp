@@ -294,10 +294,10 @@ void merge_plan_main(const Job& job, const Config& c, Toolpath& tp, JobResult& o
   write_plan_main(job, c, tp, out, diag);
 }
 
-JobResult lattice2d(const Job& job, const Config& c, Diagnostics&, const Progress&) {
+JobResult lattice2d(const Job& job, const Config& c, Diagnostics&, const Progress& progress) {
   JobResult out;
   const AtlasParams a = atlas_of(c, job.settings);
-  check_budget(estimate_lattice2d(a, 1), budget_of(job, c));
+  check_budget(estimate_lattice2d(a, 1), budget_of(job, c, progress));
   const Graph g = make_lattice2d(a);
   if (!job.output.empty()) {
     write_file_atomic(job.output, with_job(lattice_to_json(g), job, job.output, false));
@@ -323,10 +323,10 @@ JobResult lattice2d(const Job& job, const Config& c, Diagnostics&, const Progres
   return out;
 }
 
-JobResult lattice3d(const Job& job, const Config& c, Diagnostics& diag, const Progress&) {
+JobResult lattice3d(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
   JobResult out;
-  if (!c.lattice3d.foam.mesh.empty()) check_budget(mesh_read_estimate(c.lattice3d.foam.mesh), budget_of(job, c));
-  check_budget(estimate_lattice3d(c), budget_of(job, c));
+  if (!c.lattice3d.foam.mesh.empty()) check_budget(mesh_read_estimate(c.lattice3d.foam.mesh), budget_of(job, c, progress));
+  check_budget(estimate_lattice3d(c), budget_of(job, c, progress));
   const Graph g = cells_or_foam(c, diag);
   if (fs::path(job.output).extension() == ".3mf") {
     // A 3MF beam lattice (no room for the job: it is not a file `rerun` can regenerate).
@@ -374,8 +374,8 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
                      diag);
     g = stacked_layers(std::move(g), job, c);
   } else if (c.planner == "aero") {
-    if (!c.lattice3d.foam.mesh.empty()) check_budget(mesh_read_estimate(c.lattice3d.foam.mesh), budget_of(job, c));
-    check_budget(estimate_lattice3d(c), budget_of(job, c));
+    if (!c.lattice3d.foam.mesh.empty()) check_budget(mesh_read_estimate(c.lattice3d.foam.mesh), budget_of(job, c, progress));
+    check_budget(estimate_lattice3d(c), budget_of(job, c, progress));
     g = cells_or_foam(c, diag);
     input = "lattice3d";
   } else {
@@ -386,13 +386,13 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
       a.region.center = {(b.min.x + b.max.x) / 2, (b.min.y + b.max.y) / 2};
     }
     const Estimate lattice = estimate_lattice2d(a, std::max(1, c.layers.count));
-    check_budget(lattice, budget_of(job, c));
+    check_budget(lattice, budget_of(job, c, progress));
     // The planner's work too, before the lattice is made (about one edge per cell unit); the
     // exact check follows once the lattice is there.
     if (c.planner == "gippo")
       check_budget(estimate_gippo(static_cast<std::size_t>(lattice.bytes / 1e4),
                                   c.plan.gippo.iterations, c.gippo_seeds),
-                   budget_of(job, c));
+                   budget_of(job, c, progress));
     if (job.shards && c.planner != "aero" && c.plan.order != PathOrder::Travel) {
       // A shard of a made lattice makes only its own layers: which layers print comes from the
       // solid's sections alone (cheap), the work per layer from their areas. Every layer with
@@ -430,11 +430,11 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
     const int tries = c.aero.tries > 0 ? c.aero.tries
                                        : static_cast<int>(std::clamp<std::size_t>(
                                              200000 / std::max<std::size_t>(1, g.edges.size()), 1, 8));
-    check_budget(estimate_aero(g.edges.size(), tries), budget_of(job, c));
+    check_budget(estimate_aero(g.edges.size(), tries), budget_of(job, c, progress));
     return plan_aero_route(job, c, g, input, diag, progress, t0, out);
   }
   if (c.planner == "gippo")
-    check_budget(estimate_gippo(g.edges.size(), c.plan.gippo.iterations, c.gippo_seeds), budget_of(job, c));
+    check_budget(estimate_gippo(g.edges.size(), c.plan.gippo.iterations, c.gippo_seeds), budget_of(job, c, progress));
 
   PlanParams p = c.plan;
   p.planner = planner_from_string(c.planner);
@@ -563,10 +563,10 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
   return out;
 }
 
-JobResult gcode(const Job& job, const Config& c, Diagnostics& diag, const Progress&) {
+JobResult gcode(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
   JobResult out;
   if (job.input.empty()) throw SettingError("gcode needs a toolpath JSON to read", {"", 0, "job.input"});
-  check_budget(estimate_gcode_of(job.input), budget_of(job, c));
+  check_budget(estimate_gcode_of(job.input), budget_of(job, c, progress));
   const Toolpath tp = read_toolpath(job.input);
   // The toolpath's bead heights were set when it was planned; say so when they are not the
   // machine's layer height (E follows the path's own height).

@@ -314,7 +314,7 @@ SliceJob slice_job_of(const Job& job, const Config& c, const std::string& input)
   sj.quantize = c.machine.quantize;
   sj.purge.speed = c.machine.print_speed;
   sj.purge.density = {c.machine.density_a, c.machine.density_b, c.machine.density_c};
-  sj.budget = budget_of(job, c);
+  sj.budget = budget_of(job, c, Progress{});
   sj.process.max_temperature = c.machine.max_nozzle_temperature;
   sj.process.max_speed = c.machine.max_speed;
   sj.process.temperature_from_mixture = c.machine.gradient_mode == "temperature";
@@ -517,6 +517,7 @@ JobResult slice_part_shard(const Job& job, const Config& c, Diagnostics& diag,
   if (job.input.empty()) throw SettingError("slice needs a design (.vcad) or mesh to read", {job.origin, 0, "job.input"});
   const double h = c.machine.layer_height;
   SliceJob sj = slice_job_of(job, c, job.input);
+  sj.budget.seen = progress.estimate;
   std::size_t a = 0, b = 0, total = 0;
   sj.range_of = [&](const BBox3& e, std::size_t layers) {
     // As a plate's: layer i's work is the part's XY area.
@@ -588,6 +589,7 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag, const 
                          {job.origin, pp.line, "extrusion.layer_height"});
     SlicePart p;
     p.sj = slice_job_of(job, pc, input);
+    p.sj.budget.seen = progress.estimate;
     if (p.sj.strategy != 0 && plate)
       throw SettingError("graded slicing (slice.strategy 1 or 2) does not go on plates: its "
                          "purge tower and look-ahead would cross parts (one graded part shards: "
@@ -691,6 +693,7 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
   JobResult out;
   if (job.input.empty()) throw SettingError("slice needs a design (.vcad) or mesh to read", {"", 0, "job.input"});
   SliceJob sj = slice_job_of(job, c, job.input);
+  sj.budget.seen = progress.estimate;
   // G-code alone: layers stream through a temporary file in bounded memory (planar and graded
   // slicing, a prime tower and process fields included); the toolpath JSON and previews hold
   // the whole toolpath.
@@ -810,7 +813,7 @@ PbfOptions pbf_options(const Job& job, const Config& c) {
   po.hybrid = c.pbf.strategy == "hybrid";
   po.stl_route = c.pbf.route == "stl";
   po.timing = scan_timing(prof);
-  const Budget budget = budget_of(job, c);
+  const Budget budget = budget_of(job, c, Progress{});
   po.memory_budget = budget.force ? HUGE_VAL : budget.memory;
   return po;
 }
@@ -1038,13 +1041,13 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
   po.stl_route = c.pbf.route == "stl";
   po.timing = scan_timing(prof);
   check_pbf_cells(c, po);
-  const Budget budget = budget_of(job, c);
+  const Budget budget = budget_of(job, c, progress);
   po.memory_budget = budget.force ? HUGE_VAL : budget.memory;
   {
     const BBox3 e = d.part().extent();
     if (!e.empty() && std::isfinite(e.min.x) && std::isfinite(e.max.x) && std::isfinite(e.min.y) &&
         std::isfinite(e.max.y) && std::isfinite(e.min.z) && std::isfinite(e.max.z) && po.layer > 0)
-      check_budget(estimate_pbf_time(e, po.resolution, po.layer, threads_of_run()), budget);
+      check_budget(estimate_pbf_time(d, po, !job.toolpath.empty()), budget);
   }
   // A build file alone is written layer by layer as the layers come (memory does not grow with
   // the layer count); the toolpath JSON and the layer previews need the whole toolpath.
@@ -1188,7 +1191,7 @@ JobResult nonplanar(const Job& job, const Config& c, Diagnostics& diag, const Pr
   }
   require_bath(job, c.machine, "nonplanar", "non-planar layers are printed inside a support bath (the "
                "non-planar paper's FRESH set-up)");
-  check_budget(estimate_nonplanar(surface.domain(), prm), budget_of(job, c));
+  check_budget(estimate_nonplanar(surface.domain(), prm), budget_of(job, c, progress));
   // A shard (`--shard K/N`) keeps layers [a, b) of the run. Each layer's lines are its own, but
   // its serpentine starts where the layer before ended, so a shard slices layers 0..b-1 (the
   // ones before it only for that start point; truncating prm.layers leaves them unchanged).
@@ -1216,7 +1219,9 @@ JobResult nonplanar(const Job& job, const Config& c, Diagnostics& diag, const Pr
     for (const auto& l : r.toolpath.layers) paths += l.paths.size();
     return shard_written(job, r.toolpath, a, b, total, fmt::format("{} paths", paths), std::move(out));
   }
+  progress("surface check", 0);
   const SurfaceDeviation dev = surface_deviation(r.toolpath, surface, prm);
+  progress("surface check", 1);
   const GcodeStats g = write_nonplanar_main(job, c, r.toolpath, out, diag);
   if (!job.toolpath.empty()) {
     write_toolpath_with_job(job.toolpath, r.toolpath, job);

@@ -323,6 +323,15 @@ JobResult run_job(const Job& job, Diagnostics& diag, const Progress& progress) {
     const fs::path dir = fs::path(*out).parent_path();
     if (!dir.empty()) create_output_directories(dir.string());
   }
+  // The previews, before the work they would follow: at most output.preview_layers layer
+  // images, the 3-D picture and plots, and AERO's step frames.
+  if (!job.preview.empty() && c.output.preview_layers + c.output.frames > 0)
+  {
+    Estimate e = layer_images_estimate(c.output.preview_layers + c.output.frames + 2.0,
+                                       c.output.image_size, 0);
+    e.change = "--image-size (output.image_size) or --preview-layers (output.preview_layers)";
+    check_budget(e, routes::budget_of(job, c, progress));
+  }
   JobResult result = [&] {
     try {
       return run_route(job, c, diag, progress);

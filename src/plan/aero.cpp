@@ -8,7 +8,9 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <mutex>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <queue>
 #include <random>
 #include <tuple>
@@ -998,13 +1000,20 @@ AeroResult plan_canonical(const Graph& g, const AeroParams& params) {
                ? static_cast<std::size_t>(params.tries)
                : std::clamp<std::size_t>(200000 / std::max<std::size_t>(1, g.edges.size()), 1, 8);
   }
-  std::vector<AeroResult> trials(runs, r);
+  // Each run's plan is compared with the best so far as it finishes and dropped unless better,
+  // so memory holds one plan per thread, not one per try; the lowest run index breaks ties.
+  auto key = [](const AeroResult& x) {
+    return std::make_tuple(x.collisions_planned, x.trails.trails.size(), x.travel_length);
+  };
+  std::optional<AeroResult> best;
+  std::size_t best_run = 0;
+  std::mutex best_mutex;
   std::atomic<std::size_t> finished{0};
   tbb::task_arena arena(params.threads > 0 ? params.threads : tbb::task_arena::automatic);
   arena.execute([&] {
     tbb::parallel_for(std::size_t{0}, runs, [&](std::size_t k) {
       if (params.progress.cancelled()) return;
-      AeroResult& trial = trials[k];
+      AeroResult trial = r;
       const Strategy strategy = strategies[k % strategies.size()];
       const std::uint64_t seed =
           k < strategies.size() ? 0 : params.seed * 1000003ULL + k;  // 0 = no shuffle
@@ -1025,17 +1034,18 @@ AeroResult plan_canonical(const Graph& g, const AeroParams& params) {
       for (std::size_t j = 1; j < ts.size(); ++j)
         trial.travel_length +=
             distance(g.nodes[ts[j - 1].nodes.back()], g.nodes[ts[j].nodes.front()]);
-      params.progress("plan", static_cast<double>(++finished) / static_cast<double>(runs));
+      {
+        std::lock_guard lock(best_mutex);
+        if (!best || std::make_tuple(key(trial), k) < std::make_tuple(key(*best), best_run)) {
+          best = std::move(trial);
+          best_run = k;
+        }
+      }
+      params.progress("tries", static_cast<double>(++finished) / static_cast<double>(runs));
     });
   });
   if (params.progress.cancelled()) throw Cancelled("AERO planning cancelled");
-  std::size_t best = 0;
-  auto key = [](const AeroResult& x) {
-    return std::make_tuple(x.collisions_planned, x.trails.trails.size(), x.travel_length);
-  };
-  for (std::size_t k = 1; k < runs; ++k)
-    if (key(trials[k]) < key(trials[best])) best = k;
-  r = std::move(trials[best]);
+  r = std::move(*best);
   if (params.collisions) {
     // The struts printed before struts they obstruct: one collision per such pair.
     const std::vector<std::size_t> rank = print_rank(g, r.trails);
@@ -1050,7 +1060,7 @@ AeroResult plan_canonical(const Graph& g, const AeroParams& params) {
   r.seconds_planning = since(t1);
   for (const auto& t : r.trails.trails)
     r.max_trail_edges = std::max(r.max_trail_edges, t.edges.size());
-  params.progress("plan", 1);
+  params.progress("tries", 1);
   return r;
 }
 

@@ -933,6 +933,12 @@ std::vector<Setting> make_table() {
                        [](C& c) -> auto& { return c.budget.max_time; }));
   t.push_back(boolean("run.force", "run even when the estimate is beyond run.max_memory or run.max_time",
                       "force", [](C& c) -> auto& { return c.budget.force; }));
+  t.push_back(boolean("run.progress",
+                      "command line: progress on stderr (stage, %, ETA; --progress, "
+                      "--no-progress): not given, on a terminal only; true, also into a pipe or "
+                      "log, one line per update with the estimates made before the run; false, "
+                      "never (Python: the progress= callback)",
+                      "", [](C& c) -> auto& { return c.progress; }));
   t.push_back(boolean(
       "run.follow_symlinks",
       "write an output whose path is a symbolic link to the file it points to "

@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <functional>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -860,7 +861,8 @@ namespace {
 // slicing direction or along the surface), each cut into pieces where the surface exists,
 // sampled within the chord tolerance.
 std::vector<Line> layer_lines(const HeightField& surface, double angle_deg, double offset,
-                              const NonplanarParams& prm) {
+                              const NonplanarParams& prm,
+                              const std::function<void(double)>& advance = {}) {
   const double a = angle_deg * std::numbers::pi / 180;
   const Vec2 d{std::cos(a), std::sin(a)}, n{-std::sin(a), std::cos(a)};
   const BBox2 box = surface.domain();
@@ -882,6 +884,7 @@ std::vector<Line> layer_lines(const HeightField& surface, double angle_deg, doub
           for (auto& q : p) q.z += offset;
       }
     });
+    if (advance) advance(1.0);
     return lines;
   }
   // Functions (and meshes in normal mode): adaptive sampling along each line; the deviation is
@@ -890,12 +893,16 @@ std::vector<Line> layer_lines(const HeightField& surface, double angle_deg, doub
   const double step = std::clamp(w / 4, 0.01, 0.1);
   tbb::parallel_for(std::size_t{0}, lines.size(), [&](std::size_t i) {
     double u0, u1;
-    if (!clip_line(box, d, n, lines[i].v, &u0, &u1)) return;
+    if (!clip_line(box, d, n, lines[i].v, &u0, &u1)) {
+      if (advance) advance(1.0 / static_cast<double>(lines.size()));
+      return;
+    }
     auto& f = evals.local();
     const SurfacePoint sp{f, prm.offset, offset};
     const Vec2 o = n * lines[i].v;
     lines[i].pieces = sample_curve(sp, o + d * u0, o + d * u1, tol * 0.5, step, &lines[i].jumps);
     for (auto& p : lines[i].pieces) p = simplify_polyline(p, tol * 0.5);
+    if (advance) advance(1.0 / static_cast<double>(lines.size()));
   });
   return lines;
 }
@@ -922,6 +929,14 @@ NonplanarResult slice_nonplanar(const HeightField& surface, const NonplanarParam
     for (double a : prm.angles)
       if (!base.count(a)) base[a] = layer_lines(surface, a, 0, prm);
   std::vector<std::vector<Line>> per_layer(res.layers.size());
+  // The sections (normal offsets: the slow part) from worker threads, as layers finish.
+  const char* stage = prm.offset == OffsetMode::Vertical ? "sections" : "normal offsets";
+  std::atomic<double> sectioned{0};  // layers' worth of lines done
+  const double total = static_cast<double>(res.layers.size());
+  progress(stage, 0.0);
+  std::function<void(double)> advance;
+  if (progress.report)
+    advance = [&](double share) { progress(stage, (sectioned.fetch_add(share) + share) / total); };
   tbb::parallel_for(std::size_t{0}, res.layers.size(), [&](std::size_t k) {
     progress.check("non-planar slicing");
     const double angle = prm.angles[k % prm.angles.size()];
@@ -932,9 +947,12 @@ NonplanarResult slice_nonplanar(const HeightField& surface, const NonplanarParam
         for (auto& p : l.pieces)
           for (auto& q : p) q.z += off;
     } else {
-      per_layer[k] = layer_lines(surface, angle, off, prm);
+      per_layer[k] = layer_lines(surface, angle, off, prm, advance);
+      return;
     }
+    if (advance) advance(1.0);
   });
+  progress(stage, 1.0);
   // Join each layer's pieces by nearest neighbour, starting where the previous layer ended.
   Vec3 cursor{kNaN, kNaN, kNaN};
   HeightField::Eval f = surface.evaluator();

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 #include <tbb/enumerable_thread_specific.h>
+#include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_pipeline.h>
 #include <tbb/task_arena.h>
@@ -1136,8 +1137,16 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
   const std::vector<double> zs = layer_planes(e.min.z, e.max.z, o.layer);
   if (zs.size() > 200000) throw SettingError("more than 200,000 layers: check the layer thickness");
   if (!o.stl_route) {
-    const int threads = tbb::this_task_arena::max_concurrency();
+    // The threads the layers run on: the arena's, bounded by a global_control (run.threads).
+    const int threads = static_cast<int>(std::min<std::size_t>(
+        static_cast<std::size_t>(tbb::this_task_arena::max_concurrency()),
+        tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism)));
     result.memory_estimate = pbf_memory_estimate(design, o, threads, static_cast<bool>(sink));
+    if (progress.estimate)
+      progress.estimate({result.memory_estimate, 0,
+                         fmt::format("PBF paths of {} layers at resolution {} mm on {} thread(s)",
+                                     zs.size(), o.resolution, threads),
+                         "--resolution (pbf.resolution)"});
     const double budget = o.memory_budget > 0 ? o.memory_budget : available_memory_bytes();
     if (budget > 0 && result.memory_estimate > budget)
       throw ResourceError(fmt::format(

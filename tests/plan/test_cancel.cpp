@@ -93,12 +93,12 @@ TEST(Cancel, AeroStopsWhenTheCallbackCancels) {
   AeroParams p;
   p.threads = 1;
   p.tries = 8;
-  CancelAt c("plan");  // after the first of eight portfolio runs
+  CancelAt c("tries");  // after the first of eight portfolio runs
   p.progress = c.progress;
   Diagnostics d;
   EXPECT_THROW(plan_aero(g, p, d), Cancelled);
   std::size_t runs = 0;
-  for (const auto& [stage, f] : c.reports()) runs += stage == "plan";
+  for (const auto& [stage, f] : c.reports()) runs += stage == "tries";
   EXPECT_LT(runs, 8u);
   p.progress = {};
   Diagnostics d2;

@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <atomic>
+#include <mutex>
 
 #include "support/cancel.hpp"
 #include "trellis/core/error.hpp"
@@ -83,6 +84,34 @@ TEST(Cancel, NonplanarStopsPerLayer) {
   prm.layers = 6;
   CancelAt c("layers");  // the first layer's report
   EXPECT_THROW(slice_nonplanar(corrugation({}), prm, c.progress), Cancelled);
-  EXPECT_EQ(c.reports().size(), 1u);
+  std::size_t joined = 0;
+  for (const auto& [stage, f] : c.reports()) joined += stage == "layers";
+  EXPECT_EQ(joined, 1u);
   EXPECT_EQ(slice_nonplanar(corrugation({}), prm).toolpath.layers.size(), 6u);
+}
+
+// Normal offsets (the slow part: a search per point) report as their lines finish, from the
+// worker threads, so a run of a few layers shows progress inside each layer and stops there.
+TEST(Cancel, NonplanarNormalOffsetsReportPerLine) {
+  NonplanarParams prm;
+  prm.layers = 2;
+  prm.width = 0.8;
+  prm.offset = OffsetMode::Normal;
+  std::vector<double> seen;
+  std::mutex m;
+  Progress p;
+  p.report = [&](const std::string& stage, double f) {
+    std::lock_guard lock(m);
+    if (stage == "normal offsets") seen.push_back(f);
+  };
+  slice_nonplanar(corrugation({}), prm, p);
+  std::size_t inside = 0;  // reports strictly between the layers' ends
+  for (double f : seen) inside += f > 0 && f < 1 && std::abs(f - 0.5) > 1e-9;
+  EXPECT_GT(inside, 10u);
+  ASSERT_FALSE(seen.empty());
+  EXPECT_DOUBLE_EQ(seen.back(), 1.0);
+  for (double f : seen) EXPECT_LE(f, 1.0 + 1e-9);
+
+  CancelAt c("normal offsets");
+  EXPECT_THROW(slice_nonplanar(corrugation({}), prm, c.progress), Cancelled);
 }

@@ -3,21 +3,23 @@
 // and refuses above the run's budget before allocating anything, with the estimate and the
 // setting to change in the message.
 #pragma once
+#include <functional>
 #include <string>
 
 namespace trellis {
+
+struct Estimate {
+  double bytes = 0;    // peak memory
+  double seconds = 0;  // wall time with the run's threads (run.threads) on an ordinary machine
+  std::string what;    // "GIPPO planning: 1e9 iterations × 1,200 edges"
+  std::string change;  // the settings that shrink it, e.g. "--iterations (gippo.iterations)"
+};
 
 struct Budget {
   double memory = 0;      // bytes; 0 = the memory available now (MemAvailable)
   double seconds = 600;  // a generous bound on the estimated run time (10 minutes)
   bool force = false;     // run.force: go beyond the budget on purpose
-};
-
-struct Estimate {
-  double bytes = 0;    // peak memory
-  double seconds = 0;  // run time on one core of an ordinary machine
-  std::string what;    // "GIPPO planning: 1e9 iterations × 1,200 edges"
-  std::string change;  // the settings that shrink it, e.g. "--iterations (gippo.iterations)"
+  std::function<void(const Estimate&)> seen;  // told every estimate checked (Progress::estimate)
 };
 
 // Throws ResourceError (exit 2) when the estimate is beyond the budget and force is off.

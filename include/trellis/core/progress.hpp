@@ -7,12 +7,15 @@
 //  - `cancel`, if set, is read by the work once per layer or iteration (and between stages); when
 //    it is true the call stops and throws trellis::Cancelled, returning nothing partial. It may be
 //    set from any thread, including from inside `report`.
-// Both are optional; a default Progress does nothing and costs one branch per layer.
+//  - `estimate`, if set, sees each estimate a route makes before its work (core/budget.hpp), as
+//    it is checked against the budget: the command line prints them with --progress.
+// All are optional; a default Progress does nothing and costs one branch per layer.
 #pragma once
 #include <atomic>
 #include <functional>
 #include <string>
 
+#include "trellis/core/budget.hpp"
 #include "trellis/core/error.hpp"
 
 namespace trellis {
@@ -20,6 +23,7 @@ namespace trellis {
 struct Progress {
   std::function<void(const std::string& stage, double fraction)> report;
   const std::atomic<bool>* cancel = nullptr;
+  std::function<void(const Estimate&)> estimate;
 
   void operator()(const std::string& stage, double fraction) const {
     if (report) report(stage, fraction);

@@ -8,6 +8,7 @@
 #include <utility>
 #include <vector>
 
+#include "trellis/core/budget.hpp"
 #include "trellis/geom/polygon.hpp"
 #include "trellis/toolpath/toolpath.hpp"
 
@@ -35,6 +36,10 @@ inline int layer_band_px(int size_px) {
 }
 
 // Writes one PNG of `layer` (index into toolpath.layers), atomically.
+// Before rendering: `images` PNGs of at most size_px × size_px drawing `points` path points in
+// all (0 when not known yet), for check_budget.
+Estimate layer_images_estimate(double images, int size_px, double points);
+
 void render_layer_png(const Toolpath& toolpath, std::size_t layer, const std::string& path,
                       const RenderOptions& options = {});
 

@@ -131,6 +131,8 @@ struct Config {
   PlateConfig plate;
   int threads = 0;      // run.threads: 0 = all cores
   bool follow_symlinks = false;  // run.follow_symlinks: write through symbolic links (RunFiles)
+  // run.progress: progress on stderr (the command line reads it): not given = on a terminal only.
+  bool progress = false;
   BudgetConfig budget;  // run.max_memory, run.max_time, run.force
 };
 

@@ -149,6 +149,17 @@ double pbf_memory_estimate(const PbfDesign& design, const PbfOptions& options, i
 double pbf_memory_estimate(const PbfDesign& design, const PbfOptions& options, int threads,
                            bool streamed);
 
+// Seconds plan_pbf (the direct route) takes with `threads` workers, from the outline length of
+// five sampled sections (an order of magnitude, for refusing runs beyond run.max_time).
+double pbf_time_estimate(const PbfDesign& design, const PbfOptions& options, int threads);
+// Scan vectors of the whole build, from the sampled sections' area (FR_a ≈ 1).
+double pbf_vectors_estimate(const PbfDesign& design, const PbfOptions& options);
+// The part's mean section over five sampled layers: area (mm²) and outline length (mm).
+struct PbfSections {
+  double area = 0, perimeter = 0;
+};
+PbfSections pbf_sample_sections(const PbfDesign& design, const PbfOptions& options);
+
 // The paper's thin-wall experiments (Fig. 3): a plane wall of thickness t (mm) through the
 // origin, inclined `inclination` degrees from the horizontal (90 = vertical) and running along
 // `azimuth` degrees from the X axis, cut by a box of `size` centred at the origin.
