@@ -1257,7 +1257,7 @@ JobResult nonplanar(const Job& job, const Config& c, Diagnostics& diag, const Pr
   return out;
 }
 
-JobResult surface(const Job& job, const Config& c, Diagnostics& diag, const Progress&) {
+JobResult surface(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
   JobResult out;
   if (c.surface.kind == "angle-test") {
     // The print-angle test path: toolpath JSON, or G-code for the job's machine.
@@ -1294,7 +1294,7 @@ JobResult surface(const Job& job, const Config& c, Diagnostics& diag, const Prog
     e.seconds = points * 2e-7;
     e.what = fmt::format("a {:.3g}-point surface mesh", points);
     e.change = "surface.resolution";
-    check_budget(e, budget_of(job, c));
+    check_budget(e, budget_of(job, c, progress));
   }
   const TriangleMesh mesh = surface_mesh(s, c.surface.resolution);
   if (!job.output.empty()) {
