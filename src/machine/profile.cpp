@@ -75,7 +75,14 @@ const std::vector<SettingDecl>& machine_settings() {
       {"speed.print", "mm/s", "printing speed", 0.01, 1000, &P::print_speed},
       {"speed.travel", "mm/s", "travel speed", 0.01, 2000, &P::travel_speed},
       {"speed.z", "mm/s", "speed of Z moves", 0.01, 1000, &P::z_speed},
-      {"speed.acceleration", "mm/s²", "acceleration for print-time estimates, 0 = feed rates only", 0, 100000, &P::acceleration},
+      {"speed.acceleration", "mm/s²",
+       "acceleration for print-time estimates (trapezoidal moves, as the firmware plans them), 0 "
+       "= feed rates only",
+       0, 100000, &P::acceleration},
+      {"speed.jerk", "mm/s",
+       "print-time estimates: the speed change a corner takes without slowing (Marlin's classic "
+       "jerk per axis)",
+       0, 1000, &P::jerk},
       {"speed.max", "mm/s", "fastest feed the machine moves at; faster settings are refused", 0.01,
        10000, &P::max_speed},
       {"speed.short_path_factor", "", "speed factor for short paths (paper: 0.6)", 0.01, 10,
@@ -128,8 +135,19 @@ const std::vector<SettingDecl>& machine_settings() {
       {"embedded.node_dwell", "s", "dwell at every node inside a path", 0, 60, &P::node_dwell},
       {"embedded.node_overlap", "mm", "extend each path end this far past its end node", 0, 10,
        &P::node_overlap},
-      {"embedded.tool_offsets", "mm", "XY offset per tool as \"x,y;x,y;...\" (tool 0 first)", 0,
-       0, &P::tool_offsets},
+      {"embedded.tool_offsets", "mm",
+       "where each nozzle sits relative to nozzle 0, \"x,y;x,y;...\" (tool 0 first): the writer "
+       "puts nozzle t on design XY by moving the head to design - offset, unless "
+       "embedded.firmware_offsets",
+       0, 0, &P::tool_offsets},
+      {"embedded.firmware_offsets", "",
+       "the firmware applies each tool's offset itself (tool definitions, G10): the writer "
+       "commands design XY and leaves the offsets to it",
+       0, 0, &P::firmware_offsets},
+      {"embedded.floor_z", "mm",
+       "Z of the bath's floor (the container bottom) above machine Z0: the design's Z 0, where "
+       "the first strut is printed; below embedded.bath_surface",
+       0, 10000, &P::floor_z},
       {"embedded.tool_pressures", "kPa",
        "pressure per tool as \"p0,p1,...\" (replaces pneumatic.pressure)", 0, 0,
        &P::tool_pressures},
@@ -212,6 +230,10 @@ const std::vector<SettingDecl>& machine_settings() {
        "PNG previews embedded in the G-code header for printer screens and front ends, "
        "\"WxH,WxH\" (PrusaSlicer's thumbnail format); empty = none",
        0, 0, &P::thumbnails},
+      {"gcode.prime_line", "mm",
+       "prime line: this much line drawn along the bed's front edge, 5 mm in, before the first "
+       "layer (valve open for pneumatic machines; not in a bath); 0 = none",
+       0, 1000, &P::prime_line},
       {"gcode.label_objects", "",
        "build plates: each part's moves between the firmware's object start and end, so the "
        "printer can cancel one part (M486 S<id> A\"<label>\" ... M486 S-1 for Marlin, Prusa and "
@@ -459,6 +481,33 @@ void validate(const MachineProfile& p) {
   if (p.origin != "corner" && p.origin != "center")
     throw SettingError("unknown origin '" + p.origin + "' (expected corner or center)",
                        {"", 0, "machine.origin"});
+  if (p.floor_z > 0 && p.bath_surface > 0 && p.floor_z >= p.bath_surface)
+    throw SettingError("the bath's floor (embedded.floor_z = " + number_text(p.floor_z) +
+                           " mm) must be below its surface (embedded.bath_surface = " +
+                           number_text(p.bath_surface) + " mm)",
+                       {"", 0, "embedded.floor_z"});
+  if (p.floor_z > 0 && !p.has_bath())
+    throw SettingError("embedded.floor_z is for bath machines (machine.flavor = embedded), not " +
+                           p.flavor,
+                       {"", 0, "embedded.floor_z"});
+  if (p.floor_z >= p.bed_z)
+    throw SettingError("the bath's floor (embedded.floor_z = " + number_text(p.floor_z) +
+                           " mm) is not below the machine's build height (machine.bed_z = " +
+                           number_text(p.bed_z) + " mm)",
+                       {"", 0, "embedded.floor_z"});
+  if (p.prime_line > 0 && p.has_bath())
+    throw SettingError("a prime line is drawn on a bed, not in a support bath (machine.flavor = "
+                       "embedded): leave gcode.prime_line at 0",
+                       {"", 0, "gcode.prime_line"});
+  // A rectangle: along the front edge, 5 mm clear at each end; a circle: the chord half-way
+  // between the centre and the front (sqrt(3)/2 of the diameter), 5 mm clear at each end.
+  const double prime_room =
+      (p.bed_shape == "circle" ? p.bed_x * std::sqrt(3.0) / 2 : p.bed_x) - 10;
+  if (p.prime_line > 0 && p.prime_line > prime_room)
+    throw SettingError("the prime line (gcode.prime_line = " + number_text(p.prime_line) +
+                           " mm) does not fit on the bed: at most " + number_text(prime_room) +
+                           " mm along its front (machine.bed_x, machine.bed_shape)",
+                       {"", 0, "gcode.prime_line"});
   if (p.embedded_drive != "pressure" && p.embedded_drive != "syringe")
     throw SettingError("unknown embedded drive '" + p.embedded_drive +
                            "' (expected pressure or syringe)",
@@ -479,14 +528,6 @@ std::string setting_text(const MachineProfile& p, const SettingDecl& d) {
           return p.*member;
       },
       d.member);
-}
-
-double move_time(double length, double feed, double acceleration) {
-  if (length <= 0 || feed <= 0) return 0;
-  if (acceleration <= 0) return length / feed;
-  // Reaching `feed` takes feed²/(2a) mm each way; shorter moves are triangles.
-  if (length >= feed * feed / acceleration) return length / feed + feed / acceleration;
-  return 2 * std::sqrt(length / acceleration);
 }
 
 std::string settings_help() {

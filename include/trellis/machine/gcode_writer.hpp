@@ -31,7 +31,11 @@ struct GcodeStats {
   double travel_length = 0;  // mm
   double print_length = 0;   // mm
   double filament = 0;       // mm of filament (marlin)
-  double print_time_s = 0;   // feed-rate estimate, no acceleration
+  // The print-time estimate of the file written, as `trellis analyze` reads it back
+  // (machine/print_time.hpp: acceleration and jerk, dwells, heater waits); heating_s: the heater
+  // waits' part of it.
+  double print_time_s = 0, heating_s = 0;
+  double prime_length = 0;   // mm of prime line drawn before the print (gcode.prime_line)
   std::size_t tool_changes = 0;  // embedded
   std::size_t gradient_changes = 0;  // mixture / tool / temperature commands for graded paths
   double lookahead = 0;              // mm of path the changes were issued early
