@@ -228,7 +228,7 @@ TEST(HeatedPneumatic, TheCartridgeIsHeatedAndWaitedFor) {
   const std::string g = write_gcode(tp, p, &stats);
   const auto wait = g.find("M109 S" + std::to_string(static_cast<int>(p.nozzle_temperature)));
   ASSERT_NE(wait, std::string::npos) << g.substr(0, 3000);
-  EXPECT_LT(wait, g.find(p.valve_on.substr(0, 2) + " "));
+  EXPECT_LT(wait, g.find("\n" + p.valve_on));  // before the valve first opens
   EXPECT_NEAR(
       stats.heating_s,
       (p.nozzle_temperature - PrintTimeEstimator::kAmbient) / PrintTimeEstimator::kNozzleRate,
