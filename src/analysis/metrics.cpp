@@ -57,7 +57,7 @@ void CountingSink::extrude(Vec3 a, Vec3 b, double e, double feed) {
 
 void CountingSink::prime(Vec3 a, Vec3 b, double e, double) {
   counts.prime_length += distance(a, b);
-  counts.filament += e;
+  counts.prime_filament += e;
 }
 
 void CountingSink::time_sink_heater(int heater, double celsius, bool wait) {
@@ -441,7 +441,8 @@ std::string analysis_json(const Analysis& a) {
   j["filament_mm"] = a.counts.filament;
   j["print_time_s"] = a.counts.print_time_s;
   j["heating_s"] = a.counts.heating_s;
-  j["prime_length"] = a.counts.prime_length;
+  j["prime_length_mm"] = a.counts.prime_length;
+  j["prime_filament_mm"] = a.counts.prime_filament;
   if (!a.counts.parts.empty()) {
     auto& parts = j["parts"] = nlohmann::json::array();
     for (const auto& p : a.counts.parts)

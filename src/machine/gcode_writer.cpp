@@ -404,7 +404,7 @@ class Writer {
     if (e_axis_) {
       const double e = extrusion_for(p_.prime_line, h, p_);
       e_ += e;
-      stats_.filament += e;
+      stats_.prime_filament = e;
       move("G1", {{'X', xb}, {'E', p_.relative_e ? e : e_}}, p_.print_speed);
     } else {
       if (!p_.pressure_command.empty())
@@ -439,8 +439,8 @@ class Writer {
     if (!end.empty()) line(end);
     // PrusaSlicer's closing statistics, read by printer front ends.
     if (e_axis_) {
-      out_ += "; filament used [mm] = ";
-      append_fixed(out_, stats_.filament, 2);
+      out_ += "; filament used [mm] = ";  // all the machine uses: the prime line's too
+      append_fixed(out_, stats_.filament + stats_.prime_filament, 2);
       out_ += '\n';
     }
     estimate_at_ = flushed_ + out_.size();  // the estimated time goes here (late_lines)

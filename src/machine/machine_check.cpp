@@ -230,6 +230,14 @@ std::vector<MachineWarning> check_for_machine(const LayerSource& layers, const B
           errors.add("temperature", fmt::format("{} = {} °C is above temperature.max_nozzle = {} °C",
                                                 key, num(t), num(p.max_nozzle_temperature)));
   }
+  // The prime line: along a rectangle's front edge, 5 mm clear at each end; on a circle, the
+  // chord half-way between the centre and the front (sqrt(3)/2 of the diameter), 5 mm clear.
+  const double prime_room = (circle ? p.bed_x * std::sqrt(3.0) / 2 : p.bed_x) - 10;
+  if (p.prime_line > 0 && p.prime_line > prime_room + eps)
+    errors.add("prime_line", fmt::format("the prime line (gcode.prime_line = {} mm) does not fit "
+                                         "on the bed: at most {} mm along its front "
+                                         "(machine.bed_x, machine.bed_shape)",
+                                         num(p.prime_line), num(std::max(0.0, prime_room))));
   if (p.nozzle_temperature > p.max_nozzle_temperature + eps)
     errors.add("temperature", fmt::format("temperature.nozzle = {} °C is above the machine's "
                                           "temperature.max_nozzle = {} °C",

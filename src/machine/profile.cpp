@@ -499,15 +499,6 @@ void validate(const MachineProfile& p) {
     throw SettingError("a prime line is drawn on a bed, not in a support bath (machine.flavor = "
                        "embedded): leave gcode.prime_line at 0",
                        {"", 0, "gcode.prime_line"});
-  // A rectangle: along the front edge, 5 mm clear at each end; a circle: the chord half-way
-  // between the centre and the front (sqrt(3)/2 of the diameter), 5 mm clear at each end.
-  const double prime_room =
-      (p.bed_shape == "circle" ? p.bed_x * std::sqrt(3.0) / 2 : p.bed_x) - 10;
-  if (p.prime_line > 0 && p.prime_line > prime_room)
-    throw SettingError("the prime line (gcode.prime_line = " + number_text(p.prime_line) +
-                           " mm) does not fit on the bed: at most " + number_text(prime_room) +
-                           " mm along its front (machine.bed_x, machine.bed_shape)",
-                       {"", 0, "gcode.prime_line"});
   if (p.embedded_drive != "pressure" && p.embedded_drive != "syringe")
     throw SettingError("unknown embedded drive '" + p.embedded_drive +
                            "' (expected pressure or syringe)",

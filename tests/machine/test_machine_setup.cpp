@@ -190,6 +190,17 @@ TEST(PrimeLine, ProfilesPrimeAsTheirCommentsSay) {
     Toolpath back = read_gcode(g, o, d);
     EXPECT_EQ(back.path_count(), 1u) << e.path();  // the prime line is not a path
     EXPECT_NEAR(stats.prime_length, p.prime_line, 1e-9);
+    // Read as priming: its length, and on E machines the filament the writer put into it.
+    struct PrimeSink : GcodeSink {
+      double length = 0, e = 0;
+      void prime(Vec3 a, Vec3 b, double de, double) override { length += distance(a, b), e += de; }
+    } primed;
+    GcodeScanner scan(primed, o, d);
+    scan.feed(g);
+    scan.finish();
+    EXPECT_NEAR(primed.length, p.prime_line, 1e-3) << e.path();
+    EXPECT_NEAR(primed.e, stats.prime_filament, 1e-4) << e.path();
+    if (p.parsed_flavor() == Flavor::Marlin) EXPECT_GT(stats.prime_filament, 0) << e.path();
   }
   EXPECT_GE(priming, 4);  // the FDM printers and the pneumatic one
 }
@@ -209,7 +220,8 @@ TEST(PrimeLine, ThePneumaticLineOpensTheValveAndALongLineIsRefused) {
   EXPECT_LT(open, line);
   EXPECT_LT(line, close);
   EXPECT_LT(close, g.find(";LAYER:0"));
-  EXPECT_THROW(apply_override(p, "gcode.prime_line=195"), SettingError);  // bed_x 200
+  apply_override(p, "gcode.prime_line=195");  // bed_x 200: refused when it is written
+  EXPECT_THROW(write_gcode(tp, p), MachineError);
   MachineProfile bath = shipped("embedded_aero_410um.toml");
   EXPECT_THROW(apply_override(bath, "gcode.prime_line=20"), SettingError);
 }

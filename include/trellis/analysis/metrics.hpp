@@ -26,7 +26,8 @@ struct GcodeCounts {
   // The print-time estimate (machine/print_time.hpp): moves with acceleration and jerk, dwells
   // and heater waits; heating_s is the heater waits' part of it (other slicers leave it out).
   double print_time_s = 0, heating_s = 0;
-  double prime_length = 0;  // prime lines drawn before the print (not paths)
+  // Prime lines drawn before the print (not paths; their filament is not in `filament`).
+  double prime_length = 0, prime_filament = 0;
   // Per-path sums for Eq. 1-3 (a path = a run of connected extrusion moves; its edges = moves).
   std::size_t paths = 0;
   double weighted = 0;                        // Σ length_i · edges_i

@@ -35,7 +35,9 @@ struct GcodeStats {
   // (machine/print_time.hpp: acceleration and jerk, dwells, heater waits); heating_s: the heater
   // waits' part of it.
   double print_time_s = 0, heating_s = 0;
-  double prime_length = 0;   // mm of prime line drawn before the print (gcode.prime_line)
+  // The prime line drawn before the print (gcode.prime_line): its length and filament (mm; not
+  // in `filament`, which is the print's; the footer's "; filament used" has both).
+  double prime_length = 0, prime_filament = 0;
   std::size_t tool_changes = 0;  // embedded
   std::size_t gradient_changes = 0;  // mixture / tool / temperature commands for graded paths
   double lookahead = 0;              // mm of path the changes were issued early
