@@ -241,8 +241,9 @@ void GcodeScanner::mcode(int code, std::string_view args) {
 }
 
 // The motion limits of the time estimate: M201 X Y Z E (max accelerations), M203 (max feeds:
-// mm/s for Marlin and Klipper, mm/min for RepRapFirmware, known from our header), M204 P|S (printing) R (retraction) T (travel), M205 X Y Z
-// E (jerk, mm/s; RepRapFirmware writes its jerk as M566 in mm/min, not read).
+// mm/s for Marlin and Klipper, mm/min for RepRapFirmware, known from our header), M204 P|S
+// (printing) R (retraction) T (travel), M205 X Y Z E (jerk, mm/s; RepRapFirmware writes its jerk as
+// M566 in mm/min, not read).
 void GcodeScanner::limit_command(int code, std::string_view args) {
   bool changed = false, ok = true;
   auto value = [&](std::string_view key, double& into, double scale) {
@@ -306,7 +307,8 @@ void GcodeScanner::extended(std::string_view s) {
   } else if (name == "SET_VELOCITY_LIMIT") {
     const std::string_view v = param(args, "ACCEL=");
     double a = 0;
-    if (!v.empty() && parse_number(v.data(), v.data() + v.size(), a) && std::isfinite(a) && a >= 0) {
+    if (!v.empty() && parse_number(v.data(), v.data() + v.size(), a) && std::isfinite(a) &&
+        a >= 0) {
       limits_.acceleration = a;
       limits_.travel_acceleration = limits_.retract_acceleration = 0;
       sink_.limits(limits_);

@@ -95,8 +95,8 @@ void GcodeScanner::update_offset() {
 // offsets and the motion limits of the time estimate.
 void GcodeScanner::header_setting(std::string_view key, std::string_view value) {
   double v = 0;
-  const bool number = parse_number(value.data(), value.data() + value.size(), v) &&
-                      std::isfinite(v) && v >= 0;
+  const bool number =
+      parse_number(value.data(), value.data() + value.size(), v) && std::isfinite(v) && v >= 0;
   if (key == "machine.flavor") {
     bath_header_ = value == "embedded";
     reprap_header_ = value == "reprap";
@@ -159,7 +159,8 @@ void GcodeScanner::comment(std::string_view c) {
   if (starts_with(c, "setting ")) {
     const std::string_view kv = c.substr(8);
     const auto eq = kv.find(" = ");
-    if (eq != std::string_view::npos) header_setting(trim(kv.substr(0, eq)), trim(kv.substr(eq + 3)));
+    if (eq != std::string_view::npos)
+      header_setting(trim(kv.substr(0, eq)), trim(kv.substr(eq + 3)));
     return;
   }
   if (starts_with(c, "LAYER:") || starts_with(c, "LAYER_CHANGE")) {
@@ -309,8 +310,7 @@ void GcodeScanner::line(std::string_view text) {
       if (all || y) pos_.y = 0;
       if (all || z) pos_.z = 0;
       sink_.home();
-    }
-    else if (code == 4) {  // dwell: G4 P<milliseconds> or S<seconds> (Marlin, RRF, Klipper)
+    } else if (code == 4) {  // dwell: G4 P<milliseconds> or S<seconds> (Marlin, RRF, Klipper)
       double ms = 0, sec = 0;
       const std::string_view pv = param(args, "P"), sv = param(args, "S");
       if (!pv.empty() && (!parse_number(pv.data(), pv.data() + pv.size(), ms) || !(ms >= 0) ||

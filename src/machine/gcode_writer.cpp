@@ -5,21 +5,21 @@
 #include <algorithm>
 #include <cerrno>
 #include <charconv>
-#include <cstdio>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <functional>
 #include <memory>
 #include <numbers>
 #include <utility>
 
+#include "fast_number.hpp"
+#include "gcode_objects.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/machine/gcode_reader.hpp"
 #include "trellis/machine/machine_check.hpp"
 #include "trellis/version.hpp"
-#include "fast_number.hpp"
-#include "gcode_objects.hpp"
 
 namespace trellis {
 
@@ -146,8 +146,7 @@ class Writer {
     std::string chunk(std::size_t{1} << 20, '\0');
     estimate_time([&](std::size_t end, GcodeScanner& scanner) {
       while (fed_ < end) {
-        const std::size_t n =
-            std::fread(chunk.data(), 1, std::min(chunk.size(), end - fed_), raw_);
+        const std::size_t n = std::fread(chunk.data(), 1, std::min(chunk.size(), end - fed_), raw_);
         if (n == 0)
           throw IoError(std::string("cannot read a temporary file: ") + std::strerror(errno));
         scanner.feed(std::string_view(chunk.data(), n));
@@ -189,9 +188,9 @@ class Writer {
     std::size_t k = 0, j = 0;
     std::vector<double> at_object(object_marks_.size(), 0);
     while (k < progress_marks_.size() || j < object_marks_.size()) {
-      const bool progress = j == object_marks_.size() ||
-                            (k < progress_marks_.size() &&
-                             progress_marks_[k].first <= object_marks_[j].first);
+      const bool progress =
+          j == object_marks_.size() ||
+          (k < progress_marks_.size() && progress_marks_[k].first <= object_marks_[j].first);
       feed(progress ? progress_marks_[k].first : object_marks_[j].first, scanner);
       if (progress)
         progress_marks_[k++].second = sink.time.elapsed();
@@ -386,8 +385,7 @@ class Writer {
       y = cy - r / 2;
     }
     const double xb = xa + p_.prime_line, h = p_.layer_height;
-    auto move = [&](const char* g, std::initializer_list<std::pair<char, double>> words,
-                    double f) {
+    auto move = [&](const char* g, std::initializer_list<std::pair<char, double>> words, double f) {
       out_ += g;
       for (const auto& [letter, v] : words) {
         out_ += ' ';

@@ -59,7 +59,8 @@ const std::vector<SettingDecl>& machine_settings() {
       {"placement.offset_y", "mm", "Y offset added after centring", -10000, 10000, &P::offset_y},
       {"extrusion.nozzle_diameter", "mm", "nozzle diameter d_n (Eq. 4)", 0.01, 10,
        &P::nozzle_diameter},
-      {"extrusion.filament_diameter", "mm", "filament diameter f_d (Eq. 4; a syringe: the barrel bore)", 0.1, 100,
+      {"extrusion.filament_diameter", "mm",
+       "filament diameter f_d (Eq. 4; a syringe: the barrel bore)", 0.1, 100,
        &P::filament_diameter},
       {"extrusion.layer_height", "mm", "layer thickness LT when a path has none (Eq. 4)", 0.001, 10,
        &P::layer_height},
@@ -96,8 +97,7 @@ const std::vector<SettingDecl>& machine_settings() {
       {"temperature.standby", "°C",
        "temperature of idle tools on a multi-tool machine; 0 = they stay at the printing "
        "temperature",
-       0, 500,
-       &P::standby_temperature},
+       0, 500, &P::standby_temperature},
       {"temperature.max_nozzle", "°C", "hottest nozzle temperature the machine allows", 0, 500,
        &P::max_nozzle_temperature},
       {"temperature.max_bed", "°C", "hottest bed temperature the machine allows", 0, 200,
@@ -159,7 +159,8 @@ const std::vector<SettingDecl>& machine_settings() {
        0, 0, &P::embedded_drive},
       {"embedded.bath_travel", "mm",
        "travel moves up to this long stay inside the bath instead of lifting out (e.g. between "
-       "non-planar layers); tool changes always lift", 0, 10000, &P::bath_travel},
+       "non-planar layers); tool changes always lift",
+       0, 10000, &P::bath_travel},
       {"embedded.raise_idle", "", "command raising the nozzle {tool} that goes idle; empty = none",
        0, 0, &P::raise_idle},
       {"gradient.mode", "",
@@ -487,18 +488,19 @@ void validate(const MachineProfile& p) {
                            number_text(p.bath_surface) + " mm)",
                        {"", 0, "embedded.floor_z"});
   if (p.floor_z > 0 && !p.has_bath())
-    throw SettingError("embedded.floor_z is for bath machines (machine.flavor = embedded), not " +
-                           p.flavor,
-                       {"", 0, "embedded.floor_z"});
+    throw SettingError(
+        "embedded.floor_z is for bath machines (machine.flavor = embedded), not " + p.flavor,
+        {"", 0, "embedded.floor_z"});
   if (p.floor_z >= p.bed_z)
     throw SettingError("the bath's floor (embedded.floor_z = " + number_text(p.floor_z) +
                            " mm) is not below the machine's build height (machine.bed_z = " +
                            number_text(p.bed_z) + " mm)",
                        {"", 0, "embedded.floor_z"});
   if (p.prime_line > 0 && p.has_bath())
-    throw SettingError("a prime line is drawn on a bed, not in a support bath (machine.flavor = "
-                       "embedded): leave gcode.prime_line at 0",
-                       {"", 0, "gcode.prime_line"});
+    throw SettingError(
+        "a prime line is drawn on a bed, not in a support bath (machine.flavor = "
+        "embedded): leave gcode.prime_line at 0",
+        {"", 0, "gcode.prime_line"});
   if (p.embedded_drive != "pressure" && p.embedded_drive != "syringe")
     throw SettingError("unknown embedded drive '" + p.embedded_drive +
                            "' (expected pressure or syringe)",

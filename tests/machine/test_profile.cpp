@@ -109,4 +109,3 @@ TEST(Profile, HelpListsEverySettingAndOnlyRealOnes) {
   }
   EXPECT_GE(listed, shipped.size());
 }
-
