@@ -32,8 +32,10 @@ void add_common(CLI::App* cmd, AnalyzeOpts& o) {
   cmd->add_option("--layer-height", o.params.layer_height, "nozzle z = design z + this (mm)")
       ->check(number_value(-100, 100))
       ->capture_default_str();
-  cmd->add_option("--acceleration", o.params.acceleration,
-                  "mm/s² for the print-time estimate (0 = feed rates only)")
+  cmd->add_option(
+         "--acceleration", o.params.acceleration,
+         "mm/s² for the print-time estimate when the file sets none (its M204 or our header's "
+         "speed.acceleration win; 0 = feed rates only)")
       ->check(number_value(0, 1e6));
   cmd->add_flag("--align", o.params.align_centers,
                 "move the print's XY centre onto the design's (for parts placed on the bed; done "
@@ -199,6 +201,8 @@ void add_analyze(CLI::App& app) {
               << " mm extruded, " << a.counts.travel_moves << " travel moves ("
               << num(a.counts.travel_length, 1) << " mm), " << a.counts.retractions
               << " retractions, score " << num(a.score, 4) << "\n";
+    std::cout << "  print time " << num(a.counts.print_time_s / 60, 1)
+              << " min, of which heater waits " << num(a.counts.heating_s / 60, 1) << " min\n";
     // Build plates: each labelled part (M486 / Klipper EXCLUDE_OBJECT).
     for (const auto& p : a.counts.parts)
       std::cout << "  part " << p.label << ": " << num(p.extruded_length, 1) << " mm extruded, "

@@ -48,37 +48,39 @@ void CountingSink::extrude(Vec3 a, Vec3 b, double e, double feed) {
   last_ = b;
   counts.extruded_length += len;
   counts.filament += e;
-  const double t = move_time(len, feed, acceleration_);
-  counts.print_time_s += t;
   if (part_ >= 0) {
     auto& p = counts.parts[static_cast<std::size_t>(part_)];
     p.extruded_length += len;
     p.filament += e;
-    p.print_time_s += t;
   }
+}
+
+void CountingSink::prime(Vec3 a, Vec3 b, double e, double) {
+  counts.prime_length += distance(a, b);
+  counts.prime_filament += e;
+}
+
+void CountingSink::time_sink_heater(int heater, double celsius, bool wait) {
+  if (!wait) return time_.set_target(heater, celsius);
+  if (heater == kAllHeaters) return time_.wait_all();
+  time_.wait_for(heater, celsius);
 }
 
 void CountingSink::object(std::string_view label) {
   attribute_changed_ = true;
   part_ = -1;
+  time_.set_tag(-1);
   if (label.empty()) return;
   const auto it = std::find_if(counts.parts.begin(), counts.parts.end(),
                                [&](const GcodeCounts::Part& p) { return p.label == label; });
   part_ = it - counts.parts.begin();
   if (it == counts.parts.end()) counts.parts.push_back({std::string(label)});
+  time_.set_tag(static_cast<int>(part_));
 }
 
 void CountingSink::travel(Vec3 a, Vec3 b, double feed) {
   state_ = State::Travelling;
   pending_ += distance_xy(a, b);
-  const double t = move_time(distance(a, b), feed, acceleration_);
-  counts.print_time_s += t;
-  if (part_ >= 0) counts.parts[static_cast<std::size_t>(part_)].print_time_s += t;
-}
-
-void CountingSink::dwell(double seconds) {
-  counts.print_time_s += seconds;
-  if (part_ >= 0) counts.parts[static_cast<std::size_t>(part_)].print_time_s += seconds;
 }
 
 void CountingSink::close_path() {
@@ -96,6 +98,11 @@ void CountingSink::close_path() {
 
 void CountingSink::finish() {
   close_path();
+  counts.print_time_s = time_.seconds();
+  counts.heating_s = time_.heating_s();
+  const auto& tags = time_.tag_seconds();
+  for (std::size_t i = 0; i < counts.parts.size(); ++i)
+    counts.parts[i].print_time_s = i < tags.size() ? tags[i] : 0.0;
 }
 
 GcodeCounts toolpath_counts(const Toolpath& toolpath) {
@@ -115,8 +122,10 @@ GcodeCounts toolpath_counts(const Toolpath& toolpath) {
         for (const Vec3& v : p.via) sink.travel(at, v, 0), at = v;
         sink.travel(at, p.points.front(), 0);
       }
-      for (std::size_t i = 1; i < p.points.size(); ++i)
+      for (std::size_t i = 1; i < p.points.size(); ++i) {
+        sink.motion(p.points[i - 1], p.points[i], 0, p.speed);
         sink.extrude(p.points[i - 1], p.points[i], 0, p.speed);
+      }
       if (!p.points.empty()) at = p.points.back(), first = false;
     }
   }
@@ -403,15 +412,19 @@ Analysis analyze_gcode_file(const std::string& path, const Graph* design,
                             const AnalysisParams& params, const GcodeReadOptions& read,
                             Diagnostics& diag) {
   CountingSink counter(params.long_nodes, params.acceleration);
+  GcodeReadOptions options = read;
+  if (params.acceleration > 0 && options.limits.acceleration == 0)
+    options.limits.acceleration = params.acceleration;
+  const GcodeReadOptions& read_with = options;
   Toolpath tp;
   if (!design && !params.keep_printed) {
     // Counts only: constant memory whatever the file size.
-    scan_gcode_file(path, counter, read, diag);
+    scan_gcode_file(path, counter, read_with, diag);
   } else {
     // One pass feeding both the counter and the IR builder (the design comparison needs the IR).
     auto builder = make_toolpath_builder(tp);
     TeeSink both(counter, *builder);
-    scan_gcode_file(path, both, read, diag);
+    scan_gcode_file(path, both, read_with, diag);
   }
   counter.finish();
   Analysis a = analyze(tp, counter.counts, design, params);
@@ -432,6 +445,9 @@ std::string analysis_json(const Analysis& a) {
   j["retractions"] = a.counts.retractions;
   j["filament_mm"] = a.counts.filament;
   j["print_time_s"] = a.counts.print_time_s;
+  j["heating_s"] = a.counts.heating_s;
+  j["prime_length_mm"] = a.counts.prime_length;
+  j["prime_filament_mm"] = a.counts.prime_filament;
   if (!a.counts.parts.empty()) {
     auto& parts = j["parts"] = nlohmann::json::array();
     for (const auto& p : a.counts.parts)

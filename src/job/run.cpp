@@ -218,7 +218,7 @@ Toolpath read_print(const std::string& path, const Settings* machine, double* sn
   if (have && snap && *snap == 0.05) *snap = profile.node_overlap + 0.05;
   Toolpath tp = read_gcode(text, read, diag, path);
   // Back to design coordinates: undo the placement written into the header and the tool offsets.
-  to_design_coordinates(tp, text, have ? &profile : nullptr);
+  to_design_coordinates(tp, text);
   return tp;
 }
 

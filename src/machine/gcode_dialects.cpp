@@ -112,6 +112,7 @@ void GcodeScanner::set_temperature(int tool, double t) {
 
 void GcodeScanner::select_tool(int tool) {
   tool_ = tool;
+  update_offset();
   sink_.tool_change(tool);
   if (static_cast<std::size_t>(tool) < tool_temp_.size() && std::isfinite(tool_temp_[tool]) &&
       !(tool_temp_[tool] == reported_temp_)) {
@@ -164,8 +165,30 @@ void GcodeScanner::mcode(int code, std::string_view args) {
       if (!std::isfinite(t)) return;
       if (t < 0 || t > 1000)
         return bad("bad temperature in '" + std::string(args.substr(0, 30)) + "'");
+      if (code != 568 || num("A") != 0) sink_.heater(tool, t, code == 109);
       return set_temperature(tool, t);
     }
+    case 140:
+    case 190: {  // bed: M140 S<t>, M190 S<t> (or R<t>) waits
+      double t = num("S");
+      if (!std::isfinite(t) && code == 190) t = num("R");
+      if (!ok || (std::isfinite(t) && (t < 0 || t > 1000)))
+        return bad("bad temperature in '" + std::string(args.substr(0, 30)) + "'");
+      sink_.heater(PrintTimeEstimator::kBed, t, code == 190);
+      return;
+    }
+    case 116: {  // RepRapFirmware: wait for every heater, or tool P's
+      const double p = num("P");
+      if (!ok) return bad("bad number in '" + std::string(args.substr(0, 40)) + "'");
+      sink_.heater(std::isfinite(p) ? static_cast<int>(p) : GcodeSink::kAllHeaters, std::nan(""),
+                   true);
+      return;
+    }
+    case 201:
+    case 203:
+    case 204:
+    case 205:
+      return limit_command(code, args);
     case 165: {  // Marlin mixing: A B C D H I
       std::vector<double> mix;
       for (const char* k : {"A", "B", "C", "D", "H", "I"}) {
@@ -223,6 +246,40 @@ void GcodeScanner::mcode(int code, std::string_view args) {
   }
 }
 
+// The motion limits of the time estimate: M201 X Y Z E (max accelerations), M203 (max feeds:
+// mm/s for Marlin and Klipper, mm/min for RepRapFirmware, known from our header), M204 P|S
+// (printing) R (retraction) T (travel), M205 X Y Z E (jerk, mm/s; RepRapFirmware writes its jerk as
+// M566 in mm/min, not read).
+void GcodeScanner::limit_command(int code, std::string_view args) {
+  bool changed = false, ok = true;
+  auto value = [&](std::string_view key, double& into, double scale) {
+    const std::string_view v = param(args, key);
+    if (v.empty()) return;
+    double x = 0;
+    if (!parse_number(v.data(), v.data() + v.size(), x) || !std::isfinite(x) || x < 0) {
+      ok = false;
+      return;
+    }
+    into = x * scale;
+    changed = true;
+  };
+  static constexpr const char* kAxes[] = {"X", "Y", "Z", "E"};
+  for (int i = 0; i < 4; ++i) {
+    if (code == 201) value(kAxes[i], limits_.max_acceleration[static_cast<std::size_t>(i)], 1);
+    if (code == 203)
+      value(kAxes[i], limits_.max_feed[static_cast<std::size_t>(i)], reprap_header_ ? 1.0 / 60 : 1);
+    if (code == 205) value(kAxes[i], limits_.jerk[static_cast<std::size_t>(i)], 1);
+  }
+  if (code == 204) {
+    value("S", limits_.acceleration, 1);
+    value("P", limits_.acceleration, 1);
+    value("R", limits_.retract_acceleration, 1);
+    value("T", limits_.travel_acceleration, 1);
+  }
+  if (!ok) return bad("bad number in '" + std::string(args.substr(0, 40)) + "'");
+  if (changed) sink_.limits(limits_);
+}
+
 // Klipper's extended commands the reader needs: ACTIVATE_EXTRUDER EXTRUDER=extruder<N> and
 // SET_HEATER_TEMPERATURE HEATER=extruder<N> TARGET=<t> (extruder = 0, extruder1 = 1, ...).
 void GcodeScanner::extended(std::string_view s) {
@@ -246,9 +303,33 @@ void GcodeScanner::extended(std::string_view s) {
     if (name.back() == 'T' && label.empty())
       return bad("EXCLUDE_OBJECT_START without NAME= in '" + std::string(s.substr(0, 60)) + "'");
     sink_.object(name.back() == 'T' ? label : std::string_view{});
+  } else if (name == "TEMPERATURE_WAIT") {
+    const std::string_view sensor = param(args, "SENSOR="), v = param(args, "MINIMUM=");
+    const int t = sensor == "heater_bed" ? PrintTimeEstimator::kBed : extruder(sensor);
+    double c = std::nan("");
+    if (!v.empty() && (!parse_number(v.data(), v.data() + v.size(), c) || !std::isfinite(c)))
+      return bad("bad temperature in '" + std::string(s.substr(0, 60)) + "'");
+    if (t >= PrintTimeEstimator::kBed) sink_.heater(t, c, true);
+  } else if (name == "SET_VELOCITY_LIMIT") {
+    const std::string_view v = param(args, "ACCEL=");
+    double a = 0;
+    if (!v.empty() && parse_number(v.data(), v.data() + v.size(), a) && std::isfinite(a) &&
+        a >= 0) {
+      limits_.acceleration = a;
+      limits_.travel_acceleration = limits_.retract_acceleration = 0;
+      sink_.limits(limits_);
+    }
   } else if (name == "SET_HEATER_TEMPERATURE") {
-    const int t = extruder(param(args, "HEATER="));
-    if (t < 0) return;  // the bed or a chamber
+    const std::string_view heater_name = param(args, "HEATER=");
+    const int t = extruder(heater_name);
+    if (heater_name == "heater_bed") {
+      const std::string_view v = param(args, "TARGET=");
+      double c = 0;
+      if (!v.empty() && parse_number(v.data(), v.data() + v.size(), c) && std::isfinite(c))
+        sink_.heater(PrintTimeEstimator::kBed, c, false);
+      return;
+    }
+    if (t < 0) return;  // a chamber
     const std::string_view v = param(args, "TARGET=");
     double c = 0;
     if (v.empty())
@@ -256,6 +337,7 @@ void GcodeScanner::extended(std::string_view s) {
     else if (!parse_number(v.data(), v.data() + v.size(), c) || !std::isfinite(c) || c < 0 ||
              c > 1000)
       return bad("bad temperature in '" + std::string(s.substr(0, 60)) + "'");
+    sink_.heater(t, c, false);
     set_temperature(t, c);
   }
 }

@@ -55,6 +55,65 @@ GcodeScanner::GcodeScanner(GcodeSink& sink, GcodeReadOptions options, Diagnostic
     : sink_(sink), opt_(std::move(options)), diag_(diag), origin_(std::move(origin)) {
   for (std::string* v : {&opt_.valve_on, &opt_.valve_off}) *v = command_words(*v);
   header_valves_ = opt_.valve_on.empty() && opt_.valve_off.empty();
+  header_offsets_ = opt_.tool_offsets.empty();
+  if (!header_offsets_ && !parse_offsets(opt_.tool_offsets, tool_offsets_))
+    throw SettingError("tool offsets \"" + opt_.tool_offsets + "\" are not \"x,y;x,y;...\"",
+                       {origin_, 0, "embedded.tool_offsets"});
+  update_offset();
+  limits_ = opt_.limits;
+  sink_.limits(limits_);
+}
+
+bool GcodeScanner::parse_offsets(std::string_view text, std::vector<Vec2>& out) {
+  out.clear();
+  text = trim(text);
+  while (!text.empty()) {
+    const auto semi = std::min(text.find(';'), text.size());
+    const std::string_view item = trim(text.substr(0, semi));
+    const auto comma = item.find(',');
+    if (comma == std::string_view::npos) return false;
+    const std::string_view a = trim(item.substr(0, comma)), b = trim(item.substr(comma + 1));
+    double x = 0, y = 0;
+    if (!parse_number(a.data(), a.data() + a.size(), x) ||
+        !parse_number(b.data(), b.data() + b.size(), y) || !std::isfinite(x) || !std::isfinite(y))
+      return false;
+    out.push_back({x, y});
+    text = semi < text.size() ? trim(text.substr(semi + 1)) : std::string_view{};
+  }
+  return true;
+}
+
+void GcodeScanner::update_offset() {
+  const bool apply = !header_offsets_ || (bath_header_ && !firmware_offsets_);
+  const Vec2 o = apply && static_cast<std::size_t>(tool_) < tool_offsets_.size()
+                     ? tool_offsets_[static_cast<std::size_t>(tool_)]
+                     : Vec2{};
+  offset_ = {o.x, o.y, 0};
+}
+
+// Our header's "; setting key = value" lines that reading needs: the bath machine's nozzle
+// offsets and the motion limits of the time estimate.
+void GcodeScanner::header_setting(std::string_view key, std::string_view value) {
+  double v = 0;
+  const bool number =
+      parse_number(value.data(), value.data() + value.size(), v) && std::isfinite(v) && v >= 0;
+  if (key == "machine.flavor") {
+    bath_header_ = value == "embedded";
+    reprap_header_ = value == "reprap";
+  } else if (key == "embedded.tool_offsets" && header_offsets_) {
+    if (!parse_offsets(value, tool_offsets_)) bad("unreadable embedded.tool_offsets in the header");
+  } else if (key == "embedded.firmware_offsets") {
+    firmware_offsets_ = value == "true";
+  } else if (key == "speed.acceleration" && number && v > 0 && limits_.acceleration == 0) {
+    limits_.acceleration = v;
+    sink_.limits(limits_);
+  } else if (key == "speed.jerk" && number) {
+    limits_.jerk[0] = limits_.jerk[1] = v;
+    sink_.limits(limits_);
+  } else {
+    return;
+  }
+  update_offset();
 }
 
 void GcodeScanner::bad(const std::string& what) {
@@ -107,10 +166,19 @@ void GcodeScanner::comment(std::string_view c) {
       sink_.mixture_lookahead(mm);
     return;
   }
+  if (starts_with(c, "setting ")) {
+    const std::string_view kv = c.substr(8);
+    const auto eq = kv.find(" = ");
+    if (eq != std::string_view::npos)
+      header_setting(trim(kv.substr(0, eq)), trim(kv.substr(eq + 3)));
+    return;
+  }
   if (starts_with(c, "LAYER:") || starts_with(c, "LAYER_CHANGE")) {
+    priming_ = false;
     sink_.layer_change(std::nan(""));
   } else if (starts_with(c, "TYPE:")) {
-    sink_.role(role_from_gcode_type(c.substr(5)));
+    priming_ = trim(c.substr(5)) == kPrimeLineType;
+    if (!priming_) sink_.role(role_from_gcode_type(c.substr(5)));
   } else if (starts_with(c, "WIDTH:") || starts_with(c, "HEIGHT:")) {
     const bool w = c[0] == 'W';
     const std::string_view v = trim(c.substr(w ? 6 : 7));
@@ -245,7 +313,14 @@ void GcodeScanner::line(std::string_view text) {
       inches_ = false;
     else if (code == 92)
       move(args, 92);
-    else if (code == 4) {  // dwell: G4 P<milliseconds> or S<seconds> (Marlin, RRF, Klipper)
+    else if (code == 28) {  // home: the named axes (all when none) at 0
+      const bool x = !param(args, "X").empty(), y = !param(args, "Y").empty(),
+                 z = !param(args, "Z").empty(), all = !x && !y && !z;
+      if (all || x) pos_.x = 0;
+      if (all || y) pos_.y = 0;
+      if (all || z) pos_.z = 0;
+      sink_.home();
+    } else if (code == 4) {  // dwell: G4 P<milliseconds> or S<seconds> (Marlin, RRF, Klipper)
       double ms = 0, sec = 0;
       const std::string_view pv = param(args, "P"), sv = param(args, "S");
       if (!pv.empty() && (!parse_number(pv.data(), pv.data() + pv.size(), ms) || !(ms >= 0) ||
@@ -264,6 +339,7 @@ void GcodeScanner::line(std::string_view text) {
       if (sv.empty()) return;
       if (!parse_number(sn.data(), sn.data() + sn.size(), t) || t < 0 || t > 1000)
         return bad("bad temperature in '" + std::string(args.substr(0, 40)) + "'");
+      sink_.heater(static_cast<int>(tool), t, false);
       set_temperature(static_cast<int>(tool), t);
     }
   } else if (c == 'M') {
@@ -344,11 +420,14 @@ void GcodeScanner::apply_move(const Words& w, int g) {
                has('R') ? word('R') : 0, has('R'), g == 2, feed_);
   const bool valve_extrudes = !opt_.valve_on.empty() && valve_ && g == 1;
   const double de = e_to - e_;
+  if (moves(pos_, to) || std::abs(de) > 1e-12) sink_.motion(pos_, to, de, feed_);
   if (moves(pos_, to)) {
-    if (de > 1e-12 || valve_extrudes)
-      sink_.extrude(pos_, to, std::max(de, 0.0), feed_);
+    if ((de > 1e-12 || valve_extrudes) && priming_)
+      sink_.prime(pos_ + offset_, to + offset_, std::max(de, 0.0), feed_);
+    else if (de > 1e-12 || valve_extrudes)
+      sink_.extrude(pos_ + offset_, to + offset_, std::max(de, 0.0), feed_);
     else
-      sink_.travel(pos_, to, feed_);
+      sink_.travel(pos_ + offset_, to + offset_, feed_);
     if (de < -1e-12) sink_.retract();
   } else if (de < -1e-12) {
     sink_.retract();
@@ -397,10 +476,13 @@ void GcodeScanner::arc(Vec3 to, double e_to, double ci, double cj, double r, boo
                                       from.z + (to.z - from.z) * t};
     const double e_k = e0 + (e_to - e0) * t;
     const double de = e_k - e_;
-    if (de > 1e-12 || (!opt_.valve_on.empty() && valve_))
-      sink_.extrude(pos_, q, std::max(de, 0.0), feed);
+    sink_.motion(pos_, q, de, feed);
+    if ((de > 1e-12 || (!opt_.valve_on.empty() && valve_)) && priming_)
+      sink_.prime(pos_ + offset_, q + offset_, std::max(de, 0.0), feed);
+    else if (de > 1e-12 || (!opt_.valve_on.empty() && valve_))
+      sink_.extrude(pos_ + offset_, q + offset_, std::max(de, 0.0), feed);
     else
-      sink_.travel(pos_, q, feed);
+      sink_.travel(pos_ + offset_, q + offset_, feed);
     pos_ = q;
     e_ = e_k;
   }
@@ -514,6 +596,12 @@ class ToolpathBuilder : public GcodeSink {
 };
 
 }  // namespace
+
+void PrintTimeSink::heater(int h, double celsius, bool wait) {
+  if (!wait) return time.set_target(h, celsius);
+  if (h == kAllHeaters) return time.wait_all();
+  time.wait_for(h, celsius);
+}
 
 std::unique_ptr<GcodeSink> make_toolpath_builder(Toolpath& toolpath) {
   return std::make_unique<ToolpathBuilder>(toolpath);

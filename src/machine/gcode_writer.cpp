@@ -5,20 +5,21 @@
 #include <algorithm>
 #include <cerrno>
 #include <charconv>
-#include <cstdio>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
+#include <functional>
 #include <memory>
 #include <numbers>
 #include <utility>
 
+#include "fast_number.hpp"
+#include "gcode_objects.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/machine/gcode_reader.hpp"
 #include "trellis/machine/machine_check.hpp"
 #include "trellis/version.hpp"
-#include "fast_number.hpp"
-#include "gcode_objects.hpp"
 
 namespace trellis {
 
@@ -114,7 +115,11 @@ class Writer {
     header();
     for (std::size_t li = 0; li < tp_.layers.size(); ++li) layer(li, tp_.layers[li]);
     footer();
-    if (gcode_progress_supported(p_.flavor)) insert_progress();
+    estimate_time([&](std::size_t end, GcodeScanner& scanner) {
+      scanner.feed(std::string_view(out_).substr(fed_, end - fed_));
+      fed_ = end;
+    });
+    insert_lines();
     stats_.bytes = out_.size();
     stats = stats_;
     return std::move(out_);
@@ -135,6 +140,19 @@ class Writer {
     });
     footer();
     flush_raw();
+    if (std::fflush(raw_) != 0)
+      throw IoError(std::string("cannot write a temporary file: ") + std::strerror(errno));
+    std::rewind(raw_);
+    std::string chunk(std::size_t{1} << 20, '\0');
+    estimate_time([&](std::size_t end, GcodeScanner& scanner) {
+      while (fed_ < end) {
+        const std::size_t n = std::fread(chunk.data(), 1, std::min(chunk.size(), end - fed_), raw_);
+        if (n == 0)
+          throw IoError(std::string("cannot read a temporary file: ") + std::strerror(errno));
+        scanner.feed(std::string_view(chunk.data(), n));
+        fed_ += n;
+      }
+    });
     copy_with_progress(put);
     stats = stats_;
   }
@@ -159,21 +177,63 @@ class Writer {
     out_.clear();
   }
 
-  // The raw text read back with the M73 lines inserted at the marks (streamed writing).
+  // The print-time estimate of the text written (machine/print_time.hpp), read as `trellis
+  // analyze` reads the file, and the time at each mark. `feed(end, scanner)` feeds the text from
+  // where it stopped to byte `end`.
+  void estimate_time(const std::function<void(std::size_t, GcodeScanner&)>& feed) {
+    PrintTimeSink sink;
+    Diagnostics ignored;  // our own text: nothing to report
+    GcodeScanner scanner(sink, {}, ignored, "G-code being written");
+    fed_ = 0;
+    std::size_t k = 0, j = 0;
+    std::vector<double> at_object(object_marks_.size(), 0);
+    while (k < progress_marks_.size() || j < object_marks_.size()) {
+      const bool progress =
+          j == object_marks_.size() ||
+          (k < progress_marks_.size() && progress_marks_[k].first <= object_marks_[j].first);
+      feed(progress ? progress_marks_[k].first : object_marks_[j].first, scanner);
+      if (progress)
+        progress_marks_[k++].second = sink.time.elapsed();
+      else
+        at_object[j++] = sink.time.elapsed();
+    }
+    feed(flushed_ + out_.size(), scanner);
+    scanner.finish();
+    stats_.print_time_s = sink.time.seconds();
+    stats_.heating_s = sink.time.heating_s();
+    // Each part's time: from each of its starts to the next mark (its end).
+    for (std::size_t m = 0; m + 1 < object_marks_.size(); ++m) {
+      const int part = object_marks_[m].second;
+      if (part <= 0) continue;
+      if (stats_.part_time_s.size() < static_cast<std::size_t>(part))
+        stats_.part_time_s.resize(static_cast<std::size_t>(part));
+      stats_.part_time_s[static_cast<std::size_t>(part - 1)] += at_object[m + 1] - at_object[m];
+    }
+  }
+
+  // The lines that go in once the estimate is known, in the order of their offsets: M73
+  // progress at every layer (if the firmware takes it) and the estimated time in the footer.
+  std::vector<std::pair<std::size_t, std::string>> late_lines() const {
+    std::vector<std::pair<std::size_t, std::string>> lines;
+    if (gcode_progress_supported(p_.flavor))
+      for (const auto& [at, t] : progress_marks_)
+        lines.push_back({at, progress_line(t, stats_.print_time_s)});
+    lines.push_back({estimate_at_, "; estimated printing time (normal mode) = " +
+                                       duration_text(stats_.print_time_s) + "\n"});
+    return lines;
+  }
+
+  // The raw text read back with the late lines inserted at their offsets (streamed writing).
   void copy_with_progress(const ByteWriter& put) {
-    if (std::fflush(raw_) != 0)
-      throw IoError(std::string("cannot write a temporary file: ") + std::strerror(errno));
     std::rewind(raw_);
-    const bool progress = gcode_progress_supported(p_.flavor);
+    const auto lines = late_lines();
     std::string chunk(std::size_t{1} << 20, '\0');
     std::size_t at = 0, mark = 0;
-    while (at < flushed_) {
-      std::size_t until = flushed_;
-      if (progress && mark < progress_marks_.size()) until = progress_marks_[mark].first;
+    while (at < flushed_ || mark < lines.size()) {
+      const std::size_t until = mark < lines.size() ? lines[mark].first : flushed_;
       if (at == until) {
-        const std::string l = progress_line(progress_marks_[mark].second, stats_.print_time_s);
-        put(l);
-        stats_.bytes += l.size();
+        put(lines[mark].second);
+        stats_.bytes += lines[mark].second.size();
         ++mark;
         continue;
       }
@@ -186,28 +246,22 @@ class Writer {
     stats_.bytes += flushed_;
   }
 
-  // M73 P<percent done> R<minutes left> at the start and at every layer, from the time estimate
-  // (known only once everything is written: the lines go in afterwards, at the marks).
-  void insert_progress() {
-    const double total = stats_.print_time_s;
-    std::vector<std::string> lines;
-    lines.reserve(progress_marks_.size());
+  // The late lines inserted into the text in memory.
+  void insert_lines() {
+    const auto lines = late_lines();
     std::size_t added = 0;
-    for (const auto& [at, t] : progress_marks_) {
-      lines.push_back(progress_line(t, total));
-      added += lines.back().size();
-    }
+    for (const auto& l : lines) added += l.second.size();
     // In place, from the back: each stretch moves up by the lines inserted before it (no second
     // buffer of the whole file).
     std::size_t end = out_.size();
     out_.resize(end + added);
     char* d = out_.data();
     std::size_t shift = added;
-    for (std::size_t k = progress_marks_.size(); k-- > 0;) {
-      const std::size_t at = progress_marks_[k].first;
+    for (std::size_t k = lines.size(); k-- > 0;) {
+      const std::size_t at = lines[k].first;
       std::memmove(d + at + shift, d + at, end - at);
-      shift -= lines[k].size();
-      std::memcpy(d + at + shift, lines[k].data(), lines[k].size());
+      shift -= lines[k].second.size();
+      std::memcpy(d + at + shift, lines[k].second.data(), lines[k].second.size());
       end = at;
     }
   }
@@ -230,8 +284,14 @@ class Writer {
       safe_z_ = std::max(p_.bath_surface, box.empty() ? 0.0 : box.max.z) + p_.travel_clearance;
   }
 
-  // XY offset of the tool in use (embedded: one nozzle per tool).
-  Vec2 offset() const { return flavor_ == Flavor::Embedded ? tool_offset_ : Vec2{}; }
+  // What the head's XY adds to a design XY for the tool in use (embedded: one nozzle per tool).
+  // Nozzle t sits at head + offset(t) (embedded.tool_offsets), so the head goes to design -
+  // offset(t); firmware that applies the offsets itself (embedded.firmware_offsets) is given the
+  // design XY.
+  Vec2 offset() const {
+    if (flavor_ != Flavor::Embedded || p_.firmware_offsets) return {};
+    return {-tool_offset_.x, -tool_offset_.y};
+  }
 
   // Replaces {tool} and expands the other placeholders.
   std::string tool_template(const std::string& text, int tool, const char* which) const {
@@ -313,6 +373,57 @@ class Writer {
                                       : p_.nozzle_temperature > 0 ? p_.nozzle_temperature : -1;
     if (e_axis_) line("G92 E0");
     out_ += objects_.definitions;
+    prime_line();
+  }
+
+  // gcode.prime_line: a line along the bed's front edge, 5 mm in (a round bed: the chord half-way
+  // between its centre and its front), at the profile's layer height, before the first layer:
+  // the nozzle primed (Marlin: Eq. 4's filament for a bead that long; pneumatic: the valve open
+  // along it). Marked ";TYPE:Prime line": readers count it apart from the print's paths.
+  void prime_line() {
+    if (p_.prime_line <= 0 || flavor_ == Flavor::Embedded) return;
+    const double x0 = p_.origin == "center" ? -p_.bed_x / 2 : 0;
+    const double y0 = p_.origin == "center" ? -p_.bed_y / 2 : 0;
+    double xa = x0 + 5, y = y0 + 5;
+    if (p_.bed_shape == "circle") {
+      const double r = p_.bed_x / 2, cx = x0 + p_.bed_x / 2, cy = y0 + p_.bed_y / 2;
+      xa = cx - p_.prime_line / 2;
+      y = cy - r / 2;
+    }
+    const double xb = xa + p_.prime_line, h = p_.layer_height;
+    auto move = [&](const char* g, std::initializer_list<std::pair<char, double>> words, double f) {
+      out_ += g;
+      for (const auto& [letter, v] : words) {
+        out_ += ' ';
+        out_ += letter;
+        append_fixed(out_, v, letter == 'E' ? 5 : 3);
+      }
+      out_ += " F";
+      feed(f);
+      out_ += '\n';
+    };
+    line(std::string(";TYPE:") + std::string(kPrimeLineType));
+    move("G0", {{'X', xa}, {'Y', y}}, p_.travel_speed);
+    move("G0", {{'Z', h}}, p_.z_speed);
+    if (e_axis_) {
+      const double e = extrusion_for(p_.prime_line, h, p_);
+      e_ += e;
+      stats_.prime_filament = e;
+      move("G1", {{'X', xb}, {'E', p_.relative_e ? e : e_}}, p_.print_speed);
+    } else {
+      if (!p_.pressure_command.empty())
+        line(expand_template(p_.pressure_command, p_, "pneumatic.pressure_command"));
+      line(p_.valve_on);
+      dwell(p_.pre_flow_dwell);
+      move("G1", {{'X', xb}}, p_.print_speed);
+      dwell(p_.post_flow_dwell);
+      line(p_.valve_off);
+    }
+    const double up = h + std::max(p_.z_hop, 1.0);
+    move("G0", {{'Z', up}}, p_.z_speed);
+    // The travel to the first path is written as from an unknown place (up, across, down), as
+    // without a prime line, and not counted as a travel between paths (readers do not count it).
+    stats_.prime_length = p_.prime_line;
   }
 
   void footer() {
@@ -332,11 +443,11 @@ class Writer {
     if (!end.empty()) line(end);
     // PrusaSlicer's closing statistics, read by printer front ends.
     if (e_axis_) {
-      out_ += "; filament used [mm] = ";
-      append_fixed(out_, stats_.filament, 2);
+      out_ += "; filament used [mm] = ";  // all the machine uses: the prime line's too
+      append_fixed(out_, stats_.filament + stats_.prime_filament, 2);
       out_ += '\n';
     }
-    line("; estimated printing time (normal mode) = " + duration_text(stats_.print_time_s));
+    estimate_at_ = flushed_ + out_.size();  // the estimated time goes here (late_lines)
     line("; total layers count = " + std::to_string(layer_count_));
     out_ += "; end: paths ";
     out_ += std::to_string(stats_.paths);
@@ -351,7 +462,7 @@ class Writer {
   }
 
   void layer(std::size_t li, const Layer& l) {
-    progress_marks_.push_back({flushed_ + out_.size(), stats_.print_time_s});
+    progress_marks_.push_back({flushed_ + out_.size(), 0.0});  // its time: estimate_time
     out_ += ";LAYER:";
     out_ += std::to_string(li);
     out_ += "\n;Z:";
@@ -379,15 +490,10 @@ class Writer {
   // it changes (gcode_objects.hpp); the time in between goes to the part's estimate.
   void enter_object(int part) {
     if (part == object_) return;
-    if (object_ > 0) {
-      if (objects_.style != ObjectStyle::None) out_ += objects_.end(object_);
-      if (stats_.part_time_s.size() < static_cast<std::size_t>(object_))
-        stats_.part_time_s.resize(static_cast<std::size_t>(object_));
-      stats_.part_time_s[static_cast<std::size_t>(object_ - 1)] += stats_.print_time_s - object_since_;
-    }
+    if (object_ > 0 && objects_.style != ObjectStyle::None) out_ += objects_.end(object_);
+    object_marks_.push_back({flushed_ + out_.size(), part});
     if (part > 0 && objects_.style != ObjectStyle::None) out_ += objects_.start(part);
     object_ = part;
-    object_since_ = stats_.print_time_s;
   }
 
   // A bead split into joined paths (process fields) is one bead: priming at its start only,
@@ -463,7 +569,6 @@ class Writer {
     out_ += " F";
     feed(p_.z_speed);
     out_ += '\n';
-    stats_.print_time_s += move_time(std::abs(z - pos_.z), p_.z_speed, p_.acceleration);
     pos_.z = z;
   }
 
@@ -485,7 +590,6 @@ class Writer {
   // `more`: a further leg of a travel through `via` points, already counted as one move.
   void move_xy(Vec3 q, double d, bool with_z = false, bool more = false) {
     const Vec2 o = offset();
-    const double len = with_z && known_ ? distance(pos_, q) : d;
     // The line composed in one buffer, appended once (the writer's hot path, with print_move).
     using namespace fastnum;
     char buf[6 * kMaxChars];
@@ -505,7 +609,6 @@ class Writer {
     if (known_) {
       if (!more) ++stats_.travel_moves;
       stats_.travel_length += d;
-      stats_.print_time_s += move_time(len, p_.travel_speed, p_.acceleration);
     }
     pos_.x = q.x;
     pos_.y = q.y;
@@ -546,7 +649,6 @@ class Writer {
     out_ += "G4 P";
     out_ += std::to_string(std::lround(seconds * 1000));
     out_ += '\n';
-    stats_.print_time_s += seconds;
   }
 
   void extra_filament(double mm) {
@@ -993,7 +1095,6 @@ class Writer {
       *b++ = '\n';
       out_.append(buf, static_cast<std::size_t>(b - buf));
       stats_.print_length += len;
-      stats_.print_time_s += move_time(len, f, p_.acceleration);
       pos_ = q;
     }
   }
@@ -1019,7 +1120,11 @@ class Writer {
   std::string out_;
   GcodeObjects objects_;  // build plates: parts labelled for the firmware
   int object_ = 0;        // the part whose moves are being written (Path::part), 0 = none
-  double object_since_ = 0;  // the time estimate when that part began
+  // Offsets in the text where the part being printed changes (to that part, 0 = none): each
+  // part's time comes from the estimate at these (estimate_time).
+  std::vector<std::pair<std::size_t, int>> object_marks_;
+  std::size_t estimate_at_ = 0;  // offset of the footer's estimated time
+  std::size_t fed_ = 0;          // text fed to the time estimate so far
   std::vector<Change> changes_;  // mixture changes in print order
   // Streamed: printed length before each printed path (and after the last), and the paths
   // carrying a mixture (index, command, tool) until the changes are planned.
@@ -1113,7 +1218,8 @@ void write_gcode_into(std::string& out, const Toolpath& toolpath, const MachineP
         for (auto& q : path.points) q.z += lift;
     }
     tp = &lifted;
-    s.warnings.emplace_back("lifted", lift_warning(lift));
+    if (const double below = lift - (profile.has_bath() ? profile.floor_z : 0); below > 0)
+      s.warnings.emplace_back("lifted", lift_warning(below));
     // z + lift is monotone in z, so the lifted extent is the extent lifted, exactly.
     box.min.z += lift;
     box.max.z += lift;
@@ -1154,7 +1260,8 @@ GcodeStats write_gcode_stream(const std::string& path, const Toolpath& meta,
     };
     box.min.z += lift;
     box.max.z += lift;
-    s.warnings.emplace_back("lifted", lift_warning(lift));
+    if (const double below = lift - (profile.has_bath() ? profile.floor_z : 0); below > 0)
+      s.warnings.emplace_back("lifted", lift_warning(below));
   }
   for (auto& w : check_for_machine(placed, box, profile))
     s.warnings.emplace_back(w.kind, w.message);

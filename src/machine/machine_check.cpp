@@ -32,12 +32,13 @@ double placement_lift(const Toolpath& tp, const MachineProfile& p) {
 }
 
 double placement_lift(const BBox3& box, const MachineProfile& p) {
-  if (!p.lift) return 0;
+  const double floor = p.has_bath() ? p.floor_z : 0;  // the design's Z 0 on the bath's floor
+  if (!p.lift) return floor;
   const double low = box.empty() ? 0 : std::min(0.0, box.min.z);
-  return std::ceil(-low * 1000 - 1e-9) / 1000;  // whole micrometres, at least -low
+  return floor + std::ceil(-low * 1000 - 1e-9) / 1000;  // whole micrometres, at least -low
 }
 
-void to_design_coordinates(Toolpath& tp, const std::string& text, const MachineProfile* profile) {
+void to_design_coordinates(Toolpath& tp, const std::string& text) {
   double dx = 0, dy = 0, dz = 0;
   const auto at = text.find("; placement offset = ");
   if (at != std::string::npos &&
@@ -49,14 +50,12 @@ void to_design_coordinates(Toolpath& tp, const std::string& text, const MachineP
     dz = 0;
   for (auto& l : tp.layers) {
     l.z -= dz;
-    for (auto& p : l.paths) {
-      const Vec2 t = profile && profile->has_bath() ? profile->tool_offset(p.tool) : Vec2{};
+    for (auto& p : l.paths)
       for (auto& q : p.points) {
-        q.x -= t.x + dx;
-        q.y -= t.y + dy;
+        q.x -= dx;
+        q.y -= dy;
         q.z -= dz;
       }
-    }
   }
 }
 
@@ -115,7 +114,8 @@ std::vector<MachineWarning> check_for_machine(const LayerSource& layers, const B
   BBox3 placed;
   bool outside = false;
   std::vector<Vec2> tool_offsets;
-  const bool offsets_apply = p.has_bath();  // the embedded writer moves by the tool's offset
+  // The embedded writer moves the head to design - offset (unless the firmware applies them).
+  const bool offsets_apply = p.has_bath() && !p.firmware_offsets;
   const int gradient_tools = p.gradient_tool_count();
   bool mixed = false;
   std::size_t max_materials = 0;
@@ -169,7 +169,7 @@ std::vector<MachineWarning> check_for_machine(const LayerSource& layers, const B
                                where(li, pi), num(path.temperature),
                                num(p.max_nozzle_temperature)));
       for (const Vec3& q : path.points) {
-        const Vec3 at{q.x + shift.x + toff.x, q.y + shift.y + toff.y, q.z};
+        const Vec3 at{q.x + shift.x - toff.x, q.y + shift.y - toff.y, q.z};
         placed.add(at);
         bool in = at.z >= -eps && at.z <= p.bed_z + eps;
         if (circle)
@@ -230,6 +230,14 @@ std::vector<MachineWarning> check_for_machine(const LayerSource& layers, const B
           errors.add("temperature", fmt::format("{} = {} °C is above temperature.max_nozzle = {} °C",
                                                 key, num(t), num(p.max_nozzle_temperature)));
   }
+  // The prime line: along a rectangle's front edge, 5 mm clear at each end; on a circle, the
+  // chord half-way between the centre and the front (sqrt(3)/2 of the diameter), 5 mm clear.
+  const double prime_room = (circle ? p.bed_x * std::sqrt(3.0) / 2 : p.bed_x) - 10;
+  if (p.prime_line > 0 && p.prime_line > prime_room + eps)
+    errors.add("prime_line", fmt::format("the prime line (gcode.prime_line = {} mm) does not fit "
+                                         "on the bed: at most {} mm along its front "
+                                         "(machine.bed_x, machine.bed_shape)",
+                                         num(p.prime_line), num(std::max(0.0, prime_room))));
   if (p.nozzle_temperature > p.max_nozzle_temperature + eps)
     errors.add("temperature", fmt::format("temperature.nozzle = {} °C is above the machine's "
                                           "temperature.max_nozzle = {} °C",

@@ -59,7 +59,8 @@ const std::vector<SettingDecl>& machine_settings() {
       {"placement.offset_y", "mm", "Y offset added after centring", -10000, 10000, &P::offset_y},
       {"extrusion.nozzle_diameter", "mm", "nozzle diameter d_n (Eq. 4)", 0.01, 10,
        &P::nozzle_diameter},
-      {"extrusion.filament_diameter", "mm", "filament diameter f_d (Eq. 4; a syringe: the barrel bore)", 0.1, 100,
+      {"extrusion.filament_diameter", "mm",
+       "filament diameter f_d (Eq. 4; a syringe: the barrel bore)", 0.1, 100,
        &P::filament_diameter},
       {"extrusion.layer_height", "mm", "layer thickness LT when a path has none (Eq. 4)", 0.001, 10,
        &P::layer_height},
@@ -75,7 +76,14 @@ const std::vector<SettingDecl>& machine_settings() {
       {"speed.print", "mm/s", "printing speed", 0.01, 1000, &P::print_speed},
       {"speed.travel", "mm/s", "travel speed", 0.01, 2000, &P::travel_speed},
       {"speed.z", "mm/s", "speed of Z moves", 0.01, 1000, &P::z_speed},
-      {"speed.acceleration", "mm/s²", "acceleration for print-time estimates, 0 = feed rates only", 0, 100000, &P::acceleration},
+      {"speed.acceleration", "mm/s²",
+       "acceleration for print-time estimates (trapezoidal moves, as the firmware plans them), 0 "
+       "= feed rates only",
+       0, 100000, &P::acceleration},
+      {"speed.jerk", "mm/s",
+       "print-time estimates: the speed change a corner takes without slowing (Marlin's classic "
+       "jerk per axis)",
+       0, 1000, &P::jerk},
       {"speed.max", "mm/s", "fastest feed the machine moves at; faster settings are refused", 0.01,
        10000, &P::max_speed},
       {"speed.short_path_factor", "", "speed factor for short paths (paper: 0.6)", 0.01, 10,
@@ -89,8 +97,7 @@ const std::vector<SettingDecl>& machine_settings() {
       {"temperature.standby", "°C",
        "temperature of idle tools on a multi-tool machine; 0 = they stay at the printing "
        "temperature",
-       0, 500,
-       &P::standby_temperature},
+       0, 500, &P::standby_temperature},
       {"temperature.max_nozzle", "°C", "hottest nozzle temperature the machine allows", 0, 500,
        &P::max_nozzle_temperature},
       {"temperature.max_bed", "°C", "hottest bed temperature the machine allows", 0, 200,
@@ -128,8 +135,19 @@ const std::vector<SettingDecl>& machine_settings() {
       {"embedded.node_dwell", "s", "dwell at every node inside a path", 0, 60, &P::node_dwell},
       {"embedded.node_overlap", "mm", "extend each path end this far past its end node", 0, 10,
        &P::node_overlap},
-      {"embedded.tool_offsets", "mm", "XY offset per tool as \"x,y;x,y;...\" (tool 0 first)", 0,
-       0, &P::tool_offsets},
+      {"embedded.tool_offsets", "mm",
+       "where each nozzle sits relative to nozzle 0, \"x,y;x,y;...\" (tool 0 first): the writer "
+       "puts nozzle t on design XY by moving the head to design - offset, unless "
+       "embedded.firmware_offsets",
+       0, 0, &P::tool_offsets},
+      {"embedded.firmware_offsets", "",
+       "the firmware applies each tool's offset itself (tool definitions, G10): the writer "
+       "commands design XY and leaves the offsets to it",
+       0, 0, &P::firmware_offsets},
+      {"embedded.floor_z", "mm",
+       "Z of the bath's floor (the container bottom) above machine Z0: the design's Z 0, where "
+       "the first strut is printed; below embedded.bath_surface",
+       0, 10000, &P::floor_z},
       {"embedded.tool_pressures", "kPa",
        "pressure per tool as \"p0,p1,...\" (replaces pneumatic.pressure)", 0, 0,
        &P::tool_pressures},
@@ -141,7 +159,8 @@ const std::vector<SettingDecl>& machine_settings() {
        0, 0, &P::embedded_drive},
       {"embedded.bath_travel", "mm",
        "travel moves up to this long stay inside the bath instead of lifting out (e.g. between "
-       "non-planar layers); tool changes always lift", 0, 10000, &P::bath_travel},
+       "non-planar layers); tool changes always lift",
+       0, 10000, &P::bath_travel},
       {"embedded.raise_idle", "", "command raising the nozzle {tool} that goes idle; empty = none",
        0, 0, &P::raise_idle},
       {"gradient.mode", "",
@@ -212,6 +231,10 @@ const std::vector<SettingDecl>& machine_settings() {
        "PNG previews embedded in the G-code header for printer screens and front ends, "
        "\"WxH,WxH\" (PrusaSlicer's thumbnail format); empty = none",
        0, 0, &P::thumbnails},
+      {"gcode.prime_line", "mm",
+       "prime line: this much line drawn along the bed's front edge, 5 mm in, before the first "
+       "layer (valve open for pneumatic machines; not in a bath); 0 = none",
+       0, 1000, &P::prime_line},
       {"gcode.label_objects", "",
        "build plates: each part's moves between the firmware's object start and end, so the "
        "printer can cancel one part (M486 S<id> A\"<label>\" ... M486 S-1 for Marlin, Prusa and "
@@ -459,6 +482,25 @@ void validate(const MachineProfile& p) {
   if (p.origin != "corner" && p.origin != "center")
     throw SettingError("unknown origin '" + p.origin + "' (expected corner or center)",
                        {"", 0, "machine.origin"});
+  if (p.floor_z > 0 && p.bath_surface > 0 && p.floor_z >= p.bath_surface)
+    throw SettingError("the bath's floor (embedded.floor_z = " + number_text(p.floor_z) +
+                           " mm) must be below its surface (embedded.bath_surface = " +
+                           number_text(p.bath_surface) + " mm)",
+                       {"", 0, "embedded.floor_z"});
+  if (p.floor_z > 0 && !p.has_bath())
+    throw SettingError(
+        "embedded.floor_z is for bath machines (machine.flavor = embedded), not " + p.flavor,
+        {"", 0, "embedded.floor_z"});
+  if (p.floor_z >= p.bed_z)
+    throw SettingError("the bath's floor (embedded.floor_z = " + number_text(p.floor_z) +
+                           " mm) is not below the machine's build height (machine.bed_z = " +
+                           number_text(p.bed_z) + " mm)",
+                       {"", 0, "embedded.floor_z"});
+  if (p.prime_line > 0 && p.has_bath())
+    throw SettingError(
+        "a prime line is drawn on a bed, not in a support bath (machine.flavor = "
+        "embedded): leave gcode.prime_line at 0",
+        {"", 0, "gcode.prime_line"});
   if (p.embedded_drive != "pressure" && p.embedded_drive != "syringe")
     throw SettingError("unknown embedded drive '" + p.embedded_drive +
                            "' (expected pressure or syringe)",
@@ -479,14 +521,6 @@ std::string setting_text(const MachineProfile& p, const SettingDecl& d) {
           return p.*member;
       },
       d.member);
-}
-
-double move_time(double length, double feed, double acceleration) {
-  if (length <= 0 || feed <= 0) return 0;
-  if (acceleration <= 0) return length / feed;
-  // Reaching `feed` takes feed²/(2a) mm each way; shorter moves are triangles.
-  if (length >= feed * feed / acceleration) return length / feed + feed / acceleration;
-  return 2 * std::sqrt(length / acceleration);
 }
 
 std::string settings_help() {

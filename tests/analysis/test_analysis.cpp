@@ -200,6 +200,7 @@ TEST(Analysis, DwellsAreCountedAsTheWriterCountsThem) {
   GcodeScanner s(plain, {}, d);
   s.feed("G1 X10 E1 F600\nG4 P500\nG4 S2\nG4\n");
   s.finish();
+  plain.finish();
   EXPECT_NEAR(plain.counts.print_time_s, 1 + 0.5 + 2, 1e-12);
   EXPECT_EQ(d.total(), 0u);
 
@@ -226,6 +227,7 @@ TEST(Analysis, DwellsAreCountedAsTheWriterCountsThem) {
     GcodeScanner scan(counter, o, d);
     scan.feed(g);
     scan.finish();
+    counter.finish();
     return std::pair{stats.print_time_s, counter.counts.print_time_s};
   };
   const auto [w0, r0] = times(0, 0);

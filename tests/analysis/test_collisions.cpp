@@ -100,7 +100,7 @@ TEST(CollisionCheck, EmbeddedGcodeReadBackIsCleanAndComplete) {
   read.valve_on = prof.valve_on;
   read.valve_off = prof.valve_off;
   Toolpath back = read_gcode(gcode, read, d);
-  to_design_coordinates(back, gcode, &prof);  // placement and each nozzle's offset undone
+  to_design_coordinates(back, gcode);  // placement undone (the reader undid the offsets)
   std::size_t paths = 0;
   for (const auto& l : back.layers) paths += l.paths.size();
   EXPECT_EQ(paths, r.trails.trails.size());

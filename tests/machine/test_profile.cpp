@@ -109,10 +109,3 @@ TEST(Profile, HelpListsEverySettingAndOnlyRealOnes) {
   }
   EXPECT_GE(listed, shipped.size());
 }
-
-TEST(Profile, MoveTimeWithAcceleration) {
-  EXPECT_DOUBLE_EQ(move_time(10, 10, 0), 1.0);
-  EXPECT_NEAR(move_time(10, 10, 100), 1.1, 1e-12);    // cruise 0.9 s + ramps 0.2 s
-  EXPECT_NEAR(move_time(0.25, 10, 100), 0.1, 1e-12);  // never reaches the feed
-  EXPECT_EQ(move_time(0, 10, 100), 0.0);
-}

@@ -282,8 +282,8 @@ TEST(Writer, EmbeddedTravelLeavesTheBathVerticallyAndSwapsNozzles) {
     tp.layers[0].paths.push_back(p);
   };
   add({{0, 0, 0}, {5, 0, 5}, {10, 0, 0}}, 0);
-  add({{0, 5, 0}, {10, 5, 0}}, 1);
-  add({{0, 9, 0}, {10, 9, 0}}, 1);
+  add({{41, 5, 0}, {51, 5, 0}}, 1);
+  add({{41, 9, 0}, {51, 9, 0}}, 1);
   trellis::MachineProfile prof =
       trellis::load_profile(std::string(TRELLIS_SOURCE_DIR) + "/profiles/embedded_aero_two_nozzle.toml");
   prof.node_overlap = 0.5;
@@ -316,9 +316,10 @@ TEST(Writer, EmbeddedTravelLeavesTheBathVerticallyAndSwapsNozzles) {
     }
   }
   EXPECT_EQ(xy_travels, 3);
-  // Tool 1 prints 40 mm to the right; the overlap pushes the ends 0.5 mm past the nodes.
-  EXPECT_NE(g.find("G0 X39.5 Y5"), std::string::npos) << g;
-  EXPECT_NE(g.find("G1 X50.5 Y5"), std::string::npos);
+  // Nozzle 1 sits 40 mm to the right of nozzle 0: the head goes 40 mm to the left of its paths;
+  // the overlap pushes the ends 0.5 mm past the nodes.
+  EXPECT_NE(g.find("G0 X0.5 Y5"), std::string::npos) << g;
+  EXPECT_NE(g.find("G1 X11.5 Y5"), std::string::npos);
   prof.tool_offsets = "0,0;abc";
   EXPECT_THROW(trellis::validate(prof), trellis::SettingError);
 }

@@ -280,7 +280,7 @@ CollisionCheck replay_gcode(const Graph& g, const AeroResult& r) {
   read.valve_off = prof.valve_off;
   Diagnostics d;
   Toolpath back = read_gcode(gcode, read, d);
-  to_design_coordinates(back, gcode, &prof);  // the writer centred and lifted it onto the bed
+  to_design_coordinates(back, gcode);  // the writer centred and lifted it onto the bed
   CheckOptions o;
   o.snap = prof.node_overlap + 0.05;
   return check_collisions(g, back, o);

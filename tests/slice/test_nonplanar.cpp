@@ -281,10 +281,11 @@ TEST(Nonplanar, ToolGroupsAndInBathHopsInTheGcode) {
   EXPECT_EQ(rep.extrusion_starts, 9u);
   const HeightField s = m_curve({});
   for (const auto& d : rep.deposits) {
-    // Tool 1 sits 35 mm along +X: undo the offset for the deposits printed with it.
+    // Nozzle 1 sits 35 mm along +X: the head ran 35 mm to the left of its deposits (the replay
+    // reads head positions).
     for (auto [x, y, z] : {std::tuple{d.x0, d.y0, d.z0}, std::tuple{d.x1, d.y1, d.z1}}) {
       double surf = s.height({x, y});
-      if (!std::isfinite(surf)) surf = s.height({x - 35, y});
+      if (!std::isfinite(surf)) surf = s.height({x + 35, y});
       ASSERT_TRUE(std::isfinite(surf)) << x << "," << y;
       const double k = (z - surf) / prm.layer_height;
       EXPECT_NEAR(k, std::round(k), 0.01 / prm.layer_height);

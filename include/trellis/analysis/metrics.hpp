@@ -22,7 +22,12 @@ struct GcodeCounts {
   // Paths of the toolpath IR: runs of connected extrusion, split also where the tool, feature
   // type, mixture or temperature changes (the paths `trellis view` shows).
   std::size_t toolpath_paths = 0;
-  double extruded_length = 0, travel_length = 0, filament = 0, print_time_s = 0;
+  double extruded_length = 0, travel_length = 0, filament = 0;
+  // The print-time estimate (machine/print_time.hpp): moves with acceleration and jerk, dwells
+  // and heater waits; heating_s is the heater waits' part of it (other slicers leave it out).
+  double print_time_s = 0, heating_s = 0;
+  // Prime lines drawn before the print (not paths; their filament is not in `filament`).
+  double prime_length = 0, prime_filament = 0;
   // Per-path sums for Eq. 1-3 (a path = a run of connected extrusion moves; its edges = moves).
   std::size_t paths = 0;
   double weighted = 0;                        // Σ length_i · edges_i
@@ -47,8 +52,11 @@ struct GcodeCounts {
 
 class CountingSink : public GcodeSink {
  public:
+  // `acceleration` (mm/s²): the time estimate's when the file sets none (limits() without one).
   explicit CountingSink(std::size_t long_nodes = 5, double acceleration = 0)
-      : long_nodes_(long_nodes), acceleration_(acceleration) {}
+      : long_nodes_(long_nodes), acceleration_(acceleration) {
+    limits(MotionLimits{});
+  }
   void layer_change(double) override { commented_ = layer_pending_ = true; }
   void extrude(Vec3 a, Vec3 b, double e, double feed) override;
   void travel(Vec3 a, Vec3 b, double feed) override;
@@ -58,8 +66,19 @@ class CountingSink : public GcodeSink {
   void mixture(const std::vector<double>&) override { attribute_changed_ = true; }
   void temperature(double) override { attribute_changed_ = true; }
   void object(std::string_view label) override;
-  void dwell(double seconds) override;  // counted in the print time, as the writer counts it
-  // Closes the last path; call once after the last line.
+  void dwell(double seconds) override { time_.dwell(seconds); }
+  void motion(Vec3 a, Vec3 b, double de, double feed) override { time_.move(a, b, de, feed); }
+  void limits(const MotionLimits& l) override {
+    MotionLimits with = l;
+    if (with.acceleration == 0) with.acceleration = acceleration_;
+    time_.set_limits(with);
+  }
+  void heater(int heater, double celsius, bool wait) override {
+    time_sink_heater(heater, celsius, wait);
+  }
+  void home() override { time_.flush(); }
+  void prime(Vec3 a, Vec3 b, double e, double feed) override;
+  // Closes the last path and completes the time estimate; call once after the last line.
   void finish();
   GcodeCounts counts;
 
@@ -69,11 +88,13 @@ class CountingSink : public GcodeSink {
   bool extruded_ = false;
   bool commented_ = false, layer_pending_ = false, attribute_changed_ = false;
   double layer_z_ = 0;
-  double pending_ = 0;  // travel length since the last extrusion
+  double pending_ = 0;                 // travel length since the last extrusion
   std::size_t early_retractions_ = 0;  // before the first extrusion
   Vec3 last_;
   std::size_t long_nodes_;
   double acceleration_;
+  PrintTimeEstimator time_;  // the one estimate (the writer's too), tagged by part
+  void time_sink_heater(int heater, double celsius, bool wait);
   std::ptrdiff_t part_ = -1;  // index into counts.parts of the labelled part open, -1 = none
   double path_length_ = 0;
   std::size_t path_edges_ = 0;
@@ -90,8 +111,8 @@ struct AnalysisParams {
   // Without align_centers: align anyway when less than half of the extruded length lies in the
   // design's XY box (a part placed on the bed); Analysis::auto_aligned says so.
   bool auto_align = true;
-  bool keep_printed = false;   // build the IR (Analysis::printed) even without a design
-  double acceleration = 0;     // mm/s² for the print-time estimate (0 = feed rates only)
+  bool keep_printed = false;  // build the IR (Analysis::printed) even without a design
+  double acceleration = 0;    // mm/s² for the print-time estimate (0 = feed rates only)
 };
 
 struct StrutCoverage {

@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "trellis/core/diagnostics.hpp"
+#include "trellis/machine/print_time.hpp"
 #include "trellis/toolpath/toolpath.hpp"
 
 namespace trellis {
@@ -35,12 +36,24 @@ struct GcodeReadOptions {
   // them from its "; job:" header.
   std::string valve_on;
   std::string valve_off;
+  // Bath machines with several nozzles: where each nozzle sits relative to nozzle 0,
+  // "x,y;x,y;..." (embedded.tool_offsets). The writer moved the head to design - offset(tool), so
+  // the reader reports head + offset(tool): where the nozzle in use was. Left empty, a file
+  // Trellis wrote for a bath machine supplies them from its "; setting" header (none when its
+  // embedded.firmware_offsets says the firmware applied them: the head XY is the nozzle's then).
+  std::string tool_offsets;
+  // The motion limits the print-time estimate starts from; the file's own M201 / M203 / M204 /
+  // M205 lines, or our header's speed.acceleration and speed.jerk, replace them.
+  MotionLimits limits;
 };
 
 // ;TYPE: comment names: PrusaSlicer's vocabulary for the roles it has (Perimeter, Internal infill,
 // Solid infill, Wipe tower, Custom), Trellis' own for the rest (Strut, Contour, Handle); the
 // reader also knows Cura's (WALL-OUTER, SKIN, FILL, ...). docs/gcode.md has the table.
 const char* gcode_type_name(PathRole role);
+// The ;TYPE: of a prime line drawn before the print (gcode.prime_line): machine preparation, read
+// as GcodeSink::prime, not as a path.
+inline constexpr std::string_view kPrimeLineType = "Prime line";
 PathRole role_from_gcode_type(std::string_view type);
 
 // What the scanner reports. Positions are absolute, in mm.
@@ -61,6 +74,19 @@ class GcodeSink {
   virtual void width(double mm) {}             // from a ;WIDTH: comment
   virtual void height(double mm) {}            // from a ;HEIGHT: comment
   virtual void dwell(double seconds) {}        // G4 P<ms> / S<s>: the machine waits
+  // Every move as the machine makes it (machine XYZ, E change, feed), E-only moves too: what the
+  // print-time estimate needs; `extrude` / `travel` report the same moves as nozzle positions.
+  virtual void motion(Vec3 a, Vec3 b, double de, double feed_mm_s) {}
+  virtual void limits(const MotionLimits& limits) {}  // the motion limits now in force
+  // A heater's target (heater: tool number, or PrintTimeEstimator::kBed) and waits for heaters
+  // (heater kAllHeaters: every one; celsius NaN: its target as set).
+  static constexpr int kAllHeaters = -2;
+  virtual void heater(int heater, double celsius, bool wait) {}
+  // A homing move (G28): the machine stops; the position is the home position after it.
+  virtual void home() {}
+  // Moves that prime the nozzle before the print (our ";TYPE:Prime line"): not a path of the
+  // print; reported here instead of as `extrude`.
+  virtual void prime(Vec3 a, Vec3 b, double e, double feed_mm_s) {}
   // The moves that follow belong to the labelled part (build plates: M486 S<id> A"<label>",
   // Klipper EXCLUDE_OBJECT_START NAME=<label>); an empty label: to no part (M486 S-1,
   // EXCLUDE_OBJECT_END).
@@ -86,6 +112,15 @@ class TeeSink : public GcodeSink {
   void height(double h) override { a_.height(h), b_.height(h); }
   void object(std::string_view l) override { a_.object(l), b_.object(l); }
   void dwell(double s) override { a_.dwell(s), b_.dwell(s); }
+  void motion(Vec3 p, Vec3 q, double e, double f) override {
+    a_.motion(p, q, e, f), b_.motion(p, q, e, f);
+  }
+  void limits(const MotionLimits& l) override { a_.limits(l), b_.limits(l); }
+  void heater(int h, double c, bool w) override { a_.heater(h, c, w), b_.heater(h, c, w); }
+  void home() override { a_.home(), b_.home(); }
+  void prime(Vec3 p, Vec3 q, double e, double f) override {
+    a_.prime(p, q, e, f), b_.prime(p, q, e, f);
+  }
 
  private:
   GcodeSink& a_;
@@ -125,6 +160,10 @@ class GcodeScanner {
   void set_temperature(int tool, double celsius);
   void select_tool(int tool);
   void set_mixture(int tool, std::vector<double> mix);
+  void header_setting(std::string_view key, std::string_view value);
+  static bool parse_offsets(std::string_view text, std::vector<Vec2>& out);
+  void update_offset();
+  void limit_command(int code, std::string_view args);
 
   GcodeSink& sink_;
   GcodeReadOptions opt_;
@@ -144,6 +183,26 @@ class GcodeScanner {
   std::vector<double> m163_;                   // Marlin M163 weights before M164
   std::vector<std::string> object_labels_;     // M486: labels by object id (A"<label>")
   double reported_temp_ = std::nan("");
+  // Bath machines: each nozzle's offset (options or header) and the one of the tool in use.
+  std::vector<Vec2> tool_offsets_;
+  bool header_offsets_ = false;  // no offsets given: take them from our header
+  bool bath_header_ = false, firmware_offsets_ = false;
+  bool reprap_header_ = false;  // RepRapFirmware's M203 is in mm/min
+  Vec3 offset_;
+  bool priming_ = false;  // inside our ";TYPE:Prime line" block
+  MotionLimits limits_;
+};
+
+// A sink estimating the print time (machine/print_time.hpp) of what a scanner reads.
+class PrintTimeSink : public GcodeSink {
+ public:
+  explicit PrintTimeSink(const MotionLimits& limits = {}) : time(limits) {}
+  void dwell(double seconds) override { time.dwell(seconds); }
+  void motion(Vec3 a, Vec3 b, double de, double feed) override { time.move(a, b, de, feed); }
+  void limits(const MotionLimits& l) override { time.set_limits(l); }
+  void heater(int heater, double celsius, bool wait) override;
+  void home() override { time.flush(); }
+  PrintTimeEstimator time;
 };
 
 // A sink that builds the toolpath IR into `toolpath` (paths split at travel, retraction, tool,

@@ -31,7 +31,13 @@ struct GcodeStats {
   double travel_length = 0;  // mm
   double print_length = 0;   // mm
   double filament = 0;       // mm of filament (marlin)
-  double print_time_s = 0;   // feed-rate estimate, no acceleration
+  // The print-time estimate of the file written, as `trellis analyze` reads it back
+  // (machine/print_time.hpp: acceleration and jerk, dwells, heater waits); heating_s: the heater
+  // waits' part of it.
+  double print_time_s = 0, heating_s = 0;
+  // The prime line drawn before the print (gcode.prime_line): its length and filament (mm; not
+  // in `filament`, which is the print's; the footer's "; filament used" has both).
+  double prime_length = 0, prime_filament = 0;
   std::size_t tool_changes = 0;  // embedded
   std::size_t gradient_changes = 0;  // mixture / tool / temperature commands for graded paths
   double lookahead = 0;              // mm of path the changes were issued early

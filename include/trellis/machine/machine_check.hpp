@@ -28,17 +28,18 @@ struct MachineWarning {
 // The XY shift the G-code writer applies to design coordinates: to the bed centre when
 // placement.center, then placement.offset_x/y (tool offsets come on top, per tool).
 Vec2 placement_offset(const Toolpath& toolpath, const MachineProfile& profile);
-// The Z lift the writer applies: with placement.lift, how far the lowest point is below Z 0.
+// The Z lift the writer applies: with placement.lift, how far the lowest point is below Z 0; a
+// bath machine adds embedded.floor_z (the design's Z 0 is on the bath's floor).
 double placement_lift(const Toolpath& toolpath, const MachineProfile& profile);
 // The same from the extent of every point (streamed layers: the extent gathered as they come).
 Vec2 placement_offset(const BBox3& points_box, const MachineProfile& profile);
 double placement_lift(const BBox3& points_box, const MachineProfile& profile);
 
 // Undoes what our writer did to place a toolpath on the machine: the header's "; placement
-// offset = dx, dy" and "; placement lift = dz", and (with the machine profile) each tool's XY
-// offset, so that G-code read back is in design coordinates again.
-void to_design_coordinates(Toolpath& toolpath, const std::string& gcode_text,
-                           const MachineProfile* profile);
+// offset = dx, dy" and "; placement lift = dz" (which includes a bath's floor_z), so that G-code
+// read back is in design coordinates again. Each nozzle's offset is the reader's to undo
+// (GcodeReadOptions::tool_offsets, or the file's header): it reads nozzle positions.
+void to_design_coordinates(Toolpath& toolpath, const std::string& gcode_text);
 
 // Every error found, in one MachineError (the first few named, with counts); returns warnings.
 // Checks: each point after placement (and its tool's offset) inside the build area and between

@@ -49,6 +49,7 @@ struct MachineProfile {
   double travel_speed = 100;
   double z_speed = 10;
   double acceleration = 0;  // mm/s², for time estimates; 0 = feed rates only
+  double jerk = 10;         // mm/s, the speed change taken at a corner without slowing (estimates)
   double max_speed = 500;   // fastest feed the machine moves at (mm/s)
   double short_path_factor = 0.6;  // speed factor for paths under short_path_segments
   int short_path_segments = 4;
@@ -83,7 +84,12 @@ struct MachineProfile {
   double travel_clearance = 2;  // travel this far above the bath surface (mm)
   double node_dwell = 0;        // dwell at every node inside a path (s)
   double node_overlap = 0;      // extend each path end this far past its node (mm)
-  std::string tool_offsets;     // per tool "x,y;x,y;..." (mm), tool 0 first; empty = all 0,0
+  // Where each nozzle sits relative to nozzle 0, "x,y;x,y;..." (mm), tool 0 first; empty = all
+  // 0,0. The writer puts nozzle t at design XY by commanding the head to design - offset(t),
+  // unless firmware_offsets says the firmware shifts the head itself (then it writes design XY).
+  std::string tool_offsets;
+  bool firmware_offsets = false;
+  double floor_z = 0;           // Z of the bath's floor above machine Z0: the design's Z0 (mm)
   std::string tool_pressures;   // per tool "p0,p1,..." replacing pneumatic.pressure; empty = same
   std::string tool_change = "T{tool}";  // command selecting tool {tool}
   std::string raise_idle;       // command raising the nozzle {tool} that goes idle; empty = none
@@ -113,6 +119,8 @@ struct MachineProfile {
   std::string end_gcode = "M84";
   std::string file_extension = "";  // default output extension: "" = by flavor
   std::string thumbnails = "16x16,220x124";  // PNG previews in the G-code header, "WxH,..."
+  // A prime line drawn along the bed's front edge before the first layer (mm of line; 0 = none).
+  double prime_line = 0;
   bool label_objects = true;  // plates: each part's moves labelled for the firmware (M486 / Klipper)
 
   Flavor parsed_flavor() const;
@@ -152,10 +160,6 @@ void apply_override(MachineProfile& profile, const std::string& assignment);
 void validate(const MachineProfile& profile);
 // Value of a setting as text (for headers and templates).
 std::string setting_text(const MachineProfile& profile, const SettingDecl& decl);
-// Time (s) of one straight move of `length` mm at `feed` mm/s that starts and ends at rest,
-// with a trapezoidal speed profile of the given acceleration (0 = constant feed). A simple,
-// slightly pessimistic model: real firmware keeps speed through shallow corners.
-double move_time(double length, double feed, double acceleration);
 
 // Help text listing every setting with unit, default and doc.
 std::string settings_help();
