@@ -249,10 +249,12 @@ class Result:
 
 
 def _route_keywords(route):
-    """keyword (flag with _) -> setting key, for the route's sections."""
+    """keyword (flag with _) -> setting key, for the route's sections; where two sections share a
+    flag (seed, density, cell), the route's own section wins (plan's seed is plan.seed)."""
     sections = set(_trellis.route_sections(route))
     out = {}
-    for s in _trellis.settings():
+    ordered = sorted(_trellis.settings(), key=lambda s: s["section"] != route)
+    for s in ordered:
         if s["section"] in sections and s["flag"]:
             out.setdefault(s["flag"].replace("-", "_"), s["key"])
     return out

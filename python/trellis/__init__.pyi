@@ -180,7 +180,7 @@ def plan(
     region: Literal['rectangle', 'circle'] = ...,  # lattice2d.region: crop region
     region_center: Sequence[float] = ...,  # lattice2d.center: region centre x, y
     rotation: float = ...,  # lattice2d.rotation: pattern rotation about the region centre
-    seed: int = ...,  # lattice2d.seed: Voronoi random seed
+    seed: int = ...,  # plan.seed: random seed (gippo iterations, aero shuffled runs)
     seeds: int = ...,  # gippo.seeds: robustness: also run seeds plan.seed .. +N-1 and report the best score's spread (paper Fig. 2 v-vi); 0 = off
     size: Sequence[float] = ...,  # lattice2d.size: rectangle width, height
     skin: float = ...,  # lattice3d.skin: conformal: a stochastic (Voronoi) skin this thick

@@ -89,9 +89,10 @@ Estimate estimate_gippo(std::size_t edges, int iterations, int seeds);
 Estimate estimate_aero(std::size_t edges, int tries);
 Estimate estimate_nonplanar(const BBox2& domain, const NonplanarParams& p);
 // Every setting the user gave must change this run's output (Setting::when): refused otherwise,
-// with the reason. Before the toolpath is made (`written` null) the toolpath's facts hold; the
-// G-code writer checks again with the toolpath it writes.
-void check_settings_used(const Job& job, const Toolpath* written);
+// with the reason (a job file's setting the command line left idle: a warning). Before the
+// toolpath is made (`written` null) the toolpath's facts hold; the G-code writer checks again
+// with the toolpath it writes.
+void check_settings_used(const Job& job, const Toolpath* written, Diagnostics& diag);
 // Writing a toolpath JSON file as G-code: reading it and writing about as many bytes of G-code.
 Estimate estimate_gcode_of(const std::string& toolpath_json);
 // toolpath_json: the whole toolpath is also written as JSON (time and memory of its document).

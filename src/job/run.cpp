@@ -53,7 +53,7 @@ GcodeStats write_gcode_out(const std::string& path, Toolpath tp, const Job& job,
   GcodeStats stats;
   if (!out.toolpath) out.toolpath = std::make_shared<Toolpath>(tp);
   if (path.empty()) return stats;
-  check_settings_used(job, &tp);  // now that the toolpath is known: mixtures, tools, process values
+  check_settings_used(job, &tp, diag);  // now that the toolpath is known: mixtures, tools, process values
   tp.job = embedded_job(job, path);
   stats = write_gcode_file(path, tp, machine, gcode_thumbnails(tp, machine));
   for (const auto& [kind, message] : stats.warnings) diag.warn(kind, message);
@@ -144,13 +144,17 @@ static UseContext use_context(const Job& job) {
 
 // Every setting the user gave (on the command line, in a job file or from Python; a machine
 // profile describes the machine and may hold settings a route does not use) must change this
-// run's output: one its route does not use here is refused with the reason (Setting::when).
-void check_settings_used(const Job& job, const Toolpath* written) {
+// run's output: one its route does not use here is refused with the reason (Setting::when). A
+// job file's setting left idle by the command line (`--set plan.planner=euler` over a job's
+// [gippo] table, `--set output.png=false` over its preview settings) is a warning instead: the
+// job file is right as written.
+void check_settings_used(const Job& job, const Toolpath* written, Diagnostics& diag) {
   if (job.embedded) return;  // an output's header records every setting, used or not
-  UseContext use = use_context(job);
-  if (!written) {
-    use.unknown = {"graded", "tools", "process"};
-  } else {
+  UseContext before = use_context(job);
+  before.unknown = {"graded", "tools", "process"};
+  UseContext use = before;
+  if (written) {
+    use.unknown.clear();
     bool graded = false, process = false;
     std::set<int> tools;
     for (const auto& l : written->layers)
@@ -163,14 +167,30 @@ void check_settings_used(const Job& job, const Toolpath* written) {
     if (tools.size() > 1) use.facts.push_back("tools");
     if (process) use.facts.push_back("process");
   }
+  const auto from_job_file = [&](const Settings::Entry& e) {
+    return !job.origin.empty() && e.origin.source == job.origin;
+  };
+  const auto from_profile = [&](const Settings::Entry& e) {
+    return !job.machine.empty() && e.origin.source == job.machine;
+  };
+  bool overridden = false;  // the command line (or Python) set something over the job file
+  for (const auto& [key, e] : job.settings.entries())
+    overridden |= !from_job_file(e) && !from_profile(e);
   for (const auto& [key, e] : job.settings.entries()) {
-    if (!job.machine.empty() && e.origin.source == job.machine) continue;
+    if (from_profile(e)) continue;
     const Setting* s = find_setting(key);
     if (!s) continue;
     const std::string why = unused_reason(*s, use);
-    if (!why.empty())
-      throw SettingError("the " + job.route + " route does not use it in this run: " + why,
-                         {e.origin.source, e.origin.line, key});
+    if (why.empty()) continue;
+    if (written && !unused_reason(*s, before).empty()) continue;  // said before the run
+    if (from_job_file(e) && overridden) {
+      diag.warn("setting_unused", fmt::format("{}:{}: {}: the {} route does not use it in this run "
+                                              "(the command line changed what it depends on): {}",
+                                              e.origin.source, e.origin.line, key, job.route, why));
+      continue;
+    }
+    throw SettingError("the " + job.route + " route does not use it in this run: " + why,
+                       {e.origin.source, e.origin.line, key});
   }
 }
 
@@ -307,7 +327,7 @@ JobResult run_job(const Job& job, Diagnostics& diag, const Progress& progress) {
   const Config c = job.settings.config();
   check_rules(c, job.settings, sections);
   check_profile_kind(job, sections);
-  routes::check_settings_used(job, nullptr);
+  routes::check_settings_used(job, nullptr, diag);
   // Every output of the job is staged and committed together at the end; an error, a cancel or
   // running out of memory leaves the output folders as they were (core/file.hpp). Its files are
   // checked before anything is written, and its inputs are never written (core/run_files.hpp).

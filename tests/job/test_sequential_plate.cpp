@@ -56,9 +56,12 @@ struct Move {
 std::vector<Move> read_moves(const std::string& gcode) {
   std::vector<Move> out;
   double x = 0, y = 0, z = 0, e = 0;
+  bool priming = false;  // the prime line along the bed's edge belongs to no part
   std::istringstream in(gcode);
   std::string line;
   while (std::getline(in, line)) {
+    if (line.rfind(";TYPE:", 0) == 0) priming = line.rfind(";TYPE:Prime line", 0) == 0;
+    if (line.rfind(";LAYER_CHANGE", 0) == 0) priming = false;
     if (line.rfind("G92", 0) == 0) {
       const auto at = line.find(" E");
       if (at != std::string::npos) e = std::stod(line.substr(at + 2));
@@ -77,7 +80,7 @@ std::vector<Move> read_moves(const std::string& gcode) {
       if (w[0] == 'E') ne = v;
     }
     const bool xy = nx != x || ny != y;
-    Move m{x, y, z, nx, ny, nz, xy && ne > e + 1e-9, -1};
+    Move m{x, y, z, nx, ny, nz, xy && ne > e + 1e-9 && !priming, -1};
     if (m.extrudes) {
       double best = 1e300;
       for (int k = 0; k < 3; ++k) {
