@@ -906,7 +906,7 @@ JobResult pbf_plate(const Job& job, const Config& c, Diagnostics& diag, const Pr
               for (Vec3& q : path.points) q = place_point(p.place, p.extent, q);
               path.part = static_cast<int>(k + 1);
             }
-            (path.points.size() == 2 && path.role == PathRole::Infill ? hatch_vectors : contour_vectors)++;
+            (path.points.size() == 2 && (path.role == PathRole::Hatch || path.role == PathRole::Infill) ? hatch_vectors : contour_vectors)++;
             tp.layers[i - a].paths.push_back(std::move(path));
           }
         },
