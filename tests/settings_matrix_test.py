@@ -50,6 +50,9 @@ EXEMPT = {
 # them open). Listed, not skipped: they are run and reported, and the test fails when one of them
 # starts to change its output or to be refused, so that the list stays true.
 KNOWN_GAPS = {
+    "plan:speed.jerk": "corner speeds in the print-time estimate: on the plan scenarios' small "
+                       "prints at 12 mm/s the change is below the estimate's 1 s resolution (it "
+                       "changes the gcode route's estimate)",
     "plan:aero.exact_struts": "solves obstruction cycles exactly up to this many struts; the small "
                               "lattices here have none, and no test lattice with such a cycle exists yet",
 }
