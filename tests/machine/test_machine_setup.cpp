@@ -57,6 +57,14 @@ std::vector<HeadMove> head_moves(const std::string& g) {
   return out;
 }
 
+// G-code read back with the profile's valve commands (nothing else: offsets come from the header).
+Toolpath read_with_valves(const std::string& gcode, const MachineProfile& p, Diagnostics& d) {
+  GcodeReadOptions o;
+  o.valve_on = p.valve_on;
+  o.valve_off = p.valve_off;
+  return read_gcode(gcode, o, d);
+}
+
 }  // namespace
 
 // The sign convention (docs/formats.md, "Machines"): embedded.tool_offsets says where nozzle t sits
@@ -83,10 +91,7 @@ TEST(ToolOffsets, ATwoNozzlePrintReadsBackOnTheDesign) {
   EXPECT_DOUBLE_EQ(p.tool_offset(1).x, 40);
   // Read back (no options: the offsets come from the file's header): the nozzles' positions.
   Diagnostics d;
-  GcodeReadOptions o;
-  o.valve_on = p.valve_on;
-  o.valve_off = p.valve_off;
-  const Toolpath back = read_gcode(g, o, d);
+  const Toolpath back = read_with_valves(g, p, d);
   EXPECT_EQ(d.total(), 0u);
   ASSERT_EQ(back.layers.size(), tp.layers.size());
   for (std::size_t l = 0; l < tp.layers.size(); ++l) {
@@ -246,10 +251,7 @@ TEST(HeatedPneumatic, TheCartridgeIsHeatedAndWaitedFor) {
       (p.nozzle_temperature - PrintTimeEstimator::kAmbient) / PrintTimeEstimator::kNozzleRate,
       1e-6);
   Diagnostics d;
-  GcodeReadOptions o;
-  o.valve_on = p.valve_on;
-  o.valve_off = p.valve_off;
-  const Toolpath back = read_gcode(g, o, d);
+  const Toolpath back = read_with_valves(g, p, d);
   ASSERT_EQ(back.path_count(), 1u);
   EXPECT_EQ(back.layers[0].paths[0].temperature, p.nozzle_temperature);
 }
