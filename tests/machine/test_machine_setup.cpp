@@ -109,6 +109,9 @@ TEST(ToolOffsets, ATwoNozzlePrintReadsBackOnTheDesign) {
   }
   // The same offsets given to the reader by hand read the same; a file whose firmware applies
   // the offsets carries design XY for the head, and reads back the same too.
+  GcodeReadOptions o;
+  o.valve_on = p.valve_on;
+  o.valve_off = p.valve_off;
   o.tool_offsets = p.tool_offsets;
   const Toolpath given = read_gcode(g, o, d);
   EXPECT_NEAR(given.layers[1].paths[1].points[0].x, tp.layers[1].paths[1].points[0].x, 1e-6);
