@@ -10,6 +10,7 @@
 
 #include "page.hpp"
 #include "trellis/core/error.hpp"
+#include "trellis/machine/gcode_writer.hpp"  // base64, shared with G-code thumbnails
 
 namespace trellis::view_page {
 
@@ -297,31 +298,6 @@ std::string data_blocks(const std::vector<ViewScene>& scenes, const std::string&
                      "</script>\n";
   for (std::size_t i = 0; i < scenes.size(); ++i) append_scene(data, scenes[i], i, layers);
   return data;
-}
-
-std::string base64(std::string_view in) {
-  static constexpr char kAlphabet[] =
-      "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-  std::string out;
-  out.reserve((in.size() + 2) / 3 * 4);
-  std::size_t i = 0;
-  for (; i + 3 <= in.size(); i += 3) {
-    const std::uint32_t v =
-        (std::uint8_t(in[i]) << 16) | (std::uint8_t(in[i + 1]) << 8) | std::uint8_t(in[i + 2]);
-    out += kAlphabet[v >> 18];
-    out += kAlphabet[(v >> 12) & 63];
-    out += kAlphabet[(v >> 6) & 63];
-    out += kAlphabet[v & 63];
-  }
-  if (i < in.size()) {
-    std::uint32_t v = std::uint8_t(in[i]) << 16;
-    if (i + 1 < in.size()) v |= std::uint8_t(in[i + 1]) << 8;
-    out += kAlphabet[v >> 18];
-    out += kAlphabet[(v >> 12) & 63];
-    out += i + 1 < in.size() ? kAlphabet[(v >> 6) & 63] : '=';
-    out += '=';
-  }
-  return out;
 }
 
 // JSON as text safe inside <script>: `<`, `>` and `&` occur in JSON only inside strings, where

@@ -33,6 +33,5 @@ std::string pack_layers(const ViewScene& scene);
 // JSON as text safe inside <script> (`<`, `>`, `&` as \u escapes; invalid UTF-8 as U+FFFD).
 std::string script_json(const nlohmann::json& value);
 std::string html_escape(const std::string& s);
-std::string base64(std::string_view in);
 
 }  // namespace trellis::view_page
