@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "trellis/settings/settings.hpp"
 #include "trellis/field/vcad.hpp"
 #include "trellis/geom/mesh_io.hpp"
 #include "trellis/machine/gcode_writer.hpp"
@@ -97,7 +98,7 @@ void fgm_job(benchmark::State& state, const std::string& design, int strategy, d
   job.planar.layer_height = 0.2;
   job.planar.bead_width = 0.4;
   const MachineProfile prof =
-      load_profile(std::string(TRELLIS_SOURCE_DIR) + "/profiles/geeetech_mizar_m_mixing.toml");
+      load_machine_profile(std::string(TRELLIS_SOURCE_DIR) + "/profiles/geeetech_mizar_m_mixing.toml");
   for (auto _ : state) {
     const SliceResult r = run_slice(job);
     GcodeStats g;

@@ -22,6 +22,7 @@ void add_render(CLI::App& app) {
     int progress = -1;
     std::string colour = "feature";
     RenderOptions r;
+    std::string machine;
     ViewLoadOptions load;
     bool follow = false;
   };
@@ -43,7 +44,7 @@ void add_render(CLI::App& app) {
                   "mixture as commanded)")
       ->check(CLI::IsMember({"feature", "order", "mixture", "commanded"}))
       ->capture_default_str();
-  cmd->add_option("--machine", o->load.machine, ".nc files: machine profile (valve commands)")
+  cmd->add_option("--machine", o->machine, ".nc files: machine profile (valve commands)")
       ->check(path_value());
   cmd->add_option("-o,--output", o->output, "PNG file (with --layer) or prefix")
       ->required()
@@ -83,10 +84,11 @@ void add_render(CLI::App& app) {
     }
     RunFiles files(o->follow);
     files.input("the toolpath", o->input);
-    files.input("the machine profile (--machine)", o->load.machine);
+    files.input("the machine profile (--machine)", o->machine);
     if (o->layer >= 0) files.output("the PNG (-o)", o->output);
     files.check();
     Diagnostics diag;
+    machine_valves(o->machine, o->load);
     ViewScene scene = load_view_scene(o->input, o->load, diag);
     if (scene.kind == "lattice")
       throw ParseError(o->input +

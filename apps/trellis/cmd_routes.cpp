@@ -12,15 +12,16 @@ namespace trellis::cli {
 
 namespace {
 
-struct RouteSpec {
+// A command of a route (plan has one per planner): its flags and help. What the route itself is
+// (its input, sections, streaming) comes from the library's route table (job/job.hpp RouteSpec).
+struct CommandSpec {
   const char* name;
   const char* route;
   const char* description;
   std::vector<std::string> flag_sections;  // settings with a flag here become options
-  const char* input;                       // positional input ("" = none)
-  bool input_required;
+  bool input_required;                     // the route's input (RouteSpec::input) as a positional
   const char* output_doc;                  // -o
-  bool machine;                            // --machine
+  int machine;                             // --machine: 0 none, 1 optional, 2 required
   bool toolpath;                           // --toolpath
   bool report;                             // --report
   std::string footer;
@@ -125,9 +126,9 @@ void add_routes(CLI::App& app, int argc, char** argv) {
       "  trellis plan gippo penrose.json -o penrose.toolpath.json --report penrose.report.json";
   auto* plan = app.add_subcommand("plan", "Plan print paths over a lattice: gippo, euler or aero");
   plan->require_subcommand(1);
-  const std::vector<RouteSpec> specs = {
+  const std::vector<CommandSpec> specs = {
       {"lattice2d", "lattice2d", "Generate a 2D lattice from the atlas (lattice JSON)",
-       {"lattice2d", "output", "run"}, "", false, "lattice JSON to write", false, false, false,
+       {"lattice2d", "output", "run"}, false, "lattice JSON to write", false, false, false,
        "Patterns: " + patterns +
            ".\nThe cell size means: honeycomb = hexagon side; penrose = rhombus side; snub-square = "
            "edge;\narrowhead, reentrant-honeycomb = horizontal period; square, triangle, lines = "
@@ -135,33 +136,33 @@ void add_routes(CLI::App& app, int argc, char** argv) {
            "the region centre,\nand cropped with a node where the crop cuts a strut.\nExample:\n"
            "  trellis lattice2d --pattern penrose --cell 1.2 --size 10,10 -o penrose.json --preview penrose"},
       {"lattice3d", "lattice3d", "Generate a 3D strut lattice: unit cells or a Voronoi foam (lattice JSON)",
-       {"lattice3d", "output", "run"}, "", false, "lattice JSON to write", false, false, false,
+       {"lattice3d", "output", "run"}, false, "lattice JSON to write", false, false, false,
        "Unit cells: " + cells +
            ".\n--kind foam makes a stochastic Voronoi foam in a box (--box W,D,H) or inside a closed\n"
            "mesh (--mesh FILE), reproducible for --seed. Materials: none; xy-plane (struts in the XY\n"
            "plane 0, others 1); component (one per connected part); vertical (steep struts 1).\nExample:\n"
            "  trellis lattice3d --cell-type octet --cell 7 --count 3,3,3 -o octet.json"},
       {"gippo", "plan", "GIPPO: the paper's randomized greedy path growth, best of N iterations",
-       with({"lattice", "plan", "gippo", "output", "run"}, m), "lattice", true,
+       with({"lattice", "plan", "gippo", "output", "run"}, m), true,
        "toolpath JSON to write", true, false, true,
        "Each iteration grows paths from a random incomplete node, taking the longest (--mode max)\n"
        "or shortest (--mode min) unused edge at either end; the best score (Eq. 1) is kept.\n"
        "Reproducible for a --seed whatever the thread count.\n" + plan_footer},
       {"euler", "plan", "Euler: exactly the lower bound max(1, odd nodes / 2) of paths (Hierholzer)",
-       with({"lattice", "plan", "output", "run"}, m), "lattice", true, "toolpath JSON to write",
+       with({"lattice", "plan", "output", "run"}, m), true, "toolpath JSON to write",
        true, false, true, plan_footer},
       {"aero", "plan", "AERO: collision-free Eulerian trails for 3D lattices printed in a bath",
-       with({"lattice", "plan", "aero", "nozzle", "output", "run"}, m), "lattice", true,
+       with({"lattice", "plan", "aero", "nozzle", "output", "run"}, m), true,
        "toolpath JSON to write", true, false, true,
        "The nozzle is a vertical cylinder (--nozzle-radius); struts within --cone of vertical print\n"
        "bottom-up; the plan is replayed by the independent collision checker and reported.\n" +
            plan_footer},
       {"gcode", "gcode", "Write G-code (or pneumatic / embedded .nc) from a toolpath and a machine profile",
-       with({"run"}, m), "toolpath", true, "G-code file to write", true, false, false,
+       with({"run"}, m), true, "G-code file to write", 2, false, false,
        "Profiles are TOML files (profiles/); `trellis settings machine` lists every setting.\n"
        "Settings merge: defaults < profile < flags and --set."},
       {"slice", "slice", "Slice a design (.vcad) or a mesh (.stl, .obj, .3mf) into walls, skins and infill",
-       with({"slice", "fgm", "process", "output", "run"}, m), "design", true, "G-code file to write", true, true, true,
+       with({"slice", "fgm", "process", "output", "run"}, m), true, "G-code file to write", 2, true, true,
        "A .vcad design is contoured straight from its implicit field at every layer (no mesh); a\n"
        "mesh is cut by planes (--route mesh, its default) or turned into a distance field first.\n"
        "The layer height is the profile's extrusion.layer_height unless --layer-height says\n"
@@ -169,7 +170,7 @@ void add_routes(CLI::App& app, int argc, char** argv) {
        "  trellis slice examples/designs/csg_bracket.vcad --machine profiles/ender3_s1_pro_tpu.toml\n"
        "      -o bracket.gcode --report bracket.json --preview bracket_preview"},
       {"pbf", "pbf", "Laser powder-bed toolpaths for a TPMS sheet lattice, straight from its field (.cli)",
-       {"laser", "scan", "timing", "pbf", "output", "run"}, "design", false, "CLI build file to write", true, true,
+       {"laser", "scan", "timing", "pbf", "output", "run"}, false, "CLI build file to write", true, true,
        true,
        "The sheet is Φ = φ² − c² around a TPMS mid-surface φ (--cell-type, --cell; c from --c or\n"
        "--thickness for uniform walls), inside a box (--size) or the solid of DESIGN.vcad. A\n"
@@ -182,7 +183,7 @@ void add_routes(CLI::App& app, int argc, char** argv) {
        "  trellis pbf --cell-type schwarz_d --cell 2.5 --size 10,10,10 --machine profiles/pbf_316l_25um.toml\n"
        "      -o lattice.cli --report lattice.json --preview previews"},
       {"nonplanar", "nonplanar", "Slice a surface into continuous non-planar layers (embedded printing)",
-       with({"nonplanar", "output", "run"}, m), "surface", false, "G-code to write", true, true, true,
+       with({"nonplanar", "output", "run"}, m), false, "G-code to write", 2, true, true,
        "The surface is an open mesh (STL, OBJ, 3MF), --height-fn z(x,y) over --domain, or a\n"
        "generated test surface (--set surface.kind=corrugation). It must be a height field.\n"
        "Each layer is the surface cut by vertical planes one bead width apart (the nozzle's unless\n"
@@ -192,7 +193,7 @@ void add_routes(CLI::App& app, int argc, char** argv) {
        "  trellis surface corrugation -o corrugation.stl\n"
        "  trellis nonplanar corrugation.stl --machine profiles/fresh_nonplanar_2syringe.toml -o corrugation.gcode"},
       {"surface", "surface", "Generate the non-planar paper's test surfaces (STL)",
-       {"surface", "output", "run"}, "", false, "STL to write", true, false, false,
+       {"surface", "output", "run"}, false, "STL to write", 1, false, false,
        "Kinds (--kind): corrugation (--periods, --angle, --amplitude-scale, --fillet, --flat),\n"
        "miura (--depth), m-curve (--height), sphere-cap (--radius, --diameter), and angle-test,\n"
        "the print-angle test path (0, ±22.5, ±45, ±67.5, 90, −80°) written as toolpath JSON, or as\n"
@@ -201,14 +202,14 @@ void add_routes(CLI::App& app, int argc, char** argv) {
   for (const auto& spec : specs) {
     auto o = std::make_shared<RouteOpts>();
     const std::string route = spec.route;
+    const RouteSpec& data = route_spec(route);
     auto* cmd = (route == "plan" ? plan : &app)->add_subcommand(spec.name, spec.description);
     cmd->footer(spec.footer);
     if (route == "plan") o->extra = spec.name;
     if (route == "surface")
       cmd->add_option("kind", o->extra, "corrugation, miura, m-curve or sphere-cap (or --kind)");
-    if (std::string(spec.input) != "") {
-      auto* in = cmd->add_option(spec.input, o->input, std::string("input ") + spec.input)
-                     ->check(path_value());
+    if (!data.input.empty()) {
+      auto* in = cmd->add_option(data.input, o->input, "input " + data.input)->check(path_value());
       if (spec.input_required) in->required();
     }
     cmd->add_option("-o,--output", o->output, spec.output_doc)->required()->check(path_value());
@@ -225,7 +226,7 @@ void add_routes(CLI::App& app, int argc, char** argv) {
       cmd->add_option("--report", o->report, "JSON report to write")->check(path_value());
     // slice (planar, graded, process fields; docs/plates.md) and pbf write their output alone
     // layer by layer.
-    const bool streams = route == "slice" || route == "pbf";
+    const bool streams = data.streams;
     auto whole = [streams](const char* other) {
       return streams ? std::string(" (holds the whole toolpath in memory; without it and ") +
                            other + " the output streams layer by layer)"
@@ -241,7 +242,7 @@ void add_routes(CLI::App& app, int argc, char** argv) {
     cmd->add_option("--set", o->sets, "any setting: section.key=value (repeatable; `trellis settings`)");
     o->flags.add(cmd, spec.flag_sections);
     add_progress_flag(cmd, o->progress);
-    const bool machine_required = route == "gcode" || route == "slice" || route == "nonplanar";
+    const bool machine_required = spec.machine == 2;
     cmd->callback([o, route, machine_required, argc, argv] {
       if (machine_required && o->machine.empty())
         throw SettingError("--machine PROFILE.toml is required (see profiles/)", {"", 0, "--machine"});

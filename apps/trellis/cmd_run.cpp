@@ -43,9 +43,7 @@ void add_run(CLI::App& app) {
     if (!o->shard.empty()) {
       std::tie(job.shard, job.shards) = parse_shard(o->shard);
       // The plan route says itself what of it shards (planner, plan.order, plan.layer_start).
-      if (job.route != "pbf" && job.route != "slice" && job.route != "nonplanar" && job.route != "plan")
-        throw SettingError("the " + job.route + " route does not shard (pbf, slice, nonplanar and plan do)",
-                           {"", 0, "--shard"});
+      require_shards(route_spec(job.route), {"", 0, "--shard"});
     }
     job.keep_toolpath = false;  // only the files are used here
     Diagnostics diag;

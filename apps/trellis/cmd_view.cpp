@@ -11,11 +11,20 @@
 
 namespace trellis::cli {
 
+void machine_valves(const std::string& machine, ViewLoadOptions& load) {
+  if (machine.empty()) return;
+  const MachineProfile p = command_settings(machine, {}).config().machine;
+  if (p.parsed_flavor() == Flavor::Marlin) return;
+  if (load.valve_on.empty()) load.valve_on = p.valve_on;
+  if (load.valve_off.empty()) load.valve_off = p.valve_off;
+}
+
 void add_view(CLI::App& app) {
   struct Opts {
     std::vector<std::string> files;
     std::string output, title, design;
     std::vector<std::string> sets;
+    std::string machine;
     ViewLoadOptions load;
     bool follow = false;
   };
@@ -39,7 +48,7 @@ void add_view(CLI::App& app) {
   cmd->add_option("-o,--output", o->output, "HTML file to write")->required()->check(path_value());
   add_follow_symlinks(cmd, o->follow);
   cmd->add_option("--title", o->title, "page title (default: the file names)");
-  cmd->add_option("--machine", o->load.machine,
+  cmd->add_option("--machine", o->machine,
                   "machine profile (.nc valve commands, build volume, nozzle of the check)")
       ->check(path_value());
   cmd->add_option("--design", o->design,
@@ -53,16 +62,17 @@ void add_view(CLI::App& app) {
   cmd->callback([o] {
     RunFiles files(o->follow);
     for (const auto& f : o->files) files.input("the file to show", f);
-    files.input("the machine profile (--machine)", o->load.machine);
+    files.input("the machine profile (--machine)", o->machine);
     files.input("the design (--design)", o->design);
     files.output("the HTML (-o)", o->output);
     files.check();
     Diagnostics diag;
     std::vector<ViewScene> scenes;
     std::string title = o->title;
-    const bool machine = !o->load.machine.empty();
-    const Settings st = command_settings(o->load.machine, o->sets);
+    const bool machine = !o->machine.empty();
+    const Settings st = command_settings(o->machine, o->sets);
     const Config cfg = st.config();
+    machine_valves(o->machine, o->load);
     Graph design;
     if (!o->design.empty()) {
       cfg.aero.nozzle.validate();

@@ -10,6 +10,7 @@
 #include "trellis/lattice/collision.hpp"
 #include "trellis/render/render.hpp"
 #include "trellis/toolpath/toolpath.hpp"
+#include "trellis/view/view.hpp"
 
 namespace trellis::cli {
 
@@ -60,6 +61,9 @@ void add_follow_symlinks(CLI::App* cmd, bool& follow);
 
 // Settings of a command: the machine profile (if any), then --set assignments.
 Settings command_settings(const std::string& machine, const std::vector<std::string>& sets);
+// The valve commands of a pneumatic or bath profile (`machine`, may be empty) where `load` has
+// none from --valve-on/--valve-off (view, render).
+void machine_valves(const std::string& machine, ViewLoadOptions& load);
 // Prints a route's warnings, summary and written files; sets the exit code.
 void print_result(const JobResult& result, const Diagnostics& diag);
 

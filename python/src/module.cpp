@@ -278,9 +278,7 @@ PYBIND11_MODULE(_trellis, m) {
     Job job = load_job(path, output_dir, sets);
     std::tie(job.shard, job.shards) = parse_shard(shard);
     // The plan route says itself what of it shards (not aero; euler and gippo need G-code).
-    if (job.route != "pbf" && job.route != "slice" && job.route != "nonplanar" && job.route != "plan")
-      throw SettingError("the " + job.route + " route does not shard (pbf, slice, nonplanar and plan do)",
-                         {"", 0, "shard"});
+    require_shards(route_spec(job.route), {"", 0, "shard"});
     Diagnostics diag;
     py::gil_scoped_release release;
     return run_job(job, diag, {}).files;

@@ -17,54 +17,6 @@ namespace trellis {
 
 namespace fs = std::filesystem;
 
-const std::vector<std::string>& route_names() {
-  static const std::vector<std::string> r = {"lattice2d", "lattice3d", "plan",      "gcode",
-                                             "slice",     "pbf",       "nonplanar", "surface"};
-  return r;
-}
-
-const std::vector<std::string>& machine_sections() {
-  static const std::vector<std::string> s = {
-      "machine", "placement", "extrusion", "speed",    "temperature", "retraction",
-      "flow",    "pneumatic", "embedded",  "gradient", "purge",       "gcode"};
-  return s;
-}
-
-std::vector<std::string> route_sections(const std::string& route) {
-  std::vector<std::string> s;
-  auto add = [&](std::initializer_list<const char*> xs) {
-    for (const char* x : xs) s.emplace_back(x);
-  };
-  if (route == "lattice2d") add({"lattice2d", "output", "run"});
-  else if (route == "lattice3d") add({"lattice3d", "output", "run"});
-  else if (route == "plan") {
-    s = machine_sections();
-    add({"lattice2d", "lattice3d", "lattice", "layers", "onto", "plan", "gippo", "aero", "nozzle",
-         "output", "run"});
-  } else if (route == "gcode") {
-    s = machine_sections();
-    add({"run"});
-  }
-  else if (route == "slice") {
-    s = machine_sections();
-    add({"slice", "fgm", "process", "plate", "output", "run"});
-  } else if (route == "pbf") add({"machine", "laser", "scan", "timing", "pbf", "plate", "output", "run"});
-  else if (route == "nonplanar") {
-    s = machine_sections();
-    add({"nonplanar", "surface", "output", "run"});
-  } else if (route == "surface") {
-    s = machine_sections();  // the angle test can be written as G-code
-    add({"surface", "output", "run"});
-  }
-  else {
-    std::string all;
-    for (const auto& r : route_names()) all += (all.empty() ? "" : ", ") + r;
-    throw SettingError("unknown route '" + route + "' (expected one of " + all + ")",
-                       {"", 0, "job.route"});
-  }
-  return s;
-}
-
 namespace {
 
 std::string resolve(const std::string& base, const std::string& p) {
@@ -139,7 +91,7 @@ std::vector<PlatePart> parse_plate_parts(const toml::table& root, const std::str
   const toml::array* arr = node->as_array();
   if (!arr || !arr->is_array_of_tables())
     throw SettingError("parts of a plate are [[part]] tables", {origin, static_cast<long>(node->source().begin.line), "part"});
-  if (job.route != "pbf" && job.route != "slice")
+  if (!route_spec(job.route).plates)
     throw SettingError("build plates ([[part]]) are for the pbf and slice routes, not " + job.route,
                        {origin, static_cast<long>(node->source().begin.line), "part"});
   std::set<std::string> labels;

@@ -414,16 +414,11 @@ JobResult merge_shards(const std::vector<std::string>& manifests, const std::str
   files.check();
   const fs::path dir = fs::path(output).parent_path();
   if (!dir.empty()) create_output_directories(dir.string());
-  if (job.route == "pbf") routes::write_pbf_main(job, c, tp, out);
-  else if (job.route == "slice" && first.contains("graded"))
-    routes::write_graded_merge(job, c, tp, first["graded"].dump(), outline_z, next, out, diag);
-  else if (job.route == "slice") routes::write_slice_main(job, c, tp, out, diag);
-  else if (job.route == "nonplanar") routes::write_nonplanar_main(job, c, tp, out, diag);
-  else if (job.route == "plan") {
-    job.gcode = output;
-    routes::merge_plan_main(job, c, tp, out, diag);
-  }
-  else throw SettingError("the " + job.route + " route does not shard", {first_path, 0, "route"});
+  const RouteSpec& route = route_spec(job.route, {first_path, 0, "route"});
+  require_shards(route, {first_path, 0, "route"});
+  const ShardLayers layers{first.contains("graded") ? first["graded"].dump() : std::string(),
+                           outline_z, next};
+  route.merge(job, c, tp, layers, out, diag);
   batch.commit();
   out.summary = fmt::format("{} shards, {} layers", n, next);
   return out;

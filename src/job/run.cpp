@@ -245,15 +245,7 @@ Toolpath read_print(const std::string& path, const Settings* machine, double* sn
 namespace {
 
 JobResult run_route(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
-  const std::string& r = job.route;
-  if (r == "lattice2d") return routes::lattice2d(job, c, diag, progress);
-  if (r == "lattice3d") return routes::lattice3d(job, c, diag, progress);
-  if (r == "plan") return routes::plan(job, c, diag, progress);
-  if (r == "gcode") return routes::gcode(job, c, diag, progress);
-  if (r == "slice") return routes::slice(job, c, diag, progress);
-  if (r == "pbf") return routes::pbf(job, c, diag, progress);
-  if (r == "nonplanar") return routes::nonplanar(job, c, diag, progress);
-  return routes::surface(job, c, diag, progress);
+  return route_spec(job.route).run(job, c, diag, progress);
 }
 
 // A machine profile is for one kind of machine: a laser profile has [laser], [scan] or [timing];

@@ -1,6 +1,5 @@
 #include "trellis/machine/profile.hpp"
 
-#include <toml++/toml.h>
 
 #include <algorithm>
 #include <charconv>
@@ -326,63 +325,6 @@ std::vector<std::pair<double, double>> MachineProfile::down_flow_table() const {
 
 namespace {
 
-const SettingDecl* find_setting(const std::string& key) {
-  for (const auto& d : machine_settings())
-    if (key == d.key) return &d;
-  return nullptr;
-}
-
-void check_range(const SettingDecl& d, double v, const Where& where) {
-  if (!std::isfinite(v) || v < d.min || v > d.max)
-    throw SettingError("value out of range [" + std::to_string(d.min) + ", " +
-                           std::to_string(d.max) + "]" +
-                           (d.unit[0] ? std::string(" ") + d.unit : ""),
-                       where);
-}
-
-void set_from_toml(MachineProfile& p, const SettingDecl& d, const toml::node& node,
-                   const Where& where) {
-  std::visit(
-      [&](auto member) {
-        using T = std::remove_cvref_t<decltype(p.*member)>;
-        if constexpr (std::is_same_v<T, double>) {
-          auto v = node.value<double>();
-          if (!v || !(node.is_floating_point() || node.is_integer()))
-            throw SettingError("expected a number", where);
-          check_range(d, *v, where);
-          p.*member = *v;
-        } else if constexpr (std::is_same_v<T, int>) {
-          if (!node.is_integer()) throw SettingError("expected an integer", where);
-          const auto v = *node.value<std::int64_t>();
-          check_range(d, static_cast<double>(v), where);
-          p.*member = static_cast<int>(v);
-        } else if constexpr (std::is_same_v<T, bool>) {
-          if (!node.is_boolean()) throw SettingError("expected true or false", where);
-          p.*member = *node.value<bool>();
-        } else {
-          if (!node.is_string()) throw SettingError("expected a string", where);
-          p.*member = *node.value<std::string>();
-        }
-      },
-      d.member);
-}
-
-void walk(MachineProfile& p, const toml::table& table, const std::string& prefix,
-          const std::string& origin) {
-  for (const auto& [k, node] : table) {
-    const std::string key =
-        prefix.empty() ? std::string(k.str()) : prefix + "." + std::string(k.str());
-    const Where where{origin, static_cast<long>(node.source().begin.line), key};
-    if (const auto* sub = node.as_table()) {
-      walk(p, *sub, key, origin);
-      continue;
-    }
-    const SettingDecl* d = find_setting(key);
-    if (!d) throw SettingError("unknown setting (see `trellis gcode --help-settings`)", where);
-    set_from_toml(p, *d, node, where);
-  }
-}
-
 std::string number_text(double v) {
   char buf[32];
   auto [ptr, ec] = std::to_chars(buf, buf + sizeof buf, v);
@@ -390,53 +332,6 @@ std::string number_text(double v) {
 }
 
 }  // namespace
-
-MachineProfile profile_from_toml(const std::string& text, const std::string& origin) {
-  toml::table table;
-  try {
-    table = toml::parse(text, origin);
-  } catch (const toml::parse_error& e) {
-    throw SettingError(std::string(e.description()),
-                       {origin, static_cast<long>(e.source().begin.line)});
-  }
-  MachineProfile p;
-  walk(p, table, "", origin);
-  try {
-    validate(p);
-  } catch (const SettingError& e) {
-    throw SettingError(e.message(), {origin, 0, e.where().element});
-  }
-  return p;
-}
-
-MachineProfile load_profile(const std::string& path) {
-  return profile_from_toml(read_file(path), path);
-}
-
-void apply_override(MachineProfile& p, const std::string& assignment) {
-  const auto eq = assignment.find('=');
-  if (eq == std::string::npos)
-    throw SettingError("expected key=value, got '" + assignment + "'", {"--set"});
-  const std::string key = assignment.substr(0, eq), value = assignment.substr(eq + 1);
-  const SettingDecl* d = find_setting(key);
-  if (!d)
-    throw SettingError("unknown setting (see `trellis gcode --help-settings`)", {"--set", 0, key});
-  // Parse the value as a TOML value so the same type rules apply.
-  const bool is_string = std::holds_alternative<std::string MachineProfile::*>(d->member);
-  const std::string doc = "v = " + value;
-  toml::table t;
-  try {
-    if (is_string) {
-      t.insert("v", value);
-    } else {
-      t = toml::parse(doc);
-    }
-  } catch (const toml::parse_error& e) {
-    throw SettingError("cannot parse value '" + value + "'", {"--set", 0, key});
-  }
-  set_from_toml(p, *d, *t.get("v"), {"--set", 0, key});
-  validate(p);
-}
 
 std::vector<std::pair<int, int>> MachineProfile::thumbnail_sizes() const {
   std::vector<std::pair<int, int>> out;
@@ -521,21 +416,6 @@ std::string setting_text(const MachineProfile& p, const SettingDecl& d) {
           return p.*member;
       },
       d.member);
-}
-
-std::string settings_help() {
-  const MachineProfile defaults;
-  std::string out = "Machine profile settings (TOML [section] key, or --set section.key=value):\n";
-  for (const auto& d : machine_settings()) {
-    std::string line = std::string("  ") + d.key;
-    if (line.size() < 32) line.resize(32, ' ');
-    std::string def = setting_text(defaults, d);
-    for (auto& c : def)
-      if (c == '\n') c = ' ';
-    out += line + " " + d.doc + (d.unit[0] ? std::string(" [") + d.unit + "]" : "") +
-           " (default: " + (def.empty() ? "\"\"" : def) + ")\n";
-  }
-  return out;
 }
 
 }  // namespace trellis

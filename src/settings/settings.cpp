@@ -363,6 +363,32 @@ Config Settings::config() const {
   return c;
 }
 
+MachineProfile machine_profile_from_toml(const std::string& text, const std::string& origin,
+                                         const std::vector<std::string>& sets) {
+  Settings st;
+  st.load_toml(text, origin);
+  for (const auto& s : sets) {
+    const auto eq = s.find('=');
+    if (eq == std::string::npos)
+      throw SettingError("expected section.key=value, got '" + s + "'", {"", 0, "--set"});
+    st.set_text(s.substr(0, eq), s.substr(eq + 1), {"--set"});
+  }
+  MachineProfile p = st.config().machine;
+  try {
+    validate(p);
+  } catch (const SettingError& e) {
+    const std::string& key = e.where().element;
+    const Settings::Entry* given = st.find(key);
+    throw SettingError(e.message(), {given ? given->origin.source : origin,
+                                     given ? given->origin.line : 0, key});
+  }
+  return p;
+}
+
+MachineProfile load_machine_profile(const std::string& path, const std::vector<std::string>& sets) {
+  return machine_profile_from_toml(read_file(path), path, sets);
+}
+
 void check_rules(const Config& c, const Settings& st, const std::vector<std::string>& sections) {
   auto uses = [&](const std::string& sec) {
     return std::find(sections.begin(), sections.end(), sec) != sections.end();

@@ -143,13 +143,6 @@ ViewScene load_view_scene(const std::string& path, const ViewLoadOptions& option
   ViewScene s;
   if (ext == ".gcode" || ext == ".g" || ext == ".gco" || ext == ".nc" || ext == ".bgcode") {
     GcodeReadOptions read;
-    if (!options.machine.empty()) {
-      const MachineProfile profile = load_profile(options.machine);
-      if (profile.parsed_flavor() != Flavor::Marlin) {
-        read.valve_on = profile.valve_on;
-        read.valve_off = profile.valve_off;
-      }
-    }
     if (!options.valve_on.empty()) read.valve_on = options.valve_on;
     if (!options.valve_off.empty()) read.valve_off = options.valve_off;
     s = load_gcode(path, read, diag);

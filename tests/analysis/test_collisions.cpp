@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include "trellis/settings/settings.hpp"
 #include "trellis/analysis/collisions.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/lattice/cells3d.hpp"
@@ -93,7 +94,7 @@ TEST(CollisionCheck, EmbeddedGcodeReadBackIsCleanAndComplete) {
   const AeroResult r = plan_aero(g, p, d);
   const Toolpath tp = aero_toolpath(g, r, "test");
   MachineProfile prof =
-      load_profile(std::string(TRELLIS_SOURCE_DIR) + "/profiles/embedded_aero_two_nozzle.toml");
+      load_machine_profile(std::string(TRELLIS_SOURCE_DIR) + "/profiles/embedded_aero_two_nozzle.toml");
   prof.node_overlap = 0.3;
   const std::string gcode = write_gcode(tp, prof);
   GcodeReadOptions read;

@@ -11,6 +11,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "trellis/settings/settings.hpp"
 #include "trellis/core/diagnostics.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/job/job.hpp"
@@ -68,7 +69,7 @@ Written both(int strategy, const std::string& profile, const std::string& extra 
   Written w;
   if (!r.toolpath) return w;
   const Toolpath& tp = *r.toolpath;
-  const MachineProfile m = load_profile(kRoot + "/profiles/" + profile);
+  const MachineProfile m = load_machine_profile(kRoot + "/profiles/" + profile);
   w.whole = write_gcode(tp, m, &w.whole_stats);
   Toolpath meta;
   meta.source = tp.source;

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "trellis/settings/settings.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/machine/gcode_reader.hpp"
 #include "trellis/machine/gcode_writer.hpp"
@@ -17,8 +18,8 @@ namespace fs = std::filesystem;
 
 namespace {
 
-MachineProfile shipped(const std::string& name) {
-  return load_profile(std::string(TRELLIS_SOURCE_DIR) + "/profiles/" + name);
+MachineProfile shipped(const std::string& name, const std::vector<std::string>& sets = {}) {
+  return load_machine_profile(std::string(TRELLIS_SOURCE_DIR) + "/profiles/" + name, sets);
 }
 
 // Paths for two tools, each a strut at its own place in a small bath print.
@@ -160,11 +161,9 @@ TEST(BathFloor, TheFirstStrutSitsOnTheFloor) {
   }
   p.floor_z = p.bath_surface;
   EXPECT_THROW(validate(p), SettingError);
-  MachineProfile fdm;
-  EXPECT_THROW(apply_override(fdm, "embedded.floor_z=2"), SettingError);
-  MachineProfile deep = shipped("embedded_aero_410um.toml");
-  EXPECT_THROW(apply_override(deep, "embedded.floor_z=100"), SettingError);  // bed_z 100
-  EXPECT_NO_THROW(apply_override(deep, "embedded.floor_z=5"));
+  EXPECT_THROW(machine_profile_from_toml("", "fdm.toml", {"embedded.floor_z=2"}), SettingError);
+  EXPECT_THROW(shipped("embedded_aero_410um.toml", {"embedded.floor_z=100"}), SettingError);  // bed_z 100
+  EXPECT_NO_THROW(shipped("embedded_aero_410um.toml", {"embedded.floor_z=5"}));
 }
 
 // Every shipped profile that says it primes (a comment naming a prime line) draws one, and every
@@ -182,7 +181,7 @@ TEST(PrimeLine, ProfilesPrimeAsTheirCommentsSay) {
     text << in.rdbuf();
     const std::string t = text.str();
     if (t.find("flavor") == std::string::npos) continue;  // a laser
-    const MachineProfile p = load_profile(e.path().string());
+    const MachineProfile p = load_machine_profile(e.path().string());
     const bool says = t.find("prime line") != std::string::npos;
     EXPECT_EQ(says, p.prime_line > 0) << e.path().filename() << " says it primes: " << says;
     if (p.prime_line <= 0) continue;
@@ -228,10 +227,9 @@ TEST(PrimeLine, ThePneumaticLineOpensTheValveAndALongLineIsRefused) {
   EXPECT_LT(open, line);
   EXPECT_LT(line, close);
   EXPECT_LT(close, g.find(";LAYER:0"));
-  apply_override(p, "gcode.prime_line=195");  // bed_x 200: refused when it is written
+  p = shipped("pneumatic_pcl_27g.toml", {"gcode.prime_line=195"});  // bed_x 200: refused when written
   EXPECT_THROW(write_gcode(tp, p), MachineError);
-  MachineProfile bath = shipped("embedded_aero_410um.toml");
-  EXPECT_THROW(apply_override(bath, "gcode.prime_line=20"), SettingError);
+  EXPECT_THROW(shipped("embedded_aero_410um.toml", {"gcode.prime_line=20"}), SettingError);
 }
 
 // A pneumatic melt printer heats its cartridge: the heater is set and waited for before the

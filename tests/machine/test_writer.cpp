@@ -9,6 +9,7 @@
 #include "support/machines.hpp"
 #include "support/gcode_replay.hpp"
 #include "support/random_graphs.hpp"
+#include "trellis/settings/settings.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/lattice/atlas.hpp"
 #include "trellis/machine/gcode_reader.hpp"
@@ -285,7 +286,7 @@ TEST(Writer, EmbeddedTravelLeavesTheBathVerticallyAndSwapsNozzles) {
   add({{41, 5, 0}, {51, 5, 0}}, 1);
   add({{41, 9, 0}, {51, 9, 0}}, 1);
   trellis::MachineProfile prof =
-      trellis::load_profile(std::string(TRELLIS_SOURCE_DIR) + "/profiles/embedded_aero_two_nozzle.toml");
+      trellis::load_machine_profile(std::string(TRELLIS_SOURCE_DIR) + "/profiles/embedded_aero_two_nozzle.toml");
   prof.node_overlap = 0.5;
   prof.center = false;  // design coordinates are bed coordinates
   trellis::GcodeStats stats;

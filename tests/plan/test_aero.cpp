@@ -6,6 +6,7 @@
 #include <set>
 
 #include "support/random_graphs.hpp"
+#include "trellis/settings/settings.hpp"
 #include "trellis/analysis/collisions.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/lattice/cells3d.hpp"
@@ -273,7 +274,7 @@ namespace {
 // it with the independent checker.
 CollisionCheck replay_gcode(const Graph& g, const AeroResult& r) {
   const MachineProfile prof =
-      load_profile(std::string(TRELLIS_SOURCE_DIR) + "/profiles/embedded_aero_410um.toml");
+      load_machine_profile(std::string(TRELLIS_SOURCE_DIR) + "/profiles/embedded_aero_410um.toml");
   const std::string gcode = write_gcode(aero_toolpath(g, r, "test"), prof);
   GcodeReadOptions read;
   read.valve_on = prof.valve_on;

@@ -65,7 +65,8 @@ struct Job {
   bool embedded = false;
 };
 
-// Routes and the settings sections each reads (for flags, headers and job checks).
+// Routes and the settings sections each reads (for flags, headers and job checks): from the
+// route table below.
 const std::vector<std::string>& route_names();
 std::vector<std::string> route_sections(const std::string& route);
 const std::vector<std::string>& machine_sections();
@@ -119,6 +120,37 @@ struct JobResult {
   std::string summary;             // one or two lines for the terminal
   int exit_code = 0;               // 1 when a check found problems
 };
+
+// The layers of a sharded run as `trellis merge` hands them to the route's writer (job/plate.hpp).
+struct ShardLayers {
+  std::string graded;              // graded slicing: the manifests' "graded" object (JSON); else empty
+  std::vector<double> outline_z;   // graded slicing with process fields: the outline planes
+  std::size_t total_layers = 0;
+};
+
+// A route as data: everything the front ends (the CLI's commands and `run`, the job loader,
+// Python, sharding and merging, docs) need to know of it is here, once (route_specs()).
+struct RouteSpec {
+  std::string name;                   // job.route, the CLI command (plan: with its planners)
+  std::string input;                  // what its input is ("lattice", "toolpath", "design",
+                                      // "surface"); empty when it generates its design
+  std::vector<std::string> sections;  // the settings sections it reads
+  bool shards = false;                // `trellis run --shard K/N`, Python run_shard
+  bool plates = false;                // [[part]] build plates
+  bool streams = false;               // writes its layers in bounded memory when its output is alone
+  JobResult (*run)(const Job&, const Config&, Diagnostics&, const Progress&) = nullptr;
+  // `trellis merge`: writes the main output (job.output; plan: job.gcode) from the shards' layers
+  // with the single-process writer; null when the route does not shard.
+  void (*merge)(Job&, const Config&, Toolpath&, const ShardLayers&, JobResult&, Diagnostics&) =
+      nullptr;
+};
+
+const std::vector<RouteSpec>& route_specs();
+// The route called `name`; SettingError naming the routes there are otherwise (`where` names the
+// place that asked: the job file's route, a command).
+const RouteSpec& route_spec(const std::string& name, const Where& where = {"", 0, "job.route"});
+// SettingError (exit 2) unless the route shards, naming those that do (`where`: the flag).
+void require_shards(const RouteSpec& route, const Where& where);
 
 // A laser build file (CLI, ASCII or binary, any tool's) measured against its design (.vcad):
 // vectors outside the part, FR_a per layer, scan time with `laser`'s timing. The report JSON

@@ -150,18 +150,10 @@ struct SettingDecl {
 
 const std::vector<SettingDecl>& machine_settings();
 
-// Reads a TOML profile over the defaults. Unknown keys, wrong types and out-of-range values are
-// SettingErrors naming the file and line.
-MachineProfile load_profile(const std::string& path);
-MachineProfile profile_from_toml(const std::string& text, const std::string& origin);
-// Applies "key=value" (value parsed by the setting's type).
-void apply_override(MachineProfile& profile, const std::string& assignment);
+// Profiles are read through the settings schema (settings/settings.hpp load_machine_profile).
 // Validates cross-setting rules; throws SettingError.
 void validate(const MachineProfile& profile);
 // Value of a setting as text (for headers and templates).
 std::string setting_text(const MachineProfile& profile, const SettingDecl& decl);
-
-// Help text listing every setting with unit, default and doc.
-std::string settings_help();
 
 }  // namespace trellis

@@ -118,6 +118,14 @@ std::string unused_reason(const Setting& s, const UseContext& use);
 // `when` as words for documentation ("lattice2d.pattern = voronoi; G-code is written").
 std::string when_text(const std::string& when);
 
+// A machine profile read through the schema, the one loader: TOML text (or a file) of [section]
+// tables, `sets` ("section.key=value") over it, the profile's own rules checked
+// (machine/profile.hpp validate). SettingErrors name the file and line, or the --set.
+MachineProfile machine_profile_from_toml(const std::string& text, const std::string& origin,
+                                         const std::vector<std::string>& sets = {});
+MachineProfile load_machine_profile(const std::string& path,
+                                    const std::vector<std::string>& sets = {});
+
 // Checks the rules between settings (layer height vs nozzle, bead width vs nozzle, ...), naming
 // where the offending values came from. Route-specific rules take the sections the route uses.
 void check_rules(const Config& config, const Settings& settings,

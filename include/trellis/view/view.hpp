@@ -58,9 +58,10 @@ struct ViewScene {
   std::vector<std::vector<double>> commanded;
 };
 
+// How to read a pneumatic file: the front ends take the valve commands from the machine profile
+// (--machine) unless --valve-on/--valve-off say otherwise; a file's own header wins over none.
 struct ViewLoadOptions {
-  std::string machine;    // profile for .nc valve commands and .cli laser timing (optional)
-  std::string valve_on;   // pneumatic G-code: the command that opens the valve (overrides machine)
+  std::string valve_on;   // pneumatic G-code: the command that opens the valve
   std::string valve_off;  // ... and closes it
 };
 

@@ -1,0 +1,110 @@
+// The route table: each route once, as data (job/job.hpp RouteSpec). The CLI's commands, `trellis
+// run`, the job loader, Python, sharding and merging all read it; adding a route is adding a row
+// here and its functions in routes_*.cpp (docs/architecture.md).
+#include <algorithm>
+
+#include "routes.hpp"
+#include "trellis/core/error.hpp"
+#include "trellis/job/job.hpp"
+
+namespace trellis {
+
+namespace {
+
+std::vector<std::string> with_machine(std::initializer_list<const char*> own) {
+  std::vector<std::string> s = machine_sections();
+  s.insert(s.end(), own.begin(), own.end());
+  return s;
+}
+
+void merge_plan(Job& job, const Config& c, Toolpath& tp, const ShardLayers&, JobResult& out,
+                Diagnostics& diag) {
+  job.gcode = job.output;  // a plan's shards are named after its G-code
+  routes::merge_plan_main(job, c, tp, out, diag);
+}
+
+void merge_slice(Job& job, const Config& c, Toolpath& tp, const ShardLayers& shards,
+                 JobResult& out, Diagnostics& diag) {
+  if (!shards.graded.empty())
+    routes::write_graded_merge(job, c, tp, shards.graded, shards.outline_z, shards.total_layers,
+                               out, diag);
+  else
+    routes::write_slice_main(job, c, tp, out, diag);
+}
+
+void merge_pbf(Job& job, const Config& c, Toolpath& tp, const ShardLayers&, JobResult& out,
+               Diagnostics&) {
+  routes::write_pbf_main(job, c, tp, out);
+}
+
+void merge_nonplanar(Job& job, const Config& c, Toolpath& tp, const ShardLayers&, JobResult& out,
+                     Diagnostics& diag) {
+  routes::write_nonplanar_main(job, c, tp, out, diag);
+}
+
+}  // namespace
+
+const std::vector<std::string>& machine_sections() {
+  static const std::vector<std::string> s = {
+      "machine", "placement", "extrusion", "speed",    "temperature", "retraction",
+      "flow",    "pneumatic", "embedded",  "gradient", "purge",       "gcode"};
+  return s;
+}
+
+const std::vector<RouteSpec>& route_specs() {
+  // The plan route shards with euler and gippo writing G-code; it says so itself (planner,
+  // plan.order, plan.layer_start) when a shard is asked of it.
+  static const std::vector<RouteSpec> table = {
+      {"lattice2d", "", {"lattice2d", "output", "run"}, false, false, false, &routes::lattice2d},
+      {"lattice3d", "", {"lattice3d", "output", "run"}, false, false, false, &routes::lattice3d},
+      {"plan", "lattice",
+       with_machine({"lattice2d", "lattice3d", "lattice", "layers", "onto", "plan", "gippo", "aero",
+                     "nozzle", "output", "run"}),
+       true, false, false, &routes::plan, &merge_plan},
+      {"gcode", "toolpath", with_machine({"run"}), false, false, false, &routes::gcode},
+      {"slice", "design", with_machine({"slice", "fgm", "process", "plate", "output", "run"}), true,
+       true, true, &routes::slice, &merge_slice},
+      {"pbf", "design", {"machine", "laser", "scan", "timing", "pbf", "plate", "output", "run"},
+       true, true, true, &routes::pbf, &merge_pbf},
+      {"nonplanar", "surface", with_machine({"nonplanar", "surface", "output", "run"}), true, false,
+       false, &routes::nonplanar, &merge_nonplanar},
+      // The angle test can be written as G-code: the machine sections.
+      {"surface", "", with_machine({"surface", "output", "run"}), false, false, false,
+       &routes::surface},
+  };
+  return table;
+}
+
+const std::vector<std::string>& route_names() {
+  static const std::vector<std::string> names = [] {
+    std::vector<std::string> n;
+    for (const RouteSpec& r : route_specs()) n.push_back(r.name);
+    return n;
+  }();
+  return names;
+}
+
+const RouteSpec& route_spec(const std::string& name, const Where& where) {
+  for (const RouteSpec& r : route_specs())
+    if (r.name == name) return r;
+  std::string all;
+  for (const auto& r : route_names()) all += (all.empty() ? "" : ", ") + r;
+  throw SettingError("unknown route '" + name + "' (expected one of " + all + ")", where);
+}
+
+std::vector<std::string> route_sections(const std::string& route) {
+  return route_spec(route).sections;
+}
+
+void require_shards(const RouteSpec& route, const Where& where) {
+  if (route.shards) return;
+  std::vector<std::string> names;
+  for (const RouteSpec& r : route_specs())
+    if (r.shards) names.push_back(r.name);
+  std::string list;
+  for (std::size_t i = 0; i < names.size(); ++i)
+    list += (i == 0 ? "" : i + 1 == names.size() ? " and " : ", ") + names[i];
+  throw SettingError("the " + route.name + " route does not shard (" + list + " do)", where);
+}
+
+}  // namespace trellis
