@@ -76,15 +76,12 @@ JobResult shard_written(const Job& job, const Toolpath& tp, std::size_t first, s
 // A laser design (.vcad): process fields (fprocess) are FDM settings the laser route has no use
 // for, refused rather than dropped.
 Field laser_vcad(const std::string& path) {
-  // A mesh is not read as .vcad text ("unexpected character '\x00'"): the laser route plans from
-  // a field, and a solid part from a mesh is not scanned yet.
-  std::string ext = fs::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char ch) { return std::tolower(ch); });
-  if (ext == ".stl" || ext == ".obj" || ext == ".3mf")
-    throw SettingError("pbf plans TPMS sheet lattices and parts from a .vcad design (its field); "
-                       "a mesh is not scanned by this route yet: describe the part in .vcad (a "
-                       "lattice inside it with pbf.envelope, solid bosses with pbf.solids), or "
-                       "slice the mesh for extrusion with `trellis slice`",
+  // A mesh is not read as .vcad text ("unexpected character '\x00'"): the lattice's envelope and
+  // solids are fields; a mesh part is scanned on its own (pbf_solid).
+  if (is_mesh_path(path))
+    throw SettingError("the TPMS lattice's envelope and solids are .vcad designs (fields); a mesh "
+                       "part is scanned as a solid by giving it as the input (`trellis pbf "
+                       "part.stl`), or describe the envelope in .vcad",
                        {path, 0, "job.input"});
   Field f = read_vcad(path).field;
   if (f.has_process())
@@ -1025,6 +1022,7 @@ void write_pbf_main(const Job& job, const Config& c, Toolpath& tp, JobResult& ou
 }
 
 JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
+  if (pbf_solid_job(job, c)) return pbf_solid(job, c, diag, progress);
   if (!job.parts.empty() || job.shards) return pbf_plate(job, c, diag, progress);
   JobResult out;
   const LaserProfile& prof = c.laser;
