@@ -66,10 +66,17 @@ bool is_mesh_path(const std::string& path) {
 }
 
 bool pbf_solid_job(const Job& job, const Config& c) {
-  if (job.input.empty()) return false;
-  if (is_mesh_path(job.input)) return true;
   const std::string& s = c.pbf.strategy;
-  return s != "hybrid" && s != "r67";
+  const bool solid_strategy = s != "hybrid" && s != "r67";
+  if (solid_strategy && (job.input.empty() || !job.parts.empty() || job.shards))
+    throw SettingError(fmt::format("the {} strategy scans a solid part: give one mesh (STL, OBJ, "
+                                   "3MF) or .vcad solid as the input (build plates and shards "
+                                   "of solid parts are not planned yet); TPMS lattices take "
+                                   "hybrid or r67",
+                                   s),
+                       {"", 0, "pbf.strategy"});
+  if (job.input.empty()) return false;
+  return solid_strategy || is_mesh_path(job.input);
 }
 
 PbfSolidOptions pbf_solid_options(const Config& c) {

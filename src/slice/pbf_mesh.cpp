@@ -111,8 +111,9 @@ PbfResult plan_pbf_solid(const PbfSolid& part, const PbfSolidOptions& o, const P
       result.scan_time += L.scan_time;
       if (sink) {
         sink(first + k, L);
-        L.contours = {};
-        L.hatches = {};
+        // Freed, not just emptied (`= {}` would keep the capacity): the series stays small.
+        std::vector<std::vector<Vec2>>().swap(L.contours);
+        std::vector<Segment2>().swap(L.hatches);
       }
       result.layers.push_back(std::move(L));
     }
