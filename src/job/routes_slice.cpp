@@ -75,14 +75,14 @@ JobResult shard_written(const Job& job, const Toolpath& tp, std::size_t first, s
 
 // A laser design (.vcad): process fields (fprocess) are FDM settings the laser route has no use
 // for, refused rather than dropped.
-Field laser_vcad(const std::string& path) {
+Field laser_vcad(const std::string& path, const char* key = "job.input") {
   // A mesh is not read as .vcad text ("unexpected character '\x00'"): the lattice's envelope and
   // solids are fields; a mesh part is scanned on its own (pbf_solid).
   if (is_mesh_path(path))
     throw SettingError("the TPMS lattice's envelope and solids are .vcad designs (fields); a mesh "
                        "part is scanned as a solid by giving it as the input (`trellis pbf "
                        "part.stl`), or describe the envelope in .vcad",
-                       {path, 0, "job.input"});
+                       {path, 0, key});
   Field f = read_vcad(path).field;
   if (f.has_process())
     throw SettingError("the design sets process fields (fprocess: temperature, speed, flow, fan), "
@@ -114,13 +114,13 @@ PbfDesign pbf_design(const PbfConfig& p) {
   d.c = {p.c};
   d.thickness = p.thickness;
   if (!p.envelope.empty()) {
-    d.envelope = laser_vcad(p.envelope);
+    d.envelope = laser_vcad(p.envelope, "pbf.envelope");
   } else {
     const double side = 4 * p.cell;
     const Vec3 s = p.size.size() == 3 ? Vec3{p.size[0], p.size[1], p.size[2]} : Vec3{side, side, side};
     d.envelope = rectprism(s);
   }
-  if (!p.solids.empty()) d.solids = laser_vcad(p.solids);
+  if (!p.solids.empty()) d.solids = laser_vcad(p.solids, "pbf.solids");
   return d;
 }
 
