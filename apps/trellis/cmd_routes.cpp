@@ -169,7 +169,7 @@ void add_routes(CLI::App& app, int argc, char** argv) {
        "otherwise; the bead width is the nozzle's unless --bead-width. Example:\n"
        "  trellis slice examples/designs/csg_bracket.vcad --machine profiles/ender3_s1_pro_tpu.toml\n"
        "      -o bracket.gcode --report bracket.json --preview bracket_preview"},
-      {"pbf", "pbf", "Laser powder-bed toolpaths for a TPMS sheet lattice, straight from its field (.cli)",
+      {"pbf", "pbf", "Laser powder-bed toolpaths for a TPMS sheet lattice (from its field) or a solid part (.cli)",
        {"laser", "scan", "timing", "pbf", "output", "run"}, false, "CLI build file to write", true, true,
        true,
        "The sheet is Φ = φ² − c² around a TPMS mid-surface φ (--cell-type, --cell; c from --c or\n"
@@ -179,7 +179,12 @@ void add_routes(CLI::App& app, int argc, char** argv) {
        "layer: thin, steep walls get one contour track on φ = 0 cut into scan vectors (--sl, --lhd);\n"
        "joints are hatched at 67° more every layer. --strategy r67 hatches everything (the\n"
        "baseline); --route stl meshes the field first, for comparison. Scan settings come from the\n"
-       "laser profile (--machine) unless flags say otherwise. Example:\n"
+       "laser profile (--machine) unless flags say otherwise. A solid part (a mesh: STL, OBJ,\n"
+       "3MF; or a .vcad with --strategy rectilinear|meander|stripe|island) is sliced and each layer\n"
+       "scanned with --contours offsets, the first at the beam compensation, then hatched inside\n"
+       "the last one by the strategy (island: --island-size, --island-overlap, --island-shift;\n"
+       "stripe: --stripe-width, --stripe-overlap). Examples:\n"
+       "  trellis pbf part.stl --strategy island --island-size 5 -o part.cli\n"
        "  trellis pbf --cell-type schwarz_d --cell 2.5 --size 10,10,10 --machine profiles/pbf_316l_25um.toml\n"
        "      -o lattice.cli --report lattice.json --preview previews"},
       {"nonplanar", "nonplanar", "Slice a surface into continuous non-planar layers (embedded printing)",

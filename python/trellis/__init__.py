@@ -465,7 +465,8 @@ def check(lattice, print_file, *, machine=None, set=None, **nozzle):
 def pbf(output=None, *, envelope=None, machine=None, report=None, toolpath=None, preview=None,
         progress=None, set=None, **settings):
     """Laser powder-bed paths for a TPMS sheet lattice (.cli); ``envelope`` a design file or a
-    ``Field``."""
+    ``Field``. A mesh file (STL, OBJ, 3MF) as ``envelope``, or a .vcad with a solid strategy
+    (rectilinear, meander, stripe, island), is scanned as a solid part: contours, then hatch."""
     return _call_object("pbf", envelope, {"output": output, "report": report, "toolpath": toolpath,
                                    "preview": preview}, machine, set, progress, settings)
 

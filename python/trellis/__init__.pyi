@@ -272,6 +272,8 @@ def pbf(
     c: str = ...,  # pbf.c: sheet parameter c (Φ = φ² − c²): a number or an expression of x, y, z, rho, r
     cell: float = ...,  # pbf.cell: TPMS cell size
     cell_type: Literal['gyroid', 'schwarz_p', 'schwarz_d', 'neovius', 'iwp'] = ...,  # pbf.cell_type: TPMS of the sheet
+    contour_distance: float = ...,  # pbf.contour_distance: solid parts: between contours, and from the last one to the hatch
+    contours: int = ...,  # pbf.contours: solid parts: contour offsets per layer region, the first at the beam compensation (0: hatch only)
     envelope: str = ...,  # pbf.envelope: .vcad solid the lattice fills instead of the box
     follow_symlinks: bool = ...,  # run.follow_symlinks: write an output whose path is a symbolic link to the file it points to (the link kept); without it such an output is refused
     force: bool = ...,  # run.force: run even when the estimate is beyond run.max_memory or run.max_time
@@ -284,6 +286,9 @@ def pbf(
     hatch_rotation: float = ...,  # pbf.hatch_rotation: hatch rotation per layer (paper: 67)
     hierarchical: str = ...,  # pbf.hierarchical: TYPE:CELL:WEIGHT superposed (hierarchical lattice)
     image_size: int = ...,  # output.image_size: preview image size
+    island_overlap: float = ...,  # pbf.island_overlap: island: neighbouring islands overlap
+    island_shift: float = ...,  # pbf.island_shift: island: the island grid moves this far along both its axes every layer
+    island_size: float = ...,  # pbf.island_size: island: side of the square islands
     layer_height: float = ...,  # scan.layer: powder layer thickness
     lhd: float = ...,  # scan.segment_gap: gap LHD between contour scan vectors (the paper tested 0-120 µm; outside is a warning)
     max_memory: float = ...,  # run.max_memory: refuse a run whose estimate (made from its settings before it starts) needs more memory than this
@@ -295,7 +300,9 @@ def pbf(
     size: Sequence[float] = ...,  # pbf.size: box X, Y, Z centred at the origin
     sl: float = ...,  # scan.segment_length: contour scan vector length SL: straight chords on φ = 0 (the paper tested 5-400 µm; outside is a warning)
     solids: str = ...,  # pbf.solids: .vcad solid parts (bosses), hatched
-    strategy: Literal['hybrid', 'r67'] = ...,  # pbf.strategy: hybrid (contours on thin walls, hatch at joints) or r67 (hatch everything)
+    strategy: Literal['hybrid', 'r67', 'rectilinear', 'meander', 'stripe', 'island'] = ...,  # pbf.strategy: TPMS sheets: hybrid (contours on thin walls, hatch at joints) or r67 (hatch everything); so
+    stripe_overlap: float = ...,  # pbf.stripe_overlap: stripe: neighbouring stripes overlap
+    stripe_width: float = ...,  # pbf.stripe_width: stripe: width across the hatch lines
     thickness: float = ...,  # pbf.thickness: uniform wall thickness t: c = t·|∇φ|/2 instead of pbf.c
     thin_multiple: float = ...,  # pbf.thin_multiple: thin wall: width <= this × melt pool
     threads: int = ...,  # run.threads: worker threads (0 = all cores)

@@ -19,6 +19,11 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
 JobResult gcode(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress);
 JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress);
 JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress);
+// Solid parts on the pbf route (routes_pbf_solid.cpp): a mesh input, or a .vcad with a solid
+// scan strategy (rectilinear, meander, stripe, island); pbf() hands such jobs to pbf_solid.
+bool is_mesh_path(const std::string& path);
+bool pbf_solid_job(const Job& job, const Config& c);
+JobResult pbf_solid(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress);
 JobResult nonplanar(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress);
 JobResult surface(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress);
 

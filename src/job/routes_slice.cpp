@@ -75,17 +75,14 @@ JobResult shard_written(const Job& job, const Toolpath& tp, std::size_t first, s
 
 // A laser design (.vcad): process fields (fprocess) are FDM settings the laser route has no use
 // for, refused rather than dropped.
-Field laser_vcad(const std::string& path) {
-  // A mesh is not read as .vcad text ("unexpected character '\x00'"): the laser route plans from
-  // a field, and a solid part from a mesh is not scanned yet.
-  std::string ext = fs::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char ch) { return std::tolower(ch); });
-  if (ext == ".stl" || ext == ".obj" || ext == ".3mf")
-    throw SettingError("pbf plans TPMS sheet lattices and parts from a .vcad design (its field); "
-                       "a mesh is not scanned by this route yet: describe the part in .vcad (a "
-                       "lattice inside it with pbf.envelope, solid bosses with pbf.solids), or "
-                       "slice the mesh for extrusion with `trellis slice`",
-                       {path, 0, "job.input"});
+Field laser_vcad(const std::string& path, const char* key = "job.input") {
+  // A mesh is not read as .vcad text ("unexpected character '\x00'"): the lattice's envelope and
+  // solids are fields; a mesh part is scanned on its own (pbf_solid).
+  if (is_mesh_path(path))
+    throw SettingError("the TPMS lattice's envelope and solids are .vcad designs (fields); a mesh "
+                       "part is scanned as a solid by giving it as the input (`trellis pbf "
+                       "part.stl`), or describe the envelope in .vcad",
+                       {path, 0, key});
   Field f = read_vcad(path).field;
   if (f.has_process())
     throw SettingError("the design sets process fields (fprocess: temperature, speed, flow, fan), "
@@ -117,13 +114,13 @@ PbfDesign pbf_design(const PbfConfig& p) {
   d.c = {p.c};
   d.thickness = p.thickness;
   if (!p.envelope.empty()) {
-    d.envelope = laser_vcad(p.envelope);
+    d.envelope = laser_vcad(p.envelope, "pbf.envelope");
   } else {
     const double side = 4 * p.cell;
     const Vec3 s = p.size.size() == 3 ? Vec3{p.size[0], p.size[1], p.size[2]} : Vec3{side, side, side};
     d.envelope = rectprism(s);
   }
-  if (!p.solids.empty()) d.solids = laser_vcad(p.solids);
+  if (!p.solids.empty()) d.solids = laser_vcad(p.solids, "pbf.solids");
   return d;
 }
 
@@ -1025,6 +1022,7 @@ void write_pbf_main(const Job& job, const Config& c, Toolpath& tp, JobResult& ou
 }
 
 JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
+  if (pbf_solid_job(job, c)) return pbf_solid(job, c, diag, progress);
   if (!job.parts.empty() || job.shards) return pbf_plate(job, c, diag, progress);
   JobResult out;
   const LaserProfile& prof = c.laser;

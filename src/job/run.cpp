@@ -1,6 +1,8 @@
 #include <fmt/format.h>
 #include <tbb/global_control.h>
 
+#include <algorithm>
+#include <cctype>
 #include <cstdio>
 #include <filesystem>
 #include <set>
@@ -138,6 +140,9 @@ static UseContext use_context(const Job& job) {
   if (!job.input.empty() || !job.parts.empty()) u.facts.push_back("input");
   if (!job.report.empty()) u.facts.push_back("report");
   if (ext == ".3mf") u.facts.push_back("3mf");
+  std::string in = fs::path(job.input).extension().string();
+  std::transform(in.begin(), in.end(), in.begin(), [](unsigned char ch) { return std::tolower(ch); });
+  if (in == ".stl" || in == ".obj" || in == ".3mf") u.facts.push_back("mesh");
   if (!job.origin.empty()) u.facts.push_back("job");
   return u;
 }

@@ -320,8 +320,33 @@ const std::vector<std::pair<const char*, const char*>>& when_table() {
       {"pbf.grade_width", "pbf.grade_to"},
       {"pbf.wall_inclination", "pbf.wall_thickness"},
       {"pbf.wall_azimuth", "pbf.wall_thickness"},
-      {"pbf.thin_multiple", "pbf.strategy=hybrid"},
-      {"pbf.min_inclination", "pbf.strategy=hybrid"},
+      {"pbf.thin_multiple", "pbf.strategy=hybrid; !@mesh"},
+      {"pbf.min_inclination", "pbf.strategy=hybrid; !@mesh"},
+      {"pbf.route", "!@mesh; pbf.strategy=hybrid|r67"},
+      {"pbf.contours", "@mesh or pbf.strategy=rectilinear|meander|stripe|island"},
+      {"pbf.contour_distance", "@mesh or pbf.strategy=rectilinear|meander|stripe|island"},
+      // The TPMS lattice's settings: a solid part (a mesh, a .vcad with a solid strategy) has none.
+      {"pbf.cell_type", "!@mesh; pbf.strategy=hybrid|r67"},
+      {"pbf.cell", "!@mesh; pbf.strategy=hybrid|r67"},
+      {"pbf.c", "!@mesh; pbf.strategy=hybrid|r67"},
+      {"pbf.thickness", "!@mesh; pbf.strategy=hybrid|r67"},
+      {"pbf.size", "!@mesh; pbf.strategy=hybrid|r67"},
+      {"pbf.envelope", "!@mesh; pbf.strategy=hybrid|r67"},
+      {"pbf.solids", "!@mesh; pbf.strategy=hybrid|r67"},
+      {"pbf.grade_to", "!@mesh; pbf.strategy=hybrid|r67"},
+      {"pbf.grade_axis", "!@mesh; pbf.strategy=hybrid|r67"},
+      {"pbf.grade_center", "!@mesh; pbf.strategy=hybrid|r67"},
+      {"pbf.grade_width", "!@mesh; pbf.strategy=hybrid|r67"},
+      {"pbf.hierarchical", "!@mesh; pbf.strategy=hybrid|r67"},
+      {"pbf.wall_thickness", "!@mesh; pbf.strategy=hybrid|r67"},
+      {"pbf.wall_inclination", "!@mesh; pbf.strategy=hybrid|r67"},
+      {"pbf.wall_azimuth", "!@mesh; pbf.strategy=hybrid|r67"},
+      {"pbf.resolution", "!@mesh"},
+      {"pbf.stripe_width", "pbf.strategy=stripe"},
+      {"pbf.stripe_overlap", "pbf.strategy=stripe"},
+      {"pbf.island_size", "pbf.strategy=island"},
+      {"pbf.island_overlap", "pbf.strategy=island"},
+      {"pbf.island_shift", "pbf.strategy=island"},
       {"nonplanar.domain", "nonplanar.height_fn"},
       {"surface.length", "surface.kind=corrugation|miura|m-curve"},
       {"surface.width", "surface.kind=corrugation|miura|m-curve"},
@@ -818,8 +843,11 @@ std::vector<Setting> make_table() {
   t.push_back(choice("pbf.route", {"direct", "stl"},
                      "direct (slice the field) or stl (marching cubes mesh, for comparison)",
                      "route", [](C& c) -> auto& { return c.pbf.route; }));
-  t.push_back(choice("pbf.strategy", {"hybrid", "r67"},
-                     "hybrid (contours on thin walls, hatch at joints) or r67 (hatch everything)",
+  t.push_back(choice("pbf.strategy", {"hybrid", "r67", "rectilinear", "meander", "stripe", "island"},
+                     "TPMS sheets: hybrid (contours on thin walls, hatch at joints) or r67 (hatch "
+                     "everything); solid parts (a mesh, or a .vcad with a solid strategy): "
+                     "rectilinear, meander (hybrid and r67 on a mesh), stripe or island "
+                     "(checkerboard), inside the contours",
                      "strategy", [](C& c) -> auto& { return c.pbf.strategy; }));
   t.push_back(derived(positive("pbf.wall_thickness", "mm", 100,
                                "a plane thin wall of this thickness instead of a TPMS (PBF paper "
@@ -832,6 +860,26 @@ std::vector<Setting> make_table() {
                      "wall-azimuth", [](C& c) -> auto& { return c.pbf.wall_azimuth; }));
   t.push_back(number("pbf.hatch_rotation", "deg", -360, 360, "hatch rotation per layer (paper: 67)",
                      "hatch-rotation", [](C& c) -> auto& { return c.pbf.options.hatch_rotation; }));
+  t.push_back(integer("pbf.contours", 0, 20,
+                      "solid parts: contour offsets per layer region, the first at the beam "
+                      "compensation (0: hatch only)",
+                      "contours", [](C& c) -> auto& { return c.pbf.contours; }));
+  t.push_back(derived(positive("pbf.contour_distance", "mm", 10,
+                               "solid parts: between contours, and from the last one to the hatch",
+                               "contour-distance",
+                               [](C& c) -> auto& { return c.pbf.contour_distance; }),
+                      "scan.hatch_distance"));
+  t.push_back(positive("pbf.stripe_width", "mm", 1000, "stripe: width across the hatch lines",
+                       "stripe-width", [](C& c) -> auto& { return c.pbf.pattern.stripe_width; }));
+  t.push_back(number("pbf.stripe_overlap", "mm", 0, 100, "stripe: neighbouring stripes overlap",
+                     "stripe-overlap", [](C& c) -> auto& { return c.pbf.pattern.stripe_overlap; }));
+  t.push_back(positive("pbf.island_size", "mm", 1000, "island: side of the square islands",
+                       "island-size", [](C& c) -> auto& { return c.pbf.pattern.island_size; }));
+  t.push_back(number("pbf.island_overlap", "mm", 0, 100, "island: neighbouring islands overlap",
+                     "island-overlap", [](C& c) -> auto& { return c.pbf.pattern.island_overlap; }));
+  t.push_back(number("pbf.island_shift", "mm", 0, 1000,
+                     "island: the island grid moves this far along both its axes every layer",
+                     "island-shift", [](C& c) -> auto& { return c.pbf.pattern.island_shift; }));
   t.push_back(boolean("pbf.binary", "binary CLI geometry (the header stays ASCII, with CLI+ blocks)",
                       "binary", [](C& c) -> auto& { return c.pbf.binary; }));
   t.push_back(positive("pbf.resolution", "mm", 10,

@@ -522,6 +522,7 @@ const char* fact_words(const std::string& fact) {
   if (fact == "input") return "a design or lattice file is read";
   if (fact == "report") return "a report is written";
   if (fact == "3mf") return "the output is 3MF";
+  if (fact == "mesh") return "the input is a mesh (STL, OBJ, 3MF)";
   if (fact == "job") return "a job file is run (trellis run)";
   if (fact == "graded") return "the toolpath carries mixtures (a graded design)";
   if (fact == "tools") return "the toolpath uses several tools";
@@ -534,6 +535,7 @@ std::string fact_negated(const std::string& fact) {
   if (fact == "preview") return "no PNG previews are written";
   if (fact == "input") return "no design or lattice file is read";
   if (fact == "report") return "no report is written";
+  if (fact == "mesh") return "the input is not a mesh";
   return std::string("not: ") + fact_words(fact);
 }
 

@@ -21,6 +21,7 @@
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/job/job.hpp"
+#include "trellis/machine/cli.hpp"
 #include "trellis/toolpath/json.hpp"
 
 namespace fs = std::filesystem;
@@ -339,13 +340,20 @@ TEST(Profiles, ShippedProfilesPurgeAndHeatAsTheySay) {
 
 // pbf given a mesh says what it plans from and what to do instead (it said "unexpected
 // character '\x00'", reading the STL as .vcad text); nothing is written.
-TEST(Jobs, PbfOfAMeshIsRefusedWithTheWayForward) {
+// A mesh given to pbf is scanned as a solid part (issue 44; it was refused, and before that read
+// as .vcad text: "unexpected character '\x00'"); a mesh as the TPMS lattice's envelope is
+// refused naming the setting and the way forward.
+TEST(Jobs, PbfOfAMeshIsScannedAndAMeshEnvelopeRefusedWithTheWayForward) {
   for (const std::string mesh : {kRoot + "/examples/designs/Vase.stl",
                                  std::string(TRELLIS_TEST_DATA) + "/mesh/unit_millimeter.3mf"}) {
-    const CmdResult r = run("pbf " + mesh + " -o " + in_work("never.cli"));
-    EXPECT_EQ(r.code, 2) << mesh;
-    EXPECT_NE(r.err.find(mesh + ":"), std::string::npos) << r.err;
-    EXPECT_NE(r.err.find(".vcad design"), std::string::npos) << r.err;
+    const CmdResult r = run("pbf " + mesh + " --layer-height 0.5 -o " + in_work("mesh.cli"));
+    EXPECT_EQ(r.code, 0) << mesh << r.err;
+    EXPECT_NE(r.out.find("solid part"), std::string::npos) << r.out;
+    EXPECT_FALSE(read_cli_file(in_work("mesh.cli")).layers.empty());
+    const CmdResult e = run("pbf --envelope " + mesh + " -o " + in_work("never.cli"));
+    EXPECT_EQ(e.code, 2) << mesh;
+    EXPECT_NE(e.err.find(mesh + ": pbf.envelope:"), std::string::npos) << e.err;
+    EXPECT_NE(e.err.find(".vcad designs"), std::string::npos) << e.err;
     EXPECT_FALSE(fs::exists(in_work("never.cli")));
   }
 }

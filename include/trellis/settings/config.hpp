@@ -13,6 +13,7 @@
 #include "trellis/plan/plan.hpp"
 #include "trellis/slice/nonplanar.hpp"
 #include "trellis/slice/pbf.hpp"
+#include "trellis/slice/scan_strategy.hpp"
 #include "trellis/slice/pipeline.hpp"
 
 namespace trellis {
@@ -62,7 +63,12 @@ struct PbfConfig {
   double wall_azimuth = 0;      // deg from X
   bool binary = false;          // binary CLI geometry
   std::string route = "direct"; // direct | stl
-  std::string strategy = "hybrid";  // hybrid | r67
+  // hybrid | r67 (TPMS sheets; a mesh part is scanned as meander) | rectilinear | meander |
+  // stripe | island (solid parts: a mesh, or a .vcad scanned as a solid)
+  std::string strategy = "hybrid";
+  int contours = 1;             // solid parts: contour offsets per region
+  double contour_distance = 0;  // mm between contours (0 = the hatch distance)
+  ScanPattern pattern;          // stripe and island sizes (hatch from the laser profile)
   PbfOptions options;           // resolution, thin_multiple, min_inclination (scan from laser)
 };
 

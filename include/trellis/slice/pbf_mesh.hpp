@@ -1,0 +1,52 @@
+// Laser powder-bed paths for solid parts (a triangle mesh, or a .vcad solid through the field
+// kernel): the part is cut into layers (the planar slicer's mesh and field slicing), and each
+// layer's region is scanned as PBF machines do: N contour offsets, the first at the beam
+// compensation and each next one a contour distance further in, then the region inside the last
+// contour hatched by a scan strategy (slice/scan_strategy.hpp). Layers are planned in parallel
+// in batches and handed to a sink in order, so memory does not grow with the layer count; the
+// vectors go into the same PbfLayer the TPMS route (slice/pbf.hpp) makes, so its writers, report
+// and scan-time model serve both.
+#pragma once
+#include <cstddef>
+#include <functional>
+#include <vector>
+
+#include "trellis/core/progress.hpp"
+#include "trellis/field/field.hpp"
+#include "trellis/geom/mesh.hpp"
+#include "trellis/slice/pbf.hpp"
+#include "trellis/slice/scan_strategy.hpp"
+#include "trellis/slice/slice.hpp"
+
+namespace trellis {
+
+struct PbfSolidOptions {
+  double layer = 0.02;              // mm, powder layer thickness
+  double beam_compensation = 0.03;  // mm, the first contour's (and with none, the hatch's) inset
+  int contours = 1;                 // contour offsets per region (0: hatch only)
+  // mm between contours and from the last contour to the hatched region; 0 = the hatch distance.
+  double contour_distance = 0;
+  ScanPattern pattern;        // hatch distance, strategy, angle and rotation
+  double resolution = 0.025;  // mm, XY grid of a field's sections (.vcad solids)
+  std::size_t batch = 32;     // layers sliced and planned together
+  ScanTiming timing;          // scan-time model of each layer
+};
+
+// The part: a closed triangle mesh or a solid field (exactly one of the two).
+struct PbfSolid {
+  const TriangleMesh* mesh = nullptr;
+  const Field* field = nullptr;
+  BBox3 extent() const;
+};
+
+// The vectors of one layer region (outlines of a section, design coordinates), layer number
+// `index` (for the hatch angle and island shift).
+PbfLayer plan_pbf_layer(const Regions& region, std::size_t index, const PbfSolidOptions& options);
+
+// Every layer of the part, bottom to top, handed to `sink` in order (with their vectors); the
+// result keeps the layers' series (z, lengths, area, scan time) without their vectors when a
+// sink is given, all of it without one. Cancel is checked per batch.
+PbfResult plan_pbf_solid(const PbfSolid& part, const PbfSolidOptions& options,
+                         const Progress& progress = {}, const PbfLayerSink& sink = {});
+
+}  // namespace trellis
