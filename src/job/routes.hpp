@@ -60,6 +60,17 @@ void write_toolpath_with_job(const std::string& path, Toolpath toolpath, const J
 // machine check; its warnings go to `diag`. Keeps the toolpath in `out` either way.
 GcodeStats write_gcode_out(const std::string& path, Toolpath tp, const Job& job,
                            const MachineProfile& machine, JobResult& out, Diagnostics& diag);
+// Whether `path` names a 3MF toolpath package (.3mf): the routes that write G-code or .cli write
+// the Toolpath Extension instead (machine/toolpath_3mf.hpp), through write_gcode_out,
+// write_gcode_streamed and write_laser_build.
+bool is_3mf_output(const std::string& path);
+// The toolpath as a 3MF package at `path` with the job embedded, and the design's mesh as its
+// build item when the job's input is a mesh (STL, OBJ, 3MF); `laser` for laser builds.
+void write_3mf_out(const std::string& path, Toolpath tp, const Job& job, const LaserProfile* laser,
+                   JobResult& out);
+// The pbf route's build file: .cli (binary if asked) or, for .3mf, the Toolpath Extension.
+void write_laser_build(const std::string& path, Toolpath& tp, const Job& job, const Config& c,
+                       JobResult& out);
 // Whether a route writes its output alone (no toolpath JSON, previews or toolpath kept for the
 // caller): then it may stream its layers in bounded memory instead of holding the toolpath.
 bool output_alone(const Job& job);

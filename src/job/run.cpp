@@ -10,7 +10,10 @@
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/job/plate.hpp"
+#include "trellis/geom/mesh_io.hpp"
+#include "trellis/machine/cli.hpp"
 #include "trellis/machine/gcode_reader.hpp"
+#include "trellis/machine/toolpath_3mf.hpp"
 #include "trellis/machine/machine_check.hpp"
 #include "trellis/toolpath/json.hpp"
 #include "trellis/version.hpp"
@@ -48,12 +51,46 @@ std::string with_field(const std::string& json, const std::string& field, const 
   return j.dump(2) + "\n";
 }
 
+bool is_3mf_output(const std::string& path) {
+  std::string ext = fs::path(path).extension().string();
+  for (char& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  return ext == ".3mf";
+}
+
+void write_3mf_out(const std::string& path, Toolpath tp, const Job& job, const LaserProfile* laser,
+                   JobResult& out) {
+  tp.job = embedded_job(job, path);
+  Toolpath3mfOptions o;
+  o.laser = laser;
+  TriangleMesh mesh;
+  std::string ext = fs::path(job.input).extension().string();
+  for (char& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  if (job.parts.empty() && (ext == ".stl" || ext == ".obj" || ext == ".3mf")) {
+    mesh = read_mesh(job.input);
+    o.mesh = &mesh;
+  }
+  write_toolpath_3mf_file(path, tp, o);
+  out.files.push_back(path);
+}
+
+void write_laser_build(const std::string& path, Toolpath& tp, const Job& job, const Config& c,
+                       JobResult& out) {
+  if (is_3mf_output(path)) return write_3mf_out(path, tp, job, &c.laser, out);
+  tp.job = embedded_job(job, path);
+  write_cli_file(path, tp, c.laser, CliWriteOptions{c.pbf.binary, true});
+  out.files.push_back(path);
+}
+
 GcodeStats write_gcode_out(const std::string& path, Toolpath tp, const Job& job,
                            const MachineProfile& machine, JobResult& out, Diagnostics& diag) {
   GcodeStats stats;
   if (!out.toolpath) out.toolpath = std::make_shared<Toolpath>(tp);
   if (path.empty()) return stats;
   check_settings_used(job, &tp, diag);  // now that the toolpath is known: mixtures, tools, process values
+  if (is_3mf_output(path)) {
+    write_3mf_out(path, std::move(tp), job, nullptr, out);
+    return stats;
+  }
   tp.job = embedded_job(job, path);
   stats = write_gcode_file(path, tp, machine, gcode_thumbnails(tp, machine));
   for (const auto& [kind, message] : stats.warnings) diag.warn(kind, message);
@@ -68,6 +105,13 @@ bool output_alone(const Job& job) {
 GcodeStats write_gcode_streamed(const std::string& path, Toolpath meta, std::size_t layers,
                                 const LayerSource& source, const Job& job,
                                 const MachineProfile& machine, JobResult& out, Diagnostics& diag) {
+  if (is_3mf_output(path)) {
+    // The package is made in memory (its layer parts are deflated together), so the streamed
+    // layers are gathered first.
+    source([&](std::size_t, const Layer& layer) { meta.layers.push_back(layer); });
+    write_3mf_out(path, std::move(meta), job, nullptr, out);
+    return {};
+  }
   meta.job = embedded_job(job, path);
   const GcodeStats stats =
       write_gcode_stream(path, meta, layers, source, machine, gcode_thumbnails(source, machine));
@@ -79,7 +123,8 @@ GcodeStats write_gcode_streamed(const std::string& path, Toolpath meta, std::siz
 void require_bath(const Job& job, const MachineProfile& m, const std::string& route,
                   const std::string& why) {
   const std::string& out = route == "nonplanar" ? job.output : job.gcode;
-  if (out.empty() || fs::path(out).extension() == ".json" || m.has_bath()) return;
+  if (out.empty() || fs::path(out).extension() == ".json" || is_3mf_output(out) || m.has_bath())
+    return;
   throw MachineError(route + ": " + why + ", but the machine '" + m.name +
                          "' prints in air (machine.flavor = " + m.flavor +
                          "); use a bath profile (machine.flavor = embedded), e.g. " +
@@ -219,6 +264,7 @@ double solid_section_z(const BBox3& box, int layer, double h) {
 Toolpath read_print(const std::string& path, const Settings* machine, double* snap,
                     Diagnostics& diag) {
   const auto ext = fs::path(path).extension().string();
+  if (routes::is_3mf_output(path)) return read_toolpath_3mf_file(path, &diag);
   if (ext != ".gcode" && ext != ".nc" && ext != ".g" && ext != ".bgcode")
     return read_toolpath(path);
   const std::string text = read_file(path);
