@@ -57,28 +57,46 @@ bool is_3mf_output(const std::string& path) {
   return ext == ".3mf";
 }
 
-void write_3mf_out(const std::string& path, Toolpath tp, const Job& job, const LaserProfile* laser,
-                   JobResult& out) {
+std::size_t write_3mf_out(const std::string& path, Toolpath tp, const Job& job,
+                          const LaserProfile* laser, JobResult& out) {
   tp.job = embedded_job(job, path);
   Toolpath3mfOptions o;
   o.laser = laser;
   TriangleMesh mesh;
   std::string ext = fs::path(job.input).extension().string();
   for (char& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
-  if (job.parts.empty() && (ext == ".stl" || ext == ".obj" || ext == ".3mf")) {
+  // The slice route's mesh is the part; the nonplanar route's is the surface it prints on.
+  if (job.route == "slice" && job.parts.empty() &&
+      (ext == ".stl" || ext == ".obj" || ext == ".3mf")) {
     mesh = read_mesh(job.input);
     o.mesh = &mesh;
   }
-  write_toolpath_3mf_file(path, tp, o);
+  const std::string bytes = write_toolpath_3mf(tp, o);
+  write_file_atomic(path, bytes);
   out.files.push_back(path);
+  return bytes.size();
 }
 
 void write_laser_build(const std::string& path, Toolpath& tp, const Job& job, const Config& c,
                        JobResult& out) {
-  if (is_3mf_output(path)) return write_3mf_out(path, tp, job, &c.laser, out);
+  if (is_3mf_output(path)) {
+    write_3mf_out(path, tp, job, &c.laser, out);
+    return;
+  }
   tp.job = embedded_job(job, path);
   write_cli_file(path, tp, c.laser, CliWriteOptions{c.pbf.binary, true});
   out.files.push_back(path);
+}
+
+// A deposition print as a 3MF toolpath: checked against the machine and estimated as the G-code
+// the machine would get (made in memory, not written), so the run says the same either way.
+static GcodeStats write_3mf_print(const std::string& path, Toolpath tp, const Job& job,
+                                  const MachineProfile& machine, JobResult& out, Diagnostics& diag) {
+  GcodeStats stats;
+  write_gcode(tp, machine, &stats);
+  for (const auto& [kind, message] : stats.warnings) diag.warn(kind, message);
+  stats.bytes = write_3mf_out(path, std::move(tp), job, nullptr, out);
+  return stats;
 }
 
 GcodeStats write_gcode_out(const std::string& path, Toolpath tp, const Job& job,
@@ -87,10 +105,7 @@ GcodeStats write_gcode_out(const std::string& path, Toolpath tp, const Job& job,
   if (!out.toolpath) out.toolpath = std::make_shared<Toolpath>(tp);
   if (path.empty()) return stats;
   check_settings_used(job, &tp, diag);  // now that the toolpath is known: mixtures, tools, process values
-  if (is_3mf_output(path)) {
-    write_3mf_out(path, std::move(tp), job, nullptr, out);
-    return stats;
-  }
+  if (is_3mf_output(path)) return write_3mf_print(path, std::move(tp), job, machine, out, diag);
   tp.job = embedded_job(job, path);
   stats = write_gcode_file(path, tp, machine, gcode_thumbnails(tp, machine));
   for (const auto& [kind, message] : stats.warnings) diag.warn(kind, message);
@@ -109,8 +124,7 @@ GcodeStats write_gcode_streamed(const std::string& path, Toolpath meta, std::siz
     // The package is made in memory (its layer parts are deflated together), so the streamed
     // layers are gathered first.
     source([&](std::size_t, const Layer& layer) { meta.layers.push_back(layer); });
-    write_3mf_out(path, std::move(meta), job, nullptr, out);
-    return {};
+    return write_3mf_print(path, std::move(meta), job, machine, out, diag);
   }
   meta.job = embedded_job(job, path);
   const GcodeStats stats =

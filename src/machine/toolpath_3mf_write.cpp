@@ -21,8 +21,13 @@ namespace {
 
 using namespace tp3mf;
 
-void escape_to(std::string& out, std::string_view s) {
+// `text`: element content, where line breaks stay as they are.
+void escape_to(std::string& out, std::string_view s, bool text = false) {
   for (char c : s) {
+    if (text && c == '\n') {
+      out += c;
+      continue;
+    }
     switch (c) {
       case '&': out += "&amp;"; break;
       case '<': out += "&lt;"; break;
@@ -326,7 +331,11 @@ struct Writer {
     out += "</tp:toolpathlayers>\n";
     // §4.4: metadata in our namespace — what made the file, the job, the plate's part labels.
     out += fmt::format("<tp:toolpathdata><t:trellis source=\"{}\">", esc(tp.source));
-    if (!tp.job.empty()) out += "<t:job>" + esc(tp.job) + "</t:job>";
+    if (!tp.job.empty()) {
+      out += "<t:job>";
+      escape_to(out, tp.job, true);
+      out += "</t:job>";
+    }
     for (std::size_t k = 0; k < tp.part_labels.size(); ++k)
       out += fmt::format("<t:part id=\"{}\" uuid=\"{}\" label=\"{}\"/>", k + 2, part_uuids[k + 1],
                          esc(tp.part_labels[k]));

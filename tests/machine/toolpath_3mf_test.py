@@ -204,6 +204,39 @@ def test_deposition_gcode_and_3mf_read_back_the_same(tmp_path, xsd):
     validate(xsd, tmp_path / "p.3mf", tmp_path)
 
 
+def test_nonplanar_and_plan_routes_write_3mf_that_reads_back(tmp_path, xsd):
+    # Non-planar layers: a 3-axis toolpath (points carry their z), as the G-code's.
+    run("surface", "--kind", "corrugation", "-o", tmp_path / "c.stl")
+    machine = ROOT / "profiles" / "fresh_nonplanar_2syringe.toml"
+    for ext in ("gcode", "3mf"):
+        run("nonplanar", tmp_path / "c.stl", "--machine", machine, "-o", tmp_path / f"c.{ext}")
+    with zipfile.ZipFile(tmp_path / "c.3mf") as z:
+        model = ET.fromstring(z.read("3D/3dmodel.model"))
+    assert model.find(f".//{{{TP}}}toolpathresource").get("toolpathtype") == "3axis"
+    assert model.find(f".//{{{CORE}}}object") is None  # the surface printed on is no part
+    tr = trellis_module()
+    g = layers_of(tr.read_toolpath(str(tmp_path / "c.gcode")))
+    t = layers_of(tr.read_toolpath(str(tmp_path / "c.3mf")))
+    assert len(g) == len(t) > 2
+    for a, b in zip(extrusion_by_layer(g), extrusion_by_layer(t)):
+        assert b == pytest.approx(a, rel=1e-3)
+    zs = lambda layers: [p["points"][:, 2].min() for _, paths in layers for p in paths]
+    assert zs(t) == pytest.approx(zs(g), abs=2e-3)
+    validate(xsd, tmp_path / "c.3mf", tmp_path)
+    # A planned lattice: `check` reads the 3MF as it reads the G-code.
+    lattice = ROOT / "examples" / "lattices" / "tiny.json"
+    fdm = ROOT / "profiles" / "ender3_s1_pro_tpu.toml"
+    out = {}
+    for ext in ("gcode", "3mf"):
+        r = run("plan", "euler", lattice, "--machine", fdm, "-o", tmp_path / f"t{ext}.toolpath.json",
+                "--gcode", tmp_path / f"t.{ext}")
+        out[ext] = r.stdout.splitlines()[0]
+    assert out["3mf"] == out["gcode"]  # the same summary: machine check and estimate as G-code
+    checks = {ext: run("check", lattice, tmp_path / f"t.{ext}").stdout for ext in ("gcode", "3mf")}
+    assert checks["3mf"] == checks["gcode"] and "0 missing, 0 repeated" in checks["3mf"]
+    validate(xsd, tmp_path / "t.3mf", tmp_path)
+
+
 def cube_stl(path, size=10.0, height=1.0):
     """A closed box as ASCII STL (12 facets, counter-clockwise seen from outside)."""
     v = [(x * size, y * size, z * height) for z in (0, 1) for y in (0, 1) for x in (0, 1)]
