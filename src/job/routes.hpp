@@ -64,10 +64,10 @@ GcodeStats write_gcode_out(const std::string& path, Toolpath tp, const Job& job,
 // the Toolpath Extension instead (machine/toolpath_3mf.hpp), through write_gcode_out,
 // write_gcode_streamed and write_laser_build.
 bool is_3mf_output(const std::string& path);
-// The toolpath as a 3MF package at `path` with the job embedded, and the design's mesh as its
+// The toolpath as a 3MF package at `path` with the job embedded (into `tp`), and the design's mesh as its
 // build item when the slice route's input is a mesh (STL, OBJ, 3MF); `laser` for laser builds. Returns
 // the package's size in bytes.
-std::size_t write_3mf_out(const std::string& path, Toolpath tp, const Job& job,
+std::size_t write_3mf_out(const std::string& path, Toolpath& tp, const Job& job,
                           const LaserProfile* laser, JobResult& out);
 // The pbf route's build file: .cli (binary if asked) or, for .3mf, the Toolpath Extension.
 void write_laser_build(const std::string& path, Toolpath& tp, const Job& job, const Config& c,

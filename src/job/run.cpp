@@ -57,7 +57,7 @@ bool is_3mf_output(const std::string& path) {
   return ext == ".3mf";
 }
 
-std::size_t write_3mf_out(const std::string& path, Toolpath tp, const Job& job,
+std::size_t write_3mf_out(const std::string& path, Toolpath& tp, const Job& job,
                           const LaserProfile* laser, JobResult& out) {
   tp.job = embedded_job(job, path);
   Toolpath3mfOptions o;
@@ -95,7 +95,7 @@ static GcodeStats write_3mf_print(const std::string& path, Toolpath tp, const Jo
   GcodeStats stats;
   write_gcode(tp, machine, &stats);
   for (const auto& [kind, message] : stats.warnings) diag.warn(kind, message);
-  stats.bytes = write_3mf_out(path, std::move(tp), job, nullptr, out);
+  stats.bytes = write_3mf_out(path, tp, job, nullptr, out);
   return stats;
 }
 

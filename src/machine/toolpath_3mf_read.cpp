@@ -687,9 +687,8 @@ class LayerReader {
 
 const Resource& chosen(const Model& m, const std::string& file) {
   if (m.resources.empty())
-    throw ParseError("this 3MF file carries no toolpath (no <tp:toolpathresource> of the 3MF "
-                     "Toolpath Extension): a mesh or lattice 3MF is a design — slice it (trellis "
-                     "slice, trellis pbf), or view it",
+    throw ParseError("a 3MF with no toolpath in it (no <tp:toolpathresource> of the 3MF Toolpath "
+                     "Extension): a mesh or lattice 3MF is a design — slice or plan it, or view it",
                      {file});
   // §4.6: the build's tp:toolpathid, else the only resource.
   if (m.toolpath_id) {

@@ -319,7 +319,7 @@ def test_a_3mf_without_a_toolpath_is_refused(tmp_path):
                    '</mesh></object></resources><build><item objectid="1"/></build></model>')
     r = run("analyze", mesh, ok=False)
     assert r.returncode == 2
-    assert str(mesh) in r.stderr and "no toolpath" in r.stderr
+    assert str(mesh) in r.stderr and "a 3MF with no toolpath" in r.stderr
 
 
 def test_malformed_layer_xml_names_the_part_and_line(tmp_path):
