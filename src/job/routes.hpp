@@ -108,6 +108,7 @@ void check_settings_used(const Job& job, const Toolpath* written, Diagnostics& d
 // Writing a toolpath JSON file as G-code: reading it and writing about as many bytes of G-code.
 Estimate estimate_gcode_of(const std::string& toolpath_json);
 // toolpath_json: the whole toolpath is also written as JSON (time and memory of its document).
-Estimate estimate_pbf_time(const PbfDesign& design, const PbfOptions& options, bool toolpath_json);
+Estimate estimate_pbf_time(const PbfDesign& design, const PbfOptions& options, bool toolpath_json,
+                           bool package_3mf = false);
 
 }  // namespace trellis::routes

@@ -1045,7 +1045,8 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
     const BBox3 e = d.part().extent();
     if (!e.empty() && std::isfinite(e.min.x) && std::isfinite(e.max.x) && std::isfinite(e.min.y) &&
         std::isfinite(e.max.y) && std::isfinite(e.min.z) && std::isfinite(e.max.z) && po.layer > 0)
-      check_budget(estimate_pbf_time(d, po, !job.toolpath.empty()), budget);
+      check_budget(estimate_pbf_time(d, po, !job.toolpath.empty(), is_3mf_output(job.output)),
+                   budget);
   }
   // A build file alone is written layer by layer as the layers come (memory does not grow with
   // the layer count); the toolpath JSON, the layer previews and a 3MF package need the whole
