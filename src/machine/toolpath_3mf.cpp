@@ -26,6 +26,8 @@ Toolpath read_toolpath_3mf_file(const std::string& path, Diagnostics* diag) {
   return module().read(path, diag);
 }
 
-Toolpath3mfKind toolpath_3mf_kind(const std::string& path) { return module().kind(path); }
+Toolpath3mfKind toolpath_3mf_kind(const std::string& path) {
+  return module().kind(path);
+}
 
 }  // namespace trellis

@@ -14,11 +14,13 @@ constexpr const char* kNamespace = "http://schemas.3mf.io/3dmanufacturing/toolpa
 constexpr const char* kLayerRelationship =
     "http://schemas.3mf.io/3dmanufacturing/toolpath/2026/03/layer";
 // Appendix C: the drafts' URIs, still read.
-constexpr const char* kOldNamespace = "http://schemas.microsoft.com/3dmanufacturing/toolpath/2019/05";
+constexpr const char* kOldNamespace =
+    "http://schemas.microsoft.com/3dmanufacturing/toolpath/2019/05";
 constexpr const char* kOldLayerRelationship =
     "http://schemas.microsoft.com/3dmanufacturing/2019/05/toolpath";
 constexpr const char* kCore = "http://schemas.microsoft.com/3dmanufacturing/core/2015/02";
-constexpr const char* kProduction = "http://schemas.microsoft.com/3dmanufacturing/production/2015/06";
+constexpr const char* kProduction =
+    "http://schemas.microsoft.com/3dmanufacturing/production/2015/06";
 constexpr const char* kModelRelationship =
     "http://schemas.microsoft.com/3dmanufacturing/2013/01/3dmodel";
 // What the extension has no attribute for (§2.3: namespaced profile attributes; §4.4

@@ -29,13 +29,27 @@ void escape_to(std::string& out, std::string_view s, bool text = false) {
       continue;
     }
     switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      case '\n': out += "&#10;"; break;
-      case '\r': out += "&#13;"; break;
-      case '\t': out += "&#9;"; break;
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      case '\n':
+        out += "&#10;";
+        break;
+      case '\r':
+        out += "&#13;";
+        break;
+      case '\t':
+        out += "&#9;";
+        break;
       default:
         // Other control characters are not XML 1.0 characters at all: dropped.
         if (static_cast<unsigned char>(c) >= 0x20) out += c;
@@ -50,7 +64,9 @@ std::string esc(std::string_view s) {
 }
 
 // Shortest text that reads back to the same double (matches ST_Number, Appendix B.2).
-std::string num(double v) { return fmt::format("{}", v); }
+std::string num(double v) {
+  return fmt::format("{}", v);
+}
 
 // A UUID made from a name (stable run to run, so the same toolpath is the same file): 128 bits
 // of two FNV-1a hashes, marked as a version-5 (name-based) UUID.
@@ -60,19 +76,20 @@ std::string uuid_of(const std::string& name) {
     return h ^ (h >> 29);
   };
   std::uint64_t a = fnv(0xcbf29ce484222325ULL), b = fnv(0x84222325cbf29ce4ULL);
-  a = (a & ~0xf000ULL) | 0x5000ULL;                           // version 5
+  a = (a & ~0xf000ULL) | 0x5000ULL;                         // version 5
   b = (b & 0x3fffffffffffffffULL) | 0x8000000000000000ULL;  // RFC 4122 variant
-  return fmt::format("{:08x}-{:04x}-{:04x}-{:04x}-{:012x}", a >> 32, (a >> 16) & 0xffff,
-                     a & 0xffff, b >> 48, b & 0xffffffffffffULL);
+  return fmt::format("{:08x}-{:04x}-{:04x}-{:04x}-{:012x}", a >> 32, (a >> 16) & 0xffff, a & 0xffff,
+                     b >> 48, b & 0xffffffffffffULL);
 }
 
 // Integer toolpath units (Part II: coordinates are integers times unitfactor).
 long long units(double mm, std::size_t layer, std::size_t path) {
   const double u = std::round(mm / kUnitFactor);
   if (!std::isfinite(u) || std::fabs(u) > std::numeric_limits<std::int32_t>::max())
-    throw GeometryError(fmt::format("3MF toolpath: layer {} path {}: coordinate {} mm is beyond "
-                                    "what 32-bit toolpath units of {} mm hold",
-                                    layer, path, mm, kUnitFactor));
+    throw GeometryError(
+        fmt::format("3MF toolpath: layer {} path {}: coordinate {} mm is beyond "
+                    "what 32-bit toolpath units of {} mm hold",
+                    layer, path, mm, kUnitFactor));
   return static_cast<long long>(u);
 }
 
@@ -85,21 +102,31 @@ struct ProfileKey {
   std::vector<double> mixture;
   bool laser;
   auto tie() const {
-    return std::tie(role, power, speed, width, height, tool, temperature, flow, fan, mixture, laser);
+    return std::tie(role, power, speed, width, height, tool, temperature, flow, fan, mixture,
+                    laser);
   }
   bool operator<(const ProfileKey& o) const { return tie() < o.tie(); }
 };
 
 ProfileKey key_of(const Path& p, bool laser) {
-  return {p.role, p.power, p.speed, p.width, p.height, p.tool, p.temperature, p.flow, p.fan,
-          p.mixture, laser || p.power > 0};
+  return {p.role,
+          p.power,
+          p.speed,
+          p.width,
+          p.height,
+          p.tool,
+          p.temperature,
+          p.flow,
+          p.fan,
+          p.mixture,
+          laser || p.power > 0};
 }
 
 void check_finite(const Path& p, std::size_t layer, std::size_t index) {
   for (double v : {p.power, p.speed, p.width, p.height, p.temperature, p.flow, p.fan, p.filament})
     if (!std::isfinite(v))
-      throw GeometryError(fmt::format("3MF toolpath: layer {} path {}: a value is not finite", layer,
-                                      index));
+      throw GeometryError(
+          fmt::format("3MF toolpath: layer {} path {}: a value is not finite", layer, index));
   if (p.points.size() < 2)
     throw GeometryError(fmt::format("3MF toolpath: layer {} path {}: {} point(s), a path needs 2",
                                     layer, index, p.points.size()));
@@ -107,13 +134,14 @@ void check_finite(const Path& p, std::size_t layer, std::size_t index) {
 
 // §4.1: standard attributes where the extension has them, ours (namespace t) for the rest.
 std::string profile_xml(const ProfileKey& k, std::size_t index, const LaserProfile* laser) {
-  std::string out = fmt::format("<tp:toolpathprofile uuid=\"{}\" name=\"{} {}\"",
-                                uuid_of(fmt::format("profile {}", index)), to_string(k.role),
-                                index + 1);
+  std::string out =
+      fmt::format("<tp:toolpathprofile uuid=\"{}\" name=\"{} {}\"",
+                  uuid_of(fmt::format("profile {}", index)), to_string(k.role), index + 1);
   if (k.laser) {
     out += fmt::format(" laserpower=\"{}\"", num(std::max(0.0, k.power)));
     if (k.speed > 0) out += fmt::format(" laserspeed=\"{}\"", num(k.speed));
-    if (laser && laser->jump_speed > 0) out += fmt::format(" jumpspeed=\"{}\"", num(laser->jump_speed));
+    if (laser && laser->jump_speed > 0)
+      out += fmt::format(" jumpspeed=\"{}\"", num(laser->jump_speed));
     if (laser && laser->spot_diameter > 0)
       out += fmt::format(" spotradius=\"{}\"", num(laser->spot_diameter / 2));
     out += " laserindex=\"0\"";
@@ -248,7 +276,8 @@ struct Writer {
         std::size_t k = j;
         do {
           const Path& h = L.paths[k];
-          fmt::format_to(std::back_inserter(out), "<hatch x1=\"{}\" y1=\"{}\" x2=\"{}\" y2=\"{}\"/>",
+          fmt::format_to(std::back_inserter(out),
+                         "<hatch x1=\"{}\" y1=\"{}\" x2=\"{}\" y2=\"{}\"/>",
                          units(h.points[0].x, i, k), units(h.points[0].y, i, k),
                          units(h.points[1].x, i, k), units(h.points[1].y, i, k));
           ++k;
@@ -302,17 +331,18 @@ struct Writer {
         "xmlns:t=\"{}\" requiredextensions=\"p tp\">\n"
         "<metadata name=\"Application\">Trellis {}</metadata>\n<resources>\n",
         kCore, kProduction, kNamespace, kTrellis, TRELLIS_VERSION);
-    out += fmt::format("<tp:toolpathresource id=\"1\" uuid=\"{}\" unitfactor=\"{}\" "
-                       "toolpathtype=\"{}\">\n",
-                       uuid_of("toolpath"), num(kUnitFactor), planar ? "planar" : "3axis");
+    out += fmt::format(
+        "<tp:toolpathresource id=\"1\" uuid=\"{}\" unitfactor=\"{}\" "
+        "toolpathtype=\"{}\">\n",
+        uuid_of("toolpath"), num(kUnitFactor), planar ? "planar" : "3axis");
     if (laser && o.laser) {
       // §4.5: one laser, its field the build plate; SHOULD come first.
       const LaserProfile& l = *o.laser;
       out += fmt::format("<tp:lasersources default=\"0\"><tp:lasersource index=\"0\" name=\"{}\"",
                          esc(l.name.empty() ? "laser" : l.name));
       if (l.build_x > 0 && l.build_y > 0)
-        out += fmt::format(" minx=\"0\" maxx=\"{}\" miny=\"0\" maxy=\"{}\"",
-                           units(l.build_x, 0, 0), units(l.build_y, 0, 0));
+        out += fmt::format(" minx=\"0\" maxx=\"{}\" miny=\"0\" maxy=\"{}\"", units(l.build_x, 0, 0),
+                           units(l.build_y, 0, 0));
       out += "/></tp:lasersources>\n";
     }
     out += "<tp:toolpathprofiles>\n";
@@ -362,8 +392,10 @@ struct Writer {
 const char* kContentTypes =
     "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
     "<Types xmlns=\"http://schemas.openxmlformats.org/package/2006/content-types\">\n"
-    "<Default Extension=\"rels\" ContentType=\"application/vnd.openxmlformats-package.relationships+xml\"/>\n"
-    "<Default Extension=\"model\" ContentType=\"application/vnd.ms-package.3dmanufacturing-3dmodel+xml\"/>\n"
+    "<Default Extension=\"rels\" "
+    "ContentType=\"application/vnd.openxmlformats-package.relationships+xml\"/>\n"
+    "<Default Extension=\"model\" "
+    "ContentType=\"application/vnd.ms-package.3dmanufacturing-3dmodel+xml\"/>\n"
     "<Default Extension=\"xml\" ContentType=\"application/xml\"/>\n"
     "</Types>\n";
 

@@ -15,7 +15,9 @@ using namespace trellis;
 
 namespace {
 
-double on_grid(double mm) { return std::round(mm / 1e-5) * 1e-5; }
+double on_grid(double mm) {
+  return std::round(mm / 1e-5) * 1e-5;
+}
 
 Toolpath random_toolpath(unsigned seed, bool laser, bool nonplanar) {
   std::mt19937 rng(seed);

@@ -268,7 +268,7 @@ def test_mesh_design_is_the_build_item(tmp_path, xsd):
     validate(xsd, out, tmp_path)
 
 
-def spec_package(path, layer_text=None):
+def spec_package(path, layer_text=None, model_text=None):
     """Appendix D of the specification as a package: D.1 model, D.2 relationship, D.3 layer."""
     with zipfile.ZipFile(path, "w") as z:
         z.writestr("[Content_Types].xml",
@@ -279,7 +279,7 @@ def spec_package(path, layer_text=None):
         z.writestr("_rels/.rels",
                    '<?xml version="1.0" encoding="UTF-8"?><Relationships xmlns="http://schemas.openxmlformats.org/package/2006/relationships">'
                    '<Relationship Id="rel0" Target="/3D/3dmodel.model" Type="http://schemas.microsoft.com/3dmanufacturing/2013/01/3dmodel"/></Relationships>')
-        z.writestr("3D/3dmodel.model", (DATA / "spec_example_3dmodel.model").read_text())
+        z.writestr("3D/3dmodel.model", model_text or (DATA / "spec_example_3dmodel.model").read_text())
         z.writestr("3D/_rels/3dmodel.model.rels",
                    '<?xml version="1.0" encoding="UTF-8"?><Relationships xmlns="http://schemas.openxmlformats.org/package/2006/relationships">'
                    '<Relationship Id="rel1" Type="http://schemas.3mf.io/3dmanufacturing/toolpath/2026/03/layer" '
@@ -337,3 +337,21 @@ def test_malformed_layer_xml_names_the_part_and_line(tmp_path):
     spec_package(tmp_path / "undeclared.3mf", undeclared)
     r = run("analyze", tmp_path / "undeclared.3mf", ok=False)
     assert r.returncode == 2 and "profileid 7" in r.stderr and "line 10" in r.stderr, r.stderr
+
+
+def test_constant_modifiers_apply_and_others_are_refused(tmp_path):
+    """§4.2: a constant laserpower modifier sets each hatch's power; a consumer must refuse a file
+    with a modifier it does not apply (Trellis: linear and nonlinear ones)."""
+    model = (DATA / "spec_example_3dmodel.model").read_text()
+    layer = (DATA / "spec_example_layer00001.xml").read_text()
+    modifier = ('laserindex="1"><tp:modifier attribute="laserpower" type="{}" factor="f" '
+                'minvalue="0" maxvalue="200"/></tp:toolpathprofile>')
+    assert 'laserindex="1" />' in model
+    constant = model.replace('laserindex="1" />', modifier.format("constant"))
+    scaled = layer.replace('y2="0" />', 'y2="0" f="0.25" />').replace('y2="100" />', 'y2="100" f="1" />')
+    spec_package(tmp_path / "m.3mf", scaled, constant)
+    _, paths = layers_of(trellis_module().read_toolpath(str(tmp_path / "m.3mf")))[0]
+    assert [p["power"] for p in paths] == [50.0, 200.0]
+    spec_package(tmp_path / "linear.3mf", scaled, model.replace('laserindex="1" />', modifier.format("linear")))
+    r = run("analyze", tmp_path / "linear.3mf", ok=False)
+    assert r.returncode == 2 and "linear modifier of laserpower" in r.stderr, r.stderr
