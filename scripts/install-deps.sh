@@ -9,7 +9,8 @@ pkgs=(cmake g++ make pkg-config ninja-build ccache
       libglpk-dev zlib1g-dev libgtest-dev libbenchmark-dev prusa-slicer python3
       pybind11-dev python3-dev python3-numpy python3-pytest python3-distributed
       python3-nbformat python3-nbclient python3-ipykernel python3-nbconvert python3-pip python3-venv
-      chromium firefox-esr time slurm-wlm munge)
+      chromium firefox-esr time slurm-wlm munge
+      libxml2-utils)  # xmllint: 3MF toolpaths against the specification's XSD
 missing=()
 for p in "${pkgs[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

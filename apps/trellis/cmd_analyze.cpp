@@ -7,6 +7,7 @@
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/lattice/io.hpp"
+#include "trellis/machine/toolpath_3mf.hpp"
 #include "trellis/render/render.hpp"
 #include "trellis/toolpath/json.hpp"
 
@@ -83,11 +84,18 @@ Analysis analyze_file(const std::string& f, const Graph* design, const AnalysisP
     a.name = f;
     return a;
   }
-  for (const char* other : {".stl", ".3mf", ".obj", ".csv", ".vcad", ".toml", ".png", ".html"})
+  if (ext == ".3mf") {
+    // A 3MF toolpath (a laser one went to the laser analysis); a mesh 3MF is refused by the reader.
+    const Toolpath tp = read_toolpath_3mf_file(f, &diag);
+    Analysis a = analyze(tp, toolpath_counts(tp), design, params);
+    a.name = f;
+    return a;
+  }
+  for (const char* other : {".stl", ".obj", ".csv", ".vcad", ".toml", ".png", ".html"})
     if (ext == other)
       throw ParseError(f + ": a '" + ext +
                        "' file is not a print: analyze reads G-code (.gcode/.g/.gco/.nc/.bgcode), "
-                       "a laser .cli or a toolpath JSON (a lattice goes to --design)");
+                       "a laser .cli, a 3MF toolpath or a toolpath JSON (a lattice goes to --design)");
   return analyze_gcode_file(f, design, params, read, diag);
 }
 

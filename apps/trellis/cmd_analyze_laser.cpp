@@ -6,10 +6,13 @@
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/job/job.hpp"
+#include "trellis/machine/toolpath_3mf.hpp"
 
 namespace trellis::cli {
 
 bool is_laser_build_file(const std::string& path) {
+  if (path.size() > 4 && (path.ends_with(".3mf") || path.ends_with(".3MF")))
+    return toolpath_3mf_kind(path) == Toolpath3mfKind::Laser;
   return path.size() > 4 && (path.ends_with(".cli") || path.ends_with(".CLI"));
 }
 

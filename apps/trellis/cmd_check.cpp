@@ -31,7 +31,7 @@ void add_check(CLI::App& app) {
       "of vertical) must be printed bottom-up.\n"
       "Exit status: 0 if clean, 1 if anything was found, 2 for bad input.");
   cmd->add_option("lattice", o->lattice, "design lattice")->required()->check(path_value());
-  cmd->add_option("print", o->print, "toolpath JSON or G-code")->required()->check(path_value());
+  cmd->add_option("print", o->print, "toolpath JSON, G-code or 3MF toolpath")->required()->check(path_value());
   cmd->add_option("--machine", o->machine, "machine profile the G-code was written for")
       ->check(path_value());
   cmd->add_option("--report", o->report, "report JSON with every collision")->check(path_value());

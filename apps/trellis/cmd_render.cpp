@@ -29,14 +29,14 @@ void add_render(CLI::App& app) {
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand("render", "Render toolpath layers to PNG");
   cmd->footer(
-      "Reads a toolpath JSON, G-code of any slicer (.gcode/.g/.nc) or a laser .cli. Paths are\n"
-      "coloured by feature type (or print order, or mixture) in the viewer's colours, travel is\n"
-      "dashed grey, path starts are green dots and ends small dark dots. A G-code file's mixture\n"
-      "is drawn as deposited (its header's mixing look-ahead undone); --colour commanded draws\n"
-      "the mixture where the commands were issued. Each PNG has a title\n"
+      "Reads a toolpath JSON, G-code of any slicer (.gcode/.g/.nc), a laser .cli or a 3MF\n"
+      "toolpath. Paths are coloured by feature type (or print order, or mixture) in the viewer's\n"
+      "colours, travel is dashed grey, path starts are green dots and ends small dark dots. A\n"
+      "G-code file's mixture is drawn as deposited (its header's mixing look-ahead undone);\n"
+      "--colour commanded draws the mixture where the commands were issued. Each PNG has a title\n"
       "(file, layer, Z, what colour means), a legend or colour bar and a scale bar in mm.\n"
       "Without --layer every layer is written as OUT.layerNNN.png (OUT without .png).");
-  cmd->add_option("toolpath", o->input, "toolpath JSON, G-code (.gcode/.g/.nc) or laser .cli")
+  cmd->add_option("toolpath", o->input, "toolpath JSON, G-code (.gcode/.g/.nc), laser .cli or 3MF toolpath")
       ->required()
       ->check(path_value());
   cmd->add_option("--colour", o->colour,

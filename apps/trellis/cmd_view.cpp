@@ -33,7 +33,7 @@ void add_view(CLI::App& app) {
       "view", "Write an interactive 3D viewer (one self-contained HTML file) for toolpaths");
   cmd->footer(
       "Reads G-code of any slicer (.gcode/.g/.gco), pneumatic or bath .nc, laser .cli, toolpath\n"
-      "JSON and lattices (JSON/CSV/OBJ/3MF). Open the HTML in a browser (no server, no network):\n"
+      "JSON, 3MF toolpaths and lattices (JSON/CSV/OBJ/3MF). Open the HTML in a browser (no server, no network):\n"
       "orbit with the left mouse button, pan with the right, zoom with the wheel; colour by\n"
       "feature type, tool, mixture, temperature, speed, width, print order or laser power.\n"
       "With --design (a lattice) the prints are shown in design coordinates over the design,\n"

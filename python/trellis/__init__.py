@@ -613,6 +613,7 @@ def read_lattice(path, merge_tolerance=1e-6):
 
 
 def read_toolpath(path):
-    """A toolpath JSON, a laser build file (.cli, ASCII or binary), or G-code / .nc (read back
-    into design coordinates), as a ``Toolpath``."""
+    """A toolpath JSON, a laser build file (.cli, ASCII or binary), a 3MF toolpath (the 3MF
+    Toolpath Extension, docs/formats.md), or G-code / .nc (read back into design coordinates), as
+    a ``Toolpath``."""
     return Toolpath(_trellis.read_toolpath(os.fspath(path)))

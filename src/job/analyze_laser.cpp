@@ -2,19 +2,24 @@
 // design — vectors outside the part, FR_a per layer, scan time — as a report and a summary.
 #include <fmt/format.h>
 
+#include <filesystem>
 #include <nlohmann/json.hpp>
 
 #include "routes.hpp"
 #include "trellis/field/vcad.hpp"
 #include "trellis/machine/cli.hpp"
 #include "trellis/machine/laser.hpp"
+#include "trellis/machine/toolpath_3mf.hpp"
 #include "trellis/slice/pbf_analysis.hpp"
 
 namespace trellis {
 
 JobResult analyze_build_file(const std::string& path, const std::string& design,
                              const LaserProfile& prof, std::string* report_json, Diagnostics& diag) {
-  const Toolpath tp = read_cli_file(path, &diag);
+  // A .cli, or a 3MF package with the Toolpath Extension: the same IR, the same measures.
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  const Toolpath tp = ext == ".3mf" ? read_toolpath_3mf_file(path, &diag) : read_cli_file(path, &diag);
   std::size_t vectors = 0;
   for (const auto& l : tp.layers) vectors += l.paths.size();
   nlohmann::ordered_json j;

@@ -155,7 +155,8 @@ Estimate estimate_gcode_of(const std::string& toolpath_json) {
   return e;
 }
 
-Estimate estimate_pbf_time(const PbfDesign& d, const PbfOptions& po, bool toolpath_json) {
+Estimate estimate_pbf_time(const PbfDesign& d, const PbfOptions& po, bool toolpath_json,
+                           bool package_3mf) {
   const BBox3 box = d.part().extent();
   const double layers = (box.max.z - box.min.z) / po.layer + 1;
   Estimate e;
@@ -167,6 +168,14 @@ Estimate estimate_pbf_time(const PbfDesign& d, const PbfOptions& po, bool toolpa
     const double vectors = pbf_vectors_estimate(d, po);
     e.seconds += vectors * 6e-6;
     e.bytes = 36e6 + vectors * 2500;
+  }
+  if (package_3mf) {
+    // A 3MF toolpath holds the whole toolpath and its layer parts until the package is made.
+    // Measured on a 10 x 10 x 5 mm gyroid (264,000 vectors): 150 MB and 0.4 s of CPU more
+    // than streaming a .cli.
+    const double vectors = pbf_vectors_estimate(d, po);
+    e.seconds += vectors * 2e-6;
+    e.bytes += vectors * 600;
   }
   e.what = fmt::format("PBF paths of {:.3g} layers of {:.3g} x {:.3g} mm at resolution {} mm", layers,
                        box.max.x - box.min.x, box.max.y - box.min.y, po.resolution);

@@ -12,6 +12,7 @@
 
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
+#include "trellis/machine/toolpath_3mf.hpp"
 
 namespace trellis {
 
@@ -323,13 +324,17 @@ Job rerun_job(const std::string& path, const std::string& target) {
 Job job_from_output(const std::string& path) {
   std::string ext = fs::path(path).extension().string();
   for (char& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
-  if (ext == ".3mf" || ext == ".stl")
+  std::string job;
+  if (ext == ".3mf" && toolpath_3mf_kind(path) != Toolpath3mfKind::None) {
+    // A 3MF toolpath carries the job in its toolpath metadata (machine/toolpath_3mf.hpp).
+    job = read_toolpath_3mf_file(path).job;
+  } else if (ext == ".3mf" || ext == ".stl") {
     throw ParseError("a " + ext.substr(1) +
                          " file carries no Trellis job (meshes and beam lattices have no header): "
                          "run the job again, or rerun its JSON or G-code output",
                      {path});
-  const std::string text = read_file(path);
-  std::string job;
+  }
+  const std::string text = job.empty() ? read_file(path) : std::string();
   // Header comment lines: "; job: …" (G-code), "//job: …//" (CLI).
   std::size_t pos = 0;
   while (pos < text.size()) {

@@ -65,6 +65,18 @@ void write_toolpath_with_job(const std::string& path, Toolpath toolpath, const J
 // machine check; its warnings go to `diag`. Keeps the toolpath in `out` either way.
 GcodeStats write_gcode_out(const std::string& path, Toolpath tp, const Job& job,
                            const MachineProfile& machine, JobResult& out, Diagnostics& diag);
+// Whether `path` names a 3MF toolpath package (.3mf): the routes that write G-code or .cli write
+// the Toolpath Extension instead (machine/toolpath_3mf.hpp), through write_gcode_out,
+// write_gcode_streamed and write_laser_build.
+bool is_3mf_output(const std::string& path);
+// The toolpath as a 3MF package at `path` with the job embedded (into `tp`), and the design's mesh as its
+// build item when the slice route's input is a mesh (STL, OBJ, 3MF); `laser` for laser builds. Returns
+// the package's size in bytes.
+std::size_t write_3mf_out(const std::string& path, Toolpath& tp, const Job& job,
+                          const LaserProfile* laser, JobResult& out);
+// The pbf route's build file: .cli (binary if asked) or, for .3mf, the Toolpath Extension.
+void write_laser_build(const std::string& path, Toolpath& tp, const Job& job, const Config& c,
+                       JobResult& out);
 // Whether a route writes its output alone (no toolpath JSON, previews or toolpath kept for the
 // caller): then it may stream its layers in bounded memory instead of holding the toolpath.
 bool output_alone(const Job& job);
@@ -101,6 +113,7 @@ void check_settings_used(const Job& job, const Toolpath* written, Diagnostics& d
 // Writing a toolpath JSON file as G-code: reading it and writing about as many bytes of G-code.
 Estimate estimate_gcode_of(const std::string& toolpath_json);
 // toolpath_json: the whole toolpath is also written as JSON (time and memory of its document).
-Estimate estimate_pbf_time(const PbfDesign& design, const PbfOptions& options, bool toolpath_json);
+Estimate estimate_pbf_time(const PbfDesign& design, const PbfOptions& options, bool toolpath_json,
+                           bool package_3mf = false);
 
 }  // namespace trellis::routes

@@ -1016,9 +1016,7 @@ GcodeStats write_nonplanar_main(const Job& job, const Config& c, Toolpath& tp, J
 
 void write_pbf_main(const Job& job, const Config& c, Toolpath& tp, JobResult& out) {
   if (job.output.empty()) return;
-  tp.job = embedded_job(job, job.output);
-  write_cli_file(job.output, tp, c.laser, CliWriteOptions{c.pbf.binary, true});
-  out.files.push_back(job.output);
+  write_laser_build(job.output, tp, job, c, out);
 }
 
 JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
@@ -1045,12 +1043,14 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
     const BBox3 e = d.part().extent();
     if (!e.empty() && std::isfinite(e.min.x) && std::isfinite(e.max.x) && std::isfinite(e.min.y) &&
         std::isfinite(e.max.y) && std::isfinite(e.min.z) && std::isfinite(e.max.z) && po.layer > 0)
-      check_budget(estimate_pbf_time(d, po, !job.toolpath.empty()), budget);
+      check_budget(estimate_pbf_time(d, po, !job.toolpath.empty(), is_3mf_output(job.output)),
+                   budget);
   }
   // A build file alone is written layer by layer as the layers come (memory does not grow with
-  // the layer count); the toolpath JSON and the layer previews need the whole toolpath.
-  const bool stream =
-      !job.keep_toolpath && !job.output.empty() && job.toolpath.empty() && job.preview.empty();
+  // the layer count); the toolpath JSON, the layer previews and a 3MF package need the whole
+  // toolpath.
+  const bool stream = !job.keep_toolpath && !job.output.empty() && job.toolpath.empty() &&
+                      job.preview.empty() && !is_3mf_output(job.output);
   Toolpath tp;
   PbfResult r;
   if (stream) {
@@ -1069,11 +1069,7 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
     tp = pbf_toolpath(r, prof.contour_power, prof.contour_speed, prof.hatch_power, prof.hatch_speed);
     out.toolpath = std::make_shared<Toolpath>(tp);
   }
-  if (!job.output.empty() && !stream) {
-    tp.job = embedded_job(job, job.output);
-    write_cli_file(job.output, tp, prof, CliWriteOptions{c.pbf.binary, true});
-    out.files.push_back(job.output);
-  }
+  if (!job.output.empty() && !stream) write_laser_build(job.output, tp, job, c, out);
   if (!job.toolpath.empty()) {
     write_toolpath_with_job(job.toolpath, tp, job);
     out.files.push_back(job.toolpath);

@@ -12,7 +12,10 @@
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/job/plate.hpp"
+#include "trellis/geom/mesh_io.hpp"
+#include "trellis/machine/cli.hpp"
 #include "trellis/machine/gcode_reader.hpp"
+#include "trellis/machine/toolpath_3mf.hpp"
 #include "trellis/machine/machine_check.hpp"
 #include "trellis/toolpath/json.hpp"
 #include "trellis/version.hpp"
@@ -50,12 +53,61 @@ std::string with_field(const std::string& json, const std::string& field, const 
   return j.dump(2) + "\n";
 }
 
+bool is_3mf_output(const std::string& path) {
+  std::string ext = fs::path(path).extension().string();
+  for (char& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  return ext == ".3mf";
+}
+
+std::size_t write_3mf_out(const std::string& path, Toolpath& tp, const Job& job,
+                          const LaserProfile* laser, JobResult& out) {
+  tp.job = embedded_job(job, path);
+  Toolpath3mfOptions o;
+  o.laser = laser;
+  TriangleMesh mesh;
+  std::string ext = fs::path(job.input).extension().string();
+  for (char& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  // The slice route's mesh is the part; the nonplanar route's is the surface it prints on.
+  if (job.route == "slice" && job.parts.empty() &&
+      (ext == ".stl" || ext == ".obj" || ext == ".3mf")) {
+    mesh = read_mesh(job.input);
+    o.mesh = &mesh;
+  }
+  const std::string bytes = write_toolpath_3mf(tp, o);
+  write_file_atomic(path, bytes);
+  out.files.push_back(path);
+  return bytes.size();
+}
+
+void write_laser_build(const std::string& path, Toolpath& tp, const Job& job, const Config& c,
+                       JobResult& out) {
+  if (is_3mf_output(path)) {
+    write_3mf_out(path, tp, job, &c.laser, out);
+    return;
+  }
+  tp.job = embedded_job(job, path);
+  write_cli_file(path, tp, c.laser, CliWriteOptions{c.pbf.binary, true});
+  out.files.push_back(path);
+}
+
+// A deposition print as a 3MF toolpath: checked against the machine and estimated as the G-code
+// the machine would get (made in memory, not written), so the run says the same either way.
+static GcodeStats write_3mf_print(const std::string& path, Toolpath tp, const Job& job,
+                                  const MachineProfile& machine, JobResult& out, Diagnostics& diag) {
+  GcodeStats stats;
+  write_gcode(tp, machine, &stats);
+  for (const auto& [kind, message] : stats.warnings) diag.warn(kind, message);
+  stats.bytes = write_3mf_out(path, tp, job, nullptr, out);
+  return stats;
+}
+
 GcodeStats write_gcode_out(const std::string& path, Toolpath tp, const Job& job,
                            const MachineProfile& machine, JobResult& out, Diagnostics& diag) {
   GcodeStats stats;
   if (!out.toolpath) out.toolpath = std::make_shared<Toolpath>(tp);
   if (path.empty()) return stats;
   check_settings_used(job, &tp, diag);  // now that the toolpath is known: mixtures, tools, process values
+  if (is_3mf_output(path)) return write_3mf_print(path, std::move(tp), job, machine, out, diag);
   tp.job = embedded_job(job, path);
   stats = write_gcode_file(path, tp, machine, gcode_thumbnails(tp, machine));
   for (const auto& [kind, message] : stats.warnings) diag.warn(kind, message);
@@ -70,6 +122,12 @@ bool output_alone(const Job& job) {
 GcodeStats write_gcode_streamed(const std::string& path, Toolpath meta, std::size_t layers,
                                 const LayerSource& source, const Job& job,
                                 const MachineProfile& machine, JobResult& out, Diagnostics& diag) {
+  if (is_3mf_output(path)) {
+    // The package is made in memory (its layer parts are deflated together), so the streamed
+    // layers are gathered first.
+    source([&](std::size_t, const Layer& layer) { meta.layers.push_back(layer); });
+    return write_3mf_print(path, std::move(meta), job, machine, out, diag);
+  }
   meta.job = embedded_job(job, path);
   const GcodeStats stats =
       write_gcode_stream(path, meta, layers, source, machine, gcode_thumbnails(source, machine));
@@ -81,7 +139,8 @@ GcodeStats write_gcode_streamed(const std::string& path, Toolpath meta, std::siz
 void require_bath(const Job& job, const MachineProfile& m, const std::string& route,
                   const std::string& why) {
   const std::string& out = route == "nonplanar" ? job.output : job.gcode;
-  if (out.empty() || fs::path(out).extension() == ".json" || m.has_bath()) return;
+  if (out.empty() || fs::path(out).extension() == ".json" || is_3mf_output(out) || m.has_bath())
+    return;
   throw MachineError(route + ": " + why + ", but the machine '" + m.name +
                          "' prints in air (machine.flavor = " + m.flavor +
                          "); use a bath profile (machine.flavor = embedded), e.g. " +
@@ -224,6 +283,7 @@ double solid_section_z(const BBox3& box, int layer, double h) {
 Toolpath read_print(const std::string& path, const Settings* machine, double* snap,
                     Diagnostics& diag) {
   const auto ext = fs::path(path).extension().string();
+  if (routes::is_3mf_output(path)) return read_toolpath_3mf_file(path, &diag);
   if (ext != ".gcode" && ext != ".nc" && ext != ".g" && ext != ".bgcode")
     return read_toolpath(path);
   const std::string text = read_file(path);

@@ -19,6 +19,7 @@
 #include "trellis/machine/gcode_reader.hpp"
 #include "trellis/machine/mixing_lag.hpp"
 #include "trellis/machine/profile.hpp"
+#include "trellis/machine/toolpath_3mf.hpp"
 #include "trellis/toolpath/json.hpp"
 
 namespace trellis {
@@ -150,6 +151,9 @@ ViewScene load_view_scene(const std::string& path, const ViewLoadOptions& option
   } else if (ext == ".cli") {
     s.toolpath = read_cli_file(path, &diag);
     s.kind = "cli";
+  } else if (ext == ".3mf" && toolpath_3mf_kind(path) != Toolpath3mfKind::None) {
+    s.toolpath = read_toolpath_3mf_file(path, &diag);
+    s.kind = "toolpath";
   } else if (ext == ".json" && looks_like_check_report(path)) {
     s = load_check_report(path);
     s.kind = "check";
@@ -162,7 +166,7 @@ ViewScene load_view_scene(const std::string& path, const ViewLoadOptions& option
   } else {
     throw ParseError(path + ": cannot view a '" + ext +
                      "' file (G-code .gcode/.g/.nc/.bgcode, laser .cli, toolpath or lattice JSON, "
-                     "a `trellis check` report, lattice CSV/OBJ/3MF)");
+                     "a `trellis check` report, lattice CSV/OBJ/3MF, a 3MF toolpath)");
   }
   s.name = fs::path(path).filename().string();
   return s;

@@ -1,0 +1,46 @@
+// 3MF packages with the 3MF Consortium's Toolpath Extension v1.0 (namespace
+// http://schemas.3mf.io/3dmanufacturing/toolpath/2026/03), written and read: the build's mesh
+// where there is one, and its toolpath as one <tp:toolpathresource> with one XML part per layer.
+//
+// What is written (docs/formats.md, "3MF toolpath"): coordinates as integers of 10 nm (the .cli's
+// resolution, unitfactor 0.00001 mm); one profile per distinct set of path values — laser power,
+// speed, jump speed, spot radius and laser index for laser paths, deposition speed, bead width and
+// height for extrusion paths — with what the standard has no attribute for (role, tool, mixture,
+// temperature, flow, fan, filament, planned travel) in Trellis's own namespace, which other
+// consumers ignore. Planar layers when every point lies at its layer's height, else 3-axis.
+// Laser hatches (two-point Hatch/Infill paths with a power) become hatch segments, closed
+// polylines loops, the rest polylines; a path's order, part and values read back unchanged.
+#pragma once
+#include <string>
+
+#include "trellis/core/diagnostics.hpp"
+#include "trellis/geom/mesh.hpp"
+#include "trellis/machine/laser.hpp"
+#include "trellis/toolpath/toolpath.hpp"
+
+namespace trellis {
+
+struct Toolpath3mfOptions {
+  const LaserProfile* laser = nullptr;  // PBF: the laser (lasersources, jump speed, spot)
+  const TriangleMesh* mesh = nullptr;   // the build's geometry (mm), written as its build item
+};
+
+// The package's bytes, and the package written atomically (core/file.hpp). A coordinate beyond
+// ±21 m or a value that is not finite → GeometryError naming the layer and path.
+std::string write_toolpath_3mf(const Toolpath& toolpath, const Toolpath3mfOptions& options);
+void write_toolpath_3mf_file(const std::string& path, const Toolpath& toolpath,
+                             const Toolpath3mfOptions& options);
+
+// A 3MF package's toolpath (ours or any producer's) → the IR. No toolpath resource → ParseError
+// saying so; malformed XML → ParseError naming the part, line and column; what the IR cannot
+// hold (a modifier other than a constant one, a 6-axis orientation, several lasers) is refused
+// or, for lasers, warned about in `diag`.
+Toolpath read_toolpath_3mf_file(const std::string& path, Diagnostics* diag = nullptr);
+
+// What a 3MF file carries, from its model part alone (no layer is read): no toolpath (a mesh or
+// lattice, or not a 3MF package at all), a laser toolpath (a profile with laser power or speed)
+// or a deposition one.
+enum class Toolpath3mfKind { None, Laser, Deposition };
+Toolpath3mfKind toolpath_3mf_kind(const std::string& path);
+
+}  // namespace trellis

@@ -1,0 +1,187 @@
+// 3MF packages with the Toolpath Extension: random laser and deposition toolpaths (planar and
+// 3-axis, with every value a path carries) read back as written — order, roles, values, parts,
+// planned travel — with coordinates on the 10 nm grid; the same toolpath makes the same bytes.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <random>
+
+#include "support/temp_dir.hpp"
+#include "trellis/core/error.hpp"
+#include "trellis/machine/toolpath_3mf.hpp"
+
+using namespace trellis;
+
+namespace {
+
+double on_grid(double mm) {
+  return std::round(mm / 1e-5) * 1e-5;
+}
+
+Toolpath random_toolpath(unsigned seed, bool laser, bool nonplanar) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> xy(-80, 80), unit(0, 1);
+  std::uniform_int_distribution<int> count(0, 25), pts(2, 7), coin(0, 9);
+  Toolpath tp;
+  tp.source = "test & <source> \"quoted\"";
+  tp.job = "[job]\nroute = \"slice\"\n# a < b & c\n";
+  if (seed % 2) tp.part_labels = {"left", "right part"};
+  for (int i = 0; i < 10; ++i) {
+    Layer l;
+    l.z = 0.03 * (i + 1);
+    const int n = count(rng);
+    for (int k = 0; k < n; ++k) {
+      Path p;
+      if (laser) {
+        p.role = coin(rng) < 5 ? PathRole::Contour : PathRole::Hatch;
+        p.power = coin(rng) < 5 ? 60 : 117.5;
+        p.speed = coin(rng) < 5 ? 800 : 1234.5;
+      } else {
+        p.role = static_cast<PathRole>(coin(rng) % kPathRoleCount);
+        p.tool = coin(rng) % 3;
+        p.width = coin(rng) < 3 ? 0 : 0.4 + 0.01 * coin(rng);
+        p.height = coin(rng) < 3 ? 0 : 0.2;
+        p.speed = coin(rng) < 2 ? 0 : 20 + coin(rng);
+        if (coin(rng) == 0) p.mixture = {0.25, 0.75};
+        if (coin(rng) < 2) p.temperature = 205;
+        if (coin(rng) < 2) p.flow = 1.05;
+        if (coin(rng) < 2) p.fan = 40;
+        if (coin(rng) < 3) p.filament = unit(rng) * 10;
+        p.joined = coin(rng) == 0;
+        p.inside = coin(rng) < 3;
+        if (coin(rng) < 2) p.via = {{xy(rng), xy(rng), l.z}, {xy(rng), xy(rng), l.z + 0.5}};
+      }
+      if (!tp.part_labels.empty()) p.part = coin(rng) % 3;
+      const int m = p.role == PathRole::Hatch ? 2 : pts(rng);
+      for (int j = 0; j < m; ++j)
+        p.points.push_back({xy(rng), xy(rng), nonplanar ? l.z + unit(rng) : l.z});
+      if (m >= 4 && coin(rng) < 3) p.points.back() = p.points.front();  // a closed contour
+      l.paths.push_back(std::move(p));
+    }
+    tp.layers.push_back(std::move(l));
+  }
+  return tp;
+}
+
+void expect_same(const Toolpath& a, const Toolpath& b, const std::string& what) {
+  SCOPED_TRACE(what);
+  EXPECT_EQ(b.source, a.source);
+  EXPECT_EQ(b.job, a.job);
+  EXPECT_EQ(b.part_labels, a.part_labels);
+  ASSERT_EQ(b.layers.size(), a.layers.size());
+  for (std::size_t i = 0; i < a.layers.size(); ++i) {
+    const Layer& la = a.layers[i];
+    const Layer& lb = b.layers[i];
+    EXPECT_NEAR(lb.z, la.z, 1e-9);
+    ASSERT_EQ(lb.paths.size(), la.paths.size()) << "layer " << i;
+    for (std::size_t j = 0; j < la.paths.size(); ++j) {
+      const Path& p = la.paths[j];
+      const Path& q = lb.paths[j];
+      SCOPED_TRACE("layer " + std::to_string(i) + " path " + std::to_string(j));
+      EXPECT_EQ(q.role, p.role);
+      EXPECT_EQ(q.tool, p.tool);
+      EXPECT_EQ(q.mixture, p.mixture);
+      EXPECT_EQ(q.width, p.width);
+      EXPECT_EQ(q.height, p.height);
+      EXPECT_EQ(q.speed, p.speed);
+      EXPECT_EQ(q.power, p.power);
+      EXPECT_EQ(q.filament, p.filament);
+      EXPECT_EQ(q.temperature, p.temperature);
+      EXPECT_EQ(q.flow, p.flow);
+      EXPECT_EQ(q.fan, p.fan);
+      EXPECT_EQ(q.joined, p.joined);
+      EXPECT_EQ(q.inside, p.inside);
+      EXPECT_EQ(q.part, p.part);
+      ASSERT_EQ(q.points.size(), p.points.size());
+      for (std::size_t k = 0; k < p.points.size(); ++k) {
+        EXPECT_NEAR(q.points[k].x, on_grid(p.points[k].x), 1e-9);
+        EXPECT_NEAR(q.points[k].y, on_grid(p.points[k].y), 1e-9);
+        EXPECT_NEAR(q.points[k].z, on_grid(p.points[k].z), 1e-9);
+      }
+      ASSERT_EQ(q.via.size(), p.via.size());
+      for (std::size_t k = 0; k < p.via.size(); ++k)
+        EXPECT_NEAR(distance(q.via[k], p.via[k]), 0, 2e-5);
+    }
+  }
+}
+
+Toolpath round_trip(const Toolpath& tp, const Toolpath3mfOptions& o, const test::TempDir& dir,
+                    const std::string& name) {
+  const std::string path = dir.file(name);
+  write_toolpath_3mf_file(path, tp, o);
+  return read_toolpath_3mf_file(path);
+}
+
+}  // namespace
+
+TEST(Toolpath3mf, LaserToolpathsReadBackAsWritten) {
+  test::TempDir dir;
+  LaserProfile laser;
+  Toolpath3mfOptions o;
+  o.laser = &laser;
+  for (unsigned seed = 1; seed <= 4; ++seed) {
+    const Toolpath tp = random_toolpath(seed, true, false);
+    const std::string path = dir.file("laser.3mf");
+    write_toolpath_3mf_file(path, tp, o);
+    EXPECT_EQ(toolpath_3mf_kind(path), Toolpath3mfKind::Laser);
+    expect_same(tp, read_toolpath_3mf_file(path), "laser seed " + std::to_string(seed));
+  }
+}
+
+TEST(Toolpath3mf, DepositionToolpathsPlanarAndThreeAxisReadBackAsWritten) {
+  test::TempDir dir;
+  for (unsigned seed = 1; seed <= 4; ++seed)
+    for (bool nonplanar : {false, true}) {
+      const Toolpath tp = random_toolpath(seed, false, nonplanar);
+      const std::string path = dir.file("deposition.3mf");
+      write_toolpath_3mf_file(path, tp, {});
+      EXPECT_EQ(toolpath_3mf_kind(path), Toolpath3mfKind::Deposition);
+      expect_same(tp, read_toolpath_3mf_file(path),
+                  std::string(nonplanar ? "3-axis" : "planar") + " seed " + std::to_string(seed));
+    }
+}
+
+TEST(Toolpath3mf, SameToolpathSameBytes) {
+  LaserProfile laser;
+  Toolpath3mfOptions o;
+  o.laser = &laser;
+  const Toolpath tp = random_toolpath(7, true, false);
+  const std::string a = write_toolpath_3mf(tp, o), b = write_toolpath_3mf(tp, o);
+  EXPECT_EQ(a, b);
+  EXPECT_NE(a, write_toolpath_3mf(random_toolpath(8, true, false), o));
+}
+
+TEST(Toolpath3mf, MeshIsTheBuildItem) {
+  test::TempDir dir;
+  TriangleMesh mesh;
+  mesh.add_prism({{0, 0}, {10, 0}, {10, 10}, {0, 10}}, 0, 5);
+  Toolpath3mfOptions o;
+  o.mesh = &mesh;
+  const Toolpath tp = random_toolpath(3, false, false);
+  expect_same(tp, round_trip(tp, o, dir, "mesh.3mf"), "with a mesh");
+}
+
+TEST(Toolpath3mf, RefusesWhatItCannotWrite) {
+  Toolpath tp;
+  tp.layers.push_back({0.2, {}});
+  Path p;
+  p.points = {{0, 0, 0.2}, {3e4, 0, 0.2}};  // 30 m
+  tp.layers[0].paths.push_back(p);
+  EXPECT_THROW(write_toolpath_3mf(tp, {}), GeometryError);
+  tp.layers[0].paths[0].points = {{0, 0, 0.2}};
+  EXPECT_THROW(write_toolpath_3mf(tp, {}), GeometryError);
+}
+
+TEST(Toolpath3mf, NotAPackageIsRefusedNamingTheFile) {
+  test::TempDir dir;
+  const std::string path = dir.file("text.3mf");
+  std::ofstream(path) << "not a zip";
+  EXPECT_EQ(toolpath_3mf_kind(path), Toolpath3mfKind::None);
+  try {
+    read_toolpath_3mf_file(path);
+    FAIL() << "read a text file as a package";
+  } catch (const ParseError& e) {
+    EXPECT_EQ(e.where().file, path);
+  }
+}

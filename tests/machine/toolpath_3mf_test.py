@@ -1,0 +1,357 @@
+"""3MF Toolpath Extension out and in (issue 43, items 1, 2 and 6), through the CLI and Python.
+
+- The same PBF build as .cli and as 3MF measures the same in `trellis analyze` (layers, vectors,
+  contour and hatch length and FR_a per layer) and reads into the same vectors.
+- A deposition print as G-code and as 3MF reads back with the same extrusion per layer, widths
+  and tools; a mesh design's 3MF carries the mesh as its build item.
+- Every part of every package written here validates against the specification's XSD
+  (xmllint --schema); the specification's own example (Appendix D) reads.
+- A 3MF without a toolpath, and malformed layer XML, exit 2 with a message naming the file,
+  the part and the line.
+"""
+
+import json
+import math
+import os
+import re
+import shutil
+import subprocess
+import xml.etree.ElementTree as ET
+import zipfile
+from pathlib import Path
+
+import pytest
+
+CLI = os.environ.get("TRELLIS_CLI", "trellis")
+ROOT = Path(os.environ.get("TRELLIS_SOURCE_DIR", Path(__file__).resolve().parents[2]))
+DATA = ROOT / "tests" / "data" / "3mf_toolpath"
+TP = "http://schemas.3mf.io/3dmanufacturing/toolpath/2026/03"
+CORE = "http://schemas.microsoft.com/3dmanufacturing/core/2015/02"
+
+# A gyroid sheet in a 3 x 3 x 0.6 mm box: thin walls (contours) and junctions (hatches).
+GYROID = "root((-1.5,-1.5,0), (1.5,1.5,0.6), (0.02,0.02,0.02)) {\n  gyroid(2.5, 0.1);\n}\n"
+# A small part for extrusion: a cylinder with a hole.
+PART = ("root((-6,-6,0), (6,6,1.2), (0.05,0.05,0.05)) {\n"
+        "  difference() {\n    cylinder(5, 1.2);\n    cylinder(2, 1.2);\n  }\n}\n")
+
+
+def run(*args, ok=True):
+    r = subprocess.run([CLI, *map(str, args)], capture_output=True, text=True)
+    if ok:
+        assert r.returncode == 0, f"{args}: {r.stderr}"
+    return r
+
+
+def trellis_module():
+    import trellis  # PYTHONPATH=build/release/python
+    return trellis
+
+
+def layers_of(tp):
+    """A Python toolpath's layers: (z, paths), each path a dict of its points and values."""
+    a = tp.arrays()
+    out = []
+    for i in range(tp.layer_count):
+        paths = []
+        for k in range(a["layer_offsets"][i], a["layer_offsets"][i + 1]):
+            pts = a["points"][a["path_offsets"][k]:a["path_offsets"][k + 1]]
+            length = float(sum(math.dist(pts[j - 1], pts[j]) for j in range(1, len(pts))))
+            paths.append({"points": pts, "length": length, "power": float(a["power"][k]),
+                          "speed": float(a["speed"][k]), "width": float(a["width"][k]),
+                          "tool": int(a["tool"][k])})
+        out.append((float(a["layer_z"][i]), paths))
+    return out
+
+
+@pytest.fixture(scope="module")
+def xsd(tmp_path_factory):
+    """The specification's schemas as Debian 12's xmllint (libxml2 2.9.14) compiles them:
+    maxOccurs 2^31-1 written as unbounded, the unused, network-only xml.xsd import dropped."""
+    d = tmp_path_factory.mktemp("xsd")
+    out = {}
+    for name in ("toolpath_2026_03.xsd", "toolpath_layer_2026_03.xsd"):
+        text = (DATA / name).read_text()
+        text = text.replace('maxOccurs="2147483647"', 'maxOccurs="unbounded"')
+        text = re.sub(r'<xs:import namespace="http://www.w3.org/XML/1998/namespace"[^>]*/>', "", text)
+        (d / name).write_text(text)
+        out[name] = d / name
+    return out
+
+
+def validate(xsd, path, tmp):
+    """Validates the package: the toolpath resource against the full schema, every layer part
+    against the layer schema. The model part itself is core 3MF (no core XSD here): it must be
+    well-formed, declare the extension required (Chapter 1) and select the resource (§4.6)."""
+    assert shutil.which("xmllint"), "xmllint (libxml2-utils) is needed: scripts/install-deps.sh"
+    with zipfile.ZipFile(path) as z:
+        names = z.namelist()
+        model = ET.fromstring(z.read("3D/3dmodel.model"))
+        assert "tp" in model.get("requiredextensions", "").split()
+        assert "p" in model.get("requiredextensions", "").split()
+        res = model.find(f".//{{{TP}}}toolpathresource")
+        assert res is not None
+        build = model.find(f"{{{CORE}}}build")
+        assert build.get(f"{{{TP}}}toolpathid") == res.get("id")
+        ET.register_namespace("tp", TP)
+        resource = tmp / "resource.xml"
+        resource.write_bytes(ET.tostring(res))
+        files = [resource]
+        layers = [l.get("path") for l in res.iter(f"{{{TP}}}toolpathlayer")]
+        rels = z.read("3D/_rels/3dmodel.model.rels").decode()
+        for i, part in enumerate(layers):
+            assert part.lstrip("/") in names
+            assert f'Target="{part}"' in rels  # §3.2
+            f = tmp / f"layer{i}.xml"
+            f.write_bytes(z.read(part.lstrip("/")))
+            files.append(f)
+    r = subprocess.run(["xmllint", "--nonet", "--noout", "--schema", xsd["toolpath_2026_03.xsd"],
+                        resource], capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    for chunk in range(1, len(files), 200):
+        r = subprocess.run(["xmllint", "--nonet", "--noout", "--schema",
+                            xsd["toolpath_layer_2026_03.xsd"], *files[chunk:chunk + 200]],
+                           capture_output=True, text=True)
+        assert r.returncode == 0, r.stderr[-2000:]
+    return len(layers)
+
+
+@pytest.fixture(scope="module")
+def pbf(tmp_path_factory):
+    d = tmp_path_factory.mktemp("pbf")
+    (d / "gyroid.vcad").write_text(GYROID)
+    machine = ROOT / "profiles" / "pbf_316l_25um.toml"
+    for ext in ("cli", "3mf"):
+        run("pbf", d / "gyroid.vcad", "--machine", machine, "-o", d / f"g.{ext}")
+    return d
+
+
+def test_pbf_cli_and_3mf_measure_the_same(pbf, tmp_path, xsd):
+    reports = {}
+    for ext in ("cli", "3mf"):
+        run("analyze", pbf / f"g.{ext}", "--design", pbf / "gyroid.vcad",
+            "--machine", ROOT / "profiles" / "pbf_316l_25um.toml", "--report", tmp_path / f"{ext}.json")
+        reports[ext] = json.loads((tmp_path / f"{ext}.json").read_text())
+    c, t = reports["cli"], reports["3mf"]
+    assert c["layers"] == t["layers"] > 5
+    assert c["vectors"] == t["vectors"] > 50
+    assert t["scan_length_mm"] == pytest.approx(c["scan_length_mm"], rel=1e-9)
+    assert t["fr_a"]["mean"] == pytest.approx(c["fr_a"]["mean"], rel=1e-9)
+    for key in ("z_mm", "area_mm2", "fr_a", "contour_mm", "hatch_mm", "outside_vectors"):
+        assert t["per_layer"][key] == pytest.approx(c["per_layer"][key], rel=1e-9, abs=1e-12), key
+    assert sum(t["per_layer"]["contour_mm"]) > 0 and sum(t["per_layer"]["hatch_mm"]) > 0
+    assert validate(xsd, pbf / "g.3mf", tmp_path) == c["layers"]
+
+
+def test_pbf_3mf_carries_the_laser_profile(pbf):
+    tr = trellis_module()
+    cli = layers_of(tr.read_toolpath(str(pbf / "g.cli")))
+    tmf = layers_of(tr.read_toolpath(str(pbf / "g.3mf")))
+    assert len(cli) == len(tmf)
+    with zipfile.ZipFile(pbf / "g.3mf") as z:
+        model = ET.fromstring(z.read("3D/3dmodel.model"))
+    profiles = list(model.iter(f"{{{TP}}}toolpathprofile"))
+    assert {p.get("laserpower") for p in profiles} >= {"100", "200"} or len(profiles) >= 2
+    for p in profiles:
+        for key in ("laserpower", "laserspeed", "jumpspeed", "spotradius", "laserindex"):
+            assert p.get(key) is not None, key
+    sources = list(model.iter(f"{{{TP}}}lasersource"))
+    assert [s.get("index") for s in sources] == ["0"]
+    # The .cli lists a layer's contours before its hatches; the 3MF keeps the planner's order.
+    for (za, a), (zb, b) in zip(cli, tmf):
+        key = lambda p: (len(p["points"]), round(p["length"], 6), p["power"], p["speed"])
+        assert sorted(map(key, a)) == sorted(map(key, b))
+        assert za == pytest.approx(zb, abs=1e-9)
+
+
+def test_pbf_3mf_renders_views_and_reruns(pbf, tmp_path):
+    run("render", pbf / "g.3mf", "--layer", 3, "-o", tmp_path / "l3.png")
+    assert (tmp_path / "l3.png").stat().st_size > 0
+    run("view", pbf / "g.3mf", "-o", tmp_path / "v.html")
+    assert (tmp_path / "v.html").stat().st_size > 0
+    # The job is embedded (toolpath metadata): rerun beside it makes the same package.
+    run("rerun", pbf / "g.3mf", "-o", pbf / "g.again.3mf")
+    assert (pbf / "g.again.3mf").read_bytes() == (pbf / "g.3mf").read_bytes()
+
+
+def extrusion_by_layer(layers):
+    return [sum(p["length"] for p in paths) for _, paths in layers]
+
+
+def test_deposition_gcode_and_3mf_read_back_the_same(tmp_path, xsd):
+    (tmp_path / "part.vcad").write_text(PART)
+    machine = ROOT / "profiles" / "ender3_s1_pro_tpu.toml"
+    for ext in ("gcode", "3mf"):
+        run("slice", tmp_path / "part.vcad", "--machine", machine, "-o", tmp_path / f"p.{ext}")
+    tr = trellis_module()
+    g = layers_of(tr.read_toolpath(str(tmp_path / "p.gcode")))
+    t = layers_of(tr.read_toolpath(str(tmp_path / "p.3mf")))
+    assert len(g) == len(t) > 3
+    for (za, _), (zb, _) in zip(g, t):
+        assert zb == pytest.approx(za, abs=1e-3)
+    # Extrusion per layer: the G-code's within its 3-decimal coordinates.
+    for a, b in zip(extrusion_by_layer(g), extrusion_by_layer(t)):
+        assert b == pytest.approx(a, rel=1e-3, abs=0.01)
+    widths = lambda layers: sorted({round(p["width"], 3) for _, paths in layers for p in paths})
+    tools = lambda layers: sorted({p["tool"] for _, paths in layers for p in paths})
+    assert widths(t) == widths(g) and widths(t)[0] > 0
+    assert tools(t) == tools(g)
+    # analyze measures the same extruded length.
+    a = {}
+    for ext in ("gcode", "3mf"):
+        run("analyze", tmp_path / f"p.{ext}", "--report", tmp_path / f"{ext}.json")
+        a[ext] = json.loads((tmp_path / f"{ext}.json").read_text())
+    assert a["3mf"]["extruded_length_mm"] == pytest.approx(a["gcode"]["extruded_length_mm"], rel=1e-3)
+    validate(xsd, tmp_path / "p.3mf", tmp_path)
+
+
+def test_nonplanar_and_plan_routes_write_3mf_that_reads_back(tmp_path, xsd):
+    # Non-planar layers: a 3-axis toolpath (points carry their z), as the G-code's.
+    run("surface", "--kind", "corrugation", "-o", tmp_path / "c.stl")
+    machine = ROOT / "profiles" / "fresh_nonplanar_2syringe.toml"
+    for ext in ("gcode", "3mf"):
+        run("nonplanar", tmp_path / "c.stl", "--machine", machine, "-o", tmp_path / f"c.{ext}")
+    with zipfile.ZipFile(tmp_path / "c.3mf") as z:
+        model = ET.fromstring(z.read("3D/3dmodel.model"))
+    assert model.find(f".//{{{TP}}}toolpathresource").get("toolpathtype") == "3axis"
+    assert model.find(f".//{{{CORE}}}object") is None  # the surface printed on is no part
+    tr = trellis_module()
+    g = layers_of(tr.read_toolpath(str(tmp_path / "c.gcode")))
+    t = layers_of(tr.read_toolpath(str(tmp_path / "c.3mf")))
+    assert len(g) == len(t) > 2
+    for a, b in zip(extrusion_by_layer(g), extrusion_by_layer(t)):
+        assert b == pytest.approx(a, rel=1e-3)
+    zs = lambda layers: [p["points"][:, 2].min() for _, paths in layers for p in paths]
+    assert zs(t) == pytest.approx(zs(g), abs=2e-3)
+    validate(xsd, tmp_path / "c.3mf", tmp_path)
+    # A planned lattice: `check` reads the 3MF as it reads the G-code.
+    lattice = ROOT / "examples" / "lattices" / "tiny.json"
+    fdm = ROOT / "profiles" / "ender3_s1_pro_tpu.toml"
+    out = {}
+    for ext in ("gcode", "3mf"):
+        r = run("plan", "euler", lattice, "--machine", fdm, "-o", tmp_path / f"t{ext}.toolpath.json",
+                "--gcode", tmp_path / f"t.{ext}")
+        out[ext] = r.stdout.splitlines()[0]
+    assert out["3mf"] == out["gcode"]  # the same summary: machine check and estimate as G-code
+    checks = {ext: run("check", lattice, tmp_path / f"t.{ext}").stdout for ext in ("gcode", "3mf")}
+    assert checks["3mf"] == checks["gcode"] and "0 missing, 0 repeated" in checks["3mf"]
+    validate(xsd, tmp_path / "t.3mf", tmp_path)
+
+
+def cube_stl(path, size=10.0, height=1.0):
+    """A closed box as ASCII STL (12 facets, counter-clockwise seen from outside)."""
+    v = [(x * size, y * size, z * height) for z in (0, 1) for y in (0, 1) for x in (0, 1)]
+    faces = [(0, 2, 3), (0, 3, 1), (4, 5, 7), (4, 7, 6), (0, 1, 5), (0, 5, 4),
+             (2, 6, 7), (2, 7, 3), (0, 4, 6), (0, 6, 2), (1, 3, 7), (1, 7, 5)]
+    lines = ["solid box"]
+    for f in faces:
+        lines += ["facet normal 0 0 0", "outer loop"]
+        lines += [f"vertex {v[i][0]} {v[i][1]} {v[i][2]}" for i in f]
+        lines += ["endloop", "endfacet"]
+    path.write_text("\n".join(lines + ["endsolid box", ""]))
+
+
+def test_mesh_design_is_the_build_item(tmp_path, xsd):
+    stl = tmp_path / "box.stl"
+    cube_stl(stl)
+    out = tmp_path / "box.3mf"
+    run("slice", stl, "--machine", ROOT / "profiles" / "ender3_s1_pro_tpu.toml", "-o", out)
+    with zipfile.ZipFile(out) as z:
+        model = ET.fromstring(z.read("3D/3dmodel.model"))
+    mesh = model.find(f".//{{{CORE}}}mesh")
+    assert mesh is not None
+    assert len(mesh.findall(f"{{{CORE}}}triangles/{{{CORE}}}triangle")) >= 12
+    item = model.find(f"{{{CORE}}}build/{{{CORE}}}item")
+    with zipfile.ZipFile(out) as z:
+        layer = ET.fromstring(z.read("Toolpath/Layers/layer00001.xml"))
+    part = layer.find(f"{{{TP}}}parts/{{{TP}}}part")
+    assert part.get("uuid") == item.get("{http://schemas.microsoft.com/3dmanufacturing/production/2015/06}UUID")
+    validate(xsd, out, tmp_path)
+
+
+def spec_package(path, layer_text=None, model_text=None):
+    """Appendix D of the specification as a package: D.1 model, D.2 relationship, D.3 layer."""
+    with zipfile.ZipFile(path, "w") as z:
+        z.writestr("[Content_Types].xml",
+                   '<?xml version="1.0" encoding="UTF-8"?><Types xmlns="http://schemas.openxmlformats.org/package/2006/content-types">'
+                   '<Default Extension="rels" ContentType="application/vnd.openxmlformats-package.relationships+xml"/>'
+                   '<Default Extension="model" ContentType="application/vnd.ms-package.3dmanufacturing-3dmodel+xml"/>'
+                   '<Default Extension="xml" ContentType="application/xml"/></Types>')
+        z.writestr("_rels/.rels",
+                   '<?xml version="1.0" encoding="UTF-8"?><Relationships xmlns="http://schemas.openxmlformats.org/package/2006/relationships">'
+                   '<Relationship Id="rel0" Target="/3D/3dmodel.model" Type="http://schemas.microsoft.com/3dmanufacturing/2013/01/3dmodel"/></Relationships>')
+        z.writestr("3D/3dmodel.model", model_text or (DATA / "spec_example_3dmodel.model").read_text())
+        z.writestr("3D/_rels/3dmodel.model.rels",
+                   '<?xml version="1.0" encoding="UTF-8"?><Relationships xmlns="http://schemas.openxmlformats.org/package/2006/relationships">'
+                   '<Relationship Id="rel1" Type="http://schemas.3mf.io/3dmanufacturing/toolpath/2026/03/layer" '
+                   'Target="/Toolpath/Layers/layer00001.xml" /></Relationships>')
+        z.writestr("Toolpath/Layers/layer00001.xml",
+                   layer_text or (DATA / "spec_example_layer00001.xml").read_text())
+
+
+def test_the_specifications_example_reads(tmp_path, xsd):
+    for f in ("spec_example_layer00001.xml",):
+        r = subprocess.run(["xmllint", "--nonet", "--noout", "--schema",
+                            xsd["toolpath_layer_2026_03.xsd"], DATA / f], capture_output=True, text=True)
+        assert r.returncode == 0, r.stderr
+    spec_package(tmp_path / "d.3mf")
+    layers = layers_of(trellis_module().read_toolpath(str(tmp_path / "d.3mf")))
+    assert len(layers) == 1
+    z, paths = layers[0]
+    assert z == pytest.approx(0.05)  # ztop 50 x unitfactor 0.001 mm
+    assert len(paths) == 2  # two hatches
+    for p in paths:
+        assert p["length"] == pytest.approx(10.0)
+        assert (p["power"], p["speed"]) == (200.0, 1000.0)
+    r = run("analyze", tmp_path / "d.3mf")
+    assert "1 layers, 2 vectors (20.0 mm" in r.stdout
+
+
+def test_a_3mf_without_a_toolpath_is_refused(tmp_path):
+    mesh = tmp_path / "mesh.3mf"
+    with zipfile.ZipFile(mesh, "w") as z:
+        z.writestr("_rels/.rels",
+                   '<?xml version="1.0" encoding="UTF-8"?><Relationships xmlns="http://schemas.openxmlformats.org/package/2006/relationships">'
+                   '<Relationship Id="rel0" Target="/3D/3dmodel.model" Type="http://schemas.microsoft.com/3dmanufacturing/2013/01/3dmodel"/></Relationships>')
+        z.writestr("3D/3dmodel.model",
+                   f'<?xml version="1.0" encoding="UTF-8"?><model unit="millimeter" xmlns="{CORE}"><resources>'
+                   '<object id="1" type="model"><mesh><vertices><vertex x="0" y="0" z="0"/><vertex x="1" y="0" z="0"/>'
+                   '<vertex x="0" y="1" z="0"/></vertices><triangles><triangle v1="0" v2="1" v3="2"/></triangles>'
+                   '</mesh></object></resources><build><item objectid="1"/></build></model>')
+    r = run("analyze", mesh, ok=False)
+    assert r.returncode == 2
+    assert str(mesh) in r.stderr and "a 3MF with no toolpath" in r.stderr
+
+
+def test_malformed_layer_xml_names_the_part_and_line(tmp_path):
+    bad = (DATA / "spec_example_layer00001.xml").read_text().replace(
+        '<hatch x1="0" y1="100"', '<hatch x1="0" y1="100"<')
+    spec_package(tmp_path / "bad.3mf", bad)
+    for cmd in (("analyze", tmp_path / "bad.3mf"), ("render", tmp_path / "bad.3mf", "--layer", 0, "-o", tmp_path / "x.png")):
+        r = run(*cmd, ok=False)
+        assert r.returncode == 2, r.stderr
+        line = next(i + 1 for i, s in enumerate(bad.splitlines()) if 'y1="100"<' in s)
+        assert "/Toolpath/Layers/layer00001.xml" in r.stderr and f"line {line}" in r.stderr, r.stderr
+        assert not (tmp_path / "x.png").exists()
+    # A segment naming an undeclared profile is refused too (Part II §1.1.2), with its line.
+    undeclared = (DATA / "spec_example_layer00001.xml").read_text().replace('profileid="1"', 'profileid="7"')
+    spec_package(tmp_path / "undeclared.3mf", undeclared)
+    r = run("analyze", tmp_path / "undeclared.3mf", ok=False)
+    assert r.returncode == 2 and "profileid 7" in r.stderr and "line 10" in r.stderr, r.stderr
+
+
+def test_constant_modifiers_apply_and_others_are_refused(tmp_path):
+    """§4.2: a constant laserpower modifier sets each hatch's power; a consumer must refuse a file
+    with a modifier it does not apply (Trellis: linear and nonlinear ones)."""
+    model = (DATA / "spec_example_3dmodel.model").read_text()
+    layer = (DATA / "spec_example_layer00001.xml").read_text()
+    modifier = ('laserindex="1"><tp:modifier attribute="laserpower" type="{}" factor="f" '
+                'minvalue="0" maxvalue="200"/></tp:toolpathprofile>')
+    assert 'laserindex="1" />' in model
+    constant = model.replace('laserindex="1" />', modifier.format("constant"))
+    scaled = layer.replace('y2="0" />', 'y2="0" f="0.25" />').replace('y2="100" />', 'y2="100" f="1" />')
+    spec_package(tmp_path / "m.3mf", scaled, constant)
+    _, paths = layers_of(trellis_module().read_toolpath(str(tmp_path / "m.3mf")))[0]
+    assert [p["power"] for p in paths] == [50.0, 200.0]
+    spec_package(tmp_path / "linear.3mf", scaled, model.replace('laserindex="1" />', modifier.format("linear")))
+    r = run("analyze", tmp_path / "linear.3mf", ok=False)
+    assert r.returncode == 2 and "linear modifier of laserpower" in r.stderr, r.stderr
