@@ -58,7 +58,7 @@ void add_check(CLI::App& app) {
     cfg.aero.nozzle.validate();
     Diagnostics diag;
     const Graph g = read_lattice(
-        o->lattice, cfg.keep_graph ? keep_graph_options() : CleanOptions{cfg.merge_tolerance, true}, diag);
+        o->lattice, cfg.clean_options(), diag);
     CheckOptions check;
     check.nozzle = cfg.aero.nozzle;
     check.snap = o->snap;

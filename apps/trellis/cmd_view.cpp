@@ -78,7 +78,7 @@ void add_view(CLI::App& app) {
       cfg.aero.nozzle.validate();
       design = read_lattice(
           o->design,
-          cfg.keep_graph ? keep_graph_options() : CleanOptions{cfg.merge_tolerance, true}, diag);
+          cfg.clean_options(), diag);
     }
     for (const auto& f : o->files) {
       ViewScene s = load_view_scene(f, o->load, diag);

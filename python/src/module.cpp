@@ -432,7 +432,7 @@ PYBIND11_MODULE(_trellis, m) {
     const Config cfg = st.config();
     cfg.aero.nozzle.validate();
     const CleanOptions clean =
-        cfg.keep_graph ? keep_graph_options() : CleanOptions{cfg.merge_tolerance, true};
+        cfg.clean_options();
     std::shared_ptr<Graph> given =
         py::isinstance<Graph>(lattice) ? lattice.cast<std::shared_ptr<Graph>>() : nullptr;
     std::shared_ptr<Toolpath> printed =

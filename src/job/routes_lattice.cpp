@@ -370,7 +370,7 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
   HeightField surface;
   if (!c.onto.kind.empty()) surface = onto_surface(c.onto);
   if (!job.input.empty()) {
-    g = read_lattice(job.input, c.keep_graph ? keep_graph_options() : CleanOptions{c.merge_tolerance, true},
+    g = read_lattice(job.input, c.clean_options(),
                      diag);
     g = stacked_layers(std::move(g), job, c);
   } else if (c.planner == "aero") {

@@ -125,6 +125,10 @@ struct Config {
   PlanParams plan;      // plan.* and gippo.*
   double merge_tolerance = 1e-6;  // lattice.merge_tolerance (mm)
   bool keep_graph = false;        // lattice.keep_graph: no node merging, no T-junction splitting
+  // How a lattice is read under lattice.keep_graph and lattice.merge_tolerance.
+  CleanOptions clean_options() const {
+    return keep_graph ? keep_graph_options() : CleanOptions{merge_tolerance, true};
+  }
   double line_width = 0.4;        // lattice2d.line_width (mm): for the pore area
   double target_porosity = 0;     // lattice2d.target_porosity (%): tune the cell size; 0 = off
   int gippo_seeds = 0;            // gippo.seeds: robustness run over this many seeds
