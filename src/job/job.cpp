@@ -12,6 +12,7 @@
 
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
+#include "trellis/machine/bgcode.hpp"
 
 namespace trellis {
 
@@ -292,6 +293,7 @@ Job job_from_toml(const std::string& text, const std::string& origin, const std:
     const Config c = job.settings.config();
     const bool marlin = c.machine.flavor != "pneumatic" && c.machine.flavor != "embedded";
     const std::string gext = !c.machine.file_extension.empty() ? c.machine.file_extension
+                             : c.machine.binary_gcode          ? ".bgcode"
                              : marlin                          ? ".gcode"
                                                                : ".nc";
     const std::string& r = job.route;
@@ -376,7 +378,8 @@ Job job_from_output(const std::string& path) {
                          " file carries no Trellis job (meshes and beam lattices have no header): "
                          "run the job again, or rerun its JSON or G-code output",
                      {path});
-  const std::string text = read_file(path);
+  std::string text = read_file(path);
+  if (is_bgcode(text)) text = bgcode_to_text(text, path);
   std::string job;
   // Header comment lines: "; job: …" (G-code), "//job: …//" (CLI).
   std::size_t pos = 0;

@@ -10,6 +10,8 @@
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/job/plate.hpp"
+#include "trellis/machine/bgcode.hpp"
+#include "trellis/machine/bgcode_writer.hpp"
 #include "trellis/machine/gcode_reader.hpp"
 #include "trellis/machine/machine_check.hpp"
 #include "trellis/toolpath/json.hpp"
@@ -138,6 +140,7 @@ static UseContext use_context(const Job& job) {
   if (!job.input.empty() || !job.parts.empty()) u.facts.push_back("input");
   if (!job.report.empty()) u.facts.push_back("report");
   if (ext == ".3mf") u.facts.push_back("3mf");
+  if (ext == ".bgcode" || fs::path(job.gcode).extension() == ".bgcode") u.facts.push_back("bgcode");
   if (!job.origin.empty()) u.facts.push_back("job");
   return u;
 }
@@ -221,7 +224,8 @@ Toolpath read_print(const std::string& path, const Settings* machine, double* sn
   const auto ext = fs::path(path).extension().string();
   if (ext != ".gcode" && ext != ".nc" && ext != ".g" && ext != ".bgcode")
     return read_toolpath(path);
-  const std::string text = read_file(path);
+  std::string text = read_file(path);
+  if (is_bgcode(text)) text = bgcode_to_text(text, path);  // the header lines are read below
   Settings embedded;
   bool have = machine != nullptr;
   if (!have && text.find("\n; job: ") != std::string::npos) {
@@ -333,6 +337,13 @@ JobResult run_job(const Job& job, Diagnostics& diag, const Progress& progress) {
   // checked before anything is written, and its inputs are never written (core/run_files.hpp).
   OutputBatch batch;
   job_files(job, c.follow_symlinks).check();
+  // Binary G-code for a machine without Prusa's firmware: refused before any work.
+  for (const std::string* g : {&job.output, &job.gcode}) {
+    const std::string ext = fs::path(*g).extension().string();
+    const bool gcode = ext == ".bgcode" || ext == ".gcode" || ext == ".g" || ext == ".gco";
+    if (gcode && std::find(sections.begin(), sections.end(), "gcode") != sections.end())
+      binary_gcode_output(*g, c.machine);
+  }
   // run.threads bounds every parallel loop of the run (0 = all cores).
   std::unique_ptr<tbb::global_control> threads;
   if (c.threads > 0)

@@ -496,6 +496,7 @@ const char* fact_words(const std::string& fact) {
   if (fact == "input") return "a design or lattice file is read";
   if (fact == "report") return "a report is written";
   if (fact == "3mf") return "the output is 3MF";
+  if (fact == "bgcode") return "the G-code output is binary (.bgcode)";
   if (fact == "job") return "a job file is run (trellis run)";
   if (fact == "graded") return "the toolpath carries mixtures (a graded design)";
   if (fact == "tools") return "the toolpath uses several tools";
