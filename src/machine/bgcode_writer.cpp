@@ -28,7 +28,8 @@ std::string deflate_zlib(std::string_view data) {
   const int rc = compress2(reinterpret_cast<Bytef*>(out.data()), &size,
                            reinterpret_cast<const Bytef*>(data.data()),
                            static_cast<uLong>(data.size()), Z_DEFAULT_COMPRESSION);
-  if (rc != Z_OK) throw IoError("zlib cannot compress a binary G-code block (" + std::to_string(rc) + ")");
+  if (rc != Z_OK)
+    throw IoError("zlib cannot compress a binary G-code block (" + std::to_string(rc) + ")");
   out.resize(size);
   return out;
 }
@@ -60,7 +61,8 @@ void BgcodeWriter::block(BgcodeBlock type, BgcodeCompression compression, std::s
   }
   put_u16(block_, static_cast<std::uint16_t>(compression));
   put_u32(block_, static_cast<std::uint32_t>(data.size()));
-  if (compression != BgcodeCompression::None) put_u32(block_, static_cast<std::uint32_t>(stored.size()));
+  if (compression != BgcodeCompression::None)
+    put_u32(block_, static_cast<std::uint32_t>(stored.size()));
   block_.append(params);
   block_.append(stored);
   const auto crc = static_cast<std::uint32_t>(
@@ -114,7 +116,8 @@ void BgcodeWriter::flush_gcode(std::size_t upto) {
 }
 
 void BgcodeWriter::gcode(std::string_view text) {
-  if (!started_ || finished_) throw std::logic_error("BgcodeWriter: gcode() outside start()/finish()");
+  if (!started_ || finished_)
+    throw std::logic_error("BgcodeWriter: gcode() outside start()/finish()");
   const std::size_t limit = options_.block_size;
   while (!text.empty()) {
     const std::size_t take = std::min(text.size(), limit * 2 - std::min(pending_.size(), limit));
@@ -129,7 +132,8 @@ void BgcodeWriter::gcode(std::string_view text) {
 }
 
 void BgcodeWriter::finish() {
-  if (!started_ || finished_) throw std::logic_error("BgcodeWriter: finish() twice or before start()");
+  if (!started_ || finished_)
+    throw std::logic_error("BgcodeWriter: finish() twice or before start()");
   if (!pending_.empty()) flush_gcode(pending_.size());
   finished_ = true;
 }
@@ -143,12 +147,13 @@ bool binary_gcode_output(const std::string& path, const MachineProfile& p) {
                            "the extension): name it .bgcode, or set gcode.binary = false",
                        {"", 0, "gcode.binary"});
   if (p.firmware != "prusa")
-    throw MachineError("binary G-code (.bgcode) is read by Prusa's firmware only (MK4, MK3.9, XL, "
-                           "MINI, Core One); the machine '" + p.name + "' (machine.flavor = " +
-                           p.flavor + ", machine.firmware = '" + p.firmware +
-                           "') is not declared to run it: write text G-code (.gcode), or set "
-                           "machine.firmware = \"prusa\" in its profile if it does",
-                       {"", 0, "machine.firmware"});
+    throw MachineError(
+        "binary G-code (.bgcode) is read by Prusa's firmware only (MK4, MK3.9, XL, "
+        "MINI, Core One); the machine '" +
+            p.name + "' (machine.flavor = " + p.flavor + ", machine.firmware = '" + p.firmware +
+            "') is not declared to run it: write text G-code (.gcode), or set "
+            "machine.firmware = \"prusa\" in its profile if it does",
+        {"", 0, "machine.firmware"});
   return true;
 }
 

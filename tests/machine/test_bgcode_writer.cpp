@@ -5,6 +5,7 @@
 // write leaves the folder as it was.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <stdexcept>
@@ -104,19 +105,16 @@ Walked walk(std::string_view f) {
   return w;
 }
 
-// The text without its "; thumbnail begin ... ; thumbnail end" comment blocks.
-std::string without_thumbnails(const std::string& text) {
-  std::string out;
-  bool inside = false;
-  for (std::size_t a = 0; a < text.size();) {
-    const std::size_t b = std::min(text.find('\n', a), text.size() - 1) + 1;
-    const std::string_view line(text.data() + a, b - a);
-    if (line.rfind("; thumbnail begin", 0) == 0) inside = true;
-    if (!inside) out.append(line);
-    if (line.rfind("; thumbnail end", 0) == 0) inside = false;
-    a = b;
+// The text without its thumbnail blocks (each framed by bare ";" lines), each of which must be
+// there once.
+std::string without_thumbnails(std::string text, const std::vector<GcodeThumbnail>& thumbnails) {
+  for (const auto& t : thumbnails) {
+    const std::string block = thumbnail_block(t);
+    const std::size_t at = text.find(block);
+    EXPECT_NE(at, std::string::npos) << t.width << "x" << t.height;
+    if (at != std::string::npos) text.erase(at, block.size());
   }
-  return out;
+  return text;
 }
 
 std::string value_of(const std::string& text, const std::string& key) {
@@ -175,7 +173,15 @@ TEST(BgcodeWriter, GcodeBlocksHoldTheTextGcodeAndTheThumbnailsTheirPictures) {
   }
   EXPECT_NE(text.find("; thumbnail begin 220x124"), std::string::npos);
   EXPECT_EQ(gcode.find("; thumbnail begin"), std::string::npos);
-  EXPECT_TRUE(gcode == without_thumbnails(text)) << "the G-code blocks differ from the text";
+  const std::string want = without_thumbnails(text, thumbs);
+  const std::size_t differ =
+      std::mismatch(gcode.begin(), gcode.begin() + std::min(gcode.size(), want.size()),
+                    want.begin())
+          .first -
+      gcode.begin();
+  EXPECT_TRUE(gcode == want) << "the G-code blocks differ from the text at byte " << differ << ":\n"
+                             << gcode.substr(differ, 80) << "\n---\n"
+                             << want.substr(differ, 80);
   ASSERT_EQ(pics.size(), thumbs.size());
   for (std::size_t i = 0; i < pics.size(); ++i) {
     EXPECT_EQ(pics[i].encoding, 0);  // PNG
