@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <fstream>
 #include <regex>
 
 #include "support/cli_run.hpp"
@@ -92,6 +93,12 @@ TEST(CliBgcode, StreamedSliceAndBinaryGcodeFlag) {
   const auto a = run("analyze " + gc), b = run("analyze " + bg);
   ASSERT_EQ(b.code, 0) << b.err;
   EXPECT_EQ(same_names(a.out, "F", gc), same_names(b.out, "F", bg));
+  // The viewer's page: the same moves, told apart only by name and kind.
+  ASSERT_EQ(run("view " + gc + " -o " + at("g.html")).code, 0);
+  ASSERT_EQ(run("view " + bg + " -o " + at("b.html")).code, 0);
+  EXPECT_TRUE(same_names(trellis::read_file(at("g.html")), "v.gcode", "v.bgcode") ==
+              same_names(same_names(trellis::read_file(at("b.html")), "v.gcode", "v.bgcode"),
+                         "\"kind\":\"gcode\"", "\"kind\":\"bgcode\""));
   // --binary-gcode (gcode.binary) writes the same format, and wants the name to say so.
   r = run(slice + "--binary-gcode -o " + at("flag.bgcode"));
   ASSERT_EQ(r.code, 0) << r.err;
@@ -109,4 +116,21 @@ TEST(CliBgcode, OtherFirmwaresAreRefused) {
   for (const char* w : {"machine.firmware", "klipper", ".bgcode"})
     EXPECT_NE(r.err.find(w), std::string::npos) << w << "\n" << r.err;
   EXPECT_FALSE(fs::exists(at("voron.bgcode")));
+}
+
+TEST(CliBgcode, ShardsMergeIntoTheFileOneProcessWrites) {
+  const std::string job = at("v.toml");
+  std::ofstream(job) << "[job]\nroute = \"slice\"\nname = \"v\"\ninput = \"" << kRoot
+                     << "/examples/designs/Vase.stl\"\nmachine = \"" << kPrusa
+                     << "\"\noutput = \"s.bgcode\"\noutput_dir = \"" << work().string()
+                     << "/jobout\"\n[extrusion]\nlayer_height = 0.3\n[output]\npng = false\n";
+  for (const char* k : {"1/2", "2/2"}) ASSERT_EQ(run("run " + job + " --shard " + k).code, 0) << k;
+  const std::string shards = at("jobout/s.bgcode.shard-");
+  auto r = run("merge " + shards + "1-of-2.json " + shards + "2-of-2.json -o " +
+               at("jobout/merged.bgcode"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  ASSERT_EQ(run("run " + job).code, 0);
+  EXPECT_TRUE(trellis::is_bgcode(trellis::read_file(at("jobout/merged.bgcode"))));
+  EXPECT_TRUE(trellis::read_file(at("jobout/merged.bgcode")) ==
+              trellis::read_file(at("jobout/s.bgcode")));
 }
