@@ -1303,7 +1303,6 @@ GcodeStats write_gcode_stream(const std::string& path, const Toolpath& meta,
   auto warnings = std::move(s.warnings);
   std::unique_ptr<std::FILE, int (*)(std::FILE*)> raw(temporary_file(), &std::fclose);
   const bool binary = binary_gcode_output(path, profile);
-  static const std::vector<GcodeThumbnail> kNone;
   write_file_atomic_with(path, [&](const ByteWriter& put) {
     if (!binary) {
       Writer(profile, meta, lift, thumbnails, &placed, layer_count).stream(s, raw.get(), put);
@@ -1312,7 +1311,8 @@ GcodeStats write_gcode_stream(const std::string& path, const Toolpath& meta,
     // The pictures go into thumbnail blocks; the text, once its print metadata is known, into
     // G-code blocks as it is copied out of the temporary file.
     BgcodeWriter packer(put);
-    Writer(profile, meta, lift, kNone, &placed, layer_count)
+    const std::vector<GcodeThumbnail> none;
+    Writer(profile, meta, lift, none, &placed, layer_count)
         .stream(
             s, raw.get(), [&](std::string_view text) { packer.gcode(text); },
             [&](const GcodeStats& known) {
