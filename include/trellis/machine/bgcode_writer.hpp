@@ -8,6 +8,8 @@
 // The G-code blocks hold the text G-code writer's bytes exactly (machine/gcode_writer.hpp),
 // written without its "; thumbnail begin" comments: the pictures are in the thumbnail blocks.
 // The writer holds one block at a time, so a streamed G-code is packed in bounded memory.
+// write_gcode_file and write_gcode_stream (machine/gcode_writer.hpp) write this format for a
+// path ending in .bgcode or with gcode.binary set (binary_gcode_output below).
 #pragma once
 #include <cstdint>
 #include <string>

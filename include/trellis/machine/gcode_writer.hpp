@@ -81,8 +81,7 @@ std::string write_gcode(const Toolpath& toolpath, const MachineProfile& profile,
 void write_gcode_into(std::string& out, const Toolpath& toolpath, const MachineProfile& profile,
                       GcodeStats* stats = nullptr,
                       const std::vector<GcodeThumbnail>& thumbnails = {});
-// Writes atomically; returns the stats. A path ending in .bgcode (or gcode.binary) is written as
-// binary G-code (machine/bgcode_writer.hpp): the same text, packed, its thumbnails in blocks.
+// Writes atomically; returns the stats.
 GcodeStats write_gcode_file(const std::string& path, const Toolpath& toolpath,
                             const MachineProfile& profile,
                             const std::vector<GcodeThumbnail>& thumbnails = {});
@@ -91,7 +90,6 @@ GcodeStats write_gcode_file(const std::string& path, const Toolpath& toolpath,
 // a few times (extent, machine check, tools, writing); `meta` gives the source, job and part
 // labels (its layers are not read). The bytes are write_gcode_file's for the same layers, except
 // that mixtures are refused (their look-ahead needs the whole toolpath).
-// Binary G-code too, as write_gcode_file.
 GcodeStats write_gcode_stream(const std::string& path, const Toolpath& meta,
                               std::size_t layer_count, const LayerSource& layers,
                               const MachineProfile& profile,
