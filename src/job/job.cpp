@@ -12,6 +12,7 @@
 
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
+#include "trellis/machine/bgcode.hpp"
 #include "trellis/machine/toolpath_3mf.hpp"
 
 namespace trellis {
@@ -245,6 +246,7 @@ Job job_from_toml(const std::string& text, const std::string& origin, const std:
     const Config c = job.settings.config();
     const bool marlin = c.machine.flavor != "pneumatic" && c.machine.flavor != "embedded";
     const std::string gext = !c.machine.file_extension.empty() ? c.machine.file_extension
+                             : c.machine.binary_gcode          ? ".bgcode"
                              : marlin                          ? ".gcode"
                                                                : ".nc";
     const std::string& r = job.route;
@@ -334,7 +336,8 @@ Job job_from_output(const std::string& path) {
                          "run the job again, or rerun its JSON or G-code output",
                      {path});
   }
-  const std::string text = job.empty() ? read_file(path) : std::string();
+  std::string text = job.empty() ? read_file(path) : std::string();
+  if (is_bgcode(text)) text = bgcode_to_text(text, path);
   // Header comment lines: "; job: …" (G-code), "//job: …//" (CLI).
   std::size_t pos = 0;
   while (pos < text.size()) {

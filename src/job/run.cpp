@@ -14,6 +14,8 @@
 #include "trellis/job/plate.hpp"
 #include "trellis/geom/mesh_io.hpp"
 #include "trellis/machine/cli.hpp"
+#include "trellis/machine/bgcode.hpp"
+#include "trellis/machine/bgcode_writer.hpp"
 #include "trellis/machine/gcode_reader.hpp"
 #include "trellis/machine/toolpath_3mf.hpp"
 #include "trellis/machine/machine_check.hpp"
@@ -202,6 +204,7 @@ static UseContext use_context(const Job& job) {
   std::string in = fs::path(job.input).extension().string();
   std::transform(in.begin(), in.end(), in.begin(), [](unsigned char ch) { return std::tolower(ch); });
   if (in == ".stl" || in == ".obj" || in == ".3mf") u.facts.push_back("mesh");
+  if (ext == ".bgcode" || fs::path(job.gcode).extension() == ".bgcode") u.facts.push_back("bgcode");
   if (!job.origin.empty()) u.facts.push_back("job");
   return u;
 }
@@ -286,7 +289,8 @@ Toolpath read_print(const std::string& path, const Settings* machine, double* sn
   if (routes::is_3mf_output(path)) return read_toolpath_3mf_file(path, &diag);
   if (ext != ".gcode" && ext != ".nc" && ext != ".g" && ext != ".bgcode")
     return read_toolpath(path);
-  const std::string text = read_file(path);
+  std::string text = read_file(path);
+  if (is_bgcode(text)) text = bgcode_to_text(text, path);  // the header lines are read below
   Settings embedded;
   bool have = machine != nullptr;
   if (!have && text.find("\n; job: ") != std::string::npos) {
@@ -390,6 +394,13 @@ JobResult run_job(const Job& job, Diagnostics& diag, const Progress& progress) {
   // checked before anything is written, and its inputs are never written (core/run_files.hpp).
   OutputBatch batch;
   job_files(job, c.follow_symlinks).check();
+  // Binary G-code for a machine without Prusa's firmware: refused before any work.
+  for (const std::string* g : {&job.output, &job.gcode}) {
+    const std::string ext = fs::path(*g).extension().string();
+    const bool gcode = ext == ".bgcode" || ext == ".gcode" || ext == ".g" || ext == ".gco";
+    if (gcode && std::find(sections.begin(), sections.end(), "gcode") != sections.end())
+      binary_gcode_output(*g, c.machine);
+  }
   // run.threads bounds every parallel loop of the run (0 = all cores).
   std::unique_ptr<tbb::global_control> threads;
   if (c.threads > 0)

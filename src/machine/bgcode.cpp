@@ -15,15 +15,6 @@ namespace {
 
 constexpr std::size_t kMaxBlock = std::size_t{1} << 28;  // 256 MiB: PrusaSlicer writes 64 KiB
 
-enum class BlockType : std::uint16_t {
-  FileMetadata = 0,
-  Gcode = 1,
-  SlicerMetadata = 2,
-  PrinterMetadata = 3,
-  PrintMetadata = 4,
-  Thumbnail = 5
-};
-
 std::uint16_t u16(const unsigned char* p) {
   return static_cast<std::uint16_t>(p[0] | (p[1] << 8));
 }
@@ -210,8 +201,13 @@ void MeatPackDecoder::feed(std::string_view data, std::string& out) {
   }
 }
 
-void read_bgcode(const std::function<std::size_t(char*, std::size_t)>& read,
-                 const std::function<void(std::string_view)>& text, const std::string& origin) {
+namespace {
+
+// The blocks of a file in order: `block` gets each one with its data decompressed and, for
+// G-code, decoded (constant memory: one block at a time).
+void for_each_block(const std::function<std::size_t(char*, std::size_t)>& read,
+                    const std::function<void(const BgcodeBlockRead&)>& on_block,
+                    const std::string& origin) {
   std::size_t offset = 0;
   std::vector<char> buf;
   auto need = [&](std::size_t n, const char* what) {
@@ -230,16 +226,18 @@ void read_bgcode(const std::function<std::size_t(char*, std::size_t)>& read,
     return reinterpret_cast<const unsigned char*>(buf.data());
   };
   const unsigned char* h = need(10, "the file header");
-  if (std::memcmp(h, "GCDE", 4) != 0)
+  if (std::memcmp(h, kBgcodeMagic, 4) != 0)
     throw ParseError("not a binary G-code file (no GCDE magic)", {origin});
-  if (u32(h + 4) != 1)
+  if (u32(h + 4) != kBgcodeVersion)
     throw ParseError(
         "binary G-code version " + std::to_string(u32(h + 4)) + " (this reader knows version 1)",
         {origin});
   const std::uint16_t checksum = u16(h + 8);
-  if (checksum > 1) throw ParseError("unknown checksum type " + std::to_string(checksum), {origin});
+  if (checksum > kBgcodeCrc32)
+    throw ParseError("unknown checksum type " + std::to_string(checksum), {origin});
   MeatPackDecoder meatpack;
-  std::string decoded, block;
+  std::string block;
+  BgcodeBlockRead r;
   std::size_t gcode_blocks = 0;
   for (;;) {
     // End of file: a clean end only between blocks.
@@ -249,13 +247,12 @@ void read_bgcode(const std::function<std::size_t(char*, std::size_t)>& read,
     const std::string at = "block at byte " + std::to_string(start);
     block.assign(1, first);
     offset += 1;
-    const unsigned char* p = need(7, "a block header");
+    need(7, "a block header");
     block.append(buf.data(), 7);
     const auto* b = reinterpret_cast<const unsigned char*>(block.data());
     const auto type = u16(b);
     const auto compression = u16(b + 2);
     const std::size_t size = u32(b + 4);
-    (void)p;
     if (type > 5) throw ParseError("unknown block type " + std::to_string(type), {origin, 0, at});
     if (compression > 3)
       throw ParseError("unknown compression " + std::to_string(compression), {origin, 0, at});
@@ -270,66 +267,90 @@ void read_bgcode(const std::function<std::size_t(char*, std::size_t)>& read,
                            " bytes (more than 256 MiB: a damaged header?)",
                        {origin, 0, at});
     const std::size_t header = block.size();
-    const std::size_t params = type == static_cast<std::uint16_t>(BlockType::Thumbnail) ? 6 : 2;
+    const bool thumbnail = type == static_cast<std::uint16_t>(BgcodeBlock::Thumbnail);
+    const std::size_t params = thumbnail ? 6 : 2;
     need(params + stored, "a block");
     block.append(buf.data(), params + stored);
-    if (checksum == 1) {
+    r.checked = false;
+    if (checksum == kBgcodeCrc32) {
       const unsigned char* c = need(4, "a block checksum");
       const std::uint32_t want = u32(c);
       const auto got = static_cast<std::uint32_t>(
           crc32(0L, reinterpret_cast<const Bytef*>(block.data()), static_cast<uInt>(block.size())));
       if (want != got) throw ParseError("CRC32 mismatch (damaged file)", {origin, 0, at});
+      r.checked = true;
     }
     const auto* bp = reinterpret_cast<const unsigned char*>(block.data());
-    const std::uint16_t encoding = u16(bp + header);
+    r.type = static_cast<BgcodeBlock>(type);
+    r.compression = static_cast<BgcodeCompression>(compression);
+    r.encoding = u16(bp + header);
+    r.width = thumbnail ? u16(bp + header + 2) : 0;
+    r.height = thumbnail ? u16(bp + header + 4) : 0;
     const std::string_view data(block.data() + header + params, stored);
-    if (type == static_cast<std::uint16_t>(BlockType::Thumbnail)) continue;
-    std::string plain;
     switch (compression) {
       case 0:
-        plain.assign(data);
+        r.data.assign(data);
         break;
       case 1:
-        plain = inflate_zlib(data, size, origin + " " + at);
+        r.data = inflate_zlib(data, size, origin + " " + at);
         break;
       default:
         try {
-          plain = heatshrink_decode(data, compression == 2 ? 11 : 12, 4, size);
+          r.data = heatshrink_decode(data, compression == 2 ? 11 : 12, 4, size);
         } catch (const ParseError& e) {
           throw ParseError(e.message(), {origin, 0, at});
         }
     }
-    if (type == static_cast<std::uint16_t>(BlockType::Gcode)) {
+    if (r.type == BgcodeBlock::Gcode) {
       ++gcode_blocks;
-      if (encoding == 0) {
-        text(plain);
-      } else if (encoding == 1 || encoding == 2) {
-        decoded.clear();
-        meatpack.feed(plain, decoded);
-        text(decoded);
-      } else {
-        throw ParseError("unknown G-code encoding " + std::to_string(encoding), {origin, 0, at});
+      if (r.encoding == 1 || r.encoding == 2) {
+        std::string decoded;
+        meatpack.feed(r.data, decoded);
+        r.data = std::move(decoded);
+      } else if (r.encoding != 0) {
+        throw ParseError("unknown G-code encoding " + std::to_string(r.encoding), {origin, 0, at});
       }
-    } else {
-      if (encoding != 0)
-        throw ParseError("unknown metadata encoding " + std::to_string(encoding), {origin, 0, at});
-      text(metadata_comments(plain));
+    } else if (!thumbnail && r.encoding != 0) {
+      throw ParseError("unknown metadata encoding " + std::to_string(r.encoding), {origin, 0, at});
     }
+    on_block(r);
   }
   if (gcode_blocks == 0) throw ParseError("binary G-code file without G-code blocks", {origin});
 }
 
-std::string bgcode_to_text(std::string_view bytes, const std::string& origin) {
-  std::size_t pos = 0;
-  std::string out;
-  read_bgcode(
-      [&](char* dst, std::size_t n) {
-        const std::size_t k = std::min(n, bytes.size() - pos);
-        std::memcpy(dst, bytes.data() + pos, k);
-        pos += k;
-        return k;
+std::function<std::size_t(char*, std::size_t)> read_from(std::string_view bytes) {
+  return [bytes, pos = std::size_t{0}](char* dst, std::size_t n) mutable {
+    const std::size_t k = std::min(n, bytes.size() - pos);
+    std::memcpy(dst, bytes.data() + pos, k);
+    pos += k;
+    return k;
+  };
+}
+
+}  // namespace
+
+void read_bgcode(const std::function<std::size_t(char*, std::size_t)>& read,
+                 const std::function<void(std::string_view)>& text, const std::string& origin) {
+  for_each_block(
+      read,
+      [&](const BgcodeBlockRead& b) {
+        if (b.type == BgcodeBlock::Gcode)
+          text(b.data);
+        else if (b.type != BgcodeBlock::Thumbnail)
+          text(metadata_comments(b.data));
       },
-      [&](std::string_view t) { out.append(t); }, origin);
+      origin);
+}
+
+std::string bgcode_to_text(std::string_view bytes, const std::string& origin) {
+  std::string out;
+  read_bgcode(read_from(bytes), [&](std::string_view t) { out.append(t); }, origin);
+  return out;
+}
+
+std::vector<BgcodeBlockRead> bgcode_blocks(std::string_view bytes, const std::string& origin) {
+  std::vector<BgcodeBlockRead> out;
+  for_each_block(read_from(bytes), [&](const BgcodeBlockRead& b) { out.push_back(b); }, origin);
   return out;
 }
 

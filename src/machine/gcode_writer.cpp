@@ -17,6 +17,7 @@
 #include "gcode_objects.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
+#include "trellis/machine/bgcode_writer.hpp"
 #include "trellis/machine/gcode_reader.hpp"
 #include "trellis/machine/machine_check.hpp"
 #include "trellis/version.hpp"
@@ -126,8 +127,10 @@ class Writer {
   }
 
   // The same bytes in bounded memory: the text without the M73 lines goes to `raw` as it is
-  // written (flushed every MB), then `put` receives it again with the M73 lines in place.
-  void stream(GcodeStats& stats, std::FILE* raw, const ByteWriter& put) {
+  // written (flushed every MB), then `put` receives it again with the M73 lines in place;
+  // `ready` (if given) first, with the stats known by then (all but bytes).
+  void stream(GcodeStats& stats, std::FILE* raw, const ByteWriter& put,
+              const std::function<void(const GcodeStats&)>& ready = {}) {
     constexpr std::size_t kFlush = std::size_t{1} << 20;
     raw_ = raw;
     out_.reserve(kFlush + (1u << 16));
@@ -153,6 +156,7 @@ class Writer {
         fed_ += n;
       }
     });
+    if (ready) ready(stats_);
     copy_with_progress(put);
     stats = stats_;
   }
@@ -1184,6 +1188,37 @@ std::string lift_warning(double lift) {
       -lift, lift);
 }
 
+// The metadata blocks of a binary G-code: PrusaSlicer's keys where it has one, with the values
+// the text's header and footer give (so a reader of either sees the same numbers).
+BgcodeMetadata bgcode_metadata(const MachineProfile& p, const GcodeStats& s, std::size_t layers) {
+  const auto value = [&](const char* key) {
+    for (const auto& d : machine_settings())
+      if (std::string(d.key) == key) return setting_text(p, d);
+    throw std::logic_error(std::string("no machine setting ") + key);
+  };
+  BgcodeMetadata m;
+  m.file = {{"Producer", std::string("Trellis ") + TRELLIS_VERSION}};
+  m.printer = {{"nozzle_diameter", value("extrusion.nozzle_diameter")},
+               {"layer_height", value("extrusion.layer_height")},
+               {"temperature", value("temperature.nozzle")},
+               {"bed_temperature", value("temperature.bed")}};
+  const std::string time = duration_text(s.print_time_s);
+  std::string filament;
+  append_fixed(filament, s.filament + s.prime_filament, 2);
+  for (auto* block : {&m.printer, &m.print}) {
+    block->push_back({"filament used [mm]", filament});
+    block->push_back({"estimated printing time (normal mode)", time});
+  }
+  m.print.push_back({"total layers count", std::to_string(layers)});
+  for (const auto& d : machine_settings()) {
+    std::string v = setting_text(p, d);
+    for (auto& c : v)
+      if (c == '\n') c = '|';
+    m.slicer.push_back({d.key, v});
+  }
+  return m;
+}
+
 }  // namespace
 
 std::string write_gcode(const Toolpath& toolpath, const MachineProfile& profile,
@@ -1267,8 +1302,24 @@ GcodeStats write_gcode_stream(const std::string& path, const Toolpath& meta,
     s.warnings.emplace_back(w.kind, w.message);
   auto warnings = std::move(s.warnings);
   std::unique_ptr<std::FILE, int (*)(std::FILE*)> raw(temporary_file(), &std::fclose);
+  const bool binary = binary_gcode_output(path, profile);
   write_file_atomic_with(path, [&](const ByteWriter& put) {
-    Writer(profile, meta, lift, thumbnails, &placed, layer_count).stream(s, raw.get(), put);
+    if (!binary) {
+      Writer(profile, meta, lift, thumbnails, &placed, layer_count).stream(s, raw.get(), put);
+      return;
+    }
+    // The pictures go into thumbnail blocks; the text, once its print metadata is known, into
+    // G-code blocks as it is copied out of the temporary file.
+    BgcodeWriter packer(put);
+    const std::vector<GcodeThumbnail> none;
+    Writer(profile, meta, lift, none, &placed, layer_count)
+        .stream(
+            s, raw.get(), [&](std::string_view text) { packer.gcode(text); },
+            [&](const GcodeStats& known) {
+              packer.start(bgcode_metadata(profile, known, layer_count), thumbnails);
+            });
+    packer.finish();
+    s.bytes = packer.bytes();
   });
   warnings.insert(warnings.end(), s.warnings.begin(), s.warnings.end());  // the writer's own
   s.warnings = std::move(warnings);
@@ -1279,8 +1330,18 @@ GcodeStats write_gcode_file(const std::string& path, const Toolpath& toolpath,
                             const MachineProfile& profile,
                             const std::vector<GcodeThumbnail>& thumbnails) {
   GcodeStats s;
-  const std::string text = write_gcode(toolpath, profile, &s, thumbnails);
-  write_file_atomic(path, text);
+  if (!binary_gcode_output(path, profile)) {
+    write_file_atomic(path, write_gcode(toolpath, profile, &s, thumbnails));
+    return s;
+  }
+  const std::string text = write_gcode(toolpath, profile, &s, {});
+  write_file_atomic_with(path, [&](const ByteWriter& put) {
+    BgcodeWriter packer(put);
+    packer.start(bgcode_metadata(profile, s, toolpath.layers.size()), thumbnails);
+    packer.gcode(text);
+    packer.finish();
+    s.bytes = packer.bytes();
+  });
   return s;
 }
 

@@ -21,6 +21,10 @@ const std::vector<SettingDecl>& machine_settings() {
        "(pneumatic in a support bath: vertical lifts out of the bath for travel, tools with "
        "offsets)",
        0, 0, &P::flavor},
+      {"machine.firmware", "",
+       "the firmware, where an output format depends on it: prusa (Prusa's Buddy firmware: MK4, "
+       "MK3.9, XL, MINI, Core One; reads binary G-code) or empty (not declared)",
+       0, 0, &P::firmware},
       {"machine.bed_x", "mm", "build area in X (a circular bed: its diameter)", 1, 10000,
        &P::bed_x},
       {"machine.bed_y", "mm", "build area in Y (ignored for a circular bed)", 1, 10000, &P::bed_y},
@@ -230,6 +234,11 @@ const std::vector<SettingDecl>& machine_settings() {
        "PNG previews embedded in the G-code header for printer screens and front ends, "
        "\"WxH,WxH\" (PrusaSlicer's thumbnail format); empty = none",
        0, 0, &P::thumbnails},
+      {"gcode.binary", "",
+       "write PrusaSlicer's binary G-code (.bgcode: metadata, PNG thumbnails and Deflate-"
+       "compressed G-code blocks with CRC32) instead of text; machines with machine.firmware = "
+       "prusa only; an output named .bgcode is binary without it",
+       0, 0, &P::binary_gcode},
       {"gcode.prime_line", "mm",
        "prime line: this much line drawn along the bed's front edge, 5 mm in, before the first "
        "layer (valve open for pneumatic machines; not in a bath); 0 = none",

@@ -175,6 +175,7 @@ void add_machine(std::vector<Setting>& out) {
     const std::string key = d.key;
     if (key == "machine.flavor")
       s.choices = {"marlin", "reprap", "klipper", "pneumatic", "embedded"};
+    if (key == "machine.firmware") s.choices = {"", "prusa"};
     if (key == "gradient.mode") s.choices = {"mixing", "tools", "temperature"};
     if (key == "gradient.flow") s.choices = {"", "pla", "tpu"};
     if (key == "embedded.drive") s.choices = {"pressure", "syringe"};
@@ -185,6 +186,7 @@ void add_machine(std::vector<Setting>& out) {
     if (!s.choices.empty()) s.kind = SettingKind::Choice;
     if (key == "extrusion.layer_height") s.flag = "layer-height";
     if (key == "placement.center") s.flag = "center";
+    if (key == "gcode.binary") s.flag = "binary-gcode";
     if (key == "speed.print") s.flag = "speed";
     if (key == "gradient.lookahead") s.flag = "lookahead";
     if (key == "machine.name") {
@@ -243,6 +245,8 @@ const std::vector<std::pair<const char*, const char*>>& when_table() {
       {"purge.y", "purge.position=fixed"},
       {"gcode.", "@gcode"},
       {"gcode.extension", "@job"},
+      {"gcode.binary", "machine.firmware=prusa"},
+      {"machine.firmware", "@bgcode or gcode.binary=true"},
       {"extrusion.filament_diameter", "@gcode"},
       {"extrusion.multiplier", "@gcode"},
       {"extrusion.k", "@gcode"},

@@ -523,6 +523,7 @@ const char* fact_words(const std::string& fact) {
   if (fact == "report") return "a report is written";
   if (fact == "3mf") return "the output is 3MF";
   if (fact == "mesh") return "the input is a mesh (STL, OBJ, 3MF)";
+  if (fact == "bgcode") return "the G-code output is binary (.bgcode)";
   if (fact == "job") return "a job file is run (trellis run)";
   if (fact == "graded") return "the toolpath carries mixtures (a graded design)";
   if (fact == "tools") return "the toolpath uses several tools";

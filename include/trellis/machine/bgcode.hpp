@@ -3,14 +3,36 @@
 // checksum type) followed by blocks (file / printer / print / slicer metadata, thumbnails,
 // G-code), each a header (type, compression, sizes), parameters, data and an optional CRC32 over
 // all three. Compression: none, Deflate (zlib), Heatshrink with window/lookahead 11/4 or 12/4.
-// G-code blocks are plain text or MeatPack (with or without comments kept).
+// G-code blocks are plain text or MeatPack (with or without comments kept). The writer is
+// machine/bgcode_writer.hpp.
 #pragma once
 #include <cstdint>
 #include <functional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace trellis {
+
+// The specification's "Block header" Type and Compression values.
+enum class BgcodeBlock : std::uint16_t {
+  FileMetadata = 0,
+  Gcode = 1,
+  SlicerMetadata = 2,
+  PrinterMetadata = 3,
+  PrintMetadata = 4,
+  Thumbnail = 5
+};
+enum class BgcodeCompression : std::uint16_t {
+  None = 0,
+  Deflate = 1,
+  Heatshrink11 = 2,
+  Heatshrink12 = 3
+};
+// The specification's "File header": magic, version, checksum type (1 = CRC32).
+inline constexpr char kBgcodeMagic[] = "GCDE";
+inline constexpr std::uint32_t kBgcodeVersion = 1;
+inline constexpr std::uint16_t kBgcodeCrc32 = 1;
 
 // True if `head` (the first bytes of a file) starts with the bgcode magic "GCDE".
 bool is_bgcode(std::string_view head);
@@ -49,5 +71,19 @@ void read_bgcode(const std::function<std::size_t(char*, std::size_t)>& read,
 
 // The whole file as G-code text (tests, small files).
 std::string bgcode_to_text(std::string_view bytes, const std::string& origin = "bgcode");
+
+// One block as read (CRC checked, data decompressed; G-code decoded from MeatPack): its type,
+// compression and parameters (encoding; a thumbnail's format, width and height).
+struct BgcodeBlockRead {
+  BgcodeBlock type{};
+  BgcodeCompression compression{};
+  std::uint16_t encoding = 0;  // a thumbnail: its format (0 = PNG)
+  int width = 0, height = 0;   // thumbnails
+  bool checked = false;        // a CRC32 was present and matched
+  std::string data;
+};
+// Every block of a whole file, in order (tests, tools).
+std::vector<BgcodeBlockRead> bgcode_blocks(std::string_view bytes,
+                                           const std::string& origin = "bgcode");
 
 }  // namespace trellis

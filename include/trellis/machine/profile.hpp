@@ -16,6 +16,9 @@ struct MachineProfile {
   // [machine]
   std::string name = "generic Marlin FDM";
   std::string flavor = "marlin";    // marlin | pneumatic | embedded
+  // The firmware, where a format depends on it: "prusa" (Prusa's Buddy firmware, which reads
+  // binary G-code) or "" (not declared).
+  std::string firmware = "";
   // Capabilities: what the machine can do. Every writer checks the toolpath against them before
   // it writes (machine/machine_check.hpp).
   double bed_x = 220, bed_y = 220;  // build area (mm); a circle: bed_x is its diameter
@@ -119,6 +122,7 @@ struct MachineProfile {
   std::string end_gcode = "M84";
   std::string file_extension = "";  // default output extension: "" = by flavor
   std::string thumbnails = "16x16,220x124";  // PNG previews in the G-code header, "WxH,..."
+  bool binary_gcode = false;  // write binary G-code (.bgcode; machine/bgcode_writer.hpp)
   // A prime line drawn along the bed's front edge before the first layer (mm of line; 0 = none).
   double prime_line = 0;
   bool label_objects = true;  // plates: each part's moves labelled for the firmware (M486 / Klipper)
