@@ -1104,6 +1104,33 @@ double shortest_piece(const Layer& layer) {
   return best;
 }
 
+bool deposit_start_mixtures(Toolpath& tp, double lookahead) {
+  if (!(lookahead > 0)) return false;
+  // The mixture of the last graded path starting within the first `lookahead` mm (as the writer
+  // counts printed length: paths of two points or more).
+  const std::vector<double>* last = nullptr;
+  double s = 0;
+  for (const auto& l : tp.layers)
+    for (const auto& p : l.paths) {
+      if (p.points.size() < 2) continue;
+      if (s > lookahead) break;
+      if (!p.mixture.empty()) last = &p.mixture;
+      s += p.length();
+    }
+  if (!last) return false;
+  const std::vector<double> held = *last;
+  bool changed = false;
+  s = 0;
+  for (auto& l : tp.layers)
+    for (auto& p : l.paths) {
+      if (p.points.size() < 2) continue;
+      if (s > lookahead) return changed;
+      if (!p.mixture.empty() && p.mixture != held) p.mixture = held, changed = true;
+      s += p.length();
+    }
+  return changed;
+}
+
 void measure_gradient_error(const Field& field, const Toolpath& tp,
                             const std::vector<LayerOutline>& layers, double h, FgmStats& st) {
   // One sum per layer, added in layer order: the report is the same for any thread count

@@ -524,7 +524,14 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
     r.fgm.colours_total = fo.palette.colors;
     finish_graded(job, fo, r.toolpath, r.fgm);
     r.fgm.error_bound = graded_error_bound(job, fo);
-    naming_design(job, [&] { measure_gradient_error(field, r.toolpath, r.outlines, h, r.fgm); });
+    naming_design(job, [&] {
+      // As deposited where the writer runs the changes ahead (no tower flushing them instead).
+      Toolpath deposited;
+      const bool ahead = job.lookahead > 0 && !graded_tower(job) &&
+                         deposit_start_mixtures(deposited = r.toolpath, job.lookahead);
+      measure_gradient_error(field, ahead ? deposited : r.toolpath, r.outlines, h, r.fgm);
+      if (job.lookahead > 0 && !graded_tower(job)) r.fgm.error_lookahead = job.lookahead;
+    });
   } else {
     r.toolpath = plan_planar(r.outlines, planar_options(job, r), &r.planar);
   }
@@ -945,7 +952,9 @@ std::string slice_report_json(const SliceJob& job, const SliceResult& r, const G
                                     {"bound", r.fgm.error_bound},
                                     {"samples", r.fgm.error_samples},
                                     {"length_mm", r.fgm.error_length},
-                                    {"mean_weighted_by", "length"}}},
+                                    {"mean_weighted_by", "length"},
+                                    {"mixtures", r.fgm.error_lookahead > 0 ? "deposited" : "planned"},
+                                    {"lookahead_mm", r.fgm.error_lookahead}}},
                 {"band_percent", 100.0 * r.fgm.band},
                 {"faces", r.fgm.faces},
                 {"order", to_string(job.fgm.order)},
