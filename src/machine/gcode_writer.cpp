@@ -947,9 +947,10 @@ class Writer {
   // Every change planned within the first `lookahead` mm of printed path is issued at the start
   // (nothing is printed before it to run ahead on): the mixture the last of them sets is deposited
   // from the start to the first change planned beyond, and the gradient planned there is lost.
-  // Warned when that swallows a change (a part shorter than a few look-aheads); `start`: printed
-  // length before each path, `at`: the paths changes are planned for, `layer_first`: each layer's
-  // first path.
+  // Warned when that takes a whole layer or more (a part shorter than a few look-aheads; on a
+  // larger part it is a piece of the first layer, which the report's gradient error counts);
+  // `start`: printed length before each path, `at`: the paths changes are planned for,
+  // `layer_first`: each layer's first path.
   void warn_lookahead_start(const std::vector<double>& start, const std::vector<std::size_t>& at,
                             const std::vector<std::size_t>& layer_first, double lookahead) {
     if (!(lookahead > 0) || at.size() < 2 || start.empty()) return;
@@ -965,12 +966,11 @@ class Writer {
         layer_first.begin());
     const bool whole = next == start.size() - 1 ||
                        std::binary_search(layer_first.begin(), layer_first.end(), next);
+    if (last <= 1 && !whole) return;  // part of the first layer
     const std::string layers =
         whole ? fmt::format("layers 1 to {} of {}", last, layer_first.size())
-        : last <= 1
-            ? fmt::format("part of layer 1 of {}", layer_first.size())
-            : fmt::format("layers 1 to {} of {} and part of layer {}", last - 1,
-                          layer_first.size(), last);
+              : fmt::format("layers 1 to {} of {} and part of layer {}", last - 1,
+                            layer_first.size(), last);
     stats_.warnings.emplace_back(
         "lookahead_exceeds_start",
         fmt::format("the mixing look-ahead (gradient.lookahead = {:.0f} mm) swallows the start of "

@@ -595,6 +595,31 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
     }
     naming_design(job, [&] { process->layers(ptrs, dz); });
   };
+  // The gradient error, summed layer by layer in print order. With the writer's mixing
+  // look-ahead (no tower), the layers holding the first job.lookahead mm of path are kept until
+  // the path passes it, then measured with their mixtures as deposited (deposit_start_mixtures),
+  // as run_slice measures the whole toolpath.
+  const auto add_error = [&](const GradientErrorSum& a) {
+    error_sum += a.sum;
+    r.fgm.error_max = std::max(r.fgm.error_max, a.max);
+    r.fgm.error_samples += a.n;
+    r.fgm.error_length += a.length;
+  };
+  std::optional<Toolpath> early;
+  std::vector<double> early_z;
+  double early_length = 0;
+  if (graded && job.lookahead > 0 && !graded_tower(job)) {
+    early.emplace();
+    r.fgm.error_lookahead = job.lookahead;
+  }
+  const auto flush_early = [&] {
+    deposit_start_mixtures(*early, job.lookahead);
+    Evaluator ev(d.field);
+    for (std::size_t i = 0; i < early->layers.size(); ++i)
+      if (!std::isnan(early_z[i]))
+        naming_design(job, [&] { add_error(layer_gradient_error(ev, early->layers[i], early_z[i])); });
+    early.reset();
+  };
   // (Not a structured binding: the pipeline's lambdas capture them.)
   const std::pair<std::size_t, std::size_t> margins = skin_margins(job);
   const std::size_t below = margins.first, above = margins.second;
@@ -620,6 +645,7 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
     PlanarStats stats;
     FgmStats fgm;                               // graded
     std::vector<GradientErrorSum> error;        // graded: per toolpath layer
+    std::vector<double> error_z;                // the design plane each was measured at (NaN: none)
     double seconds = 0;
   };
   std::deque<LayerOutline> window;  // part layers [window_start, received)
@@ -713,6 +739,10 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
             p.error = gradient_error_sums(d.field, job.tools > 1 ? mixed : p.toolpath, p.window,
                                           job.planar.layer_height, p.lo);
           });
+          for (const Layer& l : p.toolpath.layers) {
+            const auto idx = static_cast<std::size_t>(std::llround(l.z / job.planar.layer_height)) - 1 - p.lo;
+            p.error_z.push_back(idx < p.window.size() ? p.window[idx].z : std::nan(""));
+          }
         } else {
           p.toolpath = plan_planar(p.window, po, &p.stats);
         }
@@ -758,11 +788,16 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
               if (path.role != PathRole::Purge && !path.mixture.empty()) colours_used.insert(path.mixture);
             }
           }
-          for (const auto& a : p.error) {
-            error_sum += a.sum;
-            r.fgm.error_max = std::max(r.fgm.error_max, a.max);
-            r.fgm.error_samples += a.n;
-            r.fgm.error_length += a.length;
+          for (std::size_t i = 0; i < p.error.size(); ++i) {
+            if (!early) {
+              add_error(p.error[i]);
+              continue;
+            }
+            early->layers.push_back(p.toolpath.layers[i]);
+            early_z.push_back(p.error_z[i]);
+            for (const Path& path : p.toolpath.layers[i].paths)
+              if (path.points.size() >= 2) early_length += path.length();
+            if (early_length > job.lookahead) flush_early();
           }
         }
         if (held) {
@@ -790,6 +825,7 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
         }
         if (progress.report) progress("layers", static_cast<double>(written) / double(n));
       }));
+  if (early) flush_early();  // a print shorter than the look-ahead
   if (graded) {
     if (r.fgm.paths == 0) r.fgm.shortest_path = 0;
     r.fgm.error_mean = r.fgm.error_length > 0 ? error_sum / r.fgm.error_length : 0;

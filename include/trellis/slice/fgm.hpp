@@ -252,6 +252,8 @@ struct GradientErrorSum {
   std::size_t n = 0;
   double length = 0;  // Σ length (mm)
 };
+// One layer's sums, the design sampled at z_design (gradient_error_sums' step per layer).
+GradientErrorSum layer_gradient_error(Evaluator& evaluator, const Layer& layer, double z_design);
 std::vector<GradientErrorSum> gradient_error_sums(const Field& field, const Toolpath& toolpath,
                                                   const std::vector<LayerOutline>& layers,
                                                   double layer_height, std::size_t first_layer = 0);
