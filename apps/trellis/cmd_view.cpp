@@ -103,9 +103,10 @@ void add_view(CLI::App& app) {
     write_file_atomic(o->output, viewer_html(scenes, title));
     print_warnings(diag);
     for (const auto& s : scenes) {
-      // Paths as `trellis analyze` and the page count them: runs of extrusion between travels.
+      // Paths as `trellis analyze` and the page count them: runs of extrusion between travels
+      // (a laser build file: its vectors).
       std::size_t segments = 0;
-      const std::size_t paths = run_count(s.toolpath);
+      const std::size_t paths = s.kind == "cli" ? s.toolpath.path_count() : run_count(s.toolpath);
       for (const auto& l : s.toolpath.layers)
         for (const auto& p : l.paths) segments += p.segments();
       std::cout << s.name << " (" << s.kind << "): ";

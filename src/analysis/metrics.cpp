@@ -106,7 +106,8 @@ void CountingSink::finish() {
 }
 
 bool continues_run(const Path* prev, const Path& p) {
-  return prev && !prev->points.empty() && !p.points.empty() &&
+  // (A laser's scan vectors are paths each: power is on, not extrusion.)
+  return prev && !prev->points.empty() && !p.points.empty() && !(p.power > 0) &&
          distance(prev->points.back(), p.points.front()) <= 1e-9 && (p.joined || p.via.empty());
 }
 

@@ -56,9 +56,11 @@ char role_byte(const Path* prev, const Path& p) {
 }
 
 // The role bytes of a layer; `prev`: the last path with points printed before it (null: none).
-void put_roles(std::string& b, const Layer& layer, const Path* prev) {
+// A laser build file's vectors are paths each (`trellis analyze` counts vectors).
+void put_roles(std::string& b, const ViewScene& s, const Layer& layer, const Path* prev) {
+  const bool runs = s.kind != "cli";
   for (const auto& p : layer.paths) {
-    b += role_byte(prev, p);
+    b += role_byte(runs ? prev : nullptr, p);
     if (!p.points.empty()) prev = &p;
   }
 }
@@ -114,7 +116,7 @@ std::string encode_layer(const ViewScene& s, std::size_t index, std::size_t firs
     for (std::size_t k = 0; k < kAttributes; ++k)
       put_f32(b, attribute(p, commanded_of(s, p, first_path + q), k));
   }
-  put_roles(b, layer, last_before(s.toolpath, index));
+  put_roles(b, s, layer, last_before(s.toolpath, index));
   for (const auto& p : layer.paths) b += static_cast<char>(std::clamp(p.tool, 0, 255));
   while (b.size() % 4) b += '\0';
   std::size_t vias = 0;
@@ -301,7 +303,7 @@ std::string pack_layers(const ViewScene& s) {
         put_f32(b, attribute(p, commanded_of(s, p, first_path + q), k));
       }
     first_path += layer.paths.size();
-    put_roles(b, layer, last);
+    put_roles(b, s, layer, last);
     for (const auto& p : layer.paths)
       if (!p.points.empty()) last = &p;
     for (const auto& p : layer.paths) b += static_cast<char>(std::clamp(p.tool, 0, 255));

@@ -167,7 +167,7 @@ GcodeCounts toolpath_counts(const Toolpath& toolpath);
 // Whether `p` continues the run `prev` (the path printed before it; null for the first) ends: it
 // starts where `prev` ends with no travel between (joined, or no travel corners), so the writer
 // prints both as one run of extrusion. A path of `trellis analyze` (GcodeCounts::paths) and of
-// the viewer is a run: this path is a piece of the one before.
+// the viewer is a run: this path is a piece of the one before. A laser path (power > 0) never is.
 bool continues_run(const Path* prev, const Path& p);
 // The runs of extrusion between travels in a toolpath (toolpath_counts(t).paths, cheaper).
 std::size_t run_count(const Toolpath& toolpath);
