@@ -66,8 +66,8 @@ void add_check(CLI::App& app) {
     CheckOptions check;
     check.nozzle = cfg.aero.nozzle;
     check.snap = o->snap;
-    const Toolpath tp = read_print(o->print, o->machine.empty() ? nullptr : &st, &check.snap, diag,
-                                   o->commanded);
+    const Toolpath tp =
+        read_print(o->print, o->machine.empty() ? nullptr : &st, &check.snap, diag, o->commanded);
     const CollisionCheck c = check_collisions(g, tp, check);
     if (!o->report.empty()) write_file_atomic(o->report, collision_check_json(c, check));
     if (!o->preview.empty()) {

@@ -379,13 +379,17 @@ PYBIND11_MODULE(_trellis, m) {
     Diagnostics diag;
     return std::make_shared<Graph>(read_lattice(path, {merge_tolerance, true}, diag));
   }, py::arg("path"), py::arg("merge_tolerance") = 1e-6);
-  m.def("read_toolpath", [](const std::string& path, bool commanded_mixtures) {
-    const auto ext = std::filesystem::path(path).extension().string();
-    if (ext == ".json") return std::make_shared<Toolpath>(read_toolpath(path));
-    if (ext == ".cli" || ext == ".CLI") return std::make_shared<Toolpath>(read_cli_file(path));
-    Diagnostics diag;
-    return std::make_shared<Toolpath>(read_print(path, nullptr, nullptr, diag, commanded_mixtures));
-  }, py::arg("path"), py::arg("commanded_mixtures") = false);
+  m.def(
+      "read_toolpath",
+      [](const std::string& path, bool commanded_mixtures) {
+        const auto ext = std::filesystem::path(path).extension().string();
+        if (ext == ".json") return std::make_shared<Toolpath>(read_toolpath(path));
+        if (ext == ".cli" || ext == ".CLI") return std::make_shared<Toolpath>(read_cli_file(path));
+        Diagnostics diag;
+        return std::make_shared<Toolpath>(
+            read_print(path, nullptr, nullptr, diag, commanded_mixtures));
+      },
+      py::arg("path"), py::arg("commanded_mixtures") = false);
   m.def("toolpath_from_json", [](const std::string& text) {
     return std::make_shared<Toolpath>(toolpath_from_json(text, "<string>"));
   });

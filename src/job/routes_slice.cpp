@@ -311,7 +311,8 @@ SliceJob slice_job_of(const Job& job, const Config& c, const std::string& input)
     sj.purge.offset_y = placed.offset_y;
   }
   if (c.machine.gradient_mode == "tools") sj.tools = std::max(1, c.machine.gradient_tool_count());
-  else if (!job.output.empty()) sj.lookahead = c.machine.lookahead;  // the writer's look-ahead
+  else if (!job.output.empty())
+    sj.lookahead = c.machine.lookahead;  // the writer's look-ahead
   sj.quantize = c.machine.quantize;
   sj.purge.speed = c.machine.print_speed;
   sj.purge.density = {c.machine.density_a, c.machine.density_b, c.machine.density_c};

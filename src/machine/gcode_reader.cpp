@@ -1,7 +1,6 @@
 #include "trellis/machine/gcode_reader.hpp"
 
 #include <algorithm>
-
 #include <charconv>
 #include <cmath>
 #include <filesystem>

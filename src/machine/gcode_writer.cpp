@@ -967,10 +967,9 @@ class Writer {
     const bool whole = next == start.size() - 1 ||
                        std::binary_search(layer_first.begin(), layer_first.end(), next);
     if (last <= 1 && !whole) return;  // part of the first layer
-    const std::string layers =
-        whole ? fmt::format("layers 1 to {} of {}", last, layer_first.size())
-              : fmt::format("layers 1 to {} of {} and part of layer {}", last - 1,
-                            layer_first.size(), last);
+    const std::string layers = whole ? fmt::format("layers 1 to {} of {}", last, layer_first.size())
+                                     : fmt::format("layers 1 to {} of {} and part of layer {}",
+                                                   last - 1, layer_first.size(), last);
     stats_.warnings.emplace_back(
         "lookahead_exceeds_start",
         fmt::format("the mixing look-ahead (gradient.lookahead = {:.0f} mm) swallows the start of "

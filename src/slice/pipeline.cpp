@@ -617,7 +617,8 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
     Evaluator ev(d.field);
     for (std::size_t i = 0; i < early->layers.size(); ++i)
       if (!std::isnan(early_z[i]))
-        naming_design(job, [&] { add_error(layer_gradient_error(ev, early->layers[i], early_z[i])); });
+        naming_design(job,
+                      [&] { add_error(layer_gradient_error(ev, early->layers[i], early_z[i])); });
     early.reset();
   };
   // (Not a structured binding: the pipeline's lambdas capture them.)
@@ -740,7 +741,8 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
                                           job.planar.layer_height, p.lo);
           });
           for (const Layer& l : p.toolpath.layers) {
-            const auto idx = static_cast<std::size_t>(std::llround(l.z / job.planar.layer_height)) - 1 - p.lo;
+            const auto idx =
+                static_cast<std::size_t>(std::llround(l.z / job.planar.layer_height)) - 1 - p.lo;
             p.error_z.push_back(idx < p.window.size() ? p.window[idx].z : std::nan(""));
           }
         } else {
@@ -983,14 +985,15 @@ std::string slice_report_json(const SliceJob& job, const SliceResult& r, const G
                 {"materials", r.fgm.materials},
                 {"zipper_percent", 100 * job.fgm.zipper},
                 {"material_resolution_mm", job.fgm.material_resolution},
-                {"gradient_error", {{"mean", r.fgm.error_mean},
-                                    {"max", r.fgm.error_max},
-                                    {"bound", r.fgm.error_bound},
-                                    {"samples", r.fgm.error_samples},
-                                    {"length_mm", r.fgm.error_length},
-                                    {"mean_weighted_by", "length"},
-                                    {"mixtures", r.fgm.error_lookahead > 0 ? "deposited" : "planned"},
-                                    {"lookahead_mm", r.fgm.error_lookahead}}},
+                {"gradient_error",
+                 {{"mean", r.fgm.error_mean},
+                  {"max", r.fgm.error_max},
+                  {"bound", r.fgm.error_bound},
+                  {"samples", r.fgm.error_samples},
+                  {"length_mm", r.fgm.error_length},
+                  {"mean_weighted_by", "length"},
+                  {"mixtures", r.fgm.error_lookahead > 0 ? "deposited" : "planned"},
+                  {"lookahead_mm", r.fgm.error_lookahead}}},
                 {"band_percent", 100.0 * r.fgm.band},
                 {"faces", r.fgm.faces},
                 {"order", to_string(job.fgm.order)},
@@ -999,13 +1002,13 @@ std::string slice_report_json(const SliceJob& job, const SliceResult& r, const G
                 {"colour_changes", r.fgm.colour_changes},
                 {"abrupt_changes", r.fgm.abrupt_changes},
                 {"shortest_segment_mm", r.fgm.shortest_path},
-                {"min_segment", {{"min_mm", r.fgm.min_segment},
-                                 {"merged", r.fgm.short_merged},
-                                 {"kept", r.fgm.short_kept},
-                                 {"refused_by_gradient_bound", r.fgm.short_kept_bound},
-                                 {"whole_beads", r.fgm.short_beads},
-                                 {"kept_reason",
-                                  r.fgm.short_kept == 0
+                {"min_segment",
+                 {{"min_mm", r.fgm.min_segment},
+                  {"merged", r.fgm.short_merged},
+                  {"kept", r.fgm.short_kept},
+                  {"refused_by_gradient_bound", r.fgm.short_kept_bound},
+                  {"whole_beads", r.fgm.short_beads},
+                  {"kept_reason", r.fgm.short_kept == 0
                                       ? ""
                                       : "merging would exceed the gradient bound α/2 (or no "
                                         "piece of another colour touches it end to end); use "

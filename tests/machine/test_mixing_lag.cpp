@@ -117,7 +117,8 @@ Toolpath one_run() {
   Layer layer{0.2, {}};
   for (int k = 0; k < 10; ++k) {
     Path p;
-    for (int i = 4 * k; i <= 4 * k + 4; ++i) p.points.push_back({i % 2 ? 30.0 : 0.0, double(i), 0.2});
+    for (int i = 4 * k; i <= 4 * k + 4; ++i)
+      p.points.push_back({i % 2 ? 30.0 : 0.0, double(i), 0.2});
     p.role = PathRole::Infill;
     p.mixture = {k / 9.0, 1 - k / 9.0};
     p.joined = k > 0;
@@ -147,8 +148,9 @@ TEST(MixingLag, ReadAsDepositedByDefault) {
   EXPECT_NEAR(wrong_length(as_commanded, planned), 9 * 95, 5);
   // Without the header line (another program's file) both read the same.
   std::string plain = gcode;
-  plain.erase(plain.find("; mixture lookahead"), plain.find('\n', plain.find("; mixture lookahead")) -
-                                                      plain.find("; mixture lookahead") + 1);
+  plain.erase(
+      plain.find("; mixture lookahead"),
+      plain.find('\n', plain.find("; mixture lookahead")) - plain.find("; mixture lookahead") + 1);
   EXPECT_EQ(read_gcode(plain, {}, diag).path_count(), as_commanded.path_count());
 }
 
