@@ -228,7 +228,12 @@ def check_analyze(path, planned, tmp, problems):
         if lookahead_of(path) > 0:
             deposited, short = deposited_path_count(planned.path, lookahead_of(path))
             del want["toolpath_paths"]
-            if not deposited - short <= got["toolpath_paths"] <= deposited:
+            # Pieces under 0.1 mm may merge into a neighbour (the reader's 0.05 mm snap); and the
+            # printed length read back drifts from the planned one by the G-code's rounding
+            # (GCODE_MM_PER_SEGMENT a segment) over the look-ahead, so a deposited change can
+            # land past the snap and leave a sliver piece: at most 0.1 % of the paths (2 of
+            # 18,456 on the coarse palette plate, none on the vase).
+            if not deposited - short <= got["toolpath_paths"] <= deposited + deposited // 1000:
                 problems.append(f"analyze {name}: toolpath_paths {got['toolpath_paths']}, planned "
                                 f"as deposited {deposited} ({short} of them under 0.1 mm)")
         length, tol = got["extruded_length_mm"], GCODE_MM_PER_SEGMENT * planned.segments
