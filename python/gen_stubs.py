@@ -97,12 +97,13 @@ def main():
             "def rerun(path: PathLike, output: PathLike | None = None) -> list[str]: ...",
             "def settings(route: str | None = None) -> list[dict[str, Any]]: ...",
             "def read_lattice(path: PathLike, merge_tolerance: float = 1e-6) -> Lattice: ...",
-            "def read_toolpath(path: PathLike) -> Toolpath: ...",
+            "def read_toolpath(path: PathLike, *, commanded_mixtures: bool = ...) -> Toolpath: ...",
             "def notebook_viewer() -> Any: ...",
            "def parse_vcad(text: str, name: str = ...) -> dict[str, Any]: ...",
            "def analyze(gcode: PathLike | Toolpath, design: PathLike | Lattice | None = None, *, "
            "bead_width: float = ...,",
-           "            layer_height: float = ..., align: bool = ..., strict: bool = ...) -> dict[str, Any]: ...",
+           "            layer_height: float = ..., align: bool = ..., strict: bool = ...,",
+           "            commanded_mixtures: bool = ...) -> dict[str, Any]: ...",
            "def check(lattice: PathLike | Lattice, print_file: PathLike | Toolpath, *, "
            "machine: Machine | None = None,",
            "          set: Mapping[str, Any] | None = None, **nozzle: float) -> dict[str, Any]: ...",

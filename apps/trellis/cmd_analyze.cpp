@@ -45,6 +45,9 @@ void add_common(CLI::App* cmd, AnalyzeOpts& o) {
                   "pneumatic files: the command that opens the valve");
   cmd->add_option("--valve-off", o.read.valve_off,
                   "pneumatic files: the command that closes the valve");
+  cmd->add_flag("--commanded-mixtures", o.read.commanded_mixtures,
+                "graded G-code with a mixing look-ahead: measure the mixtures as commanded (the "
+                "file's lines), not as deposited (the look-ahead undone, the default)");
   cmd->add_flag("--strict", o.read.stop_on_error,
                 "stop at the first unreadable line (default: warn and skip)");
   cmd->add_option("--report", o.report, "JSON report to write (per-layer counts included)")

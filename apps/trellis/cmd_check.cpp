@@ -15,6 +15,7 @@ void add_check(CLI::App& app) {
     double snap = 0.05;
     SettingFlags flags;
     bool follow = false;
+    bool commanded = false;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand(
@@ -34,6 +35,9 @@ void add_check(CLI::App& app) {
   cmd->add_option("print", o->print, "toolpath JSON, G-code or 3MF toolpath")->required()->check(path_value());
   cmd->add_option("--machine", o->machine, "machine profile the G-code was written for")
       ->check(path_value());
+  cmd->add_flag("--commanded-mixtures", o->commanded,
+                "graded G-code with a mixing look-ahead: read the mixtures as commanded, not as "
+                "deposited (the default)");
   cmd->add_option("--report", o->report, "report JSON with every collision")->check(path_value());
   cmd->add_option("--preview", o->preview,
                   "folder for an isometric picture with the collisions ringed")
@@ -62,7 +66,8 @@ void add_check(CLI::App& app) {
     CheckOptions check;
     check.nozzle = cfg.aero.nozzle;
     check.snap = o->snap;
-    const Toolpath tp = read_print(o->print, o->machine.empty() ? nullptr : &st, &check.snap, diag);
+    const Toolpath tp =
+        read_print(o->print, o->machine.empty() ? nullptr : &st, &check.snap, diag, o->commanded);
     const CollisionCheck c = check_collisions(g, tp, check);
     if (!o->report.empty()) write_file_atomic(o->report, collision_check_json(c, check));
     if (!o->preview.empty()) {

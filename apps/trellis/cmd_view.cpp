@@ -3,6 +3,7 @@
 
 #include "commands.hpp"
 #include "trellis/analysis/collisions.hpp"
+#include "trellis/analysis/metrics.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/job/job.hpp"
@@ -112,9 +113,12 @@ void add_view(CLI::App& app) {
     write_file_atomic(o->output, viewer_html(scenes, title));
     print_warnings(diag);
     for (const auto& s : scenes) {
-      std::size_t segments = 0, paths = 0;
+      // Paths as `trellis analyze` and the page count them: runs of extrusion between travels
+      // (a laser build file: its vectors).
+      std::size_t segments = 0;
+      const std::size_t paths = s.kind == "cli" ? s.toolpath.path_count() : run_count(s.toolpath);
       for (const auto& l : s.toolpath.layers)
-        for (const auto& p : l.paths) segments += p.segments(), ++paths;
+        for (const auto& p : l.paths) segments += p.segments();
       std::cout << s.name << " (" << s.kind << "): ";
       if (s.kind == "lattice") {
         std::cout << s.design.size() << " struts\n";

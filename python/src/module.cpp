@@ -377,13 +377,17 @@ PYBIND11_MODULE(_trellis, m) {
     Diagnostics diag;
     return std::make_shared<Graph>(read_lattice(path, {merge_tolerance, true}, diag));
   }, py::arg("path"), py::arg("merge_tolerance") = 1e-6);
-  m.def("read_toolpath", [](const std::string& path) {
-    const auto ext = std::filesystem::path(path).extension().string();
-    if (ext == ".json") return std::make_shared<Toolpath>(read_toolpath(path));
-    if (ext == ".cli" || ext == ".CLI") return std::make_shared<Toolpath>(read_cli_file(path));
-    Diagnostics diag;
-    return std::make_shared<Toolpath>(read_print(path, nullptr, nullptr, diag));
-  });
+  m.def(
+      "read_toolpath",
+      [](const std::string& path, bool commanded_mixtures) {
+        const auto ext = std::filesystem::path(path).extension().string();
+        if (ext == ".json") return std::make_shared<Toolpath>(read_toolpath(path));
+        if (ext == ".cli" || ext == ".CLI") return std::make_shared<Toolpath>(read_cli_file(path));
+        Diagnostics diag;
+        return std::make_shared<Toolpath>(
+            read_print(path, nullptr, nullptr, diag, commanded_mixtures));
+      },
+      py::arg("path"), py::arg("commanded_mixtures") = false);
   m.def("toolpath_from_json", [](const std::string& text) {
     return std::make_shared<Toolpath>(toolpath_from_json(text, "<string>"));
   });
@@ -393,7 +397,7 @@ PYBIND11_MODULE(_trellis, m) {
   m.def(
       "analyze_json",
       [](const py::object& print, const py::object& design, double bead_width, double layer_height,
-         bool align, bool strict) {
+         bool align, bool strict, bool commanded_mixtures) {
         Diagnostics diag;
         std::shared_ptr<const Graph> g;
         if (py::isinstance<Graph>(design))
@@ -406,6 +410,7 @@ PYBIND11_MODULE(_trellis, m) {
         params.align_centers = align;
         GcodeReadOptions read;
         read.stop_on_error = strict;
+        read.commanded_mixtures = commanded_mixtures;
         if (py::isinstance<Toolpath>(print)) {
           const auto tp = print.cast<std::shared_ptr<Toolpath>>();
           py::gil_scoped_release release;
@@ -418,7 +423,8 @@ PYBIND11_MODULE(_trellis, m) {
         return analysis_json(analyze_gcode_file(path, g.get(), params, read, diag));
       },
       py::arg("print"), py::arg("design") = py::none(), py::arg("bead_width") = 0.0,
-      py::arg("layer_height") = 0.0, py::arg("align") = false, py::arg("strict") = false);
+      py::arg("layer_height") = 0.0, py::arg("align") = false, py::arg("strict") = false,
+      py::arg("commanded_mixtures") = false);
   // The collision check of `trellis check`: the lattice a path or a Lattice (cleaned as the
   // readers clean files), the print a G-code / toolpath path or a Toolpath (design coordinates).
   m.def("check_json", [](const py::object& lattice, const py::object& print,

@@ -383,9 +383,9 @@ def test_machine_errors_write_nothing(tmp_path):
 def test_graded_report_gives_material_and_time_per_colour(tmp_path):
     # §4.1 of the FGM paper reports material and time per colour. The report's part colours are
     # checked against the G-code read back: the same mixtures, the same total length, and their
-    # volume against the filament the G-code extrudes. (Per colour, the commands come 960 mm of
-    # path early -- the look-ahead that flushes the mixer -- so lengths per commanded mixture
-    # differ from the colours deposited; the look-ahead replay is tests/slice/test_fgm.cpp's.)
+    # volume against the filament the G-code extrudes. (Per colour, lengths differ: the first
+    # 960 mm of path -- the look-ahead that flushes the mixer -- are deposited in one mixture;
+    # the look-ahead replay is tests/slice/test_fgm.cpp's and tests/machine/test_mixing_lag.cpp's.)
     graded = trellis.fgrade(["0.5 + x/24", "0.5 - x/24"], ["a", "b"], trellis.rectprism(20, 10, 0.6))
     trellis.slice(graded, tmp_path / "g.gcode", machine=MIXING, strategy=2, colors=4,
                   report=tmp_path / "g.json")
@@ -406,3 +406,10 @@ def test_graded_report_gives_material_and_time_per_colour(tmp_path):
     filament_volume = report["gcode"]["filament_mm"] * math.pi * 1.75 ** 2 / 4
     assert sum(c["volume_mm3"] for c in colours) == pytest.approx(filament_volume, rel=0.01)
     assert report["fgm"]["part_mass_g"] == pytest.approx(sum(c["mass_g"] for c in colours))
+    # Read as deposited (the default) or as commanded: the same print, and analyze counts the
+    # IR paths of the same reading.
+    commanded = trellis.read_toolpath(tmp_path / "g.gcode", commanded_mixtures=True)
+    assert commanded.extrusion_length == pytest.approx(back.extrusion_length, rel=1e-9)
+    assert trellis.analyze(tmp_path / "g.gcode")["toolpath_paths"] == back.path_count
+    assert trellis.analyze(tmp_path / "g.gcode", commanded_mixtures=True)["toolpath_paths"] == \
+        commanded.path_count

@@ -437,16 +437,18 @@ def _core_or_path(obj, kind, name):
     return os.fspath(obj)
 
 
-def analyze(gcode, design=None, *, bead_width=0.0, layer_height=0.0, align=False, strict=False):
+def analyze(gcode, design=None, *, bead_width=0.0, layer_height=0.0, align=False, strict=False,
+            commanded_mixtures=False):
     """Measures a print against a design lattice: the same numbers as `trellis analyze`, as a
     dict. ``gcode`` is any G-code file (ours or another slicer's) or a ``Toolpath`` (measured as
     planned: no filament or retractions, which the machine adds); ``design`` a lattice file or a
-    ``Lattice``."""
+    ``Lattice``. Graded G-code with a mixing look-ahead is measured with its mixtures as
+    deposited, or as commanded with ``commanded_mixtures=True``."""
     import json
     return json.loads(_trellis.analyze_json(
         _core_or_path(gcode, Toolpath, "gcode"),
         None if design is None else _core_or_path(design, Lattice, "design"),
-        bead_width, layer_height, align, strict))
+        bead_width, layer_height, align, strict, commanded_mixtures))
 
 
 def check(lattice, print_file, *, machine=None, set=None, **nozzle):
@@ -612,8 +614,9 @@ def read_lattice(path, merge_tolerance=1e-6):
     return Lattice(_trellis.read_lattice(os.fspath(path), merge_tolerance))
 
 
-def read_toolpath(path):
+def read_toolpath(path, *, commanded_mixtures=False):
     """A toolpath JSON, a laser build file (.cli, ASCII or binary), a 3MF toolpath (the 3MF
     Toolpath Extension, docs/formats.md), or G-code / .nc (read back into design coordinates), as
-    a ``Toolpath``."""
-    return Toolpath(_trellis.read_toolpath(os.fspath(path)))
+    a ``Toolpath``. Graded G-code with a mixing look-ahead reads with each path's mixture as
+    deposited, or as commanded with ``commanded_mixtures=True``."""
+    return Toolpath(_trellis.read_toolpath(os.fspath(path), commanded_mixtures))

@@ -308,6 +308,8 @@ SliceJob slice_job_of(const Job& job, const Config& c, const std::string& input)
     sj.purge.offset_y = placed.offset_y;
   }
   if (c.machine.gradient_mode == "tools") sj.tools = std::max(1, c.machine.gradient_tool_count());
+  else if (!job.output.empty())
+    sj.lookahead = c.machine.lookahead;  // the writer's look-ahead
   sj.quantize = c.machine.quantize;
   sj.purge.speed = c.machine.print_speed;
   sj.purge.density = {c.machine.density_a, c.machine.density_b, c.machine.density_c};
@@ -336,10 +338,18 @@ void warn_error_bound(const std::string& input, const FgmStats& st, Diagnostics&
   if (st.error_bound > 0 && st.error_max > st.error_bound * 1.01 + 1e-9)
     diag.warn("gradient_bound_exceeded",
               fmt::format("{}: the printed mixture is up to {} from the design's, beyond the "
-                          "bound {} the palette promises (length-weighted mean {}); use more "
-                          "colours (or tools), or a smaller zipper",
+                          "bound {} the palette promises (length-weighted mean {}{}); use more "
+                          "colours (or tools), or a smaller zipper{}",
                           input, fixed(st.error_max, 4), fixed(st.error_bound, 4),
-                          fixed(st.error_mean, 4)));
+                          fixed(st.error_mean, 4),
+                          st.error_lookahead > 0
+                              ? fmt::format(", as deposited with the mixing look-ahead of {} mm",
+                                            fixed(st.error_lookahead, 0))
+                              : "",
+                          st.error_lookahead > 0
+                              ? "; where the look-ahead runs past the start of the print, a "
+                                "larger part or a smaller gradient.lookahead"
+                              : ""));
 }
 
 // (A shard: its layers' short pieces.)

@@ -284,7 +284,7 @@ double solid_section_z(const BBox3& box, int layer, double h) {
 }
 
 Toolpath read_print(const std::string& path, const Settings* machine, double* snap,
-                    Diagnostics& diag) {
+                    Diagnostics& diag, bool commanded_mixtures) {
   const auto ext = fs::path(path).extension().string();
   if (routes::is_3mf_output(path)) return read_toolpath_3mf_file(path, &diag);
   if (ext != ".gcode" && ext != ".nc" && ext != ".g" && ext != ".bgcode")
@@ -300,6 +300,7 @@ Toolpath read_print(const std::string& path, const Settings* machine, double* sn
   }
   const MachineProfile profile = have ? machine->config().machine : MachineProfile{};
   GcodeReadOptions read;
+  read.commanded_mixtures = commanded_mixtures;
   if (have && profile.parsed_flavor() != Flavor::Marlin) {
     read.valve_on = profile.valve_on;
     read.valve_off = profile.valve_off;

@@ -1,7 +1,6 @@
 #include "trellis/machine/gcode_reader.hpp"
 
 #include <algorithm>
-
 #include <charconv>
 #include <cmath>
 #include <filesystem>
@@ -12,6 +11,7 @@
 #include "trellis/core/error.hpp"
 #include "trellis/core/text.hpp"
 #include "trellis/machine/bgcode.hpp"
+#include "trellis/machine/mixing_lag.hpp"
 
 namespace trellis {
 
@@ -501,6 +501,10 @@ class ToolpathBuilder : public GcodeSink {
     if (tp_.layers.empty() || !tp_.layers.back().paths.empty()) new_layer_ = true;
   }
   void extrude(Vec3 a, Vec3 b, double e, double feed) override {
+    // No travel or retraction since the last extrusion, which ended here: the same run.
+    const bool joined = running_ && distance(last_end_, a) <= 1e-9;
+    running_ = true;
+    last_end_ = b;
     if (path_ && distance(path_->points.back(), b) >= 0 &&
         distance(path_->points.back(), a) < 1e-9) {
       path_->points.push_back(b);
@@ -510,6 +514,7 @@ class ToolpathBuilder : public GcodeSink {
     close();
     Layer& layer = layer_for(a.z);
     Path p;
+    p.joined = joined;
     // The travel's corners in XY (a Z hop adds none) become the path's via points.
     for (const Vec3& v : travel_) {
       const Vec3 last = p.via.empty() ? travel_from_ : p.via.back();
@@ -532,9 +537,15 @@ class ToolpathBuilder : public GcodeSink {
   void travel(Vec3 a, Vec3 b, double) override {
     if (path_ || travel_.empty()) travel_from_ = a, travel_.clear();
     close();
+    running_ = false;
     travel_.push_back(b);
   }
-  void retract() override { close(); }
+  void retract() override {
+    close();
+    running_ = false;
+  }
+  void mixture_lookahead(double mm) override { lookahead_ = mm; }
+  double lookahead() const { return lookahead_; }
   void tool_change(int tool) override {
     close();
     tool_ = tool;
@@ -593,7 +604,20 @@ class ToolpathBuilder : public GcodeSink {
   std::vector<double> mixture_;
   double temperature_ = 0, width_ = 0, height_ = 0;
   bool commented_ = false, new_layer_ = false;
+  bool running_ = false;  // extruding since the last travel or retraction, ending at last_end_
+  Vec3 last_end_;
+  double lookahead_ = 0;
 };
+
+// The builder's mixtures settled as `options` says (gcode_reader.hpp: read_gcode_file).
+void settle_mixtures(GcodeRead& r, const GcodeReadOptions& options, bool keep_commanded) {
+  if (options.commanded_mixtures || !(r.mixture_lookahead > 0)) return;
+  auto commanded = deposit_mixtures(r.toolpath, r.mixture_lookahead);
+  if (keep_commanded)
+    r.commanded = std::move(commanded);
+  else
+    merge_joined_pieces(r.toolpath);
+}
 
 }  // namespace
 
@@ -609,16 +633,34 @@ std::unique_ptr<GcodeSink> make_toolpath_builder(Toolpath& toolpath) {
 
 Toolpath read_gcode(std::string_view text, const GcodeReadOptions& options, Diagnostics& diag,
                     const std::string& origin) {
-  Toolpath tp;
-  tp.source = origin;
-  ToolpathBuilder builder(tp);
+  GcodeRead r;
+  r.toolpath.source = origin;
+  ToolpathBuilder builder(r.toolpath);
   GcodeScanner scanner(builder, options, diag, origin);
   if (is_bgcode(text))
     scanner.feed(bgcode_to_text(text, origin));
   else
     scanner.feed(text);
   scanner.finish();
-  return tp;
+  r.mixture_lookahead = builder.lookahead();
+  settle_mixtures(r, options, false);
+  return std::move(r.toolpath);
+}
+
+GcodeRead read_gcode_file(const std::string& path, const GcodeReadOptions& options,
+                          Diagnostics& diag, GcodeSink* also, bool keep_commanded) {
+  GcodeRead r;
+  r.toolpath.source = path;
+  ToolpathBuilder builder(r.toolpath);
+  if (also) {
+    TeeSink both(*also, builder);
+    scan_gcode_file(path, both, options, diag);
+  } else {
+    scan_gcode_file(path, builder, options, diag);
+  }
+  r.mixture_lookahead = builder.lookahead();
+  settle_mixtures(r, options, keep_commanded);
+  return r;
 }
 
 void scan_gcode_file(const std::string& path, GcodeSink& sink, const GcodeReadOptions& options,

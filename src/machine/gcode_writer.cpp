@@ -811,6 +811,7 @@ class Writer {
   // look-ahead needs (each printed path's printed length before it; each path's mixture
   // command), not the paths.
   void plan_tools_streamed(const Layer& l) {
+    layer_first_.push_back(streamed_paths_);
     select_tools_ = flavor_ == Flavor::Marlin && p_.tool_count > 1;
     for (const auto& p : l.paths) {
       if (p.points.size() < 2) continue;
@@ -892,8 +893,13 @@ class Writer {
       const double lookahead = streamed_lookahead();
       stats_.lookahead = lookahead;
       // (Consecutive wanted commands differ: plan_tools_streamed keeps only changes.)
-      for (const auto& w : wanted_) plan_change(w.path, w.command, w.tool, starts_, lookahead, tools, nullptr);
+      std::vector<std::size_t> at;
+      for (const auto& w : wanted_) {
+        plan_change(w.path, w.command, w.tool, starts_, lookahead, tools, nullptr);
+        at.push_back(w.path);
+      }
       wanted_ = {};
+      warn_lookahead_start(starts_, at, layer_first_, lookahead);
       return;
     }
     std::vector<const Path*> paths;
@@ -922,13 +928,63 @@ class Writer {
     if (mixtures)
       for (std::size_t k = 0; k < paths.size(); ++k) start[k + 1] = start[k] + paths[k]->length();
     std::string last;
+    std::vector<std::size_t> at;  // the paths a change is planned for
     for (std::size_t k = 0; k < paths.size(); ++k) {
       if (paths[k]->mixture.empty()) continue;
       const std::string c = gradient_command(paths[k]->mixture);
       if (c == last) continue;
       last = c;
       plan_change(k, c, tool_of(paths[k]->mixture), start, lookahead, tools, &paths);
+      at.push_back(k);
     }
+    if (lookahead > 0 && !at.empty()) {
+      std::vector<std::size_t> layer_first;  // first printed path of each layer
+      std::size_t n = 0;
+      for (const auto& l : tp_.layers) {
+        layer_first.push_back(n);
+        for (const auto& p : l.paths) n += p.points.size() >= 2;
+      }
+      warn_lookahead_start(start, at, layer_first, lookahead);
+    }
+  }
+
+  // Every change planned within the first `lookahead` mm of printed path is issued at the start
+  // (nothing is printed before it to run ahead on): the mixture the last of them sets is deposited
+  // from the start to the first change planned beyond, and the gradient planned there is lost.
+  // Warned when that takes a whole layer or more (a part shorter than a few look-aheads; on a
+  // larger part it is a piece of the first layer, which the report's gradient error counts);
+  // `start`: printed length before each path, `at`: the paths changes are planned for,
+  // `layer_first`: each layer's first path.
+  void warn_lookahead_start(const std::vector<double>& start, const std::vector<std::size_t>& at,
+                            const std::vector<std::size_t>& layer_first, double lookahead) {
+    if (!(lookahead > 0) || at.size() < 2 || start.empty()) return;
+    std::size_t lost = 0;  // changes after the first issued at the start
+    while (lost + 1 < at.size() && start[at[lost + 1]] <= lookahead) ++lost;
+    if (lost == 0) return;
+    const double total = start.back();
+    const double one = lost + 1 < at.size() ? start[at[lost + 1]] : total;
+    const std::size_t next = lost + 1 < at.size() ? at[lost + 1] : start.size() - 1;
+    // The layers it covers: whole ones, and part of the one it ends in.
+    const auto last = static_cast<std::size_t>(
+        std::upper_bound(layer_first.begin(), layer_first.end(), next == 0 ? 0 : next - 1) -
+        layer_first.begin());
+    const bool whole = next == start.size() - 1 ||
+                       std::binary_search(layer_first.begin(), layer_first.end(), next);
+    if (last <= 1 && !whole) return;  // part of the first layer
+    const std::string layers = whole ? fmt::format("layers 1 to {} of {}", last, layer_first.size())
+                                     : fmt::format("layers 1 to {} of {} and part of layer {}",
+                                                   last - 1, layer_first.size(), last);
+    stats_.warnings.emplace_back(
+        "lookahead_exceeds_start",
+        fmt::format("the mixing look-ahead (gradient.lookahead = {:.0f} mm) swallows the start of "
+                    "this graded print ({:.0f} mm of path in all): the {} mixture changes "
+                    "planned in its first {:.0f} mm are all issued before it starts, so the first "
+                    "{:.0f} mm of "
+                    "path ({}) are deposited in one mixture and their gradient "
+                    "is lost; a part shorter than a few look-aheads cannot carry its gradient in "
+                    "its first layers: print it larger or beside other parts, or lower "
+                    "gradient.lookahead if the mixing chamber's dead volume allows",
+                    lookahead, total, lost + 1, lookahead, one, layers));
   }
 
   // Emits the changes due before point `segment` of the current path at fraction <= t.
@@ -1139,6 +1195,7 @@ class Writer {
   };
   std::vector<double> starts_;      // streamed, with a look-ahead: printed length before each path
   std::size_t streamed_paths_ = 0;  // streamed: printed paths planned
+  std::vector<std::size_t> layer_first_;  // streamed: the first printed path of each layer
   std::vector<Wanted> wanted_;
   std::vector<int> tools_used_;  // tool changers: tools in order of first use
   int last_tool_ = -1;

@@ -110,4 +110,33 @@ std::vector<std::vector<double>> deposit_mixtures(Toolpath& tp, double lookahead
   return commanded;
 }
 
+namespace {
+
+bool same_bead(const Path& a, const Path& b) {
+  return a.role == b.role && a.tool == b.tool && a.mixture == b.mixture && a.width == b.width &&
+         a.height == b.height && a.temperature == b.temperature && a.power == b.power &&
+         a.flow == b.flow && a.fan == b.fan && a.part == b.part;
+}
+
+}  // namespace
+
+void merge_joined_pieces(Toolpath& tp) {
+  for (auto& l : tp.layers) {
+    std::vector<Path> out;
+    out.reserve(l.paths.size());
+    for (auto& p : l.paths) {
+      if (!out.empty() && p.joined && p.points.size() >= 2 && out.back().points.size() >= 2 &&
+          distance(out.back().points.back(), p.points.front()) <= 1e-9 &&
+          same_bead(out.back(), p)) {
+        Path& q = out.back();
+        q.points.insert(q.points.end(), p.points.begin() + 1, p.points.end());
+        q.filament += p.filament;
+        continue;
+      }
+      out.push_back(std::move(p));
+    }
+    l.paths = std::move(out);
+  }
+}
+
 }  // namespace trellis

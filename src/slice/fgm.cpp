@@ -1066,29 +1066,33 @@ std::vector<GradientErrorSum> gradient_error_sums(const Field& field, const Tool
     const Layer& l = tp.layers[li];
     const auto idx = static_cast<std::size_t>(std::llround(l.z / h)) - 1 - first_layer;
     if (idx >= layers.size()) return;
-    Evaluator& ev = evaluators.local();
-    GradientErrorSum& a = acc[li];
-    for (const auto& p : l.paths) {
-      if (p.mixture.empty() || p.role == PathRole::Other || p.role == PathRole::Purge) continue;
-      for (std::size_t k = 0; k < p.points.size(); ++k) {
-        const Vec3& q = p.points[k];
-        const auto f = ev.fractions({q.x, q.y, layers[idx].z});
-        if (f.empty()) continue;
-        double e = 0;
-        for (std::size_t m = 0; m < f.size() && m < p.mixture.size(); ++m)
-          e = std::max(e, std::abs(std::clamp(f[m], 0.0, 1.0) - p.mixture[m]));
-        // The point's share of the path: half of each segment it ends.
-        double w = 0;
-        if (k > 0) w += 0.5 * distance(p.points[k - 1], q);
-        if (k + 1 < p.points.size()) w += 0.5 * distance(q, p.points[k + 1]);
-        a.sum += e * w;
-        a.length += w;
-        a.max = std::max(a.max, e);
-        ++a.n;
-      }
-    }
+    acc[li] = layer_gradient_error(evaluators.local(), l, layers[idx].z);
   });
   return acc;
+}
+
+GradientErrorSum layer_gradient_error(Evaluator& ev, const Layer& l, double z) {
+  GradientErrorSum a;
+  for (const auto& p : l.paths) {
+    if (p.mixture.empty() || p.role == PathRole::Other || p.role == PathRole::Purge) continue;
+    for (std::size_t k = 0; k < p.points.size(); ++k) {
+      const Vec3& q = p.points[k];
+      const auto f = ev.fractions({q.x, q.y, z});
+      if (f.empty()) continue;
+      double e = 0;
+      for (std::size_t m = 0; m < f.size() && m < p.mixture.size(); ++m)
+        e = std::max(e, std::abs(std::clamp(f[m], 0.0, 1.0) - p.mixture[m]));
+      // The point's share of the path: half of each segment it ends.
+      double w = 0;
+      if (k > 0) w += 0.5 * distance(p.points[k - 1], q);
+      if (k + 1 < p.points.size()) w += 0.5 * distance(q, p.points[k + 1]);
+      a.sum += e * w;
+      a.length += w;
+      a.max = std::max(a.max, e);
+      ++a.n;
+    }
+  }
+  return a;
 }
 
 double shortest_piece(const Layer& layer) {
@@ -1102,6 +1106,33 @@ double shortest_piece(const Layer& layer) {
   }
   if (prev) best = std::min(best, run);
   return best;
+}
+
+bool deposit_start_mixtures(Toolpath& tp, double lookahead) {
+  if (!(lookahead > 0)) return false;
+  // The mixture of the last graded path starting within the first `lookahead` mm (as the writer
+  // counts printed length: paths of two points or more).
+  const std::vector<double>* last = nullptr;
+  double s = 0;
+  for (const auto& l : tp.layers)
+    for (const auto& p : l.paths) {
+      if (p.points.size() < 2) continue;
+      if (s > lookahead) break;
+      if (!p.mixture.empty()) last = &p.mixture;
+      s += p.length();
+    }
+  if (!last) return false;
+  const std::vector<double> held = *last;
+  bool changed = false;
+  s = 0;
+  for (auto& l : tp.layers)
+    for (auto& p : l.paths) {
+      if (p.points.size() < 2) continue;
+      if (s > lookahead) return changed;
+      if (!p.mixture.empty() && p.mixture != held) p.mixture = held, changed = true;
+      s += p.length();
+    }
+  return changed;
 }
 
 void measure_gradient_error(const Field& field, const Toolpath& tp,

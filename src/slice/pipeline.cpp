@@ -524,7 +524,14 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
     r.fgm.colours_total = fo.palette.colors;
     finish_graded(job, fo, r.toolpath, r.fgm);
     r.fgm.error_bound = graded_error_bound(job, fo);
-    naming_design(job, [&] { measure_gradient_error(field, r.toolpath, r.outlines, h, r.fgm); });
+    naming_design(job, [&] {
+      // As deposited where the writer runs the changes ahead (no tower flushing them instead).
+      Toolpath deposited;
+      const bool ahead = job.lookahead > 0 && !graded_tower(job) &&
+                         deposit_start_mixtures(deposited = r.toolpath, job.lookahead);
+      measure_gradient_error(field, ahead ? deposited : r.toolpath, r.outlines, h, r.fgm);
+      if (job.lookahead > 0 && !graded_tower(job)) r.fgm.error_lookahead = job.lookahead;
+    });
   } else {
     r.toolpath = plan_planar(r.outlines, planar_options(job, r), &r.planar);
   }
@@ -588,6 +595,32 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
     }
     naming_design(job, [&] { process->layers(ptrs, dz); });
   };
+  // The gradient error, summed layer by layer in print order. With the writer's mixing
+  // look-ahead (no tower), the layers holding the first job.lookahead mm of path are kept until
+  // the path passes it, then measured with their mixtures as deposited (deposit_start_mixtures),
+  // as run_slice measures the whole toolpath.
+  const auto add_error = [&](const GradientErrorSum& a) {
+    error_sum += a.sum;
+    r.fgm.error_max = std::max(r.fgm.error_max, a.max);
+    r.fgm.error_samples += a.n;
+    r.fgm.error_length += a.length;
+  };
+  std::optional<Toolpath> early;
+  std::vector<double> early_z;
+  double early_length = 0;
+  if (graded && job.lookahead > 0 && !graded_tower(job)) {
+    early.emplace();
+    r.fgm.error_lookahead = job.lookahead;
+  }
+  const auto flush_early = [&] {
+    deposit_start_mixtures(*early, job.lookahead);
+    Evaluator ev(d.field);
+    for (std::size_t i = 0; i < early->layers.size(); ++i)
+      if (!std::isnan(early_z[i]))
+        naming_design(job,
+                      [&] { add_error(layer_gradient_error(ev, early->layers[i], early_z[i])); });
+    early.reset();
+  };
   // (Not a structured binding: the pipeline's lambdas capture them.)
   const std::pair<std::size_t, std::size_t> margins = skin_margins(job);
   const std::size_t below = margins.first, above = margins.second;
@@ -613,6 +646,7 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
     PlanarStats stats;
     FgmStats fgm;                               // graded
     std::vector<GradientErrorSum> error;        // graded: per toolpath layer
+    std::vector<double> error_z;                // the design plane each was measured at (NaN: none)
     double seconds = 0;
   };
   std::deque<LayerOutline> window;  // part layers [window_start, received)
@@ -706,6 +740,11 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
             p.error = gradient_error_sums(d.field, job.tools > 1 ? mixed : p.toolpath, p.window,
                                           job.planar.layer_height, p.lo);
           });
+          for (const Layer& l : p.toolpath.layers) {
+            const auto idx =
+                static_cast<std::size_t>(std::llround(l.z / job.planar.layer_height)) - 1 - p.lo;
+            p.error_z.push_back(idx < p.window.size() ? p.window[idx].z : std::nan(""));
+          }
         } else {
           p.toolpath = plan_planar(p.window, po, &p.stats);
         }
@@ -751,11 +790,16 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
               if (path.role != PathRole::Purge && !path.mixture.empty()) colours_used.insert(path.mixture);
             }
           }
-          for (const auto& a : p.error) {
-            error_sum += a.sum;
-            r.fgm.error_max = std::max(r.fgm.error_max, a.max);
-            r.fgm.error_samples += a.n;
-            r.fgm.error_length += a.length;
+          for (std::size_t i = 0; i < p.error.size(); ++i) {
+            if (!early) {
+              add_error(p.error[i]);
+              continue;
+            }
+            early->layers.push_back(p.toolpath.layers[i]);
+            early_z.push_back(p.error_z[i]);
+            for (const Path& path : p.toolpath.layers[i].paths)
+              if (path.points.size() >= 2) early_length += path.length();
+            if (early_length > job.lookahead) flush_early();
           }
         }
         if (held) {
@@ -783,6 +827,7 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
         }
         if (progress.report) progress("layers", static_cast<double>(written) / double(n));
       }));
+  if (early) flush_early();  // a print shorter than the look-ahead
   if (graded) {
     if (r.fgm.paths == 0) r.fgm.shortest_path = 0;
     r.fgm.error_mean = r.fgm.error_length > 0 ? error_sum / r.fgm.error_length : 0;
@@ -940,12 +985,15 @@ std::string slice_report_json(const SliceJob& job, const SliceResult& r, const G
                 {"materials", r.fgm.materials},
                 {"zipper_percent", 100 * job.fgm.zipper},
                 {"material_resolution_mm", job.fgm.material_resolution},
-                {"gradient_error", {{"mean", r.fgm.error_mean},
-                                    {"max", r.fgm.error_max},
-                                    {"bound", r.fgm.error_bound},
-                                    {"samples", r.fgm.error_samples},
-                                    {"length_mm", r.fgm.error_length},
-                                    {"mean_weighted_by", "length"}}},
+                {"gradient_error",
+                 {{"mean", r.fgm.error_mean},
+                  {"max", r.fgm.error_max},
+                  {"bound", r.fgm.error_bound},
+                  {"samples", r.fgm.error_samples},
+                  {"length_mm", r.fgm.error_length},
+                  {"mean_weighted_by", "length"},
+                  {"mixtures", r.fgm.error_lookahead > 0 ? "deposited" : "planned"},
+                  {"lookahead_mm", r.fgm.error_lookahead}}},
                 {"band_percent", 100.0 * r.fgm.band},
                 {"faces", r.fgm.faces},
                 {"order", to_string(job.fgm.order)},
@@ -954,13 +1002,13 @@ std::string slice_report_json(const SliceJob& job, const SliceResult& r, const G
                 {"colour_changes", r.fgm.colour_changes},
                 {"abrupt_changes", r.fgm.abrupt_changes},
                 {"shortest_segment_mm", r.fgm.shortest_path},
-                {"min_segment", {{"min_mm", r.fgm.min_segment},
-                                 {"merged", r.fgm.short_merged},
-                                 {"kept", r.fgm.short_kept},
-                                 {"refused_by_gradient_bound", r.fgm.short_kept_bound},
-                                 {"whole_beads", r.fgm.short_beads},
-                                 {"kept_reason",
-                                  r.fgm.short_kept == 0
+                {"min_segment",
+                 {{"min_mm", r.fgm.min_segment},
+                  {"merged", r.fgm.short_merged},
+                  {"kept", r.fgm.short_kept},
+                  {"refused_by_gradient_bound", r.fgm.short_kept_bound},
+                  {"whole_beads", r.fgm.short_beads},
+                  {"kept_reason", r.fgm.short_kept == 0
                                       ? ""
                                       : "merging would exceed the gradient bound α/2 (or no "
                                         "piece of another colour touches it end to end); use "

@@ -9,6 +9,7 @@
 #include <cstring>
 
 #include "page.hpp"
+#include "trellis/analysis/metrics.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/machine/gcode_writer.hpp"  // base64, shared with G-code thumbnails
 
@@ -46,10 +47,30 @@ double attribute(const Path& p, const std::vector<double>& commanded, std::size_
   }
 }
 
-// The role byte: the PathRole, plus 0x80 when the path continues the previous one's bead (a piece
-// cut where the deposited mixture changes: not a path of its own in the counts).
-char role_byte(const Path& p) {
-  return static_cast<char>(static_cast<std::uint8_t>(p.role) | (p.joined ? 0x80 : 0));
+// The role byte: the PathRole, plus 0x80 when the path continues the run of the one printed
+// before it (continues_run: a piece cut where the mixture, role or tool changes with no travel
+// between), not a path of its own in the counts: a path is a run of extrusion between travels,
+// as `trellis analyze` says.
+char role_byte(const Path* prev, const Path& p) {
+  return static_cast<char>(static_cast<std::uint8_t>(p.role) | (continues_run(prev, p) ? 0x80 : 0));
+}
+
+// The role bytes of a layer; `prev`: the last path with points printed before it (null: none).
+// A laser build file's vectors are paths each (`trellis analyze` counts vectors).
+void put_roles(std::string& b, const ViewScene& s, const Layer& layer, const Path* prev) {
+  const bool runs = s.kind != "cli";
+  for (const auto& p : layer.paths) {
+    b += role_byte(runs ? prev : nullptr, p);
+    if (!p.points.empty()) prev = &p;
+  }
+}
+
+// The last path with points before layer `i` of `t`, or null.
+const Path* last_before(const Toolpath& t, std::size_t i) {
+  for (std::size_t l = i; l-- > 0;)
+    for (auto p = t.layers[l].paths.rbegin(); p != t.layers[l].paths.rend(); ++p)
+      if (!p->points.empty()) return &*p;
+  return nullptr;
 }
 
 // Path `k` (print order) of scene `s`: its commanded mixture.
@@ -75,7 +96,8 @@ void put_f32(std::string& b, double v) {
 //   u8 tool[paths];
 //   padding to 4 bytes; u32 vias, and when vias > 0: u32 first_via[paths + 1], f32 xyz[vias]
 //   (the corners of the travel into each path, Path::via).
-std::string encode_layer(const ViewScene& s, const Layer& layer, std::size_t first_path) {
+std::string encode_layer(const ViewScene& s, std::size_t index, std::size_t first_path) {
+  const Layer& layer = s.toolpath.layers[index];
   std::size_t points = 0;
   for (const auto& p : layer.paths) points += p.points.size();
   std::string b;
@@ -94,7 +116,7 @@ std::string encode_layer(const ViewScene& s, const Layer& layer, std::size_t fir
     for (std::size_t k = 0; k < kAttributes; ++k)
       put_f32(b, attribute(p, commanded_of(s, p, first_path + q), k));
   }
-  for (const auto& p : layer.paths) b += role_byte(p);
+  put_roles(b, s, layer, last_before(s.toolpath, index));
   for (const auto& p : layer.paths) b += static_cast<char>(std::clamp(p.tool, 0, 255));
   while (b.size() % 4) b += '\0';
   std::size_t vias = 0;
@@ -234,7 +256,7 @@ void append_scene(std::string& html, const ViewScene& s, std::size_t index, Laye
   else
     for (std::size_t i = 0, first = 0; i < s.toolpath.layers.size(); ++i) {
       html += "<script type=\"application/octet-stream\" id=\"" + id + "-l" + std::to_string(i) +
-              "\">" + base64(encode_layer(s, s.toolpath.layers[i], first)) + "</script>\n";
+              "\">" + base64(encode_layer(s, i, first)) + "</script>\n";
       first += s.toolpath.layers[i].paths.size();
     }
   if (!s.design.empty())
@@ -265,6 +287,7 @@ std::string pack_layers(const ViewScene& s) {
   b.append(q, 8);
   put_varint(b, t.layers.size());
   StepWriter points(b, quantum), vias(b, quantum);
+  const Path* last = nullptr;  // the last path with points so far
   for (const auto& layer : t.layers) {
     std::size_t np = 0, nv = 0;
     for (const auto& p : layer.paths) np += p.points.size(), nv += p.via.size();
@@ -280,7 +303,9 @@ std::string pack_layers(const ViewScene& s) {
         put_f32(b, attribute(p, commanded_of(s, p, first_path + q), k));
       }
     first_path += layer.paths.size();
-    for (const auto& p : layer.paths) b += role_byte(p);
+    put_roles(b, s, layer, last);
+    for (const auto& p : layer.paths)
+      if (!p.points.empty()) last = &p;
     for (const auto& p : layer.paths) b += static_cast<char>(std::clamp(p.tool, 0, 255));
     if (nv > 0) {
       for (const auto& p : layer.paths) put_varint(b, p.via.size());

@@ -17,7 +17,6 @@
 #include "trellis/lattice/io.hpp"
 #include "trellis/machine/cli.hpp"
 #include "trellis/machine/gcode_reader.hpp"
-#include "trellis/machine/mixing_lag.hpp"
 #include "trellis/machine/profile.hpp"
 #include "trellis/machine/toolpath_3mf.hpp"
 #include "trellis/toolpath/json.hpp"
@@ -39,28 +38,18 @@ std::string lower_ext(const std::string& path) {
   return e;
 }
 
-// The mixing look-ahead a file's header records.
-class LookaheadSink : public GcodeSink {
- public:
-  void mixture_lookahead(double mm) override { mm_ = mm; }
-  double mm_ = 0;
-};
-
 // G-code: one pass feeding the IR builder and the counters `trellis analyze` reports; mixtures
-// then shown as deposited, the commanded ones kept.
+// as the reader settles them (deposited by default), the commanded ones kept beside.
 ViewScene load_gcode(const std::string& path, const GcodeReadOptions& read, Diagnostics& diag) {
   ViewScene s;
   CountingSink counter;
-  auto builder = make_toolpath_builder(s.toolpath);
-  LookaheadSink lookahead;
-  TeeSink building(*builder, lookahead);
-  TeeSink both(counter, building);  // the builder also gets ;WIDTH:/;HEIGHT:
   Diagnostics local;
-  scan_gcode_file(path, both, read, local);
+  GcodeRead r = read_gcode_file(path, read, local, &counter, true);
   counter.finish();
+  s.toolpath = std::move(r.toolpath);
   s.mixture_read_back = true;
-  s.mixture_lookahead = lookahead.mm_;
-  if (s.mixture_lookahead > 0) s.commanded = deposit_mixtures(s.toolpath, s.mixture_lookahead);
+  s.mixture_lookahead = read.commanded_mixtures ? 0 : r.mixture_lookahead;
+  s.commanded = std::move(r.commanded);
   s.print_time_s = counter.counts.print_time_s;
   s.filament_mm = counter.counts.filament;
   for (const auto& m : local.messages()) s.warnings.push_back(m.kind + ": " + m.text);

@@ -18,6 +18,7 @@ exit 2 and a message naming it, never read as an empty print with exit 0.
 import base64
 import gzip
 import json
+import math
 import os
 import re
 import struct
@@ -43,11 +44,14 @@ def dir_of(path):
     return os.path.dirname(os.path.abspath(path))
 
 
-# Jobs too long for this test, with why; every other example job is run.
-TOO_LONG = {
-    # Strategy 2 over a 135 x 175 mm plate: 91,865 paths, minutes on two cores. Its route and
-    # writer are those of vase_graded_fgm (graded slice, mixing G-code), which is run.
-    "palette_plate_fgm": "graded slice of a 135 x 175 mm plate, minutes",
+# Jobs run coarser here, with why; each still runs its design, route, machine and writer, and
+# every example job is run.
+COARSER = {
+    # Strategy 2 over the 135 x 175 mm plate: 10 layers, 91,865 paths, 318 s alone under load as
+    # written. With a 0.8 mm nozzle (the beads 0.8 mm wide) and 0.64 mm layers: 3 layers, 18,554
+    # paths, 12 s of CPU.
+    "palette_plate_fgm": ["--set", "extrusion.nozzle_diameter=0.8",
+                          "--set", "extrusion.layer_height=0.64"],
 }
 
 
@@ -148,13 +152,58 @@ class Planned:
     """What the toolpath JSON that made an output holds, measured by the library."""
 
     def __init__(self, path):
+        self.path = path
         self.toolpath = trellis.read_toolpath(path)
         self.analysis = trellis.analyze(self.toolpath)
         self.segments = self.toolpath.point_count - self.toolpath.path_count
 
 
-def graded(planned):
-    return len(set(map(tuple, planned.toolpath.arrays().get("mixture", [])))) > 1
+def lookahead_of(gcode):
+    """The mixing look-ahead our graded G-code records in its header (mm), or 0."""
+    with open(gcode, "rb") as f:
+        m = re.search(rb"^; mixture lookahead = ([0-9.]+) mm", f.read(1 << 16), re.M)
+    return float(m.group(1)) if m else 0.0
+
+
+BEAD = ("role", "tool", "mixture", "width", "height", "temperature", "power", "flow", "fan", "part")
+
+
+def deposited_path_count(toolpath_json, lookahead):
+    """The IR paths of a planned toolpath as its G-code deposits them with a mixing look-ahead
+    (a model of machine/mixing_lag.hpp written apart from it): the changes planned within the
+    first `lookahead` mm of printed path are all issued at the start, so every graded path
+    starting there carries the mixture the last of them plans; the later ones arrive where they
+    were planned. Pieces of one run (no travel between) that then differ in nothing are one path.
+    Returns that count and how many of those paths are shorter than 0.1 mm: the reader puts a
+    deposited change within 0.05 mm of a point on that point, so such a piece may read back as
+    part of its neighbour."""
+    with open(toolpath_json) as f:
+        layers = [[p for p in l["paths"] if len(p["points"]) >= 2] for l in json.load(f)["layers"]]
+    length = lambda p: sum(math.dist(a, b) for a, b in zip(p["points"], p["points"][1:]))
+    held, s = None, 0.0
+    for p in (p for l in layers for p in l):
+        if s > lookahead:
+            break
+        held = p.get("mixture") or held
+        s += length(p)
+    s = 0.0
+    for p in (p for l in layers for p in l):
+        if s > lookahead:
+            break
+        if p.get("mixture"):
+            p["mixture"] = held
+        s += length(p)
+    count, short = 0, 0
+    for l in layers:
+        prev = None
+        for p in l:
+            joins = prev is not None and math.dist(prev["points"][-1], p["points"][0]) <= 1e-9 \
+                and (p.get("joined") or not p.get("via")) \
+                and all(prev.get(k) == p.get(k) for k in BEAD)
+            count += not joins
+            short += not joins and length(p) < 0.1
+            prev = p
+    return count, short
 
 
 def analyze_report(path, tmp):
@@ -172,12 +221,21 @@ def check_analyze(path, planned, tmp, problems):
         want = {"layers": planned.toolpath.layer_count, "paths": planned.toolpath.path_count}
         length, tol = got["scan_length_mm"], CLI_MM_PER_SEGMENT * planned.segments
     else:
-        keys = ["layers", "paths", "extrusion_starts"]
-        if not graded(planned):
-            # A graded print's G-code issues each mixture change gradient.lookahead before the
-            # point it deposits at, and its reader splits paths where the changes are commanded.
-            keys.append("toolpath_paths")
+        # toolpath_paths too for graded G-code: it issues each mixture change gradient.lookahead
+        # mm before the point it deposits at, and the reader gives the mixtures as deposited.
+        keys = ["layers", "paths", "extrusion_starts", "toolpath_paths"]
         want = {k: planned.analysis[k] for k in keys}
+        if lookahead_of(path) > 0:
+            deposited, short = deposited_path_count(planned.path, lookahead_of(path))
+            del want["toolpath_paths"]
+            # Pieces under 0.1 mm may merge into a neighbour (the reader's 0.05 mm snap); and the
+            # printed length read back drifts from the planned one by the G-code's rounding
+            # (GCODE_MM_PER_SEGMENT a segment) over the look-ahead, so a deposited change can
+            # land past the snap and leave a sliver piece: at most 0.1 % of the paths (2 of
+            # 18,456 on the coarse palette plate, none on the vase).
+            if not deposited - short <= got["toolpath_paths"] <= deposited + deposited // 1000:
+                problems.append(f"analyze {name}: toolpath_paths {got['toolpath_paths']}, planned "
+                                f"as deposited {deposited} ({short} of them under 0.1 mm)")
         length, tol = got["extruded_length_mm"], GCODE_MM_PER_SEGMENT * planned.segments
     for k, v in want.items():
         if got[k] != v:
@@ -196,9 +254,9 @@ def check_view(path, planned, tmp, problems):
     m = re.search(r"\((\w+)\): (\d+) layer\(s\), (\d+) paths", r.stdout)
     if not m:
         return problems.append(f"view {name}: no counts in {r.stdout!r}")
-    want = planned.toolpath.path_count if path.endswith((".json", ".cli")) \
-        else planned.analysis["toolpath_paths"]
-    if int(m.group(3)) != want and not (path.endswith((".gcode", ".nc")) and graded(planned)):
+    # A path is a run of extrusion between travels, as analyze counts them.
+    want = planned.toolpath.path_count if path.endswith(".cli") else planned.analysis["paths"]
+    if int(m.group(3)) != want:
         problems.append(f"view {name}: {m.group(3)} paths, planned {want}")
     if int(m.group(2)) != planned.toolpath.layer_count:
         problems.append(f"view {name}: {m.group(2)} layers, planned {planned.toolpath.layer_count}")
@@ -273,15 +331,14 @@ def job_lattice(mirror, job, out):
     return str((mirror / "examples" / job).parent / m.group(1)) if m else None
 
 
-@pytest.mark.parametrize("job", [j for j in example_jobs()
-                                 if os.path.splitext(os.path.basename(j))[0] not in TOO_LONG])
+@pytest.mark.parametrize("job", example_jobs())
 def test_every_output_of_every_example_job_reads_back(mirror, job):
     text = (mirror / "examples" / job).read_text()
     route = re.search(r'^route = "(\w+)"', text, re.M).group(1)
     out = str(mirror / "out" / os.path.splitext(os.path.basename(job))[0])
     if route == "gcode":  # its input is the tiny plan's toolpath, in ../../out/tiny
         run_job(mirror, "jobs/tiny_plan.toml", mirror / "out" / "tiny")
-    run_job(mirror, job, out)
+    run_job(mirror, job, out, *COARSER.get(os.path.splitext(os.path.basename(job))[0], []))
     files = sorted(os.listdir(out))
     assert files, job
     problems = []

@@ -243,7 +243,9 @@ TEST(Fgm, LookAheadIssuesChangesOneDeadVolumeEarly) {
     MachineProfile prof = test::open_bed({}, 0, 2);
     prof.lookahead = lookahead;
     Diagnostics diag;
-    const Toolpath back = read_gcode(write_gcode(tp, prof), {}, diag);
+    GcodeReadOptions commanded;  // the commands as the file issues them (this test undoes them)
+    commanded.commanded_mixtures = true;
+    const Toolpath back = read_gcode(write_gcode(tp, prof), commanded, diag);
     // Commands in print order with the printed length at which each was issued.
     std::vector<std::pair<double, double>> issued;  // (position, fraction of a)
     std::vector<std::pair<double, Vec3>> mids;      // (position, segment middle)

@@ -73,6 +73,12 @@ const GRADE = (i) => (i < 20 ? 0 : (Math.floor((i - 20) / 4) + 1) / 5);
     source: 'browser test', layers: [{ z: 0.2, paths }] }));
   tr('gcode', 'graded.json', '--machine', profile('geeetech_mizar_m_mixing.toml'), '-o', 'graded.gcode');
 }
+// A small graded plate (14 x 8 x 0.8 mm, graded along X) sliced with Strategy 2 for the Mizar M
+// (960 mm look-ahead): runs of extrusion cut into pieces where the deposited mixture changes.
+// The panel, the legend and `trellis analyze` count the same paths (runs between travels).
+writeFileSync(join(out, 'plate.vcad'), 'fgrade(["0.5 + x/14", "0.5 - x/14"], ["a", "b"]) {\n  rectprism(14, 8, 0.8);\n}\n');
+tr('slice', 'plate.vcad', '--machine', profile('geeetech_mizar_m_mixing.toml'), '--strategy', '2',
+  '-o', 'plate.gcode');
 // The one palette of PNGs and viewer (src/render/palette.json, bundled into the page).
 const PALETTE = JSON.parse(readFileSync(join(source, 'src/render/palette.json'), 'utf8'));
 const paletteMix = (t) => [0, 1, 2].map((i) => Math.round(PALETTE.mixture2[0][i] + (PALETTE.mixture2[1][i] - PALETTE.mixture2[0][i]) * t));
@@ -118,7 +124,7 @@ run('/usr/bin/python3', [join(source, 'tests/machine/bgcode_encode.py'), join(ou
 function analyze(file, ...extra) {
   tr('analyze', file, '--report', file + '.report.json', ...extra);
   const r = json(file + '.report.json');
-  return { layers: r.layers, paths: r.toolpath_paths, segments: r.segments };
+  return { layers: r.layers, paths: r.paths, segments: r.segments };
 }
 function travelOf(file) {
   const r = json(file + '.report.json');
@@ -142,6 +148,7 @@ const cases = [
     expect: { designLines: json('cubic_report.json').struts } },
   { file: 'mix.gcode', expect: analyze('mix.gcode') },
   { file: 'graded.gcode', expect: analyze('graded.gcode') },
+  { file: 'plate.gcode', expect: analyze('plate.gcode') },
   { file: 'mix3.gcode', expect: analyze('mix3.gcode') },
   { file: HOSTILE, args: ['--title', HOSTILE_TITLE], expect: analyze(HOSTILE) },
   { file: 'part.bgcode', expect: analyze('part.bgcode') },
@@ -225,6 +232,11 @@ async function runCase(c, tag = '') {
       `${name}: statistics panel shows layers ${shown.layers}, paths ${shown.paths}`);
   const legend = await page.$eval('#tv-legend', (e) => e.innerText);
   check(/Feature type/.test(legend), `${name}: legend says what colour means ("${legend.split('\n')[0]}")`);
+  // One definition of a path: the legend's counts per feature add up to the panel's.
+  const perRole = [...legend.matchAll(/\((\d+) paths\)/g)].map((m) => Number(m[1]));
+  if (perRole.length && c.expect.paths !== undefined)
+    check(perRole.reduce((a, b) => a + b, 0) === c.expect.paths,
+      `${name}: legend counts ${perRole.join(' + ')} = ${c.expect.paths} paths (panel and analyze)`);
   check(/\d mm/.test(await page.$eval('#tv-scale', (e) => e.innerText)), `${name}: scale bar in mm`);
   await page.screenshot({ path: join(out, name + '.png') });
   if (base === 'part.gcode') {

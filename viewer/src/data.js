@@ -110,9 +110,11 @@ export function decodeScene(i) {
   const pathLayer = new Uint32Array(paths);
   const attr = new Float32Array(paths * ATTRS);
   const role = new Uint8Array(paths), tool = new Uint8Array(paths);
-  // Pieces that continue the previous path's bead (cut where the deposited mixture changes; the
-  // role byte's high bit): not paths of their own in the counts.
+  // Pieces that continue the previous path's run (the role byte's high bit: no travel between,
+  // cut where the mixture, role, tool or temperature changes): not paths of their own in the
+  // counts. A path is a run of extrusion between travels, as `trellis analyze` counts them.
   let joined = 0;
+  const joinedOf = new Uint8Array(paths);
   const layerSeg = new Uint32Array(L + 1), layerTravel = new Uint32Array(L + 1);
   const viaOf = new Array(paths).fill(null);  // a path's travel corners (Float32Array xyz), if any
   let segments = 0, P = 0, Q = 0;
@@ -120,7 +122,10 @@ export function decodeScene(i) {
     const c = chunks[l];
     positions.set(c.pos, P * 3);
     attr.set(c.attr, Q * ATTRS);
-    for (let q = 0; q < c.nq; ++q) { role[Q + q] = c.role[q] & 0x7f; if (c.role[q] & 0x80) joined += 1; }
+    for (let q = 0; q < c.nq; ++q) {
+      role[Q + q] = c.role[q] & 0x7f;
+      if (c.role[q] & 0x80) joined += 1, joinedOf[Q + q] = 1;
+    }
     tool.set(c.tool, Q);
     for (let q = 0; q < c.nq; ++q) {
       if (c.via && c.viaFirst[q + 1] > c.viaFirst[q]) viaOf[Q + q] = c.via.subarray(3 * c.viaFirst[q], 3 * c.viaFirst[q + 1]);
@@ -204,7 +209,7 @@ export function decodeScene(i) {
   }
   if (bbox.isEmpty()) bbox.set(new Vector3(0, 0, 0), new Vector3(1, 1, 1));
   return {
-    meta, layerCount: L, positions, pathFirst, pathLayer, pathCount: paths, attr, role, tool, index,
+    meta, layerCount: L, positions, pathFirst, pathLayer, pathCount: paths, attr, role, tool, joinedOf, index,
     layerSeg, layerTravel, travel, bbox, design, lod, deviation, hits,
     stats: { layers: L, paths: paths - joined, segments, points, extruded, travelMoves, travelLength,
       designLines: design ? design.lines : 0, designFlagged: design ? flaggedCount(design) : 0,

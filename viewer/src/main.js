@@ -234,11 +234,13 @@ class Viewer {
     } else if (m.kind === 'category') {
       const key = mode === 'feature' ? s.role : s.tool;
       const palette = mode === 'feature' ? ROLE_COLORS : TOOL_COLORS;
+      // Paths as the panel counts them (runs between travels), each under the role / tool it
+      // starts with, so the legend's counts add up to the panel's.
       const used = new Map();
       for (let p = 0; p < n; ++p) {
         const c = palette[key[p] % palette.length];
         rgb[3 * p] = c[0]; rgb[3 * p + 1] = c[1]; rgb[3 * p + 2] = c[2];
-        used.set(key[p], (used.get(key[p]) || 0) + 1);
+        used.set(key[p], (used.get(key[p]) || 0) + (s.joinedOf[p] ? 0 : 1));
       }
       legend = { kind: 'category', items: [...used.keys()].sort((a, b) => a - b).map((k) => ({
         label: mode === 'feature' ? s.meta.roles[k] : `tool ${k}`, color: palette[k % palette.length], paths: used.get(k) })) };

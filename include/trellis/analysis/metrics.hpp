@@ -22,6 +22,9 @@ struct GcodeCounts {
   // Paths of the toolpath IR: runs of connected extrusion, split also where the tool, feature
   // type, mixture or temperature changes (the paths `trellis view` shows).
   std::size_t toolpath_paths = 0;
+  // Our graded G-code's "; mixture lookahead" (mm; 0: none). With one, analyze_gcode_file counts
+  // toolpath_paths on the IR read as deposited (GcodeReadOptions::commanded_mixtures).
+  double mixture_lookahead = 0;
   double extruded_length = 0, travel_length = 0, filament = 0;
   // The print-time estimate (machine/print_time.hpp): moves with acceleration and jerk, dwells
   // and heater waits; heating_s is the heater waits' part of it (other slicers leave it out).
@@ -64,6 +67,7 @@ class CountingSink : public GcodeSink {
   void tool_change(int) override { attribute_changed_ = true; }
   void role(PathRole) override { attribute_changed_ = true; }
   void mixture(const std::vector<double>&) override { attribute_changed_ = true; }
+  void mixture_lookahead(double mm) override { counts.mixture_lookahead = mm; }
   void temperature(double) override { attribute_changed_ = true; }
   void object(std::string_view label) override;
   void dwell(double seconds) override { time_.dwell(seconds); }
@@ -159,6 +163,14 @@ Analysis analyze(const Toolpath& printed, const GcodeCounts& counts, const Graph
 // where a path starts at the end of the last: one run, as the writer prints it), feeds
 // from the paths' speeds (0: no time). Filament and retractions are the machine's, so 0.
 GcodeCounts toolpath_counts(const Toolpath& toolpath);
+
+// Whether `p` continues the run `prev` (the path printed before it; null for the first) ends: it
+// starts where `prev` ends with no travel between (joined, or no travel corners), so the writer
+// prints both as one run of extrusion. A path of `trellis analyze` (GcodeCounts::paths) and of
+// the viewer is a run: this path is a piece of the one before. A laser path (power > 0) never is.
+bool continues_run(const Path* prev, const Path& p);
+// The runs of extrusion between travels in a toolpath (toolpath_counts(t).paths, cheaper).
+std::size_t run_count(const Toolpath& toolpath);
 
 // Reads a G-code file and analyses it (the IR is kept in memory for the design comparison).
 Analysis analyze_gcode_file(const std::string& path, const Graph* design,

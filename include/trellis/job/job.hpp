@@ -98,8 +98,9 @@ Job rerun_job(const std::string& path, const std::string& target = "");
 // as it is; G-code with the valve commands and tool offsets of `machine` — by default the
 // machine settings of the job the file embeds — and the placement offset Trellis wrote into the
 // header undone. `snap` gets the profile's node overlap + 0.05 when it is left at 0.05.
+// Mixtures as deposited, or as commanded when asked (GcodeReadOptions::commanded_mixtures).
 Toolpath read_print(const std::string& path, const Settings* machine, double* snap,
-                    Diagnostics& diag);
+                    Diagnostics& diag, bool commanded_mixtures = false);
 
 // The thumbnails the machine's gcode.thumbnails asks for, drawn from the toolpath (cairo module),
 // for write_gcode.

@@ -45,6 +45,12 @@ struct GcodeReadOptions {
   // The motion limits the print-time estimate starts from; the file's own M201 / M203 / M204 /
   // M205 lines, or our header's speed.acceleration and speed.jerk, replace them.
   MotionLimits limits;
+  // Mixing machines: our G-code issues each mixture change `; mixture lookahead = L mm` of
+  // printed path before it is deposited (machine/mixing_lag.hpp). The toolpath read gives each
+  // path the mixture deposited there (the look-ahead undone, paths cut where that changes);
+  // true: the mixture commanded while it was printed, as the file's lines say. Files without
+  // that header line read the same either way. (`analyze`/`check --commanded-mixtures`.)
+  bool commanded_mixtures = false;
 };
 
 // ;TYPE: comment names: PrusaSlicer's vocabulary for the roles it has (Perimeter, Internal infill,
@@ -206,12 +212,32 @@ class PrintTimeSink : public GcodeSink {
 };
 
 // A sink that builds the toolpath IR into `toolpath` (paths split at travel, retraction, tool,
-// role and mixture changes; layers by comment, else by the Z of the extrusion).
+// role and mixture changes; layers by comment, else by the Z of the extrusion). A path that
+// continues the previous one's run (split by a change of tool, role, mixture, ... with no travel
+// or retraction between) is `joined`: a path of `trellis analyze` is a run, not a piece. The
+// mixtures are the commanded ones; read_gcode and read_gcode_file settle them as options say.
 std::unique_ptr<GcodeSink> make_toolpath_builder(Toolpath& toolpath);
 
-// Whole text to the toolpath IR (layers by comment, else by Z of the extrusion).
+// A G-code print read into the IR, with what its header said about the mixtures.
+struct GcodeRead {
+  Toolpath toolpath;
+  double mixture_lookahead = 0;  // mm, from "; mixture lookahead" (0: none recorded)
+  // Read as deposited and asked for: the commanded mixture of every path, in print order.
+  std::vector<std::vector<double>> commanded;
+};
+
+// Whole text to the toolpath IR (layers by comment, else by Z of the extrusion), mixtures as
+// `options.commanded_mixtures` says.
 Toolpath read_gcode(std::string_view text, const GcodeReadOptions& options, Diagnostics& diag,
                     const std::string& origin = "gcode");
+// A file to the toolpath IR, streamed, every event also fed to `also` when given (a counter:
+// one pass for both). Mixtures as `options.commanded_mixtures` says; read as deposited, a
+// path cut only where the commanded mixture changed is one path again (the planned one), unless
+// `keep_commanded`: then the pieces stay, each with its commanded mixture in
+// GcodeRead::commanded (the viewer shows either).
+GcodeRead read_gcode_file(const std::string& path, const GcodeReadOptions& options,
+                          Diagnostics& diag, GcodeSink* also = nullptr,
+                          bool keep_commanded = false);
 // Streams a file through a sink in fixed-size chunks (constant memory).
 void scan_gcode_file(const std::string& path, GcodeSink& sink, const GcodeReadOptions& options,
                      Diagnostics& diag);

@@ -19,4 +19,10 @@ namespace trellis {
 // nothing.
 std::vector<std::vector<double>> deposit_mixtures(Toolpath& toolpath, double lookahead_mm);
 
+// Joins each `joined` path to the path before it (same layer, starting where it ends) when
+// nothing a path carries differs (role, tool, mixture, width, height, temperature, power, flow,
+// fan, part): after deposit_mixtures, a path the reader cut only where a commanded mixture
+// changed is one path again, as it was planned.
+void merge_joined_pieces(Toolpath& toolpath);
+
 }  // namespace trellis

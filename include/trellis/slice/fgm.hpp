@@ -210,6 +210,9 @@ struct FgmStats {
   double error_mean = 0, error_max = 0, error_bound = 0;
   std::size_t error_samples = 0;
   double error_length = 0;
+  // > 0: the errors are of the mixtures as deposited with the writer's mixing look-ahead of
+  // this many mm (deposit_start_mixtures), not as planned.
+  double error_lookahead = 0;
   int materials = 2;
   double band = 0;  // α
   int colours_used = 0, colours_total = 0;  // palette colours some part path prints
@@ -230,6 +233,13 @@ void merge_short_pieces(std::vector<Path>& paths, std::vector<int>& colours, Eva
 // report's shortest segment. Infinity for a layer without paths.
 double shortest_piece(const Layer& layer);
 
+// The mixtures a mixing hotend deposits when the writer issues each change `lookahead` mm of
+// printed path early (machine/mixing_lag.hpp: what the G-code reads back as): the changes planned
+// within the first `lookahead` mm are all issued at the start, so every graded path starting
+// there is deposited in the mixture the last of them plans; later paths as planned. Returns
+// whether any mixture changed.
+bool deposit_start_mixtures(Toolpath& toolpath, double lookahead);
+
 // Fills stats.error_* for a graded toolpath (layer i planned from outline zs[i]).
 void measure_gradient_error(const Field& field, const Toolpath& toolpath,
                             const std::vector<LayerOutline>& layers, double layer_height,
@@ -242,6 +252,8 @@ struct GradientErrorSum {
   std::size_t n = 0;
   double length = 0;  // Σ length (mm)
 };
+// One layer's sums, the design sampled at z_design (gradient_error_sums' step per layer).
+GradientErrorSum layer_gradient_error(Evaluator& evaluator, const Layer& layer, double z_design);
 std::vector<GradientErrorSum> gradient_error_sums(const Field& field, const Toolpath& toolpath,
                                                   const std::vector<LayerOutline>& layers,
                                                   double layer_height, std::size_t first_layer = 0);

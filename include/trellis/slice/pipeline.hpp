@@ -52,6 +52,10 @@ struct SliceJob {
   std::function<std::pair<std::size_t, std::size_t>(const BBox3& extent, std::size_t layers)> range_of;
   // Process parameters a .vcad design sets with fprocess (slice/fgm_process.hpp).
   ProcessOptions process;
+  // The writer issues each mixture change this many mm of printed path early (gradient.lookahead
+  // of a mixing machine whose G-code is written; 0: none): the gradient error is then measured
+  // on the mixtures as deposited (deposit_start_mixtures), not as planned.
+  double lookahead = 0;
 };
 
 struct SliceResult {
