@@ -62,7 +62,7 @@ void add_render(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--max-memory", o->max_memory,
                   "refuse when the estimate needs more memory than this (MB; run.max_memory; "
-                  "default: the memory available)")
+                  "default: half the memory available)")
       ->check(number_value(0, 1e9, true));
   cmd->add_flag("--force", o->force, "render even when the estimate is beyond the budget");
   add_progress_flag(cmd, o->progress);

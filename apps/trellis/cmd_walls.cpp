@@ -12,6 +12,7 @@ void add_walls(CLI::App& app) {
     std::string input, output;
     double width = 0.2, height = 0.148;
     bool follow = false;
+    BudgetFlags budget;
   };
   auto o = std::make_shared<Opts>();
   auto* cmd = app.add_subcommand("walls", "Export a lattice as solid walls (binary STL) for other slicers");
@@ -27,6 +28,7 @@ void add_walls(CLI::App& app) {
   cmd->add_option("--height", o->height, "wall height (mm)")
       ->check(number_value(0, 100, true))
       ->capture_default_str();
+  add_budget_flags(cmd, o->budget);
   cmd->callback([o] {
     RunFiles files(o->follow);
     files.input("the lattice", o->input);
@@ -34,6 +36,7 @@ void add_walls(CLI::App& app) {
     files.check();
     Diagnostics diag;
     const Graph g = read_lattice(o->input, {}, diag);
+    check_budget(lattice_walls_estimate(g), o->budget.budget());
     const TriangleMesh mesh = lattice_walls(g, o->width, o->height);
     write_stl(o->output, mesh);
     print_warnings(diag);

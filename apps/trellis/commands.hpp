@@ -4,6 +4,7 @@
 #include <CLI/CLI.hpp>
 #include <map>
 
+#include "trellis/core/budget.hpp"
 #include "trellis/core/diagnostics.hpp"
 #include "trellis/core/run_files.hpp"
 #include "trellis/job/job.hpp"
@@ -58,6 +59,15 @@ const CLI::Validator& path_value();
 // run.follow_symlinks): outputs that are symbolic links are written through, not refused
 // (core/run_files.hpp).
 void add_follow_symlinks(CLI::App* cmd, bool& follow);
+
+// --max-time, --max-memory and --force for the commands outside the routes (a route's come from
+// run.max_time, run.max_memory and run.force): the budget their estimates are checked against.
+struct BudgetFlags {
+  double max_time = Budget{}.seconds, max_memory_mb = 0;
+  bool force = false;
+  Budget budget() const;
+};
+void add_budget_flags(CLI::App* cmd, BudgetFlags& flags);
 
 // Settings of a command: the machine profile (if any), then --set assignments.
 Settings command_settings(const std::string& machine, const std::vector<std::string>& sets);

@@ -83,6 +83,26 @@ void add_follow_symlinks(CLI::App* cmd, bool& follow) {
                 "link kept); without it such an output is refused");
 }
 
+Budget BudgetFlags::budget() const {
+  Budget b;
+  b.seconds = max_time;
+  b.memory = max_memory_mb * 1e6;
+  b.force = force;
+  return b;
+}
+
+void add_budget_flags(CLI::App* cmd, BudgetFlags& flags) {
+  cmd->add_option("--max-time", flags.max_time,
+                  "refuse when the estimated time is longer than this (s; run.max_time)")
+      ->check(number_value(0, 1e9, true))
+      ->capture_default_str();
+  cmd->add_option("--max-memory", flags.max_memory_mb,
+                  "refuse when the estimate needs more memory than this (MB; run.max_memory; "
+                  "default: half the memory available)")
+      ->check(number_value(0, 1e9, true));
+  cmd->add_flag("--force", flags.force, "run even when the estimate is beyond the budget");
+}
+
 std::string num(double v, int decimals) {
   char buf[64];
   std::snprintf(buf, sizeof buf, "%.*f", decimals, v);

@@ -106,7 +106,7 @@ class Field:
         """The field on a grid of spacing ``step`` (mm) over ``box`` (default: the bounds):
         ``distance`` (nx, ny, nz) and ``fractions`` (nx, ny, nz, k), node (i, j, k) at
         (``x[i]``, ``y[j]``, ``z[k]``), and ``origin``, ``step``, ``materials``. A grid beyond
-        ``max_memory`` MB (default: the memory available) is refused with the estimate unless
+        ``max_memory`` MB (default: half the memory available) is refused with the estimate unless
         ``force``."""
         lo, hi = self._box(box, 0.0)
         out = self._compiled().sample(lo, hi, float(step), float(max_memory or 0), force, progress)

@@ -1,5 +1,7 @@
 #include "trellis/analysis/collisions.hpp"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <nlohmann/json.hpp>
@@ -159,6 +161,14 @@ CollisionCheck check_collisions(const Graph& design, const Toolpath& toolpath,
   }
   // Replay: each segment's tip sweep against every segment printed before it.
   const FootprintIndex index(ends, options.nozzle.radius);
+  // Measured: 25,000 moves piled on one 10 mm span, 1.25e9 candidate visits in 1.35 s of CPU,
+  // most of them the cheap ones (below the tip); one that tests the nozzle costs more: 5 ns.
+  Estimate e;
+  e.seconds = index.visits() * 5e-9;
+  e.what = fmt::format("replaying {} segments against the nozzle ({:.3g} candidate pairs)",
+                       segs.size(), index.visits());
+  e.change = "the print (check it in parts: a layer range, or fewer paths)";
+  check_budget(e, options.budget);
   std::vector<std::uint32_t> stamp(segs.size(), 0);
   for (std::size_t i = 0; i < segs.size(); ++i) {
     const Seg& s = segs[i];

@@ -9,6 +9,7 @@
 #include <fstream>
 
 #include "trellis/core/error.hpp"
+#include "trellis/core/file.hpp"
 
 namespace trellis {
 
@@ -41,10 +42,21 @@ std::string seconds_text(double s) {
 
 }  // namespace
 
+// The default memory budget: half of what the machine has available when the run starts. The
+// estimates are orders of magnitude, the page cache and the other programs on the machine need
+// room too, and a run that goes past the whole of it ends in the out-of-memory killer, not in a
+// message (an estimate of 15 GB on a 24 GB machine is refused).
+constexpr double kAvailableShare = 0.5;
+
+double default_memory_budget() {
+  return kAvailableShare * available_memory_bytes();
+}
+
 void check_budget(const Estimate& e, const Budget& b) {
   if (b.seen) b.seen(e);
   if (b.force) return;
-  const double memory = b.memory > 0 ? b.memory : available_memory_bytes();
+  arm_watchdog(b.seconds);
+  const double memory = b.memory > 0 ? b.memory : default_memory_budget();
   const bool too_big = !(e.bytes <= memory) && memory > 0;  // NaN estimates are refused too
   const bool too_long = !(e.seconds <= b.seconds);
   if (!too_big && !too_long) return;
@@ -53,7 +65,7 @@ void check_budget(const Estimate& e, const Budget& b) {
                     seconds_text(e.seconds) + " (estimate), beyond the ";
   if (too_big)
     msg += "memory budget of " + bytes_text(memory) +
-           (b.memory > 0 ? " (run.max_memory)" : " (the memory available; run.max_memory)");
+           (b.memory > 0 ? " (run.max_memory)" : " (half the memory available; run.max_memory)");
   if (too_big && too_long) msg += " and the ";
   if (too_long) msg += "time budget of " + seconds_text(b.seconds) + " (run.max_time)";
   msg += ". Change " + e.change +

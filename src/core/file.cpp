@@ -3,6 +3,8 @@
 #include <fcntl.h>
 #include <signal.h>
 #include <sys/stat.h>
+#include <sys/time.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -10,6 +12,7 @@
 #include <atomic>
 #include <cerrno>
 #include <charconv>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -61,6 +64,7 @@ sigset_t cleanup_signals() {
   sigset_t s;
   sigemptyset(&s);
   for (int sig : kCleanupSignals) sigaddset(&s, sig);
+  sigaddset(&s, SIGALRM);  // the watchdog (arm_watchdog)
   return s;
 }
 
@@ -158,21 +162,61 @@ std::string temporary_prefix(const std::string& name) {
   return "." + name.substr(0, 200) + ".trellis-tmp.";
 }
 
-// Temporaries of `name` in `dir` left by runs that are gone (kill -9, a power cut).
-void remove_stale_temporaries(const std::filesystem::path& dir, const std::string& name) {
-  const std::string prefix = temporary_prefix(name);
+// The PID in a temporary's name, or 0 when `f` is not named like one
+// (.NAME.trellis-tmp.PID.XXXXXX).
+pid_t temporary_owner(const std::string& f) {
+  static constexpr std::string_view kMark = ".trellis-tmp.";
+  const std::size_t at = f.rfind(kMark);
+  if (f.empty() || f[0] != '.' || at == std::string::npos || at == 0) return 0;
+  const char* first = f.data() + at + kMark.size();
+  const char* last = f.data() + f.size();
+  pid_t pid = 0;
+  const auto [rest, bad] = std::from_chars(first, last, pid);
+  if (bad != std::errc() || pid <= 0 || last - rest != 7 || *rest != '.') return 0;
+  return pid;
+}
+
+// A temporary whose run is gone (kill -9, a power cut): its PID names no process. One of a live
+// process (this one included) is never touched, whatever its age.
+bool stale_temporary(const std::filesystem::path& p) {
+  const pid_t pid = temporary_owner(p.filename().string());
+  if (pid == 0 || pid == ::getpid()) return false;
+  if (::kill(pid, 0) == 0 || errno != ESRCH) return false;
+  struct stat st {};
+  return ::lstat(p.c_str(), &st) == 0 && S_ISREG(st.st_mode);
+}
+
+// Removes the stale temporaries in `dir`; returns whether `dir` held one and nothing else.
+bool remove_stale_in(const std::filesystem::path& dir) {
   std::error_code ec;
+  bool stale = false, other = false;
   for (std::filesystem::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
-    const std::string f = it->path().filename().string();
-    if (f.rfind(prefix, 0) != 0) continue;
-    const char* first = f.data() + prefix.size();
-    const char* last = f.data() + f.size();
-    pid_t pid = 0;
-    const auto [rest, bad] = std::from_chars(first, last, pid);
-    if (bad != std::errc() || pid <= 0 || last - rest != 7 || *rest != '.') continue;
-    if (pid == ::getpid() || ::kill(pid, 0) == 0 || errno != ESRCH) continue;
+    if (stale_temporary(it->path()) && ::unlink(it->path().c_str()) == 0)
+      stale = true;
+    else
+      other = true;
+  }
+  return stale && !other && !ec;
+}
+
+// Temporaries left in `dir` by runs that are gone, whatever output they were for, and the folders
+// in it (a killed run's preview folder) that held such temporaries and nothing else. Each folder
+// once per process: a run writing 10^5 previews into one folder reads it once.
+void remove_stale_temporaries(const std::filesystem::path& dir) {
+  static std::mutex m;
+  static std::vector<std::string> swept;
+  std::error_code ec;
+  const std::string key = std::filesystem::absolute(dir, ec).lexically_normal().string();
+  {
+    std::lock_guard lock(m);
+    if (std::find(swept.begin(), swept.end(), key) != swept.end()) return;
+    swept.push_back(key);
+  }
+  remove_stale_in(dir);
+  for (std::filesystem::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
     struct stat st {};
-    if (::lstat(it->path().c_str(), &st) == 0 && S_ISREG(st.st_mode)) ::unlink(it->path().c_str());
+    if (::lstat(it->path().c_str(), &st) != 0 || !S_ISDIR(st.st_mode)) continue;
+    if (remove_stale_in(it->path())) ::rmdir(it->path().c_str());
   }
 }
 
@@ -212,7 +256,7 @@ void write_through_temporary(const std::string& path, const std::string& target,
   const fs::path t(target);
   const fs::path dir = t.has_parent_path() ? t.parent_path() : fs::path(".");
   create_output_directories(dir.string());
-  remove_stale_temporaries(dir, t.filename().string());
+  remove_stale_temporaries(dir);
   std::string tmpl =
       (dir / (temporary_prefix(t.filename().string()) + std::to_string(::getpid()) + ".XXXXXX"))
           .string();
@@ -275,11 +319,21 @@ void say_interrupted(int sig) {
   put(tail);
 }
 
+// What the watchdog says when it stops a run (made when it is armed: the handler only writes it).
+char g_watchdog_text[256] = "";
+bool g_cleanup_installed = false;
+timespec g_started{};
+
 extern "C" void cleanup_on_signal(int sig) {
   for (auto& s : g_temp_slots)
     if (char* p = s.load()) ::unlink(p);
   for (std::size_t i = g_dir_slots.size(); i-- > 0;)
     if (char* p = g_dir_slots[i].load()) ::rmdir(p);
+  if (sig == SIGALRM) {
+    const ssize_t ignored = ::write(2, g_watchdog_text, std::strlen(g_watchdog_text));
+    (void)ignored;
+    ::_exit(2);  // a budget refusal, like the one before the run
+  }
   say_interrupted(sig);
   ::_exit(128 + sig);
 }
@@ -427,15 +481,42 @@ void set_interrupt_label(const std::string& label) {
 }
 
 void install_signal_cleanup() {
+  ::clock_gettime(CLOCK_MONOTONIC, &g_started);
+  g_cleanup_installed = true;
   struct sigaction sa {};
   sa.sa_handler = cleanup_on_signal;
   sa.sa_mask = cleanup_signals();
+  ::sigaction(SIGALRM, &sa, nullptr);
   for (int sig : kCleanupSignals) {
     // A signal the run was started ignoring (nohup, a background job) stays ignored.
     struct sigaction old {};
     if (::sigaction(sig, nullptr, &old) == 0 && old.sa_handler == SIG_IGN) continue;
     ::sigaction(sig, &sa, nullptr);
   }
+}
+
+void arm_watchdog(double budget_seconds) {
+  if (!g_cleanup_installed || !(budget_seconds > 0) || !std::isfinite(budget_seconds)) return;
+  static std::mutex m;
+  static double armed = 0;
+  std::lock_guard lock(m);
+  if (armed > 0 && armed <= budget_seconds) return;  // the tightest budget of the run holds
+  armed = budget_seconds;
+  timespec now{};
+  ::clock_gettime(CLOCK_MONOTONIC, &now);
+  const double ran =
+      double(now.tv_sec - g_started.tv_sec) + 1e-9 * double(now.tv_nsec - g_started.tv_nsec);
+  const double stop = 2 * budget_seconds;
+  const double left = std::max(0.001, std::min(stop - ran, 1e8));
+  std::snprintf(g_watchdog_text, sizeof g_watchdog_text,
+                "\n%s stopped: it ran %.3g s, twice its time budget (run.max_time = %.3g s), "
+                "whatever the estimate said; nothing was written and no file was changed. Raise "
+                "--max-time or pass --force to run it anyway\n",
+                g_interrupt_label, stop, budget_seconds);
+  itimerval t{};
+  t.it_value.tv_sec = static_cast<time_t>(left);
+  t.it_value.tv_usec = static_cast<suseconds_t>((left - std::floor(left)) * 1e6);
+  ::setitimer(ITIMER_REAL, &t, nullptr);
 }
 
 namespace detail {

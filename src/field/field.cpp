@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstring>
 #include <numbers>
+#include <unordered_map>
 
 #include "node.hpp"
 #include "trellis/core/error.hpp"
@@ -1108,6 +1109,48 @@ bool Field::has_expressions() const {
 }
 bool Field::has_process() const {
   return node_ && node_->has_process();
+}
+double Field::smallest_period() const {
+  double cell = std::numeric_limits<double>::infinity();
+  std::vector<const FieldNode*> todo;
+  std::unordered_map<const FieldNode*, char> seen;
+  if (node_) todo.push_back(node_.get());
+  while (!todo.empty()) {
+    const FieldNode* n = todo.back();
+    todo.pop_back();
+    if (!seen.emplace(n, 1).second) continue;
+    const Vec3 p = n->period();
+    if (p.x > 0 || p.y > 0 || p.z > 0) {  // the outermost periodic node: its period holds
+      for (double a : {p.x, p.y, p.z})
+        if (a > 0) cell = std::min(cell, a);
+      continue;
+    }
+    for (const auto& c : n->children) todo.push_back(c.get());
+  }
+  return cell;
+}
+
+double Field::nodes() const {
+  if (!node_) return 0;
+  // Subtree sizes, each distinct node once (shared subtrees: a DAG from Python), without
+  // recursion (a chain of 10^5 transforms).
+  std::unordered_map<const FieldNode*, double> size;
+  std::vector<std::pair<const FieldNode*, bool>> todo{{node_.get(), false}};
+  while (!todo.empty()) {
+    const auto [node, children_done] = todo.back();
+    todo.pop_back();
+    if (size.count(node)) continue;
+    if (!children_done) {
+      todo.push_back({node, true});
+      for (const auto& c : node->children)
+        if (!size.count(c.get())) todo.push_back({c.get(), false});
+      continue;
+    }
+    double n = 1;
+    for (const auto& c : node->children) n += size.at(c.get());
+    size[node] = n;
+  }
+  return size.at(node_.get());
 }
 double Field::lipschitz() const {
   return node_ ? node_->lipschitz() : std::numeric_limits<double>::infinity();

@@ -3,6 +3,8 @@
 // functions split non-manifold edges and vertices while doing so), become a halfedge mesh whose
 // open seams are stitched, whose zero-area faces are collapsed and whose small holes are
 // triangulated; finally every shell is oriented outwards.
+#include "trellis/geom/mesh_repair.hpp"
+
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
 #include <CGAL/Polygon_mesh_processing/bbox.h>
 #include <CGAL/Polygon_mesh_processing/border.h>
@@ -17,6 +19,7 @@
 #include <CGAL/Polygon_mesh_processing/stitch_borders.h>
 #include <CGAL/Polygon_mesh_processing/triangulate_hole.h>
 #include <CGAL/Surface_mesh.h>
+#include <CGAL/exceptions.h>
 #include <CGAL/property_map.h>
 
 #include <algorithm>
@@ -25,7 +28,7 @@
 #include <map>
 
 #include "../core/cgal_module.hpp"
-#include "trellis/geom/mesh_repair.hpp"
+#include "trellis/core/error.hpp"
 
 namespace trellis::impl {
 
@@ -68,10 +71,8 @@ std::array<std::size_t, 3> face_vertices(const Mesh& m, Face f) {
   return canonical(v);
 }
 
-}  // namespace
-
-TriangleMesh repair_mesh(const TriangleMesh& input, const MeshRepairOptions& options,
-                         MeshRepairReport& report) {
+TriangleMesh repair(const TriangleMesh& input, const MeshRepairOptions& options,
+                    MeshRepairReport& report) {
   report = {};
   std::vector<Point> points;
   points.reserve(input.vertices.size());
@@ -176,6 +177,27 @@ TriangleMesh repair_mesh(const TriangleMesh& input, const MeshRepairOptions& opt
     out.triangles.push_back(t);
   }
   return out;
+}
+
+}  // namespace
+
+// CGAL checks its preconditions where they are compiled in (builds without NDEBUG: the sanitizer
+// build): a degenerate soup (faces that are coplanar where a shell is oriented, overlapping
+// faces) fails one by throwing. That is the input's fault, said as such, never an abort or an
+// internal error.
+TriangleMesh repair_mesh(const TriangleMesh& input, const MeshRepairOptions& options,
+                         MeshRepairReport& report) {
+  try {
+    return repair(input, options, report);
+  } catch (const CGAL::Failure_exception& e) {
+    throw GeometryError(
+        "mesh repair cannot handle this mesh: it has degenerate geometry "
+        "(overlapping or coplanar faces that meet where a shell is oriented; "
+        "CGAL: " +
+        e.expression() + " failed in " + e.library() +
+        "). Fix the mesh in a mesh editor (remove self-intersections and "
+        "duplicate shells) and slice that");
+  }
 }
 
 }  // namespace trellis::impl

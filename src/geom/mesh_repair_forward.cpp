@@ -1,7 +1,10 @@
 // Mesh repair runs in the CGAL module (src/geom/mesh_repair.cpp), loaded on first use.
 #include <fmt/format.h>
 
+#include <cmath>
+
 #include "../core/cgal_module.hpp"
+#include "trellis/core/budget.hpp"
 #include "trellis/geom/mesh_repair.hpp"
 
 namespace trellis {
@@ -30,6 +33,20 @@ std::string MeshRepairReport::summary() const {
   add(inverted_faces, "faces turned outwards");
   add(holes_left, "holes too large to fill");
   return s.empty() ? "nothing to repair" : s;
+}
+
+// Measured (one thread, CPU time, the slice that follows included): soups of loose triangles,
+// 20,000 in 0.76 s and 200,000 in 27.6 s at 383 MB peak: 3e-7 s × T^0.5 a loose triangle, about
+// 2 kB a triangle; a mesh with a few open seams about 1 µs a triangle.
+Estimate mesh_repair_estimate(std::size_t triangles, std::size_t open_edges) {
+  const double t = double(triangles), loose = double(open_edges) / 3;
+  Estimate e;
+  e.bytes = t * 2000;
+  e.seconds = t * 1e-6 + 3e-7 * std::sqrt(t) * loose;
+  e.what =
+      fmt::format("repairing a mesh of {} triangles with {} open edges", triangles, open_edges);
+  e.change = "the mesh (close it in a mesh editor, or decimate it)";
+  return e;
 }
 
 TriangleMesh repair_mesh(const TriangleMesh& mesh, const MeshRepairOptions& options,

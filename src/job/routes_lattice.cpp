@@ -198,6 +198,7 @@ JobResult plan_aero_route(const Job& job, const Config& c, const Graph& g, const
   CheckOptions check;
   check.nozzle = p.nozzle;
   check.snap = p.nozzle.end_overlap + 0.05;
+  check.budget = budget_of(job, c, progress);
   Toolpath printed = tp;
   for (auto& l : printed.layers)
     for (auto& path : l.paths) extend_path_ends(path, p.nozzle.end_overlap);

@@ -177,6 +177,15 @@ void FootprintIndex::range(Vec3 a, Vec3 b, double pad, int& ix0, int& ix1, int& 
   iy1 = cy(std::max(a.y, b.y) + pad);
 }
 
+double FootprintIndex::visits() const {
+  double v = 0;
+  for (std::size_t c = 0; c + 1 < offsets_.size(); ++c) {
+    const double n = double(offsets_[c + 1] - offsets_[c]);
+    v += n * n;
+  }
+  return v;
+}
+
 FootprintIndex::FootprintIndex(const std::vector<Vec3>& ends, double pad) {
   count_ = ends.size() / 2;
   BBox3 box;

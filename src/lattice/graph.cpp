@@ -1,9 +1,12 @@
 #include "trellis/lattice/graph.hpp"
 
+#include <fmt/format.h>
+
 #include <cmath>
 #include <numbers>
 #include <numeric>
 
+#include "trellis/core/budget.hpp"
 #include "trellis/geom/mesh.hpp"
 
 namespace trellis {
@@ -70,6 +73,27 @@ std::vector<int> connected_components(const Graph& g, int* count) {
   }
   if (count) *count = n;
   return comp;
+}
+
+// Measured (one thread): 1,043,700 struts (a 35^3 octet-like cube): 23.3 million triangles,
+// 2.1 GB at peak with the lattice, 7.8 s of CPU; 25,200 struts, 0.58 million, 80 MB, 0.16 s.
+// The mesh and its STL, rounded up: 100 B and 4e-7 s a triangle.
+Estimate lattice_walls_estimate(const Graph& g) {
+  std::vector<char> used(g.nodes.size(), 0);
+  double nodes = 0;
+  for (const auto& e : g.edges)
+    for (NodeId v : {e.a, e.b})
+      if (v < used.size() && !used[v]) {
+        used[v] = 1;
+        ++nodes;
+      }
+  const double triangles = 12.0 * double(g.edges.size()) + 60.0 * nodes;
+  Estimate e;
+  e.bytes = triangles * 100;
+  e.seconds = triangles * 4e-7;
+  e.what = fmt::format("walls of {} struts ({:.3g} triangles)", g.edges.size(), triangles);
+  e.change = "the lattice (fewer struts)";
+  return e;
 }
 
 TriangleMesh lattice_walls(const Graph& g, double width, double height) {

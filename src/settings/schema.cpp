@@ -975,11 +975,12 @@ std::vector<Setting> make_table() {
                       "frames", [](C& c) -> auto& { return c.output.frames; }));
   t.push_back(integer("run.threads", 0, 1024, "worker threads (0 = all cores)", "threads",
                       [](C& c) -> auto& { return c.threads; }));
-  t.push_back(derived(positive("run.max_memory", "MB", 1e9,
-                               "refuse a run whose estimate (made from its settings before it "
-                               "starts) needs more memory than this",
-                               "max-memory", [](C& c) -> auto& { return c.budget.max_memory_mb; }),
-                      "the memory available when the run starts"));
+  t.push_back(derived(positive(
+                          "run.max_memory", "MB", 1e9,
+                          "refuse a run whose estimate (made from its settings before it "
+                          "starts) needs more memory than this",
+                          "max-memory", [](C & c) -> auto& { return c.budget.max_memory_mb; }),
+                      "half the memory available when the run starts"));
   t.push_back(positive("run.max_time", "s", 1e9,
                        "refuse a run whose estimated time is longer than this", "max-time",
                        [](C& c) -> auto& { return c.budget.max_time; }));

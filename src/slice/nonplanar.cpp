@@ -923,11 +923,15 @@ NonplanarResult slice_nonplanar(const HeightField& surface, const NonplanarParam
   res.toolpath.source = "trellis nonplanar (" + surface.name() + ")";
   res.toolpath.layers.resize(static_cast<std::size_t>(prm.layers));
   res.layers.resize(res.toolpath.layers.size());
-  // Vertical mode: one set of sections per direction, lifted per layer.
+  // Vertical mode: one set of sections per direction a layer uses (1,000 angles over 6 layers
+  // are 6 directions, as estimated), lifted per layer.
   std::map<double, std::vector<Line>> base;
   if (prm.offset == OffsetMode::Vertical)
-    for (double a : prm.angles)
+    for (std::size_t k = 0; k < res.layers.size() && k < prm.angles.size(); ++k) {
+      progress.check("non-planar slicing");
+      const double a = prm.angles[k];
       if (!base.count(a)) base[a] = layer_lines(surface, a, 0, prm);
+    }
   std::vector<std::vector<Line>> per_layer(res.layers.size());
   // The sections (normal offsets: the slow part) from worker threads, as layers finish.
   const char* stage = prm.offset == OffsetMode::Vertical ? "sections" : "normal offsets";

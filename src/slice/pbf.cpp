@@ -1147,7 +1147,7 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
                          fmt::format("PBF paths of {} layers at resolution {} mm on {} thread(s)",
                                      zs.size(), o.resolution, threads),
                          "--resolution (pbf.resolution)"});
-    const double budget = o.memory_budget > 0 ? o.memory_budget : available_memory_bytes();
+    const double budget = o.memory_budget > 0 ? o.memory_budget : default_memory_budget();
     if (budget > 0 && result.memory_estimate > budget)
       throw ResourceError(fmt::format(
           "refused before starting: this job needs about {:.0f} MB ({} threads at resolution {} "

@@ -146,6 +146,23 @@ TEST(Budget, RefusesBeyondEitherLimitWithTheEstimateAndForceGoesBeyond) {
   EXPECT_NO_THROW(check_budget({2e12, 1e9, "a huge run", "--size"}, b));
 }
 
+TEST(Budget, TheDefaultMemoryBudgetIsHalfTheMemoryAvailable) {
+  const double available = available_memory_bytes();
+  if (available <= 0) GTEST_SKIP() << "no /proc/meminfo: no default memory budget to test";
+  EXPECT_DOUBLE_EQ(default_memory_budget(), 0.5 * available);
+  Budget b;  // memory 0: the default share
+  b.seconds = 1e9;
+  // Three quarters of what is available fits the machine but not the share: refused, naming it.
+  try {
+    check_budget({0.75 * available, 1, "a run of three quarters of the memory", "--size"}, b);
+    ADD_FAILURE() << "three quarters of the memory available was accepted";
+  } catch (const ResourceError& err) {
+    EXPECT_NE(std::string(err.what()).find("half the memory available"), std::string::npos)
+        << err.what();
+  }
+  EXPECT_NO_THROW(check_budget({0.25 * available, 1, "a run of a quarter", "--size"}, b));
+}
+
 TEST(File, MissingFileIsAnIoErrorNamingIt) {
   try {
     read_file("/nonexistent/lattice.json");

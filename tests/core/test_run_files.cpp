@@ -164,12 +164,59 @@ TEST(File, StaleTemporariesOfDeadRunsAreRemovedByTheNextWrite) {
   const std::string dead = ".out.gcode.trellis-tmp." + std::to_string(child) + ".Ab12Cd";
   const std::string alive = ".out.gcode.trellis-tmp." + std::to_string(::getppid()) + ".Ab12Cd";
   const std::string other = ".other.gcode.trellis-tmp." + std::to_string(child) + ".Ab12Cd";
-  for (const auto& n : {dead, alive, other}) std::ofstream(tmp / n) << "partial";
+  const std::string like = ".notes.trellis-tmp.x.Ab12Cd";  // not one of ours: no PID
+  for (const auto& n : {dead, alive, other, like}) std::ofstream(tmp / n) << "partial";
+  // A killed run's preview folder holds only its temporaries; another folder holds a file too.
+  fs::create_directory(tmp / "preview");
+  std::ofstream(tmp / "preview" /
+                (".layer_0001.png.trellis-tmp." + std::to_string(child) + ".Ab12Cd"))
+      << "x";
+  fs::create_directory(tmp / "kept");
+  std::ofstream(tmp / "kept" / (".a.png.trellis-tmp." + std::to_string(child) + ".Ab12Cd")) << "x";
+  std::ofstream(tmp / "kept" / "a.png") << "a user's file";
+  fs::create_directory(tmp / "empty");
   write_file_atomic(tmp.file("out.gcode"), "whole");
   EXPECT_FALSE(fs::exists(tmp / dead));
-  EXPECT_TRUE(fs::exists(tmp / alive));  // its process is alive: maybe writing it now
-  EXPECT_TRUE(fs::exists(tmp / other));  // another output's
+  EXPECT_TRUE(fs::exists(tmp / alive));   // its process is alive: maybe writing it now
+  EXPECT_FALSE(fs::exists(tmp / other));  // another output's, its run gone: never renamed now
+  EXPECT_TRUE(fs::exists(tmp / like));
+  EXPECT_FALSE(fs::exists(tmp / "preview"));
+  EXPECT_TRUE(fs::exists(tmp / "kept" / "a.png"));
+  EXPECT_EQ(std::distance(fs::directory_iterator(tmp / "kept"), fs::directory_iterator()), 1);
+  EXPECT_TRUE(fs::exists(tmp / "empty"));  // a folder with no temporary in it is not ours
   EXPECT_EQ(read_file(tmp.file("out.gcode")), "whole");
+}
+
+TEST(File, TheWatchdogStopsARunPastTwiceItsTimeBudgetAndLeavesNothing) {
+  const test::TempDir tmp("trellis_test_watchdog");
+  int err[2];
+  ASSERT_EQ(::pipe(err), 0);
+  const pid_t child = ::fork();
+  if (child == 0) {
+    ::dup2(err[1], 2);
+    install_signal_cleanup();
+    set_interrupt_label("trellis test");
+    OutputBatch batch;
+    write_file_atomic(tmp.file("out.txt"), "staged, never committed");
+    arm_watchdog(0.1);  // stopped after 0.2 s
+    ::sleep(5);
+    ::_exit(0);
+  }
+  ASSERT_GT(child, 0);
+  ::close(err[1]);
+  std::string said;
+  char buf[512];
+  for (ssize_t n; (n = ::read(err[0], buf, sizeof buf)) > 0;)
+    said.append(buf, static_cast<std::size_t>(n));
+  ::close(err[0]);
+  int status = 0;
+  ::waitpid(child, &status, 0);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 2);
+  EXPECT_TRUE(has(said, "trellis test stopped")) << said;
+  EXPECT_TRUE(has(said, "twice its time budget (run.max_time = 0.1 s)")) << said;
+  EXPECT_TRUE(has(said, "nothing was written")) << said;
+  EXPECT_EQ(std::distance(fs::directory_iterator(tmp.path()), fs::directory_iterator()), 0);
 }
 
 TEST(RunFiles, AFileReadAfterTheCheckIsAnInputButNotOneReadBefore) {

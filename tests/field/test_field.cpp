@@ -63,6 +63,22 @@ TEST(Field, CsgAndTransforms) {
   }
 }
 
+TEST(Field, SizeAndSmallestPeriodOfADesign) {
+  const Field s = sphere(1);
+  const Field u = unite({translate(s, {5, 0, 0}), translate(s, {-5, 0, 0}), s});
+  EXPECT_EQ(u.nodes(), 1 + 2 * 2 + 1);  // a shared sphere counts each time it is used
+  Field deep = s;
+  for (int i = 0; i < 20000; ++i) deep = translate(deep, {0.001, 0, 0});  // no recursion
+  EXPECT_EQ(deep.nodes(), 20001);
+  Field wide = unite({s, s});
+  for (int i = 0; i < 12; ++i) wide = unite({wide, wide});  // a DAG of 14 nodes, 16,383 uses
+  EXPECT_EQ(wide.nodes(), std::pow(2.0, 14) - 1);
+  EXPECT_TRUE(std::isinf(u.smallest_period()));
+  const Field boxed = intersect({rectprism({10, 10, 2}), tpms(TpmsKind::Gyroid, {2, 3, 4})});
+  EXPECT_DOUBLE_EQ(boxed.smallest_period(), 2);
+  EXPECT_DOUBLE_EQ(translate(boxed, {1, 1, 1}).smallest_period(), 2);
+}
+
 TEST(Field, TpmsSheetAndExpressions) {
   Evaluator g(tpms(TpmsKind::Gyroid, {5, 5, 5}, {}));
   EXPECT_NEAR(g.value({0, 0, 0}), 0, 1e-12);  // gyroid passes through the origin

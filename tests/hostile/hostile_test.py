@@ -371,6 +371,16 @@ def nonsense_cases():
         case(f"pbf c {c}", ["pbf", "--c", c, "--size", "3,3,3", "-o", "out/x.cli"], "pbf.c")
     case("pbf vcad sheet cell 0.001", ["pbf", "sheet.vcad", "-o", "out/x.cli"], "sheet.vcad: pbf.resolution",
          {"sheet.vcad": b'root((-5,-5,0),(5,5,2),(0.1,0.1,0.1)) {\ngyroid(0.001, 0.3);\n}\n'})
+    # The same cells sliced for FDM (13,448 aliasing paths before): the field route's grid and the
+    # mesh route's voxel; inside a CSG box too.
+    tiny = b'root((-5,-5,0),(5,5,2),(0.1,0.1,0.1)) {\ngyroid(0.001, 0.3);\n}\n'
+    boxed = b'intersection() {\n  rectprism(10, 10, 2);\n  gyroid(0.01, 0.003);\n}\n'
+    case("slice vcad tpms cell 0.001", ["slice", "tiny.vcad", "--machine", PROFILE, "-o", "out/x.gcode"],
+         "tiny.vcad: slice.resolution", {"tiny.vcad": tiny})
+    case("slice vcad tpms cell in a box", ["slice", "tiny.vcad", "--machine", PROFILE, "-o", "out/x.gcode"],
+         "tiny.vcad: slice.resolution", {"tiny.vcad": boxed})
+    case("slice vcad tpms cell mesh route", ["slice", "tiny.vcad", "--route", "mesh", "--machine", PROFILE, "-o",
+                                             "out/x.gcode"], "tiny.vcad: slice.mesh_voxel", {"tiny.vcad": tiny})
     case("pbf vcad sheet c sqrt(-1)", ["pbf", "sheet.vcad", "-o", "out/x.cli"], "pbf.c",
          {"sheet.vcad": b'root((-5,-5,0),(5,5,2),(0.1,0.1,0.1)) {\ngyroid(2.5, "sqrt(-1)");\n}\n'})
 
@@ -454,6 +464,69 @@ def runaway_cases():
                                                 b'[lattice2d]\ncell = 0.5\nsize = [100, 100]\n[gippo]\niterations = 10000000\n'})
 
 
+def loose_triangles(n):
+    """A binary STL of n loose triangles (a soup: every edge open, a hole per triangle to fill)."""
+    import random
+    import struct
+    r = random.Random(2)
+    out = [b"\0" * 80, struct.pack("<I", n)]
+    for _ in range(n):
+        c = [r.uniform(0, 50) for _ in range(3)]
+        out.append(struct.pack("<3f", 0, 0, 0))
+        for _ in range(3):
+            out.append(struct.pack("<3f", *[c[j] + r.uniform(-1, 1) for j in range(3)]))
+        out.append(b"\0\0")
+    return b"".join(out)
+
+
+def sphere_union(n):
+    """A .vcad union of n spheres (55 s with --max-time 5 before the design's size was estimated)."""
+    import random
+    r = random.Random(1)
+    body = "".join(f"  translate({r.uniform(-20, 20):.2f},{r.uniform(-20, 20):.2f},{r.uniform(1, 19):.2f}) "
+                   "{ sphere(1); }\n" for _ in range(n))
+    return ("union() {\n" + body + "}\n").encode()
+
+
+def piled_gcode(moves):
+    """Every move over the same 10 mm: a collision replay of moves^2 pairs."""
+    return b"G21\nG90\nM82\n" + b"G1 X10 Y10 E0.01\nG1 X20 Y10 E0.02\n" * (moves // 2)
+
+
+def runaway_cases_issue47():
+    """Runaways of issue 47 that the estimates missed: the design's size, mesh repair, the
+    collision replay, walls."""
+    case("runaway slice union of 1e5 spheres --max-time 5",
+         ["slice", "u.vcad", "--machine", PROFILE, "--max-time", "5", "-o", "out/x.gcode"],
+         "refused before starting", {"u.vcad": sphere_union(100000)}, runaway=True)
+    case("runaway slice repair of a 2e5-triangle soup --max-time 5",
+         ["slice", "soup.stl", "--machine", PROFILE, "--max-time", "5", "-o", "out/x.gcode"],
+         "refused before starting", {"soup.stl": loose_triangles(200000)}, runaway=True)
+    case("runaway check of 1e5 piled moves", ["check", "l.json", "g.gcode", "--max-time", "10"],
+         "refused before starting", {"l.json": TINY_LATTICE, "g.gcode": piled_gcode(100000)}, runaway=True)
+    case("runaway check --max-memory 1", ["check", "l.json", "g.gcode", "--max-memory", "1"],
+         "refused before starting", {"l.json": TINY_LATTICE, "g.gcode": piled_gcode(100000)}, runaway=True)
+    case("runaway walls of 25,200 struts --max-memory 20", ["walls", "big.json", "--max-memory", "20", "-o",
+                                                            "out/x.stl"],
+         "refused before starting", {"big.json": None}, runaway=True)
+
+
+def finishing_checks():
+    """Requests that are large but cheap finish, quickly: 1,000 angles over 6 non-planar layers
+    are 6 directions (all 1,000 were sectioned before, for minutes)."""
+    angles = ",".join(f"{-180 + 0.36 * i:.2f}" for i in range(1000))
+    problems = []
+    with tempfile.TemporaryDirectory(prefix="hostile_finish_") as d:
+        t0 = time.monotonic()
+        r = subprocess.run([TRELLIS, "nonplanar", "--height-fn", "0.1*x", "--domain", "0,0,40,40", "--angles",
+                            angles, "--machine", SYRINGE, "-o", "x.nc"], cwd=d, capture_output=True, timeout=120)
+        secs = time.monotonic() - t0
+        if r.returncode != 0 or secs > 20 or not os.path.exists(os.path.join(d, "x.nc")):
+            problems.append(f"nonplanar with 1000 --angles: exit {r.returncode}, {secs:.1f} s: "
+                            f"{r.stderr.decode(errors='replace')[:300]}")
+    return problems
+
+
 def prepared(folder, c):
     """Inputs some cases share, made by Trellis itself."""
     if "oc.json" in c.files:
@@ -463,6 +536,10 @@ def prepared(folder, c):
     if "l.json" in c.files or "tp.json" in c.files:
         subprocess.run([TRELLIS, "lattice2d", "--cell", "1", "--size", "40,40", "-o",
                         os.path.join(folder, "l.json")], capture_output=True, check=True)
+    if "big.json" in c.files:
+        # 10 x 10 x 10 cells: 25,200 struts, 580,000 wall triangles (about 58 MB).
+        subprocess.run([TRELLIS, "lattice3d", "--count", "10,10,10", "-o", os.path.join(folder, "big.json")],
+                       capture_output=True, check=True)
     if "tp.json" in c.files:
         subprocess.run([TRELLIS, "plan", "euler", os.path.join(folder, "l.json"), "-o",
                         os.path.join(folder, "tp.json")], capture_output=True, check=True)
@@ -590,6 +667,7 @@ def main():
     gcode_cases()
     nonsense_cases()
     runaway_cases()
+    runaway_cases_issue47()
     if "--list" in sys.argv:
         for c in CASES:
             print(c.name)
@@ -598,7 +676,7 @@ def main():
     with concurrent.futures.ThreadPoolExecutor(max_workers=2) as pool:
         failures = [f for f in pool.map(run_case, CASES) if f]
     output_problems, output_counts = outputs.checks(TRELLIS, ROOT)
-    failures += memory_checks() + output_problems + umask_check() + big_cell_check()
+    failures += memory_checks() + output_problems + umask_check() + big_cell_check() + finishing_checks()
     print(f"{len(CASES)} hostile inputs, {len(failures)} problem(s), {time.monotonic() - t0:.0f} s")
     print("outputs (tests/hostile/outputs.py), runs per class: " +
           ", ".join(f"{k} {v}" for k, v in output_counts.items()))

@@ -14,7 +14,8 @@ Classes, each counted in the summary:
   failed     a job or command failing after it made folders: every folder it made removed
   signal     SIGINT, SIGTERM, SIGHUP during long writes: exit 130/143/129, no temporary and no
              folder left, checked after every run
-  stale      a temporary left by kill -9 is removed by the next run writing the same output
+  stale      temporaries left by kill -9 (and the preview folder holding only them) are removed by
+             the next run writing the same output; a live run's temporaries there are kept
 """
 import errno
 import os
@@ -508,8 +509,27 @@ def signal_cases(env):
             env.fail("signal", sig, f"only {n} run(s) were still running when signalled")
 
 
+def owner(temporary):
+    """The PID in a temporary's name (.NAME.trellis-tmp.PID.XXXXXX)."""
+    return int(os.path.basename(temporary).split(TEMP_MARK)[1].split(".")[0])
+
+
+def start_until_temporary(env, args, d, mark):
+    """Starts a run; returns it and its temporaries once one named `mark`... is in out/."""
+    p = subprocess.Popen([env.trellis] + args, cwd=d, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    t0 = time.monotonic()
+    while p.poll() is None and time.monotonic() - t0 < 60:
+        mine = [t for t in temporaries(os.path.join(d, "out")) if owner(t) == p.pid]
+        if any(t.startswith(mark) for t in mine):
+            return p, mine
+        time.sleep(0.002)
+    return p, []
+
+
 def stale_cases(env):
-    """kill -9 while a temporary exists; the next run writing the same output removes it."""
+    """kill -9 while a temporary exists (the output's, and previews' in a folder the run made);
+    the next run writing the same output removes every temporary of the killed run and the preview
+    folder that held only those, and keeps the temporaries of a live run writing there too."""
     long_runs = [
         ("pbf", "x.cli", ["pbf", "--size", "12,12,12", "--threads", "1", "-o", "out/x.cli", "--preview", "out/p"],
          ["pbf", "--size", "3,3,3", "-o", "out/x.cli"]),
@@ -521,33 +541,53 @@ def stale_cases(env):
     for name, output, args, again in long_runs:
         mark = "." + output + TEMP_MARK
         d = env.folder()
+        live = None
         try:
             open(os.path.join(d, "long.toml"), "w").write(
                 '[job]\nroute = "pbf"\nname = "x"\noutput_dir = "out"\n[pbf]\nsize = [12, 12, 12]\n'
                 '[output]\npreview_layers = 200\n[run]\nthreads = 1\n')
+            open(os.path.join(d, "live.toml"), "w").write(
+                '[job]\nroute = "pbf"\nname = "x"\noutput_dir = "out"\n[pbf]\nsize = [12, 12, 12]\n'
+                '[output]\npreview_layers = 400\nimage_size = 3000\n[run]\nthreads = 1\n')
             open(os.path.join(d, "short.toml"), "w").write(
                 '[job]\nroute = "pbf"\nname = "x"\noutput_dir = "out"\n[pbf]\nsize = [3, 3, 3]\n'
                 '[output]\npng = false\n')
-            p = subprocess.Popen([env.trellis] + args, cwd=d, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-            left = []
-            t0 = time.monotonic()
-            while p.poll() is None and time.monotonic() - t0 < 60:
-                left = [t for t in temporaries(os.path.join(d, "out")) if t.startswith(mark)]
-                if left:
-                    p.send_signal(signal.SIGKILL)
-                    break
-                time.sleep(0.002)
+            p, _ = start_until_temporary(env, args, d, mark)
+            if p.poll() is None:
+                p.send_signal(signal.SIGKILL)
             p.wait()
             env.count("stale")
-            left = [t for t in temporaries(os.path.join(d, "out")) if t.startswith(mark)]
-            if not left:
+            killed = [t for t in temporaries(os.path.join(d, "out")) if owner(t) == p.pid]
+            if not any(t.startswith(mark) for t in killed):
                 env.fail("stale", name, "no temporary was caught before the run ended")
                 continue
+            folders = {t.split(os.sep)[0] for t in killed if os.sep in t}
+            # A live run writing the same output, its previews elsewhere: its output's temporary is
+            # staged until its many large previews are drawn.
+            live_args = {"run": ["run", "live.toml"],
+                         "pbf": [a if a != "out/p" else "out/q" for a in args] +
+                                ["--preview-layers", "400", "--image-size", "3000"],
+                         "slice": [a if a != "out/p" else "out/q" for a in args] + ["--resolution", "0.02"]}[name]
+            live, live_temps = start_until_temporary(env, live_args, d, mark)
+            if not live_temps or live.poll() is not None:
+                env.fail("stale", name, f"the live run {live_args} made no temporary or ended before the next run")
+                continue
             r = env.run(again, d)
-            remaining = [t for t in temporaries(os.path.join(d, "out")) if t.startswith(mark)]
+            after = temporaries(os.path.join(d, "out"))
+            remaining = [t for t in after if owner(t) == p.pid]
             if r.returncode != 0 or remaining:
                 env.fail("stale", name, f"exit {r.returncode}; left after the next run: {remaining}", r.stderr)
+            for f in folders:
+                if os.path.exists(os.path.join(d, "out", f)):
+                    env.fail("stale", name, f"the killed run's preview folder out/{f} is still there")
+            if live.poll() is not None:
+                env.fail("stale", name, "the live run ended before its temporaries could be checked")
+            elif [t for t in live_temps if t not in after]:
+                env.fail("stale", name, f"a live run's temporary was removed: {sorted(set(live_temps) - set(after))}")
         finally:
+            if live is not None and live.poll() is None:
+                live.send_signal(signal.SIGKILL)
+                live.wait()
             shutil.rmtree(d, ignore_errors=True)
 
 

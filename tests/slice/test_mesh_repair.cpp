@@ -242,6 +242,42 @@ TEST(MeshRepair, SliceRepairsReportsAndRefusesWithNoRepair) {
   }
 }
 
+// A soup of loose triangles: its repair is estimated before it starts (refused beyond the budget
+// with the estimate), and what the repair cannot make a solid of is a GeometryError naming the
+// file, in every build: where CGAL's preconditions are compiled in (the sanitizer build), the
+// degenerate shells fail one in PMP::orient, which is said as the mesh's fault, not an abort.
+TEST(MeshRepair, ASoupIsEstimatedAndRefusedWithTheFileNamed) {
+  const trellis::test::TempDir dir("trellis_mesh_soup");
+  const std::string path = (dir.path() / "soup.stl").string();
+  TriangleMesh soup;
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(0, 20), d(-1, 1);
+  for (std::uint32_t i = 0; i < 300; ++i) {
+    const Vec3 c{u(rng), u(rng), u(rng)};
+    for (int k = 0; k < 3; ++k) soup.vertices.push_back({c.x + d(rng), c.y + d(rng), c.z + d(rng)});
+    soup.triangles.push_back({3 * i, 3 * i + 1, 3 * i + 2});
+  }
+  write_stl(path, soup);
+  SliceJob job;
+  job.input = path;
+  job.budget.seconds = 1e-3;  // reading it (7.5e-4 s) fits, repairing it (1.9e-3 s) does not
+  try {
+    run_slice(job);
+    ADD_FAILURE() << "a soup repaired beyond its time budget";
+  } catch (const ResourceError& e) {
+    EXPECT_NE(std::string(e.what()).find("repairing a mesh of 300 triangles with 900 open edges"),
+              std::string::npos)
+        << e.what();
+  }
+  job.budget = {};
+  try {
+    run_slice(job);
+    ADD_FAILURE() << "a soup of loose triangles sliced as a solid";
+  } catch (const GeometryError& e) {
+    EXPECT_NE(std::string(e.what()).find("soup.stl"), std::string::npos) << e.what();
+  }
+}
+
 // A cylinder without its top (a 600-edge hole) is beyond "small": refused, saying what is left
 // and what to do.
 TEST(MeshRepair, LargeHolesAreRefusedWithTheReason) {

@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "trellis/core/budget.hpp"
 #include "trellis/lattice/collision.hpp"
 #include "trellis/toolpath/toolpath.hpp"
 
@@ -21,6 +22,7 @@ struct CheckOptions {
   NozzleModel nozzle;
   double snap = 0.05;  // a segment end within this of a design node is at that node (mm)
   std::size_t max_listed = 1000;  // collisions listed in full (all are counted)
+  Budget budget;                  // the replay's estimate is checked against it before it starts
 };
 
 struct CollisionHit {

@@ -16,7 +16,7 @@ struct Estimate {
 };
 
 struct Budget {
-  double memory = 0;      // bytes; 0 = the memory available now (MemAvailable)
+  double memory = 0;     // bytes; 0 = half the memory available now (default_memory_budget)
   double seconds = 600;  // a generous bound on the estimated run time (10 minutes)
   bool force = false;     // run.force: go beyond the budget on purpose
   std::function<void(const Estimate&)> seen;  // told every estimate checked (Progress::estimate)
@@ -30,5 +30,7 @@ Estimate mesh_read_estimate(const std::string& path);
 
 // MemAvailable from /proc/meminfo (bytes), 0 if unknown.
 double available_memory_bytes();
+// The memory budget when run.max_memory is not given: half of available_memory_bytes().
+double default_memory_budget();
 
 }  // namespace trellis

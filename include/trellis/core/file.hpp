@@ -5,8 +5,9 @@
 // write_file_atomic writes each file to a temporary beside its target and the batch renames them
 // all at commit(); a batch closed without commit (an error, bad_alloc, a cancel) removes its
 // temporaries and the folders it created, so the output folder holds what it held before.
-// Temporaries are named .NAME.trellis-tmp.PID.XXXXXX; one whose process is gone (kill -9) is
-// removed by the next write of NAME. SIGINT, SIGTERM, SIGHUP and SIGPIPE
+// Temporaries are named .NAME.trellis-tmp.PID.XXXXXX; those whose process is gone (kill -9) are
+// removed by the next write into their folder (each folder once per process), with the
+// subfolders that held nothing else (a killed run's previews). SIGINT, SIGTERM, SIGHUP and SIGPIPE
 // (install_signal_cleanup) remove the temporaries of the moment too, then exit with 128 + the
 // signal. The set of live temporaries is the one process-wide state here: a signal handler can
 // reach nothing else; the open batch also holds the inputs of its run (RunFiles, never written)
@@ -61,6 +62,12 @@ void install_signal_cleanup();
 // What the interrupted run is called in the message the signal handler prints ("trellis pbf
 // interrupted (Ctrl-C); nothing was written and no file was changed").
 void set_interrupt_label(const std::string& label);
+// The watchdog: once the process has run twice `budget_seconds` (run.max_time) since
+// install_signal_cleanup, it stops as on a signal (temporaries and created folders removed), says
+// so on stderr and exits 2, whatever the estimate before the run said. Armed by check_budget
+// (core/budget.hpp) unless run.force; the tightest budget of a run holds. Nothing without
+// install_signal_cleanup: a library user keeps its own SIGALRM.
+void arm_watchdog(double budget_seconds);
 
 // An anonymous temporary file (read/write, binary) for data too large to hold in memory: made in
 // $TMPDIR (or /tmp when TMPDIR is unset or empty), unlinked already, so it is gone with the

@@ -68,6 +68,12 @@ class Field {
   bool has_expressions() const;
   // Whether some fprocess node sets process parameters.
   bool has_process() const;
+  // Nodes of the expression tree, a subtree counted each time it is used (what an evaluation
+  // may visit): the estimates' measure of a design's size (a union of 10^5 spheres).
+  double nodes() const;
+  // The smallest period along any axis of the periodic parts of the design (a TPMS cell inside
+  // a CSG box: the cell), infinity when none repeats. What a sampling grid must resolve.
+  double smallest_period() const;
   // A bound on |∇f| over all space (per mm); infinite where the field has none (expressions,
   // blends, CSG of such).
   double lipschitz() const;

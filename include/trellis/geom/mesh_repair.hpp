@@ -35,6 +35,12 @@ struct MeshRepairReport {
   std::string summary() const;
 };
 
+// Its memory and time (core/budget.hpp) for a mesh of `triangles` with `open_edges` (check_mesh):
+// a mesh with a few open seams costs in proportion to its size, a soup of loose triangles (every
+// edge open: stitching, snapping and a hole per triangle) more than that.
+struct Estimate;
+Estimate mesh_repair_estimate(std::size_t triangles, std::size_t open_edges);
+
 // The repaired mesh (vertex coordinates are the input's; split vertices are duplicated).
 TriangleMesh repair_mesh(const TriangleMesh& mesh, const MeshRepairOptions& options,
                          MeshRepairReport& report);

@@ -74,6 +74,9 @@ class FootprintIndex {
       }
   }
   std::size_t segments() const { return count_; }
+  // Candidates all queries of the indexed segments visit together (about the sum of each cell's
+  // count squared): a replay's work, quadratic when the segments pile up in a few cells.
+  double visits() const;
 
  private:
   void range(Vec3 a, Vec3 b, double pad, int& ix0, int& ix1, int& iy0, int& iy1) const;

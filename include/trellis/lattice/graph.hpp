@@ -59,6 +59,9 @@ inline constexpr double kMaxCoordinate = 1e6;
 // (slicers take their union).
 struct TriangleMesh;
 TriangleMesh lattice_walls(const Graph& g, double width, double height);
+// Its memory and time (core/budget.hpp): 12 triangles a strut and 60 a node.
+struct Estimate;
+Estimate lattice_walls_estimate(const Graph& g);
 
 struct CleanOptions {
   double merge_tolerance = 1e-6;  // nodes closer than this (mm) become one
