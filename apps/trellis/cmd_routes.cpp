@@ -184,7 +184,7 @@ void add_routes(CLI::App& app, int argc, char** argv) {
        "scanned with --contours offsets, the first at the beam compensation, then hatched inside\n"
        "the last one by the strategy (island: --island-size, --island-overlap, --island-shift;\n"
        "stripe: --stripe-width, --stripe-overlap). Examples:\n"
-       "  trellis pbf part.stl --strategy island --island-size 5 -o part.cli\n"
+       "  trellis pbf examples/designs/concave_cylinder.obj --strategy island --island-size 5 -o part.cli\n"
        "  trellis pbf --cell-type schwarz_d --cell 2.5 --size 10,10,10 --machine profiles/pbf_316l_25um.toml\n"
        "      -o lattice.cli --report lattice.json --preview previews"},
       {"nonplanar", "nonplanar", "Slice a surface into continuous non-planar layers (embedded printing)",
