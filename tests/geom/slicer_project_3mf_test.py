@@ -345,3 +345,12 @@ def test_malformed_part_is_an_error_naming_it(tmp_path):
     r = run("slice", pkg, "--machine", PROFILE, "-o", tmp_path / "out.gcode")
     assert r.returncode == 2, r.stderr
     assert "3D/Objects/object_1.model line" in r.stderr
+
+
+if __name__ == "__main__":
+    # tests/data/mesh/project_<case>.3mf, read by tests/slice/test_mesh_repair.cpp, which checks
+    # the volume and box of the mesh read against the hand values in HAND.
+    import sys
+    out = Path(sys.argv[1] if len(sys.argv) > 1 else ROOT / "tests" / "data" / "mesh")
+    for case in (several_objects, nested):
+        case(out / f"project_{case.__name__}.3mf")
