@@ -4,6 +4,10 @@
 // -- and names the part, line and column of the first problem: a ZIP that is not one, a missing
 // part, malformed XML, or an element lib3mf would refuse (a vertex without a number, a triangle
 // or beam naming a vertex its mesh lacks, a build item naming an object that does not exist).
+// It walks the start part and every model part the start part names by p:path (Production
+// Extension: OrcaSlicer's and Bambu Studio's 3D/Objects/object_N.model), whose problems lib3mf
+// 1.8 otherwise reports without the part ("Could not find Object associated to Component") or
+// not at all (a vertex x="1 0" read as 1).
 // Hand-written because neither library reports positions; it checks only what it can locate and
 // otherwise leaves lib3mf's own message standing. Part of the 3mf module (no cost at start-up).
 #include <expat.h>
@@ -90,8 +94,10 @@ struct Walker {
     std::string id;
     long line, column;
     std::string what;
+    std::string path;  // p:path, for an object in another model part
   };
-  std::vector<Ref> refs;  // build items and components, checked at the end
+  std::vector<Ref> refs;       // build items and components, checked at the end
+  std::vector<Ref> elsewhere;  // those naming an object in another model part
 
   void fail(std::string what) {
     if (!problem.empty()) return;
@@ -161,9 +167,14 @@ struct Walker {
     } else if (n == "item" || n == "component") {
       const char* id = attribute(atts, "objectid");
       if (!id) return fail(n + " has no objectid");
-      if (attribute(atts, "path")) return;  // an object in another part (production extension)
-      refs.push_back({id, static_cast<long>(XML_GetCurrentLineNumber(parser)),
-                      static_cast<long>(XML_GetCurrentColumnNumber(parser)) + 1, n});
+      const long l = static_cast<long>(XML_GetCurrentLineNumber(parser));
+      const long c = static_cast<long>(XML_GetCurrentColumnNumber(parser)) + 1;
+      // An object in another model part (Production Extension: OrcaSlicer's and Bambu Studio's
+      // 3D/Objects/object_N.model), checked when that part is walked.
+      if (const char* path = attribute(atts, "path"))
+        elsewhere.push_back({id, l, c, n, path});
+      else
+        refs.push_back({id, l, c, n, ""});
     }
   }
 
@@ -315,26 +326,17 @@ std::vector<unsigned char> package_without_dangling_relationships(const std::str
   return result;
 }
 
-Located3mf locate_3mf_problem(const std::string& path) {
-  Zip zip;
-  int code = 0;
-  zip.z = zip_open(path.c_str(), ZIP_RDONLY, &code);
-  if (!zip.z) {
-    zip_error_t e;
-    zip_error_init_with_code(&e, code);
-    std::string what = std::string("not a ZIP package (a 3MF file is one): ") + zip_error_strerror(&e);
-    zip_error_fini(&e);
-    return {"", what};
-  }
-  const std::string part = start_part(zip.z);
-  ZipFile file;
-  file.f = zip_fopen(zip.z, part.c_str(), 0);
-  if (!file.f) return {"", "the package has no model part " + part + ": " + zip_strerror(zip.z)};
+namespace {
 
+// Walks one model part with `w`; "" when it is well-formed and `w` found nothing, else where
+// and what.
+Located3mf walk_part(zip_t* z, const std::string& part, Walker& w) {
+  ZipFile file;
+  file.f = zip_fopen(z, part.c_str(), ZIP_FL_NOCASE);
+  if (!file.f) return {"", "the package has no model part " + part + ": " + zip_strerror(z)};
   std::unique_ptr<std::remove_pointer_t<XML_Parser>, void (*)(XML_Parser)> parser(
       XML_ParserCreateNS(nullptr, ' '), XML_ParserFree);
   if (!parser) return {};
-  Walker w;
   w.parser = parser.get();
   XML_SetUserData(parser.get(), &w);
   XML_SetElementHandler(
@@ -357,10 +359,52 @@ Located3mf locate_3mf_problem(const std::string& path) {
     }
     if (n == 0) break;
   }
+  w.parser = nullptr;
   w.finish();
   if (w.problem.empty()) return {part, ""};
   return {part + " line " + std::to_string(w.line) + ", column " + std::to_string(w.column),
           w.problem};
+}
+
+}  // namespace
+
+Located3mf locate_3mf_problem(const std::string& path) {
+  Zip zip;
+  int code = 0;
+  zip.z = zip_open(path.c_str(), ZIP_RDONLY, &code);
+  if (!zip.z) {
+    zip_error_t e;
+    zip_error_init_with_code(&e, code);
+    std::string what =
+        std::string("not a ZIP package (a 3MF file is one): ") + zip_error_strerror(&e);
+    zip_error_fini(&e);
+    return {"", what};
+  }
+  const std::string part = start_part(zip.z);
+  Walker root;
+  if (Located3mf at = walk_part(zip.z, part, root); !at.what.empty()) return at;
+
+  // Production Extension (3MF Production Extension 1.1, 2.1.1 and 3.1): the start part's
+  // components and items may name an object of another model part by p:path, an absolute part
+  // name; those parts hold meshes (and components of their own part) only. Each named part is
+  // walked once, with the same checks, and must define the objects named in it.
+  std::map<std::string, Walker> parts;
+  for (const auto& r : root.elsewhere) {
+    const std::string where =
+        part + " line " + std::to_string(r.line) + ", column " + std::to_string(r.column);
+    std::string name = r.path;
+    while (!name.empty() && name[0] == '/') name.erase(0, 1);
+    if (zip_name_locate(zip.z, name.c_str(), ZIP_FL_NOCASE) < 0)
+      return {where, r.what + " refers to object " + r.id + " in part " + r.path +
+                         ", which the package does not contain"};
+    auto [it, added] = parts.try_emplace(name);
+    if (added)
+      if (Located3mf at = walk_part(zip.z, name, it->second); !at.what.empty()) return at;
+    if (!it->second.objects.count(r.id))
+      return {where, r.what + " refers to object " + r.id + " in part " + r.path +
+                         ", which that part does not define"};
+  }
+  return {part, ""};
 }
 
 }  // namespace trellis::impl

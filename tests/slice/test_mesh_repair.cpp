@@ -149,6 +149,38 @@ TEST(MeshIo, ThreeMfFromOtherToolsReads) {
   EXPECT_TRUE(check_mesh(nested).closed());
 }
 
+// Projects in OrcaSlicer's and Bambu Studio's layout (written to their structure by
+// tests/geom/slicer_project_3mf_test.py, not exported by them): the build's components name
+// meshes in 3D/Objects/object_N.model (Production Extension p:path). The volumes and boxes are
+// worked out by hand from the source meshes (a 10 x 6 x 4 box, 240 mm^3; a right-triangle wedge
+// 8 x 5 x 3, 60 mm^3) and the transforms in that file's comments.
+TEST(MeshIo, ThreeMfProjectLayoutReads) {
+  struct Case {
+    const char* file;
+    std::size_t triangles;
+    double volume;
+    Vec3 lo, hi;
+  };
+  // several_objects: a box and a wedge (object 3), half a wedge turned 90 degrees (object 5).
+  // nested: a components object inside the object part; everything doubled, both turned.
+  const Case cases[] = {
+      {"project_several_objects.3mf", 12 + 8 + 8, 240 + 60 + 7.5, {10, 10, 0}, {60, 16, 8}},
+      {"project_nested.3mf", 12 + 8, 8 * (240 + 60), {-6, -5, 2}, {50, 25, 10}},
+  };
+  for (const Case& c : cases) {
+    const TriangleMesh m = read_mesh(kData + c.file);
+    EXPECT_EQ(m.triangles.size(), c.triangles) << c.file;
+    EXPECT_NEAR(volume(m), c.volume, 1e-6) << c.file;
+    const BBox3 b = bounds(m);
+    for (const auto& [got, want] : {std::pair{b.min, c.lo}, std::pair{b.max, c.hi}}) {
+      EXPECT_NEAR(got.x, want.x, 1e-9) << c.file;
+      EXPECT_NEAR(got.y, want.y, 1e-9) << c.file;
+      EXPECT_NEAR(got.z, want.z, 1e-9) << c.file;
+    }
+    EXPECT_TRUE(check_mesh(m).closed()) << c.file;
+  }
+}
+
 namespace {
 
 void quad(TriangleMesh& m, std::initializer_list<Vec3> corners) {
