@@ -94,6 +94,8 @@ void note_planar_in_bath(const MachineProfile& machine, const std::string& route
 void previews(const Toolpath& tp, const std::string& dir, int count, const RenderOptions& ro,
               JobResult& out, const std::string& prefix = "layer_");
 std::string preview_name(const std::string& dir, const std::string& file);
+// The pbf routes' previews: paths coloured by role at the melt pool's width, no travel.
+void laser_previews(const Toolpath& tp, const Job& job, const Config& c, JobResult& out);
 std::string fixed(double v, int decimals);
 
 // Estimates before work (estimate.cpp): each route checks its estimate with check_budget before

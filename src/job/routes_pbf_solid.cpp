@@ -184,14 +184,7 @@ JobResult pbf_solid(const Job& job, const Config& c, Diagnostics& diag, const Pr
     write_file_atomic(job.report, with_job(j.dump(2) + "\n", job, job.report));
     out.files.push_back(job.report);
   }
-  RenderOptions ro;
-  ro.colour_by_role = true;
-  ro.travel = false;
-  ro.starts = false;
-  ro.bead_width = prof.melt_pool_width;
-  ro.margin_mm = 0.2;
-  ro.size_px = c.output.image_size;
-  previews(tp, job.preview, c.output.preview_layers, ro, out);
+  laser_previews(tp, job, c, out);
   out.summary = fmt::format(
       "{} (solid part): {} layers, {} contour vectors ({} mm), {} hatch vectors ({} mm); scan "
       "time {} s; {} s, peak {} MB",

@@ -32,6 +32,17 @@ namespace trellis::routes {
 
 namespace fs = std::filesystem;
 
+void laser_previews(const Toolpath& tp, const Job& job, const Config& c, JobResult& out) {
+  RenderOptions ro;
+  ro.colour_by_role = true;
+  ro.travel = false;
+  ro.starts = false;
+  ro.bead_width = c.laser.melt_pool_width;
+  ro.margin_mm = 0.2;
+  ro.size_px = c.output.image_size;
+  previews(tp, job.preview, c.output.preview_layers, ro, out);
+}
+
 namespace {
 
 TpmsKind tpms_kind(const std::string& name) {
@@ -945,14 +956,7 @@ JobResult pbf_plate(const Job& job, const Config& c, Diagnostics& diag, const Pr
     write_file_atomic(job.report, with_job(j.dump(2) + "\n", job, job.report, true, &diag));
     out.files.push_back(job.report);
   }
-  RenderOptions ro;
-  ro.colour_by_role = true;
-  ro.travel = false;
-  ro.starts = false;
-  ro.bead_width = prof.melt_pool_width;
-  ro.margin_mm = 0.2;
-  ro.size_px = c.output.image_size;
-  previews(tp, job.preview, c.output.preview_layers, ro, out);
+  laser_previews(tp, job, c, out);
   out.summary = fmt::format("plate of {} parts: {} layers, {} contour vectors, {} hatch vectors",
                             parts.size(), total, contour_vectors, hatch_vectors);
   return out;
@@ -1140,14 +1144,7 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
     write_file_atomic(job.report, with_job(j.dump(2) + "\n", job, job.report));
     out.files.push_back(job.report);
   }
-  RenderOptions ro;
-  ro.colour_by_role = true;
-  ro.travel = false;
-  ro.starts = false;
-  ro.bead_width = prof.melt_pool_width;
-  ro.margin_mm = 0.2;
-  ro.size_px = c.output.image_size;
-  previews(tp, job.preview, c.output.preview_layers, ro, out);
+  laser_previews(tp, job, c, out);
   if (!job.preview.empty() && c.output.preview_layers > 0) {
     out.files.push_back(preview_name(job.preview, "fr_a.png"));
     render_fr_plot(r, c.pbf.strategy == "r67", out.files.back());
