@@ -1,16 +1,17 @@
 #include "trellis/geom/mesh_io.hpp"
 
 #include <fmt/format.h>
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 
 #include <algorithm>
-#include <atomic>
 #include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <atomic>
 #include <map>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 #include "mesh_3mf_module.hpp"
 #include "mesh_weld.hpp"
@@ -114,17 +115,17 @@ TriangleMesh parse_stl(const std::string& bytes, const std::string& name) {
       std::atomic<std::uint32_t> bad{count};
       tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, count, 4096),
                         [&](const tbb::blocked_range<std::uint32_t>& range) {
-                          for (std::uint32_t t = range.begin(); t < range.end(); ++t) {
-                            float f[9];
-                            std::memcpy(f, records + 50ull * t + 12, 36);
-                            for (int k = 0; k < 3; ++k)
-                              if (!valid_coordinate({f[3 * k], f[3 * k + 1], f[3 * k + 2]})) {
-                                std::uint32_t seen = bad.load();
-                                while (t < seen && !bad.compare_exchange_weak(seen, t)) {
-                                }
-                              }
-                          }
-                        });
+        for (std::uint32_t t = range.begin(); t < range.end(); ++t) {
+          float f[9];
+          std::memcpy(f, records + 50ull * t + 12, 36);
+          for (int k = 0; k < 3; ++k)
+            if (!valid_coordinate({f[3 * k], f[3 * k + 1], f[3 * k + 2]})) {
+              std::uint32_t seen = bad.load();
+              while (t < seen && !bad.compare_exchange_weak(seen, t)) {
+              }
+            }
+        }
+      });
       if (bad.load() < count) {
         const std::uint32_t t = bad.load();
         float f[9];
@@ -244,8 +245,7 @@ double volume(const TriangleMesh& mesh) {
   double v = 0;
   for (const auto& t : mesh.triangles) {
     const Vec3 a = mesh.vertices[t[0]], b = mesh.vertices[t[1]], c = mesh.vertices[t[2]];
-    v += a.x * (b.y * c.z - b.z * c.y) - a.y * (b.x * c.z - b.z * c.x) +
-         a.z * (b.x * c.y - b.y * c.x);
+    v += a.x * (b.y * c.z - b.z * c.y) - a.y * (b.x * c.z - b.z * c.x) + a.z * (b.x * c.y - b.y * c.x);
   }
   return v / 6.0;
 }
@@ -306,21 +306,16 @@ std::vector<std::vector<std::uint32_t>> triangles_by_plane(const TriangleMesh& m
   // Planes in ascending order (a permutation if they are not).
   std::vector<std::size_t> order(zs.size());
   for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
-  std::sort(order.begin(), order.end(),
-            [&](std::size_t a, std::size_t b) { return zs[a] < zs[b]; });
+  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return zs[a] < zs[b]; });
   std::vector<double> sorted(zs.size());
   for (std::size_t i = 0; i < order.size(); ++i) sorted[i] = zs[order[i]];
   for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
     const auto& tri = mesh.triangles[t];
-    const double z0 =
-        std::min({mesh.vertices[tri[0]].z, mesh.vertices[tri[1]].z, mesh.vertices[tri[2]].z});
-    const double z1 =
-        std::max({mesh.vertices[tri[0]].z, mesh.vertices[tri[1]].z, mesh.vertices[tri[2]].z});
+    const double z0 = std::min({mesh.vertices[tri[0]].z, mesh.vertices[tri[1]].z, mesh.vertices[tri[2]].z});
+    const double z1 = std::max({mesh.vertices[tri[0]].z, mesh.vertices[tri[1]].z, mesh.vertices[tri[2]].z});
     // Planes with z0 <= z < z1.
-    for (auto it = std::lower_bound(sorted.begin(), sorted.end(), z0);
-         it != sorted.end() && *it < z1; ++it)
-      out[order[static_cast<std::size_t>(it - sorted.begin())]].push_back(
-          static_cast<std::uint32_t>(t));
+    for (auto it = std::lower_bound(sorted.begin(), sorted.end(), z0); it != sorted.end() && *it < z1; ++it)
+      out[order[static_cast<std::size_t>(it - sorted.begin())]].push_back(static_cast<std::uint32_t>(t));
   }
   return out;
 }
