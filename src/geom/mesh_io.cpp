@@ -40,8 +40,10 @@ struct Builder {
 };
 
 // Vertices must be finite and within ±1e6 mm (as lattice nodes are).
+constexpr double kCoordinateLimit = 1e6;
 bool valid_coordinate(const Vec3& p) {
-  return is_finite(p) && std::abs(p.x) <= 1e6 && std::abs(p.y) <= 1e6 && std::abs(p.z) <= 1e6;
+  return is_finite(p) && std::abs(p.x) <= kCoordinateLimit && std::abs(p.y) <= kCoordinateLimit &&
+         std::abs(p.z) <= kCoordinateLimit;
 }
 void check_coordinate(const Vec3& p, const std::string& name, long line,
                       const std::string& element = {}) {
@@ -110,31 +112,17 @@ TriangleMesh parse_stl(const std::string& bytes, const std::string& name) {
     std::uint32_t count;
     std::memcpy(&count, bytes.data() + 80, 4);
     if (84 + 50ull * count == bytes.size()) {
-      // Coordinates checked in parallel; the first invalid one (lowest triangle) is reported.
+      // Coordinates checked while welding; the first invalid one (lowest triangle) is reported.
       const char* records = bytes.data() + 84;
-      std::atomic<std::uint32_t> bad{count};
-      tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, count, 4096),
-                        [&](const tbb::blocked_range<std::uint32_t>& range) {
-        for (std::uint32_t t = range.begin(); t < range.end(); ++t) {
-          float f[9];
-          std::memcpy(f, records + 50ull * t + 12, 36);
-          for (int k = 0; k < 3; ++k)
-            if (!valid_coordinate({f[3 * k], f[3 * k + 1], f[3 * k + 2]})) {
-              std::uint32_t seen = bad.load();
-              while (t < seen && !bad.compare_exchange_weak(seen, t)) {
-              }
-            }
-        }
-      });
-      if (bad.load() < count) {
-        const std::uint32_t t = bad.load();
+      std::size_t bad = count;
+      TriangleMesh mesh = weld_binary_stl(records, count, bad, kCoordinateLimit);
+      if (bad < count) {
         float f[9];
-        std::memcpy(f, records + 50ull * t + 12, 36);
+        std::memcpy(f, records + 50ull * bad + 12, 36);
         for (int k = 0; k < 3; ++k)
           check_coordinate({f[3 * k], f[3 * k + 1], f[3 * k + 2]}, name, 0,
-                           "triangle " + std::to_string(t));
+                           "triangle " + std::to_string(bad));
       }
-      TriangleMesh mesh = weld_binary_stl(records, count);
       if (mesh.triangles.empty()) throw ParseError("STL has no triangles", {name, 0, ""});
       return mesh;
     }
