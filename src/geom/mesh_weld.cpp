@@ -125,6 +125,7 @@ TriangleMesh weld_soup(std::size_t n, const Corner& corner, const Seen& seen) {
   });
   // Each corner's representative: the first corner with the same coordinates.
   std::vector<std::uint32_t> rep(n);
+  std::vector<std::size_t> unique(buckets, 0);  // vertices per bucket
   tbb::parallel_for(std::size_t{0}, buckets, [&](std::size_t b) {
     const std::size_t lo = start[b], hi = start[b + 1];
     if (lo == hi) return;
@@ -138,6 +139,7 @@ TriangleMesh weld_soup(std::size_t n, const Corner& corner, const Seen& seen) {
         if (j == kEmpty) {
           table[s] = static_cast<std::uint32_t>(k);
           rep[e.index] = e.index;
+          ++unique[b];
           break;
         }
         if (sorted[j].hash == e.hash && same(sorted[j].p, e.p)) {
@@ -147,20 +149,24 @@ TriangleMesh weld_soup(std::size_t n, const Corner& corner, const Seen& seen) {
       }
     }
   });
-  // Vertex numbers in order of first appearance.
+  // Vertex numbers in order of first appearance, written over `rep` in one pass: a corner's
+  // representative comes before it (or is itself), so its slot already holds the number.
   TriangleMesh mesh;
-  std::vector<std::uint32_t> id(n);
-  for (std::size_t i = 0; i < n; ++i) {
-    if (rep[i] == i) {
-      id[i] = static_cast<std::uint32_t>(mesh.vertices.size());
-      const Vec3 v = widen(corner(i));
-      mesh.vertices.push_back({v.x == 0 ? 0.0 : v.x, v.y == 0 ? 0.0 : v.y, v.z == 0 ? 0.0 : v.z});
-    } else {
-      id[i] = id[rep[i]];
-    }
-  }
+  std::size_t vertices = 0;
+  for (const std::size_t u : unique) vertices += u;
+  mesh.vertices.reserve(vertices);
   mesh.triangles.reserve(n / 3);
+  std::uint32_t* id = rep.data();
   for (std::size_t t = 0; t < n; t += 3) {
+    for (std::size_t i = t; i < t + 3; ++i) {
+      if (id[i] == i) {
+        id[i] = static_cast<std::uint32_t>(mesh.vertices.size());
+        const Vec3 v = widen(corner(i));
+        mesh.vertices.push_back({v.x == 0 ? 0.0 : v.x, v.y == 0 ? 0.0 : v.y, v.z == 0 ? 0.0 : v.z});
+      } else {
+        id[i] = id[id[i]];
+      }
+    }
     const std::uint32_t a = id[t], b = id[t + 1], c = id[t + 2];
     if (a == b || b == c || a == c) continue;  // degenerate: two corners coincide
     mesh.triangles.push_back({a, b, c});
