@@ -1,17 +1,17 @@
 #include "trellis/geom/mesh_io.hpp"
 
 #include <fmt/format.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cctype>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <atomic>
 #include <map>
-
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 
 #include "mesh_3mf_module.hpp"
 #include "mesh_weld.hpp"
@@ -51,6 +51,34 @@ void check_coordinate(const Vec3& p, const std::string& name, long line,
     throw ParseError("vertex coordinate is not finite or beyond ±1e6 mm", {name, line, element});
 }
 
+// Three numbers as sscanf("%lf %lf %lf") reads them, without its cost (a third of a large
+// ASCII file's load): each is optional blanks, an optional '+', and what std::from_chars takes
+// (the same correctly rounded double), followed by a blank or the end. Anything else (hex,
+// overflow, a sign after '+', a number run into text) returns false and the caller asks sscanf,
+// so every line reads as it did. `whole`: nothing but blanks may follow the third number.
+bool three_numbers(std::string_view s, Vec3& out, bool whole) {
+  auto blank = [](char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; };
+  const char* p = s.data();
+  const char* const end = p + s.size();
+  double v[3];
+  for (double& x : v) {
+    while (p < end && blank(*p)) ++p;
+    if (p < end && *p == '+') {
+      ++p;
+      if (p < end && (*p == '+' || *p == '-')) return false;
+    }
+    const auto [stop, ec] = std::from_chars(p, end, x);
+    if (ec != std::errc() || (stop < end && !blank(*stop))) return false;
+    p = stop;
+  }
+  if (whole) {
+    while (p < end && blank(*p)) ++p;
+    if (p != end) return false;
+  }
+  out = {v[0], v[1], v[2]};
+  return true;
+}
+
 TriangleMesh parse_ascii_stl(const std::string& text, const std::string& name) {
   Builder b;
   std::size_t pos = 0;
@@ -60,43 +88,46 @@ TriangleMesh parse_ascii_stl(const std::string& text, const std::string& name) {
   bool in_facet = false, in_loop = false;
   while (pos < text.size()) {
     const std::size_t end = std::min(text.find('\n', pos), text.size());
-    const std::string_view raw(text.data() + pos, end - pos);
+    const std::string_view s = trim(std::string_view(text.data() + pos, end - pos));
     pos = end + 1;
     ++line;
-    const std::string s(trim(std::string(raw)));
     if (s.empty()) continue;
-    if (s.rfind("vertex", 0) == 0) {
+    if (s.starts_with("vertex")) {
       if (!in_loop || nv >= 3)
         throw ParseError("'vertex' outside a facet's 'outer loop' or a fourth vertex",
                          {name, line, ""});
-      double x, y, z;
-      char extra;
-      if (std::sscanf(s.c_str() + 6, "%lf %lf %lf %c", &x, &y, &z, &extra) != 3)
-        throw ParseError("expected 'vertex x y z'", {name, line, ""});
-      v[nv] = {x, y, z};
+      if (!three_numbers(s.substr(6), v[nv], true)) {
+        double x, y, z;
+        char extra;
+        if (std::sscanf(std::string(s.substr(6)).c_str(), "%lf %lf %lf %c", &x, &y, &z, &extra) !=
+            3)
+          throw ParseError("expected 'vertex x y z'", {name, line, ""});
+        v[nv] = {x, y, z};
+      }
       check_coordinate(v[nv], name, line);
       ++nv;
-    } else if (s.rfind("facet", 0) == 0) {
+    } else if (s.starts_with("facet")) {
       if (in_facet) throw ParseError("'facet' inside a facet", {name, line, ""});
       in_facet = true;
       nv = 0;
-    } else if (s.rfind("endfacet", 0) == 0) {
+    } else if (s.starts_with("endfacet")) {
       if (!in_facet || nv != 3)
         throw ParseError("facet without exactly three vertices", {name, line, ""});
       if (in_loop) throw ParseError("'endfacet' before the facet's 'endloop'", {name, line, ""});
       b.triangle(v[0], v[1], v[2]);
       in_facet = false;
-    } else if (s.rfind("outer", 0) == 0) {
+    } else if (s.starts_with("outer")) {
       if (!in_facet || in_loop || nv != 0)
         throw ParseError("'outer loop' outside a facet or given twice", {name, line, ""});
       in_loop = true;
-    } else if (s.rfind("endloop", 0) == 0) {
+    } else if (s.starts_with("endloop")) {
       if (!in_loop) throw ParseError("'endloop' without 'outer loop'", {name, line, ""});
       in_loop = false;
-    } else if (s.rfind("solid", 0) == 0 || s.rfind("endsolid", 0) == 0) {
+    } else if (s.starts_with("solid") || s.starts_with("endsolid")) {
       continue;
     } else {
-      throw ParseError("unexpected '" + s.substr(0, 40) + "' in ASCII STL", {name, line, ""});
+      throw ParseError("unexpected '" + std::string(s.substr(0, 40)) + "' in ASCII STL",
+                       {name, line, ""});
     }
   }
   if (in_facet) throw ParseError("file ends inside a facet", {name, line, ""});
@@ -146,17 +177,22 @@ TriangleMesh parse_obj(const std::string& text, const std::string& name) {
   long line = 0;
   while (pos < text.size()) {
     const std::size_t end = std::min(text.find('\n', pos), text.size());
-    const std::string s(trim(std::string(text.data() + pos, end - pos)));
+    const std::string_view sv = trim(std::string_view(text.data() + pos, end - pos));
     pos = end + 1;
     ++line;
-    if (s.size() < 2 || s[0] == '#') continue;
-    if (s[0] == 'v' && s[1] == ' ') {
-      double x, y, z;
-      if (std::sscanf(s.c_str() + 2, "%lf %lf %lf", &x, &y, &z) != 3)
-        throw ParseError("expected 'v x y z'", {name, line, ""});
-      verts.push_back({x, y, z});
+    if (sv.size() < 2 || sv[0] == '#') continue;
+    if (sv[0] == 'v' && sv[1] == ' ') {
+      Vec3 p;
+      if (!three_numbers(sv.substr(2), p, false)) {
+        double x, y, z;
+        if (std::sscanf(std::string(sv.substr(2)).c_str(), "%lf %lf %lf", &x, &y, &z) != 3)
+          throw ParseError("expected 'v x y z'", {name, line, ""});
+        p = {x, y, z};
+      }
+      verts.push_back(p);
       check_coordinate(verts.back(), name, line);
-    } else if (s[0] == 'f' && s[1] == ' ') {
+    } else if (sv[0] == 'f' && sv[1] == ' ') {
+      const std::string s(sv);
       std::vector<long> idx;
       std::size_t p = 2;
       while (p < s.size()) {
@@ -233,7 +269,8 @@ double volume(const TriangleMesh& mesh) {
   double v = 0;
   for (const auto& t : mesh.triangles) {
     const Vec3 a = mesh.vertices[t[0]], b = mesh.vertices[t[1]], c = mesh.vertices[t[2]];
-    v += a.x * (b.y * c.z - b.z * c.y) - a.y * (b.x * c.z - b.z * c.x) + a.z * (b.x * c.y - b.y * c.x);
+    v += a.x * (b.y * c.z - b.z * c.y) - a.y * (b.x * c.z - b.z * c.x) +
+         a.z * (b.x * c.y - b.y * c.x);
   }
   return v / 6.0;
 }
@@ -294,16 +331,21 @@ std::vector<std::vector<std::uint32_t>> triangles_by_plane(const TriangleMesh& m
   // Planes in ascending order (a permutation if they are not).
   std::vector<std::size_t> order(zs.size());
   for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
-  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return zs[a] < zs[b]; });
+  std::sort(order.begin(), order.end(),
+            [&](std::size_t a, std::size_t b) { return zs[a] < zs[b]; });
   std::vector<double> sorted(zs.size());
   for (std::size_t i = 0; i < order.size(); ++i) sorted[i] = zs[order[i]];
   for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
     const auto& tri = mesh.triangles[t];
-    const double z0 = std::min({mesh.vertices[tri[0]].z, mesh.vertices[tri[1]].z, mesh.vertices[tri[2]].z});
-    const double z1 = std::max({mesh.vertices[tri[0]].z, mesh.vertices[tri[1]].z, mesh.vertices[tri[2]].z});
+    const double z0 =
+        std::min({mesh.vertices[tri[0]].z, mesh.vertices[tri[1]].z, mesh.vertices[tri[2]].z});
+    const double z1 =
+        std::max({mesh.vertices[tri[0]].z, mesh.vertices[tri[1]].z, mesh.vertices[tri[2]].z});
     // Planes with z0 <= z < z1.
-    for (auto it = std::lower_bound(sorted.begin(), sorted.end(), z0); it != sorted.end() && *it < z1; ++it)
-      out[order[static_cast<std::size_t>(it - sorted.begin())]].push_back(static_cast<std::uint32_t>(t));
+    for (auto it = std::lower_bound(sorted.begin(), sorted.end(), z0);
+         it != sorted.end() && *it < z1; ++it)
+      out[order[static_cast<std::size_t>(it - sorted.begin())]].push_back(
+          static_cast<std::uint32_t>(t));
   }
   return out;
 }
