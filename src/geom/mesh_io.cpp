@@ -172,7 +172,9 @@ TriangleMesh read_stl(const std::string& path) {
 
 TriangleMesh parse_obj(const std::string& text, const std::string& name) {
   std::vector<Vec3> verts;
-  Builder b;
+  std::string s;          // the face line, NUL-terminated for strtol (its memory reused)
+  std::vector<long> idx;  // its vertices (likewise)
+  std::vector<std::uint32_t> corners;  // triangle t: corners[3t..3t+2], indices into verts
   std::size_t pos = 0;
   long line = 0;
   while (pos < text.size()) {
@@ -189,11 +191,13 @@ TriangleMesh parse_obj(const std::string& text, const std::string& name) {
           throw ParseError("expected 'v x y z'", {name, line, ""});
         p = {x, y, z};
       }
+      if (verts.size() >= 0xffffffffu)
+        throw ParseError("more than 4,294,967,294 vertices", {name, line, ""});
       verts.push_back(p);
       check_coordinate(verts.back(), name, line);
     } else if (sv[0] == 'f' && sv[1] == ' ') {
-      const std::string s(sv);
-      std::vector<long> idx;
+      s.assign(sv);
+      idx.clear();
       std::size_t p = 2;
       while (p < s.size()) {
         while (p < s.size() && s[p] == ' ') ++p;
@@ -214,10 +218,12 @@ TriangleMesh parse_obj(const std::string& text, const std::string& name) {
       }
       if (idx.size() < 3) throw ParseError("face with fewer than 3 vertices", {name, line, ""});
       for (std::size_t k = 1; k + 1 < idx.size(); ++k)
-        b.triangle(verts[idx[0]], verts[idx[k]], verts[idx[k + 1]]);
+        corners.insert(corners.end(), {static_cast<std::uint32_t>(idx[0]),
+                                       static_cast<std::uint32_t>(idx[k]),
+                                       static_cast<std::uint32_t>(idx[k + 1])});
     }
   }
-  TriangleMesh mesh = b.weld();
+  TriangleMesh mesh = weld_indexed(verts, corners);
   if (mesh.triangles.empty()) throw ParseError("OBJ has no faces", {name, 0, ""});
   return mesh;
 }

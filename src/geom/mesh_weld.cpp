@@ -69,11 +69,13 @@ bool same(const P& a, const P& b) {
 
 constexpr std::size_t kGrain = 1 << 15;  // corners per task
 
-// `corner(i)` gives corner i's coordinates (a Vec3 or a Float3); n is a multiple of 3.
-// `seen(i, p)` is called once for every corner, in parallel (the binary STL reader checks the
-// coordinates there, in the pass that reads them anyway).
+// Each of n points' representative: the first point with the same coordinates (rep[i] <= i).
+// `corner(i)` gives point i (a Vec3 or a Float3); `seen(i, p)` is called once for every point,
+// in parallel (the binary STL reader checks the coordinates there, in the pass that reads them
+// anyway). `unique`: how many points are their own representative.
 template <class Corner, class Seen>
-TriangleMesh weld_soup(std::size_t n, const Corner& corner, const Seen& seen) {
+std::vector<std::uint32_t> representatives(std::size_t n, const Corner& corner, const Seen& seen,
+                                           std::size_t& unique_points) {
   using P = std::decay_t<decltype(corner(0))>;
   if (n >= 0xffffffffull) throw GeometryError("more than 4,294,967,294 triangle corners");
   // Buckets of ~4,096 corners (~1,000 vertices): each bucket's table stays in the cache.
@@ -149,11 +151,20 @@ TriangleMesh weld_soup(std::size_t n, const Corner& corner, const Seen& seen) {
       }
     }
   });
+  unique_points = 0;
+  for (const std::size_t u : unique) unique_points += u;
+  return rep;
+}
+
+// A triangle soup of n corners (n a multiple of 3) welded: representatives, then vertex numbers
+// in order of first appearance.
+template <class Corner, class Seen>
+TriangleMesh weld_soup(std::size_t n, const Corner& corner, const Seen& seen) {
+  std::size_t vertices = 0;
+  std::vector<std::uint32_t> rep = representatives(n, corner, seen, vertices);
   // Vertex numbers in order of first appearance, written over `rep` in one pass: a corner's
   // representative comes before it (or is itself), so its slot already holds the number.
   TriangleMesh mesh;
-  std::size_t vertices = 0;
-  for (const std::size_t u : unique) vertices += u;
   mesh.vertices.reserve(vertices);
   mesh.triangles.reserve(n / 3);
   std::uint32_t* id = rep.data();
@@ -180,6 +191,37 @@ TriangleMesh weld_corners(const std::vector<Vec3>& corners) {
   return weld_soup(
       corners.size() - corners.size() % 3, [&](std::size_t i) { return corners[i]; },
       [](std::size_t, const Vec3&) {});
+}
+
+TriangleMesh weld_indexed(const std::vector<Vec3>& points,
+                          const std::vector<std::uint32_t>& corners) {
+  if (corners.size() >= 0xffffffffull)
+    throw GeometryError("more than 4,294,967,294 triangle corners");
+  std::size_t unique_points = 0;
+  const std::vector<std::uint32_t> rep = representatives(
+      points.size(), [&](std::size_t i) { return points[i]; }, [](std::size_t, const Vec3&) {},
+      unique_points);
+  // Numbered in order of first use by a corner, as weld_corners numbers them.
+  constexpr std::uint32_t kNone = 0xffffffffu;
+  std::vector<std::uint32_t> id(points.size(), kNone);
+  TriangleMesh mesh;
+  mesh.vertices.reserve(unique_points);
+  mesh.triangles.reserve(corners.size() / 3);
+  for (std::size_t t = 0; t + 3 <= corners.size(); t += 3) {
+    std::uint32_t v[3];
+    for (int k = 0; k < 3; ++k) {
+      const std::uint32_t c = rep[corners[t + k]];
+      if (id[c] == kNone) {
+        id[c] = static_cast<std::uint32_t>(mesh.vertices.size());
+        const Vec3 p = points[c];
+        mesh.vertices.push_back({p.x == 0 ? 0.0 : p.x, p.y == 0 ? 0.0 : p.y, p.z == 0 ? 0.0 : p.z});
+      }
+      v[k] = id[c];
+    }
+    if (v[0] == v[1] || v[1] == v[2] || v[0] == v[2]) continue;
+    mesh.triangles.push_back({v[0], v[1], v[2]});
+  }
+  return mesh;
 }
 
 TriangleMesh weld_binary_stl(const char* records, std::size_t count, std::size_t& first_invalid,

@@ -98,3 +98,48 @@ TEST(MeshWeld, FirstInvalidCoordinateIsReported) {
     EXPECT_NE(std::string(e.what()).find("triangle 45000"), std::string::npos) << e.what();
   }
 }
+
+// OBJ welds its vertex list, not the corners: the same mesh as weld_corners on the corners'
+// coordinates, with repeated and unused vertices, -0, polygons (fans) and degenerate faces.
+TEST(MeshWeld, ObjWeldsAsWeldCorners) {
+  std::mt19937 rng(46);
+  for (int round = 0; round < 60; ++round) {
+    const std::size_t points = 3 + rng() % (round < 50 ? 300 : 30000);
+    std::vector<Vec3> v;
+    std::string text;
+    for (std::size_t i = 0; i < points; ++i) {
+      // Coordinates from a small set so that points repeat; zeros with either sign.
+      auto c = [&] { return static_cast<double>(static_cast<int>(rng() % 7) - 3) * 0.5; };
+      Vec3 p{c(), c(), c()};
+      if (p.z == 0 && rng() % 2) p.z = -0.0;
+      v.push_back(p);
+      char line[128];
+      std::snprintf(line, sizeof line, "v %.17g %.17g %.17g\n", p.x, p.y, p.z);
+      text += line;
+    }
+    std::vector<Vec3> corners;
+    const std::size_t faces = 1 + rng() % (3 * points);
+    for (std::size_t f = 0; f < faces; ++f) {
+      const std::size_t n = 3 + (rng() % 4 == 0 ? rng() % 3 : 0);
+      std::vector<std::size_t> idx;
+      for (std::size_t k = 0; k < n; ++k) idx.push_back(rng() % points);
+      text += "f";
+      for (const std::size_t i : idx)
+        text += " " + std::to_string(i + 1) + (rng() % 3 ? "" : "/1/1");
+      text += "\n";
+      for (std::size_t k = 1; k + 1 < n; ++k)
+        corners.insert(corners.end(), {v[idx[0]], v[idx[k]], v[idx[k + 1]]});
+    }
+    const TriangleMesh expected = weld_corners(corners);
+    if (expected.triangles.empty()) continue;
+    for (const std::size_t threads : {1u, 2u}) {
+      tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+      const TriangleMesh m = parse_obj(text, "r.obj");
+      ASSERT_EQ(m.triangles, expected.triangles) << round;
+      ASSERT_EQ(m.vertices.size(), expected.vertices.size()) << round;
+      for (std::size_t i = 0; i < m.vertices.size(); ++i)
+        ASSERT_EQ(std::memcmp(&m.vertices[i], &expected.vertices[i], sizeof(Vec3)), 0)
+            << round << " vertex " << i;
+    }
+  }
+}
