@@ -99,8 +99,9 @@ TEST(MeshWeld, FirstInvalidCoordinateIsReported) {
   }
 }
 
-// OBJ welds its vertex list, not the corners: the same mesh as weld_corners on the corners'
-// coordinates, with repeated and unused vertices, -0, polygons (fans) and degenerate faces.
+// OBJ (and weld(), the 3MF reader's) welds its vertex list, not the corners: the same mesh as
+// weld_corners on the corners' coordinates, with repeated and unused vertices, -0, polygons (fans)
+// and degenerate faces.
 TEST(MeshWeld, ObjWeldsAsWeldCorners) {
   std::mt19937 rng(46);
   for (int round = 0; round < 60; ++round) {
@@ -132,6 +133,16 @@ TEST(MeshWeld, ObjWeldsAsWeldCorners) {
     }
     const TriangleMesh expected = weld_corners(corners);
     if (expected.triangles.empty()) continue;
+    // weld() of an indexed mesh (the 3MF reader's) welds the same way.
+    TriangleMesh indexed;
+    indexed.vertices = corners;
+    for (std::uint32_t i = 0; i + 2 < corners.size(); i += 3)
+      indexed.triangles.push_back({i, i + 1, i + 2});
+    const TriangleMesh welded = weld(indexed);
+    ASSERT_EQ(welded.triangles, expected.triangles) << round;
+    ASSERT_EQ(welded.vertices.size(), expected.vertices.size()) << round;
+    for (std::size_t i = 0; i < welded.vertices.size(); ++i)
+      ASSERT_EQ(std::memcmp(&welded.vertices[i], &expected.vertices[i], sizeof(Vec3)), 0) << round;
     for (const std::size_t threads : {1u, 2u}) {
       tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
       const TriangleMesh m = parse_obj(text, "r.obj");
