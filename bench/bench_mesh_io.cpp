@@ -2,14 +2,19 @@
 // ~1.7 GB/s): parsed in parallel and welded once by the bucketed hash weld (geom/mesh_weld.cpp).
 // The mesh is generated (a closed torus, every vertex shared by six triangles as in CAD
 // exports), written to a temporary file, and read back by read_mesh; 1 and 2 threads.
+// Issue 40: loading as the slicer does (read_mesh + check_mesh) within 2x of reading the file;
+// CPU time of the whole process (all threads). TRELLIS_BENCH_STL=FILE uses that file instead
+// (bench/mesh_vs_cat.sh passes the one bench/make_torus_stl.py wrote, and times `cat` on it).
 #include <benchmark/benchmark.h>
 #include <tbb/global_control.h>
-
-#include <cmath>
-#include <filesystem>
-#include <numbers>
 #include <unistd.h>
 
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <numbers>
+
+#include "trellis/core/file.hpp"
 #include "trellis/geom/mesh.hpp"
 #include "trellis/geom/mesh_io.hpp"
 #include "trellis/slice/slice.hpp"
@@ -25,8 +30,8 @@ TriangleMesh torus(int nu, int nv) {
   for (int i = 0; i < nu; ++i)
     for (int j = 0; j < nv; ++j) {
       const double u = 2 * std::numbers::pi * i / nu, v = 2 * std::numbers::pi * j / nv;
-      m.vertices.push_back({(R + r * std::cos(v)) * std::cos(u), (R + r * std::cos(v)) * std::sin(u),
-                            r * std::sin(v)});
+      m.vertices.push_back({(R + r * std::cos(v)) * std::cos(u),
+                            (R + r * std::cos(v)) * std::sin(u), r * std::sin(v)});
     }
   auto id = [&](int i, int j) { return static_cast<std::uint32_t>((i % nu) * nv + (j % nv)); };
   for (int i = 0; i < nu; ++i)
@@ -40,7 +45,14 @@ TriangleMesh torus(int nu, int nv) {
 struct StlFile {
   std::string path;
   std::size_t bytes = 0;
+  bool own = true;
   StlFile() {
+    if (const char* given = std::getenv("TRELLIS_BENCH_STL"); given && *given) {
+      path = given;
+      own = false;
+      bytes = std::filesystem::file_size(path);
+      return;
+    }
     path = (std::filesystem::temp_directory_path() /
             ("trellis_bench_1m_" + std::to_string(::getpid()) + ".stl"))
                .string();
@@ -48,7 +60,9 @@ struct StlFile {
     write_stl(path, m);
     bytes = std::filesystem::file_size(path);
   }
-  ~StlFile() { std::filesystem::remove(path); }
+  ~StlFile() {
+    if (own) std::filesystem::remove(path);
+  }
 };
 
 const StlFile& big_stl() {
@@ -71,7 +85,55 @@ void BM_ReadBinaryStl1M(benchmark::State& state) {
                                               benchmark::Counter::kIsIterationInvariantRate);
   state.counters["vertices"] = static_cast<double>(vertices);
 }
-BENCHMARK(BM_ReadBinaryStl1M)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_ReadBinaryStl1M)
+    ->Arg(1)
+    ->Arg(2)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->MeasureProcessCPUTime();
+
+// What `cat` does, in process: the file read into memory (read_file: the loaders' first step).
+void BM_ReadFileOnly(benchmark::State& state) {
+  const StlFile& f = big_stl();
+  for (auto _ : state) benchmark::DoNotOptimize(read_file(f.path));  // NOLINT
+  state.SetBytesProcessed(static_cast<std::int64_t>(state.iterations() * f.bytes));
+}
+BENCHMARK(BM_ReadFileOnly)->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime();
+
+// What the slicer does before slicing: read, weld, and check the mesh is closed (the 1M-triangle
+// binary STL, or TRELLIS_BENCH_STL in any format read_mesh reads).
+void BM_LoadAndCheckMesh(benchmark::State& state) {
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism,
+                              static_cast<std::size_t>(state.range(0)));
+  const StlFile& f = big_stl();
+  for (auto _ : state) {
+    const TriangleMesh m = read_mesh(f.path);
+    if (!check_mesh(m).closed()) state.SkipWithError("the mesh is not closed");
+    benchmark::DoNotOptimize(m);
+  }
+  state.SetBytesProcessed(static_cast<std::int64_t>(state.iterations() * f.bytes));
+}
+BENCHMARK(BM_LoadAndCheckMesh)
+    ->Arg(1)
+    ->Arg(2)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->MeasureProcessCPUTime();
+
+// The check alone, on the welded mesh in memory.
+void BM_CheckMesh1M(benchmark::State& state) {
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism,
+                              static_cast<std::size_t>(state.range(0)));
+  const TriangleMesh m = torus(1000, 500);
+  for (auto _ : state) benchmark::DoNotOptimize(check_mesh(m));
+  state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations() * m.triangles.size()));
+}
+BENCHMARK(BM_CheckMesh1M)
+    ->Arg(1)
+    ->Arg(2)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->MeasureProcessCPUTime();
 
 // The weld alone, on the same soup in memory.
 void BM_WeldCorners3M(benchmark::State& state) {
@@ -85,7 +147,12 @@ void BM_WeldCorners3M(benchmark::State& state) {
   for (auto _ : state) benchmark::DoNotOptimize(weld_corners(corners));
   state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations() * corners.size()));
 }
-BENCHMARK(BM_WeldCorners3M)->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_WeldCorners3M)
+    ->Arg(1)
+    ->Arg(2)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->MeasureProcessCPUTime();
 
 }  // namespace
 

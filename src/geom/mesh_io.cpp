@@ -1,18 +1,17 @@
 #include "trellis/geom/mesh_io.hpp"
 
 #include <fmt/format.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cctype>
+#include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <atomic>
 #include <map>
-#include <unordered_map>
-
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 
 #include "mesh_3mf_module.hpp"
 #include "mesh_weld.hpp"
@@ -41,13 +40,43 @@ struct Builder {
 };
 
 // Vertices must be finite and within ±1e6 mm (as lattice nodes are).
+constexpr double kCoordinateLimit = 1e6;
 bool valid_coordinate(const Vec3& p) {
-  return is_finite(p) && std::abs(p.x) <= 1e6 && std::abs(p.y) <= 1e6 && std::abs(p.z) <= 1e6;
+  return is_finite(p) && std::abs(p.x) <= kCoordinateLimit && std::abs(p.y) <= kCoordinateLimit &&
+         std::abs(p.z) <= kCoordinateLimit;
 }
 void check_coordinate(const Vec3& p, const std::string& name, long line,
                       const std::string& element = {}) {
   if (!valid_coordinate(p))
     throw ParseError("vertex coordinate is not finite or beyond ±1e6 mm", {name, line, element});
+}
+
+// Three numbers as sscanf("%lf %lf %lf") reads them, without its cost (a third of a large
+// ASCII file's load): each is optional blanks, an optional '+', and what std::from_chars takes
+// (the same correctly rounded double), followed by a blank or the end. Anything else (hex,
+// overflow, a sign after '+', a number run into text) returns false and the caller asks sscanf,
+// so every line reads as it did. `whole`: nothing but blanks may follow the third number.
+bool three_numbers(std::string_view s, Vec3& out, bool whole) {
+  auto blank = [](char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f'; };
+  const char* p = s.data();
+  const char* const end = p + s.size();
+  double v[3];
+  for (double& x : v) {
+    while (p < end && blank(*p)) ++p;
+    if (p < end && *p == '+') {
+      ++p;
+      if (p < end && (*p == '+' || *p == '-')) return false;
+    }
+    const auto [stop, ec] = std::from_chars(p, end, x);
+    if (ec != std::errc() || (stop < end && !blank(*stop))) return false;
+    p = stop;
+  }
+  if (whole) {
+    while (p < end && blank(*p)) ++p;
+    if (p != end) return false;
+  }
+  out = {v[0], v[1], v[2]};
+  return true;
 }
 
 TriangleMesh parse_ascii_stl(const std::string& text, const std::string& name) {
@@ -59,43 +88,46 @@ TriangleMesh parse_ascii_stl(const std::string& text, const std::string& name) {
   bool in_facet = false, in_loop = false;
   while (pos < text.size()) {
     const std::size_t end = std::min(text.find('\n', pos), text.size());
-    const std::string_view raw(text.data() + pos, end - pos);
+    const std::string_view s = trim(std::string_view(text.data() + pos, end - pos));
     pos = end + 1;
     ++line;
-    const std::string s(trim(std::string(raw)));
     if (s.empty()) continue;
-    if (s.rfind("vertex", 0) == 0) {
+    if (s.starts_with("vertex")) {
       if (!in_loop || nv >= 3)
         throw ParseError("'vertex' outside a facet's 'outer loop' or a fourth vertex",
                          {name, line, ""});
-      double x, y, z;
-      char extra;
-      if (std::sscanf(s.c_str() + 6, "%lf %lf %lf %c", &x, &y, &z, &extra) != 3)
-        throw ParseError("expected 'vertex x y z'", {name, line, ""});
-      v[nv] = {x, y, z};
+      if (!three_numbers(s.substr(6), v[nv], true)) {
+        double x, y, z;
+        char extra;
+        if (std::sscanf(std::string(s.substr(6)).c_str(), "%lf %lf %lf %c", &x, &y, &z, &extra) !=
+            3)
+          throw ParseError("expected 'vertex x y z'", {name, line, ""});
+        v[nv] = {x, y, z};
+      }
       check_coordinate(v[nv], name, line);
       ++nv;
-    } else if (s.rfind("facet", 0) == 0) {
+    } else if (s.starts_with("facet")) {
       if (in_facet) throw ParseError("'facet' inside a facet", {name, line, ""});
       in_facet = true;
       nv = 0;
-    } else if (s.rfind("endfacet", 0) == 0) {
+    } else if (s.starts_with("endfacet")) {
       if (!in_facet || nv != 3)
         throw ParseError("facet without exactly three vertices", {name, line, ""});
       if (in_loop) throw ParseError("'endfacet' before the facet's 'endloop'", {name, line, ""});
       b.triangle(v[0], v[1], v[2]);
       in_facet = false;
-    } else if (s.rfind("outer", 0) == 0) {
+    } else if (s.starts_with("outer")) {
       if (!in_facet || in_loop || nv != 0)
         throw ParseError("'outer loop' outside a facet or given twice", {name, line, ""});
       in_loop = true;
-    } else if (s.rfind("endloop", 0) == 0) {
+    } else if (s.starts_with("endloop")) {
       if (!in_loop) throw ParseError("'endloop' without 'outer loop'", {name, line, ""});
       in_loop = false;
-    } else if (s.rfind("solid", 0) == 0 || s.rfind("endsolid", 0) == 0) {
+    } else if (s.starts_with("solid") || s.starts_with("endsolid")) {
       continue;
     } else {
-      throw ParseError("unexpected '" + s.substr(0, 40) + "' in ASCII STL", {name, line, ""});
+      throw ParseError("unexpected '" + std::string(s.substr(0, 40)) + "' in ASCII STL",
+                       {name, line, ""});
     }
   }
   if (in_facet) throw ParseError("file ends inside a facet", {name, line, ""});
@@ -111,31 +143,17 @@ TriangleMesh parse_stl(const std::string& bytes, const std::string& name) {
     std::uint32_t count;
     std::memcpy(&count, bytes.data() + 80, 4);
     if (84 + 50ull * count == bytes.size()) {
-      // Coordinates checked in parallel; the first invalid one (lowest triangle) is reported.
+      // Coordinates checked while welding; the first invalid one (lowest triangle) is reported.
       const char* records = bytes.data() + 84;
-      std::atomic<std::uint32_t> bad{count};
-      tbb::parallel_for(tbb::blocked_range<std::uint32_t>(0, count, 4096),
-                        [&](const tbb::blocked_range<std::uint32_t>& range) {
-        for (std::uint32_t t = range.begin(); t < range.end(); ++t) {
-          float f[9];
-          std::memcpy(f, records + 50ull * t + 12, 36);
-          for (int k = 0; k < 3; ++k)
-            if (!valid_coordinate({f[3 * k], f[3 * k + 1], f[3 * k + 2]})) {
-              std::uint32_t seen = bad.load();
-              while (t < seen && !bad.compare_exchange_weak(seen, t)) {
-              }
-            }
-        }
-      });
-      if (bad.load() < count) {
-        const std::uint32_t t = bad.load();
+      std::size_t bad = count;
+      TriangleMesh mesh = weld_binary_stl(records, count, bad, kCoordinateLimit);
+      if (bad < count) {
         float f[9];
-        std::memcpy(f, records + 50ull * t + 12, 36);
+        std::memcpy(f, records + 50ull * bad + 12, 36);
         for (int k = 0; k < 3; ++k)
           check_coordinate({f[3 * k], f[3 * k + 1], f[3 * k + 2]}, name, 0,
-                           "triangle " + std::to_string(t));
+                           "triangle " + std::to_string(bad));
       }
-      TriangleMesh mesh = weld_binary_stl(records, count);
       if (mesh.triangles.empty()) throw ParseError("STL has no triangles", {name, 0, ""});
       return mesh;
     }
@@ -154,23 +172,32 @@ TriangleMesh read_stl(const std::string& path) {
 
 TriangleMesh parse_obj(const std::string& text, const std::string& name) {
   std::vector<Vec3> verts;
-  Builder b;
+  std::string s;          // the face line, NUL-terminated for strtol (its memory reused)
+  std::vector<long> idx;  // its vertices (likewise)
+  std::vector<std::uint32_t> corners;  // triangle t: corners[3t..3t+2], indices into verts
   std::size_t pos = 0;
   long line = 0;
   while (pos < text.size()) {
     const std::size_t end = std::min(text.find('\n', pos), text.size());
-    const std::string s(trim(std::string(text.data() + pos, end - pos)));
+    const std::string_view sv = trim(std::string_view(text.data() + pos, end - pos));
     pos = end + 1;
     ++line;
-    if (s.size() < 2 || s[0] == '#') continue;
-    if (s[0] == 'v' && s[1] == ' ') {
-      double x, y, z;
-      if (std::sscanf(s.c_str() + 2, "%lf %lf %lf", &x, &y, &z) != 3)
-        throw ParseError("expected 'v x y z'", {name, line, ""});
-      verts.push_back({x, y, z});
+    if (sv.size() < 2 || sv[0] == '#') continue;
+    if (sv[0] == 'v' && sv[1] == ' ') {
+      Vec3 p;
+      if (!three_numbers(sv.substr(2), p, false)) {
+        double x, y, z;
+        if (std::sscanf(std::string(sv.substr(2)).c_str(), "%lf %lf %lf", &x, &y, &z) != 3)
+          throw ParseError("expected 'v x y z'", {name, line, ""});
+        p = {x, y, z};
+      }
+      if (verts.size() >= 0xffffffffu)
+        throw ParseError("more than 4,294,967,294 vertices", {name, line, ""});
+      verts.push_back(p);
       check_coordinate(verts.back(), name, line);
-    } else if (s[0] == 'f' && s[1] == ' ') {
-      std::vector<long> idx;
+    } else if (sv[0] == 'f' && sv[1] == ' ') {
+      s.assign(sv);
+      idx.clear();
       std::size_t p = 2;
       while (p < s.size()) {
         while (p < s.size() && s[p] == ' ') ++p;
@@ -191,10 +218,12 @@ TriangleMesh parse_obj(const std::string& text, const std::string& name) {
       }
       if (idx.size() < 3) throw ParseError("face with fewer than 3 vertices", {name, line, ""});
       for (std::size_t k = 1; k + 1 < idx.size(); ++k)
-        b.triangle(verts[idx[0]], verts[idx[k]], verts[idx[k + 1]]);
+        corners.insert(corners.end(), {static_cast<std::uint32_t>(idx[0]),
+                                       static_cast<std::uint32_t>(idx[k]),
+                                       static_cast<std::uint32_t>(idx[k + 1])});
     }
   }
-  TriangleMesh mesh = b.weld();
+  TriangleMesh mesh = weld_indexed(verts, corners);
   if (mesh.triangles.empty()) throw ParseError("OBJ has no faces", {name, 0, ""});
   return mesh;
 }
@@ -227,41 +256,6 @@ TriangleMesh read_mesh(const std::string& path) {
                    {path, 0, ""});
 }
 
-MeshCheck check_mesh(const TriangleMesh& mesh) {
-  MeshCheck c;
-  c.triangles = mesh.triangles.size();
-  // Directed edge counts keyed by (min, max) with a per-direction tally.
-  struct Use {
-    std::uint32_t forward = 0, backward = 0;
-    std::size_t triangle = 0;
-  };
-  std::unordered_map<std::uint64_t, Use> edges;
-  edges.reserve(mesh.triangles.size() * 2);
-  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
-    const auto& tri = mesh.triangles[t];
-    for (int k = 0; k < 3; ++k) {
-      const std::uint32_t a = tri[k], b = tri[(k + 1) % 3];
-      const std::uint64_t key = (static_cast<std::uint64_t>(std::min(a, b)) << 32) | std::max(a, b);
-      auto& u = edges[key];
-      (a < b ? u.forward : u.backward)++;
-      u.triangle = t;
-    }
-  }
-  for (const auto& [key, u] : edges) {
-    const bool open = u.forward + u.backward == 1;
-    const bool bad = !open && (u.forward != 1 || u.backward != 1);
-    if (!open && !bad) continue;
-    (open ? c.open_edges : c.nonmanifold_edges)++;
-    if (c.first_problem.empty()) {
-      const Vec3 a = mesh.vertices[key >> 32], b = mesh.vertices[key & 0xffffffffu];
-      c.first_problem = fmt::format("{} edge ({:.4g}, {:.4g}, {:.4g})–({:.4g}, {:.4g}, {:.4g}) of triangle {}",
-                                    open ? "open" : "non-manifold", a.x, a.y, a.z, b.x, b.y, b.z,
-                                    u.triangle);
-    }
-  }
-  return c;
-}
-
 void require_closed(const TriangleMesh& mesh, const std::string& name) {
   const MeshCheck c = check_mesh(mesh);
   if (c.closed()) return;
@@ -281,7 +275,8 @@ double volume(const TriangleMesh& mesh) {
   double v = 0;
   for (const auto& t : mesh.triangles) {
     const Vec3 a = mesh.vertices[t[0]], b = mesh.vertices[t[1]], c = mesh.vertices[t[2]];
-    v += a.x * (b.y * c.z - b.z * c.y) - a.y * (b.x * c.z - b.z * c.x) + a.z * (b.x * c.y - b.y * c.x);
+    v += a.x * (b.y * c.z - b.z * c.y) - a.y * (b.x * c.z - b.z * c.x) +
+         a.z * (b.x * c.y - b.y * c.x);
   }
   return v / 6.0;
 }
@@ -342,16 +337,21 @@ std::vector<std::vector<std::uint32_t>> triangles_by_plane(const TriangleMesh& m
   // Planes in ascending order (a permutation if they are not).
   std::vector<std::size_t> order(zs.size());
   for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
-  std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return zs[a] < zs[b]; });
+  std::sort(order.begin(), order.end(),
+            [&](std::size_t a, std::size_t b) { return zs[a] < zs[b]; });
   std::vector<double> sorted(zs.size());
   for (std::size_t i = 0; i < order.size(); ++i) sorted[i] = zs[order[i]];
   for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
     const auto& tri = mesh.triangles[t];
-    const double z0 = std::min({mesh.vertices[tri[0]].z, mesh.vertices[tri[1]].z, mesh.vertices[tri[2]].z});
-    const double z1 = std::max({mesh.vertices[tri[0]].z, mesh.vertices[tri[1]].z, mesh.vertices[tri[2]].z});
+    const double z0 =
+        std::min({mesh.vertices[tri[0]].z, mesh.vertices[tri[1]].z, mesh.vertices[tri[2]].z});
+    const double z1 =
+        std::max({mesh.vertices[tri[0]].z, mesh.vertices[tri[1]].z, mesh.vertices[tri[2]].z});
     // Planes with z0 <= z < z1.
-    for (auto it = std::lower_bound(sorted.begin(), sorted.end(), z0); it != sorted.end() && *it < z1; ++it)
-      out[order[static_cast<std::size_t>(it - sorted.begin())]].push_back(static_cast<std::uint32_t>(t));
+    for (auto it = std::lower_bound(sorted.begin(), sorted.end(), z0);
+         it != sorted.end() && *it < z1; ++it)
+      out[order[static_cast<std::size_t>(it - sorted.begin())]].push_back(
+          static_cast<std::uint32_t>(t));
   }
   return out;
 }
