@@ -499,7 +499,7 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
   std::string robustness;
   if (c.gippo_seeds > 0 && p.planner == Planner::Gippo) {
     // The paper's robustness run (Fig. 2 v-vi): the best score over many seeds.
-    const GippoRobustness rob = gippo_robustness(g, p.gippo, c.gippo_seeds);
+    const GippoRobustness rob = gippo_robustness(g, p.gippo, c.gippo_seeds, p.long_path_nodes);
     robustness = gippo_robustness_json(rob, p.gippo);
     out.summary = fmt::format("gippo robustness over {} seeds: best score mean {}, SD {} (CV {}%), min {}, max {}\n",
                               c.gippo_seeds, fixed(rob.mean, 4), fixed(rob.sd, 4),
