@@ -168,7 +168,7 @@ def fig2(out, quick, ctx):
             f, ax = plt.subplots(figsize=(10, 4))
             labels, data = [], []
             for (name, mode), r in res.items():
-                labels.append(f"{name}\n{mode}")
+                labels.append("\n".join(name.split("-") + [mode]))
                 data.append(r["gippo_robustness"][key])
             ax.boxplot(data, labels=labels)
             ax.set_ylabel(label)
