@@ -247,15 +247,18 @@ def fig4(out, quick, ctx):
                         "the paper plots it, no values; the correction is 1 for an exact print"))
         if have:
             c = cmp[1]
+            honeycomb = name == "honeycomb"  # the paper's one exception: nominal + 1 mm
             rows.append(row(f"Fig. 4 (v), {name}", "control slicer deposited / nominal length",
-                            2.0, round(c["extrusion_ratio"], 1), "",
-                            "paper: about 2x (Cura); ours PrusaSlicer 2.5, walls 0.38 mm (two "
-                            "0.2 mm lines), one perimeter, 0 % infill; one decimal as its output "
-                            "varies run to run"))
-            rows.append(row(f"Fig. 4 (iv), {name}", "control score corrected vs GIPPO's",
-                            "GIPPO higher (not Voronoi, Penrose)",
-                            "GIPPO higher" if t["score_corrected"] > c["score_corrected"]
-                            else "control higher", "", "the paper's Fig. 4 (iv) bars"))
+                            "~1 (nominal + 1 mm)" if honeycomb else 2.0,
+                            round(c["extrusion_ratio"], 1), "",
+                            "paper: Cura; ours PrusaSlicer 2.5, walls 0.38 mm (two 0.2 mm lines), "
+                            "one perimeter, 0 % infill; one decimal as its output varies run to run"))
+            paper = "control higher" if name in ("voronoi", "penrose") else "GIPPO higher"
+            ours = "GIPPO higher" if t["score_corrected"] > c["score_corrected"] else "control higher"
+            rows.append(row(f"Fig. 4 (iv), {name}", "corrected score, GIPPO vs control", paper,
+                            ours, "", "" if ours == paper else
+                            "the slicer's perimeter loops are long paths, which Eq. 1 rewards "
+                            "even after the edge-count correction"))
         else:
             rows.append(row(f"Fig. 4 (v), {name}", "control slicer deposited / nominal length",
                             2.0, None, "", "prusa-slicer is not installed (scripts/install-deps.sh)"))
