@@ -94,7 +94,7 @@ def lattice2d(
     seed: int = ...,  # lattice2d.seed: Voronoi random seed
     size: Sequence[float] = ...,  # lattice2d.size: rectangle width, height
     strand: float = ...,  # lattice2d.strand: strand distance of square, triangle and lines
-    target_porosity: float = ...,  # lattice2d.target_porosity: tune the cell size until the pore area (lines lattice2d.line_width wide) is this share, as GIPPO Table 1 designs; 0 = use lattice2d.cell
+    target_porosity: float = ...,  # lattice2d.target_porosity: tune the cell size (Voronoi: the density) until this share of the region is pore, lines lattice2d.line_width wide, as GIPPO Table 1 desi
     threads: int = ...,  # run.threads: worker threads (0 = all cores)
     z: float = ...,  # lattice2d.z: height of the lattice plane
 ) -> Result: ...
@@ -189,7 +189,7 @@ def plan(
     solid: str = ...,  # layers.solid: closed mesh each layer's pattern is cropped to
     speed: float = ...,  # speed.print: printing speed
     strand: float = ...,  # lattice2d.strand: strand distance of square, triangle and lines
-    target_porosity: float = ...,  # lattice2d.target_porosity: tune the cell size until the pore area (lines lattice2d.line_width wide) is this share, as GIPPO Table 1 designs; 0 = use lattice2d.cell
+    target_porosity: float = ...,  # lattice2d.target_porosity: tune the cell size (Voronoi: the density) until this share of the region is pore, lines lattice2d.line_width wide, as GIPPO Table 1 desi
     threads: int = ...,  # run.threads: worker threads (0 = all cores)
     tip_clearance: float = ...,  # nozzle.tip_clearance: material less than this above the tip is not hit
     tries: int = ...,  # aero.tries: dynamic: planner runs (strategies, then shuffled orders; best kept)

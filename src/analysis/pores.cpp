@@ -7,7 +7,9 @@
 
 namespace trellis {
 
-PoreArea pore_area(const Graph& g, double width) {
+namespace {
+
+Regions stroked(const Graph& g, double width) {
   if (!(width > 0) || !std::isfinite(width)) throw SettingError("the line width must be positive");
   std::vector<std::vector<Vec2>> lines;
   lines.reserve(g.edges.size());
@@ -16,7 +18,29 @@ PoreArea pore_area(const Graph& g, double width) {
     lines.push_back({{a.x, a.y}, {b.x, b.y}});
   }
   // Arc tolerance 0.1 % of the width: the round ends' area is within ~1e-3 of a disc's.
-  const Regions printed = stroke(lines, width, 1e-3 * width);
+  return stroke(lines, width, 1e-3 * width);
+}
+
+// The pattern's length scale: the cell size, or for Voronoi the mean seed spacing.
+double scale_of(const AtlasParams& a) {
+  return a.pattern == Pattern::Voronoi ? 1 / std::sqrt(a.voronoi_density) : a.cell_size;
+}
+
+AtlasParams with_scale(AtlasParams a, double scale) {
+  if (a.pattern == Pattern::Voronoi) {
+    a.voronoi_density = 1 / (scale * scale);
+  } else {
+    a.cell_size = scale;
+    if (a.strand_distance > 0)
+      a.strand_distance = scale;  // spacing patterns: the strand is the cell
+  }
+  return a;
+}
+
+}  // namespace
+
+PoreArea pore_area(const Graph& g, double width) {
+  const Regions printed = stroked(g, width);
   PoreArea r;
   for (const auto& p : printed) {
     r.enclosed += std::abs(signed_area(p.outer));
@@ -30,21 +54,22 @@ PoreArea pore_area(const Graph& g, double width) {
   return r;
 }
 
-double cell_for_porosity(const AtlasParams& params, double target, double width) {
-  if (params.pattern == Pattern::Voronoi)
-    throw SettingError("a target porosity tunes the cell size; a Voronoi lattice's pores follow "
-                       "its density (lattice2d.density) instead",
-                       {"", 0, "lattice2d.target_porosity"});
+double surface_pore_percent(const Graph& g, double width, const Regions& region) {
+  const double total = area(region);
+  if (!(total > 0)) throw SettingError("the region of a pore share must have an area");
+  const double covered = area(intersection(stroked(g, width), region));
+  return 100 * (total - covered) / total;
+}
+
+AtlasParams tune_for_porosity(const AtlasParams& params, double target, double width) {
   if (!(target > 0 && target < 100))
     throw SettingError("the target porosity is a percentage in (0, 100)",
                        {"", 0, "lattice2d.target_porosity"});
-  auto percent = [&](double cell) {
-    AtlasParams a = params;
-    a.cell_size = cell;
-    if (a.strand_distance > 0) a.strand_distance = cell;  // spacing patterns: the strand is the cell
-    return pore_area(make_lattice2d(a), width).percent();
+  const Regions region = params.crop.empty() ? Regions{params.region.polygon()} : params.crop;
+  auto percent = [&](double scale) {
+    return surface_pore_percent(make_lattice2d(with_scale(params, scale)), width, region);
   };
-  double lo = 1.05 * width, hi = std::max(params.cell_size, 2 * width);
+  double lo = 1.05 * width, hi = std::max(scale_of(params), 2 * width);
   while (percent(hi) < target) {
     lo = hi;
     hi *= 2;
@@ -64,7 +89,7 @@ double cell_for_porosity(const AtlasParams& params, double target, double width)
     if (std::abs(p - target) < best_err) best = m, best_err = std::abs(p - target);
     (p < target ? lo : hi) = m;
   }
-  return best;
+  return with_scale(params, best);
 }
 
 }  // namespace trellis

@@ -49,12 +49,12 @@ Toolpath strut_picture(const Graph& g) {
 AtlasParams atlas_of(const Config& c, const Settings& st) {
   AtlasParams a = c.lattice2d;
   if (c.target_porosity > 0) {
-    if (st.has("lattice2d.cell"))
-      throw SettingError("give lattice2d.cell or lattice2d.target_porosity, not both (the target "
-                         "sets the cell)",
-                         {"", 0, "lattice2d.target_porosity"});
-    a.cell_size = cell_for_porosity(a, c.target_porosity, c.line_width);
-    if (a.strand_distance > 0) a.strand_distance = a.cell_size;
+    const char* scale = a.pattern == Pattern::Voronoi ? "lattice2d.density" : "lattice2d.cell";
+    if (st.has(scale))
+      throw SettingError(
+          fmt::format("give {} or lattice2d.target_porosity, not both (the target sets it)", scale),
+          {"", 0, "lattice2d.target_porosity"});
+    a = tune_for_porosity(a, c.target_porosity, c.line_width);
   }
   if (!st.has("lattice2d.center")) a.region.center = corner_at_origin(a);
   return a;
@@ -313,12 +313,18 @@ JobResult lattice2d(const Job& job, const Config& c, Diagnostics&, const Progres
     render_layer_png(strut_picture(g), 0, out.files.back(), ro);
   }
   const PoreArea pores = pore_area(g, c.line_width);
+  const double surface = surface_pore_percent(
+      g, c.line_width, a.crop.empty() ? Regions{a.region.polygon()} : a.crop);
+  const std::string tuned = a.pattern == Pattern::Voronoi
+                                ? fmt::format("density {} seeds/mm²", fixed(a.voronoi_density, 4))
+                                : fmt::format("cell {} mm", fixed(a.cell_size, 4));
   out.summary = fmt::format(
       "lattice: {}, {} nodes, {} edges, {} mm of struts, lower bound {} paths, pore area {}% ({} "
-      "pores at {} mm lines){}",
+      "pores at {} mm lines), {}% of the region{}",
       to_string(a.pattern), g.nodes.size(), g.edges.size(), fixed(g.total_length(), 1),
       lower_bound_paths(g), fixed(pores.percent(), 1), pores.count, fixed(c.line_width, 2),
-      c.target_porosity > 0 ? fmt::format("; cell {} mm for the {}% target", fixed(a.cell_size, 4),
+      fixed(surface, 1),
+      c.target_porosity > 0 ? fmt::format("; {} for {}% of the region", tuned,
                                           fixed(c.target_porosity, 1))
                             : std::string());
   return out;
@@ -493,7 +499,7 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
   std::string robustness;
   if (c.gippo_seeds > 0 && p.planner == Planner::Gippo) {
     // The paper's robustness run (Fig. 2 v-vi): the best score over many seeds.
-    const GippoRobustness rob = gippo_robustness(g, p.gippo, c.gippo_seeds);
+    const GippoRobustness rob = gippo_robustness(g, p.gippo, c.gippo_seeds, p.long_path_nodes);
     robustness = gippo_robustness_json(rob, p.gippo);
     out.summary = fmt::format("gippo robustness over {} seeds: best score mean {}, SD {} (CV {}%), min {}, max {}\n",
                               c.gippo_seeds, fixed(rob.mean, 4), fixed(rob.sd, 4),

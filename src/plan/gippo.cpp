@@ -319,7 +319,8 @@ GippoResult plan_gippo(const Graph& g, const GippoParams& params) {
   return result;
 }
 
-GippoRobustness gippo_robustness(const Graph& g, const GippoParams& params, int seeds) {
+GippoRobustness gippo_robustness(const Graph& g, const GippoParams& params, int seeds,
+                                 std::size_t long_nodes) {
   if (seeds < 1) throw SettingError("the robustness run needs at least one seed");
   GippoRobustness r;
   for (int k = 0; k < seeds; ++k) {
@@ -332,6 +333,8 @@ GippoRobustness gippo_robustness(const Graph& g, const GippoParams& params, int 
     r.seeds.push_back(p.seed);
     r.best_scores.push_back(one.scores.empty() ? 0.0 : one.scores[one.best_iteration]);
     r.worst_scores.push_back(one.scores.empty() ? 0.0 : one.scores[one.worst_iteration]);
+    r.best_lts.push_back(path_metrics(g, one.best, long_nodes).lts);
+    r.worst_lts.push_back(path_metrics(g, one.worst, long_nodes).lts);
     params.progress("seeds", static_cast<double>(k + 1) / seeds);
   }
   const auto n = static_cast<double>(seeds);
@@ -360,6 +363,8 @@ std::string gippo_robustness_json(const GippoRobustness& r, const GippoParams& p
                      {"max", r.max}};
   j["best_score_per_seed"] = r.best_scores;
   j["worst_score_per_seed"] = r.worst_scores;
+  j["best_lts_per_seed"] = r.best_lts;
+  j["worst_lts_per_seed"] = r.worst_lts;
   return j.dump(2) + "\n";
 }
 

@@ -589,6 +589,19 @@ void render_scores_png(const std::vector<double>& scores, std::size_t best,
     cairo_move_to(c, W - R - 230, 25);
     cairo_show_text(c, buf);
   }
+  // The worst solution (lowest score, first such iteration) in green, as the paper's Fig. 2 (i).
+  if (!scores.empty()) {
+    const auto worst =
+        static_cast<std::size_t>(std::min_element(scores.begin(), scores.end()) - scores.begin());
+    cairo_set_source_rgb(c, 0.1, 0.6, 0.2);
+    cairo_new_path(c);  // not joined to where the text above ended
+    cairo_arc(c, X(worst), Y(scores[worst]), 6, 0, 2 * M_PI);
+    cairo_stroke(c);
+    std::snprintf(buf, sizeof buf, "worst %.4g (iteration %zu)", scores[worst], worst + 1);
+    cairo_set_font_size(c, 13);
+    cairo_move_to(c, W - R - 230, 42);
+    cairo_show_text(c, buf);
+  }
   cairo_surface_flush(surface.get());
   save_png(surface.get(), path);
 }

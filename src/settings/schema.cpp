@@ -510,8 +510,9 @@ std::vector<Setting> make_table() {
   t.push_back(number("lattice2d.arrowhead_outer", "deg", 1, 89, "arrowhead: outer chevron angle",
                      "arrowhead-outer", [](C& c) -> auto& { return c.lattice2d.arrowhead_outer_deg; }));
   t.push_back(number("lattice2d.target_porosity", "%", 0, 99,
-                     "tune the cell size until the pore area (lines lattice2d.line_width wide) is "
-                     "this share, as GIPPO Table 1 designs; 0 = use lattice2d.cell",
+                     "tune the cell size (Voronoi: the density) until this share of the region is "
+                     "pore, lines lattice2d.line_width wide, as GIPPO Table 1 designs; 0 = use "
+                     "lattice2d.cell",
                      "target-porosity", [](C& c) -> auto& { return c.target_porosity; }));
   t.push_back(positive("lattice2d.line_width", "mm", 100,
                        "printed line width for the reported pore area", "line-width",

@@ -64,8 +64,11 @@ TEST(PlanShardJob, GippoLayersMergeExactlyFrom1_2_5Shards) {
   expect_shards_merge_to_single(job, "cyl_travel", {"plan.order=travel"});
 }
 
+// The Ø48 mm Voronoi disc in travel order, planned by Euler and by GIPPO (the example's planner).
 TEST(PlanShardJob, EulerTravelOrderMergesExactlyFrom1_2_5Shards) {
-  expect_shards_merge_to_single(kRoot + "/examples/voronoi_disc_travel.toml", "voronoi");
+  const std::string job = kRoot + "/examples/voronoi_disc_travel.toml";
+  expect_shards_merge_to_single(job, "voronoi", {"plan.planner=euler"});
+  expect_shards_merge_to_single(job, "voronoi_gippo");
 }
 
 // Layers laid on a sphere: layer k is offset by its index, from the whole plan's first layer.

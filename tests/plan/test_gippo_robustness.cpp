@@ -29,6 +29,11 @@ TEST(GippoRobustness, PerSeedBestScoresAndTheirSpread) {
     EXPECT_EQ(r.seeds[k], 7u + k);
     EXPECT_DOUBLE_EQ(r.best_scores[k], x.scores[x.best_iteration]);
     EXPECT_LE(r.worst_scores[k], r.best_scores[k]);
+    // Fig. 2 (vi): each seed's LTS is Eq. 2 of that seed's best (and worst) solution.
+    EXPECT_DOUBLE_EQ(r.best_lts[k], path_metrics(g, x.best).lts);
+    EXPECT_DOUBLE_EQ(r.worst_lts[k], path_metrics(g, x.worst).lts);
+    EXPECT_GE(r.best_lts[k], 0);
+    EXPECT_LE(r.best_lts[k], 100);
     sum += r.best_scores[k];
   }
   const double mean = sum / 6;
@@ -41,4 +46,8 @@ TEST(GippoRobustness, PerSeedBestScoresAndTheirSpread) {
   EXPECT_GE(r.max, r.mean);
   EXPECT_THROW(gippo_robustness(g, p, 0), SettingError);
   EXPECT_NE(gippo_robustness_json(r, p).find("\"cv_percent\""), std::string::npos);
+  EXPECT_NE(gippo_robustness_json(r, p).find("\"best_lts_per_seed\""), std::string::npos);
+  // A stricter threshold for "long" can only lower each seed's LTS.
+  const GippoRobustness strict = gippo_robustness(g, p, 6, 9);
+  for (int k = 0; k < 6; ++k) EXPECT_LE(strict.best_lts[k], r.best_lts[k]);
 }

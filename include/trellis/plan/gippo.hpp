@@ -56,12 +56,15 @@ struct GippoRobustness {
   std::vector<std::uint64_t> seeds;
   std::vector<double> best_scores;   // per seed
   std::vector<double> worst_scores;  // per seed
+  std::vector<double> best_lts;      // per seed, Eq. 2 of the best solution (%)
+  std::vector<double> worst_lts;     // per seed, Eq. 2 of the worst solution (%)
   double mean = 0, sd = 0;           // of the best scores (sample standard deviation, n - 1)
   double min = 0, max = 0;
   double cv_percent() const { return mean != 0 ? 100 * sd / std::abs(mean) : 0; }
 };
-// Throws SettingError for seeds < 1.
-GippoRobustness gippo_robustness(const Graph& g, const GippoParams& params, int seeds);
+// Throws SettingError for seeds < 1. `long_nodes`: a path of that many nodes is long for LTS.
+GippoRobustness gippo_robustness(const Graph& g, const GippoParams& params, int seeds,
+                                 std::size_t long_nodes = 5);
 std::string gippo_robustness_json(const GippoRobustness& r, const GippoParams& params);
 
 // One GIPPO iteration (exposed for tests and benchmarks).

@@ -79,7 +79,8 @@ std::string render_thumbnail_png(const LayerSource& layers, int width, int heigh
 std::vector<std::string> render_thumbnails_png(const LayerSource& layers,
                                                const std::vector<std::pair<int, int>>& sizes);
 
-// Scatter of scores per iteration with the best one marked.
+// Scatter of scores per iteration with the best (red) and the worst (green, the lowest score)
+// marked, as GIPPO's Fig. 2 (i).
 void render_scores_png(const std::vector<double>& scores, std::size_t best_iteration,
                        const std::string& title, const std::string& path);
 
