@@ -84,11 +84,27 @@ def method(out):
             f"{r['per_layer'][0]['lines']} / {r['per_layer'][1]['lines']}",
             why="the paper gives no count; 16 and 44 mm at one 0.4 mm width apart"),
         row("§2.6, corrugation", "steepest descent", 45.0, round(r["max_descent_deg"], 2), "deg"),
+        step_row(out),
         row("§3.1, slicer", "deviation of path points from the lifted surface", 0,
             round(r["max_deviation_mm"], 6), "mm",
             why="points on the surface lifted by k × 0.3 mm; chords within "
                 f"{r['chord_tolerance_mm']} mm"),
     ]
+
+
+def step_row(out):
+    """§3.1: a discontinuous surface (a 3 mm step across the lines) is sliced too."""
+    d = os.path.join(out, "method_step")
+    os.makedirs(d, exist_ok=True)
+    rep = os.path.join(d, "report.json")
+    run("nonplanar", "--height-fn", "x < 0 ? 0 : 3", "--domain", "-10,-5,10,5", "--machine",
+        MACHINE, "-o", os.path.join(d, "step.gcode"), "--report", rep, "--preview", d,
+        "--preview-layers", 1, "--image-size", 600, "--no-progress", *PAPER_FLOW)
+    r = paperlib.json.load(open(rep))
+    return row("§3.1, discontinuous surface (a 3 mm step)", "travel moves per layer, most", None,
+               max(l["travel_moves"] for l in r["per_layer"]),
+               why="the paper: discontinuous surfaces are sliced, no count; one travel crosses "
+                   f"the step ({r['surface_jumps']} jumps split the lines)")
 
 
 def gcode_e_per_mm(gcode):
