@@ -15,9 +15,7 @@ machine = os.path.join(ROOT, "profiles", "fresh_nonplanar_2syringe.toml")
 with tempfile.TemporaryDirectory() as d:
     stl = os.path.join(d, "m.stl")
     trellis.surface("m-curve", stl)
-    # The paper's constant extrusion scalar (§2.1): the profile's down-angle factors off.
-    r = trellis.nonplanar(stl, machine=machine, layers=9, layer_tools="3:0,3:1,3:0", angles=[0],
-                          set={"extrusion.down_flow": ""})
+    r = trellis.nonplanar(stl, machine=machine, layers=9, layer_tools="3:0,3:1,3:0", angles=[0])
 tp = r.toolpath
 print(f"{tp.layer_count} layers, {tp.path_count} paths, tools per layer {list(tp.tool)}")
 print(f"height range {np.ptp(tp.points[:, 2]):.2f} mm; {r.summary.split(', ')[4]}")
