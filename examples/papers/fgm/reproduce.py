@@ -49,7 +49,7 @@ _DONE = {}
 def slice_(out, name, design, machine, *args, preview=True):
     """Slice a design; returns (report, seconds). Pictures in OUT/name/. A slice already made
     with the same design, machine and settings is not made again."""
-    key = (design, machine, tuple(map(str, args)))
+    key = (design, machine, tuple(map(str, args)), preview)
     if key in _DONE:
         return _DONE[key]
     d = os.path.join(out, name)
@@ -82,7 +82,7 @@ def table3(out, quick):
         if zipper:
             args += ["--zipper", 0.02]
         name = f"table3_s{strategy}_{colors}" + ("_zipper" if zipper else "")
-        r, secs = slice_(out, name, design, MIXING, *args, preview=False)
+        r, secs = slice_(out, name, design, MIXING, *args)
         f = r["fgm"]
         label = f"Table 3, palette ({obj}), S{strategy}, {colors} colours" + (
             ", zippered" if zipper else "")

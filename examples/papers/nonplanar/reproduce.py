@@ -19,8 +19,9 @@ constant extrusion scalar (§2.1: E = distance × one scalar), i.e. the profile'
 factors switched off (extrusion.down_flow = ""); Fig. 2's rows show what the factors change.
 The mechanical results (moduli, strength, strain, Poisson's ratio, filament widths) are
 physical: their rows give the paper's finding and say that a toolpath cannot reproduce it.
-Pictures: OUT/<figure>/<case>/3d.png (trellis nonplanar --preview) and the planar control's
-layers (trellis render). All sizes are the paper's; --quick changes nothing here.
+Pictures: OUT/<figure>_<case>/3d.png (trellis nonplanar --preview) and the planar control's
+layers (OUT/fig3_planar/layer_*.png, trellis render); Fig. 2's test path is numbers only
+(OUT/fig2/*.gcode). All sizes are the paper's; --quick changes nothing here.
 """
 import math
 import os
