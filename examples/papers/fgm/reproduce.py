@@ -111,8 +111,8 @@ def table3(out, quick):
         rows.append(row("Table 3, vase (Fig. 21), S1, 16 colours", "colours realised", 16,
                         r["fgm"]["colors_used"]))
     rows.append(row("Table 3, 3D Benchy (Fig. 22), S2, 5 colours", "layers", 240, None,
-                    why="no Benchy mesh in the repository (its licence asks for attribution "
-                        "we have not added); Eq. 2's gradient is not among our designs"))
+                    why="no Benchy mesh in the repository, and Eq. 2's gradient is not among "
+                        "our designs: not reproduced"))
     return rows
 
 
@@ -282,7 +282,7 @@ def fig16(out, quick):
                     ", ".join(f"{t:g}" for t in temps), "°C",
                     why="the paper gives none per colour; 190–225 °C linearly (§7.1), each "
                         "colour at its band's centre"))
-    rows.append(row("§4.1, Fig. 17a", "purge mass per colour change, foaming PLA", 0.16,
+    rows.append(row("§4.1, Fig. 17a", "purge mass per added colour, foaming PLA", 0.16,
                     round(r["fgm"]["purge_mass_g"] / r["fgm"]["purges"], 3)
                     if r["fgm"]["purges"] else 0, "g",
                     why=UNPUBLISHED + ("" if r["fgm"]["purges"] else "; the MK4S profile "
