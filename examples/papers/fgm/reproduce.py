@@ -122,7 +122,7 @@ def fig2(out, quick):
             ("column 3", "fgm_column3_ring_angular.vcad", "abs(phi)/pi on a ring"),
             ("column 5", "fgm_column5_ring_radial.vcad", "(rho-15)/35 on a ring")]
     if not quick:
-        cols.append(("column 6", "fgm_column6_vase.vcad", "Eq. 1 on the vase"))
+        cols.append(("column 6", "fgm_column6_vase.vcad", "Listing 5's sine gradient on the vase"))
     rows = []
     for col, design, what in cols:
         r, _ = slice_(out, "fig2_" + col.replace(" ", ""), os.path.join(DESIGNS, design), MIXING,
