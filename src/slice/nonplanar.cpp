@@ -11,8 +11,8 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
-#include <functional>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <map>
 #include <mutex>
@@ -635,8 +635,8 @@ bool hole_ahead(const SurfacePoint& sp, Vec3 a, Vec3 before, const BBox2& box, d
   const double len = std::hypot(t.x, t.y);
   if (len <= 0) return false;
   t = t * (1 / len);
-  for (Vec2 q = a.xy() + t * step; q.x >= box.min.x && q.x <= box.max.x && q.y >= box.min.y &&
-                                   q.y <= box.max.y;
+  for (Vec2 q = a.xy() + t * step;
+       q.x >= box.min.x && q.x <= box.max.x && q.y >= box.min.y && q.y <= box.max.y;
        q = q + t * step)
     if (is_finite(sp(q))) return true;
   return false;
@@ -1006,16 +1006,26 @@ NonplanarResult slice_nonplanar(const HeightField& surface, const NonplanarParam
     std::size_t next = 0;
     long cur_line = -10;
     bool reverse = false;
-    // The unused piece end nearest to `from` (among outer lines' pieces if `outer_only`).
-    auto nearest = [&](Vec3 from, bool outer_only) {
+    // The unused piece end nearest to `from` (among outer lines' pieces if `outer_only`),
+    // another line's before one of `avoid_line`: the rest of the line just printed lies beyond
+    // a gap or a jump of the surface, always a travel away. Returns false when none is left.
+    auto nearest = [&](Vec3 from, bool outer_only, long avoid_line = -10) {
       double best = 1e300;
+      bool other_line = false;
       for (std::size_t i = 0; i < pieces.size(); ++i) {
         if (used[i] || (outer_only && !extreme[i])) continue;
+        const bool other = line_of[i] != avoid_line;
+        if (other_line && !other) continue;
         for (int e = 0; e < 2; ++e) {
-          const double dd = distance_xy(from, e ? pieces[i].back() : pieces[i].front());
-          if (dd < best) best = dd, next = i, reverse = e == 1;
+          // Horizontal distance; of two ends over a step of the surface (one above the other)
+          // the one on the same side is the nearer.
+          const Vec3 end = e ? pieces[i].back() : pieces[i].front();
+          const double dd = distance_xy(from, end) + 0.01 * std::abs(end.z - from.z);
+          if (dd < best || (other && !other_line))
+            best = dd, next = i, reverse = e == 1, other_line = other_line || other;
         }
       }
+      return best < 1e300;
     };
     // A serpentine starts at an outer line (otherwise nearest-neighbour strands the lines on
     // one side), at the end nearest to where the previous layer ended.
@@ -1033,8 +1043,18 @@ NonplanarResult slice_nonplanar(const HeightField& surface, const NonplanarParam
         if (neighbours || distance_xy(a, b) <= max_join) {
           auto conn = sample_curve(sp, a.xy(), b.xy(), prm.chord_tolerance * 0.5,
                                    std::clamp(prm.width / 4, 0.01, 0.1));
-          if (conn.size() == 1 && distance_xy(conn[0].front(), a) < 1e-6 &&
-              distance_xy(conn[0].back(), b) < 1e-6) {
+          // Its ends must meet the pieces' in 3D too, and its chords lie on the surface: two
+          // ends over a step of the surface lie one above the other, and a connector along
+          // the step can reach the far side only by a chord through the air.
+          auto on_surface = [&](const std::vector<Vec3>& c) {
+            for (std::size_t i = 1; i < c.size(); ++i) {
+              const Vec3 m = (c[i - 1] + c[i]) * 0.5;
+              if (!(std::abs(sp(m.xy()).z - m.z) <= 2 * prm.chord_tolerance)) return false;
+            }
+            return true;
+          };
+          if (conn.size() == 1 && distance(conn[0].front(), a) < 1e-6 &&
+              distance(conn[0].back(), b) < 1e-6 && on_surface(conn[0])) {
             auto c = simplify_polyline(conn[0], prm.chord_tolerance * 0.5);
             double clen = 0;
             for (std::size_t i = 1; i < c.size(); ++i) clen += distance(c[i - 1], c[i]);
@@ -1052,7 +1072,7 @@ NonplanarResult slice_nonplanar(const HeightField& surface, const NonplanarParam
             auto c = hug_connector(sp, a, b, away, std::clamp(prm.width / 4, 0.01, 0.1),
                                    std::max(10 * distance_xy(a, b), 10 * prm.width),
                                    prm.chord_tolerance);
-            if (!c.empty()) {
+            if (!c.empty() && on_surface(c)) {
               double clen = 0;
               for (std::size_t i = 1; i < c.size(); ++i) clen += distance(c[i - 1], c[i]);
               rep.connector_length += clen;
@@ -1060,6 +1080,20 @@ NonplanarResult slice_nonplanar(const HeightField& surface, const NonplanarParam
               cur.points.insert(cur.points.end(), c.begin() + 1, c.end() - 1);
               joined = true;
             }
+          }
+        }
+        if (!joined && !extreme[next]) {
+          // A travel it is: start the next serpentine at an outer line instead, as a layer
+          // starts, so that one travel crosses a surface step rather than one per line.
+          const std::size_t taken = next;
+          const bool was_reversed = reverse;
+          if (nearest(a, true)) {
+            if (was_reversed) std::reverse(piece.begin(), piece.end());
+            pieces[taken] = std::move(piece);
+            used[taken] = 0;
+            piece = std::move(pieces[next]);
+            used[next] = 1;
+            if (reverse) std::reverse(piece.begin(), piece.end());
           }
         }
         if (!joined) flush();
@@ -1071,7 +1105,7 @@ NonplanarResult slice_nonplanar(const HeightField& surface, const NonplanarParam
         const bool same = distance(cur.points.back(), piece.front()) < 1e-9;
         cur.points.insert(cur.points.end(), piece.begin() + (same ? 1 : 0), piece.end());
       }
-      nearest(cur.points.back(), false);
+      nearest(cur.points.back(), false, cur_line);
     }
     cursor = cur.points.back();
     flush();

@@ -406,13 +406,13 @@ TEST(Nonplanar, ProjectedLatticeKeepsEveryEdgeOnce) {
 
 }  // namespace
 
+#include <unistd.h>
+
 #include "trellis/geom/mesh_io.hpp"
 #include "trellis/geom/polygon.hpp"
 #include "trellis/job/job.hpp"
 #include "trellis/lattice/io.hpp"
 #include "trellis/toolpath/json.hpp"
-
-#include <unistd.h>
 
 namespace {
 
@@ -467,7 +467,8 @@ TEST(NonplanarJobs, LatticeOnSphereFollowsItLayerByLayer) {
   NonplanarParams check;
   check.layer_height = c.machine.layer_height;
   check.offset = OffsetMode::Normal;
-  const SurfaceDeviation dev = surface_deviation(tp, sphere_cap(c.onto.radius, c.onto.diameter), check);
+  const SurfaceDeviation dev =
+      surface_deviation(tp, sphere_cap(c.onto.radius, c.onto.diameter), check);
   EXPECT_LE(dev.max_point, 0.01);
   EXPECT_LE(dev.max_chord, c.onto.project.chord_tolerance + 1e-4);
 }
@@ -567,7 +568,8 @@ TEST(NonplanarCheck, PrunedChordDeviationEqualsBruteForce) {
 TEST(Nonplanar, JumpsSplitPathsInsteadOfBridgingThem) {
   NonplanarParams prm;
   prm.layers = 1;
-  const HeightField step = HeightField::from_expression("x^2+y^2<4 ? 5 : 0", {{-5, -5}, {5, 5}}, "disc");
+  const HeightField step =
+      HeightField::from_expression("x^2+y^2<4 ? 5 : 0", {{-5, -5}, {5, 5}}, "disc");
   const NonplanarResult r = slice_nonplanar(step, prm);
   std::size_t jumps = 0;
   for (const auto& l : r.layers) jumps += l.jumps;
@@ -577,13 +579,38 @@ TEST(Nonplanar, JumpsSplitPathsInsteadOfBridgingThem) {
     for (const auto& p : l.paths)
       for (std::size_t i = 1; i < p.points.size(); ++i) {
         const Vec3 d = p.points[i] - p.points[i - 1];
-        steepest = std::max(steepest, std::atan2(std::abs(d.z), std::hypot(d.x, d.y)) * 180 / 3.14159265358979);
+        steepest = std::max(
+            steepest, std::atan2(std::abs(d.z), std::hypot(d.x, d.y)) * 180 / 3.14159265358979);
       }
   EXPECT_LT(steepest, 80);
   EXPECT_LE(surface_deviation(r.toolpath, step, prm).max_chord, prm.chord_tolerance);
-  const HeightField smooth = HeightField::from_expression("2.5*tanh(20*x)", {{-5, -5}, {5, 5}}, "tanh");
+  const HeightField smooth =
+      HeightField::from_expression("2.5*tanh(20*x)", {{-5, -5}, {5, 5}}, "tanh");
   const NonplanarResult s = slice_nonplanar(smooth, prm);
   for (const auto& l : s.layers) EXPECT_EQ(l.jumps, 0u);
+}
+
+// A straight step across the footprint splits every line that crosses it: the pieces on each
+// side are one serpentine, and the layer crosses the step once (one travel), not once per line;
+// every piece is still printed (the layer's length is that of the lines, same for any order).
+TEST(Nonplanar, StepIsCrossedByOneTravelPerLayer) {
+  NonplanarParams prm;
+  prm.layers = 2;
+  prm.angles = {0, 90};
+  for (const char* expr : {"x < 0 ? 0 : 3", "x < 1.3 ? 2 : 0", "y < 0.5 ? 1 : 0"}) {
+    const HeightField step = HeightField::from_expression(expr, {{-10, -5}, {10, 5}}, expr);
+    const NonplanarResult r = slice_nonplanar(step, prm);
+    for (const auto& l : r.layers) {
+      EXPECT_LE(l.travel_moves, 1u) << expr << " at " << l.angle << " deg";
+      EXPECT_EQ(l.paths, l.travel_moves + 1) << expr;
+    }
+    std::size_t jumps = 0;
+    for (const auto& l : r.layers) jumps += l.jumps;
+    EXPECT_GE(jumps, 10u) << expr;
+    EXPECT_GE(footprint_coverage(r.toolpath, 0, step, prm.width, 0.02), 0.98) << expr;
+    EXPECT_GE(footprint_coverage(r.toolpath, 1, step, prm.width, 0.02), 0.98) << expr;
+    EXPECT_LE(surface_deviation(r.toolpath, step, prm).max_chord, prm.chord_tolerance) << expr;
+  }
 }
 
 // A footprint with a hole: lines that meet the hole are joined around it along its edge (in the
