@@ -46,15 +46,19 @@ JobResult analyze_build_file(const std::string& path, const std::string& design,
     corners += c.corners();
     layer_times.push_back(c.seconds());
   }
-  j["scan_time"] = {{"total_s", mark_s + jump_s + delay_s}, {"mark_s", mark_s}, {"jump_s", jump_s},
-                    {"delay_s", delay_s}, {"jumps", jumps}, {"corners", corners},
+  j["scan_time"] = {{"total_s", mark_s + jump_s + delay_s},
+                    {"mark_s", mark_s},
+                    {"jump_s", jump_s},
+                    {"delay_s", delay_s},
+                    {"jumps", jumps},
+                    {"corners", corners},
                     {"per_layer_s", layer_times}};
   JobResult out;
   out.toolpath = std::make_shared<Toolpath>(tp);
   if (design.empty()) {
     out.summary = fmt::format(
-        "{}: {} layers, {} vectors ({} mm); scan time {} s (marking {} s, jumps {} s, delays {} s); "
-        "no --design: nothing to measure against",
+        "{}: {} layers, {} vectors ({} mm); scan time {} s (marking {} s, jumps {} s, "
+        "delays {} s); no --design: nothing to measure against",
         path, tp.layers.size(), vectors, routes::fixed(tp.extrusion_length(), 1),
         routes::fixed(mark_s + jump_s + delay_s, 1), routes::fixed(mark_s, 1),
         routes::fixed(jump_s, 1), routes::fixed(delay_s, 1));

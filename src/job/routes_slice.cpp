@@ -204,9 +204,9 @@ PbfDesign pbf_part_design(const PbfConfig& p, const std::string& input, const Se
 // Per-layer columns of the report (z, FR_a of the path and of R67, lengths, area, scan times).
 nlohmann::ordered_json pbf_layer_series(const PbfResult& r) {
   nlohmann::ordered_json s;
-  for (const char* k : {"z_mm", "fr_a", "fr_a_r67", "contour_mm", "hatch_mm", "r67_hatch_mm",
-                        "area_mm2", "scan_time_s", "scan_time_r67_s", "hatch_angle_deg", "fr_a_eq",
-                        "fr_a_eq_r67"})
+  for (const char* k :
+       {"z_mm", "fr_a", "fr_a_r67", "contour_mm", "hatch_mm", "r67_hatch_mm", "area_mm2",
+        "scan_time_s", "scan_time_r67_s", "hatch_angle_deg", "fr_a_eq", "fr_a_eq_r67"})
     s[k] = nlohmann::json::array();
   for (const auto& L : r.layers) {
     s["z_mm"].push_back(L.z);
@@ -1139,7 +1139,8 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
     // Eq. 8 with the equivalent scan length L̃_p of every vector (its melt track's round ends).
     const PbfStats he = fr_eq_stats(r.layers, false), be = fr_eq_stats(r.layers, true);
     j["fr_a_eq"] = {{"mean", he.mean}, {"min", he.min}, {"max", he.max}, {"cv", he.cv}};
-    j["fr_a_eq_r67_baseline"] = {{"mean", be.mean}, {"min", be.min}, {"max", be.max}, {"cv", be.cv}};
+    j["fr_a_eq_r67_baseline"] = {
+        {"mean", be.mean}, {"min", be.min}, {"max", be.max}, {"cv", be.cv}};
     const PbfStats t = thickness_stats(r.layers);
     j["wall_thickness_mm"] = {{"mean", t.mean}, {"min", t.min}, {"max", t.max}, {"spread", t.cv}};
     if (po.stl_route)

@@ -907,7 +907,8 @@ std::vector<Setting> make_table() {
       "pbf.hatch_phase",
       {{"wall", HatchPhase::Wall}, {"origin", HatchPhase::Origin}, {"random", HatchPhase::Random}},
       "where hatch lines are fixed each layer: through the design's origin (wall: the Fig. 3 "
-      "wall's centre), through the machine origin (pbf.plate_position places the part), or moved by a random fraction of the hatch distance (seeded by pbf.hatch_seed)",
+      "wall's centre), through the machine origin (pbf.plate_position places the part), or moved "
+      "by a random fraction of the hatch distance (seeded by pbf.hatch_seed)",
       "hatch-phase", [](C& c) -> auto& { return c.pbf.options.hatch_phase; }));
   t.push_back(derived(numbers("pbf.plate_position", "mm", -10000, 10000, 2,
                               "where the design's origin sits on the build plate (X, Y from the "

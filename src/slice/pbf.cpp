@@ -434,7 +434,7 @@ class JointSection : public PlaneFunction {
       const double incl = g > 0 ? std::acos(std::min(1.0, std::abs(gz) / g)) / kDeg : 0;
       m = pbf_split_c(0.5 * full, incl, o_.min_inclination) - std::abs(ctx_.phi.value(p));
     } else {
-      m = o_.thin_multiple * o_.melt_pool * gxy - full;          // < 0: wider than a thin wall
+      m = o_.thin_multiple * o_.melt_pool * gxy - full;         // < 0: wider than a thin wall
       if (g > 0) m = std::min(m, cos_min_ - std::abs(gz) / g);  // < 0: shallow
     }
     if (ctx_.solids) m = std::min(m, ctx_.solids->value(p));
@@ -1498,7 +1498,8 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
       ho = o.machine_origin;
     } else if (o.hatch_phase == HatchPhase::Random) {
       const double a = L.hatch_angle * kDeg;
-      ho = Vec2{-std::sin(a), std::cos(a)} * (Rng::stream(o.hatch_seed, i).uniform01() * o.hatch_distance);
+      ho = Vec2{-std::sin(a), std::cos(a)} *
+           (Rng::stream(o.hatch_seed, i).uniform01() * o.hatch_distance);
     }
     // A march's contours, its blocks counted in the layer's.
     auto counted = [&L](ContourSet c) {
@@ -1607,7 +1608,8 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
                : hatch(S, L.hatch_angle, o.hatch_distance, ho);
     if (bc > 0) {
       const std::vector<Segment2> segs =
-          o.hybrid ? trim_hatch(S_hatch, T, L.hatch_angle, o.hatch_distance, bc, true, ho) : S_hatch;
+          o.hybrid ? trim_hatch(S_hatch, T, L.hatch_angle, o.hatch_distance, bc, true, ho)
+                   : S_hatch;
       for (const auto& seg : segs) add_vector(seg.a, seg.b);
     } else if (o.stl_route) {
       for (const auto& seg : hatch(hatch_region, L.hatch_angle, o.hatch_distance, ho))

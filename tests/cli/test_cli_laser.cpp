@@ -6,9 +6,9 @@
 
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <utility>
-#include <nlohmann/json.hpp>
 
 #include "trellis/core/file.hpp"
 
@@ -95,8 +95,9 @@ TEST(CliLaser, AnalyzeTimesABuildFileWithTheProfilesDelays) {
   ASSERT_EQ(r.code, 0) << r.err;
   const std::string profile = std::string(TRELLIS_SOURCE_DIR) + "/profiles/pbf_316l_25um.toml";
   std::string slow = trellis::read_file(profile);
-  for (const auto& [from, to] : {std::pair<std::string, std::string>{"laser_on_delay = 0", "laser_on_delay = 40"},
-                                 {"laser_off_delay = 0", "laser_off_delay = 60"}}) {
+  for (const auto& [from, to] :
+       {std::pair<std::string, std::string>{"laser_on_delay = 0", "laser_on_delay = 40"},
+        {"laser_off_delay = 0", "laser_off_delay = 60"}}) {
     const auto at = slow.find(from);
     ASSERT_NE(at, std::string::npos) << from;
     slow.replace(at, from.size(), to);

@@ -41,7 +41,9 @@ double across(Vec2 p, Vec2 o, double deg, double h) {
   const Vec2 n{-std::sin(deg * kDeg), std::cos(deg * kDeg)};
   return ((p.x - o.x) * n.x + (p.y - o.y) * n.y) / h;
 }
-double off_grid(double t) { return std::abs(t - std::round(t)); }
+double off_grid(double t) {
+  return std::abs(t - std::round(t));
+}
 
 }  // namespace
 
@@ -88,12 +90,12 @@ TEST(PbfPhase, LayerTimeWithDelaysIsTheTimeWithoutPlusTheCountedDelays) {
         const Vec2 p[2] = {h.a, h.b};
         count(p, 2);
       }
-      const double per_vector = (sky ? t.skywriting_time : t.mark_delay) + t.laser_on_delay +
-                                t.laser_off_delay;
-      const double expected = bare.layers[i].scan_time +
-                              1e-6 * (static_cast<double>(jumps) * t.jump_delay +
-                                      static_cast<double>(vectors) * per_vector +
-                                      static_cast<double>(corners) * t.polygon_delay);
+      const double per_vector =
+          (sky ? t.skywriting_time : t.mark_delay) + t.laser_on_delay + t.laser_off_delay;
+      const double expected =
+          bare.layers[i].scan_time + 1e-6 * (static_cast<double>(jumps) * t.jump_delay +
+                                             static_cast<double>(vectors) * per_vector +
+                                             static_cast<double>(corners) * t.polygon_delay);
       EXPECT_NEAR(L.scan_time, expected, 1e-9 * (1 + expected)) << "layer " << i;
       total_jumps += jumps;
     }

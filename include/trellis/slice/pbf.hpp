@@ -75,8 +75,8 @@ struct PbfOptions {
   double hatch_angle = 0;          // first layer's hatch angle, degrees
   double hatch_rotation = 67;      // degrees per layer
   HatchPhase hatch_phase = HatchPhase::Wall;
-  Vec2 machine_origin{};           // the machine's origin in design coordinates (Origin phase)
-  std::uint64_t hatch_seed = 1;    // Random phase: seeds the layers' shifts
+  Vec2 machine_origin{};         // the machine's origin in design coordinates (Origin phase)
+  std::uint64_t hatch_seed = 1;  // Random phase: seeds the layers' shifts
   PbfSplit split = PbfSplit::Width;
   double contour_shift = 0.381966; // scan-vector phase shift per layer, fraction of SL+LHD
   double refine = 1e-4;            // mm, crossing accuracy of hatch ends
