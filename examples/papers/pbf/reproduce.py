@@ -28,8 +28,28 @@ PROFILE = path("profiles", "pbf_316l_25um.toml")
 ONLY = None
 
 
+class NoPlots:
+    """Stands in for pyplot when matplotlib is missing: every picture is skipped, said once."""
+
+    def __getattr__(self, name):
+        return self
+
+    def __call__(self, *a, **k):
+        return self
+
+    def __iter__(self):
+        return iter((self, self))
+
+
 def plt():
-    import matplotlib
+    try:
+        import matplotlib
+    except ImportError:
+        if not getattr(plt, "warned", False):
+            print(f"warning: matplotlib is not installed for {sys.executable} "
+                  "(Debian: python3-matplotlib): no pictures, rows only", file=sys.stderr)
+            plt.warned = True
+        return NoPlots()
     matplotlib.use("Agg")
     import matplotlib.pyplot as p
     return p
