@@ -232,7 +232,7 @@ def scantime(out, quick):
                        f"{saving[label, False]:.0f} %); R67 scans little here, walls thinner than "
                        f"twice the compensation (its FR_a "
                        f"{r['fr_a_r67_baseline']['mean']:.2f})")
-            rows.append(row(f"§3.3 (Movie S2), gyroid {label}",
+            rows.append(row(f"§4 (Movie S2), gyroid {label}",
                             "scan time saved by hybrid vs R67, "
                             + ("profile delays" if delays else "no delays"),
                             "38.6–50", round(saving[label, delays], 1), "%", why))
