@@ -286,7 +286,9 @@ def pbf(
     grade_to: str = ...,  # pbf.grade_to: TYPE:CELL blended in by a sigmoid (graded cell size)
     grade_width: float = ...,  # pbf.grade_width: sigmoid width
     hatch: float = ...,  # scan.hatch_distance: hatch distance
+    hatch_phase: Literal['wall', 'origin', 'random'] = ...,  # pbf.hatch_phase: where hatch lines are fixed each layer: through the design's origin (wall: the Fig. 3 wall's centre), through the machin
     hatch_rotation: float = ...,  # pbf.hatch_rotation: hatch rotation per layer (paper: 67)
+    hatch_seed: int = ...,  # pbf.hatch_seed: random hatch phase: seed of the layers' shifts
     hierarchical: str = ...,  # pbf.hierarchical: TYPE:CELL:WEIGHT superposed (hierarchical lattice)
     image_size: int = ...,  # output.image_size: preview image size
     island_overlap: float = ...,  # pbf.island_overlap: island: neighbouring islands overlap
@@ -297,12 +299,14 @@ def pbf(
     max_memory: float = ...,  # run.max_memory: refuse a run whose estimate (made from its settings before it starts) needs more memory than this
     max_time: float = ...,  # run.max_time: refuse a run whose estimated time is longer than this
     min_inclination: float = ...,  # pbf.min_inclination: shallower walls are hatched
+    plate_position: Sequence[float] = ...,  # pbf.plate_position: where the design's origin sits on the build plate (X, Y from the machine origin): the origin hatch phase's grid
     preview_layers: int = ...,  # output.preview_layers: PNG previews spread over the layers
     resolution: float = ...,  # pbf.resolution: sampling step: the STL route's voxel; direct contours on a grid twice as coarse
     route: Literal['direct', 'stl'] = ...,  # pbf.route: direct (slice the field) or stl (marching cubes mesh, for comparison)
     size: Sequence[float] = ...,  # pbf.size: box X, Y, Z centred at the origin
     sl: float = ...,  # scan.segment_length: contour scan vector length SL: straight chords on φ = 0 (the paper tested 5-400 µm; outside is a warning)
     solids: str = ...,  # pbf.solids: .vcad solid parts (bosses), hatched
+    split: Literal['width', 'inclination'] = ...,  # pbf.split: thin walls against joints: width <= pbf.thin_multiple × D and steeper than pbf.min_inclination (width), or the paper's c interpolated by
     strategy: Literal['hybrid', 'r67', 'rectilinear', 'meander', 'stripe', 'island'] = ...,  # pbf.strategy: TPMS sheets: hybrid (contours on thin walls, hatch at joints) or r67 (hatch everything); so
     stripe_overlap: float = ...,  # pbf.stripe_overlap: stripe: neighbouring stripes overlap
     stripe_width: float = ...,  # pbf.stripe_width: stripe: width across the hatch lines

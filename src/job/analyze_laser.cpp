@@ -32,12 +32,36 @@ JobResult analyze_build_file(const std::string& path, const std::string& design,
   // that made the file gives (paths, scanned length).
   j["paths"] = vectors;
   j["scan_length_mm"] = tp.extrusion_length();
+  // Scan time as the profile's scanner runs it (marks, jumps, delays), with or without a design.
+  const ScanTiming timing = scan_timing(prof);
+  double mark_s = 0, jump_s = 0, delay_s = 0;
+  std::size_t jumps = 0, corners = 0;
+  nlohmann::ordered_json layer_times = nlohmann::json::array();
+  for (const auto& l : tp.layers) {
+    const ScanClock c = layer_scan_clock(l, timing);
+    mark_s += c.mark_seconds();
+    jump_s += c.jump_seconds();
+    delay_s += c.delay_seconds();
+    jumps += c.jumps();
+    corners += c.corners();
+    layer_times.push_back(c.seconds());
+  }
+  j["scan_time"] = {{"total_s", mark_s + jump_s + delay_s},
+                    {"mark_s", mark_s},
+                    {"jump_s", jump_s},
+                    {"delay_s", delay_s},
+                    {"jumps", jumps},
+                    {"corners", corners},
+                    {"per_layer_s", layer_times}};
   JobResult out;
   out.toolpath = std::make_shared<Toolpath>(tp);
   if (design.empty()) {
-    out.summary =
-        fmt::format("{}: {} layers, {} vectors ({} mm; no --design: nothing to measure against)",
-                    path, tp.layers.size(), vectors, routes::fixed(tp.extrusion_length(), 1));
+    out.summary = fmt::format(
+        "{}: {} layers, {} vectors ({} mm); scan time {} s (marking {} s, jumps {} s, "
+        "delays {} s); no --design: nothing to measure against",
+        path, tp.layers.size(), vectors, routes::fixed(tp.extrusion_length(), 1),
+        routes::fixed(mark_s + jump_s + delay_s, 1), routes::fixed(mark_s, 1),
+        routes::fixed(jump_s, 1), routes::fixed(delay_s, 1));
   } else {
     LaserAnalysisOptions lo;
     lo.melt_pool = prof.melt_pool_width;

@@ -204,8 +204,9 @@ PbfDesign pbf_part_design(const PbfConfig& p, const std::string& input, const Se
 // Per-layer columns of the report (z, FR_a of the path and of R67, lengths, area, scan times).
 nlohmann::ordered_json pbf_layer_series(const PbfResult& r) {
   nlohmann::ordered_json s;
-  for (const char* k : {"z_mm", "fr_a", "fr_a_r67", "contour_mm", "hatch_mm", "r67_hatch_mm",
-                        "area_mm2", "scan_time_s", "scan_time_r67_s"})
+  for (const char* k :
+       {"z_mm", "fr_a", "fr_a_r67", "contour_mm", "hatch_mm", "r67_hatch_mm", "area_mm2",
+        "scan_time_s", "scan_time_r67_s", "hatch_angle_deg", "fr_a_eq", "fr_a_eq_r67"})
     s[k] = nlohmann::json::array();
   for (const auto& L : r.layers) {
     s["z_mm"].push_back(L.z);
@@ -217,6 +218,9 @@ nlohmann::ordered_json pbf_layer_series(const PbfResult& r) {
     s["area_mm2"].push_back(L.area);
     s["scan_time_s"].push_back(L.scan_time);
     s["scan_time_r67_s"].push_back(L.scan_time_r67);
+    s["hatch_angle_deg"].push_back(L.hatch_angle);
+    s["fr_a_eq"].push_back(L.fr_eq);
+    s["fr_a_eq_r67"].push_back(L.fr_eq_r67);
   }
   return s;
 }
@@ -829,6 +833,9 @@ PbfOptions pbf_options(const Job& job, const Config& c) {
   po.beam_compensation = prof.beam_compensation;
   po.melt_pool = prof.melt_pool_width;
   po.hybrid = c.pbf.strategy == "hybrid";
+  po.machine_origin = c.pbf.plate_position.size() == 2
+                          ? Vec2{-c.pbf.plate_position[0], -c.pbf.plate_position[1]}
+                          : Vec2{-0.5 * prof.build_x, -0.5 * prof.build_y};  // centred on the plate
   po.stl_route = c.pbf.route == "stl";
   po.timing = scan_timing(prof);
   const Budget budget = budget_of(job, c, Progress{});
@@ -1048,6 +1055,9 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
   po.beam_compensation = prof.beam_compensation;
   po.melt_pool = prof.melt_pool_width;
   po.hybrid = c.pbf.strategy == "hybrid";
+  po.machine_origin = c.pbf.plate_position.size() == 2
+                          ? Vec2{-c.pbf.plate_position[0], -c.pbf.plate_position[1]}
+                          : Vec2{-0.5 * prof.build_x, -0.5 * prof.build_y};  // centred on the plate
   po.stl_route = c.pbf.route == "stl";
   po.timing = scan_timing(prof);
   check_pbf_cells(c, po);
@@ -1126,6 +1136,11 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
     j["scan_length_mm"] = r.contour_length + r.hatch_length;
     j["fr_a"] = {{"mean", h.mean}, {"min", h.min}, {"max", h.max}, {"cv", h.cv}};
     j["fr_a_r67_baseline"] = {{"mean", b.mean}, {"min", b.min}, {"max", b.max}, {"cv", b.cv}};
+    // Eq. 8 with the equivalent scan length L̃_p of every vector (its melt track's round ends).
+    const PbfStats he = fr_eq_stats(r.layers, false), be = fr_eq_stats(r.layers, true);
+    j["fr_a_eq"] = {{"mean", he.mean}, {"min", he.min}, {"max", he.max}, {"cv", he.cv}};
+    j["fr_a_eq_r67_baseline"] = {
+        {"mean", be.mean}, {"min", be.min}, {"max", be.max}, {"cv", be.cv}};
     const PbfStats t = thickness_stats(r.layers);
     j["wall_thickness_mm"] = {{"mean", t.mean}, {"min", t.min}, {"max", t.max}, {"spread", t.cv}};
     if (po.stl_route)

@@ -12,6 +12,8 @@ ScanTiming scan_timing(const LaserProfile& p) {
   t.polygon_delay = p.polygon_delay;
   t.skywriting = p.skywriting;
   t.skywriting_time = p.skywriting_time;
+  t.laser_on_delay = p.laser_on_delay;
+  t.laser_off_delay = p.laser_off_delay;
   return t;
 }
 

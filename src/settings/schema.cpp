@@ -324,8 +324,12 @@ const std::vector<std::pair<const char*, const char*>>& when_table() {
       {"pbf.grade_width", "pbf.grade_to"},
       {"pbf.wall_inclination", "pbf.wall_thickness"},
       {"pbf.wall_azimuth", "pbf.wall_thickness"},
-      {"pbf.thin_multiple", "pbf.strategy=hybrid; !@mesh"},
+      {"pbf.thin_multiple", "pbf.strategy=hybrid; !@mesh; pbf.split=width"},
       {"pbf.min_inclination", "pbf.strategy=hybrid; !@mesh"},
+      {"pbf.split", "pbf.strategy=hybrid; !@mesh"},
+      {"pbf.hatch_phase", "!@mesh; pbf.strategy=hybrid|r67"},
+      {"pbf.hatch_seed", "pbf.hatch_phase=random"},
+      {"pbf.plate_position", "pbf.hatch_phase=origin"},
       {"pbf.route", "!@mesh; pbf.strategy=hybrid|r67"},
       {"pbf.contours", "@mesh or pbf.strategy=rectilinear|meander|stripe|island"},
       {"pbf.contour_distance", "@mesh or pbf.strategy=rectilinear|meander|stripe|island"},
@@ -439,6 +443,12 @@ std::vector<Setting> make_table() {
                       "", [](C& c) -> auto& { return c.laser.skywriting; }));
   t.push_back(number("timing.skywriting_time", "µs", 0, 1e5, "run-in + run-out per vector with skywriting",
                      "", [](C& c) -> auto& { return c.laser.skywriting_time; }));
+  t.push_back(number("timing.laser_on_delay", "µs", 0, 1e5,
+                     "wait before the laser fires at every vector (0: within the jump delay)", "",
+                     [](C& c) -> auto& { return c.laser.laser_on_delay; }));
+  t.push_back(number("timing.laser_off_delay", "µs", 0, 1e5,
+                     "laser kept on after every vector's end (0: within the mark delay)", "",
+                     [](C& c) -> auto& { return c.laser.laser_off_delay; }));
 
   // lattice2d.*: the 2D atlas.
   t.push_back(choice_enum<Pattern>(
@@ -894,6 +904,26 @@ std::vector<Setting> make_table() {
                        "thin-multiple", [](C& c) -> auto& { return c.pbf.options.thin_multiple; }));
   t.push_back(number("pbf.min_inclination", "deg", 0, 90, "shallower walls are hatched",
                      "min-inclination", [](C& c) -> auto& { return c.pbf.options.min_inclination; }));
+  t.push_back(choice_enum<HatchPhase>(
+      "pbf.hatch_phase",
+      {{"wall", HatchPhase::Wall}, {"origin", HatchPhase::Origin}, {"random", HatchPhase::Random}},
+      "where hatch lines are fixed each layer: through the design's origin (wall: the Fig. 3 "
+      "wall's centre), through the machine origin (pbf.plate_position places the part), or moved "
+      "by a random fraction of the hatch distance (seeded by pbf.hatch_seed)",
+      "hatch-phase", [](C& c) -> auto& { return c.pbf.options.hatch_phase; }));
+  t.push_back(derived(numbers("pbf.plate_position", "mm", -10000, 10000, 2,
+                              "where the design's origin sits on the build plate (X, Y from the "
+                              "machine origin): the origin hatch phase's grid",
+                              "plate-position", [](C& c) -> auto& { return c.pbf.plate_position; }),
+                      "the plate's centre"));
+  t.push_back(integer("pbf.hatch_seed", 0, 9e15, "random hatch phase: seed of the layers' shifts",
+                      "hatch-seed", [](C& c) -> auto& { return c.pbf.options.hatch_seed; }));
+  t.push_back(choice_enum<PbfSplit>(
+      "pbf.split", {{"width", PbfSplit::Width}, {"inclination", PbfSplit::Inclination}},
+      "thin walls against joints: width <= pbf.thin_multiple × D and steeper than "
+      "pbf.min_inclination (width), or the paper's c interpolated by the mid-surface's inclination "
+      "from 0 at pbf.min_inclination to c 10° steeper, Eq. 6 / Fig. S5 (inclination)",
+      "split", [](C& c) -> auto& { return c.pbf.options.split; }));
 
   // nonplanar.*, surface.*
   t.push_back(derived(positive("nonplanar.bead_width", "mm", 100, "path width = plane spacing",

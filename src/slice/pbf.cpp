@@ -21,6 +21,7 @@
 
 #include "pbf_chords.hpp"
 #include "trellis/core/error.hpp"
+#include "trellis/core/rng.hpp"
 #include "trellis/geom/contour.hpp"
 #include "trellis/geom/mesh_io.hpp"
 #include "trellis/slice/slice.hpp"
@@ -36,7 +37,17 @@ Field PbfDesign::part() const {
   return f;
 }
 
-PbfStats fr_stats(const std::vector<PbfLayer>& layers, bool r67) {
+double pbf_split_c(double c, double inclination_deg, double min_inclination_deg) {
+  const double w = std::clamp((inclination_deg - min_inclination_deg) / kSplitBand, 0.0, 1.0);
+  return w * c;
+}
+
+double equivalent_length(double length, double melt_pool) {
+  return length + 0.25 * std::numbers::pi * melt_pool;
+}
+
+namespace {
+PbfStats stats_of(const std::vector<PbfLayer>& layers, double PbfLayer::*member) {
   PbfStats s;
   double sum = 0, sum2 = 0;
   std::size_t n = 0;
@@ -44,7 +55,7 @@ PbfStats fr_stats(const std::vector<PbfLayer>& layers, bool r67) {
   s.max = -s.min;
   for (const auto& l : layers) {
     if (!(l.area > 0)) continue;
-    const double v = r67 ? l.fr_r67 : l.fr;
+    const double v = l.*member;
     sum += v;
     sum2 += v * v;
     s.min = std::min(s.min, v);
@@ -56,6 +67,15 @@ PbfStats fr_stats(const std::vector<PbfLayer>& layers, bool r67) {
   const double var = std::max(0.0, sum2 / static_cast<double>(n) - s.mean * s.mean);
   s.cv = s.mean > 0 ? std::sqrt(var) / s.mean : 0;
   return s;
+}
+}  // namespace
+
+PbfStats fr_stats(const std::vector<PbfLayer>& layers, bool r67) {
+  return stats_of(layers, r67 ? &PbfLayer::fr_r67 : &PbfLayer::fr);
+}
+
+PbfStats fr_eq_stats(const std::vector<PbfLayer>& layers, bool r67) {
+  return stats_of(layers, r67 ? &PbfLayer::fr_eq_r67 : &PbfLayer::fr_eq);
 }
 
 PbfStats thickness_stats(const std::vector<PbfLayer>& layers) {
@@ -408,8 +428,15 @@ class JointSection : public PlaneFunction {
     // Horizontal width of the sheet: 2c / |∇xy φ| (or t·|∇φ| / |∇xy φ| for uniform thickness).
     const double full = d_.thickness > 0 ? d_.thickness * g
                                          : 2 * std::abs(ctx_.c ? ctx_.c->value(p) : c_);
-    double m = o_.thin_multiple * o_.melt_pool * gxy - full;  // < 0: wider than a thin wall
-    if (g > 0) m = std::min(m, cos_min_ - std::abs(gz) / g);  // < 0: shallow
+    double m;
+    if (o_.split == PbfSplit::Inclination) {
+      // The sheet of the c interpolated by inclination: > 0 inside it (|φ| below that c).
+      const double incl = g > 0 ? std::acos(std::min(1.0, std::abs(gz) / g)) / kDeg : 0;
+      m = pbf_split_c(0.5 * full, incl, o_.min_inclination) - std::abs(ctx_.phi.value(p));
+    } else {
+      m = o_.thin_multiple * o_.melt_pool * gxy - full;         // < 0: wider than a thin wall
+      if (g > 0) m = std::min(m, cos_min_ - std::abs(gz) / g);  // < 0: shallow
+    }
     if (ctx_.solids) m = std::min(m, ctx_.solids->value(p));
     return std::max(D, invert_ ? -m : m);
   }
@@ -1187,7 +1214,8 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
   // pieces of the mid-curve, which would find nothing, are skipped.
   const double thin_width = o.thin_multiple * o.melt_pool;
   result.thin_walls_possible =
-      design.thickness > 0
+      o.split == PbfSplit::Inclination ? true
+      : design.thickness > 0
           ? !(design.thickness > thin_width)
           : !c_field.empty() || !(thin_width * design.phi.lipschitz() < 2 * std::abs(c_const));
 
@@ -1464,6 +1492,15 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
     const double z = zs[i];
     L.z = z;
     L.hatch_angle = std::fmod(o.hatch_angle + o.hatch_rotation * static_cast<double>(i), 180.0);
+    // A point the layer's hatch lines pass through (HatchPhase).
+    Vec2 ho{0, 0};
+    if (o.hatch_phase == HatchPhase::Origin) {
+      ho = o.machine_origin;
+    } else if (o.hatch_phase == HatchPhase::Random) {
+      const double a = L.hatch_angle * kDeg;
+      ho = Vec2{-std::sin(a), std::cos(a)} *
+           (Rng::stream(o.hatch_seed, i).uniform01() * o.hatch_distance);
+    }
     // A march's contours, its blocks counted in the layer's.
     auto counted = [&L](ContourSet c) {
       L.blocks += c.blocks;
@@ -1567,19 +1604,20 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
     // The whole section hatched with the compensation: the R67 baseline, and the hybrid path's
     // joints once the thin walls are taken out.
     const std::vector<Segment2> S_hatch =
-        bc > 0 ? hatch_inset(S, {}, L.hatch_angle, o.hatch_distance, bc)
-               : hatch(S, L.hatch_angle, o.hatch_distance);
+        bc > 0 ? hatch_inset(S, {}, L.hatch_angle, o.hatch_distance, bc, ho)
+               : hatch(S, L.hatch_angle, o.hatch_distance, ho);
     if (bc > 0) {
       const std::vector<Segment2> segs =
-          o.hybrid ? trim_hatch(S_hatch, T, L.hatch_angle, o.hatch_distance, bc, true) : S_hatch;
+          o.hybrid ? trim_hatch(S_hatch, T, L.hatch_angle, o.hatch_distance, bc, true, ho)
+                   : S_hatch;
       for (const auto& seg : segs) add_vector(seg.a, seg.b);
     } else if (o.stl_route) {
-      for (const auto& seg : hatch(hatch_region, L.hatch_angle, o.hatch_distance))
+      for (const auto& seg : hatch(hatch_region, L.hatch_angle, o.hatch_distance, ho))
         add_vector(seg.a, seg.b);
     } else if (o.hybrid) {
       // Joints are wider than a thin wall (thin_multiple · D) by definition, so their outline on
       // the grid cannot miss one: its scan lines seed each crossing, refined on the field.
-      const std::vector<Segment2> segs = hatch(hatch_region, L.hatch_angle, o.hatch_distance);
+      const std::vector<Segment2> segs = hatch(hatch_region, L.hatch_angle, o.hatch_distance, ho);
       std::vector<HatchEnd> ends;
       ends.reserve(2 * segs.size());
       for (const auto& seg : segs) {
@@ -1602,10 +1640,11 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
       // Leaves of two grid cells, probed at their middle: crossings wider than one cell are
       // always found.
       LineZeros zeros(ctx, z, 2 * o.resolution, o.refine);
-      const auto k0 = static_cast<long long>(std::ceil(t0 / o.hatch_distance));
-      const auto k1 = static_cast<long long>(std::floor(t1 / o.hatch_distance));
+      const double off = ho.x * v.x + ho.y * v.y;  // the lines' phase across them
+      const auto k0 = static_cast<long long>(std::ceil((t0 - off) / o.hatch_distance));
+      const auto k1 = static_cast<long long>(std::floor((t1 - off) / o.hatch_distance));
       for (long long k = k0; k <= k1; ++k) {
-        const Vec2 origin = v * (static_cast<double>(k) * o.hatch_distance);
+        const Vec2 origin = v * (static_cast<double>(k) * o.hatch_distance + off);
         for (const auto& [a, b] : zeros.run(origin, u, s0, s1))
           add_vector(origin + u * a, origin + u * b);
       }
@@ -1629,6 +1668,11 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
     }
     L.fr = o.melt_pool * (L.contour_length + L.hatch_length) / L.area;
     L.fr_r67 = o.melt_pool * L.r67_length / L.area;
+    const double cap = equivalent_length(0, o.melt_pool);
+    const double n_vec = static_cast<double>(L.contours.size() + L.hatches.size());
+    const double n_r67 = static_cast<double>(o.hybrid ? S_hatch.size() : L.hatches.size());
+    L.fr_eq = o.melt_pool * (L.contour_length + L.hatch_length + n_vec * cap) / L.area;
+    L.fr_eq_r67 = o.melt_pool * (L.r67_length + n_r67 * cap) / L.area;
   };
   // A bounded in-order pipeline: layer numbers in order, layers computed in parallel (at most
   // two per thread in flight), then summed up and handed to the sink in order; with a sink the

@@ -1,6 +1,9 @@
 #include "trellis/toolpath/scan_time.hpp"
 
 #include <cmath>
+#include <vector>
+
+#include "trellis/toolpath/toolpath.hpp"
 
 namespace trellis {
 
@@ -11,6 +14,7 @@ void ScanClock::mark(const Vec2* p, std::size_t n, double speed) {
     if (d > 0) {
       jump_s_ += d / t_.jump_speed;
       delay_s_ += t_.jump_delay * 1e-6;
+      ++jumps_;
     }
   }
   started_ = true;
@@ -18,9 +22,25 @@ void ScanClock::mark(const Vec2* p, std::size_t n, double speed) {
   for (std::size_t k = 1; k < n; ++k) len += std::hypot(p[k].x - p[k - 1].x, p[k].y - p[k - 1].y);
   mark_s_ += len / speed;
   delay_s_ += (t_.skywriting ? t_.skywriting_time : t_.mark_delay) * 1e-6;
+  delay_s_ += (t_.laser_on_delay + t_.laser_off_delay) * 1e-6;
   delay_s_ += static_cast<double>(n - 2) * t_.polygon_delay * 1e-6;
+  corners_ += n - 2;
   at_ = p[n - 1];
   ++vectors_;
+}
+
+ScanClock layer_scan_clock(const Layer& layer, const ScanTiming& timing) {
+  ScanClock clock(timing);
+  std::vector<Vec2> pts;
+  for (const Path& p : layer.paths) {
+    if (p.points.size() < 2) continue;
+    pts.clear();
+    for (const auto& q : p.points) pts.push_back({q.x, q.y});
+    const bool hatch = p.role == PathRole::Hatch || p.role == PathRole::Infill;
+    clock.mark(pts.data(), pts.size(),
+               p.speed > 0 ? p.speed : (hatch ? timing.hatch_speed : timing.contour_speed));
+  }
+  return clock;
 }
 
 }  // namespace trellis

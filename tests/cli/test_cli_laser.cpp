@@ -7,6 +7,8 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <string>
+#include <utility>
 
 #include "trellis/core/file.hpp"
 
@@ -84,3 +86,39 @@ TEST(CliLaser, BrokenBuildFileExits2WithFileAndOffset) {
 }
 
 }  // namespace
+
+// `analyze` of a .cli with a machine profile times it with the profile's scanner: the layers'
+// times add up to the total, the total is marks + jumps + delays, and a laser on + off delay of
+// 100 µs adds exactly 100 µs per vector (the vector count read back from the file).
+TEST(CliLaser, AnalyzeTimesABuildFileWithTheProfilesDelays) {
+  CmdRun r = run("pbf --cell 2.5 --size 2.5,2.5,0.2 -o " + path("g.cli"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  const std::string profile = std::string(TRELLIS_SOURCE_DIR) + "/profiles/pbf_316l_25um.toml";
+  std::string slow = trellis::read_file(profile);
+  for (const auto& [from, to] :
+       {std::pair<std::string, std::string>{"laser_on_delay = 0", "laser_on_delay = 40"},
+        {"laser_off_delay = 0", "laser_off_delay = 60"}}) {
+    const auto at = slow.find(from);
+    ASSERT_NE(at, std::string::npos) << from;
+    slow.replace(at, from.size(), to);
+  }
+  std::ofstream(path("slow.toml")) << slow;
+  r = run("analyze " + path("g.cli") + " --machine " + profile + " --report " + path("a.json"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  r = run("analyze " + path("g.cli") + " --machine " + path("slow.toml") + " --report " +
+          path("b.json"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  const auto a = nlohmann::json::parse(trellis::read_file(path("a.json")));
+  const auto b = nlohmann::json::parse(trellis::read_file(path("b.json")));
+  const auto& t = a["scan_time"];
+  double sum = 0;
+  for (const auto& v : t["per_layer_s"]) sum += v.get<double>();
+  EXPECT_EQ(t["per_layer_s"].size(), a["layers"].get<std::size_t>());
+  EXPECT_NEAR(sum, t["total_s"].get<double>(), 1e-9);
+  EXPECT_NEAR(t["mark_s"].get<double>() + t["jump_s"].get<double>() + t["delay_s"].get<double>(),
+              t["total_s"].get<double>(), 1e-9);
+  EXPECT_GT(t["jumps"].get<std::size_t>(), 10u);
+  const double vectors = a["vectors"].get<double>();
+  EXPECT_NEAR(b["scan_time"]["total_s"].get<double>(),
+              t["total_s"].get<double>() + vectors * 100e-6, 1e-9);
+}

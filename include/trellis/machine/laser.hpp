@@ -30,6 +30,8 @@ struct LaserProfile {
   double polygon_delay = 50;     // µs, at every corner inside a polyline
   bool skywriting = false;       // run in/out of each vector instead of the mark delay
   double skywriting_time = 150;  // µs, run-in + run-out per vector with skywriting
+  double laser_on_delay = 0;     // µs, before the laser fires at every vector's start
+  double laser_off_delay = 0;    // µs, the laser kept on after every vector's end
 };
 
 // The profile's speeds and delays as the scan-time model's settings.

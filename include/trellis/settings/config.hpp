@@ -52,6 +52,7 @@ struct PbfConfig {
   std::string c = "0.15";       // Φ = φ² − c²; a number or an expression of x, y, z, rho, r
   double thickness = 0;         // mm; > 0: c = t·|∇φ|/2 (uniform walls)
   std::vector<double> size;     // box X, Y, Z (mm); empty = 4 cells
+  std::vector<double> plate_position;  // X, Y of the design's origin on the plate; empty = centre
   std::string envelope;         // .vcad solid the lattice fills (path)
   std::string solids;           // .vcad solid parts, hatched (path)
   std::string grade_to;         // TYPE:CELL blended in by a sigmoid

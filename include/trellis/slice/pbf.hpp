@@ -6,6 +6,7 @@
 // field and pulled in by the beam compensation. The filling ratio FR_a = D·ΣL/A (Eq. 8) is
 // reported for this path and for the plain rotating-67° hatch of the whole sheet (R67).
 #pragma once
+#include <cstdint>
 #include <functional>
 #include <string>
 #include <vector>
@@ -31,6 +32,27 @@ struct PbfDesign {
   Field part() const;
 };
 
+// Where each layer's hatch lines are fixed (they lie hatch_distance apart across the point):
+// Wall — through the design's origin (the Fig. 3 wall's centre line, a lattice's centre);
+// Origin — through the machine origin (PbfOptions::machine_origin), as a machine hatches in plate
+// coordinates; Random — moved across by a uniform fraction of the hatch distance every layer.
+enum class HatchPhase { Wall, Origin, Random };
+// How thin walls (contoured) and joints (hatched) are told apart: Width — horizontal width <=
+// thin_multiple·D and the mid-surface at least min_inclination steep; Inclination — the paper's
+// Eq. 6 / Fig. S5: c interpolated by the mid-surface's inclination (pbf_split_c), the thin wall
+// being the sheet of that c and the joint the rest of the section.
+enum class PbfSplit { Width, Inclination };
+
+// The PBF paper's c by inclination (Fig. S5): 0 where the mid-surface is shallower than
+// `min_inclination` (degrees from horizontal), the full c from min_inclination + kSplitBand up,
+// linear between (the figure's band is not given in the text: 10° here).
+inline constexpr double kSplitBand = 10;
+double pbf_split_c(double c, double inclination_deg, double min_inclination_deg);
+
+// The equivalent scan length L̃_p of one vector of length L (Supplementary Text 3 is not in the
+// text we have): the area a melt track D wide with round ends covers, over D, L + π·D/4.
+double equivalent_length(double length, double melt_pool);
+
 struct PbfOptions {
   double layer = 0.02;             // mm
   // mm: the STL route's voxel, the seed bracket of hatch ends and the zero-finding step of the
@@ -52,6 +74,10 @@ struct PbfOptions {
   double min_inclination = 20;     // degrees; shallower mid-surface → joint
   double hatch_angle = 0;          // first layer's hatch angle, degrees
   double hatch_rotation = 67;      // degrees per layer
+  HatchPhase hatch_phase = HatchPhase::Wall;
+  Vec2 machine_origin{};         // the machine's origin in design coordinates (Origin phase)
+  std::uint64_t hatch_seed = 1;  // Random phase: seeds the layers' shifts
+  PbfSplit split = PbfSplit::Width;
   double contour_shift = 0.381966; // scan-vector phase shift per layer, fraction of SL+LHD
   double refine = 1e-4;            // mm, crossing accuracy of hatch ends
   bool hybrid = true;              // false: plain R67 hatch of the whole sheet
@@ -96,6 +122,8 @@ struct PbfLayer {
   double contour_length = 0, hatch_length = 0;   // mm
   double fr = 0;                                 // FR_a of this path
   double fr_r67 = 0;                             // FR_a of the R67 baseline on the same layer
+  // FR_a with the equivalent scan length L̃_p (equivalent_length) of every vector, both paths.
+  double fr_eq = 0, fr_eq_r67 = 0;
   double r67_length = 0;                         // mm, the R67 baseline's hatch length
   double scan_time = 0, scan_time_r67 = 0;       // s, this path and the R67 baseline
   // Sheet thickness measured along ∇φ from mid-curve points (Φ = 0 on both sides): min, max,
@@ -111,6 +139,8 @@ struct PbfStats {
   double mean = 0, min = 0, max = 0, cv = 0;  // over layers with area > 0
 };
 PbfStats fr_stats(const std::vector<PbfLayer>& layers, bool r67);
+// The same over FR_a with L̃_p (PbfLayer::fr_eq, fr_eq_r67).
+PbfStats fr_eq_stats(const std::vector<PbfLayer>& layers, bool r67);
 // Wall thickness over all layers' samples (mean, min, max; cv = (max − min) / mean here).
 PbfStats thickness_stats(const std::vector<PbfLayer>& layers);
 

@@ -3,7 +3,10 @@
 // the controller waits its delays (SCANLAB-style: a jump delay after each jump, a mark delay
 // after each marked vector, a polygon delay at each corner inside a polyline). With skywriting the
 // mirrors run in and out of each vector at speed instead, costing `skywriting_time` per vector
-// in place of the mark delay. The model counts scanning only (no recoating).
+// in place of the mark delay. The laser on delay (before the laser fires at a vector's start)
+// and off delay (the laser kept on after the mirrors reach its end) add to every vector when the
+// controller waits them out (defaults 0: the mark delay covers them). The model counts scanning
+// only (no recoating).
 #pragma once
 #include <cstddef>
 
@@ -20,6 +23,8 @@ struct ScanTiming {
   double polygon_delay = 50;     // µs, at every corner inside a polyline
   bool skywriting = false;       // run in/out of each vector instead of the mark delay
   double skywriting_time = 150;  // µs, run-in + run-out per vector when skywriting
+  double laser_on_delay = 0;     // µs, before the laser fires at every vector's start
+  double laser_off_delay = 0;    // µs, the laser kept on after every vector's end
 };
 
 // Adds up one layer's scan time, vector by vector in scan order.
@@ -38,13 +43,20 @@ class ScanClock {
   double mark_seconds() const { return mark_s_; }
   double delay_seconds() const { return delay_s_; }
   std::size_t vectors() const { return vectors_; }
+  std::size_t jumps() const { return jumps_; }      // jumps of non-zero length
+  std::size_t corners() const { return corners_; }  // corners inside polylines
 
  private:
   ScanTiming t_;
   Vec2 at_{};
   bool started_ = false;
   double jump_s_ = 0, mark_s_ = 0, delay_s_ = 0;
-  std::size_t vectors_ = 0;
+  std::size_t vectors_ = 0, jumps_ = 0, corners_ = 0;
 };
+
+struct Layer;
+// One toolpath layer's scan time: its paths in order, each a vector marked at its own speed (when
+// set; else the hatch or contour speed by its role), the clock above.
+ScanClock layer_scan_clock(const Layer& layer, const ScanTiming& timing);
 
 }  // namespace trellis
