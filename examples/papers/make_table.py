@@ -22,6 +22,16 @@ def papers():
                   if os.path.isfile(os.path.join(HERE, d, "reproduce.py")))
 
 
+def interpreter():
+    """A Python that can draw the figures: this one if it imports matplotlib, else Debian's
+    /usr/bin/python3 if that one does (a pyenv or venv Python next to python3-matplotlib)."""
+    for py in (sys.executable, "/usr/bin/python3"):
+        if os.path.exists(py) and subprocess.run([py, "-c", "import matplotlib"],
+                                                 capture_output=True).returncode == 0:
+            return py
+    return sys.executable
+
+
 def cell(v):
     if v is None:
         return "—"
@@ -60,10 +70,11 @@ def main():
     with open(DOC) as f:
         text = original = f.read()
     failed = []
+    python = interpreter()
     for name in names:
         script = os.path.join(HERE, name, "reproduce.py")
         out = os.path.join(a.out, name)
-        r = subprocess.run([sys.executable, script, "--quick", "--out", out], capture_output=True,
+        r = subprocess.run([python, script, "--quick", "--out", out], capture_output=True,
                            text=True)
         sys.stdout.write(r.stdout)
         if r.returncode != 0:
