@@ -7,29 +7,9 @@
 #include "trellis/analysis/collisions.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
-#include "trellis/lattice/io.hpp"
+#include "trellis/job/print_check.hpp"
 
 namespace trellis::cli {
-
-namespace {
-
-// The print read whole (its text and the toolpath with every segment, the replay's index):
-// measured on a 28 MB G-code of 10^6 moves, 183 MB at peak, about 7 bytes a byte of G-code; a
-// toolpath JSON is held at about 4 bytes a byte (estimate_gcode_of). Reading at about 50 MB/s.
-Estimate print_read_estimate(const std::string& path) {
-  std::error_code ec;
-  const double size = static_cast<double>(std::filesystem::file_size(path, ec));
-  Estimate e;
-  if (ec) return e;  // the reader says what is wrong with the file
-  const bool json = std::filesystem::path(path).extension() == ".json";
-  e.bytes = size * (json ? 4 : 7);
-  e.seconds = size * 2e-8;
-  e.what = fmt::format("reading a {:.3g} MB print to replay", size / 1e6);
-  e.change = "the print (check it in parts)";
-  return e;
-}
-
-}  // namespace
 
 void add_check(CLI::App& app) {
   struct Opts {
@@ -83,19 +63,12 @@ void add_check(CLI::App& app) {
     files.check();
     Settings st = command_settings(o->machine, o->sets);
     o->flags.apply(st);
-    const Config cfg = st.config();
-    cfg.aero.nozzle.validate();
+    PrintCheck run(st, !o->machine.empty(), o->snap, o->budget.budget());
     Diagnostics diag;
-    const Graph g = read_lattice(
-        o->lattice, cfg.clean_options(), diag);
-    CheckOptions check;
-    check.nozzle = cfg.aero.nozzle;
-    check.snap = o->snap;
-    check.budget = o->budget.budget();
-    check_budget(print_read_estimate(o->print), check.budget);
-    const Toolpath tp =
-        read_print(o->print, o->machine.empty() ? nullptr : &st, &check.snap, diag, o->commanded);
-    const CollisionCheck c = check_collisions(g, tp, check);
+    run.read_design(o->lattice, diag);
+    const Toolpath tp = run.read(o->print, diag, o->commanded);
+    const CollisionCheck c = run.check(tp);
+    const CheckOptions& check = run.options();
     if (!o->report.empty()) write_file_atomic(o->report, collision_check_json(c, check));
     if (!o->preview.empty()) {
       create_output_directories(o->preview);

@@ -1,5 +1,6 @@
 #include <filesystem>
 #include <iostream>
+#include <optional>
 
 #include "commands.hpp"
 #include "trellis/analysis/collisions.hpp"
@@ -7,6 +8,7 @@
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/job/job.hpp"
+#include "trellis/job/print_check.hpp"
 #include "trellis/lattice/io.hpp"
 #include "trellis/view/view.hpp"
 
@@ -74,12 +76,10 @@ void add_view(CLI::App& app) {
     const Settings st = command_settings(o->machine, o->sets);
     const Config cfg = st.config();
     machine_valves(o->machine, o->load);
-    Graph design;
+    std::optional<PrintCheck> checker;
     if (!o->design.empty()) {
-      cfg.aero.nozzle.validate();
-      design = read_lattice(
-          o->design,
-          cfg.clean_options(), diag);
+      checker.emplace(st, machine);
+      checker->read_design(o->design, diag);
     }
     for (const auto& f : o->files) {
       ViewScene s = load_view_scene(f, o->load, diag);
@@ -88,14 +88,11 @@ void add_view(CLI::App& app) {
       if (!o->design.empty() && s.kind != "lattice") {
         if (print) {
           // As `trellis check` reads it: back in design coordinates, then replayed.
-          CheckOptions check;
-          check.nozzle = cfg.aero.nozzle;
-          check.snap = 0.05;
-          s.toolpath = read_print(f, machine ? &st : nullptr, &check.snap, diag);
-          set_design(s, design);
-          set_collisions(s, check_collisions(design, s.toolpath, check));
+          s.toolpath = checker->read(f, diag);
+          set_design(s, checker->design());
+          set_collisions(s, checker->check(s.toolpath));
         } else {
-          set_design(s, design);
+          set_design(s, checker->design());
         }
       } else if (!o->design.empty()) {
         diag.warn("view", f + " is a lattice: --design is not compared with it");

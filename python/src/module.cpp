@@ -23,6 +23,7 @@
 #include "trellis/core/file.hpp"
 #include "trellis/field/vcad.hpp"
 #include "trellis/job/job.hpp"
+#include "trellis/job/print_check.hpp"
 #include "trellis/job/plate.hpp"
 #include "trellis/lattice/io.hpp"
 #include "trellis/machine/cli.hpp"
@@ -435,10 +436,6 @@ PYBIND11_MODULE(_trellis, m) {
       const auto key = k.cast<std::string>();
       st.set(key, to_value(key, v), {"keyword " + key});
     }
-    const Config cfg = st.config();
-    cfg.aero.nozzle.validate();
-    const CleanOptions clean =
-        cfg.clean_options();
     std::shared_ptr<Graph> given =
         py::isinstance<Graph>(lattice) ? lattice.cast<std::shared_ptr<Graph>>() : nullptr;
     std::shared_ptr<Toolpath> printed =
@@ -447,14 +444,13 @@ PYBIND11_MODULE(_trellis, m) {
     const std::string print_path = printed ? "" : print.cast<std::string>();
     py::gil_scoped_release release;
     Diagnostics diag;
-    const Graph g =
-        given ? clean_graph(*given, clean, diag) : read_lattice(lattice_path, clean, diag);
-    CheckOptions check;
-    check.nozzle = cfg.aero.nozzle;
-    const Toolpath tp =
-        printed ? *printed
-                : read_print(print_path, machine.empty() ? nullptr : &st, &check.snap, diag);
-    return collision_check_json(check_collisions(g, tp, check), check);
+    PrintCheck run(st, !machine.empty());
+    if (given)
+      run.set_design(*given, diag);
+    else
+      run.read_design(lattice_path, diag);
+    const Toolpath tp = printed ? *printed : run.read(print_path, diag);
+    return collision_check_json(run.check(tp), run.options());
   });
   // Parses .vcad text (errors with line and column); returns the design's bounds if it has a root.
   m.def("parse_vcad", [](const std::string& text, const std::string& name) {
