@@ -735,8 +735,8 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
         p.a = next_plan;
         // (Runs of at least plan_layers: each run intersects its skins' windows of layers again
         // at its ends.)
-        if (ready == n || ready >= next_plan + options.plan_layers) p.b = std::max(next_plan, ready);
-        else p.b = next_plan;
+        const bool run_ready = ready == n || ready >= next_plan + options.plan_layers;
+        p.b = run_ready ? std::max(next_plan, ready) : next_plan;
         if (p.a < p.b) {
           p.lo = p.a >= below ? p.a - below : 0;
           const std::size_t hi = std::min(n, p.b + above);
