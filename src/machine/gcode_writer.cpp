@@ -1,6 +1,7 @@
 #include "trellis/machine/gcode_writer.hpp"
 
 #include <fmt/format.h>
+#include <tbb/task_group.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -116,10 +117,9 @@ class Writer {
     header();
     for (std::size_t li = 0; li < tp_.layers.size(); ++li) layer(li, tp_.layers[li]);
     footer();
-    estimate_time([&](std::size_t end, GcodeScanner& scanner) {
-      scanner.feed(std::string_view(out_).substr(fed_, end - fed_));
-      fed_ = end;
-    });
+    TimeEstimate estimate;
+    estimate.advance(out_, new_marks());
+    finish_estimate(estimate);
     insert_lines();
     stats_.bytes = out_.size();
     stats = stats_;
@@ -134,28 +134,27 @@ class Writer {
     constexpr std::size_t kFlush = std::size_t{1} << 20;
     raw_ = raw;
     out_.reserve(kFlush + (1u << 16));
-    plan_changes();
-    label_objects();
-    header();
-    layers_([&](std::size_t li, const Layer& l) {
-      layer(li, l);
-      if (out_.size() >= kFlush) flush_raw();
-    });
-    footer();
-    flush_raw();
+    scanning_.reserve(kFlush + (1u << 16));
+    estimate_ = std::make_unique<TimeEstimate>();
+    try {
+      plan_changes();
+      label_objects();
+      header();
+      layers_([&](std::size_t li, const Layer& l) {
+        layer(li, l);
+        if (out_.size() >= kFlush) flush_raw();
+      });
+      footer();
+      flush_raw();
+      scan_.wait();
+    } catch (...) {
+      scan_.wait();  // (the piece being read refers to this writer; its own error is dropped)
+      throw;
+    }
+    estimate_->advance({}, new_marks());  // marks at the very end
+    finish_estimate(*estimate_);
     if (std::fflush(raw_) != 0)
       throw IoError(std::string("cannot write a temporary file: ") + std::strerror(errno));
-    std::rewind(raw_);
-    std::string chunk(std::size_t{1} << 20, '\0');
-    estimate_time([&](std::size_t end, GcodeScanner& scanner) {
-      while (fed_ < end) {
-        const std::size_t n = std::fread(chunk.data(), 1, std::min(chunk.size(), end - fed_), raw_);
-        if (n == 0)
-          throw IoError(std::string("cannot read a temporary file: ") + std::strerror(errno));
-        scanner.feed(std::string_view(chunk.data(), n));
-        fed_ += n;
-      }
-    });
     if (ready) ready(stats_);
     copy_with_progress(put);
     stats = stats_;
@@ -174,35 +173,70 @@ class Writer {
     return "M73 P" + std::to_string(std::min(percent, 99)) + " R" + std::to_string(left) + "\n";
   }
 
+  // Streamed: the text so far to `raw_`, and to the time estimate, which reads it on another
+  // thread (when there is one) while the next megabyte is written; the marks it passes are
+  // handed over with it.
   void flush_raw() {
-    if (!out_.empty() && std::fwrite(out_.data(), 1, out_.size(), raw_) != out_.size())
+    if (out_.empty()) return;
+    if (std::fwrite(out_.data(), 1, out_.size(), raw_) != out_.size())
       throw IoError(std::string("cannot write a temporary file: ") + std::strerror(errno));
+    scan_.wait();
     flushed_ += out_.size();
+    std::swap(out_, scanning_);
     out_.clear();
+    scan_.run([this, marks = new_marks()] { estimate_->advance(scanning_, marks); });
   }
 
-  // The print-time estimate of the text written (machine/print_time.hpp), read as `trellis
-  // analyze` reads the file, and the time at each mark. `feed(end, scanner)` feeds the text from
-  // where it stopped to byte `end`.
-  void estimate_time(const std::function<void(std::size_t, GcodeScanner&)>& feed) {
-    PrintTimeSink sink;
-    Diagnostics ignored;  // our own text: nothing to report
-    GcodeScanner scanner(sink, {}, ignored, "G-code being written");
-    fed_ = 0;
-    std::size_t k = 0, j = 0;
-    std::vector<double> at_object(object_marks_.size(), 0);
-    while (k < progress_marks_.size() || j < object_marks_.size()) {
-      const bool progress =
-          j == object_marks_.size() ||
-          (k < progress_marks_.size() && progress_marks_[k].first <= object_marks_[j].first);
-      feed(progress ? progress_marks_[k].first : object_marks_[j].first, scanner);
-      if (progress)
-        progress_marks_[k++].second = sink.time.elapsed();
-      else
-        at_object[j++] = sink.time.elapsed();
+  // The print-time estimate (machine/print_time.hpp) of the text, read as `trellis analyze`
+  // reads the file: fed in order, piece by piece, the time noted at each mark it passes.
+  struct Marks {
+    std::vector<std::size_t> progress, object;  // byte offsets, ascending
+  };
+  class TimeEstimate {
+   public:
+    // `text` follows what was fed before; `marks` lie within it (or at its end).
+    void advance(std::string_view text, const Marks& marks) {
+      const std::size_t base = fed_;
+      std::size_t k = 0, j = 0;
+      while (k < marks.progress.size() || j < marks.object.size()) {
+        const bool progress = j == marks.object.size() ||
+                              (k < marks.progress.size() && marks.progress[k] <= marks.object[j]);
+        const std::size_t at = progress ? marks.progress[k++] : marks.object[j++];
+        scanner_.feed(text.substr(fed_ - base, at - fed_));
+        fed_ = at;
+        (progress ? progress_time : object_time).push_back(sink_.time.elapsed());
+      }
+      scanner_.feed(text.substr(fed_ - base));
+      fed_ = base + text.size();
     }
-    feed(flushed_ + out_.size(), scanner);
-    scanner.finish();
+    void finish() { scanner_.finish(); }
+    PrintTimeSink& sink() { return sink_; }
+    std::vector<double> progress_time, object_time;  // at each mark, in order
+
+   private:
+    PrintTimeSink sink_;
+    Diagnostics ignored_;  // our own text: nothing to report
+    GcodeScanner scanner_{sink_, {}, ignored_, "G-code being written"};
+    std::size_t fed_ = 0;
+  };
+
+  // The marks made since the last call.
+  Marks new_marks() {
+    Marks m;
+    for (; marks_given_.first < progress_marks_.size(); ++marks_given_.first)
+      m.progress.push_back(progress_marks_[marks_given_.first].first);
+    for (; marks_given_.second < object_marks_.size(); ++marks_given_.second)
+      m.object.push_back(object_marks_[marks_given_.second].first);
+    return m;
+  }
+
+  // The estimate's totals, and each mark's and each part's time.
+  void finish_estimate(TimeEstimate& e) {
+    e.finish();
+    PrintTimeSink& sink = e.sink();
+    for (std::size_t k = 0; k < progress_marks_.size(); ++k)
+      progress_marks_[k].second = e.progress_time.at(k);
+    const std::vector<double>& at_object = e.object_time;
     stats_.print_time_s = sink.time.seconds();
     stats_.heating_s = sink.time.heating_s();
     // Each part's time: from each of its starts to the next mark (its end).
@@ -1184,7 +1218,12 @@ class Writer {
   // part's time comes from the estimate at these (estimate_time).
   std::vector<std::pair<std::size_t, int>> object_marks_;
   std::size_t estimate_at_ = 0;  // offset of the footer's estimated time
-  std::size_t fed_ = 0;          // text fed to the time estimate so far
+  // Streamed: the piece of text the time estimate reads (on another thread, scan_) while out_
+  // fills, the estimate, and the marks handed to it so far (progress, object).
+  std::string scanning_;
+  std::unique_ptr<TimeEstimate> estimate_;
+  std::pair<std::size_t, std::size_t> marks_given_{0, 0};
+  tbb::task_group scan_;
   std::vector<Change> changes_;  // mixture changes in print order
   // Streamed: printed length before each printed path (and after the last), and the paths
   // carrying a mixture (index, command, tool) until the changes are planned.

@@ -733,7 +733,10 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
         const std::size_t ready = received == n ? n : (received > above ? received - above : 0);
         Planned p;
         p.a = next_plan;
-        p.b = std::max(next_plan, ready);
+        // (Runs of at least plan_layers: each run intersects its skins' windows of layers again
+        // at its ends.)
+        const bool run_ready = ready == n || ready >= next_plan + options.plan_layers;
+        p.b = run_ready ? std::max(next_plan, ready) : next_plan;
         if (p.a < p.b) {
           p.lo = p.a >= below ? p.a - below : 0;
           const std::size_t hi = std::min(n, p.b + above);

@@ -4,6 +4,7 @@
 // moves; gcode.label_objects = false and the valve flavours write no labels; labels the firmware
 // cannot take are renamed with a warning, and two that would read alike are refused.
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 #include <unistd.h>
 
 #include <cmath>
@@ -28,18 +29,18 @@ Vec2 centre(int part) {  // part >= 1: a 3 x 3 grid 15 mm apart
 }
 
 // Nine parts of random paths in their squares, printed in every layer in an order that changes.
-Toolpath plate(const std::vector<std::string>& labels) {
+Toolpath plate(const std::vector<std::string>& labels, int layers = 4, int points = 5) {
   Toolpath tp;
   tp.part_labels = labels;
   Rng rng(3);
-  for (int l = 0; l < 4; ++l) {
+  for (int l = 0; l < layers; ++l) {
     Layer layer{0.2 * (l + 1), {}};
     for (int k = 0; k < 9; ++k) {
       const int part = 1 + (k + 4 * l) % 9;
       for (int n = 0; n < 3; ++n) {
         Path path;
         path.part = part;
-        for (int i = 0; i < 5; ++i)
+        for (int i = 0; i < points; ++i)
           path.points.push_back({centre(part).x + (2 * rng.uniform01() - 1) * kHalf,
                                  centre(part).y + (2 * rng.uniform01() - 1) * kHalf, layer.z});
         layer.paths.push_back(std::move(path));
@@ -265,5 +266,33 @@ TEST(GcodeObjects, StreamedPlateIsLabelledWithTheSameBytes) {
     EXPECT_TRUE(streamed == whole) << flavor;
     EXPECT_NE(streamed.find(flavor == "klipper" ? "POLYGON=[[" : "M486 S8 A"), std::string::npos);
     EXPECT_EQ(s.part_time_s, whole_stats.part_time_s) << flavor;
+  }
+}
+
+// Streamed writing hands each written megabyte to the time estimate, which reads it on another
+// thread while the next is written: a plate of many megabytes (marks of layers and parts in every
+// piece, some at a piece's end) gives the whole toolpath's bytes, M73 lines and times included,
+// with one thread and with two.
+TEST(GcodeObjects, StreamedPlateOfManyMegabytesIsTheWholeOnesAtAnyThreadCount) {
+  const Toolpath tp = plate(nine_labels(), 300, 60);
+  Toolpath meta;
+  meta.part_labels = tp.part_labels;
+  const std::string path = (std::filesystem::temp_directory_path() /
+                            ("trellis_objects_big_" + std::to_string(::getpid()) + ".gcode"))
+                               .string();
+  const MachineProfile p = profile("marlin");
+  GcodeStats whole_stats;
+  const std::string whole = write_gcode(tp, p, &whole_stats);
+  ASSERT_GT(whole.size(), std::size_t{4} << 20);  // several pieces
+  ASSERT_NE(whole.find("M73 P50 "), std::string::npos);
+  for (const std::size_t threads : {1u, 2u}) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    const GcodeStats s = write_gcode_stream(path, meta, tp.layers.size(), layers_of(tp), p);
+    const std::string streamed = read_file(path);
+    std::filesystem::remove(path);
+    EXPECT_TRUE(streamed == whole) << threads << " threads";
+    EXPECT_EQ(s.print_time_s, whole_stats.print_time_s) << threads << " threads";
+    EXPECT_EQ(s.part_time_s, whole_stats.part_time_s) << threads << " threads";
+    EXPECT_GT(s.print_time_s, 0);
   }
 }

@@ -108,6 +108,9 @@ using LayerSink = std::function<void(std::size_t index, Layer&& layer)>;
 struct SliceStreamOptions {
   std::size_t chunk_layers = 16;  // planes outlined together (a mesh is bucketed once per run)
   std::size_t tokens = 0;         // runs in flight; 0 = twice the threads
+  // Layers planned together, at least (but the last run): each run's skins intersect the
+  // layers around it again, bottom_layers + top_layers of them.
+  std::size_t plan_layers = 32;
 };
 SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progress& progress = {},
                          const SliceStreamOptions& options = {});
