@@ -80,6 +80,38 @@ open(dst, 'wb').write(out)
 PY
 }
 
+# An STL (ASCII or binary) as a binary STL standing on z = 0 at the centre of the 350 mm bed, so
+# every slicer sees the same placement (CuraEngine cuts what lies below z = 0):
+# peers_place_stl SRC DST
+peers_place_stl() {
+  /usr/bin/python3 - "$1" "$2" <<'PY'
+import re, struct, sys
+src, dst = sys.argv[1], sys.argv[2]
+data = open(src, 'rb').read()
+tris = []
+n = struct.unpack('<I', data[80:84])[0] if len(data) >= 84 else 0
+if len(data) == 84 + 50 * n:
+    for i in range(n):
+        tris.append(struct.unpack('<9f', data[84 + 50 * i + 12:84 + 50 * i + 48]))
+else:
+    v = [float(x) for x in re.findall(rb'vertex\s+(\S+)\s+(\S+)\s+(\S+)', data) for x in x]
+    tris = [tuple(v[k:k + 9]) for k in range(0, len(v), 9)]
+assert tris, f"{src}: no triangles"
+xs = [t[k] for t in tris for k in (0, 3, 6)]
+ys = [t[k] for t in tris for k in (1, 4, 7)]
+zs = [t[k] for t in tris for k in (2, 5, 8)]
+d = (175 - (min(xs) + max(xs)) / 2, 175 - (min(ys) + max(ys)) / 2, -min(zs))
+out = bytearray(b'placed for the slicer benchmarks'.ljust(80, b' ') + struct.pack('<I', len(tris)))
+for t in tris:
+    out += struct.pack('<12fH', 0, 0, 0, *[t[k] + d[k % 3] for k in range(9)], 0)
+open(dst, 'wb').write(out)
+PY
+}
+
+# Whether a G-code file has layers: peers_has_layers FILE (PrusaSlicer ;LAYER_CHANGE, Cura and
+# Trellis ;LAYER:).
+peers_has_layers() { grep -q -m1 -E '^;(LAYER_CHANGE|LAYER:)' "$1"; }
+
 # CPU seconds (user + sys) of a command, its output discarded; last_wall prints its wall seconds.
 cpu() {
   /usr/bin/time -f "%U %S %e" -o cpu.txt "$@" >/dev/null 2>&1 || { echo "failed: $*" >&2; return 1; }

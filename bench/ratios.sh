@@ -9,13 +9,16 @@
 #
 # Meshes: the four of issue 40 (torus of 3k triangles, examples/designs/Vase.stl, torus of 1M
 # triangles, TR12J_OCC.stl at half scale) and a held-out set of real meshes from Debian's
-# occt-misc (sh1.stl, shape.stl, propeller.stl: chosen after the work, never tuned on).
+# occt-misc (sh1.stl, shape.stl, propeller.stl, placed on z = 0 at the bed's centre; chosen after
+# the work, never tuned on; propeller.stl has 4 reversed facets and a degenerate one).
 # Missing slicers are installed with apt (PrusaSlicer, cura-engine; Cura's definitions from the
 # cura package, extracted into the work dir). The I/O floor: loading the 50 MB 1M-torus STL
 # (bench_mesh_io, one thread) against `cat` of the same file.
 #
-# Usage: bench/ratios.sh [--quick] [--runs N] [--trellis BIN] [--work DIR] [--build DIR]
+# Usage: bench/ratios.sh [--quick] [--runs N] [--only a,b] [--trellis BIN] [--work DIR] [--build DIR]
 #   --quick: the 3k torus only, one run, no installs, no I/O floor (well under a minute).
+#   --only a,b: only the meshes named (torus_3k vase torus_1m tr12j_half held_sh1 held_shape
+#   held_propeller).
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 build="$root/build/release"
@@ -23,6 +26,7 @@ bin=""
 work="$root/out/bench_ratios"
 runs=5
 quick=0
+only=""  # comma-separated mesh names (e.g. held_sh1,vase): only those
 while [ $# -gt 0 ]; do
   case "$1" in
     --quick) quick=1; runs=1 ;;
@@ -30,7 +34,8 @@ while [ $# -gt 0 ]; do
     --trellis) bin="$2"; shift ;;
     --work) work="$2"; shift ;;
     --build) build="$2"; shift ;;
-    *) echo "usage: $0 [--quick] [--runs N] [--trellis BIN] [--work DIR] [--build DIR]" >&2; exit 2 ;;
+    --only) only="$2"; shift ;;
+    *) echo "usage: $0 [--quick] [--runs N] [--only a,b] [--trellis BIN] [--work DIR] [--build DIR]" >&2; exit 2 ;;
   esac
   shift
 done
@@ -63,7 +68,7 @@ if [ $quick = 0 ]; then
     [ -f tr12j_half.stl ] || peers_scale_stl "$(occt_stl TR12J_OCC.stl)" tr12j_half.stl 0.5
     models+=(tr12j_half)
     for h in sh1 shape propeller; do
-      cp "$(occt_stl $h.stl)" "held_$h.stl"
+      [ -f "held_$h.stl" ] || peers_place_stl "$(occt_stl $h.stl)" "held_$h.stl"
       held+=("held_$h")
     done
   fi
@@ -78,6 +83,7 @@ echo "load before: $(load_now)"
 echo "runs: $runs, interleaved; CPU seconds (user + sys), minimum over the runs"
 rows=()
 for m in "${models[@]}" "${held[@]}"; do
+  [ -z "$only" ] || [[ ",$only," == *",$m,"* ]] || continue
   t1='' t2='' w1='' w2='' p='' c=''
   for ((r = 0; r < runs; ++r)); do
     x=$(cpu "$bin" slice "$m.stl" "${trellis_args[@]}" --threads 1 -o "$m.trellis.gcode"); t1=$(min_of "$t1" "$x"); w1=$(min_of "$w1" "$(last_wall)")
@@ -88,6 +94,9 @@ for m in "${models[@]}" "${held[@]}"; do
     if [ $have_cura = 1 ]; then
       x=$(cpu CuraEngine slice -j "$cura_def" "${cura_args[@]}" -l "$m.stl" -o "$m.cura.gcode"); c=$(min_of "$c" "$x")
     fi
+    for g in "$m.trellis.gcode" "$m.trellis2.gcode" ${p:+"$m.prusa.gcode"} ${c:+"$m.cura.gcode"}; do
+      peers_has_layers "$g" || { echo "$g has no layers: that slicer failed on $m" >&2; exit 1; }
+    done
     echo "$m run $((r + 1)): trellis 1T $t1 s, 2T $t2 s, prusa ${p:--} s, cura ${c:--} s (so far)" >&2
   done
   tris=$(/usr/bin/python3 -c "import struct,sys; d=open(sys.argv[1],'rb').read(84); print(struct.unpack('<I', d[80:84])[0] if not d.startswith(b'solid') else 'ascii')" "$m.stl")
