@@ -9,8 +9,8 @@
 #
 # Meshes: the four of issue 40 (torus of 3k triangles, examples/designs/Vase.stl, torus of 1M
 # triangles, TR12J_OCC.stl at half scale) and a held-out set of real meshes from Debian's
-# occt-misc (sh1.stl, shape.stl, propeller.stl, placed on z = 0 at the bed's centre; chosen after
-# the work, never tuned on; propeller.stl has 4 reversed facets and a degenerate one).
+# occt-misc (sh1.stl, sh2.stl, shape.stl, placed on z = 0 at the bed's centre; chosen after
+# the work, never tuned on; propeller.stl, 950 mm across, does not fit the bed).
 # Missing slicers are installed with apt (PrusaSlicer, cura-engine; Cura's definitions from the
 # cura package, extracted into the work dir). The I/O floor: loading the 50 MB 1M-torus STL
 # (bench_mesh_io, one thread) against `cat` of the same file.
@@ -18,7 +18,7 @@
 # Usage: bench/ratios.sh [--quick] [--runs N] [--only a,b] [--trellis BIN] [--work DIR] [--build DIR]
 #   --quick: the 3k torus only, one run, no installs, no I/O floor (well under a minute).
 #   --only a,b: only the meshes named (torus_3k vase torus_1m tr12j_half held_sh1 held_shape
-#   held_propeller).
+#   held_sh2).
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 build="$root/build/release"
@@ -67,7 +67,7 @@ if [ $quick = 0 ]; then
   if peers_occt; then
     [ -f tr12j_half.stl ] || peers_scale_stl "$(occt_stl TR12J_OCC.stl)" tr12j_half.stl 0.5
     models+=(tr12j_half)
-    for h in sh1 shape propeller; do
+    for h in sh1 sh2 shape; do
       [ -f "held_$h.stl" ] || peers_place_stl "$(occt_stl $h.stl)" "held_$h.stl"
       held+=("held_$h")
     done
