@@ -18,52 +18,18 @@ work="${2:-$root/out/bench_continuous}"
 runs="${3:-3}"
 mkdir -p "$work"
 cd "$work"
+# shellcheck source=peers.sh
+source "$root/bench/peers.sh"
 command -v prusa-slicer >/dev/null || { echo "prusa-slicer is not installed (scripts/install-deps.sh installs it)" >&2; exit 2; }
 profile="$root/profiles/voron_klipper.toml"
 
-if [ ! -f tr12j_half.stl ]; then
-  if [ ! -f occt/usr/share/opencascade/data/stl/TR12J_OCC.stl ]; then
-    (apt-get download occt-misc >/dev/null 2>&1 && dpkg-deb -x occt-misc_*.deb occt) ||
-      { echo "cannot fetch occt-misc (apt-get download); TR12J is left out" >&2; }
-  fi
-  if [ -f occt/usr/share/opencascade/data/stl/TR12J_OCC.stl ]; then
-    /usr/bin/python3 - occt/usr/share/opencascade/data/stl/TR12J_OCC.stl tr12j_half.stl 0.5 <<'PY'
-import struct, sys
-src, dst, f = sys.argv[1], sys.argv[2], float(sys.argv[3])
-data = open(src, 'rb').read()
-n = struct.unpack('<I', data[80:84])[0]
-assert len(data) == 84 + 50 * n, "a binary STL"
-out = bytearray(data[:84])
-for i in range(n):
-    rec = data[84 + 50 * i:84 + 50 * (i + 1)]
-    v = list(struct.unpack('<12f', rec[:48]))
-    out += struct.pack('<12f', v[0], v[1], v[2], *[x * f for x in v[3:]]) + rec[48:]
-open(dst, 'wb').write(out)
-PY
-  fi
+if [ ! -f tr12j_half.stl ] && peers_occt; then
+  peers_scale_stl "$(occt_stl TR12J_OCC.stl)" tr12j_half.stl 0.5
 fi
+[ -f tr12j_half.stl ] || echo "TR12J is left out" >&2
 cp "$root/examples/designs/Vase.stl" vase.stl
 models=(vase)
 [ -f tr12j_half.stl ] && models+=(tr12j_half)
-
-prusa_args=(--export-gcode --layer-height 0.2 --first-layer-height 0.2 --nozzle-diameter 0.4
-  --filament-diameter 1.75 --perimeters 2 --fill-density 20% --fill-pattern rectilinear
-  --top-fill-pattern rectilinear --bottom-fill-pattern rectilinear --fill-angle 45
-  --top-solid-layers 4 --bottom-solid-layers 4 --skirts 0 --brim-width 0
-  --bed-shape 0x0,350x0,350x350,0x350 --max-print-height 340 --perimeter-generator classic
-  --dont-arrange --extrusion-width 0.4 --first-layer-extrusion-width 0.4
-  --perimeter-extrusion-width 0.4 --external-perimeter-extrusion-width 0.4
-  --infill-extrusion-width 0.4 --solid-infill-extrusion-width 0.4 --top-infill-extrusion-width 0.4
-  --perimeter-speed 80 --external-perimeter-speed 80 --small-perimeter-speed 80 --infill-speed 80
-  --solid-infill-speed 80 --top-solid-infill-speed 80 --gap-fill-speed 80 --bridge-speed 80
-  --first-layer-speed 80 --travel-speed 250 --travel-speed-z 15 --retract-length 0.6
-  --retract-speed 40 --retract-lift 0.2 --retract-before-travel 1.5 --slowdown-below-layer-time 0
-  --gcode-flavor marlin2)  # (2.5 has no klipper flavour; the moves are the same)
-
-cpu() {  # CPU seconds (user + sys) of a command, its output discarded
-  /usr/bin/time -f "%U %S" -o cpu.txt "$@" >/dev/null 2>&1
-  awk '{print $1 + $2}' cpu.txt
-}
 
 echo "load before: $(cut -d' ' -f1-3 /proc/loadavg) ($(nproc) cores)"
 for m in "${models[@]}"; do
@@ -72,8 +38,8 @@ for m in "${models[@]}"; do
     rm -f "$m.trellis.gcode" "$m.prusa.gcode"
     t=$(cpu "$bin" slice "$m.stl" --machine "$profile" --threads 1 -o "$m.trellis.gcode" --report "$m.trellis.json")
     p=$(cpu prusa-slicer "${prusa_args[@]}" -o "$m.prusa.gcode" "$m.stl")
-    t_best=$(awk -v a="$t_best" -v b="$t" 'BEGIN{print (b < a ? b : a)}')
-    p_best=$(awk -v a="$p_best" -v b="$p" 'BEGIN{print (b < a ? b : a)}')
+    t_best=$(min_of "$t_best" "$t")
+    p_best=$(min_of "$p_best" "$p")
     [ -s "$m.trellis.gcode" ] && [ -s "$m.prusa.gcode" ] || { echo "a slicer failed on $m" >&2; exit 1; }
     echo "$m run $((r + 1)): trellis ${t} s, prusa-slicer ${p} s CPU" >&2
   done

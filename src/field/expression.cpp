@@ -79,6 +79,17 @@ double CompiledExpr::eval(Vec3 p, double distance) {
   }
 }
 
+void CompiledExpr::eval(const Vec3* p, const double* d, std::size_t n, double* out) {
+  for (std::size_t i = 0; i < n; ++i) {
+    vars.set(p[i], d ? d[i] : 0.0, uses_polar);
+    try {
+      out[i] = parser->Eval();
+    } catch (const mu::Parser::exception_type&) {
+      out[i] = std::numeric_limits<double>::quiet_NaN();
+    }
+  }
+}
+
 void check_expression(const std::string& text, long* error_column) {
   CompiledExpr c;
   try {

@@ -108,6 +108,11 @@ void FieldNode::fractions(Vec3 p, double* out, EvalState& s, std::size_t depth) 
   if (!children.empty()) children.front()->fractions(p, out, s, depth + 1);
 }
 
+void FieldNode::fractions(const Vec3* p, std::size_t n, std::size_t m, double* out, EvalState& s,
+                          std::size_t depth) const {
+  for (std::size_t i = 0; i < n; ++i) fractions(p[i], out + i * m, s, depth);
+}
+
 void FieldNode::eval_grid(const GridPlane& g, double* out, EvalState& s, std::size_t depth) const {
   std::vector<Vec3>& p = s.grid_point_buffer(depth, g.size());
   for (std::size_t j = 0; j < g.rows; ++j)
@@ -959,26 +964,54 @@ struct GradeNode : PropertyNode {
   std::vector<Expression> exprs;
   std::vector<std::string> names;
   void fractions(Vec3 p, double* out, EvalState& s, std::size_t depth) const override {
+    fractions(&p, 1, 0, out, s, depth);
+  }
+  // Each expression over the whole row, then each point normalised (the values clamped to
+  // [0, 1] and divided by their sum, in the order of the list).
+  void fractions(const Vec3* p, std::size_t n, std::size_t m, double* out, EvalState& s,
+                 std::size_t depth) const override {
+    const std::size_t k = exprs.size();
     // The distance d only if some expression reads it (a mesh's distance costs more than the
     // expressions).
     bool need_d = false;
     for (const auto& e : exprs) need_d |= s.expr(e).uses_d;
-    const double d = need_d ? children[0]->value(p, s, depth + 1) : 0.0;
-    double sum = 0;
-    std::vector<double>& v = s.value_buffer(depth + 1, exprs.size());
-    for (std::size_t i = 0; i < exprs.size(); ++i) {
-      const double f = s.expr(exprs[i]).eval(p, d);
-      if (!std::isfinite(f))
-        throw GeometryError(fmt::format("the fraction of '{}' = {} is {} at ({:g}, {:g}, {:g}): a "
-                                        "fraction must be a finite number everywhere in the part",
-                                        names[i], exprs[i].text, f, p.x, p.y, p.z),
-                            {"", 0, "fgrade"});
-      v[i] = std::clamp(f, 0.0, 1.0);
-      sum += v[i];
+    // The distances in this node's buffer (the child evaluates in deeper ones); the pointer
+    // taken again after the child ran, which may have grown the list of buffers.
+    const double* d = nullptr;
+    if (need_d) {
+      children[0]->eval(p, s.value_buffer(depth, n).data(), n, s, depth + 1);
+      d = s.value_buffer(depth, n).data();
     }
-    for (std::size_t i = 0; i < exprs.size(); ++i) {
-      const int idx = s.material_index(names[i]);
-      if (idx >= 0) out[idx] += sum > 0 ? v[i] / sum : 0.0;
+    // Row i of v: expression i at every point.
+    std::vector<double>& v = s.value_buffer(depth + 1, k * n);
+    for (std::size_t i = 0; i < k; ++i) s.expr(exprs[i]).eval(p, d, n, v.data() + i * n);
+    for (std::size_t j = 0; j < n; ++j)
+      for (std::size_t i = 0; i < k; ++i) {
+        const double f = v[i * n + j];
+        if (!std::isfinite(f))
+          throw GeometryError(fmt::format("the fraction of '{}' = {} is {} at ({:g}, {:g}, {:g}): "
+                                          "a fraction must be a finite number everywhere in the part",
+                                          names[i], exprs[i].text, f, p[j].x, p[j].y, p[j].z),
+                              {"", 0, "fgrade"});
+      }
+    int idx[16];
+    std::vector<int> idx_more;
+    int* index = idx;
+    if (k > 16) {
+      idx_more.resize(k);
+      index = idx_more.data();
+    }
+    for (std::size_t i = 0; i < k; ++i) index[i] = s.material_index(names[i]);
+    for (std::size_t j = 0; j < n; ++j) {
+      double sum = 0;
+      for (std::size_t i = 0; i < k; ++i) {
+        double& f = v[i * n + j];
+        f = std::clamp(f, 0.0, 1.0);
+        sum += f;
+      }
+      double* o = out + j * m;
+      for (std::size_t i = 0; i < k; ++i)
+        if (index[i] >= 0) o[index[i]] += sum > 0 ? v[i * n + j] / sum : 0.0;
     }
   }
   bool has_expressions() const override { return true; }
@@ -1450,6 +1483,11 @@ std::vector<double> Evaluator::fractions(Vec3 p) {
   std::vector<double> out(field_.materials().size(), 0.0);
   if (!out.empty()) field_.node().fractions(p, out.data(), *state_, 0);
   return out;
+}
+void Evaluator::fractions(const Vec3* points, std::size_t n, double* out) {
+  const std::size_t m = field_.materials().size();
+  std::fill(out, out + n * m, 0.0);
+  if (m > 0 && n > 0) field_.node().fractions(points, n, m, out, *state_, 0);
 }
 
 }  // namespace trellis

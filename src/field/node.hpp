@@ -29,6 +29,9 @@ struct CompiledExpr {
   ExprVars vars;
   bool uses_polar = true, uses_d = true;  // from muparser's list of the variables used
   double eval(Vec3 p, double distance = 0);
+  // The values at n points (distances d[i], or 0 when d is null): the same numbers as eval()
+  // point by point, without a lookup or an allocation per point.
+  void eval(const Vec3* p, const double* d, std::size_t n, double* out);
   CompiledExpr();
   ~CompiledExpr();
 };
@@ -118,6 +121,10 @@ class FieldNode {
   virtual BBox3 extent() const = 0;
   // Adds this node's contribution to fractions (indexed by the design's material table).
   virtual void fractions(Vec3 p, double* out, EvalState& s, std::size_t depth) const;
+  // The same at n points, out[i·m + k] for material k of m (added to, as above). Default: point
+  // by point; fgrade evaluates each expression over the whole row.
+  virtual void fractions(const Vec3* p, std::size_t n, std::size_t m, double* out, EvalState& s,
+                         std::size_t depth) const;
   virtual bool has_expressions() const;
   // Sets the process values (fprocess) at p that are still NaN; default: the first child's.
   virtual void process(Vec3 p, ProcessValues& out, EvalState& s, std::size_t depth) const;

@@ -120,9 +120,17 @@ class FractionGrid {
     nx_ = static_cast<std::size_t>(std::ceil((hi.x - lo.x) / res)) + 1;
     ny_ = static_cast<std::size_t>(std::ceil((hi.y - lo.y) / res)) + 1;
     values_.resize(nx_ * ny_);
-    for (std::size_t j = 0; j < ny_; ++j)
+    // A row of nodes at a time (the design's expressions evaluated over the row).
+    const std::size_t m = ev.field().materials().size();
+    std::vector<Vec3> row(nx_);
+    std::vector<double> f(nx_ * m);
+    for (std::size_t j = 0; j < ny_; ++j) {
       for (std::size_t i = 0; i < nx_; ++i)
-        values_[j * nx_ + i] = eval({lo.x + static_cast<double>(i) * res, lo.y + static_cast<double>(j) * res});
+        row[i] = {lo.x + static_cast<double>(i) * res, lo.y + static_cast<double>(j) * res, z};
+      ev.fractions(row.data(), nx_, f.data());
+      for (std::size_t i = 0; i < nx_; ++i)
+        values_[j * nx_ + i] = material < m ? f[i * m + material] : 0.0;
+    }
   }
   double at(Vec2 p) {
     std::size_t i, j;
@@ -1073,14 +1081,22 @@ std::vector<GradientErrorSum> gradient_error_sums(const Field& field, const Tool
 
 GradientErrorSum layer_gradient_error(Evaluator& ev, const Layer& l, double z) {
   GradientErrorSum a;
+  // Each path's points at once (the design's expressions evaluated over the path).
+  const std::size_t nm = ev.field().materials().size();
+  std::vector<Vec3> pts;
+  std::vector<double> fr;
   for (const auto& p : l.paths) {
     if (p.mixture.empty() || p.role == PathRole::Other || p.role == PathRole::Purge) continue;
+    if (nm == 0) continue;
+    pts.resize(p.points.size());
+    for (std::size_t k = 0; k < p.points.size(); ++k) pts[k] = {p.points[k].x, p.points[k].y, z};
+    fr.resize(pts.size() * nm);
+    ev.fractions(pts.data(), pts.size(), fr.data());
     for (std::size_t k = 0; k < p.points.size(); ++k) {
       const Vec3& q = p.points[k];
-      const auto f = ev.fractions({q.x, q.y, z});
-      if (f.empty()) continue;
+      const double* f = fr.data() + k * nm;
       double e = 0;
-      for (std::size_t m = 0; m < f.size() && m < p.mixture.size(); ++m)
+      for (std::size_t m = 0; m < nm && m < p.mixture.size(); ++m)
         e = std::max(e, std::abs(std::clamp(f[m], 0.0, 1.0) - p.mixture[m]));
       // The point's share of the path: half of each segment it ends.
       double w = 0;

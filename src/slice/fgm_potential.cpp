@@ -43,10 +43,19 @@ std::vector<std::vector<double>> sample_fractions(Evaluator& ev, double z, Vec2 
   nx = std::max(2L, static_cast<long>(std::ceil((hi.x - lo.x) / spacing)) + 1);
   ny = std::max(2L, static_cast<long>(std::ceil((hi.y - lo.y) / spacing)) + 1);
   std::vector<std::vector<double>> f(static_cast<std::size_t>(nx * ny));
-  for (long j = 0; j < ny; ++j)
-    for (long i = 0; i < nx; ++i)
-      f[static_cast<std::size_t>(j * nx + i)] = ev.fractions(
-          {lo.x + static_cast<double>(i) * spacing, lo.y + static_cast<double>(j) * spacing, z});
+  // A row of nodes at a time (the design's expressions evaluated over the row).
+  const std::size_t m = ev.field().materials().size();
+  const auto w = static_cast<std::size_t>(nx);
+  std::vector<Vec3> row(w);
+  std::vector<double> v(w * m);
+  for (long j = 0; j < ny; ++j) {
+    for (std::size_t i = 0; i < w; ++i)
+      row[i] = {lo.x + static_cast<double>(i) * spacing, lo.y + static_cast<double>(j) * spacing, z};
+    ev.fractions(row.data(), w, v.data());
+    for (std::size_t i = 0; i < w; ++i)
+      f[static_cast<std::size_t>(j) * w + i].assign(v.begin() + static_cast<long>(i * m),
+                                                    v.begin() + static_cast<long>((i + 1) * m));
+  }
   return f;
 }
 

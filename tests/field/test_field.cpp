@@ -161,6 +161,66 @@ TEST(Field, MaterialFractions) {
   EXPECT_NEAR(f[0], 0.5, 1e-9);
 }
 
+// Fractions over a row of points (each expression evaluated over the row) are the same numbers
+// as point by point: Listings 2-4 (x, y, phi, pi, radial), the distance d, three materials, a
+// grade under a transform and beside a plain material, points inside and outside.
+TEST(Field, BatchFractionsEqualPointByPoint) {
+  std::vector<Field> designs;
+  for (const char* name : {"fgm_column2_plate.vcad", "fgm_column3_ring_angular.vcad",
+                           "fgm_column5_ring_radial.vcad"})
+    designs.push_back(read_vcad(kDesigns + name).field);
+  designs.push_back(parse_vcad(
+      "fgrade([\"clamp(-d/4, 0, 1)\", \"1 - clamp(-d/4, 0, 1)\"], [\"core\", \"skin\"]) "
+      "{ sphere(10); }\n", "d.vcad").field);
+  designs.push_back(parse_vcad(
+      "union() {\n"
+      "  translate((3, -2, 1)) { fgrade([\"x*x\", \"abs(y)\", \"1 + sin(theta)*r\"],\n"
+      "                                   [\"a\", \"b\", \"c\"]) { sphere(8); } }\n"
+      "  translate((20, 0, 0)) { sphere(4, \"c\"); }\n"
+      "}\n", "three.vcad").field);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> U(-40, 40);
+  for (std::size_t k = 0; k < designs.size(); ++k) {
+    Evaluator batch(designs[k]), single(designs[k]);
+    const std::size_t m = designs[k].materials().size();
+    ASSERT_GE(m, 2u) << "design " << k;
+    for (std::size_t n : {1, 2, 17, 300}) {
+      std::vector<Vec3> p(n);
+      for (auto& q : p) q = {U(rng), U(rng), U(rng) / 8};
+      std::vector<double> out(n * m, -1.0);
+      batch.fractions(p.data(), n, out.data());
+      for (std::size_t i = 0; i < n; ++i) {
+        const std::vector<double> f = single.fractions(p[i]);
+        ASSERT_EQ(f.size(), m);
+        for (std::size_t j = 0; j < m; ++j)
+          ASSERT_EQ(out[i * m + j], f[j]) << "design " << k << " point " << i << " material " << j;
+      }
+    }
+  }
+}
+
+// A fraction that is not a finite number is an error naming the same point in a row as alone.
+TEST(Field, BatchFractionsNotFiniteNamesThePoint) {
+  const Field f = parse_vcad(
+      "fgrade([\"1/(x - 2)\", \"1\"], [\"a\", \"b\"]) { sphere(10); }\n", "inf.vcad").field;
+  Evaluator ev(f);
+  const std::vector<Vec3> p = {{0, 0, 0}, {1, 0, 0}, {2, 0, 0}, {3, 0, 0}};
+  std::vector<double> out(p.size() * 2);
+  std::string batch_message, single_message;
+  try {
+    ev.fractions(p.data(), p.size(), out.data());
+  } catch (const GeometryError& e) {
+    batch_message = e.what();
+  }
+  try {
+    ev.fractions(p[2]);
+  } catch (const GeometryError& e) {
+    single_message = e.what();
+  }
+  EXPECT_NE(batch_message.find("(2, 0, 0)"), std::string::npos) << batch_message;
+  EXPECT_EQ(batch_message, single_message);
+}
+
 TEST(Vcad, AppendixBListingsParse) {
   for (const char* name : {"fgm_column1_cylinder.vcad", "fgm_column2_plate.vcad",
                            "fgm_column3_ring_angular.vcad", "fgm_column5_ring_radial.vcad",

@@ -176,6 +176,7 @@ class Evaluator {
   Evaluator(Evaluator&&) noexcept;
   Evaluator& operator=(Evaluator&&) noexcept;
 
+  const Field& field() const { return field_; }
   double value(Vec3 p);
   void values(const Vec3* points, double* out, std::size_t n);
   // The values at the grid nodes (xs[i], ys[j], z), row by row (out[j·w + i]): the same numbers
@@ -196,6 +197,9 @@ class Evaluator {
   Interval bound(const BBox3& box);
   // Volume fractions (sum 1 when any material is set) per Field::materials().
   std::vector<double> fractions(Vec3 p);
+  // The fractions at n points, out[i·m + k] for the m = Field::materials().size() materials:
+  // the same numbers as fractions() point by point, each expression evaluated over the row.
+  void fractions(const Vec3* points, std::size_t n, double* out);
   // Process parameters set by fprocess nodes (NaN where none).
   ProcessValues process(Vec3 p);
 
