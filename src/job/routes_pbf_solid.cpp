@@ -13,6 +13,7 @@
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/field/vcad.hpp"
+#include "trellis/field/implicit_3mf.hpp"
 #include "trellis/geom/mesh_io.hpp"
 #include "trellis/machine/cli.hpp"
 #include "trellis/machine/laser.hpp"
@@ -107,12 +108,12 @@ JobResult pbf_solid(const Job& job, const Config& c, Diagnostics& diag, const Pr
   TriangleMesh mesh;
   Field field;
   PbfSolid part;
-  if (is_mesh_path(job.input)) {
+  if (is_mesh_path(job.input) && !is_implicit_3mf(job.input)) {
     mesh = read_mesh(job.input);
     require_closed(mesh, job.input);
     part.mesh = &mesh;
   } else {
-    field = read_vcad(job.input).field;
+    field = read_field_design(job.input).field;
     if (field.has_process())
       throw SettingError(
           "the design sets process fields (fprocess), which only the FDM slice "
