@@ -17,8 +17,8 @@
 #include "fgm_tower.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/toolpath/layer_spill.hpp"
-#include "trellis/field/vcad.hpp"
 #include "trellis/field/implicit_3mf.hpp"
+#include "trellis/field/vcad.hpp"
 #include "trellis/geom/mesh_io.hpp"
 #include "trellis/slice/fgm.hpp"
 #include "trellis/slice/fgm_process.hpp"
@@ -42,14 +42,6 @@ const char* to_string(SliceRoute route) {
 }
 
 namespace {
-
-bool ends_with_ci(const std::string& s, const std::string& suffix) {
-  if (s.size() < suffix.size()) return false;
-  for (std::size_t i = 0; i < suffix.size(); ++i)
-    if (std::tolower(static_cast<unsigned char>(s[s.size() - suffix.size() + i])) != suffix[i])
-      return false;
-  return true;
-}
 
 // A mesh that is not a closed 2-manifold: repaired (counts in `r`), or refused when repair is
 // off or leaves it open; the messages say what to do.

@@ -281,7 +281,9 @@ TEST(Implicit3mf, TheSpecificationsExamplesRead) {
   // position wherever the pyramid mesh does not cut it, and the pyramid's box as the extent.
   const std::string gyroid = kData + "ImplicitGyroid.3mf";
   ASSERT_TRUE(is_implicit_3mf(gyroid));
-  const VcadDesign g = read_implicit_3mf(gyroid);
+  VcadOptions coarse;
+  coarse.mesh_voxel = 1;  // the pyramid's distance field (the points below are far from its faces)
+  const VcadDesign g = read_implicit_3mf(gyroid, coarse);
   EXPECT_NEAR(g.root_min.x, 0, 1e-4);
   EXPECT_NEAR(g.root_max.x, 160 - 15.2786, 1e-4);
   EXPECT_NEAR(g.root_max.z, 100, 1e-9);
@@ -385,7 +387,9 @@ TEST(Implicit3mf, SlicedSphereGcodeEqualsTheVcadSpheres) {
   std::ofstream(vcad) << vcad_box(lo, hi) << " { sphere(8); }\n";
   const std::string prof = std::string(TRELLIS_SOURCE_DIR) + "/profiles/ender3_s1_pro_tpu.toml";
   const std::string opts =
-      " --machine " + prof + " --layer-height 0.4 --walls 2 --infill 0.2 --strategy none -o ";
+      " --machine " + prof +
+      " --layer-height 0.5 --set extrusion.nozzle_diameter=0.8 --bead-width 0.4 --walls 2 "
+      "--infill 0.2 --strategy none -o ";
   auto moves = [&](const std::string& design, const std::string& out) {
     const test::CliRun r = test::run_cli("slice " + design + opts + out, dir.path());
     EXPECT_EQ(r.code, 0) << r.err;
