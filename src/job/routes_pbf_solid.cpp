@@ -77,7 +77,8 @@ bool pbf_solid_job(const Job& job, const Config& c) {
                                    s),
                        {"", 0, "pbf.strategy"});
   if (job.input.empty()) return false;
-  return solid_strategy || is_mesh_path(job.input);
+  // A 3MF level-set design is a field like a .vcad (field/implicit_3mf.hpp), not a mesh.
+  return solid_strategy || (is_mesh_path(job.input) && !is_implicit_3mf(job.input));
 }
 
 PbfSolidOptions pbf_solid_options(const Config& c) {

@@ -441,3 +441,30 @@ TEST(Implicit3mf, SlicedSphereGcodeEqualsTheVcadSpheres) {
   EXPECT_GT(la, 1000);
   EXPECT_NEAR(la, lc, 0.005 * lc) << la << " mm against the primitive's " << lc << " mm";
 }
+
+// `trellis pbf` takes a 3MF level-set design as it takes a .vcad (the laser route, not the
+// solid-mesh one): the .cli of a sphere from 3MF is the .vcad function()'s but for the job line
+// naming the input.
+TEST(Implicit3mf, PbfBuildFileEqualsTheVcadFunctions) {
+  test::TempDir dir("implicit3mf");
+  const std::array<double, 3> lo{-2, -2, -2}, hi{2, 2, 2};
+  const std::string m3f = dir.file("ball.3mf"), fn = dir.file("fn.vcad");
+  write_3mf(m3f, model(sphere_function(2), lo, hi));
+  std::ofstream(fn) << vcad_box(lo, hi)
+                    << " { function((-2,-2,-2),(2,2,2),\"sqrt(x^2+y^2+z^2)-2\"); }\n";
+  const std::string prof = std::string(TRELLIS_SOURCE_DIR) + "/profiles/pbf_316l_25um.toml";
+  auto body = [&](const std::string& design, const std::string& out) {
+    const test::CliRun r =
+        test::run_cli("pbf " + design + " --machine " + prof + " -o " + out, dir.path());
+    EXPECT_EQ(r.code, 0) << r.err;
+    std::istringstream in(read_file(out));
+    std::vector<std::string> lines;
+    for (std::string l; std::getline(in, l);)
+      if (l.rfind("//job: input", 0) != 0) lines.push_back(l);
+    return lines;
+  };
+  const auto a = body(m3f, dir.file("a.cli")), b = body(fn, dir.file("b.cli"));
+  EXPECT_GT(a.size(), 1000u);
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t i = 0; i < a.size(); ++i) ASSERT_EQ(a[i], b[i]) << "line " << i;
+}
