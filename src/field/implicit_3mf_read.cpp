@@ -61,10 +61,15 @@ struct El {
   }
 };
 
+// Elements nested deeper than this are refused (the tree is freed recursively; 3MF models nest
+// a handful of levels).
+constexpr std::size_t kMaxDepth = 200;
+
 struct Tree {
   std::unique_ptr<El> root;
   std::vector<El*> stack;
   XML_Parser parser = nullptr;
+  std::string problem;
 };
 
 std::pair<std::string, std::string> split_name(const XML_Char* s) {
@@ -75,6 +80,11 @@ std::pair<std::string, std::string> split_name(const XML_Char* s) {
 
 void on_start(void* self, const XML_Char* name, const XML_Char** atts) {
   auto* t = static_cast<Tree*>(self);
+  if (t->stack.size() >= kMaxDepth) {
+    t->problem = fmt::format("elements nest deeper than {} levels", kMaxDepth);
+    XML_StopParser(t->parser, XML_FALSE);
+    return;
+  }
   auto e = std::make_unique<El>();
   std::tie(e->uri, e->name) = split_name(name);
   for (int i = 0; atts[i]; i += 2) e->attrs.emplace_back(split_name(atts[i]).second, atts[i + 1]);
@@ -89,7 +99,8 @@ void on_start(void* self, const XML_Char* name, const XML_Char** atts) {
 }
 
 void on_end(void* self, const XML_Char*) {
-  static_cast<Tree*>(self)->stack.pop_back();
+  auto* t = static_cast<Tree*>(self);
+  if (!t->stack.empty()) t->stack.pop_back();
 }
 
 std::unique_ptr<El> parse_xml(const std::string& bytes, const std::string& file,
@@ -102,7 +113,8 @@ std::unique_ptr<El> parse_xml(const std::string& bytes, const std::string& file,
   const XML_Status s = XML_Parse(p, bytes.data(), static_cast<int>(bytes.size()), XML_TRUE);
   const long line = static_cast<long>(XML_GetCurrentLineNumber(p));
   const long column = static_cast<long>(XML_GetCurrentColumnNumber(p)) + 1;
-  const std::string why = s == XML_STATUS_ERROR ? XML_ErrorString(XML_GetErrorCode(p)) : "";
+  std::string why = t.problem;
+  if (why.empty() && s == XML_STATUS_ERROR) why = XML_ErrorString(XML_GetErrorCode(p));
   XML_ParserFree(p);
   if (!why.empty())
     throw ParseError(fmt::format("{} line {}, column {}: {}", part, line, column, why),
@@ -426,11 +438,21 @@ class Compiler {
   const std::map<std::string, Slot>& compile(Scope& sc, const El& node) {
     const std::string nid = node.attr("identifier");
     if (auto it = sc.done.find(nid); it != sc.done.end()) return it->second;
+    // Limits that keep a hostile graph from exhausting the stack (references are followed
+    // recursively) or memory (functioncall compiles the callee in place at every call).
+    if (++depth_ > kMaxChain)
+      ctx_.fail(node, fmt::format("{}: references chain deeper than {} nodes; not read",
+                                  where(sc, node), kMaxChain));
+    if (prog_.code.size() > kMaxOps)
+      ctx_.fail(node, fmt::format("{}: the graph expands to more than {} operations (nested "
+                                  "function calls); not read",
+                                  where(sc, node), kMaxOps));
     if (!sc.visiting.insert(nid).second)
       ctx_.fail(node, where(sc, node) +
                           " depends on itself: the graph must be acyclic (Part II "
                           "§6.1)");
     auto outs = compile_node(sc, node);
+    --depth_;
     sc.visiting.erase(nid);
     return sc.done[nid] = std::move(outs);
   }
@@ -692,10 +714,13 @@ class Compiler {
                                 where(sc, node), node.name));
   }
 
+  static constexpr int kMaxChain = 1000;
+  static constexpr std::size_t kMaxOps = 1000000;
   const Ctx& ctx_;
   const std::map<long long, const El*>& functions_;
   Program& prog_;
   std::vector<long long> stack_;
+  int depth_ = 0;
 };
 
 // ---------------------------------------------------------------- objects and the build

@@ -468,3 +468,34 @@ TEST(Implicit3mf, PbfBuildFileEqualsTheVcadFunctions) {
   ASSERT_EQ(a.size(), b.size());
   for (std::size_t i = 0; i < a.size(); ++i) ASSERT_EQ(a[i], b[i]) << "line " << i;
 }
+
+// A chain of n additions r_i = r_(i-1) + 1 after |pos|: the value |pos| + n. Past the reader's
+// limit (1000 nested references, which bounds its recursion) the file is refused by name.
+std::string chain_function(int n) {
+  std::string s = "<i:implicitfunction id=\"2\">\n<i:in><i:vector identifier=\"pos\"/></i:in>\n" +
+                  node("constant", "one", {}, "scalar", "value", " value=\"1\"") +
+                  node("length", "r0", {{"vectorref", "A", "inputs.pos"}}, "scalar");
+  for (int i = 1; i <= n; ++i)
+    s += node("addition", "r" + std::to_string(i),
+              {{"scalarref", "A", "r" + std::to_string(i - 1) + ".result"},
+               {"scalarref", "B", "one.value"}},
+              "scalar");
+  return s + "<i:out><i:scalarref identifier=\"shape\" ref=\"r" + std::to_string(n) +
+         ".result\"/></i:out>\n</i:implicitfunction>\n";
+}
+
+TEST(Implicit3mf, DeepGraphsReadUpToTheLimitAndAreRefusedPastIt) {
+  test::TempDir dir("implicit3mf");
+  const std::string path = dir.file("chain.3mf");
+  write_3mf(path, model(chain_function(900), {-1, -1, -1}, {1, 1, 1}));
+  Evaluator e(read_implicit_3mf(path).field);
+  EXPECT_NEAR(e.value({0.3, 0.4, 0}), 900.5, 1e-9);
+  write_3mf(path, model(chain_function(3000), {-1, -1, -1}, {1, 1, 1}));
+  try {
+    read_implicit_3mf(path);
+    ADD_FAILURE() << "read";
+  } catch (const ParseError& err) {
+    EXPECT_NE(std::string(err.what()).find("deeper than 1000"), std::string::npos) << err.what();
+    EXPECT_GT(err.where().line, 0);
+  }
+}
