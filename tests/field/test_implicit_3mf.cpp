@@ -469,20 +469,32 @@ TEST(Implicit3mf, PbfBuildFileEqualsTheVcadFunctions) {
   for (std::size_t i = 0; i < a.size(); ++i) ASSERT_EQ(a[i], b[i]) << "line " << i;
 }
 
+namespace {
+
+// A chain of n additions r_i = r_(i-1) + 1 after |pos|: the value |pos| + n. Past the reader's
+// limit (1000 nested references, which bounds its recursion) the file is refused by name.
+std::string fmt_id(int i) {
+  char b[16];
+  std::snprintf(b, sizeof b, "r%d", i);
+  return b;
+}
+
 // A chain of n additions r_i = r_(i-1) + 1 after |pos|: the value |pos| + n. Past the reader's
 // limit (1000 nested references, which bounds its recursion) the file is refused by name.
 std::string chain_function(int n) {
   std::string s = "<i:implicitfunction id=\"2\">\n<i:in><i:vector identifier=\"pos\"/></i:in>\n" +
                   node("constant", "one", {}, "scalar", "value", " value=\"1\"") +
                   node("length", "r0", {{"vectorref", "A", "inputs.pos"}}, "scalar");
-  for (int i = 1; i <= n; ++i)
-    s += node("addition", "r" + std::to_string(i),
-              {{"scalarref", "A", "r" + std::to_string(i - 1) + ".result"},
-               {"scalarref", "B", "one.value"}},
+  for (int i = 1; i <= n; ++i) {
+    const std::string id = fmt_id(i), previous = fmt_id(i - 1) + ".result";
+    s += node("addition", id, {{"scalarref", "A", previous}, {"scalarref", "B", "one.value"}},
               "scalar");
-  return s + "<i:out><i:scalarref identifier=\"shape\" ref=\"r" + std::to_string(n) +
+  }
+  return s + "<i:out><i:scalarref identifier=\"shape\" ref=\"" + fmt_id(n) +
          ".result\"/></i:out>\n</i:implicitfunction>\n";
 }
+
+}  // namespace
 
 TEST(Implicit3mf, DeepGraphsReadUpToTheLimitAndAreRefusedPastIt) {
   test::TempDir dir("implicit3mf");
