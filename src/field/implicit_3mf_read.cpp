@@ -862,6 +862,12 @@ Field object_field(const Model& md, const El& item, const El& obj, long long oid
     // The level set intersected with the mesh itself (Part I §4.1.1, meshbboxonly false).
     MeshSdfOptions mo;
     mo.voxel = md.options.mesh_voxel;
+    const Vec3 n = (b.max - b.min) * (1 / mo.voxel);
+    if (!(n.x * n.y * n.z <= 1e10))
+      c.fail(at, fmt::format("the mesh that bounds object {} spans {:.3g} voxels of {} mm: too "
+                             "many for its distance field; set meshbboxonly=\"true\" or a "
+                             "coarser slice.mesh_voxel",
+                             oid, n.x * n.y * n.z, mo.voxel));
     f = intersect({f, mesh_field(mesh, mo, fmt::format("{} object {}", c.file, oid))});
   }
   return f;
