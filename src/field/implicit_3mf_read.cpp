@@ -117,8 +117,7 @@ std::unique_ptr<El> parse_xml(const std::string& bytes, const std::string& file,
   if (why.empty() && s == XML_STATUS_ERROR) why = XML_ErrorString(XML_GetErrorCode(p));
   XML_ParserFree(p);
   if (!why.empty())
-    throw ParseError(fmt::format("{} line {}, column {}: {}", part, line, column, why),
-                     {file, line, part, column});
+    throw ParseError(why, {file, line, part, column});
   return std::move(t.root);
 }
 
@@ -150,8 +149,7 @@ std::string model_part_name(zip_t* z, const std::string& file) {
 struct Ctx {
   std::string file, part;
   [[noreturn]] void fail(const El& e, const std::string& why) const {
-    throw ParseError(fmt::format("{} line {}, column {}: {}", part, e.line, e.column, why),
-                     {file, e.line, part, e.column});
+    throw ParseError(why, {file, e.line, part, e.column});  // "file:line:column: part: why"
   }
 };
 
