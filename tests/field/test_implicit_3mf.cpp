@@ -439,7 +439,7 @@ TEST(Implicit3mf, SlicedSphereGcodeEqualsTheVcadSpheres) {
   EXPECT_EQ(sa, sc);
   const double la = extruded_length(a), lc = extruded_length(c);
   EXPECT_GT(la, 1000);
-  EXPECT_NEAR(la, lc, 0.005 * lc) << la << " mm against the primitive's " << lc << " mm";
+  EXPECT_NEAR(la, lc, 0.001 * lc) << la << " mm against the primitive's " << lc << " mm";
 }
 
 // `trellis pbf` takes a 3MF level-set design as it takes a .vcad (the laser route, not the
