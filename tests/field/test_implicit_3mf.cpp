@@ -398,7 +398,7 @@ double extruded_length(const std::vector<std::string>& lines) {
 
 // The sliced G-code of a sphere written as a 3MF level set: move for move the G-code of the same
 // function written as a .vcad function() (the same arithmetic through the same unbounded field
-// path; the headers differ only in the input's name), and within 0.5% of the .vcad sphere()
+// path; the headers differ only in the input's name), and within 0.1% of the .vcad sphere()
 // primitive's extruded length with the same path counts. Not byte-equal to the primitive: the
 // primitive gives the contour finder interval bounds, so it skips grid blocks proven inside or
 // outside and places the outline's vertices from other samples, a general function (theirs or
