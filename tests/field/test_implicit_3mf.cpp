@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdint>
 #include <fstream>
+#include <functional>
 #include <numbers>
 #include <random>
 #include <sstream>
@@ -510,4 +511,146 @@ TEST(Implicit3mf, DeepGraphsReadUpToTheLimitAndAreRefusedPastIt) {
     EXPECT_NE(std::string(err.what()).find("deeper than 1000"), std::string::npos) << err.what();
     EXPECT_GT(err.where().line, 0);
   }
+}
+
+namespace {
+
+// A function whose output is `body` (nodes after x, y, z = the position's components) at its
+// output node "o".
+std::string scalar_function(const std::string& body) {
+  return "<i:implicitfunction id=\"2\">\n<i:in><i:vector identifier=\"pos\"/></i:in>\n"
+         "<i:decomposevector identifier=\"p\"><i:in><i:vectorref identifier=\"A\" "
+         "ref=\"inputs.pos\"/></i:in><i:out><i:scalar identifier=\"x\"/><i:scalar "
+         "identifier=\"y\"/><i:scalar identifier=\"z\"/></i:out></i:decomposevector>\n" +
+         body + "<i:out><i:scalarref identifier=\"shape\" ref=\"o.result\"/></i:out>\n" +
+         "</i:implicitfunction>\n";
+}
+
+// The design's values at random points of [-3, 3]^3 against `expect` (x, y, z), clipped to the
+// box [-4, 4]^3 (max with its distance); the fallback 0 where `expect` is not a number.
+void expect_values(const std::string& name, const std::string& body,
+                   const std::function<double(double, double, double)>& expect) {
+  test::TempDir dir("implicit3mf");
+  const std::string path = dir.file("op.3mf");
+  write_3mf(path, model(scalar_function(body), {-4, -4, -4}, {4, 4, 4}));
+  Evaluator e(read_implicit_3mf(path).field);
+  std::mt19937_64 rng(17);
+  std::uniform_real_distribution<double> u(-3, 3);
+  for (int i = 0; i < 200; ++i) {
+    const double x = u(rng), y = u(rng), z = u(rng);
+    const double box = std::max({std::abs(x), std::abs(y), std::abs(z)}) - 4;  // < 0 here
+    const double f = expect(x, y, z);
+    if (!std::isfinite(f)) {
+      EXPECT_EQ(e.value({x, y, z}), 0) << name << ": the fallback value";
+      continue;
+    }
+    const double want = std::max(f, box);  // clipped to the level set's mesh box
+    EXPECT_NEAR(e.value({x, y, z}), want, 1e-12 * std::max(1.0, std::abs(want))) << name;
+  }
+}
+
+}  // namespace
+
+// Each native node against its definition in Part II ch. 5, on scalars from the position.
+TEST(Implicit3mf, NativeNodesFollowTheSpecification) {
+  using F = std::function<double(double)>;
+  const std::vector<std::pair<std::string, F>> unary = {
+      {"abs", [](double a) { return std::abs(a); }},
+      {"sin", [](double a) { return std::sin(a); }},
+      {"cos", [](double a) { return std::cos(a); }},
+      {"tan", [](double a) { return std::tan(a); }},
+      {"arcsin", [](double a) { return std::asin(a / 3); }},
+      {"arccos", [](double a) { return std::acos(a / 3); }},
+      {"arctan", [](double a) { return std::atan(a); }},
+      {"sqrt", [](double a) { return std::sqrt(a); }},
+      {"exp", [](double a) { return std::exp(a); }},
+      {"log", [](double a) { return std::log(a); }},
+      {"log2", [](double a) { return std::log2(a); }},
+      {"log10", [](double a) { return std::log10(a); }},
+      {"cosh", [](double a) { return std::cosh(a); }},
+      {"sinh", [](double a) { return std::sinh(a); }},
+      {"tanh", [](double a) { return std::tanh(a); }},
+      {"round", [](double a) { return std::round(a); }},
+      {"ceil", [](double a) { return std::ceil(a); }},
+      {"floor", [](double a) { return std::floor(a); }},
+      {"sign", [](double a) { return a < 0   ? -1.0
+                                     : a > 0 ? 1.0
+                                             : 0.0; }},
+      {"fract", [](double a) { return a - std::floor(a); }},
+  };
+  for (const auto& [op, f] : unary) {
+    const bool scaled = op == "arcsin" || op == "arccos";  // arguments within [-1, 1]
+    const std::string in = scaled ? "s.result" : "p.x";
+    const std::string pre =
+        scaled ? node("constant", "three", {}, "scalar", "value", " value=\"3\"") +
+                     node("division", "s",
+                          {{"scalarref", "A", "p.x"}, {"scalarref", "B", "three.value"}}, "scalar")
+               : "";
+    expect_values(op, pre + node(op, "o", {{"scalarref", "A", in}}, "scalar"),
+                  [&, f = f](double x, double, double) { return f(x); });
+  }
+  using G = std::function<double(double, double)>;
+  const std::vector<std::pair<std::string, G>> binary = {
+      {"addition", [](double a, double b) { return a + b; }},
+      {"subtraction", [](double a, double b) { return a - b; }},
+      {"multiplication", [](double a, double b) { return a * b; }},
+      {"division", [](double a, double b) { return a / b; }},
+      {"min", [](double a, double b) { return std::min(a, b); }},
+      {"max", [](double a, double b) { return std::max(a, b); }},
+      {"fmod", [](double a, double b) { return std::fmod(a, b); }},
+      {"mod", [](double a, double b) { return a - b * std::floor(a / b); }},  // GLSL
+      {"pow", [](double a, double b) { return std::pow(a, b); }},
+      {"arctan2", [](double a, double b) { return std::atan2(a, b); }},
+  };
+  for (const auto& [op, f] : binary)
+    expect_values(op,
+                  node(op, "o", {{"scalarref", "A", "p.x"}, {"scalarref", "B", "p.y"}}, "scalar"),
+                  [&, f = f](double x, double y, double) { return f(x, y); });
+  expect_values(
+      "clamp",
+      node("clamp", "o",
+           {{"scalarref", "A", "p.x"}, {"scalarref", "min", "p.y"}, {"scalarref", "max", "p.z"}},
+           "scalar"),
+      [](double x, double y, double z) { return std::max(y, std::min(x, z)); });
+  expect_values("select",
+                node("constant", "c", {}, "scalar", "value", " value=\"7\"") +
+                    node("select", "o",
+                         {{"scalarref", "A", "p.x"},
+                          {"scalarref", "B", "p.y"},
+                          {"scalarref", "C", "p.z"},
+                          {"scalarref", "D", "c.value"}},
+                         "scalar"),
+                [](double x, double y, double z) { return x < y ? z : 7.0; });
+  // Vectors and matrices: cross with a constant, dotted with the position; a matrix, its
+  // inverse and transpose: M⁻¹·(M·p) = p, and (Mᵀ)ᵀ = M.
+  expect_values(
+      "cross",
+      node("constvec", "c", {}, "vector", "vector", " x=\"1\" y=\"-2\" z=\"0.5\"") +
+          node("cross", "k", {{"vectorref", "A", "inputs.pos"}, {"vectorref", "B", "c.vector"}},
+               "vector") +
+          node("constvec", "w", {}, "vector", "vector", " x=\"0.3\" y=\"0.7\" z=\"-1.1\"") +
+          node("dot", "o", {{"vectorref", "A", "k.result"}, {"vectorref", "B", "w.vector"}},
+               "scalar"),
+      [](double x, double y, double z) {
+        const double cx = y * 0.5 - z * -2, cy = z * 1 - x * 0.5, cz = x * -2 - y * 1;
+        return cx * 0.3 + cy * 0.7 + cz * -1.1;
+      });
+  const std::string m = " matrix=\"2 0.5 0 1  0 3 0.25 -2  0.1 0 1.5 0.5  0 0 0 1\"";
+  expect_values(
+      "matrices",
+      node("constmat", "m", {}, "matrix", "matrix", m) +
+          node("transpose", "t", {{"matrixref", "A", "m.matrix"}}, "matrix") +
+          node("transpose", "tt", {{"matrixref", "A", "t.result"}}, "matrix") +
+          node("inverse", "mi", {{"matrixref", "A", "tt.result"}}, "matrix") +
+          node("matrixvectormultiplication", "mp",
+               {{"matrixref", "A", "m.matrix"}, {"vectorref", "B", "inputs.pos"}}, "vector") +
+          node("matrixvectormultiplication", "back",
+               {{"matrixref", "A", "mi.result"}, {"vectorref", "B", "mp.result"}}, "vector") +
+          node("subtraction", "diff",
+               {{"vectorref", "A", "back.result"}, {"vectorref", "B", "inputs.pos"}}, "vector") +
+          node("length", "err", {{"vectorref", "A", "diff.result"}}, "scalar") +
+          node("decomposevector", "mpx", {{"vectorref", "A", "mp.result"}}, "scalar", "x") +
+          node("addition", "o", {{"scalarref", "A", "err.result"}, {"scalarref", "B", "mpx.x"}},
+               "scalar"),
+      [](double x, double y, double z) { return 2 * x + 0.5 * y + 1; });
 }
