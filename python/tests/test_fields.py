@@ -122,3 +122,21 @@ def test_long_field_calls_report_progress_and_stop_on_ctrl_c():
             call()
         assert time.perf_counter() - t0 < 1.5
         timer.join()
+
+
+def test_a_3mf_level_set_design_slices_as_its_vcad_function(tmp_path):
+    # The specification's sphere (3MF Volumetric & Implicit, Part II ch. 3, through a functioncall)
+    # read by the library from the path: the same moves as the same sphere as a .vcad function().
+    design = os.path.join(ROOT, "tests", "data", "3mf_volumetric", "spec_sphere_functioncall.3mf")
+    vcad = tmp_path / "ball.vcad"
+    vcad.write_text('root((-12,-12,-12),(12,12,12),(0.5,0.5,0.5)) '
+                    '{ function((-12,-12,-12),(12,12,12),"sqrt(x^2+y^2+z^2)-10"); }\n')
+    prof = os.path.join(ROOT, "profiles", "ender3_s1_pro_tpu.toml")
+    opts = dict(machine=prof, layer_height=0.5, set={"extrusion.nozzle_diameter": 0.8},
+                bead_width=0.4, walls=2, infill=0.2, strategy="none")
+    moves = []
+    for src, out in ((design, tmp_path / "a.gcode"), (str(vcad), tmp_path / "b.gcode")):
+        trellis.slice(src, str(out), **opts)
+        moves.append([l for l in out.read_text().splitlines() if l and not l.startswith(";")])
+    assert len(moves[0]) > 5000
+    assert moves[0] == moves[1]

@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "routes.hpp"
+#include "trellis/field/implicit_3mf.hpp"
 #include "trellis/field/vcad.hpp"
 #include "trellis/machine/cli.hpp"
 #include "trellis/machine/laser.hpp"
@@ -15,11 +16,13 @@
 namespace trellis {
 
 JobResult analyze_build_file(const std::string& path, const std::string& design,
-                             const LaserProfile& prof, std::string* report_json, Diagnostics& diag) {
+                             const LaserProfile& prof, std::string* report_json,
+                             Diagnostics& diag) {
   // A .cli, or a 3MF package with the Toolpath Extension: the same IR, the same measures.
   std::string ext = std::filesystem::path(path).extension().string();
   for (char& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
-  const Toolpath tp = ext == ".3mf" ? read_toolpath_3mf_file(path, &diag) : read_cli_file(path, &diag);
+  const Toolpath tp =
+      ext == ".3mf" ? read_toolpath_3mf_file(path, &diag) : read_cli_file(path, &diag);
   std::size_t vectors = 0;
   for (const auto& l : tp.layers) vectors += l.paths.size();
   nlohmann::ordered_json j;
@@ -66,7 +69,7 @@ JobResult analyze_build_file(const std::string& path, const std::string& design,
     LaserAnalysisOptions lo;
     lo.melt_pool = prof.melt_pool_width;
     lo.timing = scan_timing(prof);
-    const LaserAnalysis a = analyze_laser_toolpath(tp, read_vcad(design).field, lo);
+    const LaserAnalysis a = analyze_laser_toolpath(tp, read_field_design(design).field, lo);
     j["design"] = design;
     j["outside_vectors"] = a.outside_vectors;
     j["outside_length_mm"] = a.outside_length;
@@ -91,7 +94,8 @@ JobResult analyze_build_file(const std::string& path, const std::string& design,
     }
     j["per_layer"] = s;
     out.summary = fmt::format(
-        "{}: {} layers, {} vectors ({} mm); outside the design: {} vectors ({} mm, farthest {} µm); "
+        "{}: {} layers, {} vectors ({} mm); outside the design: {} vectors ({} mm, farthest {} "
+        "µm); "
         "FR_a mean {} cv {}; scan time {} s",
         path, tp.layers.size(), a.vectors, routes::fixed(a.scan_length, 1), a.outside_vectors,
         routes::fixed(a.outside_length, 3), routes::fixed(a.max_outside * 1e3, 1),

@@ -12,6 +12,7 @@
 #include "routes.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
+#include "trellis/field/implicit_3mf.hpp"
 #include "trellis/field/vcad.hpp"
 #include "trellis/geom/mesh_io.hpp"
 #include "trellis/machine/cli.hpp"
@@ -76,7 +77,8 @@ bool pbf_solid_job(const Job& job, const Config& c) {
                                    s),
                        {"", 0, "pbf.strategy"});
   if (job.input.empty()) return false;
-  return solid_strategy || is_mesh_path(job.input);
+  // A 3MF level-set design is a field like a .vcad (field/implicit_3mf.hpp), not a mesh.
+  return solid_strategy || (is_mesh_path(job.input) && !is_implicit_3mf(job.input));
 }
 
 PbfSolidOptions pbf_solid_options(const Config& c) {
@@ -107,12 +109,12 @@ JobResult pbf_solid(const Job& job, const Config& c, Diagnostics& diag, const Pr
   TriangleMesh mesh;
   Field field;
   PbfSolid part;
-  if (is_mesh_path(job.input)) {
+  if (is_mesh_path(job.input) && !is_implicit_3mf(job.input)) {
     mesh = read_mesh(job.input);
     require_closed(mesh, job.input);
     part.mesh = &mesh;
   } else {
-    field = read_vcad(job.input).field;
+    field = read_field_design(job.input).field;
     if (field.has_process())
       throw SettingError(
           "the design sets process fields (fprocess), which only the FDM slice "

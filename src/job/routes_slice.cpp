@@ -15,6 +15,7 @@
 #include "../slice/process_json.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
+#include "trellis/field/implicit_3mf.hpp"
 #include "trellis/field/vcad.hpp"
 #include "trellis/geom/mesh_io.hpp"
 #include "trellis/machine/gcode_writer.hpp"
@@ -89,12 +90,12 @@ JobResult shard_written(const Job& job, const Toolpath& tp, std::size_t first, s
 Field laser_vcad(const std::string& path, const char* key = "job.input") {
   // A mesh is not read as .vcad text ("unexpected character '\x00'"): the lattice's envelope and
   // solids are fields; a mesh part is scanned on its own (pbf_solid).
-  if (is_mesh_path(path))
+  if (is_mesh_path(path) && !is_implicit_3mf(path))
     throw SettingError("the TPMS lattice's envelope and solids are .vcad designs (fields); a mesh "
                        "part is scanned as a solid by giving it as the input (`trellis pbf "
                        "part.stl`), or describe the envelope in .vcad",
                        {path, 0, key});
-  Field f = read_vcad(path).field;
+  Field f = read_field_design(path).field;
   if (f.has_process())
     throw SettingError("the design sets process fields (fprocess: temperature, speed, flow, fan), "
                        "which only the FDM slice route writes; remove the fprocess node for laser "
@@ -1015,7 +1016,7 @@ void write_graded_merge(const Job& job, const Config& c, Toolpath& tp, const std
                          {job.origin, 0, "outline_z"});
     VcadOptions vo;
     vo.mesh_voxel = sj.mesh_voxel;
-    const Field field = read_vcad(job.input, vo).field;
+    const Field field = read_field_design(job.input, vo).field;
     if (!field.has_process())
       throw SettingError("the shards say the design has process fields, " + job.input +
                              " has none: merge the shards of one run",

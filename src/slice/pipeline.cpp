@@ -17,6 +17,7 @@
 #include "fgm_tower.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/toolpath/layer_spill.hpp"
+#include "trellis/field/implicit_3mf.hpp"
 #include "trellis/field/vcad.hpp"
 #include "trellis/geom/mesh_io.hpp"
 #include "trellis/slice/fgm.hpp"
@@ -41,14 +42,6 @@ const char* to_string(SliceRoute route) {
 }
 
 namespace {
-
-bool ends_with_ci(const std::string& s, const std::string& suffix) {
-  if (s.size() < suffix.size()) return false;
-  for (std::size_t i = 0; i < suffix.size(); ++i)
-    if (std::tolower(static_cast<unsigned char>(s[s.size() - suffix.size() + i])) != suffix[i])
-      return false;
-  return true;
-}
 
 // A mesh that is not a closed 2-manifold: repaired (counts in `r`), or refused when repair is
 // off or leaves it open; the messages say what to do.
@@ -206,7 +199,7 @@ struct SlicedDesign {
 SlicedDesign open_design(const SliceJob& job, SliceResult& r, const Progress& progress,
                          bool outline_all) {
   SlicedDesign d;
-  const bool is_vcad = ends_with_ci(job.input, ".vcad");
+  const bool is_vcad = is_field_design(job.input);
   r.route =
       job.route == SliceRoute::Auto ? (is_vcad ? SliceRoute::Field : SliceRoute::Mesh) : job.route;
   const double h = job.planar.layer_height;
@@ -231,7 +224,7 @@ SlicedDesign open_design(const SliceJob& job, SliceResult& r, const Progress& pr
   if (is_vcad) {
     VcadOptions vo;
     vo.mesh_voxel = job.mesh_voxel;
-    field = read_vcad(job.input, vo).field;
+    field = read_field_design(job.input, vo).field;
     // A graded design printed as one material must be asked for: nothing silent.
     if (job.strategy == 0 && !job.strategy_chosen && field.materials().size() >= 2)
       throw SettingError("the design is graded (" + std::to_string(field.materials().size()) +
@@ -450,7 +443,7 @@ void finish_graded(const SliceJob& job, const FgmOptions& fo, Toolpath& tp, FgmS
 
 SliceResult run_slice(const SliceJob& job, const Progress& progress) {
   SliceResult r;
-  const bool is_vcad = ends_with_ci(job.input, ".vcad");
+  const bool is_vcad = is_field_design(job.input);
   const auto t0 = std::chrono::steady_clock::now();
   const double h = job.planar.layer_height;
   const bool ranged = job.layer_begin != 0 || job.layer_end != static_cast<std::size_t>(-1) ||
@@ -586,7 +579,7 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
   r.streamed = true;
   const auto t0 = std::chrono::steady_clock::now();
   const SlicedDesign d = open_design(job, r, progress, false);
-  if (graded) require_graded_design(job, ends_with_ci(job.input, ".vcad"), d.field);
+  if (graded) require_graded_design(job, is_field_design(job.input), d.field);
   int quantized_from = 0;
   const FgmOptions fo =
       graded ? graded_options(job, static_cast<int>(d.field.materials().size()), &quantized_from)

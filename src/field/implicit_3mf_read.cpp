@@ -1,0 +1,391 @@
+// Reads 3MF level-set designs (implicit_3mf.hpp): libzip for the package, expat for the model
+// part (implicit_xml.hpp: a small element tree with every element's line and column), the
+// objects, meshes and build here, the function graphs in implicit_compile.cpp. Section numbers: 3MF Volumetric & Implicit
+// Extension v1.0, Part I (volumetric) and Part II (implicit).
+#include <expat.h>
+#include <fmt/format.h>
+#include <zip.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <map>
+#include <memory>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "implicit_3mf_module.hpp"
+#include "implicit_compile.hpp"
+#include "implicit_graph.hpp"
+#include "trellis/core/error.hpp"
+#include "trellis/geom/mesh.hpp"
+
+namespace trellis::implicit {
+
+namespace {
+
+// ---------------------------------------------------------------- package and XML
+
+std::optional<std::string> read_part(zip_t* z, std::string name, const std::string& file) {
+  if (!name.empty() && name[0] == '/') name.erase(0, 1);
+  zip_stat_t st;
+  if (zip_stat(z, name.c_str(), ZIP_FL_ENC_GUESS, &st) != 0) return std::nullopt;
+  zip_file_t* f = zip_fopen(z, name.c_str(), 0);
+  if (!f) throw ParseError("cannot open part /" + name + " of the package", {file});
+  std::string out(static_cast<std::size_t>(st.size), '\0');
+  const zip_int64_t n = out.empty() ? 0 : zip_fread(f, out.data(), st.size);
+  zip_fclose(f);
+  if (n != static_cast<zip_int64_t>(st.size))
+    throw ParseError("cannot read part /" + name + " of the package (damaged)", {file});
+  return out;
+}
+
+struct Zip {
+  zip_t* z = nullptr;
+  ~Zip() {
+    if (z) zip_discard(z);
+  }
+};
+
+// Elements nested deeper than this are refused (the tree is freed recursively; 3MF models nest
+// a handful of levels).
+constexpr std::size_t kMaxDepth = 200;
+
+struct Tree {
+  std::unique_ptr<El> root;
+  std::vector<El*> stack;
+  XML_Parser parser = nullptr;
+  std::string problem;
+};
+
+std::pair<std::string, std::string> split_name(const XML_Char* s) {
+  const char* space = std::strrchr(s, ' ');
+  if (!space) return {{}, s};
+  return {std::string(s, static_cast<std::size_t>(space - s)), space + 1};
+}
+
+void on_start(void* self, const XML_Char* name, const XML_Char** atts) {
+  auto* t = static_cast<Tree*>(self);
+  if (t->stack.size() >= kMaxDepth) {
+    t->problem = fmt::format("elements nest deeper than {} levels", kMaxDepth);
+    XML_StopParser(t->parser, XML_FALSE);
+    return;
+  }
+  auto e = std::make_unique<El>();
+  std::tie(e->uri, e->name) = split_name(name);
+  for (int i = 0; atts[i]; i += 2) e->attrs.emplace_back(split_name(atts[i]).second, atts[i + 1]);
+  e->line = static_cast<long>(XML_GetCurrentLineNumber(t->parser));
+  e->column = static_cast<long>(XML_GetCurrentColumnNumber(t->parser)) + 1;
+  El* raw = e.get();
+  if (t->stack.empty())
+    t->root = std::move(e);
+  else
+    t->stack.back()->kids.push_back(std::move(e));
+  t->stack.push_back(raw);
+}
+
+void on_end(void* self, const XML_Char*) {
+  auto* t = static_cast<Tree*>(self);
+  if (!t->stack.empty()) t->stack.pop_back();
+}
+
+std::unique_ptr<El> parse_xml(const std::string& bytes, const std::string& file,
+                              const std::string& part) {
+  Tree t;
+  XML_Parser p = XML_ParserCreateNS("UTF-8", ' ');
+  t.parser = p;
+  XML_SetUserData(p, &t);
+  XML_SetElementHandler(p, on_start, on_end);
+  const XML_Status s = XML_Parse(p, bytes.data(), static_cast<int>(bytes.size()), XML_TRUE);
+  const long line = static_cast<long>(XML_GetCurrentLineNumber(p));
+  const long column = static_cast<long>(XML_GetCurrentColumnNumber(p)) + 1;
+  std::string why = t.problem;
+  if (why.empty() && s == XML_STATUS_ERROR) why = XML_ErrorString(XML_GetErrorCode(p));
+  XML_ParserFree(p);
+  if (!why.empty()) throw ParseError(why, {file, line, part, column});
+  return std::move(t.root);
+}
+
+// The model part: the start part of the package's relationships (3MF Core §2.1), else the
+// usual /3D/3dmodel.model.
+std::string model_part_name(zip_t* z, const std::string& file) {
+  if (auto rels = read_part(z, "_rels/.rels", file)) {
+    try {
+      auto root = parse_xml(*rels, file, "/_rels/.rels");
+      for (const auto& r : root->kids) {
+        const char* type = r->attr("Type");
+        const char* target = r->attr("Target");
+        if (type && target && std::string(type).ends_with("/3dmodel")) return target;
+      }
+    } catch (const ParseError&) {
+      // The model part's usual name below; a broken .rels is not what this reader checks.
+    }
+  }
+  return "/3D/3dmodel.model";
+}
+
+// ---------------------------------------------------------------- the model
+
+// A 3MF ST_Matrix3D (Core §3.3: row vectors, p' = [x y z 1] · M, the last row the translation)
+// as an Affine.
+Affine matrix3d(const Ctx& c, const El& e, const char* attr) {
+  Affine a;
+  const std::vector<double> m = numbers(c, e, attr, 12);
+  if (m.empty()) return a;
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) a.l[i][j] = m[static_cast<std::size_t>(j * 3 + i)];
+    a.t[i] = m[static_cast<std::size_t>(9 + i)];
+  }
+  return a;
+}
+
+Affine compose(const Affine& outer, const Affine& inner) {  // outer ∘ inner
+  Affine r;
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) {
+      r.l[i][j] = 0;
+      for (int k = 0; k < 3; ++k) r.l[i][j] += outer.l[i][k] * inner.l[k][j];
+    }
+    r.t[i] = outer.t[i];
+    for (int k = 0; k < 3; ++k) r.t[i] += outer.l[i][k] * inner.t[k];
+  }
+  return r;
+}
+
+std::optional<Affine> inverse(const Affine& a) {
+  const auto& m = a.l;
+  const double det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) -
+                     m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+                     m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+  if (!(std::abs(det) > 1e-300)) return std::nullopt;
+  Affine r;
+  r.l[0][0] = (m[1][1] * m[2][2] - m[1][2] * m[2][1]) / det;
+  r.l[0][1] = (m[0][2] * m[2][1] - m[0][1] * m[2][2]) / det;
+  r.l[0][2] = (m[0][1] * m[1][2] - m[0][2] * m[1][1]) / det;
+  r.l[1][0] = (m[1][2] * m[2][0] - m[1][0] * m[2][2]) / det;
+  r.l[1][1] = (m[0][0] * m[2][2] - m[0][2] * m[2][0]) / det;
+  r.l[1][2] = (m[0][2] * m[1][0] - m[0][0] * m[1][2]) / det;
+  r.l[2][0] = (m[1][0] * m[2][1] - m[1][1] * m[2][0]) / det;
+  r.l[2][1] = (m[0][1] * m[2][0] - m[0][0] * m[2][1]) / det;
+  r.l[2][2] = (m[0][0] * m[1][1] - m[0][1] * m[1][0]) / det;
+  for (int i = 0; i < 3; ++i)
+    r.t[i] = -(r.l[i][0] * a.t[0] + r.l[i][1] * a.t[1] + r.l[i][2] * a.t[2]);
+  return r;
+}
+
+double unit_mm(const Ctx& c, const El& model) {
+  const char* u = model.attr("unit");
+  if (!u) return 1;  // Core §3.4: millimeter by default
+  const std::string s = u;
+  if (s == "micron") return 0.001;
+  if (s == "millimeter") return 1;
+  if (s == "centimeter") return 10;
+  if (s == "inch") return 25.4;
+  if (s == "foot") return 304.8;
+  if (s == "meter") return 1000;
+  c.fail(model, "unknown unit \"" + s + "\"");
+}
+
+// Whether an element is a function resource (Part I §2.1): <i:implicitfunction>, the 2022
+// draft's <v:function> holding nodes, or another type (functionfromimage3d, private).
+bool is_function(const El& e) {
+  return e.name == "implicitfunction" || e.name == "function" || e.name == "functionfromimage3d";
+}
+
+// ---------------------------------------------------------------- objects and the build
+
+bool truthy(const char* s) {
+  return s && (std::string(s) == "true" || std::string(s) == "1");
+}
+
+// A core <mesh> (Core §4.1) in build millimetres: vertices through the item transform `m`.
+TriangleMesh mesh_of(const Ctx& c, const El& mesh, const Affine& m, double mm) {
+  TriangleMesh tm;
+  const El* vs = child(mesh, "vertices");
+  const El* ts = child(mesh, "triangles");
+  if (!vs || !ts) c.fail(mesh, "<mesh> has no <vertices> or no <triangles>");
+  for (const auto& v : vs->kids) {
+    const Vec3 p = m.apply({number(c, *v, "x"), number(c, *v, "y"), number(c, *v, "z")});
+    tm.vertices.push_back(p * mm);
+  }
+  for (const auto& t : ts->kids) {
+    std::array<std::uint32_t, 3> tri{};
+    const char* names[3] = {"v1", "v2", "v3"};
+    for (int i = 0; i < 3; ++i) {
+      const double v = number(c, *t, names[i]);
+      if (!(v >= 0 && v < static_cast<double>(tm.vertices.size())) || v != std::floor(v))
+        c.fail(*t, fmt::format("<triangle> {}={} names no vertex of the mesh ({} vertices)",
+                               names[i], v, tm.vertices.size()));
+      tri[static_cast<std::size_t>(i)] = static_cast<std::uint32_t>(v);
+    }
+    tm.triangles.push_back(tri);
+  }
+  if (tm.vertices.empty() || tm.triangles.empty()) c.fail(mesh, "the mesh is empty");
+  return tm;
+}
+
+// Whether the mesh is its own bounding box (every vertex a corner of it, 12 triangles): then
+// clipping to the box is clipping to the mesh.
+bool is_box(const TriangleMesh& m, const BBox3& b) {
+  if (m.triangles.size() != 12) return false;
+  auto corner = [](double v, double lo, double hi) { return v == lo || v == hi; };
+  for (const Vec3& v : m.vertices)
+    if (!corner(v.x, b.min.x, b.max.x) || !corner(v.y, b.min.y, b.max.y) ||
+        !corner(v.z, b.min.z, b.max.z))
+      return false;
+  return true;
+}
+
+struct Model {
+  const Ctx& ctx;
+  double mm = 1;
+  std::map<long long, const El*> functions, objects;
+  const VcadOptions& options;
+};
+
+// The field of one build item's object: its level set (Part I §4.1.1) or the 2022 draft's
+// <volumedata><boundary>, clipped to its mesh; `box` grows by the mesh's box.
+Field object_field(const Model& md, const El& item, const El& obj, long long oid, BBox3& box) {
+  const Ctx& c = md.ctx;
+  const El* ls = child(obj, "levelset");
+  const El* boundary = nullptr;
+  if (const El* vd = child(obj, "volumedata")) boundary = child(*vd, "boundary");
+  if (!ls && !boundary) {
+    if (child(obj, "components"))
+      c.fail(obj, fmt::format("object {} is made of components; level-set designs are read from "
+                              "objects with a <levelset> placed by the build directly",
+                              oid));
+    c.fail(obj, fmt::format("object {} is a mesh and the build also places level-set objects: "
+                            "a mix of meshes and level sets is not read yet",
+                            oid));
+  }
+  const El& at = ls ? *ls : *boundary;
+  long long fid = 0;
+  std::string channel;
+  const El* domain = nullptr;
+  Affine to_function;  // object → function coordinates
+  bool bbox_only = false;
+  if (ls) {
+    fid = resource_id(c, *ls, "functionid");
+    const char* ch = ls->attr("channel");
+    if (!ch) c.fail(*ls, "<levelset> has no channel (the function output it uses)");
+    channel = ch;
+    const long long meshid = resource_id(c, *ls, "meshid");
+    auto mo = md.objects.find(meshid);
+    if (mo == md.objects.end() || !child(*mo->second, "mesh"))
+      c.fail(*ls, fmt::format("meshid {} names no mesh object (Part I §4.1.1: the mesh bounds "
+                              "the level set)",
+                              meshid));
+    domain = child(*mo->second, "mesh");
+    to_function = matrix3d(c, *ls, "transform");
+    bbox_only = truthy(ls->attr("meshbboxonly"));
+  } else {
+    fid = resource_id(c, *boundary, boundary->attr("functionId") ? "functionId" : "functionid");
+    if (const char* ch = boundary->attr("channel")) channel = ch;
+    domain = child(obj, "mesh");
+    if (!domain) c.fail(obj, fmt::format("object {} has a boundary but no mesh to bound it", oid));
+  }
+  const double fallback = number(c, at, "fallbackvalue", 0.0);
+
+  auto program = std::make_shared<Program>();
+  compile_level_set(c, md.functions, fid, channel, at, *program);
+
+  const Affine item_m = matrix3d(c, item, "transform");  // object → build (model units)
+  const auto item_inv = inverse(item_m);
+  if (!item_inv) c.fail(item, "the item's transform is singular");
+  Affine from_mm;
+  for (int i = 0; i < 3; ++i) from_mm.l[i][i] = 1 / md.mm;
+  const Field graph =
+      graph_field(program, compose(to_function, compose(*item_inv, from_mm)), fallback);
+
+  const TriangleMesh mesh = mesh_of(c, *domain, item_m, md.mm);
+  BBox3 b;
+  for (const Vec3& v : mesh.vertices) b.add(v);
+  box.add(b.min);
+  box.add(b.max);
+  Field f = clip_box(graph, b.min, b.max);
+  if (!bbox_only && !is_box(mesh, b)) {
+    // The level set intersected with the mesh itself (Part I §4.1.1, meshbboxonly false).
+    MeshSdfOptions mo;
+    mo.voxel = md.options.mesh_voxel;
+    const Vec3 n = (b.max - b.min) * (1 / mo.voxel);
+    if (!(n.x * n.y * n.z <= 1e10))
+      c.fail(at, fmt::format("the mesh that bounds object {} spans {:.3g} voxels of {} mm: too "
+                             "many for its distance field; set meshbboxonly=\"true\" or a "
+                             "coarser slice.mesh_voxel",
+                             oid, n.x * n.y * n.z, mo.voxel));
+    f = intersect({f, mesh_field(mesh, mo, fmt::format("{} object {}", c.file, oid))});
+  }
+  return f;
+}
+
+bool is_implicit(const std::string& path) {
+  Zip z;
+  int err = 0;
+  z.z = zip_open(path.c_str(), ZIP_RDONLY, &err);
+  if (!z.z) return false;
+  std::optional<std::string> bytes;
+  try {
+    bytes = read_part(z.z, model_part_name(z.z, path), path);
+  } catch (const ParseError&) {
+    return false;
+  }
+  if (!bytes) return false;
+  const bool extension = bytes->find("3dmanufacturing/volumetric/") != std::string::npos ||
+                         bytes->find("3dmanufacturing/implicit/") != std::string::npos;
+  return extension && (bytes->find("levelset") != std::string::npos ||
+                       bytes->find("boundary") != std::string::npos);
+}
+
+VcadDesign read(const std::string& path, const VcadOptions& options) {
+  Zip z;
+  int err = 0;
+  z.z = zip_open(path.c_str(), ZIP_RDONLY, &err);
+  if (!z.z) {
+    zip_error_t e;
+    zip_error_init_with_code(&e, err);
+    const std::string why = zip_error_strerror(&e);
+    zip_error_fini(&e);
+    throw ParseError("not a 3MF package (a ZIP file): " + why, {path});
+  }
+  const std::string part = model_part_name(z.z, path);
+  const auto bytes = read_part(z.z, part, path);
+  if (!bytes) throw ParseError("the package has no model part " + part, {path});
+  const Ctx ctx{path, part[0] == '/' ? part : "/" + part};
+  const auto root = parse_xml(*bytes, path, ctx.part);
+  if (root->name != "model") ctx.fail(*root, "the model part's root is not <model>");
+  Model md{ctx, unit_mm(ctx, *root), {}, {}, options};
+  const El* resources = child(*root, "resources");
+  const El* build = child(*root, "build");
+  if (!resources || !build) ctx.fail(*root, "<model> has no <resources> or no <build>");
+  for (const auto& k : resources->kids) {
+    if (is_function(*k)) md.functions[resource_id(ctx, *k, "id")] = k.get();
+    if (k->name == "object") md.objects[resource_id(ctx, *k, "id")] = k.get();
+  }
+  std::vector<Field> parts;
+  BBox3 box;
+  for (const auto& item : build->kids) {
+    if (item->name != "item") continue;
+    const long long oid = resource_id(ctx, *item, "objectid");
+    auto o = md.objects.find(oid);
+    if (o == md.objects.end()) ctx.fail(*item, fmt::format("no object has id {}", oid));
+    parts.push_back(object_field(md, *item, *o->second, oid, box));
+  }
+  if (parts.empty()) ctx.fail(*build, "the build places no object");
+  VcadDesign d;
+  d.field = parts.size() == 1 ? parts[0] : unite(std::move(parts));
+  d.has_root = true;
+  d.root_min = box.min;
+  d.root_max = box.max;
+  d.source = path;
+  return d;
+}
+
+}  // namespace
+}  // namespace trellis::implicit
+
+TRELLIS_MODULE_ENTRY(implicit3mf, trellis::Implicit3mfModule, &trellis::implicit::is_implicit,
+                     &trellis::implicit::read)
