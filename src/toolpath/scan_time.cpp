@@ -1,6 +1,7 @@
 #include "trellis/toolpath/scan_time.hpp"
 
 #include <cmath>
+#include <vector>
 
 namespace trellis {
 
@@ -21,6 +22,19 @@ void ScanClock::mark(const Vec2* p, std::size_t n, double speed) {
   delay_s_ += static_cast<double>(n - 2) * t_.polygon_delay * 1e-6;
   at_ = p[n - 1];
   ++vectors_;
+}
+
+double scan_time(const std::vector<const Path*>& vectors, const ScanTiming& laser) {
+  ScanClock clock(laser);
+  std::vector<Vec2> xy;
+  for (const Path* p : vectors) {
+    xy.clear();
+    for (const Vec3& q : p->points) xy.push_back({q.x, q.y});
+    const bool hatch = p->role == PathRole::Hatch || p->role == PathRole::Infill;
+    const double speed = p->speed > 0 ? p->speed : hatch ? laser.hatch_speed : laser.contour_speed;
+    clock.mark(xy.data(), xy.size(), speed);
+  }
+  return clock.seconds();
 }
 
 }  // namespace trellis

@@ -6,8 +6,10 @@
 // in place of the mark delay. The model counts scanning only (no recoating).
 #pragma once
 #include <cstddef>
+#include <vector>
 
 #include "trellis/core/vec.hpp"
+#include "trellis/toolpath/toolpath.hpp"
 
 namespace trellis {
 
@@ -46,5 +48,10 @@ class ScanClock {
   double jump_s_ = 0, mark_s_ = 0, delay_s_ = 0;
   std::size_t vectors_ = 0;
 };
+
+// One laser's scan time (s) over `vectors` in the order given: each marked at its own speed
+// (Path::speed; 0 = the timing's contour or hatch speed by role), jumps and delays between them.
+// The one time function the multi-laser split balances and reports (slice/pbf_lasers.hpp).
+double scan_time(const std::vector<const Path*>& vectors, const ScanTiming& laser);
 
 }  // namespace trellis
