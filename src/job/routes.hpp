@@ -1,17 +1,16 @@
 // The routes behind run_job (private). Each reads its settings from the Config, writes the
 // outputs the Job asks for, and returns what it wrote and a summary line.
 #pragma once
-#include <string>
-
 #include <nlohmann/json_fwd.hpp>
+#include <string>
 
 #include "trellis/core/budget.hpp"
 #include "trellis/job/job.hpp"
 #include "trellis/machine/gcode_writer.hpp"
+#include "trellis/render/render.hpp"
 #include "trellis/slice/nonplanar.hpp"
 #include "trellis/slice/pbf.hpp"
 #include "trellis/slice/pbf_lasers.hpp"
-#include "trellis/render/render.hpp"
 #include "trellis/toolpath/toolpath.hpp"
 
 namespace trellis::routes {

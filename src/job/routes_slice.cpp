@@ -47,14 +47,17 @@ LaserSetup lasers_of(const Config& c) {
   return laser_setup(c.laser.lasers, c.laser.fields, c.pbf.laser_overlap, scan_timing(c.laser));
 }
 
-bool splits_layers(const Config& c) { return c.laser.lasers > 1 || !c.laser.fields.empty(); }
+bool splits_layers(const Config& c) {
+  return c.laser.lasers > 1 || !c.laser.fields.empty();
+}
 
 void add_laser_report(nlohmann::ordered_json& j, const LaserTimes& t, const Config& c) {
   if (c.laser.lasers <= 1) return;
   const std::vector<double> totals = t.totals();
   double all = 0;
   for (double s : totals) all += s;
-  nlohmann::ordered_json per = nlohmann::ordered_json::array(), build = nlohmann::ordered_json::array();
+  nlohmann::ordered_json per = nlohmann::ordered_json::array(),
+                         build = nlohmann::ordered_json::array();
   for (const auto& l : t.per_layer) {
     per.push_back(l);
     build.push_back(l.empty() ? 0.0 : *std::max_element(l.begin(), l.end()));
@@ -74,9 +77,10 @@ std::string laser_summary(const LaserTimes& t) {
   std::string each;
   double all = 0;
   for (double s : totals) each += (each.empty() ? "" : " + ") + fixed(s, 1), all += s;
-  return fmt::format("; {} lasers scan {} s, build time {} s (max per layer, summed; {} s of "
-                     "scanning in all), {} vectors cut at stripe boundaries",
-                     totals.size(), each, fixed(t.build_seconds(), 1), fixed(all, 1), t.cut);
+  return fmt::format(
+      "; {} lasers scan {} s, build time {} s (max per layer, summed; {} s of "
+      "scanning in all), {} vectors cut at stripe boundaries",
+      totals.size(), each, fixed(t.build_seconds(), 1), fixed(all, 1), t.cut);
 }
 
 namespace {
@@ -1001,9 +1005,9 @@ JobResult pbf_plate(const Job& job, const Config& c, Diagnostics& diag, const Pr
     out.files.push_back(job.report);
   }
   laser_previews(tp, job, c, out);
-  out.summary = fmt::format("plate of {} parts: {} layers, {} contour vectors, {} hatch vectors{}",
-                            parts.size(), total, contour_vectors, hatch_vectors,
-                            laser_summary(times));
+  out.summary =
+      fmt::format("plate of {} parts: {} layers, {} contour vectors, {} hatch vectors{}",
+                  parts.size(), total, contour_vectors, hatch_vectors, laser_summary(times));
   return out;
 }
 

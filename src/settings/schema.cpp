@@ -275,7 +275,8 @@ const std::vector<std::pair<const char*, const char*>>& when_table() {
       {"lattice2d.cell_height", "lattice2d.pattern=arrowhead|reentrant-honeycomb"},
       {"lattice2d.arrowhead_outer", "lattice2d.pattern=arrowhead"},
       {"lattice2d.arrowhead_inner", "lattice2d.pattern=arrowhead"},
-      {"lattice2d.line_width", "lattice2d.target_porosity>0 or route=lattice2d"},  // the pore area said
+      {"lattice2d.line_width",
+       "lattice2d.target_porosity>0 or route=lattice2d"},  // the pore area said
       // 3D lattices, when the route makes one (lattice3d, or plan aero without an input).
       {"lattice3d.", "route=lattice3d or !@input; route=lattice3d or plan.planner=aero"},
       {"lattice3d.cell_type", "lattice3d.kind=cells|conformal"},
@@ -413,14 +414,16 @@ std::vector<Setting> make_table() {
                        [](C& c) -> auto& { return c.laser.build_y; }));
   t.push_back(positive("laser.build_z", "mm", 10000, "build height", "",
                        [](C& c) -> auto& { return c.laser.build_z; }));
-  t.push_back(integer("laser.lasers", 1, 16,
-                      "lasers scanning each layer at once; pbf splits every layer among them in "
-                      "stripes along X balanced by scan time (docs/laser.md)",
-                      "lasers", [](C& c) -> auto& { return c.laser.lasers; }));
-  t.push_back(numbers("laser.fields", "mm", -1e5, 1e5, 0,
-                      "each laser's field x0, y0, x1, y1 in the build file's coordinates, laser by "
-                      "laser from left to right; not set = every laser reaches the whole plate",
-                      "", [](C& c) -> auto& { return c.laser.fields; }));
+  t.push_back(integer(
+      "laser.lasers", 1, 16,
+      "lasers scanning each layer at once; pbf splits every layer among them in "
+      "stripes along X balanced by scan time (docs/laser.md)",
+      "lasers", [](C & c) -> auto& { return c.laser.lasers; }));
+  t.push_back(numbers(
+      "laser.fields", "mm", -1e5, 1e5, 0,
+      "each laser's field x0, y0, x1, y1 in the build file's coordinates, laser by "
+      "laser from left to right; not set = every laser reaches the whole plate",
+      "", [](C & c) -> auto& { return c.laser.fields; }));
   t.push_back(number("scan.layer", "mm", 0.001, 1, "powder layer thickness", "layer-height",
                      [](C& c) -> auto& { return c.laser.layer; }));
   t.push_back(number("scan.hatch_distance", "mm", 0.001, 5, "hatch distance", "hatch",
@@ -902,10 +905,11 @@ std::vector<Setting> make_table() {
                        "thin-multiple", [](C& c) -> auto& { return c.pbf.options.thin_multiple; }));
   t.push_back(number("pbf.min_inclination", "deg", 0, 90, "shallower walls are hatched",
                      "min-inclination", [](C& c) -> auto& { return c.pbf.options.min_inclination; }));
-  t.push_back(number("pbf.laser_overlap", "mm", 0, 1000,
-                     "neighbouring lasers' stripes overlap: a vector crossing a boundary by at "
-                     "most half this goes whole to one laser, a longer one is cut there",
-                     "laser-overlap", [](C& c) -> auto& { return c.pbf.laser_overlap; }));
+  t.push_back(number(
+      "pbf.laser_overlap", "mm", 0, 1000,
+      "neighbouring lasers' stripes overlap: a vector crossing a boundary by at "
+      "most half this goes whole to one laser, a longer one is cut there",
+      "laser-overlap", [](C & c) -> auto& { return c.pbf.laser_overlap; }));
 
   // nonplanar.*, surface.*
   t.push_back(derived(positive("nonplanar.bead_width", "mm", 100, "path width = plane spacing",

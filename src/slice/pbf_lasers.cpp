@@ -14,7 +14,7 @@ namespace trellis {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
-constexpr double kEps = 1e-9;         // mm: a point on a field's edge is inside it
+constexpr double kEps = 1e-9;          // mm: a point on a field's edge is inside it
 constexpr double kBoundaryTol = 1e-3;  // mm: balancing stops when a boundary is this close
 
 struct Extent {
@@ -92,8 +92,8 @@ class Splitter {
           throw GeometryError(
               fmt::format("layer {}: a {} vector from ({:.3f}, {:.3f}) to ({:.3f}, {:.3f}) lies in "
                           "no laser's field (laser.fields): widen the fields or move the part",
-                          index_, to_string(path.role), pts.front().x, pts.front().y,
-                          pts.back().x, pts.back().y),
+                          index_, to_string(path.role), pts.front().x, pts.front().y, pts.back().x,
+                          pts.back().y),
               {"", 0, "laser.fields"});
         if (parts.size() == 1) {
           s.pieces.push_back({i, l, &path});
@@ -176,8 +176,8 @@ class Splitter {
     std::vector<std::pair<double, double>> w;
     double total = 0;
     for (std::size_t i = 0; i < extents_.size(); ++i) {
-      const double t = scan_time({&layer_.paths[i]}, setup_.timing) +
-                       setup_.timing.jump_delay * 1e-6;
+      const double t =
+          scan_time({&layer_.paths[i]}, setup_.timing) + setup_.timing.jump_delay * 1e-6;
       w.emplace_back(extents_[i].mid(), t);
       total += t;
     }
@@ -187,8 +187,7 @@ class Splitter {
     for (std::size_t j = 0; j < b.size(); ++j) {
       const double target = total * static_cast<double>(j + 1) / n_;
       while (k < w.size() && acc + w[k].second < target) acc += w[k++].second;
-      b[j] = k < w.size() ? w[k].first
-                          : x0 + (x1 - x0) * static_cast<double>(j + 1) / n_;
+      b[j] = k < w.size() ? w[k].first : x0 + (x1 - x0) * static_cast<double>(j + 1) / n_;
     }
   }
 
@@ -204,7 +203,8 @@ class Splitter {
       if (l < 0 || l >= n_) continue;
       const double lo = l == 0 ? -kInf : b[static_cast<std::size_t>(l - 1)] - setup_.overlap / 2;
       const double hi = l == n_ - 1 ? kInf : b[static_cast<std::size_t>(l)] + setup_.overlap / 2;
-      if (e.x0 >= lo - kEps && e.x1 <= hi + kEps && holds(setup_.fields[static_cast<std::size_t>(l)], e))
+      if (e.x0 >= lo - kEps && e.x1 <= hi + kEps &&
+          holds(setup_.fields[static_cast<std::size_t>(l)], e))
         return l;
     }
     return -1;
@@ -227,7 +227,9 @@ class Splitter {
 
 }  // namespace
 
-BBox2 whole_plate() { return {{-kInf, -kInf}, {kInf, kInf}}; }
+BBox2 whole_plate() {
+  return {{-kInf, -kInf}, {kInf, kInf}};
+}
 
 LaserSetup laser_setup(int lasers, const std::vector<double>& fields, double overlap,
                        const ScanTiming& timing) {
@@ -240,10 +242,11 @@ LaserSetup laser_setup(int lasers, const std::vector<double>& fields, double ove
     return s;
   }
   if (fields.size() != 4 * static_cast<std::size_t>(lasers))
-    throw SettingError(fmt::format("laser.fields has {} numbers: {} laser(s) need x0, y0, x1, y1 "
-                                   "each ({} numbers), or none for lasers that reach the whole plate",
-                                   fields.size(), lasers, 4 * lasers),
-                       {"", 0, "laser.fields"});
+    throw SettingError(
+        fmt::format("laser.fields has {} numbers: {} laser(s) need x0, y0, x1, y1 "
+                    "each ({} numbers), or none for lasers that reach the whole plate",
+                    fields.size(), lasers, 4 * lasers),
+        {"", 0, "laser.fields"});
   for (int l = 0; l < lasers; ++l) {
     const double* f = &fields[4 * static_cast<std::size_t>(l)];
     if (!(f[0] < f[2] && f[1] < f[3]))

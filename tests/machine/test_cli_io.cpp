@@ -204,7 +204,8 @@ TEST(CliIo, LaserIdsRoundTrip) {
           ASSERT_EQ(back.layers[i].paths.size(), want.size());
           for (std::size_t k = 0; k < want.size(); ++k) {
             const Path& got = back.layers[i].paths[k];
-            EXPECT_EQ(got.tool, want[k]->tool) << "seed " << seed << " layer " << i << " path " << k;
+            EXPECT_EQ(got.tool, want[k]->tool)
+                << "seed " << seed << " layer " << i << " path " << k;
             EXPECT_EQ(got.role, want[k]->role);
             ASSERT_EQ(got.points.size(), want[k]->points.size());
             EXPECT_NEAR(got.points[0].x, want[k]->points[0].x, 1e-3);

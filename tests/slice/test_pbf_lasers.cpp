@@ -57,7 +57,8 @@ LaserSetup striped(int lasers, double margin, double overlap) {
   std::vector<double> f;
   for (int l = 0; l < lasers; ++l) {
     const double w = 100.0 / lasers;
-    f.insert(f.end(), {std::max(0.0, l * w - margin), 0.0, std::min(100.0, (l + 1) * w + margin), 50.0});
+    f.insert(f.end(),
+             {std::max(0.0, l * w - margin), 0.0, std::min(100.0, (l + 1) * w + margin), 50.0});
   }
   return laser_setup(lasers, f, overlap, ScanTiming{});
 }
@@ -118,7 +119,8 @@ TEST(PbfLasers, EveryVectorOnOneLaserInItsFieldAndThePiecesAreTheLayer) {
     for (int lasers = 1; lasers <= 4; ++lasers)
       for (const bool fields : {false, true}) {
         const Layer before = random_layer(seed, 150, seed % 3 == 0 ? 60 : 8);
-        const LaserSetup setup = fields ? striped(lasers, 10, 2) : laser_setup(lasers, {}, 2, ScanTiming{});
+        const LaserSetup setup =
+            fields ? striped(lasers, 10, 2) : laser_setup(lasers, {}, 2, ScanTiming{});
         Layer after = before;
         const LaserSplit s = split_among_lasers(after, setup, seed);
         const std::string what = "seed " + std::to_string(seed) + ", " + std::to_string(lasers) +

@@ -39,7 +39,7 @@ struct LaserSplit {
   // For each path of the layer after the split, the index of the path it came from (pieces of
   // a cut path share it, in order along the path).
   std::vector<std::size_t> source;
-  double build_seconds() const;    // the slowest laser's time: the layer's scan time
+  double build_seconds() const;  // the slowest laser's time: the layer's scan time
 };
 
 // Splits `layer` among the setup's lasers: every path's `tool` becomes its laser index, a path
