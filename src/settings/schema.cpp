@@ -275,8 +275,7 @@ const std::vector<std::pair<const char*, const char*>>& when_table() {
       {"lattice2d.cell_height", "lattice2d.pattern=arrowhead|reentrant-honeycomb"},
       {"lattice2d.arrowhead_outer", "lattice2d.pattern=arrowhead"},
       {"lattice2d.arrowhead_inner", "lattice2d.pattern=arrowhead"},
-      {"lattice2d.line_width",
-       "lattice2d.target_porosity>0 or route=lattice2d"},  // the pore area said
+      {"lattice2d.line_width", "lattice2d.target_porosity>0 or route=lattice2d"},  // the pore area said
       // 3D lattices, when the route makes one (lattice3d, or plan aero without an input).
       {"lattice3d.", "route=lattice3d or !@input; route=lattice3d or plan.planner=aero"},
       {"lattice3d.cell_type", "lattice3d.kind=cells|conformal"},
@@ -418,12 +417,12 @@ std::vector<Setting> make_table() {
       "laser.lasers", 1, 16,
       "lasers scanning each layer at once; pbf splits every layer among them in "
       "stripes along X balanced by scan time (docs/laser.md)",
-      "lasers", [](C & c) -> auto& { return c.laser.lasers; }));
+      "lasers", [](C& c) -> auto& { return c.laser.lasers; }));
   t.push_back(numbers(
       "laser.fields", "mm", -1e5, 1e5, 0,
       "each laser's field x0, y0, x1, y1 in the build file's coordinates, laser by "
       "laser from left to right; not set = every laser reaches the whole plate",
-      "", [](C & c) -> auto& { return c.laser.fields; }));
+      "", [](C& c) -> auto& { return c.laser.fields; }));
   t.push_back(number("scan.layer", "mm", 0.001, 1, "powder layer thickness", "layer-height",
                      [](C& c) -> auto& { return c.laser.layer; }));
   t.push_back(number("scan.hatch_distance", "mm", 0.001, 5, "hatch distance", "hatch",
@@ -909,7 +908,7 @@ std::vector<Setting> make_table() {
       "pbf.laser_overlap", "mm", 0, 1000,
       "neighbouring lasers' stripes overlap: a vector crossing a boundary by at "
       "most half this goes whole to one laser, a longer one is cut there",
-      "laser-overlap", [](C & c) -> auto& { return c.pbf.laser_overlap; }));
+      "laser-overlap", [](C& c) -> auto& { return c.pbf.laser_overlap; }));
 
   // nonplanar.*, surface.*
   t.push_back(derived(positive("nonplanar.bead_width", "mm", 100, "path width = plane spacing",
