@@ -91,7 +91,7 @@ class Splitter {
         if (l < 0)
           throw GeometryError(
               fmt::format("layer {}: a {} vector from ({:.3f}, {:.3f}) to ({:.3f}, {:.3f}) lies in "
-                          "no laser's field (laser.fields): widen the fields or move the part",
+                          "no laser's field: widen the fields or move the part",
                           index_, to_string(path.role), pts.front().x, pts.front().y, pts.back().x,
                           pts.back().y),
               {"", 0, "laser.fields"});
@@ -243,14 +243,14 @@ LaserSetup laser_setup(int lasers, const std::vector<double>& fields, double ove
   }
   if (fields.size() != 4 * static_cast<std::size_t>(lasers))
     throw SettingError(
-        fmt::format("laser.fields has {} numbers: {} laser(s) need x0, y0, x1, y1 "
+        fmt::format("{} numbers: {} laser(s) need x0, y0, x1, y1 "
                     "each ({} numbers), or none for lasers that reach the whole plate",
                     fields.size(), lasers, 4 * lasers),
         {"", 0, "laser.fields"});
   for (int l = 0; l < lasers; ++l) {
     const double* f = &fields[4 * static_cast<std::size_t>(l)];
     if (!(f[0] < f[2] && f[1] < f[3]))
-      throw SettingError(fmt::format("laser.fields: laser {}'s field {}, {}, {}, {} is empty "
+      throw SettingError(fmt::format("laser {}'s field {}, {}, {}, {} is empty "
                                      "(x0 < x1 and y0 < y1)",
                                      l + 1, f[0], f[1], f[2], f[3]),
                          {"", 0, "laser.fields"});
