@@ -81,6 +81,7 @@ TEXT = {
     "lattice3d.box": ["10,10,12"],
     "onto.height_fn": ["0.05*x*x"],
     "onto.domain": ["-6,-6,6,6"],
+    "laser.fields": ["-100,-100,100,100", "-100,-100,0,100"],
     "pbf.c": ["0.3"],
     "pbf.size": ["3,3,0.4"],
     "pbf.grade_to": ["schwarz_p:3"],

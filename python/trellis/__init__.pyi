@@ -294,6 +294,8 @@ def pbf(
     island_overlap: float = ...,  # pbf.island_overlap: island: neighbouring islands overlap
     island_shift: float = ...,  # pbf.island_shift: island: the island grid moves this far along both its axes every layer
     island_size: float = ...,  # pbf.island_size: island: side of the square islands
+    laser_overlap: float = ...,  # pbf.laser_overlap: neighbouring lasers' stripes overlap: a vector crossing a boundary by at most half this goes whole to one laser, a longer one is cut there
+    lasers: int = ...,  # laser.lasers: lasers scanning each layer at once; pbf splits every layer among them in stripes along X balanced by scan time (docs/laser.md)
     layer_height: float = ...,  # scan.layer: powder layer thickness
     lhd: float = ...,  # scan.segment_gap: gap LHD between contour scan vectors (the paper tested 0-120 µm; outside is a warning)
     max_memory: float = ...,  # run.max_memory: refuse a run whose estimate (made from its settings before it starts) needs more memory than this

@@ -12,6 +12,7 @@
 #include "trellis/machine/laser.hpp"
 #include "trellis/machine/toolpath_3mf.hpp"
 #include "trellis/slice/pbf_analysis.hpp"
+#include "trellis/slice/pbf_lasers.hpp"
 
 namespace trellis {
 
@@ -56,6 +57,22 @@ JobResult analyze_build_file(const std::string& path, const std::string& design,
                     {"jumps", jumps},
                     {"corners", corners},
                     {"per_layer_s", layer_times}};
+  // Several lasers (the paths' laser ids): each one's scan time, and the build time.
+  const LaserTimes lt = laser_times(tp, scan_timing(prof));
+  const std::vector<double> totals = lt.totals();
+  std::string lasers_said;
+  if (totals.size() > 1) {
+    nlohmann::ordered_json per = nlohmann::ordered_json::array();
+    for (const auto& l : lt.per_layer) per.push_back(l);
+    j["lasers"] = {{"count", totals.size()},
+                   {"scan_time_s", totals},
+                   {"build_time_s", lt.build_seconds()},
+                   {"per_layer", {{"scan_time_s", per}}}};
+    std::string each;
+    for (double s : totals) each += (each.empty() ? "" : " + ") + routes::fixed(s, 1);
+    lasers_said = fmt::format("; {} lasers scan {} s, build time {} s", totals.size(), each,
+                              routes::fixed(lt.build_seconds(), 1));
+  }
   JobResult out;
   out.toolpath = std::make_shared<Toolpath>(tp);
   if (design.empty()) {
@@ -101,6 +118,7 @@ JobResult analyze_build_file(const std::string& path, const std::string& design,
         routes::fixed(a.outside_length, 3), routes::fixed(a.max_outside * 1e3, 1),
         routes::fixed(a.fr_mean, 3), routes::fixed(a.fr_cv, 3), routes::fixed(a.scan_time, 1));
   }
+  out.summary += lasers_said;
   if (report_json) *report_json = j.dump(2) + "\n";
   return out;
 }

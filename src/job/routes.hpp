@@ -1,14 +1,16 @@
 // The routes behind run_job (private). Each reads its settings from the Config, writes the
 // outputs the Job asks for, and returns what it wrote and a summary line.
 #pragma once
+#include <nlohmann/json_fwd.hpp>
 #include <string>
 
 #include "trellis/core/budget.hpp"
 #include "trellis/job/job.hpp"
 #include "trellis/machine/gcode_writer.hpp"
+#include "trellis/render/render.hpp"
 #include "trellis/slice/nonplanar.hpp"
 #include "trellis/slice/pbf.hpp"
-#include "trellis/render/render.hpp"
+#include "trellis/slice/pbf_lasers.hpp"
 #include "trellis/toolpath/toolpath.hpp"
 
 namespace trellis::routes {
@@ -96,6 +98,14 @@ void previews(const Toolpath& tp, const std::string& dir, int count, const Rende
 std::string preview_name(const std::string& dir, const std::string& file);
 // The pbf routes' previews: paths coloured by role at the melt pool's width, no travel.
 void laser_previews(const Toolpath& tp, const Job& job, const Config& c, JobResult& out);
+
+// Multi-laser PBF (slice/pbf_lasers.hpp, docs/laser.md): the configuration's lasers; whether a
+// pbf route splits its layers among them (several lasers, or one whose field is to be checked);
+// the per-laser times as the report's "lasers" object and as the summary's tail ("" for one).
+LaserSetup lasers_of(const Config& c);
+bool splits_layers(const Config& c);
+void add_laser_report(nlohmann::ordered_json& report, const LaserTimes& times, const Config& c);
+std::string laser_summary(const LaserTimes& times);
 std::string fixed(double v, int decimals);
 
 // Estimates before work (estimate.cpp): each route checks its estimate with check_budget before

@@ -124,9 +124,14 @@ JobResult pbf_solid(const Job& job, const Config& c, Diagnostics& diag, const Pr
   }
   const bool stream =
       !job.keep_toolpath && !job.output.empty() && job.toolpath.empty() && job.preview.empty();
+  const bool split = splits_layers(c);
+  const LaserSetup setup = lasers_of(c);
+  LaserTimes times;
   const auto layer_of = [&](std::size_t i, const PbfLayer& L) {
-    return pbf_layer_toolpath(L, i, o.layer, prof.contour_power, prof.contour_speed,
-                              prof.hatch_power, prof.hatch_speed);
+    Layer layer = pbf_layer_toolpath(L, i, o.layer, prof.contour_power, prof.contour_speed,
+                                     prof.hatch_power, prof.hatch_speed);
+    if (split) times.add(split_among_lasers(layer, setup, i));
+    return layer;
   };
   JobResult out;
   Toolpath tp;
@@ -178,6 +183,7 @@ JobResult pbf_solid(const Job& job, const Config& c, Diagnostics& diag, const Pr
     j["hatch_length_mm"] = r.hatch_length;
     j["scan_time_s"] = r.scan_time;
     j["per_layer"] = layer_series(r);
+    add_laser_report(j, times, c);
     j["warnings"] = nlohmann::json::array();
     for (const auto& m : diag.messages())
       j["warnings"].push_back({{"kind", m.kind}, {"message", m.text}});
@@ -193,6 +199,7 @@ JobResult pbf_solid(const Job& job, const Config& c, Diagnostics& diag, const Pr
       c.pbf.strategy, r.layers.size(), r.contour_vectors, fixed(r.contour_length, 1),
       r.hatch_vectors, fixed(r.hatch_length, 1), fixed(r.scan_time, 1), fixed(r.seconds, 2),
       fixed(rss, 0));
+  out.summary += laser_summary(times);
   return out;
 }
 

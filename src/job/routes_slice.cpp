@@ -44,6 +44,46 @@ void laser_previews(const Toolpath& tp, const Job& job, const Config& c, JobResu
   previews(tp, job.preview, c.output.preview_layers, ro, out);
 }
 
+LaserSetup lasers_of(const Config& c) {
+  return laser_setup(c.laser.lasers, c.laser.fields, c.pbf.laser_overlap, scan_timing(c.laser));
+}
+
+bool splits_layers(const Config& c) {
+  return c.laser.lasers > 1 || !c.laser.fields.empty();
+}
+
+void add_laser_report(nlohmann::ordered_json& j, const LaserTimes& t, const Config& c) {
+  if (c.laser.lasers <= 1) return;
+  const std::vector<double> totals = t.totals();
+  double all = 0;
+  for (double s : totals) all += s;
+  nlohmann::ordered_json per = nlohmann::ordered_json::array(),
+                         build = nlohmann::ordered_json::array();
+  for (const auto& l : t.per_layer) {
+    per.push_back(l);
+    build.push_back(l.empty() ? 0.0 : *std::max_element(l.begin(), l.end()));
+  }
+  j["lasers"] = {{"count", c.laser.lasers},
+                 {"overlap_mm", c.pbf.laser_overlap},
+                 {"scan_time_s", totals},
+                 {"build_time_s", t.build_seconds()},
+                 {"all_lasers_time_s", all},
+                 {"cut_vectors", t.cut},
+                 {"per_layer", {{"build_time_s", build}, {"scan_time_s", per}}}};
+}
+
+std::string laser_summary(const LaserTimes& t) {
+  const std::vector<double> totals = t.totals();
+  if (totals.size() <= 1) return "";
+  std::string each;
+  double all = 0;
+  for (double s : totals) each += (each.empty() ? "" : " + ") + fixed(s, 1), all += s;
+  return fmt::format(
+      "; {} lasers scan {} s, build time {} s (max per layer, summed; {} s of "
+      "scanning in all), {} vectors cut at stripe boundaries",
+      totals.size(), each, fixed(t.build_seconds(), 1), fixed(all, 1), t.cut);
+}
+
 namespace {
 
 TpmsKind tpms_kind(const std::string& name) {
@@ -939,6 +979,13 @@ JobResult pbf_plate(const Job& job, const Config& c, Diagnostics& diag, const Pr
         PbfLayerRange{a, end});
     diag.merge(r.diagnostics);
   }
+  // The plate's layers shared among the lasers, every part's paths together.
+  LaserTimes times;
+  if (splits_layers(c)) {
+    const LaserSetup setup = lasers_of(c);
+    for (std::size_t i = 0; i < tp.layers.size(); ++i)
+      times.add(split_among_lasers(tp.layers[i], setup, a + i));
+  }
   if (job.shards)
     return shard_written(job, tp, a, b, total,
                          fmt::format("{} contour and {} hatch vectors", contour_vectors, hatch_vectors),
@@ -961,12 +1008,14 @@ JobResult pbf_plate(const Job& job, const Config& c, Diagnostics& diag, const Pr
     for (const auto& p : parts)
       j["parts"].push_back({{"label", p.place.label}, {"x_mm", p.place.x}, {"y_mm", p.place.y},
                             {"rotation_deg", p.place.rotation}, {"layers", p.layers}});
+    add_laser_report(j, times, c);
     write_file_atomic(job.report, with_job(j.dump(2) + "\n", job, job.report, true, &diag));
     out.files.push_back(job.report);
   }
   laser_previews(tp, job, c, out);
-  out.summary = fmt::format("plate of {} parts: {} layers, {} contour vectors, {} hatch vectors",
-                            parts.size(), total, contour_vectors, hatch_vectors);
+  out.summary =
+      fmt::format("plate of {} parts: {} layers, {} contour vectors, {} hatch vectors{}",
+                  parts.size(), total, contour_vectors, hatch_vectors, laser_summary(times));
   return out;
 }
 
@@ -1078,12 +1127,17 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
                       job.preview.empty() && !is_3mf_output(job.output);
   Toolpath tp;
   PbfResult r;
+  const bool split = splits_layers(c);
+  const LaserSetup setup = lasers_of(c);
+  LaserTimes times;
   if (stream) {
     CliStreamWriter writer(job.output, prof, CliWriteOptions{c.pbf.binary, true}, "trellis pbf",
                            embedded_job(job, job.output));
     r = plan_pbf(d, po, progress, [&](std::size_t i, const PbfLayer& L) {
-      writer.add(pbf_layer_toolpath(L, i, po.layer, prof.contour_power, prof.contour_speed,
-                                    prof.hatch_power, prof.hatch_speed));
+      Layer layer = pbf_layer_toolpath(L, i, po.layer, prof.contour_power, prof.contour_speed,
+                                       prof.hatch_power, prof.hatch_speed);
+      if (split) times.add(split_among_lasers(layer, setup, i));
+      writer.add(layer);
     });
     writer.finish();
     diag.merge(r.diagnostics);
@@ -1092,6 +1146,9 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
     r = plan_pbf(d, po, progress);
     diag.merge(r.diagnostics);
     tp = pbf_toolpath(r, prof.contour_power, prof.contour_speed, prof.hatch_power, prof.hatch_speed);
+    if (split)
+      for (std::size_t i = 0; i < tp.layers.size(); ++i)
+        times.add(split_among_lasers(tp.layers[i], setup, i));
     out.toolpath = std::make_shared<Toolpath>(tp);
   }
   if (!job.output.empty() && !stream) write_laser_build(job.output, tp, job, c, out);
@@ -1150,6 +1207,7 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
                         {"r67_baseline", r.scan_time_r67},
                         {"saving", r.scan_time_r67 > 0 ? 1 - r.scan_time / r.scan_time_r67 : 0}};
     j["per_layer"] = pbf_layer_series(r);  // paper Fig. 3(b)
+    add_laser_report(j, times, c);
     // Every warning of the run: the design's (pbf_part_design) and the planner's.
     j["warnings"] = nlohmann::json::array();
     for (const auto& m : diag.messages())
@@ -1171,6 +1229,7 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
       c.pbf.strategy, c.pbf.route, r.layers.size(), r.contour_vectors, fixed(r.contour_length, 1),
       r.hatch_vectors, fixed(r.hatch_length, 1), fixed(h.mean, 3), fixed(h.cv, 3), fixed(b.mean, 3),
       fixed(b.cv, 3), fixed(r.scan_time, 1), fixed(r.scan_time_r67, 1), fixed(r.seconds, 2), fixed(rss, 0));
+  out.summary += laser_summary(times);
   return out;
 }
 

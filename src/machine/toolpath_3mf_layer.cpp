@@ -132,6 +132,7 @@ class LayerReader {
       return fmt::format("laser index {} is not declared in <tp:lasersources> (§4.5)", *laser);
     if (laser) lasers_.insert(*laser);
     base_ = profile_->values;
+    if (profile_->laser && laser) base_.tool = static_cast<int>(*laser);  // the laser is the tool
     if (!profile_->has_role)
       base_.role = type_ == "hatch"  ? PathRole::Hatch
                    : profile_->laser ? PathRole::Contour

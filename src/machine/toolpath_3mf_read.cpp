@@ -348,12 +348,6 @@ Toolpath read_toolpath_3mf_file(const std::string& path, Diagnostics* diag) {
     if (!l.ztop && !l.z && !layer.paths.empty()) layer.z = layer.paths.front().points.front().z;
     tp.layers.push_back(std::move(layer));
   }
-  if (lasers.size() > 1 && diag)
-    diag->warn(
-        "3mf_lasers",
-        fmt::format("{}: the toolpath uses {} lasers; the toolpath IR has no laser index, so "
-                    "their paths are read as one laser's, in document order",
-                    path, lasers.size()));
   return tp;
 }
 

@@ -144,7 +144,7 @@ std::string profile_xml(const ProfileKey& k, std::size_t index, const LaserProfi
       out += fmt::format(" jumpspeed=\"{}\"", num(laser->jump_speed));
     if (laser && laser->spot_diameter > 0)
       out += fmt::format(" spotradius=\"{}\"", num(laser->spot_diameter / 2));
-    out += " laserindex=\"0\"";
+    out += fmt::format(" laserindex=\"{}\"", std::max(0, k.tool));  // §4.5: Path::tool
   } else {
     if (k.speed > 0) out += fmt::format(" depositionspeed=\"{}\"", num(k.speed));
     if (k.width > 0) out += fmt::format(" beadwidth=\"{}\"", num(k.width));
@@ -157,7 +157,7 @@ std::string profile_xml(const ProfileKey& k, std::size_t index, const LaserProfi
   if (!k.laser && k.speed < 0) out += fmt::format(" t:speed=\"{}\"", num(k.speed));
   if (!k.laser && k.width < 0) out += fmt::format(" t:width=\"{}\"", num(k.width));
   if (!k.laser && k.height < 0) out += fmt::format(" t:height=\"{}\"", num(k.height));
-  if (k.tool != 0) out += fmt::format(" t:tool=\"{}\"", k.tool);
+  if (k.tool != 0 && !k.laser) out += fmt::format(" t:tool=\"{}\"", k.tool);
   if (k.temperature != 0) out += fmt::format(" t:temperature=\"{}\"", num(k.temperature));
   if (k.flow != 0) out += fmt::format(" t:flow=\"{}\"", num(k.flow));
   if (k.fan != -1) out += fmt::format(" t:fan=\"{}\"", num(k.fan));
@@ -336,14 +336,28 @@ struct Writer {
         "toolpathtype=\"{}\">\n",
         uuid_of("toolpath"), num(kUnitFactor), planar ? "planar" : "3axis");
     if (laser && o.laser) {
-      // §4.5: one laser, its field the build plate; SHOULD come first.
+      // §4.5: a laser source per laser (Path::tool), its field the profile's or the build
+      // plate; SHOULD come first.
       const LaserProfile& l = *o.laser;
-      out += fmt::format("<tp:lasersources default=\"0\"><tp:lasersource index=\"0\" name=\"{}\"",
-                         esc(l.name.empty() ? "laser" : l.name));
-      if (l.build_x > 0 && l.build_y > 0)
-        out += fmt::format(" minx=\"0\" maxx=\"{}\" miny=\"0\" maxy=\"{}\"", units(l.build_x, 0, 0),
-                           units(l.build_y, 0, 0));
-      out += "/></tp:lasersources>\n";
+      int lasers = std::max(1, l.lasers);
+      for (const auto& L : tp.layers)
+        for (const auto& p : L.paths) lasers = std::max(lasers, p.tool + 1);
+      const std::string name = l.name.empty() ? "laser" : l.name;
+      out += "<tp:lasersources default=\"0\">";
+      for (int i = 0; i < lasers; ++i) {
+        out += fmt::format("<tp:lasersource index=\"{}\" name=\"{}\"", i,
+                           esc(lasers > 1 ? fmt::format("{} laser {}", name, i + 1) : name));
+        const std::size_t f = 4 * static_cast<std::size_t>(i);
+        if (f + 4 <= l.fields.size())
+          out += fmt::format(" minx=\"{}\" maxx=\"{}\" miny=\"{}\" maxy=\"{}\"",
+                             units(l.fields[f], 0, 0), units(l.fields[f + 2], 0, 0),
+                             units(l.fields[f + 1], 0, 0), units(l.fields[f + 3], 0, 0));
+        else if (l.build_x > 0 && l.build_y > 0)
+          out += fmt::format(" minx=\"0\" maxx=\"{}\" miny=\"0\" maxy=\"{}\"",
+                             units(l.build_x, 0, 0), units(l.build_y, 0, 0));
+        out += "/>";
+      }
+      out += "</tp:lasersources>\n";
     }
     out += "<tp:toolpathprofiles>\n";
     for (std::size_t k = 0; k < profile_order.size(); ++k)

@@ -350,6 +350,7 @@ const std::vector<std::pair<const char*, const char*>>& when_table() {
       {"pbf.wall_inclination", "!@mesh; pbf.strategy=hybrid|r67"},
       {"pbf.wall_azimuth", "!@mesh; pbf.strategy=hybrid|r67"},
       {"pbf.resolution", "!@mesh"},
+      {"pbf.laser_overlap", "laser.lasers>1"},
       {"pbf.stripe_width", "pbf.strategy=stripe"},
       {"pbf.stripe_overlap", "pbf.strategy=stripe"},
       {"pbf.island_size", "pbf.strategy=island"},
@@ -416,6 +417,16 @@ std::vector<Setting> make_table() {
                        [](C& c) -> auto& { return c.laser.build_y; }));
   t.push_back(positive("laser.build_z", "mm", 10000, "build height", "",
                        [](C& c) -> auto& { return c.laser.build_z; }));
+  t.push_back(integer(
+      "laser.lasers", 1, 16,
+      "lasers scanning each layer at once; pbf splits every layer among them in "
+      "stripes along X balanced by scan time (docs/laser.md)",
+      "lasers", [](C& c) -> auto& { return c.laser.lasers; }));
+  t.push_back(numbers(
+      "laser.fields", "mm", -1e5, 1e5, 0,
+      "each laser's field x0, y0, x1, y1 in the build file's coordinates, laser by "
+      "laser from left to right; not set = every laser reaches the whole plate",
+      "", [](C& c) -> auto& { return c.laser.fields; }));
   t.push_back(number("scan.layer", "mm", 0.001, 1, "powder layer thickness", "layer-height",
                      [](C& c) -> auto& { return c.laser.layer; }));
   t.push_back(number("scan.hatch_distance", "mm", 0.001, 5, "hatch distance", "hatch",
@@ -924,6 +935,11 @@ std::vector<Setting> make_table() {
       "pbf.min_inclination (width), or the paper's c interpolated by the mid-surface's inclination "
       "from 0 at pbf.min_inclination to c 10° steeper, Eq. 6 / Fig. S5 (inclination)",
       "split", [](C& c) -> auto& { return c.pbf.options.split; }));
+  t.push_back(number(
+      "pbf.laser_overlap", "mm", 0, 1000,
+      "neighbouring lasers' stripes overlap: a vector crossing a boundary by at "
+      "most half this goes whole to one laser, a longer one is cut there",
+      "laser-overlap", [](C& c) -> auto& { return c.pbf.laser_overlap; }));
 
   // nonplanar.*, surface.*
   t.push_back(derived(positive("nonplanar.bead_width", "mm", 100, "path width = plane spacing",

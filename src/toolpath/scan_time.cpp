@@ -29,18 +29,32 @@ void ScanClock::mark(const Vec2* p, std::size_t n, double speed) {
   ++vectors_;
 }
 
+namespace {
+
+// A path marked at its own speed (when set; else the hatch or contour speed by its role).
+void mark_path(ScanClock& clock, const Path& p, const ScanTiming& timing, std::vector<Vec2>& xy) {
+  if (p.points.size() < 2) return;
+  xy.clear();
+  for (const Vec3& q : p.points) xy.push_back({q.x, q.y});
+  const bool hatch = p.role == PathRole::Hatch || p.role == PathRole::Infill;
+  clock.mark(xy.data(), xy.size(),
+             p.speed > 0 ? p.speed : (hatch ? timing.hatch_speed : timing.contour_speed));
+}
+
+}  // namespace
+
 ScanClock layer_scan_clock(const Layer& layer, const ScanTiming& timing) {
   ScanClock clock(timing);
-  std::vector<Vec2> pts;
-  for (const Path& p : layer.paths) {
-    if (p.points.size() < 2) continue;
-    pts.clear();
-    for (const auto& q : p.points) pts.push_back({q.x, q.y});
-    const bool hatch = p.role == PathRole::Hatch || p.role == PathRole::Infill;
-    clock.mark(pts.data(), pts.size(),
-               p.speed > 0 ? p.speed : (hatch ? timing.hatch_speed : timing.contour_speed));
-  }
+  std::vector<Vec2> xy;
+  for (const Path& p : layer.paths) mark_path(clock, p, timing, xy);
   return clock;
+}
+
+double scan_time(const std::vector<const Path*>& vectors, const ScanTiming& laser) {
+  ScanClock clock(laser);
+  std::vector<Vec2> xy;
+  for (const Path* p : vectors) mark_path(clock, *p, laser, xy);
+  return clock.seconds();
 }
 
 }  // namespace trellis

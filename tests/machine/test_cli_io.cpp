@@ -172,3 +172,53 @@ TEST(CliIo, ReadsShortBinaryCommandsAndOtherUnits) {
 }
 
 }  // namespace
+
+// Several lasers: each path's laser (Path::tool) is written as its block's id and read back,
+// ASCII and binary, with and without CLI+ blocks (then from the ids' labels alone); a plate's
+// parts keep theirs too.
+TEST(CliIo, LaserIdsRoundTrip) {
+  LaserProfile prof;
+  prof.lasers = 3;
+  for (unsigned seed = 1; seed <= 4; ++seed) {
+    Toolpath tp = random_laser_toolpath(seed);
+    std::mt19937 rng(seed);
+    for (auto& l : tp.layers)
+      for (auto& p : l.paths) p.tool = static_cast<int>(rng() % 3);
+    if (seed % 2 == 0) {
+      tp.part_labels = {"a", "b"};
+      for (auto& l : tp.layers)
+        for (auto& p : l.paths) p.part = 1 + static_cast<int>(rng() % 2);
+    }
+    for (const bool binary : {false, true})
+      for (const bool plus : {false, true}) {
+        const Toolpath back = read_cli(write_cli(tp, prof, {binary, plus}), "mem.cli");
+        ASSERT_EQ(back.layers.size(), tp.layers.size());
+        for (std::size_t i = 0; i < tp.layers.size(); ++i) {
+          // In the file: per part, per laser, its contours then its hatches.
+          std::vector<const Path*> want;
+          const int parts = static_cast<int>(tp.part_labels.size());
+          for (int part = parts ? 1 : 0; part <= parts; ++part)
+            for (int laser = 0; laser < 3; ++laser)
+              for (const Path* p : in_file_order(tp.layers[i]))
+                if (p->tool == laser && p->part == part) want.push_back(p);
+          ASSERT_EQ(back.layers[i].paths.size(), want.size());
+          for (std::size_t k = 0; k < want.size(); ++k) {
+            const Path& got = back.layers[i].paths[k];
+            EXPECT_EQ(got.tool, want[k]->tool)
+                << "seed " << seed << " layer " << i << " path " << k;
+            EXPECT_EQ(got.role, want[k]->role);
+            ASSERT_EQ(got.points.size(), want[k]->points.size());
+            EXPECT_NEAR(got.points[0].x, want[k]->points[0].x, 1e-3);
+          }
+        }
+      }
+  }
+}
+
+// One laser: no laser in any label, the ids of a single-laser machine.
+TEST(CliIo, OneLaserNamesNoLaser) {
+  const std::string bytes = write_cli(random_laser_toolpath(2), LaserProfile{}, {false, true});
+  EXPECT_EQ(bytes.find("laser 1"), std::string::npos);
+  EXPECT_EQ(bytes.find("LASER="), std::string::npos);
+  EXPECT_NE(bytes.find("$$LABEL/1,contour\n$$LABEL/2,hatch\n"), std::string::npos);
+}

@@ -185,3 +185,21 @@ TEST(Toolpath3mf, NotAPackageIsRefusedNamingTheFile) {
     EXPECT_EQ(e.where().file, path);
   }
 }
+
+// Several lasers: each laser path's laser (Path::tool) is its profile's laserindex (§4.5), one
+// <tp:lasersource> per laser with its field, and reads back as written.
+TEST(Toolpath3mf, LaserIndicesRoundTrip) {
+  test::TempDir dir;
+  LaserProfile laser;
+  laser.lasers = 3;
+  laser.fields = {0, 0, 40, 50, 30, 0, 70, 50, 60, 0, 100, 50};
+  Toolpath3mfOptions o;
+  o.laser = &laser;
+  for (unsigned seed = 1; seed <= 4; ++seed) {
+    Toolpath tp = random_toolpath(seed, true, false);
+    std::mt19937 rng(seed);
+    for (auto& l : tp.layers)
+      for (auto& p : l.paths) p.tool = static_cast<int>(rng() % 3);
+    expect_same(tp, round_trip(tp, o, dir, "lasers.3mf"), "lasers seed " + std::to_string(seed));
+  }
+}

@@ -355,3 +355,36 @@ def test_constant_modifiers_apply_and_others_are_refused(tmp_path):
     spec_package(tmp_path / "linear.3mf", scaled, model.replace('laserindex="1" />', modifier.format("linear")))
     r = run("analyze", tmp_path / "linear.3mf", ok=False)
     assert r.returncode == 2 and "linear modifier of laserpower" in r.stderr, r.stderr
+
+
+def test_two_lasers_cli_and_3mf_keep_the_lasers_and_their_times(tmp_path, xsd):
+    """Issue 43 item 3: the twin-laser profile splits each layer; the .cli and the 3MF carry each
+    vector's laser, `analyze` of either reports the same per-laser times as the pbf run did, and
+    the build time (the slowest laser per layer, summed) is below the lasers' sum."""
+    (tmp_path / "gyroid.vcad").write_text(GYROID)
+    machine = ROOT / "profiles" / "pbf_316l_2laser.toml"
+    runs = {}
+    for ext in ("cli", "3mf"):
+        r = run("pbf", tmp_path / "gyroid.vcad", "--machine", machine, "-o", tmp_path / f"g.{ext}",
+                "--report", tmp_path / f"pbf_{ext}.json")
+        assert "2 lasers scan" in r.stdout + r.stderr  # the run's summary
+        run("analyze", tmp_path / f"g.{ext}", "--machine", machine, "--report", tmp_path / f"a_{ext}.json")
+        runs[ext] = (json.loads((tmp_path / f"pbf_{ext}.json").read_text())["lasers"],
+                     json.loads((tmp_path / f"a_{ext}.json").read_text())["lasers"])
+    for ext, (made, read) in runs.items():
+        assert made["count"] == read["count"] == 2, ext
+        assert min(made["scan_time_s"]) > 0, ext
+        assert read["scan_time_s"] == pytest.approx(made["scan_time_s"], rel=1e-6), ext
+        assert read["build_time_s"] == pytest.approx(made["build_time_s"], rel=1e-6), ext
+        assert made["build_time_s"] < made["all_lasers_time_s"], ext
+        per = made["per_layer"]["scan_time_s"]
+        assert [max(l) for l in per] == pytest.approx(made["per_layer"]["build_time_s"]), ext
+    # The 3MF: one laser source per laser, and profiles on both.
+    with zipfile.ZipFile(tmp_path / "g.3mf") as z:
+        model = ET.fromstring(z.read("3D/3dmodel.model"))
+    assert [s.get("index") for s in model.iter(f"{{{TP}}}lasersource")] == ["0", "1"]
+    assert {p.get("laserindex") for p in model.iter(f"{{{TP}}}toolpathprofile")} == {"0", "1"}
+    assert validate(xsd, tmp_path / "g.3mf", tmp_path) > 5
+    # The .cli: both lasers' ids in the file.
+    text = (tmp_path / "g.cli").read_text()
+    assert "$$LABEL/3,contour laser 2" in text and "$$HATCHES/4," in text

@@ -5,6 +5,10 @@
 // `// PROFILE_DEF=<id> NAME="<label>" POWER=<W> SPEED=<mm/s> //` (a comment, so plain CLI readers
 // skip it — the convention of the 3MF Consortium's CLI+ exporter), which the reader maps back
 // onto each path's power and speed.
+// Several lasers (LaserProfile::lasers, or a path's `tool` beyond 0): each laser has its own
+// contour and hatch ids (laser L's are laser 1's plus 2 × L × the parts, one part without a
+// plate), labelled "contour laser 2" and, in CLI+, LASER=2; the reader sets each path's `tool`
+// to its laser (0-based) from either.
 #pragma once
 #include <cstdio>
 #include <string>

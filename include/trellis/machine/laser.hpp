@@ -2,6 +2,7 @@
 // parameters) and the Common Layer Interface (.cli, ASCII) writer.
 #pragma once
 #include <string>
+#include <vector>
 
 #include "trellis/toolpath/scan_time.hpp"
 #include "trellis/toolpath/toolpath.hpp"
@@ -23,6 +24,10 @@ struct LaserProfile {
   double max_power = 1000;                             // W
   double max_speed = 10000;                            // mm/s
   double build_x = 250, build_y = 250, build_z = 300;  // build plate and height (mm)
+  // Multi-laser machines (slice/pbf_lasers.hpp): the lasers that scan a layer at once, and
+  // each one's field (x0, y0, x1, y1 per laser, in stripe order; empty = the whole plate).
+  int lasers = 1;
+  std::vector<double> fields;
   // Scanner timing ([timing]), for the scan-time model (ScanClock).
   double jump_speed = 5000;      // mm/s, positioning moves between vectors
   double jump_delay = 250;       // µs, after every jump

@@ -33,8 +33,10 @@ void write_toolpath_3mf_file(const std::string& path, const Toolpath& toolpath,
 
 // A 3MF package's toolpath (ours or any producer's) → the IR. No toolpath resource → ParseError
 // saying so; malformed XML → ParseError naming the part, line and column; what the IR cannot
-// hold (a modifier other than a constant one, a 6-axis orientation, several lasers) is refused
-// or, for lasers, warned about in `diag`.
+// hold (a modifier other than a constant one, a 6-axis orientation) is refused. A laser path's
+// laser index (§4.5: the segment's, its profile's or the default) becomes its Path::tool, and
+// the writer writes a laser path's tool as its profile's laserindex, with one laser source per
+// laser (LaserProfile::lasers and fields).
 Toolpath read_toolpath_3mf_file(const std::string& path, Diagnostics* diag = nullptr);
 
 // What a 3MF file carries, from its model part alone (no layer is read): no toolpath (a mesh or

@@ -63,6 +63,7 @@ struct PbfConfig {
   double wall_inclination = 90; // deg from horizontal
   double wall_azimuth = 0;      // deg from X
   bool binary = false;          // binary CLI geometry
+  double laser_overlap = 1;     // mm: neighbouring lasers' stripes overlap (laser.lasers > 1)
   std::string route = "direct"; // direct | stl
   // hybrid | r67 (TPMS sheets; a mesh part is scanned as meander) | rectilinear | meander |
   // stripe | island (solid parts: a mesh, or a .vcad scanned as a solid)
