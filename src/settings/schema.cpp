@@ -422,11 +422,11 @@ std::vector<Setting> make_table() {
       "lasers scanning each layer at once; pbf splits every layer among them in "
       "stripes along X balanced by scan time (docs/laser.md)",
       "lasers", [](C& c) -> auto& { return c.laser.lasers; }));
-  t.push_back(numbers(
-      "laser.fields", "mm", -1e5, 1e5, 0,
-      "each laser's field x0, y0, x1, y1 in the build file's coordinates, laser by "
-      "laser from left to right; not set = every laser reaches the whole plate",
-      "", [](C& c) -> auto& { return c.laser.fields; }));
+  t.push_back(derived(numbers("laser.fields", "mm", -1e5, 1e5, 0,
+                              "each laser's field x0, y0, x1, y1 in the build file's "
+                              "coordinates, laser by laser from left to right",
+                              "", [](C& c) -> auto& { return c.laser.fields; }),
+                      "every laser reaches the whole plate"));
   t.push_back(number("scan.layer", "mm", 0.001, 1, "powder layer thickness", "layer-height",
                      [](C& c) -> auto& { return c.laser.layer; }));
   t.push_back(number("scan.hatch_distance", "mm", 0.001, 5, "hatch distance", "hatch",
