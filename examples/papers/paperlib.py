@@ -80,17 +80,25 @@ def fmt(v):
     return str(v)
 
 
-def main(paper, reproduce):
-    """Entry point of a reproduce.py: parses --out DIR (pictures and rows.json go there) and
-    --quick (smaller runs where the paper's own size takes minutes; rows then say so), calls
-    reproduce(out, quick) -> list of rows, writes OUT/rows.json."""
+def main(paper, reproduce, figures):
+    """Entry point of a reproduce.py: parses --out DIR (pictures and rows.json go there), --quick
+    (smaller runs where the paper's own size takes minutes; rows then say so) and --only a,b (some
+    of `figures`, the names of its tables and figures), calls reproduce(out, quick, only) -> list of
+    rows, writes OUT/rows.json."""
     ap = argparse.ArgumentParser(description=f"Reproduce the {paper} paper's tables and figures.")
     ap.add_argument("--out", default=os.path.join(os.getcwd(), f"papers-{paper.lower()}"),
                     help="folder for pictures and rows.json (default ./papers-<paper>)")
     ap.add_argument("--quick", action="store_true", help="smaller runs (used by the tests)")
+    ap.add_argument("--only", help=f"comma-separated, some of: {', '.join(figures)}")
     a = ap.parse_args()
+    only = tuple(figures)
+    if a.only:
+        only = tuple(a.only.split(","))
+        unknown = [n for n in only if n not in figures]
+        if unknown:
+            ap.error(f"--only: unknown {', '.join(unknown)} (one of {', '.join(figures)})")
     os.makedirs(a.out, exist_ok=True)
-    rows = reproduce(a.out, a.quick)
+    rows = reproduce(a.out, a.quick, only)
     with open(os.path.join(a.out, "rows.json"), "w") as f:
         json.dump({"paper": paper, "quick": a.quick, "rows": rows}, f, indent=1)
     print(f"{len(rows)} rows; pictures and rows.json in {a.out}")

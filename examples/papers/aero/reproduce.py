@@ -174,12 +174,4 @@ def reproduce(out, quick, only=FIGURES):
 
 
 if __name__ == "__main__":
-    only = FIGURES
-    if "--only" in sys.argv:
-        k = sys.argv.index("--only")
-        only = tuple(sys.argv[k + 1].split(","))
-        bad = [o for o in only if o not in FIGURES]
-        if bad:
-            sys.exit(f"--only: unknown {', '.join(bad)} (one of {', '.join(FIGURES)})")
-        del sys.argv[k:k + 2]
-    paperlib.main("AERO", lambda out, quick: reproduce(out, quick, only))
+    paperlib.main("AERO", reproduce, FIGURES)

@@ -296,12 +296,4 @@ if __name__ == "__main__":
     system = matplotlib_python()
     if system:
         os.execv(system, [system, os.path.abspath(__file__), *sys.argv[1:]])
-    only = FIGURES
-    if "--only" in sys.argv:
-        k = sys.argv.index("--only")
-        only = tuple(sys.argv[k + 1].split(","))
-        bad = [o for o in only if o not in FIGURES]
-        if bad:
-            sys.exit(f"--only: unknown {', '.join(bad)} (one of {', '.join(FIGURES)})")
-        del sys.argv[k:k + 2]
-    paperlib.main("GIPPO", lambda out, quick: reproduce(out, quick, only))
+    paperlib.main("GIPPO", reproduce, FIGURES)

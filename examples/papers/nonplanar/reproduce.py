@@ -392,12 +392,4 @@ def reproduce(out, quick, only=None):
 
 
 if __name__ == "__main__":
-    only = None
-    if "--only" in sys.argv:
-        i = sys.argv.index("--only")
-        only = sys.argv[i + 1].split(",")
-        unknown = [n for n in only if n not in FIGURES]
-        if unknown:
-            sys.exit(f"--only: unknown figure {', '.join(unknown)} (one of {', '.join(FIGURES)})")
-        del sys.argv[i:i + 2]
-    paperlib.main("nonplanar", lambda out, quick: reproduce(out, quick, only))
+    paperlib.main("nonplanar", reproduce, FIGURES)

@@ -25,7 +25,6 @@ import paperlib  # noqa: E402
 from paperlib import path, row, run  # noqa: E402
 
 PROFILE = path("profiles", "pbf_316l_25um.toml")
-ONLY = None
 
 
 class NoPlots:
@@ -270,20 +269,13 @@ def routes(out, quick):
 FIGURES = {"fig3b": fig3b, "fig4": fig4, "scantime": scantime, "routes": routes}
 
 
-def reproduce(out, quick):
+def reproduce(out, quick, only):
     rows = []
     for name, f in FIGURES.items():
-        if ONLY is None or name in ONLY:
+        if name in only:
             rows += f(out, quick)
     return rows
 
 
 if __name__ == "__main__":
-    if "--only" in sys.argv:
-        k = sys.argv.index("--only")
-        ONLY = sys.argv[k + 1].split(",")
-        unknown = [n for n in ONLY if n not in FIGURES]
-        if unknown:
-            sys.exit(f"--only: unknown {', '.join(unknown)}; one of {', '.join(FIGURES)}")
-        del sys.argv[k:k + 2]
-    paperlib.main("PBF", reproduce)
+    paperlib.main("PBF", reproduce, FIGURES)
