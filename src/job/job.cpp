@@ -316,10 +316,8 @@ Job rerun_job(const std::string& path, const std::string& target) {
   job.output = job.report = job.toolpath = job.gcode = job.lattice = job.preview = "";
   if (fs::path(path).extension() == ".json")
     (job.route == "lattice2d" || job.route == "lattice3d" ? job.output : job.toolpath) = to;
-  else if (job.route == "plan")
-    job.gcode = to;
   else
-    job.output = to;
+    job.*route_spec(job.route).main_output = to;
   return job;
 }
 

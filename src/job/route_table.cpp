@@ -60,17 +60,18 @@ const std::vector<RouteSpec>& route_specs() {
       {"plan", "lattice",
        with_machine({"lattice2d", "lattice3d", "lattice", "layers", "onto", "plan", "gippo", "aero",
                      "nozzle", "output", "run"}),
-       true, false, false, &routes::plan, &merge_plan},
-      {"gcode", "toolpath", with_machine({"run"}), false, false, false, &routes::gcode},
+       true, false, false, &routes::plan, &merge_plan, &Job::gcode, RouteSpec::Gcode::when_written},
+      {"gcode", "toolpath", with_machine({"run"}), false, false, false, &routes::gcode, nullptr,
+       &Job::output, RouteSpec::Gcode::always},
       {"slice", "design", with_machine({"slice", "fgm", "process", "plate", "output", "run"}), true,
-       true, true, &routes::slice, &merge_slice},
+       true, true, &routes::slice, &merge_slice, &Job::output, RouteSpec::Gcode::always},
       {"pbf", "design", {"machine", "laser", "scan", "timing", "pbf", "plate", "output", "run"},
        true, true, true, &routes::pbf, &merge_pbf},
       {"nonplanar", "surface", with_machine({"nonplanar", "surface", "output", "run"}), true, false,
-       false, &routes::nonplanar, &merge_nonplanar},
+       false, &routes::nonplanar, &merge_nonplanar, &Job::output, RouteSpec::Gcode::when_written},
       // The angle test can be written as G-code: the machine sections.
       {"surface", "", with_machine({"surface", "output", "run"}), false, false, false,
-       &routes::surface},
+       &routes::surface, nullptr, &Job::output, RouteSpec::Gcode::when_named_gcode},
   };
   return table;
 }

@@ -140,7 +140,7 @@ GcodeStats write_gcode_streamed(const std::string& path, Toolpath meta, std::siz
 
 void require_bath(const Job& job, const MachineProfile& m, const std::string& route,
                   const std::string& why) {
-  const std::string& out = route == "nonplanar" ? job.output : job.gcode;
+  const std::string& out = job.*route_spec(job.route).main_output;
   if (out.empty() || fs::path(out).extension() == ".json" || is_3mf_output(out) || m.has_bath())
     return;
   throw MachineError(route + ": " + why + ", but the machine '" + m.name +
@@ -191,11 +191,14 @@ static UseContext use_context(const Job& job) {
   UseContext u;
   u.route = job.route;
   u.settings = &job.settings;
-  const std::string ext = fs::path(job.output).extension().string();
-  const bool gcode = job.route == "gcode" || job.route == "slice" ||
-                     (job.route == "plan" && !job.gcode.empty()) ||
-                     (job.route == "nonplanar" && !job.output.empty()) ||
-                     (job.route == "surface" && !job.output.empty() && ext != ".json" && ext != ".stl");
+  const RouteSpec& spec = route_spec(job.route);
+  const std::string& main = job.*spec.main_output;
+  const std::string ext = fs::path(main).extension().string();
+  using G = RouteSpec::Gcode;
+  const bool gcode = spec.gcode == G::always ||
+                     (spec.gcode == G::when_written && !main.empty()) ||
+                     (spec.gcode == G::when_named_gcode && !main.empty() && ext != ".json" &&
+                      ext != ".stl");
   if (gcode) u.facts.push_back("gcode");
   if (!job.preview.empty()) u.facts.push_back("preview");
   if (!job.input.empty() || !job.parts.empty()) u.facts.push_back("input");
@@ -375,7 +378,7 @@ RunFiles job_files(const Job& job, bool follow_symlinks) {
   files.output("the lattice", job.lattice);
   files.output_folder("the preview folder", job.preview);
   // A plan's shards are named after its G-code, the other routes' after their output.
-  const std::string& sharded = job.route == "plan" ? job.gcode : job.output;
+  const std::string& sharded = job.*route_spec(job.route).main_output;
   if (job.shards > 0 && !sharded.empty()) {
     const std::string data = shard_name(sharded, job.shard, job.shards);
     files.output("the shard", data);

@@ -144,6 +144,13 @@ struct RouteSpec {
   // with the single-process writer; null when the route does not shard.
   void (*merge)(Job&, const Config&, Toolpath&, const ShardLayers&, JobResult&, Diagnostics&) =
       nullptr;
+  // The job field of its main output (a plan's: its G-code): shards are named after it, `rerun`
+  // writes it.
+  std::string Job::*main_output = &Job::output;
+  // When that output is G-code, the `gcode` fact of Setting::when: always, when it is written,
+  // or when it is written under a name other than .json or .stl.
+  enum class Gcode { never, always, when_written, when_named_gcode };
+  Gcode gcode = Gcode::never;
 };
 
 const std::vector<RouteSpec>& route_specs();
