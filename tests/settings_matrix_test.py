@@ -375,7 +375,9 @@ def try_setting(key, alts, scen, bases, work, cond_sets=(), flag=None, default=N
     if limit:
         return "limit", limit[0]
     if any(k == "silent" for k, _ in seen):
-        return "SILENT", next(m for k, m in seen if k == "silent")
+        # What the other values did, so that a rare verdict can be read from the log.
+        other = "; ".join(f"{k}: {m}" for k, m in seen if k != "silent")
+        return "SILENT", next(m for k, m in seen if k == "silent") + (f" (also {other})" if other else "")
     if not seen:
         return "none", "no scenario"
     unused = [m for k, m in seen if k == "unused"]
