@@ -146,43 +146,53 @@ std::string header(const Toolpath& tp, const LaserProfile& prof, const CliWriteO
 const char* kAsciiStart = "\n$$GEOMETRYSTART\n";
 const char* kAsciiEnd = "$$GEOMETRYEND\n";
 
-void ascii_layer(const Layer& layer, std::string& out, std::size_t parts, int lasers) {
-  {
-    out += "$$LAYER/";
-    put(out, layer.z);
-    out += '\n';
-    for (int part = 0; part <= static_cast<int>(parts); ++part)
-      for (int laser = 0; laser < lasers; ++laser) {
-        const int contour_id = block_id(part, parts, laser, false);
-        const int hatch_id = block_id(part, parts, laser, true);
-        const auto mine = [&](const Path& p) {
-          return (p.part == part || parts == 0) && (lasers == 1 || p.tool == laser);
-        };
-        std::size_t hatches = 0;
-        for (const auto& p : layer.paths) {
-          if (!mine(p)) continue;
-          if (is_hatch(p)) {
-            ++hatches;
-            continue;
-          }
-          char head[64];  // "$$POLYLINE/<id>,2,<n>" (as fmt's "{}" prints integers)
-          char* h = fastnum::lit(head, "$$POLYLINE/");
-          h = std::to_chars(h, head + sizeof head, contour_id).ptr;
-          h = fastnum::lit(h, ",2,");
-          h = std::to_chars(h, head + sizeof head, p.points.size()).ptr;
-          out.append(head, static_cast<std::size_t>(h - head));
-          for (const auto& q : p.points) put_xy(out, q);
-          out += '\n';
-        }
-        if (hatches) {
-          fmt::format_to(std::back_inserter(out), "$$HATCHES/{},{}", hatch_id, hatches);
-          for (const auto& p : layer.paths)
-            if (is_hatch(p) && mine(p))
-              for (const auto& q : p.points) put_xy(out, q);
-          out += '\n';
-        }
+// The layer's blocks in file order, one per part (or one when there are no parts) and laser: each
+// of a block's contour paths to `contour(id, path)` as it comes, then, when the block has hatches,
+// `hatches(id, count, mine)` (`mine(path)`: the path is in this block).
+template <class Contour, class Hatches>
+void for_each_block(const Layer& layer, std::size_t parts, int lasers, Contour&& contour,
+                    Hatches&& hatches) {
+  for (int part = 0; part <= static_cast<int>(parts); ++part)
+    for (int laser = 0; laser < lasers; ++laser) {
+      const auto mine = [&](const Path& p) {
+        return (p.part == part || parts == 0) && (lasers == 1 || p.tool == laser);
+      };
+      const int contour_id = block_id(part, parts, laser, false);
+      std::size_t count = 0;
+      for (const auto& p : layer.paths) {
+        if (!mine(p)) continue;
+        if (is_hatch(p))
+          ++count;
+        else
+          contour(contour_id, p);
       }
-  }
+      if (count) hatches(block_id(part, parts, laser, true), count, mine);
+    }
+}
+
+void ascii_layer(const Layer& layer, std::string& out, std::size_t parts, int lasers) {
+  out += "$$LAYER/";
+  put(out, layer.z);
+  out += '\n';
+  for_each_block(
+      layer, parts, lasers,
+      [&](int id, const Path& p) {
+        char head[64];  // "$$POLYLINE/<id>,2,<n>" (as fmt's "{}" prints integers)
+        char* h = fastnum::lit(head, "$$POLYLINE/");
+        h = std::to_chars(h, head + sizeof head, id).ptr;
+        h = fastnum::lit(h, ",2,");
+        h = std::to_chars(h, head + sizeof head, p.points.size()).ptr;
+        out.append(head, static_cast<std::size_t>(h - head));
+        for (const auto& q : p.points) put_xy(out, q);
+        out += '\n';
+      },
+      [&](int id, std::size_t count, const auto& mine) {
+        fmt::format_to(std::back_inserter(out), "$$HATCHES/{},{}", id, count);
+        for (const auto& p : layer.paths)
+          if (is_hatch(p) && mine(p))
+            for (const auto& q : p.points) put_xy(out, q);
+        out += '\n';
+      });
 }
 
 void ascii_geometry(const Toolpath& tp, std::string& out, int lasers) {
@@ -198,39 +208,25 @@ void ascii_geometry(const Toolpath& tp, std::string& out, int lasers) {
 
 void binary_layer(const Layer& layer, std::string& out, std::size_t parts, int lasers) {
   auto coord = [&](double mm) { put_bin(out, static_cast<float>(mm / kUnits)); };
-  {
-    put_bin<std::uint16_t>(out, 127);
-    coord(layer.z);
-    for (int part = 0; part <= static_cast<int>(parts); ++part)
-      for (int laser = 0; laser < lasers; ++laser) {
-        const int contour_id = block_id(part, parts, laser, false);
-        const int hatch_id = block_id(part, parts, laser, true);
-        const auto mine = [&](const Path& p) {
-          return (p.part == part || parts == 0) && (lasers == 1 || p.tool == laser);
-        };
-        std::int32_t hatches = 0;
-        for (const auto& p : layer.paths) {
-          if (!mine(p)) continue;
-          if (is_hatch(p)) {
-            ++hatches;
-            continue;
-          }
-          put_bin<std::uint16_t>(out, 130);
-          put_bin<std::int32_t>(out, contour_id);
-          put_bin<std::int32_t>(out, 2);  // open
-          put_bin<std::int32_t>(out, static_cast<std::int32_t>(p.points.size()));
-          for (const auto& q : p.points) coord(q.x), coord(q.y);
-        }
-        if (hatches) {
-          put_bin<std::uint16_t>(out, 132);
-          put_bin<std::int32_t>(out, hatch_id);
-          put_bin<std::int32_t>(out, hatches);
-          for (const auto& p : layer.paths)
-            if (is_hatch(p) && mine(p))
-              for (const auto& q : p.points) coord(q.x), coord(q.y);
-        }
-      }
-  }
+  put_bin<std::uint16_t>(out, 127);
+  coord(layer.z);
+  for_each_block(
+      layer, parts, lasers,
+      [&](int id, const Path& p) {
+        put_bin<std::uint16_t>(out, 130);
+        put_bin<std::int32_t>(out, id);
+        put_bin<std::int32_t>(out, 2);  // open
+        put_bin<std::int32_t>(out, static_cast<std::int32_t>(p.points.size()));
+        for (const auto& q : p.points) coord(q.x), coord(q.y);
+      },
+      [&](int id, std::size_t count, const auto& mine) {
+        put_bin<std::uint16_t>(out, 132);
+        put_bin<std::int32_t>(out, id);
+        put_bin<std::int32_t>(out, static_cast<std::int32_t>(count));
+        for (const auto& p : layer.paths)
+          if (is_hatch(p) && mine(p))
+            for (const auto& q : p.points) coord(q.x), coord(q.y);
+      });
 }
 
 void binary_geometry(const Toolpath& tp, std::string& out, int lasers) {

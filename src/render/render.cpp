@@ -580,28 +580,22 @@ void render_scores_png(const std::vector<double>& scores, std::size_t best,
     cairo_arc(c, X(i), Y(scores[i]), 2.5, 0, 2 * M_PI);
     cairo_fill(c);
   }
-  if (best < scores.size()) {
-    cairo_set_source_rgb(c, 0.85, 0.1, 0.1);
-    cairo_arc(c, X(best), Y(scores[best]), 6, 0, 2 * M_PI);
+  // A solution ringed and named at the top right: the best in red, the worst (lowest score, first
+  // such iteration) in green, as the paper's Fig. 2 (i).
+  const auto ring = [&](std::size_t i, double r, double g, double b, const char* what, double y) {
+    cairo_set_source_rgb(c, r, g, b);
+    cairo_new_path(c);  // not joined to where earlier text ended
+    cairo_arc(c, X(i), Y(scores[i]), 6, 0, 2 * M_PI);
     cairo_stroke(c);
-    std::snprintf(buf, sizeof buf, "best %.4g (iteration %zu)", scores[best], best + 1);
+    std::snprintf(buf, sizeof buf, "%s %.4g (iteration %zu)", what, scores[i], i + 1);
     cairo_set_font_size(c, 13);
-    cairo_move_to(c, W - R - 230, 25);
+    cairo_move_to(c, W - R - 230, y);
     cairo_show_text(c, buf);
-  }
-  // The worst solution (lowest score, first such iteration) in green, as the paper's Fig. 2 (i).
-  if (!scores.empty()) {
-    const auto worst =
-        static_cast<std::size_t>(std::min_element(scores.begin(), scores.end()) - scores.begin());
-    cairo_set_source_rgb(c, 0.1, 0.6, 0.2);
-    cairo_new_path(c);  // not joined to where the text above ended
-    cairo_arc(c, X(worst), Y(scores[worst]), 6, 0, 2 * M_PI);
-    cairo_stroke(c);
-    std::snprintf(buf, sizeof buf, "worst %.4g (iteration %zu)", scores[worst], worst + 1);
-    cairo_set_font_size(c, 13);
-    cairo_move_to(c, W - R - 230, 42);
-    cairo_show_text(c, buf);
-  }
+  };
+  if (best < scores.size()) ring(best, 0.85, 0.1, 0.1, "best", 25);
+  if (!scores.empty())
+    ring(static_cast<std::size_t>(std::min_element(scores.begin(), scores.end()) - scores.begin()),
+         0.1, 0.6, 0.2, "worst", 42);
   cairo_surface_flush(surface.get());
   save_png(surface.get(), path);
 }
