@@ -206,9 +206,11 @@ int main(int argc, char** argv) {
     std::cerr << "trellis: error: " << e.what() << "; `trellis --help` lists the commands\n";
     return 2;
   } catch (const trellis::Error& e) {
+    trellis::disarm_watchdog();  // the refusal is said whole
     std::cerr << "trellis: error: " << e.what() << "\n";
     return 2;
   } catch (const std::bad_alloc&) {
+    trellis::disarm_watchdog();
     // Beyond what the estimate before the run foresaw: the same refusal, nothing written.
     std::cerr << "trellis: error: run.max_memory: ran out of memory (the estimate before the "
                  "run was too low): lower the resolution or the size of the job, or free memory; "

@@ -519,6 +519,12 @@ void arm_watchdog(double budget_seconds) {
   ::setitimer(ITIMER_REAL, &t, nullptr);
 }
 
+void disarm_watchdog() {
+  if (!g_cleanup_installed) return;
+  itimerval t{};
+  ::setitimer(ITIMER_REAL, &t, nullptr);
+}
+
 namespace detail {
 
 void guard_inputs(const std::vector<std::pair<FileId, std::string>>& inputs) {

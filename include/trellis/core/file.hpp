@@ -68,6 +68,9 @@ void set_interrupt_label(const std::string& label);
 // (core/budget.hpp) unless run.force; the tightest budget of a run holds. Nothing without
 // install_signal_cleanup: a library user keeps its own SIGALRM.
 void arm_watchdog(double budget_seconds);
+// Stops the watchdog: a run ending with its own error says that error whole (the watchdog's
+// line could otherwise cut it).
+void disarm_watchdog();
 
 // An anonymous temporary file (read/write, binary) for data too large to hold in memory: made in
 // $TMPDIR (or /tmp when TMPDIR is unset or empty), unlinked already, so it is gone with the
