@@ -3,6 +3,8 @@
 #include <fmt/format.h>
 
 #include <filesystem>
+#include <map>
+#include <tuple>
 #include <nlohmann/json.hpp>
 
 #include "routes.hpp"
@@ -15,6 +17,38 @@
 #include "trellis/slice/pbf_lasers.hpp"
 
 namespace trellis {
+
+namespace {
+
+nlohmann::ordered_json parameter_sets(const Toolpath& tp, const ScanTiming& timing) {
+  struct Sum {
+    std::size_t vectors = 0;
+    double length = 0, seconds = 0;
+  };
+  std::map<std::tuple<bool, double, double>, Sum> sums;
+  for (const auto& l : tp.layers) {
+    const std::vector<double> t = path_scan_seconds(l, timing);
+    for (std::size_t k = 0; k < l.paths.size(); ++k) {
+      const Path& p = l.paths[k];
+      const bool hatch = p.role == PathRole::Hatch || p.role == PathRole::Infill;
+      Sum& s = sums[{hatch, p.power, p.speed}];
+      ++s.vectors;
+      s.length += p.length();
+      s.seconds += t[k];
+    }
+  }
+  nlohmann::ordered_json out = nlohmann::json::array();
+  for (const auto& [key, s] : sums)
+    out.push_back({{"kind", std::get<0>(key) ? "hatch" : "contour"},
+                   {"power_w", std::get<1>(key)},
+                   {"speed_mm_s", std::get<2>(key)},
+                   {"vectors", s.vectors},
+                   {"length_mm", s.length},
+                   {"scan_time_s", s.seconds}});
+  return out;
+}
+
+}  // namespace
 
 JobResult analyze_build_file(const std::string& path, const std::string& design,
                              const LaserProfile& prof, std::string* report_json,
@@ -57,6 +91,9 @@ JobResult analyze_build_file(const std::string& path, const std::string& design,
                     {"jumps", jumps},
                     {"corners", corners},
                     {"per_layer_s", layer_times}};
+  // Per laser parameter set (a path's role, power and speed: a .cli id's CLI+ block, a 3MF
+  // profile): vectors, length and scan time (each path's jump in, marking and delays).
+  j["parameter_sets"] = parameter_sets(tp, timing);
   // Several lasers (the paths' laser ids): each one's scan time, and the build time.
   const LaserTimes lt = laser_times(tp, scan_timing(prof));
   const std::vector<double> totals = lt.totals();

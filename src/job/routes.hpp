@@ -6,6 +6,7 @@
 
 #include "trellis/core/budget.hpp"
 #include "trellis/job/job.hpp"
+#include "trellis/machine/cli.hpp"
 #include "trellis/machine/gcode_writer.hpp"
 #include "trellis/render/render.hpp"
 #include "trellis/slice/nonplanar.hpp"
@@ -78,7 +79,10 @@ std::size_t write_3mf_out(const std::string& path, Toolpath& tp, const Job& job,
                           const LaserProfile* laser, JobResult& out);
 // The pbf route's build file: .cli (binary if asked) or, for .3mf, the Toolpath Extension.
 void write_laser_build(const std::string& path, Toolpath& tp, const Job& job, const Config& c,
-                       JobResult& out);
+                       JobResult& out, const std::vector<CliParameterSet>& sets = {});
+// Where the machine's origin lies in design coordinates (the origin hatch phase): the design's
+// origin at pbf.plate_position on the plate, by default its centre.
+Vec2 pbf_machine_origin(const Config& c);
 // Whether a route writes its output alone (no toolpath JSON, previews or toolpath kept for the
 // caller): then it may stream its layers in bounded memory instead of holding the toolpath.
 bool output_alone(const Job& job);

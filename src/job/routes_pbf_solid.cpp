@@ -45,6 +45,70 @@ double peak_memory_mb() {
   return static_cast<double>(u.ru_maxrss) / 1024.0;
 }
 
+// The laser parameter sets of a solid part: the profile's contour and hatch, each contour
+// offset's (laser.contour_powers/speeds), the core's, up-skin's and down-skin's.
+PbfExposures pbf_exposures(const Config& c) {
+  const LaserProfile& prof = c.laser;
+  PbfExposures e;
+  e.contour = {prof.contour_power, prof.contour_speed};
+  e.hatch = {prof.hatch_power, prof.hatch_speed};
+  const std::size_t n = std::max(prof.contour_powers.size(), prof.contour_speeds.size());
+  const auto pick = [](const std::vector<double>& v, std::size_t i, double fallback) {
+    return v.empty() ? fallback : v[std::min(i, v.size() - 1)];
+  };
+  for (std::size_t i = 0; i < n; ++i)
+    e.contours.push_back({pick(prof.contour_powers, i, prof.contour_power),
+                          pick(prof.contour_speeds, i, prof.contour_speed)});
+  e.core = {prof.core_power, prof.core_speed};
+  e.upskin = {prof.upskin_power, prof.upskin_speed};
+  e.downskin = {prof.downskin_power, prof.downskin_speed};
+  return e;
+}
+
+// The build file's parameter sets beyond the contour and hatch ids: one per distinct set in
+// use ("contour 2", "core hatch", …); a set equal to the profile's contour or hatch, or to an
+// earlier one, shares its id (a machine's parameter set is its power and speed).
+std::vector<CliParameterSet> pbf_cli_sets(const PbfSolidOptions& o) {
+  const PbfExposures& e = o.exposures;
+  std::vector<CliParameterSet> sets;
+  const auto add = [&](const std::string& name, bool hatch, LaserSet s) {
+    if (s == (hatch ? e.hatch : e.contour)) return;
+    for (const auto& have : sets)
+      if (have.hatch == hatch && have.power == s.power && have.speed == s.speed) return;
+    sets.push_back({name, hatch, s.power, s.speed});
+  };
+  for (std::size_t i = 0; i < e.contours.size(); ++i)
+    add(fmt::format("contour {}", i + 1), false, e.of_contour(i));
+  if (o.skin.skin_thickness > 0) add("core hatch", true, e.of(HatchKind::Core));
+  if (o.skin.upskin_thickness > 0) add("upskin hatch", true, e.of(HatchKind::UpSkin));
+  if (o.skin.downskin_thickness > 0) add("downskin hatch", true, e.of(HatchKind::DownSkin));
+  return sets;
+}
+
+PbfSolidOptions pbf_solid_options(const Config& c) {
+  const LaserProfile& prof = c.laser;
+  PbfSolidOptions o;
+  o.layer = prof.layer;
+  o.beam_compensation = prof.beam_compensation;
+  o.contours = c.pbf.contours;
+  o.contour_distance = c.pbf.contour_distance;
+  o.pattern = c.pbf.pattern;
+  o.pattern.strategy = strategy_of(c.pbf.strategy);
+  o.pattern.hatch_distance = prof.hatch_distance;
+  o.pattern.angle = c.pbf.options.hatch_angle;
+  o.pattern.rotation = c.pbf.options.hatch_rotation;
+  o.hatch_phase = c.pbf.options.hatch_phase;
+  o.machine_origin = pbf_machine_origin(c);
+  o.hatch_seed = c.pbf.options.hatch_seed;
+  o.skin = c.pbf.skin;
+  o.core_hatch_distance = c.pbf.core_hatch_distance;
+  if (c.pbf.core_rotation.size() == 1) o.core_rotation = c.pbf.core_rotation[0];
+  o.exposures = pbf_exposures(c);
+  o.resolution = c.pbf.options.resolution;
+  o.timing = scan_timing(prof);
+  return o;
+}
+
 nlohmann::ordered_json layer_series(const PbfResult& r) {
   nlohmann::ordered_json s;
   for (const char* k : {"z_mm", "area_mm2", "contour_mm", "hatch_mm", "scan_time_s"})
@@ -60,6 +124,12 @@ nlohmann::ordered_json layer_series(const PbfResult& r) {
 }
 
 }  // namespace
+
+Vec2 pbf_machine_origin(const Config& c) {
+  return c.pbf.plate_position.size() == 2
+             ? Vec2{-c.pbf.plate_position[0], -c.pbf.plate_position[1]}
+             : Vec2{-0.5 * c.laser.build_x, -0.5 * c.laser.build_y};  // centred on the plate
+}
 
 bool is_mesh_path(const std::string& path) {
   const std::string ext = lower_extension(path);
@@ -81,22 +151,26 @@ bool pbf_solid_job(const Job& job, const Config& c) {
   return solid_strategy || (is_mesh_path(job.input) && !is_implicit_3mf(job.input));
 }
 
-PbfSolidOptions pbf_solid_options(const Config& c) {
-  const LaserProfile& prof = c.laser;
-  PbfSolidOptions o;
-  o.layer = prof.layer;
-  o.beam_compensation = prof.beam_compensation;
-  o.contours = c.pbf.contours;
-  o.contour_distance = c.pbf.contour_distance;
-  o.pattern = c.pbf.pattern;
-  o.pattern.strategy = strategy_of(c.pbf.strategy);
-  o.pattern.hatch_distance = prof.hatch_distance;
-  o.pattern.angle = c.pbf.options.hatch_angle;
-  o.pattern.rotation = c.pbf.options.hatch_rotation;
-  o.resolution = c.pbf.options.resolution;
-  o.timing = scan_timing(prof);
-  return o;
+namespace {
+
+// Skin, core, up-skin and down-skin: each kind's area and hatch length over the layers, its
+// parameter set and thickness.
+nlohmann::ordered_json region_report(const PbfResult& r, const PbfSolidOptions& o) {
+  nlohmann::ordered_json j;
+  j["skin_thickness_mm"] = o.skin.skin_thickness;
+  j["upskin_thickness_mm"] = o.skin.upskin_thickness;
+  j["downskin_thickness_mm"] = o.skin.downskin_thickness;
+  for (std::size_t k = 0; k < kHatchKinds; ++k) {
+    double a = 0, h = 0;
+    for (const PbfLayer& L : r.layers) a += L.kind_area[k], h += L.kind_hatch_length[k];
+    const LaserSet s = o.exposures.of(static_cast<HatchKind>(k));
+    j[hatch_kind_name(static_cast<HatchKind>(k))] = {
+        {"area_mm2", a}, {"hatch_mm", h}, {"power_w", s.power}, {"speed_mm_s", s.speed}};
+  }
+  return j;
 }
+
+}  // namespace
 
 JobResult pbf_solid(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
   if (!job.parts.empty() || job.shards)
@@ -105,7 +179,18 @@ JobResult pbf_solid(const Job& job, const Config& c, Diagnostics& diag, const Pr
         "planned yet: run `trellis pbf` on each part",
         {job.input, 0, "job.parts"});
   const LaserProfile& prof = c.laser;
+  for (const auto& [key, v] : {std::pair{"laser.contour_powers", &prof.contour_powers},
+                               std::pair{"laser.contour_speeds", &prof.contour_speeds}}) {
+    if (!v->empty() && v->size() != static_cast<std::size_t>(c.pbf.contours))
+      throw SettingError(fmt::format("{} values for {} contours (pbf.contours): give one per "
+                                     "contour, outermost first",
+                                     v->size(), c.pbf.contours),
+                         {"", 0, key});
+    for (double x : *v)
+      if (!(x > 0)) throw SettingError("every contour's power and speed must be > 0", {"", 0, key});
+  }
   const PbfSolidOptions o = pbf_solid_options(c);
+  const std::vector<CliParameterSet> sets = pbf_cli_sets(o);
   TriangleMesh mesh;
   Field field;
   PbfSolid part;
@@ -122,14 +207,13 @@ JobResult pbf_solid(const Job& job, const Config& c, Diagnostics& diag, const Pr
           {job.input, 0, "fprocess"});
     part.field = &field;
   }
-  const bool stream =
-      !job.keep_toolpath && !job.output.empty() && job.toolpath.empty() && job.preview.empty();
+  const bool stream = !job.keep_toolpath && !job.output.empty() && job.toolpath.empty() &&
+                      job.preview.empty() && !is_3mf_output(job.output);
   const bool split = splits_layers(c);
   const LaserSetup setup = lasers_of(c);
   LaserTimes times;
   const auto layer_of = [&](std::size_t i, const PbfLayer& L) {
-    Layer layer = pbf_layer_toolpath(L, i, o.layer, prof.contour_power, prof.contour_speed,
-                                     prof.hatch_power, prof.hatch_speed);
+    Layer layer = pbf_solid_layer_toolpath(L, i, o.layer, o.exposures);
     if (split) times.add(split_among_lasers(layer, setup, i));
     return layer;
   };
@@ -137,8 +221,8 @@ JobResult pbf_solid(const Job& job, const Config& c, Diagnostics& diag, const Pr
   Toolpath tp;
   PbfResult r;
   if (stream) {
-    CliStreamWriter writer(job.output, prof, CliWriteOptions{c.pbf.binary, true}, "trellis pbf",
-                           embedded_job(job, job.output));
+    CliStreamWriter writer(job.output, prof, CliWriteOptions{c.pbf.binary, true, sets},
+                           "trellis pbf", embedded_job(job, job.output));
     r = plan_pbf_solid(part, o, progress,
                        [&](std::size_t i, const PbfLayer& L) { writer.add(layer_of(i, L)); });
     writer.finish();
@@ -148,11 +232,7 @@ JobResult pbf_solid(const Job& job, const Config& c, Diagnostics& diag, const Pr
     tp.source = "trellis pbf";
     for (std::size_t i = 0; i < r.layers.size(); ++i) tp.layers.push_back(layer_of(i, r.layers[i]));
     out.toolpath = std::make_shared<Toolpath>(tp);
-    if (!job.output.empty()) {
-      tp.job = embedded_job(job, job.output);
-      write_cli_file(job.output, tp, prof, CliWriteOptions{c.pbf.binary, true});
-      out.files.push_back(job.output);
-    }
+    if (!job.output.empty()) write_laser_build(job.output, tp, job, c, out, sets);
     if (!job.toolpath.empty()) {
       write_toolpath_with_job(job.toolpath, tp, job);
       out.files.push_back(job.toolpath);
@@ -182,6 +262,7 @@ JobResult pbf_solid(const Job& job, const Config& c, Diagnostics& diag, const Pr
     j["contour_length_mm"] = r.contour_length;
     j["hatch_length_mm"] = r.hatch_length;
     j["scan_time_s"] = r.scan_time;
+    if (o.skin.any()) j["regions"] = region_report(r, o);
     j["per_layer"] = layer_series(r);
     add_laser_report(j, times, c);
     j["warnings"] = nlohmann::json::array();
@@ -199,6 +280,16 @@ JobResult pbf_solid(const Job& job, const Config& c, Diagnostics& diag, const Pr
       c.pbf.strategy, r.layers.size(), r.contour_vectors, fixed(r.contour_length, 1),
       r.hatch_vectors, fixed(r.hatch_length, 1), fixed(r.scan_time, 1), fixed(r.seconds, 2),
       fixed(rss, 0));
+  if (o.skin.any()) {
+    std::string kinds;
+    for (std::size_t k = 0; k < kHatchKinds; ++k) {
+      double a = 0;
+      for (const PbfLayer& L : r.layers) a += L.kind_area[k];
+      kinds += fmt::format("{}{} {}", k ? ", " : "", hatch_kind_name(static_cast<HatchKind>(k)),
+                           fixed(a, 1));
+    }
+    out.summary += "; region areas summed over layers (mm²): " + kinds;
+  }
   out.summary += laser_summary(times);
   return out;
 }

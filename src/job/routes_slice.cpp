@@ -874,9 +874,7 @@ PbfOptions pbf_options(const Job& job, const Config& c) {
   po.beam_compensation = prof.beam_compensation;
   po.melt_pool = prof.melt_pool_width;
   po.hybrid = c.pbf.strategy == "hybrid";
-  po.machine_origin = c.pbf.plate_position.size() == 2
-                          ? Vec2{-c.pbf.plate_position[0], -c.pbf.plate_position[1]}
-                          : Vec2{-0.5 * prof.build_x, -0.5 * prof.build_y};  // centred on the plate
+  po.machine_origin = pbf_machine_origin(c);
   po.stl_route = c.pbf.route == "stl";
   po.timing = scan_timing(prof);
   const Budget budget = budget_of(job, c, Progress{});
@@ -1105,9 +1103,7 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
   po.beam_compensation = prof.beam_compensation;
   po.melt_pool = prof.melt_pool_width;
   po.hybrid = c.pbf.strategy == "hybrid";
-  po.machine_origin = c.pbf.plate_position.size() == 2
-                          ? Vec2{-c.pbf.plate_position[0], -c.pbf.plate_position[1]}
-                          : Vec2{-0.5 * prof.build_x, -0.5 * prof.build_y};  // centred on the plate
+  po.machine_origin = pbf_machine_origin(c);
   po.stl_route = c.pbf.route == "stl";
   po.timing = scan_timing(prof);
   check_pbf_cells(c, po);

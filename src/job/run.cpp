@@ -82,13 +82,13 @@ std::size_t write_3mf_out(const std::string& path, Toolpath& tp, const Job& job,
 }
 
 void write_laser_build(const std::string& path, Toolpath& tp, const Job& job, const Config& c,
-                       JobResult& out) {
+                       JobResult& out, const std::vector<CliParameterSet>& sets) {
   if (is_3mf_output(path)) {
     write_3mf_out(path, tp, job, &c.laser, out);
     return;
   }
   tp.job = embedded_job(job, path);
-  write_cli_file(path, tp, c.laser, CliWriteOptions{c.pbf.binary, true});
+  write_cli_file(path, tp, c.laser, CliWriteOptions{c.pbf.binary, true, sets});
   out.files.push_back(path);
 }
 

@@ -327,12 +327,24 @@ const std::vector<std::pair<const char*, const char*>>& when_table() {
       {"pbf.thin_multiple", "pbf.strategy=hybrid; !@mesh; pbf.split=width"},
       {"pbf.min_inclination", "pbf.strategy=hybrid; !@mesh"},
       {"pbf.split", "pbf.strategy=hybrid; !@mesh"},
-      {"pbf.hatch_phase", "!@mesh; pbf.strategy=hybrid|r67"},
       {"pbf.hatch_seed", "pbf.hatch_phase=random"},
       {"pbf.plate_position", "pbf.hatch_phase=origin"},
       {"pbf.route", "!@mesh; pbf.strategy=hybrid|r67"},
       {"pbf.contours", "@mesh or pbf.strategy=rectilinear|meander|stripe|island"},
       {"pbf.contour_distance", "@mesh or pbf.strategy=rectilinear|meander|stripe|island"},
+      {"pbf.skin_thickness", "@mesh or pbf.strategy=rectilinear|meander|stripe|island"},
+      {"pbf.upskin_thickness", "@mesh or pbf.strategy=rectilinear|meander|stripe|island"},
+      {"pbf.downskin_thickness", "@mesh or pbf.strategy=rectilinear|meander|stripe|island"},
+      {"pbf.core_hatch_distance", "pbf.skin_thickness>0"},
+      {"pbf.core_hatch_rotation", "pbf.skin_thickness>0"},
+      {"laser.contour_powers", "@mesh or pbf.strategy=rectilinear|meander|stripe|island"},
+      {"laser.contour_speeds", "@mesh or pbf.strategy=rectilinear|meander|stripe|island"},
+      {"laser.core_power", "pbf.skin_thickness>0"},
+      {"laser.core_speed", "pbf.skin_thickness>0"},
+      {"laser.upskin_power", "pbf.upskin_thickness>0"},
+      {"laser.upskin_speed", "pbf.upskin_thickness>0"},
+      {"laser.downskin_power", "pbf.downskin_thickness>0"},
+      {"laser.downskin_speed", "pbf.downskin_thickness>0"},
       // The TPMS lattice's settings: a solid part (a mesh, a .vcad with a solid strategy) has none.
       {"pbf.cell_type", "!@mesh; pbf.strategy=hybrid|r67"},
       {"pbf.cell", "!@mesh; pbf.strategy=hybrid|r67"},
@@ -405,6 +417,42 @@ std::vector<Setting> make_table() {
                      [](C& c) -> auto& { return c.laser.hatch_power; }));
   t.push_back(positive("laser.hatch_speed", "mm/s", 100000, "scan speed on hatch vectors", "",
                        [](C& c) -> auto& { return c.laser.hatch_speed; }));
+  t.push_back(derived(numbers("laser.contour_powers", "W", 0, 10000, 0,
+                              "solid parts: laser power of each contour offset, outermost first "
+                              "(one per pbf.contours; each written as its own parameter set)",
+                              "", [](C& c) -> auto& { return c.laser.contour_powers; }),
+                      "laser.contour_power for every contour"));
+  t.push_back(derived(numbers("laser.contour_speeds", "mm/s", 0, 100000, 0,
+                              "solid parts: scan speed of each contour offset, outermost first "
+                              "(one per pbf.contours)",
+                              "", [](C& c) -> auto& { return c.laser.contour_speeds; }),
+                      "laser.contour_speed for every contour"));
+  t.push_back(derived(positive("laser.core_power", "W", 10000,
+                               "solid parts: laser power on the core's hatch (pbf.skin_thickness)",
+                               "", [](C& c) -> auto& { return c.laser.core_power; }),
+                      "laser.hatch_power"));
+  t.push_back(derived(positive("laser.core_speed", "mm/s", 100000,
+                               "solid parts: scan speed on the core's hatch", "",
+                               [](C& c) -> auto& { return c.laser.core_speed; }),
+                      "laser.hatch_speed"));
+  t.push_back(derived(positive("laser.upskin_power", "W", 10000,
+                               "solid parts: laser power on the up-skin's hatch "
+                               "(pbf.upskin_thickness)",
+                               "", [](C& c) -> auto& { return c.laser.upskin_power; }),
+                      "laser.hatch_power"));
+  t.push_back(derived(positive("laser.upskin_speed", "mm/s", 100000,
+                               "solid parts: scan speed on the up-skin's hatch", "",
+                               [](C& c) -> auto& { return c.laser.upskin_speed; }),
+                      "laser.hatch_speed"));
+  t.push_back(derived(positive("laser.downskin_power", "W", 10000,
+                               "solid parts: laser power on the down-skin's hatch, over powder "
+                               "(pbf.downskin_thickness; typically lower than the hatch's)",
+                               "", [](C& c) -> auto& { return c.laser.downskin_power; }),
+                      "laser.hatch_power"));
+  t.push_back(derived(positive("laser.downskin_speed", "mm/s", 100000,
+                               "solid parts: scan speed on the down-skin's hatch", "",
+                               [](C& c) -> auto& { return c.laser.downskin_speed; }),
+                      "laser.hatch_speed"));
   t.push_back(positive("laser.max_power", "W", 100000,
                        "highest laser power the machine delivers; higher powers are refused", "",
                        [](C& c) -> auto& { return c.laser.max_power; }));
@@ -895,6 +943,33 @@ std::vector<Setting> make_table() {
                                "contour-distance",
                                [](C& c) -> auto& { return c.pbf.contour_distance; }),
                       "scan.hatch_distance"));
+  t.push_back(derived(positive("pbf.skin_thickness", "mm", 100,
+                               "solid parts: the core, at least this far inside the part's "
+                               "surface (in XY and in the layers above and below), is hatched "
+                               "with the core parameters (laser.core_*, pbf.core_hatch_*); the "
+                               "rest is skin",
+                               "skin-thickness", [](C& c) -> auto& { return c.pbf.skin.skin_thickness; }),
+                      "none: no core"));
+  t.push_back(derived(positive("pbf.upskin_thickness", "mm", 100,
+                               "solid parts: the part of a layer with no material somewhere in "
+                               "this thickness of layers above it is up-skin (laser.upskin_*)",
+                               "upskin-thickness",
+                               [](C& c) -> auto& { return c.pbf.skin.upskin_thickness; }),
+                      "none: no up-skin"));
+  t.push_back(derived(positive("pbf.downskin_thickness", "mm", 100,
+                               "solid parts: the part of a layer with no material somewhere in "
+                               "this thickness of layers below it is down-skin (laser.downskin_*)",
+                               "downskin-thickness",
+                               [](C& c) -> auto& { return c.pbf.skin.downskin_thickness; }),
+                      "none: no down-skin"));
+  t.push_back(derived(positive("pbf.core_hatch_distance", "mm", 5,
+                               "solid parts: hatch distance in the core", "core-hatch",
+                               [](C& c) -> auto& { return c.pbf.core_hatch_distance; }),
+                      "scan.hatch_distance"));
+  t.push_back(derived(numbers("pbf.core_hatch_rotation", "deg", -360, 360, 1,
+                              "solid parts: the core's hatch rotation per layer", "",
+                              [](C& c) -> auto& { return c.pbf.core_rotation; }),
+                      "pbf.hatch_rotation"));
   t.push_back(positive("pbf.stripe_width", "mm", 1000, "stripe: width across the hatch lines",
                        "stripe-width", [](C& c) -> auto& { return c.pbf.pattern.stripe_width; }));
   t.push_back(number("pbf.stripe_overlap", "mm", 0, 100, "stripe: neighbouring stripes overlap",
@@ -919,8 +994,9 @@ std::vector<Setting> make_table() {
       "pbf.hatch_phase",
       {{"wall", HatchPhase::Wall}, {"origin", HatchPhase::Origin}, {"random", HatchPhase::Random}},
       "where hatch lines are fixed each layer: through the design's origin (wall: the Fig. 3 "
-      "wall's centre), through the machine origin (pbf.plate_position places the part), or moved "
-      "by a random fraction of the hatch distance (seeded by pbf.hatch_seed)",
+      "wall's centre, a solid part's origin), through the machine origin (pbf.plate_position "
+      "places the part), or moved by a random fraction of the hatch distance (seeded by "
+      "pbf.hatch_seed)",
       "hatch-phase", [](C& c) -> auto& { return c.pbf.options.hatch_phase; }));
   t.push_back(derived(numbers("pbf.plate_position", "mm", -10000, 10000, 2,
                               "where the design's origin sits on the build plate (X, Y from the "

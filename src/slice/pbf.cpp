@@ -21,9 +21,9 @@
 
 #include "pbf_chords.hpp"
 #include "trellis/core/error.hpp"
-#include "trellis/core/rng.hpp"
 #include "trellis/geom/contour.hpp"
 #include "trellis/geom/mesh_io.hpp"
+#include "trellis/slice/scan_strategy.hpp"
 #include "trellis/slice/slice.hpp"
 
 namespace trellis {
@@ -1497,9 +1497,7 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
     if (o.hatch_phase == HatchPhase::Origin) {
       ho = o.machine_origin;
     } else if (o.hatch_phase == HatchPhase::Random) {
-      const double a = L.hatch_angle * kDeg;
-      ho = Vec2{-std::sin(a), std::cos(a)} *
-           (Rng::stream(o.hatch_seed, i).uniform01() * o.hatch_distance);
+      ho = random_hatch_shift(L.hatch_angle, o.hatch_seed, i, o.hatch_distance);
     }
     // A march's contours, its blocks counted in the layer's.
     auto counted = [&L](ContourSet c) {

@@ -4,6 +4,8 @@
 #include <map>
 #include <utility>
 
+#include "trellis/core/rng.hpp"
+
 namespace trellis {
 
 namespace {
@@ -24,9 +26,9 @@ struct Frame {
   double v(Vec2 p) const { return p.x * n.x + p.y * n.y; }
 };
 
-// Line number of a hatch segment (lines pass through the origin, `spacing` apart).
-long line_of(const Segment2& s, const Frame& f, double spacing) {
-  return std::lround(f.v(s.a) / spacing);
+// Line number of a hatch segment (lines pass through `origin`, `spacing` apart).
+long line_of(const Segment2& s, const Frame& f, double spacing, Vec2 origin) {
+  return std::lround((f.v(s.a) - f.v(origin)) / spacing);
 }
 
 Segment2 oriented(Segment2 s, bool reverse) {
@@ -51,15 +53,16 @@ bool cut(const Segment2& s, double ua, double ub, double lo, double hi, Segment2
 }
 
 std::vector<Segment2> lines(const std::vector<Segment2>& all, const Frame& f, double spacing,
-                            bool meander) {
+                            bool meander, Vec2 origin) {
   std::vector<Segment2> out;
   out.reserve(all.size());
-  for (const Segment2& s : all) out.push_back(oriented(s, meander && (line_of(s, f, spacing) & 1)));
+  for (const Segment2& s : all)
+    out.push_back(oriented(s, meander && (line_of(s, f, spacing, origin) & 1)));
   return out;
 }
 
 std::vector<Segment2> stripes(const std::vector<Segment2>& all, const Frame& f,
-                              const ScanPattern& p) {
+                              const ScanPattern& p, Vec2 origin) {
   std::map<long, std::vector<Segment2>> by_stripe;
   const double w = p.stripe_width, grow = p.stripe_overlap / 2;
   for (const Segment2& s : all) {
@@ -73,7 +76,7 @@ std::vector<Segment2> stripes(const std::vector<Segment2>& all, const Frame& f,
   std::vector<Segment2> out;
   for (auto& [k, pieces] : by_stripe)
     for (const Segment2& s : pieces)
-      out.push_back(oriented(s, line_of(s, f, p.hatch_distance) & 1));
+      out.push_back(oriented(s, line_of(s, f, p.hatch_distance, origin) & 1));
   return out;
 }
 
@@ -101,19 +104,19 @@ void island_pieces(const std::vector<Segment2>& all, const Frame& grid, bool alo
 }
 
 std::vector<Segment2> islands(const Regions& region, double inset, double angle,
-                              const ScanPattern& p, std::size_t layer) {
+                              const ScanPattern& p, std::size_t layer, Vec2 origin) {
   const Frame grid(angle), cross(angle + 90);
   const double shift = std::fmod(static_cast<double>(layer) * p.island_shift, p.island_size);
   std::map<std::pair<long, long>, std::vector<Segment2>> by_island;
-  island_pieces(hatch_inset(region, {}, angle, p.hatch_distance, inset), grid, false, shift, p,
-                by_island);
-  island_pieces(hatch_inset(region, {}, angle + 90, p.hatch_distance, inset), grid, true, shift, p,
-                by_island);
+  island_pieces(hatch_inset(region, {}, angle, p.hatch_distance, inset, origin), grid, false, shift,
+                p, by_island);
+  island_pieces(hatch_inset(region, {}, angle + 90, p.hatch_distance, inset, origin), grid, true,
+                shift, p, by_island);
   std::vector<Segment2> out;
   for (auto& [ij, pieces] : by_island) {
     const bool odd = (ij.first + ij.second) & 1;
     for (const Segment2& s : pieces)
-      out.push_back(oriented(s, line_of(s, odd ? cross : grid, p.hatch_distance) & 1));
+      out.push_back(oriented(s, line_of(s, odd ? cross : grid, p.hatch_distance, origin) & 1));
   }
   return out;
 }
@@ -125,20 +128,25 @@ double scan_angle(const ScanPattern& pattern, std::size_t layer) {
   return a < 0 ? a + 360 : a;
 }
 
+Vec2 random_hatch_shift(double angle_deg, std::uint64_t seed, std::size_t layer, double spacing) {
+  const double a = angle_deg * (kPi / 180);
+  return Vec2{-std::sin(a), std::cos(a)} * (Rng::stream(seed, layer).uniform01() * spacing);
+}
+
 std::vector<Segment2> scan_hatches(const Regions& region, double inset, const ScanPattern& p,
-                                   std::size_t layer) {
+                                   std::size_t layer, Vec2 origin) {
   if (region.empty()) return {};
   const double angle = scan_angle(p, layer);
-  if (p.strategy == ScanStrategy::Island) return islands(region, inset, angle, p, layer);
+  if (p.strategy == ScanStrategy::Island) return islands(region, inset, angle, p, layer, origin);
   const Frame f(angle);
-  const auto all = hatch_inset(region, {}, angle, p.hatch_distance, inset);
+  const auto all = hatch_inset(region, {}, angle, p.hatch_distance, inset, origin);
   switch (p.strategy) {
     case ScanStrategy::Rectilinear:
-      return lines(all, f, p.hatch_distance, false);
+      return lines(all, f, p.hatch_distance, false, origin);
     case ScanStrategy::Meander:
-      return lines(all, f, p.hatch_distance, true);
+      return lines(all, f, p.hatch_distance, true, origin);
     case ScanStrategy::Stripe:
-      return stripes(all, f, p);
+      return stripes(all, f, p, origin);
     case ScanStrategy::Island:
       break;
   }

@@ -50,6 +50,19 @@ ScanClock layer_scan_clock(const Layer& layer, const ScanTiming& timing) {
   return clock;
 }
 
+std::vector<double> path_scan_seconds(const Layer& layer, const ScanTiming& timing) {
+  ScanClock clock(timing);
+  std::vector<Vec2> xy;
+  std::vector<double> out;
+  out.reserve(layer.paths.size());
+  for (const Path& p : layer.paths) {
+    const double before = clock.seconds();
+    mark_path(clock, p, timing, xy);
+    out.push_back(clock.seconds() - before);
+  }
+  return out;
+}
+
 double scan_time(const std::vector<const Path*>& vectors, const ScanTiming& laser) {
   ScanClock clock(laser);
   std::vector<Vec2> xy;

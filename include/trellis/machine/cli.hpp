@@ -12,6 +12,7 @@
 #pragma once
 #include <cstdio>
 #include <string>
+#include <vector>
 
 #include "trellis/core/diagnostics.hpp"
 #include "trellis/machine/laser.hpp"
@@ -19,9 +20,22 @@
 
 namespace trellis {
 
+// A laser parameter set beyond the contour and hatch ids (a contour offset's, the core's, the
+// up-skin's…): written under its own id after every part's and laser's contour and hatch ids,
+// one per set and laser, labelled with its name (and, in CLI+, its power and speed).
+struct CliParameterSet {
+  std::string name;    // the id's label; "hatch" in it reads back as hatch
+  bool hatch = false;  // for hatch vectors (else contours)
+  double power = 0, speed = 0;  // W, mm/s: the paths written under it have exactly these
+};
+
 struct CliWriteOptions {
   bool binary = false;  // binary geometry section instead of ASCII
   bool plus = true;     // CLI+ parameter blocks (power and speed per id) in the header
+  // A path whose kind, power and speed are a set's goes under the set's id (the first such set);
+  // every other path under its part's and laser's contour or hatch id. Per block, the hatch
+  // vectors are one $$HATCHES record per run of one id, in their order.
+  std::vector<CliParameterSet> sets;
 };
 
 std::string write_cli(const Toolpath& toolpath, const LaserProfile& profile,

@@ -15,6 +15,13 @@ struct LaserProfile {
   double melt_pool_width = 0.0638;   // D (mm), PBF paper Eq. 8
   double contour_power = 60, contour_speed = 800;  // W, mm/s
   double hatch_power = 100, hatch_speed = 1000;    // W, mm/s
+  // Solid parts' own parameter sets (slice/pbf_skin.hpp): per contour offset, outermost first
+  // (empty: all at the contour power and speed), and the core, up-skin and down-skin hatch
+  // (0: the hatch power or speed).
+  std::vector<double> contour_powers, contour_speeds;  // W, mm/s
+  double core_power = 0, core_speed = 0;
+  double upskin_power = 0, upskin_speed = 0;
+  double downskin_power = 0, downskin_speed = 0;
   double layer = 0.02;               // mm
   double hatch_distance = 0.04;      // mm
   double beam_compensation = 0.03;   // mm

@@ -13,6 +13,7 @@
 #include "trellis/plan/plan.hpp"
 #include "trellis/slice/nonplanar.hpp"
 #include "trellis/slice/pbf.hpp"
+#include "trellis/slice/pbf_skin.hpp"
 #include "trellis/slice/scan_strategy.hpp"
 #include "trellis/slice/pipeline.hpp"
 
@@ -70,6 +71,9 @@ struct PbfConfig {
   std::string strategy = "hybrid";
   int contours = 1;             // solid parts: contour offsets per region
   double contour_distance = 0;  // mm between contours (0 = the hatch distance)
+  SkinOptions skin;             // solid parts: skin/core, up-skin, down-skin thicknesses (mm)
+  double core_hatch_distance = 0;  // mm, 0 = the hatch distance
+  std::vector<double> core_rotation;  // deg per layer (one number); empty = pbf.hatch_rotation
   ScanPattern pattern;          // stripe and island sizes (hatch from the laser profile)
   PbfOptions options;           // resolution, thin_multiple, min_inclination (scan from laser)
 };

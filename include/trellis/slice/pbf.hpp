@@ -6,6 +6,7 @@
 // field and pulled in by the beam compensation. The filling ratio FR_a = D·ΣL/A (Eq. 8) is
 // reported for this path and for the plain rotating-67° hatch of the whole sheet (R67).
 #pragma once
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -133,6 +134,11 @@ struct PbfLayer {
   // Top blocks of this layer's marches, and those translated from another period's
   // (PbfOptions::periodic_tiles) instead of contoured.
   std::size_t blocks = 0, tiled_blocks = 0;
+  // Solid parts (slice/pbf_mesh.hpp, pbf_skin.hpp): each contour's offset (0: the outermost),
+  // each hatch's region kind (HatchKind: skin, core, up-skin, down-skin), and each kind's area
+  // (mm²) and hatch length (mm). Empty: every contour the first offset, every hatch skin.
+  std::vector<std::uint8_t> contour_offset, hatch_kind;
+  std::array<double, 4> kind_area{}, kind_hatch_length{};
 };
 
 struct PbfStats {

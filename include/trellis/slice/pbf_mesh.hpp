@@ -2,19 +2,24 @@
 // kernel): the part is cut into layers (the planar slicer's mesh and field slicing), and each
 // layer's region is scanned as PBF machines do: N contour offsets, the first at the beam
 // compensation and each next one a contour distance further in, then the region inside the last
-// contour hatched by a scan strategy (slice/scan_strategy.hpp). Layers are planned in parallel
+// contour hatched by a scan strategy (slice/scan_strategy.hpp), optionally split into skin, core,
+// up-skin and down-skin (slice/pbf_skin.hpp), each kind and each contour offset with its own
+// laser parameter set. Layers are planned in parallel
 // in batches and handed to a sink in order, so memory does not grow with the layer count; the
 // vectors go into the same PbfLayer the TPMS route (slice/pbf.hpp) makes, so its writers, report
 // and scan-time model serve both.
 #pragma once
 #include <cstddef>
+#include <cstdint>
 #include <functional>
+#include <limits>
 #include <vector>
 
 #include "trellis/core/progress.hpp"
 #include "trellis/field/field.hpp"
 #include "trellis/geom/mesh.hpp"
 #include "trellis/slice/pbf.hpp"
+#include "trellis/slice/pbf_skin.hpp"
 #include "trellis/slice/scan_strategy.hpp"
 #include "trellis/slice/slice.hpp"
 
@@ -27,9 +32,25 @@ struct PbfSolidOptions {
   // mm between contours and from the last contour to the hatched region; 0 = the hatch distance.
   double contour_distance = 0;
   ScanPattern pattern;        // hatch distance, strategy, angle and rotation
+  // Where each layer's hatch lines lie across (slice/pbf.hpp HatchPhase): Wall — through the
+  // design's origin; Origin — through the machine origin, `machine_origin` in design
+  // coordinates; Random — moved by a uniform fraction of the hatch distance (`hatch_seed`).
+  HatchPhase hatch_phase = HatchPhase::Wall;
+  Vec2 machine_origin{};
+  std::uint64_t hatch_seed = 1;
+  // Skin, core, up-skin and down-skin (all 0: one kind, skin). The core's own hatch: distance
+  // (0: the pattern's) and rotation per layer (NaN: the pattern's).
+  SkinOptions skin;
+  double core_hatch_distance = 0;
+  double core_rotation = std::numeric_limits<double>::quiet_NaN();
+  // Laser parameter sets: the speeds time each vector (a speed of 0: the timing's), the powers
+  // go into the build file through pbf_solid_layer_toolpath.
+  PbfExposures exposures;
   double resolution = 0.025;  // mm, XY grid of a field's sections (.vcad solids)
   std::size_t batch = 32;     // layers sliced and planned together
   ScanTiming timing;          // scan-time model of each layer
+  // The core's scan pattern (the hatch pattern with the core's distance and rotation).
+  ScanPattern core_pattern() const;
 };
 
 // The part: a closed triangle mesh or a solid field (exactly one of the two).
@@ -40,8 +61,20 @@ struct PbfSolid {
 };
 
 // The vectors of one layer region (outlines of a section, design coordinates), layer number
-// `index` (for the hatch angle and island shift).
+// `index` (for the hatch angle and island shift). With `kinds` (SkinWindow::split of the region)
+// each kind's part of the hatch is its own, the core on the core pattern's lines.
 PbfLayer plan_pbf_layer(const Regions& region, std::size_t index, const PbfSolidOptions& options);
+PbfLayer plan_pbf_layer(const Regions& region, const LayerKinds* kinds, std::size_t index,
+                        const PbfSolidOptions& options);
+
+// The point layer `index`'s lines of `pattern` pass through (PbfSolidOptions::hatch_phase).
+Vec2 hatch_phase_point(const PbfSolidOptions& options, const ScanPattern& pattern,
+                       std::size_t index);
+
+// Layer `index` as a toolpath layer (pbf_layer_toolpath) with every contour's and hatch's power
+// and speed from its parameter set.
+Layer pbf_solid_layer_toolpath(const PbfLayer& layer, std::size_t index, double layer_thickness,
+                               const PbfExposures& exposures);
 
 // Every layer of the part, bottom to top, handed to `sink` in order (with their vectors); the
 // result keeps the layers' series (z, lengths, area, scan time) without their vectors when a

@@ -1,6 +1,7 @@
 // Laser powder-bed scan strategies for a solid layer region: the hatch vectors that fill it
 // (PySLM/libSLM's set). Every strategy hatches the region's inward offset by the beam
-// compensation with lines `hatch_distance` apart through the machine origin, turned by
+// compensation with lines `hatch_distance` apart through a given point (the hatch phase: the
+// design's origin by default), turned by
 // `rotation` degrees per layer; they differ in how the lines are cut and ordered:
 //   rectilinear  whole lines, all scanned the same way;
 //   meander      whole lines, scanned back and forth (the paper's R67 with rotation 67);
@@ -12,6 +13,7 @@
 //                along the layer's angle, odd ones at 90° to it; island by island.
 #pragma once
 #include <cstddef>
+#include <cstdint>
 #include <vector>
 
 #include "trellis/geom/regions.hpp"
@@ -36,8 +38,14 @@ struct ScanPattern {
 double scan_angle(const ScanPattern& pattern, std::size_t layer);
 
 // The hatch vectors of layer `layer` over `region`, every point at least `inset` (mm) inside it
-// (the beam compensation, plus the contours' band when contours are scanned), in scan order.
+// (the beam compensation, plus the contours' band when contours are scanned), in scan order,
+// on lines through `origin` (the island and stripe grids stay on the design's origin).
 std::vector<Segment2> scan_hatches(const Regions& region, double inset, const ScanPattern& pattern,
-                                   std::size_t layer);
+                                   std::size_t layer, Vec2 origin = {0, 0});
+
+// The random hatch phase of layer `layer`: a point moved across lines at `angle_deg` by a
+// uniform fraction of `spacing`, drawn from the layer's own stream of `seed` (so a layer range
+// computed alone gives the same lines).
+Vec2 random_hatch_shift(double angle_deg, std::uint64_t seed, std::size_t layer, double spacing);
 
 }  // namespace trellis

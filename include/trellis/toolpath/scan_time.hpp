@@ -60,6 +60,9 @@ struct Layer;
 // One toolpath layer's scan time: its paths in order, each a vector marked at its own speed (when
 // set; else the hatch or contour speed by its role), the clock above.
 ScanClock layer_scan_clock(const Layer& layer, const ScanTiming& timing);
+// Each path's share of its layer's scan time, in order: the jump into it, its marking and its
+// delays (they add up to layer_scan_clock's seconds).
+std::vector<double> path_scan_seconds(const Layer& layer, const ScanTiming& timing);
 // One laser's scan time (s) over `vectors` in the order given: each marked at its own speed
 // (Path::speed; 0 = the timing's contour or hatch speed by role), jumps and delays between them.
 // The one time function the multi-laser split balances and reports (slice/pbf_lasers.hpp).
