@@ -6,6 +6,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <utility>
@@ -121,4 +122,74 @@ TEST(CliLaser, AnalyzeTimesABuildFileWithTheProfilesDelays) {
   const double vectors = a["vectors"].get<double>();
   EXPECT_NEAR(b["scan_time"]["total_s"].get<double>(),
               t["total_s"].get<double>() + vectors * 100e-6, 1e-9);
+}
+
+// A solid part with skin, core, up-skin, down-skin and a parameter set per contour, through the
+// command line: the report's region areas add up to the layers' areas; `analyze` with the profile
+// finds every parameter set in the .cli and in the 3MF (the same vectors per set), its per-set
+// times adding up to the total; the kinds' own settings are refused where they are not used.
+TEST(CliLaser, SolidPartRegionKindsAndParameterSetsReadBack) {
+  const std::string profile = std::string(TRELLIS_SOURCE_DIR) + "/profiles/pbf_316l_25um.toml";
+  const std::string part = std::string(TRELLIS_SOURCE_DIR) + "/examples/designs/bracket_20mm.stl";
+  const std::string common =
+      "pbf " + part + " --machine " + profile +
+      " --layer-height 0.25 --strategy island --contours 2 --set laser.contour_powers=70,90"
+      " --set laser.contour_speeds=700,900 --set pbf.skin_thickness=0.75"
+      " --set pbf.upskin_thickness=0.5 --set pbf.downskin_thickness=0.5"
+      " --set laser.core_power=180 --set laser.core_speed=1200 --set pbf.core_hatch_distance=0.08";
+  for (const char* ext : {"cli", "3mf"}) {
+    CmdRun r = run(common + " -o " + path(std::string("b.") + ext) + " --report " +
+                   path(std::string("b_") + ext + ".json"));
+    ASSERT_EQ(r.code, 0) << r.err;
+  }
+  const auto rep = nlohmann::json::parse(trellis::read_file(path("b_cli.json")));
+  double layers_area = 0, kinds_area = 0;
+  for (const auto& a : rep["per_layer"]["area_mm2"]) layers_area += a.get<double>();
+  for (const char* k : {"skin", "core", "upskin", "downskin"}) {
+    EXPECT_GT(rep["regions"][k]["area_mm2"].get<double>(), 0) << k;
+    EXPECT_GT(rep["regions"][k]["hatch_mm"].get<double>(), 0) << k;
+    kinds_area += rep["regions"][k]["area_mm2"].get<double>();
+  }
+  EXPECT_NEAR(kinds_area, layers_area, 1e-6 * layers_area);
+  std::map<std::string, std::pair<double, double>> sets[2];  // "hatch 180 1200" → vectors, time
+  for (int f = 0; f < 2; ++f) {
+    const std::string file = path(f ? "b.3mf" : "b.cli");
+    CmdRun r = run("analyze " + file + " --machine " + profile + " --report " + path("a.json"));
+    ASSERT_EQ(r.code, 0) << r.err;
+    const auto a = nlohmann::json::parse(trellis::read_file(path("a.json")));
+    double sum = 0;
+    for (const auto& s : a["parameter_sets"]) {
+      const std::string key = s["kind"].get<std::string>() + " " +
+                              std::to_string(s["power_w"].get<int>()) + " " +
+                              std::to_string(s["speed_mm_s"].get<int>());
+      sets[f][key] = {s["vectors"].get<double>(), s["scan_time_s"].get<double>()};
+      sum += s["scan_time_s"].get<double>();
+    }
+    EXPECT_NEAR(sum, a["scan_time"]["total_s"].get<double>(), 1e-6) << file;
+  }
+  // The contours' two sets, the core's, the profile's up-skin and down-skin, the skin hatch.
+  for (const char* key : {"contour 70 700", "contour 90 900", "hatch 180 1200", "hatch 100 800",
+                          "hatch 60 1000", "hatch 100 1000"}) {
+    ASSERT_EQ(sets[0].count(key), 1u) << key;
+    EXPECT_GT(sets[0][key].first, 0) << key;
+    EXPECT_EQ(sets[0][key].first, sets[1][key].first) << key << ": .cli and 3MF differ";
+  }
+  EXPECT_EQ(sets[0].size(), 6u);
+  const std::string cli = trellis::read_file(path("b.cli"));
+  for (const char* label : {"contour 1", "contour 2", "core hatch", "upskin hatch",
+                            "downskin hatch"})
+    EXPECT_NE(cli.find(std::string(",") + label + "\n"), std::string::npos) << label;
+  // Refused where unused: a core power without a core, a power per contour not matching them.
+  CmdRun r = run("pbf " + part + " --machine " + profile +
+                 " --layer-height 0.25 --set laser.core_power=150 -o " + path("c.cli"));
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("laser.core_power"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("pbf.skin_thickness"), std::string::npos) << r.err;
+  r = run("pbf " + part + " --machine " + profile +
+          " --layer-height 0.25 --contours 3 --set laser.contour_powers=60,80 -o " + path("c.cli"));
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("laser.contour_powers"), std::string::npos) << r.err;
+  r = run("pbf --cell 2.5 --size 2.5,2.5,0.2 --set pbf.skin_thickness=0.5 -o " + path("g.cli"));
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("pbf.skin_thickness"), std::string::npos) << r.err;
 }
