@@ -229,7 +229,7 @@ TEST(PbfSkin, AreasAddUpAndDoNotOverlap) {
     std::vector<Regions> regions;
     for (auto& l : slice_mesh_layers(mesh, zs)) regions.push_back(std::move(l.regions));
     const double size = std::max(e.max.x - e.min.x, e.max.y - e.min.y);
-    SkinWindow window({0.1 * size, 2.5 * layer, 3 * layer}, layer, zs.size());
+    SkinWindow window({0.05 * size, 2.5 * layer, 3 * layer}, layer, zs.size());
     window.prepare(0, zs.size(), [&](std::size_t j) -> const Regions& { return regions[j]; });
     std::array<bool, kHatchKinds> seen{};
     for (std::size_t i = 0; i < zs.size(); ++i) {
@@ -252,7 +252,7 @@ TEST(PbfSkin, AreasAddUpAndDoNotOverlap) {
     // The planner reports the same areas per layer.
     PbfSolidOptions o;
     o.layer = layer;
-    o.skin = {0.1 * size, 2.5 * layer, 3 * layer};
+    o.skin = {0.05 * size, 2.5 * layer, 3 * layer};
     o.pattern.hatch_distance = size / 50;
     PbfSolid part;
     part.mesh = &mesh;
@@ -307,7 +307,9 @@ TEST(PbfSkin, ContourOffsetsRoundTripWithTheirParameterSets) {
   EXPECT_NE(cli.find("$$LABEL/3,contour 1"), std::string::npos);
   EXPECT_NE(cli.find("$$LABEL/6,core hatch"), std::string::npos);
   EXPECT_NE(cli.find("$$POLYLINE/5,"), std::string::npos);
-  for (const Path& p : read_cli(cli, "ids").layers[0].paths) EXPECT_EQ(p.role, PathRole::Contour);
+  const Toolpath back = read_cli(cli, "ids");
+  ASSERT_EQ(back.layers.size(), 1u);
+  for (const Path& p : back.layers[0].paths) EXPECT_EQ(p.role, PathRole::Contour);
 }
 
 TEST(PbfSkin, OriginPhasePutsHatchLinesOnTheMachineGrid) {
