@@ -277,6 +277,8 @@ def pbf(
     cell_type: Literal['gyroid', 'schwarz_p', 'schwarz_d', 'neovius', 'iwp'] = ...,  # pbf.cell_type: TPMS of the sheet
     contour_distance: float = ...,  # pbf.contour_distance: solid parts: between contours, and from the last one to the hatch
     contours: int = ...,  # pbf.contours: solid parts: contour offsets per layer region, the first at the beam compensation (0: hatch only)
+    core_hatch: float = ...,  # pbf.core_hatch_distance: solid parts: hatch distance in the core
+    downskin_thickness: float = ...,  # pbf.downskin_thickness: solid parts: the part of a layer with no material somewhere in this thickness of layers below it is down-skin (laser.downskin_*)
     envelope: str = ...,  # pbf.envelope: .vcad solid the lattice fills instead of the box
     follow_symlinks: bool = ...,  # run.follow_symlinks: write an output whose path is a symbolic link to the file it points to (the link kept); without it such an output is refused
     force: bool = ...,  # run.force: run even when the estimate is beyond run.max_memory or run.max_time
@@ -286,7 +288,7 @@ def pbf(
     grade_to: str = ...,  # pbf.grade_to: TYPE:CELL blended in by a sigmoid (graded cell size)
     grade_width: float = ...,  # pbf.grade_width: sigmoid width
     hatch: float = ...,  # scan.hatch_distance: hatch distance
-    hatch_phase: Literal['wall', 'origin', 'random'] = ...,  # pbf.hatch_phase: where hatch lines are fixed each layer: through the design's origin (wall: the Fig. 3 wall's centre), through the machin
+    hatch_phase: Literal['wall', 'origin', 'random'] = ...,  # pbf.hatch_phase: where hatch lines are fixed each layer: through the design's origin (wall: the Fig. 3 wall's centre, a solid part's orig
     hatch_rotation: float = ...,  # pbf.hatch_rotation: hatch rotation per layer (paper: 67)
     hatch_seed: int = ...,  # pbf.hatch_seed: random hatch phase: seed of the layers' shifts
     hierarchical: str = ...,  # pbf.hierarchical: TYPE:CELL:WEIGHT superposed (hierarchical lattice)
@@ -306,6 +308,7 @@ def pbf(
     resolution: float = ...,  # pbf.resolution: sampling step: the STL route's voxel; direct contours on a grid twice as coarse
     route: Literal['direct', 'stl'] = ...,  # pbf.route: direct (slice the field) or stl (marching cubes mesh, for comparison)
     size: Sequence[float] = ...,  # pbf.size: box X, Y, Z centred at the origin
+    skin_thickness: float = ...,  # pbf.skin_thickness: solid parts: the core, at least this far inside the part's surface (in XY and in the layers above and below), is hatched with the core parameter
     sl: float = ...,  # scan.segment_length: contour scan vector length SL: straight chords on φ = 0 (the paper tested 5-400 µm; outside is a warning)
     solids: str = ...,  # pbf.solids: .vcad solid parts (bosses), hatched
     split: Literal['width', 'inclination'] = ...,  # pbf.split: thin walls against joints: width <= pbf.thin_multiple × D and steeper than pbf.min_inclination (width), or the paper's c interpolated by
@@ -315,6 +318,7 @@ def pbf(
     thickness: float = ...,  # pbf.thickness: uniform wall thickness t: c = t·|∇φ|/2 instead of pbf.c
     thin_multiple: float = ...,  # pbf.thin_multiple: thin wall: width <= this × melt pool
     threads: int = ...,  # run.threads: worker threads (0 = all cores)
+    upskin_thickness: float = ...,  # pbf.upskin_thickness: solid parts: the part of a layer with no material somewhere in this thickness of layers above it is up-skin (laser.upskin_*)
     wall_azimuth: float = ...,  # pbf.wall_azimuth: the wall's direction from X
     wall_inclination: float = ...,  # pbf.wall_inclination: the wall's angle from horizontal
     wall_thickness: float = ...,  # pbf.wall_thickness: a plane thin wall of this thickness instead of a TPMS (PBF paper Fig. 3; box from pbf.size, default 2,2,20)
