@@ -229,7 +229,8 @@ TEST(PbfSkin, AreasAddUpAndDoNotOverlap) {
     std::vector<Regions> regions;
     for (auto& l : slice_mesh_layers(mesh, zs)) regions.push_back(std::move(l.regions));
     const double size = std::max(e.max.x - e.min.x, e.max.y - e.min.y);
-    SkinWindow window({0.05 * size, 2.5 * layer, 3 * layer}, layer, zs.size());
+    const double skin = std::min(0.05 * size, 1.5 * layer);  // a core the bearing's ring holds
+    SkinWindow window({skin, 2.5 * layer, 3 * layer}, layer, zs.size());
     window.prepare(0, zs.size(), [&](std::size_t j) -> const Regions& { return regions[j]; });
     std::array<bool, kHatchKinds> seen{};
     for (std::size_t i = 0; i < zs.size(); ++i) {
@@ -252,7 +253,7 @@ TEST(PbfSkin, AreasAddUpAndDoNotOverlap) {
     // The planner reports the same areas per layer.
     PbfSolidOptions o;
     o.layer = layer;
-    o.skin = {0.05 * size, 2.5 * layer, 3 * layer};
+    o.skin = {skin, 2.5 * layer, 3 * layer};
     o.pattern.hatch_distance = size / 50;
     PbfSolid part;
     part.mesh = &mesh;
