@@ -300,6 +300,9 @@ const std::vector<std::pair<const char*, const char*>>& when_table() {
       {"aero.", "plan.planner=aero"},
       {"aero.tries", "aero.method=dynamic"},
       {"aero.fewest_collisions", "aero.collisions=true"},
+      {"aero.cell_type", "aero.method=periodic"},
+      {"aero.cell", "aero.method=periodic"},
+      {"aero.print_path", "aero.method=periodic"},
       {"aero.exact_struts", "aero.collisions=true"},
       {"nozzle.", "plan.planner=aero"},
       {"plan.seed", "plan.planner=gippo|aero"},
@@ -667,8 +670,10 @@ std::vector<Setting> make_table() {
 
   // aero.*, nozzle.*
   t.push_back(choice_enum<AeroMethod>(
-      "aero.method", {{"dynamic", AeroMethod::Dynamic}, {"groups", AeroMethod::Groups}},
-      "dynamic (refresh after every trail) or groups (the paper's)", "method",
+      "aero.method",
+      {{"dynamic", AeroMethod::Dynamic}, {"groups", AeroMethod::Groups}, {"periodic", AeroMethod::Periodic}},
+      "dynamic (refresh after every trail), groups (the paper's) or periodic (the paper's "
+      "semi-manual baseline: a hand-made cell path repeated per cell)", "method",
       [](C& c) -> auto& { return c.aero.method; }));
   t.push_back(boolean("aero.collisions", "plan around the nozzle (false: trails = Euler lower bound)",
                       "collisions", [](C& c) -> auto& { return c.aero.collisions; }));
@@ -677,6 +682,20 @@ std::vector<Setting> make_table() {
                       "minimal where the exact solver finishes); false = the greedy order",
                       "fewest-collisions", [](C& c) -> auto& { return c.aero.fewest_collisions; }));
   t.push_back(integer("aero.exact_struts", 0, 1e7,
+  t.push_back(derived(choice_enum<UnitCell>(
+                          "aero.cell_type",
+                          {{"octet", UnitCell::Octet}, {"bcc", UnitCell::Bcc}, {"cubic", UnitCell::Cubic}},
+                          "periodic: the lattice's unit cell (its hand-made path is repeated)",
+                          "periodic-cell", [](C& c) -> auto& { return c.aero.periodic.cell; }),
+                      "lattice3d.cell_type"));
+  t.push_back(derived(positive("aero.cell", "mm", 10000,
+                               "periodic: the lattice's cell side (a cell corner at its lowest corner)",
+                               "periodic-size", [](C& c) -> auto& { return c.aero.periodic.size; }),
+                      "lattice3d.cell"));
+  t.push_back(integer("aero.print_path", 1, 2,
+                      "periodic bcc: Print Path 1 (nodes side by side) or 2 (crossing traces), "
+                      "the paper's Fig. 3b", "print-path",
+                      [](C& c) -> auto& { return c.aero.periodic.print_path; }));
                       "solve obstruction cycles exactly (integer program) in parts up to this many "
                       "struts; 0 = local search only", "exact-struts",
                       [](C& c) -> auto& { return c.aero.order.exact_max_struts; }));
