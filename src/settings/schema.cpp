@@ -268,6 +268,7 @@ const std::vector<std::pair<const char*, const char*>>& when_table() {
       {"lattice2d.seed", "lattice2d.pattern=voronoi"},
       {"lattice2d.size", "lattice2d.region=rectangle"},
       {"lattice2d.diameter", "lattice2d.region=circle"},
+      {"lattice2d.ring_spacing", "lattice2d.rings>0"},
       {"lattice2d.handle_length", "lattice2d.handles=true"},
       {"lattice2d.handle_width", "lattice2d.handles=true"},
       {"lattice2d.handle_spacing", "lattice2d.handles=true"},
@@ -299,10 +300,10 @@ const std::vector<std::pair<const char*, const char*>>& when_table() {
       {"gippo.", "plan.planner=gippo"},
       {"aero.", "plan.planner=aero"},
       {"aero.tries", "aero.method=dynamic"},
-      {"aero.fewest_collisions", "aero.collisions=true"},
       {"aero.cell_type", "aero.method=periodic"},
       {"aero.cell", "aero.method=periodic"},
       {"aero.print_path", "aero.method=periodic"},
+      {"aero.fewest_collisions", "aero.collisions=true"},
       {"aero.exact_struts", "aero.collisions=true"},
       {"nozzle.", "plan.planner=aero"},
       {"plan.seed", "plan.planner=gippo|aero"},
@@ -515,6 +516,12 @@ std::vector<Setting> make_table() {
                      [](C& c) -> auto& { return c.lattice2d.z; }));
   t.push_back(boolean("lattice2d.contour", "add the region outline as struts", "contour",
                       [](C& c) -> auto& { return c.lattice2d.contour; }));
+  t.push_back(integer("lattice2d.rings", 0, 1000,
+                      "clamping rings: concentric outlines at the region's rim, the pattern inside "
+                      "the innermost (GIPPO's Ø48 ball-burst discs); 0 = none", "rings",
+                      [](C& c) -> auto& { return c.lattice2d.rings; }));
+  t.push_back(positive("lattice2d.ring_spacing", "mm", 100, "distance between clamping rings",
+                       "ring-spacing", [](C& c) -> auto& { return c.lattice2d.ring_spacing; }));
   t.push_back(boolean("lattice2d.handles", "tensile-test handles at both x ends", "handles",
                       [](C& c) -> auto& { return c.lattice2d.handles; }));
   t.push_back(positive("lattice2d.handle_length", "mm", 1000, "handle length along x",
@@ -675,13 +682,6 @@ std::vector<Setting> make_table() {
       "dynamic (refresh after every trail), groups (the paper's) or periodic (the paper's "
       "semi-manual baseline: a hand-made cell path repeated per cell)", "method",
       [](C& c) -> auto& { return c.aero.method; }));
-  t.push_back(boolean("aero.collisions", "plan around the nozzle (false: trails = Euler lower bound)",
-                      "collisions", [](C& c) -> auto& { return c.aero.collisions; }));
-  t.push_back(boolean("aero.fewest_collisions",
-                      "break obstruction cycles where it costs the fewest collisions (proven "
-                      "minimal where the exact solver finishes); false = the greedy order",
-                      "fewest-collisions", [](C& c) -> auto& { return c.aero.fewest_collisions; }));
-  t.push_back(integer("aero.exact_struts", 0, 1e7,
   t.push_back(derived(choice_enum<UnitCell>(
                           "aero.cell_type",
                           {{"octet", UnitCell::Octet}, {"bcc", UnitCell::Bcc}, {"cubic", UnitCell::Cubic}},
@@ -696,6 +696,13 @@ std::vector<Setting> make_table() {
                       "periodic bcc: Print Path 1 (nodes side by side) or 2 (crossing traces), "
                       "the paper's Fig. 3b", "print-path",
                       [](C& c) -> auto& { return c.aero.periodic.print_path; }));
+  t.push_back(boolean("aero.collisions", "plan around the nozzle (false: trails = Euler lower bound)",
+                      "collisions", [](C& c) -> auto& { return c.aero.collisions; }));
+  t.push_back(boolean("aero.fewest_collisions",
+                      "break obstruction cycles where it costs the fewest collisions (proven "
+                      "minimal where the exact solver finishes); false = the greedy order",
+                      "fewest-collisions", [](C& c) -> auto& { return c.aero.fewest_collisions; }));
+  t.push_back(integer("aero.exact_struts", 0, 1e7,
                       "solve obstruction cycles exactly (integer program) in parts up to this many "
                       "struts; 0 = local search only", "exact-struts",
                       [](C& c) -> auto& { return c.aero.order.exact_max_struts; }));
