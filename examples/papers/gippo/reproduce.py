@@ -282,11 +282,15 @@ def disc(out, quick, ctx):
         "--preview", os.path.join(out, "disc"))
     with open(f) as fh:
         nodes = json.load(fh)["nodes"]
-    cx = sum(n[0] for n in nodes) / len(nodes)
-    cy = sum(n[1] for n in nodes) / len(nodes)
+    cx = (min(n[0] for n in nodes) + max(n[0] for n in nodes)) / 2  # the disc's centre
+    cy = (min(n[1] for n in nodes) + max(n[1] for n in nodes)) / 2
     radii = [((n[0] - cx) ** 2 + (n[1] - cy) ** 2) ** 0.5 for n in nodes]
-    inner = 24 - DISC_RINGS * RING_SPACING
-    rings = len({round(r / RING_SPACING) for r in radii if r > inner})
+    # A ring: hundreds of nodes (its polygon's corners) at one radius (to 0.01 mm); the cropped
+    # pattern's own nodes are scattered.
+    counts = {}
+    for r in radii:
+        counts[round(r, 2)] = counts.get(round(r, 2), 0) + 1
+    rings = sum(1 for n in counts.values() if n >= 64)
     return [row("§2 ball-burst disc Ø48", "clamping rings at the rim", "contours (no count)",
                 rings, "",
                 f"lattice2d.rings = {DISC_RINGS}, {RING_SPACING} mm apart: Ø48 to "
