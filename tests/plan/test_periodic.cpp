@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include "support/random_graphs.hpp"
 #include "trellis/analysis/collisions.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/lattice/cells3d.hpp"
@@ -85,14 +86,7 @@ TEST(Periodic, AeroNeedsFewerTravelsThanTheCellPath) {
 // The plan follows the geometry: the same lattice listed in another order prints the same.
 TEST(Periodic, ThePlanDependsOnTheGeometryNotTheInputOrder) {
   const Graph g = cell_lattice({UnitCell::Bcc, 7, 3, 2, 2});
-  Graph h;
-  const std::size_t n = g.nodes.size();
-  std::vector<NodeId> perm(n);
-  for (NodeId i = 0; i < n; ++i) perm[i] = static_cast<NodeId>((i * 7 + 3) % n);
-  h.nodes.resize(n);
-  for (NodeId i = 0; i < n; ++i) h.nodes[perm[i]] = g.nodes[i];
-  for (std::size_t k = g.edges.size(); k-- > 0;)
-    h.edges.push_back({perm[g.edges[k].b], perm[g.edges[k].a]});
+  const Graph h = test::relisted(g, 7, 3);
   const AeroResult a = periodic(g, UnitCell::Bcc), b = periodic(h, UnitCell::Bcc);
   ASSERT_EQ(a.trails.trails.size(), b.trails.trails.size());
   for (std::size_t t = 0; t < a.trails.trails.size(); ++t) {
