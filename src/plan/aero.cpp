@@ -941,6 +941,19 @@ AeroResult plan_aero(const Graph& input, const AeroParams& params, Diagnostics& 
                        : "no order has fewer than " + std::to_string(r.collisions_lower_bound)) +
                   "): struts " + which + " are printed before struts they obstruct");
   }
+  if (fixed) {
+    // A cell path is printed as written: say where it goes against the cone rule.
+    std::size_t down = 0;
+    for (const auto& t : r.trails.trails)
+      for (std::size_t k = 0; k < t.edges.size(); ++k) {
+        const Vec3 a = input.nodes[t.nodes[k]], b = input.nodes[t.nodes[k + 1]];
+        down += a.z > b.z && is_steep(a, b, params.nozzle);
+      }
+    if (down)
+      diag.warn("cell_path_top_down",
+                std::to_string(down) + " strut(s) within the nozzle cone are printed top-down: "
+                                       "the periodic cell path is printed as written");
+  }
   for (EdgeId e = 0; e < input.edges.size(); ++e) {
     const Edge& ed = input.edges[e];
     if (ed.directed && input.nodes[ed.a].z > input.nodes[ed.b].z &&

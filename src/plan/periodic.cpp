@@ -108,7 +108,7 @@ const std::vector<CellStep>& cell_path(UnitCell cell, int print_path) {
 // The lattice's nodes on the half-cell grid and its struts by their end nodes.
 class CellGrid {
  public:
-  CellGrid(const Graph& g, double size) : g_(g), half_(size / 2), origin_(g.bbox().min) {
+  CellGrid(const Graph& g, double size) : half_(size / 2), origin_(g.bbox().min) {
     for (NodeId n = 0; n < g.nodes.size(); ++n) {
       Half h;
       bool on_grid = true;
@@ -142,7 +142,6 @@ class CellGrid {
     if (b < a) std::swap(a, b);
     return (static_cast<std::uint64_t>(a) << 32) | b;
   }
-  const Graph& g_;
   double half_;
   Vec3 origin_;
   std::map<Half, NodeId> nodes_;

@@ -44,7 +44,9 @@ TEST(Periodic, OneCellPrintsStepByStep) {
     for (const Trail& t : r.trails.trails)
       for (std::size_t k = 0; k < t.edges.size(); ++k) {
         const Vec3 a = g.nodes[t.nodes[k]], b = g.nodes[t.nodes[k + 1]];
-        if (is_steep(a, b, NozzleModel{})) EXPECT_LT(a.z, b.z);
+        if (is_steep(a, b, NozzleModel{})) {
+          EXPECT_LT(a.z, b.z);
+        }
       }
   }
 }
@@ -115,4 +117,19 @@ TEST(Periodic, RefusesLatticesItsCellPathDoesNotCover) {
   EXPECT_THROW(plan_aero(cell_lattice({UnitCell::Octet, 7, 1, 1, 1}), p, d), GeometryError);
   p.periodic = {UnitCell::Diamond, 7, 1};
   EXPECT_THROW(plan_aero(cell_lattice({UnitCell::Diamond, 7, 1, 1, 1}), p, d), SettingError);
+}
+
+// A cell path goes as written: where a wider cone makes its struts steep and the path prints them
+// top-down, a warning says so; at the default cone the octet path is bottom-up.
+TEST(Periodic, ACellPathAgainstTheConeRuleIsSaid) {
+  const Graph g = cell_lattice({UnitCell::Octet, 7, 1, 1, 1});
+  AeroParams p;
+  p.method = AeroMethod::Periodic;
+  Diagnostics quiet;
+  plan_aero(g, p, quiet);
+  EXPECT_EQ(quiet.counts().count("cell_path_top_down"), 0u);
+  p.nozzle.cone_half_angle_deg = 50;
+  Diagnostics d;
+  plan_aero(g, p, d);
+  EXPECT_EQ(d.counts().count("cell_path_top_down"), 1u);
 }
