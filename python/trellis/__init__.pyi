@@ -90,7 +90,7 @@ def lattice2d(
     reentrant_angle: float = ...,  # lattice2d.reentrant_angle: re-entrant honeycomb: strut angle below horizontal
     region: Literal['rectangle', 'circle'] = ...,  # lattice2d.region: crop region
     region_center: Sequence[float] = ...,  # lattice2d.center: region centre x, y
-    ring_spacing: float = ...,  # lattice2d.ring_spacing: distance between clamping rings
+    ring_spacing: float = ...,  # lattice2d.ring_spacing: distance between clamping rings (two or more)
     rings: int = ...,  # lattice2d.rings: clamping rings: concentric outlines at the region's rim, the pattern inside the innermost (GIPPO's Ø48 ball-burst discs); 0 = none
     rotation: float = ...,  # lattice2d.rotation: pattern rotation about the region centre
     seed: int = ...,  # lattice2d.seed: Voronoi random seed
@@ -185,7 +185,7 @@ def plan(
     reentrant_angle: float = ...,  # lattice2d.reentrant_angle: re-entrant honeycomb: strut angle below horizontal
     region: Literal['rectangle', 'circle'] = ...,  # lattice2d.region: crop region
     region_center: Sequence[float] = ...,  # lattice2d.center: region centre x, y
-    ring_spacing: float = ...,  # lattice2d.ring_spacing: distance between clamping rings
+    ring_spacing: float = ...,  # lattice2d.ring_spacing: distance between clamping rings (two or more)
     rings: int = ...,  # lattice2d.rings: clamping rings: concentric outlines at the region's rim, the pattern inside the innermost (GIPPO's Ø48 ball-burst discs); 0 = none
     rotation: float = ...,  # lattice2d.rotation: pattern rotation about the region centre
     seed: int = ...,  # plan.seed: random seed (gippo iterations, aero shuffled runs)

@@ -268,7 +268,7 @@ const std::vector<std::pair<const char*, const char*>>& when_table() {
       {"lattice2d.seed", "lattice2d.pattern=voronoi"},
       {"lattice2d.size", "lattice2d.region=rectangle"},
       {"lattice2d.diameter", "lattice2d.region=circle"},
-      {"lattice2d.ring_spacing", "lattice2d.rings>0"},
+      {"lattice2d.ring_spacing", "lattice2d.rings>1"},
       {"lattice2d.handle_length", "lattice2d.handles=true"},
       {"lattice2d.handle_width", "lattice2d.handles=true"},
       {"lattice2d.handle_spacing", "lattice2d.handles=true"},
@@ -520,8 +520,9 @@ std::vector<Setting> make_table() {
                       "clamping rings: concentric outlines at the region's rim, the pattern inside "
                       "the innermost (GIPPO's Ø48 ball-burst discs); 0 = none", "rings",
                       [](C& c) -> auto& { return c.lattice2d.rings; }));
-  t.push_back(positive("lattice2d.ring_spacing", "mm", 100, "distance between clamping rings",
-                       "ring-spacing", [](C& c) -> auto& { return c.lattice2d.ring_spacing; }));
+  t.push_back(positive("lattice2d.ring_spacing", "mm", 100,
+                       "distance between clamping rings (two or more)", "ring-spacing",
+                       [](C& c) -> auto& { return c.lattice2d.ring_spacing; }));
   t.push_back(boolean("lattice2d.handles", "tensile-test handles at both x ends", "handles",
                       [](C& c) -> auto& { return c.lattice2d.handles; }));
   t.push_back(positive("lattice2d.handle_length", "mm", 1000, "handle length along x",
