@@ -90,6 +90,8 @@ def lattice2d(
     reentrant_angle: float = ...,  # lattice2d.reentrant_angle: re-entrant honeycomb: strut angle below horizontal
     region: Literal['rectangle', 'circle'] = ...,  # lattice2d.region: crop region
     region_center: Sequence[float] = ...,  # lattice2d.center: region centre x, y
+    ring_spacing: float = ...,  # lattice2d.ring_spacing: distance between clamping rings (two or more)
+    rings: int = ...,  # lattice2d.rings: clamping rings: concentric outlines at the region's rim, the pattern inside the innermost (GIPPO's Ø48 ball-burst discs); 0 = none
     rotation: float = ...,  # lattice2d.rotation: pattern rotation about the region centre
     seed: int = ...,  # lattice2d.seed: Voronoi random seed
     size: Sequence[float] = ...,  # lattice2d.size: rectangle width, height
@@ -167,7 +169,7 @@ def plan(
     merge_ends: bool = ...,  # plan.merge_ends: join paths that end at the same node into one (fewer paths and starts; GIPPO keeps its paths as grown otherwise)
     merge_tolerance: float = ...,  # lattice.merge_tolerance: merge nodes closer than this
     mesh: str = ...,  # lattice3d.mesh: foam: inside this closed mesh instead of the box; conformal: the mesh to fill
-    method: Literal['dynamic', 'groups'] = ...,  # aero.method: dynamic (refresh after every trail) or groups (the paper's)
+    method: Literal['dynamic', 'groups', 'periodic'] = ...,  # aero.method: dynamic (refresh after every trail), groups (the paper's) or periodic (the paper's semi-manual baseline: a hand-made cell pa
     mode: Literal['max', 'min'] = ...,  # gippo.mode: take the longest (max) or shortest (min) edge
     node_clearance: float = ...,  # nozzle.node_clearance: no collision within this of a node the two struts share
     nozzle_radius: float = ...,  # nozzle.radius: nozzle radius R (vertical cylinder)
@@ -175,11 +177,16 @@ def plan(
     order: Literal['longest-first', 'travel'] = ...,  # plan.order: path order: longest-first (paper) or travel (nearest neighbour + 2-opt)
     overlap: float = ...,  # nozzle.overlap: the writer's node overlap: struts planned as if this much longer
     pattern: Literal['honeycomb', 'voronoi', 'penrose', 'snub-square', 'arrowhead', 'reentrant-honeycomb', 'square', 'triangle', 'lines'] = ...,  # lattice2d.pattern: atlas pattern
+    periodic_cell: Literal['octet', 'bcc', 'cubic'] = ...,  # aero.cell_type: periodic: the lattice's unit cell (its hand-made path is repeated)
+    periodic_size: float = ...,  # aero.cell: periodic: the lattice's cell side (a cell corner at its lowest corner)
     preview_layers: int = ...,  # output.preview_layers: PNG previews spread over the layers
+    print_path: int = ...,  # aero.print_path: periodic bcc: Print Path 1 (nodes side by side) or 2 (crossing traces), the paper's Fig. 3b
     radius: float = ...,  # lattice3d.radius: strut radius written to a 3MF beam lattice (-o part.3mf)
     reentrant_angle: float = ...,  # lattice2d.reentrant_angle: re-entrant honeycomb: strut angle below horizontal
     region: Literal['rectangle', 'circle'] = ...,  # lattice2d.region: crop region
     region_center: Sequence[float] = ...,  # lattice2d.center: region centre x, y
+    ring_spacing: float = ...,  # lattice2d.ring_spacing: distance between clamping rings (two or more)
+    rings: int = ...,  # lattice2d.rings: clamping rings: concentric outlines at the region's rim, the pattern inside the innermost (GIPPO's Ø48 ball-burst discs); 0 = none
     rotation: float = ...,  # lattice2d.rotation: pattern rotation about the region centre
     seed: int = ...,  # plan.seed: random seed (gippo iterations, aero shuffled runs)
     seeds: int = ...,  # gippo.seeds: robustness: also run seeds plan.seed .. +N-1 and report the best score's spread (paper Fig. 2 v-vi); 0 = off

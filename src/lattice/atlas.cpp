@@ -279,6 +279,18 @@ Vec2 corner_at_origin(const AtlasParams& p) {
   return {hx, hy};
 }
 
+namespace {
+
+// The region shrunk by d on every side (same centre).
+Region inset_region(Region r, double d) {
+  r.diameter -= 2 * d;
+  r.width -= 2 * d;
+  r.height -= 2 * d;
+  return r;
+}
+
+}  // namespace
+
 Polygon2 Region::polygon() const {
   return shape == RegionShape::Circle ? make_circle(center, diameter)
                                       : make_rectangle(center, width, height);
@@ -339,6 +351,13 @@ Graph make_lattice2d(const AtlasParams& p) {
                 "be <= 0)");
   }
   require(!p.handles || r.shape == RegionShape::Rectangle, "handles need a rectangular region");
+  require(p.rings >= 0 && (p.rings == 0 || p.ring_spacing > 0), "rings need a spacing > 0 mm");
+  require(p.rings == 0 || p.crop.empty(),
+          "rings follow the region's outline: they do not apply to layers cropped to a solid");
+  require(p.rings == 0 ||
+              2 * (p.rings - 1) * p.ring_spacing <
+                  (r.shape == RegionShape::Circle ? r.diameter : std::min(r.width, r.height)),
+          "the rings fill the whole region: fewer rings or a smaller spacing");
   require(!p.handles || (p.handle_length > 0 && p.handle_width > 0 && p.handle_spacing > 0),
           "handle length, width and spacing must be > 0 mm");
 
@@ -349,7 +368,11 @@ Graph make_lattice2d(const AtlasParams& p) {
   for (auto& seg : segs)
     for (Vec2* q : {&seg.a, &seg.b})
       *q = {r.center.x + c * q->x - s * q->y, r.center.y + s * q->x + c * q->y};
-  if (p.crop.empty()) {
+  if (p.crop.empty() && p.rings > 0) {
+    segs = clip_segments(segs, inset_region(r, (p.rings - 1) * p.ring_spacing).polygon());
+    for (int k = p.rings - 1; k >= 0; --k)
+      add_outline(inset_region(r, k * p.ring_spacing).polygon(), segs);
+  } else if (p.crop.empty()) {
     const Polygon2 region = r.polygon();
     segs = clip_segments(segs, region);
     if (p.contour) add_outline(region, segs);

@@ -24,11 +24,20 @@ namespace trellis {
 AeroMethod aero_method_from_string(const std::string& name) {
   if (name == "dynamic") return AeroMethod::Dynamic;
   if (name == "groups") return AeroMethod::Groups;
-  throw SettingError("unknown AERO method '" + name + "' (expected dynamic or groups)");
+  if (name == "periodic") return AeroMethod::Periodic;
+  throw SettingError("unknown AERO method '" + name + "' (expected dynamic, groups or periodic)");
 }
 
 std::string to_string(AeroMethod m) {
-  return m == AeroMethod::Dynamic ? "dynamic" : "groups";
+  switch (m) {
+    case AeroMethod::Dynamic:
+      return "dynamic";
+    case AeroMethod::Groups:
+      return "groups";
+    case AeroMethod::Periodic:
+      return "periodic";
+  }
+  return "?";
 }
 
 namespace {
@@ -886,7 +895,24 @@ Canonical canonical(const Graph& g) {
   return c;
 }
 
-AeroResult plan_canonical(const Graph& g, const AeroParams& params);
+// `fixed`: the trails are given (the periodic method's), only counted here.
+AeroResult plan_canonical(const Graph& g, const AeroParams& params, const PeriodicTrails* fixed);
+
+// The periodic method's trails, made on the input (its errors name the input's struts), in the
+// canonical ids.
+PeriodicTrails canonical_periodic(const Graph& input, const Canonical& c,
+                                  const PeriodicParams& params) {
+  PeriodicTrails pt = periodic_trails(input, params);
+  std::vector<NodeId> node_to(c.node_from.size());
+  for (NodeId i = 0; i < node_to.size(); ++i) node_to[c.node_from[i]] = i;
+  std::vector<EdgeId> edge_to(c.edge_from.size());
+  for (EdgeId e = 0; e < edge_to.size(); ++e) edge_to[c.edge_from[e]] = e;
+  for (auto& t : pt.trails.trails) {
+    for (auto& n : t.nodes) n = node_to[n];
+    for (auto& e : t.edges) e = edge_to[e];
+  }
+  return pt;
+}
 
 }  // namespace
 
@@ -894,7 +920,9 @@ AeroResult plan_aero(const Graph& input, const AeroParams& params, Diagnostics& 
   if (input.edges.empty()) throw GeometryError("the lattice has no struts to plan");
   params.nozzle.validate();
   const Canonical c = canonical(input);
-  AeroResult r = plan_canonical(c.graph, params);
+  std::optional<PeriodicTrails> fixed;
+  if (params.method == AeroMethod::Periodic) fixed = canonical_periodic(input, c, params.periodic);
+  AeroResult r = plan_canonical(c.graph, params, fixed ? &*fixed : nullptr);
   // Back to the input's ids.
   for (auto& t : r.trails.trails) {
     for (auto& n : t.nodes) n = c.node_from[n];
@@ -912,6 +940,19 @@ AeroResult plan_aero(const Graph& input, const AeroParams& params, Diagnostics& 
                        ? std::string("proven minimal")
                        : "no order has fewer than " + std::to_string(r.collisions_lower_bound)) +
                   "): struts " + which + " are printed before struts they obstruct");
+  }
+  if (fixed) {
+    // A cell path is printed as written: say where it goes against the cone rule.
+    std::size_t down = 0;
+    for (const auto& t : r.trails.trails)
+      for (std::size_t k = 0; k < t.edges.size(); ++k) {
+        const Vec3 a = input.nodes[t.nodes[k]], b = input.nodes[t.nodes[k + 1]];
+        down += a.z > b.z && is_steep(a, b, params.nozzle);
+      }
+    if (down)
+      diag.warn("cell_path_top_down",
+                std::to_string(down) + " strut(s) within the nozzle cone are printed top-down: "
+                                       "the periodic cell path is printed as written");
   }
   for (EdgeId e = 0; e < input.edges.size(); ++e) {
     const Edge& ed = input.edges[e];
@@ -935,7 +976,7 @@ std::vector<std::size_t> print_rank(const Graph& g, const PathSet& trails) {
   return rank;
 }
 
-AeroResult plan_canonical(const Graph& g, const AeroParams& params) {
+AeroResult plan_canonical(const Graph& g, const AeroParams& params, const PeriodicTrails* fixed) {
   AeroResult r;
   const auto t0 = Clock::now();
   const std::vector<std::int8_t> dir = directions(g, params.nozzle, r.steep_struts);
@@ -1019,14 +1060,20 @@ AeroResult plan_canonical(const Graph& g, const AeroParams& params) {
           k < strategies.size() ? 0 : params.seed * 1000003ULL + k;  // 0 = no shuffle
       Progress quiet;  // cancellation only: the portfolio reports progress per run
       quiet.cancel = params.progress.cancel;
-      Planner planner(g, plan_with, dir, strategy, seed, trial, quiet);
-      if (params.method == AeroMethod::Groups || !params.collisions) {
-        planner.run_groups();
+      if (fixed) {
+        trial.trails = fixed->trails;
+        trial.trail_material = fixed->material;
+        trial.strategy = "cell path";
       } else {
-        planner.run_dynamic();
-        planner.merge_pass();
+        Planner planner(g, plan_with, dir, strategy, seed, trial, quiet);
+        if (params.method == AeroMethod::Groups || !params.collisions) {
+          planner.run_groups();
+        } else {
+          planner.run_dynamic();
+          planner.merge_pass();
+        }
+        trial.strategy = std::string(to_string(strategy)) + (seed ? "+shuffle" : "");
       }
-      trial.strategy = std::string(to_string(strategy)) + (seed ? "+shuffle" : "");
       if (params.collisions)
         trial.collisions_planned = count_collisions(blocking, print_rank(g, trial.trails));
       const auto& ts = trial.trails.trails;
@@ -1089,6 +1136,11 @@ std::string aero_report_json(const AeroResult& r, const AeroParams& p, const Dia
   nlohmann::ordered_json j;
   j["planner"] = "aero";
   j["method"] = to_string(p.method);
+  if (p.method == AeroMethod::Periodic)
+    j["cell_path"] = {{"cell_type", to_string(p.periodic.cell)},
+                      {"cell_mm", p.periodic.size},
+                      {"print_path", p.periodic.print_path},
+                      {"cell_steps", periodic_cell_steps(p.periodic.cell, p.periodic.print_path)}};
   j["strategy"] = r.strategy;
   j["runs"] = r.runs;
   j["collision_model"] = p.collisions;

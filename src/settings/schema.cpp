@@ -268,6 +268,7 @@ const std::vector<std::pair<const char*, const char*>>& when_table() {
       {"lattice2d.seed", "lattice2d.pattern=voronoi"},
       {"lattice2d.size", "lattice2d.region=rectangle"},
       {"lattice2d.diameter", "lattice2d.region=circle"},
+      {"lattice2d.ring_spacing", "lattice2d.rings>1"},
       {"lattice2d.handle_length", "lattice2d.handles=true"},
       {"lattice2d.handle_width", "lattice2d.handles=true"},
       {"lattice2d.handle_spacing", "lattice2d.handles=true"},
@@ -299,6 +300,9 @@ const std::vector<std::pair<const char*, const char*>>& when_table() {
       {"gippo.", "plan.planner=gippo"},
       {"aero.", "plan.planner=aero"},
       {"aero.tries", "aero.method=dynamic"},
+      {"aero.cell_type", "aero.method=periodic"},
+      {"aero.cell", "aero.method=periodic"},
+      {"aero.print_path", "aero.method=periodic"},
       {"aero.fewest_collisions", "aero.collisions=true"},
       {"aero.exact_struts", "aero.collisions=true"},
       {"nozzle.", "plan.planner=aero"},
@@ -560,6 +564,13 @@ std::vector<Setting> make_table() {
                      [](C& c) -> auto& { return c.lattice2d.z; }));
   t.push_back(boolean("lattice2d.contour", "add the region outline as struts", "contour",
                       [](C& c) -> auto& { return c.lattice2d.contour; }));
+  t.push_back(integer("lattice2d.rings", 0, 1000,
+                      "clamping rings: concentric outlines at the region's rim, the pattern inside "
+                      "the innermost (GIPPO's Ø48 ball-burst discs); 0 = none", "rings",
+                      [](C& c) -> auto& { return c.lattice2d.rings; }));
+  t.push_back(positive("lattice2d.ring_spacing", "mm", 100,
+                       "distance between clamping rings (two or more)", "ring-spacing",
+                       [](C& c) -> auto& { return c.lattice2d.ring_spacing; }));
   t.push_back(boolean("lattice2d.handles", "tensile-test handles at both x ends", "handles",
                       [](C& c) -> auto& { return c.lattice2d.handles; }));
   t.push_back(positive("lattice2d.handle_length", "mm", 1000, "handle length along x",
@@ -715,9 +726,25 @@ std::vector<Setting> make_table() {
 
   // aero.*, nozzle.*
   t.push_back(choice_enum<AeroMethod>(
-      "aero.method", {{"dynamic", AeroMethod::Dynamic}, {"groups", AeroMethod::Groups}},
-      "dynamic (refresh after every trail) or groups (the paper's)", "method",
+      "aero.method",
+      {{"dynamic", AeroMethod::Dynamic}, {"groups", AeroMethod::Groups}, {"periodic", AeroMethod::Periodic}},
+      "dynamic (refresh after every trail), groups (the paper's) or periodic (the paper's "
+      "semi-manual baseline: a hand-made cell path repeated per cell)", "method",
       [](C& c) -> auto& { return c.aero.method; }));
+  t.push_back(derived(choice_enum<UnitCell>(
+                          "aero.cell_type",
+                          {{"octet", UnitCell::Octet}, {"bcc", UnitCell::Bcc}, {"cubic", UnitCell::Cubic}},
+                          "periodic: the lattice's unit cell (its hand-made path is repeated)",
+                          "periodic-cell", [](C& c) -> auto& { return c.aero.periodic.cell; }),
+                      "lattice3d.cell_type"));
+  t.push_back(derived(positive("aero.cell", "mm", 10000,
+                               "periodic: the lattice's cell side (a cell corner at its lowest corner)",
+                               "periodic-size", [](C& c) -> auto& { return c.aero.periodic.size; }),
+                      "lattice3d.cell"));
+  t.push_back(integer("aero.print_path", 1, 2,
+                      "periodic bcc: Print Path 1 (nodes side by side) or 2 (crossing traces), "
+                      "the paper's Fig. 3b", "print-path",
+                      [](C& c) -> auto& { return c.aero.periodic.print_path; }));
   t.push_back(boolean("aero.collisions", "plan around the nozzle (false: trails = Euler lower bound)",
                       "collisions", [](C& c) -> auto& { return c.aero.collisions; }));
   t.push_back(boolean("aero.fewest_collisions",

@@ -360,6 +360,9 @@ Config Settings::config() const {
   for (const auto& [key, e] : entries_) find_setting(key)->set(c, e.value);
   c.plan.gippo.threads = c.aero.threads = c.threads;
   c.aero.seed = c.plan.gippo.seed;
+  // The periodic method's cell is the made lattice's unless given.
+  if (!find("aero.cell_type")) c.aero.periodic.cell = c.lattice3d.cells.cell;
+  if (!find("aero.cell")) c.aero.periodic.size = c.lattice3d.cells.size;
   return c;
 }
 

@@ -164,6 +164,40 @@ TEST(Atlas, HandlesAndContourAreConnected) {
   EXPECT_NEAR(box.max.x - box.min.x, a.region.width + 2 * a.handle_length, 1e-9);
 }
 
+// Clamping rings: every node of the lattice lies inside the outer ring, the pattern's nodes inside
+// the innermost; the ring band holds exactly `rings` distinct radii, one spacing apart; the
+// pattern touches the innermost ring (one connected part with it), and without rings nothing
+// changes.
+TEST(Atlas, ClampingRingsAreConcentricAtTheRim) {
+  for (const Pattern pat : {Pattern::Voronoi, Pattern::Honeycomb}) {
+    AtlasParams a = params(pat);
+    a.region.shape = RegionShape::Circle;
+    a.region.diameter = 20;
+    const Graph plain = make_lattice2d(a);
+    a.rings = 4;
+    a.ring_spacing = 0.5;
+    const Graph g = make_lattice2d(a);
+    const Vec2 c = a.region.center;
+    const double outer = a.region.diameter / 2, inner = outer - 3 * a.ring_spacing;
+    std::set<long> band;
+    for (const Vec3& n : g.nodes) {
+      const double r = std::hypot(n.x - c.x, n.y - c.y);
+      EXPECT_LE(r, outer + 1e-9);
+      if (r > inner - a.ring_spacing / 2) band.insert(std::lround(r / a.ring_spacing));
+    }
+    EXPECT_EQ(band.size(), 4u) << to_string(pat);
+    // Each outer ring is a closed loop on its own; the innermost carries the pattern.
+    int parts = 0;
+    connected_components(g, &parts);
+    EXPECT_EQ(parts, 4) << to_string(pat);
+    EXPECT_GT(g.edges.size(), plain.edges.size());
+    a.rings = 0;
+    EXPECT_EQ(make_lattice2d(a).nodes, plain.nodes);
+    a.rings = 30;
+    EXPECT_THROW(make_lattice2d(a), SettingError);
+  }
+}
+
 TEST(Atlas, BadParametersAreSettingErrors) {
   AtlasParams a = params(Pattern::Honeycomb);
   a.cell_size = 0;

@@ -250,14 +250,7 @@ TEST(Aero, DeadlockIsPrintedLowestFirstAndReported) {
 TEST(Aero, ThePlanDependsOnTheGeometryNotTheInputOrder) {
   const Graph g = aero_lattice("octet_3x3x3");
   // The same lattice with nodes and struts listed in another order, struts reversed.
-  Graph h;
-  const std::size_t n = g.nodes.size();
-  std::vector<NodeId> perm(n);
-  for (NodeId i = 0; i < n; ++i) perm[i] = static_cast<NodeId>((i * 37 + 11) % n);
-  h.nodes.resize(n);
-  for (NodeId i = 0; i < n; ++i) h.nodes[perm[i]] = g.nodes[i];
-  for (std::size_t k = g.edges.size(); k-- > 0;)
-    h.edges.push_back({perm[g.edges[k].b], perm[g.edges[k].a]});
+  const Graph h = test::relisted(g, 37, 11);
   Diagnostics d;
   const AeroResult a = plan_aero(g, {}, d), b = plan_aero(h, {}, d);
   ASSERT_EQ(a.trails.trails.size(), b.trails.trails.size());

@@ -96,4 +96,18 @@ inline Graph dense_lattice3d(std::uint64_t seed, int n = 5, double keep = 0.47) 
   return g;
 }
 
+// The same lattice listed in another order: node i becomes (i * step + shift) mod n, struts in
+// reverse order and each reversed (step coprime with the node count).
+inline Graph relisted(const Graph& g, std::size_t step, std::size_t shift) {
+  Graph h;
+  const std::size_t n = g.nodes.size();
+  std::vector<NodeId> perm(n);
+  for (NodeId i = 0; i < n; ++i) perm[i] = static_cast<NodeId>((i * step + shift) % n);
+  h.nodes.resize(n);
+  for (NodeId i = 0; i < n; ++i) h.nodes[perm[i]] = g.nodes[i];
+  for (std::size_t k = g.edges.size(); k-- > 0;)
+    h.edges.push_back({perm[g.edges[k].b], perm[g.edges[k].a]});
+  return h;
+}
+
 }  // namespace trellis::test

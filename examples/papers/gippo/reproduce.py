@@ -11,6 +11,10 @@ One command per table and figure:
                                  (v) best score and (vi) LTS over independent executions (seeds)
     reproduce.py --only fig4     Fig. 4: a conventional slicer (PrusaSlicer, the paper's "wall
                                  structure") against GIPPO: deposited length and corrected score
+    reproduce.py --only disc     the Ø48 mm ball-burst disc (2 layers, Voronoi) with clamping
+                                 rings at its rim (examples/voronoi_disc_travel.toml)
+    reproduce.py --only gcode    the pneumatic output's pressure per segment: the paper gives no
+                                 rule, so the row says so
 
 The paper's designs come from `trellis lattice2d --target-porosity P`, which tunes each pattern's
 scale (Table 1 names the parameter but not its value) until P % of the layer is pore. GIPPO runs
@@ -35,7 +39,7 @@ DESIGNS = [("honeycomb", 75), ("voronoi", 69), ("penrose", 59), ("snub-square", 
 PARAMETER = {"honeycomb": "hexagon radius", "voronoi": "points density",
              "penrose": "grid cell size", "snub-square": "grid cell size",
              "arrowhead": "unit cell lengths", "reentrant-honeycomb": "unit cell lengths"}
-FIGURES = ("table1", "fig2", "fig4")
+FIGURES = ("table1", "fig2", "fig4", "disc", "gcode")
 
 
 def pyplot():
@@ -265,6 +269,42 @@ def fig4(out, quick, ctx):
     return rows
 
 
+# The disc's rim: the ASTM D3787 ball-burst clamp (the paper's standard) opens 44.45 mm, so 5 rings
+# 0.4 mm apart (Ø48 to Ø44.8) fill the clamped band; the paper gives no ring count.
+DISC_RINGS, RING_SPACING = 5, 0.4
+
+
+def disc(out, quick, ctx):
+    """The disc lattice with its rings; the rings counted back from the nodes' radii."""
+    f = os.path.join(out, "disc.json")
+    run("lattice2d", "--pattern", "voronoi", "--density", 0.5, "--seed", 7, "--region", "circle",
+        "--diameter", 48, "--rings", DISC_RINGS, "--ring-spacing", RING_SPACING, "-o", f,
+        "--preview", os.path.join(out, "disc"))
+    with open(f) as fh:
+        nodes = json.load(fh)["nodes"]
+    cx = (min(n[0] for n in nodes) + max(n[0] for n in nodes)) / 2  # the disc's centre
+    cy = (min(n[1] for n in nodes) + max(n[1] for n in nodes)) / 2
+    radii = [((n[0] - cx) ** 2 + (n[1] - cy) ** 2) ** 0.5 for n in nodes]
+    # A ring: hundreds of nodes (its polygon's corners) at one radius (to 0.01 mm); the cropped
+    # pattern's own nodes are scattered.
+    counts = {}
+    for r in radii:
+        counts[round(r, 2)] = counts.get(round(r, 2), 0) + 1
+    rings = sum(1 for n in counts.values() if n >= 64)
+    return [row("§2 ball-burst disc Ø48", "clamping rings at the rim", "contours (no count)",
+                rings, "",
+                f"lattice2d.rings = {DISC_RINGS}, {RING_SPACING} mm apart: Ø48 to "
+                f"Ø{48 - 2 * (DISC_RINGS - 1) * RING_SPACING:g}, the band the ASTM D3787 clamp "
+                "(44.45 mm opening) holds; the paper says \"additional contours\" only")]
+
+
+def gcode(out, quick, ctx):
+    return [row("§2 G-code, pneumatic output", "pressure per segment", "per segment", None, "",
+                "not implemented: the paper assigns pressure and flow to each segment but gives "
+                "no rule (no relation to speed or width; its Table S2 values are not in the text), "
+                "so Trellis keeps one pressure per path (pneumatic.pressure, per tool)")]
+
+
 def reproduce(out, quick, only=FIGURES):
     ctx = {}
     rows = []
@@ -278,6 +318,9 @@ def reproduce(out, quick, only=FIGURES):
         rows += fig2(out, quick, ctx)
     if "fig4" in only:
         rows += fig4(out, quick, ctx)
+    for name in ("disc", "gcode"):
+        if name in only:
+            rows += globals()[name](out, quick, ctx)
     return rows
 
 

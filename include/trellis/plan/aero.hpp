@@ -2,7 +2,8 @@
 // "aero-embedded-lattices-eulerian"). The nozzle model (lattice/collision.hpp) gives a
 // precedence: a strut that would obstruct the nozzle while another is printed must wait for it.
 //
-// Method `groups` is the paper's: peel groups of valid struts (a strut is valid if printing it
+// Method `periodic` is the paper's semi-manual baseline (plan/periodic.hpp). Method `groups` is
+// the paper's AERO: peel groups of valid struts (a strut is valid if printing it
 // now leaves every remaining strut printable), decompose each group into the fewest trails
 // (Hierholzer on the mixed graph: steep struts are one-way, bottom-up), concatenate. Method
 // `dynamic` (default) is the paper's proposed "dynamic refresh": the printable set is refreshed
@@ -27,11 +28,14 @@
 #include "trellis/lattice/collision.hpp"
 #include "trellis/plan/collision_order.hpp"
 #include "trellis/plan/paths.hpp"
+#include "trellis/plan/periodic.hpp"
 #include "trellis/toolpath/toolpath.hpp"
 
 namespace trellis {
 
-enum class AeroMethod { Dynamic, Groups };
+// Periodic is not AERO but the paper's semi-manual baseline (plan/periodic.hpp), counted and
+// checked the same way so the two compare.
+enum class AeroMethod { Dynamic, Groups, Periodic };
 AeroMethod aero_method_from_string(const std::string& name);  // throws SettingError
 std::string to_string(AeroMethod m);
 
@@ -39,6 +43,7 @@ struct AeroParams {
   NozzleModel nozzle;
   bool collisions = true;  // false: no precedence at all, trails = the Euler lower bound
   AeroMethod method = AeroMethod::Dynamic;
+  PeriodicParams periodic;  // method periodic: the lattice's cell and the cell path
   int threads = 0;  // 0 = all cores
   // Dynamic: planner runs in the portfolio (the strategies, then shuffled orders); 0 = auto:
   // 8, fewer above 25,000 struts (200,000 / struts, at least 1) to bound the time.
