@@ -20,16 +20,16 @@ trap 'rm -rf "$dir"' EXIT
 echo "job: $job ${extra[*]:-} (one thread, $rounds rounds)"
 echo "load: $(uptime | sed 's/.*load average: //')"
 declare -A times
-run() {  # label, trellis binary, LD_LIBRARY_PATH or ""
-  if ! LD_LIBRARY_PATH="$3" /usr/bin/time -o "$dir/time" -f '%U %S' "$2" run "$job" -o "$dir/$1" \
+run() {  # label, trellis binary, LD_LIBRARY_PATH and TRELLIS_MODULE_DIR (or "")
+  if ! LD_LIBRARY_PATH="$3" TRELLIS_MODULE_DIR="$4" /usr/bin/time -o "$dir/time" -f '%U %S' "$2" run "$job" -o "$dir/$1" \
        --set run.threads=1 --set output.png=false "${extra[@]}" >/dev/null 2>"$dir/err"; then
     echo "$1: trellis failed:"; cat "$dir/err"; exit 1
   fi
   times[$1]="${times[$1]:-} $(awk '{printf "%.2f", $1 + $2}' "$dir/time")"
 }
 for r in $(seq "$rounds"); do
-  [ -n "$base" ] && run before "$base/trellis" "$base"
-  run after "$build/apps/trellis/trellis" ""
+  [ -n "$base" ] && run before "$base/trellis" "$base" "$base"
+  run after "$build/apps/trellis/trellis" "" ""
 done
 for k in before after; do
   [ -n "${times[$k]:-}" ] || continue
