@@ -1,10 +1,12 @@
 // User expressions through muparser. One compiled parser per expression per evaluator, because a
-// muparser Parser binds its variables by address and is not thread-safe.
+// muparser Parser binds its variables by address and is not thread-safe. muparser parses and
+// checks; the values come from its bytecode compiled once (expr_program.hpp), the same bits.
 #include <muParser.h>
 
 #include <cmath>
 #include <numbers>
 
+#include "expr_program.hpp"
 #include "node.hpp"
 #include "trellis/core/error.hpp"
 
@@ -70,6 +72,11 @@ CompiledExpr::CompiledExpr() : parser(std::make_unique<mu::Parser>()) {
 CompiledExpr::~CompiledExpr() = default;
 
 double CompiledExpr::eval(Vec3 p, double distance) {
+  if (program) {
+    double v;
+    program->run(&p, &distance, 1, &v);
+    return v;
+  }
   vars.set(p, distance, uses_polar);
   try {
     return parser->Eval();
@@ -80,6 +87,7 @@ double CompiledExpr::eval(Vec3 p, double distance) {
 }
 
 void CompiledExpr::eval(const Vec3* p, const double* d, std::size_t n, double* out) {
+  if (program) return program->run(p, d, n, out);
   for (std::size_t i = 0; i < n; ++i) {
     vars.set(p[i], d ? d[i] : 0.0, uses_polar);
     try {
@@ -131,9 +139,40 @@ CompiledExpr& EvalState::expr(const Expression& e) {
   } catch (const mu::Parser::exception_type&) {
     // Keep computing every variable.
   }
+  try {
+    c->vars.set({1, 1, 1}, 0);
+    c->parser->Eval();  // muparser makes its bytecode on the first evaluation
+    c->program = ExprProgram::compile({{c->parser.get(), &c->vars}});
+  } catch (const mu::Parser::exception_type&) {
+    // muparser evaluates it (and says what is wrong where it is evaluated).
+  }
+  if (c->program) {
+    c->uses_d = c->program->uses_d();
+    c->uses_polar = c->program->uses_polar();
+  }
   auto& ref = *c;
   exprs.emplace(&e, std::move(c));
   return ref;
+}
+
+ExprProgram* EvalState::program(const void* owner, const std::vector<Expression>& list) {
+  struct Holder {
+    std::unique_ptr<ExprProgram> program;
+  };
+  auto& slot = caches[owner];
+  if (!slot) {
+    auto h = std::make_shared<Holder>();
+    std::vector<ExprProgram::Source> sources;
+    bool all = true;
+    for (const auto& e : list) {
+      CompiledExpr& c = expr(e);
+      all = all && c.program;
+      sources.push_back({c.parser.get(), &c.vars});
+    }
+    if (all) h->program = ExprProgram::compile(sources);
+    slot = std::move(h);
+  }
+  return static_cast<Holder*>(slot.get())->program.get();
 }
 
 }  // namespace trellis

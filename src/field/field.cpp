@@ -10,6 +10,7 @@
 #include <numbers>
 #include <unordered_map>
 
+#include "expr_program.hpp"
 #include "node.hpp"
 #include "trellis/core/error.hpp"
 
@@ -971,10 +972,14 @@ struct GradeNode : PropertyNode {
   void fractions(const Vec3* p, std::size_t n, std::size_t m, double* out, EvalState& s,
                  std::size_t depth) const override {
     const std::size_t k = exprs.size();
+    // All the expressions in one program (their shared subexpressions evaluated once), unless
+    // one has no translation (then each through its own).
+    ExprProgram* program = s.program(this, exprs);
     // The distance d only if some expression reads it (a mesh's distance costs more than the
     // expressions).
-    bool need_d = false;
-    for (const auto& e : exprs) need_d |= s.expr(e).uses_d;
+    bool need_d = program && program->uses_d();
+    if (!program)
+      for (const auto& e : exprs) need_d |= s.expr(e).uses_d;
     // The distances in this node's buffer (the child evaluates in deeper ones); the pointer
     // taken again after the child ran, which may have grown the list of buffers.
     const double* d = nullptr;
@@ -984,7 +989,10 @@ struct GradeNode : PropertyNode {
     }
     // Row i of v: expression i at every point.
     std::vector<double>& v = s.value_buffer(depth + 1, k * n);
-    for (std::size_t i = 0; i < k; ++i) s.expr(exprs[i]).eval(p, d, n, v.data() + i * n);
+    if (program)
+      program->run(p, d, n, v.data());
+    else
+      for (std::size_t i = 0; i < k; ++i) s.expr(exprs[i]).eval(p, d, n, v.data() + i * n);
     for (std::size_t j = 0; j < n; ++j)
       for (std::size_t i = 0; i < k; ++i) {
         const double f = v[i * n + j];

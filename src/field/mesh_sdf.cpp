@@ -18,15 +18,59 @@ namespace trellis {
 
 namespace {
 
-using Sampler =
-    openvdb::tools::GridSampler<openvdb::FloatGrid::ConstAccessor, openvdb::tools::BoxSampler>;
+using Leaf = openvdb::FloatGrid::TreeType::LeafNodeType;
 
-// Accessors cache the tree path of the last lookup: one per thread (EvalState) and grid.
-struct Samplers {
+// One accessor per thread (EvalState) and grid: it caches the tree path of the last lookup; and
+// the last leaf block asked for (its origin, its values or, with no leaf there, its tile's value).
+struct Accessor {
   openvdb::FloatGrid::ConstAccessor acc;
-  Sampler sampler;
-  explicit Samplers(const openvdb::FloatGrid& g) : acc(g.getConstAccessor()), sampler(acc, g.transform()) {}
+  openvdb::Coord origin = openvdb::Coord::max();
+  const float* values = nullptr;
+  float tile = 0;
+  explicit Accessor(const openvdb::FloatGrid& g) : acc(g.getConstAccessor()) {}
 };
+
+// The grid's value at world point p, the same bits as Sampler::wsSample (OpenVDB's BoxSampler:
+// the eight voxels around the point, its own trilinear interpolation). The eight are read from
+// their leaf's buffer when they lie in one leaf (7 of 8 cells along each axis), or are its one
+// tile's value when there is no leaf, instead of probed one by one through the accessor: the
+// probes were a fifth of the graded vase's time.
+double sample(const openvdb::FloatGrid& grid, Accessor& a, Vec3 p) {
+  const openvdb::Vec3d q = grid.transform().worldToIndex(openvdb::Vec3d(p.x, p.y, p.z));
+  const openvdb::Vec3i idx = openvdb::tools::local_util::floorVec3(q);
+  const openvdb::Vec3R uvw = q - idx;
+  const openvdb::Coord ijk(idx);
+  float data[2][2][2];
+  constexpr int kLast = static_cast<int>(Leaf::DIM) - 1;
+  if ((ijk.x() & kLast) == kLast || (ijk.y() & kLast) == kLast || (ijk.z() & kLast) == kLast) {
+    openvdb::tools::BoxSampler::probeValues(data, a.acc, ijk);
+    return openvdb::tools::BoxSampler::trilinearInterpolation(data, uvw);
+  }
+  const openvdb::Coord origin(ijk.x() & ~kLast, ijk.y() & ~kLast, ijk.z() & ~kLast);
+  if (origin != a.origin) {
+    const Leaf* leaf = a.acc.probeConstLeaf(ijk);
+    a.origin = origin;
+    a.values = leaf ? leaf->buffer().data() : nullptr;
+    if (!leaf) a.tile = a.acc.getValue(ijk);
+  }
+  if (!a.values) {
+    // No leaf there: the eight lie in one tile (outside the narrow band), one value.
+    for (auto& plane : data)
+      for (auto& row : plane) row[0] = row[1] = a.tile;
+  } else {
+    constexpr openvdb::Index dx = 1u << (2 * Leaf::LOG2DIM), dy = 1u << Leaf::LOG2DIM;
+    const float* v = a.values + Leaf::coordToOffset(ijk);
+    data[0][0][0] = v[0];
+    data[0][0][1] = v[1];
+    data[0][1][0] = v[dy];
+    data[0][1][1] = v[dy + 1];
+    data[1][0][0] = v[dx];
+    data[1][0][1] = v[dx + 1];
+    data[1][1][0] = v[dx + dy];
+    data[1][1][1] = v[dx + dy + 1];
+  }
+  return openvdb::tools::BoxSampler::trilinearInterpolation(data, uvw);
+}
 
 struct MeshNode : FieldNode {
   openvdb::FloatGrid::ConstPtr grid;
@@ -34,14 +78,14 @@ struct MeshNode : FieldNode {
   double background = 0;
   std::string name;
 
-  Sampler& sampler(EvalState& s) const {
+  Accessor& accessor(EvalState& s) const {
     auto& slot = s.caches[this];
-    if (!slot) slot = std::make_shared<Samplers>(*grid);
-    return static_cast<Samplers*>(slot.get())->sampler;
+    if (!slot) slot = std::make_shared<Accessor>(*grid);
+    return *static_cast<Accessor*>(slot.get());
   }
   void eval(const Vec3* p, double* out, std::size_t n, EvalState& s, std::size_t) const override {
-    auto& sm = sampler(s);
-    for (std::size_t i = 0; i < n; ++i) out[i] = sm.wsSample(openvdb::Vec3d(p[i].x, p[i].y, p[i].z));
+    auto& acc = accessor(s);
+    for (std::size_t i = 0; i < n; ++i) out[i] = sample(*grid, acc, p[i]);
   }
   Interval bound(const BBox3& b, EvalState& s, std::size_t depth) const override {
     // Lipschitz rule on the band-limited distance (|value| <= background).
@@ -62,7 +106,8 @@ Field mesh_field(const TriangleMesh& input, const MeshSdfOptions& options, std::
   const TriangleMesh mesh = weld(input);
   require_closed(mesh, name);
   const BBox3 box = bounds(mesh);
-  const double span = std::max({box.max.x - box.min.x, box.max.y - box.min.y, box.max.z - box.min.z});
+  const double span =
+      std::max({box.max.x - box.min.x, box.max.y - box.min.y, box.max.z - box.min.z});
   if (span / options.voxel > 20000)
     throw GeometryError("mesh voxel size " + std::to_string(options.voxel) +
                             " mm is too fine for a " + std::to_string(span) + " mm mesh",
@@ -143,8 +188,8 @@ TriangleMesh field_to_mesh(const Field& field, const BBox3& box, double voxel, M
           for (int j = bj; j < std::min(bj + B, ny); ++j)
             for (int i = bi; i < std::min(bi + B, nx); ++i, ++q) {
               // Outside the box everything is outside, so the surface closes.
-              const bool outside_box = i == 0 || j == 0 || k == 0 || i == nx - 1 ||
-                                       j == ny - 1 || k == nz - 1;
+              const bool outside_box =
+                  i == 0 || j == 0 || k == 0 || i == nx - 1 || j == ny - 1 || k == nz - 1;
               const double v = outside_box ? band : std::clamp(val[q], -double(band), double(band));
               acc.setValue(openvdb::Coord(i0 + i, j0 + j, k0 + k), static_cast<float>(v));
             }

@@ -24,9 +24,14 @@ struct ExprVars {
   void set(Vec3 p, double distance, bool polar = true);
 };
 
+class ExprProgram;
+
 struct CompiledExpr {
   std::unique_ptr<mu::Parser> parser;
   ExprVars vars;
+  // The expression compiled from muparser's bytecode (expr_program.hpp): eval() runs it. Null
+  // when a token has no translation there; then muparser evaluates.
+  std::unique_ptr<ExprProgram> program;
   bool uses_polar = true, uses_d = true;  // from muparser's list of the variables used
   double eval(Vec3 p, double distance = 0);
   // The values at n points (distances d[i], or 0 when d is null): the same numbers as eval()
@@ -75,6 +80,9 @@ struct Evaluator::State {
   std::vector<Vec3>& point_buffer(std::size_t depth, std::size_t n);
   std::vector<Vec3>& grid_point_buffer(std::size_t depth, std::size_t n);
   CompiledExpr& expr(const Expression& e);
+  // The expressions of one node (owner) in one program, their shared subexpressions evaluated
+  // once; null when one of them has no translation.
+  ExprProgram* program(const void* owner, const std::vector<Expression>& list);
 };
 using EvalState = Evaluator::State;
 

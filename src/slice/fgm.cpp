@@ -132,10 +132,26 @@ class FractionGrid {
         values_[j * nx_ + i] = material < m ? f[i * m + material] : 0.0;
     }
   }
-  double at(Vec2 p) {
-    std::size_t i, j;
-    if (node(p, i, j)) return values_[j * nx_ + i];
-    return eval(p);
+  // The fraction at n points: nodes from the grid, the others (the contour's refinement
+  // guesses) evaluated together.
+  void at(const Vec2* p, std::size_t n, double* out) {
+    off_.clear();
+    off_at_.clear();
+    for (std::size_t k = 0; k < n; ++k) {
+      std::size_t i, j;
+      if (node(p[k], i, j)) {
+        out[k] = values_[j * nx_ + i];
+      } else {
+        off_.push_back({p[k].x, p[k].y, z_});
+        off_at_.push_back(k);
+      }
+    }
+    if (off_.empty()) return;
+    const std::size_t m = ev_.field().materials().size();
+    f_.resize(off_.size() * m);
+    ev_.fractions(off_.data(), off_.size(), f_.data());
+    for (std::size_t k = 0; k < off_.size(); ++k)
+      out[off_at_[k]] = material_ < m ? f_[k * m + material_] : 0.0;
   }
   // Range of the node values in [a, b] (grid nodes only: what marching squares sees).
   Interval range(Vec2 a, Vec2 b) const {
@@ -162,10 +178,6 @@ class FractionGrid {
     j = static_cast<std::size_t>(iy);
     return i < nx_ && j < ny_;
   }
-  double eval(Vec2 p) {
-    const auto f = ev_.fractions({p.x, p.y, z_});
-    return material_ < f.size() ? f[material_] : 0.0;
-  }
   Evaluator& ev_;
   double z_;
   Vec2 lo_;
@@ -173,6 +185,9 @@ class FractionGrid {
   std::size_t material_;
   std::size_t nx_ = 0, ny_ = 0;
   std::vector<double> values_;
+  std::vector<Vec3> off_;  // scratch of at(): the points off the grid, their indices, fractions
+  std::vector<std::size_t> off_at_;
+  std::vector<double> f_;
 };
 
 // max(f - level, distance outside the box): its zero set closes along the box. Blocks whose
@@ -182,9 +197,10 @@ class BelowLevel : public PlaneFunction {
   BelowLevel(FractionGrid& grid, double level, Vec2 lo, Vec2 hi)
       : grid_(grid), level_(level), lo_(lo), hi_(hi) {}
   void sample(const Vec2* p, double* out, std::size_t n) override {
+    grid_.at(p, n, out);
     for (std::size_t i = 0; i < n; ++i) {
       const double box = std::max({lo_.x - p[i].x, p[i].x - hi_.x, lo_.y - p[i].y, p[i].y - hi_.y});
-      out[i] = std::max(grid_.at(p[i]) - level_, box);
+      out[i] = std::max(out[i] - level_, box);
     }
   }
   Interval bound(Vec2 a, Vec2 b) override {
@@ -206,41 +222,98 @@ class BelowLevel : public PlaneFunction {
 // most `depth` halvings. Contours from a coarse grid deviate from a curved iso-line by c²/8ρ in
 // the middle of a chord; refined, the faces' edges follow the iso-lines to `tol` in fraction.
 // Chords with an end on the border of [lo, hi] (where the contour follows the box) are kept.
+// Every chord of the ring at one depth is refined together (three batches of samples a round,
+// not three single points a chord), the same steps as refining each chord on its own.
 void refine_chords(std::vector<Vec2>& ring, PlaneFunction& f, double tol, double min_chord, Vec2 lo,
                    Vec2 hi) {
   const double eps = 1e-3 * min_chord;
   auto on_border = [&](Vec2 p) {
     return p.x <= lo.x + eps || p.x >= hi.x - eps || p.y <= lo.y + eps || p.y >= hi.y - eps;
   };
-  auto value = [&](Vec2 p) {
-    double v;
-    f.sample(&p, &v, 1);
-    return v;
+  struct Chord {
+    Vec2 a, b;
+    int depth;
+    Vec2 m{}, n{}, q{};
+    double len = 0, fm = 0, step = 0;
+    std::size_t left = 0, right = 0;  // the halves, when split (0: not split; chord 0 is a root)
   };
+  std::vector<Chord> chords;
+  std::vector<std::size_t> root(ring.size(), 0), active, next;
+  for (std::size_t k = 0; k < ring.size(); ++k) {
+    const Vec2 a = ring[k], b = ring[(k + 1) % ring.size()];
+    if (on_border(a) || on_border(b)) continue;
+    root[k] = chords.size() + 1;  // 1-based: 0 is no chord
+    active.push_back(chords.size());
+    chords.push_back({a, b, 8});
+  }
+  std::vector<Vec2> pts;
+  std::vector<double> vals;
+  // Samples f at the points `at(c)` of the chords `which` into vals (in that order).
+  auto sample = [&](const std::vector<std::size_t>& which, auto at) {
+    pts.resize(which.size());
+    vals.resize(which.size());
+    for (std::size_t k = 0; k < which.size(); ++k) pts[k] = at(chords[which[k]]);
+    if (!which.empty()) f.sample(pts.data(), vals.data(), which.size());
+  };
+  while (!active.empty()) {
+    std::size_t keep = 0;
+    for (const std::size_t c : active) {
+      Chord& ch = chords[c];
+      const Vec2 d = ch.b - ch.a;
+      ch.len = std::hypot(d.x, d.y);
+      if (ch.depth <= 0 || ch.len < min_chord) continue;
+      ch.m = (ch.a + ch.b) * 0.5;
+      ch.n = {-d.y / ch.len, d.x / ch.len};
+      ch.step = 1e-3 * ch.len;
+      active[keep++] = c;
+    }
+    active.resize(keep);
+    sample(active, [](const Chord& ch) { return ch.m; });
+    keep = 0;
+    for (std::size_t k = 0; k < active.size(); ++k) {
+      chords[active[k]].fm = vals[k];
+      if (std::abs(vals[k]) > tol) active[keep++] = active[k];
+    }
+    active.resize(keep);
+    sample(active, [](const Chord& ch) { return ch.m + ch.n * ch.step; });
+    keep = 0;
+    for (std::size_t k = 0; k < active.size(); ++k) {
+      Chord& ch = chords[active[k]];
+      const double slope = (vals[k] - ch.fm) / ch.step;
+      if (!(std::abs(slope) > 0)) continue;
+      const double t = std::clamp(-ch.fm / slope, -0.5 * ch.len, 0.5 * ch.len);
+      ch.q = ch.m + ch.n * t;
+      active[keep++] = active[k];
+    }
+    active.resize(keep);
+    sample(active, [](const Chord& ch) { return ch.q; });
+    next.clear();
+    for (std::size_t k = 0; k < active.size(); ++k) {
+      const std::size_t c = active[k];
+      if (!(std::abs(vals[k]) < std::abs(chords[c].fm))) continue;
+      const Chord ch = chords[c];
+      chords[c].left = chords.size();
+      next.push_back(chords.size());
+      chords.push_back({ch.a, ch.q, ch.depth - 1});
+      chords[c].right = chords.size();
+      next.push_back(chords.size());
+      chords.push_back({ch.q, ch.b, ch.depth - 1});
+    }
+    active.swap(next);
+  }
+  // Each chord's points in order: its first half's, its new point, its second half's.
   std::vector<Vec2> out;
-  out.reserve(ring.size() + ring.size() / 2);
-  std::function<void(Vec2, Vec2, int)> split = [&](Vec2 a, Vec2 b, int depth) {
-    const Vec2 d = b - a;
-    const double len = std::hypot(d.x, d.y);
-    if (depth <= 0 || len < min_chord) return;
-    const Vec2 m = (a + b) * 0.5;
-    const double fm = value(m);
-    if (!(std::abs(fm) > tol)) return;
-    const Vec2 n{-d.y / len, d.x / len};
-    const double step = 1e-3 * len;
-    const double slope = (value(m + n * step) - fm) / step;
-    if (!(std::abs(slope) > 0)) return;
-    const double t = std::clamp(-fm / slope, -0.5 * len, 0.5 * len);
-    const Vec2 q = m + n * t;
-    if (!(std::abs(value(q)) < std::abs(fm))) return;
-    split(a, q, depth - 1);
-    out.push_back(q);
-    split(q, b, depth - 1);
+  out.reserve(ring.size() + chords.size() / 2);
+  std::function<void(std::size_t)> emit = [&](std::size_t c) {
+    const Chord& ch = chords[c];
+    if (ch.left == 0) return;
+    emit(ch.left);
+    out.push_back(ch.q);
+    emit(ch.right);
   };
   for (std::size_t k = 0; k < ring.size(); ++k) {
     out.push_back(ring[k]);
-    const Vec2 a = ring[k], b = ring[(k + 1) % ring.size()];
-    if (!on_border(a) && !on_border(b)) split(a, b, 8);
+    if (root[k] > 0) emit(root[k] - 1);
   }
   ring = std::move(out);
 }
@@ -663,17 +736,31 @@ std::vector<fgm::Piece> path_order_layer(const Layer& planar, const std::vector<
       for (auto& ring : rings_of(r)) rings.push_back(std::move(ring));
   fgm::EdgeGrid edges(rings, zlo, zhi);
   const bool three = o.palette.materials == 3;
-  auto zone_at = [&](Vec2 p) {
-    const auto f = ev.fractions({p.x, p.y, z});
-    if (three) return o.palette.color_of(f);
-    const double v = f.empty() ? 0.0 : f[0];
-    return static_cast<int>(std::lower_bound(levels.begin(), levels.end(), v) - levels.begin());
+  const std::size_t nm = ev.field().materials().size();
+  std::vector<Vec3> q;
+  std::vector<double> f, fk;
+  auto zones_at = [&](const std::vector<Vec2>& p, std::vector<int>& out) {
+    q.resize(p.size());
+    for (std::size_t k = 0; k < p.size(); ++k) q[k] = {p[k].x, p[k].y, z};
+    f.resize(p.size() * nm);
+    ev.fractions(q.data(), q.size(), f.data());
+    out.resize(p.size());
+    for (std::size_t k = 0; k < p.size(); ++k) {
+      const double* fr = f.data() + k * nm;
+      if (three) {
+        fk.assign(fr, fr + nm);
+        out[k] = o.palette.color_of(fk);
+      } else {
+        const double v = nm == 0 ? 0.0 : fr[0];
+        out[k] = static_cast<int>(std::lower_bound(levels.begin(), levels.end(), v) - levels.begin());
+      }
+    }
   };
   auto colour_of = [&](int zone) {
     Zone& zn = zones[static_cast<std::size_t>(zone)];
     return zn.count++ % 2 ? zn.b : zn.a;
   };
-  auto pieces = fgm::split_paths(planar.paths, edges, zone_at, colour_of, o.palette);
+  auto pieces = fgm::split_paths(planar.paths, edges, zones_at, colour_of, o.palette);
   if (o.min_segment > 0)
     // The faces' edges follow the iso-lines to 1e-4 of a band (below_sets): a run that only
     // grazes the next band is within the bound to that tolerance.

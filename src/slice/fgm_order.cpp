@@ -100,7 +100,7 @@ void EdgeGrid::crossings(Vec2 a, Vec2 b, std::vector<double>& ts) {
 }
 
 std::vector<Piece> split_paths(const std::vector<Path>& paths, EdgeGrid& edges,
-                               const std::function<int(Vec2)>& zone_at,
+                               const std::function<void(const std::vector<Vec2>&, std::vector<int>&)>& zones_at,
                                const std::function<int(int)>& colour_of, const Palette& palette) {
   std::vector<Piece> out;
   std::vector<double> ts;
@@ -110,6 +110,8 @@ std::vector<Piece> split_paths(const std::vector<Path>& paths, EdgeGrid& edges,
   };
   std::vector<Cut> cuts;
   std::vector<double> at;  // arc length at each vertex
+  std::vector<Vec2> mids;  // each run's middle and zone
+  std::vector<int> run_zones;
   for (const Path& path : paths) {
     const auto& pts = path.points;
     if (pts.size() < 2) continue;
@@ -148,10 +150,13 @@ std::vector<Piece> split_paths(const std::vector<Path>& paths, EdgeGrid& edges,
       return (pts[i] + (pts[i + 1] - pts[i]) * t).xy();
     };
     // Piece boundaries: the cuts where the zone changes.
+    mids.resize(cuts.size() - 1);
+    for (std::size_t k = 0; k + 1 < cuts.size(); ++k) mids[k] = middle(cuts[k], cuts[k + 1]);
+    zones_at(mids, run_zones);
     std::vector<std::size_t> bounds{0};
     std::vector<int> zones;
     for (std::size_t k = 0; k + 1 < cuts.size(); ++k) {
-      const int zone = zone_at(middle(cuts[k], cuts[k + 1]));
+      const int zone = run_zones[k];
       if (zones.empty() || zone != zones.back()) {
         if (!zones.empty()) bounds.push_back(k);
         zones.push_back(zone);
@@ -180,18 +185,25 @@ std::vector<Piece> split_paths(const std::vector<Path>& paths, EdgeGrid& edges,
 }
 
 std::vector<std::vector<double>> design_along(Evaluator& ev, double z, const Path& p) {
-  std::vector<std::vector<double>> out;
+  std::vector<Vec3> q;
   for (std::size_t i = 0; i < p.points.size(); ++i) {
     const Vec2 a = p.points[i].xy();
-    out.push_back(ev.fractions({a.x, a.y, z}));
+    q.push_back({a.x, a.y, z});
     if (i + 1 == p.points.size()) break;
     const Vec2 b = p.points[i + 1].xy(), d = b - a;
     const int n = static_cast<int>(std::ceil(std::hypot(d.x, d.y) / 0.1));
     for (int k = 1; k < n; ++k) {
-      const Vec2 q = a + d * (static_cast<double>(k) / n);
-      out.push_back(ev.fractions({q.x, q.y, z}));
+      const Vec2 s = a + d * (static_cast<double>(k) / n);
+      q.push_back({s.x, s.y, z});
     }
   }
+  // All the samples at once.
+  const std::size_t m = ev.field().materials().size();
+  std::vector<double> f(q.size() * m);
+  if (!q.empty()) ev.fractions(q.data(), q.size(), f.data());
+  std::vector<std::vector<double>> out(q.size());
+  for (std::size_t i = 0; i < q.size(); ++i)
+    out[i].assign(f.begin() + static_cast<std::ptrdiff_t>(i * m), f.begin() + static_cast<std::ptrdiff_t>((i + 1) * m));
   return out;
 }
 

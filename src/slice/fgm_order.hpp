@@ -44,12 +44,13 @@ struct Piece {
 };
 
 // A layer's paths in their order, each cut where it crosses an edge in `edges`: the runs between
-// crossings take the zone of the design at their middle (zone_at), consecutive runs of one zone
+// crossings take the zone of the design at their middle (zones_at: the zones of a path's run
+// middles, out[k] for point k, asked once per path), consecutive runs of one zone
 // make one piece, whose colour colour_of(zone) gives (asked once per piece, in print order) and
 // whose mixture is that colour's. A path's pieces together are the path (its points and the cut
 // points, in order); the pieces after the first are joined.
 std::vector<Piece> split_paths(const std::vector<Path>& paths, EdgeGrid& edges,
-                               const std::function<int(Vec2)>& zone_at,
+                               const std::function<void(const std::vector<Vec2>&, std::vector<int>&)>& zones_at,
                                const std::function<int(int)>& colour_of, const Palette& palette);
 
 // The design's fractions along a path at z: every vertex and every 0.1 mm between.
