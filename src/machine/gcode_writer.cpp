@@ -89,7 +89,7 @@ class MoveLine {
 
   // " <letter><v>" with at most D decimals.
   template <int D>
-  void word(char letter, double v) {
+  [[gnu::always_inline]] void word(char letter, double v) {
     static constexpr double kScale = D == 3 ? 1e3 : 1e5;
     static_assert(D == 3 || D == 5);
     *end_++ = ' ';
@@ -119,7 +119,7 @@ class MoveLine {
   bool readable() const { return readable_; }
 
  private:
-  void take(char letter, double v) {
+  [[gnu::always_inline]] void take(char letter, double v) {
     readable_ = readable_ && std::abs(v) <= gcode_lex::kMaxValue;
     words_.set(letter, v);
   }
