@@ -248,6 +248,13 @@ const char* GcodeScanner::simple_move(const char* s, const char* end) {
   return p + 1;
 }
 
+bool GcodeScanner::move_words(const Words& words, int g) {
+  if (!partial_.empty()) return false;
+  ++line_no_;
+  apply_move(words, g);
+  return true;
+}
+
 void GcodeScanner::finish() {
   if (!partial_.empty()) {
     line(partial_);

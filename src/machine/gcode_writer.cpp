@@ -1,7 +1,6 @@
 #include "trellis/machine/gcode_writer.hpp"
 
 #include <fmt/format.h>
-#include <tbb/task_group.h>
 
 #include <algorithm>
 #include <cerrno>
@@ -15,6 +14,7 @@
 #include <utility>
 
 #include "fast_number.hpp"
+#include "gcode_lex.hpp"
 #include "gcode_objects.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
@@ -79,6 +79,56 @@ char* put_feed(char* p, double mm_per_s) {
   return std::to_chars(p, p + 24, std::lround(mm_per_s * 60)).ptr;
 }
 
+// A G0/G1 line composed in one buffer (the writer's hot path), with the value each word reads
+// back as, so the print-time estimate takes the move without parsing its text: fixed() writes
+// q = llround(v * 10^d) as a decimal, which the reader's parser reads as q / 10^d, both exact
+// doubles and the division correctly rounded (gcode_lex::scan_decimal), so the same double.
+class MoveLine {
+ public:
+  explicit MoveLine(bool g1) : end_(fastnum::lit(buf_, g1 ? "G1" : "G0")) {}
+
+  // " <letter><v>" with at most D decimals.
+  template <int D>
+  [[gnu::always_inline]] void word(char letter, double v) {
+    static constexpr double kScale = D == 3 ? 1e3 : 1e5;
+    static_assert(D == 3 || D == 5);
+    *end_++ = ' ';
+    *end_++ = letter;
+    end_ = fastnum::fixed(end_, v, D);
+    long long q = 0;
+    if (!fastnum::round_half_away(v * kScale, q)) {
+      readable_ = false;
+      return;
+    }
+    take(letter, static_cast<double>(q) / kScale);
+  }
+  // " F<mm/min>", the feed given in mm/s.
+  void feed(double mm_per_s) {
+    const long f = std::lround(mm_per_s * 60);
+    end_ = fastnum::lit(end_, " F");
+    end_ = std::to_chars(end_, end_ + 24, f).ptr;
+    take('F', static_cast<double>(f));
+    readable_ = readable_ && f > 0;
+  }
+  void close() { *end_++ = '\n'; }
+
+  std::string_view text() const { return {buf_, static_cast<std::size_t>(end_ - buf_)}; }
+  const GcodeScanner::Words& words() const { return words_; }
+  // Every value one the reader takes as it is (else the estimate reads the text, and refuses
+  // the line as it would in a file).
+  bool readable() const { return readable_; }
+
+ private:
+  [[gnu::always_inline]] void take(char letter, double v) {
+    readable_ = readable_ && std::abs(v) <= gcode_lex::kMaxValue;
+    words_.set(letter, v);
+  }
+  char buf_[6 * fastnum::kMaxChars];
+  char* end_;
+  GcodeScanner::Words words_;
+  bool readable_ = true;
+};
+
 class Writer {
  public:
   // `stream`: the layers come from it (tp gives the source, job and labels only).
@@ -117,9 +167,8 @@ class Writer {
     header();
     for (std::size_t li = 0; li < tp_.layers.size(); ++li) layer(li, tp_.layers[li]);
     footer();
-    TimeEstimate estimate;
-    estimate.advance(out_, new_marks());
-    finish_estimate(estimate);
+    estimate_text();
+    finish_estimate();
     insert_lines();
     stats_.bytes = out_.size();
     stats = stats_;
@@ -134,25 +183,16 @@ class Writer {
     constexpr std::size_t kFlush = std::size_t{1} << 20;
     raw_ = raw;
     out_.reserve(kFlush + (1u << 16));
-    scanning_.reserve(kFlush + (1u << 16));
-    estimate_ = std::make_unique<TimeEstimate>();
-    try {
-      plan_changes();
-      label_objects();
-      header();
-      layers_([&](std::size_t li, const Layer& l) {
-        layer(li, l);
-        if (out_.size() >= kFlush) flush_raw();
-      });
-      footer();
-      flush_raw();
-      scan_.wait();
-    } catch (...) {
-      scan_.wait();  // (the piece being read refers to this writer; its own error is dropped)
-      throw;
-    }
-    estimate_->advance({}, new_marks());  // marks at the very end
-    finish_estimate(*estimate_);
+    plan_changes();
+    label_objects();
+    header();
+    layers_([&](std::size_t li, const Layer& l) {
+      layer(li, l);
+      if (out_.size() >= kFlush) flush_raw();
+    });
+    footer();
+    flush_raw();
+    finish_estimate();
     if (std::fflush(raw_) != 0)
       throw IoError(std::string("cannot write a temporary file: ") + std::strerror(errno));
     if (ready) ready(stats_);
@@ -173,79 +213,74 @@ class Writer {
     return "M73 P" + std::to_string(std::min(percent, 99)) + " R" + std::to_string(left) + "\n";
   }
 
-  // Streamed: the text so far to `raw_`, and to the time estimate, which reads it on another
-  // thread (when there is one) while the next megabyte is written; the marks it passes are
-  // handed over with it.
+  // Streamed: the text so far to `raw_` (the time estimate has read it first).
   void flush_raw() {
     if (out_.empty()) return;
+    estimate_text();
     if (std::fwrite(out_.data(), 1, out_.size(), raw_) != out_.size())
       throw IoError(std::string("cannot write a temporary file: ") + std::strerror(errno));
-    scan_.wait();
     flushed_ += out_.size();
-    std::swap(out_, scanning_);
     out_.clear();
-    scan_.run([this, marks = new_marks()] { estimate_->advance(scanning_, marks); });
+    scanned_ = 0;
   }
 
   // The print-time estimate (machine/print_time.hpp) of the text, read as `trellis analyze`
-  // reads the file: fed in order, piece by piece, the time noted at each mark it passes.
-  struct Marks {
-    std::vector<std::size_t> progress, object;  // byte offsets, ascending
-  };
+  // reads the file, in order as it is written: the writer's own moves handed over as their
+  // words (the values the text reads back as: GcodeScanner::move_words), everything else (the
+  // profile's start, end and tool-change code, heaters, dwells, comments) as text.
   class TimeEstimate {
    public:
-    // `text` follows what was fed before; `marks` lie within it (or at its end).
-    void advance(std::string_view text, const Marks& marks) {
-      const std::size_t base = fed_;
-      std::size_t k = 0, j = 0;
-      while (k < marks.progress.size() || j < marks.object.size()) {
-        const bool progress = j == marks.object.size() ||
-                              (k < marks.progress.size() && marks.progress[k] <= marks.object[j]);
-        const std::size_t at = progress ? marks.progress[k++] : marks.object[j++];
-        scanner_.feed(text.substr(fed_ - base, at - fed_));
-        fed_ = at;
-        (progress ? progress_time : object_time).push_back(sink_.time.elapsed());
-      }
-      scanner_.feed(text.substr(fed_ - base));
-      fed_ = base + text.size();
+    void text(std::string_view t) {
+      if (t.empty()) return;
+      scanner_.feed(t);
     }
+    // False: not taken (the caller's text is read instead).
+    bool move(const GcodeScanner::Words& w, int g) { return scanner_.move_words(w, g); }
+    double elapsed() const { return sink_.time.elapsed(); }
     void finish() { scanner_.finish(); }
     PrintTimeSink& sink() { return sink_; }
-    std::vector<double> progress_time, object_time;  // at each mark, in order
 
    private:
     PrintTimeSink sink_;
     Diagnostics ignored_;  // our own text: nothing to report
     GcodeScanner scanner_{sink_, {}, ignored_, "G-code being written"};
-    std::size_t fed_ = 0;
   };
 
-  // The marks made since the last call.
-  Marks new_marks() {
-    Marks m;
-    for (; marks_given_.first < progress_marks_.size(); ++marks_given_.first)
-      m.progress.push_back(progress_marks_[marks_given_.first].first);
-    for (; marks_given_.second < object_marks_.size(); ++marks_given_.second)
-      m.object.push_back(object_marks_[marks_given_.second].first);
-    return m;
+  // The text written since the estimate last read, to it.
+  void estimate_text() {
+    estimate_.text(std::string_view(out_).substr(scanned_));
+    scanned_ = out_.size();
   }
 
-  // The estimate's totals, and each mark's and each part's time.
-  void finish_estimate(TimeEstimate& e) {
-    e.finish();
-    PrintTimeSink& sink = e.sink();
-    for (std::size_t k = 0; k < progress_marks_.size(); ++k)
-      progress_marks_[k].second = e.progress_time.at(k);
-    const std::vector<double>& at_object = e.object_time;
+  // The time the estimate has reached at this point of the text.
+  double estimate_now() {
+    estimate_text();
+    return estimate_.elapsed();
+  }
+
+  // Appends the move line `m` (a G0 or G1 line) and hands its words to the estimate, or,
+  // when a value is one the reader would refuse, leaves its text for the estimate to read.
+  void put_move(const MoveLine& m, int g) {
+    estimate_text();
+    out_.append(m.text());
+    if (m.readable() && estimate_.move(m.words(), g)) scanned_ = out_.size();
+  }
+
+  // The estimate's totals, and each part's time.
+  void finish_estimate() {
+    estimate_text();
+    estimate_.finish();
+    PrintTimeSink& sink = estimate_.sink();
     stats_.print_time_s = sink.time.seconds();
     stats_.heating_s = sink.time.heating_s();
     // Each part's time: from each of its starts to the next mark (its end).
     for (std::size_t m = 0; m + 1 < object_marks_.size(); ++m) {
-      const int part = object_marks_[m].second;
+      const int part = object_marks_[m].part;
       if (part <= 0) continue;
       if (stats_.part_time_s.size() < static_cast<std::size_t>(part))
         stats_.part_time_s.resize(static_cast<std::size_t>(part));
-      stats_.part_time_s[static_cast<std::size_t>(part - 1)] += at_object[m + 1] - at_object[m];
+      stats_.part_time_s[static_cast<std::size_t>(part - 1)] +=
+          object_marks_[m + 1].time - object_marks_[m].time;
     }
   }
 
@@ -500,7 +535,7 @@ class Writer {
   }
 
   void layer(std::size_t li, const Layer& l) {
-    progress_marks_.push_back({flushed_ + out_.size(), 0.0});  // its time: estimate_time
+    progress_marks_.push_back({flushed_ + out_.size(), estimate_now()});
     out_ += ";LAYER:";
     out_ += std::to_string(li);
     out_ += "\n;Z:";
@@ -529,7 +564,7 @@ class Writer {
   void enter_object(int part) {
     if (part == object_) return;
     if (object_ > 0 && objects_.style != ObjectStyle::None) out_ += objects_.end(object_);
-    object_marks_.push_back({flushed_ + out_.size(), part});
+    object_marks_.push_back({flushed_ + out_.size(), part, estimate_now()});
     if (part > 0 && objects_.style != ObjectStyle::None) out_ += objects_.start(part);
     object_ = part;
   }
@@ -580,33 +615,33 @@ class Writer {
     own_fan_ = own_fan_ || path.fan >= 0;
   }
 
+  // "G1 E<e> F<retraction speed>": filament only (`de` mm, relative or added to E).
+  void filament_move(double de) {
+    e_ += de;
+    MoveLine m(true);
+    m.word<5>('E', p_.relative_e ? de : e_);
+    m.feed(p_.retract_speed);
+    m.close();
+    put_move(m, 1);
+  }
+
   void retract() {
-    e_ -= p_.retract_length;
-    out_ += "G1 E";
-    append_fixed(out_, p_.relative_e ? -p_.retract_length : e_, 5);
-    out_ += " F";
-    feed(p_.retract_speed);
-    out_ += '\n';
+    filament_move(-p_.retract_length);
     retracted_ = true;
     ++stats_.retractions;
   }
 
   void unretract() {
-    e_ += p_.retract_length;
-    out_ += "G1 E";
-    append_fixed(out_, p_.relative_e ? p_.retract_length : e_, 5);
-    out_ += " F";
-    feed(p_.retract_speed);
-    out_ += '\n';
+    filament_move(p_.retract_length);
     retracted_ = false;
   }
 
   void move_z(double z) {
-    out_ += "G0 Z";
-    append_fixed(out_, z, 3);
-    out_ += " F";
-    feed(p_.z_speed);
-    out_ += '\n';
+    MoveLine m(false);
+    m.word<3>('Z', z);
+    m.feed(p_.z_speed);
+    m.close();
+    put_move(m, 0);
     pos_.z = z;
   }
 
@@ -628,22 +663,16 @@ class Writer {
   // `more`: a further leg of a travel through `via` points, already counted as one move.
   void move_xy(Vec3 q, double d, bool with_z = false, bool more = false) {
     const Vec2 o = offset();
-    // The line composed in one buffer, appended once (the writer's hot path, with print_move).
-    using namespace fastnum;
-    char buf[6 * kMaxChars];
-    char* b = lit(buf, "G0 X");
-    b = fixed(b, q.x + dx_ + o.x, 3);
-    b = lit(b, " Y");
-    b = fixed(b, q.y + dy_ + o.y, 3);
+    MoveLine m(false);
+    m.word<3>('X', q.x + dx_ + o.x);
+    m.word<3>('Y', q.y + dy_ + o.y);
     if (with_z) {
-      b = lit(b, " Z");
-      b = fixed(b, q.z, 3);
+      m.word<3>('Z', q.z);
       pos_.z = q.z;
     }
-    b = lit(b, " F");
-    b = put_feed(b, p_.travel_speed);
-    *b++ = '\n';
-    out_.append(buf, static_cast<std::size_t>(b - buf));
+    m.feed(p_.travel_speed);
+    m.close();
+    put_move(m, 0);
     if (known_) {
       if (!more) ++stats_.travel_moves;
       stats_.travel_length += d;
@@ -691,12 +720,7 @@ class Writer {
 
   void extra_filament(double mm) {
     if (mm <= 0) return;
-    e_ += mm;
-    out_ += "G1 E";
-    append_fixed(out_, p_.relative_e ? mm : e_, 5);
-    out_ += " F";
-    feed(p_.retract_speed);
-    out_ += '\n';
+    filament_move(mm);
     stats_.filament += mm;
   }
 
@@ -1161,33 +1185,25 @@ class Writer {
         return;
       }
       silent_ = false;
-      using namespace fastnum;
-      char buf[6 * kMaxChars];
-      char* b = lit(buf, "G1 X");
-      b = fixed(b, q.x + dx_ + o.x, 3);
-      b = lit(b, " Y");
-      b = fixed(b, q.y + dy_ + o.y, 3);
-      if (std::abs(q.z - pos_.z) > 1e-9) {
-        b = lit(b, " Z");
-        b = fixed(b, q.z, 3);
-      }
+      MoveLine m(true);
+      m.word<3>('X', q.x + dx_ + o.x);
+      m.word<3>('Y', q.y + dy_ + o.y);
+      if (std::abs(q.z - pos_.z) > 1e-9) m.word<3>('Z', q.z);
       if (marlin) {
         e_ += e;
         stats_.filament += e;
-        b = lit(b, " E");
-        b = fixed(b, p_.relative_e ? e : e_, 5);
+        m.word<5>('E', p_.relative_e ? e : e_);
       }
       // Pneumatic flow is set by pressure, not by E: the same flow over more length thins the
       // bead, so a steep descent is printed faster instead.
       const double f = marlin ? speed : speed / flow;
       if (first || f != last_feed_) {
-        b = lit(b, " F");
-        b = put_feed(b, f);
+        m.feed(f);
         first = false;
         last_feed_ = f;
       }
-      *b++ = '\n';
-      out_.append(buf, static_cast<std::size_t>(b - buf));
+      m.close();
+      put_move(m, 1);
       stats_.print_length += len;
       pos_ = q;
     }
@@ -1207,6 +1223,8 @@ class Writer {
   std::FILE* raw_ = nullptr;  // streamed: the text so far, without M73 lines
   std::size_t flushed_ = 0;   // bytes already in raw_
   std::vector<std::pair<std::size_t, double>> progress_marks_;  // (byte offset, time so far)
+  TimeEstimate estimate_;
+  std::size_t scanned_ = 0;  // out_'s text up to here is in the estimate
   std::string_view last_type_;
   double last_width_ = -1, last_height_ = -1;
   double lift_ = 0;  // Z added to every point (placement.lift), in the header for readers
@@ -1214,16 +1232,15 @@ class Writer {
   std::string out_;
   GcodeObjects objects_;  // build plates: parts labelled for the firmware
   int object_ = 0;        // the part whose moves are being written (Path::part), 0 = none
-  // Offsets in the text where the part being printed changes (to that part, 0 = none): each
-  // part's time comes from the estimate at these (estimate_time).
-  std::vector<std::pair<std::size_t, int>> object_marks_;
+  // Where the part being printed changes (offset in the text, to that part, 0 = none, and the
+  // estimated time there): each part's time comes from these.
+  struct ObjectMark {
+    std::size_t at;
+    int part;
+    double time;
+  };
+  std::vector<ObjectMark> object_marks_;
   std::size_t estimate_at_ = 0;  // offset of the footer's estimated time
-  // Streamed: the piece of text the time estimate reads (on another thread, scan_) while out_
-  // fills, the estimate, and the marks handed to it so far (progress, object).
-  std::string scanning_;
-  std::unique_ptr<TimeEstimate> estimate_;
-  std::pair<std::size_t, std::size_t> marks_given_{0, 0};
-  tbb::task_group scan_;
   std::vector<Change> changes_;  // mixture changes in print order
   // Streamed: printed length before each printed path (and after the last), and the paths
   // carrying a mixture (index, command, tool) until the changes are planned.

@@ -36,16 +36,22 @@ void PrintTimeEstimator::move(Vec3 a, Vec3 b, double de, double feed) {
   const bool e_only = xyz < 1e-9;
   const double length = e_only ? std::abs(de) : xyz;
   if (length < 1e-9 || !(feed > 0)) return;
+  double accel = e_only && limits_.retract_acceleration > 0 ? limits_.retract_acceleration
+                 : !e_only && de <= 0 && limits_.travel_acceleration > 0
+                     ? limits_.travel_acceleration
+                     : limits_.acceleration;
+  const bool capped = limits_.max_feed[0] > 0 || limits_.max_feed[1] > 0 ||
+                      limits_.max_feed[2] > 0 || limits_.max_feed[3] > 0;
+  if (accel <= 0 && !capped) {  // feeds only, none capped: the move at its feed
+    add(length / feed, tag_);
+    return;
+  }
   std::array<double, 4> u{};
   for (int i = 0; i < 4; ++i) u[i] = delta[i] / length;
   double nominal = feed;
   for (int i = 0; i < 4; ++i)
     if (limits_.max_feed[i] > 0 && std::abs(u[i]) > 1e-12)
       nominal = std::min(nominal, limits_.max_feed[i] / std::abs(u[i]));
-  double accel = e_only && limits_.retract_acceleration > 0 ? limits_.retract_acceleration
-                 : !e_only && de <= 0 && limits_.travel_acceleration > 0
-                     ? limits_.travel_acceleration
-                     : limits_.acceleration;
   if (accel <= 0) {  // feeds only
     add(length / nominal, tag_);
     return;

@@ -2,7 +2,13 @@
 // heaters must give, and the writer's estimate against the file it wrote read back.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <iterator>
+#include <random>
+#include <utility>
 
 #include "support/machines.hpp"
 #include "trellis/machine/gcode_reader.hpp"
@@ -22,6 +28,16 @@ MotionLimits accel(double a, double jerk) {
 
 // A tiny jerk: every move starts and ends (almost) at rest.
 constexpr double kStop = 1e-9;
+
+// The estimate a reader makes of a whole file: seconds, and heating seconds within them.
+std::pair<double, double> read_back_time(const std::string& gcode) {
+  PrintTimeSink sink;
+  Diagnostics d;
+  GcodeScanner s(sink, {}, d);
+  s.feed(gcode);
+  s.finish();
+  return {sink.time.seconds(), sink.time.heating_s()};
+}
 
 double time_of(const std::string& gcode, const MotionLimits& limits = {}) {
   Diagnostics d;
@@ -129,13 +145,9 @@ TEST(PrintTime, TheWriterEstimatesTheFileItWrites) {
     p.pre_flow_dwell = 0.25;
     GcodeStats stats;
     const std::string g = write_gcode(tp, p, &stats);
-    PrintTimeSink sink;
-    Diagnostics d;
-    GcodeScanner s(sink, {}, d);
-    s.feed(g);
-    s.finish();
-    EXPECT_NEAR(stats.print_time_s, sink.time.seconds(), 1e-9) << flavor;
-    EXPECT_NEAR(stats.heating_s, sink.time.heating_s(), 1e-9) << flavor;
+    const auto [seconds, heating] = read_back_time(g);
+    EXPECT_NEAR(stats.print_time_s, seconds, 1e-9) << flavor;
+    EXPECT_NEAR(stats.heating_s, heating, 1e-9) << flavor;
     // Heating from ambient is in it (the bed is the longer wait where there is one).
     const double a = PrintTimeEstimator::kAmbient;
     EXPECT_GE(stats.heating_s, (205 - a) / PrintTimeEstimator::kNozzleRate - 1e-9) << flavor;
@@ -149,5 +161,60 @@ TEST(PrintTime, TheWriterEstimatesTheFileItWrites) {
     q.acceleration = 0;
     write_gcode(tp, q, &quick);
     EXPECT_GT(stats.print_time_s - 6 * 0.25, quick.print_time_s) << flavor;
+  }
+}
+
+// The writer hands its own moves to the estimate as numbers, not text: the estimate must be the
+// very one a reader makes of the file (to the last bit), whatever the profile's own G-code puts
+// the reader in (relative moves, inches, relative E) and whether the file is written whole or
+// streamed.
+TEST(PrintTime, TheWritersEstimateIsTheReadersToTheBit) {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> xy(5, 95), step(-3, 3);
+  Toolpath tp;
+  for (int l = 0; l < 6; ++l) {
+    const double z = 0.2 * (l + 1);
+    Layer layer{z, {}};
+    for (int k = 0; k < 12; ++k) {
+      Path p;
+      Vec3 q{xy(rng), xy(rng), z};
+      for (int i = 0; i < 30; ++i) {
+        p.points.push_back(q);
+        q = {std::clamp(q.x + step(rng), 1.0, 99.0), std::clamp(q.y + step(rng), 1.0, 99.0), z};
+      }
+      p.speed = k % 3 == 0 ? 0 : 20 + k;
+      layer.paths.push_back(std::move(p));
+    }
+    tp.layers.push_back(std::move(layer));
+  }
+  struct Case {
+    const char* start;
+    bool relative_e;
+    double acceleration;
+  };
+  for (const Case& c :
+       {Case{"G28", false, 0}, Case{"G28\nG91\nG1 Z2 F600\nG1 X1 E0.5 F600", true, 900},
+        Case{"G28\nG20\nG1 Z0.1 F600", false, 1500}}) {
+    MachineProfile p = test::open_bed();
+    p.start_gcode = c.start;
+    p.relative_e = c.relative_e;
+    p.acceleration = c.acceleration;
+    p.retract_length = 0.8;
+    p.z_hop = 0.2;
+    GcodeStats stats;
+    const std::string g = write_gcode(tp, p, &stats);
+    EXPECT_EQ(stats.print_time_s, read_back_time(g).first) << c.start;
+    EXPECT_GT(stats.print_time_s, 0) << c.start;
+    // Streamed, the same bytes (M73 lines from the same estimate).
+    const std::string path = ::testing::TempDir() + "/streamed_estimate.gcode";
+    const LayerSource layers = [&](const LayerVisitor& visit) {
+      for (std::size_t i = 0; i < tp.layers.size(); ++i) visit(i, tp.layers[i]);
+    };
+    const GcodeStats streamed = write_gcode_stream(path, tp, tp.layers.size(), layers, p);
+    std::ifstream in(path, std::ios::binary);
+    const std::string back((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    EXPECT_EQ(streamed.print_time_s, stats.print_time_s) << c.start;
+    EXPECT_EQ(back, g) << c.start;
+    std::remove(path.c_str());
   }
 }

@@ -144,14 +144,24 @@ class GcodeScanner {
   void finish();
   long lines() const { return line_no_; }
 
- private:
-  void bad(const std::string& what);
-  void comment(std::string_view c);
   // The words of a move, by letter (a bit each in `seen`).
   struct Words {
     double value[26];
     std::uint32_t seen = 0;
+    void set(char letter, double v) {
+      seen |= 1u << (letter - 'A');
+      value[letter - 'A'] = v;
+    }
   };
+  // One "G<g> ..." line (g 0 or 1) given as its words, by a writer that has just formatted it:
+  // read as feed() reads that line, without the text. The values must be those the text reads
+  // back as, each finite and within the reader's range. False (nothing read) while a partial
+  // line is pending: the caller feeds the text instead.
+  bool move_words(const Words& words, int g);
+
+ private:
+  void bad(const std::string& what);
+  void comment(std::string_view c);
   void move(std::string_view args, int g);
   void apply_move(const Words& words, int g);
   // The common line "G0 "/"G1 " + plain words, read in one pass from `s` (a line start inside a
