@@ -381,6 +381,21 @@ Field level_set_field(Model& md, const El& obj, long long oid, const Affine& pla
   return f;
 }
 
+Field object_field(Model& md, long long oid, const El& placed_by, const Affine& placement,
+                   BBox3& box);
+
+// The object an <item> or a <component> `e` places (its objectid, its transform after `outer`:
+// the placement of the object holding the component). An object of another model part (the
+// Production Extension's p:path) is refused.
+Field placed_object(Model& md, const El& e, const Affine& outer, BBox3& box) {
+  if (const char* path = e.attr("path"))
+    md.ctx.fail(e, fmt::format("<{}> p:path=\"{}\" places an object of another model part (3MF "
+                               "Production Extension), which this reader does not read",
+                               e.name, path));
+  return object_field(md, resource_id(md.ctx, e, "objectid"), e,
+                      compose(outer, matrix3d(md.ctx, e, "transform")), box);
+}
+
 // The field of object `oid` placed by `placement` (object → build, model units; `placed_by` the
 // item or component that placed it): a level-set object, a mesh object (its distance field at
 // slice.mesh_voxel: the mesh must be closed), or an object made of components (Core §4.2: each
@@ -412,12 +427,7 @@ Field object_field(Model& md, long long oid, const El& placed_by, const Affine& 
   std::vector<Field> parts;
   for (const auto& k : components->kids) {
     if (k->name != "component") continue;
-    if (k->attr("path"))
-      c.fail(*k, fmt::format("<component> p:path=\"{}\" places an object of another model part "
-                             "(3MF Production Extension), which this reader does not read",
-                             k->attr("path")));
-    parts.push_back(object_field(md, resource_id(c, *k, "objectid"), *k,
-                                 compose(placement, matrix3d(c, *k, "transform")), box));
+    parts.push_back(placed_object(md, *k, placement, box));
   }
   md.placing.pop_back();
   if (parts.empty()) c.fail(*components, fmt::format("object {} has no <component>", oid));
@@ -479,12 +489,7 @@ VcadDesign read(const std::string& path, const VcadOptions& options) {
   BBox3 box;
   for (const auto& item : build->kids) {
     if (item->name != "item") continue;
-    if (item->attr("path"))
-      ctx.fail(*item, fmt::format("<item> p:path=\"{}\" places an object of another model part "
-                                  "(3MF Production Extension), which this reader does not read",
-                                  item->attr("path")));
-    parts.push_back(object_field(md, resource_id(ctx, *item, "objectid"), *item,
-                                 matrix3d(ctx, *item, "transform"), box));
+    parts.push_back(placed_object(md, *item, Affine{}, box));
   }
   if (parts.empty()) ctx.fail(*build, "the build places no object");
   VcadDesign d;
