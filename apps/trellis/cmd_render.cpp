@@ -1,5 +1,6 @@
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <iostream>
 #include <system_error>
@@ -33,17 +34,19 @@ void add_render(CLI::App& app) {
       "toolpath. Paths are coloured by feature type (or print order, or mixture) in the viewer's\n"
       "colours, travel is dashed grey, path starts are green dots and ends small dark dots. A\n"
       "G-code file's mixture is drawn as deposited (its header's mixing look-ahead undone);\n"
-      "--colour commanded draws the mixture where the commands were issued. Each PNG has a title\n"
+      "--colour commanded draws the mixture where the commands were issued; --colour tool draws\n"
+      "each tool (each laser of a laser file) in its colour, the default for a build file of\n"
+      "several lasers. Each PNG has a title\n"
       "(file, layer, Z, what colour means), a legend or colour bar and a scale bar in mm.\n"
       "Without --layer every layer is written as OUT.layerNNN.png (OUT without .png).");
   cmd->add_option("toolpath", o->input, "toolpath JSON, G-code (.gcode/.g/.nc), laser .cli or 3MF toolpath")
       ->required()
       ->check(path_value());
-  cmd->add_option("--colour", o->colour,
-                  "what colour means: feature, order, mixture (as deposited) or commanded (the "
-                  "mixture as commanded)")
-      ->check(CLI::IsMember({"feature", "order", "mixture", "commanded"}))
-      ->capture_default_str();
+  auto* colour = cmd->add_option("--colour", o->colour,
+                                 "what colour means: feature, order, mixture (as deposited), "
+                                 "commanded (the mixture as commanded) or tool (laser); default: "
+                                 "tool for a laser file of several lasers, else feature")
+                     ->check(CLI::IsMember({"feature", "order", "mixture", "commanded", "tool"}));
   cmd->add_option("--machine", o->machine, ".nc files: machine profile (valve commands)")
       ->check(path_value());
   cmd->add_option("-o,--output", o->output, "PNG file (with --layer) or prefix")
@@ -67,7 +70,7 @@ void add_render(CLI::App& app) {
   cmd->add_flag("--force", o->force, "render even when the estimate is beyond the budget");
   add_progress_flag(cmd, o->progress);
   cmd->add_flag("!--no-travel", o->r.travel, "do not draw travel moves");
-  cmd->callback([o] {
+  cmd->callback([o, colour] {
     // Without --layer, -o is the prefix of OUT.layerNNN.png: the batch refuses any of them that
     // is an input.
     if (o->layer < 0) {
@@ -95,6 +98,14 @@ void add_render(CLI::App& app) {
                        ": a lattice, not a toolpath (plan it first, or `trellis view` it)");
     print_warnings(diag);
     Toolpath& tp = scene.toolpath;
+    // A laser file: a .cli, or paths that carry a laser power (a 3MF toolpath of a laser build).
+    bool laser = scene.kind == "cli";
+    int tools = 0;
+    for (const auto& l : tp.layers)
+      for (const auto& p : l.paths) laser |= p.power > 0, tools = std::max(tools, p.tool + 1);
+    if (colour->count() == 0 && laser && tools > 1) o->colour = "tool";
+    o->r.colour_by_tool = o->colour == "tool";
+    o->r.tools_are_lasers = laser;
     o->r.colour_by_role = o->colour == "feature";
     o->r.colour_by_mixture = o->colour == "mixture" || o->colour == "commanded";
     o->r.mixture_label = mixture_label(scene, o->colour == "commanded");

@@ -304,6 +304,7 @@ def pbf(
     island_shift: float = ...,  # pbf.island_shift: island: the island grid moves this far along both its axes every layer
     island_size: float = ...,  # pbf.island_size: island: side of the square islands
     laser_overlap: float = ...,  # pbf.laser_overlap: neighbouring lasers' stripes overlap: a vector crossing a boundary by at most half this goes whole to one laser, a longer one is cut there
+    laser_split_axis: Literal['x', 'y', 'auto'] = ...,  # pbf.laser_split_axis: the lasers' stripes follow one another along X (laser 1 leftmost), along Y (laser 1 at the front), or per layer along th
     lasers: int = ...,  # laser.lasers: lasers scanning each layer at once; pbf splits every layer among them in stripes along X balanced by scan time (docs/laser.md)
     layer_height: float = ...,  # scan.layer: powder layer thickness
     lhd: float = ...,  # scan.segment_gap: gap LHD between contour scan vectors (the paper tested 0-120 µm; outside is a warning)

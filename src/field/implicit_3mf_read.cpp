@@ -1,7 +1,7 @@
 // Reads 3MF level-set designs (implicit_3mf.hpp): libzip for the package, expat for the model
 // part (implicit_xml.hpp: a small element tree with every element's line and column), the
-// objects, meshes and build here, the function graphs in implicit_compile.cpp. Section numbers: 3MF Volumetric & Implicit
-// Extension v1.0, Part I (volumetric) and Part II (implicit).
+// objects, meshes and build here, the function graphs in implicit_compile.cpp. Section numbers: 3MF
+// Volumetric & Implicit Extension v1.0, Part I (volumetric) and Part II (implicit).
 #include <expat.h>
 #include <fmt/format.h>
 #include <zip.h>
@@ -20,6 +20,8 @@
 #include "implicit_3mf_module.hpp"
 #include "implicit_compile.hpp"
 #include "implicit_graph.hpp"
+#include "implicit_image.hpp"
+#include "mesh_sdf_module.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/geom/mesh.hpp"
 
@@ -49,6 +51,9 @@ struct Zip {
     if (z) zip_discard(z);
   }
 };
+
+// Voxels a mesh node's distance field may take (OpenVDB floats, ~5 bytes each).
+constexpr double kMaxDistanceVoxels = 1e8;
 
 // Elements nested deeper than this are refused (the tree is freed recursively; 3MF models nest
 // a handful of levels).
@@ -242,26 +247,80 @@ bool is_box(const TriangleMesh& m, const BBox3& b) {
 struct Model {
   const Ctx& ctx;
   double mm = 1;
-  std::map<long long, const El*> functions, objects;
+  std::map<long long, const El*> objects, images;
+  Resources res;
   const VcadOptions& options;
+  PartReader part;
+  std::map<long long, std::shared_ptr<const Image3d>> loaded;  // image3d id → its voxels
+  BBox3 domain;  // the level set being compiled: its evaluation box in function coordinates
+  std::vector<long long> placing;  // objects being placed (components nest; cycles refused)
 };
 
-// The field of one build item's object: its level set (Part I §4.1.1) or the 2022 draft's
-// <volumedata><boundary>, clipped to its mesh; `box` grows by the mesh's box.
-Field object_field(const Model& md, const El& item, const El& obj, long long oid, BBox3& box) {
+// Elements nested through components deeper than this are refused.
+constexpr std::size_t kMaxComponentDepth = 64;
+
+// The voxels of image3d `id`, read once per package (Part I ch. 3).
+std::shared_ptr<const Image3d> image3d(Model& md, long long id, const El& at) {
+  if (auto it = md.loaded.find(id); it != md.loaded.end()) return it->second;
+  auto e = md.images.find(id);
+  if (e == md.images.end()) md.ctx.fail(at, fmt::format("there is no <image3d> with id {}", id));
+  return md.loaded[id] = read_image3d(md.ctx, *e->second, md.part);
+}
+
+// The distance to mesh object `id` (Part II ch. 5, mesh and unsignedmesh): the kernel's distance
+// field of the mesh in its object's coordinates (model units), at slice.mesh_voxel, its band wide
+// enough to hold the exact distance everywhere in the level set's domain: the mesh touches every
+// face of its bounding box B, so no point p is farther from it than d(p, B) + diam(B).
+Field mesh_distance(Model& md, long long id, bool sign, const El& at) {
+  const Ctx& c = md.ctx;
+  auto o = md.objects.find(id);
+  if (o == md.objects.end() || !child(*o->second, "mesh"))
+    c.fail(at, fmt::format("<{}>: object {} is not a mesh object (the node measures the distance "
+                           "to one)",
+                           at.name, id));
+  const TriangleMesh mesh = mesh_of(c, *child(*o->second, "mesh"), Affine{}, 1);
+  BBox3 b;
+  for (const Vec3& v : mesh.vertices) b.add(v);
+  const Vec3 size = b.max - b.min;
+  double reach = 0;  // max over the domain of d(p, B): at one of its corners
+  for (int k = 0; k < 8; ++k) {
+    const Vec3 c{k & 1 ? md.domain.max.x : md.domain.min.x,
+                 k & 2 ? md.domain.max.y : md.domain.min.y,
+                 k & 4 ? md.domain.max.z : md.domain.min.z};
+    const Vec3 out{std::max({b.min.x - c.x, 0.0, c.x - b.max.x}),
+                   std::max({b.min.y - c.y, 0.0, c.y - b.max.y}),
+                   std::max({b.min.z - c.z, 0.0, c.z - b.max.z})};
+    reach = std::max(reach, std::hypot(out.x, out.y, out.z));
+  }
+  const double band = reach + std::hypot(size.x, size.y, size.z);
+  MeshSdfOptions mo;
+  mo.voxel = md.options.mesh_voxel / md.mm;
+  mo.band_voxels = std::max(mo.band_voxels, band / mo.voxel);
+  const Vec3 span = size + Vec3{2 * band, 2 * band, 2 * band};  // what the band fills
+  const double voxels = span.x * span.y * span.z / (mo.voxel * mo.voxel * mo.voxel);
+  if (!(voxels <= kMaxDistanceVoxels))
+    c.fail(at, fmt::format("<{}>: the distance to object {} over the level set's domain needs "
+                           "{:.3g} voxels of {} mm: more than {:.3g}; set a coarser "
+                           "slice.mesh_voxel",
+                           at.name, id, voxels, md.options.mesh_voxel, kMaxDistanceVoxels));
+  try {
+    const std::string name = fmt::format("object {}", id);
+    return sign ? mesh_field(mesh, mo, name)
+                : detail::module_table<MeshSdfModule>("vdb").unsigned_mesh_field(mesh, mo, name);
+  } catch (const GeometryError& e) {
+    c.fail(at, fmt::format("<{}>: {}", at.name, e.what()));
+  }
+}
+
+// The field of a level-set object placed by `placement` (object → build, model units): its level
+// set (Part I §4.1.1) or the 2022 draft's <volumedata><boundary>, clipped to its mesh; `box`
+// grows by the mesh's box.
+Field level_set_field(Model& md, const El& obj, long long oid, const Affine& placement,
+                      BBox3& box) {
   const Ctx& c = md.ctx;
   const El* ls = child(obj, "levelset");
   const El* boundary = nullptr;
   if (const El* vd = child(obj, "volumedata")) boundary = child(*vd, "boundary");
-  if (!ls && !boundary) {
-    if (child(obj, "components"))
-      c.fail(obj, fmt::format("object {} is made of components; level-set designs are read from "
-                              "objects with a <levelset> placed by the build directly",
-                              oid));
-    c.fail(obj, fmt::format("object {} is a mesh and the build also places level-set objects: "
-                            "a mix of meshes and level sets is not read yet",
-                            oid));
-  }
   const El& at = ls ? *ls : *boundary;
   long long fid = 0;
   std::string channel;
@@ -290,18 +349,18 @@ Field object_field(const Model& md, const El& item, const El& obj, long long oid
   }
   const double fallback = number(c, at, "fallbackvalue", 0.0);
 
+  md.domain = BBox3{};
+  for (const Vec3& v : mesh_of(c, *domain, to_function, 1).vertices) md.domain.add(v);
   auto program = std::make_shared<Program>();
-  compile_level_set(c, md.functions, fid, channel, at, *program);
+  compile_level_set(c, md.res, fid, channel, at, *program);
 
-  const Affine item_m = matrix3d(c, item, "transform");  // object → build (model units)
-  const auto item_inv = inverse(item_m);
-  if (!item_inv) c.fail(item, "the item's transform is singular");
+  const auto inv = inverse(placement);
+  if (!inv) c.fail(obj, fmt::format("object {} is placed by a singular transform", oid));
   Affine from_mm;
   for (int i = 0; i < 3; ++i) from_mm.l[i][i] = 1 / md.mm;
-  const Field graph =
-      graph_field(program, compose(to_function, compose(*item_inv, from_mm)), fallback);
+  const Field graph = graph_field(program, compose(to_function, compose(*inv, from_mm)), fallback);
 
-  const TriangleMesh mesh = mesh_of(c, *domain, item_m, md.mm);
+  const TriangleMesh mesh = mesh_of(c, *domain, placement, md.mm);
   BBox3 b;
   for (const Vec3& v : mesh.vertices) b.add(v);
   box.add(b.min);
@@ -320,6 +379,59 @@ Field object_field(const Model& md, const El& item, const El& obj, long long oid
     f = intersect({f, mesh_field(mesh, mo, fmt::format("{} object {}", c.file, oid))});
   }
   return f;
+}
+
+Field object_field(Model& md, long long oid, const El& placed_by, const Affine& placement,
+                   BBox3& box);
+
+// The object an <item> or a <component> `e` places (its objectid, its transform after `outer`:
+// the placement of the object holding the component). An object of another model part (the
+// Production Extension's p:path) is refused.
+Field placed_object(Model& md, const El& e, const Affine& outer, BBox3& box) {
+  if (const char* path = e.attr("path"))
+    md.ctx.fail(e, fmt::format("<{}> p:path=\"{}\" places an object of another model part (3MF "
+                               "Production Extension), which this reader does not read",
+                               e.name, path));
+  return object_field(md, resource_id(md.ctx, e, "objectid"), e,
+                      compose(outer, matrix3d(md.ctx, e, "transform")), box);
+}
+
+// The field of object `oid` placed by `placement` (object → build, model units; `placed_by` the
+// item or component that placed it): a level-set object, a mesh object (its distance field at
+// slice.mesh_voxel: the mesh must be closed), or an object made of components (Core §4.2: each
+// placed by its transform inside the object; the union of their fields).
+Field object_field(Model& md, long long oid, const El& placed_by, const Affine& placement,
+                   BBox3& box) {
+  const Ctx& c = md.ctx;
+  auto o = md.objects.find(oid);
+  if (o == md.objects.end()) c.fail(placed_by, fmt::format("no object has id {}", oid));
+  const El& obj = *o->second;
+  const El* vd = child(obj, "volumedata");
+  if (child(obj, "levelset") || (vd && child(*vd, "boundary")))
+    return level_set_field(md, obj, oid, placement, box);
+  if (const El* mesh = child(obj, "mesh")) {
+    const TriangleMesh m = mesh_of(c, *mesh, placement, md.mm);
+    for (const Vec3& v : m.vertices) box.add(v);
+    MeshSdfOptions mo;
+    mo.voxel = md.options.mesh_voxel;
+    return mesh_field(m, mo, fmt::format("{} object {}", c.file, oid));
+  }
+  const El* components = child(obj, "components");
+  if (!components)
+    c.fail(obj, fmt::format("object {} has no <levelset>, <mesh> or <components>", oid));
+  if (std::find(md.placing.begin(), md.placing.end(), oid) != md.placing.end())
+    c.fail(placed_by, fmt::format("object {} contains itself through its components", oid));
+  if (md.placing.size() >= kMaxComponentDepth)
+    c.fail(placed_by, fmt::format("components nest deeper than {} objects", kMaxComponentDepth));
+  md.placing.push_back(oid);
+  std::vector<Field> parts;
+  for (const auto& k : components->kids) {
+    if (k->name != "component") continue;
+    parts.push_back(placed_object(md, *k, placement, box));
+  }
+  md.placing.pop_back();
+  if (parts.empty()) c.fail(*components, fmt::format("object {} has no <component>", oid));
+  return parts.size() == 1 ? parts[0] : unite(std::move(parts));
 }
 
 bool is_implicit(const std::string& path) {
@@ -357,22 +469,27 @@ VcadDesign read(const std::string& path, const VcadOptions& options) {
   const Ctx ctx{path, part[0] == '/' ? part : "/" + part};
   const auto root = parse_xml(*bytes, path, ctx.part);
   if (root->name != "model") ctx.fail(*root, "the model part's root is not <model>");
-  Model md{ctx, unit_mm(ctx, *root), {}, {}, options};
+  Model md{ctx, unit_mm(ctx, *root), {}, {}, {}, options, {}, {}, {}, {}};
+  md.part = [&](const std::string& name) { return read_part(z.z, name, path); };
+  md.res.image = [&md](const El& fn) {
+    return image_function(md.ctx, fn, [&](long long id) { return image3d(md, id, fn); });
+  };
+  md.res.mesh = [&md](long long id, bool sign, const El& at) {
+    return mesh_distance(md, id, sign, at);
+  };
   const El* resources = child(*root, "resources");
   const El* build = child(*root, "build");
   if (!resources || !build) ctx.fail(*root, "<model> has no <resources> or no <build>");
   for (const auto& k : resources->kids) {
-    if (is_function(*k)) md.functions[resource_id(ctx, *k, "id")] = k.get();
+    if (is_function(*k)) md.res.functions[resource_id(ctx, *k, "id")] = k.get();
     if (k->name == "object") md.objects[resource_id(ctx, *k, "id")] = k.get();
+    if (k->name == "image3d") md.images[resource_id(ctx, *k, "id")] = k.get();
   }
   std::vector<Field> parts;
   BBox3 box;
   for (const auto& item : build->kids) {
     if (item->name != "item") continue;
-    const long long oid = resource_id(ctx, *item, "objectid");
-    auto o = md.objects.find(oid);
-    if (o == md.objects.end()) ctx.fail(*item, fmt::format("no object has id {}", oid));
-    parts.push_back(object_field(md, *item, *o->second, oid, box));
+    parts.push_back(placed_object(md, *item, Affine{}, box));
   }
   if (parts.empty()) ctx.fail(*build, "the build places no object");
   VcadDesign d;

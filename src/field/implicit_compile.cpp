@@ -51,28 +51,25 @@ const std::map<std::string, Code>& binary_nodes() {
 
 class Compiler {
  public:
-  Compiler(const Ctx& ctx, const std::map<long long, const El*>& functions, Program& prog)
-      : ctx_(ctx), functions_(functions), prog_(prog) {}
+  Compiler(const Ctx& ctx, const Resources& res, Program& prog)
+      : ctx_(ctx), res_(res), prog_(prog) {}
 
   // The function resource `id` (a levelset's or a functioncall's), or a refusal at `where`.
   const El& function(long long id, const El& where) const {
-    auto it = functions_.find(id);
-    if (it == functions_.end())
+    auto it = res_.functions.find(id);
+    if (it == res_.functions.end())
       ctx_.fail(where, fmt::format("there is no function with id {}", id));
     const El& f = *it->second;
-    if (f.name == "functionfromimage3d")
-      ctx_.fail(where, fmt::format("function {} is a <functionfromimage3d> (volumetric image "
-                                   "stack, Part I §2.2), which this reader does not read yet: "
-                                   "only implicit functions (Part II ch. 3)",
-                                   id));
     if (f.name == "function" && f.kids.empty())
       ctx_.fail(f, fmt::format("function {} has no nodes", id));
     return f;
   }
 
-  // The declared inputs of a function: name → type (Part II ch. 3, <i:in>).
+  // The declared inputs of a function: name → type (Part II ch. 3, <i:in>; a
+  // <functionfromimage3d> takes the vector "pos", Part I §2.2).
   std::map<std::string, std::pair<Type, const El*>> inputs_of(const El& fn) const {
     std::map<std::string, std::pair<Type, const El*>> out;
+    if (is_image(fn)) out["pos"] = {Type::Vector, &fn};
     if (const El* in = child(fn, "in"))
       for (const auto& k : in->kids) {
         const auto t = type_of(k->name);
@@ -86,6 +83,8 @@ class Compiler {
     return out;
   }
 
+  static bool is_image(const El& fn) { return fn.name == "functionfromimage3d"; }
+
   // Compiles function `fn` (resource `id`) with its inputs bound: its outputs by name.
   std::map<std::string, Slot> instantiate(const El& fn, long long id,
                                           const std::map<std::string, Slot>& inputs) {
@@ -93,6 +92,7 @@ class Compiler {
       ctx_.fail(fn, fmt::format("function {} calls itself (through functioncall nodes): the "
                                 "graph must be acyclic (Part II §6.1)",
                                 id));
+    if (is_image(fn)) return image_outputs(fn, inputs.at("pos"));
     stack_.push_back(id);
     Scope sc{&fn, id, &inputs, {}, {}, {}};
     for (const auto& k : fn.kids) {
@@ -121,6 +121,24 @@ class Compiler {
   }
 
  private:
+  // A <functionfromimage3d> sampled at `uvw`: its outputs (Part I §2.2) red, green, blue, alpha
+  // and the vector color (red, green, blue).
+  std::map<std::string, Slot> image_outputs(const El& fn, const Slot& uvw) {
+    Instr in;
+    in.op = Code::Image;
+    in.n = 4;
+    in.dst = prog_.alloc(4);
+    in.a = uvw.off;
+    in.b = static_cast<std::int32_t>(prog_.images.size());
+    prog_.images.push_back(res_.image(fn));
+    prog_.code.push_back(in);
+    std::map<std::string, Slot> out;
+    const char* names[4] = {"red", "green", "blue", "alpha"};
+    for (int i = 0; i < 4; ++i) out[names[i]] = Slot{Type::Scalar, in.dst + i, 0};
+    out["color"] = Slot{Type::Vector, in.dst, 0};
+    return out;
+  }
+
   struct Scope {
     const El* fn;
     long long id;
@@ -445,10 +463,25 @@ class Compiler {
       }
       return m;
     }
-    if (kind == "mesh" || kind == "unsignedmesh")
-      ctx_.fail(node, fmt::format("{}: the distance to a mesh (Part II ch. 5, {}) is not read "
-                                  "yet; give the part as a mesh object or a .vcad mesh()",
-                                  where(sc, node), kind));
+    if (kind == "mesh" || kind == "unsignedmesh") {
+      // The distance to the mesh object named by the resource input "mesh" (the XSD; the
+      // specification's example also writes it as an objectid attribute).
+      const Slot pos = get("pos", Type::Vector);
+      const bool given =
+          std::any_of(ins.begin(), ins.end(), [](const auto& i) { return i.first == "mesh"; });
+      if (!given && !node.attr("objectid"))
+        ctx_.fail(node, where(sc, node) + " has no input \"mesh\" (the mesh object's id)");
+      const long long id =
+          given ? get("mesh", Type::Resource).resource : resource_id(ctx_, node, "objectid");
+      Instr in;
+      in.op = Code::Distance;
+      in.dst = prog_.alloc(1);
+      in.a = pos.off;
+      in.b = static_cast<std::int32_t>(prog_.fields.size());
+      prog_.fields.push_back(res_.mesh(id, kind == "mesh", node));
+      prog_.code.push_back(in);
+      return single(Slot{Type::Scalar, in.dst, 0});
+    }
     ctx_.fail(node, fmt::format("{}: <{}> is not a node type this reader knows (Part II ch. 5 "
                                 "lists the native nodes)",
                                 where(sc, node), node.name));
@@ -457,7 +490,7 @@ class Compiler {
   static constexpr int kMaxChain = 1000;
   static constexpr std::size_t kMaxOps = 1000000;
   const Ctx& ctx_;
-  const std::map<long long, const El*>& functions_;
+  const Resources& res_;
   Program& prog_;
   std::vector<long long> stack_;
   int depth_ = 0;
@@ -465,9 +498,9 @@ class Compiler {
 
 }  // namespace
 
-void compile_level_set(const Ctx& c, const std::map<long long, const El*>& functions, long long fid,
-                       std::string channel, const El& at, Program& program) {
-  Compiler comp(c, functions, program);
+void compile_level_set(const Ctx& c, const Resources& resources, long long fid, std::string channel,
+                       const El& at, Program& program) {
+  Compiler comp(c, resources, program);
   const El& fn = comp.function(fid, at);
   for (const auto& [name, td] : comp.inputs_of(fn))
     if (name != "pos" || td.first != Type::Vector)
@@ -479,6 +512,7 @@ void compile_level_set(const Ctx& c, const std::map<long long, const El*>& funct
   pos.type = Type::Vector;
   pos.off = program.pos;
   const auto outs = comp.instantiate(fn, fid, {{"pos", pos}});
+  if (channel.empty() && fn.name == "functionfromimage3d") channel = "red";
   if (channel.empty())  // the draft's boundary: the function's first scalar output
     if (const El* o = child(fn, "out"))
       for (const auto& k : o->kids)

@@ -130,7 +130,7 @@ void invert(const double* m, double* out) {
 
 }  // namespace
 
-void Program::run(double* r) const {
+void Program::run(double* r, EvalState& s, std::size_t depth) const {
   for (const Instr& in : code) {
     double* d = r + in.dst;
     const double* a = r + in.a;
@@ -210,6 +210,12 @@ void Program::run(double* r) const {
         std::memcpy(d, t, sizeof t);
         break;
       }
+      case Code::Image:
+        images[static_cast<std::size_t>(in.b)].sample(a, d);
+        break;
+      case Code::Distance:
+        d[0] = fields[static_cast<std::size_t>(in.b)].node().value({a[0], a[1], a[2]}, s, depth);
+        break;
       default:
         for (int i = 0; i < in.n; ++i) d[i] = unary(in.op, a[i]);
         break;
@@ -224,7 +230,8 @@ struct GraphNode : FieldNode {
   Affine to_function;
   double fallback = 0;
 
-  void eval(const Vec3* p, double* out, std::size_t n, EvalState& s, std::size_t) const override {
+  void eval(const Vec3* p, double* out, std::size_t n, EvalState& s,
+            std::size_t depth) const override {
     auto& slot = s.caches[this];
     if (!slot) slot = std::make_shared<std::vector<double>>(program->init);
     double* r = static_cast<std::vector<double>*>(slot.get())->data();
@@ -233,7 +240,7 @@ struct GraphNode : FieldNode {
       r[program->pos] = q.x;
       r[program->pos + 1] = q.y;
       r[program->pos + 2] = q.z;
-      program->run(r);
+      program->run(r, s, depth + 1);
       const double v = r[program->out];
       out[i] = std::isfinite(v) ? v : fallback;
     }

@@ -7,6 +7,7 @@
 #include <memory>
 #include <vector>
 
+#include "implicit_image.hpp"
 #include "trellis/field/field.hpp"
 
 namespace trellis::implicit {
@@ -60,7 +61,9 @@ enum class Code : std::uint8_t {
   Transpose,
   Inverse,
   FromColumns,
-  FromRows  // a, b, c, d: vectors; the fourth row (column) is 0 0 0 1
+  FromRows,  // a, b, c, d: vectors; the fourth row (column) is 0 0 0 1
+  Image,     // dst[0..4) = red, green, blue, alpha of images[b] at uvw a[0..3) (Part I §2.2)
+  Distance   // dst[0] = fields[b] at a[0..3) (Part II ch. 5, mesh and unsignedmesh)
 };
 
 struct Instr {
@@ -72,15 +75,18 @@ struct Instr {
 struct Program {
   std::vector<double> init;  // the register file with its constants
   std::vector<Instr> code;
-  int pos = 0;  // where the position goes (3 registers)
-  int out = 0;  // the scalar result
+  std::vector<ImageFunction> images;  // what Code::Image samples
+  std::vector<Field> fields;          // what Code::Distance evaluates (a mesh's distance)
+  int pos = 0;                        // where the position goes (3 registers)
+  int out = 0;                        // the scalar result
   int alloc(int n) {
     const int o = static_cast<int>(init.size());
     init.resize(init.size() + static_cast<std::size_t>(n), 0.0);
     return o;
   }
-  // Runs the code on `regs` (a copy of init; the position already in place).
-  void run(double* regs) const;
+  // Runs the code on `regs` (a copy of init; the position already in place); `s` and `depth`
+  // are the evaluation state and scratch depth the fields use.
+  void run(double* regs, Evaluator::State& s, std::size_t depth) const;
 };
 
 // p_function = l · p + t (p in the design's millimetres).

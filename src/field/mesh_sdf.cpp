@@ -99,12 +99,14 @@ struct MeshNode : FieldNode {
 
 namespace impl {
 
-Field mesh_field(const TriangleMesh& input, const MeshSdfOptions& options, std::string name) {
+// The mesh's signed distance (closed meshes) or its unsigned distance (any mesh).
+Field distance_field(const TriangleMesh& input, const MeshSdfOptions& options, std::string name,
+                     bool sign) {
   static std::once_flag init;
   std::call_once(init, [] { openvdb::initialize(); });
   if (!(options.voxel > 0)) throw GeometryError("mesh voxel size must be > 0", {name, 0, ""});
   const TriangleMesh mesh = weld(input);
-  require_closed(mesh, name);
+  if (sign) require_closed(mesh, name);
   const BBox3 box = bounds(mesh);
   const double span =
       std::max({box.max.x - box.min.x, box.max.y - box.min.y, box.max.z - box.min.z});
@@ -124,8 +126,11 @@ Field mesh_field(const TriangleMesh& input, const MeshSdfOptions& options, std::
   for (const auto& t : mesh.triangles) tris.emplace_back(t[0], t[1], t[2]);
   std::vector<openvdb::Vec4I> quads;
   const float band = static_cast<float>(std::max(options.band_voxels, 1.5));
-  openvdb::FloatGrid::Ptr grid = openvdb::tools::meshToSignedDistanceField<openvdb::FloatGrid>(
-      *transform, points, tris, quads, band, band);
+  openvdb::FloatGrid::Ptr grid =
+      sign ? openvdb::tools::meshToSignedDistanceField<openvdb::FloatGrid>(*transform, points, tris,
+                                                                           quads, band, band)
+           : openvdb::tools::meshToUnsignedDistanceField<openvdb::FloatGrid>(*transform, points,
+                                                                             tris, quads, band);
   auto node = std::make_shared<MeshNode>();
   node->grid = grid;
 
@@ -133,6 +138,15 @@ Field mesh_field(const TriangleMesh& input, const MeshSdfOptions& options, std::
   node->background = grid->background();
   node->name = std::move(name);
   return Field(node);
+}
+
+Field mesh_field(const TriangleMesh& mesh, const MeshSdfOptions& options, std::string name) {
+  return distance_field(mesh, options, std::move(name), true);
+}
+
+Field unsigned_mesh_field(const TriangleMesh& mesh, const MeshSdfOptions& options,
+                          std::string name) {
+  return distance_field(mesh, options, std::move(name), false);
 }
 
 TriangleMesh field_to_mesh(const Field& field, const BBox3& box, double voxel, MeshingStats* stats,
@@ -224,4 +238,4 @@ TriangleMesh field_to_mesh(const Field& field, const BBox3& box, double voxel, M
 }  // namespace trellis
 
 TRELLIS_MODULE_ENTRY(vdb, trellis::MeshSdfModule, &trellis::impl::mesh_field,
-                     &trellis::impl::field_to_mesh)
+                     &trellis::impl::field_to_mesh, &trellis::impl::unsigned_mesh_field)

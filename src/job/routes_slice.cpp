@@ -36,6 +36,8 @@ namespace fs = std::filesystem;
 void laser_previews(const Toolpath& tp, const Job& job, const Config& c, JobResult& out) {
   RenderOptions ro;
   ro.colour_by_role = true;
+  ro.colour_by_tool = c.laser.lasers > 1;  // which laser scans each vector
+  ro.tools_are_lasers = true;
   ro.travel = false;
   ro.starts = false;
   ro.bead_width = c.laser.melt_pool_width;
@@ -45,7 +47,10 @@ void laser_previews(const Toolpath& tp, const Job& job, const Config& c, JobResu
 }
 
 LaserSetup lasers_of(const Config& c) {
-  return laser_setup(c.laser.lasers, c.laser.fields, c.pbf.laser_overlap, scan_timing(c.laser));
+  LaserSetup s =
+      laser_setup(c.laser.lasers, c.laser.fields, c.pbf.laser_overlap, scan_timing(c.laser));
+  s.axis = c.pbf.laser_split_axis;
+  return s;
 }
 
 bool splits_layers(const Config& c) {
@@ -65,6 +70,8 @@ void add_laser_report(nlohmann::ordered_json& j, const LaserTimes& t, const Conf
   }
   j["lasers"] = {{"count", c.laser.lasers},
                  {"overlap_mm", c.pbf.laser_overlap},
+                 {"split_axis", to_string(c.pbf.laser_split_axis)},
+                 {"layers_split_along_y", t.along_y},
                  {"scan_time_s", totals},
                  {"build_time_s", t.build_seconds()},
                  {"all_lasers_time_s", all},

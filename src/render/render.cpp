@@ -174,10 +174,12 @@ void render_layer_png(const Toolpath& tp, std::size_t index, const std::string& 
   cairo_set_source_rgb(cr.get(), 1, 1, 1);
   cairo_paint(cr.get());
   const std::size_t n = layer.paths.size();
-  enum class Mode { Order, Role, Mixture2, Mixture3 } mode = Mode::Order;
+  enum class Mode { Order, Role, Mixture2, Mixture3, Tool } mode = Mode::Order;
   bool mixed2 = false, mixed3 = false;
   for (const auto& p : layer.paths) (p.mixture.size() >= 3 ? mixed3 : mixed2) |= !p.mixture.empty();
-  if (opt.colour_by_mixture && mixed3)
+  if (opt.colour_by_tool)
+    mode = Mode::Tool;
+  else if (opt.colour_by_mixture && mixed3)
     mode = Mode::Mixture3;
   else if (opt.colour_by_mixture && mixed2)
     mode = Mode::Mixture2;
@@ -210,7 +212,9 @@ void render_layer_png(const Toolpath& tp, std::size_t index, const std::string& 
     const double bead = opt.bead_width > 0 ? opt.bead_width : (p.width > 0 ? p.width : 0.2);
     bead_min = std::min(bead_min, bead);
     cairo_set_line_width(cr.get(), std::max(bead, 1.5 / scale));
-    if (mode == Mode::Mixture3 && p.mixture.size() >= 3) {
+    if (mode == Mode::Tool) {
+      tool_colour(cr.get(), p.tool);
+    } else if (mode == Mode::Mixture3 && p.mixture.size() >= 3) {
       // Three materials: the blend of their colours at the corners of the mixture triangle.
       set_rgb(cr.get(), mixture3_rgb(p.mixture[0], p.mixture[1], p.mixture[2]));
     } else if ((mode == Mode::Mixture2 || mode == Mode::Mixture3) && !p.mixture.empty()) {
@@ -252,7 +256,9 @@ void render_layer_png(const Toolpath& tp, std::size_t index, const std::string& 
   char line[256];
   const std::string meaning = mode == Mode::Order  ? "colour: print order"
                               : mode == Mode::Role ? "colour: feature type"
-                                                   : "colour: mixture " + opt.mixture_label;
+                              : mode == Mode::Tool
+                                  ? (opt.tools_are_lasers ? "colour: laser" : "colour: tool")
+                                  : "colour: mixture " + opt.mixture_label;
   std::snprintf(line, sizeof line, "layer %zu of %zu, z = %.3f mm, %zu paths; %s", index + 1,
                 tp.layers.size(), layer.z, n, meaning.c_str());
   // Smaller type when the line would run past the picture's edge (a long mixture label).
@@ -261,31 +267,32 @@ void render_layer_png(const Toolpath& tp, std::size_t index, const std::string& 
   // Legend band: what colour means (left), scale bar in mm (right).
   const double y0 = band + Hd, ymid = y0 + band * 0.5, sw = band * 0.3;
   double x = pad;
+  // A swatch of `rgb` and its label.
+  auto swatch = [&](const Rgb& rgb, const std::string& label) {
+    set_rgb(c, rgb);
+    cairo_rectangle(c, x, ymid - sw / 2, sw * 1.6, sw);
+    cairo_fill(c);
+    x += sw * 2;
+    cairo_set_source_rgb(c, 0.1, 0.1, 0.1);
+    text(c, x, ymid + fs * 0.3, fs * 0.85, label);
+    x += text_width(c, fs * 0.85, label) + sw;
+  };
   if (mode == Mode::Role) {
     bool used[kPathRoleCount] = {};
     for (const auto& p : layer.paths) used[static_cast<std::size_t>(p.role)] = true;
-    for (std::size_t r = 0; r < kPathRoleCount; ++r) {
-      if (!used[r]) continue;
-      role_colour(c, static_cast<PathRole>(r));
-      cairo_rectangle(c, x, ymid - sw / 2, sw * 1.6, sw);
-      cairo_fill(c);
-      x += sw * 2;
-      cairo_set_source_rgb(c, 0.1, 0.1, 0.1);
-      const std::string label = to_string(static_cast<PathRole>(r));
-      text(c, x, ymid + fs * 0.3, fs * 0.85, label);
-      x += text_width(c, fs * 0.85, label) + sw;
-    }
+    for (std::size_t r = 0; r < kPathRoleCount; ++r)
+      if (used[r]) swatch(role_rgb(static_cast<PathRole>(r)), to_string(static_cast<PathRole>(r)));
+  } else if (mode == Mode::Tool) {
+    std::vector<int> tools;
+    for (const auto& p : layer.paths) tools.push_back(p.tool);
+    std::sort(tools.begin(), tools.end());
+    tools.erase(std::unique(tools.begin(), tools.end()), tools.end());
+    for (int t : tools)
+      swatch(tool_rgb(t),
+             opt.tools_are_lasers ? "laser " + std::to_string(t + 1) : "tool " + std::to_string(t));
   } else if (mode == Mode::Mixture3) {
     const char* names[] = {"material 1", "material 2", "material 3"};
-    for (int k = 0; k < 3; ++k) {
-      set_rgb(c, palette().mixture3[k]);
-      cairo_rectangle(c, x, ymid - sw / 2, sw * 1.6, sw);
-      cairo_fill(c);
-      x += sw * 2;
-      cairo_set_source_rgb(c, 0.1, 0.1, 0.1);
-      text(c, x, ymid + fs * 0.3, fs * 0.85, names[k]);
-      x += text_width(c, fs * 0.85, names[k]) + sw;
-    }
+    for (int k = 0; k < 3; ++k) swatch(palette().mixture3[k], names[k]);
   } else {
     // A colour bar: print order first .. last, or the fraction of material 1.
     const std::string lo = mode == Mode::Order ? "first" : "0",

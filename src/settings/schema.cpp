@@ -367,6 +367,7 @@ const std::vector<std::pair<const char*, const char*>>& when_table() {
       {"pbf.wall_azimuth", "!@mesh; pbf.strategy=hybrid|r67"},
       {"pbf.resolution", "!@mesh"},
       {"pbf.laser_overlap", "laser.lasers>1"},
+      {"pbf.laser_split_axis", "laser.lasers>1"},
       {"pbf.stripe_width", "pbf.strategy=stripe"},
       {"pbf.stripe_overlap", "pbf.strategy=stripe"},
       {"pbf.island_size", "pbf.strategy=island"},
@@ -1043,6 +1044,11 @@ std::vector<Setting> make_table() {
       "neighbouring lasers' stripes overlap: a vector crossing a boundary by at "
       "most half this goes whole to one laser, a longer one is cut there",
       "laser-overlap", [](C& c) -> auto& { return c.pbf.laser_overlap; }));
+  t.push_back(choice_enum<LaserAxis>(
+      "pbf.laser_split_axis", {{"x", LaserAxis::X}, {"y", LaserAxis::Y}, {"auto", LaserAxis::Auto}},
+      "the lasers' stripes follow one another along X (laser 1 leftmost), along Y (laser 1 at the "
+      "front), or per layer along the axis that builds it sooner (auto)",
+      "laser-split-axis", [](C& c) -> auto& { return c.pbf.laser_split_axis; }));
 
   // nonplanar.*, surface.*
   t.push_back(derived(positive("nonplanar.bead_width", "mm", 100, "path width = plane spacing",

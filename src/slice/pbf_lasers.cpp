@@ -5,7 +5,9 @@
 #include <algorithm>
 #include <cmath>
 #include <deque>
+#include <exception>
 #include <limits>
+#include <optional>
 
 #include "trellis/core/error.hpp"
 
@@ -68,10 +70,16 @@ std::vector<std::vector<Vec3>> cut_at(const Path& path, const std::vector<double
   return out;
 }
 
+// Splits a layer into stripes across X. Along Y, the caller swaps X and Y of the layer and the
+// fields first (`swapped`: coordinates in messages are swapped back).
 class Splitter {
  public:
-  Splitter(const Layer& layer, const LaserSetup& setup, std::size_t index)
-      : layer_(layer), setup_(setup), index_(index), n_(static_cast<int>(setup.fields.size())) {
+  Splitter(const Layer& layer, const LaserSetup& setup, std::size_t index, bool swapped)
+      : layer_(layer),
+        setup_(setup),
+        index_(index),
+        n_(static_cast<int>(setup.fields.size())),
+        swapped_(swapped) {
     for (const Path& p : layer.paths) extents_.push_back(extent_of(p.points));
   }
 
@@ -88,13 +96,14 @@ class Splitter {
       for (const auto& pts : parts) {
         const Extent e = extent_of(pts);
         const int l = reaching(e, stripe_of(e.mid(), b));
-        if (l < 0)
+        if (l < 0) {
+          const Vec3 a = unswapped(pts.front()), b = unswapped(pts.back());
           throw GeometryError(
               fmt::format("layer {}: a {} vector from ({:.3f}, {:.3f}) to ({:.3f}, {:.3f}) lies in "
                           "no laser's field: widen the fields or move the part",
-                          index_, to_string(path.role), pts.front().x, pts.front().y, pts.back().x,
-                          pts.back().y),
+                          index_, to_string(path.role), a.x, a.y, b.x, b.y),
               {"", 0, "laser.fields"});
+        }
         if (parts.size() == 1) {
           s.pieces.push_back({i, l, &path});
         } else {
@@ -171,6 +180,8 @@ class Splitter {
   }
 
  private:
+  Vec3 unswapped(Vec3 p) const { return swapped_ ? Vec3{p.y, p.x, p.z} : p; }
+
   // Equal shares of an estimate of each vector's time, placed at its middle.
   void initial(std::vector<double>& b, double x0, double x1) const {
     std::vector<std::pair<double, double>> w;
@@ -222,10 +233,75 @@ class Splitter {
   const LaserSetup& setup_;
   std::size_t index_;
   int n_;
+  bool swapped_;
   std::vector<Extent> extents_;
 };
 
+LaserSplit split_across_x(Layer& layer, const LaserSetup& setup, std::size_t layer_index,
+                          bool swapped) {
+  LaserSplit r;
+  const Splitter sp(layer, setup, layer_index, swapped);
+  r.boundaries = setup.fields.size() > 1 ? sp.balance() : std::vector<double>{};
+  Split s = sp.split(r.boundaries);
+  r.seconds = sp.seconds(s);
+  r.cut = s.cut_paths;
+  if (setup.fields.size() == 1) {
+    for (std::size_t i = 0; i < layer.paths.size(); ++i) r.source.push_back(i);
+    return r;  // one laser: every path is its own, as it was
+  }
+  std::vector<Path> paths;
+  paths.reserve(s.pieces.size());
+  for (const Piece& p : s.pieces) {
+    Path q = p.path == &layer.paths[p.source] ? std::move(layer.paths[p.source]) : *p.path;
+    q.tool = p.laser;
+    paths.push_back(std::move(q));
+    r.source.push_back(p.source);
+  }
+  layer.paths = std::move(paths);
+  return r;
+}
+
+void swap_xy(Layer& layer) {
+  for (Path& p : layer.paths)
+    for (Vec3& q : p.points) std::swap(q.x, q.y);
+}
+
+LaserSetup swap_xy(LaserSetup s) {
+  for (BBox2& f : s.fields) std::swap(f.min.x, f.min.y), std::swap(f.max.x, f.max.y);
+  return s;
+}
+
+// The split across X, or across Y with X and Y swapped around it.
+LaserSplit split_along(Layer& layer, const LaserSetup& setup, std::size_t layer_index,
+                       LaserAxis axis) {
+  const bool y = axis == LaserAxis::Y;
+  if (!y) return split_across_x(layer, setup, layer_index, false);
+  swap_xy(layer);
+  LaserSplit r;
+  try {
+    r = split_across_x(layer, swap_xy(setup), layer_index, true);
+  } catch (...) {
+    swap_xy(layer);
+    throw;
+  }
+  swap_xy(layer);
+  r.axis = LaserAxis::Y;
+  return r;
+}
+
 }  // namespace
+
+const char* to_string(LaserAxis axis) {
+  switch (axis) {
+    case LaserAxis::X:
+      return "x";
+    case LaserAxis::Y:
+      return "y";
+    case LaserAxis::Auto:
+      break;
+  }
+  return "auto";
+}
 
 BBox2 whole_plate() {
   return {{-kInf, -kInf}, {kInf, kInf}};
@@ -264,31 +340,34 @@ double LaserSplit::build_seconds() const {
 }
 
 LaserSplit split_among_lasers(Layer& layer, const LaserSetup& setup, std::size_t layer_index) {
-  LaserSplit r;
-  const Splitter sp(layer, setup, layer_index);
-  r.boundaries = setup.fields.size() > 1 ? sp.balance() : std::vector<double>{};
-  Split s = sp.split(r.boundaries);
-  r.seconds = sp.seconds(s);
-  r.cut = s.cut_paths;
-  if (setup.fields.size() == 1) {
-    for (std::size_t i = 0; i < layer.paths.size(); ++i) r.source.push_back(i);
-    return r;  // one laser: every path is its own, as it was
+  if (setup.fields.size() == 1 || setup.axis != LaserAxis::Auto)
+    return split_along(layer, setup, layer_index,
+                       setup.fields.size() == 1 ? LaserAxis::X : setup.axis);
+  // Auto: both splits, the sooner built kept (X on a tie); one the fields refuse is skipped.
+  Layer other = layer;
+  std::optional<LaserSplit> x, y;
+  std::exception_ptr x_failed;
+  try {
+    x = split_along(layer, setup, layer_index, LaserAxis::X);
+  } catch (const GeometryError&) {
+    x_failed = std::current_exception();
   }
-  std::vector<Path> paths;
-  paths.reserve(s.pieces.size());
-  for (const Piece& p : s.pieces) {
-    Path q = p.path == &layer.paths[p.source] ? std::move(layer.paths[p.source]) : *p.path;
-    q.tool = p.laser;
-    paths.push_back(std::move(q));
-    r.source.push_back(p.source);
+  try {
+    y = split_along(other, setup, layer_index, LaserAxis::Y);
+  } catch (const GeometryError&) {
+    if (x_failed) std::rethrow_exception(x_failed);
   }
-  layer.paths = std::move(paths);
-  return r;
+  if (!x || (y && y->build_seconds() < x->build_seconds() * (1 - 1e-9))) {
+    layer = std::move(other);
+    return *y;
+  }
+  return *x;
 }
 
 void LaserTimes::add(const LaserSplit& split) {
   per_layer.push_back(split.seconds);
   cut += split.cut;
+  along_y += split.axis == LaserAxis::Y;
 }
 
 std::vector<double> LaserTimes::totals() const {

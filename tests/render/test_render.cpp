@@ -138,6 +138,35 @@ TEST(Render, LayerPngHasTitleLegendAndScaleBar) {
   EXPECT_NEAR(longest_black_run(im, band + 400, im.h), 200, 2);
 }
 
+// Colour by tool (the lasers of a multi-laser build file): each path in its tool's colour of the
+// palette, before its feature type, and a swatch per tool drawn in the legend band.
+TEST(Render, LayerPngColouredByTool) {
+  Toolpath tp = two_features();
+  tp.layers[0].paths[0].tool = 0;  // the contour on laser 1, the hatch on laser 2
+  tp.layers[0].paths[1].tool = 1;
+  const trellis::test::TempDir tmp("trellis_render_tool");
+  const std::string path = tmp.file("layer.png");
+  RenderOptions o;
+  o.size_px = 800;
+  o.margin_mm = 0;
+  o.colour_by_role = true;
+  o.colour_by_tool = true;
+  o.tools_are_lasers = true;
+  render_layer_png(tp, 0, path, o);
+  const Image im = decode(path);
+  const int band = layer_band_px(800);
+  auto rgb = [](int tool) {
+    const Rgb c = tool_rgb(tool);
+    return static_cast<unsigned>(c[0] << 16 | c[1] << 8 | c[2]);
+  };
+  ASSERT_NE(rgb(0), rgb(1));
+  for (int t : {0, 1}) {
+    EXPECT_GT(count(im, band, band + 400, rgb(t)), 100u) << "tool " << t;
+    EXPECT_GT(count(im, band + 400, im.h, rgb(t)), 20u) << "tool " << t << "'s swatch";
+  }
+  EXPECT_EQ(count(im, band, band + 400, 0xd62728), 0u);  // no feature colour (the contour's)
+}
+
 // Print order: the legend band carries a colour bar (many distinct colours).
 TEST(Render, LayerPngOrderHasColourBar) {
   const Toolpath tp = two_features();

@@ -253,3 +253,119 @@ TEST(PbfLasers, TimesOfAToolpathReadBack) {
   EXPECT_DOUBLE_EQ(t.build_seconds(), build);
   EXPECT_LE(t.build_seconds(), totals[0] + totals[1] + totals[2]);
 }
+
+namespace {
+
+Layer transposed(Layer l) {
+  for (Path& p : l.paths)
+    for (Vec3& q : p.points) std::swap(q.x, q.y);
+  return l;
+}
+
+LaserSetup transposed(LaserSetup s) {
+  for (BBox2& f : s.fields) std::swap(f.min.x, f.min.y), std::swap(f.max.x, f.max.y);
+  return s;
+}
+
+}  // namespace
+
+// Stripes along Y are stripes along X of the layer turned about the diagonal: the same lasers,
+// boundaries and times, the points the turned ones; each laser's vectors lie in its Y stripe
+// (within half the overlap), in its field, and the pieces are the layer.
+TEST(PbfLasers, StripesAlongYAreTheTransposedSplitAlongX) {
+  for (unsigned seed = 1; seed <= 6; ++seed)
+    for (int lasers : {2, 3}) {
+      const std::string what = "seed " + std::to_string(seed) + ", " + std::to_string(lasers);
+      const Layer layer = transposed(random_layer(seed, 150, 15));  // [0, 50] × [0, 100]
+      LaserSetup setup = transposed(striped(lasers, 10, 2));
+      setup.axis = LaserAxis::Y;
+      Layer along_y = layer, along_x = transposed(layer);
+      LaserSetup x_setup = transposed(setup);
+      x_setup.axis = LaserAxis::X;
+      const LaserSplit sy = split_among_lasers(along_y, setup, seed);
+      const LaserSplit sx = split_among_lasers(along_x, x_setup, seed);
+      EXPECT_EQ(sy.axis, LaserAxis::Y) << what;
+      EXPECT_EQ(sx.axis, LaserAxis::X) << what;
+      EXPECT_EQ(sy.boundaries, sx.boundaries) << what;
+      EXPECT_EQ(sy.seconds, sx.seconds) << what;
+      EXPECT_EQ(sy.source, sx.source) << what;
+      const Layer back = transposed(along_x);
+      ASSERT_EQ(along_y.paths.size(), back.paths.size()) << what;
+      for (std::size_t i = 0; i < back.paths.size(); ++i) {
+        EXPECT_EQ(along_y.paths[i].tool, back.paths[i].tool) << what;
+        EXPECT_EQ(along_y.paths[i].points, back.paths[i].points) << what;
+      }
+      expect_partition(layer, along_y, sy, setup, what);
+      expect_times(along_y, sy, setup);
+      for (const Path& p : along_y.paths)
+        for (const Vec3& q : p.points) {
+          const auto l = static_cast<std::size_t>(p.tool);
+          if (l > 0) {
+            EXPECT_GE(q.y, sy.boundaries[l - 1] - 1 - 1e-9) << what;
+          }
+          if (l + 1 < setup.fields.size()) {
+            EXPECT_LE(q.y, sy.boundaries[l] + 1 + 1e-9) << what;
+          }
+        }
+    }
+}
+
+// auto keeps, per layer, whichever axis builds the layer sooner (X on a tie): the kept split is
+// the faster of the two, and a partition of the layer.
+TEST(PbfLasers, AutoKeepsTheAxisThatBuildsSooner) {
+  for (unsigned seed = 1; seed <= 6; ++seed)
+    for (bool long_in_y : {false, true}) {
+      const std::string what = "seed " + std::to_string(seed) + (long_in_y ? ", long in Y" : "");
+      // Long vectors across a narrow part: cut by stripes across them, whole in stripes along.
+      Layer layer = random_layer(seed, 120, 40);
+      if (long_in_y) layer = transposed(layer);
+      double best = 1e300;
+      for (LaserAxis axis : {LaserAxis::X, LaserAxis::Y}) {
+        Layer l = layer;
+        LaserSetup s = laser_setup(2, {}, 0, ScanTiming{});
+        s.axis = axis;
+        best = std::min(best, split_among_lasers(l, s, 0).build_seconds());
+      }
+      Layer l = layer;
+      LaserSetup s = laser_setup(2, {}, 0, ScanTiming{});
+      s.axis = LaserAxis::Auto;
+      const LaserSplit a = split_among_lasers(l, s, 0);
+      EXPECT_DOUBLE_EQ(a.build_seconds(), best) << what;
+      expect_partition(layer, l, a, s, what);
+    }
+  // Fields one behind the other in Y: a vector across both (x = 50, y 20..30) cannot be cut
+  // along X into pieces each field holds, so auto splits along Y.
+  Layer layer = random_layer(4, 80, 5);
+  Path across;
+  across.role = PathRole::Hatch;
+  across.points = {{50, 20, 0.02}, {50, 30, 0.02}};
+  layer.paths.push_back(across);
+  LaserSetup s = laser_setup(2, {0, 0, 100, 26, 0, 24, 100, 50}, 1, ScanTiming{});
+  Layer x = layer;
+  EXPECT_THROW(split_among_lasers(x, s, 0), GeometryError);
+  s.axis = LaserAxis::Auto;
+  Layer l = layer;
+  const LaserSplit a = split_among_lasers(l, s, 0);
+  EXPECT_EQ(a.axis, LaserAxis::Y);
+  expect_partition(layer, l, a, s, "fields in Y");
+}
+
+// A vector no laser reaches is named in the layer's own coordinates when splitting along Y.
+TEST(PbfLasers, RefusalsAlongYNameTheVectorAsItIs) {
+  Layer layer;
+  Path p;
+  p.role = PathRole::Hatch;
+  p.points = {{80, 10, 0}, {85, 10, 0}};
+  layer.paths.push_back(p);
+  LaserSetup s = laser_setup(2, {0, 0, 50, 50, 0, 40, 50, 90}, 1, ScanTiming{});
+  s.axis = LaserAxis::Y;
+  try {
+    split_among_lasers(layer, s, 3);
+    FAIL() << "a vector outside every field was accepted";
+  } catch (const GeometryError& e) {
+    EXPECT_NE(std::string(e.what()).find("from (80.000, 10.000) to (85.000, 10.000)"),
+              std::string::npos)
+        << e.what();
+  }
+  EXPECT_EQ(layer.paths[0].points[0].x, 80);  // the layer is left as it was
+}

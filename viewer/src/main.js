@@ -182,6 +182,8 @@ class Viewer {
     this.layerLo = 0;
     this.layerHi = Math.max(0, L - 1);
     this.applyRange();
+    // A build file of several lasers opens coloured by laser (which laser scans each vector).
+    if (this.lasers() > 1) this.mode = 'tool';
     this.setMode(this.mode);
     this.fillStats();
     this.view('iso');
@@ -243,7 +245,7 @@ class Viewer {
         used.set(key[p], (used.get(key[p]) || 0) + (s.joinedOf[p] ? 0 : 1));
       }
       legend = { kind: 'category', items: [...used.keys()].sort((a, b) => a - b).map((k) => ({
-        label: mode === 'feature' ? s.meta.roles[k] : `tool ${k}`, color: palette[k % palette.length], paths: used.get(k) })) };
+        label: mode === 'feature' ? s.meta.roles[k] : this.laser() ? `laser ${k + 1}` : `tool ${k}`, color: palette[k % palette.length], paths: used.get(k) })) };
     } else {
       const value = this.valueOf(mode);
       let lo = Infinity, hi = -Infinity;
@@ -274,7 +276,8 @@ class Viewer {
     }
     this.lines.geometry.attributes.color.needsUpdate = true;
     this.legend = legend;
-    this.drawLegend(legend.kind === 'triangle' ? `Mixture as ${mode === 'commanded' ? 'commanded' : 'deposited'}: materials 1, 2 and 3` : m.title, legend);
+    const title = mode === 'tool' && this.laser() ? 'Laser' : m.title;
+    this.drawLegend(legend.kind === 'triangle' ? `Mixture as ${mode === 'commanded' ? 'commanded' : 'deposited'}: materials 1, 2 and 3` : title, legend);
     this.requestRender();
   }
 
@@ -503,6 +506,14 @@ class Viewer {
       td.dataset.stat = k;
     }
     $('tv-warnings').textContent = meta.warnings.join('\n');
+  }
+
+  // The lasers of a laser file (its paths' tools are laser indices), 0 for any other file.
+  lasers() {
+    if (!this.laser()) return 0;
+    let hi = -1;
+    for (let p = 0; p < this.s.pathCount; ++p) if (this.s.tool[p] > hi) hi = this.s.tool[p];
+    return hi + 1;
   }
 
   // A laser file (a .cli build file, or paths that carry a laser power): scans and jumps, not

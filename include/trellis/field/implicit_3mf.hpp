@@ -5,10 +5,12 @@
 // (its bounding box, or the mesh itself unless meshbboxonly), so a design written by another
 // implicit modeller slices on every field route like a .vcad.
 //
-// Read: the native nodes except mesh/unsignedmesh (distance to a mesh) and functions other than
-// implicit ones (functionfromimage3d: volumetric image stacks), which are refused by name with
-// the part, line and column; also the 2022 draft's <v:function> and <volumedata><boundary>
-// (the 3MF Consortium's sample ImplicitGyroid.3mf). A 3MF whose objects are meshes is not one.
+// Read: every native node (mesh/unsignedmesh through the kernel's distance field of the mesh),
+// volumetric image stacks (<functionfromimage3d> over an <image3d> of PNG sheets, Part I ch.
+// 2-3), objects made of components, mesh objects beside level sets (their distance fields);
+// also the 2022 draft's <v:function> and <volumedata><boundary> (the 3MF Consortium's sample
+// ImplicitGyroid.3mf). Anything else is refused by name with the part, line and column. A 3MF
+// whose objects are all meshes is not one.
 #pragma once
 #include <string>
 

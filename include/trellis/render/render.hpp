@@ -24,6 +24,11 @@ struct RenderOptions {
   // Graded paths by their first material's fraction (the palette's mixture map, as the viewer);
   // three materials as the blend of their colours.
   bool colour_by_mixture = false;
+  // Paths by Path::tool (a swatch per tool; before role and mixture): the lasers of a multi-laser
+  // build file, labelled "laser N" from 1 (as the .cli and the reports) with tools_are_lasers,
+  // else "tool N" from 0.
+  bool colour_by_tool = false;
+  bool tools_are_lasers = false;
   // What the mixture shown is, in the title after "colour: mixture" (a G-code file read back shows
   // it as deposited, its mixing look-ahead undone; view/view.hpp).
   std::string mixture_label = "(as planned)";

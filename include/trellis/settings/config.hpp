@@ -13,6 +13,7 @@
 #include "trellis/plan/plan.hpp"
 #include "trellis/slice/nonplanar.hpp"
 #include "trellis/slice/pbf.hpp"
+#include "trellis/slice/pbf_lasers.hpp"
 #include "trellis/slice/pbf_skin.hpp"
 #include "trellis/slice/scan_strategy.hpp"
 #include "trellis/slice/pipeline.hpp"
@@ -65,6 +66,7 @@ struct PbfConfig {
   double wall_azimuth = 0;      // deg from X
   bool binary = false;          // binary CLI geometry
   double laser_overlap = 1;     // mm: neighbouring lasers' stripes overlap (laser.lasers > 1)
+  LaserAxis laser_split_axis = LaserAxis::X;  // the lasers' stripes follow one another along
   std::string route = "direct"; // direct | stl
   // hybrid | r67 (TPMS sheets; a mesh part is scanned as meander) | rectilinear | meander |
   // stripe | island (solid parts: a mesh, or a .vcad scanned as a solid)

@@ -1,6 +1,7 @@
 // Multi-laser PBF: one layer's scan vectors shared among the machine's lasers (docs/laser.md).
-// The plate is split into stripes along X, one per laser in the order the lasers are declared
-// (laser 0 leftmost); the stripe boundaries move per layer so that the lasers' scan times
+// The plate is split into stripes across X or Y (LaserAxis), one per laser in the order the
+// lasers are declared (laser 0 at the low end); the stripe boundaries move per layer so that the
+// lasers' scan times
 // (toolpath/scan_time.hpp: scan_time) come out as equal as their fields allow. A vector crossing
 // a boundary goes whole to one laser when it stays within `overlap` / 2 of the boundary on the
 // other side (the stripes overlap by `overlap`); a longer one is cut at the boundary, each piece
@@ -15,12 +16,19 @@
 
 namespace trellis {
 
+// The axis the stripes follow one another along: X (boundaries are lines x = const), Y, or auto:
+// per layer the axis whose split builds the layer sooner (its slowest laser), X on a tie; an
+// axis the fields cannot serve is skipped.
+enum class LaserAxis { X, Y, Auto };
+const char* to_string(LaserAxis axis);
+
 struct LaserSetup {
   // One field per laser (what its scanner reaches, in the toolpath's coordinates, mm), in stripe
   // order. Its size is the laser count.
   std::vector<BBox2> fields;
   double overlap = 0;  // mm: neighbouring stripes overlap by this
-  ScanTiming timing;   // every laser's scanner
+  LaserAxis axis = LaserAxis::X;
+  ScanTiming timing;  // every laser's scanner
 };
 
 // The whole plane: a laser that reaches everywhere.
@@ -34,7 +42,8 @@ LaserSetup laser_setup(int lasers, const std::vector<double>& fields, double ove
 
 struct LaserSplit {
   std::vector<double> seconds;     // scan time per laser (s)
-  std::vector<double> boundaries;  // the lasers' stripe boundaries in X (mm), lasers - 1 of them
+  LaserAxis axis = LaserAxis::X;   // the axis the layer was split along (X or Y)
+  std::vector<double> boundaries;  // the stripe boundaries along it (mm), lasers - 1 of them
   std::size_t cut = 0;             // vectors cut at a boundary
   // For each path of the layer after the split, the index of the path it came from (pieces of
   // a cut path share it, in order along the path).
@@ -42,7 +51,8 @@ struct LaserSplit {
   double build_seconds() const;  // the slowest laser's time: the layer's scan time
 };
 
-// Splits `layer` among the setup's lasers: every path's `tool` becomes its laser index, a path
+// Splits `layer` among the setup's lasers along setup.axis: every path's `tool` becomes its
+// laser index, a path
 // cut at a boundary becomes its pieces in place (same values, its points cut). One laser: the
 // layer is left as it is (tool 0), its time reported. A vector no laser's field holds →
 // GeometryError naming the layer (`layer_index`), the vector and laser.fields.
@@ -53,6 +63,7 @@ LaserSplit split_among_lasers(Layer& layer, const LaserSetup& setup, std::size_t
 struct LaserTimes {
   std::vector<std::vector<double>> per_layer;  // [layer][laser] (s)
   std::size_t cut = 0;
+  std::size_t along_y = 0;  // layers split along Y
   void add(const LaserSplit& split);
   std::vector<double> totals() const;  // per laser (s)
   double build_seconds() const;
