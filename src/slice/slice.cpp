@@ -191,28 +191,15 @@ Regions skin_of(const Regions& eroded, const Regions* under, const Regions* over
   return core.empty() ? core : offset(core, 0.5 * bead);
 }
 
-// An island's insets, each offset from the one before (a wall's inset from the previous wall is
-// cheaper than from the outline, whose small features the first offset has already removed):
-// the wall regions, outside in, at (k + 0.5) beads for k < walls while not empty, and the infill
-// region inside the innermost wall, reaching `overlap` of a bead into it.
-struct Insets {
-  std::vector<Regions> walls;
-  Regions infill;
-};
-
-Insets inset_chain(const Polygon2& island, int walls, double bead, double overlap) {
-  Insets out;
-  const Regions outline{island};
-  // The region the next inset is taken from and how far in: the outline by half a bead to the
-  // first wall's centre line, then each wall by a bead.
-  auto from = [&]() -> const Regions& { return out.walls.empty() ? outline : out.walls.back(); };
-  auto step = [&] { return out.walls.empty() ? 0.5 * bead : bead; };
+// An island's wall regions, outside in: the outline offset by -(k + 0.5) beads, k < walls, while
+// not empty.
+std::vector<Regions> wall_regions(const Polygon2& island, int walls, double bead) {
+  std::vector<Regions> out;
   for (int k = 0; k < walls; ++k) {
-    Regions r = offset(from(), -step());
+    Regions r = offset(Regions{island}, -(k + 0.5) * bead);
     if (r.empty()) break;
-    out.walls.push_back(std::move(r));
+    out.push_back(std::move(r));
   }
-  out.infill = offset(from(), -(step() - overlap * bead));
   return out;
 }
 
@@ -488,18 +475,16 @@ Toolpath plan_planar(const std::vector<LayerOutline>& layers, const PlanarOption
     layer.z = z;
     if (outline[i].empty()) return;
     const long li = static_cast<long>(i);
-    std::vector<Insets> insets(outline[i].size());
-    for (std::size_t k = 0; k < insets.size(); ++k)
-      if (!outline[i][k].outer.empty())
-        insets[k] = inset_chain(outline[i][k], o.walls, w, o.infill_overlap);
+    std::vector<std::vector<Regions>> walls(outline[i].size());
+    for (std::size_t k = 0; k < walls.size(); ++k)
+      if (!outline[i][k].outer.empty()) walls[k] = wall_regions(outline[i][k], o.walls, w);
     // Solid where the part has no material within bottom_layers below or top_layers above.
     Regions skin;
     if (B > 0 || T > 0) {
       Regions eroded;  // the outline offset by half a bead: the outer walls' regions
       if (o.walls > 0) {
-        for (const auto& is : insets)
-          if (!is.walls.empty())
-            eroded.insert(eroded.end(), is.walls.front().begin(), is.walls.front().end());
+        for (const auto& r : walls)
+          if (!r.empty()) eroded.insert(eroded.end(), r.front().begin(), r.front().end());
       } else {
         eroded = offset(outline[i], -0.5 * w);
       }
@@ -521,7 +506,8 @@ Toolpath plan_planar(const std::vector<LayerOutline>& layers, const PlanarOption
       IslandPieces& is = islands.emplace_back();
       is.outline = poly;
       is.bead_width = w;
-      const std::vector<Regions>& wall_regions = insets[k].walls;
+      const Regions island{poly};
+      const std::vector<Regions>& wall_regions = walls[k];
       if (!wall_regions.empty()) is.route = wall_regions.front();
       for (auto it = wall_regions.rbegin(); it != wall_regions.rend(); ++it) {
         auto rings = rings_of(*it);
@@ -529,7 +515,9 @@ Toolpath plan_planar(const std::vector<LayerOutline>& layers, const PlanarOption
         per[i].walls += rings.size();
         is.walls.push_back(std::move(rings));
       }
-      const Regions& inner = insets[k].infill;
+      // Infill region: inside the innermost wall, reaching `infill_overlap` of a bead into it.
+      const double inset = static_cast<double>(wall_regions.size()) * w + 0.5 * w - o.infill_overlap * w;
+      const Regions inner = offset(island, -inset);
       if (inner.empty()) continue;
       const Regions skin_near = skin.empty() ? Regions{} : near(skin, box_of(inner));
       const Regions solid = skin_near.empty() ? Regions{} : intersection(inner, skin_near);
