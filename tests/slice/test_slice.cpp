@@ -933,9 +933,8 @@ TEST(Planar, WallsInsideNotOverlappingInfillAtDensity) {
   EXPECT_NEAR(std::abs(a0 - a1), 90, 1e-6);
 }
 
-// The insets are taken one from the other (each wall from the one outside it, the infill region
-// from the innermost wall): every wall still runs at (k + 0.5) beads from the outline, and the
-// fill reaches exactly `infill_overlap` of a bead into the innermost wall, never farther.
+// Every wall runs at (k + 0.5) beads from the outline, and the fill (skin and sparse) reaches
+// exactly `infill_overlap` of a bead into the innermost wall, never farther.
 TEST(Planar, InsetsStepABeadFromTheOutlineInward) {
   const Field design = subtract({rectprism({30, 20, 3}), cylinder(5, 10)});
   const auto zs = layer_planes(-1.5, 1.5, 0.3);
