@@ -175,14 +175,19 @@ class LayerWindows {
 // dilate(erode(O) − dilate(C)), the same set as dilate(erode(O − C)) (up to Clipper's mitred
 // corners, well under a micrometre): erode(O) is the outer walls' region (`eroded`), and O − C,
 // mostly slivers along sloped walls, was the costliest region of a layer to subtract and offset.
-Regions skin_of(const Regions& eroded, const Regions* under, const Regions* over, double bead) {
+// C is simplified by `tolerance` (the outlines' own) before it is dilated: where the layers'
+// walls nearly coincide their intersection zig-zags between them (2.3 times the outline's
+// vertices on TR12J_OCC.stl), and dilating those zig-zags was a fifth of the slicing time.
+Regions skin_of(const Regions& eroded, const Regions* under, const Regions* over, double bead,
+                double tolerance) {
   if ((!under && !over) || eroded.empty()) return {};
   Regions cover;
   if (under && over)
     cover = under->empty() || over->empty() ? Regions{} : intersection(*under, *over);
   else
     cover = under ? *under : *over;
-  const Regions core = cover.empty() ? eroded : difference(eroded, offset(cover, 0.5 * bead));
+  const Regions core =
+      cover.empty() ? eroded : difference(eroded, offset(simplify(cover, tolerance), 0.5 * bead));
   return core.empty() ? core : offset(core, 0.5 * bead);
 }
 
@@ -484,7 +489,7 @@ Toolpath plan_planar(const std::vector<LayerOutline>& layers, const PlanarOption
         eroded = offset(outline[i], -0.5 * w);
       }
       skin = skin_of(eroded, B > 0 ? &below->at(li - B) : nullptr,
-                     T > 0 ? &above->at(li + 1) : nullptr, w);
+                     T > 0 ? &above->at(li + 1) : nullptr, w, o.simplify);
     }
     const bool odd = g % 2 == 1;
     const double infill_angle = o.infill_angle + (odd ? 90.0 : 0.0);

@@ -853,17 +853,29 @@ bool inside(const Regions& r, Vec2 p) {
   return false;
 }
 
+// A 30 × 20 × 3 mm plate with a 10 mm hole in 0.3 mm layers, and the options its planar tests
+// share (3 walls of 0.4 mm, 2 top and 2 bottom layers).
+struct HolePlate {
+  std::vector<double> zs = layer_planes(-1.5, 1.5, 0.3);
+  std::vector<LayerOutline> outlines =
+      slice_field(subtract({rectprism({30, 20, 3}), cylinder(5, 10)}), zs, {});
+  PlanarOptions o = [] {
+    PlanarOptions p;
+    p.layer_height = 0.3;
+    p.bead_width = 0.4;
+    p.walls = 3;
+    p.top_layers = 2;
+    p.bottom_layers = 2;
+    return p;
+  }();
+};
+
 TEST(Planar, WallsInsideNotOverlappingInfillAtDensity) {
-  const Field design = subtract({rectprism({30, 20, 3}), cylinder(5, 10)});
-  const auto zs = layer_planes(-1.5, 1.5, 0.3);
-  const auto outlines = slice_field(design, zs, {});
-  PlanarOptions o;
-  o.layer_height = 0.3;
-  o.bead_width = 0.4;
-  o.walls = 3;
+  HolePlate plate;
+  const auto& zs = plate.zs;
+  const auto& outlines = plate.outlines;
+  PlanarOptions& o = plate.o;
   o.infill_density = 0.25;
-  o.top_layers = 2;
-  o.bottom_layers = 2;
   PlanarStats st;
   const Toolpath tp = plan_planar(outlines, o, &st);
   ASSERT_EQ(tp.layers.size(), zs.size());
@@ -931,6 +943,48 @@ TEST(Planar, WallsInsideNotOverlappingInfillAtDensity) {
   ASSERT_GE(a0, 0);
   ASSERT_GE(a1, 0);
   EXPECT_NEAR(std::abs(a0 - a1), 90, 1e-6);
+}
+
+// Every wall runs at (k + 0.5) beads from the outline, and the fill (skin and sparse) reaches
+// exactly `infill_overlap` of a bead into the innermost wall, never farther.
+TEST(Planar, InsetsStepABeadFromTheOutlineInward) {
+  const HolePlate plate;
+  const auto& zs = plate.zs;
+  const auto& outlines = plate.outlines;
+  const PlanarOptions& o = plate.o;
+  const Toolpath tp = plan_planar(outlines, o);
+  const double tol = o.simplify + 1e-3;  // the outline is simplified before it is offset
+  for (const std::size_t layer : {std::size_t{0}, zs.size() / 2}) {  // a skin and a sparse layer
+    const Regions& outline = outlines[layer].regions;
+    std::vector<std::size_t> on_level(static_cast<std::size_t>(o.walls), 0);
+    std::size_t wall_edges = 0;
+    double fill_min = 1e300;
+    for (const auto& p : tp.layers[layer].paths) {
+      if (p.role != PathRole::Perimeter) {
+        for (const auto& q : p.points)
+          fill_min = std::min(fill_min, test::outline_distance(q.xy(), outline));
+        continue;
+      }
+      for (std::size_t k = 1; k < p.points.size(); ++k) {
+        // Edge middles: at a wall's own inset (the mitred corners aside, which lie farther).
+        const double d =
+            test::outline_distance(((p.points[k - 1] + p.points[k]) * 0.5).xy(), outline);
+        EXPECT_GE(d, 0.5 * o.bead_width - tol);
+        ++wall_edges;
+        for (int w = 0; w < o.walls; ++w)
+          if (std::abs(d - (w + 0.5) * o.bead_width) < tol) ++on_level[static_cast<std::size_t>(w)];
+      }
+    }
+    std::size_t on_some = 0;
+    for (const std::size_t n : on_level) {
+      EXPECT_GT(n, 0u) << "layer " << layer << ": a wall level has no edge at its inset";
+      on_some += n;
+    }
+    EXPECT_GT(static_cast<double>(on_some), 0.95 * static_cast<double>(wall_edges))
+        << "layer " << layer;
+    const double reach = (o.walls + 0.5 - o.infill_overlap) * o.bead_width;
+    EXPECT_NEAR(fill_min, reach, tol) << "layer " << layer;
+  }
 }
 
 TEST(Pipeline, SlicesEveryAppendixBDesign) {
