@@ -20,21 +20,21 @@ const std::vector<SettingDecl>& machine_settings() {
        "(SET_HEATER_TEMPERATURE, ACTIVATE_EXTRUDER), pneumatic (valve + pressure) or embedded "
        "(pneumatic in a support bath: vertical lifts out of the bath for travel, tools with "
        "offsets)",
-       0, 0, &P::flavor},
+       0, 0, &P::flavor, {"marlin", "reprap", "klipper", "pneumatic", "embedded"}},
       {"machine.firmware", "",
        "the firmware, where an output format depends on it: prusa (Prusa's Buddy firmware: MK4, "
        "MK3.9, XL, MINI, Core One; reads binary G-code) or empty (not declared)",
-       0, 0, &P::firmware},
+       0, 0, &P::firmware, {"", "prusa"}},
       {"machine.bed_x", "mm", "build area in X (a circular bed: its diameter)", 1, 10000,
        &P::bed_x},
       {"machine.bed_y", "mm", "build area in Y (ignored for a circular bed)", 1, 10000, &P::bed_y},
       {"machine.bed_z", "mm", "build height", 1, 10000, &P::bed_z},
       {"machine.bed_shape", "", "shape of the build area: rectangle or circle (diameter bed_x)", 0,
-       0, &P::bed_shape},
+       0, &P::bed_shape, {"rectangle", "circle"}},
       {"machine.origin", "",
        "where X0 Y0 is: corner (the bed runs 0..bed_x) or center (-bed_x/2..bed_x/2; delta "
        "printers)",
-       0, 0, &P::origin},
+       0, 0, &P::origin, {"corner", "center"}},
       {"machine.tools", "",
        "tools or nozzles the machine has (tool changer, multi-nozzle head); paths for a tool it "
        "lacks are refused",
@@ -53,7 +53,7 @@ const std::vector<SettingDecl>& machine_settings() {
       {"placement.center", "",
        "move the part's XY centre to the bed centre (false: design coordinates are bed "
        "coordinates)",
-       0, 0, &P::center},
+       0, 0, &P::center, {}, "center"},
       {"placement.lift", "",
        "a toolpath reaching below Z 0 is lifted so that its lowest point is on the bed (false: "
        "below the bed is an error)",
@@ -66,7 +66,7 @@ const std::vector<SettingDecl>& machine_settings() {
        "filament diameter f_d (Eq. 4; a syringe: the barrel bore)", 0.1, 100,
        &P::filament_diameter},
       {"extrusion.layer_height", "mm", "layer thickness LT when a path has none (Eq. 4)", 0.001, 10,
-       &P::layer_height},
+       &P::layer_height, {}, "layer-height"},
       {"extrusion.multiplier", "", "extrusion multiplier EM (Eq. 4)", 0, 10,
        &P::extrusion_multiplier},
       {"extrusion.k", "", "correction factor k for the bead shape (Eq. 4)", 0, 10, &P::k},
@@ -76,7 +76,7 @@ const std::vector<SettingDecl>& machine_settings() {
        "flow factor for steep downward moves, \"deg,factor;...\": a segment descending at least "
        "deg below horizontal gets factor (E x factor; pneumatic/embedded: feed / factor)",
        0, 0, &P::down_flow},
-      {"speed.print", "mm/s", "printing speed", 0.01, 1000, &P::print_speed},
+      {"speed.print", "mm/s", "printing speed", 0.01, 1000, &P::print_speed, {}, "speed"},
       {"speed.travel", "mm/s", "travel speed", 0.01, 2000, &P::travel_speed},
       {"speed.z", "mm/s", "speed of Z moves", 0.01, 1000, &P::z_speed},
       {"speed.acceleration", "mm/s²",
@@ -159,7 +159,7 @@ const std::vector<SettingDecl>& machine_settings() {
       {"embedded.drive", "",
        "how ink is pushed: pressure (valve on/off, pneumatic.pressure) or syringe (a stepper "
        "syringe pump on E, Eq. 4 with extrusion.filament_diameter = the plunger diameter)",
-       0, 0, &P::embedded_drive},
+       0, 0, &P::embedded_drive, {"pressure", "syringe"}},
       {"embedded.bath_travel", "mm",
        "travel moves up to this long stay inside the bath instead of lifting out (e.g. between "
        "non-planar layers); tool changes always lift",
@@ -169,7 +169,7 @@ const std::vector<SettingDecl>& machine_settings() {
       {"gradient.mode", "",
        "how a path's mixture is made: mixing (M165 A.. B..), tools (T<n>, the nearest of "
        "gradient.tools) or temperature (M104 S<t>, foaming filament)",
-       0, 0, &P::gradient_mode},
+       0, 0, &P::gradient_mode, {"mixing", "tools", "temperature"}},
       {"gradient.tools", "",
        "tools: how many tools hold the gradient, tool 0 = material A ... last = material B (0 = "
        "all of machine.tools)",
@@ -181,16 +181,16 @@ const std::vector<SettingDecl>& machine_settings() {
       {"gradient.flow", "",
        "temperature: flow compensation M221 S<F> with each M104: pla (FGM paper Eq. 3) or tpu "
        "(Eq. 4); empty = none",
-       0, 0, &P::flow_model},
+       0, 0, &P::flow_model, {"", "pla", "tpu"}},
       {"gradient.lookahead", "mm",
        "issue each mixture change this much printed path before the region (dead volume, FGM "
        "paper A.1: L = V_melt / (h(w-h) + pi h^2/4))",
-       0, 100000, &P::lookahead},
+       0, 100000, &P::lookahead, {}, "lookahead"},
       {"gradient.dialect", "",
        "mixing: how a mixture is commanded: m165 (Marlin M165 A B C), m163 (Marlin M163 S<i> "
        "P<share> per input + M164 S0, virtual tool 0), m567 (RepRapFirmware M567 P0 E<a>:<b>) "
        "or template (gradient.template)",
-       0, 0, &P::gradient_dialect},
+       0, 0, &P::gradient_dialect, {"m165", "m163", "m567", "template"}},
       {"gradient.template", "",
        "mixing, dialect template: the command for one mixture, {a} {b} {c} … replaced by each "
        "input's share (0..1), other {setting} placeholders as in gcode.start; e.g. a Klipper "
@@ -209,7 +209,7 @@ const std::vector<SettingDecl>& machine_settings() {
       {"purge.position", "",
        "where the prime tower stands: auto (beside the part on free bed space, clearance apart) "
        "or fixed (centred at purge.x, purge.y)",
-       0, 0, &P::purge_position},
+       0, 0, &P::purge_position, {"auto", "fixed"}},
       {"purge.x", "mm", "prime tower centre X when purge.position = fixed (design coordinates)",
        -10000, 10000, &P::purge_x},
       {"purge.y", "mm", "prime tower centre Y when purge.position = fixed", -10000, 10000,
@@ -238,7 +238,7 @@ const std::vector<SettingDecl>& machine_settings() {
        "write PrusaSlicer's binary G-code (.bgcode: metadata, PNG thumbnails and Deflate-"
        "compressed G-code blocks with CRC32) instead of text; machines with machine.firmware = "
        "prusa only; an output named .bgcode is binary without it",
-       0, 0, &P::binary_gcode},
+       0, 0, &P::binary_gcode, {}, "binary-gcode"},
       {"gcode.prime_line", "mm",
        "prime line: this much line drawn along the bed's front edge, 5 mm in, before the first "
        "layer (valve open for pneumatic machines; not in a bath); 0 = none",

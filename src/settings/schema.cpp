@@ -135,7 +135,8 @@ Setting derived(Setting s, std::string from) {
   return s;
 }
 
-// The machine profile's table (machine/profile.hpp) as schema entries: its members and defaults.
+// The machine sections, declared in machine/profile.cpp (the G-code writer below the schema
+// reads them too), as schema entries: each declaration as it is, its default the member's.
 void add_machine(std::vector<Setting>& out) {
   for (const auto& d : machine_settings()) {
     Setting s;
@@ -172,33 +173,9 @@ void add_machine(std::vector<Setting>& out) {
           }
         },
         d.member);
-    const std::string key = d.key;
-    if (key == "machine.flavor")
-      s.choices = {"marlin", "reprap", "klipper", "pneumatic", "embedded"};
-    if (key == "machine.firmware") s.choices = {"", "prusa"};
-    if (key == "gradient.mode") s.choices = {"mixing", "tools", "temperature"};
-    if (key == "gradient.flow") s.choices = {"", "pla", "tpu"};
-    if (key == "embedded.drive") s.choices = {"pressure", "syringe"};
-    if (key == "purge.position") s.choices = {"auto", "fixed"};
-    if (key == "gradient.dialect") s.choices = {"m165", "m163", "m567", "template"};
-    if (key == "machine.bed_shape") s.choices = {"rectangle", "circle"};
-    if (key == "machine.origin") s.choices = {"corner", "center"};
+    s.choices.assign(d.choices.begin(), d.choices.end());
     if (!s.choices.empty()) s.kind = SettingKind::Choice;
-    if (key == "extrusion.layer_height") s.flag = "layer-height";
-    if (key == "placement.center") s.flag = "center";
-    if (key == "gcode.binary") s.flag = "binary-gcode";
-    if (key == "speed.print") s.flag = "speed";
-    if (key == "gradient.lookahead") s.flag = "lookahead";
-    if (key == "machine.name") {
-      // Shared by printer and laser profiles. Every output's job header records it, the default
-      // too; the printer's default name read back from a laser build's header (merge, rerun)
-      // names no laser, so the laser keeps its own default.
-      s.set = [](Config& c, const SettingValue& v) {
-        const std::string& name = std::get<std::string>(v);
-        c.machine.name = name;
-        c.laser.name = name == MachineProfile{}.name ? LaserProfile{}.name : name;
-      };
-    }
+    s.flag = d.flag;
     out.push_back(std::move(s));
   }
 }

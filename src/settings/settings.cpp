@@ -360,6 +360,10 @@ Config Settings::config() const {
   for (const auto& [key, e] : entries_) find_setting(key)->set(c, e.value);
   c.plan.gippo.threads = c.aero.threads = c.threads;
   c.aero.seed = c.plan.gippo.seed;
+  // machine.name names printer and laser profiles alike. Every output's job header records it,
+  // the default too; the printer's default name read back from a laser build's header (merge,
+  // rerun) names no laser, so the laser keeps its own default.
+  if (c.machine.name != MachineProfile{}.name) c.laser.name = c.machine.name;
   return c;
 }
 

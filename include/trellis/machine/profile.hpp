@@ -141,7 +141,10 @@ struct MachineProfile {
   std::vector<std::pair<int, int>> thumbnail_sizes() const;
 };
 
-
+// One machine setting, declared once: key, unit, doc, range, the member it sets, its choices and
+// its CLI flag. The settings schema (settings/schema.cpp) takes these entries as its machine
+// sections as they are; the G-code writer, below the schema, records them in its header and
+// expands {key} placeholders from them, which is why they live here.
 struct SettingDecl {
   const char* key;   // TOML key "section.name"
   const char* unit;  // "mm", "mm/s", "" ...
@@ -150,6 +153,8 @@ struct SettingDecl {
   std::variant<double MachineProfile::*, int MachineProfile::*, bool MachineProfile::*,
                std::string MachineProfile::*>
       member;
+  std::vector<const char*> choices = {};  // a text member: the values it takes
+  const char* flag = "";                  // long CLI flag without dashes; "" = --set only
 };
 
 const std::vector<SettingDecl>& machine_settings();
