@@ -565,7 +565,7 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
       fixed(r.total.score, 4), fixed(r.total.lts, 1), fixed(r.total.oe, 2), r.travel.moves,
       fixed(r.travel.length, 1), fixed(secs, 3));
   if (!job.gcode.empty())
-    out.summary += fmt::format("\n{}: {} mm printed, ~{} min", c.machine.flavor,
+    out.summary += fmt::format("\n{}: {} mm printed, ~{} min", to_string(c.machine.flavor),
                                fixed(gs.print_length, 1), fixed(gs.print_time_s / 60, 1));
   return out;
 }
@@ -594,7 +594,7 @@ JobResult gcode(const Job& job, const Config& c, Diagnostics& diag, const Progre
   out.summary = fmt::format(
       "{}: {} paths, {} mm printed, {} travel moves ({} mm), {} retractions, {}{} mm filament, "
       "~{} min, {} bytes",
-      c.machine.flavor, s.paths, fixed(s.print_length, 1), s.travel_moves, fixed(s.travel_length, 1),
+      to_string(c.machine.flavor), s.paths, fixed(s.print_length, 1), s.travel_moves, fixed(s.travel_length, 1),
       s.retractions, s.tool_changes ? std::to_string(s.tool_changes) + " tool changes, " : "",
       fixed(s.filament, 2), fixed(s.print_time_s / 60, 1), s.bytes);
   return out;

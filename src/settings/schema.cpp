@@ -135,6 +135,34 @@ Setting derived(Setting s, std::string from) {
   return s;
 }
 
+// A machine member of a plain type as a schema entry's kind, getter and setter.
+template <class T>
+void add_member(Setting& s, T MachineProfile::*member) {
+  if constexpr (std::is_same_v<T, double>) {
+    s.kind = SettingKind::Number;
+    s.get = [member](const Config& c) { return SettingValue(c.machine.*member); };
+    s.set = [member](Config& c, const SettingValue& v) { c.machine.*member = std::get<double>(v); };
+  } else if constexpr (std::is_same_v<T, int>) {
+    s.kind = SettingKind::Integer;
+    s.get = [member](const Config& c) {
+      return SettingValue(static_cast<long long>(c.machine.*member));
+    };
+    s.set = [member](Config& c, const SettingValue& v) {
+      c.machine.*member = static_cast<int>(std::get<long long>(v));
+    };
+  } else if constexpr (std::is_same_v<T, bool>) {
+    s.kind = SettingKind::Bool;
+    s.get = [member](const Config& c) { return SettingValue(c.machine.*member); };
+    s.set = [member](Config& c, const SettingValue& v) { c.machine.*member = std::get<bool>(v); };
+  } else {
+    s.kind = SettingKind::Text;
+    s.get = [member](const Config& c) { return SettingValue(c.machine.*member); };
+    s.set = [member](Config& c, const SettingValue& v) {
+      c.machine.*member = std::get<std::string>(v);
+    };
+  }
+}
+
 // The machine sections, declared in machine/profile.cpp (the G-code writer below the schema
 // reads them too), as schema entries: each declaration as it is, its default the member's.
 void add_machine(std::vector<Setting>& out) {
@@ -142,39 +170,25 @@ void add_machine(std::vector<Setting>& out) {
     Setting s;
     s.key = d.key, s.unit = d.unit, s.doc = d.doc, s.min = d.min, s.max = d.max;
     std::visit(
-        [&](auto member) {
-          using T = std::remove_cvref_t<decltype(MachineProfile{}.*member)>;
-          if constexpr (std::is_same_v<T, double>) {
-            s.kind = SettingKind::Number;
-            s.get = [member](const Config& c) { return SettingValue(c.machine.*member); };
-            s.set = [member](Config& c, const SettingValue& v) {
-              c.machine.*member = std::get<double>(v);
-            };
-          } else if constexpr (std::is_same_v<T, int>) {
-            s.kind = SettingKind::Integer;
+        [&](const auto& member) {
+          using M = std::remove_cvref_t<decltype(member)>;
+          if constexpr (std::is_same_v<M, MachineChoice>) {
+            s.kind = SettingKind::Choice;
+            s.choices.assign(member.names.begin(), member.names.end());
             s.get = [member](const Config& c) {
-              return SettingValue(static_cast<long long>(c.machine.*member));
+              return SettingValue(std::string(member.names.at(
+                  static_cast<std::size_t>(member.get(c.machine)))));
             };
             s.set = [member](Config& c, const SettingValue& v) {
-              c.machine.*member = static_cast<int>(std::get<long long>(v));
-            };
-          } else if constexpr (std::is_same_v<T, bool>) {
-            s.kind = SettingKind::Bool;
-            s.get = [member](const Config& c) { return SettingValue(c.machine.*member); };
-            s.set = [member](Config& c, const SettingValue& v) {
-              c.machine.*member = std::get<bool>(v);
+              const auto& names = member.names;
+              for (std::size_t i = 0; i < names.size(); ++i)
+                if (names[i] == std::get<std::string>(v)) member.set(c.machine, static_cast<int>(i));
             };
           } else {
-            s.kind = SettingKind::Text;
-            s.get = [member](const Config& c) { return SettingValue(c.machine.*member); };
-            s.set = [member](Config& c, const SettingValue& v) {
-              c.machine.*member = std::get<std::string>(v);
-            };
+            add_member(s, member);
           }
         },
         d.member);
-    s.choices.assign(d.choices.begin(), d.choices.end());
-    if (!s.choices.empty()) s.kind = SettingKind::Choice;
     s.flag = d.flag;
     out.push_back(std::move(s));
   }
