@@ -197,7 +197,7 @@ JobResult plan_aero_route(const Job& job, const Config& c, const Graph& g, const
   // overlap, as the embedded writer does).
   CheckOptions check;
   check.nozzle = p.nozzle;
-  check.snap = p.nozzle.end_overlap + 0.05;
+  check.snap = p.nozzle.end_overlap + kNodeSnap;
   check.budget = budget_of(job, c, progress);
   Toolpath printed = tp;
   for (auto& l : printed.layers)
@@ -434,9 +434,8 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
     out.files.push_back(job.lattice);
   }
   if (c.planner == "aero") {
-    const int tries = c.aero.tries > 0 ? c.aero.tries
-                                       : static_cast<int>(std::clamp<std::size_t>(
-                                             200000 / std::max<std::size_t>(1, g.edges.size()), 1, 8));
+    const int tries =
+        c.aero.tries > 0 ? c.aero.tries : static_cast<int>(aero_auto_tries(g.edges.size()));
     check_budget(estimate_aero(g.edges.size(), tries), budget_of(job, c, progress));
     return plan_aero_route(job, c, g, input, diag, progress, t0, out);
   }

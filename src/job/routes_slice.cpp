@@ -1097,29 +1097,12 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
   const LaserProfile& prof = c.laser;
   bool from_design = false;
   PbfDesign d = pbf_part_design(c.pbf, job.input, job.settings, diag, &from_design);
-  PbfOptions po = c.pbf.options;
-  po.layer = prof.layer;
-  po.segment_length = prof.segment_length;
-  po.segment_gap = prof.segment_gap;
-  po.hatch_distance = prof.hatch_distance;
-  po.beam_compensation = prof.beam_compensation;
-  po.melt_pool = prof.melt_pool_width;
-  po.hybrid = c.pbf.strategy == "hybrid";
-  po.machine_origin = c.pbf.plate_position.size() == 2
-                          ? Vec2{-c.pbf.plate_position[0], -c.pbf.plate_position[1]}
-                          : Vec2{-0.5 * prof.build_x, -0.5 * prof.build_y};  // centred on the plate
-  po.stl_route = c.pbf.route == "stl";
-  po.timing = scan_timing(prof);
+  PbfOptions po = pbf_options(job, c);
   check_pbf_cells(c, po);
   const Budget budget = budget_of(job, c, progress);
-  po.memory_budget = budget.force ? HUGE_VAL : budget.memory;
-  {
-    const BBox3 e = d.part().extent();
-    if (!e.empty() && std::isfinite(e.min.x) && std::isfinite(e.max.x) && std::isfinite(e.min.y) &&
-        std::isfinite(e.max.y) && std::isfinite(e.min.z) && std::isfinite(e.max.z) && po.layer > 0)
-      check_budget(estimate_pbf_time(d, po, !job.toolpath.empty(), is_3mf_output(job.output)),
-                   budget);
-  }
+  if (finite_box(d.part().extent()) && po.layer > 0)
+    check_budget(estimate_pbf_time(d, po, !job.toolpath.empty(), is_3mf_output(job.output)),
+                 budget);
   // A build file alone is written layer by layer as the layers come (memory does not grow with
   // the layer count); the toolpath JSON, the layer previews and a 3MF package need the whole
   // toolpath.

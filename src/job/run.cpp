@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "routes.hpp"
+#include "trellis/analysis/collisions.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/job/plate.hpp"
@@ -308,7 +309,7 @@ Toolpath read_print(const std::string& path, const Settings* machine, double* sn
     read.valve_on = profile.valve_on;
     read.valve_off = profile.valve_off;
   }
-  if (have && snap && *snap == 0.05) *snap = profile.node_overlap + 0.05;
+  if (have && snap && *snap == kNodeSnap) *snap = profile.node_overlap + kNodeSnap;
   Toolpath tp = read_gcode(text, read, diag, path);
   // Back to design coordinates: undo the placement written into the header and the tool offsets.
   to_design_coordinates(tp, text);

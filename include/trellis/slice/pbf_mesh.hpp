@@ -21,13 +21,14 @@
 namespace trellis {
 
 struct PbfSolidOptions {
-  double layer = 0.02;              // mm, powder layer thickness
-  double beam_compensation = 0.03;  // mm, the first contour's (and with none, the hatch's) inset
+  double layer = kScanLayer;  // mm, powder layer thickness
+  // mm, the first contour's (and with none, the hatch's) inset
+  double beam_compensation = kScanBeamCompensation;
   int contours = 1;                 // contour offsets per region (0: hatch only)
   // mm between contours and from the last contour to the hatched region; 0 = the hatch distance.
   double contour_distance = 0;
   ScanPattern pattern;        // hatch distance, strategy, angle and rotation
-  double resolution = 0.025;  // mm, XY grid of a field's sections (.vcad solids)
+  double resolution = kPbfResolution;  // mm, XY grid of a field's sections (.vcad solids)
   std::size_t batch = 32;     // layers sliced and planned together
   ScanTiming timing;          // scan-time model of each layer
 };
