@@ -7,6 +7,7 @@
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/lattice/io.hpp"
+#include "trellis/machine/profile.hpp"
 #include "trellis/machine/toolpath_3mf.hpp"
 #include "trellis/render/render.hpp"
 #include "trellis/toolpath/json.hpp"
@@ -19,7 +20,8 @@ struct AnalyzeOpts {
   AnalysisParams params;
   GcodeReadOptions read;
   std::string design, report, png, machine;
-  double filament_diameter = 1.75;  // for the volume of each part of a plate (mm)
+  // For the volume of each part of a plate (mm): the machine profile's default.
+  double filament_diameter = MachineProfile{}.filament_diameter;
   bool per_layer = false;
   bool follow = false;
   std::vector<std::string> files;

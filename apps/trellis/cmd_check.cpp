@@ -15,7 +15,7 @@ void add_check(CLI::App& app) {
   struct Opts {
     std::string lattice, print, machine, report, preview;
     std::vector<std::string> sets;
-    double snap = 0.05;
+    double snap = kNodeSnap;
     SettingFlags flags;
     bool follow = false;
     bool commanded = false;
@@ -50,8 +50,9 @@ void add_check(CLI::App& app) {
   cmd->add_option("--set", o->sets, "any [nozzle] or [lattice] setting: section.key=value");
   o->flags.add(cmd, {"nozzle", "lattice"});
   cmd->add_option("--snap", o->snap,
-                  "segment ends within this of a node are at it (mm; default 0.05, or the "
-                  "profile's node overlap + 0.05)");
+                  fmt::format("segment ends within this of a node are at it (mm; default {0}, or "
+                              "the profile's node overlap + {0})",
+                              kNodeSnap));
   add_budget_flags(cmd, o->budget);
   cmd->callback([o] {
     RunFiles files(o->follow);

@@ -17,7 +17,7 @@ namespace trellis::cli {
 void machine_valves(const std::string& machine, ViewLoadOptions& load) {
   if (machine.empty()) return;
   const MachineProfile p = command_settings(machine, {}).config().machine;
-  if (p.parsed_flavor() == Flavor::Marlin) return;
+  if (p.marlin_family()) return;
   if (load.valve_on.empty()) load.valve_on = p.valve_on;
   if (load.valve_off.empty()) load.valve_off = p.valve_off;
 }

@@ -377,7 +377,7 @@ PYBIND11_MODULE(_trellis, m) {
   m.def("read_lattice", [](const std::string& path, double merge_tolerance) {
     Diagnostics diag;
     return std::make_shared<Graph>(read_lattice(path, {merge_tolerance, true}, diag));
-  }, py::arg("path"), py::arg("merge_tolerance") = 1e-6);
+  }, py::arg("path"), py::arg("merge_tolerance") = CleanOptions{}.merge_tolerance);
   m.def(
       "read_toolpath",
       [](const std::string& path, bool commanded_mixtures) {

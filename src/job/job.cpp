@@ -244,10 +244,9 @@ Job job_from_toml(const std::string& text, const std::string& origin, const std:
       if (out.empty()) out = (dir / (job.name + suffix)).string();
     };
     const Config c = job.settings.config();
-    const bool marlin = c.machine.flavor != "pneumatic" && c.machine.flavor != "embedded";
     const std::string gext = !c.machine.file_extension.empty() ? c.machine.file_extension
                              : c.machine.binary_gcode          ? ".bgcode"
-                             : marlin                          ? ".gcode"
+                             : c.machine.marlin_family()       ? ".gcode"
                                                                : ".nc";
     const std::string& r = job.route;
     if (r == "lattice2d" || r == "lattice3d") def(job.output, ".lattice.json");

@@ -197,7 +197,7 @@ JobResult plan_aero_route(const Job& job, const Config& c, const Graph& g, const
   // overlap, as the embedded writer does).
   CheckOptions check;
   check.nozzle = p.nozzle;
-  check.snap = p.nozzle.end_overlap + 0.05;
+  check.snap = p.nozzle.end_overlap + kNodeSnap;
   check.budget = budget_of(job, c, progress);
   Toolpath printed = tp;
   for (auto& l : printed.layers)
@@ -434,9 +434,8 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
     out.files.push_back(job.lattice);
   }
   if (c.planner == "aero") {
-    const int tries = c.aero.tries > 0 ? c.aero.tries
-                                       : static_cast<int>(std::clamp<std::size_t>(
-                                             200000 / std::max<std::size_t>(1, g.edges.size()), 1, 8));
+    const int tries =
+        c.aero.tries > 0 ? c.aero.tries : static_cast<int>(aero_auto_tries(g.edges.size()));
     check_budget(estimate_aero(g.edges.size(), tries), budget_of(job, c, progress));
     return plan_aero_route(job, c, g, input, diag, progress, t0, out);
   }
@@ -565,7 +564,7 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
       fixed(r.total.score, 4), fixed(r.total.lts, 1), fixed(r.total.oe, 2), r.travel.moves,
       fixed(r.travel.length, 1), fixed(secs, 3));
   if (!job.gcode.empty())
-    out.summary += fmt::format("\n{}: {} mm printed, ~{} min", c.machine.flavor,
+    out.summary += fmt::format("\n{}: {} mm printed, ~{} min", to_string(c.machine.flavor),
                                fixed(gs.print_length, 1), fixed(gs.print_time_s / 60, 1));
   return out;
 }
@@ -594,7 +593,7 @@ JobResult gcode(const Job& job, const Config& c, Diagnostics& diag, const Progre
   out.summary = fmt::format(
       "{}: {} paths, {} mm printed, {} travel moves ({} mm), {} retractions, {}{} mm filament, "
       "~{} min, {} bytes",
-      c.machine.flavor, s.paths, fixed(s.print_length, 1), s.travel_moves, fixed(s.travel_length, 1),
+      to_string(c.machine.flavor), s.paths, fixed(s.print_length, 1), s.travel_moves, fixed(s.travel_length, 1),
       s.retractions, s.tool_changes ? std::to_string(s.tool_changes) + " tool changes, " : "",
       fixed(s.filament, 2), fixed(s.print_time_s / 60, 1), s.bytes);
   return out;

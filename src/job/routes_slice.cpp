@@ -357,7 +357,7 @@ SliceJob slice_job_of(const Job& job, const Config& c, const std::string& input)
   sj.purge.x = c.machine.purge_x;
   sj.purge.y = c.machine.purge_y;
   sj.purge.side = c.machine.purge_side;
-  sj.purge.automatic = c.machine.purge_position == "auto";
+  sj.purge.automatic = c.machine.purge_position == PurgePosition::Auto;
   sj.purge.clearance = c.machine.purge_clearance;
   {
     // The bed as the writer will place the toolpath on it.
@@ -365,12 +365,12 @@ SliceJob slice_job_of(const Job& job, const Config& c, const std::string& input)
     sj.purge.bed_x = placed.bed_x;
     sj.purge.bed_y = placed.bed_y;
     sj.purge.centred = placed.center;
-    sj.purge.circular = placed.bed_shape == "circle";
-    sj.purge.origin_centre = placed.origin == "center";
+    sj.purge.circular = placed.bed_shape == BedShape::Circle;
+    sj.purge.origin_centre = placed.origin == BedOrigin::Center;
     sj.purge.offset_x = placed.offset_x;
     sj.purge.offset_y = placed.offset_y;
   }
-  if (c.machine.gradient_mode == "tools") sj.tools = std::max(1, c.machine.gradient_tool_count());
+  if (c.machine.gradient_mode == GradientMode::Tools) sj.tools = std::max(1, c.machine.gradient_tool_count());
   else if (!job.output.empty())
     sj.lookahead = c.machine.lookahead;  // the writer's look-ahead
   sj.quantize = c.machine.quantize;
@@ -379,7 +379,7 @@ SliceJob slice_job_of(const Job& job, const Config& c, const std::string& input)
   sj.budget = budget_of(job, c, Progress{});
   sj.process.max_temperature = c.machine.max_nozzle_temperature;
   sj.process.max_speed = c.machine.max_speed;
-  sj.process.temperature_from_mixture = c.machine.gradient_mode == "temperature";
+  sj.process.temperature_from_mixture = c.machine.gradient_mode == GradientMode::Temperature;
   sj.process.short_path_segments = c.machine.short_path_segments;
   sj.process.short_path_factor = c.machine.short_path_factor;
   return sj;
@@ -676,7 +676,7 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag, const 
     std::vector<PartFootprint> fp;
     for (std::size_t k = 0; k < parts.size(); ++k) fp.push_back(place_footprint(placed[k], parts[k].extent));
     const MachineProfile& m = c.machine;
-    const BBox2 bed = m.origin == "center"
+    const BBox2 bed = m.origin == BedOrigin::Center
                           ? BBox2{{-m.bed_x / 2, -m.bed_y / 2}, {m.bed_x / 2, m.bed_y / 2}}
                           : BBox2{{0, 0}, {m.bed_x, m.bed_y}};
     check_plate(fp, bed, c.plate.clearance, job.origin);
@@ -819,7 +819,7 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
                              : std::to_string(sj.fgm.palette.colors),
         r.fgm.faces, r.fgm.paths,
         r.fgm.joined ? fmt::format(" in {} beads (path order)", r.fgm.paths - r.fgm.joined) : "",
-        g.gradient_changes, c.machine.gradient_mode,
+        g.gradient_changes, to_string(c.machine.gradient_mode),
         fixed(g.lookahead, 0), r.fgm.purges, fixed(r.fgm.purge_volume, 0),
         fixed(r.fgm.error_mean, 4), fixed(r.fgm.error_max, 4), fixed(r.fgm.error_bound, 4),
         fixed(r.fgm.shortest_path, 2), to_string(r.route), layers, fixed(g.print_time_s / 60, 1));
@@ -1102,27 +1102,12 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
   const LaserProfile& prof = c.laser;
   bool from_design = false;
   PbfDesign d = pbf_part_design(c.pbf, job.input, job.settings, diag, &from_design);
-  PbfOptions po = c.pbf.options;
-  po.layer = prof.layer;
-  po.segment_length = prof.segment_length;
-  po.segment_gap = prof.segment_gap;
-  po.hatch_distance = prof.hatch_distance;
-  po.beam_compensation = prof.beam_compensation;
-  po.melt_pool = prof.melt_pool_width;
-  po.hybrid = c.pbf.strategy == "hybrid";
-  po.machine_origin = pbf_machine_origin(c);
-  po.stl_route = c.pbf.route == "stl";
-  po.timing = scan_timing(prof);
+  PbfOptions po = pbf_options(job, c);
   check_pbf_cells(c, po);
   const Budget budget = budget_of(job, c, progress);
-  po.memory_budget = budget.force ? HUGE_VAL : budget.memory;
-  {
-    const BBox3 e = d.part().extent();
-    if (!e.empty() && std::isfinite(e.min.x) && std::isfinite(e.max.x) && std::isfinite(e.min.y) &&
-        std::isfinite(e.max.y) && std::isfinite(e.min.z) && std::isfinite(e.max.z) && po.layer > 0)
-      check_budget(estimate_pbf_time(d, po, !job.toolpath.empty(), is_3mf_output(job.output)),
-                   budget);
-  }
+  if (finite_box(d.part().extent()) && po.layer > 0)
+    check_budget(estimate_pbf_time(d, po, !job.toolpath.empty(), is_3mf_output(job.output)),
+                 budget);
   // A build file alone is written layer by layer as the layers come (memory does not grow with
   // the layer count); the toolpath JSON, the layer previews and a 3MF package need the whole
   // toolpath.

@@ -9,6 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "routes.hpp"
+#include "trellis/analysis/collisions.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/job/plate.hpp"
@@ -144,7 +145,7 @@ void require_bath(const Job& job, const MachineProfile& m, const std::string& ro
   if (out.empty() || fs::path(out).extension() == ".json" || is_3mf_output(out) || m.has_bath())
     return;
   throw MachineError(route + ": " + why + ", but the machine '" + m.name +
-                         "' prints in air (machine.flavor = " + m.flavor +
+                         "' prints in air (machine.flavor = " + std::string(to_string(m.flavor)) +
                          "); use a bath profile (machine.flavor = embedded), e.g. " +
                          (route == "nonplanar" ? "profiles/fresh_nonplanar_2syringe.toml"
                                                : "profiles/embedded_aero_410um.toml") +
@@ -304,11 +305,11 @@ Toolpath read_print(const std::string& path, const Settings* machine, double* sn
   const MachineProfile profile = have ? machine->config().machine : MachineProfile{};
   GcodeReadOptions read;
   read.commanded_mixtures = commanded_mixtures;
-  if (have && profile.parsed_flavor() != Flavor::Marlin) {
+  if (have && !profile.marlin_family()) {
     read.valve_on = profile.valve_on;
     read.valve_off = profile.valve_off;
   }
-  if (have && snap && *snap == 0.05) *snap = profile.node_overlap + 0.05;
+  if (have && snap && *snap == kNodeSnap) *snap = profile.node_overlap + kNodeSnap;
   Toolpath tp = read_gcode(text, read, diag, path);
   // Back to design coordinates: undo the placement written into the header and the tool offsets.
   to_design_coordinates(tp, text);

@@ -146,11 +146,11 @@ bool binary_gcode_output(const std::string& path, const MachineProfile& p) {
                            "' is not named .bgcode (Prusa printers tell the formats apart by "
                            "the extension): name it .bgcode, or set gcode.binary = false",
                        {"", 0, "gcode.binary"});
-  if (p.firmware != "prusa")
+  if (p.firmware != Firmware::Prusa)
     throw MachineError(
         "binary G-code (.bgcode) is read by Prusa's firmware only (MK4, MK3.9, XL, "
         "MINI, Core One); the machine '" +
-            p.name + "' (machine.flavor = " + p.flavor + ", machine.firmware = '" + p.firmware +
+            p.name + "' (machine.flavor = " + to_string(p.flavor) + ", machine.firmware = '" + to_string(p.firmware) +
             "') is not declared to run it: write text G-code (.gcode), or set "
             "machine.firmware = \"prusa\" in its profile if it does",
         {"", 0, "machine.firmware"});

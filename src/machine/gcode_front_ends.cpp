@@ -1,12 +1,8 @@
 // What printer front ends read from our G-code besides the moves (gcode_writer.hpp): thumbnails
-// in PrusaSlicer's block format and which firmwares take M73 progress.
+// in PrusaSlicer's block format (M73 progress: the Marlin family, MachineProfile::marlin_family).
 #include "trellis/machine/gcode_writer.hpp"
 
 namespace trellis {
-
-bool gcode_progress_supported(const std::string& flavor) {
-  return flavor == "marlin" || flavor == "reprap" || flavor == "klipper";
-}
 
 std::string base64(std::string_view bytes) {
   static constexpr char kAlphabet[] =

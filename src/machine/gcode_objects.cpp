@@ -71,8 +71,8 @@ GcodeObjects gcode_objects(const std::vector<std::string>& labels, const LayerSo
                            const MachineProfile& p, Vec2 shift,
                            std::vector<std::pair<std::string, std::string>>& warnings) {
   GcodeObjects o;
-  if (!p.label_objects || labels.empty() || p.parsed_flavor() != Flavor::Marlin) return o;
-  o.style = p.flavor == "klipper" ? ObjectStyle::Klipper : ObjectStyle::M486;
+  if (!p.label_objects || labels.empty() || !p.marlin_family()) return o;
+  o.style = p.flavor == Flavor::Klipper ? ObjectStyle::Klipper : ObjectStyle::M486;
   for (const std::string& label : labels) {
     std::string n = written_name(label);
     if (n != label)

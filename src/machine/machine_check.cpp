@@ -17,7 +17,7 @@ Vec2 placement_offset(const BBox3& box, const MachineProfile& p) {
   Vec2 d{0, 0};
   if (p.center) {
     if (!box.empty()) {
-      const Vec2 bed_centre = p.origin == "center" ? Vec2{0, 0} : Vec2{p.bed_x / 2, p.bed_y / 2};
+      const Vec2 bed_centre = p.origin == BedOrigin::Center ? Vec2{0, 0} : Vec2{p.bed_x / 2, p.bed_y / 2};
       d = {bed_centre.x - box.center().x, bed_centre.y - box.center().y};
     }
   }
@@ -104,8 +104,8 @@ std::vector<MachineWarning> check_for_machine(const LayerSource& layers, const B
   Problems errors;
   std::vector<MachineWarning> warnings;
   const Vec2 shift = placement_offset(box, p);
-  const bool circle = p.bed_shape == "circle";
-  const bool centred_origin = p.origin == "center";
+  const bool circle = p.bed_shape == BedShape::Circle;
+  const bool centred_origin = p.origin == BedOrigin::Center;
   const double x0 = centred_origin ? -p.bed_x / 2 : 0, y0 = centred_origin ? -p.bed_y / 2 : 0;
   const double x1 = x0 + p.bed_x, y1 = y0 + p.bed_y;
   const Vec2 bed_centre{(x0 + x1) / 2, (y0 + y1) / 2};
@@ -119,7 +119,7 @@ std::vector<MachineWarning> check_for_machine(const LayerSource& layers, const B
   const int gradient_tools = p.gradient_tool_count();
   bool mixed = false;
   std::size_t max_materials = 0;
-  const bool fdm = p.parsed_flavor() == Flavor::Marlin;
+  const bool fdm = p.marlin_family();
   layers([&](std::size_t li, const Layer& layer) {
     for (std::size_t pi = 0; pi < layer.paths.size(); ++pi) {
       const Path& path = layer.paths[pi];
@@ -162,7 +162,7 @@ std::vector<MachineWarning> check_for_machine(const LayerSource& layers, const B
         errors.add("process_flavor",
                    fmt::format("{} sets a {} (a process field) but machine.flavor = {} has no E "
                                "axis and no fan to set: print it on an FDM profile",
-                               where(li, pi), path.fan >= 0 ? "fan" : "flow", p.flavor));
+                               where(li, pi), path.fan >= 0 ? "fan" : "flow", to_string(p.flavor)));
       if (path.temperature > p.max_nozzle_temperature + eps)
         errors.add("path_temperature",
                    fmt::format("{} asks for {} °C, above temperature.max_nozzle = {} °C",
@@ -194,7 +194,7 @@ std::vector<MachineWarning> check_for_machine(const LayerSource& layers, const B
                           num(p.bed_z)));
   }
   if (mixed) {
-    if (p.gradient_mode == "mixing" && static_cast<int>(max_materials) > p.mixing_inputs) {
+    if (p.gradient_mode == GradientMode::Mixing && static_cast<int>(max_materials) > p.mixing_inputs) {
       if (p.mixing_inputs < 2)
         errors.add("mixing", fmt::format(
                                  "the toolpath mixes {} materials but the machine '{}' has no "
@@ -207,12 +207,12 @@ std::vector<MachineWarning> check_for_machine(const LayerSource& layers, const B
                                          "has machine.mixing_inputs = {}",
                                          max_materials, p.name, p.mixing_inputs));
     }
-    if (p.gradient_mode != "mixing" && max_materials > 2)
+    if (p.gradient_mode != GradientMode::Mixing && max_materials > 2)
       errors.add("mixing", fmt::format("a {}-material mixture needs a mixing hotend "
                                        "(gradient.mode = mixing); tools and temperature make "
                                        "mixtures of two materials",
                                        max_materials));
-    if (p.gradient_mode == "tools") {
+    if (p.gradient_mode == GradientMode::Tools) {
       if (gradient_tools > p.tool_count)
         errors.add("tools", fmt::format("gradient.tools = {} but the machine '{}' has {} tool{} "
                                         "(machine.tools)",
@@ -223,7 +223,7 @@ std::vector<MachineWarning> check_for_machine(const LayerSource& layers, const B
                                         "machine '{}' has machine.tools = {}",
                                         p.name, p.tool_count));
     }
-    if (p.gradient_mode == "temperature")
+    if (p.gradient_mode == GradientMode::Temperature)
       for (const auto& [key, t] : {std::pair{"gradient.temperature_a", p.temperature_a},
                                    std::pair{"gradient.temperature_b", p.temperature_b}})
         if (t > p.max_nozzle_temperature + eps)
@@ -260,8 +260,8 @@ std::vector<MachineWarning> check_for_machine(const LayerSource& layers, const B
       errors.add(key, fmt::format("{} = {} mm/s is faster than the machine's speed.max = {} mm/s",
                                   key, num(v), num(p.max_speed)));
   errors.throw_if_any();
-  if (p.parsed_flavor() == Flavor::Marlin && p.nozzle_temperature == 0 &&
-      p.gradient_mode != "temperature")
+  if (p.marlin_family() && p.nozzle_temperature == 0 &&
+      p.gradient_mode != GradientMode::Temperature)
     warnings.push_back({"temperature_unset",
                         "temperature.nozzle is 0: the G-code sets no nozzle temperature and "
                         "relies on the start G-code or the printer"});

@@ -2,6 +2,7 @@
 
 
 #include <algorithm>
+#include <array>
 #include <charconv>
 #include <cmath>
 
@@ -12,6 +13,86 @@ namespace trellis {
 
 using P = MachineProfile;
 
+namespace {
+
+// Each choice's names, in its enum's order.
+constexpr std::array kFlavorNames =
+    std::to_array<const char*>({"marlin", "reprap", "klipper", "pneumatic", "embedded"});
+constexpr std::array kFirmwareNames = std::to_array<const char*>({"", "prusa"});
+constexpr std::array kBedShapeNames = std::to_array<const char*>({"rectangle", "circle"});
+constexpr std::array kBedOriginNames = std::to_array<const char*>({"corner", "center"});
+constexpr std::array kGradientModeNames =
+    std::to_array<const char*>({"mixing", "tools", "temperature"});
+constexpr std::array kFlowModelNames = std::to_array<const char*>({"", "pla", "tpu"});
+constexpr std::array kEmbeddedDriveNames = std::to_array<const char*>({"pressure", "syringe"});
+constexpr std::array kPurgePositionNames = std::to_array<const char*>({"auto", "fixed"});
+constexpr std::array kMixingDialectNames =
+    std::to_array<const char*>({"m165", "m163", "m567", "template"});
+
+template <class E, std::size_t N>
+const char* name_of(E v, const std::array<const char*, N>& names) {
+  return names.at(static_cast<std::size_t>(v));
+}
+
+// An enum member as a table entry: its names, read and written by index.
+template <class E, std::size_t N>
+MachineChoice choice(E P::*member, const std::array<const char*, N>& names) {
+  return {std::vector<const char*>(names.begin(), names.end()),
+          [member](const P& p) { return static_cast<int>(p.*member); },
+          [member](P& p, int i) { p.*member = static_cast<E>(i); }};
+}
+
+}  // namespace
+
+const char* to_string(Flavor v) {
+  return name_of(v, kFlavorNames);
+}
+const char* to_string(Firmware v) {
+  return name_of(v, kFirmwareNames);
+}
+const char* to_string(BedShape v) {
+  return name_of(v, kBedShapeNames);
+}
+const char* to_string(BedOrigin v) {
+  return name_of(v, kBedOriginNames);
+}
+const char* to_string(GradientMode v) {
+  return name_of(v, kGradientModeNames);
+}
+const char* to_string(FlowModel v) {
+  return name_of(v, kFlowModelNames);
+}
+const char* to_string(EmbeddedDrive v) {
+  return name_of(v, kEmbeddedDriveNames);
+}
+const char* to_string(PurgePosition v) {
+  return name_of(v, kPurgePositionNames);
+}
+const char* to_string(MixingDialect v) {
+  return name_of(v, kMixingDialectNames);
+}
+
+namespace {
+
+template <class E, std::size_t N>
+E from_name(const std::string& name, const std::array<const char*, N>& names, const char* key) {
+  std::string all;
+  for (std::size_t i = 0; i < N; ++i) {
+    if (name == names[i]) return static_cast<E>(i);
+    all += std::string(i ? ", " : "") + names[i];
+  }
+  throw SettingError("unknown value '" + name + "' (expected one of " + all + ")", {"", 0, key});
+}
+
+}  // namespace
+
+Flavor flavor_from_string(const std::string& name) {
+  return from_name<Flavor>(name, kFlavorNames, "machine.flavor");
+}
+MixingDialect mixing_dialect_from_string(const std::string& name) {
+  return from_name<MixingDialect>(name, kMixingDialectNames, "gradient.dialect");
+}
+
 const std::vector<SettingDecl>& machine_settings() {
   static const std::vector<SettingDecl> table = {
       {"machine.name", "", "printer name, written into headers", 0, 0, &P::name},
@@ -20,21 +101,21 @@ const std::vector<SettingDecl>& machine_settings() {
        "(SET_HEATER_TEMPERATURE, ACTIVATE_EXTRUDER), pneumatic (valve + pressure) or embedded "
        "(pneumatic in a support bath: vertical lifts out of the bath for travel, tools with "
        "offsets)",
-       0, 0, &P::flavor},
+       0, 0, choice(&P::flavor, kFlavorNames)},
       {"machine.firmware", "",
        "the firmware, where an output format depends on it: prusa (Prusa's Buddy firmware: MK4, "
        "MK3.9, XL, MINI, Core One; reads binary G-code) or empty (not declared)",
-       0, 0, &P::firmware},
+       0, 0, choice(&P::firmware, kFirmwareNames)},
       {"machine.bed_x", "mm", "build area in X (a circular bed: its diameter)", 1, 10000,
        &P::bed_x},
       {"machine.bed_y", "mm", "build area in Y (ignored for a circular bed)", 1, 10000, &P::bed_y},
       {"machine.bed_z", "mm", "build height", 1, 10000, &P::bed_z},
       {"machine.bed_shape", "", "shape of the build area: rectangle or circle (diameter bed_x)", 0,
-       0, &P::bed_shape},
+       0, choice(&P::bed_shape, kBedShapeNames)},
       {"machine.origin", "",
        "where X0 Y0 is: corner (the bed runs 0..bed_x) or center (-bed_x/2..bed_x/2; delta "
        "printers)",
-       0, 0, &P::origin},
+       0, 0, choice(&P::origin, kBedOriginNames)},
       {"machine.tools", "",
        "tools or nozzles the machine has (tool changer, multi-nozzle head); paths for a tool it "
        "lacks are refused",
@@ -53,7 +134,7 @@ const std::vector<SettingDecl>& machine_settings() {
       {"placement.center", "",
        "move the part's XY centre to the bed centre (false: design coordinates are bed "
        "coordinates)",
-       0, 0, &P::center},
+       0, 0, &P::center, "center"},
       {"placement.lift", "",
        "a toolpath reaching below Z 0 is lifted so that its lowest point is on the bed (false: "
        "below the bed is an error)",
@@ -66,7 +147,7 @@ const std::vector<SettingDecl>& machine_settings() {
        "filament diameter f_d (Eq. 4; a syringe: the barrel bore)", 0.1, 100,
        &P::filament_diameter},
       {"extrusion.layer_height", "mm", "layer thickness LT when a path has none (Eq. 4)", 0.001, 10,
-       &P::layer_height},
+       &P::layer_height, "layer-height"},
       {"extrusion.multiplier", "", "extrusion multiplier EM (Eq. 4)", 0, 10,
        &P::extrusion_multiplier},
       {"extrusion.k", "", "correction factor k for the bead shape (Eq. 4)", 0, 10, &P::k},
@@ -76,7 +157,7 @@ const std::vector<SettingDecl>& machine_settings() {
        "flow factor for steep downward moves, \"deg,factor;...\": a segment descending at least "
        "deg below horizontal gets factor (E x factor; pneumatic/embedded: feed / factor)",
        0, 0, &P::down_flow},
-      {"speed.print", "mm/s", "printing speed", 0.01, 1000, &P::print_speed},
+      {"speed.print", "mm/s", "printing speed", 0.01, 1000, &P::print_speed, "speed"},
       {"speed.travel", "mm/s", "travel speed", 0.01, 2000, &P::travel_speed},
       {"speed.z", "mm/s", "speed of Z moves", 0.01, 1000, &P::z_speed},
       {"speed.acceleration", "mm/s²",
@@ -159,7 +240,7 @@ const std::vector<SettingDecl>& machine_settings() {
       {"embedded.drive", "",
        "how ink is pushed: pressure (valve on/off, pneumatic.pressure) or syringe (a stepper "
        "syringe pump on E, Eq. 4 with extrusion.filament_diameter = the plunger diameter)",
-       0, 0, &P::embedded_drive},
+       0, 0, choice(&P::embedded_drive, kEmbeddedDriveNames)},
       {"embedded.bath_travel", "mm",
        "travel moves up to this long stay inside the bath instead of lifting out (e.g. between "
        "non-planar layers); tool changes always lift",
@@ -169,7 +250,7 @@ const std::vector<SettingDecl>& machine_settings() {
       {"gradient.mode", "",
        "how a path's mixture is made: mixing (M165 A.. B..), tools (T<n>, the nearest of "
        "gradient.tools) or temperature (M104 S<t>, foaming filament)",
-       0, 0, &P::gradient_mode},
+       0, 0, choice(&P::gradient_mode, kGradientModeNames)},
       {"gradient.tools", "",
        "tools: how many tools hold the gradient, tool 0 = material A ... last = material B (0 = "
        "all of machine.tools)",
@@ -181,16 +262,16 @@ const std::vector<SettingDecl>& machine_settings() {
       {"gradient.flow", "",
        "temperature: flow compensation M221 S<F> with each M104: pla (FGM paper Eq. 3) or tpu "
        "(Eq. 4); empty = none",
-       0, 0, &P::flow_model},
+       0, 0, choice(&P::flow_model, kFlowModelNames)},
       {"gradient.lookahead", "mm",
        "issue each mixture change this much printed path before the region (dead volume, FGM "
        "paper A.1: L = V_melt / (h(w-h) + pi h^2/4))",
-       0, 100000, &P::lookahead},
+       0, 100000, &P::lookahead, "lookahead"},
       {"gradient.dialect", "",
        "mixing: how a mixture is commanded: m165 (Marlin M165 A B C), m163 (Marlin M163 S<i> "
        "P<share> per input + M164 S0, virtual tool 0), m567 (RepRapFirmware M567 P0 E<a>:<b>) "
        "or template (gradient.template)",
-       0, 0, &P::gradient_dialect},
+       0, 0, choice(&P::gradient_dialect, kMixingDialectNames)},
       {"gradient.template", "",
        "mixing, dialect template: the command for one mixture, {a} {b} {c} … replaced by each "
        "input's share (0..1), other {setting} placeholders as in gcode.start; e.g. a Klipper "
@@ -209,7 +290,7 @@ const std::vector<SettingDecl>& machine_settings() {
       {"purge.position", "",
        "where the prime tower stands: auto (beside the part on free bed space, clearance apart) "
        "or fixed (centred at purge.x, purge.y)",
-       0, 0, &P::purge_position},
+       0, 0, choice(&P::purge_position, kPurgePositionNames)},
       {"purge.x", "mm", "prime tower centre X when purge.position = fixed (design coordinates)",
        -10000, 10000, &P::purge_x},
       {"purge.y", "mm", "prime tower centre Y when purge.position = fixed", -10000, 10000,
@@ -238,7 +319,7 @@ const std::vector<SettingDecl>& machine_settings() {
        "write PrusaSlicer's binary G-code (.bgcode: metadata, PNG thumbnails and Deflate-"
        "compressed G-code blocks with CRC32) instead of text; machines with machine.firmware = "
        "prusa only; an output named .bgcode is binary without it",
-       0, 0, &P::binary_gcode},
+       0, 0, &P::binary_gcode, "binary-gcode"},
       {"gcode.prime_line", "mm",
        "prime line: this much line drawn along the bed's front edge, 5 mm in, before the first "
        "layer (valve open for pneumatic machines; not in a bath); 0 = none",
@@ -250,16 +331,6 @@ const std::vector<SettingDecl>& machine_settings() {
        0, 0, &P::label_objects},
   };
   return table;
-}
-
-Flavor MachineProfile::parsed_flavor() const {
-  // RepRapFirmware and Klipper are Marlin's family (E axis, G-code moves); heaters and tools are
-  // written in their own commands (gcode_writer.cpp).
-  if (flavor == "marlin" || flavor == "reprap" || flavor == "klipper") return Flavor::Marlin;
-  if (flavor == "pneumatic") return Flavor::Pneumatic;
-  if (flavor == "embedded") return Flavor::Embedded;
-  throw SettingError("unknown flavor '" + flavor + "' (expected marlin, reprap, klipper, pneumatic or embedded)",
-                     {"", 0, "machine.flavor"});
 }
 
 namespace {
@@ -368,24 +439,10 @@ std::vector<std::pair<int, int>> MachineProfile::thumbnail_sizes() const {
 }
 
 void validate(const MachineProfile& p) {
-  p.parsed_flavor();
   p.thumbnail_sizes();
-  if (p.gradient_mode != "mixing" && p.gradient_mode != "tools" && p.gradient_mode != "temperature")
-    throw SettingError("unknown gradient mode '" + p.gradient_mode +
-                           "' (expected mixing, tools or temperature)",
-                       {"", 0, "gradient.mode"});
-  if (!p.flow_model.empty() && p.flow_model != "pla" && p.flow_model != "tpu")
-    throw SettingError("unknown flow model '" + p.flow_model + "' (expected pla, tpu or empty)",
-                       {"", 0, "gradient.flow"});
   p.tool_offset(0);
   p.tool_pressure(0);
   p.down_flow_table();
-  if (p.bed_shape != "rectangle" && p.bed_shape != "circle")
-    throw SettingError("unknown bed shape '" + p.bed_shape + "' (expected rectangle or circle)",
-                       {"", 0, "machine.bed_shape"});
-  if (p.origin != "corner" && p.origin != "center")
-    throw SettingError("unknown origin '" + p.origin + "' (expected corner or center)",
-                       {"", 0, "machine.origin"});
   if (p.floor_z > 0 && p.bath_surface > 0 && p.floor_z >= p.bath_surface)
     throw SettingError("the bath's floor (embedded.floor_z = " + number_text(p.floor_z) +
                            " mm) must be below its surface (embedded.bath_surface = " +
@@ -393,7 +450,8 @@ void validate(const MachineProfile& p) {
                        {"", 0, "embedded.floor_z"});
   if (p.floor_z > 0 && !p.has_bath())
     throw SettingError(
-        "embedded.floor_z is for bath machines (machine.flavor = embedded), not " + p.flavor,
+        std::string("embedded.floor_z is for bath machines (machine.flavor = embedded), not ") +
+            to_string(p.flavor),
         {"", 0, "embedded.floor_z"});
   if (p.floor_z >= p.bed_z)
     throw SettingError("the bath's floor (embedded.floor_z = " + number_text(p.floor_z) +
@@ -405,24 +463,25 @@ void validate(const MachineProfile& p) {
         "a prime line is drawn on a bed, not in a support bath (machine.flavor = "
         "embedded): leave gcode.prime_line at 0",
         {"", 0, "gcode.prime_line"});
-  if (p.embedded_drive != "pressure" && p.embedded_drive != "syringe")
-    throw SettingError("unknown embedded drive '" + p.embedded_drive +
-                           "' (expected pressure or syringe)",
-                       {"", 0, "embedded.drive"});
 }
 
 std::string setting_text(const MachineProfile& p, const SettingDecl& d) {
   return std::visit(
-      [&](auto member) -> std::string {
-        using T = std::remove_cvref_t<decltype(p.*member)>;
-        if constexpr (std::is_same_v<T, double>)
-          return number_text(p.*member);
-        else if constexpr (std::is_same_v<T, int>)
-          return std::to_string(p.*member);
-        else if constexpr (std::is_same_v<T, bool>)
-          return p.*member ? "true" : "false";
-        else
-          return p.*member;
+      [&](const auto& member) -> std::string {
+        using M = std::remove_cvref_t<decltype(member)>;
+        if constexpr (std::is_same_v<M, MachineChoice>) {
+          return member.names.at(static_cast<std::size_t>(member.get(p)));
+        } else {
+          using T = std::remove_cvref_t<decltype(p.*member)>;
+          if constexpr (std::is_same_v<T, double>)
+            return number_text(p.*member);
+          else if constexpr (std::is_same_v<T, int>)
+            return std::to_string(p.*member);
+          else if constexpr (std::is_same_v<T, bool>)
+            return p.*member ? "true" : "false";
+          else
+            return p.*member;
+        }
       },
       d.member);
 }

@@ -916,6 +916,10 @@ PeriodicTrails canonical_periodic(const Graph& input, const Canonical& c,
 
 }  // namespace
 
+std::size_t aero_auto_tries(std::size_t struts) {
+  return std::clamp<std::size_t>(200000 / std::max<std::size_t>(1, struts), 1, 8);
+}
+
 AeroResult plan_aero(const Graph& input, const AeroParams& params, Diagnostics& diag) {
   if (input.edges.empty()) throw GeometryError("the lattice has no struts to plan");
   params.nozzle.validate();
@@ -1037,9 +1041,7 @@ AeroResult plan_canonical(const Graph& g, const AeroParams& params, const Period
   std::size_t runs = 1;
   if (params.method == AeroMethod::Dynamic && params.collisions) {
     strategies = {Strategy::Lowest, Strategy::Unlock, Strategy::Continue, Strategy::Mean};
-    runs = params.tries > 0
-               ? static_cast<std::size_t>(params.tries)
-               : std::clamp<std::size_t>(200000 / std::max<std::size_t>(1, g.edges.size()), 1, 8);
+    runs = params.tries > 0 ? static_cast<std::size_t>(params.tries) : aero_auto_tries(g.edges.size());
   }
   // Each run's plan is compared with the best so far as it finishes and dropped unless better,
   // so memory holds one plan per thread, not one per try; the lowest run index breaks ties.

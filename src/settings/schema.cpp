@@ -135,70 +135,61 @@ Setting derived(Setting s, std::string from) {
   return s;
 }
 
-// The machine profile's table (machine/profile.hpp) as schema entries: its members and defaults.
+// A machine member of a plain type as a schema entry's kind, getter and setter.
+template <class T>
+void add_member(Setting& s, T MachineProfile::*member) {
+  if constexpr (std::is_same_v<T, double>) {
+    s.kind = SettingKind::Number;
+    s.get = [member](const Config& c) { return SettingValue(c.machine.*member); };
+    s.set = [member](Config& c, const SettingValue& v) { c.machine.*member = std::get<double>(v); };
+  } else if constexpr (std::is_same_v<T, int>) {
+    s.kind = SettingKind::Integer;
+    s.get = [member](const Config& c) {
+      return SettingValue(static_cast<long long>(c.machine.*member));
+    };
+    s.set = [member](Config& c, const SettingValue& v) {
+      c.machine.*member = static_cast<int>(std::get<long long>(v));
+    };
+  } else if constexpr (std::is_same_v<T, bool>) {
+    s.kind = SettingKind::Bool;
+    s.get = [member](const Config& c) { return SettingValue(c.machine.*member); };
+    s.set = [member](Config& c, const SettingValue& v) { c.machine.*member = std::get<bool>(v); };
+  } else {
+    s.kind = SettingKind::Text;
+    s.get = [member](const Config& c) { return SettingValue(c.machine.*member); };
+    s.set = [member](Config& c, const SettingValue& v) {
+      c.machine.*member = std::get<std::string>(v);
+    };
+  }
+}
+
+// The machine sections, declared in machine/profile.cpp (the G-code writer below the schema
+// reads them too), as schema entries: each declaration as it is, its default the member's.
 void add_machine(std::vector<Setting>& out) {
   for (const auto& d : machine_settings()) {
     Setting s;
     s.key = d.key, s.unit = d.unit, s.doc = d.doc, s.min = d.min, s.max = d.max;
     std::visit(
-        [&](auto member) {
-          using T = std::remove_cvref_t<decltype(MachineProfile{}.*member)>;
-          if constexpr (std::is_same_v<T, double>) {
-            s.kind = SettingKind::Number;
-            s.get = [member](const Config& c) { return SettingValue(c.machine.*member); };
-            s.set = [member](Config& c, const SettingValue& v) {
-              c.machine.*member = std::get<double>(v);
-            };
-          } else if constexpr (std::is_same_v<T, int>) {
-            s.kind = SettingKind::Integer;
+        [&](const auto& member) {
+          using M = std::remove_cvref_t<decltype(member)>;
+          if constexpr (std::is_same_v<M, MachineChoice>) {
+            s.kind = SettingKind::Choice;
+            s.choices.assign(member.names.begin(), member.names.end());
             s.get = [member](const Config& c) {
-              return SettingValue(static_cast<long long>(c.machine.*member));
+              return SettingValue(std::string(member.names.at(
+                  static_cast<std::size_t>(member.get(c.machine)))));
             };
             s.set = [member](Config& c, const SettingValue& v) {
-              c.machine.*member = static_cast<int>(std::get<long long>(v));
-            };
-          } else if constexpr (std::is_same_v<T, bool>) {
-            s.kind = SettingKind::Bool;
-            s.get = [member](const Config& c) { return SettingValue(c.machine.*member); };
-            s.set = [member](Config& c, const SettingValue& v) {
-              c.machine.*member = std::get<bool>(v);
+              const auto& names = member.names;
+              for (std::size_t i = 0; i < names.size(); ++i)
+                if (names[i] == std::get<std::string>(v)) member.set(c.machine, static_cast<int>(i));
             };
           } else {
-            s.kind = SettingKind::Text;
-            s.get = [member](const Config& c) { return SettingValue(c.machine.*member); };
-            s.set = [member](Config& c, const SettingValue& v) {
-              c.machine.*member = std::get<std::string>(v);
-            };
+            add_member(s, member);
           }
         },
         d.member);
-    const std::string key = d.key;
-    if (key == "machine.flavor")
-      s.choices = {"marlin", "reprap", "klipper", "pneumatic", "embedded"};
-    if (key == "machine.firmware") s.choices = {"", "prusa"};
-    if (key == "gradient.mode") s.choices = {"mixing", "tools", "temperature"};
-    if (key == "gradient.flow") s.choices = {"", "pla", "tpu"};
-    if (key == "embedded.drive") s.choices = {"pressure", "syringe"};
-    if (key == "purge.position") s.choices = {"auto", "fixed"};
-    if (key == "gradient.dialect") s.choices = {"m165", "m163", "m567", "template"};
-    if (key == "machine.bed_shape") s.choices = {"rectangle", "circle"};
-    if (key == "machine.origin") s.choices = {"corner", "center"};
-    if (!s.choices.empty()) s.kind = SettingKind::Choice;
-    if (key == "extrusion.layer_height") s.flag = "layer-height";
-    if (key == "placement.center") s.flag = "center";
-    if (key == "gcode.binary") s.flag = "binary-gcode";
-    if (key == "speed.print") s.flag = "speed";
-    if (key == "gradient.lookahead") s.flag = "lookahead";
-    if (key == "machine.name") {
-      // Shared by printer and laser profiles. Every output's job header records it, the default
-      // too; the printer's default name read back from a laser build's header (merge, rerun)
-      // names no laser, so the laser keeps its own default.
-      s.set = [](Config& c, const SettingValue& v) {
-        const std::string& name = std::get<std::string>(v);
-        c.machine.name = name;
-        c.laser.name = name == MachineProfile{}.name ? LaserProfile{}.name : name;
-      };
-    }
+    s.flag = d.flag;
     out.push_back(std::move(s));
   }
 }

@@ -363,6 +363,10 @@ Config Settings::config() const {
   // The periodic method's cell is the made lattice's unless given.
   if (!find("aero.cell_type")) c.aero.periodic.cell = c.lattice3d.cells.cell;
   if (!find("aero.cell")) c.aero.periodic.size = c.lattice3d.cells.size;
+  // machine.name names printer and laser profiles alike. Every output's job header records it,
+  // the default too; the printer's default name read back from a laser build's header (merge,
+  // rerun) names no laser, so the laser keeps its own default.
+  if (c.machine.name != MachineProfile{}.name) c.laser.name = c.machine.name;
   return c;
 }
 
@@ -400,7 +404,7 @@ void check_rules(const Config& c, const Settings& st, const std::vector<std::str
     return Where{"", 0, a + " (" + st.origin_text(a) + ") and " + b + " (" + st.origin_text(b) + ")"};
   };
   const double nozzle = c.machine.nozzle_diameter;
-  const bool fdm = c.machine.parsed_flavor() == Flavor::Marlin;  // Marlin, RepRapFirmware, Klipper
+  const bool fdm = c.machine.marlin_family();  // Marlin, RepRapFirmware, Klipper
   // In air (FDM: Marlin, RepRapFirmware, Klipper) a bead taller than 0.8 × the nozzle does not
   // bond; in a bath or from a syringe the bead is a strut as thick as the nozzle, so the rule is
   // FDM's only.
@@ -411,23 +415,24 @@ void check_rules(const Config& c, const Settings& st, const std::vector<std::str
                        where("extrusion.layer_height", "extrusion.nozzle_diameter"));
   // A mixing hotend's command must be one the firmware has: Marlin M165 or M163/M164,
   // RepRapFirmware M567; Klipper has no mixing command (a macro: gradient.dialect = template).
-  if (uses("gradient") && c.machine.gradient_mode == "mixing" && c.machine.mixing_inputs > 1 &&
-      c.machine.gradient_dialect != "template") {
-    const std::string& f = c.machine.flavor;
-    const std::string& d = c.machine.gradient_dialect;
-    const char* has = f == "marlin"    ? "m165 or m163"
-                      : f == "reprap"  ? "m567"
-                      : f == "klipper" ? ""
-                                       : nullptr;
-    const bool ok = (f == "marlin" && (d == "m165" || d == "m163")) || (f == "reprap" && d == "m567");
-    if (has && !ok)
+  const MachineProfile& m = c.machine;
+  if (uses("gradient") && m.gradient_mode == GradientMode::Mixing && m.mixing_inputs > 1 &&
+      m.gradient_dialect != MixingDialect::Template && m.marlin_family()) {
+    const Flavor f = m.flavor;
+    const MixingDialect d = m.gradient_dialect;
+    const bool ok = (f == Flavor::Marlin && (d == MixingDialect::M165 || d == MixingDialect::M163)) ||
+                    (f == Flavor::RepRap && d == MixingDialect::M567);
+    const std::string has = f == Flavor::Marlin ? "m165 or m163" : f == Flavor::RepRap ? "m567" : "";
+    if (!ok)
       throw SettingError(
           fmt::format("{} has no {} command for a mixing hotend; use "
                       "gradient.dialect = {}",
-                      f == "marlin" ? "Marlin" : f == "reprap" ? "RepRapFirmware" : "Klipper",  // "the X firmware"
-                      d == "m165" ? "M165" : d == "m163" ? "M163/M164" : "M567",
-                      *has ? std::string(has) + " (or template with a macro)"
-                           : "template with gradient.template naming your macro"),
+                      f == Flavor::Marlin ? "Marlin" : f == Flavor::RepRap ? "RepRapFirmware" : "Klipper",
+                      d == MixingDialect::M165   ? "M165"
+                      : d == MixingDialect::M163 ? "M163/M164"
+                                                 : "M567",
+                      !has.empty() ? has + " (or template with a macro)"
+                                   : "template with gradient.template naming your macro"),
           where("gradient.dialect", "machine.flavor"));
   }
   auto bead_rule = [&](const char* key, double w) {

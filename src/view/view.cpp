@@ -265,11 +265,11 @@ void set_collisions(ViewScene& s, const CollisionCheck& c) {
 }
 
 void set_build_volume(ViewScene& s, const MachineProfile& m, const std::string& name) {
-  s.bed.shape = m.bed_shape;
+  s.bed.shape = to_string(m.bed_shape);
   s.bed.x = m.bed_x;
-  s.bed.y = m.bed_shape == "circle" ? m.bed_x : m.bed_y;
+  s.bed.y = m.bed_shape == BedShape::Circle ? m.bed_x : m.bed_y;
   s.bed.z = m.bed_z;
-  s.bed.center = m.origin == "center";
+  s.bed.center = m.origin == BedOrigin::Center;
   s.bed.machine = name;
 }
 

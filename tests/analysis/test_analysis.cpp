@@ -118,7 +118,7 @@ TEST(Analysis, AlignmentFindsAPartPlacedOnTheBed) {
   const Toolpath tp = plan(g, Planner::Euler);
   MachineProfile p = test::open_bed();
   p.center = true;
-  p.origin = "corner";  // placed at the bed centre, (1000, 1000)
+  p.origin = BedOrigin::Corner;  // placed at the bed centre, (1000, 1000)
   Diagnostics d;
   const std::string gcode = write_gcode(tp, p);
   CountingSink counter;
@@ -168,7 +168,7 @@ TEST(Analysis, PlatePartsAreMeasuredEachOnItsOwn) {
   }
   for (const std::string flavor : {"marlin", "klipper"}) {
     MachineProfile p = test::open_bed();
-    p.flavor = flavor;
+    p.flavor = flavor_from_string(flavor);
     p.center = false;
     GcodeStats stats;
     const std::string g = write_gcode(tp, p, &stats);
@@ -212,7 +212,7 @@ TEST(Analysis, DwellsAreCountedAsTheWriterCountsThem) {
   pp.gippo.iterations = 5;
   const Toolpath tp = plan_lattice(make_lattice2d(a), pp, d).toolpath;
   MachineProfile p = test::open_bed();
-  p.flavor = "pneumatic";
+  p.flavor = Flavor::Pneumatic;
   p.valve_on = "M3";
   p.valve_off = "M5";
   auto times = [&](double pre, double post) {

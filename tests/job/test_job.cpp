@@ -106,6 +106,54 @@ TEST(Settings, EveryDefaultIsInItsOwnRangeAndTheTableHasNoDuplicates) {
   EXPECT_GT(keys.size(), 150u);
 }
 
+// Every choice of every setting reads back as itself: name -> the typed value (the machine's
+// enums among them) -> the same name, as headers and rerun record it.
+TEST(Settings, EveryChoiceReadsBackAsItself) {
+  std::size_t checked = 0;
+  for (const auto& s : all_settings()) {
+    for (const auto& name : s.choices) {
+      Settings st;
+      st.set_text(s.key, name, {"test"});
+      EXPECT_EQ(std::get<std::string>(s.get(st.config())), name) << s.key;
+      ++checked;
+    }
+  }
+  EXPECT_GT(checked, 60u);
+}
+
+// The 0.8 x nozzle layer-height rule is the FDM family's, flavour by flavour: Marlin,
+// RepRapFirmware and Klipper refuse 0.35 mm on a 0.4 mm nozzle; pneumatic and embedded (a strut
+// as thick as the nozzle) take it; 0.32 mm (0.8 x exactly) is taken everywhere.
+TEST(Settings, TheLayerHeightRuleAppliesToEveryFlavourOfTheFdmFamily) {
+  const std::vector<std::string> sections = {"machine", "extrusion"};
+  for (const auto& [flavor, fdm] : std::vector<std::pair<std::string, bool>>{{"marlin", true},
+                                                                            {"reprap", true},
+                                                                            {"klipper", true},
+                                                                            {"pneumatic", false},
+                                                                            {"embedded", false}}) {
+    Settings st;
+    st.set_text("machine.flavor", flavor, {"--set"});
+    st.set_text("extrusion.nozzle_diameter", "0.4", {"--set"});
+    st.set_text("extrusion.layer_height", "0.35", {"--layer-height"});
+    const Config c = st.config();
+    EXPECT_EQ(to_string(c.machine.flavor), flavor);
+    EXPECT_EQ(c.machine.marlin_family(), fdm) << flavor;
+    if (fdm) {
+      try {
+        check_rules(c, st, sections);
+        ADD_FAILURE() << flavor << ": 0.35 mm on a 0.4 mm nozzle accepted";
+      } catch (const SettingError& e) {
+        EXPECT_NE(e.message().find("0.8 × the nozzle"), std::string::npos) << e.message();
+        EXPECT_NE(e.where().element.find("--layer-height"), std::string::npos) << flavor;
+      }
+    } else {
+      EXPECT_NO_THROW(check_rules(c, st, sections)) << flavor;
+    }
+    st.set_text("extrusion.layer_height", "0.32", {"--layer-height"});
+    EXPECT_NO_THROW(check_rules(st.config(), st, sections)) << flavor;
+  }
+}
+
 TEST(Settings, TextValuesKeepFullPrecisionAndRoundTripThroughToml) {
   Settings st;
   st.set_text("extrusion.k", "4e-7", {"--set"});
@@ -325,7 +373,7 @@ TEST(Profiles, ShippedProfilesPurgeAndHeatAsTheySay) {
     const Config c = s.config();
     const std::string name = entry.path().filename().string();
     const bool changes = c.machine.tool_count > 1 || c.machine.mixing_inputs > 1;
-    if (changes && c.machine.flavor != "pneumatic" && c.machine.flavor != "embedded") {
+    if (changes && c.machine.marlin_family()) {
       ++changers;
       EXPECT_GT(c.machine.melt_volume, 0) << name << ": tool changes or mixing without a purge volume";
     }

@@ -46,7 +46,7 @@ Toolpath print() {
 MachineProfile prusa() {
   MachineProfile p = test::open_bed();
   p.name = "Prusa MK4S";
-  p.firmware = "prusa";
+  p.firmware = Firmware::Prusa;
   p.retract_length = 0.8;
   return p;
 }
@@ -214,8 +214,8 @@ TEST(BgcodeWriter, MachinesWithoutPrusasFirmwareAreRefused) {
   test::TempDir dir("bgcode_refused");
   MachineProfile klipper = prusa();
   klipper.name = "Voron";
-  klipper.flavor = "klipper";
-  klipper.firmware = "";
+  klipper.flavor = Flavor::Klipper;
+  klipper.firmware = Firmware::None;
   try {
     write_gcode_file(dir.file("v.bgcode"), print(), klipper);
     FAIL() << "binary G-code written for a Klipper machine";

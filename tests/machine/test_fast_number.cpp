@@ -231,9 +231,9 @@ TEST(FastNumber, WrittenFilesAreByteIdenticalToThePreviousWriters) {
   MachineProfile relative = marlin;
   relative.relative_e = true;
   MachineProfile klipper = marlin;
-  klipper.flavor = "klipper";
+  klipper.flavor = Flavor::Klipper;
   MachineProfile pneumatic = test::open_bed();
-  pneumatic.flavor = "pneumatic";
+  pneumatic.flavor = Flavor::Pneumatic;
   pneumatic.valve_on = "M3";
   pneumatic.valve_off = "M5";
   const std::vector<std::pair<std::string, std::string>> files = {

@@ -103,7 +103,7 @@ TEST(FlavourRoundTrip, EveryProfileReadsBackPathsRolesAndBeads) {
   for (const auto& profile : profiles) {
     const Settings st = load(profile);
     const MachineProfile m = st.config().machine;
-    flavours.insert(m.flavor);
+    flavours.insert(to_string(m.flavor));
     const Toolpath tp = sample(false, false);
     const Toolpath back = round_trip(tp, st, dir.file(profile.stem().string() + ".gcode"));
     expect_same_paths(tp, back, m, profile.filename().string());
@@ -124,7 +124,7 @@ TEST(FlavourRoundTrip, MixturesToolsAndTemperaturesOfGradedPaths) {
   std::set<std::string> modes_seen;
   for (const auto& profile : gcode_profiles()) {
     const MachineProfile base = load(profile).config().machine;
-    if (base.parsed_flavor() != Flavor::Marlin) continue;  // marlin, reprap, klipper
+    if (!base.marlin_family()) continue;  // marlin, reprap, klipper
     // The ways this machine can make a mixture (the writer refuses the others).
     std::vector<std::string> modes = {"temperature"};
     if (base.mixing_inputs >= 2) modes.push_back("mixing");
@@ -173,8 +173,8 @@ TEST(FlavourRoundTrip, ToolsOfMultiNozzleMachines) {
     const MachineProfile m = st.config().machine;
     // Multi-nozzle bath machines (offsets) and tool changers of every firmware (T<n>, Klipper's
     // ACTIVATE_EXTRUDER; heaters in each one's commands).
-    const bool bath = m.flavor == "embedded" && !m.tool_offsets.empty();
-    const bool changer = m.parsed_flavor() == Flavor::Marlin && m.tool_count >= 2;
+    const bool bath = m.flavor == Flavor::Embedded && !m.tool_offsets.empty();
+    const bool changer = m.marlin_family() && m.tool_count >= 2;
     if (!bath && !changer) continue;
     ++machines;
     const Toolpath tp = sample(false, true);

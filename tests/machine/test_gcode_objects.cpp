@@ -59,7 +59,7 @@ std::vector<std::string> nine_labels() {
 
 MachineProfile profile(const std::string& flavor) {
   MachineProfile p;
-  p.flavor = flavor;
+  p.flavor = flavor_from_string(flavor);
   p.center = false;  // plates are placed already
   p.retract_length = 0.8;
   p.nozzle_temperature = 215;

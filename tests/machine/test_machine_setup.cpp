@@ -193,7 +193,7 @@ TEST(PrimeLine, ProfilesPrimeAsTheirCommentsSay) {
     EXPECT_LT(g.find(";TYPE:Prime line"), g.find(";LAYER:0")) << e.path();
     Diagnostics d;
     GcodeReadOptions o;
-    if (p.parsed_flavor() != Flavor::Marlin) o.valve_on = p.valve_on, o.valve_off = p.valve_off;
+    if (!p.marlin_family()) o.valve_on = p.valve_on, o.valve_off = p.valve_off;
     Toolpath back = read_gcode(g, o, d);
     EXPECT_EQ(back.path_count(), 1u) << e.path();  // the prime line is not a path
     EXPECT_NEAR(stats.prime_length, p.prime_line, 1e-9);
@@ -207,7 +207,7 @@ TEST(PrimeLine, ProfilesPrimeAsTheirCommentsSay) {
     scan.finish();
     EXPECT_NEAR(primed.length, p.prime_line, 1e-3) << e.path();
     EXPECT_NEAR(primed.e, stats.prime_filament, 1e-4) << e.path();
-    if (p.parsed_flavor() == Flavor::Marlin) EXPECT_GT(stats.prime_filament, 0) << e.path();
+    if (p.marlin_family()) EXPECT_GT(stats.prime_filament, 0) << e.path();
   }
   EXPECT_GE(priming, 4);  // the FDM printers and the pneumatic one
 }

@@ -137,7 +137,7 @@ TEST(PrintTime, TheWriterEstimatesTheFileItWrites) {
   }
   for (const std::string flavor : {"marlin", "klipper", "reprap", "pneumatic"}) {
     MachineProfile p = test::open_bed();
-    p.flavor = flavor;
+    p.flavor = flavor_from_string(flavor);
     p.nozzle_temperature = 205;
     p.bed_temperature = flavor == "pneumatic" ? 0 : 60;
     p.acceleration = 800;

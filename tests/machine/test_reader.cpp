@@ -31,7 +31,7 @@ void expect_round_trip(const Toolpath& tp, const MachineProfile& profile,
   const std::string gcode = write_gcode(tp, profile);
   Diagnostics diag;
   GcodeReadOptions opt;
-  if (profile.flavor == "pneumatic") {
+  if (profile.flavor == Flavor::Pneumatic) {
     opt.valve_on = profile.valve_on;
     opt.valve_off = profile.valve_off;
   }
@@ -46,7 +46,7 @@ void expect_round_trip(const Toolpath& tp, const MachineProfile& profile,
       ASSERT_EQ(a.points.size(), b.points.size()) << label;
       for (std::size_t k = 0; k < a.points.size(); ++k)
         ASSERT_LE(distance(a.points[k], b.points[k]), 1e-3) << label;
-      if (profile.flavor == "marlin") {
+      if (profile.flavor == Flavor::Marlin) {
         const double e =
             extrusion_for(a.length(), a.height > 0 ? a.height : profile.layer_height, profile) +
             profile.pre_flow + profile.post_flow;
@@ -69,7 +69,7 @@ TEST(Reader, RoundTripForEveryWriterOnManyLattices) {
   relative.relative_e = true;
   relative.pre_flow = 0.05;
   MachineProfile pneumatic = test::open_bed();
-  pneumatic.flavor = "pneumatic";
+  pneumatic.flavor = Flavor::Pneumatic;
   pneumatic.valve_on = "M3";
   pneumatic.valve_off = "M5";
   for (const auto& name : pattern_names()) {
@@ -90,7 +90,7 @@ TEST(Reader, RoundTripForEveryWriterOnManyLattices) {
 // [pneumatic] (valve_on = 'M106', the fan): it is not taken, the file reads by E as before.
 TEST(Reader, OurPneumaticFilesReadBackFromTheirHeader) {
   MachineProfile pneumatic = test::open_bed();
-  pneumatic.flavor = "pneumatic";
+  pneumatic.flavor = Flavor::Pneumatic;
   pneumatic.valve_on = "M3 ; valve open";
   pneumatic.valve_off = "M5";
   AtlasParams a;

@@ -33,7 +33,7 @@ MachineProfile marlin() {
 
 MachineProfile pneumatic() {
   MachineProfile p = test::open_bed();
-  p.flavor = "pneumatic";
+  p.flavor = Flavor::Pneumatic;
   p.valve_on = "M3";
   p.valve_off = "M5";
   p.pressure = 500;
@@ -138,7 +138,7 @@ TEST(Writer, ShortPathsSlowDownAndRetractionHappens) {
 TEST(Writer, CentringMovesThePartToTheBedCentre) {
   MachineProfile p = marlin();
   p.center = true;
-  p.origin = "corner";
+  p.origin = BedOrigin::Corner;
   p.bed_x = 200;
   p.bed_y = 100;
   Toolpath tp;
@@ -150,7 +150,7 @@ TEST(Writer, CentringMovesThePartToTheBedCentre) {
   EXPECT_NEAR(r.deposits[0].x0, 95, 1e-9);
   EXPECT_NEAR(r.deposits[0].y1, 55, 1e-9);
   // A machine whose origin is the bed centre (a delta): the centre is X0 Y0.
-  p.origin = "center";
+  p.origin = BedOrigin::Center;
   const auto c = test::replay_gcode(write_gcode(tp, p));
   EXPECT_NEAR(c.deposits[0].x0, -5, 1e-9);
   EXPECT_NEAR(c.deposits[0].y1, 5, 1e-9);

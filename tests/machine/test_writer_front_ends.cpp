@@ -159,7 +159,7 @@ TEST(FrontEnds, M73ProgressOnlyWhereTheFirmwareTakesIt) {
   }
   for (const char* f : {"pneumatic", "embedded"}) {
     MachineProfile other;
-    other.flavor = f;
+    other.flavor = flavor_from_string(f);
     EXPECT_EQ(write_gcode(layers(2), other).find("M73"), std::string::npos) << f;
   }
 }

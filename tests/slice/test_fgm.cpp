@@ -17,6 +17,7 @@
 #include "trellis/geom/regions.hpp"
 #include "trellis/machine/gcode_reader.hpp"
 #include "trellis/machine/gcode_writer.hpp"
+#include "trellis/settings/settings.hpp"
 #include "trellis/slice/fgm.hpp"
 
 using namespace trellis;
@@ -286,13 +287,13 @@ TEST(Fgm, ToolsAndTemperatureModes) {
     tp.layers[0].paths.push_back(p);
   }
   MachineProfile tools = test::open_bed({}, 5);
-  tools.gradient_mode = "tools";
+  tools.gradient_mode = GradientMode::Tools;
   tools.gradient_tools = 5;
   const std::string g = write_gcode(tp, tools);
   for (const char* t : {"\nT0\n", "\nT1\n", "\nT2\n", "\nT3\n", "\nT4\n"}) EXPECT_NE(g.find(t), std::string::npos) << t;
   MachineProfile foam = test::open_bed();
-  foam.gradient_mode = "temperature";
-  foam.flow_model = "pla";
+  foam.gradient_mode = GradientMode::Temperature;
+  foam.flow_model = FlowModel::Pla;
   GcodeStats st;
   const std::string h = write_gcode(tp, foam, &st);
   EXPECT_EQ(st.gradient_changes, 5u);
@@ -308,8 +309,9 @@ TEST(Fgm, ToolsAndTemperatureModes) {
   while (e.back() == '0') e.pop_back();
   if (e.back() == '.') e.pop_back();
   EXPECT_NE(h.find(e), std::string::npos) << e << "\n" << h.substr(0, 2000);
-  foam.gradient_mode = "heat";
-  EXPECT_THROW(write_gcode(tp, foam), SettingError);
+  // An unknown mode is refused where profiles are read (the profile holds only known ones).
+  EXPECT_THROW(machine_profile_from_toml("[gradient]\nmode = \"heat\"\n", "foam.toml"),
+               SettingError);
 }
 
 TEST(Fgm, Strategy1KeepsEveryPlanarPathAndPurgesBetweenColours) {
@@ -534,9 +536,9 @@ TEST(Fgm, ThreeMaterialsStrategy1AndWriters) {
   EXPECT_LE(worst, o.palette.error_bound() + 1e-4);
   MachineProfile two = test::open_bed({}, 0, 2);
   EXPECT_THROW(write_gcode(tp, two), MachineError);
-  prof.gradient_mode = "tools";
+  prof.gradient_mode = GradientMode::Tools;
   EXPECT_THROW(write_gcode(tp, prof), MachineError);
-  prof.gradient_mode = "temperature";
+  prof.gradient_mode = GradientMode::Temperature;
   EXPECT_THROW(write_gcode(tp, prof), MachineError);
   o.zipper = 0.05;
   EXPECT_THROW(plan_fgm_strategy1(f, sl.outlines, sl.planar, o, {}, nullptr), SettingError);

@@ -318,7 +318,7 @@ TEST(FgmPaths, TemperatureChangesAlongABeadAddNoTravel) {
   const Case c = cases().front();
   const Planned p = plan(c, 5);
   MachineProfile prof = test::open_bed();
-  prof.gradient_mode = "temperature";
+  prof.gradient_mode = GradientMode::Temperature;
   prof.relative_e = true;
   prof.retract_length = 0;
   const std::string g = write_gcode(p.graded, prof);

@@ -254,7 +254,7 @@ TEST(ProcessFields, EveryFirmwareWritesTheTemperatureField) {
   trellis::test::TempDir dir;
   for (const std::string flavor : {"marlin", "reprap", "klipper"}) {
     MachineProfile prof = fdm_profile();
-    prof.flavor = flavor;
+    prof.flavor = flavor_from_string(flavor);
     const Sliced s = slice(kGraded, job_for(""), prof, dir);
     const Replay r = replay(s.gcode, prof.settle_time);
     ASSERT_GT(r.moves.size(), 1000u) << flavor;
@@ -432,7 +432,7 @@ TEST(ProcessFields, RefusedWhereTheyCannotPrint) {
   job.input = vcad;
   const SliceResult r = run_slice(job);
   MachineProfile pn = fdm_profile();
-  pn.flavor = "pneumatic";
+  pn.flavor = Flavor::Pneumatic;
   pn.valve_on = "M106";
   pn.valve_off = "M107";
   EXPECT_THROW(write_gcode(r.toolpath, pn), MachineError);

@@ -335,7 +335,7 @@ TEST(PrimeTower, ToolChangesHappenAtPathEndsAndPrimeInTheTower) {
   prof.tool_count = 5;
   prof.bed_x = prof.bed_y = 360;
   prof.center = true;
-  prof.gradient_mode = "tools";
+  prof.gradient_mode = GradientMode::Tools;
   prof.gradient_tools = 5;
   prof.lookahead = 450;  // a tool changer has no shared dead volume to run ahead of
   const Replay r = replay(write_gcode(p.graded, prof));
@@ -493,7 +493,7 @@ TEST(PrimeTower, ToolChangerHeatsEveryToolAndReportsWhatIsPrinted) {
   prof.tool_count = 5;
   prof.bed_x = prof.bed_y = 360;
   prof.center = true;
-  prof.gradient_mode = "tools";
+  prof.gradient_mode = GradientMode::Tools;
   prof.gradient_tools = 5;
   prof.nozzle_temperature = 215;
   prof.standby_temperature = 170;  // idle tools wait here
@@ -538,7 +538,7 @@ TEST(PrimeTower, EveryMixingDialectPrintsTheGradientAsDesigned) {
     prof.tool_count = 5;
     prof.bed_x = prof.bed_y = 200;
     prof.center = true;
-    prof.gradient_dialect = dialect;
+    prof.gradient_dialect = mixing_dialect_from_string(dialect);
     prof.gradient_template = "SET_MIX A={a} B={b}";
     const std::string gcode = write_gcode(p.graded, prof);
     const Checked c = check_tower_print(p, f, prof, 5);
@@ -551,7 +551,7 @@ TEST(PrimeTower, EveryMixingDialectPrintsTheGradientAsDesigned) {
   }
   MachineProfile bad;
   bad.mixing_inputs = 2;
-  bad.gradient_dialect = "template";
+  bad.gradient_dialect = MixingDialect::Template;
   EXPECT_THROW(write_gcode(p.graded, bad), SettingError);
 }
 
@@ -601,7 +601,7 @@ TEST(PrimeTower, Strategy2OnAToolChangerPrimesEveryToolInTheTower) {
   prof.bed_x = prof.bed_y = 360;
   prof.center = true;
   prof.tool_count = 5;
-  prof.gradient_mode = "tools";
+  prof.gradient_mode = GradientMode::Tools;
   prof.nozzle_temperature = 215;
   const Replay rp = replay(write_gcode(r.toolpath, prof));
   EXPECT_EQ(rp.cold_extrusions, 0u);

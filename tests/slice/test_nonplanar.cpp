@@ -267,8 +267,8 @@ TEST(Nonplanar, ToolGroupsAndInBathHopsInTheGcode) {
   prm.layer_tools = {0, 0, 0, 1, 1, 1, 0, 0, 0};
   const NonplanarResult r = slice_nonplanar(m_curve({}), prm);
   MachineProfile p = test::open_bed({}, 2);
-  p.flavor = "embedded";
-  p.embedded_drive = "syringe";
+  p.flavor = Flavor::Embedded;
+  p.embedded_drive = EmbeddedDrive::Syringe;
   p.filament_diameter = 14.5;
   p.bath_surface = 20;
   p.bath_travel = 2;
@@ -308,7 +308,7 @@ TEST(Nonplanar, DownFlowScalesSteepDescents) {
   const double len0 = 10, len1 = 2;  // the steep move is 2 mm long
   EXPECT_NEAR((r.deposits[1].e / len1) / (r.deposits[0].e / len0), 0.8, 1e-3);
   // Pressure-driven: same flow, the nozzle moves faster by 1 / 0.8.
-  m.flavor = "pneumatic";
+  m.flavor = Flavor::Pneumatic;
   const std::string nc = write_gcode(tp, m);
   EXPECT_NE(nc.find("F1200"), std::string::npos);  // 20 mm/s
   EXPECT_NE(nc.find("F1500"), std::string::npos);  // 20 / 0.8

@@ -8,8 +8,8 @@ namespace trellis::test {
 
 inline MachineProfile open_bed(MachineProfile p = {}, int tools = 0, int mixing_inputs = 0) {
   p.center = false;
-  p.origin = "center";
-  p.bed_shape = "rectangle";
+  p.origin = BedOrigin::Center;
+  p.bed_shape = BedShape::Rectangle;
   p.bed_x = p.bed_y = p.bed_z = 2000;
   if (tools > 0) p.tool_count = tools;
   if (mixing_inputs > 0) p.mixing_inputs = mixing_inputs;

@@ -97,7 +97,7 @@ Job rerun_job(const std::string& path, const std::string& target = "");
 // Reads a print back into design coordinates for checking against its lattice: a toolpath JSON
 // as it is; G-code with the valve commands and tool offsets of `machine` — by default the
 // machine settings of the job the file embeds — and the placement offset Trellis wrote into the
-// header undone. `snap` gets the profile's node overlap + 0.05 when it is left at 0.05.
+// header undone. `snap` gets the profile's node overlap + kNodeSnap when it is left at kNodeSnap.
 // Mixtures as deposited, or as commanded when asked (GcodeReadOptions::commanded_mixtures).
 Toolpath read_print(const std::string& path, const Settings* machine, double* snap,
                     Diagnostics& diag, bool commanded_mixtures = false);

@@ -58,8 +58,6 @@ struct GcodeThumbnail {
   std::string png;
 };
 
-// Whether the flavour's firmware takes M73 progress (Marlin, RepRapFirmware, Klipper).
-bool gcode_progress_supported(const std::string& flavor);
 // Standard base64 (RFC 4648, with padding).
 std::string base64(std::string_view bytes);
 // A thumbnail as PrusaSlicer embeds it: "; thumbnail begin WxH LEN", base64 rows, "; thumbnail

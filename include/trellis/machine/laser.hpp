@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include "trellis/toolpath/scan_defaults.hpp"
 #include "trellis/toolpath/scan_time.hpp"
 #include "trellis/toolpath/toolpath.hpp"
 
@@ -12,9 +13,9 @@ namespace trellis {
 struct LaserProfile {
   std::string name = "PBF-LB";
   double spot_diameter = 0.025;      // mm
-  double melt_pool_width = 0.0638;   // D (mm), PBF paper Eq. 8
-  double contour_power = 60, contour_speed = 800;  // W, mm/s
-  double hatch_power = 100, hatch_speed = 1000;    // W, mm/s
+  double melt_pool_width = kScanMeltPoolWidth;  // D (mm), PBF paper Eq. 8
+  double contour_power = 60, contour_speed = ScanTiming{}.contour_speed;  // W, mm/s
+  double hatch_power = 100, hatch_speed = ScanTiming{}.hatch_speed;        // W, mm/s
   // Solid parts' own parameter sets (slice/pbf_skin.hpp): per contour offset, outermost first
   // (empty: all at the contour power and speed), and the core, up-skin and down-skin hatch
   // (0: the hatch power or speed).
@@ -22,11 +23,11 @@ struct LaserProfile {
   double core_power = 0, core_speed = 0;
   double upskin_power = 0, upskin_speed = 0;
   double downskin_power = 0, downskin_speed = 0;
-  double layer = 0.02;               // mm
-  double hatch_distance = 0.04;      // mm
-  double beam_compensation = 0.03;   // mm
-  double segment_length = 0.1;       // SL (mm)
-  double segment_gap = 0.02;         // LHD (mm)
+  double layer = kScanLayer;                          // mm
+  double hatch_distance = kScanHatchDistance;         // mm
+  double beam_compensation = kScanBeamCompensation;   // mm
+  double segment_length = kScanSegmentLength;         // SL (mm)
+  double segment_gap = kScanSegmentGap;               // LHD (mm)
   // Capabilities: what the machine can do (machine/machine_check.hpp checks against them).
   double max_power = 1000;                             // W
   double max_speed = 10000;                            // mm/s
@@ -36,14 +37,15 @@ struct LaserProfile {
   int lasers = 1;
   std::vector<double> fields;
   // Scanner timing ([timing]), for the scan-time model (ScanClock).
-  double jump_speed = 5000;      // mm/s, positioning moves between vectors
-  double jump_delay = 250;       // µs, after every jump
-  double mark_delay = 100;       // µs, after every marked vector
-  double polygon_delay = 50;     // µs, at every corner inside a polyline
-  bool skywriting = false;       // run in/out of each vector instead of the mark delay
-  double skywriting_time = 150;  // µs, run-in + run-out per vector with skywriting
-  double laser_on_delay = 0;     // µs, before the laser fires at every vector's start
-  double laser_off_delay = 0;    // µs, the laser kept on after every vector's end
+  // Their defaults are the scan-time model's (toolpath/scan_time.hpp ScanTiming).
+  double jump_speed = ScanTiming{}.jump_speed;            // mm/s, positioning between vectors
+  double jump_delay = ScanTiming{}.jump_delay;            // µs, after every jump
+  double mark_delay = ScanTiming{}.mark_delay;            // µs, after every marked vector
+  double polygon_delay = ScanTiming{}.polygon_delay;      // µs, at every corner of a polyline
+  bool skywriting = ScanTiming{}.skywriting;              // run in/out instead of the mark delay
+  double skywriting_time = ScanTiming{}.skywriting_time;  // µs, run-in + run-out per vector
+  double laser_on_delay = ScanTiming{}.laser_on_delay;    // µs, before the laser fires
+  double laser_off_delay = ScanTiming{}.laser_off_delay;  // µs, laser kept on after the end
 };
 
 // The profile's speeds and delays as the scan-time model's settings.

@@ -2,6 +2,7 @@
 // doc); the TOML reader, `--set key=value` overrides, help text and the G-code header all come
 // from that table. Layers merge: defaults < profile file < overrides.
 #pragma once
+#include <functional>
 #include <string>
 #include <variant>
 #include <vector>
@@ -10,21 +11,47 @@
 
 namespace trellis {
 
-enum class Flavor { Marlin, Pneumatic, Embedded };
+// The choices of a profile, parsed once where settings are read (their names: to_string below).
+// machine.flavor: Marlin, RepRapFirmware and Klipper are one family (E axis, G-code moves; heaters
+// and tools in each firmware's own words); pneumatic pushes ink by valve and pressure, embedded
+// does so in a support bath.
+enum class Flavor { Marlin, RepRap, Klipper, Pneumatic, Embedded };
+enum class Firmware { None, Prusa };                  // machine.firmware: "" | prusa
+enum class BedShape { Rectangle, Circle };            // machine.bed_shape
+enum class BedOrigin { Corner, Center };              // machine.origin
+enum class GradientMode { Mixing, Tools, Temperature };  // gradient.mode
+enum class FlowModel { None, Pla, Tpu };              // gradient.flow: "" | pla | tpu
+enum class MixingDialect { M165, M163, M567, Template };  // gradient.dialect
+enum class EmbeddedDrive { Pressure, Syringe };       // embedded.drive
+enum class PurgePosition { Auto, Fixed };             // purge.position
+
+const char* to_string(Flavor v);
+const char* to_string(Firmware v);
+const char* to_string(BedShape v);
+const char* to_string(BedOrigin v);
+const char* to_string(GradientMode v);
+const char* to_string(FlowModel v);
+const char* to_string(MixingDialect v);
+const char* to_string(EmbeddedDrive v);
+const char* to_string(PurgePosition v);
+// The inverse of to_string for the choices read by name outside a profile file (tests, G-code
+// headers); throws SettingError naming the key and its choices.
+Flavor flavor_from_string(const std::string& name);
+MixingDialect mixing_dialect_from_string(const std::string& name);
 
 struct MachineProfile {
   // [machine]
   std::string name = "generic Marlin FDM";
-  std::string flavor = "marlin";    // marlin | pneumatic | embedded
-  // The firmware, where a format depends on it: "prusa" (Prusa's Buddy firmware, which reads
-  // binary G-code) or "" (not declared).
-  std::string firmware = "";
+  Flavor flavor = Flavor::Marlin;
+  // The firmware, where a format depends on it: Prusa's Buddy firmware (reads binary G-code) or
+  // not declared.
+  Firmware firmware = Firmware::None;
   // Capabilities: what the machine can do. Every writer checks the toolpath against them before
   // it writes (machine/machine_check.hpp).
   double bed_x = 220, bed_y = 220;  // build area (mm); a circle: bed_x is its diameter
   double bed_z = 250;               // build height (mm)
-  std::string bed_shape = "rectangle";  // rectangle | circle
-  std::string origin = "corner";        // corner (0,0 at a corner) | center (0,0 at the centre)
+  BedShape bed_shape = BedShape::Rectangle;
+  BedOrigin origin = BedOrigin::Corner;  // 0,0 at a corner or at the centre
   int tool_count = 1;                   // tools / nozzles (tool changers, multi-nozzle heads)
   int mixing_inputs = 1;                // filament inputs of a mixing hotend; 1 = no mixing
   // Sequential printing (plate.sequence = parts): the radius around the nozzle kept clear of
@@ -96,23 +123,23 @@ struct MachineProfile {
   std::string tool_pressures;   // per tool "p0,p1,..." replacing pneumatic.pressure; empty = same
   std::string tool_change = "T{tool}";  // command selecting tool {tool}
   std::string raise_idle;       // command raising the nozzle {tool} that goes idle; empty = none
-  std::string embedded_drive = "pressure";  // pressure (valve + kPa) | syringe (E, Eq. 4)
+  EmbeddedDrive embedded_drive = EmbeddedDrive::Pressure;  // valve + kPa, or E (Eq. 4)
   double bath_travel = 0;       // travel up to this long stays inside the bath (mm)
   // [gradient] how a path's material mixture (graded designs) is made
-  std::string gradient_mode = "mixing";  // mixing (M165) | tools (T<n>) | temperature (M104)
+  GradientMode gradient_mode = GradientMode::Mixing;  // M165 | T<n> | M104
   int gradient_tools = 0;  // tools: tools holding the gradient (0 = all of tool_count); tool 0
                            // holds material A, the last material B
   double temperature_a = 190;            // temperature: °C for 100% material A ...
   double temperature_b = 225;            // ... and for 100% material B (linear between)
-  std::string flow_model;                // temperature: "" | "pla" | "tpu" → M221 (Eq. 3 / 4)
+  FlowModel flow_model = FlowModel::None;  // temperature: M221 by Eq. 3 (pla) / 4 (tpu)
   double lookahead = 0;                  // issue each change this many mm of path earlier
-  std::string gradient_dialect = "m165";  // mixing: m165 | m163 (virtual tool) | m567 (RRF) | template
+  MixingDialect gradient_dialect = MixingDialect::M165;  // mixing: M165 | M163 | M567 | template
   std::string gradient_template;         // mixing, dialect template: {a} {b} {c} = shares
   bool quantize = false;                 // tools: print more colours than tools, each by the nearest
   // [purge] Strategy 1 purge towers (FGM paper A.1)
   double melt_volume = 0;      // hotend dead volume V_melt (mm³); 0 = no towers
   double purge_threshold = 0;  // mixture change (0..1) that needs a purge
-  std::string purge_position = "auto";  // auto (beside the part) | fixed (at purge_x, purge_y)
+  PurgePosition purge_position = PurgePosition::Auto;  // beside the part | at purge_x, purge_y
   double purge_x = -20, purge_y = 0, purge_side = 10;  // tower centre (fixed) and least side (mm)
   double purge_clearance = 5;  // gap between the tower and the part (mm)
   // material densities (g/cm³) for tower masses per colour
@@ -127,11 +154,14 @@ struct MachineProfile {
   double prime_line = 0;
   bool label_objects = true;  // plates: each part's moves labelled for the firmware (M486 / Klipper)
 
-  Flavor parsed_flavor() const;
+  // RepRapFirmware and Klipper are Marlin's family: E axis, retraction, fan, M73 progress.
+  bool marlin_family() const {
+    return flavor == Flavor::Marlin || flavor == Flavor::RepRap || flavor == Flavor::Klipper;
+  }
   // Tools used for a gradient in `tools` mode (gradient_tools, or all tools).
   int gradient_tool_count() const { return gradient_tools > 0 ? gradient_tools : tool_count; }
   // A support bath: the embedded flavour.
-  bool has_bath() const { return flavor == "embedded"; }
+  bool has_bath() const { return flavor == Flavor::Embedded; }
   // Per-tool XY offset and pressure from tool_offsets / tool_pressures (throws SettingError).
   Vec2 tool_offset(int tool) const;
   double tool_pressure(int tool) const;
@@ -141,15 +171,26 @@ struct MachineProfile {
   std::vector<std::pair<int, int>> thumbnail_sizes() const;
 };
 
+// An enum member of the profile with its names in the enum's order (its values as int).
+struct MachineChoice {
+  std::vector<const char*> names;
+  std::function<int(const MachineProfile&)> get;
+  std::function<void(MachineProfile&, int)> set;
+};
 
+// One machine setting, declared once: key, unit, doc, range, the member it sets (a choice with its
+// names) and its CLI flag. The settings schema (settings/schema.cpp) takes these entries as its
+// machine sections as they are; the G-code writer, below the schema, records them in its header
+// and expands {key} placeholders from them, which is why they live here.
 struct SettingDecl {
   const char* key;   // TOML key "section.name"
   const char* unit;  // "mm", "mm/s", "" ...
   const char* doc;
   double min, max;  // numeric range (inclusive)
   std::variant<double MachineProfile::*, int MachineProfile::*, bool MachineProfile::*,
-               std::string MachineProfile::*>
+               std::string MachineProfile::*, MachineChoice>
       member;
+  const char* flag = "";  // long CLI flag without dashes; "" = --set only
 };
 
 const std::vector<SettingDecl>& machine_settings();

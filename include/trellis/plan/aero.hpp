@@ -39,14 +39,18 @@ enum class AeroMethod { Dynamic, Groups, Periodic };
 AeroMethod aero_method_from_string(const std::string& name);  // throws SettingError
 std::string to_string(AeroMethod m);
 
+// The tries of a dynamic plan left at auto: 8, fewer above 25,000 struts (200,000 / struts, at
+// least 1) to bound the time.
+std::size_t aero_auto_tries(std::size_t struts);
+
 struct AeroParams {
   NozzleModel nozzle;
   bool collisions = true;  // false: no precedence at all, trails = the Euler lower bound
   AeroMethod method = AeroMethod::Dynamic;
   PeriodicParams periodic;  // method periodic: the lattice's cell and the cell path
   int threads = 0;  // 0 = all cores
-  // Dynamic: planner runs in the portfolio (the strategies, then shuffled orders); 0 = auto:
-  // 8, fewer above 25,000 struts (200,000 / struts, at least 1) to bound the time.
+  // Dynamic: planner runs in the portfolio (the strategies, then shuffled orders); 0 = auto
+  // (aero_auto_tries).
   int tries = 0;
   std::uint64_t seed = 1;  // for the shuffled runs: same seed, same plan
   // Break the obstruction cycles where it costs the fewest collisions before planning (exact

@@ -131,7 +131,7 @@ struct Config {
   OntoConfig onto;
   std::string planner = "gippo";  // plan.planner: gippo | euler | aero
   PlanParams plan;      // plan.* and gippo.*
-  double merge_tolerance = 1e-6;  // lattice.merge_tolerance (mm)
+  double merge_tolerance = CleanOptions{}.merge_tolerance;  // lattice.merge_tolerance (mm)
   bool keep_graph = false;        // lattice.keep_graph: no node merging, no T-junction splitting
   // How a lattice is read under lattice.keep_graph and lattice.merge_tolerance.
   CleanOptions clean_options() const {

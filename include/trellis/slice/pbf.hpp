@@ -17,6 +17,7 @@
 #include "trellis/core/progress.hpp"
 #include "trellis/field/field.hpp"
 #include "trellis/geom/regions.hpp"
+#include "trellis/toolpath/scan_defaults.hpp"
 #include "trellis/toolpath/scan_time.hpp"
 #include "trellis/toolpath/toolpath.hpp"
 
@@ -54,23 +55,27 @@ double pbf_split_c(double c, double inclination_deg, double min_inclination_deg)
 // text we have): the area a melt track D wide with round ends covers, over D, L + π·D/4.
 double equivalent_length(double length, double melt_pool);
 
+// pbf.resolution's default: the sampling step of TPMS sheets and of solid parts' field sections.
+inline constexpr double kPbfResolution = 0.025;  // mm
+
 struct PbfOptions {
-  double layer = 0.02;             // mm
+  // The scan parameters: the laser profile's (LaserProfile), with its defaults.
+  double layer = kScanLayer;  // mm
   // mm: the STL route's voxel, the seed bracket of hatch ends and the zero-finding step of the
   // plain R67 hatch; the direct contours (section, joints, mid-curve) are sampled on a grid
   // `coarse` times this, their crossings refined on the field.
-  double resolution = 0.025;
+  double resolution = kPbfResolution;
   int coarse = 2;
   // Contour scan vectors are straight chords of length SL with both ends on φ = 0, LHD apart
   // (> 0 and >= 0; the paper tested 5–400 µm and 0–120 µm, outside that is a warning).
-  double segment_length = 0.1;     // SL, mm
-  double segment_gap = 0.02;       // LHD, mm
-  double hatch_distance = 0.04;    // mm
+  double segment_length = kScanSegmentLength;  // SL, mm
+  double segment_gap = kScanSegmentGap;        // LHD, mm
+  double hatch_distance = kScanHatchDistance;  // mm
   // mm: the hatched region (joints; the whole sheet for R67) is offset inward by this before
   // hatching, so every hatch vector keeps this distance from the region's boundary whatever its
   // angle to the wall; contour tracks stop this far (along φ = 0) from the part's outer boundary.
-  double beam_compensation = 0.03;
-  double melt_pool = 0.0638;       // D, mm
+  double beam_compensation = kScanBeamCompensation;
+  double melt_pool = kScanMeltPoolWidth;  // D, mm
   double thin_multiple = 1.5;      // thin wall: horizontal width <= this × D
   double min_inclination = 20;     // degrees; shallower mid-surface → joint
   double hatch_angle = 0;          // first layer's hatch angle, degrees

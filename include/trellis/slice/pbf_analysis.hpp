@@ -6,13 +6,14 @@
 #include <vector>
 
 #include "trellis/field/field.hpp"
+#include "trellis/toolpath/scan_defaults.hpp"
 #include "trellis/toolpath/scan_time.hpp"
 #include "trellis/toolpath/toolpath.hpp"
 
 namespace trellis {
 
 struct LaserAnalysisOptions {
-  double melt_pool = 0.0638;  // D (mm)
+  double melt_pool = kScanMeltPoolWidth;  // D (mm)
   double resolution = 0.01;   // mm, grid of the design's section (crossings refined)
   double sample = 0.005;      // mm between points tested along each vector
   double tolerance = 0.001;   // mm a point may lie outside the part before it counts

@@ -26,8 +26,9 @@
 namespace trellis {
 
 struct PbfSolidOptions {
-  double layer = 0.02;              // mm, powder layer thickness
-  double beam_compensation = 0.03;  // mm, the first contour's (and with none, the hatch's) inset
+  double layer = kScanLayer;  // mm, powder layer thickness
+  // mm, the first contour's (and with none, the hatch's) inset
+  double beam_compensation = kScanBeamCompensation;
   int contours = 1;                 // contour offsets per region (0: hatch only)
   // mm between contours and from the last contour to the hatched region; 0 = the hatch distance.
   double contour_distance = 0;
@@ -46,7 +47,7 @@ struct PbfSolidOptions {
   // Laser parameter sets: the speeds time each vector (a speed of 0: the timing's), the powers
   // go into the build file through pbf_solid_layer_toolpath.
   PbfExposures exposures;
-  double resolution = 0.025;  // mm, XY grid of a field's sections (.vcad solids)
+  double resolution = kPbfResolution;  // mm, XY grid of a field's sections (.vcad solids)
   std::size_t batch = 32;     // layers sliced and planned together
   ScanTiming timing;          // scan-time model of each layer
   // The core's scan pattern (the hatch pattern with the core's distance and rotation).

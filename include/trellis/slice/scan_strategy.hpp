@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "trellis/geom/regions.hpp"
+#include "trellis/toolpath/scan_defaults.hpp"
 
 namespace trellis {
 
@@ -24,7 +25,7 @@ enum class ScanStrategy { Rectilinear, Meander, Stripe, Island };
 
 struct ScanPattern {
   ScanStrategy strategy = ScanStrategy::Meander;
-  double hatch_distance = 0.04;  // mm, between neighbouring hatch lines
+  double hatch_distance = kScanHatchDistance;  // mm, between neighbouring hatch lines
   double angle = 0;              // degrees, the first layer's hatch direction
   double rotation = 67;          // degrees added per layer
   double stripe_width = 10;      // mm, stripe: across the hatch lines
