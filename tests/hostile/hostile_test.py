@@ -43,9 +43,11 @@ class Case:
         self.files = files or {}
         self.runaway = runaway
         self.setup = setup  # f(folder) before the run: symlinks and the like
+        self.cls = CLASS[0]
 
 
 CASES = []
+CLASS = [""]  # the class of the cases being made (main), counted in the summary
 
 
 def case(*a, **k):
@@ -331,6 +333,33 @@ def gcode_cases():
     for n, body in {"X1e308": b"G1 X1e308 Y0 E1\n", "duplicate X": b"G1 X1 X2 Y0 E1\n",
                     "bad number": b"G1 X1.2.3 Y0 E1\n", "inf": b"G1 Xinf Y0 E1\n"}.items():
         case(f"gcode strict {n}", ["analyze", "bad.gcode", "--strict"], "bad.gcode:1", {"bad.gcode": body})
+
+
+def endless_input_cases():
+    """Inputs that never end or never open (issue 47, second round): a device or a FIFO named as
+    any command's input is refused naming it, before it is opened (`analyze /dev/zero` read
+    without end, 865 MB in 15 s; a FIFO nobody writes blocked the run)."""
+    def fifo(d):
+        os.mkfifo(os.path.join(d, "pipe.gcode"))
+
+    commands = {
+        "analyze": lambda p: ["analyze", p],
+        "analyze --design": lambda p: ["analyze", "g.gcode", "--design", p],
+        "check print": lambda p: ["check", "l.json", p],
+        "check lattice": lambda p: ["check", p, "g.gcode"],
+        "view": lambda p: ["view", p, "-o", "out/x.html"],
+        "view --machine": lambda p: ["view", "g.gcode", "--machine", p, "-o", "out/x.html"],
+        "render": lambda p: ["render", p, "--layer", "0", "-o", "out/x.png"],
+        "walls": lambda p: ["walls", p, "-o", "out/x.stl"],
+        "plan": lambda p: ["plan", "euler", p, "-o", "out/x.json"],
+        "gcode --machine": lambda p: ["gcode", "tp.json", "--machine", p, "-o", "out/x.gcode"],
+        "run": lambda p: ["run", p],
+    }
+    files = {"l.json": TINY_LATTICE, "tp.json": None, "g.gcode": b"G21\nG90\nM83\nG1 X0 Y0 Z0.2\nG1 X10 Y0 E1\n"}
+    for name, argv in commands.items():
+        for source in ("/dev/zero", "/dev/urandom", "pipe.gcode"):
+            case(f"endless input {name} {source}", argv(source), source, files,
+                 setup=fifo if source == "pipe.gcode" else None)
 
 
 def nonsense_cases():
@@ -658,16 +687,13 @@ def umask_check():
 
 
 def main():
-    settings_cases()
-    lattice_cases()
-    design_cases()
-    toolpath_cases()
-    profile_cases()
-    job_cases()
-    gcode_cases()
-    nonsense_cases()
-    runaway_cases()
-    runaway_cases_issue47()
+    for cls, make in (("settings", settings_cases), ("lattice files", lattice_cases),
+                      ("designs and meshes", design_cases), ("toolpaths", toolpath_cases),
+                      ("profiles", profile_cases), ("jobs", job_cases), ("G-code", gcode_cases),
+                      ("endless inputs", endless_input_cases), ("nonsense", nonsense_cases),
+                      ("runaways", runaway_cases), ("runaways (issue 47)", runaway_cases_issue47)):
+        CLASS[0] = cls
+        make()
     if "--list" in sys.argv:
         for c in CASES:
             print(c.name)
@@ -678,6 +704,10 @@ def main():
     output_problems, output_counts = outputs.checks(TRELLIS, ROOT)
     failures += memory_checks() + output_problems + umask_check() + big_cell_check() + finishing_checks()
     print(f"{len(CASES)} hostile inputs, {len(failures)} problem(s), {time.monotonic() - t0:.0f} s")
+    per_class = {}
+    for c in CASES:
+        per_class[c.cls] = per_class.get(c.cls, 0) + 1
+    print("inputs per class: " + ", ".join(f"{k} {v}" for k, v in per_class.items()))
     print("outputs (tests/hostile/outputs.py), runs per class: " +
           ", ".join(f"{k} {v}" for k, v in output_counts.items()))
     for f in failures:
