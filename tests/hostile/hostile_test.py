@@ -33,6 +33,9 @@ SYRINGE = os.path.join(ROOT, "profiles", "fresh_nonplanar_2syringe.toml")
 AERO = os.path.join(ROOT, "tests", "data", "aero")
 DESIGNS = os.path.join(ROOT, "examples", "designs")
 
+# Sanitizer builds run several times slower: their ctest entry scales the time limits (a case's
+# 10 s, a refusal's 2 s, a finishing run's 20 s) by HOSTILE_TIME_SCALE.
+SCALE = float(os.environ.get("HOSTILE_TIME_SCALE", "1"))
 TINY_LATTICE = b'{"nodes": [[0,0,0],[10,0,0],[10,10,0],[0,10,0]], "edges": [[0,1],[1,2],[2,3],[3,0]]}\n'
 TINY_VCAD = b"root((-5,-5,0),(5,5,2),(0.1,0.1,0.1)) {\ncylinder(2,4);\n}\n"
 
@@ -550,7 +553,7 @@ def finishing_checks():
         r = subprocess.run([TRELLIS, "nonplanar", "--height-fn", "0.1*x", "--domain", "0,0,40,40", "--angles",
                             angles, "--machine", SYRINGE, "-o", "x.nc"], cwd=d, capture_output=True, timeout=120)
         secs = time.monotonic() - t0
-        if r.returncode != 0 or secs > 20 or not os.path.exists(os.path.join(d, "x.nc")):
+        if r.returncode != 0 or secs > 20 * SCALE or not os.path.exists(os.path.join(d, "x.nc")):
             problems.append(f"nonplanar with 1000 --angles: exit {r.returncode}, {secs:.1f} s: "
                             f"{r.stderr.decode(errors='replace')[:300]}")
     return problems
@@ -607,11 +610,11 @@ def run_case(c):
         p = subprocess.Popen([TRELLIS] + c.args, cwd=d, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                              preexec_fn=limit_memory)
         try:
-            out, err = p.communicate(timeout=10)
+            out, err = p.communicate(timeout=10 * SCALE)
         except subprocess.TimeoutExpired:
             p.kill()
             p.communicate()
-            return f"{c.name}: still running after 10 s"
+            return f"{c.name}: still running after {10 * SCALE:g} s"
         secs = time.monotonic() - t0
         err = err.decode(errors="replace")
         problems = []
@@ -636,7 +639,7 @@ def run_case(c):
         if leaked:
             problems.append(f"wrote outside: {sorted(leaked)}")
         if c.runaway:
-            if secs > 2:
+            if secs > 2 * SCALE:
                 problems.append(f"refusal took {secs:.1f} s")
             if "estimate" not in err and c.where == "refused before starting":
                 problems.append("no estimate in the message")
