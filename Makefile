@@ -2,6 +2,8 @@
 PRESET ?= release
 BUILD  := build/$(PRESET)
 JOBS   ?= $(shell nproc)
+# `make test SANITIZE=0`: without the sanitizer stage (see sanitize below).
+SANITIZE ?= 1
 
 .PHONY: deps configure build demo test sanitize python bench bench-viewer compare fuzz asan format clean
 
@@ -19,7 +21,7 @@ demo: build
 
 test: build
 	@cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
-ifeq ($(PRESET),release)
+ifeq ($(PRESET)$(SANITIZE),release1)
 	@$(MAKE) --no-print-directory sanitize
 endif
 
