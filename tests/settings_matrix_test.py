@@ -93,6 +93,7 @@ TEXT = {
     "laser.fields": ["-100,-100,100,100", "-100,-100,0,100"],
     "pbf.c": ["0.3"],
     "pbf.size": ["3,3,0.4"],
+    "pbf.plate_position": ["20,30"],
     "pbf.grade_to": ["schwarz_p:3"],
     "pbf.hierarchical": ["schwarz_p:1.25:0.5"],
     "nonplanar.angles": ["0,45"],
@@ -473,6 +474,8 @@ USE_WITH = {
                      "onto.height_fn=0.05*x*x"], "-1,-1,12,12"),
     "nonplanar.domain": (["nonplanar", "--machine", P + "fresh_nonplanar_2syringe.toml", "-o", "{d}/x.nc",
                           "--set", "nonplanar.height_fn=0.1*x"], "0,0,10,8"),
+    "pbf.plate_position": (["pbf", "--size", "3,3,0.3", "-o", "{d}/p.cli", "--set", "pbf.hatch_phase=origin"],
+                           "20,30"),
 }
 
 
@@ -483,6 +486,8 @@ def using_scenario(key, routes, scen_all, work):
         argv, sample = USE_WITH[key]
         ok = run(argv, ["--set", f"{key}={sample}"], work)[0] == 0
         return (argv[0], argv) if ok else (None, None)
+    if key not in TEXT:
+        return None, None
     for route in routes:
         for argv in scen_all[route]:
             if fixes(argv, key, None):
@@ -585,7 +590,8 @@ def main():
         key, rs = job
         route, scen = using_scenario(key, rs, scen_all, work)
         if scen is None:
-            return 0, [f"{key}: no scenario of {', '.join(rs)} accepts {TEXT[key][0]!r} to try it"]
+            sample = USE_WITH[key][1] if key in USE_WITH else TEXT.get(key, ["(no sample value)"])[0]
+            return 0, [f"{key}: no scenario of {', '.join(rs)} accepts {sample!r} to try it"]
         return check_malformed(key, table[key], route, scen, work)
 
     with cf.ThreadPoolExecutor(max_workers=int(os.environ.get("MATRIX_JOBS", "2"))) as ex:
