@@ -126,6 +126,7 @@ def scenarios(work):
             ["plan", "aero", OCTET, "-o", "{d}/t.json", "--machine", P + "embedded_aero_410um.toml",
              "--gcode", "{d}/t.nc", "--report", "{d}/r.json", "--preview", "{d}/p"],
             ["run", work + "/made3d.toml", "-o", "{d}"],
+            ["run", work + "/made3dm.toml", "-o", "{d}"],
         ],
         "gcode": [["gcode", tiny_tp, "--machine", P + m, "-o", "{d}/t.gcode"] for m in
                   ["ender3_s1_pro_tpu.toml", "pneumatic_pcl_27g.toml", "embedded_aero_two_nozzle.toml",
@@ -155,7 +156,10 @@ def setup(work):
     open(work + "/made2d.toml", "w").write(MADE2D)
     open(work + "/l2d.toml", "w").write('[job]\nroute = "lattice2d"\nname = "l"\n[output]\nimage_size = 120\n')
     open(work + "/l3d.toml", "w").write('[job]\nroute = "lattice3d"\nname = "l"\n[output]\nimage_size = 120\n')
-    open(work + "/made3d.toml", "w").write(MADE3D.replace("{P}", P))
+    open(work + "/made3d.toml", "w").write(MADE3D)
+    # The same job with its machine: G-code written, so output.gcode acts.
+    open(work + "/made3dm.toml", "w").write(MADE3D.replace('name = "made3d"\n', 'name = "made3dm"\nmachine = "'
+                                                            + P + 'embedded_aero_410um.toml"\n'))
     run_ok([T, "plan", "euler", TINY, "-o", work + "/tiny.toolpath.json"])
     run_ok([T, "surface", "corrugation", "-o", work + "/c.stl"])
     open(work + "/block.vcad", "w").write(BLOCK)
@@ -197,7 +201,6 @@ image_size = 120
 MADE3D = """[job]
 route = "plan"
 name = "made3d"
-machine = "{P}embedded_aero_410um.toml"
 [plan]
 planner = "aero"
 [lattice3d]
