@@ -2,8 +2,10 @@
 PRESET ?= release
 BUILD  := build/$(PRESET)
 JOBS   ?= $(shell nproc)
+# `make test SANITIZE=0`: without the sanitizer stage (see sanitize below).
+SANITIZE ?= 1
 
-.PHONY: deps configure build demo test python bench bench-viewer compare fuzz asan format clean
+.PHONY: deps configure build demo test sanitize python bench bench-viewer compare fuzz asan format clean
 
 deps:
 	@bash scripts/install-deps.sh
@@ -19,6 +21,21 @@ demo: build
 
 test: build
 	@cd $(BUILD) && ctest --output-on-failure -j $(JOBS)
+ifeq ($(PRESET)$(SANITIZE),release1)
+	@$(MAKE) --no-print-directory sanitize
+endif
+
+# The sanitizer stage of `make test` (issue 47 item 6): an ASan+UBSan build (preset asan) runs
+# what reads untrusted input: every reader's unit tests (core, toolpath, lattice, machine, field,
+# cli), the committed fuzz corpora replayed through every fuzz target, the hostile suite and
+# streaming. `make asan` runs the whole suite under the sanitizers (not in CI: too long).
+SANITIZE_TARGETS := trellis_cli test_core test_toolpath test_lattice test_machine test_field \
+                    test_cli test_stream $(addprefix replay_,$(notdir $(basename $(wildcard tests/fuzz/corpus/*))))
+SANITIZE_TESTS := ^(core|toolpath|lattice|machine|field|cli|hostile|stream|fuzz_corpus_.*)$$
+sanitize: deps
+	@test -f build/asan/build.ninja || cmake --preset asan >/dev/null
+	@cmake --build build/asan -j $(JOBS) --target $(SANITIZE_TARGETS)
+	@cd build/asan && ctest --output-on-failure -j $(JOBS) -R '$(SANITIZE_TESTS)'
 
 python: build
 	@bash scripts/install-python.sh $(BUILD)

@@ -53,6 +53,15 @@ KNOWN_GAPS = {
     "plan:speed.jerk": "corner speeds in the print-time estimate: on the plan scenarios' small "
                        "prints at 12 mm/s the change is below the estimate's 1 s resolution (it "
                        "changes the gcode route's estimate)",
+    # Bound to what the part is, not to the route (issue 47 brought booleans into this test):
+    "plan:placement.lift": "acts only on a toolpath reaching below Z 0; the plan scenarios' lattices "
+                           "lie on the bed (it changes the nonplanar route's output here; test_cli_machine)",
+    "plan:embedded.firmware_offsets": "acts only on a machine of several nozzles; the plan aero "
+                                      "scenarios' embedded machine has one (test_machine_setup)",
+    "plan:gcode.label_objects": "labels each part of a build plate; a plan prints one lattice, "
+                                "nothing to label (test_gcode_objects)",
+    "plan:lattice.keep_graph": "keeps duplicate nodes and T-junctions as given; the plan scenarios' "
+                               "lattices have none (test_io, test_beam3mf)",
     "plan:aero.exact_struts": "solves obstruction cycles exactly up to this many struts; the small "
                               "lattices here have none, and no test lattice with such a cycle exists yet",
 }
@@ -77,7 +86,7 @@ TEXT = {
     "gcode.thumbnails": ["32x32", ""],
     "lattice2d.size": ["12,8"],
     "lattice2d.center": ["3,1"],
-    "lattice3d.count": ["2,1,1"],
+    "lattice3d.count": ["2,1,1", "1,2,1"],
     "lattice3d.box": ["10,10,12"],
     "onto.height_fn": ["0.05*x*x"],
     "onto.domain": ["-6,-6,6,6"],
@@ -87,6 +96,7 @@ TEXT = {
     "pbf.core_hatch_rotation": ["10"],
     "pbf.c": ["0.3"],
     "pbf.size": ["3,3,0.4"],
+    "pbf.plate_position": ["20,30"],
     "pbf.grade_to": ["schwarz_p:3"],
     "pbf.hierarchical": ["schwarz_p:1.25:0.5"],
     "nonplanar.angles": ["0,45"],
@@ -119,6 +129,7 @@ def scenarios(work):
             ["plan", "aero", OCTET, "-o", "{d}/t.json", "--machine", P + "embedded_aero_410um.toml",
              "--gcode", "{d}/t.nc", "--report", "{d}/r.json", "--preview", "{d}/p"],
             ["run", work + "/made3d.toml", "-o", "{d}"],
+            ["run", work + "/made3dm.toml", "-o", "{d}"],
         ],
         "gcode": [["gcode", tiny_tp, "--machine", P + m, "-o", "{d}/t.gcode"] for m in
                   ["ender3_s1_pro_tpu.toml", "pneumatic_pcl_27g.toml", "embedded_aero_two_nozzle.toml",
@@ -149,6 +160,9 @@ def setup(work):
     open(work + "/l2d.toml", "w").write('[job]\nroute = "lattice2d"\nname = "l"\n[output]\nimage_size = 120\n')
     open(work + "/l3d.toml", "w").write('[job]\nroute = "lattice3d"\nname = "l"\n[output]\nimage_size = 120\n')
     open(work + "/made3d.toml", "w").write(MADE3D)
+    # The same job with its machine: G-code written, so output.gcode acts.
+    open(work + "/made3dm.toml", "w").write(MADE3D.replace('name = "made3d"\n', 'name = "made3dm"\nmachine = "'
+                                                            + P + 'embedded_aero_410um.toml"\n'))
     run_ok([T, "plan", "euler", TINY, "-o", work + "/tiny.toolpath.json"])
     run_ok([T, "surface", "corrugation", "-o", work + "/c.stl"])
     open(work + "/block.vcad", "w").write(BLOCK)
@@ -224,10 +238,12 @@ def route_settings():
     out = subprocess.run([T, "settings", "--markdown"], capture_output=True, text=True, check=True).stdout
     table = {}
     for line in out.splitlines():
-        m = re.match(r"\| `([a-z0-9_]+\.[a-z0-9_]+)` \| (\w+) \| [^|]* \| `([^`]*)` \| ([^|]*) \| ([^|]*) \|", line)
+        # A kind is one or more words: "number", "true/false", "list of numbers".
+        m = re.match(r"\| `([a-z0-9_]+\.[a-z0-9_]+)` \| ([a-z/ ]+?) \| [^|]* \| `([^`]*)` \| ([^|]*) \| ([^|]*) \|", line)
         if m:
             flag = re.search(r"`--([a-z0-9-]+)`", m.group(5))
-            table[m.group(1)] = {"kind": m.group(2), "default": m.group(3), "range": m.group(4).strip(),
+            kind = {"true/false": "bool", "list of numbers": "list"}.get(m.group(2), m.group(2))
+            table[m.group(1)] = {"kind": kind, "default": m.group(3), "range": m.group(4).strip(),
                                  "flag": "--" + flag.group(1) if flag else None}
     return table
 
@@ -403,6 +419,115 @@ def condition_of(msg):
     return None
 
 
+# List-valued settings typed as text (flow steps, layer tools), each with values malformed in its
+# own syntax; laser.fields also with a field that is not four numbers. (embedded.tool_offsets and
+# tool_pressures act only on a toolpath of several tools, which no scenario here has.)
+MALFORMED_TEXT = {
+    "extrusion.down_flow": ["10", "10,x", "10,-1", "nan,0.5"],
+    "nonplanar.layer_tools": ["3:0,x", "0,-1", "1.5", "3:"],
+    "laser.fields": ["0,0,10"],
+}
+
+
+def malformed_lists(key, s):
+    """Values a list setting must refuse, from its range ("3 whole numbers, each 1 .. 1000"):
+    [(form, value)] with form "set" (command-line text) or "toml" (a job file's array)."""
+    out = [("set", v) for v in MALFORMED_TEXT.get(key, [])]
+    if s["kind"] != "list":
+        return out  # text, checked where it is used: the scenario's command line
+    m = re.match(r"(?:(\d+) )?(whole )?numbers, each (.+?)(?: [a-z]+)?$", s["range"])
+    if not m:
+        return out + [("set", "x")]
+    n = int(m.group(1)) if m.group(1) else 4
+    whole, bounds = m.group(2) is not None, m.group(3)
+    nums = [float(x) for x in re.findall(r"-?[0-9]+(?:\.[0-9]+)?(?:e[+-]?[0-9]+)?", bounds)]
+    lo, hi = nums[0], nums[-1]
+    positive = bounds.startswith("> ")
+    below = ["0", "-1"] if positive else [repr(lo - max(1.0, abs(lo)))]
+
+    def with_last(v):
+        return ["1"] * (n - 1) + [v]
+
+    lists = [with_last(repr(hi * 10 + 1))] + [with_last(v) for v in below]
+    lists += [with_last("x"), with_last("nan"), with_last("inf")]
+    if whole:
+        lists.append(with_last("1.5"))
+    if m.group(1):  # a fixed count: one short and one long
+        lists += [["1"] * (n - 1), ["1"] * (n + 1)]
+    for l in lists:
+        out.append(("set", ",".join(l)))
+        toml = [('"x"' if v == "x" else v) for v in l]
+        out.append(("toml", "[" + ", ".join(toml) + "]"))
+    out.append(("set", ",".join(["1"] * (n - 1) + [""])))  # an empty element
+    out.append(("toml", "[" + ", ".join(["[1]"] * n) + "]"))  # nested arrays
+    return out
+
+
+def job_for(route, work):
+    """The head of a job file of `route` that runs without other files."""
+    head = f'[job]\nroute = "{route}"\nname = "m"\n'
+    if route == "nonplanar":
+        head += f'input = "{work}/c.stl"\nmachine = "{P}fresh_nonplanar_2syringe.toml"\n'
+    if route == "slice":
+        head += f'input = "{work}/block.vcad"\nmachine = "{P}ender3_s1_pro_tpu.toml"\n'
+    return head
+
+
+# Lists used only under a condition no scenario meets: a run that uses them, and a value it takes.
+USE_WITH = {
+    "lattice3d.box": (["lattice3d", "-o", "{d}/l.json", "--set", "lattice3d.kind=foam"], "10,10,12"),
+    "onto.domain": (["plan", "euler", TINY, "-o", "{d}/t.json", "--set", "onto.kind=function", "--set",
+                     "onto.height_fn=0.05*x*x"], "-1,-1,12,12"),
+    "nonplanar.domain": (["nonplanar", "--machine", P + "fresh_nonplanar_2syringe.toml", "-o", "{d}/x.nc",
+                          "--set", "nonplanar.height_fn=0.1*x"], "0,0,10,8"),
+    "pbf.plate_position": (["pbf", "--size", "3,3,0.3", "-o", "{d}/p.cli", "--set", "pbf.hatch_phase=origin"],
+                           "20,30"),
+}
+
+
+def using_scenario(key, routes, scen_all, work):
+    """The first scenario that runs with the setting's first sample value (so the setting is used
+    there and a malformed value meets its parser, not "does not use"): (route, argv)."""
+    if key in USE_WITH:
+        argv, sample = USE_WITH[key]
+        ok = run(argv, ["--set", f"{key}={sample}"], work)[0] == 0
+        return (argv[0], argv) if ok else (None, None)
+    if key not in TEXT:
+        return None, None
+    for route in routes:
+        for argv in scen_all[route]:
+            if fixes(argv, key, None):
+                continue
+            if run(argv, ["--set", f"{key}={TEXT[key][0].replace('{w}', work)}"], work)[0] == 0:
+                return route, argv
+    return None, None
+
+
+def check_malformed(key, s, route, scen, work):
+    """Every malformed value of a list setting is refused (exit 2) naming the setting (or its flag),
+    and not as a setting the run does not use: on the command line, by its flag and in a job file."""
+    problems, tried = [], 0
+    section, name = key.split(".", 1)
+    for form, value in malformed_lists(key, s):
+        runs = []
+        if form == "set":
+            runs.append(("--set", scen + ["--set", f"{key}={value}"]))
+            if s["flag"]:
+                runs.append((s["flag"], scen + [s["flag"], value]))
+        else:
+            job = os.path.join(work, f"malformed_{key}_{tried}.toml")
+            open(job, "w").write(job_for(route, work) + f"[{section}]\n{name} = {value}\n")
+            runs.append(("job file", ["run", job, "-o", "{d}"]))
+        for how, argv in runs:
+            tried += 1
+            code, err, _ = run(argv, [], work)
+            msg = last_line(err)
+            named = names(msg, key) or (how.startswith("--") and how in msg)
+            if code != 2 or not named or "does not use" in msg:
+                problems.append(f"{key} = {value} ({how}): exit {code}: {msg or 'accepted'}")
+    return tried, problems
+
+
 def main():
     routes = sys.argv[1:] or ["lattice2d", "lattice3d", "plan", "gcode", "slice", "pbf", "nonplanar", "surface"]
     work = tempfile.mkdtemp(prefix="trellis_matrix_")
@@ -410,7 +535,8 @@ def main():
     table = route_settings()
     scen_all = scenarios(work)
     failures, counts, no_values, known = [], {}, [], []
-    for route in routes:
+    # MATRIX_LISTS_ONLY=1: only the malformed lists below (a quick run while working on them).
+    for route in ([] if os.environ.get("MATRIX_LISTS_ONLY") else routes):
         scen = scen_all[route]
         bases = []
         for argv in scen:
@@ -422,7 +548,8 @@ def main():
                 failures.append(f"{route}: scenario is not reproducible: {' '.join(argv)}")
             bases.append(sig)
         secs = sections_of(route)
-        keys = [k for k in table if k.split(".")[0] in secs]
+        keys = [k for k in table if k.split(".")[0] in secs
+                and re.search(os.environ.get("MATRIX_KEYS", ""), k)]  # a filter while working
 
         def one(key):
             if key in EXEMPT:
@@ -459,7 +586,28 @@ def main():
                 failures.append(f"{route}: {key}: {verdict}: {detail}")
             if os.environ.get("MATRIX_VERBOSE"):
                 print(f"{route:10} {key:36} {verdict:9} {detail[:150]}", flush=True)
+    # Malformed lists (issue 47): each list setting on the first route that reads it.
+    lists = [k for k in table if table[k]["kind"] == "list" or k in MALFORMED_TEXT]
+    sections = {r: sections_of(r) for r in routes}
+    jobs = [(k, [r for r in routes if k.split(".")[0] in sections[r]]) for k in lists]
+    jobs = [(k, rs) for k, rs in jobs if rs]
+
+    def malformed(job):
+        key, rs = job
+        route, scen = using_scenario(key, rs, scen_all, work)
+        if scen is None:
+            sample = USE_WITH[key][1] if key in USE_WITH else TEXT.get(key, ["(no sample value)"])[0]
+            return 0, [f"{key}: no scenario of {', '.join(rs)} accepts {sample!r} to try it"]
+        return check_malformed(key, table[key], route, scen, work)
+
+    with cf.ThreadPoolExecutor(max_workers=int(os.environ.get("MATRIX_JOBS", "2"))) as ex:
+        results = list(ex.map(malformed, jobs))
+    malformed_runs = sum(t for t, _ in results)
+    for _, problems in results:
+        failures += [f"malformed list: {p}" for p in problems]
     shutil.rmtree(work, ignore_errors=True)
+    print(f"malformed lists: {malformed_runs} runs over {len(jobs)} list settings, "
+          f"{sum(len(p) for _, p in results)} accepted or misnamed")
     for route in routes:
         print(route + ": " + ", ".join(f"{v} {n}" for (r, v), n in sorted(counts.items()) if r == route))
     if no_values:

@@ -1,5 +1,7 @@
 #include "trellis/core/run_files.hpp"
 
+#include <sys/stat.h>
+
 #include <utility>
 
 #include "output_path.hpp"
@@ -12,6 +14,13 @@ namespace {
 [[noreturn]] void refuse(const std::string& path, const std::string& why,
                          const std::string& remedy) {
   throw IoError(why + ": nothing was written; " + remedy, {path});
+}
+
+// What a node that is neither a file nor a folder is, for a message.
+std::string node_kind(mode_t mode) {
+  if (S_ISCHR(mode)) return "a character device";
+  if (S_ISFIFO(mode)) return "a FIFO";
+  return S_ISBLK(mode) ? "a block device" : "a socket";
 }
 
 }  // namespace
@@ -30,7 +39,16 @@ void RunFiles::output_folder(std::string role, std::string path) {
 
 void RunFiles::check() const {
   std::vector<std::pair<detail::FileId, std::string>> inputs;
-  for (const Entry& in : inputs_) inputs.emplace_back(detail::file_id(in.path), in.role);
+  for (const Entry& in : inputs_) {
+    // What it names (/dev/stdin redirected from a file is that file), links followed.
+    struct stat st {};
+    if (::stat(in.path.c_str(), &st) == 0 && !S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode))
+      throw IoError(in.role + " is " + node_kind(st.st_mode) +
+                        ": only a file is read (a device or a pipe may never end, or block "
+                        "forever); save it to a file first",
+                    {in.path});
+    inputs.emplace_back(detail::file_id(in.path), in.role);
+  }
   std::vector<std::pair<detail::FileId, std::string>> outputs;
   for (const Entry& out : outputs_) {
     const detail::PathState s = detail::inspect_path(out.path);

@@ -60,10 +60,16 @@ void check_number(const Setting& s, double v, const SettingOrigin& o) {
                               where_of(s, o));
 }
 
-// Parses a list "1,2,3" (commas or spaces).
+// Parses a list "1,2,3" (commas or spaces). An empty element ("1,,2", "1,2,") is refused, not
+// skipped: "0,90," read as two angles hid a value left out.
 std::vector<double> parse_numbers(const Setting& s, const std::string& text, const SettingOrigin& o) {
   std::vector<double> out;
   std::string item;
+  bool after_comma = false;  // a separator came after the last number: one must follow
+  auto empty_element = [&] {
+    throw SettingError("'" + text + "' has an empty element (expected " + s.range_text() + ")",
+                       where_of(s, o));
+  };
   auto flush = [&] {
     if (item.empty()) return;
     double v = 0;
@@ -73,13 +79,20 @@ std::vector<double> parse_numbers(const Setting& s, const std::string& text, con
                          where_of(s, o));
     out.push_back(v);
     item.clear();
+    after_comma = false;
   };
   for (char c : text) {
-    if (c == ',' || c == ' ' || c == '\t' || c == ';')
+    if (c == ',' || c == ';') {
+      if (item.empty() && (out.empty() || after_comma)) empty_element();
       flush();
-    else
+      after_comma = true;
+    } else if (c == ' ' || c == '\t') {
+      flush();
+    } else {
       item += c;
+    }
   }
+  if (item.empty() && after_comma) empty_element();
   flush();
   return out;
 }

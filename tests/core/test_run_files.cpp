@@ -155,6 +155,29 @@ TEST(RunFiles, AFifoIsWrittenThroughNotReplaced) {
   EXPECT_EQ(entries, 1u);  // no temporary beside it
 }
 
+// An input that is a device or a pipe may never end (/dev/zero read as G-code grew without
+// bound) or block forever (a FIFO nobody writes): refused before it is opened.
+TEST(RunFiles, AnInputThatIsNotAFileIsRefusedBeforeItIsOpened) {
+  const test::TempDir tmp("trellis_test_runfiles");
+  const std::string fifo = tmp.file("in.gcode");
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  for (const std::string& path : {std::string("/dev/zero"), fifo}) {
+    RunFiles files;
+    files.input("the G-code", path);
+    files.output("the report", tmp.file("r.json"));
+    const std::string why = refusal([&] { files.check(); });
+    EXPECT_TRUE(has(why, path) && has(why, "the G-code is a") && has(why, "only a file is read"))
+        << path << ": " << why;
+  }
+  // A file and a folder are inputs as before (a folder is named by its reader).
+  write_file_atomic(tmp.file("in.json"), "{}");
+  RunFiles files;
+  files.input("the lattice", tmp.file("in.json"));
+  files.input("the shards", tmp.path().string());
+  EXPECT_EQ(refusal([&] { files.check(); }), "");
+  EXPECT_FALSE(fs::exists(tmp / "r.json"));
+}
+
 TEST(File, StaleTemporariesOfDeadRunsAreRemovedByTheNextWrite) {
   const test::TempDir tmp("trellis_test_stale");
   const pid_t child = ::fork();

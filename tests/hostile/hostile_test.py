@@ -33,6 +33,9 @@ SYRINGE = os.path.join(ROOT, "profiles", "fresh_nonplanar_2syringe.toml")
 AERO = os.path.join(ROOT, "tests", "data", "aero")
 DESIGNS = os.path.join(ROOT, "examples", "designs")
 
+# Sanitizer builds run several times slower: their ctest entry scales the time limits (a case's
+# 10 s, a refusal's 2 s, a finishing run's 20 s) by HOSTILE_TIME_SCALE.
+SCALE = float(os.environ.get("HOSTILE_TIME_SCALE", "1"))
 TINY_LATTICE = b'{"nodes": [[0,0,0],[10,0,0],[10,10,0],[0,10,0]], "edges": [[0,1],[1,2],[2,3],[3,0]]}\n'
 TINY_VCAD = b"root((-5,-5,0),(5,5,2),(0.1,0.1,0.1)) {\ncylinder(2,4);\n}\n"
 
@@ -43,9 +46,11 @@ class Case:
         self.files = files or {}
         self.runaway = runaway
         self.setup = setup  # f(folder) before the run: symlinks and the like
+        self.cls = CLASS[0]
 
 
 CASES = []
+CLASS = [""]  # the class of the cases being made (main), counted in the summary
 
 
 def case(*a, **k):
@@ -333,6 +338,33 @@ def gcode_cases():
         case(f"gcode strict {n}", ["analyze", "bad.gcode", "--strict"], "bad.gcode:1", {"bad.gcode": body})
 
 
+def endless_input_cases():
+    """Inputs that never end or never open (issue 47, second round): a device or a FIFO named as
+    any command's input is refused naming it, before it is opened (`analyze /dev/zero` read
+    without end, 865 MB in 15 s; a FIFO nobody writes blocked the run)."""
+    def fifo(d):
+        os.mkfifo(os.path.join(d, "pipe.gcode"))
+
+    commands = {
+        "analyze": lambda p: ["analyze", p],
+        "analyze --design": lambda p: ["analyze", "g.gcode", "--design", p],
+        "check print": lambda p: ["check", "l.json", p],
+        "check lattice": lambda p: ["check", p, "g.gcode"],
+        "view": lambda p: ["view", p, "-o", "out/x.html"],
+        "view --machine": lambda p: ["view", "g.gcode", "--machine", p, "-o", "out/x.html"],
+        "render": lambda p: ["render", p, "--layer", "0", "-o", "out/x.png"],
+        "walls": lambda p: ["walls", p, "-o", "out/x.stl"],
+        "plan": lambda p: ["plan", "euler", p, "-o", "out/x.json"],
+        "gcode --machine": lambda p: ["gcode", "tp.json", "--machine", p, "-o", "out/x.gcode"],
+        "run": lambda p: ["run", p],
+    }
+    files = {"l.json": TINY_LATTICE, "tp.json": None, "g.gcode": b"G21\nG90\nM83\nG1 X0 Y0 Z0.2\nG1 X10 Y0 E1\n"}
+    for name, argv in commands.items():
+        for source in ("/dev/zero", "/dev/urandom", "pipe.gcode"):
+            case(f"endless input {name} {source}", argv(source), source, files,
+                 setup=fifo if source == "pipe.gcode" else None)
+
+
 def nonsense_cases():
     """Values that parse but mean nothing (issue 47): refused naming the value, nothing written."""
     mixed = ('{"format": "trellis.toolpath", "version": 1, "units": "mm", "layers": [{"z": 0.2, "paths": [{"points": '
@@ -521,7 +553,7 @@ def finishing_checks():
         r = subprocess.run([TRELLIS, "nonplanar", "--height-fn", "0.1*x", "--domain", "0,0,40,40", "--angles",
                             angles, "--machine", SYRINGE, "-o", "x.nc"], cwd=d, capture_output=True, timeout=120)
         secs = time.monotonic() - t0
-        if r.returncode != 0 or secs > 20 or not os.path.exists(os.path.join(d, "x.nc")):
+        if r.returncode != 0 or secs > 20 * SCALE or not os.path.exists(os.path.join(d, "x.nc")):
             problems.append(f"nonplanar with 1000 --angles: exit {r.returncode}, {secs:.1f} s: "
                             f"{r.stderr.decode(errors='replace')[:300]}")
     return problems
@@ -578,11 +610,11 @@ def run_case(c):
         p = subprocess.Popen([TRELLIS] + c.args, cwd=d, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                              preexec_fn=limit_memory)
         try:
-            out, err = p.communicate(timeout=10)
+            out, err = p.communicate(timeout=10 * SCALE)
         except subprocess.TimeoutExpired:
             p.kill()
             p.communicate()
-            return f"{c.name}: still running after 10 s"
+            return f"{c.name}: still running after {10 * SCALE:g} s"
         secs = time.monotonic() - t0
         err = err.decode(errors="replace")
         problems = []
@@ -607,7 +639,7 @@ def run_case(c):
         if leaked:
             problems.append(f"wrote outside: {sorted(leaked)}")
         if c.runaway:
-            if secs > 2:
+            if secs > 2 * SCALE:
                 problems.append(f"refusal took {secs:.1f} s")
             if "estimate" not in err and c.where == "refused before starting":
                 problems.append("no estimate in the message")
@@ -658,16 +690,13 @@ def umask_check():
 
 
 def main():
-    settings_cases()
-    lattice_cases()
-    design_cases()
-    toolpath_cases()
-    profile_cases()
-    job_cases()
-    gcode_cases()
-    nonsense_cases()
-    runaway_cases()
-    runaway_cases_issue47()
+    for cls, make in (("settings", settings_cases), ("lattice files", lattice_cases),
+                      ("designs and meshes", design_cases), ("toolpaths", toolpath_cases),
+                      ("profiles", profile_cases), ("jobs", job_cases), ("G-code", gcode_cases),
+                      ("endless inputs", endless_input_cases), ("nonsense", nonsense_cases),
+                      ("runaways", runaway_cases), ("runaways (issue 47)", runaway_cases_issue47)):
+        CLASS[0] = cls
+        make()
     if "--list" in sys.argv:
         for c in CASES:
             print(c.name)
@@ -678,6 +707,10 @@ def main():
     output_problems, output_counts = outputs.checks(TRELLIS, ROOT)
     failures += memory_checks() + output_problems + umask_check() + big_cell_check() + finishing_checks()
     print(f"{len(CASES)} hostile inputs, {len(failures)} problem(s), {time.monotonic() - t0:.0f} s")
+    per_class = {}
+    for c in CASES:
+        per_class[c.cls] = per_class.get(c.cls, 0) + 1
+    print("inputs per class: " + ", ".join(f"{k} {v}" for k, v in per_class.items()))
     print("outputs (tests/hostile/outputs.py), runs per class: " +
           ", ".join(f"{k} {v}" for k, v in output_counts.items()))
     for f in failures:

@@ -182,6 +182,9 @@ TEST(Settings, BadValuesNameTheSourceAndTheAllowedValues) {
                                          {"machine.flavor", "smoothie", "one of marlin, reprap, klipper, pneumatic, embedded"},
                                          {"slice.walls", "2.5", "whole number"},
                                          {"lattice3d.count", "3,3", "3 whole numbers"},
+                                         {"nonplanar.angles", "0,90,", "an empty element"},
+                                         {"nonplanar.angles", "0,,90", "an empty element"},
+                                         {"pbf.size", ",3,3,3", "an empty element"},
                                          {"placement.center", "maybe", "true or false"},
                                          {"scan.hatch_distance", "nan", "out of range"}}) {
     Settings st;
@@ -194,6 +197,10 @@ TEST(Settings, BadValuesNameTheSourceAndTheAllowedValues) {
       EXPECT_NE(m.find("--set"), std::string::npos) << m;
     }
   }
+  // Spaces around the commas are not elements.
+  Settings spaced;
+  spaced.set_text("nonplanar.angles", " 0, 45 ,90 ", {"--set"});
+  EXPECT_EQ(spaced.config().nonplanar.params.angles, (std::vector<double>{0, 45, 90}));
   // From a file: file and line.
   Settings st;
   try {

@@ -6,6 +6,8 @@
 //     devices (/dev/null) are exempt: nothing in them can be lost;
 //   - an output meant as a file names a folder ("out/", an existing folder), or an output is a
 //     block device or a socket;
+//   - an input is not a file or a folder: a character device, a FIFO or a socket (/dev/zero, a
+//     pipe) may never end or block forever, so it is never read;
 //   - an output path is a symbolic link, unless `follow_symlinks` (run.follow_symlinks,
 //     --follow-symlinks): then the file it points to is written and the link kept. A link to a
 //     FIFO or a character device (/dev/stdout) is written through like the device itself.
