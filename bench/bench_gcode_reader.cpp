@@ -7,7 +7,6 @@
 // own Marlin G-code (travels, retractions, ;TYPE: and ;WIDTH: comments) written once into
 // $TMPDIR (and unlinked at once).
 #include <benchmark/benchmark.h>
-
 #include <fcntl.h>
 #include <spawn.h>
 #include <sys/resource.h>
@@ -161,9 +160,13 @@ static void run_child(benchmark::State& state, const char* tool, const char* fla
   state.SetBytesProcessed(static_cast<std::int64_t>(f.bytes) * state.iterations());
   state.counters["MB"] = static_cast<double>(f.bytes) / 1e6;
 }
-static void BM_WcL(benchmark::State& state) { run_child(state, "wc", "-l"); }
+static void BM_WcL(benchmark::State& state) {
+  run_child(state, "wc", "-l");
+}
 BENCHMARK(BM_WcL)->Unit(benchmark::kMillisecond)->UseManualTime();
-static void BM_Cat(benchmark::State& state) { run_child(state, "cat", nullptr); }
+static void BM_Cat(benchmark::State& state) {
+  run_child(state, "cat", nullptr);
+}
 BENCHMARK(BM_Cat)->Unit(benchmark::kMillisecond)->UseManualTime();
 
 BENCHMARK_MAIN();

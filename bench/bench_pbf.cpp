@@ -37,8 +37,8 @@ void BM_Pbf4x4x4GyroidToCli(benchmark::State& state) {
   const LaserProfile prof;
   for (auto _ : state) {
     const PbfResult r = plan_pbf(d, o);
-    const Toolpath tp = pbf_toolpath(r, prof.contour_power, prof.contour_speed, prof.hatch_power,
-                                     prof.hatch_speed);
+    const Toolpath tp =
+        pbf_toolpath(r, prof.contour_power, prof.contour_speed, prof.hatch_power, prof.hatch_speed);
     const std::string cli = write_cli(tp, prof);
     state.counters["layers"] = static_cast<double>(r.layers.size());
     state.counters["vectors"] = static_cast<double>(r.contour_vectors + r.hatch_vectors);
@@ -95,9 +95,17 @@ void BM_StlRouteDefault(benchmark::State& state) {
 }  // namespace
 
 // The forked benchmarks run first, before anything starts oneTBB's threads in this process.
-BENCHMARK(BM_DirectRoute)->DenseRange(1, 5)->Iterations(1)->UseManualTime()->Unit(benchmark::kSecond);
+BENCHMARK(BM_DirectRoute)
+    ->DenseRange(1, 5)
+    ->Iterations(1)
+    ->UseManualTime()
+    ->Unit(benchmark::kSecond);
 BENCHMARK(BM_StlRoute)->DenseRange(1, 5)->Iterations(1)->UseManualTime()->Unit(benchmark::kSecond);
-BENCHMARK(BM_StlRouteScanAll)->DenseRange(1, 4)->Iterations(1)->UseManualTime()->Unit(benchmark::kSecond);
+BENCHMARK(BM_StlRouteScanAll)
+    ->DenseRange(1, 4)
+    ->Iterations(1)
+    ->UseManualTime()
+    ->Unit(benchmark::kSecond);
 BENCHMARK(BM_DirectRouteDefault)
     ->DenseRange(2, 4)
     ->Iterations(1)

@@ -97,8 +97,9 @@ void BM_WriteLayer(benchmark::State& state) {
   CliStreamWriter writer(path, prof, CliWriteOptions{}, "bench", "");
   std::size_t i = 0;
   for (auto _ : state) {
-    writer.add(pbf_layer_toolpath(layers[i % layers.size()], i % 1000, prof.layer, prof.contour_power,
-                                  prof.contour_speed, prof.hatch_power, prof.hatch_speed));
+    writer.add(pbf_layer_toolpath(layers[i % layers.size()], i % 1000, prof.layer,
+                                  prof.contour_power, prof.contour_speed, prof.hatch_power,
+                                  prof.hatch_speed));
     ++i;
   }
   name(state);

@@ -8,11 +8,11 @@
 
 #include <cmath>
 
+#include "../src/slice/pbf_chords.hpp"
 #include "trellis/field/field.hpp"
 #include "trellis/geom/contour.hpp"
 #include "trellis/geom/regions.hpp"
 #include "trellis/slice/pbf.hpp"
-#include "../src/slice/pbf_chords.hpp"
 
 using namespace trellis;
 
@@ -99,7 +99,8 @@ void BM_ChordVectorsMidCurve(benchmark::State& state) {
   std::size_t n = 0;
   for (auto _ : state) {
     std::vector<std::vector<Vec2>> out;
-    for (const auto& l : lines.open) pbf_detail::chord_vectors(l, false, 0.1, 0.02, 0.03, curve, out);
+    for (const auto& l : lines.open)
+      pbf_detail::chord_vectors(l, false, 0.1, 0.02, 0.03, curve, out);
     for (auto l : lines.loops) {
       l.push_back(l.front());
       pbf_detail::chord_vectors(l, true, 0.1, 0.02, 0.03, curve, out);

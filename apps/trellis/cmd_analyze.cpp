@@ -98,9 +98,10 @@ Analysis analyze_file(const std::string& f, const Graph* design, const AnalysisP
   }
   for (const char* other : {".stl", ".obj", ".csv", ".vcad", ".toml", ".png", ".html"})
     if (ext == other)
-      throw ParseError(f + ": a '" + ext +
-                       "' file is not a print: analyze reads G-code (.gcode/.g/.gco/.nc/.bgcode), "
-                       "a laser .cli, a 3MF toolpath or a toolpath JSON (a lattice goes to --design)");
+      throw ParseError(
+          f + ": a '" + ext +
+          "' file is not a print: analyze reads G-code (.gcode/.g/.gco/.nc/.bgcode), "
+          "a laser .cli, a 3MF toolpath or a toolpath JSON (a lattice goes to --design)");
   return analyze_gcode_file(f, design, params, read, diag);
 }
 

@@ -19,9 +19,11 @@ bool is_laser_build_file(const std::string& path) {
 void analyze_laser_file(const std::string& path, const std::string& design,
                         const std::string& machine, const std::string& report) {
   Diagnostics diag;
-  const LaserProfile prof = machine.empty() ? LaserProfile{} : command_settings(machine, {}).config().laser;
+  const LaserProfile prof =
+      machine.empty() ? LaserProfile{} : command_settings(machine, {}).config().laser;
   std::string json;
-  const JobResult r = analyze_build_file(path, design, prof, report.empty() ? nullptr : &json, diag);
+  const JobResult r =
+      analyze_build_file(path, design, prof, report.empty() ? nullptr : &json, diag);
   std::cout << r.summary << "\n";
   print_warnings(diag);
   if (!report.empty()) write_file_atomic(report, json);

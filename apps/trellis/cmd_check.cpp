@@ -25,7 +25,8 @@ void add_check(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "check", "Replay a print against the nozzle model: collisions, struts missing or repeated");
   cmd->footer(
-      "The print is a toolpath JSON or G-code (.gcode/.nc). G-code is read with the valve commands\n"
+      "The print is a toolpath JSON or G-code (.gcode/.nc). G-code is read with the valve "
+      "commands\n"
       "and tool offsets of --machine, or of the machine recorded in the file by Trellis. Every\n"
       "extruded segment is matched to a design strut by its end nodes (a strut laid on a\n"
       "surface as a polyline: its segments from node to node; a design of stacked planar\n"
@@ -36,7 +37,9 @@ void add_check(CLI::App& app) {
       "of vertical) must be printed bottom-up.\n"
       "Exit status: 0 if clean, 1 if anything was found, 2 for bad input.");
   cmd->add_option("lattice", o->lattice, "design lattice")->required()->check(path_value());
-  cmd->add_option("print", o->print, "toolpath JSON, G-code or 3MF toolpath")->required()->check(path_value());
+  cmd->add_option("print", o->print, "toolpath JSON, G-code or 3MF toolpath")
+      ->required()
+      ->check(path_value());
   cmd->add_option("--machine", o->machine, "machine profile the G-code was written for")
       ->check(path_value());
   cmd->add_flag("--commanded-mixtures", o->commanded,
@@ -79,16 +82,15 @@ void add_check(CLI::App& app) {
       render_3d_png(tp, (std::filesystem::path(o->preview) / "3d.png").string(), v);
     }
     print_warnings(diag);
-    std::cout << "check: " << c.paths << " paths, " << c.segments << " segments, "
-              << c.printed_once << "/" << c.struts << " struts printed once, " << c.missing.size()
-              << " missing, " << c.repeated.size() << " repeated, " << c.off_design_segments
-              << " off the design, " << c.top_down.size() << " steep struts top-down, "
-              << c.collisions << " collisions\n";
+    std::cout << "check: " << c.paths << " paths, " << c.segments << " segments, " << c.printed_once
+              << "/" << c.struts << " struts printed once, " << c.missing.size() << " missing, "
+              << c.repeated.size() << " repeated, " << c.off_design_segments << " off the design, "
+              << c.top_down.size() << " steep struts top-down, " << c.collisions << " collisions\n";
     for (std::size_t i = 0; i < std::min<std::size_t>(c.hits.size(), 10); ++i) {
       const auto& h = c.hits[i];
       std::cout << "  collision: path " << h.path << " segment " << h.segment << " (strut "
-                << h.strut << ") hits strut " << h.hit_strut << " at (" << num(h.point.x, 3)
-                << ", " << num(h.point.y, 3) << ", " << num(h.point.z, 3) << "), tip at ("
+                << h.strut << ") hits strut " << h.hit_strut << " at (" << num(h.point.x, 3) << ", "
+                << num(h.point.y, 3) << ", " << num(h.point.z, 3) << "), tip at ("
                 << num(h.tip.x, 3) << ", " << num(h.tip.y, 3) << ", " << num(h.tip.z, 3) << ")\n";
     }
     if (!c.ok()) set_exit_code(1);

@@ -39,7 +39,8 @@ void add_render(CLI::App& app) {
       "several lasers. Each PNG has a title\n"
       "(file, layer, Z, what colour means), a legend or colour bar and a scale bar in mm.\n"
       "Without --layer every layer is written as OUT.layerNNN.png (OUT without .png).");
-  cmd->add_option("toolpath", o->input, "toolpath JSON, G-code (.gcode/.g/.nc), laser .cli or 3MF toolpath")
+  cmd->add_option("toolpath", o->input,
+                  "toolpath JSON, G-code (.gcode/.g/.nc), laser .cli or 3MF toolpath")
       ->required()
       ->check(path_value());
   auto* colour = cmd->add_option("--colour", o->colour,
@@ -117,7 +118,8 @@ void add_render(CLI::App& app) {
     if (o->r.title.empty()) o->r.title = scene.name;
     // Estimate before work: the images and the points they draw.
     const std::size_t first = o->layer >= 0 ? static_cast<std::size_t>(o->layer) : 0;
-    const std::size_t end = o->layer >= 0 ? std::min(first + 1, tp.layers.size()) : tp.layers.size();
+    const std::size_t end =
+        o->layer >= 0 ? std::min(first + 1, tp.layers.size()) : tp.layers.size();
     double points = 0;
     for (std::size_t i = first; i < end; ++i)
       for (const auto& p : tp.layers[i].paths) points += static_cast<double>(p.points.size());
@@ -128,7 +130,8 @@ void add_render(CLI::App& app) {
     budget.seconds = o->max_time;
     budget.memory = o->max_memory * 1e6;
     budget.seen = progress.estimate;
-    Estimate e = layer_images_estimate(o->layer >= 0 ? 1.0 : double(tp.layers.size()), o->r.size_px, points);
+    Estimate e =
+        layer_images_estimate(o->layer >= 0 ? 1.0 : double(tp.layers.size()), o->r.size_px, points);
     e.change = "--image-size or --layer";
     check_budget(e, budget);
     if (o->layer >= 0) {

@@ -61,18 +61,23 @@ void SettingFlags::add(CLI::App* cmd, const std::vector<std::string>& sections) 
     if (std::find(sections.begin(), sections.end(), s.section()) == sections.end()) continue;
     const std::string group = "Settings [" + s.section() + "]";
     if (s.kind == SettingKind::Bool) {
-      cmd->add_flag_callback("--" + s.flag, [this, key = s.key] { bools[key] = 1; }, help_of(s))
+      cmd->add_flag_callback(
+             "--" + s.flag, [this, key = s.key] { bools[key] = 1; }, help_of(s))
           ->group(group);
-      cmd->add_flag_callback("--no-" + s.flag, [this, key = s.key] { bools[key] = 0; },
-                             "turn " + s.key + " off")
+      cmd->add_flag_callback(
+             "--no-" + s.flag, [this, key = s.key] { bools[key] = 0; }, "turn " + s.key + " off")
           ->group(group);
       continue;
     }
     auto* opt = cmd->add_option("--" + s.flag, values[s.key], help_of(s))->group(group);
-    if (s.kind == SettingKind::Numbers) opt->type_name("LIST");
-    else if (s.kind == SettingKind::Choice) opt->type_name("NAME");
-    else if (s.kind == SettingKind::Text) opt->type_name(s.unit == "path" ? "FILE" : "TEXT");
-    else opt->type_name(s.kind == SettingKind::Integer ? "INT" : "NUMBER");
+    if (s.kind == SettingKind::Numbers)
+      opt->type_name("LIST");
+    else if (s.kind == SettingKind::Choice)
+      opt->type_name("NAME");
+    else if (s.kind == SettingKind::Text)
+      opt->type_name(s.unit == "path" ? "FILE" : "TEXT");
+    else
+      opt->type_name(s.kind == SettingKind::Integer ? "INT" : "NUMBER");
     if (s.unit == "path") opt->check(path_value());
     options.emplace_back(s.key, opt);
   }
@@ -102,8 +107,7 @@ void print_result(const JobResult& r, const Diagnostics& diag) {
   std::cout << r.summary << "\n";
   if (!r.files.empty()) {
     std::cout << "wrote";
-    for (std::size_t i = 0; i < r.files.size(); ++i)
-      std::cout << (i ? ", " : " ") << r.files[i];
+    for (std::size_t i = 0; i < r.files.size(); ++i) std::cout << (i ? ", " : " ") << r.files[i];
     std::cout << "\n";
   }
   if (r.exit_code) set_exit_code(r.exit_code);
@@ -127,81 +131,134 @@ void add_routes(CLI::App& app, int argc, char** argv) {
   auto* plan = app.add_subcommand("plan", "Plan print paths over a lattice: gippo, euler or aero");
   plan->require_subcommand(1);
   const std::vector<CommandSpec> specs = {
-      {"lattice2d", "lattice2d", "Generate a 2D lattice from the atlas (lattice JSON)",
-       {"lattice2d", "output", "run"}, false, "lattice JSON to write", false, false, false,
+      {"lattice2d",
+       "lattice2d",
+       "Generate a 2D lattice from the atlas (lattice JSON)",
+       {"lattice2d", "output", "run"},
+       false,
+       "lattice JSON to write",
+       false,
+       false,
+       false,
        "Patterns: " + patterns +
-           ".\nThe cell size means: honeycomb = hexagon side; penrose = rhombus side; snub-square = "
+           ".\nThe cell size means: honeycomb = hexagon side; penrose = rhombus side; snub-square "
+           "= "
            "edge;\narrowhead, reentrant-honeycomb = horizontal period; square, triangle, lines = "
-           "strand distance.\nThe pattern is generated over at least twice the region, rotated about "
+           "strand distance.\nThe pattern is generated over at least twice the region, rotated "
+           "about "
            "the region centre,\nand cropped with a node where the crop cuts a strut.\nExample:\n"
-           "  trellis lattice2d --pattern penrose --cell 1.2 --size 10,10 -o penrose.json --preview penrose"},
-      {"lattice3d", "lattice3d", "Generate a 3D strut lattice: unit cells or a Voronoi foam (lattice JSON)",
-       {"lattice3d", "output", "run"}, false, "lattice JSON to write", false, false, false,
+           "  trellis lattice2d --pattern penrose --cell 1.2 --size 10,10 -o penrose.json "
+           "--preview penrose"},
+      {"lattice3d",
+       "lattice3d",
+       "Generate a 3D strut lattice: unit cells or a Voronoi foam (lattice JSON)",
+       {"lattice3d", "output", "run"},
+       false,
+       "lattice JSON to write",
+       false,
+       false,
+       false,
        "Unit cells: " + cells +
-           ".\n--kind foam makes a stochastic Voronoi foam in a box (--box W,D,H) or inside a closed\n"
-           "mesh (--mesh FILE), reproducible for --seed. Materials: none; xy-plane (struts in the XY\n"
-           "plane 0, others 1); component (one per connected part); vertical (steep struts 1).\nExample:\n"
+           ".\n--kind foam makes a stochastic Voronoi foam in a box (--box W,D,H) or inside a "
+           "closed\n"
+           "mesh (--mesh FILE), reproducible for --seed. Materials: none; xy-plane (struts in the "
+           "XY\n"
+           "plane 0, others 1); component (one per connected part); vertical (steep struts "
+           "1).\nExample:\n"
            "  trellis lattice3d --cell-type octet --cell 7 --count 3,3,3 -o octet.json"},
       {"gippo", "plan", "GIPPO: the paper's randomized greedy path growth, best of N iterations",
-       with({"lattice", "plan", "gippo", "output", "run"}, m), true,
-       "toolpath JSON to write", true, false, true,
+       with({"lattice", "plan", "gippo", "output", "run"}, m), true, "toolpath JSON to write", true,
+       false, true,
        "Each iteration grows paths from a random incomplete node, taking the longest (--mode max)\n"
        "or shortest (--mode min) unused edge at either end; the best score (Eq. 1) is kept.\n"
-       "Reproducible for a --seed whatever the thread count.\n" + plan_footer},
-      {"euler", "plan", "Euler: exactly the lower bound max(1, odd nodes / 2) of paths (Hierholzer)",
-       with({"lattice", "plan", "output", "run"}, m), true, "toolpath JSON to write",
-       true, false, true, plan_footer},
+       "Reproducible for a --seed whatever the thread count.\n" +
+           plan_footer},
+      {"euler", "plan",
+       "Euler: exactly the lower bound max(1, odd nodes / 2) of paths (Hierholzer)",
+       with({"lattice", "plan", "output", "run"}, m), true, "toolpath JSON to write", true, false,
+       true, plan_footer},
       {"aero", "plan", "AERO: collision-free Eulerian trails for 3D lattices printed in a bath",
        with({"lattice", "plan", "aero", "nozzle", "output", "run"}, m), true,
        "toolpath JSON to write", true, false, true,
-       "The nozzle is a vertical cylinder (--nozzle-radius); struts within --cone of vertical print\n"
+       "The nozzle is a vertical cylinder (--nozzle-radius); struts within --cone of vertical "
+       "print\n"
        "bottom-up; the plan is replayed by the independent collision checker and reported.\n" +
            plan_footer},
-      {"gcode", "gcode", "Write G-code (or pneumatic / embedded .nc) from a toolpath and a machine profile",
+      {"gcode", "gcode",
+       "Write G-code (or pneumatic / embedded .nc) from a toolpath and a machine profile",
        with({"run"}, m), true, "G-code file to write", 2, false, false,
        "Profiles are TOML files (profiles/); `trellis settings machine` lists every setting.\n"
        "Settings merge: defaults < profile < flags and --set."},
-      {"slice", "slice", "Slice a design (.vcad) or a mesh (.stl, .obj, .3mf) into walls, skins and infill",
-       with({"slice", "fgm", "process", "output", "run"}, m), true, "G-code file to write", 2, true, true,
+      {"slice", "slice",
+       "Slice a design (.vcad) or a mesh (.stl, .obj, .3mf) into walls, skins and infill",
+       with({"slice", "fgm", "process", "output", "run"}, m), true, "G-code file to write", 2, true,
+       true,
        "A .vcad design is contoured straight from its implicit field at every layer (no mesh); a\n"
        "mesh is cut by planes (--route mesh, its default) or turned into a distance field first.\n"
        "The layer height is the profile's extrusion.layer_height unless --layer-height says\n"
        "otherwise; the bead width is the nozzle's unless --bead-width. Example:\n"
-       "  trellis slice examples/designs/csg_bracket.vcad --machine profiles/ender3_s1_pro_tpu.toml\n"
+       "  trellis slice examples/designs/csg_bracket.vcad --machine "
+       "profiles/ender3_s1_pro_tpu.toml\n"
        "      -o bracket.gcode --report bracket.json --preview bracket_preview"},
-      {"pbf", "pbf", "Laser powder-bed toolpaths for a TPMS sheet lattice (from its field) or a solid part (.cli)",
-       {"laser", "scan", "timing", "pbf", "output", "run"}, false, "CLI build file to write", true, true,
+      {"pbf",
+       "pbf",
+       "Laser powder-bed toolpaths for a TPMS sheet lattice (from its field) or a solid part "
+       "(.cli)",
+       {"laser", "scan", "timing", "pbf", "output", "run"},
+       false,
+       "CLI build file to write",
+       true,
+       true,
        true,
        "The sheet is Φ = φ² − c² around a TPMS mid-surface φ (--cell-type, --cell; c from --c or\n"
        "--thickness for uniform walls), inside a box (--size) or the solid of DESIGN.vcad. A\n"
-       "DESIGN.vcad that is itself one TPMS sheet in its root box (gyroid(5, 0.3), maybe intersected\n"
+       "DESIGN.vcad that is itself one TPMS sheet in its root box (gyroid(5, 0.3), maybe "
+       "intersected\n"
        "with solids) is planned as it is: its φ, c and box, the lattice flags unused. Per\n"
-       "layer: thin, steep walls get one contour track on φ = 0 cut into scan vectors (--sl, --lhd);\n"
+       "layer: thin, steep walls get one contour track on φ = 0 cut into scan vectors (--sl, "
+       "--lhd);\n"
        "joints are hatched at 67° more every layer. --strategy r67 hatches everything (the\n"
-       "baseline); --route stl meshes the field first, for comparison. Scan settings come from the\n"
+       "baseline); --route stl meshes the field first, for comparison. Scan settings come from "
+       "the\n"
        "laser profile (--machine) unless flags say otherwise. A solid part (a mesh: STL, OBJ,\n"
-       "3MF; or a .vcad with --strategy rectilinear|meander|stripe|island) is sliced and each layer\n"
+       "3MF; or a .vcad with --strategy rectilinear|meander|stripe|island) is sliced and each "
+       "layer\n"
        "scanned with --contours offsets, the first at the beam compensation, then hatched inside\n"
        "the last one by the strategy (island: --island-size, --island-overlap, --island-shift;\n"
        "stripe: --stripe-width, --stripe-overlap). Examples:\n"
-       "  trellis pbf examples/designs/concave_cylinder.obj --strategy island --island-size 5 -o part.cli\n"
-       "  trellis pbf --cell-type schwarz_d --cell 2.5 --size 10,10,10 --machine profiles/pbf_316l_25um.toml\n"
+       "  trellis pbf examples/designs/concave_cylinder.obj --strategy island --island-size 5 -o "
+       "part.cli\n"
+       "  trellis pbf --cell-type schwarz_d --cell 2.5 --size 10,10,10 --machine "
+       "profiles/pbf_316l_25um.toml\n"
        "      -o lattice.cli --report lattice.json --preview previews"},
-      {"nonplanar", "nonplanar", "Slice a surface into continuous non-planar layers (embedded printing)",
+      {"nonplanar", "nonplanar",
+       "Slice a surface into continuous non-planar layers (embedded printing)",
        with({"nonplanar", "output", "run"}, m), false, "G-code to write", 2, true, true,
        "The surface is an open mesh (STL, OBJ, 3MF), --height-fn z(x,y) over --domain, or a\n"
        "generated test surface (--set surface.kind=corrugation). It must be a height field.\n"
-       "Each layer is the surface cut by vertical planes one bead width apart (the nozzle's unless\n"
-       "--bead-width), joined into one serpentine, lifted by the layer height (the profile's unless\n"
+       "Each layer is the surface cut by vertical planes one bead width apart (the nozzle's "
+       "unless\n"
+       "--bead-width), joined into one serpentine, lifted by the layer height (the profile's "
+       "unless\n"
        "--layer-height). --angles 0,90 cross-hatches, --angles 0 keeps one direction.\n"
-       "--layer-tools 3:0,3:1,3:0 prints 3 layers with tool 0, 3 with tool 1, 3 with tool 0.\nExample:\n"
+       "--layer-tools 3:0,3:1,3:0 prints 3 layers with tool 0, 3 with tool 1, 3 with tool "
+       "0.\nExample:\n"
        "  trellis surface corrugation -o corrugation.stl\n"
-       "  trellis nonplanar corrugation.stl --machine profiles/fresh_nonplanar_2syringe.toml -o corrugation.gcode"},
-      {"surface", "surface", "Generate the non-planar paper's test surfaces (STL)",
-       {"surface", "output", "run"}, false, "STL to write", 1, false, false,
+       "  trellis nonplanar corrugation.stl --machine profiles/fresh_nonplanar_2syringe.toml -o "
+       "corrugation.gcode"},
+      {"surface",
+       "surface",
+       "Generate the non-planar paper's test surfaces (STL)",
+       {"surface", "output", "run"},
+       false,
+       "STL to write",
+       1,
+       false,
+       false,
        "Kinds (--kind): corrugation (--periods, --angle, --amplitude-scale, --fillet, --flat),\n"
        "miura (--depth), m-curve (--height), sphere-cap (--radius, --diameter), and angle-test,\n"
-       "the print-angle test path (0, ±22.5, ±45, ±67.5, 90, −80°) written as toolpath JSON, or as\n"
+       "the print-angle test path (0, ±22.5, ±45, ±67.5, 90, −80°) written as toolpath JSON, or "
+       "as\n"
        "G-code with --machine."},
   };
   for (const auto& spec : specs) {
@@ -244,13 +301,15 @@ void add_routes(CLI::App& app, int argc, char** argv) {
     cmd->add_option("--preview", o->preview,
                     "folder for PNG previews (layer_0000.png, ...)" + whole("--toolpath"))
         ->check(path_value());
-    cmd->add_option("--set", o->sets, "any setting: section.key=value (repeatable; `trellis settings`)");
+    cmd->add_option("--set", o->sets,
+                    "any setting: section.key=value (repeatable; `trellis settings`)");
     o->flags.add(cmd, spec.flag_sections);
     add_progress_flag(cmd, o->progress);
     const bool machine_required = spec.machine == 2;
     cmd->callback([o, route, machine_required, argc, argv] {
       if (machine_required && o->machine.empty())
-        throw SettingError("--machine PROFILE.toml is required (see profiles/)", {"", 0, "--machine"});
+        throw SettingError("--machine PROFILE.toml is required (see profiles/)",
+                           {"", 0, "--machine"});
       if (!o->gcode.empty() && o->machine.empty())
         throw SettingError("--gcode needs --machine PROFILE.toml", {"", 0, "--gcode"});
       Job job;
@@ -265,7 +324,8 @@ void add_routes(CLI::App& app, int argc, char** argv) {
         job.settings.set("surface.kind", o->extra, {"kind argument"});
       o->flags.apply(job.settings);
       if (o->progress >= 0)
-        job.settings.set("run.progress", o->progress == 1, {o->progress ? "--progress" : "--no-progress"});
+        job.settings.set("run.progress", o->progress == 1,
+                         {o->progress ? "--progress" : "--no-progress"});
       for (const auto& s : o->sets) {
         const auto eq = s.find('=');
         if (eq == std::string::npos)

@@ -1,13 +1,13 @@
 // `trellis run JOB.toml`, `trellis rerun OUTPUT` and `trellis settings`.
 #include <filesystem>
 #include <iostream>
+#include <tuple>
 
 #include "commands.hpp"
 #include "progress_display.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/job/job.hpp"
 #include "trellis/job/plate.hpp"
-#include <tuple>
 
 namespace trellis::cli {
 
@@ -19,10 +19,13 @@ void add_run(CLI::App& app) {
     int progress = -1;
   };
   auto o = std::make_shared<Opts>();
-  auto* cmd = app.add_subcommand("run", "Run a job file (any route): design, plan, write, report, previews");
+  auto* cmd = app.add_subcommand(
+      "run", "Run a job file (any route): design, plan, write, report, previews");
   cmd->footer(
-      "A job file is TOML: [job] route = \"plan\" | \"lattice2d\" | \"lattice3d\" | \"gcode\" | \"slice\" |\n"
-      "\"pbf\" | \"nonplanar\" | \"surface\", input, machine, output_dir, outputs; then any settings\n"
+      "A job file is TOML: [job] route = \"plan\" | \"lattice2d\" | \"lattice3d\" | \"gcode\" | "
+      "\"slice\" |\n"
+      "\"pbf\" | \"nonplanar\" | \"surface\", input, machine, output_dir, outputs; then any "
+      "settings\n"
       "as [section] tables. Paths are relative to the job file. See docs/jobs.md and examples/.\n"
       "Precedence: defaults < the job's machine profile < the job's settings < --set.");
   cmd->add_option("job", o->job, "job TOML")->required()->check(path_value());
@@ -30,7 +33,8 @@ void add_run(CLI::App& app) {
       ->check(path_value());
   add_follow_symlinks(cmd, o->follow);
   add_progress_flag(cmd, o->progress);
-  cmd->add_option("--set", o->sets, "override a setting of the job: section.key=value (repeatable)");
+  cmd->add_option("--set", o->sets,
+                  "override a setting of the job: section.key=value (repeatable)");
   cmd->add_option("--shard", o->shard,
                   "K/N: compute shard K of N (layer ranges balanced by work; pbf, slice (planar "
                   "and graded) and its plates, nonplanar, plan with euler or gippo) "
@@ -39,7 +43,8 @@ void add_run(CLI::App& app) {
     Job job = load_job(o->job, o->out, o->sets);
     if (o->follow) job.settings.set("run.follow_symlinks", true, {"--follow-symlinks"});
     if (o->progress >= 0)
-      job.settings.set("run.progress", o->progress == 1, {o->progress ? "--progress" : "--no-progress"});
+      job.settings.set("run.progress", o->progress == 1,
+                       {o->progress ? "--progress" : "--no-progress"});
     if (!o->shard.empty()) {
       std::tie(job.shard, job.shards) = parse_shard(o->shard);
       // The plan route says itself what of it shards (planner, plan.order, plan.layer_start).
@@ -98,7 +103,8 @@ void add_rerun(CLI::App& app) {
   auto* cmd = app.add_subcommand(
       "rerun", "Regenerate an output from the job recorded in its header (byte for byte)");
   cmd->footer(
-      "Every G-code, .nc, .cli and toolpath JSON that Trellis writes carries the job that made it:\n"
+      "Every G-code, .nc, .cli and toolpath JSON that Trellis writes carries the job that made "
+      "it:\n"
       "the route, its inputs and every setting in force. rerun reads that job and writes the\n"
       "same kind of output again (to -o, default: over the file itself).\nExample:\n"
       "  trellis rerun part.gcode -o part_again.gcode && cmp part.gcode part_again.gcode");
@@ -125,7 +131,8 @@ void add_settings(CLI::App& app) {
     bool markdown = false;
   };
   auto o = std::make_shared<Opts>();
-  auto* cmd = app.add_subcommand("settings", "List every setting (unit, default, range, flag, doc)");
+  auto* cmd =
+      app.add_subcommand("settings", "List every setting (unit, default, range, flag, doc)");
   cmd->footer("Give sections (e.g. extrusion slice) or routes (e.g. pbf) to list only those.");
   cmd->add_option("what", o->what, "sections or routes");
   cmd->add_flag("--markdown", o->markdown, "write docs/settings.md's text");

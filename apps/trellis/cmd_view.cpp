@@ -36,7 +36,8 @@ void add_view(CLI::App& app) {
       "view", "Write an interactive 3D viewer (one self-contained HTML file) for toolpaths");
   cmd->footer(
       "Reads G-code of any slicer (.gcode/.g/.gco), pneumatic or bath .nc, laser .cli, toolpath\n"
-      "JSON, 3MF toolpaths and lattices (JSON/CSV/OBJ/3MF). Open the HTML in a browser (no server, no network):\n"
+      "JSON, 3MF toolpaths and lattices (JSON/CSV/OBJ/3MF). Open the HTML in a browser (no server, "
+      "no network):\n"
       "orbit with the left mouse button, pan with the right, zoom with the wheel; colour by\n"
       "feature type, tool, mixture, temperature, speed, width, print order or laser power.\n"
       "With --design (a lattice) the prints are shown in design coordinates over the design,\n"
@@ -57,7 +58,8 @@ void add_view(CLI::App& app) {
   cmd->add_option("--design", o->design,
                   "design lattice: overlay, deviation from it and the collision check")
       ->check(path_value());
-  cmd->add_option("--set", o->sets, "any [nozzle] or [lattice] setting of the check: section.key=value");
+  cmd->add_option("--set", o->sets,
+                  "any [nozzle] or [lattice] setting of the check: section.key=value");
   cmd->add_option("--valve-on", o->load.valve_on,
                   "pneumatic files: the command that opens the valve");
   cmd->add_option("--valve-off", o->load.valve_off,
@@ -83,8 +85,8 @@ void add_view(CLI::App& app) {
     }
     for (const auto& f : o->files) {
       ViewScene s = load_view_scene(f, o->load, diag);
-      const bool print = s.kind == "gcode" || s.kind == "nc" || s.kind == "bgcode" ||
-                         s.kind == "toolpath";
+      const bool print =
+          s.kind == "gcode" || s.kind == "nc" || s.kind == "bgcode" || s.kind == "toolpath";
       if (!o->design.empty() && s.kind != "lattice") {
         if (print) {
           // As `trellis check` reads it: back in design coordinates, then replayed.

@@ -15,10 +15,12 @@ void add_walls(CLI::App& app) {
     BudgetFlags budget;
   };
   auto o = std::make_shared<Opts>();
-  auto* cmd = app.add_subcommand("walls", "Export a lattice as solid walls (binary STL) for other slicers");
-  cmd->footer("Each strut becomes a box width x height from its z upward and each node a 16-sided\n"
-              "prism, as overlapping shells (slicers take their union). This is how the GIPPO paper\n"
-              "fed its lattices to a conventional slicer (\"wall structure\", 0% infill).");
+  auto* cmd =
+      app.add_subcommand("walls", "Export a lattice as solid walls (binary STL) for other slicers");
+  cmd->footer(
+      "Each strut becomes a box width x height from its z upward and each node a 16-sided\n"
+      "prism, as overlapping shells (slicers take their union). This is how the GIPPO paper\n"
+      "fed its lattices to a conventional slicer (\"wall structure\", 0% infill).");
   cmd->add_option("lattice", o->input, "lattice file")->required()->check(path_value());
   cmd->add_option("-o,--output", o->output, "STL file to write")->required()->check(path_value());
   add_follow_symlinks(cmd, o->follow);
@@ -40,8 +42,8 @@ void add_walls(CLI::App& app) {
     const TriangleMesh mesh = lattice_walls(g, o->width, o->height);
     write_stl(o->output, mesh);
     print_warnings(diag);
-    std::cout << "walls: " << g.edges.size() << " struts, " << mesh.triangles.size() << " triangles -> "
-              << o->output << "\n";
+    std::cout << "walls: " << g.edges.size() << " struts, " << mesh.triangles.size()
+              << " triangles -> " << o->output << "\n";
   });
 }
 

@@ -122,7 +122,8 @@ int main(int argc, char** argv) {
       "  trellis plan gippo lattice.json -o toolpath.json --report report.json\n"
       "  trellis gcode toolpath.json --machine profiles/ender3_s1_pro_tpu.toml -o part.gcode\n"
       "  trellis run examples/honeycomb_tensile.toml\n"
-      "  trellis slice examples/designs/csg_bracket.vcad --machine profiles/ender3_s1_pro_tpu.toml -o bracket.gcode\n"
+      "  trellis slice examples/designs/csg_bracket.vcad --machine profiles/ender3_s1_pro_tpu.toml "
+      "-o bracket.gcode\n"
       "  trellis pbf --cell-type gyroid --cell 2.5 --size 10,10,10 -o lattice.cli\n"
       "  trellis lattice3d --cell-type octet --cell 7 --count 3,3,3 -o octet.json\n"
       "  trellis plan aero octet.json -o octet_path.json --report octet_report.json\n"
@@ -194,7 +195,9 @@ int main(int argc, char** argv) {
         const std::string near = trellis::cli::nearest(name, flags);
         msg = "unknown option " + name + (near.empty() ? "" : " (did you mean " + near + "?)") +
               "; `trellis " +
-              (sub->get_parent() && sub->get_parent()->get_parent() ? sub->get_parent()->get_name() + " " : "") +
+              (sub->get_parent() && sub->get_parent()->get_parent()
+                   ? sub->get_parent()->get_name() + " "
+                   : "") +
               sub->get_name() + " --help` lists them";
         break;
       }

@@ -11,10 +11,10 @@ namespace trellis::cli {
 
 namespace {
 
-constexpr double kShowAfter = 1.0;       // s: a terminal shows runs longer than this
-constexpr double kRedrawEvery = 0.1;     // s between terminal redraws
-constexpr double kLineEvery = 1.0;       // s between plain lines
-constexpr double kEtaAfter = 0.3;        // s of a stage before its ETA is guessed
+constexpr double kShowAfter = 1.0;    // s: a terminal shows runs longer than this
+constexpr double kRedrawEvery = 0.1;  // s between terminal redraws
+constexpr double kLineEvery = 1.0;    // s between plain lines
+constexpr double kEtaAfter = 0.3;     // s of a stage before its ETA is guessed
 
 std::string duration_text(double s) {
   if (s < 60) return fmt::format("{:.0f} s", std::max(1.0, std::ceil(s)));
@@ -67,7 +67,8 @@ void ProgressDisplay::report(const std::string& stage, double fraction) {
   if (fraction > 1 - 1e-9) fraction = 1;  // sums of shares that fall short by rounding
   // A new stage, or the same stage run again (a fraction falling back to its start): its clock
   // restarts. Otherwise a fraction below the last (threads finishing out of order) is ignored.
-  const bool restart = stage != stage_ || (fraction_ >= 1 && fraction < 1) || fraction < fraction_ - 0.5;
+  const bool restart =
+      stage != stage_ || (fraction_ >= 1 && fraction < 1) || fraction < fraction_ - 0.5;
   if (restart) {
     stage_ = stage;
     stage_start_ = now;

@@ -48,11 +48,11 @@ class ProgressDisplay {
   std::mutex mutex_;
   Clock::time_point start_ = Clock::now();
   std::string stage_;
-  double stage_start_ = 0;  // seconds since start_
+  double stage_start_ = 0;           // seconds since start_
   double stage_start_fraction_ = 0;  // the stage's first reported fraction
-  double fraction_ = -1;    // of the stage, as last reported (monotone within a stage)
-  double drawn_at_ = -1e9;  // when the last line or redraw was made
-  std::string shown_stage_;      // the stage of the last line drawn, and its fraction
+  double fraction_ = -1;             // of the stage, as last reported (monotone within a stage)
+  double drawn_at_ = -1e9;           // when the last line or redraw was made
+  std::string shown_stage_;          // the stage of the last line drawn, and its fraction
   double shown_fraction_ = -1;
   bool line_open_ = false;  // a terminal line is on screen
 };

@@ -23,8 +23,8 @@
 #include "trellis/core/file.hpp"
 #include "trellis/field/vcad.hpp"
 #include "trellis/job/job.hpp"
-#include "trellis/job/print_check.hpp"
 #include "trellis/job/plate.hpp"
+#include "trellis/job/print_check.hpp"
 #include "trellis/lattice/io.hpp"
 #include "trellis/machine/cli.hpp"
 #include "trellis/machine/gcode_reader.hpp"
@@ -93,8 +93,7 @@ SettingValue to_value(const std::string& name, const py::handle& v) {
     }
     return xs;
   }
-  throw SettingError("unsupported value type " + std::string(py::str(v.get_type())),
-                     {"", 0, name});
+  throw SettingError("unsupported value type " + std::string(py::str(v.get_type())), {"", 0, name});
 }
 
 }  // namespace
@@ -161,7 +160,7 @@ void run_interruptible(const std::function<void(const Progress&)>& fn, const py:
   // Interrupted: the worker's own error (it was cancelled) is not the news.
   if (interrupted) {
     if (error) std::rethrow_exception(error);  // what the callback raised
-    throw py::error_already_set();               // the pending KeyboardInterrupt
+    throw py::error_already_set();             // the pending KeyboardInterrupt
   }
   if (worker_error) std::rethrow_exception(worker_error);
 }
@@ -180,7 +179,8 @@ py::dict run_job_dict(const Job& job, const py::object& progress) {
   py::list warnings;
   for (const auto& msg : diag.messages()) warnings.append(py::make_tuple(msg.kind, msg.text));
   d["warnings"] = warnings;
-  d["toolpath"] = r.toolpath ? py::object(py::cast(std::make_shared<Toolpath>(*r.toolpath))) : py::none();
+  d["toolpath"] =
+      r.toolpath ? py::object(py::cast(std::make_shared<Toolpath>(*r.toolpath))) : py::none();
   d["lattice"] = r.lattice ? py::object(py::cast(std::make_shared<Graph>(*r.lattice))) : py::none();
   return d;
 }
@@ -188,7 +188,8 @@ py::dict run_job_dict(const Job& job, const py::object& progress) {
 std::vector<std::string> flag_keys(const std::vector<std::string>& sections) {
   std::vector<std::string> out;
   for (const auto& s : all_settings())
-    if (std::find(sections.begin(), sections.end(), s.section()) != sections.end()) out.push_back(s.key);
+    if (std::find(sections.begin(), sections.end(), s.section()) != sections.end())
+      out.push_back(s.key);
   return out;
 }
 
@@ -226,9 +227,9 @@ PYBIND11_MODULE(_trellis, m) {
   // name, command, progress) -> dict(files, summary, toolpath arrays, lattice arrays)
   m.def(
       "run",
-      [](const std::string& route, const std::string& input, const std::map<std::string, std::string>& outputs,
-         const std::string& machine, const py::dict& settings, const std::string& command,
-         const py::object& progress) {
+      [](const std::string& route, const std::string& input,
+         const std::map<std::string, std::string>& outputs, const std::string& machine,
+         const py::dict& settings, const std::string& command, const py::object& progress) {
         Job job;
         job.route = route;
         route_sections(route);  // throws for an unknown route
@@ -240,37 +241,45 @@ PYBIND11_MODULE(_trellis, m) {
         for (const auto& [k, v] : settings) {
           const auto key = k.cast<std::string>();
           if (key == "run.progress")
-            throw SettingError("run.progress is the command line's progress display; give "
-                               "progress=callable(stage, fraction) to the call instead",
-                               {"", 0, key});
+            throw SettingError(
+                "run.progress is the command line's progress display; give "
+                "progress=callable(stage, fraction) to the call instead",
+                {"", 0, key});
           if (std::find(keys.begin(), keys.end(), key) == keys.end()) {
             if (!find_setting(key))
               job.settings.set(key, std::string(), {"keyword " + key});  // throws: unknown
-            throw SettingError("the " + route + " route does not read [" + key.substr(0, key.find('.')) + "]",
-                               {"", 0, key});
+            throw SettingError(
+                "the " + route + " route does not read [" + key.substr(0, key.find('.')) + "]",
+                {"", 0, key});
           }
           job.settings.set(key, to_value(key, v), {"keyword " + key});
         }
         for (const auto& [name, path] : outputs) {
-          if (name == "output") job.output = path;
-          else if (name == "report") job.report = path;
-          else if (name == "toolpath") job.toolpath = path;
-          else if (name == "gcode") job.gcode = path;
-          else if (name == "lattice") job.lattice = path;
-          else if (name == "preview") job.preview = path;
-          else throw SettingError("unknown output '" + name + "'", {"", 0, name});
+          if (name == "output")
+            job.output = path;
+          else if (name == "report")
+            job.report = path;
+          else if (name == "toolpath")
+            job.toolpath = path;
+          else if (name == "gcode")
+            job.gcode = path;
+          else if (name == "lattice")
+            job.lattice = path;
+          else if (name == "preview")
+            job.preview = path;
+          else
+            throw SettingError("unknown output '" + name + "'", {"", 0, name});
         }
         job.name = job.output.empty() ? route : std::filesystem::path(job.output).stem().string();
         return run_job_dict(job, progress);
       },
-      py::arg("route"), py::arg("input"), py::arg("outputs"), py::arg("machine"), py::arg("settings"),
-      py::arg("command"), py::arg("progress"));
+      py::arg("route"), py::arg("input"), py::arg("outputs"), py::arg("machine"),
+      py::arg("settings"), py::arg("command"), py::arg("progress"));
 
-  m.def("run_job_file",
-        [](const std::string& path, const std::string& output_dir, const std::vector<std::string>& sets,
-           const py::object& progress) {
-          return run_job_dict(load_job(path, output_dir, sets), progress);
-        });
+  m.def("run_job_file", [](const std::string& path, const std::string& output_dir,
+                           const std::vector<std::string>& sets, const py::object& progress) {
+    return run_job_dict(load_job(path, output_dir, sets), progress);
+  });
 
   // Exact sharding (job/plate.hpp), for trellis.distributed: shard "K/N" of a job file → the
   // files it wrote (the shard and its manifest, last); merge of the manifests → the output.
@@ -314,42 +323,50 @@ PYBIND11_MODULE(_trellis, m) {
       .def_readonly("source", &Toolpath::source)
       .def("arrays", &toolpath_arrays, "every point and path attribute as numpy arrays (one copy)")
       .def("to_json", [](const Toolpath& t) { return toolpath_to_json(t); })
-      .def("view_html",
-           [](const Toolpath& t, const std::string& title) {
-             return viewer_html({view_scene(t, title)}, title);
-           },
-           py::arg("title") = "toolpath", "the interactive viewer page (trellis view) of this toolpath")
-      .def("view_notebook",
-           [](const Toolpath& t, const std::string& title) {
-             return viewer_notebook_view({view_scene(t, title)}, title);
-           },
-           py::arg("title") = "toolpath",
-           "this toolpath's view in a notebook: data only, shown by viewer_notebook_script()")
-      .def("png", [](const Toolpath& t, std::size_t layer, int size) {
-        if (layer >= t.layers.size())
-          throw SettingError("layer " + std::to_string(layer) + " of " + std::to_string(t.layers.size()),
-                             {"", 0, "layer"});
-        if (size < 16 || size > 8000)
-          throw SettingError(
-              "size " + std::to_string(size) + " px: expected 16..8000 (as output.image_size)",
-              {"", 0, "size"});
-        // Rendered into a private folder (mode 0700, unpredictable name) and read back.
-        std::string dir = (std::filesystem::temp_directory_path() / "trellis_png_XXXXXX").string();
-        if (!::mkdtemp(dir.data()))
-          throw IoError("cannot create a private temporary folder in " + dir);
-        struct Remove {
-          std::string dir;
-          ~Remove() {
-            std::error_code ec;
-            std::filesystem::remove_all(dir, ec);
-          }
-        } remove{dir};
-        const std::string tmp = dir + "/layer.png";
-        RenderOptions ro;
-        ro.size_px = size;
-        render_layer_png(t, layer, tmp, ro);
-        return py::bytes(read_file(tmp));
-      }, py::arg("layer") = 0, py::arg("size") = 600);
+      .def(
+          "view_html",
+          [](const Toolpath& t, const std::string& title) {
+            return viewer_html({view_scene(t, title)}, title);
+          },
+          py::arg("title") = "toolpath",
+          "the interactive viewer page (trellis view) of this toolpath")
+      .def(
+          "view_notebook",
+          [](const Toolpath& t, const std::string& title) {
+            return viewer_notebook_view({view_scene(t, title)}, title);
+          },
+          py::arg("title") = "toolpath",
+          "this toolpath's view in a notebook: data only, shown by viewer_notebook_script()")
+      .def(
+          "png",
+          [](const Toolpath& t, std::size_t layer, int size) {
+            if (layer >= t.layers.size())
+              throw SettingError(
+                  "layer " + std::to_string(layer) + " of " + std::to_string(t.layers.size()),
+                  {"", 0, "layer"});
+            if (size < 16 || size > 8000)
+              throw SettingError(
+                  "size " + std::to_string(size) + " px: expected 16..8000 (as output.image_size)",
+                  {"", 0, "size"});
+            // Rendered into a private folder (mode 0700, unpredictable name) and read back.
+            std::string dir =
+                (std::filesystem::temp_directory_path() / "trellis_png_XXXXXX").string();
+            if (!::mkdtemp(dir.data()))
+              throw IoError("cannot create a private temporary folder in " + dir);
+            struct Remove {
+              std::string dir;
+              ~Remove() {
+                std::error_code ec;
+                std::filesystem::remove_all(dir, ec);
+              }
+            } remove{dir};
+            const std::string tmp = dir + "/layer.png";
+            RenderOptions ro;
+            ro.size_px = size;
+            render_layer_png(t, layer, tmp, ro);
+            return py::bytes(read_file(tmp));
+          },
+          py::arg("layer") = 0, py::arg("size") = 600);
 
   py::class_<Graph, std::shared_ptr<Graph>>(m, "Lattice")
       .def_property_readonly("node_count", [](const Graph& g) { return g.nodes.size(); })
@@ -359,11 +376,12 @@ PYBIND11_MODULE(_trellis, m) {
       .def("to_json", [](const Graph& g) { return lattice_to_json(g); })
       .def("write", [](const Graph& g, const std::string& path) { write_lattice(path, g); });
 
-  m.def("lattice_from_arrays",
-        [](const py::object& nodes, const py::object& edges, const py::object& material) {
-          return std::make_shared<Graph>(lattice_from_arrays(nodes, edges, material));
-        },
-        py::arg("nodes"), py::arg("edges"), py::arg("material") = py::none());
+  m.def(
+      "lattice_from_arrays",
+      [](const py::object& nodes, const py::object& edges, const py::object& material) {
+        return std::make_shared<Graph>(lattice_from_arrays(nodes, edges, material));
+      },
+      py::arg("nodes"), py::arg("edges"), py::arg("material") = py::none());
   m.def(
       "toolpath_from_arrays",
       [](const py::object& points, const py::object& path_offsets, const py::object& layer_offsets,
@@ -374,10 +392,13 @@ PYBIND11_MODULE(_trellis, m) {
       py::arg("points"), py::arg("path_offsets"), py::arg("layer_offsets"), py::arg("layer_z"),
       py::arg("attributes"));
   bind_fields(m);
-  m.def("read_lattice", [](const std::string& path, double merge_tolerance) {
-    Diagnostics diag;
-    return std::make_shared<Graph>(read_lattice(path, {merge_tolerance, true}, diag));
-  }, py::arg("path"), py::arg("merge_tolerance") = CleanOptions{}.merge_tolerance);
+  m.def(
+      "read_lattice",
+      [](const std::string& path, double merge_tolerance) {
+        Diagnostics diag;
+        return std::make_shared<Graph>(read_lattice(path, {merge_tolerance, true}, diag));
+      },
+      py::arg("path"), py::arg("merge_tolerance") = CleanOptions{}.merge_tolerance);
   m.def(
       "read_toolpath",
       [](const std::string& path, bool commanded_mixtures) {
@@ -459,16 +480,16 @@ PYBIND11_MODULE(_trellis, m) {
     out["has_root"] = d.has_root;
     return out;
   });
-  m.def("cli_bytes", [](const Toolpath& t, const std::string& machine, const py::dict& settings,
-                        bool binary) {
-    Settings st;
-    if (!machine.empty()) st.load_toml_file(machine);
-    for (const auto& [k, v] : settings) {
-      const auto key = k.cast<std::string>();
-      st.set(key, to_value(key, v), {"keyword " + key});
-    }
-    return py::bytes(write_cli(t, st.config().laser, CliWriteOptions{binary, true}));
-  });
+  m.def("cli_bytes",
+        [](const Toolpath& t, const std::string& machine, const py::dict& settings, bool binary) {
+          Settings st;
+          if (!machine.empty()) st.load_toml_file(machine);
+          for (const auto& [k, v] : settings) {
+            const auto key = k.cast<std::string>();
+            st.set(key, to_value(key, v), {"keyword " + key});
+          }
+          return py::bytes(write_cli(t, st.config().laser, CliWriteOptions{binary, true}));
+        });
   m.def("gcode_text", [](const Toolpath& t, const std::string& machine, const py::dict& settings) {
     Settings st;
     if (!machine.empty()) st.load_toml_file(machine);

@@ -45,7 +45,8 @@ class NodeSnap {
   long long cell(double v) const { return static_cast<long long>(std::floor(v / cell_)); }
   static std::uint64_t pack(long long x, long long y, long long z) {
     return (static_cast<std::uint64_t>(x & 0x1FFFFF) << 42) |
-           (static_cast<std::uint64_t>(y & 0x1FFFFF) << 21) | static_cast<std::uint64_t>(z & 0x1FFFFF);
+           (static_cast<std::uint64_t>(y & 0x1FFFFF) << 21) |
+           static_cast<std::uint64_t>(z & 0x1FFFFF);
   }
   std::uint64_t key(Vec3 p) const { return pack(cell(p.x), cell(p.y), cell(p.z)); }
   const Graph& g_;
@@ -190,8 +191,8 @@ CollisionCheck check_collisions(const Graph& design, const Toolpath& toolpath,
       if (!nozzle_hits(options.nozzle, qa, qb, pa, pb, shared, n, &contact)) return;
       ++c.collisions;
       if (c.hits.size() < options.max_listed)
-        c.hits.push_back({s.path, s.index, s.strut, t.strut, t.path, t.index, contact.tip,
-                          contact.point});
+        c.hits.push_back(
+            {s.path, s.index, s.strut, t.strut, t.path, t.index, contact.tip, contact.point});
     });
   }
   return c;

@@ -82,7 +82,8 @@ Estimate mesh_read_estimate(const std::string& path) {
   Estimate e;
   if (ec) return e;  // the reader says what is wrong with the file
   std::string ext = std::filesystem::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char ch) { return std::tolower(ch); });
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char ch) { return std::tolower(ch); });
   const bool zip = ext == ".3mf";
   e.bytes = size * (zip ? 40 : 8);
   e.seconds = size * (zip ? 2e-7 : 5e-8);

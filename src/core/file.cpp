@@ -91,7 +91,7 @@ struct Batch {
   std::mutex mutex;
   int depth = 0;
   std::vector<Staged> staged;
-  std::vector<std::pair<std::string, int>> dirs;  // created, in order
+  std::vector<std::pair<std::string, int>> dirs;               // created, in order
   std::vector<std::pair<detail::FileId, std::string>> inputs;  // never written (RunFiles)
   std::vector<detail::FileId> written;                         // each target once
   bool checked = false;  // RunFiles checked the run: what it reads from now on is an input too
@@ -372,7 +372,8 @@ unsigned output_file_mode() {
   std::ifstream in("/proc/self/status");
   std::string line;
   while (std::getline(in, line))
-    if (line.rfind("Umask:", 0) == 0) return 0666u & ~static_cast<unsigned>(std::strtoul(line.c_str() + 6, nullptr, 8));
+    if (line.rfind("Umask:", 0) == 0)
+      return 0666u & ~static_cast<unsigned>(std::strtoul(line.c_str() + 6, nullptr, 8));
   // No /proc: read the mask by setting it (and back).
   static std::mutex m;
   std::lock_guard lock(m);
@@ -401,8 +402,10 @@ void create_output_directories(const std::string& dir) {
     }
     const int slot = hold(g_dir_slots, it->string());
     std::lock_guard lock(b.mutex);
-    if (b.depth > 0) b.dirs.emplace_back(it->string(), slot);
-    else release(g_dir_slots, slot);
+    if (b.depth > 0)
+      b.dirs.emplace_back(it->string(), slot);
+    else
+      release(g_dir_slots, slot);
   }
 }
 
@@ -556,8 +559,8 @@ std::FILE* temporary_file() {
     if (fd >= 0) ::unlink(name.c_str());
   }
   if (fd < 0)
-    throw IoError("cannot create a temporary file in " + dir + " (TMPDIR): " +
-                  std::strerror(errno));
+    throw IoError("cannot create a temporary file in " + dir +
+                  " (TMPDIR): " + std::strerror(errno));
   std::FILE* f = ::fdopen(fd, "w+b");
   if (!f) {
     const int e = errno;

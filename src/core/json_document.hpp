@@ -2,10 +2,9 @@
 // turning every nlohmann error (syntax, number overflow, type) into a ParseError naming the file
 // and, for syntax errors, the line.
 #pragma once
-#include <nlohmann/json.hpp>
-
 #include <cmath>
 #include <cstdlib>
+#include <nlohmann/json.hpp>
 #include <string>
 
 #include "trellis/core/error.hpp"
@@ -29,8 +28,10 @@ auto read_json_document(const std::string& text, const std::string& origin, Read
       const char c = text[i];
       if (c == '\n') line_start = i + 1;
       if (in_string) {
-        if (c == '\\') ++i;
-        else if (c == '"') in_string = false;
+        if (c == '\\')
+          ++i;
+        else if (c == '"')
+          in_string = false;
         continue;
       }
       if (c == '"') {

@@ -135,7 +135,8 @@ CompiledExpr& EvalState::expr(const Expression& e) {
     const auto used = c->parser->GetUsedVar();
     c->uses_d = used.count("d") > 0;
     c->uses_polar = false;
-    for (const char* v : {"rho", "phic", "phi", "r", "theta", "phis"}) c->uses_polar |= used.count(v) > 0;
+    for (const char* v : {"rho", "phic", "phi", "r", "theta", "phis"})
+      c->uses_polar |= used.count(v) > 0;
   } catch (const mu::Parser::exception_type&) {
     // Keep computing every variable.
   }

@@ -253,7 +253,7 @@ struct FunctionNode : FieldNode {
 // branches, so scattered arguments do not mispredict and a loop of it vectorises.
 [[gnu::always_inline]] inline void sincos_moderate(double x, double* sn, double* cs) {
   constexpr double two_over_pi = 0.63661977236758134308;
-  constexpr double p1 = 1.57079632673412561417;   // π/2 high part
+  constexpr double p1 = 1.57079632673412561417;      // π/2 high part
   constexpr double p2 = 6.07710050650619224932e-11;  // π/2 − p1
   // Round to nearest by the 1.5·2^52 trick (std::nearbyint is a libm call without SSE4.1);
   // exact for |x·2/π| < 2^51.
@@ -261,10 +261,18 @@ struct FunctionNode : FieldNode {
   const double k = (x * two_over_pi + magic) - magic;  // (no -ffast-math: not folded)
   const double r = (x - k * p1) - k * p2;
   const double r2 = r * r;
-  const double s = r * (1 + r2 * (-1.0 / 6 + r2 * (1.0 / 120 + r2 * (-1.0 / 5040 + r2 * (1.0 / 362880 +
-                   r2 * (-1.0 / 39916800 + r2 * (1.0 / 6227020800.0)))))));
-  const double c = 1 + r2 * (-0.5 + r2 * (1.0 / 24 + r2 * (-1.0 / 720 + r2 * (1.0 / 40320 +
-                   r2 * (-1.0 / 3628800 + r2 * (1.0 / 479001600.0 + r2 * (-1.0 / 87178291200.0)))))));
+  const double s =
+      r *
+      (1 + r2 * (-1.0 / 6 +
+                 r2 * (1.0 / 120 + r2 * (-1.0 / 5040 +
+                                         r2 * (1.0 / 362880 + r2 * (-1.0 / 39916800 +
+                                                                    r2 * (1.0 / 6227020800.0)))))));
+  const double c =
+      1 + r2 * (-0.5 + r2 * (1.0 / 24 +
+                             r2 * (-1.0 / 720 + r2 * (1.0 / 40320 +
+                                                      r2 * (-1.0 / 3628800 +
+                                                            r2 * (1.0 / 479001600.0 +
+                                                                  r2 * (-1.0 / 87178291200.0)))))));
   const int q = static_cast<int>(k);
   const double a = (q & 1) ? c : s, b = (q & 1) ? s : c;
   *sn = (q & 2) ? -a : a;
@@ -285,8 +293,10 @@ struct FunctionNode : FieldNode {
 // Sines and cosines of n values. Cloned for x86-64-v3 (AVX2 + FMA: about 1 ns a value instead
 // of 3) with a baseline fallback chosen at load time; hand-written because libm has no batch
 // sincos.
-__attribute__((target_clones("arch=x86-64-v3", "default")))
-void sincos_batch(const double* x, double* sn, double* cs, std::size_t n) {
+__attribute__((target_clones("arch=x86-64-v3", "default"))) void sincos_batch(const double* x,
+                                                                              double* sn,
+                                                                              double* cs,
+                                                                              std::size_t n) {
   bool moderate = true;
   for (std::size_t i = 0; i < n; ++i) moderate &= std::abs(x[i]) < 1e6;  // false for NaN too
   if (!moderate) {
@@ -423,11 +433,16 @@ struct TpmsNode : FieldNode {
   // Bound on |φ|.
   double phi_max() const {
     switch (kind) {
-      case TpmsKind::Gyroid: return 1.5;
-      case TpmsKind::SchwarzP: return 3;
-      case TpmsKind::SchwarzD: return 1.5;  // |D| <= sqrt(2) actually; keep a margin
-      case TpmsKind::Neovius: return 13;
-      case TpmsKind::Iwp: return 9;
+      case TpmsKind::Gyroid:
+        return 1.5;
+      case TpmsKind::SchwarzP:
+        return 3;
+      case TpmsKind::SchwarzD:
+        return 1.5;  // |D| <= sqrt(2) actually; keep a margin
+      case TpmsKind::Neovius:
+        return 13;
+      case TpmsKind::Iwp:
+        return 9;
     }
     return 13;
   }
@@ -551,11 +566,16 @@ struct TpmsNode : FieldNode {
   // (−2cx(cy + cz) + 4cos 2x).
   double phi_hessian_max() const {
     switch (kind) {
-      case TpmsKind::Gyroid: return std::sqrt(2.0);
-      case TpmsKind::SchwarzP: return 1;
-      case TpmsKind::SchwarzD: return 4;
-      case TpmsKind::Neovius: return 7;
-      case TpmsKind::Iwp: return 8;
+      case TpmsKind::Gyroid:
+        return std::sqrt(2.0);
+      case TpmsKind::SchwarzP:
+        return 1;
+      case TpmsKind::SchwarzD:
+        return 4;
+      case TpmsKind::Neovius:
+        return 7;
+      case TpmsKind::Iwp:
+        return 8;
     }
     return 8;
   }
@@ -575,9 +595,9 @@ struct TpmsNode : FieldNode {
     const double dx = 0.5 * (b.max.x - b.min.x), dy = 0.5 * (b.max.y - b.min.y),
                  dz = 0.5 * (b.max.z - b.min.z);
     const double s = k.x * dx + k.y * dy + k.z * dz;
-    const double taylor =
-        1.01 * (std::abs(g.x) * dx + std::abs(g.y) * dy + std::abs(g.z) * dz +
-                0.5 * phi_hessian_max() * s * s) + 1e-12;
+    const double taylor = 1.01 * (std::abs(g.x) * dx + std::abs(g.y) * dy + std::abs(g.z) * dz +
+                                  0.5 * phi_hessian_max() * s * s) +
+                          1e-12;
     if (std::isfinite(taylor)) spread = std::min(spread, taylor);
     return {std::max(f - spread, -phi_max()), std::min(f + spread, phi_max())};
   }
@@ -668,7 +688,8 @@ struct BlendNode : FieldNode {
   }
   Interval bound(const BBox3& bx, EvalState& s, std::size_t depth) const override {
     // A convex combination lies between the two children's bounds.
-    const Interval a = children[0]->bound(bx, s, depth + 1), b = children[1]->bound(bx, s, depth + 1);
+    const Interval a = children[0]->bound(bx, s, depth + 1),
+                   b = children[1]->bound(bx, s, depth + 1);
     return {std::min(a.lo, b.lo), std::max(a.hi, b.hi)};
   }
   double lipschitz() const override { return kInf; }
@@ -714,9 +735,9 @@ double box_gap(const BBox3& a, const BBox3& b) {
 
 struct CsgNode : FieldNode {
   Op op;
-  double k = 0;  // smooth blend radius, 0 = sharp
-  std::vector<BBox3> extents;    // children's, cached
-  std::vector<char> exact;       // children's exact_outside(), cached
+  double k = 0;                // smooth blend radius, 0 = sharp
+  std::vector<BBox3> extents;  // children's, cached
+  std::vector<char> exact;     // children's exact_outside(), cached
   void cache() {
     for (const auto& c : children) {
       extents.push_back(c->extent());
@@ -741,18 +762,24 @@ struct CsgNode : FieldNode {
 
   double combine(double acc, double v) const {
     switch (op) {
-      case Op::Union: return smin(acc, v, k);
-      case Op::Intersection: return -smin(-acc, -v, k);
-      case Op::Difference: return -smin(-acc, v, k);
+      case Op::Union:
+        return smin(acc, v, k);
+      case Op::Intersection:
+        return -smin(-acc, -v, k);
+      case Op::Difference:
+        return -smin(-acc, v, k);
     }
     return acc;
   }
   // Whether child c cannot change any of the values `out` (range [lo, hi]) over the box.
   bool irrelevant(const Interval& v, double lo, double hi) const {
     switch (op) {
-      case Op::Union: return v.lo >= hi + k;            // min(out, v) = out everywhere
-      case Op::Intersection: return v.hi <= lo - k;     // max(out, v) = out
-      case Op::Difference: return -v.lo <= lo - k;      // max(out, -v) = out
+      case Op::Union:
+        return v.lo >= hi + k;  // min(out, v) = out everywhere
+      case Op::Intersection:
+        return v.hi <= lo - k;  // max(out, v) = out
+      case Op::Difference:
+        return -v.lo <= lo - k;  // max(out, -v) = out
     }
     return false;
   }
@@ -811,7 +838,9 @@ struct CsgNode : FieldNode {
     for (std::size_t c = 1; c < children.size(); ++c) {
       const Interval v = child_bound(c, b, s, depth);
       switch (op) {
-        case Op::Union: acc = {std::min(acc.lo, v.lo) - k * 0.25, std::min(acc.hi, v.hi)}; break;
+        case Op::Union:
+          acc = {std::min(acc.lo, v.lo) - k * 0.25, std::min(acc.hi, v.hi)};
+          break;
         case Op::Intersection:
           acc = {std::max(acc.lo, v.lo), std::max(acc.hi, v.hi) + k * 0.25};
           break;
@@ -900,9 +929,9 @@ struct Mat3 {
 
 // p_local = A (p - t); value = child(p_local) * s. Covers translate, scale and rotate.
 struct TransformNode : FieldNode {
-  Mat3 to_local;    // A
-  Mat3 to_world;    // A^-1
-  Vec3 offset;      // t
+  Mat3 to_local;           // A
+  Mat3 to_world;           // A^-1
+  Vec3 offset;             // t
   double value_scale = 1;  // min scale factor, keeps distances conservative
   double lipschitz_factor = 1;
 
@@ -954,7 +983,8 @@ struct TransformNode : FieldNode {
   BBox3 extent() const override { return map_box(children[0]->extent(), false); }
   void fractions(Vec3 p, double* out, EvalState& s, std::size_t depth) const override {
     children[0]->fractions(local(p), out, s, depth + 1);
-  }  void process(Vec3 p, ProcessValues& out, EvalState& s, std::size_t depth) const override {
+  }
+  void process(Vec3 p, ProcessValues& out, EvalState& s, std::size_t depth) const override {
     children[0]->process(local(p), out, s, depth + 1);
   }
 };
@@ -997,10 +1027,11 @@ struct GradeNode : PropertyNode {
       for (std::size_t i = 0; i < k; ++i) {
         const double f = v[i * n + j];
         if (!std::isfinite(f))
-          throw GeometryError(fmt::format("the fraction of '{}' = {} is {} at ({:g}, {:g}, {:g}): "
-                                          "a fraction must be a finite number everywhere in the part",
-                                          names[i], exprs[i].text, f, p[j].x, p[j].y, p[j].z),
-                              {"", 0, "fgrade"});
+          throw GeometryError(
+              fmt::format("the fraction of '{}' = {} is {} at ({:g}, {:g}, {:g}): "
+                          "a fraction must be a finite number everywhere in the part",
+                          names[i], exprs[i].text, f, p[j].x, p[j].y, p[j].z),
+              {"", 0, "fgrade"});
       }
     int idx[16];
     std::vector<int> idx_more;
@@ -1197,7 +1228,9 @@ double Field::lipschitz() const {
   return node_ ? node_->lipschitz() : std::numeric_limits<double>::infinity();
 }
 
-Vec3 Field::period() const { return node_ ? node_->period() : Vec3{0, 0, 0}; }
+Vec3 Field::period() const {
+  return node_ ? node_->period() : Vec3{0, 0, 0};
+}
 
 int Field::inversion_parity() const {
   return node_ ? node_->inversion_parity() : 0;
@@ -1205,11 +1238,16 @@ int Field::inversion_parity() const {
 
 const char* to_string(TpmsKind kind) {
   switch (kind) {
-    case TpmsKind::Gyroid: return "gyroid";
-    case TpmsKind::SchwarzP: return "schwarz_p";
-    case TpmsKind::SchwarzD: return "schwarz_d";
-    case TpmsKind::Neovius: return "neovius";
-    case TpmsKind::Iwp: return "iwp";
+    case TpmsKind::Gyroid:
+      return "gyroid";
+    case TpmsKind::SchwarzP:
+      return "schwarz_p";
+    case TpmsKind::SchwarzD:
+      return "schwarz_d";
+    case TpmsKind::Neovius:
+      return "neovius";
+    case TpmsKind::Iwp:
+      return "iwp";
   }
   return "?";
 }
@@ -1345,8 +1383,8 @@ Field rotate(Field child, Vec3 degrees) {
   require_child(child, "rotate");
   if (!is_finite(degrees)) throw GeometryError("rotate: angles must be finite");
   const double d2r = std::numbers::pi / 180;
-  const Mat3 R = rotation_z(degrees.z * d2r) * rotation_y(degrees.y * d2r) *
-                 rotation_x(degrees.x * d2r);
+  const Mat3 R =
+      rotation_z(degrees.z * d2r) * rotation_y(degrees.y * d2r) * rotation_x(degrees.x * d2r);
   auto n = std::make_shared<TransformNode>();
   n->to_world = R;
   n->to_local = R.transposed();
@@ -1430,12 +1468,13 @@ std::optional<SheetSplit> split_sheet(const Field& design) {
   return out;
 }
 
-bool has_tpms(const Field& design) { return !design.empty() && contains_tpms(design.node()); }
+bool has_tpms(const Field& design) {
+  return !design.empty() && contains_tpms(design.node());
+}
 
 // ---------------------------------------------------------------- Evaluator
 
-Evaluator::Evaluator(const Field& field)
-    : field_(field), state_(std::make_unique<State>()) {
+Evaluator::Evaluator(const Field& field) : field_(field), state_(std::make_unique<State>()) {
   if (field_.empty()) throw GeometryError("empty design");
   state_->materials = &field_.materials();
 }
@@ -1454,8 +1493,8 @@ void Evaluator::values_grid(const double* xs, std::size_t w, const double* ys, s
   if (w == 0 || rows == 0) return;
   field_.node().eval_grid({xs, w, ys, rows, z}, out, *state_, 0);
 }
-bool Evaluator::gradients_grid(const double* xs, std::size_t w, const double* ys,
-                               std::size_t rows, double z, Vec3* out) {
+bool Evaluator::gradients_grid(const double* xs, std::size_t w, const double* ys, std::size_t rows,
+                               double z, Vec3* out) {
   if (w == 0 || rows == 0) return true;
   return field_.node().gradients_grid({xs, w, ys, rows, z}, out, *state_, 0);
 }

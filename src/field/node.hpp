@@ -98,7 +98,8 @@ class FieldNode {
   virtual void eval_grid(const GridPlane& g, double* out, EvalState& s, std::size_t depth) const;
   // The analytic gradient at the grid's nodes (the same numbers as gradients() there); false
   // where the node has no grid path (the caller falls back to points).
-  virtual bool gradients_grid(const GridPlane& g, Vec3* out, EvalState& s, std::size_t depth) const {
+  virtual bool gradients_grid(const GridPlane& g, Vec3* out, EvalState& s,
+                              std::size_t depth) const {
     return false;
   }
   // Conservative value interval over a box. Default: centre value ± Lipschitz · half diagonal.

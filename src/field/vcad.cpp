@@ -24,8 +24,20 @@ struct Pos {
   long line = 1, column = 1;
 };
 
-enum class Tok { Ident, Number, String, LParen, RParen, LBrace, RBrace, LBracket, RBracket, Comma,
-                 Semicolon, End };
+enum class Tok {
+  Ident,
+  Number,
+  String,
+  LParen,
+  RParen,
+  LBrace,
+  RBrace,
+  LBracket,
+  RBracket,
+  Comma,
+  Semicolon,
+  End
+};
 
 struct Token {
   Tok kind;
@@ -36,18 +48,30 @@ struct Token {
 
 const char* tok_name(Tok t) {
   switch (t) {
-    case Tok::Ident: return "a name";
-    case Tok::Number: return "a number";
-    case Tok::String: return "a string";
-    case Tok::LParen: return "'('";
-    case Tok::RParen: return "')'";
-    case Tok::LBrace: return "'{'";
-    case Tok::RBrace: return "'}'";
-    case Tok::LBracket: return "'['";
-    case Tok::RBracket: return "']'";
-    case Tok::Comma: return "','";
-    case Tok::Semicolon: return "';'";
-    case Tok::End: return "end of file";
+    case Tok::Ident:
+      return "a name";
+    case Tok::Number:
+      return "a number";
+    case Tok::String:
+      return "a string";
+    case Tok::LParen:
+      return "'('";
+    case Tok::RParen:
+      return "')'";
+    case Tok::LBrace:
+      return "'{'";
+    case Tok::RBrace:
+      return "'}'";
+    case Tok::LBracket:
+      return "'['";
+    case Tok::RBracket:
+      return "']'";
+    case Tok::Comma:
+      return "','";
+    case Tok::Semicolon:
+      return "';'";
+    case Tok::End:
+      return "end of file";
   }
   return "?";
 }
@@ -76,15 +100,24 @@ class Lexer {
       return t;
     };
     switch (c) {
-      case '(': return single(Tok::LParen);
-      case ')': return single(Tok::RParen);
-      case '{': return single(Tok::LBrace);
-      case '}': return single(Tok::RBrace);
-      case '[': return single(Tok::LBracket);
-      case ']': return single(Tok::RBracket);
-      case ',': return single(Tok::Comma);
-      case ';': return single(Tok::Semicolon);
-      default: break;
+      case '(':
+        return single(Tok::LParen);
+      case ')':
+        return single(Tok::RParen);
+      case '{':
+        return single(Tok::LBrace);
+      case '}':
+        return single(Tok::RBrace);
+      case '[':
+        return single(Tok::LBracket);
+      case ']':
+        return single(Tok::RBracket);
+      case ',':
+        return single(Tok::Comma);
+      case ';':
+        return single(Tok::Semicolon);
+      default:
+        break;
     }
     if (c == '"') {
       advance();
@@ -126,9 +159,9 @@ class Lexer {
       }
       return t;
     }
-    fail(fmt::format("unexpected character '{}'",
-                     std::isprint(static_cast<unsigned char>(c)) ? std::string(1, c)
-                                                                  : fmt::format("\\x{:02x}", c & 0xff)),
+    fail(fmt::format("unexpected character '{}'", std::isprint(static_cast<unsigned char>(c))
+                                                      ? std::string(1, c)
+                                                      : fmt::format("\\x{:02x}", c & 0xff)),
          t.pos);
   }
 
@@ -179,10 +212,14 @@ struct Arg {
 
 const char* arg_name(Arg::Kind k) {
   switch (k) {
-    case Arg::Number: return "a number";
-    case Arg::String: return "a string";
-    case Arg::Tuple: return "a tuple (x, y, z)";
-    case Arg::List: return "a list [...]";
+    case Arg::Number:
+      return "a number";
+    case Arg::String:
+      return "a string";
+    case Arg::Tuple:
+      return "a tuple (x, y, z)";
+    case Arg::List:
+      return "a list [...]";
   }
   return "?";
 }
@@ -309,7 +346,8 @@ class Parser {
   }
 
   double number(const Arg& a, const char* what) {
-    if (a.kind != Arg::Number) fail(fmt::format("{}: expected a number, got {}", what, arg_name(a.kind)), a.pos);
+    if (a.kind != Arg::Number)
+      fail(fmt::format("{}: expected a number, got {}", what, arg_name(a.kind)), a.pos);
     return a.number;
   }
   Vec3 tuple3(const Arg& a, const char* what) {
@@ -414,12 +452,15 @@ class Parser {
       return at_node(at, [&] { return make(m); });
     };
     if (node == "sphere")
-      return leaf(1, [&](const std::string& m) { return sphere(number(args[0], "sphere radius"), m); });
+      return leaf(
+          1, [&](const std::string& m) { return sphere(number(args[0], "sphere radius"), m); });
     if (node == "cube")
       return leaf(1, [&](const std::string& m) { return cube(number(args[0], "cube size"), m); });
     if (node == "rectprism") {
       if (!args.empty() && args[0].kind == Arg::Tuple)
-        return leaf(1, [&](const std::string& m) { return rectprism(tuple3(args[0], "rectprism size"), m); });
+        return leaf(1, [&](const std::string& m) {
+          return rectprism(tuple3(args[0], "rectprism size"), m);
+        });
       return leaf(3, [&](const std::string& m) {
         return rectprism({number(args[0], "rectprism x"), number(args[1], "rectprism y"),
                           number(args[2], "rectprism z")},
@@ -436,7 +477,8 @@ class Parser {
       });
     if (node == "torus")
       return leaf(2, [&](const std::string& m) {
-        return torus(number(args[0], "torus major radius"), number(args[1], "torus minor radius"), m);
+        return torus(number(args[0], "torus major radius"), number(args[1], "torus minor radius"),
+                     m);
       });
     if (node == "function")
       return leaf(3, [&](const std::string& m) {
@@ -450,8 +492,7 @@ class Parser {
                             : node == "neovius"   ? TpmsKind::Neovius
                             : node == "iwp"       ? TpmsKind::Iwp
                                                   : TpmsKind::SchwarzD;
-      if (args.empty() || args.size() > 3)
-        fail(node + " takes (cell [, c [, material]])", at);
+      if (args.empty() || args.size() > 3) fail(node + " takes (cell [, c [, material]])", at);
       const Vec3 cell = tuple3(args[0], "cell size");
       Expression c;
       if (args.size() >= 2) {
@@ -478,8 +519,8 @@ class Parser {
       namespace fs = std::filesystem;
       fs::path p(args[0].text);
       if (p.is_relative()) {
-        const fs::path base = !opt_.base_dir.empty() ? fs::path(opt_.base_dir)
-                                                     : fs::path(name_).parent_path();
+        const fs::path base =
+            !opt_.base_dir.empty() ? fs::path(opt_.base_dir) : fs::path(name_).parent_path();
         p = base / p;
       }
       try {
@@ -549,9 +590,10 @@ class Parser {
       // fprocess(["expr", ...], ["temperature" | "speed" | "flow" | "fan", ...]) { ... }: the
       // same shape as fgrade, process parameters instead of materials.
       if (args.size() != 2 || args[0].kind != Arg::List || args[1].kind != Arg::List)
-        fail("fprocess takes ([\"expr\", ...], [\"temperature\" | \"speed\" | \"flow\" | "
-             "\"fan\", ...])",
-             at);
+        fail(
+            "fprocess takes ([\"expr\", ...], [\"temperature\" | \"speed\" | \"flow\" | "
+            "\"fan\", ...])",
+            at);
       std::vector<Expression> exprs;
       for (std::size_t i = 0; i < args[0].list.size(); ++i) {
         check(args[0].list[i], i < list_pos.size() ? list_pos[i] : at);
@@ -578,7 +620,8 @@ class Parser {
 
 }  // namespace
 
-VcadDesign parse_vcad(const std::string& text, const std::string& name, const VcadOptions& options) {
+VcadDesign parse_vcad(const std::string& text, const std::string& name,
+                      const VcadOptions& options) {
   Parser p(text, name, options);
   return p.parse();
 }

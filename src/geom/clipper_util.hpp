@@ -2,7 +2,6 @@
 // (kClipperScale units per mm), shared by the geom sources that call Clipper.
 #pragma once
 #include <clipper.hpp>
-
 #include <cmath>
 #include <vector>
 

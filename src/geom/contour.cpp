@@ -57,7 +57,6 @@ class Lease {
 
 }  // namespace
 
-
 // ---------------------------------------------------------------- stitching
 
 namespace {
@@ -666,10 +665,18 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
           if (in[a] == in[b]) continue;
           std::size_t id;
           switch (e) {
-            case 0: id = cross(i, j, false); break;
-            case 1: id = cross(i + 1, j, true); break;
-            case 2: id = cross(i, j + 1, false); break;
-            default: id = cross(i, j, true); break;
+            case 0:
+              id = cross(i, j, false);
+              break;
+            case 1:
+              id = cross(i + 1, j, true);
+              break;
+            case 2:
+              id = cross(i, j + 1, false);
+              break;
+            default:
+              id = cross(i, j, true);
+              break;
           }
           ids[n] = id;
           leaving[n] = in[a];
@@ -695,7 +702,9 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
   struct Block {
     std::size_t i, j, ci, cj;
   };
-  auto bound = [&](const Block& k) { return f.bound(m.node(k.i, k.j), m.node(k.i + k.ci, k.j + k.cj)); };
+  auto bound = [&](const Block& k) {
+    return f.bound(m.node(k.i, k.j), m.node(k.i + k.ci, k.j + k.cj));
+  };
   auto excluded = [&](const Interval& r) { return r.lo >= level || r.hi < level; };
   // Blocks smaller than a tile where the function is periodic (along the envelope, where a
   // tile-sized block would cross it): marched at the end by their cells, from the tiles'.

@@ -156,7 +156,7 @@ std::vector<Segment2> trim_hatch(const std::vector<Segment2>& segs, const Region
     // disc is added once, by the edge starting there.
     std::vector<std::pair<std::size_t, std::size_t>> last(lines, {~std::size_t{0}, 0});
     std::size_t serial = 0;
-    std::vector<Vec2> st;  // the ring in (along, across) coordinates
+    std::vector<Vec2> st;                             // the ring in (along, across) coordinates
     std::vector<std::pair<long long, long long>> kr;  // each vertex's first and last line
     auto add_ring = [&](const std::vector<Vec2>& ring) {
       ++serial;  // a ring's first edge never widens the previous ring's spans

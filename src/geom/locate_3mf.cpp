@@ -230,7 +230,8 @@ std::string start_part(zip_t* z) {
   for (std::size_t at = text.find("<Relationship"); at != std::string::npos;
        at = text.find("<Relationship", at + 1)) {
     const std::size_t end = text.find('>', at);
-    const std::string rel = text.substr(at, end == std::string::npos ? std::string::npos : end - at);
+    const std::string rel =
+        text.substr(at, end == std::string::npos ? std::string::npos : end - at);
     if (rel.find("/3dmodel\"") == std::string::npos) continue;
     std::string target = attribute_text(rel, "Target");
     while (!target.empty() && target[0] == '/') target.erase(0, 1);

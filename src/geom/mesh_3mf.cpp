@@ -19,13 +19,20 @@ namespace {
 
 double millimetres_per_unit(DWORD unit) {
   switch (unit) {
-    case NMR::MODELUNIT_MICROMETER: return 1e-3;
-    case NMR::MODELUNIT_MILLIMETER: return 1.0;
-    case NMR::MODELUNIT_CENTIMETER: return 10.0;
-    case NMR::MODELUNIT_INCH: return 25.4;
-    case NMR::MODELUNIT_FOOT: return 304.8;
-    case NMR::MODELUNIT_METER: return 1000.0;
-    default: return 0.0;
+    case NMR::MODELUNIT_MICROMETER:
+      return 1e-3;
+    case NMR::MODELUNIT_MILLIMETER:
+      return 1.0;
+    case NMR::MODELUNIT_CENTIMETER:
+      return 10.0;
+    case NMR::MODELUNIT_INCH:
+      return 25.4;
+    case NMR::MODELUNIT_FOOT:
+      return 304.8;
+    case NMR::MODELUNIT_METER:
+      return 1000.0;
+    default:
+      return 0.0;
   }
 }
 
@@ -86,7 +93,8 @@ TriangleMesh read_3mf(const std::string& path) {
 
   // Millimetres per model unit (3MF core spec: the <model unit="..."> attribute, default mm).
   DWORD unit = MODELUNIT_MILLIMETER;
-  if (lib3mf_model_getunit(model.p, &unit) != LIB3MF_OK) fail("cannot read the model unit", model.p);
+  if (lib3mf_model_getunit(model.p, &unit) != LIB3MF_OK)
+    fail("cannot read the model unit", model.p);
   const double mm = millimetres_per_unit(unit);
   if (!(mm > 0)) fail("unknown model unit " + std::to_string(unit), nullptr);
 

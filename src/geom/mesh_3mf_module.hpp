@@ -20,7 +20,7 @@ struct Located3mf {
 namespace impl {
 Located3mf locate_3mf_problem(const std::string& path);
 std::vector<unsigned char> package_without_dangling_relationships(const std::string& path);
-}
+}  // namespace impl
 
 struct Mesh3mfModule {
   detail::ModuleHeader header;

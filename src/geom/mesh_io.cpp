@@ -218,9 +218,9 @@ TriangleMesh parse_obj(const std::string& text, const std::string& name) {
       }
       if (idx.size() < 3) throw ParseError("face with fewer than 3 vertices", {name, line, ""});
       for (std::size_t k = 1; k + 1 < idx.size(); ++k)
-        corners.insert(corners.end(), {static_cast<std::uint32_t>(idx[0]),
-                                       static_cast<std::uint32_t>(idx[k]),
-                                       static_cast<std::uint32_t>(idx[k + 1])});
+        corners.insert(corners.end(),
+                       {static_cast<std::uint32_t>(idx[0]), static_cast<std::uint32_t>(idx[k]),
+                        static_cast<std::uint32_t>(idx[k + 1])});
     }
   }
   TriangleMesh mesh = weld_indexed(verts, corners);

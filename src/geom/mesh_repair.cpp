@@ -114,9 +114,9 @@ TriangleMesh repair(const TriangleMesh& input, const MeshRepairOptions& options,
   // (which splits those edges), then stitched. The tolerance is far below a printer's resolution.
   if (!CGAL::is_closed(mesh)) {
     const CGAL::Bbox_3 box = PMP::bbox(mesh);
-    const double diagonal = std::sqrt(CGAL::square(box.xmax() - box.xmin()) +
-                                      CGAL::square(box.ymax() - box.ymin()) +
-                                      CGAL::square(box.zmax() - box.zmin()));
+    const double diagonal =
+        std::sqrt(CGAL::square(box.xmax() - box.xmin()) + CGAL::square(box.ymax() - box.ymin()) +
+                  CGAL::square(box.zmax() - box.zmin()));
     const CGAL::Constant_property_map<Mesh::Vertex_index, double> tolerance(1e-5 * diagonal);
     report.snapped_vertices = PMP::experimental::snap_borders(mesh, tolerance);
     if (report.snapped_vertices) report.stitched_edges += PMP::stitch_borders(mesh);

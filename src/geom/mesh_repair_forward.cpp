@@ -11,7 +11,8 @@ namespace trellis {
 
 bool MeshRepairReport::changed() const {
   return degenerate_faces || duplicate_faces || nonmanifold_edges || flipped_faces ||
-         stitched_edges || snapped_vertices || holes_filled || nonmanifold_vertices || inverted_faces;
+         stitched_edges || snapped_vertices || holes_filled || nonmanifold_vertices ||
+         inverted_faces;
 }
 
 std::string MeshRepairReport::summary() const {
@@ -27,8 +28,7 @@ std::string MeshRepairReport::summary() const {
   add(flipped_faces, "faces flipped to match their neighbours");
   add(snapped_vertices, "seam vertices snapped onto open edges");
   add(stitched_edges, "open edges stitched");
-  if (holes_filled)
-    add(holes_filled, fmt::format("holes filled ({} faces)", hole_faces).c_str());
+  if (holes_filled) add(holes_filled, fmt::format("holes filled ({} faces)", hole_faces).c_str());
   add(nonmanifold_vertices, "non-manifold vertices split");
   add(inverted_faces, "faces turned outwards");
   add(holes_left, "holes too large to fill");

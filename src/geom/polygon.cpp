@@ -1,13 +1,12 @@
 #include "trellis/geom/polygon.hpp"
 
-#include <clipper.hpp>
-
 #include <algorithm>
+#include <clipper.hpp>
 #include <cmath>
-
-#include "clipper_util.hpp"
 #include <map>
 #include <numbers>
+
+#include "clipper_util.hpp"
 
 namespace trellis {
 
@@ -92,8 +91,7 @@ bool inside_ring(const std::vector<Vec2>& ring, Vec2 p) {
   bool in = false;
   for (std::size_t i = 0, j = ring.size() - 1; i < ring.size(); j = i++) {
     const Vec2 a = ring[j], b = ring[i];
-    if ((a.y > p.y) != (b.y > p.y) && p.x < (b.x - a.x) * (p.y - a.y) / (b.y - a.y) + a.x)
-      in = !in;
+    if ((a.y > p.y) != (b.y > p.y) && p.x < (b.x - a.x) * (p.y - a.y) / (b.y - a.y) + a.x) in = !in;
   }
   return in;
 }
@@ -112,10 +110,14 @@ void BeadRaster::paint(Vec2 a, Vec2 b, double r) {
     const Vec2 s0 = a + (b - a) * (static_cast<double>(k) / pieces);
     const Vec2 s1 = a + (b - a) * (static_cast<double>(k + 1) / pieces);
     const Vec3 A{s0.x, s0.y, 0}, B{s1.x, s1.y, 0};
-    const long x0 = std::max(0L, static_cast<long>((std::min(s0.x, s1.x) - r - box_.min.x) / pixel_));
-    const long x1 = std::min(nx_ - 1, static_cast<long>((std::max(s0.x, s1.x) + r - box_.min.x) / pixel_));
-    const long y0 = std::max(0L, static_cast<long>((std::min(s0.y, s1.y) - r - box_.min.y) / pixel_));
-    const long y1 = std::min(ny_ - 1, static_cast<long>((std::max(s0.y, s1.y) + r - box_.min.y) / pixel_));
+    const long x0 =
+        std::max(0L, static_cast<long>((std::min(s0.x, s1.x) - r - box_.min.x) / pixel_));
+    const long x1 =
+        std::min(nx_ - 1, static_cast<long>((std::max(s0.x, s1.x) + r - box_.min.x) / pixel_));
+    const long y0 =
+        std::max(0L, static_cast<long>((std::min(s0.y, s1.y) - r - box_.min.y) / pixel_));
+    const long y1 =
+        std::min(ny_ - 1, static_cast<long>((std::max(s0.y, s1.y) + r - box_.min.y) / pixel_));
     for (long iy = y0; iy <= y1; ++iy)
       for (long ix = x0; ix <= x1; ++ix) {
         char& c = cells_[static_cast<std::size_t>(iy * nx_ + ix)];

@@ -4,8 +4,8 @@
 
 #include <filesystem>
 #include <map>
-#include <tuple>
 #include <nlohmann/json.hpp>
+#include <tuple>
 
 #include "routes.hpp"
 #include "trellis/field/implicit_3mf.hpp"

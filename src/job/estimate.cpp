@@ -26,16 +26,19 @@ Budget budget_of(const Job& job, const Config& c, const Progress& progress) {
 
 // The threads a run's parallel loops get: the arena's, bounded by run.threads (a global_control).
 double threads_of_run() {
-  const auto allowed = tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism);
+  const auto allowed =
+      tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism);
   return static_cast<double>(std::max<std::size_t>(
-      1, std::min<std::size_t>(allowed, static_cast<std::size_t>(tbb::this_task_arena::max_concurrency()))));
+      1, std::min<std::size_t>(allowed,
+                               static_cast<std::size_t>(tbb::this_task_arena::max_concurrency()))));
 }
 
 Estimate estimate_lattice2d(const AtlasParams& a, int layers) {
   const Region& r = a.region;
-  const double area = r.shape == RegionShape::Circle ? M_PI / 4 * r.diameter * r.diameter
-                                                     : r.width * r.height;
-  const double spacing = a.strand_distance > 0 ? std::min(a.cell_size, a.strand_distance) : a.cell_size;
+  const double area =
+      r.shape == RegionShape::Circle ? M_PI / 4 * r.diameter * r.diameter : r.width * r.height;
+  const double spacing =
+      a.strand_distance > 0 ? std::min(a.cell_size, a.strand_distance) : a.cell_size;
   // The pattern fills twice the region before the crop. Honeycomb 200 × 200 mm at 1 mm: 4.6 s,
   // 400 MB for 40,000 cell² units; 100 × 100 mm: 0.53 s of CPU. A Voronoi layer of n seeds
   // costs more than linearly: 450 seeds 0.2 s, 7,200 seeds 25 s (one thread, CPU time).
@@ -91,7 +94,8 @@ Estimate estimate_lattice3d(const Config& c) {
 Estimate estimate_gippo(std::size_t edges, int iterations, int seeds) {
   // 20 iterations over 47,000 edges: 0.93 s on one core; 100 over the 11,508 edges of a 100 mm
   // honeycomb: 0.2 s of CPU (one thread). Each iteration keeps its score.
-  const double work = double(iterations) * double(std::max<std::size_t>(edges, 1)) * std::max(1, seeds + 1);
+  const double work =
+      double(iterations) * double(std::max<std::size_t>(edges, 1)) * std::max(1, seeds + 1);
   Estimate e;
   e.bytes = double(edges) * 400 + double(iterations) * 64 * std::max(1, seeds + 1);
   e.seconds = work * 4e-7 / threads_of_run();
@@ -126,7 +130,8 @@ Estimate estimate_nonplanar(const BBox2& domain, const NonplanarParams& p) {
   // 0.03 s vertical and 5.8 s normal.
   std::size_t directions = 0;
   for (std::size_t k = 0; k < p.angles.size() && k < static_cast<std::size_t>(p.layers); ++k)
-    directions += std::find(p.angles.begin(), p.angles.begin() + k, p.angles[k]) == p.angles.begin() + k;
+    directions +=
+        std::find(p.angles.begin(), p.angles.begin() + k, p.angles[k]) == p.angles.begin() + k;
   const bool normal = p.offset == OffsetMode::Normal;
   const double sliced = normal ? 1 : double(directions);
   const double offset = normal ? std::max(0, p.layers - 1) : 0;
@@ -136,8 +141,9 @@ Estimate estimate_nonplanar(const BBox2& domain, const NonplanarParams& p) {
               double(p.layers) * points * 1e-7;  // joining, in order
   e.what = fmt::format("{} non-planar layers ({} offsets) of {:.3g} lines over {:.0f} x {:.0f} mm",
                        p.layers, normal ? "normal" : "vertical", lines, wx, wy);
-  e.change = "--bead-width (nonplanar.bead_width), --layers (nonplanar.layers), --offset "
-             "(nonplanar.offset) or the domain";
+  e.change =
+      "--bead-width (nonplanar.bead_width), --layers (nonplanar.layers), --offset "
+      "(nonplanar.offset) or the domain";
   return e;
 }
 
@@ -177,8 +183,8 @@ Estimate estimate_pbf_time(const PbfDesign& d, const PbfOptions& po, bool toolpa
     e.seconds += vectors * 2e-6;
     e.bytes += vectors * 600;
   }
-  e.what = fmt::format("PBF paths of {:.3g} layers of {:.3g} x {:.3g} mm at resolution {} mm", layers,
-                       box.max.x - box.min.x, box.max.y - box.min.y, po.resolution);
+  e.what = fmt::format("PBF paths of {:.3g} layers of {:.3g} x {:.3g} mm at resolution {} mm",
+                       layers, box.max.x - box.min.x, box.max.y - box.min.y, po.resolution);
   e.change = "--resolution (pbf.resolution), --layer-height (scan.layer) or --size (pbf.size)";
   return e;
 }

@@ -2,11 +2,10 @@
 
 #include <toml++/toml.h>
 
-#include <nlohmann/json.hpp>
-
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
+#include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
 
@@ -39,11 +38,9 @@ void resolve_path_settings(Settings& st, const std::string& base) {
   std::vector<std::pair<std::string, Settings::Entry>> fix;
   for (const auto& [key, e] : st.entries()) {
     const Setting* s = find_setting(key);
-    if (s && s->unit == "path" && !std::get<std::string>(e.value).empty())
-      fix.emplace_back(key, e);
+    if (s && s->unit == "path" && !std::get<std::string>(e.value).empty()) fix.emplace_back(key, e);
   }
-  for (auto& [key, e] : fix)
-    st.set(key, resolve(base, std::get<std::string>(e.value)), e.origin);
+  for (auto& [key, e] : fix) st.set(key, resolve(base, std::get<std::string>(e.value)), e.origin);
 }
 
 // An output named in a job file: a relative path inside the output folder.
@@ -51,15 +48,18 @@ void check_output_name(const std::string& v, const Where& where) {
   const fs::path p(v);
   if (v.empty()) throw SettingError("an output name inside the output folder, not empty", where);
   if (p.is_absolute() || p.has_root_name() || p.has_root_directory())
-    throw SettingError("'" + v + "' is an absolute path: outputs are named inside the output "
-                       "folder (set output_dir or `trellis run -o DIR` to choose the folder)",
+    throw SettingError("'" + v +
+                           "' is an absolute path: outputs are named inside the output "
+                           "folder (set output_dir or `trellis run -o DIR` to choose the folder)",
                        where);
   for (const auto& part : p)
     if (part == "..")
-      throw SettingError("'" + v + "' leaves the output folder ('..'): outputs are named inside "
-                         "it (set output_dir or `trellis run -o DIR` to choose the folder)",
+      throw SettingError("'" + v +
+                             "' leaves the output folder ('..'): outputs are named inside "
+                             "it (set output_dir or `trellis run -o DIR` to choose the folder)",
                          where);
-  if (std::any_of(v.begin(), v.end(), [](char ch) { return static_cast<unsigned char>(ch) < 0x20; }))
+  if (std::any_of(v.begin(), v.end(),
+                  [](char ch) { return static_cast<unsigned char>(ch) < 0x20; }))
     throw SettingError("control characters in an output name", where);
 }
 
@@ -92,7 +92,8 @@ std::vector<PlatePart> parse_plate_parts(const toml::table& root, const std::str
   if (!node) return parts;
   const toml::array* arr = node->as_array();
   if (!arr || !arr->is_array_of_tables())
-    throw SettingError("parts of a plate are [[part]] tables", {origin, static_cast<long>(node->source().begin.line), "part"});
+    throw SettingError("parts of a plate are [[part]] tables",
+                       {origin, static_cast<long>(node->source().begin.line), "part"});
   if (!route_spec(job.route).plates)
     throw SettingError("build plates ([[part]]) are for the pbf and slice routes, not " + job.route,
                        {origin, static_cast<long>(node->source().begin.line), "part"});
@@ -129,18 +130,21 @@ std::vector<PlatePart> parse_plate_parts(const toml::table& root, const std::str
           p.input = resolve(base, v);
         }
       } else if (key == "x" || key == "y" || key == "rotation") {
-        if (!n.is_number()) throw SettingError("expected a number (mm, or degrees for rotation)", where);
+        if (!n.is_number())
+          throw SettingError("expected a number (mm, or degrees for rotation)", where);
         const double v = *n.value<double>();
         if (!std::isfinite(v)) throw SettingError("expected a finite number", where);
         (key == "x" ? p.x : key == "y" ? p.y : p.rotation) = v;
       } else {
-        throw SettingError("unknown key of a part (expected label, input, x, y, rotation or "
-                           "[part.SECTION] settings)",
-                           where);
+        throw SettingError(
+            "unknown key of a part (expected label, input, x, y, rotation or "
+            "[part.SECTION] settings)",
+            where);
       }
     }
     if (!labels.insert(p.label).second)
-      throw SettingError("two parts are labelled '" + p.label + "'", {origin, p.line, "part.label"});
+      throw SettingError("two parts are labelled '" + p.label + "'",
+                         {origin, p.line, "part.label"});
     // The part's settings over the job's: checked now, so errors name the job file.
     Settings st = job.settings;
     if (!p.settings_toml.empty()) st.load_toml(p.settings_toml, origin + " part '" + p.label + "'");
@@ -170,9 +174,9 @@ Job job_from_toml(const std::string& text, const std::string& origin, const std:
   std::string output_dir;
   // Explicit outputs are names inside the output folder; resolved once the folder is known.
   std::vector<std::pair<std::string*, Where>> outputs;
-  static const std::set<std::string> keys = {"route",  "name",     "input",   "machine", "command",
-                                             "output", "report",   "toolpath", "gcode",  "lattice",
-                                             "preview", "output_dir"};
+  static const std::set<std::string> keys = {"route",   "name",    "input",   "machine",
+                                             "command", "output",  "report",  "toolpath",
+                                             "gcode",   "lattice", "preview", "output_dir"};
   for (const auto& [k, n] : *jt) {
     const std::string key(k.str());
     const Where where{origin, static_cast<long>(n.source().begin.line), "job." + key};
@@ -187,12 +191,18 @@ Job job_from_toml(const std::string& text, const std::string& origin, const std:
     // leave the key out for none.
     if (v.empty() && key != "command")
       throw SettingError("an empty string: leave the key out for none", where);
-    if (key == "route") job.route = v;
-    else if (key == "name") job.name = v;
-    else if (key == "input") job.input = resolve(base, v);
-    else if (key == "machine") job.machine = resolve(base, v);
-    else if (key == "command") job.command = v;
-    else if (key == "output_dir") output_dir = v;
+    if (key == "route")
+      job.route = v;
+    else if (key == "name")
+      job.name = v;
+    else if (key == "input")
+      job.input = resolve(base, v);
+    else if (key == "machine")
+      job.machine = resolve(base, v);
+    else if (key == "command")
+      job.command = v;
+    else if (key == "output_dir")
+      output_dir = v;
     else {
       std::string* out = key == "output"     ? &job.output
                          : key == "report"   ? &job.report
@@ -233,8 +243,9 @@ Job job_from_toml(const std::string& text, const std::string& origin, const std:
     const std::string key = s.substr(0, eq);
     job.settings.set_text(key, s.substr(eq + 1), {"--set"});
     if (std::find(sections.begin(), sections.end(), key.substr(0, key.find('.'))) == sections.end())
-      throw SettingError("the " + job.route + " route does not read [" + key.substr(0, key.find('.')) + "]",
-                         {"", 0, "--set " + key});
+      throw SettingError(
+          "the " + job.route + " route does not read [" + key.substr(0, key.find('.')) + "]",
+          {"", 0, "--set " + key});
   }
   if (!embedded) {
     // Default outputs under output_dir, named after the job.
@@ -272,7 +283,8 @@ Job job_from_toml(const std::string& text, const std::string& origin, const std:
 Job load_job(const std::string& path, const std::string& output_dir,
              const std::vector<std::string>& sets) {
   const std::string base = fs::path(path).parent_path().string();
-  Job job = job_from_toml(read_file(path), path, base.empty() ? "." : base, false, output_dir, sets);
+  Job job =
+      job_from_toml(read_file(path), path, base.empty() ? "." : base, false, output_dir, sets);
   if (job.command.empty()) job.command = "trellis run " + fs::path(path).filename().string();
   return job;
 }
@@ -342,7 +354,8 @@ Job job_from_output(const std::string& path) {
     const std::string_view line(text.data() + pos, end - pos);
     if (line.rfind("; job: ", 0) == 0 || line == "; job:")
       job += std::string(line.substr(std::min<std::size_t>(7, line.size()))) + "\n";
-    else if (line.rfind("//job: ", 0) == 0 && line.size() >= 9 && line.substr(line.size() - 2) == "//")
+    else if (line.rfind("//job: ", 0) == 0 && line.size() >= 9 &&
+             line.substr(line.size() - 2) == "//")
       job += std::string(line.substr(7, line.size() - 9)) + "\n";
     else if (!job.empty() && !text.empty() && text[0] != '{')
       break;  // the block ended
@@ -352,7 +365,8 @@ Job job_from_output(const std::string& path) {
     // JSON (toolpath, report): the "job" field.
     try {
       const auto j = nlohmann::json::parse(text);
-      if (j.is_object() && j.contains("job") && j["job"].is_string()) job = j["job"].get<std::string>();
+      if (j.is_object() && j.contains("job") && j["job"].is_string())
+        job = j["job"].get<std::string>();
     } catch (const nlohmann::json::exception&) {
       throw ParseError("not valid JSON", {path});
     }

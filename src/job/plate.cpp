@@ -22,7 +22,9 @@ namespace {
 
 constexpr double kDeg = 3.14159265358979323846 / 180.0;
 
-double cross(Vec2 a, Vec2 b, Vec2 c) { return (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x); }
+double cross(Vec2 a, Vec2 b, Vec2 c) {
+  return (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
+}
 
 double point_segment(Vec2 p, Vec2 a, Vec2 b) {
   const Vec2 d = b - a;
@@ -82,8 +84,9 @@ class Reader {
   std::size_t count(std::size_t item_bytes) {
     const auto n = get<std::uint64_t>();
     if (item_bytes && n > (b_.size() - pos_) / item_bytes)
-      throw ParseError(fmt::format("shard file: a count of {} at byte {} is more than the file holds", n, pos_),
-                       {origin_});
+      throw ParseError(
+          fmt::format("shard file: a count of {} at byte {} is more than the file holds", n, pos_),
+          {origin_});
     return static_cast<std::size_t>(n);
   }
   bool done() const { return pos_ == b_.size(); }
@@ -94,7 +97,8 @@ class Reader {
   std::size_t pos_ = 0;
 };
 
-constexpr char kMagic[8] = {'T', 'R', 'L', 'S', 'H', 'R', 'D', '3'};  // 2: flow, fan, joined; 3: via, inside
+constexpr char kMagic[8] = {'T', 'R', 'L', 'S',
+                            'H', 'R', 'D', '3'};  // 2: flow, fan, joined; 3: via, inside
 
 }  // namespace
 
@@ -113,7 +117,9 @@ PartFootprint place_footprint(const PlatePart& part, const BBox3& box) {
   PartFootprint f;
   f.label = part.label;
   f.line = part.line;
-  const Vec3 c[4] = {{box.min.x, box.min.y, 0}, {box.max.x, box.min.y, 0}, {box.max.x, box.max.y, 0},
+  const Vec3 c[4] = {{box.min.x, box.min.y, 0},
+                     {box.max.x, box.min.y, 0},
+                     {box.max.x, box.max.y, 0},
                      {box.min.x, box.max.y, 0}};
   for (int i = 0; i < 4; ++i) {
     const Vec3 q = place_point(part, box, c[i]);
@@ -191,7 +197,8 @@ std::pair<int, int> parse_shard(const std::string& text) {
     n = std::stoi(text.substr(slash + 1), &u2);
     if (u1 != slash || u2 != text.size() - slash - 1) throw std::invalid_argument(text);
   } catch (const std::logic_error&) {
-    throw SettingError("expected K/N (shard K of N, e.g. 2/5), got '" + text + "'", {"", 0, "--shard"});
+    throw SettingError("expected K/N (shard K of N, e.g. 2/5), got '" + text + "'",
+                       {"", 0, "--shard"});
   }
   if (n < 1 || n > 100000 || k < 1 || k > n)
     throw SettingError(fmt::format("shard {} of {} is out of range: K/N needs 1 <= K <= N", k, n),
@@ -230,7 +237,8 @@ std::string shard_bytes(const std::vector<Layer>& layers) {
       put<std::int32_t>(out, p.part);
       put<std::int32_t>(out, p.joined ? 1 : 0);
       put<std::int32_t>(out, p.inside ? 1 : 0);
-      for (double v : {p.width, p.height, p.speed, p.power, p.filament, p.temperature, p.flow, p.fan})
+      for (double v :
+           {p.width, p.height, p.speed, p.power, p.filament, p.temperature, p.flow, p.fan})
         put(out, v);
       put<std::uint64_t>(out, p.mixture.size());
       for (double v : p.mixture) put(out, v);
@@ -261,8 +269,8 @@ std::vector<Layer> layers_from_shard_bytes(const std::string& bytes, const std::
       p.part = r.get<std::int32_t>();
       p.joined = r.get<std::int32_t>() != 0;
       p.inside = r.get<std::int32_t>() != 0;
-      for (double* v : {&p.width, &p.height, &p.speed, &p.power, &p.filament, &p.temperature,
-                        &p.flow, &p.fan})
+      for (double* v :
+           {&p.width, &p.height, &p.speed, &p.power, &p.filament, &p.temperature, &p.flow, &p.fan})
         *v = r.get<double>();
       p.mixture.resize(r.count(8));
       for (double& v : p.mixture) v = r.get<double>();
@@ -309,7 +317,8 @@ std::string write_shard(const Job& job, const std::vector<Layer>& layers, std::s
 
 JobResult merge_shards(const std::vector<std::string>& manifests, const std::string& output,
                        Diagnostics& diag, bool follow_symlinks) {
-  if (manifests.empty()) throw SettingError("merge needs the shards' manifests (.json)", {"", 0, "manifests"});
+  if (manifests.empty())
+    throw SettingError("merge needs the shards' manifests (.json)", {"", 0, "manifests"});
   if (output.empty()) throw SettingError("merge needs -o OUTPUT", {"", 0, "-o"});
   struct Shard {
     std::string path;
@@ -331,9 +340,11 @@ JobResult merge_shards(const std::vector<std::string>& manifests, const std::str
     if (!j.is_object() || j.value("format", "") != "trellis.shard")
       throw ParseError("not a shard manifest (format trellis.shard)", {path});
     for (const char* k : {"route", "output", "source", "job", "data"})
-      if (!j.contains(k) || !j[k].is_string()) throw ParseError(std::string("manifest without '") + k + "'", {path});
+      if (!j.contains(k) || !j[k].is_string())
+        throw ParseError(std::string("manifest without '") + k + "'", {path});
     for (const char* k : {"shard", "shards", "first_layer", "layers", "total_layers", "data_bytes"})
-      if (!j.contains(k) || !j[k].is_number_unsigned()) throw ParseError(std::string("manifest without '") + k + "'", {path});
+      if (!j.contains(k) || !j[k].is_number_unsigned())
+        throw ParseError(std::string("manifest without '") + k + "'", {path});
     if (first.is_null()) {
       first = j;
       first_path = path;
@@ -344,18 +355,23 @@ JobResult merge_shards(const std::vector<std::string>& manifests, const std::str
         if (v.is_object()) v.erase("outline_z");
         return v;
       };
-      for (const char* k : {"job", "route", "shards", "total_layers", "output", "source", "part_labels", "graded"})
+      for (const char* k :
+           {"job", "route", "shards", "total_layers", "output", "source", "part_labels", "graded"})
         if (common(j, k) != common(first, k))
-          throw SettingError(fmt::format("{} is a shard of another job than {} (their '{}' differ): "
-                                         "merge the shards of one run",
-                                         path, first_path, k),
-                             {path, 0, k});
+          throw SettingError(
+              fmt::format("{} is a shard of another job than {} (their '{}' differ): "
+                          "merge the shards of one run",
+                          path, first_path, k),
+              {path, 0, k});
     }
     const int k = j["shard"].get<int>();
     if (k < 1 || k > j["shards"].get<int>())
-      throw SettingError(fmt::format("shard {} of {} is out of range", k, j["shards"].get<int>()), {path, 0, "shard"});
+      throw SettingError(fmt::format("shard {} of {} is out of range", k, j["shards"].get<int>()),
+                         {path, 0, "shard"});
     if (by_index.count(k))
-      throw SettingError(fmt::format("shard {} is given twice: {} and {}", k, by_index[k].path, path), {path, 0, "shard"});
+      throw SettingError(
+          fmt::format("shard {} is given twice: {} and {}", k, by_index[k].path, path),
+          {path, 0, "shard"});
     by_index[k] = {path, j};
   }
   const int n = first["shards"].get<int>();
@@ -363,8 +379,9 @@ JobResult merge_shards(const std::vector<std::string>& manifests, const std::str
   for (int k = 1; k <= n; ++k)
     if (!by_index.count(k)) missing += (missing.empty() ? "" : ", ") + std::to_string(k);
   if (!missing.empty())
-    throw SettingError(fmt::format("shards {} of {} are missing (give every shard's manifest)", missing, n),
-                       {first_path, 0, "shards"});
+    throw SettingError(
+        fmt::format("shards {} of {} are missing (give every shard's manifest)", missing, n),
+        {first_path, 0, "shards"});
   Toolpath tp;
   std::size_t next = 0;
   std::vector<double> outline_z;  // graded shards of a design with process fields
@@ -387,12 +404,14 @@ JobResult merge_shards(const std::vector<std::string>& manifests, const std::str
       throw ParseError("layer count differs from its manifest", {data});
     next += layers.size();
     for (auto& l : layers) tp.layers.push_back(std::move(l));
-    if (s.j.contains("graded") && s.j["graded"].is_object() && s.j["graded"].contains("outline_z")) {
+    if (s.j.contains("graded") && s.j["graded"].is_object() &&
+        s.j["graded"].contains("outline_z")) {
       const auto& zs = s.j["graded"]["outline_z"];
       if (!zs.is_array() || zs.size() != layers.size())
         throw ParseError("graded shard manifest: outline_z is not one plane per layer", {s.path});
       for (const auto& z : zs) {
-        if (!z.is_number()) throw ParseError("graded shard manifest: outline_z holds a non-number", {s.path});
+        if (!z.is_number())
+          throw ParseError("graded shard manifest: outline_z holds a non-number", {s.path});
         outline_z.push_back(z.get<double>());
       }
     }
@@ -402,7 +421,8 @@ JobResult merge_shards(const std::vector<std::string>& manifests, const std::str
                                    first["total_layers"].get<std::size_t>()),
                        {first_path, 0, "total_layers"});
   tp.source = first["source"].get<std::string>();
-  if (first.contains("part_labels")) tp.part_labels = first["part_labels"].get<std::vector<std::string>>();
+  if (first.contains("part_labels"))
+    tp.part_labels = first["part_labels"].get<std::vector<std::string>>();
   const std::string base = fs::path(first_path).parent_path().string();
   Job job = job_from_toml(first["job"].get<std::string>(), first_path + " (job)",
                           base.empty() ? "." : base, true);

@@ -23,8 +23,8 @@ void merge_plan(Job& job, const Config& c, Toolpath& tp, const ShardLayers&, Job
   routes::merge_plan_main(job, c, tp, out, diag);
 }
 
-void merge_slice(Job& job, const Config& c, Toolpath& tp, const ShardLayers& shards,
-                 JobResult& out, Diagnostics& diag) {
+void merge_slice(Job& job, const Config& c, Toolpath& tp, const ShardLayers& shards, JobResult& out,
+                 Diagnostics& diag) {
   if (!shards.graded.empty())
     routes::write_graded_merge(job, c, tp, shards.graded, shards.outline_z, shards.total_layers,
                                out, diag);
@@ -45,9 +45,9 @@ void merge_nonplanar(Job& job, const Config& c, Toolpath& tp, const ShardLayers&
 }  // namespace
 
 const std::vector<std::string>& machine_sections() {
-  static const std::vector<std::string> s = {
-      "machine", "placement", "extrusion", "speed",    "temperature", "retraction",
-      "flow",    "pneumatic", "embedded",  "gradient", "purge",       "gcode"};
+  static const std::vector<std::string> s = {"machine",     "placement",  "extrusion", "speed",
+                                             "temperature", "retraction", "flow",      "pneumatic",
+                                             "embedded",    "gradient",   "purge",     "gcode"};
   return s;
 }
 
@@ -65,8 +65,14 @@ const std::vector<RouteSpec>& route_specs() {
        &Job::output, RouteSpec::Gcode::always},
       {"slice", "design", with_machine({"slice", "fgm", "process", "plate", "output", "run"}), true,
        true, true, &routes::slice, &merge_slice, &Job::output, RouteSpec::Gcode::always},
-      {"pbf", "design", {"machine", "laser", "scan", "timing", "pbf", "plate", "output", "run"},
-       true, true, true, &routes::pbf, &merge_pbf},
+      {"pbf",
+       "design",
+       {"machine", "laser", "scan", "timing", "pbf", "plate", "output", "run"},
+       true,
+       true,
+       true,
+       &routes::pbf,
+       &merge_pbf},
       {"nonplanar", "surface", with_machine({"nonplanar", "surface", "output", "run"}), true, false,
        false, &routes::nonplanar, &merge_nonplanar, &Job::output, RouteSpec::Gcode::when_written},
       // The angle test can be written as G-code: the machine sections.

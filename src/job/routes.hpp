@@ -30,9 +30,9 @@ JobResult pbf_solid(const Job& job, const Config& c, Diagnostics& diag, const Pr
 JobResult nonplanar(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress);
 JobResult surface(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress);
 
-// The main output of the pbf, slice and nonplanar routes from their whole toolpath: what a single run writes
-// and what `trellis merge` writes from the shards' layers (job/plate.hpp), so both are the same
-// bytes. `tp` gets the job embedded.
+// The main output of the pbf, slice and nonplanar routes from their whole toolpath: what a single
+// run writes and what `trellis merge` writes from the shards' layers (job/plate.hpp), so both are
+// the same bytes. `tp` gets the job embedded.
 void write_pbf_main(const Job& job, const Config& c, Toolpath& tp, JobResult& out);
 void write_slice_main(const Job& job, const Config& c, Toolpath& tp, JobResult& out,
                       Diagnostics& diag, GcodeStats* stats = nullptr);
@@ -51,7 +51,8 @@ void write_plan_main(const Job& job, const Config& c, const Toolpath& tp, JobRes
                      Diagnostics& diag, GcodeStats* stats = nullptr);
 // `trellis merge` of plan shards: what they left to the merge (a travel order starts where the
 // layer below ended; then the surface, onto.*), then write_plan_main.
-void merge_plan_main(const Job& job, const Config& c, Toolpath& tp, JobResult& out, Diagnostics& diag);
+void merge_plan_main(const Job& job, const Config& c, Toolpath& tp, JobResult& out,
+                     Diagnostics& diag);
 
 // The job as it is embedded into a file at `path` (paths relative to its folder).
 std::string embedded_job(const Job& job, const std::string& path);
@@ -61,7 +62,8 @@ std::string embedded_job(const Job& job, const std::string& path);
 std::string with_job(const std::string& json, const Job& job, const std::string& path,
                      bool command = true, const Diagnostics* diag = nullptr);
 // A JSON document with `field` set to another JSON document (text).
-std::string with_field(const std::string& json, const std::string& field, const std::string& value_json);
+std::string with_field(const std::string& json, const std::string& field,
+                       const std::string& value_json);
 // Writes the toolpath JSON with the job embedded.
 void write_toolpath_with_job(const std::string& path, Toolpath toolpath, const Job& job);
 // Writes G-code for the machine at `path` (nothing when empty) with the job embedded, after the
@@ -72,9 +74,9 @@ GcodeStats write_gcode_out(const std::string& path, Toolpath tp, const Job& job,
 // the Toolpath Extension instead (machine/toolpath_3mf.hpp), through write_gcode_out,
 // write_gcode_streamed and write_laser_build.
 bool is_3mf_output(const std::string& path);
-// The toolpath as a 3MF package at `path` with the job embedded (into `tp`), and the design's mesh as its
-// build item when the slice route's input is a mesh (STL, OBJ, 3MF); `laser` for laser builds. Returns
-// the package's size in bytes.
+// The toolpath as a 3MF package at `path` with the job embedded (into `tp`), and the design's mesh
+// as its build item when the slice route's input is a mesh (STL, OBJ, 3MF); `laser` for laser
+// builds. Returns the package's size in bytes.
 std::size_t write_3mf_out(const std::string& path, Toolpath& tp, const Job& job,
                           const LaserProfile* laser, JobResult& out);
 // The pbf route's build file: .cli (binary if asked) or, for .3mf, the Toolpath Extension.
@@ -95,7 +97,8 @@ GcodeStats write_gcode_streamed(const std::string& path, Toolpath meta, std::siz
 void require_bath(const Job& job, const MachineProfile& machine, const std::string& route,
                   const std::string& why);
 // Planar routes on a bath machine: a warning (planar layers print in a bath too, e.g. FRESH).
-void note_planar_in_bath(const MachineProfile& machine, const std::string& route, Diagnostics& diag);
+void note_planar_in_bath(const MachineProfile& machine, const std::string& route,
+                         Diagnostics& diag);
 // DIR/layer_0000.png … for `count` layers spread over the toolpath (all when count >= layers).
 void previews(const Toolpath& tp, const std::string& dir, int count, const RenderOptions& ro,
               JobResult& out, const std::string& prefix = "layer_");

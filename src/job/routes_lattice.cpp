@@ -6,8 +6,8 @@
 #include <chrono>
 #include <climits>
 #include <cmath>
-#include <numbers>
 #include <filesystem>
+#include <numbers>
 #include <tuple>
 
 #include "routes.hpp"
@@ -63,14 +63,15 @@ AtlasParams atlas_of(const Config& c, const Settings& st) {
 HeightField onto_surface(const OntoConfig& o) {
   if (o.kind == "sphere-cap") return sphere_cap(o.radius, o.diameter);
   if (o.kind == "mesh") {
-    if (o.file.empty()) throw SettingError("onto.kind = mesh needs onto.file", {"", 0, "onto.file"});
+    if (o.file.empty())
+      throw SettingError("onto.kind = mesh needs onto.file", {"", 0, "onto.file"});
     return HeightField::from_mesh(read_mesh(o.file), o.file);
   }
   if (o.domain.size() != 4 || o.height_fn.empty())
     throw SettingError("onto.kind = function needs onto.height_fn and onto.domain",
                        {"", 0, "onto.height_fn"});
-  return HeightField::from_expression(o.height_fn, {{o.domain[0], o.domain[1]}, {o.domain[2], o.domain[3]}},
-                                      "z = " + o.height_fn);
+  return HeightField::from_expression(
+      o.height_fn, {{o.domain[0], o.domain[1]}, {o.domain[2], o.domain[3]}}, "z = " + o.height_fn);
 }
 
 // GIPPO parts: layer i at z = i·h, rotated by i·rotation, cropped to the solid's section.
@@ -78,7 +79,8 @@ HeightField onto_surface(const OntoConfig& o) {
 // section area of the solid (1 without a solid, 0 where the layer misses it: no layer there)
 // and `edges` each made layer's strut count, both over all layers.
 Graph layered_lattice(AtlasParams base, const Config& c, int from = 0, int to = INT_MAX,
-                      std::vector<double>* sections = nullptr, std::vector<std::size_t>* edges = nullptr) {
+                      std::vector<double>* sections = nullptr,
+                      std::vector<std::size_t>* edges = nullptr) {
   Graph all;
   TriangleMesh solid;
   BBox3 box;
@@ -94,7 +96,8 @@ Graph layered_lattice(AtlasParams base, const Config& c, int from = 0, int to = 
     if (count <= 0) count = static_cast<int>(std::ceil((box.max.z - box.min.z) / h - 1e-9));
     if (count < 1) throw GeometryError("solid '" + c.layers.solid + "' is thinner than one layer");
   }
-  if (count < 1) throw SettingError("layers.count must be >= 1 without layers.solid", {"", 0, "layers.count"});
+  if (count < 1)
+    throw SettingError("layers.count must be >= 1 without layers.solid", {"", 0, "layers.count"});
   if (sections) sections->assign(static_cast<std::size_t>(count), 1.0);
   if (edges) edges->assign(static_cast<std::size_t>(count), 0);
   for (int i = 0; i < count; ++i) {
@@ -103,11 +106,14 @@ Graph layered_lattice(AtlasParams base, const Config& c, int from = 0, int to = 
     a.z = a.z + i * h;
     if (!c.layers.solid.empty()) {
       a.crop = slice_mesh(solid, trellis::solid_section_z(box, i, h));
-      if (sections) (*sections)[static_cast<std::size_t>(i)] = a.crop.empty() ? 0.0 : std::max(area(a.crop), 1e-9);
+      if (sections)
+        (*sections)[static_cast<std::size_t>(i)] =
+            a.crop.empty() ? 0.0 : std::max(area(a.crop), 1e-9);
       if (a.crop.empty()) continue;
       a.region.shape = RegionShape::Circle;
       a.region.center = {(box.min.x + box.max.x) / 2, (box.min.y + box.max.y) / 2};
-      a.region.diameter = std::hypot(box.max.x - box.min.x, box.max.y - box.min.y) + 2 * a.cell_size;
+      a.region.diameter =
+          std::hypot(box.max.x - box.min.x, box.max.y - box.min.y) + 2 * a.cell_size;
     }
     if (i < from || i >= to) continue;
     const Graph layer = make_lattice2d(a);
@@ -130,10 +136,11 @@ Graph stacked_layers(Graph g, const Job& job, const Config& c) {
   const bool count = job.settings.has("layers.count") && c.layers.count != 1;
   const bool turned = job.settings.has("layers.rotation") && c.layers.rotation_deg != 0;
   if (!c.layers.solid.empty())
-    throw SettingError("layers.solid crops a pattern made in the job; the input lattice " + job.input +
-                           " is planned as it is (give the pattern's [lattice2d] settings instead of "
-                           "an input, or crop the lattice before)",
-                       {"", 0, "layers.solid"});
+    throw SettingError(
+        "layers.solid crops a pattern made in the job; the input lattice " + job.input +
+            " is planned as it is (give the pattern's [lattice2d] settings instead of "
+            "an input, or crop the lattice before)",
+        {"", 0, "layers.solid"});
   if (!count && !turned) return g;
   const BBox3 b = g.bbox();
   if (g.nodes.empty() || b.max.z - b.min.z > 1e-9)
@@ -171,23 +178,25 @@ Graph cells_or_foam(const Config& c, Diagnostics& diag) {
     ConformalParams p = c.lattice3d.conformal;
     p.mesh = c.lattice3d.foam.mesh;
     if (p.mesh.empty())
-      throw SettingError("a conformal lattice needs lattice3d.mesh (--mesh FILE)", {"", 0, "lattice3d.mesh"});
+      throw SettingError("a conformal lattice needs lattice3d.mesh (--mesh FILE)",
+                         {"", 0, "lattice3d.mesh"});
     p.cell = c.lattice3d.cells.cell;
     p.size = c.lattice3d.cells.size;
     p.seed = c.lattice3d.foam.seed;
     g = conformal_lattice(p, diag);
   } else {
-    g = c.lattice3d.kind == "foam" ? voronoi_foam(c.lattice3d.foam, diag) : cell_lattice(c.lattice3d.cells);
+    g = c.lattice3d.kind == "foam" ? voronoi_foam(c.lattice3d.foam, diag)
+                                   : cell_lattice(c.lattice3d.cells);
   }
   assign_materials(g, material_rule_from_string(c.lattice3d.materials));
   return g;
 }
 
-
 JobResult plan_aero_route(const Job& job, const Config& c, const Graph& g, const std::string& input,
                           Diagnostics& diag, const Progress& progress,
                           std::chrono::steady_clock::time_point t0, JobResult out) {
-  require_bath(job, c.machine, "plan aero", "AERO trails are printed inside a support bath (the "
+  require_bath(job, c.machine, "plan aero",
+               "AERO trails are printed inside a support bath (the "
                "AERO paper's embedded printing)");
   AeroParams p = c.aero;
   p.progress = progress;
@@ -229,10 +238,12 @@ JobResult plan_aero_route(const Job& job, const Config& c, const Graph& g, const
     v.size_px = c.output.image_size;
     for (const auto& h : chk.hits) v.marks.push_back(h.point);
     v.title = std::to_string(r.trails.trails.size()) + " trails, " +
-              std::to_string(chk.collisions) + " collisions (" + fs::path(input).filename().string() + ")";
+              std::to_string(chk.collisions) + " collisions (" +
+              fs::path(input).filename().string() + ")";
     out.files.push_back(preview_name(job.preview, "3d.png"));
     render_3d_png(tp, out.files.back(), v);
-    const auto frames = std::min<std::size_t>(static_cast<std::size_t>(c.output.frames), r.trails.trails.size());
+    const auto frames =
+        std::min<std::size_t>(static_cast<std::size_t>(c.output.frames), r.trails.trails.size());
     for (std::size_t k = 1; k <= frames; ++k) {
       View3dOptions f;
       f.size_px = c.output.image_size;
@@ -264,9 +275,10 @@ void check_plan_shard(const Job& job, const Config& c) {
         "neither its layers nor its connected parts plan alone (docs/plates.md)",
         {"", 0, "--shard"});
   if (job.gcode.empty())
-    throw SettingError("a shard of the plan route holds layers of its G-code: the job needs a machine "
-                       "(job.machine) and output.gcode = true",
-                       {"", 0, "--shard"});
+    throw SettingError(
+        "a shard of the plan route holds layers of its G-code: the job needs a machine "
+        "(job.machine) and output.gcode = true",
+        {"", 0, "--shard"});
 }
 
 }  // namespace
@@ -279,7 +291,8 @@ void write_plan_main(const Job& job, const Config& c, const Toolpath& tp, JobRes
   if (stats) *stats = gs;
 }
 
-void merge_plan_main(const Job& job, const Config& c, Toolpath& tp, JobResult& out, Diagnostics& diag) {
+void merge_plan_main(const Job& job, const Config& c, Toolpath& tp, JobResult& out,
+                     Diagnostics& diag) {
   PlanParams p = c.plan;
   p.layer_height = c.machine.layer_height;
   if (layers_carry_start(p)) {
@@ -313,8 +326,8 @@ JobResult lattice2d(const Job& job, const Config& c, Diagnostics&, const Progres
     render_layer_png(strut_picture(g), 0, out.files.back(), ro);
   }
   const PoreArea pores = pore_area(g, c.line_width);
-  const double surface = surface_pore_percent(
-      g, c.line_width, a.crop.empty() ? Regions{a.region.polygon()} : a.crop);
+  const double surface =
+      surface_pore_percent(g, c.line_width, a.crop.empty() ? Regions{a.region.polygon()} : a.crop);
   const std::string tuned = a.pattern == Pattern::Voronoi
                                 ? fmt::format("density {} seeds/mm²", fixed(a.voronoi_density, 4))
                                 : fmt::format("cell {} mm", fixed(a.cell_size, 4));
@@ -324,15 +337,16 @@ JobResult lattice2d(const Job& job, const Config& c, Diagnostics&, const Progres
       to_string(a.pattern), g.nodes.size(), g.edges.size(), fixed(g.total_length(), 1),
       lower_bound_paths(g), fixed(pores.percent(), 1), pores.count, fixed(c.line_width, 2),
       fixed(surface, 1),
-      c.target_porosity > 0 ? fmt::format("; {} for {}% of the region", tuned,
-                                          fixed(c.target_porosity, 1))
-                            : std::string());
+      c.target_porosity > 0
+          ? fmt::format("; {} for {}% of the region", tuned, fixed(c.target_porosity, 1))
+          : std::string());
   return out;
 }
 
 JobResult lattice3d(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
   JobResult out;
-  if (!c.lattice3d.foam.mesh.empty()) check_budget(mesh_read_estimate(c.lattice3d.foam.mesh), budget_of(job, c, progress));
+  if (!c.lattice3d.foam.mesh.empty())
+    check_budget(mesh_read_estimate(c.lattice3d.foam.mesh), budget_of(job, c, progress));
   check_budget(estimate_lattice3d(c), budget_of(job, c, progress));
   const Graph g = cells_or_foam(c, diag);
   if (fs::path(job.output).extension() == ".3mf") {
@@ -356,10 +370,11 @@ JobResult lattice3d(const Job& job, const Config& c, Diagnostics& diag, const Pr
   int materials = 0;
   for (const auto& e : g.edges) materials = std::max(materials, e.material + 1);
   const BBox3 b = g.bbox();
-  out.summary = fmt::format("{}: {} nodes, {} struts, {} material(s), {} x {} x {} mm",
-                            c.lattice3d.kind == "cells" ? to_string(c.lattice3d.cells.cell) : c.lattice3d.kind,
-                            g.nodes.size(), g.edges.size(), materials, fixed(b.max.x - b.min.x, 2),
-                            fixed(b.max.y - b.min.y, 2), fixed(b.max.z - b.min.z, 2));
+  out.summary = fmt::format(
+      "{}: {} nodes, {} struts, {} material(s), {} x {} x {} mm",
+      c.lattice3d.kind == "cells" ? to_string(c.lattice3d.cells.cell) : c.lattice3d.kind,
+      g.nodes.size(), g.edges.size(), materials, fixed(b.max.x - b.min.x, 2),
+      fixed(b.max.y - b.min.y, 2), fixed(b.max.z - b.min.z, 2));
   return out;
 }
 
@@ -377,11 +392,11 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
   HeightField surface;
   if (!c.onto.kind.empty()) surface = onto_surface(c.onto);
   if (!job.input.empty()) {
-    g = read_lattice(job.input, c.clean_options(),
-                     diag);
+    g = read_lattice(job.input, c.clean_options(), diag);
     g = stacked_layers(std::move(g), job, c);
   } else if (c.planner == "aero") {
-    if (!c.lattice3d.foam.mesh.empty()) check_budget(mesh_read_estimate(c.lattice3d.foam.mesh), budget_of(job, c, progress));
+    if (!c.lattice3d.foam.mesh.empty())
+      check_budget(mesh_read_estimate(c.lattice3d.foam.mesh), budget_of(job, c, progress));
     check_budget(estimate_lattice3d(c), budget_of(job, c, progress));
     g = cells_or_foam(c, diag);
     input = "lattice3d";
@@ -440,7 +455,8 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
     return plan_aero_route(job, c, g, input, diag, progress, t0, out);
   }
   if (c.planner == "gippo")
-    check_budget(estimate_gippo(g.edges.size(), c.plan.gippo.iterations, c.gippo_seeds), budget_of(job, c, progress));
+    check_budget(estimate_gippo(g.edges.size(), c.plan.gippo.iterations, c.gippo_seeds),
+                 budget_of(job, c, progress));
 
   PlanParams p = c.plan;
   p.planner = planner_from_string(c.planner);
@@ -481,7 +497,8 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
       r.toolpath = project_onto_surface(r.toolpath, surface, c.onto.project);
     r.toolpath.source = "trellis " + c.planner + " " + fs::path(input).filename().string();
     if (r.toolpath.layers.size() != total)
-      throw Error(fmt::format("the plan has {} layers, its levels {}", r.toolpath.layers.size(), total));
+      throw Error(
+          fmt::format("the plan has {} layers, its levels {}", r.toolpath.layers.size(), total));
     std::vector<Layer> mine(r.toolpath.layers.begin() + static_cast<std::ptrdiff_t>(first),
                             r.toolpath.layers.begin() + static_cast<std::ptrdiff_t>(end));
     std::size_t paths = 0;
@@ -490,8 +507,8 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
     named.output = job.gcode;  // the shard files are named after the G-code they make
     out.files.push_back(write_shard(named, mine, first, total, r.toolpath.source, {}));
     out.files.insert(out.files.begin(), out.files.back().substr(0, out.files.back().size() - 5));
-    out.summary = fmt::format("shard {} of {}: layers {}..{} of {}, {} paths", job.shard, job.shards,
-                              first, end, total, paths);
+    out.summary = fmt::format("shard {} of {}: layers {}..{} of {}, {} paths", job.shard,
+                              job.shards, first, end, total, paths);
     return out;
   }
   p.gippo.progress = progress;  // the robustness runs below call plan_gippo directly
@@ -500,9 +517,10 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
     // The paper's robustness run (Fig. 2 v-vi): the best score over many seeds.
     const GippoRobustness rob = gippo_robustness(g, p.gippo, c.gippo_seeds, p.long_path_nodes);
     robustness = gippo_robustness_json(rob, p.gippo);
-    out.summary = fmt::format("gippo robustness over {} seeds: best score mean {}, SD {} (CV {}%), min {}, max {}\n",
-                              c.gippo_seeds, fixed(rob.mean, 4), fixed(rob.sd, 4),
-                              fixed(rob.cv_percent(), 2), fixed(rob.min, 4), fixed(rob.max, 4));
+    out.summary = fmt::format(
+        "gippo robustness over {} seeds: best score mean {}, SD {} (CV {}%), min {}, max {}\n",
+        c.gippo_seeds, fixed(rob.mean, 4), fixed(rob.sd, 4), fixed(rob.cv_percent(), 2),
+        fixed(rob.min, 4), fixed(rob.max, 4));
   }
   if (!c.onto.kind.empty()) {
     progress("surface", 0);
@@ -525,7 +543,8 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
     r.worst = project_onto_surface(r.worst, surface, c.onto.project);
   if (worst && !job.toolpath.empty()) {
     std::string name = job.toolpath;
-    if (name.size() > 5 && name.compare(name.size() - 5, 5, ".json") == 0) name.resize(name.size() - 5);
+    if (name.size() > 5 && name.compare(name.size() - 5, 5, ".json") == 0)
+      name.resize(name.size() - 5);
     name += ".worst.json";
     r.worst.source = r.toolpath.source + " (lowest-score solution)";
     write_toolpath(name, r.worst);
@@ -571,20 +590,23 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
 
 JobResult gcode(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
   JobResult out;
-  if (job.input.empty()) throw SettingError("gcode needs a toolpath JSON to read", {"", 0, "job.input"});
+  if (job.input.empty())
+    throw SettingError("gcode needs a toolpath JSON to read", {"", 0, "job.input"});
   check_budget(estimate_gcode_of(job.input), budget_of(job, c, progress));
   const Toolpath tp = read_toolpath(job.input);
   // The toolpath's bead heights were set when it was planned; say so when they are not the
   // machine's layer height (E follows the path's own height).
   for (const auto& l : tp.layers) {
     const auto odd = std::find_if(l.paths.begin(), l.paths.end(), [&](const Path& p) {
-      return p.height > 0 && std::abs(p.height - c.machine.layer_height) > 0.01 * c.machine.layer_height;
+      return p.height > 0 &&
+             std::abs(p.height - c.machine.layer_height) > 0.01 * c.machine.layer_height;
     });
     if (odd == l.paths.end()) continue;
-    diag.warn("layer_height_differs",
-              fmt::format("the toolpath's bead height is {} mm but extrusion.layer_height is {} mm; E "
-                          "follows the toolpath (plan with --machine to use the profile's)",
-                          fixed(odd->height, 3), fixed(c.machine.layer_height, 3)));
+    diag.warn(
+        "layer_height_differs",
+        fmt::format("the toolpath's bead height is {} mm but extrusion.layer_height is {} mm; E "
+                    "follows the toolpath (plan with --machine to use the profile's)",
+                    fixed(odd->height, 3), fixed(c.machine.layer_height, 3)));
     break;
   }
   GcodeStats s;
@@ -593,8 +615,9 @@ JobResult gcode(const Job& job, const Config& c, Diagnostics& diag, const Progre
   out.summary = fmt::format(
       "{}: {} paths, {} mm printed, {} travel moves ({} mm), {} retractions, {}{} mm filament, "
       "~{} min, {} bytes",
-      to_string(c.machine.flavor), s.paths, fixed(s.print_length, 1), s.travel_moves, fixed(s.travel_length, 1),
-      s.retractions, s.tool_changes ? std::to_string(s.tool_changes) + " tool changes, " : "",
+      to_string(c.machine.flavor), s.paths, fixed(s.print_length, 1), s.travel_moves,
+      fixed(s.travel_length, 1), s.retractions,
+      s.tool_changes ? std::to_string(s.tool_changes) + " tool changes, " : "",
       fixed(s.filament, 2), fixed(s.print_time_s / 60, 1), s.bytes);
   return out;
 }

@@ -1,32 +1,32 @@
 // Slicing routes: planar and graded slicing, laser powder-bed TPMS sheets, non-planar layers on
 // a surface and the non-planar paper's test surfaces.
-#include <algorithm>
-#include <cctype>
-#include <set>
 #include <fmt/format.h>
 #include <fmt/ranges.h>
 #include <sys/resource.h>
 
+#include <algorithm>
+#include <cctype>
 #include <filesystem>
-#include <optional>
 #include <nlohmann/json.hpp>
+#include <optional>
+#include <set>
 
-#include "routes.hpp"
 #include "../slice/process_json.hpp"
+#include "routes.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/field/implicit_3mf.hpp"
 #include "trellis/field/vcad.hpp"
 #include "trellis/geom/mesh_io.hpp"
-#include "trellis/machine/gcode_writer.hpp"
+#include "trellis/job/plate.hpp"
 #include "trellis/machine/cli.hpp"
+#include "trellis/machine/gcode_writer.hpp"
 #include "trellis/machine/laser.hpp"
 #include "trellis/machine/machine_check.hpp"
 #include "trellis/slice/nonplanar.hpp"
 #include "trellis/slice/pbf.hpp"
-#include "trellis/job/plate.hpp"
-#include "trellis/slice/slice.hpp"
 #include "trellis/slice/pipeline.hpp"
+#include "trellis/slice/slice.hpp"
 #include "trellis/toolpath/layer_spill.hpp"
 
 namespace trellis::routes {
@@ -106,7 +106,8 @@ TpmsKind tpms_kind(const std::string& name) {
 // "TYPE:CELL" or "TYPE:CELL:WEIGHT".
 Field tpms_spec(const std::string& spec, double* weight, const char* key) {
   const auto a = spec.find(':');
-  if (a == std::string::npos) throw SettingError("expected TYPE:CELL, got '" + spec + "'", {"", 0, key});
+  if (a == std::string::npos)
+    throw SettingError("expected TYPE:CELL, got '" + spec + "'", {"", 0, key});
   const auto b = spec.find(':', a + 1);
   double cell = 0;
   try {
@@ -138,16 +139,18 @@ Field laser_vcad(const std::string& path, const char* key = "job.input") {
   // A mesh is not read as .vcad text ("unexpected character '\x00'"): the lattice's envelope and
   // solids are fields; a mesh part is scanned on its own (pbf_solid).
   if (is_mesh_path(path) && !is_implicit_3mf(path))
-    throw SettingError("the TPMS lattice's envelope and solids are .vcad designs (fields); a mesh "
-                       "part is scanned as a solid by giving it as the input (`trellis pbf "
-                       "part.stl`), or describe the envelope in .vcad",
-                       {path, 0, key});
+    throw SettingError(
+        "the TPMS lattice's envelope and solids are .vcad designs (fields); a mesh "
+        "part is scanned as a solid by giving it as the input (`trellis pbf "
+        "part.stl`), or describe the envelope in .vcad",
+        {path, 0, key});
   Field f = read_field_design(path).field;
   if (f.has_process())
-    throw SettingError("the design sets process fields (fprocess: temperature, speed, flow, fan), "
-                       "which only the FDM slice route writes; remove the fprocess node for laser "
-                       "powder-bed fusion (scan parameters come from the laser profile)",
-                       {path, 0, "fprocess"});
+    throw SettingError(
+        "the design sets process fields (fprocess: temperature, speed, flow, fan), "
+        "which only the FDM slice route writes; remove the fprocess node for laser "
+        "powder-bed fusion (scan parameters come from the laser profile)",
+        {path, 0, "fprocess"});
   return f;
 }
 
@@ -176,7 +179,8 @@ PbfDesign pbf_design(const PbfConfig& p) {
     d.envelope = laser_vcad(p.envelope, "pbf.envelope");
   } else {
     const double side = 4 * p.cell;
-    const Vec3 s = p.size.size() == 3 ? Vec3{p.size[0], p.size[1], p.size[2]} : Vec3{side, side, side};
+    const Vec3 s =
+        p.size.size() == 3 ? Vec3{p.size[0], p.size[1], p.size[2]} : Vec3{side, side, side};
     d.envelope = rectprism(s);
   }
   if (!p.solids.empty()) d.solids = laser_vcad(p.solids, "pbf.solids");
@@ -338,8 +342,6 @@ HeightField test_surface(const SurfaceConfig& s) {
   return sphere_cap(s.radius, s.diameter);
 }
 
-
-
 }  // namespace
 
 namespace {
@@ -370,7 +372,8 @@ SliceJob slice_job_of(const Job& job, const Config& c, const std::string& input)
     sj.purge.offset_x = placed.offset_x;
     sj.purge.offset_y = placed.offset_y;
   }
-  if (c.machine.gradient_mode == GradientMode::Tools) sj.tools = std::max(1, c.machine.gradient_tool_count());
+  if (c.machine.gradient_mode == GradientMode::Tools)
+    sj.tools = std::max(1, c.machine.gradient_tool_count());
   else if (!job.output.empty())
     sj.lookahead = c.machine.lookahead;  // the writer's look-ahead
   sj.quantize = c.machine.quantize;
@@ -584,7 +587,9 @@ JobResult slice_plate_streamed(const Job& job, const Config& c, std::vector<Slic
 JobResult slice_part_shard(const Job& job, const Config& c, Diagnostics& diag,
                            const Progress& progress) {
   JobResult out;
-  if (job.input.empty()) throw SettingError("slice needs a design (.vcad) or mesh to read", {job.origin, 0, "job.input"});
+  if (job.input.empty())
+    throw SettingError("slice needs a design (.vcad) or mesh to read",
+                       {job.origin, 0, "job.input"});
   const double h = c.machine.layer_height;
   SliceJob sj = slice_job_of(job, c, job.input);
   sj.budget.seen = progress.estimate;
@@ -619,9 +624,8 @@ JobResult slice_part_shard(const Job& job, const Config& c, Diagnostics& diag,
     // The same in every shard of the job: the strategy, the design's materials, whether its
     // process fields need the merge's pass; and this shard's outline planes (that pass samples
     // the design at them).
-    nlohmann::ordered_json gj{{"strategy", sj.strategy},
-                              {"materials", r.fgm.materials},
-                              {"process", r.process_fields}};
+    nlohmann::ordered_json gj{
+        {"strategy", sj.strategy}, {"materials", r.fgm.materials}, {"process", r.process_fields}};
     if (r.process_fields) {
       std::vector<double> zs;
       for (std::size_t i = a; i < b; ++i) zs.push_back(r.outlines.at(i - r.outline_first).z);
@@ -637,7 +641,8 @@ JobResult slice_part_shard(const Job& job, const Config& c, Diagnostics& diag,
 // settings, placed (its x, y are bed coordinates) and dropped on the bed; plate layer i holds
 // layer i of every part that tall, parts in the order of the job file. A shard slices the parts
 // whole (skins look at the layers above and below) and keeps its layer range.
-JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
+JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag,
+                      const Progress& progress) {
   JobResult out;
   const bool plate = !job.parts.empty();
   const std::vector<PlatePart> placed = plate ? job.parts : std::vector<PlatePart>{PlatePart{}};
@@ -648,23 +653,26 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag, const 
   // check and the shards' ranges before any layer is sliced.
   for (const PlatePart& pp : placed) {
     Settings st = job.settings;
-    if (!pp.settings_toml.empty()) st.load_toml(pp.settings_toml, job.origin + " part '" + pp.label + "'");
+    if (!pp.settings_toml.empty())
+      st.load_toml(pp.settings_toml, job.origin + " part '" + pp.label + "'");
     const Config pc = st.config();
     const std::string input = plate ? pp.input : job.input;
     const Where where{job.origin, pp.line, plate ? "part.input" : "job.input"};
     if (input.empty()) throw SettingError("slice needs a design (.vcad) or mesh to read", where);
     if (pc.machine.layer_height != h)
-      throw SettingError("part '" + pp.label + "' sets its own layer height: every part of a "
-                         "plate prints in the plate's layers (extrusion.layer_height)",
+      throw SettingError("part '" + pp.label +
+                             "' sets its own layer height: every part of a "
+                             "plate prints in the plate's layers (extrusion.layer_height)",
                          {job.origin, pp.line, "extrusion.layer_height"});
     SlicePart p;
     p.sj = slice_job_of(job, pc, input);
     p.sj.budget.seen = progress.estimate;
     if (p.sj.strategy != 0 && plate)
-      throw SettingError("graded slicing (slice.strategy 1 or 2) does not go on plates: its "
-                         "purge tower and look-ahead would cross parts (one graded part shards: "
-                         "docs/plates.md)",
-                         {job.origin, pp.line, "slice.strategy"});
+      throw SettingError(
+          "graded slicing (slice.strategy 1 or 2) does not go on plates: its "
+          "purge tower and look-ahead would cross parts (one graded part shards: "
+          "docs/plates.md)",
+          {job.origin, pp.line, "slice.strategy"});
     SliceJob probe = p.sj;
     probe.layer_begin = probe.layer_end = 0;
     const SliceResult r = run_slice(probe, progress);
@@ -674,7 +682,8 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag, const 
   }
   if (plate) {
     std::vector<PartFootprint> fp;
-    for (std::size_t k = 0; k < parts.size(); ++k) fp.push_back(place_footprint(placed[k], parts[k].extent));
+    for (std::size_t k = 0; k < parts.size(); ++k)
+      fp.push_back(place_footprint(placed[k], parts[k].extent));
     const MachineProfile& m = c.machine;
     const BBox2 bed = m.origin == BedOrigin::Center
                           ? BBox2{{-m.bed_x / 2, -m.bed_y / 2}, {m.bed_x / 2, m.bed_y / 2}}
@@ -761,7 +770,8 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
   if (job.parts.empty() && job.shards) return slice_part_shard(job, c, diag, progress);
   if (!job.parts.empty() || job.shards) return slice_plate(job, c, diag, progress);
   JobResult out;
-  if (job.input.empty()) throw SettingError("slice needs a design (.vcad) or mesh to read", {"", 0, "job.input"});
+  if (job.input.empty())
+    throw SettingError("slice needs a design (.vcad) or mesh to read", {"", 0, "job.input"});
   SliceJob sj = slice_job_of(job, c, job.input);
   sj.budget.seen = progress.estimate;
   // G-code alone: layers stream through a temporary file in bounded memory (planar and graded
@@ -800,7 +810,8 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
     out.files.push_back(job.toolpath);
   }
   if (!job.report.empty()) {
-    write_file_atomic(job.report, with_job(slice_report_json(sj, r, &g), job, job.report, true, &diag));
+    write_file_atomic(job.report,
+                      with_job(slice_report_json(sj, r, &g), job, job.report, true, &diag));
     out.files.push_back(job.report);
   }
   RenderOptions ro;
@@ -811,7 +822,8 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
   previews(r.toolpath, job.preview, c.output.preview_layers, ro, out);
   if (sj.strategy != 0)
     out.summary = fmt::format(
-        "strategy {}: {} colours, {} faces, {} paths{}, {} {} changes (look-ahead {} mm), {} purges "
+        "strategy {}: {} colours, {} faces, {} paths{}, {} {} changes (look-ahead {} mm), {} "
+        "purges "
         "({} mm3), gradient error mean {} max {} (bound {}), shortest {} mm; {} route, {} layers, "
         "~{} min",
         sj.strategy,
@@ -819,10 +831,10 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
                              : std::to_string(sj.fgm.palette.colors),
         r.fgm.faces, r.fgm.paths,
         r.fgm.joined ? fmt::format(" in {} beads (path order)", r.fgm.paths - r.fgm.joined) : "",
-        g.gradient_changes, to_string(c.machine.gradient_mode),
-        fixed(g.lookahead, 0), r.fgm.purges, fixed(r.fgm.purge_volume, 0),
-        fixed(r.fgm.error_mean, 4), fixed(r.fgm.error_max, 4), fixed(r.fgm.error_bound, 4),
-        fixed(r.fgm.shortest_path, 2), to_string(r.route), layers, fixed(g.print_time_s / 60, 1));
+        g.gradient_changes, to_string(c.machine.gradient_mode), fixed(g.lookahead, 0), r.fgm.purges,
+        fixed(r.fgm.purge_volume, 0), fixed(r.fgm.error_mean, 4), fixed(r.fgm.error_max, 4),
+        fixed(r.fgm.error_bound, 4), fixed(r.fgm.shortest_path, 2), to_string(r.route), layers,
+        fixed(g.print_time_s / 60, 1));
   else
     out.summary = fmt::format(
         "{} route: {} layers of {} mm, {} paths ({} wall loops, {} skin paths, {} infill lines), "
@@ -836,15 +848,13 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
                                fixed(r.fgm.min_segment, 1), r.fgm.short_merged, r.fgm.short_kept);
   out.summary += process_summary(r.process, g);
   if (sj.strategy != 0 && r.fgm.tower.built)
-    out.summary += fmt::format("; prime tower {} at ({}, {}), {} layers, {} mm3, {} g, ~{} min",
-                               r.fgm.tower.size_x == r.fgm.tower.size_y
-                                   ? fixed(r.fgm.tower.side, 1) + " mm square"
-                                   : fixed(r.fgm.tower.size_x, 1) + " x " +
-                                         fixed(r.fgm.tower.size_y, 1) + " mm",
-                               fixed(r.fgm.tower.x, 1),
-                               fixed(r.fgm.tower.y, 1), r.fgm.tower.layers,
-                               fixed(r.fgm.tower.volume, 0), fixed(r.fgm.tower.mass, 1),
-                               fixed(r.fgm.tower.time / 60, 1));
+    out.summary += fmt::format(
+        "; prime tower {} at ({}, {}), {} layers, {} mm3, {} g, ~{} min",
+        r.fgm.tower.size_x == r.fgm.tower.size_y
+            ? fixed(r.fgm.tower.side, 1) + " mm square"
+            : fixed(r.fgm.tower.size_x, 1) + " x " + fixed(r.fgm.tower.size_y, 1) + " mm",
+        fixed(r.fgm.tower.x, 1), fixed(r.fgm.tower.y, 1), r.fgm.tower.layers,
+        fixed(r.fgm.tower.volume, 0), fixed(r.fgm.tower.mass, 1), fixed(r.fgm.tower.time / 60, 1));
   return out;
 }
 
@@ -913,13 +923,15 @@ JobResult pbf_plate(const Job& job, const Config& c, Diagnostics& diag, const Pr
     Part p;
     p.place = pp;
     Settings st = job.settings;
-    if (!pp.settings_toml.empty()) st.load_toml(pp.settings_toml, job.origin + " part '" + pp.label + "'");
+    if (!pp.settings_toml.empty())
+      st.load_toml(pp.settings_toml, job.origin + " part '" + pp.label + "'");
     p.config = st.config();
     try {
       check_pbf_cells(p.config, pbf_options(job, p.config));
     } catch (const SettingError& e) {
       if (!plate) throw;
-      throw SettingError("part '" + pp.label + "': " + e.message(), {job.origin, pp.line, e.where().element});
+      throw SettingError("part '" + pp.label + "': " + e.message(),
+                         {job.origin, pp.line, e.where().element});
     }
     p.design = pbf_part_design(p.config.pbf, plate ? pp.input : job.input, st, diag);
     p.extent = p.design.part().extent();
@@ -927,8 +939,9 @@ JobResult pbf_plate(const Job& job, const Config& c, Diagnostics& diag, const Pr
       throw GeometryError("part '" + pp.label + "' has no finite extent: give it an envelope",
                           {job.origin, pp.line, "part"});
     if (p.config.laser.layer != prof.layer)
-      throw SettingError("part '" + pp.label + "' sets its own layer thickness: every part of a "
-                         "plate is built in the plate's layers (scan.layer)",
+      throw SettingError("part '" + pp.label +
+                             "' sets its own layer thickness: every part of a "
+                             "plate is built in the plate's layers (scan.layer)",
                          {job.origin, pp.line, "scan.layer"});
     p.layers = layer_planes(p.extent.min.z, p.extent.max.z, prof.layer).size();
     parts.push_back(std::move(p));
@@ -939,9 +952,10 @@ JobResult pbf_plate(const Job& job, const Config& c, Diagnostics& diag, const Pr
     check_plate(fp, {{0, 0}, {prof.build_x, prof.build_y}}, c.plate.clearance, job.origin);
     for (const auto& p : parts)
       if (p.extent.max.z - p.extent.min.z > prof.build_z)
-        throw SettingError(fmt::format("part '{}' is {:.3f} mm tall, the build height is {} mm",
-                                       p.place.label, p.extent.max.z - p.extent.min.z, prof.build_z),
-                           {job.origin, p.place.line, "laser.build_z"});
+        throw SettingError(
+            fmt::format("part '{}' is {:.3f} mm tall, the build height is {} mm", p.place.label,
+                        p.extent.max.z - p.extent.min.z, prof.build_z),
+            {job.origin, p.place.line, "laser.build_z"});
   }
   // Plate layer i holds layer i of every part that tall; its work is the parts' XY areas.
   std::size_t total = 0;
@@ -977,7 +991,10 @@ JobResult pbf_plate(const Job& job, const Config& c, Diagnostics& diag, const Pr
               for (Vec3& q : path.points) q = place_point(p.place, p.extent, q);
               path.part = static_cast<int>(k + 1);
             }
-            (path.points.size() == 2 && (path.role == PathRole::Hatch || path.role == PathRole::Infill) ? hatch_vectors : contour_vectors)++;
+            (path.points.size() == 2 &&
+                     (path.role == PathRole::Hatch || path.role == PathRole::Infill)
+                 ? hatch_vectors
+                 : contour_vectors)++;
             tp.layers[i - a].paths.push_back(std::move(path));
           }
         },
@@ -992,9 +1009,10 @@ JobResult pbf_plate(const Job& job, const Config& c, Diagnostics& diag, const Pr
       times.add(split_among_lasers(tp.layers[i], setup, a + i));
   }
   if (job.shards)
-    return shard_written(job, tp, a, b, total,
-                         fmt::format("{} contour and {} hatch vectors", contour_vectors, hatch_vectors),
-                         std::move(out));
+    return shard_written(
+        job, tp, a, b, total,
+        fmt::format("{} contour and {} hatch vectors", contour_vectors, hatch_vectors),
+        std::move(out));
   out.toolpath = std::make_shared<Toolpath>(tp);
   write_pbf_main(job, c, tp, out);
   if (!job.toolpath.empty()) {
@@ -1011,8 +1029,11 @@ JobResult pbf_plate(const Job& job, const Config& c, Diagnostics& diag, const Pr
     j["hatch_vectors"] = hatch_vectors;
     j["parts"] = nlohmann::ordered_json::array();
     for (const auto& p : parts)
-      j["parts"].push_back({{"label", p.place.label}, {"x_mm", p.place.x}, {"y_mm", p.place.y},
-                            {"rotation_deg", p.place.rotation}, {"layers", p.layers}});
+      j["parts"].push_back({{"label", p.place.label},
+                            {"x_mm", p.place.x},
+                            {"y_mm", p.place.y},
+                            {"rotation_deg", p.place.rotation},
+                            {"layers", p.layers}});
     add_laser_report(j, times, c);
     write_file_atomic(job.report, with_job(j.dump(2) + "\n", job, job.report, true, &diag));
     out.files.push_back(job.report);
@@ -1042,16 +1063,18 @@ void write_graded_merge(const Job& job, const Config& c, Toolpath& tp, const std
   const SliceJob sj = slice_job_of(job, c, job.input);
   if (!g.contains("strategy") || !g["strategy"].is_number_integer() || !g.contains("materials") ||
       !g["materials"].is_number_integer() || g["strategy"].get<int>() != sj.strategy)
-    throw SettingError("the shards' manifests say graded slicing, their job does not agree "
-                       "(slice.strategy): merge the shards of one run",
-                       {job.origin, 0, "slice.strategy"});
+    throw SettingError(
+        "the shards' manifests say graded slicing, their job does not agree "
+        "(slice.strategy): merge the shards of one run",
+        {job.origin, 0, "slice.strategy"});
   const FgmOptions fo = graded_options(sj, g["materials"].get<int>());
   // Mixtures as a shard plans them: one share per material, each in 0..1.
   for (std::size_t i = 0; i < tp.layers.size(); ++i)
     for (const Path& p : tp.layers[i].paths)
       if (!p.mixture.empty() &&
           (p.mixture.size() != static_cast<std::size_t>(fo.palette.materials) ||
-           std::any_of(p.mixture.begin(), p.mixture.end(), [](double v) { return !(v >= 0 && v <= 1); })))
+           std::any_of(p.mixture.begin(), p.mixture.end(),
+                       [](double v) { return !(v >= 0 && v <= 1); })))
         throw ParseError(fmt::format("graded shard layer {}: a path's mixture is not {} shares in "
                                      "0..1; the shard files do not belong to this job",
                                      i, fo.palette.materials),
@@ -1065,8 +1088,8 @@ void write_graded_merge(const Job& job, const Config& c, Toolpath& tp, const std
     // The process pass of the single run (slice/fgm_process.hpp), over every path, the tower's
     // too, the design sampled at the outlines' planes.
     if (outline_z.size() != total_layers)
-      throw SettingError(fmt::format("the shards carry {} outline planes for {} layers", outline_z.size(),
-                                     total_layers),
+      throw SettingError(fmt::format("the shards carry {} outline planes for {} layers",
+                                     outline_z.size(), total_layers),
                          {job.origin, 0, "outline_z"});
     VcadOptions vo;
     vo.mesh_voxel = sj.mesh_voxel;
@@ -1133,7 +1156,8 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
   } else {
     r = plan_pbf(d, po, progress);
     diag.merge(r.diagnostics);
-    tp = pbf_toolpath(r, prof.contour_power, prof.contour_speed, prof.hatch_power, prof.hatch_speed);
+    tp =
+        pbf_toolpath(r, prof.contour_power, prof.contour_speed, prof.hatch_power, prof.hatch_speed);
     if (split)
       for (std::size_t i = 0; i < tp.layers.size(); ++i)
         times.add(split_among_lasers(tp.layers[i], setup, i));
@@ -1162,18 +1186,23 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
     j["route"] = c.pbf.route;
     j["strategy"] = c.pbf.strategy;
     // The lattice is the design's own sheet (its φ named by the design file) or the settings'.
-    j["settings"] = {{"lattice", from_design ? "design " + fs::path(job.input).filename().string()
-                                             : std::string("settings")},
-                     {"cell_type", from_design ? nlohmann::ordered_json()
-                                               : nlohmann::ordered_json(c.pbf.cell_type)},
-                     {"cell_mm", from_design ? nlohmann::ordered_json()
-                                             : nlohmann::ordered_json(c.pbf.cell)},
-                     {"c", d.c.text}, {"thickness_mm", d.thickness},
-                     {"layer_mm", po.layer}, {"segment_length_mm", po.segment_length},
-                     {"segment_gap_mm", po.segment_gap}, {"hatch_distance_mm", po.hatch_distance},
-                     {"beam_compensation_mm", po.beam_compensation}, {"melt_pool_mm", po.melt_pool},
-                     {"resolution_mm", po.resolution}, {"thin_multiple", po.thin_multiple},
-                     {"min_inclination_deg", po.min_inclination}};
+    j["settings"] = {
+        {"lattice", from_design ? "design " + fs::path(job.input).filename().string()
+                                : std::string("settings")},
+        {"cell_type",
+         from_design ? nlohmann::ordered_json() : nlohmann::ordered_json(c.pbf.cell_type)},
+        {"cell_mm", from_design ? nlohmann::ordered_json() : nlohmann::ordered_json(c.pbf.cell)},
+        {"c", d.c.text},
+        {"thickness_mm", d.thickness},
+        {"layer_mm", po.layer},
+        {"segment_length_mm", po.segment_length},
+        {"segment_gap_mm", po.segment_gap},
+        {"hatch_distance_mm", po.hatch_distance},
+        {"beam_compensation_mm", po.beam_compensation},
+        {"melt_pool_mm", po.melt_pool},
+        {"resolution_mm", po.resolution},
+        {"thin_multiple", po.thin_multiple},
+        {"min_inclination_deg", po.min_inclination}};
     j["layers"] = r.layers.size();
     j["contour_vectors"] = r.contour_vectors;
     j["hatch_vectors"] = r.hatch_vectors;
@@ -1190,7 +1219,9 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
     const PbfStats t = thickness_stats(r.layers);
     j["wall_thickness_mm"] = {{"mean", t.mean}, {"min", t.min}, {"max", t.max}, {"spread", t.cv}};
     if (po.stl_route)
-      j["mesh"] = {{"triangles", r.mesh_triangles}, {"mesh_bytes", r.mesh_bytes}, {"grid_bytes", r.grid_bytes}};
+      j["mesh"] = {{"triangles", r.mesh_triangles},
+                   {"mesh_bytes", r.mesh_bytes},
+                   {"grid_bytes", r.grid_bytes}};
     j["scan_time_s"] = {{"hybrid", r.scan_time},
                         {"r67_baseline", r.scan_time_r67},
                         {"saving", r.scan_time_r67 > 0 ? 1 - r.scan_time / r.scan_time_r67 : 0}};
@@ -1212,11 +1243,13 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
     render_fr_plot(r, c.pbf.strategy == "r67", out.files.back());
   }
   out.summary = fmt::format(
-      "{} ({} route): {} layers, {} contour vectors ({} mm), {} hatch vectors ({} mm); FR_a mean {} "
+      "{} ({} route): {} layers, {} contour vectors ({} mm), {} hatch vectors ({} mm); FR_a mean "
+      "{} "
       "cv {} (R67 baseline {} cv {}); scan time {} s (R67 {} s); {} s, peak {} MB",
       c.pbf.strategy, c.pbf.route, r.layers.size(), r.contour_vectors, fixed(r.contour_length, 1),
       r.hatch_vectors, fixed(r.hatch_length, 1), fixed(h.mean, 3), fixed(h.cv, 3), fixed(b.mean, 3),
-      fixed(b.cv, 3), fixed(r.scan_time, 1), fixed(r.scan_time_r67, 1), fixed(r.seconds, 2), fixed(rss, 0));
+      fixed(b.cv, 3), fixed(r.scan_time, 1), fixed(r.scan_time_r67, 1), fixed(r.seconds, 2),
+      fixed(rss, 0));
   out.summary += laser_summary(times);
   return out;
 }
@@ -1226,11 +1259,13 @@ JobResult nonplanar(const Job& job, const Config& c, Diagnostics& diag, const Pr
   const auto& np = c.nonplanar;
   HeightField surface;
   if (!job.input.empty() && !np.height_fn.empty())
-    throw SettingError("give a surface mesh or nonplanar.height_fn, not both", {"", 0, "nonplanar.height_fn"});
+    throw SettingError("give a surface mesh or nonplanar.height_fn, not both",
+                       {"", 0, "nonplanar.height_fn"});
   if ((!job.input.empty() || !np.height_fn.empty()) && job.settings.has("surface.kind") &&
       !job.embedded)
-    throw SettingError("give one surface: a mesh, nonplanar.height_fn or a test surface (surface.kind)",
-                       {"", 0, "surface.kind"});
+    throw SettingError(
+        "give one surface: a mesh, nonplanar.height_fn or a test surface (surface.kind)",
+        {"", 0, "surface.kind"});
   if (!job.input.empty()) {
     surface = HeightField::from_mesh(read_mesh(job.input), fs::path(job.input).filename().string());
   } else if (!np.height_fn.empty()) {
@@ -1238,12 +1273,15 @@ JobResult nonplanar(const Job& job, const Config& c, Diagnostics& diag, const Pr
       throw SettingError("the height function needs nonplanar.domain = x0,y0,x1,y1 (--domain)",
                          {"", 0, "nonplanar.domain"});
     surface = HeightField::from_expression(
-        np.height_fn, {{np.domain[0], np.domain[1]}, {np.domain[2], np.domain[3]}}, "z = " + np.height_fn);
+        np.height_fn, {{np.domain[0], np.domain[1]}, {np.domain[2], np.domain[3]}},
+        "z = " + np.height_fn);
   } else if (job.settings.has("surface.kind")) {
     surface = test_surface(c.surface);
   } else {
-    throw SettingError("give a surface mesh, --height-fn with --domain, or a test surface (--set surface.kind=...)",
-                       {"", 0, "job.input"});
+    throw SettingError(
+        "give a surface mesh, --height-fn with --domain, or a test surface (--set "
+        "surface.kind=...)",
+        {"", 0, "job.input"});
   }
   NonplanarParams prm = np.params;
   prm.layer_height = c.machine.layer_height;
@@ -1253,21 +1291,24 @@ JobResult nonplanar(const Job& job, const Config& c, Diagnostics& diag, const Pr
     if (np.layer_tools.find(':') != std::string::npos && !job.settings.has("nonplanar.layers"))
       prm.layers = static_cast<int>(prm.layer_tools.size());
   }
-  require_bath(job, c.machine, "nonplanar", "non-planar layers are printed inside a support bath (the "
+  require_bath(job, c.machine, "nonplanar",
+               "non-planar layers are printed inside a support bath (the "
                "non-planar paper's FRESH set-up)");
   check_budget(estimate_nonplanar(surface.domain(), prm), budget_of(job, c, progress));
   // A shard (`--shard K/N`) keeps layers [a, b) of the run. Each layer's lines are its own, but
   // its serpentine starts where the layer before ended, so a shard slices layers 0..b-1 (the
   // ones before it only for that start point; truncating prm.layers leaves them unchanged).
   const std::size_t total = static_cast<std::size_t>(prm.layers);
-  const auto [a, b] = job.shards ? shard_range(std::vector<double>(total, 1.0), job.shard, job.shards)
-                                 : std::pair<std::size_t, std::size_t>{0, total};
+  const auto [a, b] = job.shards
+                          ? shard_range(std::vector<double>(total, 1.0), job.shard, job.shards)
+                          : std::pair<std::size_t, std::size_t>{0, total};
   if (job.shards) prm.layers = static_cast<int>(std::max<std::size_t>(b, 1));
   NonplanarResult r = slice_nonplanar(surface, prm, progress);
   if (job.shards) {
     prm.layers = static_cast<int>(total);
     r.toolpath.layers.resize(b);
-    r.toolpath.layers.erase(r.toolpath.layers.begin(), r.toolpath.layers.begin() + static_cast<std::ptrdiff_t>(a));
+    r.toolpath.layers.erase(r.toolpath.layers.begin(),
+                            r.toolpath.layers.begin() + static_cast<std::ptrdiff_t>(a));
     r.layers.resize(b);
     r.layers.erase(r.layers.begin(), r.layers.begin() + static_cast<std::ptrdiff_t>(a));
   }
@@ -1281,7 +1322,8 @@ JobResult nonplanar(const Job& job, const Config& c, Diagnostics& diag, const Pr
   if (job.shards) {
     std::size_t paths = 0;
     for (const auto& l : r.toolpath.layers) paths += l.paths.size();
-    return shard_written(job, r.toolpath, a, b, total, fmt::format("{} paths", paths), std::move(out));
+    return shard_written(job, r.toolpath, a, b, total, fmt::format("{} paths", paths),
+                         std::move(out));
   }
   progress("surface check", 0);
   const SurfaceDeviation dev = surface_deviation(r.toolpath, surface, prm);
@@ -1292,7 +1334,8 @@ JobResult nonplanar(const Job& job, const Config& c, Diagnostics& diag, const Pr
     out.files.push_back(job.toolpath);
   }
   if (!job.report.empty()) {
-    write_file_atomic(job.report, with_job(nonplanar_report_json(r, prm, surface, dev, &g), job, job.report, true, &diag));
+    write_file_atomic(job.report, with_job(nonplanar_report_json(r, prm, surface, dev, &g), job,
+                                           job.report, true, &diag));
     out.files.push_back(job.report);
   }
   if (!job.preview.empty()) {
@@ -1313,11 +1356,13 @@ JobResult nonplanar(const Job& job, const Config& c, Diagnostics& diag, const Pr
   double length = 0;
   for (const auto& l : r.layers) paths += l.paths, travel += l.travel_moves, length += l.length;
   out.summary = fmt::format(
-      "{} layers of {} mm, {} paths of {} mm width, {} travel moves within layers, {} tool changes, "
-      "{} mm of path, steepest descent {} deg, max deviation from the surface {} mm (chords {} mm), ~{} min",
-      r.layers.size(), fixed(prm.layer_height, 3), paths, fixed(prm.width, 3), travel, g.tool_changes,
-      fixed(length, 1), fixed(r.max_descent_deg, 1), fixed(dev.max_point, 4), fixed(dev.max_chord, 4),
-      fixed(g.print_time_s / 60, 1));
+      "{} layers of {} mm, {} paths of {} mm width, {} travel moves within layers, {} tool "
+      "changes, "
+      "{} mm of path, steepest descent {} deg, max deviation from the surface {} mm (chords {} "
+      "mm), ~{} min",
+      r.layers.size(), fixed(prm.layer_height, 3), paths, fixed(prm.width, 3), travel,
+      g.tool_changes, fixed(length, 1), fixed(r.max_descent_deg, 1), fixed(dev.max_point, 4),
+      fixed(dev.max_chord, 4), fixed(g.print_time_s / 60, 1));
   return out;
 }
 
@@ -1335,7 +1380,8 @@ JobResult surface(const Job& job, const Config& c, Diagnostics& diag, const Prog
       out.files.push_back(job.output);
     } else {
       if (job.machine.empty())
-        throw SettingError("the angle test as G-code needs --machine (or write .json)", {"", 0, "--machine"});
+        throw SettingError("the angle test as G-code needs --machine (or write .json)",
+                           {"", 0, "--machine"});
       GcodeStats g;
       g = write_gcode_out(job.output, tp, job, c.machine, out, diag);
     }

@@ -5,21 +5,21 @@
 #include <cctype>
 #include <cstdio>
 #include <filesystem>
-#include <set>
 #include <nlohmann/json.hpp>
+#include <set>
 
 #include "routes.hpp"
 #include "trellis/analysis/collisions.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
-#include "trellis/job/plate.hpp"
 #include "trellis/geom/mesh_io.hpp"
-#include "trellis/machine/cli.hpp"
+#include "trellis/job/plate.hpp"
 #include "trellis/machine/bgcode.hpp"
 #include "trellis/machine/bgcode_writer.hpp"
+#include "trellis/machine/cli.hpp"
 #include "trellis/machine/gcode_reader.hpp"
-#include "trellis/machine/toolpath_3mf.hpp"
 #include "trellis/machine/machine_check.hpp"
+#include "trellis/machine/toolpath_3mf.hpp"
 #include "trellis/toolpath/json.hpp"
 #include "trellis/version.hpp"
 
@@ -50,7 +50,8 @@ std::string with_job(const std::string& json, const Job& job, const std::string&
   return j.dump(2) + "\n";
 }
 
-std::string with_field(const std::string& json, const std::string& field, const std::string& value_json) {
+std::string with_field(const std::string& json, const std::string& field,
+                       const std::string& value_json) {
   nlohmann::ordered_json j = nlohmann::ordered_json::parse(json);
   j[field] = nlohmann::ordered_json::parse(value_json);
   return j.dump(2) + "\n";
@@ -96,7 +97,8 @@ void write_laser_build(const std::string& path, Toolpath& tp, const Job& job, co
 // A deposition print as a 3MF toolpath: checked against the machine and estimated as the G-code
 // the machine would get (made in memory, not written), so the run says the same either way.
 static GcodeStats write_3mf_print(const std::string& path, Toolpath tp, const Job& job,
-                                  const MachineProfile& machine, JobResult& out, Diagnostics& diag) {
+                                  const MachineProfile& machine, JobResult& out,
+                                  Diagnostics& diag) {
   GcodeStats stats;
   write_gcode(tp, machine, &stats);
   for (const auto& [kind, message] : stats.warnings) diag.warn(kind, message);
@@ -109,7 +111,8 @@ GcodeStats write_gcode_out(const std::string& path, Toolpath tp, const Job& job,
   GcodeStats stats;
   if (!out.toolpath) out.toolpath = std::make_shared<Toolpath>(tp);
   if (path.empty()) return stats;
-  check_settings_used(job, &tp, diag);  // now that the toolpath is known: mixtures, tools, process values
+  check_settings_used(job, &tp,
+                      diag);  // now that the toolpath is known: mixtures, tools, process values
   if (is_3mf_output(path)) return write_3mf_print(path, std::move(tp), job, machine, out, diag);
   tp.job = embedded_job(job, path);
   stats = write_gcode_file(path, tp, machine, gcode_thumbnails(tp, machine));
@@ -186,7 +189,6 @@ std::string fixed(double v, int decimals) {
   return fmt::format("{:.{}f}", v, decimals);
 }
 
-
 // The facts of a run that Setting::when names (settings.hpp).
 static UseContext use_context(const Job& job) {
   UseContext u;
@@ -196,17 +198,17 @@ static UseContext use_context(const Job& job) {
   const std::string& main = job.*spec.main_output;
   const std::string ext = fs::path(main).extension().string();
   using G = RouteSpec::Gcode;
-  const bool gcode = spec.gcode == G::always ||
-                     (spec.gcode == G::when_written && !main.empty()) ||
-                     (spec.gcode == G::when_named_gcode && !main.empty() && ext != ".json" &&
-                      ext != ".stl");
+  const bool gcode =
+      spec.gcode == G::always || (spec.gcode == G::when_written && !main.empty()) ||
+      (spec.gcode == G::when_named_gcode && !main.empty() && ext != ".json" && ext != ".stl");
   if (gcode) u.facts.push_back("gcode");
   if (!job.preview.empty()) u.facts.push_back("preview");
   if (!job.input.empty() || !job.parts.empty()) u.facts.push_back("input");
   if (!job.report.empty()) u.facts.push_back("report");
   if (ext == ".3mf") u.facts.push_back("3mf");
   std::string in = fs::path(job.input).extension().string();
-  std::transform(in.begin(), in.end(), in.begin(), [](unsigned char ch) { return std::tolower(ch); });
+  std::transform(in.begin(), in.end(), in.begin(),
+                 [](unsigned char ch) { return std::tolower(ch); });
   if (in == ".stl" || in == ".obj" || in == ".3mf") u.facts.push_back("mesh");
   if (ext == ".bgcode" || fs::path(job.gcode).extension() == ".bgcode") u.facts.push_back("bgcode");
   if (!job.origin.empty()) u.facts.push_back("job");
@@ -347,14 +349,17 @@ void check_profile_kind(const Job& job, const std::vector<std::string>& sections
   }
   const bool route_laser = std::find(sections.begin(), sections.end(), "laser") != sections.end();
   if (route_laser && extrusion && !laser)
-    throw SettingError("the " + job.route + " route makes laser paths and needs a laser profile "
-                       "(with [laser] and [scan]); this is an extrusion profile",
+    throw SettingError("the " + job.route +
+                           " route makes laser paths and needs a laser profile "
+                           "(with [laser] and [scan]); this is an extrusion profile",
                        {job.machine, extrusion->origin.line, extrusion_key});
   if (!route_laser && laser && !extrusion)
-    throw SettingError("the " + job.route + " route makes extrusion paths and needs an FDM, "
-                       "pneumatic or bath profile; this is a laser profile (a laser build is a .cli file: "
-                       "the pbf route, or Toolpath.cli in Python)",
-                       {job.machine, laser->origin.line, laser_key});
+    throw SettingError(
+        "the " + job.route +
+            " route makes extrusion paths and needs an FDM, "
+            "pneumatic or bath profile; this is a laser profile (a laser build is a .cli file: "
+            "the pbf route, or Toolpath.cli in Python)",
+        {job.machine, laser->origin.line, laser_key});
 }
 
 }  // namespace
@@ -411,15 +416,15 @@ JobResult run_job(const Job& job, Diagnostics& diag, const Progress& progress) {
   if (c.threads > 0)
     threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
                                                     static_cast<std::size_t>(c.threads));
-  for (const std::string* out : {&job.output, &job.report, &job.toolpath, &job.gcode, &job.lattice}) {
+  for (const std::string* out :
+       {&job.output, &job.report, &job.toolpath, &job.gcode, &job.lattice}) {
     if (out->empty()) continue;
     const fs::path dir = fs::path(*out).parent_path();
     if (!dir.empty()) create_output_directories(dir.string());
   }
   // The previews, before the work they would follow: at most output.preview_layers layer
   // images, the 3-D picture and plots, and AERO's step frames.
-  if (!job.preview.empty() && c.output.preview_layers + c.output.frames > 0)
-  {
+  if (!job.preview.empty() && c.output.preview_layers + c.output.frames > 0) {
     Estimate e = layer_images_estimate(c.output.preview_layers + c.output.frames + 2.0,
                                        c.output.image_size, 0);
     e.change = "--image-size (output.image_size) or --preview-layers (output.preview_layers)";

@@ -347,7 +347,8 @@ Graph make_lattice2d(const AtlasParams& p) {
     const double a1 = p.cell_size / 2 * std::tan(p.arrowhead_outer_deg * kPi / 180);
     require(p.cell_height < a1,
             "arrowhead: the cell height must be below the outer chevron's height, " +
-                std::to_string(a1) + " mm for this cell and outer angle (the inner angle would "
+                std::to_string(a1) +
+                " mm for this cell and outer angle (the inner angle would "
                 "be <= 0)");
   }
   require(!p.handles || r.shape == RegionShape::Rectangle, "handles need a rectangular region");

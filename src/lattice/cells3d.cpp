@@ -30,7 +30,8 @@ void add(std::vector<Seg>& out, Vec3 a, Vec3 b) {
 
 std::vector<Vec3> corners() {
   std::vector<Vec3> c;
-  for (int i = 0; i < 8; ++i) c.push_back({double(i & 1), double((i >> 1) & 1), double((i >> 2) & 1)});
+  for (int i = 0; i < 8; ++i)
+    c.push_back({double(i & 1), double((i >> 1) & 1), double((i >> 2) & 1)});
   return c;
 }
 
@@ -66,7 +67,8 @@ void polyhedron(std::vector<Seg>& out, const std::vector<std::array<int, 3>>& ve
         b[k] = verts[j][k] + centre[k];
         inside &= a[k] >= 0 && a[k] <= 4 && b[k] >= 0 && b[k] <= 4;
       }
-      if (inside) add(out, {a[0] / 4.0, a[1] / 4.0, a[2] / 4.0}, {b[0] / 4.0, b[1] / 4.0, b[2] / 4.0});
+      if (inside)
+        add(out, {a[0] / 4.0, a[1] / 4.0, a[2] / 4.0}, {b[0] / 4.0, b[1] / 4.0, b[2] / 4.0});
     }
 }
 
@@ -124,20 +126,23 @@ std::vector<Seg> cell_struts(UnitCell cell) {
             v.push_back(q);
           }
       polyhedron(out, v, 2, {2, 2, 2});
-      for (int i = 0; i < 8; ++i) polyhedron(out, v, 2, {4 * (i & 1), 4 * ((i >> 1) & 1), 4 * ((i >> 2) & 1)});
+      for (int i = 0; i < 8; ++i)
+        polyhedron(out, v, 2, {4 * (i & 1), 4 * ((i >> 1) & 1), 4 * ((i >> 2) & 1)});
       break;
     }
     case UnitCell::RhombicDodecahedron: {
       // (±1, ±1, ±1) and (±2, 0, 0) permutations; edges join the two kinds (length √3).
       std::vector<std::array<int, 3>> v;
-      for (int i = 0; i < 8; ++i) v.push_back({(i & 1) ? 1 : -1, (i & 2) ? 1 : -1, (i & 4) ? 1 : -1});
+      for (int i = 0; i < 8; ++i)
+        v.push_back({(i & 1) ? 1 : -1, (i & 2) ? 1 : -1, (i & 4) ? 1 : -1});
       for (int axis = 0; axis < 3; ++axis)
         for (int s = -2; s <= 2; s += 4) {
           std::array<int, 3> q{0, 0, 0};
           q[axis] = s;
           v.push_back(q);
         }
-      for (int i = 0; i < 8; ++i) polyhedron(out, v, 3, {4 * (i & 1), 4 * ((i >> 1) & 1), 4 * ((i >> 2) & 1)});
+      for (int i = 0; i < 8; ++i)
+        polyhedron(out, v, 3, {4 * (i & 1), 4 * ((i >> 1) & 1), 4 * ((i >> 2) & 1)});
       for (int axis = 0; axis < 3; ++axis)
         for (int side = 0; side < 2; ++side) {
           std::array<int, 3> c{2, 2, 2};
@@ -216,9 +221,15 @@ void assign_materials(Graph& g, MaterialRule rule, double tolerance, double cone
   for (auto& e : g.edges) {
     const Vec3 a = g.nodes[e.a], b = g.nodes[e.b];
     switch (rule) {
-      case MaterialRule::None: e.material = 0; break;
-      case MaterialRule::XyPlane: e.material = std::abs(a.z - b.z) <= tolerance ? 0 : 1; break;
-      case MaterialRule::Component: e.material = std::max(0, comp[e.a]); break;
+      case MaterialRule::None:
+        e.material = 0;
+        break;
+      case MaterialRule::XyPlane:
+        e.material = std::abs(a.z - b.z) <= tolerance ? 0 : 1;
+        break;
+      case MaterialRule::Component:
+        e.material = std::max(0, comp[e.a]);
+        break;
       case MaterialRule::Vertical: {
         const double len = distance(a, b);
         e.material = len > 0 && std::abs(a.z - b.z) >= len * cos_cone ? 1 : 0;

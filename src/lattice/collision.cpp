@@ -16,7 +16,8 @@ void NozzleModel::validate() const {
   auto check = [](bool ok, const char* what) {
     if (!ok) throw SettingError(what);
   };
-  check(std::isfinite(radius) && radius > 0 && radius < 1000, "nozzle radius must be in (0, 1000) mm");
+  check(std::isfinite(radius) && radius > 0 && radius < 1000,
+        "nozzle radius must be in (0, 1000) mm");
   check(std::isfinite(tip_clearance) && tip_clearance >= 0 && tip_clearance < 1000,
         "tip clearance must be in [0, 1000) mm");
   check(std::isfinite(node_clearance) && node_clearance >= 0 && node_clearance < 1000,
@@ -31,7 +32,8 @@ bool is_steep(Vec3 a, Vec3 b, const NozzleModel& nozzle) {
   const Vec3 d = b - a;
   const double len = norm(d);
   if (len <= 0) return false;
-  return std::abs(d.z) >= len * std::cos(nozzle.cone_half_angle_deg * std::numbers::pi / 180) - 1e-12;
+  return std::abs(d.z) >=
+         len * std::cos(nozzle.cone_half_angle_deg * std::numbers::pi / 180) - 1e-12;
 }
 
 namespace {
@@ -200,7 +202,9 @@ FootprintIndex::FootprintIndex(const std::vector<Vec3>& ends, double pad) {
   if (box.empty()) box.add({});
   double typical = 0;
   if (!extents.empty()) {
-    std::nth_element(extents.begin(), extents.begin() + static_cast<std::ptrdiff_t>(extents.size() / 2), extents.end());
+    std::nth_element(extents.begin(),
+                     extents.begin() + static_cast<std::ptrdiff_t>(extents.size() / 2),
+                     extents.end());
     typical = extents[extents.size() / 2];
   }
   const double w = box.max.x - box.min.x + 2 * pad, h = box.max.y - box.min.y + 2 * pad;

@@ -105,7 +105,10 @@ TriangleMesh lattice_walls(const Graph& g, double width, double height) {
     const double len = distance_xy(a, b);
     if (len <= 0) continue;
     const Vec2 n{-(b.y - a.y) / len * r, (b.x - a.x) / len * r};
-    mesh.add_prism({{a.x - n.x, a.y - n.y}, {b.x - n.x, b.y - n.y}, {b.x + n.x, b.y + n.y}, {a.x + n.x, a.y + n.y}},
+    mesh.add_prism({{a.x - n.x, a.y - n.y},
+                    {b.x - n.x, b.y - n.y},
+                    {b.x + n.x, b.y + n.y},
+                    {a.x + n.x, a.y + n.y}},
                    std::min(a.z, b.z), std::min(a.z, b.z) + height);
     used[e.a] = used[e.b] = 1;
   }

@@ -293,9 +293,10 @@ static LatticeInput lattice_from_document(const json& doc, const std::string& or
     if (it.key() != "nodes" && it.key() != "edges" && it.key() != "material" &&
         it.key() != "directed" && it.key() != "name" && it.key() != "units" && it.key() != "meta" &&
         it.key() != "job" && it.key() != "generator")
-      throw ParseError("unknown key '" + it.key() +
-                           "' (expected nodes, edges, material, directed, name, units, meta, job, generator)",
-                       {origin});
+      throw ParseError(
+          "unknown key '" + it.key() +
+              "' (expected nodes, edges, material, directed, name, units, meta, job, generator)",
+          {origin});
   if (auto u = doc.find("units"); u != doc.end() && *u != "mm")
     throw ParseError("only \"units\": \"mm\" is supported", {origin, 0, "units"});
   const auto nodes = doc.find("nodes");

@@ -8,14 +8,14 @@
 #include <cmath>
 #include <tuple>
 
+#include "../core/cgal_module.hpp"
+#include "trellis/core/diagnostics.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/rng.hpp"
 #include "trellis/geom/mesh_io.hpp"
+#include "trellis/geom/mesh_repair.hpp"
 #include "trellis/lattice/atlas.hpp"
 #include "trellis/lattice/cells3d.hpp"
-#include "../core/cgal_module.hpp"
-#include "trellis/core/diagnostics.hpp"
-#include "trellis/geom/mesh_repair.hpp"
 
 namespace trellis {
 

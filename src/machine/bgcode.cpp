@@ -1,9 +1,8 @@
 #include "trellis/machine/bgcode.hpp"
 
-#include <cctype>
-
 #include <zlib.h>
 
+#include <cctype>
 #include <cstring>
 #include <vector>
 
@@ -344,13 +343,15 @@ void read_bgcode(const std::function<std::size_t(char*, std::size_t)>& read,
 
 std::string bgcode_to_text(std::string_view bytes, const std::string& origin) {
   std::string out;
-  read_bgcode(read_from(bytes), [&](std::string_view t) { out.append(t); }, origin);
+  read_bgcode(
+      read_from(bytes), [&](std::string_view t) { out.append(t); }, origin);
   return out;
 }
 
 std::vector<BgcodeBlockRead> bgcode_blocks(std::string_view bytes, const std::string& origin) {
   std::vector<BgcodeBlockRead> out;
-  for_each_block(read_from(bytes), [&](const BgcodeBlockRead& b) { out.push_back(b); }, origin);
+  for_each_block(
+      read_from(bytes), [&](const BgcodeBlockRead& b) { out.push_back(b); }, origin);
   return out;
 }
 

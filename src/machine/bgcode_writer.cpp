@@ -150,7 +150,8 @@ bool binary_gcode_output(const std::string& path, const MachineProfile& p) {
     throw MachineError(
         "binary G-code (.bgcode) is read by Prusa's firmware only (MK4, MK3.9, XL, "
         "MINI, Core One); the machine '" +
-            p.name + "' (machine.flavor = " + to_string(p.flavor) + ", machine.firmware = '" + to_string(p.firmware) +
+            p.name + "' (machine.flavor = " + to_string(p.flavor) + ", machine.firmware = '" +
+            to_string(p.firmware) +
             "') is not declared to run it: write text G-code (.gcode), or set "
             "machine.firmware = \"prusa\" in its profile if it does",
         {"", 0, "machine.firmware"});

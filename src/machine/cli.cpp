@@ -1,7 +1,4 @@
 #include "trellis/machine/cli.hpp"
-#include "trellis/machine/machine_check.hpp"
-
-#include "trellis/version.hpp"
 
 #include <fmt/format.h>
 
@@ -16,9 +13,11 @@
 #include <string_view>
 #include <vector>
 
+#include "fast_number.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
-#include "fast_number.hpp"
+#include "trellis/machine/machine_check.hpp"
+#include "trellis/version.hpp"
 
 namespace trellis {
 
@@ -235,8 +234,7 @@ void ascii_geometry(const Toolpath& tp, std::string& out, int lasers,
   out.reserve(out.size() + points * 18 + tp.layers.size() * 64 + 64);  // ~",123.45,67.89"
   fastnum::advise_huge_pages(out);
   out += kAsciiStart;
-  for (const auto& layer : tp.layers)
-    ascii_layer(layer, out, tp.part_labels.size(), lasers, sets);
+  for (const auto& layer : tp.layers) ascii_layer(layer, out, tp.part_labels.size(), lasers, sets);
   out += kAsciiEnd;
 }
 
@@ -265,8 +263,7 @@ void binary_layer(const Layer& layer, std::string& out, std::size_t parts, int l
 
 void binary_geometry(const Toolpath& tp, std::string& out, int lasers,
                      const std::vector<CliParameterSet>& sets) {
-  for (const auto& layer : tp.layers)
-    binary_layer(layer, out, tp.part_labels.size(), lasers, sets);
+  for (const auto& layer : tp.layers) binary_layer(layer, out, tp.part_labels.size(), lasers, sets);
 }
 
 // What the reader knows of each id: role and CLI+ power/speed.
@@ -374,7 +371,8 @@ class Reader {
         if (c == std::string_view::npos) fail(i, "$$LABEL needs id,text");
         const auto id = numbers(i + 8, i + c);
         if (id.size() != 1 || !(std::abs(id[0]) <= 1e9)) fail(i + 8, "$$LABEL needs one id number");
-        ids_[static_cast<int>(whole(i + 8, id[0], "$$LABEL id"))].label = std::string(line.substr(c + 1));
+        ids_[static_cast<int>(whole(i + 8, id[0], "$$LABEL id"))].label =
+            std::string(line.substr(c + 1));
       } else if (line.find("PROFILE_DEF=") != std::string_view::npos) {
         read_profile_def(i, line);
       }
@@ -516,8 +514,7 @@ class Reader {
       } else {
         if (v.size() < 2) fail(s, "$$HATCHES needs id,n,coordinates");
         hatches(s, static_cast<int>(whole(s, v[0], "$$HATCHES id")),
-                whole(s, v[1], "$$HATCHES count"), v.data() + 2,
-                static_cast<long>(v.size()) - 2);
+                whole(s, v[1], "$$HATCHES count"), v.data() + 2, static_cast<long>(v.size()) - 2);
       }
     }
     if (!ended) fail(b_.size(), "no $$GEOMETRYEND");
@@ -617,10 +614,14 @@ void write_cli_file(const std::string& path, const Toolpath& tp, const LaserProf
 
 CliStreamWriter::CliStreamWriter(std::string path, const LaserProfile& prof,
                                  const CliWriteOptions& o, std::string source, std::string job)
-    : path_(std::move(path)), source_(std::move(source)), job_(std::move(job)), profile_(prof),
+    : path_(std::move(path)),
+      source_(std::move(source)),
+      job_(std::move(job)),
+      profile_(prof),
       options_(o) {
   check_for_laser(Toolpath{}, profile_);  // the profile's own power and speed
-  body_ = temporary_file();  // in $TMPDIR, unlinked already: gone with the process, whatever happens
+  body_ =
+      temporary_file();  // in $TMPDIR, unlinked already: gone with the process, whatever happens
   if (!options_.binary) buffer_ += kAsciiStart;
 }
 

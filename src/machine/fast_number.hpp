@@ -107,8 +107,8 @@ inline constexpr char kTwoDigits[] =
   }
   // Bit 7 of each byte that is a digit other than 0 (bytes past `decimals` are '0'): the last
   // of them ends the fraction; frac > 0, so there is one.
-  const std::uint64_t nonzero = ((w ^ 0x3030303030303030ULL) + 0x7F7F7F7F7F7F7F7FULL) &
-                                0x8080808080808080ULL;
+  const std::uint64_t nonzero =
+      ((w ^ 0x3030303030303030ULL) + 0x7F7F7F7F7F7F7F7FULL) & 0x8080808080808080ULL;
   const int len = (63 - std::countl_zero(nonzero)) / 8 + 1;
   std::memcpy(p, &w, 8);
   return p + len;

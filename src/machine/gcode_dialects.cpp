@@ -227,7 +227,8 @@ void GcodeScanner::mcode(int code, std::string_view args) {
         return bad("bad mix ratio in '" + std::string(args.substr(0, 40)) + "'");
       return set_mixture(tool, std::move(mix));
     }
-    case 486: {  // object labels: M486 S<id> [A"<label>"], M486 S-1 (M486 T<count> and P/U: cancels, not read)
+    case 486: {  // object labels: M486 S<id> [A"<label>"], M486 S-1 (M486 T<count> and P/U:
+                 // cancels, not read)
       const double id = num("S");
       if (!ok) return bad("bad number in '" + std::string(args.substr(0, 40)) + "'");
       if (!std::isfinite(id)) return;

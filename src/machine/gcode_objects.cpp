@@ -12,7 +12,8 @@ namespace {
 
 // Convex hull, counter-clockwise (Andrew's monotone chain); fewer than 3 points as they are.
 std::vector<Vec2> convex_hull(std::vector<Vec2> p) {
-  std::sort(p.begin(), p.end(), [](Vec2 a, Vec2 b) { return a.x < b.x || (a.x == b.x && a.y < b.y); });
+  std::sort(p.begin(), p.end(),
+            [](Vec2 a, Vec2 b) { return a.x < b.x || (a.x == b.x && a.y < b.y); });
   p.erase(std::unique(p.begin(), p.end(), [](Vec2 a, Vec2 b) { return a.x == b.x && a.y == b.y; }),
           p.end());
   if (p.size() < 3) return p;
@@ -36,8 +37,8 @@ std::vector<Vec2> convex_hull(std::vector<Vec2> p) {
 std::string written_name(const std::string& label) {
   std::string n = label.empty() ? std::string("part") : label;
   for (char& c : n)
-    if (!((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
-          c == '_' || c == '-' || c == '.'))
+    if (!((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_' ||
+          c == '-' || c == '.'))
       c = '_';
   return n;
 }
@@ -46,8 +47,8 @@ std::string klipper_definition(const std::string& name, const std::vector<Vec2>&
   double cx = 0, cy = 0;
   for (const Vec2& q : hull) cx += q.x, cy += q.y;
   if (!hull.empty()) cx /= static_cast<double>(hull.size()), cy /= static_cast<double>(hull.size());
-  std::string s = fmt::format("EXCLUDE_OBJECT_DEFINE NAME={} CENTER={:.3f},{:.3f} POLYGON=[", name,
-                              cx, cy);
+  std::string s =
+      fmt::format("EXCLUDE_OBJECT_DEFINE NAME={} CENTER={:.3f},{:.3f} POLYGON=[", name, cx, cy);
   for (std::size_t i = 0; i < hull.size(); ++i)
     s += fmt::format("{}[{:.3f},{:.3f}]", i ? "," : "", hull[i].x, hull[i].y);
   return s + "]\n";

@@ -330,11 +330,11 @@ void GcodeScanner::line(std::string_view text) {
     } else if (code == 4) {  // dwell: G4 P<milliseconds> or S<seconds> (Marlin, RRF, Klipper)
       double ms = 0, sec = 0;
       const std::string_view pv = param(args, "P"), sv = param(args, "S");
-      if (!pv.empty() && (!parse_number(pv.data(), pv.data() + pv.size(), ms) || !(ms >= 0) ||
-                          ms > 1e9))
+      if (!pv.empty() &&
+          (!parse_number(pv.data(), pv.data() + pv.size(), ms) || !(ms >= 0) || ms > 1e9))
         return bad("bad dwell '" + std::string(args.substr(0, 40)) + "'");
-      if (!sv.empty() && (!parse_number(sv.data(), sv.data() + sv.size(), sec) || !(sec >= 0) ||
-                          sec > 1e6))
+      if (!sv.empty() &&
+          (!parse_number(sv.data(), sv.data() + sv.size(), sec) || !(sec >= 0) || sec > 1e6))
         return bad("bad dwell '" + std::string(args.substr(0, 40)) + "'");
       if (ms + sec > 0) sink_.dwell(ms / 1000 + sec);
     } else if (code == 10 && !param(args, "P").empty()) {  // RepRapFirmware G10 P<tool> S<t>

@@ -17,7 +17,8 @@ Vec2 placement_offset(const BBox3& box, const MachineProfile& p) {
   Vec2 d{0, 0};
   if (p.center) {
     if (!box.empty()) {
-      const Vec2 bed_centre = p.origin == BedOrigin::Center ? Vec2{0, 0} : Vec2{p.bed_x / 2, p.bed_y / 2};
+      const Vec2 bed_centre =
+          p.origin == BedOrigin::Center ? Vec2{0, 0} : Vec2{p.bed_x / 2, p.bed_y / 2};
       d = {bed_centre.x - box.center().x, bed_centre.y - box.center().y};
     }
   }
@@ -61,7 +62,9 @@ void to_design_coordinates(Toolpath& tp, const std::string& text) {
 
 namespace {
 
-std::string num(double v) { return fmt::format("{:.6g}", v); }
+std::string num(double v) {
+  return fmt::format("{:.6g}", v);
+}
 
 // Collects errors of one kind with a count and the first place each was seen.
 class Problems {
@@ -136,8 +139,8 @@ std::vector<MachineWarning> check_for_machine(const LayerSource& layers, const B
         try {
           toff = p.tool_offset(path.tool);
         } catch (const SettingError& e) {
-          errors.add("tool_offset", where(li, pi) + ": " + e.message() + " (" +
-                                        e.where().element + ")");
+          errors.add("tool_offset",
+                     where(li, pi) + ": " + e.message() + " (" + e.where().element + ")");
         }
       }
       if (!path.mixture.empty()) {
@@ -157,17 +160,16 @@ std::vector<MachineWarning> check_for_machine(const LayerSource& layers, const B
         errors.add("speed", fmt::format("{} is printed at {} mm/s, faster than the machine's "
                                         "speed.max = {} mm/s",
                                         where(li, pi), num(path.speed), num(p.max_speed)));
-      if (!fdm &&
-          ((path.flow > 0 && std::abs(path.flow - 1) > eps) || path.fan >= 0))
+      if (!fdm && ((path.flow > 0 && std::abs(path.flow - 1) > eps) || path.fan >= 0))
         errors.add("process_flavor",
                    fmt::format("{} sets a {} (a process field) but machine.flavor = {} has no E "
                                "axis and no fan to set: print it on an FDM profile",
                                where(li, pi), path.fan >= 0 ? "fan" : "flow", to_string(p.flavor)));
       if (path.temperature > p.max_nozzle_temperature + eps)
-        errors.add("path_temperature",
-                   fmt::format("{} asks for {} °C, above temperature.max_nozzle = {} °C",
-                               where(li, pi), num(path.temperature),
-                               num(p.max_nozzle_temperature)));
+        errors.add(
+            "path_temperature",
+            fmt::format("{} asks for {} °C, above temperature.max_nozzle = {} °C", where(li, pi),
+                        num(path.temperature), num(p.max_nozzle_temperature)));
       for (const Vec3& q : path.points) {
         const Vec3 at{q.x + shift.x - toff.x, q.y + shift.y - toff.y, q.z};
         placed.add(at);
@@ -184,24 +186,25 @@ std::vector<MachineWarning> check_for_machine(const LayerSource& layers, const B
     const std::string area =
         circle ? fmt::format("a circle of diameter {} mm", num(p.bed_x))
                : fmt::format("X {}..{}, Y {}..{}", num(x0), num(x1), num(y0), num(y1));
-    errors.add("bed", fmt::format(
-                          "the toolpath spans X {}..{}, Y {}..{}, Z {}..{} mm on the bed but the "
-                          "machine '{}' builds in {}, Z 0..{} mm (machine.bed_x/bed_y/bed_z, "
-                          "machine.bed_shape, machine.origin; move it with placement.center or "
-                          "placement.offset_x/y; placement.lift puts a part below Z 0 on the bed)",
-                          num(placed.min.x), num(placed.max.x), num(placed.min.y),
-                          num(placed.max.y), num(placed.min.z), num(placed.max.z), p.name, area,
-                          num(p.bed_z)));
+    errors.add(
+        "bed",
+        fmt::format("the toolpath spans X {}..{}, Y {}..{}, Z {}..{} mm on the bed but the "
+                    "machine '{}' builds in {}, Z 0..{} mm (machine.bed_x/bed_y/bed_z, "
+                    "machine.bed_shape, machine.origin; move it with placement.center or "
+                    "placement.offset_x/y; placement.lift puts a part below Z 0 on the bed)",
+                    num(placed.min.x), num(placed.max.x), num(placed.min.y), num(placed.max.y),
+                    num(placed.min.z), num(placed.max.z), p.name, area, num(p.bed_z)));
   }
   if (mixed) {
-    if (p.gradient_mode == GradientMode::Mixing && static_cast<int>(max_materials) > p.mixing_inputs) {
+    if (p.gradient_mode == GradientMode::Mixing &&
+        static_cast<int>(max_materials) > p.mixing_inputs) {
       if (p.mixing_inputs < 2)
-        errors.add("mixing", fmt::format(
-                                 "the toolpath mixes {} materials but the machine '{}' has no "
-                                 "mixing hotend (machine.mixing_inputs = 1): use a mixing or "
-                                 "tool-changer profile (gradient.mode = tools), or slice with "
-                                 "--strategy 0 to print one material",
-                                 max_materials, p.name));
+        errors.add("mixing",
+                   fmt::format("the toolpath mixes {} materials but the machine '{}' has no "
+                               "mixing hotend (machine.mixing_inputs = 1): use a mixing or "
+                               "tool-changer profile (gradient.mode = tools), or slice with "
+                               "--strategy 0 to print one material",
+                               max_materials, p.name));
       else
         errors.add("mixing", fmt::format("the toolpath mixes {} materials but the hotend of '{}' "
                                          "has machine.mixing_inputs = {}",
@@ -214,10 +217,10 @@ std::vector<MachineWarning> check_for_machine(const LayerSource& layers, const B
                                        max_materials));
     if (p.gradient_mode == GradientMode::Tools) {
       if (gradient_tools > p.tool_count)
-        errors.add("tools", fmt::format("gradient.tools = {} but the machine '{}' has {} tool{} "
-                                        "(machine.tools)",
-                                        gradient_tools, p.name, p.tool_count,
-                                        p.tool_count == 1 ? "" : "s"));
+        errors.add("tools",
+                   fmt::format("gradient.tools = {} but the machine '{}' has {} tool{} "
+                               "(machine.tools)",
+                               gradient_tools, p.name, p.tool_count, p.tool_count == 1 ? "" : "s"));
       else if (gradient_tools < 2)
         errors.add("tools", fmt::format("gradient.mode = tools needs at least two tools but the "
                                         "machine '{}' has machine.tools = {}",
@@ -227,8 +230,9 @@ std::vector<MachineWarning> check_for_machine(const LayerSource& layers, const B
       for (const auto& [key, t] : {std::pair{"gradient.temperature_a", p.temperature_a},
                                    std::pair{"gradient.temperature_b", p.temperature_b}})
         if (t > p.max_nozzle_temperature + eps)
-          errors.add("temperature", fmt::format("{} = {} °C is above temperature.max_nozzle = {} °C",
-                                                key, num(t), num(p.max_nozzle_temperature)));
+          errors.add("temperature",
+                     fmt::format("{} = {} °C is above temperature.max_nozzle = {} °C", key, num(t),
+                                 num(p.max_nozzle_temperature)));
   }
   // The prime line: along a rectangle's front edge, 5 mm clear at each end; on a circle, the
   // chord half-way between the centre and the front (sqrt(3)/2 of the diameter), 5 mm clear.
@@ -239,23 +243,22 @@ std::vector<MachineWarning> check_for_machine(const LayerSource& layers, const B
                                          "(machine.bed_x, machine.bed_shape)",
                                          num(p.prime_line), num(std::max(0.0, prime_room))));
   if (p.nozzle_temperature > p.max_nozzle_temperature + eps)
-    errors.add("temperature", fmt::format("temperature.nozzle = {} °C is above the machine's "
-                                          "temperature.max_nozzle = {} °C",
-                                          num(p.nozzle_temperature),
-                                          num(p.max_nozzle_temperature)));
+    errors.add("temperature",
+               fmt::format("temperature.nozzle = {} °C is above the machine's "
+                           "temperature.max_nozzle = {} °C",
+                           num(p.nozzle_temperature), num(p.max_nozzle_temperature)));
   if (p.standby_temperature > p.max_nozzle_temperature + eps)
-    errors.add("temperature", fmt::format("temperature.standby = {} °C is above "
-                                          "temperature.max_nozzle = {} °C",
-                                          num(p.standby_temperature),
-                                          num(p.max_nozzle_temperature)));
+    errors.add("temperature",
+               fmt::format("temperature.standby = {} °C is above "
+                           "temperature.max_nozzle = {} °C",
+                           num(p.standby_temperature), num(p.max_nozzle_temperature)));
   if (p.bed_temperature > p.max_bed_temperature + eps)
     errors.add("temperature", fmt::format("temperature.bed = {} °C is above the machine's "
                                           "temperature.max_bed = {} °C",
                                           num(p.bed_temperature), num(p.max_bed_temperature)));
-  for (const auto& [key, v] : {std::pair{"speed.print", p.print_speed},
-                               std::pair{"speed.travel", p.travel_speed},
-                               std::pair{"speed.z", p.z_speed},
-                               std::pair{"retraction.speed", p.retract_speed}})
+  for (const auto& [key, v] :
+       {std::pair{"speed.print", p.print_speed}, std::pair{"speed.travel", p.travel_speed},
+        std::pair{"speed.z", p.z_speed}, std::pair{"retraction.speed", p.retract_speed}})
     if (v > p.max_speed + eps)
       errors.add(key, fmt::format("{} = {} mm/s is faster than the machine's speed.max = {} mm/s",
                                   key, num(v), num(p.max_speed)));
@@ -282,11 +285,13 @@ std::vector<MachineWarning> check_for_laser(const Toolpath& tp, const LaserProfi
       const Path& path = tp.layers[li].paths[pi];
       for (const Vec3& q : path.points) box.add(q);
       if (path.power > p.max_power + eps)
-        errors.add("power", fmt::format("{} is scanned at {} W, above laser.max_power = {} W",
-                                        where(first_layer + li, pi), num(path.power), num(p.max_power)));
+        errors.add("power",
+                   fmt::format("{} is scanned at {} W, above laser.max_power = {} W",
+                               where(first_layer + li, pi), num(path.power), num(p.max_power)));
       if (path.speed > p.max_speed + eps)
-        errors.add("speed", fmt::format("{} is scanned at {} mm/s, above laser.max_speed = {} mm/s",
-                                        where(first_layer + li, pi), num(path.speed), num(p.max_speed)));
+        errors.add("speed",
+                   fmt::format("{} is scanned at {} mm/s, above laser.max_speed = {} mm/s",
+                               where(first_layer + li, pi), num(path.speed), num(p.max_speed)));
     }
   for (const auto& [key, w] : {std::pair{"laser.contour_power", p.contour_power},
                                std::pair{"laser.hatch_power", p.hatch_power}})

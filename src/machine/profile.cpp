@@ -1,6 +1,5 @@
 #include "trellis/machine/profile.hpp"
 
-
 #include <algorithm>
 #include <array>
 #include <charconv>
@@ -336,8 +335,7 @@ const std::vector<SettingDecl>& machine_settings() {
 namespace {
 
 // Numbers of a list "a,b;c,d" split at `sep` and ','.
-std::vector<std::vector<double>> number_groups(const std::string& text, char sep,
-                                               const char* key) {
+std::vector<std::vector<double>> number_groups(const std::string& text, char sep, const char* key) {
   std::vector<std::vector<double>> out;
   if (text.find_first_not_of(" \t") == std::string::npos) return out;
   std::size_t start = 0;
@@ -395,8 +393,9 @@ std::vector<std::pair<double, double>> MachineProfile::down_flow_table() const {
   std::vector<std::pair<double, double>> out;
   for (const auto& g : number_groups(down_flow, ';', "extrusion.down_flow")) {
     if (g.size() != 2 || !(g[0] >= 0 && g[0] <= 90) || !(g[1] > 0 && g[1] <= 10))
-      throw SettingError("each entry is \"angle,factor\" with angle 0..90 degrees and factor in (0, 10]",
-                         {"", 0, "extrusion.down_flow"});
+      throw SettingError(
+          "each entry is \"angle,factor\" with angle 0..90 degrees and factor in (0, 10]",
+          {"", 0, "extrusion.down_flow"});
     out.emplace_back(g[0], g[1]);
   }
   std::sort(out.begin(), out.end());
@@ -422,16 +421,15 @@ std::vector<std::pair<int, int>> MachineProfile::thumbnail_sizes() const {
     const std::string item = thumbnails.substr(a, b - a);
     const auto x = item.find('x');
     int w = 0, h = 0;
-    const bool ok =
-        x != std::string::npos &&
-        std::from_chars(item.data(), item.data() + x, w).ptr == item.data() + x &&
-        std::from_chars(item.data() + x + 1, item.data() + item.size(), h).ptr ==
-            item.data() + item.size() &&
-        w >= 1 && h >= 1 && w <= 1024 && h <= 1024;
+    const bool ok = x != std::string::npos &&
+                    std::from_chars(item.data(), item.data() + x, w).ptr == item.data() + x &&
+                    std::from_chars(item.data() + x + 1, item.data() + item.size(), h).ptr ==
+                        item.data() + item.size() &&
+                    w >= 1 && h >= 1 && w <= 1024 && h <= 1024;
     if (!ok)
-      throw SettingError("thumbnail size '" + item +
-                             "' is not WxH with 1..1024 pixels each way (e.g. 220x124)",
-                         {"", 0, "gcode.thumbnails"});
+      throw SettingError(
+          "thumbnail size '" + item + "' is not WxH with 1..1024 pixels each way (e.g. 220x124)",
+          {"", 0, "gcode.thumbnails"});
     out.push_back({w, h});
     a = b + 1;
   }

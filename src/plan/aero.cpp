@@ -954,9 +954,9 @@ AeroResult plan_aero(const Graph& input, const AeroParams& params, Diagnostics& 
         down += a.z > b.z && is_steep(a, b, params.nozzle);
       }
     if (down)
-      diag.warn("cell_path_top_down",
-                std::to_string(down) + " strut(s) within the nozzle cone are printed top-down: "
-                                       "the periodic cell path is printed as written");
+      diag.warn("cell_path_top_down", std::to_string(down) +
+                                          " strut(s) within the nozzle cone are printed top-down: "
+                                          "the periodic cell path is printed as written");
   }
   for (EdgeId e = 0; e < input.edges.size(); ++e) {
     const Edge& ed = input.edges[e];
@@ -1041,7 +1041,8 @@ AeroResult plan_canonical(const Graph& g, const AeroParams& params, const Period
   std::size_t runs = 1;
   if (params.method == AeroMethod::Dynamic && params.collisions) {
     strategies = {Strategy::Lowest, Strategy::Unlock, Strategy::Continue, Strategy::Mean};
-    runs = params.tries > 0 ? static_cast<std::size_t>(params.tries) : aero_auto_tries(g.edges.size());
+    runs =
+        params.tries > 0 ? static_cast<std::size_t>(params.tries) : aero_auto_tries(g.edges.size());
   }
   // Each run's plan is compared with the best so far as it finishes and dropped unless better,
   // so memory holds one plan per thread, not one per try; the lowest run index breaks ties.

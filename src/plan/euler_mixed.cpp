@@ -162,8 +162,8 @@ void MixedEuler::build(const Graph& g, const std::vector<EdgeId>& edges,
     if (worth(1, 2) && augment(1, 2)) continue;
     break;
   }
-  // With a lead-in edge, a trail ending at the continuation node would leave the lead-in trail empty;
-  // among the optimal orientations prefer one where the open trail runs on (same Σ|bal|).
+  // With a lead-in edge, a trail ending at the continuation node would leave the lead-in trail
+  // empty; among the optimal orientations prefer one where the open trail runs on (same Σ|bal|).
   if (L.lead_node != kNone) {
     const std::uint32_t c = local_[continue_from];
     if (L.bal[c] < 0) augment(1, 0, c);
@@ -197,8 +197,8 @@ std::size_t MixedEuler::lower_bound(const Graph& g, const std::vector<EdgeId>& e
 }
 
 std::vector<Trail> MixedEuler::decompose(const Graph& g, const std::vector<EdgeId>& edges,
-                                         const std::vector<std::int8_t>& dir,
-                                         NodeId continue_from, bool* continued) {
+                                         const std::vector<std::int8_t>& dir, NodeId continue_from,
+                                         bool* continued) {
   if (continued) *continued = false;
   std::vector<Trail> out;
   if (edges.empty()) return out;
@@ -229,7 +229,8 @@ std::vector<Trail> MixedEuler::decompose(const Graph& g, const std::vector<EdgeI
   {
     auto& fill = L.fill;
     fill.assign(off.begin(), off.end() - 1);
-    for (std::size_t e = 0; e < me; ++e) out_edges[fill[L.tail[e]]++] = static_cast<std::uint32_t>(e);
+    for (std::size_t e = 0; e < me; ++e)
+      out_edges[fill[L.tail[e]]++] = static_cast<std::uint32_t>(e);
   }
   auto& cursor = L.cursor;
   cursor.assign(off.begin(), off.end() - 1);

@@ -39,7 +39,8 @@ void longest_first(PathSet& set) {
 void by_travel(const Graph& g, PathSet& set, Vec3 start) {
   std::vector<OrderItem> items;
   items.reserve(set.trails.size());
-  for (const Trail& t : set.trails) items.push_back({g.nodes[t.nodes.front()], g.nodes[t.nodes.back()]});
+  for (const Trail& t : set.trails)
+    items.push_back({g.nodes[t.nodes.front()], g.nodes[t.nodes.back()]});
   std::vector<Trail> out;
   out.reserve(set.trails.size());
   for (const OrderStep& s : order_by_travel(items, start)) {

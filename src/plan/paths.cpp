@@ -48,7 +48,8 @@ std::size_t merge_shared_ends(PathSet& set) {
     std::map<NodeId, std::size_t> visits;  // node -> an open trail, not joined this round
     for (std::size_t i = 0; i < set.trails.size(); ++i) {
       const Trail& t = set.trails[i];
-      if (gone[i] || touched[i] || t.nodes.size() < 2 || t.nodes.front() == t.nodes.back()) continue;
+      if (gone[i] || touched[i] || t.nodes.size() < 2 || t.nodes.front() == t.nodes.back())
+        continue;
       for (NodeId n : t.nodes) visits.try_emplace(n, i);
     }
     for (std::size_t i = 0; i < set.trails.size(); ++i) {
@@ -62,7 +63,8 @@ std::size_t merge_shared_ends(PathSet& set) {
         std::vector<NodeId> loop(c.nodes.begin() + static_cast<long>(k), c.nodes.end() - 1);
         loop.insert(loop.end(), c.nodes.begin(), c.nodes.begin() + static_cast<long>(k) + 1);
         std::vector<EdgeId> loop_edges(c.edges.begin() + static_cast<long>(k), c.edges.end());
-        loop_edges.insert(loop_edges.end(), c.edges.begin(), c.edges.begin() + static_cast<long>(k));
+        loop_edges.insert(loop_edges.end(), c.edges.begin(),
+                          c.edges.begin() + static_cast<long>(k));
         const auto at = static_cast<long>(
             std::find(host.nodes.begin(), host.nodes.end(), c.nodes[k]) - host.nodes.begin());
         host.nodes.insert(host.nodes.begin() + at + 1, loop.begin() + 1, loop.end());

@@ -76,8 +76,8 @@ Setting path(std::string key, std::string doc, std::string flag, Acc acc) {
 
 // A choice stored as its name.
 template <class Acc>
-Setting choice(std::string key, std::vector<std::string> choices, std::string doc,
-               std::string flag, Acc acc) {
+Setting choice(std::string key, std::vector<std::string> choices, std::string doc, std::string flag,
+               Acc acc) {
   Setting s = text(std::move(key), std::move(doc), std::move(flag), acc);
   s.kind = SettingKind::Choice;
   s.choices = std::move(choices);
@@ -106,8 +106,8 @@ Setting choice_enum(std::string key, std::vector<std::pair<std::string, E>> map,
 }
 
 template <class Acc>
-Setting numbers(std::string key, std::string unit, double lo, double hi, int count,
-                std::string doc, std::string flag, Acc acc) {
+Setting numbers(std::string key, std::string unit, double lo, double hi, int count, std::string doc,
+                std::string flag, Acc acc) {
   Setting s;
   s.key = std::move(key), s.unit = std::move(unit), s.doc = std::move(doc);
   s.flag = std::move(flag), s.min = lo, s.max = hi, s.count = count;
@@ -176,13 +176,14 @@ void add_machine(std::vector<Setting>& out) {
             s.kind = SettingKind::Choice;
             s.choices.assign(member.names.begin(), member.names.end());
             s.get = [member](const Config& c) {
-              return SettingValue(std::string(member.names.at(
-                  static_cast<std::size_t>(member.get(c.machine)))));
+              return SettingValue(
+                  std::string(member.names.at(static_cast<std::size_t>(member.get(c.machine)))));
             };
             s.set = [member](Config& c, const SettingValue& v) {
               const auto& names = member.names;
               for (std::size_t i = 0; i < names.size(); ++i)
-                if (names[i] == std::get<std::string>(v)) member.set(c.machine, static_cast<int>(i));
+                if (names[i] == std::get<std::string>(v))
+                  member.set(c.machine, static_cast<int>(i));
             };
           } else {
             add_member(s, member);
@@ -267,7 +268,8 @@ const std::vector<std::pair<const char*, const char*>>& when_table() {
       {"lattice2d.cell_height", "lattice2d.pattern=arrowhead|reentrant-honeycomb"},
       {"lattice2d.arrowhead_outer", "lattice2d.pattern=arrowhead"},
       {"lattice2d.arrowhead_inner", "lattice2d.pattern=arrowhead"},
-      {"lattice2d.line_width", "lattice2d.target_porosity>0 or route=lattice2d"},  // the pore area said
+      {"lattice2d.line_width",
+       "lattice2d.target_porosity>0 or route=lattice2d"},  // the pore area said
       // 3D lattices, when the route makes one (lattice3d, or plan aero without an input).
       {"lattice3d.", "route=lattice3d or !@input; route=lattice3d or plan.planner=aero"},
       {"lattice3d.cell_type", "lattice3d.kind=cells|conformal"},
@@ -394,6 +396,8 @@ void apply_when(std::vector<Setting>& table) {
       throw std::logic_error(std::string("the when table names an unknown setting ") + key);
 }
 
+// The table is laid out by hand: clang-format 14 breaks `[](C& c) -> auto&` into `(C & c)`.
+// clang-format off
 std::vector<Setting> make_table() {
   using C = Config;
   std::vector<Setting> t;
@@ -1126,7 +1130,7 @@ std::vector<Setting> make_table() {
                           "run.max_memory", "MB", 1e9,
                           "refuse a run whose estimate (made from its settings before it "
                           "starts) needs more memory than this",
-                          "max-memory", [](C & c) -> auto& { return c.budget.max_memory_mb; }),
+                          "max-memory", [](C& c) -> auto& { return c.budget.max_memory_mb; }),
                       "half the memory available when the run starts"));
   t.push_back(positive("run.max_time", "s", 1e9,
                        "refuse a run whose estimated time is longer than this", "max-time",
@@ -1143,10 +1147,11 @@ std::vector<Setting> make_table() {
       "run.follow_symlinks",
       "write an output whose path is a symbolic link to the file it points to "
       "(the link kept); without it such an output is refused",
-      "follow-symlinks", [](C & c) -> auto& { return c.follow_symlinks; }));
+      "follow-symlinks", [](C& c) -> auto& { return c.follow_symlinks; }));
   apply_when(t);
   return t;
 }
+// clang-format on
 
 }  // namespace
 

@@ -24,12 +24,18 @@ std::string number_text(double v) {
 
 std::string kind_name(SettingKind k) {
   switch (k) {
-    case SettingKind::Number: return "number";
-    case SettingKind::Integer: return "integer";
-    case SettingKind::Bool: return "true/false";
-    case SettingKind::Choice: return "choice";
-    case SettingKind::Text: return "text";
-    case SettingKind::Numbers: return "list of numbers";
+    case SettingKind::Number:
+      return "number";
+    case SettingKind::Integer:
+      return "integer";
+    case SettingKind::Bool:
+      return "true/false";
+    case SettingKind::Choice:
+      return "choice";
+    case SettingKind::Text:
+      return "text";
+    case SettingKind::Numbers:
+      return "list of numbers";
   }
   return "";
 }
@@ -56,13 +62,15 @@ Where where_of(const Setting& s, const SettingOrigin& o) {
 
 void check_number(const Setting& s, double v, const SettingOrigin& o) {
   const bool ok = std::isfinite(v) && (s.positive ? v > s.min : v >= s.min) && v <= s.max;
-  if (!ok) throw SettingError(fmt::format("{} is out of range: {}", number_text(v), s.range_text()),
-                              where_of(s, o));
+  if (!ok)
+    throw SettingError(fmt::format("{} is out of range: {}", number_text(v), s.range_text()),
+                       where_of(s, o));
 }
 
 // Parses a list "1,2,3" (commas or spaces). An empty element ("1,,2", "1,2,") is refused, not
 // skipped: "0,90," read as two angles hid a value left out.
-std::vector<double> parse_numbers(const Setting& s, const std::string& text, const SettingOrigin& o) {
+std::vector<double> parse_numbers(const Setting& s, const std::string& text,
+                                  const SettingOrigin& o) {
   std::vector<double> out;
   std::string item;
   bool after_comma = false;  // a separator came after the last number: one must follow
@@ -126,14 +134,16 @@ std::string Setting::range_text() const {
       return r + (positive ? "> " + number_text(min) + " and <= " : number_text(min) + " .. ") +
              number_text(max) + (unit.empty() || unit == "path" ? "" : " " + unit);
     }
-    case SettingKind::Bool: return "true or false";
+    case SettingKind::Bool:
+      return "true or false";
     case SettingKind::Choice: {
       std::string r = "one of ";
       for (std::size_t i = 0; i < choices.size(); ++i)
         r += (i ? ", " : "") + (choices[i].empty() ? std::string("\"\"") : choices[i]);
       return r;
     }
-    case SettingKind::Text: return unit == "path" ? "a file path" : "text";
+    case SettingKind::Text:
+      return unit == "path" ? "a file path" : "text";
   }
   return "";
 }
@@ -221,12 +231,11 @@ void Settings::set(const std::string& key, SettingValue value, const SettingOrig
       if (!std::holds_alternative<std::string>(value) ||
           std::find(s->choices.begin(), s->choices.end(), std::get<std::string>(value)) ==
               s->choices.end())
-        throw SettingError(
-            (std::holds_alternative<std::string>(value)
-                 ? "'" + std::get<std::string>(value) + "' is not allowed"
-                 : std::string("expected a name")) +
-                " (" + s->range_text() + ")",
-            where_of(*s, origin));
+        throw SettingError((std::holds_alternative<std::string>(value)
+                                ? "'" + std::get<std::string>(value) + "' is not allowed"
+                                : std::string("expected a name")) +
+                               " (" + s->range_text() + ")",
+                           where_of(*s, origin));
       break;
     case SettingKind::Text:
       if (!std::holds_alternative<std::string>(value))
@@ -272,20 +281,23 @@ void Settings::set_text(const std::string& key, const std::string& text,
                            where_of(*s, origin));
       if (s->kind == SettingKind::Integer) {
         if (std::floor(v) != v || std::abs(v) > 9e15)
-          throw SettingError("'" + text + "' is not a whole number (expected " +
-                                 s->range_text() + ")",
-                             where_of(*s, origin));
+          throw SettingError(
+              "'" + text + "' is not a whole number (expected " + s->range_text() + ")",
+              where_of(*s, origin));
         return set(key, static_cast<long long>(v), origin);
       }
       return set(key, v, origin);
     }
     case SettingKind::Bool:
-      if (text == "true" || text == "1" || text == "yes" || text == "on") return set(key, true, origin);
+      if (text == "true" || text == "1" || text == "yes" || text == "on")
+        return set(key, true, origin);
       if (text == "false" || text == "0" || text == "no" || text == "off")
         return set(key, false, origin);
       throw SettingError("'" + text + "' is not true or false", where_of(*s, origin));
-    case SettingKind::Numbers: return set(key, parse_numbers(*s, text, origin), origin);
-    default: return set(key, text, origin);
+    case SettingKind::Numbers:
+      return set(key, parse_numbers(*s, text, origin), origin);
+    default:
+      return set(key, text, origin);
   }
 }
 
@@ -399,8 +411,8 @@ MachineProfile machine_profile_from_toml(const std::string& text, const std::str
   } catch (const SettingError& e) {
     const std::string& key = e.where().element;
     const Settings::Entry* given = st.find(key);
-    throw SettingError(e.message(), {given ? given->origin.source : origin,
-                                     given ? given->origin.line : 0, key});
+    throw SettingError(
+        e.message(), {given ? given->origin.source : origin, given ? given->origin.line : 0, key});
   }
   return p;
 }
@@ -414,7 +426,8 @@ void check_rules(const Config& c, const Settings& st, const std::vector<std::str
     return std::find(sections.begin(), sections.end(), sec) != sections.end();
   };
   auto where = [&](const std::string& a, const std::string& b) {
-    return Where{"", 0, a + " (" + st.origin_text(a) + ") and " + b + " (" + st.origin_text(b) + ")"};
+    return Where{"", 0,
+                 a + " (" + st.origin_text(a) + ") and " + b + " (" + st.origin_text(b) + ")"};
   };
   const double nozzle = c.machine.nozzle_diameter;
   const bool fdm = c.machine.marlin_family();  // Marlin, RepRapFirmware, Klipper
@@ -422,10 +435,11 @@ void check_rules(const Config& c, const Settings& st, const std::vector<std::str
   // bond; in a bath or from a syringe the bead is a strut as thick as the nozzle, so the rule is
   // FDM's only.
   if (uses("extrusion") && fdm && c.machine.layer_height > 0.8 * nozzle + 1e-12)
-    throw SettingError(fmt::format("layer height {} mm is more than 0.8 × the nozzle ({} mm): the "
-                                   "bead would not bond; lower the layer height or use a larger nozzle",
-                                   number_text(c.machine.layer_height), number_text(nozzle)),
-                       where("extrusion.layer_height", "extrusion.nozzle_diameter"));
+    throw SettingError(
+        fmt::format("layer height {} mm is more than 0.8 × the nozzle ({} mm): the "
+                    "bead would not bond; lower the layer height or use a larger nozzle",
+                    number_text(c.machine.layer_height), number_text(nozzle)),
+        where("extrusion.layer_height", "extrusion.nozzle_diameter"));
   // A mixing hotend's command must be one the firmware has: Marlin M165 or M163/M164,
   // RepRapFirmware M567; Klipper has no mixing command (a macro: gradient.dialect = template).
   const MachineProfile& m = c.machine;
@@ -433,14 +447,19 @@ void check_rules(const Config& c, const Settings& st, const std::vector<std::str
       m.gradient_dialect != MixingDialect::Template && m.marlin_family()) {
     const Flavor f = m.flavor;
     const MixingDialect d = m.gradient_dialect;
-    const bool ok = (f == Flavor::Marlin && (d == MixingDialect::M165 || d == MixingDialect::M163)) ||
-                    (f == Flavor::RepRap && d == MixingDialect::M567);
-    const std::string has = f == Flavor::Marlin ? "m165 or m163" : f == Flavor::RepRap ? "m567" : "";
+    const bool ok =
+        (f == Flavor::Marlin && (d == MixingDialect::M165 || d == MixingDialect::M163)) ||
+        (f == Flavor::RepRap && d == MixingDialect::M567);
+    const std::string has = f == Flavor::Marlin   ? "m165 or m163"
+                            : f == Flavor::RepRap ? "m567"
+                                                  : "";
     if (!ok)
       throw SettingError(
           fmt::format("{} has no {} command for a mixing hotend; use "
                       "gradient.dialect = {}",
-                      f == Flavor::Marlin ? "Marlin" : f == Flavor::RepRap ? "RepRapFirmware" : "Klipper",
+                      f == Flavor::Marlin   ? "Marlin"
+                      : f == Flavor::RepRap ? "RepRapFirmware"
+                                            : "Klipper",
                       d == MixingDialect::M165   ? "M165"
                       : d == MixingDialect::M163 ? "M163/M164"
                                                  : "M567",
@@ -515,9 +534,9 @@ std::string settings_reference(const std::vector<std::string>& sections) {
         if (ch == '\n') ch = ' ';
       if (def.size() > 40) def = def.substr(0, 37) + "...";
       out += line + " " + s.doc + (s.unit.empty() || s.unit == "path" ? "" : " [" + s.unit + "]") +
-             "\n" + std::string(31, ' ') + "default: " +
-             (s.derived.empty() ? (def.empty() ? "\"\"" : def) : s.derived) + "; " + s.range_text() +
-             (s.flag.empty() ? "" : "; flag --" + s.flag) + "\n";
+             "\n" + std::string(31, ' ') +
+             "default: " + (s.derived.empty() ? (def.empty() ? "\"\"" : def) : s.derived) + "; " +
+             s.range_text() + (s.flag.empty() ? "" : "; flag --" + s.flag) + "\n";
       if (!s.when.empty()) out += std::string(31, ' ') + "used when " + when_text(s.when) + "\n";
     }
   }
@@ -585,7 +604,8 @@ Alternative evaluate(const std::string& alt, const UseContext& use) {
     const char* w = fact_words(fact);
     if (!w) throw std::logic_error("unknown fact in a setting's `when`: " + alt);
     const bool has = std::find(use.facts.begin(), use.facts.end(), fact) != use.facts.end();
-    const bool unknown = std::find(use.unknown.begin(), use.unknown.end(), fact) != use.unknown.end();
+    const bool unknown =
+        std::find(use.unknown.begin(), use.unknown.end(), fact) != use.unknown.end();
     a.holds = unknown || has != negated;
     a.words = negated ? fact_negated(fact) : std::string(w);
     return a;
@@ -600,7 +620,8 @@ Alternative evaluate(const std::string& alt, const UseContext& use) {
     for (const auto& v : split_on(list, "|")) any |= v == a.here;
     a.holds = any != negated;
     std::string shown = list;
-    for (std::size_t i = 0; (i = shown.find('|', i)) != std::string::npos;) shown.replace(i, 1, " or "), i += 4;
+    for (std::size_t i = 0; (i = shown.find('|', i)) != std::string::npos;)
+      shown.replace(i, 1, " or "), i += 4;
     if (shown.empty()) shown = "''";
     a.words = key + (negated ? " is not " : " = ") + shown;
     return a;
@@ -665,7 +686,8 @@ std::string settings_markdown() {
       "command, or with its flag where the command has one. Precedence: built-in default <\n"
       "profile < job file < command line.\n\n";
   for (const auto& [sec, what] : setting_sections()) {
-    out += "## [" + sec + "] " + what + "\n\n| key | type | unit | default | range | flag | what |\n"
+    out += "## [" + sec + "] " + what +
+           "\n\n| key | type | unit | default | range | flag | what |\n"
            "|---|---|---|---|---|---|---|\n";
     for (const auto& s : all_settings()) {
       if (s.section() != sec) continue;

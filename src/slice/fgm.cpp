@@ -12,15 +12,15 @@
 #include <optional>
 #include <string>
 
+#include "fgm_fill.hpp"
+#include "fgm_order.hpp"
+#include "fgm_outline.hpp"
+#include "fgm_tower.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/geom/contour.hpp"
 #include "trellis/geom/regions.hpp"
 #include "trellis/slice/link.hpp"
 #include "trellis/toolpath/order.hpp"
-#include "fgm_fill.hpp"
-#include "fgm_order.hpp"
-#include "fgm_outline.hpp"
-#include "fgm_tower.hpp"
 
 namespace trellis {
 
@@ -54,7 +54,9 @@ double Palette::level(int k) const {
   return static_cast<double>(k) / divisions();
 }
 
-double Palette::error_bound() const { return (materials == 3 ? 2.0 / 3.0 : 0.5) * band(); }
+double Palette::error_bound() const {
+  return (materials == 3 ? 2.0 / 3.0 : 0.5) * band();
+}
 
 Palette::Cell Palette::cell(int color) const {
   // Row r holds the triangles with i = r: up (r, 0), down (r, 0), up (r, 1), …, up (r, d-1-r),
@@ -75,7 +77,8 @@ Palette::Cell Palette::cell(int color) const {
 
 std::vector<double> Palette::mixture(int color) const {
   if (materials != 3) {
-    const double m = ends ? (colors > 1 ? 1.0 * color / (colors - 1) : 0.5) : (color + 0.5) / colors;
+    const double m =
+        ends ? (colors > 1 ? 1.0 * color / (colors - 1) : 0.5) : (color + 0.5) / colors;
     return {m, 1 - m};
   }
   const Cell c = cell(color);
@@ -155,10 +158,14 @@ class FractionGrid {
   }
   // Range of the node values in [a, b] (grid nodes only: what marching squares sees).
   Interval range(Vec2 a, Vec2 b) const {
-    const auto i0 = static_cast<std::size_t>(std::max(0.0, std::floor((a.x - lo_.x) / res_ - 1e-9)));
-    const auto j0 = static_cast<std::size_t>(std::max(0.0, std::floor((a.y - lo_.y) / res_ - 1e-9)));
-    const auto i1 = std::min(nx_ - 1, static_cast<std::size_t>(std::max(0.0, std::ceil((b.x - lo_.x) / res_ + 1e-9))));
-    const auto j1 = std::min(ny_ - 1, static_cast<std::size_t>(std::max(0.0, std::ceil((b.y - lo_.y) / res_ + 1e-9))));
+    const auto i0 =
+        static_cast<std::size_t>(std::max(0.0, std::floor((a.x - lo_.x) / res_ - 1e-9)));
+    const auto j0 =
+        static_cast<std::size_t>(std::max(0.0, std::floor((a.y - lo_.y) / res_ - 1e-9)));
+    const auto i1 = std::min(
+        nx_ - 1, static_cast<std::size_t>(std::max(0.0, std::ceil((b.x - lo_.x) / res_ + 1e-9))));
+    const auto j1 = std::min(
+        ny_ - 1, static_cast<std::size_t>(std::max(0.0, std::ceil((b.y - lo_.y) / res_ + 1e-9))));
     Interval r{std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()};
     for (std::size_t j = j0; j <= j1; ++j)
       for (std::size_t i = i0; i <= i1; ++i) {
@@ -409,9 +416,11 @@ void paint_band(BeadRaster& raster, Vec2 a, Vec2 b, double r) {
   const double px = raster.pixel();
   const Vec2 o = raster.centre(0, 0);
   const long x0 = std::max(0L, static_cast<long>(std::floor((std::min(a.x, b.x) - r - o.x) / px)));
-  const long x1 = std::min(raster.nx() - 1, static_cast<long>(std::ceil((std::max(a.x, b.x) + r - o.x) / px)));
+  const long x1 =
+      std::min(raster.nx() - 1, static_cast<long>(std::ceil((std::max(a.x, b.x) + r - o.x) / px)));
   const long y0 = std::max(0L, static_cast<long>(std::floor((std::min(a.y, b.y) - r - o.y) / px)));
-  const long y1 = std::min(raster.ny() - 1, static_cast<long>(std::ceil((std::max(a.y, b.y) + r - o.y) / px)));
+  const long y1 =
+      std::min(raster.ny() - 1, static_cast<long>(std::ceil((std::max(a.y, b.y) + r - o.y) / px)));
   for (long iy = y0; iy <= y1; ++iy)
     for (long ix = x0; ix <= x1; ++ix) {
       const Vec2 q = raster.centre(ix, iy) - a;
@@ -443,7 +452,8 @@ std::vector<std::vector<Vec2>> keep_uncovered(const std::vector<Vec2>& line, Bea
     if (!(len > 0)) continue;
     const Vec2 u{d.x / len, d.y / len};
     const int n = std::max(1, static_cast<int>(std::ceil(len / step)));
-    for (int i = 0; i < n; ++i) samples.push_back({a + d * (static_cast<double>(i) / n), u, s + len * i / n});
+    for (int i = 0; i < n; ++i)
+      samples.push_back({a + d * (static_cast<double>(i) / n), u, s + len * i / n});
     s += len;
     if (k + 2 == line.size()) samples.push_back({line[k + 1], u, s});
   }
@@ -476,7 +486,8 @@ std::vector<std::vector<Vec2>> keep_uncovered(const std::vector<Vec2>& line, Bea
     runs.push_back({i, j});
     i = j + 1;
   }
-  const bool closed = line.size() > 2 && std::hypot(line.front().x - line.back().x, line.front().y - line.back().y) < 1e-9;
+  const bool closed = line.size() > 2 && std::hypot(line.front().x - line.back().x,
+                                                    line.front().y - line.back().y) < 1e-9;
   auto piece_of = [&](std::size_t i, std::size_t j) {
     std::vector<Vec2> piece;
     for (std::size_t k = i; k <= j; ++k) {
@@ -489,7 +500,8 @@ std::vector<std::vector<Vec2>> keep_uncovered(const std::vector<Vec2>& line, Bea
   };
   std::vector<std::vector<Vec2>> pieces;
   for (const auto& [i, j] : runs) pieces.push_back(piece_of(i, j));
-  if (closed && runs.size() > 1 && runs.front().first == 0 && runs.back().second + 1 == samples.size()) {
+  if (closed && runs.size() > 1 && runs.front().first == 0 &&
+      runs.back().second + 1 == samples.size()) {
     auto& last = pieces.back();
     last.insert(last.end(), pieces.front().begin() + 1, pieces.front().end());
     pieces.erase(pieces.begin());
@@ -542,7 +554,8 @@ std::vector<std::vector<std::vector<Vec2>>> gap_lines(const std::vector<ColorFac
           const double y = centre(0, iy).y;
           if (y >= hi) break;
           if (y < lo) continue;
-          rows[static_cast<std::size_t>(iy - r0)].push_back(a.x + (b.x - a.x) * (y - a.y) / (b.y - a.y));
+          rows[static_cast<std::size_t>(iy - r0)].push_back(a.x +
+                                                            (b.x - a.x) * (y - a.y) / (b.y - a.y));
         }
       }
     std::vector<long> mine;
@@ -632,8 +645,8 @@ std::vector<Regions> level_slabs(const Field& field, Evaluator& ev, double z, Ve
   return rect_slabs(ev, z, lo, hi, 0, levels, resolution, chord_tolerance);
 }
 
-std::vector<ColorFace> palette_zones(const Field& field, Evaluator& ev, double z, Vec2 lo,
-                                     Vec2 hi, const Palette& palette, double resolution,
+std::vector<ColorFace> palette_zones(const Field& field, Evaluator& ev, double z, Vec2 lo, Vec2 hi,
+                                     const Palette& palette, double resolution,
                                      double chord_tolerance) {
   require_materials(field, palette);
   const int d = palette.divisions();
@@ -695,7 +708,8 @@ struct PathZones {
   std::vector<Zone> zones;
   std::vector<Regions> below[3];
 };
-PathZones path_zones(Evaluator& ev, double z, Vec2 zlo, Vec2 zhi, const FgmOptions& o, double beta) {
+PathZones path_zones(Evaluator& ev, double z, Vec2 zlo, Vec2 zhi, const FgmOptions& o,
+                     double beta) {
   const double res = std::max(o.material_resolution, o.bead_width / 2);
   PathZones pz;
   const int d = o.palette.divisions();
@@ -726,10 +740,12 @@ PathZones path_zones(Evaluator& ev, double z, Vec2 zlo, Vec2 zhi, const FgmOptio
 // edges (the contours of the sets below[m][k] = {fraction m <= level k}), each run coloured by
 // the design at its middle (two materials: the zone between the levels; three: the palette's
 // triangle), short runs merged along their bead, a tool changer's pieces grouped by tool.
-std::vector<fgm::Piece> path_order_layer(const Layer& planar, const std::vector<Regions> (&below)[3],
-                                         const std::vector<double>& levels, std::vector<Zone>& zones,
-                                         Evaluator& ev, double z, std::size_t g, const FgmOptions& o,
-                                         Vec2 zlo, Vec2 zhi, FgmStats& shorts) {
+std::vector<fgm::Piece> path_order_layer(const Layer& planar,
+                                         const std::vector<Regions> (&below)[3],
+                                         const std::vector<double>& levels,
+                                         std::vector<Zone>& zones, Evaluator& ev, double z,
+                                         std::size_t g, const FgmOptions& o, Vec2 zlo, Vec2 zhi,
+                                         FgmStats& shorts) {
   std::vector<std::vector<Vec2>> rings;
   for (const auto& sets : below)
     for (const Regions& r : sets)
@@ -752,7 +768,8 @@ std::vector<fgm::Piece> path_order_layer(const Layer& planar, const std::vector<
         out[k] = o.palette.color_of(fk);
       } else {
         const double v = nm == 0 ? 0.0 : fr[0];
-        out[k] = static_cast<int>(std::lower_bound(levels.begin(), levels.end(), v) - levels.begin());
+        out[k] =
+            static_cast<int>(std::lower_bound(levels.begin(), levels.end(), v) - levels.begin());
       }
     }
   };
@@ -773,7 +790,8 @@ std::vector<fgm::Piece> path_order_layer(const Layer& planar, const std::vector<
   if (o.min_segment > 0)
     for (std::size_t k = 0; k < pieces.size(); ++k) {
       const bool short_piece = pieces[k].path.length() < o.min_segment;
-      const bool bead = !pieces[k].path.joined && (k + 1 == pieces.size() || !pieces[k + 1].path.joined);
+      const bool bead =
+          !pieces[k].path.joined && (k + 1 == pieces.size() || !pieces[k + 1].path.joined);
       shorts.short_kept += short_piece;
       shorts.short_beads += short_piece && bead;
     }
@@ -799,7 +817,8 @@ void outline_layer(Evaluator& ev, const LayerOutline& lo, std::size_t g, const F
   PathZones pz = path_zones(ev, lo.z, zlo, zhi, o, 0);
   FgmOptions po = o;
   po.zipper = 0;
-  auto pieces = path_order_layer(uncut, pz.below, pz.levels, pz.zones, ev, lo.z, g, po, zlo, zhi, shorts);
+  auto pieces =
+      path_order_layer(uncut, pz.below, pz.levels, pz.zones, ev, lo.z, g, po, zlo, zhi, shorts);
   fgm::apply_flow(pieces, beads.flow, o.bead_width);
   for (auto& piece : pieces) {
     colours.push_back(piece.color);
@@ -911,7 +930,8 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
         std::vector<std::vector<Vec2>> runs;
         auto hatch_at = [&](const Regions& r, double angle) {
           for (const auto& seg : hatch(r, angle, o.bead_width))
-            if (std::hypot(seg.b.x - seg.a.x, seg.b.y - seg.a.y) >= 0.05) runs.push_back({seg.a, seg.b});
+            if (std::hypot(seg.b.x - seg.a.x, seg.b.y - seg.a.y) >= 0.05)
+              runs.push_back({seg.a, seg.b});
         };
         if (o.fixed_angle) {
           hatch_at(fill, fixed_angle);
@@ -926,7 +946,8 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
               hatch_at(one, angle);
               continue;
             }
-            for (auto& lane : fgm::join_lanes(fgm::sector_lines(one, *directions, o.orient_sector, o.bead_width, 0.05, angle),
+            for (auto& lane : fgm::join_lanes(fgm::sector_lines(one, *directions, o.orient_sector,
+                                                                o.bead_width, 0.05, angle),
                                               0.75 * o.bead_width, 1.5 * o.orient_sector))
               runs.push_back(std::move(lane));
           }
@@ -951,7 +972,8 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
       for (std::size_t fi = 0; fi < faces.size(); ++fi)
         for (std::size_t k = 0; k < outer_rings[fi]; ++k) keep(fi, face_lines[fi][k]);
       for (std::size_t fi = 0; fi < faces.size(); ++fi)
-        for (std::size_t k = outer_rings[fi]; k < face_lines[fi].size(); ++k) keep(fi, face_lines[fi][k]);
+        for (std::size_t k = outer_rings[fi]; k < face_lines[fi].size(); ++k)
+          keep(fi, face_lines[fi][k]);
       if (o.gap_fill) {
         const auto gaps = gap_lines(faces, inners, *raster, o.bead_width);
         for (std::size_t fi = 0; fi < faces.size(); ++fi)
@@ -991,7 +1013,9 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
       // The layer's beads reordered for the least travel (nearest neighbour, then 2-opt).
       std::vector<OrderItem> items;
       for (const auto& c : chains)
-        items.push_back({{c.first.front().x, c.first.front().y, 0}, {c.first.back().x, c.first.back().y, 0}, true});
+        items.push_back({{c.first.front().x, c.first.front().y, 0},
+                         {c.first.back().x, c.first.back().y, 0},
+                         true});
       std::vector<std::pair<std::vector<Vec2>, int>> ordered;
       for (const OrderStep& step : order_by_travel(items, {0, 0, 0})) {
         auto& c = chains[step.item];
@@ -1026,7 +1050,8 @@ Toolpath plan_fgm_strategy2(const Field& field, const std::vector<LayerOutline>&
         Path& p = layer.paths[k];
         const Vec2 a = layer.paths[k - 1].points.back().xy(), b = p.points.front().xy();
         std::vector<Vec2> via;
-        if (!p.joined && comb.route(a, b, 3 * std::hypot(b.x - a.x, b.y - a.y) + o.bead_width, via)) {
+        if (!p.joined &&
+            comb.route(a, b, 3 * std::hypot(b.x - a.x, b.y - a.y) + o.bead_width, via)) {
           p.inside = true;
           for (const Vec2 v : via) p.via.push_back({v.x, v.y, layer.z});
         }
@@ -1153,8 +1178,8 @@ void merge_short_pieces(std::vector<Path>& paths, std::vector<int>& colours, Eva
 }
 
 std::vector<GradientErrorSum> gradient_error_sums(const Field& field, const Toolpath& tp,
-                                                  const std::vector<LayerOutline>& layers,
-                                                  double h, std::size_t first_layer) {
+                                                  const std::vector<LayerOutline>& layers, double h,
+                                                  std::size_t first_layer) {
   tbb::enumerable_thread_specific<Evaluator> evaluators([&] { return Evaluator(field); });
   std::vector<GradientErrorSum> acc(tp.layers.size());
   tbb::parallel_for(std::size_t{0}, tp.layers.size(), [&](std::size_t li) {
@@ -1265,7 +1290,8 @@ namespace tower {
 PrimeTower::PrimeTower(const FgmOptions& o, const PurgeOptions& purge)
     : o_(o),
       purge_(purge),
-      length_(purge.melt_volume > 0 ? purge_length(purge.melt_volume, o.layer_height, o.bead_width) : 0),
+      length_(purge.melt_volume > 0 ? purge_length(purge.melt_volume, o.layer_height, o.bead_width)
+                                    : 0),
       part_{{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()},
             {-std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()}} {}
 
@@ -1394,8 +1420,7 @@ void PrimeTower::finish(FgmStats& st) const {
 
 }  // namespace tower
 
-void add_prime_tower(Toolpath& tp, const FgmOptions& o, const PurgeOptions& purge,
-                     FgmStats& st) {
+void add_prime_tower(Toolpath& tp, const FgmOptions& o, const PurgeOptions& purge, FgmStats& st) {
   tower::PrimeTower t(o, purge);
   for (const Layer& l : tp.layers) t.observe(l);
   if (!t.plan(st)) return;
@@ -1403,7 +1428,9 @@ void add_prime_tower(Toolpath& tp, const FgmOptions& o, const PurgeOptions& purg
   t.finish(st);
 }
 
-const char* to_string(FgmOrder order) { return order == FgmOrder::Paths ? "paths" : "faces"; }
+const char* to_string(FgmOrder order) {
+  return order == FgmOrder::Paths ? "paths" : "faces";
+}
 
 bool abrupt_start(const std::vector<double>& before, const Path& path, const Palette& palette) {
   if (path.joined || before.empty() || path.mixture.size() != before.size()) return false;
@@ -1506,19 +1533,21 @@ Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>&
       }
       // Triangle (i, j): up if i + j = d - 1, else down where the third fraction is below
       // (d - 1 - i - j)/d.
-      split_bands(std::move(lines), below[0], 0, d, [&](int i, std::vector<std::vector<Vec2>>& li_) {
-        split_bands(std::move(li_), below[1], 0, d, [&](int j, std::vector<std::vector<Vec2>>& lj) {
-          j = std::min(j, d - 1 - i);
-          if (i + j >= d - 1) {
-            emit(o.palette.color_of_cell(i, j, true), lj);
-            return;
-          }
-          const Regions& cut = below[2][static_cast<std::size_t>(d - 2 - i - j)];
-          auto down = clip_polylines(lj, cut, true), up = clip_polylines(lj, cut, false);
-          emit(o.palette.color_of_cell(i, j, false), down);
-          emit(o.palette.color_of_cell(i, j, true), up);
-        });
-      });
+      split_bands(
+          std::move(lines), below[0], 0, d, [&](int i, std::vector<std::vector<Vec2>>& li_) {
+            split_bands(
+                std::move(li_), below[1], 0, d, [&](int j, std::vector<std::vector<Vec2>>& lj) {
+                  j = std::min(j, d - 1 - i);
+                  if (i + j >= d - 1) {
+                    emit(o.palette.color_of_cell(i, j, true), lj);
+                    return;
+                  }
+                  const Regions& cut = below[2][static_cast<std::size_t>(d - 2 - i - j)];
+                  auto down = clip_polylines(lj, cut, true), up = clip_polylines(lj, cut, false);
+                  emit(o.palette.color_of_cell(i, j, false), down);
+                  emit(o.palette.color_of_cell(i, j, true), up);
+                });
+          });
     }
     // Faces: zones that some path crosses.
     for (const auto& zone : zones) faces_per[li] += zone.count > 0;
@@ -1531,7 +1560,8 @@ Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>&
       }
       merge_short_pieces(paths, colours, ev, z, o.palette, o.min_segment, shorts_per[li]);
       per[li].clear();
-      for (std::size_t k = 0; k < paths.size(); ++k) per[li].push_back({std::move(paths[k]), colours[k]});
+      for (std::size_t k = 0; k < paths.size(); ++k)
+        per[li].push_back({std::move(paths[k]), colours[k]});
     }
     // Colour by colour in palette order (reversed every other layer), the planar order within.
     std::stable_sort(per[li].begin(), per[li].end(), [&](const Piece& a, const Piece& b) {
@@ -1557,7 +1587,8 @@ Toolpath plan_fgm_strategy1(const Field& field, const std::vector<LayerOutline>&
       }
       per[li] = std::move(joined);
       shorts_per[li].short_kept = 0;
-      for (const auto& piece : per[li]) shorts_per[li].short_kept += piece.path.length() < o.min_segment;
+      for (const auto& piece : per[li])
+        shorts_per[li].short_kept += piece.path.length() < o.min_segment;
       shorts_per[li].short_beads = shorts_per[li].short_kept;  // face order: every piece a bead
     }
   });

@@ -99,9 +99,10 @@ void EdgeGrid::crossings(Vec2 a, Vec2 b, std::vector<double>& ts) {
   }
 }
 
-std::vector<Piece> split_paths(const std::vector<Path>& paths, EdgeGrid& edges,
-                               const std::function<void(const std::vector<Vec2>&, std::vector<int>&)>& zones_at,
-                               const std::function<int(int)>& colour_of, const Palette& palette) {
+std::vector<Piece> split_paths(
+    const std::vector<Path>& paths, EdgeGrid& edges,
+    const std::function<void(const std::vector<Vec2>&, std::vector<int>&)>& zones_at,
+    const std::function<int(int)>& colour_of, const Palette& palette) {
   std::vector<Piece> out;
   std::vector<double> ts;
   struct Cut {
@@ -203,7 +204,8 @@ std::vector<std::vector<double>> design_along(Evaluator& ev, double z, const Pat
   if (!q.empty()) ev.fractions(q.data(), q.size(), f.data());
   std::vector<std::vector<double>> out(q.size());
   for (std::size_t i = 0; i < q.size(); ++i)
-    out[i].assign(f.begin() + static_cast<std::ptrdiff_t>(i * m), f.begin() + static_cast<std::ptrdiff_t>((i + 1) * m));
+    out[i].assign(f.begin() + static_cast<std::ptrdiff_t>(i * m),
+                  f.begin() + static_cast<std::ptrdiff_t>((i + 1) * m));
   return out;
 }
 

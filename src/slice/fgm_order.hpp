@@ -49,9 +49,10 @@ struct Piece {
 // make one piece, whose colour colour_of(zone) gives (asked once per piece, in print order) and
 // whose mixture is that colour's. A path's pieces together are the path (its points and the cut
 // points, in order); the pieces after the first are joined.
-std::vector<Piece> split_paths(const std::vector<Path>& paths, EdgeGrid& edges,
-                               const std::function<void(const std::vector<Vec2>&, std::vector<int>&)>& zones_at,
-                               const std::function<int(int)>& colour_of, const Palette& palette);
+std::vector<Piece> split_paths(
+    const std::vector<Path>& paths, EdgeGrid& edges,
+    const std::function<void(const std::vector<Vec2>&, std::vector<int>&)>& zones_at,
+    const std::function<int(int)>& colour_of, const Palette& palette);
 
 // The design's fractions along a path at z: every vertex and every 0.1 mm between.
 std::vector<std::vector<double>> design_along(Evaluator& evaluator, double z, const Path& path);

@@ -251,7 +251,8 @@ void add_hatch(const Regions& region, double angle, double w, std::vector<Strand
   for (const auto& seg : hatch(region, angle, w))
     if (dist(seg.a, seg.b) >= 0.05) lines.push_back({seg.a, seg.b});
   st.lines += lines.size();
-  for (auto& loop : pair_fill(lines, region, 8 * w, &rest)) strands.push_back({std::move(loop), true});
+  for (auto& loop : pair_fill(lines, region, 8 * w, &rest))
+    strands.push_back({std::move(loop), true});
   for (auto& chain : connect_fill(rest, region, 8 * w))
     if (length(chain) >= kDropOpen * w) strands.push_back({std::move(chain), false});
 }
@@ -419,7 +420,8 @@ OutlineBeads layer_beads(Evaluator& ev, const LayerOutline& layer, std::size_t g
     Vec2 hi{-lo.x, -lo.y};
     for (const auto& poly : layer.regions)
       for (const Vec2 q : poly.outer)
-        lo = {std::min(lo.x, q.x), std::min(lo.y, q.y)}, hi = {std::max(hi.x, q.x), std::max(hi.y, q.y)};
+        lo = {std::min(lo.x, q.x), std::min(lo.y, q.y)},
+        hi = {std::max(hi.x, q.x), std::max(hi.y, q.y)};
     const double pad = 2 * o.bead_width;
     potential.emplace(ev, layer.z, Vec2{lo.x - pad, lo.y - pad}, Vec2{hi.x + pad, hi.y + pad},
                       std::max(o.material_resolution, o.bead_width / 2));

@@ -50,7 +50,8 @@ std::vector<std::vector<double>> sample_fractions(Evaluator& ev, double z, Vec2 
   std::vector<double> v(w * m);
   for (long j = 0; j < ny; ++j) {
     for (std::size_t i = 0; i < w; ++i)
-      row[i] = {lo.x + static_cast<double>(i) * spacing, lo.y + static_cast<double>(j) * spacing, z};
+      row[i] = {lo.x + static_cast<double>(i) * spacing, lo.y + static_cast<double>(j) * spacing,
+                z};
     ev.fractions(row.data(), w, v.data());
     for (std::size_t i = 0; i < w; ++i)
       f[static_cast<std::size_t>(j) * w + i].assign(v.begin() + static_cast<long>(i * m),

@@ -370,8 +370,10 @@ struct ProcessPass::Evaluators {
 };
 
 ProcessPass::ProcessPass(const Field& design, const ProcessOptions& options)
-    : options_(options), ev_(std::make_unique<Evaluator>(design)),
-      evaluators_(std::make_unique<Evaluators>(design)), tally_(std::make_unique<Tally>()) {
+    : options_(options),
+      ev_(std::make_unique<Evaluator>(design)),
+      evaluators_(std::make_unique<Evaluators>(design)),
+      tally_(std::make_unique<Tally>()) {
   check_options(options_);
   stats_.active = true;
 }
@@ -499,7 +501,6 @@ std::vector<std::pair<std::string, std::string>> process_warnings(const ProcessS
   return out;
 }
 
-
 nlohmann::ordered_json process_json(const ProcessStats& stats, const ProcessOptions& options,
                                     const GcodeStats* gcode) {
   nlohmann::ordered_json jp;
@@ -511,9 +512,9 @@ nlohmann::ordered_json process_json(const ProcessStats& stats, const ProcessOpti
     const ProcessParamStats& s = stats.param[k];
     if (!s.set) continue;
     jp[to_string(static_cast<ProcessParam>(k))] = {
-        {"node", s.node}, {"step", options.step(static_cast<ProcessParam>(k))},
-        {"min", s.min}, {"max", s.max}, {"changes", s.changes},
-        {"max_deviation", s.max_deviation}};
+        {"node", s.node},       {"step", options.step(static_cast<ProcessParam>(k))},
+        {"min", s.min},         {"max", s.max},
+        {"changes", s.changes}, {"max_deviation", s.max_deviation}};
   }
   if (gcode) {
     jp["temperature_commands"] = gcode->temperature_changes;

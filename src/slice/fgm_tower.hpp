@@ -55,7 +55,6 @@ Vec2 place(const BBox2& part, double sx, double sy, const PurgeOptions& options)
 Block plan_tower(const BBox2& part, std::size_t most, double length, double bead,
                  const PurgeOptions& options);
 
-
 // The prime tower of a print built in two passes over its layers in order: observe() every
 // layer (which paths purge, the footprint, the busiest layer), plan() the block, then add()
 // every layer from index 0 (the tower's wall, sparse lines and purges inserted before the paths
@@ -74,7 +73,9 @@ class PrimeTower {
   void finish(FgmStats& stats) const;
 
  private:
-  int colour_of(const Path& p) const { return p.mixture.empty() ? -1 : o_.palette.color_of(p.mixture); }
+  int colour_of(const Path& p) const {
+    return p.mixture.empty() ? -1 : o_.palette.color_of(p.mixture);
+  }
   bool purges(int before, int after) const;  // a change above the purge threshold
   Path tower_path(std::vector<Vec2> points, int colour, double z);
 

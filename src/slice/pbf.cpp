@@ -289,7 +289,9 @@ class BoundCache {
     return (h ^ (h >> 29)) * 0xBF58476D1CE4E5B9ull;
   }
   // The table position from the hash's top bits (the tag holds its low 16).
-  std::size_t slot(std::uint64_t h) const { return static_cast<std::size_t>(h >> (64 - log2_slots_)); }
+  std::size_t slot(std::uint64_t h) const {
+    return static_cast<std::size_t>(h >> (64 - log2_slots_));
+  }
   bool live(std::size_t i) const { return (tags_[i] >> 16) == gen_; }
   std::size_t free_slot(std::uint64_t h) const {
     std::size_t i = slot(h);
@@ -330,7 +332,7 @@ struct Ctx {
   Evaluator part, phi, sheet;  // sheet: Φ alone (no envelope), for thickness measurements
   std::optional<Evaluator> solids, c, envelope;
   LayerGrid grid;
-  BoundCache bounds;  // the part's, over this layer's blocks
+  BoundCache bounds;                         // the part's, over this layer's blocks
   std::vector<EdgeCrossing> edge_crossings;  // the section march's, by grid edge
   // For the layer's section, joint-measure, thin-measure and mid-surface functions.
   SampleBuffers part_buffers, joint_buffers, thin_buffers, mid_buffers;
@@ -339,7 +341,10 @@ struct Ctx {
   Vec2 period;
   const std::vector<BBox3>& clip;
   Ctx(const Field& p, const PbfDesign& d, const Field& c_field, Vec2 sheet_period)
-      : part(p), phi(d.phi), sheet(trellis::sheet(d.phi, d.c, d.thickness)), period(sheet_period),
+      : part(p),
+        phi(d.phi),
+        sheet(trellis::sheet(d.phi, d.c, d.thickness)),
+        period(sheet_period),
         clip(d.clip) {
     if (!d.solids.empty()) solids.emplace(d.solids);
     if (!c_field.empty()) c.emplace(c_field);
@@ -426,8 +431,8 @@ class JointSection : public PlaneFunction {
     const double gx = grad.x, gy = grad.y, gz = grad.z;
     const double gxy = std::sqrt(gx * gx + gy * gy), g = std::sqrt(gxy * gxy + gz * gz);
     // Horizontal width of the sheet: 2c / |∇xy φ| (or t·|∇φ| / |∇xy φ| for uniform thickness).
-    const double full = d_.thickness > 0 ? d_.thickness * g
-                                         : 2 * std::abs(ctx_.c ? ctx_.c->value(p) : c_);
+    const double full =
+        d_.thickness > 0 ? d_.thickness * g : 2 * std::abs(ctx_.c ? ctx_.c->value(p) : c_);
     double m;
     if (o_.split == PbfSplit::Inclination) {
       // The sheet of the c interpolated by inclination: > 0 inside it (|φ| below that c).
@@ -666,7 +671,8 @@ class PartSection : public PlaneFunction {
   // table (they were most of its entries).
   void share_bounds_from(double shared) { shared_ = shared; }
   Interval bound(Vec2 lo, Vec2 hi) override {
-    if (hi.x - lo.x < shared_ && hi.y - lo.y < shared_) return ctx_.part.bound(plane_box(lo, hi, z_));
+    if (hi.x - lo.x < shared_ && hi.y - lo.y < shared_)
+      return ctx_.part.bound(plane_box(lo, hi, z_));
     return ctx_.bounds.get(ctx_.part, lo, hi);
   }
   void prefetch_bounds(const Vec2* lo, const Vec2* hi, std::size_t n) override {
@@ -697,7 +703,8 @@ class MidSection : public PlaneFunction {
     evaluate_grid(ctx_.phi, p, w, rows, z_, b_.xs, b_.ys, out);
   }
   Interval bound(Vec2 lo, Vec2 hi) override {
-    if (ctx_.bounds.get(ctx_.part, lo, hi).lo >= 0) return {1, std::numeric_limits<double>::infinity()};
+    if (ctx_.bounds.get(ctx_.part, lo, hi).lo >= 0)
+      return {1, std::numeric_limits<double>::infinity()};
     return ctx_.phi.bound(plane_box(lo, hi, z_));
   }
   void prefetch_bounds(const Vec2* lo, const Vec2* hi, std::size_t n) override {
@@ -837,8 +844,10 @@ class LineZeros {
     double start = s0;
     std::sort(roots_.begin(), roots_.end());
     for (double r : roots_) {
-      if (inside) out.emplace_back(start, r);
-      else start = r;
+      if (inside)
+        out.emplace_back(start, r);
+      else
+        start = r;
       inside = !inside;
     }
     if (inside) out.emplace_back(start, s1);
@@ -860,7 +869,10 @@ class LineZeros {
   void root(double a, double b, double fa) {
     while (b - a > tol_) {
       const double m = 0.5 * (a + b);
-      if ((f(m) < 0) == (fa < 0)) a = m; else b = m;
+      if ((f(m) < 0) == (fa < 0))
+        a = m;
+      else
+        b = m;
     }
     roots_.push_back(0.5 * (a + b));
   }
@@ -1176,12 +1188,14 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
                          "--resolution (pbf.resolution)"});
     const double budget = o.memory_budget > 0 ? o.memory_budget : default_memory_budget();
     if (budget > 0 && result.memory_estimate > budget)
-      throw ResourceError(fmt::format(
-          "refused before starting: this job needs about {:.0f} MB ({} threads at resolution {} "
-          "mm, {} layers, estimate) but the memory budget is {:.0f} MB: raise the resolution "
-          "(--resolution), cut the part in build-height ranges, run fewer threads or raise the "
-          "budget (--max-memory MB, or --force)",
-          result.memory_estimate / 1e6, threads, o.resolution, zs.size(), budget / 1e6),
+      throw ResourceError(
+          fmt::format(
+              "refused before starting: this job needs about {:.0f} MB ({} threads at resolution "
+              "{} "
+              "mm, {} layers, estimate) but the memory budget is {:.0f} MB: raise the resolution "
+              "(--resolution), cut the part in build-height ranges, run fewer threads or raise the "
+              "budget (--max-memory MB, or --force)",
+              result.memory_estimate / 1e6, threads, o.resolution, zs.size(), budget / 1e6),
           {"", 0, "run.max_memory"});
   }
 
@@ -1227,7 +1241,8 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
     BBox3 box = e;
     mesh = field_to_mesh(part, box, o.resolution, &ms);
     result.mesh_triangles = mesh.triangles.size();
-    if (!o.stl_scan_all) buckets = triangles_by_plane(mesh, zs);  // each layer: the triangles it cuts
+    if (!o.stl_scan_all)
+      buckets = triangles_by_plane(mesh, zs);  // each layer: the triangles it cuts
     result.mesh_bytes = ms.mesh_bytes;
     result.grid_bytes = ms.grid_bytes;
   }
@@ -1307,7 +1322,8 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
           periodic += probe.periodic({x, y}, {x + step, y + step}, z);
         }
     }
-    result.periodic_fraction = total ? static_cast<double>(periodic) / static_cast<double>(total) : 0;
+    result.periodic_fraction =
+        total ? static_cast<double>(periodic) / static_cast<double>(total) : 0;
     if (!(result.periodic_fraction >= 0.3)) sheet_period = {0, 0};
   }
   tbb::enumerable_thread_specific<Ctx> contexts(

@@ -7,7 +7,9 @@ namespace trellis::pbf_detail {
 
 namespace {
 
-double dist(Vec2 a, Vec2 b) { return std::sqrt(dist2(a, b)); }
+double dist(Vec2 a, Vec2 b) {
+  return std::sqrt(dist2(a, b));
+}
 
 // A polyline with its cumulative arc length.
 class Walk {

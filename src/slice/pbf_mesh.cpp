@@ -1,13 +1,12 @@
 #include "trellis/slice/pbf_mesh.hpp"
 
+#include <fmt/format.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <map>
-
-#include <fmt/format.h>
 
 #include "trellis/core/error.hpp"
 #include "trellis/geom/mesh_io.hpp"
@@ -39,7 +38,8 @@ void check(const PbfSolidOptions& o) {
                        {"", 0, "laser.contour_powers"});
   for (double t : {o.skin.skin_thickness, o.skin.upskin_thickness, o.skin.downskin_thickness,
                    o.core_hatch_distance})
-    if (!(t >= 0)) throw SettingError("skin thicknesses must be >= 0", {"", 0, "pbf.skin_thickness"});
+    if (!(t >= 0))
+      throw SettingError("skin thicknesses must be >= 0", {"", 0, "pbf.skin_thickness"});
   if (o.pattern.strategy == ScanStrategy::Island &&
       !(o.pattern.island_overlap < o.pattern.island_size))
     throw SettingError("the island overlap must be smaller than the island size",
@@ -145,9 +145,9 @@ PbfLayer plan_pbf_layer(const Regions& region, const LayerKinds* kinds, std::siz
     clock.mark(L.contours[j].data(), L.contours[j].size(),
                speed(o.exposures.of_contour(L.contour_offset[j]).speed, o.timing.contour_speed));
   for (std::size_t j = 0; j < L.hatches.size(); ++j)
-    clock.mark(L.hatches[j].a, L.hatches[j].b,
-               speed(o.exposures.of(static_cast<HatchKind>(L.hatch_kind[j])).speed,
-                     o.timing.hatch_speed));
+    clock.mark(
+        L.hatches[j].a, L.hatches[j].b,
+        speed(o.exposures.of(static_cast<HatchKind>(L.hatch_kind[j])).speed, o.timing.hatch_speed));
   L.scan_time = clock.seconds();
   return L;
 }

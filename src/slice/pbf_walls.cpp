@@ -46,7 +46,8 @@ PbfSections pbf_sample_sections(const PbfDesign& design, const PbfOptions& o) {
     for (const auto& ring : rings_of(l.regions))
       for (std::size_t i = 0; i < ring.size(); ++i)
         out.perimeter += std::hypot(ring[(i + 1) % ring.size()].x - ring[i].x,
-                                    ring[(i + 1) % ring.size()].y - ring[i].y) / 5;
+                                    ring[(i + 1) % ring.size()].y - ring[i].y) /
+                         5;
   }
   return out;
 }

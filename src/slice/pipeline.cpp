@@ -13,15 +13,15 @@
 #include <optional>
 #include <set>
 
-#include "process_json.hpp"
 #include "fgm_tower.hpp"
+#include "process_json.hpp"
 #include "trellis/core/error.hpp"
-#include "trellis/toolpath/layer_spill.hpp"
 #include "trellis/field/implicit_3mf.hpp"
 #include "trellis/field/vcad.hpp"
 #include "trellis/geom/mesh_io.hpp"
 #include "trellis/slice/fgm.hpp"
 #include "trellis/slice/fgm_process.hpp"
+#include "trellis/toolpath/layer_spill.hpp"
 
 namespace trellis {
 
@@ -34,9 +34,12 @@ SliceRoute slice_route_from_string(const std::string& name) {
 
 const char* to_string(SliceRoute route) {
   switch (route) {
-    case SliceRoute::Auto: return "auto";
-    case SliceRoute::Field: return "field";
-    case SliceRoute::Mesh: return "mesh";
+    case SliceRoute::Auto:
+      return "auto";
+    case SliceRoute::Field:
+      return "field";
+    case SliceRoute::Mesh:
+      return "mesh";
   }
   return "?";
 }
@@ -167,8 +170,8 @@ Estimate mesh_field_estimate(const TriangleMesh& m, double voxel) {
   Estimate e;
   e.bytes = voxels * 40;
   e.seconds = voxels * 1.2e-6;
-  e.what = fmt::format("a distance field of {:.3g} voxels ({:.0f} mm2 of surface at {} mm)",
-                       voxels, area, voxel);
+  e.what = fmt::format("a distance field of {:.3g} voxels ({:.0f} mm2 of surface at {} mm)", voxels,
+                       area, voxel);
   e.change = "--mesh-voxel (slice.mesh_voxel) or --route mesh";
   return e;
 }
@@ -183,7 +186,8 @@ Estimate meshing_estimate(const BBox3& box, double voxel) {
   Estimate e;
   e.bytes = 6 * area / (voxel * voxel) * 40;
   e.seconds = cells * 4e-9;
-  e.what = fmt::format("marching cubes over {:.0f} x {:.0f} x {:.0f} mm at {} mm", s.x, s.y, s.z, voxel);
+  e.what =
+      fmt::format("marching cubes over {:.0f} x {:.0f} x {:.0f} mm at {} mm", s.x, s.y, s.z, voxel);
   e.change = "--mesh-voxel (slice.mesh_voxel) or --route field";
   return e;
 }
@@ -405,18 +409,18 @@ FgmOptions graded_options(const SliceJob& job, int materials, int* quantized_fro
     // A tool changer prints N fixed mixes (tool 0 = material A … the last = B): the palette's
     // colours are those mixes, never more colours than tools unless quantising is asked for.
     if (fo.palette.materials != 2)
-      throw GeometryError("a tool changer prints two-material gradients (one fixed mix per "
-                          "tool); the design has three materials",
-                          {job.input, 0, ""});
+      throw GeometryError(
+          "a tool changer prints two-material gradients (one fixed mix per "
+          "tool); the design has three materials",
+          {job.input, 0, ""});
     if (fo.palette.colors > job.tools) {
       if (!job.quantize)
-        throw SettingError(std::to_string(fo.palette.colors) + " colours on " +
-                               std::to_string(job.tools) +
-                               " tools: each colour needs a tool (use --colors " +
-                               std::to_string(job.tools) +
-                               ", or gradient.quantize = true to print each colour with the "
-                               "nearest tool)",
-                           {"", 0, "fgm.colors"});
+        throw SettingError(
+            std::to_string(fo.palette.colors) + " colours on " + std::to_string(job.tools) +
+                " tools: each colour needs a tool (use --colors " + std::to_string(job.tools) +
+                ", or gradient.quantize = true to print each colour with the "
+                "nearest tool)",
+            {"", 0, "fgm.colors"});
       if (quantized_from) *quantized_from = fo.palette.colors;
       fo.palette.colors = job.tools;
     }
@@ -470,9 +474,10 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
     // Planar shard files do not carry the values; graded slicing leaves the process pass to
     // the merge (it runs after the prime tower, over the tower's paths too).
     if (field.has_process() && range_a < range_b && !graded)
-      throw SettingError("a design with process fields (fprocess) does not shard with planar "
-                         "slicing: slice it whole",
-                         {job.input, 0, "fprocess"});
+      throw SettingError(
+          "a design with process fields (fprocess) does not shard with planar "
+          "slicing: slice it whole",
+          {job.input, 0, "fprocess"});
     r.process_fields = field.has_process();
     const auto [below, above] = skin_margins(job);
     range_lo = range_a >= below ? range_a - below : 0;
@@ -491,7 +496,8 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
       // The layer-local step of graded slicing; the whole-print step (finish_graded) is the
       // merge's.
       int quantized_from = 0;
-      FgmOptions fo = graded_options(job, static_cast<int>(field.materials().size()), &quantized_from);
+      FgmOptions fo =
+          graded_options(job, static_cast<int>(field.materials().size()), &quantized_from);
       fo.first_layer = range_lo;
       r.fgm.materials = fo.palette.materials;
       r.fgm.quantized_from = quantized_from;
@@ -570,10 +576,10 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
 SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progress& progress,
                          const SliceStreamOptions& options) {
   const bool graded = job.strategy == 1 || job.strategy == 2;
-  // A prime tower (Strategy 1 in face order, tool changers) is placed and sized from every layer, and a tool
-  // changer's mixtures are made the tools' after it: the planned layers go to a temporary file
-  // first (the tower observes each), then are read back in order with the tower and the tools'
-  // mixtures added (tower::PrimeTower), and only then handed to the sink.
+  // A prime tower (Strategy 1 in face order, tool changers) is placed and sized from every layer,
+  // and a tool changer's mixtures are made the tools' after it: the planned layers go to a
+  // temporary file first (the tower observes each), then are read back in order with the tower and
+  // the tools' mixtures added (tower::PrimeTower), and only then handed to the sink.
   const bool tower_step = graded && graded_tower(job);
   SliceResult r;
   r.streamed = true;
@@ -614,7 +620,8 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
     std::vector<double> dz;
     for (std::size_t i = 0; i < run.size(); ++i) {
       const long g = std::lround(run[i].z / job.planar.layer_height) - 1;
-      const std::size_t plane = first + static_cast<std::size_t>(std::clamp<long>(g, 0, static_cast<long>(n) - 1));
+      const std::size_t plane =
+          first + static_cast<std::size_t>(std::clamp<long>(g, 0, static_cast<long>(n) - 1));
       ptrs.push_back(&run[i]);
       dz.push_back(d.zs[plane] - run[i].z);
     }
@@ -669,9 +676,9 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
     std::vector<LayerOutline> window;
     Toolpath toolpath;
     PlanarStats stats;
-    FgmStats fgm;                               // graded
-    std::vector<GradientErrorSum> error;        // graded: per toolpath layer
-    std::vector<double> error_z;                // the design plane each was measured at (NaN: none)
+    FgmStats fgm;                         // graded
+    std::vector<GradientErrorSum> error;  // graded: per toolpath layer
+    std::vector<double> error_z;          // the design plane each was measured at (NaN: none)
     double seconds = 0;
   };
   std::deque<LayerOutline> window;  // part layers [window_start, received)
@@ -807,15 +814,17 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
               // The palette colour whose mixture the path prints (plan_fgm_strategy2 counts
               // changes of its faces' colours).
               const auto known = colour_of_mixture.find(path.mixture);
-              const int colour = known != colour_of_mixture.end() ? known->second
-                                                                   : fo.palette.color_of(path.mixture);
+              const int colour = known != colour_of_mixture.end()
+                                     ? known->second
+                                     : fo.palette.color_of(path.mixture);
               if (colour != last_colour && last_colour >= 0) ++r.fgm.colour_changes;
               last_colour = colour;
               r.fgm.abrupt_changes += abrupt_start(last_mixture, path, fo.palette);
               last_mixture = path.mixture;
               r.fgm.joined += path.joined;
               ++r.fgm.paths;
-              if (path.role != PathRole::Purge && !path.mixture.empty()) colours_used.insert(path.mixture);
+              if (path.role != PathRole::Purge && !path.mixture.empty())
+                colours_used.insert(path.mixture);
             }
           }
           for (std::size_t i = 0; i < p.error.size(); ++i) {
@@ -843,8 +852,10 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
           // split the paths).
           for (const Layer& layer : p.toolpath.layers)
             for (const Path& path : layer.paths) {
-              if (!graded) r.planar.extruded_length += path.length();
-              else count_graded_path(path, r.planar);
+              if (!graded)
+                r.planar.extruded_length += path.length();
+              else
+                count_graded_path(path, r.planar);
             }
           if (process) process_layers(p.toolpath.layers);
           for (Layer& layer : p.toolpath.layers) {
@@ -1049,7 +1060,8 @@ std::string slice_report_json(const SliceJob& job, const SliceResult& r, const G
     // §4.1: material and time per colour of the part itself (the tower's share follows). Volume
     // with the rectangular bead (bead width × layer height) the fills balance against and the
     // writer's E deposits; densities per material from the profile, as the tower's.
-    std::map<std::vector<double>, std::pair<double, double>> by_mixture = r.colour_use;  // length, time
+    std::map<std::vector<double>, std::pair<double, double>> by_mixture =
+        r.colour_use;  // length, time
     if (!r.streamed)
       for (const auto& l : r.toolpath.layers) add_colour_use(job, l, by_mixture);
     const double h = job.planar.layer_height, w = job.planar.bead_width;

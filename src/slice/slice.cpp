@@ -47,15 +47,14 @@ MarchOptions FieldSliceOptions::march() const {
 namespace {
 
 void require_finite_xy(const BBox3& e) {
-  if (e.empty() || !std::isfinite(e.min.x) || !std::isfinite(e.max.x) ||
-      !std::isfinite(e.min.y) || !std::isfinite(e.max.y))
+  if (e.empty() || !std::isfinite(e.min.x) || !std::isfinite(e.max.x) || !std::isfinite(e.min.y) ||
+      !std::isfinite(e.max.y))
     throw GeometryError(
         "the design has no finite extent in X and Y; give it a root((min),(max),(voxel)) box or "
         "intersect it with a solid");
 }
 
 }  // namespace
-
 
 Regions contour_at(const Field& field, Evaluator& ev, double z, const FieldSliceOptions& options,
                    SliceStats* stats) {
@@ -69,7 +68,8 @@ Regions contour_at(const Field& field, Evaluator& ev, double z, const FieldSlice
   const Vec2 hi{std::ceil((e.max.x + pad) / h) * h, std::ceil((e.max.y + pad) / h) * h};
   const double cells = (hi.x - lo.x) / h * (hi.y - lo.y) / h;
   if (cells > 4e9)
-    throw SettingError("resolution " + std::to_string(h) + " mm is too fine for this design's size");
+    throw SettingError("resolution " + std::to_string(h) +
+                       " mm is too fine for this design's size");
   FieldSection section(ev, z);
   const ContourSet set = march_squares(section, lo, hi, 0.0, options.march());
   if (stats) {
@@ -236,7 +236,6 @@ void order_lines(std::vector<Segment2> lines, Vec2& cursor, std::vector<std::vec
   }
 }
 
-
 }  // namespace
 
 namespace {
@@ -298,8 +297,11 @@ std::vector<std::vector<Vec2>> fill_lines_oriented(const Regions& r,
   if (r.empty() || !(spacing > 0) || !(cell > 0) || !(quantum > 0)) return {};
   double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
   for (const auto& p : r)
-    for (const Vec2 q : p.outer) x0 = std::min(x0, q.x), y0 = std::min(y0, q.y), x1 = std::max(x1, q.x), y1 = std::max(y1, q.y);
-  const long i0 = static_cast<long>(std::floor(x0 / cell)), j0 = static_cast<long>(std::floor(y0 / cell));
+    for (const Vec2 q : p.outer)
+      x0 = std::min(x0, q.x), y0 = std::min(y0, q.y), x1 = std::max(x1, q.x),
+      y1 = std::max(y1, q.y);
+  const long i0 = static_cast<long>(std::floor(x0 / cell)),
+             j0 = static_cast<long>(std::floor(y0 / cell));
   const long ni = static_cast<long>(std::floor(x1 / cell)) - i0 + 1;
   const long nj = static_cast<long>(std::floor(y1 / cell)) - j0 + 1;
   // Each cell's angle (quantised, in [0, 180)), from its centre.
@@ -308,7 +310,8 @@ std::vector<std::vector<Vec2>> fill_lines_oriented(const Regions& r,
   std::vector<char> used(static_cast<std::size_t>(steps), 0);
   for (long j = 0; j < nj; ++j)
     for (long i = 0; i < ni; ++i) {
-      const Vec2 c{(static_cast<double>(i0 + i) + 0.5) * cell, (static_cast<double>(j0 + j) + 0.5) * cell};
+      const Vec2 c{(static_cast<double>(i0 + i) + 0.5) * cell,
+                   (static_cast<double>(j0 + j) + 0.5) * cell};
       double a = std::fmod(angle_of(c), 180.0);
       if (a < 0) a += 180;
       const int q = static_cast<int>(std::lround(a / (180.0 / steps))) % steps;
@@ -516,7 +519,8 @@ Toolpath plan_planar(const std::vector<LayerOutline>& layers, const PlanarOption
         is.walls.push_back(std::move(rings));
       }
       // Infill region: inside the innermost wall, reaching `infill_overlap` of a bead into it.
-      const double inset = static_cast<double>(wall_regions.size()) * w + 0.5 * w - o.infill_overlap * w;
+      const double inset =
+          static_cast<double>(wall_regions.size()) * w + 0.5 * w - o.infill_overlap * w;
       const Regions inner = offset(island, -inset);
       if (inner.empty()) continue;
       const Regions skin_near = skin.empty() ? Regions{} : near(skin, box_of(inner));
@@ -532,7 +536,8 @@ Toolpath plan_planar(const std::vector<LayerOutline>& layers, const PlanarOption
           if (std::sqrt(dist2(seg.a, seg.b)) >= o.min_path) f.lines.push_back({seg.a, seg.b});
       };
       add_fill(solid, skin_angle, w, PathRole::Skin);
-      if (o.infill_pattern == InfillPattern::Rectilinear || sparse.empty() || !(o.infill_density > 0)) {
+      if (o.infill_pattern == InfillPattern::Rectilinear || sparse.empty() ||
+          !(o.infill_density > 0)) {
         add_fill(sparse, infill_angle, sparse_spacing, PathRole::Infill);
       } else {
         InfillSpec spec;

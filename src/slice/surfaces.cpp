@@ -16,9 +16,9 @@ constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 struct Piece {
   double x0, x1;
   bool arc = false;
-  double z0 = 0, z1 = 0;              // line
-  double cx = 0, cz = 0, r = 0;       // arc
-  bool upper = false;                 // arc: the upper half (a peak)
+  double z0 = 0, z1 = 0;         // line
+  double cx = 0, cz = 0, r = 0;  // arc
+  bool upper = false;            // arc: the upper half (a peak)
   double eval(double x) const {
     if (!arc) return x1 > x0 ? z0 + (z1 - z0) * (x - x0) / (x1 - x0) : z0;
     const double d = std::max(0.0, r * r - (x - cx) * (x - cx));
@@ -78,7 +78,9 @@ std::vector<Piece> profile_pieces(const Profile& p) {
   return split;
 }
 
-double tri01(double t) { return 1 - std::abs(2 * (t - std::floor(t)) - 1); }
+double tri01(double t) {
+  return 1 - std::abs(2 * (t - std::floor(t)) - 1);
+}
 
 }  // namespace
 
@@ -138,7 +140,8 @@ Profile corrugation_profile(const CorrugationParams& p) {
   const double a = slope * q;  // a quarter period rises by the amplitude at the slope
   prof.corners.push_back({p.flat_length, 0});
   for (long k = 1; k < quarters; k += 2)
-    prof.corners.push_back({p.flat_length + static_cast<double>(k) * q, ((k / 2) % 2 == 0) ? a : -a});
+    prof.corners.push_back(
+        {p.flat_length + static_cast<double>(k) * q, ((k / 2) % 2 == 0) ? a : -a});
   prof.corners.push_back({p.length - p.flat_length, 0});
   prof.corners.push_back({p.length, 0});
   return prof;

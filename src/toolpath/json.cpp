@@ -87,23 +87,28 @@ Path parse_path(const json& jp, const std::string& origin, const std::string& el
   p.flow = optional_number(jp, "flow", origin, el);
   if (auto it = jp.find("fan"); it != jp.end()) {
     p.fan = number(*it, origin, el + ".fan");
-    if (p.fan < 0 || p.fan > 100) throw ParseError("fan must be 0..100 %", {origin, 0, el + ".fan"});
+    if (p.fan < 0 || p.fan > 100)
+      throw ParseError("fan must be 0..100 %", {origin, 0, el + ".fan"});
   }
   if (auto it = jp.find("joined"); it != jp.end()) {
-    if (!it->is_boolean()) throw ParseError("joined must be true or false", {origin, 0, el + ".joined"});
+    if (!it->is_boolean())
+      throw ParseError("joined must be true or false", {origin, 0, el + ".joined"});
     p.joined = it->get<bool>();
   }
   if (auto it = jp.find("inside"); it != jp.end()) {
-    if (!it->is_boolean()) throw ParseError("inside must be true or false", {origin, 0, el + ".inside"});
+    if (!it->is_boolean())
+      throw ParseError("inside must be true or false", {origin, 0, el + ".inside"});
     p.inside = it->get<bool>();
   }
   if (auto it = jp.find("via"); it != jp.end()) {
-    if (!it->is_array()) throw ParseError("via must be an array of [x, y, z]", {origin, 0, el + ".via"});
+    if (!it->is_array())
+      throw ParseError("via must be an array of [x, y, z]", {origin, 0, el + ".via"});
     for (std::size_t i = 0; i < it->size(); ++i) {
       const std::string ve = el + ".via[" + std::to_string(i) + "]";
       const json& q = (*it)[i];
       if (!q.is_array() || q.size() != 3) throw ParseError("expected [x, y, z]", {origin, 0, ve});
-      p.via.push_back({number(q[0], origin, ve), number(q[1], origin, ve), number(q[2], origin, ve)});
+      p.via.push_back(
+          {number(q[0], origin, ve), number(q[1], origin, ve), number(q[2], origin, ve)});
     }
   }
   if (auto it = jp.find("mixture"); it != jp.end()) {
@@ -142,8 +147,9 @@ static Toolpath toolpath_from_document(const json& doc, const std::string& origi
   if (version == doc.end() || *version != 1)
     throw ParseError("unsupported toolpath version (this build reads version 1)", {origin});
   if (auto units = doc.find("units"); units != doc.end() && *units != "mm")
-    throw ParseError("units " + units->dump() + ": a Trellis toolpath is in millimetres (\"mm\"); "
-                     "convert the coordinates, widths and heights",
+    throw ParseError("units " + units->dump() +
+                         ": a Trellis toolpath is in millimetres (\"mm\"); "
+                         "convert the coordinates, widths and heights",
                      {origin, 0, "units"});
   Toolpath tp;
   if (auto it = doc.find("source"); it != doc.end() && it->is_string()) tp.source = *it;

@@ -29,7 +29,8 @@ struct PathHead {
 }  // namespace
 
 LayerSpill::LayerSpill() {
-  file_ = temporary_file();  // in $TMPDIR, unlinked already: gone with the process, whatever happens
+  file_ =
+      temporary_file();  // in $TMPDIR, unlinked already: gone with the process, whatever happens
   // Small buffers: a plate keeps one spill per part open at once.
   std::setvbuf(file_, nullptr, _IOFBF, 64u << 10);
 }

@@ -10,7 +10,7 @@ namespace {
 constexpr const char* kRoleNames[] = {"strut", "contour", "handle", "perimeter", "infill",
                                       "other", "skin",    "purge",  "hatch",     "nonplanar"};
 static_assert(std::size(kRoleNames) == kPathRoleCount);
-}
+}  // namespace
 
 const char* to_string(PathRole role) {
   return kRoleNames[static_cast<int>(role)];

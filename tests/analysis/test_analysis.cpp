@@ -186,7 +186,8 @@ TEST(Analysis, PlatePartsAreMeasuredEachOnItsOwn) {
       EXPECT_GE(parts[i].print_time_s, length[i] / 20 - 1e-9) << flavor;
       filament += parts[i].filament;
     }
-    EXPECT_NEAR(parts[0].extruded_length + parts[1].extruded_length, counter.counts.extruded_length, 1e-6);
+    EXPECT_NEAR(parts[0].extruded_length + parts[1].extruded_length, counter.counts.extruded_length,
+                1e-6);
     EXPECT_NEAR(filament, counter.counts.filament, 1e-6) << flavor;
     EXPECT_LE(parts[0].print_time_s + parts[1].print_time_s, counter.counts.print_time_s + 1e-9);
   }

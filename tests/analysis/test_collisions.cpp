@@ -1,6 +1,5 @@
 #include <gtest/gtest.h>
 
-#include "trellis/settings/settings.hpp"
 #include "trellis/analysis/collisions.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/lattice/cells3d.hpp"
@@ -8,6 +7,7 @@
 #include "trellis/machine/gcode_writer.hpp"
 #include "trellis/machine/machine_check.hpp"
 #include "trellis/plan/aero.hpp"
+#include "trellis/settings/settings.hpp"
 
 using namespace trellis;
 
@@ -38,12 +38,18 @@ Toolpath toolpath(std::vector<Path> paths) {
 TEST(CollisionCheck, LowerFirstIsCleanUpperFirstCollides) {
   const Graph g = stack();
   const CheckOptions o;
-  const CollisionCheck good = check_collisions(
-      g, toolpath({path({{0, 0, 0}, {5, 0, 0}}), path({{0, 0, 2}, {5, 0, 2}}), path({{8, 0, 0}, {8, 0, 4}})}), o);
+  const CollisionCheck good =
+      check_collisions(g,
+                       toolpath({path({{0, 0, 0}, {5, 0, 0}}), path({{0, 0, 2}, {5, 0, 2}}),
+                                 path({{8, 0, 0}, {8, 0, 4}})}),
+                       o);
   EXPECT_TRUE(good.ok());
   EXPECT_EQ(good.printed_once, 3u);
-  const CollisionCheck bad = check_collisions(
-      g, toolpath({path({{0, 0, 2}, {5, 0, 2}}), path({{0, 0, 0}, {5, 0, 0}}), path({{8, 0, 0}, {8, 0, 4}})}), o);
+  const CollisionCheck bad =
+      check_collisions(g,
+                       toolpath({path({{0, 0, 2}, {5, 0, 2}}), path({{0, 0, 0}, {5, 0, 0}}),
+                                 path({{8, 0, 0}, {8, 0, 4}})}),
+                       o);
   EXPECT_EQ(bad.collisions, 1u);
   ASSERT_EQ(bad.hits.size(), 1u);
   EXPECT_EQ(bad.hits[0].strut, 0);
@@ -58,11 +64,11 @@ TEST(CollisionCheck, LowerFirstIsCleanUpperFirstCollides) {
 TEST(CollisionCheck, TopDownMissingRepeatedOffDesign) {
   const Graph g = stack();
   const CheckOptions o;
-  const CollisionCheck c = check_collisions(
-      g,
-      toolpath({path({{0, 0, 0}, {5, 0, 0}}), path({{8, 0, 4}, {8, 0, 0}}),
-                path({{5, 0, 0}, {0, 0, 0}}), path({{20, 0, 0}, {21, 0, 0}})}),
-      o);
+  const CollisionCheck c =
+      check_collisions(g,
+                       toolpath({path({{0, 0, 0}, {5, 0, 0}}), path({{8, 0, 4}, {8, 0, 0}}),
+                                 path({{5, 0, 0}, {0, 0, 0}}), path({{20, 0, 0}, {21, 0, 0}})}),
+                       o);
   ASSERT_EQ(c.top_down.size(), 1u);
   EXPECT_EQ(c.top_down[0].second, 2u);
   EXPECT_EQ(c.missing, std::vector<EdgeId>{1});
@@ -72,9 +78,11 @@ TEST(CollisionCheck, TopDownMissingRepeatedOffDesign) {
   // Ends pushed past their nodes (the writer's overlap) still match within the snap distance.
   CheckOptions snap;
   snap.snap = 0.25;
-  const CollisionCheck o2 = check_collisions(
-      g, toolpath({path({{-0.2, 0, 0}, {5.2, 0, 0}}), path({{0, 0, 2}, {5, 0, 2}}), path({{8, 0, -0.2}, {8, 0, 4.2}})}),
-      snap);
+  const CollisionCheck o2 =
+      check_collisions(g,
+                       toolpath({path({{-0.2, 0, 0}, {5.2, 0, 0}}), path({{0, 0, 2}, {5, 0, 2}}),
+                                 path({{8, 0, -0.2}, {8, 0, 4.2}})}),
+                       snap);
   EXPECT_EQ(o2.printed_once, 3u);
   CheckOptions bad;
   bad.snap = 0;
@@ -93,8 +101,8 @@ TEST(CollisionCheck, EmbeddedGcodeReadBackIsCleanAndComplete) {
   p.nozzle.end_overlap = 0.3;
   const AeroResult r = plan_aero(g, p, d);
   const Toolpath tp = aero_toolpath(g, r, "test");
-  MachineProfile prof =
-      load_machine_profile(std::string(TRELLIS_SOURCE_DIR) + "/profiles/embedded_aero_two_nozzle.toml");
+  MachineProfile prof = load_machine_profile(std::string(TRELLIS_SOURCE_DIR) +
+                                             "/profiles/embedded_aero_two_nozzle.toml");
   prof.node_overlap = 0.3;
   const std::string gcode = write_gcode(tp, prof);
   GcodeReadOptions read;

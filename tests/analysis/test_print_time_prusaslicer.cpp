@@ -10,10 +10,10 @@
 #include <sstream>
 
 #include "support/temp_dir.hpp"
-#include "trellis/settings/settings.hpp"
 #include "trellis/analysis/metrics.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/machine/gcode_writer.hpp"
+#include "trellis/settings/settings.hpp"
 
 using namespace trellis;
 
@@ -83,7 +83,8 @@ TEST(PrintTime, TheWritersEstimateIsAnalyzesEstimate) {
   test::TempDir dir("print_time_writer");
   for (const std::string profile : {"ender3_s1_pro_tpu.toml", "voron_klipper.toml",
                                     "pneumatic_pcl_27g.toml", "e3d_toolchanger_rrf.toml"}) {
-    const MachineProfile p = load_machine_profile(std::string(TRELLIS_SOURCE_DIR) + "/profiles/" + profile);
+    const MachineProfile p =
+        load_machine_profile(std::string(TRELLIS_SOURCE_DIR) + "/profiles/" + profile);
     const std::string file = dir.file(profile + ".gcode");
     const GcodeStats stats = write_gcode_file(file, tp, p);
     Diagnostics d;

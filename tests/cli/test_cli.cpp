@@ -5,6 +5,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <regex>
 #include <set>
 #include <sstream>
@@ -15,8 +16,6 @@
 #include "trellis/geom/mesh.hpp"
 #include "trellis/geom/mesh_io.hpp"
 #include "trellis/toolpath/json.hpp"
-
-#include <nlohmann/json.hpp>
 
 namespace fs = std::filesystem;
 
@@ -61,9 +60,9 @@ std::string without_job(const std::string& path) {
 }  // namespace
 
 TEST(Cli, HelpForEveryCommand) {
-  for (const char* c : {"", "lattice2d", "lattice3d", "plan", "gcode", "render", "run", "analyze",
-                        "compare", "slice", "pbf", "check", "nonplanar", "surface",
-                        "rerun", "settings", "walls"}) {
+  for (const char* c :
+       {"", "lattice2d", "lattice3d", "plan", "gcode", "render", "run", "analyze", "compare",
+        "slice", "pbf", "check", "nonplanar", "surface", "rerun", "settings", "walls"}) {
     const CmdResult r = run(std::string(c) + " --help");
     EXPECT_EQ(r.code, 0) << c;
     EXPECT_NE(r.out.find("Usage"), std::string::npos) << c;
@@ -107,7 +106,9 @@ TEST(Cli, PrintedWhereTheCoordinatesSayUnlessCentred) {
   for (bool centre : {false, true}) {
     const std::string gc = in_work(centre ? "c.gcode" : "nc.gcode");
     ASSERT_EQ(run("gcode " + tp + " --machine " + profile + " -o " + gc +
-                  (centre ? "" : " --set placement.center=false")).code, 0);
+                  (centre ? "" : " --set placement.center=false"))
+                  .code,
+              0);
     double lo = 1e9, hi = -1e9;
     for (const auto& d : trellis::test::replay_gcode(trellis::read_file(gc)).deposits) {
       lo = std::min({lo, d.x0, d.x1});
@@ -128,10 +129,14 @@ TEST(Cli, SameSeedByteIdenticalAcrossThreadCounts) {
       run("plan gippo " + lat + " -o " + in_work("v2.json") + " --threads 2 --iterations 80").code,
       0);
   EXPECT_EQ(trellis::read_file(in_work("v1.json")), trellis::read_file(in_work("v2.json")));
-  ASSERT_EQ(run("plan gippo " + lat + " -o " + in_work("v3.json") + " --threads 1 --iterations 80 --report " +
-                in_work("r1.json")).code, 0);
-  ASSERT_EQ(run("plan gippo " + lat + " -o " + in_work("v4.json") + " --threads 2 --iterations 80 --report " +
-                in_work("r2.json")).code, 0);
+  ASSERT_EQ(run("plan gippo " + lat + " -o " + in_work("v3.json") +
+                " --threads 1 --iterations 80 --report " + in_work("r1.json"))
+                .code,
+            0);
+  ASSERT_EQ(run("plan gippo " + lat + " -o " + in_work("v4.json") +
+                " --threads 2 --iterations 80 --report " + in_work("r2.json"))
+                .code,
+            0);
   EXPECT_EQ(without_job(in_work("r1.json")), without_job(in_work("r2.json")));
 }
 
@@ -176,7 +181,8 @@ TEST(Cli, BadInputExitsTwoWithOneClearMessageAndNoOutput) {
 
 TEST(Cli, JobRunsEndToEnd) {
   const std::string job = write(
-      "job.toml", std::string("[job]\nroute = \"plan\"\nname = \"t\"\nmachine = \"") + TRELLIS_SOURCE_DIR +
+      "job.toml", std::string("[job]\nroute = \"plan\"\nname = \"t\"\nmachine = \"") +
+                      TRELLIS_SOURCE_DIR +
                       "/profiles/pneumatic_pcl_27g.toml\"\n[lattice2d]\npattern = \"snub-square\"\n"
                       "size = [6, 6]\n[layers]\ncount = 3\nrotation = 30\n"
                       "[gippo]\niterations = 30\n[output]\npreview_layers = 3\n");
@@ -186,7 +192,8 @@ TEST(Cli, JobRunsEndToEnd) {
                         "t_preview/layer_0002.png", "t_preview/scores.png"})
     EXPECT_TRUE(fs::exists(work() / "jobout" / f)) << f;
   const std::string bad =
-      write("badjob.toml", "[job]\nroute = \"plan\"\nname = \"t\"\n[lattice2d]\npatern = \"honeycomb\"\n");
+      write("badjob.toml",
+            "[job]\nroute = \"plan\"\nname = \"t\"\n[lattice2d]\npatern = \"honeycomb\"\n");
   const CmdResult b = run("run " + bad);
   EXPECT_EQ(b.code, 2);
   EXPECT_NE(b.err.find("badjob.toml:5"), std::string::npos) << b.err;
@@ -198,10 +205,15 @@ TEST(Cli, AnalyzeAndCompareOurOwnGcode) {
   ASSERT_EQ(run("lattice2d --pattern triangle --cell 1 --size 5,5 -o " + lat).code, 0);
   ASSERT_EQ(run("plan euler " + lat + " -o " + tp).code, 0);
   ASSERT_EQ(run("gcode " + tp + " --machine " + std::string(TRELLIS_SOURCE_DIR) +
-                "/profiles/ender3_s1_pro_tpu.toml --center -o " + gc).code, 0);
-  CmdResult r = run("analyze " + gc + " --design " + lat + " --align --report " + in_work("an.report.json"));
+                "/profiles/ender3_s1_pro_tpu.toml --center -o " + gc)
+                .code,
+            0);
+  CmdResult r =
+      run("analyze " + gc + " --design " + lat + " --align --report " + in_work("an.report.json"));
   ASSERT_EQ(r.code, 0) << r.err;
-  EXPECT_NE(r.out.find("ratio 1.000, double 0.00 mm, off-design 0.00 mm, missing 0 of"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("ratio 1.000, double 0.00 mm, off-design 0.00 mm, missing 0 of"),
+            std::string::npos)
+      << r.out;
   const std::string report = trellis::read_file(in_work("an.report.json"));
   EXPECT_NE(report.find("\"missing_edges\": 0"), std::string::npos);
   r = run("compare " + lat + " " + gc + " " + gc + " --align --preview " + in_work("cmp"));
@@ -218,11 +230,14 @@ TEST(Cli, AnalyzeAndCompareOurOwnGcode) {
 }
 
 TEST(Cli, SliceDesignWritesGcodeReportAndPreviews) {
-  const std::string design = std::string(TRELLIS_SOURCE_DIR) + "/examples/designs/fgm_column5_ring_radial.vcad";
+  const std::string design =
+      std::string(TRELLIS_SOURCE_DIR) + "/examples/designs/fgm_column5_ring_radial.vcad";
   const std::string prof = std::string(TRELLIS_SOURCE_DIR) + "/profiles/ender3_s1_pro_tpu.toml";
-  const CmdResult r = run("slice " + design + " --machine " + prof + " -o " + in_work("ring.gcode") +
-                          " --report " + in_work("ring.json") + " --preview " +
-                          in_work("ring_png") + " --layer-height 0.5 --set extrusion.nozzle_diameter=0.8 --bead-width 0.4 --walls 2 --infill 0.3 --strategy none");
+  const CmdResult r =
+      run("slice " + design + " --machine " + prof + " -o " + in_work("ring.gcode") + " --report " +
+          in_work("ring.json") + " --preview " + in_work("ring_png") +
+          " --layer-height 0.5 --set extrusion.nozzle_diameter=0.8 --bead-width 0.4 --walls 2 "
+          "--infill 0.3 --strategy none");
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("field route: 20 layers"), std::string::npos) << r.out;
   EXPECT_TRUE(fs::exists(in_work("ring_png") + "/layer_0000.png"));
@@ -268,7 +283,10 @@ TEST(Cli, SliceBadDesignsExitTwoNamingLineAndColumn) {
       {"braces.vcad", "difference() {\n cylinder(5, 5);\n", "braces.vcad:1:1: block not closed"},
       {"expr.vcad", "fgrade([\"sin(x\"], [\"a\"]) { sphere(2); }", "expr.vcad:1:"},
       {"nomesh.vcad", "mesh(\"missing.stl\");", "nomesh.vcad:1:6"},
-      {"open.stl", "solid o\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid o\n", "open edges"},
+      {"open.stl",
+       "solid o\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 "
+       "0\nendloop\nendfacet\nendsolid o\n",
+       "open edges"},
   };
   for (const auto& c : cases) {
     const std::string in = write(c.file, c.text), out = in_work("never_slice.gcode");
@@ -282,9 +300,10 @@ TEST(Cli, SliceBadDesignsExitTwoNamingLineAndColumn) {
 
 TEST(Cli, PbfWritesACliFileWithTheRightStructure) {
   const std::string prof = std::string(TRELLIS_SOURCE_DIR) + "/profiles/pbf_316l_25um.toml";
-  const CmdResult r = run("pbf --cell-type gyroid --cell 2.5 --size 2.5,2.5,1 --layer-height 0.05 --machine " +
-                          prof + " -o " + in_work("g.cli") + " --report " + in_work("g.json") +
-                          " --preview " + in_work("g_png") + " --preview-layers 2");
+  const CmdResult r =
+      run("pbf --cell-type gyroid --cell 2.5 --size 2.5,2.5,1 --layer-height 0.05 --machine " +
+          prof + " -o " + in_work("g.cli") + " --report " + in_work("g.json") + " --preview " +
+          in_work("g_png") + " --preview-layers 2");
   ASSERT_EQ(r.code, 0) << r.err;
   const std::string cli = trellis::read_file(in_work("g.cli"));
   EXPECT_EQ(cli.rfind("$$HEADERSTART\n$$ASCII\n$$UNITS/0.001\n", 0), 0u);
@@ -323,7 +342,8 @@ TEST(Cli, PbfWritesACliFileWithTheRightStructure) {
 }
 
 TEST(Cli, PbfBadInputExitsTwo) {
-  const std::string bad_prof = write("bad_laser.toml", "[laser]\nhatch_power = 100\nhatch_pwr = 3\n");
+  const std::string bad_prof =
+      write("bad_laser.toml", "[laser]\nhatch_power = 100\nhatch_pwr = 3\n");
   CmdResult r = run("pbf --machine " + bad_prof + " -o " + in_work("never.cli"));
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("bad_laser.toml:3"), std::string::npos) << r.err;
@@ -342,9 +362,10 @@ TEST(Cli, PbfBadInputExitsTwo) {
 TEST(Cli, AeroPipelineLatticePlanGcodeCheck) {
   const std::string lat = in_work("octet.json"), tp = in_work("octet_path.json"),
                     rep = in_work("octet_report.json"), nc = in_work("octet.nc");
-  const std::string prof = std::string(TRELLIS_SOURCE_DIR) + "/profiles/embedded_aero_two_nozzle.toml";
-  CmdResult r = run("lattice3d --cell-type octet --cell 7 --count 2,2,2 --materials xy-plane -o " + lat +
-                    " --preview " + in_work("octet_pv"));
+  const std::string prof =
+      std::string(TRELLIS_SOURCE_DIR) + "/profiles/embedded_aero_two_nozzle.toml";
+  CmdResult r = run("lattice3d --cell-type octet --cell 7 --count 2,2,2 --materials xy-plane -o " +
+                    lat + " --preview " + in_work("octet_pv"));
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("2 material(s)"), std::string::npos) << r.out;
   r = run("plan aero " + lat + " -o " + tp + " --report " + rep + " --preview " + in_work("plan") +
@@ -355,7 +376,8 @@ TEST(Cli, AeroPipelineLatticePlanGcodeCheck) {
                           "\"travel_length_mm\"", "\"max_trail_edges\"", "\"collisions\": 0",
                           "\"violations\": []", "\"struts_printed_once\": true"})
     EXPECT_NE(report.find(key), std::string::npos) << key;
-  for (const char* png : {"octet_pv/3d.png", "plan/3d.png", "plan/step_0001.png", "plan/step_0003.png"})
+  for (const char* png :
+       {"octet_pv/3d.png", "plan/3d.png", "plan/step_0001.png", "plan/step_0003.png"})
     EXPECT_TRUE(fs::exists(work() / png)) << png;
   r = run("gcode " + tp + " --machine " + prof + " -o " + nc);
   ASSERT_EQ(r.code, 0) << r.err;
@@ -364,12 +386,12 @@ TEST(Cli, AeroPipelineLatticePlanGcodeCheck) {
   EXPECT_EQ(r.code, 0) << r.out << r.err;
   EXPECT_NE(r.out.find("0 collisions"), std::string::npos) << r.out;
   // The same struts printed top layer first: the checker finds collisions, exit 1.
-  const std::string flat = write("flat.json",
-                                 "{\"nodes\":[[0,0,0],[5,0,0],[0,0,2],[5,0,2]],\"edges\":[[0,1],[2,3]]}");
-  const std::string wrong = write(
-      "wrong.json",
-      "{\"format\":\"trellis.toolpath\",\"version\":1,\"layers\":[{\"z\":0,\"paths\":["
-      "{\"points\":[[0,0,2],[5,0,2]]},{\"points\":[[0,0,0],[5,0,0]]}]}]}");
+  const std::string flat =
+      write("flat.json", "{\"nodes\":[[0,0,0],[5,0,0],[0,0,2],[5,0,2]],\"edges\":[[0,1],[2,3]]}");
+  const std::string wrong =
+      write("wrong.json",
+            "{\"format\":\"trellis.toolpath\",\"version\":1,\"layers\":[{\"z\":0,\"paths\":["
+            "{\"points\":[[0,0,2],[5,0,2]]},{\"points\":[[0,0,0],[5,0,0]]}]}]}");
   r = run("check " + flat + " " + wrong + " --report " + in_work("wrong_check.json"));
   EXPECT_EQ(r.code, 1) << r.out << r.err;
   EXPECT_NE(r.out.find("1 collisions"), std::string::npos) << r.out;
@@ -391,19 +413,24 @@ TEST(Cli, GradedDesignStrategy2WritesMixtures) {
   const std::string d = write("graded.vcad",
                               "fgrade([\"0.5 + x/24\", \"0.5 - x/24\"], [\"a\", \"b\"]) {\n"
                               "  rectprism(20, 10, 0.6);\n}\n");
-  const std::string prof = std::string(TRELLIS_SOURCE_DIR) + "/profiles/geeetech_mizar_m_mixing.toml";
-  CmdResult r = run("slice " + d + " --machine " + prof + " -o " + in_work("graded.gcode") +
-                    " --strategy 2 --colors 4 --layer-height 0.3 --set extrusion.nozzle_diameter=0.4 --report " + in_work("graded.json"));
+  const std::string prof =
+      std::string(TRELLIS_SOURCE_DIR) + "/profiles/geeetech_mizar_m_mixing.toml";
+  CmdResult r = run(
+      "slice " + d + " --machine " + prof + " -o " + in_work("graded.gcode") +
+      " --strategy 2 --colors 4 --layer-height 0.3 --set extrusion.nozzle_diameter=0.4 --report " +
+      in_work("graded.json"));
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.out.find("strategy 2: 4 colours"), std::string::npos) << r.out;
   const std::string g = trellis::read_file(in_work("graded.gcode"));
-  for (const char* m : {"M165 A0.125 B0.875", "M165 A0.375 B0.625", "M165 A0.625 B0.375",
-                        "M165 A0.875 B0.125"})
+  for (const char* m :
+       {"M165 A0.125 B0.875", "M165 A0.375 B0.625", "M165 A0.625 B0.375", "M165 A0.875 B0.125"})
     EXPECT_NE(g.find(m), std::string::npos) << m;
-  EXPECT_NE(trellis::read_file(in_work("graded.json")).find("\"colour_changes\""), std::string::npos);
+  EXPECT_NE(trellis::read_file(in_work("graded.json")).find("\"colour_changes\""),
+            std::string::npos);
   // One material: a clear error, exit 2.
   const std::string plain = write("plain.vcad", "cube(5);\n");
-  r = run("slice " + plain + " --machine " + prof + " -o " + in_work("never.gcode") + " --strategy 2");
+  r = run("slice " + plain + " --machine " + prof + " -o " + in_work("never.gcode") +
+          " --strategy 2");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("two or three materials"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(in_work("never.gcode")));
@@ -449,8 +476,9 @@ TEST(Cli, ThreeMaterialDesignOnAThreeInputMixer) {
   // hotend or a palette that is not d² colours is refused naming why, nothing written.
   const std::string root = std::string(TRELLIS_SOURCE_DIR);
   const std::string d = root + "/examples/designs/fgm_three_materials.vcad";
-  CmdResult r = run("slice " + d + " --machine " + root + "/profiles/geeetech_a20t_mixing.toml -o " +
-                    in_work("tri.gcode") + " --strategy 2 --colors 9 --report " + in_work("tri.json"));
+  CmdResult r =
+      run("slice " + d + " --machine " + root + "/profiles/geeetech_a20t_mixing.toml -o " +
+          in_work("tri.gcode") + " --strategy 2 --colors 9 --report " + in_work("tri.json"));
   ASSERT_EQ(r.code, 0) << r.err;
   const std::string g = trellis::read_file(in_work("tri.gcode"));
   // All nine centroids of the triangle cut in three: the corners' and the down triangles'.
@@ -472,14 +500,15 @@ TEST(Cli, ThreeMaterialDesignOnAThreeInputMixer) {
 }
 
 TEST(Cli, NonplanarFromGeneratedSurfaceWithToolGroups) {
-  const std::string prof = std::string(TRELLIS_SOURCE_DIR) + "/profiles/fresh_nonplanar_2syringe.toml";
+  const std::string prof =
+      std::string(TRELLIS_SOURCE_DIR) + "/profiles/fresh_nonplanar_2syringe.toml";
   ASSERT_EQ(run("surface m-curve -o " + in_work("m.stl")).code, 0);
   const CmdResult r = run("nonplanar " + in_work("m.stl") + " --machine " + prof + " -o " +
                           in_work("m.gcode") + " --report " + in_work("m.json") +
-                          " --layer-tools 3:0,3:1,3:0 --angles 0 --preview " +
-                          in_work("m_pv"));
+                          " --layer-tools 3:0,3:1,3:0 --angles 0 --preview " + in_work("m_pv"));
   ASSERT_EQ(r.code, 0) << r.err;
-  EXPECT_NE(r.out.find("9 layers of 0.300 mm, 9 paths of 0.400 mm width, 0 travel moves within layers, 2 tool changes"),
+  EXPECT_NE(r.out.find("9 layers of 0.300 mm, 9 paths of 0.400 mm width, 0 travel moves within "
+                       "layers, 2 tool changes"),
             std::string::npos)
       << r.out;
   const std::string report = trellis::read_file(in_work("m.json"));
@@ -489,15 +518,17 @@ TEST(Cli, NonplanarFromGeneratedSurfaceWithToolGroups) {
   const auto rep = trellis::test::replay_gcode(trellis::read_file(in_work("m.gcode")));
   EXPECT_EQ(rep.extrusion_starts, 9u);
   // A height function directly.
-  const CmdResult f = run("nonplanar --height-fn \"sqrt(100-x^2-y^2)-6\" --domain -8,-8,8,8 "
-                          "--machine " + prof + " --layers 2 --offset normal -o " +
-                          in_work("cap.gcode"));
+  const CmdResult f =
+      run("nonplanar --height-fn \"sqrt(100-x^2-y^2)-6\" --domain -8,-8,8,8 "
+          "--machine " +
+          prof + " --layers 2 --offset normal -o " + in_work("cap.gcode"));
   EXPECT_EQ(f.code, 0) << f.err;
   EXPECT_NE(f.out.find("0 travel moves within layers"), std::string::npos) << f.out;
 }
 
 TEST(Cli, NonplanarBadSurfacesExitTwoNamingWhere) {
-  const std::string prof = std::string(TRELLIS_SOURCE_DIR) + "/profiles/fresh_nonplanar_2syringe.toml";
+  const std::string prof =
+      std::string(TRELLIS_SOURCE_DIR) + "/profiles/fresh_nonplanar_2syringe.toml";
   // A closed cube is not a height field.
   const std::string cube = write("cube.obj",
                                  "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nv 1 0 1\nv 1 1 1\n"
@@ -521,7 +552,8 @@ TEST(Cli, NonplanarBadSurfacesExitTwoNamingWhere) {
   EXPECT_EQ(r.code, 2);
   EXPECT_FALSE(fs::exists(in_work("never.gcode")));
   // Two surfaces at once is an error, not one of them silently.
-  r = run("nonplanar " + cube + " --set surface.kind=miura --machine " + prof + " -o " + in_work("never.gcode"));
+  r = run("nonplanar " + cube + " --set surface.kind=miura --machine " + prof + " -o " +
+          in_work("never.gcode"));
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("give one surface"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(in_work("never.gcode")));

@@ -176,8 +176,8 @@ TEST(CliLaser, SolidPartRegionKindsAndParameterSetsReadBack) {
   }
   EXPECT_EQ(sets[0].size(), 6u);
   const std::string cli = trellis::read_file(path("b.cli"));
-  for (const char* label : {"contour 1", "contour 2", "core hatch", "upskin hatch",
-                            "downskin hatch"})
+  for (const char* label :
+       {"contour 1", "contour 2", "core hatch", "upskin hatch", "downskin hatch"})
     EXPECT_NE(cli.find(std::string(",") + label + "\n"), std::string::npos) << label;
   // Refused where unused: a core power without a core, a power per contour not matching them.
   CmdRun r = run("pbf " + part + " --machine " + profile +

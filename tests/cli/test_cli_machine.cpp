@@ -22,9 +22,15 @@ const std::string kBathTwo = kRoot + "/profiles/embedded_aero_two_nozzle.toml";
 const std::string kFresh = kRoot + "/profiles/fresh_nonplanar_2syringe.toml";
 const std::string kLaser = kRoot + "/profiles/pbf_316l_25um.toml";
 
-fs::path work() { return trellis::test::scratch("trellis_cli_machine"); }
-std::string at(const std::string& name) { return (work() / name).string(); }
-trellis::test::CliRun run(const std::string& args) { return trellis::test::run_cli(args, work()); }
+fs::path work() {
+  return trellis::test::scratch("trellis_cli_machine");
+}
+std::string at(const std::string& name) {
+  return (work() / name).string();
+}
+trellis::test::CliRun run(const std::string& args) {
+  return trellis::test::run_cli(args, work());
+}
 
 std::string write(const std::string& name, const std::string& text) {
   std::ofstream(work() / name) << text;
@@ -56,7 +62,9 @@ TEST(MachineCheck, PartBiggerThanTheBedIsRefusedOnEveryRoute) {
                      " --set placement.offset_x=100"),
                  {"placement.offset_x"}, {at("off.gcode")});
   // plan (GIPPO) with G-code: neither the G-code nor the toolpath is written.
-  ASSERT_EQ(run("lattice2d --pattern square --size 300,300 --cell 10 -o " + at("sq.lattice.json")).code, 0);
+  ASSERT_EQ(
+      run("lattice2d --pattern square --size 300,300 --cell 10 -o " + at("sq.lattice.json")).code,
+      0);
   expect_refused(run("plan gippo " + at("sq.lattice.json") + " --iterations 2 --machine " + kEnder +
                      " -o " + at("sq.toolpath.json") + " --gcode " + at("sq.gcode")),
                  {"machine.bed_x"}, {at("sq.gcode"), at("sq.toolpath.json")});
@@ -66,10 +74,16 @@ TEST(MachineCheck, PartBiggerThanTheBedIsRefusedOnEveryRoute) {
                  {"machine.bed_x"}, {at("sq2.gcode")});
   // A circular bed (a delta, origin at the centre): 150 mm across holds a 100 mm square's
   // corners only up to 106 mm diagonal.
-  ASSERT_EQ(run("lattice2d --pattern square --size 100,100 --cell 10 -o " + at("sq3.lattice.json")).code, 0);
+  ASSERT_EQ(
+      run("lattice2d --pattern square --size 100,100 --cell 10 -o " + at("sq3.lattice.json")).code,
+      0);
   ASSERT_EQ(run("plan euler " + at("sq3.lattice.json") + " -o " + at("sq3.json")).code, 0);
-  const std::string delta = " --set machine.bed_shape=circle --set machine.origin=center --set machine.bed_x=150";
-  ASSERT_EQ(run("gcode " + at("sq3.json") + " --machine " + kEnder + delta + " -o " + at("d1.gcode")).code, 0);
+  const std::string delta =
+      " --set machine.bed_shape=circle --set machine.origin=center --set machine.bed_x=150";
+  ASSERT_EQ(
+      run("gcode " + at("sq3.json") + " --machine " + kEnder + delta + " -o " + at("d1.gcode"))
+          .code,
+      0);
   expect_refused(run("gcode " + at("sq3.json") + " --machine " + kEnder + delta +
                      " --set machine.bed_x=130 -o " + at("d2.gcode")),
                  {"circle of diameter 130"}, {at("d2.gcode")});
@@ -88,7 +102,9 @@ TEST(MachineCheck, PartBiggerThanTheBedIsRefusedOnEveryRoute) {
 TEST(MachineCheck, ToolsTheMachineLacksAreRefused) {
   // A two-material AERO lattice on the one-nozzle bath machine, then on the two-nozzle one.
   ASSERT_EQ(run("lattice3d --cell-type bcc --cell 5 --count 2,2,2 --materials xy-plane -o " +
-                at("two.json")).code, 0);
+                at("two.json"))
+                .code,
+            0);
   expect_refused(run("plan aero " + at("two.json") + " --machine " + kBath + " -o " +
                      at("two.tp.json") + " --gcode " + at("two.nc")),
                  {"tool 1", "machine.tools = 1"}, {at("two.nc"), at("two.tp.json")});
@@ -112,7 +128,8 @@ TEST(MachineCheck, MixturesNeedAMixingHotendAndGradientsAStrategy) {
                " --strategy none");
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_EQ(trellis::read_file(at("one.gcode")).find("M165"), std::string::npos);
-  r = run("slice " + graded + " --machine " + kMixing + " -o " + at("mix.gcode") + " --strategy 2 --colors 4");
+  r = run("slice " + graded + " --machine " + kMixing + " -o " + at("mix.gcode") +
+          " --strategy 2 --colors 4");
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(trellis::read_file(at("mix.gcode")).find("M165"), std::string::npos);
   // Tools mode needs the tools: five wanted, the Ender has one.
@@ -135,7 +152,9 @@ TEST(MachineCheck, BathRoutesNeedABathMachine) {
                      at("air.tp.json") + " --gcode " + at("air.gcode")),
                  {"plan aero", "support bath"}, {at("air.gcode"), at("air.tp.json")});
   // The reverse prints (planar layers in a bath), with a warning.
-  ASSERT_EQ(run("lattice2d --pattern square --size 10,10 --cell 2 -o " + at("flat.lattice.json")).code, 0);
+  ASSERT_EQ(
+      run("lattice2d --pattern square --size 10,10 --cell 2 -o " + at("flat.lattice.json")).code,
+      0);
   r = run("plan gippo " + at("flat.lattice.json") + " --iterations 2 --machine " + kBath + " -o " +
           at("flat.tp.json") + " --gcode " + at("flat.nc") + " --report " + at("flat.json"));
   ASSERT_EQ(r.code, 0) << r.err;
@@ -148,9 +167,9 @@ TEST(MachineCheck, TemperaturesSpeedsAndPowersWithinTheMachinesLimits) {
   expect_refused(run("slice " + part + " --machine " + kEnder + " -o " + at("hot.gcode") +
                      " --set temperature.nozzle=320"),
                  {"temperature.nozzle = 320", "temperature.max_nozzle = 300"}, {at("hot.gcode")});
-  expect_refused(run("slice " + part + " --machine " + kEnder + " -o " + at("fast.gcode") +
-                     " --speed 400"),
-                 {"speed.print = 400", "speed.max = 250"}, {at("fast.gcode")});
+  expect_refused(
+      run("slice " + part + " --machine " + kEnder + " -o " + at("fast.gcode") + " --speed 400"),
+      {"speed.print = 400", "speed.max = 250"}, {at("fast.gcode")});
   expect_refused(run("pbf --machine " + kLaser + " --size 2.5,2.5,0.1 -o " + at("p.cli") +
                      " --set laser.hatch_power=250"),
                  {"laser.hatch_power = 250", "laser.max_power = 200"}, {at("p.cli")});

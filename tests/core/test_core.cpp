@@ -2,7 +2,6 @@
 #include <sys/stat.h>
 
 #include <cmath>
-
 #include <filesystem>
 #include <set>
 
@@ -72,7 +71,8 @@ TEST(File, AtomicWriteReplacesAndLeavesNoTempFiles) {
 namespace {
 std::set<std::string> names_in(const fs::path& dir) {
   std::set<std::string> out;
-  for (auto& e : fs::recursive_directory_iterator(dir)) out.insert(fs::relative(e.path(), dir).string());
+  for (auto& e : fs::recursive_directory_iterator(dir))
+    out.insert(fs::relative(e.path(), dir).string());
   return out;
 }
 }  // namespace
@@ -129,8 +129,9 @@ TEST(Budget, RefusesBeyondEitherLimitWithTheEstimateAndForceGoesBeyond) {
   b.memory = 1e9;
   b.seconds = 60;
   EXPECT_NO_THROW(check_budget({5e8, 30, "a small run", "--x"}, b));
-  for (const Estimate& e : {Estimate{2e9, 1, "a big run", "--size"}, Estimate{1, 120, "a long run", "--size"},
-                            Estimate{std::nan(""), 1, "a NaN run", "--size"}}) {
+  for (const Estimate& e :
+       {Estimate{2e9, 1, "a big run", "--size"}, Estimate{1, 120, "a long run", "--size"},
+        Estimate{std::nan(""), 1, "a NaN run", "--size"}}) {
     try {
       check_budget(e, b);
       ADD_FAILURE() << e.what;

@@ -102,11 +102,17 @@ TEST(Field, BoundsAreConservative) {
   std::uniform_real_distribution<double> U(-1, 1);
   auto leaf = [&]() -> Field {
     switch (rng() % 5) {
-      case 0: return sphere(1 + 3 * std::abs(U(rng)));
-      case 1: return rectprism({1 + 4 * std::abs(U(rng)), 1 + 4 * std::abs(U(rng)), 1 + 4 * std::abs(U(rng))});
-      case 2: return cylinder(1 + 2 * std::abs(U(rng)), 2 + 5 * std::abs(U(rng)));
-      case 3: return torus(3, 0.5 + std::abs(U(rng)));
-      default: return tpms(TpmsKind::SchwarzP, {4, 4, 4}, {"0.4"});
+      case 0:
+        return sphere(1 + 3 * std::abs(U(rng)));
+      case 1:
+        return rectprism(
+            {1 + 4 * std::abs(U(rng)), 1 + 4 * std::abs(U(rng)), 1 + 4 * std::abs(U(rng))});
+      case 2:
+        return cylinder(1 + 2 * std::abs(U(rng)), 2 + 5 * std::abs(U(rng)));
+      case 3:
+        return torus(3, 0.5 + std::abs(U(rng)));
+      default:
+        return tpms(TpmsKind::SchwarzP, {4, 4, 4}, {"0.4"});
     }
   };
   for (int trial = 0; trial < 60; ++trial) {
@@ -114,12 +120,24 @@ TEST(Field, BoundsAreConservative) {
     for (int d = 0; d < 3; ++d) {
       Field g = translate(leaf(), {3 * U(rng), 3 * U(rng), 3 * U(rng)});
       switch (rng() % 6) {
-        case 0: f = unite({f, g}); break;
-        case 1: f = intersect({f, g}); break;
-        case 2: f = subtract({f, g}); break;
-        case 3: f = smooth_unite({f, g}, 1.0); break;
-        case 4: f = rotate(f, {90 * U(rng), 90 * U(rng), 90 * U(rng)}); break;
-        default: f = scale(f, {1 + 0.5 * std::abs(U(rng)), 1, 1 + std::abs(U(rng))}); break;
+        case 0:
+          f = unite({f, g});
+          break;
+        case 1:
+          f = intersect({f, g});
+          break;
+        case 2:
+          f = subtract({f, g});
+          break;
+        case 3:
+          f = smooth_unite({f, g}, 1.0);
+          break;
+        case 4:
+          f = rotate(f, {90 * U(rng), 90 * U(rng), 90 * U(rng)});
+          break;
+        default:
+          f = scale(f, {1 + 0.5 * std::abs(U(rng)), 1, 1 + std::abs(U(rng))});
+          break;
       }
     }
     Evaluator ev(f);
@@ -166,18 +184,22 @@ TEST(Field, MaterialFractions) {
 // grade under a transform and beside a plain material, points inside and outside.
 TEST(Field, BatchFractionsEqualPointByPoint) {
   std::vector<Field> designs;
-  for (const char* name : {"fgm_column2_plate.vcad", "fgm_column3_ring_angular.vcad",
-                           "fgm_column5_ring_radial.vcad"})
+  for (const char* name :
+       {"fgm_column2_plate.vcad", "fgm_column3_ring_angular.vcad", "fgm_column5_ring_radial.vcad"})
     designs.push_back(read_vcad(kDesigns + name).field);
-  designs.push_back(parse_vcad(
-      "fgrade([\"clamp(-d/4, 0, 1)\", \"1 - clamp(-d/4, 0, 1)\"], [\"core\", \"skin\"]) "
-      "{ sphere(10); }\n", "d.vcad").field);
-  designs.push_back(parse_vcad(
-      "union() {\n"
-      "  translate((3, -2, 1)) { fgrade([\"x*x\", \"abs(y)\", \"1 + sin(theta)*r\"],\n"
-      "                                   [\"a\", \"b\", \"c\"]) { sphere(8); } }\n"
-      "  translate((20, 0, 0)) { sphere(4, \"c\"); }\n"
-      "}\n", "three.vcad").field);
+  designs.push_back(
+      parse_vcad("fgrade([\"clamp(-d/4, 0, 1)\", \"1 - clamp(-d/4, 0, 1)\"], [\"core\", \"skin\"]) "
+                 "{ sphere(10); }\n",
+                 "d.vcad")
+          .field);
+  designs.push_back(
+      parse_vcad("union() {\n"
+                 "  translate((3, -2, 1)) { fgrade([\"x*x\", \"abs(y)\", \"1 + sin(theta)*r\"],\n"
+                 "                                   [\"a\", \"b\", \"c\"]) { sphere(8); } }\n"
+                 "  translate((20, 0, 0)) { sphere(4, \"c\"); }\n"
+                 "}\n",
+                 "three.vcad")
+          .field);
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> U(-40, 40);
   for (std::size_t k = 0; k < designs.size(); ++k) {
@@ -201,8 +223,9 @@ TEST(Field, BatchFractionsEqualPointByPoint) {
 
 // A fraction that is not a finite number is an error naming the same point in a row as alone.
 TEST(Field, BatchFractionsNotFiniteNamesThePoint) {
-  const Field f = parse_vcad(
-      "fgrade([\"1/(x - 2)\", \"1\"], [\"a\", \"b\"]) { sphere(10); }\n", "inf.vcad").field;
+  const Field f =
+      parse_vcad("fgrade([\"1/(x - 2)\", \"1\"], [\"a\", \"b\"]) { sphere(10); }\n", "inf.vcad")
+          .field;
   Evaluator ev(f);
   const std::vector<Vec3> p = {{0, 0, 0}, {1, 0, 0}, {2, 0, 0}, {3, 0, 0}};
   std::vector<double> out(p.size() * 2);
@@ -222,9 +245,9 @@ TEST(Field, BatchFractionsNotFiniteNamesThePoint) {
 }
 
 TEST(Vcad, AppendixBListingsParse) {
-  for (const char* name : {"fgm_column1_cylinder.vcad", "fgm_column2_plate.vcad",
-                           "fgm_column3_ring_angular.vcad", "fgm_column5_ring_radial.vcad",
-                           "gyroid_sheet_cube.vcad", "csg_bracket.vcad"}) {
+  for (const char* name :
+       {"fgm_column1_cylinder.vcad", "fgm_column2_plate.vcad", "fgm_column3_ring_angular.vcad",
+        "fgm_column5_ring_radial.vcad", "gyroid_sheet_cube.vcad", "csg_bracket.vcad"}) {
     const auto d = read_vcad(kDesigns + name);
     EXPECT_FALSE(d.field.empty()) << name;
     const BBox3 e = d.field.extent();
@@ -279,7 +302,8 @@ TEST(Vcad, ErrorsNameLineAndColumn) {
       {"sphere(\"a);", 1, 8, "string not closed"},
       {"mesh(\"no_such_file.stl\");", 1, 6, "no_such_file.stl"},
       {"translate(1,2) { sphere(1); }", 1, 1, "translate takes (x, y, z)"},
-      {"root((0,0,0),(1,1,1),(0.1,0.1,0.1)) { sphere(1); } sphere(2);", 1, 52, "nothing may follow"},
+      {"root((0,0,0),(1,1,1),(0.1,0.1,0.1)) { sphere(1); } sphere(2);", 1, 52,
+       "nothing may follow"},
       {"", 1, 1, "empty design"},
       {"rotate(0,0,0) { }", 1, 1, "empty block"},
   };
@@ -337,10 +361,10 @@ TEST(Field, ValueGradientEqualsValueAndGradient) {
   std::mt19937_64 rng(23);
   std::uniform_real_distribution<double> U(-40, 40);
   std::vector<Field> fields;
-  for (const TpmsKind k : {TpmsKind::Gyroid, TpmsKind::SchwarzP, TpmsKind::SchwarzD,
-                           TpmsKind::Neovius, TpmsKind::Iwp})
+  for (const TpmsKind k :
+       {TpmsKind::Gyroid, TpmsKind::SchwarzP, TpmsKind::SchwarzD, TpmsKind::Neovius, TpmsKind::Iwp})
     fields.push_back(tpms(k, {2.5, 3.0, 1.7}));
-  fields.push_back(sphere(4));                                         // no analytic gradient
+  fields.push_back(sphere(4));  // no analytic gradient
   fields.push_back(translate(tpms(TpmsKind::Gyroid, {2, 2, 2}), {0.3, 0, 1}));
   std::size_t checked = 0;
   for (const Field& f : fields) {
@@ -471,9 +495,12 @@ TEST(Field, GridValuesEqualPointValues) {
     };
     for (const auto& [name, f] : fields)
       for (const auto& [w, rows, step] : {std::tuple<std::size_t, std::size_t, double>{5, 5, 0.025},
-                                          {17, 9, 0.1}, {1, 7, 0.05}, {3, 1, 0.3}}) {
+                                          {17, 9, 0.1},
+                                          {1, 7, 0.05},
+                                          {3, 1, 0.3}}) {
         const GridCheck c = compare_grid(f, -3.3, -2.8, step, w, rows, 0.37);
-        EXPECT_LE(c.worst_value, 1e-12) << to_string(kind) << " " << name << " " << w << "x" << rows;
+        EXPECT_LE(c.worst_value, 1e-12)
+            << to_string(kind) << " " << name << " " << w << "x" << rows;
         // Grids inside the boxes near their faces (a clip box's shortcut: no square root), and
         // across their edges.
         for (const Vec2 o :
@@ -511,8 +538,8 @@ TEST(Field, TpmsPeriodIsItsCell) {
       for (int i = 0; i < 300; ++i) {
         const Vec3 p{u(rng), u(rng), u(rng)};
         const double v = ev.value(p);
-        for (const Vec3 step : {Vec3{P.x, 0, 0}, Vec3{0, P.y, 0}, Vec3{0, 0, P.z},
-                                Vec3{-3 * P.x, 2 * P.y, 0}}) {
+        for (const Vec3 step :
+             {Vec3{P.x, 0, 0}, Vec3{0, P.y, 0}, Vec3{0, 0, P.z}, Vec3{-3 * P.x, 2 * P.y, 0}}) {
           worst = std::max(worst, std::abs(ev.value(p + step) - v));
           half = std::max(half, std::abs(ev.value(p + step * 0.5) - v));
         }
@@ -523,8 +550,8 @@ TEST(Field, TpmsPeriodIsItsCell) {
     }
   }
   const Field g = tpms(TpmsKind::Gyroid, {2.5, 2.5, 2.5});
-  for (const Field& f : {rotate(g, {0, 0, 30}), scale(g, {2, 2, 2}), sphere(3),
-                         sheet(g, {"0.2"}), intersect({g, cube(5)})}) {
+  for (const Field& f : {rotate(g, {0, 0, 30}), scale(g, {2, 2, 2}), sphere(3), sheet(g, {"0.2"}),
+                         intersect({g, cube(5)})}) {
     const Vec3 P = f.period();
     EXPECT_EQ(P.x, 0);
     EXPECT_EQ(P.y, 0);

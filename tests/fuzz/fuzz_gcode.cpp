@@ -1,6 +1,7 @@
 // Fuzzes the G-code reader (counts and IR) and, for small prints, the analysis of what it read:
-// never crashes, never hangs, and reading line by line counts exactly what feed() counts. Input starting with "GCDE" goes through the binary G-code decoder
-// (blocks, CRC, Deflate, Heatshrink, MeatPack), whose only failure is a ParseError.
+// never crashes, never hangs, and reading line by line counts exactly what feed() counts. Input
+// starting with "GCDE" goes through the binary G-code decoder (blocks, CRC, Deflate, Heatshrink,
+// MeatPack), whose only failure is a ParseError.
 #include <algorithm>
 #include <string_view>
 
@@ -32,8 +33,8 @@ extern "C" int LLVMFuzzerTestOneInput(const unsigned char* data, std::size_t siz
     const auto& b = lines.counts;
     if (a.extrusion_moves != b.extrusion_moves || a.travel_moves != b.travel_moves ||
         a.retractions != b.retractions || a.layers != b.layers || a.paths != b.paths ||
-        !(a.extruded_length == b.extruded_length || (a.extruded_length != a.extruded_length &&
-                                                     b.extruded_length != b.extruded_length)) ||
+        !(a.extruded_length == b.extruded_length ||
+          (a.extruded_length != a.extruded_length && b.extruded_length != b.extruded_length)) ||
         !(a.filament == b.filament || (a.filament != a.filament && b.filament != b.filament)) ||
         diag.total() != diag2.total() || scanner.lines() != general.lines())
       __builtin_trap();

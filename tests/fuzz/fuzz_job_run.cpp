@@ -31,10 +31,12 @@ extern "C" int LLVMFuzzerTestOneInput(const unsigned char* data, std::size_t siz
   try {
     trellis::Diagnostics diag;
     trellis::Job j = trellis::load_job(job.string(), out.string());
-    for (const auto& [key, value] :
-         {std::pair<const char*, const char*>{"run.max_memory", "256"}, {"run.max_time", "0.1"},
-          {"run.threads", "1"}, {"output.png", "false"}, {"output.preview_layers", "0"},
-          {"output.frames", "0"}})
+    for (const auto& [key, value] : {std::pair<const char*, const char*>{"run.max_memory", "256"},
+                                     {"run.max_time", "0.1"},
+                                     {"run.threads", "1"},
+                                     {"output.png", "false"},
+                                     {"output.preview_layers", "0"},
+                                     {"output.frames", "0"}})
       j.settings.set_text(key, value, {"fuzz"});
     j.preview.clear();
     (void)trellis::run_job(j, diag);

@@ -33,7 +33,9 @@ const fs::path& work() {
   return dir.path();
 }
 
-test::CliRun cli(const std::string& args) { return test::run_cli(args, work()); }
+test::CliRun cli(const std::string& args) {
+  return test::run_cli(args, work());
+}
 
 void write(const fs::path& path, const std::string& text) {
   fs::create_directories(path.parent_path());
@@ -48,8 +50,9 @@ void write(const fs::path& path, const std::string& text) {
 std::string graded_design() {
   const fs::path p = work() / "designs" / "graded_xz.vcad";
   if (!fs::exists(p))
-    write(p, "fgrade([\"(x+8)/32 + z/16.8\", \"1 - (x+8)/32 - z/16.8\"], [\"blue\", \"yellow\"]) {\n"
-             "  cylinder(8, 8.4);\n}\n");
+    write(p,
+          "fgrade([\"(x+8)/32 + z/16.8\", \"1 - (x+8)/32 - z/16.8\"], [\"blue\", \"yellow\"]) {\n"
+          "  cylinder(8, 8.4);\n}\n");
   return p.string();
 }
 
@@ -57,18 +60,19 @@ std::string job_file(const std::string& name, int strategy, const std::string& p
                      const std::string& extra = {}) {
   const fs::path p = work() / (name + ".toml");
   write(p, "[job]\nroute = \"slice\"\nname = \"" + name + "\"\ninput = \"" + graded_design() +
-               "\"\nmachine = \"" + kRoot + "/profiles/" + profile + "\"\n\n[slice]\nstrategy = " +
-               std::to_string(strategy) + "\n" + extra);
+               "\"\nmachine = \"" + kRoot + "/profiles/" + profile +
+               "\"\n\n[slice]\nstrategy = " + std::to_string(strategy) + "\n" + extra);
   return p.string();
 }
 
 // The job run whole into `dir`, then in `n` shards merged beside it; each shard's manifest says
 // it is graded.
 test::WholeAndMerged single_and_merged(const std::string& job_file, const fs::path& dir, int n) {
-  return test::run_whole_and_shards(job_file, dir, n, {}, &Job::output, [](const Job&, const JobResult& r) {
-    EXPECT_NE(read_file(r.files.back()).find("\"graded\""), std::string::npos)
-        << "a graded shard's manifest says so";
-  });
+  return test::run_whole_and_shards(
+      job_file, dir, n, {}, &Job::output, [](const Job&, const JobResult& r) {
+        EXPECT_NE(read_file(r.files.back()).find("\"graded\""), std::string::npos)
+            << "a graded shard's manifest says so";
+      });
 }
 
 std::size_t count(const std::string& text, const std::string& what) {
@@ -166,8 +170,8 @@ TEST(GradedShards, ProcessFieldsOnAGradedDesignMergeExactly) {
   for (int strategy : {1, 2}) {
     const std::string name = "process_s" + std::to_string(strategy);
     const fs::path job = work() / (name + ".toml");
-    write(job, "[job]\nroute = \"slice\"\nname = \"" + name + "\"\ninput = \"" +
-                   design.string() + "\"\nmachine = \"" + kRoot +
+    write(job, "[job]\nroute = \"slice\"\nname = \"" + name + "\"\ninput = \"" + design.string() +
+                   "\"\nmachine = \"" + kRoot +
                    "/profiles/geeetech_mizar_m_mixing.toml\"\n\n[slice]\nstrategy = " +
                    std::to_string(strategy) + "\n");
     expect_merges_exactly(job.string(), name);
@@ -193,8 +197,9 @@ TEST(GradedShards, PlanarProcessFieldsAndGradedPlatesRefuseShardsAndWriteNothing
   const fs::path plate = work() / "graded_plate.toml";
   write(plate, "[job]\nroute = \"slice\"\nname = \"graded_plate\"\nmachine = \"" + kRoot +
                    "/profiles/geeetech_mizar_m_mixing.toml\"\n\n[slice]\nstrategy = 1\n\n"
-                   "[[part]]\nlabel = \"a\"\nx = 0\ny = 0\ninput = \"" + graded_design() +
-                   "\"\n\n[[part]]\nlabel = \"b\"\nx = 40\ny = 0\ninput = \"" + graded_design() + "\"\n");
+                   "[[part]]\nlabel = \"a\"\nx = 0\ny = 0\ninput = \"" +
+                   graded_design() + "\"\n\n[[part]]\nlabel = \"b\"\nx = 40\ny = 0\ninput = \"" +
+                   graded_design() + "\"\n");
   const fs::path out2 = work() / "refused_plate";
   r = cli("run " + plate.string() + " -o " + out2.string() + " --shard 1/2");
   EXPECT_EQ(r.code, 2) << r.err;

@@ -11,12 +11,12 @@
 #include <fstream>
 #include <sstream>
 
-#include "trellis/settings/settings.hpp"
 #include "trellis/core/diagnostics.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/job/job.hpp"
 #include "trellis/machine/gcode_writer.hpp"
 #include "trellis/machine/profile.hpp"
+#include "trellis/settings/settings.hpp"
 
 namespace fs = std::filesystem;
 using namespace trellis;
@@ -26,8 +26,8 @@ namespace {
 const std::string kRoot = TRELLIS_SOURCE_DIR;
 
 fs::path work(const std::string& name) {
-  const fs::path dir =
-      fs::temp_directory_path() / ("trellis_graded_stream_" + std::to_string(::getpid()) + "_" + name);
+  const fs::path dir = fs::temp_directory_path() /
+                       ("trellis_graded_stream_" + std::to_string(::getpid()) + "_" + name);
   fs::remove_all(dir);
   fs::create_directories(dir);
   return dir;
@@ -44,12 +44,14 @@ std::string graded_job(const fs::path& dir, int strategy, const std::string& pro
       "  cylinder(8, 8.4);\n}\n";
   std::ofstream(dir / "graded.vcad")
       << (process ? "fprocess([\"30 + 0.7*x\", \"1 + 0.02*y\", \"40 + 6*z\"], [\"speed\", "
-                    "\"flow\", \"fan\"]) {\n" + graded + "}\n"
+                    "\"flow\", \"fan\"]) {\n" +
+                        graded + "}\n"
                   : graded);
   const fs::path f = dir / "job.toml";
   std::ofstream(f) << "[job]\nroute = \"slice\"\nname = \"graded\"\ninput = \""
-                   << (dir / "graded.vcad").string() << "\"\nmachine = \"" << kRoot
-                   << "/profiles/" << profile << "\"\n\n[slice]\nstrategy = " << strategy << "\n" << extra;
+                   << (dir / "graded.vcad").string() << "\"\nmachine = \"" << kRoot << "/profiles/"
+                   << profile << "\"\n\n[slice]\nstrategy = " << strategy << "\n"
+                   << extra;
   return f.string();
 }
 
@@ -134,7 +136,8 @@ struct Runs {
 
 Runs whole_and_streamed(int strategy, const std::string& profile, const std::string& extra = {},
                         bool process = false) {
-  const fs::path dir = work("job_" + profile + "_" + std::to_string(strategy) + (process ? "_process" : ""));
+  const fs::path dir =
+      work("job_" + profile + "_" + std::to_string(strategy) + (process ? "_process" : ""));
   const std::string f = graded_job(dir, strategy, profile, extra, process);
   Runs out;
   for (const int k : {0, 1}) {
@@ -173,10 +176,11 @@ void expect_same_runs(const Runs& r, const std::string& what) {
   std::istringstream a(without_timings(r.report[0])), b(without_timings(r.report[1]));
   std::string la, lb;
   bool more_a = true, more_b = true;
-  while ((more_a = static_cast<bool>(std::getline(a, la))) & (more_b = static_cast<bool>(std::getline(b, lb))))
+  while ((more_a = static_cast<bool>(std::getline(a, la))) &
+         (more_b = static_cast<bool>(std::getline(b, lb))))
     if (la != lb) break;
-  EXPECT_TRUE(la == lb && more_a == more_b) << what << ": the reports differ: whole '" << la
-                                            << "', streamed '" << lb << "'";
+  EXPECT_TRUE(la == lb && more_a == more_b)
+      << what << ": the reports differ: whole '" << la << "', streamed '" << lb << "'";
 }
 
 }  // namespace
@@ -193,9 +197,11 @@ TEST(GradedStream, Strategy2JobStreamsAsWhole) {
 // temporary file while the tower observes them, and come back with the tower step: the same
 // G-code, summary and report.
 TEST(GradedStream, TowerJobsWrittenLayerByLayerAsWhole) {
-  expect_same_runs(whole_and_streamed(1, "geeetech_mizar_m_mixing.toml", "\n[fgm]\norder = \"faces\"\n"),
-                   "strategy 1 job, face order");
-  expect_same_runs(whole_and_streamed(1, "geeetech_mizar_m_mixing.toml"), "strategy 1 job, path order");
+  expect_same_runs(
+      whole_and_streamed(1, "geeetech_mizar_m_mixing.toml", "\n[fgm]\norder = \"faces\"\n"),
+      "strategy 1 job, face order");
+  expect_same_runs(whole_and_streamed(1, "geeetech_mizar_m_mixing.toml"),
+                   "strategy 1 job, path order");
   expect_same_runs(whole_and_streamed(2, "prusa_xl_5tools.toml", "\n[fgm]\ncolors = 5\n"),
                    "tool changer job");
 }
@@ -209,13 +215,17 @@ TEST(GradedStream, ProcessFieldJobsStreamAsWhole) {
     const char* profile;
     const char* extra;
   };
-  for (const Case c : {Case{1, "geeetech_mizar_m_mixing.toml", ""}, Case{2, "geeetech_mizar_m_mixing.toml", ""},
-                       Case{1, "prusa_xl_5tools.toml", "\n[fgm]\ncolors = 5\n"}}) {
-    const std::string what = std::string(c.profile) + ", strategy " + std::to_string(c.strategy) + ", process";
+  for (const Case c :
+       {Case{1, "geeetech_mizar_m_mixing.toml", ""}, Case{2, "geeetech_mizar_m_mixing.toml", ""},
+        Case{1, "prusa_xl_5tools.toml", "\n[fgm]\ncolors = 5\n"}}) {
+    const std::string what =
+        std::string(c.profile) + ", strategy " + std::to_string(c.strategy) + ", process";
     const Runs r = whole_and_streamed(c.strategy, c.profile, c.extra, true);
     expect_same_runs(r, what);
-    EXPECT_NE(r.summary[0].find("process fields:"), std::string::npos) << what << ": " << r.summary[0];
+    EXPECT_NE(r.summary[0].find("process fields:"), std::string::npos)
+        << what << ": " << r.summary[0];
     EXPECT_NE(r.report[0].find("\"process\""), std::string::npos) << what;
-    EXPECT_NE(r.gcode[0].find("\nM106 S"), std::string::npos) << what << ": the fan field is written";
+    EXPECT_NE(r.gcode[0].find("\nM106 S"), std::string::npos)
+        << what << ": the fan field is written";
   }
 }

@@ -10,10 +10,9 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <nlohmann/json.hpp>
 #include <regex>
 #include <set>
-
-#include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "support/gcode_replay.hpp"
@@ -72,7 +71,8 @@ std::set<long> deposit_heights_um(const std::string& gcode) {
 // The smallest step between consecutive heights (µm).
 long smallest_step(const std::set<long>& zs) {
   long best = 1L << 40;
-  for (auto it = zs.begin(); std::next(it) != zs.end(); ++it) best = std::min(best, *std::next(it) - *it);
+  for (auto it = zs.begin(); std::next(it) != zs.end(); ++it)
+    best = std::min(best, *std::next(it) - *it);
   return best;
 }
 
@@ -127,10 +127,10 @@ TEST(Settings, EveryChoiceReadsBackAsItself) {
 TEST(Settings, TheLayerHeightRuleAppliesToEveryFlavourOfTheFdmFamily) {
   const std::vector<std::string> sections = {"machine", "extrusion"};
   for (const auto& [flavor, fdm] : std::vector<std::pair<std::string, bool>>{{"marlin", true},
-                                                                            {"reprap", true},
-                                                                            {"klipper", true},
-                                                                            {"pneumatic", false},
-                                                                            {"embedded", false}}) {
+                                                                             {"reprap", true},
+                                                                             {"klipper", true},
+                                                                             {"pneumatic", false},
+                                                                             {"embedded", false}}) {
     Settings st;
     st.set_text("machine.flavor", flavor, {"--set"});
     st.set_text("extrusion.nozzle_diameter", "0.4", {"--set"});
@@ -175,18 +175,19 @@ TEST(Settings, BadValuesNameTheSourceAndTheAllowedValues) {
     const char* value;
     const char* expect;
   };
-  for (const Case& c : std::vector<Case>{{"extrusion.layer_height", "0", "0 is out of range"},
-                                         {"extrusion.layer_height", "-1", "0.001 .. 10"},
-                                         {"extrusion.layer_heigth", "1", "did you mean extrusion.layer_height"},
-                                         {"gippo.mode", "maximum", "one of max, min"},
-                                         {"machine.flavor", "smoothie", "one of marlin, reprap, klipper, pneumatic, embedded"},
-                                         {"slice.walls", "2.5", "whole number"},
-                                         {"lattice3d.count", "3,3", "3 whole numbers"},
-                                         {"nonplanar.angles", "0,90,", "an empty element"},
-                                         {"nonplanar.angles", "0,,90", "an empty element"},
-                                         {"pbf.size", ",3,3,3", "an empty element"},
-                                         {"placement.center", "maybe", "true or false"},
-                                         {"scan.hatch_distance", "nan", "out of range"}}) {
+  for (const Case& c : std::vector<Case>{
+           {"extrusion.layer_height", "0", "0 is out of range"},
+           {"extrusion.layer_height", "-1", "0.001 .. 10"},
+           {"extrusion.layer_heigth", "1", "did you mean extrusion.layer_height"},
+           {"gippo.mode", "maximum", "one of max, min"},
+           {"machine.flavor", "smoothie", "one of marlin, reprap, klipper, pneumatic, embedded"},
+           {"slice.walls", "2.5", "whole number"},
+           {"lattice3d.count", "3,3", "3 whole numbers"},
+           {"nonplanar.angles", "0,90,", "an empty element"},
+           {"nonplanar.angles", "0,,90", "an empty element"},
+           {"pbf.size", ",3,3,3", "an empty element"},
+           {"placement.center", "maybe", "true or false"},
+           {"scan.hatch_distance", "nan", "out of range"}}) {
     Settings st;
     try {
       st.set_text(c.key, c.value, {"--set"});
@@ -214,14 +215,14 @@ TEST(Settings, BadValuesNameTheSourceAndTheAllowedValues) {
 
 TEST(Settings, CrossRulesNameBothSettingsAndWhereTheyCameFrom) {
   const std::string prof = kRoot + "/profiles/ender3_s1_pro_tpu.toml";  // 0.2 mm nozzle
-  const CmdResult r = run("slice " + kRoot + "/examples/designs/csg_bracket.vcad --machine " + prof +
-                          " -o " + in_work("never.gcode") + " --layer-height 0.3");
+  const CmdResult r = run("slice " + kRoot + "/examples/designs/csg_bracket.vcad --machine " +
+                          prof + " -o " + in_work("never.gcode") + " --layer-height 0.3");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("extrusion.layer_height (--layer-height)"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("extrusion.nozzle_diameter (" + prof + ":"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(in_work("never.gcode")));
-  const CmdResult w = run("slice " + kRoot + "/examples/designs/csg_bracket.vcad --machine " + prof +
-                          " -o " + in_work("never.gcode") + " --bead-width 2");
+  const CmdResult w = run("slice " + kRoot + "/examples/designs/csg_bracket.vcad --machine " +
+                          prof + " -o " + in_work("never.gcode") + " --bead-width 2");
   EXPECT_EQ(w.code, 2);
   EXPECT_NE(w.err.find("bead width"), std::string::npos) << w.err;
   EXPECT_FALSE(fs::exists(in_work("never.gcode")));
@@ -233,14 +234,15 @@ TEST(Settings, CrossRulesNameBothSettingsAndWhereTheyCameFrom) {
 TEST(Settings, ProfilesOfTheWrongKindAndFirmwareDialectsAreRefused) {
   const std::string fdm = kRoot + "/profiles/ender3_s1_pro_tpu.toml";
   const std::string laser = kRoot + "/profiles/pbf_316l_25um.toml";
-  const CmdResult p = run("pbf --cell-type gyroid --cell 2.5 --size 5,5,1 --machine " + fdm + " -o " +
-                          in_work("never.cli"));
+  const CmdResult p = run("pbf --cell-type gyroid --cell 2.5 --size 5,5,1 --machine " + fdm +
+                          " -o " + in_work("never.cli"));
   EXPECT_EQ(p.code, 2);
   EXPECT_NE(p.err.find(fdm + ":"), std::string::npos) << p.err;
   EXPECT_NE(p.err.find("needs a laser profile"), std::string::npos) << p.err;
   EXPECT_FALSE(fs::exists(in_work("never.cli")));
   const std::string vcad = kRoot + "/examples/designs/csg_bracket.vcad";
-  const CmdResult s = run("slice " + vcad + " --machine " + laser + " -o " + in_work("never.gcode"));
+  const CmdResult s =
+      run("slice " + vcad + " --machine " + laser + " -o " + in_work("never.gcode"));
   EXPECT_EQ(s.code, 2);
   EXPECT_NE(s.err.find(laser + ":"), std::string::npos) << s.err;
   EXPECT_NE(s.err.find("laser profile"), std::string::npos) << s.err;
@@ -267,7 +269,8 @@ TEST(Settings, ProfilesOfTheWrongKindAndFirmwareDialectsAreRefused) {
            {"reprap", " --set gradient.dialect=m567", true},
            {"klipper", "", false},
            {"klipper", " --set gradient.dialect=m567", false},
-           {"klipper", " --set gradient.dialect=template --set gradient.template=MIX_{a}_{b}", true}}) {
+           {"klipper", " --set gradient.dialect=template --set gradient.template=MIX_{a}_{b}",
+            true}}) {
     const std::string out = in_work("mix_" + c.flavor + ".gcode");
     fs::remove(out);
     const CmdResult r = run("slice " + graded + " --strategy 1 --machine " + with_flavor(c.flavor) +
@@ -298,8 +301,8 @@ TEST(Jobs, LayersStackAnInputLattice) {
   ASSERT_EQ(run("lattice2d --pattern honeycomb --cell 2 --size 8,8 -o " + lat).code, 0);
   const std::string one = in_work("stack_one.json"), three = in_work("stack_three.json");
   ASSERT_EQ(run("plan gippo " + lat + " -o " + one).code, 0);
-  const CmdResult r = run("plan gippo " + lat + " -o " + three +
-                          " --set layers.count=3 --set layers.rotation=90");
+  const CmdResult r =
+      run("plan gippo " + lat + " -o " + three + " --set layers.count=3 --set layers.rotation=90");
   ASSERT_EQ(r.code, 0) << r.err;
   const Toolpath a = read_toolpath(one), b = read_toolpath(three);
   ASSERT_EQ(a.layers.size(), 1u);
@@ -308,7 +311,8 @@ TEST(Jobs, LayersStackAnInputLattice) {
     double x0 = 1e9, x1 = -1e9, y0 = 1e9, y1 = -1e9;
     for (const auto& p : l.paths)
       for (const auto& q : p.points)
-        x0 = std::min(x0, q.x), x1 = std::max(x1, q.x), y0 = std::min(y0, q.y), y1 = std::max(y1, q.y);
+        x0 = std::min(x0, q.x), x1 = std::max(x1, q.x), y0 = std::min(y0, q.y),
+        y1 = std::max(y1, q.y);
     return std::array<double, 4>{x0, x1, y0, y1};
   };
   const auto b0 = box(b.layers[0]), b1 = box(b.layers[1]), b2 = box(b.layers[2]);
@@ -326,8 +330,8 @@ TEST(Jobs, LayersStackAnInputLattice) {
   EXPECT_NE(solid.err.find("layers.solid"), std::string::npos) << solid.err;
   const std::string cubes = in_work("stack_octet.json");
   ASSERT_EQ(run("lattice3d --cell-type octet --cell 5 --count 1,1,1 -o " + cubes).code, 0);
-  const CmdResult spatial = run("plan euler " + cubes + " -o " + in_work("never.json") +
-                                " --set layers.count=2");
+  const CmdResult spatial =
+      run("plan euler " + cubes + " -o " + in_work("never.json") + " --set layers.count=2");
   EXPECT_EQ(spatial.code, 2);
   EXPECT_NE(spatial.err.find("3D lattice"), std::string::npos) << spatial.err;
   EXPECT_FALSE(fs::exists(in_work("never.json")));
@@ -336,9 +340,10 @@ TEST(Jobs, LayersStackAnInputLattice) {
 // A laser job without a machine profile: its shards merge, and its output reruns, to the bytes
 // of the one-process run (the merged header named the printer's default, "generic Marlin FDM").
 TEST(Jobs, LaserJobWithoutAProfileMergesAndRerunsToTheSameBytes) {
-  const std::string job = write("laser_no_profile.toml",
-                                "[job]\nroute = \"pbf\"\nname = \"g\"\n[pbf]\ncell_type = \"gyroid\"\n"
-                                "cell = 2.5\nsize = [4.0, 4.0, 0.5]\n[output]\npng = false\n");
+  const std::string job =
+      write("laser_no_profile.toml",
+            "[job]\nroute = \"pbf\"\nname = \"g\"\n[pbf]\ncell_type = \"gyroid\"\n"
+            "cell = 2.5\nsize = [4.0, 4.0, 0.5]\n[output]\npng = false\n");
   const std::string one = in_work("laser_one"), shards = in_work("laser_shards");
   ASSERT_EQ(run("run " + job + " -o " + one).code, 0);
   for (int k = 1; k <= 2; ++k)
@@ -362,8 +367,8 @@ TEST(Jobs, HybridPbfWithoutContoursIsWarned) {
   ASSERT_EQ(r.code, 0) << r.err;
   EXPECT_NE(r.err.find("no contour vectors"), std::string::npos) << r.err;
   EXPECT_NE(read_file(report).find("pbf_no_contours"), std::string::npos);
-  const CmdResult fine = run("pbf --cell-type gyroid --cell 2.5 --size 5,5,0.4 -o " +
-                             in_work("contours.cli"));
+  const CmdResult fine =
+      run("pbf --cell-type gyroid --cell 2.5 --size 5,5,0.4 -o " + in_work("contours.cli"));
   ASSERT_EQ(fine.code, 0) << fine.err;
   EXPECT_EQ(fine.err.find("no contour vectors"), std::string::npos) << fine.err;
 }
@@ -382,12 +387,14 @@ TEST(Profiles, ShippedProfilesPurgeAndHeatAsTheySay) {
     const bool changes = c.machine.tool_count > 1 || c.machine.mixing_inputs > 1;
     if (changes && c.machine.marlin_family()) {
       ++changers;
-      EXPECT_GT(c.machine.melt_volume, 0) << name << ": tool changes or mixing without a purge volume";
+      EXPECT_GT(c.machine.melt_volume, 0)
+          << name << ": tool changes or mixing without a purge volume";
     }
     std::ifstream in(entry.path());
     const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
     if (text.find("PCL") != std::string::npos && text.find("melt") != std::string::npos) {
-      EXPECT_GE(c.machine.max_nozzle_temperature, 80) << name << ": a PCL melt needs a heated nozzle";
+      EXPECT_GE(c.machine.max_nozzle_temperature, 80)
+          << name << ": a PCL melt needs a heated nozzle";
     }
   }
   EXPECT_GE(changers, 4u);  // the two mixing hotends, the XL and the E3D tool changer
@@ -431,22 +438,32 @@ TEST(Jobs, PrecedenceProfileJobCommandLineOnEveryRoute) {
     return zs.size() < 2 ? -1L : std::lround(zs[1] - zs[0]);
   };
   const std::vector<RouteCase> cases = {
-      {"slice", "input = \"" + kRoot + "/examples/designs/fgm_column2_plate.vcad\"\n[slice]\nstrategy = \"none\"\n",
+      {"slice",
+       "input = \"" + kRoot +
+           "/examples/designs/fgm_column2_plate.vcad\"\n[slice]\nstrategy = \"none\"\n",
        ".gcode", gcode_step},
       // Non-planar layers print in a bath: a syringe-driven bath machine (E still written).
-      {"nonplanar", "\n[machine]\nflavor = \"embedded\"\n[embedded]\ndrive = \"syringe\"\n[gcode]\nextension = \".gcode\"\n"
-                    "[nonplanar]\nheight_fn = \"0\"\ndomain = [0, 0, 5, 5]\nlayers = 3\n", ".gcode", gcode_step},
-      {"plan", "\n[lattice2d]\npattern = \"square\"\nsize = [4, 4]\n[layers]\ncount = 3\n[plan]\nplanner = \"euler\"\n",
+      {"nonplanar",
+       "\n[machine]\nflavor = \"embedded\"\n[embedded]\ndrive = \"syringe\"\n[gcode]\nextension = "
+       "\".gcode\"\n"
+       "[nonplanar]\nheight_fn = \"0\"\ndomain = [0, 0, 5, 5]\nlayers = 3\n",
+       ".gcode", gcode_step},
+      {"plan",
+       "\n[lattice2d]\npattern = \"square\"\nsize = [4, 4]\n[layers]\ncount = 3\n[plan]\nplanner = "
+       "\"euler\"\n",
        ".gcode", gcode_step},
       {"pbf", "\n[pbf]\nsize = [2.5, 2.5, 0.5]\n", ".cli", cli_step},
   };
   for (const auto& c : cases) {
     const bool laser = c.route == "pbf";
-    const std::string section = laser ? "scan" : "extrusion", key = laser ? "layer" : "layer_height";
+    const std::string section = laser ? "scan" : "extrusion",
+                      key = laser ? "layer" : "layer_height";
     const double job_value = laser ? 0.04 : 0.2;
     auto job_file = [&](bool with_job_value) {
-      std::string t = "[job]\nroute = \"" + c.route + "\"\nname = \"p\"\nmachine = \"" + prof + "\"\n" + c.body;
-      if (with_job_value) t += "[" + section + "]\n" + key + " = " + std::to_string(job_value) + "\n";
+      std::string t =
+          "[job]\nroute = \"" + c.route + "\"\nname = \"p\"\nmachine = \"" + prof + "\"\n" + c.body;
+      if (with_job_value)
+        t += "[" + section + "]\n" + key + " = " + std::to_string(job_value) + "\n";
       return write(c.route + (with_job_value ? "_job.toml" : "_prof.toml"), t);
     };
     auto output = [&](const std::string& dir) {
@@ -467,22 +484,24 @@ TEST(Jobs, PrecedenceProfileJobCommandLineOnEveryRoute) {
     ASSERT_EQ(r.code, 0) << c.route << r.err;
     EXPECT_EQ(c.step(output(c.route + "_c")), std::lround(cli_value * 1000)) << c.route;
     const Job back = job_from_output(output(c.route + "_c"));
-    EXPECT_DOUBLE_EQ(std::get<double>(back.settings.value(section + "." + key)), cli_value) << c.route;
+    EXPECT_DOUBLE_EQ(std::get<double>(back.settings.value(section + "." + key)), cli_value)
+        << c.route;
   }
 }
 
 TEST(Jobs, EveryOutputRegeneratesByteForByteFromItsHeader) {
   // One example job per route, run from an unrelated folder, then every main output rerun.
   const std::vector<std::string> jobs = {
-      "honeycomb_tensile.toml",          "jobs/penrose_lattice.toml",  "jobs/foam_lattice.toml",
-      "jobs/octet_aero.toml",            "jobs/tiny_plan.toml",        "jobs/bracket_slice.toml",
-      "jobs/palette_plate_fgm.toml",     "jobs/gyroid_pbf.toml",       "jobs/corrugation_nonplanar.toml",
+      "honeycomb_tensile.toml",      "jobs/penrose_lattice.toml", "jobs/foam_lattice.toml",
+      "jobs/octet_aero.toml",        "jobs/tiny_plan.toml",       "jobs/bracket_slice.toml",
+      "jobs/palette_plate_fgm.toml", "jobs/gyroid_pbf.toml",      "jobs/corrugation_nonplanar.toml",
       "jobs/miura_surface.toml"};
   std::set<std::string> routes;
   for (const auto& j : jobs) {
     const std::string out = in_work("rerun_" + fs::path(j).stem().string());
-    const CmdResult r = run("run " + kRoot + "/examples/" + j + " -o " + out + " --set output.png=false",
-                            fs::temp_directory_path().string());
+    const CmdResult r =
+        run("run " + kRoot + "/examples/" + j + " -o " + out + " --set output.png=false",
+            fs::temp_directory_path().string());
     ASSERT_EQ(r.code, 0) << j << ": " << r.err;
     std::size_t checked = 0;
     for (const auto& e : fs::directory_iterator(out)) {
@@ -491,7 +510,7 @@ TEST(Jobs, EveryOutputRegeneratesByteForByteFromItsHeader) {
       if (ext == ".png" || f.find(".report.") != std::string::npos) continue;
       if (f.find(".lattice.json") != std::string::npos && j.find("lattice") == std::string::npos)
         continue;  // the plan route's lattice is an intermediate without a header of its own
-      if (ext == ".stl") continue;   // STL has no room for a header
+      if (ext == ".stl") continue;  // STL has no room for a header
       const std::string again = f + ".again" + ext;
       const CmdResult rr = run("rerun " + f + " -o " + again, "/");
       ASSERT_EQ(rr.code, 0) << f << ": " << rr.err;
@@ -506,7 +525,9 @@ TEST(Jobs, EveryOutputRegeneratesByteForByteFromItsHeader) {
   // The gcode route: a toolpath written as G-code, rerun.
   const std::string tp = in_work("rerun_tiny_plan/tiny.toolpath.json");
   ASSERT_EQ(run("gcode " + tp + " --machine " + kRoot + "/profiles/ender3_s1_pro_tpu.toml -o " +
-                in_work("g/tiny.gcode")).code, 0);
+                in_work("g/tiny.gcode"))
+                .code,
+            0);
   ASSERT_EQ(run("rerun " + in_work("g/tiny.gcode") + " -o " + in_work("g/again.gcode")).code, 0);
   EXPECT_EQ(read_file(in_work("g/tiny.gcode")), read_file(in_work("g/again.gcode")));
   EXPECT_EQ(job_from_output(in_work("g/tiny.gcode")).route, "gcode");
@@ -517,13 +538,18 @@ TEST(Jobs, BadJobsExitTwoNamingTheSourceAndWriteNothing) {
     std::string name, text, expect;
   };
   const std::vector<Case> cases = {
-      {"unknown_key.toml", "[job]\nroute = \"lattice2d\"\n[lattice2d]\ncel = 1\n", "unknown_key.toml:4"},
-      {"wrong_type.toml", "[job]\nroute = \"lattice2d\"\n[lattice2d]\ncell = \"big\"\n", "expected a number"},
+      {"unknown_key.toml", "[job]\nroute = \"lattice2d\"\n[lattice2d]\ncel = 1\n",
+       "unknown_key.toml:4"},
+      {"wrong_type.toml", "[job]\nroute = \"lattice2d\"\n[lattice2d]\ncell = \"big\"\n",
+       "expected a number"},
       {"range.toml", "[job]\nroute = \"lattice2d\"\n[lattice2d]\ncell = -1\n", "range.toml:4"},
-      {"enum.toml", "[job]\nroute = \"lattice2d\"\n[lattice2d]\npattern = \"hexagons\"\n", "one of honeycomb"},
+      {"enum.toml", "[job]\nroute = \"lattice2d\"\n[lattice2d]\npattern = \"hexagons\"\n",
+       "one of honeycomb"},
       {"route.toml", "[job]\nroute = \"print\"\n", "unknown route 'print'"},
-      {"section.toml", "[job]\nroute = \"lattice2d\"\n[slice]\nwalls = 3\n", "does not read [slice]"},
-      {"rule.toml", "[job]\nroute = \"lattice2d\"\n[lattice2d]\nregion = \"circle\"\nhandles = true\n",
+      {"section.toml", "[job]\nroute = \"lattice2d\"\n[slice]\nwalls = 3\n",
+       "does not read [slice]"},
+      {"rule.toml",
+       "[job]\nroute = \"lattice2d\"\n[lattice2d]\nregion = \"circle\"\nhandles = true\n",
        "tensile handles need a rectangle"},
       {"name.toml", "[job]\nroute = \"lattice2d\"\nname = \"../x\"\n", "path separators"},
   };
@@ -545,14 +571,16 @@ TEST(Jobs, MachineSettingsInAJobKeepTheirPrecision) {
   // The old job runner passed overrides through std::to_string: k = 4e-7 became 0 and every E
   // was 0. Now the value reaches the writer as written: E scales with k exactly.
   auto filament = [&](const std::string& k) {
-    const std::string job = write("k" + k + ".toml",
-                                  "[job]\nroute = \"plan\"\nname = \"k\"\nmachine = \"" + kRoot +
-                                      "/profiles/ender3_s1_pro_tpu.toml\"\n[lattice2d]\n"
-                                      "pattern = \"square\"\nsize = [3, 3]\n[plan]\nplanner = \"euler\"\n"
-                                      "[extrusion]\nk = " + k + "\n[retraction]\nlength = 0.0\n");
+    const std::string job = write(
+        "k" + k + ".toml", "[job]\nroute = \"plan\"\nname = \"k\"\nmachine = \"" + kRoot +
+                               "/profiles/ender3_s1_pro_tpu.toml\"\n[lattice2d]\n"
+                               "pattern = \"square\"\nsize = [3, 3]\n[plan]\nplanner = \"euler\"\n"
+                               "[extrusion]\nk = " +
+                               k + "\n[retraction]\nlength = 0.0\n");
     EXPECT_EQ(run("run " + job + " -o " + in_work("k" + k)).code, 0);
     double e = 0;
-    for (const auto& d : test::replay_gcode(read_file(in_work("k" + k + "/k.gcode"))).deposits) e += d.e;
+    for (const auto& d : test::replay_gcode(read_file(in_work("k" + k + "/k.gcode"))).deposits)
+      e += d.e;
     return std::pair(e, job_from_output(in_work("k" + k + "/k.gcode")));
   };
   const auto [e1, j1] = filament("1.0");
@@ -591,7 +619,8 @@ TEST(Docs, JobsDocumentEverySectionAndRoute) {
   // Every example job the doc names exists and loads.
   const std::regex job_ref(R"(examples/[a-z_/]+\.toml)");
   std::size_t n = 0;
-  for (auto it = std::sregex_iterator(doc.begin(), doc.end(), job_ref); it != std::sregex_iterator(); ++it) {
+  for (auto it = std::sregex_iterator(doc.begin(), doc.end(), job_ref);
+       it != std::sregex_iterator(); ++it) {
     EXPECT_NO_THROW(load_job(kRoot + "/" + it->str())) << it->str();
     ++n;
   }
@@ -634,7 +663,9 @@ TEST(GradedReport, PathsAndExtrudedLengthAreWhatIsPrinted) {
     // Strategy 2 in path order (the mixing hotend's default) prints beads cut into joined
     // pieces at the colour edges: every bead one extrusion.
     const auto joined = rep.at("fgm").at("joined_pieces").get<std::size_t>();
-    if (strategy == 2) EXPECT_EQ(paths - joined, r.extrusion_starts) << "strategy 2 prints its beads";
-    else EXPECT_GT(paths, 0u);
+    if (strategy == 2)
+      EXPECT_EQ(paths - joined, r.extrusion_starts) << "strategy 2 prints its beads";
+    else
+      EXPECT_GT(paths, 0u);
   }
 }

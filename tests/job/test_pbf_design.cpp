@@ -36,13 +36,16 @@ std::size_t sign_mismatches(const Field& a, const Field& b, const BBox3& box, un
   return bad;
 }
 
-Field vcad(const std::string& text) { return parse_vcad(text, "test.vcad").field; }
+Field vcad(const std::string& text) {
+  return parse_vcad(text, "test.vcad").field;
+}
 
 TEST(SplitSheet, ABoxedSheetIsItsLatticeAndItsBox) {
-  for (const char* text :
-       {"root((-1,-2,0),(2,1,1.5),(0.05,0.05,0.05)) { gyroid(1.5, 0.3); }",
-        "root((-2,-2,-2),(2,2,2),(0.05,0.05,0.05)) { intersection() { schwarz_p(2, 0.2); sphere(1.6); } }",
-        "root((-2,-2,-2),(2,2,2),(0.05,0.05,0.05)) { intersection() { sphere(1.6); diamond(2, \"0.1+0.05*z\"); } }"}) {
+  for (const char* text : {"root((-1,-2,0),(2,1,1.5),(0.05,0.05,0.05)) { gyroid(1.5, 0.3); }",
+                           "root((-2,-2,-2),(2,2,2),(0.05,0.05,0.05)) { intersection() { "
+                           "schwarz_p(2, 0.2); sphere(1.6); } }",
+                           "root((-2,-2,-2),(2,2,2),(0.05,0.05,0.05)) { intersection() { "
+                           "sphere(1.6); diamond(2, \"0.1+0.05*z\"); } }"}) {
     SCOPED_TRACE(text);
     const Field design = vcad(text);
     const auto s = split_sheet(design);
@@ -63,7 +66,8 @@ TEST(SplitSheet, OtherDesignsAreNotSplit) {
   // A sheet in a union, two sheets, a transformed sheet, a network solid, no lattice at all.
   const char* lattice[] = {
       "root((-2,-2,-2),(2,2,2),(0.05,0.05,0.05)) { union() { gyroid(2, 0.3); sphere(0.5); } }",
-      "root((-2,-2,-2),(2,2,2),(0.05,0.05,0.05)) { intersection() { gyroid(2, 0.3); gyroid(1, 0.2); } }",
+      "root((-2,-2,-2),(2,2,2),(0.05,0.05,0.05)) { intersection() { gyroid(2, 0.3); gyroid(1, "
+      "0.2); } }",
       "root((-2,-2,-2),(2,2,2),(0.05,0.05,0.05)) { rotate(0,0,30) { gyroid(2, 0.3); } }",
       "root((-2,-2,-2),(2,2,2),(0.05,0.05,0.05)) { gyroid(2); }"};
   for (const char* text : lattice) {
@@ -83,7 +87,7 @@ struct PbfRun {
 };
 
 PbfRun run_pbf(const fs::path& dir, const std::string& name, const std::string& input,
-            const std::vector<std::string>& sets) {
+               const std::vector<std::string>& sets) {
   const fs::path job_file = dir / (name + ".toml");
   std::ofstream(job_file) << "[job]\nroute = \"pbf\"\nname = \"" << name << "\"\n"
                           << (input.empty() ? "" : "input = \"" + input + "\"\n");
@@ -99,8 +103,7 @@ PbfRun run_pbf(const fs::path& dir, const std::string& name, const std::string& 
 TEST(PbfDesign, ASheetDesignIsPlannedAsTheSameLatticeFromSettings) {
   const test::TempDir tmp("trellis_pbf_design");
   const fs::path dir = tmp.path();
-  const std::string text =
-      "root((-1,-1,-0.3),(1,1,0.3),(0.05,0.05,0.05)) { gyroid(2, 0.3); }\n";
+  const std::string text = "root((-1,-1,-0.3),(1,1,0.3),(0.05,0.05,0.05)) { gyroid(2, 0.3); }\n";
   std::ofstream(dir / "sheet.vcad") << text;
   const PbfRun from_design = run_pbf(dir, "design", "sheet.vcad", {});
   const PbfRun from_settings =
@@ -154,8 +157,7 @@ TEST(PbfDesign, IgnoredLatticeSettingsAndLatticeEnvelopesAreNamed) {
          "sphere(0.4); } }\n";
   const PbfRun mixed = run_pbf(dir, "mixed", "mixed.vcad", {});
   EXPECT_EQ(mixed.diag.count("pbf.envelope_lattice"), 1u);
-  const PbfRun named =
-      run_pbf(dir, "named", "", {"pbf.envelope=" + (dir / "mixed.vcad").string()});
+  const PbfRun named = run_pbf(dir, "named", "", {"pbf.envelope=" + (dir / "mixed.vcad").string()});
   EXPECT_EQ(named.diag.count("pbf.envelope_lattice"), 1u);
   std::ofstream(dir / "solid.vcad") << "root((-2,-2,-2),(2,2,2),(0.05,0.05,0.05)) { sphere(1); }\n";
   const PbfRun solid = run_pbf(dir, "solid", "solid.vcad", {"pbf.cell=1"});

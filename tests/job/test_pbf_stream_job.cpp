@@ -19,7 +19,8 @@ TEST(PbfStreamJob, StreamedBuildFileIsTheWholeToolpathsFile) {
   const test::TempDir tmp("trellis_pbf_stream_job");
   const fs::path dir = tmp.path();
   const fs::path job_file = dir / "g.toml";
-  std::ofstream(job_file) << "[job]\nroute = \"pbf\"\nname = \"g\"\n[pbf]\nsize = [2.5, 2.5, 0.4]\n";
+  std::ofstream(job_file)
+      << "[job]\nroute = \"pbf\"\nname = \"g\"\n[pbf]\nsize = [2.5, 2.5, 0.4]\n";
   for (const bool binary : {false, true}) {
     std::string bytes[2];
     for (const bool keep : {true, false}) {

@@ -29,7 +29,9 @@ const fs::path& work() {
   return dir.path();
 }
 
-test::CliRun cli(const std::string& args) { return test::run_cli(args, work()); }
+test::CliRun cli(const std::string& args) {
+  return test::run_cli(args, work());
+}
 
 // The single run's G-code and the merges of 1, 2 and 5 shards of it, each shard a separate job.
 void expect_shards_merge_to_single(const std::string& job_file, const std::string& tag,
@@ -90,24 +92,32 @@ TEST(PlanShardJob, TwoMaterialsPerLayerMergeExactlyFrom1_2_5Shards) {
       for (int j = 0; j <= 8; ++j)
         for (int i = 0; i <= 8; ++i) {
           const double z = 0.2 * l, x = 2.0 * i + 0.3 * l, y = 2.0 * j;
-          if (i < 8 && (i + j + l) % 5 != 1) csv << x << "," << y << "," << z << "," << x + 2 << "," << y << "," << z << "," << (i + l) % 2 << "\n";
-          if (j < 8 && (i * j + l) % 4 != 3) csv << x << "," << y << "," << z << "," << x << "," << y + 2 << "," << z << "," << (j / 3) % 2 << "\n";
+          if (i < 8 && (i + j + l) % 5 != 1)
+            csv << x << "," << y << "," << z << "," << x + 2 << "," << y << "," << z << ","
+                << (i + l) % 2 << "\n";
+          if (j < 8 && (i * j + l) % 4 != 3)
+            csv << x << "," << y << "," << z << "," << x << "," << y + 2 << "," << z << ","
+                << (j / 3) % 2 << "\n";
         }
   }
   {
     std::ofstream toml(dir / "materials.toml");
-    toml << "[job]\nroute = \"plan\"\nname = \"materials\"\ninput = \"grid.csv\"\nmachine = \"" << kRoot
-         << "/profiles/prusa_xl_5tools.toml\"\n\n[plan]\nplanner = \"gippo\"\norder = \"travel\"\n\n"
-            "[gippo]\niterations = 30\n\n[output]\npng = false\n";
+    toml
+        << "[job]\nroute = \"plan\"\nname = \"materials\"\ninput = \"grid.csv\"\nmachine = \""
+        << kRoot
+        << "/profiles/prusa_xl_5tools.toml\"\n\n[plan]\nplanner = \"gippo\"\norder = \"travel\"\n\n"
+           "[gippo]\niterations = 30\n\n[output]\npng = false\n";
   }
   expect_shards_merge_to_single((dir / "materials.toml").string(), "materials");
-  expect_shards_merge_to_single((dir / "materials.toml").string(), "materials_euler", {"plan.planner=euler"});
+  expect_shards_merge_to_single((dir / "materials.toml").string(), "materials_euler",
+                                {"plan.planner=euler"});
 }
 
 // What does not shard says why: exit 2, nothing written.
 TEST(PlanShardJob, AeroAndPlansWithoutGcodeRefuseShards) {
   const fs::path out = work() / "refused";
-  auto r = cli("run " + kRoot + "/examples/jobs/octet_aero.toml -o " + out.string() + " --shard 2/2");
+  auto r =
+      cli("run " + kRoot + "/examples/jobs/octet_aero.toml -o " + out.string() + " --shard 2/2");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("does not shard with the aero planner"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("neither its layers nor its connected parts"), std::string::npos) << r.err;
@@ -116,7 +126,8 @@ TEST(PlanShardJob, AeroAndPlansWithoutGcodeRefuseShards) {
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("needs a machine"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(out));
-  r = cli("run " + kRoot + "/examples/voronoi_disc_travel.toml -o " + out.string() + " --shard 3/2");
+  r = cli("run " + kRoot + "/examples/voronoi_disc_travel.toml -o " + out.string() +
+          " --shard 3/2");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("--shard"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(out));

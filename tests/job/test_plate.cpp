@@ -6,12 +6,12 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <regex>
 #include <set>
-#include <cmath>
-#include <nlohmann/json.hpp>
 
 #include "support/cli_run.hpp"
 #include "support/shard_run.hpp"
@@ -35,7 +35,9 @@ const fs::path& plate_work() {
   return dir.path();
 }
 
-test::CliRun cli(const std::string& args) { return test::run_cli(args, plate_work()); }
+test::CliRun cli(const std::string& args) {
+  return test::run_cli(args, plate_work());
+}
 
 }  // namespace
 
@@ -89,9 +91,11 @@ TEST(Plate, FdmPlateOfNineLatticePartsMergesExactlyFrom1_2_5Shards) {
   const std::string g = read_file((dir / "lattice_plate.gcode").string());
   const std::regex move(R"(G1 X([0-9.]+) Y([0-9.]+) E)");
   std::set<int> parts;
-  for (auto it = std::sregex_iterator(g.begin(), g.end(), move); it != std::sregex_iterator(); ++it) {
+  for (auto it = std::sregex_iterator(g.begin(), g.end(), move); it != std::sregex_iterator();
+       ++it) {
     const double x = std::stod((*it)[1]), y = std::stod((*it)[2]);
-    const int i = static_cast<int>(std::lround((x - 90) / 12)), j = static_cast<int>(std::lround((y - 90) / 12));
+    const int i = static_cast<int>(std::lround((x - 90) / 12)),
+              j = static_cast<int>(std::lround((y - 90) / 12));
     ASSERT_TRUE(i >= 0 && i < 3 && j >= 0 && j < 3) << x << "," << y << " is on no part";
     ASSERT_LT(std::hypot(x - 90 - 12 * i, y - 90 - 12 * j), 4.3) << x << "," << y;
     parts.insert(3 * j + i);
@@ -120,10 +124,11 @@ TEST(Plate, NonplanarMergesExactlyFrom1_2_5Shards) {
   // A shard missing from the merge: exit 2, no merged file.
   const fs::path s3 = plate_work() / "nonplanar_s3";
   for (int k : {1, 3})
-    ASSERT_EQ(cli("run " + job + " -o " + s3.string() + " --shard " + std::to_string(k) + "/3").code, 0);
+    ASSERT_EQ(
+        cli("run " + job + " -o " + s3.string() + " --shard " + std::to_string(k) + "/3").code, 0);
   const std::string merged = (s3 / "merged.gcode").string();
   const auto r = cli("merge " + (s3 / "corrugation.gcode.shard-1-of-3.json").string() + " " +
-                    (s3 / "corrugation.gcode.shard-3-of-3.json").string() + " -o " + merged);
+                     (s3 / "corrugation.gcode.shard-3-of-3.json").string() + " -o " + merged);
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("shards 2 of 3 are missing"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(merged));
@@ -134,13 +139,15 @@ TEST(Plate, NonplanarMergesExactlyFrom1_2_5Shards) {
 // refused saying why, exit 2, nothing written.
 TEST(Plate, LatticePlansRefuseShardsSayingWhy) {
   const fs::path out = plate_work() / "plan_refused";
-  auto r = cli("run " + kRoot + "/examples/jobs/tiny_plan.toml -o " + out.string() + " --shard 1/2");
+  auto r =
+      cli("run " + kRoot + "/examples/jobs/tiny_plan.toml -o " + out.string() + " --shard 1/2");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("holds layers of its G-code"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(out));
   r = cli("run " + kRoot + "/examples/jobs/octet_aero.toml -o " + out.string() + " --shard 2/2");
   EXPECT_EQ(r.code, 2);
-  EXPECT_NE(r.err.find("AERO plans the whole 3D lattice as one problem"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("AERO plans the whole 3D lattice as one problem"), std::string::npos)
+      << r.err;
   EXPECT_FALSE(fs::exists(out));
 }
 
@@ -269,7 +276,8 @@ TEST(Plate, FootprintsOutsideTheAreaOrTooCloseAreRefused) {
 TEST(Plate, BadPlatesAndBadShardsExit2AndWriteNothing) {
   const std::string job = read_file(kRoot + "/examples/jobs/gyroid_plate_pbf.toml");
   auto variant = [&](const std::string& name, const std::string& from, const std::string& to) {
-    std::string text = std::regex_replace(job, std::regex(R"(\.\./\.\./profiles)"), kRoot + "/profiles");
+    std::string text =
+        std::regex_replace(job, std::regex(R"(\.\./\.\./profiles)"), kRoot + "/profiles");
     const auto at = text.find(from);
     EXPECT_NE(at, std::string::npos) << from;
     text.replace(at, from.size(), to);
@@ -305,7 +313,8 @@ TEST(Plate, BadPlatesAndBadShardsExit2AndWriteNothing) {
   // Shards: one missing, one of another split, one given twice.
   const fs::path s3 = plate_work() / "s3", s2 = plate_work() / "s2";
   for (int k = 1; k <= 3; ++k)
-    ASSERT_EQ(cli("run " + good + " -o " + s3.string() + " --shard " + std::to_string(k) + "/3").code, 0);
+    ASSERT_EQ(
+        cli("run " + good + " -o " + s3.string() + " --shard " + std::to_string(k) + "/3").code, 0);
   ASSERT_EQ(cli("run " + good + " -o " + s2.string() + " --shard 2/2").code, 0);
   const std::string m1 = (s3 / "gyroid_plate.cli.shard-1-of-3.json").string();
   const std::string m2 = (s3 / "gyroid_plate.cli.shard-2-of-3.json").string();
@@ -324,8 +333,9 @@ TEST(Plate, BadPlatesAndBadShardsExit2AndWriteNothing) {
   // The same split of another job (a setting changed): refused too.
   const std::string other = variant("other.toml", "cell = 2.0", "cell = 2.5");
   ASSERT_EQ(cli("run " + other + " -o " + (plate_work() / "o3").string() + " --shard 2/3").code, 0);
-  r = cli("merge " + m1 + " " + (plate_work() / "o3" / "gyroid_plate.cli.shard-2-of-3.json").string() + " " +
-          m3 + " -o " + merged);
+  r = cli("merge " + m1 + " " +
+          (plate_work() / "o3" / "gyroid_plate.cli.shard-2-of-3.json").string() + " " + m3 +
+          " -o " + merged);
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("another job"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(merged));
@@ -352,7 +362,8 @@ TEST(Plate, SlurmScriptsRunLocallyMergeToTheSingleRun) {
                            "/examples/slurm/shard.sbatch >/dev/null")
                               .c_str()),
               0);
-  ASSERT_EQ(std::system((env + "bash " + kRoot + "/examples/slurm/merge.sbatch >/dev/null").c_str()), 0);
+  ASSERT_EQ(
+      std::system((env + "bash " + kRoot + "/examples/slurm/merge.sbatch >/dev/null").c_str()), 0);
   EXPECT_TRUE(read_file((dir / "array" / "lattice_plate.gcode").string()) == single);
 }
 

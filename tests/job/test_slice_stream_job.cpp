@@ -74,13 +74,14 @@ TEST(SliceStreamJob, StreamedGcodeIsTheWholeToolpathsOnEveryKindOfMachine) {
 // starts at the first path's temperature): the streamed file is the whole run's.
 TEST(SliceStreamJob, ProcessFieldsComeOutAsWhole) {
   const fs::path dir = work("process");
-  const auto [whole, streamed] = whole_and_streamed(
-      slice_job(dir, kRoot + "/examples/designs/foam_column_graded_process.vcad",
-                "prusa_mk4s_lwpla"),
-      dir);
+  const auto [whole, streamed] =
+      whole_and_streamed(slice_job(dir, kRoot + "/examples/designs/foam_column_graded_process.vcad",
+                                   "prusa_mk4s_lwpla"),
+                         dir);
   ASSERT_NE(whole.find("\nM106 S"), std::string::npos) << "the fan field is written";
   ASSERT_NE(whole.find("\nG4 P"), std::string::npos) << "temperature changes settle";
-  EXPECT_TRUE(whole == streamed) << "streamed G-code of a process design differs from the whole run";
+  EXPECT_TRUE(whole == streamed)
+      << "streamed G-code of a process design differs from the whole run";
   fs::remove_all(dir);
 }
 

@@ -13,8 +13,8 @@ namespace {
 
 // Brute force: sample both segments densely and test the definition point by point.
 // margin > 0 asks for a clear hit, margin < 0 accepts a near one.
-bool sampled_hit(const NozzleModel& m, Vec3 qa, Vec3 qb, Vec3 pa, Vec3 pb, const std::vector<Vec3>& shared,
-                 double margin, int steps = 300) {
+bool sampled_hit(const NozzleModel& m, Vec3 qa, Vec3 qb, Vec3 pa, Vec3 pb,
+                 const std::vector<Vec3>& shared, double margin, int steps = 300) {
   for (int i = 0; i <= steps; ++i) {
     const Vec3 p = pa + (pb - pa) * (double(i) / steps);
     bool exempt = false;
@@ -22,7 +22,8 @@ bool sampled_hit(const NozzleModel& m, Vec3 qa, Vec3 qb, Vec3 pa, Vec3 pb, const
     if (exempt) continue;
     for (int j = 0; j <= steps; ++j) {
       const Vec3 q = qa + (qb - qa) * (double(j) / steps);
-      if (p.z - q.z > m.tip_clearance + margin && distance_xy(p, q) < m.radius - margin) return true;
+      if (p.z - q.z > m.tip_clearance + margin && distance_xy(p, q) < m.radius - margin)
+        return true;
     }
   }
   return false;
@@ -44,7 +45,8 @@ TEST(Collision, ExactPredicateAgreesWithDenseSampling) {
       shared.push_back(qb);
     }
     if (k % 7 == 0) pb = pa + Vec3{0.01 * rng.uniform01(), 0, 2};  // nearly vertical
-    const bool exact = nozzle_hits(m, qa, qb, pa, pb, shared.data(), static_cast<int>(shared.size()));
+    const bool exact =
+        nozzle_hits(m, qa, qb, pa, pb, shared.data(), static_cast<int>(shared.size()));
     if (sampled_hit(m, qa, qb, pa, pb, shared, 0.02)) EXPECT_TRUE(exact) << k;
     if (exact) EXPECT_TRUE(sampled_hit(m, qa, qb, pa, pb, shared, -0.02)) << k;
     (exact ? hits : misses)++;
@@ -92,8 +94,8 @@ TEST(Collision, BlockingGraphEqualsAllPairs) {
         std::vector<Vec3> shared;
         if (es.a == eu.a || es.a == eu.b) shared.push_back(g.nodes[es.a]);
         if (es.b == eu.a || es.b == eu.b) shared.push_back(g.nodes[es.b]);
-        const bool hit = nozzle_hits(m, g.nodes[eu.a], g.nodes[eu.b], g.nodes[es.a],
-                                     g.nodes[es.b], shared.data(), static_cast<int>(shared.size()));
+        const bool hit = nozzle_hits(m, g.nodes[eu.a], g.nodes[eu.b], g.nodes[es.a], g.nodes[es.b],
+                                     shared.data(), static_cast<int>(shared.size()));
         const bool listed = std::find(b.blocks.begin(s), b.blocks.end(s), u) != b.blocks.end(s);
         const bool listed_back =
             std::find(b.blocked_by.begin(u), b.blocked_by.end(u), s) != b.blocked_by.end(u);

@@ -44,8 +44,9 @@ TEST(LatticeJson, ReadsNodesEdgesMaterialAndDirected) {
   ASSERT_EQ(in.graph.edges.size(), 2u);
   EXPECT_EQ(in.graph.nodes[2].z, 0.0);
   // 2D and 3D nodes mixed: an error naming the node, not z = 0 (issue 24).
-  EXPECT_THROW(parse_lattice_json(R"({"nodes": [[0,0,0],[1,0,0],[1,1]], "edges": [[0,1]]})", "t.json"),
-               ParseError);
+  EXPECT_THROW(
+      parse_lattice_json(R"({"nodes": [[0,0,0],[1,0,0],[1,1]], "edges": [[0,1]]})", "t.json"),
+      ParseError);
   EXPECT_EQ(in.graph.edges[1].material, 2);
   EXPECT_TRUE(in.graph.edges[1].directed);
   const auto arr = parse_lattice_json(
@@ -116,8 +117,8 @@ TEST(AeroPair, ReadsTheSharedOctetAndFindsTheOtherFile) {
 TEST(AeroPair, BadIndicesAndMissingPartner) {
   expect_parse_error([] { parse_aero_pair("0,0,0\n1,0,0\n", "v.csv", "0,1\n1,2\n", "e.csv"); }, 2,
                      "node index 2 out of range");
-  expect_parse_error([] { parse_aero_pair("0,0,0\n1,0,0\n1,1,1,1\n", "v.csv", "0,1\n", "e.csv"); }, 3,
-                     "expected x,y,z");
+  expect_parse_error([] { parse_aero_pair("0,0,0\n1,0,0\n1,1,1,1\n", "v.csv", "0,1\n", "e.csv"); },
+                     3, "expected x,y,z");
   // A short row is not a 2D point among 3D ones (issue 24: it planned without a word).
   expect_parse_error([] { parse_aero_pair("0,0,0\n1,0,0\n1,1\n", "v.csv", "0,1\n", "e.csv"); }, 3,
                      "expected 3 fields like the first row");

@@ -5,18 +5,17 @@
 // halfway cases and their neighbours one ulp either side, integers, and values past the fast
 // path's range (the fallback). Whole files as well: G-code and CLI written now match digests of
 // what the writers wrote before (recorded with the previous library).
-#include <gtest/gtest.h>
-
 #include <fmt/format.h>
+#include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
-#include <string_view>
 #include <limits>
 #include <random>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "../../src/machine/fast_number.hpp"
@@ -86,14 +85,13 @@ std::string old_cli(double mm) {
 
 // The corpus: each value with its neighbours one ulp either side.
 std::vector<double> corpus(unsigned seed) {
-  std::vector<double> v = {0.0,    -0.0,    0.5,     -0.5,     1.5,    2.5,   0.0005, -0.0005,
-                           0.00005, 2.675,  1.005,   1.0005,   -2.5,   1e-300, -1e-300,
-                           std::numeric_limits<double>::denorm_min(), 4503599627370495.5,
-                           4503599627370496.0, 9007199254740993.0, 1e12, -1e12, 123456.789,
-                           0.1, 0.2, 0.3, 0.7, 199.9995, 200.0005, -199.9995,
+  std::vector<double> v = {0.0, -0.0, 0.5, -0.5, 1.5, 2.5, 0.0005, -0.0005, 0.00005, 2.675, 1.005,
+                           1.0005, -2.5, 1e-300, -1e-300, std::numeric_limits<double>::denorm_min(),
+                           4503599627370495.5, 4503599627370496.0, 9007199254740993.0, 1e12, -1e12,
+                           123456.789, 0.1, 0.2, 0.3, 0.7, 199.9995, 200.0005, -199.9995,
                            // past the fast path: the fallback prints what the old code printed
-                           1e15, -1e15, 4.7e18, 1e19, -1e19, 1e300, -1e300, INFINITY,
-                           -INFINITY, NAN};
+                           1e15, -1e15, 4.7e18, 1e19, -1e19, 1e300, -1e300, INFINITY, -INFINITY,
+                           NAN};
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> mant(1.0, 10.0), unit(-1.0, 1.0);
   std::uniform_int_distribution<int> exp10(-9, 13), coin(0, 1);
@@ -123,8 +121,8 @@ TEST(FastNumber, FixedPrintsTheBytesOfThePreviousFormatter) {
   long compared = 0;
   for (const double x : values)
     for (int d = 0; d <= 6; ++d) {
-      ASSERT_EQ(new_fixed(x, d), old_fixed(x, d)) << "value " << fmt::format("{:.17g}", x)
-                                                  << " decimals " << d;
+      ASSERT_EQ(new_fixed(x, d), old_fixed(x, d))
+          << "value " << fmt::format("{:.17g}", x) << " decimals " << d;
       ++compared;
     }
   EXPECT_GT(compared, 7000000);
@@ -142,8 +140,8 @@ TEST(FastNumber, FixedRoundsAsLlroundEverywhereItTakesTheFastPath) {
   std::mt19937_64 rng(7);
   std::uniform_int_distribution<long long> n(-(1LL << 53), 1LL << 53);
   for (int i = 0; i < 1000000; ++i) {
-    const double x = static_cast<double>(n(rng)) / static_cast<double>(1 << (i % 12)) +
-                     (i % 3 == 0 ? 0.5 : 0.0);
+    const double x =
+        static_cast<double>(n(rng)) / static_cast<double>(1 << (i % 12)) + (i % 3 == 0 ? 0.5 : 0.0);
     long long q = 0;
     ASSERT_TRUE(fastnum::round_half_away(x, q));
     ASSERT_EQ(q, std::llround(x)) << fmt::format("{:.17g}", x);
@@ -188,8 +186,7 @@ std::uint64_t fnv(const std::string& s) {
     const std::size_t b = std::min(s.find('\n', a), s.size());
     const std::string_view line = std::string_view(s).substr(a, b - a);
     if (line.starts_with("G0 ") || line.starts_with("G1 ") || line.starts_with(";Z:") ||
-        line.starts_with(";WIDTH:") || line.starts_with(";HEIGHT:") || line == "M3" ||
-        line == "M5")
+        line.starts_with(";WIDTH:") || line.starts_with(";HEIGHT:") || line == "M3" || line == "M5")
       add(line), add("\n");
     else if (line.starts_with("M73 P"))  // where progress lines go (their values are estimates)
       add("M73\n");

@@ -148,7 +148,8 @@ TEST(FlavourRoundTrip, MixturesToolsAndTemperaturesOfGradedPaths) {
             for (std::size_t k = 0; k < p.mixture.size(); ++k)
               EXPECT_NEAR(q.mixture[k], p.mixture[k], 1e-4) << what;
           } else if (mode == "tools") {
-            EXPECT_EQ(q.tool, static_cast<int>(std::lround((1 - a) * (m.gradient_tool_count() - 1))))
+            EXPECT_EQ(q.tool,
+                      static_cast<int>(std::lround((1 - a) * (m.gradient_tool_count() - 1))))
                 << what;
           } else {
             // M104 S is written to 0.1 °C.

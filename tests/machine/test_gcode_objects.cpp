@@ -85,7 +85,8 @@ class PartOfEachExtrusion : public GcodeSink {
 };
 
 bool inside_square(Vec3 q, int part) {
-  return std::abs(q.x - centre(part).x) <= kHalf + 1e-3 && std::abs(q.y - centre(part).y) <= kHalf + 1e-3;
+  return std::abs(q.x - centre(part).x) <= kHalf + 1e-3 &&
+         std::abs(q.y - centre(part).y) <= kHalf + 1e-3;
 }
 
 }  // namespace
@@ -140,13 +141,16 @@ TEST(GcodeObjects, KlipperPolygonsHoldTheirPartsMoves) {
   const auto labels = nine_labels();
   const Toolpath tp = plate(labels);
   const std::string g = write_gcode(tp, profile("klipper"));
-  const std::regex define(R"(EXCLUDE_OBJECT_DEFINE NAME=(\S+) CENTER=(\S+),(\S+) POLYGON=\[(.*)\])");
+  const std::regex define(
+      R"(EXCLUDE_OBJECT_DEFINE NAME=(\S+) CENTER=(\S+),(\S+) POLYGON=\[(.*)\])");
   const std::regex vertex(R"(\[([-0-9.]+),([-0-9.]+)\])");
   std::map<std::string, std::vector<Vec2>> polygons;
-  for (auto it = std::sregex_iterator(g.begin(), g.end(), define); it != std::sregex_iterator(); ++it) {
+  for (auto it = std::sregex_iterator(g.begin(), g.end(), define); it != std::sregex_iterator();
+       ++it) {
     const std::string list = (*it)[4];
     auto& poly = polygons[(*it)[1]];
-    for (auto v = std::sregex_iterator(list.begin(), list.end(), vertex); v != std::sregex_iterator(); ++v)
+    for (auto v = std::sregex_iterator(list.begin(), list.end(), vertex);
+         v != std::sregex_iterator(); ++v)
       poly.push_back({std::stod((*v)[1]), std::stod((*v)[2])});
     EXPECT_GE(poly.size(), 3u);
   }
@@ -164,7 +168,8 @@ TEST(GcodeObjects, KlipperPolygonsHoldTheirPartsMoves) {
   scanner.feed(g);
   scanner.finish();
   for (const auto& [label, q] : sink.ends)
-    EXPECT_TRUE(inside(polygons.at(label), {q.x, q.y})) << q.x << "," << q.y << " outside " << label;
+    EXPECT_TRUE(inside(polygons.at(label), {q.x, q.y}))
+        << q.x << "," << q.y << " outside " << label;
 }
 
 TEST(GcodeObjects, OffForTheSettingTheValveFlavoursAndSinglePartPrints) {
@@ -202,7 +207,8 @@ TEST(GcodeObjects, ReaderTakesOtherSlicersSpellings) {
   Diagnostics diag;
   const Toolpath a = read_gcode(
       "M486 T2\nM486 S0\nG1 X1 Y1 E1\nG1 X2 Y1 E2\nM486 S-1\nM486 S1 A\"b\"\nG1 X3 Y1 E3\n"
-      "M486 S-1\nG1 X4 Y1 E4\nEXCLUDE_OBJECT_START NAME='c'\nG1 X5 Y1 E5\nEXCLUDE_OBJECT_END NAME='c'\n",
+      "M486 S-1\nG1 X4 Y1 E4\nEXCLUDE_OBJECT_START NAME='c'\nG1 X5 Y1 E5\nEXCLUDE_OBJECT_END "
+      "NAME='c'\n",
       {}, diag);
   EXPECT_EQ(diag.total(), 0u);
   EXPECT_EQ(a.part_labels, (std::vector<std::string>{"0", "b", "c"}));
@@ -255,12 +261,14 @@ TEST(GcodeObjects, StreamedPlateIsLabelledWithTheSameBytes) {
   const Toolpath tp = plate(nine_labels());
   Toolpath meta;
   meta.part_labels = tp.part_labels;
-  const std::string path =
-      (std::filesystem::temp_directory_path() / ("trellis_objects_" + std::to_string(::getpid()) + ".gcode")).string();
+  const std::string path = (std::filesystem::temp_directory_path() /
+                            ("trellis_objects_" + std::to_string(::getpid()) + ".gcode"))
+                               .string();
   for (const std::string flavor : {"marlin", "klipper"}) {
     GcodeStats whole_stats;
     const std::string whole = write_gcode(tp, profile(flavor), &whole_stats);
-    const GcodeStats s = write_gcode_stream(path, meta, tp.layers.size(), layers_of(tp), profile(flavor));
+    const GcodeStats s =
+        write_gcode_stream(path, meta, tp.layers.size(), layers_of(tp), profile(flavor));
     const std::string streamed = read_file(path);
     std::filesystem::remove(path);
     EXPECT_TRUE(streamed == whole) << flavor;

@@ -7,11 +7,11 @@
 #include <fstream>
 #include <sstream>
 
-#include "trellis/settings/settings.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/machine/gcode_reader.hpp"
 #include "trellis/machine/gcode_writer.hpp"
 #include "trellis/machine/machine_check.hpp"
+#include "trellis/settings/settings.hpp"
 
 using namespace trellis;
 namespace fs = std::filesystem;
@@ -162,7 +162,8 @@ TEST(BathFloor, TheFirstStrutSitsOnTheFloor) {
   p.floor_z = p.bath_surface;
   EXPECT_THROW(validate(p), SettingError);
   EXPECT_THROW(machine_profile_from_toml("", "fdm.toml", {"embedded.floor_z=2"}), SettingError);
-  EXPECT_THROW(shipped("embedded_aero_410um.toml", {"embedded.floor_z=100"}), SettingError);  // bed_z 100
+  EXPECT_THROW(shipped("embedded_aero_410um.toml", {"embedded.floor_z=100"}),
+               SettingError);  // bed_z 100
   EXPECT_NO_THROW(shipped("embedded_aero_410um.toml", {"embedded.floor_z=5"}));
 }
 
@@ -227,7 +228,8 @@ TEST(PrimeLine, ThePneumaticLineOpensTheValveAndALongLineIsRefused) {
   EXPECT_LT(open, line);
   EXPECT_LT(line, close);
   EXPECT_LT(close, g.find(";LAYER:0"));
-  p = shipped("pneumatic_pcl_27g.toml", {"gcode.prime_line=195"});  // bed_x 200: refused when written
+  p = shipped("pneumatic_pcl_27g.toml",
+              {"gcode.prime_line=195"});  // bed_x 200: refused when written
   EXPECT_THROW(write_gcode(tp, p), MachineError);
   EXPECT_THROW(shipped("embedded_aero_410um.toml", {"gcode.prime_line=20"}), SettingError);
 }

@@ -4,10 +4,10 @@
 #include <set>
 #include <sstream>
 
-#include "trellis/settings/settings.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/machine/profile.hpp"
+#include "trellis/settings/settings.hpp"
 
 using namespace trellis;
 
@@ -39,7 +39,8 @@ TEST(Profile, UnknownKeysWrongTypesAndRangesNameFileAndLine) {
   expect_setting_error("[speed]\n\nprint = \"fast\"\n", 3, "expected a number");
   expect_setting_error("[speed]\nprint = -1\n", 2, "out of range");
   expect_setting_error("[speed]\nshort_path_segments = 2.5\n", 2, "expected a whole number");
-  expect_setting_error("[machine]\nflavor = \"smoothie\"\n", 2, "'smoothie' is not allowed (one of marlin");
+  expect_setting_error("[machine]\nflavor = \"smoothie\"\n", 2,
+                       "'smoothie' is not allowed (one of marlin");
   expect_setting_error("[speed\nprint = 1\n", 1, "");
   expect_setting_error("[temperature]\nnozzle = nan\n", 2, "out of range");
 }

@@ -292,7 +292,9 @@ class RecordingSink : public GcodeSink {
   void extrude(Vec3 a, Vec3 b, double e, double f) override {
     put("extrude", {a.x, a.y, a.z, b.x, b.y, b.z, e, f});
   }
-  void travel(Vec3 a, Vec3 b, double f) override { put("travel", {a.x, a.y, a.z, b.x, b.y, b.z, f}); }
+  void travel(Vec3 a, Vec3 b, double f) override {
+    put("travel", {a.x, a.y, a.z, b.x, b.y, b.z, f});
+  }
   void retract() override { put("retract", {}); }
   void tool_change(int t) override { put("tool", {static_cast<double>(t)}); }
   void role(PathRole r) override { put("role", {static_cast<double>(r)}); }
@@ -311,7 +313,8 @@ class RecordingSink : public GcodeSink {
 };
 
 // Events and warnings of `text` read line by line (line(): the general reader) or fed in chunks
-// of `chunk` bytes (feed(): the one-pass reader of plain G0/G1 lines, the general one for the rest).
+// of `chunk` bytes (feed(): the one-pass reader of plain G0/G1 lines, the general one for the
+// rest).
 std::string scan_log(std::string_view text, std::size_t chunk) {
   RecordingSink sink;
   Diagnostics diag;
@@ -323,11 +326,13 @@ std::string scan_log(std::string_view text, std::size_t chunk) {
       pos = nl + 1;
     }
   } else {
-    for (std::size_t pos = 0; pos < text.size(); pos += chunk) scanner.feed(text.substr(pos, chunk));
+    for (std::size_t pos = 0; pos < text.size(); pos += chunk)
+      scanner.feed(text.substr(pos, chunk));
     scanner.finish();
   }
   for (const auto& m : diag.messages()) sink.log += m.kind + ": " + m.text + "\n";
-  for (const auto& [kind, count] : diag.counts()) sink.log += kind + " x" + std::to_string(count) + "\n";
+  for (const auto& [kind, count] : diag.counts())
+    sink.log += kind + " x" + std::to_string(count) + "\n";
   return sink.log + "lines " + std::to_string(scanner.lines()) + "\n";
 }
 
@@ -370,7 +375,7 @@ TEST(Reader, OnePassMovesReadExactlyAsTheGeneralReader) {
       ";LAYER_CHANGE\n;TYPE:Perimeter\n;WIDTH:0.45\nG1 X6 Y6 E5\nG1 X7 Y7 E6";
   const std::string general = scan_log(text, 0);
   EXPECT_GT(general.size(), 10000u);
-  for (std::size_t chunk : {std::size_t{1}, std::size_t{7}, std::size_t{64}, std::size_t{4096},
-                            text.size()})
+  for (std::size_t chunk :
+       {std::size_t{1}, std::size_t{7}, std::size_t{64}, std::size_t{4096}, text.size()})
     EXPECT_EQ(scan_log(text, chunk), general) << "chunks of " << chunk;
 }

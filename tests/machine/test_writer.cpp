@@ -1,20 +1,19 @@
 #include <gtest/gtest.h>
 
-#include <sstream>
-
 #include <cmath>
 #include <map>
 #include <numbers>
+#include <sstream>
 
-#include "support/machines.hpp"
 #include "support/gcode_replay.hpp"
+#include "support/machines.hpp"
 #include "support/random_graphs.hpp"
-#include "trellis/settings/settings.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/lattice/atlas.hpp"
 #include "trellis/machine/gcode_reader.hpp"
 #include "trellis/machine/gcode_writer.hpp"
 #include "trellis/plan/plan.hpp"
+#include "trellis/settings/settings.hpp"
 
 using namespace trellis;
 
@@ -257,7 +256,8 @@ TEST(Writer, MixturesBecomeM165AndReadBack) {
   const trellis::MachineProfile prof = trellis::test::open_bed({}, 0, 2);
   const std::string g = trellis::write_gcode(tp, prof);
   std::size_t count = 0;
-  for (std::size_t pos = g.find("M165"); pos != std::string::npos; pos = g.find("M165", pos + 1)) ++count;
+  for (std::size_t pos = g.find("M165"); pos != std::string::npos; pos = g.find("M165", pos + 1))
+    ++count;
   EXPECT_EQ(count, 2u);  // the second path keeps the first one's mixture
   EXPECT_NE(g.find("M165 A0.125 B0.875"), std::string::npos);
   trellis::Diagnostics diag;
@@ -285,8 +285,8 @@ TEST(Writer, EmbeddedTravelLeavesTheBathVerticallyAndSwapsNozzles) {
   add({{0, 0, 0}, {5, 0, 5}, {10, 0, 0}}, 0);
   add({{41, 5, 0}, {51, 5, 0}}, 1);
   add({{41, 9, 0}, {51, 9, 0}}, 1);
-  trellis::MachineProfile prof =
-      trellis::load_machine_profile(std::string(TRELLIS_SOURCE_DIR) + "/profiles/embedded_aero_two_nozzle.toml");
+  trellis::MachineProfile prof = trellis::load_machine_profile(
+      std::string(TRELLIS_SOURCE_DIR) + "/profiles/embedded_aero_two_nozzle.toml");
   prof.node_overlap = 0.5;
   prof.center = false;  // design coordinates are bed coordinates
   trellis::GcodeStats stats;

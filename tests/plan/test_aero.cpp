@@ -6,7 +6,6 @@
 #include <set>
 
 #include "support/random_graphs.hpp"
-#include "trellis/settings/settings.hpp"
 #include "trellis/analysis/collisions.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/lattice/cells3d.hpp"
@@ -17,6 +16,7 @@
 #include "trellis/machine/profile.hpp"
 #include "trellis/plan/aero.hpp"
 #include "trellis/plan/euler.hpp"
+#include "trellis/settings/settings.hpp"
 
 using namespace trellis;
 

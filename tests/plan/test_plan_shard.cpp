@@ -20,14 +20,17 @@ Graph layered_grids(int layers, int n, bool two_materials) {
     const auto base = static_cast<NodeId>(g.nodes.size());
     const double dx = 0.13 * l, dy = 0.07 * (l % 3);
     for (int j = 0; j <= n; ++j)
-      for (int i = 0; i <= n; ++i) g.nodes.push_back({i + dx + 0.01 * ((i * j) % 5), j + dy, 0.2 * l});
+      for (int i = 0; i <= n; ++i)
+        g.nodes.push_back({i + dx + 0.01 * ((i * j) % 5), j + dy, 0.2 * l});
     auto id = [&](int i, int j) { return base + static_cast<NodeId>(j * (n + 1) + i); };
     int k = 0;
     for (int j = 0; j <= n; ++j)
       for (int i = 0; i <= n; ++i) {
         // A few missing struts make odd nodes, so there are many trails to order.
-        if (i < n && (i + j + l) % 7 != 3) g.edges.push_back({id(i, j), id(i + 1, j), two_materials ? (k++ / 3) % 2 : 0});
-        if (j < n && (i * j + l) % 5 != 2) g.edges.push_back({id(i, j), id(i, j + 1), two_materials ? (k++ / 3) % 2 : 0});
+        if (i < n && (i + j + l) % 7 != 3)
+          g.edges.push_back({id(i, j), id(i + 1, j), two_materials ? (k++ / 3) % 2 : 0});
+        if (j < n && (i * j + l) % 5 != 2)
+          g.edges.push_back({id(i, j), id(i, j + 1), two_materials ? (k++ / 3) % 2 : 0});
       }
   }
   return g;
@@ -38,14 +41,17 @@ bool same_bits(const Toolpath& a, const Toolpath& b, std::string& why) {
   for (std::size_t l = 0; l < a.layers.size(); ++l) {
     const auto& pa = a.layers[l].paths;
     const auto& pb = b.layers[l].paths;
-    if (std::memcmp(&a.layers[l].z, &b.layers[l].z, sizeof(double)) != 0) return why = "z of layer " + std::to_string(l), false;
+    if (std::memcmp(&a.layers[l].z, &b.layers[l].z, sizeof(double)) != 0)
+      return why = "z of layer " + std::to_string(l), false;
     if (pa.size() != pb.size()) return why = "paths in layer " + std::to_string(l), false;
     for (std::size_t p = 0; p < pa.size(); ++p) {
       if (pa[p].tool != pb[p].tool || pa[p].points.size() != pb[p].points.size())
         return why = "path " + std::to_string(p) + " of layer " + std::to_string(l), false;
       for (std::size_t q = 0; q < pa[p].points.size(); ++q)
         if (std::memcmp(&pa[p].points[q], &pb[p].points[q], sizeof(Vec3)) != 0)
-          return why = "point " + std::to_string(q) + " of path " + std::to_string(p) + " of layer " + std::to_string(l), false;
+          return why = "point " + std::to_string(q) + " of path " + std::to_string(p) +
+                       " of layer " + std::to_string(l),
+                 false;
     }
   }
   return true;
@@ -64,8 +70,11 @@ Toolpath sharded(const Graph& g, PlanParams p, int n) {
     const PlanResult r = plan_lattice(g, p, diag);
     EXPECT_EQ(r.toolpath.layers.size(), layers);
     for (std::size_t l = 0; l < layers; ++l) {
-      if (l >= p.first_layer && l < p.end_layer) joined.layers[l] = r.toolpath.layers[l];
-      else EXPECT_TRUE(r.toolpath.layers[l].paths.empty()) << "shard " << k + 1 << " planned layer " << l;
+      if (l >= p.first_layer && l < p.end_layer)
+        joined.layers[l] = r.toolpath.layers[l];
+      else
+        EXPECT_TRUE(r.toolpath.layers[l].paths.empty())
+            << "shard " << k + 1 << " planned layer " << l;
     }
   }
   if (p.defer_order) order_deferred_layers(joined, p);

@@ -1,8 +1,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <cmath>
 #include <array>
+#include <cmath>
 #include <cstdio>
 #include <map>
 #include <random>
@@ -11,12 +11,12 @@
 
 #include "support/machines.hpp"
 #include "support/scanline.hpp"
-#include "trellis/machine/machine_check.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/field/vcad.hpp"
 #include "trellis/geom/regions.hpp"
 #include "trellis/machine/gcode_reader.hpp"
 #include "trellis/machine/gcode_writer.hpp"
+#include "trellis/machine/machine_check.hpp"
 #include "trellis/settings/settings.hpp"
 #include "trellis/slice/fgm.hpp"
 
@@ -46,7 +46,8 @@ Fidelity run(const Field& f, int colors, double h, bool concentric, double bead 
   auto zs = layer_planes(e.min.z, e.max.z, h);
   if (layers > 0 && zs.size() > layers) {
     std::vector<double> some;
-    for (std::size_t k = 0; k < layers; ++k) some.push_back(zs[(2 * k + 1) * zs.size() / (2 * layers)]);
+    for (std::size_t k = 0; k < layers; ++k)
+      some.push_back(zs[(2 * k + 1) * zs.size() / (2 * layers)]);
     zs = some;
   }
   const auto outlines = slice_field(f, zs, so);
@@ -107,13 +108,16 @@ Fidelity run(const Field& f, int colors, double h, bool concentric, double bead 
       for (std::size_t k = 0; k + 1 < p.points.size(); ++k) {
         const Vec3 a{p.points[k].x, p.points[k].y, 0}, c{p.points[k + 1].x, p.points[k + 1].y, 0};
         const int x0 = std::max(0, static_cast<int>((std::min(a.x, c.x) - bead - b.min.x) / px));
-        const int x1 = std::min(nx - 1, static_cast<int>((std::max(a.x, c.x) + bead - b.min.x) / px));
+        const int x1 =
+            std::min(nx - 1, static_cast<int>((std::max(a.x, c.x) + bead - b.min.x) / px));
         const int y0 = std::max(0, static_cast<int>((std::min(a.y, c.y) - bead - b.min.y) / px));
-        const int y1 = std::min(ny - 1, static_cast<int>((std::max(a.y, c.y) + bead - b.min.y) / px));
+        const int y1 =
+            std::min(ny - 1, static_cast<int>((std::max(a.y, c.y) + bead - b.min.y) / px));
         for (int iy = y0; iy <= y1; ++iy)
           for (int ix = x0; ix <= x1; ++ix) {
             const Vec3 q{b.min.x + (ix + 0.5) * px, b.min.y + (iy + 0.5) * px, 0};
-            if (distance_to_segment(q, a, c) <= reach + 1e-9) paint[static_cast<std::size_t>(iy) * nx + ix] = 1;
+            if (distance_to_segment(q, a, c) <= reach + 1e-9)
+              paint[static_cast<std::size_t>(iy) * nx + ix] = 1;
           }
       }
     }
@@ -217,10 +221,11 @@ TEST(Fgm, Strategy2GradientFidelityAndCoverage) {
         // Only the tips of acute corners (an iso-line meeting the outline) stay uncovered: a
         // round bead cannot reach them without crossing into the next face.
         EXPECT_GE(r.coverage, 0.98) << c.vcad << colors << concentric;
-        std::printf("case %zu colours %d %s: max error %.4f (half band %.4f), mean %.4f, coverage %.4f\n",
-                    static_cast<std::size_t>(&c - cases.data()), colors,
-                    concentric ? "concentric" : "rectilinear", r.max_error, half_band,
-                    r.mean_error, r.coverage);
+        std::printf(
+            "case %zu colours %d %s: max error %.4f (half band %.4f), mean %.4f, coverage %.4f\n",
+            static_cast<std::size_t>(&c - cases.data()), colors,
+            concentric ? "concentric" : "rectilinear", r.max_error, half_band, r.mean_error,
+            r.coverage);
       }
 }
 
@@ -253,7 +258,8 @@ TEST(Fgm, LookAheadIssuesChangesOneDeadVolumeEarly) {
     double s = 0;
     for (const auto& l : back.layers)
       for (const auto& p : l.paths) {
-        if (issued.empty() || issued.back().second != p.mixture[0]) issued.push_back({s, p.mixture[0]});
+        if (issued.empty() || issued.back().second != p.mixture[0])
+          issued.push_back({s, p.mixture[0]});
         for (std::size_t k = 0; k + 1 < p.points.size(); ++k) {
           const double len = distance(p.points[k], p.points[k + 1]);
           mids.push_back({s + len / 2, (p.points[k] + p.points[k + 1]) * 0.5});
@@ -290,7 +296,8 @@ TEST(Fgm, ToolsAndTemperatureModes) {
   tools.gradient_mode = GradientMode::Tools;
   tools.gradient_tools = 5;
   const std::string g = write_gcode(tp, tools);
-  for (const char* t : {"\nT0\n", "\nT1\n", "\nT2\n", "\nT3\n", "\nT4\n"}) EXPECT_NE(g.find(t), std::string::npos) << t;
+  for (const char* t : {"\nT0\n", "\nT1\n", "\nT2\n", "\nT3\n", "\nT4\n"})
+    EXPECT_NE(g.find(t), std::string::npos) << t;
   MachineProfile foam = test::open_bed();
   foam.gradient_mode = GradientMode::Temperature;
   foam.flow_model = FlowModel::Pla;
@@ -345,7 +352,8 @@ TEST(Fgm, Strategy1KeepsEveryPlanarPathAndPurgesBetweenColours) {
     for (std::size_t k = 0; k < paths.size(); ++k) {
       if (paths[k].role == PathRole::Purge) {  // wall, sparse lines and purges beside the part
         if (k + 1 < paths.size() && paths[k + 1].role != PathRole::Purge &&
-            paths[k + 1].mixture == paths[k].mixture && k > 0 && paths[k - 1].mixture != paths[k].mixture)
+            paths[k + 1].mixture == paths[k].mixture && k > 0 &&
+            paths[k - 1].mixture != paths[k].mixture)
           EXPECT_GE(paths[k].length(), L - 1e-6);
         for (const auto& q : paths[k].points) EXPECT_GT(q.x, 10 + purge.clearance);
         continue;
@@ -448,7 +456,8 @@ TEST(Fgm, ThreeMaterialPaletteWalksTheTriangle) {
       EXPECT_EQ(p.color_of(m), c);
       if (c > 0) {
         const auto prev = p.mixture(c - 1);
-        for (int k = 0; k < 3; ++k) EXPECT_LE(std::abs(m[k] - prev[k]), p.band() + 1e-12) << d << " " << c;
+        for (int k = 0; k < 3; ++k)
+          EXPECT_LE(std::abs(m[k] - prev[k]), p.band() + 1e-12) << d << " " << c;
       }
     }
     EXPECT_EQ(seen.size(), static_cast<std::size_t>(p.colors));
@@ -476,7 +485,8 @@ TEST(Fgm, ThreeMaterialPaletteWalksTheTriangle) {
 
 // A disc graded in three materials (fractions sum to 1 everywhere on it).
 const char* kThreeMaterials =
-    "fgrade([\"(1 + x/16 + 0.1*sin(y))/3\", \"(1 + y/16)/3\", \"(1 - x/16 - y/16 - 0.1*sin(y))/3\"],"
+    "fgrade([\"(1 + x/16 + 0.1*sin(y))/3\", \"(1 + y/16)/3\", \"(1 - x/16 - y/16 - "
+    "0.1*sin(y))/3\"],"
     " [\"a\", \"b\", \"c\"]) {\n  cylinder(10, 0.6);\n}\n";
 
 TEST(Fgm, ThreeMaterialsStrategy2FidelityAndCoverage) {
@@ -489,8 +499,9 @@ TEST(Fgm, ThreeMaterialsStrategy2FidelityAndCoverage) {
     EXPECT_GT(r.segments, 0u);
     EXPECT_LE(r.max_error, p.error_bound() + 1e-4) << colors;
     EXPECT_GE(r.coverage, 0.98) << colors;
-    std::printf("three materials, %d colours: max error %.4f (bound %.4f), mean %.4f, coverage %.4f\n",
-                colors, r.max_error, p.error_bound(), r.mean_error, r.coverage);
+    std::printf(
+        "three materials, %d colours: max error %.4f (bound %.4f), mean %.4f, coverage %.4f\n",
+        colors, r.max_error, p.error_bound(), r.mean_error, r.coverage);
   }
 }
 
@@ -555,9 +566,9 @@ TEST(Fgm, AppendixBDesignsAndRandomFieldsStayWithinTheBand) {
     double material_resolution;
   };
   std::vector<Case> cases;
-  for (const char* name : {"fgm_column1_cylinder.vcad", "fgm_column2_plate.vcad",
-                           "fgm_column3_ring_angular.vcad", "fgm_column5_ring_radial.vcad",
-                           "fgm_column6_vase.vcad"})
+  for (const char* name :
+       {"fgm_column1_cylinder.vcad", "fgm_column2_plate.vcad", "fgm_column3_ring_angular.vcad",
+        "fgm_column5_ring_radial.vcad", "fgm_column6_vase.vcad"})
     cases.push_back({read_vcad(std::string(TRELLIS_SOURCE_DIR) + "/examples/designs/" + name).field,
                      name, 10, 1.0});
   std::mt19937 rng(2026);
@@ -570,14 +581,14 @@ TEST(Fgm, AppendixBDesignsAndRandomFieldsStayWithinTheBand) {
     const double a = 0.4 * u(rng), b = 0.2 * u(rng), c = 1.2 * u(rng), d = 1.2 * u(rng),
                  e = 0.4 * u(rng);
     char expr[256];
-    std::snprintf(expr, sizeof expr, "0.5 + %.3f*x/10 + %.3f*sin(%.3f*x + %.3f*y) + %.3f*y/10",
-                  a, b, c, d, e);
+    std::snprintf(expr, sizeof expr, "0.5 + %.3f*x/10 + %.3f*sin(%.3f*x + %.3f*y) + %.3f*y/10", a,
+                  b, c, d, e);
     const double steepest = std::hypot(a, e) / 10 + std::abs(b) * std::hypot(c, d);
     const int most = std::clamp(static_cast<int>(1 / (steepest * 0.8)), 2, 12);
     const std::string vcad = std::string("fgrade([\"") + expr + "\", \"1 - (" + expr +
                              ")\"], [\"a\", \"b\"]) {\n  rectprism(16, 12, 0.6);\n}\n";
-    cases.push_back({design(vcad), expr, 2 + static_cast<int>(rng() % static_cast<unsigned>(most - 1)),
-                     0.25});
+    cases.push_back(
+        {design(vcad), expr, 2 + static_cast<int>(rng() % static_cast<unsigned>(most - 1)), 0.25});
   }
   for (const auto& c : cases)
     for (const FgmOrder order : {FgmOrder::Faces, FgmOrder::Paths}) {
@@ -590,13 +601,15 @@ TEST(Fgm, AppendixBDesignsAndRandomFieldsStayWithinTheBand) {
       // Face by face every bead stays half a bead inside its face; in path order a bead is cut
       // where it crosses a face's edge (those edges follow the iso-lines to 1e-4 of a band), and
       // the G-code rounds the cut to 1 µm.
-      EXPECT_LE(r.max_error, half_band + (order == FgmOrder::Faces ? 1.2e-4 : 1e-3 / c.colors + 2e-4))
+      EXPECT_LE(r.max_error,
+                half_band + (order == FgmOrder::Faces ? 1.2e-4 : 1e-3 / c.colors + 2e-4))
           << c.name << " " << to_string(order);
       // In path order the lines are level lines a bead apart: where the iso-lines fold at the
       // scale of a few beads (these random fields: ridges and saddles 5 mm apart on a 16 mm
       // plate) the corners of their folds and the saddles stay partly open (the face-by-face
       // fill puts gap fill there, a bead each); on the palette plate 99 % (test_fgm_outline).
-      EXPECT_GE(r.coverage, order == FgmOrder::Faces ? 0.98 : 0.97) << c.name << " " << to_string(order);
+      EXPECT_GE(r.coverage, order == FgmOrder::Faces ? 0.98 : 0.97)
+          << c.name << " " << to_string(order);
       std::printf("%s, %d colours, %s: max error %.5f (half band %.5f), coverage %.4f\n",
                   c.name.c_str(), c.colors, to_string(order), r.max_error, half_band, r.coverage);
     }
@@ -630,8 +643,12 @@ TEST(Fgm, Strategy2LinesRunAlongTheIsoLines) {
           if (len < 1) continue;
           const Vec3 m = (a + b) * 0.5;
           const double h = 0.05;
-          const double gx = (ev.fractions({m.x + h, m.y, zs[0]})[0] - ev.fractions({m.x - h, m.y, zs[0]})[0]) / (2 * h);
-          const double gy = (ev.fractions({m.x, m.y + h, zs[0]})[0] - ev.fractions({m.x, m.y - h, zs[0]})[0]) / (2 * h);
+          const double gx =
+              (ev.fractions({m.x + h, m.y, zs[0]})[0] - ev.fractions({m.x - h, m.y, zs[0]})[0]) /
+              (2 * h);
+          const double gy =
+              (ev.fractions({m.x, m.y + h, zs[0]})[0] - ev.fractions({m.x, m.y - h, zs[0]})[0]) /
+              (2 * h);
           const double g = std::hypot(gx, gy);
           if (g < 1e-6) continue;
           // |cos| of the angle between the segment and the gradient: 0 along the iso-line.
@@ -642,7 +659,8 @@ TEST(Fgm, Strategy2LinesRunAlongTheIsoLines) {
     return total > 0 ? good / total : 0.0;
   };
   const double oriented = along(false), fixed = along(true);
-  std::printf("length within 20 degrees of the iso-line: %.3f oriented, %.3f fixed angle\n", oriented, fixed);
+  std::printf("length within 20 degrees of the iso-line: %.3f oriented, %.3f fixed angle\n",
+              oriented, fixed);
   EXPECT_GE(oriented, 0.9);
   EXPECT_LT(fixed, 0.6);
 }
@@ -706,10 +724,10 @@ namespace {
 // each extruding segment, no round caps): the share of the outline's pixels under two or more
 // beads. Pixels of 0.04 mm; a pixel counts once per segment.
 struct Balance {
-  double ratio = 0;    // extruded volume / design volume
-  double double_ = 0;  // share of the outline covered by two or more beads
-  double shortest = 0; // shortest printed path (mm)
-  double under5 = 0;   // share of paths under 5 mm
+  double ratio = 0;     // extruded volume / design volume
+  double double_ = 0;   // share of the outline covered by two or more beads
+  double shortest = 0;  // shortest printed path (mm)
+  double under5 = 0;    // share of paths under 5 mm
 };
 
 Balance balance(const Field& f, const std::vector<LayerOutline>& outlines, const FgmOptions& o) {
@@ -720,7 +738,8 @@ Balance balance(const Field& f, const std::vector<LayerOutline>& outlines, const
   prof.lookahead = 0;
   Diagnostics diag;
   const Toolpath back = read_gcode(write_gcode(tp, prof), {}, diag);
-  const double fil_area = 3.14159265358979323846 * prof.filament_diameter * prof.filament_diameter / 4;
+  const double fil_area =
+      3.14159265358979323846 * prof.filament_diameter * prof.filament_diameter / 4;
   Balance b;
   double volume = 0, design_volume = 0;
   std::size_t paths = 0, short_paths = 0;
@@ -775,7 +794,8 @@ Balance balance(const Field& f, const std::vector<LayerOutline>& outlines, const
       for (const auto& ring : rings_of(out))
         for (std::size_t i = 0, j = ring.size() - 1; i < ring.size(); j = i++)
           if ((ring[i].y > y) != (ring[j].y > y))
-            xs.push_back(ring[j].x + (ring[i].x - ring[j].x) * (y - ring[j].y) / (ring[i].y - ring[j].y));
+            xs.push_back(ring[j].x +
+                         (ring[i].x - ring[j].x) * (y - ring[j].y) / (ring[i].y - ring[j].y));
       std::sort(xs.begin(), xs.end());
       for (std::size_t k = 0; k + 1 < xs.size(); k += 2)
         for (int ix = std::max(0, static_cast<int>(std::ceil((xs[k] - bb.min.x) / px - 0.5)));
@@ -819,12 +839,14 @@ TEST(Fgm, Strategy2DepositsThePartsVolumeAtEveryPaletteSize) {
       o.concentric = concentric;
       o.order = fill.order;
       const Balance b = balance(f, outlines, o);
-      const std::string what = std::to_string(colors) + (concentric ? " concentric " : " rectilinear ") +
+      const std::string what = std::to_string(colors) +
+                               (concentric ? " concentric " : " rectilinear ") +
                                to_string(fill.order);
-      std::printf("colours %2d %-11s %-5s volume x%.4f, double coverage %.2f %%, shortest path "
-                  "%.3f mm, %.1f %% of paths under 5 mm\n",
-                  colors, concentric ? "concentric" : "rectilinear", to_string(fill.order), b.ratio,
-                  100 * b.double_, b.shortest, 100 * b.under5);
+      std::printf(
+          "colours %2d %-11s %-5s volume x%.4f, double coverage %.2f %%, shortest path "
+          "%.3f mm, %.1f %% of paths under 5 mm\n",
+          colors, concentric ? "concentric" : "rectilinear", to_string(fill.order), b.ratio,
+          100 * b.double_, b.shortest, 100 * b.under5);
       EXPECT_NEAR(b.ratio, 1.0, 0.03) << what;
       EXPECT_LE(b.double_, 0.05) << what;
       // Face by face no piece shorter than a bead is printed (trimmed remnants are dropped); in

@@ -30,7 +30,8 @@ const char* kLinear =
 // touch colour 3 end to end and may print in it. Merging is possible only on such edges: a
 // piece inside a band lies further than α/2 from every other colour.
 const char* kEdge =
-    "fgrade([\"0.7499999999 + max(17 - x, 0)/100\", \"0.2500000001 - max(17 - x, 0)/100\"], [\"a\", \"b\"]) {\n"
+    "fgrade([\"0.7499999999 + max(17 - x, 0)/100\", \"0.2500000001 - max(17 - x, 0)/100\"], "
+    "[\"a\", \"b\"]) {\n"
     "  rectprism(40, 20, 1.0);\n}\n";
 const char* kCurved =
     "fgrade([\"0.5 + 0.45*sin(x/6 + y/9)\", \"0.5 - 0.45*sin(x/6 + y/9)\"], [\"a\", \"b\"]) {\n"
@@ -154,8 +155,11 @@ TEST(MinSegment, PrintedPiecesReachTheMinimumOrAreCounted) {
   for (const char* vcad : {kLinear, kCurved, kEdge})
     for (int strategy : {1, 2})
       for (int colors : {4, 12}) {
-        SCOPED_TRACE(std::string(vcad == kLinear ? "linear" : vcad == kEdge ? "edge" : "curved") + " strategy " +
-                     std::to_string(strategy) + ", " + std::to_string(colors) + " colours");
+        SCOPED_TRACE(std::string(vcad == kLinear ? "linear"
+                                 : vcad == kEdge ? "edge"
+                                                 : "curved") +
+                     " strategy " + std::to_string(strategy) + ", " + std::to_string(colors) +
+                     " colours");
         const Printed off = print(vcad, strategy, colors, 0);
         const Printed on = print(vcad, strategy, colors, 5);
         const std::size_t before = pieces_under(off.back, 5);
@@ -178,8 +182,11 @@ TEST(MinSegment, MergedPiecesKeepTheGradientErrorWithinHalfABand) {
   for (const char* vcad : {kLinear, kCurved, kEdge})
     for (int strategy : {1, 2})
       for (int colors : {4, 12}) {
-        SCOPED_TRACE(std::string(vcad == kLinear ? "linear" : vcad == kEdge ? "edge" : "curved") + " strategy " +
-                     std::to_string(strategy) + ", " + std::to_string(colors) + " colours");
+        SCOPED_TRACE(std::string(vcad == kLinear ? "linear"
+                                 : vcad == kEdge ? "edge"
+                                                 : "curved") +
+                     " strategy " + std::to_string(strategy) + ", " + std::to_string(colors) +
+                     " colours");
         const Printed on = print(vcad, strategy, colors, 5);
         const double bound = 0.5 / colors;
         EXPECT_LE(printed_error(vcad, on), bound + 1e-3);

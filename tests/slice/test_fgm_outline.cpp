@@ -60,11 +60,12 @@ std::vector<Case> cases() {
                  two_materials("(sqrt(x^2+y^2) - 5)/10",
                                "difference() { cylinder(15, 0.6); cylinder(5, 0.6); }"),
                  10, 2, 0.5});
-  out.push_back({"three materials",
-                 "fgrade([\"(1 + 2*cos(phi)*rho/15)/3\", \"(1 + 2*cos(phi - 2*pi/3)*rho/15)/3\", "
-                 "\"(1 + 2*cos(phi + 2*pi/3)*rho/15)/3\"], [\"a\", \"b\", \"c\"]) {\n  cylinder(15, "
-                 "0.6);\n}\n",
-                 9, 3, 0.5});
+  out.push_back(
+      {"three materials",
+       "fgrade([\"(1 + 2*cos(phi)*rho/15)/3\", \"(1 + 2*cos(phi - 2*pi/3)*rho/15)/3\", "
+       "\"(1 + 2*cos(phi + 2*pi/3)*rho/15)/3\"], [\"a\", \"b\", \"c\"]) {\n  cylinder(15, "
+       "0.6);\n}\n",
+       9, 3, 0.5});
   return out;
 }
 
@@ -193,10 +194,12 @@ TEST(FgmOutline, EachBeadsPiecesAreTheBead) {
         for (std::size_t i = 0; i < orig.size(); ++i) {
           while (at < bead.size() && distance(bead[at], orig[i]) > 1e-9) {
             ASSERT_GT(i, 0u) << "the bead starts where it was planned";
-            EXPECT_LT(distance_to_segment(bead[at], orig[i - 1], orig[i]), 1e-9) << "a cut off the bead";
+            EXPECT_LT(distance_to_segment(bead[at], orig[i - 1], orig[i]), 1e-9)
+                << "a cut off the bead";
             ++at;
           }
-          ASSERT_LT(at, bead.size()) << "layer " << li << " bead " << k << ": point " << i << " missing";
+          ASSERT_LT(at, bead.size())
+              << "layer " << li << " bead " << k << ": point " << i << " missing";
           ++at;
         }
         EXPECT_EQ(at, bead.size()) << "the bead ends where it was planned";
@@ -277,11 +280,13 @@ TEST(FgmOutline, TheIslandIsCoveredOnce) {
     int colors;
   };
   std::vector<Run> runs;
-  runs.push_back({"palette plate, middle layer", plate, slice_field(plate, {0.9}, FieldSliceOptions{}), 24});
+  runs.push_back(
+      {"palette plate, middle layer", plate, slice_field(plate, {0.9}, FieldSliceOptions{}), 24});
   std::vector<Case> all = cases();
   // A design clamped flat over most of the plate (f = 0 for x < -4, 1 for x > 4): no level line
   // passes there; the three-material disc is flat where one fraction is clamped at 0.
-  all.push_back({"clamped slope", two_materials("0.5 + x/8", "rectprism(30, 20, 0.6);"), 8, 2, 0.5});
+  all.push_back(
+      {"clamped slope", two_materials("0.5 + x/8", "rectprism(30, 20, 0.6);"), 8, 2, 0.5});
   for (const Case& c : all) {
     Field f = parse_vcad(c.vcad, "test.vcad").field;
     const BBox3 e = f.extent();
@@ -297,8 +302,10 @@ TEST(FgmOutline, TheIslandIsCoveredOnce) {
     o.material_resolution = r.name.rfind("palette plate", 0) == 0 ? 1.0 : 0.5;
     const Toolpath tp = plan_fgm_strategy2(r.field, r.outlines, o);
     ASSERT_EQ(tp.layers.size(), 1u);
-    const Raster wide = raster(tp.layers[0], r.outlines[0].regions, o.perimeters * o.bead_width, 1.1);
-    const Raster exact = raster(tp.layers[0], r.outlines[0].regions, o.perimeters * o.bead_width, 1.0);
+    const Raster wide =
+        raster(tp.layers[0], r.outlines[0].regions, o.perimeters * o.bead_width, 1.1);
+    const Raster exact =
+        raster(tp.layers[0], r.outlines[0].regions, o.perimeters * o.bead_width, 1.0);
     std::printf("%-70s covered %.4f (exact width %.4f), under three %.5f\n", r.name.c_str(),
                 wide.coverage, exact.coverage, exact.three);
     EXPECT_GE(wide.coverage, &r == &runs.front() ? 0.99 : 0.95);
@@ -340,4 +347,3 @@ TEST(FgmOutline, AConvexIslandWithALinearGradientIsOneBead) {
   std::printf("%zu beads on %zu layers\n", beads, layers);
   EXPECT_LE(beads, layers + layers / 4);
 }
-

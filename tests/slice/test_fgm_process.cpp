@@ -266,8 +266,11 @@ TEST(ProcessFields, EveryFirmwareWritesTheTemperatureField) {
       const auto li = static_cast<std::size_t>(std::lround(m.b.z / 0.2)) - 1;
       ASSERT_LT(li, s.result.outlines.size());
       const Vec3 q = (m.a + m.b) * 0.5;
-      worst = std::max(worst, std::abs(m.temperature - ev.process({q.x - r.offset.x, q.y - r.offset.y,
-                                                                    s.result.outlines[li].z}).value[0]));
+      worst = std::max(
+          worst,
+          std::abs(
+              m.temperature -
+              ev.process({q.x - r.offset.x, q.y - r.offset.y, s.result.outlines[li].z}).value[0]));
       unsettled += !m.settled;
     }
     EXPECT_LE(worst, 0.5 + 1e-3) << flavor;

@@ -9,13 +9,13 @@
 #include <set>
 #include <sstream>
 
+#include "support/temp_dir.hpp"
 #include "trellis/core/error.hpp"
+#include "trellis/core/file.hpp"
 #include "trellis/field/vcad.hpp"
 #include "trellis/machine/gcode_writer.hpp"
 #include "trellis/slice/fgm.hpp"
 #include "trellis/slice/pipeline.hpp"
-#include "support/temp_dir.hpp"
-#include "trellis/core/file.hpp"
 
 using namespace trellis;
 
@@ -23,14 +23,14 @@ namespace {
 
 struct Segment {
   Vec3 a, b;
-  std::string mixture;  // the M165 / T command in force
+  std::string mixture;     // the M165 / T command in force
   std::size_t change = 0;  // changes issued before it
   bool continues = false;  // follows the previous extrusion without a travel
 };
 
 struct Replay {
   std::vector<Segment> segments;
-  std::vector<std::string> changes;  // commands, in order
+  std::vector<std::string> changes;           // commands, in order
   std::vector<std::vector<double>> mixtures;  // parsed M165 fractions per change
   Vec2 offset;
   std::size_t changes_inside_paths = 0;  // a change between two joined extrusions
@@ -156,7 +156,9 @@ Replay replay(const std::string& gcode) {
   return r;
 }
 
-Field design(const std::string& text) { return parse_vcad(text, "test.vcad").field; }
+Field design(const std::string& text) {
+  return parse_vcad(text, "test.vcad").field;
+}
 
 struct Plan {
   std::vector<double> zs;
@@ -272,7 +274,8 @@ Checked check_tower_print(const Plan& p, const Field& f, const MachineProfile& p
     const auto& mix = r.mixtures[s.change - 1];
     for (double t : {0.0, 0.5, 1.0}) {
       const Vec3 q = s.a + (s.b - s.a) * t;
-      const double frac = std::clamp(ev.fractions({q.x - r.offset.x, q.y - r.offset.y, p.zs[li]})[0], 0.0, 1.0);
+      const double frac =
+          std::clamp(ev.fractions({q.x - r.offset.x, q.y - r.offset.y, p.zs[li]})[0], 0.0, 1.0);
       c.worst_error = std::max(c.worst_error, std::abs(frac - mix[0]));
     }
   }
@@ -327,32 +330,32 @@ TEST(PrimeTower, MixingChangesFlushIntoATowerBesideThePart) {
 TEST(PrimeTower, ToolChangesHappenAtPathEndsAndPrimeInTheTower) {
   const Field f = design(kPlate);
   for (const bool grouped : {false, true}) {
-  // Face order, and a tool changer's path order: its pieces grouped by tool, chained.
-  const Plan p = plan(f, 5, bed_purge(360, 360), 0.2, grouped);
-  ASSERT_TRUE(p.stats.tower.built);
-  MachineProfile prof;
-  prof.mixing_inputs = 2;
-  prof.tool_count = 5;
-  prof.bed_x = prof.bed_y = 360;
-  prof.center = true;
-  prof.gradient_mode = GradientMode::Tools;
-  prof.gradient_tools = 5;
-  prof.lookahead = 450;  // a tool changer has no shared dead volume to run ahead of
-  const Replay r = replay(write_gcode(p.graded, prof));
-  EXPECT_GT(r.changes.size(), 5u);
-  EXPECT_EQ(r.changes_inside_paths, 0u);
-  for (const auto& c : r.changes) EXPECT_EQ(c[0], 'T') << c;
-  if (grouped) {
-    // One change per tool a layer uses (and one where a layer starts with another tool).
-    std::size_t used = 0;
-    for (const auto& l : p.graded.layers) {
-      std::set<std::vector<double>> mixes;
-      for (const auto& q : l.paths)
-        if (q.role != PathRole::Purge) mixes.insert(q.mixture);
-      used += mixes.size();
+    // Face order, and a tool changer's path order: its pieces grouped by tool, chained.
+    const Plan p = plan(f, 5, bed_purge(360, 360), 0.2, grouped);
+    ASSERT_TRUE(p.stats.tower.built);
+    MachineProfile prof;
+    prof.mixing_inputs = 2;
+    prof.tool_count = 5;
+    prof.bed_x = prof.bed_y = 360;
+    prof.center = true;
+    prof.gradient_mode = GradientMode::Tools;
+    prof.gradient_tools = 5;
+    prof.lookahead = 450;  // a tool changer has no shared dead volume to run ahead of
+    const Replay r = replay(write_gcode(p.graded, prof));
+    EXPECT_GT(r.changes.size(), 5u);
+    EXPECT_EQ(r.changes_inside_paths, 0u);
+    for (const auto& c : r.changes) EXPECT_EQ(c[0], 'T') << c;
+    if (grouped) {
+      // One change per tool a layer uses (and one where a layer starts with another tool).
+      std::size_t used = 0;
+      for (const auto& l : p.graded.layers) {
+        std::set<std::vector<double>> mixes;
+        for (const auto& q : l.paths)
+          if (q.role != PathRole::Purge) mixes.insert(q.mixture);
+        used += mixes.size();
+      }
+      EXPECT_LE(r.changes.size(), used + p.graded.layers.size());
     }
-    EXPECT_LE(r.changes.size(), used + p.graded.layers.size());
-  }
   }
 }
 
@@ -394,8 +397,10 @@ TEST(PrimeTower, PlacedWhereTheBedHasRoomOrRefused) {
     for (double sy : {-0.5, 0.5}) {
       const auto& t = strip.stats.tower;
       // The bed is centred on the box of part and tower.
-      const double cx = (std::min(-20.0, t.x - t.size_x / 2) + std::max(20.0, t.x + t.size_x / 2)) / 2;
-      const double cy = (std::min(-10.0, t.y - t.size_y / 2) + std::max(10.0, t.y + t.size_y / 2)) / 2;
+      const double cx =
+          (std::min(-20.0, t.x - t.size_x / 2) + std::max(20.0, t.x + t.size_x / 2)) / 2;
+      const double cy =
+          (std::min(-10.0, t.y - t.size_y / 2) + std::max(10.0, t.y + t.size_y / 2)) / 2;
       EXPECT_LE(std::hypot(t.x + sx * t.size_x - cx, t.y + sy * t.size_y - cy), 28 + 1e-9);
     }
   round.bed_x = round.bed_y = 80;
@@ -532,8 +537,8 @@ TEST(PrimeTower, EveryMixingDialectPrintsTheGradientAsDesigned) {
   const Plan p = plan(f, 6, bed_purge(200, 200));
   for (const std::string dialect : {"m165", "m163", "m567", "template"}) {
     MachineProfile prof;
-  prof.mixing_inputs = 2;
-  prof.tool_count = 5;
+    prof.mixing_inputs = 2;
+    prof.tool_count = 5;
     prof.mixing_inputs = 2;
     prof.tool_count = 5;
     prof.bed_x = prof.bed_y = 200;

@@ -7,8 +7,8 @@
 #include <numbers>
 #include <random>
 
-#include "trellis/geom/regions.hpp"
 #include "support/random_regions.hpp"
+#include "trellis/geom/regions.hpp"
 
 using namespace trellis;
 using test::outline_distance;

@@ -11,11 +11,11 @@
 #include <numbers>
 #include <numeric>
 
+#include "support/random_regions.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/rng.hpp"
 #include "trellis/lattice/atlas.hpp"
 #include "trellis/slice/infill.hpp"
-#include "support/random_regions.hpp"
 
 using namespace trellis;
 using test::outline_distance;

@@ -32,7 +32,8 @@ TriangleMesh map_weld(const std::vector<Vec3>& corners) {
   std::map<std::tuple<double, double, double>, std::uint32_t> index;
   auto id = [&](Vec3 p) {
     p = {p.x + 0.0, p.y + 0.0, p.z + 0.0};  // -0 -> +0
-    auto [it, added] = index.try_emplace({p.x, p.y, p.z}, static_cast<std::uint32_t>(m.vertices.size()));
+    auto [it, added] =
+        index.try_emplace({p.x, p.y, p.z}, static_cast<std::uint32_t>(m.vertices.size()));
     if (added) m.vertices.push_back(p);
     return it->second;
   };
@@ -110,9 +111,8 @@ TEST(MeshWeld, BinaryStlIsWeldedOnceByTheReader) {
 
 // Cubes of side 1 in each 3MF unit, written by tests/data/mesh/make_unit_cubes.py.
 TEST(MeshIo, ThreeMfUnitsAreMillimetres) {
-  const std::map<std::string, double> mm = {{"micron", 1e-3}, {"millimeter", 1},
-                                            {"centimeter", 10}, {"inch", 25.4},
-                                            {"foot", 304.8},   {"meter", 1000}};
+  const std::map<std::string, double> mm = {{"micron", 1e-3}, {"millimeter", 1}, {"centimeter", 10},
+                                            {"inch", 25.4},   {"foot", 304.8},   {"meter", 1000}};
   for (const auto& [unit, side] : mm) {
     const TriangleMesh m = read_mesh(kData + "unit_" + unit + ".3mf");
     const BBox3 b = bounds(m);
@@ -189,7 +189,8 @@ void quad(TriangleMesh& m, std::initializer_list<Vec3> corners) {
     ids.push_back(static_cast<std::uint32_t>(m.vertices.size()));
     m.vertices.push_back(p);
   }
-  for (std::size_t k = 1; k + 1 < ids.size(); ++k) m.triangles.push_back({ids[0], ids[k], ids[k + 1]});
+  for (std::size_t k = 1; k + 1 < ids.size(); ++k)
+    m.triangles.push_back({ids[0], ids[k], ids[k + 1]});
 }
 
 // A 20 mm cube with every defect real exports have: a T-junction seam (the x = 20 face has no
@@ -198,13 +199,13 @@ void quad(TriangleMesh& m, std::initializer_list<Vec3> corners) {
 // (a non-manifold edge). The solid it means: 8000 + 2000 mm³.
 TriangleMesh broken_cube() {
   TriangleMesh m;
-  quad(m, {{0, 0, 0}, {0, 20, 0}, {20, 20, 0}, {20, 10, 0}, {20, 0, 0}});        // bottom
-  quad(m, {{0, 0, 20}, {20, 0, 20}, {20, 10, 20}, {20, 20, 20}, {0, 20, 20}});   // top
-  quad(m, {{0, 0, 0}, {0, 0, 20}, {0, 20, 20}, {0, 20, 0}});                      // x = 0
-  quad(m, {{20, 0, 0}, {20, 20, 0}, {20, 20, 20}, {20, 0, 20}});                  // x = 20: seam
-  quad(m, {{0, 0, 0}, {20, 0, 0}, {20, 0, 20}, {0, 0, 20}});                      // y = 0
-  quad(m, {{0, 20, 0}, {0, 20, 20}, {20, 20, 20}});                               // y = 20, one
-  quad(m, {{0, 20, 0}, {20, 20, 0}, {20, 20, 20}});                               // flipped
+  quad(m, {{0, 0, 0}, {0, 20, 0}, {20, 20, 0}, {20, 10, 0}, {20, 0, 0}});       // bottom
+  quad(m, {{0, 0, 20}, {20, 0, 20}, {20, 10, 20}, {20, 20, 20}, {0, 20, 20}});  // top
+  quad(m, {{0, 0, 0}, {0, 0, 20}, {0, 20, 20}, {0, 20, 0}});                    // x = 0
+  quad(m, {{20, 0, 0}, {20, 20, 0}, {20, 20, 20}, {20, 0, 20}});                // x = 20: seam
+  quad(m, {{0, 0, 0}, {20, 0, 0}, {20, 0, 20}, {0, 0, 20}});                    // y = 0
+  quad(m, {{0, 20, 0}, {0, 20, 20}, {20, 20, 20}});                             // y = 20, one
+  quad(m, {{0, 20, 0}, {20, 20, 0}, {20, 20, 20}});                             // flipped
   // Duplicates: a y = 0 triangle again, and an x = 0 one reversed.
   m.triangles.push_back(m.triangles[10]);
   const auto x0 = m.triangles[6];
@@ -375,7 +376,8 @@ TEST_P(OcctMesh, RepairedOutlineMatchesPrusaSlicer) {
   }
   const double z0 = bounds(fixed).min.z;
   std::vector<double> zs;
-  for (std::size_t i = 1; i < ref.size(); ++i) zs.push_back(z0 + 0.2 * static_cast<double>(i) + 0.1);
+  for (std::size_t i = 1; i < ref.size(); ++i)
+    zs.push_back(z0 + 0.2 * static_cast<double>(i) + 0.1);
   const auto layers = slice_mesh_layers(fixed, zs, 1e-6, true);
   std::size_t compared = 0, lost_island = 0;
   for (std::size_t i = 1; i < ref.size(); ++i) {
@@ -389,16 +391,18 @@ TEST_P(OcctMesh, RepairedOutlineMatchesPrusaSlicer) {
     if (std::abs(ours - theirs) <= 0.02 * theirs) continue;
     double left = 0, right = 0;
     for (const auto& p : r) {
-      if (std::all_of(p.outer.begin(), p.outer.end(), [](Vec2 v) { return v.x > 0; })) right += area(p);
-      if (std::all_of(p.outer.begin(), p.outer.end(), [](Vec2 v) { return v.x < 0; })) left += area(p);
+      if (std::all_of(p.outer.begin(), p.outer.end(), [](Vec2 v) { return v.x > 0; }))
+        right += area(p);
+      if (std::all_of(p.outer.begin(), p.outer.end(), [](Vec2 v) { return v.x < 0; }))
+        left += area(p);
     }
-    if (name == "video_part" && (std::abs(right - theirs) <= 0.02 * theirs ||
-                                 std::abs(left - theirs) <= 0.02 * theirs)) {
+    if (name == "video_part" &&
+        (std::abs(right - theirs) <= 0.02 * theirs || std::abs(left - theirs) <= 0.02 * theirs)) {
       ++lost_island;
       continue;
     }
-    ADD_FAILURE() << name << " layer " << i << " z " << z << ": " << ours << " mm² here, "
-                  << theirs << " in PrusaSlicer";
+    ADD_FAILURE() << name << " layer " << i << " z " << z << ": " << ours << " mm² here, " << theirs
+                  << " in PrusaSlicer";
   }
   EXPECT_GT(compared, ref.size() * 3 / 4);
   EXPECT_LE(lost_island, 20u);

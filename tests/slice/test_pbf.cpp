@@ -36,7 +36,8 @@ TEST(Field, TpmsAnalyticGradientMatchesDifferences) {
     }
     // In batches (grid rows reuse their sines; the rotated field goes point by point): the same
     // gradients as one at a time.
-    for (const Field& f : {tpms(kind, {2.5, 3, 2}), rotate(tpms(kind, {2.5, 3, 2}), {10, 20, 30})}) {
+    for (const Field& f :
+         {tpms(kind, {2.5, 3, 2}), rotate(tpms(kind, {2.5, 3, 2}), {10, 20, 30})}) {
       Evaluator one(f), many(f);
       std::vector<Vec3> pts;
       for (int j = 0; j < 7; ++j)
@@ -81,7 +82,8 @@ TEST(Field, TpmsBatchesMatchLibm) {
     EXPECT_NEAR(v_all[i], v[i], 1e-12) << "point " << i;
     EXPECT_NEAR(g_all[i].x, g[i].x, 1e-11) << "point " << i;
     const double x = k * pts[i].x, y = k * pts[i].y, z = k * pts[i].z;
-    const double ref = std::sin(x) * std::cos(y) + std::sin(y) * std::cos(z) + std::sin(z) * std::cos(x);
+    const double ref =
+        std::sin(x) * std::cos(y) + std::sin(y) * std::cos(z) + std::sin(z) * std::cos(x);
     const double tol = 1e-12 * std::max({1.0, std::abs(x), std::abs(y), std::abs(z)});
     EXPECT_NEAR(v[i], ref, tol) << "point " << i;
     EXPECT_NEAR(v[i], one.value(pts[i]), 1e-12) << "point " << i;
@@ -535,7 +537,7 @@ TEST(Pbf, UniformThicknessSheetsHaveNoSpread) {
   o.layer = 0.25;
   const PbfStats a = thickness_stats(plan_pbf(constant, o).layers);
   const PbfStats b = thickness_stats(plan_pbf(uniform, o).layers);
-  EXPECT_GT(a.cv, 0.1);  // (max − min) / mean: about 20% for the gyroid
+  EXPECT_GT(a.cv, 0.1);   // (max − min) / mean: about 20% for the gyroid
   EXPECT_LT(b.cv, 0.05);  // measured across the sheet: t to first order
   EXPECT_NEAR(b.mean, 0.08, 0.002);
 }
@@ -628,8 +630,8 @@ PbfDesign thick_or_thin(double c, bool opaque) {
 
 // A sheet nowhere as narrow as a thin wall (1.5 × 63.8 µm = 96 µm): 2c / max|∇φ| ≥ that for
 // c = 0.3 with 5 mm cells (max|∇φ| ≤ 2.2 /mm), so the thin-wall march is skipped — and the plan
-// is the one the march gives. Below the bound (c = 0.07; the bound allows thin walls from c < 0.105) thin walls exist
-// and are planned.
+// is the one the march gives. Below the bound (c = 0.07; the bound allows thin walls from c <
+// 0.105) thin walls exist and are planned.
 TEST(Pbf, ThinWallsAreSkippedOnlyWhereTheSheetCannotHaveThem) {
   PbfOptions o;
   o.layer = 0.1;

@@ -94,15 +94,18 @@ TEST(PbfStream, ALayerRangeOnItsOwnIsThatRangeOfTheWholeRun) {
   const std::vector<std::pair<std::size_t, std::size_t>> shards{{0, 7}, {7, 8}, {8, 19}, {19, n}};
   std::size_t next = 0;
   for (const auto& [a, b] : shards) {
-    const PbfResult part = plan_pbf(d, o, {}, [&](std::size_t i, const PbfLayer& L) {
-      ASSERT_EQ(i, next++);
-      expect_same_vectors(L, whole.layers[i], i);
-    }, {a, b});
+    const PbfResult part = plan_pbf(d, o, {},
+                                    [&](std::size_t i, const PbfLayer& L) {
+                                      ASSERT_EQ(i, next++);
+                                      expect_same_vectors(L, whole.layers[i], i);
+                                    },
+                                    {a, b});
     EXPECT_EQ(part.layers.size(), b - a);
   }
   EXPECT_EQ(next, n);
   // Past the end: nothing; the end is clamped.
-  EXPECT_TRUE(plan_pbf(d, o, {}, [](std::size_t, const PbfLayer&) {}, {n + 3, n + 9}).layers.empty());
+  EXPECT_TRUE(
+      plan_pbf(d, o, {}, [](std::size_t, const PbfLayer&) {}, {n + 3, n + 9}).layers.empty());
   EXPECT_EQ(plan_pbf(d, o, {}, [](std::size_t, const PbfLayer&) {}, {n - 2}).layers.size(), 2u);
 }
 
@@ -120,10 +123,12 @@ TEST(PbfStream, ALayerRangeOfATallTiledPartIsThatRangeOfTheWholeRun) {
   const std::size_t n = whole.layers.size();
   ASSERT_GT(n, 50u);
   std::size_t next = 27;
-  const PbfResult part = plan_pbf(d, o, {}, [&](std::size_t i, const PbfLayer& L) {
-    ASSERT_EQ(i, next++);
-    expect_same_vectors(L, whole.layers[i], i);
-  }, {27, n});
+  const PbfResult part = plan_pbf(d, o, {},
+                                  [&](std::size_t i, const PbfLayer& L) {
+                                    ASSERT_EQ(i, next++);
+                                    expect_same_vectors(L, whole.layers[i], i);
+                                  },
+                                  {27, n});
   EXPECT_EQ(next, n);
 }
 

@@ -11,6 +11,7 @@
 #include <numbers>
 #include <random>
 
+#include "support/random_regions.hpp"
 #include "support/temp_dir.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/field/vcad.hpp"
@@ -19,7 +20,6 @@
 #include "trellis/geom/regions.hpp"
 #include "trellis/slice/pipeline.hpp"
 #include "trellis/slice/slice.hpp"
-#include "support/random_regions.hpp"
 
 using namespace trellis;
 
@@ -28,12 +28,11 @@ namespace {
 const std::string kDesigns = std::string(TRELLIS_SOURCE_DIR) + "/examples/designs/";
 constexpr double kPi = std::numbers::pi;
 
-
 struct Analytic {
   std::string name;
   Field field;
-  std::function<double(double z)> area;                    // exact cross-section area
-  std::function<std::vector<Vec2>(double z)> boundary;     // exact boundary samples
+  std::function<double(double z)> area;                 // exact cross-section area
+  std::function<std::vector<Vec2>(double z)> boundary;  // exact boundary samples
 };
 
 std::vector<Vec2> circle_pts(double cx, double cy, double r, int n = 720) {
@@ -45,8 +44,7 @@ std::vector<Vec2> circle_pts(double cx, double cy, double r, int n = 720) {
 
 std::vector<Analytic> analytic_shapes() {
   std::vector<Analytic> v;
-  v.push_back({"sphere", sphere(10),
-               [](double z) { return kPi * (100 - z * z); },
+  v.push_back({"sphere", sphere(10), [](double z) { return kPi * (100 - z * z); },
                [](double z) { return circle_pts(0, 0, std::sqrt(100 - z * z)); }});
   v.push_back({"box", rectprism({20, 12, 8}), [](double) { return 240.0; },
                [](double) {
@@ -86,14 +84,17 @@ std::vector<Analytic> analytic_shapes() {
                  const double r2 = 25 - z * z, r = std::sqrt(r2), d = 8;
                  // Two circles of radius r, centres 8 apart: 2πr² minus the lens.
                  if (d >= 2 * r) return 2 * kPi * r2;
-                 const double lens = 2 * r2 * std::acos(d / (2 * r)) - 0.5 * d * std::sqrt(4 * r2 - d * d);
+                 const double lens =
+                     2 * r2 * std::acos(d / (2 * r)) - 0.5 * d * std::sqrt(4 * r2 - d * d);
                  return 2 * kPi * r2 - lens;
                },
                [](double z) {
                  const double r = std::sqrt(25 - z * z);
                  std::vector<Vec2> out;
-                 for (auto p : circle_pts(-4, 0, r)) if (p.x <= 0) out.push_back(p);
-                 for (auto p : circle_pts(4, 0, r)) if (p.x >= 0) out.push_back(p);
+                 for (auto p : circle_pts(-4, 0, r))
+                   if (p.x <= 0) out.push_back(p);
+                 for (auto p : circle_pts(4, 0, r))
+                   if (p.x >= 0) out.push_back(p);
                  return out;
                }});
   return v;
@@ -409,7 +410,8 @@ TEST(Contours, CubicGuessFindsCrossingsWithFewerSamples) {
   ASSERT_EQ(a.lines.open.size(), b.lines.open.size());
   std::size_t crossings = 0;
   double worst = 0;
-  auto check = [&](const std::vector<std::vector<Vec2>>& la, const std::vector<std::vector<Vec2>>& lb) {
+  auto check = [&](const std::vector<std::vector<Vec2>>& la,
+                   const std::vector<std::vector<Vec2>>& lb) {
     for (std::size_t k = 0; k < la.size(); ++k) {
       ASSERT_EQ(la[k].size(), lb[k].size());
       for (std::size_t i = 0; i < la[k].size(); ++i) {
@@ -488,8 +490,8 @@ TEST(Contours, PeriodicTilesGiveTheSameContours) {
       const double k = 2 * std::numbers::pi / P;
       for (std::size_t i = 0; i < n; ++i) {
         const double x = k * p[i].x, y = k * p[i].y;
-        const double phi = std::sin(x) * std::cos(y) + std::sin(y) * std::cos(0.4) +
-                           std::sin(0.4) * std::cos(x);
+        const double phi =
+            std::sin(x) * std::cos(y) + std::sin(y) * std::cos(0.4) + std::sin(0.4) * std::cos(x);
         const double sheet = phi * phi - 0.09;
         out[i] = std::max(sheet, std::hypot(p[i].x - o.x, p[i].y - o.y) - R);
       }
@@ -811,7 +813,8 @@ TEST(Routes, FieldAndMeshRoutesAgreeOnTheVase) {
     EXPECT_NEAR(area(a), area(b), 0.01 * area(b)) << z;
     double worst = 0;
     for (const auto& ring : rings_of(a))
-      for (std::size_t i = 0; i < ring.size(); i += 7) worst = std::max(worst, test::outline_distance(ring[i], b));
+      for (std::size_t i = 0; i < ring.size(); i += 7)
+        worst = std::max(worst, test::outline_distance(ring[i], b));
     for (const auto& ring : rings_of(b))
       for (auto p : ring) worst = std::max(worst, test::outline_distance(p, a));
     EXPECT_LT(worst, voxel) << "z=" << z;
@@ -841,7 +844,8 @@ struct Raster {
       const int j1 = std::min(ny - 1, static_cast<int>((std::max(a.y, b.y) + w - y0) / px));
       for (int j = j0; j <= j1; ++j)
         for (int i = i0; i <= i1; ++i)
-          if (test::segment_distance(center(i, j), a, b) <= w / 2) hit[static_cast<std::size_t>(j) * nx + i] = 1;
+          if (test::segment_distance(center(i, j), a, b) <= w / 2)
+            hit[static_cast<std::size_t>(j) * nx + i] = 1;
     }
     for (std::size_t q = 0; q < hit.size(); ++q) count[q] += hit[q];
   }
@@ -1019,9 +1023,7 @@ TEST(Pipeline, SlicesEveryAppendixBDesign) {
   SliceJob unbounded;
   const trellis::test::TempDir dir("trellis_unbounded");
   const auto tmp = dir / "unbounded.vcad";
-  {
-    std::ofstream(tmp) << "gyroid(5, 0.3);\n";
-  }
+  { std::ofstream(tmp) << "gyroid(5, 0.3);\n"; }
   unbounded.input = tmp.string();
   EXPECT_THROW(run_slice(unbounded), GeometryError);
 }

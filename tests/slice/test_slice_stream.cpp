@@ -4,7 +4,6 @@
 // statistics are the whole run's; graded slicing refuses to stream.
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
-
 #include <unistd.h>
 
 #include <cmath>
@@ -38,7 +37,8 @@ void expect_same_layer(const Layer& a, const Layer& b, std::size_t i) {
     ASSERT_EQ(p.tool, q.tool) << "layer " << i << " path " << k;
     // Process fields (fprocess): what each piece is written with.
     ASSERT_EQ(p.speed, q.speed) << "layer " << i << " path " << k;
-    ASSERT_TRUE(p.temperature == q.temperature || (std::isnan(p.temperature) && std::isnan(q.temperature)))
+    ASSERT_TRUE(p.temperature == q.temperature ||
+                (std::isnan(p.temperature) && std::isnan(q.temperature)))
         << "layer " << i << " path " << k;
     ASSERT_TRUE(p.flow == q.flow || (std::isnan(p.flow) && std::isnan(q.flow))) << "layer " << i;
     ASSERT_TRUE(p.fan == q.fan || (std::isnan(p.fan) && std::isnan(q.fan))) << "layer " << i;
@@ -77,8 +77,8 @@ SliceJob graded_job(const std::string& design, int strategy, int tools,
 SliceResult streamed_as_whole(const SliceJob& job, const SliceResult& whole, std::size_t chunk,
                               const std::string& at) {
   std::vector<Layer> layers;
-  SliceResult s =
-      stream_slice(job, [&](std::size_t, Layer&& l) { layers.push_back(std::move(l)); }, {}, {chunk, 4});
+  SliceResult s = stream_slice(job, [&](std::size_t, Layer&& l) { layers.push_back(std::move(l)); },
+                               {}, {chunk, 4});
   EXPECT_EQ(layers.size(), whole.toolpath.layers.size()) << at;
   for (std::size_t i = 0; i < layers.size() && i < whole.toolpath.layers.size(); ++i)
     expect_same_layer(whole.toolpath.layers[i], layers[i], i);
@@ -171,21 +171,21 @@ TEST(SliceStream, OneThreadAndManyAgree) {
 // run_slice's for any run length.
 TEST(SliceStream, GradedSlicingStreamsAsWhole) {
   // A cylinder graded across X and up Z: several colours per layer, moving up the layers.
-  const std::string design =
-      (std::filesystem::temp_directory_path() / ("trellis_graded_stream_" + std::to_string(::getpid()) + ".vcad"))
-          .string();
+  const std::string design = (std::filesystem::temp_directory_path() /
+                              ("trellis_graded_stream_" + std::to_string(::getpid()) + ".vcad"))
+                                 .string();
   std::ofstream(design) << "fgrade([\"(x+8)/32 + z/16.8\", \"1 - (x+8)/32 - z/16.8\"], [\"blue\", "
                            "\"yellow\"]) {\n  cylinder(8, 8.4);\n}\n";
   struct Case {
     int strategy, tools;
     FgmOrder order;
   };
-  for (const Case c : {Case{2, 0, FgmOrder::Paths}, Case{1, 0, FgmOrder::Faces},
-                       Case{1, 0, FgmOrder::Paths}, Case{1, 5, FgmOrder::Paths},
-                       Case{2, 5, FgmOrder::Paths}}) {
+  for (const Case c :
+       {Case{2, 0, FgmOrder::Paths}, Case{1, 0, FgmOrder::Faces}, Case{1, 0, FgmOrder::Paths},
+        Case{1, 5, FgmOrder::Paths}, Case{2, 5, FgmOrder::Paths}}) {
     const SliceJob job = graded_job(design, c.strategy, c.tools, c.order);
-    const std::string what = "strategy " + std::to_string(c.strategy) + ", " + std::to_string(c.tools) +
-                             " tools, " + to_string(c.order) + " order";
+    const std::string what = "strategy " + std::to_string(c.strategy) + ", " +
+                             std::to_string(c.tools) + " tools, " + to_string(c.order) + " order";
     const SliceResult whole = run_slice(job);
     if ((c.strategy == 1 && c.order == FgmOrder::Faces) || c.tools) {
       ASSERT_TRUE(whole.fgm.tower.built) << what;
@@ -193,7 +193,8 @@ TEST(SliceStream, GradedSlicingStreamsAsWhole) {
     } else {
       EXPECT_FALSE(whole.fgm.tower.built) << what;
     }
-    if (c.strategy == 1 && c.order == FgmOrder::Paths && !c.tools) EXPECT_GT(whole.fgm.joined, 10u) << what;
+    if (c.strategy == 1 && c.order == FgmOrder::Paths && !c.tools)
+      EXPECT_GT(whole.fgm.joined, 10u) << what;
     const auto [whole_use, whole_travel] = use_and_travel(job, whole.toolpath);
     for (const std::size_t chunk : {std::size_t{16}, std::size_t{3}, std::size_t{1}}) {
       const std::string at = what + ", runs of " + std::to_string(chunk);
@@ -241,17 +242,18 @@ TEST(SliceStream, GradedSlicingStreamsAsWhole) {
 // splitting the pieces further) and Strategy 2 give run_slice's layers and process statistics
 // for any run length.
 TEST(SliceStream, ProcessFieldsStreamAsWhole) {
-  const std::string design =
-      (std::filesystem::temp_directory_path() / ("trellis_process_stream_" + std::to_string(::getpid()) + ".vcad"))
-          .string();
+  const std::string design = (std::filesystem::temp_directory_path() /
+                              ("trellis_process_stream_" + std::to_string(::getpid()) + ".vcad"))
+                                 .string();
   // Temperature up Z, speed across X, flow across Y, fan up Z; graded in material across X.
   std::ofstream(design)
       << "fprocess([\"200 + 2*z\", \"30 + 0.7*x\", \"1 + 0.02*y\", \"50 + 5*z\"],\n"
          "         [\"temperature\", \"speed\", \"flow\", \"fan\"]) {\n"
          "  fgrade([\"(x+8)/16\", \"1 - (x+8)/16\"], [\"blue\", \"yellow\"]) {\n"
          "    cylinder(8, 4);\n  }\n}\n";
-  for (const auto& [strategy, order] : {std::pair{0, FgmOrder::Paths}, std::pair{1, FgmOrder::Faces},
-                                        std::pair{1, FgmOrder::Paths}, std::pair{2, FgmOrder::Paths}}) {
+  for (const auto& [strategy, order] :
+       {std::pair{0, FgmOrder::Paths}, std::pair{1, FgmOrder::Faces}, std::pair{1, FgmOrder::Paths},
+        std::pair{2, FgmOrder::Paths}}) {
     SliceJob job;
     job.input = design;
     job.strategy_chosen = true;
@@ -263,7 +265,8 @@ TEST(SliceStream, ProcessFieldsStreamAsWhole) {
       job.purge.melt_volume = 20;
       job.purge.bed_x = job.purge.bed_y = 250;
     }
-    const std::string what = "strategy " + std::to_string(strategy) + ", " + to_string(order) + " order";
+    const std::string what =
+        "strategy " + std::to_string(strategy) + ", " + to_string(order) + " order";
     const SliceResult whole = run_slice(job);
     ASSERT_TRUE(whole.process.active) << what;
     ASSERT_GT(whole.process.pieces, whole.process.paths) << what << ": the fields split paths";
@@ -296,19 +299,22 @@ TEST(SliceStream, ProcessFieldsStreamAsWhole) {
 // use and travel are run_slice's at any run length.
 TEST(SliceStream, ProcessFieldsOnToolChangersStreamAsWhole) {
   const std::string design =
-      (std::filesystem::temp_directory_path() / ("trellis_process_tools_stream_" + std::to_string(::getpid()) + ".vcad"))
+      (std::filesystem::temp_directory_path() /
+       ("trellis_process_tools_stream_" + std::to_string(::getpid()) + ".vcad"))
           .string();
   // Speed across X, flow across Y, fan up Z: several pieces per path, changes inside layers and
   // across layer boundaries.
-  std::ofstream(design) << "fprocess([\"30 + 0.7*x\", \"1 + 0.02*y\", \"40 + 12*z\"], [\"speed\", "
-                           "\"flow\", \"fan\"]) {\n  fgrade([\"(x+8)/32 + z/16.8\", \"1 - (x+8)/32 - "
-                           "z/16.8\"], [\"blue\", \"yellow\"]) {\n    cylinder(8, 4.2);\n  }\n}\n";
+  std::ofstream(design)
+      << "fprocess([\"30 + 0.7*x\", \"1 + 0.02*y\", \"40 + 12*z\"], [\"speed\", "
+         "\"flow\", \"fan\"]) {\n  fgrade([\"(x+8)/32 + z/16.8\", \"1 - (x+8)/32 - "
+         "z/16.8\"], [\"blue\", \"yellow\"]) {\n    cylinder(8, 4.2);\n  }\n}\n";
   struct Case {
     int strategy, tools;
   };
   for (const Case c : {Case{1, 5}, Case{2, 5}}) {
     const SliceJob job = graded_job(design, c.strategy, c.tools);
-    const std::string what = "strategy " + std::to_string(c.strategy) + ", " + std::to_string(c.tools) + " tools";
+    const std::string what =
+        "strategy " + std::to_string(c.strategy) + ", " + std::to_string(c.tools) + " tools";
     const SliceResult whole = run_slice(job);
     ASSERT_TRUE(whole.process.active) << what;
     EXPECT_GT(whole.process.pieces, whole.process.paths + 50) << what << ": paths are split";

@@ -24,7 +24,7 @@ inline constexpr double kNodeSnap = 0.05;
 
 struct CheckOptions {
   NozzleModel nozzle;
-  double snap = kNodeSnap;  // a segment end within this of a design node is at that node (mm)
+  double snap = kNodeSnap;        // a segment end within this of a design node is at that node (mm)
   std::size_t max_listed = 1000;  // collisions listed in full (all are counted)
   Budget budget;                  // the replay's estimate is checked against it before it starts
 };

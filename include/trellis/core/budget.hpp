@@ -18,7 +18,7 @@ struct Estimate {
 struct Budget {
   double memory = 0;     // bytes; 0 = half the memory available now (default_memory_budget)
   double seconds = 600;  // a generous bound on the estimated run time (10 minutes)
-  bool force = false;     // run.force: go beyond the budget on purpose
+  bool force = false;    // run.force: go beyond the budget on purpose
   std::function<void(const Estimate&)> seen;  // told every estimate checked (Progress::estimate)
 };
 

@@ -92,9 +92,10 @@ class Field {
 // --- primitives (centred at the origin) ---
 Field sphere(double radius, std::string material = {});
 Field cube(double side, std::string material = {});
-Field rectprism(Vec3 size, std::string material = {});  // full side lengths
+Field rectprism(Vec3 size, std::string material = {});                    // full side lengths
 Field cylinder(double radius, double height, std::string material = {});  // along Z
-Field cone(double radius, double height, std::string material = {});  // base radius at z=-h/2, tip at +h/2
+Field cone(double radius, double height,
+           std::string material = {});  // base radius at z=-h/2, tip at +h/2
 Field torus(double major_radius, double minor_radius, std::string material = {});  // in XY
 // f(x,y,z) <= 0 inside, cut to the box [min, max].
 Field function(Vec3 min, Vec3 max, Expression expr, std::string material = {});
@@ -123,8 +124,8 @@ Field smooth_subtract(std::vector<Field> children, double k);
 
 // --- transforms ---
 Field translate(Field child, Vec3 offset);
-Field scale(Field child, Vec3 factors);         // positive factors
-Field rotate(Field child, Vec3 degrees);          // about X, then Y, then Z
+Field scale(Field child, Vec3 factors);   // positive factors
+Field rotate(Field child, Vec3 degrees);  // about X, then Y, then Z
 // Material volume fractions of the child as expressions, one per material name.
 Field fgrade(Field child, std::vector<Expression> fractions, std::vector<std::string> materials);
 // Process parameters of the child as expressions, one per parameter name (temperature, speed,
@@ -154,8 +155,8 @@ bool has_tpms(const Field& design);
 // --- meshes ---
 struct TriangleMesh;
 struct MeshSdfOptions {
-  double voxel = 0.1;          // mm
-  double band_voxels = 3.0;    // narrow band half-width
+  double voxel = 0.1;        // mm
+  double band_voxels = 3.0;  // narrow band half-width
 };
 // Signed distance field of a closed mesh (OpenVDB). Throws GeometryError for open meshes.
 Field mesh_field(const TriangleMesh& mesh, const MeshSdfOptions& options, std::string name);
@@ -186,8 +187,8 @@ class Evaluator {
                    double* out);
   // The analytic gradient at those nodes (TPMS); false (out untouched) where the field has no
   // grid path for it.
-  bool gradients_grid(const double* xs, std::size_t w, const double* ys, std::size_t rows,
-                      double z, Vec3* out);
+  bool gradients_grid(const double* xs, std::size_t w, const double* ys, std::size_t rows, double z,
+                      Vec3* out);
   // Central differences with step h (mm).
   Vec3 gradient(Vec3 p, double h = 1e-5);
   void gradients(const Vec3* points, Vec3* out, std::size_t n, double h = 1e-5);

@@ -93,7 +93,7 @@ std::size_t period_cells(double period, double h);
 std::size_t period_tile_side(std::size_t period_cells, std::size_t tile_block);
 
 struct MarchOptions {
-  double resolution = 0.1;          // grid step (mm)
+  double resolution = 0.1;  // grid step (mm)
   // Crossings are refined on the function until the bracket is below this fraction of the
   // resolution (1e-4: within 0.01% of a cell of the true crossing).
   double refine_fraction = 1e-4;
@@ -153,11 +153,11 @@ struct ContourSet {
   // Loops are oriented with the region where f < level on their left: outer rings
   // counter-clockwise, holes clockwise. Open lines end on the domain's border.
   StitchedLines lines;
-  std::size_t samples = 0;          // function evaluations (grid + refinement)
-  std::size_t skipped_blocks = 0;   // blocks skipped by bounds
+  std::size_t samples = 0;         // function evaluations (grid + refinement)
+  std::size_t skipped_blocks = 0;  // blocks skipped by bounds
   std::size_t blocks = 0;
-  std::size_t tiled_blocks = 0;     // top blocks translated from another period's (no samples)
-  std::size_t tiled_parts = 0;      // smaller blocks (along a boundary) translated by cells
+  std::size_t tiled_blocks = 0;  // top blocks translated from another period's (no samples)
+  std::size_t tiled_parts = 0;   // smaller blocks (along a boundary) translated by cells
 };
 
 // Contours f = level over the rectangle [lo, hi]. The grid covers the rectangle with whole cells

@@ -11,7 +11,8 @@
 namespace trellis {
 
 // By extension (.stl, .obj, .3mf; case-insensitive). Vertices are welded once, here (exact
-// match, as STL repeats them); the result needs no second weld. Throws ParseError naming file and line (or triangle) on malformed input.
+// match, as STL repeats them); the result needs no second weld. Throws ParseError naming file and
+// line (or triangle) on malformed input.
 TriangleMesh read_mesh(const std::string& path);
 TriangleMesh read_stl(const std::string& path);
 TriangleMesh read_obj(const std::string& path);

@@ -43,12 +43,15 @@ class BeadRaster {
   BeadRaster(BBox2 box, double pixel);
   // Pixels whose centre lies within `radius` of the segment a-b.
   void paint(Vec2 a, Vec2 b, double radius);
-  bool covered(long ix, long iy) const { return cells_[static_cast<std::size_t>(iy * nx_ + ix)] != 0; }
+  bool covered(long ix, long iy) const {
+    return cells_[static_cast<std::size_t>(iy * nx_ + ix)] != 0;
+  }
   void set(long ix, long iy) { cells_[static_cast<std::size_t>(iy * nx_ + ix)] = 1; }
   // Whether the pixel holding p is painted (false outside the raster).
   bool covered_at(Vec2 p) const {
     const double fx = (p.x - box_.min.x) / pixel_, fy = (p.y - box_.min.y) / pixel_;
-    if (!(fx >= 0) || !(fy >= 0) || fx >= static_cast<double>(nx_) || fy >= static_cast<double>(ny_))
+    if (!(fx >= 0) || !(fy >= 0) || fx >= static_cast<double>(nx_) ||
+        fy >= static_cast<double>(ny_))
       return false;
     return covered(static_cast<long>(fx), static_cast<long>(fy));
   }

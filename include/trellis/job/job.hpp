@@ -34,22 +34,22 @@ namespace trellis {
 // A part of a build plate ([[part]] tables of a job): its own design, placement on the plate and
 // settings over the job's (job/plate.hpp).
 struct PlatePart {
-  std::string label;      // names the part in outputs (CLI $$LABEL, G-code comments)
-  std::string input;      // its design (.vcad / mesh; the PBF envelope); empty: from its settings
-  double x = 0, y = 0;    // mm: where the centre of its footprint goes on the plate
-  double rotation = 0;    // degrees about z, counter-clockwise
+  std::string label;    // names the part in outputs (CLI $$LABEL, G-code comments)
+  std::string input;    // its design (.vcad / mesh; the PBF envelope); empty: from its settings
+  double x = 0, y = 0;  // mm: where the centre of its footprint goes on the plate
+  double rotation = 0;  // degrees about z, counter-clockwise
   std::string settings_toml;  // its own [part.SECTION] tables as TOML ("[pbf]\ncell = 2\n")
-  long line = 0;          // where it is in the job file (errors)
+  long line = 0;              // where it is in the job file (errors)
 };
 
 struct Job {
   std::string route;
   std::string name = "job";
-  std::string input;     // path; empty where the route generates its input
-  std::string machine;   // profile the settings were read from (provenance)
-  std::string command;   // the command line that made it (recorded in reports)
+  std::string input;    // path; empty where the route generates its input
+  std::string machine;  // profile the settings were read from (provenance)
+  std::string command;  // the command line that made it (recorded in reports)
   // Outputs; empty = not written.
-  std::string output;    // the route's main output
+  std::string output;  // the route's main output
   std::string report, toolpath, gcode, lattice, preview;
   Settings settings;
   std::vector<PlatePart> parts;  // a build plate: empty for one part
@@ -118,14 +118,14 @@ struct JobResult {
   // What the route made, in memory (for callers such as the Python package); may be null.
   std::shared_ptr<const Toolpath> toolpath;
   std::shared_ptr<const Graph> lattice;
-  std::string summary;             // one or two lines for the terminal
-  int exit_code = 0;               // 1 when a check found problems
+  std::string summary;  // one or two lines for the terminal
+  int exit_code = 0;    // 1 when a check found problems
 };
 
 // The layers of a sharded run as `trellis merge` hands them to the route's writer (job/plate.hpp).
 struct ShardLayers {
-  std::string graded;              // graded slicing: the manifests' "graded" object (JSON); else empty
-  std::vector<double> outline_z;   // graded slicing with process fields: the outline planes
+  std::string graded;  // graded slicing: the manifests' "graded" object (JSON); else empty
+  std::vector<double> outline_z;  // graded slicing with process fields: the outline planes
   std::size_t total_layers = 0;
 };
 
@@ -138,12 +138,12 @@ struct RouteSpec {
   std::vector<std::string> sections;  // the settings sections it reads
   bool shards = false;                // `trellis run --shard K/N`, Python run_shard
   bool plates = false;                // [[part]] build plates
-  bool streams = false;               // writes its layers in bounded memory when its output is alone
+  bool streams = false;  // writes its layers in bounded memory when its output is alone
   JobResult (*run)(const Job&, const Config&, Diagnostics&, const Progress&) = nullptr;
   // `trellis merge`: writes the main output (job.output; plan: job.gcode) from the shards' layers
   // with the single-process writer; null when the route does not shard.
-  void (*merge)(Job&, const Config&, Toolpath&, const ShardLayers&, JobResult&, Diagnostics&) =
-      nullptr;
+  void (*merge)(Job&, const Config&, Toolpath&, const ShardLayers&, JobResult&,
+                Diagnostics&) = nullptr;
   // The job field of its main output (a plan's: its G-code): shards are named after it, `rerun`
   // writes it.
   std::string Job::*main_output = &Job::output;
@@ -164,7 +164,8 @@ void require_shards(const RouteSpec& route, const Where& where);
 // vectors outside the part, FR_a per layer, scan time with `laser`'s timing. The report JSON
 // goes to `report_json` when given; the summary and the toolpath read are in the result.
 JobResult analyze_build_file(const std::string& path, const std::string& design,
-                             const LaserProfile& laser, std::string* report_json, Diagnostics& diag);
+                             const LaserProfile& laser, std::string* report_json,
+                             Diagnostics& diag);
 
 // Every file the job reads (input, machine, path settings, parts' designs) and writes (its
 // outputs, the preview folder, the shard files of a shard), each with its role.

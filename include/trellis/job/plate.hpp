@@ -28,7 +28,7 @@ namespace trellis {
 // The rectangle a part covers on the plate: its design's XY extent rotated and placed.
 struct PartFootprint {
   std::string label;
-  long line = 0;               // in the job file
+  long line = 0;                // in the job file
   std::array<Vec2, 4> corners;  // counter-clockwise
 };
 

@@ -17,8 +17,8 @@ class PrintCheck {
  public:
   // `machine`: the settings hold the machine profile the G-code was written for (its valve
   // commands, tool offsets and node overlap); without one, each G-code is read with the job it
-  // embeds. `snap` as CheckOptions::snap (kNodeSnap becomes the profile's node overlap + kNodeSnap).
-  // `budget`: the reading and the replay are estimated against it first.
+  // embeds. `snap` as CheckOptions::snap (kNodeSnap becomes the profile's node overlap +
+  // kNodeSnap). `budget`: the reading and the replay are estimated against it first.
   PrintCheck(const Settings& settings, bool machine, double snap = kNodeSnap, Budget budget = {});
 
   // The design: read from a lattice file, or a graph given in memory; cleaned either way.

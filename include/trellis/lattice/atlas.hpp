@@ -52,15 +52,15 @@ struct AtlasParams {
   // it, the arrowhead's inner angle and the re-entrant honeycomb's rib length follow from the
   // other settings; 0 = from the angles alone.
   double cell_height = 0;
-  std::uint64_t seed = 1;           // Voronoi seeds
+  std::uint64_t seed = 1;  // Voronoi seeds
   Region region;
-  double z = 0;                 // height of the lattice plane (mm)
-  bool contour = false;         // add the region outline as struts
+  double z = 0;          // height of the lattice plane (mm)
+  bool contour = false;  // add the region outline as struts
   // Clamping rings (GIPPO paper: the Ø48 ball-burst discs carry "additional contours ... for
   // better adhesion with the testing hardware"): this many concentric outlines of the region,
   // `ring_spacing` apart inward from its outline, the pattern cropped to the innermost. 0 = none.
   int rings = 0;
-  double ring_spacing = 0.4;  // mm: one bead apart, so the rim prints solid
+  double ring_spacing = 0.4;    // mm: one bead apart, so the rim prints solid
   bool handles = false;         // tensile handles at the -x and +x ends (rectangle only)
   double handle_length = 3;     // along x (mm)
   double handle_width = 10;     // along y (mm), centred

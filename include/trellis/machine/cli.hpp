@@ -24,8 +24,8 @@ namespace trellis {
 // up-skin's…): written under its own id after every part's and laser's contour and hatch ids,
 // one per set and laser, labelled with its name (and, in CLI+, its power and speed).
 struct CliParameterSet {
-  std::string name;    // the id's label; "hatch" in it reads back as hatch
-  bool hatch = false;  // for hatch vectors (else contours)
+  std::string name;             // the id's label; "hatch" in it reads back as hatch
+  bool hatch = false;           // for hatch vectors (else contours)
   double power = 0, speed = 0;  // W, mm/s: the paths written under it have exactly these
 };
 

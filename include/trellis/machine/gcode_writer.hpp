@@ -38,7 +38,7 @@ struct GcodeStats {
   // The prime line drawn before the print (gcode.prime_line): its length and filament (mm; not
   // in `filament`, which is the print's; the footer's "; filament used" has both).
   double prime_length = 0, prime_filament = 0;
-  std::size_t tool_changes = 0;  // embedded
+  std::size_t tool_changes = 0;      // embedded
   std::size_t gradient_changes = 0;  // mixture / tool / temperature commands for graded paths
   double lookahead = 0;              // mm of path the changes were issued early
   // Build plates: the time estimate per part (Path::part - 1): its moves and the travels into it.

@@ -12,10 +12,10 @@ namespace trellis {
 
 struct LaserProfile {
   std::string name = "PBF-LB";
-  double spot_diameter = 0.025;      // mm
-  double melt_pool_width = kScanMeltPoolWidth;  // D (mm), PBF paper Eq. 8
+  double spot_diameter = 0.025;                                           // mm
+  double melt_pool_width = kScanMeltPoolWidth;                            // D (mm), PBF paper Eq. 8
   double contour_power = 60, contour_speed = ScanTiming{}.contour_speed;  // W, mm/s
-  double hatch_power = 100, hatch_speed = ScanTiming{}.hatch_speed;        // W, mm/s
+  double hatch_power = 100, hatch_speed = ScanTiming{}.hatch_speed;       // W, mm/s
   // Solid parts' own parameter sets (slice/pbf_skin.hpp): per contour offset, outermost first
   // (empty: all at the contour power and speed), and the core, up-skin and down-skin hatch
   // (0: the hatch power or speed).
@@ -23,11 +23,11 @@ struct LaserProfile {
   double core_power = 0, core_speed = 0;
   double upskin_power = 0, upskin_speed = 0;
   double downskin_power = 0, downskin_speed = 0;
-  double layer = kScanLayer;                          // mm
-  double hatch_distance = kScanHatchDistance;         // mm
-  double beam_compensation = kScanBeamCompensation;   // mm
-  double segment_length = kScanSegmentLength;         // SL (mm)
-  double segment_gap = kScanSegmentGap;               // LHD (mm)
+  double layer = kScanLayer;                         // mm
+  double hatch_distance = kScanHatchDistance;        // mm
+  double beam_compensation = kScanBeamCompensation;  // mm
+  double segment_length = kScanSegmentLength;        // SL (mm)
+  double segment_gap = kScanSegmentGap;              // LHD (mm)
   // Capabilities: what the machine can do (machine/machine_check.hpp checks against them).
   double max_power = 1000;                             // W
   double max_speed = 10000;                            // mm/s

@@ -46,7 +46,8 @@ void to_design_coordinates(Toolpath& toolpath, const std::string& gcode_text);
 // Z 0 and machine.bed_z; tools < machine.tools; mixtures only on a mixing hotend with enough
 // inputs (or in tools / temperature mode with enough tools); temperatures and feeds within the
 // machine's limits.
-std::vector<MachineWarning> check_for_machine(const Toolpath& toolpath, const MachineProfile& profile);
+std::vector<MachineWarning> check_for_machine(const Toolpath& toolpath,
+                                              const MachineProfile& profile);
 // The same over streamed layers, whose points span `points_box`.
 std::vector<MachineWarning> check_for_machine(const LayerSource& layers, const BBox3& points_box,
                                               const MachineProfile& profile);

@@ -16,14 +16,14 @@ namespace trellis {
 // and tools in each firmware's own words); pneumatic pushes ink by valve and pressure, embedded
 // does so in a support bath.
 enum class Flavor { Marlin, RepRap, Klipper, Pneumatic, Embedded };
-enum class Firmware { None, Prusa };                  // machine.firmware: "" | prusa
-enum class BedShape { Rectangle, Circle };            // machine.bed_shape
-enum class BedOrigin { Corner, Center };              // machine.origin
-enum class GradientMode { Mixing, Tools, Temperature };  // gradient.mode
-enum class FlowModel { None, Pla, Tpu };              // gradient.flow: "" | pla | tpu
+enum class Firmware { None, Prusa };                      // machine.firmware: "" | prusa
+enum class BedShape { Rectangle, Circle };                // machine.bed_shape
+enum class BedOrigin { Corner, Center };                  // machine.origin
+enum class GradientMode { Mixing, Tools, Temperature };   // gradient.mode
+enum class FlowModel { None, Pla, Tpu };                  // gradient.flow: "" | pla | tpu
 enum class MixingDialect { M165, M163, M567, Template };  // gradient.dialect
-enum class EmbeddedDrive { Pressure, Syringe };       // embedded.drive
-enum class PurgePosition { Auto, Fixed };             // purge.position
+enum class EmbeddedDrive { Pressure, Syringe };           // embedded.drive
+enum class PurgePosition { Auto, Fixed };                 // purge.position
 
 const char* to_string(Flavor v);
 const char* to_string(Firmware v);
@@ -52,8 +52,8 @@ struct MachineProfile {
   double bed_z = 250;               // build height (mm)
   BedShape bed_shape = BedShape::Rectangle;
   BedOrigin origin = BedOrigin::Corner;  // 0,0 at a corner or at the centre
-  int tool_count = 1;                   // tools / nozzles (tool changers, multi-nozzle heads)
-  int mixing_inputs = 1;                // filament inputs of a mixing hotend; 1 = no mixing
+  int tool_count = 1;                    // tools / nozzles (tool changers, multi-nozzle heads)
+  int mixing_inputs = 1;                 // filament inputs of a mixing hotend; 1 = no mixing
   // Sequential printing (plate.sequence = parts): the radius around the nozzle kept clear of
   // finished parts and the height of the gantry above the nozzle tip (PrusaSlicer's
   // extruder_clearance_radius / _height); 0 = not known, sequential printing refused.
@@ -87,7 +87,7 @@ struct MachineProfile {
   double nozzle_temperature = 0;
   double bed_temperature = 0;
   double fan_percent = 0;
-  double standby_temperature = 0;   // idle tools of a multi-tool machine (°C), 0 = stay hot
+  double standby_temperature = 0;  // idle tools of a multi-tool machine (°C), 0 = stay hot
   double max_nozzle_temperature = 300;
   double max_bed_temperature = 120;
   double settle_time = 5;  // s dwelt after each temperature change a process field makes
@@ -119,40 +119,41 @@ struct MachineProfile {
   // unless firmware_offsets says the firmware shifts the head itself (then it writes design XY).
   std::string tool_offsets;
   bool firmware_offsets = false;
-  double floor_z = 0;           // Z of the bath's floor above machine Z0: the design's Z0 (mm)
-  std::string tool_pressures;   // per tool "p0,p1,..." replacing pneumatic.pressure; empty = same
+  double floor_z = 0;          // Z of the bath's floor above machine Z0: the design's Z0 (mm)
+  std::string tool_pressures;  // per tool "p0,p1,..." replacing pneumatic.pressure; empty = same
   std::string tool_change = "T{tool}";  // command selecting tool {tool}
-  std::string raise_idle;       // command raising the nozzle {tool} that goes idle; empty = none
+  std::string raise_idle;  // command raising the nozzle {tool} that goes idle; empty = none
   EmbeddedDrive embedded_drive = EmbeddedDrive::Pressure;  // valve + kPa, or E (Eq. 4)
-  double bath_travel = 0;       // travel up to this long stays inside the bath (mm)
+  double bath_travel = 0;  // travel up to this long stays inside the bath (mm)
   // [gradient] how a path's material mixture (graded designs) is made
   GradientMode gradient_mode = GradientMode::Mixing;  // M165 | T<n> | M104
-  int gradient_tools = 0;  // tools: tools holding the gradient (0 = all of tool_count); tool 0
-                           // holds material A, the last material B
-  double temperature_a = 190;            // temperature: °C for 100% material A ...
-  double temperature_b = 225;            // ... and for 100% material B (linear between)
+  int gradient_tools = 0;      // tools: tools holding the gradient (0 = all of tool_count); tool 0
+                               // holds material A, the last material B
+  double temperature_a = 190;  // temperature: °C for 100% material A ...
+  double temperature_b = 225;  // ... and for 100% material B (linear between)
   FlowModel flow_model = FlowModel::None;  // temperature: M221 by Eq. 3 (pla) / 4 (tpu)
-  double lookahead = 0;                  // issue each change this many mm of path earlier
+  double lookahead = 0;                    // issue each change this many mm of path earlier
   MixingDialect gradient_dialect = MixingDialect::M165;  // mixing: M165 | M163 | M567 | template
-  std::string gradient_template;         // mixing, dialect template: {a} {b} {c} = shares
-  bool quantize = false;                 // tools: print more colours than tools, each by the nearest
+  std::string gradient_template;  // mixing, dialect template: {a} {b} {c} = shares
+  bool quantize = false;          // tools: print more colours than tools, each by the nearest
   // [purge] Strategy 1 purge towers (FGM paper A.1)
   double melt_volume = 0;      // hotend dead volume V_melt (mm³); 0 = no towers
   double purge_threshold = 0;  // mixture change (0..1) that needs a purge
   PurgePosition purge_position = PurgePosition::Auto;  // beside the part | at purge_x, purge_y
   double purge_x = -20, purge_y = 0, purge_side = 10;  // tower centre (fixed) and least side (mm)
-  double purge_clearance = 5;  // gap between the tower and the part (mm)
+  double purge_clearance = 5;                          // gap between the tower and the part (mm)
   // material densities (g/cm³) for tower masses per colour
   double density_a = 1.24, density_b = 1.24, density_c = 1.24;
   // [gcode] templates; {key} is replaced by that setting's value, e.g. {nozzle_temperature}
   std::string start_gcode = "G28";
   std::string end_gcode = "M84";
-  std::string file_extension = "";  // default output extension: "" = by flavor
+  std::string file_extension = "";           // default output extension: "" = by flavor
   std::string thumbnails = "16x16,220x124";  // PNG previews in the G-code header, "WxH,..."
   bool binary_gcode = false;  // write binary G-code (.bgcode; machine/bgcode_writer.hpp)
   // A prime line drawn along the bed's front edge before the first layer (mm of line; 0 = none).
   double prime_line = 0;
-  bool label_objects = true;  // plates: each part's moves labelled for the firmware (M486 / Klipper)
+  bool label_objects =
+      true;  // plates: each part's moves labelled for the firmware (M486 / Klipper)
 
   // RepRapFirmware and Klipper are Marlin's family: E axis, retraction, fan, M73 progress.
   bool marlin_family() const {

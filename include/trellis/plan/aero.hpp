@@ -48,7 +48,7 @@ struct AeroParams {
   bool collisions = true;  // false: no precedence at all, trails = the Euler lower bound
   AeroMethod method = AeroMethod::Dynamic;
   PeriodicParams periodic;  // method periodic: the lattice's cell and the cell path
-  int threads = 0;  // 0 = all cores
+  int threads = 0;          // 0 = all cores
   // Dynamic: planner runs in the portfolio (the strategies, then shuffled orders); 0 = auto
   // (aero_auto_tries).
   int tries = 0;

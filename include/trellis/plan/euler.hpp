@@ -32,8 +32,8 @@ class MixedEuler {
 
   // Trails covering `edges` exactly once; `dir[e]` for a global edge id: 0 either way, +1 only
   // a→b, -1 only b→a. If `continue_from` is a node, the decomposition is made as if a trail
-  // already arrived there (a virtual lead-in edge), so one trail may continue it at no cost: if so it is
-  // returned first (starting at continue_from) and *continued is set.
+  // already arrived there (a virtual lead-in edge), so one trail may continue it at no cost: if so
+  // it is returned first (starting at continue_from) and *continued is set.
   std::vector<Trail> decompose(const Graph& g, const std::vector<EdgeId>& edges,
                                const std::vector<std::int8_t>& dir, NodeId continue_from = kNoNode,
                                bool* continued = nullptr);

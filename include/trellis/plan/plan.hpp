@@ -44,7 +44,7 @@ struct LayerReport {
   PathMetrics worst;           // gippo: lowest-score iteration
   std::vector<double> scores;  // gippo: every iteration
   std::size_t best_iteration = 0;
-  std::size_t merged = 0;      // joins made by merge_ends
+  std::size_t merged = 0;  // joins made by merge_ends
 };
 
 struct PlanResult {
@@ -67,7 +67,9 @@ std::vector<double> plan_layer_work(const Graph& g, const PlanParams& params);
 // Whether a layer of plan_lattice depends on the layer below. Only the travel order's start
 // point crosses layers (the end of the layer below); a layer's trails (GIPPO, Euler) do not
 // depend on it, and longest-first ignores it.
-inline bool layers_carry_start(const PlanParams& p) { return p.order == PathOrder::Travel; }
+inline bool layers_carry_start(const PlanParams& p) {
+  return p.order == PathOrder::Travel;
+}
 
 // The rest of a plan made with defer_order (its shards' layers joined): every layer after the
 // first ordered from where the layer below ended, each part (a run of paths of one tool) from

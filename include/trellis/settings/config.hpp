@@ -15,8 +15,8 @@
 #include "trellis/slice/pbf.hpp"
 #include "trellis/slice/pbf_lasers.hpp"
 #include "trellis/slice/pbf_skin.hpp"
-#include "trellis/slice/scan_strategy.hpp"
 #include "trellis/slice/pipeline.hpp"
+#include "trellis/slice/scan_strategy.hpp"
 
 namespace trellis {
 
@@ -25,17 +25,17 @@ struct Lattice3dConfig {
   std::string kind = "cells";  // cells | foam | conformal
   CellLatticeParams cells;
   FoamParams foam;
-  ConformalParams conformal;   // skin, skin density (mesh, cell, seed from the others)
-  double radius = 0.25;        // mm, strut radius written to 3MF beam lattices
+  ConformalParams conformal;       // skin, skin density (mesh, cell, seed from the others)
+  double radius = 0.25;            // mm, strut radius written to 3MF beam lattices
   std::string materials = "none";  // none | xy-plane | component | vertical
 };
 
 // layers.*: GIPPO multi-layer parts (a 2D pattern repeated per layer, optionally cropped to a
 // solid and laid on a surface).
 struct LayersConfig {
-  int count = 1;             // 0 with a solid = from its height
-  double rotation_deg = 0;   // added per layer
-  std::string solid;         // closed mesh each layer is cropped to (path)
+  int count = 1;            // 0 with a solid = from its height
+  double rotation_deg = 0;  // added per layer
+  std::string solid;        // closed mesh each layer is cropped to (path)
 };
 
 // onto.*: planned layers laid on a surface (GIPPO non-planar).
@@ -50,34 +50,34 @@ struct OntoConfig {
 // pbf.*: the TPMS sheet design and the route; scan parameters live in the laser profile.
 struct PbfConfig {
   std::string cell_type = "gyroid";
-  double cell = 2.5;            // mm
-  std::string c = "0.15";       // Φ = φ² − c²; a number or an expression of x, y, z, rho, r
-  double thickness = 0;         // mm; > 0: c = t·|∇φ|/2 (uniform walls)
-  std::vector<double> size;     // box X, Y, Z (mm); empty = 4 cells
+  double cell = 2.5;         // mm
+  std::string c = "0.15";    // Φ = φ² − c²; a number or an expression of x, y, z, rho, r
+  double thickness = 0;      // mm; > 0: c = t·|∇φ|/2 (uniform walls)
+  std::vector<double> size;  // box X, Y, Z (mm); empty = 4 cells
   std::vector<double> plate_position;  // X, Y of the design's origin on the plate; empty = centre
-  std::string envelope;         // .vcad solid the lattice fills (path)
-  std::string solids;           // .vcad solid parts, hatched (path)
-  std::string grade_to;         // TYPE:CELL blended in by a sigmoid
+  std::string envelope;                // .vcad solid the lattice fills (path)
+  std::string solids;                  // .vcad solid parts, hatched (path)
+  std::string grade_to;                // TYPE:CELL blended in by a sigmoid
   std::string grade_axis = "z";
   double grade_center = 0, grade_width = 1;
-  std::string hierarchical;     // TYPE:CELL:WEIGHT superposed
-  double wall_thickness = 0;    // mm; > 0: a plane thin wall (PBF paper Fig. 3) instead of a TPMS
-  double wall_inclination = 90; // deg from horizontal
-  double wall_azimuth = 0;      // deg from X
-  bool binary = false;          // binary CLI geometry
-  double laser_overlap = 1;     // mm: neighbouring lasers' stripes overlap (laser.lasers > 1)
+  std::string hierarchical;      // TYPE:CELL:WEIGHT superposed
+  double wall_thickness = 0;     // mm; > 0: a plane thin wall (PBF paper Fig. 3) instead of a TPMS
+  double wall_inclination = 90;  // deg from horizontal
+  double wall_azimuth = 0;       // deg from X
+  bool binary = false;           // binary CLI geometry
+  double laser_overlap = 1;      // mm: neighbouring lasers' stripes overlap (laser.lasers > 1)
   LaserAxis laser_split_axis = LaserAxis::X;  // the lasers' stripes follow one another along
-  std::string route = "direct"; // direct | stl
+  std::string route = "direct";               // direct | stl
   // hybrid | r67 (TPMS sheets; a mesh part is scanned as meander) | rectilinear | meander |
   // stripe | island (solid parts: a mesh, or a .vcad scanned as a solid)
   std::string strategy = "hybrid";
-  int contours = 1;             // solid parts: contour offsets per region
-  double contour_distance = 0;  // mm between contours (0 = the hatch distance)
-  SkinOptions skin;             // solid parts: skin/core, up-skin, down-skin thicknesses (mm)
-  double core_hatch_distance = 0;  // mm, 0 = the hatch distance
+  int contours = 1;                   // solid parts: contour offsets per region
+  double contour_distance = 0;        // mm between contours (0 = the hatch distance)
+  SkinOptions skin;                   // solid parts: skin/core, up-skin, down-skin thicknesses (mm)
+  double core_hatch_distance = 0;     // mm, 0 = the hatch distance
   std::vector<double> core_rotation;  // deg per layer (one number); empty = pbf.hatch_rotation
-  ScanPattern pattern;          // stripe and island sizes (hatch from the laser profile)
-  PbfOptions options;           // resolution, thin_multiple, min_inclination (scan from laser)
+  ScanPattern pattern;                // stripe and island sizes (hatch from the laser profile)
+  PbfOptions options;  // resolution, thin_multiple, min_inclination (scan from laser)
 };
 
 // surface.*: the non-planar paper's generated test surfaces.
@@ -99,11 +99,11 @@ struct NonplanarConfig {
 };
 
 struct OutputConfig {
-  int preview_layers = 4;   // PNGs spread over the layers
-  int image_size = 1000;    // px
-  bool gcode = true;        // plan/run: also write G-code when a machine is given
-  bool png = true;          // job: write previews
-  int frames = 0;           // aero: step pictures of the first N trails
+  int preview_layers = 4;  // PNGs spread over the layers
+  int image_size = 1000;   // px
+  bool gcode = true;       // plan/run: also write G-code when a machine is given
+  bool png = true;         // job: write previews
+  int frames = 0;          // aero: step pictures of the first N trails
 };
 
 // run.max_memory, run.max_time, run.force: the budget every route checks its estimate against
@@ -129,25 +129,25 @@ struct Config {
   Lattice3dConfig lattice3d;
   LayersConfig layers;
   OntoConfig onto;
-  std::string planner = "gippo";  // plan.planner: gippo | euler | aero
-  PlanParams plan;      // plan.* and gippo.*
+  std::string planner = "gippo";                            // plan.planner: gippo | euler | aero
+  PlanParams plan;                                          // plan.* and gippo.*
   double merge_tolerance = CleanOptions{}.merge_tolerance;  // lattice.merge_tolerance (mm)
-  bool keep_graph = false;        // lattice.keep_graph: no node merging, no T-junction splitting
+  bool keep_graph = false;  // lattice.keep_graph: no node merging, no T-junction splitting
   // How a lattice is read under lattice.keep_graph and lattice.merge_tolerance.
   CleanOptions clean_options() const {
     return keep_graph ? keep_graph_options() : CleanOptions{merge_tolerance, true};
   }
-  double line_width = 0.4;        // lattice2d.line_width (mm): for the pore area
-  double target_porosity = 0;     // lattice2d.target_porosity (%): tune the cell size; 0 = off
-  int gippo_seeds = 0;            // gippo.seeds: robustness run over this many seeds
+  double line_width = 0.4;     // lattice2d.line_width (mm): for the pore area
+  double target_porosity = 0;  // lattice2d.target_porosity (%): tune the cell size; 0 = off
+  int gippo_seeds = 0;         // gippo.seeds: robustness run over this many seeds
   AeroParams aero;
-  SliceJob slice;       // slice.* and fgm.* (input set by the route)
+  SliceJob slice;  // slice.* and fgm.* (input set by the route)
   PbfConfig pbf;
   NonplanarConfig nonplanar;
   SurfaceConfig surface;
   OutputConfig output;
   PlateConfig plate;
-  int threads = 0;      // run.threads: 0 = all cores
+  int threads = 0;               // run.threads: 0 = all cores
   bool follow_symlinks = false;  // run.follow_symlinks: write through symbolic links (RunFiles)
   // run.progress: progress on stderr (the command line reads it): not given = on a terminal only.
   bool progress = false;

@@ -22,7 +22,7 @@ enum class SettingKind { Number, Integer, Bool, Choice, Text, Numbers };
 using SettingValue = std::variant<double, long long, bool, std::string, std::vector<double>>;
 
 struct Setting {
-  std::string key;   // "section.name"
+  std::string key;  // "section.name"
   SettingKind kind = SettingKind::Number;
   std::string unit;  // "mm", "mm/s", "" ...
   std::string doc;   // one line
@@ -32,7 +32,7 @@ struct Setting {
   std::vector<std::string> choices;  // Choice
   int count = 0;                     // Numbers: exact count (0 = any)
   std::vector<std::pair<std::string, long long>> names;  // Integer: named values ("none" = 0)
-  bool whole = false;                // Numbers: each a whole number
+  bool whole = false;                                    // Numbers: each a whole number
   // Settings whose value by default follows another one (e.g. the bead width follows the
   // nozzle): unset, the route derives it; this text says from what.
   std::string derived;
@@ -40,10 +40,11 @@ struct Setting {
   // by "; " must all hold; a term's alternatives are joined by " or "; each is `key=a|b`,
   // `key!=a|b`, `key>n` (a number), `key` (given or not empty), `route=a|b`, or a fact of the run
   // `@gcode` (G-code is written), `@preview` (PNG previews are), `@input` (a design or lattice
-  // file is read), `@report`, `@3mf` (the output is 3MF), `@job` (a job file is run), and of the toolpath written:
-  // `@graded` (paths carry mixtures), `@tools` (several tools), `@process` (process values); each negated with a leading `!`.
-  // A setting the user gives where this does not hold is refused, naming the reason
-  // (unused_reason); docs/settings.md prints it.
+  // file is read), `@report`, `@3mf` (the output is 3MF), `@job` (a job file is run), and of the
+  // toolpath written:
+  // `@graded` (paths carry mixtures), `@tools` (several tools), `@process` (process values); each
+  // negated with a leading `!`. A setting the user gives where this does not hold is refused,
+  // naming the reason (unused_reason); docs/settings.md prints it.
   std::string when;
   std::function<SettingValue(const Config&)> get;
   std::function<void(Config&, const SettingValue&)> set;
@@ -109,7 +110,8 @@ class Settings {
 struct UseContext {
   std::string route;
   std::vector<std::string> facts;
-  std::vector<std::string> unknown;  // facts not known yet (the toolpath's, before it is made): they hold
+  std::vector<std::string>
+      unknown;  // facts not known yet (the toolpath's, before it is made): they hold
   const Settings* settings = nullptr;
 };
 // Why `s` has no effect in this run ("" when it is used): e.g. "it is used only when

@@ -34,13 +34,13 @@ struct Palette {
   bool ends = false;
   // Throws SettingError naming the problem (colour count, material count).
   void check() const;
-  int divisions() const;  // three materials: d (colors = d²)
-  double band() const;    // α
+  int divisions() const;      // three materials: d (colors = d²)
+  double band() const;        // α
   double level(int k) const;  // two materials: edge between bands k-1 and k (k = 1 … N-1)
   double mid(int k) const { return mixture(k)[0]; }
   // Colour k's commanded mixture (one fraction per material, summing to 1).
   std::vector<double> mixture(int k) const;
-  int color_of(double f) const;                          // two materials
+  int color_of(double f) const;                              // two materials
   int color_of(const std::vector<double>& fractions) const;  // two or three
   // The largest |design fraction − commanded fraction| of any material inside one colour:
   // α/2 for bands, 2α/3 for triangles (a corner against the centroid).
@@ -99,19 +99,19 @@ struct FgmOptions {
   bool tool_changer = false;  // the colours are tools (FgmOrder::Paths groups pieces by tool)
   double bead_width = 0.4;
   double layer_height = 0.2;
-  double resolution = 0.1;    // XY grid of the outline contours (mm), for reference
+  double resolution = 0.1;  // XY grid of the outline contours (mm), for reference
   // XY grid of the material iso-contours (mm): crossings are refined on the field, so the grid
   // only has to be finer than the features of the gradient (contour chords between grid cells
   // deviate by c²/8ρ: 6 µm for 1 mm cells on a 20 mm curvature radius); at least half a bead.
   double material_resolution = 1.0;
-  bool concentric = false;    // concentric fill instead of 100 % rectilinear (face by face)
+  bool concentric = false;  // concentric fill instead of 100 % rectilinear (face by face)
   // Strategy 2 face by face: rectilinear lines reach this share of a bead into the ring (in path
   // order the lines reach the innermost ring's bead)
   double fill_overlap = 0.25;
   // Strategy 2, rectilinear: rings around each colour face (face order) or each island's
   // outline (path order) before its lines (the paper's palette plates: 3 perimeters, §7.5)
   int perimeters = 3;
-  bool gap_fill = true;       // Strategy 2 face by face: lines through what the beads leave uncovered
+  bool gap_fill = true;  // Strategy 2 face by face: lines through what the beads leave uncovered
   // Strategy 2's rectilinear lines run along the local iso-line (perpendicular to the gradient,
   // as the paper prints), directions sampled on the material grid: a polygon of a face's fill
   // whose directions agree (the mean resultant length of the doubled angles at least
@@ -123,7 +123,7 @@ struct FgmOptions {
   double angle_deg = 45;
   double orient_sector = 15;
   double orient_agree = 0.9;
-  double zipper = 0;          // Strategy 1: overlap band width β (fraction 0..1 of the gradient)
+  double zipper = 0;  // Strategy 1: overlap band width β (fraction 0..1 of the gradient)
   // Pieces (Strategy 1) and paths (Strategy 2) shorter than this (mm; FGM paper §3.4.3: ~5 mm
   // on desktop FFF) are joined to a piece of another colour they touch end to end, printed in
   // its colour (one colour change fewer), only where the design along the piece stays within the
@@ -152,11 +152,11 @@ struct PurgeOptions {
   // The bed, as the writer places the toolpath on it: centred (the box of part and tower on
   // the bed centre) or design coordinates + offset; bed_x = 0: no bed check.
   double bed_x = 0, bed_y = 0;
-  bool circular = false;   // round bed of diameter bed_x
+  bool circular = false;       // round bed of diameter bed_x
   bool origin_centre = false;  // design (0, 0) + offset is the bed's centre, not its corner
   bool centred = true;
   double offset_x = 0, offset_y = 0;
-  double speed = 0;        // print speed (mm/s) for the per-colour time estimate; 0 = none
+  double speed = 0;  // print speed (mm/s) for the per-colour time estimate; 0 = none
   std::vector<double> density{1.24, 1.24, 1.24};  // g/cm³ per material, for masses
 };
 
@@ -173,7 +173,8 @@ struct TowerColour {
 
 struct TowerStats {
   bool built = false;
-  double x = 0, y = 0, side = 0;  // centre and side (design coordinates, mm; a strip: its long side)
+  double x = 0, y = 0,
+         side = 0;  // centre and side (design coordinates, mm; a strip: its long side)
   double size_x = 0, size_y = 0;  // X and Y extent (a square: both = side)
   std::size_t layers = 0;         // tower layers (first layer up to the last purge)
   double purge_path = 0;          // L of one purge (mm, Eq. A.1)
@@ -198,10 +199,10 @@ struct FgmStats {
   // Of short_kept, those that are a whole bead (a start and a stop, the paper's concern); the
   // others, in path order, are runs of one mixture inside a longer bead.
   std::size_t short_beads = 0;
-  std::size_t purges = 0;    // Strategy 1: purges printed into the tower
-  double purge_length = 0;   // mm of purge path (the dense part of the tower)
-  double purge_volume = 0;   // mm³ (capsule bead, Appendix A.1)
-  TowerStats tower;          // the whole tower: purges, walls and sparse lines
+  std::size_t purges = 0;   // Strategy 1: purges printed into the tower
+  double purge_length = 0;  // mm of purge path (the dense part of the tower)
+  double purge_volume = 0;  // mm³ (capsule bead, Appendix A.1)
+  TowerStats tower;         // the whole tower: purges, walls and sparse lines
   // Gradient error: the largest |design fraction - commanded fraction| over the materials, at
   // every point of every graded path (purge blocks excluded), the design sampled at the layer's
   // slicing plane; error_bound is the palette's (α/2, or 2α/3 for three materials). The mean is
@@ -214,7 +215,7 @@ struct FgmStats {
   // this many mm (deposit_start_mixtures), not as planned.
   double error_lookahead = 0;
   int materials = 2;
-  double band = 0;  // α
+  double band = 0;                          // α
   int colours_used = 0, colours_total = 0;  // palette colours some part path prints
   int quantized_from = 0;  // tool changers: the colours asked for, when more than the tools
 };

@@ -24,11 +24,11 @@
 namespace trellis {
 
 struct PbfDesign {
-  Field phi;          // mid-surface φ (e.g. a TPMS network field)
-  Expression c;       // sheet half-width parameter: a number or an expression
-  double thickness = 0;  // > 0: uniform thickness instead of c (c = t·|∇φ|/2)
-  Field envelope;     // where the lattice is (a box, a mesh field…)
-  Field solids;       // optional solid parts (bosses), hatched; may be empty
+  Field phi;                // mid-surface φ (e.g. a TPMS network field)
+  Expression c;             // sheet half-width parameter: a number or an expression
+  double thickness = 0;     // > 0: uniform thickness instead of c (c = t·|∇φ|/2)
+  Field envelope;           // where the lattice is (a box, a mesh field…)
+  Field solids;             // optional solid parts (bosses), hatched; may be empty
   std::vector<BBox3> clip;  // boxes Φ ∩ envelope is cut by (a .vcad's root box), if any
   // Φ ∩ envelope (clipped) ∪ solids: the part.
   Field part() const;
@@ -76,18 +76,18 @@ struct PbfOptions {
   // angle to the wall; contour tracks stop this far (along φ = 0) from the part's outer boundary.
   double beam_compensation = kScanBeamCompensation;
   double melt_pool = kScanMeltPoolWidth;  // D, mm
-  double thin_multiple = 1.5;      // thin wall: horizontal width <= this × D
-  double min_inclination = 20;     // degrees; shallower mid-surface → joint
-  double hatch_angle = 0;          // first layer's hatch angle, degrees
-  double hatch_rotation = 67;      // degrees per layer
+  double thin_multiple = 1.5;             // thin wall: horizontal width <= this × D
+  double min_inclination = 20;            // degrees; shallower mid-surface → joint
+  double hatch_angle = 0;                 // first layer's hatch angle, degrees
+  double hatch_rotation = 67;             // degrees per layer
   HatchPhase hatch_phase = HatchPhase::Wall;
   Vec2 machine_origin{};         // the machine's origin in design coordinates (Origin phase)
   std::uint64_t hatch_seed = 1;  // Random phase: seeds the layers' shifts
   PbfSplit split = PbfSplit::Width;
-  double contour_shift = 0.381966; // scan-vector phase shift per layer, fraction of SL+LHD
-  double refine = 1e-4;            // mm, crossing accuracy of hatch ends
-  bool hybrid = true;              // false: plain R67 hatch of the whole sheet
-  bool stl_route = false;          // regions from a marching-cubes mesh instead of the field
+  double contour_shift = 0.381966;  // scan-vector phase shift per layer, fraction of SL+LHD
+  double refine = 1e-4;             // mm, crossing accuracy of hatch ends
+  bool hybrid = true;               // false: plain R67 hatch of the whole sheet
+  bool stl_route = false;           // regions from a marching-cubes mesh instead of the field
   // STL route only: every layer tests every triangle of the mesh instead of the triangles its
   // plane cuts (a slicer without a plane index, O(layers × triangles): the STL baseline as the
   // PBF paper counts it, "approximately O(n⁴)"). For the comparison benchmark.
@@ -115,23 +115,24 @@ struct PbfOptions {
   // Scan-time model (speeds, delays) for the per-layer times of this path and the R67 baseline.
   ScanTiming timing;
   // Bytes the run may use (grids, caches, layers; the STL route's mesh); 0 = the memory
-  // available now. A larger estimate before the run is a ResourceError naming the setting to change.
+  // available now. A larger estimate before the run is a ResourceError naming the setting to
+  // change.
   double memory_budget = 0;
 };
 
 struct PbfLayer {
-  double z = 0;                                  // design height of the cut
-  double hatch_angle = 0;                        // degrees
-  std::vector<std::vector<Vec2>> contours;       // contour scan vectors (polylines)
-  std::vector<Segment2> hatches;                 // hatch vectors
-  double area = 0;                               // sheet cross-section A (mm²)
-  double contour_length = 0, hatch_length = 0;   // mm
-  double fr = 0;                                 // FR_a of this path
-  double fr_r67 = 0;                             // FR_a of the R67 baseline on the same layer
+  double z = 0;                                 // design height of the cut
+  double hatch_angle = 0;                       // degrees
+  std::vector<std::vector<Vec2>> contours;      // contour scan vectors (polylines)
+  std::vector<Segment2> hatches;                // hatch vectors
+  double area = 0;                              // sheet cross-section A (mm²)
+  double contour_length = 0, hatch_length = 0;  // mm
+  double fr = 0;                                // FR_a of this path
+  double fr_r67 = 0;                            // FR_a of the R67 baseline on the same layer
   // FR_a with the equivalent scan length L̃_p (equivalent_length) of every vector, both paths.
   double fr_eq = 0, fr_eq_r67 = 0;
-  double r67_length = 0;                         // mm, the R67 baseline's hatch length
-  double scan_time = 0, scan_time_r67 = 0;       // s, this path and the R67 baseline
+  double r67_length = 0;                    // mm, the R67 baseline's hatch length
+  double scan_time = 0, scan_time_r67 = 0;  // s, this path and the R67 baseline
   // Sheet thickness measured along ∇φ from mid-curve points (Φ = 0 on both sides): min, max,
   // sum, count.
   double t_min = 0, t_max = 0, t_sum = 0;
@@ -178,7 +179,7 @@ struct PbfResult {
   // (PbfOptions::mirror_tiles), and how many classes' tiles were made so (not marched).
   bool mirror_tiles = false;
   std::size_t turned_classes = 0;
-  Diagnostics diagnostics;                  // warnings (settings outside the paper's ranges…)
+  Diagnostics diagnostics;  // warnings (settings outside the paper's ranges…)
 };
 
 // Bytes plan_pbf would use for this design and these options with `threads` workers (per-thread
@@ -215,8 +216,8 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& options,
 // its number (hatch angle and contour phase included), so any range computed on its own gives
 // the same vectors as the whole run.
 struct PbfLayerRange {
-  std::size_t first = 0;                               // first layer number
-  std::size_t last = static_cast<std::size_t>(-1);     // one past the last (clamped to the count)
+  std::size_t first = 0;                            // first layer number
+  std::size_t last = static_cast<std::size_t>(-1);  // one past the last (clamped to the count)
 };
 // Called in layer order, from one thread at a time, with the layer's number and the layer.
 using PbfLayerSink = std::function<void(std::size_t index, const PbfLayer& layer)>;

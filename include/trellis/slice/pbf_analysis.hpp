@@ -14,9 +14,9 @@ namespace trellis {
 
 struct LaserAnalysisOptions {
   double melt_pool = kScanMeltPoolWidth;  // D (mm)
-  double resolution = 0.01;   // mm, grid of the design's section (crossings refined)
-  double sample = 0.005;      // mm between points tested along each vector
-  double tolerance = 0.001;   // mm a point may lie outside the part before it counts
+  double resolution = 0.01;               // mm, grid of the design's section (crossings refined)
+  double sample = 0.005;                  // mm between points tested along each vector
+  double tolerance = 0.001;               // mm a point may lie outside the part before it counts
   // Design z of the build file's z = 0 (CLI z is the top of a layer, cut at its middle); NaN =
   // the design's lowest z.
   double z0 = std::numeric_limits<double>::quiet_NaN();

@@ -29,10 +29,10 @@ struct PbfSolidOptions {
   double layer = kScanLayer;  // mm, powder layer thickness
   // mm, the first contour's (and with none, the hatch's) inset
   double beam_compensation = kScanBeamCompensation;
-  int contours = 1;                 // contour offsets per region (0: hatch only)
+  int contours = 1;  // contour offsets per region (0: hatch only)
   // mm between contours and from the last contour to the hatched region; 0 = the hatch distance.
   double contour_distance = 0;
-  ScanPattern pattern;        // hatch distance, strategy, angle and rotation
+  ScanPattern pattern;  // hatch distance, strategy, angle and rotation
   // Where each layer's hatch lines lie across (slice/pbf.hpp HatchPhase): Wall — through the
   // design's origin; Origin — through the machine origin, `machine_origin` in design
   // coordinates; Random — moved by a uniform fraction of the hatch distance (`hatch_seed`).
@@ -48,8 +48,8 @@ struct PbfSolidOptions {
   // go into the build file through pbf_solid_layer_toolpath.
   PbfExposures exposures;
   double resolution = kPbfResolution;  // mm, XY grid of a field's sections (.vcad solids)
-  std::size_t batch = 32;     // layers sliced and planned together
-  ScanTiming timing;          // scan-time model of each layer
+  std::size_t batch = 32;              // layers sliced and planned together
+  ScanTiming timing;                   // scan-time model of each layer
   // The core's scan pattern (the hatch pattern with the core's distance and rotation).
   ScanPattern core_pattern() const;
 };

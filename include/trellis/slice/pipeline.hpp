@@ -5,8 +5,8 @@
 #include <map>
 #include <string>
 
-#include "trellis/geom/mesh_repair.hpp"
 #include "trellis/core/budget.hpp"
+#include "trellis/geom/mesh_repair.hpp"
 #include "trellis/machine/gcode_writer.hpp"
 #include "trellis/slice/fgm.hpp"
 #include "trellis/slice/fgm_process.hpp"
@@ -28,7 +28,7 @@ struct SliceJob {
   // Whether `strategy` was chosen: a graded design (two or more materials) with strategy 0 not
   // chosen is an error, so that a gradient is never dropped silently.
   bool strategy_chosen = false;
-  FgmOptions fgm;    // palette and fill (bead width, layer, grid from above)
+  FgmOptions fgm;      // palette and fill (bead width, layer, grid from above)
   PurgeOptions purge;  // Strategy 1
   // Meshes that are not closed and manifold: repaired (geom/mesh_repair.hpp) and sliced, or,
   // with repair off, refused.
@@ -49,7 +49,8 @@ struct SliceJob {
   std::size_t layer_begin = 0, layer_end = static_cast<std::size_t>(-1);
   // Or the range from the design's extent and its printed layers (found before any layer is
   // sliced), so a shard of one part opens the design once.
-  std::function<std::pair<std::size_t, std::size_t>(const BBox3& extent, std::size_t layers)> range_of;
+  std::function<std::pair<std::size_t, std::size_t>(const BBox3& extent, std::size_t layers)>
+      range_of;
   // Process parameters a .vcad design sets with fprocess (slice/fgm_process.hpp).
   ProcessOptions process;
   // The writer issues each mixture change this many mm of printed path early (gradient.lookahead
@@ -62,8 +63,8 @@ struct SliceResult {
   Toolpath toolpath;
   std::vector<LayerOutline> outlines;
   SliceRoute route = SliceRoute::Field;
-  BBox3 extent;                 // of the design (mm)
-  SliceStats field_stats;       // field route only
+  BBox3 extent;            // of the design (mm)
+  SliceStats field_stats;  // field route only
   PlanarStats planar;
   FgmStats fgm;
   std::size_t mesh_triangles = 0;

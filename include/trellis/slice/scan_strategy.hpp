@@ -26,13 +26,13 @@ enum class ScanStrategy { Rectilinear, Meander, Stripe, Island };
 struct ScanPattern {
   ScanStrategy strategy = ScanStrategy::Meander;
   double hatch_distance = kScanHatchDistance;  // mm, between neighbouring hatch lines
-  double angle = 0;              // degrees, the first layer's hatch direction
-  double rotation = 67;          // degrees added per layer
-  double stripe_width = 10;      // mm, stripe: across the hatch lines
-  double stripe_overlap = 0.1;   // mm, stripe: neighbouring stripes overlap by this
-  double island_size = 5;        // mm, island: side of the square islands
-  double island_overlap = 0.1;   // mm, island: neighbouring islands overlap by this
-  double island_shift = 0;       // mm, island: grid shift per layer along both island axes
+  double angle = 0;                            // degrees, the first layer's hatch direction
+  double rotation = 67;                        // degrees added per layer
+  double stripe_width = 10;                    // mm, stripe: across the hatch lines
+  double stripe_overlap = 0.1;                 // mm, stripe: neighbouring stripes overlap by this
+  double island_size = 5;                      // mm, island: side of the square islands
+  double island_overlap = 0.1;                 // mm, island: neighbouring islands overlap by this
+  double island_shift = 0;  // mm, island: grid shift per layer along both island axes
 };
 
 // The hatch direction of layer `layer` (degrees, in [0, 360)).

@@ -40,7 +40,7 @@ class FieldSection : public PlaneFunction {
 std::vector<double> layer_planes(double zmin, double zmax, double layer_height);
 
 struct FieldSliceOptions {
-  double resolution = 0.1;          // XY grid step (mm)
+  double resolution = 0.1;  // XY grid step (mm)
   MarchOptions march() const;
 };
 
@@ -58,19 +58,18 @@ std::vector<LayerOutline> slice_field(const Field& field, const std::vector<doub
                                       const FieldSliceOptions& options, SliceStats* stats = nullptr,
                                       const Progress& progress = {});
 // `overlapping`: the union of intersecting shells (slice_mesh), for repaired meshes.
-std::vector<LayerOutline> slice_mesh_layers(const TriangleMesh& mesh,
-                                            const std::vector<double>& zs,
+std::vector<LayerOutline> slice_mesh_layers(const TriangleMesh& mesh, const std::vector<double>& zs,
                                             double stitch_tolerance = 1e-6,
                                             bool overlapping = false);
 
 struct PlanarOptions {
-  double layer_height = 0.2;     // mm
-  double bead_width = 0.4;       // mm, wall spacing and solid infill spacing
+  double layer_height = 0.2;  // mm
+  double bead_width = 0.4;    // mm, wall spacing and solid infill spacing
   int walls = 2;
   int top_layers = 4;
   int bottom_layers = 4;
-  double infill_density = 0.2;   // 0..1 of solid
-  double infill_angle = 45;      // degrees; alternates with +90 every layer
+  double infill_density = 0.2;  // 0..1 of solid
+  double infill_angle = 45;     // degrees; alternates with +90 every layer
   // Sparse infill pattern (slice/infill.hpp); skins are rectilinear. Lattice: an atlas pattern
   // (lattice/atlas.hpp) cropped to the infill region and planned by the Euler planner.
   InfillPattern infill_pattern = InfillPattern::Rectilinear;

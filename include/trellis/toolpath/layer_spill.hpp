@@ -2,7 +2,8 @@
 // reads them back one at a time (as a LayerSource, toolpath/toolpath.hpp) for the passes that need
 // the whole print (bed check, placement, thumbnails, the writer), so memory holds one layer at a
 // time whatever the layer count. The file is an anonymous temporary in $TMPDIR (temporary_file,
-// core/file.hpp), gone with the object or the process; the bytes are the IR's fields as they are in memory (this machine only).
+// core/file.hpp), gone with the object or the process; the bytes are the IR's fields as they are in
+// memory (this machine only).
 #pragma once
 #include <cstdio>
 #include <string>
