@@ -61,7 +61,7 @@ fuzz: deps
 	@bash scripts/fuzz.sh build/fuzz $${FUZZ_SECONDS:-300}
 
 format:
-	@clang-format -i $$(git ls-files '*.cpp' '*.hpp')
+	@git ls-files '*.cpp' '*.hpp' '*.h' '*.cc' | xargs clang-format -i
 
 clean:
 	@rm -rf build out

@@ -10,6 +10,7 @@ pkgs=(cmake g++ make pkg-config ninja-build ccache
       pybind11-dev python3-dev python3-numpy python3-pytest python3-distributed
       python3-matplotlib python3-nbformat python3-nbclient python3-ipykernel python3-nbconvert python3-pip python3-venv
       chromium firefox-esr time slurm-wlm munge
+      clang-format  # tests/format_test.py: the tree as .clang-format lays it out
       libxml2-utils  # xmllint: 3MF toolpaths against the specification's XSD
       cura-engine)  # bench/ratios.sh (its definitions come from the cura package, extracted there)
 missing=()
