@@ -482,6 +482,9 @@ USE_WITH = {
                           "--set", "nonplanar.height_fn=0.1*x"], "0,0,10,8"),
     "pbf.plate_position": (["pbf", "--size", "3,3,0.3", "-o", "{d}/p.cli", "--set", "pbf.hatch_phase=origin"],
                            "20,30"),
+    # The core's own rotation acts where a solid part has a core (pbf.skin_thickness > 0).
+    "pbf.core_hatch_rotation": (["pbf", D + "concave_cylinder.obj", "--layer-height", "0.2", "-o",
+                                 "{d}/p.cli", "--set", "pbf.skin_thickness=0.4"], "10"),
 }
 
 
