@@ -300,6 +300,18 @@ Checked check_tower_print(const Plan& p, const Field& f, const MachineProfile& p
   return c;
 }
 
+// A five-tool changer on a 360 mm bed, centred, each tool one gradient step of two materials.
+MachineProfile tool_changer() {
+  MachineProfile prof;
+  prof.mixing_inputs = 2;
+  prof.tool_count = 5;
+  prof.bed_x = prof.bed_y = 360;
+  prof.center = true;
+  prof.gradient_mode = GradientMode::Tools;
+  prof.gradient_tools = 5;
+  return prof;
+}
+
 }  // namespace
 
 TEST(PrimeTower, MixingChangesFlushIntoATowerBesideThePart) {
@@ -333,13 +345,7 @@ TEST(PrimeTower, ToolChangesHappenAtPathEndsAndPrimeInTheTower) {
     // Face order, and a tool changer's path order: its pieces grouped by tool, chained.
     const Plan p = plan(f, 5, bed_purge(360, 360), 0.2, grouped);
     ASSERT_TRUE(p.stats.tower.built);
-    MachineProfile prof;
-    prof.mixing_inputs = 2;
-    prof.tool_count = 5;
-    prof.bed_x = prof.bed_y = 360;
-    prof.center = true;
-    prof.gradient_mode = GradientMode::Tools;
-    prof.gradient_tools = 5;
+    MachineProfile prof = tool_changer();
     prof.lookahead = 450;  // a tool changer has no shared dead volume to run ahead of
     const Replay r = replay(write_gcode(p.graded, prof));
     EXPECT_GT(r.changes.size(), 5u);
@@ -493,13 +499,7 @@ TEST(PrimeTower, ToolChangerHeatsEveryToolAndReportsWhatIsPrinted) {
   const SliceResult r = run_slice(job);
   EXPECT_EQ(r.fgm.quantized_from, 8);
   EXPECT_NEAR(r.fgm.error_bound, 0.125, 1e-9);
-  MachineProfile prof;
-  prof.mixing_inputs = 2;
-  prof.tool_count = 5;
-  prof.bed_x = prof.bed_y = 360;
-  prof.center = true;
-  prof.gradient_mode = GradientMode::Tools;
-  prof.gradient_tools = 5;
+  MachineProfile prof = tool_changer();
   prof.nozzle_temperature = 215;
   prof.standby_temperature = 170;  // idle tools wait here
   prof.lookahead = 450;
