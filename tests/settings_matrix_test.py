@@ -69,6 +69,7 @@ KNOWN_GAPS = {
 # Values for text and list settings (numbers, choices and booleans are generated).
 TEXT = {
     "machine.name": ["matrix printer"],
+    "machine.printer_model": ["MK4S"],
     "lattice2d.target_porosity": ["60"],
     "lattice.merge_tolerance": ["1", "0.5"],
     "extrusion.down_flow": ["10,0.5"],

@@ -7,6 +7,7 @@
 #include <zip.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -132,6 +133,34 @@ std::string model_part_name(zip_t* z, const std::string& file) {
   return "/3D/3dmodel.model";
 }
 
+// OPC part names compare without case (ECMA-376 Part 2 §9.1.1.1); a relative target is resolved
+// against the folder of the part that holds the relationship.
+std::string part_key(std::string name, const std::string& from_folder) {
+  if (name.empty() || name[0] != '/') name = from_folder + name;
+  std::transform(name.begin(), name.end(), name.begin(),
+                 [](unsigned char ch) { return static_cast<char>(std::tolower(ch)); });
+  return name;
+}
+
+// The parts the model part relates to by the 3D Texture relationship (its .rels part, 3MF Core
+// §2.1.1), as part_key()s. A malformed .rels part is an error naming it.
+std::set<std::string> texture_parts(zip_t* z, const std::string& file, const std::string& part) {
+  const std::size_t slash = part.rfind('/');
+  const std::string folder = part.substr(0, slash + 1);
+  const std::string rels_name = folder + "_rels/" + part.substr(slash + 1) + ".rels";
+  std::set<std::string> out;
+  const auto rels = read_part(z, rels_name.substr(1), file);
+  if (!rels) return out;
+  const auto root = parse_xml(*rels, file, rels_name);
+  for (const auto& r : root->kids) {
+    const char* type = r->attr("Type");
+    const char* target = r->attr("Target");
+    if (type && target && std::string(type) == kTextureRelationship)
+      out.insert(part_key(target, folder));
+  }
+  return out;
+}
+
 // ---------------------------------------------------------------- the model
 
 // A 3MF ST_Matrix3D (Core §3.3: row vectors, p' = [x y z 1] · M, the last row the translation)
@@ -254,7 +283,27 @@ struct Model {
   std::map<long long, std::shared_ptr<const Image3d>> loaded;  // image3d id → its voxels
   BBox3 domain;  // the level set being compiled: its evaluation box in function coordinates
   std::vector<long long> placing;  // objects being placed (components nest; cycles refused)
+  double min_feature = 0;  // mm: the smallest minfeaturesize of the level sets read (0 = none)
+  std::set<std::string> textures;  // parts with a 3D Texture relationship from the model part
 };
+
+// Volumetric data (Part I ch. 5: <color>, <composite>, <property> inside the object's shape) is
+// not read: a shape that applies some (volumeid on a <levelset> or <mesh>, §4.1.1 and §5.1, or
+// the 2022 draft's <volumedata> children beside its <boundary>) is refused by name rather than
+// sliced without it.
+void refuse_volume_data(const Ctx& c, const El& shape) {
+  if (const char* id = shape.attr("volumeid"))
+    c.fail(shape, fmt::format("<{}> volumeid=\"{}\" applies volumetric data (Part I ch. 5: "
+                              "colour, material composite, properties), which this reader does "
+                              "not read; remove the attribute to slice the shape alone",
+                              shape.name, id));
+  if (shape.name != "volumedata") return;
+  for (const auto& k : shape.kids)
+    if (k->name != "boundary")
+      c.fail(*k, fmt::format("<volumedata><{}> (Part I ch. 5 volumetric data) is not read; "
+                             "remove it to slice the shape alone",
+                             k->name));
+}
 
 // Elements nested through components deeper than this are refused.
 constexpr std::size_t kMaxComponentDepth = 64;
@@ -264,7 +313,10 @@ std::shared_ptr<const Image3d> image3d(Model& md, long long id, const El& at) {
   if (auto it = md.loaded.find(id); it != md.loaded.end()) return it->second;
   auto e = md.images.find(id);
   if (e == md.images.end()) md.ctx.fail(at, fmt::format("there is no <image3d> with id {}", id));
-  return md.loaded[id] = read_image3d(md.ctx, *e->second, md.part);
+  const std::string folder = md.ctx.part.substr(0, md.ctx.part.rfind('/') + 1);
+  return md.loaded[id] = read_image3d(md.ctx, *e->second, md.part, [&](const std::string& name) {
+           return md.textures.count(part_key(name, folder)) > 0;
+         });
 }
 
 // The distance to mesh object `id` (Part II ch. 5, mesh and unsignedmesh): the kernel's distance
@@ -320,8 +372,16 @@ Field level_set_field(Model& md, const El& obj, long long oid, const Affine& pla
   const Ctx& c = md.ctx;
   const El* ls = child(obj, "levelset");
   const El* boundary = nullptr;
-  if (const El* vd = child(obj, "volumedata")) boundary = child(*vd, "boundary");
+  if (const El* vd = child(obj, "volumedata")) {
+    boundary = child(*vd, "boundary");
+    refuse_volume_data(c, *vd);
+  }
   const El& at = ls ? *ls : *boundary;
+  refuse_volume_data(c, at);
+  // minfeaturesize (§4.1.1): the smallest feature the consumer should resolve; kept (in mm) for
+  // the routes to warn when their resolution is coarser, as the specification asks.
+  if (const double f = number(c, at, "minfeaturesize", 0.0) * md.mm; f > 0)
+    md.min_feature = md.min_feature > 0 ? std::min(md.min_feature, f) : f;
   long long fid = 0;
   std::string channel;
   const El* domain = nullptr;
@@ -410,6 +470,7 @@ Field object_field(Model& md, long long oid, const El& placed_by, const Affine& 
   if (child(obj, "levelset") || (vd && child(*vd, "boundary")))
     return level_set_field(md, obj, oid, placement, box);
   if (const El* mesh = child(obj, "mesh")) {
+    refuse_volume_data(c, *mesh);
     const TriangleMesh m = mesh_of(c, *mesh, placement, md.mm);
     for (const Vec3& v : m.vertices) box.add(v);
     MeshSdfOptions mo;
@@ -469,8 +530,9 @@ VcadDesign read(const std::string& path, const VcadOptions& options) {
   const Ctx ctx{path, part[0] == '/' ? part : "/" + part};
   const auto root = parse_xml(*bytes, path, ctx.part);
   if (root->name != "model") ctx.fail(*root, "the model part's root is not <model>");
-  Model md{ctx, unit_mm(ctx, *root), {}, {}, {}, options, {}, {}, {}, {}};
+  Model md{ctx, unit_mm(ctx, *root), {}, {}, {}, options, {}, {}, {}, {}, 0, {}};
   md.part = [&](const std::string& name) { return read_part(z.z, name, path); };
+  md.textures = texture_parts(z.z, path, ctx.part);
   md.res.image = [&md](const El& fn) {
     return image_function(md.ctx, fn, [&](long long id) { return image3d(md, id, fn); });
   };
@@ -497,6 +559,7 @@ VcadDesign read(const std::string& path, const VcadOptions& options) {
   d.has_root = true;
   d.root_min = box.min;
   d.root_max = box.max;
+  d.min_feature_size = md.min_feature;
   d.source = path;
   return d;
 }

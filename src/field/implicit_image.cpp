@@ -157,8 +157,8 @@ void Image3d::rgba(int i, int j, int k, double out[4]) const {
   }
 }
 
-std::shared_ptr<const Image3d> read_image3d(const Ctx& c, const El& image3d,
-                                            const PartReader& part) {
+std::shared_ptr<const Image3d> read_image3d(const Ctx& c, const El& image3d, const PartReader& part,
+                                            const RelatedPart& related) {
   const El* stack = child(image3d, "imagestack");
   if (!stack)
     c.fail(image3d, "<image3d> has no <imagestack>, the one representation Part I §3.1 defines");
@@ -184,6 +184,11 @@ std::shared_ptr<const Image3d> read_image3d(const Ctx& c, const El& image3d,
     if (!path) c.fail(e, "<imagesheet> has no path");
     const auto bytes = part(path);
     if (!bytes) c.fail(e, fmt::format("sheet {}: the package has no part {}", k, path));
+    if (!related(path))
+      c.fail(e, fmt::format("sheet {}: the part {} has no 3D Texture relationship from the model "
+                            "part {} (Part I §3.2.2: each sheet MUST have one); add <Relationship "
+                            "Type=\"{}\" Target=\"{}\" Id=\"…\"/> to its .rels part",
+                            k, path, c.part, kTextureRelationship, path));
     Sheet s;
     const std::string why = decode_png(*bytes, img->columns, img->rows, s);
     if (!why.empty()) c.fail(e, fmt::format("sheet {} ({}) {}", k, path, why));

@@ -30,10 +30,15 @@ struct Image3d {
 // part's bytes by its name (nullopt when the package has none). Refuses (Ctx::fail, naming the
 // sheet) a missing part, a sheet that is not a PNG, differs in size from rowcount × columncount
 // or in pixel layout or bit depth from the first sheet, a sheet count that is not sheetcount, or
-// more than kMaxImageSamples values.
+// more than kMaxImageSamples values, and a sheet whose part `related` says the model part has no
+// 3D Texture relationship to (§3.2.2: each sheet's part MUST be associated with the model part
+// through one).
 using PartReader = std::function<std::optional<std::string>(const std::string& name)>;
-std::shared_ptr<const Image3d> read_image3d(const Ctx& c, const El& image3d,
-                                            const PartReader& part);
+using RelatedPart = std::function<bool(const std::string& name)>;
+inline constexpr const char* kTextureRelationship =
+    "http://schemas.microsoft.com/3dmanufacturing/2013/01/3dtexture";
+std::shared_ptr<const Image3d> read_image3d(const Ctx& c, const El& image3d, const PartReader& part,
+                                            const RelatedPart& related);
 inline constexpr double kMaxImageSamples = 1 << 30;  // 2 GB of 16-bit values
 
 enum class Tile : std::uint8_t { Wrap, Mirror, Clamp };

@@ -445,10 +445,24 @@ struct SlicePart {
   ProcessStats process;  // what its process fields wrote (the plate report's per-part object)
 };
 
-void warn_repaired(const SliceJob& sj, const SliceResult& r, Diagnostics& diag) {
+// What the design read needs said: a mesh repaired; features finer than its minfeaturesize asks
+// (a 3MF level set, Volumetric & Implicit Part I §4.1.1: a consumer that cannot resolve them
+// "SHOULD raise a warning") lost under the bead width or the route's sampling step.
+void warn_design(const SliceJob& sj, const SliceResult& r, Diagnostics& diag) {
+  const std::string name = fs::path(sj.input).filename().string();
   if (r.repaired)
-    diag.warn("mesh_repaired", fs::path(sj.input).filename().string() +
-                                   " was not closed and manifold; repaired: " + r.repair.summary());
+    diag.warn("mesh_repaired",
+              name + " was not closed and manifold; repaired: " + r.repair.summary());
+  const double f = r.design_min_feature;
+  const bool field = r.route == SliceRoute::Field;
+  const double step = field ? sj.field.resolution : sj.mesh_voxel;
+  if (f > 0 && (f < sj.planar.bead_width || f < step))
+    diag.warn("design_min_feature",
+              fmt::format("{} asks for features down to {} mm (minfeaturesize); the bead width is "
+                          "{} mm and the {} route samples the design every {} mm ({}), so "
+                          "finer features are not printed as designed",
+                          name, f, sj.planar.bead_width, field ? "field" : "mesh", step,
+                          field ? "slice.resolution" : "slice.mesh_voxel"));
 }
 
 // The plate's report (trellis.plate_report) and summary of the slice route.
@@ -544,7 +558,7 @@ JobResult slice_plate_streamed(const Job& job, const Config& c, std::vector<Slic
         progress);
     warn_process(r.process, p.sj.process, diag);
     p.process = r.process;
-    warn_repaired(p.sj, r, diag);
+    warn_design(p.sj, r, diag);
     if (!plate)
       meta.source = "trellis slice " + fs::path(p.sj.input).filename().string() + " (" +
                     to_string(r.route) + " route)";
@@ -603,7 +617,7 @@ JobResult slice_part_shard(const Job& job, const Config& c, Diagnostics& diag,
   };
   SliceResult r = run_slice(sj, progress);
   warn_process(r.process, sj.process, diag);
-  warn_repaired(sj, r, diag);
+  warn_design(sj, r, diag);
   const bool graded = sj.strategy != 0;
   if (graded) warn_short_segments(sj.input, r.fgm, diag);
   Toolpath tp;
@@ -727,7 +741,7 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag,
     SliceResult r = run_slice(p.sj, progress);
     warn_process(r.process, p.sj.process, diag);
     p.process = r.process;
-    warn_repaired(p.sj, r, diag);
+    warn_design(p.sj, r, diag);
     if (!plate)
       tp.source = "trellis slice " + fs::path(p.sj.input).filename().string() + " (" +
                   to_string(r.route) + " route)";
@@ -783,9 +797,7 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
                               sj, [&](std::size_t, Layer&& l) { spill->append(l); }, progress)
                         : run_slice(sj, progress);
   const std::size_t layers = r.streamed ? r.layers : r.outlines.size();
-  if (r.repaired)
-    diag.warn("mesh_repaired", fs::path(job.input).filename().string() +
-                                   " was not closed and manifold; repaired: " + r.repair.summary());
+  warn_design(sj, r, diag);
   if (sj.strategy != 0) {
     warn_palette(job.input, r.fgm.colours_used, r.fgm.colours_total, diag);
     warn_short_segments(job.input, r.fgm, diag);

@@ -22,26 +22,6 @@ std::uint32_t u32(const unsigned char* p) {
          (static_cast<std::uint32_t>(p[2]) << 16) | (static_cast<std::uint32_t>(p[3]) << 24);
 }
 
-// Reads bits MSB first.
-class BitReader {
- public:
-  explicit BitReader(std::string_view d) : d_(d) {}
-  // Returns false when fewer than n bits are left.
-  bool get(int n, unsigned& v) {
-    if (pos_ + static_cast<std::size_t>(n) > d_.size() * 8) return false;
-    v = 0;
-    for (int i = 0; i < n; ++i, ++pos_) {
-      const auto byte = static_cast<unsigned char>(d_[pos_ / 8]);
-      v = (v << 1) | ((byte >> (7 - pos_ % 8)) & 1u);
-    }
-    return true;
-  }
-
- private:
-  std::string_view d_;
-  std::size_t pos_ = 0;
-};
-
 std::string inflate_zlib(std::string_view data, std::size_t size, const std::string& where) {
   std::string out(size, '\0');
   uLongf got = static_cast<uLongf>(size);
@@ -80,32 +60,6 @@ std::string metadata_comments(std::string_view ini) {
 
 bool is_bgcode(std::string_view head) {
   return head.size() >= 4 && head.substr(0, 4) == "GCDE";
-}
-
-std::string heatshrink_decode(std::string_view data, int window_bits, int lookahead_bits,
-                              std::size_t size) {
-  std::string out;
-  out.reserve(size);
-  BitReader bits(data);
-  while (out.size() < size) {
-    unsigned tag = 0, v = 0, count = 0;
-    if (!bits.get(1, tag)) break;
-    if (tag) {
-      if (!bits.get(8, v)) break;
-      out += static_cast<char>(v);
-      continue;
-    }
-    if (!bits.get(window_bits, v) || !bits.get(lookahead_bits, count)) break;
-    const std::size_t offset = std::size_t{v} + 1;
-    if (offset > out.size())
-      throw ParseError("Heatshrink back-reference " + std::to_string(offset) +
-                       " bytes back at output byte " + std::to_string(out.size()));
-    for (unsigned k = 0; k <= count && out.size() < size; ++k) out += out[out.size() - offset];
-  }
-  if (out.size() != size)
-    throw ParseError("Heatshrink data ends after " + std::to_string(out.size()) + " of " +
-                     std::to_string(size) + " bytes");
-  return out;
 }
 
 void MeatPackDecoder::put(char c, std::string& out) {

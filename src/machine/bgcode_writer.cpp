@@ -52,12 +52,19 @@ void BgcodeWriter::block(BgcodeBlock type, BgcodeCompression compression, std::s
   block_.clear();
   put_u16(block_, static_cast<std::uint16_t>(type));
   std::string_view stored = data;
-  if (compression == BgcodeCompression::Deflate) {
-    packed_ = deflate_zlib(data);
-    stored = packed_;
-  } else if (compression != BgcodeCompression::None) {
-    throw SettingError("binary G-code: only Deflate or no compression is written",
-                       {"", 0, "gcode.binary"});
+  switch (compression) {
+    case BgcodeCompression::None:
+      break;
+    case BgcodeCompression::Deflate:
+      packed_ = deflate_zlib(data);
+      stored = packed_;
+      break;
+    case BgcodeCompression::Heatshrink11:
+    case BgcodeCompression::Heatshrink12:
+      packed_ =
+          heatshrink_encode(data, compression == BgcodeCompression::Heatshrink11 ? 11 : 12, 4);
+      stored = packed_;
+      break;
   }
   put_u16(block_, static_cast<std::uint16_t>(compression));
   put_u32(block_, static_cast<std::uint32_t>(data.size()));

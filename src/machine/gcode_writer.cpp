@@ -1317,10 +1317,12 @@ BgcodeMetadata bgcode_metadata(const MachineProfile& p, const GcodeStats& s, std
   };
   BgcodeMetadata m;
   m.file = {{"Producer", std::string("Trellis ") + TRELLIS_VERSION}};
-  m.printer = {{"nozzle_diameter", value("extrusion.nozzle_diameter")},
-               {"layer_height", value("extrusion.layer_height")},
-               {"temperature", value("temperature.nozzle")},
-               {"bed_temperature", value("temperature.bed")}};
+  // "printer_model" first, where PrusaSlicer puts it (the firmware's model check).
+  if (!p.printer_model.empty()) m.printer.push_back({"printer_model", p.printer_model});
+  m.printer.insert(m.printer.end(), {{"nozzle_diameter", value("extrusion.nozzle_diameter")},
+                                     {"layer_height", value("extrusion.layer_height")},
+                                     {"temperature", value("temperature.nozzle")},
+                                     {"bed_temperature", value("temperature.bed")}});
   const std::string time = duration_text(s.print_time_s);
   std::string filament;
   append_fixed(filament, s.filament + s.prime_filament, 2);

@@ -105,6 +105,11 @@ const std::vector<SettingDecl>& machine_settings() {
        "the firmware, where an output format depends on it: prusa (Prusa's Buddy firmware: MK4, "
        "MK3.9, XL, MINI, Core One; reads binary G-code) or empty (not declared)",
        0, 0, choice(&P::firmware, kFirmwareNames)},
+      {"machine.printer_model", "",
+       "the printer model as Prusa's firmware names it (MK4S, MK4, MK3.9, XL, MINI, COREONE): "
+       "written as printer_model in binary G-code's printer metadata, which the firmware checks "
+       "against the printer; empty = not written",
+       0, 0, &P::printer_model},
       {"machine.bed_x", "mm", "build area in X (a circular bed: its diameter)", 1, 10000,
        &P::bed_x},
       {"machine.bed_y", "mm", "build area in Y (ignored for a circular bed)", 1, 10000, &P::bed_y},

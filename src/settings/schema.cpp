@@ -239,6 +239,7 @@ const std::vector<std::pair<const char*, const char*>>& when_table() {
       {"gcode.extension", "@job"},
       {"gcode.binary", "machine.firmware=prusa"},
       {"machine.firmware", "@bgcode or gcode.binary=true"},
+      {"machine.printer_model", "@bgcode or gcode.binary=true"},
       {"extrusion.filament_diameter", "@gcode"},
       {"extrusion.multiplier", "@gcode"},
       {"extrusion.k", "@gcode"},

@@ -228,7 +228,9 @@ SlicedDesign open_design(const SliceJob& job, SliceResult& r, const Progress& pr
   if (is_vcad) {
     VcadOptions vo;
     vo.mesh_voxel = job.mesh_voxel;
-    field = read_field_design(job.input, vo).field;
+    VcadDesign design = read_field_design(job.input, vo);
+    field = std::move(design.field);
+    r.design_min_feature = design.min_feature_size;
     // A graded design printed as one material must be asked for: nothing silent.
     if (job.strategy == 0 && !job.strategy_chosen && field.materials().size() >= 2)
       throw SettingError("the design is graded (" + std::to_string(field.materials().size()) +

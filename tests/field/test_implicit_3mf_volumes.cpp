@@ -445,6 +445,56 @@ TEST(Implicit3mfVolumes, MalformedImageStacksAreRefusedByName) {
   });
 }
 
+// Each image sheet's part is related to the model part by the 3D Texture relationship (Part I
+// §3.2.2, a MUST): relative and differently cased targets name the same part; a sheet without
+// one is refused by name.
+TEST(Implicit3mfVolumes, SheetsNeedTheTextureRelationship) {
+  test::TempDir dir("implicit3mf_rels");
+  const Stack st = sphere_stack(5);
+  const std::string model =
+      model_of(st.xml(4) + image_function(2, "") + level_set(3, 2, "red", kToUvw), -8, 8);
+  const std::string absolute = dir.file("a.3mf"), relative = dir.file("r.3mf"),
+                    none = dir.file("n.3mf");
+  write_3mf(absolute, model, st.parts);
+  write_3mf(relative, model, st.parts, TextureRels::RelativeUpperCase);
+  write_3mf(none, model, st.parts, TextureRels::None);
+  const Field a = read_implicit_3mf(absolute).field, r = read_implicit_3mf(relative).field;
+  Evaluator ea(a);
+  at_random_points(r, 8, 200, 5, [&](Vec3 p, double v) { EXPECT_EQ(v, ea.value(p)); });
+  const std::string what = refusal(none).what();
+  for (const char* w : {"sheet 0", "/3D/volumetric/stack/sheet0000.png", "3D Texture relationship",
+                        "§3.2.2", "3dtexture"})
+    EXPECT_NE(what.find(w), std::string::npos) << w << ": " << what;
+}
+
+// Volumetric data (Part I ch. 5) applied to a shape is refused by name, not dropped; a level
+// set's minfeaturesize (§4.1.1) is kept in mm for the routes' warning.
+TEST(Implicit3mfVolumes, VolumeDataIsRefusedAndMinFeatureSizeKept) {
+  const std::string sphere = sphere_function(kRadius);
+  const std::string with_volume = model_of(sphere + level_set(3, 2, "shape"), -kHalf, kHalf);
+  auto edit = [](std::string m, const std::string& from, const std::string& to) {
+    const auto at = m.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    if (at != std::string::npos) m.replace(at, from.size(), to);
+    return m;
+  };
+  expect_refusals({
+      {"volumeid on the level set",
+       edit(with_volume, "<v:levelset ", "<v:levelset volumeid=\"7\" "),
+       "<v:levelset",
+       "volumeid=\"7\" applies volumetric data",
+       {}},
+  });
+  test::TempDir dir("implicit3mf_minfeature");
+  const std::string path = dir.file("m.3mf");
+  std::string cm = edit(with_volume, "<v:levelset ", "<v:levelset minfeaturesize=\"0.5\" ");
+  cm = edit(cm, "unit=\"millimeter\"", "unit=\"centimeter\"");
+  write_3mf(path, cm);
+  EXPECT_DOUBLE_EQ(read_implicit_3mf(path).min_feature_size, 5.0);  // 0.5 cm
+  write_3mf(path, with_volume);
+  EXPECT_EQ(read_implicit_3mf(path).min_feature_size, 0.0);
+}
+
 // An object made of components (3MF Core §4.2) is the union of its components' fields, each
 // placed by its transform within the object and the object by its item; components nest.
 TEST(Implicit3mfVolumes, ComponentsPlaceLevelSetObjects) {

@@ -5,6 +5,8 @@ specification (libbgcode doc/specifications.md), not from the reader it tests.
     bgcode_encode.py IN.gcode OUT.bgcode COMPRESSION ENCODING [--no-crc] [--no-spaces]
                      [--block-size N]
 
+    bgcode_encode.py --heatshrink-decode IN OUT WINDOW_BITS LOOKAHEAD_BITS SIZE
+
 COMPRESSION: 0 none, 1 Deflate (zlib), 2 Heatshrink 11/4, 3 Heatshrink 12/4 (own encoder below).
 ENCODING of the G-code blocks: 0 text, 1 MeatPack (comments dropped), 2 MeatPack with comments
 (own encoder below). Blocks: file metadata, printer metadata, a thumbnail, print metadata,
@@ -69,6 +71,54 @@ def heatshrink_encode(data: bytes, window_bits: int, lookahead_bits: int) -> byt
             b = (b << 1) | bit
         out.append(b)
     return bytes(out)
+
+
+def heatshrink_decode(data: bytes, window_bits: int, lookahead_bits: int, size: int) -> bytes:
+    """heatshrink's decoder as its library runs it: a circular window of 2**window_bits bytes,
+    zero-filled at the start, the index read in two parts (its high window_bits - 8 bits, then
+    8), output stopped at `size` bytes."""
+    window = bytearray(1 << window_bits)
+    mask = len(window) - 1
+    head = 0
+    pos = 0
+    out = bytearray()
+
+    def get(n):
+        nonlocal pos
+        if pos + n > len(data) * 8:
+            return None
+        v = 0
+        for _ in range(n):
+            v = (v << 1) | ((data[pos >> 3] >> (7 - (pos & 7))) & 1)
+            pos += 1
+        return v
+
+    while len(out) < size:
+        tag = get(1)
+        if tag is None:
+            break
+        if tag:
+            c = get(8)
+            if c is None:
+                break
+            window[head & mask] = c
+            head += 1
+            out.append(c)
+            continue
+        hi = get(window_bits - 8) if window_bits > 8 else 0
+        lo = get(min(window_bits, 8))
+        count = get(lookahead_bits)
+        if hi is None or lo is None or count is None:
+            break
+        back = ((hi << 8) | lo) + 1
+        for _ in range(count + 1):
+            c = window[(head - back) & mask]
+            window[head & mask] = c
+            head += 1
+            out.append(c)
+    if len(out) < size:
+        raise SystemExit(f"heatshrink data ends after {len(out)} of {size} bytes")
+    return bytes(out[:size])
 
 
 MP_CODES = "0123456789. \nGX"
@@ -137,6 +187,11 @@ def block(kind, compression, params, payload, crc):
 
 
 def main(argv):
+    if argv[1] == "--heatshrink-decode":
+        data = open(argv[2], "rb").read()
+        w, lk, size = int(argv[4]), int(argv[5]), int(argv[6])
+        open(argv[3], "wb").write(heatshrink_decode(data, w, lk, size))
+        return
     src, dst, compression, encoding = argv[1], argv[2], int(argv[3]), int(argv[4])
     crc = "--no-crc" not in argv
     no_spaces = "--no-spaces" in argv

@@ -161,6 +161,41 @@ TEST(Bgcode, HeatshrinkBackReferencesAndLiterals) {
   EXPECT_THROW(heatshrink_decode(data, 4, 3, 9), ParseError);  // the stream ends early
 }
 
+TEST(Bgcode, HeatshrinkReferencesBeforeTheStartReadZeros) {
+  // heatshrink's decoder starts from a zero-filled window: distance 3 count 2 at the start gives
+  // two zero bytes. bits: 0 0010 001, 1 01100001, then zero padding.
+  const unsigned char raw[] = {0b00010001, 0b10110000, 0b10000000};
+  const std::string data(reinterpret_cast<const char*>(raw), sizeof raw);
+  EXPECT_EQ(heatshrink_decode(data, 4, 3, 3), std::string("\0\0a", 3));
+}
+
+TEST(Bgcode, HeatshrinkEncoderRoundTripsAndShrinksGcode) {
+  std::string noise(50000, '\0');
+  std::uint32_t x = 12345;
+  for (auto& c : noise) c = static_cast<char>((x = x * 1664525u + 1013904223u) >> 24);
+  std::string runs;  // long periodic runs: overlapping copies at every distance up to 40
+  for (int p = 1; p <= 40; ++p)
+    for (int k = 0; k < 500; ++k) runs += static_cast<char>('a' + (k % p) % 26);
+  const std::string gcode = twin_text() + twin_text();
+  for (const auto& [w, l] : std::vector<std::pair<int, int>>{{4, 3}, {8, 4}, {11, 4}, {12, 4}})
+    for (const std::string& in :
+         {std::string(), std::string("G"), std::string(70000, '\0'), noise, runs, gcode}) {
+      const std::string packed = heatshrink_encode(in, w, l);
+      EXPECT_TRUE(heatshrink_decode(packed, w, l, in.size()) == in)
+          << w << "/" << l << ", " << in.size() << " bytes";
+      EXPECT_LE(packed.size(), in.size() * 9 / 8 + 1);  // at worst a literal per byte
+    }
+  EXPECT_LT(heatshrink_encode(gcode, 12, 4).size() * 2, gcode.size());
+  // The independent decoder (tests/machine/bgcode_encode.py) reads our encoder's bytes.
+  test::TempDir dir("heatshrink");
+  const std::string in = dir.file("in.bin"), out = dir.file("out.bin");
+  { std::ofstream(in, std::ios::binary) << heatshrink_encode(gcode, 12, 4); }
+  const std::string cmd = "/usr/bin/python3 " + kEncoder + " --heatshrink-decode " + in + " " +
+                          out + " 12 4 " + std::to_string(gcode.size());
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  EXPECT_TRUE(slurp(out) == gcode);
+}
+
 TEST(Bgcode, DamagedFilesAreNamedErrors) {
   test::TempDir dir("bgcode_bad");
   const std::string text_path = dir.file("t.gcode"), bin = dir.file("t.bgcode");

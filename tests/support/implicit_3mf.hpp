@@ -3,6 +3,7 @@
 // nodes, the specification's sphere function.
 #pragma once
 #include <array>
+#include <cctype>
 #include <cstdint>
 #include <cstdio>
 #include <fstream>
@@ -59,18 +60,41 @@ inline std::string stored_zip(const std::vector<std::pair<std::string, std::stri
   return out;
 }
 
+// How write_3mf relates the model part to its PNG parts (image sheets) by the 3D Texture
+// relationship (Volumetric Part I §3.2.2): absolute targets, targets relative to /3D/ in upper
+// case (part names compare without case), or none (a package the reader refuses).
+enum class TextureRels { Absolute, RelativeUpperCase, None };
+
 // A 3MF package: content types, relationships, the model part /3D/3dmodel.model and `parts`
 // (name without the leading slash, bytes), e.g. an image stack's PNG sheets.
 inline void write_3mf(const std::string& path, const std::string& model,
-                      const std::vector<std::pair<std::string, std::string>>& parts = {}) {
+                      const std::vector<std::pair<std::string, std::string>>& parts = {},
+                      TextureRels texture_rels = TextureRels::Absolute) {
   const std::string types =
       R"(<?xml version="1.0" encoding="UTF-8"?>
-<Types xmlns="http://schemas.openxmlformats.org/package/2006/content-types"><Default Extension="rels" ContentType="application/vnd.openxmlformats-package.relationships+xml"/><Default Extension="model" ContentType="application/vnd.ms-package.3dmanufacturing-3dmodel+xml"/></Types>)";
+<Types xmlns="http://schemas.openxmlformats.org/package/2006/content-types"><Default Extension="rels" ContentType="application/vnd.openxmlformats-package.relationships+xml"/><Default Extension="model" ContentType="application/vnd.ms-package.3dmanufacturing-3dmodel+xml"/><Default Extension="png" ContentType="image/png"/></Types>)";
   const std::string rels =
       R"(<?xml version="1.0" encoding="UTF-8"?>
 <Relationships xmlns="http://schemas.openxmlformats.org/package/2006/relationships"><Relationship Target="/3D/3dmodel.model" Id="rel0" Type="http://schemas.microsoft.com/3dmanufacturing/2013/01/3dmodel"/></Relationships>)";
   std::vector<std::pair<std::string, std::string>> files = {
       {"[Content_Types].xml", types}, {"_rels/.rels", rels}, {"3D/3dmodel.model", model}};
+  std::string textures;
+  int id = 0;
+  for (const auto& [name, bytes] : parts) {
+    if (!name.ends_with(".png") || texture_rels == TextureRels::None) continue;
+    std::string target = "/" + name;
+    if (texture_rels == TextureRels::RelativeUpperCase && target.starts_with("/3D/")) {
+      target = target.substr(4);
+      for (auto& ch : target) ch = static_cast<char>(std::toupper(static_cast<unsigned char>(ch)));
+    }
+    textures += "<Relationship Target=\"" + target + "\" Id=\"tex" + std::to_string(id++) +
+                "\" Type=\"http://schemas.microsoft.com/3dmanufacturing/2013/01/3dtexture\"/>";
+  }
+  if (!textures.empty())
+    files.push_back({"3D/_rels/3dmodel.model.rels",
+                     "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n<Relationships "
+                     "xmlns=\"http://schemas.openxmlformats.org/package/2006/relationships\">" +
+                         textures + "</Relationships>"});
   files.insert(files.end(), parts.begin(), parts.end());
   std::ofstream(path, std::ios::binary) << stored_zip(files);
 }

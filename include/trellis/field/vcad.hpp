@@ -32,7 +32,10 @@ struct VcadDesign {
   bool has_root = false;
   Vec3 root_min, root_max;
   Vec3 resolution{0, 0, 0};  // from root(), 0 if none
-  std::string source;        // file name
+  // mm: the smallest feature the design asks to be resolved (a 3MF level set's minfeaturesize,
+  // Volumetric & Implicit Part I §4.1.1); 0 if none. Routes warn when they cannot resolve it.
+  double min_feature_size = 0;
+  std::string source;  // file name
 };
 
 // Throws ParseError with file, line and column on any problem.

@@ -37,11 +37,15 @@ inline constexpr std::uint16_t kBgcodeCrc32 = 1;
 // True if `head` (the first bytes of a file) starts with the bgcode magic "GCDE".
 bool is_bgcode(std::string_view head);
 
-// Heatshrink (LZSS) decoder: bit stream MSB first; tag 1 = a literal byte (8 bits), tag 0 = a
-// back-reference of `window_bits` bits (distance - 1) and `lookahead_bits` bits (count - 1).
-// Stops after `size` bytes; a stream that ends early or points before the start is a ParseError.
+// Heatshrink (LZSS, machine/heatshrink.cpp): bit stream MSB first; tag 1 = a literal byte
+// (8 bits), tag 0 = a back-reference of `window_bits` bits (distance - 1) and `lookahead_bits`
+// bits (count - 1). The decoder stops after `size` bytes; a stream that ends early is a
+// ParseError; a reference before the first byte reads zeros (heatshrink's zero-filled window).
 std::string heatshrink_decode(std::string_view data, int window_bits, int lookahead_bits,
                               std::size_t size);
+// The encoder: greedy longest matches within the window; what heatshrink_decode (and
+// heatshrink's own decoder, which Prusa's firmware runs) reads back byte for byte.
+std::string heatshrink_encode(std::string_view data, int window_bits, int lookahead_bits);
 
 // MeatPack decoder (Marlin's packing, as used in bgcode G-code blocks): 4-bit codes for the 15
 // commonest characters, two per byte, 0b1111 = a full byte follows; 0xFF 0xFF <cmd> switches

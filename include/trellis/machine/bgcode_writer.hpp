@@ -3,7 +3,11 @@
 // "File header" (GCDE, version 1, CRC32), then the blocks in the order the specification lists
 // them: file metadata, printer metadata, one thumbnail block per picture (PNG), print metadata,
 // slicer metadata, and the G-code in blocks of at most 64 KiB (PrusaSlicer's size), each ending
-// at a line end, Deflate-compressed (zlib), every block followed by its CRC32.
+// at a line end, every block followed by its CRC32. G-code blocks are Heatshrink 12/4, as
+// PrusaSlicer 2.7+ writes them: Prusa's firmware decompresses G-code blocks stored plain or
+// Heatshrink 11/4 or 12/4 and refuses Deflate ones (Prusa-Firmware-Buddy,
+// PrusaPackGcodeReader::init_decompression); the slicer metadata block is Deflate, as
+// PrusaSlicer's. The G-code is not MeatPack-encoded (encoding 0, which the firmware reads too).
 //
 // The G-code blocks hold the text G-code writer's bytes exactly (machine/gcode_writer.hpp),
 // written without its "; thumbnail begin" comments: the pictures are in the thumbnail blocks.
@@ -31,8 +35,9 @@ struct BgcodeMetadata {
 };
 
 struct BgcodeOptions {
-  // G-code blocks: Deflate or None (Heatshrink and MeatPack are read, not written).
-  BgcodeCompression gcode = BgcodeCompression::Deflate;
+  // G-code blocks: any of the specification's compressions; Heatshrink 12/4 is what the
+  // printers read (see above). MeatPack is read, not written.
+  BgcodeCompression gcode = BgcodeCompression::Heatshrink12;
   // The most G-code bytes in one block before compression.
   std::size_t block_size = std::size_t{1} << 16;
 };

@@ -46,6 +46,10 @@ struct MachineProfile {
   // The firmware, where a format depends on it: Prusa's Buddy firmware (reads binary G-code) or
   // not declared.
   Firmware firmware = Firmware::None;
+  // The printer model as Prusa's firmware names itself (MK4S, MK4, MK3.9, XL, MINI, COREONE):
+  // binary G-code's printer metadata "printer_model", which the firmware compares with its own
+  // model before printing; empty = not written.
+  std::string printer_model;
   // Capabilities: what the machine can do. Every writer checks the toolpath against them before
   // it writes (machine/machine_check.hpp).
   double bed_x = 220, bed_y = 220;  // build area (mm); a circle: bed_x is its diameter

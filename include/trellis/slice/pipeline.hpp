@@ -68,7 +68,8 @@ struct SliceResult {
   PlanarStats planar;
   FgmStats fgm;
   std::size_t mesh_triangles = 0;
-  bool repaired = false;  // the mesh needed repair; `repair` says what changed
+  bool repaired = false;          // the mesh needed repair; `repair` says what changed
+  double design_min_feature = 0;  // mm: the design's minfeaturesize (3MF level sets); 0 = none
   MeshRepairReport repair;
   double outline_seconds = 0, plan_seconds = 0;
   // The part's printed layers (all of them, also when only a range was asked for) and the index
