@@ -320,9 +320,10 @@ const std::vector<SettingDecl>& machine_settings() {
        "\"WxH,WxH\" (PrusaSlicer's thumbnail format); empty = none",
        0, 0, &P::thumbnails},
       {"gcode.binary", "",
-       "write PrusaSlicer's binary G-code (.bgcode: metadata, PNG thumbnails and Deflate-"
-       "compressed G-code blocks with CRC32) instead of text; machines with machine.firmware = "
-       "prusa only; an output named .bgcode is binary without it",
+       "write PrusaSlicer's binary G-code (.bgcode: metadata, PNG thumbnails and Heatshrink-"
+       "compressed G-code blocks with CRC32, as Prusa's firmware reads them) instead of text; "
+       "machines with machine.firmware = prusa only; an output named .bgcode is binary without "
+       "it",
        0, 0, &P::binary_gcode, "binary-gcode"},
       {"gcode.prime_line", "mm",
        "prime line: this much line drawn along the bed's front edge, 5 mm in, before the first "

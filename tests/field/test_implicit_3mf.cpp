@@ -338,6 +338,25 @@ TEST(Implicit3mf, SlicedSphereGcodeEqualsTheVcadSpheres) {
   EXPECT_NEAR(la, lc, 0.001 * lc) << la << " mm against the primitive's " << lc << " mm";
 }
 
+// A level set's minfeaturesize finer than the bead width is warned about by the slice route, as
+// Part I §4.1.1 asks of a consumer that cannot resolve it; one the route resolves is not.
+TEST(Implicit3mf, SliceWarnsOfAMinFeatureSizeItCannotResolve) {
+  test::TempDir dir("implicit3mf_minfeature");
+  const std::array<double, 3> lo{-4, -4, -4}, hi{4, 4, 4};
+  const std::string fine = dir.file("fine.3mf"), coarse = dir.file("coarse.3mf");
+  write_3mf(fine, model(sphere_function(4), lo, hi, "", "millimeter", " minfeaturesize=\"0.1\""));
+  write_3mf(coarse, model(sphere_function(4), lo, hi, "", "millimeter", " minfeaturesize=\"1\""));
+  const std::string prof = std::string(TRELLIS_SOURCE_DIR) + "/profiles/ender3_s1_pro_tpu.toml";
+  const std::string opts = " --machine " + prof + " --layer-height 1 --bead-width 0.4 -o ";
+  const test::CliRun f = test::run_cli("slice " + fine + opts + dir.file("f.gcode"), dir.path());
+  EXPECT_EQ(f.code, 0) << f.err;
+  for (const char* w : {"fine.3mf", "0.1 mm (minfeaturesize)", "bead width is 0.4 mm"})
+    EXPECT_NE(f.err.find(w), std::string::npos) << w << ": " << f.err;
+  const test::CliRun c = test::run_cli("slice " + coarse + opts + dir.file("c.gcode"), dir.path());
+  EXPECT_EQ(c.code, 0) << c.err;
+  EXPECT_EQ(c.err.find("minfeaturesize"), std::string::npos) << c.err;
+}
+
 // `trellis pbf` takes a 3MF level-set design as it takes a .vcad (the laser route, not the
 // solid-mesh one): the .cli of a sphere from 3MF is the .vcad function()'s but for the job line
 // naming the input.
