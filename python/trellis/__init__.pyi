@@ -133,7 +133,7 @@ def plan(
     set: Mapping[str, Any] | None = None,
     arrowhead_inner: float = ...,  # lattice2d.arrowhead_inner: arrowhead: inner chevron angle
     arrowhead_outer: float = ...,  # lattice2d.arrowhead_outer: arrowhead: outer chevron angle
-    binary_gcode: bool = ...,  # gcode.binary: write PrusaSlicer's binary G-code (.bgcode: metadata, PNG thumbnails and Deflate-compressed G-code blocks with CRC32) instead of text; machines with mach
+    binary_gcode: bool = ...,  # gcode.binary: write PrusaSlicer's binary G-code (.bgcode: metadata, PNG thumbnails and Heatshrink-compressed G-code blocks with CRC32, as Prusa's firmware reads them) 
     box: Sequence[float] = ...,  # lattice3d.box: foam box width, depth, height
     cell: float = ...,  # lattice2d.cell: cell size: hexagon side, rhombus side, edge or period (see lattice2d --help)
     cell_height: float = ...,  # lattice2d.cell_height: arrowhead and re-entrant honeycomb: the unit cell's vertical length (the cell size is the horizontal one, GIPPO Table 1); sets the arrowhead's i
@@ -208,7 +208,7 @@ def gcode(
     toolpath: PathLike | Toolpath, output: PathLike | None = None, *, machine: Machine,
     progress: Progress | None = None,
     set: Mapping[str, Any] | None = None,
-    binary_gcode: bool = ...,  # gcode.binary: write PrusaSlicer's binary G-code (.bgcode: metadata, PNG thumbnails and Deflate-compressed G-code blocks with CRC32) instead of text; machines with mach
+    binary_gcode: bool = ...,  # gcode.binary: write PrusaSlicer's binary G-code (.bgcode: metadata, PNG thumbnails and Heatshrink-compressed G-code blocks with CRC32, as Prusa's firmware reads them) 
     center: bool = ...,  # placement.center: move the part's XY centre to the bed centre (false: design coordinates are bed coordinates)
     follow_symlinks: bool = ...,  # run.follow_symlinks: write an output whose path is a symbolic link to the file it points to (the link kept); without it such an output is refused
     force: bool = ...,  # run.force: run even when the estimate is beyond run.max_memory or run.max_time
@@ -225,7 +225,7 @@ def slice(
     progress: Progress | None = None,
     set: Mapping[str, Any] | None = None,
     bead_width: float = ...,  # slice.bead_width: bead width (wall and fill spacing)
-    binary_gcode: bool = ...,  # gcode.binary: write PrusaSlicer's binary G-code (.bgcode: metadata, PNG thumbnails and Deflate-compressed G-code blocks with CRC32) instead of text; machines with mach
+    binary_gcode: bool = ...,  # gcode.binary: write PrusaSlicer's binary G-code (.bgcode: metadata, PNG thumbnails and Heatshrink-compressed G-code blocks with CRC32, as Prusa's firmware reads them) 
     bottom: int = ...,  # slice.bottom: solid bottom layers
     center: bool = ...,  # placement.center: move the part's XY centre to the bed centre (false: design coordinates are bed coordinates)
     colors: int = ...,  # fgm.colors: palette size (two materials: N bands; three: d² triangles, e.g. 9)
@@ -340,7 +340,7 @@ def nonplanar(
     angle: float = ...,  # surface.angle: corrugation slope
     angles: Sequence[float] = ...,  # nonplanar.angles: path directions cycled over the layers (0,90 = cross-hatch; 0 = parallel)
     bead_width: float = ...,  # nonplanar.bead_width: path width = plane spacing
-    binary_gcode: bool = ...,  # gcode.binary: write PrusaSlicer's binary G-code (.bgcode: metadata, PNG thumbnails and Deflate-compressed G-code blocks with CRC32) instead of text; machines with mach
+    binary_gcode: bool = ...,  # gcode.binary: write PrusaSlicer's binary G-code (.bgcode: metadata, PNG thumbnails and Heatshrink-compressed G-code blocks with CRC32, as Prusa's firmware reads them) 
     center: bool = ...,  # placement.center: move the part's XY centre to the bed centre (false: design coordinates are bed coordinates)
     chord_tol: float = ...,  # nonplanar.chord_tolerance: max distance of a path segment from the surface
     depth: float = ...,  # surface.depth: Miura-Ori fold depth
@@ -380,7 +380,7 @@ def surface(
     set: Mapping[str, Any] | None = None,
     amplitude_scale: float = ...,  # surface.amplitude_scale: corrugation amplitude factor
     angle: float = ...,  # surface.angle: corrugation slope
-    binary_gcode: bool = ...,  # gcode.binary: write PrusaSlicer's binary G-code (.bgcode: metadata, PNG thumbnails and Deflate-compressed G-code blocks with CRC32) instead of text; machines with mach
+    binary_gcode: bool = ...,  # gcode.binary: write PrusaSlicer's binary G-code (.bgcode: metadata, PNG thumbnails and Heatshrink-compressed G-code blocks with CRC32, as Prusa's firmware reads them) 
     center: bool = ...,  # placement.center: move the part's XY centre to the bed centre (false: design coordinates are bed coordinates)
     depth: float = ...,  # surface.depth: Miura-Ori fold depth
     diameter: float = ...,  # surface.diameter: sphere-cap footprint diameter

@@ -347,7 +347,9 @@ TEST(Implicit3mf, SliceWarnsOfAMinFeatureSizeItCannotResolve) {
   write_3mf(fine, model(sphere_function(4), lo, hi, "", "millimeter", " minfeaturesize=\"0.1\""));
   write_3mf(coarse, model(sphere_function(4), lo, hi, "", "millimeter", " minfeaturesize=\"1\""));
   const std::string prof = std::string(TRELLIS_SOURCE_DIR) + "/profiles/ender3_s1_pro_tpu.toml";
-  const std::string opts = " --machine " + prof + " --layer-height 1 --bead-width 0.4 -o ";
+  const std::string opts = " --machine " + prof +
+                           " --layer-height 0.5 --set extrusion.nozzle_diameter=0.8 "
+                           "--bead-width 0.4 -o ";
   const test::CliRun f = test::run_cli("slice " + fine + opts + dir.file("f.gcode"), dir.path());
   EXPECT_EQ(f.code, 0) << f.err;
   for (const char* w : {"fine.3mf", "0.1 mm (minfeaturesize)", "bead width is 0.4 mm"})
