@@ -484,6 +484,20 @@ TEST(Implicit3mfVolumes, VolumeDataIsRefusedAndMinFeatureSizeKept) {
        "<v:levelset",
        "volumeid=\"7\" applies volumetric data",
        {}},
+      {"volumeid on a mesh placed beside",
+       edit(edit(with_volume, "<mesh>", "<mesh volumeid=\"8\">"), "<item objectid=\"3\"/>",
+            "<item objectid=\"3\"/><item objectid=\"1\"/>"),
+       "<mesh volumeid",
+       "<mesh> volumeid=\"8\" applies volumetric data",
+       {}},
+      {"the 2022 draft's colour beside its boundary",
+       edit(edit(with_volume, "<item objectid=\"3\"/>", "<item objectid=\"4\"/>"), "</resources>",
+            "<object id=\"4\" type=\"model\">" + box_mesh({-8, -8, -8}, {8, 8, 8}) +
+                "<v:volumedata><v:boundary functionid=\"2\" channel=\"shape\"/>\n<v:color "
+                "functionid=\"2\" channel=\"shape\"/></v:volumedata></object>\n</resources>"),
+       "<v:color",
+       "<volumedata><color> (Part I ch. 5 volumetric data) is not read",
+       {}},
   });
   test::TempDir dir("implicit3mf_minfeature");
   const std::string path = dir.file("m.3mf");
