@@ -69,6 +69,12 @@ constexpr int kMaxChars = 48;
   return true;
 }
 
+// std::llround(x), inlined where round_half_away takes x (the libm call only outside it).
+[[gnu::always_inline]] inline long long llround(double x) {
+  long long q;
+  return round_half_away(x, q) ? q : std::llround(x);
+}
+
 inline constexpr char kTwoDigits[] =
     "00010203040506070809101112131415161718192021222324252627282930313233343536373839"
     "40414243444546474849505152535455565758596061626364656667686970717273747576777879"

@@ -1167,13 +1167,13 @@ class Writer {
   // extrusion.k may round every E to the one before: leaving those out would cut corners).
   bool silent_move(Vec3 q, Vec2 o, double e, bool marlin) const {
     auto same = [](double a, double b, double scale) {
-      return std::llround(a * scale) == std::llround(b * scale);
+      return fastnum::llround(a * scale) == fastnum::llround(b * scale);
     };
     if (same(q.x + dx_ + o.x, pos_.x + dx_ + o.x, 1e3) &&
         same(q.y + dy_ + o.y, pos_.y + dy_ + o.y, 1e3) && same(q.z, pos_.z, 1e3))
       return true;
     if (!marlin || distance(pos_, q) >= 2e-3) return false;
-    return p_.relative_e ? std::llround(e * 1e5) == 0 : same(e_ + e, e_, 1e5);
+    return p_.relative_e ? fastnum::llround(e * 1e5) == 0 : same(e_ + e, e_, 1e5);
   }
 
   // One extruding move to q. A move too short to write (silent_move) is left out: its length and
@@ -1353,14 +1353,24 @@ void write_gcode_into(std::string& out, const Toolpath& toolpath, const MachineP
                       GcodeStats* stats, const std::vector<GcodeThumbnail>& thumbnails) {
   if (toolpath.path_count() == 0) throw GeometryError("the toolpath has no paths to write");
   GcodeStats s;
-  // The extent and the point count in one pass, shared by the lift, the machine check, the
-  // placement and the buffer's size.
+  // Each path's extent and the point count in one pass, shared by the lift, the machine check,
+  // the placement and the buffer's size (the union of the paths' extents in order is the
+  // extent of the points in order, signed zeros alike).
   BBox3 box;
   std::size_t points = 0;
+  std::vector<BBox3> extents;
+  extents.reserve(toolpath.path_count());
   for (const auto& l : toolpath.layers)
     for (const auto& path : l.paths) {
       points += path.points.size();
-      for (const auto& q : path.points) box.add(q);
+      extents.push_back(path_extent(path.points));
+      const BBox3& e = extents.back();
+      if (std::isnan(e.min.x)) {
+        for (const auto& q : path.points) box.add(q);
+      } else if (!path.points.empty()) {
+        box.add(e.min);
+        box.add(e.max);
+      }
     }
   // Below the bed: lifted onto it (placement.lift), a copy only then.
   const double lift = placement_lift(box, profile);
@@ -1379,8 +1389,10 @@ void write_gcode_into(std::string& out, const Toolpath& toolpath, const MachineP
     // z + lift is monotone in z, so the lifted extent is the extent lifted, exactly.
     box.min.z += lift;
     box.max.z += lift;
+    for (auto& e : extents) e.min.z += lift, e.max.z += lift;
   }
-  for (auto& w : check_for_machine(layers_of(*tp), profile.center ? box : BBox3{}, profile))
+  for (auto& w :
+       check_for_machine(layers_of(*tp), profile.center ? box : BBox3{}, profile, &extents))
     s.warnings.emplace_back(w.kind, w.message);
   auto warnings = std::move(s.warnings);
   out = Writer(profile, *tp, lift, thumbnails, nullptr, 0, &box, points).run(s, std::move(out));

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <map>
 
 namespace trellis {
@@ -97,12 +98,24 @@ std::string where(std::size_t layer, std::size_t path) {
 
 }  // namespace
 
+BBox3 path_extent(const std::vector<Vec3>& points) {
+  BBox3 box;
+  bool nan = false;
+  for (const Vec3& q : points) {
+    box.add(q);
+    nan |= (q.x != q.x) | (q.y != q.y) | (q.z != q.z);
+  }
+  if (nan) box.min.x = std::numeric_limits<double>::quiet_NaN();
+  return box;
+}
+
 std::vector<MachineWarning> check_for_machine(const Toolpath& tp, const MachineProfile& p) {
   return check_for_machine(layers_of(tp), p.center ? points_box(tp) : BBox3{}, p);
 }
 
 std::vector<MachineWarning> check_for_machine(const LayerSource& layers, const BBox3& box,
-                                              const MachineProfile& p) {
+                                              const MachineProfile& p,
+                                              const std::vector<BBox3>* extents) {
   validate(p);
   Problems errors;
   std::vector<MachineWarning> warnings;
@@ -123,9 +136,11 @@ std::vector<MachineWarning> check_for_machine(const LayerSource& layers, const B
   bool mixed = false;
   std::size_t max_materials = 0;
   const bool fdm = p.marlin_family();
+  std::size_t next_path = 0;  // in layer order, for `extents`
   layers([&](std::size_t li, const Layer& layer) {
     for (std::size_t pi = 0; pi < layer.paths.size(); ++pi) {
       const Path& path = layer.paths[pi];
+      const std::size_t k = next_path++;
       if (path.points.size() < 2) continue;
       if (path.tool < 0 || path.tool >= p.tool_count) {
         errors.add("tool", fmt::format("{} uses tool {} but the machine '{}' has {} tool{} "
@@ -170,8 +185,25 @@ std::vector<MachineWarning> check_for_machine(const LayerSource& layers, const B
             "path_temperature",
             fmt::format("{} asks for {} °C, above temperature.max_nozzle = {} °C", where(li, pi),
                         num(path.temperature), num(p.max_nozzle_temperature)));
+      auto place = [&](Vec3 q) {
+        return Vec3{q.x + shift.x - toff.x, q.y + shift.y - toff.y, q.z};
+      };
+      // A rectangle: the path's extent placed is its points' placed extent (placing is monotone
+      // in each coordinate), and every point is in when both corners are. A NaN, which the
+      // extent would not show, and a round bed take each point.
+      if (const BBox3 raw = circle    ? BBox3{}
+                            : extents ? (*extents)[k]
+                                      : path_extent(path.points);
+          !circle && !std::isnan(raw.min.x)) {
+        const Vec3 lo = place(raw.min), hi = place(raw.max);
+        placed.add(lo);
+        placed.add(hi);
+        outside = outside || !(lo.z >= -eps && hi.z <= p.bed_z + eps && lo.x >= x0 - eps &&
+                               hi.x <= x1 + eps && lo.y >= y0 - eps && hi.y <= y1 + eps);
+        continue;
+      }
       for (const Vec3& q : path.points) {
-        const Vec3 at{q.x + shift.x - toff.x, q.y + shift.y - toff.y, q.z};
+        const Vec3 at = place(q);
         placed.add(at);
         bool in = at.z >= -eps && at.z <= p.bed_z + eps;
         if (circle)

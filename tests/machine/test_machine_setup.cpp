@@ -1,10 +1,12 @@
 // Machines as they are: each nozzle of a multi-nozzle bath head where its offset puts it, the
 // bath's floor, prime lines where the profiles say they prime, heated pneumatic cartridges.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <random>
 #include <sstream>
 
 #include "trellis/core/error.hpp"
@@ -257,4 +259,76 @@ TEST(HeatedPneumatic, TheCartridgeIsHeatedAndWaitedFor) {
   const Toolpath back = read_with_valves(g, p, d);
   ASSERT_EQ(back.path_count(), 1u);
   EXPECT_EQ(back.layers[0].paths[0].temperature, p.nozzle_temperature);
+}
+
+// The bed check takes a path on a rectangular bed by its extent (the writer hands it each
+// path's extent from its one pass over the points): the verdict and the extent named in the
+// message are those of checking every point placed, one by one. Random prints, a few points
+// pushed just past an edge, signed zeros and NaN among them, both origins, centred or not.
+TEST(BedCheck, ByExtentAsPointByPoint) {
+  std::mt19937 rng(40);
+  std::uniform_real_distribution<double> u(0, 1);
+  const double eps = 1e-6;
+  for (int trial = 0; trial < 300; ++trial) {
+    MachineProfile p = shipped("ender3_s1_pro_tpu.toml");
+    p.origin = trial % 2 ? BedOrigin::Center : BedOrigin::Corner;
+    p.center = trial % 3 == 0;
+    const double x0 = p.origin == BedOrigin::Center ? -p.bed_x / 2 : 0;
+    const double y0 = p.origin == BedOrigin::Center ? -p.bed_y / 2 : 0;
+    Toolpath tp;
+    for (int l = 0; l < 3; ++l) {
+      Layer layer{0.2 * (l + 1), {}};
+      for (int k = 0; k < 4; ++k) {
+        Path path;
+        const int n = 1 + static_cast<int>(u(rng) * 6);
+        for (int i = 0; i < n; ++i)
+          path.points.push_back({x0 + u(rng) * p.bed_x, y0 + u(rng) * p.bed_y, layer.z});
+        layer.paths.push_back(path);
+      }
+      tp.layers.push_back(layer);
+    }
+    auto& q = tp.layers[trial % 3].paths[trial % 4].points[0];
+    if (trial % 5 == 1) q.x = x0 + p.bed_x + (trial % 10 == 1 ? 2 * eps : eps / 2);  // out / in
+    if (trial % 5 == 2) q.y = y0 - 3 * eps;
+    if (trial % 7 == 3) q.x = -0.0;
+    if (trial % 29 == 4) q.z = std::nan("");
+    // The reference: every point placed, one by one.
+    BBox3 all;
+    std::vector<BBox3> extents;
+    for (const auto& layer : tp.layers)
+      for (const auto& path : layer.paths) {
+        for (const auto& v : path.points) all.add(v);
+        extents.push_back(path_extent(path.points));
+      }
+    const Vec2 shift = placement_offset(all, p);
+    BBox3 placed;
+    bool outside = false;
+    for (const auto& layer : tp.layers)
+      for (const auto& path : layer.paths) {
+        if (path.points.size() < 2) continue;
+        for (const auto& v : path.points) {
+          const Vec3 at{v.x + shift.x, v.y + shift.y, v.z};
+          placed.add(at);
+          outside = outside ||
+                    !(at.z >= -eps && at.z <= p.bed_z + eps && at.x >= x0 - eps &&
+                      at.x <= x0 + p.bed_x + eps && at.y >= y0 - eps && at.y <= y0 + p.bed_y + eps);
+        }
+      }
+    for (const std::vector<BBox3>* given : {&extents, static_cast<std::vector<BBox3>*>(nullptr)}) {
+      SCOPED_TRACE("trial " + std::to_string(trial) + (given ? " with extents" : ""));
+      std::string message;
+      try {
+        check_for_machine(layers_of(tp), all, p, given);
+      } catch (const MachineError& e) {
+        message = e.what();
+      }
+      EXPECT_EQ(!message.empty(), outside) << message;
+      if (outside && !std::isnan(placed.min.z))
+        EXPECT_NE(message.find(fmt::format("spans X {:.6g}..{:.6g}, Y {:.6g}..{:.6g}, Z {:.6g}..",
+                                           placed.min.x, placed.max.x, placed.min.y, placed.max.y,
+                                           placed.min.z)),
+                  std::string::npos)
+            << message;
+    }
+  }
 }

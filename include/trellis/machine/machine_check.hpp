@@ -48,9 +48,15 @@ void to_design_coordinates(Toolpath& toolpath, const std::string& gcode_text);
 // machine's limits.
 std::vector<MachineWarning> check_for_machine(const Toolpath& toolpath,
                                               const MachineProfile& profile);
-// The same over streamed layers, whose points span `points_box`.
+// The same over streamed layers, whose points span `points_box`. `path_extents` (optional):
+// each path's extent, paths in layer order, as path_extent() gives it; a path on a rectangular
+// bed is then checked by its extent, not point by point (the same verdict and message).
 std::vector<MachineWarning> check_for_machine(const LayerSource& layers, const BBox3& points_box,
-                                              const MachineProfile& profile);
+                                              const MachineProfile& profile,
+                                              const std::vector<BBox3>* path_extents = nullptr);
+// The extent of a path's points, or a box whose min.x is NaN when a coordinate is NaN (an
+// extent would not show it).
+BBox3 path_extent(const std::vector<Vec3>& points);
 
 // Laser: power and speed per vector and of the profile within the laser's limits, the part
 // within the build area (centred on the plate) and height.
