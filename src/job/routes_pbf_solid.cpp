@@ -145,9 +145,15 @@ nlohmann::ordered_json region_report(const PbfResult& r, const PbfSolidOptions& 
   for (std::size_t k = 0; k < kHatchKinds; ++k) {
     double a = 0, h = 0;
     for (const PbfLayer& L : r.layers) a += L.kind_area[k], h += L.kind_hatch_length[k];
-    const LaserSet s = o.exposures.of(static_cast<HatchKind>(k));
-    j[hatch_kind_name(static_cast<HatchKind>(k))] = {
-        {"area_mm2", a}, {"hatch_mm", h}, {"power_w", s.power}, {"speed_mm_s", s.speed}};
+    const auto kind = static_cast<HatchKind>(k);
+    const LaserSet s = o.exposures.of(kind);
+    const ScanPattern p = o.pattern_of(kind);
+    j[hatch_kind_name(kind)] = {{"area_mm2", a},
+                                {"hatch_mm", h},
+                                {"power_w", s.power},
+                                {"speed_mm_s", s.speed},
+                                {"hatch_distance_mm", p.hatch_distance},
+                                {"hatch_rotation_deg", p.rotation}};
   }
   return j;
 }
