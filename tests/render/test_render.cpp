@@ -167,6 +167,43 @@ TEST(Render, LayerPngColouredByTool) {
   EXPECT_EQ(count(im, band, band + 400, 0xd62728), 0u);  // no feature colour (the contour's)
 }
 
+// By laser parameter set: two hatches of one role told apart by their power and speed (the
+// toolpath's named sets), the contour in no named set its own; each a colour in the drawing and
+// a swatch in the legend, none of the role's colour.
+TEST(Render, LayerPngColouredByParameterSet) {
+  Toolpath tp = two_features();
+  Path& fill = tp.layers[0].paths[1];
+  fill.role = PathRole::Hatch;
+  fill.power = 100, fill.speed = 1000;
+  Path core = fill;
+  core.points = {{2, 18, 0.2}, {38, 2, 0.2}};
+  core.power = 180, core.speed = 1200;
+  tp.layers[0].paths.push_back(core);
+  tp.layers[0].paths[0].power = 60;
+  tp.parameter_sets = {{"hatch", PathRole::Hatch, 100, 1000},
+                       {"core hatch", PathRole::Hatch, 180, 1200}};
+  const trellis::test::TempDir tmp("trellis_render_set");
+  const std::string path = tmp.file("layer.png");
+  RenderOptions o;
+  o.size_px = 800;
+  o.margin_mm = 0;
+  o.colour_by_set = true;
+  o.colour_by_tool = true;  // the set wins
+  o.starts = false;
+  render_layer_png(tp, 0, path, o);
+  const Image im = decode(path);
+  const int band = layer_band_px(800);
+  auto rgb = [](int set) {
+    const Rgb c = tool_rgb(set);
+    return static_cast<unsigned>(c[0] << 16 | c[1] << 8 | c[2]);
+  };
+  for (int k : {0, 1, 2}) {  // hatch, core hatch, then the contour's own
+    EXPECT_GT(count(im, band, band + 400, rgb(k)), 100u) << "set " << k;
+    EXPECT_GT(count(im, band + 400, im.h, rgb(k)), 20u) << "set " << k << "'s swatch";
+  }
+  EXPECT_EQ(count(im, band, band + 400, 0xd62728), 0u);  // no feature colour (the contour's)
+}
+
 // Print order: the legend band carries a colour bar (many distinct colours).
 TEST(Render, LayerPngOrderHasColourBar) {
   const Toolpath tp = two_features();
