@@ -95,6 +95,8 @@ TEXT = {
     "laser.contour_powers": ["70"],
     "laser.contour_speeds": ["700"],
     "pbf.core_hatch_rotation": ["10"],
+    "pbf.upskin_hatch_rotation": ["10"],
+    "pbf.downskin_hatch_rotation": ["10"],
     "pbf.c": ["0.3"],
     "pbf.size": ["3,3,0.4"],
     "pbf.plate_position": ["20,30"],
@@ -483,9 +485,11 @@ USE_WITH = {
                           "--set", "nonplanar.height_fn=0.1*x"], "0,0,10,8"),
     "pbf.plate_position": (["pbf", "--size", "3,3,0.3", "-o", "{d}/p.cli", "--set", "pbf.hatch_phase=origin"],
                            "20,30"),
-    # The core's own rotation acts where a solid part has a core (pbf.skin_thickness > 0).
-    "pbf.core_hatch_rotation": (["pbf", D + "concave_cylinder.obj", "--layer-height", "0.2", "-o",
-                                 "{d}/p.cli", "--set", "pbf.skin_thickness=0.4"], "10"),
+    # A kind's own rotation acts where a solid part has that kind (its thickness > 0).
+    **{f"pbf.{kind}_hatch_rotation": (["pbf", D + "concave_cylinder.obj", "--layer-height", "0.2",
+                                       "-o", "{d}/p.cli", "--set", f"pbf.{thickness}=0.4"], "10")
+       for kind, thickness in (("core", "skin_thickness"), ("upskin", "upskin_thickness"),
+                               ("downskin", "downskin_thickness"))},
 }
 
 

@@ -43,11 +43,13 @@ void add_render(CLI::App& app) {
                   "toolpath JSON, G-code (.gcode/.g/.nc), laser .cli or 3MF toolpath")
       ->required()
       ->check(path_value());
-  auto* colour = cmd->add_option("--colour", o->colour,
-                                 "what colour means: feature, order, mixture (as deposited), "
-                                 "commanded (the mixture as commanded) or tool (laser); default: "
-                                 "tool for a laser file of several lasers, else feature")
-                     ->check(CLI::IsMember({"feature", "order", "mixture", "commanded", "tool"}));
+  auto* colour =
+      cmd->add_option("--colour", o->colour,
+                      "what colour means: feature, order, mixture (as deposited), "
+                      "commanded (the mixture as commanded), tool (laser) or set "
+                      "(laser parameter set: contour k, core, up-/down-skin hatch); "
+                      "default: tool for a laser file of several lasers, else feature")
+          ->check(CLI::IsMember({"feature", "order", "mixture", "commanded", "tool", "set"}));
   cmd->add_option("--machine", o->machine, ".nc files: machine profile (valve commands)")
       ->check(path_value());
   cmd->add_option("-o,--output", o->output, "PNG file (with --layer) or prefix")
@@ -106,6 +108,7 @@ void add_render(CLI::App& app) {
       for (const auto& p : l.paths) laser |= p.power > 0, tools = std::max(tools, p.tool + 1);
     if (colour->count() == 0 && laser && tools > 1) o->colour = "tool";
     o->r.colour_by_tool = o->colour == "tool";
+    o->r.colour_by_set = o->colour == "set";
     o->r.tools_are_lasers = laser;
     o->r.colour_by_role = o->colour == "feature";
     o->r.colour_by_mixture = o->colour == "mixture" || o->colour == "commanded";

@@ -285,6 +285,7 @@ def pbf(
     contour_distance: float = ...,  # pbf.contour_distance: solid parts: between contours, and from the last one to the hatch
     contours: int = ...,  # pbf.contours: solid parts: contour offsets per layer region, the first at the beam compensation (0: hatch only)
     core_hatch: float = ...,  # pbf.core_hatch_distance: solid parts: hatch distance in the core
+    downskin_hatch: float = ...,  # pbf.downskin_hatch_distance: solid parts: hatch distance in down-skin
     downskin_thickness: float = ...,  # pbf.downskin_thickness: solid parts: the part of a layer with no material somewhere in this thickness of layers below it is down-skin (laser.downskin_*)
     envelope: str = ...,  # pbf.envelope: .vcad solid the lattice fills instead of the box
     follow_symlinks: bool = ...,  # run.follow_symlinks: write an output whose path is a symbolic link to the file it points to (the link kept); without it such an output is refused
@@ -326,6 +327,7 @@ def pbf(
     thickness: float = ...,  # pbf.thickness: uniform wall thickness t: c = t·|∇φ|/2 instead of pbf.c
     thin_multiple: float = ...,  # pbf.thin_multiple: thin wall: width <= this × melt pool
     threads: int = ...,  # run.threads: worker threads (0 = all cores)
+    upskin_hatch: float = ...,  # pbf.upskin_hatch_distance: solid parts: hatch distance in up-skin
     upskin_thickness: float = ...,  # pbf.upskin_thickness: solid parts: the part of a layer with no material somewhere in this thickness of layers above it is up-skin (laser.upskin_*)
     wall_azimuth: float = ...,  # pbf.wall_azimuth: the wall's direction from X
     wall_inclination: float = ...,  # pbf.wall_inclination: the wall's angle from horizontal

@@ -38,13 +38,20 @@ nlohmann::ordered_json parameter_sets(const Toolpath& tp, const ScanTiming& timi
     }
   }
   nlohmann::ordered_json out = nlohmann::json::array();
-  for (const auto& [key, s] : sums)
-    out.push_back({{"kind", std::get<0>(key) ? "hatch" : "contour"},
-                   {"power_w", std::get<1>(key)},
-                   {"speed_mm_s", std::get<2>(key)},
-                   {"vectors", s.vectors},
-                   {"length_mm", s.length},
-                   {"scan_time_s", s.seconds}});
+  for (const auto& [key, s] : sums) {
+    // The set's name where the file names it (CLI labels, 3MF profiles).
+    const auto [hatch, power, speed] = key;
+    const int named =
+        parameter_set_of(tp, hatch ? PathRole::Hatch : PathRole::Contour, power, speed);
+    out.push_back(
+        {{"kind", hatch ? "hatch" : "contour"},
+         {"name", named < 0 ? "" : tp.parameter_sets[static_cast<std::size_t>(named)].name},
+         {"power_w", power},
+         {"speed_mm_s", speed},
+         {"vectors", s.vectors},
+         {"length_mm", s.length},
+         {"scan_time_s", s.seconds}});
+  }
   return out;
 }
 

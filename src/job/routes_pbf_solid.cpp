@@ -65,26 +65,6 @@ PbfExposures pbf_exposures(const Config& c) {
   return e;
 }
 
-// The build file's parameter sets beyond the contour and hatch ids: one per distinct set in
-// use ("contour 2", "core hatch", …); a set equal to the profile's contour or hatch, or to an
-// earlier one, shares its id (a machine's parameter set is its power and speed).
-std::vector<CliParameterSet> pbf_cli_sets(const PbfSolidOptions& o) {
-  const PbfExposures& e = o.exposures;
-  std::vector<CliParameterSet> sets;
-  const auto add = [&](const std::string& name, bool hatch, LaserSet s) {
-    if (s == (hatch ? e.hatch : e.contour)) return;
-    for (const auto& have : sets)
-      if (have.hatch == hatch && have.power == s.power && have.speed == s.speed) return;
-    sets.push_back({name, hatch, s.power, s.speed});
-  };
-  for (std::size_t i = 0; i < e.contours.size(); ++i)
-    add(fmt::format("contour {}", i + 1), false, e.of_contour(i));
-  if (o.skin.skin_thickness > 0) add("core hatch", true, e.of(HatchKind::Core));
-  if (o.skin.upskin_thickness > 0) add("upskin hatch", true, e.of(HatchKind::UpSkin));
-  if (o.skin.downskin_thickness > 0) add("downskin hatch", true, e.of(HatchKind::DownSkin));
-  return sets;
-}
-
 PbfSolidOptions pbf_solid_options(const Config& c) {
   const LaserProfile& prof = c.laser;
   PbfSolidOptions o;
@@ -101,8 +81,10 @@ PbfSolidOptions pbf_solid_options(const Config& c) {
   o.machine_origin = pbf_machine_origin(c);
   o.hatch_seed = c.pbf.options.hatch_seed;
   o.skin = c.pbf.skin;
-  o.core_hatch_distance = c.pbf.core_hatch_distance;
-  if (c.pbf.core_rotation.size() == 1) o.core_rotation = c.pbf.core_rotation[0];
+  for (std::size_t k = 0; k < kHatchKinds; ++k) {
+    o.kind_hatch[k].distance = c.pbf.kind_hatch_distance[k];
+    if (c.pbf.kind_rotation[k].size() == 1) o.kind_hatch[k].rotation = c.pbf.kind_rotation[k][0];
+  }
   o.exposures = pbf_exposures(c);
   o.resolution = c.pbf.options.resolution;
   o.timing = scan_timing(prof);
@@ -163,9 +145,15 @@ nlohmann::ordered_json region_report(const PbfResult& r, const PbfSolidOptions& 
   for (std::size_t k = 0; k < kHatchKinds; ++k) {
     double a = 0, h = 0;
     for (const PbfLayer& L : r.layers) a += L.kind_area[k], h += L.kind_hatch_length[k];
-    const LaserSet s = o.exposures.of(static_cast<HatchKind>(k));
-    j[hatch_kind_name(static_cast<HatchKind>(k))] = {
-        {"area_mm2", a}, {"hatch_mm", h}, {"power_w", s.power}, {"speed_mm_s", s.speed}};
+    const auto kind = static_cast<HatchKind>(k);
+    const LaserSet s = o.exposures.of(kind);
+    const ScanPattern p = o.pattern_of(kind);
+    j[hatch_kind_name(kind)] = {{"area_mm2", a},
+                                {"hatch_mm", h},
+                                {"power_w", s.power},
+                                {"speed_mm_s", s.speed},
+                                {"hatch_distance_mm", p.hatch_distance},
+                                {"hatch_rotation_deg", p.rotation}};
   }
   return j;
 }
@@ -190,7 +178,8 @@ JobResult pbf_solid(const Job& job, const Config& c, Diagnostics& diag, const Pr
       if (!(x > 0)) throw SettingError("every contour's power and speed must be > 0", {"", 0, key});
   }
   const PbfSolidOptions o = pbf_solid_options(c);
-  const std::vector<CliParameterSet> sets = pbf_cli_sets(o);
+  const std::vector<ParameterSet> named = named_parameter_sets(o.exposures, o.skin);
+  const std::vector<CliParameterSet> sets = cli_parameter_sets(named);
   TriangleMesh mesh;
   Field field;
   PbfSolid part;
@@ -230,6 +219,7 @@ JobResult pbf_solid(const Job& job, const Config& c, Diagnostics& diag, const Pr
   } else {
     r = plan_pbf_solid(part, o, progress);
     tp.source = "trellis pbf";
+    tp.parameter_sets = named;
     for (std::size_t i = 0; i < r.layers.size(); ++i) tp.layers.push_back(layer_of(i, r.layers[i]));
     out.toolpath = std::make_shared<Toolpath>(tp);
     if (!job.output.empty()) write_laser_build(job.output, tp, job, c, out, sets);

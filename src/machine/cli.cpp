@@ -294,6 +294,7 @@ class Reader {
     const std::size_t end = b_.find("$$HEADEREND", start);
     if (end == std::string::npos) fail(start, "the header has no $$HEADEREND");
     read_header(start, end);
+    name_parameter_sets();
     std::size_t pos = end + 11;
     tp_.source = "cli: " + origin_;
     if (binary_)
@@ -412,6 +413,25 @@ class Reader {
       const double n = whole(at, number("LASER="), "PROFILE_DEF LASER");
       if (n < 1 || n > 1e6) fail(at, "PROFILE_DEF LASER= needs a laser number from 1");
       info.laser = static_cast<int>(n) - 1;
+    }
+  }
+
+  // Each labelled CLI+ id with a power or speed as a named parameter set; ids of one set (the
+  // same role, power and speed) for several lasers share its name without " laser N", for several
+  // parts (a build plate's "g01 contour", "g02 contour") the role names it.
+  void name_parameter_sets() {
+    for (const auto& [id, info] : ids_) {
+      if (info.label.empty() || !(info.power > 0 || info.speed > 0)) continue;
+      const Path p = make_path(id, false);
+      std::string name = info.label;
+      if (const std::size_t k = name.rfind(" laser ");
+          k != std::string::npos && laser_of_label(name) >= 0)
+        name.erase(k);
+      const int have = parameter_set_of(tp_, p);
+      if (have < 0)
+        tp_.parameter_sets.push_back({name, p.role, p.power, p.speed});
+      else if (tp_.parameter_sets[static_cast<std::size_t>(have)].name != name)
+        tp_.parameter_sets[static_cast<std::size_t>(have)].name = to_string(p.role);
     }
   }
 
@@ -595,6 +615,15 @@ class Reader {
 };
 
 }  // namespace
+
+std::vector<CliParameterSet> cli_parameter_sets(const std::vector<ParameterSet>& named,
+                                                std::size_t profile_sets) {
+  std::vector<CliParameterSet> sets;
+  for (std::size_t i = profile_sets; i < named.size(); ++i)
+    sets.push_back(
+        {named[i].name, named[i].role == PathRole::Hatch, named[i].power, named[i].speed});
+  return sets;
+}
 
 std::string write_cli(const Toolpath& tp, const LaserProfile& prof, const CliWriteOptions& o) {
   check_for_laser(tp, prof);  // power, speed and build area before anything is written

@@ -64,6 +64,10 @@ std::string read_profile(Profile& pr, Attrs a) {
     if (!to_long(s, n)) return fmt::format("profile '{}': t:tool=\"{}\"", name, s);
     v.tool = static_cast<int>(n);
   }
+  if (const char* s = a.get("set", kTrellis)) {
+    pr.name = s;
+    pr.set = true;
+  }
   if (const char* s = a.get("role", kTrellis)) {
     try {
       v.role = path_role_from_string(s);
@@ -325,6 +329,9 @@ Toolpath read_toolpath_3mf_file(const std::string& path, Diagnostics* diag) {
   tp.source = r.source.empty() ? path : r.source;
   tp.job = r.job;
   tp.part_labels = r.part_labels;
+  for (const Profile& p : r.profiles)
+    if (p.set && parameter_set_of(tp, p.values.role, p.values.power, p.values.speed) < 0)
+      tp.parameter_sets.push_back({p.name, p.values.role, p.values.power, p.values.speed});
   std::set<long long> lasers;
   for (std::size_t i = 0; i < r.layers.size(); ++i) {
     const LayerRef& l = r.layers[i];

@@ -163,6 +163,7 @@ struct Profile {
   std::string uuid, name;
   Path values;  // role, power, speed, width, height, tool, process values
   bool has_role = false, laser = false;
+  bool set = false;  // t:set: the name is a laser parameter set's (Toolpath::parameter_sets)
   std::optional<long long> laser_index;
   std::map<char, Modifier> modifiers;  // by factor e, f, g, h
 };

@@ -133,10 +133,14 @@ void check_finite(const Path& p, std::size_t layer, std::size_t index) {
 }
 
 // §4.1: standard attributes where the extension has them, ours (namespace t) for the rest.
-std::string profile_xml(const ProfileKey& k, std::size_t index, const LaserProfile* laser) {
-  std::string out =
-      fmt::format("<tp:toolpathprofile uuid=\"{}\" name=\"{} {}\"",
-                  uuid_of(fmt::format("profile {}", index)), to_string(k.role), index + 1);
+// `set`: the laser parameter set's name (Toolpath::parameter_sets), the profile's name then and
+// our t:set (read back as the set); empty: named by its role and number.
+std::string profile_xml(const ProfileKey& k, std::size_t index, const LaserProfile* laser,
+                        const std::string& set) {
+  std::string out = fmt::format(
+      "<tp:toolpathprofile uuid=\"{}\" name=\"{}\"", uuid_of(fmt::format("profile {}", index)),
+      set.empty() ? fmt::format("{} {}", to_string(k.role), index + 1) : esc(set));
+  if (!set.empty()) out += fmt::format(" t:set=\"{}\"", esc(set));
   if (k.laser) {
     out += fmt::format(" laserpower=\"{}\"", num(std::max(0.0, k.power)));
     if (k.speed > 0) out += fmt::format(" laserspeed=\"{}\"", num(k.speed));
@@ -191,6 +195,11 @@ struct Writer {
   std::map<ProfileKey, std::size_t> profiles;
   std::vector<const ProfileKey*> profile_order;
   std::vector<std::string> part_uuids;  // index Path::part
+
+  std::string set_name(const ProfileKey& k) const {
+    const int i = k.laser ? parameter_set_of(tp, k.role, k.power, k.speed) : -1;
+    return i < 0 ? "" : tp.parameter_sets[static_cast<std::size_t>(i)].name;
+  }
 
   void collect() {
     long long last_top = 0;
@@ -361,7 +370,7 @@ struct Writer {
     }
     out += "<tp:toolpathprofiles>\n";
     for (std::size_t k = 0; k < profile_order.size(); ++k)
-      out += profile_xml(*profile_order[k], k, o.laser);
+      out += profile_xml(*profile_order[k], k, o.laser, set_name(*profile_order[k]));
     out += "</tp:toolpathprofiles>\n<tp:toolpathlayers>\n";
     for (std::size_t i = 0; i < tp.layers.size(); ++i) {
       // §4.3: ztop only for planar toolpaths; the nominal height of 3-axis layers is ours.

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <memory>
 #include <tuple>
 
@@ -92,6 +93,32 @@ double text_width(cairo_t* cr, double size, const std::string& s) {
   return e.x_advance;
 }
 
+// The laser parameter sets a layer's paths are coloured by (colour_by_set): the toolpath's
+// named sets, then one for each further role, power and speed in the layer, named by them;
+// of[i] is path i's set.
+struct LayerSets {
+  std::vector<ParameterSet> sets;
+  std::vector<int> of;
+};
+
+LayerSets layer_sets(const Toolpath& tp, const Layer& layer) {
+  Toolpath named;
+  named.parameter_sets = tp.parameter_sets;
+  LayerSets r;
+  for (const Path& p : layer.paths) {
+    int i = parameter_set_of(named, p);
+    if (i < 0) {
+      char name[96];
+      std::snprintf(name, sizeof name, "%s %g W %g mm/s", to_string(p.role), p.power, p.speed);
+      named.parameter_sets.push_back({name, p.role, p.power, p.speed});
+      i = static_cast<int>(named.parameter_sets.size()) - 1;
+    }
+    r.of.push_back(i);
+  }
+  r.sets = std::move(named.parameter_sets);
+  return r;
+}
+
 struct LegendItem {
   std::string label;
   double r, g, b;
@@ -174,10 +201,13 @@ void render_layer_png(const Toolpath& tp, std::size_t index, const std::string& 
   cairo_set_source_rgb(cr.get(), 1, 1, 1);
   cairo_paint(cr.get());
   const std::size_t n = layer.paths.size();
-  enum class Mode { Order, Role, Mixture2, Mixture3, Tool } mode = Mode::Order;
+  enum class Mode { Order, Role, Mixture2, Mixture3, Tool, Set } mode = Mode::Order;
   bool mixed2 = false, mixed3 = false;
   for (const auto& p : layer.paths) (p.mixture.size() >= 3 ? mixed3 : mixed2) |= !p.mixture.empty();
-  if (opt.colour_by_tool)
+  const LayerSets sets = opt.colour_by_set ? layer_sets(tp, layer) : LayerSets{};
+  if (opt.colour_by_set)
+    mode = Mode::Set;
+  else if (opt.colour_by_tool)
     mode = Mode::Tool;
   else if (opt.colour_by_mixture && mixed3)
     mode = Mode::Mixture3;
@@ -212,7 +242,9 @@ void render_layer_png(const Toolpath& tp, std::size_t index, const std::string& 
     const double bead = opt.bead_width > 0 ? opt.bead_width : (p.width > 0 ? p.width : 0.2);
     bead_min = std::min(bead_min, bead);
     cairo_set_line_width(cr.get(), std::max(bead, 1.5 / scale));
-    if (mode == Mode::Tool) {
+    if (mode == Mode::Set) {
+      tool_colour(cr.get(), sets.of[i]);
+    } else if (mode == Mode::Tool) {
       tool_colour(cr.get(), p.tool);
     } else if (mode == Mode::Mixture3 && p.mixture.size() >= 3) {
       // Three materials: the blend of their colours at the corners of the mixture triangle.
@@ -256,6 +288,7 @@ void render_layer_png(const Toolpath& tp, std::size_t index, const std::string& 
   char line[256];
   const std::string meaning = mode == Mode::Order  ? "colour: print order"
                               : mode == Mode::Role ? "colour: feature type"
+                              : mode == Mode::Set  ? "colour: laser parameter set"
                               : mode == Mode::Tool
                                   ? (opt.tools_are_lasers ? "colour: laser" : "colour: tool")
                                   : "colour: mixture " + opt.mixture_label;
@@ -282,6 +315,11 @@ void render_layer_png(const Toolpath& tp, std::size_t index, const std::string& 
     for (const auto& p : layer.paths) used[static_cast<std::size_t>(p.role)] = true;
     for (std::size_t r = 0; r < kPathRoleCount; ++r)
       if (used[r]) swatch(role_rgb(static_cast<PathRole>(r)), to_string(static_cast<PathRole>(r)));
+  } else if (mode == Mode::Set) {
+    std::vector<int> used = sets.of;
+    std::sort(used.begin(), used.end());
+    used.erase(std::unique(used.begin(), used.end()), used.end());
+    for (int k : used) swatch(tool_rgb(k), sets.sets[static_cast<std::size_t>(k)].name);
   } else if (mode == Mode::Tool) {
     std::vector<int> tools;
     for (const auto& p : layer.paths) tools.push_back(p.tool);

@@ -335,6 +335,10 @@ const std::vector<std::pair<const char*, const char*>>& when_table() {
       {"pbf.downskin_thickness", "@mesh or pbf.strategy=rectilinear|meander|stripe|island"},
       {"pbf.core_hatch_distance", "pbf.skin_thickness>0"},
       {"pbf.core_hatch_rotation", "pbf.skin_thickness>0"},
+      {"pbf.upskin_hatch_distance", "pbf.upskin_thickness>0"},
+      {"pbf.upskin_hatch_rotation", "pbf.upskin_thickness>0"},
+      {"pbf.downskin_hatch_distance", "pbf.downskin_thickness>0"},
+      {"pbf.downskin_hatch_rotation", "pbf.downskin_thickness>0"},
       {"laser.contour_powers", "@mesh or pbf.strategy=rectilinear|meander|stripe|island"},
       {"laser.contour_speeds", "@mesh or pbf.strategy=rectilinear|meander|stripe|island"},
       {"laser.core_power", "pbf.skin_thickness>0"},
@@ -986,14 +990,22 @@ std::vector<Setting> make_table() {
                                "downskin-thickness",
                                [](C& c) -> auto& { return c.pbf.skin.downskin_thickness; }),
                       "none: no down-skin"));
-  t.push_back(derived(positive("pbf.core_hatch_distance", "mm", 5,
-                               "solid parts: hatch distance in the core", "core-hatch",
-                               [](C& c) -> auto& { return c.pbf.core_hatch_distance; }),
-                      "scan.hatch_distance"));
-  t.push_back(derived(numbers("pbf.core_hatch_rotation", "deg", -360, 360, 1,
-                              "solid parts: the core's hatch rotation per layer", "",
-                              [](C& c) -> auto& { return c.pbf.core_rotation; }),
-                      "pbf.hatch_rotation"));
+  // Each kind's own hatch (core, up-skin, down-skin): pbf.<kind>_hatch_distance, _rotation.
+  for (const HatchKind kind : {HatchKind::Core, HatchKind::UpSkin, HatchKind::DownSkin}) {
+    const std::string name = hatch_kind_name(kind);
+    const std::string what = kind == HatchKind::Core     ? "the core"
+                             : kind == HatchKind::UpSkin ? "up-skin"
+                                                         : "down-skin";
+    const auto k = static_cast<std::size_t>(kind);
+    t.push_back(derived(positive("pbf." + name + "_hatch_distance", "mm", 5,
+                                 "solid parts: hatch distance in " + what, name + "-hatch",
+                                 [k](C& c) -> auto& { return c.pbf.kind_hatch_distance[k]; }),
+                        "scan.hatch_distance"));
+    t.push_back(derived(numbers("pbf." + name + "_hatch_rotation", "deg", -360, 360, 1,
+                                "solid parts: hatch rotation per layer in " + what, "",
+                                [k](C& c) -> auto& { return c.pbf.kind_rotation[k]; }),
+                        "pbf.hatch_rotation"));
+  }
   t.push_back(positive("pbf.stripe_width", "mm", 1000, "stripe: width across the hatch lines",
                        "stripe-width", [](C& c) -> auto& { return c.pbf.pattern.stripe_width; }));
   t.push_back(number("pbf.stripe_overlap", "mm", 0, 100, "stripe: neighbouring stripes overlap",

@@ -36,10 +36,15 @@ void check(const PbfSolidOptions& o) {
                                    "one speed per contour, outermost first",
                                    o.exposures.contours.size(), o.contours),
                        {"", 0, "laser.contour_powers"});
-  for (double t : {o.skin.skin_thickness, o.skin.upskin_thickness, o.skin.downskin_thickness,
-                   o.core_hatch_distance})
+  for (double t : {o.skin.skin_thickness, o.skin.upskin_thickness, o.skin.downskin_thickness})
     if (!(t >= 0))
       throw SettingError("skin thicknesses must be >= 0", {"", 0, "pbf.skin_thickness"});
+  for (std::size_t k = 0; k < kHatchKinds; ++k)
+    if (!(o.kind_hatch[k].distance >= 0))
+      throw SettingError(
+          "hatch distances must be >= 0",
+          {"", 0,
+           fmt::format("pbf.{}_hatch_distance", hatch_kind_name(static_cast<HatchKind>(k)))});
   if (o.pattern.strategy == ScanStrategy::Island &&
       !(o.pattern.island_overlap < o.pattern.island_size))
     throw SettingError("the island overlap must be smaller than the island size",
@@ -58,11 +63,17 @@ BBox3 PbfSolid::extent() const {
   return {};
 }
 
-ScanPattern PbfSolidOptions::core_pattern() const {
+ScanPattern PbfSolidOptions::pattern_of(HatchKind kind) const {
+  const KindHatch& h = kind_hatch[static_cast<std::size_t>(kind)];
   ScanPattern p = pattern;
-  if (core_hatch_distance > 0) p.hatch_distance = core_hatch_distance;
-  if (std::isfinite(core_rotation)) p.rotation = core_rotation;
+  if (h.distance > 0) p.hatch_distance = h.distance;
+  if (std::isfinite(h.rotation)) p.rotation = h.rotation;
   return p;
+}
+
+bool PbfSolidOptions::own_lines(HatchKind kind) const {
+  const ScanPattern p = pattern_of(kind);
+  return p.hatch_distance != pattern.hatch_distance || p.rotation != pattern.rotation;
 }
 
 Vec2 hatch_phase_point(const PbfSolidOptions& o, const ScanPattern& p, std::size_t index) {
@@ -117,18 +128,18 @@ PbfLayer plan_pbf_layer(const Regions& region, const LayerKinds* kinds, std::siz
       const Regions& part = (*kinds)[k];
       L.kind_area[k] = area(part);
       if (part.empty()) continue;
-      const bool core = k == static_cast<std::size_t>(HatchKind::Core);
-      const ScanPattern p = core ? o.core_pattern() : o.pattern;
-      const Vec2 at = core ? hatch_phase_point(o, p, index) : origin;
+      const bool own_lines = o.own_lines(static_cast<HatchKind>(k));
+      const ScanPattern p = own_lines ? o.pattern_of(static_cast<HatchKind>(k)) : o.pattern;
+      const Vec2 at = own_lines ? hatch_phase_point(o, p, index) : origin;
       std::vector<Segment2> own;
-      if (core) {
+      if (own_lines) {
         own = scan_hatches(region, inset, p, index, at);
       } else if (!made) {
         whole = scan_hatches(region, inset, p, index, at);
         made = true;
       }
-      for (const Segment2& s :
-           clip_hatches(core ? own : whole, part, scan_angle(p, index), p.hatch_distance, at)) {
+      for (const Segment2& s : clip_hatches(own_lines ? own : whole, part, scan_angle(p, index),
+                                            p.hatch_distance, at)) {
         L.hatches.push_back(s);
         L.hatch_kind.push_back(static_cast<std::uint8_t>(k));
       }

@@ -138,6 +138,25 @@ LaserSet PbfExposures::of(HatchKind kind) const {
   return {s->power > 0 ? s->power : hatch.power, s->speed > 0 ? s->speed : hatch.speed};
 }
 
+std::vector<ParameterSet> named_parameter_sets(const PbfExposures& e, const SkinOptions& skin) {
+  std::vector<ParameterSet> sets{{"contour", PathRole::Contour, e.contour.power, e.contour.speed},
+                                 {"hatch", PathRole::Hatch, e.hatch.power, e.hatch.speed}};
+  const auto add = [&](std::string name, PathRole role, LaserSet s) {
+    Toolpath named;  // parameter_set_of looks sets up in a toolpath
+    named.parameter_sets = std::move(sets);
+    if (parameter_set_of(named, role, s.power, s.speed) < 0)
+      named.parameter_sets.push_back({std::move(name), role, s.power, s.speed});
+    sets = std::move(named.parameter_sets);
+  };
+  for (std::size_t i = 0; i < e.contours.size(); ++i)
+    add("contour " + std::to_string(i + 1), PathRole::Contour, e.of_contour(i));
+  if (skin.skin_thickness > 0) add("core hatch", PathRole::Hatch, e.of(HatchKind::Core));
+  if (skin.upskin_thickness > 0) add("upskin hatch", PathRole::Hatch, e.of(HatchKind::UpSkin));
+  if (skin.downskin_thickness > 0)
+    add("downskin hatch", PathRole::Hatch, e.of(HatchKind::DownSkin));
+  return sets;
+}
+
 std::vector<Segment2> clip_hatches(const std::vector<Segment2>& segments, const Regions& region,
                                    double angle_deg, double spacing, Vec2 origin) {
   std::vector<Segment2> out;

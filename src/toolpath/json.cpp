@@ -45,6 +45,13 @@ std::string toolpath_to_json(const Toolpath& tp) {
               {"source", tp.source},
               {"generator", std::string("Trellis ") + TRELLIS_VERSION}};
   if (!tp.job.empty()) doc["job"] = tp.job;
+  if (!tp.parameter_sets.empty()) {
+    json sets = json::array();
+    for (const ParameterSet& s : tp.parameter_sets)
+      sets.push_back(
+          {{"name", s.name}, {"role", to_string(s.role)}, {"power", s.power}, {"speed", s.speed}});
+    doc["parameter_sets"] = std::move(sets);
+  }
   doc["layers"] = std::move(layers);
   return doc.dump(1) + "\n";
 }
@@ -137,6 +144,32 @@ Path parse_path(const json& jp, const std::string& origin, const std::string& el
   return p;
 }
 
+std::vector<ParameterSet> parse_parameter_sets(const json& js, const std::string& origin) {
+  if (!js.is_array())
+    throw ParseError("parameter_sets must be an array", {origin, 0, "parameter_sets"});
+  std::vector<ParameterSet> sets;
+  for (std::size_t i = 0; i < js.size(); ++i) {
+    const std::string el = "parameter_sets[" + std::to_string(i) + "]";
+    const json& j = js[i];
+    const auto name = j.is_object() ? j.find("name") : j.end();
+    const auto role = j.is_object() ? j.find("role") : j.end();
+    if (name == j.end() || !name->is_string() || role == j.end() || !role->is_string())
+      throw ParseError("a parameter set needs a \"name\" and a \"role\" (strings)",
+                       {origin, 0, el});
+    ParameterSet s;
+    s.name = *name;
+    try {
+      s.role = path_role_from_string(*role);
+    } catch (const ParseError& e) {
+      throw ParseError(e.message(), {origin, 0, el + ".role"});
+    }
+    s.power = optional_number(j, "power", origin, el);
+    s.speed = optional_number(j, "speed", origin, el);
+    sets.push_back(std::move(s));
+  }
+  return sets;
+}
+
 }  // namespace
 
 static Toolpath toolpath_from_document(const json& doc, const std::string& origin) {
@@ -153,6 +186,8 @@ static Toolpath toolpath_from_document(const json& doc, const std::string& origi
                      {origin, 0, "units"});
   Toolpath tp;
   if (auto it = doc.find("source"); it != doc.end() && it->is_string()) tp.source = *it;
+  if (auto it = doc.find("parameter_sets"); it != doc.end())
+    tp.parameter_sets = parse_parameter_sets(*it, origin);
   auto layers = doc.find("layers");
   if (layers == doc.end() || !layers->is_array())
     throw ParseError("missing 'layers' array", {origin});

@@ -44,6 +44,14 @@ double Toolpath::extrusion_length() const {
   return len;
 }
 
+int parameter_set_of(const Toolpath& toolpath, PathRole role, double power, double speed) {
+  const auto& sets = toolpath.parameter_sets;
+  for (std::size_t i = 0; i < sets.size(); ++i)
+    if (sets[i].role == role && sets[i].power == power && sets[i].speed == speed)
+      return static_cast<int>(i);
+  return -1;
+}
+
 BBox3 points_box(const Toolpath& toolpath) {
   BBox3 box;
   for (const auto& l : toolpath.layers)

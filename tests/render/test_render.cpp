@@ -100,6 +100,26 @@ Toolpath two_features() {
   return tp;
 }
 
+// Layer 0 of `tp` drawn 800 px wide with `o` (no margin): each categorical colour k in `ks`
+// (render/palette.hpp tool_rgb) drawn in the 400 px of the layer and as a legend swatch, and no
+// contour red in the drawing.
+void expect_categories(const Toolpath& tp, RenderOptions o, std::initializer_list<int> ks) {
+  const trellis::test::TempDir tmp("trellis_render_categories");
+  const std::string path = tmp.file("layer.png");
+  o.size_px = 800;
+  o.margin_mm = 0;
+  render_layer_png(tp, 0, path, o);
+  const Image im = decode(path);
+  const int band = layer_band_px(800);
+  for (int k : ks) {
+    const Rgb c = tool_rgb(k);
+    const auto rgb = static_cast<unsigned>(c[0] << 16 | c[1] << 8 | c[2]);
+    EXPECT_GT(count(im, band, band + 400, rgb), 100u) << "colour " << k;
+    EXPECT_GT(count(im, band + 400, im.h, rgb), 20u) << "colour " << k << "'s swatch";
+  }
+  EXPECT_EQ(count(im, band, band + 400, 0xd62728), 0u);  // no feature colour (the contour's)
+}
+
 }  // namespace
 
 // Every layer PNG explains itself: a title band with dark text, a legend band with a swatch of
@@ -144,27 +164,34 @@ TEST(Render, LayerPngColouredByTool) {
   Toolpath tp = two_features();
   tp.layers[0].paths[0].tool = 0;  // the contour on laser 1, the hatch on laser 2
   tp.layers[0].paths[1].tool = 1;
-  const trellis::test::TempDir tmp("trellis_render_tool");
-  const std::string path = tmp.file("layer.png");
+  ASSERT_NE(tool_rgb(0), tool_rgb(1));
   RenderOptions o;
-  o.size_px = 800;
-  o.margin_mm = 0;
   o.colour_by_role = true;
   o.colour_by_tool = true;
   o.tools_are_lasers = true;
-  render_layer_png(tp, 0, path, o);
-  const Image im = decode(path);
-  const int band = layer_band_px(800);
-  auto rgb = [](int tool) {
-    const Rgb c = tool_rgb(tool);
-    return static_cast<unsigned>(c[0] << 16 | c[1] << 8 | c[2]);
-  };
-  ASSERT_NE(rgb(0), rgb(1));
-  for (int t : {0, 1}) {
-    EXPECT_GT(count(im, band, band + 400, rgb(t)), 100u) << "tool " << t;
-    EXPECT_GT(count(im, band + 400, im.h, rgb(t)), 20u) << "tool " << t << "'s swatch";
-  }
-  EXPECT_EQ(count(im, band, band + 400, 0xd62728), 0u);  // no feature colour (the contour's)
+  expect_categories(tp, o, {0, 1});
+}
+
+// By laser parameter set: two hatches of one role told apart by their power and speed (the
+// toolpath's named sets), the contour in no named set its own; each a colour in the drawing and
+// a swatch in the legend, none of the role's colour.
+TEST(Render, LayerPngColouredByParameterSet) {
+  Toolpath tp = two_features();
+  Path& fill = tp.layers[0].paths[1];
+  fill.role = PathRole::Hatch;
+  fill.power = 100, fill.speed = 1000;
+  Path core = fill;
+  core.points = {{2, 18, 0.2}, {38, 2, 0.2}};
+  core.power = 180, core.speed = 1200;
+  tp.layers[0].paths.push_back(core);
+  tp.layers[0].paths[0].power = 60;
+  tp.parameter_sets = {{"hatch", PathRole::Hatch, 100, 1000},
+                       {"core hatch", PathRole::Hatch, 180, 1200}};
+  RenderOptions o;
+  o.colour_by_set = true;
+  o.colour_by_tool = true;  // the set wins
+  o.starts = false;
+  expect_categories(tp, o, {0, 1, 2});  // hatch, core hatch, then the contour's own
 }
 
 // Print order: the legend band carries a colour bar (many distinct colours).

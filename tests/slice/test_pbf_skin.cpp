@@ -11,6 +11,8 @@
 //     the skin thickness above and below it; every skin point is not;
 //   - the four kinds' areas add up to the layer's region and do not overlap;
 //   - each contour offset reads back with its own power and speed (CLI ids, 3MF profiles);
+//   - every vector reads back in its parameter set by name (CLI labels, JSON, 3MF profile names);
+//   - each kind's hatch lies on its own lines: its hatch distance apart, at its rotation;
 //   - with the origin hatch phase every hatch vector lies on a line of the machine's grid.
 #include <gtest/gtest.h>
 
@@ -29,6 +31,7 @@
 #include "trellis/slice/pbf_mesh.hpp"
 #include "trellis/slice/pbf_skin.hpp"
 #include "trellis/slice/slice.hpp"
+#include "trellis/toolpath/json.hpp"
 
 using namespace trellis;
 
@@ -95,8 +98,9 @@ PbfSolidOptions beam_options(const Sets& s) {
   o.pattern.strategy = ScanStrategy::Meander;
   o.pattern.hatch_distance = 0.07;
   o.skin = {0.4, 0.2, 0.3};  // skin, up-skin, down-skin (mm): 4, 2 and 3 layers
-  o.core_hatch_distance = 0.11;
-  o.core_rotation = 90;
+  o.kind_hatch[static_cast<std::size_t>(HatchKind::Core)] = {0.11, 90};
+  o.kind_hatch[static_cast<std::size_t>(HatchKind::UpSkin)] = {0.05, 30};
+  o.kind_hatch[static_cast<std::size_t>(HatchKind::DownSkin)] = {0.09, 45};
   o.exposures.contour = s.contour;
   o.exposures.hatch = s.hatch;
   o.exposures.contours = s.contours;
@@ -123,12 +127,19 @@ Toolpath written(const Beam& beam, const PbfSolidOptions& o, const Sets& s, cons
   part.mesh = &mesh;
   LaserProfile prof;
   prof.layer = o.layer;
-  const std::string path = dir.file(as == "3mf" ? "beam.3mf" : "beam.cli");
-  if (as == "3mf") {
+  const std::string path = dir.file(as == "3mf"    ? "beam.3mf"
+                                    : as == "json" ? "beam.json"
+                                                   : "beam.cli");
+  if (as == "3mf" || as == "json") {
     Toolpath tp;
+    tp.parameter_sets = named_parameter_sets(o.exposures, o.skin);
     plan_pbf_solid(part, o, {}, [&](std::size_t i, const PbfLayer& L) {
       tp.layers.push_back(pbf_solid_layer_toolpath(L, i, o.layer, o.exposures));
     });
+    if (as == "json") {
+      write_toolpath(path, tp);
+      return read_toolpath(path);
+    }
     Toolpath3mfOptions to;
     to.laser = &prof;
     write_toolpath_3mf_file(path, tp, to);
@@ -313,6 +324,34 @@ TEST(PbfSkin, ContourOffsetsRoundTripWithTheirParameterSets) {
   for (const Path& p : back.layers[0].paths) EXPECT_EQ(p.role, PathRole::Contour);
 }
 
+TEST(PbfSkin, EveryVectorReadsBackInItsNamedParameterSet) {
+  const Beam beam;
+  const Sets s;
+  const PbfSolidOptions o = beam_options(s);
+  // What each set is called, by power and speed (all distinct in Sets).
+  const std::vector<std::pair<LaserSet, std::string>> names{
+      {s.contours[0], "contour 1"}, {s.contours[1], "contour 2"}, {s.contours[2], "contour 3"},
+      {s.hatch, "hatch"},           {s.core, "core hatch"},       {s.up, "upskin hatch"},
+      {s.down, "downskin hatch"}};
+  for (const char* as : {"ascii", "binary", "json", "3mf"}) {
+    const Toolpath tp = written(beam, o, s, as);
+    std::map<std::string, std::size_t> seen;
+    for (const Layer& l : tp.layers)
+      for (const Path& p : l.paths) {
+        const int k = parameter_set_of(tp, p);
+        ASSERT_GE(k, 0) << as << ": a path of " << p.power << " W in no set";
+        const ParameterSet& set = tp.parameter_sets[static_cast<std::size_t>(k)];
+        const auto want =
+            std::find_if(names.begin(), names.end(), [&](const auto& n) { return is(p, n.first); });
+        ASSERT_NE(want, names.end()) << as;
+        EXPECT_EQ(set.name, want->second) << as;
+        EXPECT_EQ(set.role == PathRole::Hatch, want->second.find("hatch") != std::string::npos);
+        ++seen[set.name];
+      }
+    for (const auto& [set, name] : names) EXPECT_GT(seen[name], 0u) << as << " " << name;
+  }
+}
+
 TEST(PbfSkin, OriginPhasePutsHatchLinesOnTheMachineGrid) {
   const Beam beam;
   const TriangleMesh mesh = beam.mesh();
@@ -353,6 +392,43 @@ TEST(PbfSkin, OriginPhasePutsHatchLinesOnTheMachineGrid) {
     }
     EXPECT_GT(judged, 500u);
   }
+}
+
+TEST(PbfSkin, EachKindHatchesOnItsOwnDistanceAndRotation) {
+  const Beam beam;
+  const Sets s;
+  const PbfSolidOptions o = beam_options(s);
+  const Toolpath tp = written(beam, o, s, "ascii");
+  const std::array<std::pair<HatchKind, LaserSet>, kHatchKinds> kinds{
+      {{HatchKind::Skin, s.hatch},
+       {HatchKind::Core, s.core},
+       {HatchKind::UpSkin, s.up},
+       {HatchKind::DownSkin, s.down}}};
+  std::map<HatchKind, std::size_t> judged;
+  for (std::size_t i = 0; i < tp.layers.size(); ++i) {
+    for (const Path& p : tp.layers[i].paths) {
+      if (p.role == PathRole::Contour) continue;
+      const auto kind =
+          std::find_if(kinds.begin(), kinds.end(), [&](const auto& k) { return is(p, k.second); });
+      ASSERT_NE(kind, kinds.end()) << "a hatch with power " << p.power;
+      const ScanPattern pattern = o.pattern_of(kind->first);
+      const Vec2 u{p.points[1].x - p.points[0].x, p.points[1].y - p.points[0].y};
+      const double len = std::sqrt(u.x * u.x + u.y * u.y);
+      if (len < 0.05) continue;  // too short to tell its direction at the file's 10 nm
+      const double a = scan_angle(pattern, i) * kPi / 180;
+      EXPECT_GT(std::abs(std::cos(a) * u.x + std::sin(a) * u.y) / len, 1 - 1e-5)
+          << hatch_kind_name(kind->first) << " layer " << i;
+      // The wall phase: lines through the design's origin, a whole number of distances across.
+      const Vec2 n{-std::sin(a), std::cos(a)};
+      const double t = (p.points[0].x * n.x + p.points[0].y * n.y) / pattern.hatch_distance;
+      EXPECT_NEAR(t, std::round(t), 2e-3) << hatch_kind_name(kind->first) << " layer " << i;
+      ++judged[kind->first];
+    }
+  }
+  for (const auto& [kind, set] : kinds) EXPECT_GT(judged[kind], 20u) << hatch_kind_name(kind);
+  // The four patterns differ: a kind on another's lines would fail above.
+  EXPECT_NE(o.pattern_of(HatchKind::UpSkin).hatch_distance, o.pattern.hatch_distance);
+  EXPECT_NE(o.pattern_of(HatchKind::DownSkin).rotation, o.pattern.rotation);
 }
 
 TEST(PbfSkin, RandomPhaseMovesEachLayerAndRepeats) {

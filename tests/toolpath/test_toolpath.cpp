@@ -65,3 +65,29 @@ TEST(ToolpathJson, BadInputNamesTheElement) {
     EXPECT_EQ(e.where().line, 4) << e.what();
   }
 }
+
+TEST(ToolpathJson, ParameterSetsRoundTripAndNameTheirPaths) {
+  Toolpath a = sample();
+  a.layers[0].paths[0].power = 60;
+  a.layers[0].paths[0].speed = 800;
+  a.parameter_sets = {{"contour 2", PathRole::Contour, 60, 800},
+                      {"downskin hatch", PathRole::Hatch, 60, 800}};
+  const Toolpath b = toolpath_from_json(toolpath_to_json(a), "mem");
+  EXPECT_EQ(b.parameter_sets, a.parameter_sets);
+  // A set is its role, power and speed: the contour's, not the hatch's of the same values.
+  EXPECT_EQ(parameter_set_of(b, b.layers[0].paths[0]), 0);
+  EXPECT_EQ(parameter_set_of(b, b.layers[0].paths[1]), -1);
+  EXPECT_EQ(toolpath_from_json(toolpath_to_json(sample()), "mem").parameter_sets.size(), 0u);
+  for (const char* bad : {R"("parameter_sets": {})", R"("parameter_sets": [{"name": "a"}])",
+                          R"("parameter_sets": [{"name": "a", "role": "laser"}])",
+                          R"("parameter_sets": [{"name": "a", "role": "hatch", "power": "x"}])"}) {
+    try {
+      toolpath_from_json(
+          std::string(R"({"format":"trellis.toolpath","version":1,)") + bad + R"(,"layers":[]})",
+          "x.json");
+      ADD_FAILURE() << bad;
+    } catch (const ParseError& e) {
+      EXPECT_NE(std::string(e.what()).find("parameter_sets"), std::string::npos) << e.what();
+    }
+  }
+}

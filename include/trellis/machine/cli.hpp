@@ -29,6 +29,11 @@ struct CliParameterSet {
   double power = 0, speed = 0;  // W, mm/s: the paths written under it have exactly these
 };
 
+// The build file's sets for named parameter sets (Toolpath::parameter_sets) but the first
+// `profile_sets`, the profile's contour and hatch (ids 1 and 2).
+std::vector<CliParameterSet> cli_parameter_sets(const std::vector<ParameterSet>& named,
+                                                std::size_t profile_sets = 2);
+
 struct CliWriteOptions {
   bool binary = false;  // binary geometry section instead of ASCII
   bool plus = true;     // CLI+ parameter blocks (power and speed per id) in the header

@@ -29,6 +29,9 @@ struct RenderOptions {
   // else "tool N" from 0.
   bool colour_by_tool = false;
   bool tools_are_lasers = false;
+  // Paths by laser parameter set (before all the others): the toolpath's named sets
+  // (Toolpath::parameter_sets), then each further role, power and speed, a swatch per set.
+  bool colour_by_set = false;
   // What the mixture shown is, in the title after "colour: mixture" (a G-code file read back shows
   // it as deposited, its mixing look-ahead undone; view/view.hpp).
   std::string mixture_label = "(as planned)";

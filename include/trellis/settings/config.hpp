@@ -2,6 +2,7 @@
 // functions take, plus the few route choices that are not a params field. `Settings::config()`
 // fills it from the schema (settings.hpp); a default-constructed Config holds every default.
 #pragma once
+#include <array>
 #include <string>
 #include <vector>
 
@@ -71,13 +72,15 @@ struct PbfConfig {
   // hybrid | r67 (TPMS sheets; a mesh part is scanned as meander) | rectilinear | meander |
   // stripe | island (solid parts: a mesh, or a .vcad scanned as a solid)
   std::string strategy = "hybrid";
-  int contours = 1;                   // solid parts: contour offsets per region
-  double contour_distance = 0;        // mm between contours (0 = the hatch distance)
-  SkinOptions skin;                   // solid parts: skin/core, up-skin, down-skin thicknesses (mm)
-  double core_hatch_distance = 0;     // mm, 0 = the hatch distance
-  std::vector<double> core_rotation;  // deg per layer (one number); empty = pbf.hatch_rotation
-  ScanPattern pattern;                // stripe and island sizes (hatch from the laser profile)
-  PbfOptions options;  // resolution, thin_multiple, min_inclination (scan from laser)
+  int contours = 1;             // solid parts: contour offsets per region
+  double contour_distance = 0;  // mm between contours (0 = the hatch distance)
+  SkinOptions skin;             // solid parts: skin/core, up-skin, down-skin thicknesses (mm)
+  // Per HatchKind (core, up-skin, down-skin; skin's are the pattern's): hatch distance (mm, 0 =
+  // the hatch distance) and rotation per layer (deg, one number; empty = pbf.hatch_rotation).
+  std::array<double, kHatchKinds> kind_hatch_distance{};
+  std::array<std::vector<double>, kHatchKinds> kind_rotation;
+  ScanPattern pattern;  // stripe and island sizes (hatch from the laser profile)
+  PbfOptions options;   // resolution, thin_multiple, min_inclination (scan from laser)
 };
 
 // surface.*: the non-planar paper's generated test surfaces.

@@ -9,6 +9,7 @@
 // vectors go into the same PbfLayer the TPMS route (slice/pbf.hpp) makes, so its writers, report
 // and scan-time model serve both.
 #pragma once
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -39,19 +40,26 @@ struct PbfSolidOptions {
   HatchPhase hatch_phase = HatchPhase::Wall;
   Vec2 machine_origin{};
   std::uint64_t hatch_seed = 1;
-  // Skin, core, up-skin and down-skin (all 0: one kind, skin). The core's own hatch: distance
-  // (0: the pattern's) and rotation per layer (NaN: the pattern's).
+  // Skin, core, up-skin and down-skin (all 0: one kind, skin). Each kind's own hatch (index:
+  // HatchKind; skin's is the pattern): distance (0: the pattern's) and rotation per layer (NaN:
+  // the pattern's). A kind with its own lines is hatched on them; the others are cut from the
+  // pattern's hatch of the whole region, so their vectors meet end to end.
+  struct KindHatch {
+    double distance = 0;
+    double rotation = std::numeric_limits<double>::quiet_NaN();
+  };
   SkinOptions skin;
-  double core_hatch_distance = 0;
-  double core_rotation = std::numeric_limits<double>::quiet_NaN();
+  std::array<KindHatch, kHatchKinds> kind_hatch{};
   // Laser parameter sets: the speeds time each vector (a speed of 0: the timing's), the powers
   // go into the build file through pbf_solid_layer_toolpath.
   PbfExposures exposures;
   double resolution = kPbfResolution;  // mm, XY grid of a field's sections (.vcad solids)
   std::size_t batch = 32;              // layers sliced and planned together
   ScanTiming timing;                   // scan-time model of each layer
-  // The core's scan pattern (the hatch pattern with the core's distance and rotation).
-  ScanPattern core_pattern() const;
+  // A kind's scan pattern (the hatch pattern with the kind's distance and rotation), and whether
+  // it differs from the pattern (the kind has lines of its own).
+  ScanPattern pattern_of(HatchKind kind) const;
+  bool own_lines(HatchKind kind) const;
 };
 
 // The part: a closed triangle mesh or a solid field (exactly one of the two).

@@ -20,6 +20,7 @@
 #include <vector>
 
 #include "trellis/geom/regions.hpp"
+#include "trellis/toolpath/toolpath.hpp"
 
 namespace trellis {
 
@@ -82,6 +83,13 @@ struct PbfExposures {
   LaserSet of_contour(std::size_t offset) const;
   LaserSet of(HatchKind kind) const;
 };
+
+// The named laser parameter sets of a solid part's vectors (Toolpath::parameter_sets, the build
+// file's ids): "contour" and "hatch" (the profile's), then "contour k", "core hatch", "upskin
+// hatch" and "downskin hatch" for each in use (`skin`) that is not one of those or an earlier
+// one in power and speed (a machine knows a set by its power and speed).
+std::vector<ParameterSet> named_parameter_sets(const PbfExposures& exposures,
+                                               const SkinOptions& skin);
 
 // The pieces of hatch vectors `segments` inside `region`, in their order and direction. The
 // vectors lie on lines `spacing` apart through `origin` at `angle_deg` or at 90° to it (islands);

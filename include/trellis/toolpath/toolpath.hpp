@@ -63,6 +63,17 @@ struct Layer {
   std::vector<Path> paths;
 };
 
+// A laser parameter set by name, as build processors name their exposure types ("contour 2",
+// "core hatch", "downskin hatch"): the paths of `role` marked at `power` W and `speed` mm/s. A
+// machine knows a set by its power and speed, so a path belongs to the first set with its role,
+// power and speed (parameter_set_of).
+struct ParameterSet {
+  std::string name;
+  PathRole role = PathRole::Hatch;
+  double power = 0, speed = 0;
+  bool operator==(const ParameterSet&) const = default;
+};
+
 struct Toolpath {
   std::vector<Layer> layers;
   std::string source;  // what produced it (planner, input file), written into outputs
@@ -71,10 +82,19 @@ struct Toolpath {
   std::string job;
   // Build plates: the parts' labels (Path::part - 1 indexes them); empty for one part.
   std::vector<std::string> part_labels;
+  // Laser parameter sets by name (PBF solid parts, or read from a build file); empty otherwise.
+  std::vector<ParameterSet> parameter_sets;
 
   std::size_t path_count() const;
   double extrusion_length() const;
 };
+
+// The index in `toolpath.parameter_sets` of the set `path` (or a path of `role`, `power` and
+// `speed`) belongs to, or -1.
+int parameter_set_of(const Toolpath& toolpath, PathRole role, double power, double speed);
+inline int parameter_set_of(const Toolpath& toolpath, const Path& path) {
+  return parameter_set_of(toolpath, path.role, path.power, path.speed);
+}
 
 // Moves a path's first and last point `length` further out along its end segments (a strut
 // printed past its end nodes, the embedded writer's node overlap).
