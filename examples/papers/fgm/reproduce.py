@@ -205,13 +205,7 @@ def change_lead(gcode, mid_x):
 def fig14(out, quick):
     """Appendix A.2's calibration print: a 60 x 30 mm layer, white then blue at the middle of
     X, printed as lines along Y stepping along X (a serpentine), on the mixing hotend."""
-    d = os.path.join(out, "fig14")
-    os.makedirs(d, exist_ok=True)
-    v = os.path.join(d, "calibration.vcad")
-    with open(v, "w") as f:
-        f.write('// Appendix A.2: one layer, material A for x < 0 and B beyond\n'
-                'fgrade(["x < 0 ? 1 : 0", "x < 0 ? 0 : 1"], ["white", "blue"]) {\n'
-                '  rectprism(60, 30, 0.2)\n}\n')
+    v = path("examples", "designs", "fgm_calibration_a2.vcad")  # examples/jobs/fgm_calibration_a2
     leads = {}
     for la in (0, 960):
         r, _ = slice_(out, f"fig14_lookahead_{la}", v, MIXING, "--strategy", 1, "--colors", 2,
