@@ -152,9 +152,13 @@ Regions fill_gaps(const Regions& fill, const std::vector<std::vector<Vec2>>& lin
       if (!near.v[j * g.nx + i]) continue;
       long e = i;
       while (e + 1 < g.nx && near.v[j * g.nx + e + 1]) ++e;
-      const Vec2 lo = g.origin + Vec2{static_cast<double>(i) * g.c, static_cast<double>(j) * g.c};
-      const Vec2 hi =
-          g.origin + Vec2{static_cast<double>(e + 1) * g.c, static_cast<double>(j + 1) * g.c};
+      // Each run reaches a hundredth of a cell into its neighbours: overlapping, not touching,
+      // so the union is one region (runs that only share an edge stay apart, and the opening
+      // below would then erode each from the edge between them).
+      const Vec2 lo = g.origin + Vec2{static_cast<double>(i) * g.c, static_cast<double>(j) * g.c} -
+                      Vec2{0.01 * g.c, 0.01 * g.c};
+      const Vec2 hi = Vec2{0.01 * g.c, 0.01 * g.c} + g.origin +
+                      Vec2{static_cast<double>(e + 1) * g.c, static_cast<double>(j + 1) * g.c};
       cells.push_back({lo, {hi.x, lo.y}, hi, {lo.x, hi.y}});
       i = e;
     }

@@ -33,7 +33,7 @@ Case random_case(std::mt19937& rng, double r) {
   std::uniform_real_distribution<double> u(0, 1);
   Case c;
   Polygon2 plate;
-  const double w = 20 + 20 * u(rng), h = 15 + 15 * u(rng);
+  const double w = 15 + 15 * u(rng), h = 12 + 12 * u(rng);
   plate.outer = {{0, 0}, {w, 0}, {w, h}, {0, h}};
   std::vector<Vec2> hole;
   const Vec2 hc{w * (0.3 + 0.4 * u(rng)), h * (0.3 + 0.4 * u(rng))};
@@ -71,7 +71,7 @@ TEST(FgmGap, SameRegionsAsStrokingEveryLine) {
   std::mt19937 rng(45);
   const double r = 0.4;
   int with_gaps = 0;
-  for (int n = 0; n < 12; ++n) {
+  for (int n = 0; n < 8; ++n) {
     const Case c = random_case(rng, r);
     const Regions fast = fgm::fill_gaps(c.fill, c.lines, r);
     const Regions slow = whole(c.fill, c.lines, r);
@@ -80,7 +80,7 @@ TEST(FgmGap, SameRegionsAsStrokingEveryLine) {
     EXPECT_LE(symmetric_difference(fast, slow), 1e-6 * area(c.fill))
         << "case " << n << ": fast " << area(fast) << " mm², whole " << area(slow) << " mm²";
   }
-  EXPECT_GE(with_gaps, 6);  // the cases do exercise gaps
+  EXPECT_GE(with_gaps, 4);  // the cases do exercise gaps
 }
 
 TEST(FgmGap, LinesOneBeadApartLeaveNoGap) {
