@@ -367,6 +367,7 @@ def nonplanar(
     max_time: float = ...,  # run.max_time: refuse a run whose estimated time is longer than this
     offset: Literal['vertical', 'normal'] = ...,  # nonplanar.offset: layers stack vertically (paper) or along the surface normal
     periods: float = ...,  # surface.periods: corrugation periods
+    planar_control: bool = ...,  # nonplanar.planar_control: the planar control (non-planar paper, Fig. 3C/E): the solid the layers fill sliced flat, each layer group's band in its tool
     preview_layers: int = ...,  # output.preview_layers: PNG previews spread over the layers
     radius: float = ...,  # surface.radius: sphere-cap radius
     resolution: float = ...,  # surface.resolution: grid spacing of generated meshes

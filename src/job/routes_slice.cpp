@@ -1266,6 +1266,63 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
   return out;
 }
 
+namespace {
+
+// nonplanar.planar_control: the same layers as a solid sliced flat, one tool per layer group.
+JobResult planar_control(const Job& job, const Config& c, const HeightField& surface,
+                         const NonplanarParams& prm, Diagnostics& diag, const Progress& progress) {
+  if (job.shards)
+    throw SettingError("the planar control is sliced whole: drop --shard",
+                       {"", 0, "nonplanar.planar_control"});
+  // Settings of the non-planar lines that a flat slice has no use for are refused, not ignored.
+  for (const char* key :
+       {"nonplanar.surface_spacing", "nonplanar.chord_tolerance", "nonplanar.max_join"})
+    if (job.settings.has(key))
+      throw SettingError(
+          "it shapes the non-planar lines, which the planar control (walls and "
+          "solid fill, cut flat) does not make",
+          {"", 0, key});
+  JobResult out;
+  PlanarControlResult r = slice_planar_control(surface, prm, progress);
+  const GcodeStats g = write_nonplanar_main(job, c, r.toolpath, out, diag);
+  if (!job.toolpath.empty()) {
+    write_toolpath_with_job(job.toolpath, r.toolpath, job);
+    out.files.push_back(job.toolpath);
+  }
+  std::size_t paths = 0;
+  for (const auto& l : r.toolpath.layers) paths += l.paths.size();
+  if (!job.report.empty()) {
+    const nlohmann::ordered_json rep = {{"planar_control", true},
+                                        {"surface", surface.name()},
+                                        {"layers", r.toolpath.layers.size()},
+                                        {"layer_height_mm", prm.layer_height},
+                                        {"paths", paths},
+                                        {"tool_changes", r.tool_changes},
+                                        {"layers_with_several_tools", r.layers_with_several_tools},
+                                        {"gcode_tool_changes", g.tool_changes},
+                                        {"travel_moves", g.travel_moves}};
+    write_file_atomic(job.report, with_job(rep.dump(2), job, job.report, true, &diag));
+    out.files.push_back(job.report);
+  }
+  if (!job.preview.empty()) {
+    create_output_directories(job.preview);
+    View3dOptions v;
+    v.size_px = c.output.image_size;
+    v.title = "planar control of " + surface.name();
+    v.colour = View3dOptions::Colour::Tool;
+    out.files.push_back(preview_name(job.preview, "3d.png"));
+    render_3d_png(r.toolpath, out.files.back(), v);
+  }
+  out.summary = fmt::format(
+      "planar control: {} flat layers of {} mm, {} paths, {} tool changes ({} layers need more "
+      "than one tool), {} travel moves, ~{} min",
+      r.toolpath.layers.size(), fixed(prm.layer_height, 3), paths, r.tool_changes,
+      r.layers_with_several_tools, g.travel_moves, fixed(g.print_time_s / 60, 1));
+  return out;
+}
+
+}  // namespace
+
 JobResult nonplanar(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
   JobResult out;
   const auto& np = c.nonplanar;
@@ -1307,6 +1364,7 @@ JobResult nonplanar(const Job& job, const Config& c, Diagnostics& diag, const Pr
                "non-planar layers are printed inside a support bath (the "
                "non-planar paper's FRESH set-up)");
   check_budget(estimate_nonplanar(surface.domain(), prm), budget_of(job, c, progress));
+  if (np.planar_control) return planar_control(job, c, surface, prm, diag, progress);
   // A shard (`--shard K/N`) keeps layers [a, b) of the run. Each layer's lines are its own, but
   // its serpentine starts where the layer before ended, so a shard slices layers 0..b-1 (the
   // ones before it only for that start point; truncating prm.layers leaves them unchanged).

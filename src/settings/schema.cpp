@@ -1084,6 +1084,10 @@ std::vector<Setting> make_table() {
   t.push_back(text("nonplanar.layer_tools",
                    "tools per layer: LAYERS:TOOL groups (3:0,3:1,3:0) or a tool list (0,1)",
                    "layer-tools", [](C& c) -> auto& { return c.nonplanar.layer_tools; }));
+  t.push_back(boolean("nonplanar.planar_control",
+                      "the planar control (non-planar paper, Fig. 3C/E): the solid the layers fill "
+                      "sliced flat, each layer group's band in its tool",
+                      "planar-control", [](C& c) -> auto& { return c.nonplanar.planar_control; }));
   t.push_back(text("nonplanar.height_fn", "surface z = f(x, y) instead of a mesh (muparser)",
                    "height-fn", [](C& c) -> auto& { return c.nonplanar.height_fn; }));
   t.push_back(derived(numbers("nonplanar.domain", "mm", -1e5, 1e5, 4,

@@ -317,8 +317,7 @@ OutlineBeads outline_beads(const Regions& outline, const IsoPotential* potential
       // (a line extruding more where the lines spread overlaps them by up to half a bead; under
       // 2 % of the coverage checked in test_fgm_outline). Level lines spread to three beads at
       // most near a saddle: no such gap there.
-      Regions gap = difference(fill, stroke(drawn, 2 * w));
-      gap = offset(offset(gap, -w), w);
+      const Regions gap = fill_gaps(fill, drawn, w);
       if (!gap.empty()) add_hatch(gap, angle, w, strands, st);
     } else if (!fill.empty()) {
       // No gradient: lines at the angle, paired and joined the same way.

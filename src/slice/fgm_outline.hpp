@@ -71,6 +71,13 @@ OutlineBeads outline_beads(const Regions& outline, const IsoPotential* potential
 OutlineBeads layer_beads(Evaluator& evaluator, const LayerOutline& layer, std::size_t g,
                          const FgmOptions& options);
 
+// The parts of `fill` further than r from every line that hold a disk of radius r: the fill minus
+// the lines stroked 2r wide, opened by r (inward then outward offsets of r). Computed only near
+// the cells of a grid (r/2) whose centre lies in the fill and more than r - r/(2√2) from every
+// line, with the stretches of lines that reach them: the same regions as the whole computation
+// (src/slice/fgm_gap.cpp says why; tests/slice/test_fgm_gap.cpp compares them).
+Regions fill_gaps(const Regions& fill, const std::vector<std::vector<Vec2>>& lines, double r);
+
 // Pieces (cut by colour, in print order) split further where the fill's flow changes (quantised
 // to 1/20; runs under 2 mm take the flow before them): the parts after a piece's first are joined
 // to it, each with its flow (Path::flow, 0 where 1) and width (bead × flow).

@@ -269,8 +269,10 @@ def fig4(out, quick, ctx):
     return rows
 
 
-# The disc's rim: the ASTM D3787 ball-burst clamp (the paper's standard) opens 44.45 mm, so 5 rings
-# 0.4 mm apart (Ø48 to Ø44.8) fill the clamped band; the paper gives no ring count.
+# The disc's rim. The paper (§2, "Ball Burst Tests") says only that "additional contours were
+# included as handles for better adhesion with the testing hardware", a custom accessory made
+# "following the ASTM-D3787-16-2020"; it gives neither the contours' count nor the clamp's size.
+# 5 rings 0.4 mm apart (Ø48 to Ø44.8) are our choice, not a number from the paper or the standard.
 DISC_RINGS, RING_SPACING = 5, 0.4
 
 
@@ -294,15 +296,44 @@ def disc(out, quick, ctx):
     return [row("§2 ball-burst disc Ø48", "clamping rings at the rim", "contours (no count)",
                 rings, "",
                 f"lattice2d.rings = {DISC_RINGS}, {RING_SPACING} mm apart: Ø48 to "
-                f"Ø{48 - 2 * (DISC_RINGS - 1) * RING_SPACING:g}, the band the ASTM D3787 clamp "
-                "(44.45 mm opening) holds; the paper says \"additional contours\" only")]
+                f"Ø{48 - 2 * (DISC_RINGS - 1) * RING_SPACING:g}, our choice; the paper says "
+                "\"additional contours ... as handles\" for its clamp (an accessory made to ASTM "
+                "D3787-16) and gives no count or clamp size")]
+
+
+def short_path_feed(out):
+    """Feed of a 2-segment path over a 10-segment one's, on the pneumatic profile's G-code."""
+    line = [[x, 0.0, 0.148] for x in range(11)]
+    short = [[0.0, 5.0, 0.148], [1.0, 5.0, 0.148], [2.0, 5.0, 0.148]]
+    tp = os.path.join(out, "short_paths.json")
+    with open(tp, "w") as f:
+        json.dump({"format": "trellis.toolpath", "version": 1, "units": "mm",
+                   "layers": [{"z": 0.148, "paths": [{"points": line}, {"points": short}]}]}, f)
+    nc = os.path.join(out, "short_paths.nc")
+    run("gcode", tp, "--machine", path("profiles", "pneumatic_pcl_27g.toml"), "-o", nc,
+        "--no-progress")
+    feeds, on = [], False  # the F of each path's first print move (valve open)
+    for text in open(nc):
+        cmd = text.split(";")[0].split()
+        if cmd[:1] == ["M3"]:
+            on = True
+        elif on and cmd[:1] == ["G1"]:
+            feeds += [float(w[1:]) for w in cmd if w.startswith("F")]
+            on = False
+    return feeds[-1] / feeds[-2]
 
 
 def gcode(out, quick, ctx):
     return [row("§2 G-code, pneumatic output", "pressure per segment", "per segment", None, "",
-                "not implemented: the paper assigns pressure and flow to each segment but gives "
-                "no rule (no relation to speed or width; its Table S2 values are not in the text), "
-                "so Trellis keeps one pressure per path (pneumatic.pressure, per tool)")]
+                "not implemented: the paper says \"pressure and flow values are assigned to each "
+                "segment\" and gives no rule for them (nothing ties them to speed, width or "
+                "angle; Table S2's printing values are not in the text), so Trellis sets one "
+                "pressure per path (pneumatic.pressure, per tool: embedded.tool_pressures)"),
+            row("§2 G-code, short paths", "speed of paths under 4 segments", "60 %",
+                f"{100 * short_path_feed(out):.0f} %", "",
+                "the paper's one stated rule (§2, Table S3's discussion); speed.short_path_factor "
+                "0.6 and speed.short_path_segments 4, the default and the pneumatic profile's; on "
+                "a pneumatic head it lowers the feed of the whole path, pressure stays the path's")]
 
 
 def reproduce(out, quick, only=FIGURES):

@@ -20,7 +20,7 @@ factors switched off (extrusion.down_flow = ""); Fig. 2's rows show what the fac
 The mechanical results (moduli, strength, strain, Poisson's ratio, filament widths) are
 physical: their rows give the paper's finding and say that a toolpath cannot reproduce it.
 Pictures: OUT/<figure>_<case>/3d.png (trellis nonplanar --preview) and the planar control's
-layers (OUT/fig3_planar/layer_*.png, trellis render); Fig. 2's test path is numbers only
+(OUT/fig3_planar/3d.png and layer_*.png, trellis render); Fig. 2's test path is numbers only
 (OUT/fig2/*.gcode). All sizes are the paper's; --quick changes nothing here.
 """
 import math
@@ -176,42 +176,6 @@ def fig2(out):
     return rows
 
 
-def write_band_stl(fname, profile, lo, hi, width):
-    """A closed prism: the profile z(x) lifted by lo..hi, extruded over y = 0..width."""
-    bot = [(x, z + lo) for x, z in profile]
-    top = [(x, z + hi) for x, z in profile]
-    tris = []
-    P = lambda q, y: (q[0], y, q[1])  # noqa: E731
-    for i in range(len(profile) - 1):
-        b0, b1, t0, t1 = bot[i], bot[i + 1], top[i], top[i + 1]
-        tris += [[P(b0, 0), P(b1, 0), P(t1, 0)], [P(b0, 0), P(t1, 0), P(t0, 0)]]
-        tris += [[P(b0, width), P(t1, width), P(b1, width)], [P(b0, width), P(t0, width),
-                                                                P(t1, width)]]
-        tris += [[P(b0, 0), P(b1, width), P(b1, 0)], [P(b0, 0), P(b0, width), P(b1, width)]]
-        tris += [[P(t0, 0), P(t1, 0), P(t1, width)], [P(t0, 0), P(t1, width), P(t0, width)]]
-    for q0, q1, left in [(bot[0], top[0], True), (bot[-1], top[-1], False)]:
-        a, b = (q0[0], 0, q0[1]), (q1[0], 0, q1[1])
-        c, d = (q1[0], width, q1[1]), (q0[0], width, q0[1])
-        tris += [[a, b, c], [a, c, d]] if left else [[a, c, b], [a, d, c]]
-    with open(fname, "wb") as f:
-        f.write(b"\0" * 80 + struct.pack("<I", len(tris)))
-        for t in tris:
-            f.write(struct.pack("<12fH", 0, 0, 0, *[c for p in t for c in p], 0))
-
-
-def m_profile(stl):
-    """The M curve's profile z(x), read from the surface mesh (extruded along Y)."""
-    with open(stl, "rb") as f:
-        data = f.read()
-    n = struct.unpack_from("<I", data, 80)[0]
-    pts = [struct.unpack_from("<3f", data, 84 + 50 * i + 12 + 12 * k)
-           for i in range(n) for k in range(3)]
-    y0 = min(p[1] for p in pts)
-    width = max(p[1] for p in pts) - y0
-    prof = sorted({(round(p[0], 6), round(p[2], 6)) for p in pts if abs(p[1] - y0) < 1e-6})
-    return prof, width
-
-
 def gcode_counts(gcode):
     """Tool changes and travel moves (G0) between the first and last extrusion."""
     tools = travel = 0
@@ -237,31 +201,24 @@ def fig3(out):
             r["travel_moves_within_layers"]),
         row("§3.3, Fig. 3D non-planar", "paths per layer", 1, per_layer_paths(r)),
     ]
-    # The planar control: the same nine layers as a solid (three 0.9 mm bands, black, clear,
-    # black, stacked vertically on the M), sliced flat with one tool per band.
+    # The planar control: the same nine layers as a solid cut flat, each layer group's band in
+    # its syringe (trellis nonplanar --planar-control).
     d = os.path.join(out, "fig3_planar")
     os.makedirs(d, exist_ok=True)
-    prof, width = m_profile(stl)
-    thick = 9 * r["layer_height_mm"]
-    for k in range(3):
-        write_band_stl(os.path.join(d, f"band{k}.stl"), prof, k * thick / 3,
-                       (k + 1) * thick / 3, width)
-    with open(os.path.join(d, "m_planar.vcad"), "w") as f:
-        f.write('// The M curve as a solid: three bands (black, clear, black), as the paper\'s '
-                'Cura control\nunion() {\n  mesh("band0.stl", "black")\n'
-                '  mesh("band1.stl", "clear")\n  mesh("band2.stl", "black")\n}\n')
     g = os.path.join(d, "m_planar.gcode")
     tp = os.path.join(d, "m_planar.json")
-    run("slice", os.path.join(d, "m_planar.vcad"), "--machine", MACHINE, "-o", g,
-        "--toolpath", tp, "--strategy", 1, "--colors", 2, "--set", "gradient.mode=tools",
-        "--walls", 1, "--infill", 1, "--no-progress", *PAPER_FLOW)
-    layers = len(paperlib.json.load(open(tp))["layers"])
+    rep = os.path.join(d, "report.json")
+    run("nonplanar", stl, "--machine", MACHINE, "-o", g, "--toolpath", tp, "--report", rep,
+        "--layers", 9, "--layer-tools", "3:0,3:1,3:0", "--angles", 0, "--planar-control",
+        "--preview", d, "--image-size", 600, "--no-progress", *PAPER_FLOW)
+    p = paperlib.json.load(open(rep))
+    layers = p["layers"]
     changes, travel = gcode_counts(g)
     changes -= 1  # the first T selects the starting syringe
     for k in (layers // 4, layers // 2):
         run("render", tp, "--layer", k, "-o", os.path.join(d, f"layer_{k:04d}.png"),
-            "--colour", "mixture", "--image-size", 600, "--no-progress")
-    layers_with_both = _layers_with_both_tools(tp)
+            "--colour", "tool", "--image-size", 600, "--no-progress")
+    layers_with_both = p["layers_with_several_tools"]
     rows += [
         row("§2.4, Fig. 3C/E planar", "layers (flat, 0.3 mm)", None, layers,
             why="the paper's Cura slice gives no count; ours: the 2.7 mm band over the 8 mm M"),
@@ -282,16 +239,6 @@ def _groups(seq):
             cur = []
         cur.append(t)
     return out + [cur]
-
-
-def _layers_with_both_tools(toolpath):
-    tp = paperlib.json.load(open(toolpath))
-    n = 0
-    for layer in tp["layers"]:
-        mixes = {round(p.get("mixture", [1.0])[0], 3) if isinstance(p.get("mixture"), list)
-                 else p.get("tool", 0) for p in layer["paths"]}
-        n += len(mixes) > 1
-    return n
 
 
 def fig4(out):

@@ -98,7 +98,8 @@ struct NonplanarConfig {
   NonplanarParams params;
   std::string height_fn;
   std::vector<double> domain;
-  std::string layer_tools;  // "3:0,3:1,3:0" or "0,1"
+  std::string layer_tools;      // "3:0,3:1,3:0" or "0,1"
+  bool planar_control = false;  // slice the layers' solid flat instead (slice_planar_control)
 };
 
 struct OutputConfig {

@@ -110,6 +110,23 @@ std::vector<double> nonplanar_line_positions(const HeightField& surface, double 
 NonplanarResult slice_nonplanar(const HeightField& surface, const NonplanarParams& params,
                                 const Progress& progress = {});
 
+// The planar control of a non-planar print (the non-planar paper's Fig. 3C/E, its Cura slice):
+// the solid the non-planar layers fill (vertical offsets: from the surface up to layers × layer
+// height above it) cut by flat planes at the layer height, each piece printed by the tool of the
+// non-planar layer group it lies in (params.layer_tools: a group is a run of layers with one
+// tool, and its band of the solid is sliced as a part of its own). Every band gets one wall and
+// solid fill at params.width, the fill along params.angles[0], turning 90° every layer. In each
+// flat layer the tool the layer below ended with prints first. Layer i's nozzle is at
+// (i + 1) · layer_height above the solid's lowest point. Throws SettingError for normal offsets
+// (the bands are vertical offsets of the surface).
+struct PlanarControlResult {
+  Toolpath toolpath;
+  std::size_t layers_with_several_tools = 0;  // flat layers that need a tool change to finish
+  std::size_t tool_changes = 0;               // between consecutive paths, over the whole print
+};
+PlanarControlResult slice_planar_control(const HeightField& surface, const NonplanarParams& params,
+                                         const Progress& progress = {});
+
 // Independent check: every path point's distance from the surface offset of its layer, and the
 // distance of segment midpoints (chords) from it. Vertical mode: |z − f(x,y) − k·h|; normal
 // mode: the distance to the surface found by minimisation, minus k·h.
