@@ -17,9 +17,9 @@
 #include "trellis/core/file.hpp"
 #include "trellis/geom/mesh_io.hpp"
 #include "trellis/job/plate.hpp"
+#include "trellis/job/reports.hpp"
 #include "trellis/lattice/io.hpp"
 #include "trellis/machine/gcode_writer.hpp"
-#include "trellis/plan/report.hpp"
 #include "trellis/toolpath/json.hpp"
 
 namespace trellis::routes {

@@ -19,6 +19,7 @@
 #include "trellis/field/vcad.hpp"
 #include "trellis/geom/mesh_io.hpp"
 #include "trellis/job/plate.hpp"
+#include "trellis/job/reports.hpp"
 #include "trellis/machine/cli.hpp"
 #include "trellis/machine/gcode_writer.hpp"
 #include "trellis/machine/laser.hpp"
