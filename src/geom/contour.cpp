@@ -7,7 +7,6 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
-#include <functional>
 #include <memory>
 #include <optional>
 #include <unordered_map>
@@ -581,24 +580,97 @@ PeriodTiles point_reflected_tiles(const PeriodTiles& tiles, double h, std::size_
   return {made, made->bytes()};
 }
 
-ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
-                         const MarchOptions& options) {
-  ContourSet result;
-  const double h = options.resolution;
-  if (!(h > 0) || !(hi.x > lo.x) || !(hi.y > lo.y)) return result;
-  const auto nx = static_cast<std::size_t>(std::ceil((hi.x - lo.x) / h - 1e-9));
-  const auto ny = static_cast<std::size_t>(std::ceil((hi.y - lo.y) / h - 1e-9));
-  const std::size_t B = std::max<std::size_t>(options.block, 1);
-  Lease<MarchBuffers> buffers;
-  buffers->clear();
-  Marcher m{f, lo, h, level, options, 0, buffers->pending};
+namespace {
+
+// One call of march_squares, as named steps (run): the grid's top blocks marched or skipped by
+// their bounds (march_top_blocks, visit, march_block), the crossings refined, the segments'
+// midpoints (add_midpoints), the periodic tiles made (make_tiles) and the blocks of each tile's
+// place taken from them (replay_tiles), then the walk.
+class SquareMarch {
+ public:
+  SquareMarch(PlaneFunction& f, Vec2 lo, Vec2 hi, double level, const MarchOptions& options,
+              MarchBuffers& buffers);
+  ContourSet run();
+
+ private:
+  struct Block {
+    std::size_t i, j, ci, cj;
+  };
+  // A tile: the block marched for its place in the period, and its segments.
+  struct Tile {
+    bool marched = false;
+    std::size_t bi = 0, bj = 0, s0 = 0, s1 = 0;
+  };
+  struct Replay {
+    std::size_t bi, bj, tile;
+  };
+
+  void march_block(std::size_t bi, std::size_t bj, std::size_t ci, std::size_t cj);
+  Interval bound(const Block& k) {
+    return f_.bound(m_.node(k.i, k.j), m_.node(k.i + k.ci, k.j + k.cj));
+  }
+  bool excluded(const Interval& r) const { return r.lo >= level_ || r.hi < level_; }
+  void visit(const Block& k, const Interval& range);
+  std::size_t tile_of(std::size_t i, std::size_t j) const {  // the tile of cell (i, j)'s place
+    return ((j % py_) / by_) * (px_ / bx_) + (i % px_) / bx_;
+  }
+  void march_top_blocks();
+  void march_periodic_parts();
+  void add_midpoints();
+  std::size_t crossing_on(std::size_t i, std::size_t j, bool vertical, double t);
+  void make_tiles();
+  void take_chain(std::size_t bi, std::size_t bj, const TileLines& L, const TileChain& c);
+  void replay_tiles(const PeriodTileData* D);
+  void report_edge_crossings();
+
+  PlaneFunction& f_;
+  const double h_, level_;
+  const MarchOptions& options_;
+  MarchBuffers& buf_;
+  Marcher m_;
+  ContourSet result_;
   // Every crossing lies on one grid edge and is refined once, whichever block asks for it;
   // segments join crossings by edge, so stitching is exact (no distance tolerance).
-  EdgeTable& table = buffers->table;
-  std::vector<Vec2>& crossings = buffers->crossings;
-  std::vector<std::pair<std::size_t, std::size_t>>& segments = buffers->segments;
-  const std::uint64_t row = nx + 1;
+  EdgeTable& table_;
+  std::vector<Vec2>& crossings_;
+  std::vector<std::pair<std::size_t, std::size_t>>& segments_;
+  // Points inside each segment, put between its ends by the walk: inner_[inner_at_[e] ..
+  // inner_at_[e + 1]) (a midpoint each, or a translated tile's chain of points).
+  std::vector<Vec2>& inner_;
+  std::vector<std::size_t>& inner_at_;
+  std::vector<double>* ts_ = nullptr;  // the crossings' parameters, when keep_keys_
+  std::size_t nx_, ny_, row_;
+  // Periodic tiles (PlaneFunction::period): px_ x py_ cells, tiles of bx_ x by_ (the top blocks
+  // when tiling_, else they are options.block).
+  std::size_t px_, py_, bx_, by_;
+  bool tiling_, keep_keys_;
+  // Blocks smaller than a tile where the function is periodic (along the envelope, where a
+  // tile-sized block would cross it): marched at the end by their cells, from the tiles'.
+  std::vector<Block> periodic_parts_;
+  bool defer_periodic_ = false;  // while marching the top blocks, when tiling
+  std::size_t ntiles_;
+  std::vector<Tile> tiles_;
+  const PeriodTileData* given_ = nullptr;  // another march's tiles, when they fit this one
+  std::vector<Replay> replays_;            // whole blocks to take from their tile
+  std::shared_ptr<PeriodTileData> made_;   // this march's tiles
+};
 
+SquareMarch::SquareMarch(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
+                         const MarchOptions& options, MarchBuffers& buffers)
+    : f_(f),
+      h_(options.resolution),
+      level_(level),
+      options_(options),
+      buf_(buffers),
+      m_{f, lo, options.resolution, level, options, 0, buffers.pending},
+      table_(buffers.table),
+      crossings_(buffers.crossings),
+      segments_(buffers.segments),
+      inner_(buffers.inner),
+      inner_at_(buffers.inner_at) {
+  nx_ = static_cast<std::size_t>(std::ceil((hi.x - lo.x) / h_ - 1e-9));
+  ny_ = static_cast<std::size_t>(std::ceil((hi.y - lo.y) / h_ - 1e-9));
+  row_ = nx_ + 1;
   // Periodic tiles (PlaneFunction::period): top blocks that divide the period, one block per
   // place in the period marched (its "tile"), the others where the function is periodic
   // translated from it after refinement.
@@ -606,453 +678,432 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
   // A block side dividing the period: the divisor in 4..4·tile_block closest to tile_block by
   // ratio, else the period if it is that small; else no tiles. (By ratio: a period of 125 cells
   // and 13 wanted takes 25, not 5; blocks much smaller than wanted cost the most.)
-  const std::size_t px = period_cells(period.x, h), py = period_cells(period.y, h);
-  const std::size_t tx = px ? period_tile_side(px, options.tile_block) : 0;
-  const std::size_t ty = py ? period_tile_side(py, options.tile_block) : 0;
-  const bool tiling = tx > 0 && ty > 0 && tx < 32768 && ty < 32768;  // (TileEnd)
-  const std::size_t Bx = tiling ? tx : B, By = tiling ? ty : B;
-  const bool keep_keys = tiling || options.edge_crossings;
-
-  std::vector<Vec2>& pts = buffers->pts;
-  std::vector<double>& val = buffers->val;
-  std::vector<unsigned char>& sgn = buffers->sgn;  // node inside (below the level)
-  // Marches the cells [bi, bi+ci) x [bj, bj+cj): samples its nodes, refines its crossings.
-  auto march_block = [&](std::size_t bi, std::size_t bj, std::size_t ci, std::size_t cj) {
-    const std::size_t w = ci + 1, hgt = cj + 1;
-    pts.resize(w * hgt);
-    val.resize(w * hgt);
-    for (std::size_t j = 0; j < hgt; ++j)
-      for (std::size_t i = 0; i < w; ++i) pts[j * w + i] = m.node(bi + i, bj + j);
-    f.sample_grid(pts[0], h, w, hgt, pts.data(), val.data());
-    m.samples += pts.size();
-    sgn.resize(w * hgt);
-    for (std::size_t k = 0; k < w * hgt; ++k) sgn[k] = val[k] < level;
-    // Crossing on the edge from local node (i, j) to (i + 1, j) (horizontal) or (i, j + 1).
-    auto cross = [&](std::size_t i, std::size_t j, bool vertical) {
-      const std::uint64_t key =
-          (((bj + j) * row + (bi + i)) << 1) | static_cast<std::uint64_t>(vertical);
-      std::size_t& slot = table.find_or_insert(key, m.pending.size());
-      if (slot == m.pending.size()) {
-        if (keep_keys) buffers->edges.push_back(key);
-        const std::size_t a = j * w + i, b = vertical ? a + w : a + 1;
-        double guess = -1;
-        if (options.cubic_guess) {
-          // The nodes before a and after b on the edge's line, where the block has them.
-          const std::size_t pos = vertical ? j : i, len = vertical ? hgt : w,
-                            step = vertical ? w : 1;
-          const double before = pos > 0 ? val[a - step] - level : kNaN;
-          const double after = pos + 2 < len ? val[b + step] - level : kNaN;
-          guess = crossing_guess(before, val[a] - level, val[b] - level, after);
-        }
-        m.add(pts[a], pts[b], val[a], val[b], guess,
-              f.known_crossing(bi + i, bj + j, vertical, val[a], val[b]));
-      }
-      return slot;
-    };
-    for (std::size_t j = 0; j < cj; ++j)
-      for (std::size_t i = 0; i < ci; ++i) {
-        // Corners counter-clockwise: v0 (i,j), v1 (i+1,j), v2 (i+1,j+1), v3 (i,j+1).
-        const std::size_t a0 = j * w + i;
-        const unsigned code = sgn[a0] | sgn[a0 + 1] << 1 | sgn[a0 + w + 1] << 2 | sgn[a0 + w] << 3;
-        if (code == 0 || code == 15) continue;  // no crossing (most cells)
-        const bool in[4] = {sgn[a0] != 0, sgn[a0 + 1] != 0, sgn[a0 + w + 1] != 0, sgn[a0 + w] != 0};
-        // Walk the cell boundary counter-clockwise; record crossings and their direction.
-        std::size_t ids[4];
-        bool leaving[4];  // inside -> outside along the walk
-        int n = 0;
-        for (int e = 0; e < 4; ++e) {
-          const int a = e, b = (e + 1) % 4;
-          if (in[a] == in[b]) continue;
-          std::size_t id;
-          switch (e) {
-            case 0:
-              id = cross(i, j, false);
-              break;
-            case 1:
-              id = cross(i + 1, j, true);
-              break;
-            case 2:
-              id = cross(i, j + 1, false);
-              break;
-            default:
-              id = cross(i, j, true);
-              break;
-          }
-          ids[n] = id;
-          leaving[n] = in[a];
-          ++n;
-        }
-        if (n == 2) {
-          const int s = leaving[0] ? 0 : 1;
-          segments.emplace_back(ids[s], ids[1 - s]);
-        } else if (n == 4) {
-          const Vec2 c = pts[j * w + i] + Vec2{h * 0.5, h * 0.5};
-          const bool center_in = m.eval(c) < level;
-          for (int k = 0; k < 4; ++k) {
-            if (!leaving[k]) continue;
-            const int other = center_in ? (k + 1) % 4 : (k + 3) % 4;
-            segments.emplace_back(ids[k], ids[other]);
-          }
-        }
-      }
-  };
-  // Blocks whose bound excludes the level are skipped; others split down to small leaves, so a
-  // narrow-band or loosely bounded field still skips most of the plane.
-  const std::size_t leaf = std::min<std::size_t>(4, B);
-  struct Block {
-    std::size_t i, j, ci, cj;
-  };
-  auto bound = [&](const Block& k) {
-    return f.bound(m.node(k.i, k.j), m.node(k.i + k.ci, k.j + k.cj));
-  };
-  auto excluded = [&](const Interval& r) { return r.lo >= level || r.hi < level; };
-  // Blocks smaller than a tile where the function is periodic (along the envelope, where a
-  // tile-sized block would cross it): marched at the end by their cells, from the tiles'.
-  std::vector<Block> periodic_parts;
-  bool defer_periodic = false;  // while marching the top blocks, when tiling
-  // `range` is the block's bound, computed once by the caller (a block reaching here is not
-  // periodic, or not to be taken from the tiles).
-  std::function<void(const Block&, const Interval&)> visit;
-  visit = [&](const Block& k, const Interval& range) {
-    if (excluded(range)) {
-      ++result.skipped_blocks;
-      return;
-    }
-    const bool bounded = std::isfinite(range.lo) || std::isfinite(range.hi);
-    if (!bounded || (k.ci <= leaf && k.cj <= leaf)) {
-      march_block(k.i, k.j, k.ci, k.cj);
-      return;
-    }
-    const std::size_t hi_ = (k.ci + 1) / 2, hj = (k.cj + 1) / 2;
-    Block parts[4];
-    int np = 0;
-    parts[np++] = {k.i, k.j, hi_, hj};
-    if (k.ci > hi_) parts[np++] = {k.i + hi_, k.j, k.ci - hi_, hj};
-    if (k.cj > hj) parts[np++] = {k.i, k.j + hj, hi_, k.cj - hj};
-    if (k.ci > hi_ && k.cj > hj) parts[np++] = {k.i + hi_, k.j + hj, k.ci - hi_, k.cj - hj};
-    Interval ranges[4];
-    bool any_skippable = false;
-    // Quarters taken from the tiles need no bound (one the bound would skip has no segments).
-    Vec2 plo[4], phi[4];
-    bool periodic[4] = {false, false, false, false};
-    int bounded_parts[4], nb = 0;
-    Vec2 blo[4], bhi[4];
-    for (int q = 0; q < np; ++q) {
-      plo[q] = m.node(parts[q].i, parts[q].j);
-      phi[q] = m.node(parts[q].i + parts[q].ci, parts[q].j + parts[q].cj);
-      periodic[q] = defer_periodic && f.periodic(plo[q], phi[q]);
-      any_skippable = any_skippable || periodic[q];
-      if (!periodic[q]) {
-        blo[nb] = plo[q];
-        bhi[nb] = phi[q];
-        bounded_parts[nb++] = q;
-      }
-    }
-    f.prefetch_bounds(blo, bhi, static_cast<std::size_t>(nb));
-    for (int b = 0; b < nb; ++b) {
-      const int q = bounded_parts[b];
-      ranges[q] = bound(parts[q]);
-      any_skippable = any_skippable || excluded(ranges[q]);
-    }
-    // If no quarter can be skipped (or taken from the tiles), march the block whole: splitting
-    // would only sample the shared edges twice (a surface everywhere, like a TPMS sheet).
-    if (!any_skippable) {
-      march_block(k.i, k.j, k.ci, k.cj);
-      return;
-    }
-    for (int q = 0; q < np; ++q) {
-      if (periodic[q])
-        periodic_parts.push_back(parts[q]);
-      else
-        visit(parts[q], ranges[q]);
-    }
-  };
-  // A tile: the block marched for its place in the period, and its segments.
-  struct Tile {
-    bool marched = false;
-    std::size_t bi = 0, bj = 0, s0 = 0, s1 = 0;
-  };
-  const std::size_t ntiles = tiling ? (px / Bx) * (py / By) : 0;
-  std::vector<Tile> tiles(ntiles);
+  px_ = period_cells(period.x, h_), py_ = period_cells(period.y, h_);
+  const std::size_t tx = px_ ? period_tile_side(px_, options.tile_block) : 0;
+  const std::size_t ty = py_ ? period_tile_side(py_, options.tile_block) : 0;
+  tiling_ = tx > 0 && ty > 0 && tx < 32768 && ty < 32768;  // (TileEnd)
+  const std::size_t B = std::max<std::size_t>(options.block, 1);
+  bx_ = tiling_ ? tx : B, by_ = tiling_ ? ty : B;
+  keep_keys_ = tiling_ || options.edge_crossings;
+  ntiles_ = tiling_ ? (px_ / bx_) * (py_ / by_) : 0;
+  tiles_.resize(ntiles_);
   // Another march's tiles, when they fit this one (every place's, the same period and side).
-  const PeriodTileData* given = nullptr;
-  if (tiling && options.tiles_in && options.tiles_in->data) {
+  if (tiling_ && options.tiles_in && options.tiles_in->data) {
     const PeriodTileData& d = *options.tiles_in->data;
-    if (d.px == px && d.py == py && d.bx == Bx && d.by == By && d.chain_at.size() == ntiles + 1 &&
-        d.row_at.size() == ntiles * (By + 1))
-      given = &d;
+    if (d.px == px_ && d.py == py_ && d.bx == bx_ && d.by == by_ &&
+        d.chain_at.size() == ntiles_ + 1 && d.row_at.size() == ntiles_ * (by_ + 1))
+      given_ = &d;
   }
-  struct Replay {
-    std::size_t bi, bj, tile;
+}
+
+// Marches the cells [bi, bi+ci) x [bj, bj+cj): samples its nodes, refines its crossings.
+void SquareMarch::march_block(std::size_t bi, std::size_t bj, std::size_t ci, std::size_t cj) {
+  std::vector<Vec2>& pts = buf_.pts;
+  std::vector<double>& val = buf_.val;
+  std::vector<unsigned char>& sgn = buf_.sgn;  // node inside (below the level)
+  const double h = h_, level = level_;
+  const std::size_t w = ci + 1, hgt = cj + 1;
+  pts.resize(w * hgt);
+  val.resize(w * hgt);
+  for (std::size_t j = 0; j < hgt; ++j)
+    for (std::size_t i = 0; i < w; ++i) pts[j * w + i] = m_.node(bi + i, bj + j);
+  f_.sample_grid(pts[0], h, w, hgt, pts.data(), val.data());
+  m_.samples += pts.size();
+  sgn.resize(w * hgt);
+  for (std::size_t k = 0; k < w * hgt; ++k) sgn[k] = val[k] < level;
+  // Crossing on the edge from local node (i, j) to (i + 1, j) (horizontal) or (i, j + 1).
+  auto cross = [&](std::size_t i, std::size_t j, bool vertical) {
+    const std::uint64_t key =
+        (((bj + j) * row_ + (bi + i)) << 1) | static_cast<std::uint64_t>(vertical);
+    std::size_t& slot = table_.find_or_insert(key, m_.pending.size());
+    if (slot == m_.pending.size()) {
+      if (keep_keys_) buf_.edges.push_back(key);
+      const std::size_t a = j * w + i, b = vertical ? a + w : a + 1;
+      double guess = -1;
+      if (options_.cubic_guess) {
+        // The nodes before a and after b on the edge's line, where the block has them.
+        const std::size_t pos = vertical ? j : i, len = vertical ? hgt : w, step = vertical ? w : 1;
+        const double before = pos > 0 ? val[a - step] - level : kNaN;
+        const double after = pos + 2 < len ? val[b + step] - level : kNaN;
+        guess = crossing_guess(before, val[a] - level, val[b] - level, after);
+      }
+      m_.add(pts[a], pts[b], val[a], val[b], guess,
+             f_.known_crossing(bi + i, bj + j, vertical, val[a], val[b]));
+    }
+    return slot;
   };
-  std::vector<Replay> replays;
-  auto tile_of = [&](std::size_t i, std::size_t j) {  // the tile of cell (i, j)'s place
-    return ((j % py) / By) * (px / Bx) + (i % px) / Bx;
-  };
-  defer_periodic = tiling;
-  for (std::size_t bj = 0; bj < ny; bj += By)
-    for (std::size_t bi = 0; bi < nx; bi += Bx) {
-      ++result.blocks;
-      const Block top{bi, bj, std::min(Bx, nx - bi), std::min(By, ny - bj)};
-      if (tiling && f.periodic(m.node(bi, bj), m.node(bi + top.ci, bj + top.cj))) {
-        if (top.ci < Bx || top.cj < By) {  // a part block at the grid's end
-          periodic_parts.push_back(top);
+  for (std::size_t j = 0; j < cj; ++j)
+    for (std::size_t i = 0; i < ci; ++i) {
+      // Corners counter-clockwise: v0 (i,j), v1 (i+1,j), v2 (i+1,j+1), v3 (i,j+1).
+      const std::size_t a0 = j * w + i;
+      const unsigned code = sgn[a0] | sgn[a0 + 1] << 1 | sgn[a0 + w + 1] << 2 | sgn[a0 + w] << 3;
+      if (code == 0 || code == 15) continue;  // no crossing (most cells)
+      const bool in[4] = {sgn[a0] != 0, sgn[a0 + 1] != 0, sgn[a0 + w + 1] != 0, sgn[a0 + w] != 0};
+      // Walk the cell boundary counter-clockwise; record crossings and their direction.
+      std::size_t ids[4];
+      bool leaving[4];  // inside -> outside along the walk
+      int n = 0;
+      for (int e = 0; e < 4; ++e) {
+        const int a = e, b = (e + 1) % 4;
+        if (in[a] == in[b]) continue;
+        std::size_t id;
+        switch (e) {
+          case 0:
+            id = cross(i, j, false);
+            break;
+          case 1:
+            id = cross(i + 1, j, true);
+            break;
+          case 2:
+            id = cross(i, j + 1, false);
+            break;
+          default:
+            id = cross(i, j, true);
+            break;
+        }
+        ids[n] = id;
+        leaving[n] = in[a];
+        ++n;
+      }
+      if (n == 2) {
+        const int s = leaving[0] ? 0 : 1;
+        segments_.emplace_back(ids[s], ids[1 - s]);
+      } else if (n == 4) {
+        const Vec2 c = pts[j * w + i] + Vec2{h * 0.5, h * 0.5};
+        const bool center_in = m_.eval(c) < level;
+        for (int k = 0; k < 4; ++k) {
+          if (!leaving[k]) continue;
+          const int other = center_in ? (k + 1) % 4 : (k + 3) % 4;
+          segments_.emplace_back(ids[k], ids[other]);
+        }
+      }
+    }
+}
+
+// Blocks whose bound excludes the level are skipped; others split down to small leaves, so a
+// narrow-band or loosely bounded field still skips most of the plane. `range` is the block's
+// bound, computed once by the caller (a block reaching here is not periodic, or not to be taken
+// from the tiles).
+void SquareMarch::visit(const Block& k, const Interval& range) {
+  if (excluded(range)) {
+    ++result_.skipped_blocks;
+    return;
+  }
+  const std::size_t leaf = std::min<std::size_t>(4, std::max<std::size_t>(options_.block, 1));
+  const bool bounded = std::isfinite(range.lo) || std::isfinite(range.hi);
+  if (!bounded || (k.ci <= leaf && k.cj <= leaf)) {
+    march_block(k.i, k.j, k.ci, k.cj);
+    return;
+  }
+  const std::size_t hi = (k.ci + 1) / 2, hj = (k.cj + 1) / 2;
+  Block parts[4];
+  int np = 0;
+  parts[np++] = {k.i, k.j, hi, hj};
+  if (k.ci > hi) parts[np++] = {k.i + hi, k.j, k.ci - hi, hj};
+  if (k.cj > hj) parts[np++] = {k.i, k.j + hj, hi, k.cj - hj};
+  if (k.ci > hi && k.cj > hj) parts[np++] = {k.i + hi, k.j + hj, k.ci - hi, k.cj - hj};
+  Interval ranges[4];
+  bool any_skippable = false;
+  // Quarters taken from the tiles need no bound (one the bound would skip has no segments).
+  Vec2 plo[4], phi[4];
+  bool periodic[4] = {false, false, false, false};
+  int bounded_parts[4], nb = 0;
+  Vec2 blo[4], bhi[4];
+  for (int q = 0; q < np; ++q) {
+    plo[q] = m_.node(parts[q].i, parts[q].j);
+    phi[q] = m_.node(parts[q].i + parts[q].ci, parts[q].j + parts[q].cj);
+    periodic[q] = defer_periodic_ && f_.periodic(plo[q], phi[q]);
+    any_skippable = any_skippable || periodic[q];
+    if (!periodic[q]) {
+      blo[nb] = plo[q];
+      bhi[nb] = phi[q];
+      bounded_parts[nb++] = q;
+    }
+  }
+  f_.prefetch_bounds(blo, bhi, static_cast<std::size_t>(nb));
+  for (int b = 0; b < nb; ++b) {
+    const int q = bounded_parts[b];
+    ranges[q] = bound(parts[q]);
+    any_skippable = any_skippable || excluded(ranges[q]);
+  }
+  // If no quarter can be skipped (or taken from the tiles), march the block whole: splitting
+  // would only sample the shared edges twice (a surface everywhere, like a TPMS sheet).
+  if (!any_skippable) {
+    march_block(k.i, k.j, k.ci, k.cj);
+    return;
+  }
+  for (int q = 0; q < np; ++q) {
+    if (periodic[q])
+      periodic_parts_.push_back(parts[q]);
+    else
+      visit(parts[q], ranges[q]);
+  }
+}
+
+// The top blocks in rows: where the function is periodic, a tile's place is marched once (the
+// block marks its tile) and its other blocks are left to replay_tiles.
+void SquareMarch::march_top_blocks() {
+  defer_periodic_ = tiling_;
+  for (std::size_t bj = 0; bj < ny_; bj += by_)
+    for (std::size_t bi = 0; bi < nx_; bi += bx_) {
+      ++result_.blocks;
+      const Block top{bi, bj, std::min(bx_, nx_ - bi), std::min(by_, ny_ - bj)};
+      if (tiling_ && f_.periodic(m_.node(bi, bj), m_.node(bi + top.ci, bj + top.cj))) {
+        if (top.ci < bx_ || top.cj < by_) {  // a part block at the grid's end
+          periodic_parts_.push_back(top);
           continue;
         }
         const std::size_t t = tile_of(bi, bj);
-        if (given || tiles[t].marched) {
-          replays.push_back({bi, bj, t});
-          ++result.tiled_blocks;
+        if (given_ || tiles_[t].marched) {
+          replays_.push_back({bi, bj, t});
+          ++result_.tiled_blocks;
           continue;
         }
-        tiles[t] = {true, bi, bj, segments.size(), 0};
-        defer_periodic = false;
+        tiles_[t] = {true, bi, bj, segments_.size(), 0};
+        defer_periodic_ = false;
         visit(top, bound(top));
-        defer_periodic = true;
-        tiles[t].s1 = segments.size();
+        defer_periodic_ = true;
+        tiles_[t].s1 = segments_.size();
         continue;
       }
       visit(top, bound(top));
     }
-  defer_periodic = false;
-  // Periodic parts (each inside one top block, so one tile's place) whose tile was marched are
-  // taken from it (below); the others are marched.
-  {
-    std::size_t kept = 0;
-    for (const Block& k : periodic_parts) {
-      if (given || tiles[tile_of(k.i, k.j)].marched)
-        periodic_parts[kept++] = k;
-      else
-        visit(k, bound(k));
-    }
-    periodic_parts.resize(kept);
-    result.tiled_parts = kept;
+  defer_periodic_ = false;
+}
+
+// Periodic parts (each inside one top block, so one tile's place) whose tile was marched are
+// taken from it (replay_tiles); the others are marched.
+void SquareMarch::march_periodic_parts() {
+  std::size_t kept = 0;
+  for (const Block& k : periodic_parts_) {
+    if (given_ || tiles_[tile_of(k.i, k.j)].marched)
+      periodic_parts_[kept++] = k;
+    else
+      visit(k, bound(k));
   }
-  std::vector<double>* ts = keep_keys ? &buffers->ts : nullptr;
-  m.refine(crossings, buffers->active, buffers->guesses, buffers->guess_values, buffers->ok, ts);
-  // Points inside each segment, put between its ends by the walk: inner[inner_at[e] ..
-  // inner_at[e + 1]) (a midpoint each, or a translated tile's chain of points).
-  std::vector<Vec2>& inner = buffers->inner;
-  std::vector<std::size_t>& inner_at = buffers->inner_at;
-  inner.clear();
-  inner_at.assign(segments.size() + 1, 0);
-  // Segment midpoints: the middle of each segment moved onto the level by a Newton step along
-  // the segment's normal (a forward difference: two batches of values; the curve between two
-  // crossings a cell apart is nearly parallel to its chord, so the normal is nearly the
-  // gradient's direction), at most a quarter of the segment; one within midpoint_min_offset of
-  // its segment adds nothing and is dropped.
-  if (options.segment_midpoints) {
-    const std::size_t n = segments.size();
-    constexpr double dh = 1e-6;
-    std::vector<Vec2>& mp = buffers->mid_pts;
-    std::vector<double>& mv = buffers->mid_vals;
-    mp.resize(2 * n);
-    mv.resize(2 * n);
-    for (std::size_t k = 0; k < n; ++k) {
-      const Vec2 a = crossings[segments[k].first], b = crossings[segments[k].second];
-      const Vec2 c = (a + b) * 0.5, d = b - a;
-      const double len = std::sqrt(d.x * d.x + d.y * d.y);
-      const Vec2 normal = len > 0 ? Vec2{-d.y / len, d.x / len} : Vec2{0, 0};
-      mp[k] = c;
-      mp[n + k] = c + normal * dh;
-    }
-    if (n > 0) f.sample(mp.data(), mv.data(), 2 * n);
-    m.samples += 2 * n;
-    const double keep2 = options.midpoint_min_offset * options.midpoint_min_offset;
-    for (std::size_t k = 0; k < n; ++k) {
-      const Vec2 a = crossings[segments[k].first], b = crossings[segments[k].second];
-      const Vec2 d = b - a;
-      const double len = std::sqrt(d.x * d.x + d.y * d.y);
-      const double fv = mv[k] - level, slope = (mv[n + k] - mv[k]) / dh;
-      const double along = slope != 0 ? std::clamp(-fv / slope, -0.25 * len, 0.25 * len) : 0;
-      const Vec2 mid = len > 0 ? mp[k] + Vec2{-d.y / len, d.x / len} * along : mp[k];
-      const Vec2 q = mid - a;
-      const double cr = d.x * q.y - d.y * q.x;
-      if (!(cr * cr <= keep2 * (d.x * d.x + d.y * d.y))) inner.push_back(mid);
-      inner_at[k + 1] = inner.size();
-    }
+  periodic_parts_.resize(kept);
+  result_.tiled_parts = kept;
+}
+
+// Segment midpoints: the middle of each segment moved onto the level by a Newton step along the
+// segment's normal (a forward difference: two batches of values; the curve between two crossings
+// a cell apart is nearly parallel to its chord, so the normal is nearly the gradient's
+// direction), at most a quarter of the segment; one within midpoint_min_offset of its segment
+// adds nothing and is dropped.
+void SquareMarch::add_midpoints() {
+  const std::size_t n = segments_.size();
+  constexpr double dh = 1e-6;
+  std::vector<Vec2>& mp = buf_.mid_pts;
+  std::vector<double>& mv = buf_.mid_vals;
+  mp.resize(2 * n);
+  mv.resize(2 * n);
+  for (std::size_t k = 0; k < n; ++k) {
+    const Vec2 a = crossings_[segments_[k].first], b = crossings_[segments_[k].second];
+    const Vec2 c = (a + b) * 0.5, d = b - a;
+    const double len = std::sqrt(d.x * d.x + d.y * d.y);
+    const Vec2 normal = len > 0 ? Vec2{-d.y / len, d.x / len} : Vec2{0, 0};
+    mp[k] = c;
+    mp[n + k] = c + normal * dh;
   }
-  // The crossing on grid edge (i, j, vertical) at parameter t along it, unless the edge has one
-  // (marched by a neighbour, or translated for one): for the lines translated from the tiles.
-  auto crossing_on = [&](std::size_t i, std::size_t j, bool vertical, double t) {
-    const std::uint64_t key = ((j * row + i) << 1) | static_cast<std::uint64_t>(vertical);
-    const std::size_t id = table.find_or_insert(key, crossings.size());
-    if (id == crossings.size()) {
-      const Vec2 a = m.node(i, j), b = vertical ? m.node(i, j + 1) : m.node(i + 1, j);
-      crossings.push_back(a + (b - a) * t);
-      buffers->edges.push_back(key);
-      ts->push_back(t);
-    }
-    return id;
-  };
-  // This march's tiles as lines: each tile's lines as chains, from a crossing where a line
-  // enters the block to the one where it leaves (on the block's edges, in the block's own terms:
-  // node relative to its first, edge direction, parameter along the edge), with the crossings
-  // and midpoints between them relative to the block's first node; lines closed inside the block
-  // as loops. Every other block of the tile's place takes them translated: its chains' ends are
-  // looked up by grid edge (an edge that already has a crossing, marched by a neighbour or
-  // translated for one, keeps it), so the lines join as in one march, and only the ends are
-  // stitched. (A tile where a crossing would start two segments is taken segment by segment.)
-  // Blocks along a boundary take a tile's segments by cells, each its own chain.
-  std::shared_ptr<PeriodTileData> made;
-  const bool exporting = options.tiles_out != nullptr;
-  if (!given && tiling && (exporting || !replays.empty() || !periodic_parts.empty())) {
-    made = std::make_shared<PeriodTileData>();
-    PeriodTileData& D = *made;
-    D.px = px, D.py = py, D.bx = Bx, D.by = By;
-    D.chain_at.assign(ntiles + 1, 0);
-    D.loop_at.assign(ntiles + 1, 0);
-    D.row_at.assign(ntiles * (By + 1), 0);
-    TileLines& T = D.lines;
-    const std::size_t nc = crossings.size();
-    std::vector<std::size_t> out_seg(nc), stamp_out(nc, 0), stamp_in(nc, 0);
-    std::vector<char> used(segments.size(), 0);
-    std::vector<char> wants_cells(ntiles, exporting);
-    for (const Block& k : periodic_parts) wants_cells[tile_of(k.i, k.j)] = 1;
-    std::vector<std::uint32_t> seg_slot, at, fill;  // (reused by the tiles)
-    std::vector<std::size_t> order;
-    for (std::size_t t = 0; t < ntiles; ++t) {
-      D.chain_at[t] = static_cast<std::uint32_t>(T.chains.size());
-      D.loop_at[t] = static_cast<std::uint32_t>(T.loops.size());
-      const Tile& tile = tiles[t];
-      if (!tile.marched) continue;
-      const Vec2 o = m.node(tile.bi, tile.bj);
-      auto end_of = [&](std::size_t id) {
-        const std::uint64_t e = buffers->edges[id], node = e >> 1;
-        return TileEnd{static_cast<std::uint16_t>(node % row - tile.bi),
-                       static_cast<std::uint16_t>((node / row - tile.bj) << 1 | (e & 1)),
-                       static_cast<float>((*ts)[id])};
-      };
-      auto add_inner = [&](TileLines& T, std::size_t e) {
-        for (std::size_t k = inner_at[e]; k < inner_at[e + 1]; ++k) T.add(inner[k], o);
-      };
-      // Segment e as a chain of its own.
-      auto add_segment = [&](TileLines& T, std::size_t e) {
-        const std::uint32_t begin = T.size();
-        add_inner(T, e);
-        T.chains.push_back(
-            {end_of(segments[e].first), end_of(segments[e].second), begin, T.size()});
-      };
-      if (wants_cells[t]) {
-        // The cell both a segment's crossings' edges bound (an edge's two cells differ, so one
-        // of a's is b's), counted per cell, then the segments in that order.
-        auto cells_of = [&](std::size_t id) {
-          const std::uint64_t e = buffers->edges[id], node = e >> 1;
-          const std::size_t i = node % row, j = node / row;
-          return (e & 1) != 0 ? std::array<std::size_t, 4>{i - 1, j, i, j}
-                              : std::array<std::size_t, 4>{i, j - 1, i, j};
-        };
-        at.assign(Bx * By + 1, 0);
-        seg_slot.clear();
-        for (std::size_t e = tile.s0; e < tile.s1; ++e) {
-          const auto a = cells_of(segments[e].first), b = cells_of(segments[e].second);
-          const bool first = (a[0] == b[0] && a[1] == b[1]) || (a[0] == b[2] && a[1] == b[3]);
-          const std::size_t li = (first ? a[0] : a[2]) - tile.bi;
-          const std::size_t lj = (first ? a[1] : a[3]) - tile.bj;
-          seg_slot.push_back(static_cast<std::uint32_t>(lj * Bx + li));
-          ++at[lj * Bx + li + 1];
-        }
-        for (std::size_t c = 1; c <= Bx * By; ++c) at[c] += at[c - 1];
-        order.resize(seg_slot.size());
-        fill.assign(at.begin(), at.end() - 1);
-        for (std::size_t k = 0; k < seg_slot.size(); ++k) order[fill[seg_slot[k]]++] = k;
-        TileLines& C = D.cells;
-        const auto base = static_cast<std::uint32_t>(C.chains.size());
-        for (std::size_t r = 0; r <= By; ++r) D.row_at[t * (By + 1) + r] = base + at[r * Bx];
-        for (const std::size_t k : order) {
-          D.col.push_back(static_cast<std::uint16_t>(seg_slot[k] % Bx));
-          add_segment(C, tile.s0 + k);
-        }
-      }
-      if (!exporting && replays.empty()) continue;
-      const std::size_t mark = t + 1;
-      bool chainable = true;
-      for (std::size_t e = tile.s0; e < tile.s1; ++e) {
-        const auto [from, to] = segments[e];
-        chainable = chainable && stamp_out[from] != mark && stamp_in[to] != mark;
-        stamp_out[from] = mark;
-        stamp_in[to] = mark;
-        out_seg[from] = e;
-      }
-      if (!chainable) {
-        for (std::size_t e = tile.s0; e < tile.s1; ++e) add_segment(T, e);
-        continue;
-      }
-      for (std::size_t e0 = tile.s0; e0 < tile.s1; ++e0) {
-        const std::size_t start = segments[e0].first;
-        if (stamp_in[start] == mark) continue;  // not where a line enters the block
-        const std::uint32_t begin = T.size();
-        std::size_t v = start;
-        while (stamp_out[v] == mark) {
-          const std::size_t e = out_seg[v];
-          used[e] = 1;
-          add_inner(T, e);
-          v = segments[e].second;
-          if (stamp_out[v] == mark) T.add(crossings[v], o);
-        }
-        T.chains.push_back({end_of(start), end_of(v), begin, T.size()});
-      }
-      for (std::size_t e0 = tile.s0; e0 < tile.s1; ++e0) {
-        if (used[e0]) continue;
-        const std::size_t start = segments[e0].first;
-        const std::uint32_t begin = T.size();
-        std::size_t v = start;
-        do {
-          const std::size_t e = out_seg[v];
-          used[e] = 1;
-          T.add(crossings[v], o);
-          add_inner(T, e);
-          v = segments[e].second;
-        } while (v != start && stamp_out[v] == mark && !used[out_seg[v]]);
-        T.loops.emplace_back(begin, T.size());
-      }
-    }
-    D.chain_at[ntiles] = static_cast<std::uint32_t>(T.chains.size());
-    D.loop_at[ntiles] = static_cast<std::uint32_t>(T.loops.size());
-    if (exporting) {
-      // Made only where every place was marched (the rectangle one period, periodic throughout).
-      bool all = true;
-      for (const Tile& tile : tiles) all = all && tile.marched;
-      if (all) {
-        for (TileLines* l : {&D.lines, &D.cells}) {
-          l->chains.shrink_to_fit();
-          l->loops.shrink_to_fit();
-          l->pts.shrink_to_fit();
-        }
-        D.col.shrink_to_fit();
-        *options.tiles_out = {made, made->bytes()};
-      }
-    }
+  if (n > 0) f_.sample(mp.data(), mv.data(), 2 * n);
+  m_.samples += 2 * n;
+  const double keep2 = options_.midpoint_min_offset * options_.midpoint_min_offset;
+  for (std::size_t k = 0; k < n; ++k) {
+    const Vec2 a = crossings_[segments_[k].first], b = crossings_[segments_[k].second];
+    const Vec2 d = b - a;
+    const double len = std::sqrt(d.x * d.x + d.y * d.y);
+    const double fv = mv[k] - level_, slope = (mv[n + k] - mv[k]) / dh;
+    const double along = slope != 0 ? std::clamp(-fv / slope, -0.25 * len, 0.25 * len) : 0;
+    const Vec2 mid = len > 0 ? mp[k] + Vec2{-d.y / len, d.x / len} * along : mp[k];
+    const Vec2 q = mid - a;
+    const double cr = d.x * q.y - d.y * q.x;
+    if (!(cr * cr <= keep2 * (d.x * d.x + d.y * d.y))) inner_.push_back(mid);
+    inner_at_[k + 1] = inner_.size();
   }
-  if (exporting) {
-    result.samples = m.samples;
-    return result;
+}
+
+// The crossing on grid edge (i, j, vertical) at parameter t along it, unless the edge has one
+// (marched by a neighbour, or translated for one): for the lines translated from the tiles.
+std::size_t SquareMarch::crossing_on(std::size_t i, std::size_t j, bool vertical, double t) {
+  const std::uint64_t key = ((j * row_ + i) << 1) | static_cast<std::uint64_t>(vertical);
+  const std::size_t id = table_.find_or_insert(key, crossings_.size());
+  if (id == crossings_.size()) {
+    const Vec2 a = m_.node(i, j), b = vertical ? m_.node(i, j + 1) : m_.node(i + 1, j);
+    crossings_.push_back(a + (b - a) * t);
+    buf_.edges.push_back(key);
+    ts_->push_back(t);
   }
-  const PeriodTileData* D = given ? given : made.get();
-  // A tile's chain taken by the block whose first node is (bi, bj): its ends found or added by
-  // grid edge, its points translated.
-  auto take_chain = [&](std::size_t bi, std::size_t bj, const TileLines& L, const TileChain& c) {
-    auto end_at = [&](const TileEnd& x) {
-      return crossing_on(bi + x.i, bj + x.j(), x.vertical(), static_cast<double>(x.t));
+  return id;
+}
+
+// This march's tiles as lines: each tile's lines as chains, from a crossing where a line enters
+// the block to the one where it leaves (on the block's edges, in the block's own terms: node
+// relative to its first, edge direction, parameter along the edge), with the crossings and
+// midpoints between them relative to the block's first node; lines closed inside the block as
+// loops. Every other block of the tile's place takes them translated: its chains' ends are
+// looked up by grid edge (an edge that already has a crossing, marched by a neighbour or
+// translated for one, keeps it), so the lines join as in one march, and only the ends are
+// stitched. (A tile where a crossing would start two segments is taken segment by segment.)
+// Blocks along a boundary take a tile's segments by cells, each its own chain.
+void SquareMarch::make_tiles() {
+  const bool exporting = options_.tiles_out != nullptr;
+  const std::size_t Bx = bx_, By = by_, ntiles = ntiles_;
+  made_ = std::make_shared<PeriodTileData>();
+  PeriodTileData& D = *made_;
+  D.px = px_, D.py = py_, D.bx = Bx, D.by = By;
+  D.chain_at.assign(ntiles + 1, 0);
+  D.loop_at.assign(ntiles + 1, 0);
+  D.row_at.assign(ntiles * (By + 1), 0);
+  TileLines& T = D.lines;
+  const std::size_t nc = crossings_.size();
+  std::vector<std::size_t> out_seg(nc), stamp_out(nc, 0), stamp_in(nc, 0);
+  std::vector<char> used(segments_.size(), 0);
+  std::vector<char> wants_cells(ntiles, exporting);
+  for (const Block& k : periodic_parts_) wants_cells[tile_of(k.i, k.j)] = 1;
+  std::vector<std::uint32_t> seg_slot, at, fill;  // (reused by the tiles)
+  std::vector<std::size_t> order;
+  const auto& segments = segments_;
+  for (std::size_t t = 0; t < ntiles; ++t) {
+    D.chain_at[t] = static_cast<std::uint32_t>(T.chains.size());
+    D.loop_at[t] = static_cast<std::uint32_t>(T.loops.size());
+    const Tile& tile = tiles_[t];
+    if (!tile.marched) continue;
+    const Vec2 o = m_.node(tile.bi, tile.bj);
+    auto end_of = [&](std::size_t id) {
+      const std::uint64_t e = buf_.edges[id], node = e >> 1;
+      return TileEnd{static_cast<std::uint16_t>(node % row_ - tile.bi),
+                     static_cast<std::uint16_t>((node / row_ - tile.bj) << 1 | (e & 1)),
+                     static_cast<float>((*ts_)[id])};
     };
-    segments.emplace_back(end_at(c.from), end_at(c.to));
-    const Vec2 o = m.node(bi, bj);
-    for (std::size_t k = c.begin; k < c.end; ++k) inner.push_back(TileLines::at(o, L.pts[k]));
-    inner_at.push_back(inner.size());
+    auto add_inner = [&](TileLines& L, std::size_t e) {
+      for (std::size_t k = inner_at_[e]; k < inner_at_[e + 1]; ++k) L.add(inner_[k], o);
+    };
+    // Segment e as a chain of its own.
+    auto add_segment = [&](TileLines& L, std::size_t e) {
+      const std::uint32_t begin = L.size();
+      add_inner(L, e);
+      L.chains.push_back({end_of(segments[e].first), end_of(segments[e].second), begin, L.size()});
+    };
+    if (wants_cells[t]) {
+      // The cell both a segment's crossings' edges bound (an edge's two cells differ, so one of
+      // a's is b's), counted per cell, then the segments in that order.
+      auto cells_of = [&](std::size_t id) {
+        const std::uint64_t e = buf_.edges[id], node = e >> 1;
+        const std::size_t i = node % row_, j = node / row_;
+        return (e & 1) != 0 ? std::array<std::size_t, 4>{i - 1, j, i, j}
+                            : std::array<std::size_t, 4>{i, j - 1, i, j};
+      };
+      at.assign(Bx * By + 1, 0);
+      seg_slot.clear();
+      for (std::size_t e = tile.s0; e < tile.s1; ++e) {
+        const auto a = cells_of(segments[e].first), b = cells_of(segments[e].second);
+        const bool first = (a[0] == b[0] && a[1] == b[1]) || (a[0] == b[2] && a[1] == b[3]);
+        const std::size_t li = (first ? a[0] : a[2]) - tile.bi;
+        const std::size_t lj = (first ? a[1] : a[3]) - tile.bj;
+        seg_slot.push_back(static_cast<std::uint32_t>(lj * Bx + li));
+        ++at[lj * Bx + li + 1];
+      }
+      for (std::size_t c = 1; c <= Bx * By; ++c) at[c] += at[c - 1];
+      order.resize(seg_slot.size());
+      fill.assign(at.begin(), at.end() - 1);
+      for (std::size_t k = 0; k < seg_slot.size(); ++k) order[fill[seg_slot[k]]++] = k;
+      TileLines& C = D.cells;
+      const auto base = static_cast<std::uint32_t>(C.chains.size());
+      for (std::size_t r = 0; r <= By; ++r) D.row_at[t * (By + 1) + r] = base + at[r * Bx];
+      for (const std::size_t k : order) {
+        D.col.push_back(static_cast<std::uint16_t>(seg_slot[k] % Bx));
+        add_segment(C, tile.s0 + k);
+      }
+    }
+    if (!exporting && replays_.empty()) continue;
+    const std::size_t mark = t + 1;
+    bool chainable = true;
+    for (std::size_t e = tile.s0; e < tile.s1; ++e) {
+      const auto [from, to] = segments[e];
+      chainable = chainable && stamp_out[from] != mark && stamp_in[to] != mark;
+      stamp_out[from] = mark;
+      stamp_in[to] = mark;
+      out_seg[from] = e;
+    }
+    if (!chainable) {
+      for (std::size_t e = tile.s0; e < tile.s1; ++e) add_segment(T, e);
+      continue;
+    }
+    for (std::size_t e0 = tile.s0; e0 < tile.s1; ++e0) {
+      const std::size_t start = segments[e0].first;
+      if (stamp_in[start] == mark) continue;  // not where a line enters the block
+      const std::uint32_t begin = T.size();
+      std::size_t v = start;
+      while (stamp_out[v] == mark) {
+        const std::size_t e = out_seg[v];
+        used[e] = 1;
+        add_inner(T, e);
+        v = segments[e].second;
+        if (stamp_out[v] == mark) T.add(crossings_[v], o);
+      }
+      T.chains.push_back({end_of(start), end_of(v), begin, T.size()});
+    }
+    for (std::size_t e0 = tile.s0; e0 < tile.s1; ++e0) {
+      if (used[e0]) continue;
+      const std::size_t start = segments[e0].first;
+      const std::uint32_t begin = T.size();
+      std::size_t v = start;
+      do {
+        const std::size_t e = out_seg[v];
+        used[e] = 1;
+        T.add(crossings_[v], o);
+        add_inner(T, e);
+        v = segments[e].second;
+      } while (v != start && stamp_out[v] == mark && !used[out_seg[v]]);
+      T.loops.emplace_back(begin, T.size());
+    }
+  }
+  D.chain_at[ntiles] = static_cast<std::uint32_t>(T.chains.size());
+  D.loop_at[ntiles] = static_cast<std::uint32_t>(T.loops.size());
+  if (exporting) {
+    // Made only where every place was marched (the rectangle one period, periodic throughout).
+    bool all = true;
+    for (const Tile& tile : tiles_) all = all && tile.marched;
+    if (all) {
+      for (TileLines* l : {&D.lines, &D.cells}) {
+        l->chains.shrink_to_fit();
+        l->loops.shrink_to_fit();
+        l->pts.shrink_to_fit();
+      }
+      D.col.shrink_to_fit();
+      *options_.tiles_out = {made_, made_->bytes()};
+    }
+  }
+}
+
+// A tile's chain taken by the block whose first node is (bi, bj): its ends found or added by
+// grid edge, its points translated.
+void SquareMarch::take_chain(std::size_t bi, std::size_t bj, const TileLines& L,
+                             const TileChain& c) {
+  auto end_at = [&](const TileEnd& x) {
+    return crossing_on(bi + x.i, bj + x.j(), x.vertical(), static_cast<double>(x.t));
   };
+  segments_.emplace_back(end_at(c.from), end_at(c.to));
+  const Vec2 o = m_.node(bi, bj);
+  for (std::size_t k = c.begin; k < c.end; ++k) inner_.push_back(TileLines::at(o, L.pts[k]));
+  inner_at_.push_back(inner_.size());
+}
+
+// The blocks of a marched place (`D`: this march's tiles or the ones given) taken from it.
+void SquareMarch::replay_tiles(const PeriodTileData* D) {
   // Whole blocks take their tile's chains, translated by whole periods.
   static const TileLines kNoLines;
   const TileLines& T = D ? D->lines : kNoLines;
-  for (const Replay& r : replays)
+  for (const Replay& r : replays_)
     for (std::size_t n = D->chain_at[r.tile]; n < D->chain_at[r.tile + 1]; ++n)
       take_chain(r.bi, r.bj, T, T.chains[n]);
   // Blocks along a boundary take the segments of their cells' rows.
-  for (const Block& k : periodic_parts) {
+  for (const Block& k : periodic_parts_) {
     const std::size_t t = tile_of(k.i, k.j);
     const TileLines& C = D->cells;
-    const std::uint32_t* row_at = D->row_at.data() + t * (By + 1);
+    const std::uint32_t* row_at = D->row_at.data() + t * (by_ + 1);
     const std::vector<std::uint16_t>& col = D->col;
-    const std::size_t li = (k.i % px) % Bx, lj = (k.j % py) % By;
+    const std::size_t li = (k.i % px_) % bx_, lj = (k.j % py_) % by_;
     const std::size_t oi = k.i - li, oj = k.j - lj;  // the first node of its top block
     for (std::size_t r = lj; r < lj + k.cj; ++r)
       for (auto c = static_cast<std::size_t>(
@@ -1063,27 +1114,58 @@ ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
   }
   // Loops inside a tile are edges from a point of their own back to it, after every crossing
   // with a grid edge (ids past those edge_crossings reports), so the walk closes them.
-  for (const Replay& r : replays) {
-    const Vec2 o = m.node(r.bi, r.bj);
+  for (const Replay& r : replays_) {
+    const Vec2 o = m_.node(r.bi, r.bj);
     for (std::size_t n = D->loop_at[r.tile]; n < D->loop_at[r.tile + 1]; ++n) {
       const auto [begin, end] = T.loops[n];
-      const std::size_t id = crossings.size();
-      crossings.push_back(TileLines::at(o, T.pts[begin]));
-      segments.emplace_back(id, id);
-      for (std::size_t k = begin + 1; k < end; ++k) inner.push_back(TileLines::at(o, T.pts[k]));
-      inner_at.push_back(inner.size());
+      const std::size_t id = crossings_.size();
+      crossings_.push_back(TileLines::at(o, T.pts[begin]));
+      segments_.emplace_back(id, id);
+      for (std::size_t k = begin + 1; k < end; ++k) inner_.push_back(TileLines::at(o, T.pts[k]));
+      inner_at_.push_back(inner_.size());
     }
   }
-  if (options.edge_crossings) {
-    options.edge_crossings->resize(ts->size());
-    for (std::size_t k = 0; k < ts->size(); ++k) {
-      const std::uint64_t e = buffers->edges[k], node = e >> 1;
-      (*options.edge_crossings)[k] = {node % row, node / row, (e & 1) != 0, (*ts)[k]};
-    }
+}
+
+void SquareMarch::report_edge_crossings() {
+  options_.edge_crossings->resize(ts_->size());
+  for (std::size_t k = 0; k < ts_->size(); ++k) {
+    const std::uint64_t e = buf_.edges[k], node = e >> 1;
+    (*options_.edge_crossings)[k] = {node % row_, node / row_, (e & 1) != 0, (*ts_)[k]};
   }
-  result.samples = m.samples;
-  result.lines = walk_edges(crossings, segments, &inner_at, &inner);
-  return result;
+}
+
+ContourSet SquareMarch::run() {
+  march_top_blocks();
+  march_periodic_parts();
+  ts_ = keep_keys_ ? &buf_.ts : nullptr;
+  m_.refine(crossings_, buf_.active, buf_.guesses, buf_.guess_values, buf_.ok, ts_);
+  inner_.clear();
+  inner_at_.assign(segments_.size() + 1, 0);
+  if (options_.segment_midpoints) add_midpoints();
+  const bool exporting = options_.tiles_out != nullptr;
+  if (!given_ && tiling_ && (exporting || !replays_.empty() || !periodic_parts_.empty()))
+    make_tiles();
+  if (exporting) {
+    result_.samples = m_.samples;
+    return std::move(result_);
+  }
+  replay_tiles(given_ ? given_ : made_.get());
+  if (options_.edge_crossings) report_edge_crossings();
+  result_.samples = m_.samples;
+  result_.lines = walk_edges(crossings_, segments_, &inner_at_, &inner_);
+  return std::move(result_);
+}
+
+}  // namespace
+
+ContourSet march_squares(PlaneFunction& f, Vec2 lo, Vec2 hi, double level,
+                         const MarchOptions& options) {
+  const double h = options.resolution;
+  if (!(h > 0) || !(hi.x > lo.x) || !(hi.y > lo.y)) return {};
+  Lease<MarchBuffers> buffers;
+  buffers->clear();
+  return SquareMarch(f, lo, hi, level, options, *buffers).run();
 }
 
 }  // namespace trellis

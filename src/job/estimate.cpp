@@ -59,11 +59,11 @@ Estimate estimate_lattice3d(const Config& c) {
   const auto& l = c.lattice3d;
   double struts = 0;
   std::string what;
-  if (l.kind == "foam" && l.foam.mesh.empty()) {
+  if (l.kind == Lattice3dKind::Foam && l.foam.mesh.empty()) {
     // A Voronoi cell has about 13 struts of its own; the box is mirrored in its faces.
     struts = 4 * 13 * l.foam.density * l.foam.width * l.foam.depth * l.foam.height;
     what = fmt::format("a Voronoi foam of about {:.3g} struts", struts);
-  } else if (l.kind == "cells") {
+  } else if (l.kind == Lattice3dKind::Cells) {
     struts = 36.0 * l.cells.nx * l.cells.ny * l.cells.nz;
     what = fmt::format("{} x {} x {} unit cells", l.cells.nx, l.cells.ny, l.cells.nz);
   } else if (!l.foam.mesh.empty()) {
@@ -72,14 +72,15 @@ Estimate estimate_lattice3d(const Config& c) {
     const BBox3 b = bounds(read_mesh(l.foam.mesh));
     const Vec3 s = b.max - b.min;
     const double volume = std::max(0.0, s.x * s.y * s.z);
-    if (l.kind == "foam") {
+    if (l.kind == Lattice3dKind::Foam) {
       struts = 13 * l.foam.density * volume;
     } else {
       const double cell = l.cells.size;
       struts = 36 * volume / (cell * cell * cell) +
                (l.conformal.skin > 0 ? 13 * l.conformal.skin_density * volume : 0);
     }
-    what = fmt::format("a {} lattice of about {:.3g} struts in {}", l.kind, struts, l.foam.mesh);
+    what = fmt::format("a {} lattice of about {:.3g} struts in {}", to_string(l.kind), struts,
+                       l.foam.mesh);
   } else {
     return {};
   }

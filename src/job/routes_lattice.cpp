@@ -17,9 +17,9 @@
 #include "trellis/core/file.hpp"
 #include "trellis/geom/mesh_io.hpp"
 #include "trellis/job/plate.hpp"
+#include "trellis/job/reports.hpp"
 #include "trellis/lattice/io.hpp"
 #include "trellis/machine/gcode_writer.hpp"
-#include "trellis/plan/report.hpp"
 #include "trellis/toolpath/json.hpp"
 
 namespace trellis::routes {
@@ -61,8 +61,8 @@ AtlasParams atlas_of(const Config& c, const Settings& st) {
 }
 
 HeightField onto_surface(const OntoConfig& o) {
-  if (o.kind == "sphere-cap") return sphere_cap(o.radius, o.diameter);
-  if (o.kind == "mesh") {
+  if (o.kind == OntoKind::SphereCap) return sphere_cap(o.radius, o.diameter);
+  if (o.kind == OntoKind::Mesh) {
     if (o.file.empty())
       throw SettingError("onto.kind = mesh needs onto.file", {"", 0, "onto.file"});
     return HeightField::from_mesh(read_mesh(o.file), o.file);
@@ -174,7 +174,7 @@ Graph stacked_layers(Graph g, const Job& job, const Config& c) {
 
 Graph cells_or_foam(const Config& c, Diagnostics& diag) {
   Graph g;
-  if (c.lattice3d.kind == "conformal") {
+  if (c.lattice3d.kind == Lattice3dKind::Conformal) {
     ConformalParams p = c.lattice3d.conformal;
     p.mesh = c.lattice3d.foam.mesh;
     if (p.mesh.empty())
@@ -185,10 +185,10 @@ Graph cells_or_foam(const Config& c, Diagnostics& diag) {
     p.seed = c.lattice3d.foam.seed;
     g = conformal_lattice(p, diag);
   } else {
-    g = c.lattice3d.kind == "foam" ? voronoi_foam(c.lattice3d.foam, diag)
-                                   : cell_lattice(c.lattice3d.cells);
+    g = c.lattice3d.kind == Lattice3dKind::Foam ? voronoi_foam(c.lattice3d.foam, diag)
+                                                : cell_lattice(c.lattice3d.cells);
   }
-  assign_materials(g, material_rule_from_string(c.lattice3d.materials));
+  assign_materials(g, c.lattice3d.materials);
   return g;
 }
 
@@ -266,7 +266,7 @@ JobResult plan_aero_route(const Job& job, const Config& c, const Graph& g, const
 // `--shard` on the plan route, before any work: what does not shard is refused (exit 2), saying
 // why and what does (docs/plates.md).
 void check_plan_shard(const Job& job, const Config& c) {
-  if (c.planner == "aero")
+  if (c.planner == LatticePlanner::Aero)
     throw SettingError(
         "the plan route does not shard with the aero planner: AERO plans the whole 3D lattice as "
         "one problem (which struts obstruct which under the nozzle, between separate pieces of the "
@@ -286,7 +286,8 @@ void check_plan_shard(const Job& job, const Config& c) {
 void write_plan_main(const Job& job, const Config& c, const Toolpath& tp, JobResult& out,
                      Diagnostics& diag, GcodeStats* stats) {
   if (job.gcode.empty()) return;
-  if (c.onto.kind.empty()) note_planar_in_bath(c.machine, "plan " + c.planner, diag);
+  if (c.onto.kind == OntoKind::Flat)
+    note_planar_in_bath(c.machine, "plan " + to_string(c.planner), diag);
   const GcodeStats gs = write_gcode_out(job.gcode, tp, job, c.machine, out, diag);
   if (stats) *stats = gs;
 }
@@ -299,7 +300,7 @@ void merge_plan_main(const Job& job, const Config& c, Toolpath& tp, JobResult& o
     // The travel order the shards left to the merge (plan_lattice's defer_order), then the
     // surface, as the single run does after planning.
     order_deferred_layers(tp, p);
-    if (!c.onto.kind.empty()) {
+    if (c.onto.kind != OntoKind::Flat) {
       const std::string source = tp.source;
       tp = project_onto_surface(tp, onto_surface(c.onto), c.onto.project);
       tp.source = source;
@@ -370,11 +371,12 @@ JobResult lattice3d(const Job& job, const Config& c, Diagnostics& diag, const Pr
   int materials = 0;
   for (const auto& e : g.edges) materials = std::max(materials, e.material + 1);
   const BBox3 b = g.bbox();
-  out.summary = fmt::format(
-      "{}: {} nodes, {} struts, {} material(s), {} x {} x {} mm",
-      c.lattice3d.kind == "cells" ? to_string(c.lattice3d.cells.cell) : c.lattice3d.kind,
-      g.nodes.size(), g.edges.size(), materials, fixed(b.max.x - b.min.x, 2),
-      fixed(b.max.y - b.min.y, 2), fixed(b.max.z - b.min.z, 2));
+  out.summary =
+      fmt::format("{}: {} nodes, {} struts, {} material(s), {} x {} x {} mm",
+                  c.lattice3d.kind == Lattice3dKind::Cells ? to_string(c.lattice3d.cells.cell)
+                                                           : to_string(c.lattice3d.kind),
+                  g.nodes.size(), g.edges.size(), materials, fixed(b.max.x - b.min.x, 2),
+                  fixed(b.max.y - b.min.y, 2), fixed(b.max.z - b.min.z, 2));
   return out;
 }
 
@@ -390,11 +392,11 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
   std::size_t made_first = 0, made_end = 0;
   double made_z0 = 0;
   HeightField surface;
-  if (!c.onto.kind.empty()) surface = onto_surface(c.onto);
+  if (c.onto.kind != OntoKind::Flat) surface = onto_surface(c.onto);
   if (!job.input.empty()) {
     g = read_lattice(job.input, c.clean_options(), diag);
     g = stacked_layers(std::move(g), job, c);
-  } else if (c.planner == "aero") {
+  } else if (c.planner == LatticePlanner::Aero) {
     if (!c.lattice3d.foam.mesh.empty())
       check_budget(mesh_read_estimate(c.lattice3d.foam.mesh), budget_of(job, c, progress));
     check_budget(estimate_lattice3d(c), budget_of(job, c, progress));
@@ -403,7 +405,7 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
   } else {
     progress("lattice", 0);
     AtlasParams a = atlas_of(c, job.settings);
-    if (!c.onto.kind.empty() && !job.settings.has("lattice2d.center")) {
+    if (c.onto.kind != OntoKind::Flat && !job.settings.has("lattice2d.center")) {
       const BBox2 b = surface.domain();
       a.region.center = {(b.min.x + b.max.x) / 2, (b.min.y + b.max.y) / 2};
     }
@@ -411,11 +413,11 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
     check_budget(lattice, budget_of(job, c, progress));
     // The planner's work too, before the lattice is made (about one edge per cell unit); the
     // exact check follows once the lattice is there.
-    if (c.planner == "gippo")
+    if (c.planner == LatticePlanner::Gippo)
       check_budget(estimate_gippo(static_cast<std::size_t>(lattice.bytes / 1e4),
                                   c.plan.gippo.iterations, c.gippo_seeds),
                    budget_of(job, c, progress));
-    if (job.shards && c.planner != "aero" && c.plan.order != PathOrder::Travel) {
+    if (job.shards && c.planner != LatticePlanner::Aero && c.plan.order != PathOrder::Travel) {
       // A shard of a made lattice makes only its own layers: which layers print comes from the
       // solid's sections alone (cheap), the work per layer from their areas. Every layer with
       // a section must hold struts for that count to be the plan's; each shard checks its own.
@@ -448,18 +450,18 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
     write_lattice(job.lattice, g);
     out.files.push_back(job.lattice);
   }
-  if (c.planner == "aero") {
+  if (c.planner == LatticePlanner::Aero) {
     const int tries =
         c.aero.tries > 0 ? c.aero.tries : static_cast<int>(aero_auto_tries(g.edges.size()));
     check_budget(estimate_aero(g.edges.size(), tries), budget_of(job, c, progress));
     return plan_aero_route(job, c, g, input, diag, progress, t0, out);
   }
-  if (c.planner == "gippo")
+  if (c.planner == LatticePlanner::Gippo)
     check_budget(estimate_gippo(g.edges.size(), c.plan.gippo.iterations, c.gippo_seeds),
                  budget_of(job, c, progress));
 
   PlanParams p = c.plan;
-  p.planner = planner_from_string(c.planner);
+  p.planner = c.planner == LatticePlanner::Euler ? Planner::Euler : Planner::Gippo;
   p.layer_height = c.machine.layer_height;
   // A shard (`--shard K/N`) plans the toolpath layers [a, b), balanced by their edges; the other
   // layers stay empty at their z (the surface projection offsets layer k by its index).
@@ -493,9 +495,10 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
     r.toolpath.layers = std::move(placed);
   }
   if (job.shards) {
-    if (!c.onto.kind.empty() && !p.defer_order)
+    if (c.onto.kind != OntoKind::Flat && !p.defer_order)
       r.toolpath = project_onto_surface(r.toolpath, surface, c.onto.project);
-    r.toolpath.source = "trellis " + c.planner + " " + fs::path(input).filename().string();
+    r.toolpath.source =
+        "trellis " + to_string(c.planner) + " " + fs::path(input).filename().string();
     if (r.toolpath.layers.size() != total)
       throw Error(
           fmt::format("the plan has {} layers, its levels {}", r.toolpath.layers.size(), total));
@@ -522,12 +525,12 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
         c.gippo_seeds, fixed(rob.mean, 4), fixed(rob.sd, 4), fixed(rob.cv_percent(), 2),
         fixed(rob.min, 4), fixed(rob.max, 4));
   }
-  if (!c.onto.kind.empty()) {
+  if (c.onto.kind != OntoKind::Flat) {
     progress("surface", 0);
     r.toolpath = project_onto_surface(r.toolpath, surface, c.onto.project);
     r.travel = travel_stats(r.toolpath);
   }
-  r.toolpath.source = "trellis " + c.planner + " " + fs::path(input).filename().string();
+  r.toolpath.source = "trellis " + to_string(c.planner) + " " + fs::path(input).filename().string();
   out.toolpath = std::make_shared<Toolpath>(r.toolpath);
   out.lattice = std::make_shared<Graph>(g);
   const double secs = seconds_since(t0);
@@ -539,7 +542,7 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
   }
   // The lowest-score GIPPO solution beside the best (gippo.worst).
   const bool worst = p.keep_worst && !r.worst.layers.empty();
-  if (worst && c.planner == "gippo" && !c.onto.kind.empty())
+  if (worst && c.planner == LatticePlanner::Gippo && c.onto.kind != OntoKind::Flat)
     r.worst = project_onto_surface(r.worst, surface, c.onto.project);
   if (worst && !job.toolpath.empty()) {
     std::string name = job.toolpath;
@@ -563,7 +566,7 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
     ro.bead_width = c.machine.nozzle_diameter;
     previews(r.toolpath, job.preview, c.output.preview_layers, ro, out);
     if (worst) previews(r.worst, job.preview, c.output.preview_layers, ro, out, "worst_layer_");
-    if (!c.onto.kind.empty() || !c.layers.solid.empty()) {
+    if (c.onto.kind != OntoKind::Flat || !c.layers.solid.empty()) {
       View3dOptions v;
       v.size_px = c.output.image_size;
       v.title = job.name;
@@ -579,9 +582,9 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
   out.summary += fmt::format(
       "{}: {} edges, {} layer(s), {} paths (lower bound {}), score {}, LTS {}%, OE {}%, travel {} "
       "moves / {} mm, {} s",
-      c.planner, g.edges.size(), r.toolpath.layers.size(), r.total.paths, r.total.lower_bound_paths,
-      fixed(r.total.score, 4), fixed(r.total.lts, 1), fixed(r.total.oe, 2), r.travel.moves,
-      fixed(r.travel.length, 1), fixed(secs, 3));
+      to_string(c.planner), g.edges.size(), r.toolpath.layers.size(), r.total.paths,
+      r.total.lower_bound_paths, fixed(r.total.score, 4), fixed(r.total.lts, 1),
+      fixed(r.total.oe, 2), r.travel.moves, fixed(r.travel.length, 1), fixed(secs, 3));
   if (!job.gcode.empty())
     out.summary += fmt::format("\n{}: {} mm printed, ~{} min", to_string(c.machine.flavor),
                                fixed(gs.print_length, 1), fixed(gs.print_time_s / 60, 1));

@@ -32,11 +32,17 @@ std::string lower_extension(const std::string& path) {
   return ext;
 }
 
-ScanStrategy strategy_of(const std::string& s) {
-  if (s == "rectilinear") return ScanStrategy::Rectilinear;
-  if (s == "stripe") return ScanStrategy::Stripe;
-  if (s == "island") return ScanStrategy::Island;
-  return ScanStrategy::Meander;  // meander, and hybrid / r67 on a mesh (no sheet to trace)
+ScanStrategy strategy_of(PbfStrategy s) {
+  switch (s) {
+    case PbfStrategy::Rectilinear:
+      return ScanStrategy::Rectilinear;
+    case PbfStrategy::Stripe:
+      return ScanStrategy::Stripe;
+    case PbfStrategy::Island:
+      return ScanStrategy::Island;
+    default:
+      return ScanStrategy::Meander;  // meander, and hybrid / r67 on a mesh (no sheet to trace)
+  }
 }
 
 double peak_memory_mb() {
@@ -119,18 +125,17 @@ bool is_mesh_path(const std::string& path) {
 }
 
 bool pbf_solid_job(const Job& job, const Config& c) {
-  const std::string& s = c.pbf.strategy;
-  const bool solid_strategy = s != "hybrid" && s != "r67";
-  if (solid_strategy && (job.input.empty() || !job.parts.empty() || job.shards))
+  const bool solid = solid_strategy(c.pbf.strategy);
+  if (solid && (job.input.empty() || !job.parts.empty() || job.shards))
     throw SettingError(fmt::format("the {} strategy scans a solid part: give one mesh (STL, OBJ, "
                                    "3MF) or .vcad solid as the input (build plates and shards "
                                    "of solid parts are not planned yet); TPMS lattices take "
                                    "hybrid or r67",
-                                   s),
+                                   to_string(c.pbf.strategy)),
                        {"", 0, "pbf.strategy"});
   if (job.input.empty()) return false;
   // A 3MF level-set design is a field like a .vcad (field/implicit_3mf.hpp), not a mesh.
-  return solid_strategy || (is_mesh_path(job.input) && !is_implicit_3mf(job.input));
+  return solid || (is_mesh_path(job.input) && !is_implicit_3mf(job.input));
 }
 
 namespace {
@@ -239,7 +244,7 @@ JobResult pbf_solid(const Job& job, const Config& c, Diagnostics& diag, const Pr
     j["format"] = "trellis.pbf_report";
     j["version"] = 1;
     j["route"] = "solid";
-    j["strategy"] = c.pbf.strategy;
+    j["strategy"] = to_string(c.pbf.strategy);
     j["settings"] = {{"part", fs::path(job.input).filename().string()},
                      {"layer_mm", o.layer},
                      {"hatch_distance_mm", o.pattern.hatch_distance},
@@ -267,7 +272,7 @@ JobResult pbf_solid(const Job& job, const Config& c, Diagnostics& diag, const Pr
   out.summary = fmt::format(
       "{} (solid part): {} layers, {} contour vectors ({} mm), {} hatch vectors ({} mm); scan "
       "time {} s; {} s, peak {} MB",
-      c.pbf.strategy, r.layers.size(), r.contour_vectors, fixed(r.contour_length, 1),
+      to_string(c.pbf.strategy), r.layers.size(), r.contour_vectors, fixed(r.contour_length, 1),
       r.hatch_vectors, fixed(r.hatch_length, 1), fixed(r.scan_time, 1), fixed(r.seconds, 2),
       fixed(rss, 0));
   if (o.skin.any()) {

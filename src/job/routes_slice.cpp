@@ -19,6 +19,7 @@
 #include "trellis/field/vcad.hpp"
 #include "trellis/geom/mesh_io.hpp"
 #include "trellis/job/plate.hpp"
+#include "trellis/job/reports.hpp"
 #include "trellis/machine/cli.hpp"
 #include "trellis/machine/gcode_writer.hpp"
 #include "trellis/machine/laser.hpp"
@@ -161,10 +162,10 @@ PbfDesign pbf_design(const PbfConfig& p) {
     return plane_wall(p.wall_thickness, p.wall_inclination, p.wall_azimuth, s);
   }
   PbfDesign d;
-  d.phi = tpms(tpms_kind(p.cell_type), {p.cell, p.cell, p.cell});
+  d.phi = tpms(p.cell_type, {p.cell, p.cell, p.cell});
   if (!p.grade_to.empty()) {
     const Field other = tpms_spec(p.grade_to, nullptr, "pbf.grade_to");
-    const std::string s = p.grade_axis == "z" ? "z" : "rho";
+    const std::string s = p.grade_axis == GradeAxis::Z ? "z" : "rho";
     d.phi = blend(d.phi, other,
                   {fmt::format("1/(1+exp(-({}-({}))/({})))", s, p.grade_center, p.grade_width)});
   }
@@ -199,7 +200,7 @@ void warn_lattice_envelope(const Field& f, const std::string& path, const PbfCon
               fmt::format("{} holds a TPMS that is not one sheet cut by boxes or intersections, so "
                           "it is the envelope the configured lattice ({} cells of {} mm) fills: "
                           "the part is the intersection of the two",
-                          path, p.cell_type, p.cell));
+                          path, to_string(p.cell_type), p.cell));
 }
 
 bool pbf_input(PbfDesign& d, const std::string& path, const PbfConfig& p, const Settings& set,
@@ -328,13 +329,13 @@ std::vector<int> parse_layer_tools(const std::string& text) {
 }
 
 HeightField test_surface(const SurfaceConfig& s) {
-  if (s.kind == "corrugation") return corrugation(s.corrugation);
-  if (s.kind == "miura") {
+  if (s.kind == SurfaceKind::Corrugation) return corrugation(s.corrugation);
+  if (s.kind == SurfaceKind::Miura) {
     MiuraParams m = s.miura;
     m.length = s.corrugation.length, m.width = s.corrugation.width;
     return miura(m);
   }
-  if (s.kind == "m-curve") {
+  if (s.kind == SurfaceKind::MCurve) {
     MCurveParams m = s.m_curve;
     m.fillet_diameter = s.corrugation.fillet_diameter;
     return m_curve(m);
@@ -661,7 +662,7 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag,
   const bool plate = !job.parts.empty();
   const std::vector<PlatePart> placed = plate ? job.parts : std::vector<PlatePart>{PlatePart{}};
   const double h = c.machine.layer_height;
-  const bool sequential = plate && c.plate.sequence == "parts";
+  const bool sequential = plate && c.plate.sequence == PlateSequence::Parts;
   std::vector<SlicePart> parts;
   // First each part's extent and printed layers (its ends found plane by plane), for the plate
   // check and the shards' ranges before any layer is sliced.
@@ -902,9 +903,9 @@ PbfOptions pbf_options(const Job& job, const Config& c) {
   po.hatch_distance = prof.hatch_distance;
   po.beam_compensation = prof.beam_compensation;
   po.melt_pool = prof.melt_pool_width;
-  po.hybrid = c.pbf.strategy == "hybrid";
+  po.hybrid = c.pbf.strategy == PbfStrategy::Hybrid;
   po.machine_origin = pbf_machine_origin(c);
-  po.stl_route = c.pbf.route == "stl";
+  po.stl_route = c.pbf.route == PbfRoute::Stl;
   po.timing = scan_timing(prof);
   const Budget budget = budget_of(job, c, Progress{});
   po.memory_budget = budget.force ? HUGE_VAL : budget.memory;
@@ -1182,7 +1183,7 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
   }
   // A degenerate hybrid result is said: no wall was thin enough to be traced as contours, so the
   // build is hatched throughout, as the R67 baseline would be.
-  if (c.pbf.strategy == "hybrid" && r.contour_vectors == 0 && r.hatch_vectors > 0)
+  if (c.pbf.strategy == PbfStrategy::Hybrid && r.contour_vectors == 0 && r.hatch_vectors > 0)
     diag.warn("pbf_no_contours",
               fmt::format("the hybrid strategy made no contour vectors: no wall is as thin as "
                           "pbf.thin_multiple × the melt pool ({} mm), so every wall was hatched as "
@@ -1195,14 +1196,14 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
     nlohmann::ordered_json j;
     j["format"] = "trellis.pbf_report";
     j["version"] = 1;
-    j["route"] = c.pbf.route;
-    j["strategy"] = c.pbf.strategy;
+    j["route"] = to_string(c.pbf.route);
+    j["strategy"] = to_string(c.pbf.strategy);
     // The lattice is the design's own sheet (its φ named by the design file) or the settings'.
     j["settings"] = {
         {"lattice", from_design ? "design " + fs::path(job.input).filename().string()
                                 : std::string("settings")},
-        {"cell_type",
-         from_design ? nlohmann::ordered_json() : nlohmann::ordered_json(c.pbf.cell_type)},
+        {"cell_type", from_design ? nlohmann::ordered_json()
+                                  : nlohmann::ordered_json(to_string(c.pbf.cell_type))},
         {"cell_mm", from_design ? nlohmann::ordered_json() : nlohmann::ordered_json(c.pbf.cell)},
         {"c", d.c.text},
         {"thickness_mm", d.thickness},
@@ -1252,16 +1253,16 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
   laser_previews(tp, job, c, out);
   if (!job.preview.empty() && c.output.preview_layers > 0) {
     out.files.push_back(preview_name(job.preview, "fr_a.png"));
-    render_fr_plot(r, c.pbf.strategy == "r67", out.files.back());
+    render_fr_plot(r, c.pbf.strategy == PbfStrategy::R67, out.files.back());
   }
   out.summary = fmt::format(
       "{} ({} route): {} layers, {} contour vectors ({} mm), {} hatch vectors ({} mm); FR_a mean "
       "{} "
       "cv {} (R67 baseline {} cv {}); scan time {} s (R67 {} s); {} s, peak {} MB",
-      c.pbf.strategy, c.pbf.route, r.layers.size(), r.contour_vectors, fixed(r.contour_length, 1),
-      r.hatch_vectors, fixed(r.hatch_length, 1), fixed(h.mean, 3), fixed(h.cv, 3), fixed(b.mean, 3),
-      fixed(b.cv, 3), fixed(r.scan_time, 1), fixed(r.scan_time_r67, 1), fixed(r.seconds, 2),
-      fixed(rss, 0));
+      to_string(c.pbf.strategy), to_string(c.pbf.route), r.layers.size(), r.contour_vectors,
+      fixed(r.contour_length, 1), r.hatch_vectors, fixed(r.hatch_length, 1), fixed(h.mean, 3),
+      fixed(h.cv, 3), fixed(b.mean, 3), fixed(b.cv, 3), fixed(r.scan_time, 1),
+      fixed(r.scan_time_r67, 1), fixed(r.seconds, 2), fixed(rss, 0));
   out.summary += laser_summary(times);
   return out;
 }
@@ -1438,7 +1439,7 @@ JobResult nonplanar(const Job& job, const Config& c, Diagnostics& diag, const Pr
 
 JobResult surface(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
   JobResult out;
-  if (c.surface.kind == "angle-test") {
+  if (c.surface.kind == SurfaceKind::AngleTest) {
     // The print-angle test path: toolpath JSON, or G-code for the job's machine.
     AngleTestParams p;
     Toolpath tp = angle_test(p);

@@ -205,15 +205,6 @@ Graph cell_lattice(const CellLatticeParams& p) {
   return clean_graph(raw, clean, quiet);
 }
 
-MaterialRule material_rule_from_string(const std::string& name) {
-  if (name == "none") return MaterialRule::None;
-  if (name == "xy-plane") return MaterialRule::XyPlane;
-  if (name == "component") return MaterialRule::Component;
-  if (name == "vertical") return MaterialRule::Vertical;
-  throw SettingError("unknown material rule '" + name +
-                     "' (expected none, xy-plane, component or vertical)");
-}
-
 void assign_materials(Graph& g, MaterialRule rule, double tolerance, double cone_half_angle_deg) {
   std::vector<int> comp;
   if (rule == MaterialRule::Component) comp = connected_components(g);

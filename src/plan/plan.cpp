@@ -9,12 +9,6 @@
 
 namespace trellis {
 
-Planner planner_from_string(const std::string& name) {
-  if (name == "gippo") return Planner::Gippo;
-  if (name == "euler") return Planner::Euler;
-  throw SettingError("unknown planner '" + name + "' (expected gippo or euler)");
-}
-
 std::string to_string(Planner p) {
   return p == Planner::Gippo ? "gippo" : "euler";
 }

@@ -105,6 +105,14 @@ Setting choice_enum(std::string key, std::vector<std::pair<std::string, E>> map,
   return s;
 }
 
+// A choice stored as an enum whose values run 0 .. n - 1, named by its to_string (config.hpp).
+template <class E, class Acc>
+Setting choice_named(std::string key, int n, std::string doc, std::string flag, Acc acc) {
+  std::vector<std::pair<std::string, E>> map;
+  for (int i = 0; i < n; ++i) map.emplace_back(to_string(static_cast<E>(i)), static_cast<E>(i));
+  return choice_enum<E>(std::move(key), std::move(map), std::move(doc), std::move(flag), acc);
+}
+
 template <class Acc>
 Setting numbers(std::string key, std::string unit, double lo, double hi, int count, std::string doc,
                 std::string flag, Acc acc) {
@@ -194,6 +202,51 @@ void add_machine(std::vector<Setting>& out) {
     out.push_back(std::move(s));
   }
 }
+
+}  // namespace
+
+std::string to_string(LatticePlanner planner) {
+  static const char* const names[] = {"gippo", "euler", "aero"};
+  return names[static_cast<int>(planner)];
+}
+
+std::string to_string(PbfRoute route) {
+  static const char* const names[] = {"direct", "stl"};
+  return names[static_cast<int>(route)];
+}
+
+std::string to_string(PbfStrategy strategy) {
+  static const char* const names[] = {"hybrid",  "r67",    "rectilinear",
+                                      "meander", "stripe", "island"};
+  return names[static_cast<int>(strategy)];
+}
+
+std::string to_string(PlateSequence sequence) {
+  static const char* const names[] = {"layers", "parts"};
+  return names[static_cast<int>(sequence)];
+}
+
+std::string to_string(Lattice3dKind kind) {
+  static const char* const names[] = {"cells", "foam", "conformal"};
+  return names[static_cast<int>(kind)];
+}
+
+std::string to_string(GradeAxis axis) {
+  return axis == GradeAxis::Z ? "z" : "r";
+}
+
+std::string to_string(OntoKind kind) {
+  static const char* const names[] = {"", "sphere-cap", "mesh", "function"};
+  return names[static_cast<int>(kind)];
+}
+
+std::string to_string(SurfaceKind kind) {
+  static const char* const names[] = {"corrugation", "miura", "m-curve", "sphere-cap",
+                                      "angle-test"};
+  return names[static_cast<int>(kind)];
+}
+
+namespace {
 
 const Setting* find_in(const std::vector<Setting>& table, const std::string& key) {
   for (const Setting& s : table)
@@ -602,7 +655,7 @@ std::vector<Setting> make_table() {
                      "arrowhead-inner", [](C& c) -> auto& { return c.lattice2d.arrowhead_inner_deg; }));
 
   // lattice3d.*
-  t.push_back(choice("lattice3d.kind", {"cells", "foam", "conformal"},
+  t.push_back(choice_named<Lattice3dKind>("lattice3d.kind", 3,
                      "unit cells tessellated, a stochastic Voronoi foam, or cells clipped to a "
                      "closed mesh (lattice3d.mesh) with an optional stochastic skin", "kind",
                      [](C& c) -> auto& { return c.lattice3d.kind; }));
@@ -655,7 +708,11 @@ std::vector<Setting> make_table() {
                        [](C& c) -> auto& { return c.lattice3d.foam.density; }));
   t.push_back(integer("lattice3d.seed", 0, 9e15, "foam random seed", "seed",
                       [](C& c) -> auto& { return c.lattice3d.foam.seed; }));
-  t.push_back(choice("lattice3d.materials", {"none", "xy-plane", "component", "vertical"},
+  t.push_back(choice_enum<MaterialRule>("lattice3d.materials",
+                                        {{"none", MaterialRule::None},
+                                         {"xy-plane", MaterialRule::XyPlane},
+                                         {"component", MaterialRule::Component},
+                                         {"vertical", MaterialRule::Vertical}},
                      "per-strut material rule", "materials",
                      [](C& c) -> auto& { return c.lattice3d.materials; }));
 
@@ -674,7 +731,7 @@ std::vector<Setting> make_table() {
                      "layer-rotation", [](C& c) -> auto& { return c.layers.rotation_deg; }));
   t.push_back(path("layers.solid", "closed mesh each layer's pattern is cropped to", "solid",
                    [](C& c) -> auto& { return c.layers.solid; }));
-  t.push_back(choice("onto.kind", {"", "sphere-cap", "mesh", "function"},
+  t.push_back(choice_named<OntoKind>("onto.kind", 4,
                      "lay the planned layers on a surface (empty: flat)", "onto",
                      [](C& c) -> auto& { return c.onto.kind; }));
   t.push_back(positive("onto.radius", "mm", 1e5, "sphere-cap radius", "",
@@ -696,7 +753,7 @@ std::vector<Setting> make_table() {
                        "", [](C& c) -> auto& { return c.onto.project.chord_tolerance; }));
 
   // plan.*, gippo.*
-  t.push_back(choice("plan.planner", {"gippo", "euler", "aero"},
+  t.push_back(choice_named<LatticePlanner>("plan.planner", 3,
                      "gippo (paper), euler (minimum paths) or aero (3D, embedded)", "",
                      [](C& c) -> auto& { return c.planner; }));
   t.push_back(choice_enum<PathOrder>(
@@ -915,7 +972,7 @@ std::vector<Setting> make_table() {
                      "process-min-length", [](C& c) -> auto& { return c.slice.process.min_length; }));
 
   // pbf.*
-  t.push_back(choice("pbf.cell_type", {"gyroid", "schwarz_p", "schwarz_d", "neovius", "iwp"},
+  t.push_back(choice_named<TpmsKind>("pbf.cell_type", 5,
                      "TPMS of the sheet", "cell-type", [](C& c) -> auto& { return c.pbf.cell_type; }));
   t.push_back(positive("pbf.cell", "mm", 1000, "TPMS cell size", "cell",
                        [](C& c) -> auto& { return c.pbf.cell; }));
@@ -934,7 +991,7 @@ std::vector<Setting> make_table() {
                    [](C& c) -> auto& { return c.pbf.solids; }));
   t.push_back(text("pbf.grade_to", "TYPE:CELL blended in by a sigmoid (graded cell size)",
                    "grade-to", [](C& c) -> auto& { return c.pbf.grade_to; }));
-  t.push_back(choice("pbf.grade_axis", {"z", "r"}, "grading axis: z (axial) or r (radial)",
+  t.push_back(choice_named<GradeAxis>("pbf.grade_axis", 2, "grading axis: z (axial) or r (radial)",
                      "grade-axis", [](C& c) -> auto& { return c.pbf.grade_axis; }));
   t.push_back(number("pbf.grade_center", "mm", -1e5, 1e5, "sigmoid centre", "grade-center",
                      [](C& c) -> auto& { return c.pbf.grade_center; }));
@@ -942,10 +999,10 @@ std::vector<Setting> make_table() {
                        [](C& c) -> auto& { return c.pbf.grade_width; }));
   t.push_back(text("pbf.hierarchical", "TYPE:CELL:WEIGHT superposed (hierarchical lattice)",
                    "hierarchical", [](C& c) -> auto& { return c.pbf.hierarchical; }));
-  t.push_back(choice("pbf.route", {"direct", "stl"},
+  t.push_back(choice_named<PbfRoute>("pbf.route", 2,
                      "direct (slice the field) or stl (marching cubes mesh, for comparison)",
                      "route", [](C& c) -> auto& { return c.pbf.route; }));
-  t.push_back(choice("pbf.strategy", {"hybrid", "r67", "rectilinear", "meander", "stripe", "island"},
+  t.push_back(choice_named<PbfStrategy>("pbf.strategy", 6,
                      "TPMS sheets: hybrid (contours on thin walls, hatch at joints) or r67 (hatch "
                      "everything); solid parts (a mesh, or a .vcad with a solid strategy): "
                      "rectilinear, meander (hybrid and r67 on a mesh), stripe or island "
@@ -1094,7 +1151,7 @@ std::vector<Setting> make_table() {
                               "x0, y0, x1, y1 of the height function", "domain",
                               [](C& c) -> auto& { return c.nonplanar.domain; }),
                       "none (needed with nonplanar.height_fn)"));
-  t.push_back(choice("surface.kind", {"corrugation", "miura", "m-curve", "sphere-cap", "angle-test"},
+  t.push_back(choice_named<SurfaceKind>("surface.kind", 5,
                      "generated test surface (non-planar paper)", "kind",
                      [](C& c) -> auto& { return c.surface.kind; }));
   t.push_back(positive("surface.length", "mm", 1e4, "length along X", "length",
@@ -1126,7 +1183,7 @@ std::vector<Setting> make_table() {
   t.push_back(number("plate.clearance", "mm", 0, 1000,
                        "build plates ([[part]] tables): the least gap between parts' footprints",
                        "", [](C& c) -> auto& { return c.plate.clearance; }));
-  t.push_back(choice("plate.sequence", {"layers", "parts"},
+  t.push_back(choice_named<PlateSequence>("plate.sequence", 2,
                      "FDM plates: layers (layer i of every part, then layer i + 1) or parts (each "
                      "part whole before the next, where machine.extruder_clearance_radius and "
                      "_height allow)",

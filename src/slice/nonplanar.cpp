@@ -16,7 +16,6 @@
 #include <limits>
 #include <map>
 #include <mutex>
-#include <nlohmann/json.hpp>
 #include <numbers>
 
 #include "../field/node.hpp"
@@ -1245,56 +1244,6 @@ double footprint_coverage(const Toolpath& tp, std::size_t layer, const HeightFie
     inside += in, hit += h;
   });
   return inside > 0 ? static_cast<double>(hit) / static_cast<double>(inside) : 0;
-}
-
-std::string nonplanar_report_json(const NonplanarResult& r, const NonplanarParams& prm,
-                                  const HeightField& surface, const SurfaceDeviation& dev,
-                                  const GcodeStats* g) {
-  nlohmann::ordered_json j;
-  j["surface"] = surface.name();
-  j["kind"] = surface.is_mesh() ? "mesh" : "function";
-  j["footprint_mm"] = {surface.domain().width(), surface.domain().height()};
-  j["path_width_mm"] = prm.width;
-  j["layer_height_mm"] = prm.layer_height;
-  j["offset"] = to_string(prm.offset);
-  j["chord_tolerance_mm"] = prm.chord_tolerance;
-  j["layers"] = r.layers.size();
-  double length = 0, conn = 0;
-  std::size_t travel = 0, changes = 0, jumps = 0;
-  for (std::size_t k = 0; k < r.layers.size(); ++k) {
-    length += r.layers[k].length, conn += r.layers[k].connector_length;
-    jumps += r.layers[k].jumps;
-    travel += r.layers[k].travel_moves;
-    if (k > 0 && r.layers[k].tool != r.layers[k - 1].tool) ++changes;
-  }
-  j["path_length_mm"] = length;
-  j["connector_length_mm"] = conn;
-  j["travel_moves_within_layers"] = travel;
-  j["tool_changes"] = changes;
-  j["surface_jumps"] = jumps;
-  j["max_descent_deg"] = r.max_descent_deg;
-  j["max_deviation_mm"] = dev.max_point;
-  j["max_chord_deviation_mm"] = dev.max_chord;
-  auto layers = nlohmann::ordered_json::array();
-  for (const auto& l : r.layers)
-    layers.push_back({{"offset_mm", l.offset},
-                      {"angle_deg", l.angle},
-                      {"tool", l.tool},
-                      {"lines", l.lines},
-                      {"paths", l.paths},
-                      {"travel_moves", l.travel_moves},
-                      {"length_mm", l.length},
-                      {"connector_length_mm", l.connector_length},
-                      {"jumps", l.jumps},
-                      {"hole_joins", l.hole_joins}});
-  j["per_layer"] = layers;
-  if (g)
-    j["gcode"] = {{"tool_changes", g->tool_changes},
-                  {"travel_moves", g->travel_moves},
-                  {"travel_length_mm", g->travel_length},
-                  {"print_time_s", g->print_time_s},
-                  {"bytes", g->bytes}};
-  return j.dump(2) + "\n";
 }
 
 Toolpath project_onto_surface(const Toolpath& planar, const HeightField& surface,

@@ -17,6 +17,7 @@
 #include "trellis/geom/mesh_repair.hpp"
 #include "trellis/geom/polygon.hpp"
 #include "trellis/geom/regions.hpp"
+#include "trellis/job/reports.hpp"
 #include "trellis/slice/pipeline.hpp"
 #include "trellis/slice/slice.hpp"
 

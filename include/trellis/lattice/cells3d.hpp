@@ -72,7 +72,6 @@ enum class MaterialRule {
   Component,  // one material per connected part
   Vertical,   // struts within the nozzle cone (steep) material 1, others 0
 };
-MaterialRule material_rule_from_string(const std::string& name);  // throws SettingError
 
 void assign_materials(Graph& g, MaterialRule rule, double tolerance = 1e-6,
                       double cone_half_angle_deg = 30);

@@ -98,14 +98,4 @@ AeroResult plan_aero(const Graph& g, const AeroParams& params, Diagnostics& diag
 // One travel-free path per trail (nozzle tip on the strut axis), tool = material, in one layer.
 Toolpath aero_toolpath(const Graph& g, const AeroResult& result, const std::string& source);
 
-struct AeroReportInput {
-  std::string lattice;
-  std::size_t nodes = 0, edges = 0;
-  double seconds = 0;
-  long long checked_collisions = -1;  // from the independent checker, -1 = not checked
-  bool checked_once = false;          // the checker found every strut printed exactly once
-};
-std::string aero_report_json(const AeroResult& r, const AeroParams& p, const Diagnostics& diag,
-                             const AeroReportInput& in);
-
 }  // namespace trellis

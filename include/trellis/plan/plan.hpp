@@ -14,7 +14,6 @@
 namespace trellis {
 
 enum class Planner { Gippo, Euler };
-Planner planner_from_string(const std::string& name);  // throws SettingError
 std::string to_string(Planner p);
 
 struct PlanParams {

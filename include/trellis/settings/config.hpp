@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "trellis/field/field.hpp"
 #include "trellis/lattice/atlas.hpp"
 #include "trellis/lattice/cells3d.hpp"
 #include "trellis/machine/laser.hpp"
@@ -21,14 +22,45 @@
 
 namespace trellis {
 
+// The route choices that are not a params field, parsed once by the schema into these enums; each
+// one's names (to_string) are the setting's choices, in the enum's order.
+// plan.planner: the graph planners of plan/plan.hpp, or AERO (plan/aero.hpp).
+enum class LatticePlanner { Gippo, Euler, Aero };
+// pbf.route: slice the field directly, or its marching-cubes mesh (for comparison).
+enum class PbfRoute { Direct, Stl };
+// pbf.strategy: TPMS sheets (hybrid, r67) or solid parts (the others, slice/scan_strategy.hpp).
+enum class PbfStrategy { Hybrid, R67, Rectilinear, Meander, Stripe, Island };
+// plate.sequence: FDM plates printed layer by layer or part by part.
+enum class PlateSequence { Layers, Parts };
+// lattice3d.kind: unit cells tessellated, a Voronoi foam, or cells clipped to a mesh.
+enum class Lattice3dKind { Cells, Foam, Conformal };
+// pbf.grade_axis: the sigmoid blending pbf.grade_to in runs along z (axial) or r (radial).
+enum class GradeAxis { Z, R };
+// onto.kind: planned layers left flat, or laid on a sphere cap, a mesh or a height function.
+enum class OntoKind { Flat, SphereCap, Mesh, Function };
+// surface.kind: the non-planar paper's generated test surfaces, and the angle test.
+enum class SurfaceKind { Corrugation, Miura, MCurve, SphereCap, AngleTest };
+std::string to_string(LatticePlanner planner);
+std::string to_string(PbfRoute route);
+std::string to_string(PbfStrategy strategy);
+std::string to_string(PlateSequence sequence);
+std::string to_string(Lattice3dKind kind);
+std::string to_string(SurfaceKind kind);
+std::string to_string(OntoKind kind);  // "" for flat
+std::string to_string(GradeAxis axis);
+// Whether the strategy scans solid parts (not TPMS sheets).
+inline bool solid_strategy(PbfStrategy s) {
+  return s != PbfStrategy::Hybrid && s != PbfStrategy::R67;
+}
+
 // lattice3d.*: unit cells tessellated, or a Voronoi foam.
 struct Lattice3dConfig {
-  std::string kind = "cells";  // cells | foam | conformal
+  Lattice3dKind kind = Lattice3dKind::Cells;
   CellLatticeParams cells;
   FoamParams foam;
-  ConformalParams conformal;       // skin, skin density (mesh, cell, seed from the others)
-  double radius = 0.25;            // mm, strut radius written to 3MF beam lattices
-  std::string materials = "none";  // none | xy-plane | component | vertical
+  ConformalParams conformal;  // skin, skin density (mesh, cell, seed from the others)
+  double radius = 0.25;       // mm, strut radius written to 3MF beam lattices
+  MaterialRule materials = MaterialRule::None;
 };
 
 // layers.*: GIPPO multi-layer parts (a 2D pattern repeated per layer, optionally cropped to a
@@ -41,7 +73,7 @@ struct LayersConfig {
 
 // onto.*: planned layers laid on a surface (GIPPO non-planar).
 struct OntoConfig {
-  std::string kind;  // "" (flat) | sphere-cap | mesh | function
+  OntoKind kind = OntoKind::Flat;
   double radius = 10, diameter = 12;
   std::string file, height_fn;
   std::vector<double> domain;  // x0, y0, x1, y1
@@ -50,7 +82,7 @@ struct OntoConfig {
 
 // pbf.*: the TPMS sheet design and the route; scan parameters live in the laser profile.
 struct PbfConfig {
-  std::string cell_type = "gyroid";
+  TpmsKind cell_type = TpmsKind::Gyroid;
   double cell = 2.5;         // mm
   std::string c = "0.15";    // Φ = φ² − c²; a number or an expression of x, y, z, rho, r
   double thickness = 0;      // mm; > 0: c = t·|∇φ|/2 (uniform walls)
@@ -59,7 +91,7 @@ struct PbfConfig {
   std::string envelope;                // .vcad solid the lattice fills (path)
   std::string solids;                  // .vcad solid parts, hatched (path)
   std::string grade_to;                // TYPE:CELL blended in by a sigmoid
-  std::string grade_axis = "z";
+  GradeAxis grade_axis = GradeAxis::Z;
   double grade_center = 0, grade_width = 1;
   std::string hierarchical;      // TYPE:CELL:WEIGHT superposed
   double wall_thickness = 0;     // mm; > 0: a plane thin wall (PBF paper Fig. 3) instead of a TPMS
@@ -68,10 +100,10 @@ struct PbfConfig {
   bool binary = false;           // binary CLI geometry
   double laser_overlap = 1;      // mm: neighbouring lasers' stripes overlap (laser.lasers > 1)
   LaserAxis laser_split_axis = LaserAxis::X;  // the lasers' stripes follow one another along
-  std::string route = "direct";               // direct | stl
+  PbfRoute route = PbfRoute::Direct;
   // hybrid | r67 (TPMS sheets; a mesh part is scanned as meander) | rectilinear | meander |
   // stripe | island (solid parts: a mesh, or a .vcad scanned as a solid)
-  std::string strategy = "hybrid";
+  PbfStrategy strategy = PbfStrategy::Hybrid;
   int contours = 1;             // solid parts: contour offsets per region
   double contour_distance = 0;  // mm between contours (0 = the hatch distance)
   SkinOptions skin;             // solid parts: skin/core, up-skin, down-skin thicknesses (mm)
@@ -85,7 +117,7 @@ struct PbfConfig {
 
 // surface.*: the non-planar paper's generated test surfaces.
 struct SurfaceConfig {
-  std::string kind = "corrugation";  // corrugation | miura | m-curve | sphere-cap
+  SurfaceKind kind = SurfaceKind::Corrugation;
   CorrugationParams corrugation;
   MiuraParams miura;
   MCurveParams m_curve;
@@ -123,7 +155,7 @@ struct PlateConfig {
   double clearance = 2;  // plate.clearance (mm): least gap between the parts' footprints
   // plate.sequence: FDM plates printed layer by layer (every part's layer i, then layer i + 1)
   // or part by part (each part whole before the next; the machine's extruder clearance allowing)
-  std::string sequence = "layers";
+  PlateSequence sequence = PlateSequence::Layers;
 };
 
 struct Config {
@@ -133,7 +165,7 @@ struct Config {
   Lattice3dConfig lattice3d;
   LayersConfig layers;
   OntoConfig onto;
-  std::string planner = "gippo";                            // plan.planner: gippo | euler | aero
+  LatticePlanner planner = LatticePlanner::Gippo;           // plan.planner
   PlanParams plan;                                          // plan.* and gippo.*
   double merge_tolerance = CleanOptions{}.merge_tolerance;  // lattice.merge_tolerance (mm)
   bool keep_graph = false;  // lattice.keep_graph: no node merging, no T-junction splitting

@@ -143,12 +143,6 @@ SurfaceDeviation surface_deviation(const Toolpath& toolpath, const HeightField& 
 double footprint_coverage(const Toolpath& toolpath, std::size_t layer, const HeightField& surface,
                           double width, double pixel = 0.02);
 
-// The report: layers, path length, travel moves per layer, tool changes, deviation from the
-// surface; with the writer's stats if given (tool changes made, travel, print time).
-std::string nonplanar_report_json(const NonplanarResult& result, const NonplanarParams& params,
-                                  const HeightField& surface, const SurfaceDeviation& deviation,
-                                  const GcodeStats* gcode = nullptr);
-
 // --- test surfaces (the paper's) ---
 // 2D profiles z(x) made of straight pieces with tangent circular fillets at the corners.
 struct Profile {

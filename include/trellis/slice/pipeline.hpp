@@ -142,8 +142,4 @@ int graded_colours_used(const Toolpath& toolpath);
 void add_colour_use(const SliceJob& job, const Layer& layer,
                     std::map<std::vector<double>, std::pair<double, double>>& use);
 
-// The report: layers, paths, lengths, travel, print time (from the writer's stats if given).
-std::string slice_report_json(const SliceJob& job, const SliceResult& result,
-                              const GcodeStats* gcode);
-
 }  // namespace trellis
