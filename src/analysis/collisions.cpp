@@ -227,15 +227,16 @@ class HeldIndex {
 // layer being read with it, measured about 300 bytes.
 constexpr double kBytesPerHeld = 300;
 
-// The replay's work from the outline, layer by layer: each move visits the held segments whose
-// cells its own footprint meets, about the held count times the share of the layer's padded
-// area one footprint covers (all of them when the moves pile up). A layer is taken as held
+// The replay's work from the outline, layer by layer: each move reads the lists of the cells
+// its footprint meets, about the held count times the share of the layer's padded area one
+// footprint covers (all of them when the moves pile up), once per cell. A layer is taken as held
 // until the floor passes its top (the replay drops segment by segment: it holds fewer).
 Estimate replay_estimate(const PrintOutline& o, double cell, double pad) {
   using Top = std::pair<double, std::size_t>;  // (layer top, segments)
   std::priority_queue<Top, std::vector<Top>, std::greater<>> held;
   double visits = 0, held_now = 0, peak = 0;
   const double reach = o.typical + cell + 2 * pad;
+  const double cells = std::pow((o.typical + 2 * pad) / cell + 1, 2);
   for (std::size_t k = 0; k < o.layers.size(); ++k) {
     const auto& l = o.layers[k];
     while (!held.empty() && held.top().first <= o.floor[k]) {
@@ -247,7 +248,7 @@ Estimate replay_estimate(const PrintOutline& o, double cell, double pad) {
     const double area =
         (l.box.max.x - l.box.min.x + 2 * pad) * (l.box.max.y - l.box.min.y + 2 * pad);
     const double share = std::min(1.0, reach * reach / std::max(area, 1e-12));
-    visits += n * (held_now + n / 2) * share;
+    visits += n * (held_now + n / 2) * share * cells;
     held_now += n;
     peak = std::max(peak, held_now);
     held.push({l.box.max.z, l.segments});
