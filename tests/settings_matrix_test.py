@@ -433,12 +433,13 @@ MALFORMED_TEXT = {
 
 
 def malformed_lists(key, s):
-    """Values a list setting must refuse, from its range ("3 whole numbers, each 1 .. 1000"):
+    """Values a list setting must refuse, from its range ("3 whole numbers, each 1 .. 1000",
+    "1 number, -360 .. 360 deg"):
     [(form, value)] with form "set" (command-line text) or "toml" (a job file's array)."""
     out = [("set", v) for v in MALFORMED_TEXT.get(key, [])]
     if s["kind"] != "list":
         return out  # text, checked where it is used: the scenario's command line
-    m = re.match(r"(?:(\d+) )?(whole )?numbers, each (.+?)(?: [a-z]+)?$", s["range"])
+    m = re.match(r"(?:(\d+) )?(whole )?numbers?, (?:each )?(.+?)(?: [a-z]+)?$", s["range"])
     if not m:
         return out + [("set", "x")]
     n = int(m.group(1)) if m.group(1) else 4

@@ -70,8 +70,14 @@ void add_check(CLI::App& app) {
     PrintCheck run(st, !o->machine.empty(), o->snap, o->budget.budget());
     Diagnostics diag;
     run.read_design(o->lattice, diag);
-    const Toolpath tp = run.read(o->print, diag, o->commanded);
-    const CollisionCheck c = run.check(tp);
+    Toolpath tp;  // held whole for the preview only: the check streams a G-code
+    CollisionCheck c;
+    if (o->preview.empty()) {
+      c = run.check_file(o->print, diag, o->commanded);
+    } else {
+      tp = run.read(o->print, diag, o->commanded);
+      c = run.check(tp);
+    }
     const CheckOptions& check = run.options();
     if (!o->report.empty()) write_file_atomic(o->report, collision_check_json(c, check));
     if (!o->preview.empty()) {

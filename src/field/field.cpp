@@ -139,10 +139,19 @@ bool FieldNode::has_expressions() const {
   return false;
 }
 
-void FieldNode::collect_materials(std::vector<std::string>& table) const {
+void FieldNode::own_materials(std::vector<std::string>& table) const {
   if (!material.empty() && std::find(table.begin(), table.end(), material) == table.end())
     table.push_back(material);
-  for (const auto& c : children) c->collect_materials(table);
+}
+
+void FieldNode::collect_materials(std::vector<std::string>& table) const {
+  std::vector<const FieldNode*> todo{this};  // depth first, children in order
+  while (!todo.empty()) {
+    const FieldNode* n = todo.back();
+    todo.pop_back();
+    n->own_materials(table);
+    for (auto c = n->children.rbegin(); c != n->children.rend(); ++c) todo.push_back(c->get());
+  }
 }
 
 namespace {
@@ -1054,10 +1063,10 @@ struct GradeNode : PropertyNode {
     }
   }
   bool has_expressions() const override { return true; }
-  void collect_materials(std::vector<std::string>& table) const override {
+  void own_materials(std::vector<std::string>& table) const override {
     for (const auto& m : names)
       if (std::find(table.begin(), table.end(), m) == table.end()) table.push_back(m);
-    FieldNode::collect_materials(table);
+    FieldNode::own_materials(table);
   }
 };
 

@@ -147,8 +147,11 @@ class FieldNode {
 
   std::vector<std::shared_ptr<const FieldNode>> children;
   std::string material;  // a leaf's material name, empty if none
-  // Names this node assigns fractions to (a leaf's material, an fgrade's list), for the table.
-  virtual void collect_materials(std::vector<std::string>& table) const;
+  // Names this node itself assigns fractions to (a leaf's material, an fgrade's list), for the
+  // table; collect_materials adds those of the whole tree, in order, without recursing (a chain
+  // of transforms may be as deep as the caller likes).
+  virtual void own_materials(std::vector<std::string>& table) const;
+  void collect_materials(std::vector<std::string>& table) const;
 };
 
 using NodePtr = std::shared_ptr<const FieldNode>;

@@ -12,6 +12,7 @@
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/machine/bgcode.hpp"
+#include "trellis/machine/gcode_reader.hpp"
 #include "trellis/machine/toolpath_3mf.hpp"
 
 namespace trellis {
@@ -345,7 +346,10 @@ Job job_from_output(const std::string& path) {
                          "run the job again, or rerun its JSON or G-code output",
                      {path});
   }
-  std::string text = job.empty() ? read_file(path) : std::string();
+  // A text G-code's job is in its header: the rest of a large file is not read.
+  const bool gcode = ext == ".gcode" || ext == ".nc" || ext == ".g" || ext == ".gco";
+  std::string text = !job.empty() ? std::string() : gcode ? read_gcode_header(path) : std::string();
+  if (job.empty() && text.empty()) text = read_file(path);
   if (is_bgcode(text)) text = bgcode_to_text(text, path);
   // Header comment lines: "; job: …" (G-code), "//job: …//" (CLI).
   std::size_t pos = 0;

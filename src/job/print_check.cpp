@@ -38,6 +38,16 @@ CollisionCheck PrintCheck::check(const Toolpath& print) const {
   return check_collisions(design_, print, options_);
 }
 
+CollisionCheck PrintCheck::check_file(const std::string& print, Diagnostics& diag,
+                                      bool commanded_mixtures) {
+  options_.snap = snap_;
+  const LayerSource layers = print_layers(print, machine_ ? &settings_ : nullptr, &options_.snap,
+                                          diag, commanded_mixtures);
+  if (!layers) return check(read(print, diag, commanded_mixtures));
+  check_budget(print_stream_estimate(print), options_.budget);
+  return check_collisions(design_, layers, options_);
+}
+
 // Measured on a 28 MB G-code of 10^6 moves: 183 MB at peak, about 7 bytes a byte of G-code; a
 // toolpath JSON is held at about 4 bytes a byte (estimate_gcode_of). Reading at about 50 MB/s.
 Estimate print_read_estimate(const std::string& path) {
@@ -50,6 +60,14 @@ Estimate print_read_estimate(const std::string& path) {
   e.seconds = size * 2e-8;
   e.what = fmt::format("reading a {:.3g} MB print to replay", size / 1e6);
   e.change = "the print (check it in parts)";
+  return e;
+}
+
+Estimate print_stream_estimate(const std::string& path) {
+  Estimate e = print_read_estimate(path);
+  e.bytes = 0;  // a chunk and a layer
+  e.seconds *= 2;
+  e.what += " (read twice: streamed)";
   return e;
 }
 

@@ -5,6 +5,8 @@
 #include <cctype>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <set>
 
@@ -289,6 +291,32 @@ double solid_section_z(const BBox3& box, int layer, double h) {
   return std::min(box.min.z + (layer + 0.5) * h, box.max.z - 1e-3 * h);
 }
 
+namespace {
+
+// How a G-code print is read back: with the valve commands of its machine (given, or of the job
+// its header embeds); `snap` gets that machine's node overlap + kNodeSnap.
+GcodeReadOptions print_read_options(std::string_view text, const std::string& path,
+                                    const Settings* machine, double* snap,
+                                    bool commanded_mixtures) {
+  Settings embedded;
+  if (!machine && text.find("\n; job: ") != std::string_view::npos) {
+    embedded = job_from_output(path).settings;
+    machine = &embedded;
+  }
+  GcodeReadOptions read;
+  read.commanded_mixtures = commanded_mixtures;
+  if (!machine) return read;
+  const MachineProfile profile = machine->config().machine;
+  if (!profile.marlin_family()) {
+    read.valve_on = profile.valve_on;
+    read.valve_off = profile.valve_off;
+  }
+  if (snap && *snap == kNodeSnap) *snap = profile.node_overlap + kNodeSnap;
+  return read;
+}
+
+}  // namespace
+
 Toolpath read_print(const std::string& path, const Settings* machine, double* snap,
                     Diagnostics& diag, bool commanded_mixtures) {
   const auto ext = fs::path(path).extension().string();
@@ -297,25 +325,39 @@ Toolpath read_print(const std::string& path, const Settings* machine, double* sn
     return read_toolpath(path);
   std::string text = read_file(path);
   if (is_bgcode(text)) text = bgcode_to_text(text, path);  // the header lines are read below
-  Settings embedded;
-  bool have = machine != nullptr;
-  if (!have && text.find("\n; job: ") != std::string::npos) {
-    embedded = job_from_output(path).settings;
-    machine = &embedded;
-    have = true;
-  }
-  const MachineProfile profile = have ? machine->config().machine : MachineProfile{};
-  GcodeReadOptions read;
-  read.commanded_mixtures = commanded_mixtures;
-  if (have && !profile.marlin_family()) {
-    read.valve_on = profile.valve_on;
-    read.valve_off = profile.valve_off;
-  }
-  if (have && snap && *snap == kNodeSnap) *snap = profile.node_overlap + kNodeSnap;
+  const GcodeReadOptions read = print_read_options(text, path, machine, snap, commanded_mixtures);
   Toolpath tp = read_gcode(text, read, diag, path);
   // Back to design coordinates: undo the placement written into the header and the tool offsets.
   to_design_coordinates(tp, text);
   return tp;
+}
+
+LayerSource print_layers(const std::string& path, const Settings* machine, double* snap,
+                         Diagnostics& diag, bool commanded_mixtures) {
+  const auto ext = fs::path(path).extension().string();
+  if (ext != ".gcode" && ext != ".nc" && ext != ".g") return {};
+  const std::string header = read_gcode_header(path);
+  {
+    std::ifstream in(path, std::ios::binary);
+    char magic[4] = {};
+    in.read(magic, 4);
+    if (is_bgcode(std::string_view(magic, static_cast<std::size_t>(in.gcount())))) return {};
+  }
+  // Mixtures as deposited are settled over the whole toolpath (machine/mixing_lag.hpp).
+  if (!commanded_mixtures && header.find("; mixture lookahead = ") != std::string::npos) return {};
+  const GcodeReadOptions read = print_read_options(header, path, machine, snap, commanded_mixtures);
+  const Vec3 shift = design_shift(header);
+  auto visits = std::make_shared<int>(0);
+  return [path, read, shift, visits, &diag](const LayerVisitor& visit) {
+    Diagnostics again;  // a second reading warns of nothing new
+    scan_gcode_layers(path, read, (*visits)++ == 0 ? diag : again,
+                      [&](std::size_t k, const Layer& layer) {
+                        if (shift.x == 0 && shift.y == 0 && shift.z == 0) return visit(k, layer);
+                        Layer moved = layer;
+                        to_design_coordinates(moved, shift);
+                        visit(k, moved);
+                      });
+  };
 }
 
 namespace {

@@ -30,12 +30,17 @@ constexpr int kMaxChars = 48;
 [[gnu::noinline]] inline char* fixed_legacy(char* p, double v, int decimals) {
   static constexpr long long kPow[] = {1, 10, 100, 1000, 10000, 100000, 1000000};
   const long long scale = kPow[decimals];
-  long long q = std::llround(v * static_cast<double>(scale));
+  const long long q = std::llround(v * static_cast<double>(scale));
+  // The magnitude as unsigned: beyond long long (NaN, inf, |v * 10^d| >= 2^63) llround gives
+  // LLONG_MIN, whose negation as a signed number is undefined (it printed bytes that are not
+  // digits).
+  std::uint64_t u = static_cast<std::uint64_t>(q);
   if (q < 0) {
     *p++ = '-';
-    q = -q;
+    u = 0 - u;
   }
-  long long ip = q / scale, fp = q % scale;
+  std::uint64_t ip = u / static_cast<std::uint64_t>(scale),
+                fp = u % static_cast<std::uint64_t>(scale);
   char buf[32];
   int n = 0;
   do {

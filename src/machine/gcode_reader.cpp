@@ -616,6 +616,40 @@ class ToolpathBuilder : public GcodeSink {
   double lookahead_ = 0;
 };
 
+// The builder's layers handed on as each is complete (the builder adds to the last one only).
+class LayerStreamer : public GcodeSink {
+ public:
+  explicit LayerStreamer(const LayerVisitor& visit) : visit_(visit) {}
+  void extrude(Vec3 a, Vec3 b, double e, double feed) override {
+    builder_.extrude(a, b, e, feed);
+    if (tp_.layers.size() > 1) hand_on(tp_.layers.size() - 1);
+  }
+  void layer_change(double z) override { builder_.layer_change(z); }
+  void travel(Vec3 a, Vec3 b, double feed) override { builder_.travel(a, b, feed); }
+  void retract() override { builder_.retract(); }
+  void tool_change(int tool) override { builder_.tool_change(tool); }
+  void role(PathRole r) override { builder_.role(r); }
+  void mixture(const std::vector<double>& m) override { builder_.mixture(m); }
+  void mixture_lookahead(double mm) override { builder_.mixture_lookahead(mm); }
+  void temperature(double t) override { builder_.temperature(t); }
+  void width(double w) override { builder_.width(w); }
+  void height(double h) override { builder_.height(h); }
+  void object(std::string_view label) override { builder_.object(label); }
+  void finish() { hand_on(tp_.layers.size()); }
+
+ private:
+  // The first n layers to `visit`, then out of the toolpath. The last layer moves to the front:
+  // its paths (which the builder points into) stay where they are.
+  void hand_on(std::size_t n) {
+    for (std::size_t k = 0; k < n; ++k) visit_(handed_++, tp_.layers[k]);
+    tp_.layers.erase(tp_.layers.begin(), tp_.layers.begin() + static_cast<std::ptrdiff_t>(n));
+  }
+  const LayerVisitor& visit_;
+  Toolpath tp_;
+  ToolpathBuilder builder_{tp_};
+  std::size_t handed_ = 0;
+};
+
 // The builder's mixtures settled as `options` says (gcode_reader.hpp: read_gcode_file).
 void settle_mixtures(GcodeRead& r, const GcodeReadOptions& options, bool keep_commanded) {
   if (options.commanded_mixtures || !(r.mixture_lookahead > 0)) return;
@@ -668,6 +702,26 @@ GcodeRead read_gcode_file(const std::string& path, const GcodeReadOptions& optio
   r.mixture_lookahead = builder.lookahead();
   settle_mixtures(r, options, keep_commanded);
   return r;
+}
+
+void scan_gcode_layers(const std::string& path, const GcodeReadOptions& options, Diagnostics& diag,
+                       const LayerVisitor& visit) {
+  LayerStreamer streamer(visit);
+  scan_gcode_file(path, streamer, options, diag);
+  streamer.finish();
+}
+
+std::string read_gcode_header(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw IoError("cannot open", {path});
+  std::string header, line;
+  while (header.size() < (64u << 20) && std::getline(in, line)) {
+    const auto first = line.find_first_not_of(" \t\r");
+    if (first != std::string::npos && line[first] != ';') break;
+    header += line;
+    header += '\n';
+  }
+  return header;
 }
 
 void scan_gcode_file(const std::string& path, GcodeSink& sink, const GcodeReadOptions& options,

@@ -40,25 +40,36 @@ double placement_lift(const BBox3& box, const MachineProfile& p) {
   return floor + std::ceil(-low * 1000 - 1e-9) / 1000;  // whole micrometres, at least -low
 }
 
-void to_design_coordinates(Toolpath& tp, const std::string& text) {
+Vec3 design_shift(std::string_view text) {
+  // sscanf reads a NUL-terminated line: the one the key is on.
+  auto line_at = [&](std::string_view key) {
+    const auto at = text.find(key);
+    if (at == std::string_view::npos) return std::string();
+    return std::string(text.substr(at, text.find('\n', at) - at));
+  };
   double dx = 0, dy = 0, dz = 0;
-  const auto at = text.find("; placement offset = ");
-  if (at != std::string::npos &&
-      std::sscanf(text.c_str() + at, "; placement offset = %lf, %lf", &dx, &dy) != 2)
+  const std::string offset = line_at("; placement offset = ");
+  if (!offset.empty() &&
+      std::sscanf(offset.c_str(), "; placement offset = %lf, %lf", &dx, &dy) != 2)
     dx = dy = 0;
-  const auto lift_at = text.find("; placement lift = ");
-  if (lift_at != std::string::npos &&
-      std::sscanf(text.c_str() + lift_at, "; placement lift = %lf", &dz) != 1)
-    dz = 0;
-  for (auto& l : tp.layers) {
-    l.z -= dz;
-    for (auto& p : l.paths)
-      for (auto& q : p.points) {
-        q.x -= dx;
-        q.y -= dy;
-        q.z -= dz;
-      }
-  }
+  const std::string lift = line_at("; placement lift = ");
+  if (!lift.empty() && std::sscanf(lift.c_str(), "; placement lift = %lf", &dz) != 1) dz = 0;
+  return {dx, dy, dz};
+}
+
+void to_design_coordinates(Layer& layer, Vec3 shift) {
+  layer.z -= shift.z;
+  for (auto& p : layer.paths)
+    for (auto& q : p.points) {
+      q.x -= shift.x;
+      q.y -= shift.y;
+      q.z -= shift.z;
+    }
+}
+
+void to_design_coordinates(Toolpath& tp, const std::string& text) {
+  const Vec3 shift = design_shift(text);
+  for (auto& l : tp.layers) to_design_coordinates(l, shift);
 }
 
 namespace {

@@ -125,8 +125,9 @@ std::string Setting::range_text() const {
     case SettingKind::Numbers: {
       std::string r;
       if (kind == SettingKind::Numbers)
-        r = count ? fmt::format("{} {}numbers, each ", count, whole ? "whole " : "")
-                  : std::string(whole ? "whole numbers, each " : "numbers, each ");
+        r = count == 1 ? std::string(whole ? "1 whole number, " : "1 number, ")
+            : count    ? fmt::format("{} {}numbers, each ", count, whole ? "whole " : "")
+                       : std::string(whole ? "whole numbers, each " : "numbers, each ");
       const bool open_top = max >= 1e299, open_bottom = min <= -1e299;
       for (const auto& [name, v] : names) r = name + " (= " + std::to_string(v) + ") or " + r;
       if (positive && open_top) return r + "> " + number_text(min);

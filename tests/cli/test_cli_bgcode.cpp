@@ -39,8 +39,19 @@ std::string gcode_of(const std::string& path) {
   return out;
 }
 
+// Every ";\n; thumbnail begin ... ; thumbnail end\n;\n" block cut out (by search, not std::regex:
+// its matcher recurses once per character and overflowed the stack on a whole file under ASan).
 std::string without_thumbnails(const std::string& text) {
-  return std::regex_replace(text, std::regex(";\n; thumbnail begin[^]*?; thumbnail end\n;\n"), "");
+  static const std::string begin = ";\n; thumbnail begin", end = "; thumbnail end\n;\n";
+  std::string out;
+  std::size_t at = 0;
+  for (std::size_t b; (b = text.find(begin, at)) != std::string::npos;) {
+    const std::size_t e = text.find(end, b + begin.size());
+    if (e == std::string::npos) break;
+    out.append(text, at, b - at);
+    at = e + end.size();
+  }
+  return out.append(text, at, std::string::npos);
 }
 
 // A command's output with the two file names made one.

@@ -15,6 +15,7 @@ SIGINT/SIGTERM/SIGHUP during long writes and temporaries left by kill -9.
 usage: hostile_test.py TRELLIS SOURCE_DIR [--list]
 """
 import concurrent.futures
+import json
 import os
 import re
 import subprocess
@@ -460,6 +461,63 @@ def big_cell_check():
     return []
 
 
+def stacked_print(folder, lines, n=16):
+    """Writes l.json, a planar n x n grid lattice (struts 2 mm), and g.gcode, printing it layer upon
+    layer until it has `lines` lines: every strut once per layer, nothing in the nozzle's way.
+    Written a layer at a time (the runs measured are forked from this process: it stays small).
+    Returns the number of moves."""
+    nodes = [(2 * i, 2 * j) for j in range(n + 1) for i in range(n + 1)]
+    at = {p: k for k, p in enumerate(nodes)}
+    edges = [(at[(x, y)], at[(x + 2, y)]) for x, y in nodes if x < 2 * n] + \
+            [(at[(x, y)], at[(x, y + 2)]) for x, y in nodes if y < 2 * n]
+    with open(os.path.join(folder, "l.json"), "w") as f:
+        json.dump({"nodes": [[x, y, 0] for x, y in nodes], "edges": edges}, f)
+    e, k = 0.0, 0
+    with open(os.path.join(folder, "g.gcode"), "w") as f:
+        f.write("G21\nG90\nM82\n")
+        while 3 + k * (1 + 2 * len(edges)) < lines:
+            z = 0.2 * (k + 1)
+            layer = [f";LAYER:{k}\n"]
+            for a, b in edges:
+                e += 0.05
+                layer.append(f"G0 X{nodes[a][0]} Y{nodes[a][1]} Z{z:.2f}\nG1 X{nodes[b][0]} Y{nodes[b][1]} "
+                             f"E{e:.3f}\n")
+            f.write("".join(layer))
+            k += 1
+    return k * len(edges)
+
+
+def streamed_check():
+    """`check` streams a G-code: a long print's peak memory is that of a few layers, not of the
+    file (a 10^7-line G-code peaked at 1.43 GB when every segment was indexed; 10^6 lines of
+    stacked layers took 7 minutes, each move visiting every layer below it)."""
+    peaks = {}
+    problems = []
+    with tempfile.TemporaryDirectory(prefix="hostile_stream_") as d:
+        for lines in (100000, 1000000):
+            segments = stacked_print(d, lines)
+            t0 = time.monotonic()
+            try:
+                r = subprocess.run([TRELLIS, "check", "l.json", "g.gcode", "--report", "r.json"], cwd=d,
+                                   capture_output=True, timeout=60 * SCALE)
+            except subprocess.TimeoutExpired:
+                return [f"check of {lines} stacked lines: over {60 * SCALE:.0f} s"]
+            secs = time.monotonic() - t0
+            report = json.load(open(os.path.join(d, "r.json"))) if r.returncode == 0 else {}
+            if r.returncode != 0 or report.get("segments") != segments or not report.get("ok"):
+                problems.append(f"check of {lines} stacked lines: exit {r.returncode}, "
+                                f"{r.stdout.decode(errors='replace')[:200]}{r.stderr.decode(errors='replace')[:300]}")
+            if secs > 20 * SCALE:
+                problems.append(f"check of {lines} stacked lines: {secs:.1f} s")
+            peaks[lines], _ = peak_memory_mb(["check", "l.json", "g.gcode"], d)
+    # Ten times the lines, about the same memory (one layer of the grid is 544 moves).
+    if peaks[1000000] > 1.3 * peaks[100000] + 8:
+        problems.append(f"check peak memory grows with the file: {peaks[100000]:.0f} MB at 1e5 lines, "
+                        f"{peaks[1000000]:.0f} MB at 1e6")
+    print(f"streamed check: peak {peaks[100000]:.0f} MB at 1e5 lines, {peaks[1000000]:.0f} MB at 1e6")
+    return problems
+
+
 def runaway_cases():
     def big(args, where="refused before starting", files=None):
         case("runaway " + " ".join(a for a in args if "/" not in a), args, where, files, runaway=True)
@@ -706,6 +764,7 @@ def main():
         failures = [f for f in pool.map(run_case, CASES) if f]
     output_problems, output_counts = outputs.checks(TRELLIS, ROOT)
     failures += memory_checks() + output_problems + umask_check() + big_cell_check() + finishing_checks()
+    failures += streamed_check()
     print(f"{len(CASES)} hostile inputs, {len(failures)} problem(s), {time.monotonic() - t0:.0f} s")
     per_class = {}
     for c in CASES:

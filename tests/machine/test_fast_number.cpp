@@ -31,12 +31,17 @@ namespace {
 void old_append_fixed(std::string& out, double v, int decimals) {
   static constexpr long long kPow[] = {1, 10, 100, 1000, 10000, 100000, 1000000};
   const long long scale = kPow[decimals];
-  long long q = std::llround(v * static_cast<double>(scale));
+  const long long q = std::llround(v * static_cast<double>(scale));
+  // The magnitude as unsigned: beyond long long (NaN, inf, |v * 10^d| >= 2^63) llround gives
+  // LLONG_MIN, whose negation as a signed number is undefined (it printed bytes that are not
+  // digits).
+  std::uint64_t u = static_cast<std::uint64_t>(q);
   if (q < 0) {
     out += '-';
-    q = -q;
+    u = 0 - u;
   }
-  long long ip = q / scale, fp = q % scale;
+  std::uint64_t ip = u / static_cast<std::uint64_t>(scale),
+                fp = u % static_cast<std::uint64_t>(scale);
   char buf[32];
   int n = 0;
   do {
@@ -126,6 +131,15 @@ TEST(FastNumber, FixedPrintsTheBytesOfThePreviousFormatter) {
       ++compared;
     }
   EXPECT_GT(compared, 7000000);
+  // Beyond the integers (NaN, inf, 1e300) still a sign and digits, nothing else.
+  for (const double x :
+       std::initializer_list<double>{NAN, INFINITY, -INFINITY, 1e300, -1e300, 1e19})
+    for (int d = 0; d <= 6; ++d) {
+      const std::string s = new_fixed(x, d);
+      EXPECT_TRUE(!s.empty() && s.find_first_not_of("-0123456789.") == std::string::npos &&
+                  s.find('-', 1) == std::string::npos)
+          << x << " decimals " << d << ": " << s;
+    }
   // Spot checks of the rules themselves (half away from zero, no trailing zeros, no "-0").
   EXPECT_EQ(new_fixed(2.5, 0), "3");
   EXPECT_EQ(new_fixed(-2.5, 0), "-3");

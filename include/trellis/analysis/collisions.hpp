@@ -8,6 +8,10 @@
 // Travel is assumed to be the embedded writer's (vertical lift to the bath surface, move above
 // everything, vertical descent), which is free of collisions exactly when the nozzle cylinder at
 // the two ends is — and the ends are checked as part of the printed segments.
+//
+// The replay holds only the material a later tip can still hit: before each layer, what lies no
+// higher than the lowest tip of the layers still to come (+ tip_clearance) is dropped, so a print
+// of stacked layers is replayed in about two layers' memory, streamed from its file.
 #pragma once
 #include <string>
 #include <vector>
@@ -40,12 +44,14 @@ struct CollisionHit {
 struct CollisionCheck {
   std::size_t paths = 0, segments = 0;
   std::size_t struts = 0, printed_once = 0;
-  std::size_t collisions = 0;  // all of them; `hits` lists the first max_listed
-  std::vector<CollisionHit> hits;
+  std::size_t collisions = 0;      // all of them; `hits` lists the first max_listed
+  std::vector<CollisionHit> hits;  // in print order of the moving segment, then of the one hit
   std::vector<std::pair<std::size_t, EdgeId>> top_down;  // (path, strut) steep struts printed down
   std::vector<EdgeId> missing, repeated;
   std::size_t off_design_segments = 0;
-  std::size_t pairs_tested = 0;
+  std::size_t pairs_tested =
+      0;                      // pairs within reach (padded footprints meet, material above the tip)
+  std::size_t peak_held = 0;  // most segments held at once by the replay
   bool ok() const {
     return collisions == 0 && top_down.empty() && missing.empty() && repeated.empty() &&
            off_design_segments == 0;
@@ -53,6 +59,11 @@ struct CollisionCheck {
 };
 
 CollisionCheck check_collisions(const Graph& design, const Toolpath& toolpath,
+                                const CheckOptions& options);
+// The same over layers as they come (a G-code read from its file layer by layer): the source is
+// visited twice, first for each layer's height and extent (the estimate and what may be dropped
+// when), then to replay.
+CollisionCheck check_collisions(const Graph& design, const LayerSource& layers,
                                 const CheckOptions& options);
 
 std::string collision_check_json(const CollisionCheck& c, const CheckOptions& options);

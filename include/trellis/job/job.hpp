@@ -101,6 +101,11 @@ Job rerun_job(const std::string& path, const std::string& target = "");
 // Mixtures as deposited, or as commanded when asked (GcodeReadOptions::commanded_mixtures).
 Toolpath read_print(const std::string& path, const Settings* machine, double* snap,
                     Diagnostics& diag, bool commanded_mixtures = false);
+// The same print layer by layer, never held whole: a text G-code whose mixtures need no
+// look-ahead undone; empty when it must be read whole (read_print). Each visit reads the file
+// again; only the first reports to `diag` (keep it alive).
+LayerSource print_layers(const std::string& path, const Settings* machine, double* snap,
+                         Diagnostics& diag, bool commanded_mixtures = false);
 
 // The thumbnails the machine's gcode.thumbnails asks for, drawn from the toolpath (cairo module),
 // for write_gcode.

@@ -30,6 +30,10 @@ class PrintCheck {
   // options of its check (the snap as that print's machine sets it) become options().
   Toolpath read(const std::string& print, Diagnostics& diag, bool commanded_mixtures = false);
   CollisionCheck check(const Toolpath& print) const;
+  // read + check in one, a text G-code streamed from its file (print_layers: memory for the
+  // layers a later tip can reach, whatever the file's length); other prints are read whole.
+  CollisionCheck check_file(const std::string& print, Diagnostics& diag,
+                            bool commanded_mixtures = false);
   const CheckOptions& options() const { return options_; }
 
  private:
@@ -44,5 +48,7 @@ class PrintCheck {
 // Reading a print to replay it, from its size alone (the whole text and the toolpath with every
 // segment are held: about 7 bytes a byte of G-code, 4 of a toolpath JSON).
 Estimate print_read_estimate(const std::string& path);
+// Streaming it instead: read twice (the replay's own estimate follows the first reading).
+Estimate print_stream_estimate(const std::string& path);
 
 }  // namespace trellis

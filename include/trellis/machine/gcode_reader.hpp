@@ -248,6 +248,13 @@ Toolpath read_gcode(std::string_view text, const GcodeReadOptions& options, Diag
 GcodeRead read_gcode_file(const std::string& path, const GcodeReadOptions& options,
                           Diagnostics& diag, GcodeSink* also = nullptr,
                           bool keep_commanded = false);
+// A file read layer by layer: the layers read_gcode_file builds, each handed to `visit` once
+// complete and then let go (memory: a chunk and a layer). The mixtures are the commanded ones:
+// a file with a mixture look-ahead read as deposited needs the whole toolpath (read_gcode_file).
+void scan_gcode_layers(const std::string& path, const GcodeReadOptions& options, Diagnostics& diag,
+                       const LayerVisitor& visit);
+// The comment lines a file begins with (up to its first command; at most 64 MB): our header.
+std::string read_gcode_header(const std::string& path);
 // Streams a file through a sink in fixed-size chunks (constant memory).
 void scan_gcode_file(const std::string& path, GcodeSink& sink, const GcodeReadOptions& options,
                      Diagnostics& diag);

@@ -4,6 +4,7 @@
 // as meant is a MachineError (exit 2, no file); what may print but looks wrong is a warning.
 #pragma once
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "trellis/core/error.hpp"
@@ -40,6 +41,10 @@ double placement_lift(const BBox3& points_box, const MachineProfile& profile);
 // read back is in design coordinates again. Each nozzle's offset is the reader's to undo
 // (GcodeReadOptions::tool_offsets, or the file's header): it reads nozzle positions.
 void to_design_coordinates(Toolpath& toolpath, const std::string& gcode_text);
+// What to_design_coordinates subtracts from every point, from those header lines (the header
+// alone will do: read_gcode_header).
+Vec3 design_shift(std::string_view gcode_text);
+void to_design_coordinates(Layer& layer, Vec3 shift);
 
 // Every error found, in one MachineError (the first few named, with counts); returns warnings.
 // Checks: each point after placement (and its tool's offset) inside the build area and between
