@@ -74,7 +74,12 @@ class RingIndex {
   // towards +x crosses it.
   static bool cross(const cl::Path& ring, std::size_t e, const cl::IntPoint& p, bool& in) {
     const cl::IntPoint& a = ring[e];
-    const cl::IntPoint& c = ring[(e + 1) % ring.size()];
+    const cl::IntPoint& c = ring[e + 1 == ring.size() ? 0 : e + 1];
+    // Beyond kNear of the edge's box (above, below or to its right), p is not near the edge
+    // and its ray does not cross it: most edges of a scan, decided without a division.
+    if (p.Y < std::min(a.Y, c.Y) - kNear || p.Y > std::max(a.Y, c.Y) + kNear ||
+        p.X > std::max(a.X, c.X) + kNear)
+      return true;
     const double dx = static_cast<double>(c.X - a.X), dy = static_cast<double>(c.Y - a.Y);
     const double px = static_cast<double>(p.X - a.X), py = static_cast<double>(p.Y - a.Y);
     const double len2 = dx * dx + dy * dy;
