@@ -158,11 +158,13 @@ bool inside(const Ring& in, Ring& out) {
   return true;
 }
 
-std::vector<Vec2> points_of(const cl::Path& path, bool want_ccw) {
+// The ring's points, turned to `want_ccw` (its area, ring_of's, says which way it runs: what
+// cl::Orientation would compute again).
+std::vector<Vec2> points_of(const Ring& r, bool want_ccw) {
   std::vector<Vec2> ring;
-  ring.reserve(path.size());
-  for (const auto& p : path) ring.push_back(from_int(p));
-  if (cl::Orientation(path) != want_ccw) std::reverse(ring.begin(), ring.end());
+  ring.reserve(r.path->size());
+  for (const auto& p : *r.path) ring.push_back(from_int(p));
+  if ((r.area >= 0) != want_ccw) std::reverse(ring.begin(), ring.end());
   return ring;
 }
 
@@ -170,9 +172,9 @@ std::vector<Vec2> points_of(const cl::Path& path, bool want_ccw) {
 // polygon whose hole it is.
 void emit(const std::vector<Ring>& rings, std::size_t outer, Regions& out) {
   Polygon2 poly;
-  poly.outer = points_of(*rings[outer].path, true);
+  poly.outer = points_of(rings[outer], true);
   for (const std::size_t hole : rings[outer].children) {
-    poly.holes.push_back(points_of(*rings[hole].path, false));
+    poly.holes.push_back(points_of(rings[hole], false));
     for (const std::size_t island : rings[hole].children) emit(rings, island, out);
   }
   out.push_back(std::move(poly));
