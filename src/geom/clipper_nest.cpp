@@ -74,7 +74,12 @@ class RingIndex {
   // towards +x crosses it.
   static bool cross(const cl::Path& ring, std::size_t e, const cl::IntPoint& p, bool& in) {
     const cl::IntPoint& a = ring[e];
-    const cl::IntPoint& c = ring[(e + 1) % ring.size()];
+    const cl::IntPoint& c = ring[e + 1 == ring.size() ? 0 : e + 1];
+    // Beyond kNear of the edge's box (above, below or to its right), p is not near the edge
+    // and its ray does not cross it: most edges of a scan, decided without a division.
+    if (p.Y < std::min(a.Y, c.Y) - kNear || p.Y > std::max(a.Y, c.Y) + kNear ||
+        p.X > std::max(a.X, c.X) + kNear)
+      return true;
     const double dx = static_cast<double>(c.X - a.X), dy = static_cast<double>(c.Y - a.Y);
     const double px = static_cast<double>(p.X - a.X), py = static_cast<double>(p.Y - a.Y);
     const double len2 = dx * dx + dy * dy;
@@ -153,11 +158,13 @@ bool inside(const Ring& in, Ring& out) {
   return true;
 }
 
-std::vector<Vec2> points_of(const cl::Path& path, bool want_ccw) {
+// The ring's points, turned to `want_ccw` (its area, ring_of's, says which way it runs: what
+// cl::Orientation would compute again).
+std::vector<Vec2> points_of(const Ring& r, bool want_ccw) {
   std::vector<Vec2> ring;
-  ring.reserve(path.size());
-  for (const auto& p : path) ring.push_back(from_int(p));
-  if (cl::Orientation(path) != want_ccw) std::reverse(ring.begin(), ring.end());
+  ring.reserve(r.path->size());
+  for (const auto& p : *r.path) ring.push_back(from_int(p));
+  if ((r.area >= 0) != want_ccw) std::reverse(ring.begin(), ring.end());
   return ring;
 }
 
@@ -165,9 +172,9 @@ std::vector<Vec2> points_of(const cl::Path& path, bool want_ccw) {
 // polygon whose hole it is.
 void emit(const std::vector<Ring>& rings, std::size_t outer, Regions& out) {
   Polygon2 poly;
-  poly.outer = points_of(*rings[outer].path, true);
+  poly.outer = points_of(rings[outer], true);
   for (const std::size_t hole : rings[outer].children) {
-    poly.holes.push_back(points_of(*rings[hole].path, false));
+    poly.holes.push_back(points_of(rings[hole], false));
     for (const std::size_t island : rings[hole].children) emit(rings, island, out);
   }
   out.push_back(std::move(poly));

@@ -9,9 +9,16 @@
 
 namespace trellis::clipper_util {
 
+// std::llround inline, the same numbers for |x| < 2^52 (halves away from zero; x − i is exact):
+// the library call was 2 % of slicing the Vase.
+inline long long round_ll(double x) {
+  const auto i = static_cast<long long>(x);
+  const double f = x - static_cast<double>(i);
+  return i + (f >= 0.5) - (f <= -0.5);
+}
 inline ClipperLib::IntPoint to_int(Vec2 p) {
-  return {static_cast<ClipperLib::cInt>(std::llround(p.x * kClipperScale)),
-          static_cast<ClipperLib::cInt>(std::llround(p.y * kClipperScale))};
+  return {static_cast<ClipperLib::cInt>(round_ll(p.x * kClipperScale)),
+          static_cast<ClipperLib::cInt>(round_ll(p.y * kClipperScale))};
 }
 inline Vec2 from_int(const ClipperLib::IntPoint& p) {
   return {static_cast<double>(p.X) / kClipperScale, static_cast<double>(p.Y) / kClipperScale};

@@ -10,6 +10,7 @@
 #include <utility>
 #include <vector>
 
+#include "clipper_util.hpp"
 #include "trellis/geom/regions.hpp"
 
 namespace trellis {
@@ -20,8 +21,8 @@ struct Span {
   double lo, hi;
 };
 
-// std::ceil, std::floor and std::llround to an integer, the same numbers for |x| < 2^52 (line
-// numbers of a hatch), inline: the library calls were 3–5% of trim_hatch.
+// std::ceil and std::floor to an integer, the same numbers for |x| < 2^52 (line numbers of a
+// hatch), inline: the library calls were 3–5% of trim_hatch (std::llround: round_ll).
 long long ceil_ll(double x) {
   const auto i = static_cast<long long>(x);
   return i + (static_cast<double>(i) < x);
@@ -29,11 +30,6 @@ long long ceil_ll(double x) {
 long long floor_ll(double x) {
   const auto i = static_cast<long long>(x);
   return i - (static_cast<double>(i) > x);
-}
-long long round_ll(double x) {  // halves away from zero; x − i is exact
-  const auto i = static_cast<long long>(x);
-  const double f = x - static_cast<double>(i);
-  return i + (f >= 0.5) - (f <= -0.5);
 }
 
 // The stretches of the lines t = const (in along/across coordinates s, t) within r of the
@@ -125,7 +121,7 @@ std::vector<Segment2> trim_hatch(const std::vector<Segment2>& segs, const Region
   const Vec2 u{std::cos(ang), std::sin(ang)}, v{-std::sin(ang), std::cos(ang)};
   auto along = [&](Vec2 p) { return (p.x - origin.x) * u.x + (p.y - origin.y) * u.y; };
   auto across = [&](Vec2 p) { return (p.x - origin.x) * v.x + (p.y - origin.y) * v.y; };
-  auto line_of = [&](Vec2 p) { return round_ll(across(p) / spacing); };
+  auto line_of = [&](Vec2 p) { return clipper_util::round_ll(across(p) / spacing); };
   // The stretches to take out, per line (indexed from the lowest line with hatch), gathered in
   // one array (line, span) and grouped by line at the end.
   std::vector<long long> seg_line(segs.size());

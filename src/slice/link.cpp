@@ -74,17 +74,23 @@ class RingEdges {
     nx_ = static_cast<long>(w / cell_) + 3;
     ny_ = static_cast<long>(h / cell_) + 3;
     // (cell, edge) pairs in the order the edges visit their cells, then counted into cells: an
-    // edge stamps a cell and its neighbours, so a cell's repeats of one edge are adjacent.
+    // edge stamps a cell and its neighbours, so a cell's repeats of one edge are adjacent. The
+    // cells along an edge step to a neighbour at a time, so a cell already stamped from the cell
+    // before is not stamped again (the repeats left are dropped below).
     std::vector<std::pair<std::uint32_t, std::uint32_t>> hits;
+    hits.reserve(6 * edges);
     for (std::size_t r = 0; r < rings_.size(); ++r) {
       const auto& ring = *rings_[r];
       for (std::size_t i = 0; i < ring.size(); ++i) {
         const std::uint32_t id = static_cast<std::uint32_t>(edge_ids_.size());
         edge_ids_.push_back({static_cast<std::uint32_t>(r), static_cast<std::uint32_t>(i)});
-        each_cell(ring[i], ring[(i + 1) % ring.size()], [&](long cx, long cy) {
+        long px = -1 << 30, py = -1 << 30;
+        each_cell(ring[i], ring[i + 1 == ring.size() ? 0 : i + 1], [&](long cx, long cy) {
           for (long y = std::max(0L, cy - 1); y <= std::min(ny_ - 1, cy + 1); ++y)
             for (long x = std::max(0L, cx - 1); x <= std::min(nx_ - 1, cx + 1); ++x)
-              hits.push_back({static_cast<std::uint32_t>(y * nx_ + x), id});
+              if (std::abs(x - px) > 1 || std::abs(y - py) > 1)
+                hits.push_back({static_cast<std::uint32_t>(y * nx_ + x), id});
+          px = cx, py = cy;
         });
       }
     }

@@ -330,6 +330,37 @@ TEST(Regions, NestIslandsInHolesAndManyHoles) {
   }
 }
 
+// Nesting at any slope: concentric jittered stars (six bands, alternately outer ring and hole) at
+// two centres side by side, nested and then offset in and out. Each band's polygon keeps its
+// one hole, the area is the bands' alternating sum, and every hole lies in its own outer ring.
+TEST(Regions, NestJitteredConcentricStars) {
+  for (std::uint64_t trial = 0; trial < 40; ++trial) {
+    Rng rng(0x5eed + trial);
+    std::vector<std::vector<Vec2>> rings;
+    double want = 0;
+    for (const Vec2 c : {Vec2{0, 0}, Vec2{21, 3}})
+      for (int k = 0; k < 6; ++k) {
+        const double r = 9.5 - 1.5 * k;
+        rings.push_back(test::star(rng, c, r - 0.5, r, 32 + static_cast<int>(rng.uniform_index(64)),
+                                   k % 2 == 0));
+        want += (k % 2 == 0 ? 1 : -1) * std::abs(signed_area(rings.back()));
+      }
+    const Regions nested = nest_rings(rings);
+    ASSERT_EQ(nested.size(), 6u) << "trial " << trial;
+    // (Clipper's 1 nm grid along some 500 mm of rings: at most 2.5e-4 mm².)
+    EXPECT_NEAR(area(nested), want, 2.5e-4) << "trial " << trial;
+    for (const double d : {0.0, -0.05, 0.05}) {
+      const Regions r = d == 0 ? nested : offset(nested, d);
+      ASSERT_EQ(r.size(), 6u) << "trial " << trial << " offset " << d;
+      for (std::size_t i = 0; i < r.size(); ++i) {
+        ASSERT_EQ(r[i].holes.size(), 1u) << "trial " << trial << " offset " << d;
+        for (const Vec2 v : r[i].holes[0])
+          EXPECT_TRUE(inside_ring(r[i].outer, v)) << "trial " << trial << " offset " << d;
+      }
+    }
+  }
+}
+
 // Marching keeps its buffers per thread between calls; a function that marches while being
 // marched (nested) must get buffers of its own and leave the outer march's intact.
 TEST(Contours, NestedMarchesKeepTheirOwnBuffers) {
