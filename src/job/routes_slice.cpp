@@ -1275,14 +1275,8 @@ JobResult planar_control(const Job& job, const Config& c, const HeightField& sur
   if (job.shards)
     throw SettingError("the planar control is sliced whole: drop --shard",
                        {"", 0, "nonplanar.planar_control"});
-  // Settings of the non-planar lines that a flat slice has no use for are refused, not ignored.
-  for (const char* key :
-       {"nonplanar.surface_spacing", "nonplanar.chord_tolerance", "nonplanar.max_join"})
-    if (job.settings.has(key))
-      throw SettingError(
-          "it shapes the non-planar lines, which the planar control (walls and "
-          "solid fill, cut flat) does not make",
-          {"", 0, key});
+  // The non-planar lines' own settings (surface_spacing, chord_tolerance, max_join) are refused
+  // by the schema with it: they are used only when nonplanar.planar_control = false.
   JobResult out;
   PlanarControlResult r = slice_planar_control(surface, prm, progress);
   const GcodeStats g = write_nonplanar_main(job, c, r.toolpath, out, diag);

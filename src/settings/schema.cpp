@@ -425,6 +425,10 @@ const std::vector<std::pair<const char*, const char*>>& when_table() {
       {"pbf.island_overlap", "pbf.strategy=island"},
       {"pbf.island_shift", "pbf.strategy=island"},
       {"nonplanar.domain", "nonplanar.height_fn"},
+      // The planar control slices walls and solid fill flat: no non-planar lines to shape.
+      {"nonplanar.surface_spacing", "nonplanar.planar_control=false"},
+      {"nonplanar.chord_tolerance", "nonplanar.planar_control=false"},
+      {"nonplanar.max_join", "nonplanar.planar_control=false"},
       {"surface.length", "surface.kind=corrugation|miura|m-curve"},
       {"surface.width", "surface.kind=corrugation|miura|m-curve"},
       {"surface.resolution", "surface.kind=miura|sphere-cap"},  // profiles are exact

@@ -123,6 +123,8 @@ PlanarControlResult slice_planar_control(const HeightField& surface, const Nonpl
   PlanarControlResult r;
   r.toolpath.source = "planar control of " + surface.name();
   int last = groups.front().tool;
+  // Planes whose bands are all thinner than a bead print nothing: no layer is written for them
+  // (the others keep their heights, so the print fills the non-planar print's volume).
   for (std::size_t i = 0; i < zs.size(); ++i) {
     Layer layer;
     layer.z = static_cast<double>(i + 1) * h;
@@ -152,7 +154,7 @@ PlanarControlResult slice_planar_control(const HeightField& surface, const Nonpl
       last = t;
     }
     r.layers_with_several_tools += tools.size() > 1;
-    r.toolpath.layers.push_back(std::move(layer));
+    if (!layer.paths.empty()) r.toolpath.layers.push_back(std::move(layer));
   }
   return r;
 }
