@@ -27,15 +27,17 @@ ifeq ($(PRESET)$(SANITIZE),release1)
 	@$(MAKE) --no-print-directory sanitize
 endif
 
-# The sanitizer stage (`make sanitize`, or `make test SANITIZE=1`; issue 47 item 6): an ASan+UBSan build (preset asan) runs
-# what reads untrusted input: every reader's unit tests (core, toolpath, lattice, machine, field,
-# cli), the committed fuzz corpora replayed through every fuzz target, and streaming. The hostile
-# suite runs in the release ctest only (under ASan it would add 10-15 min to CI). ASan frames are
-# 2-3 x larger, so the deep-graph tests (1,000 nested 3MF nodes) get a 64 MiB stack here.
-# `make asan` runs the whole suite under the sanitizers (not in CI: too long).
+# The sanitizer stage (`make sanitize`; `make test` runs it last, SANITIZE=0 skips it; issue 47
+# item 6): an ASan + cheap-UBSan build (preset asan) runs what reads untrusted input: every
+# reader's unit tests (core, toolpath, lattice, machine, field, cli), the planners, the print
+# check and the renderer (plan, analysis, render), the committed fuzz corpora replayed through
+# every fuzz target, and streaming. The hostile suite runs in the release ctest only (under ASan
+# it would add 10-15 min to CI). ASan frames are 2-3 x larger, so the deep-graph tests (1,000
+# nested 3MF nodes) get a 64 MiB stack here. `make asan` runs the whole suite under the
+# sanitizers (not in CI: too long).
 SANITIZE_TARGETS := trellis_cli test_core test_toolpath test_lattice test_machine test_field \
-                    test_cli test_stream $(addprefix replay_,$(notdir $(basename $(wildcard tests/fuzz/corpus/*))))
-SANITIZE_TESTS := ^(core|toolpath|lattice|machine|field|cli|stream|fuzz_corpus_.*)$$
+                    test_cli test_plan test_analysis test_render test_stream $(addprefix replay_,$(notdir $(basename $(wildcard tests/fuzz/corpus/*))))
+SANITIZE_TESTS := ^(core|toolpath|lattice|machine|field|cli|plan|analysis|render|stream|fuzz_corpus_.*)$$
 sanitize: deps
 	@test -f build/asan/build.ninja || cmake --preset asan >/dev/null
 	@cmake --build build/asan -j $(JOBS) --target $(SANITIZE_TARGETS)
