@@ -10,6 +10,7 @@
 
 #include "trellis/core/error.hpp"
 #include "trellis/geom/mesh.hpp"
+#include "trellis/geom/mesh_io.hpp"
 #include "trellis/slice/nonplanar.hpp"
 #include "trellis/slice/slice.hpp"
 
@@ -38,23 +39,13 @@ std::vector<Group> layer_groups(const NonplanarParams& p) {
 
 // The surface's triangles on shared vertices (an STL repeats them), each turned to face up.
 TriangleMesh welded_upward(const TriangleMesh& in) {
-  TriangleMesh out;
-  std::map<std::array<double, 3>, std::uint32_t> index;
-  auto id = [&](const Vec3& v) {
-    const auto [it, added] =
-        index.try_emplace({v.x, v.y, v.z}, static_cast<std::uint32_t>(out.vertices.size()));
-    if (added) out.vertices.push_back(v);
-    return it->second;
-  };
-  for (const auto& t : in.triangles) {
-    std::array<std::uint32_t, 3> f{id(in.vertices[t[0]]), id(in.vertices[t[1]]),
-                                   id(in.vertices[t[2]])};
+  TriangleMesh out = weld(in);
+  std::erase_if(out.triangles, [&](auto& f) {
     const Vec3 a = out.vertices[f[0]], b = out.vertices[f[1]], c = out.vertices[f[2]];
     const double nz = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
-    if (nz == 0) continue;  // vertical or degenerate: no area over the footprint
     if (nz < 0) std::swap(f[1], f[2]);
-    out.triangles.push_back(f);
-  }
+    return nz == 0;  // vertical or degenerate: no area over the footprint
+  });
   return out;
 }
 
