@@ -32,12 +32,12 @@ void add_render(CLI::App& app) {
   cmd->footer(
       "Reads a toolpath JSON, G-code of any slicer (.gcode/.g/.nc), a laser .cli or a 3MF\n"
       "toolpath. Paths are coloured by feature type (or print order, or mixture) in the viewer's\n"
-      "colours, travel is dashed grey, path starts are green dots and ends small dark dots. A\n"
-      "G-code file's mixture is drawn as deposited (its header's mixing look-ahead undone);\n"
-      "--colour commanded draws the mixture where the commands were issued; --colour tool draws\n"
-      "each tool (each laser of a laser file) in its colour, the default for a build file of\n"
-      "several lasers. Each PNG has a title\n"
-      "(file, layer, Z, what colour means), a legend or colour bar and a scale bar in mm.\n"
+      "colours, travel is dashed grey, path starts are white discs in a dark ring (seen on any\n"
+      "colour; laser hatch vectors have none) and ends small dark dots. A G-code file's mixture\n"
+      "is drawn as deposited (its header's mixing look-ahead undone); --colour commanded draws\n"
+      "the mixture where the commands were issued; --colour tool draws each tool (each laser of\n"
+      "a laser file) in its colour, the default for a build file of several lasers. Each PNG has\n"
+      "a title (file, layer, Z, what colour means), a legend or colour bar and a scale bar in mm.\n"
       "Without --layer every layer is written as OUT.layerNNN.png (OUT without .png).");
   cmd->add_option("toolpath", o->input,
                   "toolpath JSON, G-code (.gcode/.g/.nc), laser .cli or 3MF toolpath")

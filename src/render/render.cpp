@@ -122,7 +122,21 @@ LayerSets layer_sets(const Toolpath& tp, const Layer& layer) {
 struct LegendItem {
   std::string label;
   double r, g, b;
+  bool marker =
+      false;  // drawn as the path-start marker (a white disc in a dark ring), not a swatch
 };
+
+// Where a path starts: a white disc in a dark ring, which no palette colour (role, tool, set,
+// value) can hide; where it ends: a small dark dot.
+void start_marker(cairo_t* c, double x, double y, double r) {
+  cairo_new_path(c);  // text leaves a current point: the disc must not be joined to it
+  cairo_arc(c, x, y, r, 0, 2 * M_PI);
+  cairo_set_source_rgb(c, 1.0, 1.0, 1.0);
+  cairo_fill_preserve(c);
+  cairo_set_source_rgb(c, 0.1, 0.1, 0.1);
+  cairo_set_line_width(c, 0.35 * r);
+  cairo_stroke(c);
+}
 
 // The band below a picture: `items` as colour swatches (and, with `order_bar`, a colour bar from
 // `bar_lo` to `bar_hi` first, print order by default) on the left, a scale bar of a round number
@@ -144,9 +158,13 @@ void legend_band(cairo_t* c, int W, double y0, int band, const std::vector<Legen
     label(bar_hi);
   }
   for (const auto& it : items) {
-    cairo_set_source_rgb(c, it.r, it.g, it.b);
-    cairo_rectangle(c, x, ymid - sw / 2, sw * 1.6, sw);
-    cairo_fill(c);
+    if (it.marker) {
+      start_marker(c, x + sw * 0.8, ymid, sw * 0.4);
+    } else {
+      cairo_set_source_rgb(c, it.r, it.g, it.b);
+      cairo_rectangle(c, x, ymid - sw / 2, sw * 1.6, sw);
+      cairo_fill(c);
+    }
     x += sw * 2;
     label(it.label);
   }
@@ -267,9 +285,10 @@ void render_layer_png(const Toolpath& tp, std::size_t index, const std::string& 
     // Sized to the part: at most 3.5 px, and no wider than the bead, so small parts stay visible.
     const double r = std::max(1.0 / scale, std::min(3.5 / scale, 0.5 * bead_min));
     for (const auto& p : layer.paths) {
-      cairo_set_source_rgb(cr.get(), 0.0, 0.6, 0.0);
-      cairo_arc(cr.get(), p.points.front().x, p.points.front().y, r, 0, 2 * M_PI);
-      cairo_fill(cr.get());
+      // A laser hatch is thousands of short vectors whose starts line every island edge: marked,
+      // they would hide the hatch itself; contours and every deposited path are marked.
+      if (p.role == PathRole::Hatch) continue;
+      start_marker(cr.get(), p.points.front().x, p.points.front().y, r);
       cairo_set_source_rgb(cr.get(), 0.1, 0.1, 0.1);
       cairo_arc(cr.get(), p.points.back().x, p.points.back().y, 0.6 * r, 0, 2 * M_PI);
       cairo_fill(cr.get());
@@ -344,6 +363,14 @@ void render_layer_png(const Toolpath& tp, std::size_t index, const std::string& 
          sw * 0.5;
     cairo_set_source_rgb(c, 0.1, 0.1, 0.1);
     text(c, x, ymid + fs * 0.3, fs * 0.85, hi + what);
+    x += text_width(c, fs * 0.85, hi + what) + sw;
+  }
+  if (opt.starts && std::any_of(layer.paths.begin(), layer.paths.end(),
+                                [](const Path& p) { return p.role != PathRole::Hatch; })) {
+    start_marker(c, x + sw * 0.5, ymid, sw * 0.4);
+    x += sw * 1.2;
+    cairo_set_source_rgb(c, 0.1, 0.1, 0.1);
+    text(c, x, ymid + fs * 0.3, fs * 0.85, "path start");
   }
   const double len = nice_length(0.25 * W / scale);
   const double bar_px = len * scale, bx = W - pad - bar_px;
@@ -469,9 +496,7 @@ void render_3d_png(const Toolpath& tp, const std::string& path, const View3dOpti
   }
   for (std::size_t i = 0; i < shown; ++i) {
     const auto [x, y] = to_px(paths[i]->points.front());
-    cairo_set_source_rgb(cr.get(), 0.0, 0.6, 0.0);
-    cairo_arc(cr.get(), x, y, 3.0, 0, 2 * M_PI);
-    cairo_fill(cr.get());
+    start_marker(cr.get(), x, y, 3.0);
   }
   cairo_set_source_rgb(cr.get(), 0.9, 0.0, 0.0);
   cairo_set_line_width(cr.get(), 2.0);
@@ -501,7 +526,7 @@ void render_3d_png(const Toolpath& tp, const std::string& path, const View3dOpti
       const Rgb c = tool_rgb(t);
       items.push_back({"tool " + std::to_string(t), c[0] / 255.0, c[1] / 255.0, c[2] / 255.0});
     }
-  items.push_back({"path start", 0.0, 0.6, 0.0});
+  items.push_back({"path start", 1.0, 1.0, 1.0, true});
   if (opt.upto > 0) items.push_back({"not yet printed", 0.85, 0.85, 0.85});
   if (!opt.marks.empty()) items.push_back({"collision (ring)", 0.9, 0.0, 0.0});
   if (opt.colour == Colour::Height && z0 <= z1) {
