@@ -90,10 +90,19 @@ void put_f32(std::string& b, double v) {
   b.append(c, 4);
 }
 
+// The tool byte of each path of `layer`, then its laser parameter set byte: the set's index in
+// Toolpath::parameter_sets plus 1, 0 for a path of no set (parameter_set_of).
+void put_tools_and_sets(std::string& b, const Toolpath& t, const Layer& layer) {
+  for (const auto& p : layer.paths) b += static_cast<char>(std::clamp(p.tool, 0, 255));
+  for (const auto& p : layer.paths)
+    b += static_cast<char>(
+        t.parameter_sets.empty() ? 0 : std::clamp(parameter_set_of(t, p) + 1, 0, 255));
+}
+
 // One layer as bytes (little-endian, 4-byte aligned sections):
 //   u32 points, u32 paths; f32 xyz[points]; u32 first_point[paths];
 //   f32 attributes[paths][kAttributes] (attribute()); u8 role[paths] (role_byte());
-//   u8 tool[paths];
+//   u8 tool[paths]; u8 set[paths] (put_tools_and_sets);
 //   padding to 4 bytes; u32 vias, and when vias > 0: u32 first_via[paths + 1], f32 xyz[vias]
 //   (the corners of the travel into each path, Path::via).
 std::string encode_layer(const ViewScene& s, std::size_t index, std::size_t first_path) {
@@ -117,7 +126,7 @@ std::string encode_layer(const ViewScene& s, std::size_t index, std::size_t firs
       put_f32(b, attribute(p, commanded_of(s, p, first_path + q), k));
   }
   put_roles(b, s, layer, last_before(s.toolpath, index));
-  for (const auto& p : layer.paths) b += static_cast<char>(std::clamp(p.tool, 0, 255));
+  put_tools_and_sets(b, s.toolpath, layer);
   while (b.size() % 4) b += '\0';
   std::size_t vias = 0;
   for (const auto& p : layer.paths) vias += p.via.size();
@@ -244,6 +253,8 @@ void append_scene(std::string& html, const ViewScene& s, std::size_t index, Laye
   meta["checked"] = s.checked;
   meta["collisions"] = s.collisions;
   meta["extra_stats"] = s.extra_stats;
+  meta["parameter_sets"] = nlohmann::json::array();
+  for (const auto& set : s.toolpath.parameter_sets) meta["parameter_sets"].push_back(set.name);
   if (!s.bed.shape.empty())
     meta["bed"] = {{"shape", s.bed.shape}, {"x", s.bed.x},           {"y", s.bed.y},
                    {"z", s.bed.z},         {"center", s.bed.center}, {"machine", s.bed.machine}};
@@ -274,7 +285,7 @@ void append_scene(std::string& html, const ViewScene& s, std::size_t index, Laye
 //   varint points, varint paths, varint vias; varint points_of_path[paths];
 //   zigzag varint dx, dy, dz [points] (steps from the previous point, through all layers, from 0);
 //   f32 attribute columns: attribute 0 of every path, then attribute 1, ... (as in
-//   encode_layer); u8 role[paths]; u8 tool[paths];
+//   encode_layer); u8 role[paths]; u8 tool[paths]; u8 set[paths];
 //   when vias > 0: varint vias_of_path[paths], zigzag varint dx, dy, dz [vias] (steps from the
 //   previous travel corner, through all layers, from 0).
 std::string pack_layers(const ViewScene& s) {
@@ -306,7 +317,7 @@ std::string pack_layers(const ViewScene& s) {
     put_roles(b, s, layer, last);
     for (const auto& p : layer.paths)
       if (!p.points.empty()) last = &p;
-    for (const auto& p : layer.paths) b += static_cast<char>(std::clamp(p.tool, 0, 255));
+    put_tools_and_sets(b, t, layer);
     if (nv > 0) {
       for (const auto& p : layer.paths) put_varint(b, p.via.size());
       for (const auto& p : layer.paths)

@@ -40,6 +40,10 @@ tr('lattice3d', '--cell-type', 'octet', '--cell', '7', '--count', '2,2,2', '-o',
 tr('plan', 'aero', 'octet.json', '-o', 'octet_path.json');
 tr('gcode', 'octet_path.json', '--machine', profile('embedded_aero_410um.toml'), '-o', 'octet.nc');
 tr('pbf', '--cell-type', 'gyroid', '--cell', '2.5', '--size', '5,5,2', '-o', 'gyroid.cli');
+// A solid part: two contours with their own power and speed and a hatch, three parameter sets.
+tr('pbf', join(source, 'examples/designs/bracket_20mm.stl'), '--machine', profile('pbf_316l_25um.toml'),
+  '--layer-height', '0.5', '--contours', '2', '--set', 'laser.contour_powers=60,80',
+  '--set', 'laser.contour_speeds=800,900', '-o', 'bracket.cli');
 // A sliced part: linked paths whose travel inside the part turns at `via` corners.
 tr('slice', join(source, 'examples/designs/csg_bracket.vcad'), '--machine', profile('voron_klipper.toml'),
   '--layer-height', '0.3', '-o', 'sliced.gcode');
@@ -135,6 +139,8 @@ tr('plan', 'aero', join(source, 'tests/data/aero/cubic_edges.csv'), '-o', 'cubic
   '--report', 'cubic_report.json');
 tr('analyze', 'gyroid.cli', '--report', 'cli_report.json');
 const cli = json('cli_report.json');
+tr('analyze', 'bracket.cli', '--report', 'bracket_report.json');
+const bracket = json('bracket_report.json');
 const cases = [
   { file: 'part.gcode', expect: analyze('part.gcode') },
   { file: 'prusa.gcode', expect: analyze('prusa.gcode'), travel: travelOf('prusa.gcode') },
@@ -142,6 +148,7 @@ const cases = [
   { file: 'octet.nc', args: ['--machine', profile('embedded_aero_410um.toml')],
     expect: analyze('octet.nc', '--valve-on', 'M3', '--valve-off', 'M5') },
   { file: 'gyroid.cli', expect: { layers: cli.layers, paths: cli.vectors } },
+  { file: 'bracket.cli', expect: { layers: bracket.layers, paths: bracket.vectors } },
   { file: 'toolpath.json', expect: { layers: plan.layers_count, paths: plan.paths, segments: plan.edges } },
   { file: 'lattice.json', expect: { designLines: plan.lattice_edges } },
   { file: join(source, 'tests/data/aero/cubic_edges.csv'), name: 'cubic_edges.csv',
@@ -368,6 +375,19 @@ async function runCase(c, tag = '') {
     check(shown['scan length'] !== undefined && shown['extruded length'] === undefined,
       `gyroid.cli: a laser file shows "scan length" (${shown['scan length']}), no extruded length`);
     check(/hatch/.test(legend) && /contour/.test(legend) && !/infill/.test(legend), `gyroid.cli: feature legend "${legend.replace(/\n/g, ' ')}"`);
+  }
+  if (base === 'bracket.cli') {
+    // Coloured by laser parameter set: one legend entry per set `trellis analyze` names, with
+    // its vector count, in the colours `trellis render --colour set` uses.
+    await page.select('#tv-mode', 'set');
+    await page.evaluate(() => window.trellisViewer.whenDrawn());
+    const legend = await page.$eval('#tv-legend', (e) => e.innerText);
+    const want = bracket.parameter_sets.map((p) => `${p.name} (${p.vectors} paths)`).sort();
+    const got = [...legend.matchAll(/^(.*\(\d+ paths\))$/gm)].map((m) => m[1].trim()).sort();
+    check(bracket.parameter_sets.length === 3 && JSON.stringify(got) === JSON.stringify(want),
+      `bracket.cli: set legend ${JSON.stringify(got)} == analyze ${JSON.stringify(want)}`);
+    check(/Laser parameter set/.test(legend), `bracket.cli: legend says "Laser parameter set"`);
+    await page.screenshot({ path: join(out, 'bracket.cli.set.png') });
   }
   if (base === HOSTILE) {
     const title = await page.title();

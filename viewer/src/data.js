@@ -52,7 +52,7 @@ function unpackLayers(b, id) {
   for (let l = 0; l < L; ++l) {
     const np = varint(), nq = varint(), nv = varint();
     const attrAt = 8 + np * 12 + nq * 4, roleAt = attrAt + nq * ATTRS * 4;
-    const viaAt = (roleAt + 2 * nq + 3) & ~3;
+    const viaAt = (roleAt + 3 * nq + 3) & ~3;
     const size = viaAt + 4 + (nv > 0 ? (nq + 1) * 4 + nv * 12 : 0);
     const chunk = new Uint8Array(size), c = new DataView(chunk.buffer);
     c.setUint32(0, np, true);
@@ -63,8 +63,8 @@ function unpackLayers(b, id) {
     const attr = new Float32Array(chunk.buffer, attrAt, nq * ATTRS);
     for (let k = 0; k < ATTRS; ++k)
       for (let q = 0; q < nq; ++q, at += 4) attr[q * ATTRS + k] = dv.getFloat32(at, true);
-    chunk.set(b.subarray(at, at + 2 * nq), roleAt);
-    at += 2 * nq;
+    chunk.set(b.subarray(at, at + 3 * nq), roleAt);  // role, tool and set bytes
+    at += 3 * nq;
     c.setUint32(viaAt, nv, true);
     if (nv > 0) {
       for (let q = 0, first = 0; q <= nq; ++q) { c.setUint32(viaAt + 4 + 4 * q, first, true); if (q < nq) first += varint(); }
@@ -92,6 +92,7 @@ export function decodeScene(i) {
     const attr = new Float32Array(b.buffer, b.byteOffset + off, nq * ATTRS); off += nq * ATTRS * 4;
     const role = b.subarray(off, off + nq); off += nq;
     const tool = b.subarray(off, off + nq); off += nq;
+    const set = b.subarray(off, off + nq); off += nq;  // laser parameter set + 1 (0: none)
     off = (off + 3) & ~3;
     // The corners of the travel into each path (Path::via), if any.
     let viaFirst = null, via = null;
@@ -101,7 +102,7 @@ export function decodeScene(i) {
       viaFirst = new Uint32Array(b.buffer, b.byteOffset + off, nq + 1); off += (nq + 1) * 4;
       via = new Float32Array(b.buffer, b.byteOffset + off, nv * 3);
     }
-    chunks.push({ np, nq, pos, first, attr, role, tool, viaFirst, via });
+    chunks.push({ np, nq, pos, first, attr, role, tool, set, viaFirst, via });
     points += np;
     paths += nq;
   }
@@ -109,7 +110,7 @@ export function decodeScene(i) {
   const pathFirst = new Uint32Array(paths + 1);
   const pathLayer = new Uint32Array(paths);
   const attr = new Float32Array(paths * ATTRS);
-  const role = new Uint8Array(paths), tool = new Uint8Array(paths);
+  const role = new Uint8Array(paths), tool = new Uint8Array(paths), set = new Uint8Array(paths);
   // Pieces that continue the previous path's run (the role byte's high bit: no travel between,
   // cut where the mixture, role, tool or temperature changes): not paths of their own in the
   // counts. A path is a run of extrusion between travels, as `trellis analyze` counts them.
@@ -127,6 +128,7 @@ export function decodeScene(i) {
       if (c.role[q] & 0x80) joined += 1, joinedOf[Q + q] = 1;
     }
     tool.set(c.tool, Q);
+    set.set(c.set, Q);
     for (let q = 0; q < c.nq; ++q) {
       if (c.via && c.viaFirst[q + 1] > c.viaFirst[q]) viaOf[Q + q] = c.via.subarray(3 * c.viaFirst[q], 3 * c.viaFirst[q + 1]);
       pathFirst[Q + q] = P + c.first[q];
@@ -209,7 +211,7 @@ export function decodeScene(i) {
   }
   if (bbox.isEmpty()) bbox.set(new Vector3(0, 0, 0), new Vector3(1, 1, 1));
   return {
-    meta, layerCount: L, positions, pathFirst, pathLayer, pathCount: paths, attr, role, tool, joinedOf, index,
+    meta, layerCount: L, positions, pathFirst, pathLayer, pathCount: paths, attr, role, tool, set, joinedOf, index,
     layerSeg, layerTravel, travel, bbox, design, lod, deviation, hits,
     stats: { layers: L, paths: paths - joined, segments, points, extruded, travelMoves, travelLength,
       designLines: design ? design.lines : 0, designFlagged: design ? flaggedCount(design) : 0,

@@ -12,6 +12,7 @@ const REFINE_CHUNK = 100000;  // segments added per frame while refining a large
 const MODES = {
   feature: { kind: 'category', title: 'Feature type' },
   tool: { kind: 'category', title: 'Tool' },
+  set: { kind: 'category', title: 'Laser parameter set' },
   mixture: { kind: 'mixture', title: 'Mixture as deposited: fraction of material 1', unit: '', attr: 0 },
   commanded: { kind: 'mixture', title: 'Mixture as commanded: fraction of material 1', unit: '', attr: 7 },
   temperature: { kind: 'range', title: 'Nozzle temperature', unit: '°C', attr: 2 },
@@ -234,18 +235,25 @@ class Viewer {
       legend = { kind: 'bar', lo: 0, hi: d ? hi : 1, has: d !== null, fn: colorMap, unit: m.unit,
         note: d ? null : 'no design given (trellis view FILE --design LATTICE)' };
     } else if (m.kind === 'category') {
-      const key = mode === 'feature' ? s.role : s.tool;
+      const key = mode === 'feature' ? s.role : mode === 'set' ? s.set : s.tool;
       const palette = mode === 'feature' ? ROLE_COLORS : TOOL_COLORS;
-      // Paths as the panel counts them (runs between travels), each under the role / tool it
-      // starts with, so the legend's counts add up to the panel's.
+      // A laser parameter set k is byte k + 1 (0: a path of no set) and has the colour of tool
+      // k, as in `trellis render --colour set`.
+      const colorOf = (k) => (mode !== 'set' ? palette[k % palette.length] : k > 0 ? palette[(k - 1) % palette.length] : NO_VALUE);
+      const labelOf = (k) => (mode === 'feature' ? s.meta.roles[k]
+        : mode === 'set' ? (k > 0 ? s.meta.parameter_sets[k - 1] : 'no parameter set')
+          : this.laser() ? `laser ${k + 1}` : `tool ${k}`);
+      // Paths as the panel counts them (runs between travels), each under the role / tool / set
+      // it starts with, so the legend's counts add up to the panel's.
       const used = new Map();
       for (let p = 0; p < n; ++p) {
-        const c = palette[key[p] % palette.length];
+        const c = colorOf(key[p]);
         rgb[3 * p] = c[0]; rgb[3 * p + 1] = c[1]; rgb[3 * p + 2] = c[2];
         used.set(key[p], (used.get(key[p]) || 0) + (s.joinedOf[p] ? 0 : 1));
       }
       legend = { kind: 'category', items: [...used.keys()].sort((a, b) => a - b).map((k) => ({
-        label: mode === 'feature' ? s.meta.roles[k] : this.laser() ? `laser ${k + 1}` : `tool ${k}`, color: palette[k % palette.length], paths: used.get(k) })) };
+        label: labelOf(k), color: colorOf(k), paths: used.get(k) })),
+      note: mode === 'set' && !s.meta.parameter_sets.length ? 'no laser parameter sets in this file (a PBF solid part or a build file that names them has them)' : null };
     } else {
       const value = this.valueOf(mode);
       let lo = Infinity, hi = -Infinity;
