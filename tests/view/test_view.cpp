@@ -68,10 +68,12 @@ Toolpath sample() {
 
 // The page carries each layer as one binary chunk with the layout data.js decodes: counts,
 // float32 positions, path starts, ten float32 attributes per path (the last three the commanded
-// mixture), role and tool bytes, the
-// travel corners (via) per path.
+// mixture), role, tool and laser parameter set bytes, the travel corners (via) per path.
 TEST(View, LayerChunksHoldTheToolpath) {
-  const std::string html = viewer_html({view_scene(sample(), "sample")}, "sample");
+  Toolpath tp = sample();
+  const Path& b = tp.layers[0].paths[1];
+  tp.parameter_sets = {{"other", PathRole::Hatch, 0, 0}, {"b's set", b.role, b.power, b.speed}};
+  const std::string html = viewer_html({view_scene(tp, "sample")}, "sample");
   const std::string l0 = unbase64(element(html, "tv-0-l0"));
   ASSERT_GE(l0.size(), 8u);
   std::uint32_t counts[2];
@@ -79,7 +81,7 @@ TEST(View, LayerChunksHoldTheToolpath) {
   EXPECT_EQ(counts[0], 5u);  // points
   EXPECT_EQ(counts[1], 2u);  // paths
   const std::size_t pos = 8, first = pos + 5 * 12, attr = first + 2 * 4, role = attr + 2 * 40;
-  const std::size_t vias = (role + 4 + 3) / 4 * 4;
+  const std::size_t vias = (role + 6 + 3) / 4 * 4;
   ASSERT_EQ(l0.size(), vias + 4 + 3 * 4 + 12);
   std::uint32_t v[4];
   std::memcpy(v, l0.data() + vias, sizeof v);
@@ -112,6 +114,10 @@ TEST(View, LayerChunksHoldTheToolpath) {
   EXPECT_EQ(at[10], -1.0f);  // path b: no mixture
   EXPECT_EQ(static_cast<int>(l0[role]), static_cast<int>(PathRole::Perimeter));
   EXPECT_EQ(static_cast<int>(l0[role + 3]), 1);  // tool of path b
+  EXPECT_EQ(static_cast<int>(l0[role + 4]), 0);  // path a: in no set
+  EXPECT_EQ(static_cast<int>(l0[role + 5]), 2);  // path b: set 1, as 1 + 1
+  EXPECT_NE(element(html, "tv-0-meta").find("\"parameter_sets\":[\"other\",\"b's set\"]"),
+            std::string::npos);
   EXPECT_FALSE(element(html, "tv-0-l1").empty());
   EXPECT_TRUE(element(html, "tv-0-l2").empty());
 }
@@ -328,6 +334,7 @@ TEST(View, PackedLayersHoldTheToolpath) {
       }
     for (const auto& p : layer.paths) EXPECT_EQ(b.at(r.at++), static_cast<char>(p.role));
     for (const auto& p : layer.paths) EXPECT_EQ(b.at(r.at++), static_cast<char>(p.tool));
+    for (std::size_t q = 0; q < layer.paths.size(); ++q) EXPECT_EQ(b.at(r.at++), 0);  // no sets
     if (nv > 0) {
       for (const auto& p : layer.paths) EXPECT_EQ(r.varint(), p.via.size());
       for (const auto& p : layer.paths)
