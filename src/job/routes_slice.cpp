@@ -37,14 +37,13 @@ namespace fs = std::filesystem;
 void warn_min_feature(const std::string& input, double feature, const char* width_name,
                       double width, double step, const char* step_key, Diagnostics& diag) {
   if (!(feature > 0) || (feature >= width && feature >= step)) return;
-  diag.warn("design_min_feature",
-            fmt::format("{} asks for features down to {} mm (minfeaturesize); the {} is {} mm "
-                        "and the design is sampled every {} mm ({}), so finer features are not "
-                        "printed as designed",
-                        fs::path(input).filename().string(), feature, width_name, width, step,
-                        step_key));
+  diag.warn(
+      "design_min_feature",
+      fmt::format("{} asks for features down to {} mm (minfeaturesize); the {} is {} mm "
+                  "and the design is sampled every {} mm ({}), so finer features are not "
+                  "printed as designed",
+                  fs::path(input).filename().string(), feature, width_name, width, step, step_key));
 }
-
 
 void laser_previews(const Toolpath& tp, const Job& job, const Config& c, JobResult& out) {
   RenderOptions ro;
@@ -1195,8 +1194,9 @@ void write_pbf_main(const Job& job, const Config& c, Toolpath& tp, JobResult& ou
   if (is_3mf_output(job.output) && tp.part_labels.empty() && !out.geometry.mesh) {
     // The shards' part, as a single run writes it (its warnings were the shards' to give).
     Diagnostics said;
-    out.geometry.mesh = field_mesh_3mf(pbf_part_design(c, job.input, job.settings, said).part(),
-                                       pbf_options(job, c).resolution, budget_of(job, c, Progress{}));
+    out.geometry.mesh =
+        field_mesh_3mf(pbf_part_design(c, job.input, job.settings, said).part(),
+                       pbf_options(job, c).resolution, budget_of(job, c, Progress{}));
   }
   write_laser_build(job.output, tp, job, c, out);
 }
@@ -1246,7 +1246,8 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
         times.add(split_among_lasers(tp.layers[i], setup, i));
     out.toolpath = std::make_shared<Toolpath>(tp);
   }
-  if (is_3mf_output(job.output)) out.geometry.mesh = field_mesh_3mf(d.part(), po.resolution, budget);
+  if (is_3mf_output(job.output))
+    out.geometry.mesh = field_mesh_3mf(d.part(), po.resolution, budget);
   if (!job.output.empty() && !stream) write_laser_build(job.output, tp, job, c, out);
   if (!job.toolpath.empty()) {
     write_toolpath_with_job(job.toolpath, tp, job);

@@ -94,7 +94,8 @@ inline std::string esc(std::string_view s) {
 }
 
 // Beam Lattice Extension v1.2, Appendix C.
-constexpr const char* kBeamLattice = "http://schemas.microsoft.com/3dmanufacturing/beamlattice/2017/02";
+constexpr const char* kBeamLattice =
+    "http://schemas.microsoft.com/3dmanufacturing/beamlattice/2017/02";
 }  // namespace tp3mf
 
 namespace impl {

@@ -123,8 +123,8 @@ double solid_section_z(const BBox3& box, int layer, double h);
 // has it: set before the route writes.
 struct JobGeometry {
   std::shared_ptr<const TriangleMesh> mesh;  // a solid's triangles, or the surface printed on
-  bool surface = false;                       // `mesh` is the open surface printed on
-  std::shared_ptr<const Graph> struts;        // the struts, where the toolpath prints them as they lie
+  bool surface = false;                      // `mesh` is the open surface printed on
+  std::shared_ptr<const Graph> struts;  // the struts, where the toolpath prints them as they lie
 };
 
 struct JobResult {

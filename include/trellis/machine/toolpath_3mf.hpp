@@ -40,9 +40,9 @@ struct BeamLattice3mf {
 // it prints instead: one beam per path segment, of half the path's width (else bead_width; a
 // laser path's: the spot's; else its height).
 struct Toolpath3mfOptions {
-  const LaserProfile* laser = nullptr;     // PBF: the laser (lasersources, jump speed, spot)
-  const TriangleMesh* mesh = nullptr;      // the build's geometry (mm), written as its build item
-  bool mesh_is_surface = false;            // an open surface printed on (core §4.1 "surface")
+  const LaserProfile* laser = nullptr;      // PBF: the laser (lasersources, jump speed, spot)
+  const TriangleMesh* mesh = nullptr;       // the build's geometry (mm), written as its build item
+  bool mesh_is_surface = false;             // an open surface printed on (core §4.1 "surface")
   const BeamLattice3mf* lattice = nullptr;  // the build's struts (mm), as a beam lattice
   double bead_width = 0;  // mm: a deposition path's width where it has none (the nozzle's)
 };
