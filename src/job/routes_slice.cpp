@@ -1519,7 +1519,10 @@ JobResult surface(const Job& job, const Config& c, Diagnostics& diag, const Prog
     check_budget(e, budget_of(job, c, progress));
   }
   const TriangleMesh mesh = surface_mesh(s, c.surface.resolution);
-  if (!job.output.empty()) {
+  if (is_3mf_output(job.output)) {
+    write_3mf(job.output, mesh);  // a 3MF mesh package (it was STL bytes under the .3mf name)
+    out.files.push_back(job.output);
+  } else if (!job.output.empty()) {
     write_file_atomic(job.output, mesh_to_stl(mesh, s.name()));
     out.files.push_back(job.output);
   }

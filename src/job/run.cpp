@@ -71,9 +71,11 @@ bool is_3mf_output(const std::string& path) {
 namespace {
 
 // A 3MF's design mesh is its build item, not what is printed (the toolpath is): a field is
-// meshed at the route's resolution, but with at most this many voxels along its longest side,
-// so the package stays a fraction of its toolpath's size.
-constexpr double kGeometryCells = 400;
+// meshed at the route's resolution, but with at most this many voxels along its longest side.
+// At pbf.resolution (0.025 mm) a 10 x 10 x 5 mm gyroid lattice took 20 s, 2.2 GB and 109 MB of
+// package against 1.5 s, 0.2 GB and 3.7 MB for its toolpath alone; at 128 (0.078 mm, about the
+// melt pool) the mesh stays near the toolpath's cost.
+constexpr double kGeometryCells = 128;
 
 // The struts as beams of their radius, else `radius`; struts shorter than the extension's
 // minimum beam length are left out, and said.

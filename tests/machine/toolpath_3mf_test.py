@@ -270,6 +270,13 @@ def test_nonplanar_and_plan_routes_write_3mf_that_reads_back(tmp_path, xsd):
     zs = lambda layers: [p["points"][:, 2].min() for _, paths in layers for p in paths]
     assert zs(t) == pytest.approx(zs(g), abs=2e-3)
     validate(xsd, tmp_path / "c.3mf", tmp_path)
+    # The surface as a 3MF mesh package (it was STL bytes under a .3mf name) prints the same,
+    # within its 32-bit float vertices (lib3mf's, as the STL's).
+    run("surface", "--kind", "corrugation", "-o", tmp_path / "c_mesh.3mf")
+    assert zipfile.is_zipfile(tmp_path / "c_mesh.3mf")
+    run("nonplanar", tmp_path / "c_mesh.3mf", "--machine", machine, "-o", tmp_path / "c2.gcode")
+    again = layers_of(tr.read_toolpath(str(tmp_path / "c2.gcode")))
+    assert extrusion_by_layer(again) == pytest.approx(extrusion_by_layer(g), rel=1e-5)
     # A planned lattice: `check` reads the 3MF as it reads the G-code.
     lattice = ROOT / "examples" / "lattices" / "tiny.json"
     fdm = ROOT / "profiles" / "ender3_s1_pro_tpu.toml"
