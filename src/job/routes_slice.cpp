@@ -1087,7 +1087,8 @@ void write_slice_main(const Job& job, const Config& c, Toolpath& tp, JobResult& 
   MachineProfile m = c.machine;
   // A plate is placed already: its parts' x, y are bed coordinates.
   if (!tp.part_labels.empty()) m.center = false;
-  if (tp.part_labels.empty()) slice_geometry(job, slice_job_of(job, c, job.input), out);
+  if (tp.part_labels.empty() && is_3mf_output(job.output))
+    slice_geometry(job, slice_job_of(job, c, job.input), out);
   const GcodeStats g = write_gcode_out(job.output, tp, job, m, out, diag);
   if (stats) *stats = g;
 }
