@@ -430,6 +430,24 @@ def test_lib3mf_reads_the_packages_geometry(tmp_path):
         assert report["extent_mm"]["max"][k] == pytest.approx(max(v[k] for v in vertices), abs=1e-5)
 
 
+def test_the_beam_lattice_specifications_example_validates_and_reads(tmp_path, xsd):
+    """The Beam Lattice Extension's Appendix D.1 (a lattice-only mesh, the form Trellis writes)
+    validates against the schemas validate() uses, and reads as a lattice of its 12 beams."""
+    example = BEAM_DATA / "spec_example_d1.model"
+    xmllint(xsd["model"], example)
+    with zipfile.ZipFile(tmp_path / "d1.3mf", "w") as z:
+        z.writestr("[Content_Types].xml",
+                   '<?xml version="1.0" encoding="UTF-8"?><Types xmlns="http://schemas.openxmlformats.org/package/2006/content-types">'
+                   '<Default Extension="rels" ContentType="application/vnd.openxmlformats-package.relationships+xml"/>'
+                   '<Default Extension="model" ContentType="application/vnd.ms-package.3dmanufacturing-3dmodel+xml"/></Types>')
+        z.writestr("_rels/.rels",
+                   '<?xml version="1.0" encoding="UTF-8"?><Relationships xmlns="http://schemas.openxmlformats.org/package/2006/relationships">'
+                   '<Relationship Id="rel0" Target="/3D/3dmodel.model" Type="http://schemas.microsoft.com/3dmanufacturing/2013/01/3dmodel"/></Relationships>')
+        z.writestr("3D/3dmodel.model", example.read_text())
+    r = run("plan", "euler", tmp_path / "d1.3mf", "-o", tmp_path / "d1.json")
+    assert r.stdout.startswith("euler: 12 edges"), r.stdout
+
+
 def test_field_designs_are_meshed_as_the_build_item(pbf, tmp_path, xsd):
     """A .vcad design (pbf's gyroid sheet, slice's part) is meshed into its package: a closed
     "model" object inside the design's root box, the build item the layers name."""
