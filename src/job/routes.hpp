@@ -22,6 +22,12 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
 JobResult gcode(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress);
 JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress);
 JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress);
+// A design's minfeaturesize (a 3MF level set, Volumetric & Implicit Part I §4.1.1: a consumer
+// that cannot resolve such features "SHOULD raise a warning") finer than what the route prints
+// (`width`: the bead, the laser's melt pool) or samples (`step`, the setting `step_key`): said,
+// by the slice and pbf routes alike.
+void warn_min_feature(const std::string& input, double feature, const char* width_name,
+                      double width, double step, const char* step_key, Diagnostics& diag);
 // Solid parts on the pbf route (routes_pbf_solid.cpp): a mesh input, or a .vcad with a solid
 // scan strategy (rectilinear, meander, stripe, island); pbf() hands such jobs to pbf_solid.
 bool is_mesh_path(const std::string& path);
@@ -74,11 +80,20 @@ GcodeStats write_gcode_out(const std::string& path, Toolpath tp, const Job& job,
 // the Toolpath Extension instead (machine/toolpath_3mf.hpp), through write_gcode_out,
 // write_gcode_streamed and write_laser_build.
 bool is_3mf_output(const std::string& path);
-// The toolpath as a 3MF package at `path` with the job embedded (into `tp`), and the design's mesh
-// as its build item when the slice route's input is a mesh (STL, OBJ, 3MF); `laser` for laser
-// builds. Returns the package's size in bytes.
+// The toolpath as a 3MF package at `path` with the job embedded (into `tp`), and the design the
+// route left in `out.geometry` as its build item: triangles and/or struts as beams (of their
+// radius, else half the toolpath's bead width, else half `nozzle` mm); without any, the beads
+// printed (toolpath_3mf.hpp). `laser` for laser builds. Returns the package's size in bytes.
 std::size_t write_3mf_out(const std::string& path, Toolpath& tp, const Job& job,
-                          const LaserProfile* laser, JobResult& out);
+                          const LaserProfile* laser, JobResult& out, Diagnostics* diag = nullptr,
+                          double nozzle = 0);
+// A design file as a 3MF output's triangles: a mesh (STL, OBJ, 3MF) as read, a field design
+// (.vcad, implicit 3MF) meshed at `voxel` mm over its extent (coarser where its longest side
+// would take more than kGeometryCells voxels); the work is checked against `budget` first.
+std::shared_ptr<const TriangleMesh> design_mesh_3mf(const std::string& input, double voxel,
+                                                    const Budget& budget);
+std::shared_ptr<const TriangleMesh> field_mesh_3mf(const Field& field, double voxel,
+                                                   const Budget& budget);
 // The pbf route's build file: .cli (binary if asked) or, for .3mf, the Toolpath Extension.
 void write_laser_build(const std::string& path, Toolpath& tp, const Job& job, const Config& c,
                        JobResult& out, const std::vector<CliParameterSet>& sets = {});

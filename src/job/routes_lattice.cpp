@@ -218,6 +218,7 @@ JobResult plan_aero_route(const Job& job, const Config& c, const Graph& g, const
                           chk.collisions, r.collisions_planned));
   out.toolpath = std::make_shared<Toolpath>(tp);
   out.lattice = std::make_shared<Graph>(g);
+  out.geometry.struts = out.lattice;  // a 3MF's build item: the struts as beams
   const double secs = seconds_since(t0);
   // G-code first: the machine check refuses before any file is written.
   if (!job.gcode.empty()) write_gcode_out(job.gcode, tp, job, c.machine, out, diag);
@@ -533,6 +534,9 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
   r.toolpath.source = "trellis " + to_string(c.planner) + " " + fs::path(input).filename().string();
   out.toolpath = std::make_shared<Toolpath>(r.toolpath);
   out.lattice = std::make_shared<Graph>(g);
+  // A 3MF's build item: the struts as beams, where the toolpath prints them as they lie (laid on
+  // a surface, it does not: its package carries the beads printed, toolpath_3mf.hpp).
+  if (c.onto.kind == OntoKind::Flat) out.geometry.struts = out.lattice;
   const double secs = seconds_since(t0);
   GcodeStats gs;
   write_plan_main(job, c, r.toolpath, out, diag, &gs);

@@ -193,7 +193,11 @@ JobResult pbf_solid(const Job& job, const Config& c, Diagnostics& diag, const Pr
     require_closed(mesh, job.input);
     part.mesh = &mesh;
   } else {
-    field = read_field_design(job.input).field;
+    VcadDesign design = read_field_design(job.input);
+    warn_min_feature(job.input, design.min_feature_size,
+                     "laser's melt pool (laser.melt_pool_width)", c.laser.melt_pool_width,
+                     o.resolution, "pbf.resolution", diag);
+    field = std::move(design.field);
     if (field.has_process())
       throw SettingError(
           "the design sets process fields (fprocess), which only the FDM slice "
@@ -227,6 +231,11 @@ JobResult pbf_solid(const Job& job, const Config& c, Diagnostics& diag, const Pr
     tp.parameter_sets = named;
     for (std::size_t i = 0; i < r.layers.size(); ++i) tp.layers.push_back(layer_of(i, r.layers[i]));
     out.toolpath = std::make_shared<Toolpath>(tp);
+    // A 3MF's build item: the mesh as read, a .vcad solid meshed at pbf.resolution.
+    if (is_3mf_output(job.output))
+      out.geometry.mesh = part.mesh
+                              ? std::make_shared<const TriangleMesh>(mesh)
+                              : field_mesh_3mf(field, o.resolution, budget_of(job, c, progress));
     if (!job.output.empty()) write_laser_build(job.output, tp, job, c, out, sets);
     if (!job.toolpath.empty()) {
       write_toolpath_with_job(job.toolpath, tp, job);

@@ -34,6 +34,17 @@ namespace trellis::routes {
 
 namespace fs = std::filesystem;
 
+void warn_min_feature(const std::string& input, double feature, const char* width_name,
+                      double width, double step, const char* step_key, Diagnostics& diag) {
+  if (!(feature > 0) || (feature >= width && feature >= step)) return;
+  diag.warn(
+      "design_min_feature",
+      fmt::format("{} asks for features down to {} mm (minfeaturesize); the {} is {} mm "
+                  "and the design is sampled every {} mm ({}), so finer features are not "
+                  "printed as designed",
+                  fs::path(input).filename().string(), feature, width_name, width, step, step_key));
+}
+
 void laser_previews(const Toolpath& tp, const Job& job, const Config& c, JobResult& out) {
   RenderOptions ro;
   ro.colour_by_role = true;
@@ -136,7 +147,8 @@ JobResult shard_written(const Job& job, const Toolpath& tp, std::size_t first, s
 
 // A laser design (.vcad): process fields (fprocess) are FDM settings the laser route has no use
 // for, refused rather than dropped.
-Field laser_vcad(const std::string& path, const char* key = "job.input") {
+Field laser_vcad(const std::string& path, const char* key = "job.input",
+                 double* min_feature = nullptr) {
   // A mesh is not read as .vcad text ("unexpected character '\x00'"): the lattice's envelope and
   // solids are fields; a mesh part is scanned on its own (pbf_solid).
   if (is_mesh_path(path) && !is_implicit_3mf(path))
@@ -145,7 +157,9 @@ Field laser_vcad(const std::string& path, const char* key = "job.input") {
         "part is scanned as a solid by giving it as the input (`trellis pbf "
         "part.stl`), or describe the envelope in .vcad",
         {path, 0, key});
-  Field f = read_field_design(path).field;
+  VcadDesign design = read_field_design(path);
+  if (min_feature) *min_feature = design.min_feature_size;
+  Field f = std::move(design.field);
   if (f.has_process())
     throw SettingError(
         "the design sets process fields (fprocess: temperature, speed, flow, fan), "
@@ -203,9 +217,13 @@ void warn_lattice_envelope(const Field& f, const std::string& path, const PbfCon
                           path, to_string(p.cell_type), p.cell));
 }
 
-bool pbf_input(PbfDesign& d, const std::string& path, const PbfConfig& p, const Settings& set,
+bool pbf_input(PbfDesign& d, const std::string& path, const Config& c, const Settings& set,
                Diagnostics& diag) {
-  const Field f = laser_vcad(path);
+  const PbfConfig& p = c.pbf;
+  double feature = 0;
+  const Field f = laser_vcad(path, "job.input", &feature);
+  warn_min_feature(path, feature, "laser's melt pool (laser.melt_pool_width)",
+                   c.laser.melt_pool_width, p.options.resolution, "pbf.resolution", diag);
   if (p.wall_thickness <= 0) {
     if (auto s = split_sheet(f)) {
       d.phi = s->phi;
@@ -244,12 +262,13 @@ bool pbf_input(PbfDesign& d, const std::string& path, const PbfConfig& p, const 
 
 // The part's design from its settings and its input .vcad (if any); *from_design: the lattice
 // is the input's own sheet.
-PbfDesign pbf_part_design(const PbfConfig& p, const std::string& input, const Settings& set,
+PbfDesign pbf_part_design(const Config& c, const std::string& input, const Settings& set,
                           Diagnostics& diag, bool* from_design = nullptr) {
+  const PbfConfig& p = c.pbf;
   PbfDesign d = pbf_design(p);
   if (!p.envelope.empty() && p.wall_thickness <= 0)
     warn_lattice_envelope(d.envelope, p.envelope, p, diag);
-  const bool own = !input.empty() && pbf_input(d, input, p, set, diag);
+  const bool own = !input.empty() && pbf_input(d, input, c, set, diag);
   if (from_design) *from_design = own;
   return d;
 }
@@ -389,6 +408,14 @@ SliceJob slice_job_of(const Job& job, const Config& c, const std::string& input)
   return sj;
 }
 
+// A single part's design as a 3MF output's build item (a plate's parts get their printed beads,
+// toolpath_3mf.hpp): the mesh as read, a field meshed at the step its route samples it.
+void slice_geometry(const Job& job, const SliceJob& sj, JobResult& out) {
+  if (is_3mf_output(job.output) && job.parts.empty() && !job.input.empty() && !out.geometry.mesh)
+    out.geometry.mesh = design_mesh_3mf(
+        job.input, sj.route == SliceRoute::Mesh ? sj.mesh_voxel : sj.field.resolution, sj.budget);
+}
+
 void warn_palette(const std::string& input, int used, int total, Diagnostics& diag) {
   if (used < total)
     diag.warn("palette_partly_used",
@@ -454,16 +481,10 @@ void warn_design(const SliceJob& sj, const SliceResult& r, Diagnostics& diag) {
   if (r.repaired)
     diag.warn("mesh_repaired",
               name + " was not closed and manifold; repaired: " + r.repair.summary());
-  const double f = r.design_min_feature;
   const bool field = r.route == SliceRoute::Field;
-  const double step = field ? sj.field.resolution : sj.mesh_voxel;
-  if (f > 0 && (f < sj.planar.bead_width || f < step))
-    diag.warn("design_min_feature",
-              fmt::format("{} asks for features down to {} mm (minfeaturesize); the bead width is "
-                          "{} mm and the {} route samples the design every {} mm ({}), so "
-                          "finer features are not printed as designed",
-                          name, f, sj.planar.bead_width, field ? "field" : "mesh", step,
-                          field ? "slice.resolution" : "slice.mesh_voxel"));
+  warn_min_feature(sj.input, r.design_min_feature, "bead width", sj.planar.bead_width,
+                   field ? sj.field.resolution : sj.mesh_voxel,
+                   field ? "slice.resolution" : "slice.mesh_voxel", diag);
 }
 
 // The plate's report (trellis.plate_report) and summary of the slice route.
@@ -810,6 +831,7 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
                       to_string(r.route) + " route)";
   GcodeStats g;
   if (!job.output.empty()) note_planar_in_bath(c.machine, "slice", diag);
+  slice_geometry(job, sj, out);
   if (spill) {
     Toolpath meta;
     meta.source = r.toolpath.source;
@@ -946,7 +968,7 @@ JobResult pbf_plate(const Job& job, const Config& c, Diagnostics& diag, const Pr
       throw SettingError("part '" + pp.label + "': " + e.message(),
                          {job.origin, pp.line, e.where().element});
     }
-    p.design = pbf_part_design(p.config.pbf, plate ? pp.input : job.input, st, diag);
+    p.design = pbf_part_design(p.config, plate ? pp.input : job.input, st, diag);
     p.extent = p.design.part().extent();
     if (!finite_box(p.extent))
       throw GeometryError("part '" + pp.label + "' has no finite extent: give it an envelope",
@@ -1065,6 +1087,8 @@ void write_slice_main(const Job& job, const Config& c, Toolpath& tp, JobResult& 
   MachineProfile m = c.machine;
   // A plate is placed already: its parts' x, y are bed coordinates.
   if (!tp.part_labels.empty()) m.center = false;
+  if (tp.part_labels.empty() && is_3mf_output(job.output))
+    slice_geometry(job, slice_job_of(job, c, job.input), out);
   const GcodeStats g = write_gcode_out(job.output, tp, job, m, out, diag);
   if (stats) *stats = g;
 }
@@ -1121,13 +1145,60 @@ void write_graded_merge(const Job& job, const Config& c, Toolpath& tp, const std
   write_slice_main(job, c, tp, out, diag);
 }
 
+// The surface the nonplanar route prints on: a mesh, nonplanar.height_fn over its domain, or a
+// test surface (surface.kind).
+static HeightField nonplanar_surface(const Job& job, const Config& c) {
+  const auto& np = c.nonplanar;
+  if (!job.input.empty() && !np.height_fn.empty())
+    throw SettingError("give a surface mesh or nonplanar.height_fn, not both",
+                       {"", 0, "nonplanar.height_fn"});
+  if ((!job.input.empty() || !np.height_fn.empty()) && job.settings.has("surface.kind") &&
+      !job.embedded)
+    throw SettingError(
+        "give one surface: a mesh, nonplanar.height_fn or a test surface (surface.kind)",
+        {"", 0, "surface.kind"});
+  if (!job.input.empty()) {
+    return HeightField::from_mesh(read_mesh(job.input), fs::path(job.input).filename().string());
+  }
+  if (!np.height_fn.empty()) {
+    if (np.domain.size() != 4)
+      throw SettingError("the height function needs nonplanar.domain = x0,y0,x1,y1 (--domain)",
+                         {"", 0, "nonplanar.domain"});
+    return HeightField::from_expression(
+        np.height_fn, {{np.domain[0], np.domain[1]}, {np.domain[2], np.domain[3]}},
+        "z = " + np.height_fn);
+  }
+  if (job.settings.has("surface.kind")) {
+    return test_surface(c.surface);
+  }
+  throw SettingError(
+      "give a surface mesh, --height-fn with --domain, or a test surface (--set "
+      "surface.kind=...)",
+      {"", 0, "job.input"});
+}
+
 GcodeStats write_nonplanar_main(const Job& job, const Config& c, Toolpath& tp, JobResult& out,
                                 Diagnostics& diag) {
+  if (is_3mf_output(job.output) && !out.geometry.mesh) {
+    // The surface printed on as the 3MF's build item (an open "surface" object): a mesh as read,
+    // else its grid at half the bead width, as the planar control meshes it.
+    out.geometry.mesh = std::make_shared<const TriangleMesh>(
+        job.input.empty() ? surface_mesh(nonplanar_surface(job, c), c.machine.nozzle_diameter / 2)
+                          : read_mesh(job.input));
+    out.geometry.surface = true;
+  }
   return write_gcode_out(job.output, tp, job, c.machine, out, diag);
 }
 
 void write_pbf_main(const Job& job, const Config& c, Toolpath& tp, JobResult& out) {
   if (job.output.empty()) return;
+  if (is_3mf_output(job.output) && tp.part_labels.empty() && !out.geometry.mesh) {
+    // The shards' part, as a single run writes it (its warnings were the shards' to give).
+    Diagnostics said;
+    out.geometry.mesh =
+        field_mesh_3mf(pbf_part_design(c, job.input, job.settings, said).part(),
+                       pbf_options(job, c).resolution, budget_of(job, c, Progress{}));
+  }
   write_laser_build(job.output, tp, job, c, out);
 }
 
@@ -1137,7 +1208,7 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
   JobResult out;
   const LaserProfile& prof = c.laser;
   bool from_design = false;
-  PbfDesign d = pbf_part_design(c.pbf, job.input, job.settings, diag, &from_design);
+  PbfDesign d = pbf_part_design(c, job.input, job.settings, diag, &from_design);
   PbfOptions po = pbf_options(job, c);
   check_pbf_cells(c, po);
   const Budget budget = budget_of(job, c, progress);
@@ -1176,6 +1247,8 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
         times.add(split_among_lasers(tp.layers[i], setup, i));
     out.toolpath = std::make_shared<Toolpath>(tp);
   }
+  if (is_3mf_output(job.output))
+    out.geometry.mesh = field_mesh_3mf(d.part(), po.resolution, budget);
   if (!job.output.empty() && !stream) write_laser_build(job.output, tp, job, c, out);
   if (!job.toolpath.empty()) {
     write_toolpath_with_job(job.toolpath, tp, job);
@@ -1321,32 +1394,7 @@ JobResult planar_control(const Job& job, const Config& c, const HeightField& sur
 JobResult nonplanar(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
   JobResult out;
   const auto& np = c.nonplanar;
-  HeightField surface;
-  if (!job.input.empty() && !np.height_fn.empty())
-    throw SettingError("give a surface mesh or nonplanar.height_fn, not both",
-                       {"", 0, "nonplanar.height_fn"});
-  if ((!job.input.empty() || !np.height_fn.empty()) && job.settings.has("surface.kind") &&
-      !job.embedded)
-    throw SettingError(
-        "give one surface: a mesh, nonplanar.height_fn or a test surface (surface.kind)",
-        {"", 0, "surface.kind"});
-  if (!job.input.empty()) {
-    surface = HeightField::from_mesh(read_mesh(job.input), fs::path(job.input).filename().string());
-  } else if (!np.height_fn.empty()) {
-    if (np.domain.size() != 4)
-      throw SettingError("the height function needs nonplanar.domain = x0,y0,x1,y1 (--domain)",
-                         {"", 0, "nonplanar.domain"});
-    surface = HeightField::from_expression(
-        np.height_fn, {{np.domain[0], np.domain[1]}, {np.domain[2], np.domain[3]}},
-        "z = " + np.height_fn);
-  } else if (job.settings.has("surface.kind")) {
-    surface = test_surface(c.surface);
-  } else {
-    throw SettingError(
-        "give a surface mesh, --height-fn with --domain, or a test surface (--set "
-        "surface.kind=...)",
-        {"", 0, "job.input"});
-  }
+  const HeightField surface = nonplanar_surface(job, c);
   NonplanarParams prm = np.params;
   prm.layer_height = c.machine.layer_height;
   if (!job.settings.has("nonplanar.bead_width")) prm.width = c.machine.nozzle_diameter;
@@ -1472,7 +1520,10 @@ JobResult surface(const Job& job, const Config& c, Diagnostics& diag, const Prog
     check_budget(e, budget_of(job, c, progress));
   }
   const TriangleMesh mesh = surface_mesh(s, c.surface.resolution);
-  if (!job.output.empty()) {
+  if (is_3mf_output(job.output)) {
+    write_3mf(job.output, mesh);  // a 3MF mesh package (it was STL bytes under the .3mf name)
+    out.files.push_back(job.output);
+  } else if (!job.output.empty()) {
     write_file_atomic(job.output, mesh_to_stl(mesh, s.name()));
     out.files.push_back(job.output);
   }

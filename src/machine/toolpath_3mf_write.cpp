@@ -21,67 +21,6 @@ namespace {
 
 using namespace tp3mf;
 
-// `text`: element content, where line breaks stay as they are.
-void escape_to(std::string& out, std::string_view s, bool text = false) {
-  for (char c : s) {
-    if (text && c == '\n') {
-      out += c;
-      continue;
-    }
-    switch (c) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      case '\n':
-        out += "&#10;";
-        break;
-      case '\r':
-        out += "&#13;";
-        break;
-      case '\t':
-        out += "&#9;";
-        break;
-      default:
-        // Other control characters are not XML 1.0 characters at all: dropped.
-        if (static_cast<unsigned char>(c) >= 0x20) out += c;
-    }
-  }
-}
-
-std::string esc(std::string_view s) {
-  std::string out;
-  escape_to(out, s);
-  return out;
-}
-
-// Shortest text that reads back to the same double (matches ST_Number, Appendix B.2).
-std::string num(double v) {
-  return fmt::format("{}", v);
-}
-
-// A UUID made from a name (stable run to run, so the same toolpath is the same file): 128 bits
-// of two FNV-1a hashes, marked as a version-5 (name-based) UUID.
-std::string uuid_of(const std::string& name) {
-  auto fnv = [&](std::uint64_t h) {
-    for (unsigned char c : name) h = (h ^ c) * 0x100000001b3ULL;
-    return h ^ (h >> 29);
-  };
-  std::uint64_t a = fnv(0xcbf29ce484222325ULL), b = fnv(0x84222325cbf29ce4ULL);
-  a = (a & ~0xf000ULL) | 0x5000ULL;                         // version 5
-  b = (b & 0x3fffffffffffffffULL) | 0x8000000000000000ULL;  // RFC 4122 variant
-  return fmt::format("{:08x}-{:04x}-{:04x}-{:04x}-{:012x}", a >> 32, (a >> 16) & 0xffff, a & 0xffff,
-                     b >> 48, b & 0xffffffffffffULL);
-}
-
 // Integer toolpath units (Part II: coordinates are integers times unitfactor).
 long long units(double mm, std::size_t layer, std::size_t path) {
   const double u = std::round(mm / kUnitFactor);
@@ -195,6 +134,7 @@ struct Writer {
   std::map<ProfileKey, std::size_t> profiles;
   std::vector<const ProfileKey*> profile_order;
   std::vector<std::string> part_uuids;  // index Path::part
+  std::set<int> used_parts;             // the parts the paths name
 
   std::string set_name(const ProfileKey& k) const {
     const int i = k.laser ? parameter_set_of(tp, k.role, k.power, k.speed) : -1;
@@ -214,6 +154,7 @@ struct Writer {
         if (p.part < 0 || p.part > static_cast<int>(tp.part_labels.size()))
           throw GeometryError(fmt::format("3MF toolpath: layer {} path {}: part {} of {}", i, j,
                                           p.part, tp.part_labels.size()));
+        used_parts.insert(p.part);
         for (const Vec3& q : p.points) {
           const long long x = units(q.x, i, j), y = units(q.y, i, j), z = units(q.z, i, j);
           (void)x, (void)y;
@@ -318,28 +259,18 @@ struct Writer {
     return fmt::format("/Toolpath/Layers/layer{:05}.xml", i + 1);
   }
 
-  void mesh_xml(std::string& out) const {
-    const TriangleMesh& m = *o.mesh;
-    out += fmt::format("<object id=\"2\" type=\"model\" p:UUID=\"{}\"><mesh><vertices>\n",
-                       uuid_of("object"));
-    for (const Vec3& v : m.vertices)
-      fmt::format_to(std::back_inserter(out), "<vertex x=\"{}\" y=\"{}\" z=\"{}\"/>\n", num(v.x),
-                     num(v.y), num(v.z));
-    out += "</vertices><triangles>\n";
-    for (const auto& t : m.triangles)
-      fmt::format_to(std::back_inserter(out), "<triangle v1=\"{}\" v2=\"{}\" v3=\"{}\"/>\n", t[0],
-                     t[1], t[2]);
-    out += "</triangles></mesh></object>\n";
-  }
-
   // Part I, Chapter 4: the model part with the toolpath resource (and the mesh, if any).
   std::string model_xml() const {
+    // Beam Lattice Chapter 1: a producer using it marks "b" required.
+    const Geometry3mf geometry = geometry_xml(tp, o, part_uuids, used_parts);
     std::string out = fmt::format(
         "<?xml version=\"1.0\" encoding=\"UTF-8\"?>\n"
         "<model unit=\"millimeter\" xml:lang=\"en-US\" xmlns=\"{}\" xmlns:p=\"{}\" xmlns:tp=\"{}\" "
-        "xmlns:t=\"{}\" requiredextensions=\"p tp\">\n"
+        "xmlns:t=\"{}\"{} requiredextensions=\"p tp{}\">\n"
         "<metadata name=\"Application\">Trellis {}</metadata>\n<resources>\n",
-        kCore, kProduction, kNamespace, kTrellis, TRELLIS_VERSION);
+        kCore, kProduction, kNamespace, kTrellis,
+        geometry.beams ? fmt::format(" xmlns:b=\"{}\"", kBeamLattice) : "",
+        geometry.beams ? " b" : "", TRELLIS_VERSION);
     out += fmt::format(
         "<tp:toolpathresource id=\"1\" uuid=\"{}\" unitfactor=\"{}\" "
         "toolpathtype=\"{}\">\n",
@@ -393,9 +324,9 @@ struct Writer {
       out += fmt::format("<t:part id=\"{}\" uuid=\"{}\" label=\"{}\"/>", k + 2, part_uuids[k + 1],
                          esc(tp.part_labels[k]));
     out += "</t:trellis></tp:toolpathdata>\n</tp:toolpathresource>\n";
-    if (o.mesh) mesh_xml(out);
+    out += geometry.objects;
     out += fmt::format("</resources>\n<build p:UUID=\"{}\" tp:toolpathid=\"1\">", uuid_of("build"));
-    if (o.mesh) out += fmt::format("<item objectid=\"2\" p:UUID=\"{}\"/>", part_uuids[0]);
+    out += geometry.items;
     out += "</build>\n</model>\n";
     return out;
   }

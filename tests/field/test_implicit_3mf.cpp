@@ -340,12 +340,22 @@ TEST(Implicit3mf, SlicedSphereGcodeEqualsTheVcadSpheres) {
 
 // A level set's minfeaturesize finer than the bead width is warned about by the slice route, as
 // Part I §4.1.1 asks of a consumer that cannot resolve it; one the route resolves is not.
+namespace {
+
+// fine.3mf and coarse.3mf in `dir`: a level-set sphere of radius r with either minfeaturesize.
+void min_feature_spheres(const test::TempDir& dir, double r, const char* fine, const char* coarse) {
+  const std::array<double, 3> lo{-r, -r, -r}, hi{r, r, r};
+  for (const auto& [name, size] : {std::pair{"fine.3mf", fine}, std::pair{"coarse.3mf", coarse}})
+    write_3mf(dir.file(name), model(sphere_function(r), lo, hi, "", "millimeter",
+                                    std::string(" minfeaturesize=\"") + size + "\""));
+}
+
+}  // namespace
+
 TEST(Implicit3mf, SliceWarnsOfAMinFeatureSizeItCannotResolve) {
   test::TempDir dir("implicit3mf_minfeature");
-  const std::array<double, 3> lo{-4, -4, -4}, hi{4, 4, 4};
+  min_feature_spheres(dir, 4, "0.1", "1");
   const std::string fine = dir.file("fine.3mf"), coarse = dir.file("coarse.3mf");
-  write_3mf(fine, model(sphere_function(4), lo, hi, "", "millimeter", " minfeaturesize=\"0.1\""));
-  write_3mf(coarse, model(sphere_function(4), lo, hi, "", "millimeter", " minfeaturesize=\"1\""));
   const std::string prof = std::string(TRELLIS_SOURCE_DIR) + "/profiles/ender3_s1_pro_tpu.toml";
   const std::string opts = " --machine " + prof +
                            " --layer-height 0.5 --set extrusion.nozzle_diameter=0.8 "
@@ -357,6 +367,27 @@ TEST(Implicit3mf, SliceWarnsOfAMinFeatureSizeItCannotResolve) {
   const test::CliRun c = test::run_cli("slice " + coarse + opts + dir.file("c.gcode"), dir.path());
   EXPECT_EQ(c.code, 0) << c.err;
   EXPECT_EQ(c.err.find("minfeaturesize"), std::string::npos) << c.err;
+}
+
+// The pbf routes say the same of a minfeaturesize finer than the laser's melt pool (the lattice
+// route filling the level set, and a solid scan strategy): as the slice route does of the bead.
+TEST(Implicit3mf, PbfWarnsOfAMinFeatureSizeItCannotResolve) {
+  test::TempDir dir("implicit3mf_pbf_minfeature");
+  min_feature_spheres(dir, 1, "0.02", "0.2");
+  const std::string fine = dir.file("fine.3mf"), coarse = dir.file("coarse.3mf");
+  const std::string prof = std::string(TRELLIS_SOURCE_DIR) + "/profiles/pbf_316l_25um.toml";
+  for (const char* strategy : {"hybrid", "meander"}) {
+    const std::string opts = std::string(" --machine ") + prof +
+                             " --set scan.layer=0.1 --set pbf.strategy=" + strategy + " -o ";
+    const test::CliRun f = test::run_cli("pbf " + fine + opts + dir.file("f.cli"), dir.path());
+    EXPECT_EQ(f.code, 0) << f.err;
+    for (const char* w : {"fine.3mf", "0.02 mm (minfeaturesize)",
+                          "melt pool (laser.melt_pool_width) is 0.0638 mm", "pbf.resolution"})
+      EXPECT_NE(f.err.find(w), std::string::npos) << strategy << ": " << w << ": " << f.err;
+    const test::CliRun c = test::run_cli("pbf " + coarse + opts + dir.file("c.cli"), dir.path());
+    EXPECT_EQ(c.code, 0) << c.err;
+    EXPECT_EQ(c.err.find("minfeaturesize"), std::string::npos) << strategy << ": " << c.err;
+  }
 }
 
 // `trellis pbf` takes a 3MF level-set design as it takes a .vcad (the laser route, not the

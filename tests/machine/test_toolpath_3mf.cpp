@@ -162,6 +162,46 @@ TEST(Toolpath3mf, MeshIsTheBuildItem) {
   expect_same(tp, round_trip(tp, o, dir, "mesh.3mf"), "with a mesh");
 }
 
+// The geometry the toolpath's parts name (Part II §1.1.1) does not change what reads back: a
+// strut lattice as beams (with the design's mesh, or alone), and, for a plate's parts, the beads
+// they print. Beams the Beam Lattice Extension cannot hold are refused, naming the beam.
+TEST(Toolpath3mf, LatticeAndBeadsAreBuildItemsAndTheToolpathReadsBackTheSame) {
+  test::TempDir dir;
+  BeamLattice3mf lattice;
+  lattice.vertices = {{0, 0, 0}, {10, 0, 0}, {10, 10, 5}, {0, 10, 5}};
+  lattice.beams = {{0, 1, 0.2, 0.2, 0}, {1, 2, 0.2, 0.3, 1}, {2, 3, 0.25, 0.25, 0}};
+  TriangleMesh mesh;
+  mesh.add_prism({{0, 0}, {10, 0}, {10, 10}, {0, 10}}, 0, 5);
+  for (unsigned seed = 1; seed <= 4; ++seed)  // odd seeds: a plate of two labelled parts
+    for (bool with_mesh : {false, true}) {
+      Toolpath3mfOptions o;
+      o.lattice = &lattice;
+      o.mesh = with_mesh ? &mesh : nullptr;
+      o.bead_width = 0.4;
+      const Toolpath tp = random_toolpath(seed, false, seed > 2);
+      const std::string what = "seed " + std::to_string(seed) + (with_mesh ? " with a mesh" : "");
+      const std::string bytes = write_toolpath_3mf(tp, o);
+      EXPECT_EQ(bytes, write_toolpath_3mf(tp, o)) << what;
+      expect_same(tp, round_trip(tp, o, dir, "lattice.3mf"), what);
+    }
+  Toolpath3mfOptions o;
+  o.lattice = &lattice;
+  const Toolpath tp = random_toolpath(2, false, false);
+  for (const BeamLattice3mf::Beam bad :
+       {BeamLattice3mf::Beam{1, 1, 0.2, 0.2, 0}, BeamLattice3mf::Beam{0, 4, 0.2, 0.2, 0},
+        BeamLattice3mf::Beam{0, 1, 0, 0.2, 0}}) {
+    BeamLattice3mf l = lattice;
+    l.beams.push_back(bad);
+    o.lattice = &l;
+    try {
+      write_toolpath_3mf(tp, o);
+      ADD_FAILURE() << "wrote beam " << bad.v1 << "-" << bad.v2 << " r " << bad.r1;
+    } catch (const GeometryError& e) {
+      EXPECT_NE(std::string(e.what()).find("beam 3"), std::string::npos) << e.what();
+    }
+  }
+}
+
 TEST(Toolpath3mf, RefusesWhatItCannotWrite) {
   Toolpath tp;
   tp.layers.push_back({0.2, {}});

@@ -16,6 +16,7 @@ import os
 import re
 import shutil
 import subprocess
+import tomllib
 import xml.etree.ElementTree as ET
 import zipfile
 from pathlib import Path
@@ -25,8 +26,12 @@ import pytest
 CLI = os.environ.get("TRELLIS_CLI", "trellis")
 ROOT = Path(os.environ.get("TRELLIS_SOURCE_DIR", Path(__file__).resolve().parents[2]))
 DATA = ROOT / "tests" / "data" / "3mf_toolpath"
+BEAM_DATA = ROOT / "tests" / "data" / "3mf_beamlattice"
+CORE_DATA = ROOT / "tests" / "data" / "3mf_core"
 TP = "http://schemas.3mf.io/3dmanufacturing/toolpath/2026/03"
 CORE = "http://schemas.microsoft.com/3dmanufacturing/core/2015/02"
+BEAM = "http://schemas.microsoft.com/3dmanufacturing/beamlattice/2017/02"
+PROD = "http://schemas.microsoft.com/3dmanufacturing/production/2015/06"
 
 # A gyroid sheet in a 3 x 3 x 0.6 mm box: thin walls (contours) and junctions (hatches).
 GYROID = "root((-1.5,-1.5,0), (1.5,1.5,0.6), (0.02,0.02,0.02)) {\n  gyroid(2.5, 0.1);\n}\n"
@@ -63,55 +68,95 @@ def layers_of(tp):
     return out
 
 
+# A stand-in for the W3C's xml.xsd (network only): the one attribute the core schema uses.
+XML_XSD = ('<?xml version="1.0"?>\n<xs:schema xmlns:xs="http://www.w3.org/2001/XMLSchema" '
+           'targetNamespace="http://www.w3.org/XML/1998/namespace">'
+           '<xs:attribute name="lang" type="xs:language"/></xs:schema>\n')
+
+
 @pytest.fixture(scope="module")
 def xsd(tmp_path_factory):
-    """The specification's schemas as Debian 12's xmllint (libxml2 2.9.14) compiles them:
-    maxOccurs 2^31-1 written as unbounded, the unused, network-only xml.xsd import dropped."""
+    """The specifications' schemas as Debian 12's xmllint (libxml2 2.9.14) compiles them:
+    maxOccurs 2^31-1 written as unbounded, the network-only xml.xsd import dropped (toolpath,
+    beam lattice: unused) or pointed at a local stand-in (core: xml:lang). "model" is a driver
+    importing the core, beam lattice and toolpath schemas, so that one xmllint run validates a
+    whole model part, extension elements included. Its core schema lets a mesh have no
+    <triangles>: Beam Lattice Chapter 2 allows a lattice's mesh none (validate() checks that
+    every other mesh has triangles)."""
     d = tmp_path_factory.mktemp("xsd")
+    (d / "xml.xsd").write_text(XML_XSD)
+
+    def fixed(path, xml_import):
+        text = path.read_text().replace('maxOccurs="2147483647"', 'maxOccurs="unbounded"')
+        return re.sub(r'(<xs:import namespace="http://www.w3.org/XML/1998/namespace"\s+'
+                      r'schemaLocation=")[^"]*("\s*/>)', xml_import, text)
+
     out = {}
     for name in ("toolpath_2026_03.xsd", "toolpath_layer_2026_03.xsd"):
-        text = (DATA / name).read_text()
-        text = text.replace('maxOccurs="2147483647"', 'maxOccurs="unbounded"')
-        text = re.sub(r'<xs:import namespace="http://www.w3.org/XML/1998/namespace"[^>]*/>', "", text)
-        (d / name).write_text(text)
+        (d / name).write_text(fixed(DATA / name, ""))
         out[name] = d / name
+    (d / "beamlattice.xsd").write_text(fixed(BEAM_DATA / "beamlattice_2017_02.xsd", ""))
+    core = fixed(CORE_DATA / "core_2015_02.xsd", r"\1xml.xsd\2")
+    relaxed = core.replace('<xs:element ref="triangles"/>', '<xs:element ref="triangles" minOccurs="0"/>')
+    assert relaxed != core
+    (d / "core.xsd").write_text(relaxed)
+    imports = {CORE: "core.xsd", BEAM: "beamlattice.xsd", TP: "toolpath_2026_03.xsd"}
+    (d / "model.xsd").write_text(
+        '<?xml version="1.0"?>\n<xs:schema xmlns:xs="http://www.w3.org/2001/XMLSchema" '
+        'targetNamespace="urn:trellis:test:3mf-model">\n'
+        + "".join(f'<xs:import namespace="{ns}" schemaLocation="{f}"/>\n' for ns, f in imports.items())
+        + "</xs:schema>\n")
+    out["model"] = d / "model.xsd"
     return out
 
 
+def xmllint(schema, *files):
+    r = subprocess.run(["xmllint", "--nonet", "--noout", "--schema", schema, *files],
+                       capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr[-2000:]
+
+
 def validate(xsd, path, tmp):
-    """Validates the package: the toolpath resource against the full schema, every layer part
-    against the layer schema. The model part itself is core 3MF (no core XSD here): it must be
-    well-formed, declare the extension required (Chapter 1) and select the resource (§4.6)."""
+    """Validates the package: the model part against the core, beam lattice and toolpath schemas
+    together, every layer part against the layer schema. Then what the schemas cannot say: the
+    extensions are required (Toolpath Chapter 1; Beam Lattice Chapter 1: "b" when a lattice is
+    written), the build selects the resource (§4.6), every mesh has triangles or a beam lattice,
+    and every part a layer names is a build item of the package (Part II §1.1.1)."""
     assert shutil.which("xmllint"), "xmllint (libxml2-utils) is needed: scripts/install-deps.sh"
     with zipfile.ZipFile(path) as z:
         names = z.namelist()
         model = ET.fromstring(z.read("3D/3dmodel.model"))
-        assert "tp" in model.get("requiredextensions", "").split()
-        assert "p" in model.get("requiredextensions", "").split()
+        required = model.get("requiredextensions", "").split()
+        assert "tp" in required and "p" in required
+        assert ("b" in required) == (model.find(f".//{{{BEAM}}}beamlattice") is not None)
         res = model.find(f".//{{{TP}}}toolpathresource")
         assert res is not None
         build = model.find(f"{{{CORE}}}build")
         assert build.get(f"{{{TP}}}toolpathid") == res.get("id")
-        ET.register_namespace("tp", TP)
-        resource = tmp / "resource.xml"
-        resource.write_bytes(ET.tostring(res))
-        files = [resource]
+        objects = {o.get("id"): o for o in model.iter(f"{{{CORE}}}object")}
+        items = {i.get(f"{{{PROD}}}UUID"): i.get("objectid") for i in build.iter(f"{{{CORE}}}item")}
+        assert items and all(oid in objects for oid in items.values())
+        for o in objects.values():
+            mesh = o.find(f"{{{CORE}}}mesh")
+            assert (mesh.find(f"{{{CORE}}}triangles/{{{CORE}}}triangle") is not None
+                    or mesh.find(f"{{{BEAM}}}beamlattice/{{{BEAM}}}beams/{{{BEAM}}}beam") is not None)
+        whole = tmp / "3dmodel.model"
+        whole.write_bytes(z.read("3D/3dmodel.model"))
+        files = []
         layers = [l.get("path") for l in res.iter(f"{{{TP}}}toolpathlayer")]
         rels = z.read("3D/_rels/3dmodel.model.rels").decode()
         for i, part in enumerate(layers):
             assert part.lstrip("/") in names
             assert f'Target="{part}"' in rels  # §3.2
+            layer = z.read(part.lstrip("/"))
+            for p in ET.fromstring(layer).iter(f"{{{TP}}}part"):
+                assert p.get("uuid") in items, f"{part}: part {p.get('id')} is no build item"
             f = tmp / f"layer{i}.xml"
-            f.write_bytes(z.read(part.lstrip("/")))
+            f.write_bytes(layer)
             files.append(f)
-    r = subprocess.run(["xmllint", "--nonet", "--noout", "--schema", xsd["toolpath_2026_03.xsd"],
-                        resource], capture_output=True, text=True)
-    assert r.returncode == 0, r.stderr
-    for chunk in range(1, len(files), 200):
-        r = subprocess.run(["xmllint", "--nonet", "--noout", "--schema",
-                            xsd["toolpath_layer_2026_03.xsd"], *files[chunk:chunk + 200]],
-                           capture_output=True, text=True)
-        assert r.returncode == 0, r.stderr[-2000:]
+    xmllint(xsd["model"], whole)
+    for chunk in range(0, len(files), 200):
+        xmllint(xsd["toolpath_layer_2026_03.xsd"], *files[chunk:chunk + 200])
     return len(layers)
 
 
@@ -213,7 +258,9 @@ def test_nonplanar_and_plan_routes_write_3mf_that_reads_back(tmp_path, xsd):
     with zipfile.ZipFile(tmp_path / "c.3mf") as z:
         model = ET.fromstring(z.read("3D/3dmodel.model"))
     assert model.find(f".//{{{TP}}}toolpathresource").get("toolpathtype") == "3axis"
-    assert model.find(f".//{{{CORE}}}object") is None  # the surface printed on is no part
+    # The surface printed on is the build item, as an open "surface" object (core §4.1).
+    surface = model.find(f".//{{{CORE}}}object")
+    assert surface.get("type") == "surface" and mesh_of(surface)[1]
     tr = trellis_module()
     g = layers_of(tr.read_toolpath(str(tmp_path / "c.gcode")))
     t = layers_of(tr.read_toolpath(str(tmp_path / "c.3mf")))
@@ -223,6 +270,13 @@ def test_nonplanar_and_plan_routes_write_3mf_that_reads_back(tmp_path, xsd):
     zs = lambda layers: [p["points"][:, 2].min() for _, paths in layers for p in paths]
     assert zs(t) == pytest.approx(zs(g), abs=2e-3)
     validate(xsd, tmp_path / "c.3mf", tmp_path)
+    # The surface as a 3MF mesh package (it was STL bytes under a .3mf name) prints the same,
+    # within its 32-bit float vertices (lib3mf's, as the STL's).
+    run("surface", "--kind", "corrugation", "-o", tmp_path / "c_mesh.3mf")
+    assert zipfile.is_zipfile(tmp_path / "c_mesh.3mf")
+    run("nonplanar", tmp_path / "c_mesh.3mf", "--machine", machine, "-o", tmp_path / "c2.gcode")
+    again = layers_of(tr.read_toolpath(str(tmp_path / "c2.gcode")))
+    assert extrusion_by_layer(again) == pytest.approx(extrusion_by_layer(g), rel=1e-5)
     # A planned lattice: `check` reads the 3MF as it reads the G-code.
     lattice = ROOT / "examples" / "lattices" / "tiny.json"
     fdm = ROOT / "profiles" / "ender3_s1_pro_tpu.toml"
@@ -231,7 +285,9 @@ def test_nonplanar_and_plan_routes_write_3mf_that_reads_back(tmp_path, xsd):
         r = run("plan", "euler", lattice, "--machine", fdm, "-o", tmp_path / f"t{ext}.toolpath.json",
                 "--gcode", tmp_path / f"t.{ext}")
         out[ext] = r.stdout.splitlines()[0]
-    assert out["3mf"] == out["gcode"]  # the same summary: machine check and estimate as G-code
+    # The same summary (machine check and estimate as G-code) but for the planner's seconds.
+    timed = lambda line: re.sub(r", [0-9.]+ s$", "", line)
+    assert timed(out["3mf"]) == timed(out["gcode"])
     checks = {ext: run("check", lattice, tmp_path / f"t.{ext}").stdout for ext in ("gcode", "3mf")}
     assert checks["3mf"] == checks["gcode"] and "0 missing, 0 repeated" in checks["3mf"]
     validate(xsd, tmp_path / "t.3mf", tmp_path)
@@ -266,6 +322,165 @@ def test_mesh_design_is_the_build_item(tmp_path, xsd):
     part = layer.find(f"{{{TP}}}parts/{{{TP}}}part")
     assert part.get("uuid") == item.get("{http://schemas.microsoft.com/3dmanufacturing/production/2015/06}UUID")
     validate(xsd, out, tmp_path)
+
+
+def mesh_of(obj):
+    """An object's vertices (x, y, z) and triangles (v1, v2, v3)."""
+    mesh = obj.find(f"{{{CORE}}}mesh")
+    vertices = [tuple(float(v.get(k)) for k in "xyz") for v in mesh.iter(f"{{{CORE}}}vertex")]
+    triangles = [tuple(int(t.get(k)) for k in ("v1", "v2", "v3")) for t in mesh.iter(f"{{{CORE}}}triangle")]
+    return vertices, triangles
+
+
+def beams_of(obj):
+    """An object's beams as pairs of end points, with their radii (r1, r2: §2.1.1.1 defaults)."""
+    vertices, _ = mesh_of(obj)
+    lattice = obj.find(f"{{{CORE}}}mesh/{{{BEAM}}}beamlattice")
+    if lattice is None:
+        return []
+    out = []
+    for b in lattice.iter(f"{{{BEAM}}}beam"):
+        r1 = float(b.get("r1", lattice.get("radius")))
+        out.append((vertices[int(b.get("v1"))], vertices[int(b.get("v2"))], r1, float(b.get("r2", r1))))
+    return out
+
+
+def nozzle(profile):
+    with open(profile, "rb") as f:
+        return tomllib.load(f)["extrusion"]["nozzle_diameter"]
+
+
+def model_of(path):
+    with zipfile.ZipFile(path) as z:
+        return ET.fromstring(z.read("3D/3dmodel.model"))
+
+
+def closed(triangles):
+    """Every edge of the mesh is met once each way by the triangles (core §4.1, "model")."""
+    edges = {}
+    for t in triangles:
+        for a, b in ((t[0], t[1]), (t[1], t[2]), (t[2], t[0])):
+            edges[(a, b)] = edges.get((a, b), 0) + 1
+    return all(n == 1 and edges.get((b, a)) == 1 for (a, b), n in edges.items())
+
+
+def test_planned_lattice_is_the_build_item_as_beams(tmp_path, xsd):
+    """Issue 43: a strut lattice's toolpath package carries the lattice as a Beam Lattice
+    Extension object: a beam per strut between the lattice's nodes, of half the bead width,
+    built under the UUID the layers name; the toolpath reads back as its G-code twin's."""
+    lattice = ROOT / "examples" / "lattices" / "tiny.json"
+    fdm = ROOT / "profiles" / "ender3_s1_pro_tpu.toml"
+    for ext in ("gcode", "3mf"):
+        run("plan", "gippo", lattice, "--machine", fdm, "-o", tmp_path / f"t{ext}.json",
+            "--gcode", tmp_path / f"t.{ext}")
+    validate(xsd, tmp_path / "t.3mf", tmp_path)
+    obj = model_of(tmp_path / "t.3mf").find(f".//{{{CORE}}}object")
+    beams = beams_of(obj)
+    data = json.loads(lattice.read_text())
+    struts = {frozenset((tuple(data["nodes"][a]), tuple(data["nodes"][b]))) for a, b in data["edges"]}
+    assert {frozenset((a, b)) for a, b, _, _ in beams} == struts and len(beams) == len(struts)
+    # The struts of tiny.json have no radius: half the bead the G-code lays, the nozzle's.
+    assert {r for b in beams for r in b[2:]} == {nozzle(fdm) / 2}
+    g = layers_of(trellis_module().read_toolpath(str(tmp_path / "t.gcode")))
+    t = layers_of(trellis_module().read_toolpath(str(tmp_path / "t.3mf")))
+    assert extrusion_by_layer(t) == pytest.approx(extrusion_by_layer(g), rel=1e-3)
+
+
+def test_lib3mf_reads_the_packages_geometry(tmp_path):
+    """An independent reader: Debian's lib3mf 1.8.1 (through Trellis's lattice and mesh readers,
+    which use it) sees the beams of a planned lattice's package and the triangles of a sliced
+    design's. lib3mf 1.8.1 predates the Toolpath Extension, so — as a consumer that wants the
+    geometry only — it reads a copy whose required extensions leave out "tp"."""
+    lattice = ROOT / "examples" / "lattices" / "tiny.json"
+    run("plan", "euler", lattice, "--machine", ROOT / "profiles" / "ender3_s1_pro_tpu.toml",
+        "-o", tmp_path / "t.json", "--gcode", tmp_path / "t.3mf")
+    (tmp_path / "part.vcad").write_text(PART)
+    run("slice", tmp_path / "part.vcad", "--machine", ROOT / "profiles" / "ender3_s1_pro_tpu.toml",
+        "-o", tmp_path / "p.3mf")
+    for name in ("t", "p"):
+        with zipfile.ZipFile(tmp_path / f"{name}.3mf") as z, \
+                zipfile.ZipFile(tmp_path / f"{name}_geometry.3mf", "w") as out:
+            for item in z.namelist():
+                data = z.read(item)
+                if item == "3D/3dmodel.model":
+                    data = data.replace(b'requiredextensions="p tp', b'requiredextensions="p')
+                out.writestr(item, data)
+    # The lattice: the same struts, planned again from the package, as from the JSON.
+    a = run("plan", "euler", lattice, "-o", tmp_path / "a.json").stdout.splitlines()[0]
+    b = run("plan", "euler", tmp_path / "t_geometry.3mf", "-o", tmp_path / "b.json").stdout.splitlines()[0]
+    assert a.split(",")[0] == b.split(",")[0] == "euler: 6 edges"
+    # The mesh: lib3mf reads the package's triangles (no index repeated: core §4.1.4.1; the mesh
+    # reader leaves out those of no area, which marching cubes makes a few of), over the
+    # package's extent, and the design's mesh slices.
+    obj = model_of(tmp_path / "p.3mf").find(f".//{{{CORE}}}object")
+    vertices, triangles = mesh_of(obj)
+    assert len(triangles) > 100 and closed(triangles)
+    assert all(len(set(t)) == 3 for t in triangles)
+
+    def area(t):
+        (ax, ay, az), (bx, by, bz), (cx, cy, cz) = (vertices[i] for i in t)
+        u, v = (bx - ax, by - ay, bz - az), (cx - ax, cy - ay, cz - az)
+        return any((u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]))
+    run("slice", tmp_path / "p_geometry.3mf", "--machine", ROOT / "profiles" / "ender3_s1_pro_tpu.toml",
+        "-o", tmp_path / "again.json", "--report", tmp_path / "again_report.json")
+    report = json.loads((tmp_path / "again_report.json").read_text())
+    assert report["mesh_triangles"] == sum(map(area, triangles)) > 0.99 * len(triangles), report
+    for k in range(3):
+        assert report["extent_mm"]["min"][k] == pytest.approx(min(v[k] for v in vertices), abs=1e-5)
+        assert report["extent_mm"]["max"][k] == pytest.approx(max(v[k] for v in vertices), abs=1e-5)
+
+
+def test_the_beam_lattice_specifications_example_validates_and_reads(tmp_path, xsd):
+    """The Beam Lattice Extension's Appendix D.1 (a lattice-only mesh, the form Trellis writes)
+    validates against the schemas validate() uses, and reads as a lattice of its 12 beams."""
+    example = BEAM_DATA / "spec_example_d1.model"
+    xmllint(xsd["model"], example)
+    with zipfile.ZipFile(tmp_path / "d1.3mf", "w") as z:
+        z.writestr("[Content_Types].xml",
+                   '<?xml version="1.0" encoding="UTF-8"?><Types xmlns="http://schemas.openxmlformats.org/package/2006/content-types">'
+                   '<Default Extension="rels" ContentType="application/vnd.openxmlformats-package.relationships+xml"/>'
+                   '<Default Extension="model" ContentType="application/vnd.ms-package.3dmanufacturing-3dmodel+xml"/></Types>')
+        z.writestr("_rels/.rels",
+                   '<?xml version="1.0" encoding="UTF-8"?><Relationships xmlns="http://schemas.openxmlformats.org/package/2006/relationships">'
+                   '<Relationship Id="rel0" Target="/3D/3dmodel.model" Type="http://schemas.microsoft.com/3dmanufacturing/2013/01/3dmodel"/></Relationships>')
+        z.writestr("3D/3dmodel.model", example.read_text())
+    r = run("plan", "euler", tmp_path / "d1.3mf", "-o", tmp_path / "d1.json")
+    assert r.stdout.startswith("euler: 12 edges"), r.stdout
+
+
+def test_field_designs_are_meshed_as_the_build_item(pbf, tmp_path, xsd):
+    """A .vcad design (pbf's gyroid sheet, slice's part) is meshed into its package: a closed
+    "model" object inside the design's root box, the build item the layers name."""
+    (tmp_path / "part.vcad").write_text(PART)
+    run("slice", tmp_path / "part.vcad", "--machine", ROOT / "profiles" / "ender3_s1_pro_tpu.toml",
+        "-o", tmp_path / "p.3mf")
+    validate(xsd, tmp_path / "p.3mf", tmp_path)
+    for path, box in ((pbf / "g.3mf", ((-1.5, -1.5, 0), (1.5, 1.5, 0.6))),
+                      (tmp_path / "p.3mf", ((-5, -5, 0), (5, 5, 0.6)))):
+        obj = model_of(path).find(f".//{{{CORE}}}object")
+        vertices, triangles = mesh_of(obj)
+        assert obj.get("type") == "model" and len(triangles) > 100 and closed(triangles)
+        for k in range(3):
+            assert min(v[k] for v in vertices) >= box[0][k] - 0.05
+            assert max(v[k] for v in vertices) <= box[1][k] + 0.05
+
+
+def test_a_toolpath_without_design_carries_its_beads(tmp_path, xsd):
+    """`trellis gcode` of a toolpath JSON has no design: its package's build item is the beads it
+    prints, a beam per path segment of half the path's width, the nozzle's where the path has
+    none, as the G-code extrudes it (toolpath_3mf.hpp)."""
+    lattice = ROOT / "examples" / "lattices" / "tiny.json"
+    fdm = ROOT / "profiles" / "ender3_s1_pro_tpu.toml"
+    run("plan", "euler", lattice, "--machine", fdm, "-o", tmp_path / "t.json")
+    run("gcode", tmp_path / "t.json", "--machine", fdm, "-o", tmp_path / "t.3mf")
+    validate(xsd, tmp_path / "t.3mf", tmp_path)
+    beams = beams_of(model_of(tmp_path / "t.3mf").find(f".//{{{CORE}}}object"))
+    layers = layers_of(trellis_module().read_toolpath(str(tmp_path / "t.json")))
+    segments = [(tuple(p["points"][k - 1]), tuple(p["points"][k]), (p["width"] or nozzle(fdm)) / 2)
+                for _, paths in layers for p in paths for k in range(1, len(p["points"]))]
+    assert len(beams) == len(segments) > 0
+    for (a, b, r1, r2), (p, q, r) in zip(beams, segments):
+        assert a == pytest.approx(p) and b == pytest.approx(q) and r1 == r2 == pytest.approx(r)
 
 
 def spec_package(path, layer_text=None, model_text=None):

@@ -23,6 +23,7 @@
 #include "trellis/core/diagnostics.hpp"
 #include "trellis/core/progress.hpp"
 #include "trellis/core/run_files.hpp"
+#include "trellis/geom/mesh.hpp"
 #include "trellis/lattice/graph.hpp"
 #include "trellis/machine/gcode_writer.hpp"
 #include "trellis/machine/laser.hpp"
@@ -118,11 +119,20 @@ std::vector<GcodeThumbnail> gcode_thumbnails(const LayerSource& layers,
 // solid's section — its middle, or just below the top for a partial top layer.
 double solid_section_z(const BBox3& box, int layer, double h);
 
+// The design as a 3MF output's build item carries it (machine/toolpath_3mf.hpp), where the route
+// has it: set before the route writes.
+struct JobGeometry {
+  std::shared_ptr<const TriangleMesh> mesh;  // a solid's triangles, or the surface printed on
+  bool surface = false;                      // `mesh` is the open surface printed on
+  std::shared_ptr<const Graph> struts;  // the struts, where the toolpath prints them as they lie
+};
+
 struct JobResult {
   std::vector<std::string> files;  // written, in order
   // What the route made, in memory (for callers such as the Python package); may be null.
   std::shared_ptr<const Toolpath> toolpath;
   std::shared_ptr<const Graph> lattice;
+  JobGeometry geometry;
   std::string summary;  // one or two lines for the terminal
   int exit_code = 0;    // 1 when a check found problems
 };

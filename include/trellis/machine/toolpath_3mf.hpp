@@ -11,7 +11,9 @@
 // Laser hatches (two-point Hatch/Infill paths with a power) become hatch segments, closed
 // polylines loops, the rest polylines; a path's order, part and values read back unchanged.
 #pragma once
+#include <cstdint>
 #include <string>
+#include <vector>
 
 #include "trellis/core/diagnostics.hpp"
 #include "trellis/geom/mesh.hpp"
@@ -20,9 +22,29 @@
 
 namespace trellis {
 
+// A strut lattice as the Beam Lattice Extension v1.2 writes it (§2.1): vertices (mm) and beams
+// between two of them with a radius at each end; `material` names a beam set ("material N").
+struct BeamLattice3mf {
+  struct Beam {
+    std::uint32_t v1 = 0, v2 = 0;
+    double r1 = 0, r2 = 0;
+    int material = 0;
+  };
+  std::vector<Vec3> vertices;
+  std::vector<Beam> beams;
+};
+
+// The build's geometry: every part a path names (Path::part) is a build item of the package
+// (Toolpath Extension Part II §1.1.1). Part 0 is the design's own object: its mesh and/or its
+// strut lattice; a part without geometry (a plate's parts, a toolpath read back) gets the beads
+// it prints instead: one beam per path segment, of half the path's width (else bead_width; a
+// laser path's: the spot's; else its height).
 struct Toolpath3mfOptions {
-  const LaserProfile* laser = nullptr;  // PBF: the laser (lasersources, jump speed, spot)
-  const TriangleMesh* mesh = nullptr;   // the build's geometry (mm), written as its build item
+  const LaserProfile* laser = nullptr;      // PBF: the laser (lasersources, jump speed, spot)
+  const TriangleMesh* mesh = nullptr;       // the build's geometry (mm), written as its build item
+  bool mesh_is_surface = false;             // an open surface printed on (core §4.1 "surface")
+  const BeamLattice3mf* lattice = nullptr;  // the build's struts (mm), as a beam lattice
+  double bead_width = 0;  // mm: a deposition path's width where it has none (the nozzle's)
 };
 
 // The package's bytes, and the package written atomically (core/file.hpp). A coordinate beyond
