@@ -368,6 +368,39 @@ std::string read_file(const std::string& path) {
   return ss.str();
 }
 
+InputFile::InputFile(const std::string& path) : path_(path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) throw IoError("is a directory", {path});
+  guard_read(path);
+  fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd_ < 0) throw IoError(std::string("cannot open: ") + std::strerror(errno), {path});
+  struct stat st {};
+  if (::fstat(fd_, &st) != 0 || !S_ISREG(st.st_mode)) {
+    ::close(fd_);
+    throw IoError("not a regular file", {path});
+  }
+  size_ = static_cast<std::uint64_t>(st.st_size);
+}
+
+InputFile::~InputFile() {
+  ::close(fd_);
+}
+
+void InputFile::read_at(std::uint64_t offset, char* out, std::size_t n) const {
+  while (n > 0) {
+    const ssize_t got = ::pread(fd_, out, n, static_cast<off_t>(offset));
+    if (got < 0 && errno == EINTR) continue;
+    if (got < 0) throw IoError(std::string("cannot read: ") + std::strerror(errno), {path_});
+    if (got == 0)
+      throw IoError("the file ended at byte " + std::to_string(offset) + " of the " +
+                        std::to_string(size_) + " it had when opened (changed while read)",
+                    {path_});
+    out += got;
+    offset += static_cast<std::uint64_t>(got);
+    n -= static_cast<std::size_t>(got);
+  }
+}
+
 unsigned output_file_mode() {
   std::ifstream in("/proc/self/status");
   std::string line;

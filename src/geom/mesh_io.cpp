@@ -138,26 +138,35 @@ TriangleMesh parse_ascii_stl(const std::string& text, const std::string& name) {
 
 }  // namespace
 
-TriangleMesh parse_stl(const std::string& bytes, const std::string& name) {
-  if (bytes.size() >= 84) {
-    std::uint32_t count;
-    std::memcpy(&count, bytes.data() + 80, 4);
-    if (84 + 50ull * count == bytes.size()) {
-      // Coordinates checked while welding; the first invalid one (lowest triangle) is reported.
-      const char* records = bytes.data() + 84;
-      std::size_t bad = count;
-      TriangleMesh mesh = weld_binary_stl(records, count, bad, kCoordinateLimit);
-      if (bad < count) {
-        float f[9];
-        std::memcpy(f, records + 50ull * bad + 12, 36);
-        for (int k = 0; k < 3; ++k)
-          check_coordinate({f[3 * k], f[3 * k + 1], f[3 * k + 2]}, name, 0,
-                           "triangle " + std::to_string(bad));
-      }
-      if (mesh.triangles.empty()) throw ParseError("STL has no triangles", {name, 0, ""});
-      return mesh;
-    }
+namespace {
+
+// A binary STL of `count` triangles (its size says so), welded; the coordinates checked.
+TriangleMesh binary_stl(const StlRecords& records, std::size_t count, const std::string& name) {
+  std::size_t bad = count;
+  TriangleMesh mesh = weld_binary_stl(records, count, bad, kCoordinateLimit);
+  if (bad < count) {  // the lowest triangle with an invalid coordinate
+    char rec[50];
+    const char* r = records(bad, 1, rec);
+    float f[9];
+    std::memcpy(f, r + 12, 36);
+    for (int k = 0; k < 3; ++k)
+      check_coordinate({f[3 * k], f[3 * k + 1], f[3 * k + 2]}, name, 0,
+                       "triangle " + std::to_string(bad));
   }
+  if (mesh.triangles.empty()) throw ParseError("STL has no triangles", {name, 0, ""});
+  return mesh;
+}
+
+// The triangle count of a binary STL of `size` bytes whose header is `head` (84 bytes), or -1
+// when the size is not 84 + 50 per triangle (then it may be ASCII).
+long long binary_stl_count(const char* head, std::uint64_t size) {
+  if (size < 84) return -1;
+  std::uint32_t count;
+  std::memcpy(&count, head + 80, 4);
+  return 84 + 50ull * count == size ? static_cast<long long>(count) : -1;
+}
+
+TriangleMesh ascii_or_not_stl(const std::string& bytes, const std::string& name) {
   const std::string head(trim(bytes.substr(0, std::min<std::size_t>(bytes.size(), 256))));
   if (head.rfind("solid", 0) == 0) return parse_ascii_stl(bytes, name);
   throw ParseError(fmt::format("not an STL file: {} bytes is neither a binary STL (84 + 50 per "
@@ -166,8 +175,33 @@ TriangleMesh parse_stl(const std::string& bytes, const std::string& name) {
                    {name, 0, ""});
 }
 
+}  // namespace
+
+TriangleMesh parse_stl(const std::string& bytes, const std::string& name) {
+  if (const long long count = binary_stl_count(bytes.data(), bytes.size()); count >= 0) {
+    const char* records = bytes.data() + 84;
+    return binary_stl([records](std::size_t first, std::size_t,
+                                char*) { return records + 50 * first; },
+                      static_cast<std::size_t>(count), name);
+  }
+  return ascii_or_not_stl(bytes, name);
+}
+
+// A binary STL is read in pieces straight into the weld (never whole: 50 bytes a triangle, of
+// which it keeps 36); anything else whole, as parse_stl reads it.
 TriangleMesh read_stl(const std::string& path) {
-  return parse_stl(read_file(path), path);
+  const InputFile file(path);
+  char head[84] = {};
+  const std::uint64_t size = file.size();
+  if (size >= 84) file.read_at(0, head, 84);
+  if (const long long count = binary_stl_count(head, size); count >= 0)
+    return binary_stl(
+        [&file](std::size_t first, std::size_t n, char* scratch) {
+          file.read_at(84 + 50 * first, scratch, 50 * n);
+          return static_cast<const char*>(scratch);
+        },
+        static_cast<std::size_t>(count), path);
+  return ascii_or_not_stl(read_file(path), path);
 }
 
 TriangleMesh parse_obj(const std::string& text, const std::string& name) {
