@@ -204,9 +204,30 @@ TriangleMesh read_stl(const std::string& path) {
   return ascii_or_not_stl(read_file(path), path);
 }
 
+namespace {
+
+// The integer at line[p] as strtol reads it: `v`, and where it stopped (p: none). Plain
+// [-]digits by std::from_chars, in place; anything else (blanks or '+' before it, overflow) by
+// strtol on a NUL-terminated copy in `copy`.
+std::size_t face_index(std::string_view line, std::size_t p, std::string& copy, long& v) {
+  const char* const end = line.data() + line.size();
+  const char* at = line.data() + p;
+  auto digit = [](char c) { return c >= '0' && c <= '9'; };
+  if (at < end && (digit(*at) || (*at == '-' && at + 1 < end && digit(at[1])))) {
+    const auto [stop, ec] = std::from_chars(at, end, v);
+    if (ec == std::errc()) return static_cast<std::size_t>(stop - line.data());
+  }
+  copy.assign(line.substr(p));
+  char* stop = nullptr;
+  v = std::strtol(copy.c_str(), &stop, 10);
+  return p + static_cast<std::size_t>(stop - copy.c_str());
+}
+
+}  // namespace
+
 TriangleMesh parse_obj(const std::string& text, const std::string& name) {
   std::vector<Vec3> verts;
-  std::string s;          // the face line, NUL-terminated for strtol (its memory reused)
+  std::string s;          // face_index's copy for strtol (its memory reused)
   std::vector<long> idx;  // its vertices (likewise)
   std::vector<std::uint32_t> corners;  // triangle t: corners[3t..3t+2], indices into verts
   std::size_t pos = 0;
@@ -230,16 +251,16 @@ TriangleMesh parse_obj(const std::string& text, const std::string& name) {
       verts.push_back(p);
       check_coordinate(verts.back(), name, line);
     } else if (sv[0] == 'f' && sv[1] == ' ') {
-      s.assign(sv);
       idx.clear();
       std::size_t p = 2;
-      while (p < s.size()) {
-        while (p < s.size() && s[p] == ' ') ++p;
-        if (p >= s.size()) break;
-        char* stop = nullptr;
-        const long v = std::strtol(s.c_str() + p, &stop, 10);
-        if (stop == s.c_str() + p || (*stop != '\0' && *stop != ' ' && *stop != '/'))
-          throw ParseError("bad face index '" + s.substr(p, s.find(' ', p) - p) +
+      while (p < sv.size()) {
+        while (p < sv.size() && sv[p] == ' ') ++p;
+        if (p >= sv.size()) break;
+        long v = 0;
+        const std::size_t stop = face_index(sv, p, s, v);
+        const char after = stop < sv.size() ? sv[stop] : '\0';
+        if (stop == p || (after != '\0' && after != ' ' && after != '/'))
+          throw ParseError("bad face index '" + std::string(sv.substr(p, sv.find(' ', p) - p)) +
                                "' (an integer, optionally /texture/normal)",
                            {name, line, ""});
         const long n = static_cast<long>(verts.size());
@@ -247,8 +268,8 @@ TriangleMesh parse_obj(const std::string& text, const std::string& name) {
         if (i < 0 || i >= n)
           throw ParseError(fmt::format("face refers to vertex {} of {}", v, n), {name, line, ""});
         idx.push_back(i);
-        p = static_cast<std::size_t>(stop - s.c_str());
-        while (p < s.size() && s[p] != ' ') ++p;  // skip /vt/vn
+        p = stop;
+        while (p < sv.size() && sv[p] != ' ') ++p;  // skip /vt/vn
       }
       if (idx.size() < 3) throw ParseError("face with fewer than 3 vertices", {name, line, ""});
       for (std::size_t k = 1; k + 1 < idx.size(); ++k)
