@@ -25,6 +25,7 @@
 
 #include "output_path.hpp"
 #include "trellis/core/error.hpp"
+#include "trellis/core/memory.hpp"
 
 namespace trellis {
 
@@ -354,7 +355,8 @@ std::string read_file(const std::string& path) {
   // more); anything else (a pipe) through a stream.
   const auto size = std::filesystem::file_size(path, ec);
   if (!ec && std::filesystem::is_regular_file(path, ec)) {
-    std::string out(size, '\0');
+    std::string out;
+    resize_filled(out, size);
     in.read(out.data(), static_cast<std::streamsize>(size));
     out.resize(static_cast<std::size_t>(in.gcount()));
     if (in.gcount() == static_cast<std::streamsize>(size) && in.peek() == EOF) return out;

@@ -14,6 +14,7 @@
 #include <cstdint>
 
 #include "trellis/core/error.hpp"
+#include "trellis/core/memory.hpp"
 #include "trellis/geom/mesh_io.hpp"
 
 namespace trellis {
@@ -117,7 +118,8 @@ MeshCheck check_mesh(const TriangleMesh& mesh) {
     }
     start[v + 1] = static_cast<std::uint32_t>(s);
   }
-  std::vector<HalfEdge> edges(3 * nt);
+  std::vector<HalfEdge> edges;
+  resize_filled(edges, 3 * nt);
   tbb::parallel_for(std::size_t{0}, parts, [&](std::size_t p) {
     std::uint32_t* next = at[p].data();
     for (auto [t, end] = run(p); t < end; ++t) {

@@ -16,6 +16,7 @@
 #include <type_traits>
 
 #include "trellis/core/error.hpp"
+#include "trellis/core/memory.hpp"
 #include "trellis/geom/mesh_io.hpp"
 
 namespace trellis {
@@ -113,7 +114,8 @@ std::vector<std::uint32_t> representatives(std::size_t n, const Corner& corner,
     std::uint32_t index;
     std::uint32_t hash;  // the low bits (the top ones chose the bucket)
   };
-  std::vector<Entry> sorted(n);
+  std::vector<Entry> sorted;
+  resize_filled(sorted, n);
   tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
     std::uint32_t* off = offset.data() + c * buckets;
     for (std::size_t i = c * kGrain, e = std::min(n, i + kGrain); i < e; ++i) {
@@ -124,7 +126,8 @@ std::vector<std::uint32_t> representatives(std::size_t n, const Corner& corner,
     }
   });
   // Each corner's representative: the first corner with the same coordinates.
-  std::vector<std::uint32_t> rep(n);
+  std::vector<std::uint32_t> rep;
+  resize_filled(rep, n);
   std::vector<std::size_t> unique(buckets, 0);  // vertices per bucket
   tbb::parallel_for(std::size_t{0}, buckets, [&](std::size_t b) {
     const std::size_t lo = start[b], hi = start[b + 1];
@@ -242,7 +245,7 @@ TriangleMesh weld_binary_stl(const StlRecords& records, std::size_t count,
   tbb::enumerable_thread_specific<Scratch> scratch;
   std::vector<std::vector<Float3>> points(chunks);  // each chunk's, in order of first use
   TriangleMesh mesh;
-  mesh.triangles.resize(count);
+  resize_filled(mesh.triangles, count);
   std::atomic<std::size_t> bad{count};
   tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
     Scratch& s = scratch.local();
@@ -297,6 +300,7 @@ TriangleMesh weld_binary_stl(const StlRecords& records, std::size_t count,
   // A point's vertex: numbered when it is its own representative (the first of its
   // coordinates); `id` is written over the representatives, which come first.
   mesh.vertices.reserve(vertices);
+  advise_huge_pages(mesh.vertices.data(), vertices * sizeof(Vec3));
   for (std::size_t i = 0; i < all.size(); ++i) {
     if (id[i] == i) {
       id[i] = static_cast<std::uint32_t>(mesh.vertices.size());
