@@ -3,6 +3,7 @@
 // same order, same triangles), with -0 and +0 one vertex, on any thread count; and the first
 // invalid coordinate (lowest triangle) is the one reported.
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 #include <tbb/global_control.h>
 
 #include <cmath>
@@ -118,6 +119,11 @@ TEST(MeshWeld, BinaryStlFileReadInPiecesAsFromMemory) {
   std::filesystem::resize_file(path, file.size() - 50);
   EXPECT_THROW(file.read_at(file.size() - 100, piece, 100), IoError);
   EXPECT_THROW(read_mesh(path), ParseError);  // 50 bytes short: not a binary STL any more
+  // Only regular files: a FIFO (which nobody writes) is refused at once, not waited on.
+  const std::string fifo = dir.file("fifo.stl");
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  EXPECT_THROW(read_mesh(fifo), IoError);
+  EXPECT_THROW(read_mesh(dir.path().string() + "/missing.stl"), IoError);
 }
 
 TEST(MeshWeld, FirstInvalidCoordinateIsReported) {
