@@ -5,7 +5,9 @@
 // Issue 40: loading as the slicer does (read_mesh + check_mesh) within 2x of reading the file;
 // CPU time of the whole process (all threads). TRELLIS_BENCH_STL=FILE uses that file instead
 // (bench/mesh_vs_cat.sh passes the one bench/make_torus_stl.py wrote, and times `cat` on it).
+// LoadFloor: reading the file in pieces and filling a mesh of its size, nothing else.
 #include <benchmark/benchmark.h>
+#include <fcntl.h>
 #include <tbb/global_control.h>
 #include <unistd.h>
 
@@ -99,6 +101,31 @@ void BM_ReadFileOnly(benchmark::State& state) {
   state.SetBytesProcessed(static_cast<std::int64_t>(state.iterations() * f.bytes));
 }
 BENCHMARK(BM_ReadFileOnly)->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime();
+
+// The floor of loading: the least any loader of this file does. It reads the file in pieces into
+// one buffer (as `cat` does; read_stl's pieces are this size) and fills a mesh of the loaded
+// mesh's size (vertices and triangles: fresh memory, as a loaded mesh is), and nothing else: no
+// parsing, welding or checking. LoadAndCheckMesh / LoadFloor is what those cost.
+void BM_LoadFloor(benchmark::State& state) {
+  const StlFile& f = big_stl();
+  const TriangleMesh loaded = read_mesh(f.path);
+  std::vector<char> piece(50 << 14);
+  for (auto _ : state) {
+    const int fd = ::open(f.path.c_str(), O_RDONLY);  // plain pread: any baseline library runs it
+    for (std::size_t at = 0; at < f.bytes; at += piece.size())
+      if (::pread(fd, piece.data(), std::min(piece.size(), f.bytes - at), static_cast<off_t>(at)) <=
+          0)
+        state.SkipWithError("short read");
+    ::close(fd);
+    TriangleMesh m;
+    m.vertices.resize(loaded.vertices.size());
+    m.triangles.resize(loaded.triangles.size());
+    benchmark::DoNotOptimize(piece.data());
+    benchmark::DoNotOptimize(m);
+  }
+  state.SetBytesProcessed(static_cast<std::int64_t>(state.iterations() * f.bytes));
+}
+BENCHMARK(BM_LoadFloor)->Unit(benchmark::kMillisecond)->UseRealTime()->MeasureProcessCPUTime();
 
 // What the slicer does before slicing: read, weld, and check the mesh is closed (the 1M-triangle
 // binary STL, or TRELLIS_BENCH_STL in any format read_mesh reads).

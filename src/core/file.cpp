@@ -25,6 +25,7 @@
 
 #include "output_path.hpp"
 #include "trellis/core/error.hpp"
+#include "trellis/core/memory.hpp"
 
 namespace trellis {
 
@@ -354,7 +355,8 @@ std::string read_file(const std::string& path) {
   // more); anything else (a pipe) through a stream.
   const auto size = std::filesystem::file_size(path, ec);
   if (!ec && std::filesystem::is_regular_file(path, ec)) {
-    std::string out(size, '\0');
+    std::string out;
+    resize_filled(out, size);
     in.read(out.data(), static_cast<std::streamsize>(size));
     out.resize(static_cast<std::size_t>(in.gcount()));
     if (in.gcount() == static_cast<std::streamsize>(size) && in.peek() == EOF) return out;
@@ -366,6 +368,40 @@ std::string read_file(const std::string& path) {
   ss << in.rdbuf();
   if (in.bad()) throw IoError(std::string("cannot read: ") + std::strerror(errno), {path});
   return ss.str();
+}
+
+InputFile::InputFile(const std::string& path) : path_(path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) throw IoError("is a directory", {path});
+  guard_read(path);
+  // O_NONBLOCK: a FIFO is refused below, not waited on (no effect on a regular file's reads).
+  fd_ = ::open(path.c_str(), O_RDONLY | O_CLOEXEC | O_NONBLOCK);
+  if (fd_ < 0) throw IoError(std::string("cannot open: ") + std::strerror(errno), {path});
+  struct stat st {};
+  if (::fstat(fd_, &st) != 0 || !S_ISREG(st.st_mode)) {
+    ::close(fd_);
+    throw IoError("not a regular file", {path});
+  }
+  size_ = static_cast<std::uint64_t>(st.st_size);
+}
+
+InputFile::~InputFile() {
+  ::close(fd_);
+}
+
+void InputFile::read_at(std::uint64_t offset, char* out, std::size_t n) const {
+  while (n > 0) {
+    const ssize_t got = ::pread(fd_, out, n, static_cast<off_t>(offset));
+    if (got < 0 && errno == EINTR) continue;
+    if (got < 0) throw IoError(std::string("cannot read: ") + std::strerror(errno), {path_});
+    if (got == 0)
+      throw IoError("the file ended at byte " + std::to_string(offset) + " of the " +
+                        std::to_string(size_) + " it had when opened (changed while read)",
+                    {path_});
+    out += got;
+    offset += static_cast<std::uint64_t>(got);
+    n -= static_cast<std::size_t>(got);
+  }
 }
 
 unsigned output_file_mode() {

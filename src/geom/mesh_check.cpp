@@ -1,17 +1,20 @@
 // Is a mesh closed and manifold? Every undirected edge must be used exactly twice, once in each
 // direction. The 3·T half-edges are grouped by their lower vertex (a counting sort into flat
-// arrays, no node-based map), and each vertex's few edges are then sorted and counted, vertices
-// in parallel. The counts and the first problem (the edge with the lowest pair of vertex numbers)
-// do not depend on the thread count.
+// arrays, no node-based map; runs of triangles counted and filed in parallel, each run with its
+// own counts), and each vertex's few edges are then sorted and counted, vertices in parallel. The
+// counts and the first problem (the edge with the lowest pair of vertex numbers) do not depend on
+// the thread count.
 #include <fmt/format.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
 #include <cstdint>
 
 #include "trellis/core/error.hpp"
+#include "trellis/core/memory.hpp"
 #include "trellis/geom/mesh_io.hpp"
 
 namespace trellis {
@@ -77,31 +80,57 @@ MeshCheck check_mesh(const TriangleMesh& mesh) {
   if (3 * nt >= 0xffffffffull)
     throw GeometryError(
         fmt::format("mesh of {} triangles: too many to check (at most 1,431,655,764)", nt));
-  // start[v + 1]: half-edges whose lower vertex is v; then prefix sums.
-  std::vector<std::uint32_t> start(nv + 1, 0);
-  for (std::size_t t = 0; t < nt; ++t) {
-    const auto& tri = mesh.triangles[t];
-    for (int k = 0; k < 3; ++k) {
-      const std::uint32_t a = tri[k], b = tri[(k + 1) % 3];
-      if (std::max(a, b) >= nv)
-        throw GeometryError(
-            fmt::format("triangle {} refers to vertex {} of {}", t, std::max(a, b), nv));
-      ++start[std::min(a, b) + std::size_t{1}];
+  // The triangles in `parts` runs, one per thread. at[p][v]: the half-edges of run p filed under
+  // vertex v, counted; then where run p writes them (after runs 0 .. p-1, as one pass would).
+  const std::size_t parts =
+      nt < (1u << 16)
+          ? 1
+          : std::clamp<std::size_t>(
+                static_cast<std::size_t>(tbb::this_task_arena::max_concurrency()), 1, 8);
+  auto run = [&](std::size_t p) { return std::pair{p * nt / parts, (p + 1) * nt / parts}; };
+  std::vector<std::vector<std::uint32_t>> at(parts);
+  std::vector<std::size_t> bad(parts, nt);  // each run's first triangle naming no vertex
+  tbb::parallel_for(std::size_t{0}, parts, [&](std::size_t p) {
+    std::vector<std::uint32_t>& cnt = at[p];
+    cnt.assign(nv, 0);
+    for (auto [t, end] = run(p); t < end; ++t) {
+      const auto& tri = mesh.triangles[t];
+      if (std::max({tri[0], tri[1], tri[2]}) >= nv) {
+        bad[p] = t;
+        return;
+      }
+      for (int k = 0; k < 3; ++k) ++cnt[std::min(tri[k], tri[(k + 1) % 3])];
     }
+  });
+  for (const std::size_t t : bad)
+    if (t < nt) {
+      const auto& tri = mesh.triangles[t];
+      for (int k = 0; k < 3; ++k)  // its first edge out of range
+        if (const std::uint32_t v = std::max(tri[k], tri[(k + 1) % 3]); v >= nv)
+          throw GeometryError(fmt::format("triangle {} refers to vertex {} of {}", t, v, nv));
+    }
+  std::vector<std::uint32_t> start(nv + 1, 0);  // vertex v's half-edges: start[v] .. start[v + 1]
+  for (std::size_t v = 0, s = 0; v < nv; ++v) {
+    for (std::size_t p = 0; p < parts; ++p) {
+      const std::uint32_t n = at[p][v];
+      at[p][v] = static_cast<std::uint32_t>(s);
+      s += n;
+    }
+    start[v + 1] = static_cast<std::uint32_t>(s);
   }
-  for (std::size_t v = 0; v < nv; ++v) start[v + 1] += start[v];
-  std::vector<HalfEdge> edges(3 * nt);
-  {
-    std::vector<std::uint32_t> at(start.begin(), start.end() - 1);
-    for (std::size_t t = 0; t < nt; ++t) {
+  std::vector<HalfEdge> edges;
+  resize_filled(edges, 3 * nt);
+  tbb::parallel_for(std::size_t{0}, parts, [&](std::size_t p) {
+    std::uint32_t* next = at[p].data();
+    for (auto [t, end] = run(p); t < end; ++t) {
       const auto& tri = mesh.triangles[t];
       for (int k = 0; k < 3; ++k) {
         const std::uint32_t a = tri[k], b = tri[(k + 1) % 3];
         const std::uint32_t tri_dir = static_cast<std::uint32_t>(t << 1) | (a < b ? 1u : 0u);
-        edges[at[std::min(a, b)]++] = {std::max(a, b), tri_dir};
+        edges[next[std::min(a, b)]++] = {std::max(a, b), tri_dir};
       }
     }
-  }
+  });
   const Tally total = tbb::parallel_reduce(
       tbb::blocked_range<std::size_t>(0, nv, 1 << 14), Tally{},
       [&](const tbb::blocked_range<std::size_t>& r, Tally t) {

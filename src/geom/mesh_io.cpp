@@ -138,26 +138,35 @@ TriangleMesh parse_ascii_stl(const std::string& text, const std::string& name) {
 
 }  // namespace
 
-TriangleMesh parse_stl(const std::string& bytes, const std::string& name) {
-  if (bytes.size() >= 84) {
-    std::uint32_t count;
-    std::memcpy(&count, bytes.data() + 80, 4);
-    if (84 + 50ull * count == bytes.size()) {
-      // Coordinates checked while welding; the first invalid one (lowest triangle) is reported.
-      const char* records = bytes.data() + 84;
-      std::size_t bad = count;
-      TriangleMesh mesh = weld_binary_stl(records, count, bad, kCoordinateLimit);
-      if (bad < count) {
-        float f[9];
-        std::memcpy(f, records + 50ull * bad + 12, 36);
-        for (int k = 0; k < 3; ++k)
-          check_coordinate({f[3 * k], f[3 * k + 1], f[3 * k + 2]}, name, 0,
-                           "triangle " + std::to_string(bad));
-      }
-      if (mesh.triangles.empty()) throw ParseError("STL has no triangles", {name, 0, ""});
-      return mesh;
-    }
+namespace {
+
+// A binary STL of `count` triangles (its size says so), welded; the coordinates checked.
+TriangleMesh binary_stl(const StlRecords& records, std::size_t count, const std::string& name) {
+  std::size_t bad = count;
+  TriangleMesh mesh = weld_binary_stl(records, count, bad, kCoordinateLimit);
+  if (bad < count) {  // the lowest triangle with an invalid coordinate
+    char rec[50];
+    const char* r = records(bad, 1, rec);
+    float f[9];
+    std::memcpy(f, r + 12, 36);
+    for (int k = 0; k < 3; ++k)
+      check_coordinate({f[3 * k], f[3 * k + 1], f[3 * k + 2]}, name, 0,
+                       "triangle " + std::to_string(bad));
   }
+  if (mesh.triangles.empty()) throw ParseError("STL has no triangles", {name, 0, ""});
+  return mesh;
+}
+
+// The triangle count of a binary STL of `size` bytes whose header is `head` (84 bytes), or -1
+// when the size is not 84 + 50 per triangle (then it may be ASCII).
+long long binary_stl_count(const char* head, std::uint64_t size) {
+  if (size < 84) return -1;
+  std::uint32_t count;
+  std::memcpy(&count, head + 80, 4);
+  return 84 + 50ull * count == size ? static_cast<long long>(count) : -1;
+}
+
+TriangleMesh ascii_or_not_stl(const std::string& bytes, const std::string& name) {
   const std::string head(trim(bytes.substr(0, std::min<std::size_t>(bytes.size(), 256))));
   if (head.rfind("solid", 0) == 0) return parse_ascii_stl(bytes, name);
   throw ParseError(fmt::format("not an STL file: {} bytes is neither a binary STL (84 + 50 per "
@@ -166,13 +175,59 @@ TriangleMesh parse_stl(const std::string& bytes, const std::string& name) {
                    {name, 0, ""});
 }
 
-TriangleMesh read_stl(const std::string& path) {
-  return parse_stl(read_file(path), path);
+}  // namespace
+
+TriangleMesh parse_stl(const std::string& bytes, const std::string& name) {
+  if (const long long count = binary_stl_count(bytes.data(), bytes.size()); count >= 0) {
+    const char* records = bytes.data() + 84;
+    return binary_stl([records](std::size_t first, std::size_t,
+                                char*) { return records + 50 * first; },
+                      static_cast<std::size_t>(count), name);
+  }
+  return ascii_or_not_stl(bytes, name);
 }
+
+// A binary STL is read in pieces straight into the weld (never whole: 50 bytes a triangle, of
+// which it keeps 36); anything else whole, as parse_stl reads it.
+TriangleMesh read_stl(const std::string& path) {
+  const InputFile file(path);
+  char head[84] = {};
+  const std::uint64_t size = file.size();
+  if (size >= 84) file.read_at(0, head, 84);
+  if (const long long count = binary_stl_count(head, size); count >= 0)
+    return binary_stl(
+        [&file](std::size_t first, std::size_t n, char* scratch) {
+          file.read_at(84 + 50 * first, scratch, 50 * n);
+          return static_cast<const char*>(scratch);
+        },
+        static_cast<std::size_t>(count), path);
+  return ascii_or_not_stl(read_file(path), path);
+}
+
+namespace {
+
+// The integer at line[p] as strtol reads it: `v`, and where it stopped (p: none). Plain
+// [-]digits by std::from_chars, in place; anything else (blanks or '+' before it, overflow) by
+// strtol on a NUL-terminated copy in `copy`.
+std::size_t face_index(std::string_view line, std::size_t p, std::string& copy, long& v) {
+  const char* const end = line.data() + line.size();
+  const char* at = line.data() + p;
+  auto digit = [](char c) { return c >= '0' && c <= '9'; };
+  if (at < end && (digit(*at) || (*at == '-' && at + 1 < end && digit(at[1])))) {
+    const auto [stop, ec] = std::from_chars(at, end, v);
+    if (ec == std::errc()) return static_cast<std::size_t>(stop - line.data());
+  }
+  copy.assign(line.substr(p));
+  char* stop = nullptr;
+  v = std::strtol(copy.c_str(), &stop, 10);
+  return p + static_cast<std::size_t>(stop - copy.c_str());
+}
+
+}  // namespace
 
 TriangleMesh parse_obj(const std::string& text, const std::string& name) {
   std::vector<Vec3> verts;
-  std::string s;          // the face line, NUL-terminated for strtol (its memory reused)
+  std::string s;          // face_index's copy for strtol (its memory reused)
   std::vector<long> idx;  // its vertices (likewise)
   std::vector<std::uint32_t> corners;  // triangle t: corners[3t..3t+2], indices into verts
   std::size_t pos = 0;
@@ -196,16 +251,16 @@ TriangleMesh parse_obj(const std::string& text, const std::string& name) {
       verts.push_back(p);
       check_coordinate(verts.back(), name, line);
     } else if (sv[0] == 'f' && sv[1] == ' ') {
-      s.assign(sv);
       idx.clear();
       std::size_t p = 2;
-      while (p < s.size()) {
-        while (p < s.size() && s[p] == ' ') ++p;
-        if (p >= s.size()) break;
-        char* stop = nullptr;
-        const long v = std::strtol(s.c_str() + p, &stop, 10);
-        if (stop == s.c_str() + p || (*stop != '\0' && *stop != ' ' && *stop != '/'))
-          throw ParseError("bad face index '" + s.substr(p, s.find(' ', p) - p) +
+      while (p < sv.size()) {
+        while (p < sv.size() && sv[p] == ' ') ++p;
+        if (p >= sv.size()) break;
+        long v = 0;
+        const std::size_t stop = face_index(sv, p, s, v);
+        const char after = stop < sv.size() ? sv[stop] : '\0';
+        if (stop == p || (after != '\0' && after != ' ' && after != '/'))
+          throw ParseError("bad face index '" + std::string(sv.substr(p, sv.find(' ', p) - p)) +
                                "' (an integer, optionally /texture/normal)",
                            {name, line, ""});
         const long n = static_cast<long>(verts.size());
@@ -213,8 +268,8 @@ TriangleMesh parse_obj(const std::string& text, const std::string& name) {
         if (i < 0 || i >= n)
           throw ParseError(fmt::format("face refers to vertex {} of {}", v, n), {name, line, ""});
         idx.push_back(i);
-        p = static_cast<std::size_t>(stop - s.c_str());
-        while (p < s.size() && s[p] != ' ') ++p;  // skip /vt/vn
+        p = stop;
+        while (p < sv.size() && sv[p] != ' ') ++p;  // skip /vt/vn
       }
       if (idx.size() < 3) throw ParseError("face with fewer than 3 vertices", {name, line, ""});
       for (std::size_t k = 1; k + 1 < idx.size(); ++k)

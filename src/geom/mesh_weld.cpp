@@ -5,6 +5,7 @@
 // in the order of their first corner, so the result does not depend on the thread count.
 #include "mesh_weld.hpp"
 
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -15,6 +16,7 @@
 #include <type_traits>
 
 #include "trellis/core/error.hpp"
+#include "trellis/core/memory.hpp"
 #include "trellis/geom/mesh_io.hpp"
 
 namespace trellis {
@@ -42,11 +44,11 @@ struct Float3 {
   float x, y, z;
 };
 
-Vec3 widen(const Vec3& v) {
-  return v;
-}
-Vec3 widen(const Float3& v) {
-  return {v.x, v.y, v.z};
+// A welded point as the mesh's vertex: in double, -0 written as +0.
+template <class P>
+Vec3 vertex_of(const P& p) {
+  const double x = p.x, y = p.y, z = p.z;
+  return {x == 0 ? 0.0 : x, y == 0 ? 0.0 : y, z == 0 ? 0.0 : z};
 }
 
 std::uint64_t hash_of(const Vec3& v) {
@@ -70,11 +72,10 @@ bool same(const P& a, const P& b) {
 constexpr std::size_t kGrain = 1 << 15;  // corners per task
 
 // Each of n points' representative: the first point with the same coordinates (rep[i] <= i).
-// `corner(i)` gives point i (a Vec3 or a Float3); `seen(i, p)` is called once for every point,
-// in parallel (the binary STL reader checks the coordinates there, in the pass that reads them
-// anyway). `unique`: how many points are their own representative.
-template <class Corner, class Seen>
-std::vector<std::uint32_t> representatives(std::size_t n, const Corner& corner, const Seen& seen,
+// `corner(i)` gives point i (a Vec3 or a Float3). `unique`: how many points are their own
+// representative.
+template <class Corner>
+std::vector<std::uint32_t> representatives(std::size_t n, const Corner& corner,
                                            std::size_t& unique_points) {
   using P = std::decay_t<decltype(corner(0))>;
   if (n >= 0xffffffffull) throw GeometryError("more than 4,294,967,294 triangle corners");
@@ -89,9 +90,7 @@ std::vector<std::uint32_t> representatives(std::size_t n, const Corner& corner, 
   tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
     std::uint32_t* cnt = count.data() + c * buckets;
     for (std::size_t i = c * kGrain, e = std::min(n, i + kGrain); i < e; ++i) {
-      const P p = corner(i);
-      seen(i, p);
-      ++cnt[bucket_of(hash_of(p))];
+      ++cnt[bucket_of(hash_of(corner(i)))];
     }
   });
   // Counting sort by bucket, stable: within a bucket corners stay in file order.
@@ -115,7 +114,8 @@ std::vector<std::uint32_t> representatives(std::size_t n, const Corner& corner, 
     std::uint32_t index;
     std::uint32_t hash;  // the low bits (the top ones chose the bucket)
   };
-  std::vector<Entry> sorted(n);
+  std::vector<Entry> sorted;
+  resize_filled(sorted, n);
   tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
     std::uint32_t* off = offset.data() + c * buckets;
     for (std::size_t i = c * kGrain, e = std::min(n, i + kGrain); i < e; ++i) {
@@ -126,7 +126,8 @@ std::vector<std::uint32_t> representatives(std::size_t n, const Corner& corner, 
     }
   });
   // Each corner's representative: the first corner with the same coordinates.
-  std::vector<std::uint32_t> rep(n);
+  std::vector<std::uint32_t> rep;
+  resize_filled(rep, n);
   std::vector<std::size_t> unique(buckets, 0);  // vertices per bucket
   tbb::parallel_for(std::size_t{0}, buckets, [&](std::size_t b) {
     const std::size_t lo = start[b], hi = start[b + 1];
@@ -158,10 +159,10 @@ std::vector<std::uint32_t> representatives(std::size_t n, const Corner& corner, 
 
 // A triangle soup of n corners (n a multiple of 3) welded: representatives, then vertex numbers
 // in order of first appearance.
-template <class Corner, class Seen>
-TriangleMesh weld_soup(std::size_t n, const Corner& corner, const Seen& seen) {
+template <class Corner>
+TriangleMesh weld_soup(std::size_t n, const Corner& corner) {
   std::size_t vertices = 0;
-  std::vector<std::uint32_t> rep = representatives(n, corner, seen, vertices);
+  std::vector<std::uint32_t> rep = representatives(n, corner, vertices);
   // Vertex numbers in order of first appearance, written over `rep` in one pass: a corner's
   // representative comes before it (or is itself), so its slot already holds the number.
   TriangleMesh mesh;
@@ -172,8 +173,7 @@ TriangleMesh weld_soup(std::size_t n, const Corner& corner, const Seen& seen) {
     for (std::size_t i = t; i < t + 3; ++i) {
       if (id[i] == i) {
         id[i] = static_cast<std::uint32_t>(mesh.vertices.size());
-        const Vec3 v = widen(corner(i));
-        mesh.vertices.push_back({v.x == 0 ? 0.0 : v.x, v.y == 0 ? 0.0 : v.y, v.z == 0 ? 0.0 : v.z});
+        mesh.vertices.push_back(vertex_of(corner(i)));
       } else {
         id[i] = id[id[i]];
       }
@@ -188,9 +188,7 @@ TriangleMesh weld_soup(std::size_t n, const Corner& corner, const Seen& seen) {
 }  // namespace
 
 TriangleMesh weld_corners(const std::vector<Vec3>& corners) {
-  return weld_soup(
-      corners.size() - corners.size() % 3, [&](std::size_t i) { return corners[i]; },
-      [](std::size_t, const Vec3&) {});
+  return weld_soup(corners.size() - corners.size() % 3, [&](std::size_t i) { return corners[i]; });
 }
 
 TriangleMesh weld_indexed(const std::vector<Vec3>& points,
@@ -199,8 +197,7 @@ TriangleMesh weld_indexed(const std::vector<Vec3>& points,
     throw GeometryError("more than 4,294,967,294 triangle corners");
   std::size_t unique_points = 0;
   const std::vector<std::uint32_t> rep = representatives(
-      points.size(), [&](std::size_t i) { return points[i]; }, [](std::size_t, const Vec3&) {},
-      unique_points);
+      points.size(), [&](std::size_t i) { return points[i]; }, unique_points);
   // Numbered in order of first use by a corner, as weld_corners numbers them.
   constexpr std::uint32_t kNone = 0xffffffffu;
   std::vector<std::uint32_t> id(points.size(), kNone);
@@ -213,8 +210,7 @@ TriangleMesh weld_indexed(const std::vector<Vec3>& points,
       const std::uint32_t c = rep[corners[t + k]];
       if (id[c] == kNone) {
         id[c] = static_cast<std::uint32_t>(mesh.vertices.size());
-        const Vec3 p = points[c];
-        mesh.vertices.push_back({p.x == 0 ? 0.0 : p.x, p.y == 0 ? 0.0 : p.y, p.z == 0 ? 0.0 : p.z});
+        mesh.vertices.push_back(vertex_of(points[c]));
       }
       v[k] = id[c];
     }
@@ -224,24 +220,109 @@ TriangleMesh weld_indexed(const std::vector<Vec3>& points,
   return mesh;
 }
 
-TriangleMesh weld_binary_stl(const char* records, std::size_t count, std::size_t& first_invalid,
-                             double limit) {
+// A binary STL welded in two levels. Each chunk of triangles (read into a scratch buffer of its
+// thread: the file is never held whole) is welded first on its own, in a table that stays in
+// the cache: neighbouring triangles share most corners, so a chunk of 3·K corners leaves some
+// K/2 points. Those points, listed chunk by chunk in order of first use, are then welded with
+// one another (representatives), which numbers the vertices in order of first use as
+// weld_corners does. The triangles array holds each corner's point in its chunk until the end,
+// then its vertex.
+namespace {
+constexpr std::size_t kChunk = 1 << 14;  // triangles: 800 KB of records, 48k corners
+constexpr std::size_t kSlots = 1 << 17;  // a chunk's table, at most 3/8 full
+constexpr std::uint32_t kEmpty = 0xffffffffu;
+}  // namespace
+
+TriangleMesh weld_binary_stl(const StlRecords& records, std::size_t count,
+                             std::size_t& first_invalid, double limit) {
+  if (3 * count >= 0xffffffffull) throw GeometryError("more than 4,294,967,294 triangle corners");
+  const std::size_t chunks = (count + kChunk - 1) / kChunk;
+  struct Scratch {
+    std::vector<char> bytes = std::vector<char>(50 * kChunk);
+    std::vector<std::uint32_t> table = std::vector<std::uint32_t>(kSlots, kEmpty);
+    std::vector<std::uint32_t> used;  // the table's filled slots, emptied after each chunk
+  };
+  tbb::enumerable_thread_specific<Scratch> scratch;
+  std::vector<std::vector<Float3>> points(chunks);  // each chunk's, in order of first use
+  TriangleMesh mesh;
+  resize_filled(mesh.triangles, count);
   std::atomic<std::size_t> bad{count};
-  TriangleMesh mesh = weld_soup(
-      3 * count,
-      [records](std::size_t i) {
-        Float3 f;
-        std::memcpy(&f, records + 50 * (i / 3) + 12 + 12 * (i % 3), 12);
-        return f;
-      },
-      [&](std::size_t i, const Float3& f) {
+  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
+    Scratch& s = scratch.local();
+    const std::size_t t0 = c * kChunk, n = std::min(count, t0 + kChunk) - t0;
+    const char* rec = records(t0, n, s.bytes.data());
+    std::vector<Float3>& pts = points[c];
+    pts.reserve(n);
+    for (std::size_t t = 0; t < n; ++t) {
+      Float3 f[3];
+      std::memcpy(f, rec + 50 * t + 12, 36);
+      for (int k = 0; k < 3; ++k) {
+        const Float3 p = f[k];
         // NaN fails every comparison, infinity the bound: both invalid.
-        if (std::abs(f.x) <= limit && std::abs(f.y) <= limit && std::abs(f.z) <= limit) return;
-        std::size_t t = i / 3, was = bad.load();
-        while (t < was && !bad.compare_exchange_weak(was, t)) {
+        if (!(std::abs(p.x) <= limit && std::abs(p.y) <= limit && std::abs(p.z) <= limit)) {
+          std::size_t was = bad.load();
+          while (t0 + t < was && !bad.compare_exchange_weak(was, t0 + t)) {
+          }
         }
-      });
+        std::uint32_t id = kEmpty;
+        for (std::size_t slot = hash_of(p) & (kSlots - 1);; slot = (slot + 1) & (kSlots - 1)) {
+          const std::uint32_t j = s.table[slot];
+          if (j == kEmpty) {
+            id = static_cast<std::uint32_t>(pts.size());
+            s.table[slot] = id;
+            s.used.push_back(static_cast<std::uint32_t>(slot));
+            pts.push_back(p);
+            break;
+          }
+          if (same(pts[j], p)) {
+            id = j;
+            break;
+          }
+        }
+        mesh.triangles[t0 + t][k] = id;
+      }
+    }
+    for (const std::uint32_t slot : s.used) s.table[slot] = kEmpty;
+    s.used.clear();
+  });
   first_invalid = bad.load();
+  // All chunks' points in one list (still in order of first use), welded.
+  std::vector<std::size_t> offset(chunks + 1, 0);
+  for (std::size_t c = 0; c < chunks; ++c) offset[c + 1] = offset[c] + points[c].size();
+  std::vector<Float3> all(offset[chunks]);
+  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
+    std::copy(points[c].begin(), points[c].end(), all.begin() + static_cast<long>(offset[c]));
+    std::vector<Float3>().swap(points[c]);
+  });
+  std::size_t vertices = 0;
+  std::vector<std::uint32_t> id = representatives(
+      all.size(), [&](std::size_t i) { return all[i]; }, vertices);
+  // A point's vertex: numbered when it is its own representative (the first of its
+  // coordinates); `id` is written over the representatives, which come first.
+  mesh.vertices.reserve(vertices);
+  advise_huge_pages(mesh.vertices.data(), vertices * sizeof(Vec3));
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    if (id[i] == i) {
+      id[i] = static_cast<std::uint32_t>(mesh.vertices.size());
+      mesh.vertices.push_back(vertex_of(all[i]));
+    } else {
+      id[i] = id[id[i]];
+    }
+  }
+  std::atomic<bool> degenerate{false};
+  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
+    const std::uint32_t* vid = id.data() + offset[c];
+    bool any = false;
+    for (std::size_t t = c * kChunk, e = std::min(count, t + kChunk); t < e; ++t) {
+      auto& tri = mesh.triangles[t];
+      tri = {vid[tri[0]], vid[tri[1]], vid[tri[2]]};
+      any = any || tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2];
+    }
+    if (any) degenerate = true;
+  });
+  if (degenerate)  // two corners coincide: the triangle is dropped
+    std::erase_if(mesh.triangles,
+                  [](const auto& t) { return t[0] == t[1] || t[1] == t[2] || t[0] == t[2]; });
   return mesh;
 }
 

@@ -2,6 +2,7 @@
 #pragma once
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "trellis/geom/mesh.hpp"
@@ -14,10 +15,15 @@ namespace trellis {
 TriangleMesh weld_indexed(const std::vector<Vec3>& points,
                           const std::vector<std::uint32_t>& corners);
 
-// `count` records (after the 84-byte header) of a binary STL, welded like weld_corners. Checks
-// the coordinates as it reads them: `first_invalid` is the lowest triangle with a coordinate
-// not finite or beyond ±limit, `count` if there is none (then the caller must throw).
-TriangleMesh weld_binary_stl(const char* records, std::size_t count, std::size_t& first_invalid,
-                             double limit);
+// `records(first, n, scratch)`: the binary STL's records of triangles first .. first + n (50
+// bytes each, after the 84-byte header), read into `scratch` (room for n records) or found
+// elsewhere; called from several threads at once, never for more than 16,384 records.
+using StlRecords = std::function<const char*(std::size_t first, std::size_t n, char* scratch)>;
+
+// `count` records of a binary STL, welded like weld_corners. Checks the coordinates as it reads
+// them: `first_invalid` is the lowest triangle with a coordinate not finite or beyond ±limit,
+// `count` if there is none (then the caller must throw).
+TriangleMesh weld_binary_stl(const StlRecords& records, std::size_t count,
+                             std::size_t& first_invalid, double limit);
 
 }  // namespace trellis

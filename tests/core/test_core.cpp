@@ -10,6 +10,7 @@
 #include "trellis/core/diagnostics.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
+#include "trellis/core/memory.hpp"
 #include "trellis/core/rng.hpp"
 
 using namespace trellis;
@@ -228,4 +229,27 @@ TEST(File, TemporaryFilesAreAnonymousAndInTmpdir) {
     EXPECT_EQ(target.rfind("/tmp/", 0), 0u) << target;
     std::fclose(f);
   }
+}
+
+// Buffers advised for huge pages are the buffers they would be: resize_filled keeps what a
+// vector or string held and value-fills the rest, at sizes across several 2 MB pages; a file of
+// random bytes larger than a huge page reads back whole (read_file uses it).
+TEST(Memory, ResizeFilledIsResize) {
+  Rng rng(40);
+  for (const std::size_t n : {0u, 1u, 4096u, (5u << 20) + 3u}) {
+    std::vector<std::uint32_t> v = {1, 2, 3};
+    resize_filled(v, n);
+    ASSERT_EQ(v.size(), n);
+    for (std::size_t i = 0; i < n; ++i) ASSERT_EQ(v[i], i < 3 ? i + 1 : 0u) << n << " " << i;
+    std::string s = "ab";
+    resize_filled(s, n);
+    ASSERT_EQ(s.size(), n);
+    for (std::size_t i = 2; i < n; ++i) ASSERT_EQ(s[i], '\0');
+  }
+  test::TempDir dir;
+  std::string bytes((6u << 20) + 11u, '\0');
+  for (auto& c : bytes) c = static_cast<char>(rng.next() & 255);
+  const std::string path = dir.file("big.bin");
+  write_file_atomic(path, bytes);
+  EXPECT_TRUE(read_file(path) == bytes);
 }

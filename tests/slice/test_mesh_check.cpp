@@ -149,7 +149,27 @@ TEST(MeshCheck, LargeClosedMeshAndEdgeCases) {
   const MeshCheck empty = check_mesh(TriangleMesh{});
   EXPECT_TRUE(empty.closed());
   EXPECT_EQ(empty.triangles, 0u);
+  // Damage anywhere in a mesh large enough to be counted in runs (one per thread): the runs'
+  // counts add up to the map's, and the first problem is the lowest wherever it is.
+  for (int round = 0; round < 6; ++round) {
+    TriangleMesh damaged = big;
+    damage(damaged, rng);
+    expect_matches(damaged, "big torus, damage " + std::to_string(round));
+  }
+  // A triangle naming no vertex: the lowest such triangle is named, in either run.
   TriangleMesh bad = big;
-  bad.triangles[7][2] = static_cast<std::uint32_t>(bad.vertices.size());
-  EXPECT_THROW(check_mesh(bad), GeometryError);
+  const auto nv = static_cast<std::uint32_t>(bad.vertices.size());
+  bad.triangles[200000][1] = nv + 9;
+  bad.triangles[7][2] = nv;
+  for (const std::size_t threads : {1u, 2u}) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    try {
+      check_mesh(bad);
+      ADD_FAILURE() << "no error";
+    } catch (const GeometryError& e) {
+      EXPECT_NE(std::string(e.what()).find("triangle 7 refers to vertex " + std::to_string(nv)),
+                std::string::npos)
+          << e.what();
+    }
+  }
 }

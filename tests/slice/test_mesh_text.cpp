@@ -125,3 +125,63 @@ TEST(MeshText, VerticesReadAsSscanfReadsThem) {
   EXPECT_GT(read, 2000);
   EXPECT_GT(refused, 2000);
 }
+
+// OBJ face indices are read by std::from_chars, with strtol (the reader before) for anything but
+// plain [-]digits: every face line reads as strtol reads it — the same triangle, or an error
+// either way — on random spellings: '+', tabs, relative (negative) indices, overflow, /vt/vn,
+// junk after the number.
+TEST(MeshText, FaceIndicesReadAsStrtolReadsThem) {
+  std::mt19937 rng(47);
+  static const char* odd[] = {"+2",
+                              "\t3",
+                              "-1",
+                              "-4",
+                              "0",
+                              "99999999999999999999",
+                              "-99999999999999999999",
+                              "2x",
+                              "3/1/1",
+                              "1//2",
+                              "+-1",
+                              "-",
+                              "4.0",
+                              "0x2",
+                              "\v1"};
+  auto token = [&] {
+    return rng() % 3 ? std::to_string(1 + rng() % 4) : std::string(odd[rng() % std::size(odd)]);
+  };
+  int read = 0, refused = 0;
+  for (int round = 0; round < 4000; ++round) {
+    std::vector<std::string> tokens = {token(), token(), token()};
+    // The old reading: strtol on the rest of the line, stopping at '\0', ' ' or '/'.
+    std::vector<long> expected;
+    bool ok = true;
+    for (const std::string& t : tokens) {
+      char* stop = nullptr;
+      const long v = std::strtol(t.c_str(), &stop, 10);
+      const long i = v < 0 ? 4 + v : v - 1;
+      if (stop == t.c_str() || (*stop != '\0' && *stop != '/') || i < 0 || i >= 4) ok = false;
+      expected.push_back(i);
+    }
+    ok = ok && expected[0] != expected[1] && expected[1] != expected[2] &&
+         expected[0] != expected[2];
+    const std::string face = "f " + tokens[0] + " " + tokens[1] + " " + tokens[2];
+    const std::string text = "v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\n" + face + "\n";
+    if (!ok) {
+      EXPECT_THROW(parse_obj(text, "t.obj"), ParseError) << face;
+      ++refused;
+      continue;
+    }
+    const TriangleMesh m = parse_obj(text, "t.obj");
+    ASSERT_EQ(m.triangles.size(), 1u) << face;
+    // Vertices are numbered in order of first use: compare the points, not the numbers.
+    for (int k = 0; k < 3; ++k) {
+      const Vec3 p = m.vertices[m.triangles[0][k]];
+      const long i = expected[k];
+      EXPECT_TRUE(p.x == (i == 1) && p.y == (i == 2) && p.z == (i == 3)) << face;
+    }
+    ++read;
+  }
+  EXPECT_GT(read, 500);
+  EXPECT_GT(refused, 500);
+}

@@ -3,14 +3,18 @@
 // same order, same triangles), with -0 and +0 one vertex, on any thread count; and the first
 // invalid coordinate (lowest triangle) is the one reported.
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 #include <tbb/global_control.h>
 
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 #include <limits>
 #include <random>
 
+#include "../support/temp_dir.hpp"
 #include "trellis/core/error.hpp"
+#include "trellis/core/file.hpp"
 #include "trellis/geom/mesh_io.hpp"
 
 using namespace trellis;
@@ -72,6 +76,54 @@ TEST(MeshWeld, BinaryStlWeldsAsWeldCorners) {
       }
     }
   }
+}
+
+// read_stl reads a binary STL in pieces (never whole) into the weld: the same mesh as parse_stl
+// of the file's bytes, over several pieces and on 1 and 2 threads; the same first invalid
+// coordinate; a file that shrinks under the reader is an IoError naming it.
+TEST(MeshWeld, BinaryStlFileReadInPiecesAsFromMemory) {
+  std::mt19937 rng(41);
+  test::TempDir dir;
+  const std::string path = dir.file("r.stl");
+  for (const std::size_t triangles : {1u, 16383u, 16384u, 16385u, 70001u}) {
+    auto corners = random_corners(rng, triangles, 1 + triangles / 2);
+    corners[0] = {1, 2, 3};  // not degenerate: the mesh is never empty
+    corners[1] = {4, 5, 6};
+    corners[2] = {7, 8, 9};
+    const std::string bytes = binary_stl(corners);
+    write_file_atomic(path, bytes);
+    const TriangleMesh expected = parse_stl(bytes, "r.stl");
+    for (const std::size_t threads : {1u, 2u}) {
+      tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+      const TriangleMesh m = read_mesh(path);
+      ASSERT_EQ(m.triangles, expected.triangles) << triangles;
+      ASSERT_EQ(m.vertices.size(), expected.vertices.size()) << triangles;
+      ASSERT_EQ(std::memcmp(m.vertices.data(), expected.vertices.data(),
+                            m.vertices.size() * sizeof(Vec3)),
+                0)
+          << triangles;
+    }
+  }
+  auto corners = random_corners(rng, 40000, 20000);
+  corners[3 * 33333 + 1][2] = std::numeric_limits<float>::infinity();
+  write_file_atomic(path, binary_stl(corners));
+  try {
+    read_mesh(path);
+    ADD_FAILURE() << "no error";
+  } catch (const ParseError& e) {
+    EXPECT_NE(std::string(e.what()).find("triangle 33333"), std::string::npos) << e.what();
+  }
+  const InputFile file(path);
+  char piece[100];
+  file.read_at(file.size() - 100, piece, 100);
+  std::filesystem::resize_file(path, file.size() - 50);
+  EXPECT_THROW(file.read_at(file.size() - 100, piece, 100), IoError);
+  EXPECT_THROW(read_mesh(path), ParseError);  // 50 bytes short: not a binary STL any more
+  // Only regular files: a FIFO (which nobody writes) is refused at once, not waited on.
+  const std::string fifo = dir.file("fifo.stl");
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  EXPECT_THROW(read_mesh(fifo), IoError);
+  EXPECT_THROW(read_mesh(dir.path().string() + "/missing.stl"), IoError);
 }
 
 TEST(MeshWeld, FirstInvalidCoordinateIsReported) {

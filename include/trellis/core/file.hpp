@@ -19,6 +19,7 @@
 // a block device or a socket is an IoError. Whether a run may write there at all is RunFiles'
 // (core/run_files.hpp).
 #pragma once
+#include <cstdint>
 #include <cstdio>
 #include <functional>
 #include <string>
@@ -27,6 +28,26 @@
 namespace trellis {
 
 std::string read_file(const std::string& path);
+
+// A regular file read in pieces, from any thread and in any order (pread), with read_file's
+// checks when opened (a folder, a device or a FIFO is refused; a run's input is guarded). For
+// files too large to copy whole before use. A piece the file no longer holds (it shrank while
+// read) is an IoError naming the file: never a crash, as a mapping of the file would be (SIGBUS).
+class InputFile {
+ public:
+  explicit InputFile(const std::string& path);
+  ~InputFile();
+  InputFile(const InputFile&) = delete;
+  InputFile& operator=(const InputFile&) = delete;
+  std::uint64_t size() const { return size_; }
+  // Bytes offset .. offset + n into `out`.
+  void read_at(std::uint64_t offset, char* out, std::size_t n) const;
+
+ private:
+  std::string path_;
+  int fd_ = -1;
+  std::uint64_t size_ = 0;
+};
 void write_file_atomic(const std::string& path, std::string_view content);
 // The same, written in pieces (a file too large to hold): `fill` appends bytes through the writer
 // it is given; an exception from it removes the temporary.
