@@ -197,3 +197,155 @@ Block plan_tower(const BBox2& part, std::size_t most, double length, double bead
 }
 
 }  // namespace trellis::tower
+
+namespace trellis {
+
+double purge_length(double volume, double h, double w) {
+  const double area = h * (w - h) + 3.14159265358979323846 * h * h / 4;
+  return area > 0 ? volume / area : 0;
+}
+
+namespace tower {
+
+PrimeTower::PrimeTower(const FgmOptions& o, const PurgeOptions& purge)
+    : o_(o),
+      purge_(purge),
+      length_(purge.melt_volume > 0 ? purge_length(purge.melt_volume, o.layer_height, o.bead_width)
+                                    : 0),
+      part_{{std::numeric_limits<double>::infinity(), std::numeric_limits<double>::infinity()},
+            {-std::numeric_limits<double>::infinity(), -std::numeric_limits<double>::infinity()}} {}
+
+bool PrimeTower::purges(int before, int after) const {
+  if (before < 0 || after == before) return false;
+  // The mixture change: the largest change of any material's share.
+  const auto from = o_.palette.mixture(before), to = o_.palette.mixture(after);
+  double change = 0;
+  for (std::size_t m = 0; m < to.size(); ++m) change = std::max(change, std::abs(to[m] - from[m]));
+  return change > purge_.threshold;
+}
+
+void PrimeTower::observe(const Layer& layer) {
+  const std::size_t li = observed_++;
+  if (!(purge_.melt_volume > 0)) return;
+  std::size_t count = 0;
+  for (const Path& p : layer.paths) {
+    for (const auto& q : p.points) {
+      part_.min = {std::min(part_.min.x, q.x), std::min(part_.min.y, q.y)};
+      part_.max = {std::max(part_.max.x, q.x), std::max(part_.max.y, q.y)};
+    }
+    const int colour = colour_of(p);
+    if (colour < 0) continue;
+    if (first_colour_ < 0) first_colour_ = colour;
+    count += purges(seen_, colour);
+    seen_ = colour;
+  }
+  most_ = std::max(most_, count);
+  if (count > 0) last_purge_layer_ = static_cast<long>(li);
+}
+
+bool PrimeTower::plan(FgmStats& st) {
+  st.purges = 0;
+  st.purge_length = st.purge_volume = 0;
+  st.tower = {};
+  if (!(purge_.melt_volume > 0) || last_purge_layer_ < 0) return false;
+  // The footprint of the beads, not of their centre lines.
+  const BBox2 beads{{part_.min.x - o_.bead_width / 2, part_.min.y - o_.bead_width / 2},
+                    {part_.max.x + o_.bead_width / 2, part_.max.y + o_.bead_width / 2}};
+  block_ = plan_tower(beads, most_, length_, o_.bead_width, purge_);
+  st.tower.built = true;
+  st.tower.x = block_->centre().x;
+  st.tower.y = block_->centre().y;
+  st.tower.side = std::max(block_->size_x(), block_->size_y());
+  st.tower.size_x = block_->size_x();
+  st.tower.size_y = block_->size_y();
+  st.tower.purge_path = length_;
+  st.tower.layers = static_cast<std::size_t>(last_purge_layer_) + 1;
+  return true;
+}
+
+Path PrimeTower::tower_path(std::vector<Vec2> pts, int colour, double z) {
+  Path p;
+  p.role = PathRole::Purge;
+  p.mixture = o_.palette.mixture(colour);
+  p.width = o_.bead_width;
+  p.height = o_.layer_height;
+  for (const Vec2 q : pts) p.points.push_back({q.x, q.y, z});
+  TowerColour& c = colours_[colour];
+  c.color = colour;
+  c.mixture = p.mixture;
+  c.length += p.length();
+  return p;
+}
+
+void PrimeTower::add(std::size_t li, Layer& layer) {
+  if (!block_) return;
+  const Block& sq = *block_;
+  // Which paths purge (the colour before a layer's first path is the last of the layer below).
+  std::vector<char> purge_before(layer.paths.size(), 0);
+  long count = 0;
+  for (int last = last_, i = 0; i < static_cast<int>(layer.paths.size()); ++i) {
+    const int colour = colour_of(layer.paths[static_cast<std::size_t>(i)]);
+    if (colour < 0) continue;
+    if (purges(last, colour)) purge_before[static_cast<std::size_t>(i)] = 1, ++count;
+    last = colour;
+  }
+  std::vector<Path> out;
+  const bool across = li % 2 == 1;  // lines cross the layer below's
+  const int k = sq.lines_for(length_, across);
+  int used = 0;
+  if (static_cast<long>(li) <= last_purge_layer_) {
+    // Wall and sparse lines in the colour already loaded, around the lines the purges use.
+    const int base = last_ >= 0 ? last_ : first_colour_;
+    out.push_back(tower_path(sq.wall(), base, layer.z));
+    auto sparse = sq.sparse(static_cast<int>(count) * k, across);
+    if (sparse.size() >= 2) out.push_back(tower_path(std::move(sparse), base, layer.z));
+  }
+  for (std::size_t i = 0; i < layer.paths.size(); ++i) {
+    const int colour = colour_of(layer.paths[i]);
+    if (purge_before[i]) {
+      Path p = tower_path(sq.zigzag(used, k, across), colour, layer.z);
+      used += k;
+      purge_length_ += p.length();
+      ++purges_;
+      ++colours_[colour].purges;
+      out.push_back(std::move(p));
+    }
+    if (colour >= 0) last_ = colour;
+    out.push_back(std::move(layer.paths[i]));
+  }
+  layer.paths = std::move(out);
+}
+
+void PrimeTower::finish(FgmStats& st) const {
+  if (!block_) return;
+  st.purges = purges_;
+  st.purge_length = purge_length_;
+  const double bead_area = o_.layer_height * (o_.bead_width - o_.layer_height) +
+                           3.14159265358979323846 * o_.layer_height * o_.layer_height / 4;
+  st.purge_volume = st.purge_length * bead_area;
+  for (auto [colour, c] : colours_) {
+    c.volume = c.length * bead_area;
+    double density = 0;
+    for (std::size_t m = 0; m < c.mixture.size(); ++m)
+      density += c.mixture[m] * (m < purge_.density.size() ? purge_.density[m] : 1.0);
+    c.mass = c.volume * 1e-3 * density;
+    c.time = purge_.speed > 0 ? c.length / purge_.speed : 0;
+    st.tower.length += c.length;
+    st.tower.volume += c.volume;
+    st.tower.mass += c.mass;
+    st.tower.time += c.time;
+    st.tower.colours.push_back(c);
+  }
+}
+
+}  // namespace tower
+
+void add_prime_tower(Toolpath& tp, const FgmOptions& o, const PurgeOptions& purge, FgmStats& st) {
+  tower::PrimeTower t(o, purge);
+  for (const Layer& l : tp.layers) t.observe(l);
+  if (!t.plan(st)) return;
+  for (std::size_t li = 0; li < tp.layers.size(); ++li) t.add(li, tp.layers[li]);
+  t.finish(st);
+}
+
+}  // namespace trellis

@@ -1,4 +1,5 @@
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include <algorithm>
 #include <array>
@@ -852,5 +853,46 @@ TEST(Fgm, Strategy2DepositsThePartsVolumeAtEveryPaletteSize) {
       // Face by face no piece shorter than a bead is printed (trimmed remnants are dropped); in
       // path order a piece is a run of one mixture inside a bead, as short as a crossing makes it.
       if (fill.order == FgmOrder::Faces) EXPECT_GE(b.shortest, o.bead_width - 2e-3) << what;
+    }
+}
+
+// The layers are planned in parallel: both strategies, in face and path order (zippered, with
+// short pieces merged), give the same paths and counts on one thread and on two.
+TEST(Fgm, SamePlanOnOneAndTwoThreads) {
+  const Field f = design(
+      "fgrade([\"0.5 + x/24 + 0.1*sin(y)\", \"0.5 - x/24 - 0.1*sin(y)\"], [\"a\", \"b\"]) {\n"
+      "  rectprism(20, 12, 0.9);\n}\n");
+  const double h = 0.3;
+  const Sliced sl = slice_planar(f, h, 4);
+  auto plan = [&](int strategy, FgmOrder order, std::size_t threads, FgmStats& st) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    FgmOptions o = fgm_options(6, h);
+    o.order = order;
+    o.min_segment = 1;
+    if (strategy == 1 && order == FgmOrder::Faces) o.zipper = 0.05;
+    return strategy == 1 ? plan_fgm_strategy1(f, sl.outlines, sl.planar, o, {}, &st)
+                         : plan_fgm_strategy2(f, sl.outlines, o, &st);
+  };
+  for (const int strategy : {1, 2})
+    for (const FgmOrder order : {FgmOrder::Faces, FgmOrder::Paths}) {
+      FgmStats s1, s2;
+      const Toolpath a = plan(strategy, order, 1, s1), b = plan(strategy, order, 2, s2);
+      const std::string what = "strategy " + std::to_string(strategy) + " " + to_string(order);
+      ASSERT_EQ(a.layers.size(), b.layers.size()) << what;
+      std::size_t paths = 0;
+      for (std::size_t li = 0; li < a.layers.size(); ++li) {
+        ASSERT_EQ(a.layers[li].paths.size(), b.layers[li].paths.size()) << what << " layer " << li;
+        for (std::size_t k = 0; k < a.layers[li].paths.size(); ++k, ++paths) {
+          const Path &p = a.layers[li].paths[k], &q = b.layers[li].paths[k];
+          EXPECT_TRUE(p.points == q.points && p.mixture == q.mixture && p.joined == q.joined)
+              << what << " layer " << li << " path " << k;
+        }
+      }
+      EXPECT_GT(paths, 20u) << what;
+      EXPECT_EQ(s1.paths, s2.paths) << what;
+      EXPECT_EQ(s1.faces, s2.faces) << what;
+      EXPECT_EQ(s1.colour_changes, s2.colour_changes) << what;
+      EXPECT_EQ(s1.short_merged, s2.short_merged) << what;
+      EXPECT_EQ(s1.purges, s2.purges) << what;
     }
 }

@@ -1,6 +1,7 @@
 // Non-planar slicing: the properties checked on the paths (and on the G-code read back by
 // the independent replayer), over the paper's surfaces and random height fields.
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include <cmath>
 #include <filesystem>
@@ -126,6 +127,33 @@ TEST(Nonplanar, NormalOffsetsOverSharpFolds) {
   for (std::size_t k = 0; k < r.toolpath.layers.size(); ++k) {
     EXPECT_EQ(r.toolpath.layers[k].paths.size(), 1u) << "layer " << k;
     EXPECT_GE(footprint_coverage(r.toolpath, k, s, prm.width, 0.04), 0.98) << "layer " << k;
+  }
+}
+
+// Sections are cut on worker threads: the same paths and reports on one thread and on two, for
+// vertical and normal offsets (whose envelope search is the slow part).
+TEST(Nonplanar, SamePathsOnOneAndTwoThreads) {
+  for (const OffsetMode mode : {OffsetMode::Vertical, OffsetMode::Normal}) {
+    NonplanarParams prm;
+    prm.offset = mode;
+    prm.layers = 3;
+    prm.layer_height = 0.6;
+    auto slice = [&](std::size_t threads) {
+      tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+      return slice_nonplanar(corrugation({}), prm);
+    };
+    const NonplanarResult a = slice(1), b = slice(2);
+    ASSERT_EQ(a.toolpath.layers.size(), b.toolpath.layers.size()) << to_string(mode);
+    for (std::size_t k = 0; k < a.toolpath.layers.size(); ++k) {
+      const auto &pa = a.toolpath.layers[k].paths, &pb = b.toolpath.layers[k].paths;
+      ASSERT_EQ(pa.size(), pb.size()) << to_string(mode) << " layer " << k;
+      ASSERT_FALSE(pa.empty()) << to_string(mode) << " layer " << k;
+      for (std::size_t i = 0; i < pa.size(); ++i)
+        EXPECT_TRUE(pa[i].points == pb[i].points) << to_string(mode) << " layer " << k;
+      EXPECT_EQ(a.layers[k].connector_length, b.layers[k].connector_length) << k;
+      EXPECT_EQ(a.layers[k].travel_moves, b.layers[k].travel_moves) << k;
+    }
+    EXPECT_EQ(a.max_descent_deg, b.max_descent_deg) << to_string(mode);
   }
 }
 
