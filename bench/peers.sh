@@ -122,3 +122,7 @@ last_wall() { awk '{print $3}' cpu.txt; }
 min_of() { awk -v a="$1" -v b="$2" 'BEGIN {print (a == "" || b + 0 < a + 0) ? b : a}'; }
 
 load_now() { echo "$(cut -d' ' -f1-3 /proc/loadavg) ($(nproc) cores)"; }
+# The 1-minute load average, and whether a load counts as quiet: at most QUIET_LOAD (1.5).
+load1() { cut -d' ' -f1 /proc/loadavg; }
+quiet_load="${QUIET_LOAD:-1.5}"
+is_quiet() { awk -v l="$1" -v q="$quiet_load" 'BEGIN {exit !(l + 0 <= q + 0)}'; }

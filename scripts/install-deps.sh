@@ -6,7 +6,7 @@ pkgs=(cmake g++ make pkg-config ninja-build ccache
       libtbb-dev libcli11-dev nlohmann-json3-dev libfmt-dev libtomlplusplus-dev
       libpolyclipping-dev libcairo2-dev libcgal-dev libgmp-dev libmpfr-dev libeigen3-dev
       libmuparser-dev libopenvdb-dev libboost-iostreams-dev lib3mf-dev libzip-dev libexpat1-dev
-      libglpk-dev zlib1g-dev libpng-dev libgtest-dev libbenchmark-dev prusa-slicer python3
+      libglpk-dev zlib1g-dev libpng-dev libmimalloc-dev libgtest-dev libbenchmark-dev prusa-slicer python3
       pybind11-dev python3-dev python3-numpy python3-pytest python3-distributed
       python3-matplotlib python3-nbformat python3-nbclient python3-ipykernel python3-nbconvert python3-pip python3-venv
       chromium firefox-esr time slurm-wlm munge

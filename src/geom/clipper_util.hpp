@@ -34,4 +34,11 @@ inline ClipperLib::Path to_path(const std::vector<Vec2>& ring) {
 // with holes, in the order Clipper's PolyTree gives them (clipper_nest.cpp).
 std::vector<Polygon2> nest_paths(const ClipperLib::Paths& paths);
 
+// Closed rings (outer counter-clockwise, holes clockwise) offset by `delta` units with mitred
+// corners as ClipperOffset would, without its clean-up union: false (out unspecified) where the
+// offset rings would cross, fold or change nesting, which that union must resolve
+// (offset_direct.cpp).
+bool offset_directly(const ClipperLib::Paths& rings, double delta, double miter_limit,
+                     ClipperLib::Paths& out);
+
 }  // namespace trellis::clipper_util

@@ -82,22 +82,25 @@ double area(const Regions& regions) {
 }
 
 Regions offset(const Regions& regions, double delta, double arc_tolerance, double miter_limit) {
-  cl::ClipperOffset off(miter_limit, std::max(arc_tolerance, 1e-6) * kClipperScale);
   // Orientation must be consistent for the offsetter: outer CCW, holes CW (our invariant).
+  cl::Paths rings;
   for (const auto& p : regions) {
     if (p.outer.size() >= 3) {
-      cl::Path path = to_path(p.outer);
+      cl::Path& path = rings.emplace_back(to_path(p.outer));
       if (!cl::Orientation(path)) cl::ReversePath(path);
-      off.AddPath(path, cl::jtMiter, cl::etClosedPolygon);
     }
     for (const auto& h : p.holes) {
       if (h.size() < 3) continue;
-      cl::Path path = to_path(h);
+      cl::Path& path = rings.emplace_back(to_path(h));
       if (cl::Orientation(path)) cl::ReversePath(path);
-      off.AddPath(path, cl::jtMiter, cl::etClosedPolygon);
     }
   }
   cl::Paths out;
+  // Most offsets of a slice need no clean-up; those that do go through ClipperOffset.
+  if (clipper_util::offset_directly(rings, delta * kClipperScale, miter_limit, out))
+    return nest_paths(out);
+  cl::ClipperOffset off(miter_limit, std::max(arc_tolerance, 1e-6) * kClipperScale);
+  off.AddPaths(rings, cl::jtMiter, cl::etClosedPolygon);
   off.Execute(out, delta * kClipperScale);
   return nest_paths(out);
 }

@@ -192,11 +192,13 @@ Regions skin_of(const Regions& eroded, const Regions* under, const Regions* over
 }
 
 // An island's wall regions, outside in: the outline offset by -(k + 0.5) beads, k < walls, while
-// not empty.
+// not empty. Each wall's region is the one outside it offset by one bead: inward offsets add up
+// (the offset edges are parallel lines), and the wall outside has fewer vertices to offset than
+// the outline (a slice's noise and narrow features are gone).
 std::vector<Regions> wall_regions(const Polygon2& island, int walls, double bead) {
   std::vector<Regions> out;
   for (int k = 0; k < walls; ++k) {
-    Regions r = offset(Regions{island}, -(k + 0.5) * bead);
+    Regions r = k == 0 ? offset(Regions{island}, -0.5 * bead) : offset(out.back(), -bead);
     if (r.empty()) break;
     out.push_back(std::move(r));
   }
