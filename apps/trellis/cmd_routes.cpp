@@ -55,9 +55,11 @@ std::string command_line(int argc, char** argv) {
 
 }  // namespace
 
-void SettingFlags::add(CLI::App* cmd, const std::vector<std::string>& sections) {
+void SettingFlags::add(CLI::App* cmd, const std::vector<std::string>& sections,
+                       const std::string& reader) {
   for (const auto& s : all_settings()) {
     if (s.flag.empty()) continue;
+    if (!reader.empty() && !route_uses(s, reader)) continue;
     if (std::find(sections.begin(), sections.end(), s.section()) == sections.end()) continue;
     const std::string group = "Settings [" + s.section() + "]";
     if (s.kind == SettingKind::Bool) {

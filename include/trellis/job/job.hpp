@@ -125,6 +125,7 @@ struct JobResult {
   std::shared_ptr<const Graph> lattice;
   std::string summary;  // one or two lines for the terminal
   int exit_code = 0;    // 1 when a check found problems
+  std::string report_json;  // the reader routes (job/readers.hpp): the report, written or not
 };
 
 // The layers of a sharded run as `trellis merge` hands them to the route's writer (job/plate.hpp).
