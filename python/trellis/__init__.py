@@ -402,9 +402,10 @@ def lattice3d(output=None, *, preview=None, progress=None, set=None, **settings)
 def plan(planner, lattice, output=None, *, machine=None, gcode=None, report=None, preview=None,
          progress=None, set=None, **settings):
     """Plans paths over a lattice (a file or a ``Lattice``): planner 'gippo', 'euler' or 'aero'."""
-    if planner not in ("gippo", "euler", "aero"):
-        raise SettingError(f"unknown planner '{planner}' (expected gippo, euler or aero)",
-                           element="planner")
+    planners = next(s["choices"] for s in _trellis.settings() if s["key"] == "plan.planner")
+    if planner not in planners:
+        raise SettingError(f"unknown planner '{planner}' (expected {', '.join(planners[:-1])} or "
+                           f"{planners[-1]})", element="planner")
     return _call_object("plan", lattice, {"toolpath": output, "gcode": gcode, "report": report,
                                           "preview": preview}, machine, set, progress, settings,
                         command=planner, extra={"plan.planner": planner})

@@ -74,7 +74,7 @@ std::size_t write_3mf_out(const std::string& path, Toolpath& tp, const Job& job,
   std::string ext = fs::path(job.input).extension().string();
   for (char& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
   // The slice route's mesh is the part; the nonplanar route's is the surface it prints on.
-  if (job.route == "slice" && job.parts.empty() &&
+  if (route_spec(job.route).part_mesh_in_3mf && job.parts.empty() &&
       (ext == ".stl" || ext == ".obj" || ext == ".3mf")) {
     mesh = read_mesh(job.input);
     o.mesh = &mesh;
@@ -146,15 +146,14 @@ GcodeStats write_gcode_streamed(const std::string& path, Toolpath meta, std::siz
 
 void require_bath(const Job& job, const MachineProfile& m, const std::string& route,
                   const std::string& why) {
-  const std::string& out = job.*route_spec(job.route).main_output;
+  const RouteSpec& spec = route_spec(job.route);
+  const std::string& out = job.*spec.main_output;
   if (out.empty() || fs::path(out).extension() == ".json" || is_3mf_output(out) || m.has_bath())
     return;
   throw MachineError(route + ": " + why + ", but the machine '" + m.name +
                          "' prints in air (machine.flavor = " + std::string(to_string(m.flavor)) +
                          "); use a bath profile (machine.flavor = embedded), e.g. " +
-                         (route == "nonplanar" ? "profiles/fresh_nonplanar_2syringe.toml"
-                                               : "profiles/embedded_aero_410um.toml") +
-                         ", or write a toolpath (.json) instead of G-code",
+                         spec.bath_example + ", or write a toolpath (.json) instead of G-code",
                      {job.machine, 0, "machine.flavor"});
 }
 

@@ -157,6 +157,20 @@ struct RouteSpec {
   // or when it is written under a name other than .json or .stl.
   enum class Gcode { never, always, when_written, when_named_gcode };
   Gcode gcode = Gcode::never;
+  // A job's default output names in its output folder (the job's name + a suffix): the main
+  // output's ("" = the machine's G-code extension); whether a report and previews are written.
+  std::string output_suffix;
+  bool report = true;
+  bool preview = true;
+  // Its main output is G-code written beside its toolpath (plan): the toolpath is named
+  // .toolpath.json, the G-code written with a machine and output.gcode, the lattice it makes
+  // when it has no input .lattice.json; -o names the toolpath.
+  bool gcode_beside_toolpath = false;
+  // Its input mesh is the part, written beside the paths in a 3MF output (slice; the nonplanar
+  // route's mesh is the surface it prints on).
+  bool part_mesh_in_3mf = false;
+  // A bath profile to name when its G-code is asked of a machine that prints in air.
+  std::string bath_example = "profiles/embedded_aero_410um.toml";
 };
 
 const std::vector<RouteSpec>& route_specs();
