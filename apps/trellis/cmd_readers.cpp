@@ -1,14 +1,11 @@
 // The reader commands (check, analyze, compare, view, render): what each reads is the library's
 // reader table (job/readers.hpp); here are their help texts, positionals and file options. Their
 // setting flags come from the schema; each builds a ReadJob and hands it to run_reader.
-#include <fmt/format.h>
-
+#include <algorithm>
 #include <iostream>
 
 #include "commands.hpp"
 #include "progress_display.hpp"
-#include "trellis/analysis/collisions.hpp"
-#include "trellis/core/error.hpp"
 #include "trellis/job/readers.hpp"
 
 namespace trellis::cli {
@@ -183,16 +180,7 @@ void add_reader(CLI::App& app, const std::string& name) {
   if (spec.progress) add_progress_flag(cmd, o->progress);
   cmd->callback([o, &spec] {
     ReadJob job = o->job;
-    o->flags.apply(job.settings);
-    if (o->progress >= 0)
-      job.settings.set("run.progress", o->progress == 1,
-                       {o->progress ? "--progress" : "--no-progress"});
-    for (const auto& s : o->sets) {
-      const auto eq = s.find('=');
-      if (eq == std::string::npos)
-        throw SettingError("expected section.key=value, got '" + s + "'", {"", 0, "--set"});
-      job.settings.set_text(s.substr(0, eq), s.substr(eq + 1), {"--set"});
-    }
+    apply_command_line(job.settings, o->flags, o->progress, o->sets);
     Diagnostics diag;
     ProgressDisplay display(spec.progress ? progress_mode(o->progress) : ProgressMode::Off,
                             "trellis " + job.route);

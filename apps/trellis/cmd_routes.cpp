@@ -97,16 +97,32 @@ void SettingFlags::apply(Settings& st) const {
     st.set(key, on != 0, {"--" + std::string(on ? "" : "no-") + find_setting(key)->flag});
 }
 
-Settings command_settings(const std::string& machine, const std::vector<std::string>& sets) {
-  Settings st;
-  if (!machine.empty()) st.load_toml_file(machine);
+namespace {
+
+void apply_sets(Settings& st, const std::vector<std::string>& sets) {
   for (const auto& s : sets) {
     const auto eq = s.find('=');
     if (eq == std::string::npos)
       throw SettingError("expected section.key=value, got '" + s + "'", {"", 0, "--set"});
     st.set_text(s.substr(0, eq), s.substr(eq + 1), {"--set"});
   }
+}
+
+}  // namespace
+
+Settings command_settings(const std::string& machine, const std::vector<std::string>& sets) {
+  Settings st;
+  if (!machine.empty()) st.load_toml_file(machine);
+  apply_sets(st, sets);
   return st;
+}
+
+void apply_command_line(Settings& st, const SettingFlags& flags, int progress,
+                        const std::vector<std::string>& sets) {
+  flags.apply(st);
+  if (progress >= 0)
+    st.set("run.progress", progress == 1, {progress ? "--progress" : "--no-progress"});
+  apply_sets(st, sets);
 }
 
 void print_result(const JobResult& r, const Diagnostics& diag) {
@@ -333,16 +349,7 @@ void add_routes(CLI::App& app, int argc, char** argv) {
       job.command = command_line(argc, argv);
       job.settings = command_settings(o->machine, {});
       if (named_by && !o->extra.empty()) job.settings.set(named_by, o->extra, {named_as});
-      o->flags.apply(job.settings);
-      if (o->progress >= 0)
-        job.settings.set("run.progress", o->progress == 1,
-                         {o->progress ? "--progress" : "--no-progress"});
-      for (const auto& s : o->sets) {
-        const auto eq = s.find('=');
-        if (eq == std::string::npos)
-          throw SettingError("expected section.key=value, got '" + s + "'", {"", 0, "--set"});
-        job.settings.set_text(s.substr(0, eq), s.substr(eq + 1), {"--set"});
-      }
+      apply_command_line(job.settings, o->flags, o->progress, o->sets);
       const auto sections = route_sections(route);
       for (const auto& [key, e] : job.settings.entries()) {
         if (e.origin.source != "--set") continue;

@@ -64,6 +64,10 @@ void add_budget_flags(CLI::App* cmd, BudgetFlags& flags);
 
 // Settings of a command: the machine profile (if any), then --set assignments.
 Settings command_settings(const std::string& machine, const std::vector<std::string>& sets);
+// The command line's settings over `st`: its flags, --progress / --no-progress (`progress` 1 / 0;
+// -1 not given) as run.progress, then --set assignments, each naming where it came from.
+void apply_command_line(Settings& st, const SettingFlags& flags, int progress,
+                        const std::vector<std::string>& sets);
 // Prints a route's warnings, summary and written files; sets the exit code.
 void print_result(const JobResult& result, const Diagnostics& diag);
 
