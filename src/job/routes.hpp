@@ -139,10 +139,15 @@ Estimate estimate_pbf_time(const PbfDesign& design, const PbfOptions& options, b
 
 // The reader routes (job/readers.hpp): check (reader_check.cpp), view and render
 // (reader_view.cpp), analyze and compare (reader_analyze.cpp).
-JobResult reader_check(const ReadJob& job, const Config& c, Diagnostics& diag, const Progress& progress);
-JobResult reader_view(const ReadJob& job, const Config& c, Diagnostics& diag, const Progress& progress);
-JobResult reader_render(const ReadJob& job, const Config& c, Diagnostics& diag, const Progress& progress);
-JobResult reader_analyze(const ReadJob& job, const Config& c, Diagnostics& diag, const Progress& progress);
-JobResult reader_compare(const ReadJob& job, const Config& c, Diagnostics& diag, const Progress& progress);
+JobResult reader_check(const ReadJob& job, const Config& c, Diagnostics& diag,
+                       const Progress& progress);
+JobResult reader_view(const ReadJob& job, const Config& c, Diagnostics& diag,
+                      const Progress& progress);
+JobResult reader_render(const ReadJob& job, const Config& c, Diagnostics& diag,
+                        const Progress& progress);
+JobResult reader_analyze(const ReadJob& job, const Config& c, Diagnostics& diag,
+                         const Progress& progress);
+JobResult reader_compare(const ReadJob& job, const Config& c, Diagnostics& diag,
+                         const Progress& progress);
 
 }  // namespace trellis::routes

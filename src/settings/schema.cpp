@@ -241,8 +241,8 @@ std::string to_string(OntoKind kind) {
 }
 
 std::string to_string(RenderColour colour) {
-  static const char* const names[] = {"auto", "feature", "order", "mixture", "commanded", "tool",
-                                      "set"};
+  static const char* const names[] = {"auto",      "feature", "order", "mixture",
+                                      "commanded", "tool",    "set"};
   return names[static_cast<int>(colour)];
 }
 

@@ -423,8 +423,7 @@ TEST(Cli, ReaderFlagsAreTheSchemasSettingsTheyRead) {
       const bool own = std::find(reader.sections.begin(), reader.sections.end(), s.section()) !=
                        reader.sections.end();
       if (!own) continue;
-      const bool listed = std::regex_search(
-          r.out, std::regex("\\n  --" + s.flag + "[ \\n]"));
+      const bool listed = std::regex_search(r.out, std::regex("\\n  --" + s.flag + "[ \\n]"));
       EXPECT_EQ(listed, trellis::reader_reads(reader, s)) << reader.name << " --" << s.flag;
       (listed ? offered : withheld) += 1;
       if (listed) EXPECT_NE(r.out.find(s.key), std::string::npos) << reader.name << " " << s.key;
@@ -458,7 +457,8 @@ TEST(Cli, ReadersRefuseSettingsTheyDoNotRead) {
     EXPECT_NE(r.err.find(c.named), std::string::npos) << c.args << "\n" << r.err;
   }
   // What they read is taken, from --set as from the flag.
-  const CmdResult flag = run("check " + lat + " " + tp + " --snap 0.2 --report " + in_work("a.json"));
+  const CmdResult flag =
+      run("check " + lat + " " + tp + " --snap 0.2 --report " + in_work("a.json"));
   const CmdResult set =
       run("check " + lat + " " + tp + " --set check.snap=0.2 --report " + in_work("b.json"));
   ASSERT_EQ(flag.code, 0) << flag.err;

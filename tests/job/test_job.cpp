@@ -631,20 +631,17 @@ TEST(Readers, FilesAndObjectsInMemoryGiveTheSameReport) {
     EXPECT_FALSE(a.summary.empty()) << route;
   }
   // The settings given reach the run: the report records them.
-  EXPECT_EQ(nlohmann::json::parse(run_reader([&] {
-                                    ReadJob j;
-                                    j.route = "check";
-                                    j.design_graph = graph;
-                                    j.print = toolpath;
-                                    j.settings.set("check.snap", 0.125, {"keyword check.snap"});
-                                    return j;
-                                  }(), diag)
-                                      .report_json)["nozzle"]["snap_mm"],
-            0.125);
+  ReadJob snapped;
+  snapped.route = "check";
+  snapped.design_graph = graph;
+  snapped.print = toolpath;
+  snapped.settings.set("check.snap", 0.125, {"keyword check.snap"});
+  const auto report = nlohmann::json::parse(run_reader(snapped, diag).report_json);
+  EXPECT_EQ(report["nozzle"]["snap_mm"], 0.125);
   ReadJob top_first;
   top_first.route = "check";
-  top_first.design = write("flat.json",
-                           "{\"nodes\":[[0,0,0],[5,0,0],[0,0,2],[5,0,2]],\"edges\":[[0,1],[2,3]]}");
+  top_first.design =
+      write("flat.json", "{\"nodes\":[[0,0,0],[5,0,0],[0,0,2],[5,0,2]],\"edges\":[[0,1],[2,3]]}");
   top_first.prints = {write("top.json",
                             "{\"format\":\"trellis.toolpath\",\"version\":1,\"layers\":[{\"z\":0,"
                             "\"paths\":[{\"points\":[[0,0,2],[5,0,2]]},{\"points\":[[0,0,0],[5,0,"

@@ -123,8 +123,8 @@ struct JobResult {
   // What the route made, in memory (for callers such as the Python package); may be null.
   std::shared_ptr<const Toolpath> toolpath;
   std::shared_ptr<const Graph> lattice;
-  std::string summary;  // one or two lines for the terminal
-  int exit_code = 0;    // 1 when a check found problems
+  std::string summary;      // one or two lines for the terminal
+  int exit_code = 0;        // 1 when a check found problems
   std::string report_json;  // the reader routes (job/readers.hpp): the report, written or not
 };
 

@@ -166,10 +166,10 @@ struct ReadConfig {
   AnalysisParams analysis;  // analyze.bead_width, layer_height, acceleration, align
   bool per_layer = false;   // analyze.layers: a line per layer
   double filament_diameter = MachineProfile{}.filament_diameter;  // analyze.filament_diameter
-  RenderColour colour = RenderColour::Auto;                        // render.colour
-  int layer = -1;           // render.layer: unset (-1) = every layer
-  RenderOptions render;     // render.image_size, render.bead_width, render.travel
-  std::string title;        // view.title: empty = the file names
+  RenderColour colour = RenderColour::Auto;                       // render.colour
+  int layer = -1;        // render.layer: unset (-1) = every layer
+  RenderOptions render;  // render.image_size, render.bead_width, render.travel
+  std::string title;     // view.title: empty = the file names
 };
 
 // Build plates (job/plate.hpp).
