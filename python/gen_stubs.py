@@ -36,6 +36,18 @@ ROUTES = [
 ]
 
 
+# The reader routes (trellis check, analyze): their keywords are their settings (job/readers.hpp).
+READERS = [
+    ("analyze", "gcode: PathLike | Toolpath, design: PathLike | Lattice | None = None, *"),
+    ("check", "lattice: PathLike | Lattice, print_file: PathLike | Toolpath, *"),
+]
+
+
+def keyword_line(s, name):
+    t = "Literal[" + ", ".join(repr(c) for c in s["choices"]) + "]" if s["kind"] == "choice" else PY[s["kind"]]
+    return f"    {name}: {t} = ...,  # {s['key']}: {s['doc']}"[:200]
+
+
 def main():
     info = {s["key"]: s for s in _trellis.settings()}
     out = ['"""Type stubs generated from the settings schema by python/gen_stubs.py; do not edit."""',
@@ -79,11 +91,7 @@ def main():
             for extra in ("euler", "aero"):
                 for k, v in trellis._keywords("plan", extra).items():
                     kws.setdefault(k, v)
-        params = []
-        for name, key in sorted(kws.items()):
-            s = info[key]
-            t = "Literal[" + ", ".join(repr(c) for c in s["choices"]) + "]" if s["kind"] == "choice" else PY[s["kind"]]
-            params.append(f"    {name}: {t} = ...,  # {key}: {s['doc']}"[:200])
+        params = [keyword_line(info[key], name) for name, key in sorted(kws.items())]
         fn = "slice" if route == "slice" else route
         out.append(f"def {fn}(")
         out.append(f"    {head},")
@@ -100,16 +108,17 @@ def main():
             "def read_toolpath(path: PathLike, *, commanded_mixtures: bool = ...) -> Toolpath: ...",
             "def notebook_viewer() -> Any: ...",
            "def parse_vcad(text: str, name: str = ...) -> dict[str, Any]: ...",
-           "def analyze(gcode: PathLike | Toolpath, design: PathLike | Lattice | None = None, *, "
-           "bead_width: float = ...,",
-           "            layer_height: float = ..., align: bool = ..., strict: bool = ...,",
-           "            commanded_mixtures: bool = ...) -> dict[str, Any]: ...",
-           "def check(lattice: PathLike | Lattice, print_file: PathLike | Toolpath, *, "
-           "machine: Machine | None = None,",
-           "          set: Mapping[str, Any] | None = None, **nozzle: float) -> dict[str, Any]: ...",
            "from .fields import (Field, Mesh, cone, cube, cylinder, difference, fgrade, function, gyroid,",
-           "                     intersection, mesh, rectprism, sphere, torus, tpms, union)"]
-    print("\n".join(out))
+           "                     intersection, mesh, rectprism, sphere, torus, tpms, union)", ""]
+    for reader, head in READERS:
+        out.append(f"def {reader}(")
+        out.append(f"    {head},")
+        out.append("    machine: Machine | None = None,")
+        out.append("    set: Mapping[str, Any] | None = None,")
+        out += [keyword_line(info[key], name) for name, key in sorted(trellis._reader_keywords(reader).items())]
+        out.append(") -> dict[str, Any]: ...")
+        out.append("")
+    print("\n".join(out).rstrip("\n"))
 
 
 if __name__ == "__main__":

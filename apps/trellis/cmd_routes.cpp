@@ -25,6 +25,11 @@ struct CommandSpec {
   bool toolpath;                           // --toolpath
   bool report;                             // --report
   std::string footer;
+  // A setting given as a positional or by the command's name: plan's planners are subcommands
+  // of `plan` (plan.planner), surface takes its kind (surface.kind) as an optional positional.
+  const char* named_by = nullptr;
+  const char* positional = nullptr;  // its help
+  const char* machine_doc = "machine profile (TOML)";
 };
 
 struct RouteOpts {
@@ -55,9 +60,11 @@ std::string command_line(int argc, char** argv) {
 
 }  // namespace
 
-void SettingFlags::add(CLI::App* cmd, const std::vector<std::string>& sections) {
+void SettingFlags::add(CLI::App* cmd, const std::vector<std::string>& sections,
+                       const std::string& reader) {
   for (const auto& s : all_settings()) {
     if (s.flag.empty()) continue;
+    if (!reader.empty() && !route_uses(s, reader)) continue;
     if (std::find(sections.begin(), sections.end(), s.section()) == sections.end()) continue;
     const std::string group = "Settings [" + s.section() + "]";
     if (s.kind == SettingKind::Bool) {
@@ -90,16 +97,32 @@ void SettingFlags::apply(Settings& st) const {
     st.set(key, on != 0, {"--" + std::string(on ? "" : "no-") + find_setting(key)->flag});
 }
 
-Settings command_settings(const std::string& machine, const std::vector<std::string>& sets) {
-  Settings st;
-  if (!machine.empty()) st.load_toml_file(machine);
+namespace {
+
+void apply_sets(Settings& st, const std::vector<std::string>& sets) {
   for (const auto& s : sets) {
     const auto eq = s.find('=');
     if (eq == std::string::npos)
       throw SettingError("expected section.key=value, got '" + s + "'", {"", 0, "--set"});
     st.set_text(s.substr(0, eq), s.substr(eq + 1), {"--set"});
   }
+}
+
+}  // namespace
+
+Settings command_settings(const std::string& machine, const std::vector<std::string>& sets) {
+  Settings st;
+  if (!machine.empty()) st.load_toml_file(machine);
+  apply_sets(st, sets);
   return st;
+}
+
+void apply_command_line(Settings& st, const SettingFlags& flags, int progress,
+                        const std::vector<std::string>& sets) {
+  flags.apply(st);
+  if (progress >= 0)
+    st.set("run.progress", progress == 1, {progress ? "--progress" : "--no-progress"});
+  apply_sets(st, sets);
 }
 
 void print_result(const JobResult& r, const Diagnostics& diag) {
@@ -172,18 +195,20 @@ void add_routes(CLI::App& app, int argc, char** argv) {
        "Each iteration grows paths from a random incomplete node, taking the longest (--mode max)\n"
        "or shortest (--mode min) unused edge at either end; the best score (Eq. 1) is kept.\n"
        "Reproducible for a --seed whatever the thread count.\n" +
-           plan_footer},
+           plan_footer,
+       "plan.planner"},
       {"euler", "plan",
        "Euler: exactly the lower bound max(1, odd nodes / 2) of paths (Hierholzer)",
        with({"lattice", "plan", "output", "run"}, m), true, "toolpath JSON to write", true, false,
-       true, plan_footer},
+       true, plan_footer, "plan.planner"},
       {"aero", "plan", "AERO: collision-free Eulerian trails for 3D lattices printed in a bath",
        with({"lattice", "plan", "aero", "nozzle", "output", "run"}, m), true,
        "toolpath JSON to write", true, false, true,
        "The nozzle is a vertical cylinder (--nozzle-radius); struts within --cone of vertical "
        "print\n"
        "bottom-up; the plan is replayed by the independent collision checker and reported.\n" +
-           plan_footer},
+           plan_footer,
+       "plan.planner"},
       {"gcode", "gcode",
        "Write G-code (or pneumatic / embedded .nc) from a toolpath and a machine profile",
        with({"run"}, m), true, "G-code file to write", 2, false, false,
@@ -230,7 +255,10 @@ void add_routes(CLI::App& app, int argc, char** argv) {
        "part.cli\n"
        "  trellis pbf --cell-type schwarz_d --cell 2.5 --size 10,10,10 --machine "
        "profiles/pbf_316l_25um.toml\n"
-       "      -o lattice.cli --report lattice.json --preview previews"},
+       "      -o lattice.cli --report lattice.json --preview previews",
+       nullptr,
+       nullptr,
+       "laser profile (TOML); default: built-in values"},
       {"nonplanar", "nonplanar",
        "Slice a surface into continuous non-planar layers (embedded printing)",
        with({"nonplanar", "output", "run"}, m), false, "G-code to write", 2, true, true,
@@ -259,29 +287,28 @@ void add_routes(CLI::App& app, int argc, char** argv) {
        "miura (--depth), m-curve (--height), sphere-cap (--radius, --diameter), and angle-test,\n"
        "the print-angle test path (0, ±22.5, ±45, ±67.5, 90, −80°) written as toolpath JSON, or "
        "as\n"
-       "G-code with --machine."},
+       "G-code with --machine.",
+       "surface.kind",
+       "corrugation, miura, m-curve or sphere-cap (or --kind)"},
   };
   for (const auto& spec : specs) {
     auto o = std::make_shared<RouteOpts>();
     const std::string route = spec.route;
     const RouteSpec& data = route_spec(route);
-    auto* cmd = (route == "plan" ? plan : &app)->add_subcommand(spec.name, spec.description);
+    auto* cmd = (spec.named_by && !spec.positional ? plan : &app)
+                    ->add_subcommand(spec.name, spec.description);
     cmd->footer(spec.footer);
-    if (route == "plan") o->extra = spec.name;
-    if (route == "surface")
-      cmd->add_option("kind", o->extra, "corrugation, miura, m-curve or sphere-cap (or --kind)");
+    if (spec.named_by && !spec.positional) o->extra = spec.name;
+    if (spec.positional) cmd->add_option("kind", o->extra, spec.positional);
     if (!data.input.empty()) {
       auto* in = cmd->add_option(data.input, o->input, "input " + data.input)->check(path_value());
       if (spec.input_required) in->required();
     }
     cmd->add_option("-o,--output", o->output, spec.output_doc)->required()->check(path_value());
     if (spec.machine) {
-      cmd->add_option("--machine", o->machine,
-                      route == "pbf" ? "laser profile (TOML); default: built-in values"
-                                     : "machine profile (TOML)")
-          ->check(path_value());
+      cmd->add_option("--machine", o->machine, spec.machine_doc)->check(path_value());
     }
-    if (route == "plan")
+    if (data.gcode_beside_toolpath)
       cmd->add_option("--gcode", o->gcode, "also write G-code (needs --machine)")
           ->check(path_value());
     if (spec.report)
@@ -306,7 +333,9 @@ void add_routes(CLI::App& app, int argc, char** argv) {
     o->flags.add(cmd, spec.flag_sections);
     add_progress_flag(cmd, o->progress);
     const bool machine_required = spec.machine == 2;
-    cmd->callback([o, route, machine_required, argc, argv] {
+    const char* named_by = spec.named_by;
+    const std::string named_as = spec.positional ? "kind argument" : "planner argument";
+    cmd->callback([o, route, &data, named_by, named_as, machine_required, argc, argv] {
       if (machine_required && o->machine.empty())
         throw SettingError("--machine PROFILE.toml is required (see profiles/)",
                            {"", 0, "--machine"});
@@ -319,19 +348,8 @@ void add_routes(CLI::App& app, int argc, char** argv) {
       job.machine = o->machine;
       job.command = command_line(argc, argv);
       job.settings = command_settings(o->machine, {});
-      if (route == "plan") job.settings.set("plan.planner", o->extra, {"planner argument"});
-      if (route == "surface" && !o->extra.empty())
-        job.settings.set("surface.kind", o->extra, {"kind argument"});
-      o->flags.apply(job.settings);
-      if (o->progress >= 0)
-        job.settings.set("run.progress", o->progress == 1,
-                         {o->progress ? "--progress" : "--no-progress"});
-      for (const auto& s : o->sets) {
-        const auto eq = s.find('=');
-        if (eq == std::string::npos)
-          throw SettingError("expected section.key=value, got '" + s + "'", {"", 0, "--set"});
-        job.settings.set_text(s.substr(0, eq), s.substr(eq + 1), {"--set"});
-      }
+      if (named_by && !o->extra.empty()) job.settings.set(named_by, o->extra, {named_as});
+      apply_command_line(job.settings, o->flags, o->progress, o->sets);
       const auto sections = route_sections(route);
       for (const auto& [key, e] : job.settings.entries()) {
         if (e.origin.source != "--set") continue;
@@ -340,7 +358,7 @@ void add_routes(CLI::App& app, int argc, char** argv) {
           throw SettingError("`trellis " + route + "` does not read [" + sec + "] settings",
                              {"", 0, "--set " + key});
       }
-      if (route == "plan") {
+      if (data.gcode_beside_toolpath) {
         job.toolpath = o->output;
         job.gcode = o->gcode;
       } else {

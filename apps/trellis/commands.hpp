@@ -17,21 +17,13 @@ namespace trellis::cli {
 
 // lattice2d, lattice3d, plan, gcode, slice, pbf, nonplanar, surface: flags from the schema.
 void add_routes(CLI::App& app, int argc, char** argv);
-void add_render(CLI::App& app);
 void add_run(CLI::App& app);
 void add_rerun(CLI::App& app);
 void add_merge(CLI::App& app);
 void add_settings(CLI::App& app);
-void add_analyze(CLI::App& app);
-void add_compare(CLI::App& app);
 void add_walls(CLI::App& app);
-void add_check(CLI::App& app);
-void add_view(CLI::App& app);
-
-// Laser build files (.cli) for `analyze`: measured against a .vcad design (cmd_analyze_laser.cpp).
-bool is_laser_build_file(const std::string& path);
-void analyze_laser_file(const std::string& path, const std::string& design,
-                        const std::string& machine, const std::string& report);
+// A reader command (check, analyze, compare, view, render; job/readers.hpp): flags from the schema.
+void add_reader(CLI::App& app, const std::string& name);
 
 // Exit status of the run when no error was thrown (e.g. 1 when a check found problems).
 void set_exit_code(int code);
@@ -46,7 +38,8 @@ struct SettingFlags {
   std::map<std::string, std::string> values;
   std::map<std::string, int> bools;
   std::vector<std::pair<std::string, CLI::Option*>> options;
-  void add(CLI::App* cmd, const std::vector<std::string>& sections);
+  // `reader`: only the settings that reader route uses (Setting::when's `route=` terms).
+  void add(CLI::App* cmd, const std::vector<std::string>& sections, const std::string& reader = "");
   void apply(Settings& settings) const;
 };
 
@@ -71,9 +64,10 @@ void add_budget_flags(CLI::App* cmd, BudgetFlags& flags);
 
 // Settings of a command: the machine profile (if any), then --set assignments.
 Settings command_settings(const std::string& machine, const std::vector<std::string>& sets);
-// The valve commands of a pneumatic or bath profile (`machine`, may be empty) where `load` has
-// none from --valve-on/--valve-off (view, render).
-void machine_valves(const std::string& machine, ViewLoadOptions& load);
+// The command line's settings over `st`: its flags, --progress / --no-progress (`progress` 1 / 0;
+// -1 not given) as run.progress, then --set assignments, each naming where it came from.
+void apply_command_line(Settings& st, const SettingFlags& flags, int progress,
+                        const std::vector<std::string>& sets);
 // Prints a route's warnings, summary and written files; sets the exit code.
 void print_result(const JobResult& result, const Diagnostics& diag);
 

@@ -132,16 +132,16 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string("trellis ") + trellis::version());
   trellis::cli::add_routes(app, argc, argv);
-  trellis::cli::add_render(app);
+  trellis::cli::add_reader(app, "render");
   trellis::cli::add_run(app);
   trellis::cli::add_rerun(app);
   trellis::cli::add_merge(app);
   trellis::cli::add_settings(app);
-  trellis::cli::add_analyze(app);
-  trellis::cli::add_check(app);
-  trellis::cli::add_compare(app);
+  trellis::cli::add_reader(app, "analyze");
+  trellis::cli::add_reader(app, "check");
+  trellis::cli::add_reader(app, "compare");
   trellis::cli::add_walls(app);
-  trellis::cli::add_view(app);
+  trellis::cli::add_reader(app, "view");
   // A misspelt command: name the nearest one instead of CLI11's "a subcommand is required".
   CLI::App* level = &app;
   for (int i = 1; i < argc && argv[i][0] != '-' && !level->get_subcommands({}).empty(); ++i) {

@@ -24,7 +24,7 @@
 #include "trellis/field/vcad.hpp"
 #include "trellis/job/job.hpp"
 #include "trellis/job/plate.hpp"
-#include "trellis/job/print_check.hpp"
+#include "trellis/job/readers.hpp"
 #include "trellis/lattice/io.hpp"
 #include "trellis/machine/cli.hpp"
 #include "trellis/machine/gcode_reader.hpp"
@@ -413,65 +413,42 @@ PYBIND11_MODULE(_trellis, m) {
   m.def("toolpath_from_json", [](const std::string& text) {
     return std::make_shared<Toolpath>(toolpath_from_json(text, "<string>"));
   });
-  // Analysis as the CLI reports it (the same JSON), for json.loads on the Python side. `print`
-  // is a G-code path or a Toolpath (measured as planned: no filament or retractions, which the
-  // machine's G-code adds); `design` a lattice path, a Lattice or None.
+  // The reader routes (job/readers.hpp) as the CLI runs them, returning the report JSON for
+  // json.loads on the Python side. `design` a file, a Lattice or None; `print` a file or a
+  // Toolpath (analyze: measured as planned, no filament or retractions, which the machine's G-code
+  // adds; check: in design coordinates); `settings` key -> value (python/trellis: keywords).
   m.def(
-      "analyze_json",
-      [](const py::object& print, const py::object& design, double bead_width, double layer_height,
-         bool align, bool strict, bool commanded_mixtures) {
-        Diagnostics diag;
-        std::shared_ptr<const Graph> g;
+      "read_json",
+      [](const std::string& route, const py::object& design, const py::object& print,
+         const std::string& machine, const py::dict& settings) {
+        ReadJob job;
+        job.route = route;
+        job.machine = machine;
         if (py::isinstance<Graph>(design))
-          g = design.cast<std::shared_ptr<Graph>>();
-        else if (!design.is_none() && !design.cast<std::string>().empty())
-          g = std::make_shared<Graph>(read_lattice(design.cast<std::string>(), {}, diag));
-        AnalysisParams params;
-        if (bead_width > 0) params.width = bead_width;
-        if (layer_height > 0) params.layer_height = layer_height;
-        params.align_centers = align;
-        GcodeReadOptions read;
-        read.stop_on_error = strict;
-        read.commanded_mixtures = commanded_mixtures;
-        if (py::isinstance<Toolpath>(print)) {
-          const auto tp = print.cast<std::shared_ptr<Toolpath>>();
-          py::gil_scoped_release release;
-          Analysis a = analyze(*tp, toolpath_counts(*tp), g.get(), params);
-          a.name = tp->source;
-          return analysis_json(a);
+          job.design_graph = design.cast<std::shared_ptr<Graph>>();
+        else if (!design.is_none())
+          job.design = design.cast<std::string>();
+        if (py::isinstance<Toolpath>(print))
+          job.print = print.cast<std::shared_ptr<Toolpath>>();
+        else
+          job.prints = {print.cast<std::string>()};
+        for (const auto& [k, v] : settings) {
+          const auto key = k.cast<std::string>();
+          job.settings.set(key, to_value(key, v), {"keyword " + key});
         }
-        const auto path = print.cast<std::string>();
         py::gil_scoped_release release;
-        return analysis_json(analyze_gcode_file(path, g.get(), params, read, diag));
+        Diagnostics diag;
+        return run_reader(job, diag).report_json;
       },
-      py::arg("print"), py::arg("design") = py::none(), py::arg("bead_width") = 0.0,
-      py::arg("layer_height") = 0.0, py::arg("align") = false, py::arg("strict") = false,
-      py::arg("commanded_mixtures") = false);
-  // The collision check of `trellis check`: the lattice a path or a Lattice (cleaned as the
-  // readers clean files), the print a G-code / toolpath path or a Toolpath (design coordinates).
-  m.def("check_json", [](const py::object& lattice, const py::object& print,
-                         const std::string& machine, const py::dict& settings) {
-    Settings st;
-    if (!machine.empty()) st.load_toml_file(machine);
-    for (const auto& [k, v] : settings) {
-      const auto key = k.cast<std::string>();
-      st.set(key, to_value(key, v), {"keyword " + key});
-    }
-    std::shared_ptr<Graph> given =
-        py::isinstance<Graph>(lattice) ? lattice.cast<std::shared_ptr<Graph>>() : nullptr;
-    std::shared_ptr<Toolpath> printed =
-        py::isinstance<Toolpath>(print) ? print.cast<std::shared_ptr<Toolpath>>() : nullptr;
-    const std::string lattice_path = given ? "" : lattice.cast<std::string>();
-    const std::string print_path = printed ? "" : print.cast<std::string>();
-    py::gil_scoped_release release;
-    Diagnostics diag;
-    PrintCheck run(st, !machine.empty());
-    if (given)
-      run.set_design(*given, diag);
-    else
-      run.read_design(lattice_path, diag);
-    const Toolpath tp = printed ? *printed : run.read(print_path, diag);
-    return collision_check_json(run.check(tp), run.options());
+      py::arg("route"), py::arg("design"), py::arg("print"), py::arg("machine"),
+      py::arg("settings"));
+  m.def("reader_sections", [](const std::string& name) { return reader_spec(name).sections; });
+  m.def("reader_keys", [](const std::string& name) {
+    const ReaderSpec& r = reader_spec(name);
+    std::vector<std::string> keys;
+    for (const auto& s : all_settings())
+      if (!s.flag.empty() && reader_reads(r, s)) keys.push_back(s.key);
+    return keys;
   });
   // Parses .vcad text (errors with line and column); returns the design's bounds if it has a root.
   m.def("parse_vcad", [](const std::string& text, const std::string& name) {

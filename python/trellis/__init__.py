@@ -402,9 +402,10 @@ def lattice3d(output=None, *, preview=None, progress=None, set=None, **settings)
 def plan(planner, lattice, output=None, *, machine=None, gcode=None, report=None, preview=None,
          progress=None, set=None, **settings):
     """Plans paths over a lattice (a file or a ``Lattice``): planner 'gippo', 'euler' or 'aero'."""
-    if planner not in ("gippo", "euler", "aero"):
-        raise SettingError(f"unknown planner '{planner}' (expected gippo, euler or aero)",
-                           element="planner")
+    planners = next(s["choices"] for s in _trellis.settings() if s["key"] == "plan.planner")
+    if planner not in planners:
+        raise SettingError(f"unknown planner '{planner}' (expected {', '.join(planners[:-1])} or "
+                           f"{planners[-1]})", element="planner")
     return _call_object("plan", lattice, {"toolpath": output, "gcode": gcode, "report": report,
                                           "preview": preview}, machine, set, progress, settings,
                         command=planner, extra={"plan.planner": planner})
@@ -437,31 +438,49 @@ def _core_or_path(obj, kind, name):
     return os.fspath(obj)
 
 
-def analyze(gcode, design=None, *, bead_width=0.0, layer_height=0.0, align=False, strict=False,
-            commanded_mixtures=False):
+def _reader_keywords(reader):
+    """keyword (flag with _) -> setting key, for the settings a reader route takes
+    (trellis check, analyze, ...: the schema's flags of its sections)."""
+    info = {s["key"]: s for s in _trellis.settings()}
+    return {info[k]["flag"].replace("-", "_"): k for k in _trellis.reader_keys(reader)}
+
+
+def _read(reader, design, print_file, machine, set, kwargs, fallback=None):
+    keywords = _reader_keywords(reader)
+    values = {}
+    for name, value in kwargs.items():
+        key = keywords.get(name) or (fallback(name) if fallback else None)
+        if key is None:
+            raise SettingError(f"unknown keyword '{name}' for trellis.{reader}() (expected one of "
+                               f"{', '.join(sorted(keywords))}); any setting it reads can be "
+                               "given as set={'section.key': value}", element=name)
+        values[key] = value
+    values.update(set or {})
+    import json
+    with _MachineFile(machine) as path:
+        return json.loads(_trellis.read_json(reader, design, print_file, path, values))
+
+
+def analyze(gcode, design=None, *, machine=None, set=None, **settings):
     """Measures a print against a design lattice: the same numbers as `trellis analyze`, as a
     dict. ``gcode`` is any G-code file (ours or another slicer's) or a ``Toolpath`` (measured as
     planned: no filament or retractions, which the machine adds); ``design`` a lattice file or a
-    ``Lattice``. Graded G-code with a mixing look-ahead is measured with its mixtures as
-    deposited, or as commanded with ``commanded_mixtures=True``."""
-    import json
-    return json.loads(_trellis.analyze_json(
-        _core_or_path(gcode, Toolpath, "gcode"),
-        None if design is None else _core_or_path(design, Lattice, "design"),
-        bead_width, layer_height, align, strict, commanded_mixtures))
+    ``Lattice``. Keywords are the [analyze] and [read] settings (bead_width, layer_height, align,
+    strict, commanded_mixtures, ...): graded G-code with a mixing look-ahead is measured with its
+    mixtures as deposited, or as commanded with ``commanded_mixtures=True``."""
+    return _read("analyze", None if design is None else _core_or_path(design, Lattice, "design"),
+                 _core_or_path(gcode, Toolpath, "gcode"), machine, set, settings)
 
 
-def check(lattice, print_file, *, machine=None, set=None, **nozzle):
+def check(lattice, print_file, *, machine=None, set=None, **settings):
     """Replays a print against the nozzle model (collisions, struts missing or repeated), as a
     dict; ``lattice`` a file or a ``Lattice``, ``print_file`` G-code, a toolpath file or a
-    ``Toolpath``; nozzle settings by keyword (radius, tip_clearance, node_clearance, cone)."""
-    import json
-    values = {f"nozzle.{k}": v for k, v in nozzle.items()}
-    values.update(set or {})
-    with _MachineFile(machine) as path:
-        return json.loads(_trellis.check_json(_core_or_path(lattice, Lattice, "lattice"),
-                                              _core_or_path(print_file, Toolpath, "print_file"),
-                                              path, values))
+    ``Toolpath``. Keywords are the [check], [nozzle] and [lattice] settings (snap,
+    nozzle_radius, ...; the nozzle's also by their keys' names: radius, tip_clearance,
+    node_clearance, cone)."""
+    return _read("check", _core_or_path(lattice, Lattice, "lattice"),
+                 _core_or_path(print_file, Toolpath, "print_file"), machine, set, settings,
+                 lambda name: f"nozzle.{name}")
 
 
 def pbf(output=None, *, envelope=None, machine=None, report=None, toolpath=None, preview=None,

@@ -417,10 +417,41 @@ def read_lattice(path: PathLike, merge_tolerance: float = 1e-6) -> Lattice: ...
 def read_toolpath(path: PathLike, *, commanded_mixtures: bool = ...) -> Toolpath: ...
 def notebook_viewer() -> Any: ...
 def parse_vcad(text: str, name: str = ...) -> dict[str, Any]: ...
-def analyze(gcode: PathLike | Toolpath, design: PathLike | Lattice | None = None, *, bead_width: float = ...,
-            layer_height: float = ..., align: bool = ..., strict: bool = ...,
-            commanded_mixtures: bool = ...) -> dict[str, Any]: ...
-def check(lattice: PathLike | Lattice, print_file: PathLike | Toolpath, *, machine: Machine | None = None,
-          set: Mapping[str, Any] | None = None, **nozzle: float) -> dict[str, Any]: ...
 from .fields import (Field, Mesh, cone, cube, cylinder, difference, fgrade, function, gyroid,
                      intersection, mesh, rectprism, sphere, torus, tpms, union)
+
+def analyze(
+    gcode: PathLike | Toolpath, design: PathLike | Lattice | None = None, *,
+    machine: Machine | None = None,
+    set: Mapping[str, Any] | None = None,
+    acceleration: float = ...,  # analyze.acceleration: for the print-time estimate when the file sets none (its M204 or our header's speed.acceleration win; 0 = feed rates only)
+    align: bool = ...,  # analyze.align: move the print's XY centre onto the design's (for parts placed on the bed; done anyway, with a note, when the print lies mostly outside the design)
+    bead_width: float = ...,  # analyze.bead_width: bead width: deposits within width/2 cover a strut
+    commanded_mixtures: bool = ...,  # read.commanded_mixtures: graded G-code with a mixing look-ahead: read the mixtures as commanded (the file's lines), not as deposited (the look-ahead undone, the 
+    filament_diameter: float = ...,  # analyze.filament_diameter: build plates: filament diameter for each part's volume
+    follow_symlinks: bool = ...,  # run.follow_symlinks: write an output whose path is a symbolic link to the file it points to (the link kept); without it such an output is refused
+    layer_height: float = ...,  # analyze.layer_height: nozzle z = design z + this
+    layers: bool = ...,  # analyze.layers: also print a line per layer: extrusion starts (with a design, beside the fewest paths its struts allow), retractions, travel moves and length
+    strict: bool = ...,  # read.strict: stop at the first unreadable line (default: warn and skip)
+    valve_off: str = ...,  # read.valve_off: pneumatic files: the command that closes the valve
+    valve_on: str = ...,  # read.valve_on: pneumatic files: the command that opens the valve (empty: the machine profile's, else the file's header)
+) -> dict[str, Any]: ...
+
+def check(
+    lattice: PathLike | Lattice, print_file: PathLike | Toolpath, *,
+    machine: Machine | None = None,
+    set: Mapping[str, Any] | None = None,
+    commanded_mixtures: bool = ...,  # read.commanded_mixtures: graded G-code with a mixing look-ahead: read the mixtures as commanded (the file's lines), not as deposited (the look-ahead undone, the 
+    cone: float = ...,  # nozzle.cone: struts within this angle of vertical print bottom-up
+    follow_symlinks: bool = ...,  # run.follow_symlinks: write an output whose path is a symbolic link to the file it points to (the link kept); without it such an output is refused
+    force: bool = ...,  # run.force: run even when the estimate is beyond run.max_memory or run.max_time
+    keep_graph: bool = ...,  # lattice.keep_graph: the lattice exactly as given: no node merging, no T-junction splitting
+    max_memory: float = ...,  # run.max_memory: refuse a run whose estimate (made from its settings before it starts) needs more memory than this
+    max_time: float = ...,  # run.max_time: refuse a run whose estimated time is longer than this
+    merge_tolerance: float = ...,  # lattice.merge_tolerance: merge nodes closer than this
+    node_clearance: float = ...,  # nozzle.node_clearance: no collision within this of a node the two struts share
+    nozzle_radius: float = ...,  # nozzle.radius: nozzle radius R (vertical cylinder)
+    overlap: float = ...,  # nozzle.overlap: the writer's node overlap: struts planned as if this much longer
+    snap: float = ...,  # check.snap: segment ends within this of a node are at it (at this default, plus the machine profile's node overlap)
+    tip_clearance: float = ...,  # nozzle.tip_clearance: material less than this above the tip is not hit
+) -> dict[str, Any]: ...

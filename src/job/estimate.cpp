@@ -16,9 +16,13 @@
 namespace trellis::routes {
 
 Budget budget_of(const Job& job, const Config& c, const Progress& progress) {
+  return budget_of(job.settings, c, progress);
+}
+
+Budget budget_of(const Settings& settings, const Config& c, const Progress& progress) {
   Budget b;
   b.seen = progress.estimate;
-  b.memory = job.settings.has("run.max_memory") ? c.budget.max_memory_mb * 1e6 : 0;
+  b.memory = settings.has("run.max_memory") ? c.budget.max_memory_mb * 1e6 : 0;
   b.seconds = c.budget.max_time;
   b.force = c.budget.force;
   return b;

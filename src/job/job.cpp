@@ -260,19 +260,16 @@ Job job_from_toml(const std::string& text, const std::string& origin, const std:
                              : c.machine.binary_gcode          ? ".bgcode"
                              : c.machine.marlin_family()       ? ".gcode"
                                                                : ".nc";
-    const std::string& r = job.route;
-    if (r == "lattice2d" || r == "lattice3d") def(job.output, ".lattice.json");
-    if (r == "plan") {
+    const RouteSpec& spec = route_spec(job.route);
+    if (spec.gcode_beside_toolpath) {
       def(job.toolpath, ".toolpath.json");
       if (job.input.empty()) def(job.lattice, ".lattice.json");
-      if (!job.machine.empty() && c.output.gcode) def(job.gcode, gext);
+      if (!job.machine.empty() && c.output.gcode) def(job.*spec.main_output, gext);
+    } else {
+      def(job.*spec.main_output, spec.output_suffix.empty() ? gext : spec.output_suffix);
     }
-    if (r == "gcode" || r == "slice" || r == "nonplanar") def(job.output, gext);
-    if (r == "pbf") def(job.output, ".cli");
-    if (r == "surface") def(job.output, ".stl");
-    if (r != "surface" && r != "gcode" && r != "lattice2d" && r != "lattice3d")
-      def(job.report, ".report.json");
-    if (c.output.png && r != "gcode") def(job.preview, "_preview");
+    if (spec.report) def(job.report, ".report.json");
+    if (c.output.png && spec.preview) def(job.preview, "_preview");
     // Nothing may land outside the output folder, through a symbolic link either.
     for (const std::string* out :
          {&job.output, &job.report, &job.toolpath, &job.gcode, &job.lattice, &job.preview})
@@ -326,10 +323,12 @@ Job rerun_job(const std::string& path, const std::string& target) {
   Job job = job_from_output(path);
   const std::string to = target.empty() ? path : target;
   job.output = job.report = job.toolpath = job.gcode = job.lattice = job.preview = "";
-  if (fs::path(path).extension() == ".json")
-    (job.route == "lattice2d" || job.route == "lattice3d" ? job.output : job.toolpath) = to;
+  // A JSON output is the main output of a route that makes a lattice, else a toolpath.
+  const RouteSpec& spec = route_spec(job.route);
+  if (fs::path(path).extension() == ".json" && !spec.output_suffix.ends_with(".json"))
+    job.toolpath = to;
   else
-    job.*route_spec(job.route).main_output = to;
+    job.*spec.main_output = to;
   return job;
 }
 

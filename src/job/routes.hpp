@@ -6,6 +6,7 @@
 
 #include "trellis/core/budget.hpp"
 #include "trellis/job/job.hpp"
+#include "trellis/job/readers.hpp"
 #include "trellis/machine/cli.hpp"
 #include "trellis/machine/gcode_writer.hpp"
 #include "trellis/render/render.hpp"
@@ -133,6 +134,7 @@ std::string fixed(double v, int decimals);
 // Estimates before work (estimate.cpp): each route checks its estimate with check_budget before
 // it allocates the work; the budget tells `progress.estimate` each estimate it checks.
 Budget budget_of(const Job& job, const Config& c, const Progress& progress);
+Budget budget_of(const Settings& settings, const Config& c, const Progress& progress);
 double threads_of_run();
 Estimate estimate_lattice2d(const AtlasParams& a, int layers);
 Estimate estimate_lattice3d(const Config& c);
@@ -149,5 +151,18 @@ Estimate estimate_gcode_of(const std::string& toolpath_json);
 // toolpath_json: the whole toolpath is also written as JSON (time and memory of its document).
 Estimate estimate_pbf_time(const PbfDesign& design, const PbfOptions& options, bool toolpath_json,
                            bool package_3mf = false);
+
+// The reader routes (job/readers.hpp): check (reader_check.cpp), view and render
+// (reader_view.cpp), analyze and compare (reader_analyze.cpp).
+JobResult reader_check(const ReadJob& job, const Config& c, Diagnostics& diag,
+                       const Progress& progress);
+JobResult reader_view(const ReadJob& job, const Config& c, Diagnostics& diag,
+                      const Progress& progress);
+JobResult reader_render(const ReadJob& job, const Config& c, Diagnostics& diag,
+                        const Progress& progress);
+JobResult reader_analyze(const ReadJob& job, const Config& c, Diagnostics& diag,
+                         const Progress& progress);
+JobResult reader_compare(const ReadJob& job, const Config& c, Diagnostics& diag,
+                         const Progress& progress);
 
 }  // namespace trellis::routes

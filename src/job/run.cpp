@@ -211,15 +211,14 @@ GcodeStats write_gcode_streamed(const std::string& path, Toolpath meta, std::siz
 
 void require_bath(const Job& job, const MachineProfile& m, const std::string& route,
                   const std::string& why) {
-  const std::string& out = job.*route_spec(job.route).main_output;
+  const RouteSpec& spec = route_spec(job.route);
+  const std::string& out = job.*spec.main_output;
   if (out.empty() || fs::path(out).extension() == ".json" || is_3mf_output(out) || m.has_bath())
     return;
   throw MachineError(route + ": " + why + ", but the machine '" + m.name +
                          "' prints in air (machine.flavor = " + std::string(to_string(m.flavor)) +
                          "); use a bath profile (machine.flavor = embedded), e.g. " +
-                         (route == "nonplanar" ? "profiles/fresh_nonplanar_2syringe.toml"
-                                               : "profiles/embedded_aero_410um.toml") +
-                         ", or write a toolpath (.json) instead of G-code",
+                         spec.bath_example + ", or write a toolpath (.json) instead of G-code",
                      {job.machine, 0, "machine.flavor"});
 }
 

@@ -240,6 +240,12 @@ std::string to_string(OntoKind kind) {
   return names[static_cast<int>(kind)];
 }
 
+std::string to_string(RenderColour colour) {
+  static const char* const names[] = {"auto",      "feature", "order", "mixture",
+                                      "commanded", "tool",    "set"};
+  return names[static_cast<int>(colour)];
+}
+
 std::string to_string(SurfaceKind kind) {
   static const char* const names[] = {"corrugation", "miura", "m-curve", "sphere-cap",
                                       "angle-test"};
@@ -352,7 +358,7 @@ const std::vector<std::pair<const char*, const char*>>& when_table() {
       {"aero.print_path", "aero.method=periodic"},
       {"aero.fewest_collisions", "aero.collisions=true"},
       {"aero.exact_struts", "aero.collisions=true"},
-      {"nozzle.", "plan.planner=aero"},
+      {"nozzle.", "plan.planner=aero or route=check|view"},
       {"plan.seed", "plan.planner=gippo|aero"},
       {"output.preview_layers", "@preview; route=plan|slice|pbf|nonplanar"},
       {"output.image_size", "@preview"},
@@ -441,6 +447,17 @@ const std::vector<std::pair<const char*, const char*>>& when_table() {
       {"surface.height", "surface.kind=m-curve"},
       {"surface.radius", "surface.kind=sphere-cap"},
       {"surface.diameter", "surface.kind=sphere-cap"},
+      // The reader routes (job/readers.hpp): each reads only some of the sections they share.
+      {"read.valve_on", "route=analyze|compare|view|render"},
+      {"read.valve_off", "route=analyze|compare|view|render"},
+      {"read.commanded_mixtures", "route=check|analyze|compare"},
+      {"read.strict", "route=analyze|compare"},
+      {"analyze.filament_diameter", "route=analyze"},
+      {"run.threads", "route!=check|analyze|compare|view|render"},
+      {"run.max_memory", "route!=analyze|compare|view"},
+      {"run.max_time", "route!=analyze|compare|view"},
+      {"run.force", "route!=analyze|compare|view"},
+      {"run.progress", "route!=check|analyze|compare|view"},
   };
   return t;
 }
@@ -1226,6 +1243,60 @@ std::vector<Setting> make_table() {
       "write an output whose path is a symbolic link to the file it points to "
       "(the link kept); without it such an output is refused",
       "follow-symlinks", [](C& c) -> auto& { return c.follow_symlinks; }));
+
+  // read.*, check.*, analyze.*, render.*, view.*: the reader routes (job/readers.hpp).
+  t.push_back(text("read.valve_on", "pneumatic files: the command that opens the valve (empty: "
+                   "the machine profile's, else the file's header)", "valve-on",
+                   [](C& c) -> auto& { return c.read.gcode.valve_on; }));
+  t.push_back(text("read.valve_off", "pneumatic files: the command that closes the valve", "valve-off",
+                   [](C& c) -> auto& { return c.read.gcode.valve_off; }));
+  t.push_back(boolean("read.commanded_mixtures",
+                      "graded G-code with a mixing look-ahead: read the mixtures as commanded (the "
+                      "file's lines), not as deposited (the look-ahead undone, the default)",
+                      "commanded-mixtures", [](C& c) -> auto& { return c.read.gcode.commanded_mixtures; }));
+  t.push_back(boolean("read.strict", "stop at the first unreadable line (default: warn and skip)",
+                      "strict", [](C& c) -> auto& { return c.read.gcode.stop_on_error; }));
+  t.push_back(number("check.snap", "mm", 0, 100,
+                     "segment ends within this of a node are at it (at this default, plus the "
+                     "machine profile's node overlap)",
+                     "snap", [](C& c) -> auto& { return c.read.snap; }));
+  t.push_back(positive("analyze.bead_width", "mm", 100,
+                       "bead width: deposits within width/2 cover a strut", "bead-width",
+                       [](C& c) -> auto& { return c.read.analysis.width; }));
+  t.push_back(number("analyze.layer_height", "mm", -100, 100, "nozzle z = design z + this",
+                     "layer-height", [](C& c) -> auto& { return c.read.analysis.layer_height; }));
+  t.push_back(number("analyze.acceleration", "mm/s²", 0, 1e6,
+                     "for the print-time estimate when the file sets none (its M204 or our "
+                     "header's speed.acceleration win; 0 = feed rates only)",
+                     "acceleration", [](C& c) -> auto& { return c.read.analysis.acceleration; }));
+  t.push_back(boolean("analyze.align",
+                      "move the print's XY centre onto the design's (for parts placed on the bed; "
+                      "done anyway, with a note, when the print lies mostly outside the design)",
+                      "align", [](C& c) -> auto& { return c.read.analysis.align_centers; }));
+  t.push_back(boolean("analyze.layers",
+                      "also print a line per layer: extrusion starts (with a design, beside the "
+                      "fewest paths its struts allow), retractions, travel moves and length",
+                      "layers", [](C& c) -> auto& { return c.read.per_layer; }));
+  t.push_back(positive("analyze.filament_diameter", "mm", 100,
+                       "build plates: filament diameter for each part's volume",
+                       "filament-diameter", [](C& c) -> auto& { return c.read.filament_diameter; }));
+  t.push_back(choice_named<RenderColour>("render.colour", 7,
+                     "what colour means: feature, order, mixture (as deposited), commanded (the "
+                     "mixture as commanded), tool (laser) or set (laser parameter set: contour k, "
+                     "core, up-/down-skin hatch); auto: tool for a laser file of several lasers, "
+                     "else feature", "colour", [](C& c) -> auto& { return c.read.colour; }));
+  t.push_back(derived(integer("render.layer", 0, 1e9, "layer index (0-based): one PNG, written to -o",
+                              "layer", [](C& c) -> auto& { return c.read.layer; }),
+                      "every layer, each OUT.layerNNN.png"));
+  t.push_back(integer("render.image_size", 16, 8000, "image size in pixels", "image-size",
+                      [](C& c) -> auto& { return c.read.render.size_px; }));
+  t.push_back(derived(positive("render.bead_width", "mm", 100, "line width", "bead-width",
+                               [](C& c) -> auto& { return c.read.render.bead_width; }),
+                      "from the toolpath"));
+  t.push_back(boolean("render.travel", "draw travel moves (dashed grey)", "travel",
+                      [](C& c) -> auto& { return c.read.render.travel; }));
+  t.push_back(text("view.title", "page title (empty: the file names)", "title",
+                   [](C& c) -> auto& { return c.read.title; }));
   apply_when(t);
   return t;
 }
@@ -1273,6 +1344,11 @@ const std::vector<std::pair<std::string, std::string>>& setting_sections() {
       {"plate", "build plates of many parts ([[part]] tables)"},
       {"output", "previews and extra outputs"},
       {"run", "execution"},
+      {"read", "reading prints back (check, analyze, compare, view, render)"},
+      {"check", "trellis check: a print replayed against the nozzle model"},
+      {"analyze", "trellis analyze and compare: a print measured against its design"},
+      {"render", "trellis render: layer PNGs of a print"},
+      {"view", "trellis view: the 3D viewer page"},
   };
   return s;
 }

@@ -665,6 +665,21 @@ std::string unused_reason(const Setting& s, const UseContext& use) {
   return "";
 }
 
+bool route_uses(const Setting& s, const std::string& route) {
+  if (s.when.empty()) return true;
+  UseContext use;
+  use.route = route;
+  for (const auto& term : split_on(s.when, "; ")) {
+    const auto alts = split_on(term, " or ");
+    const bool only_route = std::all_of(alts.begin(), alts.end(), [](const std::string& a) {
+      return a.rfind("route=", 0) == 0 || a.rfind("route!=", 0) == 0;
+    });
+    if (only_route && !unused_reason(Setting{.key = s.key, .when = term}, use).empty())
+      return false;
+  }
+  return true;
+}
+
 std::string when_text(const std::string& when) {
   std::string out;
   for (const auto& term : split_on(when, "; ")) {

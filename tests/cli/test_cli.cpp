@@ -3,6 +3,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -15,6 +16,7 @@
 #include "trellis/core/file.hpp"
 #include "trellis/geom/mesh.hpp"
 #include "trellis/geom/mesh_io.hpp"
+#include "trellis/job/readers.hpp"
 #include "trellis/toolpath/json.hpp"
 
 namespace fs = std::filesystem;
@@ -407,6 +409,62 @@ TEST(Cli, AeroPipelineLatticePlanGcodeCheck) {
   EXPECT_EQ(run("lattice3d --cell-type octahedral -o " + in_work("never.json")).code, 2);
   EXPECT_EQ(run("plan aero " + lat + " -o x --nozzle-radius -1").code, 2);
   EXPECT_EQ(run("check " + lat + " " + in_work("missing.nc")).code, 2);
+}
+
+// The reader commands' flags are the schema's: each offers every flagged setting of its sections
+// that its route= conditions allow, and none that they exclude.
+TEST(Cli, ReaderFlagsAreTheSchemasSettingsTheyRead) {
+  for (const trellis::ReaderSpec& reader : trellis::reader_specs()) {
+    const CmdResult r = run(reader.name + " --help");
+    ASSERT_EQ(r.code, 0) << reader.name;
+    std::size_t offered = 0, withheld = 0;
+    for (const trellis::Setting& s : trellis::all_settings()) {
+      if (s.flag.empty()) continue;
+      const bool own = std::find(reader.sections.begin(), reader.sections.end(), s.section()) !=
+                       reader.sections.end();
+      if (!own) continue;
+      const bool listed = std::regex_search(r.out, std::regex("\\n  --" + s.flag + "[ \\n]"));
+      EXPECT_EQ(listed, trellis::reader_reads(reader, s)) << reader.name << " --" << s.flag;
+      (listed ? offered : withheld) += 1;
+      if (listed) EXPECT_NE(r.out.find(s.key), std::string::npos) << reader.name << " " << s.key;
+    }
+    EXPECT_GT(offered, 0u) << reader.name;
+    // Every reader shares the run section and leaves some of it (run.threads) to the routes.
+    EXPECT_GT(withheld, 0u) << reader.name;
+  }
+}
+
+// A setting a reader does not read is refused (exit 2) naming it, never accepted silently:
+// another route's section, or one of its own sections' settings its route= condition excludes.
+TEST(Cli, ReadersRefuseSettingsTheyDoNotRead) {
+  const std::string lat = in_work("rr.json"), tp = in_work("rr.toolpath.json");
+  ASSERT_EQ(run("lattice2d --pattern square --cell 2 --size 6,6 -o " + lat).code, 0);
+  ASSERT_EQ(run("plan euler " + lat + " -o " + tp).code, 0);
+  struct Case {
+    std::string args, named;
+  };
+  for (const Case& c : std::vector<Case>{
+           {"check " + lat + " " + tp + " --set slice.seam_seed=3", "[slice]"},
+           {"check " + lat + " " + tp + " --set read.strict=true", "read.strict"},
+           {"render " + tp + " -o " + in_work("rr.png") + " --set read.commanded_mixtures=true",
+            "read.commanded_mixtures"},
+           {"compare " + lat + " " + tp + " --set analyze.filament_diameter=2.85",
+            "analyze.filament_diameter"},
+           {"view " + tp + " -o " + in_work("rr.html") + " --set run.max_time=5", "run.max_time"},
+           {"analyze " + tp + " --set render.layer=1", "[render]"}}) {
+    const CmdResult r = run(c.args);
+    EXPECT_EQ(r.code, 2) << c.args << "\n" << r.out;
+    EXPECT_NE(r.err.find(c.named), std::string::npos) << c.args << "\n" << r.err;
+  }
+  // What they read is taken, from --set as from the flag.
+  const CmdResult flag =
+      run("check " + lat + " " + tp + " --snap 0.2 --report " + in_work("a.json"));
+  const CmdResult set =
+      run("check " + lat + " " + tp + " --set check.snap=0.2 --report " + in_work("b.json"));
+  ASSERT_EQ(flag.code, 0) << flag.err;
+  ASSERT_EQ(set.code, 0) << set.err;
+  EXPECT_NE(trellis::read_file(in_work("a.json")).find("\"snap_mm\": 0.2"), std::string::npos);
+  EXPECT_EQ(trellis::read_file(in_work("a.json")), trellis::read_file(in_work("b.json")));
 }
 
 TEST(Cli, GradedDesignStrategy2WritesMixtures) {

@@ -20,6 +20,8 @@
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/job/job.hpp"
+#include "trellis/job/readers.hpp"
+#include "trellis/lattice/io.hpp"
 #include "trellis/machine/cli.hpp"
 #include "trellis/toolpath/json.hpp"
 
@@ -590,6 +592,67 @@ TEST(Jobs, MachineSettingsInAJobKeepTheirPrecision) {
   const auto [e3, j3] = filament("4e-7");
   EXPECT_EQ(std::get<double>(j3.settings.value("extrusion.k")), 4e-7);
   EXPECT_EQ(std::get<double>(j2.settings.value("extrusion.k")), 0.123456789);
+}
+
+// The reader routes give one answer whoever calls them: a design and a print read from their
+// files (the CLI) or handed over in memory (Python), for check and analyze alike; and the check
+// of a print that breaks no rule exits 0, of one printed top layer first 1.
+TEST(Readers, FilesAndObjectsInMemoryGiveTheSameReport) {
+  const std::string lat = in_work("rd.json"), tp = in_work("rd.toolpath.json");
+  ASSERT_EQ(run("lattice2d --pattern honeycomb --cell 2 --size 8,8 -o " + lat).code, 0);
+  ASSERT_EQ(run("plan euler " + lat + " -o " + tp).code, 0);
+  Diagnostics diag;
+  const auto graph = std::make_shared<Graph>(read_lattice(lat, {}, diag));
+  const auto toolpath = std::make_shared<Toolpath>(read_toolpath(tp));
+  auto without_name = [](const std::string& json) {
+    auto j = nlohmann::json::parse(json);
+    j.erase("name");
+    return j;
+  };
+  for (const char* route : {"check", "analyze"}) {
+    ReadJob files;
+    files.route = route;
+    files.design = lat;
+    files.prints = {tp};
+    files.settings.set("nozzle.radius", 0.3, {"keyword nozzle.radius"});
+    ReadJob objects = files;
+    objects.design.clear();
+    objects.prints.clear();
+    objects.design_graph = graph;
+    objects.print = toolpath;
+    if (std::string(route) == "analyze") {
+      files.settings = objects.settings = Settings();  // analyze has no nozzle
+      files.settings.set("analyze.bead_width", 0.3, {"keyword analyze.bead_width"});
+      objects.settings = files.settings;
+    }
+    const JobResult a = run_reader(files, diag), b = run_reader(objects, diag);
+    EXPECT_EQ(without_name(a.report_json), without_name(b.report_json)) << route;
+    EXPECT_EQ(a.exit_code, 0) << route << a.summary;
+    EXPECT_FALSE(a.summary.empty()) << route;
+  }
+  // The settings given reach the run: the report records them.
+  ReadJob snapped;
+  snapped.route = "check";
+  snapped.design_graph = graph;
+  snapped.print = toolpath;
+  snapped.settings.set("check.snap", 0.125, {"keyword check.snap"});
+  const auto report = nlohmann::json::parse(run_reader(snapped, diag).report_json);
+  EXPECT_EQ(report["nozzle"]["snap_mm"], 0.125);
+  ReadJob top_first;
+  top_first.route = "check";
+  top_first.design =
+      write("flat.json", "{\"nodes\":[[0,0,0],[5,0,0],[0,0,2],[5,0,2]],\"edges\":[[0,1],[2,3]]}");
+  top_first.prints = {write("top.json",
+                            "{\"format\":\"trellis.toolpath\",\"version\":1,\"layers\":[{\"z\":0,"
+                            "\"paths\":[{\"points\":[[0,0,2],[5,0,2]]},{\"points\":[[0,0,0],[5,0,"
+                            "0]]}]}]}")};
+  EXPECT_EQ(run_reader(top_first, diag).exit_code, 1);
+  // A reader that is not one, and a setting of a section it does not read, are refused.
+  top_first.route = "inspect";
+  EXPECT_THROW(run_reader(top_first, diag), SettingError);
+  top_first.route = "view";
+  top_first.settings.set("slice.seam_seed", 2LL, {"keyword slice.seam_seed"});
+  EXPECT_THROW(run_reader(top_first, diag), SettingError);
 }
 
 TEST(Cli, MisspeltCommandsAndFlagsSuggestTheNearest) {

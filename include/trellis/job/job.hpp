@@ -133,8 +133,9 @@ struct JobResult {
   std::shared_ptr<const Toolpath> toolpath;
   std::shared_ptr<const Graph> lattice;
   JobGeometry geometry;
-  std::string summary;  // one or two lines for the terminal
-  int exit_code = 0;    // 1 when a check found problems
+  std::string summary;      // one or two lines for the terminal
+  int exit_code = 0;        // 1 when a check found problems
+  std::string report_json;  // the reader routes (job/readers.hpp): the report, written or not
 };
 
 // The layers of a sharded run as `trellis merge` hands them to the route's writer (job/plate.hpp).
@@ -166,6 +167,17 @@ struct RouteSpec {
   // or when it is written under a name other than .json or .stl.
   enum class Gcode { never, always, when_written, when_named_gcode };
   Gcode gcode = Gcode::never;
+  // A job's default output names in its output folder (the job's name + a suffix): the main
+  // output's ("" = the machine's G-code extension); whether a report and previews are written.
+  std::string output_suffix;
+  bool report = true;
+  bool preview = true;
+  // Its main output is G-code written beside its toolpath (plan): the toolpath is named
+  // .toolpath.json, the G-code written with a machine and output.gcode, the lattice it makes
+  // when it has no input .lattice.json; -o names the toolpath.
+  bool gcode_beside_toolpath = false;
+  // A bath profile to name when its G-code is asked of a machine that prints in air.
+  std::string bath_example = "profiles/embedded_aero_410um.toml";
 };
 
 const std::vector<RouteSpec>& route_specs();

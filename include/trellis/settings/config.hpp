@@ -6,13 +6,17 @@
 #include <string>
 #include <vector>
 
+#include "trellis/analysis/collisions.hpp"
+#include "trellis/analysis/metrics.hpp"
 #include "trellis/field/field.hpp"
 #include "trellis/lattice/atlas.hpp"
 #include "trellis/lattice/cells3d.hpp"
+#include "trellis/machine/gcode_reader.hpp"
 #include "trellis/machine/laser.hpp"
 #include "trellis/machine/profile.hpp"
 #include "trellis/plan/aero.hpp"
 #include "trellis/plan/plan.hpp"
+#include "trellis/render/render.hpp"
 #include "trellis/slice/nonplanar.hpp"
 #include "trellis/slice/pbf.hpp"
 #include "trellis/slice/pbf_lasers.hpp"
@@ -40,6 +44,9 @@ enum class GradeAxis { Z, R };
 enum class OntoKind { Flat, SphereCap, Mesh, Function };
 // surface.kind: the non-planar paper's generated test surfaces, and the angle test.
 enum class SurfaceKind { Corrugation, Miura, MCurve, SphereCap, AngleTest };
+// render.colour: what a layer PNG's colours mean; auto: tool for a laser file of several lasers,
+// else feature.
+enum class RenderColour { Auto, Feature, Order, Mixture, Commanded, Tool, Set };
 std::string to_string(LatticePlanner planner);
 std::string to_string(PbfRoute route);
 std::string to_string(PbfStrategy strategy);
@@ -48,6 +55,7 @@ std::string to_string(Lattice3dKind kind);
 std::string to_string(SurfaceKind kind);
 std::string to_string(OntoKind kind);  // "" for flat
 std::string to_string(GradeAxis axis);
+std::string to_string(RenderColour colour);
 // Whether the strategy scans solid parts (not TPMS sheets).
 inline bool solid_strategy(PbfStrategy s) {
   return s != PbfStrategy::Hybrid && s != PbfStrategy::R67;
@@ -150,6 +158,20 @@ struct BudgetConfig {
   bool force = false;
 };
 
+// read.*, check.*, analyze.*, render.*, view.*: the reader routes, which read prints back
+// (job/readers.hpp).
+struct ReadConfig {
+  GcodeReadOptions gcode;   // read.valve_on, read.valve_off, read.commanded_mixtures, read.strict
+  double snap = kNodeSnap;  // check.snap (mm): at this default, plus the profile's node overlap
+  AnalysisParams analysis;  // analyze.bead_width, layer_height, acceleration, align
+  bool per_layer = false;   // analyze.layers: a line per layer
+  double filament_diameter = MachineProfile{}.filament_diameter;  // analyze.filament_diameter
+  RenderColour colour = RenderColour::Auto;                       // render.colour
+  int layer = -1;        // render.layer: unset (-1) = every layer
+  RenderOptions render;  // render.image_size, render.bead_width, render.travel
+  std::string title;     // view.title: empty = the file names
+};
+
 // Build plates (job/plate.hpp).
 struct PlateConfig {
   double clearance = 2;  // plate.clearance (mm): least gap between the parts' footprints
@@ -188,6 +210,7 @@ struct Config {
   // run.progress: progress on stderr (the command line reads it): not given = on a terminal only.
   bool progress = false;
   BudgetConfig budget;  // run.max_memory, run.max_time, run.force
+  ReadConfig read;      // the reader routes' own sections
 };
 
 }  // namespace trellis

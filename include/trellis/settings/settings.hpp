@@ -117,6 +117,9 @@ struct UseContext {
 // Why `s` has no effect in this run ("" when it is used): e.g. "it is used only when
 // lattice2d.pattern = voronoi (here honeycomb)".
 std::string unused_reason(const Setting& s, const UseContext& use);
+// Whether `route` uses `s` at all: every term of its `when` that names only the route holds (the
+// other terms depend on the run). The reader routes' flags and their --set follow it.
+bool route_uses(const Setting& s, const std::string& route);
 // `when` as words for documentation ("lattice2d.pattern = voronoi; G-code is written").
 std::string when_text(const std::string& when);
 
