@@ -293,6 +293,7 @@ const std::vector<std::pair<const char*, const char*>>& when_table() {
       {"gcode.binary", "machine.firmware=prusa"},
       {"machine.firmware", "@bgcode or gcode.binary=true"},
       {"machine.printer_model", "@bgcode or gcode.binary=true"},
+      {"gcode.binary_encoding", "@bgcode or gcode.binary=true"},
       {"extrusion.filament_diameter", "@gcode"},
       {"extrusion.multiplier", "@gcode"},
       {"extrusion.k", "@gcode"},
