@@ -67,7 +67,7 @@ const std::vector<RouteSpec>& route_specs() {
        true, true, &routes::slice, &merge_slice, &Job::output, RouteSpec::Gcode::always},
       {"pbf",
        "design",
-       {"machine", "laser", "scan", "timing", "pbf", "plate", "output", "run"},
+       {"machine", "laser", "lasers", "scan", "timing", "pbf", "plate", "output", "run"},
        true,
        true,
        true,
