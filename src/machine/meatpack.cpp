@@ -78,11 +78,14 @@ bool spaces_restorable(std::string_view line) {
 
 class Packer {
  public:
-  explicit Packer(std::string& out) : out_(out) {}
+  Packer(std::string& out, bool no_spaces_allowed) : out_(out), allowed_(no_spaces_allowed) {}
 
   void line(std::string_view text, bool ends) {
     if (!ends || text.find(';') != std::string_view::npos) return raw(text, ends);
-    const bool no_spaces = spaces_restorable(text);
+    // No-spaces mode while the block stays packed to more than half its text (see
+    // meatpack_encode), with room for this line's dropped spaces.
+    const bool no_spaces = allowed_ && 2 * out_.size() >= consumed_ + 16 && spaces_restorable(text);
+    consumed_ += text.size() + 1;
     packing(true);
     spaces(no_spaces);
     pending_ = -1;
@@ -110,6 +113,7 @@ class Packer {
   // Text as it is (a line with a comment, or a line a block ends or starts inside): packing off;
   // the no-spaces mode off too unless it is a comment line (our reader would put spaces back).
   void raw(std::string_view text, bool ends) {
+    consumed_ += text.size() + (ends ? 1 : 0);
     if (!text.starts_with(';')) spaces(false);
     packing(false);
     for (const char c : text)
@@ -138,6 +142,8 @@ class Packer {
   }
 
   std::string& out_;
+  bool allowed_;
+  std::size_t consumed_ = 0;           // text bytes packed so far
   int packing_ = -1, no_spaces_ = -1;  // -1: not set in this block yet
   int pending_ = -1;                   // the code waiting for its pair's second character
   char first_ = 0;
@@ -145,10 +151,12 @@ class Packer {
 
 }  // namespace
 
-std::string meatpack_encode(std::string_view text, bool continues_line) {
+namespace {
+
+std::string pack(std::string_view text, bool continues_line, bool no_spaces_allowed) {
   std::string out;
   out.reserve(text.size() * 3 / 4 + 16);
-  Packer packer(out);
+  Packer packer(out, no_spaces_allowed);
   while (!text.empty()) {
     const std::size_t nl = text.find('\n');
     const bool ends = nl != std::string_view::npos;
@@ -161,6 +169,19 @@ std::string meatpack_encode(std::string_view text, bool continues_line) {
     continues_line = false;
     text.remove_prefix(ends ? nl + 1 : text.size());
   }
+  return out;
+}
+
+}  // namespace
+
+std::string meatpack_encode(std::string_view text, bool continues_line) {
+  std::string out = pack(text, continues_line, true);
+  // PrusaSlicer's decoder (libbgcode MeatPack::unbinarize, which its G-code viewer runs) decodes
+  // into a buffer of twice the packed size and loses a character when it must grow it right
+  // after putting back a space. So lines drop their spaces only while the block stays packed to
+  // more than half its text (Packer::line), and a block that still is not is packed again with
+  // every space kept: that decoder then reads it in one buffer.
+  if (out.size() * 2 <= text.size()) out = pack(text, continues_line, false);
   return out;
 }
 
