@@ -228,21 +228,19 @@ def meatpack_decode(data: bytes, state: dict) -> bytes:
             continue
         lo, hi = b & 0xF, b >> 4
         i += 1
-        first = None
-        if lo == 0xF:
-            first = data[i]
+
+        def take(nibble):  # a nibble's character, or the full byte that follows for 0xF
+            nonlocal i
+            if nibble != 0xF:
+                return code(nibble)
             i += 1
-        else:
-            first = code(lo)
+            return data[i - 1]
+
+        first = take(lo)
         if first == 0x0A and lo != 0xF:
             emit(first)
             continue
-        second = None
-        if hi == 0xF:
-            second = data[i]
-            i += 1
-        else:
-            second = code(hi)
+        second = take(hi)
         emit(first)
         emit(second)
     state.update(packing=packing, no_spaces=no_spaces, g_line=g_line, prev=prev)

@@ -278,7 +278,9 @@ TEST(BgcodeWriter, MeatPackBlocksReadBackAsTheTextAndDecodeIndependently) {
       EXPECT_GT(packed.size() * 2, piece.size()) << "block " << blocks;
       at += take, rest.remove_prefix(take), ++blocks;
     }
-    // The independent decoder (tests/machine/bgcode_encode.py, Marlin's format).
+    // The independent decoder (tests/machine/bgcode_encode.py, Marlin's format), once: the
+    // small blocks, the most block starts.
+    if (block != 1000) continue;
     const std::string file = dir.file("m.bgcode"), out = dir.file("m.gcode");
     { std::ofstream(file, std::ios::binary) << bytes; }
     const std::string cmd = "/usr/bin/python3 " + std::string(TRELLIS_SOURCE_DIR) +
