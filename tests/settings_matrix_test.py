@@ -497,6 +497,9 @@ USE_WITH = {
                           "--set", "nonplanar.height_fn=0.1*x"], "0,0,10,8"),
     "pbf.plate_position": (["pbf", "--size", "3,3,0.3", "-o", "{d}/p.cli", "--set", "pbf.hatch_phase=origin"],
                            "20,30"),
+    # Each laser's own values act on a machine of several lasers.
+    **{key: (["pbf", "--size", "3,3,0.3", "-o", "{d}/p.cli", "--set", "laser.lasers=2"], value[0])
+       for key, value in TEXT.items() if key.startswith("lasers.")},
     # A kind's own rotation acts where a solid part has that kind (its thickness > 0).
     **{f"pbf.{kind}_hatch_rotation": (["pbf", D + "concave_cylinder.obj", "--layer-height", "0.2",
                                        "-o", "{d}/p.cli", "--set", f"pbf.{thickness}=0.4"], "10")
