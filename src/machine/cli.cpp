@@ -157,8 +157,8 @@ std::string header(BBox3 box, std::size_t layers, const std::string& source, con
       for (std::size_t k = 0; k < labels.size(); ++k) {
         const int part = static_cast<int>(k + 1);
         out += fmt::format("// PROFILE_DEF={} NAME=\"{} contour{}\" POWER={} SPEED={}{} //\n",
-                           block_id(part, labels.size(), l, false), labels[k], sfx,
-                           L.contour_power, L.contour_speed, las);
+                           block_id(part, labels.size(), l, false), labels[k], sfx, L.contour_power,
+                           L.contour_speed, las);
         out += fmt::format("// PROFILE_DEF={} NAME=\"{} hatch{}\" POWER={} SPEED={}{} //\n",
                            block_id(part, labels.size(), l, true), labels[k], sfx, L.hatch_power,
                            L.hatch_speed, las);
@@ -421,7 +421,8 @@ class Reader {
     if (got != 12 || end != static_cast<int>(text.size()) || n < 1 || n > 1000)
       fail(at, "a //laser N: …// line that does not say every value of laser N (1 to 1000)");
     t.contour_speed = l.contour_speed, t.hatch_speed = l.hatch_speed;
-    if (tp_.lasers.size() < static_cast<std::size_t>(n)) tp_.lasers.resize(static_cast<std::size_t>(n));
+    if (tp_.lasers.size() < static_cast<std::size_t>(n))
+      tp_.lasers.resize(static_cast<std::size_t>(n));
     tp_.lasers[static_cast<std::size_t>(n - 1)] = l;
   }
 

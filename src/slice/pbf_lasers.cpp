@@ -154,9 +154,8 @@ class Splitter {
     for (const Piece& p : s.pieces) by[static_cast<std::size_t>(p.laser)].push_back(p.path);
     std::vector<double> t;
     for (std::size_t l = 0; l < by.size(); ++l)
-      t.push_back(setup_.lasers.empty()
-                      ? scan_time(by[l], setup_.timing)
-                      : exposed_seconds(by[l], setup_.lasers[l], setup_.profile));
+      t.push_back(setup_.lasers.empty() ? scan_time(by[l], setup_.timing)
+                                        : exposed_seconds(by[l], setup_.lasers[l], setup_.profile));
     return t;
   }
 

@@ -292,8 +292,8 @@ TEST(CliIo, LasersThatDifferReadBackWithTheirParameters) {
   // Lasers that do not differ: no laser lines, nothing read back.
   LaserProfile same;
   same.lasers = 2;
-  EXPECT_TRUE(read_cli(write_cli(random_laser_toolpath(1), same, {false, true}), "m.cli")
-                  .lasers.empty());
+  EXPECT_TRUE(
+      read_cli(write_cli(random_laser_toolpath(1), same, {false, true}), "m.cli").lasers.empty());
 }
 
 // A [lasers] list of another length than laser.lasers is refused, naming its key.

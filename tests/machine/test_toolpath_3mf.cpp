@@ -234,8 +234,10 @@ TEST(Toolpath3mf, LasersThatDifferReadBackWithTheirParameters) {
   }
   // Each laser's profiles name its own spot radius and jump speed.
   const std::string path = dir.file("unequal.3mf"), model = dir.file("model.xml");
-  const std::string cmd = "/usr/bin/python3 -c \"import sys, zipfile; sys.stdout.buffer.write("
-                          "zipfile.ZipFile('" + path + "').read('3D/3dmodel.model'))\" > " + model;
+  const std::string cmd =
+      "/usr/bin/python3 -c \"import sys, zipfile; sys.stdout.buffer.write("
+      "zipfile.ZipFile('" +
+      path + "').read('3D/3dmodel.model'))\" > " + model;
   ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
   std::ifstream in(model);
   const std::string xml((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());

@@ -423,9 +423,9 @@ TEST(PbfLasers, UnequalLasersAreBalancedOnTheirOwnSpeedsAndDelays) {
           std::vector<LaserParameters>{faster(1, 100, 60), faster(1, 120, 5000)},
           std::vector<LaserParameters>{faster(1, 100, 100), faster(1.5, 150, 100),
                                        faster(3, 300, 100)}}) {
-      const std::string what = "seed " + std::to_string(seed) + ", " +
-                               std::to_string(each.size()) + " lasers, laser 1 at " +
-                               std::to_string(each[0].hatch_speed) + " mm/s";
+      const std::string what = "seed " + std::to_string(seed) + ", " + std::to_string(each.size()) +
+                               " lasers, laser 1 at " + std::to_string(each[0].hatch_speed) +
+                               " mm/s";
       const Layer before = hatch_layer(seed);
       Layer layer = before;
       const LaserSetup setup = laser_setup({}, 1, profile, each);
@@ -462,8 +462,8 @@ TEST(PbfLasers, UnequalLasersAreBalancedOnTheirOwnSpeedsAndDelays) {
           plain, laser_setup({}, 1, profile, std::vector<LaserParameters>(each.size(), profile)),
           0);
       Layer old = before;
-      const LaserSplit o =
-          split_among_lasers(old, laser_setup(static_cast<int>(each.size()), {}, 1, profile.timing), 0);
+      const LaserSplit o = split_among_lasers(
+          old, laser_setup(static_cast<int>(each.size()), {}, 1, profile.timing), 0);
       EXPECT_EQ(e.seconds, o.seconds) << what;
       EXPECT_EQ(e.boundaries, o.boundaries) << what;
     }

@@ -40,10 +40,10 @@ struct LaserProfile {
   // laser at the [laser] or [timing] value) or as long as `lasers`.
   struct PerLaser {
     std::vector<double> contour_power, contour_speed, hatch_power, hatch_speed;  // W, mm/s
-    std::vector<double> spot_diameter;                                          // mm
-    std::vector<double> jump_speed;                                             // mm/s
-    std::vector<double> jump_delay, mark_delay, polygon_delay;                  // µs
-    std::vector<double> laser_on_delay, laser_off_delay;                        // µs
+    std::vector<double> spot_diameter;                                           // mm
+    std::vector<double> jump_speed;                                              // mm/s
+    std::vector<double> jump_delay, mark_delay, polygon_delay;                   // µs
+    std::vector<double> laser_on_delay, laser_off_delay;                         // µs
   } each;
   // Scanner timing ([timing]), for the scan-time model (ScanClock).
   // Their defaults are the scan-time model's (toolpath/scan_time.hpp ScanTiming).
