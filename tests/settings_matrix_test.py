@@ -94,6 +94,17 @@ TEXT = {
     "laser.fields": ["-100,-100,100,100", "-100,-100,0,100"],
     "laser.contour_powers": ["70"],
     "laser.contour_speeds": ["700"],
+    "lasers.contour_power": ["90,50"],
+    "lasers.contour_speed": ["1200,700"],
+    "lasers.hatch_power": ["150,90"],
+    "lasers.hatch_speed": ["1500,900"],
+    "lasers.spot_diameter": ["0.03,0.05"],
+    "lasers.jump_speed": ["7000,3000"],
+    "lasers.jump_delay": ["100,400"],
+    "lasers.mark_delay": ["50,300"],
+    "lasers.polygon_delay": ["20,90"],
+    "lasers.laser_on_delay": ["5,20"],
+    "lasers.laser_off_delay": ["5,20"],
     "pbf.core_hatch_rotation": ["10"],
     "pbf.upskin_hatch_rotation": ["10"],
     "pbf.downskin_hatch_rotation": ["10"],
@@ -486,6 +497,9 @@ USE_WITH = {
                           "--set", "nonplanar.height_fn=0.1*x"], "0,0,10,8"),
     "pbf.plate_position": (["pbf", "--size", "3,3,0.3", "-o", "{d}/p.cli", "--set", "pbf.hatch_phase=origin"],
                            "20,30"),
+    # Each laser's own values act on a machine of several lasers.
+    **{key: (["pbf", "--size", "3,3,0.3", "-o", "{d}/p.cli", "--set", "laser.lasers=2"], value[0])
+       for key, value in TEXT.items() if key.startswith("lasers.")},
     # A kind's own rotation acts where a solid part has that kind (its thickness > 0).
     **{f"pbf.{kind}_hatch_rotation": (["pbf", D + "concave_cylinder.obj", "--layer-height", "0.2",
                                        "-o", "{d}/p.cli", "--set", f"pbf.{thickness}=0.4"], "10")

@@ -229,7 +229,7 @@ void add_routes(CLI::App& app, int argc, char** argv) {
        "pbf",
        "Laser powder-bed toolpaths for a TPMS sheet lattice (from its field) or a solid part "
        "(.cli)",
-       {"laser", "scan", "timing", "pbf", "output", "run"},
+       {"laser", "lasers", "scan", "timing", "pbf", "output", "run"},
        false,
        "CLI build file to write",
        true,

@@ -102,7 +102,12 @@ JobResult analyze_build_file(const std::string& path, const std::string& design,
   // profile): vectors, length and scan time (each path's jump in, marking and delays).
   j["parameter_sets"] = parameter_sets(tp, timing);
   // Several lasers (the paths' laser ids): each one's scan time, and the build time.
-  const LaserTimes lt = laser_times(tp, scan_timing(prof));
+  // Each laser with its own speeds and delays where they differ: the profile's, else the file's.
+  std::vector<ScanTiming> each =
+      lasers_differ(prof) ? laser_timings(prof) : std::vector<ScanTiming>{};
+  if (each.empty())
+    for (const LaserParameters& l : tp.lasers) each.push_back(l.timing);
+  const LaserTimes lt = each.empty() ? laser_times(tp, scan_timing(prof)) : laser_times(tp, each);
   const std::vector<double> totals = lt.totals();
   std::string lasers_said;
   if (totals.size() > 1) {

@@ -59,8 +59,12 @@ void laser_previews(const Toolpath& tp, const Job& job, const Config& c, JobResu
 }
 
 LaserSetup lasers_of(const Config& c) {
+  const std::vector<LaserParameters> each = laser_parameters(c.laser);
+  // Lasers that differ only when the profile says so: else every laser is the profile's.
   LaserSetup s =
-      laser_setup(c.laser.lasers, c.laser.fields, c.pbf.laser_overlap, scan_timing(c.laser));
+      lasers_differ(c.laser)
+          ? laser_setup(c.laser.fields, c.pbf.laser_overlap, profile_laser(c.laser), each)
+          : laser_setup(c.laser.lasers, c.laser.fields, c.pbf.laser_overlap, scan_timing(c.laser));
   s.axis = c.pbf.laser_split_axis;
   return s;
 }

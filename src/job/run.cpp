@@ -442,7 +442,7 @@ void check_profile_kind(const Job& job, const std::vector<std::string>& sections
   for (const auto& [key, e] : job.settings.entries()) {
     if (e.origin.source != job.machine) continue;
     const std::string sec = key.substr(0, key.find('.'));
-    if ((sec == "laser" || sec == "scan" || sec == "timing") && !laser) {
+    if ((sec == "laser" || sec == "lasers" || sec == "scan" || sec == "timing") && !laser) {
       laser = &e;
       laser_key = key;
     } else if ((key == "machine.flavor" ||

@@ -114,11 +114,20 @@ void BgcodeWriter::start(const BgcodeMetadata& m, const std::vector<GcodeThumbna
   started_ = true;
 }
 
-// A G-code block of the first `upto` pending bytes ("GCode", encoding 0 = no encoding).
+// A G-code block of the first `upto` pending bytes ("GCode": parameter encoding 0 = text,
+// 2 = MeatPack with comments).
 void BgcodeWriter::flush_gcode(std::size_t upto) {
   std::string params;
-  put_u16(params, 0);
-  block(BgcodeBlock::Gcode, options_.gcode, params, std::string_view(pending_).substr(0, upto));
+  const std::string_view text = std::string_view(pending_).substr(0, upto);
+  if (options_.meatpack) {
+    put_u16(params, kBgcodeMeatPackComments);
+    encoded_ = meatpack_encode(text, mid_line_);
+    block(BgcodeBlock::Gcode, options_.gcode, params, encoded_);
+  } else {
+    put_u16(params, 0);
+    block(BgcodeBlock::Gcode, options_.gcode, params, text);
+  }
+  mid_line_ = !text.empty() && text.back() != '\n';
   pending_.erase(0, upto);
 }
 
@@ -143,6 +152,12 @@ void BgcodeWriter::finish() {
     throw std::logic_error("BgcodeWriter: finish() twice or before start()");
   if (!pending_.empty()) flush_gcode(pending_.size());
   finished_ = true;
+}
+
+BgcodeOptions bgcode_options(const MachineProfile& profile) {
+  BgcodeOptions o;
+  o.meatpack = profile.binary_encoding == GcodeEncoding::MeatPack;
+  return o;
 }
 
 bool binary_gcode_output(const std::string& path, const MachineProfile& p) {

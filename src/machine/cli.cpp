@@ -7,6 +7,7 @@
 #include <charconv>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <iterator>
 #include <map>
@@ -90,6 +91,19 @@ bool is_hatch(const Path& p) {
   return (p.role == PathRole::Hatch || p.role == PathRole::Infill) && p.points.size() == 2;
 }
 
+// "//laser N: contour P W S mm/s; hatch P W S mm/s; spot D mm; jump V mm/s; delays jump J, mark
+// M, polygon G, on A, off B us//": one laser of several that differ (read back as
+// Toolpath::lasers).
+std::string laser_comment(int l, const LaserParameters& p) {
+  const ScanTiming& t = p.timing;
+  return fmt::format(
+      "//laser {}: contour {} W {} mm/s; hatch {} W {} mm/s; spot {} mm; jump {} mm/s; delays "
+      "jump {}, mark {}, polygon {}, on {}, off {} us//\n",
+      l + 1, p.contour_power, p.contour_speed, p.hatch_power, p.hatch_speed, p.spot_diameter,
+      t.jump_speed, t.jump_delay, t.mark_delay, t.polygon_delay, t.laser_on_delay,
+      t.laser_off_delay);
+}
+
 // The header: every point's extent and the layer count are known only once all layers are.
 std::string header(BBox3 box, std::size_t layers, const std::string& source, const std::string& job,
                    const LaserProfile& prof, const CliWriteOptions& o, int lasers,
@@ -122,24 +136,32 @@ std::string header(BBox3 box, std::size_t layers, const std::string& source, con
   out += fmt::format("//id 1 contour: {} W, {} mm/s; id 2 hatch: {} W, {} mm/s; spot {} mm//\n",
                      prof.contour_power, prof.contour_speed, prof.hatch_power, prof.hatch_speed,
                      prof.spot_diameter);
+  // Lasers that differ: each one's parameters, and its own contour and hatch power and speed in
+  // its ids' CLI+ definitions.
+  const std::vector<LaserParameters> each = laser_parameters(prof);
+  const LaserParameters own = profile_laser(prof);
+  const auto laser = [&](int l) -> const LaserParameters& {
+    return static_cast<std::size_t>(l) < each.size() ? each[static_cast<std::size_t>(l)] : own;
+  };
+  for (int l = 0; lasers_differ(prof) && l < lasers; ++l) out += laser_comment(l, laser(l));
   for (int l = 0; o.plus && l < lasers; ++l) {
     const std::string sfx = laser_suffix(l, lasers);
     const std::string las = lasers > 1 ? fmt::format(" LASER={}", l + 1) : std::string();
+    const LaserParameters& L = laser(l);
     if (labels.empty()) {
-      out +=
-          fmt::format("// PROFILE_DEF={} NAME=\"contour{}\" POWER={} SPEED={}{} //\n",
-                      block_id(0, 0, l, false), sfx, prof.contour_power, prof.contour_speed, las);
+      out += fmt::format("// PROFILE_DEF={} NAME=\"contour{}\" POWER={} SPEED={}{} //\n",
+                         block_id(0, 0, l, false), sfx, L.contour_power, L.contour_speed, las);
       out += fmt::format("// PROFILE_DEF={} NAME=\"hatch{}\" POWER={} SPEED={}{} //\n",
-                         block_id(0, 0, l, true), sfx, prof.hatch_power, prof.hatch_speed, las);
+                         block_id(0, 0, l, true), sfx, L.hatch_power, L.hatch_speed, las);
     } else {
       for (std::size_t k = 0; k < labels.size(); ++k) {
         const int part = static_cast<int>(k + 1);
         out += fmt::format("// PROFILE_DEF={} NAME=\"{} contour{}\" POWER={} SPEED={}{} //\n",
-                           block_id(part, labels.size(), l, false), labels[k], sfx,
-                           prof.contour_power, prof.contour_speed, las);
+                           block_id(part, labels.size(), l, false), labels[k], sfx, L.contour_power,
+                           L.contour_speed, las);
         out += fmt::format("// PROFILE_DEF={} NAME=\"{} hatch{}\" POWER={} SPEED={}{} //\n",
-                           block_id(part, labels.size(), l, true), labels[k], sfx, prof.hatch_power,
-                           prof.hatch_speed, las);
+                           block_id(part, labels.size(), l, true), labels[k], sfx, L.hatch_power,
+                           L.hatch_speed, las);
       }
     }
   }
@@ -376,9 +398,32 @@ class Reader {
             std::string(line.substr(c + 1));
       } else if (line.find("PROFILE_DEF=") != std::string_view::npos) {
         read_profile_def(i, line);
+      } else if (line.starts_with("//laser ")) {
+        read_laser(i, line);
       }
       i = eol + 1;
     }
+  }
+
+  // laser_comment's line: one of the lasers that differ, into Toolpath::lasers.
+  void read_laser(std::size_t at, std::string_view line) {
+    const std::string text(line);
+    int n = 0, end = 0;
+    LaserParameters l;
+    ScanTiming& t = l.timing;
+    const int got = std::sscanf(
+        text.c_str(),
+        "//laser %d: contour %lf W %lf mm/s; hatch %lf W %lf mm/s; spot %lf mm; jump %lf mm/s; "
+        "delays jump %lf, mark %lf, polygon %lf, on %lf, off %lf us//%n",
+        &n, &l.contour_power, &l.contour_speed, &l.hatch_power, &l.hatch_speed, &l.spot_diameter,
+        &t.jump_speed, &t.jump_delay, &t.mark_delay, &t.polygon_delay, &t.laser_on_delay,
+        &t.laser_off_delay, &end);
+    if (got != 12 || end != static_cast<int>(text.size()) || n < 1 || n > 1000)
+      fail(at, "a //laser N: …// line that does not say every value of laser N (1 to 1000)");
+    t.contour_speed = l.contour_speed, t.hatch_speed = l.hatch_speed;
+    if (tp_.lasers.size() < static_cast<std::size_t>(n))
+      tp_.lasers.resize(static_cast<std::size_t>(n));
+    tp_.lasers[static_cast<std::size_t>(n - 1)] = l;
   }
 
   // // PROFILE_DEF=<id> NAME="<name>" POWER=<W> SPEED=<mm/s> //

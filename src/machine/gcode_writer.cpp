@@ -1443,7 +1443,7 @@ GcodeStats write_gcode_stream(const std::string& path, const Toolpath& meta,
     }
     // The pictures go into thumbnail blocks; the text, once its print metadata is known, into
     // G-code blocks as it is copied out of the temporary file.
-    BgcodeWriter packer(put);
+    BgcodeWriter packer(put, bgcode_options(profile));
     const std::vector<GcodeThumbnail> none;
     Writer(profile, meta, lift, none, &placed, layer_count)
         .stream(
@@ -1469,7 +1469,7 @@ GcodeStats write_gcode_file(const std::string& path, const Toolpath& toolpath,
   }
   const std::string text = write_gcode(toolpath, profile, &s, {});
   write_file_atomic_with(path, [&](const ByteWriter& put) {
-    BgcodeWriter packer(put);
+    BgcodeWriter packer(put, bgcode_options(profile));
     packer.start(bgcode_metadata(profile, s, toolpath.layers.size()), thumbnails);
     packer.gcode(text);
     packer.finish();

@@ -25,6 +25,7 @@ constexpr std::array kGradientModeNames =
 constexpr std::array kFlowModelNames = std::to_array<const char*>({"", "pla", "tpu"});
 constexpr std::array kEmbeddedDriveNames = std::to_array<const char*>({"pressure", "syringe"});
 constexpr std::array kPurgePositionNames = std::to_array<const char*>({"auto", "fixed"});
+constexpr std::array kGcodeEncodingNames = std::to_array<const char*>({"none", "meatpack"});
 constexpr std::array kMixingDialectNames =
     std::to_array<const char*>({"m165", "m163", "m567", "template"});
 
@@ -325,6 +326,10 @@ const std::vector<SettingDecl>& machine_settings() {
        "machines with machine.firmware = prusa only; an output named .bgcode is binary without "
        "it",
        0, 0, &P::binary_gcode, "binary-gcode"},
+      {"gcode.binary_encoding", "",
+       "binary G-code's G-code blocks: meatpack (Marlin's MeatPack 4-bit packing before the "
+       "compression, comments kept, as PrusaSlicer 2.7+ writes them) or none (plain text)",
+       0, 0, choice(&P::binary_encoding, kGcodeEncodingNames)},
       {"gcode.prime_line", "mm",
        "prime line: this much line drawn along the bed's front edge, 5 mm in, before the first "
        "layer (valve open for pneumatic machines; not in a bath); 0 = none",

@@ -127,6 +127,34 @@ std::string read_modifier(Profile& pr, Attrs a) {
   return "";
 }
 
+// Our <t:laser index=…> (toolpath_3mf_write.cpp laser_xml): one of the lasers that differ, every
+// value given; a missing or malformed one is refused by name.
+std::string read_declared_laser(std::vector<LaserParameters>& lasers, Attrs a) {
+  long long i = 0;
+  if (!to_long(a.get("index"), i) || i < 0 || i > 1000)
+    return "a <t:laser> without an index from 0 to 1000";
+  const auto k = static_cast<std::size_t>(i);
+  if (lasers.size() <= k) lasers.resize(k + 1);
+  LaserParameters& l = lasers[k];
+  ScanTiming& t = l.timing;
+  for (const auto& [key, into] : std::initializer_list<std::pair<const char*, double*>>{
+           {"contourpower", &l.contour_power},
+           {"contourspeed", &l.contour_speed},
+           {"hatchpower", &l.hatch_power},
+           {"hatchspeed", &l.hatch_speed},
+           {"spotdiameter", &l.spot_diameter},
+           {"jumpspeed", &t.jump_speed},
+           {"jumpdelay", &t.jump_delay},
+           {"markdelay", &t.mark_delay},
+           {"polygondelay", &t.polygon_delay},
+           {"laserondelay", &t.laser_on_delay},
+           {"laseroffdelay", &t.laser_off_delay}})
+    if (!to_double(a.get(key), *into) || !std::isfinite(*into) || *into < 0)
+      return fmt::format("<t:laser index=\"{}\"> without a number {} of 0 or more", i, key);
+  t.contour_speed = l.contour_speed, t.hatch_speed = l.hatch_speed;
+  return "";
+}
+
 Model read_model(const std::string& file, const std::string& part, const std::string& bytes) {
   Model m;
   Resource* res = nullptr;
@@ -159,6 +187,8 @@ Model read_model(const std::string& file, const std::string& part, const std::st
           if (n.uri == kTrellis && n.local == "job") in_job = true;
           if (n.uri == kTrellis && n.local == "trellis" && res)
             if (const char* s = a.get("source")) res->source = s;
+          if (n.uri == kTrellis && n.local == "laser" && res)
+            return read_declared_laser(res->lasers_declared, a);
           if (n.uri == kTrellis && n.local == "part" && res) {
             const char* uuid = a.get("uuid");
             const char* label = a.get("label");
@@ -329,6 +359,7 @@ Toolpath read_toolpath_3mf_file(const std::string& path, Diagnostics* diag) {
   tp.source = r.source.empty() ? path : r.source;
   tp.job = r.job;
   tp.part_labels = r.part_labels;
+  tp.lasers = r.lasers_declared;
   for (const Profile& p : r.profiles)
     if (p.set && parameter_set_of(tp, p.values.role, p.values.power, p.values.speed) < 0)
       tp.parameter_sets.push_back({p.name, p.values.role, p.values.power, p.values.speed});

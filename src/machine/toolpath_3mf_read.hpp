@@ -186,6 +186,7 @@ struct Resource {
   std::string source, job;
   std::map<std::string, int> part_of_uuid;  // our part labels: uuid → Path::part
   std::vector<std::string> part_labels;
+  std::vector<LaserParameters> lasers_declared;  // our <t:laser> metadata (Toolpath::lasers)
 };
 
 struct Model {

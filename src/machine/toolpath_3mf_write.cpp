@@ -74,7 +74,8 @@ void check_finite(const Path& p, std::size_t layer, std::size_t index) {
 // §4.1: standard attributes where the extension has them, ours (namespace t) for the rest.
 // `set`: the laser parameter set's name (Toolpath::parameter_sets), the profile's name then and
 // our t:set (read back as the set); empty: named by its role and number.
-std::string profile_xml(const ProfileKey& k, std::size_t index, const LaserProfile* laser,
+// `laser`: the laser's spot and scanner (its own when the lasers differ, else the profile's).
+std::string profile_xml(const ProfileKey& k, std::size_t index, const LaserParameters* laser,
                         const std::string& set) {
   std::string out = fmt::format(
       "<tp:toolpathprofile uuid=\"{}\" name=\"{}\"", uuid_of(fmt::format("profile {}", index)),
@@ -83,8 +84,8 @@ std::string profile_xml(const ProfileKey& k, std::size_t index, const LaserProfi
   if (k.laser) {
     out += fmt::format(" laserpower=\"{}\"", num(std::max(0.0, k.power)));
     if (k.speed > 0) out += fmt::format(" laserspeed=\"{}\"", num(k.speed));
-    if (laser && laser->jump_speed > 0)
-      out += fmt::format(" jumpspeed=\"{}\"", num(laser->jump_speed));
+    if (laser && laser->timing.jump_speed > 0)
+      out += fmt::format(" jumpspeed=\"{}\"", num(laser->timing.jump_speed));
     if (laser && laser->spot_diameter > 0)
       out += fmt::format(" spotradius=\"{}\"", num(laser->spot_diameter / 2));
     out += fmt::format(" laserindex=\"{}\"", std::max(0, k.tool));  // §4.5: Path::tool
@@ -115,6 +116,19 @@ std::string profile_xml(const ProfileKey& k, std::size_t index, const LaserProfi
   return out + "/>\n";
 }
 
+// §4.4, our metadata: one laser of several that differ, all its values (the profiles carry its
+// power, speed, spot and jump speed as the standard has them; its delays have no attribute there).
+std::string laser_xml(std::size_t index, const LaserParameters& l) {
+  const ScanTiming& t = l.timing;
+  return fmt::format(
+      "<t:laser index=\"{}\" contourpower=\"{}\" contourspeed=\"{}\" hatchpower=\"{}\" "
+      "hatchspeed=\"{}\" spotdiameter=\"{}\" jumpspeed=\"{}\" jumpdelay=\"{}\" markdelay=\"{}\" "
+      "polygondelay=\"{}\" laserondelay=\"{}\" laseroffdelay=\"{}\"/>",
+      index, num(l.contour_power), num(l.contour_speed), num(l.hatch_power), num(l.hatch_speed),
+      num(l.spot_diameter), num(t.jump_speed), num(t.jump_delay), num(t.mark_delay),
+      num(t.polygon_delay), num(t.laser_on_delay), num(t.laser_off_delay));
+}
+
 // A path that needs a segment of its own: per-path values beyond its profile.
 bool has_extras(const Path& p) {
   return p.filament != 0 || p.joined || p.inside || !p.via.empty();
@@ -135,6 +149,15 @@ struct Writer {
   std::vector<const ProfileKey*> profile_order;
   std::vector<std::string> part_uuids;  // index Path::part
   std::set<int> used_parts;             // the parts the paths name
+  std::vector<LaserParameters> lasers;  // lasers that differ, by index (machine/laser.hpp)
+  LaserParameters own;                  // the profile's laser
+
+  // The laser a profile's paths are scanned by (§4.1 laserindex), for its spot and jump speed.
+  const LaserParameters* laser_of(const ProfileKey& k) const {
+    if (!o.laser) return nullptr;
+    const auto i = static_cast<std::size_t>(std::max(0, k.tool));
+    return i < lasers.size() ? &lasers[i] : &own;
+  }
 
   std::string set_name(const ProfileKey& k) const {
     const int i = k.laser ? parameter_set_of(tp, k.role, k.power, k.speed) : -1;
@@ -301,7 +324,8 @@ struct Writer {
     }
     out += "<tp:toolpathprofiles>\n";
     for (std::size_t k = 0; k < profile_order.size(); ++k)
-      out += profile_xml(*profile_order[k], k, o.laser, set_name(*profile_order[k]));
+      out += profile_xml(*profile_order[k], k, laser_of(*profile_order[k]),
+                         set_name(*profile_order[k]));
     out += "</tp:toolpathprofiles>\n<tp:toolpathlayers>\n";
     for (std::size_t i = 0; i < tp.layers.size(); ++i) {
       // §4.3: ztop only for planar toolpaths; the nominal height of 3-axis layers is ours.
@@ -323,6 +347,7 @@ struct Writer {
     for (std::size_t k = 0; k < tp.part_labels.size(); ++k)
       out += fmt::format("<t:part id=\"{}\" uuid=\"{}\" label=\"{}\"/>", k + 2, part_uuids[k + 1],
                          esc(tp.part_labels[k]));
+    for (std::size_t i = 0; i < lasers.size(); ++i) out += laser_xml(i, lasers[i]);
     out += "</t:trellis></tp:toolpathdata>\n</tp:toolpathresource>\n";
     out += geometry.objects;
     out += fmt::format("</resources>\n<build p:UUID=\"{}\" tp:toolpathid=\"1\">", uuid_of("build"));
@@ -419,6 +444,8 @@ class Package {
 
 std::string write_toolpath_3mf(const Toolpath& toolpath, const Toolpath3mfOptions& options) {
   Writer w{toolpath, options, options.laser != nullptr};
+  w.lasers = declared_lasers(options.laser, toolpath);
+  if (options.laser) w.own = profile_laser(*options.laser);
   w.collect();
   Package pkg;
   pkg.add("[Content_Types].xml", kContentTypes);

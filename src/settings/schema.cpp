@@ -299,6 +299,7 @@ const std::vector<std::pair<const char*, const char*>>& when_table() {
       {"gcode.binary", "machine.firmware=prusa"},
       {"machine.firmware", "@bgcode or gcode.binary=true"},
       {"machine.printer_model", "@bgcode or gcode.binary=true"},
+      {"gcode.binary_encoding", "@bgcode or gcode.binary=true"},
       {"extrusion.filament_diameter", "@gcode"},
       {"extrusion.multiplier", "@gcode"},
       {"extrusion.k", "@gcode"},
@@ -424,6 +425,7 @@ const std::vector<std::pair<const char*, const char*>>& when_table() {
       {"pbf.wall_azimuth", "!@mesh; pbf.strategy=hybrid|r67"},
       {"pbf.resolution", "!@mesh"},
       {"pbf.laser_overlap", "laser.lasers>1"},
+      {"lasers.", "laser.lasers>1"},
       {"pbf.laser_split_axis", "laser.lasers>1"},
       {"pbf.stripe_width", "pbf.strategy=stripe"},
       {"pbf.stripe_overlap", "pbf.strategy=stripe"},
@@ -554,6 +556,49 @@ std::vector<Setting> make_table() {
                               "coordinates, laser by laser from left to right",
                               "", [](C& c) -> auto& { return c.laser.fields; }),
                       "every laser reaches the whole plate"));
+  // lasers.*: lasers that differ, one value per laser (laser/laser.cpp: laser_parameters).
+  const auto each = [&](const char* key, const char* unit, double lo, double hi, bool positive,
+                        const char* doc, const char* from, auto acc) {
+    Setting s = numbers(key, unit, lo, hi, 0, doc, "", acc);
+    s.positive = positive;
+    t.push_back(derived(std::move(s), from));
+  };
+  each("lasers.contour_power", "W", 0, 10000, false,
+       "each laser's power on contour vectors, laser by laser as in laser.fields",
+       "laser.contour_power for every laser",
+       [](C& c) -> auto& { return c.laser.each.contour_power; });
+  each("lasers.contour_speed", "mm/s", 0, 100000, true, "each laser's scan speed on contour vectors",
+       "laser.contour_speed for every laser",
+       [](C& c) -> auto& { return c.laser.each.contour_speed; });
+  each("lasers.hatch_power", "W", 0, 10000, false, "each laser's power on hatch vectors",
+       "laser.hatch_power for every laser",
+       [](C& c) -> auto& { return c.laser.each.hatch_power; });
+  each("lasers.hatch_speed", "mm/s", 0, 100000, true,
+       "each laser's scan speed on hatch vectors (pbf balances the lasers' times with it)",
+       "laser.hatch_speed for every laser",
+       [](C& c) -> auto& { return c.laser.each.hatch_speed; });
+  each("lasers.spot_diameter", "mm", 0, 5, true, "each laser's spot diameter",
+       "laser.spot_diameter for every laser",
+       [](C& c) -> auto& { return c.laser.each.spot_diameter; });
+  each("lasers.jump_speed", "mm/s", 1, 1e6, false, "each laser's scanner positioning speed",
+       "timing.jump_speed for every laser",
+       [](C& c) -> auto& { return c.laser.each.jump_speed; });
+  each("lasers.jump_delay", "µs", 0, 1e5, false, "each laser's wait after every jump",
+       "timing.jump_delay for every laser",
+       [](C& c) -> auto& { return c.laser.each.jump_delay; });
+  each("lasers.mark_delay", "µs", 0, 1e5, false, "each laser's wait after every marked vector",
+       "timing.mark_delay for every laser",
+       [](C& c) -> auto& { return c.laser.each.mark_delay; });
+  each("lasers.polygon_delay", "µs", 0, 1e5, false,
+       "each laser's wait at every corner inside a polyline", "timing.polygon_delay for every laser",
+       [](C& c) -> auto& { return c.laser.each.polygon_delay; });
+  each("lasers.laser_on_delay", "µs", 0, 1e5, false,
+       "each laser's wait before it fires at every vector", "timing.laser_on_delay for every laser",
+       [](C& c) -> auto& { return c.laser.each.laser_on_delay; });
+  each("lasers.laser_off_delay", "µs", 0, 1e5, false,
+       "each laser's time kept on after every vector's end",
+       "timing.laser_off_delay for every laser",
+       [](C& c) -> auto& { return c.laser.each.laser_off_delay; });
   t.push_back(number("scan.layer", "mm", 0.001, 1, "powder layer thickness", "layer-height",
                      [](C& c) -> auto& { return c.laser.layer; }));
   t.push_back(number("scan.hatch_distance", "mm", 0.001, 5, "hatch distance", "hatch",
@@ -1326,6 +1371,7 @@ const std::vector<std::pair<std::string, std::string>>& setting_sections() {
       {"laser", "laser powder-bed machine: spot, powers, speeds, limits, build area"},
       {"scan", "laser scan parameters: layer, hatch, SL, LHD"},
       {"timing", "laser scanner timing for the scan-time model"},
+      {"lasers", "lasers that differ: power, speed, spot and timing per laser"},
       {"lattice2d", "2D atlas patterns"},
       {"lattice3d", "3D unit cells and foams"},
       {"lattice", "reading lattice files"},

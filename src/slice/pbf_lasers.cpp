@@ -37,6 +37,34 @@ bool holds(const BBox2& f, const Extent& e) {
          e.y1 <= f.max.y + kEps;
 }
 
+bool is_hatch(const Path& p) {
+  return p.role == PathRole::Hatch || p.role == PathRole::Infill;
+}
+
+// The speed `laser` marks `p` at (expose_on's, without copying the path).
+double exposed_speed(const Path& p, const LaserParameters& laser, const LaserParameters& profile) {
+  const bool hatch = is_hatch(p);
+  if (hatch && p.power == profile.hatch_power && p.speed == profile.hatch_speed)
+    return laser.hatch_speed;
+  if (!hatch && p.power == profile.contour_power && p.speed == profile.contour_speed)
+    return laser.contour_speed;
+  return p.speed > 0 ? p.speed : (hatch ? laser.timing.hatch_speed : laser.timing.contour_speed);
+}
+
+// One laser's scan time over `vectors` as it exposes them: scan_time of the exposed paths.
+double exposed_seconds(const std::vector<const Path*>& vectors, const LaserParameters& laser,
+                       const LaserParameters& profile) {
+  ScanClock clock(laser.timing);
+  std::vector<Vec2> xy;
+  for (const Path* p : vectors) {
+    if (p->points.size() < 2) continue;
+    xy.clear();
+    for (const Vec3& q : p->points) xy.push_back({q.x, q.y});
+    clock.mark(xy.data(), xy.size(), exposed_speed(*p, laser, profile));
+  }
+  return clock.seconds();
+}
+
 // One piece of the split: a whole path of the layer or a piece of one cut at a boundary.
 struct Piece {
   std::size_t source;
@@ -125,7 +153,9 @@ class Splitter {
     std::vector<std::vector<const Path*>> by(static_cast<std::size_t>(n_));
     for (const Piece& p : s.pieces) by[static_cast<std::size_t>(p.laser)].push_back(p.path);
     std::vector<double> t;
-    for (const auto& v : by) t.push_back(scan_time(v, setup_.timing));
+    for (std::size_t l = 0; l < by.size(); ++l)
+      t.push_back(setup_.lasers.empty() ? scan_time(by[l], setup_.timing)
+                                        : exposed_seconds(by[l], setup_.lasers[l], setup_.profile));
     return t;
   }
 
@@ -247,6 +277,8 @@ LaserSplit split_across_x(Layer& layer, const LaserSetup& setup, std::size_t lay
   r.cut = s.cut_paths;
   if (setup.fields.size() == 1) {
     for (std::size_t i = 0; i < layer.paths.size(); ++i) r.source.push_back(i);
+    if (!setup.lasers.empty())
+      for (Path& p : layer.paths) expose_on(p, setup.lasers[0], setup.profile);
     return r;  // one laser: every path is its own, as it was
   }
   std::vector<Path> paths;
@@ -254,6 +286,8 @@ LaserSplit split_across_x(Layer& layer, const LaserSetup& setup, std::size_t lay
   for (const Piece& p : s.pieces) {
     Path q = p.path == &layer.paths[p.source] ? std::move(layer.paths[p.source]) : *p.path;
     q.tool = p.laser;
+    if (!setup.lasers.empty())
+      expose_on(q, setup.lasers[static_cast<std::size_t>(p.laser)], setup.profile);
     paths.push_back(std::move(q));
     r.source.push_back(p.source);
   }
@@ -335,6 +369,22 @@ LaserSetup laser_setup(int lasers, const std::vector<double>& fields, double ove
   return s;
 }
 
+LaserSetup laser_setup(const std::vector<double>& fields, double overlap,
+                       const LaserParameters& profile, const std::vector<LaserParameters>& each) {
+  LaserSetup s = laser_setup(static_cast<int>(each.size()), fields, overlap, profile.timing);
+  s.profile = profile;
+  s.lasers = each;
+  return s;
+}
+
+void expose_on(Path& p, const LaserParameters& laser, const LaserParameters& profile) {
+  const bool hatch = is_hatch(p);
+  if (hatch && p.power == profile.hatch_power && p.speed == profile.hatch_speed)
+    p.power = laser.hatch_power, p.speed = laser.hatch_speed;
+  else if (!hatch && p.power == profile.contour_power && p.speed == profile.contour_speed)
+    p.power = laser.contour_power, p.speed = laser.contour_speed;
+}
+
 double LaserSplit::build_seconds() const {
   return seconds.empty() ? 0.0 : *std::max_element(seconds.begin(), seconds.end());
 }
@@ -390,12 +440,25 @@ LaserTimes laser_times(const Toolpath& tp, const ScanTiming& timing) {
   int lasers = 1;
   for (const Layer& l : tp.layers)
     for (const Path& p : l.paths) lasers = std::max(lasers, p.tool + 1);
+  return laser_times(tp, std::vector<ScanTiming>(static_cast<std::size_t>(lasers), timing));
+}
+
+LaserTimes laser_times(const Toolpath& tp, const std::vector<ScanTiming>& each) {
+  std::size_t lasers = std::max<std::size_t>(each.size(), 1);
+  for (const Layer& l : tp.layers)
+    for (const Path& p : l.paths)
+      lasers = std::max(lasers, static_cast<std::size_t>(std::max(0, p.tool)) + 1);
+  if (lasers > each.size())
+    throw SettingError(fmt::format("the toolpath has paths of laser {} but the machine has {} "
+                                   "laser(s) with their own timing",
+                                   lasers, each.size()),
+                       {"", 0, "laser.lasers"});
   LaserTimes t;
   for (const Layer& l : tp.layers) {
-    std::vector<std::vector<const Path*>> by(static_cast<std::size_t>(lasers));
+    std::vector<std::vector<const Path*>> by(lasers);
     for (const Path& p : l.paths) by[static_cast<std::size_t>(std::max(0, p.tool))].push_back(&p);
     std::vector<double> s;
-    for (const auto& v : by) s.push_back(scan_time(v, timing));
+    for (std::size_t k = 0; k < lasers; ++k) s.push_back(scan_time(by[k], each[k]));
     t.per_layer.push_back(std::move(s));
   }
   return t;

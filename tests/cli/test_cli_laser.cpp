@@ -4,6 +4,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -192,4 +193,36 @@ TEST(CliLaser, SolidPartRegionKindsAndParameterSetsReadBack) {
   r = run("pbf --cell 2.5 --size 2.5,2.5,0.2 --set pbf.skin_thickness=0.5 -o " + path("g.cli"));
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("pbf.skin_thickness"), std::string::npos) << r.err;
+}
+
+// Lasers that differ (profiles/pbf_316l_2laser_unequal.toml): the build's lasers are balanced on
+// their own speeds and delays; `analyze` of its .cli and 3MF times each laser as the route did,
+// with the profile or from the file's own laser values alone; a [lasers] list of the wrong length
+// exits 2 naming its key.
+TEST(CliLaser, LasersThatDifferAreBalancedWrittenAndTimedBack) {
+  const std::string profile =
+      std::string(TRELLIS_SOURCE_DIR) + "/profiles/pbf_316l_2laser_unequal.toml";
+  const std::string base = "pbf --cell 2.5 --size 5,5,0.4 --machine " + profile;
+  CmdRun r = run(base + " -o " + path("u.cli") + " --report " + path("u.json"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  ASSERT_EQ(run(base + " -o " + path("u.3mf")).code, 0);
+  const auto j = nlohmann::json::parse(trellis::read_file(path("u.json")));
+  const auto made = j["lasers"]["scan_time_s"].get<std::vector<double>>();
+  ASSERT_EQ(made.size(), 2u);
+  EXPECT_LT(std::max(made[0], made[1]) / std::min(made[0], made[1]), 1.1);
+  for (const std::string& file : {path("u.cli"), path("u.3mf")})
+    for (const std::string& machine : {" --machine " + profile, std::string()}) {
+      r = run("analyze " + file + machine + " --report " + path("a.json"));
+      ASSERT_EQ(r.code, 0) << r.err;
+      const auto a = nlohmann::json::parse(trellis::read_file(path("a.json")));
+      const auto read = a["lasers"]["scan_time_s"].get<std::vector<double>>();
+      ASSERT_EQ(read.size(), 2u) << file << machine;
+      // The file orders each laser's paths its own way (contours first): jumps differ a little.
+      for (int l = 0; l < 2; ++l) EXPECT_NEAR(read[l], made[l], 0.03 * made[l]) << file << machine;
+    }
+  r = run(base + " --set lasers.hatch_speed=1000,900,800 -o " + path("w.cli"));
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("lasers.hatch_speed"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("3 values for 2 laser(s)"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(path("w.cli")));
 }

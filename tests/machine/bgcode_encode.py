@@ -7,6 +7,11 @@ specification (libbgcode doc/specifications.md), not from the reader it tests.
 
     bgcode_encode.py --heatshrink-decode IN OUT WINDOW_BITS LOOKAHEAD_BITS SIZE
 
+    bgcode_encode.py --decode IN.bgcode OUT.gcode
+
+--decode writes the G-code blocks' text only (CRC checked, decompressed, MeatPack decoded by
+meatpack_decode below, written from Marlin's format, not from our reader).
+
 COMPRESSION: 0 none, 1 Deflate (zlib), 2 Heatshrink 11/4, 3 Heatshrink 12/4 (own encoder below).
 ENCODING of the G-code blocks: 0 text, 1 MeatPack (comments dropped), 2 MeatPack with comments
 (own encoder below). Blocks: file metadata, printer metadata, a thumbnail, print metadata,
@@ -170,6 +175,109 @@ def meatpack_encode(text: str, keep_comments: bool, no_spaces: bool) -> bytes:
     return bytes(out)
 
 
+G_PARAMETERS = "XYZEFIJRGPWHCA"
+
+
+def meatpack_decode(data: bytes, state: dict) -> bytes:
+    """Marlin's MeatPack decoder: 0xFF 0xFF <cmd> = a command (0xFB packing on, 0xFA off, 0xF9
+    reset, 0xF7 / 0xF6 no-spaces on / off); packed bytes hold two 4-bit codes, the low nibble
+    first; 0xF = that character follows as a full byte (the low one's before the high one's); a
+    newline in the low nibble ends the byte. Spaces dropped in no-spaces mode are put back as
+    the firmware's and PrusaSlicer's readers do: before a parameter letter of a line that starts
+    with G, unless a space is already there. `state` carries the modes from block to block."""
+    out = bytearray()
+    packing, no_spaces = state.get("packing", False), state.get("no_spaces", False)
+    g_line, prev = state.get("g_line", False), state.get("prev", 0x0A)
+
+    def emit(ch):
+        nonlocal g_line, prev
+        c = chr(ch)
+        if prev == 0x0A:
+            g_line = c == "G"
+        elif no_spaces and g_line and c in G_PARAMETERS and prev != 0x20:
+            out.append(0x20)
+        out.append(ch)
+        prev = ch
+
+    def code(n):
+        if n == 11 and no_spaces:
+            return ord("E")
+        return ord(MP_CODES[n])
+
+    i = 0
+    n = len(data)
+    while i < n:
+        b = data[i]
+        if b == 0xFF and i + 1 < n and data[i + 1] == 0xFF:
+            cmd = data[i + 2]
+            if cmd == 0xFB:
+                packing = True
+            elif cmd in (0xFA, 0xF9):
+                packing = False
+                if cmd == 0xF9:
+                    no_spaces = False
+            elif cmd == 0xF7:
+                no_spaces = True
+            elif cmd == 0xF6:
+                no_spaces = False
+            i += 3
+            continue
+        if not packing:
+            emit(b)
+            i += 1
+            continue
+        lo, hi = b & 0xF, b >> 4
+        i += 1
+
+        def take(nibble):  # a nibble's character, or the full byte that follows for 0xF
+            nonlocal i
+            if nibble != 0xF:
+                return code(nibble)
+            i += 1
+            return data[i - 1]
+
+        first = take(lo)
+        if first == 0x0A and lo != 0xF:
+            emit(first)
+            continue
+        second = take(hi)
+        emit(first)
+        emit(second)
+    state.update(packing=packing, no_spaces=no_spaces, g_line=g_line, prev=prev)
+    return bytes(out)
+
+
+def decode_file(src, dst):
+    data = open(src, "rb").read()
+    if data[:4] != b"GCDE":
+        raise SystemExit("not a bgcode file")
+    crc = struct.unpack_from("<H", data, 8)[0] == 1
+    pos, text, state = 10, bytearray(), {}
+    while pos < len(data):
+        kind, compression, size = struct.unpack_from("<HHI", data, pos)
+        head = 8
+        stored = size
+        if compression:
+            stored = struct.unpack_from("<I", data, pos + 8)[0]
+            head = 12
+        params = 6 if kind == 5 else 2
+        body = data[pos:pos + head + params + stored]
+        if crc:
+            want = struct.unpack_from("<I", data, pos + len(body))[0]
+            if zlib.crc32(body) & 0xFFFFFFFF != want:
+                raise SystemExit(f"CRC mismatch in the block at {pos}")
+        encoding = struct.unpack_from("<H", body, head)[0]
+        payload = body[head + params:]
+        if compression == 1:
+            payload = zlib.decompress(payload)
+        elif compression in (2, 3):
+            payload = heatshrink_decode(payload, 11 if compression == 2 else 12, 4, size)
+        if kind == 1:
+            text += meatpack_decode(payload, state) if encoding in (1, 2) else payload
+        pos += len(body) + (4 if crc else 0)
+    open(dst, "wb").write(bytes(text))
+
+
 def block(kind, compression, params, payload, crc):
     if compression == 0:
         stored = payload
@@ -187,6 +295,9 @@ def block(kind, compression, params, payload, crc):
 
 
 def main(argv):
+    if argv[1] == "--decode":
+        decode_file(argv[2], argv[3])
+        return
     if argv[1] == "--heatshrink-decode":
         data = open(argv[2], "rb").read()
         w, lk, size = int(argv[4]), int(argv[5]), int(argv[6])

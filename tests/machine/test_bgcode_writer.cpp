@@ -234,6 +234,83 @@ TEST(BgcodeWriter, EveryCompressionReadsBackToTheSameText) {
   }
 }
 
+// Lines MeatPack cannot simply pack: spaces it may not drop, glued words, lower case, comments
+// (UTF-8 too), empty lines, a line longer than a block, no newline at the end.
+std::string awkward_lines() {
+  return "G1X5Y5\nG28 X Y\nM104 S200 ; heat\n\n; X and E in a comment\nG1 X1 Y2 E.5\n"
+         "g1 x1\nG1  X1\nG1 X1 \nT0\nG1 E-.8 F2100\n; 25 \xC2\xB5m\nG92 E0\nG1 X1 E1e-3\n;" +
+         std::string(2500, 'a') + "\nG1 X12.5 Y0.\nG1 X9";
+}
+
+TEST(BgcodeWriter, MeatPackBlocksReadBackAsTheTextAndDecodeIndependently) {
+  test::TempDir dir("bgcode_meatpack");
+  const std::string gcode = write_gcode(print(), prusa());
+  for (const std::size_t block : {std::size_t{20000}, std::size_t{1000}}) {
+    const std::string text = gcode + awkward_lines();
+    std::string bytes;
+    BgcodeWriter w([&](std::string_view piece) { bytes.append(piece); },
+                   {BgcodeCompression::Heatshrink12, block, true});
+    w.start({}, {});
+    w.gcode(text);
+    w.finish();
+    walk(bytes);
+    std::string read, fresh;
+    for (const auto& b : bgcode_blocks(bytes, "m.bgcode"))
+      if (b.type == BgcodeBlock::Gcode) {
+        EXPECT_EQ(b.encoding, kBgcodeMeatPackComments);
+        read += b.data;
+      }
+    EXPECT_TRUE(read == text) << "block size " << block;
+    // Each block decodes on its own, with a decoder that saw no earlier block.
+    std::string_view rest = text;
+    std::size_t at = 0, blocks = 0;
+    while (at < text.size()) {
+      std::size_t take = std::min(block, text.size() - at);
+      if (at + take < text.size())
+        if (const std::size_t nl = rest.substr(0, take).rfind('\n'); nl != std::string::npos)
+          take = nl + 1;
+      const std::string piece(rest.substr(0, take));
+      const std::string packed = meatpack_encode(piece, at > 0 && text[at - 1] != '\n');
+      std::string one;
+      MeatPackDecoder().feed(packed, one);
+      EXPECT_TRUE(one == piece) << "block " << blocks;
+      // More than half the text: PrusaSlicer's decoder then never grows its buffer (meatpack.cpp).
+      EXPECT_GT(packed.size() * 2, piece.size()) << "block " << blocks;
+      at += take, rest.remove_prefix(take), ++blocks;
+    }
+    // The independent decoder (tests/machine/bgcode_encode.py, Marlin's format), once: the
+    // small blocks, the most block starts.
+    if (block != 1000) continue;
+    const std::string file = dir.file("m.bgcode"), out = dir.file("m.gcode");
+    { std::ofstream(file, std::ios::binary) << bytes; }
+    const std::string cmd = "/usr/bin/python3 " + std::string(TRELLIS_SOURCE_DIR) +
+                            "/tests/machine/bgcode_encode.py --decode " + file + " " + out;
+    ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+    EXPECT_TRUE(read_file(out) == text) << "block size " << block;
+  }
+  // The writer's own G-code packs to under 3/4 of its bytes (spaces dropped, digits in nibbles).
+  EXPECT_LT(meatpack_encode(gcode).size() * 4, gcode.size() * 3);
+  EXPECT_THROW(meatpack_encode("G1 X1\n; \xFF\n"), std::invalid_argument);
+}
+
+TEST(BgcodeWriter, TheEncodingSettingChoosesMeatPackOrText) {
+  test::TempDir dir("bgcode_encoding");
+  MachineProfile p = prusa();
+  for (const auto e : {GcodeEncoding::MeatPack, GcodeEncoding::None}) {
+    p.binary_encoding = e;
+    const std::string file = dir.file(e == GcodeEncoding::None ? "t.bgcode" : "m.bgcode");
+    write_gcode_file(file, print(), p, {});
+    std::string gcode;
+    for (const auto& b : bgcode_blocks(read_file(file), file))
+      if (b.type == BgcodeBlock::Gcode) {
+        EXPECT_EQ(b.encoding, e == GcodeEncoding::None ? 0 : kBgcodeMeatPackComments);
+        gcode += b.data;
+      }
+    EXPECT_TRUE(gcode == write_gcode(print(), p));
+  }
+  EXPECT_LT(fs::file_size(dir.file("m.bgcode")), fs::file_size(dir.file("t.bgcode")));
+}
+
 TEST(BgcodeWriter, StreamedLayersPackTheSameBytes) {
   test::TempDir dir("bgcode_stream");
   const Toolpath tp = print();

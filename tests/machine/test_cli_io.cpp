@@ -10,6 +10,8 @@
 
 #include "trellis/core/error.hpp"
 #include "trellis/machine/cli.hpp"
+#include "trellis/machine/laser.hpp"
+#include "trellis/slice/pbf_lasers.hpp"
 
 using namespace trellis;
 
@@ -212,6 +214,106 @@ TEST(CliIo, LaserIdsRoundTrip) {
           }
         }
       }
+  }
+}
+
+namespace {
+
+// A twin-laser machine whose lasers differ in every per-laser value ([lasers]).
+LaserProfile unequal_lasers() {
+  LaserProfile prof;
+  prof.lasers = 2;
+  LaserProfile::PerLaser& e = prof.each;
+  e.contour_power = {60, 45.5}, e.contour_speed = {900, 600};
+  e.hatch_power = {200, 150}, e.hatch_speed = {1200, 700.25};
+  e.spot_diameter = {0.03, 0.055}, e.jump_speed = {6000, 4000};
+  e.jump_delay = {200, 310}, e.mark_delay = {90.5, 130}, e.polygon_delay = {40, 60};
+  e.laser_on_delay = {0, 12}, e.laser_off_delay = {5, 0};
+  return prof;
+}
+
+// Paths on random lasers at their laser's contour or hatch power and speed, as pbf exposes them.
+Toolpath on_unequal_lasers(unsigned seed, const LaserProfile& prof) {
+  Toolpath tp = random_laser_toolpath(seed);
+  const std::vector<LaserParameters> each = laser_parameters(prof);
+  std::mt19937 rng(seed);
+  for (auto& l : tp.layers)
+    for (auto& p : l.paths) {
+      p.tool = static_cast<int>(rng() % each.size());
+      const LaserParameters& L = each[static_cast<std::size_t>(p.tool)];
+      const bool hatch = p.role == PathRole::Hatch;
+      p.power = hatch ? L.hatch_power : L.contour_power;
+      p.speed = hatch ? L.hatch_speed : L.contour_speed;
+    }
+  return tp;
+}
+
+}  // namespace
+
+// Lasers that differ: each laser's parameters are in the header and read back exactly
+// (Toolpath::lasers), each path's laser, power and speed too (CLI+), and the lasers' times of
+// the file read back are those of the toolpath written.
+TEST(CliIo, LasersThatDifferReadBackWithTheirParameters) {
+  const LaserProfile prof = unequal_lasers();
+  const std::vector<LaserParameters> each = laser_parameters(prof);
+  ASSERT_NE(each[0], each[1]);
+  std::vector<ScanTiming> timings;
+  for (const auto& l : each) timings.push_back(l.timing);
+  for (unsigned seed = 1; seed <= 3; ++seed) {
+    const Toolpath tp = on_unequal_lasers(seed, prof);
+    for (const bool binary : {false, true})
+      for (const bool plus : {false, true}) {
+        const Toolpath back = read_cli(write_cli(tp, prof, {binary, plus}), "mem.cli");
+        EXPECT_EQ(back.lasers, each) << "binary " << binary << " plus " << plus;
+        if (!plus) continue;
+        ASSERT_EQ(back.layers.size(), tp.layers.size());
+        for (std::size_t i = 0; i < tp.layers.size(); ++i) {
+          const auto want = in_file_order(tp.layers[i]);
+          std::vector<const Path*> sorted;  // in the file: laser by laser
+          for (int laser = 0; laser < 2; ++laser)
+            for (const Path* p : want)
+              if (p->tool == laser) sorted.push_back(p);
+          ASSERT_EQ(back.layers[i].paths.size(), sorted.size());
+          for (std::size_t k = 0; k < sorted.size(); ++k) {
+            const Path& got = back.layers[i].paths[k];
+            EXPECT_EQ(got.tool, sorted[k]->tool) << "layer " << i << " path " << k;
+            EXPECT_EQ(got.power, sorted[k]->power) << "layer " << i << " path " << k;
+            EXPECT_EQ(got.speed, sorted[k]->speed) << "layer " << i << " path " << k;
+          }
+        }
+        // The times `trellis analyze` reports from the file's own lasers.
+        std::vector<ScanTiming> read;
+        for (const auto& l : back.lasers) read.push_back(l.timing);
+        EXPECT_EQ(laser_times(back, read).totals().size(), 2u);
+        EXPECT_NEAR(laser_times(back, read).build_seconds(),
+                    laser_times(back, timings).build_seconds(), 1e-12);
+      }
+  }
+  // Lasers that do not differ: no laser lines, nothing read back.
+  LaserProfile same;
+  same.lasers = 2;
+  EXPECT_TRUE(
+      read_cli(write_cli(random_laser_toolpath(1), same, {false, true}), "m.cli").lasers.empty());
+}
+
+// A [lasers] list of another length than laser.lasers is refused, naming its key.
+TEST(CliIo, PerLaserListsOfTheWrongLengthAreRefusedByName) {
+  for (const char* key : {"lasers.hatch_speed", "lasers.spot_diameter", "lasers.mark_delay"}) {
+    LaserProfile prof = unequal_lasers();
+    std::vector<double>& list = std::string(key) == "lasers.hatch_speed" ? prof.each.hatch_speed
+                                : std::string(key) == "lasers.spot_diameter"
+                                    ? prof.each.spot_diameter
+                                    : prof.each.mark_delay;
+    list.push_back(list.back());
+    try {
+      laser_parameters(prof);
+      FAIL() << key << " with 3 values for 2 lasers was taken";
+    } catch (const SettingError& e) {
+      EXPECT_EQ(e.where().element, key);
+      EXPECT_NE(std::string(e.what()).find("3 values for 2 laser(s)"), std::string::npos)
+          << e.what();
+    }
+    EXPECT_THROW(write_cli(random_laser_toolpath(1), prof), SettingError) << key;
   }
 }
 

@@ -243,3 +243,50 @@ TEST(Toolpath3mf, LaserIndicesRoundTrip) {
     expect_same(tp, round_trip(tp, o, dir, "lasers.3mf"), "lasers seed " + std::to_string(seed));
   }
 }
+
+// Lasers that differ ([lasers]): each profile carries its laser's spot radius and jump speed
+// (§4.1), our toolpath data every per-laser value (§4.4), read back exactly (Toolpath::lasers);
+// paths keep their laser, power and speed.
+TEST(Toolpath3mf, LasersThatDifferReadBackWithTheirParameters) {
+  test::TempDir dir;
+  LaserProfile laser;
+  laser.lasers = 2;
+  laser.each.hatch_power = {200, 150}, laser.each.hatch_speed = {1200, 700.25};
+  laser.each.spot_diameter = {0.03, 0.055}, laser.each.jump_speed = {6000, 4000};
+  laser.each.mark_delay = {90.5, 130}, laser.each.laser_off_delay = {5, 0};
+  const std::vector<LaserParameters> each = laser_parameters(laser);
+  Toolpath3mfOptions o;
+  o.laser = &laser;
+  for (unsigned seed = 1; seed <= 3; ++seed) {
+    Toolpath tp = random_toolpath(seed, true, false);
+    std::mt19937 rng(seed);
+    for (auto& l : tp.layers)
+      for (auto& p : l.paths) {
+        p.tool = static_cast<int>(rng() % 2);
+        p.power = each[static_cast<std::size_t>(p.tool)].hatch_power;
+      }
+    const Toolpath back = round_trip(tp, o, dir, "unequal.3mf");
+    expect_same(tp, back, "unequal lasers seed " + std::to_string(seed));
+    EXPECT_EQ(back.lasers, each);
+    // Written again from what was read (no profile lasers): the same lasers.
+    Toolpath3mfOptions plain;
+    EXPECT_EQ(round_trip(back, plain, dir, "again.3mf").lasers, each);
+  }
+  // Each laser's profiles name its own spot radius and jump speed.
+  const std::string path = dir.file("unequal.3mf"), model = dir.file("model.xml");
+  const std::string cmd =
+      "/usr/bin/python3 -c \"import sys, zipfile; sys.stdout.buffer.write("
+      "zipfile.ZipFile('" +
+      path + "').read('3D/3dmodel.model'))\" > " + model;
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  std::ifstream in(model);
+  const std::string xml((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  for (const char* want : {"jumpspeed=\"6000\" spotradius=\"0.015\" laserindex=\"0\"",
+                           "jumpspeed=\"4000\" spotradius=\"0.0275\" laserindex=\"1\""})
+    EXPECT_NE(xml.find(want), std::string::npos) << want;
+  // Equal lasers: no laser data.
+  LaserProfile same;
+  same.lasers = 2;
+  o.laser = &same;
+  EXPECT_TRUE(round_trip(random_toolpath(1, true, false), o, dir, "same.3mf").lasers.empty());
+}

@@ -32,6 +32,7 @@ TP = "http://schemas.3mf.io/3dmanufacturing/toolpath/2026/03"
 CORE = "http://schemas.microsoft.com/3dmanufacturing/core/2015/02"
 BEAM = "http://schemas.microsoft.com/3dmanufacturing/beamlattice/2017/02"
 PROD = "http://schemas.microsoft.com/3dmanufacturing/production/2015/06"
+TREL = "urn:trellis:3mf-toolpath:2026-11"  # our namespace (src/machine/toolpath_3mf_module.hpp)
 
 # A gyroid sheet in a 3 x 3 x 0.6 mm box: thin walls (contours) and junctions (hatches).
 GYROID = "root((-1.5,-1.5,0), (1.5,1.5,0.6), (0.02,0.02,0.02)) {\n  gyroid(2.5, 0.1);\n}\n"
@@ -572,12 +573,14 @@ def test_constant_modifiers_apply_and_others_are_refused(tmp_path):
     assert r.returncode == 2 and "linear modifier of laserpower" in r.stderr, r.stderr
 
 
-def test_two_lasers_cli_and_3mf_keep_the_lasers_and_their_times(tmp_path, xsd):
-    """Issue 43 item 3: the twin-laser profile splits each layer; the .cli and the 3MF carry each
-    vector's laser, `analyze` of either reports the same per-laser times as the pbf run did, and
-    the build time (the slowest laser per layer, summed) is below the lasers' sum."""
+@pytest.mark.parametrize("profile", ["pbf_316l_2laser.toml", "pbf_316l_2laser_unequal.toml"])
+def test_two_lasers_cli_and_3mf_keep_the_lasers_and_their_times(tmp_path, xsd, profile):
+    """Issue 43 item 3: the twin-laser profiles (alike, and differing in every per-laser value)
+    split each layer; the .cli and the 3MF carry each vector's laser (and each laser's values
+    where they differ), `analyze` of either reports the same per-laser times as the pbf run did,
+    and the build time (the slowest laser per layer, summed) is below the lasers' sum."""
     (tmp_path / "gyroid.vcad").write_text(GYROID)
-    machine = ROOT / "profiles" / "pbf_316l_2laser.toml"
+    machine = ROOT / "profiles" / profile
     runs = {}
     for ext in ("cli", "3mf"):
         r = run("pbf", tmp_path / "gyroid.vcad", "--machine", machine, "-o", tmp_path / f"g.{ext}",
@@ -600,6 +603,8 @@ def test_two_lasers_cli_and_3mf_keep_the_lasers_and_their_times(tmp_path, xsd):
     assert [s.get("index") for s in model.iter(f"{{{TP}}}lasersource")] == ["0", "1"]
     assert {p.get("laserindex") for p in model.iter(f"{{{TP}}}toolpathprofile")} == {"0", "1"}
     assert validate(xsd, tmp_path / "g.3mf", tmp_path) > 5
+    declared = [l.get("hatchspeed") for l in model.iter(f"{{{TREL}}}laser")]
+    assert declared == (["1500", "1000"] if "unequal" in profile else []), declared
     # The .cli: both lasers' ids in the file.
     text = (tmp_path / "g.cli").read_text()
     assert "$$LABEL/3,contour laser 2" in text and "$$HATCHES/4," in text

@@ -369,3 +369,102 @@ TEST(PbfLasers, RefusalsAlongYNameTheVectorAsItIs) {
   }
   EXPECT_EQ(layer.paths[0].points[0].x, 80);  // the layer is left as it was
 }
+
+namespace {
+
+// The profile's own laser as the test layers' paths are exposed (contour 100 W at 800 mm/s,
+// hatch 100 W at 1000 mm/s), and one laser that differs from it.
+LaserParameters profile_of_random_layer() {
+  LaserParameters p;
+  p.contour_power = p.hatch_power = 100;
+  p.contour_speed = p.timing.contour_speed = 800;
+  p.hatch_speed = p.timing.hatch_speed = 1000;
+  return p;
+}
+
+// A hatched layer as pbf scans it: contour rings around [0, 100] × [0, 50] mm, then 200 hatch
+// lines across Y in X order, alternating direction (short jumps: marking dominates).
+Layer hatch_layer(unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> end(0, 4);
+  Layer l;
+  l.z = 0.02;
+  for (int k = 0; k < 200; ++k) {
+    Path p;
+    p.role = k % 50 == 0 ? PathRole::Contour : PathRole::Hatch;
+    p.speed = p.role == PathRole::Hatch ? 1000 : 800;
+    p.power = 100;
+    const double x = 0.25 + 0.5 * k, a = end(rng), b = 50 - end(rng);
+    p.points = {{x, k % 2 ? b : a, l.z}, {x, k % 2 ? a : b, l.z}};
+    l.paths.push_back(std::move(p));
+  }
+  return l;
+}
+
+LaserParameters faster(double factor, double power, double mark_delay) {
+  LaserParameters l = profile_of_random_layer();
+  l.contour_speed = l.timing.contour_speed = 800 * factor;
+  l.hatch_speed = l.timing.hatch_speed = 1000 * factor;
+  l.contour_power = 0.8 * power, l.hatch_power = power;
+  l.timing.mark_delay = mark_delay;
+  return l;
+}
+
+}  // namespace
+
+// Lasers that differ (lasers.*): each vector is exposed with its laser's power and speed, each
+// laser's time is reckoned with its own speeds and delays, the times are balanced, and so the
+// faster laser scans more: its share of the vector length grows with its speed.
+TEST(PbfLasers, UnequalLasersAreBalancedOnTheirOwnSpeedsAndDelays) {
+  const LaserParameters profile = profile_of_random_layer();
+  for (unsigned seed = 1; seed <= 6; ++seed)
+    for (const auto& each :
+         {std::vector<LaserParameters>{faster(2, 200, 100), faster(1, 100, 100)},
+          std::vector<LaserParameters>{faster(1, 100, 60), faster(1, 120, 5000)},
+          std::vector<LaserParameters>{faster(1, 100, 100), faster(1.5, 150, 100),
+                                       faster(3, 300, 100)}}) {
+      const std::string what = "seed " + std::to_string(seed) + ", " + std::to_string(each.size()) +
+                               " lasers, laser 1 at " + std::to_string(each[0].hatch_speed) +
+                               " mm/s";
+      const Layer before = hatch_layer(seed);
+      Layer layer = before;
+      const LaserSetup setup = laser_setup({}, 1, profile, each);
+      const LaserSplit s = split_among_lasers(layer, setup, 0);
+      std::vector<double> share(each.size(), 0.0);
+      for (const Path& p : layer.paths) {
+        const LaserParameters& l = each.at(static_cast<std::size_t>(p.tool));
+        const bool hatch = p.role == PathRole::Hatch;
+        EXPECT_EQ(p.power, hatch ? l.hatch_power : l.contour_power) << what;
+        EXPECT_EQ(p.speed, hatch ? l.hatch_speed : l.contour_speed) << what;
+        share[static_cast<std::size_t>(p.tool)] += length(p.points);
+      }
+      for (std::size_t l = 0; l < each.size(); ++l) {
+        std::vector<const Path*> mine;
+        for (const Path& p : layer.paths)
+          if (p.tool == static_cast<int>(l)) mine.push_back(&p);
+        EXPECT_NEAR(s.seconds[l], scan_time(mine, each[l].timing), 1e-12) << what;
+      }
+      const double hi = *std::max_element(s.seconds.begin(), s.seconds.end());
+      const double lo = *std::min_element(s.seconds.begin(), s.seconds.end());
+      EXPECT_LE(hi / lo, 1.15) << what;
+      // The faster laser (higher speed, or a shorter mark delay) scans more length.
+      for (std::size_t l = 1; l < each.size(); ++l) {
+        const bool quicker = each[l].hatch_speed > each[l - 1].hatch_speed ||
+                             each[l].timing.mark_delay < each[l - 1].timing.mark_delay;
+        EXPECT_EQ(share[l] > share[l - 1], quicker) << what << ": laser " << l + 1;
+      }
+      if (each.size() == 2 && each[0].hatch_speed == 2 * each[1].hatch_speed) {
+        EXPECT_GT(share[0], 1.5 * share[1]) << what;
+      }
+      // The same paths at the same profile values on equal lasers split as before (no lasers).
+      Layer plain = before;
+      const LaserSplit e = split_among_lasers(
+          plain, laser_setup({}, 1, profile, std::vector<LaserParameters>(each.size(), profile)),
+          0);
+      Layer old = before;
+      const LaserSplit o = split_among_lasers(
+          old, laser_setup(static_cast<int>(each.size()), {}, 1, profile.timing), 0);
+      EXPECT_EQ(e.seconds, o.seconds) << what;
+      EXPECT_EQ(e.boundaries, o.boundaries) << what;
+    }
+}

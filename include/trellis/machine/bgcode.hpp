@@ -47,6 +47,14 @@ std::string heatshrink_decode(std::string_view data, int window_bits, int lookah
 // heatshrink's own decoder, which Prusa's firmware runs) reads back byte for byte.
 std::string heatshrink_encode(std::string_view data, int window_bits, int lookahead_bits);
 
+// MeatPack encoder (machine/meatpack.cpp): `text` (one G-code block's bytes) packed so that
+// MeatPackDecoder, and decoders that put a space back before a G line's parameter letters (the
+// firmware's, PrusaSlicer's), read back exactly `text`. Comments are kept (the block's encoding
+// is 2, "MeatPack with comments"). `continues_line`: the text starts inside a line the previous
+// block ended in. A 0xFF byte (never in UTF-8) → std::invalid_argument.
+std::string meatpack_encode(std::string_view text, bool continues_line = false);
+inline constexpr std::uint16_t kBgcodeMeatPackComments = 2;
+
 // MeatPack decoder (Marlin's packing, as used in bgcode G-code blocks): 4-bit codes for the 15
 // commonest characters, two per byte, 0b1111 = a full byte follows; 0xFF 0xFF <cmd> switches
 // packing / the no-spaces mode (where code 11 means 'E' instead of ' ').

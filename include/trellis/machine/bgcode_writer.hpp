@@ -7,7 +7,8 @@
 // PrusaSlicer 2.7+ writes them: Prusa's firmware decompresses G-code blocks stored plain or
 // Heatshrink 11/4 or 12/4 and refuses Deflate ones (Prusa-Firmware-Buddy,
 // PrusaPackGcodeReader::init_decompression); the slicer metadata block is Deflate, as
-// PrusaSlicer's. The G-code is not MeatPack-encoded (encoding 0, which the firmware reads too).
+// PrusaSlicer's. The G-code is MeatPack-encoded before compression by default, as PrusaSlicer
+// writes it (gcode.binary_encoding; encoding 2 keeps comments), or plain text (encoding 0).
 //
 // The G-code blocks hold the text G-code writer's bytes exactly (machine/gcode_writer.hpp),
 // written without its "; thumbnail begin" comments: the pictures are in the thumbnail blocks.
@@ -36,10 +37,11 @@ struct BgcodeMetadata {
 
 struct BgcodeOptions {
   // G-code blocks: any of the specification's compressions; Heatshrink 12/4 is what the
-  // printers read (see above). MeatPack is read, not written.
+  // printers read (see above).
   BgcodeCompression gcode = BgcodeCompression::Heatshrink12;
   // The most G-code bytes in one block before compression.
   std::size_t block_size = std::size_t{1} << 16;
+  bool meatpack = true;  // G-code blocks MeatPack-encoded (encoding 2) before compression
 };
 
 // Packs G-code text into a .bgcode byte stream through `put`: start() once with the metadata
@@ -60,10 +62,14 @@ class BgcodeWriter {
   void flush_gcode(std::size_t upto);
   ByteWriter put_;
   BgcodeOptions options_;
-  std::string pending_, packed_, block_;
+  std::string pending_, packed_, block_, encoded_;
   std::size_t bytes_ = 0;
   bool started_ = false, finished_ = false;
+  bool mid_line_ = false;  // the last G-code block ended inside a line
 };
+
+// The options a machine profile asks for (gcode.binary_encoding).
+BgcodeOptions bgcode_options(const MachineProfile& profile);
 
 // Whether writing G-code to `path` for this machine makes binary G-code: the path ends in
 // .bgcode, or gcode.binary is set. Refuses (MachineError, SettingError) a machine whose firmware

@@ -36,6 +36,15 @@ struct LaserProfile {
   // each one's field (x0, y0, x1, y1 per laser, in stripe order; empty = the whole plate).
   int lasers = 1;
   std::vector<double> fields;
+  // Lasers that differ ([lasers]): one value per laser in the same order, each list empty (every
+  // laser at the [laser] or [timing] value) or as long as `lasers`.
+  struct PerLaser {
+    std::vector<double> contour_power, contour_speed, hatch_power, hatch_speed;  // W, mm/s
+    std::vector<double> spot_diameter;                                           // mm
+    std::vector<double> jump_speed;                                              // mm/s
+    std::vector<double> jump_delay, mark_delay, polygon_delay;                   // µs
+    std::vector<double> laser_on_delay, laser_off_delay;                         // µs
+  } each;
   // Scanner timing ([timing]), for the scan-time model (ScanClock).
   // Their defaults are the scan-time model's (toolpath/scan_time.hpp ScanTiming).
   double jump_speed = ScanTiming{}.jump_speed;            // mm/s, positioning between vectors
@@ -50,6 +59,18 @@ struct LaserProfile {
 
 // The profile's speeds and delays as the scan-time model's settings.
 ScanTiming scan_timing(const LaserProfile& profile);
+
+// The profile's own laser ([laser], [timing]), and each of its `lasers` with its [lasers] values
+// where given. A [lasers] list of another length than `lasers` → SettingError naming its key.
+LaserParameters profile_laser(const LaserProfile& profile);
+std::vector<LaserParameters> laser_parameters(const LaserProfile& profile);
+// Whether any [lasers] list is given (the lasers differ).
+bool lasers_differ(const LaserProfile& profile);
+// Each laser's scanner (laser_parameters' timings).
+std::vector<ScanTiming> laser_timings(const LaserProfile& profile);
+// The lasers a build file declares (Toolpath::lasers as the writers write it): the profile's when
+// its lasers differ, else those the toolpath was read with (none: empty).
+std::vector<LaserParameters> declared_lasers(const LaserProfile* profile, const Toolpath& toolpath);
 
 // Laser profiles are TOML files of settings ([machine] name, [laser], [scan], [timing]), read
 // through the one settings schema (settings/settings.hpp: Settings::load_toml_file, then

@@ -24,6 +24,7 @@ enum class FlowModel { None, Pla, Tpu };                  // gradient.flow: "" |
 enum class MixingDialect { M165, M163, M567, Template };  // gradient.dialect
 enum class EmbeddedDrive { Pressure, Syringe };           // embedded.drive
 enum class PurgePosition { Auto, Fixed };                 // purge.position
+enum class GcodeEncoding { None, MeatPack };              // gcode.binary_encoding
 
 const char* to_string(Flavor v);
 const char* to_string(Firmware v);
@@ -154,6 +155,7 @@ struct MachineProfile {
   std::string file_extension = "";           // default output extension: "" = by flavor
   std::string thumbnails = "16x16,220x124";  // PNG previews in the G-code header, "WxH,..."
   bool binary_gcode = false;  // write binary G-code (.bgcode; machine/bgcode_writer.hpp)
+  GcodeEncoding binary_encoding = GcodeEncoding::MeatPack;  // its G-code blocks' encoding
   // A prime line drawn along the bed's front edge before the first layer (mm of line; 0 = none).
   double prime_line = 0;
   bool label_objects =

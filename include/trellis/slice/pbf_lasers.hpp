@@ -28,8 +28,18 @@ struct LaserSetup {
   std::vector<BBox2> fields;
   double overlap = 0;  // mm: neighbouring stripes overlap by this
   LaserAxis axis = LaserAxis::X;
-  ScanTiming timing;  // every laser's scanner
+  ScanTiming timing;  // every laser's scanner (when `lasers` is empty)
+  // Lasers that differ: one per field. A path at the profile's contour or hatch power and speed
+  // (`profile`) takes its laser's on that laser, and each laser's time is reckoned with its own
+  // speeds and delays (its ScanTiming); other paths (a solid part's parameter sets) keep theirs.
+  // Empty: every laser is `timing` and paths keep their values.
+  LaserParameters profile;
+  std::vector<LaserParameters> lasers;
 };
+
+// `path` as laser `laser` exposes it: its power and speed that laser's if they are the profile's
+// contour or hatch parameters, else its own.
+void expose_on(Path& path, const LaserParameters& laser, const LaserParameters& profile);
 
 // The whole plane: a laser that reaches everywhere.
 BBox2 whole_plate();
@@ -39,6 +49,9 @@ BBox2 whole_plate();
 // SettingError naming laser.fields.
 LaserSetup laser_setup(int lasers, const std::vector<double>& fields, double overlap,
                        const ScanTiming& timing);
+// The same for lasers that differ (`each`: one per laser, `profile`: the profile's own laser).
+LaserSetup laser_setup(const std::vector<double>& fields, double overlap,
+                       const LaserParameters& profile, const std::vector<LaserParameters>& each);
 
 struct LaserSplit {
   std::vector<double> seconds;     // scan time per laser (s)
@@ -52,7 +65,7 @@ struct LaserSplit {
 };
 
 // Splits `layer` among the setup's lasers along setup.axis: every path's `tool` becomes its
-// laser index, a path
+// laser index and its power and speed that laser's (expose_on), a path
 // cut at a boundary becomes its pieces in place (same values, its points cut). One laser: the
 // layer is left as it is (tool 0), its time reported. A vector no laser's field holds →
 // GeometryError naming the layer (`layer_index`), the vector and laser.fields.
@@ -69,7 +82,10 @@ struct LaserTimes {
   double build_seconds() const;
 };
 
-// The times of a toolpath whose paths carry their laser in `tool` (a .cli or 3MF read back).
+// The times of a toolpath whose paths carry their laser in `tool` (a .cli or 3MF read back):
+// every laser with `timing`, or each with its own (`each[tool]`; a path of a laser beyond them
+// → SettingError naming laser.lasers).
 LaserTimes laser_times(const Toolpath& toolpath, const ScanTiming& timing);
+LaserTimes laser_times(const Toolpath& toolpath, const std::vector<ScanTiming>& each);
 
 }  // namespace trellis

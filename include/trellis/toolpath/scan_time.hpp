@@ -12,22 +12,10 @@
 #include <vector>
 
 #include "trellis/core/vec.hpp"
+#include "trellis/toolpath/laser_parameters.hpp"
 #include "trellis/toolpath/toolpath.hpp"
 
 namespace trellis {
-
-struct ScanTiming {
-  double contour_speed = 800;    // mm/s, mark speed of contour vectors
-  double hatch_speed = 1000;     // mm/s, mark speed of hatch vectors
-  double jump_speed = 5000;      // mm/s, positioning between vectors
-  double jump_delay = 250;       // µs, after every jump
-  double mark_delay = 100;       // µs, after every marked vector (without skywriting)
-  double polygon_delay = 50;     // µs, at every corner inside a polyline
-  bool skywriting = false;       // run in/out of each vector instead of the mark delay
-  double skywriting_time = 150;  // µs, run-in + run-out per vector when skywriting
-  double laser_on_delay = 0;     // µs, before the laser fires at every vector's start
-  double laser_off_delay = 0;    // µs, the laser kept on after every vector's end
-};
 
 // Adds up one layer's scan time, vector by vector in scan order.
 class ScanClock {

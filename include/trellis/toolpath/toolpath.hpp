@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "trellis/core/vec.hpp"
+#include "trellis/toolpath/laser_parameters.hpp"
 
 namespace trellis {
 
@@ -84,6 +85,9 @@ struct Toolpath {
   std::vector<std::string> part_labels;
   // Laser parameter sets by name (PBF solid parts, or read from a build file); empty otherwise.
   std::vector<ParameterSet> parameter_sets;
+  // A multi-laser machine's lasers that differ, as a build file declares them (.cli comments, 3MF
+  // toolpath data): each one's exposure, spot and scanner, by laser index; empty when not said.
+  std::vector<LaserParameters> lasers;
 
   std::size_t path_count() const;
   double extrusion_length() const;
