@@ -180,9 +180,9 @@ TriangleMesh ascii_or_not_stl(const std::string& bytes, const std::string& name)
 TriangleMesh parse_stl(const std::string& bytes, const std::string& name) {
   if (const long long count = binary_stl_count(bytes.data(), bytes.size()); count >= 0) {
     const char* records = bytes.data() + 84;
-    return binary_stl([records](std::size_t first, std::size_t,
-                                char*) { return records + 50 * first; },
-                      static_cast<std::size_t>(count), name);
+    return binary_stl(
+        [records](std::size_t first, std::size_t, char*) { return records + 50 * first; },
+        static_cast<std::size_t>(count), name);
   }
   return ascii_or_not_stl(bytes, name);
 }
@@ -227,8 +227,8 @@ std::size_t face_index(std::string_view line, std::size_t p, std::string& copy, 
 
 TriangleMesh parse_obj(const std::string& text, const std::string& name) {
   std::vector<Vec3> verts;
-  std::string s;          // face_index's copy for strtol (its memory reused)
-  std::vector<long> idx;  // its vertices (likewise)
+  std::string s;                       // face_index's copy for strtol (its memory reused)
+  std::vector<long> idx;               // its vertices (likewise)
   std::vector<std::uint32_t> corners;  // triangle t: corners[3t..3t+2], indices into verts
   std::size_t pos = 0;
   long line = 0;
