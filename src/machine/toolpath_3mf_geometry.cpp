@@ -15,6 +15,7 @@
 
 #include "toolpath_3mf_module.hpp"
 #include "trellis/core/error.hpp"
+#include "trellis/machine/laser.hpp"
 
 namespace trellis::impl {
 
@@ -87,10 +88,22 @@ void beam_lattice_xml(std::string& out, const BeamLattice3mf& l, const std::stri
 // (else options.bead_width; a laser path's: the spot's; else its height), vertices shared where
 // paths meet exactly.
 BeamLattice3mf beads_of(const Toolpath& tp, int part, const Toolpath3mfOptions& o) {
-  const double spot = o.laser ? o.laser->spot_diameter : 0;
+  // Each laser's spot (Path::tool): the profile's lasers, else those the toolpath declares (a
+  // build file read back and written again).
+  std::vector<double> spots;
+  if (o.laser)
+    for (const LaserParameters& l : laser_parameters(*o.laser)) spots.push_back(l.spot_diameter);
+  else
+    for (const LaserParameters& l : tp.lasers) spots.push_back(l.spot_diameter);
+  if (spots.empty() && o.laser) spots.push_back(o.laser->spot_diameter);
+  const auto spot = [&](const Path& p) {
+    return spots.empty() ? 0.0
+                         : spots[static_cast<std::size_t>(
+                               std::clamp(p.tool, 0, static_cast<int>(spots.size()) - 1))];
+  };
   const auto width = [&](const Path& p) {
     return p.width > 0                        ? p.width
-           : p.power > 0 && spot > 0          ? spot
+           : p.power > 0 && spot(p) > 0       ? spot(p)
            : p.power <= 0 && o.bead_width > 0 ? o.bead_width
                                               : p.height;
   };
