@@ -413,12 +413,24 @@ SliceJob slice_job_of(const Job& job, const Config& c, const std::string& input)
   return sj;
 }
 
-// A single part's design as a 3MF output's build item (a plate's parts get their printed beads,
-// toolpath_3mf.hpp): the mesh as read, a field meshed at the step its route samples it.
+// A single part's design as a 3MF output's build item (a plate's: slice_plate_geometry): the mesh
+// as read, a field meshed at the step its route samples it.
+// `bottom`: the design's z its first layer starts at (SliceResult::bottom), dropped to the bed.
+void slice_geometry(const Job& job, const SliceJob& sj, double bottom, JobResult& out) {
+  if (!job.parts.empty() || job.input.empty() || out.geometry.mesh) return;
+  out.geometry.mesh = design_mesh_3mf(
+      job.input, sj.route == SliceRoute::Mesh ? sj.mesh_voxel : sj.field.resolution, sj.budget);
+  out.geometry.transform = kIdentity3mf;
+  out.geometry.transform[11] = -bottom;
+}
+
+// slice_geometry for a run that has not sliced the part (a merge, a toolpath read back): its
+// first printed layer found as a shard finds it.
 void slice_geometry(const Job& job, const SliceJob& sj, JobResult& out) {
-  if (job.parts.empty() && !job.input.empty() && !out.geometry.mesh)
-    out.geometry.mesh = design_mesh_3mf(
-        job.input, sj.route == SliceRoute::Mesh ? sj.mesh_voxel : sj.field.resolution, sj.budget);
+  SliceJob probe = sj;
+  probe.layer_begin = probe.layer_end = 0;
+  probe.range_of = nullptr;
+  slice_geometry(job, sj, run_slice(probe, Progress{}).bottom, out);
 }
 
 void warn_palette(const std::string& input, int used, int total, Diagnostics& diag) {
@@ -474,6 +486,7 @@ void warn_process(const ProcessStats& stats, const ProcessOptions& options, Diag
 struct SlicePart {
   SliceJob sj;
   BBox3 extent;
+  double bottom = 0;  // the design's z on the bed (SliceResult::bottom)
   std::size_t layers = 0;
   ProcessStats process;  // what its process fields wrote (the plate report's per-part object)
 };
@@ -526,6 +539,7 @@ std::vector<SlicePart> slice_parts_of(const Job& job, const Config& c,
     probe.layer_begin = probe.layer_end = 0;
     const SliceResult r = run_slice(probe, progress);
     p.extent = r.extent;
+    p.bottom = r.bottom;
     p.layers = r.part_layers;
     parts.push_back(std::move(p));
   }
@@ -543,9 +557,8 @@ void slice_plate_geometry(const Job& job, const std::vector<SlicePart>& parts, J
     const double voxel = sj.route == SliceRoute::Mesh ? sj.mesh_voxel : sj.field.resolution;
     std::shared_ptr<const TriangleMesh>& mesh = meshes[fmt::format("{}\n{}", pp.input, voxel)];
     if (!mesh) mesh = design_mesh_3mf(pp.input, voxel, sj.budget);
-    const BBox3& e = parts[k].extent;
-    out.geometry.parts.push_back(
-        {mesh, place_transform(pp, e, -e.min.z), fs::path(pp.input).filename().string()});
+    out.geometry.parts.push_back({mesh, place_transform(pp, parts[k].extent, -parts[k].bottom),
+                                  fs::path(pp.input).filename().string()});
   }
 }
 
@@ -864,7 +877,7 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
                       to_string(r.route) + " route)";
   GcodeStats g;
   if (!job.output.empty()) note_planar_in_bath(c.machine, "slice", diag);
-  if (is_3mf_output(job.output)) slice_geometry(job, sj, out);
+  if (is_3mf_output(job.output)) slice_geometry(job, sj, r.bottom, out);
   if (spill) {
     Toolpath meta;
     meta.source = r.toolpath.source;
@@ -1136,8 +1149,8 @@ void pbf_plate_geometry(const Job& job, const Config& c, JobResult& out) {
     const BBox3 e = d.part().extent();
     std::shared_ptr<const TriangleMesh>& mesh = meshes[pp.input + '\n' + pp.settings_toml];
     if (!mesh)
-      mesh = field_mesh_3mf(d.part(), pbf_options(job, pc).resolution,
-                            budget_of(job, c, Progress{}));
+      mesh =
+          field_mesh_3mf(d.part(), pbf_options(job, pc).resolution, budget_of(job, c, Progress{}));
     out.geometry.parts.push_back(
         {mesh, place_transform(pp, e, -e.min.z),
          pp.input.empty() ? pp.label : fs::path(pp.input).filename().string()});

@@ -213,9 +213,9 @@ Geometry3mf geometry_xml(const Toolpath& tp, const Toolpath3mfOptions& options,
       object = id++;
       if (d.lattice != &beads) written[key] = object;
       g.beams = g.beams || d.lattice;
-      g.objects += object_xml({d.mesh, d.lattice, d.mesh_is_surface}, object,
-                              uuid_of(part == 0 ? "object" : fmt::format("object {}", part)),
-                              esc(name));
+      g.objects +=
+          object_xml({d.mesh, d.lattice, d.mesh_is_surface}, object,
+                     uuid_of(part == 0 ? "object" : fmt::format("object {}", part)), esc(name));
     } else {
       object = written[key];
     }
