@@ -170,7 +170,7 @@ std::string object_xml(const Object& o, int id, const std::string& uuid, const s
 std::string transform_attr(const Transform3mf& m) {
   if (m == kIdentity3mf) return {};
   std::string out = " transform=\"";
-  for (std::size_t i = 0; i < m.size(); ++i) out += (i ? " " : "") + num(m[i]);
+  for (std::size_t i = 0; i < m.size(); ++i) out += (i ? " " : "") + num(m[i] == 0 ? 0.0 : m[i]);
   return out + "\"";
 }
 
