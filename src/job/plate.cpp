@@ -113,6 +113,12 @@ Vec3 place_point(const PlatePart& part, const BBox3& box, Vec3 p) {
   return {part.x + c * x - s * y, part.y + s * x + c * y, p.z};
 }
 
+Transform3mf place_transform(const PlatePart& part, const BBox3& box, double dz) {
+  const double cx = 0.5 * (box.min.x + box.max.x), cy = 0.5 * (box.min.y + box.max.y);
+  const double c = std::cos(part.rotation * kDeg), s = std::sin(part.rotation * kDeg);
+  return {c, s, 0, -s, c, 0, 0, 0, 1, part.x - c * cx + s * cy, part.y - s * cx - c * cy, dz};
+}
+
 PartFootprint place_footprint(const PlatePart& part, const BBox3& box) {
   PartFootprint f;
   f.label = part.label;

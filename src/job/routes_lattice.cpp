@@ -282,6 +282,65 @@ void check_plan_shard(const Job& job, const Config& c) {
         {"", 0, "--shard"});
 }
 
+// A planned lattice's design as a 3MF's build item: the struts as beams where the toolpath prints
+// them as they lie, the surface printed on (an open "surface" object, meshed at half the bead
+// width as the nonplanar route's) where onto.* lays them on one.
+void plan_geometry(const Config& c, std::shared_ptr<const Graph> lattice, JobResult& out) {
+  if (c.onto.kind == OntoKind::Flat) {
+    out.geometry.struts = std::move(lattice);
+    return;
+  }
+  out.geometry.mesh = std::make_shared<const TriangleMesh>(
+      surface_mesh(onto_surface(c.onto), c.machine.nozzle_diameter / 2));
+  out.geometry.surface = true;
+}
+
+// The lattice an euler or gippo plan of `job` prints (its input's, or the pattern it makes),
+// for a merge's 3MF: as the single run makes it before planning.
+std::shared_ptr<const Graph> planned_lattice(const Job& job, const Config& c) {
+  Diagnostics said;  // (the shards' to give)
+  if (job.input.empty() && c.planner == LatticePlanner::Aero)
+    return std::make_shared<const Graph>(cells_or_foam(c, said));
+  if (!job.input.empty())
+    return std::make_shared<const Graph>(
+        stacked_layers(read_lattice(job.input, c.clean_options(), said), job, c));
+  AtlasParams a = atlas_of(c, job.settings);
+  if (c.onto.kind != OntoKind::Flat && !job.settings.has("lattice2d.center")) {
+    const BBox2 b = onto_surface(c.onto).domain();
+    a.region.center = {(b.min.x + b.max.x) / 2, (b.min.y + b.max.y) / 2};
+  }
+  return std::make_shared<const Graph>(layered_lattice(a, c));
+}
+
+// The design of a toolpath JSON that `trellis gcode` writes as a 3MF, from the job it embeds:
+// a plan's lattice or surface (plan_geometry), a sliced part's or the surface a nonplanar route
+// printed on (the routes' own, routes_slice.cpp). A toolpath without a job keeps its beads; one
+// whose design cannot be read again (moved, changed) too, said.
+void toolpath_design(const std::string& input, JobResult& out, Diagnostics& diag) {
+  try {
+    Job made;
+    try {
+      made = job_from_output(input);
+    } catch (const ParseError& e) {
+      // No job (a toolpath of another tool's, or planned in Python): the beads printed are its
+      // geometry.
+      if (std::string(e.what()).find("no Trellis job") != std::string::npos) return;
+      throw;
+    }
+    const Config mc = made.settings.config();
+    if (made.route == "plan")
+      plan_geometry(mc, planned_lattice(made, mc), out);
+    else
+      design_geometry(made, mc, out);
+  } catch (const Error& e) {
+    out.geometry = {};
+    diag.warn("design_not_read",
+              fmt::format("{}: the design of the job it embeds could not be read again ({}); the "
+                          "3MF's build items are the beads printed",
+                          input, e.what()));
+  }
+}
+
 }  // namespace
 
 void write_plan_main(const Job& job, const Config& c, const Toolpath& tp, JobResult& out,
@@ -307,6 +366,9 @@ void merge_plan_main(const Job& job, const Config& c, Toolpath& tp, JobResult& o
       tp.source = source;
     }
   }
+  // The design as the single run's 3MF carries it.
+  if (is_3mf_output(job.gcode) && !out.geometry.struts && !out.geometry.mesh)
+    plan_geometry(c, c.onto.kind == OntoKind::Flat ? planned_lattice(job, c) : nullptr, out);
   write_plan_main(job, c, tp, out, diag);
 }
 
@@ -534,9 +596,8 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
   r.toolpath.source = "trellis " + to_string(c.planner) + " " + fs::path(input).filename().string();
   out.toolpath = std::make_shared<Toolpath>(r.toolpath);
   out.lattice = std::make_shared<Graph>(g);
-  // A 3MF's build item: the struts as beams, where the toolpath prints them as they lie (laid on
-  // a surface, it does not: its package carries the beads printed, toolpath_3mf.hpp).
-  if (c.onto.kind == OntoKind::Flat) out.geometry.struts = out.lattice;
+  // A 3MF's build item: the struts as beams, or the surface they are laid on.
+  if (is_3mf_output(job.gcode)) plan_geometry(c, out.lattice, out);
   const double secs = seconds_since(t0);
   GcodeStats gs;
   write_plan_main(job, c, r.toolpath, out, diag, &gs);
@@ -616,6 +677,7 @@ JobResult gcode(const Job& job, const Config& c, Diagnostics& diag, const Progre
                     fixed(odd->height, 3), fixed(c.machine.layer_height, 3)));
     break;
   }
+  if (is_3mf_output(job.output)) toolpath_design(job.input, out, diag);
   GcodeStats s;
   s = write_gcode_out(job.output, tp, job, c.machine, out, diag);
   out.toolpath = std::make_shared<Toolpath>(tp);

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cctype>
 #include <filesystem>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
 #include <set>
@@ -412,12 +413,24 @@ SliceJob slice_job_of(const Job& job, const Config& c, const std::string& input)
   return sj;
 }
 
-// A single part's design as a 3MF output's build item (a plate's parts get their printed beads,
-// toolpath_3mf.hpp): the mesh as read, a field meshed at the step its route samples it.
+// A single part's design as a 3MF output's build item (a plate's: slice_plate_geometry): the mesh
+// as read, a field meshed at the step its route samples it.
+// `bottom`: the design's z its first layer starts at (SliceResult::bottom), dropped to the bed.
+void slice_geometry(const Job& job, const SliceJob& sj, double bottom, JobResult& out) {
+  if (!job.parts.empty() || job.input.empty() || out.geometry.mesh) return;
+  out.geometry.mesh = design_mesh_3mf(
+      job.input, sj.route == SliceRoute::Mesh ? sj.mesh_voxel : sj.field.resolution, sj.budget);
+  out.geometry.transform = kIdentity3mf;
+  out.geometry.transform[11] = -bottom;
+}
+
+// slice_geometry for a run that has not sliced the part (a merge, a toolpath read back): its
+// first printed layer found as a shard finds it.
 void slice_geometry(const Job& job, const SliceJob& sj, JobResult& out) {
-  if (is_3mf_output(job.output) && job.parts.empty() && !job.input.empty() && !out.geometry.mesh)
-    out.geometry.mesh = design_mesh_3mf(
-        job.input, sj.route == SliceRoute::Mesh ? sj.mesh_voxel : sj.field.resolution, sj.budget);
+  SliceJob probe = sj;
+  probe.layer_begin = probe.layer_end = 0;
+  probe.range_of = nullptr;
+  slice_geometry(job, sj, run_slice(probe, Progress{}).bottom, out);
 }
 
 void warn_palette(const std::string& input, int used, int total, Diagnostics& diag) {
@@ -473,6 +486,7 @@ void warn_process(const ProcessStats& stats, const ProcessOptions& options, Diag
 struct SlicePart {
   SliceJob sj;
   BBox3 extent;
+  double bottom = 0;  // the design's z on the bed (SliceResult::bottom)
   std::size_t layers = 0;
   ProcessStats process;  // what its process fields wrote (the plate report's per-part object)
 };
@@ -489,6 +503,63 @@ void warn_design(const SliceJob& sj, const SliceResult& r, Diagnostics& diag) {
   warn_min_feature(sj.input, r.design_min_feature, "bead width", sj.planar.bead_width,
                    field ? sj.field.resolution : sj.mesh_voxel,
                    field ? "slice.resolution" : "slice.mesh_voxel", diag);
+}
+
+// Each part's slicing job, extent and printed layers (its ends found plane by plane), for the
+// plate check and the shards' ranges before any layer is sliced, and for a 3MF's build items.
+std::vector<SlicePart> slice_parts_of(const Job& job, const Config& c,
+                                      const std::vector<PlatePart>& placed,
+                                      const Progress& progress) {
+  const bool plate = !job.parts.empty();
+  const double h = c.machine.layer_height;
+  std::vector<SlicePart> parts;
+  for (const PlatePart& pp : placed) {
+    Settings st = job.settings;
+    if (!pp.settings_toml.empty())
+      st.load_toml(pp.settings_toml, job.origin + " part '" + pp.label + "'");
+    const Config pc = st.config();
+    const std::string input = plate ? pp.input : job.input;
+    const Where where{job.origin, pp.line, plate ? "part.input" : "job.input"};
+    if (input.empty()) throw SettingError("slice needs a design (.vcad) or mesh to read", where);
+    if (pc.machine.layer_height != h)
+      throw SettingError("part '" + pp.label +
+                             "' sets its own layer height: every part of a "
+                             "plate prints in the plate's layers (extrusion.layer_height)",
+                         {job.origin, pp.line, "extrusion.layer_height"});
+    SlicePart p;
+    p.sj = slice_job_of(job, pc, input);
+    p.sj.budget.seen = progress.estimate;
+    if (p.sj.strategy != 0 && plate)
+      throw SettingError(
+          "graded slicing (slice.strategy 1 or 2) does not go on plates: its "
+          "purge tower and look-ahead would cross parts (one graded part shards: "
+          "docs/plates.md)",
+          {job.origin, pp.line, "slice.strategy"});
+    SliceJob probe = p.sj;
+    probe.layer_begin = probe.layer_end = 0;
+    const SliceResult r = run_slice(probe, progress);
+    p.extent = r.extent;
+    p.bottom = r.bottom;
+    p.layers = r.part_layers;
+    parts.push_back(std::move(p));
+  }
+  return parts;
+}
+
+// A plate's parts as a 3MF's build items: each part's design (design_mesh_3mf, at the step its
+// route samples it) placed as its paths are, its bottom on the bed; parts of one design sampled
+// alike share a mesh.
+void slice_plate_geometry(const Job& job, const std::vector<SlicePart>& parts, JobResult& out) {
+  std::map<std::string, std::shared_ptr<const TriangleMesh>> meshes;
+  for (std::size_t k = 0; k < parts.size() && k < job.parts.size(); ++k) {
+    const PlatePart& pp = job.parts[k];
+    const SliceJob& sj = parts[k].sj;
+    const double voxel = sj.route == SliceRoute::Mesh ? sj.mesh_voxel : sj.field.resolution;
+    std::shared_ptr<const TriangleMesh>& mesh = meshes[fmt::format("{}\n{}", pp.input, voxel)];
+    if (!mesh) mesh = design_mesh_3mf(pp.input, voxel, sj.budget);
+    out.geometry.parts.push_back({mesh, place_transform(pp, parts[k].extent, -parts[k].bottom),
+                                  fs::path(pp.input).filename().string()});
+  }
 }
 
 // The plate's report (trellis.plate_report) and summary of the slice route.
@@ -561,6 +632,7 @@ JobResult slice_plate_streamed(const Job& job, const Config& c, std::vector<Slic
   JobResult out;
   const bool plate = !job.parts.empty();
   const double h = c.machine.layer_height;
+  if (plate && is_3mf_output(job.output)) slice_plate_geometry(job, parts, out);
   std::vector<std::unique_ptr<LayerSpill>> spills;
   Toolpath meta;
   std::size_t paths = 0;
@@ -688,38 +760,7 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag,
   const std::vector<PlatePart> placed = plate ? job.parts : std::vector<PlatePart>{PlatePart{}};
   const double h = c.machine.layer_height;
   const bool sequential = plate && c.plate.sequence == PlateSequence::Parts;
-  std::vector<SlicePart> parts;
-  // First each part's extent and printed layers (its ends found plane by plane), for the plate
-  // check and the shards' ranges before any layer is sliced.
-  for (const PlatePart& pp : placed) {
-    Settings st = job.settings;
-    if (!pp.settings_toml.empty())
-      st.load_toml(pp.settings_toml, job.origin + " part '" + pp.label + "'");
-    const Config pc = st.config();
-    const std::string input = plate ? pp.input : job.input;
-    const Where where{job.origin, pp.line, plate ? "part.input" : "job.input"};
-    if (input.empty()) throw SettingError("slice needs a design (.vcad) or mesh to read", where);
-    if (pc.machine.layer_height != h)
-      throw SettingError("part '" + pp.label +
-                             "' sets its own layer height: every part of a "
-                             "plate prints in the plate's layers (extrusion.layer_height)",
-                         {job.origin, pp.line, "extrusion.layer_height"});
-    SlicePart p;
-    p.sj = slice_job_of(job, pc, input);
-    p.sj.budget.seen = progress.estimate;
-    if (p.sj.strategy != 0 && plate)
-      throw SettingError(
-          "graded slicing (slice.strategy 1 or 2) does not go on plates: its "
-          "purge tower and look-ahead would cross parts (one graded part shards: "
-          "docs/plates.md)",
-          {job.origin, pp.line, "slice.strategy"});
-    SliceJob probe = p.sj;
-    probe.layer_begin = probe.layer_end = 0;
-    const SliceResult r = run_slice(probe, progress);
-    p.extent = r.extent;
-    p.layers = r.part_layers;
-    parts.push_back(std::move(p));
-  }
+  std::vector<SlicePart> parts = slice_parts_of(job, c, placed, progress);
   if (plate) {
     std::vector<PartFootprint> fp;
     for (std::size_t k = 0; k < parts.size(); ++k)
@@ -789,6 +830,7 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag,
     return shard_written(job, tp, a, b, total, fmt::format("{} paths", paths), std::move(out));
   if (sequential) tp.layers = part_by_part(std::move(tp.layers), parts, h);
   if (!job.output.empty()) note_planar_in_bath(c.machine, "slice", diag);
+  if (plate && is_3mf_output(job.output)) slice_plate_geometry(job, parts, out);
   GcodeStats g;
   write_slice_main(job, c, tp, out, diag, &g);
   if (!job.toolpath.empty()) {
@@ -835,7 +877,7 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
                       to_string(r.route) + " route)";
   GcodeStats g;
   if (!job.output.empty()) note_planar_in_bath(c.machine, "slice", diag);
-  slice_geometry(job, sj, out);
+  if (is_3mf_output(job.output)) slice_geometry(job, sj, r.bottom, out);
   if (spill) {
     Toolpath meta;
     meta.source = r.toolpath.source;
@@ -898,6 +940,14 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
 }
 
 namespace {
+
+// Where a pbf design lies in its toolpath: layer i's top at (i + 1) × the layer thickness, so the
+// design's bottom at z = 0.
+Transform3mf pbf_design_transform(const PbfDesign& d) {
+  Transform3mf m = kIdentity3mf;
+  m[11] = -d.part().extent().min.z;
+  return m;
+}
 
 // Every TPMS cell of the design resolved by the sampling grid, else SettingError naming the key.
 void check_pbf_cells(const Config& c, const PbfOptions& po) {
@@ -1084,6 +1134,29 @@ JobResult pbf_plate(const Job& job, const Config& c, Diagnostics& diag, const Pr
   return out;
 }
 
+// A plate's parts as a 3MF's build items (write_pbf_main: the single run's and the merge's): each
+// part's design meshed at its own pbf.resolution, placed as its paths are (the design's bottom on
+// the plate, as its layers are counted from it); parts of one design and settings share a mesh.
+void pbf_plate_geometry(const Job& job, const Config& c, JobResult& out) {
+  std::map<std::string, std::shared_ptr<const TriangleMesh>> meshes;
+  for (const PlatePart& pp : job.parts) {
+    Settings st = job.settings;
+    if (!pp.settings_toml.empty())
+      st.load_toml(pp.settings_toml, job.origin + " part '" + pp.label + "'");
+    const Config pc = st.config();
+    Diagnostics said;  // (the run's to give)
+    const PbfDesign d = pbf_part_design(pc, pp.input, st, said);
+    const BBox3 e = d.part().extent();
+    std::shared_ptr<const TriangleMesh>& mesh = meshes[pp.input + '\n' + pp.settings_toml];
+    if (!mesh)
+      mesh =
+          field_mesh_3mf(d.part(), pbf_options(job, pc).resolution, budget_of(job, c, Progress{}));
+    out.geometry.parts.push_back(
+        {mesh, place_transform(pp, e, -e.min.z),
+         pp.input.empty() ? pp.label : fs::path(pp.input).filename().string()});
+  }
+}
+
 }  // namespace
 
 void write_slice_main(const Job& job, const Config& c, Toolpath& tp, JobResult& out,
@@ -1093,6 +1166,9 @@ void write_slice_main(const Job& job, const Config& c, Toolpath& tp, JobResult& 
   if (!tp.part_labels.empty()) m.center = false;
   if (tp.part_labels.empty() && is_3mf_output(job.output))
     slice_geometry(job, slice_job_of(job, c, job.input), out);
+  // A plate's merge: its parts found again as the single run found them.
+  if (!job.parts.empty() && is_3mf_output(job.output) && out.geometry.parts.empty())
+    slice_plate_geometry(job, slice_parts_of(job, c, job.parts, Progress{}), out);
   const GcodeStats g = write_gcode_out(job.output, tp, job, m, out, diag);
   if (stats) *stats = g;
 }
@@ -1183,14 +1259,8 @@ static HeightField nonplanar_surface(const Job& job, const Config& c) {
 
 GcodeStats write_nonplanar_main(const Job& job, const Config& c, Toolpath& tp, JobResult& out,
                                 Diagnostics& diag) {
-  if (is_3mf_output(job.output) && !out.geometry.mesh) {
-    // The surface printed on as the 3MF's build item (an open "surface" object): a mesh as read,
-    // else its grid at half the bead width, as the planar control meshes it.
-    out.geometry.mesh = std::make_shared<const TriangleMesh>(
-        job.input.empty() ? surface_mesh(nonplanar_surface(job, c), c.machine.nozzle_diameter / 2)
-                          : read_mesh(job.input));
-    out.geometry.surface = true;
-  }
+  // The surface printed on as the 3MF's build item (design_geometry).
+  if (is_3mf_output(job.output) && !out.geometry.mesh) design_geometry(job, c, out);
   return write_gcode_out(job.output, tp, job, c.machine, out, diag);
 }
 
@@ -1199,10 +1269,14 @@ void write_pbf_main(const Job& job, const Config& c, Toolpath& tp, JobResult& ou
   if (is_3mf_output(job.output) && tp.part_labels.empty() && !out.geometry.mesh) {
     // The shards' part, as a single run writes it (its warnings were the shards' to give).
     Diagnostics said;
+    const PbfDesign d = pbf_part_design(c, job.input, job.settings, said);
     out.geometry.mesh =
-        field_mesh_3mf(pbf_part_design(c, job.input, job.settings, said).part(),
-                       pbf_options(job, c).resolution, budget_of(job, c, Progress{}));
+        field_mesh_3mf(d.part(), pbf_options(job, c).resolution, budget_of(job, c, Progress{}));
+    out.geometry.transform = pbf_design_transform(d);
   }
+  // A plate's parts, each its design at its place.
+  if (is_3mf_output(job.output) && !job.parts.empty() && out.geometry.parts.empty())
+    pbf_plate_geometry(job, c, out);
   write_laser_build(job.output, tp, job, c, out);
 }
 
@@ -1251,8 +1325,10 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
         times.add(split_among_lasers(tp.layers[i], setup, i));
     out.toolpath = std::make_shared<Toolpath>(tp);
   }
-  if (is_3mf_output(job.output))
+  if (is_3mf_output(job.output)) {
     out.geometry.mesh = field_mesh_3mf(d.part(), po.resolution, budget);
+    out.geometry.transform = pbf_design_transform(d);
+  }
   if (!job.output.empty() && !stream) write_laser_build(job.output, tp, job, c, out);
   if (!job.toolpath.empty()) {
     write_toolpath_with_job(job.toolpath, tp, job);
@@ -1544,6 +1620,28 @@ JobResult surface(const Job& job, const Config& c, Diagnostics& diag, const Prog
   }
   out.summary = fmt::format("{}: {} triangles", s.name(), mesh.triangles.size());
   return out;
+}
+
+void design_geometry(const Job& job, const Config& c, JobResult& out) {
+  if (job.route == "slice" && !job.parts.empty()) {
+    slice_plate_geometry(job, slice_parts_of(job, c, job.parts, Progress{}), out);
+  } else if (job.route == "slice") {
+    slice_geometry(job, slice_job_of(job, c, job.input), out);
+  } else if (job.route == "pbf" && !pbf_solid_job(job, c)) {
+    if (!job.parts.empty()) return pbf_plate_geometry(job, c, out);
+    Diagnostics said;
+    const PbfDesign d = pbf_part_design(c, job.input, job.settings, said);
+    out.geometry.mesh =
+        field_mesh_3mf(d.part(), pbf_options(job, c).resolution, budget_of(job, c, Progress{}));
+    out.geometry.transform = pbf_design_transform(d);
+  } else if (job.route == "nonplanar") {
+    // An open "surface" object: a mesh as read, else its grid at half the bead width, as the
+    // planar control meshes it.
+    out.geometry.mesh = std::make_shared<const TriangleMesh>(
+        job.input.empty() ? surface_mesh(nonplanar_surface(job, c), c.machine.nozzle_diameter / 2)
+                          : read_mesh(job.input));
+    out.geometry.surface = true;
+  }
 }
 
 }  // namespace trellis::routes

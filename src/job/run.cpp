@@ -138,6 +138,9 @@ std::size_t write_3mf_out(const std::string& path, Toolpath& tp, const Job& job,
   const JobGeometry& g = out.geometry;
   o.mesh = g.mesh.get();
   o.mesh_is_surface = g.surface;
+  o.transform = g.transform;
+  for (const JobGeometry::Part& p : g.parts)
+    o.parts.push_back({p.mesh.get(), false, nullptr, p.transform, p.name});
   o.bead_width = nozzle;
   BeamLattice3mf beams;
   if (g.struts) {

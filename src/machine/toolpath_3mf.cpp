@@ -13,6 +13,11 @@ const Toolpath3mfModule& module() {
 }
 }  // namespace
 
+Vec3 apply_transform(const Transform3mf& m, const Vec3& p) {
+  return {p.x * m[0] + p.y * m[3] + p.z * m[6] + m[9], p.x * m[1] + p.y * m[4] + p.z * m[7] + m[10],
+          p.x * m[2] + p.y * m[5] + p.z * m[8] + m[11]};
+}
+
 std::string write_toolpath_3mf(const Toolpath& toolpath, const Toolpath3mfOptions& options) {
   return module().write(toolpath, options);
 }

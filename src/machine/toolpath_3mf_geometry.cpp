@@ -166,6 +166,14 @@ std::string object_xml(const Object& o, int id, const std::string& uuid, const s
   return out + "</mesh></object>\n";
 }
 
+// Core §3.4.1: the matrix's 12 numbers; none for the identity.
+std::string transform_attr(const Transform3mf& m) {
+  if (m == kIdentity3mf) return {};
+  std::string out = " transform=\"";
+  for (std::size_t i = 0; i < m.size(); ++i) out += (i ? " " : "") + num(m[i] == 0 ? 0.0 : m[i]);
+  return out + "\"";
+}
+
 }  // namespace
 
 Geometry3mf geometry_xml(const Toolpath& tp, const Toolpath3mfOptions& options,
@@ -174,29 +182,48 @@ Geometry3mf geometry_xml(const Toolpath& tp, const Toolpath3mfOptions& options,
   std::set<int> all = parts;
   if (options.mesh || options.lattice) all.insert(0);
   int id = 2;  // 1 is the toolpath resource
+  // The objects written so far by their design (mesh, lattice): a design several parts share is
+  // one object with a build item per part.
+  std::map<std::pair<const TriangleMesh*, const BeamLattice3mf*>, int> written;
   for (int part : all) {
-    Object o;
+    const std::string label =
+        part == 0 ? "design" : tp.part_labels[static_cast<std::size_t>(part - 1)];
+    Design3mf d;
+    if (part == 0)
+      d = {options.mesh, options.mesh_is_surface, options.lattice, options.transform, "design"};
+    else if (static_cast<std::size_t>(part) <= options.parts.size())
+      d = options.parts[static_cast<std::size_t>(part - 1)];
+    if (d.mesh && d.mesh->triangles.empty()) d.mesh = nullptr;
+    if (d.lattice && d.lattice->beams.empty()) d.lattice = nullptr;
     BeamLattice3mf beads;
-    std::string name = part == 0 ? "design" : tp.part_labels[static_cast<std::size_t>(part - 1)];
-    if (part == 0 && (options.mesh || options.lattice)) {
-      o = {options.mesh, options.lattice, options.mesh_is_surface};
-      if (o.mesh && o.mesh->triangles.empty()) o.mesh = nullptr;
-    } else {
+    std::string name = d.name.empty() ? label : d.name;
+    if (!d.mesh && !d.lattice) {
       beads = beads_of(tp, part, options);
-      o.lattice = &beads;
-      name += " (printed beads)";
+      d = {nullptr, false, &beads, kIdentity3mf, label + " (printed beads)"};
+      name = d.name;
+      if (beads.beams.empty())
+        throw GeometryError(
+            fmt::format("3MF toolpath: part '{}' has no geometry to be its build item (Part II "
+                        "§1.1.1): no triangles, no struts and no path with a width",
+                        label));
     }
-    if (!o.mesh && (!o.lattice || o.lattice->beams.empty()))
-      throw GeometryError(
-          fmt::format("3MF toolpath: part '{}' has no geometry to be its build item (Part II "
-                      "§1.1.1): no triangles, no struts and no path with a width",
-                      name));
-    g.beams = g.beams || o.lattice;
-    g.objects += object_xml(o, id, uuid_of(part == 0 ? "object" : fmt::format("object {}", part)),
-                            esc(name));
-    g.items += fmt::format("<item objectid=\"{}\" p:UUID=\"{}\"/>", id,
-                           part_uuids[static_cast<std::size_t>(part)]);
-    ++id;
+    int object = 0;
+    const auto key = std::pair{d.mesh, d.lattice};
+    if (d.lattice == &beads || !written.count(key)) {
+      object = id++;
+      if (d.lattice != &beads) written[key] = object;
+      g.beams = g.beams || d.lattice;
+      g.objects +=
+          object_xml({d.mesh, d.lattice, d.mesh_is_surface}, object,
+                     uuid_of(part == 0 ? "object" : fmt::format("object {}", part)), esc(name));
+    } else {
+      object = written[key];
+    }
+    // Core §3.4.1: partnumber, "a unique identifier for the item": the part's label.
+    g.items += fmt::format("<item objectid=\"{}\" p:UUID=\"{}\"{}{}/>", object,
+                           part_uuids[static_cast<std::size_t>(part)],
+                           part == 0 ? "" : fmt::format(" partnumber=\"{}\"", esc(label)),
+                           transform_attr(d.transform));
   }
   return g;
 }

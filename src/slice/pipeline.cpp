@@ -305,6 +305,7 @@ std::pair<std::size_t, std::size_t> printed_planes(const SlicedDesign& d, const 
   if (first == last)
     throw GeometryError("no layer has any outline: the design is empty at every slicing plane",
                         {job.input, 0, ""});
+  r.bottom = r.extent.min.z + static_cast<double>(first) * job.planar.layer_height;
   return {first, last};
 }
 
@@ -521,6 +522,7 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
   std::size_t first = 0, last = r.outlines.size();
   while (first < last && r.outlines[first].regions.empty()) ++first;
   while (last > first && r.outlines[last - 1].regions.empty()) --last;
+  r.bottom = r.extent.min.z + static_cast<double>(first) * h;
   r.outlines = std::vector<LayerOutline>(r.outlines.begin() + static_cast<long>(first),
                                          r.outlines.begin() + static_cast<long>(last));
   r.outline_seconds = seconds_since(t0);

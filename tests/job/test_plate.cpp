@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <random>
 #include <regex>
 #include <set>
 
@@ -205,6 +206,32 @@ TEST(Plate, ShardRangesAreContiguousAndBalancedByWork) {
   const auto [a, b] = shard_range(work, 1, 2);
   EXPECT_EQ(a, 0u);
   EXPECT_EQ(b, 34u);
+}
+
+// A 3MF build item places a part's design where its paths are (issue 43): the item's transform
+// maps every design point as place_point does, z moved by the drop; a rotation keeps lengths.
+TEST(Plate, BuildItemTransformPlacesPointsAsThePlate) {
+  std::mt19937 rng(43);
+  std::uniform_real_distribution<double> u(-50, 50), turn(-360, 360);
+  for (int trial = 0; trial < 200; ++trial) {
+    PlatePart part;
+    part.x = u(rng), part.y = u(rng);
+    part.rotation = trial % 4 == 0 ? 90.0 * (trial % 7) : turn(rng);
+    const Vec3 a{u(rng), u(rng), u(rng)}, b{u(rng), u(rng), u(rng)};
+    const BBox3 box{{std::min(a.x, b.x), std::min(a.y, b.y), std::min(a.z, b.z)},
+                    {std::max(a.x, b.x), std::max(a.y, b.y), std::max(a.z, b.z)}};
+    const double dz = u(rng);
+    const Transform3mf m = place_transform(part, box, dz);
+    for (int k = 0; k < 20; ++k) {
+      const Vec3 p{u(rng), u(rng), u(rng)}, q{u(rng), u(rng), u(rng)};
+      const Vec3 placed = place_point(part, box, p), moved = apply_transform(m, p);
+      EXPECT_NEAR(moved.x, placed.x, 1e-9) << trial;
+      EXPECT_NEAR(moved.y, placed.y, 1e-9) << trial;
+      EXPECT_NEAR(moved.z, placed.z + dz, 1e-9) << trial;
+      EXPECT_NEAR(distance(moved, apply_transform(m, q)), distance(p, q), 1e-9) << trial;
+    }
+  }
+  EXPECT_EQ(place_transform(PlatePart{}, BBox3{{0, 0, 0}, {0, 0, 0}}), kIdentity3mf);
 }
 
 TEST(Plate, ShardFilesRoundTripExactly) {

@@ -467,12 +467,16 @@ def test_field_designs_are_meshed_as_the_build_item(pbf, tmp_path, xsd):
 
 
 def test_a_toolpath_without_design_carries_its_beads(tmp_path, xsd):
-    """`trellis gcode` of a toolpath JSON has no design: its package's build item is the beads it
-    prints, a beam per path segment of half the path's width, the nozzle's where the path has
-    none, as the G-code extrudes it (toolpath_3mf.hpp)."""
+    """`trellis gcode` of a toolpath JSON without a job (another tool's) has no design: its
+    package's build item is the beads it prints, a beam per path segment of half the path's
+    width, the nozzle's where the path has none, as the G-code extrudes it (toolpath_3mf.hpp).
+    (With its job, the design: toolpath_3mf_items_test.py.)"""
     lattice = ROOT / "examples" / "lattices" / "tiny.json"
     fdm = ROOT / "profiles" / "ender3_s1_pro_tpu.toml"
-    run("plan", "euler", lattice, "--machine", fdm, "-o", tmp_path / "t.json")
+    run("plan", "euler", lattice, "--machine", fdm, "-o", tmp_path / "planned.json")
+    doc = json.loads((tmp_path / "planned.json").read_text())
+    del doc["job"]
+    (tmp_path / "t.json").write_text(json.dumps(doc))
     run("gcode", tmp_path / "t.json", "--machine", fdm, "-o", tmp_path / "t.3mf")
     validate(xsd, tmp_path / "t.3mf", tmp_path)
     beams = beams_of(model_of(tmp_path / "t.3mf").find(f".//{{{CORE}}}object"))

@@ -27,6 +27,7 @@
 #include "trellis/lattice/graph.hpp"
 #include "trellis/machine/gcode_writer.hpp"
 #include "trellis/machine/laser.hpp"
+#include "trellis/machine/toolpath_3mf.hpp"
 #include "trellis/settings/settings.hpp"
 #include "trellis/toolpath/toolpath.hpp"
 
@@ -125,6 +126,16 @@ struct JobGeometry {
   std::shared_ptr<const TriangleMesh> mesh;  // a solid's triangles, or the surface printed on
   bool surface = false;                      // `mesh` is the open surface printed on
   std::shared_ptr<const Graph> struts;  // the struts, where the toolpath prints them as they lie
+  // Where the design lies in the toolpath's coordinates (a part dropped on the plate).
+  Transform3mf transform = kIdentity3mf;
+  // A plate's parts (Path::part k: parts[k - 1]), each its design at its place on the plate
+  // (job/plate.hpp place_transform); parts of one design share its mesh (one object).
+  struct Part {
+    std::shared_ptr<const TriangleMesh> mesh;
+    Transform3mf transform = kIdentity3mf;
+    std::string name;  // the object's: the design's file name, else the part's label
+  };
+  std::vector<Part> parts;
 };
 
 struct JobResult {

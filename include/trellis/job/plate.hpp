@@ -21,6 +21,7 @@
 
 #include "trellis/core/vec.hpp"
 #include "trellis/job/job.hpp"
+#include "trellis/machine/toolpath_3mf.hpp"
 #include "trellis/toolpath/toolpath.hpp"
 
 namespace trellis {
@@ -37,6 +38,9 @@ PartFootprint place_footprint(const PlatePart& part, const BBox3& box);
 // A design point moved to the plate: rotated about the extent's XY centre, then moved so that
 // centre lands on (part.x, part.y).
 Vec3 place_point(const PlatePart& part, const BBox3& box, Vec3 p);
+// The same placement as a 3MF build item's transform (machine/toolpath_3mf.hpp), z moved by `dz`:
+// apply_transform(place_transform(part, box, dz), p) = place_point(part, box, p) + (0, 0, dz).
+Transform3mf place_transform(const PlatePart& part, const BBox3& box, double dz = 0);
 
 // Every footprint inside `area` and every pair at least `clearance` apart, else SettingError
 // (exit 2) naming the parts, their lines in `origin` and by how much.

@@ -11,6 +11,7 @@
 // Laser hatches (two-point Hatch/Infill paths with a power) become hatch segments, closed
 // polylines loops, the rest polylines; a path's order, part and values read back unchanged.
 #pragma once
+#include <array>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -34,16 +35,37 @@ struct BeamLattice3mf {
   std::vector<Beam> beams;
 };
 
+// A build item's transform (3MF Core §3.4.1): the 3 x 4 matrix "m00 m01 m02 m10 m11 m12 m20 m21
+// m22 m30 m31 m32" that maps an object's point (x, y, z, 1), a row vector, into the build.
+using Transform3mf = std::array<double, 12>;
+inline constexpr Transform3mf kIdentity3mf{1, 0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0};
+// The point `p` mapped by `m`.
+Vec3 apply_transform(const Transform3mf& m, const Vec3& p);
+
+// A design as an object of the package: triangles and/or struts, in the design's coordinates,
+// placed in the build (the toolpath's coordinates) by its build item's transform.
+struct Design3mf {
+  const TriangleMesh* mesh = nullptr;       // mm
+  bool mesh_is_surface = false;             // an open surface printed on (core §4.1 "surface")
+  const BeamLattice3mf* lattice = nullptr;  // mm, as a beam lattice
+  Transform3mf transform = kIdentity3mf;
+  std::string name;  // the object's name (default: "design", else the part's label)
+};
+
 // The build's geometry: every part a path names (Path::part) is a build item of the package
 // (Toolpath Extension Part II §1.1.1). Part 0 is the design's own object: its mesh and/or its
-// strut lattice; a part without geometry (a plate's parts, a toolpath read back) gets the beads
-// it prints instead: one beam per path segment, of half the path's width (else bead_width; a
-// laser path's: the spot's; else its height).
+// strut lattice; part k ≥ 1 (a plate's part) is parts[k - 1]'s design at its place on the plate.
+// Parts whose design is the same (the same mesh and lattice pointers) share one object, each
+// with its own build item. A part without geometry (a toolpath read back) gets the beads it
+// prints instead: one beam per path segment, of half the path's width (else bead_width; a laser
+// path's: the spot's; else its height), in the build's coordinates.
 struct Toolpath3mfOptions {
   const LaserProfile* laser = nullptr;      // PBF: the laser (lasersources, jump speed, spot)
   const TriangleMesh* mesh = nullptr;       // the build's geometry (mm), written as its build item
   bool mesh_is_surface = false;             // an open surface printed on (core §4.1 "surface")
   const BeamLattice3mf* lattice = nullptr;  // the build's struts (mm), as a beam lattice
+  Transform3mf transform = kIdentity3mf;    // where mesh and lattice lie in the build
+  std::vector<Design3mf> parts;             // a plate's parts' designs (Path::part k: [k - 1])
   double bead_width = 0;  // mm: a deposition path's width where it has none (the nozzle's)
 };
 

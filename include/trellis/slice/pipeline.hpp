@@ -75,6 +75,10 @@ struct SliceResult {
   // The part's printed layers (all of them, also when only a range was asked for) and the index
   // of the toolpath's first layer among them.
   std::size_t part_layers = 0, first_layer = 0;
+  // The design's z that the part's first printed layer starts at: the bed (z = 0 in the
+  // toolpath, whose layer i lies at (i + 1) × the layer height). The extent's bottom, unless
+  // the extent is a loose bound with empty planes above it.
+  double bottom = 0;
   // A range: the part's layer of outlines[0] (the range less the layers its skins read), and
   // whether the design has process fields (a graded shard leaves their pass to the merge).
   std::size_t outline_first = 0;
