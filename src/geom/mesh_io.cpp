@@ -33,13 +33,6 @@ std::string lower_extension(const std::string& path) {
   return ext;
 }
 
-// Triangles given by their corners' coordinates, welded once at the end (weld_corners).
-struct Builder {
-  std::vector<Vec3> corners;
-  void triangle(Vec3 a, Vec3 b, Vec3 c) { corners.insert(corners.end(), {a, b, c}); }
-  TriangleMesh weld() const { return weld_corners(corners); }
-};
-
 // Vertices must be finite and within ±1e6 mm (as lattice nodes are).
 constexpr double kCoordinateLimit = 1e6;
 bool valid_coordinate(const Vec3& p) {
@@ -422,6 +415,9 @@ TriangleMesh parse_obj(const std::string& text, const std::string& name, std::si
   tbb::parallel_for(std::size_t{0}, pieces, [&](std::size_t k) {
     if (!ok) return;
     Piece& p = part[k];
+    const std::size_t bytes = at[k + 1] - at[k];
+    p.verts.reserve(bytes / 48);  // a vertex line is some 30 bytes, a face's corner some 8
+    p.corners.reserve(bytes / 6);
     if (!scan_obj<true>(std::string_view(text).substr(at[k], at[k + 1] - at[k]), p.verts, p.corners,
                         p.need, [](const std::string&, long) { return false; }))
       ok = false;
