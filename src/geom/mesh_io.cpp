@@ -45,6 +45,50 @@ void check_coordinate(const Vec3& p, const std::string& name, long line,
     throw ParseError("vertex coordinate is not finite or beyond ±1e6 mm", {name, line, element});
 }
 
+// The number at [p, end) when it is plain decimal ([-]digits[.digits][e[±]digits]) with at most
+// 2^53 as its digits and a power of ten within ±22: then the digits and the power are exact
+// doubles and one IEEE multiplication or division rounds their product correctly (Clinger's fast
+// path), the same double std::from_chars gives. Returns where it stopped, or nullptr for anything
+// else (from_chars reads those).
+const char* decimal(const char* p, const char* end, double& out) {
+  constexpr double kPow10[] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,
+                               1e8,  1e9,  1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
+                               1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
+  const bool negative = p < end && *p == '-';
+  if (negative) ++p;
+  std::uint64_t m = 0;
+  int digits = 0, scale = 0;
+  const char* const first = p;
+  for (; p < end && *p >= '0' && *p <= '9'; ++p, ++digits)
+    m = 10 * m + static_cast<unsigned>(*p - '0');
+  const bool integer_part = p != first;
+  if (p < end && *p == '.') {
+    const char* const frac = ++p;
+    for (; p < end && *p >= '0' && *p <= '9'; ++p, ++digits, --scale)
+      m = 10 * m + static_cast<unsigned>(*p - '0');
+    if (!integer_part && p == frac) return nullptr;  // "." or "-."
+  } else if (!integer_part) {
+    return nullptr;
+  }
+  if (digits > 19 || m > (std::uint64_t{1} << 53)) return nullptr;
+  if (p < end && (*p == 'e' || *p == 'E')) {
+    const char* q = p + 1;
+    const bool minus = q < end && *q == '-';
+    if (q < end && (*q == '-' || *q == '+')) ++q;
+    if (q == end || *q < '0' || *q > '9') return nullptr;  // "1e", "1e+": from_chars decides
+    int e = 0;
+    for (; q < end && *q >= '0' && *q <= '9' && e < 1000; ++q) e = 10 * e + (*q - '0');
+    if (q < end && *q >= '0' && *q <= '9') return nullptr;
+    scale += minus ? -e : e;
+    p = q;
+  }
+  if (scale < -22 || scale > 22) return nullptr;
+  double v = static_cast<double>(m);
+  v = scale < 0 ? v / kPow10[-scale] : v * kPow10[scale];
+  out = negative ? -v : v;
+  return p;
+}
+
 // Three numbers as sscanf("%lf %lf %lf") reads them, without its cost (a third of a large
 // ASCII file's load): each is optional blanks, an optional '+', and what std::from_chars takes
 // (the same correctly rounded double), followed by a blank or the end. Anything else (hex,
@@ -61,8 +105,13 @@ bool three_numbers(std::string_view s, Vec3& out, bool whole) {
       ++p;
       if (p < end && (*p == '+' || *p == '-')) return false;
     }
-    const auto [stop, ec] = std::from_chars(p, end, x);
-    if (ec != std::errc() || (stop < end && !blank(*stop))) return false;
+    const char* stop = decimal(p, end, x);
+    if (!stop) {
+      const auto r = std::from_chars(p, end, x);
+      if (r.ec != std::errc()) return false;
+      stop = r.ptr;
+    }
+    if (stop < end && !blank(*stop)) return false;
     p = stop;
   }
   if (whole) {
@@ -290,7 +339,8 @@ namespace {
 // The integer at line[p] as strtol reads it: `v`, and where it stopped (p: none). Plain
 // [-]digits by std::from_chars, in place; anything else (blanks or '+' before it, overflow) by
 // strtol on a NUL-terminated copy in `copy`.
-std::size_t face_index(std::string_view line, std::size_t p, std::string& copy, long& v) {
+[[gnu::always_inline]] inline std::size_t face_index(std::string_view line, std::size_t p,
+                                                     std::string& copy, long& v) {
   const char* const end = line.data() + line.size();
   const char* at = line.data() + p;
   auto digit = [](char c) { return c >= '0' && c <= '9'; };
