@@ -345,6 +345,16 @@ namespace {
   const char* at = line.data() + p;
   auto digit = [](char c) { return c >= '0' && c <= '9'; };
   if (at < end && (digit(*at) || (*at == '-' && at + 1 < end && digit(at[1])))) {
+    // Up to 18 digits cannot overflow: summed here (what from_chars gives), more by from_chars.
+    const bool minus = *at == '-';
+    const char* q = at + minus;
+    long n = 0;
+    int digits = 0;
+    for (; q < end && digit(*q) && digits < 18; ++q, ++digits) n = 10 * n + (*q - '0');
+    if (q == end || !digit(*q)) {
+      v = minus ? -n : n;
+      return static_cast<std::size_t>(q - line.data());
+    }
     const auto [stop, ec] = std::from_chars(at, end, v);
     if (ec == std::errc()) return static_cast<std::size_t>(stop - line.data());
   }
