@@ -11,6 +11,7 @@
 #include <tbb/global_control.h>
 #include <unistd.h>
 
+#include <cctype>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -141,6 +142,73 @@ void BM_LoadAndCheckMesh(benchmark::State& state) {
   state.SetBytesProcessed(static_cast<std::int64_t>(state.iterations() * f.bytes));
 }
 BENCHMARK(BM_LoadAndCheckMesh)
+    ->Arg(1)
+    ->Arg(2)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->MeasureProcessCPUTime();
+
+// Where the time of BM_LoadAndCheckMesh goes, stage by stage, on the same file (any format):
+// read (BM_ReadFileOnly: the bytes into memory), parse and weld from those bytes in memory
+// (BM_StageParseWeld: parse_stl or parse_obj; a 3MF is read from its file: inflating and lib3mf's
+// reading are its parse), the weld alone on the same triangles in memory (BM_StageWeld: a binary
+// or ASCII STL's corners by weld_corners, an OBJ's or 3MF's indexed triangles by weld) and the
+// check alone (BM_StageCheck). Parsing alone is BM_StageParseWeld - BM_StageWeld.
+std::string extension_of(const std::string& path) {
+  std::string e = std::filesystem::path(path).extension().string();
+  for (auto& c : e) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return e;
+}
+
+void BM_StageParseWeld(benchmark::State& state) {
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism,
+                              static_cast<std::size_t>(state.range(0)));
+  const StlFile& f = big_stl();
+  const std::string ext = extension_of(f.path);
+  const std::string bytes = ext == ".3mf" ? std::string() : read_file(f.path);
+  for (auto _ : state) {
+    const TriangleMesh m = ext == ".3mf"   ? read_mesh(f.path)
+                           : ext == ".obj" ? parse_obj(bytes, f.path)
+                                           : parse_stl(bytes, f.path);
+    benchmark::DoNotOptimize(m);
+  }
+  state.SetBytesProcessed(static_cast<std::int64_t>(state.iterations() * f.bytes));
+}
+BENCHMARK(BM_StageParseWeld)
+    ->Arg(1)
+    ->Arg(2)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->MeasureProcessCPUTime();
+
+void BM_StageWeld(benchmark::State& state) {
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism,
+                              static_cast<std::size_t>(state.range(0)));
+  const StlFile& f = big_stl();
+  const bool indexed = extension_of(f.path) != ".stl";
+  const TriangleMesh m = read_mesh(f.path);
+  std::vector<Vec3> corners;
+  if (!indexed) {
+    corners.reserve(3 * m.triangles.size());
+    for (const auto& t : m.triangles)
+      for (auto i : t) corners.push_back(m.vertices[i]);
+  }
+  for (auto _ : state) benchmark::DoNotOptimize(indexed ? weld(m) : weld_corners(corners));
+}
+BENCHMARK(BM_StageWeld)
+    ->Arg(1)
+    ->Arg(2)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->MeasureProcessCPUTime();
+
+void BM_StageCheck(benchmark::State& state) {
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism,
+                              static_cast<std::size_t>(state.range(0)));
+  const TriangleMesh m = read_mesh(big_stl().path);
+  for (auto _ : state) benchmark::DoNotOptimize(check_mesh(m));
+}
+BENCHMARK(BM_StageCheck)
     ->Arg(1)
     ->Arg(2)
     ->Unit(benchmark::kMillisecond)

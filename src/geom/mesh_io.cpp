@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -32,13 +33,6 @@ std::string lower_extension(const std::string& path) {
   return ext;
 }
 
-// Triangles given by their corners' coordinates, welded once at the end (weld_corners).
-struct Builder {
-  std::vector<Vec3> corners;
-  void triangle(Vec3 a, Vec3 b, Vec3 c) { corners.insert(corners.end(), {a, b, c}); }
-  TriangleMesh weld() const { return weld_corners(corners); }
-};
-
 // Vertices must be finite and within ±1e6 mm (as lattice nodes are).
 constexpr double kCoordinateLimit = 1e6;
 bool valid_coordinate(const Vec3& p) {
@@ -49,6 +43,50 @@ void check_coordinate(const Vec3& p, const std::string& name, long line,
                       const std::string& element = {}) {
   if (!valid_coordinate(p))
     throw ParseError("vertex coordinate is not finite or beyond ±1e6 mm", {name, line, element});
+}
+
+// The number at [p, end) when it is plain decimal ([-]digits[.digits][e[±]digits]) with at most
+// 2^53 as its digits and a power of ten within ±22: then the digits and the power are exact
+// doubles and one IEEE multiplication or division rounds their product correctly (Clinger's fast
+// path), the same double std::from_chars gives. Returns where it stopped, or nullptr for anything
+// else (from_chars reads those).
+const char* decimal(const char* p, const char* end, double& out) {
+  constexpr double kPow10[] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,
+                               1e8,  1e9,  1e10, 1e11, 1e12, 1e13, 1e14, 1e15,
+                               1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
+  const bool negative = p < end && *p == '-';
+  if (negative) ++p;
+  std::uint64_t m = 0;
+  int digits = 0, scale = 0;
+  const char* const first = p;
+  for (; p < end && *p >= '0' && *p <= '9'; ++p, ++digits)
+    m = 10 * m + static_cast<unsigned>(*p - '0');
+  const bool integer_part = p != first;
+  if (p < end && *p == '.') {
+    const char* const frac = ++p;
+    for (; p < end && *p >= '0' && *p <= '9'; ++p, ++digits, --scale)
+      m = 10 * m + static_cast<unsigned>(*p - '0');
+    if (!integer_part && p == frac) return nullptr;  // "." or "-."
+  } else if (!integer_part) {
+    return nullptr;
+  }
+  if (digits > 19 || m > (std::uint64_t{1} << 53)) return nullptr;
+  if (p < end && (*p == 'e' || *p == 'E')) {
+    const char* q = p + 1;
+    const bool minus = q < end && *q == '-';
+    if (q < end && (*q == '-' || *q == '+')) ++q;
+    if (q == end || *q < '0' || *q > '9') return nullptr;  // "1e", "1e+": from_chars decides
+    int e = 0;
+    for (; q < end && *q >= '0' && *q <= '9' && e < 1000; ++q) e = 10 * e + (*q - '0');
+    if (q < end && *q >= '0' && *q <= '9') return nullptr;
+    scale += minus ? -e : e;
+    p = q;
+  }
+  if (scale < -22 || scale > 22) return nullptr;
+  double v = static_cast<double>(m);
+  v = scale < 0 ? v / kPow10[-scale] : v * kPow10[scale];
+  out = negative ? -v : v;
+  return p;
 }
 
 // Three numbers as sscanf("%lf %lf %lf") reads them, without its cost (a third of a large
@@ -67,8 +105,13 @@ bool three_numbers(std::string_view s, Vec3& out, bool whole) {
       ++p;
       if (p < end && (*p == '+' || *p == '-')) return false;
     }
-    const auto [stop, ec] = std::from_chars(p, end, x);
-    if (ec != std::errc() || (stop < end && !blank(*stop))) return false;
+    const char* stop = decimal(p, end, x);
+    if (!stop) {
+      const auto r = std::from_chars(p, end, x);
+      if (r.ec != std::errc()) return false;
+      stop = r.ptr;
+    }
+    if (stop < end && !blank(*stop)) return false;
     p = stop;
   }
   if (whole) {
@@ -79,59 +122,141 @@ bool three_numbers(std::string_view s, Vec3& out, bool whole) {
   return true;
 }
 
-TriangleMesh parse_ascii_stl(const std::string& text, const std::string& name) {
-  Builder b;
+// Large texts are read in pieces of about this many bytes, in parallel (split at line starts).
+constexpr std::size_t kTextPiece = 1 << 20;
+
+// Where pieces of `text` start: 0, then for each multiple of `piece` the first line start at or
+// after it whose line (trimmed) `opens` accepts. Lines are split at '\n' as the parsers split
+// them.
+template <class Opens>
+std::vector<std::size_t> piece_starts(std::string_view text, std::size_t piece,
+                                      const Opens& opens) {
+  std::vector<std::size_t> starts{0};
+  std::size_t want = piece;
+  while (want < text.size()) {
+    // The line start at or after `want`: just after the '\n' at want - 1 or later.
+    const void* nl = std::memchr(text.data() + want - 1, '\n', text.size() - (want - 1));
+    std::size_t at =
+        nl ? static_cast<std::size_t>(static_cast<const char*>(nl) - text.data()) + 1 : text.size();
+    while (at < text.size()) {
+      const void* e = std::memchr(text.data() + at, '\n', text.size() - at);
+      const std::size_t end =
+          e ? static_cast<std::size_t>(static_cast<const char*>(e) - text.data()) : text.size();
+      if (opens(trim(text.substr(at, end - at)))) break;
+      at = end + 1;
+    }
+    if (at >= text.size()) break;
+    starts.push_back(at);
+    want = at + piece;
+  }
+  starts.push_back(text.size());
+  return starts;
+}
+
+// The ASCII STL grammar over `text` (whole lines), from outside a facet, its triangles' corners
+// appended to `corners`. A problem is `fail(message, line)` (line counted from 1 in `text`),
+// which throws or returns false; then this returns false. `in_facet`: a facet is open at the
+// end.
+template <class Fail>
+bool scan_ascii_stl(std::string_view text, std::vector<Vec3>& corners, bool& in_facet,
+                    const Fail& fail) {
   std::size_t pos = 0;
   long line = 0;
   Vec3 v[3];
   int nv = 0;
-  bool in_facet = false, in_loop = false;
+  bool in_loop = false;
+  in_facet = false;
   while (pos < text.size()) {
-    const std::size_t end = std::min(text.find('\n', pos), text.size());
+    const void* nl = std::memchr(text.data() + pos, '\n', text.size() - pos);
+    const std::size_t end =
+        nl ? static_cast<std::size_t>(static_cast<const char*>(nl) - text.data()) : text.size();
     const std::string_view s = trim(std::string_view(text.data() + pos, end - pos));
     pos = end + 1;
     ++line;
     if (s.empty()) continue;
     if (s.starts_with("vertex")) {
       if (!in_loop || nv >= 3)
-        throw ParseError("'vertex' outside a facet's 'outer loop' or a fourth vertex",
-                         {name, line, ""});
+        return fail("'vertex' outside a facet's 'outer loop' or a fourth vertex", line);
       if (!three_numbers(s.substr(6), v[nv], true)) {
         double x, y, z;
         char extra;
         if (std::sscanf(std::string(s.substr(6)).c_str(), "%lf %lf %lf %c", &x, &y, &z, &extra) !=
             3)
-          throw ParseError("expected 'vertex x y z'", {name, line, ""});
+          return fail("expected 'vertex x y z'", line);
         v[nv] = {x, y, z};
       }
-      check_coordinate(v[nv], name, line);
+      if (!valid_coordinate(v[nv]))
+        return fail("vertex coordinate is not finite or beyond ±1e6 mm", line);
       ++nv;
     } else if (s.starts_with("facet")) {
-      if (in_facet) throw ParseError("'facet' inside a facet", {name, line, ""});
+      if (in_facet) return fail("'facet' inside a facet", line);
       in_facet = true;
       nv = 0;
     } else if (s.starts_with("endfacet")) {
-      if (!in_facet || nv != 3)
-        throw ParseError("facet without exactly three vertices", {name, line, ""});
-      if (in_loop) throw ParseError("'endfacet' before the facet's 'endloop'", {name, line, ""});
-      b.triangle(v[0], v[1], v[2]);
+      if (!in_facet || nv != 3) return fail("facet without exactly three vertices", line);
+      if (in_loop) return fail("'endfacet' before the facet's 'endloop'", line);
+      corners.insert(corners.end(), {v[0], v[1], v[2]});
       in_facet = false;
     } else if (s.starts_with("outer")) {
       if (!in_facet || in_loop || nv != 0)
-        throw ParseError("'outer loop' outside a facet or given twice", {name, line, ""});
+        return fail("'outer loop' outside a facet or given twice", line);
       in_loop = true;
     } else if (s.starts_with("endloop")) {
-      if (!in_loop) throw ParseError("'endloop' without 'outer loop'", {name, line, ""});
+      if (!in_loop) return fail("'endloop' without 'outer loop'", line);
       in_loop = false;
     } else if (s.starts_with("solid") || s.starts_with("endsolid")) {
       continue;
     } else {
-      throw ParseError("unexpected '" + std::string(s.substr(0, 40)) + "' in ASCII STL",
-                       {name, line, ""});
+      return fail("unexpected '" + std::string(s.substr(0, 40)) + "' in ASCII STL", line);
     }
   }
-  if (in_facet) throw ParseError("file ends inside a facet", {name, line, ""});
-  TriangleMesh mesh = b.weld();
+  if (in_facet) return fail("file ends inside a facet", line);
+  return true;
+}
+
+// One line after another, each problem thrown as a ParseError naming its line.
+TriangleMesh parse_ascii_stl_serial(const std::string& text, const std::string& name) {
+  std::vector<Vec3> corners;
+  bool open = false;
+  scan_ascii_stl(text, corners, open, [&](const std::string& what, long line) -> bool {
+    throw ParseError(what, {name, line, ""});
+  });
+  TriangleMesh mesh = weld_corners(corners);
+  if (mesh.triangles.empty()) throw ParseError("STL has no triangles", {name, 0, ""});
+  return mesh;
+}
+
+// Pieces starting at a 'facet' line, read in parallel, each welded on its own, then joined: the
+// serial reading's mesh, since a valid file is outside any facet before each 'facet' line.
+// A piece that is not valid read from there (or a facet open at a piece's end) sends the whole
+// text to the serial reading, which throws what it always threw, at the line it always named.
+TriangleMesh parse_ascii_stl(const std::string& text, const std::string& name, std::size_t piece) {
+  if (text.size() < 2 * piece) return parse_ascii_stl_serial(text, name);
+  const std::vector<std::size_t> at =
+      piece_starts(text, piece, [](std::string_view s) { return s.starts_with("facet"); });
+  const std::size_t pieces = at.size() - 1;
+  std::vector<WeldedRun> runs(pieces);
+  struct Scratch {
+    std::vector<Vec3> corners;
+    WeldTable table;
+  };
+  tbb::enumerable_thread_specific<Scratch> scratch;
+  std::atomic<bool> ok{true};
+  tbb::parallel_for(std::size_t{0}, pieces, [&](std::size_t k) {
+    if (!ok) return;
+    Scratch& sc = scratch.local();
+    std::vector<Vec3>& corners = sc.corners;
+    corners.clear();
+    bool open = false;
+    if (!scan_ascii_stl(std::string_view(text).substr(at[k], at[k + 1] - at[k]), corners, open,
+                        [](const std::string&, long) { return false; })) {
+      ok = false;
+      return;
+    }
+    weld_run(corners.data(), corners.size(), runs[k], sc.table);
+  });
+  if (!ok) return parse_ascii_stl_serial(text, name);
+  TriangleMesh mesh = join_runs(runs);
   if (mesh.triangles.empty()) throw ParseError("STL has no triangles", {name, 0, ""});
   return mesh;
 }
@@ -166,9 +291,10 @@ long long binary_stl_count(const char* head, std::uint64_t size) {
   return 84 + 50ull * count == size ? static_cast<long long>(count) : -1;
 }
 
-TriangleMesh ascii_or_not_stl(const std::string& bytes, const std::string& name) {
+TriangleMesh ascii_or_not_stl(const std::string& bytes, const std::string& name,
+                              std::size_t piece = kTextPiece) {
   const std::string head(trim(bytes.substr(0, std::min<std::size_t>(bytes.size(), 256))));
-  if (head.rfind("solid", 0) == 0) return parse_ascii_stl(bytes, name);
+  if (head.rfind("solid", 0) == 0) return parse_ascii_stl(bytes, name, piece);
   throw ParseError(fmt::format("not an STL file: {} bytes is neither a binary STL (84 + 50 per "
                                "triangle) nor ASCII starting with 'solid'",
                                bytes.size()),
@@ -177,14 +303,18 @@ TriangleMesh ascii_or_not_stl(const std::string& bytes, const std::string& name)
 
 }  // namespace
 
-TriangleMesh parse_stl(const std::string& bytes, const std::string& name) {
+TriangleMesh parse_stl(const std::string& bytes, const std::string& name, std::size_t piece) {
   if (const long long count = binary_stl_count(bytes.data(), bytes.size()); count >= 0) {
     const char* records = bytes.data() + 84;
     return binary_stl(
         [records](std::size_t first, std::size_t, char*) { return records + 50 * first; },
         static_cast<std::size_t>(count), name);
   }
-  return ascii_or_not_stl(bytes, name);
+  return ascii_or_not_stl(bytes, name, piece ? piece : kTextPiece);
+}
+
+TriangleMesh parse_stl(const std::string& bytes, const std::string& name) {
+  return parse_stl(bytes, name, 0);
 }
 
 // A binary STL is read in pieces straight into the weld (never whole: 50 bytes a triangle, of
@@ -209,11 +339,22 @@ namespace {
 // The integer at line[p] as strtol reads it: `v`, and where it stopped (p: none). Plain
 // [-]digits by std::from_chars, in place; anything else (blanks or '+' before it, overflow) by
 // strtol on a NUL-terminated copy in `copy`.
-std::size_t face_index(std::string_view line, std::size_t p, std::string& copy, long& v) {
+[[gnu::always_inline]] inline std::size_t face_index(std::string_view line, std::size_t p,
+                                                     std::string& copy, long& v) {
   const char* const end = line.data() + line.size();
   const char* at = line.data() + p;
   auto digit = [](char c) { return c >= '0' && c <= '9'; };
   if (at < end && (digit(*at) || (*at == '-' && at + 1 < end && digit(at[1])))) {
+    // Up to 18 digits cannot overflow: summed here (what from_chars gives), more by from_chars.
+    const bool minus = *at == '-';
+    const char* q = at + minus;
+    long n = 0;
+    int digits = 0;
+    for (; q < end && digit(*q) && digits < 18; ++q, ++digits) n = 10 * n + (*q - '0');
+    if (q == end || !digit(*q)) {
+      v = minus ? -n : n;
+      return static_cast<std::size_t>(q - line.data());
+    }
     const auto [stop, ec] = std::from_chars(at, end, v);
     if (ec == std::errc()) return static_cast<std::size_t>(stop - line.data());
   }
@@ -225,15 +366,26 @@ std::size_t face_index(std::string_view line, std::size_t p, std::string& copy, 
 
 }  // namespace
 
-TriangleMesh parse_obj(const std::string& text, const std::string& name) {
-  std::vector<Vec3> verts;
-  std::string s;                       // face_index's copy for strtol (its memory reused)
-  std::vector<long> idx;               // its vertices (likewise)
-  std::vector<std::uint32_t> corners;  // triangle t: corners[3t..3t+2], indices into verts
+namespace {
+
+// The OBJ grammar over `text` (whole lines): vertices appended to `verts`, each face's fan of
+// triangles to `corners` (indices into `verts`). A problem is `fail(message, line)` (line counted
+// from 1 in `text`), which throws or returns false; then this returns false.
+// kPiece: `text` is a piece of the file after vertices not seen here, so a face's index v (1 is
+// the file's first vertex) is only checked to be at least 1: `need` becomes at least what the
+// vertices before the piece must number for every index to name a vertex before its face, and a
+// relative (negative) index is refused (the serial reading takes those).
+template <bool kPiece, class Fail>
+bool scan_obj(std::string_view text, std::vector<Vec3>& verts, std::vector<std::uint32_t>& corners,
+              long& need, const Fail& fail) {
+  std::string s;          // face_index's copy for strtol (its memory reused)
+  std::vector<long> idx;  // a face's vertices (likewise)
   std::size_t pos = 0;
   long line = 0;
   while (pos < text.size()) {
-    const std::size_t end = std::min(text.find('\n', pos), text.size());
+    const void* nl = std::memchr(text.data() + pos, '\n', text.size() - pos);
+    const std::size_t end =
+        nl ? static_cast<std::size_t>(static_cast<const char*>(nl) - text.data()) : text.size();
     const std::string_view sv = trim(std::string_view(text.data() + pos, end - pos));
     pos = end + 1;
     ++line;
@@ -243,13 +395,13 @@ TriangleMesh parse_obj(const std::string& text, const std::string& name) {
       if (!three_numbers(sv.substr(2), p, false)) {
         double x, y, z;
         if (std::sscanf(std::string(sv.substr(2)).c_str(), "%lf %lf %lf", &x, &y, &z) != 3)
-          throw ParseError("expected 'v x y z'", {name, line, ""});
+          return fail("expected 'v x y z'", line);
         p = {x, y, z};
       }
-      if (verts.size() >= 0xffffffffu)
-        throw ParseError("more than 4,294,967,294 vertices", {name, line, ""});
+      if (verts.size() >= 0xffffffffu) return fail("more than 4,294,967,294 vertices", line);
       verts.push_back(p);
-      check_coordinate(verts.back(), name, line);
+      if (!valid_coordinate(p))
+        return fail("vertex coordinate is not finite or beyond ±1e6 mm", line);
     } else if (sv[0] == 'f' && sv[1] == ' ') {
       idx.clear();
       std::size_t p = 2;
@@ -260,27 +412,99 @@ TriangleMesh parse_obj(const std::string& text, const std::string& name) {
         const std::size_t stop = face_index(sv, p, s, v);
         const char after = stop < sv.size() ? sv[stop] : '\0';
         if (stop == p || (after != '\0' && after != ' ' && after != '/'))
-          throw ParseError("bad face index '" + std::string(sv.substr(p, sv.find(' ', p) - p)) +
-                               "' (an integer, optionally /texture/normal)",
-                           {name, line, ""});
+          return fail("bad face index '" + std::string(sv.substr(p, sv.find(' ', p) - p)) +
+                          "' (an integer, optionally /texture/normal)",
+                      line);
         const long n = static_cast<long>(verts.size());
-        const long i = v < 0 ? n + v : v - 1;
-        if (i < 0 || i >= n)
-          throw ParseError(fmt::format("face refers to vertex {} of {}", v, n), {name, line, ""});
+        long i;
+        if constexpr (kPiece) {
+          i = v - 1;
+          if (v < 1 || i >= 0xffffffffl) return fail("", line);
+          need = std::max(need, i + 1 - n);
+        } else {
+          i = v < 0 ? n + v : v - 1;
+          if (i < 0 || i >= n)
+            return fail(fmt::format("face refers to vertex {} of {}", v, n), line);
+        }
         idx.push_back(i);
         p = stop;
         while (p < sv.size() && sv[p] != ' ') ++p;  // skip /vt/vn
       }
-      if (idx.size() < 3) throw ParseError("face with fewer than 3 vertices", {name, line, ""});
+      if (idx.size() < 3) return fail("face with fewer than 3 vertices", line);
       for (std::size_t k = 1; k + 1 < idx.size(); ++k)
         corners.insert(corners.end(),
                        {static_cast<std::uint32_t>(idx[0]), static_cast<std::uint32_t>(idx[k]),
                         static_cast<std::uint32_t>(idx[k + 1])});
     }
   }
+  return true;
+}
+
+// One line after another, each problem thrown as a ParseError naming its line.
+TriangleMesh parse_obj_serial(const std::string& text, const std::string& name) {
+  std::vector<Vec3> verts;
+  std::vector<std::uint32_t> corners;  // triangle t: corners[3t..3t+2], indices into verts
+  long need = 0;
+  scan_obj<false>(text, verts, corners, need, [&](const std::string& what, long line) -> bool {
+    throw ParseError(what, {name, line, ""});
+  });
   TriangleMesh mesh = weld_indexed(verts, corners);
   if (mesh.triangles.empty()) throw ParseError("OBJ has no faces", {name, 0, ""});
   return mesh;
+}
+
+}  // namespace
+
+// Pieces (at line starts) read in parallel, their vertices and corners joined in order: the
+// serial reading's lists when every piece reads and every index names a vertex before its face.
+// Anything else (a problem, an index beyond the vertices so far, a relative index) sends the
+// whole text to the serial reading, which throws what it always threw or reads it as always.
+TriangleMesh parse_obj(const std::string& text, const std::string& name, std::size_t piece) {
+  if (piece == 0) piece = kTextPiece;
+  if (text.size() < 2 * piece) return parse_obj_serial(text, name);
+  const std::vector<std::size_t> at =
+      piece_starts(text, piece, [](std::string_view) { return true; });
+  const std::size_t pieces = at.size() - 1;
+  struct Piece {
+    std::vector<Vec3> verts;
+    std::vector<std::uint32_t> corners;
+    long need = 0;
+  };
+  std::vector<Piece> part(pieces);
+  std::atomic<bool> ok{true};
+  tbb::parallel_for(std::size_t{0}, pieces, [&](std::size_t k) {
+    if (!ok) return;
+    Piece& p = part[k];
+    const std::size_t bytes = at[k + 1] - at[k];
+    p.verts.reserve(bytes / 48);  // a vertex line is some 30 bytes, a face's corner some 8
+    p.corners.reserve(bytes / 6);
+    if (!scan_obj<true>(std::string_view(text).substr(at[k], at[k + 1] - at[k]), p.verts, p.corners,
+                        p.need, [](const std::string&, long) { return false; }))
+      ok = false;
+  });
+  std::vector<std::size_t> vfirst(pieces + 1, 0), cfirst(pieces + 1, 0);
+  for (std::size_t k = 0; ok && k < pieces; ++k) {
+    if (part[k].need > static_cast<long>(vfirst[k])) ok = false;
+    vfirst[k + 1] = vfirst[k] + part[k].verts.size();
+    cfirst[k + 1] = cfirst[k] + part[k].corners.size();
+  }
+  if (!ok || vfirst[pieces] >= 0xffffffffu) return parse_obj_serial(text, name);
+  std::vector<Vec3> verts(vfirst[pieces]);
+  std::vector<std::uint32_t> corners(cfirst[pieces]);
+  tbb::parallel_for(std::size_t{0}, pieces, [&](std::size_t k) {
+    std::copy(part[k].verts.begin(), part[k].verts.end(),
+              verts.begin() + static_cast<long>(vfirst[k]));
+    std::copy(part[k].corners.begin(), part[k].corners.end(),
+              corners.begin() + static_cast<long>(cfirst[k]));
+    part[k] = Piece{};
+  });
+  TriangleMesh mesh = weld_indexed(verts, corners);
+  if (mesh.triangles.empty()) throw ParseError("OBJ has no faces", {name, 0, ""});
+  return mesh;
+}
+
+TriangleMesh parse_obj(const std::string& text, const std::string& name) {
+  return parse_obj(text, name, 0);
 }
 
 TriangleMesh read_obj(const std::string& path) {

@@ -231,6 +231,45 @@ namespace {
 constexpr std::size_t kChunk = 1 << 14;  // triangles: 800 KB of records, 48k corners
 constexpr std::size_t kSlots = 1 << 17;  // a chunk's table, at most 3/8 full
 constexpr std::uint32_t kEmpty = 0xffffffffu;
+
+// The second level: the runs' points (each run's in order of first use) in one list, welded with
+// one another (representatives), which numbers the vertices in order of first use as
+// weld_corners does. `remap(r, vid)` then renumbers run r's triangles in `mesh` (vid: run r's
+// point -> vertex; runs in parallel) and says whether any came out degenerate; those are dropped.
+template <class P, class Remap>
+void join_points(std::vector<std::vector<P>>& points, TriangleMesh& mesh, const Remap& remap) {
+  const std::size_t runs = points.size();
+  std::vector<std::size_t> offset(runs + 1, 0);
+  for (std::size_t c = 0; c < runs; ++c) offset[c + 1] = offset[c] + points[c].size();
+  std::vector<P> all(offset[runs]);
+  tbb::parallel_for(std::size_t{0}, runs, [&](std::size_t c) {
+    std::copy(points[c].begin(), points[c].end(), all.begin() + static_cast<long>(offset[c]));
+    std::vector<P>().swap(points[c]);
+  });
+  std::size_t vertices = 0;
+  std::vector<std::uint32_t> id = representatives(
+      all.size(), [&](std::size_t i) { return all[i]; }, vertices);
+  // A point's vertex: numbered when it is its own representative (the first of its
+  // coordinates); `id` is written over the representatives, which come first.
+  mesh.vertices.reserve(vertices);
+  advise_huge_pages(mesh.vertices.data(), vertices * sizeof(Vec3));
+  for (std::size_t i = 0; i < all.size(); ++i) {
+    if (id[i] == i) {
+      id[i] = static_cast<std::uint32_t>(mesh.vertices.size());
+      mesh.vertices.push_back(vertex_of(all[i]));
+    } else {
+      id[i] = id[id[i]];
+    }
+  }
+  std::atomic<bool> degenerate{false};
+  tbb::parallel_for(std::size_t{0}, runs, [&](std::size_t c) {
+    if (remap(c, id.data() + offset[c])) degenerate = true;
+  });
+  if (degenerate)  // two corners coincide: the triangle is dropped
+    std::erase_if(mesh.triangles,
+                  [](const auto& t) { return t[0] == t[1] || t[1] == t[2] || t[0] == t[2]; });
+}
+
 }  // namespace
 
 TriangleMesh weld_binary_stl(const StlRecords& records, std::size_t count,
@@ -286,43 +325,72 @@ TriangleMesh weld_binary_stl(const StlRecords& records, std::size_t count,
     s.used.clear();
   });
   first_invalid = bad.load();
-  // All chunks' points in one list (still in order of first use), welded.
-  std::vector<std::size_t> offset(chunks + 1, 0);
-  for (std::size_t c = 0; c < chunks; ++c) offset[c + 1] = offset[c] + points[c].size();
-  std::vector<Float3> all(offset[chunks]);
-  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
-    std::copy(points[c].begin(), points[c].end(), all.begin() + static_cast<long>(offset[c]));
-    std::vector<Float3>().swap(points[c]);
-  });
-  std::size_t vertices = 0;
-  std::vector<std::uint32_t> id = representatives(
-      all.size(), [&](std::size_t i) { return all[i]; }, vertices);
-  // A point's vertex: numbered when it is its own representative (the first of its
-  // coordinates); `id` is written over the representatives, which come first.
-  mesh.vertices.reserve(vertices);
-  advise_huge_pages(mesh.vertices.data(), vertices * sizeof(Vec3));
-  for (std::size_t i = 0; i < all.size(); ++i) {
-    if (id[i] == i) {
-      id[i] = static_cast<std::uint32_t>(mesh.vertices.size());
-      mesh.vertices.push_back(vertex_of(all[i]));
-    } else {
-      id[i] = id[id[i]];
-    }
-  }
-  std::atomic<bool> degenerate{false};
-  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
-    const std::uint32_t* vid = id.data() + offset[c];
+  join_points(points, mesh, [&](std::size_t c, const std::uint32_t* vid) {
     bool any = false;
     for (std::size_t t = c * kChunk, e = std::min(count, t + kChunk); t < e; ++t) {
       auto& tri = mesh.triangles[t];
       tri = {vid[tri[0]], vid[tri[1]], vid[tri[2]]};
       any = any || tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2];
     }
-    if (any) degenerate = true;
+    return any;
   });
-  if (degenerate)  // two corners coincide: the triangle is dropped
-    std::erase_if(mesh.triangles,
-                  [](const auto& t) { return t[0] == t[1] || t[1] == t[2] || t[0] == t[2]; });
+  return mesh;
+}
+
+void weld_run(const Vec3* corners, std::size_t n, WeldedRun& run, WeldTable& s) {
+  if (n >= 0xffffffffull) throw GeometryError("more than 4,294,967,294 triangle corners");
+  // At most a third full.
+  const std::size_t slots = std::max<std::size_t>(std::bit_ceil(3 * n), 1024);
+  if (s.slots.size() < slots) s.slots.assign(slots, kEmpty);
+  const std::size_t mask = slots - 1;
+  run.points.clear();
+  run.points.reserve(n / 2 + 3);
+  run.triangles.resize(n / 3);
+  for (std::size_t i = 0; i + 3 <= n; i += 3) {
+    for (std::size_t k = 0; k < 3; ++k) {
+      const Vec3& p = corners[i + k];
+      std::uint32_t id = kEmpty;
+      for (std::size_t slot = hash_of(p) & mask;; slot = (slot + 1) & mask) {
+        const std::uint32_t j = s.slots[slot];
+        if (j == kEmpty) {
+          id = static_cast<std::uint32_t>(run.points.size());
+          s.slots[slot] = id;
+          s.used.push_back(static_cast<std::uint32_t>(slot));
+          run.points.push_back(p);
+          break;
+        }
+        if (same(run.points[j], p)) {
+          id = j;
+          break;
+        }
+      }
+      run.triangles[i / 3][k] = id;
+    }
+  }
+  for (const std::uint32_t slot : s.used) s.slots[slot] = kEmpty;
+  s.used.clear();
+}
+
+TriangleMesh join_runs(std::vector<WeldedRun>& runs) {
+  std::vector<std::size_t> first(runs.size() + 1, 0);  // run r's triangles in the mesh
+  for (std::size_t r = 0; r < runs.size(); ++r) first[r + 1] = first[r] + runs[r].triangles.size();
+  if (3 * first.back() >= 0xffffffffull)
+    throw GeometryError("more than 4,294,967,294 triangle corners");
+  TriangleMesh mesh;
+  resize_filled(mesh.triangles, first.back());
+  std::vector<std::vector<Vec3>> points(runs.size());
+  for (std::size_t r = 0; r < runs.size(); ++r) points[r].swap(runs[r].points);
+  join_points(points, mesh, [&](std::size_t r, const std::uint32_t* vid) {
+    bool any = false;
+    std::array<std::uint32_t, 3>* out = mesh.triangles.data() + first[r];
+    for (const auto& t : runs[r].triangles) {
+      const std::array<std::uint32_t, 3> tri{vid[t[0]], vid[t[1]], vid[t[2]]};
+      *out++ = tri;
+      any = any || tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2];
+    }
+    std::vector<std::array<std::uint32_t, 3>>().swap(runs[r].triangles);
+    return any;
+  });
   return mesh;
 }
 

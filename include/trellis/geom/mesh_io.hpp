@@ -22,9 +22,13 @@ TriangleMesh read_3mf(const std::string& path);
 // it. read_3mf honours the unit of the file it reads and returns millimetres.
 void write_3mf(const std::string& path, const TriangleMesh& mesh,
                const std::string& unit = "millimeter");
-// STL from memory (for tests and fuzzing); `name` appears in errors.
+// STL from memory (for tests and fuzzing); `name` appears in errors. A large ASCII STL or OBJ is
+// read in pieces of about `piece` bytes (0: 1 MB) in parallel, split at line starts; the mesh
+// and the errors are those of reading it line after line (tests give small pieces).
 TriangleMesh parse_stl(const std::string& bytes, const std::string& name);
 TriangleMesh parse_obj(const std::string& text, const std::string& name);
+TriangleMesh parse_stl(const std::string& bytes, const std::string& name, std::size_t piece);
+TriangleMesh parse_obj(const std::string& text, const std::string& name, std::size_t piece);
 
 // Merges vertices with identical coordinates (-0 == +0) and drops degenerate triangles. Vertices
 // are numbered in order of first use; the result does not depend on the thread count.
