@@ -15,7 +15,8 @@ void RunContext::check_budget(const Estimate& estimate) const {
 }
 
 void RunContext::run(const std::function<void()>& work) const {
-  if (threads <= 0) {
+  // Already no wider (an arena of the context's own, or fewer cores): no arena of its own.
+  if (threads <= 0 || tbb::this_task_arena::max_concurrency() <= threads) {
     work();
     return;
   }
