@@ -38,7 +38,7 @@ std::string fmt_c(double c) {
 }
 
 // Small TPMS sheets of generated kinds, cells and thicknesses (seeded).
-std::vector<PbfDesign> sheets(std::uint64_t seed, int n) {
+std::vector<PbfDesign> sheets(std::uint64_t seed, int n, double height = 0.6) {
   std::mt19937_64 rng(seed);
   const TpmsKind kinds[] = {TpmsKind::Gyroid, TpmsKind::SchwarzP, TpmsKind::SchwarzD};
   std::uniform_real_distribution<double> cell(1.5, 3.0), c(0.1, 0.3), size(1.5, 2.5);
@@ -49,7 +49,7 @@ std::vector<PbfDesign> sheets(std::uint64_t seed, int n) {
     d.phi = tpms(kinds[i % 3], {a, a, a});
     d.c = {fmt_c(c(rng))};
     const double s = size(rng);
-    d.envelope = rectprism({s, s, 0.6});
+    d.envelope = rectprism({s, s, height});
     out.push_back(d);
   }
   return out;
@@ -136,9 +136,9 @@ TEST(RunContext, ThreadsBoundTheWorkersOfTheCall) {
 }
 
 TEST(RunContext, CancelStopsPlanPbf) {
-  for (const PbfDesign& d : sheets(7, 3)) {
+  for (const PbfDesign& d : sheets(7, 3, 2.5)) {
     PbfOptions o;
-    o.layer = 0.02;
+    o.layer = 0.02;  // 125 layers, reported every 32
     CancelAt c("layers");
     RunContext context;
     context.progress = c.progress;
@@ -182,7 +182,7 @@ TEST(RunContext, CancelledJobWritesNothing) {
   const test::TempDir tmp("trellis_run_context");
   const fs::path job_file = tmp / "g.toml";
   std::ofstream(job_file)
-      << "[job]\nroute = \"pbf\"\nname = \"g\"\n[pbf]\nsize = [2.5, 2.5, 0.6]\n";
+      << "[job]\nroute = \"pbf\"\nname = \"g\"\n[pbf]\nsize = [2.5, 2.5, 2.5]\n";  // 125 layers
   for (const std::string& stage : {std::string("layers"), std::string()}) {
     const fs::path out = tmp / ("out" + stage);
     Job job = load_job(job_file.string(), out.string(), {"output.png=false"});
