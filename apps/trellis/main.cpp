@@ -26,9 +26,10 @@ void print_warnings(const Diagnostics& diag) {
 
 std::string error_text(const Error& e) {
   // Where it happened as the library says it (a file, a line, the key); the message with the
-  // flags of the keys it names.
+  // flags of the keys it names, unless it is about a line of a file (a job file, a profile: the
+  // user wrote keys there, and a key is what to write).
   const std::string at = format_where(e.where());
-  const std::string message = with_flags(e.message());
+  const std::string message = e.where().line > 0 ? e.message() : with_flags(e.message());
   return at.empty() ? message : at + ": " + message;
 }
 
