@@ -24,9 +24,10 @@ static void BM_Gippo500(benchmark::State& state) {
   static const Graph g = honeycomb_edges(10000);
   GippoParams p;
   p.iterations = 500;
-  p.threads = static_cast<int>(state.range(0));
+  RunContext context;
+  context.threads = static_cast<int>(state.range(0));
   p.mode = GippoMode::Max;
-  for (auto _ : state) benchmark::DoNotOptimize(plan_gippo(g, p).best.trails.size());
+  for (auto _ : state) benchmark::DoNotOptimize(plan_gippo(g, p, context).best.trails.size());
   state.counters["edges"] = static_cast<double>(g.edges.size());
   state.counters["iterations/s"] =
       benchmark::Counter(500.0 * state.iterations(), benchmark::Counter::kIsRate);

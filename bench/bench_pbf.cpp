@@ -57,7 +57,7 @@ void route(benchmark::State& state, Route which, double resolution = 0.01) {
       PbfOptions o;
       o.resolution = resolution;
       o.stl_route = which != Route::Direct;
-      o.stl_scan_all = which == Route::StlScanAll;
+      o.test.stl_scan_all = which == Route::StlScanAll;
       const PbfResult r = plan_pbf(gyroid_cube(side), o);
       std::_Exit(r.layers.empty() ? 1 : 0);
     }

@@ -146,7 +146,7 @@ struct BracketBuild {
   PbfResult plan(const PbfLayerSink& sink) const {
     PbfSolid part;
     part.mesh = &mesh;
-    return plan_pbf_solid(part, options, {}, sink);
+    return plan_pbf_solid(part, options, sink);
   }
 };
 

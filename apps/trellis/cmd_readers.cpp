@@ -183,7 +183,7 @@ void add_reader(CLI::App& app, const std::string& name) {
     Diagnostics diag;
     ProgressDisplay display(spec.progress ? progress_mode(o->progress) : ProgressMode::Off,
                             "trellis " + job.route);
-    const JobResult r = run_reader(job, diag, display.progress());
+    const JobResult r = run_reader(job, display.context(diag));
     display.finish();
     print_warnings(diag);
     std::cout << r.summary;

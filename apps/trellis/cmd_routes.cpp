@@ -370,7 +370,7 @@ void add_routes(CLI::App& app, int argc, char** argv) {
       job.keep_toolpath = false;  // only the files are used here
       Diagnostics diag;
       ProgressDisplay display(progress_mode(job.settings), "trellis " + route);
-      JobResult r = run_job(job, diag, display.progress());
+      JobResult r = run_job(job, display.context(diag));
       display.finish();
       print_result(r, diag);
     });

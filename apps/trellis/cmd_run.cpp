@@ -53,7 +53,7 @@ void add_run(CLI::App& app) {
     job.keep_toolpath = false;  // only the files are used here
     Diagnostics diag;
     ProgressDisplay display(progress_mode(job.settings), "trellis run " + job.name);
-    const JobResult r = run_job(job, diag, display.progress());
+    const JobResult r = run_job(job, display.context(diag));
     display.finish();
     print_warnings(diag);
     std::cout << job.name << " (" << job.route << "): " << r.summary << "\n";
@@ -119,7 +119,7 @@ void add_rerun(CLI::App& app) {
     job.keep_toolpath = false;
     Diagnostics diag;
     ProgressDisplay display(progress_mode(o->progress), "trellis rerun");
-    JobResult r = run_job(job, diag, display.progress());
+    JobResult r = run_job(job, display.context(diag));
     display.finish();
     print_result(r, diag);
   });

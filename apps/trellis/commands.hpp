@@ -31,6 +31,10 @@ int exit_code();
 
 // Prints the warnings of a run on stderr.
 void print_warnings(const Diagnostics& diag);
+// An error as the command line prints it: where (as the library says it), then the message with
+// the flags of the setting keys it names (with_flags, settings/settings.hpp), except for an error
+// at a line of a file (job file, profile), which names keys as the file does.
+std::string error_text(const Error& e);
 
 // Flags generated from the settings schema for the given sections (`--name VALUE`; booleans
 // `--name` / `--no-name`); `apply` sets what was given, each naming its flag as its origin.

@@ -20,8 +20,17 @@ void print_warnings(const Diagnostics& diag) {
   for (const auto& [kind, n] : diag.counts()) {
     std::cerr << "warning: " << kind << " (" << n << ")\n";
     for (const auto& m : diag.messages())
-      if (m.kind == kind) std::cerr << "  " << m.text << "\n";
+      if (m.kind == kind) std::cerr << "  " << with_flags(m.text) << "\n";
   }
+}
+
+std::string error_text(const Error& e) {
+  // Where it happened as the library says it (a file, a line, the key); the message with the
+  // flags of the keys it names, unless it is about a line of a file (a job file, a profile: the
+  // user wrote keys there, and a key is what to write).
+  const std::string at = format_where(e.where());
+  const std::string message = e.where().line > 0 ? e.message() : with_flags(e.message());
+  return at.empty() ? message : at + ": " + message;
 }
 
 namespace {
@@ -210,7 +219,7 @@ int main(int argc, char** argv) {
     return 2;
   } catch (const trellis::Error& e) {
     trellis::disarm_watchdog();  // the refusal is said whole
-    std::cerr << "trellis: error: " << e.what() << "\n";
+    std::cerr << "trellis: error: " << trellis::cli::error_text(e) << "\n";
     return 2;
   } catch (const std::bad_alloc&) {
     trellis::disarm_watchdog();

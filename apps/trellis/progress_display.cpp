@@ -59,6 +59,13 @@ Progress ProgressDisplay::progress() {
   return p;
 }
 
+RunContext ProgressDisplay::context(Diagnostics& diag) {
+  RunContext c;
+  c.progress = progress();
+  c.diagnostics = &diag;
+  return c;
+}
+
 void ProgressDisplay::report(const std::string& stage, double fraction) {
   if (mode_ == ProgressMode::Off) return;
   const double now = std::chrono::duration<double>(Clock::now() - start_).count();

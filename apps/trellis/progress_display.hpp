@@ -10,7 +10,7 @@
 #include <string>
 
 #include "trellis/core/budget.hpp"
-#include "trellis/core/progress.hpp"
+#include "trellis/core/run_context.hpp"
 #include "trellis/settings/settings.hpp"
 
 namespace trellis::cli {
@@ -35,6 +35,9 @@ class ProgressDisplay {
 
   // A Progress (and the estimate hook) that report here; valid while this lives.
   Progress progress();
+  // The command's one run context (core/run_context.hpp): this progress, warnings into `diag`;
+  // run_job and run_reader add the threads and budget of the run settings.
+  RunContext context(Diagnostics& diag);
   void report(const std::string& stage, double fraction);
   void estimate(const Estimate& e);
   void finish();  // clears the line (terminal); idempotent

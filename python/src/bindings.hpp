@@ -7,17 +7,18 @@
 
 #include <functional>
 
-#include "trellis/core/progress.hpp"
+#include "trellis/core/run_context.hpp"
 #include "trellis/lattice/graph.hpp"
 #include "trellis/toolpath/toolpath.hpp"
 
 namespace py = pybind11;
 
-// Runs `fn` on a worker thread with the GIL released; progress goes to `callback` (a Python
-// callable or None) from the calling thread; Ctrl-C sets the cancel flag and the call raises
-// KeyboardInterrupt; an error of `fn` is rethrown here.
-void run_interruptible(const std::function<void(const trellis::Progress&)>& fn,
-                       const py::object& callback);
+// Runs `fn` on a worker thread with the GIL released, with the module's one run context
+// (core/run_context.hpp): `base` (its diagnostics, budget, threads) with a progress that goes to
+// `callback` (a Python callable or None) from the calling thread; Ctrl-C sets the cancel flag and
+// the call raises KeyboardInterrupt; an error of `fn` is rethrown here.
+void run_interruptible(const std::function<void(const trellis::RunContext&)>& fn,
+                       const py::object& callback, trellis::RunContext base = {});
 
 // numpy views of the IR: whole arrays, one copy, no per-point Python objects.
 py::dict toolpath_arrays(const trellis::Toolpath& tp);

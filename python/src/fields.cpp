@@ -87,13 +87,13 @@ py::dict evaluate(const CompiledField& f, const py::object& points_obj,
   double* d = distance.mutable_data();
   double* fr = fractions.mutable_data();
   run_interruptible(
-      [&](const Progress& pr) {
+      [&](const RunContext& pr) {
         Evaluator ev(f.design.field);
         constexpr std::size_t kChunk = 8192;
         std::vector<Vec3> chunk;
         for (std::size_t s = 0; s < n; s += kChunk) {
           pr.check("evaluating the field");
-          pr("evaluating", static_cast<double>(s) / static_cast<double>(n));
+          pr.report("evaluating", static_cast<double>(s) / static_cast<double>(n));
           const std::size_t e = std::min(n, s + kChunk);
           chunk.clear();
           for (std::size_t i = s; i < e; ++i)
@@ -105,7 +105,7 @@ py::dict evaluate(const CompiledField& f, const py::object& points_obj,
               std::copy(m.begin(), m.end(), fr + i * k);
             }
         }
-        pr("evaluating", 1.0);
+        pr.report("evaluating", 1.0);
       },
       progress);
   py::dict out;
@@ -135,12 +135,12 @@ py::dict sample(const CompiledField& f, const py::object& lo, const py::object& 
   double* d = distance.mutable_data();
   double* fr = fractions.mutable_data();
   run_interruptible(
-      [&](const Progress& pr) {
+      [&](const RunContext& pr) {
         Evaluator ev(f.design.field);
         std::vector<double> slice(nx * ny);
         for (std::size_t c = 0; c < nz; ++c) {
           pr.check("sampling the field");
-          pr("sampling", static_cast<double>(c) / static_cast<double>(nz));
+          pr.report("sampling", static_cast<double>(c) / static_cast<double>(nz));
           ev.values_grid(xs.data(), nx, ys.data(), ny, zs[c], slice.data());
           for (std::size_t j = 0; j < ny; ++j)
             for (std::size_t i = 0; i < nx; ++i) {
@@ -152,7 +152,7 @@ py::dict sample(const CompiledField& f, const py::object& lo, const py::object& 
               }
             }
         }
-        pr("sampling", 1.0);
+        pr.report("sampling", 1.0);
       },
       progress);
   py::dict out;
@@ -169,10 +169,13 @@ py::dict sample(const CompiledField& f, const py::object& lo, const py::object& 
 py::dict mesh(const CompiledField& f, const py::object& lo, const py::object& hi, double step,
               double max_memory_mb, bool force, const py::object& progress) {
   const BBox3 box = checked_box(lo, hi, step);
-  check_budget(field_mesh_estimate(box, step), budget(max_memory_mb, force));
+  RunContext context;
+  context.budget = budget(max_memory_mb, force);
+  context.check_budget(field_mesh_estimate(box, step));
   TriangleMesh m;
-  run_interruptible([&](const Progress& pr) { m = field_to_mesh(f.design.field, box, step, pr); },
-                    progress);
+  run_interruptible(
+      [&](const RunContext& c) { m = field_to_mesh(f.design.field, box, step, nullptr, c); },
+      progress, context);
   py::array_t<double> vertices({m.vertices.size(), std::size_t(3)});
   py::array_t<std::int64_t> faces({m.triangles.size(), std::size_t(3)});
   auto V = vertices.mutable_unchecked<2>();

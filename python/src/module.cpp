@@ -98,14 +98,15 @@ SettingValue to_value(const std::string& name, const py::handle& v) {
 
 }  // namespace
 
-void run_interruptible(const std::function<void(const Progress&)>& fn, const py::object& callback) {
+void run_interruptible(const std::function<void(const RunContext&)>& fn, const py::object& callback,
+                       RunContext context) {
   std::atomic<bool> cancel{false};
   std::mutex m;
   std::condition_variable cv;
   bool done = false;
   std::string stage;
   double fraction = -1;
-  Progress progress;
+  Progress& progress = context.progress;
   progress.cancel = &cancel;
   progress.report = [&](const std::string& s, double f) {
     std::lock_guard<std::mutex> lock(m);
@@ -114,7 +115,7 @@ void run_interruptible(const std::function<void(const Progress&)>& fn, const py:
   std::exception_ptr error, worker_error;
   std::thread worker([&] {
     try {
-      fn(progress);
+      fn(context);
     } catch (...) {
       worker_error = std::current_exception();
     }
@@ -171,7 +172,9 @@ namespace {
 py::dict run_job_dict(const Job& job, const py::object& progress) {
   Diagnostics diag;
   JobResult r;
-  run_interruptible([&](const Progress& p) { r = run_job(job, diag, p); }, progress);
+  RunContext context;
+  context.diagnostics = &diag;
+  run_interruptible([&](const RunContext& c) { r = run_job(job, c); }, progress, context);
   py::dict d;
   d["files"] = r.files;
   d["summary"] = r.summary;
@@ -438,7 +441,9 @@ PYBIND11_MODULE(_trellis, m) {
         }
         py::gil_scoped_release release;
         Diagnostics diag;
-        return run_reader(job, diag).report_json;
+        RunContext context;
+        context.diagnostics = &diag;
+        return run_reader(job, context).report_json;
       },
       py::arg("route"), py::arg("design"), py::arg("print"), py::arg("machine"),
       py::arg("settings"));

@@ -413,3 +413,14 @@ def test_graded_report_gives_material_and_time_per_colour(tmp_path):
     assert trellis.analyze(tmp_path / "g.gcode")["toolpath_paths"] == back.path_count
     assert trellis.analyze(tmp_path / "g.gcode", commanded_mixtures=True)["toolpath_paths"] == \
         commanded.path_count
+
+
+def test_library_errors_name_setting_keys_not_flags(tmp_path):
+    # A pbf cell finer than 8 x pbf.resolution: the library names the key (the keyword is named
+    # after it); the command line shows "--resolution (pbf.resolution)" for the same error.
+    out = tmp_path / "fine.cli"
+    with pytest.raises(trellis.SettingError) as e:
+        trellis.pbf(str(out), cell=0.05)
+    assert "lower pbf.resolution" in str(e.value), e.value
+    assert "--" not in str(e.value), e.value
+    assert not out.exists()

@@ -69,7 +69,8 @@ void check_budget(const Estimate& e, const Budget& b) {
   if (too_big && too_long) msg += " and the ";
   if (too_long) msg += "time budget of " + seconds_text(b.seconds) + " (run.max_time)";
   msg += ". Change " + e.change +
-         ", or raise the budget (--max-memory MB, --max-time S) or pass --force to run it anyway";
+         ", or raise the budget (run.max_memory in MB, run.max_time in s) or set run.force to run "
+         "it anyway";
   throw ResourceError(msg, {"", 0, too_big ? "run.max_memory" : "run.max_time"});
 }
 

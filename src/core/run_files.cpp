@@ -59,7 +59,7 @@ void RunFiles::check() const {
              "an output is a file, a FIFO or a character device");
     if (s.link && s.kind != detail::PathKind::Stream && !follow_symlinks_)
       refuse(out.path, out.role + " is a symbolic link (to " + s.target + ")",
-             "pass --follow-symlinks (run.follow_symlinks = true) to write to " + s.target +
+             "set run.follow_symlinks = true to write to " + s.target +
                  " and keep the link, or choose another path");
     if (s.char_device) continue;
     for (const auto& [id, role] : inputs)

@@ -24,10 +24,12 @@ TriangleMesh field_to_mesh(const Field& field, const BBox3& box, double voxel,
                                                                   nullptr);
 }
 
-TriangleMesh field_to_mesh(const Field& field, const BBox3& box, double voxel,
-                           const Progress& progress, MeshingStats* stats) {
-  return detail::module_table<MeshSdfModule>("vdb").field_to_mesh(field, box, voxel, stats,
-                                                                  &progress);
+TriangleMesh field_to_mesh(const Field& field, const BBox3& box, double voxel, MeshingStats* stats,
+                           const RunContext& context) {
+  const auto& module = detail::module_table<MeshSdfModule>("vdb");
+  TriangleMesh mesh;
+  context.run([&] { mesh = module.field_to_mesh(field, box, voxel, stats, &context.progress); });
+  return mesh;
 }
 
 Estimate field_mesh_estimate(const BBox3& box, double voxel) {

@@ -15,8 +15,11 @@
 
 namespace trellis::routes {
 
-Budget budget_of(const Job& job, const Config& c, const Progress& progress) {
-  return budget_of(job.settings, c, progress);
+RunContext run_context(const Settings& settings, const Config& c, const RunContext& given) {
+  RunContext context = given;
+  if (c.threads > 0) context.threads = c.threads;
+  context.budget = budget_of(settings, c, given.progress);
+  return context;
 }
 
 Budget budget_of(const Settings& settings, const Config& c, const Progress& progress) {
@@ -55,7 +58,9 @@ Estimate estimate_lattice2d(const AtlasParams& a, int layers) {
   e.seconds = voronoi ? n * 4.5e-6 * std::pow(per_layer, 1.75) : units * 1.2e-4;
   e.what = voronoi ? fmt::format("a Voronoi lattice of {:.3g} seeds", units)
                    : fmt::format("a {} lattice of {:.3g} cells", to_string(a.pattern), units);
-  e.change = "the region (--size, --diameter), the cell (--cell, --density) or layers.count";
+  e.change =
+      "the region (lattice2d.size, lattice2d.diameter), the cell (lattice2d.cell, "
+      "lattice2d.density) or layers.count";
   return e;
 }
 
@@ -92,7 +97,7 @@ Estimate estimate_lattice3d(const Config& c) {
   e.bytes = struts * 300;
   e.seconds = struts * 2e-6;
   e.what = what;
-  e.change = "--count (lattice3d.count), --box, --density or --cell (lattice3d.cell)";
+  e.change = "lattice3d.count, lattice3d.box, lattice3d.density or lattice3d.cell";
   return e;
 }
 
@@ -105,7 +110,7 @@ Estimate estimate_gippo(std::size_t edges, int iterations, int seeds) {
   e.bytes = double(edges) * 400 + double(iterations) * 64 * std::max(1, seeds + 1);
   e.seconds = work * 4e-7 / threads_of_run();
   e.what = fmt::format("GIPPO planning of {} iterations over {} edges", iterations, edges);
-  e.change = "--iterations (gippo.iterations) or gippo.seeds";
+  e.change = "gippo.iterations or gippo.seeds";
   return e;
 }
 
@@ -119,7 +124,7 @@ Estimate estimate_aero(std::size_t edges, int tries) {
   e.bytes = E * E * 0.5 + E * 2000 + threads_of_run() * E * 400;
   e.seconds = runs * E * E * 5.5e-9 / std::min(runs, threads_of_run()) + E * E * 2e-8;
   e.what = fmt::format("AERO planning of {} tries over {} struts", std::max(tries, 1), edges);
-  e.change = "--tries (aero.tries)";
+  e.change = "aero.tries";
   return e;
 }
 
@@ -146,9 +151,7 @@ Estimate estimate_nonplanar(const BBox2& domain, const NonplanarParams& p) {
               double(p.layers) * points * 1e-7;  // joining, in order
   e.what = fmt::format("{} non-planar layers ({} offsets) of {:.3g} lines over {:.0f} x {:.0f} mm",
                        p.layers, normal ? "normal" : "vertical", lines, wx, wy);
-  e.change =
-      "--bead-width (nonplanar.bead_width), --layers (nonplanar.layers), --offset "
-      "(nonplanar.offset) or the domain";
+  e.change = "nonplanar.bead_width, nonplanar.layers, nonplanar.offset or the domain";
   return e;
 }
 
@@ -190,7 +193,7 @@ Estimate estimate_pbf_time(const PbfDesign& d, const PbfOptions& po, bool toolpa
   }
   e.what = fmt::format("PBF paths of {:.3g} layers of {:.3g} x {:.3g} mm at resolution {} mm",
                        layers, box.max.x - box.min.x, box.max.y - box.min.y, po.resolution);
-  e.change = "--resolution (pbf.resolution), --layer-height (scan.layer) or --size (pbf.size)";
+  e.change = "pbf.resolution, scan.layer or pbf.size";
   return e;
 }
 

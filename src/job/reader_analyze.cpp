@@ -99,7 +99,7 @@ std::vector<Analysis> analyze_prints(const ReadJob& job, const Config& c, Diagno
     if (a.auto_aligned)
       diag.warn("analyze_aligned",
                 fmt::format("{}: the print lies outside the design, moved by ({:.2f}, {:.2f}) mm "
-                            "to align their centres; pass --align to always align",
+                            "to align their centres; set analyze.align to always align",
                             f, a.shift.x, a.shift.y));
     if (!job.preview.empty())
       out += write_layer_pictures(a, f, design.get(), job.preview, params.width, stems);
@@ -157,7 +157,8 @@ JobResult analyze_laser(const ReadJob& job, const Config& c, Diagnostics& diag) 
 
 }  // namespace
 
-JobResult reader_analyze(const ReadJob& job, const Config& c, Diagnostics& diag, const Progress&) {
+JobResult reader_analyze(const ReadJob& job, const Config& c, const RunContext& context) {
+  Diagnostics& diag = *context.diagnostics;
   if (!job.print && is_laser_build_file(job.prints.at(0))) return analyze_laser(job, c, diag);
   JobResult r;
   const auto runs = analyze_prints(job, c, diag, r.summary);
@@ -169,7 +170,8 @@ JobResult reader_analyze(const ReadJob& job, const Config& c, Diagnostics& diag,
   return r;
 }
 
-JobResult reader_compare(const ReadJob& job, const Config& c, Diagnostics& diag, const Progress&) {
+JobResult reader_compare(const ReadJob& job, const Config& c, const RunContext& context) {
+  Diagnostics& diag = *context.diagnostics;
   JobResult r;
   const auto runs = analyze_prints(job, c, diag, r.summary);
   if (c.read.per_layer)

@@ -32,10 +32,9 @@ std::string check_summary(const CollisionCheck& c) {
 
 }  // namespace
 
-JobResult reader_check(const ReadJob& job, const Config& c, Diagnostics& diag,
-                       const Progress& progress) {
-  PrintCheck run(job.settings, !job.machine.empty(), c.read.snap,
-                 budget_of(job.settings, c, progress));
+JobResult reader_check(const ReadJob& job, const Config& c, const RunContext& context) {
+  Diagnostics& diag = *context.diagnostics;
+  PrintCheck run(job.settings, !job.machine.empty(), c.read.snap, context.budget);
   if (job.design_graph)
     run.set_design(*job.design_graph, diag);
   else

@@ -57,7 +57,8 @@ std::string scene_line(const ViewScene& s) {
 
 }  // namespace
 
-JobResult reader_view(const ReadJob& job, const Config& c, Diagnostics& diag, const Progress&) {
+JobResult reader_view(const ReadJob& job, const Config& c, const RunContext& context) {
+  Diagnostics& diag = *context.diagnostics;
   const bool machine = !job.machine.empty();
   const ViewLoadOptions load = view_load(job, c);
   std::optional<PrintCheck> checker;
@@ -133,15 +134,16 @@ void refuse_device_prefix(const std::string& output) {
   if (!ec && (std::filesystem::is_character_file(st) || std::filesystem::is_block_file(st) ||
               std::filesystem::is_fifo(st) || std::filesystem::is_socket(st)))
     throw SettingError(output +
-                       ": without --layer, -o is the prefix of one PNG per layer "
+                       ": without render.layer, the output is the prefix of one PNG per layer "
                        "(OUT.layerNNN.png beside it), and this is a device or FIFO; give "
-                       "--layer N to write one PNG to it");
+                       "render.layer to write one PNG to it");
 }
 
 }  // namespace
 
-JobResult reader_render(const ReadJob& job, const Config& c, Diagnostics& diag,
-                        const Progress& progress) {
+JobResult reader_render(const ReadJob& job, const Config& c, const RunContext& context) {
+  Diagnostics& diag = *context.diagnostics;
+  const Progress& progress = context.progress;
   const int layer = c.read.layer;
   if (layer < 0) refuse_device_prefix(job.output);
   const std::string& input = job.prints.at(0);
@@ -163,8 +165,8 @@ JobResult reader_render(const ReadJob& job, const Config& c, Diagnostics& diag,
     for (const auto& p : tp.layers[i].paths) points += static_cast<double>(p.points.size());
   Estimate e =
       layer_images_estimate(layer >= 0 ? 1.0 : double(tp.layers.size()), ro.size_px, points);
-  e.change = "--image-size or --layer";
-  check_budget(e, budget_of(job.settings, c, progress));
+  e.change = "render.image_size or render.layer";
+  check_budget(e, context.budget);
   JobResult r;
   if (layer >= 0) {
     render_layer_png(tp, static_cast<std::size_t>(layer), job.output, ro);

@@ -111,7 +111,7 @@ bool reader_reads(const ReaderSpec& reader, const Setting& setting) {
          route_uses(setting, reader.name);
 }
 
-JobResult run_reader(const ReadJob& job, Diagnostics& diag, const Progress& progress) {
+JobResult run_reader(const ReadJob& job, const RunContext& given) {
   const ReaderSpec& spec = reader_spec(job.route);
   check_given(spec, job.settings);
   check_files(spec, job, job.settings.config());
@@ -121,7 +121,18 @@ JobResult run_reader(const ReadJob& job, Diagnostics& diag, const Progress& prog
     full.settings.load_toml_file(job.machine);
     for (const auto& [key, e] : job.settings.entries()) full.settings.set(key, e.value, e.origin);
   }
-  return spec.run(full, full.settings.config(), diag, progress);
+  const Config c = full.settings.config();
+  Diagnostics dropped;  // a context without diagnostics drops the warnings
+  RunContext context = routes::run_context(full.settings, c, given);
+  if (!context.diagnostics) context.diagnostics = &dropped;
+  return spec.run(full, c, context);
+}
+
+JobResult run_reader(const ReadJob& job, Diagnostics& diag, const Progress& progress) {
+  RunContext context;
+  context.progress = progress;
+  context.diagnostics = &diag;
+  return run_reader(job, context);
 }
 
 bool is_laser_build_file(const std::string& path) {

@@ -136,7 +136,7 @@ std::string slice_report_json(const SliceJob& job, const SliceResult& r, const G
                                       ? ""
                                       : "merging would exceed the gradient bound α/2 (or no "
                                         "piece of another colour touches it end to end); use "
-                                        "more colours or a smaller --min-segment"}}},
+                                        "more colours or a smaller fgm.min_segment"}}},
                 {"gradient_changes", g ? g->gradient_changes : 0},
                 {"lookahead_mm", g ? g->lookahead : 0.0},
                 {"fill", job.fgm.concentric ? "concentric" : "rectilinear"}};

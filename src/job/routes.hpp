@@ -17,25 +17,25 @@
 
 namespace trellis::routes {
 
-JobResult lattice2d(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress);
-JobResult lattice3d(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress);
-JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress);
-JobResult gcode(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress);
-JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress);
-JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress);
+JobResult lattice2d(const Job& job, const Config& c, const RunContext& context);
+JobResult lattice3d(const Job& job, const Config& c, const RunContext& context);
+JobResult plan(const Job& job, const Config& c, const RunContext& context);
+JobResult gcode(const Job& job, const Config& c, const RunContext& context);
+JobResult slice(const Job& job, const Config& c, const RunContext& context);
+JobResult pbf(const Job& job, const Config& c, const RunContext& context);
 // A design's minfeaturesize (a 3MF level set, Volumetric & Implicit Part I §4.1.1: a consumer
 // that cannot resolve such features "SHOULD raise a warning") finer than what the route prints
 // (`width`: the bead, the laser's melt pool) or samples (`step`, the setting `step_key`): said,
 // by the slice and pbf routes alike.
 void warn_min_feature(const std::string& input, double feature, const char* width_name,
-                      double width, double step, const char* step_key, Diagnostics& diag);
+                      double width, double step, const char* step_key, const RunContext& context);
 // Solid parts on the pbf route (routes_pbf_solid.cpp): a mesh input, or a .vcad with a solid
 // scan strategy (rectilinear, meander, stripe, island); pbf() hands such jobs to pbf_solid.
 bool is_mesh_path(const std::string& path);
 bool pbf_solid_job(const Job& job, const Config& c);
-JobResult pbf_solid(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress);
-JobResult nonplanar(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress);
-JobResult surface(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress);
+JobResult pbf_solid(const Job& job, const Config& c, const RunContext& context);
+JobResult nonplanar(const Job& job, const Config& c, const RunContext& context);
+JobResult surface(const Job& job, const Config& c, const RunContext& context);
 
 // The main output of the pbf, slice and nonplanar routes from their whole toolpath: what a single
 // run writes and what `trellis merge` writes from the shards' layers (job/plate.hpp), so both are
@@ -134,10 +134,13 @@ void add_laser_report(nlohmann::ordered_json& report, const LaserTimes& times, c
 std::string laser_summary(const LaserTimes& times);
 std::string fixed(double v, int decimals);
 
-// Estimates before work (estimate.cpp): each route checks its estimate with check_budget before
-// it allocates the work; the budget tells `progress.estimate` each estimate it checks.
-Budget budget_of(const Job& job, const Config& c, const Progress& progress);
+// Estimates before work (estimate.cpp): each route checks its estimate with check_budget against
+// context.budget before it allocates the work; the budget tells `progress.estimate` each estimate
+// it checks.
 Budget budget_of(const Settings& settings, const Config& c, const Progress& progress);
+// The context a route runs with (run_job, run_reader): the caller's progress and diagnostics; the
+// run section's threads (run.threads; the caller's when it is 0) and budget (budget_of).
+RunContext run_context(const Settings& settings, const Config& c, const RunContext& given);
 double threads_of_run();
 Estimate estimate_lattice2d(const AtlasParams& a, int layers);
 Estimate estimate_lattice3d(const Config& c);
@@ -157,15 +160,10 @@ Estimate estimate_pbf_time(const PbfDesign& design, const PbfOptions& options, b
 
 // The reader routes (job/readers.hpp): check (reader_check.cpp), view and render
 // (reader_view.cpp), analyze and compare (reader_analyze.cpp).
-JobResult reader_check(const ReadJob& job, const Config& c, Diagnostics& diag,
-                       const Progress& progress);
-JobResult reader_view(const ReadJob& job, const Config& c, Diagnostics& diag,
-                      const Progress& progress);
-JobResult reader_render(const ReadJob& job, const Config& c, Diagnostics& diag,
-                        const Progress& progress);
-JobResult reader_analyze(const ReadJob& job, const Config& c, Diagnostics& diag,
-                         const Progress& progress);
-JobResult reader_compare(const ReadJob& job, const Config& c, Diagnostics& diag,
-                         const Progress& progress);
+JobResult reader_check(const ReadJob& job, const Config& c, const RunContext& context);
+JobResult reader_view(const ReadJob& job, const Config& c, const RunContext& context);
+JobResult reader_render(const ReadJob& job, const Config& c, const RunContext& context);
+JobResult reader_analyze(const ReadJob& job, const Config& c, const RunContext& context);
+JobResult reader_compare(const ReadJob& job, const Config& c, const RunContext& context);
 
 }  // namespace trellis::routes

@@ -178,7 +178,7 @@ Graph cells_or_foam(const Config& c, Diagnostics& diag) {
     ConformalParams p = c.lattice3d.conformal;
     p.mesh = c.lattice3d.foam.mesh;
     if (p.mesh.empty())
-      throw SettingError("a conformal lattice needs lattice3d.mesh (--mesh FILE)",
+      throw SettingError("a conformal lattice needs lattice3d.mesh (a mesh file)",
                          {"", 0, "lattice3d.mesh"});
     p.cell = c.lattice3d.cells.cell;
     p.size = c.lattice3d.cells.size;
@@ -193,21 +193,21 @@ Graph cells_or_foam(const Config& c, Diagnostics& diag) {
 }
 
 JobResult plan_aero_route(const Job& job, const Config& c, const Graph& g, const std::string& input,
-                          Diagnostics& diag, const Progress& progress,
-                          std::chrono::steady_clock::time_point t0, JobResult out) {
+                          const RunContext& context, std::chrono::steady_clock::time_point t0,
+                          JobResult out) {
+  Diagnostics& diag = *context.diagnostics;
   require_bath(job, c.machine, "plan aero",
                "AERO trails are printed inside a support bath (the "
                "AERO paper's embedded printing)");
-  AeroParams p = c.aero;
-  p.progress = progress;
-  const AeroResult r = plan_aero(g, p, diag);
+  const AeroParams& p = c.aero;
+  const AeroResult r = plan_aero(g, p, diag, context);
   Toolpath tp = aero_toolpath(g, r, "trellis " + job.route + " aero " + input);
   // The independent check sees the struts as printed (ends pushed past their nodes by the
   // overlap, as the embedded writer does).
   CheckOptions check;
   check.nozzle = p.nozzle;
   check.snap = p.nozzle.end_overlap + kNodeSnap;
-  check.budget = budget_of(job, c, progress);
+  check.budget = context.budget;
   Toolpath printed = tp;
   for (auto& l : printed.layers)
     for (auto& path : l.paths) extend_path_ends(path, p.nozzle.end_overlap);
@@ -372,10 +372,10 @@ void merge_plan_main(const Job& job, const Config& c, Toolpath& tp, JobResult& o
   write_plan_main(job, c, tp, out, diag);
 }
 
-JobResult lattice2d(const Job& job, const Config& c, Diagnostics&, const Progress& progress) {
+JobResult lattice2d(const Job& job, const Config& c, const RunContext& context) {
   JobResult out;
   const AtlasParams a = atlas_of(c, job.settings);
-  check_budget(estimate_lattice2d(a, 1), budget_of(job, c, progress));
+  check_budget(estimate_lattice2d(a, 1), context.budget);
   const Graph g = make_lattice2d(a);
   if (!job.output.empty()) {
     write_file_atomic(job.output, with_job(lattice_to_json(g), job, job.output, false));
@@ -407,11 +407,12 @@ JobResult lattice2d(const Job& job, const Config& c, Diagnostics&, const Progres
   return out;
 }
 
-JobResult lattice3d(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
+JobResult lattice3d(const Job& job, const Config& c, const RunContext& context) {
+  Diagnostics& diag = *context.diagnostics;
   JobResult out;
   if (!c.lattice3d.foam.mesh.empty())
-    check_budget(mesh_read_estimate(c.lattice3d.foam.mesh), budget_of(job, c, progress));
-  check_budget(estimate_lattice3d(c), budget_of(job, c, progress));
+    check_budget(mesh_read_estimate(c.lattice3d.foam.mesh), context.budget);
+  check_budget(estimate_lattice3d(c), context.budget);
   const Graph g = cells_or_foam(c, diag);
   if (fs::path(job.output).extension() == ".3mf") {
     // A 3MF beam lattice (no room for the job: it is not a file `rerun` can regenerate).
@@ -443,7 +444,9 @@ JobResult lattice3d(const Job& job, const Config& c, Diagnostics& diag, const Pr
   return out;
 }
 
-JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
+JobResult plan(const Job& job, const Config& c, const RunContext& context) {
+  Diagnostics& diag = *context.diagnostics;
+  const Progress& progress = context.progress;
   const auto t0 = std::chrono::steady_clock::now();
   JobResult out;
   if (job.shards) check_plan_shard(job, c);
@@ -461,8 +464,8 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
     g = stacked_layers(std::move(g), job, c);
   } else if (c.planner == LatticePlanner::Aero) {
     if (!c.lattice3d.foam.mesh.empty())
-      check_budget(mesh_read_estimate(c.lattice3d.foam.mesh), budget_of(job, c, progress));
-    check_budget(estimate_lattice3d(c), budget_of(job, c, progress));
+      check_budget(mesh_read_estimate(c.lattice3d.foam.mesh), context.budget);
+    check_budget(estimate_lattice3d(c), context.budget);
     g = cells_or_foam(c, diag);
     input = "lattice3d";
   } else {
@@ -473,13 +476,13 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
       a.region.center = {(b.min.x + b.max.x) / 2, (b.min.y + b.max.y) / 2};
     }
     const Estimate lattice = estimate_lattice2d(a, std::max(1, c.layers.count));
-    check_budget(lattice, budget_of(job, c, progress));
+    check_budget(lattice, context.budget);
     // The planner's work too, before the lattice is made (about one edge per cell unit); the
     // exact check follows once the lattice is there.
     if (c.planner == LatticePlanner::Gippo)
       check_budget(estimate_gippo(static_cast<std::size_t>(lattice.bytes / 1e4),
                                   c.plan.gippo.iterations, c.gippo_seeds),
-                   budget_of(job, c, progress));
+                   context.budget);
     if (job.shards && c.planner != LatticePlanner::Aero && c.plan.order != PathOrder::Travel) {
       // A shard of a made lattice makes only its own layers: which layers print comes from the
       // solid's sections alone (cheap), the work per layer from their areas. Every layer with
@@ -516,12 +519,12 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
   if (c.planner == LatticePlanner::Aero) {
     const int tries =
         c.aero.tries > 0 ? c.aero.tries : static_cast<int>(aero_auto_tries(g.edges.size()));
-    check_budget(estimate_aero(g.edges.size(), tries), budget_of(job, c, progress));
-    return plan_aero_route(job, c, g, input, diag, progress, t0, out);
+    check_budget(estimate_aero(g.edges.size(), tries), context.budget);
+    return plan_aero_route(job, c, g, input, context, t0, out);
   }
   if (c.planner == LatticePlanner::Gippo)
     check_budget(estimate_gippo(g.edges.size(), c.plan.gippo.iterations, c.gippo_seeds),
-                 budget_of(job, c, progress));
+                 context.budget);
 
   PlanParams p = c.plan;
   p.planner = c.planner == LatticePlanner::Euler ? Planner::Euler : Planner::Gippo;
@@ -543,7 +546,7 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
     p.defer_order = layers_carry_start(p);
   }
   PlanResult r;
-  if (made.empty() || first < end) r = plan_lattice(g, p, diag, progress);
+  if (made.empty() || first < end) r = plan_lattice(g, p, diag, context);
   if (!made.empty()) {
     if (r.toolpath.layers.size() != end - first)
       throw Error(fmt::format("the shard's lattice has {} layers, it should have {}",
@@ -577,11 +580,11 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
                               job.shards, first, end, total, paths);
     return out;
   }
-  p.gippo.progress = progress;  // the robustness runs below call plan_gippo directly
   std::string robustness;
   if (c.gippo_seeds > 0 && p.planner == Planner::Gippo) {
     // The paper's robustness run (Fig. 2 v-vi): the best score over many seeds.
-    const GippoRobustness rob = gippo_robustness(g, p.gippo, c.gippo_seeds, p.long_path_nodes);
+    const GippoRobustness rob =
+        gippo_robustness(g, p.gippo, c.gippo_seeds, p.long_path_nodes, context);
     robustness = gippo_robustness_json(rob, p.gippo);
     out.summary = fmt::format(
         "gippo robustness over {} seeds: best score mean {}, SD {} (CV {}%), min {}, max {}\n",
@@ -656,11 +659,12 @@ JobResult plan(const Job& job, const Config& c, Diagnostics& diag, const Progres
   return out;
 }
 
-JobResult gcode(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
+JobResult gcode(const Job& job, const Config& c, const RunContext& context) {
+  Diagnostics& diag = *context.diagnostics;
   JobResult out;
   if (job.input.empty())
     throw SettingError("gcode needs a toolpath JSON to read", {"", 0, "job.input"});
-  check_budget(estimate_gcode_of(job.input), budget_of(job, c, progress));
+  check_budget(estimate_gcode_of(job.input), context.budget);
   const Toolpath tp = read_toolpath(job.input);
   // The toolpath's bead heights were set when it was planned; say so when they are not the
   // machine's layer height (E follows the path's own height).

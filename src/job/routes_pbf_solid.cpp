@@ -165,7 +165,8 @@ nlohmann::ordered_json region_report(const PbfResult& r, const PbfSolidOptions& 
 
 }  // namespace
 
-JobResult pbf_solid(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
+JobResult pbf_solid(const Job& job, const Config& c, const RunContext& context) {
+  Diagnostics& diag = *context.diagnostics;
   if (!job.parts.empty() || job.shards)
     throw SettingError(
         "build plates and shards of solid parts (meshes, solid strategies) are not "
@@ -196,7 +197,7 @@ JobResult pbf_solid(const Job& job, const Config& c, Diagnostics& diag, const Pr
     VcadDesign design = read_field_design(job.input);
     warn_min_feature(job.input, design.min_feature_size,
                      "laser's melt pool (laser.melt_pool_width)", c.laser.melt_pool_width,
-                     o.resolution, "pbf.resolution", diag);
+                     o.resolution, "pbf.resolution", context);
     field = std::move(design.field);
     if (field.has_process())
       throw SettingError(
@@ -221,21 +222,20 @@ JobResult pbf_solid(const Job& job, const Config& c, Diagnostics& diag, const Pr
   if (stream) {
     CliStreamWriter writer(job.output, prof, CliWriteOptions{c.pbf.binary, true, sets},
                            "trellis pbf", embedded_job(job, job.output));
-    r = plan_pbf_solid(part, o, progress,
-                       [&](std::size_t i, const PbfLayer& L) { writer.add(layer_of(i, L)); });
+    r = plan_pbf_solid(
+        part, o, [&](std::size_t i, const PbfLayer& L) { writer.add(layer_of(i, L)); }, context);
     writer.finish();
     out.files.push_back(job.output);
   } else {
-    r = plan_pbf_solid(part, o, progress);
+    r = plan_pbf_solid(part, o, {}, context);
     tp.source = "trellis pbf";
     tp.parameter_sets = named;
     for (std::size_t i = 0; i < r.layers.size(); ++i) tp.layers.push_back(layer_of(i, r.layers[i]));
     out.toolpath = std::make_shared<Toolpath>(tp);
     // A 3MF's build item: the mesh as read, a .vcad solid meshed at pbf.resolution.
     if (is_3mf_output(job.output))
-      out.geometry.mesh = part.mesh
-                              ? std::make_shared<const TriangleMesh>(mesh)
-                              : field_mesh_3mf(field, o.resolution, budget_of(job, c, progress));
+      out.geometry.mesh = part.mesh ? std::make_shared<const TriangleMesh>(mesh)
+                                    : field_mesh_3mf(field, o.resolution, context.budget);
     if (!job.output.empty()) write_laser_build(job.output, tp, job, c, out, sets);
     if (!job.toolpath.empty()) {
       write_toolpath_with_job(job.toolpath, tp, job);

@@ -36,9 +36,9 @@ namespace trellis::routes {
 namespace fs = std::filesystem;
 
 void warn_min_feature(const std::string& input, double feature, const char* width_name,
-                      double width, double step, const char* step_key, Diagnostics& diag) {
+                      double width, double step, const char* step_key, const RunContext& context) {
   if (!(feature > 0) || (feature >= width && feature >= step)) return;
-  diag.warn(
+  context.warn(
       "design_min_feature",
       fmt::format("{} asks for features down to {} mm (minfeaturesize); the {} is {} mm "
                   "and the design is sampled every {} mm ({}), so finer features are not "
@@ -223,12 +223,13 @@ void warn_lattice_envelope(const Field& f, const std::string& path, const PbfCon
 }
 
 bool pbf_input(PbfDesign& d, const std::string& path, const Config& c, const Settings& set,
-               Diagnostics& diag) {
+               const RunContext& context) {
+  Diagnostics& diag = *context.diagnostics;
   const PbfConfig& p = c.pbf;
   double feature = 0;
   const Field f = laser_vcad(path, "job.input", &feature);
   warn_min_feature(path, feature, "laser's melt pool (laser.melt_pool_width)",
-                   c.laser.melt_pool_width, p.options.resolution, "pbf.resolution", diag);
+                   c.laser.melt_pool_width, p.options.resolution, "pbf.resolution", context);
   if (p.wall_thickness <= 0) {
     if (auto s = split_sheet(f)) {
       d.phi = s->phi;
@@ -245,7 +246,7 @@ bool pbf_input(PbfDesign& d, const std::string& path, const Config& c, const Set
         throw SettingError(fmt::format("its TPMS cell of {} mm is not resolved by the {} mm "
                                        "sampling grid (2 × pbf.resolution); cells need at least 8 "
                                        "× pbf.resolution = {} mm: raise the cell or lower "
-                                       "--resolution",
+                                       "pbf.resolution",
                                        cell, 2 * p.options.resolution, 8 * p.options.resolution),
                            {path, 0, "pbf.resolution"});
       std::vector<std::string> ignored;
@@ -268,12 +269,13 @@ bool pbf_input(PbfDesign& d, const std::string& path, const Config& c, const Set
 // The part's design from its settings and its input .vcad (if any); *from_design: the lattice
 // is the input's own sheet.
 PbfDesign pbf_part_design(const Config& c, const std::string& input, const Settings& set,
-                          Diagnostics& diag, bool* from_design = nullptr) {
+                          const RunContext& context, bool* from_design = nullptr) {
+  Diagnostics& diag = *context.diagnostics;
   const PbfConfig& p = c.pbf;
   PbfDesign d = pbf_design(p);
   if (!p.envelope.empty() && p.wall_thickness <= 0)
     warn_lattice_envelope(d.envelope, p.envelope, p, diag);
-  const bool own = !input.empty() && pbf_input(d, input, c, set, diag);
+  const bool own = !input.empty() && pbf_input(d, input, c, set, context);
   if (from_design) *from_design = own;
   return d;
 }
@@ -404,7 +406,6 @@ SliceJob slice_job_of(const Job& job, const Config& c, const std::string& input)
   sj.quantize = c.machine.quantize;
   sj.purge.speed = c.machine.print_speed;
   sj.purge.density = {c.machine.density_a, c.machine.density_b, c.machine.density_c};
-  sj.budget = budget_of(job, c, Progress{});
   sj.process.max_temperature = c.machine.max_nozzle_temperature;
   sj.process.max_speed = c.machine.max_speed;
   sj.process.temperature_from_mixture = c.machine.gradient_mode == GradientMode::Temperature;
@@ -416,21 +417,22 @@ SliceJob slice_job_of(const Job& job, const Config& c, const std::string& input)
 // A single part's design as a 3MF output's build item (a plate's: slice_plate_geometry): the mesh
 // as read, a field meshed at the step its route samples it.
 // `bottom`: the design's z its first layer starts at (SliceResult::bottom), dropped to the bed.
-void slice_geometry(const Job& job, const SliceJob& sj, double bottom, JobResult& out) {
+void slice_geometry(const Job& job, const SliceJob& sj, double bottom, const Budget& budget,
+                    JobResult& out) {
   if (!job.parts.empty() || job.input.empty() || out.geometry.mesh) return;
   out.geometry.mesh = design_mesh_3mf(
-      job.input, sj.route == SliceRoute::Mesh ? sj.mesh_voxel : sj.field.resolution, sj.budget);
+      job.input, sj.route == SliceRoute::Mesh ? sj.mesh_voxel : sj.field.resolution, budget);
   out.geometry.transform = kIdentity3mf;
   out.geometry.transform[11] = -bottom;
 }
 
 // slice_geometry for a run that has not sliced the part (a merge, a toolpath read back): its
 // first printed layer found as a shard finds it.
-void slice_geometry(const Job& job, const SliceJob& sj, JobResult& out) {
+void slice_geometry(const Job& job, const SliceJob& sj, const Budget& budget, JobResult& out) {
   SliceJob probe = sj;
   probe.layer_begin = probe.layer_end = 0;
   probe.range_of = nullptr;
-  slice_geometry(job, sj, run_slice(probe, Progress{}).bottom, out);
+  slice_geometry(job, sj, run_slice(probe).bottom, budget, out);
 }
 
 void warn_palette(const std::string& input, int used, int total, Diagnostics& diag) {
@@ -466,16 +468,17 @@ void warn_error_bound(const std::string& input, const FgmStats& st, Diagnostics&
 // (A shard: its layers' short pieces.)
 void warn_short_segments(const std::string& input, const FgmStats& st, Diagnostics& diag) {
   if (st.short_kept > 0)
-    diag.warn("short_segments_kept",
-              fmt::format("{}: {} pieces under --min-segment {} mm are printed ({} merged into a "
-                          "neighbour; {} of them beads of their own, the others runs of one "
-                          "mixture inside a longer bead): {} merges refused because merging "
-                          "would exceed the gradient bound {} = {}, the other short pieces touch "
-                          "no piece of another colour end to end; use more colours or a smaller "
-                          "--min-segment",
-                          input, st.short_kept, fixed(st.min_segment, 2), st.short_merged,
-                          st.short_beads, st.short_kept_bound, st.materials == 3 ? "2α/3" : "α/2",
-                          fixed(st.error_bound, 4)));
+    diag.warn(
+        "short_segments_kept",
+        fmt::format("{}: {} pieces under fgm.min_segment = {} mm are printed ({} merged into a "
+                    "neighbour; {} of them beads of their own, the others runs of one "
+                    "mixture inside a longer bead): {} merges refused because merging "
+                    "would exceed the gradient bound {} = {}, the other short pieces touch "
+                    "no piece of another colour end to end; use more colours or a smaller "
+                    "fgm.min_segment",
+                    input, st.short_kept, fixed(st.min_segment, 2), st.short_merged, st.short_beads,
+                    st.short_kept_bound, st.materials == 3 ? "2α/3" : "α/2",
+                    fixed(st.error_bound, 4)));
 }
 
 void warn_process(const ProcessStats& stats, const ProcessOptions& options, Diagnostics& diag) {
@@ -494,7 +497,8 @@ struct SlicePart {
 // What the design read needs said: a mesh repaired; features finer than its minfeaturesize asks
 // (a 3MF level set, Volumetric & Implicit Part I §4.1.1: a consumer that cannot resolve them
 // "SHOULD raise a warning") lost under the bead width or the route's sampling step.
-void warn_design(const SliceJob& sj, const SliceResult& r, Diagnostics& diag) {
+void warn_design(const SliceJob& sj, const SliceResult& r, const RunContext& context) {
+  Diagnostics& diag = *context.diagnostics;
   const std::string name = fs::path(sj.input).filename().string();
   if (r.repaired)
     diag.warn("mesh_repaired",
@@ -502,14 +506,14 @@ void warn_design(const SliceJob& sj, const SliceResult& r, Diagnostics& diag) {
   const bool field = r.route == SliceRoute::Field;
   warn_min_feature(sj.input, r.design_min_feature, "bead width", sj.planar.bead_width,
                    field ? sj.field.resolution : sj.mesh_voxel,
-                   field ? "slice.resolution" : "slice.mesh_voxel", diag);
+                   field ? "slice.resolution" : "slice.mesh_voxel", context);
 }
 
 // Each part's slicing job, extent and printed layers (its ends found plane by plane), for the
 // plate check and the shards' ranges before any layer is sliced, and for a 3MF's build items.
 std::vector<SlicePart> slice_parts_of(const Job& job, const Config& c,
                                       const std::vector<PlatePart>& placed,
-                                      const Progress& progress) {
+                                      const RunContext& context = {}) {
   const bool plate = !job.parts.empty();
   const double h = c.machine.layer_height;
   std::vector<SlicePart> parts;
@@ -528,7 +532,6 @@ std::vector<SlicePart> slice_parts_of(const Job& job, const Config& c,
                          {job.origin, pp.line, "extrusion.layer_height"});
     SlicePart p;
     p.sj = slice_job_of(job, pc, input);
-    p.sj.budget.seen = progress.estimate;
     if (p.sj.strategy != 0 && plate)
       throw SettingError(
           "graded slicing (slice.strategy 1 or 2) does not go on plates: its "
@@ -537,7 +540,7 @@ std::vector<SlicePart> slice_parts_of(const Job& job, const Config& c,
           {job.origin, pp.line, "slice.strategy"});
     SliceJob probe = p.sj;
     probe.layer_begin = probe.layer_end = 0;
-    const SliceResult r = run_slice(probe, progress);
+    const SliceResult r = run_slice(probe, context);
     p.extent = r.extent;
     p.bottom = r.bottom;
     p.layers = r.part_layers;
@@ -549,14 +552,15 @@ std::vector<SlicePart> slice_parts_of(const Job& job, const Config& c,
 // A plate's parts as a 3MF's build items: each part's design (design_mesh_3mf, at the step its
 // route samples it) placed as its paths are, its bottom on the bed; parts of one design sampled
 // alike share a mesh.
-void slice_plate_geometry(const Job& job, const std::vector<SlicePart>& parts, JobResult& out) {
+void slice_plate_geometry(const Job& job, const std::vector<SlicePart>& parts, const Budget& budget,
+                          JobResult& out) {
   std::map<std::string, std::shared_ptr<const TriangleMesh>> meshes;
   for (std::size_t k = 0; k < parts.size() && k < job.parts.size(); ++k) {
     const PlatePart& pp = job.parts[k];
     const SliceJob& sj = parts[k].sj;
     const double voxel = sj.route == SliceRoute::Mesh ? sj.mesh_voxel : sj.field.resolution;
     std::shared_ptr<const TriangleMesh>& mesh = meshes[fmt::format("{}\n{}", pp.input, voxel)];
-    if (!mesh) mesh = design_mesh_3mf(pp.input, voxel, sj.budget);
+    if (!mesh) mesh = design_mesh_3mf(pp.input, voxel, budget);
     out.geometry.parts.push_back({mesh, place_transform(pp, parts[k].extent, -parts[k].bottom),
                                   fs::path(pp.input).filename().string()});
   }
@@ -628,11 +632,12 @@ std::vector<Layer> part_by_part(std::vector<Layer> plate_layers,
 // as layer i of every part that tall, in the job's order, for each pass of the writer.
 JobResult slice_plate_streamed(const Job& job, const Config& c, std::vector<SlicePart>& parts,
                                const std::vector<PlatePart>& placed, std::size_t total,
-                               bool sequential, Diagnostics& diag, const Progress& progress) {
+                               bool sequential, const RunContext& context) {
+  Diagnostics& diag = *context.diagnostics;
   JobResult out;
   const bool plate = !job.parts.empty();
   const double h = c.machine.layer_height;
-  if (plate && is_3mf_output(job.output)) slice_plate_geometry(job, parts, out);
+  if (plate && is_3mf_output(job.output)) slice_plate_geometry(job, parts, context.budget, out);
   std::vector<std::unique_ptr<LayerSpill>> spills;
   Toolpath meta;
   std::size_t paths = 0;
@@ -653,10 +658,10 @@ JobResult slice_plate_streamed(const Job& job, const Config& c, std::vector<Slic
           }
           spill.append(layer);
         },
-        progress);
+        {}, context);
     warn_process(r.process, p.sj.process, diag);
     p.process = r.process;
-    warn_design(p.sj, r, diag);
+    warn_design(p.sj, r, context);
     if (!plate)
       meta.source = "trellis slice " + fs::path(p.sj.input).filename().string() + " (" +
                     to_string(r.route) + " route)";
@@ -696,15 +701,14 @@ JobResult slice_plate_streamed(const Job& job, const Config& c, std::vector<Slic
 // found plane by plane, the shard's range of them (balanced by work as a plate's) sliced with
 // the layers its skins read and planned; a graded part's layers before the whole-print step
 // (slice/pipeline.hpp finish_graded, the merge's), the manifest saying so.
-JobResult slice_part_shard(const Job& job, const Config& c, Diagnostics& diag,
-                           const Progress& progress) {
+JobResult slice_part_shard(const Job& job, const Config& c, const RunContext& context) {
+  Diagnostics& diag = *context.diagnostics;
   JobResult out;
   if (job.input.empty())
     throw SettingError("slice needs a design (.vcad) or mesh to read",
                        {job.origin, 0, "job.input"});
   const double h = c.machine.layer_height;
   SliceJob sj = slice_job_of(job, c, job.input);
-  sj.budget.seen = progress.estimate;
   std::size_t a = 0, b = 0, total = 0;
   sj.range_of = [&](const BBox3& e, std::size_t layers) {
     // As a plate's: layer i's work is the part's XY area.
@@ -713,9 +717,9 @@ JobResult slice_part_shard(const Job& job, const Config& c, Diagnostics& diag,
     std::tie(a, b) = shard_range(work, job.shard, job.shards);
     return std::pair<std::size_t, std::size_t>{a, b};
   };
-  SliceResult r = run_slice(sj, progress);
+  SliceResult r = run_slice(sj, context);
   warn_process(r.process, sj.process, diag);
-  warn_design(sj, r, diag);
+  warn_design(sj, r, context);
   const bool graded = sj.strategy != 0;
   if (graded) warn_short_segments(sj.input, r.fgm, diag);
   Toolpath tp;
@@ -753,14 +757,14 @@ JobResult slice_part_shard(const Job& job, const Config& c, Diagnostics& diag,
 // settings, placed (its x, y are bed coordinates) and dropped on the bed; plate layer i holds
 // layer i of every part that tall, parts in the order of the job file. A shard slices the parts
 // whole (skins look at the layers above and below) and keeps its layer range.
-JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag,
-                      const Progress& progress) {
+JobResult slice_plate(const Job& job, const Config& c, const RunContext& context) {
+  Diagnostics& diag = *context.diagnostics;
   JobResult out;
   const bool plate = !job.parts.empty();
   const std::vector<PlatePart> placed = plate ? job.parts : std::vector<PlatePart>{PlatePart{}};
   const double h = c.machine.layer_height;
   const bool sequential = plate && c.plate.sequence == PlateSequence::Parts;
-  std::vector<SlicePart> parts = slice_parts_of(job, c, placed, progress);
+  std::vector<SlicePart> parts = slice_parts_of(job, c, placed, context);
   if (plate) {
     std::vector<PartFootprint> fp;
     for (std::size_t k = 0; k < parts.size(); ++k)
@@ -795,7 +799,7 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag,
                  : std::pair<std::size_t, std::size_t>{0, total};
   const std::size_t a = range.first, b = range.second;
   if (!job.shards && output_alone(job))
-    return slice_plate_streamed(job, c, parts, placed, total, sequential, diag, progress);
+    return slice_plate_streamed(job, c, parts, placed, total, sequential, context);
   Toolpath tp;
   tp.layers.resize(b - a);
   for (std::size_t i = a; i < b; ++i) tp.layers[i - a].z = static_cast<double>(i + 1) * h;
@@ -805,10 +809,10 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag,
     if (plate) tp.part_labels.push_back(placed[k].label);
     if (a >= p.layers) continue;
     if (job.shards) p.sj.layer_begin = a, p.sj.layer_end = b;
-    SliceResult r = run_slice(p.sj, progress);
+    SliceResult r = run_slice(p.sj, context);
     warn_process(r.process, p.sj.process, diag);
     p.process = r.process;
-    warn_design(p.sj, r, diag);
+    warn_design(p.sj, r, context);
     if (!plate)
       tp.source = "trellis slice " + fs::path(p.sj.input).filename().string() + " (" +
                   to_string(r.route) + " route)";
@@ -830,7 +834,7 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag,
     return shard_written(job, tp, a, b, total, fmt::format("{} paths", paths), std::move(out));
   if (sequential) tp.layers = part_by_part(std::move(tp.layers), parts, h);
   if (!job.output.empty()) note_planar_in_bath(c.machine, "slice", diag);
-  if (plate && is_3mf_output(job.output)) slice_plate_geometry(job, parts, out);
+  if (plate && is_3mf_output(job.output)) slice_plate_geometry(job, parts, context.budget, out);
   GcodeStats g;
   write_slice_main(job, c, tp, out, diag, &g);
   if (!job.toolpath.empty()) {
@@ -848,24 +852,24 @@ JobResult slice_plate(const Job& job, const Config& c, Diagnostics& diag,
 
 }  // namespace
 
-JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
-  if (job.parts.empty() && job.shards) return slice_part_shard(job, c, diag, progress);
-  if (!job.parts.empty() || job.shards) return slice_plate(job, c, diag, progress);
+JobResult slice(const Job& job, const Config& c, const RunContext& context) {
+  Diagnostics& diag = *context.diagnostics;
+  if (job.parts.empty() && job.shards) return slice_part_shard(job, c, context);
+  if (!job.parts.empty() || job.shards) return slice_plate(job, c, context);
   JobResult out;
   if (job.input.empty())
     throw SettingError("slice needs a design (.vcad) or mesh to read", {"", 0, "job.input"});
   SliceJob sj = slice_job_of(job, c, job.input);
-  sj.budget.seen = progress.estimate;
   // G-code alone: layers stream through a temporary file in bounded memory (planar and graded
   // slicing, a prime tower and process fields included); the toolpath JSON and previews hold
   // the whole toolpath.
   std::optional<LayerSpill> spill;
   if (output_alone(job)) spill.emplace();
   SliceResult r = spill ? stream_slice(
-                              sj, [&](std::size_t, Layer&& l) { spill->append(l); }, progress)
-                        : run_slice(sj, progress);
+                              sj, [&](std::size_t, Layer&& l) { spill->append(l); }, {}, context)
+                        : run_slice(sj, context);
   const std::size_t layers = r.streamed ? r.layers : r.outlines.size();
-  warn_design(sj, r, diag);
+  warn_design(sj, r, context);
   if (sj.strategy != 0) {
     warn_palette(job.input, r.fgm.colours_used, r.fgm.colours_total, diag);
     warn_short_segments(job.input, r.fgm, diag);
@@ -877,7 +881,7 @@ JobResult slice(const Job& job, const Config& c, Diagnostics& diag, const Progre
                       to_string(r.route) + " route)";
   GcodeStats g;
   if (!job.output.empty()) note_planar_in_bath(c.machine, "slice", diag);
-  if (is_3mf_output(job.output)) slice_geometry(job, sj, r.bottom, out);
+  if (is_3mf_output(job.output)) slice_geometry(job, sj, r.bottom, context.budget, out);
   if (spill) {
     Toolpath meta;
     meta.source = r.toolpath.source;
@@ -964,7 +968,8 @@ void check_pbf_cells(const Config& c, const PbfOptions& po) {
       if (cell > 0 && cell < 8 * po.resolution)
         throw SettingError(fmt::format(
             "{}: a cell of {} mm is not resolved by the {} mm sampling grid (2 × pbf.resolution); "
-            "cells need at least 8 × pbf.resolution = {} mm: raise the cell or lower --resolution",
+            "cells need at least 8 × pbf.resolution = {} mm: raise the cell or lower "
+            "pbf.resolution",
             key, cell, 2 * po.resolution, 8 * po.resolution));
   }
 }
@@ -983,8 +988,6 @@ PbfOptions pbf_options(const Job& job, const Config& c) {
   po.machine_origin = pbf_machine_origin(c);
   po.stl_route = c.pbf.route == PbfRoute::Stl;
   po.timing = scan_timing(prof);
-  const Budget budget = budget_of(job, c, Progress{});
-  po.memory_budget = budget.force ? HUGE_VAL : budget.memory;
   return po;
 }
 
@@ -995,7 +998,8 @@ bool finite_box(const BBox3& e) {
 
 // A build plate of PBF parts, or a shard of one part or of a plate (job/plate.hpp): every part
 // planned for the plate layers [a, b) only, placed, and its paths tagged with the part.
-JobResult pbf_plate(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
+JobResult pbf_plate(const Job& job, const Config& c, const RunContext& context) {
+  Diagnostics& diag = *context.diagnostics;
   JobResult out;
   const LaserProfile& prof = c.laser;
   struct Part {
@@ -1022,7 +1026,7 @@ JobResult pbf_plate(const Job& job, const Config& c, Diagnostics& diag, const Pr
       throw SettingError("part '" + pp.label + "': " + e.message(),
                          {job.origin, pp.line, e.where().element});
     }
-    p.design = pbf_part_design(p.config, plate ? pp.input : job.input, st, diag);
+    p.design = pbf_part_design(p.config, plate ? pp.input : job.input, st, context);
     p.extent = p.design.part().extent();
     if (!finite_box(p.extent))
       throw GeometryError("part '" + pp.label + "' has no finite extent: give it an envelope",
@@ -1070,8 +1074,9 @@ JobResult pbf_plate(const Job& job, const Config& c, Diagnostics& diag, const Pr
     const PbfOptions po = pbf_options(job, p.config);
     const std::size_t end = std::min(b, p.layers);
     // Each layer placed into the plate as it comes (laser's in-order layer sink).
-    const PbfResult r = plan_pbf(
-        p.design, po, progress,
+    // Its warnings go to the context (plan_pbf).
+    plan_pbf(
+        p.design, po,
         [&](std::size_t i, const PbfLayer& L) {
           Layer layer = pbf_layer_toolpath(L, i, prof.layer, prof.contour_power, prof.contour_speed,
                                            prof.hatch_power, prof.hatch_speed);
@@ -1087,8 +1092,7 @@ JobResult pbf_plate(const Job& job, const Config& c, Diagnostics& diag, const Pr
             tp.layers[i - a].paths.push_back(std::move(path));
           }
         },
-        PbfLayerRange{a, end});
-    diag.merge(r.diagnostics);
+        PbfLayerRange{a, end}, context);
   }
   // The plate's layers shared among the lasers, every part's paths together.
   LaserTimes times;
@@ -1145,12 +1149,12 @@ void pbf_plate_geometry(const Job& job, const Config& c, JobResult& out) {
       st.load_toml(pp.settings_toml, job.origin + " part '" + pp.label + "'");
     const Config pc = st.config();
     Diagnostics said;  // (the run's to give)
-    const PbfDesign d = pbf_part_design(pc, pp.input, st, said);
+    const PbfDesign d = pbf_part_design(pc, pp.input, st, RunContext{.diagnostics = &said});
     const BBox3 e = d.part().extent();
     std::shared_ptr<const TriangleMesh>& mesh = meshes[pp.input + '\n' + pp.settings_toml];
     if (!mesh)
-      mesh =
-          field_mesh_3mf(d.part(), pbf_options(job, pc).resolution, budget_of(job, c, Progress{}));
+      mesh = field_mesh_3mf(d.part(), pbf_options(job, pc).resolution,
+                            budget_of(job.settings, c, Progress{}));
     out.geometry.parts.push_back(
         {mesh, place_transform(pp, e, -e.min.z),
          pp.input.empty() ? pp.label : fs::path(pp.input).filename().string()});
@@ -1165,10 +1169,12 @@ void write_slice_main(const Job& job, const Config& c, Toolpath& tp, JobResult& 
   // A plate is placed already: its parts' x, y are bed coordinates.
   if (!tp.part_labels.empty()) m.center = false;
   if (tp.part_labels.empty() && is_3mf_output(job.output))
-    slice_geometry(job, slice_job_of(job, c, job.input), out);
+    slice_geometry(job, slice_job_of(job, c, job.input), budget_of(job.settings, c, Progress{}),
+                   out);
   // A plate's merge: its parts found again as the single run found them.
   if (!job.parts.empty() && is_3mf_output(job.output) && out.geometry.parts.empty())
-    slice_plate_geometry(job, slice_parts_of(job, c, job.parts, Progress{}), out);
+    slice_plate_geometry(job, slice_parts_of(job, c, job.parts),
+                         budget_of(job.settings, c, Progress{}), out);
   const GcodeStats g = write_gcode_out(job.output, tp, job, m, out, diag);
   if (stats) *stats = g;
 }
@@ -1242,7 +1248,7 @@ static HeightField nonplanar_surface(const Job& job, const Config& c) {
   }
   if (!np.height_fn.empty()) {
     if (np.domain.size() != 4)
-      throw SettingError("the height function needs nonplanar.domain = x0,y0,x1,y1 (--domain)",
+      throw SettingError("the height function needs nonplanar.domain = x0,y0,x1,y1",
                          {"", 0, "nonplanar.domain"});
     return HeightField::from_expression(
         np.height_fn, {{np.domain[0], np.domain[1]}, {np.domain[2], np.domain[3]}},
@@ -1252,8 +1258,8 @@ static HeightField nonplanar_surface(const Job& job, const Config& c) {
     return test_surface(c.surface);
   }
   throw SettingError(
-      "give a surface mesh, --height-fn with --domain, or a test surface (--set "
-      "surface.kind=...)",
+      "give a surface mesh, nonplanar.height_fn with nonplanar.domain, or a test surface "
+      "(surface.kind)",
       {"", 0, "job.input"});
 }
 
@@ -1269,9 +1275,10 @@ void write_pbf_main(const Job& job, const Config& c, Toolpath& tp, JobResult& ou
   if (is_3mf_output(job.output) && tp.part_labels.empty() && !out.geometry.mesh) {
     // The shards' part, as a single run writes it (its warnings were the shards' to give).
     Diagnostics said;
-    const PbfDesign d = pbf_part_design(c, job.input, job.settings, said);
-    out.geometry.mesh =
-        field_mesh_3mf(d.part(), pbf_options(job, c).resolution, budget_of(job, c, Progress{}));
+    const PbfDesign d =
+        pbf_part_design(c, job.input, job.settings, RunContext{.diagnostics = &said});
+    out.geometry.mesh = field_mesh_3mf(d.part(), pbf_options(job, c).resolution,
+                                       budget_of(job.settings, c, Progress{}));
     out.geometry.transform = pbf_design_transform(d);
   }
   // A plate's parts, each its design at its place.
@@ -1280,16 +1287,17 @@ void write_pbf_main(const Job& job, const Config& c, Toolpath& tp, JobResult& ou
   write_laser_build(job.output, tp, job, c, out);
 }
 
-JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
-  if (pbf_solid_job(job, c)) return pbf_solid(job, c, diag, progress);
-  if (!job.parts.empty() || job.shards) return pbf_plate(job, c, diag, progress);
+JobResult pbf(const Job& job, const Config& c, const RunContext& context) {
+  Diagnostics& diag = *context.diagnostics;
+  if (pbf_solid_job(job, c)) return pbf_solid(job, c, context);
+  if (!job.parts.empty() || job.shards) return pbf_plate(job, c, context);
   JobResult out;
   const LaserProfile& prof = c.laser;
   bool from_design = false;
-  PbfDesign d = pbf_part_design(c, job.input, job.settings, diag, &from_design);
+  PbfDesign d = pbf_part_design(c, job.input, job.settings, context, &from_design);
   PbfOptions po = pbf_options(job, c);
   check_pbf_cells(c, po);
-  const Budget budget = budget_of(job, c, progress);
+  const Budget budget = context.budget;
   if (finite_box(d.part().extent()) && po.layer > 0)
     check_budget(estimate_pbf_time(d, po, !job.toolpath.empty(), is_3mf_output(job.output)),
                  budget);
@@ -1306,18 +1314,19 @@ JobResult pbf(const Job& job, const Config& c, Diagnostics& diag, const Progress
   if (stream) {
     CliStreamWriter writer(job.output, prof, CliWriteOptions{c.pbf.binary, true}, "trellis pbf",
                            embedded_job(job, job.output));
-    r = plan_pbf(d, po, progress, [&](std::size_t i, const PbfLayer& L) {
-      Layer layer = pbf_layer_toolpath(L, i, po.layer, prof.contour_power, prof.contour_speed,
-                                       prof.hatch_power, prof.hatch_speed);
-      if (split) times.add(split_among_lasers(layer, setup, i));
-      writer.add(layer);
-    });
+    r = plan_pbf(
+        d, po,
+        [&](std::size_t i, const PbfLayer& L) {
+          Layer layer = pbf_layer_toolpath(L, i, po.layer, prof.contour_power, prof.contour_speed,
+                                           prof.hatch_power, prof.hatch_speed);
+          if (split) times.add(split_among_lasers(layer, setup, i));
+          writer.add(layer);
+        },
+        {}, context);  // its warnings go to the context
     writer.finish();
-    diag.merge(r.diagnostics);
     out.files.push_back(job.output);
   } else {
-    r = plan_pbf(d, po, progress);
-    diag.merge(r.diagnostics);
+    r = plan_pbf(d, po, context);  // its warnings go to the context
     tp =
         pbf_toolpath(r, prof.contour_power, prof.contour_speed, prof.hatch_power, prof.hatch_speed);
     if (split)
@@ -1424,14 +1433,15 @@ namespace {
 
 // nonplanar.planar_control: the same layers as a solid sliced flat, one tool per layer group.
 JobResult planar_control(const Job& job, const Config& c, const HeightField& surface,
-                         const NonplanarParams& prm, Diagnostics& diag, const Progress& progress) {
+                         const NonplanarParams& prm, const RunContext& context) {
+  Diagnostics& diag = *context.diagnostics;
   if (job.shards)
     throw SettingError("the planar control is sliced whole: drop --shard",
                        {"", 0, "nonplanar.planar_control"});
   // The non-planar lines' own settings (surface_spacing, chord_tolerance, max_join) are refused
   // by the schema with it: they are used only when nonplanar.planar_control = false.
   JobResult out;
-  PlanarControlResult r = slice_planar_control(surface, prm, progress);
+  PlanarControlResult r = slice_planar_control(surface, prm, context);
   const GcodeStats g = write_nonplanar_main(job, c, r.toolpath, out, diag);
   if (!job.toolpath.empty()) {
     write_toolpath_with_job(job.toolpath, r.toolpath, job);
@@ -1471,7 +1481,9 @@ JobResult planar_control(const Job& job, const Config& c, const HeightField& sur
 
 }  // namespace
 
-JobResult nonplanar(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
+JobResult nonplanar(const Job& job, const Config& c, const RunContext& context) {
+  Diagnostics& diag = *context.diagnostics;
+  const Progress& progress = context.progress;
   JobResult out;
   const auto& np = c.nonplanar;
   const HeightField surface = nonplanar_surface(job, c);
@@ -1486,8 +1498,8 @@ JobResult nonplanar(const Job& job, const Config& c, Diagnostics& diag, const Pr
   require_bath(job, c.machine, "nonplanar",
                "non-planar layers are printed inside a support bath (the "
                "non-planar paper's FRESH set-up)");
-  check_budget(estimate_nonplanar(surface.domain(), prm), budget_of(job, c, progress));
-  if (np.planar_control) return planar_control(job, c, surface, prm, diag, progress);
+  check_budget(estimate_nonplanar(surface.domain(), prm), context.budget);
+  if (np.planar_control) return planar_control(job, c, surface, prm, context);
   // A shard (`--shard K/N`) keeps layers [a, b) of the run. Each layer's lines are its own, but
   // its serpentine starts where the layer before ended, so a shard slices layers 0..b-1 (the
   // ones before it only for that start point; truncating prm.layers leaves them unchanged).
@@ -1496,7 +1508,7 @@ JobResult nonplanar(const Job& job, const Config& c, Diagnostics& diag, const Pr
                           ? shard_range(std::vector<double>(total, 1.0), job.shard, job.shards)
                           : std::pair<std::size_t, std::size_t>{0, total};
   if (job.shards) prm.layers = static_cast<int>(std::max<std::size_t>(b, 1));
-  NonplanarResult r = slice_nonplanar(surface, prm, progress);
+  NonplanarResult r = slice_nonplanar(surface, prm, context);
   if (job.shards) {
     prm.layers = static_cast<int>(total);
     r.toolpath.layers.resize(b);
@@ -1559,7 +1571,8 @@ JobResult nonplanar(const Job& job, const Config& c, Diagnostics& diag, const Pr
   return out;
 }
 
-JobResult surface(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
+JobResult surface(const Job& job, const Config& c, const RunContext& context) {
+  Diagnostics& diag = *context.diagnostics;
   JobResult out;
   if (c.surface.kind == SurfaceKind::AngleTest) {
     // The print-angle test path: toolpath JSON, or G-code for the job's machine.
@@ -1597,7 +1610,7 @@ JobResult surface(const Job& job, const Config& c, Diagnostics& diag, const Prog
     e.seconds = points * 2e-7;
     e.what = fmt::format("a {:.3g}-point surface mesh", points);
     e.change = "surface.resolution";
-    check_budget(e, budget_of(job, c, progress));
+    check_budget(e, context.budget);
   }
   const TriangleMesh mesh = surface_mesh(s, c.surface.resolution);
   if (is_3mf_output(job.output)) {
@@ -1624,15 +1637,18 @@ JobResult surface(const Job& job, const Config& c, Diagnostics& diag, const Prog
 
 void design_geometry(const Job& job, const Config& c, JobResult& out) {
   if (job.route == "slice" && !job.parts.empty()) {
-    slice_plate_geometry(job, slice_parts_of(job, c, job.parts, Progress{}), out);
+    slice_plate_geometry(job, slice_parts_of(job, c, job.parts),
+                         budget_of(job.settings, c, Progress{}), out);
   } else if (job.route == "slice") {
-    slice_geometry(job, slice_job_of(job, c, job.input), out);
+    slice_geometry(job, slice_job_of(job, c, job.input), budget_of(job.settings, c, Progress{}),
+                   out);
   } else if (job.route == "pbf" && !pbf_solid_job(job, c)) {
     if (!job.parts.empty()) return pbf_plate_geometry(job, c, out);
     Diagnostics said;
-    const PbfDesign d = pbf_part_design(c, job.input, job.settings, said);
-    out.geometry.mesh =
-        field_mesh_3mf(d.part(), pbf_options(job, c).resolution, budget_of(job, c, Progress{}));
+    const PbfDesign d =
+        pbf_part_design(c, job.input, job.settings, RunContext{.diagnostics = &said});
+    out.geometry.mesh = field_mesh_3mf(d.part(), pbf_options(job, c).resolution,
+                                       budget_of(job.settings, c, Progress{}));
     out.geometry.transform = pbf_design_transform(d);
   } else if (job.route == "nonplanar") {
     // An open "surface" object: a mesh as read, else its grid at half the bead width, as the

@@ -429,8 +429,8 @@ LayerSource print_layers(const std::string& path, const Settings* machine, doubl
 
 namespace {
 
-JobResult run_route(const Job& job, const Config& c, Diagnostics& diag, const Progress& progress) {
-  return route_spec(job.route).run(job, c, diag, progress);
+JobResult run_route(const Job& job, const Config& c, const RunContext& context) {
+  return route_spec(job.route).run(job, c, context);
 }
 
 // A machine profile is for one kind of machine: a laser profile has [laser], [scan] or [timing];
@@ -503,8 +503,21 @@ RunFiles job_files(const Job& job, bool follow_symlinks) {
 }
 
 JobResult run_job(const Job& job, Diagnostics& diag, const Progress& progress) {
+  RunContext context;
+  context.progress = progress;
+  context.diagnostics = &diag;
+  return run_job(job, context);
+}
+
+JobResult run_job(const Job& job, const RunContext& given) {
   const std::vector<std::string> sections = route_sections(job.route);
   const Config c = job.settings.config();
+  // The route's context: the caller's progress and diagnostics, the run section's threads and
+  // budget.
+  Diagnostics dropped;  // a context without diagnostics drops the warnings
+  RunContext context = routes::run_context(job.settings, c, given);
+  if (!context.diagnostics) context.diagnostics = &dropped;
+  Diagnostics& diag = *context.diagnostics;
   check_rules(c, job.settings, sections);
   check_profile_kind(job, sections);
   routes::check_settings_used(job, nullptr, diag);
@@ -520,11 +533,12 @@ JobResult run_job(const Job& job, Diagnostics& diag, const Progress& progress) {
     if (gcode && std::find(sections.begin(), sections.end(), "gcode") != sections.end())
       binary_gcode_output(*g, c.machine);
   }
-  // run.threads bounds every parallel loop of the run (0 = all cores).
+  // The context's threads (run.threads) bound every parallel loop of the run, the entry points'
+  // arenas and the writers' loops alike (0 = all cores).
   std::unique_ptr<tbb::global_control> threads;
-  if (c.threads > 0)
+  if (context.threads > 0)
     threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
-                                                    static_cast<std::size_t>(c.threads));
+                                                    static_cast<std::size_t>(context.threads));
   for (const std::string* out :
        {&job.output, &job.report, &job.toolpath, &job.gcode, &job.lattice}) {
     if (out->empty()) continue;
@@ -536,16 +550,16 @@ JobResult run_job(const Job& job, Diagnostics& diag, const Progress& progress) {
   if (!job.preview.empty() && c.output.preview_layers + c.output.frames > 0) {
     Estimate e = layer_images_estimate(c.output.preview_layers + c.output.frames + 2.0,
                                        c.output.image_size, 0);
-    e.change = "--image-size (output.image_size) or --preview-layers (output.preview_layers)";
-    check_budget(e, routes::budget_of(job, c, progress));
+    e.change = "output.image_size or output.preview_layers";
+    context.check_budget(e);
   }
   JobResult result = [&] {
     try {
-      return run_route(job, c, diag, progress);
+      return run_route(job, c, context);
     } catch (const std::bad_alloc&) {
       throw ResourceError(
           "ran out of memory (the estimate before the run was too low): lower the resolution "
-          "or the size of the job, or raise the memory available (run.max_memory, --max-memory)",
+          "or the size of the job, or raise the memory available (run.max_memory)",
           {"", 0, "run.max_memory"});
     }
   }();

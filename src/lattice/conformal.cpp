@@ -130,7 +130,8 @@ Graph conformal_lattice(const ConformalParams& p, Diagnostics& diag) {
       froth,
       [&](EdgeId e) { return std::min(fd[froth.edges[e].a], fd[froth.edges[e].b]) < p.skin; },
       p.skin_material, skin_id);
-  if (skin.edges.empty()) throw GeometryError("the skin has no struts: raise --skin-density");
+  if (skin.edges.empty())
+    throw GeometryError("the skin has no struts: raise lattice3d.skin_density");
   // Join: each cut core node to its nearest skin node (a strut of the core's material).
   Graph out = core;
   const auto offset = static_cast<NodeId>(out.nodes.size());

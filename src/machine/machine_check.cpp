@@ -246,7 +246,7 @@ std::vector<MachineWarning> check_for_machine(const LayerSource& layers, const B
                    fmt::format("the toolpath mixes {} materials but the machine '{}' has no "
                                "mixing hotend (machine.mixing_inputs = 1): use a mixing or "
                                "tool-changer profile (gradient.mode = tools), or slice with "
-                               "--strategy 0 to print one material",
+                               "slice.strategy = 0 to print one material",
                                max_materials, p.name));
       else
         errors.add("mixing", fmt::format("the toolpath mixes {} materials but the hotend of '{}' "

@@ -895,7 +895,8 @@ Canonical canonical(const Graph& g) {
 }
 
 // `fixed`: the trails are given (the periodic method's), only counted here.
-AeroResult plan_canonical(const Graph& g, const AeroParams& params, const PeriodicTrails* fixed);
+AeroResult plan_canonical(const Graph& g, const AeroParams& params, const PeriodicTrails* fixed,
+                          const RunContext& context);
 
 // The periodic method's trails, made on the input (its errors name the input's struts), in the
 // canonical ids.
@@ -919,13 +920,14 @@ std::size_t aero_auto_tries(std::size_t struts) {
   return std::clamp<std::size_t>(200000 / std::max<std::size_t>(1, struts), 1, 8);
 }
 
-AeroResult plan_aero(const Graph& input, const AeroParams& params, Diagnostics& diag) {
+AeroResult plan_aero(const Graph& input, const AeroParams& params, Diagnostics& diag,
+                     const RunContext& context) {
   if (input.edges.empty()) throw GeometryError("the lattice has no struts to plan");
   params.nozzle.validate();
   const Canonical c = canonical(input);
   std::optional<PeriodicTrails> fixed;
   if (params.method == AeroMethod::Periodic) fixed = canonical_periodic(input, c, params.periodic);
-  AeroResult r = plan_canonical(c.graph, params, fixed ? &*fixed : nullptr);
+  AeroResult r = plan_canonical(c.graph, params, fixed ? &*fixed : nullptr, context);
   // Back to the input's ids.
   for (auto& t : r.trails.trails) {
     for (auto& n : t.nodes) n = c.node_from[n];
@@ -979,7 +981,8 @@ std::vector<std::size_t> print_rank(const Graph& g, const PathSet& trails) {
   return rank;
 }
 
-AeroResult plan_canonical(const Graph& g, const AeroParams& params, const PeriodicTrails* fixed) {
+AeroResult plan_canonical(const Graph& g, const AeroParams& params, const PeriodicTrails* fixed,
+                          const RunContext& context) {
   AeroResult r;
   const auto t0 = Clock::now();
   const std::vector<std::int8_t> dir = directions(g, params.nozzle, r.steep_struts);
@@ -994,8 +997,8 @@ AeroResult plan_canonical(const Graph& g, const AeroParams& params, const Period
   }
   BlockingGraph blocking;
   if (params.collisions) {
-    params.progress("collision model", 0);
-    blocking = blocking_graph(g, params.nozzle, params.threads);
+    context.report("collision model", 0);
+    blocking = blocking_graph(g, params.nozzle, context.threads);
     r.blocking_relations = blocking.relations();
     // Struts that obstruct each other: whichever goes first is hit, so each pair costs at least
     // one collision in any order (blocks lists are sorted).
@@ -1016,7 +1019,7 @@ AeroResult plan_canonical(const Graph& g, const AeroParams& params, const Period
   const BlockingGraph* plan_with = params.collisions ? &blocking : nullptr;
   if (params.collisions) {
     const auto t = Clock::now();
-    params.progress("fewest collisions", 0);
+    context.report("fewest collisions", 0);
     CollisionOrderParams op = params.order;
     op.seed = params.seed;
     std::vector<double> height(g.edges.size());
@@ -1052,16 +1055,16 @@ AeroResult plan_canonical(const Graph& g, const AeroParams& params, const Period
   std::size_t best_run = 0;
   std::mutex best_mutex;
   std::atomic<std::size_t> finished{0};
-  tbb::task_arena arena(params.threads > 0 ? params.threads : tbb::task_arena::automatic);
+  tbb::task_arena arena(context.threads > 0 ? context.threads : tbb::task_arena::automatic);
   arena.execute([&] {
     tbb::parallel_for(std::size_t{0}, runs, [&](std::size_t k) {
-      if (params.progress.cancelled()) return;
+      if (context.cancelled()) return;
       AeroResult trial = r;
       const Strategy strategy = strategies[k % strategies.size()];
       const std::uint64_t seed =
           k < strategies.size() ? 0 : params.seed * 1000003ULL + k;  // 0 = no shuffle
       Progress quiet;  // cancellation only: the portfolio reports progress per run
-      quiet.cancel = params.progress.cancel;
+      quiet.cancel = context.progress.cancel;
       if (fixed) {
         trial.trails = fixed->trails;
         trial.trail_material = fixed->material;
@@ -1090,10 +1093,10 @@ AeroResult plan_canonical(const Graph& g, const AeroParams& params, const Period
           best_run = k;
         }
       }
-      params.progress("tries", static_cast<double>(++finished) / static_cast<double>(runs));
+      context.report("tries", static_cast<double>(++finished) / static_cast<double>(runs));
     });
   });
-  if (params.progress.cancelled()) throw Cancelled("AERO planning cancelled");
+  context.check("AERO planning");
   r = std::move(*best);
   if (params.collisions) {
     // The struts printed before struts they obstruct: one collision per such pair.
@@ -1109,7 +1112,7 @@ AeroResult plan_canonical(const Graph& g, const AeroParams& params, const Period
   r.seconds_planning = since(t1);
   for (const auto& t : r.trails.trails)
     r.max_trail_edges = std::max(r.max_trail_edges, t.edges.size());
-  params.progress("tries", 1);
+  context.report("tries", 1);
   return r;
 }
 

@@ -266,7 +266,7 @@ PathSet gippo_iteration(const Graph& g, GippoMode mode, std::uint64_t seed, std:
   return sol.to_paths();
 }
 
-GippoResult plan_gippo(const Graph& g, const GippoParams& params) {
+GippoResult plan_gippo(const Graph& g, const GippoParams& params, const RunContext& context) {
   check_graph(g);
   if (params.iterations < 1) throw SettingError("iterations must be >= 1");
   const SortedAdjacency adj(g, params.mode);
@@ -282,13 +282,13 @@ GippoResult plan_gippo(const Graph& g, const GippoParams& params) {
   tbb::enumerable_thread_specific<Local> locals;
   std::atomic<std::size_t> done{0};
   std::atomic<bool> cancelled{false};
-  tbb::task_arena arena(params.threads > 0 ? params.threads : tbb::task_arena::automatic);
+  tbb::task_arena arena(context.threads > 0 ? context.threads : tbb::task_arena::automatic);
   arena.execute([&] {
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1), [&](const auto& range) {
       Local& L = locals.local();
       if (!L.it) L.it = std::make_unique<Iteration>(g, adj);
       for (std::size_t k = range.begin(); k != range.end(); ++k) {
-        if (params.progress.cancelled()) {
+        if (context.cancelled()) {
           cancelled = true;
           return;
         }
@@ -298,7 +298,7 @@ GippoResult plan_gippo(const Graph& g, const GippoParams& params) {
         if (is_worst) L.worst = L.current;
         if (better(s, k, L.best)) std::swap(L.best, L.current);
         const std::size_t d = ++done;
-        if (d % std::max<std::size_t>(1, n / 50) == 0) params.progress("gippo", double(d) / n);
+        if (d % std::max<std::size_t>(1, n / 50) == 0) context.report("gippo", double(d) / n);
       }
     });
   });
@@ -320,22 +320,22 @@ GippoResult plan_gippo(const Graph& g, const GippoParams& params) {
 }
 
 GippoRobustness gippo_robustness(const Graph& g, const GippoParams& params, int seeds,
-                                 std::size_t long_nodes) {
+                                 std::size_t long_nodes, const RunContext& context) {
   if (seeds < 1) throw SettingError("the robustness run needs at least one seed");
   GippoRobustness r;
   for (int k = 0; k < seeds; ++k) {
-    if (params.progress.cancelled()) throw Error("GIPPO robustness run cancelled");
+    if (context.cancelled()) throw Error("GIPPO robustness run cancelled");
     GippoParams p = params;
     p.seed = params.seed + static_cast<std::uint64_t>(k);
-    p.progress = {};
-    p.progress.cancel = params.progress.cancel;
-    const GippoResult one = plan_gippo(g, p);
+    Progress quiet;  // cancellation only: the seeds report progress
+    quiet.cancel = context.progress.cancel;
+    const GippoResult one = plan_gippo(g, p, context.with_progress(quiet));
     r.seeds.push_back(p.seed);
     r.best_scores.push_back(one.scores.empty() ? 0.0 : one.scores[one.best_iteration]);
     r.worst_scores.push_back(one.scores.empty() ? 0.0 : one.scores[one.worst_iteration]);
     r.best_lts.push_back(path_metrics(g, one.best, long_nodes).lts);
     r.worst_lts.push_back(path_metrics(g, one.worst, long_nodes).lts);
-    params.progress("seeds", static_cast<double>(k + 1) / seeds);
+    context.report("seeds", static_cast<double>(k + 1) / seeds);
   }
   const auto n = static_cast<double>(seeds);
   double sum = 0;

@@ -116,7 +116,8 @@ void append_layer(Toolpath& tp, const Graph& sub, const PathSet& set, const Part
 }  // namespace
 
 PlanResult plan_lattice(const Graph& g, const PlanParams& params, Diagnostics& diag,
-                        const Progress& progress) {
+                        const RunContext& context) {
+  const Progress& progress = context.progress;
   if (g.edges.empty()) throw GeometryError("the lattice has no edges to plan");
   if (!(params.layer_height > 0)) throw SettingError("layer height must be > 0 mm");
   std::size_t directed = 0;
@@ -152,14 +153,13 @@ PlanResult plan_lattice(const Graph& g, const PlanParams& params, Diagnostics& d
     report.edges = sub.edges.size();
     PathSet set, worst;
     if (params.planner == Planner::Gippo) {
-      GippoParams gp = params.gippo;
-      gp.progress.cancel = progress.cancel;
-      gp.progress.report = nullptr;
+      Progress part_progress;
+      part_progress.cancel = progress.cancel;
       if (progress.report)
-        gp.progress.report = [&](const std::string& stage, double f) {
+        part_progress.report = [&](const std::string& stage, double f) {
           progress(stage, (static_cast<double>(pi) + f) / static_cast<double>(parts.size()));
         };
-      auto r = plan_gippo(sub, gp);
+      auto r = plan_gippo(sub, params.gippo, context.with_progress(std::move(part_progress)));
       set = std::move(r.best);
       report.scores = std::move(r.scores);
       report.best_iteration = r.best_iteration;

@@ -4,6 +4,7 @@
 #include <toml++/toml.h>
 
 #include <algorithm>
+#include <cctype>
 #include <charconv>
 #include <cmath>
 #include <set>
@@ -157,6 +158,55 @@ const Setting* find_setting(const std::string& key) {
   }();
   const auto it = index.find(key);
   return it == index.end() ? nullptr : it->second;
+}
+
+std::string with_flags(const std::string& message) {
+  // A key is [a-z0-9_] words joined by one dot; it stands alone when the characters around it
+  // could not continue it (a letter, digit, '_', '-', '.', '/' or a file name before it).
+  auto word = [](char ch) { return std::isalnum(static_cast<unsigned char>(ch)) || ch == '_'; };
+  std::string out;
+  out.reserve(message.size());
+  std::size_t i = 0;
+  while (i < message.size()) {
+    const char ch = message[i];
+    const bool boundary = i == 0 || !(word(message[i - 1]) || message[i - 1] == '.' ||
+                                      message[i - 1] == '-' || message[i - 1] == '/');
+    if (!boundary || !std::islower(static_cast<unsigned char>(ch))) {
+      out += ch;
+      ++i;
+      continue;
+    }
+    std::size_t j = i;
+    while (j < message.size() && word(message[j])) ++j;
+    const Setting* s = nullptr;
+    std::size_t end = j;
+    if (j + 1 < message.size() && message[j] == '.' && word(message[j + 1])) {
+      std::size_t k = j + 1;
+      while (k < message.size() && word(message[k])) ++k;
+      // Not a key when it goes on as a file name or a longer dotted name.
+      const bool longer = k < message.size() &&
+                          (message[k] == '.' || message[k] == '/' || message[k] == '-') &&
+                          k + 1 < message.size() && word(message[k + 1]);
+      if (!longer) {
+        s = find_setting(message.substr(i, k - i));
+        end = k;
+      }
+    }
+    const std::string key = message.substr(i, end - i);
+    if (s && !s->flag.empty()) {
+      const std::string flag = "--" + s->flag;
+      // Already "--flag (key)" or "key (--flag)": left as it is.
+      const bool written =
+          (out.size() >= flag.size() + 2 &&
+           out.compare(out.size() - flag.size() - 2, flag.size() + 2, flag + " (") == 0) ||
+          message.compare(end, flag.size() + 2, " (" + flag) == 0;
+      out += written ? key : flag + " (" + key + ")";
+    } else {
+      out += key;
+    }
+    i = end;
+  }
+  return out;
 }
 
 std::string nearest_setting(const std::string& key) {
@@ -384,7 +434,6 @@ std::string Settings::origin_text(const std::string& key) const {
 Config Settings::config() const {
   Config c;
   for (const auto& [key, e] : entries_) find_setting(key)->set(c, e.value);
-  c.plan.gippo.threads = c.aero.threads = c.threads;
   c.aero.seed = c.plan.gippo.seed;
   // The periodic method's cell is the made lattice's unless given.
   if (!find("aero.cell_type")) c.aero.periodic.cell = c.lattice3d.cells.cell;

@@ -485,7 +485,7 @@ std::vector<std::pair<std::string, std::string>> process_warnings(const ProcessS
                       "step ({}{}): "
                       "{} pieces shorter than process.min_length = {} mm were merged into a "
                       "neighbour; use a "
-                      "smaller --process-min-length or a larger step",
+                      "smaller process.min_length or a larger step",
                       p.node, to_string(static_cast<ProcessParam>(k)), fmt_num(p.max_deviation),
                       kUnits[k], fmt_num(half), kUnits[k], st.merged, fmt_num(o.min_length)));
   }

@@ -89,15 +89,16 @@ std::vector<std::vector<Line>> layer_sections(const HeightField& surface,
 }  // namespace
 
 NonplanarResult slice_nonplanar(const HeightField& surface, const NonplanarParams& prm,
-                                const Progress& progress) {
+                                const RunContext& context) {
+  const Progress& progress = context.progress;
   check_params(prm);
   const double max_join = prm.max_join > 0 ? prm.max_join : 4 * prm.width;
   NonplanarResult res;
   res.toolpath.source = "trellis nonplanar (" + surface.name() + ")";
   res.toolpath.layers.resize(static_cast<std::size_t>(prm.layers));
   res.layers.resize(res.toolpath.layers.size());
-  std::vector<std::vector<Line>> per_layer =
-      layer_sections(surface, prm, res.layers.size(), progress);
+  std::vector<std::vector<Line>> per_layer;
+  context.run([&] { per_layer = layer_sections(surface, prm, res.layers.size(), progress); });
   // Join each layer's pieces by nearest neighbour, starting where the previous layer ended.
   Vec3 cursor{kNaN, kNaN, kNaN};
   HeightField::Eval f = surface.evaluator();

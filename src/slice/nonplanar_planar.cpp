@@ -74,7 +74,8 @@ TriangleMesh band_mesh(const TriangleMesh& up, double lo, double hi) {
 }  // namespace
 
 PlanarControlResult slice_planar_control(const HeightField& surface, const NonplanarParams& params,
-                                         const Progress& progress) {
+                                         const RunContext& context) {
+  const Progress& progress = context.progress;
   if (params.offset != OffsetMode::Vertical)
     throw SettingError(
         "the planar control stacks the layers vertically: use nonplanar.offset = vertical",

@@ -73,7 +73,8 @@ void warn_untested(const PbfOptions& o, Diagnostics& d) {
 
 // The run's memory estimate, reported to `progress` and refused over the budget.
 void check_memory(const PbfDesign& design, const PbfOptions& o, std::size_t layers, bool sink,
-                  const Progress& progress, PbfResult& result) {
+                  const RunContext& context, PbfResult& result) {
+  const Progress& progress = context.progress;
   // The threads the layers run on: the arena's, bounded by a global_control (run.threads).
   const int threads = static_cast<int>(std::min<std::size_t>(
       static_cast<std::size_t>(tbb::this_task_arena::max_concurrency()),
@@ -83,16 +84,18 @@ void check_memory(const PbfDesign& design, const PbfOptions& o, std::size_t laye
     progress.estimate({result.memory_estimate, 0,
                        fmt::format("PBF paths of {} layers at resolution {} mm on {} thread(s)",
                                    layers, o.resolution, threads),
-                       "--resolution (pbf.resolution)"});
-  const double budget = o.memory_budget > 0 ? o.memory_budget : default_memory_budget();
+                       "pbf.resolution"});
+  if (context.budget.force) return;
+  const double budget = context.budget.memory > 0 ? context.budget.memory : default_memory_budget();
   if (budget > 0 && result.memory_estimate > budget)
     throw ResourceError(
         fmt::format(
             "refused before starting: this job needs about {:.0f} MB ({} threads at resolution "
             "{} "
             "mm, {} layers, estimate) but the memory budget is {:.0f} MB: raise the resolution "
-            "(--resolution), cut the part in build-height ranges, run fewer threads or raise the "
-            "budget (--max-memory MB, or --force)",
+            "(pbf.resolution), cut the part in build-height ranges, run fewer threads "
+            "(run.threads) "
+            "or raise the budget (run.max_memory in MB, or run.force)",
             result.memory_estimate / 1e6, threads, o.resolution, layers, budget / 1e6),
         {"", 0, "run.max_memory"});
 }
@@ -147,7 +150,7 @@ void mesh_part(pbf_detail::Plan& p, PbfResult& result) {
   BBox3 box = p.extent;
   p.mesh = field_to_mesh(p.part, box, o.resolution, &ms);
   result.mesh_triangles = p.mesh.triangles.size();
-  if (!o.stl_scan_all)
+  if (!o.test.stl_scan_all)
     p.buckets = triangles_by_plane(p.mesh, p.zs);  // each layer: the triangles it cuts
   result.mesh_bytes = ms.mesh_bytes;
   result.grid_bytes = ms.grid_bytes;
@@ -158,10 +161,13 @@ bool finite_box(const BBox3& e) {
          std::isfinite(e.max.y) && std::isfinite(e.min.z) && std::isfinite(e.max.z);
 }
 
+PbfResult plan_pbf_on(const PbfDesign& design, const PbfOptions& o, const PbfLayerSink& sink,
+                      PbfLayerRange range, const RunContext& context);
+
 }  // namespace
 
-PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress& progress) {
-  return plan_pbf(design, o, progress, {}, {});
+PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const RunContext& context) {
+  return plan_pbf(design, o, PbfLayerSink{}, PbfLayerRange{}, context);
 }
 
 std::size_t pbf_layer_count(const PbfDesign& design, const PbfOptions& o) {
@@ -171,8 +177,20 @@ std::size_t pbf_layer_count(const PbfDesign& design, const PbfOptions& o) {
   return layer_planes(e.min.z, e.max.z, o.layer).size();
 }
 
-PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress& progress,
-                   const PbfLayerSink& sink, PbfLayerRange range) {
+PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const PbfLayerSink& sink,
+                   PbfLayerRange range, const RunContext& context) {
+  PbfResult result;
+  context.run([&] { result = plan_pbf_on(design, o, sink, range, context); });
+  // Its warnings go to the context too (they stay in result.diagnostics for the caller).
+  if (context.diagnostics) context.diagnostics->merge(result.diagnostics);
+  return result;
+}
+
+namespace {
+
+PbfResult plan_pbf_on(const PbfDesign& design, const PbfOptions& o, const PbfLayerSink& sink,
+                      PbfLayerRange range, const RunContext& context) {
+  const Progress& progress = context.progress;
   const auto t0 = std::chrono::steady_clock::now();
   check_options(o);
   pbf_detail::Plan plan{design, o, design.part()};
@@ -186,7 +204,7 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
   plan.zs = layer_planes(e.min.z, e.max.z, o.layer);
   const std::vector<double>& zs = plan.zs;
   if (zs.size() > 200000) throw SettingError("more than 200,000 layers: check the layer thickness");
-  if (!o.stl_route) check_memory(design, o, zs.size(), static_cast<bool>(sink), progress, result);
+  if (!o.stl_route) check_memory(design, o, zs.size(), static_cast<bool>(sink), context, result);
   sheet_parameter(plan);
   result.thin_walls_possible = plan.thin_walls_possible = thin_walls_possible(plan);
   if (o.stl_route) mesh_part(plan, result);
@@ -232,4 +250,7 @@ PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& o, const Progress&
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return result;
 }
+
+}  // namespace
+
 }  // namespace trellis

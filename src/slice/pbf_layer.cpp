@@ -44,7 +44,7 @@ Regions march_region(PlaneFunction& f, const Plan& p, const MarchOptions& mo, Pb
 Regions section(const Plan& p, Ctx& ctx, const ClassTiles* ct, std::size_t i, double z,
                 PbfLayer& L) {
   if (p.o.stl_route)
-    return p.o.stl_scan_all ? slice_mesh(p.mesh, z) : slice_mesh(p.mesh, z, p.buckets[i]);
+    return p.o.test.stl_scan_all ? slice_mesh(p.mesh, z) : slice_mesh(p.mesh, z, p.buckets[i]);
   return nest_oriented_rings(
       counted(march_section(p, ctx, z, p.lo, p.hi, tiled(p.mo_section, ct, &ClassTiles::section)),
               L)

@@ -178,8 +178,10 @@ Layer pbf_solid_layer_toolpath(const PbfLayer& L, std::size_t index, double thic
   return layer;
 }
 
-PbfResult plan_pbf_solid(const PbfSolid& part, const PbfSolidOptions& o, const Progress& progress,
-                         const PbfLayerSink& sink) {
+namespace {
+
+PbfResult plan_pbf_solid_on(const PbfSolid& part, const PbfSolidOptions& o,
+                            const PbfLayerSink& sink, const Progress& progress) {
   const auto t0 = std::chrono::steady_clock::now();
   check(o);
   if ((part.mesh != nullptr) == (part.field != nullptr))
@@ -251,6 +253,15 @@ PbfResult plan_pbf_solid(const PbfSolid& part, const PbfSolidOptions& o, const P
     progress("layers", static_cast<double>(end) / static_cast<double>(zs.size()));
   }
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return result;
+}
+
+}  // namespace
+
+PbfResult plan_pbf_solid(const PbfSolid& part, const PbfSolidOptions& o, const PbfLayerSink& sink,
+                         const RunContext& context) {
+  PbfResult result;
+  context.run([&] { result = plan_pbf_solid_on(part, o, sink, context.progress); });
   return result;
 }
 

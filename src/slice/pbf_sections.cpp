@@ -53,7 +53,7 @@ void plan_grids(Plan& p) {
   // The thin-wall march (direct route, with compensation) takes the section's crossings where
   // the part decides its measure, when they are refined at least as tightly as its own.
   const auto stride = static_cast<std::size_t>(std::llround(H / Hs));
-  const bool section_crossings = o.reuse_section_crossings && !o.stl_route && o.hybrid &&
+  const bool section_crossings = o.test.reuse_section_crossings && !o.stl_route && o.hybrid &&
                                  o.beam_compensation > 0 &&
                                  mo_section.refine_fraction * Hs <= mo_joint.refine_fraction * H &&
                                  std::abs(H - static_cast<double>(stride) * Hs) < 1e-12;

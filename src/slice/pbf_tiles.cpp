@@ -15,7 +15,7 @@ namespace {
 std::size_t z_period_layers(const Plan& p) {
   const PbfOptions& o = p.o;
   std::size_t zp = 0;
-  if (p.sheet_period.x > 0 && o.z_tiles_budget > 0) {
+  if (p.sheet_period.x > 0 && o.test.z_tiles_budget > 0) {
     const double pz = p.design.phi.period().z, r = pz / o.layer, c = std::round(r);
     if (pz > 0 && std::isfinite(r) && c >= 1 && std::abs(r - c) <= 1e-9 * c)
       zp = static_cast<std::size_t>(c);
@@ -42,7 +42,7 @@ Vec2 sheet_period(const Plan& plan, PbfResult& result) {
   const Vec2 lo = plan.lo, hi = plan.hi;
   // A sheet of constant c (or thickness) around a φ that repeats along x and y repeats too.
   Vec2 sheet_period{0, 0};
-  if (o.periodic_tiles && (design.thickness > 0 || plan.c_field.empty())) {
+  if (o.test.periodic_tiles && (design.thickness > 0 || plan.c_field.empty())) {
     const Vec3 p = design.phi.period();
     // A period wider than the part never repeats inside it, and a tile's grid spans a whole
     // period (a 947 mm cell on a 3 mm part was a 34 GB grid): no tiles then.
@@ -81,11 +81,11 @@ ZTiles::ZTiles(Plan& p, std::size_t last, PbfResult& result)
       sheet_part_(zp_ ? sheet_design_.part() : Field{}),
       contexts_([this] { return Ctx(sheet_part_, sheet_design_, p_.c_field, p_.sheet_period); }),
       kept_(zp_) {
-  if (zp_ && p.o.mirror_tiles && parity_ != 0) mirror_classes(p);
+  if (zp_ && p.o.test.mirror_tiles && parity_ != 0) mirror_classes(p);
   result.mirror_tiles = mirror_;
 }
 
-// Classes mirrored through the origin (PbfOptions::mirror_tiles): with z_c + z_c' ≡ 0 modulo
+// Classes mirrored through the origin (PbfOptions::test.mirror_tiles): with z_c + z_c' ≡ 0 modulo
 // the period, i.e. c + c' + 1 ≡ N = −2·min z / layer (mod P), class c' is class c turned half
 // a turn (Φ(x, y, −z) = Φ(−x, −y, z); φ itself keeps or changes its sign). The turn takes
 // grid node k to node s − k (s = −2·lo in cells, modulo the period): tiles go onto tiles when
@@ -198,7 +198,7 @@ std::shared_ptr<const ClassTiles> ZTiles::get(std::size_t i) {
   if (i + zp < last_) {  // the class has a later layer in this run
     std::lock_guard lock(kept_mutex_);
     if (kept_[c]) return kept_[c];
-    if (kept_bytes_ + t->bytes() <= p_.o.z_tiles_budget) {
+    if (kept_bytes_ + t->bytes() <= p_.o.test.z_tiles_budget) {
       kept_[c] = t;
       kept_bytes_ += t->bytes();
     }

@@ -104,7 +104,7 @@ double pbf_memory_estimate(const PbfDesign& design, const PbfOptions& o, int thr
   const double vectors = length / std::max(std::min(o.segment_length, 4 * o.hatch_distance), 1e-3);
   // Plus the tiles kept for the layers a period above (at most their budget).
   double bytes = 36e6 + threads * per_thread + layers * vectors * 300 +
-                 static_cast<double>(o.periodic_tiles ? o.z_tiles_budget : 0);
+                 static_cast<double>(o.test.periodic_tiles ? o.test.z_tiles_budget : 0);
   return bytes;
 }
 

@@ -46,16 +46,18 @@ namespace {
 
 // A mesh that is not a closed 2-manifold: repaired (counts in `r`), or refused when repair is
 // off or leaves it open; the messages say what to do.
-TriangleMesh closed_mesh(TriangleMesh mesh, const SliceJob& job, SliceResult& r) {
+TriangleMesh closed_mesh(TriangleMesh mesh, const SliceJob& job, SliceResult& r,
+                         const RunContext& context) {
   const MeshCheck c = check_mesh(mesh);
   if (c.closed()) return mesh;
   if (!job.repair)
-    throw GeometryError(fmt::format("mesh is not closed and manifold: {} open edges, {} "
-                                    "non-manifold edges; first: {}. Slice without --no-repair to "
-                                    "have it repaired, or fix it in a mesh editor",
-                                    c.open_edges, c.nonmanifold_edges, c.first_problem),
-                        {job.input, 0, ""});
-  check_budget(mesh_repair_estimate(mesh.triangles.size(), c.open_edges), job.budget);
+    throw GeometryError(
+        fmt::format("mesh is not closed and manifold: {} open edges, {} "
+                    "non-manifold edges; first: {}. Slice with slice.repair = true to "
+                    "have it repaired, or fix it in a mesh editor",
+                    c.open_edges, c.nonmanifold_edges, c.first_problem),
+        {job.input, 0, ""});
+  context.check_budget(mesh_repair_estimate(mesh.triangles.size(), c.open_edges));
   TriangleMesh fixed;
   try {
     fixed = repair_mesh(mesh, job.repair_options, r.repair);
@@ -142,15 +144,15 @@ Estimate slice_estimate(const SliceJob& job, const BBox3& e, std::size_t layers,
   est.bytes = threads * (field ? (wx / res + 3) * (wy / res + 3) * 16 : 0) + wall_work * 48 +
               (fgm > 0 ? threads * fgm / L / job.fgm.palette.colors * 24 : 0);
   est.what = fmt::format("slicing {} layers of {:.0f} x {:.0f} mm", layers, wx, wy);
-  est.change = "--resolution (slice.resolution), --layer-height, --walls";
+  est.change = "slice.resolution, extrusion.layer_height, slice.walls";
   if (field && nodes > 1000) {
     est.what += fmt::format(" of a design of {:.3g} nodes", nodes);
     est.change += ", the design (fewer shapes)";
   }
-  if (pattern > 0) est.change += ", --infill-pattern (slice.infill_pattern)";
+  if (pattern > 0) est.change += ", slice.infill_pattern";
   if (fgm > 0) {
     est.what += fmt::format(" in {} colours", job.fgm.palette.colors);
-    est.change += ", --colors (fgm.colors), --material-resolution (fgm.material_resolution)";
+    est.change += ", fgm.colors, fgm.material_resolution";
   }
   return est;
 }
@@ -170,7 +172,7 @@ Estimate mesh_field_estimate(const TriangleMesh& m, double voxel) {
   e.seconds = voxels * 1.2e-6;
   e.what = fmt::format("a distance field of {:.3g} voxels ({:.0f} mm2 of surface at {} mm)", voxels,
                        area, voxel);
-  e.change = "--mesh-voxel (slice.mesh_voxel) or --route mesh";
+  e.change = "slice.mesh_voxel or slice.route = mesh";
   return e;
 }
 
@@ -186,7 +188,7 @@ Estimate meshing_estimate(const BBox3& box, double voxel) {
   e.seconds = cells * 4e-9;
   e.what =
       fmt::format("marching cubes over {:.0f} x {:.0f} x {:.0f} mm at {} mm", s.x, s.y, s.z, voxel);
-  e.change = "--mesh-voxel (slice.mesh_voxel) or --route field";
+  e.change = "slice.mesh_voxel or slice.route = field";
   return e;
 }
 
@@ -198,8 +200,9 @@ struct SlicedDesign {
 
 // The design read (a field, or a mesh closed by repair), its route chosen, its layers' planes
 // and the budget checked; with `outline_all`, every plane outlined into r.outlines.
-SlicedDesign open_design(const SliceJob& job, SliceResult& r, const Progress& progress,
+SlicedDesign open_design(const SliceJob& job, SliceResult& r, const RunContext& context,
                          bool outline_all) {
+  const Progress& progress = context.progress;
   SlicedDesign d;
   const bool is_vcad = is_field_design(job.input);
   r.route =
@@ -219,8 +222,8 @@ SlicedDesign open_design(const SliceJob& job, SliceResult& r, const Progress& pr
       throw SettingError("more than 200,000 layers: check the layer height and the units");
     if (zs.empty()) throw GeometryError("the design is thinner than one layer", {job.input, 0, ""});
     const bool sampled = is_vcad || r.route == SliceRoute::Field;
-    check_budget(slice_estimate(job, e, zs.size(), sampled, field.empty() ? 1 : field.nodes()),
-                 job.budget);
+    context.check_budget(
+        slice_estimate(job, e, zs.size(), sampled, field.empty() ? 1 : field.nodes()));
   };
   // A design is a field, a mesh file a mesh; each route turns one into the other if it must.
   if (is_vcad) {
@@ -233,26 +236,27 @@ SlicedDesign open_design(const SliceJob& job, SliceResult& r, const Progress& pr
     if (job.strategy == 0 && !job.strategy_chosen && field.materials().size() >= 2)
       throw SettingError("the design is graded (" + std::to_string(field.materials().size()) +
                              " materials) but no gradient strategy was chosen: slice with "
-                             "--strategy 1 (walls and infill by colour, purge) or 2 (dense fill "
-                             "by colour), or --strategy none to print it as one material on "
+                             "slice.strategy = 1 (walls and infill by colour, purge) or 2 (dense "
+                             "fill by colour), or slice.strategy = none to print it as one "
+                             "material on "
                              "purpose",
                          {job.input, 0, "slice.strategy"});
   } else {
-    check_budget(mesh_read_estimate(job.input), job.budget);
-    mesh = closed_mesh(read_mesh(job.input), job, r);  // welded by the reader
+    context.check_budget(mesh_read_estimate(job.input));
+    mesh = closed_mesh(read_mesh(job.input), job, r, context);  // welded by the reader
     r.mesh_triangles = mesh.triangles.size();
   }
   if (r.route == SliceRoute::Field) {
     if (!is_vcad) {
       MeshSdfOptions mo;
       mo.voxel = job.mesh_voxel;
-      check_budget(mesh_field_estimate(mesh, mo.voxel), job.budget);
+      context.check_budget(mesh_field_estimate(mesh, mo.voxel));
       field = mesh_field(mesh, mo, job.input);
     }
     if (is_vcad) check_cells(field, job.field.resolution, "slice.resolution", job.input);
     r.extent = field.extent();
     check_layers(r.extent);
-    if (!ranged) r.outlines = slice_field(field, zs, job.field, &r.field_stats, progress);
+    if (!ranged) r.outlines = slice_field(field, zs, job.field, &r.field_stats, context);
   } else {
     if (is_vcad) {
       // The classic route for a design: marching cubes of its field (OpenVDB) at the mesh
@@ -261,7 +265,7 @@ SlicedDesign open_design(const SliceJob& job, SliceResult& r, const Progress& pr
       r.extent = field.extent();
       check_layers(r.extent);
       if (is_finite(r.extent.max - r.extent.min))
-        check_budget(meshing_estimate(r.extent, job.mesh_voxel), job.budget);
+        context.check_budget(meshing_estimate(r.extent, job.mesh_voxel));
       mesh = field_to_mesh(field, r.extent, job.mesh_voxel);
       r.mesh_triangles = mesh.triangles.size();
     } else {
@@ -278,20 +282,20 @@ SlicedDesign open_design(const SliceJob& job, SliceResult& r, const Progress& pr
 // Outlines of the design at `planes` (the route's slicer).
 std::vector<LayerOutline> outlines_at(const SlicedDesign& d, const SliceJob& job, SliceResult& r,
                                       const std::vector<double>& planes, SliceStats* stats,
-                                      const Progress& progress) {
-  return r.route == SliceRoute::Field ? slice_field(d.field, planes, job.field, stats, progress)
+                                      const RunContext& context) {
+  return r.route == SliceRoute::Field ? slice_field(d.field, planes, job.field, stats, context)
                                       : slice_mesh_layers(d.mesh, planes, 1e-6, r.repaired);
 }
 
 // The part's printed planes [first, last) of d.zs: its ends found plane by plane from the bottom
 // and the top (the extent of a design is a bound: blends, clip boxes).
 std::pair<std::size_t, std::size_t> printed_planes(const SlicedDesign& d, const SliceJob& job,
-                                                   SliceResult& r, const Progress& progress) {
+                                                   SliceResult& r, const RunContext& context) {
   // An empty plane's samples count (the whole run samples it too); a printed plane is sampled
   // again with its layer.
   auto empty_at = [&](double z) {
     SliceStats probe;
-    const bool empty = outlines_at(d, job, r, {z}, &probe, progress)[0].regions.empty();
+    const bool empty = outlines_at(d, job, r, {z}, &probe, context)[0].regions.empty();
     if (empty) {
       r.field_stats.samples += probe.samples;
       r.field_stats.blocks += probe.blocks;
@@ -322,7 +326,7 @@ void naming_design(const SliceJob& job, Work&& work) {
 
 void require_graded_design(const SliceJob& job, bool is_vcad, const Field& field) {
   if (!is_vcad || field.materials().size() < 2)
-    throw GeometryError("--strategy " + std::to_string(job.strategy) +
+    throw GeometryError("slice.strategy = " + std::to_string(job.strategy) +
                             " needs a .vcad design with two or three materials (fgrade)",
                         {job.input, 0, ""});
   if (field.materials().size() > 3)
@@ -418,7 +422,7 @@ FgmOptions graded_options(const SliceJob& job, int materials, int* quantized_fro
       if (!job.quantize)
         throw SettingError(
             std::to_string(fo.palette.colors) + " colours on " + std::to_string(job.tools) +
-                " tools: each colour needs a tool (use --colors " + std::to_string(job.tools) +
+                " tools: each colour needs a tool (use fgm.colors = " + std::to_string(job.tools) +
                 ", or gradient.quantize = true to print each colour with the "
                 "nearest tool)",
             {"", 0, "fgm.colors"});
@@ -446,14 +450,17 @@ void finish_graded(const SliceJob& job, const FgmOptions& fo, Toolpath& tp, FgmS
   for (auto& l : tp.layers) tool_mixtures(job, l);
 }
 
-SliceResult run_slice(const SliceJob& job, const Progress& progress) {
+namespace {
+
+SliceResult run_slice_on(const SliceJob& job, const RunContext& context) {
+  const Progress& progress = context.progress;
   SliceResult r;
   const bool is_vcad = is_field_design(job.input);
   const auto t0 = std::chrono::steady_clock::now();
   const double h = job.planar.layer_height;
   const bool ranged = job.layer_begin != 0 || job.layer_end != static_cast<std::size_t>(-1) ||
                       static_cast<bool>(job.range_of);
-  SlicedDesign d = open_design(job, r, progress, !ranged);
+  SlicedDesign d = open_design(job, r, context, !ranged);
   const std::vector<double>& zs = d.zs;
   const Field& field = d.field;
 
@@ -464,9 +471,9 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
   if (graded) require_graded_design(job, is_vcad, field);
   if (ranged) {
     auto outlines_of = [&](const std::vector<double>& planes) {
-      return outlines_at(d, job, r, planes, &r.field_stats, progress);
+      return outlines_at(d, job, r, planes, &r.field_stats, context);
     };
-    const auto [first, last] = printed_planes(d, job, r, progress);
+    const auto [first, last] = printed_planes(d, job, r, context);
     const std::size_t n = last - first;
     const std::pair<std::size_t, std::size_t> asked =
         job.range_of ? job.range_of(r.extent, n) : std::pair{job.layer_begin, job.layer_end};
@@ -575,8 +582,9 @@ SliceResult run_slice(const SliceJob& job, const Progress& progress) {
   return r;
 }
 
-SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progress& progress,
-                         const SliceStreamOptions& options) {
+SliceResult stream_slice_on(const SliceJob& job, const LayerSink& sink,
+                            const SliceStreamOptions& options, const RunContext& context) {
+  const Progress& progress = context.progress;
   const bool graded = job.strategy == 1 || job.strategy == 2;
   // A prime tower (Strategy 1 in face order, tool changers) is placed and sized from every layer,
   // and a tool changer's mixtures are made the tools' after it: the planned layers go to a
@@ -586,7 +594,7 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
   SliceResult r;
   r.streamed = true;
   const auto t0 = std::chrono::steady_clock::now();
-  const SlicedDesign d = open_design(job, r, progress, false);
+  const SlicedDesign d = open_design(job, r, context, false);
   if (graded) require_graded_design(job, is_field_design(job.input), d.field);
   int quantized_from = 0;
   const FgmOptions fo =
@@ -611,7 +619,7 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
     for (int k = 0; k < fo.palette.colors; ++k) colour_of_mixture.emplace(fo.palette.mixture(k), k);
   }
   // (Not a structured binding: clang 14, which builds the fuzz targets, cannot capture one.)
-  const std::pair<std::size_t, std::size_t> planes = printed_planes(d, job, r, progress);
+  const std::pair<std::size_t, std::size_t> planes = printed_planes(d, job, r, context);
   const std::size_t first = planes.first, n = planes.second - planes.first;
   r.part_layers = n;
   r.layers = n;
@@ -717,7 +725,7 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
         o.outlines = outlines_at(d, job, r,
                                  std::vector<double>(d.zs.begin() + static_cast<long>(first + o.a),
                                                      d.zs.begin() + static_cast<long>(first + o.b)),
-                                 &o.stats, Progress{});
+                                 &o.stats, RunContext{});
         o.seconds = seconds_since(t);
         return o;
       }) & tbb::make_filter<Outlined, Planned>(tbb::filter_mode::serial_in_order, [&](Outlined o) {
@@ -913,6 +921,21 @@ SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progr
   const double wall = seconds_since(t0), cpu = outline_cpu + plan_cpu;
   r.outline_seconds = cpu > 0 ? wall * outline_cpu / cpu : 0;
   r.plan_seconds = wall - r.outline_seconds;
+  return r;
+}
+
+}  // namespace
+
+SliceResult run_slice(const SliceJob& job, const RunContext& context) {
+  SliceResult r;
+  context.run([&] { r = run_slice_on(job, context); });
+  return r;
+}
+
+SliceResult stream_slice(const SliceJob& job, const LayerSink& sink,
+                         const SliceStreamOptions& options, const RunContext& context) {
+  SliceResult r;
+  context.run([&] { r = stream_slice_on(job, sink, options, context); });
   return r;
 }
 

@@ -82,22 +82,25 @@ Regions contour_at(const Field& field, Evaluator& ev, double z, const FieldSlice
 
 std::vector<LayerOutline> slice_field(const Field& field, const std::vector<double>& zs,
                                       const FieldSliceOptions& options, SliceStats* stats,
-                                      const Progress& progress) {
+                                      const RunContext& context) {
+  const Progress& progress = context.progress;
   require_finite_xy(field.extent());
   std::vector<LayerOutline> out(zs.size());
   tbb::enumerable_thread_specific<Evaluator> evaluators([&] { return Evaluator(field); });
   tbb::enumerable_thread_specific<SliceStats> local;
   std::atomic<std::size_t> done{0};
   std::mutex progress_mutex;
-  tbb::parallel_for(std::size_t{0}, zs.size(), [&](std::size_t i) {
-    progress.check("slicing");
-    out[i].z = zs[i];
-    out[i].regions = contour_at(field, evaluators.local(), zs[i], options, &local.local());
-    const std::size_t d = ++done;
-    if (progress.report && (d % 16 == 0 || d == zs.size())) {
-      std::lock_guard lock(progress_mutex);
-      progress("outlines", static_cast<double>(d) / static_cast<double>(zs.size()));
-    }
+  context.run([&] {
+    tbb::parallel_for(std::size_t{0}, zs.size(), [&](std::size_t i) {
+      progress.check("slicing");
+      out[i].z = zs[i];
+      out[i].regions = contour_at(field, evaluators.local(), zs[i], options, &local.local());
+      const std::size_t d = ++done;
+      if (progress.report && (d % 16 == 0 || d == zs.size())) {
+        std::lock_guard lock(progress_mutex);
+        progress("outlines", static_cast<double>(d) / static_cast<double>(zs.size()));
+      }
+    });
   });
   if (stats)
     for (const auto& s : local) {

@@ -17,6 +17,7 @@
 #include "trellis/geom/mesh.hpp"
 #include "trellis/geom/mesh_io.hpp"
 #include "trellis/job/readers.hpp"
+#include "trellis/settings/settings.hpp"
 #include "trellis/toolpath/json.hpp"
 
 namespace fs = std::filesystem;
@@ -738,4 +739,49 @@ TEST(Cli, GippoWritesAndDrawsItsWorstSolution) {
   EXPECT_NEAR(worst, layer["score_min"].get<double>(), 1e-9);
   EXPECT_NEAR(best, layer["score_max"].get<double>(), 1e-9);
   EXPECT_LT(worst, best);
+}
+
+// Library messages name setting keys (Python's keyword arguments); the command line shows each
+// key that has a flag as `--flag (key)`, by one mapping built from the schema (with_flags).
+TEST(Cli, WithFlagsShowsEveryKeysFlagOnce) {
+  std::size_t flagged = 0;
+  for (const trellis::Setting& s : trellis::all_settings()) {
+    const std::string m = "raise " + s.key + " or lower it, (" + s.key + ")";
+    const std::string shown = trellis::with_flags(m);
+    EXPECT_EQ(trellis::with_flags(shown), shown) << s.key;  // a key shown so is left alone
+    if (s.flag.empty()) {
+      EXPECT_EQ(shown, m) << s.key;
+      continue;
+    }
+    ++flagged;
+    const std::string as = "--" + s.flag + " (" + s.key + ")";
+    EXPECT_EQ(shown, "raise " + as + " or lower it, (" + as + ")") << s.key;
+    // Not a key: part of a longer dotted name, a file name, or already "key (--flag)".
+    for (const std::string& other :
+         {s.key + ".x", "a/" + s.key, s.key + ".toml", s.key + " (--" + s.flag + ")", "x" + s.key})
+      EXPECT_EQ(trellis::with_flags(other), other) << other;
+  }
+  EXPECT_GT(flagged, 50u);
+  EXPECT_EQ(trellis::with_flags("no keys here: job.toml, a.b"), "no keys here: job.toml, a.b");
+}
+
+TEST(Cli, LibraryErrorShowsTheFlagAndTheKey) {
+  // A pbf cell finer than 8 x pbf.resolution is refused by the library naming pbf.resolution.
+  trellis::Job job;
+  job.route = "pbf";
+  job.output = in_work("fine.cli");
+  job.settings.set("pbf.cell", 0.05, {"test"});
+  trellis::Diagnostics diag;
+  try {
+    trellis::run_job(job, diag);
+    ADD_FAILURE() << "a cell below the sampling grid planned";
+  } catch (const trellis::SettingError& e) {
+    EXPECT_NE(e.message().find("lower pbf.resolution"), std::string::npos) << e.what();
+    EXPECT_EQ(e.message().find("--"), std::string::npos) << e.what();
+  }
+  const CmdResult r = run("pbf --cell 0.05 -o " + in_work("fine.cli"));
+  EXPECT_EQ(r.code, 2) << r.err;
+  EXPECT_NE(r.err.find("lower --resolution (pbf.resolution)"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("--cell (pbf.cell)"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(in_work("fine.cli")));
 }

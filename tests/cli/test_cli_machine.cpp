@@ -123,7 +123,7 @@ TEST(MachineCheck, MixturesNeedAMixingHotendAndGradientsAStrategy) {
                  {"no mixing hotend", "machine.mixing_inputs = 1"}, {at("g.gcode")});
   // A graded design sliced without a strategy: refused, with the way to print one material.
   expect_refused(run("slice " + graded + " --machine " + kMixing + " -o " + at("n.gcode")),
-                 {"graded", "--strategy none"}, {at("n.gcode")});
+                 {"graded", "--strategy (slice.strategy) = none"}, {at("n.gcode")});
   auto r = run("slice " + graded + " --machine " + kMixing + " -o " + at("one.gcode") +
                " --strategy none");
   ASSERT_EQ(r.code, 0) << r.err;
@@ -169,7 +169,7 @@ TEST(MachineCheck, TemperaturesSpeedsAndPowersWithinTheMachinesLimits) {
                  {"temperature.nozzle = 320", "temperature.max_nozzle = 300"}, {at("hot.gcode")});
   expect_refused(
       run("slice " + part + " --machine " + kEnder + " -o " + at("fast.gcode") + " --speed 400"),
-      {"speed.print = 400", "speed.max = 250"}, {at("fast.gcode")});
+      {"--speed (speed.print) = 400", "speed.max = 250"}, {at("fast.gcode")});
   expect_refused(run("pbf --machine " + kLaser + " --size 2.5,2.5,0.1 -o " + at("p.cli") +
                      " --set laser.hatch_power=250"),
                  {"laser.hatch_power = 250", "laser.max_power = 200"}, {at("p.cli")});

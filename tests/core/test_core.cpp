@@ -140,7 +140,7 @@ TEST(Budget, RefusesBeyondEitherLimitWithTheEstimateAndForceGoesBeyond) {
       const std::string m = err.what();
       EXPECT_NE(m.find(e.what), std::string::npos) << m;
       EXPECT_NE(m.find("--size"), std::string::npos) << m;
-      EXPECT_NE(m.find("--force"), std::string::npos) << m;
+      EXPECT_NE(m.find("run.force"), std::string::npos) << m;  // the key; the CLI adds --force
       EXPECT_NE(m.find("estimate"), std::string::npos) << m;
     }
   }

@@ -93,7 +93,7 @@ TEST(RunFiles, FoldersSymbolicLinksAndNamesWithoutAFileAreRefused) {
   link.output("the output", tmp.file("link.json"));
   const std::string m = refusal([&] { link.check(); });
   EXPECT_TRUE(has(m, "is a symbolic link")) << m;
-  EXPECT_TRUE(has(m, "--follow-symlinks")) << m;
+  EXPECT_TRUE(has(m, "run.follow_symlinks")) << m;  // the key; the CLI adds the flag
   RunFiles followed(true);
   followed.output("the output", tmp.file("link.json"));
   EXPECT_EQ(refusal([&] { followed.check(); }), "");

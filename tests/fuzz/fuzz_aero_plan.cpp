@@ -19,8 +19,9 @@ extern "C" int LLVMFuzzerTestOneInput(const unsigned char* data, std::size_t siz
     if (g.edges.empty() || g.edges.size() > 400) return 0;
     trellis::AeroParams p;
     p.tries = 2;
-    p.threads = 1;
-    const trellis::AeroResult r = trellis::plan_aero(g, p, diag);
+    trellis::RunContext context;
+    context.threads = 1;
+    const trellis::AeroResult r = trellis::plan_aero(g, p, diag, context);
     if (!trellis::validate_paths(g, r.trails).empty()) std::abort();
     const auto c = trellis::check_collisions(g, trellis::aero_toolpath(g, r, "fuzz"), {});
     // Struts shorter than the snap distance cannot be told apart by the checker.

@@ -231,9 +231,10 @@ TEST(WriterProperty, ByteIdenticalForOneOrTwoThreads) {
   for (int t = 1; t <= 2; ++t) {
     PlanParams pp;
     pp.gippo.iterations = 100;
-    pp.gippo.threads = t;
     Diagnostics d;
-    out[t - 1] = write_gcode(plan_lattice(g, pp, d).toolpath, marlin());
+    RunContext context;
+    context.threads = t;
+    out[t - 1] = write_gcode(plan_lattice(g, pp, d, context).toolpath, marlin());
   }
   EXPECT_EQ(out[0], out[1]);
 }

@@ -43,29 +43,31 @@ Graph two_layers() {
 TEST(Cancel, GippoStopsWhenTheCallbackCancels) {
   GippoParams p;
   p.iterations = 5000;
-  p.threads = 2;
+  RunContext context;
+  context.threads = 2;
   CancelAt c("gippo");
-  p.progress = c.progress;
-  EXPECT_THROW(plan_gippo(honeycomb(10), p), Cancelled);
+  context.progress = c.progress;
+  EXPECT_THROW(plan_gippo(honeycomb(10), p, context), Cancelled);
   // Reported every n/50 iterations: cancelled at the first, it stops long before the end.
   for (const auto& [stage, f] : c.reports()) EXPECT_LT(f, 0.5);
-  p.progress = {};
-  EXPECT_EQ(plan_gippo(honeycomb(10), p).scores.size(), 5000u);
+  context.progress = {};
+  EXPECT_EQ(plan_gippo(honeycomb(10), p, context).scores.size(), 5000u);
 }
 
 TEST(Cancel, GippoStopsWhenAnotherThreadCancels) {
   GippoParams p;
   p.iterations = 200000;  // far longer than the test waits
-  p.threads = 1;
+  RunContext context;
+  context.threads = 1;
   std::atomic<bool> flag{false};
   std::promise<void> started;
   std::atomic<bool> once{false};
-  p.progress.cancel = &flag;
-  p.progress.report = [&](const std::string&, double) {
+  context.progress.cancel = &flag;
+  context.progress.report = [&](const std::string&, double) {
     if (!once.exchange(true)) started.set_value();
   };
   const Graph g = honeycomb(10);
-  auto work = std::async(std::launch::async, [&] { return plan_gippo(g, p); });
+  auto work = std::async(std::launch::async, [&] { return plan_gippo(g, p, context); });
   started.get_future().wait();
   const auto t0 = std::chrono::steady_clock::now();
   flag = true;
@@ -81,7 +83,7 @@ TEST(Cancel, PlanLatticeStopsPerLayerForEulerAndGippo) {
     p.gippo.iterations = 50;
     Diagnostics d;
     CancelAt c;  // cancels at the first report, i.e. within the first layer
-    EXPECT_THROW(plan_lattice(g, p, d, c.progress), Cancelled) << to_string(planner);
+    EXPECT_THROW(plan_lattice(g, p, d, RunContext{c.progress}), Cancelled) << to_string(planner);
     for (const auto& [stage, f] : c.reports()) EXPECT_LE(f, 0.5) << stage;
     Diagnostics d2;
     EXPECT_EQ(plan_lattice(g, p, d2).layers.size(), 2u);
@@ -91,16 +93,17 @@ TEST(Cancel, PlanLatticeStopsPerLayerForEulerAndGippo) {
 TEST(Cancel, AeroStopsWhenTheCallbackCancels) {
   const Graph g = cell_lattice({unit_cell_from_string("octet"), 7, 3, 3, 3});
   AeroParams p;
-  p.threads = 1;
   p.tries = 8;
+  RunContext context;
+  context.threads = 1;
   CancelAt c("tries");  // after the first of eight portfolio runs
-  p.progress = c.progress;
+  context.progress = c.progress;
   Diagnostics d;
-  EXPECT_THROW(plan_aero(g, p, d), Cancelled);
+  EXPECT_THROW(plan_aero(g, p, d, context), Cancelled);
   std::size_t runs = 0;
   for (const auto& [stage, f] : c.reports()) runs += stage == "tries";
   EXPECT_LT(runs, 8u);
-  p.progress = {};
+  context.progress = {};
   Diagnostics d2;
-  EXPECT_EQ(plan_aero(g, p, d2).runs, 8u);
+  EXPECT_EQ(plan_aero(g, p, d2, context).runs, 8u);
 }

@@ -24,7 +24,7 @@ std::string design(const std::string& name) {
 // Cancelled at the first "outlines" report (every 16 layers), so "walls and infill" never starts.
 void expect_cancelled_while_outlining(const SliceJob& job) {
   CancelAt c("outlines");
-  EXPECT_THROW(run_slice(job, c.progress), Cancelled);
+  EXPECT_THROW(run_slice(job, RunContext{c.progress}), Cancelled);
   const auto reports = c.reports();
   ASSERT_FALSE(reports.empty());
   for (const auto& [stage, f] : reports) {
@@ -64,7 +64,7 @@ TEST(Cancel, SlicingStopsBeforeWallsWhenCancelledAtTheLastOutline) {
     if (stage == "outlines" && f >= 1) flag = true;
     if (stage == "walls and infill") walls = true;
   };
-  EXPECT_THROW(run_slice(job, p), Cancelled);
+  EXPECT_THROW(run_slice(job, RunContext{p}), Cancelled);
   EXPECT_FALSE(walls);
 }
 
@@ -75,7 +75,7 @@ TEST(Cancel, PbfStopsPerLayer) {
   d.envelope = rectprism({2.5, 2.5, 2.5});
   PbfOptions o;  // 0.02 mm layers: 125 layers, reported every 32
   CancelAt c("layers");
-  EXPECT_THROW(plan_pbf(d, o, c.progress), Cancelled);
+  EXPECT_THROW(plan_pbf(d, o, RunContext{c.progress}), Cancelled);
   for (const auto& [stage, f] : c.reports()) EXPECT_LT(f, 0.75);
 }
 
@@ -83,7 +83,7 @@ TEST(Cancel, NonplanarStopsPerLayer) {
   NonplanarParams prm;
   prm.layers = 6;
   CancelAt c("layers");  // the first layer's report
-  EXPECT_THROW(slice_nonplanar(corrugation({}), prm, c.progress), Cancelled);
+  EXPECT_THROW(slice_nonplanar(corrugation({}), prm, RunContext{c.progress}), Cancelled);
   std::size_t joined = 0;
   for (const auto& [stage, f] : c.reports()) joined += stage == "layers";
   EXPECT_EQ(joined, 1u);
@@ -104,7 +104,7 @@ TEST(Cancel, NonplanarNormalOffsetsReportPerLine) {
     std::lock_guard lock(m);
     if (stage == "normal offsets") seen.push_back(f);
   };
-  slice_nonplanar(corrugation({}), prm, p);
+  slice_nonplanar(corrugation({}), prm, RunContext{p});
   std::size_t inside = 0;  // reports strictly between the layers' ends
   for (double f : seen) inside += f > 0 && f < 1 && std::abs(f - 0.5) > 1e-9;
   EXPECT_GT(inside, 10u);
@@ -113,5 +113,5 @@ TEST(Cancel, NonplanarNormalOffsetsReportPerLine) {
   for (double f : seen) EXPECT_LE(f, 1.0 + 1e-9);
 
   CancelAt c("normal offsets");
-  EXPECT_THROW(slice_nonplanar(corrugation({}), prm, c.progress), Cancelled);
+  EXPECT_THROW(slice_nonplanar(corrugation({}), prm, RunContext{c.progress}), Cancelled);
 }

@@ -294,16 +294,16 @@ TEST(MeshRepair, ASoupIsEstimatedAndRefusedWithTheFileNamed) {
   write_stl(path, soup);
   SliceJob job;
   job.input = path;
-  job.budget.seconds = 1e-3;  // reading it (7.5e-4 s) fits, repairing it (1.9e-3 s) does not
+  RunContext context;
+  context.budget.seconds = 1e-3;  // reading it (7.5e-4 s) fits, repairing it (1.9e-3 s) does not
   try {
-    run_slice(job);
+    run_slice(job, context);
     ADD_FAILURE() << "a soup repaired beyond its time budget";
   } catch (const ResourceError& e) {
     EXPECT_NE(std::string(e.what()).find("repairing a mesh of 300 triangles with 900 open edges"),
               std::string::npos)
         << e.what();
   }
-  job.budget = {};
   try {
     run_slice(job);
     ADD_FAILURE() << "a soup of loose triangles sliced as a solid";

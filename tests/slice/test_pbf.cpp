@@ -203,7 +203,7 @@ TEST(Pbf, ThinWallOutlineFromTheSectionCrossingsKeepsTheHatchEnds) {
   o.layer = 0.05;
   o.resolution = 0.05;
   const PbfResult reused = plan_pbf(d, o);
-  o.reuse_section_crossings = false;
+  o.test.reuse_section_crossings = false;
   const PbfResult own = plan_pbf(d, o);
   ASSERT_EQ(reused.layers.size(), own.layers.size());
   std::size_t ends = 0, moved = 0;
@@ -258,16 +258,16 @@ struct PlanCase {
   bool stl = false;
 };
 // The plans of a case in 0.1 mm layers with a switch of PbfOptions on, then off.
-std::pair<PbfResult, PbfResult> plan_on_off(const PlanCase& c, bool PbfOptions::*on) {
+std::pair<PbfResult, PbfResult> plan_on_off(const PlanCase& c, bool PbfTestSwitches::*on) {
   PbfOptions o;
   o.layer = 0.1;
   o.stl_route = c.stl;
   PbfResult first = plan_pbf(c.d, o);
-  o.*on = false;
+  o.test.*on = false;
   return {std::move(first), plan_pbf(c.d, o)};
 }
 
-// Periodic tiles (PbfOptions::periodic_tiles): on sheets that repeat across the plane (a TPMS
+// Periodic tiles (PbfTestSwitches::periodic_tiles): on sheets that repeat across the plane (a TPMS
 // with a constant c or thickness) in a translated box, a sphere, a root box and around a solid
 // boss, the direct and STL routes plan the same layers with the tiles as without
 // (expect_same_plan).
@@ -301,7 +301,7 @@ TEST(Pbf, PeriodicTilesPlanTheSameLayers) {
     cases.push_back({"gyroid, box, solid boss", d});
   }
   for (const PlanCase& c : cases) {
-    const auto [tiled, plain] = plan_on_off(c, &PbfOptions::periodic_tiles);
+    const auto [tiled, plain] = plan_on_off(c, &PbfTestSwitches::periodic_tiles);
     EXPECT_EQ(plain.tiled_blocks, 0u) << c.name;
     EXPECT_GT(tiled.tiled_blocks, tiled.blocks / 5) << c.name;
     expect_same_plan(plain, tiled, PbfOptions{}, c.name);
@@ -326,8 +326,8 @@ TEST(Pbf, PeriodicTilesPlanTheSameLayers) {
   EXPECT_GT(box.tiled_blocks, 0u);
 }
 
-// Layers a period apart along z take the same tiles (PbfOptions::z_tiles_budget), made once for
-// each class of layers from the sheet alone: the same layers as when each marches its own, more
+// Layers a period apart along z take the same tiles (PbfTestSwitches::z_tiles_budget), made once
+// for each class of layers from the sheet alone: the same layers as when each marches its own, more
 // blocks translated; with a budget too small to keep any, a class's tiles are made again for
 // each of its layers, and the plan is the same to the last digit.
 TEST(Pbf, LayersAPeriodApartTakeTheSameTiles) {
@@ -339,9 +339,9 @@ TEST(Pbf, LayersAPeriodApartTakeTheSameTiles) {
     o.layer = 0.1;  // 52 layers, 25 a period
     o.stl_route = stl;
     const PbfResult shared = plan_pbf(d, o);
-    o.z_tiles_budget = 1;
+    o.test.z_tiles_budget = 1;
     const PbfResult remade = plan_pbf(d, o);
-    o.z_tiles_budget = 0;
+    o.test.z_tiles_budget = 0;
     const PbfResult own = plan_pbf(d, o);
     EXPECT_GT(shared.tiled_blocks, own.tiled_blocks + own.tiled_blocks / 5) << name;
     EXPECT_EQ(shared.tiled_blocks, remade.tiled_blocks) << name;
@@ -359,7 +359,7 @@ TEST(Pbf, LayersAPeriodApartTakeTheSameTiles) {
   }
 }
 
-// Classes of layers mirrored through the origin (PbfOptions::mirror_tiles): the gyroid (odd φ)
+// Classes of layers mirrored through the origin (PbfTestSwitches::mirror_tiles): the gyroid (odd φ)
 // in a box, Schwarz D (odd) with a uniform thickness in a root box, Schwarz P (even) in a sphere,
 // on both routes: about half the classes take their mirror class's tiles turned, and the plan is
 // the same as when every class marches its own (expect_same_plan; the grid's origin moves too).
@@ -384,7 +384,7 @@ TEST(Pbf, MirroredClassesTakeTurnedTiles) {
     cases.push_back({"P, sphere", d});
   }
   for (const PlanCase& c : cases) {
-    const auto [turned, own] = plan_on_off(c, &PbfOptions::mirror_tiles);
+    const auto [turned, own] = plan_on_off(c, &PbfTestSwitches::mirror_tiles);
     EXPECT_TRUE(turned.mirror_tiles) << c.name;
     EXPECT_FALSE(own.mirror_tiles) << c.name;
     EXPECT_EQ(own.turned_classes, 0u) << c.name;
@@ -637,7 +637,7 @@ TEST(Pbf, ThinWallsAreSkippedOnlyWhereTheSheetCannotHaveThem) {
   o.layer = 0.1;
   // The opaque φ has no period: without the tiles both plans march the same blocks (with them,
   // the section's crossings move within their tolerance; PeriodicTilesPlanTheSameLayers).
-  o.periodic_tiles = false;
+  o.test.periodic_tiles = false;
   const PbfResult thick = plan_pbf(thick_or_thin(0.3, false), o);
   const PbfResult marched = plan_pbf(thick_or_thin(0.3, true), o);
   EXPECT_FALSE(thick.thin_walls_possible);

@@ -271,10 +271,13 @@ TEST(PbfLaser, MemoryBudgetRefusesAJobAboveIt) {
   o.layer = 0.5;
   const double estimate = pbf_memory_estimate(d, o, 2);
   EXPECT_GT(estimate, 1e5);
-  o.memory_budget = 1e4;
-  EXPECT_THROW(plan_pbf(d, o), ResourceError);
-  o.memory_budget = 0;
-  EXPECT_GT(plan_pbf(d, o).memory_estimate, 0);
+  RunContext context;
+  context.budget.memory = 1e4;
+  EXPECT_THROW(plan_pbf(d, o, context), ResourceError);
+  context.budget.force = true;
+  EXPECT_GT(plan_pbf(d, o, context).memory_estimate, 0);
+  context.budget = {};
+  EXPECT_GT(plan_pbf(d, o, context).memory_estimate, 0);
 }
 
 }  // namespace

@@ -184,7 +184,7 @@ Toolpath cli_of(const TriangleMesh& mesh, const ScanSettings& s, const std::stri
   part.mesh = &mesh;
   {
     CliStreamWriter w(path, prof, {}, "test", "");
-    plan_pbf_solid(part, options_of(s), {}, [&](std::size_t i, const PbfLayer& L) {
+    plan_pbf_solid(part, options_of(s), [&](std::size_t i, const PbfLayer& L) {
       w.add(pbf_layer_toolpath(L, i, s.layer, 60, 800, 100, 1000));
     });
     w.finish();

@@ -133,7 +133,7 @@ Toolpath written(const Beam& beam, const PbfSolidOptions& o, const Sets& s, cons
   if (as == "3mf" || as == "json") {
     Toolpath tp;
     tp.parameter_sets = named_parameter_sets(o.exposures, o.skin);
-    plan_pbf_solid(part, o, {}, [&](std::size_t i, const PbfLayer& L) {
+    plan_pbf_solid(part, o, [&](std::size_t i, const PbfLayer& L) {
       tp.layers.push_back(pbf_solid_layer_toolpath(L, i, o.layer, o.exposures));
     });
     if (as == "json") {
@@ -146,7 +146,7 @@ Toolpath written(const Beam& beam, const PbfSolidOptions& o, const Sets& s, cons
     return read_toolpath_3mf_file(path);
   }
   CliStreamWriter w(path, prof, {as == "binary", true, cli_sets(s)}, "test", "");
-  plan_pbf_solid(part, o, {}, [&](std::size_t i, const PbfLayer& L) {
+  plan_pbf_solid(part, o, [&](std::size_t i, const PbfLayer& L) {
     w.add(pbf_solid_layer_toolpath(L, i, o.layer, o.exposures));
   });
   w.finish();

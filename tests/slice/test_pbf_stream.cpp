@@ -61,7 +61,7 @@ TEST(PbfStream, SinkGetsEveryLayerInOrderWithTheWholeRunsVectors) {
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
     std::vector<PbfLayer> got;
     std::vector<std::size_t> order;
-    const PbfResult streamed = plan_pbf(d, o, {}, [&](std::size_t i, const PbfLayer& L) {
+    const PbfResult streamed = plan_pbf(d, o, [&](std::size_t i, const PbfLayer& L) {
       order.push_back(i);
       got.push_back(L);
     });
@@ -94,7 +94,7 @@ TEST(PbfStream, ALayerRangeOnItsOwnIsThatRangeOfTheWholeRun) {
   const std::vector<std::pair<std::size_t, std::size_t>> shards{{0, 7}, {7, 8}, {8, 19}, {19, n}};
   std::size_t next = 0;
   for (const auto& [a, b] : shards) {
-    const PbfResult part = plan_pbf(d, o, {},
+    const PbfResult part = plan_pbf(d, o,
                                     [&](std::size_t i, const PbfLayer& L) {
                                       ASSERT_EQ(i, next++);
                                       expect_same_vectors(L, whole.layers[i], i);
@@ -104,15 +104,14 @@ TEST(PbfStream, ALayerRangeOnItsOwnIsThatRangeOfTheWholeRun) {
   }
   EXPECT_EQ(next, n);
   // Past the end: nothing; the end is clamped.
-  EXPECT_TRUE(
-      plan_pbf(d, o, {}, [](std::size_t, const PbfLayer&) {}, {n + 3, n + 9}).layers.empty());
-  EXPECT_EQ(plan_pbf(d, o, {}, [](std::size_t, const PbfLayer&) {}, {n - 2}).layers.size(), 2u);
+  EXPECT_TRUE(plan_pbf(d, o, [](std::size_t, const PbfLayer&) {}, {n + 3, n + 9}).layers.empty());
+  EXPECT_EQ(plan_pbf(d, o, [](std::size_t, const PbfLayer&) {}, {n - 2}).layers.size(), 2u);
 }
 
 // The same for a part taller than a period of its TPMS (25 layers of 0.1 mm in 2.5 mm cells),
 // tiled across the plane and along z: layers a period apart take tiles made from their class of
-// layers alone (PbfOptions::z_tiles_budget), so a shard started cold makes the same ones as the
-// whole run, which kept them from a layer the shard does not have.
+// layers alone (PbfTestSwitches::z_tiles_budget), so a shard started cold makes the same ones as
+// the whole run, which kept them from a layer the shard does not have.
 TEST(PbfStream, ALayerRangeOfATallTiledPartIsThatRangeOfTheWholeRun) {
   PbfDesign d = small_gyroid();
   d.envelope = rectprism({5, 5, 6});
@@ -123,7 +122,7 @@ TEST(PbfStream, ALayerRangeOfATallTiledPartIsThatRangeOfTheWholeRun) {
   const std::size_t n = whole.layers.size();
   ASSERT_GT(n, 50u);
   std::size_t next = 27;
-  const PbfResult part = plan_pbf(d, o, {},
+  const PbfResult part = plan_pbf(d, o,
                                   [&](std::size_t i, const PbfLayer& L) {
                                     ASSERT_EQ(i, next++);
                                     expect_same_vectors(L, whole.layers[i], i);
@@ -149,7 +148,7 @@ TEST(PbfStream, CliWrittenLayerByLayerIsByteForByteTheWholeFile) {
     const std::string path = temp_path(binary ? "b.cli" : "a.cli");
     {
       CliStreamWriter w(path, prof, wo, tp.source, tp.job);
-      plan_pbf(d, o, {}, [&](std::size_t i, const PbfLayer& L) {
+      plan_pbf(d, o, [&](std::size_t i, const PbfLayer& L) {
         w.add(pbf_layer_toolpath(L, i, o.layer, prof.contour_power, prof.contour_speed,
                                  prof.hatch_power, prof.hatch_speed));
       });

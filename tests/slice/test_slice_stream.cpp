@@ -78,7 +78,7 @@ SliceResult streamed_as_whole(const SliceJob& job, const SliceResult& whole, std
                               const std::string& at) {
   std::vector<Layer> layers;
   SliceResult s = stream_slice(job, [&](std::size_t, Layer&& l) { layers.push_back(std::move(l)); },
-                               {}, {chunk, 4});
+                               {chunk, 4});
   EXPECT_EQ(layers.size(), whole.toolpath.layers.size()) << at;
   for (std::size_t i = 0; i < layers.size() && i < whole.toolpath.layers.size(); ++i)
     expect_same_layer(whole.toolpath.layers[i], layers[i], i);
@@ -110,7 +110,7 @@ void expect_streams_as_whole(const SliceJob& job, const SliceStreamOptions& opti
   std::vector<Layer> got;
   std::vector<std::size_t> order;
   const SliceResult s = stream_slice(
-      job, [&](std::size_t i, Layer&& l) { order.push_back(i), got.push_back(std::move(l)); }, {},
+      job, [&](std::size_t i, Layer&& l) { order.push_back(i), got.push_back(std::move(l)); },
       options);
   ASSERT_EQ(got.size(), whole.toolpath.layers.size())
       << "chunk " << options.chunk_layers << " tokens " << options.tokens;
@@ -158,7 +158,7 @@ TEST(SliceStream, OneThreadAndManyAgree) {
     tbb::global_control c(tbb::global_control::max_allowed_parallelism, 1);
     stream_slice(job, [&](std::size_t, Layer&& l) { one.push_back(std::move(l)); });
   }
-  stream_slice(job, [&](std::size_t, Layer&& l) { many.push_back(std::move(l)); }, {}, {2, 6});
+  stream_slice(job, [&](std::size_t, Layer&& l) { many.push_back(std::move(l)); }, {2, 6});
   ASSERT_EQ(one.size(), many.size());
   for (std::size_t i = 0; i < one.size(); ++i) expect_same_layer(one[i], many[i], i);
 }

@@ -1,6 +1,6 @@
 // Progress and cancel: the one contract of every one-call route function (GIPPO/Euler planning
 // via plan_lattice, plan_gippo, plan_aero, run_slice for planar and graded slicing, plan_pbf,
-// slice_nonplanar). Each takes a Progress in its params (`params.progress`, `job.progress`).
+// slice_nonplanar). Each takes it in its run context (core/run_context.hpp: `context.progress`).
 //  - `report(stage, fraction)` may be called from worker threads, possibly several at once for
 //    parallel work (calls for one stage are serialised by the route only where it says so): make
 //    it thread-safe and cheap. Fractions are in [0,1] and reach 1 when a stage ends.

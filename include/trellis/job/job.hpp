@@ -21,7 +21,7 @@
 #include <vector>
 
 #include "trellis/core/diagnostics.hpp"
-#include "trellis/core/progress.hpp"
+#include "trellis/core/run_context.hpp"
 #include "trellis/core/run_files.hpp"
 #include "trellis/geom/mesh.hpp"
 #include "trellis/lattice/graph.hpp"
@@ -166,7 +166,8 @@ struct RouteSpec {
   bool shards = false;                // `trellis run --shard K/N`, Python run_shard
   bool plates = false;                // [[part]] build plates
   bool streams = false;  // writes its layers in bounded memory when its output is alone
-  JobResult (*run)(const Job&, const Config&, Diagnostics&, const Progress&) = nullptr;
+  // With the context run_job builds (core/run_context.hpp; its diagnostics never null).
+  JobResult (*run)(const Job&, const Config&, const RunContext&) = nullptr;
   // `trellis merge`: writes the main output (job.output; plan: job.gcode) from the shards' layers
   // with the single-process writer; null when the route does not shard.
   void (*merge)(Job&, const Config&, Toolpath&, const ShardLayers&, JobResult&,
@@ -212,6 +213,11 @@ RunFiles job_files(const Job& job, bool follow_symlinks);
 // Runs the job's route: reads, plans or slices, writes every requested output atomically. Its
 // files (job_files) are checked first (core/run_files.hpp): an output that is an input or another
 // output, a folder or a symbolic link (unless run.follow_symlinks) is refused before anything runs.
+// The route runs with `context`'s progress and diagnostics (none: warnings dropped) and the run
+// section's threads (run.threads; the context's when it is 0) and budget (run.max_memory,
+// run.max_time, run.force).
+JobResult run_job(const Job& job, const RunContext& context);
+// The same with a context of `diag` and `progress`.
 JobResult run_job(const Job& job, Diagnostics& diag, const Progress& progress = {});
 
 }  // namespace trellis

@@ -42,7 +42,7 @@ struct ReaderSpec {
   std::vector<std::string> profile_sections;
   // Writes what the job asks for; JobResult::summary is what the terminal shows (each line
   // ending in a newline), report_json the report whether written or not.
-  JobResult (*run)(const ReadJob&, const Config&, Diagnostics&, const Progress&) = nullptr;
+  JobResult (*run)(const ReadJob&, const Config&, const RunContext&) = nullptr;
   // Its files as errors name them (core/run_files.hpp); null: it has none of that kind.
   const char* print_role = "the print";
   const char* design_role = nullptr;
@@ -60,6 +60,8 @@ bool reader_reads(const ReaderSpec& reader, const Setting& setting);
 
 // Checks the settings given to the job (one the reader does not read is refused, naming it) and
 // its files (core/run_files.hpp), loads its profile below them, then runs the reader.
+// With `context` as run_job (job.hpp).
+JobResult run_reader(const ReadJob& job, const RunContext& context);
 JobResult run_reader(const ReadJob& job, Diagnostics& diag, const Progress& progress = {});
 
 // A laser build file (.cli, or a 3MF toolpath of a laser build): `analyze` measures it against a

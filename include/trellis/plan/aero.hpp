@@ -24,7 +24,7 @@
 #include <vector>
 
 #include "trellis/core/diagnostics.hpp"
-#include "trellis/core/progress.hpp"
+#include "trellis/core/run_context.hpp"
 #include "trellis/lattice/collision.hpp"
 #include "trellis/plan/collision_order.hpp"
 #include "trellis/plan/paths.hpp"
@@ -48,7 +48,6 @@ struct AeroParams {
   bool collisions = true;  // false: no precedence at all, trails = the Euler lower bound
   AeroMethod method = AeroMethod::Dynamic;
   PeriodicParams periodic;  // method periodic: the lattice's cell and the cell path
-  int threads = 0;          // 0 = all cores
   // Dynamic: planner runs in the portfolio (the strategies, then shuffled orders); 0 = auto
   // (aero_auto_tries).
   int tries = 0;
@@ -57,7 +56,6 @@ struct AeroParams {
   // where possible); false = the greedy (print the strut obstructing the fewest when stuck).
   bool fewest_collisions = true;
   CollisionOrderParams order;  // the exact solver's and local search's budgets
-  Progress progress;
 };
 
 struct AeroViolation {
@@ -93,7 +91,9 @@ struct AeroResult {
 };
 
 // Throws GeometryError for a lattice without edges, SettingError for bad nozzle settings.
-AeroResult plan_aero(const Graph& g, const AeroParams& params, Diagnostics& diag);
+// `context` (core/run_context.hpp): progress ("collision model", "tries"), cancel, threads.
+AeroResult plan_aero(const Graph& g, const AeroParams& params, Diagnostics& diag,
+                     const RunContext& context = {});
 
 // One travel-free path per trail (nozzle tip on the strut axis), tool = material, in one layer.
 Toolpath aero_toolpath(const Graph& g, const AeroResult& result, const std::string& source);

@@ -20,7 +20,7 @@
 #include <string>
 #include <vector>
 
-#include "trellis/core/progress.hpp"
+#include "trellis/core/run_context.hpp"
 #include "trellis/plan/paths.hpp"
 
 namespace trellis {
@@ -36,8 +36,6 @@ struct GippoParams {
   GippoMode mode = GippoMode::Max;  // take the longest (max) or shortest (min) edge
   int iterations = 500;             // solutions generated (paper: 500)
   std::uint64_t seed = 1;           // reproducible for a seed
-  int threads = 0;                  // 0 = all cores
-  Progress progress;                // optional
 };
 
 struct GippoResult {
@@ -48,7 +46,8 @@ struct GippoResult {
   PathSet worst;  // lowest-score solution (for OE comparison)
 };
 
-GippoResult plan_gippo(const Graph& g, const GippoParams& params);
+// `context` (core/run_context.hpp): progress "gippo", cancel per iteration, its threads.
+GippoResult plan_gippo(const Graph& g, const GippoParams& params, const RunContext& context = {});
 
 // Robustness (the paper's Fig. 2 v-vi): GIPPO run with `seeds` consecutive seeds from
 // params.seed; the spread of the best score over the seeds.
@@ -64,7 +63,7 @@ struct GippoRobustness {
 };
 // Throws SettingError for seeds < 1. `long_nodes`: a path of that many nodes is long for LTS.
 GippoRobustness gippo_robustness(const Graph& g, const GippoParams& params, int seeds,
-                                 std::size_t long_nodes = 5);
+                                 std::size_t long_nodes = 5, const RunContext& context = {});
 std::string gippo_robustness_json(const GippoRobustness& r, const GippoParams& params);
 
 // One GIPPO iteration (exposed for tests and benchmarks).

@@ -54,10 +54,10 @@ struct PlanResult {
   TravelStats travel;
 };
 
-// `progress` (core/progress.hpp) is checked per part (layer and material) and, for GIPPO, per
-// iteration; params.gippo.progress is not used here.
+// `context` (core/run_context.hpp): cancel checked per part (layer and material) and, for GIPPO,
+// per iteration; GIPPO runs on its threads.
 PlanResult plan_lattice(const Graph& g, const PlanParams& params, Diagnostics& diag,
-                        const Progress& progress = {});
+                        const RunContext& context = {});
 
 // The toolpath layers plan_lattice makes from `g` (one per planar level, one for a non-planar
 // lattice), each as its number of edges: the estimated work that balances shards.

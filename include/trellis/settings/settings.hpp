@@ -60,6 +60,10 @@ const std::vector<Setting>& all_settings();
 const Setting* find_setting(const std::string& key);
 // The known key nearest to `key` (edit distance), for "did you mean" hints; empty if none close.
 std::string nearest_setting(const std::string& key);
+// A library message as the command line says it: every setting key in `message` that has a flag
+// becomes `--flag (key)` (library messages name keys, which are also Python's keyword arguments;
+// the flag is the command line's own name for them). A key already written so is left alone.
+std::string with_flags(const std::string& message);
 // Sections in declaration order, with a one-line description each.
 const std::vector<std::pair<std::string, std::string>>& setting_sections();
 

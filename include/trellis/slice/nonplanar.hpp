@@ -13,7 +13,7 @@
 #include <string>
 #include <vector>
 
-#include "trellis/core/progress.hpp"
+#include "trellis/core/run_context.hpp"
 #include "trellis/core/vec.hpp"
 #include "trellis/machine/gcode_writer.hpp"
 #include "trellis/toolpath/toolpath.hpp"
@@ -106,9 +106,10 @@ std::vector<double> nonplanar_line_positions(const HeightField& surface, double 
 
 // Plans every layer (layers in parallel). Throws GeometryError when a plane meets the surface
 // twice above one point (not a height field), naming the place.
-// `progress` (core/progress.hpp): stage "layers" from the calling thread; cancel checked per layer.
+// `context` (core/run_context.hpp): stage "layers" from the calling thread; cancel checked per
+// layer; the layers' sections on its threads.
 NonplanarResult slice_nonplanar(const HeightField& surface, const NonplanarParams& params,
-                                const Progress& progress = {});
+                                const RunContext& context = {});
 
 // The planar control of a non-planar print (the non-planar paper's Fig. 3C/E, its Cura slice):
 // the solid the non-planar layers fill (vertical offsets: from the surface up to layers × layer
@@ -125,7 +126,7 @@ struct PlanarControlResult {
   std::size_t tool_changes = 0;               // between consecutive paths, over the whole print
 };
 PlanarControlResult slice_planar_control(const HeightField& surface, const NonplanarParams& params,
-                                         const Progress& progress = {});
+                                         const RunContext& context = {});
 
 // Independent check: every path point's distance from the surface offset of its layer, and the
 // distance of segment midpoints (chords) from it. Vertical mode: |z − f(x,y) − k·h|; normal

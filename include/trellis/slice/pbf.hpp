@@ -14,7 +14,7 @@
 
 #include "trellis/core/budget.hpp"
 #include "trellis/core/diagnostics.hpp"
-#include "trellis/core/progress.hpp"
+#include "trellis/core/run_context.hpp"
 #include "trellis/field/field.hpp"
 #include "trellis/geom/regions.hpp"
 #include "trellis/toolpath/scan_defaults.hpp"
@@ -58,6 +58,34 @@ double equivalent_length(double length, double melt_pool);
 // pbf.resolution's default: the sampling step of TPMS sheets and of solid parts' field sections.
 inline constexpr double kPbfResolution = 0.025;  // mm
 
+// PbfOptions::test: switches for the tests and benchmarks that compare (no setting, no flag).
+struct PbfTestSwitches {
+  // STL route only: every layer tests every triangle of the mesh instead of the triangles its
+  // plane cuts (a slicer without a plane index, O(layers × triangles): the STL baseline as the
+  // PBF paper counts it, "approximately O(n⁴)"). For the comparison benchmark.
+  bool stl_scan_all = false;
+  // Direct route: the thin-wall outline takes the section march's refined crossings where the
+  // part decides it (false: refines its own; for the tests that compare the two).
+  bool reuse_section_crossings = true;
+  // A sheet that repeats across the plane (a TPMS φ with a constant c or thickness): the
+  // contours of blocks where the part is that sheet alone (inside the envelope and the root
+  // boxes, outside the solids) are marched once per period and translated to the others
+  // (MarchOptions::periodic_tiles); false: every block is marched (for the tests that compare).
+  bool periodic_tiles = true;
+  // With periodic tiles and a sheet that also repeats along z by a whole number of layers P:
+  // layers P apart take the same tiles, made once per class of layers (i mod P) by marches of the
+  // sheet alone over one period at the class's first height and kept, up to this many bytes, for
+  // the class's later layers (0: every layer marches its own tiles; for the tests that compare).
+  std::size_t z_tiles_budget = std::size_t{8} << 20;
+  // With layers sharing tiles along z and a φ symmetric through the origin (Field::
+  // inversion_parity: the gyroid, Schwarz P and D, …), the sheet at −z is the sheet at z turned
+  // half a turn about the z axis: a class of layers whose mirror class (its heights' negatives,
+  // modulo the period) comes first takes that class's tiles turned, instead of marching its own
+  // (the grid's origin is then moved out to where the turn maps tiles onto tiles); false: every
+  // class marches its own (for the tests that compare).
+  bool mirror_tiles = true;
+};
+
 struct PbfOptions {
   // The scan parameters: the laser profile's (LaserProfile), with its defaults.
   double layer = kScanLayer;  // mm
@@ -88,36 +116,11 @@ struct PbfOptions {
   double refine = 1e-4;             // mm, crossing accuracy of hatch ends
   bool hybrid = true;               // false: plain R67 hatch of the whole sheet
   bool stl_route = false;           // regions from a marching-cubes mesh instead of the field
-  // STL route only: every layer tests every triangle of the mesh instead of the triangles its
-  // plane cuts (a slicer without a plane index, O(layers × triangles): the STL baseline as the
-  // PBF paper counts it, "approximately O(n⁴)"). For the comparison benchmark.
-  bool stl_scan_all = false;
-  // Direct route: the thin-wall outline takes the section march's refined crossings where the
-  // part decides it (false: refines its own; for the tests that compare the two).
-  bool reuse_section_crossings = true;
-  // A sheet that repeats across the plane (a TPMS φ with a constant c or thickness): the
-  // contours of blocks where the part is that sheet alone (inside the envelope and the root
-  // boxes, outside the solids) are marched once per period and translated to the others
-  // (MarchOptions::periodic_tiles); false: every block is marched (for the tests that compare).
-  bool periodic_tiles = true;
-  // With periodic tiles and a sheet that also repeats along z by a whole number of layers P:
-  // layers P apart take the same tiles, made once per class of layers (i mod P) by marches of the
-  // sheet alone over one period at the class's first height and kept, up to this many bytes, for
-  // the class's later layers (0: every layer marches its own tiles; for the tests that compare).
-  std::size_t z_tiles_budget = std::size_t{8} << 20;
-  // With layers sharing tiles along z and a φ symmetric through the origin (Field::
-  // inversion_parity: the gyroid, Schwarz P and D, …), the sheet at −z is the sheet at z turned
-  // half a turn about the z axis: a class of layers whose mirror class (its heights' negatives,
-  // modulo the period) comes first takes that class's tiles turned, instead of marching its own
-  // (the grid's origin is then moved out to where the turn maps tiles onto tiles); false: every
-  // class marches its own (for the tests that compare).
-  bool mirror_tiles = true;
+  // Switches that exist for the tests and benchmarks that compare two ways of making the same
+  // paths; users' runs keep the defaults (no setting reaches them).
+  PbfTestSwitches test;
   // Scan-time model (speeds, delays) for the per-layer times of this path and the R67 baseline.
   ScanTiming timing;
-  // Bytes the run may use (grids, caches, layers; the STL route's mesh); 0 = the memory
-  // available now. A larger estimate before the run is a ResourceError naming the setting to
-  // change.
-  double memory_budget = 0;
 };
 
 struct PbfLayer {
@@ -138,7 +141,7 @@ struct PbfLayer {
   double t_min = 0, t_max = 0, t_sum = 0;
   std::size_t t_count = 0;
   // Top blocks of this layer's marches, and those translated from another period's
-  // (PbfOptions::periodic_tiles) instead of contoured.
+  // (PbfOptions::test.periodic_tiles) instead of contoured.
   std::size_t blocks = 0, tiled_blocks = 0;
   // Solid parts (slice/pbf_mesh.hpp, pbf_skin.hpp): each contour's offset (0: the outermost),
   // each hatch's region kind (HatchKind: skin, core, up-skin, down-skin), and each kind's area
@@ -176,7 +179,7 @@ struct PbfResult {
   std::size_t blocks = 0, tiled_blocks = 0;
   double periodic_fraction = 0;
   // Whether classes of layers mirrored through the origin take each other's tiles turned
-  // (PbfOptions::mirror_tiles), and how many classes' tiles were made so (not marched).
+  // (PbfOptions::test.mirror_tiles), and how many classes' tiles were made so (not marched).
   bool mirror_tiles = false;
   std::size_t turned_classes = 0;
   Diagnostics diagnostics;  // warnings (settings outside the paper's ranges…)
@@ -184,7 +187,7 @@ struct PbfResult {
 
 // Bytes plan_pbf would use for this design and these options with `threads` workers (per-thread
 // grids and caches, the layers' vectors and the toolpath made of them; the STL route's mesh is
-// not counted). plan_pbf refuses to start above PbfOptions::memory_budget.
+// not counted). plan_pbf refuses to start above its context's memory budget.
 double pbf_memory_estimate(const PbfDesign& design, const PbfOptions& options, int threads);
 // streamed: the layers' vectors go to a sink as they come (plan_pbf with a sink), so only the
 // pipeline's layers in flight count.
@@ -207,9 +210,11 @@ PbfSections pbf_sample_sections(const PbfDesign& design, const PbfOptions& optio
 // `azimuth` degrees from the X axis, cut by a box of `size` centred at the origin.
 PbfDesign plane_wall(double thickness, double inclination_deg, double azimuth_deg, Vec3 size);
 
-// `progress` (core/progress.hpp): stage "layers", reported under a lock; cancel checked per layer.
+// `context` (core/run_context.hpp): stage "layers", reported under a lock; cancel checked per
+// layer; the memory estimate refused above its budget (unless forced); the layers on its threads;
+// the result's diagnostics also go to its diagnostics.
 PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& options,
-                   const Progress& progress = {});
+                   const RunContext& context = {});
 
 // Streaming and layer ranges (issue 23: bounded memory, sharding). Layers are numbered from 0 at
 // the bottom of the part's extent; a layer's vectors depend only on the design, the options and
@@ -228,8 +233,8 @@ std::size_t pbf_layer_count(const PbfDesign& design, const PbfOptions& options);
 // layers keep their series (z, FR_a, lengths, area, times) but not their vectors, so memory does
 // not grow with the layer count; without one they keep everything (as plan_pbf). The totals
 // (vectors, lengths, scan times) are over the range.
-PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& options, const Progress& progress,
-                   const PbfLayerSink& sink, PbfLayerRange range = {});
+PbfResult plan_pbf(const PbfDesign& design, const PbfOptions& options, const PbfLayerSink& sink,
+                   PbfLayerRange range = {}, const RunContext& context = {});
 
 // The toolpath IR: contour vectors role Contour, hatch vectors role Infill, with laser power and
 // speed per role.

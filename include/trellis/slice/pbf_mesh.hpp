@@ -16,7 +16,7 @@
 #include <limits>
 #include <vector>
 
-#include "trellis/core/progress.hpp"
+#include "trellis/core/run_context.hpp"
 #include "trellis/field/field.hpp"
 #include "trellis/geom/mesh.hpp"
 #include "trellis/slice/pbf.hpp"
@@ -87,8 +87,9 @@ Layer pbf_solid_layer_toolpath(const PbfLayer& layer, std::size_t index, double 
 
 // Every layer of the part, bottom to top, handed to `sink` in order (with their vectors); the
 // result keeps the layers' series (z, lengths, area, scan time) without their vectors when a
-// sink is given, all of it without one. Cancel is checked per batch.
+// sink is given, all of it without one. `context` (core/run_context.hpp): cancel checked per
+// batch, "layers" reported per batch, the batches' layers on its threads.
 PbfResult plan_pbf_solid(const PbfSolid& part, const PbfSolidOptions& options,
-                         const Progress& progress = {}, const PbfLayerSink& sink = {});
+                         const PbfLayerSink& sink = {}, const RunContext& context = {});
 
 }  // namespace trellis

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "trellis/core/budget.hpp"
+#include "trellis/core/run_context.hpp"
 #include "trellis/geom/mesh_repair.hpp"
 #include "trellis/machine/gcode_writer.hpp"
 #include "trellis/slice/fgm.hpp"
@@ -38,9 +39,6 @@ struct SliceJob {
   // colours than tools is an error unless `quantize` (then the palette is the tools').
   int tools = 0;
   bool quantize = false;
-  // The work estimated from the extent, the layers and the grids is checked against this before
-  // any layer is sliced (core/budget.hpp).
-  Budget budget;
   // Sharding (job/plate.hpp): only the part's printed layers [layer_begin, layer_end) (counted
   // from its first printed layer) are sliced and planned, with the outlines the skins need
   // around them; the toolpath holds those layers. Graded slicing (strategy 1 or 2): the
@@ -95,10 +93,11 @@ struct SliceResult {
   std::map<std::vector<double>, std::pair<double, double>> colour_use;
 };
 
-// Planar and graded slicing in one call. `progress` (core/progress.hpp): stages "outlines"
+// Planar and graded slicing in one call. `context` (core/run_context.hpp): stages "outlines"
 // (from worker threads, under a lock) and "walls and infill"; cancel checked per layer while
-// outlining and between stages.
-SliceResult run_slice(const SliceJob& job, const Progress& progress = {});
+// outlining and between stages; the work estimated from the extent, the layers and the grids is
+// checked against its budget before any layer is sliced; oneTBB work on its threads.
+SliceResult run_slice(const SliceJob& job, const RunContext& context = {});
 
 // Planar slicing (strategy 0) of the whole part streamed in bounded memory: layers are outlined
 // and planned by a oneTBB pipeline (a few runs of `chunk_layers` in flight, each planned with the
@@ -118,8 +117,8 @@ struct SliceStreamOptions {
   // layers around it again, bottom_layers + top_layers of them.
   std::size_t plan_layers = 32;
 };
-SliceResult stream_slice(const SliceJob& job, const LayerSink& sink, const Progress& progress = {},
-                         const SliceStreamOptions& options = {});
+SliceResult stream_slice(const SliceJob& job, const LayerSink& sink,
+                         const SliceStreamOptions& options = {}, const RunContext& context = {});
 
 // Graded slicing (strategy 1 or 2) in two steps, so that a sharded run (job/plate.hpp) and the
 // whole run build the same G-code: the layer-local step (each layer's colour faces, pieces or

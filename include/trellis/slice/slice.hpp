@@ -6,7 +6,7 @@
 #include <string>
 #include <vector>
 
-#include "trellis/core/progress.hpp"
+#include "trellis/core/run_context.hpp"
 #include "trellis/field/field.hpp"
 #include "trellis/geom/contour.hpp"
 #include "trellis/geom/mesh.hpp"
@@ -56,7 +56,7 @@ Regions contour_at(const Field& field, Evaluator& evaluator, double z,
 // All planes, in parallel (oneTBB), one evaluator per thread.
 std::vector<LayerOutline> slice_field(const Field& field, const std::vector<double>& zs,
                                       const FieldSliceOptions& options, SliceStats* stats = nullptr,
-                                      const Progress& progress = {});
+                                      const RunContext& context = {});
 // `overlapping`: the union of intersecting shells (slice_mesh), for repaired meshes.
 std::vector<LayerOutline> slice_mesh_layers(const TriangleMesh& mesh, const std::vector<double>& zs,
                                             double stitch_tolerance = 1e-6,
