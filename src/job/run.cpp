@@ -19,6 +19,7 @@
 #include "trellis/field/vcad.hpp"
 #include "trellis/geom/mesh_io.hpp"
 #include "trellis/job/plate.hpp"
+#include "trellis/job/readers.hpp"
 #include "trellis/machine/bgcode.hpp"
 #include "trellis/machine/bgcode_writer.hpp"
 #include "trellis/machine/cli.hpp"
@@ -500,6 +501,12 @@ RunFiles job_files(const Job& job, bool follow_symlinks) {
 }
 
 JobResult run_job(const Job& job, Diagnostics& diag, const Progress& progress) {
+  // A reader named by a job file runs as its command does (job/readers.hpp).
+  if (is_reader(job.route)) {
+    if (job.shards > 0)
+      throw SettingError("the " + job.route + " reader does not shard", {"", 0, "shard"});
+    return run_reader(reader_job(job), diag, progress);
+  }
   const std::vector<std::string> sections = route_sections(job.route);
   const Config c = job.settings.config();
   check_rules(c, job.settings, sections);
