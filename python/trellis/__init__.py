@@ -290,14 +290,14 @@ def _call(route, input, outputs, machine, set, progress, kwargs, command=None, e
     values = dict(extra or {})
     for name, value in kwargs.items():
         if name not in keywords:
-            foreign = _foreign_keyword(route, name)
-            if foreign:
-                raise SettingError(foreign, element=name)
             key = _keywords(route).get(name) if choice else None
             if key:  # the route's, but not this planner's (kind's)
                 when = next(s["when"] for s in _schema() if s["key"] == key)
                 raise SettingError(f"'{name}' is {key}, which trellis.{route}({choice!r}) does not "
                                    f"use: it is used only when {when}", element=name)
+            foreign = _foreign_keyword(route, name)
+            if foreign:
+                raise SettingError(foreign, element=name)
             near = [k for k in keywords if k.startswith(name[:3])][:3]
             raise SettingError(f"unknown keyword '{name}' for trellis.{command or route}()"
                                + (f" (did you mean {', '.join(near)}?)" if near else "")
