@@ -4,6 +4,7 @@
 usage: PYTHONPATH=build/release/python python3 python/gen_stubs.py > python/trellis/__init__.pyi
 A test fails when the checked-in stubs differ from what this prints.
 """
+import inspect
 import os
 import sys
 
@@ -14,33 +15,25 @@ from trellis import _trellis  # noqa: E402
 
 PY = {"number": "float", "integer": "int", "bool": "bool", "text": "str", "numbers": "Sequence[float]"}
 
-ROUTES = [
-    ("lattice2d", "lattice2d", "output: PathLike | None = None, *, preview: PathLike | None = None", "Result"),
-    ("lattice3d", "lattice3d", "output: PathLike | None = None, *, preview: PathLike | None = None", "Result"),
-    ("plan", "gippo", "planner: Literal['gippo', 'euler', 'aero'], lattice: PathLike | Lattice, "
-     "output: PathLike | None = None, *, machine: Machine | None = None, gcode: PathLike | None = None, "
-     "report: PathLike | None = None, preview: PathLike | None = None", "Result"),
-    ("gcode", "gcode", "toolpath: PathLike | Toolpath, output: PathLike | None = None, *, machine: Machine",
-     "Result"),
-    ("slice", "slice", "design: PathLike | Field, output: PathLike | None = None, *, machine: Machine, "
-     "report: PathLike | None = None, toolpath: PathLike | None = None, preview: PathLike | None = None",
-     "Result"),
-    ("pbf", "pbf", "output: PathLike | None = None, *, envelope: PathLike | Field | None = None, "
-     "machine: Machine | None = None, report: PathLike | None = None, toolpath: PathLike | None = None, "
-     "preview: PathLike | None = None", "Result"),
-    ("nonplanar", "nonplanar", "surface: PathLike | None = None, output: PathLike | None = None, *, "
-     "machine: Machine, report: PathLike | None = None, toolpath: PathLike | None = None, "
-     "preview: PathLike | None = None", "Result"),
-    ("surface", "surface", "kind: str, output: PathLike | None = None, *, machine: Machine | None = None, "
-     "preview: PathLike | None = None", "Result"),
-]
-
-
-# The reader routes (trellis check, analyze): their keywords are their settings (job/readers.hpp).
-READERS = [
-    ("analyze", "gcode: PathLike | Toolpath, design: PathLike | Lattice | None = None, *"),
-    ("check", "lattice: PathLike | Lattice, print_file: PathLike | Toolpath, *"),
-]
+def function_stub(name, fn, choices, keywords, info, ret, extra):
+    """`def NAME(` its arguments before `progress`/`set` as the function declares them, `extra`,
+    set=, one line per keyword `) -> RET: ...`."""
+    head, star = [], False
+    for p in inspect.signature(fn).parameters.values():
+        if p.name in ("progress", "set") or p.kind == p.VAR_KEYWORD:
+            break
+        if p.kind == p.KEYWORD_ONLY and not star:
+            head.append("*")
+            star = True
+        note = p.annotation if p.annotation is not p.empty else "Any"
+        if choices and not head:  # the first argument: the route's choice setting
+            note = "Literal[" + ", ".join(repr(c) for c in choices) + "]"
+        head.append(f"{p.name}: {note}" + ("" if p.default is p.empty else f" = {p.default!r}"))
+    lines = [f"def {name}(", f"    {', '.join(head)},"]
+    lines += [f"    {e}," for e in extra]
+    lines.append("    set: Mapping[str, Any] | None = None,")
+    lines += [keyword_line(info[key], kw) for kw, key in sorted(keywords)]
+    return lines + [f") -> {ret}: ...", ""]
 
 
 def keyword_line(s, name):
@@ -85,21 +78,14 @@ def main():
             "    def view_notebook(self, title: str | None = None) -> str: ...", "",
             "class Result:", "    files: list[str]", "    summary: str", "    warnings: list[tuple[str, str]]",
             "    exit_code: int", "    toolpath: Toolpath | None", "    lattice: Lattice | None", ""]
-    for route, command, head, ret in ROUTES:
-        kws = trellis._keywords(route, command if route == "plan" else route)
-        if route == "plan":
-            for extra in ("euler", "aero"):
-                for k, v in trellis._keywords("plan", extra).items():
-                    kws.setdefault(k, v)
-        params = [keyword_line(info[key], name) for name, key in sorted(kws.items())]
-        fn = "slice" if route == "slice" else route
-        out.append(f"def {fn}(")
-        out.append(f"    {head},")
-        out.append("    progress: Progress | None = None,")
-        out.append("    set: Mapping[str, Any] | None = None,")
-        out += params
-        out.append(f") -> {ret}: ...")
-        out.append("")
+    choices = {s["key"]: s["choices"] for s in info.values()}
+    # Every route of the table: its function's own arguments (trellis/__init__.py, annotated
+    # there; the choice setting's as its values), then its keywords from the table and schema.
+    for spec in _trellis.routes():
+        route = spec["name"]
+        out += function_stub(route, getattr(trellis, route), choices.get(spec["choice"]),
+                             trellis._keywords(route).items(), info, "Result",
+                             ["progress: Progress | None = None"])
     out += ["def run_job(job: PathLike | Mapping[str, Mapping[str, Any]], output_dir: PathLike | None = None,",
             "            set: Mapping[str, Any] | None = None, progress: Progress | None = None) -> Result: ...",
             "def rerun(path: PathLike, output: PathLike | None = None) -> list[str]: ...",
@@ -110,14 +96,12 @@ def main():
            "def parse_vcad(text: str, name: str = ...) -> dict[str, Any]: ...",
            "from .fields import (Field, Mesh, cone, cube, cylinder, difference, fgrade, function, gyroid,",
            "                     intersection, mesh, rectprism, sphere, torus, tpms, union)", ""]
-    for reader, head in READERS:
-        out.append(f"def {reader}(")
-        out.append(f"    {head},")
-        out.append("    machine: Machine | None = None,")
-        out.append("    set: Mapping[str, Any] | None = None,")
-        out += [keyword_line(info[key], name) for name, key in sorted(trellis._reader_keywords(reader).items())]
-        out.append(") -> dict[str, Any]: ...")
-        out.append("")
+    # The reader routes with a function (trellis.check, trellis.analyze): their keywords are their
+    # settings (job/readers.hpp).
+    for reader in _trellis.reader_names():
+        if hasattr(trellis, reader):
+            out += function_stub(reader, getattr(trellis, reader), None,
+                                 trellis._reader_keywords(reader).items(), info, "dict[str, Any]", [])
     print("\n".join(out).rstrip("\n"))
 
 

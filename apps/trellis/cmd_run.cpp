@@ -8,6 +8,7 @@
 #include "trellis/core/error.hpp"
 #include "trellis/job/job.hpp"
 #include "trellis/job/plate.hpp"
+#include "trellis/job/readers.hpp"
 
 namespace trellis::cli {
 
@@ -27,6 +28,9 @@ void add_run(CLI::App& app) {
       "\"pbf\" | \"nonplanar\" | \"surface\", input, machine, output_dir, outputs; then any "
       "settings\n"
       "as [section] tables. Paths are relative to the job file. See docs/jobs.md and examples/.\n"
+      "A reader (route = \"check\" | \"analyze\" | \"compare\" | \"view\" | \"render\") takes "
+      "inputs = [files]\n"
+      "and design = \"file\", and prints and writes what its command does.\n"
       "Precedence: defaults < the job's machine profile < the job's settings < --set.");
   cmd->add_option("job", o->job, "job TOML")->required()->check(path_value());
   cmd->add_option("-o,--output-dir", o->out, "output folder (replaces [job] output_dir)")
@@ -45,8 +49,11 @@ void add_run(CLI::App& app) {
     if (o->progress >= 0)
       job.settings.set("run.progress", o->progress == 1,
                        {o->progress ? "--progress" : "--no-progress"});
+    const bool reader = is_reader(job.route);
     if (!o->shard.empty()) {
       std::tie(job.shard, job.shards) = parse_shard(o->shard);
+      if (reader)
+        throw SettingError("the " + job.route + " reader does not shard", {"", 0, "--shard"});
       // The plan route says itself what of it shards (planner, plan.order, plan.layer_start).
       require_shards(route_spec(job.route), {"", 0, "--shard"});
     }
@@ -56,6 +63,11 @@ void add_run(CLI::App& app) {
     const JobResult r = run_job(job, display.context(diag));
     display.finish();
     print_warnings(diag);
+    if (reader) {  // what its command shows, and its exit status
+      std::cout << r.summary;
+      if (r.exit_code) set_exit_code(r.exit_code);
+      return;
+    }
     std::cout << job.name << " (" << job.route << "): " << r.summary << "\n";
     for (const auto& f : r.files) {
       // Paths under the working folder are shown relative to it.

@@ -205,6 +205,45 @@ PYBIND11_MODULE(_trellis, m) {
   m.def("version", [] { return std::string(trellis::version()); });
   m.def("route_names", &route_names);
   m.def("route_sections", &route_sections);
+  // The route table (job/job.hpp RouteSpec) as python/trellis builds its functions and stubs
+  // from it: each route's input, choice setting and the outputs it writes.
+  m.def("routes", [] {
+    py::list out;
+    for (const RouteSpec& r : route_specs()) {
+      py::dict d;
+      d["name"] = r.name;
+      d["input"] = r.input;
+      d["sections"] = r.sections;
+      d["choice"] = r.choice;
+      d["shards"] = r.shards;
+      d["plates"] = r.plates;
+      // The job's outputs it writes, the first the one the function's `output` argument names:
+      // the main one and its toolpath (a plan's: its toolpath, its G-code beside it), the report
+      // and the previews.
+      std::vector<std::string> outputs;
+      if (r.gcode_beside_toolpath)
+        outputs = {"toolpath", "gcode"};
+      else if (r.report)
+        outputs = {"output", "toolpath"};
+      else
+        outputs = {"output"};
+      if (r.report) outputs.push_back("report");
+      if (r.preview) outputs.push_back("preview");
+      d["outputs"] = outputs;
+      out.append(d);
+    }
+    return out;
+  });
+  // keyword -> setting key of a route's Python function (job.hpp route_keywords).
+  m.def(
+      "route_keywords",
+      [](const std::string& route, const std::string& choice) {
+        py::dict d;
+        for (const auto& [name, key] : route_keywords(route_spec(route), choice))
+          d[py::str(name)] = key;
+        return d;
+      },
+      py::arg("route"), py::arg("choice") = "");
   m.def("settings", [] {
     py::list out;
     for (const auto& s : all_settings()) {
@@ -219,6 +258,7 @@ PYBIND11_MODULE(_trellis, m) {
       d["default"] = s.derived.empty() ? py::cast(s.default_text()) : py::none();
       d["derived"] = s.derived;
       d["when"] = s.when.empty() ? std::string() : when_text(s.when);
+      d["when_terms"] = s.when;  // as the schema writes it: "key=a|b or route=x; @fact"
       d["range"] = s.range_text();
       d["choices"] = s.choices;
       out.append(d);
@@ -447,6 +487,11 @@ PYBIND11_MODULE(_trellis, m) {
       },
       py::arg("route"), py::arg("design"), py::arg("print"), py::arg("machine"),
       py::arg("settings"));
+  m.def("reader_names", [] {
+    std::vector<std::string> names;
+    for (const ReaderSpec& r : reader_specs()) names.push_back(r.name);
+    return names;
+  });
   m.def("reader_sections", [](const std::string& name) { return reader_spec(name).sections; });
   m.def("reader_keys", [](const std::string& name) {
     const ReaderSpec& r = reader_spec(name);

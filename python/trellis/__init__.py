@@ -17,7 +17,10 @@ Long calls release the GIL, report progress to ``progress(stage, fraction)`` and
 ``trellis.GeometryError`` and ``trellis.MachineError`` (the output would not print on the
 machine; nothing written) with ``file``, ``line`` and ``element``.
 """
+from __future__ import annotations
+
 import html
+import inspect
 import numbers
 import os
 import re
@@ -248,42 +251,53 @@ class Result:
         return f"<trellis.Result {self.summary!r}>"
 
 
-def _route_keywords(route):
-    """keyword (flag with _) -> setting key, for the route's sections; where two sections share a
-    flag (seed, density, cell), the route's own section wins (plan's seed is plan.seed)."""
+def _keywords(route, choice=None):
+    """keyword (flag with _) -> setting key of the route's function: the flags of the settings of
+    its sections that the route uses, with ``choice`` (a value of the route's choice setting, such
+    as the planner) those that value uses; from the route table and the schema
+    (``route_keywords`` in job/job.hpp), never listed here."""
+    return _trellis.route_keywords(route, choice or "")
+
+
+_SCHEMA = []
+
+
+def _schema():
+    """The settings (``_trellis.settings()``), read once."""
+    if not _SCHEMA:
+        _SCHEMA.extend(_trellis.settings())
+    return _SCHEMA
+
+
+def _foreign_keyword(route, name):
+    """Why ``name`` is no keyword of the route when it is another section's flag, naming its
+    setting key; else None."""
     sections = set(_trellis.route_sections(route))
-    out = {}
-    ordered = sorted(_trellis.settings(), key=lambda s: s["section"] != route)
-    for s in ordered:
-        if s["section"] in sections and s["flag"]:
-            out.setdefault(s["flag"].replace("-", "_"), s["key"])
-    return out
-
-
-_KEYWORDS = {}
-
-
-def _keywords(route, command):
-    key = (route, command)
-    if key not in _KEYWORDS:
-        kw = _route_keywords(route)
-        if command in ("gippo", "euler"):
-            kw = {k: v for k, v in kw.items() if not v.startswith(("aero.", "nozzle."))}
-        if command in ("euler", "aero"):
-            kw = {k: v for k, v in kw.items() if not v.startswith("gippo.")}
-        _KEYWORDS[key] = kw
-    return _KEYWORDS[key]
+    for s in _schema():
+        if s["flag"] and s["flag"].replace("-", "_") == name and s["section"] not in sections:
+            return (f"'{name}' is {s['key']}, a setting of [{s['section']}], which the {route} "
+                    "route does not read")
+    return None
 
 
 def _path(p):
     return "" if p is None else os.fspath(p)
 
 
-def _call(route, input, outputs, machine, set, progress, kwargs, command=None, extra=None):
-    keywords = _keywords(route, command or route)
+def _call(route, input, outputs, machine, set, progress, kwargs, command=None, extra=None,
+          choice=None):
+    keywords = _keywords(route, choice)
     values = dict(extra or {})
     for name, value in kwargs.items():
         if name not in keywords:
+            key = _keywords(route).get(name) if choice else None
+            if key:  # the route's, but not this planner's (kind's)
+                when = next(s["when"] for s in _schema() if s["key"] == key)
+                raise SettingError(f"'{name}' is {key}, which trellis.{route}({choice!r}) does not "
+                                   f"use: it is used only when {when}", element=name)
+            foreign = _foreign_keyword(route, name)
+            if foreign:
+                raise SettingError(foreign, element=name)
             near = [k for k in keywords if k.startswith(name[:3])][:3]
             raise SettingError(f"unknown keyword '{name}' for trellis.{command or route}()"
                                + (f" (did you mean {', '.join(near)}?)" if near else "")
@@ -342,7 +356,8 @@ def _object_text(obj):
     return None
 
 
-def _call_object(route, input, outputs, machine, set, progress, kwargs, command=None, extra=None):
+def _call_object(route, input, outputs, machine, set, progress, kwargs, command=None, extra=None,
+                 choice=None):
     """_call with the input and the machine each a file or an in-memory object, written as a
     file beside the first output (see _sidecar) and removed again if the call fails."""
     written = []
@@ -357,7 +372,8 @@ def _call_object(route, input, outputs, machine, set, progress, kwargs, command=
             path, remove_after = _sidecar(*text, outputs)
             written.append((path, remove_after))
             paths.append(path)
-        result = _call(route, paths[0], outputs, paths[1], set, progress, kwargs, command, extra)
+        result = _call(route, paths[0], outputs, paths[1], set, progress, kwargs, command, extra,
+                       choice)
         ok = True
         return result
     finally:
@@ -387,20 +403,24 @@ class _MachineFile:
             os.remove(self.temp)
 
 
-def lattice2d(output=None, *, preview=None, progress=None, set=None, **settings):
+def lattice2d(output: PathLike | None = None, *, preview: PathLike | None = None, progress=None,
+              set=None, **settings):
     """A 2D lattice from the atlas ([lattice2d] settings: pattern, cell, size, ...)."""
     return _call_object("lattice2d", None, {"output": output, "preview": preview}, None, set, progress,
                  settings)
 
 
-def lattice3d(output=None, *, preview=None, progress=None, set=None, **settings):
+def lattice3d(output: PathLike | None = None, *, preview: PathLike | None = None, progress=None,
+              set=None, **settings):
     """A 3D lattice: unit cells (cell_type, cell, count) or a Voronoi foam (kind='foam')."""
     return _call_object("lattice3d", None, {"output": output, "preview": preview}, None, set, progress,
                  settings)
 
 
-def plan(planner, lattice, output=None, *, machine=None, gcode=None, report=None, preview=None,
-         progress=None, set=None, **settings):
+def plan(planner: str, lattice: PathLike | Lattice, output: PathLike | None = None, *,
+         machine: Machine | None = None, gcode: PathLike | None = None,
+         report: PathLike | None = None, preview: PathLike | None = None, progress=None, set=None,
+         **settings):
     """Plans paths over a lattice (a file or a ``Lattice``): planner 'gippo', 'euler' or 'aero'."""
     planners = next(s["choices"] for s in _trellis.settings() if s["key"] == "plan.planner")
     if planner not in planners:
@@ -408,16 +428,18 @@ def plan(planner, lattice, output=None, *, machine=None, gcode=None, report=None
                            f"{planners[-1]})", element="planner")
     return _call_object("plan", lattice, {"toolpath": output, "gcode": gcode, "report": report,
                                           "preview": preview}, machine, set, progress, settings,
-                        command=planner, extra={"plan.planner": planner})
+                        command=planner, extra={"plan.planner": planner}, choice=planner)
 
 
-def gcode(toolpath, output=None, *, machine, progress=None, set=None, **settings):
+def gcode(toolpath: PathLike | Toolpath, output: PathLike | None = None, *, machine: Machine,
+          progress=None, set=None, **settings):
     """G-code (or .nc) from a toolpath (a file or a ``Toolpath``) for a machine profile."""
     return _call_object("gcode", toolpath, {"output": output}, machine, set, progress, settings)
 
 
-def slice(design, output=None, *, machine, report=None, toolpath=None, preview=None,
-          progress=None, set=None, **settings):
+def slice(design: PathLike | Field, output: PathLike | None = None, *, machine: Machine,
+          report: PathLike | None = None, toolpath: PathLike | None = None,
+          preview: PathLike | None = None, progress=None, set=None, **settings):
     """Slices a .vcad design, a mesh, or a ``Field`` built in Python: walls, skins, infill;
     graded designs with strategy=1 or 2."""
     return _call_object("slice", design, {"output": output, "report": report, "toolpath": toolpath,
@@ -461,7 +483,8 @@ def _read(reader, design, print_file, machine, set, kwargs, fallback=None):
         return json.loads(_trellis.read_json(reader, design, print_file, path, values))
 
 
-def analyze(gcode, design=None, *, machine=None, set=None, **settings):
+def analyze(gcode: PathLike | Toolpath, design: PathLike | Lattice | None = None, *,
+            machine: Machine | None = None, set=None, **settings):
     """Measures a print against a design lattice: the same numbers as `trellis analyze`, as a
     dict. ``gcode`` is any G-code file (ours or another slicer's) or a ``Toolpath`` (measured as
     planned: no filament or retractions, which the machine adds); ``design`` a lattice file or a
@@ -472,7 +495,8 @@ def analyze(gcode, design=None, *, machine=None, set=None, **settings):
                  _core_or_path(gcode, Toolpath, "gcode"), machine, set, settings)
 
 
-def check(lattice, print_file, *, machine=None, set=None, **settings):
+def check(lattice: PathLike | Lattice, print_file: PathLike | Toolpath, *,
+          machine: Machine | None = None, set=None, **settings):
     """Replays a print against the nozzle model (collisions, struts missing or repeated), as a
     dict; ``lattice`` a file or a ``Lattice``, ``print_file`` G-code, a toolpath file or a
     ``Toolpath``. Keywords are the [check], [nozzle] and [lattice] settings (snap,
@@ -483,8 +507,10 @@ def check(lattice, print_file, *, machine=None, set=None, **settings):
                  lambda name: f"nozzle.{name}")
 
 
-def pbf(output=None, *, envelope=None, machine=None, report=None, toolpath=None, preview=None,
-        progress=None, set=None, **settings):
+def pbf(output: PathLike | None = None, *, envelope: PathLike | Field | None = None,
+        machine: Machine | None = None, report: PathLike | None = None,
+        toolpath: PathLike | None = None, preview: PathLike | None = None, progress=None, set=None,
+        **settings):
     """Laser powder-bed paths for a TPMS sheet lattice (.cli); ``envelope`` a design file or a
     ``Field``. A mesh file (STL, OBJ, 3MF) as ``envelope``, or a .vcad with a solid strategy
     (rectilinear, meander, stripe, island), is scanned as a solid part: contours, then hatch."""
@@ -492,18 +518,61 @@ def pbf(output=None, *, envelope=None, machine=None, report=None, toolpath=None,
                                    "preview": preview}, machine, set, progress, settings)
 
 
-def nonplanar(surface=None, output=None, *, machine, report=None, toolpath=None, preview=None,
-              progress=None, set=None, **settings):
+def nonplanar(surface: PathLike | None = None, output: PathLike | None = None, *, machine: Machine,
+              report: PathLike | None = None, toolpath: PathLike | None = None,
+              preview: PathLike | None = None, progress=None, set=None, **settings):
     """Non-planar layers on a surface mesh (a file or a ``Mesh``), a height function (height_fn,
     domain) or a test surface (set={'surface.kind': 'corrugation'})."""
     return _call_object("nonplanar", surface, {"output": output, "report": report, "toolpath": toolpath,
                                         "preview": preview}, machine, set, progress, settings)
 
 
-def surface(kind, output=None, *, machine=None, preview=None, progress=None, set=None, **settings):
+def surface(kind: str, output: PathLike | None = None, *, machine: Machine | None = None,
+            preview: PathLike | None = None, progress=None, set=None, **settings):
     """The non-planar paper's test surfaces (STL), or the angle test (toolpath JSON / G-code)."""
     return _call_object("surface", None, {"output": output, "preview": preview}, machine, set, progress,
-                 settings, extra={"surface.kind": kind})
+                        settings, extra={"surface.kind": kind}, choice=kind)
+
+
+def _route_function(spec):
+    """The function of a route of the table (``_trellis.routes()``) that has none of its own
+    above: ``NAME([CHOICE,] [INPUT,] output=None, *, machine=None, <its other outputs>=None,
+    progress=None, set=None, **settings)``, CHOICE a value of its choice setting, INPUT its input
+    (a file or an in-memory object), the keywords its settings (``_keywords``). Adding a route to
+    the table adds its function, keywords and stub here with no edit."""
+    name, choice, P = spec["name"], spec["choice"], inspect.Parameter
+    params, notes = [], {}
+
+    def param(arg, kind, note, **default):
+        params.append(P(arg, kind, **default))
+        notes[arg] = note
+
+    arg = choice.split(".", 1)[1] if choice else None
+    if arg:
+        param(arg, P.POSITIONAL_OR_KEYWORD, "str")
+    if spec["input"]:
+        param(spec["input"], P.POSITIONAL_OR_KEYWORD, "PathLike | None", default=None)
+    param("output", P.POSITIONAL_OR_KEYWORD, "PathLike | None", default=None)
+    param("machine", P.KEYWORD_ONLY, "Machine | None", default=None)
+    for out in spec["outputs"][1:]:
+        param(out, P.KEYWORD_ONLY, "PathLike | None", default=None)
+    params += [P("progress", P.KEYWORD_ONLY, default=None), P("set", P.KEYWORD_ONLY, default=None),
+               P("settings", P.VAR_KEYWORD)]
+    signature = inspect.Signature(params)
+
+    def run(*args, **kwargs):
+        a = signature.bind(*args, **kwargs).arguments
+        outputs = {out: a.get("output" if i == 0 else out) for i, out in enumerate(spec["outputs"])}
+        return _call_object(name, a.get(spec["input"]) if spec["input"] else None, outputs,
+                            a.get("machine"), a.get("set"), a.get("progress"), a.get("settings", {}),
+                            extra={choice: a[arg]} if arg else None, choice=a[arg] if arg else None)
+
+    run.__name__ = run.__qualname__ = name
+    run.__signature__ = signature
+    run.__annotations__ = dict(notes, **{"return": "Result"})
+    run.__doc__ = (f"The {name} route (`trellis {name}`; job route = \"{name}\"): keywords are its "
+                   "settings, any setting by its key through set={'section.key': value}.")
+    return run
 
 
 def run_job(job, output_dir=None, set=None, progress=None):
@@ -639,3 +708,10 @@ def read_toolpath(path, *, commanded_mixtures=False):
     a ``Toolpath``. Graded G-code with a mixing look-ahead reads with each path's mixture as
     deposited, or as commanded with ``commanded_mixtures=True``."""
     return Toolpath(_trellis.read_toolpath(os.fspath(path), commanded_mixtures))
+
+
+# Every route of the table has its function: those above, else one made from its row.
+for _spec in _trellis.routes():
+    if _spec["name"] not in globals():
+        globals()[_spec["name"]] = _route_function(_spec)
+        __all__.append(_spec["name"])

@@ -86,7 +86,6 @@ def lattice2d(
     max_memory: float = ...,  # run.max_memory: refuse a run whose estimate (made from its settings before it starts) needs more memory than this
     max_time: float = ...,  # run.max_time: refuse a run whose estimated time is longer than this
     pattern: Literal['honeycomb', 'voronoi', 'penrose', 'snub-square', 'arrowhead', 'reentrant-honeycomb', 'square', 'triangle', 'lines'] = ...,  # lattice2d.pattern: atlas pattern
-    preview_layers: int = ...,  # output.preview_layers: PNG previews spread over the layers
     reentrant_angle: float = ...,  # lattice2d.reentrant_angle: re-entrant honeycomb: strut angle below horizontal
     region: Literal['rectangle', 'circle'] = ...,  # lattice2d.region: crop region
     region_center: Sequence[float] = ...,  # lattice2d.center: region centre x, y
@@ -119,7 +118,6 @@ def lattice3d(
     max_memory: float = ...,  # run.max_memory: refuse a run whose estimate (made from its settings before it starts) needs more memory than this
     max_time: float = ...,  # run.max_time: refuse a run whose estimated time is longer than this
     mesh: str = ...,  # lattice3d.mesh: foam: inside this closed mesh instead of the box; conformal: the mesh to fill
-    preview_layers: int = ...,  # output.preview_layers: PNG previews spread over the layers
     radius: float = ...,  # lattice3d.radius: strut radius written to a 3MF beam lattice (-o part.3mf)
     seed: int = ...,  # lattice3d.seed: foam random seed
     skin: float = ...,  # lattice3d.skin: conformal: a stochastic (Voronoi) skin this thick
@@ -378,7 +376,7 @@ def nonplanar(
 ) -> Result: ...
 
 def surface(
-    kind: str, output: PathLike | None = None, *, machine: Machine | None = None, preview: PathLike | None = None,
+    kind: Literal['corrugation', 'miura', 'm-curve', 'sphere-cap', 'angle-test'], output: PathLike | None = None, *, machine: Machine | None = None, preview: PathLike | None = None,
     progress: Progress | None = None,
     set: Mapping[str, Any] | None = None,
     amplitude_scale: float = ...,  # surface.amplitude_scale: corrugation amplitude factor
@@ -394,14 +392,12 @@ def surface(
     frames: int = ...,  # output.frames: aero: step pictures of the first N trails
     height: float = ...,  # surface.height: M curve height
     image_size: int = ...,  # output.image_size: preview image size
-    kind: Literal['corrugation', 'miura', 'm-curve', 'sphere-cap', 'angle-test'] = ...,  # surface.kind: generated test surface (non-planar paper)
     layer_height: float = ...,  # extrusion.layer_height: layer thickness LT when a path has none (Eq. 4)
     length: float = ...,  # surface.length: length along X
     lookahead: float = ...,  # gradient.lookahead: issue each mixture change this much printed path before the region (dead volume, FGM paper A.1: L = V_melt / (h(w-h) + pi h^2/4))
     max_memory: float = ...,  # run.max_memory: refuse a run whose estimate (made from its settings before it starts) needs more memory than this
     max_time: float = ...,  # run.max_time: refuse a run whose estimated time is longer than this
     periods: float = ...,  # surface.periods: corrugation periods
-    preview_layers: int = ...,  # output.preview_layers: PNG previews spread over the layers
     radius: float = ...,  # surface.radius: sphere-cap radius
     resolution: float = ...,  # surface.resolution: grid spacing of generated meshes
     speed: float = ...,  # speed.print: printing speed
@@ -420,26 +416,8 @@ def parse_vcad(text: str, name: str = ...) -> dict[str, Any]: ...
 from .fields import (Field, Mesh, cone, cube, cylinder, difference, fgrade, function, gyroid,
                      intersection, mesh, rectprism, sphere, torus, tpms, union)
 
-def analyze(
-    gcode: PathLike | Toolpath, design: PathLike | Lattice | None = None, *,
-    machine: Machine | None = None,
-    set: Mapping[str, Any] | None = None,
-    acceleration: float = ...,  # analyze.acceleration: for the print-time estimate when the file sets none (its M204 or our header's speed.acceleration win; 0 = feed rates only)
-    align: bool = ...,  # analyze.align: move the print's XY centre onto the design's (for parts placed on the bed; done anyway, with a note, when the print lies mostly outside the design)
-    bead_width: float = ...,  # analyze.bead_width: bead width: deposits within width/2 cover a strut
-    commanded_mixtures: bool = ...,  # read.commanded_mixtures: graded G-code with a mixing look-ahead: read the mixtures as commanded (the file's lines), not as deposited (the look-ahead undone, the 
-    filament_diameter: float = ...,  # analyze.filament_diameter: build plates: filament diameter for each part's volume
-    follow_symlinks: bool = ...,  # run.follow_symlinks: write an output whose path is a symbolic link to the file it points to (the link kept); without it such an output is refused
-    layer_height: float = ...,  # analyze.layer_height: nozzle z = design z + this
-    layers: bool = ...,  # analyze.layers: also print a line per layer: extrusion starts (with a design, beside the fewest paths its struts allow), retractions, travel moves and length
-    strict: bool = ...,  # read.strict: stop at the first unreadable line (default: warn and skip)
-    valve_off: str = ...,  # read.valve_off: pneumatic files: the command that closes the valve
-    valve_on: str = ...,  # read.valve_on: pneumatic files: the command that opens the valve (empty: the machine profile's, else the file's header)
-) -> dict[str, Any]: ...
-
 def check(
-    lattice: PathLike | Lattice, print_file: PathLike | Toolpath, *,
-    machine: Machine | None = None,
+    lattice: PathLike | Lattice, print_file: PathLike | Toolpath, *, machine: Machine | None = None,
     set: Mapping[str, Any] | None = None,
     commanded_mixtures: bool = ...,  # read.commanded_mixtures: graded G-code with a mixing look-ahead: read the mixtures as commanded (the file's lines), not as deposited (the look-ahead undone, the 
     cone: float = ...,  # nozzle.cone: struts within this angle of vertical print bottom-up
@@ -454,4 +432,20 @@ def check(
     overlap: float = ...,  # nozzle.overlap: the writer's node overlap: struts planned as if this much longer
     snap: float = ...,  # check.snap: segment ends within this of a node are at it (at this default, plus the machine profile's node overlap)
     tip_clearance: float = ...,  # nozzle.tip_clearance: material less than this above the tip is not hit
+) -> dict[str, Any]: ...
+
+def analyze(
+    gcode: PathLike | Toolpath, design: PathLike | Lattice | None = None, *, machine: Machine | None = None,
+    set: Mapping[str, Any] | None = None,
+    acceleration: float = ...,  # analyze.acceleration: for the print-time estimate when the file sets none (its M204 or our header's speed.acceleration win; 0 = feed rates only)
+    align: bool = ...,  # analyze.align: move the print's XY centre onto the design's (for parts placed on the bed; done anyway, with a note, when the print lies mostly outside the design)
+    bead_width: float = ...,  # analyze.bead_width: bead width: deposits within width/2 cover a strut
+    commanded_mixtures: bool = ...,  # read.commanded_mixtures: graded G-code with a mixing look-ahead: read the mixtures as commanded (the file's lines), not as deposited (the look-ahead undone, the 
+    filament_diameter: float = ...,  # analyze.filament_diameter: build plates: filament diameter for each part's volume
+    follow_symlinks: bool = ...,  # run.follow_symlinks: write an output whose path is a symbolic link to the file it points to (the link kept); without it such an output is refused
+    layer_height: float = ...,  # analyze.layer_height: nozzle z = design z + this
+    layers: bool = ...,  # analyze.layers: also print a line per layer: extrusion starts (with a design, beside the fewest paths its struts allow), retractions, travel moves and length
+    strict: bool = ...,  # read.strict: stop at the first unreadable line (default: warn and skip)
+    valve_off: str = ...,  # read.valve_off: pneumatic files: the command that closes the valve
+    valve_on: str = ...,  # read.valve_on: pneumatic files: the command that opens the valve (empty: the machine profile's, else the file's header)
 ) -> dict[str, Any]: ...

@@ -11,6 +11,7 @@
 
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
+#include "trellis/job/readers.hpp"
 #include "trellis/machine/bgcode.hpp"
 #include "trellis/machine/gcode_reader.hpp"
 #include "trellis/machine/toolpath_3mf.hpp"
@@ -155,6 +156,72 @@ std::vector<PlatePart> parse_plate_parts(const toml::table& root, const std::str
   return parts;
 }
 
+// --set "key=value" entries over a job's settings; `check(key, where)` refuses those its route
+// does not read.
+template <class Check>
+void apply_sets(Job& job, const std::vector<std::string>& sets, Check check) {
+  for (const auto& s : sets) {
+    const auto eq = s.find('=');
+    if (eq == std::string::npos)
+      throw SettingError("expected section.key=value, got '" + s + "'", {"", 0, "--set"});
+    const std::string key = s.substr(0, eq);
+    job.settings.set_text(key, s.substr(eq + 1), {"--set"});
+    check(key, Where{"", 0, "--set " + key});
+  }
+}
+
+// The output folder of a job read from a file, and its explicit outputs resolved in it.
+fs::path output_folder(const Job& job, const std::string& base, const std::string& output_dir,
+                       std::vector<std::pair<std::string*, Where>>& outputs) {
+  const fs::path dir = resolve(base, output_dir.empty() ? "out/" + job.name : output_dir);
+  for (auto& [out, where] : outputs) *out = (dir / *out).lexically_normal().string();
+  return dir;
+}
+
+// A job file whose route is a reader (job/readers.hpp): its settings are the file's and --set
+// (the machine profile is loaded below them when it runs, as the command does), each checked
+// against the reader; its outputs are those it writes, by default in the output folder.
+// `outputs` point into `job`.
+void read_reader_job(Job& job, const toml::table& root, const std::string& text,
+                     const std::string& origin, const std::string& base, bool embedded,
+                     const std::string& output_dir,
+                     std::vector<std::pair<std::string*, Where>>& outputs,
+                     const std::vector<std::string>& sets) {
+  const ReaderSpec& spec = reader_spec(job.route);
+  if (const toml::node* part = root.get("part"))
+    throw SettingError("build plates ([[part]]) are for the pbf and slice routes, not " + job.route,
+                       {origin, static_cast<long>(part->source().begin.line), "part"});
+  for (auto& [out, where] : outputs) {
+    const std::string field = where.element.substr(4);
+    if ((field == "output" && !spec.output_role) || (field == "report" && !spec.report) ||
+        (field == "preview" && !spec.preview) || field == "toolpath" || field == "gcode" ||
+        field == "lattice")
+      throw SettingError("the " + job.route + " reader writes no " + field, where);
+  }
+  if (job.input.empty() && job.inputs.empty())
+    throw SettingError("the " + job.route + " reader needs its files: inputs = [\"...\"]",
+                       {origin, 0, "job.inputs"});
+  if (!job.design.empty() && !spec.design_role)
+    throw SettingError("the " + job.route + " reader reads no design", {origin, 0, "job.design"});
+  job.settings.load_toml(text, origin, {"job"});
+  job.origin = origin;
+  for (const auto& [key, e] : job.settings.entries())
+    check_reader_setting(spec, key, {origin, e.origin.line, key});
+  resolve_path_settings(job.settings, base);
+  apply_sets(job, sets, [&](const std::string& key, const Where& where) {
+    check_reader_setting(spec, key, where);
+  });
+  if (!embedded) {
+    const fs::path dir = output_folder(job, base, output_dir, outputs);
+    if (job.output.empty() && spec.output_suffix)
+      job.output = (dir / (job.name + spec.output_suffix)).string();
+    if (job.report.empty() && spec.report)
+      job.report = (dir / (job.name + ".report.json")).string();
+    for (const std::string* out : {&job.output, &job.report, &job.preview})
+      if (!out->empty()) check_inside(*out, dir.string(), origin);
+  }
+}
+
 }  // namespace
 
 Job job_from_toml(const std::string& text, const std::string& origin, const std::string& base,
@@ -175,17 +242,29 @@ Job job_from_toml(const std::string& text, const std::string& origin, const std:
   std::string output_dir;
   // Explicit outputs are names inside the output folder; resolved once the folder is known.
   std::vector<std::pair<std::string*, Where>> outputs;
-  static const std::set<std::string> keys = {"route",   "name",    "input",   "machine",
-                                             "command", "output",  "report",  "toolpath",
-                                             "gcode",   "lattice", "preview", "output_dir"};
+  static const std::set<std::string> keys = {
+      "route",  "name",   "input",    "inputs", "design",  "machine", "command",
+      "output", "report", "toolpath", "gcode",  "lattice", "preview", "output_dir"};
+  std::vector<Where> reader_keys;  // inputs, design: checked once the route is known
   for (const auto& [k, n] : *jt) {
     const std::string key(k.str());
     const Where where{origin, static_cast<long>(n.source().begin.line), "job." + key};
     if (!keys.count(key))
       throw SettingError(
-          "unknown key (expected route, name, input, machine, output_dir, output, report, "
-          "toolpath, gcode, lattice, preview, command)",
+          "unknown key (expected route, name, input, inputs, design, machine, output_dir, output, "
+          "report, toolpath, gcode, lattice, preview, command)",
           where);
+    if (key == "inputs") {
+      const toml::array* a = n.as_array();
+      if (!a || a->empty()) throw SettingError("a list of files, e.g. [\"a.gcode\"]", where);
+      for (const auto& item : *a) {
+        if (!item.is_string() || item.value<std::string>()->empty())
+          throw SettingError("a list of files (non-empty strings)", where);
+        job.inputs.push_back(resolve(base, *item.value<std::string>()));
+      }
+      reader_keys.push_back(where);
+      continue;
+    }
     if (!n.is_string()) throw SettingError("expected a string", where);
     const std::string v = *n.value<std::string>();
     // An empty path is not "none" (input = "" made the plan route generate a lattice instead):
@@ -200,7 +279,10 @@ Job job_from_toml(const std::string& text, const std::string& origin, const std:
       job.input = resolve(base, v);
     else if (key == "machine")
       job.machine = resolve(base, v);
-    else if (key == "command")
+    else if (key == "design") {
+      job.design = resolve(base, v);
+      reader_keys.push_back(where);
+    } else if (key == "command")
       job.command = v;
     else if (key == "output_dir")
       output_dir = v;
@@ -218,12 +300,30 @@ Job job_from_toml(const std::string& text, const std::string& origin, const std:
   }
   if (!output_dir_override.empty()) output_dir = fs::absolute(output_dir_override).string();
   if (job.route.empty()) throw SettingError("missing route = \"...\"", {origin, 0, "job.route"});
-  const auto sections = route_sections(job.route);
   if (job.name.empty() || job.name.find_first_of("/\\") != std::string::npos || job.name == "." ||
       job.name == ".." || std::any_of(job.name.begin(), job.name.end(), [](char ch) {
         return static_cast<unsigned char>(ch) < 0x20;
       }))
     throw SettingError("a name without path separators, e.g. \"part\"", {origin, 0, "job.name"});
+  if (is_reader(job.route)) {
+    read_reader_job(job, root, text, origin, base, embedded, output_dir, outputs, sets);
+    return job;
+  }
+  if (std::find(route_names().begin(), route_names().end(), job.route) == route_names().end()) {
+    std::string all;
+    for (const auto& r : route_names()) all += (all.empty() ? "" : ", ") + r;
+    for (const ReaderSpec& r : reader_specs()) all += ", " + r.name;
+    throw SettingError("unknown route '" + job.route + "' (expected one of " + all + ")",
+                       {origin, 0, "job.route"});
+  }
+  if (!reader_keys.empty()) {
+    std::string readers;
+    for (const ReaderSpec& r : reader_specs()) readers += (readers.empty() ? "" : ", ") + r.name;
+    throw SettingError("inputs and design are the readers' (" + readers + "), not the " +
+                           job.route + " route's: it reads one input",
+                       reader_keys.front());
+  }
+  const auto sections = route_sections(job.route);
   // The machine profile first, then the job's own settings over it.
   if (!job.machine.empty() && !embedded) job.settings.load_toml_file(job.machine);
   job.settings.load_toml(text, origin, {"job", "part"});
@@ -237,21 +337,15 @@ Job job_from_toml(const std::string& text, const std::string& origin, const std:
                          {origin, e.origin.line, key});
   }
   resolve_path_settings(job.settings, base);
-  for (const auto& s : sets) {
-    const auto eq = s.find('=');
-    if (eq == std::string::npos)
-      throw SettingError("expected section.key=value, got '" + s + "'", {"", 0, "--set"});
-    const std::string key = s.substr(0, eq);
-    job.settings.set_text(key, s.substr(eq + 1), {"--set"});
+  apply_sets(job, sets, [&](const std::string& key, const Where& where) {
     if (std::find(sections.begin(), sections.end(), key.substr(0, key.find('.'))) == sections.end())
       throw SettingError(
           "the " + job.route + " route does not read [" + key.substr(0, key.find('.')) + "]",
-          {"", 0, "--set " + key});
-  }
+          where);
+  });
   if (!embedded) {
     // Default outputs under output_dir, named after the job.
-    const fs::path dir = resolve(base, output_dir.empty() ? "out/" + job.name : output_dir);
-    for (auto& [out, where] : outputs) *out = (dir / *out).lexically_normal().string();
+    const fs::path dir = output_folder(job, base, output_dir, outputs);
     auto def = [&](std::string& out, const std::string& suffix) {
       if (out.empty()) out = (dir / (job.name + suffix)).string();
     };

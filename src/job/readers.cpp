@@ -19,22 +19,10 @@ bool given(const Settings::Entry& e) {
 }
 
 void check_given(const ReaderSpec& spec, const Settings& settings) {
-  for (const auto& [key, e] : settings.entries()) {
-    if (!given(e)) continue;
-    const Setting* s = find_setting(key);
-    const std::string sec = key.substr(0, key.find('.'));
-    const Where where{"", 0, e.origin.source == "--set" ? "--set " + key : e.origin.source};
-    const auto& profile = spec.profile_sections;
-    if (std::find(profile.begin(), profile.end(), sec) != profile.end()) continue;
-    if (std::find(spec.sections.begin(), spec.sections.end(), sec) == spec.sections.end())
-      throw SettingError("`trellis " + spec.name + "` does not read [" + sec + "] settings", where);
-    if (s && !reader_reads(spec, *s)) {
-      UseContext use;
-      use.route = spec.name;
-      throw SettingError(
-          "`trellis " + spec.name + "` does not use " + key + ": " + unused_reason(*s, use), where);
-    }
-  }
+  for (const auto& [key, e] : settings.entries())
+    if (given(e))
+      check_reader_setting(spec, key,
+                           {"", 0, e.origin.source == "--set" ? "--set " + key : e.origin.source});
 }
 
 // The job's files, checked before anything is read (core/run_files.hpp).
@@ -58,39 +46,46 @@ const std::vector<ReaderSpec>& reader_specs() {
   // (analyze).
   const std::vector<std::string>& machine = machine_sections();
   static const std::vector<ReaderSpec> table = {
-      {"check",
-       {"check", "read", "nozzle", "lattice", "run"},
-       machine,
-       &routes::reader_check,
-       "the print",
-       "the lattice"},
-      {"analyze",
-       {"analyze", "read", "run"},
-       {"laser", "scan", "timing"},
-       &routes::reader_analyze,
-       "the G-code",
-       "the design"},
-      {"compare",
-       {"analyze", "read", "run"},
-       {},
-       &routes::reader_compare,
-       "the G-code",
-       "the design"},
-      {"view",
-       {"view", "check", "read", "nozzle", "lattice", "run"},
-       machine,
-       &routes::reader_view,
-       "the file to show",
-       "the design (--design)",
-       "the HTML (-o)"},
-      {"render",
-       {"render", "read", "run"},
-       machine,
-       &routes::reader_render,
-       "the toolpath",
-       nullptr,
-       "the PNG (-o)",
-       true},
+      {.name = "check",
+       .sections = {"check", "read", "nozzle", "lattice", "run"},
+       .profile_sections = machine,
+       .run = &routes::reader_check,
+       .print_role = "the print",
+       .design_role = "the lattice",
+       .report = true,
+       .preview = true},
+      {.name = "analyze",
+       .sections = {"analyze", "read", "run"},
+       .profile_sections = {"laser", "scan", "timing"},
+       .run = &routes::reader_analyze,
+       .print_role = "the G-code",
+       .design_role = "the design",
+       .report = true,
+       .preview = true},
+      {.name = "compare",
+       .sections = {"analyze", "read", "run"},
+       .profile_sections = {},
+       .run = &routes::reader_compare,
+       .print_role = "the G-code",
+       .design_role = "the design",
+       .report = true,
+       .preview = true},
+      {.name = "view",
+       .sections = {"view", "check", "read", "nozzle", "lattice", "run"},
+       .profile_sections = machine,
+       .run = &routes::reader_view,
+       .print_role = "the file to show",
+       .design_role = "the design (--design)",
+       .output_role = "the HTML (-o)",
+       .output_suffix = ".html"},
+      {.name = "render",
+       .sections = {"render", "read", "run"},
+       .profile_sections = machine,
+       .run = &routes::reader_render,
+       .print_role = "the toolpath",
+       .output_role = "the PNG (-o)",
+       .output_per_layer = true,
+       .output_suffix = ".png"},
   };
   return table;
 }
@@ -103,6 +98,41 @@ const ReaderSpec& reader_spec(const std::string& name) {
   }
   throw SettingError("unknown reader '" + name + "' (expected one of " + all + ")",
                      {"", 0, "route"});
+}
+
+bool is_reader(const std::string& route) {
+  const auto& table = reader_specs();
+  return std::any_of(table.begin(), table.end(),
+                     [&](const ReaderSpec& r) { return r.name == route; });
+}
+
+void check_reader_setting(const ReaderSpec& spec, const std::string& key, const Where& where) {
+  const Setting* s = find_setting(key);
+  const std::string sec = key.substr(0, key.find('.'));
+  const auto& profile = spec.profile_sections;
+  if (std::find(profile.begin(), profile.end(), sec) != profile.end()) return;
+  if (std::find(spec.sections.begin(), spec.sections.end(), sec) == spec.sections.end())
+    throw SettingError("`trellis " + spec.name + "` does not read [" + sec + "] settings", where);
+  if (s && !reader_reads(spec, *s)) {
+    UseContext use;
+    use.route = spec.name;
+    throw SettingError(
+        "`trellis " + spec.name + "` does not use " + key + ": " + unused_reason(*s, use), where);
+  }
+}
+
+ReadJob reader_job(const Job& job) {
+  ReadJob r;
+  r.route = job.route;
+  r.prints = job.inputs;
+  if (!job.input.empty()) r.prints.insert(r.prints.begin(), job.input);
+  r.design = job.design;
+  r.machine = job.machine;
+  r.output = job.output;
+  r.report = job.report;
+  r.preview = job.preview;
+  r.settings = job.settings;
+  return r;
 }
 
 bool reader_reads(const ReaderSpec& reader, const Setting& setting) {

@@ -1,4 +1,5 @@
-// The planners' reports: GIPPO and Euler (plan_report_json), AERO (aero_report_json).
+// The planners' reports: GIPPO and Euler (plan_report_json), AERO (aero_report_json), GIPPO's
+// robustness over seeds (gippo_robustness_json).
 #include <algorithm>
 #include <nlohmann/json.hpp>
 #include <numeric>
@@ -151,6 +152,25 @@ std::string aero_report_json(const AeroResult& r, const AeroParams& p, const Dia
   for (const auto& m : diag.messages()) messages.push_back(m.kind + ": " + m.text);
   w["messages"] = messages;
   j["warnings"] = std::move(w);
+  return j.dump(2) + "\n";
+}
+
+std::string gippo_robustness_json(const GippoRobustness& r, const GippoParams& params) {
+  ordered_json j;
+  j["planner"] = "gippo";
+  j["mode"] = params.mode == GippoMode::Max ? "max" : "min";
+  j["iterations"] = params.iterations;
+  j["seeds"] = r.seeds.size();
+  j["first_seed"] = params.seed;
+  j["best_score"] = {{"mean", r.mean},
+                     {"sd", r.sd},
+                     {"cv_percent", r.cv_percent()},
+                     {"min", r.min},
+                     {"max", r.max}};
+  j["best_score_per_seed"] = r.best_scores;
+  j["worst_score_per_seed"] = r.worst_scores;
+  j["best_lts_per_seed"] = r.best_lts;
+  j["worst_lts_per_seed"] = r.worst_lts;
   return j.dump(2) + "\n";
 }
 

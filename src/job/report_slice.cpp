@@ -1,12 +1,13 @@
-// The slicers' reports: the planar and graded slice route (slice_report_json) and the non-planar
-// route (nonplanar_report_json).
+// The slicers' reports: the planar and graded slice route (slice_report_json), the non-planar
+// route (nonplanar_report_json) and the process pass's object in them (process_json).
 #include <cmath>
 #include <map>
 #include <nlohmann/json.hpp>
 
-#include "../slice/process_json.hpp"
+#include "process_json.hpp"
 #include "trellis/geom/polygon.hpp"
 #include "trellis/job/reports.hpp"
+#include "trellis/machine/gcode_writer.hpp"
 #include "trellis/toolpath/toolpath.hpp"
 
 namespace trellis {
@@ -250,6 +251,29 @@ std::string nonplanar_report_json(const NonplanarResult& r, const NonplanarParam
                   {"print_time_s", g->print_time_s},
                   {"bytes", g->bytes}};
   return j.dump(2) + "\n";
+}
+
+nlohmann::ordered_json process_json(const ProcessStats& stats, const ProcessOptions& options,
+                                    const GcodeStats* gcode) {
+  nlohmann::ordered_json jp;
+  jp["paths"] = stats.paths;
+  jp["pieces"] = stats.pieces;
+  jp["merged_under_min_length"] = stats.merged;
+  jp["short_paths_slowed"] = stats.short_slowed;
+  for (int k = 0; k < kProcessParams; ++k) {
+    const ProcessParamStats& s = stats.param[k];
+    if (!s.set) continue;
+    jp[to_string(static_cast<ProcessParam>(k))] = {
+        {"node", s.node},       {"step", options.step(static_cast<ProcessParam>(k))},
+        {"min", s.min},         {"max", s.max},
+        {"changes", s.changes}, {"max_deviation", s.max_deviation}};
+  }
+  if (gcode) {
+    jp["temperature_commands"] = gcode->temperature_changes;
+    jp["settle_time_s"] = gcode->settle_time_s;
+    jp["fan_commands"] = gcode->fan_changes;
+  }
+  return jp;
 }
 
 }  // namespace trellis

@@ -2,6 +2,7 @@
 // run`, the job loader, Python, sharding and merging all read it; adding a route is adding a row
 // here and its functions in routes_*.cpp (docs/architecture.md).
 #include <algorithm>
+#include <set>
 
 #include "routes.hpp"
 #include "trellis/core/error.hpp"
@@ -69,6 +70,7 @@ const std::vector<RouteSpec>& route_specs() {
        .input = "lattice",
        .sections = with_machine({"lattice2d", "lattice3d", "lattice", "layers", "onto", "plan",
                                  "gippo", "aero", "nozzle", "output", "run"}),
+       .choice = "plan.planner",
        .shards = true,
        .run = &routes::plan,
        .merge = &merge_plan,
@@ -112,6 +114,7 @@ const std::vector<RouteSpec>& route_specs() {
       // The angle test can be written as G-code: the machine sections.
       {.name = "surface",
        .sections = with_machine({"surface", "output", "run"}),
+       .choice = "surface.kind",
        .run = &routes::surface,
        .gcode = RouteSpec::Gcode::when_named_gcode,
        .output_suffix = ".stl",
@@ -139,6 +142,32 @@ const RouteSpec& route_spec(const std::string& name, const Where& where) {
 
 std::vector<std::string> route_sections(const std::string& route) {
   return route_spec(route).sections;
+}
+
+std::vector<std::pair<std::string, std::string>> route_keywords(const RouteSpec& route,
+                                                                const std::string& choice) {
+  Settings chosen;
+  if (!route.choice.empty() && !choice.empty())
+    chosen.set_text(route.choice, choice, {"keyword " + route.choice});
+  const Settings* choices = chosen.has(route.choice) ? &chosen : nullptr;
+  std::vector<std::pair<std::string, std::string>> out;
+  std::set<std::string> taken;
+  // The route's own section first: its flags win over another section's of the same name. A
+  // keyword names one key whatever the choice (plan's seed is plan.seed, which euler does not
+  // use, never lattice2d.seed): the choice only leaves keywords out.
+  for (const bool own : {true, false})
+    for (const Setting& s : all_settings()) {
+      if (s.flag.empty() || s.key == route.choice || (s.section() == route.name) != own ||
+          std::find(route.sections.begin(), route.sections.end(), s.section()) ==
+              route.sections.end() ||
+          !route_uses(s, route.name))
+        continue;
+      std::string name = s.flag;
+      std::replace(name.begin(), name.end(), '-', '_');
+      if (taken.insert(name).second && (!choices || route_uses(s, route.name, choices)))
+        out.emplace_back(name, s.key);
+    }
+  return out;
 }
 
 void require_shards(const RouteSpec& route, const Where& where) {

@@ -12,7 +12,7 @@
 #include <optional>
 #include <set>
 
-#include "../slice/process_json.hpp"
+#include "process_json.hpp"
 #include "routes.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"

@@ -9,7 +9,6 @@
 #include <bit>
 #include <cassert>
 #include <cmath>
-#include <nlohmann/json.hpp>
 
 #include "trellis/core/error.hpp"
 #include "trellis/core/rng.hpp"
@@ -347,25 +346,6 @@ GippoRobustness gippo_robustness(const Graph& g, const GippoParams& params, int 
   r.min = *std::min_element(r.best_scores.begin(), r.best_scores.end());
   r.max = *std::max_element(r.best_scores.begin(), r.best_scores.end());
   return r;
-}
-
-std::string gippo_robustness_json(const GippoRobustness& r, const GippoParams& params) {
-  nlohmann::ordered_json j;
-  j["planner"] = "gippo";
-  j["mode"] = params.mode == GippoMode::Max ? "max" : "min";
-  j["iterations"] = params.iterations;
-  j["seeds"] = r.seeds.size();
-  j["first_seed"] = params.seed;
-  j["best_score"] = {{"mean", r.mean},
-                     {"sd", r.sd},
-                     {"cv_percent", r.cv_percent()},
-                     {"min", r.min},
-                     {"max", r.max}};
-  j["best_score_per_seed"] = r.best_scores;
-  j["worst_score_per_seed"] = r.worst_scores;
-  j["best_lts_per_seed"] = r.best_lts;
-  j["worst_lts_per_seed"] = r.worst_lts;
-  return j.dump(2) + "\n";
 }
 
 }  // namespace trellis

@@ -714,14 +714,18 @@ std::string unused_reason(const Setting& s, const UseContext& use) {
   return "";
 }
 
-bool route_uses(const Setting& s, const std::string& route) {
+bool route_uses(const Setting& s, const std::string& route, const Settings* choices) {
   if (s.when.empty()) return true;
   UseContext use;
   use.route = route;
+  use.settings = choices;
   for (const auto& term : split_on(s.when, "; ")) {
     const auto alts = split_on(term, " or ");
-    const bool only_route = std::all_of(alts.begin(), alts.end(), [](const std::string& a) {
-      return a.rfind("route=", 0) == 0 || a.rfind("route!=", 0) == 0;
+    const bool only_route = std::all_of(alts.begin(), alts.end(), [&](const std::string& a) {
+      if (a.rfind("route=", 0) == 0 || a.rfind("route!=", 0) == 0) return true;
+      const std::size_t op = a.find_first_of("!=>");
+      return choices && op != std::string::npos && a[0] != '@' && a[0] != '!' &&
+             choices->has(a.substr(0, op));
     });
     if (only_route && !unused_reason(Setting{.key = s.key, .when = term}, use).empty())
       return false;

@@ -10,7 +10,6 @@
 #include <cmath>
 #include <exception>
 
-#include "process_json.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/machine/gcode_writer.hpp"
 #include "trellis/slice/pipeline.hpp"
@@ -499,29 +498,6 @@ std::vector<std::pair<std::string, std::string>> process_warnings(const ProcessS
             st.param[static_cast<int>(ProcessParam::Speed)].node, st.short_slowed,
             o.short_path_segments, fmt_num(o.short_path_factor)));
   return out;
-}
-
-nlohmann::ordered_json process_json(const ProcessStats& stats, const ProcessOptions& options,
-                                    const GcodeStats* gcode) {
-  nlohmann::ordered_json jp;
-  jp["paths"] = stats.paths;
-  jp["pieces"] = stats.pieces;
-  jp["merged_under_min_length"] = stats.merged;
-  jp["short_paths_slowed"] = stats.short_slowed;
-  for (int k = 0; k < kProcessParams; ++k) {
-    const ProcessParamStats& s = stats.param[k];
-    if (!s.set) continue;
-    jp[to_string(static_cast<ProcessParam>(k))] = {
-        {"node", s.node},       {"step", options.step(static_cast<ProcessParam>(k))},
-        {"min", s.min},         {"max", s.max},
-        {"changes", s.changes}, {"max_deviation", s.max_deviation}};
-  }
-  if (gcode) {
-    jp["temperature_commands"] = gcode->temperature_changes;
-    jp["settle_time_s"] = gcode->settle_time_s;
-    jp["fan_commands"] = gcode->fan_changes;
-  }
-  return jp;
 }
 
 }  // namespace trellis

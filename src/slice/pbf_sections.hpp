@@ -78,19 +78,35 @@ inline void evaluate_grid(Evaluator& f, const Vec2* p, std::size_t w, std::size_
   f.values_grid(xs.data(), w, ys.data(), rows, z, out);
 }
 
+// What the plane functions below share: the thread's context, the plane's height, and the
+// answers that come from the context alone — the sheet's period, whether the part is the
+// repeating sheet alone over a rectangle, bounds of the part prefetched through its cache.
+class CtxSection : public PlaneFunction {
+ public:
+  CtxSection(Ctx& ctx, double z) : ctx_(ctx), z_(z) {}
+  void prefetch_bounds(const Vec2* lo, const Vec2* hi, std::size_t n) override {
+    ctx_.bounds.prefetch(lo, hi, n);
+  }
+  Vec2 period() const override { return ctx_.period; }
+  bool periodic(Vec2 lo, Vec2 hi) override { return ctx_.periodic(lo, hi, z_); }
+
+ protected:
+  Ctx& ctx_;
+  double z_;
+};
+
 // The joint region's field at height z: negative where the sheet is wider than a thin wall
 // (thin_multiple·D), or shallower than the minimum inclination, or inside a solid part; positive
 // outside the part. Only its sign matters (crossings are refined on it).
-class JointSection : public PlaneFunction {
+class JointSection : public CtxSection {
  public:
   // invert: the thin-wall region instead (inside the part, not a joint).
   JointSection(Ctx& ctx, const PbfDesign& d, const PbfOptions& o, double c_const, double z,
                bool invert = false)
-      : ctx_(ctx),
+      : CtxSection(ctx, z),
         d_(d),
         o_(o),
         c_(c_const),
-        z_(z),
         cos_min_(std::cos(o.min_inclination * kDeg)),
         invert_(invert),
         b_(invert ? ctx.thin_buffers : ctx.joint_buffers) {}
@@ -301,28 +317,22 @@ class JointSection : public PlaneFunction {
   Interval bound(Vec2 lo, Vec2 hi) override {
     return {ctx_.bounds.get(ctx_.part, lo, hi).lo, std::numeric_limits<double>::infinity()};
   }
-  void prefetch_bounds(const Vec2* lo, const Vec2* hi, std::size_t n) override {
-    ctx_.bounds.prefetch(lo, hi, n);
-  }
   // The measure is the part's value or terms of φ's gradient and c: it repeats where the part
-  // is the sheet alone.
-  Vec2 period() const override { return ctx_.period; }
-  bool periodic(Vec2 lo, Vec2 hi) override { return ctx_.periodic(lo, hi, z_); }
+  // is the sheet alone (CtxSection's period and periodic).
 
  private:
-  Ctx& ctx_;
   const PbfDesign& d_;
   const PbfOptions& o_;
-  double c_, z_, cos_min_;
+  double c_, cos_min_;
   bool invert_, cache_ = false;
   std::size_t stride_ = 0;
   LayerGrid* grid_ = nullptr;
   SampleBuffers& b_;
 };
 
-class PartSection : public PlaneFunction {
+class PartSection : public CtxSection {
  public:
-  PartSection(Ctx& ctx, LayerGrid& grid, double z) : ctx_(ctx), grid_(grid), z_(z) {}
+  PartSection(Ctx& ctx, LayerGrid& grid, double z) : CtxSection(ctx, z), grid_(grid) {}
   void sample(const Vec2* p, double* out, std::size_t n) override {
     run(p, out, n, [&](std::size_t i) { return grid_.node(p[i]); });
   }
@@ -374,22 +384,19 @@ class PartSection : public PlaneFunction {
   }
   void prefetch_bounds(const Vec2* lo, const Vec2* hi, std::size_t n) override {
     if (n > 0 && hi[0].x - lo[0].x < shared_ && hi[0].y - lo[0].y < shared_) return;
-    ctx_.bounds.prefetch(lo, hi, n);
+    CtxSection::prefetch_bounds(lo, hi, n);
   }
-  Vec2 period() const override { return ctx_.period; }
-  bool periodic(Vec2 lo, Vec2 hi) override { return ctx_.periodic(lo, hi, z_); }
 
  private:
-  Ctx& ctx_;
   LayerGrid& grid_;
-  double z_, shared_ = 0;
+  double shared_ = 0;
   SampleBuffers& b_ = ctx_.part_buffers;
 };
 
 // φ at z, with blocks the part does not reach skipped (their mid-curve is clipped away anyway).
-class MidSection : public PlaneFunction {
+class MidSection : public CtxSection {
  public:
-  MidSection(Ctx& ctx, double z) : ctx_(ctx), z_(z) {}
+  MidSection(Ctx& ctx, double z) : CtxSection(ctx, z) {}
   void sample(const Vec2* p, double* out, std::size_t n) override {
     b_.pts.resize(n);
     for (std::size_t i = 0; i < n; ++i) b_.pts[i] = {p[i].x, p[i].y, z_};
@@ -404,17 +411,10 @@ class MidSection : public PlaneFunction {
       return {1, std::numeric_limits<double>::infinity()};
     return ctx_.phi.bound(plane_box(lo, hi, z_));
   }
-  void prefetch_bounds(const Vec2* lo, const Vec2* hi, std::size_t n) override {
-    ctx_.bounds.prefetch(lo, hi, n);
-  }
   // φ repeats everywhere; the blocks skipped (outside the part) repeat where the part is the
-  // sheet alone.
-  Vec2 period() const override { return ctx_.period; }
-  bool periodic(Vec2 lo, Vec2 hi) override { return ctx_.periodic(lo, hi, z_); }
+  // sheet alone (CtxSection's period and periodic).
 
  private:
-  Ctx& ctx_;
-  double z_;
   SampleBuffers& b_ = ctx_.mid_buffers;
 };
 

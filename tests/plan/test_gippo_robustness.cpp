@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "trellis/core/error.hpp"
+#include "trellis/job/reports.hpp"
 #include "trellis/lattice/atlas.hpp"
 #include "trellis/plan/gippo.hpp"
 

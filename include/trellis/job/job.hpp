@@ -5,7 +5,9 @@
 //
 // Job file:
 //   [job]   route = "plan" | "lattice2d" | "lattice3d" | "gcode" | "slice" | "pbf" |
-//                   "nonplanar" | "surface"
+//                   "nonplanar" | "surface", or a reader: "check" | "analyze" | "compare" |
+//                   "view" | "render" (job/readers.hpp; inputs = [prints], design = "file",
+//                   output, report, preview; it runs as its command does and embeds no job)
 //           name (default: the file's stem), output_dir (default "out/<name>"),
 //           input = "file" (lattice, toolpath, design, surface; optional where the route
 //           generates its input), machine = "profile.toml",
@@ -18,6 +20,7 @@
 #pragma once
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "trellis/core/diagnostics.hpp"
@@ -47,7 +50,11 @@ struct PlatePart {
 struct Job {
   std::string route;
   std::string name = "job";
-  std::string input;    // path; empty where the route generates its input
+  std::string input;  // path; empty where the route generates its input
+  // A reader route's (job/readers.hpp: route = "analyze", ...): the prints it reads after
+  // `input` (any number: `inputs = ["a.gcode", "b.gcode"]`) and the design they are read against.
+  std::vector<std::string> inputs;
+  std::string design;
   std::string machine;  // profile the settings were read from (provenance)
   std::string command;  // the command line that made it (recorded in reports)
   // Outputs; empty = not written.
@@ -163,8 +170,12 @@ struct RouteSpec {
   std::string input;                  // what its input is ("lattice", "toolpath", "design",
                                       // "surface"); empty when it generates its design
   std::vector<std::string> sections;  // the settings sections it reads
-  bool shards = false;                // `trellis run --shard K/N`, Python run_shard
-  bool plates = false;                // [[part]] build plates
+  // A choice setting that names what the route makes (plan: plan.planner), taken as the first
+  // argument of its Python function (and its CLI command's positional): the keywords offered are
+  // those the chosen value uses (route_keywords). Empty: none.
+  std::string choice;
+  bool shards = false;   // `trellis run --shard K/N`, Python run_shard
+  bool plates = false;   // [[part]] build plates
   bool streams = false;  // writes its layers in bounded memory when its output is alone
   // With the context run_job builds (core/run_context.hpp; its diagnostics never null).
   JobResult (*run)(const Job&, const Config&, const RunContext&) = nullptr;
@@ -196,6 +207,13 @@ const std::vector<RouteSpec>& route_specs();
 // The route called `name`; SettingError naming the routes there are otherwise (`where` names the
 // place that asked: the job file's route, a command).
 const RouteSpec& route_spec(const std::string& name, const Where& where = {"", 0, "job.route"});
+// The keyword arguments of the route's Python function, each with its setting key, in the
+// schema's order: the flags (`-` as `_`) of the settings of its sections that the route uses —
+// with `choice` (a value of its RouteSpec::choice setting; empty: any) those that value uses;
+// the choice setting itself is the function's first argument, not a keyword.
+// Where two sections share a flag (seed, density, cell), the route's own section wins.
+std::vector<std::pair<std::string, std::string>> route_keywords(const RouteSpec& route,
+                                                                const std::string& choice = "");
 // SettingError (exit 2) unless the route shards, naming those that do (`where`: the flag).
 void require_shards(const RouteSpec& route, const Where& where);
 

@@ -3,7 +3,8 @@
 // row of reader_specs(): its name, the settings sections it reads (their flags, `--set` and
 // Python keywords come from the schema, filtered by each setting's `route=` condition) and the
 // one function that runs it. The CLI's commands and Python's check/analyze build a ReadJob and
-// call run_reader, so the glue (settings → nozzle → design → print → check) exists once.
+// call run_reader, so the glue (settings → nozzle → design → print → check) exists once. A job
+// file may name a reader as its route (`trellis run`, run_job): reader_job makes its ReadJob.
 //
 // A sibling of the route table (job.hpp RouteSpec), not rows of it: a route makes a lattice or a
 // toolpath from at most one input, embeds its Job in every output (rerun, merge) and may shard or
@@ -49,14 +50,31 @@ struct ReaderSpec {
   const char* output_role = nullptr;
   // Without render.layer the output is the prefix of one file per layer, not a file.
   bool output_per_layer = false;
+  // Run from a job file (`trellis run`, route = NAME): it writes a report JSON (the job's
+  // default report, NAME.report.json), its output's default name (the job's name + this; null:
+  // it has no output), and whether it writes previews.
+  bool report = false;
+  const char* output_suffix = nullptr;
+  bool preview = false;  // it writes a folder of PNGs when asked (--preview)
 };
 
 const std::vector<ReaderSpec>& reader_specs();
+// Whether `route` names a reader (a job file's route may: `trellis run` runs it as its command).
+bool is_reader(const std::string& route);
 // The reader called `name`; SettingError naming those there are otherwise.
 const ReaderSpec& reader_spec(const std::string& name);
 // The settings a reader takes: those of its sections its `route=` conditions allow (flags,
 // `--set`, Python keywords).
 bool reader_reads(const ReaderSpec& reader, const Setting& setting);
+
+// SettingError at `where` unless the reader takes `key`: a setting of its own sections that its
+// `route=` conditions allow, or of the profile sections it reads.
+void check_reader_setting(const ReaderSpec& reader, const std::string& key, const Where& where);
+
+// A job file's reader run (route = a reader's name) as a ReadJob: its inputs are the prints (or
+// its one input), its design, machine, output, report and preview as they are, its settings
+// those of the file and --set (checked when the job was read).
+ReadJob reader_job(const Job& job);
 
 // Checks the settings given to the job (one the reader does not read is refused, naming it) and
 // its files (core/run_files.hpp), loads its profile below them, then runs the reader.

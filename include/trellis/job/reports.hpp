@@ -8,6 +8,7 @@
 
 #include "trellis/core/diagnostics.hpp"
 #include "trellis/plan/aero.hpp"
+#include "trellis/plan/gippo.hpp"
 #include "trellis/plan/plan.hpp"
 #include "trellis/slice/nonplanar.hpp"
 #include "trellis/slice/pipeline.hpp"
@@ -24,6 +25,9 @@ struct ReportContext {
 
 std::string plan_report_json(const PlanResult& result, const PlanParams& params,
                              const Diagnostics& diag, const ReportContext& context);
+
+// GIPPO's robustness run (gippo_robustness): the spread of the best score over the seeds.
+std::string gippo_robustness_json(const GippoRobustness& r, const GippoParams& params);
 
 struct AeroReportInput {
   std::string lattice;

@@ -64,7 +64,6 @@ struct GippoRobustness {
 // Throws SettingError for seeds < 1. `long_nodes`: a path of that many nodes is long for LTS.
 GippoRobustness gippo_robustness(const Graph& g, const GippoParams& params, int seeds,
                                  std::size_t long_nodes = 5, const RunContext& context = {});
-std::string gippo_robustness_json(const GippoRobustness& r, const GippoParams& params);
 
 // One GIPPO iteration (exposed for tests and benchmarks).
 PathSet gippo_iteration(const Graph& g, GippoMode mode, std::uint64_t seed, std::uint64_t k);

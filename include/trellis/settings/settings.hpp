@@ -123,7 +123,9 @@ struct UseContext {
 std::string unused_reason(const Setting& s, const UseContext& use);
 // Whether `route` uses `s` at all: every term of its `when` that names only the route holds (the
 // other terms depend on the run). The reader routes' flags and their --set follow it.
-bool route_uses(const Setting& s, const std::string& route);
+// With `choices` (settings fixed before the run, such as plan.planner for Python's
+// plan(planner, ...)), terms that name only the route and those settings count too.
+bool route_uses(const Setting& s, const std::string& route, const Settings* choices = nullptr);
 // `when` as words for documentation ("lattice2d.pattern = voronoi; G-code is written").
 std::string when_text(const std::string& when);
 
