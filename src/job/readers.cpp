@@ -3,6 +3,8 @@
 #include "trellis/job/readers.hpp"
 
 #include <algorithm>
+#include <cctype>
+#include <filesystem>
 
 #include "routes.hpp"
 #include "trellis/core/error.hpp"
@@ -37,8 +39,36 @@ void check_given(const ReaderSpec& spec, const Settings& settings) {
   }
 }
 
+std::string lower_extension(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  return ext;
+}
+
+// The output and the report are named for what is written in them (RouteSpec::formats).
+void check_names(const ReaderSpec& spec, const ReadJob& job, const Config& c) {
+  const auto require = [&](const std::string& path, const std::vector<std::string>& formats,
+                           const char* what, const char* flag) {
+    if (path.empty() || formats.empty()) return;
+    const std::string ext = lower_extension(path);
+    std::string list;
+    for (std::size_t i = 0; i < formats.size(); ++i) {
+      if (ext == formats[i]) return;
+      list += (i == 0 ? "" : i + 1 == formats.size() ? " or " : ", ") + formats[i];
+    }
+    throw SettingError("'" + path + "' is named " + (ext.empty() ? "without an extension" : ext) +
+                           ", but `trellis " + spec.name + "` writes " + what + " as " + list +
+                           ": name it so",
+                       {"", 0, flag});
+  };
+  if (!(spec.output_per_layer && c.read.layer < 0))
+    require(job.output, spec.output_formats, "its output", "--output");
+  require(job.report, {".json"}, "the report (JSON)", "--report");
+}
+
 // The job's files, checked before anything is read (core/run_files.hpp).
 void check_files(const ReaderSpec& spec, const ReadJob& job, const Config& c) {
+  check_names(spec, job, c);
   RunFiles files(c.follow_symlinks);
   for (const auto& f : job.prints) files.input(spec.print_role, f);
   if (spec.design_role) files.input(spec.design_role, job.design);
@@ -66,7 +96,7 @@ const std::vector<ReaderSpec>& reader_specs() {
        "the lattice"},
       {"analyze",
        {"analyze", "read", "run"},
-       {"laser", "scan", "timing"},
+       {"laser", "lasers", "scan", "timing"},
        &routes::reader_analyze,
        "the G-code",
        "the design"},
@@ -82,7 +112,9 @@ const std::vector<ReaderSpec>& reader_specs() {
        &routes::reader_view,
        "the file to show",
        "the design (--design)",
-       "the HTML (-o)"},
+       "the HTML (-o)",
+       false,
+       {".html", ".htm"}},
       {"render",
        {"render", "read", "run"},
        machine,
@@ -90,7 +122,8 @@ const std::vector<ReaderSpec>& reader_specs() {
        "the toolpath",
        nullptr,
        "the PNG (-o)",
-       true},
+       true,
+       {".png"}},
   };
   return table;
 }

@@ -49,6 +49,9 @@ struct ReaderSpec {
   const char* output_role = nullptr;
   // Without render.layer the output is the prefix of one file per layer, not a file.
   bool output_per_layer = false;
+  // The extensions its output (-o) may have (case-insensitive), each the format it is written in;
+  // an output named otherwise, or a report not named .json, is refused before anything is read.
+  std::vector<std::string> output_formats;
 };
 
 const std::vector<ReaderSpec>& reader_specs();
