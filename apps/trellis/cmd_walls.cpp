@@ -2,6 +2,7 @@
 
 #include "commands.hpp"
 #include "trellis/core/error.hpp"
+#include "trellis/core/file.hpp"
 #include "trellis/geom/mesh.hpp"
 #include "trellis/geom/mesh_io.hpp"
 #include "trellis/lattice/io.hpp"
@@ -35,7 +36,8 @@ void add_walls(CLI::App& app) {
       ->capture_default_str();
   add_budget_flags(cmd, o->budget);
   cmd->callback([o] {
-    if (!is_mesh_output(o->output))  // refused before any work, nothing written
+    if (!is_mesh_output(o->output) &&
+        !is_stream_output(o->output))  // refused before any work, nothing written
       throw SettingError(
           "'" + o->output + "': the walls are written as .stl (binary STL), .obj or .3mf",
           {"", 0, "--output"});

@@ -324,6 +324,7 @@ void write_mesh(const std::string& path, const TriangleMesh& mesh, const std::st
   if (ext == "stl") return write_file_atomic(path, mesh_to_stl(mesh, name));
   if (ext == "obj") return write_file_atomic(path, mesh_to_obj(mesh, name));
   if (ext == "3mf") return write_3mf(path, mesh);
+  if (is_stream_output(path)) return write_file_atomic(path, mesh_to_stl(mesh, name));
   throw SettingError("'" + path + "': a mesh is written as .stl (binary STL), .obj or .3mf",
                      {"", 0, what});
 }

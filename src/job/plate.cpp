@@ -432,6 +432,7 @@ JobResult merge_shards(const std::vector<std::string>& manifests, const std::str
   JobResult out;
   OutputBatch batch;
   const RouteSpec& route = route_spec(job.route, {first_path, 0, "route"});
+  files.check();
   {
     // The merged output is the route's main output (a plan's G-code): named for its format.
     Job named = job;
@@ -439,7 +440,6 @@ JobResult merge_shards(const std::vector<std::string>& manifests, const std::str
     named.*route.main_output = output;
     check_output_names(named, c);
   }
-  files.check();
   const fs::path dir = fs::path(output).parent_path();
   if (!dir.empty()) create_output_directories(dir.string());
   require_shards(route, {first_path, 0, "route"});

@@ -8,6 +8,7 @@
 
 #include "routes.hpp"
 #include "trellis/core/error.hpp"
+#include "trellis/core/file.hpp"
 #include "trellis/core/run_files.hpp"
 #include "trellis/machine/toolpath_3mf.hpp"
 
@@ -49,7 +50,7 @@ std::string lower_extension(const std::string& path) {
 void check_names(const ReaderSpec& spec, const ReadJob& job, const Config& c) {
   const auto require = [&](const std::string& path, const std::vector<std::string>& formats,
                            const char* what, const char* flag) {
-    if (path.empty() || formats.empty()) return;
+    if (path.empty() || formats.empty() || is_stream_output(path)) return;
     const std::string ext = lower_extension(path);
     std::string list;
     for (std::size_t i = 0; i < formats.size(); ++i) {
@@ -68,7 +69,6 @@ void check_names(const ReaderSpec& spec, const ReadJob& job, const Config& c) {
 
 // The job's files, checked before anything is read (core/run_files.hpp).
 void check_files(const ReaderSpec& spec, const ReadJob& job, const Config& c) {
-  check_names(spec, job, c);
   RunFiles files(c.follow_symlinks);
   for (const auto& f : job.prints) files.input(spec.print_role, f);
   if (spec.design_role) files.input(spec.design_role, job.design);
@@ -78,6 +78,7 @@ void check_files(const ReaderSpec& spec, const ReadJob& job, const Config& c) {
   files.output("the report (--report)", job.report);
   files.output_folder("the preview folder (--preview)", job.preview);
   files.check();
+  check_names(spec, job, c);
 }
 
 }  // namespace

@@ -484,7 +484,7 @@ namespace {
 void require_format(const std::string& path, const std::vector<std::string>& formats,
                     const Config& c, const std::string& route, const std::string& what,
                     const std::string& key) {
-  if (path.empty() || formats.empty()) return;
+  if (path.empty() || formats.empty() || is_stream_output(path)) return;
   const std::string ext = lower_extension(path);
   std::string own = c.machine.file_extension;
   for (char& ch : own) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
@@ -569,8 +569,8 @@ JobResult run_job(const Job& job, Diagnostics& diag, const Progress& progress) {
   // running out of memory leaves the output folders as they were (core/file.hpp). Its files are
   // checked before anything is written, and its inputs are never written (core/run_files.hpp).
   OutputBatch batch;
-  check_output_names(job, c);
   job_files(job, c.follow_symlinks).check();
+  check_output_names(job, c);
   // Binary G-code for a machine without Prusa's firmware: refused before any work.
   for (const std::string* g : {&job.output, &job.gcode}) {
     const std::string ext = fs::path(*g).extension().string();

@@ -26,8 +26,9 @@ void write_3mf(const std::string& path, const TriangleMesh& mesh,
 // numbers) and one `f a b c` line per triangle (1-based, counter-clockwise).
 std::string mesh_to_obj(const TriangleMesh& mesh, const std::string& name = "trellis");
 // By extension (.stl binary, .obj, .3mf; case-insensitive), written atomically; `name` goes in
-// the STL header or the OBJ object. Any other extension: SettingError naming `what` (the flag or
-// key of the output) and the extensions a mesh is written as; nothing is written.
+// the STL header or the OBJ object; a stream (/dev/null, /dev/stdout: is_stream_output) gets STL.
+// Any other name: SettingError naming `what` (the flag or key of the output) and the extensions a
+// mesh is written as; nothing is written.
 void write_mesh(const std::string& path, const TriangleMesh& mesh, const std::string& name,
                 const std::string& what);
 // Whether write_mesh writes `path` (its extension is .stl, .obj or .3mf).
