@@ -39,7 +39,8 @@ void add_walls(CLI::App& app) {
     if (!is_mesh_output(o->output) &&
         !is_stream_output(o->output))  // refused before any work, nothing written
       throw SettingError(
-          "'" + o->output + "': the walls are written as .stl (binary STL), .obj or .3mf",
+          "'" + o->output +
+              "': `trellis walls` writes the walls as .stl (binary STL), .obj or .3mf: name it so",
           {"", 0, "--output"});
     RunFiles files(o->follow);
     files.input("the lattice", o->input);
