@@ -61,6 +61,7 @@ def main():
               "speed", "power", "temperature", "mixture"]:
         out.append(f"    {a}: np.ndarray")
     out += ["    layer_count: int", "    path_count: int", "    point_count: int", "    extrusion_length: float",
+            "    lasers: list[dict[str, float | bool]]",
             "    @staticmethod",
             "    def from_arrays(points: Any, path_offsets: Any = None, layer_offsets: Any = None, *, "
             "layer_z: Any = None,",

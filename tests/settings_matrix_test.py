@@ -105,6 +105,8 @@ TEXT = {
     "lasers.polygon_delay": ["20,90"],
     "lasers.laser_on_delay": ["5,20"],
     "lasers.laser_off_delay": ["5,20"],
+    "lasers.skywriting": ["false,true"],
+    "lasers.skywriting_time": ["100,200"],
     "pbf.core_hatch_rotation": ["10"],
     "pbf.upskin_hatch_rotation": ["10"],
     "pbf.downskin_hatch_rotation": ["10"],

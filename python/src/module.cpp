@@ -364,6 +364,34 @@ PYBIND11_MODULE(_trellis, m) {
                              })
       .def_property_readonly("extrusion_length", &Toolpath::extrusion_length)
       .def_readonly("source", &Toolpath::source)
+      .def_property_readonly(
+          "lasers",
+          [](const Toolpath& t) {
+            // The lasers the build file declares (Toolpath::lasers), laser 1 first: each a dict of
+            // the [lasers] keys.
+            py::list out;
+            for (const LaserParameters& l : t.lasers) {
+              const ScanTiming& s = l.timing;
+              py::dict d;
+              d["contour_power"] = l.contour_power;
+              d["contour_speed"] = l.contour_speed;
+              d["hatch_power"] = l.hatch_power;
+              d["hatch_speed"] = l.hatch_speed;
+              d["spot_diameter"] = l.spot_diameter;
+              d["jump_speed"] = s.jump_speed;
+              d["jump_delay"] = s.jump_delay;
+              d["mark_delay"] = s.mark_delay;
+              d["polygon_delay"] = s.polygon_delay;
+              d["laser_on_delay"] = s.laser_on_delay;
+              d["laser_off_delay"] = s.laser_off_delay;
+              d["skywriting"] = s.skywriting;
+              d["skywriting_time"] = s.skywriting_time;
+              out.append(d);
+            }
+            return out;
+          },
+          "the lasers that differ as the build file declares them, laser 1 first (a dict each, "
+          "keyed as [lasers]); empty when it declares none")
       .def("arrays", &toolpath_arrays, "every point and path attribute as numpy arrays (one copy)")
       .def("to_json", [](const Toolpath& t) { return toolpath_to_json(t); })
       .def(

@@ -424,3 +424,23 @@ def test_library_errors_name_setting_keys_not_flags(tmp_path):
     assert "lower pbf.resolution" in str(e.value), e.value
     assert "--" not in str(e.value), e.value
     assert not out.exists()
+
+
+def test_lasers_that_differ_in_every_format(tmp_path):
+    """Toolpath.lasers: the profile's lasers (skywriting per laser too) on the route's toolpath,
+    and read back equal from the toolpath JSON, the .cli and the 3MF."""
+    unequal = os.path.join(ROOT, "profiles", "pbf_316l_2laser_unequal.toml")
+    r = trellis.pbf(tmp_path / "u.cli", machine=unequal, size=(5, 5, 0.2), toolpath=tmp_path / "u.json",
+                    set={"lasers.skywriting": [False, True], "lasers.skywriting_time": [120, 180]})
+    lasers = r.toolpath.lasers
+    assert len(lasers) == 2
+    assert [l["hatch_power"] for l in lasers] == [150, 100]
+    assert [l["mark_delay"] for l in lasers] == [80, 100]
+    assert [l["skywriting"] for l in lasers] == [False, True]
+    assert [l["skywriting_time"] for l in lasers] == [120, 180]
+    trellis.pbf(tmp_path / "u.3mf", machine=unequal, size=(5, 5, 0.2),
+                set={"lasers.skywriting": [False, True], "lasers.skywriting_time": [120, 180]})
+    for name in ("u.json", "u.cli", "u.3mf"):
+        assert trellis.read_toolpath(tmp_path / name).lasers == lasers, name
+    # One laser: nothing declared.
+    assert trellis.pbf(size=(2.5, 2.5, 0.2)).toolpath.lasers == []

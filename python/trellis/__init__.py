@@ -133,6 +133,11 @@ class Toolpath:
     path_count = property(lambda self: self._core.path_count)
     point_count = property(lambda self: self._core.point_count)
     extrusion_length = property(lambda self: self._core.extrusion_length)
+    lasers = property(lambda self: self._core.lasers,
+                      doc="The lasers that differ as the build declares them (pbf with [lasers], a "
+                          ".cli, 3MF or toolpath JSON that says them), laser 1 first: a dict each "
+                          "with the [lasers] keys (powers, speeds, spot, jump speed, delays, "
+                          "skywriting); empty when none are declared.")
 
     def path(self, i):
         """The points of path i, an (n, 3) view into ``points``."""

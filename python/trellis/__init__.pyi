@@ -42,6 +42,7 @@ class Toolpath:
     path_count: int
     point_count: int
     extrusion_length: float
+    lasers: list[dict[str, float | bool]]
     @staticmethod
     def from_arrays(points: Any, path_offsets: Any = None, layer_offsets: Any = None, *, layer_z: Any = None,
                     role: Any = 'strut', tool: Any = 0, width: Any = 0.0, height: Any = 0.0, speed: Any = 0.0,

@@ -564,6 +564,10 @@ void disarm_watchdog() {
   ::setitimer(ITIMER_REAL, &t, nullptr);
 }
 
+bool is_stream_output(const std::string& path) {
+  return !path.empty() && detail::inspect_path(path).kind == detail::PathKind::Stream;
+}
+
 namespace detail {
 
 void guard_inputs(const std::vector<std::pair<FileId, std::string>>& inputs) {

@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <iterator>
 #include <map>
 
 #include "mesh_3mf_module.hpp"
@@ -524,6 +525,32 @@ TriangleMesh read_3mf(const std::string& path) {
 
 void write_3mf(const std::string& path, const TriangleMesh& mesh, const std::string& unit) {
   detail::module_table<Mesh3mfModule>("3mf").write_3mf(path, mesh, unit);
+}
+
+std::string mesh_to_obj(const TriangleMesh& mesh, const std::string& name) {
+  std::string out = "# Trellis\no " + (name.empty() ? std::string("trellis") : name) + "\n";
+  out.reserve(out.size() + mesh.vertices.size() * 40 + mesh.triangles.size() * 24);
+  auto back = std::back_inserter(out);
+  for (const Vec3& v : mesh.vertices) fmt::format_to(back, "v {} {} {}\n", v.x, v.y, v.z);
+  for (const auto& t : mesh.triangles)
+    fmt::format_to(back, "f {} {} {}\n", t[0] + 1, t[1] + 1, t[2] + 1);
+  return out;
+}
+
+bool is_mesh_output(const std::string& path) {
+  const std::string ext = lower_extension(path);
+  return ext == "stl" || ext == "obj" || ext == "3mf";
+}
+
+void write_mesh(const std::string& path, const TriangleMesh& mesh, const std::string& name,
+                const std::string& what) {
+  const std::string ext = lower_extension(path);
+  if (ext == "stl") return write_file_atomic(path, mesh_to_stl(mesh, name));
+  if (ext == "obj") return write_file_atomic(path, mesh_to_obj(mesh, name));
+  if (ext == "3mf") return write_3mf(path, mesh);
+  if (is_stream_output(path)) return write_file_atomic(path, mesh_to_stl(mesh, name));
+  throw SettingError("'" + path + "': a mesh is written as .stl (binary STL), .obj or .3mf",
+                     {"", 0, what});
 }
 
 TriangleMesh read_mesh(const std::string& path) {

@@ -15,6 +15,7 @@
 #include "trellis/machine/toolpath_3mf.hpp"
 #include "trellis/slice/pbf_analysis.hpp"
 #include "trellis/slice/pbf_lasers.hpp"
+#include "trellis/toolpath/json.hpp"
 
 namespace trellis {
 
@@ -57,14 +58,30 @@ nlohmann::ordered_json parameter_sets(const Toolpath& tp, const ScanTiming& timi
 
 }  // namespace
 
+bool is_laser_toolpath(const Toolpath& tp) {
+  if (!tp.lasers.empty()) return true;
+  for (const auto& l : tp.layers)
+    for (const auto& p : l.paths)
+      if (p.power > 0) return true;
+  return false;
+}
+
 JobResult analyze_build_file(const std::string& path, const std::string& design,
                              const LaserProfile& prof, std::string* report_json,
                              Diagnostics& diag) {
-  // A .cli, or a 3MF package with the Toolpath Extension: the same IR, the same measures.
+  // A .cli, a 3MF package with the Toolpath Extension or a toolpath JSON: the same IR, the same
+  // measures.
   std::string ext = std::filesystem::path(path).extension().string();
   for (char& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
-  const Toolpath tp =
-      ext == ".3mf" ? read_toolpath_3mf_file(path, &diag) : read_cli_file(path, &diag);
+  const Toolpath tp = ext == ".3mf"    ? read_toolpath_3mf_file(path, &diag)
+                      : ext == ".json" ? read_toolpath(path)
+                                       : read_cli_file(path, &diag);
+  return analyze_build_toolpath(tp, path, design, prof, report_json);
+}
+
+JobResult analyze_build_toolpath(const Toolpath& tp, const std::string& path,
+                                 const std::string& design, const LaserProfile& prof,
+                                 std::string* report_json) {
   std::size_t vectors = 0;
   for (const auto& l : tp.layers) vectors += l.paths.size();
   nlohmann::ordered_json j;

@@ -437,10 +437,17 @@ JobResult merge_shards(const std::vector<std::string>& manifests, const std::str
   const Config c = job.settings.config();
   JobResult out;
   OutputBatch batch;
+  const RouteSpec& route = route_spec(job.route, {first_path, 0, "route"});
   files.check();
+  {
+    // The merged output is the route's main output (a plan's G-code): named for its format.
+    Job named = job;
+    named.output.clear();
+    named.*route.main_output = output;
+    check_output_names(named, c);
+  }
   const fs::path dir = fs::path(output).parent_path();
   if (!dir.empty()) create_output_directories(dir.string());
-  const RouteSpec& route = route_spec(job.route, {first_path, 0, "route"});
   require_shards(route, {first_path, 0, "route"});
   const ShardLayers layers{first.contains("graded") ? first["graded"].dump() : std::string(),
                            outline_z, next};

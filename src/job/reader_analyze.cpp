@@ -146,9 +146,11 @@ std::string analysis_summary(const Analysis& a, double filament_diameter) {
   return out;
 }
 
-JobResult analyze_laser(const ReadJob& job, const Config& c, Diagnostics& diag) {
+JobResult analyze_laser(const ReadJob& job, const Config& c, Diagnostics& diag,
+                        const Toolpath* read = nullptr) {
   std::string json;
-  JobResult r = analyze_build_file(job.prints.at(0), job.design, c.laser, &json, diag);
+  JobResult r = read ? analyze_build_toolpath(*read, job.prints.at(0), job.design, c.laser, &json)
+                     : analyze_build_file(job.prints.at(0), job.design, c.laser, &json, diag);
   r.summary += "\n";
   r.report_json = json;
   if (!job.report.empty()) write_file_atomic(job.report, json);
@@ -160,6 +162,15 @@ JobResult analyze_laser(const ReadJob& job, const Config& c, Diagnostics& diag) 
 JobResult reader_analyze(const ReadJob& job, const Config& c, const RunContext& context) {
   Diagnostics& diag = *context.diagnostics;
   if (!job.print && is_laser_build_file(job.prints.at(0))) return analyze_laser(job, c, diag);
+  // A toolpath JSON of a laser build (pbf --toolpath) is timed as the build file would be: each
+  // laser with its own scanner.
+  if (!job.print && job.prints.size() == 1) {
+    std::string ext = std::filesystem::path(job.prints[0]).extension().string();
+    for (char& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+    if (ext == ".json")
+      if (const Toolpath tp = read_toolpath(job.prints[0]); is_laser_toolpath(tp))
+        return analyze_laser(job, c, diag, &tp);
+  }
   JobResult r;
   const auto runs = analyze_prints(job, c, diag, r.summary);
   const Analysis& a = runs.front();

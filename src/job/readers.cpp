@@ -3,9 +3,12 @@
 #include "trellis/job/readers.hpp"
 
 #include <algorithm>
+#include <cctype>
+#include <filesystem>
 
 #include "routes.hpp"
 #include "trellis/core/error.hpp"
+#include "trellis/core/file.hpp"
 #include "trellis/core/run_files.hpp"
 #include "trellis/machine/toolpath_3mf.hpp"
 
@@ -25,6 +28,33 @@ void check_given(const ReaderSpec& spec, const Settings& settings) {
                            {"", 0, e.origin.source == "--set" ? "--set " + key : e.origin.source});
 }
 
+std::string lower_extension(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  return ext;
+}
+
+// The output and the report are named for what is written in them (RouteSpec::formats).
+void check_names(const ReaderSpec& spec, const ReadJob& job, const Config& c) {
+  const auto require = [&](const std::string& path, const std::vector<std::string>& formats,
+                           const char* what, const char* flag) {
+    if (path.empty() || formats.empty() || is_stream_output(path)) return;
+    const std::string ext = lower_extension(path);
+    std::string list;
+    for (std::size_t i = 0; i < formats.size(); ++i) {
+      if (ext == formats[i]) return;
+      list += (i == 0 ? "" : i + 1 == formats.size() ? " or " : ", ") + formats[i];
+    }
+    throw SettingError("'" + path + "' is named " + (ext.empty() ? "without an extension" : ext) +
+                           ", but `trellis " + spec.name + "` writes " + what + " as " + list +
+                           ": name it so",
+                       {"", 0, flag});
+  };
+  if (!(spec.output_per_layer && c.read.layer < 0))
+    require(job.output, spec.output_formats, "its output", "--output");
+  require(job.report, {".json"}, "the report (JSON)", "--report");
+}
+
 // The job's files, checked before anything is read (core/run_files.hpp).
 void check_files(const ReaderSpec& spec, const ReadJob& job, const Config& c) {
   RunFiles files(c.follow_symlinks);
@@ -36,6 +66,7 @@ void check_files(const ReaderSpec& spec, const ReadJob& job, const Config& c) {
   files.output("the report (--report)", job.report);
   files.output_folder("the preview folder (--preview)", job.preview);
   files.check();
+  check_names(spec, job, c);
 }
 
 }  // namespace
@@ -56,7 +87,7 @@ const std::vector<ReaderSpec>& reader_specs() {
        .preview = true},
       {.name = "analyze",
        .sections = {"analyze", "read", "run"},
-       .profile_sections = {"laser", "scan", "timing"},
+       .profile_sections = {"laser", "lasers", "scan", "timing"},
        .run = &routes::reader_analyze,
        .print_role = "the G-code",
        .design_role = "the design",
@@ -77,7 +108,8 @@ const std::vector<ReaderSpec>& reader_specs() {
        .print_role = "the file to show",
        .design_role = "the design (--design)",
        .output_role = "the HTML (-o)",
-       .output_suffix = ".html"},
+       .output_suffix = ".html",
+       .output_formats = {".html", ".htm"}},
       {.name = "render",
        .sections = {"render", "read", "run"},
        .profile_sections = machine,
@@ -85,7 +117,8 @@ const std::vector<ReaderSpec>& reader_specs() {
        .print_role = "the toolpath",
        .output_role = "the PNG (-o)",
        .output_per_layer = true,
-       .output_suffix = ".png"},
+       .output_suffix = ".png",
+       .output_formats = {".png"}},
   };
   return table;
 }

@@ -43,6 +43,12 @@ void merge_nonplanar(Job& job, const Config& c, Toolpath& tp, const ShardLayers&
   routes::write_nonplanar_main(job, c, tp, out, diag);
 }
 
+// The test surfaces are meshes; the angle test is a toolpath (JSON) or a print (G-code, 3MF).
+std::vector<std::string> surface_formats(const Config& c) {
+  if (c.surface.kind == SurfaceKind::AngleTest) return {".json", "gcode", ".3mf"};
+  return {".stl", ".obj", ".3mf"};
+}
+
 }  // namespace
 
 const std::vector<std::string>& machine_sections() {
@@ -60,12 +66,14 @@ const std::vector<RouteSpec>& route_specs() {
        .sections = {"lattice2d", "output", "run"},
        .run = &routes::lattice2d,
        .output_suffix = ".lattice.json",
-       .report = false},
+       .report = false,
+       .formats = {".json"}},
       {.name = "lattice3d",
        .sections = {"lattice3d", "output", "run"},
        .run = &routes::lattice3d,
        .output_suffix = ".lattice.json",
-       .report = false},
+       .report = false,
+       .formats = {".json", ".3mf"}},
       {.name = "plan",
        .input = "lattice",
        .sections = with_machine({"lattice2d", "lattice3d", "lattice", "layers", "onto", "plan",
@@ -76,14 +84,16 @@ const std::vector<RouteSpec>& route_specs() {
        .merge = &merge_plan,
        .main_output = &Job::gcode,
        .gcode = RouteSpec::Gcode::when_written,
-       .gcode_beside_toolpath = true},
+       .gcode_beside_toolpath = true,
+       .formats = {"gcode", ".3mf"}},
       {.name = "gcode",
        .input = "toolpath",
        .sections = with_machine({"run"}),
        .run = &routes::gcode,
        .gcode = RouteSpec::Gcode::always,
        .report = false,
-       .preview = false},
+       .preview = false,
+       .formats = {"gcode", ".3mf"}},
       {.name = "slice",
        .input = "design",
        .sections = with_machine({"slice", "fgm", "process", "plate", "output", "run"}),
@@ -92,7 +102,8 @@ const std::vector<RouteSpec>& route_specs() {
        .streams = true,
        .run = &routes::slice,
        .merge = &merge_slice,
-       .gcode = RouteSpec::Gcode::always},
+       .gcode = RouteSpec::Gcode::always,
+       .formats = {"gcode", ".3mf"}},
       {.name = "pbf",
        .input = "design",
        .sections = {"machine", "laser", "lasers", "scan", "timing", "pbf", "plate", "output",
@@ -102,7 +113,8 @@ const std::vector<RouteSpec>& route_specs() {
        .streams = true,
        .run = &routes::pbf,
        .merge = &merge_pbf,
-       .output_suffix = ".cli"},
+       .output_suffix = ".cli",
+       .formats = {".cli", ".3mf"}},
       {.name = "nonplanar",
        .input = "surface",
        .sections = with_machine({"nonplanar", "surface", "output", "run"}),
@@ -110,7 +122,8 @@ const std::vector<RouteSpec>& route_specs() {
        .run = &routes::nonplanar,
        .merge = &merge_nonplanar,
        .gcode = RouteSpec::Gcode::when_written,
-       .bath_example = "profiles/fresh_nonplanar_2syringe.toml"},
+       .bath_example = "profiles/fresh_nonplanar_2syringe.toml",
+       .formats = {"gcode", ".3mf"}},
       // The angle test can be written as G-code: the machine sections.
       {.name = "surface",
        .sections = with_machine({"surface", "output", "run"}),
@@ -118,7 +131,8 @@ const std::vector<RouteSpec>& route_specs() {
        .run = &routes::surface,
        .gcode = RouteSpec::Gcode::when_named_gcode,
        .output_suffix = ".stl",
-       .report = false},
+       .report = false,
+       .formats_of = &surface_formats},
   };
   return table;
 }

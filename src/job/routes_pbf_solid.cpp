@@ -230,6 +230,7 @@ JobResult pbf_solid(const Job& job, const Config& c, const RunContext& context) 
     r = plan_pbf_solid(part, o, {}, context);
     tp.source = "trellis pbf";
     tp.parameter_sets = named;
+    tp.lasers = declared_lasers(&prof, tp);  // the lasers that differ, in the toolpath JSON too
     for (std::size_t i = 0; i < r.layers.size(); ++i) tp.layers.push_back(layer_of(i, r.layers[i]));
     out.toolpath = std::make_shared<Toolpath>(tp);
     // A 3MF's build item: the mesh as read, a .vcad solid meshed at pbf.resolution.

@@ -1066,6 +1066,7 @@ JobResult pbf_plate(const Job& job, const Config& c, const RunContext& context) 
   tp.source = plate ? fmt::format("trellis pbf plate ({} parts)", parts.size()) : "trellis pbf";
   tp.layers.resize(b - a);
   for (std::size_t i = a; i < b; ++i) tp.layers[i - a].z = static_cast<double>(i + 1) * prof.layer;
+  tp.lasers = declared_lasers(&prof, tp);
   std::size_t contour_vectors = 0, hatch_vectors = 0;
   for (std::size_t k = 0; k < parts.size(); ++k) {
     const Part& p = parts[k];
@@ -1329,6 +1330,7 @@ JobResult pbf(const Job& job, const Config& c, const RunContext& context) {
     r = plan_pbf(d, po, context);  // its warnings go to the context
     tp =
         pbf_toolpath(r, prof.contour_power, prof.contour_speed, prof.hatch_power, prof.hatch_speed);
+    tp.lasers = declared_lasers(&prof, tp);  // the lasers that differ, in the toolpath JSON too
     if (split)
       for (std::size_t i = 0; i < tp.layers.size(); ++i)
         times.add(split_among_lasers(tp.layers[i], setup, i));
@@ -1613,11 +1615,9 @@ JobResult surface(const Job& job, const Config& c, const RunContext& context) {
     check_budget(e, context.budget);
   }
   const TriangleMesh mesh = surface_mesh(s, c.surface.resolution);
-  if (is_3mf_output(job.output)) {
-    write_3mf(job.output, mesh);  // a 3MF mesh package (it was STL bytes under the .3mf name)
-    out.files.push_back(job.output);
-  } else if (!job.output.empty()) {
-    write_file_atomic(job.output, mesh_to_stl(mesh, s.name()));
+  if (!job.output.empty()) {
+    // By its extension (checked before the run: RouteSpec::formats): STL, OBJ or a 3MF package.
+    write_mesh(job.output, mesh, s.name(), "output");
     out.files.push_back(job.output);
   }
   if (!job.preview.empty()) {

@@ -268,9 +268,9 @@ static UseContext use_context(const Job& job) {
   const std::string& main = job.*spec.main_output;
   const std::string ext = fs::path(main).extension().string();
   using G = RouteSpec::Gcode;
-  const bool gcode =
-      spec.gcode == G::always || (spec.gcode == G::when_written && !main.empty()) ||
-      (spec.gcode == G::when_named_gcode && !main.empty() && ext != ".json" && ext != ".stl");
+  const bool gcode = spec.gcode == G::always || (spec.gcode == G::when_written && !main.empty()) ||
+                     (spec.gcode == G::when_named_gcode && !main.empty() && ext != ".json" &&
+                      ext != ".stl" && ext != ".obj");
   if (gcode) u.facts.push_back("gcode");
   if (!job.preview.empty()) u.facts.push_back("preview");
   if (!job.input.empty() || !job.parts.empty()) u.facts.push_back("input");
@@ -361,6 +361,12 @@ double solid_section_z(const BBox3& box, int layer, double h) {
 
 namespace {
 
+std::string lower_extension(const std::string& path) {
+  std::string ext = fs::path(path).extension().string();
+  for (char& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  return ext;
+}
+
 // How a G-code print is read back: with the valve commands of its machine (given, or of the job
 // its header embeds); `snap` gets that machine's node overlap + kNodeSnap.
 GcodeReadOptions print_read_options(std::string_view text, const std::string& path,
@@ -387,9 +393,10 @@ GcodeReadOptions print_read_options(std::string_view text, const std::string& pa
 
 Toolpath read_print(const std::string& path, const Settings* machine, double* snap,
                     Diagnostics& diag, bool commanded_mixtures) {
-  const auto ext = fs::path(path).extension().string();
+  const std::string ext = lower_extension(path);
   if (routes::is_3mf_output(path)) return read_toolpath_3mf_file(path, &diag);
-  if (ext != ".gcode" && ext != ".nc" && ext != ".g" && ext != ".bgcode")
+  // The G-code names every route writes (check_output_names), else a toolpath JSON.
+  if (ext != ".gcode" && ext != ".nc" && ext != ".g" && ext != ".gco" && ext != ".bgcode")
     return read_toolpath(path);
   std::string text = read_file(path);
   if (is_bgcode(text)) text = bgcode_to_text(text, path);  // the header lines are read below
@@ -402,8 +409,8 @@ Toolpath read_print(const std::string& path, const Settings* machine, double* sn
 
 LayerSource print_layers(const std::string& path, const Settings* machine, double* snap,
                          Diagnostics& diag, bool commanded_mixtures) {
-  const auto ext = fs::path(path).extension().string();
-  if (ext != ".gcode" && ext != ".nc" && ext != ".g") return {};
+  const std::string ext = lower_extension(path);
+  if (ext != ".gcode" && ext != ".nc" && ext != ".g" && ext != ".gco") return {};
   const std::string header = read_gcode_header(path);
   {
     std::ifstream in(path, std::ios::binary);
@@ -474,6 +481,59 @@ void check_profile_kind(const Job& job, const std::vector<std::string>& sections
 
 }  // namespace
 
+namespace {
+
+// `path`'s extension is one of `formats` (RouteSpec::formats), else SettingError naming `key` (the
+// job key; the CLI flag of the same name) and what it may be called.
+void require_format(const std::string& path, const std::vector<std::string>& formats,
+                    const Config& c, const std::string& route, const std::string& what,
+                    const std::string& key) {
+  if (path.empty() || formats.empty() || is_stream_output(path)) return;
+  const std::string ext = lower_extension(path);
+  std::string own = c.machine.file_extension;
+  for (char& ch : own) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  if (!own.empty() && own[0] != '.') own.insert(own.begin(), '.');
+  std::vector<std::string> names;
+  for (const std::string& f : formats) {
+    if (f == "gcode") {
+      std::vector<std::string> g = {".gcode", ".g", ".gco", ".nc", ".bgcode"};
+      if (!own.empty() && std::find(g.begin(), g.end(), own) == g.end()) g.push_back(own);
+      for (const std::string& e : g) {
+        if (ext == e) return;
+        names.push_back(e + (e == ".bgcode" ? " (binary G-code)" : " (G-code)"));
+      }
+      continue;
+    }
+    if (ext == f) return;
+    names.push_back(f == ".json"  ? f + " (JSON)"
+                    : f == ".3mf" ? f + " (3MF)"
+                    : f == ".stl" ? f + " (binary STL)"
+                    : f == ".obj" ? f + " (Wavefront OBJ)"
+                    : f == ".cli" ? f + " (CLI build file)"
+                                  : f);
+  }
+  std::string list;
+  for (std::size_t i = 0; i < names.size(); ++i)
+    list += (i == 0 ? "" : i + 1 == names.size() ? " or " : ", ") + names[i];
+  throw SettingError(
+      fmt::format("'{}' is named {}, but the {} route writes {} as {}: name it so", path,
+                  ext.empty() ? "without an extension" : ext, route, what, list),
+      {"", 0, key});
+}
+
+}  // namespace
+
+void check_output_names(const Job& job, const Config& c) {
+  const RouteSpec& spec = route_spec(job.route);
+  const std::vector<std::string> formats = spec.formats_of ? spec.formats_of(c) : spec.formats;
+  const bool plan = spec.main_output == &Job::gcode;
+  require_format(job.*spec.main_output, formats, c, job.route, "its output",
+                 plan ? "gcode" : "output");
+  require_format(job.toolpath, {".json"}, c, job.route, "the toolpath", "toolpath");
+  require_format(job.lattice, {".json", ".3mf"}, c, job.route, "the lattice", "lattice");
+  require_format(job.report, {".json"}, c, job.route, "the report", "report");
+}
+
 RunFiles job_files(const Job& job, bool follow_symlinks) {
   RunFiles files(follow_symlinks);
   files.input("the job file", job.origin);  // (an embedded job's origin names no file)
@@ -533,6 +593,7 @@ JobResult run_job(const Job& job, const RunContext& given) {
   // checked before anything is written, and its inputs are never written (core/run_files.hpp).
   OutputBatch batch;
   job_files(job, c.follow_symlinks).check();
+  check_output_names(job, c);
   // Binary G-code for a machine without Prusa's firmware: refused before any work.
   for (const std::string* g : {&job.output, &job.gcode}) {
     const std::string ext = fs::path(*g).extension().string();

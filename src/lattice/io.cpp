@@ -479,6 +479,12 @@ std::string lattice_to_json(const Graph& g) {
 
 void write_lattice(const std::string& path, const Graph& g, double beam_radius) {
   if (ends_with(lower(path), ".3mf")) return write_beam_lattice_3mf(path, g, beam_radius);
+  // The other lattice formats are read, not written: a .obj or .csv holding JSON is refused.
+  if (!ends_with(lower(path), ".json") && !is_stream_output(path))
+    throw SettingError("'" + path +
+                           "': a lattice is written as .json (lattice JSON) or .3mf "
+                           "(3MF beam lattice)",
+                       {"", 0, "lattice"});
   write_file_atomic(path, lattice_to_json(g));
 }
 

@@ -92,16 +92,17 @@ bool is_hatch(const Path& p) {
 }
 
 // "//laser N: contour P W S mm/s; hatch P W S mm/s; spot D mm; jump V mm/s; delays jump J, mark
-// M, polygon G, on A, off B us//": one laser of several that differ (read back as
-// Toolpath::lasers).
+// M, polygon G, on A, off B us; skywriting on|off K us//": one laser of several that differ (read
+// back as Toolpath::lasers; a line without the skywriting part, as Trellis wrote it before, is
+// read as a laser that does not skywrite).
 std::string laser_comment(int l, const LaserParameters& p) {
   const ScanTiming& t = p.timing;
   return fmt::format(
       "//laser {}: contour {} W {} mm/s; hatch {} W {} mm/s; spot {} mm; jump {} mm/s; delays "
-      "jump {}, mark {}, polygon {}, on {}, off {} us//\n",
+      "jump {}, mark {}, polygon {}, on {}, off {} us; skywriting {} {} us//\n",
       l + 1, p.contour_power, p.contour_speed, p.hatch_power, p.hatch_speed, p.spot_diameter,
       t.jump_speed, t.jump_delay, t.mark_delay, t.polygon_delay, t.laser_on_delay,
-      t.laser_off_delay);
+      t.laser_off_delay, t.skywriting ? "on" : "off", t.skywriting_time);
 }
 
 // The header: every point's extent and the layer count are known only once all layers are.
@@ -411,15 +412,35 @@ class Reader {
     int n = 0, end = 0;
     LaserParameters l;
     ScanTiming& t = l.timing;
-    const int got = std::sscanf(
+    char sky[4] = {};
+    int got = std::sscanf(
         text.c_str(),
         "//laser %d: contour %lf W %lf mm/s; hatch %lf W %lf mm/s; spot %lf mm; jump %lf mm/s; "
-        "delays jump %lf, mark %lf, polygon %lf, on %lf, off %lf us//%n",
+        "delays jump %lf, mark %lf, polygon %lf, on %lf, off %lf us; skywriting %3s %lf us//%n",
         &n, &l.contour_power, &l.contour_speed, &l.hatch_power, &l.hatch_speed, &l.spot_diameter,
         &t.jump_speed, &t.jump_delay, &t.mark_delay, &t.polygon_delay, &t.laser_on_delay,
-        &t.laser_off_delay, &end);
-    if (got != 12 || end != static_cast<int>(text.size()) || n < 1 || n > 1000)
-      fail(at, "a //laser N: …// line that does not say every value of laser N (1 to 1000)");
+        &t.laser_off_delay, sky, &t.skywriting_time, &end);
+    const std::string_view said(sky);
+    bool ok = got == 14 && end == static_cast<int>(text.size()) &&
+              (said == "on" || said == "off") && std::isfinite(t.skywriting_time) &&
+              t.skywriting_time >= 0;
+    if (got == 12) {  // written before skywriting was per laser: no skywriting part
+      end = 0;
+      l.timing = ScanTiming{};
+      got = std::sscanf(
+          text.c_str(),
+          "//laser %d: contour %lf W %lf mm/s; hatch %lf W %lf mm/s; spot %lf mm; jump %lf mm/s; "
+          "delays jump %lf, mark %lf, polygon %lf, on %lf, off %lf us//%n",
+          &n, &l.contour_power, &l.contour_speed, &l.hatch_power, &l.hatch_speed, &l.spot_diameter,
+          &t.jump_speed, &t.jump_delay, &t.mark_delay, &t.polygon_delay, &t.laser_on_delay,
+          &t.laser_off_delay, &end);
+      ok = got == 12 && end == static_cast<int>(text.size());
+    }
+    if (!ok || n < 1 || n > 1000)
+      fail(at,
+           "a //laser N: …// line that does not say every value of laser N (1 to 1000), "
+           "skywriting on or off");
+    t.skywriting = said == "on";
     t.contour_speed = l.contour_speed, t.hatch_speed = l.hatch_speed;
     if (tp_.lasers.size() < static_cast<std::size_t>(n))
       tp_.lasers.resize(static_cast<std::size_t>(n));

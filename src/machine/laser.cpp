@@ -58,14 +58,18 @@ std::vector<LaserParameters> laser_parameters(const LaserProfile& p) {
        [](auto& l, double v) { l.timing.laser_on_delay = v; });
   each(e.laser_off_delay, "lasers.laser_off_delay",
        [](auto& l, double v) { l.timing.laser_off_delay = v; });
+  each(e.skywriting, "lasers.skywriting", [](auto& l, double v) { l.timing.skywriting = v != 0; });
+  each(e.skywriting_time, "lasers.skywriting_time",
+       [](auto& l, double v) { l.timing.skywriting_time = v; });
   return out;
 }
 
 bool lasers_differ(const LaserProfile& p) {
   const LaserProfile::PerLaser& e = p.each;
-  for (const auto* v : {&e.contour_power, &e.contour_speed, &e.hatch_power, &e.hatch_speed,
-                        &e.spot_diameter, &e.jump_speed, &e.jump_delay, &e.mark_delay,
-                        &e.polygon_delay, &e.laser_on_delay, &e.laser_off_delay})
+  for (const auto* v :
+       {&e.contour_power, &e.contour_speed, &e.hatch_power, &e.hatch_speed, &e.spot_diameter,
+        &e.jump_speed, &e.jump_delay, &e.mark_delay, &e.polygon_delay, &e.laser_on_delay,
+        &e.laser_off_delay, &e.skywriting, &e.skywriting_time})
     if (!v->empty()) return true;
   return false;
 }

@@ -152,6 +152,16 @@ std::string read_declared_laser(std::vector<LaserParameters>& lasers, Attrs a) {
     if (!to_double(a.get(key), *into) || !std::isfinite(*into) || *into < 0)
       return fmt::format("<t:laser index=\"{}\"> without a number {} of 0 or more", i, key);
   t.contour_speed = l.contour_speed, t.hatch_speed = l.hatch_speed;
+  // Skywriting (written since it is per laser; a package without it: the laser does not skywrite).
+  if (const char* s = a.get("skywriting")) {
+    const std::string_view v(s);
+    if (v != "true" && v != "false")
+      return fmt::format("<t:laser index=\"{}\"> skywriting=\"{}\" (expected true or false)", i, v);
+    t.skywriting = v == "true";
+  }
+  if (a.get("skywritingtime") && (!to_double(a.get("skywritingtime"), t.skywriting_time) ||
+                                  !std::isfinite(t.skywriting_time) || t.skywriting_time < 0))
+    return fmt::format("<t:laser index=\"{}\"> without a number skywritingtime of 0 or more", i);
   return "";
 }
 

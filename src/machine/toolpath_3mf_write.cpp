@@ -123,10 +123,12 @@ std::string laser_xml(std::size_t index, const LaserParameters& l) {
   return fmt::format(
       "<t:laser index=\"{}\" contourpower=\"{}\" contourspeed=\"{}\" hatchpower=\"{}\" "
       "hatchspeed=\"{}\" spotdiameter=\"{}\" jumpspeed=\"{}\" jumpdelay=\"{}\" markdelay=\"{}\" "
-      "polygondelay=\"{}\" laserondelay=\"{}\" laseroffdelay=\"{}\"/>",
+      "polygondelay=\"{}\" laserondelay=\"{}\" laseroffdelay=\"{}\" skywriting=\"{}\" "
+      "skywritingtime=\"{}\"/>",
       index, num(l.contour_power), num(l.contour_speed), num(l.hatch_power), num(l.hatch_speed),
       num(l.spot_diameter), num(t.jump_speed), num(t.jump_delay), num(t.mark_delay),
-      num(t.polygon_delay), num(t.laser_on_delay), num(t.laser_off_delay));
+      num(t.polygon_delay), num(t.laser_on_delay), num(t.laser_off_delay),
+      t.skywriting ? "true" : "false", num(t.skywriting_time));
 }
 
 // A path that needs a segment of its own: per-path values beyond its profile.

@@ -599,6 +599,18 @@ std::vector<Setting> make_table() {
        "each laser's time kept on after every vector's end",
        "timing.laser_off_delay for every laser",
        [](C& c) -> auto& { return c.laser.each.laser_off_delay; });
+  {
+    Setting sky = numbers("lasers.skywriting", "", 0, 1, 0,
+                        "whether each laser runs in and out of every vector instead of waiting "
+                        "its mark delay (true or false per laser)",
+                        "", [](C& c) -> auto& { return c.laser.each.skywriting; });
+    sky.whole = sky.flags = true;
+    t.push_back(derived(std::move(sky), "timing.skywriting for every laser"));
+  }
+  each("lasers.skywriting_time", "µs", 0, 1e5, false,
+       "each laser's run-in + run-out per vector when it skywrites",
+       "timing.skywriting_time for every laser",
+       [](C& c) -> auto& { return c.laser.each.skywriting_time; });
   t.push_back(number("scan.layer", "mm", 0.001, 1, "powder layer thickness", "layer-height",
                      [](C& c) -> auto& { return c.laser.layer; }));
   t.push_back(number("scan.hatch_distance", "mm", 0.001, 5, "hatch distance", "hatch",

@@ -82,6 +82,12 @@ std::vector<double> parse_numbers(const Setting& s, const std::string& text,
   auto flush = [&] {
     if (item.empty()) return;
     double v = 0;
+    if (s.flags && (item == "true" || item == "false")) {
+      out.push_back(item == "true" ? 1 : 0);
+      item.clear();
+      after_comma = false;
+      return;
+    }
     const auto r = std::from_chars(item.data(), item.data() + item.size(), v);
     if (r.ec != std::errc() || r.ptr != item.data() + item.size())
       throw SettingError("'" + item + "' is not a number (expected " + s.range_text() + ")",
@@ -125,6 +131,7 @@ std::string Setting::range_text() const {
     case SettingKind::Integer:
     case SettingKind::Numbers: {
       std::string r;
+      if (flags) return count ? fmt::format("{} of true or false", count) : "true or false, each";
       if (kind == SettingKind::Numbers)
         r = count == 1 ? std::string(whole ? "1 whole number, " : "1 number, ")
             : count    ? fmt::format("{} {}numbers, each ", count, whole ? "whole " : "")
@@ -293,6 +300,8 @@ void Settings::set(const std::string& key, SettingValue value, const SettingOrig
         throw SettingError("expected a string", where_of(*s, origin));
       break;
     case SettingKind::Numbers: {
+      if (auto* b = std::get_if<bool>(&value); b && s->flags)
+        value = std::vector<double>{*b ? 1.0 : 0.0};
       if (auto* d = std::get_if<double>(&value)) value = std::vector<double>{*d};
       if (auto* i = std::get_if<long long>(&value))
         value = std::vector<double>{static_cast<double>(*i)};
@@ -366,6 +375,10 @@ SettingValue value_of(const toml::node& n, const Setting& s, const SettingOrigin
   if (const auto* arr = n.as_array()) {
     std::vector<double> xs;
     for (const auto& x : *arr) {
+      if (s.flags && x.is_boolean()) {
+        xs.push_back(*x.value<bool>() ? 1 : 0);
+        continue;
+      }
       if (!x.is_number()) throw SettingError("expected " + s.range_text(), where_of(s, o));
       xs.push_back(*x.value<double>());
     }
@@ -551,7 +564,8 @@ std::string settings_toml(const Settings& st, const std::vector<std::string>& se
         val = "[";
         for (std::size_t i = 0; i < xs->size(); ++i) {
           std::string n = number_text((*xs)[i]);
-          if (n.find_first_of(".en") == std::string::npos) n += ".0";
+          if (s.flags) n = (*xs)[i] != 0 ? "true" : "false";
+          if (!s.flags && n.find_first_of(".en") == std::string::npos) n += ".0";
           val += (i ? ", " : "") + n;
         }
         val += "]";

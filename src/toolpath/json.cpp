@@ -52,6 +52,26 @@ std::string toolpath_to_json(const Toolpath& tp) {
           {{"name", s.name}, {"role", to_string(s.role)}, {"power", s.power}, {"speed", s.speed}});
     doc["parameter_sets"] = std::move(sets);
   }
+  if (!tp.lasers.empty()) {
+    json lasers = json::array();
+    for (const LaserParameters& l : tp.lasers) {
+      const ScanTiming& t = l.timing;
+      lasers.push_back({{"contour_power", l.contour_power},
+                        {"contour_speed", l.contour_speed},
+                        {"hatch_power", l.hatch_power},
+                        {"hatch_speed", l.hatch_speed},
+                        {"spot_diameter", l.spot_diameter},
+                        {"jump_speed", t.jump_speed},
+                        {"jump_delay", t.jump_delay},
+                        {"mark_delay", t.mark_delay},
+                        {"polygon_delay", t.polygon_delay},
+                        {"laser_on_delay", t.laser_on_delay},
+                        {"laser_off_delay", t.laser_off_delay},
+                        {"skywriting", t.skywriting},
+                        {"skywriting_time", t.skywriting_time}});
+    }
+    doc["lasers"] = std::move(lasers);
+  }
   doc["layers"] = std::move(layers);
   return doc.dump(1) + "\n";
 }
@@ -170,6 +190,45 @@ std::vector<ParameterSet> parse_parameter_sets(const json& js, const std::string
   return sets;
 }
 
+// "lasers": one object per laser, laser 1 first, every value given (Toolpath::lasers).
+std::vector<LaserParameters> parse_lasers(const json& js, const std::string& origin) {
+  if (!js.is_array())
+    throw ParseError("lasers must be an array of objects, one per laser", {origin, 0, "lasers"});
+  std::vector<LaserParameters> lasers;
+  for (std::size_t i = 0; i < js.size(); ++i) {
+    const std::string el = "lasers[" + std::to_string(i) + "]";
+    const json& j = js[i];
+    if (!j.is_object()) throw ParseError("expected an object", {origin, 0, el});
+    LaserParameters l;
+    ScanTiming& t = l.timing;
+    const std::pair<const char*, double*> values[] = {
+        {"contour_power", &l.contour_power},     {"contour_speed", &l.contour_speed},
+        {"hatch_power", &l.hatch_power},         {"hatch_speed", &l.hatch_speed},
+        {"spot_diameter", &l.spot_diameter},     {"jump_speed", &t.jump_speed},
+        {"jump_delay", &t.jump_delay},           {"mark_delay", &t.mark_delay},
+        {"polygon_delay", &t.polygon_delay},     {"laser_on_delay", &t.laser_on_delay},
+        {"laser_off_delay", &t.laser_off_delay}, {"skywriting_time", &t.skywriting_time}};
+    for (const auto& [key, into] : values) {
+      const auto it = j.find(key);
+      if (it == j.end()) throw ParseError(std::string("missing ") + key, {origin, 0, el});
+      *into = number(*it, origin, el + "." + key);
+      if (*into < 0) throw ParseError("must be 0 or more", {origin, 0, el + "." + key});
+    }
+    const auto sky = j.find("skywriting");
+    if (sky == j.end() || !sky->is_boolean())
+      throw ParseError("skywriting must be true or false", {origin, 0, el + ".skywriting"});
+    t.skywriting = sky->get<bool>();
+    t.contour_speed = l.contour_speed, t.hatch_speed = l.hatch_speed;
+    for (const auto& [key, value] : j.items()) {
+      bool known = key == "skywriting";
+      for (const auto& v : values) known |= key == v.first;
+      if (!known) throw ParseError("unknown laser value", {origin, 0, el + "." + key});
+    }
+    lasers.push_back(l);
+  }
+  return lasers;
+}
+
 }  // namespace
 
 static Toolpath toolpath_from_document(const json& doc, const std::string& origin) {
@@ -188,6 +247,7 @@ static Toolpath toolpath_from_document(const json& doc, const std::string& origi
   if (auto it = doc.find("source"); it != doc.end() && it->is_string()) tp.source = *it;
   if (auto it = doc.find("parameter_sets"); it != doc.end())
     tp.parameter_sets = parse_parameter_sets(*it, origin);
+  if (auto it = doc.find("lasers"); it != doc.end()) tp.lasers = parse_lasers(*it, origin);
   auto layers = doc.find("layers");
   if (layers == doc.end() || !layers->is_array())
     throw ParseError("missing 'layers' array", {origin});

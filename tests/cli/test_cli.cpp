@@ -165,9 +165,9 @@ TEST(Cli, BadInputExitsTwoWithOneClearMessageAndNoOutput) {
     EXPECT_FALSE(fs::exists(out)) << c.file;
   }
   // The pair's edges file names the line with the bad index.
-  EXPECT_NE(
-      run("plan euler " + in_work("pair_vertices.csv") + " -o x").err.find("pair_edges.csv:2"),
-      std::string::npos);
+  EXPECT_NE(run("plan euler " + in_work("pair_vertices.csv") + " -o " + in_work("x.json"))
+                .err.find("pair_edges.csv:2"),
+            std::string::npos);
   // Unknown key in a profile: file and line.
   const std::string prof = write("bad.toml", "[speed]\nprint = 10\nprnt = 3\n");
   ASSERT_EQ(run("lattice2d -o " + in_work("l.json")).code, 0);
@@ -177,7 +177,9 @@ TEST(Cli, BadInputExitsTwoWithOneClearMessageAndNoOutput) {
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("bad.toml:3"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(in_work("never.gcode")));
-  EXPECT_EQ(run("plan gippo " + in_work("l.json") + " -o x --iterations 0").code, 2);
+  EXPECT_EQ(
+      run("plan gippo " + in_work("l.json") + " -o " + in_work("x.json") + " --iterations 0").code,
+      2);
   EXPECT_EQ(run("lattice2d --pattern hexagons -o " + in_work("never2.json")).code, 2);
   EXPECT_FALSE(fs::exists(in_work("never2.json")));
 }

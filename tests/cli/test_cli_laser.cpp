@@ -1,5 +1,6 @@
 // The laser route from the command line: the paper's wall experiment with its per-layer report,
-// binary CLI, and `analyze` on a build file — including a broken one (exit 2, file and offset).
+// binary CLI, and `analyze` on a build file — including a broken one (exit 2, file and offset);
+// lasers that differ in the .cli, 3MF and toolpath JSON, skywriting per laser.
 #include <gtest/gtest.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -13,6 +14,11 @@
 #include <utility>
 
 #include "trellis/core/file.hpp"
+#include "trellis/machine/cli.hpp"
+#include "trellis/machine/laser.hpp"
+#include "trellis/machine/toolpath_3mf.hpp"
+#include "trellis/settings/settings.hpp"
+#include "trellis/toolpath/json.hpp"
 
 namespace fs = std::filesystem;
 
@@ -225,4 +231,106 @@ TEST(CliLaser, LasersThatDifferAreBalancedWrittenAndTimedBack) {
   EXPECT_NE(r.err.find("lasers.hatch_speed"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("3 values for 2 laser(s)"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(path("w.cli")));
+}
+
+namespace {
+
+// The lasers a profile declares, read through the settings schema as `trellis pbf` reads them.
+std::vector<trellis::LaserParameters> profile_lasers(const std::string& profile,
+                                                     const std::string& set = "") {
+  trellis::Settings s;
+  s.load_toml_file(profile);
+  if (!set.empty())
+    s.set_text(set.substr(0, set.find('=')), set.substr(set.find('=') + 1), {"--set"});
+  return trellis::laser_parameters(s.config().laser);
+}
+
+std::vector<double> laser_seconds(const std::string& report) {
+  return nlohmann::json::parse(trellis::read_file(report))["lasers"]["scan_time_s"]
+      .get<std::vector<double>>();
+}
+
+}  // namespace
+
+// The lasers that differ in the toolpath JSON (issue 43): `pbf --toolpath` writes the profile's
+// lasers, the JSON, the .cli and the 3MF read them back equal; `analyze` of the JSON times each
+// laser as the route did, and as `analyze` of the .cli does for the same paths (the .cli read back
+// and written as JSON).
+TEST(CliLaser, LasersOfTheToolpathJsonReadBackAndAreTimedAsTheCli) {
+  const std::string profile =
+      std::string(TRELLIS_SOURCE_DIR) + "/profiles/pbf_316l_2laser_unequal.toml";
+  const std::string base = "pbf --cell 2.5 --size 5,5,0.4 --machine " + profile;
+  CmdRun r = run(base + " -o " + path("j.cli") + " --toolpath " + path("j.json") + " --report " +
+                 path("jr.json"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  ASSERT_EQ(run(base + " -o " + path("j.3mf")).code, 0);
+  const auto want = profile_lasers(profile);
+  ASSERT_EQ(want.size(), 2u);
+  EXPECT_EQ(trellis::read_toolpath(path("j.json")).lasers, want);
+  EXPECT_EQ(trellis::read_cli_file(path("j.cli")).lasers, want);
+  EXPECT_EQ(trellis::read_toolpath_3mf_file(path("j.3mf")).lasers, want);
+  // The route's toolpath as written: each laser's time as the route balanced it.
+  r = run("analyze " + path("j.json") + " --report " + path("ja.json"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  EXPECT_NE(r.out.find("2 lasers scan"), std::string::npos) << r.out;
+  const std::vector<double> made = laser_seconds(path("jr.json")),
+                            json = laser_seconds(path("ja.json"));
+  ASSERT_EQ(json.size(), 2u);
+  for (int l = 0; l < 2; ++l) EXPECT_NEAR(json[l], made[l], 1e-6 * made[l]) << "laser " << l;
+  // The .cli's paths (its own order, µm coordinates) as a toolpath JSON: analyze times both alike.
+  trellis::write_toolpath(path("from_cli.json"), trellis::read_cli_file(path("j.cli")));
+  ASSERT_EQ(run("analyze " + path("j.cli") + " --report " + path("jc.json")).code, 0);
+  ASSERT_EQ(run("analyze " + path("from_cli.json") + " --report " + path("jf.json")).code, 0);
+  const std::vector<double> cli = laser_seconds(path("jc.json")),
+                            again = laser_seconds(path("jf.json"));
+  ASSERT_EQ(cli.size(), 2u);
+  for (int l = 0; l < 2; ++l) EXPECT_NEAR(again[l], cli[l], 1e-9 * cli[l]) << "laser " << l;
+}
+
+// Skywriting per laser ([lasers] skywriting): said in the .cli, the 3MF and the toolpath JSON and
+// read back; `analyze` from the file's lasers charges the laser that skywrites its skywriting time
+// instead of its mark delay per vector, the other laser's time unchanged; with the profile (--set
+// over it, [lasers] now read by analyze) the same. A list of the wrong length exits 2 naming it.
+TEST(CliLaser, ALaserThatSkywritesIsWrittenReadBackAndTimedSo) {
+  const std::string profile =
+      std::string(TRELLIS_SOURCE_DIR) + "/profiles/pbf_316l_2laser_unequal.toml";
+  const std::string sky = "lasers.skywriting=false,true";
+  const std::string base = "pbf --cell 2.5 --size 5,5,0.4 --machine " + profile + " --set " + sky;
+  CmdRun r = run(base + " -o " + path("s.cli") + " --toolpath " + path("s.json"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  ASSERT_EQ(run(base + " -o " + path("s.3mf")).code, 0);
+  const auto want = profile_lasers(profile, sky);
+  ASSERT_FALSE(want[0].timing.skywriting);
+  ASSERT_TRUE(want[1].timing.skywriting);
+  EXPECT_NE(trellis::read_file(path("s.cli")).find("; skywriting on "), std::string::npos);
+  const trellis::Toolpath cli = trellis::read_cli_file(path("s.cli"));
+  EXPECT_EQ(cli.lasers, want);
+  EXPECT_EQ(trellis::read_toolpath(path("s.json")).lasers, want);
+  EXPECT_EQ(trellis::read_toolpath_3mf_file(path("s.3mf")).lasers, want);
+  ASSERT_EQ(run("analyze " + path("s.cli") + " --report " + path("sf.json")).code, 0);
+  ASSERT_EQ(
+      run("analyze " + path("s.cli") + " --machine " + profile + " --report " + path("sp.json"))
+          .code,
+      0);
+  r = run("analyze " + path("s.cli") + " --machine " + profile + " --set " + sky + " --report " +
+          path("ss.json"));
+  ASSERT_EQ(r.code, 0) << r.err;
+  const std::vector<double> file = laser_seconds(path("sf.json")),
+                            plain = laser_seconds(path("sp.json")),
+                            set = laser_seconds(path("ss.json"));
+  std::size_t vectors = 0;  // laser 2's
+  for (const auto& l : cli.layers)
+    for (const auto& p : l.paths) vectors += p.tool == 1 ? 1 : 0;
+  ASSERT_GT(vectors, 0u);
+  const auto& t = want[1].timing;
+  EXPECT_NEAR(file[0], plain[0], 1e-9 * plain[0]);
+  EXPECT_NEAR(file[1], plain[1] + vectors * (t.skywriting_time - t.mark_delay) * 1e-6,
+              1e-9 * plain[1]);
+  EXPECT_NE(t.skywriting_time, t.mark_delay);
+  for (int l = 0; l < 2; ++l) EXPECT_NEAR(set[l], file[l], 1e-9 * file[l]) << "laser " << l;
+  r = run("pbf --cell 2.5 --size 5,5,0.4 --machine " + profile +
+          " --set lasers.skywriting=true -o " + path("never.cli"));
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.err.find("lasers.skywriting"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(path("never.cli")));
 }

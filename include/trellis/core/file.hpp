@@ -29,6 +29,11 @@ namespace trellis {
 
 std::string read_file(const std::string& path);
 
+// Whether writing `path` goes through to a stream: a FIFO, a character device (/dev/null, a link to
+// it) or a descriptor (/dev/stdout). Its name says no format: the writers write their route's own
+// format there (the output name checks pass it).
+bool is_stream_output(const std::string& path);
+
 // A regular file read in pieces, from any thread and in any order (pread), with read_file's
 // checks when opened (a folder, a device or a FIFO is refused; a run's input is guarded). For
 // files too large to copy whole before use. A piece the file no longer holds (it shrank while

@@ -22,6 +22,17 @@ TriangleMesh read_3mf(const std::string& path);
 // it. read_3mf honours the unit of the file it reads and returns millimetres.
 void write_3mf(const std::string& path, const TriangleMesh& mesh,
                const std::string& unit = "millimeter");
+// Wavefront OBJ text: `o name`, one `v x y z` line per vertex (mm, shortest round-trip
+// numbers) and one `f a b c` line per triangle (1-based, counter-clockwise).
+std::string mesh_to_obj(const TriangleMesh& mesh, const std::string& name = "trellis");
+// By extension (.stl binary, .obj, .3mf; case-insensitive), written atomically; `name` goes in
+// the STL header or the OBJ object; a stream (/dev/null, /dev/stdout: is_stream_output) gets STL.
+// Any other name: SettingError naming `what` (the flag or key of the output) and the extensions a
+// mesh is written as; nothing is written.
+void write_mesh(const std::string& path, const TriangleMesh& mesh, const std::string& name,
+                const std::string& what);
+// Whether write_mesh writes `path` (its extension is .stl, .obj or .3mf).
+bool is_mesh_output(const std::string& path);
 // STL from memory (for tests and fuzzing); `name` appears in errors. A large ASCII STL or OBJ is
 // read in pieces of about `piece` bytes (0: 1 MB) in parallel, split at line starts; the mesh
 // and the errors are those of reading it line after line (tests give small pieces).

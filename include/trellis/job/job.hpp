@@ -201,7 +201,19 @@ struct RouteSpec {
   bool gcode_beside_toolpath = false;
   // A bath profile to name when its G-code is asked of a machine that prints in air.
   std::string bath_example = "profiles/embedded_aero_410um.toml";
+  // The extensions its main output may be named with (case-insensitive), each one the format it
+  // is written in; "gcode" stands for G-code: text (.gcode, .g, .gco, .nc, the machine's
+  // gcode.extension) or binary (.bgcode). An output named otherwise is refused before anything
+  // is written (check_output_names). `formats_of`, when set, gives them for the run's settings.
+  std::vector<std::string> formats;
+  std::vector<std::string> (*formats_of)(const Config&) = nullptr;
 };
+
+// What the job's outputs are written as, by their names: its main output one of its route's
+// formats (RouteSpec::formats), the toolpath and the report JSON, the lattice JSON or a 3MF beam
+// lattice. An output named for another format (a .obj holding STL bytes, a .json holding G-code)
+// → SettingError naming the output and the extensions it may have; run_job checks it first.
+void check_output_names(const Job& job, const Config& config);
 
 const std::vector<RouteSpec>& route_specs();
 // The route called `name`; SettingError naming the routes there are otherwise (`where` names the
@@ -220,9 +232,17 @@ void require_shards(const RouteSpec& route, const Where& where);
 // A laser build file (CLI, ASCII or binary, any tool's) measured against its design (.vcad):
 // vectors outside the part, FR_a per layer, scan time with `laser`'s timing. The report JSON
 // goes to `report_json` when given; the summary and the toolpath read are in the result.
+// A .3mf is read as a 3MF toolpath, a .json as a toolpath JSON, any other file as a CLI.
 JobResult analyze_build_file(const std::string& path, const std::string& design,
                              const LaserProfile& laser, std::string* report_json,
                              Diagnostics& diag);
+// The same of a toolpath already read (`path` names it in the report and summary).
+JobResult analyze_build_toolpath(const Toolpath& toolpath, const std::string& path,
+                                 const std::string& design, const LaserProfile& laser,
+                                 std::string* report_json);
+// Whether a toolpath is a laser build's: it declares lasers (Toolpath::lasers) or a path has
+// laser power. `trellis analyze` of a toolpath JSON of one times it as a build file.
+bool is_laser_toolpath(const Toolpath& toolpath);
 
 // Every file the job reads (input, machine, path settings, parts' designs) and writes (its
 // outputs, the preview folder, the shard files of a shard), each with its role.

@@ -56,6 +56,9 @@ struct ReaderSpec {
   bool report = false;
   const char* output_suffix = nullptr;
   bool preview = false;  // it writes a folder of PNGs when asked (--preview)
+  // The extensions its output (-o) may have (case-insensitive), each the format it is written in;
+  // an output named otherwise, or a report not named .json, is refused before anything is read.
+  std::vector<std::string> output_formats;
 };
 
 const std::vector<ReaderSpec>& reader_specs();

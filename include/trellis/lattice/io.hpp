@@ -42,7 +42,8 @@ void write_beam_lattice_3mf(const std::string& path, const Graph& g, double defa
 Graph read_lattice(const std::string& path, const CleanOptions& options, Diagnostics& diag);
 
 std::string lattice_to_json(const Graph& g);
-// JSON, or a 3MF beam lattice for a .3mf path (struts without a radius get `beam_radius` mm).
+// JSON for a .json path, a 3MF beam lattice for a .3mf path (struts without a radius get
+// `beam_radius` mm); any other name → SettingError, nothing written.
 void write_lattice(const std::string& path, const Graph& g, double beam_radius = 0.25);
 
 }  // namespace trellis

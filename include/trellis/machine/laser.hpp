@@ -44,6 +44,8 @@ struct LaserProfile {
     std::vector<double> jump_speed;                                              // mm/s
     std::vector<double> jump_delay, mark_delay, polygon_delay;                   // µs
     std::vector<double> laser_on_delay, laser_off_delay;                         // µs
+    std::vector<double> skywriting;       // 1 = the laser skywrites, 0 = it waits the mark delay
+    std::vector<double> skywriting_time;  // µs
   } each;
   // Scanner timing ([timing]), for the scan-time model (ScanClock).
   // Their defaults are the scan-time model's (toolpath/scan_time.hpp ScanTiming).

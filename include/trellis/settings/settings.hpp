@@ -33,6 +33,9 @@ struct Setting {
   int count = 0;                     // Numbers: exact count (0 = any)
   std::vector<std::pair<std::string, long long>> names;  // Integer: named values ("none" = 0)
   bool whole = false;                                    // Numbers: each a whole number
+  // Numbers: each true or false, held as 1 or 0 (a TOML list of booleans, "true,false" as text,
+  // or 1 and 0 are read); a per-laser switch such as lasers.skywriting.
+  bool flags = false;
   // Settings whose value by default follows another one (e.g. the bead width follows the
   // nozzle): unset, the route derives it; this text says from what.
   std::string derived;
