@@ -73,6 +73,9 @@ bool offset_ring(const cl::Path& src, double delta, double miter_lim, cl::Path& 
   struct Corner {
     cl::IntPoint first, last;  // the same point but for a square corner (or a trimmed one)
     bool trim;
+    // A trimmed corner's first and last before rounding: the crossing of two raw edges that
+    // meet at a small angle moves far along them with a unit's rounding of their ends.
+    Normal exact_first{}, exact_last{};
   };
   std::vector<Corner> c(n);
   for (std::size_t j = 0; j < n; ++j) {
@@ -87,7 +90,12 @@ bool offset_ring(const cl::Path& src, double delta, double miter_lim, cl::Path& 
     }
     sin_a = std::clamp(sin_a, -1.0, 1.0);
     if (sin_a * delta < 0) {
-      c[j] = {at(src[j], a.x * delta, a.y * delta), at(src[j], b.x * delta, b.y * delta), true};
+      const double x = static_cast<double>(src[j].X), y = static_cast<double>(src[j].Y);
+      c[j] = {at(src[j], a.x * delta, a.y * delta),
+              at(src[j], b.x * delta, b.y * delta),
+              true,
+              {x + a.x * delta, y + a.y * delta},
+              {x + b.x * delta, y + b.y * delta}};
       continue;
     }
     const double r = 1 + cos_a;
@@ -102,30 +110,72 @@ bool offset_ring(const cl::Path& src, double delta, double miter_lim, cl::Path& 
     }
   }
   // Raw offset edge j runs from c[j].last to c[j + 1].first; a trimmed corner j is where raw
-  // edges j - 1 and j cross, at parameters along each (u on j - 1, t on j).
+  // edge prev(j) and raw edge j cross, at parameters along each (u on prev(j), t on j), the edges
+  // kept running from start to end. An edge the trims at both its corners reverse (start >= end:
+  // a short edge on the trimmed side, shorter than the offset eats) is one ClipperOffset's union
+  // cuts off as a small loop: it is dropped and its neighbours cross instead, one edge at a time
+  // while its neighbours keep their direction (two reversed side by side would need the order in
+  // which they vanished: ClipperOffset resolves those).
   std::vector<double> start(n, 0.0), end(n, 1.0);
   std::vector<cl::IntPoint> trim_point(n);
-  for (std::size_t j = 0; j < n; ++j) {
-    if (!c[j].trim) continue;
-    const std::size_t k = j == 0 ? n - 1 : j - 1;
-    const cl::IntPoint p0 = c[k].last, p1 = c[j].first;                       // raw edge k
-    const cl::IntPoint q0 = c[j].last, q1 = c[j + 1 == n ? 0 : j + 1].first;  // raw edge j
-    const double rx = static_cast<double>(p1.X - p0.X), ry = static_cast<double>(p1.Y - p0.Y);
-    const double sx = static_cast<double>(q1.X - q0.X), sy = static_cast<double>(q1.Y - q0.Y);
+  std::vector<std::size_t> prev(n), next(n);
+  for (std::size_t j = 0; j < n; ++j)
+    prev[j] = j == 0 ? n - 1 : j - 1, next[j] = j + 1 == n ? 0 : j + 1;
+  // Raw edge e's ends (they do not move when neighbours are dropped), a trimmed corner's exact.
+  auto raw = [&](std::size_t e, Normal& a, Normal& b) {
+    const Corner& from = c[e];
+    const Corner& to = c[e + 1 == n ? 0 : e + 1];
+    a = from.trim ? from.exact_last
+                  : Normal{static_cast<double>(from.last.X), static_cast<double>(from.last.Y)};
+    b = to.trim ? to.exact_first
+                : Normal{static_cast<double>(to.first.X), static_cast<double>(to.first.Y)};
+  };
+  // Trimmed corner between raw edges k and j (j follows k): false where they do not cross on the
+  // corner's side (a raw edge that ends before the crossing would leave the union a spike).
+  auto cross_at = [&](std::size_t k, std::size_t j) {
+    Normal p0, p1, q0, q1;
+    raw(k, p0, p1);
+    raw(j, q0, q1);
+    const double rx = p1.x - p0.x, ry = p1.y - p0.y;
+    const double sx = q1.x - q0.x, sy = q1.y - q0.y;
     const double den = rx * sy - ry * sx;
     if (den == 0) return false;
-    const double wx = static_cast<double>(q0.X - p0.X), wy = static_cast<double>(q0.Y - p0.Y);
+    const double wx = q0.x - p0.x, wy = q0.y - p0.y;
     const double u = (wx * sy - wy * sx) / den, t = (wx * ry - wy * rx) / den;
-    if (!(u >= 0 && u <= 1 && t >= 0 && t <= 1)) return false;
+    if (!(u <= 1 && t >= 0 && std::isfinite(u) && std::isfinite(t))) return false;
     end[k] = u;
     start[j] = t;
-    trim_point[j] = at(p0, u * rx, u * ry);
-  }
+    trim_point[j] = {static_cast<cl::cInt>(round_ll(p0.x + u * rx)),
+                     static_cast<cl::cInt>(round_ll(p0.y + u * ry))};
+    return true;
+  };
   for (std::size_t j = 0; j < n; ++j)
-    if (!(start[j] < end[j])) return false;
+    if (c[j].trim && !cross_at(prev[j], j)) return false;
+  std::vector<std::size_t> reversed;
+  for (std::size_t j = 0; j < n; ++j)
+    if (!(start[j] < end[j])) reversed.push_back(j);
+  std::vector<char> alive(n, 1);
+  std::size_t left = n;
+  while (!reversed.empty()) {
+    const std::size_t j = reversed.back();
+    reversed.pop_back();
+    if (!alive[j] || start[j] < end[j]) continue;
+    const std::size_t k = prev[j], m = next[j];
+    if (!c[j].trim || !c[m].trim || k == m) return false;
+    if (!(start[k] < end[k]) || !(start[m] < end[m])) return false;
+    alive[j] = 0;
+    if (--left < 3) return false;
+    next[k] = m;
+    prev[m] = k;
+    if (!cross_at(k, m)) return false;
+    if (!(start[k] < end[k])) reversed.push_back(k);
+    if (!(start[m] < end[m])) reversed.push_back(m);
+  }
   out.clear();
-  out.reserve(n + 4);
-  for (std::size_t j = 0; j < n; ++j) {
+  out.reserve(left + 4);
+  std::size_t first = 0;
+  while (!alive[first]) ++first;
+  for (std::size_t j = first, count = 0; count < left; j = next[j], ++count) {
     const cl::IntPoint p = c[j].trim ? trim_point[j] : c[j].first;
     if (out.empty() || !(out.back() == p)) out.push_back(p);
     if (!c[j].trim && !(out.back() == c[j].last)) out.push_back(c[j].last);
