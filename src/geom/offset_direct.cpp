@@ -60,7 +60,8 @@ bool segments_meet(const cl::IntPoint& a, const cl::IntPoint& b, const cl::IntPo
 }
 
 // One ring offset by delta as ClipperOffset::OffsetPoint would emit it, the trimmed corners
-// resolved; false when an edge would reverse or a trimmed corner's edges do not cross.
+// resolved and edges trimmed away dropped; false where that is not enough (edges reversed side by
+// side or beside a square corner, a trimmed corner's edges that do not cross).
 bool offset_ring(const cl::Path& src, double delta, double miter_lim, cl::Path& out) {
   const std::size_t n = src.size();
   std::vector<Normal> normal(n);
@@ -73,9 +74,12 @@ bool offset_ring(const cl::Path& src, double delta, double miter_lim, cl::Path& 
   struct Corner {
     cl::IntPoint first, last;  // the same point but for a square corner (or a trimmed one)
     bool trim;
-    // A trimmed corner's first and last before rounding: the crossing of two raw edges that
-    // meet at a small angle moves far along them with a unit's rounding of their ends.
+    // first and last before rounding: the crossing of two raw edges that meet at a small angle
+    // moves far along them with a unit's rounding of their ends.
     Normal exact_first{}, exact_last{};
+    // Where the offset lines meet (trimmed, mitred to a point, or nearly straight on): an edge
+    // between two such corners that is trimmed away leaves its neighbours' lines to meet.
+    bool lines_meet = true;
   };
   std::vector<Corner> c(n);
   for (std::size_t j = 0; j < n; ++j) {
@@ -83,14 +87,15 @@ bool offset_ring(const cl::Path& src, double delta, double miter_lim, cl::Path& 
     const Normal a = normal[k], b = normal[j];
     double sin_a = a.x * b.y - b.x * a.y;
     const double cos_a = a.x * b.x + a.y * b.y;
+    const double x = static_cast<double>(src[j].X), y = static_cast<double>(src[j].Y);
     if (std::fabs(sin_a * delta) < 1.0 && cos_a > 0) {
       const cl::IntPoint p = at(src[j], a.x * delta, a.y * delta);
-      c[j] = {p, p, false};
+      const Normal e{x + a.x * delta, y + a.y * delta};
+      c[j] = {p, p, false, e, e};
       continue;
     }
     sin_a = std::clamp(sin_a, -1.0, 1.0);
     if (sin_a * delta < 0) {
-      const double x = static_cast<double>(src[j].X), y = static_cast<double>(src[j].Y);
       c[j] = {at(src[j], a.x * delta, a.y * delta),
               at(src[j], b.x * delta, b.y * delta),
               true,
@@ -102,33 +107,39 @@ bool offset_ring(const cl::Path& src, double delta, double miter_lim, cl::Path& 
     if (r >= miter_lim) {
       const double q = delta / r;
       const cl::IntPoint p = at(src[j], (a.x + b.x) * q, (a.y + b.y) * q);
-      c[j] = {p, p, false};
+      const Normal e{x + (a.x + b.x) * q, y + (a.y + b.y) * q};
+      c[j] = {p, p, false, e, e};
     } else {
       const double dx = std::tan(std::atan2(sin_a, cos_a) / 4);
+      const Normal f{x + delta * (a.x - a.y * dx), y + delta * (a.y + a.x * dx)};
+      const Normal l{x + delta * (b.x + b.y * dx), y + delta * (b.y - b.x * dx)};
       c[j] = {at(src[j], delta * (a.x - a.y * dx), delta * (a.y + a.x * dx)),
-              at(src[j], delta * (b.x + b.y * dx), delta * (b.y - b.x * dx)), false};
+              at(src[j], delta * (b.x + b.y * dx), delta * (b.y - b.x * dx)),
+              false,
+              f,
+              l,
+              false};
     }
   }
   // Raw offset edge j runs from c[j].last to c[j + 1].first; a trimmed corner j is where raw
   // edge prev(j) and raw edge j cross, at parameters along each (u on prev(j), t on j), the edges
-  // kept running from start to end. An edge the trims at both its corners reverse (start >= end:
-  // a short edge on the trimmed side, shorter than the offset eats) is one ClipperOffset's union
-  // cuts off as a small loop: it is dropped and its neighbours cross instead, one edge at a time
-  // while its neighbours keep their direction (two reversed side by side would need the order in
-  // which they vanished: ClipperOffset resolves those).
+  // kept running from start to end. An edge its corners trim past its length (start >= end: an
+  // edge shorter than the offset eats, on the trimmed side) makes a small loop that
+  // ClipperOffset's union cuts off: where its corners are points on both offset lines (trimmed or
+  // mitred), it is dropped and the lines of its neighbours cross instead, one edge at a time while
+  // its neighbours keep their direction (two reversed side by side would need the order in which
+  // they vanished: ClipperOffset resolves those).
   std::vector<double> start(n, 0.0), end(n, 1.0);
   std::vector<cl::IntPoint> trim_point(n);
   std::vector<std::size_t> prev(n), next(n);
   for (std::size_t j = 0; j < n; ++j)
     prev[j] = j == 0 ? n - 1 : j - 1, next[j] = j + 1 == n ? 0 : j + 1;
-  // Raw edge e's ends (they do not move when neighbours are dropped), a trimmed corner's exact.
+  // Raw edge e's ends, unrounded (they do not move when neighbours are dropped).
   auto raw = [&](std::size_t e, Normal& a, Normal& b) {
     const Corner& from = c[e];
     const Corner& to = c[e + 1 == n ? 0 : e + 1];
-    a = from.trim ? from.exact_last
-                  : Normal{static_cast<double>(from.last.X), static_cast<double>(from.last.Y)};
-    b = to.trim ? to.exact_first
-                : Normal{static_cast<double>(to.first.X), static_cast<double>(to.first.Y)};
+    a = from.exact_last;
+    b = to.exact_first;
   };
   // Trimmed corner between raw edges k and j (j follows k): false where they do not cross on the
   // corner's side (a raw edge that ends before the crossing would leave the union a spike).
@@ -161,13 +172,14 @@ bool offset_ring(const cl::Path& src, double delta, double miter_lim, cl::Path& 
     reversed.pop_back();
     if (!alive[j] || start[j] < end[j]) continue;
     const std::size_t k = prev[j], m = next[j];
-    if (!c[j].trim || !c[m].trim || k == m) return false;
+    if (!c[j].lines_meet || !c[m].lines_meet || k == m) return false;
     if (!(start[k] < end[k]) || !(start[m] < end[m])) return false;
     alive[j] = 0;
     if (--left < 3) return false;
     next[k] = m;
     prev[m] = k;
     if (!cross_at(k, m)) return false;
+    c[m].trim = true;  // (a mitred corner's edges now cross: it is trimmed at trim_point)
     if (!(start[k] < end[k])) reversed.push_back(k);
     if (!(start[m] < end[m])) reversed.push_back(m);
   }
