@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <optional>
 
 #include "trellis/core/error.hpp"
 #include "trellis/core/rng.hpp"
@@ -698,14 +699,16 @@ std::size_t seam_vertex(const std::vector<Vec2>& ring, Seam seam, Vec2 from, std
 struct Comb::Impl {
   Regions inside, route;
   std::vector<const std::vector<Vec2>*> inside_rings, route_rings;
-  RingEdges inside_edges, route_edges;
+  RingEdges inside_edges;
+  // Built by the first travel that cannot go straight (most islands have none; like
+  // inside_edges' stamps, not for several threads at once).
+  mutable std::optional<RingEdges> route_edges;
   Impl(Regions in, Regions r)
       : inside(std::move(in)),
         route(std::move(r)),
         inside_rings(ring_pointers(inside)),
         route_rings(ring_pointers(route)),
-        inside_edges(inside_rings),
-        route_edges(route_rings) {}
+        inside_edges(inside_rings) {}
 
   bool crosses(Vec2 a, Vec2 b) const {
     bool hit = false;
@@ -744,7 +747,8 @@ bool Comb::route(Vec2 a, Vec2 b, double max_length, std::vector<Vec2>& via) cons
     double u;
   };
   std::vector<Hit> hits;
-  const RingEdges& re = c.route_edges;
+  if (!c.route_edges) c.route_edges.emplace(c.route_rings);
+  const RingEdges& re = *c.route_edges;
   if (re.empty()) return false;
   re.along(a, b, [&](std::uint32_t e) {
     double t = 0, u = 0;
