@@ -3,9 +3,13 @@
 // unites the result with a sweep: that union was three quarters of an offset's cost (slicing the
 // Vase: 2,355 offsets of ~115 points, 366 k instructions each). Here the trimmed corners are
 // the crossings of the neighbouring offset edges and the opened ones Clipper's own mitre or
-// square points; the rings are kept only when nothing needs the union: every trimmed edge keeps
-// its direction, no two edges of any ring meet, and no ring has moved into or out of another.
-// Otherwise offset() runs ClipperOffset as before.
+// square points; an edge trimmed away at both ends (shorter than the offset eats: the finely
+// tessellated curves of a slice offset by a bead or two) is dropped and its neighbours crossed,
+// as the union cuts off the loop it makes. The rings are kept only when nothing else needs the
+// union: every edge left keeps its direction, no two edges of any ring meet, and no ring has
+// moved into or out of another. Otherwise offset() runs ClipperOffset as before (on the Vase
+// that was 527 of its 2,355 offsets before edges were dropped, 0 after; TR12J half scale 1,976
+// of 4,506, then 372).
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
