@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <optional>
 
 #include "trellis/core/error.hpp"
 #include "trellis/core/rng.hpp"
@@ -201,6 +202,90 @@ class RingEdges {
   long nx_ = 0, ny_ = 0;
 };
 
+// The edges of closed rings bucketed by the grid cells their boxes cover, for the edges near a
+// point: each edge is entered into a cell or two where RingEdges enters it into every cell along
+// it and their neighbours (which its segment and ray queries need); building that grid for each
+// fill region's line ends was a seventh of slicing the Vase.
+class EdgeBoxes {
+ public:
+  explicit EdgeBoxes(const std::vector<const std::vector<Vec2>*>& rings) : rings_(rings) {
+    double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
+    std::size_t edges = 0;
+    for (const auto* r : rings_) {
+      edges += r->size();
+      for (const Vec2 p : *r)
+        x0 = std::min(x0, p.x), y0 = std::min(y0, p.y), x1 = std::max(x1, p.x),
+        y1 = std::max(y1, p.y);
+    }
+    if (edges == 0) return;
+    const double w = std::max(x1 - x0, 1e-6), h = std::max(y1 - y0, 1e-6);
+    cell_ = std::max({std::sqrt(w * h / static_cast<double>(edges)), w / 1024, h / 1024, 1e-6});
+    origin_ = {x0, y0};
+    nx_ = static_cast<long>(w / cell_) + 1;
+    ny_ = static_cast<long>(h / cell_) + 1;
+    std::vector<std::pair<std::uint32_t, std::uint32_t>> hits;  // (cell, edge)
+    hits.reserve(2 * edges);
+    for (std::size_t r = 0; r < rings_.size(); ++r) {
+      const auto& ring = *rings_[r];
+      for (std::size_t i = 0; i < ring.size(); ++i) {
+        const auto id = static_cast<std::uint32_t>(edge_ids_.size());
+        edge_ids_.push_back({static_cast<std::uint32_t>(r), static_cast<std::uint32_t>(i)});
+        const Vec2 a = ring[i], b = ring[i + 1 == ring.size() ? 0 : i + 1];
+        const long cx0 = cx(std::min(a.x, b.x)), cx1 = cx(std::max(a.x, b.x));
+        const long cy0 = cy(std::min(a.y, b.y)), cy1 = cy(std::max(a.y, b.y));
+        for (long y = cy0; y <= cy1; ++y)
+          for (long x = cx0; x <= cx1; ++x)
+            hits.push_back({static_cast<std::uint32_t>(y * nx_ + x), id});
+      }
+    }
+    start_.assign(static_cast<std::size_t>(nx_ * ny_) + 1, 0);
+    for (const auto& [cell, id] : hits) ++start_[cell + 1];
+    for (std::size_t c = 1; c < start_.size(); ++c) start_[c] += start_[c - 1];
+    std::vector<std::size_t> fill(start_.begin(), start_.end() - 1);
+    ids_.resize(hits.size());
+    for (const auto& [cell, id] : hits) ids_[fill[cell]++] = id;
+  }
+
+  Vec2 a(std::uint32_t e) const { return (*rings_[edge_ids_[e].ring])[edge_ids_[e].index]; }
+  Vec2 b(std::uint32_t e) const {
+    const auto& ring = *rings_[edge_ids_[e].ring];
+    return ring[(edge_ids_[e].index + 1) % ring.size()];
+  }
+  std::uint32_t ring_of(std::uint32_t e) const { return edge_ids_[e].ring; }
+  std::uint32_t index_of(std::uint32_t e) const { return edge_ids_[e].index; }
+
+  // Each edge whose box comes within `reach` of p (some more than once).
+  template <class Fn>
+  void near(Vec2 p, double reach, Fn&& fn) const {
+    if (edge_ids_.empty()) return;
+    const long x0 = std::max(0L, cx(p.x - reach)), x1 = std::min(nx_ - 1, cx(p.x + reach));
+    const long y0 = std::max(0L, cy(p.y - reach)), y1 = std::min(ny_ - 1, cy(p.y + reach));
+    for (long y = y0; y <= y1; ++y)
+      for (long x = x0; x <= x1; ++x) {
+        const auto c = static_cast<std::size_t>(y * nx_ + x);
+        for (std::size_t k = start_[c]; k < start_[c + 1]; ++k) fn(ids_[k]);
+      }
+  }
+
+ private:
+  struct EdgeId {
+    std::uint32_t ring, index;
+  };
+  long cx(double x) const {
+    return std::clamp(static_cast<long>(std::floor((x - origin_.x) / cell_)), -1L, nx_);
+  }
+  long cy(double y) const {
+    return std::clamp(static_cast<long>(std::floor((y - origin_.y) / cell_)), -1L, ny_);
+  }
+  std::vector<const std::vector<Vec2>*> rings_;
+  std::vector<EdgeId> edge_ids_;
+  std::vector<std::size_t> start_;
+  std::vector<std::uint32_t> ids_;
+  Vec2 origin_;
+  double cell_ = 1;
+  long nx_ = 0, ny_ = 0;
+};
+
 std::vector<const std::vector<Vec2>*> ring_pointers(const Regions& region) {
   std::vector<const std::vector<Vec2>*> rings;
   for (const auto& poly : region) {
@@ -233,7 +318,7 @@ class FillEnds {
  public:
   FillEnds(const std::vector<std::vector<Vec2>>& lines, const Regions& region, double tolerance)
       : lines_(lines), rings_(ring_pointers(region)), ends_(2 * lines.size()), cum_(rings_.size()) {
-    const RingEdges edges(rings_);
+    const EdgeBoxes edges(rings_);
     for (std::size_t r = 0; r < rings_.size(); ++r) {
       const auto& ring = *rings_[r];
       cum_[r].resize(ring.size() + 1, 0.0);
@@ -244,8 +329,11 @@ class FillEnds {
       const auto& line = lines[key / 2];
       if (line.size() < 2) continue;
       const Vec2 p = key % 2 ? line.back() : line.front();
+      // The nearest edge within the tolerance, the last of equals in ring order.
       double best = tolerance;
-      edges.along(p, p, [&](std::uint32_t e) {
+      std::uint32_t best_edge = 0;
+      bool found = false;
+      edges.near(p, tolerance, [&](std::uint32_t e) {
         double t = 0;
         const Vec2 a = edges.a(e), b = edges.b(e);
         // (Farther than `best` from the edge's box: farther from the edge.)
@@ -253,8 +341,10 @@ class FillEnds {
             p.y < std::min(a.y, b.y) - best || p.y > std::max(a.y, b.y) + best)
           return;
         const double d = distance_to_segment({p.x, p.y, 0}, {a.x, a.y, 0}, {b.x, b.y, 0}, &t);
-        if (d <= best) {
+        if (d < best || (d == best && (!found || e > best_edge))) {
           best = d;
+          best_edge = e;
+          found = true;
           const std::size_t r = edges.ring_of(e), i = edges.index_of(e);
           ends_[key] = {static_cast<long>(r), i, cum_[r][i] + t * (cum_[r][i + 1] - cum_[r][i])};
         }
@@ -609,14 +699,16 @@ std::size_t seam_vertex(const std::vector<Vec2>& ring, Seam seam, Vec2 from, std
 struct Comb::Impl {
   Regions inside, route;
   std::vector<const std::vector<Vec2>*> inside_rings, route_rings;
-  RingEdges inside_edges, route_edges;
+  RingEdges inside_edges;
+  // Built by the first travel that cannot go straight (most islands have none; like
+  // inside_edges' stamps, not for several threads at once).
+  mutable std::optional<RingEdges> route_edges;
   Impl(Regions in, Regions r)
       : inside(std::move(in)),
         route(std::move(r)),
         inside_rings(ring_pointers(inside)),
         route_rings(ring_pointers(route)),
-        inside_edges(inside_rings),
-        route_edges(route_rings) {}
+        inside_edges(inside_rings) {}
 
   bool crosses(Vec2 a, Vec2 b) const {
     bool hit = false;
@@ -655,7 +747,8 @@ bool Comb::route(Vec2 a, Vec2 b, double max_length, std::vector<Vec2>& via) cons
     double u;
   };
   std::vector<Hit> hits;
-  const RingEdges& re = c.route_edges;
+  if (!c.route_edges) c.route_edges.emplace(c.route_rings);
+  const RingEdges& re = *c.route_edges;
   if (re.empty()) return false;
   re.along(a, b, [&](std::uint32_t e) {
     double t = 0, u = 0;
