@@ -359,3 +359,52 @@ TEST(ScanFile, ASinkThatThrowsStopsTheScan) {
   EXPECT_THROW(scanner.feed(text), std::runtime_error);
   EXPECT_TRUE(sink.log == again.log);
 }
+
+// The writer's time estimate on a second thread (prints of 100k points on): the same bytes as on
+// one (M73 progress at every layer, each part's time, the estimated time), in memory and
+// streamed, for several profiles and plates of labelled parts.
+TEST(ScanFile, WriterEstimateOnTwoThreadsWritesTheSameBytes) {
+  Rng rng(17);
+  Toolpath tp;
+  tp.part_labels = {"a", "b"};
+  for (int l = 0; l < 8; ++l) {
+    Layer layer{0.2 * (l + 1), {}};
+    for (int k = 0; k < 160; ++k) {
+      Path path;
+      Vec3 q{20 + rng.uniform01() * 150, 20 + rng.uniform01() * 150, layer.z};
+      for (int i = 0; i < 90; ++i) {
+        path.points.push_back(q);
+        q = q + Vec3{rng.uniform01() - 0.5, rng.uniform01() - 0.5, 0};
+      }
+      path.speed = 10 + k % 7;
+      path.part = 1 + k % 2;
+      layer.paths.push_back(std::move(path));
+    }
+    tp.layers.push_back(std::move(layer));
+  }
+  ASSERT_GT(tp.layers.size() * 160 * 90, 100000u);
+  for (int variant = 0; variant < 3; ++variant) {
+    MachineProfile p;
+    p.retract_length = 0.8;
+    p.z_hop = variant == 1 ? 0.2 : 0;
+    p.acceleration = variant == 2 ? 0 : 1500;
+    p.relative_e = variant == 1;
+    std::string text[2];
+    GcodeStats stats[2];
+    std::string streamed[2];
+    for (int threads : {1, 2}) {
+      const tbb::global_control limit(tbb::global_control::max_allowed_parallelism,
+                                      static_cast<std::size_t>(threads));
+      text[threads - 1] = write_gcode(tp, p, &stats[threads - 1]);
+      const Temp file("", "writer_" + std::to_string(threads));
+      write_gcode_stream(file.path, tp, tp.layers.size(), layers_of(tp), p);
+      streamed[threads - 1] = read_text(file.path);
+    }
+    EXPECT_GT(stats[0].print_time_s, 0) << variant;
+    EXPECT_TRUE(text[0] == text[1]) << variant;
+    EXPECT_TRUE(streamed[0] == streamed[1]) << variant;
+    EXPECT_TRUE(streamed[0] == text[0]) << variant;
+    EXPECT_EQ(stats[0].print_time_s, stats[1].print_time_s) << variant;
+    EXPECT_EQ(stats[0].part_time_s, stats[1].part_time_s) << variant;
+  }
+}
