@@ -5,7 +5,6 @@
 #include <cstring>
 #include <deque>
 #include <exception>
-#include <functional>
 #include <memory>
 #include <mutex>
 #include <string_view>
@@ -16,23 +15,20 @@
 
 namespace trellis {
 
-// Threads a scan or a writer's estimate may use: the task arena's, bounded by a global_control
-// (run.threads, Python's limit) where one is set.
+// Threads a scan may use: the task arena's, bounded by a global_control (Python's limit, any
+// caller's) where one is set.
 int scan_threads_allowed();
 
-// What a G-code scanner is to read, handed from the thread that has it to a thread that reads
-// it with `scanner`, in order: the scanner and its sink see what they would see on one thread.
-// A file's scan (gcode_scan.cpp): a line's place in the mapped text (which stays mapped until
-// sync()), a plain move's words beside it (lexed: gcode_lex::lex_move), a line across two
-// windows copied in. The writer's time estimate (gcode_writer.cpp): its text copied, its moves
-// as their words, and marks (`on_mark` runs on the reading thread when it reaches one). Records
-// go over in chunks of about kChunk bytes through a short queue (the writing side waits when
-// kDepth are pending: memory stays a few chunks).
+// The lines of a G-code file, handed from the thread that finds them to a thread that reads them
+// with `scanner`, in order: the scanner and its sink see what they would see on one thread
+// (gcode_scan.cpp). A record is a line's place in the mapped text (which stays mapped until
+// sync()), a plain move's words beside it (lexed: gcode_lex::lex_move); a line across two
+// windows is copied in. Records go over in chunks of about kChunk bytes through a short queue
+// (the lexing side waits when kDepth are pending: memory stays a few chunks).
 class ScanPipe {
  public:
   // `valves`: the scanner was given valve commands (GcodeReadOptions::valve_on / valve_off).
-  explicit ScanPipe(GcodeScanner& scanner, bool valves, std::function<void()> on_mark = {})
-      : scanner_(scanner), on_mark_(std::move(on_mark)), valves_(valves) {
+  ScanPipe(GcodeScanner& scanner, bool valves) : scanner_(scanner), valves_(valves) {
     cur_.reserve(kChunk + kSlack);
     reader_ = std::thread([this] { consume(); });
   }
@@ -71,24 +67,6 @@ class ScanPipe {
   }
   // A line held nowhere else (across two windows; the last one without a newline): copied.
   void own_line(std::string_view text) { put_text(kOwnLine, text); }
-  // Text for GcodeScanner::feed (any piece of lines), copied.
-  void feed(std::string_view text) { put_text(kFeed, text); }
-  // A move for GcodeScanner::move_words (the caller knows no partial line is pending: it would
-  // have returned true).
-  void move_words(const GcodeScanner::Words& w, int g) {
-    if (cur_.size >= kChunk) hand_off(false);
-    char* p = cur_.data.get() + cur_.size;
-    const char* const start = p;
-    *p++ = kWords;
-    *p++ = static_cast<char>(g);
-    p = put_words(p, w);
-    cur_.size += static_cast<std::size_t>(p - start);
-  }
-  // A mark: on_mark runs when the reading thread gets here.
-  void mark() {
-    if (cur_.size >= kChunk) hand_off(false);
-    cur_.data[cur_.size++] = kMark;
-  }
   // Every line recorded so far read (the text they point into may go); the reader's exception,
   // if it threw one, rethrown.
   void sync() {
@@ -114,7 +92,7 @@ class ScanPipe {
 
  private:
   static constexpr std::size_t kChunk = 128u << 10, kSlack = 512, kDepth = 4;
-  static constexpr char kMove = 0, kLine = 1, kOwnLine = 2, kFeed = 3, kWords = 4, kMark = 5;
+  static constexpr char kMove = 0, kLine = 1, kOwnLine = 2;
 
   // A move's words: the letters' bits, then the values of those letters in order.
   [[gnu::always_inline]] static char* put_words(char* p, const GcodeScanner::Words& w) {
@@ -238,21 +216,12 @@ class ScanPipe {
         std::memcpy(&len, p + sizeof text, sizeof len);
         p += sizeof text + sizeof len;
         line(std::string_view(text, len));
-      } else if (kind == kWords) {
-        const int g = *p++;
-        p = take_words(p, w);
-        scanner_.move_words(w, g);
-      } else if (kind == kMark) {
-        on_mark_();
       } else {
         std::size_t len;
         std::memcpy(&len, p, sizeof len);
         const std::string_view text(p + sizeof len, len);
         p += sizeof len + len;
-        if (kind == kOwnLine)
-          line(text);
-        else
-          scanner_.feed(text);
+        line(text);
       }
     }
   }
@@ -265,7 +234,6 @@ class ScanPipe {
   }
 
   GcodeScanner& scanner_;
-  std::function<void()> on_mark_;
   bool valves_;  // valve commands may be in force (kMove lines read from their text)
   Chunk cur_;    // the chunk being recorded (the lexing thread's)
   std::mutex m_;

@@ -11,13 +11,11 @@
 #include <functional>
 #include <memory>
 #include <numbers>
-#include <optional>
 #include <utility>
 
 #include "fast_number.hpp"
 #include "gcode_lex.hpp"
 #include "gcode_objects.hpp"
-#include "gcode_pipe.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/machine/bgcode_writer.hpp"
@@ -131,9 +129,6 @@ class MoveLine {
   bool readable_ = true;
 };
 
-// Prints of this many points on have their time estimated on a second thread (when allowed).
-constexpr std::size_t kThreadedPoints = 100000;
-
 class Writer {
  public:
   // `stream`: the layers come from it (tp gives the source, job and labels only).
@@ -166,7 +161,6 @@ class Writer {
         for (const auto& path : l.paths) points += path.points.size();
     out_.reserve(points * 40 + 8192);
     fastnum::advise_huge_pages(out_);
-    if (points >= kThreadedPoints && scan_threads_allowed() >= 2) estimate_.threaded();
     plan_changes();
     label_objects();
     header();
@@ -188,7 +182,6 @@ class Writer {
     constexpr std::size_t kFlush = std::size_t{1} << 20;
     raw_ = raw;
     out_.reserve(kFlush + (1u << 16));
-    if (scan_threads_allowed() >= 2) estimate_.threaded();
     plan_changes();
     label_objects();
     header();
@@ -234,51 +227,22 @@ class Writer {
   // reads the file, in order as it is written: the writer's own moves handed over as their
   // words (the values the text reads back as: GcodeScanner::move_words), everything else (the
   // profile's start, end and tool-change code, heaters, dwells, comments) as text.
-  // On a large print, the estimate reads on a second thread (ScanPipe, when two are allowed):
-  // the text and moves go there in order, and the time at a mark is known once finished.
   class TimeEstimate {
    public:
-    void threaded() {
-      pipe_.emplace(scanner_, false, [this] { marks_.push_back(sink_.time.elapsed()); });
-    }
     void text(std::string_view t) {
       if (t.empty()) return;
-      line_ended_ = t.back() == '\n';  // else the scanner holds a partial line
-      if (pipe_)
-        pipe_->feed(t);
-      else
-        scanner_.feed(t);
+      scanner_.feed(t);
     }
     // False: not taken (the caller's text is read instead).
-    bool move(const GcodeScanner::Words& w, int g) {
-      if (!pipe_) return scanner_.move_words(w, g);
-      if (!line_ended_) return false;  // as move_words: a partial line is pending
-      pipe_->move_words(w, g);
-      return true;
-    }
-    // A mark at this point of the text: its time, at(mark), once finished.
-    std::size_t mark() {
-      if (pipe_)
-        pipe_->mark();
-      else
-        marks_.push_back(sink_.time.elapsed());
-      return count_++;
-    }
-    double at(std::size_t mark) const { return marks_[mark]; }
-    void finish() {
-      if (pipe_) pipe_->finish();
-      scanner_.finish();
-    }
+    bool move(const GcodeScanner::Words& w, int g) { return scanner_.move_words(w, g); }
+    double elapsed() const { return sink_.time.elapsed(); }
+    void finish() { scanner_.finish(); }
     PrintTimeSink& sink() { return sink_; }
 
    private:
     PrintTimeSink sink_;
     Diagnostics ignored_;  // our own text: nothing to report
     GcodeScanner scanner_{sink_, {}, ignored_, "G-code being written"};
-    std::vector<double> marks_;  // the time at each mark
-    std::size_t count_ = 0;      // marks made
-    bool line_ended_ = true;
-    std::optional<ScanPipe> pipe_;  // last: its thread ends before the above go
   };
 
   // The text written since the estimate last read, to it.
@@ -287,10 +251,10 @@ class Writer {
     scanned_ = out_.size();
   }
 
-  // A mark of the time the estimate has reached at this point of the text (TimeEstimate::at).
-  std::size_t estimate_mark() {
+  // The time the estimate has reached at this point of the text.
+  double estimate_now() {
     estimate_text();
-    return estimate_.mark();
+    return estimate_.elapsed();
   }
 
   // Appends the move line `m` (a G0 or G1 line) and hands its words to the estimate, or,
@@ -315,7 +279,7 @@ class Writer {
       if (stats_.part_time_s.size() < static_cast<std::size_t>(part))
         stats_.part_time_s.resize(static_cast<std::size_t>(part));
       stats_.part_time_s[static_cast<std::size_t>(part - 1)] +=
-          estimate_.at(object_marks_[m + 1].mark) - estimate_.at(object_marks_[m].mark);
+          object_marks_[m + 1].time - object_marks_[m].time;
     }
   }
 
@@ -324,8 +288,8 @@ class Writer {
   std::vector<std::pair<std::size_t, std::string>> late_lines() const {
     std::vector<std::pair<std::size_t, std::string>> lines;
     if (p_.marlin_family())
-      for (const auto& [at, mark] : progress_marks_)
-        lines.push_back({at, progress_line(estimate_.at(mark), stats_.print_time_s)});
+      for (const auto& [at, t] : progress_marks_)
+        lines.push_back({at, progress_line(t, stats_.print_time_s)});
     lines.push_back({estimate_at_, "; estimated printing time (normal mode) = " +
                                        duration_text(stats_.print_time_s) + "\n"});
     return lines;
@@ -572,7 +536,7 @@ class Writer {
   }
 
   void layer(std::size_t li, const Layer& l) {
-    progress_marks_.push_back({flushed_ + out_.size(), estimate_mark()});
+    progress_marks_.push_back({flushed_ + out_.size(), estimate_now()});
     out_ += ";LAYER:";
     out_ += std::to_string(li);
     out_ += "\n;Z:";
@@ -601,7 +565,7 @@ class Writer {
   void enter_object(int part) {
     if (part == object_) return;
     if (object_ > 0 && objects_.style != ObjectStyle::None) out_ += objects_.end(object_);
-    object_marks_.push_back({flushed_ + out_.size(), part, estimate_mark()});
+    object_marks_.push_back({flushed_ + out_.size(), part, estimate_now()});
     if (part > 0 && objects_.style != ObjectStyle::None) out_ += objects_.start(part);
     object_ = part;
   }
@@ -1263,7 +1227,7 @@ class Writer {
   double rise_to_ = 0;        // the next travel's least height (0 = none)
   std::FILE* raw_ = nullptr;  // streamed: the text so far, without M73 lines
   std::size_t flushed_ = 0;   // bytes already in raw_
-  std::vector<std::pair<std::size_t, std::size_t>> progress_marks_;  // (byte offset, estimate mark)
+  std::vector<std::pair<std::size_t, double>> progress_marks_;  // (byte offset, time so far)
   TimeEstimate estimate_;
   std::size_t scanned_ = 0;  // out_'s text up to here is in the estimate
   std::string_view last_type_;
@@ -1277,7 +1241,7 @@ class Writer {
   struct ObjectMark {
     std::size_t at;
     int part;
-    std::size_t mark;  // of the estimate (TimeEstimate::at)
+    double time;
   };
   std::vector<ObjectMark> object_marks_;
   std::size_t estimate_at_ = 0;  // offset of the footer's estimated time
