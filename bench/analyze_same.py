@@ -1,12 +1,13 @@
 #!/usr/bin/env python3
-"""Same reports before and after a change to the G-code reader: `trellis analyze` (and `check`
-with --report) of each file with a baseline build and with this one, the JSON reports compared
-(keys that time the run itself left out, as bench/same_bytes.py does), and stderr too.
+"""Same reports before and after a change to the G-code reader: `trellis analyze` (and, given
+--lattice, `trellis check LATTICE FILE`) of each file with a baseline build and with this one, the
+JSON reports compared (keys that time the run itself left out, as bench/same_bytes.py does),
+stdout and stderr too.
 
 Make a baseline before changing anything, as for bench/same_bytes.py:
     mkdir -p /tmp/base && cp build/release/apps/trellis/trellis build/release/src/libtrellis.so.0.1 /tmp/base/
 Then, after the change and a build:
-    bench/analyze_same.py /tmp/base FILE.gcode... [--build build/release] [--hostile]
+    bench/analyze_same.py /tmp/base FILE.gcode... [--build build/release] [--hostile] [--lattice L]
 --hostile adds, for each file, a copy in hostile spellings (lower case, tabs, CRLF, comments,
 line numbers and checksums, bad lines, no newline at the end; made here, seeded).
 Exit 0 when every report is the same, 1 otherwise.
@@ -61,7 +62,7 @@ def hostile(text, seed):
     return "\n".join(out).rstrip("\n")
 
 
-def report(binary, libdir, route, path, work):
+def report(binary, libdir, route, path, work, lattice=None):
     env = dict(os.environ)
     if libdir:
         env["LD_LIBRARY_PATH"] = libdir
@@ -69,7 +70,8 @@ def report(binary, libdir, route, path, work):
     out = os.path.join(work, "report.json")
     if os.path.exists(out):
         os.remove(out)
-    p = subprocess.run([binary, route, path, "--report", out], env=env, capture_output=True, text=True)
+    args = [binary, route] + ([lattice] if route == "check" else []) + [path, "--report", out]
+    p = subprocess.run(args, env=env, capture_output=True, text=True)
     data = clean(json.load(open(out))) if os.path.exists(out) else None
     return p.returncode, data, p.stdout, p.stderr
 
@@ -80,6 +82,7 @@ def main():
     ap.add_argument("files", nargs="+")
     ap.add_argument("--build", default=os.path.join(ROOT, "build", "release"))
     ap.add_argument("--hostile", action="store_true")
+    ap.add_argument("--lattice", help="a lattice file: `check` each file against it too")
     a = ap.parse_args()
     new_bin = os.path.join(a.build, "apps", "trellis", "trellis")
     base_bin = os.path.join(a.base, "trellis")
@@ -93,9 +96,9 @@ def main():
                     dst.write(hostile(src.read(), k))
                 files.append(h)
         for f in files:
-            for route in ("analyze", "check"):
-                base = report(base_bin, a.base, route, f, work)
-                new = report(new_bin, None, route, f, work)
+            for route in ("analyze", "check") if a.lattice else ("analyze",):
+                base = report(base_bin, a.base, route, f, work, a.lattice)
+                new = report(new_bin, None, route, f, work, a.lattice)
                 same = base[0] == new[0] and base[1] == new[1] and base[2] == new[2] and base[3] == new[3]
                 print(f"{route:8s} {os.path.basename(f):40s} exit {base[0]}/{new[0]}  "
                       f"{'same' if same else 'DIFFERENT'}")
@@ -104,7 +107,8 @@ def main():
                     for i, what in ((1, "report"), (2, "stdout"), (3, "stderr")):
                         if base[i] != new[i]:
                             print(f"    {what} differs")
-    print(f"{2 * len(files) - bad} of {2 * len(files)} reports the same")
+    n = len(files) * (2 if a.lattice else 1)
+    print(f"{n - bad} of {n} reports the same")
     return 1 if bad else 0
 
 
