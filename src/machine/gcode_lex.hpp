@@ -2,6 +2,7 @@
 // the fast decimal parser, parameter lookup.
 #pragma once
 #include <charconv>
+#include <cmath>
 #include <cstdint>
 #include <string_view>
 
@@ -80,6 +81,37 @@ inline std::string_view param(std::string_view args, std::string_view key) {
     p = q;
   }
   return {};
+}
+
+// The common line "G0 "/"G1 " + plain words (upper case, each followed by a blank or the
+// newline; no '\r', tab, comment or checksum) at `s`, inside a buffer ending at `end`: its words
+// in `w` (GcodeScanner::Words) and the position after its newline, or null if the line is not
+// that simple (or runs to `end`). Lexing only: the scanner reads such a line from its words
+// exactly as from its text (GcodeScanner::simple_move; a two-thread scan lexes on one thread).
+template <class Words>
+inline const char* lex_move(const char* s, const char* end, Words& w) {
+  if (end - s < 4 || s[0] != 'G' || (s[1] != '0' && s[1] != '1') || s[2] != ' ') return nullptr;
+  w.seen = 0;
+  int n = 0;
+  const char* p = s + 2;
+  for (;;) {
+    while (p < end && *p == ' ') ++p;
+    if (p == end) return nullptr;
+    const char c = *p;
+    if (c == '\n') break;
+    if (c < 'A' || c > 'Z') return nullptr;
+    double v = 0;
+    const char* e = scan_decimal(p + 1, end, v);
+    if (e == nullptr || e == end || (*e != ' ' && *e != '\n') || !(std::abs(v) <= kMaxValue))
+      return nullptr;
+    const std::uint32_t bit = 1u << (c - 'A');
+    if ((w.seen & bit) || n == 16) return nullptr;
+    w.seen |= bit;
+    w.value[c - 'A'] = v;
+    ++n;
+    p = e;
+  }
+  return p + 1;
 }
 
 }  // namespace trellis::gcode_lex

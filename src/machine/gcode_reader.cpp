@@ -221,31 +221,12 @@ void GcodeScanner::feed(std::string_view text) {
 }
 
 const char* GcodeScanner::simple_move(const char* s, const char* end) {
-  if (end - s < 4 || s[0] != 'G' || (s[1] != '0' && s[1] != '1') || s[2] != ' ') return nullptr;
   Words w;
-  int n = 0;
-  const char* p = s + 2;
-  for (;;) {
-    while (p < end && *p == ' ') ++p;
-    if (p == end) return nullptr;
-    const char c = *p;
-    if (c == '\n') break;
-    // Only upper-case words followed by a blank or the newline; no '\r', tab, comment, checksum.
-    if (c < 'A' || c > 'Z') return nullptr;
-    double v = 0;
-    const char* e = scan_decimal(p + 1, end, v);
-    if (e == nullptr || e == end || (*e != ' ' && *e != '\n') || !(std::abs(v) <= kMaxValue))
-      return nullptr;
-    const std::uint32_t bit = 1u << (c - 'A');
-    if ((w.seen & bit) || n == 16) return nullptr;
-    w.seen |= bit;
-    w.value[c - 'A'] = v;
-    ++n;
-    p = e;
-  }
+  const char* next = lex_move(s, end, w);
+  if (next == nullptr) return nullptr;
   ++line_no_;
   apply_move(w, s[1] - '0');
-  return p + 1;
+  return next;
 }
 
 bool GcodeScanner::move_words(const Words& words, int g) {
@@ -722,39 +703,6 @@ std::string read_gcode_header(const std::string& path) {
     header += '\n';
   }
   return header;
-}
-
-void scan_gcode_file(const std::string& path, GcodeSink& sink, const GcodeReadOptions& options,
-                     Diagnostics& diag) {
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) throw IoError("is a directory", {path});
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw IoError("cannot open", {path});
-  GcodeScanner scanner(sink, options, diag, path);
-  char magic[4] = {};
-  in.read(magic, 4);
-  const std::string_view head(magic, static_cast<std::size_t>(in.gcount()));
-  if (is_bgcode(head)) {
-    in.seekg(0);
-    read_bgcode(
-        [&](char* dst, std::size_t n) {
-          in.read(dst, static_cast<std::streamsize>(n));
-          return static_cast<std::size_t>(in.gcount());
-        },
-        [&](std::string_view t) { scanner.feed(t); }, path);
-    scanner.finish();
-    return;
-  }
-  scanner.feed(head);
-  std::string buf(1 << 20, '\0');
-  while (in) {
-    in.read(buf.data(), static_cast<std::streamsize>(buf.size()));
-    const auto got = static_cast<std::size_t>(in.gcount());
-    if (got == 0) break;
-    scanner.feed(std::string_view(buf.data(), got));
-  }
-  if (in.bad()) throw IoError("cannot read", {path});
-  scanner.finish();
 }
 
 }  // namespace trellis

@@ -1,0 +1,202 @@
+// A G-code file through the scanner (issue 40: reading within a small factor of `cat`):
+//  - a regular file is mapped from the page cache a window at a time and fed in place (no copy
+//    into a buffer, no per-line allocation; a line across two windows is the scanner's one
+//    partial line);
+//  - a large file, when two threads are allowed, is scanned on two: this thread finds the lines
+//    and lexes the plain moves among them (gcode_lex::lex_move: words and numbers), a second
+//    thread reads them in order with the one scanner (its state, its warnings, its sink: the
+//    counts, the print-time planner, the toolpath builder), a lexed move as feed() would read
+//    that line (from its words: GcodeScanner::move_words). Everything but the lexing happens on
+//    the second thread in the order of the text: the results are those of a one-thread scan.
+#include <tbb/global_control.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+
+#include "gcode_lex.hpp"
+#include "gcode_pipe.hpp"
+#include "trellis/core/error.hpp"
+#include "trellis/machine/bgcode.hpp"
+#include "trellis/machine/gcode_reader.hpp"
+
+#if defined(__unix__) || defined(__APPLE__)
+#include <fcntl.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <unistd.h>
+#define TRELLIS_MAPPED_READ 1
+#endif
+
+namespace trellis {
+
+namespace {
+
+// Files from this size on are scanned on two threads (when allowed): below it the second
+// thread's start costs more than it saves.
+constexpr std::uint64_t kTwoThreadBytes = std::uint64_t{2} << 20;
+
+// The lines of `text` to `pipe`, the plain moves lexed; `partial`: the start of a line the last
+// window ended in (completed here), and where one this window ends in is kept.
+void lex_window(std::string_view text, std::string& partial, ScanPipe& pipe) {
+  const char* p = text.data();
+  const char* const end = p + text.size();
+  if (!partial.empty()) {
+    const char* nl = static_cast<const char*>(std::memchr(p, '\n', text.size()));
+    if (nl == nullptr) {
+      partial.append(p, end);
+      return;
+    }
+    partial.append(p, nl);
+    pipe.own_line(partial);
+    partial.clear();
+    p = nl + 1;
+  }
+  GcodeScanner::Words w;
+  while (p < end) {
+    if (const char* next = gcode_lex::lex_move(p, end, w)) {
+      pipe.move(p, static_cast<std::uint32_t>(next - 1 - p), w);
+      p = next;
+      continue;
+    }
+    const char* nl =
+        static_cast<const char*>(std::memchr(p, '\n', static_cast<std::size_t>(end - p)));
+    if (nl == nullptr) {
+      partial.assign(p, end);
+      return;
+    }
+    pipe.line(p, static_cast<std::size_t>(nl - p));
+    p = nl + 1;
+  }
+}
+
+#ifdef TRELLIS_MAPPED_READ
+// An open file descriptor, closed when done.
+struct Fd {
+  int fd = -1;
+  explicit Fd(const std::string& path) : fd(::open(path.c_str(), O_RDONLY | O_CLOEXEC)) {}
+  ~Fd() {
+    if (fd >= 0) ::close(fd);
+  }
+};
+
+// A regular file of plain text: its size; 0 when it is none of that (a pipe, a device, an
+// empty or binary G-code): read with the stream then.
+std::uint64_t mappable_size(const Fd& f) {
+  struct stat st {};
+  if (f.fd < 0 || ::fstat(f.fd, &st) != 0 || !S_ISREG(st.st_mode) || st.st_size < 4) return 0;
+  char magic[4] = {};
+  if (::pread(f.fd, magic, 4, 0) != 4 || is_bgcode(std::string_view(magic, 4))) return 0;
+  return static_cast<std::uint64_t>(st.st_size);
+}
+
+// The file, mapped window by window, to `feed` (the window's text); false (nothing fed) if it
+// cannot be mapped at all. `done` after each window, before it is unmapped.
+template <class Feed>
+bool feed_mapped(const Fd& f, std::uint64_t size, const std::string& path, Feed&& feed) {
+  constexpr std::uint64_t kWindow = std::uint64_t{32} << 20;  // a multiple of any page size
+  for (std::uint64_t at = 0; at < size; at += kWindow) {
+    const auto n = static_cast<std::size_t>(std::min(kWindow, size - at));
+    int flags = MAP_PRIVATE;
+#ifdef MAP_POPULATE
+    flags |= MAP_POPULATE;  // the window's pages mapped in one go, not a fault each
+#endif
+    void* m = ::mmap(nullptr, n, PROT_READ, flags, f.fd, static_cast<off_t>(at));
+    if (m == MAP_FAILED) {
+      if (at == 0) return false;
+      throw IoError("cannot read", {path});
+    }
+    struct Unmap {
+      void* m;
+      std::size_t n;
+      ~Unmap() { ::munmap(m, n); }
+    } unmap{m, n};
+    ::madvise(m, n, MADV_SEQUENTIAL);
+    feed(std::string_view(static_cast<const char*>(m), n));
+  }
+  return true;
+}
+#endif
+
+// The file through the stream, in 1 MB pieces (pipes, devices, binary G-code).
+void feed_stream(std::ifstream& in, GcodeScanner& scanner, const std::string& path) {
+  char magic[4] = {};
+  in.read(magic, 4);
+  const std::string_view head(magic, static_cast<std::size_t>(in.gcount()));
+  if (is_bgcode(head)) {
+    in.seekg(0);
+    read_bgcode(
+        [&](char* dst, std::size_t n) {
+          in.read(dst, static_cast<std::streamsize>(n));
+          return static_cast<std::size_t>(in.gcount());
+        },
+        [&](std::string_view t) { scanner.feed(t); }, path);
+    return;
+  }
+  scanner.feed(head);
+  std::string buf(1 << 20, '\0');
+  while (in) {
+    in.read(buf.data(), static_cast<std::streamsize>(buf.size()));
+    const auto got = static_cast<std::size_t>(in.gcount());
+    if (got == 0) break;
+    scanner.feed(std::string_view(buf.data(), got));
+  }
+  if (in.bad()) throw IoError("cannot read", {path});
+}
+
+}  // namespace
+
+int scan_threads_allowed() {
+  const auto allowed =
+      tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism);
+  return static_cast<int>(std::min<std::size_t>(
+      allowed, static_cast<std::size_t>(std::max(1, tbb::this_task_arena::max_concurrency()))));
+}
+
+// A regular file mapped a window at a time and read in place; a large one (2 MB on) on two
+// threads when the task arena and any tbb::global_control allow two (lines found and moves lexed
+// on this thread, read on the other in order: the same results); pipes and binary G-code in 1 MB
+// pieces.
+void scan_gcode_file(const std::string& path, GcodeSink& sink, const GcodeReadOptions& options,
+                     Diagnostics& diag) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) throw IoError("is a directory", {path});
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw IoError("cannot open", {path});
+  GcodeScanner scanner(sink, options, diag, path);
+  bool mapped = false;
+#ifdef TRELLIS_MAPPED_READ
+  const Fd f(path);
+  const std::uint64_t size = mappable_size(f);
+  if (size >= kTwoThreadBytes && scan_threads_allowed() >= 2) {
+    ScanPipe pipe(scanner, !options.valve_on.empty() || !options.valve_off.empty());
+    std::string partial;
+    try {
+      mapped = feed_mapped(f, size, path, [&](std::string_view text) {
+        try {
+          lex_window(text, partial, pipe);
+        } catch (...) {
+          pipe.drain();  // nothing may still point into the window when it is unmapped
+          throw;
+        }
+        pipe.sync();
+      });
+      if (!partial.empty()) pipe.own_line(partial);  // the last line, without a newline
+    } catch (...) {
+      // A failure of this thread's (no memory, the file unreadable): what was recorded is read
+      // first, as on one thread.
+      pipe.drain();
+      throw;
+    }
+    pipe.finish();
+  } else if (size > 0) {
+    mapped = feed_mapped(f, size, path, [&](std::string_view text) { scanner.feed(text); });
+  }
+#endif
+  if (!mapped) feed_stream(in, scanner, path);
+  scanner.finish();
+}
+
+}  // namespace trellis
