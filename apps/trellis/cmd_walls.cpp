@@ -36,16 +36,17 @@ void add_walls(CLI::App& app) {
       ->capture_default_str();
   add_budget_flags(cmd, o->budget);
   cmd->callback([o] {
-    if (!is_mesh_output(o->output) &&
-        !is_stream_output(o->output))  // refused before any work, nothing written
-      throw SettingError(
-          "'" + o->output +
-              "': `trellis walls` writes the walls as .stl (binary STL), .obj or .3mf: name it so",
-          {"", 0, "--output"});
     RunFiles files(o->follow);
     files.input("the lattice", o->input);
     files.output("the mesh (-o)", o->output);
     files.check();
+    // Named for what is written, after the file checks (a link, a folder, an input said first);
+    // refused before any work, nothing written.
+    if (!is_mesh_output(o->output) && !is_stream_output(o->output))
+      throw SettingError(
+          "'" + o->output +
+              "': `trellis walls` writes the walls as .stl (binary STL), .obj or .3mf: name it so",
+          {"", 0, "--output"});
     Diagnostics diag;
     const Graph g = read_lattice(o->input, {}, diag);
     check_budget(lattice_walls_estimate(g), o->budget.budget());

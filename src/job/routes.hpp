@@ -95,9 +95,12 @@ std::shared_ptr<const TriangleMesh> design_mesh_3mf(const std::string& input, do
                                                     const Budget& budget);
 std::shared_ptr<const TriangleMesh> field_mesh_3mf(const Field& field, double voxel,
                                                    const Budget& budget);
-// The design of a job of the slice (one part or a plate), pbf or nonplanar route as its 3MF output
-// carries it (out.geometry), where the route has one; nothing for other routes.
-void design_geometry(const Job& job, const Config& c, JobResult& out);
+// The design of a job of the plan, slice (one part or a plate), pbf or nonplanar route as its 3MF
+// output carries it (out.geometry): their RouteSpec::design.
+void plan_design(const Job& job, const Config& c, JobResult& out);
+void slice_design(const Job& job, const Config& c, JobResult& out);
+void pbf_design(const Job& job, const Config& c, JobResult& out);
+void nonplanar_design(const Job& job, const Config& c, JobResult& out);
 // The pbf route's build file: .cli (binary if asked) or, for .3mf, the Toolpath Extension.
 void write_laser_build(const std::string& path, Toolpath& tp, const Job& job, const Config& c,
                        JobResult& out, const std::vector<CliParameterSet>& sets = {});

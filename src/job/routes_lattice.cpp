@@ -327,11 +327,8 @@ void toolpath_design(const std::string& input, JobResult& out, Diagnostics& diag
       if (std::string(e.what()).find("no Trellis job") != std::string::npos) return;
       throw;
     }
-    const Config mc = made.settings.config();
-    if (made.route == "plan")
-      plan_geometry(mc, planned_lattice(made, mc), out);
-    else
-      design_geometry(made, mc, out);
+    const RouteSpec& spec = route_spec(made.route);
+    if (spec.design) spec.design(made, made.settings.config(), out);
   } catch (const Error& e) {
     out.geometry = {};
     diag.warn("design_not_read",
@@ -342,6 +339,10 @@ void toolpath_design(const std::string& input, JobResult& out, Diagnostics& diag
 }
 
 }  // namespace
+
+void plan_design(const Job& job, const Config& c, JobResult& out) {
+  plan_geometry(c, planned_lattice(job, c), out);
+}
 
 void write_plan_main(const Job& job, const Config& c, const Toolpath& tp, JobResult& out,
                      Diagnostics& diag, GcodeStats* stats) {

@@ -1266,8 +1266,8 @@ static HeightField nonplanar_surface(const Job& job, const Config& c) {
 
 GcodeStats write_nonplanar_main(const Job& job, const Config& c, Toolpath& tp, JobResult& out,
                                 Diagnostics& diag) {
-  // The surface printed on as the 3MF's build item (design_geometry).
-  if (is_3mf_output(job.output) && !out.geometry.mesh) design_geometry(job, c, out);
+  // The surface printed on as the 3MF's build item.
+  if (is_3mf_output(job.output) && !out.geometry.mesh) nonplanar_design(job, c, out);
   return write_gcode_out(job.output, tp, job, c.machine, out, diag);
 }
 
@@ -1635,29 +1635,31 @@ JobResult surface(const Job& job, const Config& c, const RunContext& context) {
   return out;
 }
 
-void design_geometry(const Job& job, const Config& c, JobResult& out) {
-  if (job.route == "slice" && !job.parts.empty()) {
-    slice_plate_geometry(job, slice_parts_of(job, c, job.parts),
-                         budget_of(job.settings, c, Progress{}), out);
-  } else if (job.route == "slice") {
-    slice_geometry(job, slice_job_of(job, c, job.input), budget_of(job.settings, c, Progress{}),
-                   out);
-  } else if (job.route == "pbf" && !pbf_solid_job(job, c)) {
-    if (!job.parts.empty()) return pbf_plate_geometry(job, c, out);
-    Diagnostics said;
-    const PbfDesign d =
-        pbf_part_design(c, job.input, job.settings, RunContext{.diagnostics = &said});
-    out.geometry.mesh = field_mesh_3mf(d.part(), pbf_options(job, c).resolution,
-                                       budget_of(job.settings, c, Progress{}));
-    out.geometry.transform = pbf_design_transform(d);
-  } else if (job.route == "nonplanar") {
-    // An open "surface" object: a mesh as read, else its grid at half the bead width, as the
-    // planar control meshes it.
-    out.geometry.mesh = std::make_shared<const TriangleMesh>(
-        job.input.empty() ? surface_mesh(nonplanar_surface(job, c), c.machine.nozzle_diameter / 2)
-                          : read_mesh(job.input));
-    out.geometry.surface = true;
-  }
+void slice_design(const Job& job, const Config& c, JobResult& out) {
+  const Budget budget = budget_of(job.settings, c, Progress{});
+  if (!job.parts.empty())
+    slice_plate_geometry(job, slice_parts_of(job, c, job.parts), budget, out);
+  else
+    slice_geometry(job, slice_job_of(job, c, job.input), budget, out);
+}
+
+void pbf_design(const Job& job, const Config& c, JobResult& out) {
+  if (pbf_solid_job(job, c)) return;  // a mesh part: its beads (docs/limitations.md)
+  if (!job.parts.empty()) return pbf_plate_geometry(job, c, out);
+  Diagnostics said;  // (the run's to give)
+  const PbfDesign d = pbf_part_design(c, job.input, job.settings, RunContext{.diagnostics = &said});
+  out.geometry.mesh = field_mesh_3mf(d.part(), pbf_options(job, c).resolution,
+                                     budget_of(job.settings, c, Progress{}));
+  out.geometry.transform = pbf_design_transform(d);
+}
+
+// An open "surface" object: a mesh as read, else its grid at half the bead width, as the planar
+// control meshes it.
+void nonplanar_design(const Job& job, const Config& c, JobResult& out) {
+  out.geometry.mesh = std::make_shared<const TriangleMesh>(
+      job.input.empty() ? surface_mesh(nonplanar_surface(job, c), c.machine.nozzle_diameter / 2)
+                        : read_mesh(job.input));
+  out.geometry.surface = true;
 }
 
 }  // namespace trellis::routes

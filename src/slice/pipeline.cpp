@@ -109,8 +109,9 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 // Work of a slice from its extent and settings: the field route samples an XY grid per layer,
 // walls offset the outline, graded strategies sample the material grid for every colour.
 // Constants measured on one core (csg_bracket at 0.05 mm: 5.9e7 samples, 1.1 s; the palette
-// plate, 16 colours at 1 mm: 3.8e6 cell-colours, 6.9 s), rounded up. A large design costs per
-// sample and node of its tree besides: a union of 1,000 spheres (3,001 nodes) over 2.4e7
+// plate, 16 colours at 1 mm: 3.8e6 cell-colours, 6.9 s), rounded up; walls 6e-7 s a point of
+// outline and wall since the direct offsets (bench/estimate_calibration.py). A large design costs
+// per sample and node of its tree besides: a union of 1,000 spheres (3,001 nodes) over 2.4e7
 // samples took 22.7 s, 100 spheres 0.8 s (pruning by bounds helps less as they crowd): 3e-10 s.
 Estimate slice_estimate(const SliceJob& job, const BBox3& e, std::size_t layers, bool field,
                         double nodes) {
@@ -140,7 +141,7 @@ Estimate slice_estimate(const SliceJob& job, const BBox3& e, std::size_t layers,
   }
   Estimate est;
   est.seconds =
-      (samples * (2e-8 + nodes * 3e-10) + wall_work * 1e-6 + fgm * 2e-6 + pattern) / threads;
+      (samples * (2e-8 + nodes * 3e-10) + wall_work * 6e-7 + fgm * 2e-6 + pattern) / threads;
   est.bytes = threads * (field ? (wx / res + 3) * (wy / res + 3) * 16 : 0) + wall_work * 48 +
               (fgm > 0 ? threads * fgm / L / job.fgm.palette.colors * 24 : 0);
   est.what = fmt::format("slicing {} layers of {:.0f} x {:.0f} mm", layers, wx, wy);

@@ -158,26 +158,30 @@ def input_cases(env):
         ("plan --gcode profile", ["plan", "euler", "l.json", "-o", "out/t.json", "--machine", "p.toml", "--gcode", "p.toml"], ["the G-code", "the machine profile"]),
         ("nonplanar -o surface", ["nonplanar", "s.stl", "--machine", env.syringe, "-o", "s.stl"], ["the input", "s.stl"]),
         ("pbf -o design", ["pbf", "a.vcad", "-o", "a.vcad"], ["the input", "a.vcad"]),
-        ("lattice3d --mesh", ["lattice3d", "--kind", "foam", "--mesh", "s.stl", "-o", "s.stl"], ["the file of lattice3d.mesh"]),
+        ("lattice3d --mesh", ["lattice3d", "--kind", "foam", "--mesh", "s.stl", "-o", "s.stl"], ["lattice3d.mesh"]),
         ("view -o gcode", ["view", "g.gcode", "-o", "g.gcode"], ["the HTML (-o)", "the file to show", "g.gcode"]),
         ("view -o design", ["view", "tp.json", "--design", "l.json", "-o", "l.json"], ["the design (--design)"]),
         ("render --layer -o toolpath", ["render", "tp.json", "--layer", "0", "-o", "tp.json"], ["the PNG (-o)", "the toolpath"]),
         ("analyze --report gcode", ["analyze", "g.gcode", "--report", "g.gcode"], ["the report (--report)", "the G-code"]),
         ("compare --report design", ["compare", "l.json", "g.gcode", "--report", "l.json"], ["the design"]),
         ("check --report print", ["check", "l.json", "tp.json", "--report", "tp.json"], ["the print"]),
-        ("walls -o lattice", ["walls", "l.json", "-o", "l.json"], ["the STL (-o)", "the lattice"]),
+        ("walls -o lattice", ["walls", "l.json", "-o", "l.json"], ["the mesh (-o)", "the lattice"]),
         ("rerun -o its input", ["rerun", "tp.json", "-o", "l.json"], ["the input", "l.json"]),
         ("merge -o a shard", ["merge", "sh/x.cli.shard-1-of-1.json", "-o", "sh/x.cli.shard-1-of-1"], ["the shard"]),
         ("merge -o its manifest", ["merge", "sh/x.cli.shard-1-of-1.json", "-o", "sh/x.cli.shard-1-of-1.json"], ["the shard manifest"]),
         ("hard link", ["walls", "l.json", "-o", "hard.stl"], ["the lattice"]),
-        # Inputs no role names, read by the run: refused as they are about to be written.
-        ("aero -o its edges file", ["plan", "aero", "c_vertices.csv", "-o", "c_edges.csv"], ["a file this run reads"]),
-        ("slice --toolpath the design's mesh", ["slice", "m.vcad", "--machine", P, "-o", "out/x.gcode",
-                                                "--toolpath", "t.stl"], ["a file this run reads", "t.stl"]),
     ]
     for name, args, phrases in cases:
         setup = (lambda d: os.link(os.path.join(d, "l.json"), os.path.join(d, "hard.stl"))) if name == "hard link" else None
         refused(env, "input", name, args, [over] + phrases, setup)
+    # Inputs no role names, read by the run (an AERO edges file, a design's mesh): an output can
+    # only land on them under a name of another format, refused by its name before anything runs.
+    for name, args, phrases in [
+        ("aero -o its edges file", ["plan", "aero", "c_vertices.csv", "-o", "c_edges.csv"], ["c_edges.csv", "name it so"]),
+        ("slice --toolpath the design's mesh", ["slice", "m.vcad", "--machine", P, "-o", "out/x.gcode",
+                                                "--toolpath", "t.stl"], ["t.stl", "name it so"]),
+    ]:
+        refused(env, "input", name, args, phrases)
     refused(env, "input", "job toolpath = its input", ["run", "job.toml"], [over, "the toolpath", "the input"],
             job_file('[job]\nroute = "plan"\nname = "j"\ninput = "l.json"\noutput_dir = "."\ntoolpath = "l.json"\n'
                      '[output]\npng = false\n'))
@@ -348,33 +352,37 @@ def fifo_cases(env):
 def symlink_cases(env):
     P = env.profile
     cases = [
-        ("lattice2d -o", ["lattice2d", "--size", "10,10", "-o", "link"]),
-        ("plan --report", ["plan", "euler", "l.json", "-o", "out/t.json", "--report", "link"]),
-        ("gcode -o", ["gcode", "tp.json", "--machine", "p.toml", "-o", "link"]),
-        ("slice -o", ["slice", "a.vcad", "--machine", P, "-o", "link"]),
-        ("view -o", ["view", "tp.json", "-o", "link"]),
-        ("walls -o", ["walls", "l.json", "-o", "link"]),
-        ("analyze --report", ["analyze", "g.gcode", "--report", "link"]),
+        ("lattice2d -o", ["lattice2d", "--size", "10,10", "-o", "link.json"]),
+        ("plan --report", ["plan", "euler", "l.json", "-o", "out/t.json", "--report", "link.json"]),
+        ("gcode -o", ["gcode", "tp.json", "--machine", "p.toml", "-o", "link.gcode"]),
+        ("slice -o", ["slice", "a.vcad", "--machine", P, "-o", "link.gcode"]),
+        ("view -o", ["view", "tp.json", "-o", "link.html"]),
+        ("walls -o", ["walls", "l.json", "-o", "link.stl"]),
+        ("analyze --report", ["analyze", "g.gcode", "--report", "link.json"]),
         ("run job output", ["run", "job.toml"]),
     ]
 
+    # Each link is named for the format written through it (outputs are refused otherwise).
+    def link_name(args):
+        return next((a for a in args if a.startswith("link")), "link.json")
+
     for name, args in cases:
-        def setup(d, name=name):
+        def setup(d, name=name, args=args):
             if name.startswith("run"):
                 open(os.path.join(d, "job.toml"), "w").write(
-                    '[job]\nroute = "lattice2d"\nname = "j"\noutput_dir = "out"\noutput = "link"\n'
+                    '[job]\nroute = "lattice2d"\nname = "j"\noutput_dir = "out"\noutput = "link.json"\n'
                     '[lattice2d]\nsize = [10, 10]\n')
                 open(os.path.join(d, "out", "victim"), "w").write("keep\n")
-                os.symlink("victim", os.path.join(d, "out", "link"))
+                os.symlink("victim", os.path.join(d, "out", "link.json"))
             else:
                 open(os.path.join(d, "victim"), "w").write("keep\n")
-                os.symlink("victim", os.path.join(d, "link"))
+                os.symlink("victim", os.path.join(d, link_name(args)))
         refused(env, "symlink", name, args, ["is a symbolic link", "--follow-symlinks"], setup)
         # Asked: the file it points to is written, the link kept.
         d = env.folder()
         try:
             setup(d)
-            link = os.path.join(d, "out", "link") if name.startswith("run") else os.path.join(d, "link")
+            link = os.path.join(d, "out", "link.json") if name.startswith("run") else os.path.join(d, link_name(args))
             r = env.run(args + ["--follow-symlinks"], d)
             env.count("symlink")
             victim = open(os.path.join(os.path.dirname(link), "victim"), "rb").read()

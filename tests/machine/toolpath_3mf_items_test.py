@@ -107,7 +107,7 @@ def lib3mf_extent(path, tmp):
                 data = data.replace(b'requiredextensions="p tp', b'requiredextensions="p')
             out.writestr(name, data)
     report = tmp / (path.stem + "_geometry.json")
-    run("slice", geometry, "--machine", FDM, "-o", tmp / (path.stem + "_geometry.toolpath.json"),
+    run("slice", geometry, "--machine", FDM, "-o", tmp / (path.stem + "_geometry.gcode"),
         "--report", report)
     e = json.loads(report.read_text())["extent_mm"]
     return e["min"], e["max"]

@@ -423,7 +423,7 @@ def test_lib3mf_reads_the_packages_geometry(tmp_path):
         u, v = (bx - ax, by - ay, bz - az), (cx - ax, cy - ay, cz - az)
         return any((u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0]))
     run("slice", tmp_path / "p_geometry.3mf", "--machine", ROOT / "profiles" / "ender3_s1_pro_tpu.toml",
-        "-o", tmp_path / "again.json", "--report", tmp_path / "again_report.json")
+        "-o", tmp_path / "again.gcode", "--report", tmp_path / "again_report.json")
     report = json.loads((tmp_path / "again_report.json").read_text())
     assert report["mesh_triangles"] == sum(map(area, triangles)) > 0.99 * len(triangles), report
     for k in range(3):

@@ -217,7 +217,8 @@ def analyze_report(path, tmp):
 def check_analyze(path, planned, tmp, problems):
     got = analyze_report(path, tmp)
     name = os.path.basename(path)
-    if path.endswith(".cli"):
+    # A laser build's .cli, and its toolpath JSON (analyze gives the laser report of both).
+    if path.endswith(".cli") or "scan_length_mm" in got:
         want = {"layers": planned.toolpath.layer_count, "paths": planned.toolpath.path_count}
         length, tol = got["scan_length_mm"], CLI_MM_PER_SEGMENT * planned.segments
     else:
@@ -426,10 +427,10 @@ SHARD_JOBS = {
                      "[layers]\ncount = 4\n[plan]\nplanner = \"euler\"\n", ".gcode"),
     "nonplanar_machine": ('route = "nonplanar"\nmachine = "{root}/profiles/fresh_nonplanar_2syringe.toml"',
                           "[surface]\nkind = \"corrugation\"\n[nonplanar]\nlayers = 4\n", ".gcode"),
-    # Without a machine a non-planar job writes its toolpath (G-code needs a bath machine); a
+    # Without a machine a non-planar job writes a 3MF toolpath (G-code needs a bath machine); a
     # plan without G-code has nothing to shard (refused: tests/job/test_plate.cpp).
-    "nonplanar_no_machine": ('route = "nonplanar"\noutput = "s.json"',
-                             "[surface]\nkind = \"corrugation\"\n[nonplanar]\nlayers = 4\n", ".json"),
+    "nonplanar_no_machine": ('route = "nonplanar"\noutput = "s.3mf"',
+                             "[surface]\nkind = \"corrugation\"\n[nonplanar]\nlayers = 4\n", ".3mf"),
 }
 
 

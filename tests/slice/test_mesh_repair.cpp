@@ -272,7 +272,7 @@ TEST(MeshRepair, SliceRepairsReportsAndRefusesWithNoRepair) {
     const std::string what = e.what();
     EXPECT_NE(what.find("broken.stl"), std::string::npos) << what;
     EXPECT_NE(what.find("open edges"), std::string::npos) << what;
-    EXPECT_NE(what.find("without --no-repair"), std::string::npos) << what;
+    EXPECT_NE(what.find("slice.repair = true"), std::string::npos) << what;
   }
 }
 

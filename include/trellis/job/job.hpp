@@ -207,6 +207,9 @@ struct RouteSpec {
   // is written (check_output_names). `formats_of`, when set, gives them for the run's settings.
   std::vector<std::string> formats;
   std::vector<std::string> (*formats_of)(const Config&) = nullptr;
+  // A run's design as a 3MF's build items (JobResult::geometry), found again from its job alone:
+  // what `trellis gcode` of a toolpath JSON that embeds the job writes. Null: the beads printed.
+  void (*design)(const Job&, const Config&, JobResult&) = nullptr;
 };
 
 // What the job's outputs are written as, by their names: its main output one of its route's
