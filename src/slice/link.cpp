@@ -54,20 +54,29 @@ double len(Vec2 a) {
   return std::sqrt(a.x * a.x + a.y * a.y);
 }
 
+// The box of closed rings' points and their number of edges, for sizing an edge grid.
+struct RingBounds {
+  double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
+  std::size_t edges = 0;
+};
+RingBounds ring_bounds(const std::vector<const std::vector<Vec2>*>& rings) {
+  RingBounds b;
+  for (const auto* r : rings) {
+    b.edges += r->size();
+    for (const Vec2 p : *r)
+      b.x0 = std::min(b.x0, p.x), b.y0 = std::min(b.y0, p.y), b.x1 = std::max(b.x1, p.x),
+      b.y1 = std::max(b.y1, p.y);
+  }
+  return b;
+}
+
 // The edges of closed rings in a uniform grid: each edge is entered into the cells along it
 // (sampled every half cell) and their neighbours, so any point of an edge is found from its own
 // cell, and a segment sampled the same way meets every edge it crosses.
 class RingEdges {
  public:
   explicit RingEdges(const std::vector<const std::vector<Vec2>*>& rings) : rings_(rings) {
-    double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
-    std::size_t edges = 0;
-    for (const auto* r : rings_) {
-      edges += r->size();
-      for (const Vec2 p : *r)
-        x0 = std::min(x0, p.x), y0 = std::min(y0, p.y), x1 = std::max(x1, p.x),
-        y1 = std::max(y1, p.y);
-    }
+    const auto [x0, y0, x1, y1, edges] = ring_bounds(rings_);
     if (edges == 0) return;
     const double w = std::max(x1 - x0, 1e-6), h = std::max(y1 - y0, 1e-6);
     cell_ = std::max({std::sqrt(w * h / static_cast<double>(edges)) * 2, w / 512, h / 512, 1e-6});
@@ -209,14 +218,7 @@ class RingEdges {
 class EdgeBoxes {
  public:
   explicit EdgeBoxes(const std::vector<const std::vector<Vec2>*>& rings) : rings_(rings) {
-    double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
-    std::size_t edges = 0;
-    for (const auto* r : rings_) {
-      edges += r->size();
-      for (const Vec2 p : *r)
-        x0 = std::min(x0, p.x), y0 = std::min(y0, p.y), x1 = std::max(x1, p.x),
-        y1 = std::max(y1, p.y);
-    }
+    const auto [x0, y0, x1, y1, edges] = ring_bounds(rings_);
     if (edges == 0) return;
     const double w = std::max(x1 - x0, 1e-6), h = std::max(y1 - y0, 1e-6);
     cell_ = std::max({std::sqrt(w * h / static_cast<double>(edges)), w / 1024, h / 1024, 1e-6});

@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <numbers>
 
+#include "support/gcode_log_sink.hpp"
 #include "support/machines.hpp"
 #include "support/random_graphs.hpp"
 #include "trellis/core/error.hpp"
@@ -284,33 +285,8 @@ TEST(Reader, RepRapFirmwareAndKlipperDialects) {
 
 namespace {
 
-// Every event a scanner reports, as text with every digit of every number.
-class RecordingSink : public GcodeSink {
- public:
-  std::string log;
-  void layer_change(double z) override { put("layer", {z}); }
-  void extrude(Vec3 a, Vec3 b, double e, double f) override {
-    put("extrude", {a.x, a.y, a.z, b.x, b.y, b.z, e, f});
-  }
-  void travel(Vec3 a, Vec3 b, double f) override {
-    put("travel", {a.x, a.y, a.z, b.x, b.y, b.z, f});
-  }
-  void retract() override { put("retract", {}); }
-  void tool_change(int t) override { put("tool", {static_cast<double>(t)}); }
-  void role(PathRole r) override { put("role", {static_cast<double>(r)}); }
-  void mixture(const std::vector<double>& m) override { put("mixture", m); }
-  void temperature(double t) override { put("temperature", {t}); }
-  void width(double w) override { put("width", {w}); }
-  void height(double h) override { put("height", {h}); }
-
- private:
-  void put(const char* what, const std::vector<double>& v) {
-    log += what;
-    char buf[40];
-    for (double x : v) log += (std::snprintf(buf, sizeof buf, " %a", x), buf);
-    log += '\n';
-  }
-};
+// Every event a scanner reports (support/gcode_log_sink.hpp).
+using RecordingSink = trellis::test::LogSink;
 
 // Events and warnings of `text` read line by line (line(): the general reader) or fed in chunks
 // of `chunk` bytes (feed(): the one-pass reader of plain G0/G1 lines, the general one for the
