@@ -70,12 +70,32 @@ RingBounds ring_bounds(const std::vector<const std::vector<Vec2>*>& rings) {
   return b;
 }
 
+// The edges of closed rings by number (ring, index), for the edge grids below.
+class RingEdgeList {
+ public:
+  explicit RingEdgeList(const std::vector<const std::vector<Vec2>*>& rings) : rings_(rings) {}
+  Vec2 a(std::uint32_t e) const { return (*rings_[edge_ids_[e].ring])[edge_ids_[e].index]; }
+  Vec2 b(std::uint32_t e) const {
+    const auto& ring = *rings_[edge_ids_[e].ring];
+    return ring[(edge_ids_[e].index + 1) % ring.size()];
+  }
+  std::uint32_t ring_of(std::uint32_t e) const { return edge_ids_[e].ring; }
+  std::uint32_t index_of(std::uint32_t e) const { return edge_ids_[e].index; }
+
+ protected:
+  struct EdgeId {
+    std::uint32_t ring, index;
+  };
+  std::vector<const std::vector<Vec2>*> rings_;
+  std::vector<EdgeId> edge_ids_;
+};
+
 // The edges of closed rings in a uniform grid: each edge is entered into the cells along it
 // (sampled every half cell) and their neighbours, so any point of an edge is found from its own
 // cell, and a segment sampled the same way meets every edge it crosses.
-class RingEdges {
+class RingEdges : public RingEdgeList {
  public:
-  explicit RingEdges(const std::vector<const std::vector<Vec2>*>& rings) : rings_(rings) {
+  explicit RingEdges(const std::vector<const std::vector<Vec2>*>& rings) : RingEdgeList(rings) {
     const auto [x0, y0, x1, y1, edges] = ring_bounds(rings_);
     if (edges == 0) return;
     const double w = std::max(x1 - x0, 1e-6), h = std::max(y1 - y0, 1e-6);
@@ -127,13 +147,6 @@ class RingEdges {
   }
 
   bool empty() const { return edge_ids_.empty(); }
-  Vec2 a(std::uint32_t e) const { return (*rings_[edge_ids_[e].ring])[edge_ids_[e].index]; }
-  Vec2 b(std::uint32_t e) const {
-    const auto& ring = *rings_[edge_ids_[e].ring];
-    return ring[(edge_ids_[e].index + 1) % ring.size()];
-  }
-  std::uint32_t ring_of(std::uint32_t e) const { return edge_ids_[e].ring; }
-  std::uint32_t index_of(std::uint32_t e) const { return edge_ids_[e].index; }
 
   // Each edge whose cells include one along a-b, once.
   template <class Fn>
@@ -174,9 +187,6 @@ class RingEdges {
   }
 
  private:
-  struct EdgeId {
-    std::uint32_t ring, index;
-  };
   long cell_of(double d) const { return static_cast<long>(std::floor(d / cell_)); }
   template <class Fn>
   void each_cell(Vec2 p, Vec2 q, Fn&& fn) const {
@@ -200,8 +210,6 @@ class RingEdges {
     return stamp_now_;
   }
 
-  std::vector<const std::vector<Vec2>*> rings_;
-  std::vector<EdgeId> edge_ids_;
   std::vector<std::size_t> start_;
   std::vector<std::uint32_t> ids_;
   mutable std::vector<std::uint32_t> stamp_;
@@ -215,9 +223,9 @@ class RingEdges {
 // point: each edge is entered into a cell or two where RingEdges enters it into every cell along
 // it and their neighbours (which its segment and ray queries need); building that grid for each
 // fill region's line ends was a seventh of slicing the Vase.
-class EdgeBoxes {
+class EdgeBoxes : public RingEdgeList {
  public:
-  explicit EdgeBoxes(const std::vector<const std::vector<Vec2>*>& rings) : rings_(rings) {
+  explicit EdgeBoxes(const std::vector<const std::vector<Vec2>*>& rings) : RingEdgeList(rings) {
     const auto [x0, y0, x1, y1, edges] = ring_bounds(rings_);
     if (edges == 0) return;
     const double w = std::max(x1 - x0, 1e-6), h = std::max(y1 - y0, 1e-6);
@@ -248,14 +256,6 @@ class EdgeBoxes {
     for (const auto& [cell, id] : hits) ids_[fill[cell]++] = id;
   }
 
-  Vec2 a(std::uint32_t e) const { return (*rings_[edge_ids_[e].ring])[edge_ids_[e].index]; }
-  Vec2 b(std::uint32_t e) const {
-    const auto& ring = *rings_[edge_ids_[e].ring];
-    return ring[(edge_ids_[e].index + 1) % ring.size()];
-  }
-  std::uint32_t ring_of(std::uint32_t e) const { return edge_ids_[e].ring; }
-  std::uint32_t index_of(std::uint32_t e) const { return edge_ids_[e].index; }
-
   // Each edge whose box comes within `reach` of p (some more than once).
   template <class Fn>
   void near(Vec2 p, double reach, Fn&& fn) const {
@@ -270,17 +270,12 @@ class EdgeBoxes {
   }
 
  private:
-  struct EdgeId {
-    std::uint32_t ring, index;
-  };
   long cx(double x) const {
     return std::clamp(static_cast<long>(std::floor((x - origin_.x) / cell_)), -1L, nx_);
   }
   long cy(double y) const {
     return std::clamp(static_cast<long>(std::floor((y - origin_.y) / cell_)), -1L, ny_);
   }
-  std::vector<const std::vector<Vec2>*> rings_;
-  std::vector<EdgeId> edge_ids_;
   std::vector<std::size_t> start_;
   std::vector<std::uint32_t> ids_;
   Vec2 origin_;
