@@ -13,7 +13,8 @@ sys.path = [p for p in sys.path if os.path.abspath(p or ".") != os.path.dirname(
 import trellis  # noqa: E402
 from trellis import _trellis  # noqa: E402
 
-PY = {"number": "float", "integer": "int", "bool": "bool", "text": "str", "numbers": "Sequence[float]"}
+PY = {"number": "float", "integer": "int", "bool": "bool", "text": "str", "numbers": "Sequence[float]",
+      "flags": "Sequence[bool]"}
 
 def function_stub(name, fn, choices, keywords, info, ret, extra):
     """`def NAME(` its arguments before `progress`/`set` as the function declares them, `extra`,
@@ -28,6 +29,10 @@ def function_stub(name, fn, choices, keywords, info, ret, extra):
         note = p.annotation if p.annotation is not p.empty else "Any"
         if choices and not head:  # the first argument: the route's choice setting
             note = "Literal[" + ", ".join(repr(c) for c in choices) + "]"
+        if p.kind == p.VAR_POSITIONAL:  # compare(design, *gcode), view(*files): keywords after
+            head.append(f"*{p.name}: {note}")
+            star = True
+            continue
         head.append(f"{p.name}: {note}" + ("" if p.default is p.empty else f" = {p.default!r}"))
     lines = [f"def {name}(", f"    {', '.join(head)},"]
     lines += [f"    {e}," for e in extra]
@@ -47,7 +52,7 @@ def main():
            "from os import PathLike as _PathLike",
            "from typing import Any, Callable, Literal, Mapping, Sequence", "",
            "import numpy as np", "",
-           "from .errors import GeometryError, InputError, SettingError, TrellisError", "",
+           "from .errors import GeometryError, InputError, SettingError, TrellisError, TrellisWarning", "",
            "PathLike = str | _PathLike[str]", "Machine = PathLike | Mapping[str, Mapping[str, Any]]", "Progress = Callable[[str, float], None]", "",
            "__version__: str", "ROLES: list[str]", "",
            "class Lattice:",
@@ -97,12 +102,15 @@ def main():
            "def parse_vcad(text: str, name: str = ...) -> dict[str, Any]: ...",
            "from .fields import (Field, Mesh, cone, cube, cylinder, difference, fgrade, function, gyroid,",
            "                     intersection, mesh, rectprism, sphere, torus, tpms, union)", ""]
-    # The reader routes with a function (trellis.check, trellis.analyze): their keywords are their
-    # settings (job/readers.hpp).
+    # The reader routes' functions (trellis.check, analyze, compare, view, render): their
+    # keywords are their settings (job/readers.hpp), their return what each function says.
     for reader in _trellis.reader_names():
         if hasattr(trellis, reader):
-            out += function_stub(reader, getattr(trellis, reader), None,
-                                 trellis._reader_keywords(reader).items(), info, "dict[str, Any]", [])
+            fn = getattr(trellis, reader)
+            sig = inspect.signature(fn)
+            extra = ["progress: Progress | None = None"] if "progress" in sig.parameters else []
+            out += function_stub(reader, fn, None, trellis._reader_keywords(reader).items(), info,
+                                 sig.return_annotation, extra)
     print("\n".join(out).rstrip("\n"))
 
 

@@ -7,6 +7,9 @@ kept apart so either can change alone). Both `#include "trellis/MOD/..."` and re
 `#include "../MOD/..."` count. The library never includes the front ends (apps/, python/).
 A module folder missing from RANK fails the test too: a new module takes its place in the order
 here and in docs/architecture.md.
+The algorithm modules (NO_JSON) write no JSON: they return results and src/job turns them into
+reports (job/reports.hpp), so none of their files includes nlohmann/json (directly, or through
+core/json_document.hpp) except the file formats listed in JSON_FORMATS.
 
 Usage: layering_test.py SOURCE_DIR  (exit 1 listing every include against the order).
 A self-test first builds a small tree with one include against the order and checks it is caught.
@@ -29,6 +32,14 @@ RANK = {
     "settings": 8,
     "job": 9,
 }
+# Modules that return results and write no documents; the files among them that are a JSON file
+# format (read and written as such), each with why.
+NO_JSON = ("analysis", "geom", "plan", "slice", "toolpath")
+JSON_FORMATS = {
+    "src/toolpath/json.cpp": "the toolpath JSON file format (docs/formats.md)",
+}
+JSON_INCLUDE = re.compile(r'^\s*#\s*include\s+[<"](?:nlohmann/|(?:\.\./)*core/json_document\.hpp|'
+                          r'trellis/core/json_document\.hpp)', re.M)
 INCLUDE = re.compile(r'^\s*#\s*include\s+"(?:trellis/([a-z0-9_]+)/|\.\./([a-z0-9_]+)/|\.\./\.\./(apps|python)/)',
                      re.M)
 
@@ -52,6 +63,12 @@ def violations(root):
                     continue
                 path = os.path.join(d, f)
                 text = open(path, encoding="utf-8", errors="replace").read()
+                rel_path = os.path.relpath(path, root).replace(os.sep, "/")
+                if mod in NO_JSON and rel_path not in JSON_FORMATS:
+                    for m in JSON_INCLUDE.finditer(text):
+                        line = text.count("\n", 0, m.start()) + 1
+                        found.append(f"{rel_path}:{line}: {mod} writes no JSON (reports are src/job's, "
+                                     "job/reports.hpp); a JSON file format is listed in JSON_FORMATS")
                 for m in INCLUDE.finditer(text):
                     line = text.count("\n", 0, m.start()) + 1
                     where = f"{os.path.relpath(path, root)}:{line}"
@@ -74,12 +91,21 @@ def self_test():
     with tempfile.TemporaryDirectory() as t:
         for mod, body in (("core", '#include "trellis/core/vec.hpp"\n'),
                           ("geom", '#include "trellis/core/vec.hpp"\n#include "../slice/x.hpp"\n'),
-                          ("machine", '#include "trellis/field/field.hpp"\n')):
+                          ("machine", '#include "trellis/field/field.hpp"\n'),
+                          ("analysis", '#include <nlohmann/json.hpp>\n'),
+                          ("toolpath", '#include "../core/json_document.hpp"\n')):
             os.makedirs(os.path.join(t, "src", mod))
             with open(os.path.join(t, "src", mod, "a.cpp"), "w") as f:
                 f.write(body)
+        os.makedirs(os.path.join(t, "src", "lattice"))
+        with open(os.path.join(t, "src", "lattice", "a.cpp"), "w") as f:  # not an algorithm module
+            f.write("#include <nlohmann/json.hpp>\n")
+        with open(os.path.join(t, "src", "toolpath", "json.cpp"), "w") as f:  # a listed format
+            f.write("#include <nlohmann/json.hpp>\n")
         v = violations(t)
-        assert len(v) == 2, v
+        assert len(v) == 4, v
+        assert any(x.startswith("src/analysis/a.cpp:1: analysis writes no JSON") for x in v), v
+        assert any(x.startswith("src/toolpath/a.cpp:1: toolpath writes no JSON") for x in v), v
         assert "src/geom/a.cpp:2: geom (rank 1) includes slice (rank 5), above it" in v, v
         assert any("machine (rank 2) includes field (rank 2), beside it" in x for x in v), v
 

@@ -254,11 +254,13 @@ def route_settings():
     out = subprocess.run([T, "settings", "--markdown"], capture_output=True, text=True, check=True).stdout
     table = {}
     for line in out.splitlines():
-        # A kind is one or more words: "number", "true/false", "list of numbers".
+        # A kind is one or more words: "number", "true/false", "list of numbers", "list of
+        # true/false" (a switch per laser).
         m = re.match(r"\| `([a-z0-9_]+\.[a-z0-9_]+)` \| ([a-z/ ]+?) \| [^|]* \| `([^`]*)` \| ([^|]*) \| ([^|]*) \|", line)
         if m:
             flag = re.search(r"`--([a-z0-9-]+)`", m.group(5))
-            kind = {"true/false": "bool", "list of numbers": "list"}.get(m.group(2), m.group(2))
+            kind = {"true/false": "bool", "list of numbers": "list", "list of true/false": "list"}.get(
+                m.group(2), m.group(2))
             table[m.group(1)] = {"kind": kind, "default": m.group(3), "range": m.group(4).strip(),
                                  "flag": "--" + flag.group(1) if flag else None}
     return table

@@ -12,6 +12,7 @@
 #include "bindings.hpp"
 #include "trellis/core/budget.hpp"
 #include "trellis/core/error.hpp"
+#include "trellis/core/output_names.hpp"
 #include "trellis/field/meshing.hpp"
 #include "trellis/field/vcad.hpp"
 #include "trellis/geom/mesh.hpp"
@@ -193,6 +194,7 @@ py::dict mesh(const CompiledField& f, const py::object& lo, const py::object& hi
 // A mesh from numpy arrays, faces checked against the vertices, as binary STL (atomically).
 void write_stl_arrays(const py::object& vertices_obj, const py::object& faces_obj,
                       const std::string& path) {
+  require_output_format(path, {{".stl", "binary STL"}}, "Mesh.write_stl", "the mesh", "path");
   const auto v = Doubles::ensure(vertices_obj);
   if (!v || v.ndim() != 2 || v.shape(1) != 3) bad("vertices", "vertices must be an (n, 3) array");
   const auto fa =

@@ -21,6 +21,7 @@
 #include "trellis/analysis/metrics.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
+#include "trellis/core/output_names.hpp"
 #include "trellis/field/vcad.hpp"
 #include "trellis/job/job.hpp"
 #include "trellis/job/plate.hpp"
@@ -188,6 +189,43 @@ py::dict run_job_dict(const Job& job, const py::object& progress) {
   return d;
 }
 
+// What a reader run writes: the command's -o, --report and --preview.
+struct ReadOutputs {
+  std::string output, report, preview;
+};
+
+// A reader run from Python as its command runs it (job/readers.hpp): the ReadJob built under the
+// GIL, then run interruptibly (Ctrl-C, progress) as the routes are.
+JobResult run_read(const std::string& route, const py::object& design, const py::object& print,
+                   const std::string& machine, const py::dict& settings, const ReadOutputs& out,
+                   Diagnostics& diag, const py::object& progress) {
+  ReadJob job;
+  job.route = route;
+  job.machine = machine;
+  job.output = out.output;
+  job.report = out.report;
+  job.preview = out.preview;
+  if (py::isinstance<Graph>(design))
+    job.design_graph = design.cast<std::shared_ptr<Graph>>();
+  else if (!design.is_none())
+    job.design = design.cast<std::string>();
+  if (py::isinstance<Toolpath>(print))
+    job.print = print.cast<std::shared_ptr<Toolpath>>();
+  else if (py::isinstance<py::str>(print))
+    job.prints = {print.cast<std::string>()};
+  else
+    job.prints = print.cast<std::vector<std::string>>();
+  for (const auto& [k, v] : settings) {
+    const auto key = k.cast<std::string>();
+    job.settings.set(key, to_value(key, v), {"keyword " + key});
+  }
+  JobResult r;
+  RunContext context;
+  context.diagnostics = &diag;
+  run_interruptible([&](const RunContext& c) { r = run_reader(job, c); }, progress, context);
+  return r;
+}
+
 std::vector<std::string> flag_keys(const std::vector<std::string>& sections) {
   std::vector<std::string> out;
   for (const auto& s : all_settings())
@@ -251,7 +289,8 @@ PYBIND11_MODULE(_trellis, m) {
       d["key"] = s.key;
       d["section"] = s.section();
       const char* kinds[] = {"number", "integer", "bool", "choice", "text", "numbers"};
-      d["kind"] = kinds[static_cast<int>(s.kind)];
+      // A list of switches (lasers.skywriting: true or false per laser) as such.
+      d["kind"] = s.flags ? "flags" : kinds[static_cast<int>(s.kind)];
       d["unit"] = s.unit;
       d["doc"] = s.doc;
       d["flag"] = s.flag;
@@ -349,6 +388,19 @@ PYBIND11_MODULE(_trellis, m) {
     return run_job(job, diag, {}).files;
   });
 
+  // The rule of every output's name (core/output_names.hpp require_output_format) for the writers
+  // of python/trellis (Field.mesh(stl=) checks its name before the mesh is made): formats as
+  // (extension, format) pairs.
+  m.def(
+      "require_output_format",
+      [](const std::string& path, const std::vector<std::pair<std::string, std::string>>& formats,
+         const std::string& writer, const std::string& what, const std::string& element) {
+        std::vector<OutputFormat> f;
+        for (const auto& [ext, format] : formats) f.push_back({ext, format});
+        require_output_format(path, f, writer, what, element);
+      },
+      py::arg("path"), py::arg("formats"), py::arg("writer"), py::arg("what"), py::arg("element"));
+
   m.def("viewer_notebook_script", &viewer_notebook_script,
         "the viewer's script for a notebook page, sent once before the views");
 
@@ -401,6 +453,16 @@ PYBIND11_MODULE(_trellis, m) {
           },
           py::arg("title") = "toolpath",
           "the interactive viewer page (trellis view) of this toolpath")
+      .def(
+          "save_view",
+          [](const Toolpath& t, const std::string& path, const std::string& title) {
+            // Named for the page written in it, as `trellis view -o` is; written atomically.
+            require_output_format(path, {{".html", "HTML"}, {".htm", "HTML"}}, "Toolpath.save_view",
+                                  "the viewer page", "path");
+            write_file_atomic(path, viewer_html({view_scene(t, title)}, title));
+          },
+          py::arg("path"), py::arg("title") = "toolpath",
+          "writes the viewer page (view_html) to `path`, named .html or .htm")
       .def(
           "view_notebook",
           [](const Toolpath& t, const std::string& title) {
@@ -484,37 +546,47 @@ PYBIND11_MODULE(_trellis, m) {
   m.def("toolpath_from_json", [](const std::string& text) {
     return std::make_shared<Toolpath>(toolpath_from_json(text, "<string>"));
   });
-  // The reader routes (job/readers.hpp) as the CLI runs them, returning the report JSON for
-  // json.loads on the Python side. `design` a file, a Lattice or None; `print` a file or a
-  // Toolpath (analyze: measured as planned, no filament or retractions, which the machine's G-code
-  // adds; check: in design coordinates); `settings` key -> value (python/trellis: keywords).
+  // The reader routes (job/readers.hpp) as the CLI runs them (read_run): `design` a file, a
+  // Lattice or None; `print` a file, a Toolpath (analyze: measured as planned, no filament or
+  // retractions, which the machine's G-code adds; check: in design coordinates) or a list of files
+  // (compare, view); `settings` key -> value (python/trellis: keywords); the files to write as
+  // the command's -o, --report and --preview. read_json returns the report JSON (for json.loads),
+  // read_run a dict: report, the files written, summary (what the command prints), warnings
+  // (kind, text) and exit_code; both interruptible, with progress to `progress(stage, fraction)`.
   m.def(
       "read_json",
       [](const std::string& route, const py::object& design, const py::object& print,
-         const std::string& machine, const py::dict& settings) {
-        ReadJob job;
-        job.route = route;
-        job.machine = machine;
-        if (py::isinstance<Graph>(design))
-          job.design_graph = design.cast<std::shared_ptr<Graph>>();
-        else if (!design.is_none())
-          job.design = design.cast<std::string>();
-        if (py::isinstance<Toolpath>(print))
-          job.print = print.cast<std::shared_ptr<Toolpath>>();
-        else
-          job.prints = {print.cast<std::string>()};
-        for (const auto& [k, v] : settings) {
-          const auto key = k.cast<std::string>();
-          job.settings.set(key, to_value(key, v), {"keyword " + key});
-        }
-        py::gil_scoped_release release;
+         const std::string& machine, const py::dict& settings, const std::string& output,
+         const std::string& report, const std::string& preview, const py::object& progress) {
         Diagnostics diag;
-        RunContext context;
-        context.diagnostics = &diag;
-        return run_reader(job, context).report_json;
+        return run_read(route, design, print, machine, settings, {output, report, preview}, diag,
+                        progress)
+            .report_json;
       },
       py::arg("route"), py::arg("design"), py::arg("print"), py::arg("machine"),
-      py::arg("settings"));
+      py::arg("settings"), py::arg("output") = "", py::arg("report") = "", py::arg("preview") = "",
+      py::arg("progress") = py::none());
+  m.def(
+      "read_run",
+      [](const std::string& route, const py::object& design, const py::object& print,
+         const std::string& machine, const py::dict& settings, const std::string& output,
+         const std::string& report, const std::string& preview, const py::object& progress) {
+        Diagnostics diag;
+        const JobResult r = run_read(route, design, print, machine, settings,
+                                     {output, report, preview}, diag, progress);
+        py::dict d;
+        d["report"] = r.report_json;
+        d["files"] = r.files;
+        d["summary"] = r.summary;
+        d["exit_code"] = r.exit_code;
+        py::list warnings;
+        for (const auto& msg : diag.messages()) warnings.append(py::make_tuple(msg.kind, msg.text));
+        d["warnings"] = warnings;
+        return d;
+      },
+      py::arg("route"), py::arg("design"), py::arg("print"), py::arg("machine"),
+      py::arg("settings"), py::arg("output") = "", py::arg("report") = "", py::arg("preview") = "",
+      py::arg("progress") = py::none());
   m.def("reader_names", [] {
     std::vector<std::string> names;
     for (const ReaderSpec& r : reader_specs()) names.push_back(r.name);

@@ -21,24 +21,27 @@ from __future__ import annotations
 
 import html
 import inspect
+import json
 import numbers
 import os
 import re
 import shlex
 import sys
 import tempfile
+import warnings
 
 from . import _trellis
-from .errors import GeometryError, InputError, MachineError, SettingError, TrellisError
+from .errors import GeometryError, InputError, MachineError, SettingError, TrellisError, TrellisWarning
 from .fields import (Field, Mesh, cone, cube, cylinder, difference, fgrade, function, gyroid, intersection,
                      mesh, rectprism, sphere, torus, tpms, union)
 
 __all__ = ["Field", "Mesh", "sphere", "cube", "rectprism", "cylinder", "cone", "torus", "function", "tpms",
            "gyroid", "mesh", "union", "intersection", "difference", "fgrade", "parse_vcad",
-           "analyze", "check", "lattice2d", "lattice3d", "plan", "gcode", "slice", "pbf", "nonplanar", "surface",
+           "analyze", "check", "compare", "view", "render", "lattice2d", "lattice3d", "plan", "gcode", "slice", "pbf", "nonplanar", "surface",
            "run_job", "rerun", "settings", "read_lattice", "read_toolpath", "notebook_viewer", "Lattice",
            "Toolpath",
            "Result", "TrellisError", "InputError", "SettingError", "GeometryError", "MachineError",
+           "TrellisWarning",
            "__version__"]
 
 __version__ = _trellis.version()
@@ -170,9 +173,9 @@ class Toolpath:
         return self._core.view_html(title or self._core.source or "toolpath")
 
     def save_view(self, path, title=None):
-        """Writes the viewer page (``view_html``) to ``path``."""
-        with open(os.fspath(path), "w", encoding="utf-8") as f:
-            f.write(self.view_html(title))
+        """Writes the viewer page (``view_html``) to ``path``, which is named .html or .htm as
+        `trellis view -o` requires (else ``trellis.SettingError``, nothing written)."""
+        self._core.save_view(os.fspath(path), title or self._core.source or "toolpath")
 
     def view_notebook(self, title=None):
         """This toolpath's view for a notebook page (str): its data only (layers packed and
@@ -472,7 +475,26 @@ def _reader_keywords(reader):
     return {info[k]["flag"].replace("-", "_"): k for k in _trellis.reader_keys(reader)}
 
 
-def _read(reader, design, print_file, machine, set, kwargs, fallback=None):
+def _nozzle_key(name):
+    """The [nozzle] setting a check's keyword names by its key's name (radius, cone, ...)."""
+    key = f"nozzle.{name}"
+    return key if any(s["key"] == key for s in _schema()) else None
+
+
+def _file(obj, name, instead=None):
+    """A file argument of a reader that reads files only: its path, else TypeError naming the
+    argument (and what to call instead for an in-memory object)."""
+    if isinstance(obj, (Lattice, Toolpath, Field, Mesh)):
+        raise TypeError(f"{name} must be a file, got a trellis.{type(obj).__name__}"
+                        + (f" ({instead})" if instead else ""))
+    return os.fspath(obj)
+
+
+def _read(reader, design, prints, machine, set, kwargs, fallback=None, output=None, report=None,
+          preview=None, progress=None):
+    """Runs a reader route as its command does (``_trellis.read_run``): its keywords the schema's
+    flags of its sections (``reader_keys``), its warnings as ``TrellisWarning``s (the command
+    prints them). Returns read_run's dict: report, files, summary, warnings, exit_code."""
     keywords = _reader_keywords(reader)
     values = {}
     for name, value in kwargs.items():
@@ -483,33 +505,93 @@ def _read(reader, design, print_file, machine, set, kwargs, fallback=None):
                                "given as set={'section.key': value}", element=name)
         values[key] = value
     values.update(set or {})
-    import json
     with _MachineFile(machine) as path:
-        return json.loads(_trellis.read_json(reader, design, print_file, path, values))
+        r = _trellis.read_run(reader, design, prints, path, values, _path(output), _path(report),
+                              _path(preview), progress)
+    for kind, text in r["warnings"]:
+        warnings.warn(f"trellis.{reader}: {text} [{kind}]", TrellisWarning, stacklevel=3)
+    return r
 
 
 def analyze(gcode: PathLike | Toolpath, design: PathLike | Lattice | None = None, *,
-            machine: Machine | None = None, set=None, **settings):
+            machine: Machine | None = None, report: PathLike | None = None,
+            preview: PathLike | None = None, set=None, **settings) -> dict[str, Any]:
     """Measures a print against a design lattice: the same numbers as `trellis analyze`, as a
     dict. ``gcode`` is any G-code file (ours or another slicer's) or a ``Toolpath`` (measured as
     planned: no filament or retractions, which the machine adds); ``design`` a lattice file or a
     ``Lattice``. Keywords are the [analyze] and [read] settings (bead_width, layer_height, align,
     strict, commanded_mixtures, ...): graded G-code with a mixing look-ahead is measured with its
-    mixtures as deposited, or as commanded with ``commanded_mixtures=True``."""
-    return _read("analyze", None if design is None else _core_or_path(design, Lattice, "design"),
-                 _core_or_path(gcode, Toolpath, "gcode"), machine, set, settings)
+    mixtures as deposited, or as commanded with ``commanded_mixtures=True``. ``report`` also
+    writes the report JSON (the bytes of ``--report``), ``preview`` a folder of layer PNGs."""
+    return json.loads(_read("analyze", None if design is None else _core_or_path(design, Lattice, "design"),
+                            _core_or_path(gcode, Toolpath, "gcode"), machine, set, settings,
+                            report=report, preview=preview)["report"])
 
 
 def check(lattice: PathLike | Lattice, print_file: PathLike | Toolpath, *,
-          machine: Machine | None = None, set=None, **settings):
+          machine: Machine | None = None, report: PathLike | None = None,
+          preview: PathLike | None = None, set=None, **settings) -> dict[str, Any]:
     """Replays a print against the nozzle model (collisions, struts missing or repeated), as a
     dict; ``lattice`` a file or a ``Lattice``, ``print_file`` G-code, a toolpath file or a
     ``Toolpath``. Keywords are the [check], [nozzle] and [lattice] settings (snap,
     nozzle_radius, ...; the nozzle's also by their keys' names: radius, tip_clearance,
-    node_clearance, cone)."""
-    return _read("check", _core_or_path(lattice, Lattice, "lattice"),
-                 _core_or_path(print_file, Toolpath, "print_file"), machine, set, settings,
-                 lambda name: f"nozzle.{name}")
+    node_clearance, cone). ``report`` also writes the report JSON (``--report``), ``preview`` a
+    folder with the picture of the collisions ringed."""
+    return json.loads(_read("check", _core_or_path(lattice, Lattice, "lattice"),
+                            _core_or_path(print_file, Toolpath, "print_file"), machine, set, settings,
+                            _nozzle_key, report=report, preview=preview)["report"])
+
+
+def compare(design: PathLike, *gcode: PathLike, report: PathLike | None = None,
+            preview: PathLike | None = None, set=None, **settings) -> list[dict[str, Any]]:
+    """Prints side by side against one design, as `trellis compare DESIGN GCODE...`: the report,
+    a list with one dict per file in the order given (each what ``analyze`` returns for it).
+    ``design`` a lattice file, ``gcode`` any number of G-code files (any slicer's), toolpath JSON
+    or 3MF toolpaths. Keywords are the [analyze] and [read] settings (bead_width, align, strict,
+    ...). ``report`` also writes the report JSON (``--report``), ``preview`` a folder of layer
+    PNGs per file."""
+    if not gcode:
+        raise TypeError("trellis.compare() needs a design and at least one print file")
+    prints = [_file(g, f"gcode[{i}]", "trellis.analyze measures a Toolpath")
+              for i, g in enumerate(gcode)]
+    return json.loads(_read("compare", _file(design, "design"), prints, None, set, settings,
+                            report=report, preview=preview)["report"])
+
+
+def view(*files: PathLike, output: PathLike | None = None, design: PathLike | None = None,
+         machine: Machine | None = None, set=None, **settings) -> str:
+    """The interactive 3D viewer of `trellis view FILES... -o OUTPUT`: one self-contained HTML
+    page of G-code (any slicer's), .nc, laser .cli, toolpath JSON, 3MF toolpaths, lattices and
+    `trellis check` reports. With ``output`` it writes the page there and returns its path; without,
+    it returns the page (str). ``design`` (a lattice file) shows the prints in design coordinates
+    over it, coloured by deviation, and replayed as ``check`` does; ``machine`` draws the
+    profile's build volume. Keywords are the [view], [check], [nozzle], [lattice] and [read]
+    settings (title, snap, nozzle_radius, ...; the nozzle's also by their keys' names)."""
+    if not files:
+        raise TypeError("trellis.view() needs at least one file to show")
+    prints = [_file(f, f"files[{i}]", "a Toolpath shows itself: Toolpath.view_html()")
+              for i, f in enumerate(files)]
+    design = None if design is None else _file(design, "design")
+    if output is not None:
+        _read("view", design, prints, machine, set, settings, _nozzle_key, output=output)
+        return os.fspath(output)
+    with tempfile.TemporaryDirectory(prefix="trellis_view_") as folder:
+        page = os.path.join(folder, "view.html")
+        _read("view", design, prints, machine, set, settings, _nozzle_key, output=page)
+        with open(page, encoding="utf-8") as f:
+            return f.read()
+
+
+def render(toolpath: PathLike, output: PathLike, *, machine: Machine | None = None, progress=None,
+           set=None, **settings) -> list[str]:
+    """Layer PNGs of a print, as `trellis render TOOLPATH -o OUTPUT`: with ``layer=`` one PNG,
+    ``output``; without, every layer as OUTPUT.layerNNN.png (``output`` without .png is the
+    prefix). Returns the paths written, in layer order. ``toolpath`` a toolpath JSON, G-code of
+    any slicer, a laser .cli or a 3MF toolpath (a ``Toolpath`` in memory: ``Toolpath.png``);
+    ``machine`` the profile whose valve commands an .nc is read with. Keywords are the [render]
+    and [read] settings (layer, colour, image_size, ...)."""
+    return _read("render", None, [_file(toolpath, "toolpath", "Toolpath.png(layer) draws one")],
+                 machine, set, settings, output=output, progress=progress)["files"]
 
 
 def pbf(output: PathLike | None = None, *, envelope: PathLike | Field | None = None,

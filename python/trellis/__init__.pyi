@@ -4,7 +4,7 @@ from typing import Any, Callable, Literal, Mapping, Sequence
 
 import numpy as np
 
-from .errors import GeometryError, InputError, SettingError, TrellisError
+from .errors import GeometryError, InputError, SettingError, TrellisError, TrellisWarning
 
 PathLike = str | _PathLike[str]
 Machine = PathLike | Mapping[str, Mapping[str, Any]]
@@ -418,7 +418,7 @@ from .fields import (Field, Mesh, cone, cube, cylinder, difference, fgrade, func
                      intersection, mesh, rectprism, sphere, torus, tpms, union)
 
 def check(
-    lattice: PathLike | Lattice, print_file: PathLike | Toolpath, *, machine: Machine | None = None,
+    lattice: PathLike | Lattice, print_file: PathLike | Toolpath, *, machine: Machine | None = None, report: PathLike | None = None, preview: PathLike | None = None,
     set: Mapping[str, Any] | None = None,
     commanded_mixtures: bool = ...,  # read.commanded_mixtures: graded G-code with a mixing look-ahead: read the mixtures as commanded (the file's lines), not as deposited (the look-ahead undone, the 
     cone: float = ...,  # nozzle.cone: struts within this angle of vertical print bottom-up
@@ -436,7 +436,7 @@ def check(
 ) -> dict[str, Any]: ...
 
 def analyze(
-    gcode: PathLike | Toolpath, design: PathLike | Lattice | None = None, *, machine: Machine | None = None,
+    gcode: PathLike | Toolpath, design: PathLike | Lattice | None = None, *, machine: Machine | None = None, report: PathLike | None = None, preview: PathLike | None = None,
     set: Mapping[str, Any] | None = None,
     acceleration: float = ...,  # analyze.acceleration: for the print-time estimate when the file sets none (its M204 or our header's speed.acceleration win; 0 = feed rates only)
     align: bool = ...,  # analyze.align: move the print's XY centre onto the design's (for parts placed on the bed; done anyway, with a note, when the print lies mostly outside the design)
@@ -450,3 +450,52 @@ def analyze(
     valve_off: str = ...,  # read.valve_off: pneumatic files: the command that closes the valve
     valve_on: str = ...,  # read.valve_on: pneumatic files: the command that opens the valve (empty: the machine profile's, else the file's header)
 ) -> dict[str, Any]: ...
+
+def compare(
+    design: PathLike, *gcode: PathLike, report: PathLike | None = None, preview: PathLike | None = None,
+    set: Mapping[str, Any] | None = None,
+    acceleration: float = ...,  # analyze.acceleration: for the print-time estimate when the file sets none (its M204 or our header's speed.acceleration win; 0 = feed rates only)
+    align: bool = ...,  # analyze.align: move the print's XY centre onto the design's (for parts placed on the bed; done anyway, with a note, when the print lies mostly outside the design)
+    bead_width: float = ...,  # analyze.bead_width: bead width: deposits within width/2 cover a strut
+    commanded_mixtures: bool = ...,  # read.commanded_mixtures: graded G-code with a mixing look-ahead: read the mixtures as commanded (the file's lines), not as deposited (the look-ahead undone, the 
+    follow_symlinks: bool = ...,  # run.follow_symlinks: write an output whose path is a symbolic link to the file it points to (the link kept); without it such an output is refused
+    layer_height: float = ...,  # analyze.layer_height: nozzle z = design z + this
+    layers: bool = ...,  # analyze.layers: also print a line per layer: extrusion starts (with a design, beside the fewest paths its struts allow), retractions, travel moves and length
+    strict: bool = ...,  # read.strict: stop at the first unreadable line (default: warn and skip)
+    valve_off: str = ...,  # read.valve_off: pneumatic files: the command that closes the valve
+    valve_on: str = ...,  # read.valve_on: pneumatic files: the command that opens the valve (empty: the machine profile's, else the file's header)
+) -> list[dict[str, Any]]: ...
+
+def view(
+    *files: PathLike, output: PathLike | None = None, design: PathLike | None = None, machine: Machine | None = None,
+    set: Mapping[str, Any] | None = None,
+    cone: float = ...,  # nozzle.cone: struts within this angle of vertical print bottom-up
+    follow_symlinks: bool = ...,  # run.follow_symlinks: write an output whose path is a symbolic link to the file it points to (the link kept); without it such an output is refused
+    keep_graph: bool = ...,  # lattice.keep_graph: the lattice exactly as given: no node merging, no T-junction splitting
+    merge_tolerance: float = ...,  # lattice.merge_tolerance: merge nodes closer than this
+    node_clearance: float = ...,  # nozzle.node_clearance: no collision within this of a node the two struts share
+    nozzle_radius: float = ...,  # nozzle.radius: nozzle radius R (vertical cylinder)
+    overlap: float = ...,  # nozzle.overlap: the writer's node overlap: struts planned as if this much longer
+    snap: float = ...,  # check.snap: segment ends within this of a node are at it (at this default, plus the machine profile's node overlap)
+    tip_clearance: float = ...,  # nozzle.tip_clearance: material less than this above the tip is not hit
+    title: str = ...,  # view.title: page title (empty: the file names)
+    valve_off: str = ...,  # read.valve_off: pneumatic files: the command that closes the valve
+    valve_on: str = ...,  # read.valve_on: pneumatic files: the command that opens the valve (empty: the machine profile's, else the file's header)
+) -> str: ...
+
+def render(
+    toolpath: PathLike, output: PathLike, *, machine: Machine | None = None,
+    progress: Progress | None = None,
+    set: Mapping[str, Any] | None = None,
+    bead_width: float = ...,  # render.bead_width: line width
+    colour: Literal['auto', 'feature', 'order', 'mixture', 'commanded', 'tool', 'set'] = ...,  # render.colour: what colour means: feature, order, mixture (as deposited), commanded (the mixture as com
+    follow_symlinks: bool = ...,  # run.follow_symlinks: write an output whose path is a symbolic link to the file it points to (the link kept); without it such an output is refused
+    force: bool = ...,  # run.force: run even when the estimate is beyond run.max_memory or run.max_time
+    image_size: int = ...,  # render.image_size: image size in pixels
+    layer: int = ...,  # render.layer: layer index (0-based): one PNG, written to -o
+    max_memory: float = ...,  # run.max_memory: refuse a run whose estimate (made from its settings before it starts) needs more memory than this
+    max_time: float = ...,  # run.max_time: refuse a run whose estimated time is longer than this
+    travel: bool = ...,  # render.travel: draw travel moves (dashed grey)
+    valve_off: str = ...,  # read.valve_off: pneumatic files: the command that closes the valve
+    valve_on: str = ...,  # read.valve_on: pneumatic files: the command that opens the valve (empty: the machine profile's, else the file's header)
+) -> list[str]: ...

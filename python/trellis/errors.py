@@ -27,3 +27,9 @@ class MachineError(TrellisError):
     """The output would not print as meant on the machine: outside the bed, a tool or mixing
     hotend it lacks, a bath route on an in-air machine, a temperature, speed or power over its
     limits. Nothing was written."""
+
+
+class TrellisWarning(UserWarning):
+    """A warning of the library (what the CLI prints on stderr): the output is written but may
+    not be what was meant. The reader functions (check, analyze, compare, view, render) warn so;
+    a route's ``Result.warnings`` holds its own."""

@@ -118,6 +118,9 @@ class Field:
         the PBF route's STL comparison), over ``box`` (default: the bounds plus two steps): a
         ``trellis.Mesh`` with ``vertices`` (n, 3) and ``faces`` (m, 3); ``stl=path`` also writes
         it as binary STL. Refused beyond ``max_memory`` MB unless ``force``."""
+        if stl is not None:  # named for STL before the mesh is made
+            _trellis.require_output_format(os.fspath(stl), [(".stl", "binary STL")],
+                                           "Field.mesh(stl=)", "the mesh", "stl")
         lo, hi = self._box(box, 2 * float(step))
         out = self._compiled().mesh(lo, hi, float(step), float(max_memory or 0), force, progress)
         m = Mesh(out["vertices"], out["faces"])
@@ -181,7 +184,8 @@ class Mesh:
         return out.getvalue()
 
     def write_stl(self, path):
-        """Binary STL, written atomically by the library's writer."""
+        """Binary STL, written atomically by the library's writer; ``path`` is named .stl (any
+        case), else ``trellis.SettingError`` and nothing is written."""
         _trellis.write_stl(self.vertices, self.faces, os.fspath(path))
 
     def __repr__(self):

@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <nlohmann/json.hpp>
 #include <queue>
 #include <unordered_map>
 
@@ -446,41 +445,6 @@ CollisionCheck check_collisions(const Graph& design, const LayerSource& layers,
   Replay replay(design, options, outline);
   layers([&](std::size_t k, const Layer& layer) { replay.layer(k, layer); });
   return replay.finish();
-}
-
-std::string collision_check_json(const CollisionCheck& c, const CheckOptions& options) {
-  using nlohmann::ordered_json;
-  ordered_json j;
-  j["ok"] = c.ok();
-  j["nozzle"] = {{"radius_mm", options.nozzle.radius},
-                 {"tip_clearance_mm", options.nozzle.tip_clearance},
-                 {"node_clearance_mm", options.nozzle.node_clearance},
-                 {"cone_half_angle_deg", options.nozzle.cone_half_angle_deg},
-                 {"snap_mm", options.snap}};
-  j["paths"] = c.paths;
-  j["segments"] = c.segments;
-  j["struts"] = c.struts;
-  j["struts_printed_once"] = c.printed_once;
-  j["missing_struts"] = c.missing;
-  j["repeated_struts"] = c.repeated;
-  j["off_design_segments"] = c.off_design_segments;
-  j["collisions"] = c.collisions;
-  ordered_json hits = ordered_json::array();
-  auto pt = [](Vec3 p) { return std::vector<double>{p.x, p.y, p.z}; };
-  for (const auto& h : c.hits)
-    hits.push_back({{"path", h.path},
-                    {"segment", h.segment},
-                    {"strut", h.strut},
-                    {"hit_strut", h.hit_strut},
-                    {"hit_path", h.hit_path},
-                    {"tip", pt(h.tip)},
-                    {"point", pt(h.point)}});
-  j["collision_list"] = std::move(hits);
-  ordered_json td = ordered_json::array();
-  for (const auto& [path, strut] : c.top_down) td.push_back({{"path", path}, {"strut", strut}});
-  j["steep_struts_printed_top_down"] = std::move(td);
-  j["pairs_tested"] = c.pairs_tested;
-  return j.dump(2) + "\n";
 }
 
 }  // namespace trellis

@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <array>
 #include <atomic>
+#include <cctype>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
@@ -26,6 +27,7 @@
 #include "output_path.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/memory.hpp"
+#include "trellis/core/output_names.hpp"
 
 namespace trellis {
 
@@ -566,6 +568,27 @@ void disarm_watchdog() {
 
 bool is_stream_output(const std::string& path) {
   return !path.empty() && detail::inspect_path(path).kind == detail::PathKind::Stream;
+}
+
+void require_output_format(const std::string& path, const std::vector<OutputFormat>& formats,
+                           const std::string& writer, const std::string& what,
+                           const std::string& element) {
+  if (path.empty() || formats.empty() || is_stream_output(path)) return;
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  std::string list;
+  for (std::size_t i = 0; i < formats.size(); ++i) {
+    if (ext == formats[i].extension) return;
+    list += (i == 0                    ? ""
+             : i + 1 == formats.size() ? " or "
+                                       : ", ") +
+            formats[i].extension +
+            (formats[i].format.empty() ? "" : " (" + formats[i].format + ")");
+  }
+  throw SettingError("'" + path + "' is named " +
+                         (ext.empty() ? std::string("without an extension") : ext) + ", but " +
+                         writer + " writes " + what + " as " + list + ": name it so",
+                     {"", 0, element});
 }
 
 namespace detail {

@@ -10,6 +10,7 @@
 #include "trellis/analysis/metrics.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
+#include "trellis/job/reports.hpp"
 #include "trellis/lattice/io.hpp"
 #include "trellis/machine/toolpath_3mf.hpp"
 #include "trellis/render/render.hpp"
@@ -46,18 +47,22 @@ Analysis analyze_file(const std::string& f, const Graph* design, const AnalysisP
 }
 
 // The PNGs of one print's layers (the printed toolpath; with a design, the design in grey,
-// doubles red, missing struts blue), named after its file (`stems` numbers files of one name).
+// doubles red, missing struts blue), named after its file (`stems` numbers files of one name),
+// each added to `files`.
 std::string write_layer_pictures(const Analysis& a, const std::string& f, const Graph* design,
                                  const std::string& folder, double width,
-                                 std::map<std::string, int>& stems) {
+                                 std::map<std::string, int>& stems,
+                                 std::vector<std::string>& files) {
   const Toolpath& tp = a.printed;
   if (tp.layers.empty())
     throw GeometryError("nothing to draw for --preview: the file has no extrusion", {f});
   create_output_directories(folder);
   std::string stem = std::filesystem::path(f).stem().string();
   if (const int n = ++stems[stem]; n > 1) stem += fmt::format("_{}", n);
-  auto name = [&](std::size_t i) {
-    return (std::filesystem::path(folder) / (stem + fmt::format("_layer_{:04}.png", i))).string();
+  auto name = [&](std::size_t i) -> const std::string& {
+    files.push_back(
+        (std::filesystem::path(folder) / (stem + fmt::format("_layer_{:04}.png", i))).string());
+    return files.back();
   };
   if (!design) {
     RenderOptions ro;
@@ -81,9 +86,9 @@ std::string write_layer_pictures(const Analysis& a, const std::string& f, const 
 }
 
 // Every print of the job measured (and drawn, with a preview folder); the pictures' lines go to
-// `out`.
+// `out.summary`, their files to `out.files`.
 std::vector<Analysis> analyze_prints(const ReadJob& job, const Config& c, Diagnostics& diag,
-                                     std::string& out) {
+                                     JobResult& out) {
   std::shared_ptr<const Graph> design = job.design_graph;
   if (!design && !job.design.empty())
     design = std::make_shared<Graph>(read_lattice(job.design, {}, diag));
@@ -102,7 +107,8 @@ std::vector<Analysis> analyze_prints(const ReadJob& job, const Config& c, Diagno
                             "to align their centres; set analyze.align to always align",
                             f, a.shift.x, a.shift.y));
     if (!job.preview.empty())
-      out += write_layer_pictures(a, f, design.get(), job.preview, params.width, stems);
+      out.summary +=
+          write_layer_pictures(a, f, design.get(), job.preview, params.width, stems, out.files);
   }
   return runs;
 }
@@ -153,7 +159,10 @@ JobResult analyze_laser(const ReadJob& job, const Config& c, Diagnostics& diag,
                      : analyze_build_file(job.prints.at(0), job.design, c.laser, &json, diag);
   r.summary += "\n";
   r.report_json = json;
-  if (!job.report.empty()) write_file_atomic(job.report, json);
+  if (!job.report.empty()) {
+    write_file_atomic(job.report, json);
+    r.files.push_back(job.report);
+  }
   return r;
 }
 
@@ -172,10 +181,13 @@ JobResult reader_analyze(const ReadJob& job, const Config& c, const RunContext& 
         return analyze_laser(job, c, diag, &tp);
   }
   JobResult r;
-  const auto runs = analyze_prints(job, c, diag, r.summary);
+  const auto runs = analyze_prints(job, c, diag, r);
   const Analysis& a = runs.front();
   r.report_json = analysis_json(a);
-  if (!job.report.empty()) write_file_atomic(job.report, r.report_json);
+  if (!job.report.empty()) {
+    write_file_atomic(job.report, r.report_json);
+    r.files.push_back(job.report);
+  }
   if (c.read.per_layer) r.summary += layer_lines(a);
   r.summary += analysis_summary(a, c.read.filament_diameter);
   return r;
@@ -184,7 +196,7 @@ JobResult reader_analyze(const ReadJob& job, const Config& c, const RunContext& 
 JobResult reader_compare(const ReadJob& job, const Config& c, const RunContext& context) {
   Diagnostics& diag = *context.diagnostics;
   JobResult r;
-  const auto runs = analyze_prints(job, c, diag, r.summary);
+  const auto runs = analyze_prints(job, c, diag, r);
   if (c.read.per_layer)
     for (const auto& a : runs) r.summary += a.name + ":\n" + layer_lines(a);
   r.summary += comparison_table(runs);
@@ -192,7 +204,10 @@ JobResult reader_compare(const ReadJob& job, const Config& c, const RunContext& 
   for (std::size_t i = 0; i < runs.size(); ++i)
     r.report_json += (i ? ",\n" : "") + analysis_json(runs[i]);
   r.report_json += "]\n";
-  if (!job.report.empty()) write_file_atomic(job.report, r.report_json);
+  if (!job.report.empty()) {
+    write_file_atomic(job.report, r.report_json);
+    r.files.push_back(job.report);
+  }
   return r;
 }
 

@@ -8,6 +8,7 @@
 #include "routes.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/job/print_check.hpp"
+#include "trellis/job/reports.hpp"
 
 namespace trellis::routes {
 
@@ -52,14 +53,17 @@ JobResult reader_check(const ReadJob& job, const Config& c, const RunContext& co
   }
   JobResult r;
   r.report_json = collision_check_json(check, run.options());
-  if (!job.report.empty()) write_file_atomic(job.report, r.report_json);
+  if (!job.report.empty()) {
+    write_file_atomic(job.report, r.report_json);
+    r.files.push_back(job.report);
+  }
   if (!job.preview.empty()) {
     create_output_directories(job.preview);
     View3dOptions v;
     for (const auto& h : check.hits) v.marks.push_back(h.point);
     v.title = std::to_string(check.collisions) + " collisions";
-    render_3d_png(job.print ? *job.print : tp,
-                  (std::filesystem::path(job.preview) / "3d.png").string(), v);
+    r.files.push_back((std::filesystem::path(job.preview) / "3d.png").string());
+    render_3d_png(job.print ? *job.print : tp, r.files.back(), v);
   }
   r.summary = check_summary(check);
   r.exit_code = check.ok() ? 0 : 1;

@@ -96,6 +96,7 @@ JobResult reader_view(const ReadJob& job, const Config& c, const RunContext& con
   }
   write_file_atomic(job.output, viewer_html(scenes, title));
   JobResult r;
+  r.files = {job.output};
   for (const auto& s : scenes) r.summary += scene_line(s);
   r.summary += "wrote " + job.output + "\n";
   return r;
@@ -170,6 +171,7 @@ JobResult reader_render(const ReadJob& job, const Config& c, const RunContext& c
   JobResult r;
   if (layer >= 0) {
     render_layer_png(tp, static_cast<std::size_t>(layer), job.output, ro);
+    r.files = {job.output};
     r.summary = "wrote " + job.output + "\n";
     return r;
   }
@@ -178,7 +180,8 @@ JobResult reader_render(const ReadJob& job, const Config& c, const RunContext& c
     prefix.resize(prefix.size() - 4);
   for (std::size_t i = 0; i < tp.layers.size(); ++i) {
     progress("layers", static_cast<double>(i) / static_cast<double>(tp.layers.size()));
-    render_layer_png(tp, i, prefix + fmt::format(".layer{:03}.png", i), ro);
+    r.files.push_back(prefix + fmt::format(".layer{:03}.png", i));
+    render_layer_png(tp, i, r.files.back(), ro);
   }
   progress("layers", 1.0);
   r.summary = fmt::format("wrote {} PNG(s): {}.layerNNN.png\n", tp.layers.size(), prefix);

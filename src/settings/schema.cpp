@@ -138,6 +138,15 @@ Setting numbers_via(std::string key, std::string unit, double lo, double hi, int
   return s;
 }
 
+// A switch per item (per laser): a list of true or false, held as 1 or 0 (Setting::flags); its
+// type reads "list of true/false", its range "true or false, each".
+template <class Acc>
+Setting switches(std::string key, std::string doc, std::string flag, Acc acc) {
+  Setting s = numbers(std::move(key), "", 0, 1, 0, std::move(doc), std::move(flag), acc);
+  s.whole = s.flags = true;
+  return s;
+}
+
 Setting derived(Setting s, std::string from) {
   s.derived = std::move(from);
   return s;
@@ -599,14 +608,12 @@ std::vector<Setting> make_table() {
        "each laser's time kept on after every vector's end",
        "timing.laser_off_delay for every laser",
        [](C& c) -> auto& { return c.laser.each.laser_off_delay; });
-  {
-    Setting sky = numbers("lasers.skywriting", "", 0, 1, 0,
-                        "whether each laser runs in and out of every vector instead of waiting "
-                        "its mark delay (true or false per laser)",
-                        "", [](C& c) -> auto& { return c.laser.each.skywriting; });
-    sky.whole = sky.flags = true;
-    t.push_back(derived(std::move(sky), "timing.skywriting for every laser"));
-  }
+  t.push_back(derived(
+      switches("lasers.skywriting",
+               "each laser's skywriting on or off, laser by laser as in laser.fields: on, it runs "
+               "in and out of every vector instead of waiting its mark delay",
+               "", [](C& c) -> auto& { return c.laser.each.skywriting; }),
+      "timing.skywriting for every laser"));
   each("lasers.skywriting_time", "µs", 0, 1e5, false,
        "each laser's run-in + run-out per vector when it skywrites",
        "timing.skywriting_time for every laser",

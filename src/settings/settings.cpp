@@ -41,6 +41,11 @@ std::string kind_name(SettingKind k) {
   return "";
 }
 
+// The type a setting is written as: its kind, and a list of switches (Setting::flags) as such.
+std::string type_name(const Setting& s) {
+  return s.flags ? "list of true/false" : kind_name(s.kind);
+}
+
 std::size_t edit_distance(const std::string& a, const std::string& b) {
   std::vector<std::size_t> row(b.size() + 1);
   for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
@@ -384,7 +389,7 @@ SettingValue value_of(const toml::node& n, const Setting& s, const SettingOrigin
     }
     return xs;
   }
-  throw SettingError("expected " + kind_name(s.kind), where_of(s, o));
+  throw SettingError("expected " + type_name(s), where_of(s, o));
 }
 
 void walk(Settings& out, const toml::table& t, const std::string& prefix, const std::string& origin,
@@ -784,7 +789,7 @@ std::string settings_markdown() {
       if (!s.when.empty()) doc += " (used when " + when_text(s.when) + ")";
       for (auto& ch : doc)
         if (ch == '|') ch = '/';
-      out += "| `" + s.key + "` | " + kind_name(s.kind) + " | " + s.unit + " | `" + def + "` | " +
+      out += "| `" + s.key + "` | " + type_name(s) + " | " + s.unit + " | `" + def + "` | " +
              range + " | " + (s.flag.empty() ? "" : "`--" + s.flag + "`") + " | " + doc + " |\n";
     }
     out += "\n";

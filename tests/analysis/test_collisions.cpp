@@ -10,6 +10,7 @@
 #include "trellis/analysis/collisions.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/job/print_check.hpp"
+#include "trellis/job/reports.hpp"
 #include "trellis/lattice/cells3d.hpp"
 #include "trellis/machine/gcode_reader.hpp"
 #include "trellis/machine/gcode_writer.hpp"

@@ -674,6 +674,36 @@ TEST(Docs, SettingsReferenceIsUpToDate) {
       << "docs/settings.md is stale: run `trellis settings --markdown > docs/settings.md`";
 }
 
+// The type column of docs/settings.md says what each setting's values are: a list of switches
+// (lasers.skywriting: on or off per laser) reads "list of true/false", takes true and false (a
+// TOML list of booleans or "true,false") and refuses any other number; a list of numbers reads
+// "list of numbers".
+TEST(Docs, SettingsReferenceNamesEachType) {
+  const std::string doc = settings_markdown();
+  std::size_t switches = 0;
+  for (const Setting& s : all_settings()) {
+    const std::size_t row = doc.find("| `" + s.key + "` | ");
+    ASSERT_NE(row, std::string::npos) << s.key;
+    const std::size_t from = row + s.key.size() + 6;
+    const std::string type = doc.substr(from, doc.find(" |", from) - from);
+    if (s.kind == SettingKind::Bool) EXPECT_EQ(type, "true/false") << s.key;
+    if (s.kind != SettingKind::Numbers) continue;
+    EXPECT_EQ(type, s.flags ? "list of true/false" : "list of numbers") << s.key;
+    if (!s.flags) continue;
+    ++switches;
+    Settings st;
+    st.set_text(s.key, "true,false,true", {"--set"});
+    EXPECT_EQ(std::get<std::vector<double>>(st.value(s.key)), (std::vector<double>{1, 0, 1}));
+    st.load_toml(
+        "[" + s.section() + "]\n" + s.key.substr(s.key.find('.') + 1) + " = [false, true]\n",
+        "t.toml");
+    EXPECT_EQ(std::get<std::vector<double>>(st.value(s.key)), (std::vector<double>{0, 1}));
+    for (const char* bad : {"2", "true,0.5", "-1", "yes"})
+      EXPECT_THROW(st.set_text(s.key, bad, {"--set"}), SettingError) << s.key << " " << bad;
+  }
+  EXPECT_GE(switches, 1u);  // lasers.skywriting
+}
+
 TEST(Docs, JobsDocumentEverySectionAndRoute) {
   const std::string doc = read_file(kRoot + "/docs/jobs.md");
   for (const auto& [sec, _] : setting_sections())

@@ -16,6 +16,7 @@
 #include "trellis/analysis/metrics.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/rng.hpp"
+#include "trellis/job/reports.hpp"
 #include "trellis/machine/gcode_reader.hpp"
 #include "trellis/machine/gcode_writer.hpp"
 #include "trellis/toolpath/json.hpp"

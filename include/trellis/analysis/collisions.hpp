@@ -66,6 +66,4 @@ CollisionCheck check_collisions(const Graph& design, const Toolpath& toolpath,
 CollisionCheck check_collisions(const Graph& design, const LayerSource& layers,
                                 const CheckOptions& options);
 
-std::string collision_check_json(const CollisionCheck& c, const CheckOptions& options);
-
 }  // namespace trellis

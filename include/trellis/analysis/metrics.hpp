@@ -177,7 +177,6 @@ Analysis analyze_gcode_file(const std::string& path, const Graph* design,
                             const AnalysisParams& params, const GcodeReadOptions& read,
                             Diagnostics& diag);
 
-std::string analysis_json(const Analysis& a);
 std::string comparison_table(const std::vector<Analysis>& runs);
 
 }  // namespace trellis

@@ -1,11 +1,14 @@
 // The JSON reports of the routes: what a planner or slicer did, in the numbers that matter for it
 // (GIPPO and Euler: paper Eq. 1-3 and the lower bound per layer; AERO: groups, trails and
-// collisions; the slicers: layers, lengths, travel, the graded and process passes), plus
-// warnings. Algorithms return results; these turn them into documents, so no planner or slicer
+// collisions; the slicers: layers, lengths, travel, the graded and process passes; the readers
+// analyze, compare and check: the print measured, the collision replay), plus warnings.
+// Algorithms return results; these turn them into documents, so no planner, slicer or analysis
 // writes JSON (docs/architecture.md).
 #pragma once
 #include <string>
 
+#include "trellis/analysis/collisions.hpp"
+#include "trellis/analysis/metrics.hpp"
 #include "trellis/core/diagnostics.hpp"
 #include "trellis/plan/aero.hpp"
 #include "trellis/plan/gippo.hpp"
@@ -50,5 +53,13 @@ std::string slice_report_json(const SliceJob& job, const SliceResult& result,
 std::string nonplanar_report_json(const NonplanarResult& result, const NonplanarParams& params,
                                   const HeightField& surface, const SurfaceDeviation& deviation,
                                   const GcodeStats* gcode = nullptr);
+
+// `analyze`'s report of one print (`compare`'s: one per print, in a JSON array): its counts, per
+// layer starts, retractions and travel, and with a design the comparison with it.
+std::string analysis_json(const Analysis& a);
+
+// `check`'s report: the nozzle it replayed, struts printed once, missing or repeated, and every
+// collision.
+std::string collision_check_json(const CollisionCheck& c, const CheckOptions& options);
 
 }  // namespace trellis
