@@ -684,7 +684,7 @@ TEST(Docs, SettingsReferenceNamesEachType) {
   for (const Setting& s : all_settings()) {
     const std::size_t row = doc.find("| `" + s.key + "` | ");
     ASSERT_NE(row, std::string::npos) << s.key;
-    const std::size_t from = row + s.key.size() + 6;
+    const std::size_t from = row + s.key.size() + 7;  // past "| `KEY` | "
     const std::string type = doc.substr(from, doc.find(" |", from) - from);
     if (s.kind == SettingKind::Bool) EXPECT_EQ(type, "true/false") << s.key;
     if (s.kind != SettingKind::Numbers) continue;
