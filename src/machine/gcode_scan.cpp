@@ -100,6 +100,8 @@ std::uint64_t regular_size(const Fd& f) {
 // 128 kB costs what mapping the file costs: bench/io_vs_cat.sh; a mapped file cut short by
 // another program while being read ends the process with SIGBUS instead of an error).
 constexpr std::size_t kWindow = std::size_t{128} << 10;
+// Windows in turn on two threads (tests/machine/test_scan_file.cpp counts on at most 2 MB ahead).
+constexpr std::size_t kRing = 16;
 
 [[noreturn]] void changed_while_read(const std::string& path) {
   throw IoError(
@@ -200,9 +202,9 @@ void scan_gcode_file(const std::string& path, GcodeSink& sink, const GcodeReadOp
   const std::uint64_t size = regular_size(f);
   windows = size > 0;
   if (size >= kTwoThreadBytes && scan_threads_allowed() >= 2) {
-    // Eight windows in turn: the lexing runs up to 1 MB ahead of the reading. (Declared before
+    // Sixteen windows in turn: the lexing runs up to 2 MB ahead of the reading. (Declared before
     // the pipe: its reading thread ends before they go.)
-    WindowBuffers buffers(8);
+    WindowBuffers buffers(kRing);
     ScanPipe pipe(scanner, !options.valve_on.empty() || !options.valve_off.empty());
     std::string partial;
     try {

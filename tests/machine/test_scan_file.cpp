@@ -318,11 +318,11 @@ TEST(ScanFile, ASinkThatThrowsStopsTheScan) {
 
 // A file another program changes while it is read: an error naming the file (a mapped file cut
 // short ended the process with SIGBUS), on one thread and on two, with every event before it
-// delivered. The sink changes the file at the first move, when at most 1 MB of it has been read
-// (eight 128 kB windows ahead on two threads): shortened to 2 MB, the read past that finds the
-// end; lengthened, the size read is no longer the file's.
+// delivered. The sink changes the file at the first move, when at most 2 MB of it has been read
+// (sixteen 128 kB windows ahead on two threads): shortened to 4 MB, the read past that finds
+// the end; lengthened, the size read is no longer the file's.
 TEST(ScanFile, AFileChangedWhileReadIsAnErrorNamingIt) {
-  const std::string text = at_least(ours(9), 4u << 20);
+  const std::string text = at_least(ours(9), 8u << 20);
   struct Changing : GcodeSink {
     std::string path;
     bool shorten = true;
@@ -330,7 +330,7 @@ TEST(ScanFile, AFileChangedWhileReadIsAnErrorNamingIt) {
     void motion(Vec3, Vec3, double, double) override {
       if (++moves > 1) return;
       if (shorten)
-        fs::resize_file(path, 2u << 20);
+        fs::resize_file(path, 4u << 20);
       else
         std::ofstream(path, std::ios::binary | std::ios::app) << "G1 X1 Y1\n";
     }
@@ -355,7 +355,7 @@ TEST(ScanFile, AFileChangedWhileReadIsAnErrorNamingIt) {
       }
       EXPECT_EQ(where, file.path) << label;
       EXPECT_NE(what.find("changed while it was read"), std::string::npos) << label << ": " << what;
-      // The moves of what was read before (at least the 2 MB left), all delivered.
-      EXPECT_GT(sink.moves, 20000) << label;
+      // The moves of what was read before (at least the 4 MB left), all delivered.
+      EXPECT_GT(sink.moves, 40000) << label;
     }
 }
