@@ -21,10 +21,11 @@ int scan_threads_allowed();
 
 // The lines of a G-code file, handed from the thread that finds them to a thread that reads them
 // with `scanner`, in order: the scanner and its sink see what they would see on one thread
-// (gcode_scan.cpp). A record is a line's place in the mapped text (which stays mapped until
-// sync()), a plain move's words beside it (lexed: gcode_lex::lex_move); a line across two
-// windows is copied in. Records go over in chunks of about kChunk bytes through a short queue
-// (the lexing side waits when kDepth are pending: memory stays a few chunks).
+// (gcode_scan.cpp). A record is a line's place in the text read (which stays in its buffer until
+// the reader is past the window's mark(): wait_windows()), a plain move's words beside it
+// (lexed: gcode_lex::lex_move); a line across two windows is copied in. Records go over in chunks
+// of about kChunk bytes through a short queue (the lexing side waits when kDepth are pending:
+// memory stays a few chunks).
 class ScanPipe {
  public:
   // `valves`: the scanner was given valve commands (GcodeReadOptions::valve_on / valve_off).
@@ -56,7 +57,7 @@ class ScanPipe {
     p = put_words(p + sizeof text + sizeof len, w);
     cur_.size += static_cast<std::size_t>(p - start);
   }
-  // Any other line, in the mapped text.
+  // Any other line, in the text read.
   void line(const char* text, std::size_t len) {
     if (cur_.size >= kChunk) hand_off(false);
     char* p = cur_.data.get() + cur_.size;
@@ -67,6 +68,23 @@ class ScanPipe {
   }
   // A line held nowhere else (across two windows; the last one without a newline): copied.
   void own_line(std::string_view text) { put_text(kOwnLine, text); }
+  // The end of a window of text: once the reader is past it, windows_read() counts it.
+  void mark() {
+    if (cur_.size >= kChunk) hand_off(false);
+    cur_.data.get()[cur_.size++] = kMark;
+  }
+  // Waits until the reader is past `n` marks (the text of those windows may go); the reader's
+  // exception, if it threw one, rethrown.
+  void wait_windows(std::uint64_t n) {
+    {
+      std::lock_guard lock(m_);
+      if (marks_ >= n) return;
+    }
+    hand_off(false);  // the mark may still be in the chunk being recorded
+    std::unique_lock lock(m_);
+    idle_.wait(lock, [&] { return marks_ >= n || error_; });
+    if (error_) std::rethrow_exception(error_);
+  }
   // Every line recorded so far read (the text they point into may go); the reader's exception,
   // if it threw one, rethrown.
   void sync() {
@@ -92,7 +110,7 @@ class ScanPipe {
 
  private:
   static constexpr std::size_t kChunk = 128u << 10, kSlack = 512, kDepth = 4;
-  static constexpr char kMove = 0, kLine = 1, kOwnLine = 2;
+  static constexpr char kMove = 0, kLine = 1, kOwnLine = 2, kMark = 3;
 
   // A move's words: the letters' bits, then the values of those letters in order.
   [[gnu::always_inline]] static char* put_words(char* p, const GcodeScanner::Words& w) {
@@ -216,6 +234,12 @@ class ScanPipe {
         std::memcpy(&len, p + sizeof text, sizeof len);
         p += sizeof text + sizeof len;
         line(std::string_view(text, len));
+      } else if (kind == kMark) {
+        {
+          std::lock_guard lock(m_);
+          ++marks_;
+        }
+        idle_.notify_all();
       } else {
         std::size_t len;
         std::memcpy(&len, p, sizeof len);
@@ -241,6 +265,7 @@ class ScanPipe {
   std::deque<Chunk> full_;   // recorded, not yet read
   std::vector<Chunk> free_;  // read: their memory reused
   bool done_ = false, stop_ = false, busy_ = false;
+  std::uint64_t marks_ = 0;   // marks read
   std::exception_ptr error_;  // the reading thread's (a ParseError, the sink's own)
   std::thread reader_;
 };

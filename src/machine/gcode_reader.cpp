@@ -408,8 +408,9 @@ void GcodeScanner::apply_move(const Words& w, int g) {
                has('R') ? word('R') : 0, has('R'), g == 2, feed_);
   const bool valve_extrudes = !opt_.valve_on.empty() && valve_ && g == 1;
   const double de = e_to - e_;
-  if (moves(pos_, to) || std::abs(de) > 1e-12) sink_.motion(pos_, to, de, feed_);
-  if (moves(pos_, to)) {
+  const bool moved = moves(pos_, to);
+  if (moved || std::abs(de) > 1e-12) sink_.motion(pos_, to, de, feed_);
+  if (moved) {
     if ((de > 1e-12 || valve_extrudes) && priming_)
       sink_.prime(pos_ + offset_, to + offset_, std::max(de, 0.0), feed_);
     else if (de > 1e-12 || valve_extrudes)

@@ -1,7 +1,8 @@
 // A G-code file through the scanner (issue 40: reading within a small factor of `cat`):
-//  - a regular file is mapped from the page cache a window at a time and fed in place (no copy
-//    into a buffer, no per-line allocation; a line across two windows is the scanner's one
-//    partial line);
+//  - a regular file is read a 128 kB window at a time into buffers used in turn (the copy stays
+//    in the cache and costs what mapping the file did; no per-line allocation; a line across two
+//    windows is the scanner's one partial line). A file another program shortens or rewrites
+//    while it is read is an error naming it (a mapped file ended the process with SIGBUS);
 //  - a large file, when two threads are allowed, is scanned on two: this thread finds the lines
 //    and lexes the plain moves among them (gcode_lex::lex_move: words and numbers), a second
 //    thread reads them in order with the one scanner (its state, its warnings, its sink: the
@@ -15,6 +16,8 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <memory>
+#include <vector>
 
 #include "gcode_lex.hpp"
 #include "gcode_pipe.hpp"
@@ -24,10 +27,11 @@
 
 #if defined(__unix__) || defined(__APPLE__)
 #include <fcntl.h>
-#include <sys/mman.h>
 #include <sys/stat.h>
 #include <unistd.h>
-#define TRELLIS_MAPPED_READ 1
+
+#include <cerrno>
+#define TRELLIS_READ_IN_WINDOWS 1
 #endif
 
 namespace trellis {
@@ -72,7 +76,7 @@ void lex_window(std::string_view text, std::string& partial, ScanPipe& pipe) {
   }
 }
 
-#ifdef TRELLIS_MAPPED_READ
+#ifdef TRELLIS_READ_IN_WINDOWS
 // An open file descriptor, closed when done.
 struct Fd {
   int fd = -1;
@@ -84,7 +88,7 @@ struct Fd {
 
 // A regular file of plain text: its size; 0 when it is none of that (a pipe, a device, an
 // empty or binary G-code): read with the stream then.
-std::uint64_t mappable_size(const Fd& f) {
+std::uint64_t regular_size(const Fd& f) {
   struct stat st {};
   if (f.fd < 0 || ::fstat(f.fd, &st) != 0 || !S_ISREG(st.st_mode) || st.st_size < 4) return 0;
   char magic[4] = {};
@@ -92,31 +96,57 @@ std::uint64_t mappable_size(const Fd& f) {
   return static_cast<std::uint64_t>(st.st_size);
 }
 
-// The file, mapped window by window, to `feed` (the window's text); false (nothing fed) if it
-// cannot be mapped at all. `done` after each window, before it is unmapped.
-template <class Feed>
-bool feed_mapped(const Fd& f, std::uint64_t size, const std::string& path, Feed&& feed) {
-  constexpr std::uint64_t kWindow = std::uint64_t{32} << 20;  // a multiple of any page size
-  for (std::uint64_t at = 0; at < size; at += kWindow) {
-    const auto n = static_cast<std::size_t>(std::min(kWindow, size - at));
-    int flags = MAP_PRIVATE;
-#ifdef MAP_POPULATE
-    flags |= MAP_POPULATE;  // the window's pages mapped in one go, not a fault each
-#endif
-    void* m = ::mmap(nullptr, n, PROT_READ, flags, f.fd, static_cast<off_t>(at));
-    if (m == MAP_FAILED) {
-      if (at == 0) return false;
-      throw IoError("cannot read", {path});
+// A window of text: small enough that the copy into it stays in a core's cache (read() into
+// 128 kB costs what mapping the file costs: bench/io_vs_cat.sh; a mapped file cut short by
+// another program while being read ends the process with SIGBUS instead of an error).
+constexpr std::size_t kWindow = std::size_t{128} << 10;
+// Windows in turn on two threads (tests/machine/test_scan_file.cpp counts on at most 2 MB ahead).
+constexpr std::size_t kRing = 16;
+
+[[noreturn]] void changed_while_read(const std::string& path) {
+  throw IoError(
+      "changed while it was read (another program shortened or rewrote it): read it again once "
+      "it is complete",
+      {path});
+}
+
+// Buffers for the windows of a file, used in turn (owned by the caller: what was fed from them
+// may still be read when feed_windows throws).
+using WindowBuffers = std::vector<std::unique_ptr<char[]>>;
+
+// The file's `size` bytes read a window at a time into `buffers` in turn, each window to `feed`
+// (its text); `reuse(n)` before a buffer is filled again returns once the first n windows are
+// done with. A file that ends early, or whose size is not `size` once read, is an error naming
+// it (the results would be of neither version).
+template <class Feed, class Reuse>
+void feed_windows(const Fd& f, std::uint64_t size, const std::string& path, WindowBuffers& buffers,
+                  Feed&& feed, Reuse&& reuse) {
+  const std::size_t ring = buffers.size();
+  std::uint64_t k = 0;
+  for (std::uint64_t at = 0; at < size; at += kWindow, ++k) {
+    const auto want = static_cast<std::size_t>(std::min<std::uint64_t>(kWindow, size - at));
+    auto& buffer = buffers[k % ring];
+    if (!buffer) {
+      buffer = std::make_unique<char[]>(kWindow);
+    } else if (ring > 1) {
+      reuse(k - ring + 1);
     }
-    struct Unmap {
-      void* m;
-      std::size_t n;
-      ~Unmap() { ::munmap(m, n); }
-    } unmap{m, n};
-    ::madvise(m, n, MADV_SEQUENTIAL);
-    feed(std::string_view(static_cast<const char*>(m), n));
+    std::size_t got = 0;
+    while (got < want) {
+      const ssize_t n = ::pread(f.fd, buffer.get() + got, want - got, static_cast<off_t>(at + got));
+      if (n > 0) {
+        got += static_cast<std::size_t>(n);
+      } else if (n == 0) {
+        changed_while_read(path);
+      } else if (errno != EINTR) {
+        throw IoError(std::string("cannot read: ") + std::strerror(errno), {path});
+      }
+    }
+    feed(std::string_view(buffer.get(), want));
   }
-  return true;
+  struct stat st {};
+  if (::fstat(f.fd, &st) != 0 || static_cast<std::uint64_t>(st.st_size) != size)
+    changed_while_read(path);
 }
 #endif
 
@@ -155,7 +185,7 @@ int scan_threads_allowed() {
       allowed, static_cast<std::size_t>(std::max(1, tbb::this_task_arena::max_concurrency()))));
 }
 
-// A regular file mapped a window at a time and read in place; a large one (2 MB on) on two
+// A regular file read a window at a time into buffers used in turn; a large one (2 MB on) on two
 // threads when the task arena and any tbb::global_control allow two (lines found and moves lexed
 // on this thread, read on the other in order: the same results); pipes and binary G-code in 1 MB
 // pieces.
@@ -166,36 +196,41 @@ void scan_gcode_file(const std::string& path, GcodeSink& sink, const GcodeReadOp
   std::ifstream in(path, std::ios::binary);
   if (!in) throw IoError("cannot open", {path});
   GcodeScanner scanner(sink, options, diag, path);
-  bool mapped = false;
-#ifdef TRELLIS_MAPPED_READ
+  bool windows = false;
+#ifdef TRELLIS_READ_IN_WINDOWS
   const Fd f(path);
-  const std::uint64_t size = mappable_size(f);
+  const std::uint64_t size = regular_size(f);
+  windows = size > 0;
   if (size >= kTwoThreadBytes && scan_threads_allowed() >= 2) {
+    // Sixteen windows in turn: the lexing runs up to 2 MB ahead of the reading. (Declared before
+    // the pipe: its reading thread ends before they go.)
+    WindowBuffers buffers(kRing);
     ScanPipe pipe(scanner, !options.valve_on.empty() || !options.valve_off.empty());
     std::string partial;
     try {
-      mapped = feed_mapped(f, size, path, [&](std::string_view text) {
-        try {
-          lex_window(text, partial, pipe);
-        } catch (...) {
-          pipe.drain();  // nothing may still point into the window when it is unmapped
-          throw;
-        }
-        pipe.sync();
-      });
+      feed_windows(
+          f, size, path, buffers,
+          [&](std::string_view text) {
+            lex_window(text, partial, pipe);
+            pipe.mark();
+          },
+          [&](std::uint64_t n) { pipe.wait_windows(n); });
       if (!partial.empty()) pipe.own_line(partial);  // the last line, without a newline
     } catch (...) {
-      // A failure of this thread's (no memory, the file unreadable): what was recorded is read
-      // first, as on one thread.
+      // A failure of this thread's (no memory, the file unreadable or cut short): what was
+      // recorded is read first, as on one thread.
       pipe.drain();
       throw;
     }
     pipe.finish();
-  } else if (size > 0) {
-    mapped = feed_mapped(f, size, path, [&](std::string_view text) { scanner.feed(text); });
+  } else if (windows) {
+    WindowBuffers buffer(1);
+    feed_windows(
+        f, size, path, buffer, [&](std::string_view text) { scanner.feed(text); },
+        [](std::uint64_t) {});
   }
 #endif
-  if (!mapped) feed_stream(in, scanner, path);
+  if (!windows) feed_stream(in, scanner, path);
   scanner.finish();
 }
 

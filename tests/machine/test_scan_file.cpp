@@ -316,3 +316,47 @@ TEST(ScanFile, ASinkThatThrowsStopsTheScan) {
   EXPECT_THROW(scanner.feed(text), std::runtime_error);
   EXPECT_TRUE(sink.log == again.log);
 }
+
+// A file another program changes while it is read: an error naming the file (a mapped file cut
+// short ended the process with SIGBUS), on one thread and on two, with every event before it
+// delivered. The sink changes the file at the first move, when at most 2 MB of it has been read
+// (sixteen 128 kB windows ahead on two threads): shortened to 4 MB, the read past that finds
+// the end; lengthened, the size read is no longer the file's.
+TEST(ScanFile, AFileChangedWhileReadIsAnErrorNamingIt) {
+  const std::string text = at_least(ours(9), 8u << 20);
+  struct Changing : GcodeSink {
+    std::string path;
+    bool shorten = true;
+    long moves = 0;
+    void motion(Vec3, Vec3, double, double) override {
+      if (++moves > 1) return;
+      if (shorten)
+        fs::resize_file(path, 4u << 20);
+      else
+        std::ofstream(path, std::ios::binary | std::ios::app) << "G1 X1 Y1\n";
+    }
+  };
+  for (const bool shorten : {true, false})
+    for (const int threads : {1, 2}) {
+      const std::string label =
+          std::string(shorten ? "shortened" : "lengthened") + ", " + std::to_string(threads);
+      const Temp file(text, "changed_" + std::to_string(shorten) + std::to_string(threads));
+      const tbb::global_control limit(tbb::global_control::max_allowed_parallelism,
+                                      static_cast<std::size_t>(threads));
+      Changing sink;
+      sink.path = file.path;
+      sink.shorten = shorten;
+      Diagnostics d;
+      std::string where, what;
+      try {
+        scan_gcode_file(file.path, sink, {}, d);
+      } catch (const IoError& e) {
+        where = e.where().file;
+        what = e.message();
+      }
+      EXPECT_EQ(where, file.path) << label;
+      EXPECT_NE(what.find("changed while it was read"), std::string::npos) << label << ": " << what;
+      // The moves of what was read before (at least the 4 MB left), all delivered.
+      EXPECT_GT(sink.moves, 40000) << label;
+    }
+}
