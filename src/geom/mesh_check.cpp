@@ -13,6 +13,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <memory>
 
 #include "trellis/core/error.hpp"
 #include "trellis/core/memory.hpp"
@@ -85,8 +86,8 @@ Tally tally(const TriangleMesh& mesh, std::size_t parts,
             std::vector<std::vector<std::uint32_t>>& at, const std::vector<std::uint32_t>& start) {
   const std::size_t nv = mesh.vertices.size(), nt = mesh.triangles.size();
   auto run = [&](std::size_t p) { return std::pair{p * nt / parts, (p + 1) * nt / parts}; };
-  std::vector<E> edges;
-  resize_filled(edges, 3 * nt);
+  const std::unique_ptr<E[]> edges(new E[3 * nt]);  // every one written below: not zeroed first
+  advise_huge_pages(edges.get(), 3 * nt * sizeof(E));
   tbb::parallel_for(std::size_t{0}, parts, [&](std::size_t p) {
     std::uint32_t* next = at[p].data();
     for (auto [t, end] = run(p); t < end; ++t) {
@@ -102,7 +103,7 @@ Tally tally(const TriangleMesh& mesh, std::size_t parts,
       tbb::blocked_range<std::size_t>(0, nv, 1 << 14), Tally{},
       [&](const tbb::blocked_range<std::size_t>& r, Tally t) {
         for (std::size_t v = r.begin(); v < r.end(); ++v)
-          tally_vertex(static_cast<std::uint32_t>(v), edges.data() + start[v],
+          tally_vertex(static_cast<std::uint32_t>(v), edges.get() + start[v],
                        start[v + 1] - start[v], t);
         return t;
       },

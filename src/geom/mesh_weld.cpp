@@ -116,8 +116,9 @@ std::vector<std::uint32_t> representatives(std::size_t n, const Corner& corner,
     std::uint32_t index;
     std::uint32_t hash;  // the low bits (the top ones chose the bucket)
   };
-  std::vector<Entry> sorted;
-  resize_filled(sorted, n);
+  // Every entry is written below: the buffer is not zeroed first (a pass over n · 20 bytes).
+  const std::unique_ptr<Entry[]> sorted(new Entry[n]);
+  advise_huge_pages(sorted.get(), n * sizeof(Entry));
   tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
     std::uint32_t* off = offset.data() + c * buckets;
     for (std::size_t i = c * kGrain, e = std::min(n, i + kGrain); i < e; ++i) {
@@ -243,19 +244,21 @@ void join_points(std::vector<std::vector<P>>& points, TriangleMesh& mesh, const 
   const std::size_t runs = points.size();
   std::vector<std::size_t> offset(runs + 1, 0);
   for (std::size_t c = 0; c < runs; ++c) offset[c + 1] = offset[c] + points[c].size();
-  std::vector<P> all(offset[runs]);
+  const std::size_t total = offset[runs];
+  const std::unique_ptr<P[]> all(new P[total]);  // filled below, not zeroed first
+  advise_huge_pages(all.get(), total * sizeof(P));
   tbb::parallel_for(std::size_t{0}, runs, [&](std::size_t c) {
-    std::copy(points[c].begin(), points[c].end(), all.begin() + static_cast<long>(offset[c]));
+    std::copy(points[c].begin(), points[c].end(), all.get() + offset[c]);
     std::vector<P>().swap(points[c]);
   });
   std::size_t vertices = 0;
   std::vector<std::uint32_t> id = representatives(
-      all.size(), [&](std::size_t i) { return all[i]; }, vertices);
+      total, [&](std::size_t i) { return all[i]; }, vertices);
   // A point's vertex: numbered when it is its own representative (the first of its
   // coordinates); `id` is written over the representatives, which come first.
   mesh.vertices.reserve(vertices);
   advise_huge_pages(mesh.vertices.data(), vertices * sizeof(Vec3));
-  for (std::size_t i = 0; i < all.size(); ++i) {
+  for (std::size_t i = 0; i < total; ++i) {
     if (id[i] == i) {
       id[i] = static_cast<std::uint32_t>(mesh.vertices.size());
       mesh.vertices.push_back(vertex_of(all[i]));
