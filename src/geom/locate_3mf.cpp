@@ -14,12 +14,15 @@
 #include <zip.h>
 
 #include <cerrno>
+#include <cfloat>
+#include <charconv>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
 #include <map>
 #include <memory>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "mesh_3mf_module.hpp"
@@ -42,18 +45,18 @@ struct ZipFile {
   }
 };
 
-std::string local_name(const XML_Char* name) {
+// Names are compared in place: the walk allocates nothing per element (a large model part has
+// millions of <vertex> and <triangle> elements), only when it reports a problem.
+const char* local_name(const XML_Char* name) {
   const char* space = std::strrchr(name, ' ');  // "namespace-uri local" (XML_ParserCreateNS)
   return space ? space + 1 : name;
 }
 
 // The element's name if it is in namespace `uri`, else "" (the slice extension has its own
 // <vertex>, other extensions their own elements: only the core's and beam lattices' are checked).
-std::string name_in(const XML_Char* name, const char* uri) {
+std::string_view name_in(const XML_Char* name, std::string_view uri) {
   const char* space = std::strrchr(name, ' ');
-  const std::size_t n = std::strlen(uri);
-  if (!space || static_cast<std::size_t>(space - name) != n || std::strncmp(name, uri, n) != 0)
-    return "";
+  if (!space || std::string_view(name, static_cast<std::size_t>(space - name)) != uri) return {};
   return space + 1;
 }
 
@@ -62,12 +65,19 @@ constexpr const char* kBeams = "http://schemas.microsoft.com/3dmanufacturing/bea
 
 const char* attribute(const XML_Char** atts, const char* name) {
   for (int i = 0; atts[i]; i += 2)
-    if (local_name(atts[i]) == name) return atts[i + 1];
+    if (std::strcmp(local_name(atts[i]), name) == 0) return atts[i + 1];
   return nullptr;
 }
 
+// Whether strtod reads all of `s` as a finite number without ERANGE. Plain decimals that come
+// out normal are settled by std::from_chars (the same correctly rounded double, a tenth of the
+// cost); everything else (blanks, '+', hex, zero, tiny or huge values, text) is strtod's to say.
 bool parse_number(const char* s, double& v) {
   if (!s || !*s) return false;
+  const char* const stop = s + std::strlen(s);
+  if (const auto r = std::from_chars(s, stop, v);
+      r.ec == std::errc() && r.ptr == stop && std::abs(v) >= 4 * DBL_MIN && std::abs(v) <= DBL_MAX)
+    return true;
   errno = 0;
   char* end = nullptr;
   v = std::strtod(s, &end);
@@ -76,6 +86,9 @@ bool parse_number(const char* s, double& v) {
 
 bool parse_index(const char* s, unsigned long long& v) {
   if (!s || !*s || *s == '-' || *s == '+') return false;
+  // Plain digits by std::from_chars; blanks before them and overflow by strtoull.
+  const char* const stop = s + std::strlen(s);
+  if (const auto r = std::from_chars(s, stop, v); r.ec == std::errc() && r.ptr == stop) return true;
   errno = 0;
   char* end = nullptr;
   v = std::strtoull(s, &end, 10);
@@ -107,20 +120,26 @@ struct Walker {
     XML_StopParser(parser, XML_FALSE);
   }
 
-  void index_attr(const XML_Char** atts, const char* name, const std::string& element) {
+  // The element's name for a message: "vertex 12 of object 3".
+  std::string element(const char* kind, unsigned long long number) const {
+    return std::string(kind) + " " + std::to_string(number) + " of object " + object;
+  }
+
+  void index_attr(const XML_Char** atts, const char* name, const char* kind,
+                  unsigned long long number) {
     unsigned long long v = 0;
     const char* s = attribute(atts, name);
     if (!s)
-      fail(element + " has no attribute " + name);
+      fail(element(kind, number) + " has no attribute " + name);
     else if (!parse_index(s, v))
-      fail(element + ": " + name + "=\"" + s + "\" is not a vertex index");
+      fail(element(kind, number) + ": " + name + "=\"" + s + "\" is not a vertex index");
     else if (v >= vertices)
-      fail(element + " refers to vertex " + s + " but the mesh of object " + object + " has " +
-           std::to_string(vertices) + " vertices");
+      fail(element(kind, number) + " refers to vertex " + s + " but the mesh of object " + object +
+           " has " + std::to_string(vertices) + " vertices");
   }
 
   void start(const XML_Char* name, const XML_Char** atts) {
-    std::string n = name_in(name, kCore);
+    std::string_view n = name_in(name, kCore);
     if (n.empty() && name_in(name, kBeams) == "beam") n = "beam";
     if (n == "model") {
       const char* unit = attribute(atts, "unit");
@@ -135,46 +154,45 @@ struct Walker {
       objects[object] = true;
       vertices = triangles = beams = 0;
     } else if (n == "vertex") {
-      const std::string element = "vertex " + std::to_string(vertices) + " of object " + object;
       for (const char* axis : {"x", "y", "z"}) {
         double v = 0;
         const char* s = attribute(atts, axis);
-        if (!s) return fail(element + " has no " + axis);
+        if (!s) return fail(element("vertex", vertices) + " has no " + axis);
         if (!parse_number(s, v))
-          return fail(element + ": " + axis + "=\"" + s + "\" is not a finite number");
+          return fail(element("vertex", vertices) + ": " + axis + "=\"" + s +
+                      "\" is not a finite number");
       }
       ++vertices;
     } else if (n == "triangle") {
-      const std::string element = "triangle " + std::to_string(triangles) + " of object " + object;
       for (const char* v : {"v1", "v2", "v3"}) {
-        index_attr(atts, v, element);
+        index_attr(atts, v, "triangle", triangles);
         if (!problem.empty()) return;
       }
       ++triangles;
     } else if (n == "beam") {
-      const std::string element = "beam " + std::to_string(beams) + " of object " + object;
       for (const char* v : {"v1", "v2"}) {
-        index_attr(atts, v, element);
+        index_attr(atts, v, "beam", beams);
         if (!problem.empty()) return;
       }
       for (const char* r : {"r1", "r2"}) {
         double v = 0;
         const char* s = attribute(atts, r);
         if (s && (!parse_number(s, v) || v <= 0))
-          return fail(element + ": " + r + "=\"" + s + "\" is not a positive radius");
+          return fail(element("beam", beams) + ": " + r + "=\"" + s +
+                      "\" is not a positive radius");
       }
       ++beams;
     } else if (n == "item" || n == "component") {
       const char* id = attribute(atts, "objectid");
-      if (!id) return fail(n + " has no objectid");
+      if (!id) return fail(std::string(n) + " has no objectid");
       const long l = static_cast<long>(XML_GetCurrentLineNumber(parser));
       const long c = static_cast<long>(XML_GetCurrentColumnNumber(parser)) + 1;
       // An object in another model part (Production Extension: OrcaSlicer's and Bambu Studio's
       // 3D/Objects/object_N.model), checked when that part is walked.
       if (const char* path = attribute(atts, "path"))
-        elsewhere.push_back({id, l, c, n, path});
+        elsewhere.push_back({id, l, c, std::string(n), path});
       else
-        refs.push_back({id, l, c, n, ""});
+        refs.push_back({id, l, c, std::string(n), ""});
     }
   }
 

@@ -515,7 +515,7 @@ TriangleMesh read_obj(const std::string& path) {
 // lib3mf runs in the 3MF module (src/geom/mesh_3mf.cpp), loaded on first use; it returns the
 // triangles as they are stored, welded and checked here like every other format.
 TriangleMesh read_3mf(const std::string& path) {
-  (void)read_file(path);  // clear IoError for a missing file
+  { const InputFile exists(path); }  // clear IoError for a missing file (nothing read)
   const TriangleMesh stored = detail::module_table<Mesh3mfModule>("3mf").read_3mf(path);
   for (const auto& v : stored.vertices) check_coordinate(v, path, 0);
   TriangleMesh mesh = weld(stored);

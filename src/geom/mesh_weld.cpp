@@ -11,8 +11,10 @@
 #include <algorithm>
 #include <atomic>
 #include <bit>
+#include <cfloat>
 #include <cmath>
 #include <cstring>
+#include <memory>
 #include <type_traits>
 
 #include "trellis/core/error.hpp"
@@ -114,8 +116,9 @@ std::vector<std::uint32_t> representatives(std::size_t n, const Corner& corner,
     std::uint32_t index;
     std::uint32_t hash;  // the low bits (the top ones chose the bucket)
   };
-  std::vector<Entry> sorted;
-  resize_filled(sorted, n);
+  // Every entry is written below: the buffer is not zeroed first (a pass over n · 20 bytes).
+  const std::unique_ptr<Entry[]> sorted(new Entry[n]);
+  advise_huge_pages(sorted.get(), n * sizeof(Entry));
   tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
     std::uint32_t* off = offset.data() + c * buckets;
     for (std::size_t i = c * kGrain, e = std::min(n, i + kGrain); i < e; ++i) {
@@ -241,19 +244,21 @@ void join_points(std::vector<std::vector<P>>& points, TriangleMesh& mesh, const 
   const std::size_t runs = points.size();
   std::vector<std::size_t> offset(runs + 1, 0);
   for (std::size_t c = 0; c < runs; ++c) offset[c + 1] = offset[c] + points[c].size();
-  std::vector<P> all(offset[runs]);
+  const std::size_t total = offset[runs];
+  const std::unique_ptr<P[]> all(new P[total]);  // filled below, not zeroed first
+  advise_huge_pages(all.get(), total * sizeof(P));
   tbb::parallel_for(std::size_t{0}, runs, [&](std::size_t c) {
-    std::copy(points[c].begin(), points[c].end(), all.begin() + static_cast<long>(offset[c]));
+    std::copy(points[c].begin(), points[c].end(), all.get() + offset[c]);
     std::vector<P>().swap(points[c]);
   });
   std::size_t vertices = 0;
   std::vector<std::uint32_t> id = representatives(
-      all.size(), [&](std::size_t i) { return all[i]; }, vertices);
+      total, [&](std::size_t i) { return all[i]; }, vertices);
   // A point's vertex: numbered when it is its own representative (the first of its
   // coordinates); `id` is written over the representatives, which come first.
   mesh.vertices.reserve(vertices);
   advise_huge_pages(mesh.vertices.data(), vertices * sizeof(Vec3));
-  for (std::size_t i = 0; i < all.size(); ++i) {
+  for (std::size_t i = 0; i < total; ++i) {
     if (id[i] == i) {
       id[i] = static_cast<std::uint32_t>(mesh.vertices.size());
       mesh.vertices.push_back(vertex_of(all[i]));
@@ -277,7 +282,7 @@ TriangleMesh weld_binary_stl(const StlRecords& records, std::size_t count,
   if (3 * count >= 0xffffffffull) throw GeometryError("more than 4,294,967,294 triangle corners");
   const std::size_t chunks = (count + kChunk - 1) / kChunk;
   struct Scratch {
-    std::vector<char> bytes = std::vector<char>(50 * kChunk);
+    std::unique_ptr<char[]> bytes{new char[50 * kChunk]};  // only read_stl's pieces fill it
     std::vector<std::uint32_t> table = std::vector<std::uint32_t>(kSlots, kEmpty);
     std::vector<std::uint32_t> used;  // the table's filled slots, emptied after each chunk
   };
@@ -286,39 +291,76 @@ TriangleMesh weld_binary_stl(const StlRecords& records, std::size_t count,
   TriangleMesh mesh;
   resize_filled(mesh.triangles, count);
   std::atomic<std::size_t> bad{count};
+  // A coordinate is valid when |x| <= limit: for a float, when its bits without the sign are at
+  // most those of the largest float <= limit (NaN's and infinity's bits are above every finite
+  // float's).
+  float limit_f = limit >= FLT_MAX ? FLT_MAX : static_cast<float>(limit);
+  if (static_cast<double>(limit_f) > limit) limit_f = std::nextafter(limit_f, 0.0f);
+  const std::uint32_t limit_bits = bits(limit_f) & 0x7fffffffu;
   tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
     Scratch& s = scratch.local();
     const std::size_t t0 = c * kChunk, n = std::min(count, t0 + kChunk) - t0;
-    const char* rec = records(t0, n, s.bytes.data());
+    const char* rec = records(t0, n, s.bytes.get());
     std::vector<Float3>& pts = points[c];
     pts.reserve(n);
+    // A corner is its coordinates' bits with -0 as +0 (a point is stored so), compared as such.
+    // The previous triangle's corners and points are looked at first: in a mesh's file order
+    // neighbouring triangles share corners (strips, fans), so most corners are found there
+    // without hashing.
+    struct Key {
+      std::uint32_t x, y, z;
+    };
+    auto equal = [](const Key& a, const Key& b) { return a.x == b.x && a.y == b.y && a.z == b.z; };
+    Key prev[3] = {};
+    std::uint32_t prev_id[3] = {kEmpty, kEmpty, kEmpty};
     for (std::size_t t = 0; t < n; ++t) {
-      Float3 f[3];
-      std::memcpy(f, rec + 50 * t + 12, 36);
+      std::uint32_t raw[9];
+      std::memcpy(raw, rec + 50 * t + 12, 36);
+      std::uint32_t widest = 0;
+      for (std::uint32_t& b : raw) {
+        widest = std::max(widest, b & 0x7fffffffu);
+        if ((b & 0x7fffffffu) == 0) b = 0;  // -0 as +0
+      }
+      if (widest > limit_bits) {  // not finite or beyond the limit
+        std::size_t was = bad.load();
+        while (t0 + t < was && !bad.compare_exchange_weak(was, t0 + t)) {
+        }
+      }
+      std::uint32_t ids[3];
       for (int k = 0; k < 3; ++k) {
-        const Float3 p = f[k];
-        // NaN fails every comparison, infinity the bound: both invalid.
-        if (!(std::abs(p.x) <= limit && std::abs(p.y) <= limit && std::abs(p.z) <= limit)) {
-          std::size_t was = bad.load();
-          while (t0 + t < was && !bad.compare_exchange_weak(was, t0 + t)) {
-          }
-        }
+        const Key key{raw[3 * k], raw[3 * k + 1], raw[3 * k + 2]};
         std::uint32_t id = kEmpty;
-        for (std::size_t slot = hash_of(p) & (kSlots - 1);; slot = (slot + 1) & (kSlots - 1)) {
-          const std::uint32_t j = s.table[slot];
-          if (j == kEmpty) {
-            id = static_cast<std::uint32_t>(pts.size());
-            s.table[slot] = id;
-            s.used.push_back(static_cast<std::uint32_t>(slot));
-            pts.push_back(p);
-            break;
-          }
-          if (same(pts[j], p)) {
-            id = j;
-            break;
+        for (int q = 0; q < 3; ++q)
+          if (prev_id[q] != kEmpty && equal(key, prev[q])) id = prev_id[q];
+        if (id == kEmpty) {
+          Float3 p;
+          std::memcpy(&p, &key, 12);
+          std::uint64_t h = (std::uint64_t{key.x} << 32 | key.y) * 0x9E3779B97F4A7C15ull;
+          h = (h ^ (h >> 31) ^ key.z) * 0x94D049BB133111EBull;
+          for (std::size_t slot = (h ^ (h >> 32)) & (kSlots - 1);;
+               slot = (slot + 1) & (kSlots - 1)) {
+            const std::uint32_t j = s.table[slot];
+            if (j == kEmpty) {
+              id = static_cast<std::uint32_t>(pts.size());
+              s.table[slot] = id;
+              s.used.push_back(static_cast<std::uint32_t>(slot));
+              pts.push_back(p);
+              break;
+            }
+            Key other;
+            std::memcpy(&other, &pts[j], 12);
+            if (equal(other, key)) {
+              id = j;
+              break;
+            }
           }
         }
-        mesh.triangles[t0 + t][k] = id;
+        ids[k] = id;
+      }
+      for (int k = 0; k < 3; ++k) {
+        mesh.triangles[t0 + t][k] = ids[k];
+        prev_id[k] = ids[k];
+        prev[k] = {raw[3 * k], raw[3 * k + 1], raw[3 * k + 2]};
       }
     }
     for (const std::uint32_t slot : s.used) s.table[slot] = kEmpty;

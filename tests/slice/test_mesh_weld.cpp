@@ -78,6 +78,65 @@ TEST(MeshWeld, BinaryStlWeldsAsWeldCorners) {
   }
 }
 
+// Corners in a mesh's file order, where neighbouring triangles share corners (the weld finds
+// those in the previous triangle without hashing): strips of a grid on a few heights, some
+// corners -0 where another is +0, some triangles repeated, flipped, degenerate or moved to
+// another place: the same mesh as weld_corners makes, on 1 and 2 threads.
+TEST(MeshWeld, BinaryStlInStripOrderWeldsAsWeldCorners) {
+  std::mt19937 rng(29);
+  for (int round = 0; round < 30; ++round) {
+    const int nu = 2 + static_cast<int>(rng() % (round < 20 ? 40 : 400));
+    const int nv = 2 + static_cast<int>(rng() % 60);
+    auto at = [&](int i, int j) {
+      std::array<float, 3> p{static_cast<float>(i % 7) * 0.5f, static_cast<float>(j % 5),
+                             static_cast<float>((i + j) % 3) - 1.0f};
+      if (p[0] == 0 && rng() % 2) p[0] = -0.0f;
+      if (p[2] == 0 && rng() % 2) p[2] = -0.0f;
+      return p;
+    };
+    std::vector<std::array<float, 3>> corners;
+    for (int i = 0; i < nu; ++i)
+      for (int j = 0; j < nv; ++j) {
+        corners.insert(corners.end(), {at(i, j), at(i + 1, j), at(i + 1, j + 1)});
+        corners.insert(corners.end(), {at(i, j), at(i + 1, j + 1), at(i, j + 1)});
+        switch (rng() % 16) {
+          case 0:  // the last triangle again
+            corners.insert(corners.end(), corners.end() - 3, corners.end());
+            break;
+          case 1:  // flipped
+            std::swap(corners[corners.size() - 1], corners[corners.size() - 2]);
+            break;
+          case 2:  // degenerate: a corner of the previous triangle twice
+            corners.insert(corners.end(), {at(i, j), at(i, j), at(i + 1, j + 1)});
+            break;
+          case 3: {  // a triangle from elsewhere
+            const std::size_t t = rng() % (corners.size() / 3);
+            corners.insert(corners.end(), corners.begin() + static_cast<long>(3 * t),
+                           corners.begin() + static_cast<long>(3 * t + 3));
+            break;
+          }
+          default:
+            break;
+        }
+      }
+    std::vector<Vec3> doubles;
+    for (const auto& c : corners) doubles.push_back({c[0], c[1], c[2]});
+    const TriangleMesh expected = weld_corners(doubles);
+    if (expected.triangles.empty()) continue;
+    const std::string bytes = binary_stl(corners);
+    for (const std::size_t threads : {1u, 2u}) {
+      tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+      const TriangleMesh m = parse_stl(bytes, "strips.stl");
+      ASSERT_EQ(m.triangles, expected.triangles) << round;
+      ASSERT_EQ(m.vertices.size(), expected.vertices.size()) << round;
+      ASSERT_EQ(std::memcmp(m.vertices.data(), expected.vertices.data(),
+                            m.vertices.size() * sizeof(Vec3)),
+                0)
+          << round;
+    }
+  }
+}
+
 // read_stl reads a binary STL in pieces (never whole) into the weld: the same mesh as parse_stl
 // of the file's bytes, over several pieces and on 1 and 2 threads; the same first invalid
 // coordinate; a file that shrinks under the reader is an IoError naming it.
