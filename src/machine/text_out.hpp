@@ -58,13 +58,14 @@ class TextOut {
   }
 
  private:
-  // At least `n` bytes of room: the string grown by a chunk (zeroed while it is in the cache,
-  // then written over), its capacity doubled when that runs out.
+  // At least `n` bytes of room: the string grown by up to a chunk within its capacity (zeroed
+  // while it is in the cache, then written over); a new block, twice as large, only when the
+  // capacity runs out (a buffer handed in keeps its memory while it is large enough).
   [[gnu::noinline]] void grow(std::size_t n) {
     constexpr std::size_t kChunk = std::size_t{64} << 10;
-    const std::size_t want = n_ + std::max(n, kChunk);
-    if (want > s_.capacity()) s_.reserve(std::max(want, 2 * s_.capacity()));
-    s_.resize(std::min(s_.capacity(), std::max(want, s_.size() + kChunk)));
+    const std::size_t need = n_ + n;
+    if (need > s_.capacity()) s_.reserve(std::max(need, 2 * s_.capacity()));
+    s_.resize(std::max(need, std::min(s_.capacity(), s_.size() + kChunk)));
   }
   std::string s_;
   std::size_t n_ = 0;
