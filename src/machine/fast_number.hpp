@@ -190,8 +190,8 @@ inline constexpr char kTwoDigits[] =
 // A CLI coordinate: `mm` in µm rounded to 10 nm, as fmt's shortest "{}" of
 // round(mm * 1e5) / 100 prints it (-0 as 0). With |round(mm * 1e5)| < 10^15 the decimal
 // q / 100 has at most 15 significant digits, so it is the shortest form that reads back as the
-// same double, and fmt prints it in fixed notation: its digits are q's. Beyond that, fmt itself.
-// round(mm * 1e5) is llround's value (round_half_away) as a double, exact below 1e15.
+// same double, and fmt prints it in fixed notation: its digits are q's. Beyond that, fmt itself
+// (cli_um_fmt). round(mm * 1e5) is round_half_away's q (llround's value) without the libm call.
 [[gnu::noinline]] inline char* cli_um_fmt(char* p, double mm) {
   double v = std::round(mm * 1e5) / 100.0;
   if (v == 0) v = 0;

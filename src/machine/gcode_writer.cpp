@@ -239,8 +239,9 @@ class Writer {
 
   // The print-time estimate (machine/print_time.hpp) of the text, read as `trellis analyze`
   // reads the file, in order as it is written: the writer's own moves handed over as their
-  // words (the values the text reads back as: GcodeScanner::move_words), everything else (the
-  // profile's start, end and tool-change code, heaters, dwells, comments) as text.
+  // words (the values the text reads back as: GcodeScanner::plain_motion while the scanner reads
+  // moves plainly, else GcodeScanner::move_words), everything else (the profile's start, end
+  // and tool-change code, heaters, dwells, comments) as text.
   class TimeEstimate {
    public:
     void text(std::string_view t) {
