@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "fast_number.hpp"
+#include "text_out.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/machine/machine_check.hpp"
@@ -31,19 +32,29 @@ constexpr int kContourId = 1, kHatchId = 2;
 
 // Coordinates in µm with two decimals (10 nm), no trailing zeros.
 // (fastnum::cli_um: the bytes of fmt::format("{}", round(mm * 1e5) / 100.0), -0 as 0.)
-void put(std::string& out, double mm) {
-  char buf[fastnum::kMaxChars];
-  out.append(buf, static_cast<std::size_t>(fastnum::cli_um(buf, mm) - buf));
+void put(fastnum::TextOut& out, double mm) {
+  out.commit(fastnum::cli_um(out.room(fastnum::kMaxChars), mm));
 }
 
-void put_xy(std::string& out, const Vec3& q) {
-  char buf[2 * fastnum::kMaxChars + 2];
-  char* b = buf;
+// ",<x>,<y>" written in place.
+[[gnu::always_inline]] inline void put_xy(fastnum::TextOut& out, const Vec3& q) {
+  char* b = out.room(2 * fastnum::kMaxChars + 2);
   *b++ = ',';
   b = fastnum::cli_um(b, q.x);
   *b++ = ',';
   b = fastnum::cli_um(b, q.y);
-  out.append(buf, static_cast<std::size_t>(b - buf));
+  out.commit(b);
+}
+
+// A block's head, "<command><id>,<more>" (integers as fmt's "{}" prints them).
+void put_head(fastnum::TextOut& out, std::string_view command, int id, std::string_view middle,
+              std::size_t n) {
+  char* h = out.room(command.size() + middle.size() + 48);
+  std::memcpy(h, command.data(), command.size());
+  h = std::to_chars(h + command.size(), h + command.size() + 24, id).ptr;
+  std::memcpy(h, middle.data(), middle.size());
+  h = std::to_chars(h + middle.size(), h + middle.size() + 24, n).ptr;
+  out.commit(h);
 }
 
 template <class T>
@@ -224,7 +235,7 @@ void for_each_block(const Layer& layer, std::size_t parts, int lasers,
     }
 }
 
-void ascii_layer(const Layer& layer, std::string& out, std::size_t parts, int lasers,
+void ascii_layer(const Layer& layer, fastnum::TextOut& out, std::size_t parts, int lasers,
                  const std::vector<CliParameterSet>& sets) {
   out += "$$LAYER/";
   put(out, layer.z);
@@ -232,17 +243,12 @@ void ascii_layer(const Layer& layer, std::string& out, std::size_t parts, int la
   for_each_block(
       layer, parts, lasers, sets,
       [&](int id, const Path& p) {
-        char head[64];  // "$$POLYLINE/<id>,2,<n>" (as fmt's "{}" prints integers)
-        char* h = fastnum::lit(head, "$$POLYLINE/");
-        h = std::to_chars(h, head + sizeof head, id).ptr;
-        h = fastnum::lit(h, ",2,");
-        h = std::to_chars(h, head + sizeof head, p.points.size()).ptr;
-        out.append(head, static_cast<std::size_t>(h - head));
+        put_head(out, "$$POLYLINE/", id, ",2,", p.points.size());
         for (const auto& q : p.points) put_xy(out, q);
         out += '\n';
       },
       [&](int id, const std::vector<const Path*>& vectors) {
-        fmt::format_to(std::back_inserter(out), "$$HATCHES/{},{}", id, vectors.size());
+        put_head(out, "$$HATCHES/", id, ",", vectors.size());
         for (const Path* p : vectors)
           for (const auto& q : p->points) put_xy(out, q);
         out += '\n';
@@ -254,11 +260,14 @@ void ascii_geometry(const Toolpath& tp, std::string& out, int lasers,
   std::size_t points = 0;
   for (const auto& layer : tp.layers)
     for (const auto& p : layer.paths) points += p.points.size();
-  out.reserve(out.size() + points * 18 + tp.layers.size() * 64 + 64);  // ~",123.45,67.89"
-  fastnum::advise_huge_pages(out);
-  out += kAsciiStart;
-  for (const auto& layer : tp.layers) ascii_layer(layer, out, tp.part_labels.size(), lasers, sets);
-  out += kAsciiEnd;
+  fastnum::TextOut text;
+  text.adopt(std::move(out));
+  text.reserve(text.size() + points * 18 + tp.layers.size() * 64 + 64);  // ~",123.45,67.89"
+  fastnum::advise_huge_pages(text.storage());
+  text += kAsciiStart;
+  for (const auto& layer : tp.layers) ascii_layer(layer, text, tp.part_labels.size(), lasers, sets);
+  text += kAsciiEnd;
+  out = text.take();
 }
 
 void binary_layer(const Layer& layer, std::string& out, std::size_t parts, int lasers,
@@ -746,8 +755,12 @@ void CliStreamWriter::add(const Layer& layer) {
   }
   if (options_.binary)
     binary_layer(layer, buffer_, 0, lasers, options_.sets);
-  else
-    ascii_layer(layer, buffer_, 0, lasers, options_.sets);
+  else {
+    fastnum::TextOut text;
+    text.adopt(std::move(buffer_));
+    ascii_layer(layer, text, 0, lasers, options_.sets);
+    buffer_ = text.take();
+  }
   ++layers_;
   if (buffer_.size() > (1u << 20)) flush();
 }

@@ -160,35 +160,48 @@ inline constexpr char kTwoDigits[] =
   return p + (63 - std::countl_zero(frac_nonzero)) / 8 + 1;
 }
 
-// v with at most `decimals` (0..6) decimals, trailing zeros removed: "12.5", "-0.001", "3".
-// Call with a constant `decimals` (it is inlined, the divisions become multiplications).
-[[gnu::always_inline]] inline char* fixed(char* p, double v, int decimals) {
-  static constexpr long long kPow[] = {1, 10, 100, 1000, 10000, 100000, 1000000};
-  const unsigned long long scale = static_cast<unsigned long long>(kPow[decimals]);
-  long long q;
-  if (!round_half_away(v * static_cast<double>(scale), q)) return fixed_legacy(p, v, decimals);
+// q / 10^decimals (q already rounded: llround(v * 10^decimals)) with at most `decimals`
+// (0..6) decimals, trailing zeros removed; what fixed() prints for that v. For a caller that
+// also needs q itself (the G-code writer's move words, which read back as q / 10^decimals).
+[[gnu::always_inline]] inline char* fixed_q(char* p, long long q, int decimals) {
+  static constexpr unsigned long long kPow[] = {1, 10, 100, 1000, 10000, 100000, 1000000};
+  const unsigned long long scale = kPow[decimals];
   unsigned long long u = static_cast<unsigned long long>(q);
   if (q < 0) {
     *p++ = '-';
     u = 0 - u;
   }
-  if (decimals > 0 && u < 100000000ULL) return fixed_small(p, u, decimals);
+  if (decimals > 0 && u < 100000000ULL) [[likely]]
+    return fixed_small(p, u, decimals);
   p = put_uint(p, u / scale);
   return fraction(p, u % scale, decimals);
+}
+
+// v with at most `decimals` (0..6) decimals, trailing zeros removed: "12.5", "-0.001", "3".
+// Call with a constant `decimals` (it is inlined, the divisions become multiplications).
+[[gnu::always_inline]] inline char* fixed(char* p, double v, int decimals) {
+  static constexpr long long kPow[] = {1, 10, 100, 1000, 10000, 100000, 1000000};
+  long long q;
+  if (!round_half_away(v * static_cast<double>(kPow[decimals]), q))
+    return fixed_legacy(p, v, decimals);
+  return fixed_q(p, q, decimals);
 }
 
 // A CLI coordinate: `mm` in µm rounded to 10 nm, as fmt's shortest "{}" of
 // round(mm * 1e5) / 100 prints it (-0 as 0). With |round(mm * 1e5)| < 10^15 the decimal
 // q / 100 has at most 15 significant digits, so it is the shortest form that reads back as the
-// same double, and fmt prints it in fixed notation: its digits are q's. Beyond that, fmt itself.
+// same double, and fmt prints it in fixed notation: its digits are q's. Beyond that, fmt itself
+// (cli_um_fmt). round(mm * 1e5) is round_half_away's q (llround's value) without the libm call.
+[[gnu::noinline]] inline char* cli_um_fmt(char* p, double mm) {
+  double v = std::round(mm * 1e5) / 100.0;
+  if (v == 0) v = 0;
+  return fmt::format_to(p, "{}", v);
+}
 [[gnu::always_inline]] inline char* cli_um(char* p, double mm) {
-  const double r = std::round(mm * 1e5);
-  if (!(std::abs(r) < 1e15)) {
-    double v = r / 100.0;
-    if (v == 0) v = 0;
-    return fmt::format_to(p, "{}", v);
-  }
-  long long q = static_cast<long long>(r);
+  long long q;
+  if (!round_half_away(mm * 1e5, q) || !(q < 1000000000000000LL && q > -1000000000000000LL))
+      [[unlikely]]
+    return cli_um_fmt(p, mm);
   unsigned long long u = static_cast<unsigned long long>(q);
   if (q < 0) {
     *p++ = '-';

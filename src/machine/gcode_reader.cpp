@@ -236,6 +236,37 @@ bool GcodeScanner::move_words(const Words& words, int g) {
   return true;
 }
 
+bool GcodeScanner::plain_state(MoveState& s) const {
+  if (!partial_.empty() || !abs_pos_ || inches_) return false;
+  s = {pos_, e_, feed_, abs_e_, line_no_};
+  return true;
+}
+
+void GcodeScanner::resume(const MoveState& s) {
+  pos_ = s.pos;
+  e_ = s.e;
+  feed_ = s.feed;
+  line_no_ = s.lines;
+}
+
+// apply_move() with unit 1, absolute X Y Z, g 0 or 1 and F > 0: the same arithmetic.
+void GcodeScanner::plain_motion(MoveState& s, const Words& w, PrintTimeEstimator& time) {
+  auto has = [&](char letter) { return (w.seen >> (letter - 'A')) & 1u; };
+  auto word = [&](char letter) { return w.value[letter - 'A']; };
+  ++s.lines;
+  if (has('F')) s.feed = word('F') / 60;
+  Vec3 to = s.pos;
+  double e_to = s.e;
+  if (has('X')) to.x = word('X');
+  if (has('Y')) to.y = word('Y');
+  if (has('Z')) to.z = word('Z');
+  if (has('E')) e_to = s.absolute_e ? word('E') : s.e + word('E');
+  const double de = e_to - s.e;
+  if (moves(s.pos, to) || std::abs(de) > 1e-12) time.move(s.pos, to, de, s.feed);
+  s.pos = to;
+  s.e = e_to;
+}
+
 void GcodeScanner::finish() {
   if (!partial_.empty()) {
     line(partial_);

@@ -16,6 +16,7 @@
 #include "fast_number.hpp"
 #include "gcode_lex.hpp"
 #include "gcode_objects.hpp"
+#include "text_out.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/machine/bgcode_writer.hpp"
@@ -74,6 +75,11 @@ void append_fixed(std::string& out, double v, int decimals) {
   out.append(buf, static_cast<std::size_t>(fastnum::fixed(buf, v, decimals) - buf));
 }
 
+void append_fixed(fastnum::TextOut& out, double v, int decimals) {
+  char* p = out.room(fastnum::kMaxChars);
+  out.commit(fastnum::fixed(p, v, decimals));
+}
+
 // The F word's value: mm/s as a whole number of mm/min.
 char* put_feed(char* p, double mm_per_s) {
   return std::to_chars(p, p + 24, std::lround(mm_per_s * 60)).ptr;
@@ -83,36 +89,45 @@ char* put_feed(char* p, double mm_per_s) {
 // back as, so the print-time estimate takes the move without parsing its text: fixed() writes
 // q = llround(v * 10^d) as a decimal, which the reader's parser reads as q / 10^d, both exact
 // doubles and the division correctly rounded (gcode_lex::scan_decimal), so the same double.
+// Written in place at the end of the text (TextOut::room(kRoom)), each value rounded once for
+// both its digits and the value it reads back as.
 class MoveLine {
  public:
-  explicit MoveLine(bool g1) : end_(fastnum::lit(buf_, g1 ? "G1" : "G0")) {}
+  static constexpr std::size_t kRoom = 6 * fastnum::kMaxChars;
+  MoveLine(char* at, bool g1) : end_(at) {
+    std::memcpy(end_, g1 ? "G1" : "G0", 2);
+    end_ += 2;
+  }
 
   // " <letter><v>" with at most D decimals.
   template <int D>
   [[gnu::always_inline]] void word(char letter, double v) {
     static constexpr double kScale = D == 3 ? 1e3 : 1e5;
     static_assert(D == 3 || D == 5);
-    *end_++ = ' ';
-    *end_++ = letter;
-    end_ = fastnum::fixed(end_, v, D);
+    char* p = end_;  // a local: the bytes written through it cannot change it
+    p[0] = ' ';
+    p[1] = letter;
     long long q = 0;
-    if (!fastnum::round_half_away(v * kScale, q)) {
+    if (!fastnum::round_half_away(v * kScale, q)) [[unlikely]] {
+      end_ = fastnum::fixed_legacy(p + 2, v, D);
       readable_ = false;
       return;
     }
+    end_ = fastnum::fixed_q(p + 2, q, D);
     take(letter, static_cast<double>(q) / kScale);
   }
   // " F<mm/min>", the feed given in mm/s.
   void feed(double mm_per_s) {
-    const long f = std::lround(mm_per_s * 60);
-    end_ = fastnum::lit(end_, " F");
-    end_ = std::to_chars(end_, end_ + 24, f).ptr;
+    const long long f = fastnum::llround(mm_per_s * 60);
+    char* p = fastnum::lit(end_, " F");
+    end_ = f >= 0 ? fastnum::put_uint(p, static_cast<unsigned long long>(f))
+                  : std::to_chars(p, p + 24, f).ptr;
     take('F', static_cast<double>(f));
     readable_ = readable_ && f > 0;
   }
   void close() { *end_++ = '\n'; }
 
-  std::string_view text() const { return {buf_, static_cast<std::size_t>(end_ - buf_)}; }
+  const char* end() const { return end_; }
   const GcodeScanner::Words& words() const { return words_; }
   // Every value one the reader takes as it is (else the estimate reads the text, and refuses
   // the line as it would in a file).
@@ -123,7 +138,6 @@ class MoveLine {
     readable_ = readable_ && std::abs(v) <= gcode_lex::kMaxValue;
     words_.set(letter, v);
   }
-  char buf_[6 * fastnum::kMaxChars];
   char* end_;
   GcodeScanner::Words words_;
   bool readable_ = true;
@@ -153,14 +167,14 @@ class Writer {
 
   // Writes into `buffer`'s memory (its text cleared), which it returns.
   std::string run(GcodeStats& stats, std::string buffer = {}) {
-    out_ = std::move(buffer);
+    out_.adopt(std::move(buffer));
     out_.clear();
     std::size_t points = points_;
     if (points == 0)
       for (const auto& l : tp_.layers)
         for (const auto& path : l.paths) points += path.points.size();
     out_.reserve(points * 40 + 8192);
-    fastnum::advise_huge_pages(out_);
+    fastnum::advise_huge_pages(out_.storage());
     plan_changes();
     label_objects();
     header();
@@ -171,7 +185,7 @@ class Writer {
     insert_lines();
     stats_.bytes = out_.size();
     stats = stats_;
-    return std::move(out_);
+    return out_.take();
   }
 
   // The same bytes in bounded memory: the text without the M73 lines goes to `raw` as it is
@@ -225,21 +239,42 @@ class Writer {
 
   // The print-time estimate (machine/print_time.hpp) of the text, read as `trellis analyze`
   // reads the file, in order as it is written: the writer's own moves handed over as their
-  // words (the values the text reads back as: GcodeScanner::move_words), everything else (the
-  // profile's start, end and tool-change code, heaters, dwells, comments) as text.
+  // words (the values the text reads back as: GcodeScanner::plain_motion while the scanner reads
+  // moves plainly, else GcodeScanner::move_words), everything else (the profile's start, end
+  // and tool-change code, heaters, dwells, comments) as text.
   class TimeEstimate {
    public:
     void text(std::string_view t) {
       if (t.empty()) return;
+      settle();
       scanner_.feed(t);
     }
-    // False: not taken (the caller's text is read instead).
-    bool move(const GcodeScanner::Words& w, int g) { return scanner_.move_words(w, g); }
+    // False: not taken (the caller's text is read instead). While the scanner reads moves
+    // plainly, the moves go straight to the estimate (GcodeScanner::plain_motion: what the
+    // scanner does with them, without its sink's other events), the scanner given their end
+    // state before it reads text again.
+    [[gnu::always_inline]] bool move(const GcodeScanner::Words& w, int g) {
+      if (!own_) [[unlikely]] {
+        if (!scanner_.plain_state(state_)) return scanner_.move_words(w, g);
+        own_ = true;
+      }
+      GcodeScanner::plain_motion(state_, w, sink_.time);
+      return true;
+    }
     double elapsed() const { return sink_.time.elapsed(); }
-    void finish() { scanner_.finish(); }
+    void finish() {
+      settle();
+      scanner_.finish();
+    }
     PrintTimeSink& sink() { return sink_; }
 
    private:
+    void settle() {
+      if (own_) scanner_.resume(state_);
+      own_ = false;
+    }
+    GcodeScanner::MoveState state_;
+    bool own_ = false;  // state_ is the scanner's (it has not been given back yet)
     PrintTimeSink sink_;
     Diagnostics ignored_;  // our own text: nothing to report
     GcodeScanner scanner_{sink_, {}, ignored_, "G-code being written"};
@@ -247,7 +282,7 @@ class Writer {
 
   // The text written since the estimate last read, to it.
   void estimate_text() {
-    estimate_.text(std::string_view(out_).substr(scanned_));
+    estimate_.text(out_.view().substr(scanned_));
     scanned_ = out_.size();
   }
 
@@ -261,7 +296,7 @@ class Writer {
   // when a value is one the reader would refuse, leaves its text for the estimate to read.
   void put_move(const MoveLine& m, int g) {
     estimate_text();
-    out_.append(m.text());
+    out_.commit(m.end());
     if (m.readable() && estimate_.move(m.words(), g)) scanned_ = out_.size();
   }
 
@@ -530,10 +565,7 @@ class Writer {
     out_ += " mm\n";
   }
 
-  void feed(double mm_per_s) {
-    char buf[fastnum::kMaxChars];
-    out_.append(buf, static_cast<std::size_t>(put_feed(buf, mm_per_s) - buf));
-  }
+  void feed(double mm_per_s) { out_.commit(put_feed(out_.room(fastnum::kMaxChars), mm_per_s)); }
 
   void layer(std::size_t li, const Layer& l) {
     progress_marks_.push_back({flushed_ + out_.size(), estimate_now()});
@@ -619,7 +651,7 @@ class Writer {
   // "G1 E<e> F<retraction speed>": filament only (`de` mm, relative or added to E).
   void filament_move(double de) {
     e_ += de;
-    MoveLine m(true);
+    MoveLine m(out_.room(MoveLine::kRoom), true);
     m.word<5>('E', p_.relative_e ? de : e_);
     m.feed(p_.retract_speed);
     m.close();
@@ -638,7 +670,7 @@ class Writer {
   }
 
   void move_z(double z) {
-    MoveLine m(false);
+    MoveLine m(out_.room(MoveLine::kRoom), false);
     m.word<3>('Z', z);
     m.feed(p_.z_speed);
     m.close();
@@ -664,7 +696,7 @@ class Writer {
   // `more`: a further leg of a travel through `via` points, already counted as one move.
   void move_xy(Vec3 q, double d, bool with_z = false, bool more = false) {
     const Vec2 o = offset();
-    MoveLine m(false);
+    MoveLine m(out_.room(MoveLine::kRoom), false);
     m.word<3>('X', q.x + dx_ + o.x);
     m.word<3>('Y', q.y + dy_ + o.y);
     if (with_z) {
@@ -1190,7 +1222,7 @@ class Writer {
         return;
       }
       silent_ = false;
-      MoveLine m(true);
+      MoveLine m(out_.room(MoveLine::kRoom), true);
       m.word<3>('X', q.x + dx_ + o.x);
       m.word<3>('Y', q.y + dy_ + o.y);
       if (std::abs(q.z - pos_.z) > 1e-9) m.word<3>('Z', q.z);
@@ -1233,7 +1265,7 @@ class Writer {
   std::string_view last_type_;
   double last_width_ = -1, last_height_ = -1;
   double lift_ = 0;  // Z added to every point (placement.lift), in the header for readers
-  std::string out_;
+  fastnum::TextOut out_;
   GcodeObjects objects_;  // build plates: parts labelled for the firmware
   int object_ = 0;        // the part whose moves are being written (Path::part), 0 = none
   // Where the part being printed changes (offset in the text, to that part, 0 = none, and the

@@ -194,7 +194,11 @@ TEST(PrintTime, TheWritersEstimateIsTheReadersToTheBit) {
   };
   for (const Case& c :
        {Case{"G28", false, 0}, Case{"G28\nG91\nG1 Z2 F600\nG1 X1 E0.5 F600", true, 900},
-        Case{"G28\nG20\nG1 Z0.1 F600", false, 1500}}) {
+        Case{"G28\nG20\nG1 Z0.1 F600", false, 1500},
+        // Relative, then absolute again with moves and E set in the profile's text: the
+        // writer's moves go to the estimate as numbers again from where the text left them.
+        Case{"G28\nG91\nG1 Z2 F600\nG90\nG1 X5 Y5 F3000\nG92 E3\nG1 E4 F1800", false, 1200},
+        Case{"G28\nG1 X3 Y4 Z5 F4800\nG1 X4 E0.2", true, 700}}) {
     MachineProfile p = test::open_bed();
     p.start_gcode = c.start;
     p.relative_e = c.relative_e;

@@ -159,6 +159,24 @@ class GcodeScanner {
   // line is pending: the caller feeds the text instead.
   bool move_words(const Words& words, int g);
 
+  // A writer resolving its own moves for a time estimate (gcode_writer.cpp): the state a G0/G1
+  // reads and changes. plain_state() gives it while moves read plainly (no partial line pending,
+  // absolute X Y Z in millimetres; false otherwise: hand over the words or the text instead);
+  // the writer applies its moves to it with plain_motion() and gives it back with resume()
+  // before the scanner reads anything else.
+  struct MoveState {
+    Vec3 pos;
+    double e = 0, feed = 0;
+    bool absolute_e = true;
+    long lines = 0;
+  };
+  bool plain_state(MoveState& s) const;
+  void resume(const MoveState& s);
+  // What move_words(words, g) does for a G0/G1 from a plain state, for a sink that reads the
+  // motion only (PrintTimeSink): the motion given to `time`, `s` moved. The words as for
+  // move_words, F > 0.
+  static void plain_motion(MoveState& s, const Words& words, PrintTimeEstimator& time);
+
  private:
   void bad(const std::string& what);
   void comment(std::string_view c);
