@@ -88,7 +88,7 @@ for m in torus_3k vase torus_1m tr12j_half held_sh1 held_sh2 held_shape; do
     cpu "$bin" slice "$m.stl" "${args[@]}" --threads 1 -o "$m.t1.gcode" >/dev/null; w1=$(last_wall)
     cpu "$bin" slice "$m.stl" "${args[@]}" --threads 2 -o "$m.t2.gcode" >/dev/null; w2=$(last_wall)
     cmp -s "$m.t1.gcode" "$m.t2.gcode" || { echo "$m: 1 and 2 threads wrote different G-code" >&2; exit 1; }
-    list="$list $(awk -v a="$w1" -v b="$w2" 'BEGIN {printf "%.3f", b > 0 ? a / b : 0}')"
+    list="$list $(awk -v a="$w1" -v b="$w2" 'BEGIN {printf "%.3f", (b > 0 ? a / b : 0)}')"
   done
   rows+=("$m|$total|$slicing|$open|$writer|$thumbs|$estimate|$passes|$lmax|$list")
   echo "$m done (load $(load1))" >&2
