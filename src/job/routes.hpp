@@ -111,9 +111,12 @@ Vec2 pbf_machine_origin(const Config& c);
 // caller): then it may stream its layers in bounded memory instead of holding the toolpath.
 bool output_alone(const Job& job);
 // write_gcode_out for streamed layers (`meta`: source and part labels; `layers` of them).
+// `shared_source`: the source may be visited from two threads at once (LayerSpill::source):
+// the thumbnails are then made while the text is written.
 GcodeStats write_gcode_streamed(const std::string& path, Toolpath meta, std::size_t layers,
                                 const LayerSource& source, const Job& job,
-                                const MachineProfile& machine, JobResult& out, Diagnostics& diag);
+                                const MachineProfile& machine, JobResult& out, Diagnostics& diag,
+                                bool shared_source = false);
 // Bath routes (nonplanar, plan aero) writing G-code need a bath machine (machine.flavor =
 // embedded): MachineError naming the route, the machine and a bath profile otherwise.
 void require_bath(const Job& job, const MachineProfile& machine, const std::string& route,

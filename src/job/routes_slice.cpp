@@ -886,7 +886,7 @@ JobResult slice(const Job& job, const Config& c, const RunContext& context) {
     Toolpath meta;
     meta.source = r.toolpath.source;
     g = write_gcode_streamed(job.output, meta, spill->layers(), spill->source(), job, c.machine,
-                             out, diag);
+                             out, diag, true);
   } else {
     g = write_gcode_out(job.output, r.toolpath, job, c.machine, out, diag);
   }

@@ -198,7 +198,8 @@ bool output_alone(const Job& job) {
 
 GcodeStats write_gcode_streamed(const std::string& path, Toolpath meta, std::size_t layers,
                                 const LayerSource& source, const Job& job,
-                                const MachineProfile& machine, JobResult& out, Diagnostics& diag) {
+                                const MachineProfile& machine, JobResult& out, Diagnostics& diag,
+                                bool shared_source) {
   if (is_3mf_output(path)) {
     // The package is made in memory (its layer parts are deflated together), so the streamed
     // layers are gathered first.
@@ -207,7 +208,11 @@ GcodeStats write_gcode_streamed(const std::string& path, Toolpath meta, std::siz
   }
   meta.job = embedded_job(job, path);
   const GcodeStats stats =
-      write_gcode_stream(path, meta, layers, source, machine, gcode_thumbnails(source, machine));
+      shared_source ? write_gcode_stream(
+                          path, meta, layers, source, machine,
+                          GcodeThumbnailMaker([&] { return gcode_thumbnails(source, machine); }))
+                    : write_gcode_stream(path, meta, layers, source, machine,
+                                         gcode_thumbnails(source, machine));
   for (const auto& [kind, message] : stats.warnings) diag.warn(kind, message);
   out.files.push_back(path);
   return stats;

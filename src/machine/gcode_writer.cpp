@@ -13,6 +13,7 @@
 #include <numbers>
 #include <utility>
 
+#include "estimate_pipe.hpp"
 #include "fast_number.hpp"
 #include "gcode_lex.hpp"
 #include "gcode_objects.hpp"
@@ -153,7 +154,7 @@ class Writer {
          std::size_t stream_layers = 0, const BBox3* box = nullptr, std::size_t points = 0)
       : p_(p),
         tp_(tp),
-        thumbnails_(thumbs),
+        thumbnails_(&thumbs),
         layers_(stream ? *stream : layers_of(tp)),
         layer_count_(stream ? stream_layers : tp.layers.size()),
         streamed_(stream != nullptr),
@@ -175,6 +176,7 @@ class Writer {
         for (const auto& path : l.paths) points += path.points.size();
     out_.reserve(points * 40 + 8192);
     fastnum::advise_huge_pages(out_.storage());
+    start_estimate();
     plan_changes();
     label_objects();
     header();
@@ -191,11 +193,24 @@ class Writer {
   // The same bytes in bounded memory: the text without the M73 lines goes to `raw` as it is
   // written (flushed every MB), then `put` receives it again with the M73 lines in place;
   // `ready` (if given) first, with the stats known by then (all but bytes).
+  // `later` (if given): the thumbnails, made beside the writing when the estimate is (then put
+  // into the header as the text is copied out), else before it.
   void stream(GcodeStats& stats, std::FILE* raw, const ByteWriter& put,
-              const std::function<void(const GcodeStats&)>& ready = {}) {
+              const std::function<void(const GcodeStats&)>& ready = {},
+              const GcodeThumbnailMaker* later = nullptr) {
     constexpr std::size_t kFlush = std::size_t{1} << 20;
     raw_ = raw;
     out_.reserve(kFlush + (1u << 16));
+    start_estimate();
+    if (later) {
+      if (pipe_) {
+        late_thumbnails_ = true;
+        pipe_->run([this, later] { made_thumbnails_ = (*later)(); });
+      } else {
+        made_thumbnails_ = (*later)();
+      }
+      thumbnails_ = &made_thumbnails_;
+    }
     plan_changes();
     label_objects();
     header();
@@ -242,9 +257,9 @@ class Writer {
   // words (the values the text reads back as: GcodeScanner::plain_motion while the scanner reads
   // moves plainly, else GcodeScanner::move_words), everything else (the profile's start, end
   // and tool-change code, heaters, dwells, comments) as text.
-  class TimeEstimate {
+  class TimeEstimate : public EstimatePipe::Reader {
    public:
-    void text(std::string_view t) {
+    void text(std::string_view t) override {
       if (t.empty()) return;
       settle();
       scanner_.feed(t);
@@ -253,7 +268,7 @@ class Writer {
     // plainly, the moves go straight to the estimate (GcodeScanner::plain_motion: what the
     // scanner does with them, without its sink's other events), the scanner given their end
     // state before it reads text again.
-    [[gnu::always_inline]] bool move(const GcodeScanner::Words& w, int g) {
+    bool move(const GcodeScanner::Words& w, int g) override {
       if (!own_) [[unlikely]] {
         if (!scanner_.plain_state(state_)) return scanner_.move_words(w, g);
         own_ = true;
@@ -261,7 +276,7 @@ class Writer {
       GcodeScanner::plain_motion(state_, w, sink_.time);
       return true;
     }
-    double elapsed() const { return sink_.time.elapsed(); }
+    double elapsed() const override { return sink_.time.elapsed(); }
     void finish() {
       settle();
       scanner_.finish();
@@ -280,29 +295,55 @@ class Writer {
     GcodeScanner scanner_{sink_, {}, ignored_, "G-code being written"};
   };
 
+  // With two threads the estimate reads beside the writing (estimate_pipe.hpp).
+  void start_estimate() {
+    if (EstimatePipe::worthwhile()) pipe_ = std::make_unique<EstimatePipe>(estimate_);
+  }
+
   // The text written since the estimate last read, to it.
   void estimate_text() {
-    estimate_.text(out_.view().substr(scanned_));
+    const std::string_view t = out_.view().substr(scanned_);
+    pipe_ ? pipe_->text(t) : estimate_.text(t);
     scanned_ = out_.size();
   }
 
-  // The time the estimate has reached at this point of the text.
-  double estimate_now() {
+  // The time the estimate has reached at this point of the text (a progress mark, or an object
+  // mark); beside the writing, a mark whose time finish_estimate fills in.
+  double estimate_now(bool object_mark) {
     estimate_text();
-    return estimate_.elapsed();
+    if (!pipe_) return estimate_.elapsed();
+    pipe_->mark();
+    mark_is_object_.push_back(object_mark);
+    return 0;
   }
 
   // Appends the move line `m` (a G0 or G1 line) and hands its words to the estimate, or,
   // when a value is one the reader would refuse, leaves its text for the estimate to read.
   void put_move(const MoveLine& m, int g) {
     estimate_text();
+    const std::size_t at = out_.size();
     out_.commit(m.end());
-    if (m.readable() && estimate_.move(m.words(), g)) scanned_ = out_.size();
+    if (!m.readable()) return;
+    if (pipe_) {
+      // (its text read instead if the move is not taken)
+      pipe_->move(m.words(), g, out_.view().substr(at));
+      scanned_ = out_.size();
+    } else if (estimate_.move(m.words(), g)) {
+      scanned_ = out_.size();
+    }
   }
 
   // The estimate's totals, and each part's time.
   void finish_estimate() {
     estimate_text();
+    if (pipe_) {
+      const std::vector<double> times = pipe_->finish();
+      pipe_.reset();
+      std::size_t progress = 0, object = 0;
+      for (std::size_t k = 0; k < times.size(); ++k)
+        (mark_is_object_[k] ? object_marks_[object++].time : progress_marks_[progress++].second) =
+            times[k];
+    }
     estimate_.finish();
     PrintTimeSink& sink = estimate_.sink();
     stats_.print_time_s = sink.time.seconds();
@@ -322,6 +363,11 @@ class Writer {
   // progress at every layer (if the firmware takes it) and the estimated time in the footer.
   std::vector<std::pair<std::size_t, std::string>> late_lines() const {
     std::vector<std::pair<std::size_t, std::string>> lines;
+    if (late_thumbnails_ && !thumbnails_->empty()) {
+      std::string blocks;
+      for (const auto& t : *thumbnails_) blocks += thumbnail_block(t);
+      lines.push_back({thumbnails_at_, std::move(blocks)});
+    }
     if (p_.marlin_family())
       for (const auto& [at, t] : progress_marks_)
         lines.push_back({at, progress_line(t, stats_.print_time_s)});
@@ -425,7 +471,10 @@ class Writer {
   void header() {
     line(std::string("; generated by Trellis ") + TRELLIS_VERSION + " (" + to_string(p_.flavor) +
          ")");
-    for (const auto& t : thumbnails_) out_ += thumbnail_block(t);
+    if (late_thumbnails_)
+      thumbnails_at_ = flushed_ + out_.size();  // made beside the writing: put in late_lines
+    else
+      for (const auto& t : *thumbnails_) out_ += thumbnail_block(t);
     if (!tp_.source.empty()) line("; source: " + tp_.source);
     line(";LAYER_COUNT:" + std::to_string(layer_count_));
     // The job that made the file, for `trellis rerun`.
@@ -568,7 +617,7 @@ class Writer {
   void feed(double mm_per_s) { out_.commit(put_feed(out_.room(fastnum::kMaxChars), mm_per_s)); }
 
   void layer(std::size_t li, const Layer& l) {
-    progress_marks_.push_back({flushed_ + out_.size(), estimate_now()});
+    progress_marks_.push_back({flushed_ + out_.size(), estimate_now(false)});
     out_ += ";LAYER:";
     out_ += std::to_string(li);
     out_ += "\n;Z:";
@@ -597,7 +646,7 @@ class Writer {
   void enter_object(int part) {
     if (part == object_) return;
     if (object_ > 0 && objects_.style != ObjectStyle::None) out_ += objects_.end(object_);
-    object_marks_.push_back({flushed_ + out_.size(), part, estimate_now()});
+    object_marks_.push_back({flushed_ + out_.size(), part, estimate_now(true)});
     if (part > 0 && objects_.style != ObjectStyle::None) out_ += objects_.start(part);
     object_ = part;
   }
@@ -1248,8 +1297,11 @@ class Writer {
 
   const MachineProfile& p_;
   const Toolpath& tp_;
-  const std::vector<GcodeThumbnail>& thumbnails_;
-  LayerSource layers_;  // tp_'s layers, or the streamed ones
+  const std::vector<GcodeThumbnail>* thumbnails_;
+  bool late_thumbnails_ = false;  // streamed: made beside the writing, put in as it is copied out
+  std::vector<GcodeThumbnail> made_thumbnails_;
+  std::size_t thumbnails_at_ = 0;  // offset of the thumbnails in the text (late_thumbnails_)
+  LayerSource layers_;             // tp_'s layers, or the streamed ones
   std::size_t layer_count_ = 0;
   bool streamed_ = false;
   std::size_t points_ = 0;    // points of the whole toolpath, when the caller counted them
@@ -1261,7 +1313,9 @@ class Writer {
   std::size_t flushed_ = 0;   // bytes already in raw_
   std::vector<std::pair<std::size_t, double>> progress_marks_;  // (byte offset, time so far)
   TimeEstimate estimate_;
-  std::size_t scanned_ = 0;  // out_'s text up to here is in the estimate
+  std::unique_ptr<EstimatePipe> pipe_;  // the estimate reading beside the writing, or none
+  std::vector<bool> mark_is_object_;    // beside: each mark's kind, in order (estimate_now)
+  std::size_t scanned_ = 0;             // out_'s text up to here is in the estimate
   std::string_view last_type_;
   double last_width_ = -1, last_height_ = -1;
   double lift_ = 0;  // Z added to every point (placement.lift), in the header for readers
@@ -1433,10 +1487,12 @@ void write_gcode_into(std::string& out, const Toolpath& toolpath, const MachineP
   if (stats) *stats = s;
 }
 
-GcodeStats write_gcode_stream(const std::string& path, const Toolpath& meta,
-                              std::size_t layer_count, const LayerSource& layers,
-                              const MachineProfile& profile,
-                              const std::vector<GcodeThumbnail>& thumbnails) {
+namespace {
+
+// write_gcode_stream with the thumbnails made (`made`) or to make (`later`).
+GcodeStats write_stream(const std::string& path, const Toolpath& meta, std::size_t layer_count,
+                        const LayerSource& layers, const MachineProfile& profile,
+                        const std::vector<GcodeThumbnail>& made, const GcodeThumbnailMaker* later) {
   BBox3 box;
   std::size_t paths = 0;
   layers([&](std::size_t, const Layer& l) {
@@ -1470,11 +1526,12 @@ GcodeStats write_gcode_stream(const std::string& path, const Toolpath& meta,
   const bool binary = binary_gcode_output(path, profile);
   write_file_atomic_with(path, [&](const ByteWriter& put) {
     if (!binary) {
-      Writer(profile, meta, lift, thumbnails, &placed, layer_count).stream(s, raw.get(), put);
+      Writer(profile, meta, lift, made, &placed, layer_count).stream(s, raw.get(), put, {}, later);
       return;
     }
     // The pictures go into thumbnail blocks; the text, once its print metadata is known, into
     // G-code blocks as it is copied out of the temporary file.
+    const std::vector<GcodeThumbnail> thumbnails = later ? (*later)() : made;
     BgcodeWriter packer(put, bgcode_options(profile));
     const std::vector<GcodeThumbnail> none;
     Writer(profile, meta, lift, none, &placed, layer_count)
@@ -1489,6 +1546,22 @@ GcodeStats write_gcode_stream(const std::string& path, const Toolpath& meta,
   warnings.insert(warnings.end(), s.warnings.begin(), s.warnings.end());  // the writer's own
   s.warnings = std::move(warnings);
   return s;
+}
+
+}  // namespace
+
+GcodeStats write_gcode_stream(const std::string& path, const Toolpath& meta,
+                              std::size_t layer_count, const LayerSource& layers,
+                              const MachineProfile& profile,
+                              const std::vector<GcodeThumbnail>& thumbnails) {
+  return write_stream(path, meta, layer_count, layers, profile, thumbnails, nullptr);
+}
+
+GcodeStats write_gcode_stream(const std::string& path, const Toolpath& meta,
+                              std::size_t layer_count, const LayerSource& layers,
+                              const MachineProfile& profile,
+                              const GcodeThumbnailMaker& thumbnails) {
+  return write_stream(path, meta, layer_count, layers, profile, {}, &thumbnails);
 }
 
 GcodeStats write_gcode_file(const std::string& path, const Toolpath& toolpath,

@@ -1,5 +1,7 @@
 #include "trellis/toolpath/layer_spill.hpp"
 
+#include <unistd.h>
+
 #include <cerrno>
 #include <cstring>
 
@@ -84,12 +86,7 @@ void LayerSpill::flush() {
 }
 
 void LayerSpill::rewind() {
-  if (writing_) {
-    flush();
-    if (std::fflush(file_) != 0) fail("cannot write");
-    writing_ = false;
-    buffer_.shrink_to_fit();  // from now on it holds one layer
-  }
+  end_writing();
   std::rewind(file_);
   read_layers_ = 0;
 }
@@ -105,8 +102,14 @@ bool LayerSpill::next(Layer& layer) {
   read(&size, sizeof size);
   buffer_.resize(size);
   read(buffer_.data(), size);
-  const char* at = buffer_.data();
-  const char* const end = at + buffer_.size();
+  decode(buffer_, layer);
+  ++read_layers_;
+  return true;
+}
+
+void LayerSpill::decode(const std::string& record, Layer& layer) {
+  const char* at = record.data();
+  const char* const end = at + record.size();
   // An empty vector's data() may be null: memcpy must not see it even for zero bytes.
   auto take = [&](void* to, std::size_t n) {
     if (n == 0) return;
@@ -135,17 +138,46 @@ bool LayerSpill::next(Layer& layer) {
     p.points.resize(h.points);
     take(p.points.data(), h.points * sizeof(Vec3));
   }
-  ++read_layers_;
-  return true;
+}
+
+void LayerSpill::end_writing() {
+  if (!writing_) return;
+  flush();
+  if (std::fflush(file_) != 0) fail("cannot write");
+  writing_ = false;
+  buffer_.shrink_to_fit();  // from now on it holds one layer (next())
 }
 
 void LayerSpill::visit(const LayerVisitor& visit) {
-  rewind();
+  end_writing();  // (not while another thread visits: source() ends it first)
+  // Read with pread at offsets of its own, never through file_'s position: visits may run on
+  // several threads at once (the G-code writer and its thumbnails).
+  const int fd = fileno(file_);
+  std::string record;
   Layer layer;
-  for (std::size_t i = 0; next(layer); ++i) visit(i, layer);
+  std::uint64_t offset = 0;
+  auto read_at = [&](void* data, std::size_t n) {
+    for (std::size_t done = 0; done < n;) {
+      const ssize_t got =
+          ::pread(fd, static_cast<char*>(data) + done, n - done, static_cast<off_t>(offset + done));
+      if (got < 0 && errno == EINTR) continue;
+      if (got <= 0) fail("cannot read");
+      done += static_cast<std::size_t>(got);
+    }
+    offset += n;
+  };
+  for (std::size_t i = 0; i < layers_; ++i) {
+    std::uint64_t size = 0;
+    read_at(&size, sizeof size);
+    record.resize(size);
+    read_at(record.data(), size);
+    decode(record, layer);
+    visit(i, layer);
+  }
 }
 
 LayerSource LayerSpill::source() {
+  end_writing();
   return [this](const LayerVisitor& v) { visit(v); };
 }
 

@@ -12,6 +12,7 @@
 #include <fstream>
 #include <map>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "trellis/core/error.hpp"
@@ -401,6 +402,43 @@ TEST(LayerSpill, LayersComeBackAsTheyWent) {
     EXPECT_TRUE(back[0].paths[1].points.empty());
   }
   EXPECT_THROW(spill.append(a), Error) << "appending after reading started";
+}
+
+// Once written, a spill is visited by two threads at once (the G-code writer and its thumbnails)
+// and each sees every layer in order, as one visit alone does.
+TEST(LayerSpill, TwoThreadsVisitAtOnce) {
+  LayerSpill spill;
+  for (int i = 0; i < 400; ++i) {
+    Layer l;
+    l.z = 0.2 * (i + 1);
+    for (int k = 0; k <= i % 7; ++k) {
+      Path p;
+      for (int q = 0; q <= (i * 13 + k) % 50; ++q) p.points.push_back({q * 0.5, i + k * 0.25, l.z});
+      l.paths.push_back(std::move(p));
+    }
+    spill.append(l);
+  }
+  const LayerSource source = spill.source();
+  auto summary = [&] {
+    std::vector<double> s;
+    source([&](std::size_t i, const Layer& l) {
+      s.push_back(static_cast<double>(i));
+      s.push_back(l.z);
+      for (const Path& p : l.paths)
+        for (const Vec3& q : p.points) s.push_back(q.x + 3 * q.y);
+    });
+    return s;
+  };
+  const std::vector<double> alone = summary();
+  ASSERT_EQ(alone.empty(), false);
+  for (int round = 0; round < 5; ++round) {
+    std::vector<double> a, b;
+    std::thread t([&] { a = summary(); });
+    b = summary();
+    t.join();
+    EXPECT_EQ(a, alone) << round;
+    EXPECT_EQ(b, alone) << round;
+  }
 }
 
 }  // namespace

@@ -13,6 +13,7 @@
 // (Marlin, RepRapFirmware, Klipper), and the closing "; total layers count", "; estimated printing
 // time (normal mode)" and "; filament used [mm]" lines.
 #pragma once
+#include <functional>
 #include <string>
 #include <string_view>
 #include <utility>
@@ -92,6 +93,13 @@ GcodeStats write_gcode_stream(const std::string& path, const Toolpath& meta,
                               std::size_t layer_count, const LayerSource& layers,
                               const MachineProfile& profile,
                               const std::vector<GcodeThumbnail>& thumbnails = {});
+// The same bytes, the thumbnails made by `thumbnails` while the text is written: on another
+// thread when the run has two (so `layers` must allow two visits at once, as
+// LayerSpill::source's do), put into the header as the text is copied out.
+using GcodeThumbnailMaker = std::function<std::vector<GcodeThumbnail>()>;
+GcodeStats write_gcode_stream(const std::string& path, const Toolpath& meta,
+                              std::size_t layer_count, const LayerSource& layers,
+                              const MachineProfile& profile, const GcodeThumbnailMaker& thumbnails);
 
 // Expands {key} / {section.key} placeholders with setting values; throws SettingError.
 std::string expand_template(const std::string& text, const MachineProfile& profile,

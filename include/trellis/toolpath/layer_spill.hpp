@@ -23,14 +23,18 @@ class LayerSpill {
   std::size_t layers() const { return layers_; }
   std::size_t bytes() const { return bytes_; }
 
-  // Reading, after the last append: rewind() then next() until it returns false.
+  // Reading, after the last append: rewind() then next() until it returns false (one reader).
   void rewind();
   bool next(Layer& layer);
-  // Every layer in order (rewinds first); a LayerSource over this spill (keep it alive).
+  // Every layer in order (the first read ends the writing). Visits read at offsets of their own,
+  // so once the writing has ended several threads may visit at once. source(): a LayerSource over
+  // this spill (keep it alive) that ends the writing first.
   void visit(const LayerVisitor& visit);
   LayerSource source();
 
  private:
+  void end_writing();
+  static void decode(const std::string& record, Layer& layer);
   void flush();
   void read(void* data, std::size_t n);
   std::FILE* file_ = nullptr;
