@@ -101,14 +101,17 @@ class EndGrid {
 void two_opt(const std::vector<OrderItem>& items, std::vector<OrderStep>& order, Vec3 from) {
   const std::size_t n = order.size();
   if (n < 3) return;
-  auto s = [&](std::size_t i) {
-    const OrderItem& it = items[order[i].item];
-    return order[i].reversed ? it.end : it.start;
-  };
-  auto e = [&](std::size_t i) {
-    const OrderItem& it = items[order[i].item];
-    return order[i].reversed ? it.start : it.end;
-  };
+  // Each step's first and last point as printed, and the travel from each step to the next
+  // (link[k]: step k to k + 1), kept with the order: a reversed run's inner links are its old
+  // links read backwards (distance is symmetric, to the bit), the two at its ends are measured.
+  std::vector<Vec3> s(n), e(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    const OrderItem& it = items[order[k].item];
+    s[k] = order[k].reversed ? it.end : it.start;
+    e[k] = order[k].reversed ? it.start : it.end;
+  }
+  std::vector<double> link(n - 1);
+  for (std::size_t k = 0; k + 1 < n; ++k) link[k] = distance(e[k], s[k + 1]);
   // fixed_before[k]: items before k that cannot be reversed, so a run i..j can be reversed
   // only when fixed_before[j + 1] == fixed_before[i].
   std::vector<std::size_t> fixed_before(n + 1, 0);
@@ -121,19 +124,29 @@ void two_opt(const std::vector<OrderItem>& items, std::vector<OrderStep>& order,
   for (int pass = 0; pass < 20; ++pass) {
     bool improved = false;
     for (std::size_t i = 0; i + 1 < n; ++i) {
-      const Vec3 before = i == 0 ? from : e(i - 1);
+      const Vec3 before = i == 0 ? from : e[i - 1];
+      double to_first = distance(before, s[i]);
       for (std::size_t j = i + 1; j < n && j - i <= window; ++j) {
         if (any_fixed && fixed_before[j + 1] != fixed_before[i]) break;
-        double old_cost = distance(before, s(i));
-        double new_cost = distance(before, e(j));
+        double old_cost = to_first;
+        double new_cost = distance(before, e[j]);
         if (j + 1 < n) {
-          old_cost += distance(e(j), s(j + 1));
-          new_cost += distance(s(i), s(j + 1));
+          old_cost += link[j];
+          new_cost += distance(s[i], s[j + 1]);
         }
         if (new_cost < old_cost - 1e-9) {
-          std::reverse(order.begin() + static_cast<long>(i),
-                       order.begin() + static_cast<long>(j) + 1);
-          for (std::size_t k = i; k <= j; ++k) order[k].reversed = !order[k].reversed;
+          const auto first = static_cast<long>(i), last = static_cast<long>(j) + 1;
+          std::reverse(order.begin() + first, order.begin() + last);
+          std::reverse(s.begin() + first, s.begin() + last);
+          std::reverse(e.begin() + first, e.begin() + last);
+          std::reverse(link.begin() + first, link.begin() + last - 1);
+          for (std::size_t k = i; k <= j; ++k) {
+            order[k].reversed = !order[k].reversed;
+            std::swap(s[k], e[k]);
+          }
+          if (j + 1 < n) link[j] = distance(e[j], s[j + 1]);
+          if (i > 0) link[i - 1] = distance(e[i - 1], s[i]);
+          to_first = distance(before, s[i]);
           improved = true;
         }
       }
