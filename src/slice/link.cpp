@@ -54,6 +54,12 @@ double len(Vec2 a) {
   return std::sqrt(a.x * a.x + a.y * a.y);
 }
 
+// floor(v) as a long: truncation where that is floor (v >= 0, most grid cells), without the
+// call.
+long floor_long(double v) {
+  return v >= 0 ? static_cast<long>(v) : static_cast<long>(std::floor(v));
+}
+
 // The box of closed rings' points and their number of edges, for sizing an edge grid.
 struct RingBounds {
   double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
@@ -187,7 +193,7 @@ class RingEdges : public RingEdgeList {
   }
 
  private:
-  long cell_of(double d) const { return static_cast<long>(std::floor(d / cell_)); }
+  long cell_of(double d) const { return floor_long(d / cell_); }
   template <class Fn>
   void each_cell(Vec2 p, Vec2 q, Fn&& fn) const {
     const double l = len(q - p);
@@ -270,12 +276,8 @@ class EdgeBoxes : public RingEdgeList {
   }
 
  private:
-  long cx(double x) const {
-    return std::clamp(static_cast<long>(std::floor((x - origin_.x) / cell_)), -1L, nx_);
-  }
-  long cy(double y) const {
-    return std::clamp(static_cast<long>(std::floor((y - origin_.y) / cell_)), -1L, ny_);
-  }
+  long cx(double x) const { return std::clamp(floor_long((x - origin_.x) / cell_), -1L, nx_); }
+  long cy(double y) const { return std::clamp(floor_long((y - origin_.y) / cell_), -1L, ny_); }
   std::vector<std::size_t> start_;
   std::vector<std::uint32_t> ids_;
   Vec2 origin_;
@@ -423,16 +425,22 @@ class FillEnds {
         }
       });
     }
-    // Each ring's ends in order along it.
+    // Each ring's ends in order along it (sorted with their positions beside them, which the
+    // comparisons read without looking them up).
     on_ring_.resize(rings_.size());
+    std::vector<std::vector<std::pair<double, std::size_t>>> by_s(rings_.size());
     for (std::size_t key = 0; key < 2 * lines.size(); ++key)
-      if (ends_[key].ring >= 0) on_ring_[static_cast<std::size_t>(ends_[key].ring)].push_back(key);
+      if (ends_[key].ring >= 0)
+        by_s[static_cast<std::size_t>(ends_[key].ring)].push_back({ends_[key].s, key});
     slot_.assign(2 * lines.size(), 0);
-    for (auto& v : on_ring_) {
-      std::sort(v.begin(), v.end(), [&](std::size_t a, std::size_t b) {
-        return ends_[a].s != ends_[b].s ? ends_[a].s < ends_[b].s : a < b;
+    for (std::size_t r = 0; r < rings_.size(); ++r) {
+      auto& w = by_s[r];
+      std::sort(w.begin(), w.end(), [](const auto& a, const auto& b) {
+        return a.first != b.first ? a.first < b.first : a.second < b.second;
       });
-      for (std::size_t j = 0; j < v.size(); ++j) slot_[v[j]] = j;
+      auto& v = on_ring_[r];
+      v.resize(w.size());
+      for (std::size_t j = 0; j < w.size(); ++j) v[j] = w[j].second, slot_[w[j].second] = j;
     }
   }
 
