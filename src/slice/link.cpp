@@ -98,7 +98,8 @@ class RingEdgeList {
 
 // The edges of closed rings in a uniform grid: each edge is entered into the cells along it
 // (sampled every half cell) and their neighbours, so any point of an edge is found from its own
-// cell, and a segment sampled the same way meets every edge it crosses.
+// cell, and a segment sampled the same way meets every edge it crosses (in an order the comb's
+// routes depend on: crossings at equal distances along a travel keep it).
 class RingEdges : public RingEdgeList {
  public:
   explicit RingEdges(const std::vector<const std::vector<Vec2>*>& rings) : RingEdgeList(rings) {
@@ -169,27 +170,6 @@ class RingEdges : public RingEdgeList {
         fn(e);
       }
     });
-  }
-
-  // Crossings of the ray from p towards +x with the rings (even-odd: inside when odd).
-  bool inside(Vec2 p) const {
-    if (empty()) return false;
-    const long cy = cell_of(p.y - origin_.y);
-    if (cy < 0 || cy >= ny_) return false;
-    const std::uint32_t s = next_stamp();
-    bool in = false;
-    for (long cx = std::max(0L, cell_of(p.x - origin_.x)); cx < nx_; ++cx) {
-      const std::size_t c = static_cast<std::size_t>(cy * nx_ + cx);
-      for (std::size_t k = start_[c]; k < start_[c + 1]; ++k) {
-        const std::uint32_t e = ids_[k];
-        if (stamp_[e] == s) continue;
-        stamp_[e] = s;
-        const Vec2 u = a(e), v = b(e);
-        if ((u.y > p.y) != (v.y > p.y) && p.x < (v.x - u.x) * (p.y - u.y) / (v.y - u.y) + u.x)
-          in = !in;
-      }
-    }
-    return in;
   }
 
  private:
@@ -799,6 +779,7 @@ struct Comb::Impl {
   // Built by the first travel that cannot go straight (most islands have none; its stamps are
   // not for several threads at once).
   mutable std::optional<RingEdges> route_edges;
+  mutable std::optional<RingRuns> route_runs;  // its inside test (the same answers, cheaper)
   Impl(Regions in, Regions r)
       : inside(std::move(in)),
         route(std::move(r)),
@@ -836,7 +817,7 @@ bool Comb::route(Vec2 a, Vec2 b, double max_length, std::vector<Vec2>& via) cons
     double u;
   };
   std::vector<Hit> hits;
-  if (!c.route_edges) c.route_edges.emplace(c.route_rings);
+  if (!c.route_edges) c.route_edges.emplace(c.route_rings), c.route_runs.emplace(c.route_rings);
   const RingEdges& re = *c.route_edges;
   if (re.empty()) return false;
   re.along(a, b, [&](std::uint32_t e) {
@@ -865,7 +846,7 @@ bool Comb::route(Vec2 a, Vec2 b, double max_length, std::vector<Vec2>& via) cons
     const Hit& h1 = hits[k + 1];
     if ((h1.t - h0.t) * total < 1e-7) continue;
     const Vec2 mid = a + (b - a) * (0.5 * (h0.t + h1.t));
-    if (re.inside(mid)) continue;
+    if (c.route_runs->inside(mid)) continue;
     // Outside the route region between h0 and h1: around its ring, the shorter way.
     if (re.ring_of(h0.edge) != re.ring_of(h1.edge)) return false;
     const auto& ring = *c.route_rings[re.ring_of(h0.edge)];
