@@ -23,26 +23,33 @@ class EndGrid {
     double best = 1e300;
     OrderStep pick{static_cast<std::size_t>(-1), false};
     const long cx = cell_x(p.x), cy = cell_y(p.y);
-    const long rings = std::max(nx_, ny_);
-    for (long r = 0; r <= rings; ++r) {
-      if (r >= 1 && static_cast<double>(r - 1) * cell_ > best) break;
-      for (long y = cy - r; y <= cy + r; ++y) {
-        if (y < 0 || y >= ny_) continue;
-        const bool edge_row = y == cy - r || y == cy + r;
-        for (long x = cx - r; x <= cx + r; x += edge_row ? 1 : 2 * r) {
-          if (x >= 0 && x < nx_)
-            for (const std::size_t key : cells_[static_cast<std::size_t>(y * nx_ + x)]) {
-              const std::size_t i = key / 2;
-              if (taken_[i]) continue;
-              const bool rev = key % 2 == 1;
-              const double d = distance(p, rev ? items_[i].end : items_[i].start);
-              if (std::tie(d, i, rev) < std::tie(best, pick.item, pick.reversed)) {
-                best = d;
-                pick = {i, rev};
-              }
-            }
-          if (r == 0) break;
+    auto visit = [&](long x, long y) {
+      for (const std::size_t key : cells_[static_cast<std::size_t>(y * nx_ + x)]) {
+        const std::size_t i = key / 2;
+        if (taken_[i]) continue;
+        const bool rev = key % 2 == 1;
+        const double d = distance(p, rev ? items_[i].end : items_[i].start);
+        if (std::tie(d, i, rev) < std::tie(best, pick.item, pick.reversed)) {
+          best = d;
+          pick = {i, rev};
         }
+      }
+    };
+    // Rings of cells about p's cell, only their cells inside the grid (a ring's cells are
+    // searched in any order: the pick is the least by (distance, item, reversed)); no more
+    // rings once one lies beyond the best or the grid.
+    visit(cx, cy);
+    for (long r = 1;; ++r) {
+      if (static_cast<double>(r - 1) * cell_ > best) break;
+      if (cx - r < 0 && cy - r < 0 && cx + r >= nx_ && cy + r >= ny_) break;
+      const long x0 = std::max(0L, cx - r), x1 = std::min(nx_ - 1, cx + r);
+      if (cy - r >= 0)
+        for (long x = x0; x <= x1; ++x) visit(x, cy - r);
+      if (cy + r < ny_)
+        for (long x = x0; x <= x1; ++x) visit(x, cy + r);
+      for (long y = std::max(0L, cy - r + 1); y <= std::min(ny_ - 1, cy + r - 1); ++y) {
+        if (cx - r >= 0) visit(cx - r, y);
+        if (cx + r < nx_) visit(cx + r, y);
       }
     }
     return pick;

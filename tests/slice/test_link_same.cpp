@@ -332,6 +332,9 @@ TEST(LinkSame, OrderIsTheReferenceNearestNeighbourAndTwoOpt) {
         it.end = {std::round(it.end.x), std::round(it.end.y), 0};
       }
       it.reversible = trial % 4 != 1 || rng.uniform01() < 0.9;
+      if (trial % 6 == 2) it.start.y = it.end.y = 50;  // on one line: a grid one cell high
+      if (trial % 6 == 4 && rng.uniform01() < 0.5)     // two clusters far apart
+        it.start.x += 5000, it.end.x += 5000;
     }
     const Vec3 from{-5, 50, 0};
     const auto got = order_by_travel(items, from);
