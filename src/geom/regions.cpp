@@ -37,28 +37,82 @@ Regions boolean(const Regions& a, const Regions& b, cl::ClipType type) {
   return nest_paths(out);
 }
 
+// Douglas-Peucker over the points at(0) .. at(m - 1) in XY: keep[k] set for the points kept. The
+// arithmetic of simplify_polyline on these points with z = 0, term for term (the z terms add
+// +0.0, which only the dot product of the projection can need: a -0.0 there), so the same
+// points are kept.
+template <class At>
+void douglas_peucker_xy(std::size_t m, const At& at, double tol, std::vector<char>& keep,
+                        std::vector<std::pair<std::size_t, std::size_t>>& stack) {
+  keep.assign(m, 0);
+  keep.front() = keep.back() = 1;
+  stack.assign(1, {0, m - 1});
+  while (!stack.empty()) {
+    const auto [i, j] = stack.back();
+    stack.pop_back();
+    const Vec2 a = at(i), ab = at(j) - a;
+    const double len2 = ab.x * ab.x + ab.y * ab.y;
+    double best = -1;
+    std::size_t k = i;
+    for (std::size_t q = i + 1; q < j; ++q) {
+      const Vec2 p = at(q), pa = p - a;
+      double t = len2 > 0 ? (pa.x * ab.x + pa.y * ab.y + 0.0) / len2 : 0.0;
+      t = std::clamp(t, 0.0, 1.0);
+      const Vec2 c = p - (a + ab * t);
+      const double d = std::sqrt(c.x * c.x + c.y * c.y);
+      if (d > best) best = d, k = q;
+    }
+    if (best > tol) {
+      keep[k] = 1;
+      stack.push_back({i, k});
+      stack.push_back({k, j});
+    }
+  }
+}
+
 std::vector<Vec2> simplify_ring(const std::vector<Vec2>& ring, double tol) {
   const std::size_t n = ring.size();
   if (n < 4 || tol <= 0) return ring;
-  // Split at the point farthest from point 0, simplify both halves.
+  // Split at the point farthest from point 0 (the first of the farthest by std::hypot),
+  // simplify both halves. Squared distances first: only points within 1e-9 of the largest can
+  // be the farthest by hypot (their rounding is some 1e-16), so hypot runs for those alone.
+  double most = 0;
+  for (std::size_t i = 1; i < n; ++i) {
+    const double dx = ring[i].x - ring[0].x, dy = ring[i].y - ring[0].y;
+    most = std::max(most, dx * dx + dy * dy);
+  }
+  const double near_most = most * (1 - 1e-9);
   std::size_t far = 0;
   double best = -1;
   for (std::size_t i = 1; i < n; ++i) {
-    const double d = std::hypot(ring[i].x - ring[0].x, ring[i].y - ring[0].y);
+    const double dx = ring[i].x - ring[0].x, dy = ring[i].y - ring[0].y;
+    if (!(dx * dx + dy * dy >= near_most)) continue;
+    const double d = std::hypot(dx, dy);
     if (d > best) {
       best = d;
       far = i;
     }
   }
-  // The two open halves, 0..far and far..0, each simplified on its own.
-  std::vector<Vec3> a, b;
-  for (std::size_t i = 0; i <= far; ++i) a.push_back({ring[i].x, ring[i].y, 0});
-  for (std::size_t i = far; i <= n; ++i) b.push_back({ring[i % n].x, ring[i % n].y, 0});
-  a = simplify_polyline(a, tol);
-  b = simplify_polyline(b, tol);
+  if (far == 0) {  // no squared distance compares (NaN): as before, hypot for every point
+    for (std::size_t i = 1; i < n; ++i) {
+      const double d = std::hypot(ring[i].x - ring[0].x, ring[i].y - ring[0].y);
+      if (d > best) best = d, far = i;
+    }
+  }
+  // The two open halves, 0..far and far..0 (point n is point 0 again), each simplified on its
+  // own, in place.
+  thread_local std::vector<char> keep_a, keep_b;
+  thread_local std::vector<std::pair<std::size_t, std::size_t>> stack;
+  douglas_peucker_xy(
+      far + 1, [&](std::size_t k) { return ring[k]; }, tol, keep_a, stack);
+  douglas_peucker_xy(
+      n - far + 1, [&](std::size_t k) { return ring[far + k == n ? 0 : far + k]; }, tol, keep_b,
+      stack);
   std::vector<Vec2> out;
-  for (const auto& q : a) out.push_back(q.xy());
-  for (std::size_t i = 1; i + 1 < b.size(); ++i) out.push_back(b[i].xy());
+  for (std::size_t i = 0; i <= far; ++i)
+    if (keep_a[i]) out.push_back(ring[i]);
+  for (std::size_t k = 1; k + 1 < keep_b.size(); ++k)
+    if (keep_b[k]) out.push_back(ring[far + k]);
   return out.size() >= 3 ? out : ring;
 }
 

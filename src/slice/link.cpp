@@ -54,6 +54,12 @@ double len(Vec2 a) {
   return std::sqrt(a.x * a.x + a.y * a.y);
 }
 
+// floor(v) as a long: truncation where that is floor (v >= 0, most grid cells), without the
+// call.
+long floor_long(double v) {
+  return v >= 0 ? static_cast<long>(v) : static_cast<long>(std::floor(v));
+}
+
 // The box of closed rings' points and their number of edges, for sizing an edge grid.
 struct RingBounds {
   double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
@@ -92,7 +98,8 @@ class RingEdgeList {
 
 // The edges of closed rings in a uniform grid: each edge is entered into the cells along it
 // (sampled every half cell) and their neighbours, so any point of an edge is found from its own
-// cell, and a segment sampled the same way meets every edge it crosses.
+// cell, and a segment sampled the same way meets every edge it crosses (in an order the comb's
+// routes depend on: crossings at equal distances along a travel keep it).
 class RingEdges : public RingEdgeList {
  public:
   explicit RingEdges(const std::vector<const std::vector<Vec2>*>& rings) : RingEdgeList(rings) {
@@ -165,29 +172,8 @@ class RingEdges : public RingEdgeList {
     });
   }
 
-  // Crossings of the ray from p towards +x with the rings (even-odd: inside when odd).
-  bool inside(Vec2 p) const {
-    if (empty()) return false;
-    const long cy = cell_of(p.y - origin_.y);
-    if (cy < 0 || cy >= ny_) return false;
-    const std::uint32_t s = next_stamp();
-    bool in = false;
-    for (long cx = std::max(0L, cell_of(p.x - origin_.x)); cx < nx_; ++cx) {
-      const std::size_t c = static_cast<std::size_t>(cy * nx_ + cx);
-      for (std::size_t k = start_[c]; k < start_[c + 1]; ++k) {
-        const std::uint32_t e = ids_[k];
-        if (stamp_[e] == s) continue;
-        stamp_[e] = s;
-        const Vec2 u = a(e), v = b(e);
-        if ((u.y > p.y) != (v.y > p.y) && p.x < (v.x - u.x) * (p.y - u.y) / (v.y - u.y) + u.x)
-          in = !in;
-      }
-    }
-    return in;
-  }
-
  private:
-  long cell_of(double d) const { return static_cast<long>(std::floor(d / cell_)); }
+  long cell_of(double d) const { return floor_long(d / cell_); }
   template <class Fn>
   void each_cell(Vec2 p, Vec2 q, Fn&& fn) const {
     const double l = len(q - p);
@@ -270,17 +256,99 @@ class EdgeBoxes : public RingEdgeList {
   }
 
  private:
-  long cx(double x) const {
-    return std::clamp(static_cast<long>(std::floor((x - origin_.x) / cell_)), -1L, nx_);
-  }
-  long cy(double y) const {
-    return std::clamp(static_cast<long>(std::floor((y - origin_.y) / cell_)), -1L, ny_);
-  }
+  long cx(double x) const { return std::clamp(floor_long((x - origin_.x) / cell_), -1L, nx_); }
+  long cy(double y) const { return std::clamp(floor_long((y - origin_.y) / cell_), -1L, ny_); }
   std::vector<std::size_t> start_;
   std::vector<std::uint32_t> ids_;
   Vec2 origin_;
   double cell_ = 1;
   long nx_ = 0, ny_ = 0;
+};
+
+// Where segment p-q crosses segment a-b: parameters along each (false when parallel or apart).
+bool segments_cross(Vec2 p, Vec2 q, Vec2 a, Vec2 b, double& t, double& u) {
+  const Vec2 r = q - p, s = b - a;
+  const double d = cross(r, s);
+  if (std::abs(d) < 1e-300) return false;
+  t = cross(a - p, s) / d;
+  u = cross(a - p, r) / d;
+  return t >= 0 && t <= 1 && u >= 0 && u <= 1;
+}
+
+// The edges of closed rings in runs of kRun consecutive edges, each run with its box: the
+// inside test and the crossing test of RingEdges (the same answers: each tests every edge that
+// can pass, once) that skip the runs a ray or segment cannot meet. Built in one pass over the
+// points where RingEdges' grid enters each edge into several cells and sorts them; for an
+// island's travel, which asks a few questions of its outline, that build was most of the cost.
+class RingRuns {
+ public:
+  explicit RingRuns(const std::vector<const std::vector<Vec2>*>& rings) : rings_(rings) {
+    for (std::size_t r = 0; r < rings_.size(); ++r) {
+      const auto& ring = *rings_[r];
+      const std::size_t n = ring.size();
+      for (std::size_t i0 = 0; i0 < n; i0 += kRun) {
+        const std::size_t i1 = std::min(n, i0 + kRun);
+        Run run{static_cast<std::uint32_t>(r),
+                static_cast<std::uint32_t>(i0),
+                static_cast<std::uint32_t>(i1),
+                ring[i0].x,
+                ring[i0].y,
+                ring[i0].x,
+                ring[i0].y};
+        for (std::size_t i = i0 + 1; i <= i1; ++i) {  // the runs' points, the last edge's end
+          const Vec2 q = ring[i == n ? 0 : i];
+          run.x0 = std::min(run.x0, q.x), run.y0 = std::min(run.y0, q.y);
+          run.x1 = std::max(run.x1, q.x), run.y1 = std::max(run.y1, q.y);
+        }
+        runs_.push_back(run);
+      }
+    }
+  }
+
+  // Crossings of the ray from p towards +x with the rings (even-odd: inside when odd).
+  bool inside(Vec2 p) const {
+    bool in = false;
+    for (const Run& run : runs_) {
+      // An edge counts only when p.y lies in [its lower y, its upper y) (exact compares), and
+      // where its crossing lies beyond p.x, which the rounding of that crossing may put a few
+      // ulps past the run's box (the slack).
+      if (!(run.y0 <= p.y && p.y < run.y1) || p.x > run.x1 + kSlack) continue;
+      const auto& ring = *rings_[run.ring];
+      const std::size_t n = ring.size();
+      for (std::size_t i = run.from; i < run.to; ++i) {
+        const Vec2 u = ring[i], v = ring[i + 1 == n ? 0 : i + 1];
+        if ((u.y > p.y) != (v.y > p.y) && p.x < (v.x - u.x) * (p.y - u.y) / (v.y - u.y) + u.x)
+          in = !in;
+      }
+    }
+    return in;
+  }
+
+  // Whether segment a-b crosses an edge (segments_cross).
+  bool crosses(Vec2 a, Vec2 b) const {
+    const double x0 = std::min(a.x, b.x) - kSlack, x1 = std::max(a.x, b.x) + kSlack;
+    const double y0 = std::min(a.y, b.y) - kSlack, y1 = std::max(a.y, b.y) + kSlack;
+    for (const Run& run : runs_) {
+      if (run.x0 > x1 || run.x1 < x0 || run.y0 > y1 || run.y1 < y0) continue;
+      const auto& ring = *rings_[run.ring];
+      const std::size_t n = ring.size();
+      for (std::size_t i = run.from; i < run.to; ++i) {
+        double t = 0, u = 0;
+        if (segments_cross(a, b, ring[i], ring[i + 1 == n ? 0 : i + 1], t, u)) return true;
+      }
+    }
+    return false;
+  }
+
+ private:
+  static constexpr std::size_t kRun = 16;
+  static constexpr double kSlack = 1e-7;  // mm: far beyond rounding, far below a feature
+  struct Run {
+    std::uint32_t ring, from, to;  // edges from..to-1 of the ring
+    double x0, y0, x1, y1;         // the box of their points
+  };
+  std::vector<const std::vector<Vec2>*> rings_;
+  std::vector<Run> runs_;
 };
 
 std::vector<const std::vector<Vec2>*> ring_pointers(const Regions& region) {
@@ -291,16 +359,6 @@ std::vector<const std::vector<Vec2>*> ring_pointers(const Regions& region) {
       if (h.size() >= 3) rings.push_back(&h);
   }
   return rings;
-}
-
-// Where segment p-q crosses segment a-b: parameters along each (false when parallel or apart).
-bool segments_cross(Vec2 p, Vec2 q, Vec2 a, Vec2 b, double& t, double& u) {
-  const Vec2 r = q - p, s = b - a;
-  const double d = cross(r, s);
-  if (std::abs(d) < 1e-300) return false;
-  t = cross(a - p, s) / d;
-  u = cross(a - p, r) / d;
-  return t >= 0 && t <= 1 && u >= 0 && u <= 1;
 }
 
 }  // namespace
@@ -347,16 +405,22 @@ class FillEnds {
         }
       });
     }
-    // Each ring's ends in order along it.
+    // Each ring's ends in order along it (sorted with their positions beside them, which the
+    // comparisons read without looking them up).
     on_ring_.resize(rings_.size());
+    std::vector<std::vector<std::pair<double, std::size_t>>> by_s(rings_.size());
     for (std::size_t key = 0; key < 2 * lines.size(); ++key)
-      if (ends_[key].ring >= 0) on_ring_[static_cast<std::size_t>(ends_[key].ring)].push_back(key);
+      if (ends_[key].ring >= 0)
+        by_s[static_cast<std::size_t>(ends_[key].ring)].push_back({ends_[key].s, key});
     slot_.assign(2 * lines.size(), 0);
-    for (auto& v : on_ring_) {
-      std::sort(v.begin(), v.end(), [&](std::size_t a, std::size_t b) {
-        return ends_[a].s != ends_[b].s ? ends_[a].s < ends_[b].s : a < b;
+    for (std::size_t r = 0; r < rings_.size(); ++r) {
+      auto& w = by_s[r];
+      std::sort(w.begin(), w.end(), [](const auto& a, const auto& b) {
+        return a.first != b.first ? a.first < b.first : a.second < b.second;
       });
-      for (std::size_t j = 0; j < v.size(); ++j) slot_[v[j]] = j;
+      auto& v = on_ring_[r];
+      v.resize(w.size());
+      for (std::size_t j = 0; j < w.size(); ++j) v[j] = w[j].second, slot_[w[j].second] = j;
     }
   }
 
@@ -657,22 +721,37 @@ std::size_t seam_vertex(const std::vector<Vec2>& ring, Seam seam, Vec2 from, std
   perimeter = cum[n];
   if (!(perimeter > 0)) return rear_most();
   const double reach = std::min(0.8, perimeter / 8);
-  auto point_at = [&](double s) {  // s in [0, perimeter) after wrapping
-    s = std::fmod(s, perimeter);
-    if (s < 0) s += perimeter;
-    const std::size_t i =
-        static_cast<std::size_t>(std::upper_bound(cum.begin(), cum.end(), s) - cum.begin()) - 1;
+  // The point at arc length s, for s in [-reach, perimeter + reach] (wrapped as fmod would: s
+  // below 0 is taken + perimeter, s from perimeter on - perimeter, exact by Sterbenz's lemma as
+  // reach <= perimeter / 8). `at` is the last edge found: s moves on steadily from vertex to
+  // vertex, so the edge (the last cum <= s, as upper_bound finds it) is a step or two away.
+  auto point_at = [&](double s, std::size_t& at) {
+    if (s < 0)
+      s += perimeter;
+    else if (s >= perimeter)
+      s -= perimeter;
+    std::size_t i = at;
+    while (i < n && cum[i + 1] <= s) ++i;
+    while (i > 0 && cum[i] > s) --i;
+    at = i;
     const std::size_t k = std::min(i, n - 1);
     const double l = cum[k + 1] - cum[k];
     const double t = l > 0 ? (s - cum[k]) / l : 0;
     return ring[k] + (ring[(k + 1) % n] - ring[k]) * t;
   };
+  // Only turns sharper than 25° concave or 55° convex can be picked below (corners beyond 30°
+  // and 60°, or within 5° of the sharpest): a turn known to lie between -20° and +48° (its tangent
+  // within bounds, a compare with margin) is left 0 without atan2.
   std::vector<double> turn(n, 0.0);
+  std::size_t before = 0, after = 0;
   for (std::size_t i = 0; i < n; ++i) {
-    const Vec2 a = point_at(cum[i] - reach), b = ring[i], c = point_at(cum[i] + reach);
+    const Vec2 a = point_at(cum[i] - reach, before), b = ring[i],
+               c = point_at(cum[i] + reach, after);
     const Vec2 u = b - a, v = c - b;
     if (len(u) < 1e-9 || len(v) < 1e-9) continue;
-    turn[i] = std::atan2(cross(u, v), u.x * v.x + u.y * v.y) * 180 / std::numbers::pi;
+    const double sine = cross(u, v), cosine = u.x * v.x + u.y * v.y;
+    if (cosine > 0 && sine < 1.1 * cosine && -sine < 0.36 * cosine) continue;  // tan 47.7°, 19.8°
+    turn[i] = std::atan2(sine, cosine) * 180 / std::numbers::pi;
   }
   // The sharpest corner of a kind beyond `limit` degrees; corners within 5° of the sharpest
   // count as equal and the rear-most of them wins, so rounding does not move the seam.
@@ -696,10 +775,11 @@ std::size_t seam_vertex(const std::vector<Vec2>& ring, Seam seam, Vec2 from, std
 struct Comb::Impl {
   Regions inside, route;
   std::vector<const std::vector<Vec2>*> inside_rings, route_rings;
-  RingEdges inside_edges;
-  // Built by the first travel that cannot go straight (most islands have none; like
-  // inside_edges' stamps, not for several threads at once).
+  RingRuns inside_edges;
+  // Built by the first travel that cannot go straight (most islands have none; its stamps are
+  // not for several threads at once).
   mutable std::optional<RingEdges> route_edges;
+  mutable std::optional<RingRuns> route_runs;  // its inside test (the same answers, cheaper)
   Impl(Regions in, Regions r)
       : inside(std::move(in)),
         route(std::move(r)),
@@ -707,14 +787,7 @@ struct Comb::Impl {
         route_rings(ring_pointers(route)),
         inside_edges(inside_rings) {}
 
-  bool crosses(Vec2 a, Vec2 b) const {
-    bool hit = false;
-    inside_edges.along(a, b, [&](std::uint32_t e) {
-      double t = 0, u = 0;
-      if (!hit && segments_cross(a, b, inside_edges.a(e), inside_edges.b(e), t, u)) hit = true;
-    });
-    return hit;
-  }
+  bool crosses(Vec2 a, Vec2 b) const { return inside_edges.crosses(a, b); }
   bool straight(Vec2 a, Vec2 b) const {
     return inside_edges.inside(a) && inside_edges.inside(b) && !crosses(a, b);
   }
@@ -744,7 +817,7 @@ bool Comb::route(Vec2 a, Vec2 b, double max_length, std::vector<Vec2>& via) cons
     double u;
   };
   std::vector<Hit> hits;
-  if (!c.route_edges) c.route_edges.emplace(c.route_rings);
+  if (!c.route_edges) c.route_edges.emplace(c.route_rings), c.route_runs.emplace(c.route_rings);
   const RingEdges& re = *c.route_edges;
   if (re.empty()) return false;
   re.along(a, b, [&](std::uint32_t e) {
@@ -773,7 +846,7 @@ bool Comb::route(Vec2 a, Vec2 b, double max_length, std::vector<Vec2>& via) cons
     const Hit& h1 = hits[k + 1];
     if ((h1.t - h0.t) * total < 1e-7) continue;
     const Vec2 mid = a + (b - a) * (0.5 * (h0.t + h1.t));
-    if (re.inside(mid)) continue;
+    if (c.route_runs->inside(mid)) continue;
     // Outside the route region between h0 and h1: around its ring, the shorter way.
     if (re.ring_of(h0.edge) != re.ring_of(h1.edge)) return false;
     const auto& ring = *c.route_rings[re.ring_of(h0.edge)];
@@ -881,11 +954,26 @@ std::vector<std::vector<Vec2>> chain_loops(const std::vector<std::vector<Vec2>>&
 void link_layer(const std::vector<IslandPieces>& islands, const LinkOptions& o, double z,
                 double layer_height, std::uint64_t key, Vec2& cursor, bool cursor_known,
                 std::vector<Path>& paths, LinkStats& stats) {
+  // Aligned and rear seams depend on the ring alone: found once for each wall loop, for the
+  // island's entry and its walls.
+  const bool fixed_seams = o.seam == Seam::Aligned || o.seam == Seam::Rear;
+  std::vector<std::vector<std::vector<std::size_t>>> fixed_seam(fixed_seams ? islands.size() : 0);
+  for (std::size_t i = 0; i < fixed_seam.size(); ++i) {
+    fixed_seam[i].resize(islands[i].walls.size());
+    for (std::size_t l = 0; l < islands[i].walls.size(); ++l)
+      for (const auto& ring : islands[i].walls[l])
+        fixed_seam[i][l].push_back(seam_vertex(ring, o.seam, cursor, o.seed, 0));
+  }
   // Islands in travel order, each entered at its first wall's seam (or first fill point).
-  auto entry_of = [&](const IslandPieces& is) -> Vec2 {
-    for (const auto& level : is.walls)
-      for (const auto& ring : level)
-        if (ring.size() >= 3) return ring[seam_vertex(ring, o.seam, cursor, o.seed, key)];
+  auto entry_of = [&](std::size_t island) -> Vec2 {
+    const IslandPieces& is = islands[island];
+    for (std::size_t l = 0; l < is.walls.size(); ++l)
+      for (std::size_t r = 0; r < is.walls[l].size(); ++r) {
+        const auto& ring = is.walls[l][r];
+        if (ring.size() < 3) continue;
+        return ring[fixed_seams ? fixed_seam[island][l][r]
+                                : seam_vertex(ring, o.seam, cursor, o.seed, key)];
+      }
     for (const auto& f : is.fills) {
       if (!f.lines.empty() && !f.lines.front().empty()) return f.lines.front().front();
       if (!f.loops.empty() && !f.loops.front().empty()) return f.loops.front().front();
@@ -893,8 +981,8 @@ void link_layer(const std::vector<IslandPieces>& islands, const LinkOptions& o, 
     return is.outline.outer.empty() ? Vec2{} : is.outline.outer.front();
   };
   std::vector<OrderItem> items;
-  for (const auto& is : islands) {
-    const Vec2 e = entry_of(is);
+  for (std::size_t i = 0; i < islands.size(); ++i) {
+    const Vec2 e = entry_of(i);
     items.push_back({{e.x, e.y, 0}, {e.x, e.y, 0}, false});
   }
   const auto island_order = order_by_travel(items, {cursor.x, cursor.y, 0});
@@ -945,7 +1033,9 @@ void link_layer(const std::vector<IslandPieces>& islands, const LinkOptions& o, 
       std::vector<std::vector<std::size_t>> seam(levels);
       for (std::size_t l = 0; l < levels; ++l) {
         seam[l].assign(is.walls[l].size(), 0);
-        if (o.seam != Seam::Nearest)
+        if (fixed_seams)
+          seam[l] = fixed_seam[step.item][l];
+        else if (o.seam != Seam::Nearest)
           for (std::size_t r = 0; r < is.walls[l].size(); ++r)
             seam[l][r] = seam_vertex(is.walls[l][r], o.seam, cursor, o.seed, ring_key + r);
         ring_key += is.walls[l].size();

@@ -23,26 +23,33 @@ class EndGrid {
     double best = 1e300;
     OrderStep pick{static_cast<std::size_t>(-1), false};
     const long cx = cell_x(p.x), cy = cell_y(p.y);
-    const long rings = std::max(nx_, ny_);
-    for (long r = 0; r <= rings; ++r) {
-      if (r >= 1 && static_cast<double>(r - 1) * cell_ > best) break;
-      for (long y = cy - r; y <= cy + r; ++y) {
-        if (y < 0 || y >= ny_) continue;
-        const bool edge_row = y == cy - r || y == cy + r;
-        for (long x = cx - r; x <= cx + r; x += edge_row ? 1 : 2 * r) {
-          if (x >= 0 && x < nx_)
-            for (const std::size_t key : cells_[static_cast<std::size_t>(y * nx_ + x)]) {
-              const std::size_t i = key / 2;
-              if (taken_[i]) continue;
-              const bool rev = key % 2 == 1;
-              const double d = distance(p, rev ? items_[i].end : items_[i].start);
-              if (std::tie(d, i, rev) < std::tie(best, pick.item, pick.reversed)) {
-                best = d;
-                pick = {i, rev};
-              }
-            }
-          if (r == 0) break;
+    auto visit = [&](long x, long y) {
+      for (const std::size_t key : cells_[static_cast<std::size_t>(y * nx_ + x)]) {
+        const std::size_t i = key / 2;
+        if (taken_[i]) continue;
+        const bool rev = key % 2 == 1;
+        const double d = distance(p, rev ? items_[i].end : items_[i].start);
+        if (std::tie(d, i, rev) < std::tie(best, pick.item, pick.reversed)) {
+          best = d;
+          pick = {i, rev};
         }
+      }
+    };
+    // Rings of cells about p's cell, only their cells inside the grid (a ring's cells are
+    // searched in any order: the pick is the least by (distance, item, reversed)); no more
+    // rings once one lies beyond the best or the grid.
+    visit(cx, cy);
+    for (long r = 1;; ++r) {
+      if (static_cast<double>(r - 1) * cell_ > best) break;
+      if (cx - r < 0 && cy - r < 0 && cx + r >= nx_ && cy + r >= ny_) break;
+      const long x0 = std::max(0L, cx - r), x1 = std::min(nx_ - 1, cx + r);
+      if (cy - r >= 0)
+        for (long x = x0; x <= x1; ++x) visit(x, cy - r);
+      if (cy + r < ny_)
+        for (long x = x0; x <= x1; ++x) visit(x, cy + r);
+      for (long y = std::max(0L, cy - r + 1); y <= std::min(ny_ - 1, cy + r - 1); ++y) {
+        if (cx - r >= 0) visit(cx - r, y);
+        if (cx + r < nx_) visit(cx + r, y);
       }
     }
     return pick;
@@ -101,14 +108,17 @@ class EndGrid {
 void two_opt(const std::vector<OrderItem>& items, std::vector<OrderStep>& order, Vec3 from) {
   const std::size_t n = order.size();
   if (n < 3) return;
-  auto s = [&](std::size_t i) {
-    const OrderItem& it = items[order[i].item];
-    return order[i].reversed ? it.end : it.start;
-  };
-  auto e = [&](std::size_t i) {
-    const OrderItem& it = items[order[i].item];
-    return order[i].reversed ? it.start : it.end;
-  };
+  // Each step's first and last point as printed, and the travel from each step to the next
+  // (link[k]: step k to k + 1), kept with the order: a reversed run's inner links are its old
+  // links read backwards (distance is symmetric, to the bit), the two at its ends are measured.
+  std::vector<Vec3> s(n), e(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    const OrderItem& it = items[order[k].item];
+    s[k] = order[k].reversed ? it.end : it.start;
+    e[k] = order[k].reversed ? it.start : it.end;
+  }
+  std::vector<double> link(n - 1);
+  for (std::size_t k = 0; k + 1 < n; ++k) link[k] = distance(e[k], s[k + 1]);
   // fixed_before[k]: items before k that cannot be reversed, so a run i..j can be reversed
   // only when fixed_before[j + 1] == fixed_before[i].
   std::vector<std::size_t> fixed_before(n + 1, 0);
@@ -121,19 +131,29 @@ void two_opt(const std::vector<OrderItem>& items, std::vector<OrderStep>& order,
   for (int pass = 0; pass < 20; ++pass) {
     bool improved = false;
     for (std::size_t i = 0; i + 1 < n; ++i) {
-      const Vec3 before = i == 0 ? from : e(i - 1);
+      const Vec3 before = i == 0 ? from : e[i - 1];
+      double to_first = distance(before, s[i]);
       for (std::size_t j = i + 1; j < n && j - i <= window; ++j) {
         if (any_fixed && fixed_before[j + 1] != fixed_before[i]) break;
-        double old_cost = distance(before, s(i));
-        double new_cost = distance(before, e(j));
+        double old_cost = to_first;
+        double new_cost = distance(before, e[j]);
         if (j + 1 < n) {
-          old_cost += distance(e(j), s(j + 1));
-          new_cost += distance(s(i), s(j + 1));
+          old_cost += link[j];
+          new_cost += distance(s[i], s[j + 1]);
         }
         if (new_cost < old_cost - 1e-9) {
-          std::reverse(order.begin() + static_cast<long>(i),
-                       order.begin() + static_cast<long>(j) + 1);
-          for (std::size_t k = i; k <= j; ++k) order[k].reversed = !order[k].reversed;
+          const auto first = static_cast<long>(i), last = static_cast<long>(j) + 1;
+          std::reverse(order.begin() + first, order.begin() + last);
+          std::reverse(s.begin() + first, s.begin() + last);
+          std::reverse(e.begin() + first, e.begin() + last);
+          std::reverse(link.begin() + first, link.begin() + last - 1);
+          for (std::size_t k = i; k <= j; ++k) {
+            order[k].reversed = !order[k].reversed;
+            std::swap(s[k], e[k]);
+          }
+          if (j + 1 < n) link[j] = distance(e[j], s[j + 1]);
+          if (i > 0) link[i - 1] = distance(e[i - 1], s[i]);
+          to_first = distance(before, s[i]);
           improved = true;
         }
       }

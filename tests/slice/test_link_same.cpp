@@ -1,0 +1,364 @@
+// The linking stage's and the outline simplification's fast paths against plain references
+// written here the long way (each edge tested, atan2 at every vertex, fmod and a binary search
+// for the points along a ring, every 2-opt cost measured from scratch, hypot for every point,
+// Douglas-Peucker through simplify_polyline): the same answers, to the bit, on seeded random
+// inputs with the ties and degeneracies that real outlines have (points on a coarse grid, so rays
+// pass through vertices and segments along edges; regular polygons, whose vertices lie at equal
+// distances; repeated points, straight runs, hairpins).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <tuple>
+
+#include "support/random_regions.hpp"
+#include "trellis/core/rng.hpp"
+#include "trellis/geom/regions.hpp"
+#include "trellis/slice/link.hpp"
+#include "trellis/toolpath/order.hpp"
+
+using namespace trellis;
+using test::random_region;
+
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+
+double cross2(Vec2 a, Vec2 b) {
+  return a.x * b.y - a.y * b.x;
+}
+double len2d(Vec2 a) {
+  return std::sqrt(a.x * a.x + a.y * a.y);
+}
+
+// ---------------------------------------------------------------- references
+
+// The aligned seam as first written: every turn by atan2, the points along the ring by fmod and
+// upper_bound.
+std::size_t ref_aligned_seam(const std::vector<Vec2>& ring) {
+  const std::size_t n = ring.size();
+  if (n == 0) return 0;
+  auto rear = [&](std::size_t a, std::size_t b) {
+    if (ring[a].y != ring[b].y) return ring[a].y > ring[b].y;
+    if (ring[a].x != ring[b].x) return ring[a].x < ring[b].x;
+    return a < b;
+  };
+  auto rear_most = [&] {
+    std::size_t best = 0;
+    for (std::size_t i = 1; i < n; ++i)
+      if (rear(i, best)) best = i;
+    return best;
+  };
+  std::vector<double> cum(n + 1, 0.0);
+  for (std::size_t i = 0; i < n; ++i) cum[i + 1] = cum[i] + len2d(ring[(i + 1) % n] - ring[i]);
+  const double perimeter = cum[n];
+  if (!(perimeter > 0)) return rear_most();
+  const double reach = std::min(0.8, perimeter / 8);
+  auto point_at = [&](double s) {
+    s = std::fmod(s, perimeter);
+    if (s < 0) s += perimeter;
+    const std::size_t i =
+        static_cast<std::size_t>(std::upper_bound(cum.begin(), cum.end(), s) - cum.begin()) - 1;
+    const std::size_t k = std::min(i, n - 1);
+    const double l = cum[k + 1] - cum[k];
+    const double t = l > 0 ? (s - cum[k]) / l : 0;
+    return ring[k] + (ring[(k + 1) % n] - ring[k]) * t;
+  };
+  std::vector<double> turn(n, 0.0);
+  for (std::size_t i = 0; i < n; ++i) {
+    const Vec2 a = point_at(cum[i] - reach), b = ring[i], c = point_at(cum[i] + reach);
+    const Vec2 u = b - a, v = c - b;
+    if (len2d(u) < 1e-9 || len2d(v) < 1e-9) continue;
+    turn[i] = std::atan2(cross2(u, v), u.x * v.x + u.y * v.y) * 180 / kPi;
+  }
+  auto sharpest = [&](double sign, double limit) -> long {
+    double top = limit;
+    for (std::size_t i = 0; i < n; ++i) top = std::max(top, sign * turn[i]);
+    if (top <= limit) return -1;
+    long best = -1;
+    for (std::size_t i = 0; i < n; ++i)
+      if (sign * turn[i] >= top - 5 && (best < 0 || rear(i, static_cast<std::size_t>(best))))
+        best = static_cast<long>(i);
+    return best;
+  };
+  if (const long c = sharpest(-1, 30); c >= 0) return static_cast<std::size_t>(c);
+  if (const long c = sharpest(1, 60); c >= 0) return static_cast<std::size_t>(c);
+  return rear_most();
+}
+
+// Even-odd inside over every edge of every ring (the test Comb makes of each edge).
+bool ref_inside(const Regions& r, Vec2 p) {
+  bool in = false;
+  for (const auto& poly : r) {
+    std::vector<const std::vector<Vec2>*> rings;
+    if (poly.outer.size() >= 3) rings.push_back(&poly.outer);
+    for (const auto& h : poly.holes)
+      if (h.size() >= 3) rings.push_back(&h);
+    for (const auto* ring : rings)
+      for (std::size_t i = 0; i < ring->size(); ++i) {
+        const Vec2 u = (*ring)[i], v = (*ring)[(i + 1) % ring->size()];
+        if ((u.y > p.y) != (v.y > p.y) && p.x < (v.x - u.x) * (p.y - u.y) / (v.y - u.y) + u.x)
+          in = !in;
+      }
+  }
+  return in;
+}
+
+// Whether a-b crosses any edge (the crossing test Comb makes of each edge).
+bool ref_crosses(const Regions& r, Vec2 a, Vec2 b) {
+  for (const auto& poly : r) {
+    std::vector<const std::vector<Vec2>*> rings;
+    if (poly.outer.size() >= 3) rings.push_back(&poly.outer);
+    for (const auto& h : poly.holes)
+      if (h.size() >= 3) rings.push_back(&h);
+    for (const auto* ring : rings)
+      for (std::size_t i = 0; i < ring->size(); ++i) {
+        const Vec2 ea = (*ring)[i], eb = (*ring)[(i + 1) % ring->size()];
+        const Vec2 rr = b - a, s = eb - ea;
+        const double d = cross2(rr, s);
+        if (std::abs(d) < 1e-300) continue;
+        const double t = cross2(ea - a, s) / d, u = cross2(ea - a, rr) / d;
+        if (t >= 0 && t <= 1 && u >= 0 && u <= 1) return true;
+      }
+  }
+  return false;
+}
+
+// Nearest neighbour by brute force (ties: the lower index, its start first), then 2-opt with
+// every cost measured from the order itself.
+std::vector<OrderStep> ref_order(const std::vector<OrderItem>& items, Vec3 from) {
+  const std::size_t n = items.size();
+  std::vector<char> taken(n, 0);
+  std::vector<OrderStep> order;
+  Vec3 at = from;
+  for (std::size_t step = 0; step < n; ++step) {
+    double best = 1e300;
+    OrderStep pick{static_cast<std::size_t>(-1), false};
+    for (std::size_t i = 0; i < n; ++i) {
+      if (taken[i]) continue;
+      for (const bool rev : {false, true}) {
+        if (rev && !items[i].reversible) continue;
+        const double d = distance(at, rev ? items[i].end : items[i].start);
+        if (std::tie(d, i, rev) < std::tie(best, pick.item, pick.reversed)) {
+          best = d;
+          pick = {i, rev};
+        }
+      }
+    }
+    taken[pick.item] = 1;
+    order.push_back(pick);
+    at = pick.reversed ? items[pick.item].start : items[pick.item].end;
+  }
+  if (n < 3) return order;
+  auto s = [&](std::size_t i) {
+    const OrderItem& it = items[order[i].item];
+    return order[i].reversed ? it.end : it.start;
+  };
+  auto e = [&](std::size_t i) {
+    const OrderItem& it = items[order[i].item];
+    return order[i].reversed ? it.start : it.end;
+  };
+  std::vector<std::size_t> fixed_before(n + 1, 0);
+  bool any_fixed = false;
+  for (std::size_t k = 0; k < n; ++k) {
+    fixed_before[k + 1] = fixed_before[k] + (items[order[k].item].reversible ? 0 : 1);
+    any_fixed = any_fixed || !items[order[k].item].reversible;
+  }
+  const std::size_t window = n > 2000 ? 64 : n;
+  for (int pass = 0; pass < 20; ++pass) {
+    bool improved = false;
+    for (std::size_t i = 0; i + 1 < n; ++i) {
+      const Vec3 before = i == 0 ? from : e(i - 1);
+      for (std::size_t j = i + 1; j < n && j - i <= window; ++j) {
+        if (any_fixed && fixed_before[j + 1] != fixed_before[i]) break;
+        double old_cost = distance(before, s(i));
+        double new_cost = distance(before, e(j));
+        if (j + 1 < n) {
+          old_cost += distance(e(j), s(j + 1));
+          new_cost += distance(s(i), s(j + 1));
+        }
+        if (new_cost < old_cost - 1e-9) {
+          std::reverse(order.begin() + static_cast<long>(i),
+                       order.begin() + static_cast<long>(j) + 1);
+          for (std::size_t k = i; k <= j; ++k) order[k].reversed = !order[k].reversed;
+          improved = true;
+        }
+      }
+    }
+    if (!improved) break;
+  }
+  return order;
+}
+
+// A ring simplified as first written: split at the first point farthest from point 0 by hypot,
+// each half through simplify_polyline.
+std::vector<Vec2> ref_simplify_ring(const std::vector<Vec2>& ring, double tol) {
+  const std::size_t n = ring.size();
+  if (n < 4 || tol <= 0) return ring;
+  std::size_t far = 0;
+  double best = -1;
+  for (std::size_t i = 1; i < n; ++i) {
+    const double d = std::hypot(ring[i].x - ring[0].x, ring[i].y - ring[0].y);
+    if (d > best) best = d, far = i;
+  }
+  std::vector<Vec3> a, b;
+  for (std::size_t i = 0; i <= far; ++i) a.push_back({ring[i].x, ring[i].y, 0});
+  for (std::size_t i = far; i <= n; ++i) b.push_back({ring[i % n].x, ring[i % n].y, 0});
+  a = simplify_polyline(a, tol);
+  b = simplify_polyline(b, tol);
+  std::vector<Vec2> out;
+  for (const auto& q : a) out.push_back(q.xy());
+  for (std::size_t i = 1; i + 1 < b.size(); ++i) out.push_back(b[i].xy());
+  return out.size() >= 3 ? out : ring;
+}
+
+// ---------------------------------------------------------------- generated rings
+
+// Rings of the kinds outlines are made of: stars, regular polygons (equal distances), rounded
+// rectangles sampled finely (offset corners), points snapped to a coarse grid (repeats, straight
+// runs, axis-parallel edges), hairpins.
+std::vector<Vec2> random_ring(Rng& rng, int kind) {
+  std::vector<Vec2> ring;
+  const Vec2 c{200 * rng.uniform01() - 100, 200 * rng.uniform01() - 100};
+  switch (kind % 5) {
+    case 0:
+      return test::star(rng, c, 2 + 5 * rng.uniform01(), 8 + 20 * rng.uniform01(),
+                        3 + static_cast<int>(rng.uniform_index(300)), rng.uniform01() < 0.7);
+    case 1: {
+      const int n = 3 + static_cast<int>(rng.uniform_index(200));
+      const double r = 0.5 + 30 * rng.uniform01();
+      for (int i = 0; i < n; ++i)
+        ring.push_back(c + Vec2{r * std::cos(2 * kPi * i / n), r * std::sin(2 * kPi * i / n)});
+      return ring;
+    }
+    case 2: {
+      const double w = 1 + 40 * rng.uniform01(), h = 1 + 40 * rng.uniform01();
+      const double r = std::min(w, h) * 0.4 * rng.uniform01();
+      const int per = 1 + static_cast<int>(rng.uniform_index(24));
+      const Vec2 corners[4] = {{w, h}, {-w, h}, {-w, -h}, {w, -h}};
+      for (int q = 0; q < 4; ++q)
+        for (int k = 0; k <= per; ++k) {
+          const double a = kPi / 2 * (q + static_cast<double>(k) / per);
+          const Vec2 in{corners[q].x - (corners[q].x > 0 ? r : -r),
+                        corners[q].y - (corners[q].y > 0 ? r : -r)};
+          ring.push_back(c + in + Vec2{r * std::cos(a), r * std::sin(a)});
+        }
+      return ring;
+    }
+    case 3: {
+      auto g = test::star(rng, c, 3, 20, 4 + static_cast<int>(rng.uniform_index(80)), true);
+      const double step = rng.uniform01() < 0.5 ? 0.5 : 1.0;
+      for (auto& p : g) p = {std::round(p.x / step) * step, std::round(p.y / step) * step};
+      return g;
+    }
+    default: {
+      // A hairpin: out along a line and back just beside it, with a repeated point.
+      const int n = 3 + static_cast<int>(rng.uniform_index(60));
+      for (int i = 0; i <= n; ++i) ring.push_back(c + Vec2{0.3 * i, 0});
+      ring.push_back(ring.back());
+      for (int i = n; i >= 0; --i) ring.push_back(c + Vec2{0.3 * i, 0.05 + 0.01 * (i % 3)});
+      return ring;
+    }
+  }
+}
+
+}  // namespace
+
+TEST(LinkSame, AlignedAndRearSeamsAreTheReferencesOnGeneratedRings) {
+  Rng rng(291);
+  for (int trial = 0; trial < 3000; ++trial) {
+    const auto ring = random_ring(rng, trial);
+    ASSERT_EQ(seam_vertex(ring, Seam::Aligned, {0, 0}, 1, 0), ref_aligned_seam(ring))
+        << "trial " << trial << ", " << ring.size() << " points";
+    // Rear: the largest y, then the smallest x, then the first.
+    std::size_t rear = 0;
+    for (std::size_t i = 1; i < ring.size(); ++i)
+      if (std::tie(ring[rear].y, ring[i].x) < std::tie(ring[i].y, ring[rear].x)) rear = i;
+    ASSERT_EQ(seam_vertex(ring, Seam::Rear, {0, 0}, 1, 0), rear) << "trial " << trial;
+  }
+}
+
+TEST(LinkSame, CombInsideAndStraightAreTheReferencesOnGeneratedRegions) {
+  Rng rng(292);
+  std::size_t straight = 0, blocked = 0, in = 0, out = 0;
+  for (int trial = 0; trial < 200; ++trial) {
+    Regions r = random_region(rng, 5 + 40 * rng.uniform01());
+    if (trial % 2 == 1)  // coarse grid: rays through vertices, segments along edges
+      for (auto& poly : r) {
+        for (auto& p : poly.outer) p = {std::round(p.x), std::round(p.y)};
+        for (auto& h : poly.holes)
+          for (auto& p : h) p = {std::round(p.x), std::round(p.y)};
+      }
+    const Comb comb(r, r);
+    std::vector<Vec2> probes;
+    for (int k = 0; k < 60; ++k) {
+      Vec2 p{100 * rng.uniform01() - 50, 100 * rng.uniform01() - 50};
+      if (trial % 2 == 1) p = {std::round(p.x), std::round(p.y)};
+      probes.push_back(p);
+    }
+    for (const auto& poly : r)  // the vertices themselves
+      for (std::size_t k = 0; k < poly.outer.size(); k += 3) probes.push_back(poly.outer[k]);
+    for (const Vec2 p : probes) {
+      const bool want = ref_inside(r, p);
+      ASSERT_EQ(comb.contains(p), want) << "trial " << trial << " at " << p.x << "," << p.y;
+      (want ? in : out) += 1;
+    }
+    for (std::size_t k = 0; k + 1 < probes.size(); ++k) {
+      const Vec2 a = probes[k], b = probes[(k * 7 + 3) % probes.size()];
+      const bool want = ref_inside(r, a) && ref_inside(r, b) && !ref_crosses(r, a, b);
+      ASSERT_EQ(comb.straight(a, b), want)
+          << "trial " << trial << " " << a.x << "," << a.y << " to " << b.x << "," << b.y;
+      (want ? straight : blocked) += 1;
+    }
+  }
+  // Both answers were asked for often.
+  EXPECT_GT(in, 1000u);
+  EXPECT_GT(out, 1000u);
+  EXPECT_GT(straight, 300u);
+  EXPECT_GT(blocked, 300u);
+}
+
+TEST(LinkSame, OrderIsTheReferenceNearestNeighbourAndTwoOpt) {
+  Rng rng(293);
+  for (int trial = 0; trial < 120; ++trial) {
+    const std::size_t n = 1 + rng.uniform_index(trial < 100 ? 120 : 700);
+    std::vector<OrderItem> items(n);
+    for (auto& it : items) {
+      it.start = {100 * rng.uniform01(), 100 * rng.uniform01(), trial % 5 == 0 ? 0.5 : 0.0};
+      it.end = it.start + Vec3{10 * rng.uniform01() - 5, 10 * rng.uniform01() - 5, 0};
+      if (trial % 3 == 0) {  // ties
+        it.start = {std::round(it.start.x), std::round(it.start.y), 0};
+        it.end = {std::round(it.end.x), std::round(it.end.y), 0};
+      }
+      it.reversible = trial % 4 != 1 || rng.uniform01() < 0.9;
+      if (trial % 6 == 2) it.start.y = it.end.y = 50;  // on one line: a grid one cell high
+      if (trial % 6 == 4 && rng.uniform01() < 0.5)     // two clusters far apart
+        it.start.x += 5000, it.end.x += 5000;
+    }
+    const Vec3 from{-5, 50, 0};
+    const auto got = order_by_travel(items, from);
+    const auto want = ref_order(items, from);
+    ASSERT_EQ(got.size(), want.size());
+    for (std::size_t k = 0; k < got.size(); ++k) {
+      ASSERT_EQ(got[k].item, want[k].item) << "trial " << trial << " step " << k;
+      ASSERT_EQ(got[k].reversed, want[k].reversed) << "trial " << trial << " step " << k;
+    }
+  }
+}
+
+TEST(LinkSame, SimplifiedRingsAreTheReferencesOnGeneratedRings) {
+  Rng rng(294);
+  std::size_t dropped = 0;
+  for (int trial = 0; trial < 3000; ++trial) {
+    auto ring = random_ring(rng, trial);
+    if (trial % 7 == 0 && ring.size() > 4) ring[2] = ring[1];  // a repeated point
+    const double tol = std::pow(10.0, -4 + 4 * rng.uniform01());
+    const auto want = ref_simplify_ring(ring, tol);
+    const Regions got = simplify(Regions{Polygon2{ring, {}}}, tol);
+    ASSERT_EQ(got.size(), 1u);
+    ASSERT_EQ(got[0].outer, want) << "trial " << trial << ", " << ring.size() << " points";
+    dropped += ring.size() - want.size();
+  }
+  EXPECT_GT(dropped, 1000u);  // simplification happened, not only copies
+}
