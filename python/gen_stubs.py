@@ -98,7 +98,7 @@ def main():
            "from .fields import (Field, Mesh, cone, cube, cylinder, difference, fgrade, function, gyroid,",
            "                     intersection, mesh, rectprism, sphere, torus, tpms, union)", ""]
     # The reader routes with a function (trellis.check, trellis.analyze): their keywords are their
-    # settings (job/readers.hpp).
+    # settings (the route table's readers, RouteSpec::reads).
     for reader in _trellis.reader_names():
         if hasattr(trellis, reader):
             out += function_stub(reader, getattr(trellis, reader), None,
