@@ -10,12 +10,12 @@
 #include <set>
 #include <sstream>
 
+#include "routes.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/machine/bgcode.hpp"
 #include "trellis/machine/gcode_reader.hpp"
 #include "trellis/machine/toolpath_3mf.hpp"
-#include "routes.hpp"
 
 namespace trellis {
 
@@ -406,10 +406,15 @@ std::string job_toml(const Job& job, const std::string& base) {
   if (!spec.reads) {
     out += settings_toml(st, sections);
   } else {
-    // A reader's: the settings it reads (others of its sections it would refuse) and those of the
-    // profile sections, as the profile and the settings given left them.
+    // A reader's: the settings it reads (others of its sections it would refuse) and, with a
+    // machine profile or any of its settings given, those of its profile sections as the profile
+    // and the settings given left them.
     const auto& profile = spec.profile_sections;
-    sections.insert(sections.end(), profile.begin(), profile.end());
+    bool machine = !job.machine.empty();
+    for (const auto& [key, e] : job.settings.entries())
+      machine |=
+          std::find(profile.begin(), profile.end(), key.substr(0, key.find('.'))) != profile.end();
+    if (machine) sections.insert(sections.end(), profile.begin(), profile.end());
     out += settings_toml(st, sections, [&](const Setting& s) {
       return std::find(profile.begin(), profile.end(), s.section()) != profile.end() ||
              route_reads(spec, s);
@@ -470,9 +475,10 @@ Job job_from_output(const std::string& path) {
     const std::size_t from = at == std::string::npos ? at : at + std::strlen(routes::kPageJobOpen);
     const std::size_t end = from == std::string::npos ? from : page.find("</script>", from);
     if (end == std::string::npos)
-      throw ParseError("no Trellis job in this page (it was not written by `trellis view`, or by "
-                       "one before the page carried its job)",
-                       {path});
+      throw ParseError(
+          "no Trellis job in this page (it was not written by `trellis view`, or by "
+          "one before the page carried its job)",
+          {path});
     try {
       job = nlohmann::json::parse(page.substr(from, end - from)).get<std::string>();
     } catch (const nlohmann::json::exception&) {

@@ -148,7 +148,7 @@ JobResult reader_render(const Job& job, const Config& c, const RunContext& conte
   const Progress& progress = context.progress;
   const int layer = c.read.layer;
   if (layer < 0) refuse_device_prefix(job.output);
-  const std::string& input = job.prints().at(0);
+  const std::string input = job.prints().at(0);
   ViewScene scene = load_view_scene(input, view_load(job, c), diag);
   if (scene.kind == "lattice")
     throw ParseError(input + ": a lattice, not a toolpath (plan it first, or `trellis view` it)");

@@ -140,9 +140,9 @@ JobResult run_reader(const RouteSpec& spec, const Job& job, const RunContext& gi
   // A job with a design or print in memory (Python) has no file to name: not embedded.
   const bool in_memory = job.design_graph || job.print;
   if (!job.report.empty()) {
-    write_file_atomic(job.report, in_memory ? r.report_json
-                                            : with_report_job(r.report_json,
-                                                              embedded_job(full, job.report)));
+    write_file_atomic(
+        job.report,
+        in_memory ? r.report_json : with_report_job(r.report_json, embedded_job(full, job.report)));
     r.files.push_back(job.report);
   }
   return r;

@@ -16,6 +16,7 @@
 #include "trellis/core/file.hpp"
 #include "trellis/geom/mesh.hpp"
 #include "trellis/geom/mesh_io.hpp"
+#include "trellis/job/job.hpp"
 #include "trellis/settings/settings.hpp"
 #include "trellis/toolpath/json.hpp"
 

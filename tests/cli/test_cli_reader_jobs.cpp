@@ -274,14 +274,13 @@ TEST(ReaderJobs, RerunOfEveryReadersReportOrPageWritesItAgainByteForByte) {
       if (r.reads && (r.main_output == &trellis::Job::report || r.name == "view"))
         EXPECT_TRUE(covered.count(r.name)) << r.name;
     // The job file's run embeds the same job as the command's.
-    std::ofstream(at("jobrun.toml")) << "[job]\nroute = \"compare\"\ndesign = " +
-                                            quoted(d.lattice) + "\ninputs = [" + quoted(d.gcode) +
-                                            ", " + quoted(d.gcode2) +
-                                            "]\nreport = \"again.report.json\"\noutput_dir = " +
-                                            quoted(work().string()) + "\n";
+    std::ofstream(at("jobrun.toml"))
+        << "[job]\nroute = \"compare\"\ndesign = " + quoted(d.lattice) + "\ninputs = [" +
+               quoted(d.gcode) + ", " + quoted(d.gcode2) +
+               "]\nreport = \"again.report.json\"\noutput_dir = " + quoted(work().string()) + "\n";
     fs::remove(rep);
-    ASSERT_EQ(run("compare " + d.lattice + " " + d.gcode + " " + d.gcode2 + " --report " + rep).code,
-              0);
+    ASSERT_EQ(
+        run("compare " + d.lattice + " " + d.gcode + " " + d.gcode2 + " --report " + rep).code, 0);
     const std::string by_command = trellis::read_file(rep);
     fs::remove(rep);
     ASSERT_EQ(run("run " + at("jobrun.toml")).code, 0);
@@ -292,8 +291,7 @@ TEST(ReaderJobs, RerunOfEveryReadersReportOrPageWritesItAgainByteForByte) {
     fs::rename(d.gcode2, d.gcode2 + ".moved");
     CmdResult gone = run("rerun " + rep);
     EXPECT_EQ(gone.code, 2);
-    EXPECT_NE(gone.err.find(fs::path(d.gcode2).filename().string()), std::string::npos)
-        << gone.err;
+    EXPECT_NE(gone.err.find(fs::path(d.gcode2).filename().string()), std::string::npos) << gone.err;
     EXPECT_TRUE(trellis::read_file(rep) == kept);
     fs::rename(d.gcode2 + ".moved", d.gcode2);
     // render's PNG carries no job: refused, nothing written.

@@ -157,8 +157,8 @@ struct JobResult {
   std::shared_ptr<const Toolpath> toolpath;
   std::shared_ptr<const Graph> lattice;
   JobGeometry geometry;
-  std::string summary;      // one or two lines for the terminal
-  int exit_code = 0;        // 1 when a check found problems
+  std::string summary;  // one or two lines for the terminal
+  int exit_code = 0;    // 1 when a check found problems
   // The reader routes (RouteSpec::reads): the report, written or not, without the job its file
   // carries.
   std::string report_json;
