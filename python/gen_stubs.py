@@ -103,7 +103,8 @@ def main():
            "from .fields import (Field, Mesh, cone, cube, cylinder, difference, fgrade, function, gyroid,",
            "                     intersection, mesh, rectprism, sphere, torus, tpms, union)", ""]
     # The reader routes' functions (trellis.check, analyze, compare, view, render): their
-    # keywords are their settings (job/readers.hpp), their return what each function says.
+    # keywords are their settings (the route table's readers, RouteSpec::reads), their return
+    # what each function says.
     for reader in _trellis.reader_names():
         if hasattr(trellis, reader):
             fn = getattr(trellis, reader)

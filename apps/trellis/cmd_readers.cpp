@@ -1,12 +1,13 @@
-// The reader commands (check, analyze, compare, view, render): what each reads is the library's
-// reader table (job/readers.hpp); here are their help texts, positionals and file options. Their
-// setting flags come from the schema; each builds a ReadJob and hands it to run_reader.
+// The reader commands (check, analyze, compare, view, render): what each reads is its row of the
+// library's route table (job/job.hpp RouteSpec::reads); here are their help texts, positionals and
+// file options. Their setting flags come from the schema; each builds a Job and hands it to
+// run_job.
 #include <algorithm>
 #include <iostream>
 
 #include "commands.hpp"
 #include "progress_display.hpp"
-#include "trellis/job/readers.hpp"
+#include "trellis/job/job.hpp"
 
 namespace trellis::cli {
 
@@ -140,7 +141,7 @@ const std::vector<ReaderCommand>& reader_commands() {
 }
 
 struct ReaderOpts {
-  ReadJob job;
+  Job job;
   std::vector<std::string> design;  // the design positional (0 or 1)
   std::vector<std::string> sets;
   SettingFlags flags;
@@ -154,14 +155,14 @@ void add_reader(CLI::App& app, const std::string& name) {
   const auto it = std::find_if(commands.begin(), commands.end(),
                                [&](const ReaderCommand& c) { return c.name == name; });
   const ReaderCommand& spec = *it;
-  const ReaderSpec& reader = reader_spec(name);
+  const RouteSpec& reader = route_spec(name, {"", 0, "command"});
   auto o = std::make_shared<ReaderOpts>();
   o->job.route = name;
   auto* cmd = app.add_subcommand(spec.name, spec.description);
   if (!spec.footer.empty()) cmd->footer(spec.footer);
   for (const auto& p : spec.positionals) {
     auto* opt = p.design ? cmd->add_option(p.name, o->job.design, p.doc)
-                         : cmd->add_option(p.name, o->job.prints, p.doc)->expected(1, p.max);
+                         : cmd->add_option(p.name, o->job.inputs, p.doc)->expected(1, p.max);
     opt->required()->check(path_value());
   }
   if (spec.output_doc)
@@ -178,12 +179,12 @@ void add_reader(CLI::App& app, const std::string& name) {
   o->flags.add(cmd, reader.sections, reader.name);
   if (spec.progress) add_progress_flag(cmd, o->progress);
   cmd->callback([o, &spec] {
-    ReadJob job = o->job;
+    Job job = o->job;
     apply_command_line(job.settings, o->flags, o->progress, o->sets);
     Diagnostics diag;
     ProgressDisplay display(spec.progress ? progress_mode(o->progress) : ProgressMode::Off,
                             "trellis " + job.route);
-    const JobResult r = run_reader(job, display.context(diag));
+    const JobResult r = run_job(job, display.context(diag));
     display.finish();
     print_warnings(diag);
     std::cout << r.summary;

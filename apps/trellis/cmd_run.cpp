@@ -8,7 +8,6 @@
 #include "trellis/core/error.hpp"
 #include "trellis/job/job.hpp"
 #include "trellis/job/plate.hpp"
-#include "trellis/job/readers.hpp"
 
 namespace trellis::cli {
 
@@ -49,11 +48,9 @@ void add_run(CLI::App& app) {
     if (o->progress >= 0)
       job.settings.set("run.progress", o->progress == 1,
                        {o->progress ? "--progress" : "--no-progress"});
-    const bool reader = is_reader(job.route);
+    const bool reader = route_spec(job.route).reads;
     if (!o->shard.empty()) {
       std::tie(job.shard, job.shards) = parse_shard(o->shard);
-      if (reader)
-        throw SettingError("the " + job.route + " reader does not shard", {"", 0, "--shard"});
       // The plan route says itself what of it shards (planner, plan.order, plan.layer_start).
       require_shards(route_spec(job.route), {"", 0, "--shard"});
     }
@@ -116,7 +113,8 @@ void add_rerun(CLI::App& app) {
       "rerun", "Regenerate an output from the job recorded in its header (byte for byte)");
   cmd->footer(
       "Every G-code, .nc, .cli and toolpath JSON that Trellis writes carries the job that made "
-      "it:\n"
+      "it,\n"
+      "and so do the reports of check, analyze and compare and the page of view (not PNGs):\n"
       "the route, its inputs and every setting in force. rerun reads that job and writes the\n"
       "same kind of output again (to -o, default: over the file itself).\nExample:\n"
       "  trellis rerun part.gcode -o part_again.gcode && cmp part.gcode part_again.gcode");

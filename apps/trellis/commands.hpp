@@ -22,7 +22,8 @@ void add_rerun(CLI::App& app);
 void add_merge(CLI::App& app);
 void add_settings(CLI::App& app);
 void add_walls(CLI::App& app);
-// A reader command (check, analyze, compare, view, render; job/readers.hpp): flags from the schema.
+// A reader command (check, analyze, compare, view, render; RouteSpec::reads): flags from the
+// schema.
 void add_reader(CLI::App& app, const std::string& name);
 
 // Exit status of the run when no error was thrown (e.g. 1 when a check found problems).

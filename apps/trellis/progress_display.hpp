@@ -36,7 +36,7 @@ class ProgressDisplay {
   // A Progress (and the estimate hook) that report here; valid while this lives.
   Progress progress();
   // The command's one run context (core/run_context.hpp): this progress, warnings into `diag`;
-  // run_job and run_reader add the threads and budget of the run settings.
+  // run_job adds the threads and budget of the run settings.
   RunContext context(Diagnostics& diag);
   void report(const std::string& stage, double fraction);
   void estimate(const Estimate& e);

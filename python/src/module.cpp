@@ -25,7 +25,6 @@
 #include "trellis/field/vcad.hpp"
 #include "trellis/job/job.hpp"
 #include "trellis/job/plate.hpp"
-#include "trellis/job/readers.hpp"
 #include "trellis/lattice/io.hpp"
 #include "trellis/machine/cli.hpp"
 #include "trellis/machine/gcode_reader.hpp"
@@ -194,13 +193,17 @@ struct ReadOutputs {
   std::string output, report, preview;
 };
 
-// A reader run from Python as its command runs it (job/readers.hpp): the ReadJob built under the
-// GIL, then run interruptibly (Ctrl-C, progress) as the routes are.
+// A reader run from Python as its command runs it (its row of the route table): the Job built under
+// the GIL, then run interruptibly (Ctrl-C, progress) as the routes are.
 JobResult run_read(const std::string& route, const py::object& design, const py::object& print,
                    const std::string& machine, const py::dict& settings, const ReadOutputs& out,
                    Diagnostics& diag, const py::object& progress) {
-  ReadJob job;
+  Job job;
   job.route = route;
+  if (!route_spec(route, {"", 0, "route"}).reads)
+    throw SettingError(
+        "'" + route + "' makes its output: run it with trellis." + route + "() or trellis.run_job",
+        {"", 0, "route"});
   job.machine = machine;
   job.output = out.output;
   job.report = out.report;
@@ -212,9 +215,9 @@ JobResult run_read(const std::string& route, const py::object& design, const py:
   if (py::isinstance<Toolpath>(print))
     job.print = print.cast<std::shared_ptr<Toolpath>>();
   else if (py::isinstance<py::str>(print))
-    job.prints = {print.cast<std::string>()};
+    job.inputs = {print.cast<std::string>()};
   else
-    job.prints = print.cast<std::vector<std::string>>();
+    job.inputs = print.cast<std::vector<std::string>>();
   for (const auto& [k, v] : settings) {
     const auto key = k.cast<std::string>();
     job.settings.set(key, to_value(key, v), {"keyword " + key});
@@ -222,7 +225,7 @@ JobResult run_read(const std::string& route, const py::object& design, const py:
   JobResult r;
   RunContext context;
   context.diagnostics = &diag;
-  run_interruptible([&](const RunContext& c) { r = run_reader(job, c); }, progress, context);
+  run_interruptible([&](const RunContext& c) { r = run_job(job, c); }, progress, context);
   return r;
 }
 
@@ -241,13 +244,21 @@ PYBIND11_MODULE(_trellis, m) {
   py::register_exception_translator(&translate);
 
   m.def("version", [] { return std::string(trellis::version()); });
-  m.def("route_names", &route_names);
+  // The routes that make (python/trellis builds a function from each row); the readers, rows of
+  // the same table (RouteSpec::reads), have their own functions on read_json: reader_names.
+  m.def("route_names", [] {
+    std::vector<std::string> names;
+    for (const RouteSpec& r : route_specs())
+      if (!r.reads) names.push_back(r.name);
+    return names;
+  });
   m.def("route_sections", &route_sections);
   // The route table (job/job.hpp RouteSpec) as python/trellis builds its functions and stubs
   // from it: each route's input, choice setting and the outputs it writes.
   m.def("routes", [] {
     py::list out;
     for (const RouteSpec& r : route_specs()) {
+      if (r.reads) continue;
       py::dict d;
       d["name"] = r.name;
       d["input"] = r.input;
@@ -546,7 +557,7 @@ PYBIND11_MODULE(_trellis, m) {
   m.def("toolpath_from_json", [](const std::string& text) {
     return std::make_shared<Toolpath>(toolpath_from_json(text, "<string>"));
   });
-  // The reader routes (job/readers.hpp) as the CLI runs them (read_run): `design` a file, a
+  // The reader routes (RouteSpec::reads) as the CLI runs them (read_run): `design` a file, a
   // Lattice or None; `print` a file, a Toolpath (analyze: measured as planned, no filament or
   // retractions, which the machine's G-code adds; check: in design coordinates) or a list of files
   // (compare, view); `settings` key -> value (python/trellis: keywords); the files to write as
@@ -587,17 +598,19 @@ PYBIND11_MODULE(_trellis, m) {
       py::arg("route"), py::arg("design"), py::arg("print"), py::arg("machine"),
       py::arg("settings"), py::arg("output") = "", py::arg("report") = "", py::arg("preview") = "",
       py::arg("progress") = py::none());
+  // The readers: the rows of the route table that read prints back.
   m.def("reader_names", [] {
     std::vector<std::string> names;
-    for (const ReaderSpec& r : reader_specs()) names.push_back(r.name);
+    for (const RouteSpec& r : route_specs())
+      if (r.reads) names.push_back(r.name);
     return names;
   });
-  m.def("reader_sections", [](const std::string& name) { return reader_spec(name).sections; });
+  m.def("reader_sections", [](const std::string& name) { return route_spec(name).sections; });
   m.def("reader_keys", [](const std::string& name) {
-    const ReaderSpec& r = reader_spec(name);
+    const RouteSpec& r = route_spec(name);
     std::vector<std::string> keys;
     for (const auto& s : all_settings())
-      if (!s.flag.empty() && reader_reads(r, s)) keys.push_back(s.key);
+      if (!s.flag.empty() && route_reads(r, s)) keys.push_back(s.key);
     return keys;
   });
   // Parses .vcad text (errors with line and column); returns the design's bounds if it has a root.

@@ -4,14 +4,15 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
 
+#include "routes.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
-#include "trellis/job/readers.hpp"
 #include "trellis/machine/bgcode.hpp"
 #include "trellis/machine/gcode_reader.hpp"
 #include "trellis/machine/toolpath_3mf.hpp"
@@ -178,7 +179,7 @@ fs::path output_folder(const Job& job, const std::string& base, const std::strin
   return dir;
 }
 
-// A job file whose route is a reader (job/readers.hpp): its settings are the file's and --set
+// A job file whose route is a reader (RouteSpec::reads): its settings are the file's and --set
 // (the machine profile is loaded below them when it runs, as the command does), each checked
 // against the reader; its outputs are those it writes, by default in the output folder.
 // `outputs` point into `job`.
@@ -187,7 +188,7 @@ void read_reader_job(Job& job, const toml::table& root, const std::string& text,
                      const std::string& output_dir,
                      std::vector<std::pair<std::string*, Where>>& outputs,
                      const std::vector<std::string>& sets) {
-  const ReaderSpec& spec = reader_spec(job.route);
+  const RouteSpec& spec = route_spec(job.route);
   if (const toml::node* part = root.get("part"))
     throw SettingError("build plates ([[part]]) are for the pbf and slice routes, not " + job.route,
                        {origin, static_cast<long>(part->source().begin.line), "part"});
@@ -213,7 +214,7 @@ void read_reader_job(Job& job, const toml::table& root, const std::string& text,
   });
   if (!embedded) {
     const fs::path dir = output_folder(job, base, output_dir, outputs);
-    if (job.output.empty() && spec.output_suffix)
+    if (job.output.empty() && spec.output_role)
       job.output = (dir / (job.name + spec.output_suffix)).string();
     if (job.report.empty() && spec.report)
       job.report = (dir / (job.name + ".report.json")).string();
@@ -305,20 +306,14 @@ Job job_from_toml(const std::string& text, const std::string& origin, const std:
         return static_cast<unsigned char>(ch) < 0x20;
       }))
     throw SettingError("a name without path separators, e.g. \"part\"", {origin, 0, "job.name"});
-  if (is_reader(job.route)) {
+  if (route_spec(job.route, {origin, 0, "job.route"}).reads) {
     read_reader_job(job, root, text, origin, base, embedded, output_dir, outputs, sets);
     return job;
   }
-  if (std::find(route_names().begin(), route_names().end(), job.route) == route_names().end()) {
-    std::string all;
-    for (const auto& r : route_names()) all += (all.empty() ? "" : ", ") + r;
-    for (const ReaderSpec& r : reader_specs()) all += ", " + r.name;
-    throw SettingError("unknown route '" + job.route + "' (expected one of " + all + ")",
-                       {origin, 0, "job.route"});
-  }
   if (!reader_keys.empty()) {
     std::string readers;
-    for (const ReaderSpec& r : reader_specs()) readers += (readers.empty() ? "" : ", ") + r.name;
+    for (const RouteSpec& r : route_specs())
+      if (r.reads) readers += (readers.empty() ? "" : ", ") + r.name;
     throw SettingError("inputs and design are the readers' (" + readers + "), not the " +
                            job.route + " route's: it reads one input",
                        reader_keys.front());
@@ -384,8 +379,18 @@ Job load_job(const std::string& path, const std::string& output_dir,
 std::string job_toml(const Job& job, const std::string& base) {
   // The name only names default outputs; an embedded job's outputs are given, so it is left out
   // (the same plan written as a.json or b.json is the same file).
+  const RouteSpec& spec = route_spec(job.route);
   std::string out = "[job]\nroute = " + quoted(job.route) + "\n";
-  if (!job.input.empty()) out += "input = " + quoted(relative_to(job.input, base)) + "\n";
+  // A reader's prints are all `inputs` (input = "a" and inputs = ["a"] are one job).
+  if (!job.input.empty() && !spec.reads)
+    out += "input = " + quoted(relative_to(job.input, base)) + "\n";
+  if (const auto prints = spec.reads ? job.prints() : job.inputs; !prints.empty()) {
+    out += "inputs = [";
+    for (std::size_t i = 0; i < prints.size(); ++i)
+      out += (i ? ", " : "") + quoted(relative_to(prints[i], base));
+    out += "]\n";
+  }
+  if (!job.design.empty()) out += "design = " + quoted(relative_to(job.design, base)) + "\n";
   if (!job.machine.empty()) out += "machine = " + quoted(relative_to(job.machine, base)) + "\n";
   // Path settings relative to `base` too.
   Settings st = job.settings;
@@ -396,9 +401,25 @@ std::string job_toml(const Job& job, const std::string& base) {
   }
   // Every setting that shapes the output; run.threads does not (outputs are the same for any
   // thread count), so it is left out and outputs made with 1 or 8 threads embed the same job.
-  std::vector<std::string> sections = route_sections(job.route);
+  std::vector<std::string> sections = spec.sections;
   sections.erase(std::remove(sections.begin(), sections.end(), "run"), sections.end());
-  out += settings_toml(st, sections);
+  if (!spec.reads) {
+    out += settings_toml(st, sections);
+  } else {
+    // A reader's: the settings it reads (others of its sections it would refuse) and, with a
+    // machine profile or any of its settings given, those of its profile sections as the profile
+    // and the settings given left them.
+    const auto& profile = spec.profile_sections;
+    bool machine = !job.machine.empty();
+    for (const auto& [key, e] : job.settings.entries())
+      machine |=
+          std::find(profile.begin(), profile.end(), key.substr(0, key.find('.'))) != profile.end();
+    if (machine) sections.insert(sections.end(), profile.begin(), profile.end());
+    out += settings_toml(st, sections, [&](const Setting& s) {
+      return std::find(profile.begin(), profile.end(), s.section()) != profile.end() ||
+             route_reads(spec, s);
+    });
+  }
   for (const PlatePart& p : job.parts) {
     std::ostringstream os;
     os << "\n[[part]]\nlabel = " << quoted(p.label) << "\n";
@@ -417,9 +438,11 @@ Job rerun_job(const std::string& path, const std::string& target) {
   Job job = job_from_output(path);
   const std::string to = target.empty() ? path : target;
   job.output = job.report = job.toolpath = job.gcode = job.lattice = job.preview = "";
-  // A JSON output is the main output of a route that makes a lattice, else a toolpath.
+  // A JSON output is the main output of a route that makes a lattice or of a reader (its
+  // report), else a toolpath.
   const RouteSpec& spec = route_spec(job.route);
-  if (fs::path(path).extension() == ".json" && !spec.output_suffix.ends_with(".json"))
+  if (fs::path(path).extension() == ".json" && !spec.output_suffix.ends_with(".json") &&
+      !spec.reads)
     job.toolpath = to;
   else
     job.*spec.main_output = to;
@@ -438,6 +461,29 @@ Job job_from_output(const std::string& path) {
                          " file carries no Trellis job (meshes and beam lattices have no header): "
                          "run the job again, or rerun its JSON or G-code output",
                      {path});
+  }
+  if (ext == ".png")
+    throw ParseError(
+        "a PNG carries no Trellis job (render's pictures and the previews have no header): run "
+        "the render again (its command, or its job file with `trellis run`), or rerun the report, "
+        "page, G-code or toolpath that came with it",
+        {path});
+  if (ext == ".html" || ext == ".htm") {
+    // The viewer page (`trellis view`): the job in its script element (routes::with_page_job).
+    const std::string page = read_file(path);
+    const std::size_t at = page.rfind(routes::kPageJobOpen);
+    const std::size_t from = at == std::string::npos ? at : at + std::strlen(routes::kPageJobOpen);
+    const std::size_t end = from == std::string::npos ? from : page.find("</script>", from);
+    if (end == std::string::npos)
+      throw ParseError(
+          "no Trellis job in this page (it was not written by `trellis view`, or by "
+          "one before the page carried its job)",
+          {path});
+    try {
+      job = nlohmann::json::parse(page.substr(from, end - from)).get<std::string>();
+    } catch (const nlohmann::json::exception&) {
+      throw ParseError("the page's job is not a JSON string", {path});
+    }
   }
   // A text G-code's job is in its header: the rest of a large file is not read.
   const bool gcode = ext == ".gcode" || ext == ".nc" || ext == ".g" || ext == ".gco";
@@ -458,12 +504,14 @@ Job job_from_output(const std::string& path) {
       break;  // the block ended
     pos = end + 1;
   }
-  if (job.empty() && !text.empty() && text[0] == '{') {
-    // JSON (toolpath, report): the "job" field.
+  if (job.empty() && !text.empty() && (text[0] == '{' || text[0] == '[')) {
+    // JSON (toolpath, report): the "job" field; compare's report (an array): its last element's
+    // (routes::with_report_job).
     try {
       const auto j = nlohmann::json::parse(text);
-      if (j.is_object() && j.contains("job") && j["job"].is_string())
-        job = j["job"].get<std::string>();
+      const auto* holder = j.is_array() && !j.empty() ? &j.back() : &j;
+      if (holder->is_object() && holder->contains("job") && (*holder)["job"].is_string())
+        job = (*holder)["job"].get<std::string>();
     } catch (const nlohmann::json::exception&) {
       throw ParseError("not valid JSON", {path});
     }

@@ -87,7 +87,7 @@ std::string write_layer_pictures(const Analysis& a, const std::string& f, const 
 
 // Every print of the job measured (and drawn, with a preview folder); the pictures' lines go to
 // `out.summary`, their files to `out.files`.
-std::vector<Analysis> analyze_prints(const ReadJob& job, const Config& c, Diagnostics& diag,
+std::vector<Analysis> analyze_prints(const Job& job, const Config& c, Diagnostics& diag,
                                      JobResult& out) {
   std::shared_ptr<const Graph> design = job.design_graph;
   if (!design && !job.design.empty())
@@ -98,7 +98,7 @@ std::vector<Analysis> analyze_prints(const ReadJob& job, const Config& c, Diagno
   if (job.print)
     runs.push_back(analyze_toolpath(*job.print, design.get(), params, job.print->source));
   std::map<std::string, int> stems;  // files of one name (a/x.gcode, b/x.gcode): x, x_2, ...
-  for (const auto& f : job.prints) {
+  for (const auto& f : job.prints()) {
     runs.push_back(analyze_file(f, design.get(), params, c.read.gcode, diag));
     const Analysis& a = runs.back();
     if (a.auto_aligned)
@@ -152,48 +152,40 @@ std::string analysis_summary(const Analysis& a, double filament_diameter) {
   return out;
 }
 
-JobResult analyze_laser(const ReadJob& job, const Config& c, Diagnostics& diag,
+JobResult analyze_laser(const Job& job, const Config& c, Diagnostics& diag,
                         const Toolpath* read = nullptr) {
   std::string json;
-  JobResult r = read ? analyze_build_toolpath(*read, job.prints.at(0), job.design, c.laser, &json)
-                     : analyze_build_file(job.prints.at(0), job.design, c.laser, &json, diag);
+  JobResult r = read ? analyze_build_toolpath(*read, job.prints().at(0), job.design, c.laser, &json)
+                     : analyze_build_file(job.prints().at(0), job.design, c.laser, &json, diag);
   r.summary += "\n";
   r.report_json = json;
-  if (!job.report.empty()) {
-    write_file_atomic(job.report, json);
-    r.files.push_back(job.report);
-  }
   return r;
 }
 
 }  // namespace
 
-JobResult reader_analyze(const ReadJob& job, const Config& c, const RunContext& context) {
+JobResult reader_analyze(const Job& job, const Config& c, const RunContext& context) {
   Diagnostics& diag = *context.diagnostics;
-  if (!job.print && is_laser_build_file(job.prints.at(0))) return analyze_laser(job, c, diag);
+  if (!job.print && is_laser_build_file(job.prints().at(0))) return analyze_laser(job, c, diag);
   // A toolpath JSON of a laser build (pbf --toolpath) is timed as the build file would be: each
   // laser with its own scanner.
-  if (!job.print && job.prints.size() == 1) {
-    std::string ext = std::filesystem::path(job.prints[0]).extension().string();
+  if (const auto prints = job.prints(); !job.print && prints.size() == 1) {
+    std::string ext = std::filesystem::path(prints[0]).extension().string();
     for (char& ch : ext) ch = static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
     if (ext == ".json")
-      if (const Toolpath tp = read_toolpath(job.prints[0]); is_laser_toolpath(tp))
+      if (const Toolpath tp = read_toolpath(prints[0]); is_laser_toolpath(tp))
         return analyze_laser(job, c, diag, &tp);
   }
   JobResult r;
   const auto runs = analyze_prints(job, c, diag, r);
   const Analysis& a = runs.front();
   r.report_json = analysis_json(a);
-  if (!job.report.empty()) {
-    write_file_atomic(job.report, r.report_json);
-    r.files.push_back(job.report);
-  }
   if (c.read.per_layer) r.summary += layer_lines(a);
   r.summary += analysis_summary(a, c.read.filament_diameter);
   return r;
 }
 
-JobResult reader_compare(const ReadJob& job, const Config& c, const RunContext& context) {
+JobResult reader_compare(const Job& job, const Config& c, const RunContext& context) {
   Diagnostics& diag = *context.diagnostics;
   JobResult r;
   const auto runs = analyze_prints(job, c, diag, r);
@@ -204,10 +196,6 @@ JobResult reader_compare(const ReadJob& job, const Config& c, const RunContext& 
   for (std::size_t i = 0; i < runs.size(); ++i)
     r.report_json += (i ? ",\n" : "") + analysis_json(runs[i]);
   r.report_json += "]\n";
-  if (!job.report.empty()) {
-    write_file_atomic(job.report, r.report_json);
-    r.files.push_back(job.report);
-  }
   return r;
 }
 

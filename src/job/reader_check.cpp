@@ -33,7 +33,7 @@ std::string check_summary(const CollisionCheck& c) {
 
 }  // namespace
 
-JobResult reader_check(const ReadJob& job, const Config& c, const RunContext& context) {
+JobResult reader_check(const Job& job, const Config& c, const RunContext& context) {
   Diagnostics& diag = *context.diagnostics;
   PrintCheck run(job.settings, !job.machine.empty(), c.read.snap, context.budget);
   if (job.design_graph)
@@ -46,17 +46,13 @@ JobResult reader_check(const ReadJob& job, const Config& c, const RunContext& co
   if (job.print) {
     check = run.check(*job.print);
   } else if (job.preview.empty()) {
-    check = run.check_file(job.prints.at(0), diag, commanded);
+    check = run.check_file(job.prints().at(0), diag, commanded);
   } else {
-    tp = run.read(job.prints.at(0), diag, commanded);
+    tp = run.read(job.prints().at(0), diag, commanded);
     check = run.check(tp);
   }
   JobResult r;
   r.report_json = collision_check_json(check, run.options());
-  if (!job.report.empty()) {
-    write_file_atomic(job.report, r.report_json);
-    r.files.push_back(job.report);
-  }
   if (!job.preview.empty()) {
     create_output_directories(job.preview);
     View3dOptions v;

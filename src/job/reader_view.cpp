@@ -20,7 +20,7 @@ namespace {
 
 // How a pneumatic file is read: read.valve_on / read.valve_off, else the profile's valve commands
 // (a pneumatic or bath profile), else the file's own header.
-ViewLoadOptions view_load(const ReadJob& job, const Config& c) {
+ViewLoadOptions view_load(const Job& job, const Config& c) {
   ViewLoadOptions load;
   load.valve_on = c.read.gcode.valve_on;
   load.valve_off = c.read.gcode.valve_off;
@@ -57,7 +57,7 @@ std::string scene_line(const ViewScene& s) {
 
 }  // namespace
 
-JobResult reader_view(const ReadJob& job, const Config& c, const RunContext& context) {
+JobResult reader_view(const Job& job, const Config& c, const RunContext& context) {
   Diagnostics& diag = *context.diagnostics;
   const bool machine = !job.machine.empty();
   const ViewLoadOptions load = view_load(job, c);
@@ -68,7 +68,7 @@ JobResult reader_view(const ReadJob& job, const Config& c, const RunContext& con
   }
   std::vector<ViewScene> scenes;
   std::string title = c.read.title;
-  for (const auto& f : job.prints) {
+  for (const auto& f : job.prints()) {
     ViewScene s = load_view_scene(f, load, diag);
     const bool print =
         s.kind == "gcode" || s.kind == "nc" || s.kind == "bgcode" || s.kind == "toolpath";
@@ -94,9 +94,10 @@ JobResult reader_view(const ReadJob& job, const Config& c, const RunContext& con
     scenes.push_back(std::move(s));
     if (c.read.title.empty()) title += (title.empty() ? "" : ", ") + scenes.back().name;
   }
-  write_file_atomic(job.output, viewer_html(scenes, title));
+  // The page carries its job (rerun), like a report.
+  write_file_atomic(job.output, with_page_job(viewer_html(scenes, title), job, job.output));
   JobResult r;
-  r.files = {job.output};
+  r.files.push_back(job.output);
   for (const auto& s : scenes) r.summary += scene_line(s);
   r.summary += "wrote " + job.output + "\n";
   return r;
@@ -142,12 +143,12 @@ void refuse_device_prefix(const std::string& output) {
 
 }  // namespace
 
-JobResult reader_render(const ReadJob& job, const Config& c, const RunContext& context) {
+JobResult reader_render(const Job& job, const Config& c, const RunContext& context) {
   Diagnostics& diag = *context.diagnostics;
   const Progress& progress = context.progress;
   const int layer = c.read.layer;
   if (layer < 0) refuse_device_prefix(job.output);
-  const std::string& input = job.prints.at(0);
+  const std::string input = job.prints().at(0);
   ViewScene scene = load_view_scene(input, view_load(job, c), diag);
   if (scene.kind == "lattice")
     throw ParseError(input + ": a lattice, not a toolpath (plan it first, or `trellis view` it)");

@@ -1,10 +1,10 @@
-// The reader routes' table (job/readers.hpp) and what every reader run does first: its files and
-// the settings given to it checked.
-#include "trellis/job/readers.hpp"
-
+// What every reader run (RouteSpec::reads: check, analyze, compare, view, render) does around its
+// function: the settings given to it and its files checked, its machine profile loaded below the
+// settings, and its report or page written with the job embedded (rerun).
 #include <algorithm>
 #include <cctype>
 #include <filesystem>
+#include <nlohmann/json.hpp>
 
 #include "routes.hpp"
 #include "trellis/core/error.hpp"
@@ -21,7 +21,7 @@ bool given(const Settings::Entry& e) {
   return e.origin.source.rfind("--", 0) == 0 || e.origin.source.rfind("keyword", 0) == 0;
 }
 
-void check_given(const ReaderSpec& spec, const Settings& settings) {
+void check_given(const RouteSpec& spec, const Settings& settings) {
   for (const auto& [key, e] : settings.entries())
     if (given(e))
       check_reader_setting(spec, key,
@@ -35,7 +35,7 @@ std::string lower_extension(const std::string& path) {
 }
 
 // The output and the report are named for what is written in them (RouteSpec::formats).
-void check_names(const ReaderSpec& spec, const ReadJob& job, const Config& c) {
+void check_names(const RouteSpec& spec, const Job& job, const Config& c) {
   const auto require = [&](const std::string& path, const std::vector<std::string>& formats,
                            const char* what, const char* flag) {
     if (path.empty() || formats.empty() || is_stream_output(path)) return;
@@ -51,14 +51,14 @@ void check_names(const ReaderSpec& spec, const ReadJob& job, const Config& c) {
                        {"", 0, flag});
   };
   if (!(spec.output_per_layer && c.read.layer < 0))
-    require(job.output, spec.output_formats, "its output", "--output");
+    require(job.output, spec.formats, "its output", "--output");
   require(job.report, {".json"}, "the report (JSON)", "--report");
 }
 
 // The job's files, checked before anything is read (core/run_files.hpp).
-void check_files(const ReaderSpec& spec, const ReadJob& job, const Config& c) {
+void check_files(const RouteSpec& spec, const Job& job, const Config& c) {
   RunFiles files(c.follow_symlinks);
-  for (const auto& f : job.prints) files.input(spec.print_role, f);
+  for (const auto& f : job.prints()) files.input(spec.print_role, f);
   if (spec.design_role) files.input(spec.design_role, job.design);
   files.input("the machine profile (--machine)", job.machine);
   if (spec.output_role && !(spec.output_per_layer && c.read.layer < 0))
@@ -71,82 +71,14 @@ void check_files(const ReaderSpec& spec, const ReadJob& job, const Config& c) {
 
 }  // namespace
 
-const std::vector<ReaderSpec>& reader_specs() {
-  // The machine sections: G-code is read with the profile's valve commands, tool offsets and node
-  // overlap (check, view), the valves alone (render); a laser profile times a build file
-  // (analyze).
-  const std::vector<std::string>& machine = machine_sections();
-  static const std::vector<ReaderSpec> table = {
-      {.name = "check",
-       .sections = {"check", "read", "nozzle", "lattice", "run"},
-       .profile_sections = machine,
-       .run = &routes::reader_check,
-       .print_role = "the print",
-       .design_role = "the lattice",
-       .report = true,
-       .preview = true},
-      {.name = "analyze",
-       .sections = {"analyze", "read", "run"},
-       .profile_sections = {"laser", "lasers", "scan", "timing"},
-       .run = &routes::reader_analyze,
-       .print_role = "the G-code",
-       .design_role = "the design",
-       .report = true,
-       .preview = true},
-      {.name = "compare",
-       .sections = {"analyze", "read", "run"},
-       .profile_sections = {},
-       .run = &routes::reader_compare,
-       .print_role = "the G-code",
-       .design_role = "the design",
-       .report = true,
-       .preview = true},
-      {.name = "view",
-       .sections = {"view", "check", "read", "nozzle", "lattice", "run"},
-       .profile_sections = machine,
-       .run = &routes::reader_view,
-       .print_role = "the file to show",
-       .design_role = "the design (--design)",
-       .output_role = "the HTML (-o)",
-       .output_suffix = ".html",
-       .output_formats = {".html", ".htm"}},
-      {.name = "render",
-       .sections = {"render", "read", "run"},
-       .profile_sections = machine,
-       .run = &routes::reader_render,
-       .print_role = "the toolpath",
-       .output_role = "the PNG (-o)",
-       .output_per_layer = true,
-       .output_suffix = ".png",
-       .output_formats = {".png"}},
-  };
-  return table;
-}
-
-const ReaderSpec& reader_spec(const std::string& name) {
-  std::string all;
-  for (const ReaderSpec& r : reader_specs()) {
-    if (r.name == name) return r;
-    all += (all.empty() ? "" : ", ") + r.name;
-  }
-  throw SettingError("unknown reader '" + name + "' (expected one of " + all + ")",
-                     {"", 0, "route"});
-}
-
-bool is_reader(const std::string& route) {
-  const auto& table = reader_specs();
-  return std::any_of(table.begin(), table.end(),
-                     [&](const ReaderSpec& r) { return r.name == route; });
-}
-
-void check_reader_setting(const ReaderSpec& spec, const std::string& key, const Where& where) {
+void check_reader_setting(const RouteSpec& spec, const std::string& key, const Where& where) {
   const Setting* s = find_setting(key);
   const std::string sec = key.substr(0, key.find('.'));
   const auto& profile = spec.profile_sections;
   if (std::find(profile.begin(), profile.end(), sec) != profile.end()) return;
   if (std::find(spec.sections.begin(), spec.sections.end(), sec) == spec.sections.end())
     throw SettingError("`trellis " + spec.name + "` does not read [" + sec + "] settings", where);
-  if (s && !reader_reads(spec, *s)) {
+  if (s && !route_reads(spec, *s)) {
     UseContext use;
     use.route = spec.name;
     throw SettingError(
@@ -154,49 +86,69 @@ void check_reader_setting(const ReaderSpec& spec, const std::string& key, const 
   }
 }
 
-ReadJob reader_job(const Job& job) {
-  ReadJob r;
-  r.route = job.route;
-  r.prints = job.inputs;
-  if (!job.input.empty()) r.prints.insert(r.prints.begin(), job.input);
-  r.design = job.design;
-  r.machine = job.machine;
-  r.output = job.output;
-  r.report = job.report;
-  r.preview = job.preview;
-  r.settings = job.settings;
-  return r;
+std::vector<std::string> Job::prints() const {
+  std::vector<std::string> all;
+  if (!input.empty()) all.push_back(input);
+  all.insert(all.end(), inputs.begin(), inputs.end());
+  return all;
 }
 
-bool reader_reads(const ReaderSpec& reader, const Setting& setting) {
-  return std::find(reader.sections.begin(), reader.sections.end(), setting.section()) !=
-             reader.sections.end() &&
-         route_uses(setting, reader.name);
+namespace routes {
+
+std::string with_page_job(const std::string& html, const Job& job, const std::string& path) {
+  const std::string text = nlohmann::json(embedded_job(job, path)).dump();
+  std::string escaped;
+  escaped.reserve(text.size() + 16);
+  for (char ch : text) escaped += ch == '<' ? std::string("\\u003c") : std::string(1, ch);
+  const std::string block = std::string(kPageJobOpen) + escaped + "</script>\n";
+  const std::size_t end = html.rfind("</body>");
+  if (end == std::string::npos) return html + block;
+  return html.substr(0, end) + block + html.substr(end);
 }
 
-JobResult run_reader(const ReadJob& job, const RunContext& given) {
-  const ReaderSpec& spec = reader_spec(job.route);
-  check_given(spec, job.settings);
+std::string with_report_job(const std::string& report, const std::string& job) {
+  nlohmann::ordered_json j = nlohmann::ordered_json::parse(report);
+  if (j.is_array())
+    j.push_back({{"job", job}});  // compare: one analysis per print, then the job
+  else
+    j["job"] = job;
+  // The reports are nlohmann's dump(2) (compare's: its analyses' one below the other): dumped
+  // again, they keep their bytes but for the job.
+  if (!j.is_array()) return j.dump(2) + "\n";
+  std::string out = "[\n";
+  for (std::size_t i = 0; i < j.size(); ++i) out += (i ? ",\n" : "") + j[i].dump(2) + "\n";
+  return out + "]\n";
+}
+
+JobResult run_reader(const RouteSpec& spec, const Job& job, const RunContext& given) {
+  if (job.shards > 0) require_shards(spec, {"", 0, "shard"});
+  if (!job.embedded) check_given(spec, job.settings);
   check_files(spec, job, job.settings.config());
-  ReadJob full = job;
-  if (!job.machine.empty()) {
+  Job full = job;
+  // The profile below the settings given; an embedded job carries the profile's settings.
+  if (!job.machine.empty() && !job.embedded) {
     full.settings = Settings();
     full.settings.load_toml_file(job.machine);
     for (const auto& [key, e] : job.settings.entries()) full.settings.set(key, e.value, e.origin);
   }
   const Config c = full.settings.config();
   Diagnostics dropped;  // a context without diagnostics drops the warnings
-  RunContext context = routes::run_context(full.settings, c, given);
+  RunContext context = run_context(full.settings, c, given);
   if (!context.diagnostics) context.diagnostics = &dropped;
-  return spec.run(full, c, context);
+  JobResult r = spec.run(full, c, context);
+  // The report, or the page, with the job that made it: `trellis rerun` of it writes it again.
+  // A job with a design or print in memory (Python) has no file to name: not embedded.
+  const bool in_memory = job.design_graph || job.print;
+  if (!job.report.empty()) {
+    write_file_atomic(
+        job.report,
+        in_memory ? r.report_json : with_report_job(r.report_json, embedded_job(full, job.report)));
+    r.files.push_back(job.report);
+  }
+  return r;
 }
 
-JobResult run_reader(const ReadJob& job, Diagnostics& diag, const Progress& progress) {
-  RunContext context;
-  context.progress = progress;
-  context.diagnostics = &diag;
-  return run_reader(job, context);
-}
+}  // namespace routes
 
 bool is_laser_build_file(const std::string& path) {
   if (path.size() > 4 && (path.ends_with(".3mf") || path.ends_with(".3MF")))

@@ -1,6 +1,7 @@
-// The route table: each route once, as data (job/job.hpp RouteSpec). The CLI's commands, `trellis
-// run`, the job loader, Python, sharding and merging all read it; adding a route is adding a row
-// here and its functions in routes_*.cpp (docs/architecture.md).
+// The route table: each route once, as data (job/job.hpp RouteSpec), the readers (check, analyze,
+// compare, view, render) among them. The CLI's commands, `trellis run`, the job loader, Python,
+// sharding and merging all read it; adding a route is adding a row here and its functions in
+// routes_*.cpp or reader_*.cpp (docs/architecture.md).
 #include <algorithm>
 #include <set>
 
@@ -137,6 +138,57 @@ const std::vector<RouteSpec>& route_specs() {
        .output_suffix = ".stl",
        .report = false,
        .formats_of = &surface_formats},
+      // The readers. Their profile sections: G-code is read with the profile's valve commands,
+      // tool offsets and node overlap (check, view), the valves alone (render); a laser profile
+      // times a build file (analyze). Their reports (check, analyze, compare: NAME.report.json)
+      // and view's page embed the job.
+      {.name = "check",
+       .sections = {"check", "read", "nozzle", "lattice", "run"},
+       .run = &routes::reader_check,
+       .main_output = &Job::report,
+       .reads = true,
+       .profile_sections = machine_sections(),
+       .print_role = "the print",
+       .design_role = "the lattice"},
+      {.name = "analyze",
+       .sections = {"analyze", "read", "run"},
+       .run = &routes::reader_analyze,
+       .main_output = &Job::report,
+       .reads = true,
+       .profile_sections = {"laser", "lasers", "scan", "timing"},
+       .print_role = "the G-code",
+       .design_role = "the design"},
+      {.name = "compare",
+       .sections = {"analyze", "read", "run"},
+       .run = &routes::reader_compare,
+       .main_output = &Job::report,
+       .reads = true,
+       .print_role = "the G-code",
+       .design_role = "the design"},
+      {.name = "view",
+       .sections = {"view", "check", "read", "nozzle", "lattice", "run"},
+       .run = &routes::reader_view,
+       .output_suffix = ".html",
+       .report = false,
+       .preview = false,
+       .formats = {".html", ".htm"},
+       .reads = true,
+       .profile_sections = machine_sections(),
+       .print_role = "the file to show",
+       .design_role = "the design (--design)",
+       .output_role = "the HTML (-o)"},
+      {.name = "render",
+       .sections = {"render", "read", "run"},
+       .run = &routes::reader_render,
+       .output_suffix = ".png",
+       .report = false,
+       .preview = false,
+       .formats = {".png"},
+       .reads = true,
+       .profile_sections = machine_sections(),
+       .print_role = "the toolpath",
+       .output_role = "the PNG (-o)",
+       .output_per_layer = true},
   };
   return table;
 }
@@ -176,9 +228,7 @@ std::vector<std::pair<std::string, std::string>> route_keywords(const RouteSpec&
   for (const bool own : {true, false})
     for (const Setting& s : all_settings()) {
       if (s.flag.empty() || s.key == route.choice || (s.section() == route.name) != own ||
-          std::find(route.sections.begin(), route.sections.end(), s.section()) ==
-              route.sections.end() ||
-          !route_uses(s, route.name))
+          !route_reads(route, s))
         continue;
       std::string name = s.flag;
       std::replace(name.begin(), name.end(), '-', '_');
@@ -186,6 +236,12 @@ std::vector<std::pair<std::string, std::string>> route_keywords(const RouteSpec&
         out.emplace_back(name, s.key);
     }
   return out;
+}
+
+bool route_reads(const RouteSpec& route, const Setting& setting) {
+  return std::find(route.sections.begin(), route.sections.end(), setting.section()) !=
+             route.sections.end() &&
+         route_uses(setting, route.name);
 }
 
 void require_shards(const RouteSpec& route, const Where& where) {

@@ -6,7 +6,6 @@
 
 #include "trellis/core/budget.hpp"
 #include "trellis/job/job.hpp"
-#include "trellis/job/readers.hpp"
 #include "trellis/machine/cli.hpp"
 #include "trellis/machine/gcode_writer.hpp"
 #include "trellis/render/render.hpp"
@@ -144,7 +143,7 @@ std::string fixed(double v, int decimals);
 // context.budget before it allocates the work; the budget tells `progress.estimate` each estimate
 // it checks.
 Budget budget_of(const Settings& settings, const Config& c, const Progress& progress);
-// The context a route runs with (run_job, run_reader): the caller's progress and diagnostics; the
+// The context a route or reader runs with (run_job): the caller's progress and diagnostics; the
 // run section's threads (run.threads; the caller's when it is 0) and budget (budget_of).
 RunContext run_context(const Settings& settings, const Config& c, const RunContext& given);
 double threads_of_run();
@@ -164,12 +163,26 @@ Estimate estimate_gcode_of(const std::string& toolpath_json);
 Estimate estimate_pbf_time(const PbfDesign& design, const PbfOptions& options, bool toolpath_json,
                            bool package_3mf = false);
 
-// The reader routes (job/readers.hpp): check (reader_check.cpp), view and render
-// (reader_view.cpp), analyze and compare (reader_analyze.cpp).
-JobResult reader_check(const ReadJob& job, const Config& c, const RunContext& context);
-JobResult reader_view(const ReadJob& job, const Config& c, const RunContext& context);
-JobResult reader_render(const ReadJob& job, const Config& c, const RunContext& context);
-JobResult reader_analyze(const ReadJob& job, const Config& c, const RunContext& context);
-JobResult reader_compare(const ReadJob& job, const Config& c, const RunContext& context);
+// The reader routes (RouteSpec::reads): check (reader_check.cpp), view and render
+// (reader_view.cpp), analyze and compare (reader_analyze.cpp). Each gets the job with its profile
+// loaded below its settings; the report it makes goes in JobResult::report_json (run_reader writes
+// it), view writes its page itself (with_page_job).
+JobResult reader_check(const Job& job, const Config& c, const RunContext& context);
+JobResult reader_view(const Job& job, const Config& c, const RunContext& context);
+JobResult reader_render(const Job& job, const Config& c, const RunContext& context);
+JobResult reader_analyze(const Job& job, const Config& c, const RunContext& context);
+JobResult reader_compare(const Job& job, const Config& c, const RunContext& context);
+// run_job of a reader's job (readers.cpp): the settings given and its files checked, the profile
+// loaded below the settings (not for an embedded job: it carries them), the reader run, its report
+// written with the job embedded (not for a design or print in memory: no file to name).
+JobResult run_reader(const RouteSpec& spec, const Job& job, const RunContext& context);
+// A report (JSON: an object, or compare's array of analyses) with the job added: an object's
+// "job" field, an array's last element {"job": ...}; the rest of its bytes as they were.
+std::string with_report_job(const std::string& report, const std::string& job);
+// The viewer page with the job embedded as it would be at `path`: a JSON string in a script
+// element the browser does not run, `<` escaped so no text of the job can end it, just before
+// </body>. kPageJobOpen opens it (job_from_output finds the job after it).
+inline constexpr const char* kPageJobOpen = "<script type=\"application/json\" id=\"trellis-job\">";
+std::string with_page_job(const std::string& html, const Job& job, const std::string& path);
 
 }  // namespace trellis::routes

@@ -19,7 +19,6 @@
 #include "trellis/field/vcad.hpp"
 #include "trellis/geom/mesh_io.hpp"
 #include "trellis/job/plate.hpp"
-#include "trellis/job/readers.hpp"
 #include "trellis/machine/bgcode.hpp"
 #include "trellis/machine/bgcode_writer.hpp"
 #include "trellis/machine/cli.hpp"
@@ -576,13 +575,10 @@ JobResult run_job(const Job& job, Diagnostics& diag, const Progress& progress) {
 }
 
 JobResult run_job(const Job& job, const RunContext& given) {
-  // A reader named by a job file runs as its command does (job/readers.hpp).
-  if (is_reader(job.route)) {
-    if (job.shards > 0)
-      throw SettingError("the " + job.route + " reader does not shard", {"", 0, "shard"});
-    return run_reader(reader_job(job), given);
-  }
-  const std::vector<std::string> sections = route_sections(job.route);
+  // A reader runs as its command does (readers.cpp).
+  const RouteSpec& spec = route_spec(job.route);
+  if (spec.reads) return routes::run_reader(spec, job, given);
+  const std::vector<std::string>& sections = spec.sections;
   const Config c = job.settings.config();
   // The route's context: the caller's progress and diagnostics, the run section's threads and
   // budget.

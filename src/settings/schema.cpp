@@ -458,7 +458,7 @@ const std::vector<std::pair<const char*, const char*>>& when_table() {
       {"surface.height", "surface.kind=m-curve"},
       {"surface.radius", "surface.kind=sphere-cap"},
       {"surface.diameter", "surface.kind=sphere-cap"},
-      // The reader routes (job/readers.hpp): each reads only some of the sections they share.
+      // The reader routes (RouteSpec::reads): each reads only some of the sections they share.
       {"read.valve_on", "route=analyze|compare|view|render"},
       {"read.valve_off", "route=analyze|compare|view|render"},
       {"read.commanded_mixtures", "route=check|analyze|compare"},
@@ -1308,7 +1308,7 @@ std::vector<Setting> make_table() {
       "(the link kept); without it such an output is refused",
       "follow-symlinks", [](C& c) -> auto& { return c.follow_symlinks; }));
 
-  // read.*, check.*, analyze.*, render.*, view.*: the reader routes (job/readers.hpp).
+  // read.*, check.*, analyze.*, render.*, view.*: the reader routes (RouteSpec::reads).
   t.push_back(text("read.valve_on", "pneumatic files: the command that opens the valve (empty: "
                    "the machine profile's, else the file's header)", "valve-on",
                    [](C& c) -> auto& { return c.read.gcode.valve_on; }));

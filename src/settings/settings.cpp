@@ -549,7 +549,8 @@ void check_rules(const Config& c, const Settings& st, const std::vector<std::str
                        where("lattice2d.handles", "lattice2d.region"));
 }
 
-std::string settings_toml(const Settings& st, const std::vector<std::string>& sections) {
+std::string settings_toml(const Settings& st, const std::vector<std::string>& sections,
+                          const std::function<bool(const Setting&)>& keep) {
   std::string out;
   for (const auto& [sec, _] : setting_sections()) {
     if (std::find(sections.begin(), sections.end(), sec) == sections.end()) continue;
@@ -557,6 +558,7 @@ std::string settings_toml(const Settings& st, const std::vector<std::string>& se
     for (const auto& s : all_settings()) {
       if (s.section() != sec) continue;
       if (!s.derived.empty() && !st.has(s.key)) continue;
+      if (keep && !keep(s)) continue;
       const SettingValue v = st.value(s.key);
       if (const auto* xs = std::get_if<std::vector<double>>(&v); xs && xs->empty()) continue;
       const std::string name = s.key.substr(sec.size() + 1);

@@ -16,7 +16,7 @@
 #include "trellis/core/file.hpp"
 #include "trellis/geom/mesh.hpp"
 #include "trellis/geom/mesh_io.hpp"
-#include "trellis/job/readers.hpp"
+#include "trellis/job/job.hpp"
 #include "trellis/settings/settings.hpp"
 #include "trellis/toolpath/json.hpp"
 
@@ -417,7 +417,8 @@ TEST(Cli, AeroPipelineLatticePlanGcodeCheck) {
 // The reader commands' flags are the schema's: each offers every flagged setting of its sections
 // that its route= conditions allow, and none that they exclude.
 TEST(Cli, ReaderFlagsAreTheSchemasSettingsTheyRead) {
-  for (const trellis::ReaderSpec& reader : trellis::reader_specs()) {
+  for (const trellis::RouteSpec& reader : trellis::route_specs()) {
+    if (!reader.reads) continue;
     const CmdResult r = run(reader.name + " --help");
     ASSERT_EQ(r.code, 0) << reader.name;
     std::size_t offered = 0, withheld = 0;
@@ -427,7 +428,7 @@ TEST(Cli, ReaderFlagsAreTheSchemasSettingsTheyRead) {
                        reader.sections.end();
       if (!own) continue;
       const bool listed = std::regex_search(r.out, std::regex("\\n  --" + s.flag + "[ \\n]"));
-      EXPECT_EQ(listed, trellis::reader_reads(reader, s)) << reader.name << " --" << s.flag;
+      EXPECT_EQ(listed, trellis::route_reads(reader, s)) << reader.name << " --" << s.flag;
       (listed ? offered : withheld) += 1;
       if (listed) EXPECT_NE(r.out.find(s.key), std::string::npos) << reader.name << " " << s.key;
     }

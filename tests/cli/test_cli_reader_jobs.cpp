@@ -1,16 +1,21 @@
 // The readers (check, analyze, compare, view, render) run from a job file: `trellis run JOB.toml`
 // with route = READER prints and writes what the command does, byte for byte, for every reader of
 // the table and several generated prints; what a reader job cannot hold is refused naming it.
+// Their reports and pages embed their job: `trellis rerun` of each writes it again byte for byte;
+// a PNG carries none and its rerun is refused.
 #include <gtest/gtest.h>
 
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <nlohmann/json.hpp>
+#include <set>
+#include <tuple>
 
 #include "support/cli_run.hpp"
 #include "support/temp_dir.hpp"
 #include "trellis/core/file.hpp"
-#include "trellis/job/readers.hpp"
+#include "trellis/job/job.hpp"
 
 namespace fs = std::filesystem;
 
@@ -123,8 +128,8 @@ TEST(ReaderJobs, RunOfAReaderJobIsItsCommandByteForByte) {
     const Prints d = make_prints(pattern, cell, k++);
     const auto all = cases(d);
     // Every reader of the table has its case.
-    for (const trellis::ReaderSpec& reader : trellis::reader_specs())
-      ASSERT_TRUE(all.count(reader.name)) << reader.name;
+    for (const trellis::RouteSpec& reader : trellis::route_specs())
+      if (reader.reads) ASSERT_TRUE(all.count(reader.name)) << reader.name;
     for (const auto& [reader, c] : all) {
       std::string sets;
       for (const auto& s : c.settings) {  // --set takes text as it is, TOML in quotes
@@ -196,13 +201,108 @@ TEST(ReaderJobs, WhatAReaderJobCannotHoldIsRefusedNamingIt) {
   r = job("[job]\nroute = \"gcode\"\ninputs = [" + quoted(d.toolpath) + "]\n");
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.err.find("job.inputs"), std::string::npos) << r.err;
-  // A reader's report embeds no job: rerun says so and writes nothing.
+  // A reader's report embeds its job: rerun writes it again.
   ASSERT_EQ(run("run " + at("ok.toml")).code, 0);
   const std::string report = (work() / "out" / "ok" / "ok.report.json").string();
   ASSERT_TRUE(fs::exists(report));
   const std::string before = trellis::read_file(report);
   r = run("rerun " + report);
-  EXPECT_EQ(r.code, 2);
-  EXPECT_NE(r.err.find("no Trellis job"), std::string::npos) << r.err;
+  EXPECT_EQ(r.code, 0) << r.err;
   EXPECT_EQ(trellis::read_file(report), before);
+}
+
+// Every reader's report (check, analyze, compare) and page (view) carries its job; `trellis rerun`
+// of it writes the same bytes, for generated prints, with and without a machine profile, made by
+// the command or by a job file. Besides the job the report is what Python's read_json returns.
+// A print gone since is refused naming it, the report left as it was; a PNG (render, previews)
+// carries no job and its rerun is refused, nothing written.
+TEST(ReaderJobs, RerunOfEveryReadersReportOrPageWritesItAgainByteForByte) {
+  const std::string ender = std::string(TRELLIS_SOURCE_DIR) + "/profiles/ender3_s1_pro_tpu.toml";
+  int k = 20;
+  for (const auto& [pattern, cell] :
+       std::vector<std::pair<std::string, double>>{{"triangle", 1.4}, {"square", 1.1}}) {
+    const Prints d = make_prints(pattern, cell, k++);
+    const std::string rep = at("again.report.json"), page = at("again.html");
+    // reader -> (its arguments, the file that carries the job)
+    const std::vector<std::tuple<std::string, std::string, std::string>> runs = {
+        {"check", d.lattice + " " + d.toolpath + " --report " + rep, rep},
+        {"check", d.lattice + " " + d.gcode + " --machine " + ender + " --report " + rep, rep},
+        {"analyze", d.gcode + " --design " + d.lattice + " --align --report " + rep, rep},
+        {"analyze", d.toolpath + " --layers --report " + rep, rep},
+        {"compare", d.lattice + " " + d.gcode + " " + d.gcode2 + " --report " + rep, rep},
+        {"view", d.toolpath + " --design " + d.lattice + " -o " + page, page},
+        {"view", d.gcode + " --machine " + ender + " -o " + page, page},
+    };
+    std::set<std::string> covered;
+    for (const auto& [reader, args, file] : runs) {
+      fs::remove(file);
+      const CmdResult cli = run(reader + " " + args);
+      ASSERT_LE(cli.code, 1) << reader << " " << args << ": " << cli.err;
+      const std::string first = trellis::read_file(file);
+      // The job is in the file, for its route.
+      EXPECT_EQ(trellis::job_from_output(file).route, reader) << args;
+      // Rerun over the file itself, and to another name in its folder.
+      const std::string other = at(std::string("rerun") + fs::path(file).extension().string());
+      fs::remove(other);
+      CmdResult again = run("rerun " + file + " -o " + other);
+      EXPECT_EQ(again.code, cli.code) << reader << " " << args << ": " << again.err;
+      ASSERT_TRUE(fs::exists(other)) << reader << " " << args;
+      EXPECT_TRUE(trellis::read_file(other) == first) << reader << " " << args;
+      again = run("rerun " + file);
+      EXPECT_EQ(again.code, cli.code) << reader << " " << args << ": " << again.err;
+      EXPECT_TRUE(trellis::read_file(file) == first) << reader << " " << args;
+      covered.insert(reader);
+      if (reader == "view") continue;
+      // A report is the reader's report with the job added, nothing else.
+      auto j = nlohmann::ordered_json::parse(first);
+      if (j.is_array()) {
+        ASSERT_TRUE(j.back().contains("job")) << args;
+        EXPECT_EQ(j.back().size(), 1u) << args;
+        j.erase(j.size() - 1);
+      } else {
+        ASSERT_TRUE(j.contains("job")) << args;
+        j.erase("job");
+      }
+      // The reader run again in the library, writing nothing, makes the rest.
+      trellis::Job job = trellis::job_from_output(file);
+      job.report.clear();
+      trellis::Diagnostics diag;
+      EXPECT_EQ(nlohmann::ordered_json::parse(trellis::run_job(job, diag).report_json), j) << args;
+    }
+    // Every reader whose output can carry a job is covered.
+    for (const trellis::RouteSpec& r : trellis::route_specs())
+      if (r.reads && (r.main_output == &trellis::Job::report || r.name == "view"))
+        EXPECT_TRUE(covered.count(r.name)) << r.name;
+    // The job file's run embeds the same job as the command's.
+    std::ofstream(at("jobrun.toml"))
+        << "[job]\nroute = \"compare\"\ndesign = " + quoted(d.lattice) + "\ninputs = [" +
+               quoted(d.gcode) + ", " + quoted(d.gcode2) +
+               "]\nreport = \"again.report.json\"\noutput_dir = " + quoted(work().string()) + "\n";
+    fs::remove(rep);
+    ASSERT_EQ(
+        run("compare " + d.lattice + " " + d.gcode + " " + d.gcode2 + " --report " + rep).code, 0);
+    const std::string by_command = trellis::read_file(rep);
+    fs::remove(rep);
+    ASSERT_EQ(run("run " + at("jobrun.toml")).code, 0);
+    EXPECT_TRUE(trellis::read_file(rep) == by_command);
+    // A print gone since: refused naming it, the report as it was.
+    ASSERT_EQ(run("analyze " + d.gcode2 + " --report " + rep).code, 0);
+    const std::string kept = trellis::read_file(rep);
+    fs::rename(d.gcode2, d.gcode2 + ".moved");
+    CmdResult gone = run("rerun " + rep);
+    EXPECT_EQ(gone.code, 2);
+    EXPECT_NE(gone.err.find(fs::path(d.gcode2).filename().string()), std::string::npos) << gone.err;
+    EXPECT_TRUE(trellis::read_file(rep) == kept);
+    fs::rename(d.gcode2 + ".moved", d.gcode2);
+    // render's PNG carries no job: refused, nothing written.
+    const std::string png = at("again.png"), png2 = at("again2.png");
+    ASSERT_EQ(run("render " + d.gcode + " --layer 0 --image-size 64 -o " + png).code, 0);
+    const std::string pixels = trellis::read_file(png);
+    fs::remove(png2);
+    gone = run("rerun " + png + " -o " + png2);
+    EXPECT_EQ(gone.code, 2);
+    EXPECT_NE(gone.err.find("PNG carries no Trellis job"), std::string::npos) << gone.err;
+    EXPECT_FALSE(fs::exists(png2));
+    EXPECT_TRUE(trellis::read_file(png) == pixels);
+  }
 }

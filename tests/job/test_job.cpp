@@ -20,7 +20,6 @@
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/job/job.hpp"
-#include "trellis/job/readers.hpp"
 #include "trellis/lattice/io.hpp"
 #include "trellis/machine/cli.hpp"
 #include "trellis/toolpath/json.hpp"
@@ -610,14 +609,14 @@ TEST(Readers, FilesAndObjectsInMemoryGiveTheSameReport) {
     return j;
   };
   for (const char* route : {"check", "analyze"}) {
-    ReadJob files;
+    Job files;
     files.route = route;
     files.design = lat;
-    files.prints = {tp};
+    files.inputs = {tp};
     files.settings.set("nozzle.radius", 0.3, {"keyword nozzle.radius"});
-    ReadJob objects = files;
+    Job objects = files;
     objects.design.clear();
-    objects.prints.clear();
+    objects.inputs.clear();
     objects.design_graph = graph;
     objects.print = toolpath;
     if (std::string(route) == "analyze") {
@@ -625,34 +624,34 @@ TEST(Readers, FilesAndObjectsInMemoryGiveTheSameReport) {
       files.settings.set("analyze.bead_width", 0.3, {"keyword analyze.bead_width"});
       objects.settings = files.settings;
     }
-    const JobResult a = run_reader(files, diag), b = run_reader(objects, diag);
+    const JobResult a = run_job(files, diag), b = run_job(objects, diag);
     EXPECT_EQ(without_name(a.report_json), without_name(b.report_json)) << route;
     EXPECT_EQ(a.exit_code, 0) << route << a.summary;
     EXPECT_FALSE(a.summary.empty()) << route;
   }
   // The settings given reach the run: the report records them.
-  ReadJob snapped;
+  Job snapped;
   snapped.route = "check";
   snapped.design_graph = graph;
   snapped.print = toolpath;
   snapped.settings.set("check.snap", 0.125, {"keyword check.snap"});
-  const auto report = nlohmann::json::parse(run_reader(snapped, diag).report_json);
+  const auto report = nlohmann::json::parse(run_job(snapped, diag).report_json);
   EXPECT_EQ(report["nozzle"]["snap_mm"], 0.125);
-  ReadJob top_first;
+  Job top_first;
   top_first.route = "check";
   top_first.design =
       write("flat.json", "{\"nodes\":[[0,0,0],[5,0,0],[0,0,2],[5,0,2]],\"edges\":[[0,1],[2,3]]}");
-  top_first.prints = {write("top.json",
+  top_first.inputs = {write("top.json",
                             "{\"format\":\"trellis.toolpath\",\"version\":1,\"layers\":[{\"z\":0,"
                             "\"paths\":[{\"points\":[[0,0,2],[5,0,2]]},{\"points\":[[0,0,0],[5,0,"
                             "0]]}]}]}")};
-  EXPECT_EQ(run_reader(top_first, diag).exit_code, 1);
+  EXPECT_EQ(run_job(top_first, diag).exit_code, 1);
   // A reader that is not one, and a setting of a section it does not read, are refused.
   top_first.route = "inspect";
-  EXPECT_THROW(run_reader(top_first, diag), SettingError);
+  EXPECT_THROW(run_job(top_first, diag), SettingError);
   top_first.route = "view";
   top_first.settings.set("slice.seam_seed", 2LL, {"keyword slice.seam_seed"});
-  EXPECT_THROW(run_reader(top_first, diag), SettingError);
+  EXPECT_THROW(run_job(top_first, diag), SettingError);
 }
 
 TEST(Cli, MisspeltCommandsAndFlagsSuggestTheNearest) {

@@ -1,7 +1,7 @@
 // One run context (issue 42): what a call of the library runs *with*, as opposed to what it
 // makes (its options, params, settings). Every plan, slice, pbf, non-planar and meshing entry
 // point takes it the same way, as its last argument `const RunContext& context = {}`, and so do
-// the routes (RouteSpec::run, ReaderSpec::run): run_job and run_reader build it from the run
+// the routes and readers (RouteSpec::run): run_job builds it from the run
 // section of the settings (run.threads, run.max_memory, run.max_time, run.force).
 //  - progress: report, cancel and the estimate hook (core/progress.hpp);
 //  - diagnostics: where warnings go; null drops them (warn() is then a no-op);

@@ -6,8 +6,8 @@
 // Job file:
 //   [job]   route = "plan" | "lattice2d" | "lattice3d" | "gcode" | "slice" | "pbf" |
 //                   "nonplanar" | "surface", or a reader: "check" | "analyze" | "compare" |
-//                   "view" | "render" (job/readers.hpp; inputs = [prints], design = "file",
-//                   output, report, preview; it runs as its command does and embeds no job)
+//                   "view" | "render" (RouteSpec::reads; inputs = [prints], design = "file",
+//                   output, report, preview; it runs as its command does)
 //           name (default: the file's stem), output_dir (default "out/<name>"),
 //           input = "file" (lattice, toolpath, design, surface; optional where the route
 //           generates its input), machine = "profile.toml",
@@ -51,10 +51,13 @@ struct Job {
   std::string route;
   std::string name = "job";
   std::string input;  // path; empty where the route generates its input
-  // A reader route's (job/readers.hpp: route = "analyze", ...): the prints it reads after
+  // A reader route's (RouteSpec::reads: route = "analyze", ...): the prints it reads after
   // `input` (any number: `inputs = ["a.gcode", "b.gcode"]`) and the design they are read against.
   std::vector<std::string> inputs;
   std::string design;
+  // A reader's design and print in memory instead of files (Python); not part of the embedded job.
+  std::shared_ptr<const Graph> design_graph;
+  std::shared_ptr<const Toolpath> print;
   std::string machine;  // profile the settings were read from (provenance)
   std::string command;  // the command line that made it (recorded in reports)
   // Outputs; empty = not written.
@@ -72,6 +75,9 @@ struct Job {
   // Read back from an output's header (rerun, merge): every setting is recorded there, given or
   // not, so "the user gave this setting" cannot be told from Settings::has.
   bool embedded = false;
+
+  // A reader's prints: `input` (when given), then `inputs`.
+  std::vector<std::string> prints() const;
 };
 
 // Routes and the settings sections each reads (for flags, headers and job checks): from the
@@ -151,9 +157,11 @@ struct JobResult {
   std::shared_ptr<const Toolpath> toolpath;
   std::shared_ptr<const Graph> lattice;
   JobGeometry geometry;
-  std::string summary;      // one or two lines for the terminal
-  int exit_code = 0;        // 1 when a check found problems
-  std::string report_json;  // the reader routes (job/readers.hpp): the report, written or not
+  std::string summary;  // one or two lines for the terminal
+  int exit_code = 0;    // 1 when a check found problems
+  // The reader routes (RouteSpec::reads): the report, written or not, without the job its file
+  // carries.
+  std::string report_json;
 };
 
 // The layers of a sharded run as `trellis merge` hands them to the route's writer (job/plate.hpp).
@@ -165,6 +173,10 @@ struct ShardLayers {
 
 // A route as data: everything the front ends (the CLI's commands and `run`, the job loader,
 // Python, sharding and merging, docs) need to know of it is here, once (route_specs()).
+// Two kinds of rows: the routes that make a lattice, a toolpath or a surface from at most one
+// input, and the readers (`reads`: check, analyze, compare, view, render) that read prints made
+// by anyone (job.input, job.inputs) against their design (job.design) and write a report, a page
+// or pictures. Both run through run_job and embed their job in their main output (rerun).
 struct RouteSpec {
   std::string name;                   // job.route, the CLI command (plan: with its planners)
   std::string input;                  // what its input is ("lattice", "toolpath", "design",
@@ -210,6 +222,21 @@ struct RouteSpec {
   // A run's design as a 3MF's build items (JobResult::geometry), found again from its job alone:
   // what `trellis gcode` of a toolpath JSON that embeds the job writes. Null: the beads printed.
   void (*design)(const Job&, const Config&, JobResult&) = nullptr;
+
+  // A reader (check, analyze, compare, view, render). Its settings are those of `sections` that
+  // its `route=` conditions allow (route_reads: its flags, `--set`, Python keywords), and any of
+  // `profile_sections`, read from its machine profile (or --set) with no flags of their own; one
+  // it does not read is refused (check_reader_setting). It never shards nor takes plates. Its
+  // report (main_output = &Job::report) or page (output) embeds the job; its pictures do not.
+  bool reads = false;
+  std::vector<std::string> profile_sections;
+  // Its files as errors name them (core/run_files.hpp); null: it has none of that kind. Its
+  // output's extensions are `formats` (as written: ".html"), its report's .json.
+  const char* print_role = nullptr;
+  const char* design_role = nullptr;
+  const char* output_role = nullptr;
+  // Without render.layer its output is the prefix of one file per layer, not a file.
+  bool output_per_layer = false;
 };
 
 // What the job's outputs are written as, by their names: its main output one of its route's
@@ -231,6 +258,15 @@ std::vector<std::pair<std::string, std::string>> route_keywords(const RouteSpec&
                                                                 const std::string& choice = "");
 // SettingError (exit 2) unless the route shards, naming those that do (`where`: the flag).
 void require_shards(const RouteSpec& route, const Where& where);
+// Whether the route reads `setting`: one of its sections' that its `route=` conditions allow
+// (a reader's flags, `--set` and Python keywords; route_keywords's filter).
+bool route_reads(const RouteSpec& route, const Setting& setting);
+// A reader (RouteSpec::reads): SettingError at `where` unless it takes `key`, a setting it reads
+// (route_reads) or one of its profile sections'.
+void check_reader_setting(const RouteSpec& reader, const std::string& key, const Where& where);
+// A laser build file (.cli, or a 3MF toolpath of a laser build): `analyze` measures it against a
+// .vcad design (analyze_build_file).
+bool is_laser_build_file(const std::string& path);
 
 // A laser build file (CLI, ASCII or binary, any tool's) measured against its design (.vcad):
 // vectors outside the part, FR_a per layer, scan time with `laser`'s timing. The report JSON
@@ -257,6 +293,10 @@ RunFiles job_files(const Job& job, bool follow_symlinks);
 // The route runs with `context`'s progress and diagnostics (none: warnings dropped) and the run
 // section's threads (run.threads; the context's when it is 0) and budget (run.max_memory,
 // run.max_time, run.force).
+// A reader's job (RouteSpec::reads) runs as its command does: the settings given (flags, --set,
+// keywords) are checked against it and its files first, its machine profile is loaded below them
+// (not again for an embedded job, which carries them), and its report (or page) is written with
+// the job embedded; JobResult::summary is what its command prints.
 JobResult run_job(const Job& job, const RunContext& context);
 // The same with a context of `diag` and `progress`.
 JobResult run_job(const Job& job, Diagnostics& diag, const Progress& progress = {});

@@ -159,7 +159,7 @@ struct BudgetConfig {
 };
 
 // read.*, check.*, analyze.*, render.*, view.*: the reader routes, which read prints back
-// (job/readers.hpp).
+// (job/job.hpp RouteSpec::reads).
 struct ReadConfig {
   GcodeReadOptions gcode;   // read.valve_on, read.valve_off, read.commanded_mixtures, read.strict
   double snap = kNodeSnap;  // check.snap (mm): at this default, plus the profile's node overlap

@@ -146,8 +146,10 @@ void check_rules(const Config& config, const Settings& settings,
                  const std::vector<std::string>& sections);
 
 // TOML text of every setting of `sections` with its value in force, one [section] table each,
-// keys in declaration order. Derived settings that are unset are left out.
-std::string settings_toml(const Settings& settings, const std::vector<std::string>& sections);
+// keys in declaration order. Derived settings that are unset are left out, and so are those
+// `keep` (when given) turns down.
+std::string settings_toml(const Settings& settings, const std::vector<std::string>& sections,
+                          const std::function<bool(const Setting&)>& keep = {});
 
 // `trellis settings [SECTION...]`: every setting with unit, default, range and doc.
 std::string settings_reference(const std::vector<std::string>& sections = {});
