@@ -676,7 +676,10 @@ SliceResult stream_slice_on(const SliceJob& job, const LayerSink& sink,
   // Outlines of a run of planes [a, b) of the part.
   struct Outlined {
     std::size_t a = 0, b = 0;
-    std::vector<LayerOutline> outlines;
+    std::vector<LayerOutline> outlines;  // graded
+    // Planar: each outline simplified (the planar slicer's outline), its plane and area.
+    std::vector<SkinWindows::Ptr> simplified;
+    std::vector<double> planes, areas;
     SliceStats stats;
     double seconds = 0;
   };
@@ -684,7 +687,8 @@ SliceResult stream_slice_on(const SliceJob& job, const LayerSink& sink,
   // read (bottom_layers below, top_layers above, within the part).
   struct Planned {
     std::size_t a = 0, b = 0, lo = 0;
-    std::vector<LayerOutline> window;
+    std::vector<LayerOutline> window;     // graded
+    std::vector<PlanarLayerInput> input;  // planar
     Toolpath toolpath;
     PlanarStats stats;
     FgmStats fgm;                         // graded
@@ -692,7 +696,12 @@ SliceResult stream_slice_on(const SliceJob& job, const LayerSink& sink,
     std::vector<double> error_z;          // the design plane each was measured at (NaN: none)
     double seconds = 0;
   };
-  std::deque<LayerOutline> window;  // part layers [window_start, received)
+  // Part layers [window_start, received): graded, the outlines; planar, the simplified outlines
+  // (what skins read under and over them is in `skins`, each window intersected once).
+  std::deque<LayerOutline> window;
+  std::deque<std::pair<double, SkinWindows::Ptr>> planar;
+  std::optional<SkinWindows> skins;
+  if (!graded) skins.emplace(n, job.planar.bottom_layers, job.planar.top_layers);
   std::size_t window_start = 0, received = 0, next_plan = 0, next_chunk = 0, written = 0;
   double outline_cpu = 0, plan_cpu = 0;
   std::optional<Vec3> last_point;
@@ -727,6 +736,17 @@ SliceResult stream_slice_on(const SliceJob& job, const LayerSink& sink,
                                  std::vector<double>(d.zs.begin() + static_cast<long>(first + o.a),
                                                      d.zs.begin() + static_cast<long>(first + o.b)),
                                  &o.stats, RunContext{});
+        if (!graded) {
+          // Simplified here, in parallel, once a layer (not again by each run that reads it).
+          const double tol = job.planar.simplify;
+          for (auto& l : o.outlines) {
+            o.areas.push_back(area(l.regions));
+            o.planes.push_back(l.z);
+            o.simplified.push_back(std::make_shared<const Regions>(
+                tol > 0 ? simplify(l.regions, tol) : std::move(l.regions)));
+          }
+          o.outlines.clear();
+        }
         o.seconds = seconds_since(t);
         return o;
       }) & tbb::make_filter<Outlined, Planned>(tbb::filter_mode::serial_in_order, [&](Outlined o) {
@@ -739,23 +759,43 @@ SliceResult stream_slice_on(const SliceJob& job, const LayerSink& sink,
           r.empty_layers += l.regions.empty() ? 1 : 0;
           window.push_back(std::move(l));
         }
+        for (std::size_t k = 0; k < o.simplified.size(); ++k) {
+          r.outline_area += o.areas[k];
+          r.empty_layers += o.simplified[k]->empty() ? 1 : 0;
+          planar.emplace_back(o.planes[k], o.simplified[k]);
+        }
+        if (skins) skins->add(o.simplified);
         received = o.b;
         // Layer j is ready when the outlines up to j + top_layers are in (or all are).
         const std::size_t ready = received == n ? n : (received > above ? received - above : 0);
         Planned p;
         p.a = next_plan;
-        // (Runs of at least plan_layers: each run intersects its skins' windows of layers again
-        // at its ends.)
+        // (Runs of at least plan_layers: fewer, larger runs in flight.)
         const bool run_ready = ready == n || ready >= next_plan + options.plan_layers;
         p.b = run_ready ? std::max(next_plan, ready) : next_plan;
         if (p.a < p.b) {
           p.lo = p.a >= below ? p.a - below : 0;
           const std::size_t hi = std::min(n, p.b + above);
-          for (std::size_t k = p.lo; k < hi; ++k) p.window.push_back(window[k - window_start]);
+          if (graded) {
+            for (std::size_t k = p.lo; k < hi; ++k) p.window.push_back(window[k - window_start]);
+          } else {
+            for (std::size_t k = p.a; k < p.b; ++k) {
+              const auto& [plane, outline] = planar[k - window_start];
+              p.input.push_back({k, plane, outline, skins->under(k), skins->over(k)});
+            }
+            skins->forget_before(p.b);
+          }
           next_plan = p.b;
-          // The next batch starts at next_plan and reads below_layers under it.
-          const std::size_t keep = next_plan >= below ? next_plan - below : 0;
-          while (window_start < keep) window.pop_front(), ++window_start;
+          // The next batch starts at next_plan and reads below_layers under it (graded; the
+          // planar slicer reads the windows).
+          const std::size_t keep = !graded ? next_plan : next_plan >= below ? next_plan - below : 0;
+          while (window_start < keep) {
+            if (graded)
+              window.pop_front();
+            else
+              planar.pop_front();
+            ++window_start;
+          }
         }
         return p;
       }) & tbb::make_filter<Planned, Planned>(tbb::filter_mode::parallel, [&](Planned p) {
@@ -792,10 +832,12 @@ SliceResult stream_slice_on(const SliceJob& job, const LayerSink& sink,
             p.error_z.push_back(idx < p.window.size() ? p.window[idx].z : std::nan(""));
           }
         } else {
-          p.toolpath = plan_planar(p.window, po, &p.stats);
+          p.toolpath = plan_planar_layers(p.input, po, &p.stats);
         }
         p.window.clear();
         p.window.shrink_to_fit();
+        p.input.clear();
+        p.input.shrink_to_fit();
         p.seconds = seconds_since(t);
         return p;
       }) & tbb::make_filter<Planned, void>(tbb::filter_mode::serial_in_order, [&](Planned p) {

@@ -126,51 +126,6 @@ std::vector<LayerOutline> slice_mesh_layers(const TriangleMesh& mesh, const std:
 
 namespace {
 
-// The intersection of every run of `width` consecutive layers that starts in [begin, end): what
-// lies under (or over) a layer's skin. A sparse table: runs of 2, 4, 8, … layers, each the
-// intersection of two runs of half its length, then a window as the intersection of two runs
-// that cover it (they may overlap). A window costs one intersection per level plus one, whatever
-// its start, where intersecting its layers one by one cost width - 1 and every layer read two
-// windows. Windows that do not fit in the layers are empty; so is any window holding an empty
-// layer.
-class LayerWindows {
- public:
-  LayerWindows(const std::vector<Regions>& layers, long width, long begin, long end)
-      : begin_(begin), windows_(static_cast<std::size_t>(std::max(0L, end - begin))) {
-    const long lo = std::max(begin, 0L);
-    const long hi = std::min(end, static_cast<long>(layers.size()) - width + 1);
-    if (width < 1 || lo >= hi) return;
-    // run(a): layers a .. a + span - 1, for a in [lo, hi + width - span).
-    std::vector<Regions> runs;
-    long span = 1;
-    auto run = [&](long a) -> const Regions& {
-      const auto k = static_cast<std::size_t>(span == 1 ? a : a - lo);
-      return span == 1 ? layers[k] : runs[k];
-    };
-    for (; 2 * span <= width; span *= 2) {
-      std::vector<Regions> next(static_cast<std::size_t>(hi + width - 2 * span - lo));
-      tbb::parallel_for(std::size_t{0}, next.size(), [&](std::size_t k) {
-        const long a = lo + static_cast<long>(k);
-        next[k] = meet(run(a), run(a + span));
-      });
-      runs = std::move(next);
-    }
-    tbb::parallel_for(lo, hi, [&](long a) {
-      windows_[static_cast<std::size_t>(a - begin)] =
-          span == width ? run(a) : meet(run(a), run(a + width - span));
-    });
-  }
-  // Layers from .. from + width - 1 (from in [begin, end)).
-  const Regions& at(long from) const { return windows_[static_cast<std::size_t>(from - begin_)]; }
-
- private:
-  static Regions meet(const Regions& a, const Regions& b) {
-    return a.empty() || b.empty() ? Regions{} : intersection(a, b);
-  }
-  long begin_;
-  std::vector<Regions> windows_;
-};
-
 // A layer's skin: its outline O less what lies under it all the way down (`under`, the
 // intersection of the layers below that the skin reaches) and over it all the way up (`over`),
 // C = under ∩ over (null: no skin on that side), opened by half a bead so that slivers narrower
@@ -426,66 +381,168 @@ void PlanarStats::add(const PlanarStats& o) {
   layer_link.insert(layer_link.end(), o.layer_link.begin(), o.layer_link.end());
 }
 
-Toolpath plan_planar(const std::vector<LayerOutline>& layers, const PlanarOptions& o,
-                     PlanarStats* stats) {
+namespace {
+
+bool same_regions(const Regions& a, const Regions& b) {
+  if (a.size() != b.size()) return false;
+  for (std::size_t k = 0; k < a.size(); ++k)
+    if (a[k].outer != b[k].outer || a[k].holes != b[k].holes) return false;
+  return true;
+}
+
+}  // namespace
+
+SkinWindows::SkinWindows(std::size_t layers, int below, int above)
+    : n_(static_cast<long>(layers)),
+      below_(std::max(0, below)),
+      above_(std::max(0, above)),
+      empty_(std::make_shared<const Regions>()) {
+  for (long s = 1; s <= std::max(below_, above_); s *= 2) runs_.emplace_back();
+}
+
+void SkinWindows::Level::drop_before(long a) {
+  while (!at.empty() && base < a) at.pop_front(), ++base;
+}
+
+// Positions [lo, hi) of `out` (the next ones), each the intersection of first(a) and second(a)
+// (first(a) itself where second is null); a position whose two inputs are the previous one's
+// shares its result.
+void SkinWindows::compute(Level& out, long lo, long hi, const std::function<Ptr(long)>& first,
+                          const std::function<Ptr(long)>& second) {
+  if (hi <= lo) return;
+  const auto m = static_cast<std::size_t>(hi - lo);
+  std::vector<Ptr> x(m), y(m), result(m);
+  std::vector<char> repeat(m, 0);
+  std::vector<std::size_t> todo;
+  for (std::size_t k = 0; k < m; ++k) {
+    const long a = lo + static_cast<long>(k);
+    x[k] = first(a), y[k] = second(a);
+    if (!y[k]) {
+      result[k] = x[k];
+    } else if (x[k]->empty() || y[k]->empty()) {
+      result[k] = empty_;
+    } else if (k > 0 ? x[k] == x[k - 1] && y[k] == y[k - 1]
+                     : !out.at.empty() && x[k] == out.last_x && y[k] == out.last_y) {
+      repeat[k] = 1;
+    } else {
+      todo.push_back(k);
+    }
+  }
+  tbb::parallel_for(std::size_t{0}, todo.size(), [&](std::size_t t) {
+    const std::size_t k = todo[t];
+    result[k] = std::make_shared<const Regions>(intersection(*x[k], *y[k]));
+  });
+  intersections_ += todo.size();
+  for (std::size_t k = 0; k < m; ++k) {
+    if (repeat[k]) result[k] = k > 0 ? result[k - 1] : out.at.back();
+    out.at.push_back(result[k]);
+  }
+  out.last_x = x.back(), out.last_y = y.back();
+}
+
+void SkinWindows::add(const std::vector<Ptr>& outlines) {
+  const long m0 = static_cast<long>(added_), m1 = m0 + static_cast<long>(outlines.size());
+  if (m1 > n_) throw std::logic_error("SkinWindows: more layers than the part's");
+  added_ = static_cast<std::size_t>(m1);
+  if (runs_.empty()) return;  // no skins
+  // Equal layers (a prism's) are one: the runs over them share their results.
+  Level& layers = runs_[0];
+  for (const Ptr& p : outlines) {
+    const Ptr prev = layers.at.empty() ? nullptr : layers.at.back();
+    layers.at.push_back(prev && same_regions(*prev, *p) ? prev : p);
+  }
+  // The runs of 2^k layers the new layers complete: those ending at m0 .. m1 - 1.
+  for (std::size_t k = 1; k < runs_.size(); ++k) {
+    const long s = 1L << k, h = s / 2;
+    const Level& in = runs_[k - 1];
+    compute(
+        runs_[k], std::max(0L, m0 - s + 1), m1 - s + 1, [&](long a) { return in[a]; },
+        [&](long a) { return in[a + h]; });
+  }
+  // A window of w layers: the run of the largest power of two S <= w at its start, met with the
+  // one ending at its end.
+  auto windows = [&](Level& out, long w) {
+    std::size_t k = 0;
+    while ((2L << k) <= w) ++k;
+    const long S = 1L << k;
+    const Level& in = runs_[k];
+    compute(
+        out, std::max(0L, m0 - w + 1), m1 - w + 1, [&](long a) { return in[a]; },
+        [&](long a) { return S == w ? nullptr : in[a + w - S]; });
+  };
+  if (below_ > 0) windows(under_, below_);
+  if (above_ > 0 && above_ != below_) windows(over_, above_);
+  // Later runs read runs starting at most 2 max(below, above) layers back.
+  const long keep = m1 - 2 * std::max(below_, above_) - 1;
+  for (Level& l : runs_) l.drop_before(keep);
+}
+
+SkinWindows::Ptr SkinWindows::under(std::size_t layer) const {
+  if (below_ == 0) return nullptr;
+  const long a = static_cast<long>(layer) - below_;
+  if (a < 0) return empty_;
+  if (a < under_.base || a >= under_.base + static_cast<long>(under_.at.size()))
+    throw std::logic_error("SkinWindows::under: window not intersected or forgotten");
+  return under_[a];
+}
+
+SkinWindows::Ptr SkinWindows::over(std::size_t layer) const {
+  if (above_ == 0) return nullptr;
+  const long a = static_cast<long>(layer) + 1;
+  if (a + above_ > n_) return empty_;
+  const Level& w = above_ == below_ ? under_ : over_;
+  if (a < w.base || a >= w.base + static_cast<long>(w.at.size()))
+    throw std::logic_error("SkinWindows::over: window not intersected or forgotten");
+  return w[a];
+}
+
+void SkinWindows::forget_before(std::size_t layer) {
+  const long l = static_cast<long>(layer);
+  under_.drop_before(l - below_);
+  over_.drop_before(l + 1);
+}
+
+namespace {
+
+void check_planar_options(const PlanarOptions& o) {
   if (!(o.layer_height > 0)) throw SettingError("layer height must be > 0");
   if (!(o.bead_width > 0)) throw SettingError("bead width must be > 0");
   if (o.walls < 0 || o.walls > 100) throw SettingError("walls must be 0..100");
   if (!(o.infill_density >= 0 && o.infill_density <= 1))
     throw SettingError("infill density must be within 0..1");
   if (o.top_layers < 0 || o.bottom_layers < 0) throw SettingError("skin layers must be >= 0");
+}
 
-  const std::size_t n = layers.size();
-  std::vector<Regions> outline(n);
-  tbb::parallel_for(std::size_t{0}, n, [&](std::size_t i) {
-    outline[i] = o.simplify > 0 ? simplify(layers[i].regions, o.simplify) : layers[i].regions;
-  });
+// The box of outlines (lattice infill's frame when none is given).
+BBox2 outline_frame(const std::vector<const Regions*>& outlines) {
+  BBox2 frame{{1e300, 1e300}, {-1e300, -1e300}};
+  for (const Regions* r : outlines)
+    for (const auto& poly : *r)
+      for (const Vec2 v : poly.outer)
+        frame.min = {std::min(frame.min.x, v.x), std::min(frame.min.y, v.y)},
+        frame.max = {std::max(frame.max.x, v.x), std::max(frame.max.y, v.y)};
+  return frame;
+}
 
+Toolpath plan_layers(const std::vector<PlanarLayerInput>& in, const PlanarOptions& o,
+                     const BBox2& frame, PlanarStats* stats) {
+  const std::size_t n = in.size();
   const double w = o.bead_width;
-  // Lattice infill's frame: the part's box, so its cells stack.
-  BBox2 frame = o.infill_frame;
-  if (!(frame.width() > 0) && o.infill_pattern == InfillPattern::Lattice) {
-    frame = {{1e300, 1e300}, {-1e300, -1e300}};
-    for (const auto& r : outline)
-      for (const auto& poly : r)
-        for (const Vec2 v : poly.outer)
-          frame.min = {std::min(frame.min.x, v.x), std::min(frame.min.y, v.y)},
-          frame.max = {std::max(frame.max.x, v.x), std::max(frame.max.y, v.y)};
-  }
+  const long B = o.bottom_layers, T = o.top_layers;
   Toolpath tp;
   tp.layers.resize(n);
   std::vector<PlanarStats> per(n);
-  // Part layer g = first_index + i; only [plan_begin, plan_end) are planned.
-  auto planned = [&](std::size_t i) {
-    const std::size_t g = o.first_index + i;
-    return g >= o.plan_begin && g < o.plan_end;
-  };
-  // The layers planned here, [p0, p1), and the runs of layers under and over their skins.
-  const std::size_t first = o.first_index, last = first + n;
-  const long p0 = static_cast<long>(std::clamp(o.plan_begin, first, last) - first);
-  const long p1 = std::max(p0, static_cast<long>(std::clamp(o.plan_end, first, last) - first));
-  const long B = o.bottom_layers, T = o.top_layers;
-  std::optional<LayerWindows> below_table, above_table;
-  if (B > 0 && B == T) {
-    below_table.emplace(outline, B, p0 - B, p1 + 1);
-  } else {
-    if (B > 0) below_table.emplace(outline, B, p0 - B, p1 - B);
-    if (T > 0) above_table.emplace(outline, T, p0 + 1, p1 + 1);
-  }
-  const LayerWindows* below = below_table ? &*below_table : nullptr;
-  const LayerWindows* above = above_table ? &*above_table : below;
   tbb::parallel_for(std::size_t{0}, n, [&](std::size_t i) {
-    if (!planned(i)) return;
     const auto t_layer = std::chrono::steady_clock::now();
     Layer& layer = tp.layers[i];
-    const std::size_t g = o.first_index + i;
+    const std::size_t g = in[i].index;
     const double z = static_cast<double>(g + 1) * o.layer_height;
     layer.z = z;
-    if (outline[i].empty()) return;
-    const long li = static_cast<long>(i);
-    std::vector<std::vector<Regions>> walls(outline[i].size());
+    const Regions& outline = *in[i].outline;
+    if (outline.empty()) return;
+    std::vector<std::vector<Regions>> walls(outline.size());
     for (std::size_t k = 0; k < walls.size(); ++k)
-      if (!outline[i][k].outer.empty()) walls[k] = wall_regions(outline[i][k], o.walls, w);
+      if (!outline[k].outer.empty()) walls[k] = wall_regions(outline[k], o.walls, w);
     // Solid where the part has no material within bottom_layers below or top_layers above.
     Regions skin;
     if (B > 0 || T > 0) {
@@ -494,10 +551,10 @@ Toolpath plan_planar(const std::vector<LayerOutline>& layers, const PlanarOption
         for (const auto& r : walls)
           if (!r.empty()) eroded.insert(eroded.end(), r.front().begin(), r.front().end());
       } else {
-        eroded = offset(outline[i], -0.5 * w);
+        eroded = offset(outline, -0.5 * w);
       }
-      skin = skin_of(eroded, B > 0 ? &below->at(li - B) : nullptr,
-                     T > 0 ? &above->at(li + 1) : nullptr, w, o.simplify);
+      skin = skin_of(eroded, B > 0 ? in[i].under.get() : nullptr,
+                     T > 0 ? in[i].over.get() : nullptr, w, o.simplify);
     }
     const bool odd = g % 2 == 1;
     const double infill_angle = o.infill_angle + (odd ? 90.0 : 0.0);
@@ -507,9 +564,9 @@ Toolpath plan_planar(const std::vector<LayerOutline>& layers, const PlanarOption
     // Each island's walls (inside first, the outer wall last keeps the surface clean) and fill
     // lines, linked into paths by the linking stage (slice/link.hpp).
     std::vector<IslandPieces> islands;
-    islands.reserve(outline[i].size());
-    for (std::size_t k = 0; k < outline[i].size(); ++k) {
-      const Polygon2& poly = outline[i][k];
+    islands.reserve(outline.size());
+    for (std::size_t k = 0; k < outline.size(); ++k) {
+      const Polygon2& poly = outline[k];
       if (poly.outer.empty()) continue;
       IslandPieces& is = islands.emplace_back();
       is.outline = poly;
@@ -554,7 +611,7 @@ Toolpath plan_planar(const std::vector<LayerOutline>& layers, const PlanarOption
         spec.lattice = o.infill_lattice;
         spec.seed = o.infill_seed;
         spec.frame = frame;
-        InfillPaths made = make_infill(sparse, spec, g, layers[i].z);
+        InfillPaths made = make_infill(sparse, spec, g, in[i].plane);
         per[i].lattice_trails += made.trails;
         per[i].lattice_trail_bound += made.trail_lower_bound;
         IslandPieces::Fill& f = is.fills.emplace_back();
@@ -578,17 +635,9 @@ Toolpath plan_planar(const std::vector<LayerOutline>& layers, const PlanarOption
     }
   });
   PlanarStats total;
-  total.layer_link.reserve(tp.layers.size());
-  // The window's unplanned layers (the skins' neighbours) are dropped.
-  std::vector<Layer> kept;
-  std::vector<PlanarStats> kept_stats;
-  for (std::size_t i = 0; i < n; ++i)
-    if (planned(i)) kept.push_back(std::move(tp.layers[i])), kept_stats.push_back(per[i]);
-  tp.layers = std::move(kept);
-  per = std::move(kept_stats);
-  const std::size_t m = tp.layers.size();
-  total.layers = m;
-  for (std::size_t i = 0; i < m; ++i) {
+  total.layer_link.reserve(n);
+  total.layers = n;
+  for (std::size_t i = 0; i < n; ++i) {
     total.walls += per[i].walls;
     total.skin_lines += per[i].skin_lines;
     total.infill_lines += per[i].infill_lines;
@@ -604,6 +653,54 @@ Toolpath plan_planar(const std::vector<LayerOutline>& layers, const PlanarOption
   if (stats) *stats = total;
   tp.source = "trellis planar slicer";
   return tp;
+}
+
+}  // namespace
+
+Toolpath plan_planar(const std::vector<LayerOutline>& layers, const PlanarOptions& o,
+                     PlanarStats* stats) {
+  check_planar_options(o);
+  const std::size_t n = layers.size();
+  std::vector<SkinWindows::Ptr> outline(n);
+  tbb::parallel_for(std::size_t{0}, n, [&](std::size_t i) {
+    outline[i] = std::make_shared<const Regions>(
+        o.simplify > 0 ? simplify(layers[i].regions, o.simplify) : layers[i].regions);
+  });
+  // Lattice infill's frame: the part's box, so its cells stack.
+  BBox2 frame = o.infill_frame;
+  if (!(frame.width() > 0) && o.infill_pattern == InfillPattern::Lattice) {
+    std::vector<const Regions*> all;
+    for (const auto& r : outline) all.push_back(r.get());
+    frame = outline_frame(all);
+  }
+  // The layers planned here, [p0, p1), and the layers their skins read, [lo, hi).
+  const std::size_t first = o.first_index, last = first + n;
+  const long p0 = static_cast<long>(std::clamp(o.plan_begin, first, last) - first);
+  const long p1 = std::max(p0, static_cast<long>(std::clamp(o.plan_end, first, last) - first));
+  const long lo = std::max(0L, p0 - o.bottom_layers);
+  const long hi = std::max(lo, std::min(static_cast<long>(n), p1 + o.top_layers));
+  SkinWindows windows(static_cast<std::size_t>(hi - lo), o.bottom_layers, o.top_layers);
+  windows.add(std::vector<SkinWindows::Ptr>(outline.begin() + lo, outline.begin() + hi));
+  std::vector<PlanarLayerInput> in;
+  in.reserve(static_cast<std::size_t>(p1 - p0));
+  for (long i = p0; i < p1; ++i) {
+    const auto local = static_cast<std::size_t>(i - lo);
+    in.push_back({first + static_cast<std::size_t>(i), layers[static_cast<std::size_t>(i)].z,
+                  outline[static_cast<std::size_t>(i)], windows.under(local), windows.over(local)});
+  }
+  return plan_layers(in, o, frame, stats);
+}
+
+Toolpath plan_planar_layers(const std::vector<PlanarLayerInput>& layers, const PlanarOptions& o,
+                            PlanarStats* stats) {
+  check_planar_options(o);
+  BBox2 frame = o.infill_frame;
+  if (!(frame.width() > 0) && o.infill_pattern == InfillPattern::Lattice) {
+    std::vector<const Regions*> all;
+    for (const auto& l : layers) all.push_back(l.outline.get());
+    frame = outline_frame(all);
+  }
+  return plan_layers(layers, o, frame, stats);
 }
 
 }  // namespace trellis

@@ -142,6 +142,11 @@ TEST(SliceStream, FieldRouteLayersAreTheWholeRunsForAnyRunLengthAndTokens) {
        {SliceStreamOptions{1, 1}, SliceStreamOptions{3, 2}, SliceStreamOptions{16, 0},
         SliceStreamOptions{7, 8}, SliceStreamOptions{1000, 2}})
     expect_streams_as_whole(job, o);
+  // Runs of planned layers shorter and longer than the skins' reach (the windows slide across
+  // their ends: SkinWindows).
+  for (const SliceStreamOptions o :
+       {SliceStreamOptions{1, 1, 1}, SliceStreamOptions{3, 2, 5}, SliceStreamOptions{5, 3, 64}})
+    expect_streams_as_whole(job, o);
 }
 
 TEST(SliceStream, MeshRouteLayersAreTheWholeRuns) {

@@ -113,8 +113,9 @@ using LayerSink = std::function<void(std::size_t index, Layer&& layer)>;
 struct SliceStreamOptions {
   std::size_t chunk_layers = 16;  // planes outlined together (a mesh is bucketed once per run)
   std::size_t tokens = 0;         // runs in flight; 0 = twice the threads
-  // Layers planned together, at least (but the last run): each run's skins intersect the
-  // layers around it again, bottom_layers + top_layers of them.
+  // Layers planned together, at least (but the last run). Planar slicing intersects the windows
+  // of layers its skins read once, as the outlines come (SkinWindows), whatever the run length;
+  // graded slicing plans each run with the bottom_layers + top_layers outlines around it.
   std::size_t plan_layers = 32;
 };
 SliceResult stream_slice(const SliceJob& job, const LayerSink& sink,

@@ -2,7 +2,9 @@
 // planar slicer: walls by inward offsets, top/bottom skins, rectilinear infill, ordered to keep
 // travel short, written into the toolpath IR.
 #pragma once
+#include <deque>
 #include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -124,5 +126,59 @@ std::vector<std::vector<Vec2>> fill_lines_oriented(const Regions& region,
 
 Toolpath plan_planar(const std::vector<LayerOutline>& layers, const PlanarOptions& options,
                      PlanarStats* stats = nullptr);
+
+// What lies under and over each layer's skins: the intersection of the `below` layers under a
+// layer and of the `above` layers over it, for a part of `layers` layers given in order (a
+// sliding window: the streamed slicer adds its layers as they are outlined, and each window is
+// intersected once, never again at the end of a run of planned layers). A sparse table: runs of
+// 2, 4, 8, … layers, each the intersection of two runs of half its length, and a window as the
+// intersection of two runs that cover it. Runs whose two halves are the same regions (a stack
+// of equal layers, as a prism's) share one result. Windows that do not fit in the part are
+// empty; so is any window holding an empty layer.
+class SkinWindows {
+ public:
+  using Ptr = std::shared_ptr<const Regions>;
+  SkinWindows(std::size_t layers, int below, int above);
+  // The next layers' outlines, in order; intersects every window they complete (oneTBB).
+  void add(const std::vector<Ptr>& outlines);
+  std::size_t size() const { return added_; }
+  // The layers under `layer` down to `below` of them (null: below = 0), and over it up to
+  // `above`. The layers they read must have been added (or the window reaches past the part).
+  Ptr under(std::size_t layer) const;
+  Ptr over(std::size_t layer) const;
+  // Drops the windows of layers before `layer` (no longer asked for).
+  void forget_before(std::size_t layer);
+  // Clipper intersections run so far (runs shared by equal halves are not counted).
+  std::size_t intersections() const { return intersections_; }
+
+ private:
+  struct Level {
+    long base = 0;  // position of at.front()
+    std::deque<Ptr> at;
+    Ptr last_x, last_y;  // the inputs of at.back()
+    const Ptr& operator[](long a) const { return at[static_cast<std::size_t>(a - base)]; }
+    void drop_before(long a);
+  };
+  void compute(Level& out, long lo, long hi, const std::function<Ptr(long)>& first,
+               const std::function<Ptr(long)>& second);
+  long n_, below_, above_;
+  std::size_t added_ = 0, intersections_ = 0;
+  std::vector<Level> runs_;  // runs_[k]: runs of 2^k layers
+  Level under_, over_;       // windows of `below` and of `above` layers, by their first layer
+  Ptr empty_;
+};
+
+// One layer of plan_planar's, its inputs made: part layer `index` (z = (index + 1) ·
+// layer_height), cut at `plane`, its outline simplified by options.simplify, and its skins'
+// windows (SkinWindows::under and over).
+struct PlanarLayerInput {
+  std::size_t index = 0;
+  double plane = 0;
+  SkinWindows::Ptr outline, under, over;
+};
+// plan_planar on those layers (all planned; first_index, plan_begin and plan_end unused), lattice
+// infill on options.infill_frame (the box of these outlines if it is empty).
+Toolpath plan_planar_layers(const std::vector<PlanarLayerInput>& layers,
+                            const PlanarOptions& options, PlanarStats* stats = nullptr);
 
 }  // namespace trellis
