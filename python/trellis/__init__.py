@@ -562,8 +562,8 @@ def view(*files: PathLike, output: PathLike | None = None, design: PathLike | No
          machine: Machine | None = None, set=None, **settings) -> str:
     """The interactive 3D viewer of `trellis view FILES... -o OUTPUT`: one self-contained HTML
     page of G-code (any slicer's), .nc, laser .cli, toolpath JSON, 3MF toolpaths, lattices and
-    `trellis check` reports. With ``output`` it writes the page there and returns its path; without,
-    it returns the page (str). ``design`` (a lattice file) shows the prints in design coordinates
+    `trellis check` reports. With ``output`` it writes the page there (carrying its job, for
+    `trellis rerun`) and returns its path; without, it returns the page (str, without a job). ``design`` (a lattice file) shows the prints in design coordinates
     over it, coloured by deviation, and replayed as ``check`` does; ``machine`` draws the
     profile's build volume. Keywords are the [view], [check], [nozzle], [lattice] and [read]
     settings (title, snap, nozzle_radius, ...; the nozzle's also by their keys' names)."""
@@ -579,7 +579,20 @@ def view(*files: PathLike, output: PathLike | None = None, design: PathLike | No
         page = os.path.join(folder, "view.html")
         _read("view", design, prints, machine, set, settings, _nozzle_key, output=page)
         with open(page, encoding="utf-8") as f:
-            return f.read()
+            return _without_page_job(f.read())
+
+
+_PAGE_JOB = '<script type="application/json" id="trellis-job">'
+
+
+def _without_page_job(html):
+    """A page returned, not written: without the job block a written page carries for `trellis
+    rerun` (its paths would be relative to a folder that is gone)."""
+    start = html.rfind(_PAGE_JOB)
+    if start < 0:
+        return html
+    end = html.index("</script>\n", start) + len("</script>\n")
+    return html[:start] + html[end:]
 
 
 def render(toolpath: PathLike, output: PathLike, *, machine: Machine | None = None, progress=None,

@@ -505,11 +505,11 @@ Job job_from_output(const std::string& path) {
     pos = end + 1;
   }
   if (job.empty() && !text.empty() && (text[0] == '{' || text[0] == '[')) {
-    // JSON (toolpath, report): the "job" field; compare's report (an array): its last element's
-    // (routes::with_report_job).
+    // JSON (toolpath, report): the "job" field; compare's report (an array of analyses): its
+    // first analysis's (each carries it: routes::with_report_job).
     try {
       const auto j = nlohmann::json::parse(text);
-      const auto* holder = j.is_array() && !j.empty() ? &j.back() : &j;
+      const auto* holder = j.is_array() && !j.empty() ? &j.front() : &j;
       if (holder->is_object() && holder->contains("job") && (*holder)["job"].is_string())
         job = (*holder)["job"].get<std::string>();
     } catch (const nlohmann::json::exception&) {

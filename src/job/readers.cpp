@@ -108,10 +108,13 @@ std::string with_page_job(const std::string& html, const Job& job, const std::st
 
 std::string with_report_job(const std::string& report, const std::string& job) {
   nlohmann::ordered_json j = nlohmann::ordered_json::parse(report);
-  if (j.is_array())
-    j.push_back({{"job", job}});  // compare: one analysis per print, then the job
-  else
+  if (j.is_array()) {
+    // compare: one analysis per print, each carrying the job as a lone report does (so a reader
+    // of the array sees only analyses: `ours, theirs = json.load(f)`).
+    for (auto& a : j) a["job"] = job;
+  } else {
     j["job"] = job;
+  }
   // The reports are nlohmann's dump(2) (compare's: its analyses' one below the other): dumped
   // again, they keep their bytes but for the job.
   if (!j.is_array()) return j.dump(2) + "\n";

@@ -177,7 +177,7 @@ JobResult reader_compare(const Job& job, const Config& c, const RunContext& cont
 // written with the job embedded (not for a design or print in memory: no file to name).
 JobResult run_reader(const RouteSpec& spec, const Job& job, const RunContext& context);
 // A report (JSON: an object, or compare's array of analyses) with the job added: an object's
-// "job" field, an array's last element {"job": ...}; the rest of its bytes as they were.
+// "job" field, each analysis of an array (compare); the rest of its bytes as they were.
 std::string with_report_job(const std::string& report, const std::string& job);
 // The viewer page with the job embedded as it would be at `path`: a JSON string in a script
 // element the browser does not run, `<` escaped so no text of the job can end it, just before
