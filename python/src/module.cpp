@@ -561,22 +561,9 @@ PYBIND11_MODULE(_trellis, m) {
   // Lattice or None; `print` a file, a Toolpath (analyze: measured as planned, no filament or
   // retractions, which the machine's G-code adds; check: in design coordinates) or a list of files
   // (compare, view); `settings` key -> value (python/trellis: keywords); the files to write as
-  // the command's -o, --report and --preview. read_json returns the report JSON (for json.loads),
-  // read_run a dict: report, the files written, summary (what the command prints), warnings
-  // (kind, text) and exit_code; both interruptible, with progress to `progress(stage, fraction)`.
-  m.def(
-      "read_json",
-      [](const std::string& route, const py::object& design, const py::object& print,
-         const std::string& machine, const py::dict& settings, const std::string& output,
-         const std::string& report, const std::string& preview, const py::object& progress) {
-        Diagnostics diag;
-        return run_read(route, design, print, machine, settings, {output, report, preview}, diag,
-                        progress)
-            .report_json;
-      },
-      py::arg("route"), py::arg("design"), py::arg("print"), py::arg("machine"),
-      py::arg("settings"), py::arg("output") = "", py::arg("report") = "", py::arg("preview") = "",
-      py::arg("progress") = py::none());
+  // the command's -o, --report and --preview. read_run returns a dict: report (the report JSON, for
+  // json.loads), the files written, summary (what the command prints), warnings (kind, text) and
+  // exit_code; interruptible, with progress to `progress(stage, fraction)`.
   m.def(
       "read_run",
       [](const std::string& route, const py::object& design, const py::object& print,

@@ -213,9 +213,9 @@ TEST(ReaderJobs, WhatAReaderJobCannotHoldIsRefusedNamingIt) {
 
 // Every reader's report (check, analyze, compare) and page (view) carries its job; `trellis rerun`
 // of it writes the same bytes, for generated prints, with and without a machine profile, made by
-// the command or by a job file. Besides the job the report is what Python's read_json returns.
-// A print gone since is refused naming it, the report left as it was; a PNG (render, previews)
-// carries no job and its rerun is refused, nothing written.
+// the command or by a job file. Besides the job the report is what Python's read_run returns as its
+// report. A print gone since is refused naming it, the report left as it was; a PNG (render,
+// previews) carries no job and its rerun is refused, nothing written.
 TEST(ReaderJobs, RerunOfEveryReadersReportOrPageWritesItAgainByteForByte) {
   const std::string ender = std::string(TRELLIS_SOURCE_DIR) + "/profiles/ender3_s1_pro_tpu.toml";
   int k = 20;
