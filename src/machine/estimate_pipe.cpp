@@ -15,7 +15,9 @@ namespace {
 
 // About 256 kB a batch (a few thousand moves), at most 16 waiting: 4 MB whatever the file's size.
 constexpr std::size_t kBatch = std::size_t{1} << 18;
+constexpr std::size_t kCapacity = kBatch + 4096;  // a batch's buffer: the last item fits in
 constexpr std::size_t kQueued = 16;
+constexpr std::size_t kSpare = 4;  // buffers kept for reuse (no new pages for each batch)
 // How long the writer waits with a full queue for the reading task to start before reading
 // itself (no free worker: the run's other work holds it).
 constexpr std::chrono::milliseconds kPatience{50};
@@ -25,8 +27,9 @@ constexpr std::chrono::milliseconds kPatience{50};
 constexpr char kText = 'T', kMove = 'M', kMark = 'K';
 
 template <class T>
-void put(std::string& out, const T& v) {
-  out.append(reinterpret_cast<const char*>(&v), sizeof v);
+char* put(char* at, const T& v) {
+  std::memcpy(at, &v, sizeof v);
+  return at + sizeof v;
 }
 
 template <class T>
@@ -47,7 +50,8 @@ bool EstimatePipe::worthwhile() {
 }
 
 EstimatePipe::EstimatePipe(Reader& reader) : reader_(reader) {
-  batch_.reserve(kBatch + 4096);
+  batch_.data.reset(new char[kCapacity]);
+  batch_.capacity = kCapacity;
   group_.run([this] { work(); });
 }
 
@@ -57,6 +61,7 @@ EstimatePipe::~EstimatePipe() {
     std::lock_guard<std::mutex> lock(mutex_);
     closed_ = dropping_ = true;
     queue_.clear();
+    side_.clear();
     if (state_ == State::idle) state_ = State::taken;  // the task, if it starts, does nothing
     ready_.notify_all();
     space_.notify_all();
@@ -67,30 +72,55 @@ EstimatePipe::~EstimatePipe() {
   }
 }
 
-void EstimatePipe::text(std::string_view t) {
-  if (t.empty()) return;
-  batch_ += kText;
-  put(batch_, static_cast<std::uint64_t>(t.size()));
-  batch_.append(t);
-  if (batch_.size() >= kBatch) hand_over();
+char* EstimatePipe::room(std::size_t n) {
+  if (batch_.size + n > batch_.capacity) {
+    hand_over();
+    if (n > batch_.capacity) {  // a text longer than a batch: a buffer of its own
+      batch_.data.reset(new char[n]);
+      batch_.capacity = n;
+    }
+  }
+  return batch_.data.get() + batch_.size;
 }
 
+void EstimatePipe::text(std::string_view t) {
+  if (t.empty()) return;
+  const std::size_t n = 1 + sizeof(std::uint64_t) + t.size();
+  char* p = room(n);
+  *p++ = kText;
+  p = put(p, static_cast<std::uint64_t>(t.size()));
+  std::memcpy(p, t.data(), t.size());
+  batch_.size += n;
+  if (batch_.size >= kBatch) hand_over();
+}
+
+// Written in place (the writer's hot path: one per move line).
 void EstimatePipe::move(const GcodeScanner::Words& w, int g, std::string_view line) {
-  batch_ += kMove;
-  batch_ += static_cast<char>(g);
-  put(batch_, w.seen);
-  for (std::uint32_t s = w.seen; s != 0; s &= s - 1) put(batch_, w.value[std::countr_zero(s)]);
-  put(batch_, static_cast<std::uint32_t>(line.size()));
-  batch_.append(line);
-  if (batch_.size() >= kBatch) hand_over();
+  const std::size_t n = 2 + sizeof w.seen +
+                        sizeof(double) * static_cast<std::size_t>(std::popcount(w.seen)) +
+                        sizeof(std::uint32_t) + line.size();
+  char* p = room(n);
+  p[0] = kMove;
+  p[1] = static_cast<char>(g);
+  p = put(p + 2, w.seen);
+  for (std::uint32_t s = w.seen; s != 0; s &= s - 1) p = put(p, w.value[std::countr_zero(s)]);
+  p = put(p, static_cast<std::uint32_t>(line.size()));
+  std::memcpy(p, line.data(), line.size());
+  batch_.size += n;
+  if (batch_.size >= kBatch) hand_over();
 }
 
 void EstimatePipe::mark() {
-  batch_ += kMark;
+  *room(1) = kMark;
+  ++batch_.size;
 }
 
 void EstimatePipe::run(std::function<void()> work) {
-  group_.run(std::move(work));
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    side_.push_back(std::move(work));
+  }
+  ready_.notify_all();
 }
 
 std::vector<double> EstimatePipe::finish() {
@@ -100,15 +130,19 @@ std::vector<double> EstimatePipe::finish() {
     closed_ = true;
     ready_.notify_all();
     if (state_ == State::idle) take_over(lock);
+    // The work beside the reading task has not taken (it is still reading, or never came).
+    while (run_side(lock)) {
+    }
   }
-  group_.wait();  // the reading task (if it started) and the work beside
+  group_.wait();  // the reading task (if it started), and the work beside it took
   finished_ = true;
   if (error_) std::rethrow_exception(error_);
+  if (side_error_) std::rethrow_exception(side_error_);
   return std::move(times_);
 }
 
 void EstimatePipe::hand_over() {
-  if (batch_.empty()) return;
+  if (batch_.size == 0) return;
   std::unique_lock<std::mutex> lock(mutex_);
   while (queue_.size() >= kQueued && !error_ && state_ != State::taken) {
     if (state_ == State::reading) {
@@ -118,30 +152,55 @@ void EstimatePipe::hand_over() {
     }
   }
   if (error_) {
-    batch_.clear();
+    batch_.size = 0;
     return;
   }
   if (state_ == State::taken) {
     lock.unlock();
-    read(batch_);
-    batch_.clear();
+    read(batch_.view());
+    batch_.size = 0;
     return;
   }
   queue_.push_back(std::move(batch_));
   ready_.notify_one();
-  batch_ = std::string();
-  batch_.reserve(kBatch + 4096);
+  batch_ = Batch();
+  if (!spare_.empty()) {
+    batch_ = std::move(spare_.back());
+    spare_.pop_back();
+  }
+  lock.unlock();
+  batch_.size = 0;
+  if (batch_.capacity < kCapacity) {
+    batch_.data.reset(new char[kCapacity]);
+    batch_.capacity = kCapacity;
+  }
 }
 
 // The reading task has not started: the writer reads what is queued, and from now on each batch
 // as it hands it over.
 void EstimatePipe::take_over(std::unique_lock<std::mutex>& lock) {
   state_ = State::taken;
-  std::deque<std::string> queued = std::move(queue_);
+  std::deque<Batch> queued = std::move(queue_);
   queue_.clear();
   lock.unlock();
-  for (const std::string& b : queued) read(b);
+  for (const Batch& b : queued) read(b.view());
   lock.lock();
+}
+
+bool EstimatePipe::run_side(std::unique_lock<std::mutex>& lock) {
+  if (side_.empty()) return false;
+  const std::function<void()> f = std::move(side_.front());
+  side_.pop_front();
+  lock.unlock();
+  try {
+    f();
+  } catch (...) {
+    lock.lock();
+    if (!side_error_) side_error_ = std::current_exception();
+    return true;
+  }
+  lock.lock();
+  return true;
 }
 
 void EstimatePipe::read(std::string_view batch) {
@@ -168,21 +227,25 @@ void EstimatePipe::read(std::string_view batch) {
   }
 }
 
+// The reading task: each batch as it comes, in order; the work beside while none waits.
 void EstimatePipe::work() {
   std::unique_lock<std::mutex> lock(mutex_);
   if (state_ != State::idle) return;  // the writer read it all itself
   state_ = State::reading;
   space_.notify_all();
   for (;;) {
-    ready_.wait(lock, [&] { return !queue_.empty() || closed_; });
-    if (queue_.empty()) break;
-    const std::string batch = std::move(queue_.front());
+    ready_.wait(lock, [&] { return !queue_.empty() || closed_ || !side_.empty(); });
+    if (queue_.empty()) {
+      if (run_side(lock)) continue;
+      break;  // closed, everything read
+    }
+    Batch batch = std::move(queue_.front());
     queue_.pop_front();
     space_.notify_all();
     if (error_ || dropping_) continue;
     lock.unlock();
     try {
-      read(batch);
+      read(batch.view());
     } catch (...) {
       lock.lock();
       error_ = std::current_exception();
@@ -191,6 +254,7 @@ void EstimatePipe::work() {
       continue;
     }
     lock.lock();
+    if (spare_.size() < kSpare) spare_.push_back(std::move(batch));
   }
 }
 

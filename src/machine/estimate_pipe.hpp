@@ -5,9 +5,12 @@
 // every number written is the same for any thread count; only the times at the marks are known
 // at finish() instead of at once, which the writer needs only then (its M73 lines, the footer's
 // time and the parts' times go in late anyway).
-// Memory stays bounded (at most kQueued batches wait). Safe without a free worker: if the reading
-// task has not started when the queue is full, or when the writer finishes, the writer reads the
-// rest itself.
+// Memory stays bounded (at most kQueued batches wait; their buffers are reused). Safe without a
+// free worker: if the reading task has not started when the queue is full, or when the writer
+// finishes, the writer reads the rest itself.
+// Other work beside the writing (run(): the thumbnails) is done by the reading task while it has
+// nothing to read, and by the writer at finish() if the reading task has not taken it: not left
+// for the writer's final wait, where it would add to the writing instead of going beside it.
 #pragma once
 #include <tbb/task_group.h>
 
@@ -15,6 +18,7 @@
 #include <deque>
 #include <exception>
 #include <functional>
+#include <memory>
 #include <mutex>
 #include <string>
 #include <string_view>
@@ -48,7 +52,8 @@ class EstimatePipe {
   void text(std::string_view t);
   void move(const GcodeScanner::Words& w, int g, std::string_view line);
   void mark();
-  // Other work of the writer's beside the writing (thumbnails); finish() waits for it too.
+  // Other work of the writer's beside the writing (thumbnails), done by the reading task when it
+  // waits for text, else by finish(); finish() waits for it too.
   void run(std::function<void()> work);
   // Everything read and the work beside done: the time at each mark, in order. Rethrows what
   // the reading or the work beside threw.
@@ -56,17 +61,30 @@ class EstimatePipe {
 
  private:
   enum class State { idle, reading, taken };
+  // A run of items in a buffer of its own (uninitialised memory: the items are written in place).
+  struct Batch {
+    std::unique_ptr<char[]> data;
+    std::size_t size = 0, capacity = 0;
+    std::string_view view() const { return {data.get(), size}; }
+  };
+  // Room for an item of n bytes at the end of batch_ (handed over first if it is full).
+  char* room(std::size_t n);
   void hand_over();
   void take_over(std::unique_lock<std::mutex>& lock);
   void read(std::string_view batch);
   void work();
+  // Side work not yet taken, run by the caller (the lock held on entry and on return).
+  bool run_side(std::unique_lock<std::mutex>& lock);
 
   Reader& reader_;
-  std::string batch_;          // items not yet handed over
+  Batch batch_;                // items not yet handed over
   std::vector<double> times_;  // the reader's: the time at each mark read
   std::mutex mutex_;
   std::condition_variable ready_, space_;
-  std::deque<std::string> queue_;
+  std::deque<Batch> queue_;
+  std::vector<Batch> spare_;                // buffers read, for the writer to reuse
+  std::deque<std::function<void()>> side_;  // work beside not yet taken
+  std::exception_ptr side_error_;           // what the work beside threw on the reading task
   State state_ = State::idle;
   bool closed_ = false, dropping_ = false, finished_ = false;
   std::exception_ptr error_;

@@ -13,6 +13,7 @@
 #include <fstream>
 #include <iterator>
 #include <random>
+#include <stdexcept>
 #include <string>
 #include <thread>
 #include <vector>
@@ -177,6 +178,66 @@ TEST(EstimatePipe, ReadsEverythingInOrderWithOrWithoutAWorker) {
     });
     EXPECT_EQ(log.read, expected.read) << "mode " << mode;
     EXPECT_EQ(times, expected_times) << "mode " << mode;
+  }
+}
+
+// Work beside the reading (the thumbnails) runs exactly once, done by the reading task while it
+// waits or by the writer at finish(), with the reading still in order — with a worker, with none
+// (the arena's other slot held), and when the work is handed over before or after the text; an
+// exception it throws comes out of finish().
+TEST(EstimatePipe, WorkBesideRunsOnceOnEitherThread) {
+  for (int mode = 0; mode < 4; ++mode) {
+    Log log, expected;
+    std::vector<double> times;
+    std::atomic<int> ran{0};
+    bool threw = false;
+    tbb::task_arena arena(2);
+    arena.execute([&] {
+      std::atomic<bool> started{false}, release{false};
+      tbb::task_group other;
+      if (mode == 1) {  // no worker for the pipe
+        other.run([&] {
+          started = true;
+          while (!release) std::this_thread::yield();
+        });
+        for (int i = 0; i < 1000 && !started; ++i)
+          std::this_thread::sleep_for(std::chrono::milliseconds(1));
+      }
+      EstimatePipe pipe(log);
+      auto side = [&] {
+        std::this_thread::sleep_for(std::chrono::milliseconds(mode == 2 ? 20 : 1));
+        ++ran;
+        if (mode == 3) throw std::runtime_error("beside");
+      };
+      if (mode != 2) pipe.run(side);
+      for (int i = 0; i < 100000; ++i) {
+        GcodeScanner::Words w;
+        w.set('X', i);
+        const std::string line = "G1 X" + std::to_string(i) + "\n";
+        pipe.move(w, 1, line);
+        if (!expected.move(w, 1)) expected.text(line);
+        if (i % 1000 == 0) {
+          const std::string t = std::string(i % 3000 == 0 ? 300000 : 10, 'c') + "\n";
+          pipe.text(t);  // some texts longer than a batch
+          expected.text(t);
+        }
+      }
+      if (mode == 2) pipe.run(side);
+      pipe.mark();
+      try {
+        times = pipe.finish();
+      } catch (const std::runtime_error& e) {
+        threw = std::string(e.what()) == "beside";
+      }
+      release = true;
+      other.wait();
+    });
+    EXPECT_EQ(ran.load(), 1) << "mode " << mode;
+    EXPECT_EQ(threw, mode == 3) << "mode " << mode;
+    if (mode != 3) {
+      EXPECT_EQ(log.read, expected.read) << "mode " << mode;
+      EXPECT_EQ(times, std::vector<double>{expected.elapsed()}) << "mode " << mode;
+    }
   }
 }
 
