@@ -40,13 +40,18 @@ T get(const char*& at) {
   return v;
 }
 
-}  // namespace
-
-bool EstimatePipe::worthwhile() {
+// The threads the run has here (the arena's, within run.threads' global limit).
+std::size_t concurrency() {
   const std::size_t allowed =
       tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism);
   const auto arena = static_cast<std::size_t>(std::max(1, tbb::this_task_arena::max_concurrency()));
-  return std::min(allowed, arena) >= 2;
+  return std::min(allowed, arena);
+}
+
+}  // namespace
+
+bool EstimatePipe::worthwhile() {
+  return concurrency() >= 2;
 }
 
 EstimatePipe::EstimatePipe(Reader& reader) : reader_(reader) {
@@ -121,6 +126,13 @@ void EstimatePipe::run(std::function<void()> work) {
     side_.push_back(std::move(work));
   }
   ready_.notify_all();
+  // With a third thread free, it may take the work first (with two, this task finds it taken:
+  // the one worker holds the reading task, and the writer runs this one in its final wait).
+  if (concurrency() >= 3)
+    group_.run([this] {
+      std::unique_lock<std::mutex> lock(mutex_);
+      if (!dropping_) run_side(lock);
+    });
 }
 
 std::vector<double> EstimatePipe::finish() {

@@ -4,6 +4,7 @@
 // and of two are the same, whole and streamed; and the pipe reads everything in order when no
 // worker ever comes for it.
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 #include <tbb/task_arena.h>
 #include <tbb/task_group.h>
 
@@ -12,6 +13,7 @@
 #include <cstdio>
 #include <fstream>
 #include <iterator>
+#include <optional>
 #include <random>
 #include <stdexcept>
 #include <string>
@@ -184,14 +186,16 @@ TEST(EstimatePipe, ReadsEverythingInOrderWithOrWithoutAWorker) {
 // Work beside the reading (the thumbnails) runs exactly once, done by the reading task while it
 // waits or by the writer at finish(), with the reading still in order — with a worker, with none
 // (the arena's other slot held), and when the work is handed over before or after the text; an
-// exception it throws comes out of finish().
+// exception it throws comes out of finish(). Mode 4: three threads (a third may take the work).
 TEST(EstimatePipe, WorkBesideRunsOnceOnEitherThread) {
-  for (int mode = 0; mode < 4; ++mode) {
+  for (int mode = 0; mode < 5; ++mode) {
     Log log, expected;
     std::vector<double> times;
     std::atomic<int> ran{0};
     bool threw = false;
-    tbb::task_arena arena(2);
+    std::optional<tbb::global_control> wide;
+    if (mode == 4) wide.emplace(tbb::global_control::max_allowed_parallelism, 3);
+    tbb::task_arena arena(mode == 4 ? 3 : 2);
     arena.execute([&] {
       std::atomic<bool> started{false}, release{false};
       tbb::task_group other;
