@@ -26,14 +26,18 @@
 # makes them.
 #
 # Usage: bench/threads_model.sh [--only a,b] [--runs N] [--trellis BIN] [--work DIR] [--build DIR]
+#          [--reuse]
 #   --only: torus_3k vase torus_1m tr12j_half held_sh1 held_sh2 held_shape (default: the first
-#   four and held_shape); --runs: interleaved wall runs per mesh (default 5; 0: the model only).
+#   four and held_shape); --runs: interleaved wall runs per mesh (default 5; 0: the model only);
+#   --reuse: a mesh's callgrind profile already in the work dir (MESH.callgrind.txt) is used, not
+#   made again (the same binary's one-thread run: it is not checked).
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 build="$root/build/release"
 bin=""
 work="$root/out/bench_ratios"
 runs=5
+reuse=0
 only="torus_3k,vase,torus_1m,tr12j_half,held_shape"
 while [ $# -gt 0 ]; do
   case "$1" in
@@ -42,7 +46,8 @@ while [ $# -gt 0 ]; do
     --work) work="$2"; shift ;;
     --build) build="$2"; shift ;;
     --only) only="$2"; shift ;;
-    *) echo "usage: $0 [--only a,b] [--runs N] [--trellis BIN] [--work DIR] [--build DIR]" >&2; exit 2 ;;
+    --reuse) reuse=1 ;;
+    *) echo "usage: $0 [--only a,b] [--runs N] [--trellis BIN] [--work DIR] [--build DIR] [--reuse]" >&2; exit 2 ;;
   esac
   shift
 done
@@ -80,9 +85,11 @@ echo "phases: % of one thread's instructions (callgrind); model: two-thread time
 rows=()
 for m in torus_3k vase torus_1m tr12j_half held_sh1 held_sh2 held_shape; do
   want "$m" && [ -f "$m.stl" ] || continue
-  valgrind --tool=callgrind --callgrind-out-file="$m.callgrind" "$bin" slice "$m.stl" "${args[@]}" \
-    --threads 1 -o "$m.model.gcode" >/dev/null 2>&1 || { echo "callgrind run failed on $m" >&2; exit 1; }
-  callgrind_annotate --inclusive=yes --threshold=100 "$m.callgrind" 2>/dev/null >"$m.callgrind.txt"
+  if [ $reuse = 0 ] || [ ! -s "$m.callgrind.txt" ]; then
+    valgrind --tool=callgrind --callgrind-out-file="$m.callgrind" "$bin" slice "$m.stl" "${args[@]}" \
+      --threads 1 -o "$m.model.gcode" >/dev/null 2>&1 || { echo "callgrind run failed on $m" >&2; exit 1; }
+    callgrind_annotate --inclusive=yes --threshold=100 "$m.callgrind" 2>/dev/null >"$m.callgrind.txt"
+  fi
   f="$m.callgrind.txt"
   total=$(grep 'PROGRAM TOTALS' "$f" | awk '{gsub(",", "", $1); print $1}')
   slicing=$(incl "$f" 'trellis::stream_slice(trellis::SliceJob')
