@@ -100,22 +100,43 @@ class MoveLine {
     end_ += 2;
   }
 
+  template <int D>
+  static constexpr double kScale = D == 3 ? 1e3 : 1e5;
+
   // " <letter><v>" with at most D decimals.
   template <int D>
   [[gnu::always_inline]] void word(char letter, double v) {
-    static constexpr double kScale = D == 3 ? 1e3 : 1e5;
+    long long q = 0;
+    const bool rounded = fastnum::round_half_away(v * kScale<D>, q);
+    word_q<D>(letter, v, rounded, q);
+  }
+  // The same with v * 10^D rounded already (`rounded`: round_half_away took it, giving q).
+  // The common word (|v| below 1000, D = 3; below 1000 with D = 5) is written inline: it is
+  // readable (gcode_lex::kMaxValue is larger), so only its value is kept for the estimate.
+  template <int D>
+  [[gnu::always_inline]] void word_q(char letter, double v, bool rounded, long long q) {
     static_assert(D == 3 || D == 5);
+    static_assert(gcode_lex::kMaxValue >= 1000);
     char* p = end_;  // a local: the bytes written through it cannot change it
     p[0] = ' ';
     p[1] = letter;
-    long long q = 0;
-    if (!fastnum::round_half_away(v * kScale, q)) [[unlikely]] {
-      end_ = fastnum::fixed_legacy(p + 2, v, D);
-      readable_ = false;
-      return;
+    if constexpr (D == 3) {
+      if (rounded && q < fastnum::kFixed3Small && q > -fastnum::kFixed3Small) [[likely]] {
+        end_ = fastnum::fixed3_small(p + 2, q);
+        words_.set(letter, static_cast<double>(q) / kScale<D>);
+        return;
+      }
+    } else {
+      if (rounded && q < 100000000LL && q > -100000000LL) [[likely]] {
+        std::uint64_t u = static_cast<std::uint64_t>(q);
+        p[2] = '-';
+        if (q < 0) u = 0 - u;
+        end_ = fastnum::fixed_small(p + 2 + (q < 0), u, D);
+        words_.set(letter, static_cast<double>(q) / kScale<D>);
+        return;
+      }
     }
-    end_ = fastnum::fixed_q(p + 2, q, D);
-    take(letter, static_cast<double>(q) / kScale);
+    word_rest(letter, v, rounded, q, D, kScale<D>);
   }
   // " F<mm/min>", the feed given in mm/s.
   void feed(double mm_per_s) {
@@ -127,6 +148,19 @@ class MoveLine {
     readable_ = readable_ && f > 0;
   }
   void close() { *end_++ = '\n'; }
+
+  // word_q's other values (large, or beyond round_half_away: printed as fixed_legacy prints
+  // them, and read from the text by the estimate).
+  [[gnu::noinline]] void word_rest(char letter, double v, bool rounded, long long q, int d,
+                                   double scale) {
+    if (!rounded) {
+      end_ = fastnum::fixed_legacy(end_ + 2, v, d);
+      readable_ = false;
+      return;
+    }
+    end_ = fastnum::fixed_q(end_ + 2, q, d);
+    take(letter, static_cast<double>(q) / scale);
+  }
 
   const char* end() const { return end_; }
   const GcodeScanner::Words& words() const { return words_; }
@@ -1246,14 +1280,17 @@ class Writer {
   // rounds to the one before (`e`: this move's E). Written, it reads back as a zero-length
   // extrusion or as a travel that splits the path. Longer moves are always written (a tiny
   // extrusion.k may round every E to the one before: leaving those out would cut corners).
-  bool silent_move(Vec3 q, Vec2 o, double e, bool marlin) const {
+  // `qx`, `qy`: the new X and Y (with the placement and tool offsets) times 10^3 rounded as
+  // fastnum::llround rounds them; `len`: distance(pos_, q).
+  bool silent_move(Vec3 q, Vec2 o, double e, bool marlin, long long qx, long long qy,
+                   double len) const {
     auto same = [](double a, double b, double scale) {
       return fastnum::llround(a * scale) == fastnum::llround(b * scale);
     };
-    if (same(q.x + dx_ + o.x, pos_.x + dx_ + o.x, 1e3) &&
-        same(q.y + dy_ + o.y, pos_.y + dy_ + o.y, 1e3) && same(q.z, pos_.z, 1e3))
+    if (qx == fastnum::llround((pos_.x + dx_ + o.x) * 1e3) &&
+        qy == fastnum::llround((pos_.y + dy_ + o.y) * 1e3) && same(q.z, pos_.z, 1e3))
       return true;
-    if (!marlin || distance(pos_, q) >= 2e-3) return false;
+    if (!marlin || len >= 2e-3) return false;
     return p_.relative_e ? fastnum::llround(e * 1e5) == 0 : same(e_ + e, e_, 1e5);
   }
 
@@ -1265,15 +1302,21 @@ class Writer {
       const double flow = down_factor(q);
       const Vec2 o = offset();
       const double e = marlin ? extrusion_for(len, layer, p_) * flow * path_flow_ : 0.0;
-      if (silent_move(q, o, e, marlin)) {
+      // X and Y rounded once, for the silent-move test and for their words.
+      const double x = q.x + dx_ + o.x, y = q.y + dy_ + o.y;
+      long long qx = 0, qy = 0;
+      const bool rx = fastnum::round_half_away(x * 1e3, qx),
+                 ry = fastnum::round_half_away(y * 1e3, qy);
+      if (silent_move(q, o, e, marlin, rx ? qx : std::llround(x * 1e3),
+                      ry ? qy : std::llround(y * 1e3), len)) {
         silent_ = true;
         silent_to_ = q;
         return;
       }
       silent_ = false;
       MoveLine m(out_.room(MoveLine::kRoom), true);
-      m.word<3>('X', q.x + dx_ + o.x);
-      m.word<3>('Y', q.y + dy_ + o.y);
+      m.word_q<3>('X', x, rx, qx);
+      m.word_q<3>('Y', y, ry, qy);
       if (std::abs(q.z - pos_.z) > 1e-9) m.word<3>('Z', q.z);
       if (marlin) {
         e_ += e;
