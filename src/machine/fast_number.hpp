@@ -218,6 +218,33 @@ inline constexpr Digits3 kDigits3 = [] {
 }
 inline constexpr long long kFixed3Small = 1000000;  // fixed3_small takes |q| below this
 
+// fixed_q(p, q, 5) for |q| < 10^8 (|v| < 1000): the integer part one table entry, the five
+// decimals two (three, then two, which end it unless they are 00). May write up to 8 bytes past
+// the returned end.
+[[gnu::always_inline]] inline char* fixed5_small(char* p, long long q) {
+  std::uint64_t u = static_cast<std::uint64_t>(q);
+  *p = '-';
+  if (q < 0) u = 0 - u;
+  p += q < 0;
+  const auto ip = static_cast<std::uint32_t>(u / 100000),
+             fr = static_cast<std::uint32_t>(u % 100000);
+  const std::uint32_t a = kDigits3.int3[ip];
+  std::memcpy(p, &a, 4);
+  p += a >> 24;
+  const std::uint32_t hi = fr / 100, lo = fr % 100;
+  if (lo) [[likely]] {
+    *p = '.';
+    std::memcpy(p + 1, &kDigits3.dig3[hi], 4);
+    const std::uint32_t c = kDigits3.frac2[lo], digits = c >> 8;  // ".dd" less its '.'
+    std::memcpy(p + 4, &digits, 4);
+    return p + 3 + (c >> 24);
+  }
+  const std::uint64_t b = kDigits3.frac3[hi];
+  std::memcpy(p, &b, 8);
+  return p + (b >> 56);
+}
+inline constexpr long long kFixed5Small = 100000000;  // fixed5_small takes |q| below this
+
 // u / 100 with at most two decimals (trailing zeros removed) for u < 10^8, as fixed_small(p, u,
 // 2) writes it: the integer part (below 10^6) from one or two table entries, the fraction from
 // one. May write up to 8 bytes past the returned end.

@@ -3,12 +3,14 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <numbers>
 #include <utility>
@@ -86,6 +88,35 @@ char* put_feed(char* p, double mm_per_s) {
   return std::to_chars(p, p + 24, std::lround(mm_per_s * 60)).ptr;
 }
 
+// The " F<mm/min>" words written so far, by feed in mm/s (a print uses a handful: printing,
+// travel, Z, retraction), each formatted once; the value each reads back as beside it.
+class FeedWords {
+ public:
+  struct Word {
+    double mm_per_s = std::numeric_limits<double>::quiet_NaN();  // NaN: none yet (never equal)
+    double f = 0;  // the value the word reads back as (mm/min)
+    std::uint32_t len = 0;
+    char text[40];  // " F" and the digits (put_uint may write 8 bytes past them)
+  };
+  const Word& get(double mm_per_s) {
+    for (const Word& w : words_)
+      if (w.mm_per_s == mm_per_s) return w;
+    Word& w = words_[next_++ % words_.size()];
+    const long long f = fastnum::llround(mm_per_s * 60);
+    char* p = fastnum::lit(w.text, " F");
+    p = f >= 0 ? fastnum::put_uint(p, static_cast<unsigned long long>(f))
+               : std::to_chars(p, p + 24, f).ptr;
+    w.len = static_cast<std::uint32_t>(p - w.text);
+    w.f = static_cast<double>(f);
+    w.mm_per_s = mm_per_s;
+    return w;
+  }
+
+ private:
+  std::array<Word, 4> words_;
+  std::size_t next_ = 0;
+};
+
 // A G0/G1 line composed in one buffer (the writer's hot path), with the value each word reads
 // back as, so the print-time estimate takes the move without parsing its text: fixed() writes
 // q = llround(v * 10^d) as a decimal, which the reader's parser reads as q / 10^d, both exact
@@ -111,7 +142,7 @@ class MoveLine {
     word_q<D>(letter, v, rounded, q);
   }
   // The same with v * 10^D rounded already (`rounded`: round_half_away took it, giving q).
-  // The common word (|v| below 1000, D = 3; below 1000 with D = 5) is written inline: it is
+  // The common word (|v| below 1000) is written inline from digit tables: it is
   // readable (gcode_lex::kMaxValue is larger), so only its value is kept for the estimate.
   template <int D>
   [[gnu::always_inline]] void word_q(char letter, double v, bool rounded, long long q) {
@@ -127,25 +158,20 @@ class MoveLine {
         return;
       }
     } else {
-      if (rounded && q < 100000000LL && q > -100000000LL) [[likely]] {
-        std::uint64_t u = static_cast<std::uint64_t>(q);
-        p[2] = '-';
-        if (q < 0) u = 0 - u;
-        end_ = fastnum::fixed_small(p + 2 + (q < 0), u, D);
+      if (rounded && q < fastnum::kFixed5Small && q > -fastnum::kFixed5Small) [[likely]] {
+        end_ = fastnum::fixed5_small(p + 2, q);
         words_.set(letter, static_cast<double>(q) / kScale<D>);
         return;
       }
     }
     word_rest(letter, v, rounded, q, D, kScale<D>);
   }
-  // " F<mm/min>", the feed given in mm/s.
-  void feed(double mm_per_s) {
-    const long long f = fastnum::llround(mm_per_s * 60);
-    char* p = fastnum::lit(end_, " F");
-    end_ = f >= 0 ? fastnum::put_uint(p, static_cast<unsigned long long>(f))
-                  : std::to_chars(p, p + 24, f).ptr;
-    take('F', static_cast<double>(f));
-    readable_ = readable_ && f > 0;
+  // " F<mm/min>": a feed's word as FeedWords formatted it.
+  [[gnu::always_inline]] void feed(const FeedWords::Word& w) {
+    std::memcpy(end_, w.text, 32);  // (the room holds it: kRoom)
+    end_ += w.len;
+    take('F', w.f);
+    readable_ = readable_ && w.f > 0;
   }
   void close() { *end_++ = '\n'; }
 
@@ -736,7 +762,7 @@ class Writer {
     e_ += de;
     MoveLine m(out_.room(MoveLine::kRoom), true);
     m.word<5>('E', p_.relative_e ? de : e_);
-    m.feed(p_.retract_speed);
+    m.feed(feeds_.get(p_.retract_speed));
     m.close();
     put_move(m, 1);
   }
@@ -755,7 +781,7 @@ class Writer {
   void move_z(double z) {
     MoveLine m(out_.room(MoveLine::kRoom), false);
     m.word<3>('Z', z);
-    m.feed(p_.z_speed);
+    m.feed(feeds_.get(p_.z_speed));
     m.close();
     put_move(m, 0);
     pos_.z = z;
@@ -786,7 +812,7 @@ class Writer {
       m.word<3>('Z', q.z);
       pos_.z = q.z;
     }
-    m.feed(p_.travel_speed);
+    m.feed(feeds_.get(p_.travel_speed));
     m.close();
     put_move(m, 0);
     if (known_) {
@@ -1327,7 +1353,7 @@ class Writer {
       // bead, so a steep descent is printed faster instead.
       const double f = marlin ? speed : speed / flow;
       if (first || f != last_feed_) {
-        m.feed(f);
+        m.feed(feeds_.get(f));
         first = false;
         last_feed_ = f;
       }
@@ -1405,6 +1431,7 @@ class Writer {
   MachineProfile tool_profile_;                       // ... the profile with its pressure
   std::vector<std::pair<double, double>> down_flow_;  // (descent deg, factor), by angle
   double last_feed_ = -1;
+  FeedWords feeds_;  // the F words of the move lines
   // Process fields: the nozzle temperature and fan last set, the current path's flow factor,
   // and the bead (chain of joined paths) being written.
   double nozzle_now_ = -1, fan_now_ = -1, path_flow_ = 1;

@@ -241,6 +241,35 @@ TEST(FastNumber, TwoDecimalTablesPrintEveryCliCoordinate) {
   check(99999900);
 }
 
+// The G-code writer's E words below 1000 mm (fixed5_small) print as fmt's correctly rounded
+// "{:.5f}" of q / 10^5 without trailing zeros, and as fixed_q did: every |q| below 2 * 10^6 and
+// 2 M random ones up to 10^8, both signs.
+TEST(FastNumber, FiveDecimalTablesPrintEveryExtrusionBelow1000mm) {
+  auto expected = [](long long q) {
+    std::string s = fmt::format("{:.5f}", static_cast<double>(q) / 100000);
+    while (s.back() == '0') s.pop_back();
+    if (s.back() == '.') s.pop_back();
+    return s == "-0" ? std::string("0") : s;
+  };
+  char buf[fastnum::kMaxChars], old[fastnum::kMaxChars];
+  auto check = [&](long long q) {
+    std::memset(buf, 'x', sizeof buf);
+    char* end = fastnum::fixed5_small(buf, q);
+    const std::string s(buf, end);
+    ASSERT_EQ(s, expected(q)) << q;
+    ASSERT_EQ(s, std::string(old, fastnum::fixed_q(old, q, 5))) << q;
+    std::ptrdiff_t touched = sizeof buf;
+    while (touched > 0 && buf[touched - 1] == 'x') --touched;
+    ASSERT_LE(touched, end - buf + 8) << q;
+  };
+  for (long long q = -2000000; q < 2000000 && !HasFatalFailure(); ++q) check(q);
+  std::mt19937_64 rng(13);
+  std::uniform_int_distribution<long long> any(-fastnum::kFixed5Small + 1,
+                                               fastnum::kFixed5Small - 1);
+  for (int i = 0; i < 2000000 && !HasFatalFailure(); ++i) check(any(rng));
+  for (const long long q : {99999999LL, -99999999LL, 100000LL, 100100LL, 99900000LL}) check(q);
+}
+
 TEST(FastNumber, FixedRoundsAsLlroundEverywhereItTakesTheFastPath) {
   std::mt19937_64 rng(7);
   std::uniform_int_distribution<long long> n(-(1LL << 53), 1LL << 53);
