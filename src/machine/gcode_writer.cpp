@@ -362,6 +362,7 @@ class Writer {
 
   // The text written since the estimate last read, to it.
   void estimate_text() {
+    if (scanned_ == out_.size()) return;  // (after a move the estimate took: nothing new)
     const std::string_view t = out_.view().substr(scanned_);
     pipe_ ? pipe_->text(t) : estimate_.text(t);
     scanned_ = out_.size();
