@@ -160,6 +160,112 @@ inline constexpr char kTwoDigits[] =
   return p + (63 - std::countl_zero(frac_nonzero)) / 8 + 1;
 }
 
+// Three decimal digits at a time from tables (4 + 8 kB, in the cache while a file is written):
+// kInt3[n] is n (< 1000) without leading zeros in bytes 0..2 and its length in byte 3;
+// kFrac3[n] is ".ddd" (n / 1000 as a fraction) without trailing zeros in bytes 0..3 and its
+// length in byte 7, 0 for n = 0 (nothing written).
+// dig3[n] is n's three digits with leading zeros ("007"); frac2[n] is ".dd" (n / 100) without
+// trailing zeros in bytes 0..2 and its length in byte 3, 0 for n = 0.
+struct Digits3 {
+  std::uint32_t int3[1000];
+  std::uint64_t frac3[1000];
+  std::uint32_t dig3[1000];
+  std::uint32_t frac2[100];
+};
+inline constexpr Digits3 kDigits3 = [] {
+  Digits3 t{};
+  for (unsigned n = 0; n < 1000; ++n) {
+    const unsigned d[3] = {n / 100, n / 10 % 10, n % 10};
+    const unsigned len = n >= 100 ? 3 : n >= 10 ? 2 : 1;
+    std::uint32_t a = len << 24;
+    for (unsigned k = 0; k < len; ++k) a |= (0x30u + d[3 - len + k]) << (8 * k);
+    t.int3[n] = a;
+    unsigned flen = 0;  // digits kept: up to the last one that is not 0
+    for (unsigned k = 0; k < 3; ++k)
+      if (d[k]) flen = k + 1;
+    std::uint64_t b = 0;
+    if (flen) {
+      b = std::uint64_t{'.'} | std::uint64_t{flen + 1} << 56;
+      for (unsigned k = 0; k < flen; ++k) b |= std::uint64_t{0x30u + d[k]} << (8 * (k + 1));
+    }
+    t.frac3[n] = b;
+    t.dig3[n] = (0x30u + d[0]) | (0x30u + d[1]) << 8 | (0x30u + d[2]) << 16;
+  }
+  for (unsigned n = 1; n < 100; ++n) {
+    const unsigned flen = n % 10 ? 2 : 1;
+    std::uint32_t c = '.' | (flen + 1) << 24 | (0x30u + n / 10) << 8;
+    if (flen == 2) c |= (0x30u + n % 10) << 16;
+    t.frac2[n] = c;
+  }
+  return t;
+}();
+
+// fixed_q(p, q, 3) for |q| < 10^6 (|v| < 1000 mm, every coordinate on a bed): the integer part
+// and the fraction one table entry each, no branch but the sign's. May write up to 8 bytes past
+// the returned end.
+[[gnu::always_inline]] inline char* fixed3_small(char* p, long long q) {
+  std::uint64_t u = static_cast<std::uint64_t>(q);
+  *p = '-';
+  if (q < 0) u = 0 - u;
+  p += q < 0;
+  const auto ip = static_cast<std::uint32_t>(u / 1000), fr = static_cast<std::uint32_t>(u % 1000);
+  const std::uint32_t a = kDigits3.int3[ip];
+  std::memcpy(p, &a, 4);
+  p += a >> 24;
+  const std::uint64_t b = kDigits3.frac3[fr];
+  std::memcpy(p, &b, 8);
+  return p + (b >> 56);
+}
+inline constexpr long long kFixed3Small = 1000000;  // fixed3_small takes |q| below this
+
+// fixed_q(p, q, 5) for |q| < 10^8 (|v| < 1000): the integer part one table entry, the five
+// decimals two (three, then two, which end it unless they are 00). May write up to 8 bytes past
+// the returned end.
+[[gnu::always_inline]] inline char* fixed5_small(char* p, long long q) {
+  std::uint64_t u = static_cast<std::uint64_t>(q);
+  *p = '-';
+  if (q < 0) u = 0 - u;
+  p += q < 0;
+  const auto ip = static_cast<std::uint32_t>(u / 100000),
+             fr = static_cast<std::uint32_t>(u % 100000);
+  const std::uint32_t a = kDigits3.int3[ip];
+  std::memcpy(p, &a, 4);
+  p += a >> 24;
+  const std::uint32_t hi = fr / 100, lo = fr % 100;
+  if (lo) [[likely]] {
+    *p = '.';
+    std::memcpy(p + 1, &kDigits3.dig3[hi], 4);
+    const std::uint32_t c = kDigits3.frac2[lo], digits = c >> 8;  // ".dd" less its '.'
+    std::memcpy(p + 4, &digits, 4);
+    return p + 3 + (c >> 24);
+  }
+  const std::uint64_t b = kDigits3.frac3[hi];
+  std::memcpy(p, &b, 8);
+  return p + (b >> 56);
+}
+inline constexpr long long kFixed5Small = 100000000;  // fixed5_small takes |q| below this
+
+// u / 100 with at most two decimals (trailing zeros removed) for u < 10^8, as fixed_small(p, u,
+// 2) writes it: the integer part (below 10^6) from one or two table entries, the fraction from
+// one. May write up to 8 bytes past the returned end.
+[[gnu::always_inline]] inline char* fixed2_small(char* p, std::uint64_t u) {
+  const auto ip = static_cast<std::uint32_t>(u / 100), fr = static_cast<std::uint32_t>(u % 100);
+  if (ip < 1000) {
+    const std::uint32_t a = kDigits3.int3[ip];
+    std::memcpy(p, &a, 4);
+    p += a >> 24;
+  } else {
+    const std::uint32_t a = kDigits3.int3[ip / 1000], b = kDigits3.dig3[ip % 1000];
+    std::memcpy(p, &a, 4);
+    p += a >> 24;
+    std::memcpy(p, &b, 4);
+    p += 3;
+  }
+  const std::uint32_t c = kDigits3.frac2[fr];
+  std::memcpy(p, &c, 4);
+  return p + (c >> 24);
+}
+
 // q / 10^decimals (q already rounded: llround(v * 10^decimals)) with at most `decimals`
 // (0..6) decimals, trailing zeros removed; what fixed() prints for that v. For a caller that
 // also needs q itself (the G-code writer's move words, which read back as q / 10^decimals).
@@ -207,7 +313,7 @@ inline constexpr char kTwoDigits[] =
     *p++ = '-';
     u = 0 - u;
   }
-  if (u < 100000000ULL) return fixed_small(p, u, 2);
+  if (u < 100000000ULL) return fixed2_small(p, u);
   p = put_uint(p, u / 100);
   return fraction(p, u % 100, 2);
 }

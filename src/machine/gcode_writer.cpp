@@ -3,12 +3,14 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <numbers>
 #include <utility>
@@ -86,6 +88,35 @@ char* put_feed(char* p, double mm_per_s) {
   return std::to_chars(p, p + 24, std::lround(mm_per_s * 60)).ptr;
 }
 
+// The " F<mm/min>" words written so far, by feed in mm/s (a print uses a handful: printing,
+// travel, Z, retraction), each formatted once; the value each reads back as beside it.
+class FeedWords {
+ public:
+  struct Word {
+    double mm_per_s = std::numeric_limits<double>::quiet_NaN();  // NaN: none yet (never equal)
+    double f = 0;  // the value the word reads back as (mm/min)
+    std::uint32_t len = 0;
+    char text[40];  // " F" and the digits (put_uint may write 8 bytes past them)
+  };
+  const Word& get(double mm_per_s) {
+    for (const Word& w : words_)
+      if (w.mm_per_s == mm_per_s) return w;
+    Word& w = words_[next_++ % words_.size()];
+    const long long f = fastnum::llround(mm_per_s * 60);
+    char* p = fastnum::lit(w.text, " F");
+    p = f >= 0 ? fastnum::put_uint(p, static_cast<unsigned long long>(f))
+               : std::to_chars(p, p + 24, f).ptr;
+    w.len = static_cast<std::uint32_t>(p - w.text);
+    w.f = static_cast<double>(f);
+    w.mm_per_s = mm_per_s;
+    return w;
+  }
+
+ private:
+  std::array<Word, 4> words_;
+  std::size_t next_ = 0;
+};
+
 // A G0/G1 line composed in one buffer (the writer's hot path), with the value each word reads
 // back as, so the print-time estimate takes the move without parsing its text: fixed() writes
 // q = llround(v * 10^d) as a decimal, which the reader's parser reads as q / 10^d, both exact
@@ -100,33 +131,62 @@ class MoveLine {
     end_ += 2;
   }
 
+  template <int D>
+  static constexpr double kScale = D == 3 ? 1e3 : 1e5;
+
   // " <letter><v>" with at most D decimals.
   template <int D>
   [[gnu::always_inline]] void word(char letter, double v) {
-    static constexpr double kScale = D == 3 ? 1e3 : 1e5;
+    long long q = 0;
+    const bool rounded = fastnum::round_half_away(v * kScale<D>, q);
+    word_q<D>(letter, v, rounded, q);
+  }
+  // The same with v * 10^D rounded already (`rounded`: round_half_away took it, giving q).
+  // The common word (|v| below 1000) is written inline from digit tables: it is
+  // readable (gcode_lex::kMaxValue is larger), so only its value is kept for the estimate.
+  template <int D>
+  [[gnu::always_inline]] void word_q(char letter, double v, bool rounded, long long q) {
     static_assert(D == 3 || D == 5);
+    static_assert(gcode_lex::kMaxValue >= 1000);
     char* p = end_;  // a local: the bytes written through it cannot change it
     p[0] = ' ';
     p[1] = letter;
-    long long q = 0;
-    if (!fastnum::round_half_away(v * kScale, q)) [[unlikely]] {
-      end_ = fastnum::fixed_legacy(p + 2, v, D);
+    if constexpr (D == 3) {
+      if (rounded && q < fastnum::kFixed3Small && q > -fastnum::kFixed3Small) [[likely]] {
+        end_ = fastnum::fixed3_small(p + 2, q);
+        words_.set(letter, static_cast<double>(q) / kScale<D>);
+        return;
+      }
+    } else {
+      if (rounded && q < fastnum::kFixed5Small && q > -fastnum::kFixed5Small) [[likely]] {
+        end_ = fastnum::fixed5_small(p + 2, q);
+        words_.set(letter, static_cast<double>(q) / kScale<D>);
+        return;
+      }
+    }
+    word_rest(letter, v, rounded, q, D, kScale<D>);
+  }
+  // " F<mm/min>": a feed's word as FeedWords formatted it.
+  [[gnu::always_inline]] void feed(const FeedWords::Word& w) {
+    std::memcpy(end_, w.text, 32);  // (the room holds it: kRoom)
+    end_ += w.len;
+    take('F', w.f);
+    readable_ = readable_ && w.f > 0;
+  }
+  void close() { *end_++ = '\n'; }
+
+  // word_q's other values (large, or beyond round_half_away: printed as fixed_legacy prints
+  // them, and read from the text by the estimate).
+  [[gnu::noinline]] void word_rest(char letter, double v, bool rounded, long long q, int d,
+                                   double scale) {
+    if (!rounded) {
+      end_ = fastnum::fixed_legacy(end_ + 2, v, d);
       readable_ = false;
       return;
     }
-    end_ = fastnum::fixed_q(p + 2, q, D);
-    take(letter, static_cast<double>(q) / kScale);
+    end_ = fastnum::fixed_q(end_ + 2, q, d);
+    take(letter, static_cast<double>(q) / scale);
   }
-  // " F<mm/min>", the feed given in mm/s.
-  void feed(double mm_per_s) {
-    const long long f = fastnum::llround(mm_per_s * 60);
-    char* p = fastnum::lit(end_, " F");
-    end_ = f >= 0 ? fastnum::put_uint(p, static_cast<unsigned long long>(f))
-                  : std::to_chars(p, p + 24, f).ptr;
-    take('F', static_cast<double>(f));
-    readable_ = readable_ && f > 0;
-  }
-  void close() { *end_++ = '\n'; }
 
   const char* end() const { return end_; }
   const GcodeScanner::Words& words() const { return words_; }
@@ -302,6 +362,7 @@ class Writer {
 
   // The text written since the estimate last read, to it.
   void estimate_text() {
+    if (scanned_ == out_.size()) return;  // (after a move the estimate took: nothing new)
     const std::string_view t = out_.view().substr(scanned_);
     pipe_ ? pipe_->text(t) : estimate_.text(t);
     scanned_ = out_.size();
@@ -702,7 +763,7 @@ class Writer {
     e_ += de;
     MoveLine m(out_.room(MoveLine::kRoom), true);
     m.word<5>('E', p_.relative_e ? de : e_);
-    m.feed(p_.retract_speed);
+    m.feed(feeds_.get(p_.retract_speed));
     m.close();
     put_move(m, 1);
   }
@@ -721,7 +782,7 @@ class Writer {
   void move_z(double z) {
     MoveLine m(out_.room(MoveLine::kRoom), false);
     m.word<3>('Z', z);
-    m.feed(p_.z_speed);
+    m.feed(feeds_.get(p_.z_speed));
     m.close();
     put_move(m, 0);
     pos_.z = z;
@@ -752,7 +813,7 @@ class Writer {
       m.word<3>('Z', q.z);
       pos_.z = q.z;
     }
-    m.feed(p_.travel_speed);
+    m.feed(feeds_.get(p_.travel_speed));
     m.close();
     put_move(m, 0);
     if (known_) {
@@ -1246,14 +1307,17 @@ class Writer {
   // rounds to the one before (`e`: this move's E). Written, it reads back as a zero-length
   // extrusion or as a travel that splits the path. Longer moves are always written (a tiny
   // extrusion.k may round every E to the one before: leaving those out would cut corners).
-  bool silent_move(Vec3 q, Vec2 o, double e, bool marlin) const {
+  // `qx`, `qy`: the new X and Y (with the placement and tool offsets) times 10^3 rounded as
+  // fastnum::llround rounds them; `len`: distance(pos_, q).
+  bool silent_move(Vec3 q, Vec2 o, double e, bool marlin, long long qx, long long qy,
+                   double len) const {
     auto same = [](double a, double b, double scale) {
       return fastnum::llround(a * scale) == fastnum::llround(b * scale);
     };
-    if (same(q.x + dx_ + o.x, pos_.x + dx_ + o.x, 1e3) &&
-        same(q.y + dy_ + o.y, pos_.y + dy_ + o.y, 1e3) && same(q.z, pos_.z, 1e3))
+    if (qx == fastnum::llround((pos_.x + dx_ + o.x) * 1e3) &&
+        qy == fastnum::llround((pos_.y + dy_ + o.y) * 1e3) && same(q.z, pos_.z, 1e3))
       return true;
-    if (!marlin || distance(pos_, q) >= 2e-3) return false;
+    if (!marlin || len >= 2e-3) return false;
     return p_.relative_e ? fastnum::llround(e * 1e5) == 0 : same(e_ + e, e_, 1e5);
   }
 
@@ -1265,15 +1329,21 @@ class Writer {
       const double flow = down_factor(q);
       const Vec2 o = offset();
       const double e = marlin ? extrusion_for(len, layer, p_) * flow * path_flow_ : 0.0;
-      if (silent_move(q, o, e, marlin)) {
+      // X and Y rounded once, for the silent-move test and for their words.
+      const double x = q.x + dx_ + o.x, y = q.y + dy_ + o.y;
+      long long qx = 0, qy = 0;
+      const bool rx = fastnum::round_half_away(x * 1e3, qx),
+                 ry = fastnum::round_half_away(y * 1e3, qy);
+      if (silent_move(q, o, e, marlin, rx ? qx : std::llround(x * 1e3),
+                      ry ? qy : std::llround(y * 1e3), len)) {
         silent_ = true;
         silent_to_ = q;
         return;
       }
       silent_ = false;
       MoveLine m(out_.room(MoveLine::kRoom), true);
-      m.word<3>('X', q.x + dx_ + o.x);
-      m.word<3>('Y', q.y + dy_ + o.y);
+      m.word_q<3>('X', x, rx, qx);
+      m.word_q<3>('Y', y, ry, qy);
       if (std::abs(q.z - pos_.z) > 1e-9) m.word<3>('Z', q.z);
       if (marlin) {
         e_ += e;
@@ -1284,7 +1354,7 @@ class Writer {
       // bead, so a steep descent is printed faster instead.
       const double f = marlin ? speed : speed / flow;
       if (first || f != last_feed_) {
-        m.feed(f);
+        m.feed(feeds_.get(f));
         first = false;
         last_feed_ = f;
       }
@@ -1362,6 +1432,7 @@ class Writer {
   MachineProfile tool_profile_;                       // ... the profile with its pressure
   std::vector<std::pair<double, double>> down_flow_;  // (descent deg, factor), by angle
   double last_feed_ = -1;
+  FeedWords feeds_;  // the F words of the move lines
   // Process fields: the nozzle temperature and fan last set, the current path's flow factor,
   // and the bead (chain of joined paths) being written.
   double nozzle_now_ = -1, fan_now_ = -1, path_flow_ = 1;

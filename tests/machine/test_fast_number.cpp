@@ -8,10 +8,12 @@
 #include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <limits>
 #include <random>
 #include <string>
@@ -177,6 +179,95 @@ TEST(FastNumber, RoundedOnceThePrintedWordsAreThePreviousOnesAndReadBackAsQ) {
     }
   EXPECT_GT(compared, 6000000);
   EXPECT_GT(read, 5000000);
+}
+
+// The G-code writer's coordinates below 1000 mm (fixed3_small: three digits a table entry)
+// print as fmt's correctly rounded "{:.3f}" of q / 1000 with trailing zeros (and a bare '.')
+// removed, for every q the tables take, both signs; the bytes past the end it may write stay
+// within the 8 allowed. Through the writer's corpus as well: the previous formatter's bytes.
+TEST(FastNumber, ThreeDigitTablesPrintEveryCoordinateBelow1000mm) {
+  auto expected = [](long long q) {
+    std::string s = fmt::format("{:.3f}", static_cast<double>(q) / 1000);
+    while (s.back() == '0') s.pop_back();
+    if (s.back() == '.') s.pop_back();
+    return s == "-0" ? std::string("0") : s;
+  };
+  char buf[fastnum::kMaxChars];
+  for (long long q = -fastnum::kFixed3Small + 1; q < fastnum::kFixed3Small; ++q) {
+    std::memset(buf, 'x', sizeof buf);
+    char* end = fastnum::fixed3_small(buf, q);
+    ASSERT_EQ(std::string(buf, end), expected(q)) << q;
+    std::ptrdiff_t touched = sizeof buf;  // one past the last byte written
+    while (touched > 0 && buf[touched - 1] == 'x') --touched;
+    ASSERT_LE(touched, end - buf + 8) << q;
+  }
+  for (const double x : corpus(1)) {
+    long long q = 0;
+    if (!fastnum::round_half_away(x * 1e3, q) || q >= fastnum::kFixed3Small ||
+        q <= -fastnum::kFixed3Small)
+      continue;
+    ASSERT_EQ(std::string(buf, fastnum::fixed3_small(buf, q)), old_fixed(x, 3))
+        << fmt::format("{:.17g}", x);
+  }
+}
+
+// The CLI writer's coordinates (fixed2_small: µm with two decimals from table entries) print as
+// fmt's "{:.2f}" of u / 100 without trailing zeros, for every u below 2 * 10^6 and 2 M random
+// ones up to 10^8 (whole kilometres in µm), and as fixed_small did.
+TEST(FastNumber, TwoDecimalTablesPrintEveryCliCoordinate) {
+  auto expected = [](std::uint64_t u) {
+    std::string s = fmt::format("{:.2f}", static_cast<double>(u) / 100);
+    while (s.back() == '0') s.pop_back();
+    if (s.back() == '.') s.pop_back();
+    return s;
+  };
+  char buf[fastnum::kMaxChars], old[fastnum::kMaxChars];
+  auto check = [&](std::uint64_t u) {
+    std::memset(buf, 'x', sizeof buf);
+    char* end = fastnum::fixed2_small(buf, u);
+    const std::string s(buf, end);
+    ASSERT_EQ(s, expected(u)) << u;
+    ASSERT_EQ(s, std::string(old, fastnum::fixed_small(old, u, 2))) << u;
+    std::ptrdiff_t touched = sizeof buf;
+    while (touched > 0 && buf[touched - 1] == 'x') --touched;
+    ASSERT_LE(touched, end - buf + 8) << u;
+  };
+  for (std::uint64_t u = 0; u < 2000000 && !HasFatalFailure(); ++u) check(u);
+  std::mt19937_64 rng(11);
+  std::uniform_int_distribution<std::uint64_t> any(0, 99999999);
+  for (int i = 0; i < 2000000 && !HasFatalFailure(); ++i) check(any(rng));
+  check(99999999);
+  check(100000);
+  check(99999900);
+}
+
+// The G-code writer's E words below 1000 mm (fixed5_small) print as fmt's correctly rounded
+// "{:.5f}" of q / 10^5 without trailing zeros, and as fixed_q did: every |q| below 2 * 10^6 and
+// 2 M random ones up to 10^8, both signs.
+TEST(FastNumber, FiveDecimalTablesPrintEveryExtrusionBelow1000mm) {
+  auto expected = [](long long q) {
+    std::string s = fmt::format("{:.5f}", static_cast<double>(q) / 100000);
+    while (s.back() == '0') s.pop_back();
+    if (s.back() == '.') s.pop_back();
+    return s == "-0" ? std::string("0") : s;
+  };
+  char buf[fastnum::kMaxChars], old[fastnum::kMaxChars];
+  auto check = [&](long long q) {
+    std::memset(buf, 'x', sizeof buf);
+    char* end = fastnum::fixed5_small(buf, q);
+    const std::string s(buf, end);
+    ASSERT_EQ(s, expected(q)) << q;
+    ASSERT_EQ(s, std::string(old, fastnum::fixed_q(old, q, 5))) << q;
+    std::ptrdiff_t touched = sizeof buf;
+    while (touched > 0 && buf[touched - 1] == 'x') --touched;
+    ASSERT_LE(touched, end - buf + 8) << q;
+  };
+  for (long long q = -2000000; q < 2000000 && !HasFatalFailure(); ++q) check(q);
+  std::mt19937_64 rng(13);
+  std::uniform_int_distribution<long long> any(-fastnum::kFixed5Small + 1,
+                                               fastnum::kFixed5Small - 1);
+  for (int i = 0; i < 2000000 && !HasFatalFailure(); ++i) check(any(rng));
+  for (const long long q : {99999999LL, -99999999LL, 100000LL, 100100LL, 99900000LL}) check(q);
 }
 
 TEST(FastNumber, FixedRoundsAsLlroundEverywhereItTakesTheFastPath) {
