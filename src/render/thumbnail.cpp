@@ -52,8 +52,7 @@ struct Extent {
   bool empty() const { return u0 > u1; }
   // The extent and the summary of one layer. The bounds are kept in locals while the points are
   // read: as members they would be reloaded and stored at every point (the points are doubles
-  // too, so the compiler cannot tell they do not overlap). Two loops over each path, the view's
-  // bounds and then the heights and lengths, so that each keeps its values in registers.
+  // too, so the compiler cannot tell they do not overlap).
   void add(const Layer& l) {
     const View vw = view;
     double bu0 = u0, bu1 = u1, bv0 = v0, bv1 = v1, bd0 = d0, bd1 = d1, bz0 = z0, bz1 = z1;
@@ -62,26 +61,17 @@ struct Extent {
     for (const auto& p : l.paths) {
       const Vec3* pts = p.points.data();
       const std::size_t n = p.points.size();
-      if (n == 0) continue;
       for (std::size_t k = 0; k < n; ++k) {
-        const Viewed w = vw(pts[k]);
+        const Vec3 q = pts[k];
+        const Viewed w = vw(q);
         bu0 = std::min(bu0, w.u), bu1 = std::max(bu1, w.u);
         bv0 = std::min(bv0, w.v), bv1 = std::max(bv1, w.v);
         bd0 = std::min(bd0, w.depth), bd1 = std::max(bd1, w.depth);
+        bz0 = std::min(bz0, q.z), bz1 = std::max(bz1, q.z);
+        if (first) flat_z = q.z, first = false;
+        if (q.z != flat_z) flat_z = std::numeric_limits<double>::quiet_NaN();
+        if (k > 0) length += norm(q - pts[k - 1]);
       }
-      if (first) flat_z = pts[0].z, first = false;
-      double fz = flat_z, zmin = bz0, zmax = bz1, len = length;
-      Vec3 prev = pts[0];
-      zmin = std::min(zmin, prev.z), zmax = std::max(zmax, prev.z);
-      if (prev.z != fz) fz = std::numeric_limits<double>::quiet_NaN();
-      for (std::size_t k = 1; k < n; ++k) {
-        const Vec3 q = pts[k];
-        zmin = std::min(zmin, q.z), zmax = std::max(zmax, q.z);
-        if (q.z != fz) fz = std::numeric_limits<double>::quiet_NaN();
-        len += norm(q - prev);
-        prev = q;
-      }
-      flat_z = fz, bz0 = zmin, bz1 = zmax, length = len;
     }
     u0 = bu0, u1 = bu1, v0 = bv0, v1 = bv1, d0 = bd0, d1 = bd1, z0 = bz0, z1 = bz1;
     layers.push_back({flat_z, length});
