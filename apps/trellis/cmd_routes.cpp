@@ -60,8 +60,21 @@ std::string command_line(int argc, char** argv) {
 
 }  // namespace
 
+namespace {
+std::vector<std::string> command_words;
+bool words_set = false;
+}  // namespace
+
+void set_command_words(int argc, char** argv) {
+  command_words.assign(argv + (argc > 0 ? 1 : 0), argv + argc);
+  words_set = true;
+}
+
 void SettingFlags::add(CLI::App* cmd, const std::vector<std::string>& sections,
                        const std::string& reader) {
+  if (words_set &&
+      std::find(command_words.begin(), command_words.end(), cmd->get_name()) == command_words.end())
+    return;
   for (const auto& s : all_settings()) {
     if (s.flag.empty()) continue;
     if (!reader.empty() && !route_uses(s, reader)) continue;

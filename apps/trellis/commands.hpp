@@ -37,13 +37,20 @@ void print_warnings(const Diagnostics& diag);
 // at a line of a file (job file, profile), which names keys as the file does.
 std::string error_text(const Error& e);
 
+// The words of the command line (main sets them before the commands are made): the flags made
+// from the settings schema are added to a command only when its name is one of them, as only a
+// command named can run or print its --help. Making them for every command was a fifth of the
+// instructions of a small `trellis slice`.
+void set_command_words(int argc, char** argv);
+
 // Flags generated from the settings schema for the given sections (`--name VALUE`; booleans
 // `--name` / `--no-name`); `apply` sets what was given, each naming its flag as its origin.
 struct SettingFlags {
   std::map<std::string, std::string> values;
   std::map<std::string, int> bools;
   std::vector<std::pair<std::string, CLI::Option*>> options;
-  // `reader`: only the settings that reader route uses (Setting::when's `route=` terms).
+  // `reader`: only the settings that reader route uses (Setting::when's `route=` terms). Nothing
+  // is added to a command not named on the command line (set_command_words).
   void add(CLI::App* cmd, const std::vector<std::string>& sections, const std::string& reader = "");
   void apply(Settings& settings) const;
 };

@@ -140,6 +140,7 @@ int main(int argc, char** argv) {
       "  trellis check octet.json octet.nc --machine profiles/embedded_aero_410um.toml"};
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string("trellis ") + trellis::version());
+  trellis::cli::set_command_words(argc, argv);
   trellis::cli::add_routes(app, argc, argv);
   trellis::cli::add_reader(app, "render");
   trellis::cli::add_run(app);

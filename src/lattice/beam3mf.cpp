@@ -1,4 +1,6 @@
-// 3MF Beam Lattice extension (the exchange format of nTop, Netfabb, OpenVCAD) through lib3mf
+// 3MF Beam Lattice extension (the exchange format of nTop, Netfabb, OpenVCAD) through lib3mf,
+// in the run-time module trellis_3mf (geom/mesh_3mf_module.hpp; libtrellis calls it through
+// lattice/beam3mf_forward.cpp)
 // 1.8's C interface: beams are struts, a beam's radius the strut radius, beam sets materials.
 #include <Model/COM/NMR_DLLInterfaces.h>
 
@@ -154,6 +156,8 @@ struct Reader {
 
 }  // namespace
 
+namespace impl {
+
 LatticeInput read_beam_lattice_3mf(const std::string& path, Diagnostics& diag) {
   (void)read_file(path);  // a clear IoError for a missing file
   // The 3mf module's walk first (see read_3mf): places problems by part, line and column and
@@ -263,5 +267,7 @@ void write_beam_lattice_3mf(const std::string& path, const Graph& g, double defa
     fail("cannot create a 3MF writer", model.p);
   if (!detail::write_3mf_package(writer.p, path)) fail("cannot write 3MF", writer.p);
 }
+
+}  // namespace impl
 
 }  // namespace trellis

@@ -2,6 +2,8 @@
 // it; the default is that member's initialiser (Config{}), so it is written nowhere else.
 #include <cmath>
 #include <limits>
+#include <map>
+#include <string_view>
 
 #include "trellis/core/error.hpp"
 #include "trellis/settings/settings.hpp"
@@ -474,16 +476,31 @@ const std::vector<std::pair<const char*, const char*>>& when_table() {
 }
 
 void apply_when(std::vector<Setting>& table) {
+  // Keys as views (no string made per setting and entry: this runs at every start-up), each
+  // setting against the entries of its section only (an entry covers keys of its own section),
+  // in the table's order; and the exact keys found on the way.
+  const auto& whens = when_table();
+  const auto section_of = [](std::string_view k) { return k.substr(0, k.find('.') + 1); };
+  std::map<std::string_view, std::vector<std::size_t>> by_section;
+  for (std::size_t i = 0; i < whens.size(); ++i)
+    by_section[section_of(whens[i].first)].push_back(i);
+  std::vector<char> found(whens.size(), 0);
   for (Setting& s : table) {
-    for (const auto& [key, when] : when_table()) {
-      const std::string k = key;
-      const bool covers = k.back() == '.' ? s.key.compare(0, k.size(), k) == 0 : s.key == k;
-      if (covers) s.when += (s.when.empty() ? "" : "; ") + std::string(when);
+    const auto it = by_section.find(section_of(s.key));
+    if (it == by_section.end()) continue;
+    for (const std::size_t i : it->second) {
+      const std::string_view k = whens[i].first;
+      const bool section = k.back() == '.';
+      const bool covers = section ? std::string_view(s.key).substr(0, k.size()) == k : s.key == k;
+      if (!covers) continue;
+      if (!section) found[i] = 1;
+      s.when += (s.when.empty() ? "" : "; ") + std::string(whens[i].second);
     }
   }
-  for (const auto& [key, when] : when_table())
-    if (std::string(key).back() != '.' && !find_in(table, key))
-      throw std::logic_error(std::string("the when table names an unknown setting ") + key);
+  for (std::size_t i = 0; i < whens.size(); ++i)
+    if (std::string_view(whens[i].first).back() != '.' && !found[i])
+      throw std::logic_error(std::string("the when table names an unknown setting ") +
+                             whens[i].first);
 }
 
 // The table is laid out by hand: clang-format 14 breaks `[](C& c) -> auto&` into `(C & c)`.
