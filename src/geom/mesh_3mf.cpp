@@ -1,9 +1,12 @@
 // 3MF files through lib3mf 1.8's C interface, built as the run-time module trellis_3mf (see
 // src/core/module.hpp): lib3mf and libzip load only when a 3MF file is read or written.
 #include <Model/COM/NMR_DLLInterfaces.h>
+#include <tbb/parallel_invoke.h>
+#include <zip.h>
 
 #include <array>
 #include <cstdio>
+#include <exception>
 #include <functional>
 #include <vector>
 
@@ -47,9 +50,9 @@ DWORD unit_of(const std::string& name) {
                      "' (micron, millimeter, centimeter, inch, foot or meter)");
 }
 
-}  // namespace
-
-TriangleMesh read_3mf(const std::string& path) {
+// The package read by lib3mf, its build's meshes returned as stored (transformed, in
+// millimetres), not yet checked.
+TriangleMesh read_with_lib3mf(const std::string& path) {
   using namespace NMR;
   // lib3mf 1.8 C interface; every handle released on every path.
   struct Handle {
@@ -68,11 +71,6 @@ TriangleMesh read_3mf(const std::string& path) {
     }
     throw ParseError(msg, {path, 0, ""});
   };
-  // Our own walk first: it places a problem by part, line and column, refuses what lib3mf 1.8
-  // reads without a word (a coordinate "zz" as 0, an unknown unit as millimetres), and keeps
-  // non-ZIP input away from lib3mf 1.8, which leaks its ZIP source when it refuses one.
-  if (const Located3mf at = locate_3mf_problem(path); !at.what.empty())
-    throw ParseError(at.what, {path, 0, at.where});
   Handle model, reader;
   if (lib3mf_createmodel(&model.p) != LIB3MF_OK) fail("cannot create a 3MF model", nullptr);
   if (lib3mf_model_queryreader(model.p, "3mf", &reader.p) != LIB3MF_OK)
@@ -208,6 +206,53 @@ TriangleMesh read_3mf(const std::string& path) {
     }
   }
   return b;
+}
+
+// Whether libzip opens the file as a ZIP package (its central directory only).
+bool opens_as_zip(const std::string& path) {
+  int code = 0;
+  zip_t* z = zip_open(path.c_str(), ZIP_RDONLY, &code);
+  if (z) zip_discard(z);
+  return z != nullptr;
+}
+
+}  // namespace
+
+// Our own walk (src/geom/locate_3mf.cpp) places a problem by part, line and column and refuses
+// what lib3mf 1.8 reads without a word (a coordinate "zz" as 0, an unknown unit as
+// millimetres): its problem, when it finds one, is the error, whatever lib3mf says. Both parse
+// the whole model, so with two threads they run side by side (each inflates and parses the
+// model part on its own; the walk's problem still comes first, then lib3mf's error, then the
+// mesh: the same results as one after the other). Non-ZIP input is kept away from lib3mf 1.8,
+// which leaks its ZIP source when it refuses one: the walk alone says what it is.
+TriangleMesh read_3mf(const std::string& path) {
+  if (!opens_as_zip(path)) {
+    if (const Located3mf at = locate_3mf_problem(path); !at.what.empty())
+      throw ParseError(at.what, {path, 0, at.where});
+    return read_with_lib3mf(path);
+  }
+  Located3mf at;
+  TriangleMesh mesh;
+  std::exception_ptr walk_error, read_error;
+  tbb::parallel_invoke(
+      [&] {
+        try {
+          at = locate_3mf_problem(path);
+        } catch (...) {
+          walk_error = std::current_exception();
+        }
+      },
+      [&] {
+        try {
+          mesh = read_with_lib3mf(path);
+        } catch (...) {
+          read_error = std::current_exception();
+        }
+      });
+  if (walk_error) std::rethrow_exception(walk_error);
+  if (!at.what.empty()) throw ParseError(at.what, {path, 0, at.where});
+  if (read_error) std::rethrow_exception(read_error);
+  return mesh;
 }
 
 void write_3mf(const std::string& path, const TriangleMesh& mesh, const std::string& unit_name) {
