@@ -101,7 +101,7 @@ TEST(Mesh3mfRead, OneAndTwoThreadsGiveTheSameMeshOrTheSameError) {
                               "\" xml:lang=\"en-US\" xmlns=\"" + kCore + "\">\n<resources>\n" +
                               resources + "</resources>\n<build>\n" + build +
                               "</build>\n</model>\n";
-    const std::string path = (dir.path() / ("m" + std::to_string(round) + ".3mf")).string();
+    const std::string path = dir.path().string() + "/m" + std::to_string(round) + ".3mf";
     trellis::test::write_3mf(path, model);
     const Outcome one = read_with(path, 1), two = read_with(path, 2);
     SCOPED_TRACE("round " + std::to_string(round) + ": " + one.error);
@@ -134,7 +134,7 @@ TEST(Mesh3mfRead, NotAZipIsRefusedTheSameWayWithOneOrTwoThreads) {
   for (int round = 0; round < 8; ++round) {
     std::string bytes(static_cast<std::size_t>(1 + 97 * round), '\0');
     for (char& c : bytes) c = static_cast<char>(rng());
-    const std::string path = (dir.path() / ("n" + std::to_string(round) + ".3mf")).string();
+    const std::string path = dir.path().string() + "/n" + std::to_string(round) + ".3mf";
     std::ofstream(path, std::ios::binary) << bytes;
     const Outcome one = read_with(path, 1), two = read_with(path, 2);
     EXPECT_FALSE(one.read || two.read);
