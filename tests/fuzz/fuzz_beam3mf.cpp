@@ -16,7 +16,8 @@
 // COpcPackageReader error paths; the CLI exits right after such an error, so nothing
 // accumulates). Leak reports' stacks end in libzip (the fast unwinder stops there), so blocks
 // allocated by libzip are suppressed: a leak in Trellis's own code still stops the fuzzer. The
-// located walk (src/geom/locate_3mf.cpp) runs first and keeps most broken input from lib3mf.
+// located walk (src/geom/locate_3mf.cpp) keeps non-ZIP input from lib3mf; read_mesh runs it first
+// with one thread, beside lib3mf with two (then lib3mf also reads packages the walk refuses).
 extern "C" const char* __lsan_default_suppressions() {
   return "leak:libzip.so\n";
 }
