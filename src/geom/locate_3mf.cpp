@@ -69,6 +69,20 @@ const char* attribute(const XML_Char** atts, const char* name) {
   return nullptr;
 }
 
+// Three attributes' values in one pass over `atts` (a vertex's x, y, z; a triangle's v1, v2,
+// v3): each the first whose local name is names[k], as attribute() finds it, or nullptr.
+void attributes3(const XML_Char** atts, const char* const (&names)[3], const char* (&out)[3]) {
+  out[0] = out[1] = out[2] = nullptr;
+  for (int i = 0; atts[i]; i += 2) {
+    const char* n = local_name(atts[i]);
+    for (int k = 0; k < 3; ++k)
+      if (!out[k] && std::strcmp(n, names[k]) == 0) {
+        out[k] = atts[i + 1];
+        break;
+      }
+  }
+}
+
 // Whether strtod reads all of `s` as a finite number without ERANGE. Plain decimals that come
 // out normal are settled by std::from_chars (the same correctly rounded double, a tenth of the
 // cost); everything else (blanks, '+', hex, zero, tiny or huge values, text) is strtod's to say.
@@ -127,8 +141,12 @@ struct Walker {
 
   void index_attr(const XML_Char** atts, const char* name, const char* kind,
                   unsigned long long number) {
+    index_value(attribute(atts, name), name, kind, number);
+  }
+
+  // The index attribute `name` whose value is `s` (nullptr: none).
+  void index_value(const char* s, const char* name, const char* kind, unsigned long long number) {
     unsigned long long v = 0;
-    const char* s = attribute(atts, name);
     if (!s)
       fail(element(kind, number) + " has no attribute " + name);
     else if (!parse_index(s, v))
@@ -154,9 +172,13 @@ struct Walker {
       objects[object] = true;
       vertices = triangles = beams = 0;
     } else if (n == "vertex") {
-      for (const char* axis : {"x", "y", "z"}) {
+      static constexpr const char* axes[3] = {"x", "y", "z"};
+      const char* value[3];
+      attributes3(atts, axes, value);
+      for (int k = 0; k < 3; ++k) {
+        const char* const axis = axes[k];
         double v = 0;
-        const char* s = attribute(atts, axis);
+        const char* s = value[k];
         if (!s) return fail(element("vertex", vertices) + " has no " + axis);
         if (!parse_number(s, v))
           return fail(element("vertex", vertices) + ": " + axis + "=\"" + s +
@@ -164,8 +186,11 @@ struct Walker {
       }
       ++vertices;
     } else if (n == "triangle") {
-      for (const char* v : {"v1", "v2", "v3"}) {
-        index_attr(atts, v, "triangle", triangles);
+      static constexpr const char* corners[3] = {"v1", "v2", "v3"};
+      const char* value[3];
+      attributes3(atts, corners, value);
+      for (int k = 0; k < 3; ++k) {
+        index_value(value[k], corners[k], "triangle", triangles);
         if (!problem.empty()) return;
       }
       ++triangles;

@@ -12,8 +12,10 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <iterator>
 #include <map>
+#include <optional>
 
 #include "mesh_3mf_module.hpp"
 #include "mesh_weld.hpp"
@@ -154,6 +156,75 @@ std::vector<std::size_t> piece_starts(std::string_view text, std::size_t piece,
   return starts;
 }
 
+// A text to read in pieces: in memory, or a file whose pieces are read (pread) into a buffer of
+// the thread that parses them, so a large text is never held whole (reading a fresh buffer of a
+// file's size costs more than the reading: a page fault every 4 KB).
+struct TextInMemory {
+  std::string_view text;
+  std::size_t size() const { return text.size(); }
+  template <class Opens>
+  std::vector<std::size_t> starts(std::size_t piece, const Opens& opens) const {
+    return piece_starts(text, piece, opens);
+  }
+  std::string_view piece(std::size_t from, std::size_t to, std::string&) const {
+    return text.substr(from, to - from);
+  }
+};
+
+struct TextInFile {
+  const InputFile& file;
+  std::size_t size() const { return static_cast<std::size_t>(file.size()); }
+  // piece_starts' starts, found in a window of the file after each multiple of `piece`; none
+  // (an empty list) when a start is not within its window (then the whole text is read).
+  template <class Opens>
+  std::vector<std::size_t> starts(std::size_t piece, const Opens& opens) const {
+    constexpr std::size_t kWindow = 1 << 16;
+    const std::size_t n = size();
+    std::vector<std::size_t> out{0};
+    std::string w;
+    std::size_t want = piece;
+    while (want < n) {
+      const std::size_t from = want - 1, len = std::min(kWindow, n - from);
+      w.resize(len);
+      file.read_at(from, w.data(), len);
+      const bool to_end = from + len == n;
+      const std::string_view text(w);
+      std::size_t at = text.find('\n');
+      if (at == std::string_view::npos) {
+        if (!to_end) return {};
+        break;  // no line starts after `want`
+      }
+      ++at;
+      bool found = false;
+      while (at < text.size()) {
+        std::size_t end = text.find('\n', at);
+        if (end == std::string_view::npos) {
+          if (!to_end) return {};  // the line runs past the window
+          end = text.size();
+        }
+        if (opens(trim(text.substr(at, end - at)))) {
+          found = true;
+          break;
+        }
+        at = end + 1;
+      }
+      if (!found) {
+        if (!to_end) return {};
+        break;
+      }
+      out.push_back(from + at);
+      want = from + at + piece;
+    }
+    out.push_back(n);
+    return out;
+  }
+  std::string_view piece(std::size_t from, std::size_t to, std::string& scratch) const {
+    scratch.resize(to - from);
+    file.read_at(from, scratch.data(), to - from);
+    return scratch;
+  }
+};
+
 // The ASCII STL grammar over `text` (whole lines), from outside a facet, its triangles' corners
 // appended to `corners`. A problem is `fail(message, line)` (line counted from 1 in `text`),
 // which throws or returns false; then this returns false. `in_facet`: a facet is open at the
@@ -231,15 +302,20 @@ TriangleMesh parse_ascii_stl_serial(const std::string& text, const std::string& 
 // serial reading's mesh, since a valid file is outside any facet before each 'facet' line.
 // A piece that is not valid read from there (or a facet open at a piece's end) sends the whole
 // text to the serial reading, which throws what it always threw, at the line it always named.
-TriangleMesh parse_ascii_stl(const std::string& text, const std::string& name, std::size_t piece) {
-  if (text.size() < 2 * piece) return parse_ascii_stl_serial(text, name);
+// `text` (a TextInMemory or TextInFile) is read piece by piece; `whole()` gives all of it, for
+// the serial reading. Nothing (false) when the pieces cannot be found in a file's windows.
+template <class Text, class Whole>
+std::optional<TriangleMesh> ascii_stl_in_pieces(const Text& text, const Whole& whole,
+                                                const std::string& name, std::size_t piece) {
   const std::vector<std::size_t> at =
-      piece_starts(text, piece, [](std::string_view s) { return s.starts_with("facet"); });
+      text.starts(piece, [](std::string_view s) { return s.starts_with("facet"); });
+  if (at.empty()) return std::nullopt;
   const std::size_t pieces = at.size() - 1;
   std::vector<WeldedRun> runs(pieces);
   struct Scratch {
     std::vector<Vec3> corners;
     WeldTable table;
+    std::string bytes;  // a file's piece
   };
   tbb::enumerable_thread_specific<Scratch> scratch;
   std::atomic<bool> ok{true};
@@ -249,17 +325,23 @@ TriangleMesh parse_ascii_stl(const std::string& text, const std::string& name, s
     std::vector<Vec3>& corners = sc.corners;
     corners.clear();
     bool open = false;
-    if (!scan_ascii_stl(std::string_view(text).substr(at[k], at[k + 1] - at[k]), corners, open,
+    if (!scan_ascii_stl(text.piece(at[k], at[k + 1], sc.bytes), corners, open,
                         [](const std::string&, long) { return false; })) {
       ok = false;
       return;
     }
     weld_run(corners.data(), corners.size(), runs[k], sc.table);
   });
-  if (!ok) return parse_ascii_stl_serial(text, name);
+  if (!ok) return parse_ascii_stl_serial(whole(), name);
   TriangleMesh mesh = join_runs(runs);
   if (mesh.triangles.empty()) throw ParseError("STL has no triangles", {name, 0, ""});
   return mesh;
+}
+
+TriangleMesh parse_ascii_stl(const std::string& text, const std::string& name, std::size_t piece) {
+  if (text.size() < 2 * piece) return parse_ascii_stl_serial(text, name);
+  return *ascii_stl_in_pieces(
+      TextInMemory{text}, [&]() -> const std::string& { return text; }, name, piece);
 }
 
 }  // namespace
@@ -332,6 +414,15 @@ TriangleMesh read_stl(const std::string& path) {
           return static_cast<const char*>(scratch);
         },
         static_cast<std::size_t>(count), path);
+  // A large ASCII STL in pieces from the file (the head says "solid"; otherwise, or when its
+  // pieces are not found, the whole text is read as before).
+  if (size >= 2 * kTextPiece && std::string_view(head, 84).find('\0') == std::string_view::npos &&
+      trim(std::string_view(head, 84)).starts_with("solid")) {
+    std::string all;
+    auto whole = [&]() -> const std::string& { return all = read_file(path); };
+    if (auto mesh = ascii_stl_in_pieces(TextInFile{file}, whole, path, kTextPiece))
+      return std::move(*mesh);
+  }
   return ascii_or_not_stl(read_file(path), path);
 }
 
@@ -454,17 +545,17 @@ TriangleMesh parse_obj_serial(const std::string& text, const std::string& name) 
   return mesh;
 }
 
-}  // namespace
-
 // Pieces (at line starts) read in parallel, their vertices and corners joined in order: the
 // serial reading's lists when every piece reads and every index names a vertex before its face.
 // Anything else (a problem, an index beyond the vertices so far, a relative index) sends the
 // whole text to the serial reading, which throws what it always threw or reads it as always.
-TriangleMesh parse_obj(const std::string& text, const std::string& name, std::size_t piece) {
-  if (piece == 0) piece = kTextPiece;
-  if (text.size() < 2 * piece) return parse_obj_serial(text, name);
-  const std::vector<std::size_t> at =
-      piece_starts(text, piece, [](std::string_view) { return true; });
+// `text` (a TextInMemory or TextInFile) is read piece by piece; `whole()` gives all of it, for
+// the serial reading. Nothing when the pieces cannot be found in a file's windows.
+template <class Text, class Whole>
+std::optional<TriangleMesh> obj_in_pieces(const Text& text, const Whole& whole,
+                                          const std::string& name, std::size_t piece) {
+  const std::vector<std::size_t> at = text.starts(piece, [](std::string_view) { return true; });
+  if (at.empty()) return std::nullopt;
   const std::size_t pieces = at.size() - 1;
   struct Piece {
     std::vector<Vec3> verts;
@@ -473,14 +564,15 @@ TriangleMesh parse_obj(const std::string& text, const std::string& name, std::si
   };
   std::vector<Piece> part(pieces);
   std::atomic<bool> ok{true};
+  tbb::enumerable_thread_specific<std::string> scratch;  // a file's piece
   tbb::parallel_for(std::size_t{0}, pieces, [&](std::size_t k) {
     if (!ok) return;
     Piece& p = part[k];
     const std::size_t bytes = at[k + 1] - at[k];
     p.verts.reserve(bytes / 48);  // a vertex line is some 30 bytes, a face's corner some 8
     p.corners.reserve(bytes / 6);
-    if (!scan_obj<true>(std::string_view(text).substr(at[k], at[k + 1] - at[k]), p.verts, p.corners,
-                        p.need, [](const std::string&, long) { return false; }))
+    if (!scan_obj<true>(text.piece(at[k], at[k + 1], scratch.local()), p.verts, p.corners, p.need,
+                        [](const std::string&, long) { return false; }))
       ok = false;
   });
   std::vector<std::size_t> vfirst(pieces + 1, 0), cfirst(pieces + 1, 0);
@@ -489,7 +581,7 @@ TriangleMesh parse_obj(const std::string& text, const std::string& name, std::si
     vfirst[k + 1] = vfirst[k] + part[k].verts.size();
     cfirst[k + 1] = cfirst[k] + part[k].corners.size();
   }
-  if (!ok || vfirst[pieces] >= 0xffffffffu) return parse_obj_serial(text, name);
+  if (!ok || vfirst[pieces] >= 0xffffffffu) return parse_obj_serial(whole(), name);
   std::vector<Vec3> verts(vfirst[pieces]);
   std::vector<std::uint32_t> corners(cfirst[pieces]);
   tbb::parallel_for(std::size_t{0}, pieces, [&](std::size_t k) {
@@ -504,11 +596,34 @@ TriangleMesh parse_obj(const std::string& text, const std::string& name, std::si
   return mesh;
 }
 
+}  // namespace
+
+TriangleMesh parse_obj(const std::string& text, const std::string& name, std::size_t piece) {
+  if (piece == 0) piece = kTextPiece;
+  if (text.size() < 2 * piece) return parse_obj_serial(text, name);
+  return *obj_in_pieces(
+      TextInMemory{text}, [&]() -> const std::string& { return text; }, name, piece);
+}
+
 TriangleMesh parse_obj(const std::string& text, const std::string& name) {
   return parse_obj(text, name, 0);
 }
 
+// A large OBJ in pieces from the file (never held whole, as parse_obj would read it in pieces);
+// a small one, anything but a regular file (read_file's errors), or one whose pieces are not
+// found, read whole.
 TriangleMesh read_obj(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_regular_file(path, ec) &&
+      std::filesystem::file_size(path, ec) >= 2 * kTextPiece && !ec) {
+    const InputFile file(path);
+    if (file.size() >= 2 * kTextPiece) {
+      std::string all;
+      auto whole = [&]() -> const std::string& { return all = read_file(path); };
+      if (auto mesh = obj_in_pieces(TextInFile{file}, whole, path, kTextPiece))
+        return std::move(*mesh);
+    }
+  }
   return parse_obj(read_file(path), path);
 }
 

@@ -8,6 +8,7 @@
 // they were written from (an oracle that reads no text), on 1 and 2 threads.
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
+#include <unistd.h>
 
 #include <cstdio>
 #include <cstring>
@@ -302,4 +303,51 @@ TEST(MeshPieces, FuzzCorpusReadsAsLineByLine) {
     ++files;
   }
   EXPECT_GT(files, 100);
+}
+
+// A text of 2 MB or more is read from its file in pieces (each piece read into its thread's
+// buffer; the file is never held whole): read_mesh of the file gives what parsing its bytes in
+// memory gives (the same mesh, or the same error naming the same line), on 1 and 2 threads, for
+// random meshes, the same damaged, and texts with a line longer than the window the pieces'
+// starts are looked for in (then the file is read whole).
+TEST(MeshPieces, LargeFilesReadFromTheFileAsFromMemory) {
+  const std::filesystem::path dir =
+      std::filesystem::temp_directory_path() / ("trellis_pieces_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  std::mt19937 rng(2814);
+  int read = 0;
+  for (int round = 0; round < 12; ++round) {
+    const bool stl = round % 2 == 0;
+    std::vector<Vec3> corners;
+    std::string text;
+    if (stl) {
+      const std::vector<Vec3> pts = random_points(rng, 400);
+      for (std::size_t t = 0; t < 3 * 14000; ++t) corners.push_back(pts[rng() % pts.size()]);
+      text = ascii_stl(rng, corners);
+    } else {
+      text = obj(rng, random_points(rng, 45000), corners, false);
+    }
+    ASSERT_GE(text.size(), std::size_t{2} << 20);
+    if (round % 4 >= 2) text = damage(rng, text);
+    if (round % 6 == 5) {  // a line of 100 KB around the first piece's end
+      const std::size_t at = text.find('\n', (1 << 20) - 50000 + rng() % 20000) + 1;
+      text.insert(at, (stl ? "solid " : "# ") + std::string(100000, 'x') + "\n");
+    }
+    const std::string path =
+        (dir / ("r" + std::to_string(round) + (stl ? ".stl" : ".obj"))).string();
+    std::ofstream(path, std::ios::binary) << text;
+    const Outcome memory = run([&] { return stl ? parse_stl(text, path) : parse_obj(text, path); });
+    for (const std::size_t threads : {1u, 2u}) {
+      tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+      const Outcome file = run([&] { return read_mesh(path); });
+      EXPECT_EQ(same(memory, file), "") << "round " << round << ", " << threads << " threads";
+    }
+    if (round % 4 < 2 && round % 6 != 5) {
+      ASSERT_TRUE(memory.ok) << memory.error;
+      EXPECT_TRUE(same_mesh(memory.mesh, weld_corners(corners))) << round;
+    }
+    if (memory.ok) ++read;
+  }
+  std::filesystem::remove_all(dir);
+  EXPECT_GT(read, 4);
 }
