@@ -261,14 +261,9 @@ int rings_meet_swept(const cl::Paths& rings, std::size_t budget) {
   return 0;
 }
 
-// Whether any two edges of the rings meet, other than neighbours in one ring at their shared
-// point: edges bucketed in a uniform grid by their boxes; false (give up) when the grid would
-// hold too many entries. The answer does not depend on how the pairs are found, giving up does:
-// where the grid would hold too many entries the answer is still "give up", but the pairs are
-// found by a sweep along x where that is quick (a slice's rings, curves of some hundred short
-// edges: the grid's cells held some sqrt(edges) of them each, every pair of them tested, a tenth
-// of slicing the Vase).
-bool rings_meet(const cl::Paths& rings, bool& gave_up) {
+}  // namespace
+
+bool rings_meet(const cl::Paths& rings, bool& gave_up, bool sweep) {
   gave_up = false;
   std::size_t edges = 0;
   cl::cInt x0 = rings[0][0].X, y0 = rings[0][0].Y, x1 = x0, y1 = y0;
@@ -302,7 +297,7 @@ bool rings_meet(const cl::Paths& rings, bool& gave_up) {
         }
       }
   }
-  const int swept = rings_meet_swept(rings, 8 * edges + 256);
+  const int swept = sweep ? rings_meet_swept(rings, 8 * edges + 256) : -1;
   if (swept >= 0) return swept == 1;
   struct Hit {
     std::uint32_t cell, ring, edge;
@@ -349,6 +344,8 @@ bool rings_meet(const cl::Paths& rings, bool& gave_up) {
   }
   return false;
 }
+
+namespace {
 
 // 1 inside, 0 outside (p is off the ring's edges: the rings do not meet).
 bool inside(const cl::Path& ring, const cl::IntPoint& p) {
