@@ -41,4 +41,14 @@ std::vector<Polygon2> nest_paths(const ClipperLib::Paths& paths);
 bool offset_directly(const ClipperLib::Paths& rings, double delta, double miter_limit,
                      ClipperLib::Paths& out);
 
+// Whether any two edges of the closed rings meet, other than neighbours in one ring at their
+// shared point (offset_directly's check). Edges were bucketed in a uniform grid of cells
+// 2 sqrt(area / edges) wide; where that grid would hold more than 16 entries an edge plus 64 the
+// search gives up (true, `gave_up` set). The answer does not depend on how the pairs are found,
+// giving up does, so that rule stays; otherwise (`sweep`) the pairs are found by a sweep along x
+// while it tests fewer than 8 boxes an edge plus 256, by the grid after that (a slice's rings
+// are curves of some hundred short edges: the grid's cells held some sqrt(edges) of them each,
+// every pair of them tested, a tenth of slicing the Vase). `sweep` false: the grid alone.
+bool rings_meet(const ClipperLib::Paths& rings, bool& gave_up, bool sweep = true);
+
 }  // namespace trellis::clipper_util

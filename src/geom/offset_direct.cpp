@@ -200,10 +200,70 @@ bool offset_ring(const cl::Path& src, double delta, double miter_lim, cl::Path& 
   return out.size() >= 3;
 }
 
-// Whether any two edges of the rings meet, other than neighbours in one ring at their shared
-// point: edges bucketed in a uniform grid by their boxes; false (give up) when the grid would
-// hold too many entries.
-bool rings_meet(const cl::Paths& rings, bool& gave_up) {
+// Neighbours in a ring (edges lo < hi of a ring of m) share one point; they meet elsewhere only
+// if the second folds back along the first.
+bool neighbours_fold(const cl::Path& r, std::uint32_t lo, std::uint32_t hi, bool& neighbours) {
+  const std::size_t m = r.size();
+  neighbours = hi == lo + 1 || (lo == 0 && hi + 1 == m);
+  if (!neighbours) return false;
+  const bool wrap = hi != lo + 1;
+  const std::uint32_t e1 = wrap ? hi : lo, e2 = wrap ? lo : hi;
+  const cl::IntPoint& a = r[e1];
+  const cl::IntPoint& b = r[e1 + 1 == m ? 0 : e1 + 1];
+  const cl::IntPoint& c = r[e2];
+  const cl::IntPoint& d = r[e2 + 1 == m ? 0 : e2 + 1];
+  return orient(a, b, d) == 0 && static_cast<__int128>(b.X - a.X) * (d.X - c.X) +
+                                         static_cast<__int128>(b.Y - a.Y) * (d.Y - c.Y) <
+                                     0;
+}
+
+// The edges' boxes swept along x (sorted by their left side): each edge is tested against those
+// whose boxes meet its own. -1 where that takes more than `budget` box tests (many edges side by
+// side along x), else whether two edges meet.
+int rings_meet_swept(const cl::Paths& rings, std::size_t budget) {
+  struct Edge {
+    cl::cInt x0, x1, y0, y1;
+    std::uint32_t ring, edge;
+  };
+  thread_local std::vector<Edge> edges;
+  edges.clear();
+  for (std::uint32_t ri = 0; ri < rings.size(); ++ri) {
+    const auto& r = rings[ri];
+    for (std::uint32_t e = 0; e < r.size(); ++e) {
+      const cl::IntPoint& a = r[e];
+      const cl::IntPoint& b = r[e + 1 == r.size() ? 0 : e + 1];
+      edges.push_back(
+          {std::min(a.X, b.X), std::max(a.X, b.X), std::min(a.Y, b.Y), std::max(a.Y, b.Y), ri, e});
+    }
+  }
+  std::sort(edges.begin(), edges.end(), [](const Edge& p, const Edge& q) { return p.x0 < q.x0; });
+  std::size_t tests = 0;
+  for (std::size_t i = 0; i < edges.size(); ++i) {
+    const Edge& p = edges[i];
+    for (std::size_t j = i + 1; j < edges.size() && edges[j].x0 <= p.x1; ++j) {
+      if (++tests > budget) return -1;
+      const Edge& q = edges[j];
+      if (q.y0 > p.y1 || p.y0 > q.y1) continue;
+      if (p.ring == q.ring) {
+        bool neighbours = false;
+        if (neighbours_fold(rings[p.ring], std::min(p.edge, q.edge), std::max(p.edge, q.edge),
+                            neighbours))
+          return 1;
+        if (neighbours) continue;
+      }
+      const auto& rp = rings[p.ring];
+      const auto& rq = rings[q.ring];
+      if (segments_meet(rp[p.edge], rp[p.edge + 1 == rp.size() ? 0 : p.edge + 1], rq[q.edge],
+                        rq[q.edge + 1 == rq.size() ? 0 : q.edge + 1]))
+        return 1;
+    }
+  }
+  return 0;
+}
+
+}  // namespace
+
+bool rings_meet(const cl::Paths& rings, bool& gave_up, bool sweep) {
   gave_up = false;
   std::size_t edges = 0;
   cl::cInt x0 = rings[0][0].X, y0 = rings[0][0].Y, x1 = x0, y1 = y0;
@@ -216,6 +276,29 @@ bool rings_meet(const cl::Paths& rings, bool& gave_up) {
   const double w = static_cast<double>(x1 - x0) + 1, h = static_cast<double>(y1 - y0) + 1;
   const double cell = std::max(std::sqrt(w * h / static_cast<double>(edges)) * 2, 1.0);
   const long nx = static_cast<long>(w / cell) + 1, ny = static_cast<long>(h / cell) + 1;
+  auto span = [&](const cl::IntPoint& a, const cl::IntPoint& b, long& cx0, long& cx1, long& cy0,
+                  long& cy1) {
+    cx0 = static_cast<long>(static_cast<double>(std::min(a.X, b.X) - x0) / cell);
+    cx1 = static_cast<long>(static_cast<double>(std::max(a.X, b.X) - x0) / cell);
+    cy0 = static_cast<long>(static_cast<double>(std::min(a.Y, b.Y) - y0) / cell);
+    cy1 = static_cast<long>(static_cast<double>(std::max(a.Y, b.Y) - y0) / cell);
+  };
+  const std::size_t limit = 16 * edges + 64;
+  {
+    std::size_t entries = 0;
+    for (const auto& r : rings)
+      for (std::size_t e = 0; e < r.size(); ++e) {
+        long cx0, cx1, cy0, cy1;
+        span(r[e], r[e + 1 == r.size() ? 0 : e + 1], cx0, cx1, cy0, cy1);
+        entries += static_cast<std::size_t>((cx1 - cx0 + 1) * (cy1 - cy0 + 1));
+        if (entries > limit) {
+          gave_up = true;
+          return true;
+        }
+      }
+  }
+  const int swept = sweep ? rings_meet_swept(rings, 8 * edges + 256) : -1;
+  if (swept >= 0) return swept == 1;
   struct Hit {
     std::uint32_t cell, ring, edge;
   };
@@ -224,19 +307,11 @@ bool rings_meet(const cl::Paths& rings, bool& gave_up) {
   for (std::uint32_t ri = 0; ri < rings.size(); ++ri) {
     const auto& r = rings[ri];
     for (std::uint32_t e = 0; e < r.size(); ++e) {
-      const cl::IntPoint& a = r[e];
-      const cl::IntPoint& b = r[e + 1 == r.size() ? 0 : e + 1];
-      const long cx0 = static_cast<long>(static_cast<double>(std::min(a.X, b.X) - x0) / cell);
-      const long cx1 = static_cast<long>(static_cast<double>(std::max(a.X, b.X) - x0) / cell);
-      const long cy0 = static_cast<long>(static_cast<double>(std::min(a.Y, b.Y) - y0) / cell);
-      const long cy1 = static_cast<long>(static_cast<double>(std::max(a.Y, b.Y) - y0) / cell);
+      long cx0, cx1, cy0, cy1;
+      span(r[e], r[e + 1 == r.size() ? 0 : e + 1], cx0, cx1, cy0, cy1);
       for (long y = cy0; y <= cy1; ++y)
         for (long x = cx0; x <= cx1; ++x)
           hits.push_back({static_cast<std::uint32_t>(y * nx + x), ri, e});
-      if (hits.size() > 16 * edges + 64) {
-        gave_up = true;
-        return true;
-      }
     }
   }
   (void)ny;
@@ -254,21 +329,11 @@ bool rings_meet(const cl::Paths& rings, bool& gave_up) {
         const Hit& hp = hits[p];
         const Hit& hq = hits[q];
         if (hp.ring == hq.ring) {
-          const std::size_t m = rings[hp.ring].size();
-          const std::uint32_t lo = std::min(hp.edge, hq.edge), hi = std::max(hp.edge, hq.edge);
-          if (hi == lo + 1 || (lo == 0 && hi + 1 == m)) {
-            // Neighbours share one point; they meet elsewhere only if the second folds back
-            // along the first.
-            const bool wrap = hi != lo + 1;
-            cl::IntPoint a, b, c, d;
-            seg({0, hp.ring, wrap ? hi : lo}, a, b);
-            seg({0, hp.ring, wrap ? lo : hi}, c, d);
-            if (orient(a, b, d) == 0 && static_cast<__int128>(b.X - a.X) * (d.X - c.X) +
-                                                static_cast<__int128>(b.Y - a.Y) * (d.Y - c.Y) <
-                                            0)
-              return true;
-            continue;
-          }
+          bool neighbours = false;
+          if (neighbours_fold(rings[hp.ring], std::min(hp.edge, hq.edge),
+                              std::max(hp.edge, hq.edge), neighbours))
+            return true;
+          if (neighbours) continue;
         }
         cl::IntPoint a, b, c, d;
         seg(hp, a, b);
@@ -279,6 +344,8 @@ bool rings_meet(const cl::Paths& rings, bool& gave_up) {
   }
   return false;
 }
+
+namespace {
 
 // 1 inside, 0 outside (p is off the ring's edges: the rings do not meet).
 bool inside(const cl::Path& ring, const cl::IntPoint& p) {

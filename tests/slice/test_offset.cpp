@@ -171,5 +171,122 @@ TEST(Regions, OffsetOfTessellatedCurvesIsClipperOffsetsAndMostlyDirect) {
   EXPECT_GT(direct, 2 * cases / 5) << direct << " of " << cases << " offsets were direct";
 }
 
+// Whether two edges of the rings meet (not neighbours at their shared point), every pair tested:
+// the plain way rings_meet's sweep and grid must agree with.
+bool edges_meet_plainly(const cl::Paths& rings) {
+  auto orient = [](const cl::IntPoint& a, const cl::IntPoint& b, const cl::IntPoint& c) {
+    const __int128 v = static_cast<__int128>(b.X - a.X) * (c.Y - a.Y) -
+                       static_cast<__int128>(b.Y - a.Y) * (c.X - a.X);
+    return v > 0 ? 1 : v < 0 ? -1 : 0;
+  };
+  auto on = [](const cl::IntPoint& p, const cl::IntPoint& q, const cl::IntPoint& r) {
+    return std::min(p.X, q.X) <= r.X && r.X <= std::max(p.X, q.X) && std::min(p.Y, q.Y) <= r.Y &&
+           r.Y <= std::max(p.Y, q.Y);
+  };
+  struct E {
+    std::size_t ring, edge;
+    cl::IntPoint a, b;
+  };
+  std::vector<E> all;
+  for (std::size_t r = 0; r < rings.size(); ++r)
+    for (std::size_t e = 0; e < rings[r].size(); ++e)
+      all.push_back({r, e, rings[r][e], rings[r][(e + 1) % rings[r].size()]});
+  for (std::size_t i = 0; i < all.size(); ++i)
+    for (std::size_t j = i + 1; j < all.size(); ++j) {
+      const E& p = all[i];
+      const E& q = all[j];
+      const std::size_t m = rings[p.ring].size();
+      if (p.ring == q.ring && (q.edge == p.edge + 1 || (p.edge == 0 && q.edge + 1 == m))) {
+        // Neighbours: they meet elsewhere only where the second runs back along the first.
+        const E& first = q.edge == p.edge + 1 ? p : q;
+        const E& second = q.edge == p.edge + 1 ? q : p;
+        const __int128 dot =
+            static_cast<__int128>(first.b.X - first.a.X) * (second.b.X - second.a.X) +
+            static_cast<__int128>(first.b.Y - first.a.Y) * (second.b.Y - second.a.Y);
+        if (orient(first.a, first.b, second.b) == 0 && dot < 0) return true;
+        continue;
+      }
+      const int d1 = orient(p.a, p.b, q.a), d2 = orient(p.a, p.b, q.b);
+      const int d3 = orient(q.a, q.b, p.a), d4 = orient(q.a, q.b, p.b);
+      if (d1 * d2 < 0 && d3 * d4 < 0) return true;
+      if ((d1 == 0 && on(p.a, p.b, q.a)) || (d2 == 0 && on(p.a, p.b, q.b)) ||
+          (d3 == 0 && on(q.a, q.b, p.a)) || (d4 == 0 && on(q.a, q.b, p.b)))
+        return true;
+    }
+  return false;
+}
+
+// offset_directly's test for rings that meet, found by a sweep along x (clipper_util::
+// rings_meet) and by the grid it replaced: the same answer and the same give-up on seeded rings
+// (a slice's curves offset, stars, strips side by side along x that send the sweep to the grid,
+// long diagonal edges that make the grid give up), and where neither gives up the answer of
+// testing every pair.
+TEST(Regions, RingsMeetBySweepIsTheGridsAnswer) {
+  std::size_t cases = 0, met = 0, apart = 0, gave_up_count = 0, strips = 0;
+  for (std::uint64_t trial = 0; trial < 300; ++trial) {
+    Rng rng(0x5ee9a11 + trial);
+    cl::Paths rings;
+    const int kind = static_cast<int>(trial % 4);
+    if (kind == 0 || kind == 1) {
+      // Offset rings as offset_directly checks them (before the check: they may cross).
+      const Regions r =
+          kind == 0 ? tessellated_region(rng) : test::random_region(rng, 1 + 10 * rng.uniform01());
+      for (const auto& poly : r) {
+        rings.push_back(clipper_util::to_path(poly.outer));
+        for (const auto& h : poly.holes) rings.push_back(clipper_util::to_path(h));
+      }
+      const double d = (rng.uniform01() - 0.6) * 2.0 * kClipperScale;
+      cl::ClipperOffset off(2.0, 0.002 * kClipperScale);
+      off.AddPaths(rings, cl::jtMiter, cl::etClosedPolygon);
+      cl::Paths out;
+      off.Execute(out, d);
+      if (out.empty()) continue;
+      rings = out;
+      if (rng.uniform01() < 0.5) {
+        // A copy of one ring moved by up to a few of its points' spacing: meets it or not.
+        cl::Path moved = rings[rng.uniform_index(rings.size())];
+        const auto dx = static_cast<cl::cInt>((rng.uniform01() - 0.5) * 0.2 * kClipperScale);
+        const auto dy = static_cast<cl::cInt>((rng.uniform01() - 0.5) * 0.2 * kClipperScale);
+        for (auto& q : moved) q.X += dx, q.Y += dy;
+        rings.push_back(moved);
+      }
+    } else if (kind == 2) {
+      // Thin strips stacked along y, each as wide as the part: every edge overlaps every other
+      // along x (the sweep hands over to the grid); sometimes one strip crosses its neighbour.
+      const int n = 20 + static_cast<int>(rng.uniform_index(60));
+      for (int k = 0; k < n; ++k) {
+        const cl::cInt y = k * 1000, w = 1000000;
+        rings.push_back({{0, y}, {w, y + 10}, {w, y + 500}, {0, y + 490}});
+      }
+      if (rng.uniform01() < 0.5) rings[rng.uniform_index(rings.size())][2].Y += 700;
+      ++strips;
+    } else {
+      // A few long diagonal edges and short ones: the grid may give up.
+      const int n = 3 + static_cast<int>(rng.uniform_index(30));
+      for (int k = 0; k < 1 + static_cast<int>(rng.uniform_index(3)); ++k)
+        rings.push_back(clipper_util::to_path(
+            test::star(rng, {10.0 * k * rng.uniform01(), 5.0 * rng.uniform01()}, 1, 40, n, true)));
+    }
+    bool gave_up_sweep = false, gave_up_grid = false;
+    const bool sweep = clipper_util::rings_meet(rings, gave_up_sweep, true);
+    const bool grid = clipper_util::rings_meet(rings, gave_up_grid, false);
+    const std::string what = "trial " + std::to_string(trial);
+    ASSERT_EQ(sweep, grid) << what;
+    ASSERT_EQ(gave_up_sweep, gave_up_grid) << what;
+    ++cases;
+    if (gave_up_sweep) {
+      ++gave_up_count;
+      continue;
+    }
+    ASSERT_EQ(sweep, edges_meet_plainly(rings)) << what;
+    (sweep ? met : apart) += 1;
+  }
+  // Both answers and the give-up occur.
+  EXPECT_GT(met, cases / 10);
+  EXPECT_GT(apart, cases / 10);
+  EXPECT_GT(gave_up_count, 0u);
+  EXPECT_GT(strips, 0u);
+}
+
 }  // namespace
 }  // namespace trellis
