@@ -205,66 +205,6 @@ class RingEdges : public RingEdgeList {
   long nx_ = 0, ny_ = 0;
 };
 
-// The edges of closed rings bucketed by the grid cells their boxes cover, for the edges near a
-// point: each edge is entered into a cell or two where RingEdges enters it into every cell along
-// it and their neighbours (which its segment and ray queries need); building that grid for each
-// fill region's line ends was a seventh of slicing the Vase.
-class EdgeBoxes : public RingEdgeList {
- public:
-  explicit EdgeBoxes(const std::vector<const std::vector<Vec2>*>& rings) : RingEdgeList(rings) {
-    const auto [x0, y0, x1, y1, edges] = ring_bounds(rings_);
-    if (edges == 0) return;
-    const double w = std::max(x1 - x0, 1e-6), h = std::max(y1 - y0, 1e-6);
-    cell_ = std::max({std::sqrt(w * h / static_cast<double>(edges)), w / 1024, h / 1024, 1e-6});
-    origin_ = {x0, y0};
-    nx_ = static_cast<long>(w / cell_) + 1;
-    ny_ = static_cast<long>(h / cell_) + 1;
-    std::vector<std::pair<std::uint32_t, std::uint32_t>> hits;  // (cell, edge)
-    hits.reserve(2 * edges);
-    for (std::size_t r = 0; r < rings_.size(); ++r) {
-      const auto& ring = *rings_[r];
-      for (std::size_t i = 0; i < ring.size(); ++i) {
-        const auto id = static_cast<std::uint32_t>(edge_ids_.size());
-        edge_ids_.push_back({static_cast<std::uint32_t>(r), static_cast<std::uint32_t>(i)});
-        const Vec2 a = ring[i], b = ring[i + 1 == ring.size() ? 0 : i + 1];
-        const long cx0 = cx(std::min(a.x, b.x)), cx1 = cx(std::max(a.x, b.x));
-        const long cy0 = cy(std::min(a.y, b.y)), cy1 = cy(std::max(a.y, b.y));
-        for (long y = cy0; y <= cy1; ++y)
-          for (long x = cx0; x <= cx1; ++x)
-            hits.push_back({static_cast<std::uint32_t>(y * nx_ + x), id});
-      }
-    }
-    start_.assign(static_cast<std::size_t>(nx_ * ny_) + 1, 0);
-    for (const auto& [cell, id] : hits) ++start_[cell + 1];
-    for (std::size_t c = 1; c < start_.size(); ++c) start_[c] += start_[c - 1];
-    std::vector<std::size_t> fill(start_.begin(), start_.end() - 1);
-    ids_.resize(hits.size());
-    for (const auto& [cell, id] : hits) ids_[fill[cell]++] = id;
-  }
-
-  // Each edge whose box comes within `reach` of p (some more than once).
-  template <class Fn>
-  void near(Vec2 p, double reach, Fn&& fn) const {
-    if (edge_ids_.empty()) return;
-    const long x0 = std::max(0L, cx(p.x - reach)), x1 = std::min(nx_ - 1, cx(p.x + reach));
-    const long y0 = std::max(0L, cy(p.y - reach)), y1 = std::min(ny_ - 1, cy(p.y + reach));
-    for (long y = y0; y <= y1; ++y)
-      for (long x = x0; x <= x1; ++x) {
-        const auto c = static_cast<std::size_t>(y * nx_ + x);
-        for (std::size_t k = start_[c]; k < start_[c + 1]; ++k) fn(ids_[k]);
-      }
-  }
-
- private:
-  long cx(double x) const { return std::clamp(floor_long((x - origin_.x) / cell_), -1L, nx_); }
-  long cy(double y) const { return std::clamp(floor_long((y - origin_.y) / cell_), -1L, ny_); }
-  std::vector<std::size_t> start_;
-  std::vector<std::uint32_t> ids_;
-  Vec2 origin_;
-  double cell_ = 1;
-  long nx_ = 0, ny_ = 0;
-};
-
 // Where segment p-q crosses segment a-b: parameters along each (false when parallel or apart).
 bool segments_cross(Vec2 p, Vec2 q, Vec2 a, Vec2 b, double& t, double& u) {
   const Vec2 r = q - p, s = b - a;
@@ -373,38 +313,13 @@ class FillEnds {
  public:
   FillEnds(const std::vector<std::vector<Vec2>>& lines, const Regions& region, double tolerance)
       : lines_(lines), rings_(ring_pointers(region)), ends_(2 * lines.size()), cum_(rings_.size()) {
-    const EdgeBoxes edges(rings_);
     for (std::size_t r = 0; r < rings_.size(); ++r) {
       const auto& ring = *rings_[r];
       cum_[r].resize(ring.size() + 1, 0.0);
       for (std::size_t i = 0; i < ring.size(); ++i)
         cum_[r][i + 1] = cum_[r][i] + len(ring[(i + 1) % ring.size()] - ring[i]);
     }
-    for (std::size_t key = 0; key < 2 * lines.size(); ++key) {
-      const auto& line = lines[key / 2];
-      if (line.size() < 2) continue;
-      const Vec2 p = key % 2 ? line.back() : line.front();
-      // The nearest edge within the tolerance, the last of equals in ring order.
-      double best = tolerance;
-      std::uint32_t best_edge = 0;
-      bool found = false;
-      edges.near(p, tolerance, [&](std::uint32_t e) {
-        double t = 0;
-        const Vec2 a = edges.a(e), b = edges.b(e);
-        // (Farther than `best` from the edge's box: farther from the edge.)
-        if (p.x < std::min(a.x, b.x) - best || p.x > std::max(a.x, b.x) + best ||
-            p.y < std::min(a.y, b.y) - best || p.y > std::max(a.y, b.y) + best)
-          return;
-        const double d = distance_to_segment({p.x, p.y, 0}, {a.x, a.y, 0}, {b.x, b.y, 0}, &t);
-        if (d < best || (d == best && (!found || e > best_edge))) {
-          best = d;
-          best_edge = e;
-          found = true;
-          const std::size_t r = edges.ring_of(e), i = edges.index_of(e);
-          ends_[key] = {static_cast<long>(r), i, cum_[r][i] + t * (cum_[r][i + 1] - cum_[r][i])};
-        }
-      });
-    }
+    find_edges(tolerance);
     // Each ring's ends in order along it (sorted with their positions beside them, which the
     // comparisons read without looking them up).
     on_ring_.resize(rings_.size());
@@ -506,6 +421,99 @@ class FillEnds {
     std::size_t edge = 0;
     double s = 0;
   };
+  // Each end's boundary edge: the nearest within `tolerance`, the last of equals in ring order
+  // (edges numbered ring by ring). The ends (a region's line ends, fewer than its edges on the
+  // large layers) are bucketed in a grid, and each edge, once, tests the ends in the cells its
+  // box (grown by the tolerance) covers: an edge within the tolerance of an end is tested, and
+  // the pick (least distance, then the greatest edge) does not depend on the order. Bucketing
+  // the edges instead and asking each end (as first written) cost two passes over every
+  // edge's cells and a query per end.
+  void find_edges(double tolerance) {
+    std::vector<std::uint32_t> keys;
+    keys.reserve(ends_.size());
+    double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
+    for (std::size_t key = 0; key < ends_.size(); ++key) {
+      const auto& line = lines_[key / 2];
+      if (line.size() < 2) continue;
+      const Vec2 p = key % 2 ? line.back() : line.front();
+      keys.push_back(static_cast<std::uint32_t>(key));
+      x0 = std::min(x0, p.x), y0 = std::min(y0, p.y), x1 = std::max(x1, p.x),
+      y1 = std::max(y1, p.y);
+    }
+    if (keys.empty() || rings_.empty()) return;
+    const double w = std::max(x1 - x0, 1e-6), h = std::max(y1 - y0, 1e-6);
+    const double cell =
+        std::max({std::sqrt(w * h / static_cast<double>(keys.size())), w / 1024, h / 1024, 1e-6});
+    const long nx = static_cast<long>(w / cell) + 1, ny = static_cast<long>(h / cell) + 1;
+    auto cx = [&](double x) { return std::clamp(floor_long((x - x0) / cell), -1L, nx); };
+    auto cy = [&](double y) { return std::clamp(floor_long((y - y0) / cell), -1L, ny); };
+    // The ends' points by cell (counting sort), with their best edge so far.
+    struct Probe {
+      Vec2 p;
+      double best, t;
+      std::uint32_t key, ring, index, edge;
+      bool found;
+    };
+    std::vector<std::uint32_t> start(static_cast<std::size_t>(nx * ny) + 1, 0);
+    std::vector<std::uint32_t> cell_of(keys.size());
+    auto point = [&](std::uint32_t key) {
+      const auto& line = lines_[key / 2];
+      return key % 2 ? line.back() : line.front();
+    };
+    for (std::size_t j = 0; j < keys.size(); ++j) {
+      const Vec2 p = point(keys[j]);
+      cell_of[j] = static_cast<std::uint32_t>(cy(p.y) * nx + cx(p.x));
+      ++start[cell_of[j] + 1];
+    }
+    for (std::size_t c = 1; c < start.size(); ++c) start[c] += start[c - 1];
+    std::vector<Probe> probes(keys.size());
+    {
+      std::vector<std::uint32_t> fill(start.begin(), start.end() - 1);
+      for (std::size_t j = 0; j < keys.size(); ++j)
+        probes[fill[cell_of[j]]++] = {point(keys[j]), tolerance, 0, keys[j], 0, 0, 0, false};
+    }
+    std::uint32_t e = 0;  // the edge's number, ring by ring
+    for (std::size_t r = 0; r < rings_.size(); ++r) {
+      const auto& ring = *rings_[r];
+      const std::size_t n = ring.size();
+      for (std::size_t i = 0; i < n; ++i, ++e) {
+        const Vec2 a = ring[i], b = ring[i + 1 == n ? 0 : i + 1];
+        const double ex0 = std::min(a.x, b.x), ex1 = std::max(a.x, b.x);
+        const double ey0 = std::min(a.y, b.y), ey1 = std::max(a.y, b.y);
+        // (The cells of the box grown by the tolerance: an end within it is in one of them,
+        // the bounds computed as the test below computes them.)
+        const long i0 = std::max(0L, cx(ex0 - tolerance)),
+                   i1 = std::min(nx - 1, cx(ex1 + tolerance));
+        const long j0 = std::max(0L, cy(ey0 - tolerance)),
+                   j1 = std::min(ny - 1, cy(ey1 + tolerance));
+        for (long y = j0; y <= j1; ++y)
+          for (long x = i0; x <= i1; ++x) {
+            const auto c = static_cast<std::size_t>(y * nx + x);
+            for (std::uint32_t k = start[c]; k < start[c + 1]; ++k) {
+              Probe& q = probes[k];
+              const Vec2 p = q.p;
+              // (Farther than `best` from the edge's box: farther from the edge.)
+              if (p.x < ex0 - q.best || p.x > ex1 + q.best || p.y < ey0 - q.best ||
+                  p.y > ey1 + q.best)
+                continue;
+              double t = 0;
+              const double d = distance_to_segment({p.x, p.y, 0}, {a.x, a.y, 0}, {b.x, b.y, 0}, &t);
+              if (d < q.best || (d == q.best && (!q.found || e > q.edge))) {
+                q.best = d, q.t = t, q.edge = e, q.found = true;
+                q.ring = static_cast<std::uint32_t>(r), q.index = static_cast<std::uint32_t>(i);
+              }
+            }
+          }
+      }
+    }
+    for (const Probe& q : probes)
+      if (q.found) {
+        const auto& cum = cum_[q.ring];
+        ends_[q.key] = {static_cast<long>(q.ring), q.index,
+                        cum[q.index] + q.t * (cum[q.index + 1] - cum[q.index])};
+      }
+  }
+
   const std::vector<std::vector<Vec2>>& lines_;
   std::vector<const std::vector<Vec2>*> rings_;
   std::vector<End> ends_;
