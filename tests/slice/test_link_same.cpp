@@ -191,6 +191,128 @@ std::vector<OrderStep> ref_order(const std::vector<OrderItem>& items, Vec3 from)
   return order;
 }
 
+// connect_fill as first written, with each line end's boundary edge found by testing every edge
+// of every ring: the nearest within the tolerance, the last of equals in ring order.
+std::vector<std::vector<Vec2>> ref_connect_fill(const std::vector<std::vector<Vec2>>& lines,
+                                                const Regions& region, double max_connector,
+                                                double tolerance) {
+  std::vector<const std::vector<Vec2>*> rings;
+  for (const auto& poly : region) {
+    if (poly.outer.size() >= 3) rings.push_back(&poly.outer);
+    for (const auto& h : poly.holes)
+      if (h.size() >= 3) rings.push_back(&h);
+  }
+  std::vector<std::vector<double>> cum(rings.size());
+  for (std::size_t r = 0; r < rings.size(); ++r) {
+    const auto& ring = *rings[r];
+    cum[r].assign(ring.size() + 1, 0.0);
+    for (std::size_t i = 0; i < ring.size(); ++i)
+      cum[r][i + 1] = cum[r][i] + len2d(ring[(i + 1) % ring.size()] - ring[i]);
+  }
+  struct End {
+    long ring = -1;
+    std::size_t edge = 0;
+    double s = 0;
+  };
+  const std::size_t n = lines.size();
+  std::vector<End> ends(2 * n);
+  for (std::size_t key = 0; key < 2 * n; ++key) {
+    const auto& line = lines[key / 2];
+    if (line.size() < 2) continue;
+    const Vec2 p = key % 2 ? line.back() : line.front();
+    double best = tolerance;
+    for (std::size_t r = 0; r < rings.size(); ++r)
+      for (std::size_t i = 0; i < rings[r]->size(); ++i) {  // ring order: the last of equals
+        const Vec2 a = (*rings[r])[i], b = (*rings[r])[(i + 1) % rings[r]->size()];
+        double t = 0;
+        const double d = distance_to_segment({p.x, p.y, 0}, {a.x, a.y, 0}, {b.x, b.y, 0}, &t);
+        if (d <= best) {
+          best = d;
+          ends[key] = {static_cast<long>(r), i, cum[r][i] + t * (cum[r][i + 1] - cum[r][i])};
+        }
+      }
+  }
+  std::vector<std::vector<std::size_t>> on_ring(rings.size());
+  for (std::size_t key = 0; key < 2 * n; ++key)
+    if (ends[key].ring >= 0) on_ring[static_cast<std::size_t>(ends[key].ring)].push_back(key);
+  std::vector<std::size_t> slot(2 * n, 0);
+  for (auto& v : on_ring) {
+    std::sort(v.begin(), v.end(), [&](std::size_t a, std::size_t b) {
+      return std::tie(ends[a].s, a) < std::tie(ends[b].s, b);
+    });
+    for (std::size_t j = 0; j < v.size(); ++j) slot[v[j]] = j;
+  }
+  auto neighbour = [&](std::size_t key, bool forward, double& length) -> long {
+    const End& e = ends[key];
+    if (e.ring < 0) return -1;
+    const auto& v = on_ring[static_cast<std::size_t>(e.ring)];
+    if (v.size() < 2) return -1;
+    const std::size_t m = v.size(), j = slot[key];
+    const std::size_t other = v[forward ? (j + 1) % m : (j + m - 1) % m];
+    double d = forward ? ends[other].s - e.s : e.s - ends[other].s;
+    if (forward ? j + 1 == m : j == 0) d += cum[static_cast<std::size_t>(e.ring)].back();
+    length = d;
+    return static_cast<long>(other);
+  };
+  auto connector = [&](std::size_t from, std::size_t to, bool forward, std::vector<Vec2>& out) {
+    const End& a = ends[from];
+    const End& b = ends[to];
+    const auto& ring = *rings[static_cast<std::size_t>(a.ring)];
+    const std::size_t m = ring.size();
+    std::size_t count = forward ? (b.edge + m - a.edge) % m : (a.edge + m - b.edge) % m;
+    if (count == 0 && (forward ? b.s < a.s : b.s > a.s)) count = m;
+    for (std::size_t k = forward ? 1 : 0; forward ? k <= count : k < count; ++k)
+      out.push_back(forward ? ring[(a.edge + k) % m] : ring[(a.edge + m - k) % m]);
+  };
+  auto append_line = [&](std::vector<Vec2>& chain, std::size_t entry) {
+    const auto& line = lines[entry / 2];
+    if (entry % 2 == 0)
+      chain.insert(chain.end(), line.begin(), line.end());
+    else
+      chain.insert(chain.end(), line.rbegin(), line.rend());
+  };
+  std::vector<char> used(n, 0);
+  auto usable = [&](std::size_t key, bool forward, double& length) -> long {
+    const long other = neighbour(key, forward, length);
+    if (other < 0) return -1;
+    const std::size_t line = static_cast<std::size_t>(other) / 2;
+    if (line == key / 2 || used[line] || !(max_connector > 0) || length > max_connector) return -1;
+    return other;
+  };
+  auto options = [&](std::size_t key) {
+    double l = 0;
+    return (usable(key, true, l) >= 0 ? 1 : 0) + (usable(key, false, l) >= 0 ? 1 : 0);
+  };
+  auto extend = [&](std::vector<Vec2>& chain, std::size_t exit) {
+    for (;;) {
+      double lf = 0, lb = 0;
+      const long f = usable(exit, true, lf), b = usable(exit, false, lb);
+      if (f < 0 && b < 0) return;
+      const bool forward = f >= 0 && (b < 0 || lf <= lb);
+      const std::size_t entry = static_cast<std::size_t>(forward ? f : b);
+      connector(exit, entry, forward, chain);
+      append_line(chain, entry);
+      used[entry / 2] = 1;
+      exit = entry ^ 1;
+    }
+  };
+  std::vector<std::vector<Vec2>> chains;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (used[i] || lines[i].size() < 2) continue;
+    used[i] = 1;
+    const std::size_t entry = options(2 * i + 1) < options(2 * i) ? 2 * i + 1 : 2 * i;
+    std::vector<Vec2> chain;
+    append_line(chain, entry);
+    extend(chain, entry ^ 1);
+    if (options(entry) > 0) {
+      std::reverse(chain.begin(), chain.end());
+      extend(chain, entry);
+    }
+    chains.push_back(std::move(chain));
+  }
+  return chains;
+}
+
 // A ring simplified as first written: split at the first point farthest from point 0 by hypot,
 // each half through simplify_polyline.
 std::vector<Vec2> ref_simplify_ring(const std::vector<Vec2>& ring, double tol) {
@@ -361,4 +483,51 @@ TEST(LinkSame, SimplifiedRingsAreTheReferencesOnGeneratedRings) {
     dropped += ring.size() - want.size();
   }
   EXPECT_GT(dropped, 1000u);  // simplification happened, not only copies
+}
+
+TEST(LinkSame, ConnectedFillIsTheReferenceOnGeneratedRegions) {
+  // Hatch lines of generated regions (their ends on the outline, at its vertices when the grid
+  // puts them there), some ends moved off it or onto a vertex, empty and one-point lines, and
+  // tolerances from the default to a fraction of the spacing (many edges within reach, ties).
+  Rng rng(295);
+  std::size_t on_boundary = 0, joined = 0;
+  for (int trial = 0; trial < 300; ++trial) {
+    Regions r = random_region(rng, 3 + 40 * rng.uniform01());
+    const bool grid = trial % 3 == 1;
+    if (grid)
+      for (auto& poly : r) {
+        for (auto& p : poly.outer) p = {std::round(p.x), std::round(p.y)};
+        for (auto& h : poly.holes)
+          for (auto& p : h) p = {std::round(p.x), std::round(p.y)};
+      }
+    const double spacing = grid ? 1.0 : 0.3 + 3 * rng.uniform01();
+    const double angle = grid && trial % 2 == 0 ? 0.0 : 180 * rng.uniform01();
+    std::vector<std::vector<Vec2>> lines;
+    for (const auto& seg : hatch(r, angle, spacing)) lines.push_back({seg.a, seg.b});
+    std::vector<Vec2> vertices;
+    for (const auto& poly : r)
+      vertices.insert(vertices.end(), poly.outer.begin(), poly.outer.end());
+    for (auto& l : lines) {
+      const double u = rng.uniform01();
+      if (u < 0.05)
+        l.back() = l.back() + Vec2{0.5 * rng.uniform01(), 0.5 * rng.uniform01()};  // off it
+      else if (u < 0.1 && !vertices.empty())
+        l.front() = vertices[rng.uniform_index(vertices.size())];  // on a vertex
+      else if (u < 0.12)
+        l.clear();
+      else if (u < 0.14)
+        l.resize(1);
+    }
+    const double tolerance = trial % 4 == 3 ? 0.05 + 0.4 * rng.uniform01() * spacing : 1e-4;
+    const double max_connector = trial % 5 == 4 ? 0 : (1 + 3 * rng.uniform01()) * spacing;
+    const auto got = connect_fill(lines, r, max_connector, nullptr, tolerance);
+    const auto want = ref_connect_fill(lines, r, max_connector, tolerance);
+    ASSERT_EQ(got.size(), want.size()) << "trial " << trial;
+    for (std::size_t k = 0; k < got.size(); ++k)
+      ASSERT_EQ(got[k], want[k]) << "trial " << trial << " chain " << k;
+    for (const auto& c : got) joined += c.size() > 2;
+    on_boundary += lines.size();
+  }
+  EXPECT_GT(on_boundary, 3000u);  // lines were asked about
+  EXPECT_GT(joined, 500u);        // and chains joined through connectors
 }
