@@ -76,104 +76,28 @@ RingBounds ring_bounds(const std::vector<const std::vector<Vec2>*>& rings) {
   return b;
 }
 
-// The edges of closed rings by number (ring, index), for the edge grids below.
-class RingEdgeList {
+// The cells of a uniform grid over closed rings (about four edges a cell) along a segment,
+// sampled every half cell. The comb's crossings of a travel with the route's rings are taken in
+// the order such a grid gives them (an edge in every cell along it and their neighbours, met at
+// the first cell along the travel that holds it, the edges of a cell in ring order), which the
+// comb's routes depend on where crossings lie at equal distances along a travel; the grid itself
+// (every edge entered into its cells, counting-sorted) was most of the comb's cost, and only the
+// few crossing edges need their place in it (first_cell).
+class CellWalk {
  public:
-  explicit RingEdgeList(const std::vector<const std::vector<Vec2>*>& rings) : rings_(rings) {}
-  Vec2 a(std::uint32_t e) const { return (*rings_[edge_ids_[e].ring])[edge_ids_[e].index]; }
-  Vec2 b(std::uint32_t e) const {
-    const auto& ring = *rings_[edge_ids_[e].ring];
-    return ring[(edge_ids_[e].index + 1) % ring.size()];
-  }
-  std::uint32_t ring_of(std::uint32_t e) const { return edge_ids_[e].ring; }
-  std::uint32_t index_of(std::uint32_t e) const { return edge_ids_[e].index; }
-
- protected:
-  struct EdgeId {
-    std::uint32_t ring, index;
-  };
-  std::vector<const std::vector<Vec2>*> rings_;
-  std::vector<EdgeId> edge_ids_;
-};
-
-// The edges of closed rings in a uniform grid: each edge is entered into the cells along it
-// (sampled every half cell) and their neighbours, so any point of an edge is found from its own
-// cell, and a segment sampled the same way meets every edge it crosses (in an order the comb's
-// routes depend on: crossings at equal distances along a travel keep it).
-class RingEdges : public RingEdgeList {
- public:
-  explicit RingEdges(const std::vector<const std::vector<Vec2>*>& rings) : RingEdgeList(rings) {
-    const auto [x0, y0, x1, y1, edges] = ring_bounds(rings_);
+  explicit CellWalk(const std::vector<const std::vector<Vec2>*>& rings) {
+    const auto [x0, y0, x1, y1, edges] = ring_bounds(rings);
     if (edges == 0) return;
     const double w = std::max(x1 - x0, 1e-6), h = std::max(y1 - y0, 1e-6);
     cell_ = std::max({std::sqrt(w * h / static_cast<double>(edges)) * 2, w / 512, h / 512, 1e-6});
     origin_ = {x0 - cell_, y0 - cell_};
     nx_ = static_cast<long>(w / cell_) + 3;
     ny_ = static_cast<long>(h / cell_) + 3;
-    // (cell, edge) pairs in the order the edges visit their cells, then counted into cells: an
-    // edge stamps a cell and its neighbours, so a cell's repeats of one edge are adjacent. The
-    // cells along an edge step to a neighbour at a time, so a cell already stamped from the cell
-    // before is not stamped again (the repeats left are dropped below).
-    std::vector<std::pair<std::uint32_t, std::uint32_t>> hits;
-    hits.reserve(6 * edges);
-    for (std::size_t r = 0; r < rings_.size(); ++r) {
-      const auto& ring = *rings_[r];
-      for (std::size_t i = 0; i < ring.size(); ++i) {
-        const std::uint32_t id = static_cast<std::uint32_t>(edge_ids_.size());
-        edge_ids_.push_back({static_cast<std::uint32_t>(r), static_cast<std::uint32_t>(i)});
-        long px = -1 << 30, py = -1 << 30;
-        each_cell(ring[i], ring[i + 1 == ring.size() ? 0 : i + 1], [&](long cx, long cy) {
-          for (long y = std::max(0L, cy - 1); y <= std::min(ny_ - 1, cy + 1); ++y)
-            for (long x = std::max(0L, cx - 1); x <= std::min(nx_ - 1, cx + 1); ++x)
-              if (std::abs(x - px) > 1 || std::abs(y - py) > 1)
-                hits.push_back({static_cast<std::uint32_t>(y * nx_ + x), id});
-          px = cx, py = cy;
-        });
-      }
-    }
-    start_.assign(static_cast<std::size_t>(nx_ * ny_) + 1, 0);
-    for (const auto& [cell, id] : hits) ++start_[cell + 1];
-    for (std::size_t c = 1; c < start_.size(); ++c) start_[c] += start_[c - 1];
-    std::vector<std::size_t> fill(start_.begin(), start_.end() - 1);
-    ids_.resize(hits.size());
-    for (const auto& [cell, id] : hits) {
-      std::size_t& at = fill[cell];
-      if (at > start_[cell] && ids_[at - 1] == id) continue;  // the same edge again
-      ids_[at++] = id;
-    }
-    // Close the gaps repeats left: each cell's ids from start_ to fill.
-    std::size_t kept = 0;
-    for (std::size_t c = 0; c + 1 < start_.size(); ++c) {
-      const std::size_t from = start_[c], to = fill[c];
-      start_[c] = kept;
-      for (std::size_t k = from; k < to; ++k) ids_[kept++] = ids_[k];
-    }
-    start_.back() = kept;
-    ids_.resize(kept);
-    stamp_.assign(edge_ids_.size(), 0);
   }
 
-  bool empty() const { return edge_ids_.empty(); }
+  bool in_grid(long cx, long cy) const { return cx >= 0 && cy >= 0 && cx < nx_ && cy < ny_; }
 
-  // Each edge whose cells include one along a-b, once.
-  template <class Fn>
-  void along(Vec2 p, Vec2 q, Fn&& fn) const {
-    if (empty()) return;
-    const std::uint32_t s = next_stamp();
-    each_cell(p, q, [&](long cx, long cy) {
-      if (cx < 0 || cy < 0 || cx >= nx_ || cy >= ny_) return;
-      const std::size_t c = static_cast<std::size_t>(cy * nx_ + cx);
-      for (std::size_t k = start_[c]; k < start_[c + 1]; ++k) {
-        const std::uint32_t e = ids_[k];
-        if (stamp_[e] == s) continue;
-        stamp_[e] = s;
-        fn(e);
-      }
-    });
-  }
-
- private:
-  long cell_of(double d) const { return floor_long(d / cell_); }
+  // The cells along p-q in order (each once in a row; outside the grid too).
   template <class Fn>
   void each_cell(Vec2 p, Vec2 q, Fn&& fn) const {
     const double l = len(q - p);
@@ -188,81 +112,33 @@ class RingEdges : public RingEdgeList {
       fn(cx, cy);
     }
   }
-  std::uint32_t next_stamp() const {
-    if (++stamp_now_ == 0) {
-      std::fill(stamp_.begin(), stamp_.end(), 0);
-      stamp_now_ = 1;
-    }
-    return stamp_now_;
+
+  // The cells of a travel in the grid, in order.
+  void walk(Vec2 p, Vec2 q, std::vector<std::pair<long, long>>& out) const {
+    out.clear();
+    each_cell(p, q, [&](long cx, long cy) {
+      if (in_grid(cx, cy)) out.push_back({cx, cy});
+    });
   }
 
-  std::vector<std::size_t> start_;
-  std::vector<std::uint32_t> ids_;
-  mutable std::vector<std::uint32_t> stamp_;
-  mutable std::uint32_t stamp_now_ = 0;
-  Vec2 origin_;
-  double cell_ = 1;
-  long nx_ = 0, ny_ = 0;
-};
-
-// The edges of closed rings bucketed by the grid cells their boxes cover, for the edges near a
-// point: each edge is entered into a cell or two where RingEdges enters it into every cell along
-// it and their neighbours (which its segment and ray queries need); building that grid for each
-// fill region's line ends was a seventh of slicing the Vase.
-class EdgeBoxes : public RingEdgeList {
- public:
-  explicit EdgeBoxes(const std::vector<const std::vector<Vec2>*>& rings) : RingEdgeList(rings) {
-    const auto [x0, y0, x1, y1, edges] = ring_bounds(rings_);
-    if (edges == 0) return;
-    const double w = std::max(x1 - x0, 1e-6), h = std::max(y1 - y0, 1e-6);
-    cell_ = std::max({std::sqrt(w * h / static_cast<double>(edges)), w / 1024, h / 1024, 1e-6});
-    origin_ = {x0, y0};
-    nx_ = static_cast<long>(w / cell_) + 1;
-    ny_ = static_cast<long>(h / cell_) + 1;
-    std::vector<std::pair<std::uint32_t, std::uint32_t>> hits;  // (cell, edge)
-    hits.reserve(2 * edges);
-    for (std::size_t r = 0; r < rings_.size(); ++r) {
-      const auto& ring = *rings_[r];
-      for (std::size_t i = 0; i < ring.size(); ++i) {
-        const auto id = static_cast<std::uint32_t>(edge_ids_.size());
-        edge_ids_.push_back({static_cast<std::uint32_t>(r), static_cast<std::uint32_t>(i)});
-        const Vec2 a = ring[i], b = ring[i + 1 == ring.size() ? 0 : i + 1];
-        const long cx0 = cx(std::min(a.x, b.x)), cx1 = cx(std::max(a.x, b.x));
-        const long cy0 = cy(std::min(a.y, b.y)), cy1 = cy(std::max(a.y, b.y));
-        for (long y = cy0; y <= cy1; ++y)
-          for (long x = cx0; x <= cx1; ++x)
-            hits.push_back({static_cast<std::uint32_t>(y * nx_ + x), id});
-      }
-    }
-    start_.assign(static_cast<std::size_t>(nx_ * ny_) + 1, 0);
-    for (const auto& [cell, id] : hits) ++start_[cell + 1];
-    for (std::size_t c = 1; c < start_.size(); ++c) start_[c] += start_[c - 1];
-    std::vector<std::size_t> fill(start_.begin(), start_.end() - 1);
-    ids_.resize(hits.size());
-    for (const auto& [cell, id] : hits) ids_[fill[cell]++] = id;
-  }
-
-  // Each edge whose box comes within `reach` of p (some more than once).
-  template <class Fn>
-  void near(Vec2 p, double reach, Fn&& fn) const {
-    if (edge_ids_.empty()) return;
-    const long x0 = std::max(0L, cx(p.x - reach)), x1 = std::min(nx_ - 1, cx(p.x + reach));
-    const long y0 = std::max(0L, cy(p.y - reach)), y1 = std::min(ny_ - 1, cy(p.y + reach));
-    for (long y = y0; y <= y1; ++y)
-      for (long x = x0; x <= x1; ++x) {
-        const auto c = static_cast<std::size_t>(y * nx_ + x);
-        for (std::size_t k = start_[c]; k < start_[c + 1]; ++k) fn(ids_[k]);
-      }
+  // The first of the walk's cells that holds edge a-b (a cell holds the edges with a cell along
+  // them at most one cell away); -1 if none does.
+  long first_cell(const std::vector<std::pair<long, long>>& walk, Vec2 a, Vec2 b) const {
+    cells_.clear();
+    each_cell(a, b, [&](long cx, long cy) { cells_.push_back({cx, cy}); });
+    for (std::size_t k = 0; k < walk.size(); ++k)
+      for (const auto& [x, y] : cells_)
+        if (std::abs(walk[k].first - x) <= 1 && std::abs(walk[k].second - y) <= 1)
+          return static_cast<long>(k);
+    return -1;
   }
 
  private:
-  long cx(double x) const { return std::clamp(floor_long((x - origin_.x) / cell_), -1L, nx_); }
-  long cy(double y) const { return std::clamp(floor_long((y - origin_.y) / cell_), -1L, ny_); }
-  std::vector<std::size_t> start_;
-  std::vector<std::uint32_t> ids_;
+  long cell_of(double d) const { return floor_long(d / cell_); }
   Vec2 origin_;
   double cell_ = 1;
   long nx_ = 0, ny_ = 0;
+  mutable std::vector<std::pair<long, long>> cells_;
 };
 
 // Where segment p-q crosses segment a-b: parameters along each (false when parallel or apart).
@@ -275,17 +151,19 @@ bool segments_cross(Vec2 p, Vec2 q, Vec2 a, Vec2 b, double& t, double& u) {
   return t >= 0 && t <= 1 && u >= 0 && u <= 1;
 }
 
-// The edges of closed rings in runs of kRun consecutive edges, each run with its box: the
-// inside test and the crossing test of RingEdges (the same answers: each tests every edge that
-// can pass, once) that skip the runs a ray or segment cannot meet. Built in one pass over the
-// points where RingEdges' grid enters each edge into several cells and sorts them; for an
-// island's travel, which asks a few questions of its outline, that build was most of the cost.
+// The edges of closed rings in runs of kRun consecutive edges, each run with its box: an inside
+// test and a crossing test (each tests every edge that can pass, once) that skip the runs a ray
+// or segment cannot meet, and the edges near a segment or a point. Built in one pass over the
+// points where an edge grid enters each edge into several cells and sorts them; for an island's
+// travel, which asks a few questions of its outline, that build was most of the cost.
 class RingRuns {
  public:
   explicit RingRuns(const std::vector<const std::vector<Vec2>*>& rings) : rings_(rings) {
     for (std::size_t r = 0; r < rings_.size(); ++r) {
       const auto& ring = *rings_[r];
       const std::size_t n = ring.size();
+      first_.push_back(edges_);
+      edges_ += static_cast<std::uint32_t>(n);
       for (std::size_t i0 = 0; i0 < n; i0 += kRun) {
         const std::size_t i1 = std::min(n, i0 + kRun);
         Run run{static_cast<std::uint32_t>(r),
@@ -340,6 +218,38 @@ class RingRuns {
     return false;
   }
 
+  // The number of edges (numbered ring by ring).
+  std::uint32_t edges() const { return edges_; }
+
+  // Each edge (number, ring, index, ends) in number order whose run's box, grown by the slack,
+  // segment a-b may meet: every edge segments_cross finds crossing a-b among them (its box is
+  // left out only when all its corners lie on one side of the line, by far more than rounding).
+  template <class Fn>
+  void near_segment(Vec2 a, Vec2 b, Fn&& fn) const {
+    const double x0 = std::min(a.x, b.x) - kSlack, x1 = std::max(a.x, b.x) + kSlack;
+    const double y0 = std::min(a.y, b.y) - kSlack, y1 = std::max(a.y, b.y) + kSlack;
+    const Vec2 d = b - a;
+    for (const Run& run : runs_) {
+      if (run.x0 > x1 || run.x1 < x0 || run.y0 > y1 || run.y1 < y0) continue;
+      const double s0 = cross(d, Vec2{run.x0 - kSlack, run.y0 - kSlack} - a);
+      const double s1 = cross(d, Vec2{run.x1 + kSlack, run.y0 - kSlack} - a);
+      const double s2 = cross(d, Vec2{run.x0 - kSlack, run.y1 + kSlack} - a);
+      const double s3 = cross(d, Vec2{run.x1 + kSlack, run.y1 + kSlack} - a);
+      if ((s0 > 0 && s1 > 0 && s2 > 0 && s3 > 0) || (s0 < 0 && s1 < 0 && s2 < 0 && s3 < 0))
+        continue;
+      each_in(run, fn);
+    }
+  }
+
+  // Each edge in number order whose run's box comes within `reach` (and the slack) of p.
+  template <class Fn>
+  void near_point(Vec2 p, double reach, Fn&& fn) const {
+    const double r = reach + kSlack;
+    for (const Run& run : runs_)
+      if (run.x0 - r <= p.x && p.x <= run.x1 + r && run.y0 - r <= p.y && p.y <= run.y1 + r)
+        each_in(run, fn);
+  }
+
  private:
   static constexpr std::size_t kRun = 16;
   static constexpr double kSlack = 1e-7;  // mm: far beyond rounding, far below a feature
@@ -347,8 +257,18 @@ class RingRuns {
     std::uint32_t ring, from, to;  // edges from..to-1 of the ring
     double x0, y0, x1, y1;         // the box of their points
   };
+  template <class Fn>
+  void each_in(const Run& run, Fn&& fn) const {
+    const auto& ring = *rings_[run.ring];
+    const std::size_t n = ring.size();
+    for (std::size_t i = run.from; i < run.to; ++i)
+      fn(first_[run.ring] + static_cast<std::uint32_t>(i), run.ring, static_cast<std::uint32_t>(i),
+         ring[i], ring[i + 1 == n ? 0 : i + 1]);
+  }
   std::vector<const std::vector<Vec2>*> rings_;
   std::vector<Run> runs_;
+  std::vector<std::uint32_t> first_;  // each ring's first edge number
+  std::uint32_t edges_ = 0;
 };
 
 std::vector<const std::vector<Vec2>*> ring_pointers(const Regions& region) {
@@ -373,38 +293,13 @@ class FillEnds {
  public:
   FillEnds(const std::vector<std::vector<Vec2>>& lines, const Regions& region, double tolerance)
       : lines_(lines), rings_(ring_pointers(region)), ends_(2 * lines.size()), cum_(rings_.size()) {
-    const EdgeBoxes edges(rings_);
     for (std::size_t r = 0; r < rings_.size(); ++r) {
       const auto& ring = *rings_[r];
       cum_[r].resize(ring.size() + 1, 0.0);
       for (std::size_t i = 0; i < ring.size(); ++i)
         cum_[r][i + 1] = cum_[r][i] + len(ring[(i + 1) % ring.size()] - ring[i]);
     }
-    for (std::size_t key = 0; key < 2 * lines.size(); ++key) {
-      const auto& line = lines[key / 2];
-      if (line.size() < 2) continue;
-      const Vec2 p = key % 2 ? line.back() : line.front();
-      // The nearest edge within the tolerance, the last of equals in ring order.
-      double best = tolerance;
-      std::uint32_t best_edge = 0;
-      bool found = false;
-      edges.near(p, tolerance, [&](std::uint32_t e) {
-        double t = 0;
-        const Vec2 a = edges.a(e), b = edges.b(e);
-        // (Farther than `best` from the edge's box: farther from the edge.)
-        if (p.x < std::min(a.x, b.x) - best || p.x > std::max(a.x, b.x) + best ||
-            p.y < std::min(a.y, b.y) - best || p.y > std::max(a.y, b.y) + best)
-          return;
-        const double d = distance_to_segment({p.x, p.y, 0}, {a.x, a.y, 0}, {b.x, b.y, 0}, &t);
-        if (d < best || (d == best && (!found || e > best_edge))) {
-          best = d;
-          best_edge = e;
-          found = true;
-          const std::size_t r = edges.ring_of(e), i = edges.index_of(e);
-          ends_[key] = {static_cast<long>(r), i, cum_[r][i] + t * (cum_[r][i + 1] - cum_[r][i])};
-        }
-      });
-    }
+    find_edges(tolerance);
     // Each ring's ends in order along it (sorted with their positions beside them, which the
     // comparisons read without looking them up).
     on_ring_.resize(rings_.size());
@@ -506,6 +401,99 @@ class FillEnds {
     std::size_t edge = 0;
     double s = 0;
   };
+  // Each end's boundary edge: the nearest within `tolerance`, the last of equals in ring order
+  // (edges numbered ring by ring). The ends (a region's line ends, fewer than its edges on the
+  // large layers) are bucketed in a grid, and each edge, once, tests the ends in the cells its
+  // box (grown by the tolerance) covers: an edge within the tolerance of an end is tested, and
+  // the pick (least distance, then the greatest edge) does not depend on the order. Bucketing
+  // the edges instead and asking each end (as first written) cost two passes over every
+  // edge's cells and a query per end.
+  void find_edges(double tolerance) {
+    std::vector<std::uint32_t> keys;
+    keys.reserve(ends_.size());
+    double x0 = 1e300, y0 = 1e300, x1 = -1e300, y1 = -1e300;
+    for (std::size_t key = 0; key < ends_.size(); ++key) {
+      const auto& line = lines_[key / 2];
+      if (line.size() < 2) continue;
+      const Vec2 p = key % 2 ? line.back() : line.front();
+      keys.push_back(static_cast<std::uint32_t>(key));
+      x0 = std::min(x0, p.x), y0 = std::min(y0, p.y), x1 = std::max(x1, p.x),
+      y1 = std::max(y1, p.y);
+    }
+    if (keys.empty() || rings_.empty()) return;
+    const double w = std::max(x1 - x0, 1e-6), h = std::max(y1 - y0, 1e-6);
+    const double cell =
+        std::max({std::sqrt(w * h / static_cast<double>(keys.size())), w / 1024, h / 1024, 1e-6});
+    const long nx = static_cast<long>(w / cell) + 1, ny = static_cast<long>(h / cell) + 1;
+    auto cx = [&](double x) { return std::clamp(floor_long((x - x0) / cell), -1L, nx); };
+    auto cy = [&](double y) { return std::clamp(floor_long((y - y0) / cell), -1L, ny); };
+    // The ends' points by cell (counting sort), with their best edge so far.
+    struct Probe {
+      Vec2 p;
+      double best, t;
+      std::uint32_t key, ring, index, edge;
+      bool found;
+    };
+    std::vector<std::uint32_t> start(static_cast<std::size_t>(nx * ny) + 1, 0);
+    std::vector<std::uint32_t> cell_of(keys.size());
+    auto point = [&](std::uint32_t key) {
+      const auto& line = lines_[key / 2];
+      return key % 2 ? line.back() : line.front();
+    };
+    for (std::size_t j = 0; j < keys.size(); ++j) {
+      const Vec2 p = point(keys[j]);
+      cell_of[j] = static_cast<std::uint32_t>(cy(p.y) * nx + cx(p.x));
+      ++start[cell_of[j] + 1];
+    }
+    for (std::size_t c = 1; c < start.size(); ++c) start[c] += start[c - 1];
+    std::vector<Probe> probes(keys.size());
+    {
+      std::vector<std::uint32_t> fill(start.begin(), start.end() - 1);
+      for (std::size_t j = 0; j < keys.size(); ++j)
+        probes[fill[cell_of[j]]++] = {point(keys[j]), tolerance, 0, keys[j], 0, 0, 0, false};
+    }
+    std::uint32_t e = 0;  // the edge's number, ring by ring
+    for (std::size_t r = 0; r < rings_.size(); ++r) {
+      const auto& ring = *rings_[r];
+      const std::size_t n = ring.size();
+      for (std::size_t i = 0; i < n; ++i, ++e) {
+        const Vec2 a = ring[i], b = ring[i + 1 == n ? 0 : i + 1];
+        const double ex0 = std::min(a.x, b.x), ex1 = std::max(a.x, b.x);
+        const double ey0 = std::min(a.y, b.y), ey1 = std::max(a.y, b.y);
+        // (The cells of the box grown by the tolerance: an end within it is in one of them,
+        // the bounds computed as the test below computes them.)
+        const long i0 = std::max(0L, cx(ex0 - tolerance)),
+                   i1 = std::min(nx - 1, cx(ex1 + tolerance));
+        const long j0 = std::max(0L, cy(ey0 - tolerance)),
+                   j1 = std::min(ny - 1, cy(ey1 + tolerance));
+        for (long y = j0; y <= j1; ++y)
+          for (long x = i0; x <= i1; ++x) {
+            const auto c = static_cast<std::size_t>(y * nx + x);
+            for (std::uint32_t k = start[c]; k < start[c + 1]; ++k) {
+              Probe& q = probes[k];
+              const Vec2 p = q.p;
+              // (Farther than `best` from the edge's box: farther from the edge.)
+              if (p.x < ex0 - q.best || p.x > ex1 + q.best || p.y < ey0 - q.best ||
+                  p.y > ey1 + q.best)
+                continue;
+              double t = 0;
+              const double d = distance_to_segment({p.x, p.y, 0}, {a.x, a.y, 0}, {b.x, b.y, 0}, &t);
+              if (d < q.best || (d == q.best && (!q.found || e > q.edge))) {
+                q.best = d, q.t = t, q.edge = e, q.found = true;
+                q.ring = static_cast<std::uint32_t>(r), q.index = static_cast<std::uint32_t>(i);
+              }
+            }
+          }
+      }
+    }
+    for (const Probe& q : probes)
+      if (q.found) {
+        const auto& cum = cum_[q.ring];
+        ends_[q.key] = {static_cast<long>(q.ring), q.index,
+                        cum[q.index] + q.t * (cum[q.index + 1] - cum[q.index])};
+      }
+  }
+
   const std::vector<std::vector<Vec2>>& lines_;
   std::vector<const std::vector<Vec2>*> rings_;
   std::vector<End> ends_;
@@ -776,10 +764,10 @@ struct Comb::Impl {
   Regions inside, route;
   std::vector<const std::vector<Vec2>*> inside_rings, route_rings;
   RingRuns inside_edges;
-  // Built by the first travel that cannot go straight (most islands have none; its stamps are
-  // not for several threads at once).
-  mutable std::optional<RingEdges> route_edges;
-  mutable std::optional<RingRuns> route_runs;  // its inside test (the same answers, cheaper)
+  // Built by the first travel that cannot go straight (most islands have none; not for several
+  // threads at once).
+  mutable std::optional<RingRuns> route_runs;
+  mutable std::optional<CellWalk> route_cells;  // the order of a travel's crossings
   Impl(Regions in, Regions r)
       : inside(std::move(in)),
         route(std::move(r)),
@@ -815,26 +803,48 @@ bool Comb::route(Vec2 a, Vec2 b, double max_length, std::vector<Vec2>& via) cons
     double t;
     std::uint32_t edge;
     double u;
+    std::uint32_t ring, index;
   };
   std::vector<Hit> hits;
-  if (!c.route_edges) c.route_edges.emplace(c.route_rings), c.route_runs.emplace(c.route_rings);
-  const RingEdges& re = *c.route_edges;
-  if (re.empty()) return false;
-  re.along(a, b, [&](std::uint32_t e) {
-    double t = 0, u = 0;
-    if (segments_cross(a, b, re.a(e), re.b(e), t, u)) hits.push_back({t, e, u});
+  if (!c.route_runs) c.route_runs.emplace(c.route_rings), c.route_cells.emplace(c.route_rings);
+  const RingRuns& rr = *c.route_runs;
+  const CellWalk& cw = *c.route_cells;
+  if (rr.edges() == 0) return false;
+  // The crossings in the order of the first cell along a-b holding their edge (then in edge
+  // order), as an edge grid gives them.
+  std::vector<std::pair<long, long>> walk;
+  cw.walk(a, b, walk);
+  std::vector<std::pair<long, Hit>> found;
+  rr.near_segment(a, b,
+                  [&](std::uint32_t e, std::uint32_t ring, std::uint32_t index, Vec2 ea, Vec2 eb) {
+                    double t = 0, u = 0;
+                    if (!segments_cross(a, b, ea, eb, t, u)) return;
+                    if (const long k = cw.first_cell(walk, ea, eb); k >= 0)
+                      found.push_back({k, {t, e, u, ring, index}});
+                  });
+  std::sort(found.begin(), found.end(), [](const auto& x, const auto& y) {
+    return x.first != y.first ? x.first < y.first : x.second.edge < y.second.edge;
   });
+  for (const auto& f : found) hits.push_back(f.second);
+  // An end on a ring: the nearest edge within 1e-6 held by its cell, the last of equals.
   auto on_ring = [&](Vec2 p, double t) {
     double best = 1e-6;
     long edge = -1;
     double at = 0;
-    re.along(p, p, [&](std::uint32_t e) {
-      double u = 0;
-      const Vec2 ea = re.a(e), eb = re.b(e);
-      const double d = distance_to_segment({p.x, p.y, 0}, {ea.x, ea.y, 0}, {eb.x, eb.y, 0}, &u);
-      if (d <= best) best = d, edge = e, at = u;
+    std::uint32_t er = 0, ei = 0;
+    walk.clear();
+    cw.each_cell(p, p, [&](long cx, long cy) {
+      if (cw.in_grid(cx, cy)) walk.push_back({cx, cy});
     });
-    if (edge >= 0) hits.push_back({t, static_cast<std::uint32_t>(edge), at});
+    if (walk.empty()) return;
+    rr.near_point(
+        p, best, [&](std::uint32_t e, std::uint32_t ring, std::uint32_t index, Vec2 ea, Vec2 eb) {
+          double u = 0;
+          const double d = distance_to_segment({p.x, p.y, 0}, {ea.x, ea.y, 0}, {eb.x, eb.y, 0}, &u);
+          if (d <= best && cw.first_cell(walk, ea, eb) == 0)
+            best = d, edge = e, at = u, er = ring, ei = index;
+        });
+    if (edge >= 0) hits.push_back({t, static_cast<std::uint32_t>(edge), at, er, ei});
   };
   on_ring(a, 0);
   on_ring(b, 1);
@@ -848,10 +858,10 @@ bool Comb::route(Vec2 a, Vec2 b, double max_length, std::vector<Vec2>& via) cons
     const Vec2 mid = a + (b - a) * (0.5 * (h0.t + h1.t));
     if (c.route_runs->inside(mid)) continue;
     // Outside the route region between h0 and h1: around its ring, the shorter way.
-    if (re.ring_of(h0.edge) != re.ring_of(h1.edge)) return false;
-    const auto& ring = *c.route_rings[re.ring_of(h0.edge)];
+    if (h0.ring != h1.ring) return false;
+    const auto& ring = *c.route_rings[h0.ring];
     const std::size_t m = ring.size();
-    const std::size_t e0 = re.index_of(h0.edge), e1 = re.index_of(h1.edge);
+    const std::size_t e0 = h0.index, e1 = h1.index;
     auto arc = [&](bool forward, std::vector<Vec2>& pts) {
       pts.clear();
       pts.push_back(a + (b - a) * h0.t);
