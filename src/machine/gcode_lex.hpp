@@ -83,34 +83,77 @@ inline std::string_view param(std::string_view args, std::string_view key) {
   return {};
 }
 
-// The common line "G0 "/"G1 " + plain words (upper case, each followed by a blank or the
-// newline; no '\r', tab, comment or checksum) at `s`, inside a buffer ending at `end`: its words
-// in `w` (GcodeScanner::Words) and the position after its newline, or null if the line is not
-// that simple (or runs to `end`). Lexing only: the scanner reads such a line from its words
-// exactly as from its text (GcodeScanner::simple_move; a two-thread scan lexes on one thread).
-template <class Words>
-inline const char* lex_move(const char* s, const char* end, Words& w) {
-  if (end - s < 4 || s[0] != 'G' || (s[1] != '0' && s[1] != '1') || s[2] != ' ') return nullptr;
-  w.seen = 0;
-  int n = 0;
-  const char* p = s + 2;
-  for (;;) {
-    while (p < end && *p == ' ') ++p;
-    if (p == end) return nullptr;
-    const char c = *p;
-    if (c == '\n') break;
-    if (c < 'A' || c > 'Z') return nullptr;
-    double v = 0;
-    const char* e = scan_decimal(p + 1, end, v);
-    if (e == nullptr || e == end || (*e != ' ' && *e != '\n') || !(std::abs(v) <= kMaxValue))
-      return nullptr;
-    const std::uint32_t bit = 1u << (c - 'A');
-    if ((w.seen & bit) || n == 16) return nullptr;
-    w.seen |= bit;
-    w.value[c - 'A'] = v;
-    ++n;
-    p = e;
+// The last newline in [b, e), or null if there is none: where lex_move may lex up to. (Searched
+// from the end: a buffer's last line is short.)
+inline const char* last_newline(const char* b, const char* e) {
+  while (e > b)
+    if (*--e == '\n') return e;
+  return nullptr;
+}
+
+// The digits at p added to m (m * 10 + digit each); the first byte that is not a digit ends
+// them (no bound checked: the caller knows one such byte is there, a newline).
+[[gnu::always_inline]] inline const char* add_digits(const char* p, std::uint64_t& m) {
+  for (unsigned d; (d = static_cast<unsigned>(static_cast<unsigned char>(*p)) - '0') < 10; ++p)
+    m = m * 10 + d;
+  return p;
+}
+
+// scan_decimal() for a number that a byte other than a digit, sign or '.' follows before the
+// buffer ends (a line's newline: lex_move's lines): no bound checked. One pass of the digits into
+// an integer mantissa and a count of decimals, the value m / 10^decimals as scan_decimal gives it
+// (the same double: both exact, one correctly rounded division). Returns the end of the number,
+// or null where scan_decimal gives null (no digit, more than 15).
+[[gnu::always_inline]] inline const char* scan_decimal_nl(const char* p, double& out) {
+  static constexpr double kPow10[] = {1e0, 1e1, 1e2,  1e3,  1e4,  1e5,  1e6,  1e7,
+                                      1e8, 1e9, 1e10, 1e11, 1e12, 1e13, 1e14, 1e15};
+  const bool neg = *p == '-';
+  p += neg || *p == '+';
+  std::uint64_t m = 0;
+  const char* const start = p;
+  p = add_digits(p, m);
+  std::ptrdiff_t digits = p - start, frac = 0;
+  if (*p == '.') {
+    const char* const f = ++p;
+    p = add_digits(p, m);
+    frac = p - f;
+    digits += frac;
   }
+  if (static_cast<std::size_t>(digits - 1) >= 15) return nullptr;
+  const double v = static_cast<double>(m) / kPow10[frac];  // x / 1 is x: no branch on frac
+  out = neg ? -v : v;
+  return p;
+}
+
+// The common line "G0 "/"G1 " + plain words (upper case, each followed by a blank or the
+// newline; no '\r', tab, comment or checksum) at `s`, whose newline comes before the buffer
+// ends (the caller has found the buffer's last newline: nothing here checks a bound): its words
+// in `w` (GcodeScanner::Words) and the position after its newline, or null if the line is not
+// that simple. Lexing only: the scanner reads such a line from its words exactly as from its
+// text (GcodeScanner::simple_move; a two-thread scan lexes on one thread).
+template <class Words>
+inline const char* lex_move(const char* s, Words& w) {
+  if (s[0] != 'G' || (s[1] != '0' && s[1] != '1') || s[2] != ' ') return nullptr;
+  std::uint32_t seen = 0;
+  int n = 0;
+  const char* p = s + 3;
+  for (;;) {
+    while (*p == ' ') ++p;
+    const unsigned letter = static_cast<unsigned>(static_cast<unsigned char>(*p)) - 'A';
+    if (letter >= 26) {
+      if (*p != '\n') return nullptr;
+      break;
+    }
+    double v;
+    p = scan_decimal_nl(p + 1, v);
+    if (p == nullptr || (*p != ' ' && *p != '\n') || !(std::abs(v) <= kMaxValue)) return nullptr;
+    const std::uint32_t bit = 1u << letter;
+    if ((seen & bit) || n == 16) return nullptr;
+    seen |= bit;
+    w.value[letter] = v;
+    ++n;
+  }
+  w.seen = seen;
   return p + 1;
 }
 

@@ -195,11 +195,13 @@ void GcodeScanner::comment(std::string_view c) {
 
 void GcodeScanner::feed(std::string_view text) {
   std::size_t pos = 0;
-  const char* const end = text.data() + text.size();
+  // Plain moves are lexed up to the last newline (lex_move needs one ahead).
+  const char* const last_nl = gcode_lex::last_newline(text.data(), text.data() + text.size());
+  const std::size_t lexed = last_nl ? static_cast<std::size_t>(last_nl - text.data()) + 1 : 0;
   while (pos < text.size()) {
     // Valve commands may be learnt from the header on the way (comment()): checked per line.
-    if (partial_.empty() && opt_.valve_on.empty() && opt_.valve_off.empty()) {
-      if (const char* next = simple_move(text.data() + pos, end)) {
+    if (pos < lexed && partial_.empty() && opt_.valve_on.empty() && opt_.valve_off.empty()) {
+      if (const char* next = simple_move(text.data() + pos)) {
         pos = static_cast<std::size_t>(next - text.data());
         continue;
       }
@@ -220,9 +222,9 @@ void GcodeScanner::feed(std::string_view text) {
   }
 }
 
-const char* GcodeScanner::simple_move(const char* s, const char* end) {
+const char* GcodeScanner::simple_move(const char* s) {
   Words w;
-  const char* next = lex_move(s, end, w);
+  const char* next = lex_move(s, w);
   if (next == nullptr) return nullptr;
   ++line_no_;
   apply_move(w, s[1] - '0');

@@ -58,22 +58,25 @@ void lex_window(std::string_view text, std::string& partial, ScanPipe& pipe) {
     partial.clear();
     p = nl + 1;
   }
+  // Lines up to the window's last newline (lex_move needs one ahead); the rest is a partial line.
+  const char* const last_nl = gcode_lex::last_newline(p, end);
+  if (last_nl == nullptr) {
+    partial.assign(p, end);
+    return;
+  }
   GcodeScanner::Words w;
-  while (p < end) {
-    if (const char* next = gcode_lex::lex_move(p, end, w)) {
+  while (p <= last_nl) {
+    if (const char* next = gcode_lex::lex_move(p, w)) {
       pipe.move(p, static_cast<std::uint32_t>(next - 1 - p), w);
       p = next;
       continue;
     }
     const char* nl =
-        static_cast<const char*>(std::memchr(p, '\n', static_cast<std::size_t>(end - p)));
-    if (nl == nullptr) {
-      partial.assign(p, end);
-      return;
-    }
+        static_cast<const char*>(std::memchr(p, '\n', static_cast<std::size_t>(last_nl + 1 - p)));
     pipe.line(p, static_cast<std::size_t>(nl - p));
     p = nl + 1;
   }
+  if (p < end) partial.assign(p, end);
 }
 
 #ifdef TRELLIS_READ_IN_WINDOWS

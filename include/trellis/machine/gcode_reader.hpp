@@ -182,10 +182,10 @@ class GcodeScanner {
   void comment(std::string_view c);
   void move(std::string_view args, int g);
   void apply_move(const Words& words, int g);
-  // The common line "G0 "/"G1 " + plain words, read in one pass from `s` (a line start inside a
-  // buffer ending at `end`): the position after its newline, or null if the line is not that
-  // simple (anything else, near the buffer end, or anything to report): line() reads it then.
-  const char* simple_move(const char* s, const char* end);
+  // The common line "G0 "/"G1 " + plain words, read in one pass from `s` (a line start before
+  // a newline of its buffer): the position after its newline, or null if the line is not that
+  // simple (anything else, or anything to report): line() reads it then.
+  const char* simple_move(const char* s);
   void arc(Vec3 target, double e_target, double i, double j, double r, bool has_r, bool cw,
            double feed);
   void segment(Vec3 to, double e_to, double feed);
