@@ -254,5 +254,4 @@ void write_3mf(const std::string& path, const TriangleMesh& mesh, const std::str
 }  // namespace trellis
 
 TRELLIS_MODULE_ENTRY(3mf, trellis::Mesh3mfModule, &trellis::impl::read_3mf,
-                     &trellis::impl::write_3mf, &trellis::impl::locate_3mf_problem,
-                     &trellis::impl::read_beam_lattice_3mf, &trellis::impl::write_beam_lattice_3mf)
+                     &trellis::impl::write_3mf, &trellis::impl::locate_3mf_problem)

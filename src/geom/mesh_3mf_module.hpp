@@ -7,7 +7,6 @@
 #include "../core/module.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/geom/mesh.hpp"
-#include "trellis/lattice/io.hpp"
 
 namespace trellis {
 
@@ -21,8 +20,6 @@ struct Located3mf {
 namespace impl {
 Located3mf locate_3mf_problem(const std::string& path);
 std::vector<unsigned char> package_without_dangling_relationships(const std::string& path);
-LatticeInput read_beam_lattice_3mf(const std::string& path, Diagnostics& diag);
-void write_beam_lattice_3mf(const std::string& path, const Graph& g, double default_radius);
 }  // namespace impl
 
 struct Mesh3mfModule {
@@ -30,10 +27,6 @@ struct Mesh3mfModule {
   TriangleMesh (*read_3mf)(const std::string&);
   void (*write_3mf)(const std::string&, const TriangleMesh&, const std::string& unit);
   Located3mf (*locate)(const std::string&);
-  // 3MF beam lattices (lattice/beam3mf.cpp): in the module so that lib3mf, libzip and libcrypto
-  // (about 4,700 symbol relocations) load only when a 3MF file is read or written.
-  LatticeInput (*read_beam_lattice)(const std::string&, Diagnostics&);
-  void (*write_beam_lattice)(const std::string&, const Graph&, double);
 };
 
 }  // namespace trellis

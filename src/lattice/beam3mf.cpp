@@ -14,6 +14,7 @@
 
 #include "../geom/lib3mf_write.hpp"
 #include "../geom/mesh_3mf_module.hpp"
+#include "beam3mf_module.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/core/file.hpp"
 #include "trellis/lattice/io.hpp"
@@ -271,3 +272,6 @@ void write_beam_lattice_3mf(const std::string& path, const Graph& g, double defa
 }  // namespace impl
 
 }  // namespace trellis
+
+TRELLIS_MODULE_ENTRY(beam3mf, trellis::Beam3mfModule, &trellis::impl::read_beam_lattice_3mf,
+                     &trellis::impl::write_beam_lattice_3mf)
