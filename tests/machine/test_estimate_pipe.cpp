@@ -128,6 +128,29 @@ struct Log : EstimatePipe::Reader {
   double elapsed() const override { return moves; }
 };
 
+// Holds one of the arena's threads (when `hold`) from construction until release(): the pipe
+// then finds no worker to read beside the writer.
+class HeldWorker {
+ public:
+  explicit HeldWorker(bool hold) {
+    if (!hold) return;
+    other_.run([this] {
+      started_ = true;
+      while (!release_) std::this_thread::yield();
+    });
+    for (int i = 0; i < 1000 && !started_; ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  void release() {
+    release_ = true;
+    other_.wait();
+  }
+
+ private:
+  std::atomic<bool> started_{false}, release_{false};
+  tbb::task_group other_;
+};
+
 // Everything handed over is read once, in order, with the marks' times — when a worker reads
 // beside, and when none comes (an arena whose only other slot is busy: the writer reads it
 // itself after a while).
@@ -140,16 +163,7 @@ TEST(EstimatePipe, ReadsEverythingInOrderWithOrWithoutAWorker) {
     arena.execute([&] {
       // Mode 1: the arena's other thread held by other work before the pipe starts, until the
       // writer has handed over far more than the queue holds.
-      std::atomic<bool> started{false}, release{false};
-      tbb::task_group other;
-      if (mode == 1) {
-        other.run([&] {
-          started = true;
-          while (!release) std::this_thread::yield();
-        });
-        for (int i = 0; i < 1000 && !started; ++i)
-          std::this_thread::sleep_for(std::chrono::milliseconds(1));
-      }
+      HeldWorker other(mode == 1);
       EstimatePipe pipe(log);
       if (mode == 1) {
         for (int i = 0; i < 200000; ++i) {
@@ -175,8 +189,7 @@ TEST(EstimatePipe, ReadsEverythingInOrderWithOrWithoutAWorker) {
         }
       }
       times = pipe.finish();
-      release = true;
-      other.wait();
+      other.release();
     });
     EXPECT_EQ(log.read, expected.read) << "mode " << mode;
     EXPECT_EQ(times, expected_times) << "mode " << mode;
@@ -197,16 +210,7 @@ TEST(EstimatePipe, WorkBesideRunsOnceOnEitherThread) {
     if (mode == 4) wide.emplace(tbb::global_control::max_allowed_parallelism, 3);
     tbb::task_arena arena(mode == 4 ? 3 : 2);
     arena.execute([&] {
-      std::atomic<bool> started{false}, release{false};
-      tbb::task_group other;
-      if (mode == 1) {  // no worker for the pipe
-        other.run([&] {
-          started = true;
-          while (!release) std::this_thread::yield();
-        });
-        for (int i = 0; i < 1000 && !started; ++i)
-          std::this_thread::sleep_for(std::chrono::milliseconds(1));
-      }
+      HeldWorker other(mode == 1);  // mode 1: no worker for the pipe
       EstimatePipe pipe(log);
       auto side = [&] {
         std::this_thread::sleep_for(std::chrono::milliseconds(mode == 2 ? 20 : 1));
@@ -233,8 +237,7 @@ TEST(EstimatePipe, WorkBesideRunsOnceOnEitherThread) {
       } catch (const std::runtime_error& e) {
         threw = std::string(e.what()) == "beside";
       }
-      release = true;
-      other.wait();
+      other.release();
     });
     EXPECT_EQ(ran.load(), 1) << "mode " << mode;
     EXPECT_EQ(threw, mode == 3) << "mode " << mode;

@@ -12,6 +12,7 @@
 #include <string>
 
 #include "support/implicit_3mf.hpp"
+#include "support/same_mesh.hpp"
 #include "support/temp_dir.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/geom/mesh_io.hpp"
@@ -41,14 +42,7 @@ Outcome read_with(const std::string& path, std::size_t threads) {
   return o;
 }
 
-bool same_mesh(const TriangleMesh& a, const TriangleMesh& b) {
-  if (a.vertices.size() != b.vertices.size() || a.triangles != b.triangles) return false;
-  for (std::size_t i = 0; i < a.vertices.size(); ++i)
-    if (a.vertices[i].x != b.vertices[i].x || a.vertices[i].y != b.vertices[i].y ||
-        a.vertices[i].z != b.vertices[i].z)
-      return false;
-  return true;
-}
+using test::same_mesh;
 
 const char* const kCore = "http://schemas.microsoft.com/3dmanufacturing/core/2015/02";
 

@@ -11,6 +11,7 @@
 #include <random>
 #include <tuple>
 
+#include "support/same_mesh.hpp"
 #include "support/temp_dir.hpp"
 #include "trellis/core/error.hpp"
 #include "trellis/geom/mesh_io.hpp"
@@ -45,14 +46,7 @@ TriangleMesh map_weld(const std::vector<Vec3>& corners) {
   return m;
 }
 
-bool same_mesh(const TriangleMesh& a, const TriangleMesh& b) {
-  if (a.vertices.size() != b.vertices.size() || a.triangles != b.triangles) return false;
-  for (std::size_t i = 0; i < a.vertices.size(); ++i)
-    if (a.vertices[i].x != b.vertices[i].x || a.vertices[i].y != b.vertices[i].y ||
-        a.vertices[i].z != b.vertices[i].z)
-      return false;
-  return true;
-}
+using test::same_mesh;
 
 // A soup of 300,000 corners drawn from a small grid of points (many repeats, some degenerate
 // triangles), with -0 and +0 mixed.
