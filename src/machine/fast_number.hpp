@@ -200,18 +200,29 @@ inline constexpr Digits3 kDigits3 = [] {
   return t;
 }();
 
+// A '-' for negative q (written anyway, kept only then) and |q|: the small writers' sign.
+[[gnu::always_inline]] inline char* sign_abs(char* p, long long q, std::uint64_t& u) {
+  u = static_cast<std::uint64_t>(q);
+  *p = '-';
+  if (q < 0) u = 0 - u;
+  return p + (q < 0);
+}
+
+// n (< 1000) without leading zeros from one table entry; may write up to 3 bytes past the end.
+[[gnu::always_inline]] inline char* int3(char* p, std::uint32_t n) {
+  const std::uint32_t a = kDigits3.int3[n];
+  std::memcpy(p, &a, 4);
+  return p + (a >> 24);
+}
+
 // fixed_q(p, q, 3) for |q| < 10^6 (|v| < 1000 mm, every coordinate on a bed): the integer part
 // and the fraction one table entry each, no branch but the sign's. May write up to 8 bytes past
 // the returned end.
 [[gnu::always_inline]] inline char* fixed3_small(char* p, long long q) {
-  std::uint64_t u = static_cast<std::uint64_t>(q);
-  *p = '-';
-  if (q < 0) u = 0 - u;
-  p += q < 0;
-  const auto ip = static_cast<std::uint32_t>(u / 1000), fr = static_cast<std::uint32_t>(u % 1000);
-  const std::uint32_t a = kDigits3.int3[ip];
-  std::memcpy(p, &a, 4);
-  p += a >> 24;
+  std::uint64_t u;
+  p = sign_abs(p, q, u);
+  p = int3(p, static_cast<std::uint32_t>(u / 1000));
+  const auto fr = static_cast<std::uint32_t>(u % 1000);
   const std::uint64_t b = kDigits3.frac3[fr];
   std::memcpy(p, &b, 8);
   return p + (b >> 56);
@@ -222,15 +233,10 @@ inline constexpr long long kFixed3Small = 1000000;  // fixed3_small takes |q| be
 // decimals two (three, then two, which end it unless they are 00). May write up to 8 bytes past
 // the returned end.
 [[gnu::always_inline]] inline char* fixed5_small(char* p, long long q) {
-  std::uint64_t u = static_cast<std::uint64_t>(q);
-  *p = '-';
-  if (q < 0) u = 0 - u;
-  p += q < 0;
-  const auto ip = static_cast<std::uint32_t>(u / 100000),
-             fr = static_cast<std::uint32_t>(u % 100000);
-  const std::uint32_t a = kDigits3.int3[ip];
-  std::memcpy(p, &a, 4);
-  p += a >> 24;
+  std::uint64_t u;
+  p = sign_abs(p, q, u);
+  p = int3(p, static_cast<std::uint32_t>(u / 100000));
+  const auto fr = static_cast<std::uint32_t>(u % 100000);
   const std::uint32_t hi = fr / 100, lo = fr % 100;
   if (lo) [[likely]] {
     *p = '.';
@@ -251,14 +257,10 @@ inline constexpr long long kFixed5Small = 100000000;  // fixed5_small takes |q| 
 [[gnu::always_inline]] inline char* fixed2_small(char* p, std::uint64_t u) {
   const auto ip = static_cast<std::uint32_t>(u / 100), fr = static_cast<std::uint32_t>(u % 100);
   if (ip < 1000) {
-    const std::uint32_t a = kDigits3.int3[ip];
-    std::memcpy(p, &a, 4);
-    p += a >> 24;
+    p = int3(p, ip);
   } else {
-    const std::uint32_t a = kDigits3.int3[ip / 1000], b = kDigits3.dig3[ip % 1000];
-    std::memcpy(p, &a, 4);
-    p += a >> 24;
-    std::memcpy(p, &b, 4);
+    p = int3(p, ip / 1000);
+    std::memcpy(p, &kDigits3.dig3[ip % 1000], 4);
     p += 3;
   }
   const std::uint32_t c = kDigits3.frac2[fr];

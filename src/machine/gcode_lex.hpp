@@ -1,6 +1,8 @@
 // Lexical helpers shared by the G-code reader's files (private): locale-free ASCII classes and
 // the fast decimal parser, parameter lookup.
 #pragma once
+#include <string.h>  // memrchr (GNU)
+
 #include <charconv>
 #include <cmath>
 #include <cstdint>
@@ -83,12 +85,9 @@ inline std::string_view param(std::string_view args, std::string_view key) {
   return {};
 }
 
-// The last newline in [b, e), or null if there is none: where lex_move may lex up to. (Searched
-// from the end: a buffer's last line is short.)
+// The last newline in [b, e), or null if there is none: where lex_move may lex up to.
 inline const char* last_newline(const char* b, const char* e) {
-  while (e > b)
-    if (*--e == '\n') return e;
-  return nullptr;
+  return static_cast<const char*>(::memrchr(b, '\n', static_cast<std::size_t>(e - b)));
 }
 
 // The digits at p added to m (m * 10 + digit each); the first byte that is not a digit ends
